@@ -1,0 +1,125 @@
+"""Vectorised P1 assembly of the electro-elastic operators of one body (SI units).
+
+With sigma = c eps(u) + e^T grad(phi) and D = e eps(u) - kappa grad(phi), the weak
+forms (19)-(20) of the paper read, per unit thickness,
+
+    Kuu u + Kup phi   = f    (+ contact forces)      Kuu = (c eps(u), eps(v))          N/m^2
+    -Kup^T u + Kpp phi = q                           v^T Kup phi = (e^T grad phi, eps(v))  C/m^2
+                                                     Kpp = (kappa grad phi, grad psi)      F/m
+    f = (f0, v) + (f2, v)_Gamma2                     (N/m per node)
+    q = (q0, psi) - (q2, psi)_Gamma_b                (C/m per node)
+
+Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["BodySystem", "assemble", "gradients", "strain_matrix"]
+
+_GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
+
+
+@dataclass
+class BodySystem:
+    """Assembled matrices and loads of one body, all dofs, SI units.
+
+    ``u_free`` / ``phi_free`` index the dofs that are not fixed by Gamma_1 / Gamma_a;
+    ``Kup``, ``Kpp``, ``q`` and ``phi_free`` are None for an elastic body.
+    """
+
+    Kuu: sp.csr_matrix
+    f: np.ndarray
+    u_free: np.ndarray
+    Kup: sp.csr_matrix | None = None
+    Kpp: sp.csr_matrix | None = None
+    q: np.ndarray | None = None
+    phi_free: np.ndarray | None = None
+
+    @property
+    def piezoelectric(self) -> bool:
+        return self.Kpp is not None
+
+
+def gradients(points, triangles):
+    """Areas (m,) and gradients (m, 2, 3) of the barycentric basis functions, 1/m."""
+    p = points[triangles]                                     # (m, 3, 2)
+    d = np.roll(p, -1, axis=1) - np.roll(p, 1, axis=1)        # p_{i+1} - p_{i-1}
+    area = 0.5 * (d[:, 0, 0] * d[:, 1, 1] - d[:, 0, 1] * d[:, 1, 0])
+    grad = np.stack([d[:, :, 1], -d[:, :, 0]], axis=1) / (2.0 * area[:, None, None])
+    return area, grad
+
+
+def strain_matrix(grad):
+    """(m, 3, 6) map from element dofs (u0x, u0y, u1x, ...) to (eps11, eps33, 2 eps13)."""
+    B = np.zeros((grad.shape[0], 3, 6))
+    B[:, 0, 0::2] = grad[:, 0]
+    B[:, 1, 1::2] = grad[:, 1]
+    B[:, 2, 0::2] = grad[:, 1]
+    B[:, 2, 1::2] = grad[:, 0]
+    return B
+
+
+def _scatter(blocks, rows, cols, shape):
+    """Sum element blocks (m, a, b) into a sparse matrix at global rows (m, a) and cols (m, b)."""
+    m, a, b = blocks.shape
+    R = np.broadcast_to(rows[:, :, None], (m, a, b))
+    C = np.broadcast_to(cols[:, None, :], (m, a, b))
+    return sp.csr_matrix((blocks.ravel(), (R.ravel(), C.ravel())), shape=shape)
+
+
+def assemble(body) -> BodySystem:
+    """Assemble the stiffness, coupling, permittivity matrices and the loads of ``body``."""
+    mesh, mat = body.mesh, body.material
+    n = len(mesh.points)
+    tri = mesh.triangles
+    area, grad = gradients(mesh.points, tri)
+    B = strain_matrix(grad)
+    udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
+    Kuu = _scatter(area[:, None, None] * np.einsum("mki,kl,mlj->mij", B, mat.c, B), udofs, udofs, (2 * n, 2 * n))
+    f = _body_load(mesh, body.body_force, 2)
+    for tag, load in body.traction.items():
+        f += _edge_load(mesh, mesh.boundary(tag), load, 2)
+    clamped = mesh.boundary_nodes(body.clamped)
+    u_fixed = np.zeros(2 * n, dtype=bool)
+    u_fixed[2 * clamped] = u_fixed[2 * clamped + 1] = True
+    system = BodySystem(Kuu=Kuu, f=f.ravel(), u_free=np.flatnonzero(~u_fixed))
+    if not mat.piezoelectric:
+        return system
+    Kup = _scatter(area[:, None, None] * np.einsum("mki,lk,mlj->mij", B, mat.e, grad), udofs, tri, (2 * n, n))
+    Kpp = _scatter(area[:, None, None] * np.einsum("mki,kl,mlj->mij", grad, mat.kappa, grad), tri, tri, (n, n))
+    q = _body_load(mesh, body.volume_charge, 1)
+    for tag, load in body.surface_charge.items():
+        q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
+    grounded = mesh.boundary_nodes(body.grounded)
+    system.Kup, system.Kpp, system.q = Kup, Kpp, q
+    system.phi_free = np.setdiff1d(np.arange(n), grounded)
+    return system
+
+
+def _body_load(mesh, load, ncomp):
+    """Consistent nodal load of a volume density, edge-midpoint rule (exact for quadratics)."""
+    p, tri = mesh.points, mesh.triangles
+    mid = 0.5 * (p[tri] + p[np.roll(tri, -1, axis=1)])        # midpoints of edges (0,1), (1,2), (2,0)
+    val = load(mid[..., 0], mid[..., 1]).reshape(len(tri), 3, ncomp)
+    nodal = (val + np.roll(val, 1, axis=1)) * (mesh.areas / 6.0)[:, None, None]   # node i: edges i and i-1
+    out = np.zeros((len(p), ncomp))
+    np.add.at(out, tri.ravel(), nodal.reshape(-1, ncomp))
+    return out if ncomp > 1 else out[:, 0]
+
+
+def _edge_load(mesh, edges, load, ncomp):
+    """Consistent nodal load of a surface density on ``edges``, 2-point Gauss rule."""
+    a, b = mesh.points[edges[:, 0]], mesh.points[edges[:, 1]]
+    length = np.linalg.norm(b - a, axis=1)
+    out = np.zeros((len(mesh.points), ncomp))
+    for t in _GAUSS2:
+        x = (1 - t) * a + t * b
+        val = load(x[:, 0], x[:, 1]).reshape(len(edges), ncomp) * (0.5 * length)[:, None]
+        np.add.at(out, edges[:, 0], (1 - t) * val)
+        np.add.at(out, edges[:, 1], t * val)
+    return out if ncomp > 1 else out[:, 0]

@@ -1,0 +1,136 @@
+"""Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain.
+
+The 2D model plane is the crystal's (x1, x3) plane, poling axis x3 along +y.
+Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (shared/math.md §6):
+
+    sigma = c eps - e^T E,     D = e eps + kappa E,     E = -grad(phi)
+
+    c = [[c11, c13, 0], [c13, c33, 0], [0, 0, c44]]     (Pa)
+    e = [[0, 0, e15], [e31, e33, 0]]                     (C/m^2, rows D1, D3)
+    kappa = diag(eps11, eps33)                           (F/m, clamped permittivities)
+
+``c12`` enters only the out-of-plane stress sigma22 and is kept for output.
+Built-in constants: ``shared/materials.md`` (Berlincourt et al.; IEEE Std 176).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import MaterialError
+
+__all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3"]
+
+EPS0 = 8.8541878128e-12
+"""Vacuum permittivity, F/m."""
+
+
+class Piezoelectric:
+    """Piezoelectric material, plane-strain reduction in the poling plane.
+
+    Give either the hexagonal (6mm) constants ``c11, c13, c33, c44`` (Pa),
+    ``e31, e33, e15`` (C/m^2), ``eps11, eps33`` (F/m) and optionally ``c12`` (Pa), or
+    use :meth:`from_matrices` for general plane constants.
+    """
+
+    piezoelectric = True
+
+    def __init__(self, c11=None, c13=None, c33=None, c44=None, e31=None, e33=None, e15=None,
+                 eps11=None, eps33=None, c12=None, name="piezoelectric"):
+        given = dict(c11=c11, c13=c13, c33=c33, c44=c44, e31=e31, e33=e33, e15=e15, eps11=eps11, eps33=eps33)
+        missing = [k for k, v in given.items() if v is None]
+        if missing:
+            raise MaterialError(f"material {name!r}: missing constant(s) {missing}")
+        v = {k: _real(val, k, name) for k, val in given.items()}
+        c = [[v["c11"], v["c13"], 0.0], [v["c13"], v["c33"], 0.0], [0.0, 0.0, v["c44"]]]
+        e = [[0.0, 0.0, v["e15"]], [v["e31"], v["e33"], 0.0]]
+        kappa = [[v["eps11"], 0.0], [0.0, v["eps33"]]]
+        if c12 is not None:
+            c12 = _real(c12, "c12", name)
+            if not (v["c11"] > abs(c12) and (v["c11"] + c12) * v["c33"] > 2 * v["c13"] ** 2):
+                raise MaterialError(f"material {name!r}: the 3D elasticity tensor (c11, c12, c13, c33) "
+                                    "is not positive definite")
+        self._set(c, e, kappa, name, c12)
+
+    @classmethod
+    def from_matrices(cls, c, e, kappa, name="piezoelectric"):
+        """Material from plane matrices: ``c`` (3, 3) Pa, ``e`` (2, 3) C/m^2, ``kappa`` (2, 2) F/m."""
+        obj = cls.__new__(cls)
+        obj._set(c, e, kappa, name, None)
+        return obj
+
+    def _set(self, c, e, kappa, name, c12):
+        c = _matrix(c, (3, 3), "c", name, spd=True)
+        e = _matrix(e, (2, 3), "e", name, spd=False)
+        kappa = _matrix(kappa, (2, 2), "kappa", name, spd=True)
+        self.c, self.e, self.kappa, self.name, self.c12 = c, e, kappa, str(name), c12
+
+    def __repr__(self):
+        return f"Piezoelectric({self.name!r})"
+
+
+class Elastic:
+    """Linear elastic material in plane strain, ``c`` (3, 3) in Pa; carries no electric unknowns."""
+
+    piezoelectric = False
+
+    def __init__(self, c, name="elastic", E=None, nu=None):
+        self.c = _matrix(c, (3, 3), "c", name, spd=True)
+        self.name, self.E, self.nu = str(name), E, nu
+
+    def __repr__(self):
+        return f"Elastic({self.name!r})"
+
+
+def isotropic(E, nu, name=None) -> Elastic:
+    """Isotropic elastic material, Young's modulus ``E`` (Pa) and Poisson ratio ``nu``, plane strain."""
+    label = name or f"isotropic(E={E:g}, nu={nu:g})" if _isnum(E) and _isnum(nu) else "isotropic"
+    E, nu = _real(E, "E", label), _real(nu, "nu", label)
+    if E <= 0 or not -1.0 < nu < 0.5:
+        raise MaterialError(f"material {label!r}: need E > 0 and -1 < nu < 0.5, got E={E!r}, nu={nu!r}")
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    c = [[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]]
+    return Elastic(c, name=label, E=E, nu=nu)
+
+
+def _isnum(v):
+    return isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+
+
+def _real(v, key, name):
+    if not _isnum(v) or not np.isfinite(v):
+        raise MaterialError(f"material {name!r}: constant {key} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _matrix(a, shape, key, name, spd):
+    try:
+        a = np.array(a, dtype=float)
+    except (TypeError, ValueError):
+        raise MaterialError(f"material {name!r}: {key} must be a numeric {shape} matrix") from None
+    if a.shape != shape:
+        raise MaterialError(f"material {name!r}: {key} must have shape {shape}, got {a.shape}")
+    if not np.isfinite(a).all():
+        raise MaterialError(f"material {name!r}: {key} has NaN or infinite entries")
+    if spd:
+        if not np.allclose(a, a.T, rtol=1e-12, atol=0.0):
+            raise MaterialError(f"material {name!r}: {key} is not symmetric")
+        lo = np.linalg.eigvalsh(a).min()
+        if lo <= 1e-12 * np.abs(a).max():
+            raise MaterialError(f"material {name!r}: {key} is not positive definite "
+                                f"(smallest eigenvalue {lo:.3g})")
+        a = 0.5 * (a + a.T)
+    a.setflags(write=False)
+    return a
+
+
+def _table(name, c11, c12, c13, c33, c44, e31, e33, e15, eps11, eps33):
+    """Build a material from the units of shared/materials.md: GPa, C/m^2, multiples of EPS0."""
+    return Piezoelectric(c11=c11 * 1e9, c12=c12 * 1e9, c13=c13 * 1e9, c33=c33 * 1e9, c44=c44 * 1e9,
+                         e31=e31, e33=e33, e15=e15, eps11=eps11 * EPS0, eps33=eps33 * EPS0, name=name)
+
+
+PZT4 = _table("PZT-4", 139, 77.8, 74.3, 115, 25.6, -5.2, 15.1, 12.7, 730, 635)
+PZT5A = _table("PZT-5A", 121, 75.4, 75.2, 111, 21.1, -5.4, 15.8, 12.3, 916, 830)
+PZT5H = _table("PZT-5H", 126, 79.5, 84.1, 117, 23.0, -6.5, 23.3, 17.0, 1700, 1470)
+BaTiO3 = _table("BaTiO3", 150, 66, 66, 146, 44, -4.35, 17.5, 11.4, 1115, 1260)

@@ -1,0 +1,129 @@
+"""Scaling and the convex model (shared/math.md §2 and §6).
+
+The mechanical part of the solution of (26)-(27) minimises the reduced coupled energy
+
+    Pi(u) = 1/2 u^T Kuu u - f^T u + 1/2 w^T Kpp^{-1} w,     w = Kup^T u + q,
+
+over K_h. It is posed sparsely in the "phi-form": per body
+
+    minimise   1/2 u^T Kuu u + 1/2 phi^T Kpp phi - f^T u
+    subject to Kpp phi - Kup^T u = q              (Gauss law (20), one per piezoelectric body)
+               E [u_nu] <= E g                     (K_h(Gamma_3) or K_h(Sigma_h^l))
+
+(no -q^T phi term: the constraint fixes phi). An elastic body has no phi and no
+Gauss constraint. All blocks are non-dimensionalised (:class:`Units`) so that the
+solver sees O(1) data whatever the SI magnitudes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cvxpy as cp
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Units", "Block", "ContactModel", "build"]
+
+
+@dataclass(frozen=True)
+class Units:
+    """Reference units: length L0 (m), stress c0 (Pa), permittivity eps0 (F/m), load scale s.
+
+    Displacement U = L0 s, potential Phi = L0 sqrt(c0/eps0) s, energy W = c0 L0^2 s^2
+    (J/m), nodal force W/U (N/m), nodal charge W/Phi (C/m). With these, Kuu/c0,
+    Kpp/eps0, Kup/sqrt(c0 eps0) are O(1) and so is the scaled solution.
+    """
+
+    length: float
+    stress: float
+    permittivity: float
+    load: float
+
+    @property
+    def displacement(self) -> float:
+        return self.length * self.load
+
+    @property
+    def potential(self) -> float:
+        return self.length * np.sqrt(self.stress / self.permittivity) * self.load
+
+    @property
+    def force(self) -> float:
+        return self.stress * self.length * self.load
+
+    @property
+    def charge(self) -> float:
+        return self.length * np.sqrt(self.stress * self.permittivity) * self.load
+
+
+def units(scene, systems) -> Units:
+    """Choose :class:`Units` for a scene from its materials, size and loads."""
+    mats = [b.material for b in scene.bodies]
+    c0 = max(float(np.abs(m.c).max()) for m in mats)
+    eps0 = max([float(np.linalg.eigvalsh(m.kappa).max()) for m in mats if m.piezoelectric] or [1.0])
+    L0 = scene.length
+    load = max(max(np.abs(s.f).sum() / (c0 * L0) for s in systems),
+               max(np.abs(s.q).sum() / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric else 0.0 for s in systems))
+    return Units(L0, c0, eps0, load if load > 0 else 1.0)
+
+
+@dataclass
+class Block:
+    """Scaled, Dirichlet-restricted blocks of one body (free dofs only, dimensionless)."""
+
+    Kuu: sp.csr_matrix
+    f: np.ndarray
+    jump: sp.csr_matrix                 # [u_nu] at merged nodes from the free u dofs
+    Kup: sp.csr_matrix | None = None
+    Kpp: sp.csr_matrix | None = None
+    q: np.ndarray | None = None
+
+    @classmethod
+    def scaled(cls, system, jump, un: Units) -> "Block":
+        uf = system.u_free
+        blk = cls(Kuu=system.Kuu[uf][:, uf] / un.stress, f=system.f[uf] / un.force, jump=jump[:, uf].tocsr())
+        if system.piezoelectric:
+            pf = system.phi_free
+            blk.Kup = system.Kup[uf][:, pf] / np.sqrt(un.stress * un.permittivity)
+            blk.Kpp = system.Kpp[pf][:, pf] / un.permittivity
+            blk.q = system.q[pf] / un.charge
+        return blk
+
+    def residual(self, u, phi, contact_force):
+        """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
+        r_u = self.Kuu @ u - self.f + self.jump.T @ contact_force
+        if self.Kpp is None:
+            return r_u, np.zeros(0)
+        return r_u + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u - self.q
+
+
+class ContactModel:
+    """The CVXPY problem for given scaled blocks and constraint rows ``E``.
+
+    Attributes: ``problem``, ``u`` and ``phi`` (variables per body, ``phi[k]`` None
+    for an elastic body), ``gauss`` (equality constraints per body, or None) and
+    ``contact`` (the inequality constraint E [u_nu] <= E g).
+    """
+
+    def __init__(self, blocks, E, gap):
+        self.blocks = blocks
+        self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
+        self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
+                    for k, b in enumerate(blocks)]
+        energy, self.gauss = 0, []
+        for b, u, phi in zip(blocks, self.u, self.phi):
+            energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
+            if phi is None:
+                self.gauss.append(None)
+                continue
+            energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
+            self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
+        jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
+        self.contact = jump <= E @ gap
+        self.problem = cp.Problem(cp.Minimize(energy), [c for c in self.gauss if c is not None] + [self.contact])
+
+
+def build(blocks, E, gap) -> ContactModel:
+    """Pose the convex contact problem (see module docstring)."""
+    return ContactModel(blocks, E, gap)

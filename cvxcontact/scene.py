@@ -1,0 +1,200 @@
+"""Bodies (mesh + material + boundary parts + loads) and the two-body scene.
+
+Boundary parts follow the paper: Gamma_1 ``clamped`` (u = 0), Gamma_2 ``traction``
+(sigma nu = f2), Gamma_3 ``contact``, Gamma_a ``grounded`` (phi = 0), Gamma_b
+``surface_charge`` (D nu = q2). Loads are constants or vectorised callables of
+(x, y) in metres; they are checked for shape and finiteness where they are used.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from .errors import MeshError, SceneError
+from .materials import Elastic, Piezoelectric
+from .mesh import Mesh
+
+__all__ = ["Body", "Scene"]
+
+
+class Body:
+    """One body of the scene.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    material : Piezoelectric or Elastic
+    clamped : str or list of str
+        Tags of Gamma_1, where u = 0. Must not be empty: a body free to move rigidly
+        has a singular stiffness.
+    grounded : str or list of str
+        Tags of Gamma_a, where phi = 0 (piezoelectric bodies only, required there).
+    contact : str
+        Tag of Gamma_3, a straight segment parallel to the x1-axis.
+    body_force : (2,) or callable f(x, y) -> (fx, fy), N/m^3
+    traction : dict tag -> (2,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
+    surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
+    volume_charge : float or callable, C/m^3 (q0 in div D = q0)
+    name : str, optional
+    """
+
+    def __init__(self, mesh, material, *, clamped, contact, grounded=(), body_force=(0.0, 0.0),
+                 traction=None, surface_charge=None, volume_charge=0.0, name=None):
+        if not isinstance(mesh, Mesh):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
+        if not isinstance(material, (Piezoelectric, Elastic)):
+            raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
+        self.mesh, self.material = mesh, material
+        self.name = name or "body"
+        self.clamped = self._tags(clamped, "clamped")
+        self.grounded = self._tags(grounded, "grounded")
+        if not isinstance(contact, str):
+            raise SceneError(f"{self.name}: contact must be one boundary tag (a string), got {contact!r}")
+        self.contact = self._tags(contact, "contact")[0]
+        self.body_force = _vector_load(body_force, f"{self.name}: body_force")
+        self.traction = {t: _vector_load(v, f"{self.name}: traction[{t!r}]")
+                         for t, v in self._parts(traction, "traction").items()}
+        self.surface_charge = {t: _scalar_load(v, f"{self.name}: surface_charge[{t!r}]")
+                               for t, v in self._parts(surface_charge, "surface_charge").items()}
+        self.volume_charge = _scalar_load(volume_charge, f"{self.name}: volume_charge")
+        self._check_parts()
+
+    def __repr__(self):
+        return f"Body({self.name!r}, {self.mesh!r}, {self.material!r})"
+
+    @property
+    def piezoelectric(self) -> bool:
+        """True if the body carries electric unknowns."""
+        return self.material.piezoelectric
+
+    def _tags(self, tags, role):
+        tags = [tags] if isinstance(tags, str) else list(tags)
+        for t in tags:
+            if not isinstance(t, str) or t not in self.mesh.tags:
+                raise SceneError(f"{self.name}: {role} names unknown boundary tag {t!r}; "
+                                 f"the mesh has {sorted(self.mesh.tags)}")
+        return tags
+
+    def _parts(self, loads, role):
+        if loads is None:
+            return {}
+        if not isinstance(loads, Mapping):
+            raise SceneError(f"{self.name}: {role} must be a dict mapping boundary tags to loads, got {loads!r}")
+        self._tags(list(loads), role)
+        return dict(loads)
+
+    def _check_parts(self):
+        mechanical = [("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
+        mechanical.append(("contact", self.contact))
+        _disjoint(self, mechanical)
+        if not self.clamped:
+            raise SceneError(f"{self.name}: no clamped boundary (Gamma_1 is empty); the body could move "
+                             "rigidly and its stiffness is singular")
+        if self.piezoelectric:
+            if not self.grounded:
+                raise SceneError(f"{self.name}: piezoelectric body without a grounded electrode "
+                                 "(Gamma_a is empty); its potential is undetermined")
+            _disjoint(self, [("grounded", t) for t in self.grounded]
+                      + [("surface_charge", t) for t in self.surface_charge])
+        else:
+            electric = self.grounded or self.surface_charge or self.volume_charge.nonzero
+            if electric:
+                raise SceneError(f"{self.name}: elastic material {self.material.name!r} carries no electric "
+                                 "unknowns; remove grounded / surface_charge / volume_charge")
+
+
+def _disjoint(body, roles):
+    seen = {}
+    for role, tag in roles:
+        if tag in seen:
+            raise SceneError(f"{body.name}: boundary tag {tag!r} is both {seen[tag]} and {role}")
+        seen[tag] = role
+
+
+class Load:
+    """A constant or a vectorised callable of (x, y), evaluated and checked on demand."""
+
+    def __init__(self, value, label, ncomp):
+        self.label, self.ncomp = label, ncomp
+        if callable(value):
+            self.value = value
+            return
+        try:
+            v = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise SceneError(f"{label}: expected a number, a sequence of numbers or a callable f(x, y), "
+                             f"got {value!r}") from None
+        shape = () if ncomp == 1 else (ncomp,)
+        if v.shape != shape:
+            raise SceneError(f"{label}: expected {'a scalar' if ncomp == 1 else f'{ncomp} components'}, "
+                             f"got shape {v.shape}")
+        if not np.isfinite(v).all():
+            raise SceneError(f"{label}: NaN or infinite value {v.tolist()}")
+        self.value = v
+
+    @property
+    def nonzero(self) -> bool:
+        return callable(self.value) or bool(np.any(self.value != 0))
+
+    def __call__(self, x, y) -> np.ndarray:
+        """Values at points (x, y): shape (k,) for scalars, (k, 2) for vectors."""
+        v = self.value
+        if not callable(v):
+            return np.broadcast_to(v, x.shape + v.shape)
+        try:
+            out = v(x, y)
+            out = np.array(out, dtype=float) if self.ncomp == 1 else np.stack(
+                [np.broadcast_to(np.asarray(c, dtype=float), x.shape) for c in out], axis=-1)
+        except Exception as exc:
+            raise SceneError(f"{self.label}: calling the load function failed: {exc}") from exc
+        want = x.shape + (() if self.ncomp == 1 else (self.ncomp,))
+        try:
+            out = np.broadcast_to(out, want)
+        except ValueError:
+            raise SceneError(f"{self.label}: the load function returned shape {out.shape}, "
+                             f"expected {want}") from None
+        if not np.isfinite(out).all():
+            raise SceneError(f"{self.label}: the load function returned NaN or infinite values")
+        return out
+
+
+def _vector_load(value, label):
+    return Load(value, label, 2)
+
+
+def _scalar_load(value, label):
+    return Load(value, label, 1)
+
+
+class Scene:
+    """Two bodies in frictionless contact along a straight segment of Gamma_3.
+
+    The body order defines l = 1, 2 of the paper (``sigma1`` / ``sigma2``).
+    The contact geometry (shared line, normals, merged nodes) is validated here.
+    """
+
+    def __init__(self, body1, body2):
+        for k, b in enumerate((body1, body2), start=1):
+            if not isinstance(b, Body):
+                raise SceneError(f"Scene takes two Body objects; argument {k} is {type(b).__name__}")
+            if b.name == "body":
+                b.name = f"body {k}"
+        if body1 is body2:
+            raise SceneError("Scene needs two distinct bodies")
+        self.bodies = (body1, body2)
+        from .contact import Interface
+        try:
+            self.interface = Interface(self.bodies)
+        except MeshError as exc:
+            raise SceneError(str(exc)) from exc
+
+    def __repr__(self):
+        return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"
+
+    @property
+    def length(self) -> float:
+        """Reference length L0 (m): the bounding-box diagonal of the whole scene."""
+        p = np.concatenate([b.mesh.points for b in self.bodies])
+        return float(np.linalg.norm(np.ptp(p, axis=0)))

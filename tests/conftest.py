@@ -1,0 +1,38 @@
+"""Shared scene builders for the test suite (small sizes: the whole suite runs in seconds)."""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+
+
+def two_blocks(n1=(16, 8), n2=(11, 6), mat1=None, mat2=None, scale=1.0, diagonal="alternate", **load):
+    """Piezo block on top of an elastic block, touching along y = 0 on [0, 1]."""
+    m1 = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=n1[0], ny=n1[1], diagonal=diagonal)
+    m2 = cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=n2[0], ny=n2[1], diagonal=diagonal)
+    mat1 = mat1 or cc.materials.PZT5A
+    mat2 = mat2 or cc.materials.isotropic(E=70e9, nu=0.3)
+    loads = dict(body_force=(0.0, -2e9 * scale), traction={"right": (0.0, 3e8 * scale)})
+    if mat1.piezoelectric:
+        loads["surface_charge"] = {"left": -0.05 * scale}
+        loads["grounded"] = ["top"]
+    loads.update(load)
+    b1 = cc.Body(m1, mat1, clamped=["top"], contact="bottom", **loads)
+    b2 = cc.Body(m2, mat2, clamped=["bottom"], contact="top")
+    return cc.Scene(b1, b2)
+
+
+@pytest.fixture(scope="session")
+def scene():
+    return two_blocks()
+
+
+@pytest.fixture(scope="session")
+def solutions(scene):
+    return {c: cc.solve(scene, condition=c) for c in cc.CONDITIONS}
+
+
+def rel(a, b):
+    """Relative max-norm difference of two arrays."""
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))

@@ -249,7 +249,7 @@ def read_mesh(path, boundaries=None) -> Mesh:
         raise MeshError(f"mesh file {str(path)!r} does not exist")
     try:
         m = meshio.read(path)
-    except Exception as exc:  # meshio raises many unrelated types on bad files
+    except (Exception, SystemExit) as exc:  # meshio raises many types, and exits on unknown formats
         raise MeshError(f"cannot read mesh file {str(path)!r}: {exc}") from exc
     kinds = {block.type for block in m.cells}
     higher = kinds & {"triangle6", "triangle7", "quad", "quad8", "quad9", "tetra", "hexahedron"}

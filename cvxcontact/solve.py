@@ -95,7 +95,8 @@ class Solution:
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
-        lines = [f"condition {self.condition}, solver status {self.status}, "
+        finish = "exact finish" if self.polished else "interior-point answer"
+        lines = [f"condition {self.condition}, solver status {self.status}, {finish}, "
                  f"{int(self.contact.active.sum())} of {int(self.contact.constrained.sum())} "
                  f"constrained nodes active"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'FAILED'}" for k, v in self._checks.items()]

@@ -23,7 +23,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Units", "Block", "ContactModel", "build"]
+__all__ = ["Units", "Block", "ContactModel", "units"]
 
 
 @dataclass(frozen=True)
@@ -122,8 +122,3 @@ class ContactModel:
         jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
         self.contact = jump <= E @ gap
         self.problem = cp.Problem(cp.Minimize(energy), [c for c in self.gauss if c is not None] + [self.contact])
-
-
-def build(blocks, E, gap) -> ContactModel:
-    """Pose the convex contact problem (see module docstring)."""
-    return ContactModel(blocks, E, gap)

@@ -8,7 +8,7 @@ Boundary parts follow the paper: Gamma_1 ``clamped`` (u = 0), Gamma_2 ``traction
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -53,12 +53,12 @@ class Body:
         if not isinstance(contact, str):
             raise SceneError(f"{self.name}: contact must be one boundary tag (a string), got {contact!r}")
         self.contact = self._tags(contact, "contact")[0]
-        self.body_force = _vector_load(body_force, f"{self.name}: body_force")
-        self.traction = {t: _vector_load(v, f"{self.name}: traction[{t!r}]")
+        self.body_force = Load(body_force, f"{self.name}: body_force", 2)
+        self.traction = {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
                          for t, v in self._parts(traction, "traction").items()}
-        self.surface_charge = {t: _scalar_load(v, f"{self.name}: surface_charge[{t!r}]")
+        self.surface_charge = {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
                                for t, v in self._parts(surface_charge, "surface_charge").items()}
-        self.volume_charge = _scalar_load(volume_charge, f"{self.name}: volume_charge")
+        self.volume_charge = Load(volume_charge, f"{self.name}: volume_charge", 1)
         self._check_parts()
 
     def __repr__(self):
@@ -158,14 +158,6 @@ class Load:
         if not np.isfinite(out).all():
             raise SceneError(f"{self.label}: the load function returned NaN or infinite values")
         return out
-
-
-def _vector_load(value, label):
-    return Load(value, label, 2)
-
-
-def _scalar_load(value, label):
-    return Load(value, label, 1)
 
 
 class Scene:

@@ -28,7 +28,6 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .assembly import assemble
-from .contact import CONDITIONS
 from .errors import ResidualWarning, SceneError, SolverError
 from .model import Block, ContactModel, units
 from .scene import Scene
@@ -47,7 +46,8 @@ class ContactResult:
 
     ``lam`` is lambda_h (Pa), ``jump`` is [u_h nu] (m), ``force`` the equivalent nodal
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
-    and ``active`` those among them that carry a positive force.
+    and ``active`` those among them that carry a positive force; ``line`` is the
+    ordinate of Gamma_3 (m).
     """
 
     x: np.ndarray
@@ -56,7 +56,7 @@ class ContactResult:
     force: np.ndarray
     constrained: np.ndarray
     active: np.ndarray
-    y: float = 0.0
+    line: float = 0.0
 
     @property
     def pressure(self) -> np.ndarray:
@@ -215,7 +215,7 @@ def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timing
     on = np.zeros(itf.size, dtype=bool)
     on[E.indices[active]] = True
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
-                            constrained=constrained, active=on, y=itf.y)
+                            constrained=constrained, active=on, line=itf.y)
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
                     status=model.problem.status, problem=model.problem, tol=tol, polished=polished,
                     timings=timings, _checks=checks)

@@ -9,7 +9,9 @@ forms (19)-(20) of the paper read, per unit thickness,
     f = (f0, v) + (f2, v)_Gamma2                     (N/m per node)
     q = (q0, psi) - (q2, psi)_Gamma_b                (C/m per node)
 
-Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node.
+Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node. Driven
+electrodes (phi = V) are lifted: with phi = phi_D + phi_0, the loads become
+f - Kup phi_D and q - Kpp phi_D, and only the free dofs remain unknown.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+
+from .errors import SceneError
 
 __all__ = ["BodySystem", "assemble", "gradients", "strain_matrix"]
 
@@ -29,7 +33,8 @@ class BodySystem:
     """Assembled matrices and loads of one body, all dofs, SI units.
 
     ``u_free`` / ``phi_free`` index the dofs that are not fixed by Gamma_1 / Gamma_a;
-    ``Kup``, ``Kpp``, ``q`` and ``phi_free`` are None for an elastic body.
+    ``f`` and ``q`` include the lifting of the electrode potentials ``phi_fixed`` (V,
+    zero off the electrodes). The electric fields are None for an elastic body.
     """
 
     Kuu: sp.csr_matrix
@@ -39,6 +44,7 @@ class BodySystem:
     Kpp: sp.csr_matrix | None = None
     q: np.ndarray | None = None
     phi_free: np.ndarray | None = None
+    phi_fixed: np.ndarray | None = None
 
     @property
     def piezoelectric(self) -> bool:
@@ -95,10 +101,25 @@ def assemble(body) -> BodySystem:
     q = _body_load(mesh, body.volume_charge, 1)
     for tag, load in body.surface_charge.items():
         q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
-    grounded = mesh.boundary_nodes(body.grounded)
-    system.Kup, system.Kpp, system.q = Kup, Kpp, q
-    system.phi_free = np.setdiff1d(np.arange(n), grounded)
+    phi_fixed = _electrode_potential(mesh, body)
+    electrodes = mesh.boundary_nodes(body.grounded + list(body.potential))
+    system.f -= Kup @ phi_fixed
+    system.Kup, system.Kpp, system.q = Kup, Kpp, q - Kpp @ phi_fixed
+    system.phi_free = np.setdiff1d(np.arange(n), electrodes)
+    system.phi_fixed = phi_fixed
     return system
+
+
+def _electrode_potential(mesh, body):
+    """Nodal potentials (V) on the driven electrodes, zero elsewhere (grounded included)."""
+    phi = np.zeros(len(mesh.points))
+    for tag, load in body.potential.items():
+        nodes = mesh.boundary_nodes([tag])
+        phi[nodes] = load(mesh.points[nodes, 0], mesh.points[nodes, 1])
+    grounded = mesh.boundary_nodes(body.grounded)
+    if np.any(phi[grounded] != 0):
+        raise SceneError(f"{body.name}: a driven electrode touches a grounded one at a non-zero potential")
+    return phi
 
 
 def _body_load(mesh, load, ncomp):

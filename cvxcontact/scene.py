@@ -1,8 +1,8 @@
 """Bodies (mesh + material + boundary parts + loads) and the two-body scene.
 
 Boundary parts follow the paper: Gamma_1 ``clamped`` (u = 0), Gamma_2 ``traction``
-(sigma nu = f2), Gamma_3 ``contact``, Gamma_a ``grounded`` (phi = 0), Gamma_b
-``surface_charge`` (D nu = q2). Loads are constants or vectorised callables of
+(sigma nu = f2), Gamma_3 ``contact``, Gamma_a ``grounded`` (phi = 0) and, beyond the
+paper, ``potential`` electrodes (phi = V), Gamma_b ``surface_charge`` (D nu = q2). Loads are constants or vectorised callables of
 (x, y) in metres; they are checked for shape and finiteness where they are used.
 """
 
@@ -30,7 +30,10 @@ class Body:
         Tags of Gamma_1, where u = 0. Must not be empty: a body free to move rigidly
         has a singular stiffness.
     grounded : str or list of str
-        Tags of Gamma_a, where phi = 0 (piezoelectric bodies only, required there).
+        Tags of Gamma_a, where phi = 0 (piezoelectric bodies only).
+    potential : dict tag -> float or callable, V
+        Driven electrodes, phi = V (part of Gamma_a). A piezoelectric body needs
+        at least one grounded or driven electrode.
     contact : str
         Tag of Gamma_3, a straight segment parallel to the x1-axis.
     body_force : (2,) or callable f(x, y) -> (fx, fy), N/m^3
@@ -40,7 +43,7 @@ class Body:
     name : str, optional
     """
 
-    def __init__(self, mesh, material, *, clamped, contact, grounded=(), body_force=(0.0, 0.0),
+    def __init__(self, mesh, material, *, clamped, contact, grounded=(), potential=None, body_force=(0.0, 0.0),
                  traction=None, surface_charge=None, volume_charge=0.0, name=None):
         if not isinstance(mesh, Mesh):
             raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
@@ -59,6 +62,8 @@ class Body:
         self.surface_charge = {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
                                for t, v in self._parts(surface_charge, "surface_charge").items()}
         self.volume_charge = Load(volume_charge, f"{self.name}: volume_charge", 1)
+        self.potential = {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
+                          for t, v in self._parts(potential, "potential").items()}
         self._check_parts()
 
     def __repr__(self):
@@ -93,16 +98,16 @@ class Body:
             raise SceneError(f"{self.name}: no clamped boundary (Gamma_1 is empty); the body could move "
                              "rigidly and its stiffness is singular")
         if self.piezoelectric:
-            if not self.grounded:
-                raise SceneError(f"{self.name}: piezoelectric body without a grounded electrode "
+            if not (self.grounded or self.potential):
+                raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
                                  "(Gamma_a is empty); its potential is undetermined")
-            _disjoint(self, [("grounded", t) for t in self.grounded]
+            _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
                       + [("surface_charge", t) for t in self.surface_charge])
         else:
-            electric = self.grounded or self.surface_charge or self.volume_charge.nonzero
+            electric = self.grounded or self.potential or self.surface_charge or self.volume_charge.nonzero
             if electric:
                 raise SceneError(f"{self.name}: elastic material {self.material.name!r} carries no electric "
-                                 "unknowns; remove grounded / surface_charge / volume_charge")
+                                 "unknowns; remove grounded / potential / surface_charge / volume_charge")
 
 
 def _disjoint(body, roles):

@@ -207,8 +207,8 @@ def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timing
         if pk is None:
             phi_si.append(None)
             continue
-        pot = np.zeros(len(b.mesh.points))
-        pot[s.phi_free] = pk * un.potential
+        pot = s.phi_fixed.copy()
+        pot[s.phi_free] += pk * un.potential
         phi_si.append(pot)
     constrained = np.zeros(itf.size, dtype=bool)
     constrained[E.indices] = True

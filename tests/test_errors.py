@@ -24,7 +24,7 @@ def lower(mesh=None, **kw):
 
 @pytest.mark.parametrize("make,match", [
     (lambda: upper(clamped=[]), "no clamped boundary"),
-    (lambda: upper(grounded=[]), "without a grounded electrode"),
+    (lambda: upper(grounded=[]), "without a grounded or driven electrode"),
     (lambda: upper(clamped=["roof"]), "unknown boundary tag 'roof'"),
     (lambda: upper(traction={"side": (0, 1)}), "unknown boundary tag 'side'"),
     (lambda: upper(body_force=(np.nan, 0.0)), "body_force: NaN"),

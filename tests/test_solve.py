@@ -194,31 +194,44 @@ def _mirror_index(p):
     return out
 
 
-def bonded_patch(n1, n2, q2=-0.08):
-    """Uniaxial-strain patch: exact u, phi linear in y, uniform lambda (closed form below)."""
+def bonded_patch(n1, n2, q2=-0.08, voltage=None):
+    """Uniaxial-strain patch: exact u, phi linear in y, uniform lambda (closed form below).
+
+    The piezo layer (y in [0, 1]) is driven by a surface charge q2 on its contact face
+    (grounded on top) or, with ``voltage``, by phi = V on top (grounded on the contact face).
+    """
     pzt, steel = cc.materials.PZT5H, cc.materials.isotropic(E=200e9, nu=0.3)
     c13, c33 = pzt.c[0, 1], pzt.c[1, 1]
     e31, e33, k33 = pzt.e[1, 0], pzt.e[1, 1], pzt.kappa[1, 1]
     M2, lame = steel.c[1, 1], steel.c[0, 1]
-    alpha = -q2 / (e33 + k33 * (c33 + M2) / e33)       # strain of the piezo layer (y in [0, 1])
-    d = -(c33 + M2) * alpha / e33                      # d phi / dy
+    if voltage is None:
+        alpha = -q2 / (e33 + k33 * (c33 + M2) / e33)   # strain of the piezo layer
+        d = -(c33 + M2) * alpha / e33                  # d phi / dy
+        phi0 = -d                                      # phi(y) = d (y - 1)
+        electric = dict(grounded="top", surface_charge={"bottom": q2})
+    else:
+        d, phi0 = voltage, 0.0                         # phi(y) = V y
+        alpha = -e33 * voltage / (c33 + M2)
+        electric = dict(grounded="bottom", potential={"top": voltage})
     sxx1, sxx2 = c13 * alpha + e31 * d, lame * (-alpha)
     m1 = cc.rectangle(x=(0, 1), y=(0, 1), nx=n1, ny=3)
     m2 = cc.rectangle(x=(0, 1), y=(-1, 0), nx=n2, ny=3)
-    b1 = cc.Body(m1, pzt, clamped="top", grounded="top", contact="bottom", surface_charge={"bottom": q2},
-                 traction={"left": (-sxx1, 0.0), "right": (sxx1, 0.0)})
+    b1 = cc.Body(m1, pzt, clamped="top", contact="bottom", traction={"left": (-sxx1, 0.0), "right": (sxx1, 0.0)},
+                 **electric)
     b2 = cc.Body(m2, steel, clamped="bottom", contact="top", traction={"left": (-sxx2, 0.0), "right": (sxx2, 0.0)})
     exact = dict(u1=lambda p: np.column_stack([0 * p[:, 0], alpha * (p[:, 1] - 1)]),
                  u2=lambda p: np.column_stack([0 * p[:, 0], -alpha * (p[:, 1] + 1)]),
-                 phi1=lambda p: d * (p[:, 1] - 1), lam=M2 * alpha)
+                 phi1=lambda p: phi0 + d * p[:, 1], lam=M2 * alpha)
     return cc.Scene(b1, b2), exact
 
 
+@pytest.mark.parametrize("voltage", [None, -2e4])
 @pytest.mark.parametrize("condition,n1,n2", [("gamma3", 7, 5), ("gamma3", 6, 6), ("sigma1", 6, 6),
                                              ("sigma2", 6, 6), ("sigma1", 8, 4), ("sigma2", 4, 8)])
-def test_bonded_uniform_compression_patch_is_exact(condition, n1, n2):
-    """K_h(Gamma_3) passes the patch test on any meshes; K_h(Sigma_h^l) when mesh l's nodes contain the other's."""
-    scene, exact = bonded_patch(n1, n2)
+def test_bonded_uniform_compression_patch_is_exact(condition, n1, n2, voltage):
+    """K_h(Gamma_3) passes the patch test on any meshes; K_h(Sigma_h^l) when mesh l's nodes contain the other's.
+    Driven by surface charge or by an electrode voltage (phi = V lifted into the loads)."""
+    scene, exact = bonded_patch(n1, n2, voltage=voltage)
     sol = cc.solve(scene, condition)
     p1, p2 = (b.mesh.points for b in scene.bodies)
     assert exact["lam"] > 0

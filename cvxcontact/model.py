@@ -90,6 +90,11 @@ class Block:
             blk.q = system.q[pf] / un.charge
         return blk
 
+    def energy(self, u, phi):
+        """Scaled reduced energy 1/2 u^T Kuu u - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law)."""
+        e = 0.5 * u @ (self.Kuu @ u) - self.f @ u
+        return e if phi is None else e + 0.5 * phi @ (self.Kpp @ phi)
+
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
         r_u = self.Kuu @ u - self.f + self.jump.T @ contact_force

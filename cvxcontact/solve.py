@@ -70,7 +70,13 @@ class ContactResult:
 
 @dataclass
 class Solution:
-    """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa."""
+    """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
+
+    ``energy`` is the reduced coupled energy Pi(u_h) of shared/math.md §2 in J/m (per
+    unit thickness; with driven electrodes, up to the constant of the lifting).
+    ``problem`` holds the interior-point values; with ``polished`` the arrays here
+    are the exact finish.
+    """
 
     scene: Scene
     condition: str
@@ -81,6 +87,7 @@ class Solution:
     problem: cp.Problem
     tol: float
     polished: bool = False
+    energy: float = float("nan")
     timings: dict = field(default_factory=dict)
     _checks: dict = field(default_factory=dict, repr=False)
 
@@ -198,6 +205,7 @@ def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timing
     lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
     checks = _checks(blocks, u, phi, itf.mass @ lam, E @ jump - g, y)
+    energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
 
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
@@ -218,7 +226,7 @@ def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timing
                             constrained=constrained, active=on, line=itf.y)
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
                     status=model.problem.status, problem=model.problem, tol=tol, polished=polished,
-                    timings=timings, _checks=checks)
+                    energy=float(energy), timings=timings, _checks=checks)
 
 
 def _active_set(blocks, u, y, E, g):

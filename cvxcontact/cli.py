@@ -1,0 +1,150 @@
+"""Command line: ``cvxcontact demo | solve SCENE.toml | info SCENE.toml``.
+
+Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
+2 usage error, 3 solved but the solution fails its checks (files are still written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from .contact import CONDITIONS
+from .errors import CvxContactError
+
+__all__ = ["main"]
+
+
+class Progress:
+    """Stage-by-stage progress on stderr; silent with ``quiet``."""
+
+    def __init__(self, quiet):
+        self.quiet, self.t0 = quiet, time.perf_counter()
+
+    def __call__(self, message):
+        if not self.quiet:
+            print(f"[{time.perf_counter() - self.t0:7.2f} s] {message}", file=sys.stderr, flush=True)
+
+
+def _parser():
+    p = argparse.ArgumentParser(prog="cvxcontact", description="Contact of piezoelectric bodies as convex programs.")
+    sub = p.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="solve the built-in two-block scene; write VTU, PNG and a JSON summary")
+    demo.add_argument("--out", default="cvxcontact-demo", help="output folder (default: %(default)s)")
+    demo.add_argument("--nx", type=int, default=16, help="cells along the contact line, upper body")
+    solve = sub.add_parser("solve", help="solve a scene file")
+    solve.add_argument("scene", help="scene file (TOML)")
+    solve.add_argument("--out", default=None, help="output folder (default: SCENE name + '-out')")
+    solve.add_argument("--condition", choices=CONDITIONS + ("all",), default=None,
+                       help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
+    solve.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    info = sub.add_parser("info", help="sizes and unknowns of a scene file")
+    info.add_argument("scene", help="scene file (TOML)")
+    for s in (demo, solve, info):
+        s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    return p
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    progress = Progress(args.quiet)
+    try:
+        if args.command == "info":
+            return _info(args)
+        if args.command == "demo":
+            from .demo import two_blocks
+
+            progress("building the demo scene (PZT-5A block on an aluminium block)")
+            return _run(two_blocks(args.nx), list(CONDITIONS), {}, Path(args.out), True, progress, args.quiet)
+        from .scenefile import load_scene
+
+        progress(f"reading {args.scene}")
+        spec = load_scene(args.scene)
+        conditions = list(CONDITIONS) if args.condition == "all" else [args.condition or spec.condition]
+        settings = dict(solver=spec.solver, tol=spec.tol, polish=spec.polish, **spec.options)
+        scene_path = Path(args.scene)
+        out = Path(args.out) if args.out else scene_path.parent / f"{scene_path.stem}-out"
+        return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)
+    except CvxContactError as exc:
+        print(f"cvxcontact: error: {_one_line(exc)}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("cvxcontact: interrupted", file=sys.stderr)
+        return 130
+
+
+def _one_line(exc):
+    return " ".join(str(exc).split())
+
+
+def _run(scene, conditions, settings, out, plots, progress, quiet):
+    import warnings
+
+    from .errors import ResidualWarning
+    from .output import atomic_write, write_all
+    from .solve import solve
+
+    solutions = {}
+    for c in conditions:
+        progress(f"solving condition {c}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ResidualWarning)   # reported below, once, on stderr
+            sol = solve(scene, c, **settings)
+        solutions[c] = sol
+        progress(f"  {sol.status}, {'exact finish' if sol.polished else 'interior-point answer'}, "
+                 f"{int(sol.contact.active.sum())} active nodes, solve {sol.timings.get('solve', 0):.3f} s")
+        write_all(sol, out, stem=c)
+    if plots:
+        progress("drawing figures")
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .plot import plot_contact, plot_deformed
+
+        first = solutions[conditions[0]]
+        figures = {"deformed_potential.png": plot_deformed(first, "potential"),
+                   "deformed_von_mises.png": plot_deformed(first, "von_mises"),
+                   "contact.png": plot_contact(solutions)}
+        for name, fig in figures.items():
+            atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
+            plt.close(fig)
+    if not quiet:
+        for sol in solutions.values():
+            print(sol.report())
+        print(f"results in {out}/")
+    bad = [c for c, s in solutions.items() if not s.ok]
+    if bad:
+        print(f"cvxcontact: warning: the solution for {bad} fails its checks at tol={solutions[bad[0]].tol:g}; "
+              f"see {out}/<condition>.json", file=sys.stderr)
+        return 3
+    return 0
+
+
+def _info(args):
+    from .assembly import assemble
+    from .scenefile import load_scene
+
+    spec = load_scene(args.scene)
+    itf = spec.scene.interface
+    print(f"scene {args.scene}: condition {spec.condition}, solver {spec.solver}, tol {spec.tol:g}")
+    total = 0
+    for k, b in enumerate(spec.scene.bodies, start=1):
+        s = assemble(b)
+        n_u, n_phi = len(s.u_free), len(s.phi_free) if s.piezoelectric else 0
+        total += n_u + n_phi
+        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {len(b.mesh.triangles)} "
+              f"triangles; unknowns: {n_u} displacement, "
+              + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
+    sig = [len(t.x) for t in itf.traces]
+    print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "
+          f"{itf.size} merged nodes")
+    print(f"  total unknowns {total}; constraints: gamma3 {itf.size}, sigma1 {sig[0]}, sigma2 {sig[1]}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,55 @@
+"""Derived fields of a solution, element by element (constant on each P1 triangle).
+
+Plane strain in the (x1, x3) plane, written x, y here; z is the out-of-plane x2:
+
+    strain  (exx, eyy, 2 exy)           from u
+    E = -grad(phi)                      V/m
+    stress  sigma = c eps - e^T E       Pa, in plane; szz = c12 exx + c13 eyy - e31 Ey
+            (elastic: szz = lambda (exx + eyy))
+    D = e eps + kappa E                 C/m^2
+    von Mises of (sxx, syy, szz, sxy)   Pa
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .assembly import gradients, strain_matrix
+
+__all__ = ["BodyFields", "body_fields"]
+
+
+@dataclass
+class BodyFields:
+    """Element fields of one body; arrays have one row per triangle."""
+
+    strain: np.ndarray          # (m, 3): exx, eyy, exy (tensor shear), dimensionless
+    stress: np.ndarray          # (m, 4): sxx, syy, szz, sxy, Pa
+    von_mises: np.ndarray       # (m,), Pa
+    electric_field: np.ndarray | None = None         # (m, 2), V/m
+    electric_displacement: np.ndarray | None = None  # (m, 2), C/m^2
+
+
+def body_fields(body, u, phi) -> BodyFields:
+    """Strain, stress, von Mises stress, and for a piezoelectric body E and D, per triangle."""
+    mesh, mat = body.mesh, body.material
+    _, grad = gradients(mesh.points, mesh.triangles)
+    ue = u[mesh.triangles].reshape(len(mesh.triangles), 6)
+    eps = np.einsum("mij,mj->mi", strain_matrix(grad), ue)          # (exx, eyy, 2exy)
+    stress = eps @ mat.c.T
+    if mat.piezoelectric:
+        field = -np.einsum("mij,mj->mi", grad, phi[mesh.triangles])
+        stress -= field @ mat.e
+        disp = eps @ mat.e.T + field @ mat.kappa.T
+        c12 = mat.c12 if mat.c12 is not None else np.nan
+        szz = c12 * eps[:, 0] + mat.c[0, 1] * eps[:, 1] - mat.e[1, 0] * field[:, 1]
+    else:
+        field = disp = None
+        szz = mat.c[0, 1] * (eps[:, 0] + eps[:, 1])
+    s = np.column_stack([stress[:, 0], stress[:, 1], szz, stress[:, 2]])
+    vm = np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)
+                 + 3.0 * s[:, 3] ** 2)
+    strain = np.column_stack([eps[:, 0], eps[:, 1], 0.5 * eps[:, 2]])
+    return BodyFields(strain=strain, stress=s, von_mises=vm, electric_field=field, electric_displacement=disp)

@@ -1,0 +1,213 @@
+"""Scene files (TOML): bodies, meshes, materials, boundary parts, loads, condition, solver.
+
+A scene file is data. Loads are numbers or expressions in x and y read by the
+restricted evaluator of :mod:`cvxcontact.expr`; nothing is executed. Every error
+names the file, the key and what was expected. Format (all SI units)::
+
+    condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
+
+    [solver]                                  # optional
+    name = "CLARABEL"                         # any installed CVXPY solver
+    tol = 1e-6                                # tolerance of the mixed-formulation checks
+    polish = true                             # exact finish
+    options = { max_iter = 100 }              # passed to the solver
+
+    [[body]]                                  # exactly two; the order defines l = 1, 2
+    name = "actuator"
+    material = "PZT-5A"                       # a built-in name, or a table: {E, nu} or
+                                              # {c11, c13, c33, c44, e31, e33, e15, eps11, eps33[, c12]}
+    mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.5], nx = 16, ny = 8 } }
+                                              # or mesh = { file = "lower.msh" } (relative to this file)
+    clamped = ["top"]
+    grounded = ["top"]                        # piezoelectric bodies
+    contact = "bottom"
+    body_force = [0.0, "-2e9 * (1 + x)"]      # N/m^3; numbers or expressions in x, y
+    traction = { right = [0.0, 3e8] }         # N/m^2
+    surface_charge = { left = -0.05 }         # C/m^2
+    potential = { }                           # V, driven electrodes
+    volume_charge = 0.0                       # C/m^3
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import materials as mats
+from .contact import CONDITIONS
+from .errors import CvxContactError, SceneError
+from .expr import Expression, ExpressionError
+from .mesh import read_mesh, rectangle
+from .scene import Body, Scene
+
+__all__ = ["SceneFile", "SceneFileError", "load_scene", "MATERIALS"]
+
+MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
+
+_TOP = {"condition", "solver", "body"}
+_SOLVER = {"name", "tol", "polish", "options"}
+_BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
+         "surface_charge", "potential", "volume_charge"}
+_PIEZO = {"c11", "c12", "c13", "c33", "c44", "e31", "e33", "e15", "eps11", "eps33"}
+
+
+class SceneFileError(SceneError):
+    """A scene file is missing, not TOML, or has a key with a bad value."""
+
+
+@dataclass
+class SceneFile:
+    """A scene read from a file, with the solve settings it asks for."""
+
+    path: Path
+    scene: Scene
+    condition: str = "gamma3"
+    solver: str = "CLARABEL"
+    tol: float = 1e-6
+    polish: bool = True
+    options: dict = field(default_factory=dict)
+
+    def solve(self, condition=None, **overrides):
+        """Solve with the file's settings; ``condition`` and keyword arguments override them."""
+        from .solve import solve
+
+        kw = dict(solver=self.solver, tol=self.tol, polish=self.polish, **self.options)
+        kw.update(overrides)
+        return solve(self.scene, condition or self.condition, **kw)
+
+
+def load_scene(path) -> SceneFile:
+    """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneFileError(f"{path}: scene file does not exist")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SceneFileError(f"{path}: not a valid TOML file: {exc}") from None
+    ctx = _Context(path)
+    ctx.keys(data, _TOP, "top level")
+    condition = data.get("condition", "gamma3")
+    if condition not in CONDITIONS:
+        ctx.fail("condition", f"one of {list(CONDITIONS)}", condition)
+    solver = ctx.table(data.get("solver", {}), "solver")
+    ctx.keys(solver, _SOLVER, "solver")
+    name = solver.get("name", "CLARABEL")
+    tol = solver.get("tol", 1e-6)
+    polish = solver.get("polish", True)
+    options = ctx.table(solver.get("options", {}), "solver.options")
+    if not isinstance(name, str):
+        ctx.fail("solver.name", "a CVXPY solver name (string)", name)
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0:
+        ctx.fail("solver.tol", "a positive number", tol)
+    if not isinstance(polish, bool):
+        ctx.fail("solver.polish", "true or false", polish)
+    bodies = data.get("body")
+    if not isinstance(bodies, list) or len(bodies) != 2:
+        ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
+    built = [ctx.body(b, k) for k, b in enumerate(bodies)]
+    try:
+        scene = Scene(*built)
+    except CvxContactError as exc:
+        raise SceneFileError(f"{path}: {exc}") from exc
+    return SceneFile(path, scene, condition, name.upper(), float(tol), polish, options)
+
+
+class _Context:
+    """Validation helpers that prefix every message with the file name."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def fail(self, key, expected, got):
+        raise SceneFileError(f"{self.path}: {key}: expected {expected}, got {got!r}")
+
+    def keys(self, table, allowed, where):
+        unknown = sorted(set(table) - allowed)
+        if unknown:
+            raise SceneFileError(f"{self.path}: {where}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
+
+    def table(self, value, key):
+        if not isinstance(value, dict):
+            self.fail(key, "a table", value)
+        return value
+
+    def body(self, b, k):
+        where = f"body[{k}]"
+        b = self.table(b, where)
+        self.keys(b, _BODY, where)
+        for req in ("material", "mesh", "clamped", "contact"):
+            if req not in b:
+                raise SceneFileError(f"{self.path}: {where}: missing key {req!r}")
+        name = b.get("name", f"body {k + 1}")
+        kw = dict(
+            clamped=self.tags(b["clamped"], f"{where}.clamped"),
+            grounded=self.tags(b.get("grounded", []), f"{where}.grounded"),
+            contact=b["contact"],
+            body_force=self.load(b.get("body_force", [0.0, 0.0]), f"{where}.body_force", 2),
+            volume_charge=self.load(b.get("volume_charge", 0.0), f"{where}.volume_charge", 1),
+        )
+        for key, n in (("traction", 2), ("surface_charge", 1), ("potential", 1)):
+            parts = self.table(b.get(key, {}), f"{where}.{key}")
+            kw[key] = {t: self.load(v, f"{where}.{key}.{t}", n) for t, v in parts.items()}
+        material = self.material(b["material"], f"{where}.material")
+        mesh = self.mesh(b["mesh"], f"{where}.mesh")
+        try:
+            return Body(mesh, material, name=str(name), **kw)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
+
+    def tags(self, value, key):
+        value = [value] if isinstance(value, str) else value
+        if not isinstance(value, list) or not all(isinstance(t, str) for t in value):
+            self.fail(key, "a tag or a list of tags (strings)", value)
+        return value
+
+    def load(self, value, key, ncomp):
+        if ncomp == 2:
+            if not isinstance(value, list) or len(value) != 2:
+                self.fail(key, "a list of 2 components (numbers or expressions)", value)
+            comps = [self.load(v, f"{key}[{i}]", 1) for i, v in enumerate(value)]
+            if all(isinstance(c, float) for c in comps):
+                return comps
+            fx, fy = (c if callable(c) else (lambda x, y, c=c: c + 0.0 * x) for c in comps)
+            return lambda x, y: (fx(x, y), fy(x, y))
+        if isinstance(value, bool):
+            self.fail(key, "a number or an expression in x, y", value)
+        if isinstance(value, (int, float)):
+            return float(value)
+        if isinstance(value, str):
+            try:
+                return Expression(value)
+            except ExpressionError as exc:
+                raise SceneFileError(f"{self.path}: {key}: {exc}") from None
+        self.fail(key, "a number or an expression in x, y", value)
+
+    def material(self, value, key):
+        if isinstance(value, str):
+            norm = value.upper().replace("-", "").replace("_", "").replace(" ", "")
+            if norm not in MATERIALS:
+                self.fail(key, f"a built-in material {sorted(MATERIALS)} or a table of constants", value)
+            return MATERIALS[norm]
+        table = self.table(value, key)
+        try:
+            if set(table) <= {"E", "nu", "name"} and {"E", "nu"} <= set(table):
+                return mats.isotropic(table["E"], table["nu"], name=table.get("name"))
+            self.keys(table, _PIEZO | {"name"}, key)
+            return mats.Piezoelectric(**table)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
+
+    def mesh(self, value, key):
+        table = self.table(value, key)
+        try:
+            if set(table) == {"rectangle"}:
+                spec = self.table(table["rectangle"], f"{key}.rectangle")
+                self.keys(spec, {"x", "y", "nx", "ny", "diagonal"}, f"{key}.rectangle")
+                return rectangle(**spec)
+            if set(table) == {"file"} and isinstance(table["file"], str):
+                return read_mesh(self.path.parent / table["file"])
+        except CvxContactError as exc:
+            raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
+        self.fail(key, "{ rectangle = {...} } or { file = \"mesh.msh\" }", value)

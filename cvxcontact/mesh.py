@@ -7,6 +7,8 @@ built, so every later stage can trust it.
 
 from __future__ import annotations
 
+import contextlib
+import io
 from pathlib import Path
 
 import numpy as np
@@ -248,7 +250,8 @@ def read_mesh(path, boundaries=None) -> Mesh:
     if not path.is_file():
         raise MeshError(f"mesh file {str(path)!r} does not exist")
     try:
-        m = meshio.read(path)
+        with contextlib.redirect_stdout(io.StringIO()):   # meshio prints to stdout on some formats
+            m = meshio.read(path)
     except (Exception, SystemExit) as exc:  # meshio raises many types, and exits on unknown formats
         raise MeshError(f"cannot read mesh file {str(path)!r}: {exc}") from exc
     kinds = {block.type for block in m.cells}

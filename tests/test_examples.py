@@ -1,4 +1,4 @@
-"""The examples run (at a small size) and print what their docstrings promise."""
+"""The teaching examples run (at a small size) and print what their docstrings promise."""
 
 import runpy
 from pathlib import Path
@@ -8,13 +8,37 @@ import numpy as np
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
+def load(name):
+    return runpy.run_path(str(EXAMPLES / name))
+
+
 def test_two_blocks_example(capsys):
-    ns = runpy.run_path(str(EXAMPLES / "two_blocks.py"))
-    results = ns["main"](8)
+    results = load("two_blocks.py")["main"](8)
     out = capsys.readouterr().out
     for condition in ("gamma3", "sigma1", "sigma2"):
         assert f"condition {condition}" in out
     assert out.count("active set:") == 3 and "FAILED" not in out
-    # the total contact force agrees between the three conditions to within a few per cent
     totals = np.array([r.contact.force.sum() for r in results.values()])
     assert np.ptp(totals) < 0.05 * totals.mean()
+
+
+def test_actuator_example_is_linear_in_voltage_and_lifts_off(capsys):
+    rows = load("actuator.py")["main"](8)
+    force = {v: f for v, f, _, _ in rows}
+    assert abs(force[-1000.0] / force[-250.0] - 4.0) < 1e-9
+    assert force[1000.0] == 0.0 and all(sol.ok for *_, sol in rows)
+    assert "lifted off" in capsys.readouterr().out
+
+
+def test_gmsh_example_reads_shipped_meshes(tmp_path, capsys):
+    sol = load("gmsh_mesh.py")["main"](str(tmp_path))
+    assert sol.ok and (tmp_path / "gmsh_body1.vtu").exists()
+    assert "tags ['bottom', 'hole', 'sides', 'top']" in capsys.readouterr().out
+
+
+def test_conditions_compared_example(tmp_path):
+    sols = load("conditions_compared.py")["main"](18, str(tmp_path))
+    assert (tmp_path / "contact.png").exists()
+    g, s1, s2 = (sols[c] for c in ("gamma3", "sigma1", "sigma2"))
+    assert abs(g.contact.force.sum() - s1.contact.force.sum()) < 0.01 * g.contact.force.sum()
+    assert s2.contact.jump.max() > 0 >= g.contact.jump[g.contact.constrained].max() - 1e-15

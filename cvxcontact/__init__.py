@@ -14,7 +14,7 @@ from .contact import CONDITIONS
 from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
 from .mesh import Mesh, read_mesh, rectangle
 from .scene import Body, Scene
-from .solve import ContactResult, Solution, solve
+from .solve import ContactResult, ContactSolver, Solution, solve
 
 __version__ = "0.1.0"
 
@@ -22,6 +22,6 @@ __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
     "Body", "Scene",
-    "solve", "Solution", "ContactResult",
+    "solve", "ContactSolver", "Solution", "ContactResult",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
 ]

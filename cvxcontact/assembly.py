@@ -16,14 +16,14 @@ f - Kup phi_D and q - Kpp phi_D, and only the free dofs remain unknown.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 
 from .errors import SceneError
 
-__all__ = ["BodySystem", "assemble", "gradients", "strain_matrix"]
+__all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -73,40 +73,56 @@ def strain_matrix(grad):
 def _scatter(blocks, rows, cols, shape):
     """Sum element blocks (m, a, b) into a sparse matrix at global rows (m, a) and cols (m, b)."""
     m, a, b = blocks.shape
-    R = np.broadcast_to(rows[:, :, None], (m, a, b))
-    C = np.broadcast_to(cols[:, None, :], (m, a, b))
-    return sp.csr_matrix((blocks.ravel(), (R.ravel(), C.ravel())), shape=shape)
+    R = np.repeat(rows.astype(np.int32), b, axis=1).ravel()
+    C = np.tile(cols.astype(np.int32), (1, a)).ravel()
+    return sp.csr_matrix((blocks.ravel(), (R, C)), shape=shape)
 
 
 def assemble(body) -> BodySystem:
-    """Assemble the stiffness, coupling, permittivity matrices and the loads of ``body``."""
+    """Assemble the matrices and the loads of ``body`` (SI units, all dofs)."""
+    return assemble_loads(body, assemble_matrices(body))
+
+
+def assemble_matrices(body) -> BodySystem:
+    """Stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero."""
     mesh, mat = body.mesh, body.material
     n = len(mesh.points)
     tri = mesh.triangles
     area, grad = gradients(mesh.points, tri)
     B = strain_matrix(grad)
+    Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, 6, 3), area-weighted
     udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
-    Kuu = _scatter(area[:, None, None] * np.einsum("mki,kl,mlj->mij", B, mat.c, B), udofs, udofs, (2 * n, 2 * n))
-    f = _body_load(mesh, body.body_force, 2)
-    for tag, load in body.traction.items():
-        f += _edge_load(mesh, mesh.boundary(tag), load, 2)
     clamped = mesh.boundary_nodes(body.clamped)
     u_fixed = np.zeros(2 * n, dtype=bool)
     u_fixed[2 * clamped] = u_fixed[2 * clamped + 1] = True
-    system = BodySystem(Kuu=Kuu, f=f.ravel(), u_free=np.flatnonzero(~u_fixed))
-    if not mat.piezoelectric:
-        return system
-    Kup = _scatter(area[:, None, None] * np.einsum("mki,lk,mlj->mij", B, mat.e, grad), udofs, tri, (2 * n, n))
-    Kpp = _scatter(area[:, None, None] * np.einsum("mki,kl,mlj->mij", grad, mat.kappa, grad), tri, tri, (n, n))
-    q = _body_load(mesh, body.volume_charge, 1)
-    for tag, load in body.surface_charge.items():
-        q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
-    phi_fixed = _electrode_potential(mesh, body)
-    electrodes = mesh.boundary_nodes(body.grounded + list(body.potential))
-    system.f -= Kup @ phi_fixed
-    system.Kup, system.Kpp, system.q = Kup, Kpp, q - Kpp @ phi_fixed
-    system.phi_free = np.setdiff1d(np.arange(n), electrodes)
-    system.phi_fixed = phi_fixed
+    system = BodySystem(Kuu=_scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n)), f=np.zeros(2 * n),
+                        u_free=np.flatnonzero(~u_fixed))
+    if mat.piezoelectric:
+        Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, 3, 2)
+        system.Kup = _scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
+        system.Kpp = _scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
+        system.phi_free = np.setdiff1d(np.arange(n), mesh.boundary_nodes(body.grounded + list(body.potential)))
+    return system
+
+
+def assemble_loads(body, matrices: BodySystem) -> BodySystem:
+    """A BodySystem sharing the matrices of ``matrices`` with the loads of ``body``.
+
+    ``body`` must have the mesh, material and boundary parts the matrices were built for.
+    """
+    mesh = body.mesh
+    f = _body_load(mesh, body.body_force, 2)
+    for tag, load in body.traction.items():
+        f += _edge_load(mesh, mesh.boundary(tag), load, 2)
+    system = replace(matrices, f=f.ravel())
+    if matrices.piezoelectric:
+        q = _body_load(mesh, body.volume_charge, 1)
+        for tag, load in body.surface_charge.items():
+            q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
+        phi_fixed = _electrode_potential(mesh, body)
+        system.f = system.f - matrices.Kup @ phi_fixed
+        system.q = q - matrices.Kpp @ phi_fixed
+        system.phi_fixed = phi_fixed
     return system
 
 

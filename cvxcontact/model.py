@@ -17,13 +17,13 @@ solver sees O(1) data whatever the SI magnitudes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Units", "Block", "ContactModel", "units"]
+__all__ = ["Units", "Block", "ContactModel", "InterfaceModel", "units"]
 
 
 @dataclass(frozen=True)
@@ -90,6 +90,12 @@ class Block:
             blk.q = system.q[pf] / un.charge
         return blk
 
+    def with_loads(self, system, un: Units) -> "Block":
+        """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on
+        the load scale)."""
+        q = system.q[system.phi_free] / un.charge if self.Kpp is not None else None
+        return replace(self, f=system.f[system.u_free] / un.force, q=q)
+
     def energy(self, u, phi):
         """Scaled reduced energy 1/2 u^T Kuu u - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law)."""
         e = 0.5 * u @ (self.Kuu @ u) - self.f @ u
@@ -111,7 +117,7 @@ class ContactModel:
     ``contact`` (the inequality constraint E [u_nu] <= E g).
     """
 
-    def __init__(self, blocks, E, gap):
+    def __init__(self, blocks, E, gap_rows):
         self.blocks = blocks
         self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
         self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
@@ -125,5 +131,56 @@ class ContactModel:
             energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
             self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
         jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
-        self.contact = jump <= E @ gap
+        self.contact = jump <= gap_rows
         self.problem = cp.Problem(cp.Minimize(energy), [c for c in self.gauss if c is not None] + [self.contact])
+
+
+class InterfaceModel:
+    """The condensed contact problem in the Gamma dofs v_l of each body (:mod:`cvxcontact.condense`):
+
+        minimise    sum_l 1/2 v_l^T Sigma_l v_l - g_l^T v_l
+        subject to  E sum_l C_l v_l <= E g               (the same contact rows as the full model)
+
+    Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``.
+    """
+
+    def __init__(self, bodies, loads, E, gap_rows):
+        self.bodies, self.loads, self.E, self.gap = bodies, loads, E, gap_rows
+        self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
+                     for b, v, g in zip(bodies, self.v, loads))
+        self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
+        self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
+
+    def finish(self, active):
+        """Exact finish on the interface: the dense KKT system with the contact closed on ``active``.
+
+        Returns (v, y) if y_A >= 0 and the open rows stay feasible, else None.
+        """
+        sizes = [len(b.gamma) for b in self.bodies]
+        n = sum(sizes)
+        G = np.hstack([(self.E @ b.jump)[active] for b in self.bodies])
+        K = np.zeros((n + len(G), n + len(G)))
+        K[:n, :n] = _block_diag([b.stiffness for b in self.bodies])
+        K[:n, n:], K[n:, :n] = G.T, G
+        try:
+            z = np.linalg.solve(K, np.concatenate(self.loads + [self.gap[active]]))
+        except np.linalg.LinAlgError:
+            return None
+        v = np.split(z[:n], np.cumsum(sizes)[:-1])
+        y = np.zeros(self.E.shape[0])
+        y[active] = z[n:]
+        slack = sum((self.E @ b.jump) @ vk for b, vk in zip(self.bodies, v)) - self.gap
+        scale = max(max(np.abs(vk).max(initial=0.0) for vk in v), np.finfo(float).tiny)
+        if (y < -1e-12 * max(np.abs(y).sum(), 1.0)).any() or slack[~active].max(initial=0.0) > 1e-12 * scale:
+            return None
+        return v, y
+
+
+def _block_diag(mats):
+    n = sum(len(a) for a in mats)
+    out, pos = np.zeros((n, n)), 0
+    for a in mats:
+        out[pos:pos + len(a), pos:pos + len(a)] = a
+        pos += len(a)
+    return out

@@ -27,12 +27,13 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .assembly import assemble
+from .assembly import assemble_loads, assemble_matrices
+from .condense import condense, quasi_definite, quasi_definite_rhs
 from .errors import ResidualWarning, SceneError, SolverError
-from .model import Block, ContactModel, units
+from .model import Block, ContactModel, InterfaceModel, units
 from .scene import Scene
 
-__all__ = ["solve", "Solution", "ContactResult", "DEFAULT_TOL"]
+__all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "DEFAULT_TOL", "METHODS"]
 
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
@@ -88,6 +89,7 @@ class Solution:
     tol: float
     polished: bool = False
     energy: float = float("nan")
+    method: str = "full"
     timings: dict = field(default_factory=dict)
     _checks: dict = field(default_factory=dict, repr=False)
 
@@ -110,8 +112,11 @@ class Solution:
         return "\n".join(lines)
 
 
-def solve(scene, condition="gamma3", solver="CLARABEL", *, tol=DEFAULT_TOL, polish=True, verbose=False,
-          **solver_options):
+METHODS = ("full", "condensed")
+
+
+def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL, polish=True,
+          verbose=False, **solver_options):
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -121,14 +126,19 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, tol=DEFAULT_TOL, poli
         Non-penetration on K_h(Gamma_3) (every merged node) or K_h(Sigma_h^l) (nodes of mesh l).
     solver : str
         A CVXPY solver name; Clarabel by default (with tolerances tightened to 1e-10).
+    method : {"full", "condensed"}
+        ``"full"`` (the reference) poses the whole phi-form model in CVXPY, so that
+        ``Solution.problem`` has the variables ``u1, phi1, u2, ...``. ``"condensed"``
+        (fast, exact) factorises each body once, condenses it onto its contact dofs
+        (:mod:`cvxcontact.condense`) and poses only the small interface QP in CVXPY.
     tol : float
         Tolerance of the mixed-formulation checks. A solution that fails them is
         returned with ``ok = False`` and a :class:`ResidualWarning`.
     polish : bool
         Exact finish (default): take the active set of the interior-point answer,
-        solve the mixed system (26) with the contact closed there by a sparse LU
-        factorization, and keep that answer if y >= 0 and the open nodes stay
-        feasible (``Solution.polished``). Otherwise the interior-point answer stands.
+        solve the mixed system (26) with the contact closed there, and keep that
+        answer if y >= 0 and the open nodes stay feasible (``Solution.polished``).
+        Otherwise the interior-point answer stands.
     verbose : bool
         Print the solver's progress.
     **solver_options
@@ -141,39 +151,138 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, tol=DEFAULT_TOL, poli
     Raises
     ------
     SceneError, SolverError
+
+    See Also
+    --------
+    ContactSolver : the same, prepared once for many load cases.
     """
-    if not isinstance(scene, Scene):
-        raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-    E = scene.interface.evaluation(condition)
-    if not (isinstance(tol, (int, float)) and tol > 0):
-        raise SolverError(f"tol must be a positive number, got {tol!r}")
-    timings = {}
-    t0 = time.perf_counter()
-    systems = [assemble(b) for b in scene.bodies]
-    un = units(scene, systems)
-    blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)
-              for k, (s, b) in enumerate(zip(systems, scene.bodies))]
-    gap = np.zeros(scene.interface.size)
-    timings["assembly"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    model = ContactModel(blocks, E, gap)
-    timings["model"] = time.perf_counter() - t0
-    _run(model.problem, solver, verbose, solver_options)
-    timings["compile"] = model.problem.compilation_time or 0.0
-    timings["solve"] = model.problem.solver_stats.solve_time or 0.0
-    t0 = time.perf_counter()
-    sol = _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timings)
-    timings["read_back"] = time.perf_counter() - t0
-    if not sol.ok:
-        warnings.warn(f"the solution of {scene!r} ({condition}) fails its checks at tol={tol:g}:\n"
-                      f"{sol.report()}", ResidualWarning, stacklevel=2)
-    return sol
+    return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
+                         **solver_options).solve()
+
+
+class ContactSolver:
+    """A solver prepared for one geometry: meshes, materials, boundary parts and condition.
+
+    ``solve()`` solves the scene it was built with; ``solve(other)`` solves a scene
+    that differs only in its loads (body forces, tractions, charges, electrode
+    potentials), reusing the assembled matrices and, with ``method="condensed"``,
+    the factorisations and interface stiffnesses: a further load case then costs
+    two triangular solves per body and a small interface QP.
+    """
+
+    def __init__(self, scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL,
+                 polish=True, verbose=False, **solver_options):
+        if not isinstance(scene, Scene):
+            raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        self.E = scene.interface.evaluation(condition)
+        if not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
+            raise SolverError(f"tol must be a positive number, got {tol!r}")
+        if method not in METHODS:
+            raise SolverError(f"method must be one of {METHODS}, got {method!r}")
+        _check_solver(solver)
+        self.scene, self.condition, self.method = scene, condition, method
+        self.solver, self.tol, self.polish, self.verbose = solver.upper(), tol, polish, verbose
+        self.options = solver_options
+        t0 = time.perf_counter()
+        self.matrices = [assemble_matrices(b) for b in scene.bodies]
+        self.setup_time = {"assembly": time.perf_counter() - t0}
+        self._blocks = None
+        self._condensed = None
+
+    def solve(self, scene=None) -> Solution:
+        """Solve ``scene`` (default: the scene given at construction); see the class docstring."""
+        scene = self.scene if scene is None else self._compatible(scene)
+        timings = dict(self.setup_time)
+        self.setup_time = {}
+        t0 = time.perf_counter()
+        systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+        un = units(scene, systems)
+        if self._blocks is None:
+            self._blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)
+                            for k, (s, b) in enumerate(zip(systems, scene.bodies))]
+        blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
+        gap = np.zeros(scene.interface.size)
+        timings["loads"] = time.perf_counter() - t0
+        run = self._full if self.method == "full" else self._condensed_solve
+        u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+        t0 = time.perf_counter()
+        sol = _read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
+                         problem, self.tol, timings)
+        sol.method = self.method
+        timings["read_back"] = time.perf_counter() - t0
+        if not sol.ok:
+            warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
+                          f"{sol.report()}", ResidualWarning, stacklevel=3)
+        return sol
+
+    def _compatible(self, scene):
+        if not isinstance(scene, Scene):
+            raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        for k, (a, b) in enumerate(zip(self.scene.bodies, scene.bodies), start=1):
+            same = (a.mesh is b.mesh and a.material is b.material and a.clamped == b.clamped
+                    and a.contact == b.contact and a.grounded == b.grounded and set(a.potential) == set(b.potential))
+            if not same:
+                raise SceneError(f"body {k} differs from the prepared scene in its mesh, material or boundary parts; "
+                                 "only loads may change between solves of one ContactSolver")
+        return scene
+
+    def _full(self, blocks, g, timings):
+        t0 = time.perf_counter()
+        model = ContactModel(blocks, self.E, g)
+        timings["model"] = time.perf_counter() - t0
+        _run(model.problem, self.solver, self.verbose, self.options)
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        u = [v.value for v in model.u]
+        phi = [v.value if v is not None else None for v in model.phi]
+        y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        active = _active_set(blocks, u, y, self.E, g)
+        polished = False
+        if self.polish:
+            t0 = time.perf_counter()
+            exact = finish(blocks, self.E, g, active)
+            timings["polish"] = time.perf_counter() - t0
+            if exact is not None:
+                (u, phi, y), polished = exact, True
+        return u, phi, y, active, polished, model.problem
+
+    def _condensed_solve(self, blocks, g, timings):
+        if self._condensed is None:
+            t0 = time.perf_counter()
+            self._condensed = [condense(b, s, body.mesh) for b, s, body in
+                               zip(blocks, self.matrices, self.scene.bodies)]
+            timings["factorization"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        loads = [c.interface_load(F) for c, F in zip(self._condensed, rhs)]
+        model = InterfaceModel(self._condensed, [g_ for g_, _ in loads], self.E, g)
+        timings["model"] = time.perf_counter() - t0
+        _run(model.problem, self.solver, self.verbose, self.options)
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        v = [var.value for var in model.v]
+        y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        slack = self.E @ sum(c.jump @ vk for c, vk in zip(self._condensed, v)) - g
+        active = _active_rule(y, slack, v)
+        polished = False
+        t0 = time.perf_counter()
+        if self.polish:
+            exact = model.finish(active)
+            if exact is not None:
+                (v, y), polished = exact, True
+        x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(self._condensed, rhs)]
+        timings["back_substitution"] = time.perf_counter() - t0
+        u = [xk[:c.n_u] for c, xk in zip(self._condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(self._condensed, x, blocks)]
+        return u, phi, y, active, polished, model.problem
+
+
+def _check_solver(solver):
+    if not isinstance(solver, str) or solver.upper() not in cp.installed_solvers():
+        raise SolverError(f"solver {solver!r} is not available; installed CVXPY solvers: {cp.installed_solvers()}")
 
 
 def _run(problem, solver, verbose, options):
-    if not isinstance(solver, str) or solver.upper() not in cp.installed_solvers():
-        raise SolverError(f"solver {solver!r} is not available; installed CVXPY solvers: {cp.installed_solvers()}")
-    solver = solver.upper()
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
@@ -186,27 +295,15 @@ def _run(problem, solver, verbose, options):
         raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")
 
 
-def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timings):
-    blocks, itf = model.blocks, scene.interface
-    u = [v.value for v in model.u]
-    phi = [v.value if v is not None else None for v in model.phi]
-    y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+def _read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings):
+    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27)."""
+    itf = scene.interface
     g = E @ gap
-    active = _active_set(blocks, u, y, E, g)
-    polished = False
-    if polish:
-        t0 = time.perf_counter()
-        exact = finish(blocks, E, g, active)
-        timings["polish"] = time.perf_counter() - t0
-        if exact is not None:
-            u, phi, y = exact
-            polished = True
     Ety = E.T @ y
     lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
     checks = _checks(blocks, u, phi, itf.mass @ lam, E @ jump - g, y)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
-
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
         full = np.zeros(2 * len(b.mesh.points))
@@ -225,17 +322,21 @@ def _read_back(scene, condition, model, systems, un, E, gap, tol, polish, timing
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
                             constrained=constrained, active=on, line=itf.y)
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
-                    status=model.problem.status, problem=model.problem, tol=tol, polished=polished,
+                    status=problem.status, problem=problem, tol=tol, polished=polished,
                     energy=float(energy), timings=timings, _checks=checks)
 
 
 def _active_set(blocks, u, y, E, g):
-    """Constrained rows where the scaled force beats the scaled gap: y / F > |E[u_nu] - E g| / U.
+    """Active rows of the full model: see :func:`_active_rule`."""
+    return _active_rule(y, E @ sum(b.jump @ uk for b, uk in zip(blocks, u)) - g, u)
+
+
+def _active_rule(y, slack, u):
+    """Constrained rows where the scaled force beats the scaled gap: y / F > |slack| / U.
 
     Loads are scaled to total O(1) (:func:`cvxcontact.model.units`), so F = max(sum|y|, 1);
-    U is the largest displacement. The comparison is free of units and of mesh size.
+    U is the largest displacement in ``u``. The comparison is free of units and of mesh size.
     """
-    slack = E @ sum(b.jump @ uk for b, uk in zip(blocks, u)) - g
     F = max(np.abs(y).sum(), 1.0)
     U = max(max(np.abs(uk).max(initial=0.0) for uk in u), np.finfo(float).tiny)
     return y / F > np.abs(slack) / U
@@ -252,17 +353,12 @@ def finish(blocks, E, g, active):
     """
     mats, rhs, rows, sizes = [], [], [], []
     for b in blocks:
-        G = (E[active] @ b.jump)
-        if b.Kpp is None:
-            mats.append(b.Kuu)
-            rhs.append(b.f)
-            rows.append(G)
-            sizes.append((b.Kuu.shape[0], 0))
-            continue
-        mats.append(sp.bmat([[b.Kuu, b.Kup], [b.Kup.T, -b.Kpp]]))
-        rhs.append(np.concatenate([b.f, -b.q]))
-        rows.append(sp.hstack([G, sp.csr_matrix((G.shape[0], b.Kpp.shape[0]))]))
-        sizes.append((b.Kuu.shape[0], b.Kpp.shape[0]))
+        S, F = quasi_definite(b)
+        n_phi = S.shape[0] - b.Kuu.shape[0]
+        mats.append(S)
+        rhs.append(F)
+        rows.append(sp.hstack([E[active] @ b.jump, sp.csr_matrix((int(active.sum()), n_phi))]))
+        sizes.append((b.Kuu.shape[0], n_phi))
     A, G = sp.block_diag(mats), sp.hstack(rows)
     K = sp.bmat([[A, G.T], [G, None]], format="csc")
     try:

@@ -69,11 +69,14 @@ def direct_mixed_solve(scene, sol):
     return us, phis, lam, force, J @ x
 
 
-@pytest.mark.parametrize("polish,tol_u,tol_lam", [(False, 1e-7, 1e-5), (True, 1e-11, 1e-10)])
+@pytest.mark.parametrize("method,polish,tol_u,tol_lam", [("full", False, 1e-7, 1e-5), ("full", True, 1e-11, 1e-10),
+                                                         ("condensed", False, 1e-6, 1e-4),
+                                                         ("condensed", True, 1e-11, 1e-10)])
 @pytest.mark.parametrize("condition", cc.CONDITIONS)
-def test_convex_solution_matches_direct_mixed_solve(scene, condition, polish, tol_u, tol_lam):
-    """Interior-point answer (polish=False) and exact finish against a dense solve of (26)."""
-    sol = cc.solve(scene, condition, polish=polish)
+def test_convex_solution_matches_direct_mixed_solve(scene, condition, method, polish, tol_u, tol_lam):
+    """Interior-point answer (polish=False) and exact finish against a dense solve of (26),
+    for the full model and for the condensed (interface-only) model."""
+    sol = cc.solve(scene, condition, method=method, polish=polish)
     assert sol.polished == polish
     us, phis, lam, force, jump = direct_mixed_solve(scene, sol)
     # the active set from the convex solve is a valid one for the mixed system:
@@ -112,6 +115,45 @@ def test_solution_shapes_and_units(scene, solutions):
     # lambda = -sigma_nu > 0 in compression: total force balances part of the downward load
     assert sol.contact.force.sum() > 0
     assert isinstance(sol.problem, __import__("cvxpy").Problem)
+
+
+def test_condensed_interface_stiffness_is_the_dense_schur_complement(scene):
+    """Sigma read from the trailing block of the factors equals S_GG - S_GI S_II^{-1} S_IG (dense)."""
+    from cvxcontact.assembly import assemble
+    from cvxcontact.condense import condense, quasi_definite
+    from cvxcontact.model import Block, units
+
+    systems = [assemble(b) for b in scene.bodies]
+    un = units(scene, systems)
+    for k, (s, body) in enumerate(zip(systems, scene.bodies)):
+        block = Block.scaled(s, scene.interface.jump(k, len(body.mesh.points)), un)
+        c = condense(block, s, body.mesh)
+        S = quasi_definite(block)[0].toarray()
+        g = c.gamma
+        i = np.setdiff1d(np.arange(len(S)), g)
+        schur = S[np.ix_(g, g)] - S[np.ix_(g, i)] @ np.linalg.solve(S[np.ix_(i, i)], S[np.ix_(i, g)])
+        assert rel(c.stiffness, schur) < 1e-12
+        assert np.linalg.eigvalsh(c.stiffness).min() > 0           # SPD
+        assert len(g) == len(scene.interface.traces[k].x)          # one normal dof per free trace node
+
+
+def test_contact_solver_reuses_factorisations_for_new_loads():
+    """Re-solving with other loads (same geometry) equals a fresh solve; other geometry is refused."""
+    base = two_blocks()
+    solver = cc.ContactSolver(base, "gamma3", method="condensed")
+    first = solver.solve()
+    assert "factorization" in first.timings
+    b1, b2 = base.bodies
+    loaded = cc.Scene(cc.Body(b1.mesh, b1.material, clamped=b1.clamped, grounded=b1.grounded, contact=b1.contact,
+                              body_force=(1e8, -3e9), surface_charge={"right": 0.02}), b2)
+    again = solver.solve(loaded)
+    assert "factorization" not in again.timings and again.ok
+    fresh = cc.solve(loaded, "gamma3")
+    for k in range(2):
+        assert rel(again.u[k], fresh.u[k]) < 1e-11
+    assert rel(again.contact.lam, fresh.contact.lam) < 1e-9
+    with pytest.raises(cc.SceneError, match="only loads may change"):
+        solver.solve(two_blocks(n1=(8, 4)))
 
 
 def test_dual_of_gauss_law_is_minus_phi(solutions):

@@ -152,10 +152,10 @@ class InterfaceModel:
         self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
         self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
 
-    def finish(self, active):
-        """Exact finish on the interface: the dense KKT system with the contact closed on ``active``.
+    def kkt(self, active):
+        """Solve the dense KKT system with the contact closed on ``active``.
 
-        Returns (v, y) if y_A >= 0 and the open rows stay feasible, else None.
+        Returns ((v, y), y, slack, scale) for :func:`cvxcontact.solve.active_set_finish`, or None.
         """
         sizes = [len(b.gamma) for b in self.bodies]
         n = sum(sizes)
@@ -171,10 +171,7 @@ class InterfaceModel:
         y = np.zeros(self.E.shape[0])
         y[active] = z[n:]
         slack = sum((self.E @ b.jump) @ vk for b, vk in zip(self.bodies, v)) - self.gap
-        scale = max(max(np.abs(vk).max(initial=0.0) for vk in v), np.finfo(float).tiny)
-        if (y < -1e-12 * max(np.abs(y).sum(), 1.0)).any() or slack[~active].max(initial=0.0) > 1e-12 * scale:
-            return None
-        return v, y
+        return (v, y), y, slack, max(np.abs(vk).max(initial=0.0) for vk in v)
 
 
 def _block_diag(mats):

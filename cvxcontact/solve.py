@@ -135,10 +135,11 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DE
         Tolerance of the mixed-formulation checks. A solution that fails them is
         returned with ``ok = False`` and a :class:`ResidualWarning`.
     polish : bool
-        Exact finish (default): take the active set of the interior-point answer,
-        solve the mixed system (26) with the contact closed there, and keep that
-        answer if y >= 0 and the open nodes stay feasible (``Solution.polished``).
-        Otherwise the interior-point answer stands.
+        Exact finish (default): from the active set of the interior-point answer,
+        solve the mixed system (26) with the contact closed there and correct the set
+        by primal-dual active-set steps until y >= 0 and the open nodes stay feasible
+        (:func:`active_set_finish`; ``Solution.polished``). If that fails the
+        interior-point answer stands.
     verbose : bool
         Print the solver's progress.
     **solver_options
@@ -240,10 +241,10 @@ class ContactSolver:
         polished = False
         if self.polish:
             t0 = time.perf_counter()
-            exact = finish(blocks, self.E, g, active)
+            exact = active_set_finish(mixed_kkt(blocks, self.E, g), active)
             timings["polish"] = time.perf_counter() - t0
             if exact is not None:
-                (u, phi, y), polished = exact, True
+                ((u, phi, y), active), polished = exact, True
         return u, phi, y, active, polished, model.problem
 
     def _condensed_solve(self, blocks, g, timings):
@@ -267,9 +268,9 @@ class ContactSolver:
         polished = False
         t0 = time.perf_counter()
         if self.polish:
-            exact = model.finish(active)
+            exact = active_set_finish(model.kkt, active)
             if exact is not None:
-                (v, y), polished = exact, True
+                ((v, y), active), polished = exact, True
         x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(self._condensed, rhs)]
         timings["back_substitution"] = time.perf_counter() - t0
         u = [xk[:c.n_u] for c, xk in zip(self._condensed, x)]
@@ -342,42 +343,63 @@ def _active_rule(y, slack, u):
     return y / F > np.abs(slack) / U
 
 
-def finish(blocks, E, g, active):
-    """Exact finish: solve the mixed system (26) with the contact closed on ``active``.
+def active_set_finish(kkt, active, max_iter=10):
+    """Exact finish: primal-dual active-set iterations started from the interior-point active set.
 
-    The system is [[A, G^T], [G, 0]] [x; y_A] = [F; g_A], per body
-    A = [[Kuu, Kup], [Kup^T, -Kpp]], F = [f; -q] (Gauss rows negated, which makes
-    it symmetric), G = the active rows of E [u_nu]. The result is accepted only if
-    the signs hold: y_A >= 0 and the inactive rows stay feasible. Returns scaled
-    (u, phi, y) or None.
+    ``kkt(active)`` solves the equality-constrained system with the contact closed on
+    ``active`` and returns (state, y, slack, U) or None. The answer is accepted when the
+    signs hold to rounding: y >= 0 on the active rows and slack <= 0 on the others;
+    otherwise the set is updated to {y / F + slack / U > 0} (F, U: force and
+    displacement scales), which is the semismooth Newton step for the complementarity
+    conditions. Returns (state, active), or None if no consistent set is found.
     """
-    mats, rhs, rows, sizes = [], [], [], []
-    for b in blocks:
-        S, F = quasi_definite(b)
-        n_phi = S.shape[0] - b.Kuu.shape[0]
-        mats.append(S)
-        rhs.append(F)
-        rows.append(sp.hstack([E[active] @ b.jump, sp.csr_matrix((int(active.sum()), n_phi))]))
-        sizes.append((b.Kuu.shape[0], n_phi))
-    A, G = sp.block_diag(mats), sp.hstack(rows)
-    K = sp.bmat([[A, G.T], [G, None]], format="csc")
-    try:
-        z = spla.splu(K, permc_spec="MMD_AT_PLUS_A").solve(np.concatenate(rhs + [g[active]]))
-    except RuntimeError:  # singular: the active set does not determine the multipliers
-        return None
-    n = A.shape[0]
-    y = np.zeros(E.shape[0])
-    y[active] = z[n:]
-    u, phi, pos = [], [], 0
-    for nu, npf in sizes:
-        u.append(z[pos:pos + nu])
-        phi.append(z[pos + nu:pos + nu + npf] if npf else None)
-        pos += nu + npf
-    slack = E @ sum(b.jump @ uk for b, uk in zip(blocks, u)) - g
-    scale_u = max(max(np.abs(uk).max(initial=0.0) for uk in u), np.finfo(float).tiny)
-    if not np.isfinite(z).all() or (y < -1e-12 * max(np.abs(y).sum(), 1.0)).any() or slack[~active].max(initial=0.0) > 1e-12 * scale_u:
-        return None
-    return u, phi, y
+    for _ in range(max_iter):
+        out = kkt(active)
+        if out is None:
+            return None
+        state, y, slack, U = out
+        F, U = max(np.abs(y).sum(), 1.0), max(U, np.finfo(float).tiny)
+        if np.isfinite(y).all() and y.min(initial=0.0) >= -1e-12 * F and slack[~active].max(initial=0.0) <= 1e-12 * U:
+            return state, active
+        new = y / F + slack / U > 0
+        if np.array_equal(new, active):
+            return None
+        active = new
+    return None
+
+
+def mixed_kkt(blocks, E, g):
+    """``kkt(active)`` for :func:`active_set_finish` on the full model: the sparse mixed system (26)
+
+    [[A, G^T], [G, 0]] [x; y_A] = [F; g_A] with, per body, A = [[Kuu, Kup], [Kup^T, -Kpp]],
+    F = [f; -q] (Gauss rows negated, which makes it symmetric) and G the active rows of E [u_nu].
+    """
+    parts = [quasi_definite(b) for b in blocks]
+    A = sp.block_diag([S for S, _ in parts])
+    rhs = np.concatenate([F for _, F in parts])
+    sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
+    rows = [sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], n_phi))]) for b, (_, n_phi) in zip(blocks, sizes)]
+    G_all = sp.hstack(rows).tocsr()
+
+    def kkt(active):
+        G = G_all[active]
+        K = sp.bmat([[A, G.T], [G, None]], format="csc")
+        try:
+            z = spla.splu(K, permc_spec="MMD_AT_PLUS_A").solve(np.concatenate([rhs, g[active]]))
+        except RuntimeError:  # singular: the active set does not determine the multipliers
+            return None
+        n = A.shape[0]
+        y = np.zeros(E.shape[0])
+        y[active] = z[n:]
+        u, phi, pos = [], [], 0
+        for nu, npf in sizes:
+            u.append(z[pos:pos + nu])
+            phi.append(z[pos + nu:pos + nu + npf] if npf else None)
+            pos += nu + npf
+        slack = G_all @ z[:n] - g
+        return (u, phi, y), y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
+
+    return kkt
 
 
 def _solve_mass(M, rhs):

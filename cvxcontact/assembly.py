@@ -144,8 +144,7 @@ def _body_load(mesh, load, ncomp):
     mid = 0.5 * (p[tri] + p[np.roll(tri, -1, axis=1)])        # midpoints of edges (0,1), (1,2), (2,0)
     val = load(mid[..., 0], mid[..., 1]).reshape(len(tri), 3, ncomp)
     nodal = (val + np.roll(val, 1, axis=1)) * (mesh.areas / 6.0)[:, None, None]   # node i: edges i and i-1
-    out = np.zeros((len(p), ncomp))
-    np.add.at(out, tri.ravel(), nodal.reshape(-1, ncomp))
+    out = _accumulate(tri.ravel(), nodal.reshape(-1, ncomp), len(p))
     return out if ncomp > 1 else out[:, 0]
 
 
@@ -157,6 +156,10 @@ def _edge_load(mesh, edges, load, ncomp):
     for t in _GAUSS2:
         x = (1 - t) * a + t * b
         val = load(x[:, 0], x[:, 1]).reshape(len(edges), ncomp) * (0.5 * length)[:, None]
-        np.add.at(out, edges[:, 0], (1 - t) * val)
-        np.add.at(out, edges[:, 1], t * val)
+        out += _accumulate(edges.T.ravel(), np.concatenate([(1 - t) * val, t * val]), len(mesh.points))
     return out if ncomp > 1 else out[:, 0]
+
+
+def _accumulate(index, values, n):
+    """Sum rows of ``values`` (k, c) into an (n, c) array at ``index`` (k,)."""
+    return np.column_stack([np.bincount(index, weights=values[:, j], minlength=n) for j in range(values.shape[1])])

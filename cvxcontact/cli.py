@@ -39,6 +39,8 @@ def _parser():
     solve.add_argument("--out", default=None, help="output folder (default: SCENE name + '-out')")
     solve.add_argument("--condition", choices=CONDITIONS + ("all",), default=None,
                        help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
+    solve.add_argument("--method", choices=("full", "condensed"), default=None,
+                       help="full CVXPY model or condensed interface model (default: the file's, or full)")
     solve.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     info = sub.add_parser("info", help="sizes and unknowns of a scene file")
     info.add_argument("scene", help="scene file (TOML)")
@@ -63,7 +65,9 @@ def main(argv=None) -> int:
         progress(f"reading {args.scene}")
         spec = load_scene(args.scene)
         conditions = list(CONDITIONS) if args.condition == "all" else [args.condition or spec.condition]
-        settings = dict(solver=spec.solver, tol=spec.tol, polish=spec.polish, **spec.options)
+        settings = spec.settings
+        if args.method:
+            settings["method"] = args.method
         scene_path = Path(args.scene)
         out = Path(args.out) if args.out else scene_path.parent / f"{scene_path.stem}-out"
         return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)

@@ -21,9 +21,10 @@ from dataclasses import dataclass, replace
 
 import cvxpy as cp
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
-__all__ = ["Units", "Block", "ContactModel", "InterfaceModel", "units"]
+__all__ = ["Units", "Block", "ContactModel", "InterfaceModel", "Compliance", "units"]
 
 
 @dataclass(frozen=True)
@@ -145,39 +146,42 @@ class InterfaceModel:
     """
 
     def __init__(self, bodies, loads, E, gap_rows):
-        self.bodies, self.loads, self.E, self.gap = bodies, loads, E, gap_rows
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
                      for b, v, g in zip(bodies, self.v, loads))
         self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
         self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
 
-    def kkt(self, active):
-        """Solve the dense KKT system with the contact closed on ``active``.
 
-        Returns ((v, y), y, slack, scale) for :func:`cvxcontact.solve.active_set_finish`, or None.
-        """
-        sizes = [len(b.gamma) for b in self.bodies]
-        n = sum(sizes)
-        G = np.hstack([(self.E @ b.jump)[active] for b in self.bodies])
-        K = np.zeros((n + len(G), n + len(G)))
-        K[:n, :n] = _block_diag([b.stiffness for b in self.bodies])
-        K[:n, n:], K[n:, :n] = G.T, G
-        try:
-            z = np.linalg.solve(K, np.concatenate(self.loads + [self.gap[active]]))
-        except np.linalg.LinAlgError:
-            return None
-        v = np.split(z[:n], np.cumsum(sizes)[:-1])
-        y = np.zeros(self.E.shape[0])
-        y[active] = z[n:]
-        slack = sum((self.E @ b.jump) @ vk for b, vk in zip(self.bodies, v)) - self.gap
-        return (v, y), y, slack, max(np.abs(vk).max(initial=0.0) for vk in v)
+class Compliance:
+    """Interface compliance of condensed bodies seen by the contact rows E (scaled units):
 
+        R_l = E C_l,   B_l = Sigma_l^{-1} R_l^T,   W = sum_l R_l B_l   (SPD on the rows).
 
-def _block_diag(mats):
-    n = sum(len(a) for a in mats)
-    out, pos = np.zeros((n, n)), 0
-    for a in mats:
-        out[pos:pos + len(a), pos:pos + len(a)] = a
-        pos += len(a)
-    return out
+    With v0_l the unconstrained Gamma displacements and d = sum_l R_l v0_l - E g the
+    slack at y = 0, a contact force y gives v_l = v0_l - B_l y and slack d - W y.
+    Computed once per geometry; every load case reuses it.
+    """
+
+    def __init__(self, bodies, E):
+        self.rows = [np.asarray((E @ b.jump)) for b in bodies]
+        self.B = [sla.cho_solve(sla.cho_factor(b.stiffness), R.T) for b, R in zip(bodies, self.rows)]
+        self.W = sum(R @ B for R, B in zip(self.rows, self.B))
+
+    def kkt(self, v0, gap_rows):
+        """``kkt(active)`` for :func:`cvxcontact.solve.active_set_finish`: W_AA y_A = d_A, the
+        interface problem with the contact closed on ``active``; returns ((v, y), y, slack, max|v|)."""
+        d = sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
+
+        def kkt(active):
+            y = np.zeros(len(d))
+            if active.any():
+                try:
+                    y[active] = sla.solve(self.W[np.ix_(active, active)], d[active], assume_a="pos")
+                except (np.linalg.LinAlgError, ValueError):
+                    return None
+            slack = d - self.W[:, active] @ y[active]
+            v = [v0k - B @ y for v0k, B in zip(v0, self.B)]
+            return (v, y), y, slack, max(np.abs(vk).max(initial=0.0) for vk in v)
+
+        return kkt

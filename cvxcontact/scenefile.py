@@ -10,6 +10,7 @@ names the file, the key and what was expected. Format (all SI units)::
     name = "CLARABEL"                         # any installed CVXPY solver
     tol = 1e-6                                # tolerance of the mixed-formulation checks
     polish = true                             # exact finish
+    method = "full"                           # or "condensed" (fast, exact)
     options = { max_iter = 100 }              # passed to the solver
 
     [[body]]                                  # exactly two; the order defines l = 1, 2
@@ -40,13 +41,14 @@ from .errors import CvxContactError, SceneError
 from .expr import Expression, ExpressionError
 from .mesh import read_mesh, rectangle
 from .scene import Body, Scene
+from .solve import METHODS
 
-__all__ = ["SceneFile", "SceneFileError", "load_scene", "MATERIALS"]
+__all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read_toml", "MATERIALS"]
 
 MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
 
 _TOP = {"condition", "solver", "body"}
-_SOLVER = {"name", "tol", "polish", "options"}
+_SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge"}
 _PIEZO = {"c11", "c12", "c13", "c33", "c44", "e31", "e33", "e15", "eps11", "eps33"}
@@ -66,26 +68,43 @@ class SceneFile:
     solver: str = "CLARABEL"
     tol: float = 1e-6
     polish: bool = True
+    method: str = "full"
     options: dict = field(default_factory=dict)
+
+    @property
+    def settings(self) -> dict:
+        """Keyword arguments of :func:`cvxcontact.solve` given by the file (condition excluded)."""
+        return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method, **self.options)
 
     def solve(self, condition=None, **overrides):
         """Solve with the file's settings; ``condition`` and keyword arguments override them."""
         from .solve import solve
 
-        kw = dict(solver=self.solver, tol=self.tol, polish=self.polish, **self.options)
+        kw = self.settings
         kw.update(overrides)
         return solve(self.scene, condition or self.condition, **kw)
 
 
-def load_scene(path) -> SceneFile:
-    """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key."""
+def read_toml(path, what="scene file") -> dict:
+    """The data of a TOML file; :class:`SceneFileError` if missing or malformed."""
     path = Path(path)
     if not path.is_file():
-        raise SceneFileError(f"{path}: scene file does not exist")
+        raise SceneFileError(f"{path}: {what} does not exist")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SceneFileError(f"{path}: not a valid TOML file: {exc}") from None
+
+
+def load_scene(path) -> SceneFile:
+    """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key."""
+    return scene_from_data(read_toml(path), Path(path))
+
+
+def scene_from_data(data, path) -> SceneFile:
+    """Validate scene-file ``data`` (a dict as read from TOML); ``path`` names it in errors and
+    anchors relative mesh files."""
+    path = Path(path)
     ctx = _Context(path)
     ctx.keys(data, _TOP, "top level")
     condition = data.get("condition", "gamma3")
@@ -96,7 +115,10 @@ def load_scene(path) -> SceneFile:
     name = solver.get("name", "CLARABEL")
     tol = solver.get("tol", 1e-6)
     polish = solver.get("polish", True)
+    method = solver.get("method", "full")
     options = ctx.table(solver.get("options", {}), "solver.options")
+    if method not in METHODS:
+        ctx.fail("solver.method", f"one of {list(METHODS)}", method)
     if not isinstance(name, str):
         ctx.fail("solver.name", "a CVXPY solver name (string)", name)
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0:
@@ -111,7 +133,7 @@ def load_scene(path) -> SceneFile:
         scene = Scene(*built)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
-    return SceneFile(path, scene, condition, name.upper(), float(tol), polish, options)
+    return SceneFile(path, scene, condition, name.upper(), float(tol), polish, method, options)
 
 
 class _Context:

@@ -30,7 +30,7 @@ import scipy.sparse.linalg as spla
 from .assembly import assemble_loads, assemble_matrices
 from .condense import condense, quasi_definite, quasi_definite_rhs
 from .errors import ResidualWarning, SceneError, SolverError
-from .model import Block, ContactModel, InterfaceModel, units
+from .model import Block, Compliance, ContactModel, InterfaceModel, units
 from .scene import Scene
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "DEFAULT_TOL", "METHODS"]
@@ -76,7 +76,10 @@ class Solution:
     ``energy`` is the reduced coupled energy Pi(u_h) of shared/math.md §2 in J/m (per
     unit thickness; with driven electrodes, up to the constant of the lifting).
     ``problem`` holds the interior-point values; with ``polished`` the arrays here
-    are the exact finish.
+    are the exact finish. ``path`` says how the answer was reached: "interior point",
+    "interior point + exact finish" or, for a re-solve of a :class:`ContactSolver`,
+    "active-set warm start" (then ``problem`` is None: no convex program was needed,
+    and the answer passed the same sign and residual checks).
     """
 
     scene: Scene
@@ -90,6 +93,7 @@ class Solution:
     polished: bool = False
     energy: float = float("nan")
     method: str = "full"
+    path: str = ""
     timings: dict = field(default_factory=dict)
     _checks: dict = field(default_factory=dict, repr=False)
 
@@ -167,12 +171,16 @@ class ContactSolver:
     ``solve()`` solves the scene it was built with; ``solve(other)`` solves a scene
     that differs only in its loads (body forces, tractions, charges, electrode
     potentials), reusing the assembled matrices and, with ``method="condensed"``,
-    the factorisations and interface stiffnesses: a further load case then costs
-    two triangular solves per body and a small interface QP.
+    the factorisations and interface stiffnesses. With ``warm_start`` (default) a
+    further load case starts from the previous exact active set and is finished by
+    active-set steps on the interface (a few dense solves of the size of the active
+    set), falling back to the interior-point solve if they do not settle; it then
+    costs two triangular solves per body and little else. Other parameters as in
+    :func:`solve`.
     """
 
     def __init__(self, scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL,
-                 polish=True, verbose=False, **solver_options):
+                 polish=True, warm_start=True, verbose=False, **solver_options):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
         self.E = scene.interface.evaluation(condition)
@@ -187,8 +195,9 @@ class ContactSolver:
         t0 = time.perf_counter()
         self.matrices = [assemble_matrices(b) for b in scene.bodies]
         self.setup_time = {"assembly": time.perf_counter() - t0}
-        self._blocks = None
-        self._condensed = None
+        self.warm_start = warm_start
+        self._blocks = self._condensed = self._compliance = self._active = None
+        self.path = ""
 
     def solve(self, scene=None) -> Solution:
         """Solve ``scene`` (default: the scene given at construction); see the class docstring."""
@@ -205,11 +214,14 @@ class ContactSolver:
         gap = np.zeros(scene.interface.size)
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
+        self.path = "interior point"
         u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+        if polished and self.path == "interior point":
+            self.path = "interior point + exact finish"
         t0 = time.perf_counter()
         sol = _read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                          problem, self.tol, timings)
-        sol.method = self.method
+        sol.method, sol.path = self.method, self.path
         timings["read_back"] = time.perf_counter() - t0
         if not sol.ok:
             warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
@@ -220,9 +232,7 @@ class ContactSolver:
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
         for k, (a, b) in enumerate(zip(self.scene.bodies, scene.bodies), start=1):
-            same = (a.mesh is b.mesh and a.material is b.material and a.clamped == b.clamped
-                    and a.contact == b.contact and a.grounded == b.grounded and set(a.potential) == set(b.potential))
-            if not same:
+            if not _same_geometry(a, b):
                 raise SceneError(f"body {k} differs from the prepared scene in its mesh, material or boundary parts; "
                                  "only loads may change between solves of one ContactSolver")
         return scene
@@ -252,30 +262,58 @@ class ContactSolver:
             t0 = time.perf_counter()
             self._condensed = [condense(b, s, body.mesh) for b, s, body in
                                zip(blocks, self.matrices, self.scene.bodies)]
+            self._compliance = Compliance(self._condensed, self.E)
             timings["factorization"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         rhs = [quasi_definite_rhs(b) for b in blocks]
         loads = [c.interface_load(F) for c, F in zip(self._condensed, rhs)]
-        model = InterfaceModel(self._condensed, [g_ for g_, _ in loads], self.E, g)
-        timings["model"] = time.perf_counter() - t0
-        _run(model.problem, self.solver, self.verbose, self.options)
-        timings["compile"] = model.problem.compilation_time or 0.0
-        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
-        v = [var.value for var in model.v]
-        y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-        slack = self.E @ sum(c.jump @ vk for c, vk in zip(self._condensed, v)) - g
-        active = _active_rule(y, slack, v)
-        polished = False
+        kkt = self._compliance.kkt([x0[c.gamma] for c, (_, x0) in zip(self._condensed, loads)], g)
+        exact = active_set_finish(kkt, self._active) if self.warm_start and self._active is not None else None
+        timings["interface_load"] = time.perf_counter() - t0
+        if exact is not None:                                  # re-solve: the previous active set, corrected
+            ((v, y), active), polished, problem = exact, True, None
+            self.path = "active-set warm start"
+        else:
+            t0 = time.perf_counter()
+            model = InterfaceModel(self._condensed, [g_ for g_, _ in loads], self.E, g)
+            timings["model"] = time.perf_counter() - t0
+            _run(model.problem, self.solver, self.verbose, self.options)
+            timings["compile"] = model.problem.compilation_time or 0.0
+            timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+            v = [var.value for var in model.v]
+            y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+            slack = self.E @ sum(c.jump @ vk for c, vk in zip(self._condensed, v)) - g
+            active, polished, problem = _active_rule(y, slack, v), False, model.problem
+            if self.polish:
+                t0 = time.perf_counter()
+                exact = active_set_finish(kkt, active)
+                timings["polish"] = time.perf_counter() - t0
+                if exact is not None:
+                    ((v, y), active), polished = exact, True
+        if polished:
+            self._active = active
         t0 = time.perf_counter()
-        if self.polish:
-            exact = active_set_finish(model.kkt, active)
-            if exact is not None:
-                ((v, y), active), polished = exact, True
         x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(self._condensed, rhs)]
         timings["back_substitution"] = time.perf_counter() - t0
         u = [xk[:c.n_u] for c, xk in zip(self._condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(self._condensed, x, blocks)]
-        return u, phi, y, active, polished, model.problem
+        return u, phi, y, active, polished, problem
+
+
+def _same_geometry(a, b):
+    """Whether two bodies share mesh, material and boundary parts (so that only loads differ)."""
+    if a is b:
+        return True
+    ma, mb = a.mesh, b.mesh
+    parts = sorted(set(a.clamped) | set(a.grounded) | set(a.potential) | {a.contact})
+    same_mesh = ma is mb or (np.array_equal(ma.points, mb.points) and np.array_equal(ma.triangles, mb.triangles)
+                             and set(ma.tags) == set(mb.tags)
+                             and all(np.array_equal(ma.boundary(t), mb.boundary(t)) for t in parts))
+    mats = [getattr(m, k, None) for m in (a.material, b.material) for k in ("c", "e", "kappa")]
+    same_mat = all(np.array_equal(x, y) if x is not None and y is not None else x is y
+                   for x, y in zip(mats[:3], mats[3:]))
+    return (same_mesh and same_mat and a.clamped == b.clamped and a.contact == b.contact
+            and a.grounded == b.grounded and set(a.potential) == set(b.potential))
 
 
 def _check_solver(solver):
@@ -323,7 +361,8 @@ def _read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active,
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
                             constrained=constrained, active=on, line=itf.y)
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
-                    status=problem.status, problem=problem, tol=tol, polished=polished,
+                    status=problem.status if problem is not None else cp.OPTIMAL, problem=problem, tol=tol,
+                    polished=polished,
                     energy=float(energy), timings=timings, _checks=checks)
 
 

@@ -1,7 +1,8 @@
-"""Command line: ``cvxcontact demo | solve SCENE.toml | info SCENE.toml``.
+"""Command line: ``cvxcontact demo | solve SCENE.toml | info SCENE.toml | sweep SWEEP.toml``.
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
-2 usage error, 3 solved but the solution fails its checks (files are still written).
+2 usage error, 3 solved but the solution fails its checks, or some sweep cases
+failed (files are still written).
 """
 
 from __future__ import annotations
@@ -44,7 +45,13 @@ def _parser():
     solve.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     info = sub.add_parser("info", help="sizes and unknowns of a scene file")
     info.add_argument("scene", help="scene file (TOML)")
-    for s in (demo, solve, info):
+    sweep = sub.add_parser("sweep", help="run or resume a sweep of cases (reference solutions)")
+    sweep.add_argument("sweep", help="sweep file (TOML)")
+    sweep.add_argument("--out", required=True, help="output folder (results, failures, manifest)")
+    sweep.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    sweep.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
+    sweep.add_argument("--retry-failed", action="store_true", help="run the recorded failures again")
+    for s in (demo, solve, info, sweep):
         s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     return p
 
@@ -55,6 +62,8 @@ def main(argv=None) -> int:
     try:
         if args.command == "info":
             return _info(args)
+        if args.command == "sweep":
+            return _sweep(args)
         if args.command == "demo":
             from .demo import two_blocks
 
@@ -124,6 +133,23 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     if bad:
         print(f"cvxcontact: warning: the solution for {bad} fails its checks at tol={solutions[bad[0]].tol:g}; "
               f"see {out}/<condition>.json", file=sys.stderr)
+        return 3
+    return 0
+
+
+def _sweep(args):
+    from .sweep import main_progress, run_sweep
+
+    if args.workers is not None and args.workers < 1:
+        raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
+    report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
+                       retry_failed=args.retry_failed, progress=main_progress(args.quiet))
+    if not args.quiet:
+        print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
+              f"{len(report.failed)} failed, {report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+    if report.failed:
+        first = next(iter(report.failed.items()))
+        print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]}", file=sys.stderr)
         return 3
     return 0
 

@@ -228,6 +228,10 @@ class ContactSolver:
                           f"{sol.report()}", ResidualWarning, stacklevel=3)
         return sol
 
+    def accepts(self, scene) -> bool:
+        """Whether ``scene`` differs from the prepared one in its loads only."""
+        return isinstance(scene, Scene) and all(_same_geometry(a, b) for a, b in zip(self.scene.bodies, scene.bodies))
+
     def _compatible(self, scene):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")

@@ -86,6 +86,10 @@ class Interface:
         P = (t.normal * self._interp[k]).tocoo()
         return sp.csr_matrix((P.data, (P.row, 2 * t.nodes[P.col] + 1)), shape=(self.size, 2 * n_nodes))
 
+    def interpolation(self, k) -> sp.csr_matrix:
+        """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
+        return self._interp[k]
+
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows select the merged nodes where non-penetration is imposed."""
         if condition not in CONDITIONS:

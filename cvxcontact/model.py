@@ -58,14 +58,15 @@ class Units:
         return self.length * np.sqrt(self.stress * self.permittivity) * self.load
 
 
-def units(scene, systems) -> Units:
-    """Choose :class:`Units` for a scene from its materials, size and loads."""
+def units(scene, systems, gap=None) -> Units:
+    """Choose :class:`Units` for a scene from its materials, size, loads and gap (m)."""
     mats = [b.material for b in scene.bodies]
     c0 = max(float(np.abs(m.c).max()) for m in mats)
     eps0 = max([float(np.linalg.eigvalsh(m.kappa).max()) for m in mats if m.piezoelectric] or [1.0])
     L0 = scene.length
     load = max(max(np.abs(s.f).sum() / (c0 * L0) for s in systems),
-               max(np.abs(s.q).sum() / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric else 0.0 for s in systems))
+               max(np.abs(s.q).sum() / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric else 0.0 for s in systems),
+               float(np.abs(gap).max()) / L0 if gap is not None and len(gap) else 0.0)
     return Units(L0, c0, eps0, load if load > 0 else 1.0)
 
 
@@ -102,12 +103,20 @@ class Block:
         e = 0.5 * u @ (self.Kuu @ u) - self.f @ u
         return e if phi is None else e + 0.5 * phi @ (self.Kpp @ phi)
 
+    def internal(self, u, phi):
+        """The operator of (26) applied to (u, phi): momentum rows, Gauss rows."""
+        if self.Kpp is None:
+            return self.Kuu @ u, np.zeros(0)
+        return self.Kuu @ u + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u
+
+    def loads(self):
+        """The right-hand side [f; q] of (26)."""
+        return self.f, (self.q if self.q is not None else np.zeros(0))
+
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
-        r_u = self.Kuu @ u - self.f + self.jump.T @ contact_force
-        if self.Kpp is None:
-            return r_u, np.zeros(0)
-        return r_u + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u - self.q
+        (a_u, a_p), (f, q) = self.internal(u, phi), self.loads()
+        return a_u + self.jump.T @ contact_force - f, a_p - q
 
 
 class ContactModel:

@@ -170,9 +170,14 @@ class Scene:
 
     The body order defines l = 1, 2 of the paper (``sigma1`` / ``sigma2``).
     The contact geometry (shared line, normals, merged nodes) is validated here.
+
+    ``gap`` is the initial normal gap g (m) between the bodies along Gamma_3, a number
+    or a vectorised callable g(x) of the abscissa: the condition reads [u_nu] <= g
+    (interpolated in X_h, i.e. at the merged nodes). g = 0 is the paper's problem;
+    g < 0 is an initial interference (a prescribed approach), used for Hertz-type tests.
     """
 
-    def __init__(self, body1, body2):
+    def __init__(self, body1, body2, gap=0.0):
         for k, b in enumerate((body1, body2), start=1):
             if not isinstance(b, Body):
                 raise SceneError(f"Scene takes two Body objects; argument {k} is {type(b).__name__}")
@@ -186,6 +191,13 @@ class Scene:
             self.interface = Interface(self.bodies)
         except MeshError as exc:
             raise SceneError(str(exc)) from exc
+        self.gap = Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1)
+        self.gap_values()                                    # check it now: finite, right shape
+
+    def gap_values(self) -> np.ndarray:
+        """The gap g (m) at the merged nodes of Gamma_3."""
+        x = self.interface.x
+        return np.array(self.gap(x, np.full_like(x, self.interface.y)), dtype=float)
 
     def __repr__(self):
         return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"

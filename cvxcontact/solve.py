@@ -6,7 +6,7 @@ Read-back (shared/math.md §4): with y >= 0 the dual of E [u_nu] <= E g,
 
 Checks (§5), all relative and dimensionless, reported by :meth:`Solution.residuals`:
 
-    equilibrium      || A [u; phi] + [J^T M lambda_h; 0] - [f; q] || / || [f; q] ||     (26)
+    equilibrium      || A [u; phi] + [J^T M lambda_h; 0] - [f; q] || / max(|| [f; q] ||, || A [u; phi] ||)  (26)
     feasibility      max(E [u_nu] - E g)^+ / max|u|
     complementarity  sum_a |y_a (E [u_nu] - E g)_a| / (F max|u|)                       (27)
     cone             sum_a max(-y_a, 0) / F          (the multiplier lies in Lambda_h)
@@ -48,7 +48,7 @@ class ContactResult:
     ``lam`` is lambda_h (Pa), ``jump`` is [u_h nu] (m), ``force`` the equivalent nodal
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
     and ``active`` those among them that carry a positive force; ``line`` is the
-    ordinate of Gamma_3 (m).
+    ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
     """
 
     x: np.ndarray
@@ -58,6 +58,7 @@ class ContactResult:
     constrained: np.ndarray
     active: np.ndarray
     line: float = 0.0
+    gap: np.ndarray | None = None
 
     @property
     def pressure(self) -> np.ndarray:
@@ -105,6 +106,21 @@ class Solution:
     def ok(self) -> bool:
         """True if the solver reported optimal and every check is below ``tol``."""
         return self.status == cp.OPTIMAL and all(v <= self.tol for v in self._checks.values())
+
+    def traction(self, k):
+        """Contact pressure as felt by body ``k`` (0 or 1): (x, p) on its own trace nodes.
+
+        The merged nodal forces are moved to the nodes of body k's trace (the transpose
+        of the trace interpolation: exact work equivalence) and divided by the lumped
+        lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
+        """
+        itf = self.scene.interface
+        x = itf.traces[k].x
+        h = np.diff(x)
+        w = np.zeros_like(x)
+        w[:-1] += h / 2
+        w[1:] += h / 2
+        return x.copy(), (itf.interpolation(k).T @ self.contact.force) / w
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
@@ -206,12 +222,13 @@ class ContactSolver:
         self.setup_time = {}
         t0 = time.perf_counter()
         systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
-        un = units(scene, systems)
+        gap = scene.gap_values()
+        un = units(scene, systems, gap)
+        gap = gap / un.displacement
         if self._blocks is None:
             self._blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)
                             for k, (s, b) in enumerate(zip(systems, scene.bodies))]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
-        gap = np.zeros(scene.interface.size)
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
         self.path = "interior point"
@@ -363,7 +380,7 @@ def _read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active,
     on = np.zeros(itf.size, dtype=bool)
     on[E.indices[active]] = True
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
-                            constrained=constrained, active=on, line=itf.y)
+                            constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement)
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
                     status=problem.status if problem is not None else cp.OPTIMAL, problem=problem, tol=tol,
                     polished=polished,
@@ -456,11 +473,13 @@ def _solve_mass(M, rhs):
 
 def _checks(blocks, u, phi, Mlam, slack, y):
     """The relative residuals of the mixed formulation, in scaled units (module docstring)."""
-    res, rhs = [], []
+    res, rhs, inner = [], [], []
     for b, uk, pk in zip(blocks, u, phi):
         res.extend(b.residual(uk, pk, Mlam))
-        rhs.extend([b.f, b.q if b.q is not None else np.zeros(0)])
-    norm = np.linalg.norm(np.concatenate(rhs))
+        rhs.extend(b.loads())
+        inner.extend(b.internal(uk, pk))
+    # relative to the loads, or to the internal forces when the gap alone drives the contact
+    norm = max(np.linalg.norm(np.concatenate(rhs)), np.linalg.norm(np.concatenate(inner)))
     umax = max(float(np.abs(uk).max(initial=0.0)) for uk in u)
     force = max(np.abs(y).sum(), 1.0)       # scaled loads total O(1): see model.units
     tiny = np.finfo(float).tiny

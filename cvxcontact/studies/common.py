@@ -1,0 +1,89 @@
+"""Shared pieces of the studies: graded meshes, tables, figures, transfer between meshes."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..mesh import Mesh, rectangle
+from ..output import atomic_write
+
+
+def graded_block(x, y, nx, ny, contact="bottom", beta=0.0, gamma=0.0, center=0.0):
+    """A structured block on ``x`` by ``y`` whose cells shrink towards x = ``center`` (sinh grading of
+    strength ``beta``) and towards its ``contact`` edge, "bottom" or "top" (exponential grading
+    ``gamma``). Tags as :func:`~cvxcontact.mesh.rectangle`; beta = gamma = 0 gives a uniform grid."""
+    base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny)
+    xi, eta = base.points[:, 0], base.points[:, 1]
+    (x0, x1), (y0, y1) = x, y
+    X = x0 + (x1 - x0) * xi
+    if beta > 0:
+        t0 = (center - x0) / (x1 - x0)
+        u = np.where(xi < t0, (xi - t0) / t0, (xi - t0) / (1 - t0))          # in [-1, 1], 0 at the centre
+        X = center + np.where(u < 0, center - x0, x1 - center) * np.sinh(beta * u) / np.sinh(beta)
+    d = eta if contact == "bottom" else 1 - eta                             # 0 on the contact edge
+    if gamma > 0:
+        d = (np.exp(gamma * d) - 1) / (np.exp(gamma) - 1)
+    Y = y0 + (y1 - y0) * d if contact == "bottom" else y1 - (y1 - y0) * d
+    return Mesh(np.column_stack([X, Y]), base.triangles, {t: base.boundary(t) for t in base.tags})
+
+
+def write_csv(path, rows):
+    """Write a list of dicts as CSV (atomic); the columns are the union of the keys, in order."""
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+
+    def write(p):
+        with open(p, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=keys)
+            w.writeheader()
+            w.writerows(rows)
+
+    return atomic_write(path, write)
+
+
+def write_text(path, text):
+    return atomic_write(path, lambda p: Path(p).write_text(text))
+
+
+def save_figure(fig, path):
+    import matplotlib.pyplot as plt
+
+    atomic_write(path, lambda p: fig.savefig(p, dpi=130, format="png"))
+    plt.close(fig)
+    return path
+
+
+def markdown_table(rows, columns, formats=None):
+    """A Markdown table of ``rows`` (dicts) with the given columns and format strings."""
+    formats = formats or {}
+    head = "| " + " | ".join(columns) + " |\n|" + "---|" * len(columns) + "\n"
+    body = "".join("| " + " | ".join(format(r[c], formats.get(c, "")) if c in r and r[c] is not None else "—"
+                                     for c in columns) + " |\n" for r in rows)
+    return head + body
+
+
+def slope(h, e):
+    """Least-squares slope of log e against log h (the observed rate)."""
+    h, e = np.asarray(h, float), np.asarray(e, float)
+    ok = (e > 0) & np.isfinite(e)
+    return float(np.polyfit(np.log(h[ok]), np.log(e[ok]), 1)[0]) if ok.sum() >= 2 else float("nan")
+
+
+class Timer:
+    def __init__(self):
+        self.t0 = time.perf_counter()
+
+    def __call__(self):
+        return time.perf_counter() - self.t0
+
+
+def pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt

@@ -1,0 +1,119 @@
+"""Hertz validation: a cylinder pressed on a block, as two elastic blocks with a parabolic gap.
+
+The cylinder (radius R) is the upper block with the initial gap g(x) = x^2 / (2 R) - delta
+(delta: the prescribed approach, an interference); both blocks are clamped on their far
+edges and are large compared with the contact width. The classical plane-strain Hertz
+solution for the measured load P (N/m) is
+
+    a = sqrt(4 P R / (pi E*)),   p(x) = (2 P / (pi a^2)) sqrt(a^2 - x^2),   p0 = 2 P / (pi a),
+    1 / E* = (1 - nu1^2) / E1 + (1 - nu2^2) / E2.
+
+The FE half-width a_h is the mid-point between the outermost active node and the first
+open node on each side (so |a_h - a| <= h/2 is the resolution limit); p0_h is the peak
+pressure felt by the cylinder (:meth:`Solution.traction` on its trace nodes; the merged-
+mesh nodal forces of gamma3 alternate, see the stability study). Meshes are graded towards the contact zone
+and do not match on Gamma_3 (the lower block has about 0.8 times the cells).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .. import materials
+from ..scene import Body, Scene
+from ..solve import solve
+from .common import Timer, graded_block, markdown_table, pyplot, save_figure, slope, write_csv, write_text
+
+STEEL, ALU = (200e9, 0.3), (70e9, 0.33)
+R, DELTA, WIDTH, HEIGHT = 2.0, 1e-2, 2.0, 2.0
+
+
+def hertz(P, R, E_star):
+    """Half-width a (m) and peak pressure p0 (Pa) of 2D Hertz contact under load P (N/m)."""
+    a = np.sqrt(4 * P * R / (np.pi * E_star))
+    return a, 2 * P / (np.pi * a)
+
+
+def e_star(E1, nu1, E2, nu2):
+    return 1.0 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
+
+
+def scene(n, condition_mesh_ratio=0.8):
+    upper = graded_block((-WIDTH, WIDTH), (0.0, HEIGHT), n, n // 2, "bottom", beta=3.0, gamma=2.5)
+    m = max(4, round(condition_mesh_ratio * n) + 1)
+    lower = graded_block((-WIDTH, WIDTH), (-HEIGHT, 0.0), m, m // 2, "top", beta=3.0, gamma=2.5)
+    b1 = Body(upper, materials.isotropic(*STEEL, name="steel"), clamped="top", contact="bottom", name="cylinder")
+    b2 = Body(lower, materials.isotropic(*ALU, name="aluminium"), clamped="bottom", contact="top", name="block")
+    return Scene(b1, b2, gap=lambda x: x ** 2 / (2 * R) - DELTA)
+
+
+def half_width(contact):
+    """Mid-point estimate of the contact half-width from the active set (m)."""
+    x, act = contact.x, contact.active
+    if not act.any():
+        return 0.0
+    i0, i1 = np.flatnonzero(act)[[0, -1]]
+    left = 0.5 * (x[i0] + x[max(i0 - 1, 0)])
+    right = 0.5 * (x[i1] + x[min(i1 + 1, len(x) - 1)])
+    return 0.5 * (right - left)
+
+
+def run(out, quick=False, progress=None):
+    say = progress or (lambda s: None)
+    out = Path(out)
+    levels = [24, 48, 96] if quick else [32, 64, 128, 256, 512]
+    Es = e_star(*STEEL, *ALU)
+    rows, last = [], None
+    for n in levels:
+        clock = Timer()
+        sol = solve(scene(n), "gamma3", method="condensed")
+        c = sol.contact
+        P = float(c.force.sum())
+        a, p0 = hertz(P, R, Es)
+        a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
+        active = c.x[c.active]
+        h = float(np.diff(c.x)[np.abs(c.x[:-1]) <= a].max()) if c.active.any() else float("nan")
+        rows.append(dict(n=n, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h, a_rel_error=a_h / a - 1,
+                         p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, active_nodes=int(c.active.sum()),
+                         ok=sol.ok, seconds=clock()))
+        say(f"hertz n={n}: a_h/a - 1 = {rows[-1]['a_rel_error']:+.2e}, p0_h/p0 - 1 = {rows[-1]['p0_rel_error']:+.2e}")
+        last = (sol, a, p0, P)
+    write_csv(out / "hertz.csv", rows)
+    sol, a, p0, P = last
+    plt = pyplot()
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
+    c = sol.contact
+    xs = np.linspace(-a, a, 400)
+    ax.plot(xs * 1e3, 2 * P / (np.pi * a ** 2) * np.sqrt(np.maximum(a ** 2 - xs ** 2, 0)) / 1e6, "k-",
+            label="Hertz (closed form, measured P)")
+    xt, pt = sol.traction(0)
+    near, nt = np.abs(c.x) <= 1.6 * a, np.abs(xt) <= 1.6 * a
+    ax.plot(xt[nt] * 1e3, pt[nt] / 1e6, "o", ms=3, label="FE: pressure on the cylinder's nodes")
+    ax.plot(c.x[near] * 1e3, c.lam[near] / 1e6, "-", lw=0.6, alpha=0.35, label=r"FE: $\lambda_h$ (merged mesh, oscillates)")
+    ax.set_xlabel("x1 [mm]")
+    ax.set_ylabel("contact pressure [MPa]")
+    ax.set_title(f"Cylinder on block, R = {R} m, finest mesh (n = {levels[-1]})")
+    ax.legend(fontsize=8)
+    hs = [r["h_contact_m"] for r in rows]
+    ax2.loglog(hs, [abs(r["a_rel_error"]) for r in rows], "o-", label="|a_h / a - 1|")
+    ax2.loglog(hs, [abs(r["p0_rel_error"]) for r in rows], "s-", label="|p0_h / p0 - 1|")
+    ax2.loglog(hs, [0.5 * h / a for h in hs], "k:", label="h / (2a) (resolution of a_h)")
+    ax2.set_xlabel("mesh size in the contact zone h [m]")
+    ax2.set_ylabel("relative error")
+    ax2.set_title("Error against the Hertz solution")
+    ax2.legend(fontsize=8)
+    ax2.xaxis.set_minor_formatter(plt.NullFormatter())
+    save_figure(fig, out / "hertz.png")
+    rate_a, rate_p = slope(hs, [abs(r["a_rel_error"]) for r in rows]), slope(hs, [abs(r["p0_rel_error"]) for r in rows])
+    text = (f"# Hertz validation\n\nCylinder (steel, R = {R} m) on a block (aluminium) as two graded blocks "
+            f"{2 * WIDTH} m wide with gap x^2/(2R) - {DELTA} m, condition gamma3, non-matching meshes.\n\n"
+            + markdown_table(rows, ["n", "h_contact_m", "load_N_per_m", "a_m", "a_h_m", "a_rel_error", "p0_Pa",
+                                    "p0_h_Pa", "p0_rel_error", "active_nodes", "seconds"],
+                             {"h_contact_m": ".2e", "load_N_per_m": ".4e", "a_m": ".5f", "a_h_m": ".5f",
+                              "a_rel_error": "+.2e", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.2e",
+                              "seconds": ".2f"})
+            + f"\nObserved rates in h: half-width {rate_a:.2f}, peak pressure {rate_p:.2f}.\n")
+    write_text(out / "hertz.md", text)
+    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p)

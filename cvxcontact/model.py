@@ -17,6 +17,7 @@ solver sees O(1) data whatever the SI magnitudes.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import cvxpy as cp
@@ -186,8 +187,10 @@ class Compliance:
             y = np.zeros(len(d))
             if active.any():
                 try:
-                    y[active] = sla.solve(self.W[np.ix_(active, active)], d[active], assume_a="pos")
-                except (np.linalg.LinAlgError, ValueError):
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("error", sla.LinAlgWarning)   # singular set: decline
+                        y[active] = sla.solve(self.W[np.ix_(active, active)], d[active], assume_a="pos")
+                except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
                     return None
             slack = d - self.W[:, active] @ y[active]
             v = [v0k - B @ y for v0k, B in zip(v0, self.B)]

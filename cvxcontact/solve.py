@@ -30,7 +30,7 @@ import scipy.sparse.linalg as spla
 from .assembly import assemble_loads, assemble_matrices
 from .condense import condense, quasi_definite, quasi_definite_rhs
 from .errors import ResidualWarning, SceneError, SolverError
-from .model import Block, Compliance, ContactModel, InterfaceModel, units
+from .model import Block, Compliance, ContactModel, InterfaceModel, Units, units
 from .scene import Scene
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "DEFAULT_TOL", "METHODS"]
@@ -191,12 +191,13 @@ class ContactSolver:
     further load case starts from the previous exact active set and is finished by
     active-set steps on the interface (a few dense solves of the size of the active
     set), falling back to the interior-point solve if they do not settle; it then
-    costs two triangular solves per body and little else. Other parameters as in
-    :func:`solve`.
+    costs two triangular solves per body and little else. ``scale=False`` hands the
+    raw SI matrices to the solver (for the stability study only: it shows what the
+    non-dimensionalisation prevents). Other parameters as in :func:`solve`.
     """
 
     def __init__(self, scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL,
-                 polish=True, warm_start=True, verbose=False, **solver_options):
+                 polish=True, warm_start=True, scale=True, verbose=False, **solver_options):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
         self.E = scene.interface.evaluation(condition)
@@ -211,7 +212,7 @@ class ContactSolver:
         t0 = time.perf_counter()
         self.matrices = [assemble_matrices(b) for b in scene.bodies]
         self.setup_time = {"assembly": time.perf_counter() - t0}
-        self.warm_start = warm_start
+        self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
         self.path = ""
 
@@ -223,7 +224,7 @@ class ContactSolver:
         t0 = time.perf_counter()
         systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
         gap = scene.gap_values()
-        un = units(scene, systems, gap)
+        un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
             self._blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)

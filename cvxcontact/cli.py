@@ -1,4 +1,4 @@
-"""Command line: ``cvxcontact demo | solve SCENE.toml | info SCENE.toml | sweep SWEEP.toml``.
+"""Command line: ``cvxcontact demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
 2 usage error, 3 solved but the solution fails its checks, or some sweep cases
@@ -51,7 +51,11 @@ def _parser():
     sweep.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     sweep.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
     sweep.add_argument("--retry-failed", action="store_true", help="run the recorded failures again")
-    for s in (demo, solve, info, sweep):
+    study = sub.add_parser("study", help="verification studies: CSV, PNG and a Markdown summary")
+    study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "all"))
+    study.add_argument("--out", required=True, help="output folder")
+    study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
+    for s in (demo, solve, info, sweep, study):
         s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     return p
 
@@ -64,6 +68,8 @@ def main(argv=None) -> int:
             return _info(args)
         if args.command == "sweep":
             return _sweep(args)
+        if args.command == "study":
+            return _study(args, progress)
         if args.command == "demo":
             from .demo import two_blocks
 
@@ -134,6 +140,21 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         print(f"cvxcontact: warning: the solution for {bad} fails its checks at tol={solutions[bad[0]].tol:g}; "
               f"see {out}/<condition>.json", file=sys.stderr)
         return 3
+    return 0
+
+
+def _study(args, progress):
+    import importlib
+
+    from .studies import STUDIES
+
+    names = STUDIES if args.name == "all" else (args.name,)
+    for name in names:
+        progress(f"study {name}{' (quick)' if args.quick else ''}")
+        out = Path(args.out) / name if len(names) > 1 else Path(args.out)
+        importlib.import_module(f".studies.{name}", __package__).run(out, quick=args.quick, progress=progress)
+        if not args.quiet:
+            print(f"{name}: {out}/{name}.md")
     return 0
 
 

@@ -268,7 +268,7 @@ def _figure(rows, osc, out):
     ax.legend(fontsize=6, ncol=2)
     shift_rows = [r for r in rows if r["study"] != "inf-sup"]
     for c in CONDITIONS:
-        ax2.semilogx([r["shift"] for r in shift_rows], [r[c] for r in shift_rows], marks[c], label=c)
+        ax2.loglog([r["shift"] for r in shift_rows], [max(r[c], 1e-12) for r in shift_rows], marks[c], label=c)
     ax2.set_xlabel("offset of the lower nodes [cells]")
     ax2.set_ylabel(r"$\beta_h$")
     ax2.set_title("Nearly coincident nodes (n1 = n2 = 16)")

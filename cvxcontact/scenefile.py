@@ -5,6 +5,7 @@ restricted evaluator of :mod:`cvxcontact.expr`; nothing is executed. Every error
 names the file, the key and what was expected. Format (all SI units)::
 
     condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
+    gap = 0.0                                 # initial normal gap g(x) on Gamma_3, m (number or expression)
 
     [solver]                                  # optional
     name = "CLARABEL"                         # any installed CVXPY solver
@@ -47,7 +48,7 @@ __all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read
 
 MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
 
-_TOP = {"condition", "solver", "body"}
+_TOP = {"condition", "solver", "body", "gap"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge"}
@@ -129,8 +130,9 @@ def scene_from_data(data, path) -> SceneFile:
     if not isinstance(bodies, list) or len(bodies) != 2:
         ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
     built = [ctx.body(b, k) for k, b in enumerate(bodies)]
+    gap = ctx.load(data.get("gap", 0.0), "gap", 1)
     try:
-        scene = Scene(*built)
+        scene = Scene(*built, gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
     return SceneFile(path, scene, condition, name.upper(), float(tol), polish, method, options)

@@ -96,6 +96,8 @@ BAD = [
     ("tag both clamped and contact", scene_text(upper=replace(GOOD_UPPER, 'clamped = ["top"]',
                                                              'clamped = ["bottom"]')), SceneFileError,
      "'bottom' is both clamped and contact"),
+    ("gap not finite", scene_text(head="gap = nan\n"), SceneFileError, "scene: gap: NaN"),
+    ("gap with a forbidden name", scene_text(head='gap = "open(1)"\n'), SceneFileError, "gap: in 'open(1)'"),
     ("elastic body with electrode", scene_text(lower=GOOD_LOWER + 'grounded = ["bottom"]\n'), SceneFileError,
      "carries no electric unknowns"),
 ]

@@ -75,6 +75,20 @@ def test_scene_file_equals_api_scene(tmp_path):
     assert np.allclose(from_file.u[0], api.u[0], rtol=0, atol=1e-14 * np.abs(api.u[0]).max())
 
 
+def test_scene_file_gap_expression(tmp_path):
+    """A parabolic gap in a scene file equals the same gap given to the API."""
+    text = (EXAMPLES / "two_blocks.toml").read_text().replace('condition = "gamma3"',
+                                                               'condition = "gamma3"\ngap = "(x - 0.5)**2 / 2 - 1e-3"')
+    path = tmp_path / "gap.toml"
+    path.write_text(text)
+    spec = load_scene(path)
+    assert np.allclose(spec.scene.gap_values(), (spec.scene.interface.x - 0.5) ** 2 / 2 - 1e-3)
+    b1, b2 = spec.scene.bodies
+    api = cc.solve(cc.Scene(b1, b2, gap=lambda x: (x - 0.5) ** 2 / 2 - 1e-3))
+    assert np.allclose(spec.solve().u[0], api.u[0], rtol=0, atol=1e-13 * np.abs(api.u[0]).max())
+    assert np.allclose(api.contact.gap, (api.contact.x - 0.5) ** 2 / 2 - 1e-3)
+
+
 def test_solve_command_all_conditions_and_info(tmp_path, capsys):
     scene = EXAMPLES / "gmsh_scene.toml"
     assert main(["solve", str(scene), "--out", str(tmp_path), "--condition", "all", "--no-plots"]) == 0

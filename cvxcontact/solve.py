@@ -290,7 +290,8 @@ class ContactSolver:
         rhs = [quasi_definite_rhs(b) for b in blocks]
         loads = [c.interface_load(F) for c, F in zip(self._condensed, rhs)]
         kkt = self._compliance.kkt([x0[c.gamma] for c, (_, x0) in zip(self._condensed, loads)], g)
-        exact = active_set_finish(kkt, self._active) if self.warm_start and self._active is not None else None
+        warm = self.warm_start and self.polish and self._active is not None
+        exact = active_set_finish(kkt, self._active) if warm else None
         timings["interface_load"] = time.perf_counter() - t0
         if exact is not None:                                  # re-solve: the previous active set, corrected
             ((v, y), active), polished, problem = exact, True, None

@@ -147,7 +147,8 @@ def test_contact_solver_reuses_factorisations_for_new_loads():
     loaded = cc.Scene(cc.Body(b1.mesh, b1.material, clamped=b1.clamped, grounded=b1.grounded, contact=b1.contact,
                               body_force=(1e8, -3e9), surface_charge={"right": 0.02}), b2)
     again = solver.solve(loaded)
-    assert "factorization" not in again.timings and again.ok
+    assert "factorization" not in again.timings and again.ok and again.path == "active-set warm start"
+    assert again.problem is None and first.path == "interior point + exact finish"
     fresh = cc.solve(loaded, "gamma3")
     for k in range(2):
         assert rel(again.u[k], fresh.u[k]) < 1e-11
@@ -281,6 +282,9 @@ def test_bonded_uniform_compression_patch_is_exact(condition, n1, n2, voltage):
     assert rel(sol.phi[0], exact["phi1"](p1)) < 1e-8
     assert np.all(sol.contact.active[sol.contact.constrained])
     assert rel(sol.contact.lam, np.full_like(sol.contact.lam, exact["lam"])) < 1e-7
+    for k in range(2):                 # the pressure felt by each body is the same uniform value
+        x, p = sol.traction(k)
+        assert len(x) == len(scene.interface.traces[k].x) and rel(p, np.full_like(p, exact["lam"])) < 1e-7
 
 
 def test_node_to_segment_fails_patch_test_on_non_nested_meshes():

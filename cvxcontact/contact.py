@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from .errors import SceneError
 
-__all__ = ["Interface", "CONDITIONS"]
+__all__ = ["Interface", "CONDITIONS", "lumped_lengths"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
@@ -97,9 +97,16 @@ class Interface:
         rows = np.arange(self.size) if condition == "gamma3" else self.sigma[int(condition[-1]) - 1]
         return sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)), shape=(len(rows), self.size))
 
-    def lumped(self) -> np.ndarray:
-        """Row sums of the mass matrix: the length of Gamma_3 attributed to each merged node (m)."""
-        return np.asarray(self.mass.sum(axis=1)).ravel()
+
+
+def lumped_lengths(x) -> np.ndarray:
+    """Length of a 1D mesh with sorted nodes ``x`` attributed to each node (m): the row sums of its
+    P1 mass matrix, half of each adjacent segment."""
+    h = np.diff(x)
+    w = np.zeros_like(x, dtype=float)
+    w[:-1] += h / 2
+    w[1:] += h / 2
+    return w
 
 
 def _merge(x1, x2, tol):

@@ -84,14 +84,14 @@ class Block:
 
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
+        """The free-dof blocks of ``system`` in the units ``un``, with its loads."""
         uf = system.u_free
-        blk = cls(Kuu=system.Kuu[uf][:, uf] / un.stress, f=system.f[uf] / un.force, jump=jump[:, uf].tocsr())
+        blk = cls(Kuu=system.Kuu[uf][:, uf] / un.stress, f=None, jump=jump[:, uf].tocsr())
         if system.piezoelectric:
             pf = system.phi_free
             blk.Kup = system.Kup[uf][:, pf] / np.sqrt(un.stress * un.permittivity)
             blk.Kpp = system.Kpp[pf][:, pf] / un.permittivity
-            blk.q = system.q[pf] / un.charge
-        return blk
+        return blk.with_loads(system, un)
 
     def with_loads(self, system, un: Units) -> "Block":
         """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on

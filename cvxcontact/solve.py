@@ -28,6 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .assembly import assemble_loads, assemble_matrices
+from .contact import lumped_lengths
 from .condense import condense, quasi_definite, quasi_definite_rhs
 from .errors import ResidualWarning, SceneError, SolverError
 from .model import Block, Compliance, ContactModel, InterfaceModel, Units, units
@@ -62,12 +63,8 @@ class ContactResult:
 
     @property
     def pressure(self) -> np.ndarray:
-        """Nodal force divided by the lumped length of each node (Pa): a non-oscillating view of lambda."""
-        h = np.diff(self.x)
-        w = np.zeros_like(self.x)
-        w[:-1] += h / 2
-        w[1:] += h / 2
-        return self.force / w
+        """Nodal force divided by the lumped length of each node (Pa)."""
+        return self.force / lumped_lengths(self.x)
 
 
 @dataclass
@@ -116,11 +113,7 @@ class Solution:
         """
         itf = self.scene.interface
         x = itf.traces[k].x
-        h = np.diff(x)
-        w = np.zeros_like(x)
-        w[:-1] += h / 2
-        w[1:] += h / 2
-        return x.copy(), (itf.interpolation(k).T @ self.contact.force) / w
+        return x.copy(), (itf.interpolation(k).T @ self.contact.force) / lumped_lengths(x)
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""

@@ -27,6 +27,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .errors import SolverError
+
 __all__ = ["CondensedBody", "condense", "node_order", "quasi_definite", "quasi_definite_rhs"]
 
 _SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
@@ -110,7 +112,8 @@ def condense(block, system, mesh) -> CondensedBody:
     m, N = len(gamma), S.shape[0]
     rows, cols = lu.perm_r[N - m:] - (N - m), lu.perm_c[N - m:] - (N - m)
     if rows.min() < 0 or cols.min() < 0:
-        raise RuntimeError("the factorisation moved the contact dofs off the end; cannot condense")
+        raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
+                          "order; use method='full'")
     tail = (lu.L[N - m:, N - m:] @ lu.U[N - m:, N - m:]).toarray()
     sigma = tail[np.ix_(rows, cols)]             # gamma[k] sits at position N - m + k of perm
     return CondensedBody(lu=lu, perm=perm, n_u=n_u, gamma=gamma, stiffness=0.5 * (sigma + sigma.T),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -58,10 +59,12 @@ class Mesh:
         """Names of the tagged boundary parts."""
         return tuple(self._tags)
 
-    @property
+    @cached_property
     def areas(self) -> np.ndarray:
         """(m,) triangle areas in m^2."""
-        return _signed_areas(self.points, self.triangles)
+        areas = _signed_areas(self.points, self.triangles)
+        areas.setflags(write=False)
+        return areas
 
     @property
     def size(self) -> float:

@@ -97,6 +97,10 @@ class Body:
         if not self.clamped:
             raise SceneError(f"{self.name}: no clamped boundary (Gamma_1 is empty); the body could move "
                              "rigidly and its stiffness is singular")
+        contact_nodes = self.mesh.boundary_nodes([self.contact])
+        if np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
+            raise SceneError(f"{self.name}: every node of the contact part {self.contact!r} is clamped; "
+                             "the body cannot take part in the contact")
         if self.piezoelectric:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "

@@ -5,7 +5,6 @@ materials) this covers well over 25 distinct bad inputs; none returns a solution
 """
 
 import textwrap
-from pathlib import Path
 
 import meshio
 import numpy as np

@@ -5,9 +5,7 @@ not pass/fail targets; the assertions catch a study that is broken, not one that
 """
 
 import csv
-import json
 
-import numpy as np
 import pytest
 
 from cvxcontact.cli import main

@@ -73,7 +73,6 @@ def run(out, quick=False, progress=None):
         P = float(c.force.sum())
         a, p0 = hertz(P, R, Es)
         a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
-        active = c.x[c.active]
         h = float(np.diff(c.x)[np.abs(c.x[:-1]) <= a].max()) if c.active.any() else float("nan")
         rows.append(dict(n=n, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h, a_rel_error=a_h / a - 1,
                          p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, active_nodes=int(c.active.sum()),

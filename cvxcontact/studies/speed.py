@@ -24,7 +24,7 @@ import cvxpy as cp
 import numpy as np
 
 from ..contact import CONDITIONS
-from ..errors import CvxContactError, ResidualWarning
+from ..errors import CvxContactError
 from ..solve import ContactSolver
 from .common import Timer, markdown_table, pyplot, save_figure, write_csv, write_text
 from .convergence import Reference, scene

@@ -42,3 +42,10 @@ def test_conditions_compared_example(tmp_path):
     g, s1, s2 = (sols[c] for c in ("gamma3", "sigma1", "sigma2"))
     assert abs(g.contact.force.sum() - s1.contact.force.sum()) < 0.01 * g.contact.force.sum()
     assert s2.contact.jump.max() > 0 >= g.contact.jump[g.contact.constrained].max() - 1e-15
+
+
+def test_shipped_sweep_example_runs(tmp_path):
+    from cvxcontact.sweep import run_sweep
+
+    report = run_sweep(EXAMPLES / "sweep.toml", tmp_path, workers=2)
+    assert report.total == 24 and report.done == 24 and not report.failed

@@ -233,19 +233,21 @@ def _count(n, name):
     return int(n)
 
 
-def read_mesh(path, boundaries=None) -> Mesh:
+def read_mesh(path, boundaries=None, region=None) -> Mesh:
     """Read a triangle mesh with meshio (gmsh ``.msh``, VTU, XDMF, ...).
 
     Boundary parts are the line cells, named by gmsh physical names (``field_data``)
     or, without names, by their physical number as a string. Unused nodes (geometry
     points) are dropped. ``boundaries`` may add or override parts as node pairs in
-    the file's numbering.
+    the file's numbering. ``region`` selects the triangles of one physical surface
+    (by name or number) of a file that holds several bodies; its boundary parts are
+    the tagged lines on that surface's boundary.
 
     Raises
     ------
     MeshError
         If the file is missing or unreadable, holds no linear triangles or holds
-        higher-order elements.
+        higher-order elements, or ``region`` names no physical surface of the file.
     """
     import meshio
 
@@ -261,19 +263,42 @@ def read_mesh(path, boundaries=None) -> Mesh:
     higher = kinds & {"triangle6", "triangle7", "quad", "quad8", "quad9", "tetra", "hexahedron"}
     if higher:
         raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact needs linear triangles")
-    triangles = [b.data for b in m.cells if b.type == "triangle"]
-    if not triangles:
+    blocks = [k for k, b in enumerate(m.cells) if b.type == "triangle"]
+    if not blocks:
         raise MeshError(f"mesh file {str(path)!r} holds no triangles (cell types: {sorted(kinds)})")
-    triangles = np.concatenate(triangles)
+    triangles = np.concatenate([m.cells[k].data for k in blocks])
+    if region is not None:
+        triangles = triangles[_region_mask(m, blocks, region, path)]
     parts = _line_parts(m)
     parts.update({str(k): np.asarray(v) for k, v in (boundaries or {}).items()})
     used = np.unique(triangles)
     renumber = np.full(len(m.points), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
+    if region is not None:                                    # keep the lines on this region's boundary
+        keys, _ = _boundary_edges(renumber[triangles], len(used))
+        for tag, edges in list(parts.items()):
+            inside = (renumber[edges] >= 0).all(axis=1)
+            e = np.sort(renumber[edges[inside]], axis=1) @ np.array([len(used), 1])
+            keep = np.isin(e, keys)
+            parts[tag] = edges[inside][keep]
+            if not keep.any():
+                del parts[tag]
     for tag, edges in parts.items():
         if (renumber[edges] < 0).any():
             raise MeshError(f"boundary part {tag!r} in {str(path)!r} uses nodes that belong to no triangle")
     return Mesh(m.points[used], renumber[triangles], {t: renumber[e] for t, e in parts.items()})
+
+
+def _region_mask(m, blocks, region, path):
+    """Boolean mask over the concatenated triangles of the physical surface ``region``."""
+    physical = m.cell_data.get("gmsh:physical")
+    names = {k: int(v[0]) for k, v in (m.field_data or {}).items() if len(v) > 1 and int(v[1]) == 2}
+    ids = np.concatenate([physical[k] for k in blocks]) if physical is not None else None
+    wanted = names.get(str(region), int(region) if str(region).isdigit() else None)
+    if ids is None or wanted is None or not (ids == wanted).any():
+        available = sorted(names) or sorted({str(int(i)) for i in np.unique(ids)}) if ids is not None else []
+        raise MeshError(f"mesh file {str(path)!r} has no physical surface {region!r}; it has {available}")
+    return ids == wanted
 
 
 def _line_parts(m):

@@ -19,7 +19,8 @@ names the file, the key and what was expected. Format (all SI units)::
     material = "PZT-5A"                       # a built-in name, or a table: {E, nu} or
                                               # {c11, c13, c33, c44, e31, e33, e15, eps11, eps33[, c12]}
     mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.5], nx = 16, ny = 8 } }
-                                              # or mesh = { file = "lower.msh" } (relative to this file)
+                                              # or mesh = { file = "lower.msh" } (relative to this file),
+                                              # with region = "name" for one surface of a multi-body file
     clamped = ["top"]
     grounded = ["top"]                        # piezoelectric bodies
     contact = "bottom"
@@ -230,8 +231,8 @@ class _Context:
                 spec = self.table(table["rectangle"], f"{key}.rectangle")
                 self.keys(spec, {"x", "y", "nx", "ny", "diagonal"}, f"{key}.rectangle")
                 return rectangle(**spec)
-            if set(table) == {"file"} and isinstance(table["file"], str):
-                return read_mesh(self.path.parent / table["file"])
+            if set(table) <= {"file", "region"} and isinstance(table.get("file"), str):
+                return read_mesh(self.path.parent / table["file"], region=table.get("region"))
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
-        self.fail(key, "{ rectangle = {...} } or { file = \"mesh.msh\" }", value)
+        self.fail(key, "{ rectangle = {...} } or { file = \"mesh.msh\" [, region = \"name\"] }", value)

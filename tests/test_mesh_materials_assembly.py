@@ -75,6 +75,29 @@ def test_read_mesh_gmsh_with_physical_names(tmp_path):
     assert m.areas.sum() == pytest.approx(1.0)
 
 
+def test_read_mesh_region_selects_one_body_of_a_two_body_file(tmp_path):
+    """One gmsh file with two physical surfaces sharing the line y = 0: each region is one body."""
+    upper, lower = cc.rectangle(x=(0, 1), y=(0, 1), nx=3, ny=2), cc.rectangle(x=(0, 1), y=(-1, 0), nx=3, ny=2)
+    pts = np.vstack([upper.points, lower.points])
+    off = len(upper.points)
+    tris = np.vstack([upper.triangles, lower.triangles + off])
+    lines = np.vstack([upper.boundary("top"), upper.boundary("bottom"), lower.boundary("bottom") + off])
+    line_ids = np.array([1] * 3 + [2] * 3 + [3] * 3)
+    tri_ids = np.array([10] * len(upper.triangles) + [20] * len(lower.triangles))
+    mesh = meshio.Mesh(np.column_stack([pts, np.zeros(len(pts))]), [("line", lines), ("triangle", tris)],
+                       cell_data={"gmsh:physical": [line_ids, tri_ids], "gmsh:geometrical": [line_ids, tri_ids]},
+                       field_data={"roof": np.array([1, 1]), "joint": np.array([2, 1]), "floor": np.array([3, 1]),
+                                   "piezo": np.array([10, 2]), "base": np.array([20, 2])})
+    path = tmp_path / "two.msh"
+    meshio.write(path, mesh, file_format="gmsh22", binary=False)
+    top = cc.read_mesh(path, region="piezo")
+    bottom = cc.read_mesh(path, region="base")
+    assert set(top.tags) == {"roof", "joint"} and set(bottom.tags) == {"floor"}
+    assert np.allclose(top.points, upper.points) and len(bottom.points) == len(lower.points)
+    with pytest.raises(cc.MeshError, match="no physical surface 'lid'; it has \\['base', 'piezo'\\]"):
+        cc.read_mesh(path, region="lid")
+
+
 def test_read_mesh_errors(tmp_path):
     with pytest.raises(cc.MeshError, match="does not exist"):
         cc.read_mesh(tmp_path / "missing.msh")

@@ -23,10 +23,11 @@ grounded = ["top"]
 contact = "bottom"
 body_force = [0.0, -1e9]
 """
-GOOD_LOWER = """
+LOWER_MESH = "{ rectangle = { x = [0.0, 1.0], y = [-0.5, 0.0], nx = 3, ny = 2 } }"
+GOOD_LOWER = f"""
 [[body]]
-material = { E = 70e9, nu = 0.3 }
-mesh = { rectangle = { x = [0.0, 1.0], y = [-0.5, 0.0], nx = 3, ny = 2 } }
+material = {{ E = 70e9, nu = 0.3 }}
+mesh = {LOWER_MESH}
 clamped = "bottom"
 contact = "top"
 """
@@ -84,13 +85,11 @@ BAD = [
      "volume_charge: expected a number"),
     ("bad condition", scene_text(head='condition = "gamma4"\n'), SceneFileError, "condition: expected one of"),
     ("bad tolerance", scene_text(head="[solver]\ntol = -1\n"), SceneFileError, "solver.tol: expected a positive"),
-    ("missing mesh file", scene_text(lower=replace(GOOD_LOWER, "{ rectangle = { x = [0.0, 1.0], y = [-0.5, 0.0], "
-                                                   "nx = 3, ny = 2 } }", '{ file = "nowhere.msh" }')),
+    ("missing mesh file", scene_text(lower=replace(GOOD_LOWER, LOWER_MESH, '{ file = "nowhere.msh" }')),
      SceneFileError, "nowhere.msh' does not exist"),
     ("bad rectangle", scene_text(lower=replace(GOOD_LOWER, "nx = 3", "nx = 0")), SceneFileError,
      "nx must be a positive integer"),
-    ("bad mesh spec", scene_text(lower=replace(GOOD_LOWER, "{ rectangle = { x = [0.0, 1.0], y = [-0.5, 0.0], "
-                                               "nx = 3, ny = 2 } }", '"lower.msh"')), SceneFileError,
+    ("bad mesh spec", scene_text(lower=replace(GOOD_LOWER, LOWER_MESH, '"lower.msh"')), SceneFileError,
      "body[1].mesh: expected a table"),
     ("tag both clamped and contact", scene_text(upper=replace(GOOD_UPPER, 'clamped = ["top"]',
                                                              'clamped = ["bottom"]')), SceneFileError,
@@ -120,8 +119,7 @@ def test_mesh_file_with_no_triangles(tmp_path):
     meshio.write(tmp_path / "lines.msh", meshio.Mesh(np.array([[0.0, 0, 0], [1, 0, 0]]),
                                                      [("line", np.array([[0, 1]]))]), file_format="gmsh22")
     path = tmp_path / "scene.toml"
-    path.write_text(scene_text(lower=replace(GOOD_LOWER, "{ rectangle = { x = [0.0, 1.0], y = [-0.5, 0.0], "
-                                                         "nx = 3, ny = 2 } }", '{ file = "lines.msh" }')))
+    path.write_text(scene_text(lower=replace(GOOD_LOWER, LOWER_MESH, '{ file = "lines.msh" }')))
     with pytest.raises(SceneFileError, match="holds no triangles"):
         load_scene(path)
 

@@ -40,9 +40,10 @@ def e_star(E1, nu1, E2, nu2):
     return 1.0 / ((1 - nu1 ** 2) / E1 + (1 - nu2 ** 2) / E2)
 
 
-def scene(n, condition_mesh_ratio=0.8):
+def scene(n, ratio=0.8):
+    """The cylinder-on-block scene: n cells on the upper trace, about ``ratio`` n below."""
     upper = graded_block((-WIDTH, WIDTH), (0.0, HEIGHT), n, n // 2, "bottom", beta=3.0, gamma=2.5)
-    m = max(4, round(condition_mesh_ratio * n) + 1)
+    m = max(4, round(ratio * n) + 1)
     lower = graded_block((-WIDTH, WIDTH), (-HEIGHT, 0.0), m, m // 2, "top", beta=3.0, gamma=2.5)
     b1 = Body(upper, materials.isotropic(*STEEL, name="steel"), clamped="top", contact="bottom", name="cylinder")
     b2 = Body(lower, materials.isotropic(*ALU, name="aluminium"), clamped="bottom", contact="top", name="block")

@@ -17,7 +17,6 @@ solver sees O(1) data whatever the SI magnitudes.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, replace
 
 import cvxpy as cp
@@ -114,6 +113,16 @@ class Block:
         """The right-hand side [f; q] of (26)."""
         return self.f, (self.q if self.q is not None else np.zeros(0))
 
+    def magnitude(self, u, phi, contact_force):
+        """Row scales of (26) for this body: |A| |x| + |F| + |J^T| |c|, the sizes of the terms each
+        residual row balances (momentum rows, Gauss rows)."""
+        cu = abs(self.jump).T @ np.abs(contact_force) + np.abs(self.f)
+        au = abs(self.Kuu) @ np.abs(u) + cu
+        if self.Kpp is None:
+            return au, np.zeros(0)
+        au = au + abs(self.Kup) @ np.abs(phi)
+        return au, abs(self.Kpp) @ np.abs(phi) + abs(self.Kup).T @ np.abs(u) + np.abs(self.q)
+
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
         (a_u, a_p), (f, q) = self.internal(u, phi), self.loads()
@@ -178,22 +187,10 @@ class Compliance:
         self.B = [sla.cho_solve(sla.cho_factor(b.stiffness), R.T) for b, R in zip(bodies, self.rows)]
         self.W = sum(R @ B for R, B in zip(self.rows, self.B))
 
-    def kkt(self, v0, gap_rows):
-        """``kkt(active)`` for :func:`cvxcontact.solve.active_set_finish`: W_AA y_A = d_A, the
-        interface problem with the contact closed on ``active``; returns ((v, y), y, slack, max|v|)."""
-        d = sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
+    def free_slack(self, v0, gap_rows) -> np.ndarray:
+        """d = sum_l R_l v0_l - E g: the slack of the contact rows with no contact force."""
+        return sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
 
-        def kkt(active):
-            y = np.zeros(len(d))
-            if active.any():
-                try:
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("error", sla.LinAlgWarning)   # singular set: decline
-                        y[active] = sla.solve(self.W[np.ix_(active, active)], d[active], assume_a="pos")
-                except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
-                    return None
-            slack = d - self.W[:, active] @ y[active]
-            v = [v0k - B @ y for v0k, B in zip(v0, self.B)]
-            return (v, y), y, slack, max(np.abs(vk).max(initial=0.0) for vk in v)
-
-        return kkt
+    def state(self, v0, y) -> list:
+        """Gamma displacements v_l = v0_l - B_l y under contact forces y."""
+        return [v0k - B @ y for v0k, B in zip(v0, self.B)]

@@ -30,6 +30,7 @@ import scipy.sparse.linalg as spla
 from .assembly import assemble_loads, assemble_matrices
 from .contact import lumped_lengths
 from .condense import condense, quasi_definite, quasi_definite_rhs
+from .finish import lcp_start, row_scales, signs_hold, solve_lcp
 from .errors import ResidualWarning, SceneError, SolverError
 from .model import Block, Compliance, ContactModel, InterfaceModel, Units, units
 from .scene import Scene
@@ -151,7 +152,7 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DE
         Exact finish (default): from the active set of the interior-point answer,
         solve the mixed system (26) with the contact closed there and correct the set
         by primal-dual active-set steps until y >= 0 and the open nodes stay feasible
-        (:func:`active_set_finish`; ``Solution.polished``). If that fails the
+        (:func:`cvxcontact.finish.solve_lcp`; ``Solution.polished``). If that fails the
         interior-point answer stands.
     verbose : bool
         Print the solver's progress.
@@ -225,7 +226,7 @@ class ContactSolver:
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
-        self.path = "interior point"
+        self.path, self.declined = "interior point", ""
         u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == "interior point":
             self.path = "interior point + exact finish"
@@ -234,10 +235,107 @@ class ContactSolver:
                          problem, self.tol, timings)
         sol.method, sol.path = self.method, self.path
         timings["read_back"] = time.perf_counter() - t0
-        if not sol.ok:
+        if self.polish and not polished:
+            warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
+                          f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
+                          ResidualWarning, stacklevel=3)
+        elif not sol.ok:
             warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}", ResidualWarning, stacklevel=3)
         return sol
+
+    def _interface(self, blocks, timings):
+        """Condensed bodies and the interface compliance W, built once per geometry."""
+        if self._condensed is None:
+            t0 = time.perf_counter()
+            self._condensed = [condense(b, s, body.mesh) for b, s, body in
+                               zip(blocks, self.matrices, self.scene.bodies)]
+            self._compliance = Compliance(self._condensed, self.E)
+            timings["factorization"] = time.perf_counter() - t0
+        return self._condensed, self._compliance
+
+    def _lcp(self, blocks, g, timings):
+        """(rhs, v0, d): per-body right-hand sides, unconstrained Gamma displacements, free slack."""
+        condensed, compliance = self._interface(blocks, timings)
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        x0 = [c.solve(F) for c, F in zip(condensed, rhs)]
+        v0 = [x[c.gamma] for c, x in zip(condensed, x0)]
+        d = compliance.free_slack(v0, g)
+        timings["interface_load"] = time.perf_counter() - t0
+        return rhs, v0, d
+
+    def _finish(self, d, start, timings):
+        """Exact LCP solution from the active set ``start``; None (and ``self.declined``) if none."""
+        t0 = time.perf_counter()
+        out = solve_lcp(self._compliance.W, d, start)
+        timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+        if out is None:
+            self.declined = "no active set satisfies the signs of the contact problem"
+        return out
+
+    def _full(self, blocks, g, timings):
+        t0 = time.perf_counter()
+        model = ContactModel(blocks, self.E, g)
+        timings["model"] = time.perf_counter() - t0
+        _run(model.problem, self.solver, self.verbose, self.options)
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        u = [v.value for v in model.u]
+        phi = [v.value if v is not None else None for v in model.phi]
+        y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        parts = [self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
+        slack = sum(parts) - g
+        active, polished = _ipm_active(parts, g, y), False
+        if self.polish:
+            _, _, d = self._lcp(blocks, g, timings)
+            W = self._compliance.W
+            out = self._finish(d, lcp_start(W, d, y, slack), timings)
+            if out is not None:
+                t0 = time.perf_counter()
+                exact = mixed_kkt(blocks, self.E, g)(out[1])      # the full model's own sparse solve
+                timings["polish"] += time.perf_counter() - t0
+                w, S = row_scales(W, d, out[0])
+                if exact is not None and signs_hold(exact[1], exact[2], out[1], w, S):
+                    (u, phi, y), active, polished = exact[0], out[1], True
+                else:
+                    self.declined = "the sparse mixed system on the finished active set is singular or breaks the signs"
+        return u, phi, y, active, polished, model.problem
+
+    def _condensed_solve(self, blocks, g, timings):
+        condensed, compliance = self._interface(blocks, timings)
+        rhs, v0, d = self._lcp(blocks, g, timings)
+        warm = self.warm_start and self.polish and self._active is not None
+        out = solve_lcp(compliance.W, d, self._active) if warm else None
+        problem = None
+        if out is not None:                                    # re-solve: the previous active set, corrected
+            y, active, polished = out[0], out[1], True
+            self.path = "active-set warm start"
+        else:
+            t0 = time.perf_counter()
+            loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+            model = InterfaceModel(condensed, loads, self.E, g)
+            timings["model"] = time.perf_counter() - t0
+            _run(model.problem, self.solver, self.verbose, self.options)
+            timings["compile"] = model.problem.compilation_time or 0.0
+            timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+            y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+            v = [var.value for var in model.v]
+            parts = [self.E @ (c.jump @ vk) for c, vk in zip(condensed, v)]
+            slack = sum(parts) - g
+            active, polished, problem = _ipm_active(parts, g, y), False, model.problem
+            if self.polish:
+                out = self._finish(d, lcp_start(compliance.W, d, y, slack), timings)
+                if out is not None:
+                    y, active, polished = out[0], out[1], True
+        if polished:
+            self._active = active
+        t0 = time.perf_counter()
+        x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+        timings["back_substitution"] = time.perf_counter() - t0
+        u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, y, active, polished, problem
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
@@ -251,69 +349,6 @@ class ContactSolver:
                 raise SceneError(f"body {k} differs from the prepared scene in its mesh, material or boundary parts; "
                                  "only loads may change between solves of one ContactSolver")
         return scene
-
-    def _full(self, blocks, g, timings):
-        t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g)
-        timings["model"] = time.perf_counter() - t0
-        _run(model.problem, self.solver, self.verbose, self.options)
-        timings["compile"] = model.problem.compilation_time or 0.0
-        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
-        u = [v.value for v in model.u]
-        phi = [v.value if v is not None else None for v in model.phi]
-        y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-        active = _active_set(blocks, u, y, self.E, g)
-        polished = False
-        if self.polish:
-            t0 = time.perf_counter()
-            exact = active_set_finish(mixed_kkt(blocks, self.E, g), active)
-            timings["polish"] = time.perf_counter() - t0
-            if exact is not None:
-                ((u, phi, y), active), polished = exact, True
-        return u, phi, y, active, polished, model.problem
-
-    def _condensed_solve(self, blocks, g, timings):
-        if self._condensed is None:
-            t0 = time.perf_counter()
-            self._condensed = [condense(b, s, body.mesh) for b, s, body in
-                               zip(blocks, self.matrices, self.scene.bodies)]
-            self._compliance = Compliance(self._condensed, self.E)
-            timings["factorization"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        rhs = [quasi_definite_rhs(b) for b in blocks]
-        loads = [c.interface_load(F) for c, F in zip(self._condensed, rhs)]
-        kkt = self._compliance.kkt([x0[c.gamma] for c, (_, x0) in zip(self._condensed, loads)], g)
-        warm = self.warm_start and self.polish and self._active is not None
-        exact = active_set_finish(kkt, self._active) if warm else None
-        timings["interface_load"] = time.perf_counter() - t0
-        if exact is not None:                                  # re-solve: the previous active set, corrected
-            ((v, y), active), polished, problem = exact, True, None
-            self.path = "active-set warm start"
-        else:
-            t0 = time.perf_counter()
-            model = InterfaceModel(self._condensed, [g_ for g_, _ in loads], self.E, g)
-            timings["model"] = time.perf_counter() - t0
-            _run(model.problem, self.solver, self.verbose, self.options)
-            timings["compile"] = model.problem.compilation_time or 0.0
-            timings["solve"] = model.problem.solver_stats.solve_time or 0.0
-            v = [var.value for var in model.v]
-            y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-            slack = self.E @ sum(c.jump @ vk for c, vk in zip(self._condensed, v)) - g
-            active, polished, problem = _active_rule(y, slack, v), False, model.problem
-            if self.polish:
-                t0 = time.perf_counter()
-                exact = active_set_finish(kkt, active)
-                timings["polish"] = time.perf_counter() - t0
-                if exact is not None:
-                    ((v, y), active), polished = exact, True
-        if polished:
-            self._active = active
-        t0 = time.perf_counter()
-        x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(self._condensed, rhs)]
-        timings["back_substitution"] = time.perf_counter() - t0
-        u = [xk[:c.n_u] for c, xk in zip(self._condensed, x)]
-        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(self._condensed, x, blocks)]
-        return u, phi, y, active, polished, problem
 
 
 def _same_geometry(a, b):
@@ -357,7 +392,7 @@ def _read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active,
     Ety = E.T @ y
     lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
-    checks = _checks(blocks, u, phi, itf.mass @ lam, E @ jump - g, y)
+    checks = _checks(blocks, u, phi, itf.mass @ lam, E, g, y)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
@@ -382,49 +417,8 @@ def _read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active,
                     energy=float(energy), timings=timings, _checks=checks)
 
 
-def _active_set(blocks, u, y, E, g):
-    """Active rows of the full model: see :func:`_active_rule`."""
-    return _active_rule(y, E @ sum(b.jump @ uk for b, uk in zip(blocks, u)) - g, u)
-
-
-def _active_rule(y, slack, u):
-    """Constrained rows where the scaled force beats the scaled gap: y / F > |slack| / U.
-
-    Loads are scaled to total O(1) (:func:`cvxcontact.model.units`), so F = max(sum|y|, 1);
-    U is the largest displacement in ``u``. The comparison is free of units and of mesh size.
-    """
-    F = max(np.abs(y).sum(), 1.0)
-    U = max(max(np.abs(uk).max(initial=0.0) for uk in u), np.finfo(float).tiny)
-    return y / F > np.abs(slack) / U
-
-
-def active_set_finish(kkt, active, max_iter=10):
-    """Exact finish: primal-dual active-set iterations started from the interior-point active set.
-
-    ``kkt(active)`` solves the equality-constrained system with the contact closed on
-    ``active`` and returns (state, y, slack, U) or None. The answer is accepted when the
-    signs hold to rounding: y >= 0 on the active rows and slack <= 0 on the others;
-    otherwise the set is updated to {y / F + slack / U > 0} (F, U: force and
-    displacement scales), which is the semismooth Newton step for the complementarity
-    conditions. Returns (state, active), or None if no consistent set is found.
-    """
-    for _ in range(max_iter):
-        out = kkt(active)
-        if out is None:
-            return None
-        state, y, slack, U = out
-        F, U = max(np.abs(y).sum(), 1.0), max(U, np.finfo(float).tiny)
-        if np.isfinite(y).all() and y.min(initial=0.0) >= -1e-12 * F and slack[~active].max(initial=0.0) <= 1e-12 * U:
-            return state, active
-        new = y / F + slack / U > 0
-        if np.array_equal(new, active):
-            return None
-        active = new
-    return None
-
-
 def mixed_kkt(blocks, E, g):
-    """``kkt(active)`` for :func:`active_set_finish` on the full model: the sparse mixed system (26)
+    """``kkt(active)`` for the exact finish of the full model: the sparse mixed system (26)
 
     [[A, G^T], [G, 0]] [x; y_A] = [F; g_A] with, per body, A = [[Kuu, Kup], [Kup^T, -Kpp]],
     F = [f; -q] (Gauss rows negated, which makes it symmetric) and G the active rows of E [u_nu].
@@ -439,10 +433,14 @@ def mixed_kkt(blocks, E, g):
     def kkt(active):
         G = G_all[active]
         K = sp.bmat([[A, G.T], [G, None]], format="csc")
+        b = np.concatenate([rhs, g[active]])
         try:
-            z = spla.splu(K, permc_spec="MMD_AT_PLUS_A").solve(np.concatenate([rhs, g[active]]))
+            lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A")
         except RuntimeError:  # singular: the active set does not determine the multipliers
             return None
+        z = lu.solve(b)
+        for _ in range(2):    # iterative refinement: bodies of very different stiffness share one LU
+            z += lu.solve(b - K @ z)
         n = A.shape[0]
         y = np.zeros(E.shape[0])
         y[active] = z[n:]
@@ -466,21 +464,40 @@ def _solve_mass(M, rhs):
     return sla.solve_banded((1, 1), ab, rhs)
 
 
-def _checks(blocks, u, phi, Mlam, slack, y):
-    """The relative residuals of the mixed formulation, in scaled units (module docstring)."""
-    res, rhs, inner = [], [], []
-    for b, uk, pk in zip(blocks, u, phi):
-        res.extend(b.residual(uk, pk, Mlam))
-        rhs.extend(b.loads())
-        inner.extend(b.internal(uk, pk))
-    # relative to the loads, or to the internal forces when the gap alone drives the contact
-    norm = max(np.linalg.norm(np.concatenate(rhs)), np.linalg.norm(np.concatenate(inner)))
-    umax = max(float(np.abs(uk).max(initial=0.0)) for uk in u)
-    force = max(np.abs(y).sum(), 1.0)       # scaled loads total O(1): see model.units
+def _node_scales(parts, g):
+    """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
+    displacement scale U_a: the sizes of both parts there plus the gap (floored at 1e-9 of the largest)."""
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def _ipm_active(parts, g, y):
+    """Active rows of an interior-point answer: the force, relative to the largest contact force,
+    beats the open gap relative to the row's displacement scale (free of units and load scale)."""
+    slack, U = _node_scales(parts, g)
+    return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
+
+
+def _checks(blocks, u, phi, Mlam, E, g, y):
+    """The relative residuals of the mixed formulation, in scaled units (module docstring).
+
+    Each is normalised where nothing can hide: equilibrium per body by that body's own
+    row scales |A||x| + |F| + |J^T||M lambda_h|; feasibility, complementarity and cone
+    per constrained node by that node's displacement scale U_a (the sizes of both
+    bodies' normal displacements there and of the gap) and by the largest contact
+    force, never by the total load.
+    """
     tiny = np.finfo(float).tiny
+    equilibrium = 0.0
+    for b, uk, pk in zip(blocks, u, phi):
+        r = np.concatenate(b.residual(uk, pk, Mlam))
+        m = np.concatenate(b.magnitude(uk, pk, Mlam))
+        equilibrium = max(equilibrium, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
+    slack, U = _node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g)
+    Y = max(float(np.abs(y).max(initial=0.0)), tiny)
     return {
-        "equilibrium": float(np.linalg.norm(np.concatenate(res)) / max(norm, tiny)),
-        "feasibility": float(max(slack.max(initial=0.0), 0.0) / max(umax, tiny)),
-        "complementarity": float(np.abs(y * slack).sum() / max(force * umax, tiny)),
-        "cone": float(np.maximum(-y, 0.0).sum() / force),
+        "equilibrium": equilibrium,
+        "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),
+        "complementarity": float((np.abs(y * slack) / (Y * U)).max(initial=0.0)),
+        "cone": float(np.maximum(-y, 0.0).max(initial=0.0) / Y),
     }

@@ -4,6 +4,11 @@ The text is parsed with :mod:`ast` and walked node by node; only numbers, the
 variables ``x`` and ``y`` (metres), the constants ``pi`` and ``e``, the operators
 ``+ - * / ** %``, comparisons, and the whitelisted NumPy functions below are
 accepted. Nothing is ever passed to ``eval`` or ``exec``: a scene file is data.
+
+Every function takes exactly its arity (``ARITY``), checked at parse time: NumPy
+would read an extra positional argument as an output array and write into it.
+Evaluation works on read-only copies of ``x`` and ``y`` and returns a new array.
+Nesting depth and node count are bounded and measured without recursion.
 """
 
 from __future__ import annotations
@@ -13,7 +18,9 @@ import operator
 
 import numpy as np
 
-__all__ = ["Expression", "ExpressionError", "FUNCTIONS"]
+from .errors import SceneError
+
+__all__ = ["Expression", "ExpressionError", "FUNCTIONS", "ARITY"]
 
 FUNCTIONS = {
     "sin": np.sin, "cos": np.cos, "tan": np.tan, "arcsin": np.arcsin, "arccos": np.arccos, "arctan": np.arctan,
@@ -21,30 +28,39 @@ FUNCTIONS = {
     "log10": np.log10, "sqrt": np.sqrt, "abs": np.abs, "minimum": np.minimum, "maximum": np.maximum,
     "where": np.where, "heaviside": lambda a: np.heaviside(a, 0.5),
 }
+ARITY = {name: 1 for name in FUNCTIONS} | {"arctan2": 2, "minimum": 2, "maximum": 2, "where": 3}
+"""Number of positional arguments each function of ``FUNCTIONS`` takes, exactly."""
+
 _CONSTANTS = {"pi": np.pi, "e": np.e}
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
            ast.Pow: operator.pow, ast.Mod: operator.mod}
 _UNARY = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 _COMPARE = {ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt, ast.GtE: operator.ge}
-_MAX_LENGTH = 1000
+_MAX_LENGTH = 1000   # characters
+_MAX_DEPTH = 200     # nested sub-expressions; the checker and evaluator recurse this deep
+_MAX_NODES = 2000    # sub-expressions in all
 
 
-class ExpressionError(ValueError):
+class ExpressionError(SceneError):
     """An expression uses a name, operator or construct outside the whitelist, or is malformed."""
 
 
 class Expression:
-    """A parsed, validated expression in x and y; call it with arrays: ``expr(x, y)``."""
+    """A parsed, validated expression in x and y (m); call it with arrays: ``expr(x, y)``."""
 
     def __init__(self, text: str):
         if not isinstance(text, str):
             raise ExpressionError(f"an expression must be a string, got {type(text).__name__}")
         if len(text) > _MAX_LENGTH:
-            raise ExpressionError(f"expression longer than {_MAX_LENGTH} characters")
+            raise ExpressionError(f"expression of {len(text)} characters; at most {_MAX_LENGTH} are allowed")
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as exc:
-            raise ExpressionError(f"cannot parse {text!r}: {exc.msg}") from None
+            raise ExpressionError(f"cannot parse {_short(text)}: {exc.msg}") from None
+        except (RecursionError, MemoryError):
+            raise ExpressionError(f"expression nested too deeply to parse; at most {_MAX_DEPTH} levels "
+                                  "are allowed") from None
+        _check_size(tree.body)
         self.text = text
         self._body = tree.body
         _check(self._body, text)
@@ -52,19 +68,50 @@ class Expression:
     def __repr__(self):
         return f"Expression({self.text!r})"
 
-    def __call__(self, x, y):
+    def __call__(self, x, y) -> np.ndarray:
+        """Values at points (x, y) in metres, a new float array of the broadcast shape."""
+        x, y = _frozen(x), _frozen(y)
         with np.errstate(all="ignore"):  # NaN/inf are reported by the caller, naming the load
             return np.asarray(_eval(self._body, {"x": x, "y": y}), dtype=float) + 0.0 * x
+
+
+def _short(text):
+    """The expression quoted for a message, cut to 60 characters."""
+    return repr(text if len(text) <= 60 else text[:57] + "...")
+
+
+def _frozen(a):
+    a = np.array(a, dtype=float)          # always a copy
+    a.setflags(write=False)
+    return a
+
+
+def _check_size(root):
+    """Refuse trees deeper than _MAX_DEPTH or larger than _MAX_NODES, with an explicit stack."""
+    stack, count = [(root, 1)], 0
+    while stack:
+        node, depth = stack.pop()
+        count += 1
+        if depth > _MAX_DEPTH:
+            raise ExpressionError(f"expression nested more than {_MAX_DEPTH} levels deep")
+        if count > _MAX_NODES:
+            raise ExpressionError(f"expression has more than {_MAX_NODES} terms")
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node) if isinstance(child, ast.expr))
 
 
 def _check(node, text):
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-            raise ExpressionError(f"in {text!r}: only numbers are allowed as constants, got {node.value!r}")
+            raise ExpressionError(f"in {_short(text)}: only numbers are allowed as constants, "
+                                  f"got a {type(node.value).__name__}")
+        try:
+            float(node.value)
+        except OverflowError:
+            raise ExpressionError(f"in {_short(text)}: the integer constant is too large for a float") from None
     elif isinstance(node, ast.Name):
         if node.id not in ("x", "y") and node.id not in _CONSTANTS:
-            raise ExpressionError(f"in {text!r}: unknown name {node.id!r}; allowed: x, y, pi, e and functions "
-                                  f"{sorted(FUNCTIONS)}")
+            raise ExpressionError(f"in {_short(text)}: unknown name {node.id[:60]!r}; allowed: x, y, pi, e "
+                                  f"and functions {sorted(FUNCTIONS)}")
     elif isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         _check(node.left, text)
         _check(node.right, text)
@@ -75,14 +122,22 @@ def _check(node, text):
             _check(n, text)
     elif isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-            name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)
-            raise ExpressionError(f"in {text!r}: function {name!r} is not allowed; allowed: {sorted(FUNCTIONS)}")
+            name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)[:60]
+            raise ExpressionError(f"in {_short(text)}: function {name!r} is not allowed; "
+                                  f"allowed: {sorted(FUNCTIONS)}")
         if node.keywords:
-            raise ExpressionError(f"in {text!r}: keyword arguments are not allowed")
+            raise ExpressionError(f"in {_short(text)}: keyword arguments are not allowed")
+        name, want = node.func.id, ARITY[node.func.id]
+        if any(isinstance(a, ast.Starred) for a in node.args):
+            raise ExpressionError(f"in {_short(text)}: starred arguments are not allowed in {name}()")
+        if len(node.args) != want:
+            raise ExpressionError(f"in {_short(text)}: function {name!r} takes exactly {want} argument"
+                                  f"{'s' if want > 1 else ''}, got {len(node.args)}")
         for a in node.args:
             _check(a, text)
     else:
-        raise ExpressionError(f"in {text!r}: {type(node).__name__} ({ast.unparse(node)!r}) is not allowed")
+        raise ExpressionError(f"in {_short(text)}: {type(node).__name__} ({_short(ast.unparse(node))}) "
+                              "is not allowed")
 
 
 def _eval(node, env):
@@ -101,4 +156,4 @@ def _eval(node, env):
             out = np.logical_and(out, _COMPARE[type(op)](left, right))
             left = right
         return out
-    return FUNCTIONS[node.func.id](*(_eval(a, env) for a in node.args))
+    return FUNCTIONS[node.func.id](*[_eval(a, env) for a in node.args])

@@ -123,24 +123,30 @@ def _disjoint(body, roles):
 
 
 class Load:
-    """A constant or a vectorised callable of (x, y), evaluated and checked on demand."""
+    """A constant or a vectorised callable of (x, y), evaluated and checked on demand.
+
+    Constants must be real numbers (booleans and complex numbers are refused). A
+    callable receives read-only copies of the coordinates (m) and its result is
+    copied, so no load can write into the meshes or the contact interface.
+    """
 
     def __init__(self, value, label, ncomp):
         self.label, self.ncomp = label, ncomp
         if callable(value):
             self.value = value
             return
-        try:
-            v = np.array(value, dtype=float)
-        except (TypeError, ValueError):
-            raise SceneError(f"{label}: expected a number, a sequence of numbers or a callable f(x, y), "
-                             f"got {value!r}") from None
+        expected = "a number" if ncomp == 1 else f"a sequence of {ncomp} numbers"
+        if not _real_numbers(value):
+            raise SceneError(f"{label}: expected {expected} (real, not boolean or complex) or a callable f(x, y), "
+                             f"got {_kind(value)}")
+        v = np.array(value, dtype=float)
         shape = () if ncomp == 1 else (ncomp,)
         if v.shape != shape:
             raise SceneError(f"{label}: expected {'a scalar' if ncomp == 1 else f'{ncomp} components'}, "
                              f"got shape {v.shape}")
         if not np.isfinite(v).all():
             raise SceneError(f"{label}: NaN or infinite value {v.tolist()}")
+        v.setflags(write=False)
         self.value = v
 
     @property
@@ -148,16 +154,29 @@ class Load:
         return callable(self.value) or bool(np.any(self.value != 0))
 
     def __call__(self, x, y) -> np.ndarray:
-        """Values at points (x, y): shape (k,) for scalars, (k, 2) for vectors."""
+        """Values at points (x, y) in metres: shape (k,) for scalars, (k, 2) for vectors."""
+        x, y = _frozen(x), _frozen(y)
         v = self.value
         if not callable(v):
             return np.broadcast_to(v, x.shape + v.shape)
         try:
             out = v(x, y)
-            out = np.array(out, dtype=float) if self.ncomp == 1 else np.stack(
-                [np.broadcast_to(np.asarray(c, dtype=float), x.shape) for c in out], axis=-1)
+            comps = [np.array(c) for c in ([out] if self.ncomp == 1 else out)]   # copies, never views
         except Exception as exc:
             raise SceneError(f"{self.label}: calling the load function failed: {exc}") from exc
+        if len(comps) != self.ncomp:
+            raise SceneError(f"{self.label}: the load function returned {len(comps)} components, "
+                             f"expected {self.ncomp}")
+        bad = [c.dtype for c in comps if c.dtype.kind not in "iuf"]
+        if bad:
+            raise SceneError(f"{self.label}: the load function returned values of type {bad[0]}, "
+                             "expected real numbers (not boolean, complex or objects)")
+        try:
+            out = comps[0].astype(float) if self.ncomp == 1 else np.stack(
+                [np.broadcast_to(c.astype(float), x.shape) for c in comps], axis=-1)
+        except ValueError:
+            raise SceneError(f"{self.label}: the load function returned components of shapes "
+                             f"{[c.shape for c in comps]}, expected {x.shape} each") from None
         want = x.shape + (() if self.ncomp == 1 else (self.ncomp,))
         try:
             out = np.broadcast_to(out, want)
@@ -167,6 +186,37 @@ class Load:
         if not np.isfinite(out).all():
             raise SceneError(f"{self.label}: the load function returned NaN or infinite values")
         return out
+
+
+def _real_numbers(value) -> bool:
+    """Whether ``value`` is a real number, or a flat sequence or an array of real numbers."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "iuf"
+    if isinstance(value, (list, tuple)):
+        return all(_real_scalar(v) for v in value)
+    return _real_scalar(value)
+
+
+def _real_scalar(v) -> bool:
+    if isinstance(v, np.ndarray):
+        return v.ndim == 0 and v.dtype.kind in "iuf"
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _kind(value) -> str:
+    """A short description of a rejected load value, without echoing large contents."""
+    if isinstance(value, np.ndarray):
+        return f"an array of dtype {value.dtype}"
+    if isinstance(value, (list, tuple)):
+        return f"a {type(value).__name__} holding {', '.join(sorted({type(v).__name__ for v in value}))}"
+    return f"a value of type {type(value).__name__}"
+
+
+def _frozen(a):
+    """A read-only float copy of ``a``."""
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
 
 
 class Scene:

@@ -32,6 +32,7 @@ from .contact import lumped_lengths
 from .condense import condense, quasi_definite, quasi_definite_rhs
 from .finish import lcp_start, row_scales, signs_hold, solve_lcp
 from .errors import ResidualWarning, SceneError, SolverError
+from .fingerprint import geometry_fingerprint
 from .model import Block, Compliance, ContactModel, InterfaceModel, Units, units
 from .scene import Scene
 
@@ -201,6 +202,7 @@ class ContactSolver:
             raise SolverError(f"method must be one of {METHODS}, got {method!r}")
         _check_solver(solver)
         self.scene, self.condition, self.method = scene, condition, method
+        self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver.upper(), tol, polish, verbose
         self.options = solver_options
         t0 = time.perf_counter()
@@ -212,7 +214,7 @@ class ContactSolver:
 
     def solve(self, scene=None) -> Solution:
         """Solve ``scene`` (default: the scene given at construction); see the class docstring."""
-        scene = self.scene if scene is None else self._compatible(scene)
+        scene = self._compatible(self.scene if scene is None else scene)
         timings = dict(self.setup_time)
         self.setup_time = {}
         t0 = time.perf_counter()
@@ -339,32 +341,27 @@ class ContactSolver:
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
-        return isinstance(scene, Scene) and all(_same_geometry(a, b) for a, b in zip(self.scene.bodies, scene.bodies))
+        return isinstance(scene, Scene) and [geometry_fingerprint(b) for b in scene.bodies] == self._fingerprints
 
     def _compatible(self, scene):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-        for k, (a, b) in enumerate(zip(self.scene.bodies, scene.bodies), start=1):
-            if not _same_geometry(a, b):
-                raise SceneError(f"body {k} differs from the prepared scene in its mesh, material or boundary parts; "
-                                 "only loads may change between solves of one ContactSolver")
+        for k, (fp, b) in enumerate(zip(self._fingerprints, scene.bodies), start=1):
+            if geometry_fingerprint(b) != fp:
+                edited = any(b is a for a in self.scene.bodies)
+                raise SceneError(
+                    f"body {k} ({b.name}): " + ("its mesh, material or boundary parts were changed in place after "
+                                                 "this ContactSolver was built" if edited else
+                                                 "differs from the prepared scene in its mesh, material or boundary "
+                                                 "parts") +
+                    "; only loads may change between solves of one ContactSolver: build a new Scene and "
+                    "ContactSolver for the new geometry")
         return scene
 
 
 def _same_geometry(a, b):
     """Whether two bodies share mesh, material and boundary parts (so that only loads differ)."""
-    if a is b:
-        return True
-    ma, mb = a.mesh, b.mesh
-    parts = sorted(set(a.clamped) | set(a.grounded) | set(a.potential) | {a.contact})
-    same_mesh = ma is mb or (np.array_equal(ma.points, mb.points) and np.array_equal(ma.triangles, mb.triangles)
-                             and set(ma.tags) == set(mb.tags)
-                             and all(np.array_equal(ma.boundary(t), mb.boundary(t)) for t in parts))
-    mats = [getattr(m, k, None) for m in (a.material, b.material) for k in ("c", "e", "kappa")]
-    same_mat = all(np.array_equal(x, y) if x is not None and y is not None else x is y
-                   for x, y in zip(mats[:3], mats[3:]))
-    return (same_mesh and same_mat and a.clamped == b.clamped and a.contact == b.contact
-            and a.grounded == b.grounded and set(a.potential) == set(b.potential))
+    return geometry_fingerprint(a) == geometry_fingerprint(b)
 
 
 def _check_solver(solver):

@@ -96,6 +96,11 @@ BAD = [
      "'bottom' is both clamped and contact"),
     ("gap not finite", scene_text(head="gap = nan\n"), SceneFileError, "scene: gap: NaN"),
     ("gap with a forbidden name", scene_text(head='gap = "open(1)"\n'), SceneFileError, "gap: in 'open(1)'"),
+    ("function given an output array", scene_text(head='gap = "0*exp(x, x)"\n'), SceneFileError,
+     "gap: in '0*exp(x, x)': function 'exp' takes exactly 1 argument, got 2"),
+    ("extra argument in a component", scene_text(upper=replace(GOOD_UPPER, "[0.0, -1e9]",
+                                                               '["0*sin(x, y)", "-2e9*(1+y)"]')),
+     SceneFileError, "body_force[0]: in '0*sin(x, y)': function 'sin' takes exactly 1 argument"),
     ("elastic body with electrode", scene_text(lower=GOOD_LOWER + 'grounded = ["bottom"]\n'), SceneFileError,
      "carries no electric unknowns"),
 ]

@@ -350,6 +350,7 @@ def _check_solver(solver):
 
 
 def _run(problem, solver, verbose, options):
+    given = sorted(options)
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
@@ -357,7 +358,7 @@ def _run(problem, solver, verbose, options):
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
     except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError
-        raise SolverError(f"{solver} refused the problem or its options {sorted(options)}: "
+        raise SolverError(f"{solver} refused the problem or the solver options {given}: "
                           f"{type(exc).__name__}: {exc}") from exc
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")

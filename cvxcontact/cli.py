@@ -55,6 +55,9 @@ def _parser():
     study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "all"))
     study.add_argument("--out", required=True, help="output folder")
     study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
+    for s in (solve, info, sweep):
+        s.add_argument("--allow-outside-mesh", action="store_true",
+                       help="accept mesh files outside the scene file's folder, or given by absolute paths")
     for s in (demo, solve, info, sweep, study):
         s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     return p
@@ -78,7 +81,7 @@ def main(argv=None) -> int:
         from .scenefile import load_scene
 
         progress(f"reading {args.scene}")
-        spec = load_scene(args.scene)
+        spec = load_scene(args.scene, allow_outside=args.allow_outside_mesh)
         conditions = list(CONDITIONS) if args.condition == "all" else [args.condition or spec.condition]
         settings = spec.settings
         if args.method:
@@ -164,7 +167,8 @@ def _sweep(args):
     if args.workers is not None and args.workers < 1:
         raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
     report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
-                       retry_failed=args.retry_failed, progress=main_progress(args.quiet))
+                       retry_failed=args.retry_failed, progress=main_progress(args.quiet),
+                       allow_outside=args.allow_outside_mesh)
     if not args.quiet:
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
               f"{len(report.failed)} failed, {report.seconds:.1f} s; manifest: {args.out}/manifest.json")
@@ -179,7 +183,7 @@ def _info(args):
     from .assembly import assemble
     from .scenefile import load_scene
 
-    spec = load_scene(args.scene)
+    spec = load_scene(args.scene, allow_outside=args.allow_outside_mesh)
     itf = spec.scene.interface
     print(f"scene {args.scene}: condition {spec.condition}, solver {spec.solver}, tol {spec.tol:g}")
     total = 0

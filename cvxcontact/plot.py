@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import SceneError
 from .fields import body_fields
 
 __all__ = ["plot_deformed", "plot_contact", "magnification"]
@@ -38,10 +39,13 @@ def plot_deformed(solution, field="von_mises", magnify=None, ax=None):
     An elastic body has no potential and is drawn in grey on a potential plot.
     Returns the matplotlib Figure.
     """
-    if field not in _FIELDS:
-        raise ValueError(f"field must be one of {sorted(_FIELDS)}, got {field!r}")
+    if not isinstance(field, str) or field not in _FIELDS:
+        raise SceneError(f"plot_deformed: field must be one of {sorted(_FIELDS)}, got {field!r}")
     plt = _pyplot()
     fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(7, 5.5), layout="constrained")
+    if magnify is not None and (isinstance(magnify, bool) or not isinstance(magnify, (int, float))
+                                or not np.isfinite(magnify) or magnify < 0):
+        raise SceneError(f"plot_deformed: magnify must be a finite number >= 0 or None, got {magnify!r}")
     k = magnification(solution) if magnify is None else float(magnify)
     values = []
     for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):

@@ -12,14 +12,16 @@ names the file, the key and what was expected. Format (all SI units)::
     tol = 1e-6                                # tolerance of the mixed-formulation checks
     polish = true                             # exact finish
     method = "full"                           # or "condensed" (fast, exact)
-    options = { max_iter = 100 }              # passed to the solver
+    options = { max_iter = 100 }              # solver options (for Clarabel: names, types and
+                                              # ranges of clarabel.DefaultSettings)
 
     [[body]]                                  # exactly two; the order defines l = 1, 2
     name = "actuator"
     material = "PZT-5A"                       # a built-in name, or a table: {E, nu} or
                                               # {c11, c13, c33, c44, e31, e33, e15, eps11, eps33[, c12]}
     mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.5], nx = 16, ny = 8 } }
-                                              # or mesh = { file = "lower.msh" } (relative to this file),
+                                              # or mesh = { file = "lower.msh" } (relative to this file,
+                                              # inside its folder unless allow_outside=True),
                                               # with region = "name" for one surface of a multi-body file
     clamped = ["top"]
     grounded = ["top"]                        # piezoelectric bodies
@@ -33,6 +35,7 @@ names the file, the key and what was expected. Format (all SI units)::
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +45,7 @@ from .contact import CONDITIONS
 from .errors import CvxContactError, SceneError
 from .expr import Expression, ExpressionError
 from .mesh import read_mesh, rectangle
+from .options import check_solver, check_solver_options
 from .scene import Body, Scene
 from .solve import METHODS
 
@@ -76,15 +80,20 @@ class SceneFile:
     @property
     def settings(self) -> dict:
         """Keyword arguments of :func:`cvxcontact.solve` given by the file (condition excluded)."""
-        return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method, **self.options)
+        return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method,
+                    solver_options=dict(self.options))
 
-    def solve(self, condition=None, **overrides):
-        """Solve with the file's settings; ``condition`` and keyword arguments override them."""
+    def solve(self, condition: str | None = None, *, solver: str | None = None, method: str | None = None,
+              tol: float | None = None, polish: bool | None = None, verbose: bool = False,
+              solver_options: dict | None = None):
+        """Solve with the file's settings; the arguments that are not None override them
+        (``solver_options`` replaces the file's options). Parameters as in :func:`cvxcontact.solve`."""
         from .solve import solve
 
         kw = self.settings
-        kw.update(overrides)
-        return solve(self.scene, condition or self.condition, **kw)
+        given = dict(solver=solver, method=method, tol=tol, polish=polish, solver_options=solver_options)
+        kw.update({k: v for k, v in given.items() if v is not None})
+        return solve(self.scene, condition or self.condition, verbose=verbose, **kw)
 
 
 def read_toml(path, what="scene file") -> dict:
@@ -98,16 +107,22 @@ def read_toml(path, what="scene file") -> dict:
         raise SceneFileError(f"{path}: not a valid TOML file: {exc}") from None
 
 
-def load_scene(path) -> SceneFile:
-    """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key."""
-    return scene_from_data(read_toml(path), Path(path))
+def load_scene(path, allow_outside: bool = False) -> SceneFile:
+    """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key.
+
+    Mesh files must lie in the scene file's folder or below it (after resolving ``..``
+    and symbolic links), and be given by relative paths, unless ``allow_outside``.
+    """
+    return scene_from_data(read_toml(path), Path(path), allow_outside=allow_outside)
 
 
-def scene_from_data(data, path) -> SceneFile:
+def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     """Validate scene-file ``data`` (a dict as read from TOML); ``path`` names it in errors and
-    anchors relative mesh files."""
+    anchors relative mesh files (confined to its folder unless ``allow_outside``)."""
+    if not isinstance(allow_outside, bool):
+        raise SceneFileError(f"allow_outside must be True or False, got {allow_outside!r}")
     path = Path(path)
-    ctx = _Context(path)
+    ctx = _Context(path, allow_outside)
     ctx.keys(data, _TOP, "top level")
     condition = data.get("condition", "gamma3")
     if condition not in CONDITIONS:
@@ -123,10 +138,18 @@ def scene_from_data(data, path) -> SceneFile:
         ctx.fail("solver.method", f"one of {list(METHODS)}", method)
     if not isinstance(name, str):
         ctx.fail("solver.name", "a CVXPY solver name (string)", name)
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0:
-        ctx.fail("solver.tol", "a positive number", tol)
+    try:
+        name = check_solver(name)
+    except CvxContactError as exc:
+        raise SceneFileError(f"{path}: solver.name: {exc}") from None
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (math.isfinite(tol) and tol > 0):
+        ctx.fail("solver.tol", "a finite positive number", tol)
     if not isinstance(polish, bool):
         ctx.fail("solver.polish", "true or false", polish)
+    try:
+        options = check_solver_options(options, name)
+    except CvxContactError as exc:
+        raise SceneFileError(f"{path}: solver.options: {exc}") from None
     bodies = data.get("body")
     if not isinstance(bodies, list) or len(bodies) != 2:
         ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
@@ -136,14 +159,14 @@ def scene_from_data(data, path) -> SceneFile:
         scene = Scene(*built, gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
-    return SceneFile(path, scene, condition, name.upper(), float(tol), polish, method, options)
+    return SceneFile(path, scene, condition, name, float(tol), polish, method, options)
 
 
 class _Context:
     """Validation helpers that prefix every message with the file name."""
 
-    def __init__(self, path):
-        self.path = path
+    def __init__(self, path, allow_outside=False):
+        self.path, self.allow_outside = path, allow_outside
 
     def fail(self, key, expected, got):
         raise SceneFileError(f"{self.path}: {key}: expected {expected}, got {got!r}")
@@ -232,7 +255,22 @@ class _Context:
                 self.keys(spec, {"x", "y", "nx", "ny", "diagonal"}, f"{key}.rectangle")
                 return rectangle(**spec)
             if set(table) <= {"file", "region"} and isinstance(table.get("file"), str):
-                return read_mesh(self.path.parent / table["file"], region=table.get("region"))
+                return read_mesh(self.mesh_path(table["file"], f"{key}.file"), region=table.get("region"))
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
         self.fail(key, "{ rectangle = {...} } or { file = \"mesh.msh\" [, region = \"name\"] }", value)
+
+    def mesh_path(self, name, key):
+        """The mesh file ``name`` relative to the scene file, confined to its folder unless allowed."""
+        if self.allow_outside:
+            return self.path.parent / name
+        if not name or Path(name).is_absolute():
+            raise SceneFileError(f"{self.path}: {key}: expected a path relative to the scene file's folder, got "
+                                 f"{name!r} (absolute paths need allow_outside=True / --allow-outside-mesh)")
+        folder = self.path.parent.resolve()
+        target = (folder / name).resolve()
+        if not target.is_relative_to(folder):
+            raise SceneFileError(f"{self.path}: {key}: {name!r} leads outside the scene file's folder {str(folder)!r} "
+                                 "(after resolving '..' and symbolic links); allow it with allow_outside=True / "
+                                 "--allow-outside-mesh")
+        return target

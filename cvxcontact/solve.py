@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import cvxpy as cp
@@ -113,6 +114,8 @@ class Solution:
         of the trace interpolation: exact work equivalence) and divided by the lumped
         lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
         """
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k not in (0, 1):
+            raise SceneError(f"traction(k): k must be 0 or 1 (the body), got {k!r}")
         itf = self.scene.interface
         x = itf.traces[k].x
         return x.copy(), (itf.interpolation(k).T @ self.contact.force) / lumped_lengths(x)
@@ -130,8 +133,9 @@ class Solution:
 METHODS = ("full", "condensed")
 
 
-def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL, polish=True,
-          verbose=False, **solver_options):
+def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = "full",
+          tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
+          solver_options: Mapping[str, object] | None = None) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -157,8 +161,11 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DE
         interior-point answer stands.
     verbose : bool
         Print the solver's progress.
-    **solver_options
-        Passed to ``cvxpy.Problem.solve``.
+    solver_options : dict, optional
+        Options of the solver, passed to ``cvxpy.Problem.solve``: names to bool, int,
+        float or str values (e.g. ``{"max_iter": 100}``). For Clarabel they are checked
+        against ``clarabel.DefaultSettings()`` (names, types, ranges) before anything
+        is assembled; cvxcontact's own parameters are not accepted here.
 
     Returns
     -------
@@ -166,14 +173,17 @@ def solve(scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DE
 
     Raises
     ------
-    SceneError, SolverError
+    SceneError
+        ``scene`` is not a Scene or ``condition`` is unknown.
+    SolverError
+        A bad parameter or solver option, or the solver failed.
 
     See Also
     --------
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         **solver_options).solve()
+                         solver_options=solver_options).solve()
 
 
 class ContactSolver:
@@ -188,23 +198,25 @@ class ContactSolver:
     set), falling back to the interior-point solve if they do not settle; it then
     costs two triangular solves per body and little else. ``scale=False`` hands the
     raw SI matrices to the solver (for the stability study only: it shows what the
-    non-dimensionalisation prevents). Other parameters as in :func:`solve`.
+    non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
+    parameters as in :func:`solve`; all are checked before anything is assembled.
     """
 
-    def __init__(self, scene, condition="gamma3", solver="CLARABEL", *, method="full", tol=DEFAULT_TOL,
-                 polish=True, warm_start=True, scale=True, verbose=False, **solver_options):
+    def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = "full",
+                 tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
+                 verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+        from .options import check_solve_parameters, check_solver, check_solver_options
+
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
+                                     warm_start=warm_start, scale=scale)
+        solver = check_solver(solver)
+        self.options = check_solver_options(solver_options, solver)
         self.E = scene.interface.evaluation(condition)
-        if not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
-            raise SolverError(f"tol must be a positive number, got {tol!r}")
-        if method not in METHODS:
-            raise SolverError(f"method must be one of {METHODS}, got {method!r}")
-        _check_solver(solver)
         self.scene, self.condition, self.method = scene, condition, method
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
-        self.solver, self.tol, self.polish, self.verbose = solver.upper(), tol, polish, verbose
-        self.options = solver_options
+        self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
         self.matrices = [assemble_matrices(b) for b in scene.bodies]
         self.setup_time = {"assembly": time.perf_counter() - t0}
@@ -370,14 +382,16 @@ def _check_solver(solver):
 
 
 def _run(problem, solver, verbose, options):
+    given = sorted(options)
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
         problem.solve(solver=solver, verbose=verbose, **options)
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
-    except TypeError as exc:
-        raise SolverError(f"bad option for {solver}: {exc}") from exc
+    except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError
+        raise SolverError(f"{solver} refused the problem or the solver options {given}: "
+                          f"{type(exc).__name__}: {exc}") from exc
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")
 

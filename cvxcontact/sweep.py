@@ -159,19 +159,21 @@ def load_sweep(path) -> Sweep:
 _LOCAL = threading.local()   # per worker thread: {geometry key: ContactSolver}
 
 
-def run_chunk(scene_path, base, method, cases, out):
-    """Solve a list of cases in this process, writing each result; returns [(id, ok, message)]."""
-    return [_run_case(Path(scene_path), base, method, case, Path(out)) for case in cases]
+def run_chunk(scene_path, base, method, cases, out, allow_outside=False):
+    """Solve a list of cases in this process, writing each result; returns [(id, ok, message)].
+    ``allow_outside``: accept mesh files outside the scene file's folder."""
+    return [_run_case(Path(scene_path), base, method, case, Path(out), allow_outside) for case in cases]
 
 
-def _run_case(scene_path, base, method, case, out):
+def _run_case(scene_path, base, method, case, out, allow_outside=False):
     import warnings
 
     from .errors import ResidualWarning
     from .solve import ContactSolver
 
     try:
-        spec = scene_from_data(apply_overrides(base, case.overrides, f"case {case.id}"), scene_path)
+        spec = scene_from_data(apply_overrides(base, case.overrides, f"case {case.id}"), scene_path,
+                               allow_outside=allow_outside)
         key = (str(scene_path), method, case.geometry)
         cache = _LOCAL.__dict__.setdefault("solvers", {})
         solver = cache.get(key)
@@ -241,14 +243,18 @@ def _chunks(cases, workers):
     return [g[i:i + size] for g in groups.values() for i in range(0, len(g), size)]
 
 
-def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progress=None) -> SweepReport:
+def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progress=None,
+              allow_outside: bool = False) -> SweepReport:
     """Run (or resume) the sweep of ``path`` into the folder ``out``.
 
     ``workers``: local processes (default: the number of cores; 1 runs in this
     process). ``scheduler``: address of a Dask distributed scheduler, or a
     ``distributed.Client``, to run there instead. ``progress``: a callable taking
-    one line of text.
+    one line of text. ``allow_outside``: accept mesh files outside the scene file's
+    folder (see :func:`cvxcontact.scenefile.load_scene`).
     """
+    if not isinstance(allow_outside, bool):
+        raise SweepError(f"allow_outside must be True or False, got {allow_outside!r}")
     sweep = load_sweep(path)
     out = Path(out)
     for sub in ("cases", "failures"):
@@ -271,7 +277,7 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
     workers = workers or os.cpu_count() or 1
     chunks = _chunks(todo, workers)
     finished = 0
-    for results in _execute(chunks, sweep, out, workers, scheduler):
+    for results in _execute(chunks, sweep, out, workers, scheduler, allow_outside):
         for case_id, ok, message in results:
             finished += 1
             states[case_id] = "done" if ok else "failed"
@@ -288,7 +294,7 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
                        skipped=done_before, seconds=time.perf_counter() - t0)
 
 
-def _execute(chunks, sweep, out, workers, scheduler):
+def _execute(chunks, sweep, out, workers, scheduler, allow_outside=False):
     args = (str(sweep.path), sweep.base, sweep.method)
     if scheduler is not None:
         try:
@@ -297,16 +303,16 @@ def _execute(chunks, sweep, out, workers, scheduler):
             raise CvxContactError("a Dask scheduler was given but dask.distributed is not installed "
                                   "(pip install 'cvxcontact[dask]')") from None
         client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-        futures = [client.submit(run_chunk, *args, chunk, str(out), pure=False) for chunk in chunks]
+        futures = [client.submit(run_chunk, *args, chunk, str(out), allow_outside, pure=False) for chunk in chunks]
         for fut in dask_completed(futures):
             yield fut.result()
         return
     if workers == 1 or len(chunks) <= 1:
         for chunk in chunks:
-            yield run_chunk(*args, chunk, str(out))
+            yield run_chunk(*args, chunk, str(out), allow_outside)
         return
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(run_chunk, *args, chunk, str(out)) for chunk in chunks]
+        futures = [pool.submit(run_chunk, *args, chunk, str(out), allow_outside) for chunk in chunks]
         for fut in as_completed(futures):
             yield fut.result()
 

@@ -91,6 +91,14 @@ def test_bad_solve_arguments():
         cc.solve(scene, tol=-1)
     with pytest.raises(cc.SceneError, match="takes a Scene"):
         cc.solve("scene")
+    with pytest.raises(cc.SolverError, match="tol must be a finite positive number"):
+        cc.solve(scene, tol=float("inf"))
+    with pytest.raises(cc.SolverError, match="polish must be True or False"):
+        cc.solve(scene, polish="no")
+    with pytest.raises(cc.SolverError, match="solver option 'tol' is not a solver option; use the tol argument"):
+        cc.solve(scene, solver_options={"tol": 1e-3})
+    with pytest.raises(cc.SolverError, match="unknown Clarabel option 'warmstart'"):
+        cc.solve(scene, solver_options={"warmstart": True})
 
 
 def test_hierarchy():

@@ -315,5 +315,6 @@ def test_linearity_in_load_magnitude_without_warnings(scene, solutions, factor):
 
 @pytest.mark.skipif("OSQP" not in __import__("cvxpy").installed_solvers(), reason="OSQP not installed")
 def test_other_cvxpy_solver_can_be_named(scene, solutions):
-    sol = cc.solve(scene, "gamma3", solver="OSQP", eps_abs=1e-10, eps_rel=1e-10, max_iter=200000, tol=1e-3)
+    sol = cc.solve(scene, "gamma3", solver="OSQP", tol=1e-3,
+                   solver_options=dict(eps_abs=1e-10, eps_rel=1e-10, max_iter=200000))
     assert rel(sol.u[0], solutions["gamma3"].u[0]) < 1e-4

@@ -32,17 +32,18 @@ from .convergence import Reference, scene
 
 def settings():
     """(label, ContactSolver keyword arguments) of the compared solver settings."""
-    out = [(f"Clarabel tol {t:.0e}", dict(method="full", polish=False, tol_gap_abs=t, tol_gap_rel=t, tol_feas=t))
+    out = [(f"Clarabel tol {t:.0e}", dict(method="full", polish=False,
+                                          solver_options=dict(tol_gap_abs=t, tol_gap_rel=t, tol_feas=t)))
            for t in (1e-4, 1e-6, 1e-8, 1e-10)]
     out += [("Clarabel + exact finish", dict(method="full")),
             ("condensed + exact finish", dict(method="condensed"))]
     installed = cp.installed_solvers()
     if "OSQP" in installed:
-        out.append(("OSQP eps 1e-7", dict(method="full", polish=False, solver="OSQP", eps_abs=1e-7, eps_rel=1e-7,
-                                          max_iter=400000, polishing=True)))
+        out.append(("OSQP eps 1e-7", dict(method="full", polish=False, solver="OSQP", solver_options=dict(
+            eps_abs=1e-7, eps_rel=1e-7, max_iter=400000, polishing=True))))
     if "SCS" in installed:
-        out.append(("SCS eps 1e-7", dict(method="full", polish=False, solver="SCS", eps_abs=1e-7, eps_rel=1e-7,
-                                         max_iters=400000)))
+        out.append(("SCS eps 1e-7", dict(method="full", polish=False, solver="SCS", solver_options=dict(
+            eps_abs=1e-7, eps_rel=1e-7, max_iters=400000))))
     return out
 
 

@@ -52,7 +52,7 @@ def removed_solve(blocks):
     """One sparse solve of each body's system without contact (the other floor)."""
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.condense import quasi_definite
+    from cvxcontact.backends.condensed import quasi_definite
 
     t0 = time.perf_counter()
     res = []
@@ -68,7 +68,7 @@ def bonded_solve(blocks, jumps):
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.condense import quasi_definite
+    from cvxcontact.backends.condensed import quasi_definite
 
     t0 = time.perf_counter()
     parts = [quasi_definite(b) for b in blocks]
@@ -85,8 +85,8 @@ def bonded_solve(blocks, jumps):
 
 def one_size(nx, full):
     import cvxcontact as cc
-    from cvxcontact.assembly import assemble
-    from cvxcontact.model import Block, units
+    from cvxcontact.fem.assembly import assemble
+    from cvxcontact.discrete import Block, units
 
     sc = scene(nx)
     t0 = time.perf_counter()

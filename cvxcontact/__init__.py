@@ -1,6 +1,7 @@
 """cvxcontact: frictionless contact of piezoelectric bodies as convex programs.
 
-Data flow: mesh -> bodies/scene -> assembly -> convex model -> solve -> read-back and checks.
+Layers (imports flow one way, tests/test_layers.py): geometry -> contact -> physics -> fem ->
+discrete -> backends -> solution -> solve -> io -> apps. See docs/architecture.md.
 
     >>> import cvxcontact as cc
     >>> m1 = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=8, ny=4)
@@ -9,11 +10,11 @@ Data flow: mesh -> bodies/scene -> assembly -> convex model -> solve -> read-bac
 See the README for the full quickstart and the paper's notation mapped to these names.
 """
 
-from . import materials
-from .contact import CONDITIONS
+from .physics import materials
+from .contact.interface import CONDITIONS
 from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
-from .mesh import Mesh, read_mesh, rectangle
-from .scene import Body, Scene
+from .geometry.mesh import Mesh, read_mesh, rectangle
+from .physics.scene import Body, Scene
 from .solve import ContactResult, ContactSolver, Solution, solve
 
 __version__ = "0.1.0"

@@ -49,7 +49,7 @@ def main(n=48, out=None):
         matplotlib.use("Agg")
         from pathlib import Path
 
-        from cvxcontact.plot import plot_contact
+        from cvxcontact.io.plot import plot_contact
 
         Path(out).mkdir(parents=True, exist_ok=True)
         plot_contact(sols).savefig(Path(out) / "contact.png", dpi=120)

@@ -43,7 +43,7 @@ def main(out=None):
     print(f"peak nodal pressure {c.pressure.max():.4e} Pa at x = {c.x[np.argmax(c.pressure)]:.3f} m; "
           f"total contact force {c.force.sum():.6e} N/m")
     if out:
-        from cvxcontact.output import write_all
+        from cvxcontact.io.output import write_all
 
         for path in write_all(sol, out, stem="gmsh"):
             print("wrote", path)

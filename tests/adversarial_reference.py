@@ -2,7 +2,7 @@
 
 Nothing here goes through the package's solver path (no model, no condensation, no
 active-set finish, no Interface operators): only the per-body SI matrices and loads
-of :func:`cvxcontact.assembly.assemble` are used. The contact line, the merged mesh,
+of :func:`cvxcontact.fem.assembly.assemble` are used. The contact line, the merged mesh,
 the jump rows and the constrained rows are rebuilt here from the meshes.
 
 Per body, on the free dofs, the mixed system (26) reads
@@ -37,7 +37,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls
 
-from cvxcontact.assembly import assemble
+from cvxcontact.fem.assembly import assemble
 
 
 @dataclass

@@ -18,7 +18,7 @@ import pytest
 
 import cvxcontact as cc
 from adversarial_reference import Reference, mixed_residual
-from cvxcontact.scenefile import load_scene
+from cvxcontact.io.scenefile import load_scene
 
 TOL_U = 1e-6        # displacement / potential, relative to each body's own max
 TOL_F = 1e-5        # nodal contact forces, relative to the largest reference nodal force

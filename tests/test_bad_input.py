@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.expr import Expression, ExpressionError
-from cvxcontact.scenefile import SceneFileError, load_scene
+from cvxcontact.io.expr import Expression, ExpressionError
+from cvxcontact.io.scenefile import SceneFileError, load_scene
 
 GOOD_UPPER = """
 [[body]]

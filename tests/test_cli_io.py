@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.cli import main
-from cvxcontact.demo import two_blocks
-from cvxcontact.output import atomic_write
-from cvxcontact.scenefile import load_scene
+from cvxcontact.apps.cli import main
+from cvxcontact.apps.demo import two_blocks
+from cvxcontact.io.output import atomic_write
+from cvxcontact.io.scenefile import load_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -34,7 +34,7 @@ def test_demo_writes_vtu_png_and_summary(tmp_path, capsys):
 def test_vtu_round_trip_holds_the_solution_with_units(tmp_path):
     scene = two_blocks(6)
     sol = cc.solve(scene)
-    from cvxcontact.output import write_vtu
+    from cvxcontact.io.output import write_vtu
 
     write_vtu(sol, tmp_path)
     body = meshio.read(tmp_path / "solution_body1.vtu")
@@ -53,7 +53,7 @@ def test_fields_of_the_exact_patch_solution():
     """Uniform stress state: every element carries the closed-form stress and field."""
     from test_solve import bonded_patch
 
-    from cvxcontact.fields import body_fields
+    from cvxcontact.fem.fields import body_fields
 
     scene, exact = bonded_patch(5, 4, voltage=-1e4)
     sol = cc.solve(scene)
@@ -130,7 +130,7 @@ def test_plots_have_labels_and_colorbars():
     import matplotlib
 
     matplotlib.use("Agg")
-    from cvxcontact.plot import plot_contact, plot_deformed
+    from cvxcontact.io.plot import plot_contact, plot_deformed
 
     sols = {c: cc.solve(two_blocks(6), c) for c in cc.CONDITIONS}
     fig = plot_deformed(sols["gamma3"], "potential")

@@ -45,7 +45,7 @@ def test_conditions_compared_example(tmp_path):
 
 
 def test_shipped_sweep_example_runs(tmp_path):
-    from cvxcontact.sweep import run_sweep
+    from cvxcontact.apps.sweep import run_sweep
 
     report = run_sweep(EXAMPLES / "sweep.toml", tmp_path, workers=2)
     assert report.total == 24 and report.done == 24 and not report.failed

@@ -1,11 +1,11 @@
-"""The exact finish (cvxcontact.finish.solve_lcp) against brute-force enumeration of active sets."""
+"""The exact finish (cvxcontact.backends.finish.solve_lcp) against brute-force enumeration of active sets."""
 
 import itertools
 
 import numpy as np
 import pytest
 
-from cvxcontact.finish import solve_lcp
+from cvxcontact.backends.finish import solve_lcp
 
 
 def brute_force_lcp(W, d):

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-import cvxcontact.expr as expr
-from cvxcontact.expr import Expression, ExpressionError
-from cvxcontact.fingerprint import geometry_fingerprint
-from cvxcontact.scene import Load
-from cvxcontact.scenefile import load_scene
+import cvxcontact.io.expr as expr
+from cvxcontact.io.expr import Expression, ExpressionError
+from cvxcontact.physics.fingerprint import geometry_fingerprint
+from cvxcontact.physics.scene import Load
+from cvxcontact.io.scenefile import load_scene
 
 UNARY = ["sin", "cos", "tan", "arcsin", "arccos", "arctan", "sinh", "cosh", "tanh", "exp", "log", "log10", "sqrt",
          "abs", "heaviside"]

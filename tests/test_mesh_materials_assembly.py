@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.assembly import assemble
-from cvxcontact.materials import EPS0
+from cvxcontact.fem.assembly import assemble
+from cvxcontact.physics.materials import EPS0
 
 
 # ----------------------------------------------------------------------------------------- meshes

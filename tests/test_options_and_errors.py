@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-import cvxcontact.mesh as mesh_mod
-from cvxcontact.cli import main
-from cvxcontact.scenefile import SceneFileError, load_scene
+import cvxcontact.geometry.mesh as mesh_mod
+from cvxcontact.apps.cli import main
+from cvxcontact.io.scenefile import SceneFileError, load_scene
 
 from conftest import two_blocks
 
@@ -261,7 +261,7 @@ def test_traction_and_plot_errors_are_typed(solutions):
         with pytest.raises(cc.CvxContactError, match="k must be 0 or 1"):
             sol.traction(k)
     assert len(sol.traction(1)[0]) == len(sol.scene.interface.traces[1].x)
-    from cvxcontact.plot import plot_deformed
+    from cvxcontact.io.plot import plot_deformed
 
     with pytest.raises(cc.CvxContactError, match=r"field must be one of \['potential', 'von_mises'\]"):
         plot_deformed(sol, "displacement")
@@ -270,8 +270,8 @@ def test_traction_and_plot_errors_are_typed(solutions):
 
 
 def test_sweep_and_cli_accept_the_opt_out(tmp_path):
-    from cvxcontact.cli import _parser
-    from cvxcontact.sweep import run_sweep
+    from cvxcontact.apps.cli import _parser
+    from cvxcontact.apps.sweep import run_sweep
 
     _mesh_file(tmp_path / "lower.msh")
     write_scene(tmp_path / "scene", mesh='{ file = "../lower.msh" }')

@@ -7,7 +7,7 @@ import pytest
 import scipy.linalg as sla
 
 import cvxcontact as cc
-from cvxcontact.assembly import assemble
+from cvxcontact.fem.assembly import assemble
 from conftest import rel, two_blocks
 
 
@@ -124,9 +124,9 @@ def test_solution_shapes_and_units(scene, solutions):
 
 def test_condensed_interface_stiffness_is_the_dense_schur_complement(scene):
     """Sigma read from the trailing block of the factors equals S_GG - S_GI S_II^{-1} S_IG (dense)."""
-    from cvxcontact.assembly import assemble
-    from cvxcontact.condense import condense, quasi_definite
-    from cvxcontact.model import Block, units
+    from cvxcontact.fem.assembly import assemble
+    from cvxcontact.backends.condensed import condense, quasi_definite
+    from cvxcontact.discrete import Block, units
 
     systems = [assemble(b) for b in scene.bodies]
     un = units(scene, systems)

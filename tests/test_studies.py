@@ -8,7 +8,7 @@ import csv
 
 import pytest
 
-from cvxcontact.cli import main
+from cvxcontact.apps.cli import main
 
 
 def rows(path):

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.scenefile import load_scene
-from cvxcontact.sweep import SweepError, load_sweep, run_sweep
+from cvxcontact.io.scenefile import load_scene
+from cvxcontact.apps.sweep import SweepError, load_sweep, run_sweep
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -80,7 +80,7 @@ def test_sweep_killed_with_sigkill_resumes_without_loss(tmp_path):
     path = write_sweep(tmp_path, {"body[0].body_force[1]": [-1e9 * k for k in range(1, 9)],
                                   "body[0].mesh.rectangle.nx": [8, 10]}, method="full")
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "cvxcontact.cli", "sweep", str(path), "--out", str(out), "--workers", "1", "-q"]
+    cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", str(path), "--out", str(out), "--workers", "1", "-q"]
     proc = subprocess.Popen(cmd, start_new_session=True)
     deadline = time.time() + 120
     while time.time() < deadline and len(list((out / "cases").glob("*.json"))) < 3:

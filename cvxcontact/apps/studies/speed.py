@@ -23,9 +23,9 @@ from pathlib import Path
 import cvxpy as cp
 import numpy as np
 
-from ..contact import CONDITIONS
-from ..errors import CvxContactError
-from ..solve import ContactSolver
+from ...contact.interface import CONDITIONS
+from ...errors import CvxContactError
+from ...solve import ContactSolver
 from .common import Timer, markdown_table, pyplot, save_figure, write_csv, write_text
 from .convergence import Reference, scene
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from . import materials
-from .mesh import rectangle
-from .scene import Body, Scene
+from ..physics import materials
+from ..geometry.mesh import rectangle
+from ..physics.scene import Body, Scene
 
 __all__ = ["two_blocks"]
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MeshError
+from ..errors import MeshError
 
 __all__ = ["Mesh", "rectangle", "read_mesh"]
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import SceneError
+from ..errors import SceneError
 
 __all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix"]
 

@@ -43,11 +43,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .contact import CONDITIONS
-from .errors import CvxContactError
-from .output import atomic_write, summary
-from .scenefile import SceneFileError, read_toml, scene_from_data
-from .solve import METHODS
+from ..contact.interface import CONDITIONS
+from ..errors import CvxContactError
+from ..io.output import atomic_write, summary
+from ..io.scenefile import SceneFileError, read_toml, scene_from_data
+from ..backends import METHODS
 
 __all__ = ["Case", "SweepError", "load_sweep", "run_sweep", "SweepReport"]
 
@@ -168,8 +168,8 @@ def run_chunk(scene_path, base, method, cases, out, allow_outside=False):
 def _run_case(scene_path, base, method, case, out, allow_outside=False):
     import warnings
 
-    from .errors import ResidualWarning
-    from .solve import ContactSolver
+    from ..errors import ResidualWarning
+    from ..solve import ContactSolver
 
     try:
         spec = scene_from_data(apply_overrides(base, case.overrides, f"case {case.id}"), scene_path,
@@ -251,7 +251,7 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
     process). ``scheduler``: address of a Dask distributed scheduler, or a
     ``distributed.Client``, to run there instead. ``progress``: a callable taking
     one line of text. ``allow_outside``: accept mesh files outside the scene file's
-    folder (see :func:`cvxcontact.scenefile.load_scene`).
+    folder (see :func:`cvxcontact.io.scenefile.load_scene`).
     """
     if not isinstance(allow_outside, bool):
         raise SweepError(f"allow_outside must be True or False, got {allow_outside!r}")

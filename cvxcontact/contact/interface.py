@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import SceneError
+from ..errors import SceneError
 
 __all__ = ["Interface", "CONDITIONS", "lumped_lengths"]
 

@@ -1,7 +1,7 @@
 """Scene files (TOML): bodies, meshes, materials, boundary parts, loads, condition, solver.
 
 A scene file is data. Loads are numbers or expressions in x and y read by the
-restricted evaluator of :mod:`cvxcontact.expr`; nothing is executed. Every error
+restricted evaluator of :mod:`cvxcontact.io.expr`; nothing is executed. Every error
 names the file, the key and what was expected. Format (all SI units)::
 
     condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
@@ -40,14 +40,14 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import materials as mats
-from .contact import CONDITIONS
-from .errors import CvxContactError, SceneError
+from ..physics import materials as mats
+from ..contact.interface import CONDITIONS
+from ..errors import CvxContactError, SceneError
 from .expr import Expression, ExpressionError
-from .mesh import read_mesh, rectangle
-from .options import check_solver, check_solver_options
-from .scene import Body, Scene
-from .solve import METHODS
+from ..geometry.mesh import read_mesh, rectangle
+from ..backends.options import check_solver, check_solver_options
+from ..physics.scene import Body, Scene
+from ..backends import METHODS
 
 __all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read_toml", "MATERIALS"]
 
@@ -88,7 +88,7 @@ class SceneFile:
               solver_options: dict | None = None):
         """Solve with the file's settings; the arguments that are not None override them
         (``solver_options`` replaces the file's options). Parameters as in :func:`cvxcontact.solve`."""
-        from .solve import solve
+        from ..solve import solve
 
         kw = self.settings
         given = dict(solver=solver, method=method, tol=tol, polish=polish, solver_options=solver_options)

@@ -13,9 +13,9 @@ import math
 import numbers
 from collections.abc import Mapping
 
-from .contact import CONDITIONS
-from .errors import SceneError, SolverError
-from .solve import METHODS
+from ..contact.interface import CONDITIONS
+from ..errors import SceneError, SolverError
+from . import METHODS
 
 __all__ = ["check_solve_parameters", "check_solver", "check_solver_options", "RESERVED"]
 

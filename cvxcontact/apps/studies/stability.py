@@ -8,7 +8,7 @@ Lemma 3, or the nodal multipliers of Sigma_h^l, represented in X_h by lambda = M
 With ||v||_V the energy norm of the two bodies (elastic here: the property is one of the
 spaces), sup_v b(v, mu) / ||v||_V = sqrt(z^T W_h z), z = M mu, where W_h is the interface
 compliance of the discrete bodies at the merged nodes (the condensation of
-:mod:`cvxcontact.condense`). For ||mu||_{-1/2} we take the dual norm of the same trace
+:mod:`cvxcontact.backends.condensed`). For ||mu||_{-1/2} we take the dual norm of the same trace
 energy, computed on a reference discretisation 8 times finer with matching meshes:
 ||mu||^2 = z_f^T W_f z_f, z_f = (mu, phi_i^f) the exact load vector of mu on the fine
 merged mesh. This is an H^{-1/2}(Gamma_3)-equivalent norm of the continuous problem, so
@@ -31,14 +31,15 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import brentq
 
-from .. import materials
-from ..assembly import assemble
-from ..condense import condense
-from ..contact import CONDITIONS
-from ..mesh import Mesh, rectangle
-from ..model import Block, Compliance, units
-from ..scene import Body, Scene
-from ..solve import ContactSolver
+from ...physics import materials
+from ...fem.assembly import assemble
+from ...backends.condensed import condense
+from ...contact.interface import CONDITIONS
+from ...geometry.mesh import Mesh, rectangle
+from ...backends.condensed import Compliance
+from ...discrete import Block, units
+from ...physics.scene import Body, Scene
+from ...solve import ContactSolver
 from .common import graded_block, markdown_table, pyplot, save_figure, write_csv, write_text
 from .convergence import scene as partial_scene
 
@@ -195,7 +196,7 @@ def _oscillation(quick, say):
 def _failure_cases(quick, say):
     import warnings
 
-    from ..errors import CvxContactError, ResidualWarning
+    from ...errors import CvxContactError, ResidualWarning
 
     n = 16 if quick else 48
     base = partial_scene("partial", n, 3 * n // 4 + 1)

@@ -12,9 +12,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .errors import MeshError, SceneError
+from ..errors import MeshError, SceneError
+from ..contact.interface import Interface
+from ..geometry.mesh import Mesh
 from .materials import Elastic, Piezoelectric
-from .mesh import Mesh
 
 __all__ = ["Body", "Scene"]
 
@@ -240,7 +241,6 @@ class Scene:
         if body1 is body2:
             raise SceneError("Scene needs two distinct bodies")
         self.bodies = (body1, body2)
-        from .contact import Interface
         try:
             self.interface = Interface(self.bodies)
         except MeshError as exc:

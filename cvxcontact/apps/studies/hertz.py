@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import materials
-from ..scene import Body, Scene
-from ..solve import solve
+from ...physics import materials
+from ...physics.scene import Body, Scene
+from ...solve import solve
 from .common import Timer, graded_block, markdown_table, pyplot, save_figure, slope, write_csv, write_text
 
 STEEL, ALU = (200e9, 0.3), (70e9, 0.33)

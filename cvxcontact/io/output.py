@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CvxContactError
-from .fields import body_fields
+from ..errors import CvxContactError
+from ..fem.fields import body_fields
 
 __all__ = ["write_vtu", "write_summary", "write_all", "summary", "atomic_write"]
 

@@ -18,7 +18,7 @@ import operator
 
 import numpy as np
 
-from .errors import SceneError
+from ..errors import SceneError
 
 __all__ = ["Expression", "ExpressionError", "FUNCTIONS", "ARITY"]
 

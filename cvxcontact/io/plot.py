@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import SceneError
-from .fields import body_fields
+from ..errors import SceneError
+from ..fem.fields import body_fields
 
 __all__ = ["plot_deformed", "plot_contact", "magnification"]
 

@@ -23,13 +23,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cvxpy as cp
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import SolverError
+from ..errors import SolverError
 
-__all__ = ["CondensedBody", "condense", "node_order", "quasi_definite", "quasi_definite_rhs"]
+__all__ = ["CondensedBody", "Compliance", "InterfaceModel", "condense", "node_order", "quasi_definite",
+           "quasi_definite_rhs"]
 
 _SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
@@ -84,7 +87,7 @@ class CondensedBody:
 
 
 def quasi_definite(block):
-    """S = [[Kuu, Kup], [Kup^T, -Kpp]] and F = [f; -q] of a scaled :class:`~cvxcontact.model.Block`."""
+    """S = [[Kuu, Kup], [Kup^T, -Kpp]] and F = [f; -q] of a scaled :class:`~cvxcontact.discrete.Block`."""
     if block.Kpp is None:
         return block.Kuu.tocsc(), block.f
     S = sp.bmat([[block.Kuu, block.Kup], [block.Kup.T, -block.Kpp]], format="csc")
@@ -118,3 +121,44 @@ def condense(block, system, mesh) -> CondensedBody:
     sigma = tail[np.ix_(rows, cols)]             # gamma[k] sits at position N - m + k of perm
     return CondensedBody(lu=lu, perm=perm, n_u=n_u, gamma=gamma, stiffness=0.5 * (sigma + sigma.T),
                          jump=block.jump[:, gamma].toarray())
+
+
+class InterfaceModel:
+    """The condensed contact problem in the Gamma dofs v_l of each body (:mod:`cvxcontact.backends.condensed`):
+
+        minimise    sum_l 1/2 v_l^T Sigma_l v_l - g_l^T v_l
+        subject to  E sum_l C_l v_l <= E g               (the same contact rows as the full model)
+
+    Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``.
+    """
+
+    def __init__(self, bodies, loads, E, gap_rows):
+        self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
+                     for b, v, g in zip(bodies, self.v, loads))
+        self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
+        self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
+
+
+class Compliance:
+    """Interface compliance of condensed bodies seen by the contact rows E (scaled units):
+
+        R_l = E C_l,   B_l = Sigma_l^{-1} R_l^T,   W = sum_l R_l B_l   (SPD on the rows).
+
+    With v0_l the unconstrained Gamma displacements and d = sum_l R_l v0_l - E g the
+    slack at y = 0, a contact force y gives v_l = v0_l - B_l y and slack d - W y.
+    Computed once per geometry; every load case reuses it.
+    """
+
+    def __init__(self, bodies, E):
+        self.rows = [np.asarray((E @ b.jump)) for b in bodies]
+        self.B = [sla.cho_solve(sla.cho_factor(b.stiffness), R.T) for b, R in zip(bodies, self.rows)]
+        self.W = sum(R @ B for R, B in zip(self.rows, self.B))
+
+    def free_slack(self, v0, gap_rows) -> np.ndarray:
+        """d = sum_l R_l v0_l - E g: the slack of the contact rows with no contact force."""
+        return sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
+
+    def state(self, v0, y) -> list:
+        """Gamma displacements v_l = v0_l - B_l y under contact forces y."""
+        return [v0k - B @ y for v0k, B in zip(v0, self.B)]

@@ -12,8 +12,8 @@ import sys
 import time
 from pathlib import Path
 
-from .contact import CONDITIONS
-from .errors import CvxContactError
+from ..contact.interface import CONDITIONS
+from ..errors import CvxContactError
 
 __all__ = ["main"]
 
@@ -74,11 +74,11 @@ def main(argv=None) -> int:
         if args.command == "study":
             return _study(args, progress)
         if args.command == "demo":
-            from .demo import two_blocks
+            from ..apps.demo import two_blocks
 
             progress("building the demo scene (PZT-5A block on an aluminium block)")
             return _run(two_blocks(args.nx), list(CONDITIONS), {}, Path(args.out), True, progress, args.quiet)
-        from .scenefile import load_scene
+        from ..io.scenefile import load_scene
 
         progress(f"reading {args.scene}")
         spec = load_scene(args.scene, allow_outside=args.allow_outside_mesh)
@@ -104,9 +104,9 @@ def _one_line(exc):
 def _run(scene, conditions, settings, out, plots, progress, quiet):
     import warnings
 
-    from .errors import ResidualWarning
-    from .output import atomic_write, write_all
-    from .solve import solve
+    from ..errors import ResidualWarning
+    from ..io.output import atomic_write, write_all
+    from ..solve import solve
 
     solutions = {}
     for c in conditions:
@@ -125,7 +125,7 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from .plot import plot_contact, plot_deformed
+        from ..io.plot import plot_contact, plot_deformed
 
         first = solutions[conditions[0]]
         figures = {"deformed_potential.png": plot_deformed(first, "potential"),
@@ -180,8 +180,8 @@ def _sweep(args):
 
 
 def _info(args):
-    from .assembly import assemble
-    from .scenefile import load_scene
+    from ..fem.assembly import assemble
+    from ..io.scenefile import load_scene
 
     spec = load_scene(args.scene, allow_outside=args.allow_outside_mesh)
     itf = spec.scene.interface

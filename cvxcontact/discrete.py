@@ -1,4 +1,4 @@
-"""Scaling and the convex model (shared/math.md §2 and §6).
+"""The discrete problem: Dirichlet-restricted, non-dimensionalised blocks of each body (docs/formulation.md).
 
 The mechanical part of the solution of (26)-(27) minimises the reduced coupled energy
 
@@ -19,12 +19,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import cvxpy as cp
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
-__all__ = ["Units", "Block", "ContactModel", "InterfaceModel", "Compliance", "units"]
+__all__ = ["Units", "Block", "units"]
 
 
 @dataclass(frozen=True)
@@ -127,70 +125,3 @@ class Block:
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
         (a_u, a_p), (f, q) = self.internal(u, phi), self.loads()
         return a_u + self.jump.T @ contact_force - f, a_p - q
-
-
-class ContactModel:
-    """The CVXPY problem for given scaled blocks and constraint rows ``E``.
-
-    Attributes: ``problem``, ``u`` and ``phi`` (variables per body, ``phi[k]`` None
-    for an elastic body), ``gauss`` (equality constraints per body, or None) and
-    ``contact`` (the inequality constraint E [u_nu] <= E g).
-    """
-
-    def __init__(self, blocks, E, gap_rows):
-        self.blocks = blocks
-        self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
-        self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
-                    for k, b in enumerate(blocks)]
-        energy, self.gauss = 0, []
-        for b, u, phi in zip(blocks, self.u, self.phi):
-            energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
-            if phi is None:
-                self.gauss.append(None)
-                continue
-            energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
-            self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
-        jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
-        self.contact = jump <= gap_rows
-        self.problem = cp.Problem(cp.Minimize(energy), [c for c in self.gauss if c is not None] + [self.contact])
-
-
-class InterfaceModel:
-    """The condensed contact problem in the Gamma dofs v_l of each body (:mod:`cvxcontact.condense`):
-
-        minimise    sum_l 1/2 v_l^T Sigma_l v_l - g_l^T v_l
-        subject to  E sum_l C_l v_l <= E g               (the same contact rows as the full model)
-
-    Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``.
-    """
-
-    def __init__(self, bodies, loads, E, gap_rows):
-        self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
-        energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
-                     for b, v, g in zip(bodies, self.v, loads))
-        self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
-        self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
-
-
-class Compliance:
-    """Interface compliance of condensed bodies seen by the contact rows E (scaled units):
-
-        R_l = E C_l,   B_l = Sigma_l^{-1} R_l^T,   W = sum_l R_l B_l   (SPD on the rows).
-
-    With v0_l the unconstrained Gamma displacements and d = sum_l R_l v0_l - E g the
-    slack at y = 0, a contact force y gives v_l = v0_l - B_l y and slack d - W y.
-    Computed once per geometry; every load case reuses it.
-    """
-
-    def __init__(self, bodies, E):
-        self.rows = [np.asarray((E @ b.jump)) for b in bodies]
-        self.B = [sla.cho_solve(sla.cho_factor(b.stiffness), R.T) for b, R in zip(bodies, self.rows)]
-        self.W = sum(R @ B for R, B in zip(self.rows, self.B))
-
-    def free_slack(self, v0, gap_rows) -> np.ndarray:
-        """d = sum_l R_l v0_l - E g: the slack of the contact rows with no contact force."""
-        return sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
-
-    def state(self, v0, y) -> list:
-        """Gamma displacements v_l = v0_l - B_l y under contact forces y."""
-        return [v0k - B @ y for v0k, B in zip(v0, self.B)]

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..mesh import Mesh, rectangle
-from ..output import atomic_write
+from ...geometry.mesh import Mesh, rectangle
+from ...io.output import atomic_write
 
 
 def graded_block(x, y, nx, ny, contact="bottom", beta=0.0, gamma=0.0, center=0.0):
     """A structured block on ``x`` by ``y`` whose cells shrink towards x = ``center`` (sinh grading of
     strength ``beta``) and towards its ``contact`` edge, "bottom" or "top" (exponential grading
-    ``gamma``). Tags as :func:`~cvxcontact.mesh.rectangle`; beta = gamma = 0 gives a uniform grid."""
+    ``gamma``). Tags as :func:`~cvxcontact.geometry.mesh.rectangle`; beta = gamma = 0 gives a uniform grid."""
     base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny)
     xi, eta = base.points[:, 0], base.points[:, 1]
     (x0, x1), (y0, y1) = x, y

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import MaterialError
+from ..errors import MaterialError
 
 __all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3"]
 

@@ -33,12 +33,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import materials
-from ..assembly import assemble_matrices
-from ..contact import CONDITIONS
-from ..mesh import rectangle
-from ..scene import Body, Scene
-from ..solve import ContactSolver
+from ...physics import materials
+from ...fem.assembly import assemble_matrices
+from ...contact.interface import CONDITIONS
+from ...geometry.mesh import rectangle
+from ...physics.scene import Body, Scene
+from ...solve import ContactSolver
 from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
 
 THEOREM = {"gamma3": ("Th. 1", 1.0), "sigma1": ("Th. 2", 0.75), "sigma2": ("Th. 2", 0.75)}

@@ -1,0 +1,6 @@
+"""Contact lines: the traces of two meshes on Gamma_3, their merged mesh, and the jump, evaluation
+(condition) and mass operators on it. Depends on meshes only, so a Scene validates its pair when built."""
+
+from .interface import CONDITIONS, Interface, lumped_lengths
+
+__all__ = ["CONDITIONS", "Interface", "lumped_lengths"]

@@ -1,0 +1,1 @@
+"""Input and output: scene files and their expression language, VTU/JSON output, figures."""

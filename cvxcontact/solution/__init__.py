@@ -1,0 +1,5 @@
+"""Solution: read-back in SI, lambda_h from the duals, and the checks of (26)-(27)."""
+
+from .solution import ContactResult, Solution
+
+__all__ = ["Solution", "ContactResult"]

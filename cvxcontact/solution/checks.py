@@ -1,0 +1,58 @@
+"""Checks of the mixed formulation (26)-(27), normalised where nothing can hide (docs/checks.md).
+
+All in scaled units, dimensionless, reported by :meth:`cvxcontact.Solution.residuals`:
+
+    equilibrium      max over bodies k of || r_k || / || |A_k| |x_k| + |F_k| + |J_k^T| |M lambda_h| ||   (26)
+    feasibility      max over constrained nodes a of (E [u_nu] - g)_a^+ / U_a
+    complementarity  max over a of sqrt( y_a |(E [u_nu] - g)_a| / (Y U_a) )                           (27)
+    cone             max over a of max(-y_a, 0) / Y          (the multiplier lies in Lambda_h)
+
+with r_k the residual of body k's rows of (26), U_a the displacement scale of node a
+(both bodies' normal displacements there plus the gap) and Y the largest contact force.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["checks", "ipm_active", "node_scales"]
+
+
+def node_scales(parts, g):
+    """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
+    displacement scale U_a: the sizes of both parts there plus the gap (floored at 1e-9 of the largest)."""
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def ipm_active(parts, g, y):
+    """Active rows of an interior-point answer: the force, relative to the largest contact force,
+    beats the open gap relative to the row's displacement scale (free of units and load scale)."""
+    slack, U = node_scales(parts, g)
+    return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
+
+
+def checks(blocks, u, phi, Mlam, E, g, y):
+    """The relative residuals of the mixed formulation, in scaled units (module docstring).
+
+    Each is normalised where nothing can hide: equilibrium per body by that body's own
+    row scales |A||x| + |F| + |J^T||M lambda_h|; feasibility, complementarity and cone
+    per constrained node by that node's displacement scale U_a (the sizes of both
+    bodies' normal displacements there and of the gap) and by the largest contact
+    force, never by the total load.
+    """
+    tiny = np.finfo(float).tiny
+    equilibrium = 0.0
+    for b, uk, pk in zip(blocks, u, phi):
+        r = np.concatenate(b.residual(uk, pk, Mlam))
+        m = np.concatenate(b.magnitude(uk, pk, Mlam))
+        equilibrium = max(equilibrium, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
+    slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g)
+    Y = max(float(np.abs(y).max(initial=0.0)), tiny)
+    return {
+        "equilibrium": equilibrium,
+        "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),
+        # the error this allows grows like the square root of the product (docs/checks.md): report that
+        "complementarity": float(np.sqrt((np.abs(y * slack) / (Y * U)).max(initial=0.0))),
+        "cone": float(np.maximum(-y, 0.0).max(initial=0.0) / Y),
+    }

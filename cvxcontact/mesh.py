@@ -47,9 +47,10 @@ class Mesh:
     ------
     MeshError
         On non-finite or badly shaped arrays, indices out of range, duplicate
-        or unused nodes, inverted or degenerate triangles, overlapping or
-        folded triangles (see :func:`_check_embedding`), or a tagged edge that
-        is not an edge on the boundary of the triangulation.
+        or unused nodes, inverted or degenerate triangles, triangles that
+        overlap or fold over one another (each point of the body must be
+        covered once), or a tagged edge that is not an edge on the boundary of
+        the triangulation.
     """
 
     def __init__(self, points, triangles, boundaries=None):
@@ -58,8 +59,9 @@ class Mesh:
         _check_nodes(points, triangles)
         triangles = _orient(points, triangles)
         self._points, self._triangles = _frozen(points, float), _frozen(triangles, np.int64)
-        keys, edges = _boundary_edges(self._triangles, len(points))
-        _check_embedding(self._points, self._triangles, edges)
+        table = _edge_table(self._triangles, len(points))
+        keys, edges = _boundary_edges(self._triangles, len(points), table)
+        _check_embedding(self._points, self._triangles, edges, table)
         self._boundary_keys, self._boundary_edges = _frozen(keys, np.int64), _frozen(edges, np.int64)
         self._tags = {}
         for tag, tagged in (boundaries or {}).items():
@@ -253,20 +255,29 @@ def _orient(points, triangles):
     return triangles
 
 
-def _boundary_edges(triangles, n):
-    """Sorted keys and oriented node pairs of the edges that belong to exactly one triangle."""
+def _edge_table(triangles, n):
+    """Directed edges (3 per triangle, row 3 t + i), their sorted undirected keys, the sorting
+    permutation, and the start and length of each run of equal keys."""
     edges = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    keys = np.sort(edges, axis=1) @ np.array([n, 1])
-    uniq, first, count = np.unique(keys, return_index=True, return_counts=True)
+    keys = np.minimum(edges[:, 0], edges[:, 1]) * n + np.maximum(edges[:, 0], edges[:, 1])
+    order = np.argsort(keys, kind="stable")
+    keys = keys[order]
+    start = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    return edges, keys, order, start, np.diff(np.r_[start, len(keys)])
+
+
+def _boundary_edges(triangles, n, table=None):
+    """Sorted keys and oriented node pairs of the edges that belong to exactly one triangle."""
+    edges, keys, order, start, count = table if table is not None else _edge_table(triangles, n)
     if (count > 2).any():
-        k = int(first[np.argmax(count > 2)])
+        k = int(order[start[np.argmax(count > 2)]])
         raise MeshError(f"an edge is shared by more than two triangles (nodes {edges[k].tolist()}, triangle "
                         f"{k // 3} and others): the mesh is not a manifold; expected at most two per edge")
-    once = count == 1
-    return uniq[once], edges[first[once]]
+    once = start[count == 1]
+    return keys[once], edges[order[once]]
 
 
-def _check_embedding(points, triangles, boundary):
+def _check_embedding(points, triangles, boundary, table):
     """Refuse triangles that overlap or fold over one another.
 
     With every triangle counter-clockwise and non-degenerate and every edge in at
@@ -297,13 +308,12 @@ def _check_embedding(points, triangles, boundary):
     (d), and O(loops x boundary edges) for (e).
     """
     n = len(points)
-    edges = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    keys = np.sort(edges, axis=1) @ np.array([n, 1])
-    _, inverse, count = np.unique(keys, return_inverse=True, return_counts=True)
-    forward = np.bincount(inverse, weights=edges[:, 0] < edges[:, 1], minlength=len(count))
-    same = (count == 2) & (forward != 1)                                           # (a)
+    edges, _, order, start, count = table
+    forward = edges[:, 0] < edges[:, 1]
+    pair = start[count == 2]
+    same = forward[order[pair]] == forward[order[pair + 1]]                        # (a)
     if same.any():
-        k = int(np.argmax(same[inverse]))
+        k = int(order[pair[np.argmax(same)]])
         raise MeshError(f"triangle {k // 3} (nodes {triangles[k // 3].tolist()}) overlaps its neighbour across "
                         f"edge {edges[k].tolist()}: both triangles lie on the same side of it; expected "
                         "neighbours on opposite sides")
@@ -321,11 +331,13 @@ def _check_embedding(points, triangles, boundary):
 
 def _check_angles(points, triangles, boundary):
     n = len(points)
-    p = points[triangles]                                            # (m, 3, 2)
-    u = np.roll(p, -1, axis=1) - p                                   # to the next corner
-    w = np.roll(p, 1, axis=1) - p                                    # to the previous corner
-    angle = np.arctan2(u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0], (u * w).sum(axis=2))
-    total = np.bincount(triangles.ravel(), weights=angle.ravel(), minlength=n)
+    x, y = points[:, 0][triangles], points[:, 1][triangles]         # (m, 3) corner coordinates
+    total = np.zeros(n)
+    for i in range(3):                                               # angle at corner i of each triangle
+        j, k = (i + 1) % 3, (i + 2) % 3
+        ux, uy, wx, wy = x[:, j] - x[:, i], y[:, j] - y[:, i], x[:, k] - x[:, i], y[:, k] - y[:, i]
+        total += np.bincount(triangles[:, i], weights=np.arctan2(ux * wy - uy * wx, ux * wx + uy * wy),
+                             minlength=n)
     expected = np.full(n, 2 * np.pi)
     v, w_node = boundary[:, 0], boundary[:, 1]
     u_node = np.empty(n, dtype=np.int64)

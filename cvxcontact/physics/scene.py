@@ -98,6 +98,8 @@ class Body:
         if not self.clamped:
             raise SceneError(f"{self.name}: no clamped boundary (Gamma_1 is empty); the body could move "
                              "rigidly and its stiffness is singular")
+        self._check_components(self.clamped, "touches no clamped part: nothing holds it (contact is "
+                               "unilateral) and its position is undetermined")
         contact_nodes = self.mesh.boundary_nodes([self.contact])
         if np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
             raise SceneError(f"{self.name}: every node of the contact part {self.contact!r} is clamped; "
@@ -106,6 +108,8 @@ class Body:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
                                  "(Gamma_a is empty); its potential is undetermined")
+            self._check_components(self.grounded + list(self.potential),
+                                   "touches no grounded or driven electrode: its potential is undetermined")
             _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
                       + [("surface_charge", t) for t in self.surface_charge])
         else:
@@ -113,6 +117,24 @@ class Body:
             if electric:
                 raise SceneError(f"{self.name}: elastic material {self.material.name!r} carries no electric "
                                  "unknowns; remove grounded / potential / surface_charge / volume_charge")
+
+    def _check_components(self, tags, problem):
+        """Every connected piece of the mesh (``Mesh.components``) has an edge on one of ``tags``."""
+        mesh = self.mesh
+        count = int(mesh.components.max()) + 1
+        if count == 1:
+            return
+        touched = np.zeros(count, dtype=bool)
+        touched[mesh.node_components[mesh.boundary_nodes(tags)]] = True
+        if touched.all():
+            return
+        c = int(np.argmin(touched))
+        inside = mesh.components == c
+        area = mesh.areas[inside]
+        centroid = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
+        raise SceneError(f"{self.name}: mesh component {c} ({int(inside.sum())} triangles, centroid at "
+                         f"({centroid[0]:.4g}, {centroid[1]:.4g}) m) {problem}; expected every one of the "
+                         f"{count} separate pieces of the mesh to touch one of {tags}")
 
 
 def _disjoint(body, roles):

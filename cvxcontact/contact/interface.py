@@ -36,8 +36,8 @@ class Trace:
             raise SceneError(f"{label} is not a straight segment parallel to the x1-axis")
         nodes = np.unique(edges)
         order = np.argsort(mesh.points[nodes, 0])
-        self.nodes = nodes[order]
-        self.x = mesh.points[self.nodes, 0]
+        self.nodes = _frozen(nodes[order])
+        self.x = _frozen(mesh.points[self.nodes, 0])
         self.y = float(np.mean(mesh.points[self.nodes, 1]))
         if np.ptp(mesh.points[self.nodes, 1]) > tol:
             raise SceneError(f"{label} is not a straight segment parallel to the x1-axis "
@@ -70,7 +70,8 @@ class Interface:
                 "contact parts do not cover the same segment (the endpoints must be shared): "
                 f"{bodies[0].name} spans [{t1.x[0]:.9g}, {t1.x[-1]:.9g}] m, "
                 f"{bodies[1].name} spans [{t2.x[0]:.9g}, {t2.x[-1]:.9g}] m")
-        self.x, self.sigma = _merge(t1.x, t2.x, tol)
+        x, sigma = _merge(t1.x, t2.x, tol)
+        self.x, self.sigma = _frozen(x), tuple(_frozen(s) for s in sigma)
         self.y = t1.y
         self.mass = _mass(self.x)
         self._interp = [_interpolation(self.x, t.x) for t in self.traces]
@@ -97,6 +98,13 @@ class Interface:
         rows = np.arange(self.size) if condition == "gamma3" else self.sigma[int(condition[-1]) - 1]
         return sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)), shape=(len(rows), self.size))
 
+
+
+def _frozen(a) -> np.ndarray:
+    """A read-only copy: the interface's arrays are shared by every solve and must not change."""
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
 
 
 def lumped_lengths(x) -> np.ndarray:

@@ -135,6 +135,9 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     on[E.indices[active]] = True
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
                             constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement)
+    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
+              ("x", "lam", "jump", "force", "constrained", "active", "gap"))]:
+        a.setflags(write=False)                 # results are data: read-only, never silently edited
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
                     status=problem.status if problem is not None else cp.OPTIMAL, problem=problem, tol=tol,
                     polished=polished,

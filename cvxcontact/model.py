@@ -205,7 +205,7 @@ class Model:
         self._own(expr, what)
         if not expr.is_convex():
             raise SceneError(f"{what} is not convex (DCP); only convex terms can be minimised")
-        self._objective.append(cp.reshape(expr, ()) / (self.units.force * self.units.displacement))
+        self._objective.append(cp.reshape(expr, (), order="C") / (self.units.force * self.units.displacement))
 
     # ---- solve --------------------------------------------------------------------------------
     def _x(self):

@@ -16,6 +16,7 @@ from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, 
 from .geometry.mesh import Mesh, read_mesh, rectangle
 from .physics.scene import Body, Scene
 from .solve import ContactResult, ContactSolver, Solution, solve
+from .model import Model
 
 __version__ = "0.1.0"
 
@@ -23,6 +24,6 @@ __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
     "Body", "Scene",
-    "solve", "ContactSolver", "Solution", "ContactResult",
+    "solve", "ContactSolver", "Solution", "ContactResult", "Model",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
 ]

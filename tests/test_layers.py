@@ -7,7 +7,8 @@ import pytest
 
 import cvxcontact
 
-LAYERS = ["errors", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve", "io", "apps"]
+LAYERS = ["errors", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve", "model", "io",
+          "apps"]
 ROOT = Path(cvxcontact.__file__).parent
 MODULES = sorted(p for p in ROOT.rglob("*.py") if p != ROOT / "__init__.py")
 

@@ -44,15 +44,31 @@ class ContactModel:
             self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
         jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
         self.contact = jump <= gap_rows
-        self.problem = cp.Problem(cp.Minimize(energy), [c for c in self.gauss if c is not None] + [self.contact])
+        self.energy = energy
+        self.constraints = [c for c in self.gauss if c is not None] + [self.contact]
+        self.problem = cp.Problem(cp.Minimize(energy), self.constraints)
+
+    def with_terms(self, constraints=(), objective=None) -> cp.Problem:
+        """A new problem: this model's energy plus ``objective`` (a convex scalar expression of the
+        scaled variables, dimensionless) subject to its constraints plus ``constraints`` (the hook
+        of :class:`cvxcontact.Model`). ``self.problem`` is left as it is."""
+        energy = self.energy if objective is None else self.energy + objective
+        return cp.Problem(cp.Minimize(energy), self.constraints + list(constraints))
 
 
-def mixed_kkt(blocks, E, g):
+def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
     """``kkt(active)`` for the exact finish of the full model: the sparse mixed system (26)
 
     [[A, G^T], [G, 0]] [x; y_A] = [F; g_A] with, per body, A = [[Kuu, Kup], [Kup^T, -Kpp]],
     F = [f; -q] (Gauss rows negated, which makes it symmetric) and G the active rows of E [u_nu].
+
+    With extra linear rows ``rows`` C x <= ``bound`` d (sparse (m, n), x = [u_1; phi_1; u_2; ...]
+    the scaled free dofs, as in :class:`ContactModel`) and a linear objective gradient ``load``
+    (n,), see :func:`mixed_kkt_rows`: ``kkt(active, active_rows)`` then also returns their
+    multipliers and slacks.
     """
+    if rows is not None or load is not None:
+        return mixed_kkt_rows(blocks, E, g, rows, bound, load)
     parts = [quasi_definite(b) for b in blocks]
     A = sp.block_diag([S for S, _ in parts])
     rhs = np.concatenate([F for _, F in parts])
@@ -81,5 +97,87 @@ def mixed_kkt(blocks, E, g):
             pos += nu + npf
         slack = G_all @ z[:n] - g
         return (u, phi, y), y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
+
+    return kkt
+
+
+def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
+    """``kkt(active, active_rows)``: (26) with extra linear rows C x <= d and a linear load term.
+
+    Stationarity of the phi-form program with multipliers z >= 0 of C x <= d and an added
+    objective c^T x (all scaled), the Gauss multiplier eliminated, reads per body
+
+        Kuu u + Kup phi + Kup w + J^T E^T y + C_u^T z = f - c_u      (momentum rows of (26))
+        Kup^T u - Kpp phi                              = -q          (Gauss rows of (26))
+        Kpp w - C_phi^T z                              = c_phi       (w = Kpp^-1 (C_phi^T z + c_phi))
+
+    (a row on phi acts on the momentum through the coupling: phi = Kpp^-1 (q + Kup^T u)). The
+    active contact rows and active extra rows are closed (E [u_nu] = g, C x = d); the extra rows
+    are normalised to unit norm inside the solve. Returns ((u, phi, y, z), slack, row_slack) or None
+    if the system is singular.
+    """
+    parts = [quasi_definite(b) for b in blocks]
+    A = sp.block_diag([S for S, _ in parts]).tocsr()
+    F = np.concatenate([F for _, F in parts])
+    n = A.shape[0]
+    sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
+    G_all = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], n_phi))])
+                       for b, (_, n_phi) in zip(blocks, sizes)]).tocsr()
+    C = sp.csr_matrix((0, n)) if C is None else sp.csr_matrix(C)
+    d = np.zeros(C.shape[0]) if d is None else np.asarray(d, dtype=float)
+    c = np.zeros(n) if load is None else np.asarray(load, dtype=float)
+    norms = np.sqrt(np.asarray(C.multiply(C).sum(axis=1)).ravel())
+    norms = np.where(norms > 0, norms, 1.0)
+    Cn, dn = sp.diags(1.0 / norms) @ C, d / norms
+    # Lw: Kup blocks from w to the momentum rows; Rw: picks the phi entries of x; Mu: the u entries
+    lr, lc, lv, rr, rc, kpp, mu, pos, nw = [], [], [], [], [], [], np.zeros(n), 0, 0
+    for b, (nu, npf) in zip(blocks, sizes):
+        mu[pos:pos + nu] = 1.0
+        if npf:
+            K = b.Kup.tocoo()
+            lr.append(K.row + pos)
+            lc.append(K.col + nw)
+            lv.append(K.data)
+            rr.append(np.arange(npf) + nw)
+            rc.append(np.arange(npf) + pos + nu)
+            kpp.append(b.Kpp)
+            nw += npf
+        pos += nu + npf
+    cat = lambda a, dt=float: np.concatenate(a).astype(dt) if a else np.zeros(0, dtype=dt)  # noqa: E731
+    Lw = sp.csr_matrix((cat(lv), (cat(lr, int), cat(lc, int))), shape=(n, nw))
+    Rw = sp.csr_matrix((np.ones(nw), (cat(rr, int), cat(rc, int))), shape=(nw, n))
+    Kw = sp.block_diag(kpp).tocsr() if kpp else sp.csr_matrix((0, 0))
+    Mu = sp.diags(mu)
+
+    def kkt(active, active_rows):
+        Ga, Ca = G_all[active], Cn[active_rows]
+        K = sp.bmat([[A, Lw, Ga.T, Mu @ Ca.T],
+                     [None, Kw, None, -(Rw @ Ca.T)],
+                     [Ga, None, None, None],
+                     [Ca, None, None, None]], format="csc",
+                    ) if nw else sp.bmat([[A, Ga.T, Mu @ Ca.T], [Ga, None, None], [Ca, None, None]], format="csc")
+        rhs = np.concatenate([F - mu * c, Rw @ c, g[active], dn[active_rows]])
+        if K.shape[0] != len(rhs):   # an empty block dropped by bmat
+            return None
+        try:
+            lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A")
+        except RuntimeError:
+            return None
+        zz = lu.solve(rhs)
+        for _ in range(2):
+            zz += lu.solve(rhs - K @ zz)
+        if not np.isfinite(zz).all():
+            return None
+        x = zz[:n]
+        y = np.zeros(E.shape[0])
+        y[active] = zz[n + nw:n + nw + int(active.sum())]
+        z = np.zeros(C.shape[0])
+        z[active_rows] = zz[n + nw + int(active.sum()):] / norms[active_rows]
+        u, phi, p = [], [], 0
+        for nu, npf in sizes:
+            u.append(x[p:p + nu])
+            phi.append(x[p + nu:p + nu + npf] if npf else None)
+            p += nu + npf
+        return (u, phi, y, z), G_all @ x - g, C @ x - d
 
     return kkt

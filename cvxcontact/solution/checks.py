@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["checks", "ipm_active", "node_scales"]
+__all__ = ["checks", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
 
 
 def node_scales(parts, g):
@@ -56,3 +56,54 @@ def checks(blocks, u, phi, Mlam, E, g, y):
         "complementarity": float(np.sqrt((np.abs(y * slack) / (Y * U)).max(initial=0.0))),
         "cone": float(np.maximum(-y, 0.0).max(initial=0.0) / Y),
     }
+
+
+def equilibrium_with(blocks, u, phi, Mlam, forces):
+    """The equilibrium check of :func:`checks` with extra generalised forces on the momentum rows.
+
+    ``forces[k]`` is (t_u, m_u) for body k: the extra term of its momentum rows of (26) (e.g. user
+    constraints' multipliers times their rows, scaled) and its size |C_u^T| |z| + ..., added to the
+    residual and to the row scales respectively.
+    """
+    tiny = np.finfo(float).tiny
+    out = 0.0
+    for b, uk, pk, (t, m_extra) in zip(blocks, u, phi, forces):
+        ru, rp = b.residual(uk, pk, Mlam)
+        mu, mp = b.magnitude(uk, pk, Mlam)
+        r = np.concatenate([ru + t, rp])
+        m = np.concatenate([mu + m_extra, mp])
+        out = max(out, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
+    return out
+
+
+def row_scales(C, x, c0):
+    """Per-row scale |C| |x| + |c0| of the rows C x + c0 (the sizes of the terms each row balances),
+    floored at 1e-9 of the largest, and the Euclidean norm of each row of C (1 for an empty row)."""
+    S = abs(C) @ np.abs(x) + np.abs(c0)
+    S = np.maximum(S, 1e-9 * S.max(initial=0.0) + np.finfo(float).tiny)
+    norms = np.sqrt(np.asarray(abs(C).power(2).sum(axis=1)).ravel())
+    return S, np.where(norms > 0, norms, 1.0)
+
+
+def row_checks(slack, S, z, norms, Z, equality=False):
+    """(feasibility, complementarity, cone) of constraint rows slack = C x + c0 <= 0 (or == 0).
+
+    Normalised per row like the contact checks: feasibility max (slack_i)^+ / S_i (|slack_i| for an
+    equality), complementarity max sqrt(z_i |slack_i| / (Z S_i / |C_i|)) and cone max (-z_i)^+ |C_i| / Z,
+    with S_i the row's scale (:func:`row_scales`) and Z the largest multiplier of all constraint rows
+    measured as a force, z_i |C_i| (the row normalised to unit norm). Equality rows have no sign:
+    complementarity and cone are 0.
+    """
+    Z = max(float(Z), np.finfo(float).tiny)
+    feas = (np.abs(slack) if equality else np.maximum(slack, 0.0)) / S
+    if equality:
+        return float(feas.max(initial=0.0)), 0.0, 0.0
+    comp = np.sqrt(np.abs(z * slack) * norms / (Z * S))
+    cone = np.maximum(-z, 0.0) * norms / Z
+    return float(feas.max(initial=0.0)), float(comp.max(initial=0.0)), float(cone.max(initial=0.0))
+
+
+def rows_active(slack, S, z, norms, Z):
+    """Active rows of an interior-point answer by the rule of :func:`ipm_active`: the force z_i |C_i|
+    relative to Z beats the open slack relative to the row's scale S_i."""
+    return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S

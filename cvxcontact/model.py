@@ -1,0 +1,384 @@
+"""The contact problem as an open convex program in physical units: :class:`Model`.
+
+``cc.solve`` poses and solves the phi-form program of docs/formulation.md §2 (the paper's
+(26)-(27) as a convex QP). :class:`Model` poses the same program and hands its unknowns to
+the caller as CVXPY expressions in SI units, so that constraints and convex objective terms
+can be added before solving:
+
+    model = cc.Model(scene, condition="gamma3")
+    U = model.u(1)                       # (n_nodes, 2) displacements, m (clamped dofs 0)
+    P = model.phi(0)                     # (n_nodes,) potentials, V (electrodes included)
+    model.add(U[k, 1] >= -1e-4)          # a user constraint, in metres
+    model.add_objective(expr)            # a convex term in J/m (per unit thickness)
+    sol = model.solve()
+
+Internally the variables stay the scaled free dofs of
+:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...], dimensionless):
+
+    u_SI   = U (P_k u_k)                 P_k: (2n, n_free) selection, clamped dofs 0, U = units.displacement
+    phi_SI = phi_D + Phi (Q_k phi_k)     phi_D: electrode potentials (V), Phi = units.potential
+
+and user objective terms are divided by the energy unit W = units.force * units.displacement
+(J/m). With user constraints C x + c0 <= 0 (multipliers z >= 0, CVXPY's sign convention:
+Lagrangian + z^T (C x + c0)), the momentum rows of (26) become
+
+    Kuu u + Kup phi + J^T E^T y + C_u^T z + Kup Kpp^{-1} C_phi^T z = f       (26) with user rows
+
+(a row on phi acts through the coupling, phi = Kpp^{-1} (q + Kup^T u)), and the checks of
+:mod:`cvxcontact.solution.checks` use this residual; each user constraint reports its own
+feasibility and complementarity (27), normalised per row. With linear user terms only,
+the exact finish solves that mixed system on the active set of all inequality rows
+(contact and user) and corrects it by primal-dual active-set steps.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+
+import cvxpy as cp
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .backends.finish import SIGN_TOL
+from .backends.full import ContactModel, mixed_kkt
+from .discrete import Block, units
+from .errors import ResidualWarning, SceneError
+from .fem.assembly import assemble
+from .physics.scene import Body, Scene
+from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
+from .solution.solution import Solution, read_back
+from .solve import DEFAULT_TOL, _run
+
+__all__ = ["Model"]
+
+_MAX_STEPS = 20
+
+
+class Model:
+    """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
+
+    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``); all are
+    checked before anything is assembled.
+
+    Methods
+    -------
+    u(body), phi(body), jump()
+        CVXPY expressions of the unknowns in m and V (see the module docstring).
+    add(item), add_objective(expr)
+        User constraints (``==``, ``<=``, ``>=`` of the model's expressions, in SI) and convex
+        objective terms (J/m). Items are kept; later solves include them.
+    solve()
+        Solve; returns a fresh :class:`~cvxcontact.Solution` with ``problem`` the program
+        actually solved and the checks including the user terms.
+
+    Raises
+    ------
+    SceneError
+        ``scene`` is not a Scene, ``condition`` is unknown, a body index is unknown, or a
+        user term is not built from this model's expressions or is not convex (DCP).
+    SolverError
+        A bad solver parameter or option, or the solver failed.
+    """
+
+    def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
+                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+        from .backends.options import check_solve_parameters, check_solver, check_solver_options
+
+        if not isinstance(scene, Scene):
+            raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
+        self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
+        self.solver = check_solver(solver)
+        self.options = check_solver_options(solver_options, self.solver)
+        self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
+        t0 = time.perf_counter()
+        itf = scene.interface
+        self.E = itf.evaluation(condition)
+        self.systems = [assemble(b) for b in scene.bodies]
+        gap = scene.gap_values()
+        self.units = un = units(scene, self.systems, gap)
+        self._gap = gap / un.displacement
+        self._g = self.E @ self._gap
+        self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
+                       for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
+        self._contact = ContactModel(self.blocks, self.E, self._g)
+        self._setup = {"assembly": time.perf_counter() - t0}
+        # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
+        self._vars, pos = [], 0
+        for u, p in zip(self._contact.u, self._contact.phi):
+            for v in (u, p):
+                if v is not None:
+                    self._vars.append((v, pos))
+                    pos += v.size
+        self._n = pos
+        self._ids = {v.id for v, _ in self._vars}
+        self._u_expr, self._phi_expr = {}, {}
+        self.constraints: list[cp.Constraint] = []
+        self._objective: list[cp.Expression] = []     # scaled (divided by the energy unit)
+
+    # ---- the unknowns in SI -------------------------------------------------------------------
+    def _index(self, body) -> int:
+        bodies = self.scene.bodies
+        if isinstance(body, Body):
+            for k, b in enumerate(bodies):
+                if b is body:
+                    return k
+            raise SceneError(f"body {body!r} is not a body of this model's scene")
+        if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(bodies):
+            raise SceneError(f"body must be 0 or 1 (the body's index) or one of the scene's Body objects, "
+                             f"got {body!r}")
+        return int(body)
+
+    def u(self, body) -> cp.Expression:
+        """Nodal displacements of ``body`` (index 0/1 or the Body), an (n_nodes, 2) expression in m;
+        the clamped dofs (Gamma_1) are the constant 0."""
+        k = self._index(body)
+        if k not in self._u_expr:
+            s, n = self.systems[k], len(self.scene.bodies[k].mesh.points)
+            P = sp.csr_matrix((np.ones(len(s.u_free)), (s.u_free, np.arange(len(s.u_free)))),
+                              shape=(2 * n, len(s.u_free)))
+            self._u_expr[k] = self.units.displacement * cp.reshape(P @ self._contact.u[k], (n, 2), order="C")
+        return self._u_expr[k]
+
+    def phi(self, body) -> cp.Expression | None:
+        """Nodal potentials of ``body``, an (n_nodes,) expression in V with the electrode potentials
+        (Gamma_a, grounded parts) as constants; None for an elastic body."""
+        k = self._index(body)
+        s = self.systems[k]
+        if not s.piezoelectric:
+            return None
+        if k not in self._phi_expr:
+            n = len(self.scene.bodies[k].mesh.points)
+            Q = sp.csr_matrix((np.ones(len(s.phi_free)), (s.phi_free, np.arange(len(s.phi_free)))),
+                              shape=(n, len(s.phi_free)))
+            self._phi_expr[k] = s.phi_fixed + self.units.potential * (Q @ self._contact.phi[k])
+        return self._phi_expr[k]
+
+    def jump(self) -> cp.Expression:
+        """[u_nu] at the merged contact nodes (``scene.interface.x``), m; <= gap where constrained."""
+        return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
+
+    # ---- user terms ---------------------------------------------------------------------------
+    def _own(self, expr, what):
+        ids = {v.id for v in expr.variables()}
+        if not ids:
+            raise SceneError(f"{what} involves none of this model's unknowns; build it from model.u(), "
+                             f"model.phi() or model.jump()")
+        if not ids <= self._ids:
+            names = sorted(v.name() for v in expr.variables() if v.id not in self._ids)
+            raise SceneError(f"{what} involves variables that are not this model's ({names}); build it "
+                             f"from model.u(), model.phi() or model.jump() of this Model")
+
+    def add(self, item):
+        """Add a user constraint (``==``, ``<=`` or ``>=`` of this model's expressions, SI units),
+        an objective term (``cp.Minimize(convex)`` / ``cp.Maximize(concave)``, J/m), or a list of
+        them. Returns ``item`` (keep a constraint to read its ``dual_value`` after solving)."""
+        if isinstance(item, (cp.Minimize, cp.Maximize)):
+            expr = item.args[0] if isinstance(item, cp.Minimize) else -item.args[0]
+            self.add_objective(expr)
+            return item
+        if isinstance(item, (list, tuple)):
+            for it in item:
+                self.add(it)
+            return item
+        if not isinstance(item, (cp.constraints.Inequality, cp.constraints.Equality)):
+            raise SceneError(f"model.add takes a constraint (==, <=, >=) or cp.Minimize/cp.Maximize of this "
+                             f"model's expressions, got {type(item).__name__}")
+        what = f"user constraint {len(self.constraints)} ({item})"
+        self._own(item.expr, what)
+        if not item.is_dcp():
+            raise SceneError(f"{what} is not convex (DCP): an inequality needs a convex left side and a "
+                             f"concave right side, an equality affine sides")
+        self.constraints.append(item)
+        return item
+
+    def add_objective(self, expr) -> None:
+        """Add a convex scalar objective term ``expr`` in J/m (per unit thickness) to the energy."""
+        if not isinstance(expr, cp.Expression):
+            raise SceneError(f"add_objective takes a CVXPY expression of this model's unknowns, "
+                             f"got {type(expr).__name__}")
+        what = f"user objective term {len(self._objective)}"
+        if expr.size != 1:
+            raise SceneError(f"{what} must be a scalar (J/m), got shape {expr.shape}")
+        self._own(expr, what)
+        if not expr.is_convex():
+            raise SceneError(f"{what} is not convex (DCP); only convex terms can be minimised")
+        self._objective.append(cp.reshape(expr, (), order="C") / (self.units.force * self.units.displacement))
+
+    # ---- solve --------------------------------------------------------------------------------
+    def _x(self):
+        x = np.zeros(self._n)
+        for v, pos in self._vars:
+            x[pos:pos + v.size] = v.value
+        return x
+
+    def _rows(self, expr, x):
+        """(C, c0) with expr ~ C x + c0 at x (exact for an affine expr); C None if not differentiable."""
+        grad = expr.grad
+        m = expr.size
+        if grad is None or any(grad.get(v) is None for v in expr.variables()):
+            return None, None
+        blocks = []
+        for v, _ in self._vars:
+            G = grad.get(v)
+            blocks.append(sp.csr_matrix((m, v.size)) if G is None else sp.csr_matrix(G).T)
+        C = sp.hstack(blocks).tocsr()
+        return C, np.asarray(expr.value, dtype=float).flatten(order="F") - C @ x
+
+    def solve(self) -> Solution:
+        """Solve with the user terms; a fresh Solution in SI with checks that include them."""
+        timings = dict(self._setup)
+        self._setup = {}
+        t0 = time.perf_counter()
+        objective = sum(self._objective) if self._objective else None
+        problem = self._contact.with_terms(self.constraints, objective)
+        timings["model"] = time.perf_counter() - t0
+        _run(problem, self.solver, self.verbose, self.options)
+        timings["compile"] = problem.compilation_time or 0.0
+        timings["solve"] = problem.solver_stats.solve_time or 0.0
+        blocks, E, g = self.blocks, self.E, self._g
+        u = [v.value for v in self._contact.u]
+        phi = [v.value if v is not None else None for v in self._contact.phi]
+        y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+        x = self._x()
+        rows = []                                      # per user constraint: C, c0, z, equality
+        for c in self.constraints:
+            C, c0 = self._rows(c.expr, x)
+            z = np.asarray(c.dual_value, dtype=float).flatten(order="F")
+            rows.append((C, c0, z, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+        grad, lin = np.zeros(self._n), True
+        if objective is not None:
+            Cobj, _ = self._rows(objective, x)
+            grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
+            lin = objective.is_affine()
+        linear = lin and all(r[4] for r in rows)
+        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y)
+        polished, declined = False, ""
+        if self.polish and linear:
+            t0 = time.perf_counter()
+            out = self._finish(u, phi, y, rows, grad if objective is not None else None, active)
+            timings["polish"] = time.perf_counter() - t0
+            if isinstance(out, str):
+                declined = out
+            else:
+                u, phi, y, zs, active = out
+                polished = True
+                rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
+                x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
+        t0 = time.perf_counter()
+        sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
+                        active, polished, problem, self.tol, timings)
+        sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
+        sol.method = "full"
+        sol.path = "interior point + exact finish" if polished else "interior point"
+        if not linear:
+            sol.path += " (no exact finish: non-linear user terms)"
+        timings["read_back"] = time.perf_counter() - t0
+        if self.polish and linear and not polished:
+            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
+                          f"({declined}); the interior-point answer is kept (sol.polished is False):\n"
+                          f"{sol.report()}", ResidualWarning, stacklevel=2)
+        elif not sol.ok:
+            warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
+        return sol
+
+    def _contact_norms(self):
+        G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()
+        n = np.sqrt(np.asarray(G.power(2).sum(axis=1)).ravel())
+        return np.where(n > 0, n, 1.0)
+
+    def _finish(self, u, phi, y, rows, load, active):
+        """Exact finish with linear user rows: primal-dual active-set steps on the mixed system (26)
+        with the contact rows and the user inequality rows; returns (u, phi, y, [z_i], active) or
+        the reason it was declined."""
+        E, g, blocks = self.E, self._g, self.blocks
+        m = [len(r[1]) for r in rows]
+        if rows:
+            C = sp.vstack([r[0] for r in rows]).tocsr()
+            d = -np.concatenate([r[1] for r in rows])
+            z = np.concatenate([r[2] for r in rows])
+            eq = np.concatenate([np.full(k, r[3]) for k, r in zip(m, rows)])
+        else:
+            C, d, z, eq = sp.csr_matrix((0, self._n)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
+        if not rows and load is None:
+            base = mixed_kkt(blocks, E, g)
+
+            def kkt(ac, ar):
+                out = base(ac)
+                return None if out is None else ((*out[0], np.zeros(0)), out[2], np.zeros(0))
+        else:
+            kkt = mixed_kkt(blocks, E, g, rows=C, bound=d, load=load)
+        nc = self._contact_norms()
+        x = self._x()
+        S, norms = row_scales(C, x, d)
+        Z = max(float((y * nc).max(initial=0.0)), float((np.abs(z) * norms).max(initial=0.0)))
+        ar = eq | rows_active(C @ x - d, S, z, norms, Z)
+        ac = active.copy()
+        seen = set()
+        for _ in range(_MAX_STEPS):
+            out = kkt(ac, ar)
+            if out is None:
+                return "the mixed system on the active set is singular"
+            (uk, pk, yk, zk), sc, sr = out
+            xk = np.concatenate([a for ui, pi in zip(uk, pk) for a in ((ui,) if pi is None else (ui, pi))])
+            _, U = node_scales([E @ (b.jump @ ui) for b, ui in zip(blocks, uk)], g)
+            S, _ = row_scales(C, xk, d)
+            Z = max(float((yk * nc).max(initial=0.0)), float((np.abs(zk) * norms).max(initial=0.0)),
+                    np.finfo(float).tiny)
+            neg_c = ac & (yk * nc < -SIGN_TOL * Z)
+            neg_r = ar & ~eq & (zk * norms < -SIGN_TOL * Z)
+            bad_c = ~ac & (sc > SIGN_TOL * U)
+            bad_r = ~ar & (sr > SIGN_TOL * S)
+            if not (neg_c.any() or neg_r.any() or bad_c.any() or bad_r.any()):
+                off = np.cumsum([0] + m)
+                return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac
+            ac, ar = (ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r
+            key = ac.tobytes() + ar.tobytes()
+            if key in seen:
+                return "the active-set steps cycle"
+            seen.add(key)
+        return f"the active-set steps did not settle in {_MAX_STEPS} steps"
+
+    def _checks(self, base, u, phi, y, x, rows, grad):
+        """The checks of read_back with the user terms: equilibrium of (26) with the user forces,
+        and feasibility/complementarity of each user constraint, normalised per row."""
+        blocks, E = self.blocks, self.E
+        t = grad.copy()
+        tm = np.abs(grad)
+        for C, c0, z, _, _ in rows:
+            if C is None:
+                t[:] = np.nan
+                continue
+            t += C.T @ z
+            tm += abs(C).T @ np.abs(z)
+        forces, pos = [], 0
+        for b, uk, pk in zip(blocks, u, phi):
+            nu, npf = len(uk), (0 if pk is None else len(pk))
+            tu, mu = t[pos:pos + nu].copy(), tm[pos:pos + nu].copy()
+            if npf and np.any(t[pos + nu:pos + nu + npf] != 0):
+                w = spla.splu(b.Kpp.tocsc()).solve(t[pos + nu:pos + nu + npf])
+                tu += b.Kup @ w
+                mu += abs(b.Kup) @ np.abs(w)
+            forces.append((tu, mu))
+            pos += nu + npf
+        out = dict(base)
+        out["equilibrium"] = equilibrium_with(blocks, u, phi, E.T @ y, forces)
+        nc = self._contact_norms()
+        Z = float((y * nc).max(initial=0.0))
+        for C, c0, z, _, _ in rows:
+            if C is not None:
+                Z = max(Z, float((np.abs(z) * row_scales(C, x, c0)[1]).max(initial=0.0)))
+        for i, (C, c0, z, eq, _) in enumerate(rows):
+            if C is None:
+                out[f"user[{i}] feasibility"] = out[f"user[{i}] complementarity"] = float("nan")
+                continue
+            S, norms = row_scales(C, x, c0)
+            feas, comp, cone = row_checks(C @ x + c0, S, z, norms, Z, equality=eq)
+            out[f"user[{i}] feasibility"] = feas
+            if not eq:
+                out[f"user[{i}] complementarity"] = comp
+                out[f"user[{i}] cone"] = cone
+        return out

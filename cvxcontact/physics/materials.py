@@ -1,7 +1,8 @@
 """Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain.
 
 The 2D model plane is the crystal's (x1, x3) plane, poling axis x3 along +y.
-Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (shared/math.md §6):
+Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (docs/formulation.md §6,
+docs/materials.md §3):
 
     sigma = c eps - e^T E,     D = e eps + kappa E,     E = -grad(phi)
 
@@ -10,7 +11,7 @@ Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (shared/math.md §6
     kappa = diag(eps11, eps33)                           (F/m, clamped permittivities)
 
 ``c12`` enters only the out-of-plane stress sigma22 and is kept for output.
-Built-in constants: ``shared/materials.md`` (Berlincourt et al.; IEEE Std 176).
+Built-in constants: ``docs/materials.md`` §1 (Berlincourt et al.; IEEE Std 176).
 """
 
 from __future__ import annotations
@@ -128,7 +129,7 @@ def _matrix(a, shape, key, name, spd):
 
 
 def _table(name, c11, c12, c13, c33, c44, e31, e33, e15, eps11, eps33):
-    """Build a material from the units of shared/materials.md: GPa, C/m^2, multiples of EPS0."""
+    """Build a material from the units of docs/materials.md §1: GPa, C/m^2, multiples of EPS0."""
     return Piezoelectric(c11=c11 * 1e9, c12=c12 * 1e9, c13=c13 * 1e9, c33=c33 * 1e9, c44=c44 * 1e9,
                          e31=e31, e33=e33, e15=e15, eps11=eps11 * EPS0, eps33=eps33 * EPS0, name=name)
 

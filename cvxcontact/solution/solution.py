@@ -53,7 +53,7 @@ class ContactResult:
 class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
 
-    ``energy`` is the reduced coupled energy Pi(u_h) of shared/math.md §2 in J/m (per
+    ``energy`` is the reduced coupled energy Pi(u_h) of docs/formulation.md §2 in J/m (per
     unit thickness; with driven electrodes, up to the constant of the lifting).
     ``problem`` holds the interior-point values; with ``polished`` the arrays here
     are the exact finish. ``path`` says how the answer was reached: "interior point",

@@ -1,7 +1,8 @@
 """Exact finish: the interface contact problem as a linear complementarity problem (LCP).
 
-Condensed onto the contact rows (:class:`cvxcontact.discrete.Compliance`), the discrete
-contact problem (26)-(27) is, in the constrained rows a of E and scaled units,
+Condensed onto the contact rows (:class:`cvxcontact.backends.condensed.Compliance`;
+docs/formulation.md §7), the discrete contact problem (26)-(27) is, in the constrained
+rows a of E and scaled units,
 
     y >= 0,    s = d - W y <= 0,    y . s = 0                      (LCP)
 

@@ -1,6 +1,6 @@
 """The contact line Gamma_3: traces, merged mesh, jump and multiplier operators.
 
-Notation of shared/math.md §3-4. Sigma_h^l are the nodes of mesh l on Gamma_3; the
+Notation of docs/formulation.md §3-4. Sigma_h^l are the nodes of mesh l on Gamma_3; the
 merged mesh is their union, on which X_h (continuous P1) lives. With nodal
 displacements U_l of body l,
 
@@ -52,7 +52,7 @@ class Trace:
 
 
 class Interface:
-    """Geometry and operators of Gamma_3 for a pair of bodies (shared/math.md §3-4)."""
+    """Geometry and operators of Gamma_3 for a pair of bodies (docs/formulation.md §3-4)."""
 
     def __init__(self, bodies):
         scale = max(b.mesh.size for b in bodies)

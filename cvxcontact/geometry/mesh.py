@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
+from collections.abc import Iterable, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -53,7 +56,8 @@ class Mesh:
         the triangulation.
     """
 
-    def __init__(self, points, triangles, boundaries=None):
+    def __init__(self, points: ArrayLike, triangles: ArrayLike,
+                 boundaries: Mapping[str, ArrayLike] | None = None) -> None:
         points = _as_points(points)
         triangles = _as_triangles(triangles, len(points))
         _check_nodes(points, triangles)
@@ -67,7 +71,7 @@ class Mesh:
         for tag, tagged in (boundaries or {}).items():
             self._tags[str(tag)] = _frozen(self._orient_edges(str(tag), tagged), np.int64)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Mesh({len(self.points)} nodes, {len(self.triangles)} triangles, "
                 f"tags={list(self._tags)})")
 
@@ -81,7 +85,7 @@ class Mesh:
         """(m, 3) node indices of the counter-clockwise triangles (read-only)."""
         return self._triangles
 
-    def with_points(self, points) -> Mesh:
+    def with_points(self, points: ArrayLike) -> Mesh:
         """A new validated mesh with the same triangles and tags on new node coordinates (metres).
 
         For scaling or moving a mesh, e.g. ``mesh.with_points(1e-3 * mesh.points)``.
@@ -141,7 +145,7 @@ class Mesh:
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
 
-    def boundary_nodes(self, tags) -> np.ndarray:
+    def boundary_nodes(self, tags: Iterable[str]) -> np.ndarray:
         """Sorted unique node indices on the union of the parts named in ``tags``."""
         edges = [self.boundary(t) for t in tags]
         return np.unique(np.concatenate(edges)) if edges else np.zeros(0, dtype=int)
@@ -430,7 +434,8 @@ def _check_layers(points, boundary):
 
 # --------------------------------------------------------------------------- generators and readers
 
-def rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=8, ny=8, diagonal="alternate") -> Mesh:
+def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), nx: int = 8, ny: int = 8,
+              diagonal: str = "alternate") -> Mesh:
     """Structured triangulation of the rectangle ``x[0]..x[1]`` by ``y[0]..y[1]`` (metres).
 
     Each of the ``nx`` by ``ny`` cells is cut into two triangles. ``diagonal`` is
@@ -510,7 +515,8 @@ def _check_size(nx, ny):
                         "use fewer cells")
 
 
-def read_mesh(path, boundaries=None, region=None) -> Mesh:
+def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] | None = None,
+              region: str | int | None = None) -> Mesh:
     """Read a triangle mesh with meshio (gmsh ``.msh``, VTU, XDMF, ...).
 
     Boundary parts are the line cells, named by gmsh physical names (``field_data``)

@@ -11,11 +11,15 @@ import json
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
+
+if TYPE_CHECKING:
+    from ..solution.solution import Solution
 
 __all__ = ["write_vtu", "write_summary", "write_all", "summary", "atomic_write"]
 
@@ -129,7 +133,7 @@ def write_summary(solution, path):
     return atomic_write(path, lambda p: Path(p).write_text(text + "\n"))
 
 
-def write_all(solution, out, stem="solution"):
+def write_all(solution: Solution, out: str | os.PathLike[str], stem: str = "solution") -> list[Path]:
     """VTU files and the JSON summary of one solution into the folder ``out``."""
     try:
         paths = write_vtu(solution, out, stem)

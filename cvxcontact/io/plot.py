@@ -6,10 +6,18 @@ displacement magnification is stated in the title.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import SceneError
 from ..fem.fields import body_fields
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ..solution.solution import Solution
 
 __all__ = ["plot_deformed", "plot_contact", "magnification"]
 
@@ -33,7 +41,8 @@ def magnification(solution, fraction=0.1) -> float:
     return float(decade * max(m for m in (1, 2, 5) if m * decade <= raw))
 
 
-def plot_deformed(solution, field="von_mises", magnify=None, ax=None):
+def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float | None = None,
+                  ax: Axes | None = None) -> Figure:
     """Deformed meshes (displacement x ``magnify``) coloured by ``field``: "von_mises" or "potential".
 
     An elastic body has no potential and is drawn in grey on a potential plot.
@@ -78,7 +87,7 @@ def plot_deformed(solution, field="von_mises", magnify=None, ax=None):
     return fig
 
 
-def plot_contact(solutions):
+def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
     """lambda_h and [u_nu] along Gamma_3, one column per solution (e.g. per condition).
 
     ``solutions`` is a Solution or a dict label -> Solution. Returns the Figure.

@@ -36,6 +36,7 @@ names the file, the key and what was expected. Format (all SI units)::
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -107,7 +108,7 @@ def read_toml(path, what="scene file") -> dict:
         raise SceneFileError(f"{path}: not a valid TOML file: {exc}") from None
 
 
-def load_scene(path, allow_outside: bool = False) -> SceneFile:
+def load_scene(path: str | os.PathLike[str], allow_outside: bool = False) -> SceneFile:
     """Read and validate a scene file. Raises :class:`SceneFileError` naming file and key.
 
     Mesh files must lie in the scene file's folder or below it (after resolving ``..``

@@ -1,7 +1,8 @@
 """Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain.
 
 The 2D model plane is the crystal's (x1, x3) plane, poling axis x3 along +y.
-Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (shared/math.md §6):
+Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (docs/formulation.md §6,
+docs/materials.md §3):
 
     sigma = c eps - e^T E,     D = e eps + kappa E,     E = -grad(phi)
 
@@ -10,12 +11,13 @@ Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (shared/math.md §6
     kappa = diag(eps11, eps33)                           (F/m, clamped permittivities)
 
 ``c12`` enters only the out-of-plane stress sigma22 and is kept for output.
-Built-in constants: ``shared/materials.md`` (Berlincourt et al.; IEEE Std 176).
+Built-in constants: ``docs/materials.md`` §1 (Berlincourt et al.; IEEE Std 176).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MaterialError
 
@@ -35,8 +37,10 @@ class Piezoelectric:
 
     piezoelectric = True
 
-    def __init__(self, c11=None, c13=None, c33=None, c44=None, e31=None, e33=None, e15=None,
-                 eps11=None, eps33=None, c12=None, name="piezoelectric"):
+    def __init__(self, c11: float | None = None, c13: float | None = None, c33: float | None = None,
+                 c44: float | None = None, e31: float | None = None, e33: float | None = None,
+                 e15: float | None = None, eps11: float | None = None, eps33: float | None = None,
+                 c12: float | None = None, name: str = "piezoelectric") -> None:
         given = dict(c11=c11, c13=c13, c33=c33, c44=c44, e31=e31, e33=e33, e15=e15, eps11=eps11, eps33=eps33)
         missing = [k for k, v in given.items() if v is None]
         if missing:
@@ -53,7 +57,7 @@ class Piezoelectric:
         self._set(c, e, kappa, name, c12)
 
     @classmethod
-    def from_matrices(cls, c, e, kappa, name="piezoelectric"):
+    def from_matrices(cls, c: ArrayLike, e: ArrayLike, kappa: ArrayLike, name: str = "piezoelectric") -> Piezoelectric:
         """Material from plane matrices: ``c`` (3, 3) Pa, ``e`` (2, 3) C/m^2, ``kappa`` (2, 2) F/m."""
         obj = cls.__new__(cls)
         obj._set(c, e, kappa, name, None)
@@ -74,7 +78,7 @@ class Elastic:
 
     piezoelectric = False
 
-    def __init__(self, c, name="elastic", E=None, nu=None):
+    def __init__(self, c: ArrayLike, name: str = "elastic", E: float | None = None, nu: float | None = None) -> None:
         self.c = _matrix(c, (3, 3), "c", name, spd=True)
         self.name, self.E, self.nu = str(name), E, nu
 
@@ -82,7 +86,7 @@ class Elastic:
         return f"Elastic({self.name!r})"
 
 
-def isotropic(E, nu, name=None) -> Elastic:
+def isotropic(E: float, nu: float, name: str | None = None) -> Elastic:
     """Isotropic elastic material, Young's modulus ``E`` (Pa) and Poisson ratio ``nu``, plane strain."""
     label = name or f"isotropic(E={E:g}, nu={nu:g})" if _isnum(E) and _isnum(nu) else "isotropic"
     E, nu = _real(E, "E", label), _real(nu, "nu", label)
@@ -125,7 +129,7 @@ def _matrix(a, shape, key, name, spd):
 
 
 def _table(name, c11, c12, c13, c33, c44, e31, e33, e15, eps11, eps33):
-    """Build a material from the units of shared/materials.md: GPa, C/m^2, multiples of EPS0."""
+    """Build a material from the units of docs/materials.md §1: GPa, C/m^2, multiples of EPS0."""
     return Piezoelectric(c11=c11 * 1e9, c12=c12 * 1e9, c13=c13 * 1e9, c33=c33 * 1e9, c44=c44 * 1e9,
                          e31=e31, e33=e33, e15=e15, eps11=eps11 * EPS0, eps33=eps33 * EPS0, name=name)
 

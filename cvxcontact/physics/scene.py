@@ -8,9 +8,10 @@ paper, ``potential`` electrodes (phi = V), Gamma_b ``surface_charge`` (D nu = q2
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError, SceneError
 from ..contact.interface import Interface
@@ -44,8 +45,13 @@ class Body:
     name : str, optional
     """
 
-    def __init__(self, mesh, material, *, clamped, contact, grounded=(), potential=None, body_force=(0.0, 0.0),
-                 traction=None, surface_charge=None, volume_charge=0.0, name=None):
+    def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str],
+                 contact: str, grounded: str | Sequence[str] = (),
+                 potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
+                 body_force: Sequence[float] | Callable[..., ArrayLike] = (0.0, 0.0),
+                 traction: Mapping[str, Sequence[float] | Callable[..., ArrayLike]] | None = None,
+                 surface_charge: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
+                 volume_charge: float | Callable[..., ArrayLike] = 0.0, name: str | None = None) -> None:
         if not isinstance(mesh, Mesh):
             raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
@@ -254,7 +260,7 @@ class Scene:
     g < 0 is an initial interference (a prescribed approach), used for Hertz-type tests.
     """
 
-    def __init__(self, body1, body2, gap=0.0):
+    def __init__(self, body1: Body, body2: Body, gap: float | Callable[[np.ndarray], ArrayLike] = 0.0) -> None:
         for k, b in enumerate((body1, body2), start=1):
             if not isinstance(b, Body):
                 raise SceneError(f"Scene takes two Body objects; argument {k} is {type(b).__name__}")

@@ -53,7 +53,7 @@ class ContactResult:
 class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
 
-    ``energy`` is the reduced coupled energy Pi(u_h) of shared/math.md §2 in J/m (per
+    ``energy`` is the reduced coupled energy Pi(u_h) of docs/formulation.md §2 in J/m (per
     unit thickness; with driven electrodes, up to the constant of the lifting).
     ``problem`` holds the interior-point values; with ``polished`` the arrays here
     are the exact finish. ``path`` says how the answer was reached: "interior point",
@@ -77,7 +77,7 @@ class Solution:
     timings: dict = field(default_factory=dict)
     _checks: dict = field(default_factory=dict, repr=False)
 
-    def residuals(self) -> dict:
+    def residuals(self) -> dict[str, float]:
         """Relative residuals of the mixed formulation (26)-(27): see the module docstring."""
         return dict(self._checks)
 
@@ -86,7 +86,7 @@ class Solution:
         """True if the solver reported optimal and every check is below ``tol``."""
         return self.status == cp.OPTIMAL and all(v <= self.tol for v in self._checks.values())
 
-    def traction(self, k):
+    def traction(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Contact pressure as felt by body ``k`` (0 or 1): (x, p) on its own trace nodes.
 
         The merged nodal forces are moved to the nodes of body k's trace (the transpose

@@ -163,7 +163,7 @@ def run(out, quick=False, progress=None):
     write_csv(out / "stability_failures.csv", cases)
     _figure(rows, osc, out)
     text = ("# Stability\n\n## Discrete inf-sup constant beta_h\n\nElastic pair (steel on aluminium), "
-            "H^{-1/2} norm from a matching reference 8 times finer (see `cvxcontact/studies/stability.py`).\n\n"
+            "H^{-1/2} norm from a matching reference 8 times finer (see `cvxcontact/apps/studies/stability.py`).\n\n"
             + markdown_table(rows, ["study", "n1", "n2", "shift", "gamma3", "sigma1", "sigma2"],
                              {"shift": "g", "gamma3": ".4f", "sigma1": ".4f", "sigma2": ".4f"})
             + "\n## Oscillation of lambda_h (partial-contact scene)\n\nTV(lambda_h) / TV(lambda_ref).\n\n"

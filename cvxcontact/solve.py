@@ -12,11 +12,12 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
 
-from .backends import METHODS
+from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import lcp_start, row_scales, signs_hold, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
@@ -26,9 +27,11 @@ from .fem.assembly import assemble_loads, assemble_matrices
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import ipm_active
+from .solution.info import Finish, Route, SolveInfo, Status
 from .solution.solution import ContactResult, Solution, read_back
 
-__all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "DEFAULT_TOL", "METHODS"]
+__all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
+           "METHODS", "DEFAULT_METHOD"]
 
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
@@ -38,7 +41,7 @@ _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktrat
 
 
 
-def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = "full",
+def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
           solver_options: Mapping[str, object] | None = None) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
@@ -50,11 +53,15 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         Non-penetration on K_h(Gamma_3) (every merged node) or K_h(Sigma_h^l) (nodes of mesh l).
     solver : str
         A CVXPY solver name; Clarabel by default (with tolerances tightened to 1e-10).
-    method : {"full", "condensed"}
-        ``"full"`` (the reference) poses the whole phi-form model in CVXPY, so that
-        ``Solution.problem`` has the variables ``u1, phi1, u2, ...``. ``"condensed"``
-        (fast, exact) factorises each body once, condenses it onto its contact dofs
-        (:mod:`cvxcontact.backends.condensed`) and poses only the small interface QP in CVXPY.
+    method : {"auto", "full", "condensed"}
+        ``"auto"`` (default): the fastest backend that accepts the problem
+        (:func:`cvxcontact.backends.choose`); for the package's own problems (quadratic
+        energy, linear contact rows) that is ``"condensed"``. ``"full"`` (the reference)
+        poses the whole phi-form model in CVXPY, so that ``Solution.problem`` has the
+        variables ``u1, phi1, u2, ...``. ``"condensed"`` (fast, exact) factorises each body
+        once, condenses it onto its contact dofs (:mod:`cvxcontact.backends.condensed`) and
+        poses only the small interface QP in CVXPY. ``Solution.info.method`` names the
+        backend used.
     tol : float
         Tolerance of the mixed-formulation checks. A solution that fails them is
         returned with ``ok = False`` and a :class:`ResidualWarning`.
@@ -96,8 +103,9 @@ class ContactSolver:
 
     ``solve()`` solves the scene it was built with; ``solve(other)`` solves a scene
     that differs only in its loads (body forces, tractions, charges, electrode
-    potentials), reusing the assembled matrices and, with ``method="condensed"``,
-    the factorisations and interface stiffnesses. With ``warm_start`` (default) a
+    potentials, the gap: :data:`cvxcontact.physics.loads.LOAD_FIELDS` and ``SCENE_LOAD_FIELDS``),
+    reusing the assembled matrices and, with the condensed backend (what the default
+    ``method="auto"`` runs), the factorisations and interface stiffnesses. With ``warm_start`` (default) a
     further load case starts from the previous exact active set and is finished by
     active-set steps on the interface (a few dense solves of the size of the active
     set), falling back to the interior-point solve if they do not settle; it then
@@ -107,7 +115,7 @@ class ContactSolver:
     parameters as in :func:`solve`; all are checked before anything is assembled.
     """
 
-    def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = "full",
+    def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
@@ -119,7 +127,8 @@ class ContactSolver:
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
         self.E = scene.interface.evaluation(condition)
-        self.scene, self.condition, self.method = scene, condition, method
+        self.scene, self.condition, self.requested = scene, condition, method
+        self.method = choose(method, ProblemDescription())         # the backend actually run
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
@@ -145,15 +154,17 @@ class ContactSolver:
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
-        self.path, self.declined = "interior point", ""
+        self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
         u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
-        if polished and self.path == "interior point":
-            self.path = "interior point + exact finish"
+        if polished and self.path == Route.INTERIOR_POINT:
+            self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
         sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                          problem, self.tol, timings)
-        sol.method, sol.path = self.method, self.path
         timings["read_back"] = time.perf_counter() - t0
+        sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
+                           iterations=self.iterations, timings=timings,
+                           finish=Finish(self.finish_route) if polished and self.finish_route else None)
         if self.polish and not polished:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
@@ -191,13 +202,15 @@ class ContactSolver:
         timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
         if out is None:
             self.declined = "no active set satisfies the signs of the contact problem"
+        else:
+            self.finish_route = out[2]
         return out
 
     def _full(self, blocks, g, timings):
         t0 = time.perf_counter()
         model = ContactModel(blocks, self.E, g)
         timings["model"] = time.perf_counter() - t0
-        _run(model.problem, self.solver, self.verbose, self.options)
+        self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
         u = [v.value for v in model.u]
@@ -229,13 +242,13 @@ class ContactSolver:
         problem = None
         if out is not None:                                    # re-solve: the previous active set, corrected
             y, active, polished = out[0], out[1], True
-            self.path = "active-set warm start"
+            self.path, self.finish_route = Route.WARM_START, out[2]
         else:
             t0 = time.perf_counter()
             loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
             model = InterfaceModel(condensed, loads, self.E, g)
             timings["model"] = time.perf_counter() - t0
-            _run(model.problem, self.solver, self.verbose, self.options)
+            self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
             timings["compile"] = model.problem.compilation_time or 0.0
             timings["solve"] = model.problem.solver_stats.solve_time or 0.0
             y = np.asarray(model.contact.dual_value, dtype=float).ravel()
@@ -289,3 +302,4 @@ def _run(problem, solver, verbose, options):
                           f"{type(exc).__name__}: {exc}") from exc
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")
+    return int(getattr(problem.solver_stats, "num_iters", None) or 0)

@@ -101,7 +101,9 @@ def test_residual_report_below_tolerance(solutions, condition):
     sol = solutions[condition]
     res = sol.residuals()
     assert set(res) >= {"equilibrium", "feasibility", "complementarity", "cone"}
-    assert all(v < 1e-8 for v in res.values()), res
+    # complementarity is sqrt(y |slack| / (Y U)) (docs/checks.md): at rounding (product ~ a few eps) it
+    # reads ~1e-8, so it gets 1e-7 (product < 1e-14); the other three are linear and get 1e-8
+    assert all(v < (1e-7 if k == "complementarity" else 1e-8) for k, v in res.items()), res
     assert sol.ok and sol.status == "optimal"
     assert sol.contact.active.sum() > 0 and (~sol.contact.active[sol.contact.constrained]).sum() > 0
 
@@ -162,9 +164,9 @@ def test_contact_solver_reuses_factorisations_for_new_loads():
         solver.solve(two_blocks(n1=(8, 4)))
 
 
-def test_dual_of_gauss_law_is_minus_phi(solutions):
+def test_dual_of_gauss_law_is_minus_phi(scene):
     """math.md §2: the dual of Kpp phi - Kup^T u = q equals -phi (scaled units)."""
-    sol = solutions["gamma3"]
+    sol = cc.solve(scene, "gamma3", method="full")                # the full model has the variable phi1
     gauss = sol.problem.constraints[0]
     phi_var = [v for v in sol.problem.variables() if v.name() == "phi1"][0]
     assert rel(-gauss.dual_value, phi_var.value) < 1e-7
@@ -174,7 +176,7 @@ def test_user_can_add_constraint_and_resolve(scene):
     """The cvxpy.Problem is reachable and can be extended."""
     import cvxpy as cp
 
-    sol = cc.solve(scene, "gamma3")
+    sol = cc.solve(scene, "gamma3", method="full")
     u1 = [v for v in sol.problem.variables() if v.name() == "u1"][0]
     extra = cp.Problem(sol.problem.objective, sol.problem.constraints + [u1 <= 0])
     extra.solve(solver="CLARABEL")

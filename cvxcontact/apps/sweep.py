@@ -3,7 +3,7 @@
 A sweep file (TOML) names a base scene file and the cases, as overrides of its keys::
 
     scene = "two_blocks.toml"              # relative to the sweep file
-    method = "condensed"                   # optional (default "condensed"): see cvxcontact.solve
+    method = "auto"                        # optional (default "auto"): see cvxcontact.solve
     conditions = ["gamma3", "sigma1"]      # optional (default: the scene file's condition)
 
     [grid]                                 # optional: the cartesian product of these values
@@ -22,7 +22,8 @@ OUT/manifest.json lists every case and its state. All writes are atomic, so a
 sweep killed at any moment (even kill -9) loses at most the cases in flight; a
 rerun completes the missing ones and never touches a finished one.
 
-Cases that differ only in loads share a :class:`~cvxcontact.solve.ContactSolver`
+Cases that differ only in loads (:data:`cvxcontact.physics.loads.LOAD_FIELDS` of a body,
+``SCENE_LOAD_FIELDS`` of the scene: the gap) share a :class:`~cvxcontact.solve.ContactSolver`
 inside a worker, so they reuse its factorisations.
 """
 
@@ -47,11 +48,12 @@ from ..contact.interface import CONDITIONS
 from ..errors import CvxContactError
 from ..io.output import atomic_write, summary
 from ..io.scenefile import SceneFileError, read_toml, scene_from_data
-from ..backends import METHODS
+from ..backends import DEFAULT_METHOD, METHODS
+from ..physics.loads import LOAD_FIELDS, SCENE_LOAD_FIELDS
 
 __all__ = ["Case", "SweepError", "load_sweep", "run_sweep", "SweepReport"]
 
-_LOAD_KEYS = {"body_force", "traction", "surface_charge", "potential", "volume_charge"}
+_LOAD_KEYS = frozenset(LOAD_FIELDS + SCENE_LOAD_FIELDS)     # one definition: cvxcontact/physics/loads.py
 _TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]")
 
 
@@ -71,7 +73,7 @@ class Case:
     @property
     def geometry(self) -> str:
         """Key of everything but the loads: cases with equal keys can share factorisations."""
-        fixed = {k: v for k, v in self.overrides.items() if not (set(_path(k, "")) & _LOAD_KEYS)}
+        fixed = {k: v for k, v in self.overrides.items() if not _is_load(_path(k, ""))}
         return json.dumps([fixed, self.condition], sort_keys=True)
 
 
@@ -81,6 +83,16 @@ class Sweep:
     base: dict
     method: str
     cases: list = field(default_factory=list)
+
+
+def _is_load(tokens) -> bool:
+    """Whether a key path names a load: ``gap`` (SCENE_LOAD_FIELDS) or ``body[i].<LOAD_FIELDS>...``.
+
+    A changed set of driven-electrode tags is geometry; ContactSolver.accepts catches it (a case
+    whose fingerprint differs gets its own solver)."""
+    if tokens[0] in SCENE_LOAD_FIELDS:
+        return True
+    return tokens[0] == "body" and len(tokens) >= 3 and isinstance(tokens[1], int) and tokens[2] in LOAD_FIELDS
 
 
 def _path(key, where):
@@ -125,7 +137,7 @@ def load_sweep(path) -> Sweep:
         raise SweepError(f"{path}: scene: expected the path of a scene file (string)")
     scene_path = path.parent / data["scene"]
     base = read_toml(scene_path)
-    method = data.get("method", "condensed")
+    method = data.get("method", DEFAULT_METHOD)
     if method not in METHODS:
         raise SweepError(f"{path}: method: expected one of {list(METHODS)}, got {method!r}")
     conditions = data.get("conditions", [base.get("condition", "gamma3")])

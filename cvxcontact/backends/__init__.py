@@ -4,9 +4,81 @@
 ``condensed``  each body condensed exactly onto its contact unknowns, a small interface QP in CVXPY
 ``finish``     the exact finish: the interface LCP solved by scaled active-set steps (NNLS fallback)
 ``options``    validation of solver names and options before anything is assembled
+
+The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
+an ``accepts(problem) -> bool`` on a :class:`ProblemDescription`. ``method="auto"`` (the
+default) takes the first backend that accepts the problem (:func:`choose`).
 """
 
-METHODS = ("full", "condensed")
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from ..errors import SolverError
+
+__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose"]
+
+
+@dataclass(frozen=True)
+class ProblemDescription:
+    """What a backend needs to know about a problem to say whether it can solve it.
+
+    ``quadratic_energy``: the energy is the quadratic form of linear (piezo)elasticity.
+    ``linear_contact``: the contact constraints are linear rows E [u_nu] <= E g.
+    ``user_terms``: number of user-added objective terms or constraints (CVXPY expressions
+    on the body unknowns); the condensed backend eliminates the interior unknowns, so it
+    cannot take any.
+    """
+
+    quadratic_energy: bool = True
+    linear_contact: bool = True
+    user_terms: int = 0
+
+
+@dataclass(frozen=True)
+class Backend:
+    """A registered backend: its ``name`` (the ``method=`` value) and what it ``accepts``."""
+
+    name: str
+    accepts: Callable[[ProblemDescription], bool]
+    summary: str = ""
+
+
+def _condensed_accepts(p: ProblemDescription) -> bool:
+    return p.quadratic_energy and p.linear_contact and p.user_terms == 0
+
+
+BACKENDS: tuple[Backend, ...] = (
+    Backend("condensed", _condensed_accepts,
+            "exact condensation onto the contact dofs + interface QP + exact finish (fast)"),
+    Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)"),
+)
+"""The backends in speed order, fastest first."""
+
+DEFAULT_METHOD = "auto"
+"""The default ``method=``: the fastest backend that accepts the problem."""
+
+METHODS = ("auto",) + tuple(b.name for b in BACKENDS)
 """Backend names accepted by :func:`cvxcontact.solve` (``method=``)."""
 
-__all__ = ["METHODS"]
+
+def choose(method: str, problem: ProblemDescription | None = None) -> str:
+    """The backend to run for ``method`` on ``problem`` (default: the package's own problem).
+
+    ``"auto"`` gives the first backend of :data:`BACKENDS` that accepts ``problem``; a named
+    backend is returned if it accepts it. Raises :class:`~cvxcontact.errors.SolverError` for an
+    unknown name or a backend that does not accept the problem.
+    """
+    problem = ProblemDescription() if problem is None else problem
+    if method == "auto":
+        for b in BACKENDS:
+            if b.accepts(problem):
+                return b.name
+        raise SolverError(f"no backend accepts {problem}; backends: {[b.name for b in BACKENDS]}")
+    for b in BACKENDS:
+        if b.name == method:
+            if not b.accepts(problem):
+                raise SolverError(f"method {method!r} does not accept {problem}; use method='auto' or 'full'")
+            return b.name
+    raise SolverError(f"method must be one of {METHODS}, got {method!r}")

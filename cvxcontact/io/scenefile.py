@@ -11,7 +11,7 @@ names the file, the key and what was expected. Format (all SI units)::
     name = "CLARABEL"                         # any installed CVXPY solver
     tol = 1e-6                                # tolerance of the mixed-formulation checks
     polish = true                             # exact finish
-    method = "full"                           # or "condensed" (fast, exact)
+    method = "auto"                           # default: the fastest backend; or "full", "condensed"
     options = { max_iter = 100 }              # solver options (for Clarabel: names, types and
                                               # ranges of clarabel.DefaultSettings)
 
@@ -75,7 +75,7 @@ class SceneFile:
     solver: str = "CLARABEL"
     tol: float = 1e-6
     polish: bool = True
-    method: str = "full"
+    method: str = "auto"
     options: dict = field(default_factory=dict)
 
     @property
@@ -133,7 +133,7 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     name = solver.get("name", "CLARABEL")
     tol = solver.get("tol", 1e-6)
     polish = solver.get("polish", True)
-    method = solver.get("method", "full")
+    method = solver.get("method", "auto")
     options = ctx.table(solver.get("options", {}), "solver.options")
     if method not in METHODS:
         ctx.fail("solver.method", f"one of {list(METHODS)}", method)

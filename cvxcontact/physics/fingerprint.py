@@ -3,7 +3,10 @@
 ``geometry_fingerprint(body)`` hashes (blake2b) the mesh points (m) and triangles, every
 tagged boundary part with its edges, the material constants c (Pa), e (C/m^2) and
 kappa (F/m), and the names of the clamped, grounded, driven (potential) and contact
-parts. Loads are left out: they may change between solves of one ContactSolver.
+parts: the :data:`~cvxcontact.physics.loads.GEOMETRY_FIELDS` and the potential tags. The
+loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`: forces, tractions, charges, potential
+*values*) are left out: they may change between solves of one ContactSolver. (The scene's
+gap, :data:`~cvxcontact.physics.loads.SCENE_LOAD_FIELDS`, is not a body attribute.)
 Two bodies with equal fingerprints assemble to the same matrices; a body edited in
 place gets a new fingerprint.
 """
@@ -45,6 +48,7 @@ def geometry_fingerprint(body) -> str:
     text(type(mat).__name__)
     for key in ("c", "e", "kappa"):
         array(key, getattr(mat, key, None), np.float64)
+    # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),
                         ("potential", list(body.potential)), ("contact", [body.contact])):
         parts = sorted(set(parts))

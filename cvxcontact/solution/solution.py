@@ -20,6 +20,7 @@ from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
 from .checks import checks
+from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "read_back"]
 
@@ -60,6 +61,10 @@ class Solution:
     "interior point + exact finish" or, for a re-solve of a :class:`ContactSolver`,
     "active-set warm start" (then ``problem`` is None: no convex program was needed,
     and the answer passed the same sign and residual checks).
+
+    ``info`` (:class:`~cvxcontact.solution.info.SolveInfo`, frozen) records how the solve
+    went: status, backend used, route, iterations, timings (s), finish. ``status``,
+    ``path``, ``method``, ``timings`` and ``polished`` are read-only views of it.
     """
 
     scene: Scene
@@ -67,15 +72,36 @@ class Solution:
     u: list
     phi: list
     contact: ContactResult
-    status: str
-    problem: cp.Problem
+    problem: cp.Problem | None
     tol: float
-    polished: bool = False
+    info: SolveInfo
     energy: float = float("nan")
-    method: str = "full"
-    path: str = ""
-    timings: dict = field(default_factory=dict)
     _checks: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def status(self) -> Status:
+        """Solver status (:class:`Status`; equal to the CVXPY status string)."""
+        return self.info.status
+
+    @property
+    def polished(self) -> bool:
+        """True if the arrays are the exact finish."""
+        return self.info.polished
+
+    @property
+    def method(self) -> str:
+        """The backend actually used ("full" or "condensed")."""
+        return self.info.method
+
+    @property
+    def path(self) -> str:
+        """The route taken (:class:`Route`; equal to the former strings)."""
+        return self.info.route
+
+    @property
+    def timings(self):
+        """Read-only mapping stage -> wall-clock seconds of this solve."""
+        return self.info.timings
 
     def residuals(self) -> dict[str, float]:
         """Relative residuals of the mixed formulation (26)-(27): see the module docstring."""
@@ -138,10 +164,11 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
-    return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact,
-                    status=problem.status if problem is not None else cp.OPTIMAL, problem=problem, tol=tol,
-                    polished=polished,
-                    energy=float(energy), timings=timings, _checks=checks_)
+    info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
+                     route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
+                     polished=polished, timings=timings)              # provisional: the caller completes it
+    return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
+                    tol=tol, info=info, energy=float(energy), _checks=checks_)
 
 
 def _solve_mass(M, rhs):

@@ -15,6 +15,7 @@ from .contact.interface import CONDITIONS
 from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
 from .geometry.mesh import Mesh, read_mesh, rectangle
 from .physics.scene import Body, Scene
+from .solution.info import Finish, Route, SolveInfo, Status
 from .solve import ContactResult, ContactSolver, Solution, solve
 from .model import Model
 
@@ -24,6 +25,6 @@ __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
     "Body", "Scene",
-    "solve", "ContactSolver", "Solution", "ContactResult", "Model",
+    "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
 ]

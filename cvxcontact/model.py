@@ -36,6 +36,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
@@ -49,6 +50,7 @@ from .errors import ResidualWarning, SceneError
 from .fem.assembly import assemble
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
+from .solution.info import Route
 from .solution.solution import Solution, read_back
 from .solve import DEFAULT_TOL, _run
 
@@ -271,11 +273,12 @@ class Model:
         sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                         active, polished, problem, self.tol, timings)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
-        sol.method = "full"
-        sol.path = "interior point + exact finish" if polished else "interior point"
-        if not linear:
-            sol.path += " (no exact finish: non-linear user terms)"
         timings["read_back"] = time.perf_counter() - t0
+        route = (Route.INTERIOR_POINT_FINISHED if polished else
+                 Route.INTERIOR_POINT if linear else Route.INTERIOR_POINT_NONLINEAR)
+        stats = problem.solver_stats
+        sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
+                           iterations=int(stats.num_iters or 0) if stats is not None else 0)
         if self.polish and linear and not polished:
             warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
                           f"({declined}); the interior-point answer is kept (sol.polished is False):\n"

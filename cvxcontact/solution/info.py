@@ -33,6 +33,8 @@ class Route(StrEnum):
     """An interior-point solve, then the exact active-set finish."""
     WARM_START = "active-set warm start"
     """A re-solve of a ContactSolver from the previous active set: no convex program, no iterations."""
+    INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
+    """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
 
 
 class Finish(StrEnum):

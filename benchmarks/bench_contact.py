@@ -83,18 +83,24 @@ def bonded_solve(blocks, jumps):
     return t, float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs)), K.shape[0]
 
 
-def one_size(nx, full):
-    import cvxcontact as cc
-    from cvxcontact.fem.assembly import assemble
+def scaled_blocks(sc):
+    """The scaled free-dof blocks of every body of ``sc`` and the assembly time (s)."""
     from cvxcontact.discrete import Block, units
+    from cvxcontact.fem.assembly import assemble
 
-    sc = scene(nx)
     t0 = time.perf_counter()
     systems = [assemble(b) for b in sc.bodies]
     t_asm = time.perf_counter() - t0
     un = units(sc, systems)
-    blocks = [Block.scaled(s, sc.interface.jump(k, len(b.mesh.points)), un)
-              for k, (s, b) in enumerate(zip(systems, sc.bodies))]
+    return [Block.scaled(s, sc.interface.jump(k, len(b.mesh.points)), un)
+            for k, (s, b) in enumerate(zip(systems, sc.bodies))], t_asm
+
+
+def one_size(nx, full):
+    import cvxcontact as cc
+
+    sc = scene(nx)
+    blocks, t_asm = scaled_blocks(sc)
     t_closed, closed_res, _ = bonded_solve(blocks, [b.jump for b in blocks])
     t_removed, removed_res = removed_solve(blocks)
     t_floor = min(t_closed, t_removed)

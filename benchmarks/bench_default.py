@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent)]  # this checkout
-from bench_contact import bonded_solve, removed_solve, scene  # noqa: E402
+from bench_contact import bonded_solve, removed_solve, scaled_blocks, scene  # noqa: E402
 
 
 def pardiso_solve(blocks, jumps):
@@ -63,8 +63,6 @@ def pardiso_solve(blocks, jumps):
 
 def one_run(nx):
     import cvxcontact as cc
-    from cvxcontact.discrete import Block, units
-    from cvxcontact.fem.assembly import assemble
 
     sc = scene(nx)
     t0 = time.perf_counter()
@@ -72,12 +70,7 @@ def one_run(nx):
     total = time.perf_counter() - t0
     t_asm_default = sol.timings["assembly"]
 
-    t0 = time.perf_counter()
-    systems = [assemble(b) for b in sc.bodies]
-    t_asm = time.perf_counter() - t0
-    un = units(sc, systems)
-    blocks = [Block.scaled(s, sc.interface.jump(k, len(b.mesh.points)), un)
-              for k, (s, b) in enumerate(zip(systems, sc.bodies))]
+    blocks, t_asm = scaled_blocks(sc)
     t_bonded, bonded_res, n_kkt = bonded_solve(blocks, [b.jump for b in blocks])
     t_sep, sep_res = removed_solve(blocks)
     pardiso = pardiso_solve(blocks, [b.jump for b in blocks])

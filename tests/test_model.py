@@ -12,6 +12,15 @@ from cvxcontact.fem.assembly import assemble
 from conftest import rel, two_blocks
 
 
+
+def _split(x, sizes):
+    """Per-body (u, phi) pieces of a stacked free-dof vector, ``sizes`` = [(n_u, n_phi), ...]."""
+    parts, p = [], 0
+    for nu, npf in sizes:
+        parts.append((x[p:p + nu], x[p + nu:p + nu + npf] if npf else None))
+        p += nu + npf
+    return parts
+
 def _dense_bodies(scene):
     """Per body: assembled SI system, dense free-dof blocks, jump rows on the free dofs."""
     itf = scene.interface
@@ -79,10 +88,7 @@ def dense_mixed_with_row(scene, active, body, dof, value):
     K = np.block([[D[:, None] * A * D[None, :], D[:, None] * G.T], [G * D[None, :], np.zeros((m, m))]])
     z = np.linalg.solve(K, np.concatenate([D * np.concatenate(rhs), np.zeros(len(act)), [value]]))
     x = D * z[:n]
-    parts, p = [], 0
-    for nu, npf in sizes:
-        parts.append((x[p:p + nu], x[p + nu:p + nu + npf] if npf else None))
-        p += nu + npf
+    parts = _split(x, sizes)
     us, phis = _nodal(scene, bodies, parts)
     force = np.zeros(scene.interface.size)
     force[act] = z[n:n + len(act)]
@@ -131,10 +137,7 @@ def dense_phi_form_kkt(scene, active, extra_rows, extra_values, phi_penalty=0.0)
     K = np.block([[D[:, None] * H * D[None, :], Ae.T], [Ae, np.zeros((m, m))]])
     z = np.linalg.solve(K, np.concatenate([D * c, Rs * beq]))
     x = D * z[:n]
-    parts, p = [], 0
-    for nu, npf in sizes:
-        parts.append((x[p:p + nu], x[p + nu:p + nu + npf] if npf else None))
-        p += nu + npf
+    parts = _split(x, sizes)
     us, phis = _nodal(scene, bodies, parts)
     force = np.zeros(scene.interface.size)
     force[act] = Rs[len(B):len(B) + len(act)] * z[n + len(B):n + len(B) + len(act)]

@@ -80,11 +80,6 @@ class CondensedBody:
         out[self.gamma] = self.jump.T @ contact_force
         return out
 
-    def interface_load(self, F):
-        """(g, x0): the condensed load g = Sigma v0 and the unconstrained solution x0 = S^{-1} F."""
-        x0 = self.solve(F)
-        return self.stiffness @ x0[self.gamma], x0
-
 
 def quasi_definite(block):
     """S = [[Kuu, Kup], [Kup^T, -Kpp]] and F = [f; -q] of a scaled :class:`~cvxcontact.discrete.Block`."""
@@ -158,7 +153,3 @@ class Compliance:
     def free_slack(self, v0, gap_rows) -> np.ndarray:
         """d = sum_l R_l v0_l - E g: the slack of the contact rows with no contact force."""
         return sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
-
-    def state(self, v0, y) -> list:
-        """Gamma displacements v_l = v0_l - B_l y under contact forces y."""
-        return [v0k - B @ y for v0k, B in zip(v0, self.B)]

@@ -43,6 +43,8 @@ class Finish(StrEnum):
     ACTIVE_SET = "active set"
     ACTIVE_SET_AFTER_NNLS = "active set after NNLS"
     NNLS = "NNLS"
+    SEMISMOOTH_NEWTON = "semismooth Newton"
+    """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
 
 
 def _frozen_timings(timings: Mapping[str, float] | None) -> Mapping[str, float]:

@@ -310,7 +310,21 @@ class ContactSolver:
                 loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
                 model = InterfaceModel(condensed, loads, self.E, g, law=law, weights=w)
             timings["model"] = time.perf_counter() - t0
-            self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
+            try:
+                self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
+            except SolverError:
+                if not self.polish:
+                    raise
+                model = None          # the finish converges globally from the free slack (§10)
+        if out is None and model is None:
+            t0 = time.perf_counter()
+            out = solve_compliance(compliance.W, d, w, law)
+            timings["polish"] = time.perf_counter() - t0
+            if out is None:
+                raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
+                                  "Newton finish did not settle")
+            self.path, self.finish_route = Route.NEWTON_ONLY, out[3]
+        elif out is None:
             timings["compile"] = model.problem.compilation_time or 0.0
             timings["solve"] = model.problem.solver_stats.solve_time or 0.0
             problem = model.problem

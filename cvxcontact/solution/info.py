@@ -33,6 +33,9 @@ class Route(StrEnum):
     """An interior-point solve, then the exact active-set finish."""
     WARM_START = "active-set warm start"
     """A re-solve of a ContactSolver from the previous active set: no convex program, no iterations."""
+    NEWTON_ONLY = "semismooth Newton (the interior point failed)"
+    """Normal compliance: the solver failed on the convex program (e.g. a very stiff law); the exact
+    finish, globally convergent on its own, solved the interface equation from the free slack."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
 

@@ -191,3 +191,66 @@ def test_scene_file_law(tmp_path):
 def test_scene_file_bad_law(tmp_path, law, match):
     with pytest.raises(SceneFileError, match=match):
         scene_from_data(_data(law), tmp_path / "s.toml")
+
+
+def _dense_compliance(scene, k):
+    """Independent reference for the linear law (m = 1), gamma3: the mixed system (26) in SI, dense,
+
+        Kuu u + Kup phi + J^T diag(w k) [J u - g]_A = f,    -Kup^T u + Kpp phi = q     (per body),
+
+    with the trapezoidal weights w of the merged mesh, on the contact set A = {r > 0}, iterated until A
+    is stable (the law is linear on each side of r = 0). Rows and columns equilibrated before the solve."""
+    from cvxcontact.fem.assembly import assemble
+
+    itf = scene.interface
+    w = np.zeros(len(itf.x))
+    h = np.diff(itf.x)
+    w[:-1] += h / 2
+    w[1:] += h / 2
+    g = scene.gap_values()
+    blocks, J, F, sizes = [], [], [], []
+    for kb, b in enumerate(scene.bodies):
+        s = assemble(b)
+        uf = s.u_free
+        A = s.Kuu[uf][:, uf].toarray()
+        Jk = itf.jump(kb, len(b.mesh.points))[:, uf].toarray()
+        if s.Kpp is not None:
+            pf = s.phi_free
+            Kup, Kpp = s.Kup[uf][:, pf].toarray(), s.Kpp[pf][:, pf].toarray()
+            A = np.block([[A, Kup], [-Kup.T, Kpp]])
+            Jk = np.hstack([Jk, np.zeros((len(itf.x), len(pf)))])
+            F.append(np.concatenate([s.f[uf], s.q[pf]]))
+        else:
+            F.append(s.f[uf])
+        blocks.append(A)
+        J.append(Jk)
+        sizes.append(len(uf))
+    from scipy.linalg import block_diag
+
+    K0, Jall, Fall = block_diag(*blocks), np.hstack(J), np.concatenate(F)
+    active = np.ones(len(itf.x), dtype=bool)
+    for _ in range(30):
+        D = np.diag(w * k * active)
+        K = K0 + Jall.T @ D @ Jall
+        b = Fall + Jall.T @ D @ g
+        sc = 1.0 / np.sqrt(np.abs(np.diag(K)))
+        x = sc * np.linalg.solve(sc[:, None] * K * sc[None, :], sc * b)
+        r = Jall @ x - g
+        new = r > 0
+        if np.array_equal(new, active):
+            break
+        active = new
+    u1 = x[:sizes[0]]
+    return u1, k * np.maximum(r, 0.0)
+
+
+def test_piezoelectric_against_a_dense_solve_of_26():
+    scene = two_blocks(n1=(8, 4), n2=(6, 3))
+    k = 1e13
+    u1, lam = _dense_compliance(scene, k)
+    for method in ("condensed", "full"):
+        sol = cc.solve(scene, law=cc.NormalCompliance(stiffness=k), method=method)
+        free = cc.ContactSolver(scene).matrices[0].u_free
+        assert sol.ok and rel(sol.u[0].ravel()[free], u1) < 1e-9
+        assert rel(sol.contact.lam, lam) < 1e-9
+        assert 0 < (lam > 0).sum() < len(lam)         # partial contact: the set matters

@@ -254,3 +254,12 @@ def test_piezoelectric_against_a_dense_solve_of_26():
         assert sol.ok and rel(sol.u[0].ravel()[free], u1) < 1e-9
         assert rel(sol.contact.lam, lam) < 1e-9
         assert 0 < (lam > 0).sum() < len(lam)         # partial contact: the set matters
+
+
+@pytest.mark.parametrize("method", ["condensed", "full"])
+def test_zero_penetration_limit_is_signorini(method):
+    """l = 0: p vanishes on the admissible set r <= 0, so the problem is Signorini's (limit case)."""
+    scene = two_blocks(n1=(8, 4), n2=(6, 3))
+    ref = cc.solve(scene, method=method)
+    sol = cc.solve(scene, law=cc.NormalCompliance(stiffness=1e13, exponent=2, penetration_limit=0.0), method=method)
+    assert sol.ok and rel(sol.u[0], ref.u[0]) < 1e-9 and rel(sol.contact.force, ref.contact.force) < 1e-8

@@ -46,7 +46,7 @@ import scipy.sparse.linalg as spla
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
-from .contact.laws import check_law
+from .contact.laws import ContactLaw, check_law
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError
 from .fem.assembly import assemble
@@ -91,7 +91,7 @@ class Model:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
                  polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law=None):
+                 law: ContactLaw | None = None):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):

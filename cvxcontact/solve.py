@@ -22,7 +22,7 @@ from .backends.condensed import Compliance, InterfaceModel, condense, quasi_defi
 from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
-from .contact.laws import check_law
+from .contact.laws import ContactLaw, check_law
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError
 from .fem.assembly import assemble_loads, assemble_matrices
@@ -45,7 +45,7 @@ _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktrat
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None, law=None) -> Solution:
+          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -123,7 +123,8 @@ class ContactSolver:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
-                 verbose: bool = False, solver_options: Mapping[str, object] | None = None, law=None):
+                 verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 law: ContactLaw | None = None):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):

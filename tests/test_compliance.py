@@ -263,3 +263,17 @@ def test_zero_penetration_limit_is_signorini(method):
     ref = cc.solve(scene, method=method)
     sol = cc.solve(scene, law=cc.NormalCompliance(stiffness=1e13, exponent=2, penetration_limit=0.0), method=method)
     assert sol.ok and rel(sol.u[0], ref.u[0]) < 1e-9 and rel(sol.contact.force, ref.contact.force) < 1e-8
+
+
+def test_cli_solves_a_scene_file_with_a_law(tmp_path):
+    import json
+    from pathlib import Path
+
+    from cvxcontact.apps.cli import main
+
+    text = (Path(__file__).resolve().parents[1] / "examples" / "two_blocks.toml").read_text()
+    scene = tmp_path / "s.toml"
+    scene.write_text('law = { normal_compliance = { stiffness = 1e13, exponent = 2 } }\n' + text)
+    assert main(["solve", str(scene), "--out", str(tmp_path / "out"), "--no-plots", "--quiet"]) == 0
+    summary = json.loads((tmp_path / "out" / "gamma3.json").read_text())
+    assert summary["ok"] and set(summary["residuals"]) == {"equilibrium", "law"}

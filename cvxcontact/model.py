@@ -66,7 +66,7 @@ class Model:
 
     Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
     contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
-    docs/formulation.md §10 and the interior-point answer is returned, checked, without exact finish); all are
+    docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled.
 
     Methods
@@ -283,11 +283,18 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
+        if self._law is not None and self.polish and not rows and objective is None:
+            t0 = time.perf_counter()
+            out = self._finish_compliance(u, g)
+            timings["polish"] = time.perf_counter() - t0
+            if out is not None:
+                u, phi, y, z = out
+                polished = True
         t0 = time.perf_counter()
         if self._law is not None:
             sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
                                        u, phi, y, z if self.law.penetration_limit is not None else None,
-                                       self._weights, self.law, False, problem, self.tol, timings)
+                                       self._weights, self.law, polished, problem, self.tol, timings)
         else:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings)
@@ -306,6 +313,28 @@ class Model:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
         return sol
+
+    def _finish_compliance(self, u, g):
+        """Exact finish of a normal-compliance model without user terms (docs/formulation.md §10): the
+        bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
+        the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
+        from .backends.condensed import Compliance, condense, quasi_definite_rhs
+        from .backends.finish import solve_compliance
+
+        E, blocks = self.E, self.blocks
+        condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        compliance = Compliance(condensed, E)
+        d = compliance.free_slack(v0, g)
+        r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        if out is None:
+            return None
+        y, z = out[0], out[1]
+        x = [c.solve(F - c.lift(E.T @ y)) for c, F in zip(condensed, rhs)]
+        return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
+                [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
 
     def _contact_norms(self):
         G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()

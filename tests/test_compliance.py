@@ -100,8 +100,8 @@ def test_tends_to_signorini_at_rate_one_over_k():
 
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1", "sigma2"])
 def test_piezoelectric_scene_passes_its_checks(condition):
-    """The quickstart-like scene (PZT-5A on aluminium): both backends agree and pass their checks;
-    the interior-point answer of cc.Model agrees to its accuracy."""
+    """The quickstart-like scene (PZT-5A on aluminium): both backends and cc.Model agree and pass their
+    checks; with a user row, cc.Model's interior-point answer agrees to its accuracy."""
     scene = two_blocks(n1=(8, 4), n2=(6, 3))
     law = cc.NormalCompliance(stiffness=1e13, exponent=1.5)
     a = cc.solve(scene, condition, law=law, method="condensed")
@@ -109,10 +109,14 @@ def test_piezoelectric_scene_passes_its_checks(condition):
     assert a.ok and b.ok and a.phi[0] is not None
     assert max(a.residuals().values()) < 1e-9
     assert rel(a.u[0], b.u[0]) < 1e-9 and rel(a.phi[0], b.phi[0]) < 1e-9 and rel(a.contact.lam, b.contact.lam) < 1e-8
+    model = cc.Model(scene, condition, law=law)
+    c = model.solve()                                      # no user terms: exact finish
+    assert c.ok and c.polished and rel(c.u[0], a.u[0]) < 1e-9 and rel(c.contact.lam, a.contact.lam) < 1e-8
+    model.add(model.u(0)[0, 0] <= 1.0)                     # a user row: the interior-point answer, checked
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
-        c = cc.Model(scene, condition, law=law).solve()
-    assert rel(c.u[0], a.u[0]) < 1e-4 and c.residuals()["equilibrium"] < 1e-4
+        c = model.solve()
+    assert not c.polished and rel(c.u[0], a.u[0]) < 1e-4 and c.residuals()["equilibrium"] < 1e-4
     # lambda = p(r) at the constrained nodes, read back from the returned displacements
     pen = (a.contact.jump - a.contact.gap)[a.contact.constrained]
     if condition == "gamma3":

@@ -12,6 +12,7 @@ See the README for the full quickstart and the paper's notation mapped to these 
 
 from .physics import materials
 from .contact.interface import CONDITIONS
+from .contact.laws import NormalCompliance, Signorini
 from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
 from .geometry.mesh import Mesh, read_mesh, rectangle
 from .physics.scene import Body, Scene
@@ -24,7 +25,7 @@ __version__ = "0.1.0"
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
-    "Body", "Scene",
+    "Body", "Scene", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
 ]

@@ -45,13 +45,15 @@ import scipy.sparse.linalg as spla
 
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, mixed_kkt
+from .contact.interface import lumped_lengths
+from .contact.laws import ContactLaw, check_law
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError
 from .fem.assembly import assemble
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
-from .solution.solution import Solution, read_back
+from .solution.solution import Solution, read_back, read_back_compliance
 from .solve import DEFAULT_TOL, _run
 
 __all__ = ["Model"]
@@ -62,7 +64,9 @@ _MAX_STEPS = 20
 class Model:
     """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
 
-    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``); all are
+    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
+    contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
+    docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled.
 
     Methods
@@ -86,11 +90,13 @@ class Model:
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
-                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 law: ContactLaw | None = None):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
+        self.law = check_law(law)
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
@@ -105,7 +111,9 @@ class Model:
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
                        for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
-        self._contact = ContactModel(self.blocks, self.E, self._g)
+        self._weights = lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
+        self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
+        self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -243,7 +251,13 @@ class Model:
         blocks, E, g = self.blocks, self.E, self._g
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
-        y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+        if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
+            r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+            z = (np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+                 if self._contact.contact is not None else np.zeros(len(g)))
+            y = self._weights * self._law.pressure(r) + z
+        else:
+            y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
         x = self._x()
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
@@ -255,7 +269,7 @@ class Model:
             Cobj, _ = self._rows(objective, x)
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
-        linear = lin and all(r[4] for r in rows)
+        linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y)
         polished, declined = False, ""
         if self.polish and linear:
@@ -269,13 +283,25 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
+        if self._law is not None and self.polish and not rows and objective is None:
+            t0 = time.perf_counter()
+            out = self._finish_compliance(u, g)
+            timings["polish"] = time.perf_counter() - t0
+            if out is not None:
+                u, phi, y, z = out
+                polished = True
         t0 = time.perf_counter()
-        sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
-                        active, polished, problem, self.tol, timings)
+        if self._law is not None:
+            sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
+                                       u, phi, y, z if self.law.penetration_limit is not None else None,
+                                       self._weights, self.law, polished, problem, self.tol, timings)
+        else:
+            sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
+                            active, polished, problem, self.tol, timings)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
-                 Route.INTERIOR_POINT if linear else Route.INTERIOR_POINT_NONLINEAR)
+                 Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
@@ -287,6 +313,28 @@ class Model:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
         return sol
+
+    def _finish_compliance(self, u, g):
+        """Exact finish of a normal-compliance model without user terms (docs/formulation.md §10): the
+        bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
+        the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
+        from .backends.condensed import Compliance, condense, quasi_definite_rhs
+        from .backends.finish import solve_compliance
+
+        E, blocks = self.E, self.blocks
+        condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        compliance = Compliance(condensed, E)
+        d = compliance.free_slack(v0, g)
+        r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        if out is None:
+            return None
+        y, z = out[0], out[1]
+        x = [c.solve(F - c.lift(E.T @ y)) for c, F in zip(condensed, rhs)]
+        return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
+                [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
 
     def _contact_norms(self):
         G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()

@@ -19,8 +19,10 @@ import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
-from .backends.finish import lcp_start, row_scales, signs_hold, solve_lcp
+from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
+from .contact.interface import lumped_lengths
+from .contact.laws import ContactLaw, check_law
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError
 from .fem.assembly import assemble_loads, assemble_matrices
@@ -28,7 +30,7 @@ from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
-from .solution.solution import ContactResult, Solution, read_back
+from .solution.solution import ContactResult, Solution, read_back, read_back_compliance
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
@@ -43,7 +45,7 @@ _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktrat
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None) -> Solution:
+          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -78,6 +80,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         float or str values (e.g. ``{"max_iter": 100}``). For Clarabel they are checked
         against ``clarabel.DefaultSettings()`` (names, types, ranges) before anything
         is assembled; cvxcontact's own parameters are not accepted here.
+    law : Signorini or NormalCompliance, optional
+        The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
+        ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
+        sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
 
     Returns
     -------
@@ -95,7 +101,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options).solve()
+                         solver_options=solver_options, law=law).solve()
 
 
 class ContactSolver:
@@ -117,11 +123,13 @@ class ContactSolver:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
-                 verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+                 verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 law: ContactLaw | None = None):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        self.law = check_law(law)
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         solver = check_solver(solver)
@@ -136,6 +144,7 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
+        self._weights = lumped_lengths(scene.interface.x[self.E.indices])     # m, the law's quadrature
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -155,12 +164,19 @@ class ContactSolver:
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
-        u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+        if self.law.compliant:
+            u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
+        else:
+            u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
-                         problem, self.tol, timings)
+        if self.law.compliant:
+            sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
+                                       self._weights / un.length, self.law, polished, problem, self.tol, timings)
+        else:
+            sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
+                            problem, self.tol, timings)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -268,6 +284,78 @@ class ContactSolver:
         u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, active, polished, problem
+
+    def _compliance_solve(self, blocks, g, un, timings):
+        """Normal compliance (docs/formulation.md §10): the convex program with the lumped compliance
+        energy (full or condensed), then the exact finish :func:`solve_compliance` on the interface and
+        one back-substitution per body. Returns (u, phi, row forces y, limit reactions z, polished, problem)."""
+        law = self.law.scaled(un.stress * un.load, un.displacement)
+        w = self._weights / un.length
+        problem, polished, z = None, False, None
+        condensed = None
+        if self.method == "condensed" or self.polish:
+            condensed, compliance = self._interface(blocks, timings)
+            rhs, v0, d = self._lcp(blocks, g, timings)
+        out = None
+        if self.method == "condensed" and self.warm_start and self.polish and self._active is not None:
+            t0 = time.perf_counter()
+            out = solve_compliance(compliance.W, d, w, law, r0=self._active)
+            timings["polish"] = time.perf_counter() - t0
+            if out is not None:
+                self.path, self.finish_route = Route.WARM_START, out[3]
+        if out is None:
+            t0 = time.perf_counter()
+            if self.method == "full":
+                model = ContactModel(blocks, self.E, g, law=law, weights=w)
+            else:
+                loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+                model = InterfaceModel(condensed, loads, self.E, g, law=law, weights=w)
+            timings["model"] = time.perf_counter() - t0
+            try:
+                self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
+            except SolverError:
+                if not self.polish:
+                    raise
+                model = None          # the finish converges globally from the free slack (§10)
+        if out is None and model is None:
+            t0 = time.perf_counter()
+            out = solve_compliance(compliance.W, d, w, law)
+            timings["polish"] = time.perf_counter() - t0
+            if out is None:
+                raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
+                                  "Newton finish did not settle")
+            self.path, self.finish_route = Route.NEWTON_ONLY, out[3]
+        elif out is None:
+            timings["compile"] = model.problem.compilation_time or 0.0
+            timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+            problem = model.problem
+            if self.method == "full":
+                u = [v.value for v in model.u]
+                phi = [v.value if v is not None else None for v in model.phi]
+                r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+            else:
+                r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+            z = (np.asarray(model.contact.dual_value, dtype=float).ravel() if model.contact is not None
+                 else np.zeros(len(g)))
+            y = w * law.pressure(r) + z
+            if self.polish:
+                t0 = time.perf_counter()
+                out = solve_compliance(compliance.W, d, w, law, r0=r)
+                timings["polish"] = time.perf_counter() - t0
+                if out is None:
+                    self.declined = "the semismooth Newton steps on the interface did not settle"
+                else:
+                    self.finish_route = out[3]
+        if out is not None:
+            y, z, polished = out[0], out[1], True
+            self._active = d - compliance.W @ y                 # the penetration r, to warm-start a re-solve
+        if condensed is not None and (polished or self.method == "condensed"):
+            t0 = time.perf_counter()
+            x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+            timings["back_substitution"] = time.perf_counter() - t0
+            u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+            phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""

@@ -5,6 +5,9 @@ restricted evaluator of :mod:`cvxcontact.io.expr`; nothing is executed. Every er
 names the file, the key and what was expected. Format (all SI units)::
 
     condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
+    law = "signorini"                         # default; or normal compliance (7), docs/formulation.md §10:
+                                              # { normal_compliance = { stiffness = 1e12, exponent = 1,
+                                              #                         penetration_limit = 1e-5 } }  (Pa/m^m, -, m)
     gap = 0.0                                 # initial normal gap g(x) on Gamma_3, m (number or expression)
 
     [solver]                                  # optional
@@ -54,7 +57,7 @@ __all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read
 
 MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
 
-_TOP = {"condition", "solver", "body", "gap"}
+_TOP = {"condition", "solver", "body", "gap", "law"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge"}
@@ -77,12 +80,13 @@ class SceneFile:
     polish: bool = True
     method: str = "auto"
     options: dict = field(default_factory=dict)
+    law: object = None
 
     @property
     def settings(self) -> dict:
         """Keyword arguments of :func:`cvxcontact.solve` given by the file (condition excluded)."""
         return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method,
-                    solver_options=dict(self.options))
+                    solver_options=dict(self.options), law=self.law)
 
     def solve(self, condition: str | None = None, *, solver: str | None = None, method: str | None = None,
               tol: float | None = None, polish: bool | None = None, verbose: bool = False,
@@ -160,7 +164,29 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
         scene = Scene(*built, gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
-    return SceneFile(path, scene, condition, name, float(tol), polish, method, options)
+    return SceneFile(path, scene, condition, name, float(tol), polish, method, options,
+                     law=_law(data.get("law", "signorini"), path))
+
+
+def _law(value, path):
+    """The contact law of a scene file: "signorini" or { normal_compliance = { stiffness, exponent,
+    penetration_limit } } (:mod:`cvxcontact.contact.laws`)."""
+    from ..contact.laws import LAWS, NormalCompliance, Signorini
+
+    if value == "signorini":
+        return Signorini()
+    if isinstance(value, dict) and set(value) == {"normal_compliance"} and isinstance(value["normal_compliance"], dict):
+        params = value["normal_compliance"]
+        unknown = sorted(set(params) - {"stiffness", "exponent", "penetration_limit"})
+        if unknown or "stiffness" not in params:
+            raise SceneFileError(f"{path}: law.normal_compliance: expected keys stiffness (required), exponent, "
+                                 f"penetration_limit; got {sorted(params)}")
+        try:
+            return NormalCompliance(**params)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{path}: law.normal_compliance: {exc}") from None
+    raise SceneFileError(f"{path}: law: expected \"signorini\" or {{ normal_compliance = {{ stiffness = ..., "
+                         f"exponent = ... }} }} (laws: {sorted(LAWS)}), got {value!r}")
 
 
 class _Context:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["checks", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
+__all__ = ["checks", "compliance_checks", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
 
 
 def node_scales(parts, g):
@@ -107,3 +107,42 @@ def rows_active(slack, S, z, norms, Z):
     """Active rows of an interior-point answer by the rule of :func:`ipm_active`: the force z_i |C_i|
     relative to Z beats the open slack relative to the row's scale S_i."""
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
+
+
+def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
+    """Checks of a normal-compliance solution (docs/formulation.md §10, docs/checks.md), scaled units.
+
+    With r = E [u_nu] - g at the constrained rows, w their lumped lengths, p the scaled ``law``, z >= 0
+    the penetration-limit reaction (zero without a limit) and ``force`` the row forces the backend
+    applied, the read-back is lambda = p(r) + z / w (nodal values) and the checks are
+
+        equilibrium      the residual of (26) with the contact force E^T (w lambda), as in :func:`checks`
+        law              max_a |force_a - z_a - w_a p(r_a)| / Y      (the law (7) at the returned u;
+                         Y the largest row force)
+        feasibility, complementarity, cone    of the limit r <= l with multiplier z, as in :func:`checks`
+                         (only with a penetration limit)
+
+    Returns (checks dict, lambda at the rows (scaled pressure)).
+    """
+    tiny = np.finfo(float).tiny
+    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
+    r = sum(parts) - g
+    w = np.asarray(weights, dtype=float)
+    z = np.zeros(len(r)) if z is None else np.asarray(z, dtype=float)
+    lam = law.pressure(r) + z / w
+    c = E.T @ (w * lam)
+    equilibrium = 0.0
+    for b, uk, pk in zip(blocks, u, phi):
+        res = np.concatenate(b.residual(uk, pk, c))
+        m = np.concatenate(b.magnitude(uk, pk, c))
+        equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
+    force = np.asarray(force, dtype=float)
+    Y = max(float(np.abs(force).max(initial=0.0)), float((w * lam).max(initial=0.0)), tiny)
+    out = {"equilibrium": equilibrium,
+           "law": float((np.abs(force - z - w * law.pressure(r)) / Y).max(initial=0.0))}
+    if law.penetration_limit is not None:
+        slack, U = node_scales(parts, g + law.penetration_limit)
+        out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
+        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / (Y * U)).max(initial=0.0)))
+        out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
+    return out, lam

@@ -10,7 +10,7 @@ docs/checks.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
 import numpy as np
@@ -19,10 +19,10 @@ import scipy.linalg as sla
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks
+from .checks import checks, compliance_checks
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "read_back"]
+__all__ = ["Solution", "ContactResult", "read_back", "read_back_compliance"]
 
 
 @dataclass
@@ -77,6 +77,8 @@ class Solution:
     info: SolveInfo
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
+    law: object = None
+    """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
 
     @property
     def status(self) -> Status:
@@ -169,6 +171,35 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
                      polished=polished, timings=timings)              # provisional: the caller completes it
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
                     tol=tol, info=info, energy=float(energy), _checks=checks_)
+
+
+def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
+                         problem, tol, timings):
+    """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
+
+    ``force`` are the row forces the backend applied (scaled), ``z`` the penetration-limit reactions
+    (None without a limit), ``weights`` the lumped lengths of the constrained nodes (scaled). The
+    read-back is lambda = p(r) + z / w at the constrained nodes (r = [u_nu] - g from the returned u),
+    interpolated on the merged mesh for sigma1/sigma2 (P1 on mesh l's trace); ``contact.force`` is
+    E^T (w lambda), the force the checks put into (26). ``energy`` includes sum_a w_a Phi(r_a).
+    """
+    scaled = law.scaled(un.stress * un.load, un.displacement)
+    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, np.asarray(force, dtype=float),
+                    np.asarray(force) > 0, polished, problem, tol, timings)
+    g = E @ gap
+    checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
+    itf = scene.interface
+    r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+    lam_merged = E.T @ lam if condition == "gamma3" else itf.interpolation(int(condition[-1]) - 1) @ lam
+    unit = un.stress * un.load
+    contact = replace(sol.contact, lam=lam_merged * unit, force=(E.T @ (weights * lam)) * un.force)
+    for a in (contact.lam, contact.force):
+        a.setflags(write=False)
+    sol.contact, sol._checks, sol.law = contact, checks_, law
+    if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
+        sol.info = replace(sol.info, status=Status.OPTIMAL)
+    sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
+    return sol
 
 
 def _solve_mass(M, rhs):

@@ -173,3 +173,14 @@ def test_help_and_version_are_fast_and_light():
     version = subprocess.run([sys.executable, "-m", "cvxcontact", "--version"], cwd=ROOT, capture_output=True,
                              text=True, timeout=60)
     assert version.stdout.strip() == f"cvxcontact {cc.__version__}"
+
+
+def test_license_and_citation_agree_with_pyproject():
+    import tomllib
+
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert meta["license"] == "BSD-3-Clause" and "BSD 3-Clause License" in (ROOT / "LICENSE").read_text()
+    cff = (ROOT / "CITATION.cff").read_text()
+    assert f'version: "{meta["version"]}"' in cff and "license: BSD-3-Clause" in cff
+    assert 'title: "Mixed finite element approximation for a contact problem in electro-elasticity"' in cff
+    assert "demo/" in (ROOT / ".gitignore").read_text().split()

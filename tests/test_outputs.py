@@ -119,6 +119,8 @@ def test_demo_writes_pvd_and_figures_for_every_condition(tmp_path, monkeypatch, 
     listed = [d.get("file") for d in tree.iter("DataSet")]
     assert sorted(listed) == sorted(p.name for p in tmp_path.glob("*.vtu")) and len(listed) == 3 * 5
     assert {d.get("group") for d in tree.iter("DataSet")} == set(cc.CONDITIONS)
+    keys = [(d.get("timestep"), d.get("part")) for d in tree.iter("DataSet")]
+    assert len(set(keys)) == len(keys)                      # each file its own block of its time step
     import matplotlib
 
     matplotlib.use("Agg")
@@ -184,3 +186,23 @@ def test_license_and_citation_agree_with_pyproject():
     assert f'version: "{meta["version"]}"' in cff and "license: BSD-3-Clause" in cff
     assert 'title: "Mixed finite element approximation for a contact problem in electro-elasticity"' in cff
     assert "demo/" in (ROOT / ".gitignore").read_text().split()
+
+
+def test_readme_command_table_lists_every_command_and_option():
+    import argparse
+    import re
+
+    from cvxcontact.apps.cli import _parser
+
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## Command line"):text.index("## Scene files")]
+    rows = {m.group(1): m.group(0) for m in re.finditer(r"^\| `cvxcontact (\w+)[^\n]*", section, re.M)}
+    parser = _parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert set(sub.choices) <= set(rows), set(sub.choices) - set(rows)
+    for name, p in sub.choices.items():
+        for action in p._actions:
+            longest = max(action.option_strings, key=len, default=None)
+            if longest and longest != "--help":
+                assert longest in rows[name], f"README: `cvxcontact {name}` row lacks {longest}"
+    assert "--version" in section and "python -m cvxcontact" in section

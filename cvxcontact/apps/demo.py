@@ -10,7 +10,7 @@ __all__ = ["two_blocks", "DEMO_LOAD_SCALE"]
 
 DEMO_LOAD_SCALE = 0.01
 """Load factor of ``cvxcontact demo``: the quickstart's loads / 100, so that the PZT-5A block stays in
-its linear range (contact pressure about 2.3 MPa, field about 0.05 kV/mm; docs/materials.md §5)."""
+its linear range (contact pressure about 2.3 MPa, field at most 0.1 kV/mm; docs/materials.md §5)."""
 
 
 def two_blocks(nx=16, scale: float = 1.0) -> Scene:

@@ -163,10 +163,11 @@ def write_pvd(vtu_paths, path, groups=None):
     path = Path(path)
     groups = list(groups) if groups is not None else [""] * len(vtu_paths)
     order = list(dict.fromkeys(groups))
-    rows = []
+    rows, parts = [], dict.fromkeys(order, 0)
     for f, g in zip(vtu_paths, groups):
         rel = os.path.relpath(Path(f), path.parent).replace(os.sep, "/")
-        rows.append(f'    <DataSet timestep="{order.index(g)}" group="{_xml(g)}" part="0" file="{_xml(rel)}"/>')
+        rows.append(f'    <DataSet timestep="{order.index(g)}" group="{_xml(g)}" part="{parts[g]}" file="{_xml(rel)}"/>')
+        parts[g] += 1                                   # one block per file within a time step
     text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
             "  <Collection>\n" + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
     return atomic_write(path, lambda p: Path(p).write_text(text))

@@ -206,3 +206,13 @@ def test_readme_command_table_lists_every_command_and_option():
             if longest and longest != "--help":
                 assert longest in rows[name], f"README: `cvxcontact {name}` row lacks {longest}"
     assert "--version" in section and "python -m cvxcontact" in section
+
+
+def test_out_naming_a_file_is_one_line_before_any_solve(tmp_path, capsys):
+    from cvxcontact.apps.cli import main
+
+    (tmp_path / "afile").write_text("")
+    assert main(["demo", "--out", str(tmp_path / "afile"), "--nx", "4"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("cvxcontact: error: --out") and "is a file, not a folder" in err[-1]
+    assert not any("solving" in line for line in err)

@@ -123,6 +123,8 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     from ..io.output import atomic_write, write_all, write_pvd
     from ..solve import solve
 
+    if out.exists() and not out.is_dir():
+        raise CvxContactError(f"--out {str(out)!r} is a file, not a folder; name a folder (it is created if missing)")
     progress(f"writing into {out.resolve()}")
     solutions, files, groups = {}, [], []
     for c in conditions:

@@ -142,7 +142,8 @@ def test_load_expression_failing_at_solve_names_the_key(tmp_path):
     path = tmp_path / "scene.toml"
     path.write_text(scene_text(upper=replace(GOOD_UPPER, "[0.0, -1e9]", '[0.0, "log(x - 0.5)"]')))
     spec = load_scene(path)
-    with pytest.raises(cc.SceneError, match="body_force: the load function returned NaN"):
+    with pytest.raises(cc.SceneError, match=r"body_force: .*scene\.toml: body\[0\]\.body_force\[1\]: "
+                                            r"'log\(x - 0\.5\)' is nan at \(x, y\)"):   # names the file and key
         spec.solve()
 
 

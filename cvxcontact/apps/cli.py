@@ -12,10 +12,13 @@ import sys
 import time
 from pathlib import Path
 
-from ..contact.interface import CONDITIONS
 from ..errors import CvxContactError
 
 __all__ = ["main"]
+
+# The conditions of contact.interface.CONDITIONS, spelled out so that ``--help`` and ``--version``
+# import neither NumPy, SciPy nor CVXPY (tests/test_outputs.py checks the two agree).
+CONDITIONS = ("gamma3", "sigma1", "sigma2")
 
 
 class Progress:
@@ -31,13 +34,21 @@ class Progress:
 
 def _parser():
     p = argparse.ArgumentParser(prog="cvxcontact", description="Contact of piezoelectric bodies as convex programs.")
+    import cvxcontact  # the package root (already imported, and lazy): only for its version
+
+    p.add_argument("--version", action="version", version=f"cvxcontact {cvxcontact.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="solve the built-in two-block scene; write VTU, PNG and a JSON summary")
-    demo.add_argument("--out", default="cvxcontact-demo", help="output folder (default: %(default)s)")
-    demo.add_argument("--nx", type=int, default=16, help="cells along the contact line, upper body")
+    demo.add_argument("--out", default="cvxcontact-demo",
+                      help="output folder, relative to the current folder (default: %(default)s)")
+    demo.add_argument("--nx", type=int, default=16, help="cells along the contact line, upper body (default: 16)")
+    demo.add_argument("--load-scale", type=float, default=None,
+                      help="factor on the quickstart scene's loads (default: 0.01, which keeps PZT-5A in its "
+                           "linear range; 1 gives the quickstart's 228 MPa and kV/mm fields)")
     solve = sub.add_parser("solve", help="solve a scene file")
     solve.add_argument("scene", help="scene file (TOML)")
-    solve.add_argument("--out", default=None, help="output folder (default: SCENE name + '-out')")
+    solve.add_argument("--out", default=None,
+                       help="output folder (default: SCENE's name + '-out' in the current folder)")
     solve.add_argument("--condition", choices=CONDITIONS + ("all",), default=None,
                        help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
     solve.add_argument("--method", choices=("full", "condensed"), default=None,
@@ -74,10 +85,14 @@ def main(argv=None) -> int:
         if args.command == "study":
             return _study(args, progress)
         if args.command == "demo":
-            from ..apps.demo import two_blocks
+            from ..apps.demo import DEMO_LOAD_SCALE, two_blocks
 
-            progress("building the demo scene (PZT-5A block on an aluminium block)")
-            return _run(two_blocks(args.nx), list(CONDITIONS), {}, Path(args.out), True, progress, args.quiet)
+            scale = DEMO_LOAD_SCALE if args.load_scale is None else args.load_scale
+            if not (scale == scale and abs(scale) < float("inf")):
+                raise CvxContactError(f"--load-scale must be a finite number, got {args.load_scale}")
+            progress(f"building the demo scene (PZT-5A block on an aluminium block, loads x {scale:g})")
+            return _run(two_blocks(args.nx, scale=scale), list(CONDITIONS), {}, Path(args.out), True, progress,
+                        args.quiet)
         from ..io.scenefile import load_scene
 
         progress(f"reading {args.scene}")
@@ -87,7 +102,7 @@ def main(argv=None) -> int:
         if args.method:
             settings["method"] = args.method
         scene_path = Path(args.scene)
-        out = Path(args.out) if args.out else scene_path.parent / f"{scene_path.stem}-out"
+        out = Path(args.out) if args.out else Path(f"{scene_path.stem}-out")      # in the current folder
         return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)
     except CvxContactError as exc:
         print(f"cvxcontact: error: {_one_line(exc)}", file=sys.stderr)
@@ -105,10 +120,13 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     import warnings
 
     from ..errors import ResidualWarning
-    from ..io.output import atomic_write, write_all
+    from ..io.output import atomic_write, write_all, write_pvd
     from ..solve import solve
 
-    solutions = {}
+    if out.exists() and not out.is_dir():
+        raise CvxContactError(f"--out {str(out)!r} is a file, not a folder; name a folder (it is created if missing)")
+    progress(f"writing into {out.resolve()}")
+    solutions, files, groups = {}, [], []
     for c in conditions:
         progress(f"solving condition {c}")
         with warnings.catch_warnings():
@@ -117,7 +135,13 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         solutions[c] = sol
         progress(f"  {sol.status}, {'exact finish' if sol.polished else 'interior-point answer'}, "
                  f"{int(sol.contact.active.sum())} active nodes, solve {sol.timings.get('solve', 0):.3f} s")
-        write_all(sol, out, stem=c)
+        paths = [p for p in write_all(sol, out, stem=c) if p.suffix == ".vtu"]
+        files += paths
+        groups += [c] * len(paths)
+    try:
+        write_pvd(files, out / "results.pvd", groups)
+    except OSError as exc:
+        raise CvxContactError(f"cannot write results into {str(out)!r}: {exc}") from exc
     if plots:
         progress("drawing figures")
         import matplotlib
@@ -125,19 +149,23 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..io.plot import plot_contact, plot_deformed
+        from ..io.plot import plot_contact, plot_deformed_all
 
-        first = solutions[conditions[0]]
-        figures = {"deformed_potential.png": plot_deformed(first, "potential"),
-                   "deformed_von_mises.png": plot_deformed(first, "von_mises"),
+        figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
                    "contact.png": plot_contact(solutions)}
+        if any(b.piezoelectric for b in scene.bodies):               # no potential plot for an all-elastic scene
+            figures["deformed_potential.png"] = plot_deformed_all(solutions, "potential")
         for name, fig in figures.items():
-            atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
-            plt.close(fig)
+            try:
+                atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
+            except OSError as exc:
+                raise CvxContactError(f"cannot write {str(out / name)!r}: {exc}") from exc
+            finally:
+                plt.close(fig)
     if not quiet:
         for sol in solutions.values():
             print(sol.report())
-        print(f"results in {out}/")
+        print(f"results in {out.resolve()}/ (results.pvd opens every VTU file in ParaView)")
     bad = [c for c, s in solutions.items() if not s.ok]
     if bad:
         print(f"cvxcontact: warning: the solution for {bad} fails its checks at tol={solutions[bad[0]].tol:g}; "

@@ -254,7 +254,7 @@ class _Context:
             return float(value)
         if isinstance(value, str):
             try:
-                return Expression(value)
+                return Expression(value, where=f"{self.path}: {key}")
             except ExpressionError as exc:
                 raise SceneFileError(f"{self.path}: {key}: {exc}") from None
         self.fail(key, "a number or an expression in x, y", value)

@@ -46,8 +46,27 @@ class ContactResult:
 
     @property
     def pressure(self) -> np.ndarray:
-        """Nodal force divided by the lumped length of each node (Pa)."""
-        return self.force / lumped_lengths(self.x)
+        """Nodal force divided by the lumped length of each constrained node (Pa).
+
+        The forces E^T y sit on the constrained nodes only (every merged node for gamma3,
+        the nodes of mesh l for sigma_l), so each is divided by the lumped length of the
+        mesh made of those nodes (for sigma_l: mesh l's own trace), never by the merged
+        mesh's shorter lengths. 0 at the nodes without a constraint (they carry no force).
+        For the pressure felt by a body use :meth:`Solution.traction`.
+        """
+        out = np.zeros(len(self.x))
+        on = np.asarray(self.constrained, dtype=bool)
+        if on.sum() >= 2:
+            out[on] = self.force[on] / lumped_lengths(self.x[on])
+        return out
+
+    @property
+    def penetration(self) -> np.ndarray:
+        """Boolean mask of the merged nodes where [u_nu] exceeds the gap g by more than 1e-9 of the
+        largest |[u_nu]| (with sigma_l, the unconstrained nodes of the other mesh may penetrate)."""
+        gap = np.zeros(len(self.x)) if self.gap is None else self.gap
+        scale = max(float(np.abs(self.jump).max()), float(np.abs(gap).max()), np.finfo(float).tiny)
+        return (self.jump - gap) > 1e-9 * scale
 
 
 @dataclass

@@ -12,9 +12,11 @@ See the README for the full quickstart and the paper's notation mapped to these 
 
 from .physics import materials
 from .contact.interface import CONDITIONS
-from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
+from .errors import (CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError,
+                     UnsupportedError)
 from .geometry.mesh import Mesh, read_mesh, rectangle
 from .physics.scene import Body, Scene
+from .physics.pairs import Contact, Rigid
 from .solution.info import Finish, Route, SolveInfo, Status
 from .solve import ContactResult, ContactSolver, Solution, solve
 from .model import Model
@@ -24,7 +26,8 @@ __version__ = "0.1.0"
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
-    "Body", "Scene",
+    "Body", "Scene", "Contact", "Rigid",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
+    "UnsupportedError",
 ]

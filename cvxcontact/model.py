@@ -96,8 +96,8 @@ class Model:
         self.options = check_solver_options(solver_options, self.solver)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        itf = scene.interface
-        self.E = itf.evaluation(condition)
+        itf = scene.stack
+        self.E = itf.evaluation(condition, scene.conditions)
         self.systems = [assemble(b) for b in scene.bodies]
         gap = scene.gap_values()
         self.units = un = units(scene, self.systems, gap)
@@ -129,7 +129,7 @@ class Model:
                     return k
             raise SceneError(f"body {body!r} is not a body of this model's scene")
         if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(bodies):
-            raise SceneError(f"body must be 0 or 1 (the body's index) or one of the scene's Body objects, "
+            raise SceneError(f"body must be a body's index (0, 1, ...) or one of the scene's Body objects, "
                              f"got {body!r}")
         return int(body)
 
@@ -159,7 +159,8 @@ class Model:
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:
-        """[u_nu] at the merged contact nodes (``scene.interface.x``), m; <= gap where constrained."""
+        """[u_nu] at the merged contact nodes of every pair, stacked (``scene.stack``; the rows of pair i
+        are ``scene.stack.offsets[i]:offsets[i + 1]``), m; <= gap where constrained."""
         return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
 
     # ---- user terms ---------------------------------------------------------------------------

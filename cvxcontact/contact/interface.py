@@ -52,7 +52,8 @@ class Trace:
         normals = mesh.outward_normals(part)
         n = normals.mean(axis=0)
         n /= np.linalg.norm(n)
-        spread = float(np.arccos(np.clip(normals @ n, -1.0, 1.0)).max())
+        cross = np.abs(normals[:, 0] * n[1] - normals[:, 1] * n[0])     # sin of each edge's turn (arccos loses
+        spread = float(np.where(normals @ n > 0, np.arcsin(np.minimum(cross, 1.0)), np.pi).max())  # digits near 0)
         if spread > _ANGLE_TOL:
             raise SceneError(f"{label} is not a straight segment: its edge normals turn by up to "
                              f"{np.degrees(spread):.3g} degrees")
@@ -121,8 +122,8 @@ class Interface:
         dist = float(np.mean(second.points @ na)) - first.offset
         if abs(dist) > tol:
             raise SceneError(f"contact parts are not collinear: {bodies[1].name} {parts[1]!r} lies {dist:.9g} m from "
-                             f"the line of {bodies[0].name} {parts[0]!r} along its normal "
-                             f"(for a parallel line ({first.y:.9g} vs {second.y:.9g} m in x2))")
+                             f"the line of {bodies[0].name} {parts[0]!r} along its normal (mean x2: "
+                             f"{bodies[0].name} at y = {first.y:.9g} m, {bodies[1].name} at y = {second.y:.9g} m)")
         # ends shared within tol take the first body's value (as cvxcontact 0.1 did)
         lo = first.x[0] if abs(first.x[0] - second.x[0]) <= tol else max(first.x[0], second.x[0])
         hi = first.x[-1] if abs(first.x[-1] - second.x[-1]) <= tol else min(first.x[-1], second.x[-1])

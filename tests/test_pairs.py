@@ -399,3 +399,20 @@ def test_scene_file_contact_errors(tmp_path, edit, match):
     (tmp_path / "s.toml").write_text(edit(PUNCH_FILE))
     with pytest.raises(SceneFileError, match=match):
         load_scene(tmp_path / "s.toml")
+
+
+def test_contact_solver_resolves_a_moved_obstacle_and_refuses_other_pairs():
+    def scene(depth, part="bottom"):
+        block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.4), nx=6, ny=3), ALU, clamped="top", contact="bottom",
+                        body_force=(0.0, -3e9), name="block")
+        return cc.Scene(block, contacts=[cc.Contact(block, part, cc.Rigid.plane((0.0, -depth), (0.0, 1.0)))])
+
+    solver = cc.ContactSolver(scene(1e-5))
+    first = solver.solve()
+    again = solver.solve(scene(-1e-4))                       # the obstacle moved: a gap, i.e. a load
+    fresh = cc.solve(scene(-1e-4))
+    assert first.ok and again.ok and rel(again.u[0], fresh.u[0]) < 1e-10
+    assert not np.allclose(first.u[0], again.u[0])
+    block = scene(0.0).bodies[0]
+    with pytest.raises(cc.SceneError, match="contact pairs"):
+        solver.solve(cc.Scene(block, contacts=[cc.Contact(block, "bottom", cc.Rigid.circle((0.5, -1.0), 1.0))]))

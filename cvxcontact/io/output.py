@@ -77,7 +77,8 @@ def contact_mesh(solution):
 
     c = solution.contact
     n = len(c.x)
-    points = np.column_stack([c.x, np.full(n, c.line), np.zeros(n)])
+    xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
+    points = np.column_stack([xy, np.zeros(n)])
     lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
     return meshio.Mesh(points, [("line", lines)], point_data={
         "contact pressure lambda_h [Pa]": c.lam,

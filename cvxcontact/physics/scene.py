@@ -320,8 +320,9 @@ class Scene:
         for k, b in enumerate(self.bodies):
             if b is body:
                 return k
-        raise SceneError(f"contact pair names {body.name}, which is not one of the scene's bodies "
-                         f"{[b.name for b in self.bodies]}")
+        same = " (another Body object of the same name)" if any(b.name == body.name for b in self.bodies) else ""
+        raise SceneError(f"contact pair names {body.name}{same}, which is not one of the scene's bodies "
+                         f"{[b.name for b in self.bodies]}: pass the Body objects given to Scene")
 
     def _check_contacts(self, contacts, gap):
         if isinstance(contacts, Contact) or not isinstance(contacts, (list, tuple)):

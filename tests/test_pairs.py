@@ -416,3 +416,28 @@ def test_contact_solver_resolves_a_moved_obstacle_and_refuses_other_pairs():
     block = scene(0.0).bodies[0]
     with pytest.raises(cc.SceneError, match="contact pairs"):
         solver.solve(cc.Scene(block, contacts=[cc.Contact(block, "bottom", cc.Rigid.circle((0.5, -1.0), 1.0))]))
+
+
+def test_staggered_overlap_and_traction_per_pair():
+    """Overlap [0.35, 0.6]: each end comes from a different body and falls between the other's nodes."""
+    a = cc.Body(cc.rectangle(x=(0.0, 0.6), y=(0.0, 0.3), nx=5, ny=2), STEEL, clamped="top", contact="bottom",
+                body_force=(0.0, -1e9), name="left")
+    b = cc.Body(cc.rectangle(x=(0.35, 1.0), y=(-0.3, 0.0), nx=6, ny=2), ALU, clamped="bottom", contact="top",
+                name="right")
+    gap = lambda s: -1e-4 + 2e-3 * (s - 0.45) ** 2                       # noqa: E731
+    scene = cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", gap=gap)])
+    us, forces = dense_reference(scene.bodies, [(0, "bottom", 1, "top")], "gamma3", [gap])
+    sol = cc.solve(scene)
+    c = sol.contact
+    assert sol.ok and c.x[0] == 0.35 and c.x[-1] == pytest.approx(0.6, abs=1e-15)
+    assert np.abs(c.x - forces[0][0]).max() < 1e-12 and rel(c.force, forces[0][1]) < 1e-8
+    assert rel(sol.u[0], us[0]) < 1e-8 and rel(sol.u[1], us[1]) < 1e-8
+    # each body's view of the pressure carries the same resultant (the work-equivalent transfer)
+    for k in range(2):
+        x, p = sol.traction(k, pair=0)
+        w = np.zeros(len(x))
+        w[:-1] += np.diff(x) / 2
+        w[1:] += np.diff(x) / 2
+        assert abs((p * w).sum() - c.force.sum()) <= 1e-12 * abs(c.force.sum())
+    with pytest.raises(cc.SceneError, match="pair must be an index"):
+        sol.traction(0, pair=1)

@@ -39,8 +39,8 @@ class Trace:
     """The P1 trace of one body on its contact part: nodes sorted by the tangential coordinate s =
     x . t (m), the unit outward normal ``normal`` (2,) and ``points`` (n, 2) in that order.
 
-    ``x`` is s (the abscissa for a line parallel to the x1-axis); ``normal_sign`` is the x2 component
-    of the normal rounded to +-1 or 0 (the 0.1 attribute ``normal`` of a horizontal line)."""
+    ``x`` is s (the abscissa for a line parallel to the x1-axis); ``unit_normal`` the outward normal;
+    ``normal`` its x2 component when that is +-1, else 0 (the 0.1 meaning: +-1 for a horizontal line)."""
 
     def __init__(self, body, k, tol, part=None, tangent=None):
         mesh = body.mesh

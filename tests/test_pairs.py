@@ -441,3 +441,21 @@ def test_staggered_overlap_and_traction_per_pair():
         assert abs((p * w).sum() - c.force.sum()) <= 1e-12 * abs(c.force.sum())
     with pytest.raises(cc.SceneError, match="pair must be an index"):
         sol.traction(0, pair=1)
+
+
+def test_two_punches_on_one_part_of_a_substrate():
+    """Two pairs on the same part of one body (disjoint overlaps) against the dense reference."""
+    p1 = cc.Body(cc.rectangle(x=(0.1, 0.4), y=(0.0, 0.2), nx=3, ny=2), STEEL, clamped="top", contact="bottom",
+                 body_force=(0.0, -1e9), name="p1")
+    p2 = cc.Body(cc.rectangle(x=(0.55, 0.9), y=(0.0, 0.2), nx=4, ny=2), STEEL, clamped="top", contact="bottom",
+                 body_force=(0.0, -1e9), name="p2")
+    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.4, 0.0), nx=7, ny=3), ALU, clamped="bottom", contact="top",
+                   name="substrate")
+    gaps = [lambda s: -5e-5 + 1e-3 * (s - 0.2) ** 2, lambda s: -2e-5 + 2e-4 * (s - 0.55)]
+    scene = cc.Scene(p1, p2, base, contacts=[cc.Contact(p1, "bottom", base, "top", gap=gaps[0]),
+                                             cc.Contact(p2, "bottom", base, "top", gap=gaps[1])])
+    us, forces = dense_reference(scene.bodies, [(0, "bottom", 2, "top"), (1, "bottom", 2, "top")], "gamma3", gaps)
+    sol = cc.solve(scene)
+    assert sol.ok and all(rel(sol.u[k], us[k]) < 1e-8 for k in range(3))
+    for c, (xs, fr) in zip(sol.contacts, forces):       # (the reference rounds its abscissae to 1e-12)
+        assert np.abs(c.x - xs).max() < 1e-11 and rel(c.force, fr) < 1e-8 and c.active.any()

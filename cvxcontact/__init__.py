@@ -30,15 +30,17 @@ _WHERE = {
     "Status": (".solution.info", None),
     "ContactResult": (".solve", None), "ContactSolver": (".solve", None), "Solution": (".solve", None),
     "solve": (".solve", None), "Model": (".model", None),
-    "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
+    "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
+    "UnsupportedError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
 }
 
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
-    "Body", "Scene", "Signorini", "NormalCompliance",
+    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
+    "UnsupportedError",
 ]
 
 
@@ -71,7 +73,9 @@ _sys.modules[__name__].__class__ = _Package
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from .contact.interface import CONDITIONS
     from .contact.laws import NormalCompliance, Signorini
-    from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
+    from .errors import (CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError,
+                         UnsupportedError)
+    from .physics.pairs import Contact, Rigid
     from .geometry.mesh import Mesh, read_mesh, rectangle
     from .model import Model
     from .physics import materials

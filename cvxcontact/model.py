@@ -46,7 +46,7 @@ import scipy.sparse.linalg as spla
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law
+from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError
 from .fem.assembly import assemble
@@ -96,14 +96,14 @@ class Model:
 
         if not isinstance(scene, Scene):
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
-        self.law = check_law(law)
+        self.law = check_law_for(scene, check_law(law))
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        itf = scene.interface
-        self.E = itf.evaluation(condition)
+        itf = scene.stack
+        self.E = itf.evaluation(condition, scene.conditions)
         self.systems = [assemble(b) for b in scene.bodies]
         gap = scene.gap_values()
         self.units = un = units(scene, self.systems, gap)
@@ -111,7 +111,8 @@ class Model:
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
                        for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
-        self._weights = lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
+        self._weights = (lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
+                         if self.law.compliant else None)
         self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
         self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
@@ -137,7 +138,7 @@ class Model:
                     return k
             raise SceneError(f"body {body!r} is not a body of this model's scene")
         if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(bodies):
-            raise SceneError(f"body must be 0 or 1 (the body's index) or one of the scene's Body objects, "
+            raise SceneError(f"body must be a body's index (0, 1, ...) or one of the scene's Body objects, "
                              f"got {body!r}")
         return int(body)
 
@@ -167,7 +168,8 @@ class Model:
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:
-        """[u_nu] at the merged contact nodes (``scene.interface.x``), m; <= gap where constrained."""
+        """[u_nu] at the merged contact nodes of every pair, stacked (``scene.stack``; the rows of pair i
+        are ``scene.stack.offsets[i]:offsets[i + 1]``), m; <= gap where constrained."""
         return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
 
     # ---- user terms ---------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from .backends.condensed import Compliance, InterfaceModel, condense, quasi_defi
 from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law
+from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError
 from .fem.assembly import assemble_loads, assemble_matrices
@@ -129,12 +129,13 @@ class ContactSolver:
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-        self.law = check_law(law)
+        self.law = check_law_for(scene, check_law(law))
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
-        self.E = scene.interface.evaluation(condition)
+        self.E = scene.stack.evaluation(condition, scene.conditions)     # every pair's rows, stacked
+        self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription())         # the backend actually run
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
@@ -144,7 +145,8 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self._weights = lumped_lengths(scene.interface.x[self.E.indices])     # m, the law's quadrature
+        self._weights = (lumped_lengths(scene.interface.x[self.E.indices])       # m, the law's quadrature
+                         if self.law.compliant else None)
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -158,7 +160,7 @@ class ContactSolver:
         un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
-            self._blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)
+            self._blocks = [Block.scaled(s, scene.stack.jump(k, len(b.mesh.points)), un)
                             for k, (s, b) in enumerate(zip(systems, scene.bodies))]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
@@ -359,11 +361,16 @@ class ContactSolver:
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
-        return isinstance(scene, Scene) and [geometry_fingerprint(b) for b in scene.bodies] == self._fingerprints
+        return (isinstance(scene, Scene) and len(scene.bodies) == len(self._fingerprints)
+                and [geometry_fingerprint(b) for b in scene.bodies] == self._fingerprints
+                and scene.structure() == self._structure)
 
     def _compatible(self, scene):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        if len(scene.bodies) != len(self._fingerprints):
+            raise SceneError(f"the scene has {len(scene.bodies)} bodies, the prepared one {len(self._fingerprints)}; "
+                             "only loads may change between solves of one ContactSolver")
         for k, (fp, b) in enumerate(zip(self._fingerprints, scene.bodies), start=1):
             if geometry_fingerprint(b) != fp:
                 edited = any(b is a for a in self.scene.bodies)
@@ -374,6 +381,10 @@ class ContactSolver:
                                                  "parts") +
                     "; only loads may change between solves of one ContactSolver: build a new Scene and "
                     "ContactSolver for the new geometry")
+        if scene.structure() != self._structure:
+            raise SceneError("the scene's contact pairs (members, parts, conditions, overlaps) differ from the "
+                             "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
+                             "build a new ContactSolver for the new geometry")
         return scene
 
 

@@ -222,10 +222,17 @@ def _info(args):
         print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {len(b.mesh.triangles)} "
               f"triangles; unknowns: {n_u} displacement, "
               + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
-    sig = [len(t.x) for t in itf.traces]
-    print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "
-          f"{itf.size} merged nodes")
-    print(f"  total unknowns {total}; constraints: gamma3 {itf.size}, sigma1 {sig[0]}, sigma2 {sig[1]}")
+    if len(spec.scene.interfaces) == 1 and not itf.rigid:
+        sig = [len(t.x) for t in itf.traces]
+        print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "
+              f"{itf.size} merged nodes")
+        sig = [len(k) for k in itf.sigma]                  # the nodes inside the overlap
+        print(f"  total unknowns {total}; constraints: gamma3 {itf.size}, sigma1 {sig[0]}, sigma2 {sig[1]}")
+        return 0
+    for i, (c, p) in enumerate(zip(spec.scene.contacts, spec.scene.interfaces)):   # contact pairs
+        print(f"  contact[{i}] {c!r}: normal ({p.normal[0]:.4g}, {p.normal[1]:.4g}), s in [{p.x[0]:g}, {p.x[-1]:g}] m, "
+              f"{p.size} merged nodes, sigma1 {len(p.sigma[0])}" + ("" if p.rigid else f", sigma2 {len(p.sigma[1])}"))
+    print(f"  total unknowns {total}; constraints (gamma3): {spec.scene.stack.size}")
     return 0
 
 

@@ -134,3 +134,16 @@ def check_law(law) -> ContactLaw:
                          f"got the class {law.__name__}")
     raise SceneError(f"law must be cc.Signorini() or cc.NormalCompliance(stiffness=k, exponent=m), got {law!r} "
                      f"({type(law).__name__})")
+
+
+def check_law_for(scene, law: ContactLaw) -> ContactLaw:
+    """``law`` if the scene's contact pairs support it: a compliance law is solved for one pair of two
+    bodies (several pairs, rigid obstacles and per-pair laws are not supported yet)."""
+    if law.compliant and (len(scene.interfaces) > 1 or scene.stack.members[0][1] is None):
+        from ..errors import UnsupportedError
+        raise UnsupportedError("a normal-compliance law is solved for a scene with one contact pair between two "
+                               f"bodies; this scene has {len(scene.interfaces)} pair(s)"
+                               + (" against a rigid obstacle" if scene.stack.members[0][1] is None else "")
+                               + ": use law=None (Signorini) here")
+    return law
+

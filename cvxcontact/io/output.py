@@ -103,7 +103,8 @@ def contact_mesh(solution):
     c = solution.contact
     itf = solution.scene.interface
     n = len(c.x)
-    points = np.column_stack([c.x, np.full(n, c.line), np.zeros(n)])
+    xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
+    points = np.column_stack([xy, np.zeros(n)])
     lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
     sides = _side_displacements(solution)
     data = {f"pressure on body {k + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k)[1] for k in range(2)}

@@ -33,6 +33,11 @@ class ContactResult:
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
     and ``active`` those among them that carry a positive force; ``line`` is the
     ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
+
+    For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
+    tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to
+    the x1-axis), ``points`` (n, 2) the nodes' coordinates (m), ``normal`` the first body's unit
+    outward normal nu^a and ``line`` the mean x2 of the first body's part.
     """
 
     x: np.ndarray
@@ -43,6 +48,8 @@ class ContactResult:
     active: np.ndarray
     line: float = 0.0
     gap: np.ndarray | None = None
+    points: np.ndarray | None = None
+    normal: np.ndarray | None = None
 
     @property
     def pressure(self) -> np.ndarray:
@@ -98,6 +105,9 @@ class Solution:
     _checks: dict = field(default_factory=dict, repr=False)
     law: object = None
     """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
+    contacts: list = field(default_factory=list)
+    """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
+    the first."""
 
     @property
     def status(self) -> Status:
@@ -133,32 +143,39 @@ class Solution:
         """True if the solver reported optimal and every check is below ``tol``."""
         return self.status == cp.OPTIMAL and all(v <= self.tol for v in self._checks.values())
 
-    def traction(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Contact pressure as felt by body ``k`` (0 or 1): (x, p) on its own trace nodes.
+    def traction(self, k: int, pair: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Contact pressure as felt by body ``k`` (0 or 1: the first or second body of contact pair
+        ``pair``): (x, p) on its own trace nodes (x the tangential coordinate s, m).
 
         The merged nodal forces are moved to the nodes of body k's trace (the transpose
         of the trace interpolation: exact work equivalence) and divided by the lumped
         lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
         """
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k not in (0, 1):
-            raise SceneError(f"traction(k): k must be 0 or 1 (the body), got {k!r}")
-        itf = self.scene.interface
+        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
+                not 0 <= pair < len(self.scene.interfaces):
+            raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
+                             f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
+        itf = self.scene.interfaces[pair]
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
+            raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
+                             f"got {k!r}")
         x = itf.traces[k].x
-        return x.copy(), (itf.interpolation(k).T @ self.contact.force) / lumped_lengths(x)
+        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / lumped_lengths(x)
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}, "
-                 f"{int(self.contact.active.sum())} of {int(self.contact.constrained.sum())} "
-                 f"constrained nodes active"]
+                 f"{sum(int(c.active.sum()) for c in self.contacts)} of "
+                 f"{sum(int(c.constrained.sum()) for c in self.contacts)} constrained nodes active"
+                 + (f" ({len(self.contacts)} contact pairs)" if len(self.contacts) > 1 else "")]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'FAILED'}" for k, v in self._checks.items()]
         return "\n".join(lines)
 
 
 def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings):
     """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27)."""
-    itf = scene.interface
+    itf = scene.stack
     g = E @ gap
     Ety = E.T @ y
     lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
@@ -180,16 +197,22 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     constrained[E.indices] = True
     on = np.zeros(itf.size, dtype=bool)
     on[E.indices[active]] = True
-    contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
-                            constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement)
-    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
-              ("x", "lam", "jump", "force", "constrained", "active", "gap"))]:
+    contacts = []
+    for i, pair in enumerate(scene.interfaces):                  # each pair's slice of the stacked rows
+        part = slice(itf.offsets[i], itf.offsets[i + 1])
+        contacts.append(ContactResult(
+            x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
+            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
+            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float)))
+    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
+              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
+    contact = contacts[0]
     info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_)
+                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts)
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,

@@ -145,3 +145,16 @@ def test_exit_code_3_means_solved_but_checks_failed(tmp_path):
     assert {record["attempts"][0]["backend"], record["attempts"][2]["backend"]} == {"condensed", "full"}
     manifest = json.loads((out / "manifest.json").read_text())
     assert [c["state"] for c in manifest["cases"]] == ["checks_failed"]
+
+
+def test_retry_ladder_recovers_a_failed_solve(tmp_path):
+    text = (EXAMPLES / "two_blocks.toml").read_text()
+    assert "polish = true\n" in text
+    small_scene(tmp_path, text.replace("polish = true\n", "polish = true\noptions = { max_iter = 3 }\n"))
+    out = tmp_path / "out"
+    assert cli.main(["sweep", str(sweep_file(tmp_path, "")), "--out", str(out), "--workers", "1", "-q"]) == 0
+    (record,) = [json.loads(p.read_text()) for p in (out / "cases").glob("*.json")]
+    first, second = record["attempts"]                      # 3 iterations are too few; the retry has 400
+    assert "user_limit" in first["error"] and first["solver_options"]["max_iter"] == 3
+    assert second["ok"] and second["solver_options"]["max_iter"] == 400 and record["kept_attempt"] == 2
+    assert record["ok"] and record["residuals"] == second["residuals"]

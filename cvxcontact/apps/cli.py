@@ -181,6 +181,9 @@ def _sweep(args):
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
               f"{len(report.checks_failed)} failing their checks, {len(report.failed)} failed, "
               f"{report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+        if report.superseded or report.redone:
+            print(f"{report.redone} corrupt or incomplete result(s) redone; {report.superseded} result(s) of an "
+                  f"earlier input kept aside in {report.superseded_to or '-'}")
     if report.failed:
         first = next(iter(report.failed.items()))
         print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]} "

@@ -174,9 +174,9 @@ def prepare_out(out) -> Path:
 
 def clean_temporaries(out) -> None:
     """Remove the temporaries of an interrupted run (only ever called under the folder's lock)."""
-    for sub in (CASES, FAILURES, "."):
-        for stale in (Path(out) / sub).glob(".*"):
-            if stale.is_file() and stale.name != ".lock":
+    for sub, pattern in ((CASES, ".*"), (FAILURES, ".*"), (".", ".manifest.*")):
+        for stale in (Path(out) / sub).glob(pattern):
+            if stale.is_file():
                 stale.unlink(missing_ok=True)
 
 

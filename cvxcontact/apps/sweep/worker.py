@@ -76,6 +76,7 @@ def _solve(spec, task, method, scene_path):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", ResidualWarning)          # recorded in the case file
+                warnings.filterwarnings("ignore", message="Solution may be inaccurate")     # (CVXPY) likewise
                 if n == 0:
                     solver = _SOLVERS.get(key)
                     if solver is not None and solver.accepts(spec.scene):

@@ -1,8 +1,8 @@
 """Command line: ``cvxcontact demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
-2 usage error, 3 solved but the solution fails its checks, or some sweep cases
-failed (files are still written).
+2 usage error, 3 solved but the solution fails its checks (files are still written);
+for ``sweep`` see :func:`_sweep`.
 """
 
 from __future__ import annotations
@@ -61,7 +61,12 @@ def _parser():
     sweep.add_argument("--out", required=True, help="output folder (results, failures, manifest)")
     sweep.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     sweep.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
-    sweep.add_argument("--retry-failed", action="store_true", help="run the recorded failures again")
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="run the recorded failures and the cases whose checks failed again")
+    sweep.add_argument("--skip-invalid", action="store_true",
+                       help="record cases whose scene is invalid as failures and run the others (default: refuse)")
+    sweep.add_argument("--export-problem", action="store_true",
+                       help="also write each case's conic problem data (P, q, A, b, cones) to cases/<id>.problem.npz")
     study = sub.add_parser("study", help="verification studies: CSV, PNG and a Markdown summary")
     study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "all"))
     study.add_argument("--out", required=True, help="output folder")
@@ -190,19 +195,32 @@ def _study(args, progress):
 
 
 def _sweep(args):
+    """Exit codes: 0 every case solved and checked, 1 bad input / output folder / some cases failed
+    (no result), 3 every case solved but some fail their checks, 130 interrupted (README, sweeps)."""
     from .sweep import main_progress, run_sweep
 
     if args.workers is not None and args.workers < 1:
         raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
     report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
                        retry_failed=args.retry_failed, progress=main_progress(args.quiet),
-                       allow_outside=args.allow_outside_mesh)
+                       allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
+                       skip_invalid=args.skip_invalid)
     if not args.quiet:
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
-              f"{len(report.failed)} failed, {report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+              f"{len(report.checks_failed)} failing their checks, {len(report.failed)} failed, "
+              f"{report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+        if report.superseded or report.redone:
+            print(f"{report.redone} corrupt or incomplete result(s) redone; {report.superseded} result(s) of an "
+                  f"earlier input kept aside in {report.superseded_to or '-'}")
     if report.failed:
         first = next(iter(report.failed.items()))
-        print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]}", file=sys.stderr)
+        print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]} "
+              f"(see {args.out}/failures/)", file=sys.stderr)
+        return 1
+    if report.checks_failed:
+        first = next(iter(report.checks_failed.items()))
+        print(f"cvxcontact: {len(report.checks_failed)} case(s) solved but fail their checks after the retry "
+              f"ladder, e.g. {first[0]}: {first[1]} (see {args.out}/cases/{first[0]}.json)", file=sys.stderr)
         return 3
     return 0
 

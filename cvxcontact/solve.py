@@ -124,6 +124,8 @@ class ContactSolver:
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
+        for body in scene.bodies:
+            body.require_supports()
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
         self.E = scene.interface.evaluation(condition)

@@ -186,12 +186,12 @@ class _Context:
         where = f"body[{k}]"
         b = self.table(b, where)
         self.keys(b, _BODY, where)
-        for req in ("material", "mesh", "clamped", "contact"):
+        for req in ("material", "mesh", "contact"):
             if req not in b:
                 raise SceneFileError(f"{self.path}: {where}: missing key {req!r}")
         name = b.get("name", f"body {k + 1}")
         kw = dict(
-            clamped=self.tags(b["clamped"], f"{where}.clamped"),
+            clamped=self.tags(b.get("clamped", []), f"{where}.clamped"),
             grounded=self.tags(b.get("grounded", []), f"{where}.grounded"),
             contact=b["contact"],
             body_force=self.load(b.get("body_force", [0.0, 0.0]), f"{where}.body_force", 2),

@@ -22,7 +22,7 @@ from ..physics.scene import Scene
 from .checks import checks
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "read_back"]
+__all__ = ["Solution", "ContactResult", "Electrode", "read_back"]
 
 
 @dataclass
@@ -48,6 +48,44 @@ class ContactResult:
     def pressure(self) -> np.ndarray:
         """Nodal force divided by the lumped length of each node (Pa)."""
         return self.force / lumped_lengths(self.x)
+
+
+@dataclass(frozen=True)
+class Electrode:
+    """One electrode of a piezoelectric body: grounded (phi = 0), driven (phi = V) or floating.
+
+    ``body`` is the body's index in the scene, ``tag`` the boundary part, ``kind`` one of
+    "grounded", "driven", "floating"; ``potential`` its potential (V; the mean over its nodes
+    for a driven electrode whose potential varies along it) and ``charge`` its total charge
+    (C/m): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
+    (for a floating electrode, the prescribed Q). A node shared by two electrodes counts for
+    the first in the order grounded, driven, floating.
+    """
+
+    body: int
+    tag: str
+    kind: str
+    potential: float
+    charge: float
+
+
+def electrodes(scene, systems, u_si, phi_si) -> list[Electrode]:
+    """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`)."""
+    out = []
+    for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
+        if phi is None:
+            continue
+        r = s.Kpp @ (phi - s.phi_fixed) - s.Kup.T @ (u.ravel() - s.u_fixed) - s.q      # C/m per node
+        taken = np.zeros(len(phi), dtype=bool)
+        parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
+                 + [(t, "floating") for t in getattr(b, "floating", {})])
+        for tag, kind in parts:
+            nodes = b.mesh.boundary_nodes([tag])
+            mine = nodes[~taken[nodes]]
+            taken[nodes] = True
+            out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[nodes].mean()),
+                                 charge=float(r[mine].sum())))
+    return out
 
 
 @dataclass
@@ -77,6 +115,8 @@ class Solution:
     info: SolveInfo
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
+    electrodes: list = field(default_factory=list)
+    """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
 
     @property
     def status(self) -> Status:
@@ -146,15 +186,12 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
-        full = np.zeros(2 * len(b.mesh.points))
-        full[s.u_free] = uk * un.displacement
+        full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
         u_si.append(full.reshape(-1, 2))
         if pk is None:
             phi_si.append(None)
             continue
-        pot = s.phi_fixed.copy()
-        pot[s.phi_free] += pk * un.potential
-        phi_si.append(pot)
+        phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     constrained[E.indices] = True
     on = np.zeros(itf.size, dtype=bool)
@@ -168,7 +205,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_)
+                    tol=tol, info=info, energy=float(energy), _checks=checks_,
+                    electrodes=electrodes(scene, systems, u_si, phi_si))
 
 
 def _solve_mass(M, rhs):

@@ -14,6 +14,7 @@ from .physics import materials
 from .contact.interface import CONDITIONS
 from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
 from .geometry.mesh import Mesh, read_mesh, rectangle
+from .geometry.generators import graded_block, half_disk
 from .physics.scene import Body, Scene
 from .solution.info import Finish, Route, SolveInfo, Status
 from .solve import ContactResult, ContactSolver, Solution, solve
@@ -23,7 +24,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "materials", "CONDITIONS",
-    "Mesh", "rectangle", "read_mesh",
+    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk",
     "Body", "Scene",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",

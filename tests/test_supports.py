@@ -171,3 +171,72 @@ def test_bad_support_input_is_refused():
         cc.Body(_rect(), PZT, clamped=["left"], grounded=["bottom"], floating={"right": 0.0}, contact="bottom")
     with pytest.raises(SceneError, match="carries no electric unknowns"):
         cc.Body(_rect(), ALU, clamped=["left"], floating={"top": 0.0}, contact="bottom")
+
+
+# ---- scene files ----------------------------------------------------------------------------------
+
+COLUMN_TOML = """
+[[body]]
+name = "layer"
+material = "PZT-5A"
+mesh = { rectangle = { x = [0.0, 1.0], y = [-0.4, 0.0], nx = 4, ny = 4 } }
+roller = ["bottom", "left", "right"]
+grounded = ["bottom"]
+floating = { top = 0.002 }
+contact = "top"
+
+[[body]]
+name = "plate"
+material = { E = 70e9, nu = 0.3 }
+mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.3], nx = 5, ny = 3 } }
+roller = ["left", "right"]
+displacement = { top = ["free", -1e-4] }
+contact = "bottom"
+"""
+
+
+def test_scene_file_supports_and_floating_electrode_match_the_api(tmp_path):
+    from cvxcontact.io.scenefile import load_scene
+    path = tmp_path / "column.toml"
+    path.write_text(COLUMN_TOML)
+    a = cc.solve(load_scene(path).scene)
+    b = cc.solve(_column(PZT, charge=2e-3))
+    assert np.abs(a.u[0] - b.u[0]).max() <= 1e-12 * DELTA and np.abs(a.phi[0] - b.phi[0]).max() <= 1e-9
+    assert [(e.tag, e.kind) for e in a.electrodes] == [("bottom", "grounded"), ("top", "floating")]
+    from cvxcontact.io.output import summary
+    s = summary(a)["electrodes"]
+    assert s[1]["kind"] == "floating" and s[1]["charge_C_per_m"] == pytest.approx(2e-3, rel=1e-9)
+
+
+@pytest.mark.parametrize("edit,words", [
+    (('roller = ["left", "right"]', 'roller = "left, right"'), "unknown boundary tag 'left, right'"),
+    (('["free", -1e-4]', '[null, -1e-4]'), None),                     # not TOML: refused by the parser
+    (('["free", -1e-4]', '["none", -1e-4]'), 'body[1].displacement.top: expected a list [ux, uy]'),
+    (("floating = { top = 0.002 }", 'floating = { top = "open" }'), "body[0].floating.top: expected the total"),
+    (('name = "layer"', 'name = "layer"\nrotation = "30deg"'), "body[0].rotation: expected an angle in radians"),
+    (('name = "layer"', 'name = "layer"\nplane = "shell"'), 'body[0].plane: expected "strain" (default) or "stress"'),
+    (('name = "plate"', 'name = "plate"\nplane = "stress"\nmaterial_ = 1'), "unknown key(s) ['material_']"),
+])
+def test_scene_file_support_keys_are_checked(tmp_path, edit, words):
+    from cvxcontact.io.scenefile import SceneFileError, load_scene
+    path = tmp_path / "bad.toml"
+    assert edit[0] in COLUMN_TOML
+    path.write_text(COLUMN_TOML.replace(edit[0], edit[1], 1))
+    with pytest.raises(SceneFileError) as info:
+        load_scene(path)
+    if words:
+        assert words in str(info.value)
+
+
+def test_scene_file_rotation_plane_stress_and_generated_meshes(tmp_path):
+    from cvxcontact.io.scenefile import load_scene
+    text = COLUMN_TOML.replace('name = "plate"', 'name = "plate"\nplane = "stress"\nrotation = 0.5', 1).replace(
+        "{ rectangle = { x = [0.0, 1.0], y = [0.0, 0.3], nx = 5, ny = 3 } }",
+        '{ graded_block = { x = [0.0, 1.0], y = [0.0, 0.3], nx = 5, ny = 3, contact = "bottom", gamma = 1.0 } }')
+    path = tmp_path / "frames.toml"
+    path.write_text(text)
+    plate = load_scene(path).scene.bodies[1]
+    E, nu = 70e9, 0.3
+    assert plate.material.plane == "stress" and plate.material.angle == 0.5
+    assert plate.material.c[0, 0] == pytest.approx(E / (1 - nu ** 2), rel=1e-12)     # isotropic: turned = same
+    assert plate.mesh.points[:, 1].max() == pytest.approx(0.3)

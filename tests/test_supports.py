@@ -141,14 +141,6 @@ def test_rotation_left_free_is_named_with_its_centre():
         cc.Body(_rect(), ALU, roller=["left"], contact="right")
 
 
-def test_body_held_by_contact_only_is_refused_until_supported():
-    b1 = cc.Body(_rect(), ALU, roller=["left", "right"], contact="bottom", body_force=(0.0, -1e6))
-    assert b1.held_by_contact == ["translation y"]
-    b2 = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=3, ny=2), ALU, clamped=["bottom"], contact="top")
-    with pytest.raises(SceneError, match=r"held by the contact only.*not supported yet"):
-        cc.solve(cc.Scene(b1, b2))
-
-
 def test_bad_support_input_is_refused():
     with pytest.raises(SceneError, match=r"displacement\['top'\]: both components are None"):
         cc.Body(_rect(), ALU, clamped=["left"], displacement={"top": (None, None)}, contact="bottom")
@@ -240,3 +232,38 @@ def test_scene_file_rotation_plane_stress_and_generated_meshes(tmp_path):
     assert plate.material.plane == "stress" and plate.material.angle == 0.5
     assert plate.material.c[0, 0] == pytest.approx(E / (1 - nu ** 2), rel=1e-12)     # isotropic: turned = same
     assert plate.mesh.points[:, 1].max() == pytest.approx(0.3)
+
+
+# ---- bodies held by the contact only ------------------------------------------------------------
+
+def _resting(p, material=ALU):
+    """A layer between side rollers, pressed by a uniform pressure p (Pa) on its top, resting on a foundation
+    clamped at its bottom, also between side rollers: nothing but the contact holds the layer vertically."""
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=4, ny=3)
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=3, ny=3)
+    b1 = cc.Body(top, material, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -p)})
+    b2 = cc.Body(low, ALU, clamped=["bottom"], roller=["left", "right"], contact="top")
+    return cc.Scene(b1, b2)
+
+
+def test_layer_held_by_contact_only_is_solved_exactly():
+    p = 2e7
+    scene = _resting(p)
+    assert scene.bodies[0].held_by_contact == ["translation y"]
+    sol = cc.solve(scene)
+    assert sol.method == "full" and sol.ok and sol.polished
+    assert abs(sol.contact.force.sum() - p * 1.0) <= 1e-9 * p                     # contact force = load
+    c = ALU.c[1, 1]
+    q1, q2 = (b.mesh.points for b in scene.bodies)
+    assert np.abs(sol.u[1][:, 1] - (-p / c) * (q2[:, 1] + H1)).max() <= 1e-9 * p / c * H1
+    assert np.abs(sol.u[0][:, 1] - (-p / c) * (q1[:, 1] + H1)).max() <= 1e-9 * p / c * H1
+    assert np.abs(sol.u[0][:, 0]).max() <= 1e-9 * p / c * H1
+    with pytest.raises(cc.SolverError, match="does not accept"):
+        cc.solve(scene, method="condensed")
+
+
+def test_load_pulling_a_body_off_its_support_is_a_typed_error():
+    with pytest.raises(SceneError, match=r"pulls the body off its support along \['translation y'\]"):
+        cc.solve(_resting(-2e7))
+    with pytest.raises(SceneError, match=r"pulls the body off its support"):
+        cc.solve(_resting(0.0))

@@ -29,8 +29,9 @@ class Body:
     mesh : Mesh
     material : Piezoelectric or Elastic
     clamped : str or list of str
-        Tags of Gamma_1, where u = 0. Must not be empty: a body free to move rigidly
-        has a singular stiffness.
+        Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
+        displacement) must hold every rigid motion the contact does not (a SceneError names
+        the free motion; see :meth:`free_motions`).
     grounded : str or list of str
         Tags of Gamma_a, where phi = 0 (piezoelectric bodies only).
     potential : dict tag -> float or callable, V
@@ -43,6 +44,16 @@ class Body:
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
     volume_charge : float or callable, C/m^3 (q0 in div D = q0)
     name : str, optional
+    roller : str or list of str
+        Straight parts where u . n = 0 (n the part's normal): sliding supports, symmetry planes.
+    displacement : dict tag -> (ux, uy), m
+        Prescribed displacement components; ``None`` leaves a component free.
+    floating : dict tag -> float, C/m
+        Floating electrodes: one unknown potential on the whole part and its total charge Q
+        (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
+
+    Supports and electrodes enter the unknowns through the prolongation of
+    docs/formulation.md §10 (:func:`cvxcontact.fem.assembly.prolongation`).
     """
 
     def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
@@ -248,6 +259,53 @@ class Body:
                 where = (f" of mesh component {c} ({int(inside.sum())} triangles, centroid at "
                          f"({cg[0]:.4g}, {cg[1]:.4g}) m)")
             out += [_motion_name(v, centre, size) + where for v in free]
+        return out
+
+    def check_pressed(self, f: np.ndarray) -> None:
+        """For the rigid motions only the contact holds: raise SceneError unless the nodal load ``f``
+        ((2n,) N/m, the lifted load of the body) can be balanced by compressive contact forces on the
+        contact part (lambda_i >= 0 along -nu_i at its nodes) in those motions, with a non-zero
+        resultant: otherwise the load pulls the body off its support (or leaves it undetermined)."""
+        from scipy.optimize import nnls
+
+        if not self.held_by_contact:
+            return
+        mesh = self.mesh
+        cn, cdir = mesh.boundary_nodes([self.contact]), _node_normals(mesh, self.contact)
+        for c, V, centre, size in self._free_basis():
+            nodes = np.flatnonzero(mesh.node_components == c)
+            x = (mesh.points[nodes] - centre) / size
+            fx, fy = f[2 * nodes], f[2 * nodes + 1]
+            b = V @ np.array([fx.sum(), fy.sum(), (-x[:, 1] * fx + x[:, 0] * fy).sum()])
+            keep = mesh.node_components[cn] == c
+            xc, d = (mesh.points[cn[keep]] - centre) / size, cdir[keep]
+            A = V @ np.vstack([d[:, 0], d[:, 1], -xc[:, 1] * d[:, 0] + xc[:, 0] * d[:, 1]])
+            _, res = nnls(A, b)
+            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()) or res > 1e-9 * np.linalg.norm(b):
+                names = [_motion_name(v, centre, size) for v in V]
+                raise SceneError(f"{self.name}: the load pulls the body off its support along {names} (held by "
+                                 f"the contact only; its net load there, {np.round(b, 9).tolist()} N/m, cannot be "
+                                 "carried by compressive contact forces): add a support, or load it towards the "
+                                 "contact")
+
+    def _free_basis(self):
+        """Per mesh component with rigid motions the supports leave free: (component, V (k, 3) orthonormal
+        rows of (tx, ty, w) in scaled coordinates, centre (m), size (m))."""
+        mesh = self.mesh
+        nodes, dirs, _ = self.supports()
+        out = []
+        for c in range(int(mesh.components.max()) + 1):
+            pts = mesh.points[mesh.node_components == c]
+            centre = pts.mean(axis=0)
+            size = float(np.ptp(pts, axis=0).max()) or 1.0
+            keep = mesh.node_components[nodes] == c
+            x = (mesh.points[nodes[keep]] - centre) / size
+            d = dirs[keep]
+            A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
+            _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((3, 3))]))
+            free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
+            if len(free):
+                out.append((c, free, centre, size))
         return out
 
     def require_supports(self) -> None:

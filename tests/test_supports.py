@@ -267,3 +267,26 @@ def test_load_pulling_a_body_off_its_support_is_a_typed_error():
         cc.solve(_resting(-2e7))
     with pytest.raises(SceneError, match=r"pulls the body off its support"):
         cc.solve(_resting(0.0))
+
+
+def test_piezo_layer_resting_under_pressure_with_open_circuit_electrode_is_stiffened():
+    """The resting layer in PZT-5A, grounded at its bottom (the contact side), an open-circuit floating
+    electrode on top: sigma_yy = -p, strain -p / (c33 + e33^2/eps33), potential linear."""
+    p = 2e7
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=4, ny=3)
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=3, ny=3)
+    b1 = cc.Body(top, PZT, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -p)},
+                 grounded=["bottom"], floating={"top": 0.0})
+    b2 = cc.Body(low, ALU, clamped=["bottom"], roller=["left", "right"], contact="top")
+    sol = cc.solve(cc.Scene(b1, b2))
+    assert sol.ok and sol.polished
+    c33, e33, k33 = PZT.c[1, 1], PZT.e[1, 1], PZT.kappa[1, 1]
+    eps = -p / (c33 + e33 ** 2 / k33)
+    base = -p / ALU.c[1, 1] * H1                                                   # the foundation's top
+    y = b1.mesh.points[:, 1]
+    assert np.abs(sol.u[0][:, 1] - (base + eps * y)).max() <= 1e-9 * abs(eps) * H2
+    assert np.abs(sol.phi[0] - e33 * eps / k33 * y).max() <= 1e-9 * abs(e33 * eps / k33) * H2
+    assert abs(sol.contact.force.sum() - p) <= 1e-9 * p
+    top_e = [e for e in sol.electrodes if e.kind == "floating"][0]
+    assert abs(top_e.charge) <= 1e-9 * abs(e33 * eps) and top_e.potential == pytest.approx(e33 * eps / k33 * H2,
+                                                                                           rel=1e-9)

@@ -235,22 +235,9 @@ class Body:
         Each connected piece of the mesh is checked on its own.
         """
         mesh = self.mesh
-        nodes, dirs, _ = self.supports()
-        cn = mesh.boundary_nodes([self.contact]) if contact else np.zeros(0, dtype=int)
-        cdir = _node_normals(mesh, self.contact) if contact else np.zeros((0, 2))
-        all_nodes, all_dirs = np.concatenate([nodes, cn]), np.concatenate([dirs, cdir])
         count = int(mesh.components.max()) + 1
         out = []
-        for c in range(count):
-            pts = mesh.points[mesh.node_components == c]
-            centre = pts.mean(axis=0)
-            size = float(np.ptp(pts, axis=0).max()) or 1.0
-            keep = mesh.node_components[all_nodes] == c
-            x = (mesh.points[all_nodes[keep]] - centre) / size
-            d = all_dirs[keep]
-            A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
-            _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((3, 3))]))
-            free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
+        for c, free, centre, size in self._free_basis(contact):
             where = ""
             if count > 1 and len(free):
                 inside = mesh.components == c
@@ -288,11 +275,15 @@ class Body:
                                  "carried by compressive contact forces): add a support, or load it towards the "
                                  "contact")
 
-    def _free_basis(self):
-        """Per mesh component with rigid motions the supports leave free: (component, V (k, 3) orthonormal
-        rows of (tx, ty, w) in scaled coordinates, centre (m), size (m))."""
+    def _free_basis(self, contact=False):
+        """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's
+        normals) leave free: (component, V (k, 3) orthonormal rows of (tx, ty, w) in scaled coordinates,
+        centre (m), size (m))."""
         mesh = self.mesh
         nodes, dirs, _ = self.supports()
+        if contact:
+            nodes = np.concatenate([nodes, mesh.boundary_nodes([self.contact])])
+            dirs = np.concatenate([dirs, _node_normals(mesh, self.contact)])
         out = []
         for c in range(int(mesh.components.max()) + 1):
             pts = mesh.points[mesh.node_components == c]

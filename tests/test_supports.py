@@ -290,3 +290,13 @@ def test_piezo_layer_resting_under_pressure_with_open_circuit_electrode_is_stiff
     top_e = [e for e in sol.electrodes if e.kind == "floating"][0]
     assert abs(top_e.charge) <= 1e-9 * abs(e33 * eps) and top_e.potential == pytest.approx(e33 * eps / k33 * H2,
                                                                                            rel=1e-9)
+
+
+def test_model_poses_supports_and_floating_electrodes_in_si():
+    scene = _column(PZT, charge=2e-3)
+    model = cc.Model(scene)
+    ref, sol = cc.solve(scene), model.solve()
+    assert sol.ok and np.abs(sol.u[0] - ref.u[0]).max() <= 1e-9 * DELTA
+    assert np.abs(model.u(1).value - ref.u[1]).max() <= 1e-6 * DELTA          # u_D included, interior point
+    with pytest.raises(SceneError, match="not supported yet"):
+        cc.Model(_resting(2e7))

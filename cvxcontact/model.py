@@ -98,6 +98,8 @@ class Model:
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
         self.law = check_law_for(scene, check_law(law))
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
+        for body in scene.bodies:
+            body.require_supports()
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
@@ -148,9 +150,8 @@ class Model:
         k = self._index(body)
         if k not in self._u_expr:
             s, n = self.systems[k], len(self.scene.bodies[k].mesh.points)
-            P = sp.csr_matrix((np.ones(len(s.u_free)), (s.u_free, np.arange(len(s.u_free)))),
-                              shape=(2 * n, len(s.u_free)))
-            self._u_expr[k] = self.units.displacement * cp.reshape(P @ self._contact.u[k], (n, 2), order="C")
+            self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
+                                         (n, 2), order="C")
         return self._u_expr[k]
 
     def phi(self, body) -> cp.Expression | None:
@@ -161,10 +162,7 @@ class Model:
         if not s.piezoelectric:
             return None
         if k not in self._phi_expr:
-            n = len(self.scene.bodies[k].mesh.points)
-            Q = sp.csr_matrix((np.ones(len(s.phi_free)), (s.phi_free, np.arange(len(s.phi_free)))),
-                              shape=(n, len(s.phi_free)))
-            self._phi_expr[k] = s.phi_fixed + self.units.potential * (Q @ self._contact.phi[k])
+            self._phi_expr[k] = s.phi_fixed + self.units.potential * (s.Tp @ self._contact.phi[k])
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:

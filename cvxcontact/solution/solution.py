@@ -22,7 +22,7 @@ from ..physics.scene import Scene
 from .checks import checks, compliance_checks
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "read_back", "read_back_compliance"]
+__all__ = ["Solution", "ContactResult", "Electrode", "read_back", "read_back_compliance"]
 
 
 @dataclass
@@ -76,6 +76,44 @@ class ContactResult:
         return (self.jump - gap) > 1e-9 * scale
 
 
+@dataclass(frozen=True)
+class Electrode:
+    """One electrode of a piezoelectric body: grounded (phi = 0), driven (phi = V) or floating.
+
+    ``body`` is the body's index in the scene, ``tag`` the boundary part, ``kind`` one of
+    "grounded", "driven", "floating"; ``potential`` its potential (V; the mean over its nodes
+    for a driven electrode whose potential varies along it) and ``charge`` its total charge
+    (C/m): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
+    (for a floating electrode, the prescribed Q). A node shared by two electrodes counts for
+    the first in the order grounded, driven, floating.
+    """
+
+    body: int
+    tag: str
+    kind: str
+    potential: float
+    charge: float
+
+
+def electrodes(scene, systems, u_si, phi_si) -> list[Electrode]:
+    """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`)."""
+    out = []
+    for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
+        if phi is None:
+            continue
+        r = s.Kpp @ (phi - s.phi_fixed) - s.Kup.T @ (u.ravel() - s.u_fixed) - s.q      # C/m per node
+        taken = np.zeros(len(phi), dtype=bool)
+        parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
+                 + [(t, "floating") for t in getattr(b, "floating", {})])
+        for tag, kind in parts:
+            nodes = b.mesh.boundary_nodes([tag])
+            mine = nodes[~taken[nodes]]
+            taken[nodes] = True
+            out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[nodes].mean()),
+                                 charge=float(r[mine].sum())))
+    return out
+
+
 @dataclass
 class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
@@ -108,6 +146,8 @@ class Solution:
     contacts: list = field(default_factory=list)
     """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
     the first."""
+    electrodes: list = field(default_factory=list)
+    """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
 
     @property
     def status(self) -> Status:
@@ -184,15 +224,12 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
-        full = np.zeros(2 * len(b.mesh.points))
-        full[s.u_free] = uk * un.displacement
+        full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
         u_si.append(full.reshape(-1, 2))
         if pk is None:
             phi_si.append(None)
             continue
-        pot = s.phi_fixed.copy()
-        pot[s.phi_free] += pk * un.potential
-        phi_si.append(pot)
+        phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     constrained[E.indices] = True
     on = np.zeros(itf.size, dtype=bool)
@@ -212,7 +249,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts)
+                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts,
+                    electrodes=electrodes(scene, systems, u_si, phi_si))
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
@@ -238,6 +276,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     for a in (contact.lam, contact.force):
         a.setflags(write=False)
     sol.contact, sol._checks, sol.law = contact, checks_, law
+    sol.contacts = [contact, *sol.contacts[1:]]
     if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement

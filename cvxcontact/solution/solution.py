@@ -19,7 +19,7 @@ import scipy.linalg as sla
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, compliance_checks
+from .checks import checks, compliance_checks, rigid_balance
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "Electrode", "read_back", "read_back_compliance"]
@@ -221,6 +221,11 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
     checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+    for b, s, blk, uk, pk in zip(scene.bodies, systems, blocks, u, phi):      # bodies held by the contact only
+        modes = b.held_modes()
+        if len(modes):
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
+            checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):

@@ -48,7 +48,7 @@ from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import Block, units
-from .errors import ResidualWarning, SceneError
+from .errors import ResidualWarning, SceneError, UnsupportedError
 from .fem.assembly import assemble
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
@@ -100,6 +100,9 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         for body in scene.bodies:
             body.require_supports()
+        if any(o.force is not None for o in scene.obstacles):
+            raise UnsupportedError("cc.Model does not take force-controlled obstacles (Rigid(..., force=)); "
+                                   "solve them with cc.solve, or fix the obstacle")
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose

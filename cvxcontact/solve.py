@@ -24,13 +24,13 @@ from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import Block, Units, units
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem.assembly import assemble_loads, assemble_matrices
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import force_displacements, ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
-from .solution.solution import ContactResult, Solution, read_back, read_back_compliance
+from .solution.solution import ContactResult, Solution, obstacle_results, read_back, read_back_compliance
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
@@ -138,7 +138,11 @@ class ContactSolver:
         self.E = scene.stack.evaluation(condition, scene.conditions)     # every pair's rows, stacked
         self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
-        self.method = choose(method, ProblemDescription(held_by_contact=held))   # the backend actually run
+        self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
+        if self.forced and self.law.compliant:
+            raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
+                                   "not implemented; use the default non-penetration law or a fixed obstacle")
+        self.method = choose(method, ProblemDescription(held_by_contact=held, force_control=bool(self.forced)))
         self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
@@ -162,8 +166,11 @@ class ContactSolver:
             if getattr(b, "held_by_contact", None):
                 b.check_pressed(s.f)                    # the load must press it onto the contact
         gap = scene.gap_values()
-        un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
+        forced = [o for o in scene.obstacles if o.force is not None]
+        un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
+        self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
+        self._taus = [np.zeros(o.basis.shape[1]) for o in forced]
         if self._blocks is None:
             self._blocks = [Block.scaled(s, scene.stack.jump(k, len(b.mesh.points)), un)
                             for k, (s, b) in enumerate(zip(systems, scene.bodies))]
@@ -182,8 +189,11 @@ class ContactSolver:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
                                        self._weights / un.length, self.law, polished, problem, self.tol, timings)
         else:
-            sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
+            moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
+            sol = read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active, polished,
                             problem, self.tol, timings)
+        if scene.obstacles:
+            obstacle_results(sol, [tau * un.displacement for tau in self._taus])
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -231,7 +241,8 @@ class ContactSolver:
 
     def _full(self, blocks, g, timings):
         t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g)
+        tr = self._translations
+        model = ContactModel(blocks, self.E, g, translations=tr)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
         timings["compile"] = model.problem.compilation_time or 0.0
@@ -239,15 +250,20 @@ class ContactSolver:
         u = [v.value for v in model.u]
         phi = [v.value if v is not None else None for v in model.phi]
         y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        self._taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
+        moved = g - sum((R @ tau for (R, _), tau in zip(tr, self._taus)), np.zeros(len(g)))   # the obstacles moved
         parts = [self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
-        slack = sum(parts) - g
-        active, polished = ipm_active(parts, g, y, force_displacements(blocks, self.E, y)), False
-        if self.polish and self.held:
-            out = _sparse_finish(mixed_kkt(blocks, self.E, g), g, active, timings)
+        slack = sum(parts) - moved
+        active, polished = ipm_active(parts, moved, y, force_displacements(blocks, self.E, y)), False
+        if self.polish and (self.held or tr):
+            out = _sparse_finish(mixed_kkt(blocks, self.E, g, translations=tr), g, active, timings)
             if out is None:
                 self.declined = "the active-set steps on the sparse mixed system did not settle"
             else:
-                ((u, phi, y), active), polished = out, True
+                (x, active), polished = out, True
+                u, phi, y = x[:3]
+                if tr:
+                    self._taus = list(x[3])
                 self.finish_route = "active set"
         elif self.polish:
             _, _, d = self._lcp(blocks, g, timings)

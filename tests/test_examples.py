@@ -60,3 +60,13 @@ def test_normal_compliance_example(capsys):
         assert e1 < e0 and r1 < r0 and all(row[-1].ok for row in rows)
         # penetration ~ (lambda/k)^(1/m): its rate in k is 1/m
         assert abs(np.log(r0 / r1) / np.log(k1 / k0) - 1 / m) < 0.05
+
+
+def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
+    rows = load("wall_actuator.py")["main"](2)
+    mat = __import__("cvxcontact").materials.PZT5H
+    for voltage, t, _, sol in rows:       # t = -(p H + e33 V) / c33, computed here from the material's constants
+        exact = -(1e5 / 0.2 * 0.5 + mat.e[1, 1] * voltage) / mat.c[1, 1]
+        assert sol.ok and abs(t - exact) < 1e-9 * abs(exact)
+        assert abs(-sol.obstacles[0].force[1] - 1e5) < 1e-10 * 1e5
+    assert "affine in V" in capsys.readouterr().out

@@ -169,3 +169,22 @@ def test_scene_file_with_a_force_controlled_obstacle(tmp_path):
     (tmp_path / "h.toml").write_text(FORCE_FILE.replace("force = [0.0, -2e7]", 'force = "up"'))
     with pytest.raises(SceneFileError, match=r"obstacle\[0\].*force"):
         load_scene(tmp_path / "h.toml")
+
+
+def test_an_obstacle_given_by_its_distance_only_gets_the_gradient_as_sensitivity():
+    plane = cc.Rigid.plane((0.1, 0.5), (0.3, -1.0))
+    generic = cc.Rigid("custom", plane.distance, "custom()")
+    pts = np.array([[0.0, 0.4], [0.5, 0.3], [0.9, 0.2]])
+    nu = np.array([0.0, 1.0])
+    n = np.array([0.3, -1.0]) / np.hypot(0.3, 1.0)
+    assert np.allclose(plane.sensitivity(pts, nu), n / (-(nu @ n)), rtol=0, atol=1e-15)
+    assert np.allclose(generic.sensitivity(pts, nu), plane.sensitivity(pts, nu), rtol=0, atol=1e-6)
+
+
+def test_summary_reports_the_obstacles():
+    from cvxcontact.io.output import summary
+
+    sol = cc.solve(punch_scene(0.5)(force=(0.0, -1e6)))
+    out = summary(sol)["obstacles"]
+    assert len(out) == 1 and out[0]["prescribed_force_N_per_m"] == [0.0, -1e6]
+    assert out[0]["translation_m"][1] < 0 and abs(out[0]["contact_force_N_per_m"][1] + 1e6) < 1e-6

@@ -186,7 +186,7 @@ def summary(solution) -> dict:
     merged mesh, which may oscillate) is a diagnostic; ``penetrating_nodes`` counts unconstrained
     merged nodes whose jump exceeds the gap (possible with sigma_l)."""
     c = solution.contact
-    felt = [trace_pressure(solution, k)[1] for k in range(2)]
+    felt = [trace_pressure(solution, k)[1] for k in range(len(solution.scene.interface.traces))]  # 1 if rigid
     return {
         "condition": solution.condition,
         "status": solution.status,
@@ -212,6 +212,11 @@ def summary(solution) -> dict:
                    for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)],
         "electrodes": [{"body": e.body, "tag": e.tag, "kind": e.kind, "potential_V": e.potential,
                         "charge_C_per_m": e.charge} for e in getattr(solution, "electrodes", [])],
+        "obstacles": [{"obstacle": repr(o.obstacle), "pairs": list(o.pairs),
+                       "translation_m": [float(v) for v in o.translation],
+                       "contact_force_N_per_m": [float(v) for v in o.force],
+                       "prescribed_force_N_per_m": None if o.prescribed is None else [float(v) for v in o.prescribed]}
+                      for o in getattr(solution, "obstacles", [])],
     }
 
 

@@ -6,10 +6,15 @@ body or of a :class:`Rigid` obstacle. Each pair is the paper's contact problem o
 
     [u_nu] = u^a . nu^a + u^b . nu^b        (each body's outward unit normal; nu^b = -nu^a)
 
-on the overlap of the two parts. A rigid obstacle is analytic (no mesh, no unknowns): u^b = 0 and
+on the overlap of the two parts. A rigid obstacle is analytic (no mesh): u^b = 0 and
 g(x) is the distance (m) from the body's node x to the obstacle along nu^a, plus the pair's gap;
 the linearised condition u^a . nu^a <= g(x) holds at every node of the body's part that can
 reach the obstacle along nu^a (small displacements, like the rest of the model).
+
+Force control (``force=(fx, fy)``, N/m; docs/formulation.md §12): the obstacle's translation t (m) is
+an unknown with that prescribed resultant; the condition becomes u^a . nu^a <= g(x) - c(x) . t with
+c = n / (-nu^a . n) (:meth:`Rigid.sensitivity`) and :func:`obstacle_rows` checks, before solving,
+that compressive contact can balance the force.
 """
 
 from __future__ import annotations
@@ -51,7 +56,8 @@ def _force(force, kind) -> np.ndarray | None:
 
 
 class Rigid:
-    """A rigid obstacle: analytic, fixed in space (no mesh, no unknowns). Build with
+    """A rigid obstacle: analytic (no mesh), fixed in space or, with ``force=(fx, fy)`` (N/m), free to
+    translate under that prescribed resultant (force control, docs/formulation.md §12). Build with
     :meth:`plane`, :meth:`circle` or :meth:`profile`.
 
     ``distance(points, normal)`` gives, for nodes ``points`` (n, 2) of a straight part with unit
@@ -80,7 +86,18 @@ class Rigid:
         Rows of nodes that miss the obstacle are 0."""
         points = np.array(points, dtype=float)
         points.setflags(write=False)
-        return self._sensitivity(points, np.asarray(normal, dtype=float))
+        normal = np.asarray(normal, dtype=float)
+        if self._sensitivity is not None:
+            return self._sensitivity(points, normal)
+        # an obstacle given by its distance only: c = grad d by central differences (d_t(x) = d(x - t))
+        h = 1e-7 * max(float(np.ptp(points)), float(np.abs(points).max(initial=0.0)), np.finfo(float).tiny)
+        out = np.zeros_like(points)
+        for k in range(2):
+            step = np.zeros(2)
+            step[k] = h
+            with np.errstate(invalid="ignore"):
+                out[:, k] = (self.distance(points + step, normal) - self.distance(points - step, normal)) / (2 * h)
+        return np.where(np.isfinite(out), out, 0.0)
 
     def distance(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """Distance (m) from each of ``points`` (n, 2) along the unit ``normal`` to the surface."""
@@ -91,7 +108,9 @@ class Rigid:
     @classmethod
     def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None) -> "Rigid":
         """The half-plane {z : (z - point) . n <= 0}; ``normal`` n points out of the obstacle,
-        towards the body (normalised here). The body's part must face it: nu^a . n < 0."""
+        towards the body (normalised here). The body's part must face it: nu^a . n < 0. ``force``
+        (N/m): force control; only its component along n, pressing the plane onto the body, can be
+        balanced (frictionless), and only the translation along n is an unknown."""
         F = _force(force, "plane")
         p = _point(point, "Rigid.plane: point")
         n = _point(normal, "Rigid.plane: normal")
@@ -116,7 +135,8 @@ class Rigid:
     @classmethod
     def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
         """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. Nodes whose
-        normal ray misses the disc are left free."""
+        normal ray misses the disc are left free. ``force`` (N/m): force control (an indenter under a
+        prescribed load)."""
         F = _force(force, "circle")
         c = _point(center, "Rigid.circle: center")
         if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
@@ -149,7 +169,8 @@ class Rigid:
         """An obstacle whose surface lies at distance ``f(s)`` (m) from the contact part along its
         outward normal, with s = (x - origin) . t (m) the tangential coordinate (t the pair's tangent,
         :func:`cvxcontact.contact.interface.canonical_tangent`: positive x1 component). ``f`` is a
-        vectorised function returning finite values, or ``+inf`` where there is no obstacle."""
+        vectorised function returning finite values, or ``+inf`` where there is no obstacle. ``force``
+        (N/m): force control; the sensitivity uses f'(s) by central differences."""
         F = _force(force, "profile")
         if not callable(f):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "

@@ -543,7 +543,9 @@ class Scene:
 
     The contact geometry (lines, normals, overlaps, merged nodes) is validated here: ``interfaces``
     (one :class:`~cvxcontact.contact.interface.Interface` per pair), ``interface`` (the first),
-    ``stack`` (all pairs' rows stacked, what the solvers use).
+    ``stack`` (all pairs' rows stacked, what the solvers use), ``obstacles`` (one
+    :class:`~cvxcontact.physics.pairs.ObstacleRows` per distinct rigid obstacle; a force-controlled
+    one whose force compressive contact cannot balance is refused here, docs/formulation.md §12).
     """
 
     def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,

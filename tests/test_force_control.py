@@ -188,3 +188,27 @@ def test_summary_reports_the_obstacles():
     out = summary(sol)["obstacles"]
     assert len(out) == 1 and out[0]["prescribed_force_N_per_m"] == [0.0, -1e6]
     assert out[0]["translation_m"][1] < 0 and abs(out[0]["contact_force_N_per_m"][1] + 1e6) < 1e-6
+
+
+def test_one_obstacle_shared_by_two_bodies_moves_as_one():
+    """A rigid plate pressed on two clamped blocks of different stiffness (two pairs, one obstacle):
+    force control with the displacement-controlled resultant gives the same answer."""
+    soft = cc.materials.isotropic(E=10e9, nu=0.3)
+
+    def scene(top, **kw):
+        a = cc.Body(cc.rectangle(x=(0.0, 0.4), y=(0.0, 0.5), nx=4, ny=3), ALU, clamped="bottom", contact="top",
+                    name="a")
+        b = cc.Body(cc.rectangle(x=(0.6, 1.0), y=(0.2, 0.5), nx=4, ny=2), soft, clamped="bottom", contact="top",
+                    name="b")
+        plate = cc.Rigid.plane((0.0, top), (0.0, -1.0), **kw)
+        return cc.Scene(a, b, contacts=[cc.Contact(a, "top", plate), cc.Contact(b, "top", plate)])
+
+    disp = cc.solve(scene(0.5 - 1e-4))
+    assert disp.obstacles[0].pairs == (0, 1)
+    F = disp.obstacles[0].force
+    assert abs(-F[1] - disp.contacts[0].force.sum() - disp.contacts[1].force.sum()) <= 1e-12 * -F[1]
+    assert disp.contacts[0].force.sum() > 2 * disp.contacts[1].force.sum() > 0      # the stiffer block carries more
+    sol = cc.solve(scene(0.5, force=F))
+    assert sol.ok and len(sol.obstacles) == 1
+    assert rel(sol.u[0], disp.u[0]) < 1e-8 and rel(sol.u[1], disp.u[1]) < 1e-8
+    assert rel(sol.obstacles[0].translation, [0.0, -1e-4]) < 1e-8

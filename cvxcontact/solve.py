@@ -18,12 +18,16 @@ import cvxpy as cp
 import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
+from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import lcp_start, row_scales, signs_hold, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError
+from .contact.quadratic import QuadraticInterface
+from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
+from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import ipm_active
@@ -37,13 +41,14 @@ DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
 _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
+_CLARABEL_CONIC = dict(tol_gap_abs=1e-14, tol_gap_rel=1e-14, tol_feas=1e-10, tol_ktratio=1e-10, max_iter=400)
 
 
 
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None) -> Solution:
+          solver_options: Mapping[str, object] | None = None, degree: int = 1) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -78,6 +83,12 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         float or str values (e.g. ``{"max_iter": 100}``). For Clarabel they are checked
         against ``clarabel.DefaultSettings()`` (names, types, ranges) before anything
         is assembled; cvxcontact's own parameters are not accepted here.
+    degree : {1, 2}
+        1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
+        (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
+        segment (a second-order cone per segment, solved by the interior point with tight
+        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        of that body's trace (linear, with the exact finish).
 
     Returns
     -------
@@ -95,7 +106,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options).solve()
+                         solver_options=solver_options, degree=degree).solve()
 
 
 class ContactSolver:
@@ -117,7 +128,7 @@ class ContactSolver:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
-                 verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+                 verbose: bool = False, solver_options: Mapping[str, object] | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
@@ -126,13 +137,22 @@ class ContactSolver:
                                      warm_start=warm_start, scale=scale)
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
-        self.E = scene.interface.evaluation(condition)
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        self.degree, self.nodes, self.conic = degree, None, False
+        self.interface = scene.interface
+        if degree == 2:
+            self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
+            self.interface = QuadraticInterface(scene.bodies, self.nodes)
+            self.conic = condition == "gamma3"
+        self.E = self.interface.evaluation(condition)
         self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription())         # the backend actually run
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
-        self.matrices = [assemble_matrices(b) for b in scene.bodies]
+        self.matrices = ([assemble_matrices(b) for b in scene.bodies] if degree == 1 else
+                         [p2.assemble_matrices(b, n) for b, n in zip(scene.bodies, self.nodes)])
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
@@ -144,28 +164,37 @@ class ContactSolver:
         timings = dict(self.setup_time)
         self.setup_time = {}
         t0 = time.perf_counter()
-        systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
-        gap = scene.gap_values()
+        if self.degree == 1:
+            systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+            gap = scene.gap_values()
+        else:        # the P2 interpolant of the gap at the merged P2 nodes
+            systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
+            x = np.array(self.interface.x)
+            gap = np.array(scene.gap(x, np.full_like(x, self.interface.y)), dtype=float)
         un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
-            self._blocks = [Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un)
-                            for k, (s, b) in enumerate(zip(systems, scene.bodies))]
+            self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
+                            for k, s in enumerate(systems)]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
+        if self.conic:
+            run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
+        self._beta = None
         u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
         sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
-                         problem, self.tol, timings)
+                         problem, self.tol, timings, interface=self.interface, beta=self._beta,
+                         points=None if self.nodes is None else [n.points for n in self.nodes])
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
                            finish=Finish(self.finish_route) if polished and self.finish_route else None)
-        if self.polish and not polished:
+        if self.polish and not polished and not self.conic:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
@@ -178,8 +207,8 @@ class ContactSolver:
         """Condensed bodies and the interface compliance W, built once per geometry."""
         if self._condensed is None:
             t0 = time.perf_counter()
-            self._condensed = [condense(b, s, body.mesh) for b, s, body in
-                               zip(blocks, self.matrices, self.scene.bodies)]
+            meshes = self.nodes or [body.mesh for body in self.scene.bodies]      # P2: the 6-node graph
+            self._condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.matrices, meshes)]
             self._compliance = Compliance(self._condensed, self.E)
             timings["factorization"] = time.perf_counter() - t0
         return self._condensed, self._compliance
@@ -268,6 +297,47 @@ class ContactSolver:
         u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, active, polished, problem
+
+    def _conic_options(self):
+        """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
+        tolerances on the scaled data (the user's options still win)."""
+        return {**(_CLARABEL_CONIC if self.solver == "CLARABEL" else {}), **self.options}
+
+    def _conic_full(self, blocks, g, timings):
+        """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
+        t0 = time.perf_counter()
+        model = ConicContactModel(blocks, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        u = [v.value for v in model.u]
+        phi = [v.value if v is not None else None for v in model.phi]
+        return u, phi, self._contact_force(), None, False, model.problem
+
+    def _conic_condensed(self, blocks, g, timings):
+        """The condensed interface SOCP with the P2 "everywhere" condition, then one back-substitution."""
+        condensed, _ = self._interface(blocks, timings)
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+        model = ConicInterfaceModel(condensed, loads, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        r = self._contact_force()
+        x = [c.solve(F - c.lift(r)) for c, F in zip(condensed, rhs)]
+        u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, r, None, False, model.problem
+
+    def _contact_force(self):
+        """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
+        return self.interface.bernstein().T @ self._beta.ravel()
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -52,11 +53,12 @@ def _sym6(xx, yy, zz, xy):
     return np.column_stack([xx, yy, zz, xy, z, z])
 
 
-def body_mesh(body, u, phi):
-    """A meshio.Mesh of one body with point and cell data named with units."""
+def body_mesh(body, u, phi, nodes=None):
+    """A meshio.Mesh of one body with point and cell data named with units (``nodes``: the P2 nodes of a
+    P2 solution, written as quadratic ``triangle6`` cells, cell data at the centroids)."""
     import meshio
 
-    f = body_fields(body, u, phi)
+    f = body_fields(body, u, phi, nodes)
     point_data = {"displacement [m]": _pad3(u)}
     cell_data = {
         "strain [-]": _sym6(f.strain[:, 0], f.strain[:, 1], np.zeros(len(f.strain)), f.strain[:, 2]),
@@ -67,7 +69,9 @@ def body_mesh(body, u, phi):
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
         cell_data["electric displacement [C/m^2]"] = _pad3(f.electric_displacement)
-    return meshio.Mesh(_pad3(body.mesh.points), [("triangle", body.mesh.triangles)], point_data=point_data,
+    cells = [("triangle", body.mesh.triangles)] if nodes is None else [("triangle6", nodes.triangles)]
+    points = body.mesh.points if nodes is None else nodes.points
+    return meshio.Mesh(_pad3(points), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
@@ -78,8 +82,12 @@ def contact_mesh(solution):
     c = solution.contact
     n = len(c.x)
     points = np.column_stack([c.x, np.full(n, c.line), np.zeros(n)])
-    lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return meshio.Mesh(points, [("line", lines)], point_data={
+    if getattr(solution, "degree", 1) == 2:      # P2: quadratic edges (end, end, midpoint)
+        i = 2 * np.arange((n - 1) // 2)
+        cells = [("line3", np.column_stack([i, i + 2, i + 1]))]
+    else:
+        cells = [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
+    return meshio.Mesh(points, cells, point_data={
         "contact pressure lambda_h [Pa]": c.lam,
         "nodal pressure [Pa]": c.pressure,
         "normal jump [m]": c.jump,
@@ -96,7 +104,8 @@ def write_vtu(solution, out, stem="solution"):
     out = Path(out)
     paths = []
     for k, body in enumerate(solution.scene.bodies, start=1):
-        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1])
+        nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
     line = contact_mesh(solution)
     paths.append(atomic_write(out / f"{stem}_contact.vtu", lambda p: meshio.write(p, line, "vtu")))
@@ -108,6 +117,7 @@ def summary(solution) -> dict:
     c = solution.contact
     return {
         "condition": solution.condition,
+        "degree": int(getattr(solution, "degree", 1)),
         "status": solution.status,
         "ok": bool(solution.ok),
         "polished": bool(solution.polished),
@@ -119,7 +129,7 @@ def summary(solution) -> dict:
                     "active_x_m": [float(c.x[c.active].min()), float(c.x[c.active].max())] if c.active.any() else None,
                     "total_force_N_per_m": float(c.force.sum()), "max_lambda_Pa": float(c.lam.max())},
         "energy_J_per_m": solution.energy,
-        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(b.mesh.points)),
+        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
                     "triangles": int(len(b.mesh.triangles)), "electric_unknowns": bool(b.piezoelectric),
                     "max_displacement_m": float(np.abs(u).max()),
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}

@@ -15,11 +15,12 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks
+from .checks import checks, conic_checks
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "read_back"]
@@ -77,6 +78,10 @@ class Solution:
     info: SolveInfo
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
+    points: list = field(default_factory=list)
+    """``points[k]``: coordinates (m) of body k's nodes in the order of ``u[k]`` and ``phi[k]`` (P1: the
+    mesh points; P2: vertices first, then edge midpoints)."""
+    degree: int = 1
 
     @property
     def status(self) -> Status:
@@ -135,18 +140,33 @@ class Solution:
         return "\n".join(lines)
 
 
-def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings):
-    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27)."""
-    itf = scene.interface
+def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
+              interface=None, beta=None, points=None):
+    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
+
+    P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface`): with the conic
+    condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment, ``y`` is the nodal force
+    r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``points`` the P2 node coordinates.
+    """
+    itf = scene.interface if interface is None else interface
     g = E @ gap
     Ety = E.T @ y
-    lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
+    if getattr(itf, "degree", 1) == 2:
+        lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
+    else:
+        lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
-    checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+    if beta is not None:
+        checks_ = conic_checks(blocks, u, phi, Ety, itf.bernstein(), gap, beta)
+        S = itf.segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
+        active = np.zeros(itf.size, dtype=bool)
+        active[S.ravel()] = True              # the nodes of segments that carry a force
+    else:
+        checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
-        full = np.zeros(2 * len(b.mesh.points))
+        full = np.zeros(len(s.f))
         full[s.u_free] = uk * un.displacement
         u_si.append(full.reshape(-1, 2))
         if pk is None:
@@ -156,9 +176,17 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         pot[s.phi_free] += pk * un.potential
         phi_si.append(pot)
     constrained = np.zeros(itf.size, dtype=bool)
-    constrained[E.indices] = True
     on = np.zeros(itf.size, dtype=bool)
-    on[E.indices[active]] = True
+    if getattr(itf, "degree", 1) == 2:      # P2: the merged nodes in the support of the constrained rows
+        support = np.flatnonzero(np.asarray(abs(E).sum(axis=0)).ravel() > 0)
+        constrained[support] = True
+        if beta is not None:
+            on = active
+        else:
+            on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(active)]).sum(axis=0)).ravel() > 0)] = True
+    else:
+        constrained[E.indices] = True
+        on[E.indices[active]] = True
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
                             constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement)
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
@@ -167,8 +195,10 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
+    pts = points if points is not None else [b.mesh.points for b in scene.bodies]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_)
+                    tol=tol, info=info, energy=float(energy), _checks=checks_, points=list(pts),
+                    degree=getattr(itf, "degree", 1))
 
 
 def _solve_mass(M, rhs):

@@ -46,8 +46,11 @@ import scipy.sparse.linalg as spla
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, mixed_kkt
 from .discrete import Block, units
-from .errors import ResidualWarning, SceneError
+from .contact.quadratic import QuadraticInterface
+from .errors import ResidualWarning, SceneError, SolverError
+from .fem import p2
 from .fem.assembly import assemble
+from .geometry.quadratic import P2Nodes
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
@@ -63,7 +66,10 @@ class Model:
     """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
 
     Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``); all are
-    checked before anything is assembled.
+    checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
+    ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
+    of the merged mesh; only the nodal conditions "sigma1"/"sigma2" (the conic "gamma3" is
+    :func:`cvxcontact.solve`'s).
 
     Methods
     -------
@@ -86,7 +92,8 @@ class Model:
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
-                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None):
+                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
@@ -94,17 +101,26 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        if degree == 2 and condition == "gamma3":
+            raise SolverError("Model(degree=2) takes the nodal conditions 'sigma1'/'sigma2' (linear rows); the "
+                              "conic 'gamma3' condition of P2 is solved by cc.solve(scene, 'gamma3', degree=2)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        itf = scene.interface
+        self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
+        self._itf = itf = scene.interface if degree == 1 else QuadraticInterface(scene.bodies, self._nodes)
         self.E = itf.evaluation(condition)
-        self.systems = [assemble(b) for b in scene.bodies]
-        gap = scene.gap_values()
+        if degree == 1:
+            self.systems = [assemble(b) for b in scene.bodies]
+            gap = scene.gap_values()
+        else:
+            self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
+            gap = np.array(scene.gap(np.array(itf.x), np.full(itf.size, itf.y)), dtype=float)
         self.units = un = units(scene, self.systems, gap)
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
-        self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
-                       for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
+        self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
         self._contact = ContactModel(self.blocks, self.E, self._g)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
@@ -138,7 +154,8 @@ class Model:
         the clamped dofs (Gamma_1) are the constant 0."""
         k = self._index(body)
         if k not in self._u_expr:
-            s, n = self.systems[k], len(self.scene.bodies[k].mesh.points)
+            s = self.systems[k]
+            n = len(s.f) // 2
             P = sp.csr_matrix((np.ones(len(s.u_free)), (s.u_free, np.arange(len(s.u_free)))),
                               shape=(2 * n, len(s.u_free)))
             self._u_expr[k] = self.units.displacement * cp.reshape(P @ self._contact.u[k], (n, 2), order="C")
@@ -152,7 +169,7 @@ class Model:
         if not s.piezoelectric:
             return None
         if k not in self._phi_expr:
-            n = len(self.scene.bodies[k].mesh.points)
+            n = len(s.f) // 2
             Q = sp.csr_matrix((np.ones(len(s.phi_free)), (s.phi_free, np.arange(len(s.phi_free)))),
                               shape=(n, len(s.phi_free)))
             self._phi_expr[k] = s.phi_fixed + self.units.potential * (Q @ self._contact.phi[k])
@@ -271,7 +288,8 @@ class Model:
                 x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
         t0 = time.perf_counter()
         sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
-                        active, polished, problem, self.tol, timings)
+                        active, polished, problem, self.tol, timings, interface=self._itf,
+                        points=None if self._nodes is None else [n.points for n in self._nodes])
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else

@@ -224,3 +224,60 @@ def test_p2_vtu_and_scene_file_key(small, tmp_path):
     assert spec.solve().degree == 2
     with pytest.raises(SceneFileError, match="degree"):
         scene_from_data({**data, "degree": 3}, tmp_path / "s.toml")
+
+
+def test_p2_model_matches_solve_and_takes_user_rows(small):
+    ref = cc.solve(small, "sigma1", degree=2, method="full")
+    model = cc.Model(small, "sigma1", degree=2)
+    sol = model.solve()
+    assert sol.ok and sol.degree == 2
+    for k in (0, 1):
+        assert rel(sol.u[k], ref.u[k]) < 1e-9
+    # a user bound on a midpoint node's potential: active, and the checks include it
+    nodes = P2Nodes(small.bodies[0].mesh)
+    mid = nodes.n_vertices + int(np.argmax(np.abs(ref.phi[0][nodes.n_vertices:])))
+    bound = 0.5 * ref.phi[0][mid]
+    model.add(model.phi(0)[mid] <= bound if bound > 0 else model.phi(0)[mid] >= bound)
+    sol = model.solve()
+    assert sol.ok and abs(sol.phi[0][mid] - bound) < 1e-9 * abs(bound)
+    with pytest.raises(SolverError, match="sigma"):
+        cc.Model(small, "gamma3", degree=2)
+
+
+def test_p2_pressure_and_traction_of_the_patch(patch):
+    """Uniform pressure: the lumped nodal pressures of X_h and of each body's trace are the pressure."""
+    sol = cc.solve(patch, "gamma3", degree=2)
+    assert np.abs(sol.contact.pressure / PRESSURE - 1).max() < 1e-7
+    assert abs(sol.contact.force.sum() - PRESSURE * 1.0) < 1e-7 * PRESSURE
+    for k in (0, 1):
+        x, p = sol.traction(k)
+        assert len(x) == 2 * len(sol.scene.interface.traces[k].x) - 1
+        assert np.abs(p / PRESSURE - 1).max() < 1e-7
+
+
+def test_read_second_order_gmsh_mesh(tmp_path):
+    """A triangle6/line3 mesh reads as its corner triangles; its mid-nodes are the P2 midpoints."""
+    import meshio
+
+    m = cc.rectangle(x=(0, 2), y=(0, 1), nx=3, ny=2)
+    nodes = P2Nodes(m)
+    lines = nodes.boundary("bottom")
+    mesh = meshio.Mesh(np.column_stack([nodes.points, np.zeros(len(nodes))]),
+                       [("triangle6", nodes.triangles), ("line3", lines)],
+                       cell_data={"gmsh:physical": [np.full(len(nodes.triangles), 2), np.full(len(lines), 1)],
+                                  "gmsh:geometrical": [np.full(len(nodes.triangles), 2), np.full(len(lines), 1)]},
+                       field_data={"bottom": np.array([1, 1]), "domain": np.array([2, 2])})
+    path = tmp_path / "q.msh"
+    meshio.write(path, mesh, file_format="gmsh22", binary=False)
+    read = cc.read_mesh(path)
+    assert len(read.points) == len(m.points) and len(read.triangles) == len(m.triangles)
+    again = P2Nodes(read)
+    assert np.allclose(np.sort(again.points[:, 0] * 7 + again.points[:, 1]), np.sort(nodes.points[:, 0] * 7 +
+                                                                                     nodes.points[:, 1]))
+    assert len(read.boundary("bottom")) == len(lines)
+    bent = nodes.points.copy()
+    bent[nodes.n_vertices] += 0.01
+    mesh.points[:, :2] = bent
+    meshio.write(path, mesh, file_format="gmsh22", binary=False)
+    with pytest.raises(cc.MeshError, match="curved"):
+        cc.read_mesh(path)

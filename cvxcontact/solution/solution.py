@@ -18,6 +18,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths
+from ..contact.quadratic import QuadraticInterface
 from ..errors import SceneError
 from ..physics.scene import Scene
 from .checks import checks, conic_checks
@@ -44,11 +45,14 @@ class ContactResult:
     active: np.ndarray
     line: float = 0.0
     gap: np.ndarray | None = None
+    degree: int = 1
 
     @property
     def pressure(self) -> np.ndarray:
-        """Nodal force divided by the lumped length of each node (Pa)."""
-        return self.force / lumped_lengths(self.x)
+        """Nodal force divided by the lumped length of each node (Pa): the row sums of the mass matrix
+        of X_h (P1: half of each adjacent segment; P2: h/6 per adjacent segment at a vertex, 2h/3 at a
+        midpoint)."""
+        return self.force / (lumped_lengths(self.x) if self.degree == 1 else _p2_lumped(self.x))
 
 
 @dataclass
@@ -126,6 +130,10 @@ class Solution:
         """
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k not in (0, 1):
             raise SceneError(f"traction(k): k must be 0 or 1 (the body), got {k!r}")
+        if self.degree == 2:           # P2: body k's trace nodes (vertices and midpoints), P2 lumped lengths
+            itf = QuadraticInterface(self.scene.bodies)
+            x = itf.traces[k].x
+            return x.copy(), (itf.interpolation(k).T @ self.contact.force) / _p2_lumped(x)
         itf = self.scene.interface
         x = itf.traces[k].x
         return x.copy(), (itf.interpolation(k).T @ self.contact.force) / lumped_lengths(x)
@@ -188,7 +196,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         constrained[E.indices] = True
         on[E.indices[active]] = True
     contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
-                            constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement)
+                            constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement,
+                            degree=getattr(itf, "degree", 1))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
@@ -199,6 +208,16 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, points=list(pts),
                     degree=getattr(itf, "degree", 1))
+
+
+def _p2_lumped(x):
+    """Row sums of the P2 mass matrix of the 1D mesh with interleaved nodes x (vertex, midpoint, ...), m."""
+    h = x[2::2] - x[:-1:2]
+    w = np.zeros_like(x, dtype=float)
+    w[:-1:2] += h / 6
+    w[2::2] += h / 6
+    w[1::2] = 2 * h / 3
+    return w
 
 
 def _solve_mass(M, rhs):

@@ -281,3 +281,45 @@ def test_read_second_order_gmsh_mesh(tmp_path):
     meshio.write(path, mesh, file_format="gmsh22", binary=False)
     with pytest.raises(cc.MeshError, match="curved"):
         cc.read_mesh(path)
+
+
+def test_p2_figures(small):
+    import matplotlib
+    matplotlib.use("Agg")
+    from cvxcontact.io.plot import plot_contact, plot_deformed
+
+    sol = cc.solve(small, "sigma1", degree=2)
+    for field in ("von_mises", "potential"):
+        fig = plot_deformed(sol, field)
+        assert fig.axes
+    assert plot_contact({"P2 sigma1": sol}).axes
+    import matplotlib.pyplot as plt
+    plt.close("all")
+
+
+def test_p2_fields_of_the_patch(patch):
+    """Element stresses at the centroids: sigma_yy = E v'(y_c) exactly (v' is linear), the rest zero."""
+    from cvxcontact.fem.fields import body_fields
+
+    sol = cc.solve(patch, "gamma3", degree=2)
+    for k, body in enumerate(patch.bodies):
+        f = body_fields(body, sol.u[k], sol.phi[k], P2Nodes(body.mesh))
+        yc = body.mesh.points[body.mesh.triangles, 1].mean(axis=1)
+        dv = F / YOUNG * yc - PRESSURE / YOUNG if k == 0 else np.full_like(yc, -PRESSURE / YOUNG)
+        assert np.abs(f.stress[:, 1] - YOUNG * dv).max() < 1e-7 * PRESSURE
+        assert np.abs(f.stress[:, [0, 2, 3]]).max() < 1e-7 * PRESSURE
+
+
+def test_p2_contact_solver_resolves_new_loads():
+    """A prepared P2 solver re-solved with new loads (and gap) gives the fresh solve's answer."""
+    a = two_blocks(n1=(8, 4), n2=(5, 3))
+    b = two_blocks(n1=(8, 4), n2=(5, 3), scale=1.5)
+    b = cc.Scene(*b.bodies, gap=lambda x: 1e-5 * (x - 0.5) ** 2)
+    for cond, tol in (("sigma2", 1e-9), ("gamma3", 1e-6)):
+        solver = cc.ContactSolver(a, cond, degree=2)
+        solver.solve()
+        again = solver.solve(b)
+        fresh = cc.solve(b, cond, degree=2)
+        assert again.ok and fresh.ok
+        for k in (0, 1):
+            assert rel(again.u[k], fresh.u[k]) < tol

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -58,16 +59,18 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     k = magnification(solution) if magnify is None else float(magnify)
     values = []
     for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):
+        nv = len(body.mesh.points)             # P2: vertices first; drawn on the vertex triangulation
         if field == "potential":
-            values.append(phi)
+            values.append(phi if phi is None else phi[:nv])
         else:
-            values.append(body_fields(body, u, phi).von_mises)
+            nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+            values.append(body_fields(body, u, phi, nodes).von_mises)
     finite = [v for v in values if v is not None]
     vmin = min(float(np.nanmin(v)) for v in finite) if finite else 0.0
     vmax = max(float(np.nanmax(v)) for v in finite) if finite else 1.0
     mappable = None
     for body, u, v in zip(solution.scene.bodies, solution.u, values):
-        p = body.mesh.points + k * u
+        p = body.mesh.points + k * u[:len(body.mesh.points)]
         tri = body.mesh.triangles
         if v is None:
             ax.tripcolor(p[:, 0], p[:, 1], tri, facecolors=np.zeros(len(tri)), cmap="Greys", vmin=0, vmax=4,

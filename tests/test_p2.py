@@ -186,9 +186,9 @@ def test_bad_degree_is_a_typed_error():
 def test_bernstein_condition_and_maximum_against_sampling():
     from cvxcontact.contact.quadratic import bernstein_max
     rng = np.random.default_rng(0)
-    b = rng.normal(size=(4000, 3))
-    b[:1000, 1] = -np.abs(b[:1000, 1])
-    t = np.linspace(0, 1, 2001)[:, None]
+    b = rng.normal(size=(2000, 3))
+    b[:500, 1] = -np.abs(b[:500, 1])
+    t = np.linspace(0, 1, 1001)[:, None]
     q = b[:, 0] * (1 - t) ** 2 + 2 * b[:, 1] * t * (1 - t) + b[:, 2] * t ** 2     # (t, k)
     sampled = q.max(axis=0)
     exact = bernstein_max(b)
@@ -323,3 +323,24 @@ def test_p2_contact_solver_resolves_new_loads():
         assert again.ok and fresh.ok
         for k in (0, 1):
             assert rel(again.u[k], fresh.u[k]) < tol
+
+
+def test_conic_condition_is_the_limit_of_dense_nodal_sampling(small):
+    """The cone is exact: imposing [u_nu] <= g at many points per merged segment (a linear, nodal-type
+    condition, solved with the exact finish) relaxes it from outside, so its energy is below the conic
+    one and tends to it as the points get denser."""
+    from cvxcontact.contact.quadratic import p2_interpolation
+
+    conic = cc.solve(small, "gamma3", degree=2, method="full")
+    gaps = []
+    for per_segment in (3, 12, 48):
+        solver = cc.ContactSolver(small, "sigma1", degree=2)
+        xv = np.asarray(solver.interface.xv)
+        t = np.linspace(0, 1, per_segment + 1)[:-1]
+        pts = np.append((xv[:-1, None] + np.diff(xv)[:, None] * t).ravel(), xv[-1])
+        solver.E = p2_interpolation(xv, pts)
+        sampled = solver.solve()
+        assert sampled.polished
+        gaps.append(conic.energy - sampled.energy)
+        assert gaps[-1] > -1e-9 * abs(conic.energy)
+    assert gaps[2] < gaps[1] < gaps[0] and gaps[2] < 1e-4 * abs(conic.energy)

@@ -123,7 +123,9 @@ class ContactSolver:
     costs two triangular solves per body and little else. ``scale=False`` hands the
     raw SI matrices to the solver (for the stability study only: it shows what the
     non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
-    parameters as in :func:`solve`; all are checked before anything is assembled.
+    parameters as in :func:`solve` (``degree=2``: P2 elements; the conic "gamma3" condition is
+    re-solved by the interior point each time, the nodal ones warm-start as above); all are
+    checked before anything is assembled.
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,

@@ -344,3 +344,17 @@ def test_conic_condition_is_the_limit_of_dense_nodal_sampling(small):
         gaps.append(conic.energy - sampled.energy)
         assert gaps[-1] > -1e-9 * abs(conic.energy)
     assert gaps[2] < gaps[1] < gaps[0] and gaps[2] < 1e-4 * abs(conic.energy)
+
+
+def test_cli_solve_with_degree_2(tmp_path, capsys):
+    import json
+    from pathlib import Path
+
+    from cvxcontact.apps.cli import main
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "gmsh_scene.toml"
+    assert main(["solve", str(scene), "--out", str(tmp_path), "--condition", "sigma1", "--degree", "2",
+                 "--no-plots"]) == 0
+    summary = json.loads((tmp_path / "sigma1.json").read_text())
+    assert summary["degree"] == 2 and summary["ok"]
+    capsys.readouterr()

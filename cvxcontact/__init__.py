@@ -8,23 +8,77 @@ discrete -> backends -> solution -> solve -> io -> apps. See docs/architecture.m
     >>> sol = cc.solve(scene, condition="gamma3")          # doctest: +SKIP
 
 See the README for the full quickstart and the paper's notation mapped to these names.
+
+The public names are imported on first use (PEP 562), so that ``cvxcontact --help`` and
+``--version`` start without importing NumPy, SciPy or CVXPY.
 """
 
-from .physics import materials
-from .contact.interface import CONDITIONS
-from .errors import CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError
-from .geometry.mesh import Mesh, read_mesh, rectangle
-from .physics.scene import Body, Scene
-from .solution.info import Finish, Route, SolveInfo, Status
-from .solve import ContactResult, ContactSolver, Solution, solve
-from .model import Model
+import sys as _sys
+from importlib import import_module
+from types import ModuleType as _ModuleType
+from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
+
+_WHERE = {
+    "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
+    "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
+    "ResidualWarning": (".errors", None), "SceneError": (".errors", None), "SolverError": (".errors", None),
+    "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
+    "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
+    "Finish": (".solution.info", None), "Route": (".solution.info", None), "SolveInfo": (".solution.info", None),
+    "Status": (".solution.info", None),
+    "ContactResult": (".solve", None), "ContactSolver": (".solve", None), "Solution": (".solve", None),
+    "solve": (".solve", None), "Model": (".model", None),
+    "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
+    "UnsupportedError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
+}
 
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh",
-    "Body", "Scene",
+    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
+    "UnsupportedError",
 ]
+
+
+def __getattr__(name):
+    if name not in _WHERE:
+        raise AttributeError(f"module 'cvxcontact' has no attribute {name!r}")
+    module, attr = _WHERE[name]
+    value = getattr(import_module(module, __name__), attr or name)
+    globals()[name] = value              # cached: the next access is a plain attribute
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(_ModuleType):
+    """The package module: importing the submodule ``cvxcontact.solve`` must not replace the function
+    ``cvxcontact.solve`` (the eager ``from .solve import solve`` used to rebind it; now done here)."""
+
+    def __setattr__(self, name, value):
+        if name == "solve" and isinstance(value, _ModuleType):
+            value = value.solve
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
+    from .contact.interface import CONDITIONS
+    from .contact.laws import NormalCompliance, Signorini
+    from .errors import (CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError,
+                         UnsupportedError)
+    from .physics.pairs import Contact, Rigid
+    from .geometry.mesh import Mesh, read_mesh, rectangle
+    from .model import Model
+    from .physics import materials
+    from .physics.scene import Body, Scene
+    from .solution.info import Finish, Route, SolveInfo, Status
+    from .solve import ContactResult, ContactSolver, Solution, solve

@@ -29,3 +29,8 @@ class SolverError(CvxContactError, RuntimeError):
 
 class ResidualWarning(UserWarning):
     """A solution failed the mixed-formulation checks at the requested tolerance."""
+
+
+class UnsupportedError(CvxContactError, NotImplementedError):
+    """A feature the API names but this version does not provide yet (e.g. a contact law other than
+    non-penetration, a force-controlled obstacle); the message says which."""

@@ -45,16 +45,18 @@ import scipy.sparse.linalg as spla
 
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, mixed_kkt
+from .contact.interface import lumped_lengths
+from .contact.laws import ContactLaw, check_law, check_law_for
+from .contact.quadratic import quadratic_interface
 from .discrete import Block, units
-from .contact.quadratic import QuadraticInterface
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
 from .fem.assembly import assemble
 from .geometry.quadratic import P2Nodes
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
-from .solution.solution import Solution, read_back
+from .solution.solution import Solution, read_back, read_back_compliance
 from .solve import DEFAULT_TOL, _run
 
 __all__ = ["Model"]
@@ -65,11 +67,14 @@ _MAX_STEPS = 20
 class Model:
     """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
 
-    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``); all are
+    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
+    contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
+    docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
     ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
     of the merged mesh; only the nodal conditions "sigma1"/"sigma2" (the conic "gamma3" is
-    :func:`cvxcontact.solve`'s).
+    :func:`cvxcontact.solve`'s), one contact pair of two bodies and the Signorini law (else
+    UnsupportedError).
 
     Methods
     -------
@@ -93,35 +98,44 @@ class Model:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
                  polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 degree: int = 1):
+                 law: ContactLaw | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
+        self.law = check_law_for(scene, check_law(law))
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        if degree == 2 and condition == "gamma3":
-            raise SolverError("Model(degree=2) takes the nodal conditions 'sigma1'/'sigma2' (linear rows); the "
-                              "conic 'gamma3' condition of P2 is solved by cc.solve(scene, 'gamma3', degree=2)")
+        if degree == 2 and self.law.compliant:
+            raise UnsupportedError("Model(degree=2) with a normal-compliance law is not supported yet; use "
+                                   "degree=1 or law=None (Signorini)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
         self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
-        self._itf = itf = scene.interface if degree == 1 else QuadraticInterface(scene.bodies, self._nodes)
-        self.E = itf.evaluation(condition)
         if degree == 1:
+            itf = self._itf = scene.stack
+            self.E = itf.evaluation(condition, scene.conditions)
             self.systems = [assemble(b) for b in scene.bodies]
             gap = scene.gap_values()
         else:
+            itf = self._itf = quadratic_interface(scene, self._nodes)     # one pair of two bodies (else refused)
+            if (scene.conditions[0] or condition) == "gamma3":
+                raise SolverError("Model(degree=2) takes the nodal conditions 'sigma1'/'sigma2' (linear rows); the "
+                                  "conic 'gamma3' condition of P2 is solved by cc.solve(scene, 'gamma3', degree=2)")
+            self.E = itf.evaluation(scene.conditions[0] or condition)
             self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
-            gap = np.array(scene.gap(np.array(itf.x), np.full(itf.size, itf.y)), dtype=float)
+            gap = scene.pair_gap_values(0, np.array(itf.x))
         self.units = un = units(scene, self.systems, gap)
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
-        self._contact = ContactModel(self.blocks, self.E, self._g)
+        self._weights = (lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
+                         if self.law.compliant else None)
+        self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
+        self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -145,7 +159,7 @@ class Model:
                     return k
             raise SceneError(f"body {body!r} is not a body of this model's scene")
         if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(bodies):
-            raise SceneError(f"body must be 0 or 1 (the body's index) or one of the scene's Body objects, "
+            raise SceneError(f"body must be a body's index (0, 1, ...) or one of the scene's Body objects, "
                              f"got {body!r}")
         return int(body)
 
@@ -176,7 +190,8 @@ class Model:
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:
-        """[u_nu] at the merged contact nodes (``scene.interface.x``), m; <= gap where constrained."""
+        """[u_nu] at the merged contact nodes of every pair, stacked (``scene.stack``; the rows of pair i
+        are ``scene.stack.offsets[i]:offsets[i + 1]``), m; <= gap where constrained."""
         return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
 
     # ---- user terms ---------------------------------------------------------------------------
@@ -260,7 +275,13 @@ class Model:
         blocks, E, g = self.blocks, self.E, self._g
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
-        y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+        if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
+            r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+            z = (np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+                 if self._contact.contact is not None else np.zeros(len(g)))
+            y = self._weights * self._law.pressure(r) + z
+        else:
+            y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
         x = self._x()
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
@@ -272,7 +293,7 @@ class Model:
             Cobj, _ = self._rows(objective, x)
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
-        linear = lin and all(r[4] for r in rows)
+        linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y)
         polished, declined = False, ""
         if self.polish and linear:
@@ -286,14 +307,27 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
+        if self._law is not None and self.polish and not rows and objective is None:
+            t0 = time.perf_counter()
+            out = self._finish_compliance(u, g)
+            timings["polish"] = time.perf_counter() - t0
+            if out is not None:
+                u, phi, y, z = out
+                polished = True
         t0 = time.perf_counter()
-        sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
-                        active, polished, problem, self.tol, timings, interface=self._itf,
-                        points=None if self._nodes is None else [n.points for n in self._nodes])
+        if self._law is not None:
+            sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
+                                       u, phi, y, z if self.law.penetration_limit is not None else None,
+                                       self._weights, self.law, polished, problem, self.tol, timings)
+        else:
+            sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
+                            active, polished, problem, self.tol, timings,
+                            interface=None if self._nodes is None else self._itf,
+                            points=None if self._nodes is None else [n.points for n in self._nodes])
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
-                 Route.INTERIOR_POINT if linear else Route.INTERIOR_POINT_NONLINEAR)
+                 Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
@@ -305,6 +339,28 @@ class Model:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
         return sol
+
+    def _finish_compliance(self, u, g):
+        """Exact finish of a normal-compliance model without user terms (docs/formulation.md §10): the
+        bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
+        the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
+        from .backends.condensed import Compliance, condense, quasi_definite_rhs
+        from .backends.finish import solve_compliance
+
+        E, blocks = self.E, self.blocks
+        condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        compliance = Compliance(condensed, E)
+        d = compliance.free_slack(v0, g)
+        r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        if out is None:
+            return None
+        y, z = out[0], out[1]
+        x = [c.solve(F - c.lift(E.T @ y)) for c, F in zip(condensed, rhs)]
+        return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
+                [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
 
     def _contact_norms(self):
         G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()

@@ -20,11 +20,13 @@ import numpy as np
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
-from .backends.finish import lcp_start, row_scales, signs_hold, solve_lcp
+from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
-from .contact.quadratic import QuadraticInterface
+from .contact.interface import lumped_lengths
+from .contact.laws import ContactLaw, check_law, check_law_for
+from .contact.quadratic import quadratic_interface
 from .discrete import Block, Units, units
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
 from .geometry.quadratic import P2Nodes
@@ -32,7 +34,7 @@ from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
-from .solution.solution import ContactResult, Solution, read_back
+from .solution.solution import ContactResult, Solution, read_back, read_back_compliance
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
@@ -53,7 +55,8 @@ complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None, degree: int = 1) -> Solution:
+          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
+          degree: int = 1) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -88,12 +91,18 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         float or str values (e.g. ``{"max_iter": 100}``). For Clarabel they are checked
         against ``clarabel.DefaultSettings()`` (names, types, ranges) before anything
         is assembled; cvxcontact's own parameters are not accepted here.
+    law : Signorini or NormalCompliance, optional
+        The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
+        ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
+        sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
     degree : {1, 2}
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
         tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
-        of that body's trace (linear, with the exact finish).
+        of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
+        pair between two bodies (any orientation, partial overlap) and the Signorini law; several
+        pairs, rigid obstacles and normal-compliance laws raise UnsupportedError.
 
     Returns
     -------
@@ -105,13 +114,15 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         ``scene`` is not a Scene or ``condition`` is unknown.
     SolverError
         A bad parameter or solver option, or the solver failed.
+    UnsupportedError
+        A combination not implemented yet (e.g. degree=2 with several pairs or a compliance law).
 
     See Also
     --------
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options, degree=degree).solve()
+                         solver_options=solver_options, law=law, degree=degree).solve()
 
 
 class ContactSolver:
@@ -135,11 +146,13 @@ class ContactSolver:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
-                 verbose: bool = False, solver_options: Mapping[str, object] | None = None, degree: int = 1):
+                 verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 law: ContactLaw | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        self.law = check_law_for(scene, check_law(law))
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         solver = check_solver(solver)
@@ -147,12 +160,19 @@ class ContactSolver:
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
         self.degree, self.nodes, self.conic = degree, None, False
-        self.interface = scene.interface
+        self.interface = scene.stack                                   # P1: every pair's rows, stacked
         if degree == 2:
+            if self.law.compliant:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
+                                       "yet; use degree=1 or law=None (Signorini)")
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
-            self.interface = QuadraticInterface(scene.bodies, self.nodes)
-            self.conic = condition == "gamma3"
-        self.E = self.interface.evaluation(condition)
+            self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
+            pair_condition = scene.conditions[0] or condition
+            self.conic = pair_condition == "gamma3"
+            self.E = self.interface.evaluation(pair_condition)
+        else:
+            self.E = scene.stack.evaluation(condition, scene.conditions)
+        self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription())         # the backend actually run
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
@@ -163,6 +183,8 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
+        self._weights = (lumped_lengths(scene.interface.x[self.E.indices])       # m, the law's quadrature
+                         if self.law.compliant else None)
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -176,8 +198,7 @@ class ContactSolver:
             gap = scene.gap_values()
         else:        # the P2 interpolant of the gap at the merged P2 nodes
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
-            x = np.array(self.interface.x)
-            gap = np.array(scene.gap(x, np.full_like(x, self.interface.y)), dtype=float)
+            gap = scene.pair_gap_values(0, np.array(self.interface.x))
         un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
@@ -190,13 +211,20 @@ class ContactSolver:
             run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
         self._beta = None
-        u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+        if self.law.compliant:
+            u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
+        else:
+            u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
-                         problem, self.tol, timings, interface=self.interface, beta=self._beta,
-                         points=None if self.nodes is None else [n.points for n in self.nodes])
+        if self.law.compliant:
+            sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
+                                       self._weights / un.length, self.law, polished, problem, self.tol, timings)
+        else:
+            sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
+                            problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
+                            beta=self._beta, points=None if self.nodes is None else [n.points for n in self.nodes])
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -305,6 +333,78 @@ class ContactSolver:
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, active, polished, problem
 
+    def _compliance_solve(self, blocks, g, un, timings):
+        """Normal compliance (docs/formulation.md §10): the convex program with the lumped compliance
+        energy (full or condensed), then the exact finish :func:`solve_compliance` on the interface and
+        one back-substitution per body. Returns (u, phi, row forces y, limit reactions z, polished, problem)."""
+        law = self.law.scaled(un.stress * un.load, un.displacement)
+        w = self._weights / un.length
+        problem, polished, z = None, False, None
+        condensed = None
+        if self.method == "condensed" or self.polish:
+            condensed, compliance = self._interface(blocks, timings)
+            rhs, v0, d = self._lcp(blocks, g, timings)
+        out = None
+        if self.method == "condensed" and self.warm_start and self.polish and self._active is not None:
+            t0 = time.perf_counter()
+            out = solve_compliance(compliance.W, d, w, law, r0=self._active)
+            timings["polish"] = time.perf_counter() - t0
+            if out is not None:
+                self.path, self.finish_route = Route.WARM_START, out[3]
+        if out is None:
+            t0 = time.perf_counter()
+            if self.method == "full":
+                model = ContactModel(blocks, self.E, g, law=law, weights=w)
+            else:
+                loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+                model = InterfaceModel(condensed, loads, self.E, g, law=law, weights=w)
+            timings["model"] = time.perf_counter() - t0
+            try:
+                self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
+            except SolverError:
+                if not self.polish:
+                    raise
+                model = None          # the finish converges globally from the free slack (§10)
+        if out is None and model is None:
+            t0 = time.perf_counter()
+            out = solve_compliance(compliance.W, d, w, law)
+            timings["polish"] = time.perf_counter() - t0
+            if out is None:
+                raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
+                                  "Newton finish did not settle")
+            self.path, self.finish_route = Route.NEWTON_ONLY, out[3]
+        elif out is None:
+            timings["compile"] = model.problem.compilation_time or 0.0
+            timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+            problem = model.problem
+            if self.method == "full":
+                u = [v.value for v in model.u]
+                phi = [v.value if v is not None else None for v in model.phi]
+                r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+            else:
+                r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+            z = (np.asarray(model.contact.dual_value, dtype=float).ravel() if model.contact is not None
+                 else np.zeros(len(g)))
+            y = w * law.pressure(r) + z
+            if self.polish:
+                t0 = time.perf_counter()
+                out = solve_compliance(compliance.W, d, w, law, r0=r)
+                timings["polish"] = time.perf_counter() - t0
+                if out is None:
+                    self.declined = "the semismooth Newton steps on the interface did not settle"
+                else:
+                    self.finish_route = out[3]
+        if out is not None:
+            y, z, polished = out[0], out[1], True
+            self._active = d - compliance.W @ y                 # the penetration r, to warm-start a re-solve
+        if condensed is not None and (polished or self.method == "condensed"):
+            t0 = time.perf_counter()
+            x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+            timings["back_substitution"] = time.perf_counter() - t0
+            u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+            phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
+
     def _conic_options(self):
         """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
         tolerances on the scaled data (the user's options still win)."""
@@ -348,11 +448,16 @@ class ContactSolver:
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
-        return isinstance(scene, Scene) and [geometry_fingerprint(b) for b in scene.bodies] == self._fingerprints
+        return (isinstance(scene, Scene) and len(scene.bodies) == len(self._fingerprints)
+                and [geometry_fingerprint(b) for b in scene.bodies] == self._fingerprints
+                and scene.structure() == self._structure)
 
     def _compatible(self, scene):
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+        if len(scene.bodies) != len(self._fingerprints):
+            raise SceneError(f"the scene has {len(scene.bodies)} bodies, the prepared one {len(self._fingerprints)}; "
+                             "only loads may change between solves of one ContactSolver")
         for k, (fp, b) in enumerate(zip(self._fingerprints, scene.bodies), start=1):
             if geometry_fingerprint(b) != fp:
                 edited = any(b is a for a in self.scene.bodies)
@@ -363,6 +468,10 @@ class ContactSolver:
                                                  "parts") +
                     "; only loads may change between solves of one ContactSolver: build a new Scene and "
                     "ContactSolver for the new geometry")
+        if scene.structure() != self._structure:
+            raise SceneError("the scene's contact pairs (members, parts, conditions, overlaps) differ from the "
+                             "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
+                             "build a new ContactSolver for the new geometry")
         return scene
 
 

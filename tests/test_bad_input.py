@@ -65,8 +65,8 @@ BAD = [
      SceneFileError, "unknown boundary tag 'roof'"),
     ("piezo without electrode", scene_text(upper=replace(GOOD_UPPER, 'grounded = ["top"]\n', "")), SceneFileError,
      "without a grounded or driven electrode"),
-    ("bodies do not share the segment", scene_text(lower=replace(GOOD_LOWER, "x = [0.0, 1.0]", "x = [0.5, 1.5]")),
-     SceneFileError, "do not cover the same segment"),
+    ("bodies do not overlap", scene_text(lower=replace(GOOD_LOWER, "x = [0.0, 1.0]", "x = [1.5, 2.5]")),
+     SceneFileError, "do not overlap"),
     ("not collinear", scene_text(lower=replace(GOOD_LOWER, "y = [-0.5, 0.0]", "y = [-0.5, -0.1]")),
      SceneFileError, "not collinear"),
     ("NaN load", scene_text(upper=replace(GOOD_UPPER, "[0.0, -1e9]", "[nan, -1e9]")), SceneFileError,
@@ -142,7 +142,8 @@ def test_load_expression_failing_at_solve_names_the_key(tmp_path):
     path = tmp_path / "scene.toml"
     path.write_text(scene_text(upper=replace(GOOD_UPPER, "[0.0, -1e9]", '[0.0, "log(x - 0.5)"]')))
     spec = load_scene(path)
-    with pytest.raises(cc.SceneError, match="body_force: the load function returned NaN"):
+    with pytest.raises(cc.SceneError, match=r"body_force: .*scene\.toml: body\[0\]\.body_force\[1\]: "
+                                            r"'log\(x - 0\.5\)' is nan at \(x, y\)"):   # names the file and key
         spec.solve()
 
 

@@ -48,4 +48,15 @@ def test_shipped_sweep_example_runs(tmp_path):
     from cvxcontact.apps.sweep import run_sweep
 
     report = run_sweep(EXAMPLES / "sweep.toml", tmp_path, workers=2)
-    assert report.total == 24 and report.done == 24 and not report.failed
+    assert report.total == 14 and report.done == 14 and not report.failed      # 6 grid points + "heavy", x 2 conditions
+
+
+def test_normal_compliance_example(capsys):
+    out = load("normal_compliance.py")["main"](8, {1: [1e16, 1e17], 2: [1e23, 1e25]})
+    text = capsys.readouterr().out
+    assert "FAILED" not in text and text.count("rate of e_u in k") == 2
+    for m, rows in out.items():
+        (k0, e0, _, r0, _), (k1, e1, _, r1, _) = rows
+        assert e1 < e0 and r1 < r0 and all(row[-1].ok for row in rows)
+        # penetration ~ (lambda/k)^(1/m): its rate in k is 1/m
+        assert abs(np.log(r0 / r1) / np.log(k1 / k0) - 1 / m) < 0.05

@@ -108,7 +108,7 @@ def _body(**kw):
 def test_every_body_parameter_is_classified_as_load_or_geometry():
     params = set(inspect.signature(cc.Body.__init__).parameters) - {"self", "name"}
     assert params == set(LOAD_FIELDS) | set(GEOMETRY_FIELDS) and not set(LOAD_FIELDS) & set(GEOMETRY_FIELDS)
-    assert set(inspect.signature(cc.Scene.__init__).parameters) - {"self", "body1", "body2"} == set(SCENE_LOAD_FIELDS)
+    assert set(inspect.signature(cc.Scene.__init__).parameters) - {"self", "bodies", "contacts"} == set(SCENE_LOAD_FIELDS)
 
 
 def test_fingerprint_excludes_exactly_the_loads():

@@ -277,8 +277,8 @@ def test_sweep_and_cli_accept_the_opt_out(tmp_path):
     write_scene(tmp_path / "scene", mesh='{ file = "../lower.msh" }')
     sweep = tmp_path / "scene" / "sweep.toml"
     sweep.write_text('scene = "scene.toml"\n')
-    refused = run_sweep(sweep, tmp_path / "out1", workers=1)
-    assert refused.done == 0 and "leads outside the scene file's folder" in next(iter(refused.failed.values()))
+    with pytest.raises(cc.CvxContactError, match="leads outside the scene file's folder"):
+        run_sweep(sweep, tmp_path / "out1", workers=1)                 # refused up front (issue 12)
     allowed = run_sweep(sweep, tmp_path / "out2", workers=1, allow_outside=True)
     assert allowed.done == allowed.total == 1 and not allowed.failed
     for argv in (["solve", "s.toml"], ["info", "s.toml"], ["sweep", "w.toml", "--out", "o"]):

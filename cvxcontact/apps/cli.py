@@ -1,8 +1,8 @@
 """Command line: ``cvxcontact demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
-2 usage error, 3 solved but the solution fails its checks, or some sweep cases
-failed (files are still written).
+2 usage error, 3 solved but the solution fails its checks (files are still written);
+for ``sweep`` see :func:`_sweep`.
 """
 
 from __future__ import annotations
@@ -12,10 +12,13 @@ import sys
 import time
 from pathlib import Path
 
-from ..contact.interface import CONDITIONS
 from ..errors import CvxContactError
 
 __all__ = ["main"]
+
+# The conditions of contact.interface.CONDITIONS, spelled out so that ``--help`` and ``--version``
+# import neither NumPy, SciPy nor CVXPY (tests/test_outputs.py checks the two agree).
+CONDITIONS = ("gamma3", "sigma1", "sigma2")
 
 
 class Progress:
@@ -31,13 +34,21 @@ class Progress:
 
 def _parser():
     p = argparse.ArgumentParser(prog="cvxcontact", description="Contact of piezoelectric bodies as convex programs.")
+    import cvxcontact  # the package root (already imported, and lazy): only for its version
+
+    p.add_argument("--version", action="version", version=f"cvxcontact {cvxcontact.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="solve the built-in two-block scene; write VTU, PNG and a JSON summary")
-    demo.add_argument("--out", default="cvxcontact-demo", help="output folder (default: %(default)s)")
-    demo.add_argument("--nx", type=int, default=16, help="cells along the contact line, upper body")
+    demo.add_argument("--out", default="cvxcontact-demo",
+                      help="output folder, relative to the current folder (default: %(default)s)")
+    demo.add_argument("--nx", type=int, default=16, help="cells along the contact line, upper body (default: 16)")
+    demo.add_argument("--load-scale", type=float, default=None,
+                      help="factor on the quickstart scene's loads (default: 0.01, which keeps PZT-5A in its "
+                           "linear range; 1 gives the quickstart's 228 MPa and kV/mm fields)")
     solve = sub.add_parser("solve", help="solve a scene file")
     solve.add_argument("scene", help="scene file (TOML)")
-    solve.add_argument("--out", default=None, help="output folder (default: SCENE name + '-out')")
+    solve.add_argument("--out", default=None,
+                       help="output folder (default: SCENE's name + '-out' in the current folder)")
     solve.add_argument("--condition", choices=CONDITIONS + ("all",), default=None,
                        help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
     solve.add_argument("--method", choices=("full", "condensed"), default=None,
@@ -52,7 +63,12 @@ def _parser():
     sweep.add_argument("--out", required=True, help="output folder (results, failures, manifest)")
     sweep.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     sweep.add_argument("--scheduler", default=None, help="address of a Dask distributed scheduler")
-    sweep.add_argument("--retry-failed", action="store_true", help="run the recorded failures again")
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="run the recorded failures and the cases whose checks failed again")
+    sweep.add_argument("--skip-invalid", action="store_true",
+                       help="record cases whose scene is invalid as failures and run the others (default: refuse)")
+    sweep.add_argument("--export-problem", action="store_true",
+                       help="also write each case's conic problem data (P, q, A, b, cones) to cases/<id>.problem.npz")
     study = sub.add_parser("study", help="verification studies: CSV, PNG and a Markdown summary")
     study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "all"))
     study.add_argument("--out", required=True, help="output folder")
@@ -76,10 +92,14 @@ def main(argv=None) -> int:
         if args.command == "study":
             return _study(args, progress)
         if args.command == "demo":
-            from ..apps.demo import two_blocks
+            from ..apps.demo import DEMO_LOAD_SCALE, two_blocks
 
-            progress("building the demo scene (PZT-5A block on an aluminium block)")
-            return _run(two_blocks(args.nx), list(CONDITIONS), {}, Path(args.out), True, progress, args.quiet)
+            scale = DEMO_LOAD_SCALE if args.load_scale is None else args.load_scale
+            if not (scale == scale and abs(scale) < float("inf")):
+                raise CvxContactError(f"--load-scale must be a finite number, got {args.load_scale}")
+            progress(f"building the demo scene (PZT-5A block on an aluminium block, loads x {scale:g})")
+            return _run(two_blocks(args.nx, scale=scale), list(CONDITIONS), {}, Path(args.out), True, progress,
+                        args.quiet)
         from ..io.scenefile import load_scene
 
         progress(f"reading {args.scene}")
@@ -91,7 +111,7 @@ def main(argv=None) -> int:
         if args.degree:
             settings["degree"] = args.degree
         scene_path = Path(args.scene)
-        out = Path(args.out) if args.out else scene_path.parent / f"{scene_path.stem}-out"
+        out = Path(args.out) if args.out else Path(f"{scene_path.stem}-out")      # in the current folder
         return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)
     except CvxContactError as exc:
         print(f"cvxcontact: error: {_one_line(exc)}", file=sys.stderr)
@@ -109,10 +129,13 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     import warnings
 
     from ..errors import ResidualWarning
-    from ..io.output import atomic_write, write_all
+    from ..io.output import atomic_write, write_all, write_pvd
     from ..solve import solve
 
-    solutions = {}
+    if out.exists() and not out.is_dir():
+        raise CvxContactError(f"--out {str(out)!r} is a file, not a folder; name a folder (it is created if missing)")
+    progress(f"writing into {out.resolve()}")
+    solutions, files, groups = {}, [], []
     for c in conditions:
         progress(f"solving condition {c}")
         with warnings.catch_warnings():
@@ -121,7 +144,13 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         solutions[c] = sol
         progress(f"  {sol.status}, {'exact finish' if sol.polished else 'interior-point answer'}, "
                  f"{int(sol.contact.active.sum())} active nodes, solve {sol.timings.get('solve', 0):.3f} s")
-        write_all(sol, out, stem=c)
+        paths = [p for p in write_all(sol, out, stem=c) if p.suffix == ".vtu"]
+        files += paths
+        groups += [c] * len(paths)
+    try:
+        write_pvd(files, out / "results.pvd", groups)
+    except OSError as exc:
+        raise CvxContactError(f"cannot write results into {str(out)!r}: {exc}") from exc
     if plots:
         progress("drawing figures")
         import matplotlib
@@ -129,19 +158,23 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..io.plot import plot_contact, plot_deformed
+        from ..io.plot import plot_contact, plot_deformed_all
 
-        first = solutions[conditions[0]]
-        figures = {"deformed_potential.png": plot_deformed(first, "potential"),
-                   "deformed_von_mises.png": plot_deformed(first, "von_mises"),
+        figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
                    "contact.png": plot_contact(solutions)}
+        if any(b.piezoelectric for b in scene.bodies):               # no potential plot for an all-elastic scene
+            figures["deformed_potential.png"] = plot_deformed_all(solutions, "potential")
         for name, fig in figures.items():
-            atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
-            plt.close(fig)
+            try:
+                atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
+            except OSError as exc:
+                raise CvxContactError(f"cannot write {str(out / name)!r}: {exc}") from exc
+            finally:
+                plt.close(fig)
     if not quiet:
         for sol in solutions.values():
             print(sol.report())
-        print(f"results in {out}/")
+        print(f"results in {out.resolve()}/ (results.pvd opens every VTU file in ParaView)")
     bad = [c for c, s in solutions.items() if not s.ok]
     if bad:
         print(f"cvxcontact: warning: the solution for {bad} fails its checks at tol={solutions[bad[0]].tol:g}; "
@@ -166,19 +199,32 @@ def _study(args, progress):
 
 
 def _sweep(args):
+    """Exit codes: 0 every case solved and checked, 1 bad input / output folder / some cases failed
+    (no result), 3 every case solved but some fail their checks, 130 interrupted (README, sweeps)."""
     from .sweep import main_progress, run_sweep
 
     if args.workers is not None and args.workers < 1:
         raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
     report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
                        retry_failed=args.retry_failed, progress=main_progress(args.quiet),
-                       allow_outside=args.allow_outside_mesh)
+                       allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
+                       skip_invalid=args.skip_invalid)
     if not args.quiet:
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
-              f"{len(report.failed)} failed, {report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+              f"{len(report.checks_failed)} failing their checks, {len(report.failed)} failed, "
+              f"{report.seconds:.1f} s; manifest: {args.out}/manifest.json")
+        if report.superseded or report.redone:
+            print(f"{report.redone} corrupt or incomplete result(s) redone; {report.superseded} result(s) of an "
+                  f"earlier input kept aside in {report.superseded_to or '-'}")
     if report.failed:
         first = next(iter(report.failed.items()))
-        print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]}", file=sys.stderr)
+        print(f"cvxcontact: {len(report.failed)} case(s) failed, e.g. {first[0]}: {first[1]} "
+              f"(see {args.out}/failures/)", file=sys.stderr)
+        return 1
+    if report.checks_failed:
+        first = next(iter(report.checks_failed.items()))
+        print(f"cvxcontact: {len(report.checks_failed)} case(s) solved but fail their checks after the retry "
+              f"ladder, e.g. {first[0]}: {first[1]} (see {args.out}/cases/{first[0]}.json)", file=sys.stderr)
         return 3
     return 0
 
@@ -198,10 +244,17 @@ def _info(args):
         print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {len(b.mesh.triangles)} "
               f"triangles; unknowns: {n_u} displacement, "
               + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
-    sig = [len(t.x) for t in itf.traces]
-    print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "
-          f"{itf.size} merged nodes")
-    print(f"  total unknowns {total}; constraints: gamma3 {itf.size}, sigma1 {sig[0]}, sigma2 {sig[1]}")
+    if len(spec.scene.interfaces) == 1 and not itf.rigid:
+        sig = [len(t.x) for t in itf.traces]
+        print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "
+              f"{itf.size} merged nodes")
+        sig = [len(k) for k in itf.sigma]                  # the nodes inside the overlap
+        print(f"  total unknowns {total}; constraints: gamma3 {itf.size}, sigma1 {sig[0]}, sigma2 {sig[1]}")
+        return 0
+    for i, (c, p) in enumerate(zip(spec.scene.contacts, spec.scene.interfaces)):   # contact pairs
+        print(f"  contact[{i}] {c!r}: normal ({p.normal[0]:.4g}, {p.normal[1]:.4g}), s in [{p.x[0]:g}, {p.x[-1]:g}] m, "
+              f"{p.size} merged nodes, sigma1 {len(p.sigma[0])}" + ("" if p.rigid else f", sigma2 {len(p.sigma[1])}"))
+    print(f"  total unknowns {total}; constraints (gamma3): {spec.scene.stack.size}")
     return 0
 
 

@@ -125,15 +125,26 @@ class InterfaceModel:
         minimise    sum_l 1/2 v_l^T Sigma_l v_l - g_l^T v_l
         subject to  E sum_l C_l v_l <= E g               (the same contact rows as the full model)
 
-    Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``.
+    Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``. With a normal-compliance
+    ``law`` (scaled) the energy gets the lumped compliance energy of the rows
+    (:func:`cvxcontact.backends.full.compliance_energy`, ``weights`` the lumped lengths) and ``contact``
+    is the penetration limit E [u_nu] <= E g + l, or None.
     """
 
-    def __init__(self, bodies, loads, E, gap_rows):
+    def __init__(self, bodies, loads, E, gap_rows, law=None, weights=None):
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
                      for b, v, g in zip(bodies, self.v, loads))
-        self.contact = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v)) <= gap_rows
-        self.problem = cp.Problem(cp.Minimize(energy), [self.contact])
+        jump = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v))
+        if law is not None and law.compliant:
+            from .full import compliance_energy
+
+            energy += compliance_energy(jump, gap_rows, weights, law)
+            limit = law.penetration_limit
+            self.contact = None if limit is None else jump <= gap_rows + limit
+        else:
+            self.contact = jump <= gap_rows
+        self.problem = cp.Problem(cp.Minimize(energy), [self.contact] if self.contact is not None else [])
 
 
 class Compliance:

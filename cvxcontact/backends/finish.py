@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls
 
-__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "SIGN_TOL"]
+__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "SIGN_TOL"]
 
 SIGN_TOL = 1e-10
 """Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
@@ -156,4 +156,93 @@ def _solve_equilibrated(W, d, active, max_iter):
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):
         return y, support, "NNLS"
+    return None
+
+
+def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
+    """Exact finish for a normal-compliance law (docs/formulation.md §10), on the interface compliance.
+
+    In the constrained rows (scaled units) the penetration r, the compliance force w p(r) (w the lumped
+    lengths ``weights``, p the scaled ``law``) and the penetration-limit reaction z satisfy
+
+        r = d - W y,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0     (z = 0 without a limit l)
+
+    which is the optimality system of the strictly convex problem
+
+        min_r  psi(r) = 1/2 (r - d)^T W^{-1} (r - d) + sum_a w_a Phi(r_a)     subject to r <= l.
+
+    Solved by a damped semismooth Newton method on the free rows (Armijo backtracking on psi; for m = 1
+    p' is piecewise constant and the steps end in finitely many once the contact set is right) inside
+    primal-dual active-set steps on the limit rows (active next where z_a + (r_a - l) / W_aa > 0).
+
+    Returns ``(y, z, at_limit, route)`` or None if W is singular on the rows or the steps do not settle
+    with the signs holding to ``SIGN_TOL`` of each row's scale (:func:`row_scales`).
+    """
+    W = np.asarray(W, dtype=float)
+    d = np.asarray(d, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    n = len(d)
+    if n == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool), "semismooth Newton"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", sla.LinAlgWarning)
+            H = sla.cho_solve(sla.cho_factor(W), np.eye(n))
+    except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+        return None
+    H = 0.5 * (H + H.T)
+    limit = law.penetration_limit
+    ell = np.full(n, np.inf if limit is None else float(limit))
+    r = np.minimum(d if r0 is None else np.asarray(r0, dtype=float), ell)
+    at = r >= ell
+    r[at] = ell[at]
+
+    def psi(r):
+        return 0.5 * (r - d) @ (H @ (r - d)) + float(w @ law.energy(r))
+
+    def grad(r):
+        return H @ (r - d) + w * law.pressure(r)
+
+    seen = set()
+    for _ in range(max_iter):
+        free = ~at
+        r[at] = ell[at]
+        for _ in range(max_iter):                       # damped Newton on the free rows
+            g = grad(r)
+            gF = np.where(free, g, 0.0)
+            _, S = row_scales(W, d, w * law.pressure(r) + np.where(at, -g, 0.0))
+            if not free.any() or (np.abs(W @ gF) <= 1e-3 * SIGN_TOL * (S + np.abs(r))).all():
+                break                                    # the interface equation holds to rounding
+            K = H[np.ix_(free, free)] + np.diag(w[free] * law.derivative(r[free]))
+            try:
+                step = sla.solve(K, -g[free], assume_a="pos")
+            except (np.linalg.LinAlgError, ValueError):
+                return None
+            t, f0, slope, n0 = 1.0, psi(r), float(g[free] @ step), np.linalg.norm(g[free])
+            while True:
+                trial = r.copy()
+                trial[free] += t * step
+                # Armijo on psi; near the solution psi's decrease drowns in rounding, so a step that
+                # reduces the gradient is accepted too
+                if (psi(trial) <= f0 + 1e-4 * t * slope or np.linalg.norm(grad(trial)[free]) < n0
+                        or t < 1e-12):
+                    break
+                t *= 0.5
+            r = trial
+        g = grad(r)
+        z = np.where(at, -g, 0.0)
+        y = w * law.pressure(r) + z
+        wr, S = row_scales(W, d, y)
+        resid = r - d + W @ y                            # the interface equation, displacement units
+        ok = (np.abs(resid) <= SIGN_TOL * (S + np.abs(r))).all()
+        neg = at & (z * wr < -SIGN_TOL * S)
+        over = ~at & (r - ell > SIGN_TOL * S)
+        if ok and not neg.any() and not over.any():
+            return y, z, at, "semismooth Newton"
+        new = (at & ~neg) | over
+        key = new.tobytes()
+        if key in seen:
+            return None
+        seen.add(key)
+        at = new
     return None

@@ -18,7 +18,20 @@ import scipy.sparse.linalg as spla
 
 from .condensed import quasi_definite
 
-__all__ = ["ContactModel", "mixed_kkt"]
+__all__ = ["ContactModel", "mixed_kkt", "compliance_energy"]
+
+
+def compliance_energy(jump_rows, gap_rows, weights, law):
+    """The normal-compliance energy sum_a w_a k/(m+1) (r_a)_+^(m+1), r = E [u_nu] - E g (a CVXPY expression).
+
+    ``law`` is a :class:`~cvxcontact.contact.laws.NormalCompliance` in the units of ``jump_rows`` (scaled),
+    ``weights`` the lumped lengths of the constrained nodes (docs/formulation.md §10): the trapezoidal
+    rule for integral_Gamma3 Phi([u_nu] - g). m = 1 gives a QP (``square(pos(r))``); other m a power cone.
+    """
+    r = cp.pos(jump_rows - gap_rows)
+    m = law.exponent
+    term = cp.square(r) if m == 1 else cp.power(r, m + 1.0)
+    return law.stiffness / (m + 1.0) * cp.sum(cp.multiply(np.asarray(weights, dtype=float), term))
 
 
 class ContactModel:
@@ -27,9 +40,13 @@ class ContactModel:
     Attributes: ``problem``, ``u`` and ``phi`` (variables per body, ``phi[k]`` None
     for an elastic body), ``gauss`` (equality constraints per body, or None) and
     ``contact`` (the inequality constraint E [u_nu] <= E g).
+
+    With a normal-compliance ``law`` (scaled, :class:`~cvxcontact.contact.laws.NormalCompliance`) and the
+    lumped lengths ``weights`` of the constrained nodes, the energy gets :func:`compliance_energy` and
+    ``contact`` becomes E [u_nu] <= E g + l (its penetration limit) or None without a limit.
     """
 
-    def __init__(self, blocks, E, gap_rows):
+    def __init__(self, blocks, E, gap_rows, law=None, weights=None):
         self.blocks = blocks
         self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
         self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
@@ -43,9 +60,15 @@ class ContactModel:
             energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
             self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
         jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
-        self.contact = jump <= gap_rows
+        if law is not None and law.compliant:
+            energy += compliance_energy(jump, gap_rows, weights, law)
+            limit = law.penetration_limit
+            self.contact = None if limit is None else jump <= gap_rows + limit
+        else:
+            self.contact = jump <= gap_rows
         self.energy = energy
-        self.constraints = [c for c in self.gauss if c is not None] + [self.contact]
+        self.constraints = [c for c in self.gauss if c is not None] + ([self.contact] if self.contact is not None
+                                                                        else [])
         self.problem = cp.Problem(cp.Minimize(energy), self.constraints)
 
     def with_terms(self, constraints=(), objective=None) -> cp.Problem:

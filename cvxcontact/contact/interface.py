@@ -16,65 +16,163 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["Interface", "CONDITIONS", "lumped_lengths"]
+__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
 
 _REL_TOL = 1e-9  # geometric tolerance relative to the scene size
+_ANGLE_TOL = 1e-8  # largest spread of the unit normals of one straight part (radians)
+
+
+def canonical_tangent(normal) -> np.ndarray:
+    """The unit tangent of a straight contact line with unit normal ``normal``: the one with a
+    positive x1 component (positive x2 for a line parallel to the x2-axis), so that both bodies of a
+    pair, whose normals are opposite, share it and a line parallel to the x1-axis keeps s = x1."""
+    t = np.array([-normal[1], normal[0]], dtype=float)
+    if t[0] < -_ANGLE_TOL or (abs(t[0]) <= _ANGLE_TOL and t[1] < 0):
+        t = -t
+    return t
 
 
 class Trace:
-    """The P1 trace of one body on Gamma_3: its nodes sorted by abscissa and its outward normal."""
+    """The P1 trace of one body on its contact part: nodes sorted by the tangential coordinate s =
+    x . t (m), the unit outward normal ``normal`` (2,) and ``points`` (n, 2) in that order.
 
-    def __init__(self, body, k, tol):
+    ``x`` is s (the abscissa for a line parallel to the x1-axis); ``unit_normal`` the outward normal;
+    ``normal`` its x2 component when that is +-1, else 0 (the 0.1 meaning: +-1 for a horizontal line)."""
+
+    def __init__(self, body, k, tol, part=None, tangent=None):
         mesh = body.mesh
-        edges = mesh.boundary(body.contact)
-        normals = mesh.outward_normals(body.contact)
-        label = f"{body.name}: contact part {body.contact!r}"
-        if np.abs(normals[:, 0]).max() > _REL_TOL * 10 or np.ptp(normals[:, 1]) > 1.0:
-            raise SceneError(f"{label} is not a straight segment parallel to the x1-axis")
+        part = body.contact if part is None else part
+        label = f"{body.name}: contact part {part!r}"
+        if part not in mesh.tags:
+            raise SceneError(f"{label}: unknown boundary tag; the mesh has {sorted(mesh.tags)}")
+        edges = mesh.boundary(part)
+        normals = mesh.outward_normals(part)
+        n = normals.mean(axis=0)
+        n /= np.linalg.norm(n)
+        cross = np.abs(normals[:, 0] * n[1] - normals[:, 1] * n[0])     # sin of each edge's turn (arccos loses
+        spread = float(np.where(normals @ n > 0, np.arcsin(np.minimum(cross, 1.0)), np.pi).max())  # digits near 0)
+        if spread > _ANGLE_TOL:
+            raise SceneError(f"{label} is not a straight segment: its edge normals turn by up to "
+                             f"{np.degrees(spread):.3g} degrees")
+        t = canonical_tangent(n) if tangent is None else np.asarray(tangent, dtype=float)
         nodes = np.unique(edges)
-        order = np.argsort(mesh.points[nodes, 0])
+        order = np.argsort(mesh.points[nodes] @ t, kind="stable")
         self.nodes = _frozen(nodes[order])
-        self.x = _frozen(mesh.points[self.nodes, 0])
-        self.y = float(np.mean(mesh.points[self.nodes, 1]))
-        if np.ptp(mesh.points[self.nodes, 1]) > tol:
-            raise SceneError(f"{label} is not a straight segment parallel to the x1-axis "
-                             f"(y varies by {np.ptp(mesh.points[self.nodes, 1]):.3g} m)")
+        self.points = _frozen(mesh.points[self.nodes])
+        self.x = _frozen(self.points @ t)
+        self.offset = float(np.mean(self.points @ n))
+        off = np.ptp(self.points @ n)
+        if off > tol:
+            raise SceneError(f"{label} is not a straight segment (its nodes leave the line by "
+                             f"{off:.3g} m)")
+        self.y = float(np.mean(self.points[:, 1]))
         rank = np.empty(mesh.points.shape[0], dtype=int)
         rank[self.nodes] = np.arange(len(self.nodes))
         steps = np.sort(np.abs(np.diff(rank[edges], axis=1)).ravel())
         if len(edges) != len(self.nodes) - 1 or (steps != 1).any():
             raise SceneError(f"{label} is not one connected chain of edges (gaps or branches)")
-        self.normal = float(np.sign(normals[0, 1]))
-        self.k = k
+        self.unit_normal = _frozen(n)
+        self.normal = float(np.round(n[1])) if abs(abs(n[1]) - 1.0) <= _ANGLE_TOL else 0.0
+        self.tangent = _frozen(t)
+        self.k, self.part, self.body = k, part, body
 
 
 class Interface:
-    """Geometry and operators of Gamma_3 for a pair of bodies (docs/formulation.md §3-4)."""
+    """Geometry and operators of one contact pair (docs/formulation.md §3-4).
 
-    def __init__(self, bodies):
+    ``Interface(bodies)``: the paper's pair, each body's ``contact`` tag. ``Interface(bodies, parts)``
+    names the parts; ``Interface((body,), (part,), obstacle=rigid)`` pairs one body with a rigid
+    obstacle (:class:`cvxcontact.physics.pairs.Rigid`, anything with ``distance(points, normal)``).
+
+    The pair is a straight segment in any direction: ``normal`` is the first body's unit outward
+    normal nu^a (the second's is -nu^a), ``tangent`` t the shared unit tangent
+    (:func:`canonical_tangent`) and s = x . t (m) the tangential coordinate. Contact lives on the
+    overlap [s_lo, s_hi] of the two parts: the merged mesh ``x`` (values of s, sorted) holds the
+    nodes of both traces inside the overlap, its two endpoints included; ``sigma[l]`` indexes body
+    l's nodes among them; nodes outside the overlap are free. With a rigid obstacle the merged mesh
+    is the body's trace where the obstacle can be reached along nu^a (a contiguous run of nodes) and
+    every condition constrains all of its nodes.
+    """
+
+    def __init__(self, bodies, parts=None, obstacle=None):
+        bodies = tuple(bodies)
+        parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
         scale = max(b.mesh.size for b in bodies)
         tol = _REL_TOL * scale
-        self.traces = [Trace(b, k, tol) for k, b in enumerate(bodies)]
-        t1, t2 = self.traces
-        if abs(t1.y - t2.y) > tol:
-            raise SceneError(f"contact parts are not collinear: {bodies[0].name} at y = {t1.y:.9g} m, "
-                             f"{bodies[1].name} at y = {t2.y:.9g} m")
-        if t1.normal == t2.normal:
-            side = "below" if t1.normal > 0 else "above"
-            raise SceneError(f"both bodies lie {side} the contact line; they must face each other")
-        if abs(t1.x[0] - t2.x[0]) > tol or abs(t1.x[-1] - t2.x[-1]) > tol:
+        self.obstacle = obstacle
+        first = Trace(bodies[0], 0, tol, parts[0])
+        t = first.tangent
+        self.normal, self.tangent = first.unit_normal, t
+        if obstacle is not None:
+            self._rigid(first, tol)
+            return
+        second = Trace(bodies[1], 1, tol, parts[1], tangent=t)
+        self.traces = [first, second]
+        na, nb = first.unit_normal, second.unit_normal
+        if na @ nb > -1.0 + _ANGLE_TOL:
+            if abs(na @ nb - 1.0) <= _ANGLE_TOL and abs(na[0]) <= _ANGLE_TOL:
+                side = "below" if na[1] > 0 else "above"
+                raise SceneError(f"both bodies lie {side} the contact line; they must face each other")
+            raise SceneError(f"contact parts do not face each other: {bodies[0].name} {parts[0]!r} has outward "
+                             f"normal ({na[0]:.6g}, {na[1]:.6g}), {bodies[1].name} {parts[1]!r} has "
+                             f"({nb[0]:.6g}, {nb[1]:.6g}); a contact pair needs parallel parts with opposite normals")
+        dist = float(np.mean(second.points @ na)) - first.offset
+        if abs(dist) > tol:
+            raise SceneError(f"contact parts are not collinear: {bodies[1].name} {parts[1]!r} lies {dist:.9g} m from "
+                             f"the line of {bodies[0].name} {parts[0]!r} along its normal (mean x2: "
+                             f"{bodies[0].name} at y = {first.y:.9g} m, {bodies[1].name} at y = {second.y:.9g} m)")
+        # ends shared within tol take the first body's value (as cvxcontact 0.1 did)
+        lo = first.x[0] if abs(first.x[0] - second.x[0]) <= tol else max(first.x[0], second.x[0])
+        hi = first.x[-1] if abs(first.x[-1] - second.x[-1]) <= tol else min(first.x[-1], second.x[-1])
+        if hi - lo <= tol:
             raise SceneError(
-                "contact parts do not cover the same segment (the endpoints must be shared): "
-                f"{bodies[0].name} spans [{t1.x[0]:.9g}, {t1.x[-1]:.9g}] m, "
-                f"{bodies[1].name} spans [{t2.x[0]:.9g}, {t2.x[-1]:.9g}] m")
-        x, sigma = _merge(t1.x, t2.x, tol)
+                f"contact parts do not overlap: {bodies[0].name} {parts[0]!r} spans s in [{first.x[0]:.9g}, "
+                f"{first.x[-1]:.9g}] m, {bodies[1].name} {parts[1]!r} spans [{second.x[0]:.9g}, {second.x[-1]:.9g}] m "
+                f"along the tangent ({t[0]:.6g}, {t[1]:.6g})")
+        x, sigma = _merge(first.x, second.x, lo, hi, tol)
         self.x, self.sigma = _frozen(x), tuple(_frozen(s) for s in sigma)
-        self.y = t1.y
+        self.y = first.y
+        self.points = _frozen(first.points[0] + np.outer(self.x - first.x[0], t))
         self.mass = _mass(self.x)
-        self._interp = [_interpolation(self.x, t.x) for t in self.traces]
+        self._interp = [_interpolation(self.x, tr.x) for tr in self.traces]
+
+    def _rigid(self, first, tol):
+        """The pair of one body and a rigid obstacle: the merged mesh is the body's reachable trace."""
+        self.traces = [first]
+        d = np.asarray(self.obstacle.distance(first.points, first.unit_normal), dtype=float)
+        label = f"{first.body.name}: contact part {first.part!r} against {self.obstacle!r}"
+        if d.shape != first.x.shape or np.isnan(d).any() or (d == -np.inf).any():
+            raise SceneError(f"{label}: the obstacle's distance is not a finite number or +inf at every node")
+        hit = np.flatnonzero(np.isfinite(d))
+        if len(hit) < 2:
+            raise SceneError(f"{label}: the obstacle cannot be reached along the part's outward normal "
+                             f"({self.normal[0]:.6g}, {self.normal[1]:.6g}) from at least two nodes; it does "
+                             "not face the part")
+        if (np.diff(hit) != 1).any():
+            raise SceneError(f"{label}: the nodes that reach the obstacle along the normal are not one "
+                             "contiguous run; split the part")
+        self.reach = _frozen(hit)
+        self.x = _frozen(first.x[hit])
+        self.sigma = (_frozen(np.arange(len(hit))),)
+        self.y = first.y
+        self.points = _frozen(first.points[hit])
+        self.mass = _mass(self.x)
+        P = sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(first.x)))
+        self._interp = [P]
+
+    @property
+    def rigid(self) -> bool:
+        """True if the second side is a rigid obstacle (no mesh, no unknowns)."""
+        return self.obstacle is not None
+
+    def obstacle_gap(self) -> np.ndarray:
+        """The distance (m) from each merged node to the obstacle along nu^a (0 without an obstacle)."""
+        if self.obstacle is None:
+            return np.zeros(self.size)
+        return np.asarray(self.obstacle.distance(self.points, self.normal), dtype=float)
 
     @property
     def size(self) -> int:
@@ -82,22 +180,75 @@ class Interface:
         return len(self.x)
 
     def jump(self, k, n_nodes) -> sp.csr_matrix:
-        """(n_merged, 2 n_nodes) map from body k's nodal displacements to [u_nu] at merged nodes."""
+        """(n_merged, 2 n_nodes) map from body k's nodal displacements to its part u^k . nu^k of
+        [u_nu] = u^a . nu^a + u^b . nu^b at the merged nodes."""
         t = self.traces[k]
-        P = (t.normal * self._interp[k]).tocoo()
-        return sp.csr_matrix((P.data, (P.row, 2 * t.nodes[P.col] + 1)), shape=(self.size, 2 * n_nodes))
+        P = self._interp[k].tocoo()
+        n = t.unit_normal
+        rows = np.concatenate([P.row, P.row])
+        cols = np.concatenate([2 * t.nodes[P.col], 2 * t.nodes[P.col] + 1])
+        vals = np.concatenate([n[0] * P.data, n[1] * P.data])
+        keep = vals != 0
+        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(self.size, 2 * n_nodes))
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
         return self._interp[k]
 
     def evaluation(self, condition) -> sp.csr_matrix:
-        """E: rows select the merged nodes where non-penetration is imposed."""
+        """E: rows select the merged nodes where non-penetration is imposed ("sigma1"/"sigma2": the
+        nodes of the pair's first/second body inside the overlap; with a rigid obstacle, every
+        condition selects all merged nodes)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        rows = np.arange(self.size) if condition == "gamma3" else self.sigma[int(condition[-1]) - 1]
+        if condition == "gamma3" or self.rigid:
+            rows = np.arange(self.size)
+        else:
+            rows = self.sigma[int(condition[-1]) - 1]
         return sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)), shape=(len(rows), self.size))
 
+
+class Stack:
+    """The contact rows of several pairs stacked (one merged-node list per pair, concatenated).
+
+    ``members[i]`` = (index of pair i's first body, index of its second body or None for a rigid
+    obstacle) among the scene's bodies. ``jump(k, n)`` stacks body k's parts of every pair's jump
+    (zero rows where it is not a member), ``mass`` is block diagonal (still tridiagonal),
+    ``evaluation`` block diagonal with each pair's condition, ``offsets`` the row ranges.
+    """
+
+    def __init__(self, interfaces, members):
+        self.interfaces, self.members = tuple(interfaces), tuple(members)
+        self.offsets = np.concatenate([[0], np.cumsum([i.size for i in self.interfaces])]).astype(int)
+        self.mass = sp.block_diag([i.mass for i in self.interfaces], format="csr")
+        self.x = _frozen(np.concatenate([i.x for i in self.interfaces]))
+
+    @property
+    def size(self) -> int:
+        """Number of stacked merged nodes."""
+        return int(self.offsets[-1])
+
+    def jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes): body k's part of [u_nu] at every pair's merged nodes."""
+        rows = []
+        for itf, (a, b) in zip(self.interfaces, self.members):
+            if k == a:
+                rows.append(itf.jump(0, n_nodes))
+            elif k == b:
+                rows.append(itf.jump(1, n_nodes))
+            else:
+                rows.append(sp.csr_matrix((itf.size, 2 * n_nodes)))
+        return sp.vstack(rows, format="csr")
+
+    def evaluation(self, condition, conditions=None) -> sp.csr_matrix:
+        """Block-diagonal E: pair i's rows under ``conditions[i]`` (None: ``condition``)."""
+        conditions = conditions or [None] * len(self.interfaces)
+        return sp.block_diag([itf.evaluation(condition if c is None else c)
+                              for itf, c in zip(self.interfaces, conditions)], format="csr")
+
+    def split(self, values):
+        """Pair i's slice of a stacked array."""
+        return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
 
 
 def _frozen(a) -> np.ndarray:
@@ -117,16 +268,21 @@ def lumped_lengths(x) -> np.ndarray:
     return w
 
 
-def _merge(x1, x2, tol):
-    """Merged abscissae and, for each trace, the indices of its nodes in the merged list."""
-    x2 = x2.copy()
-    x2[[0, -1]] = x1[[0, -1]]  # shared endpoints, equal within tol: take body 1's
-    allx = np.concatenate([x1, x2])
+def _merge(x1, x2, lo, hi, tol):
+    """Merged abscissae on the overlap [lo, hi] and, for each trace, the indices of its nodes inside
+    the overlap in the merged list. Nodes within ``tol`` of an end of the overlap are snapped to it."""
+    parts = []
+    for x in (x1, x2):
+        x = x.copy()
+        x[np.abs(x - lo) <= tol] = lo
+        x[np.abs(x - hi) <= tol] = hi
+        parts.append(x[(x >= lo) & (x <= hi)])
+    allx = np.concatenate(parts)
     order = np.argsort(allx, kind="stable")
     new = np.concatenate([[True], np.diff(allx[order]) > 1e-3 * tol])
     index = np.empty(len(allx), dtype=int)
     index[order] = np.cumsum(new) - 1
-    return allx[order][new], (index[: len(x1)], index[len(x1):])
+    return allx[order][new], (index[: len(parts[0])], index[len(parts[0]):])
 
 
 def _interpolation(x, xt):

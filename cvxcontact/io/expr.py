@@ -46,9 +46,13 @@ class ExpressionError(SceneError):
 
 
 class Expression:
-    """A parsed, validated expression in x and y (m); call it with arrays: ``expr(x, y)``."""
+    """A parsed, validated expression in x and y (m); call it with arrays: ``expr(x, y)``.
 
-    def __init__(self, text: str):
+    With ``where`` (e.g. ``"scene.toml: body[0].body_force[1]"``), a NaN or infinite value is an
+    ``ExpressionError`` naming that place, the expression and the first point where it happens.
+    """
+
+    def __init__(self, text: str, where: str | None = None):
         if not isinstance(text, str):
             raise ExpressionError(f"an expression must be a string, got {type(text).__name__}")
         if len(text) > _MAX_LENGTH:
@@ -61,7 +65,7 @@ class Expression:
             raise ExpressionError(f"expression nested too deeply to parse; at most {_MAX_DEPTH} levels "
                                   "are allowed") from None
         _check_size(tree.body)
-        self.text = text
+        self.text, self.where = text, where
         self._body = tree.body
         _check(self._body, text)
 
@@ -71,8 +75,14 @@ class Expression:
     def __call__(self, x, y) -> np.ndarray:
         """Values at points (x, y) in metres, a new float array of the broadcast shape."""
         x, y = _frozen(x), _frozen(y)
-        with np.errstate(all="ignore"):  # NaN/inf are reported by the caller, naming the load
-            return np.asarray(_eval(self._body, {"x": x, "y": y}), dtype=float) + 0.0 * x
+        with np.errstate(all="ignore"):  # NaN/inf are reported below (with ``where``) or by the caller
+            out = np.asarray(_eval(self._body, {"x": x, "y": y}), dtype=float) + 0.0 * x
+        if self.where is not None and not np.isfinite(out).all():
+            i = np.flatnonzero(~np.isfinite(out))[0]
+            xi, yi = np.broadcast_to(x, out.shape).flat[i], np.broadcast_to(y, out.shape).flat[i]
+            raise ExpressionError(f"{self.where}: {_short(self.text)} is {out.flat[i]} at (x, y) = "
+                                  f"({xi:.6g}, {yi:.6g}) m; expected finite values wherever the load is evaluated")
+        return out
 
 
 def _short(text):

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..geometry.quadratic import P2Nodes
@@ -22,7 +23,7 @@ from ..geometry.quadratic import P2Nodes
 if TYPE_CHECKING:
     from ..solution.solution import Solution
 
-__all__ = ["write_vtu", "write_summary", "write_all", "summary", "atomic_write"]
+__all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure"]
 
 
 def atomic_write(path, write):
@@ -65,6 +66,10 @@ def body_mesh(body, u, phi, nodes=None):
         "stress [Pa]": _sym6(*f.stress.T),
         "von Mises stress [Pa]": f.von_mises,
     }
+    for label, col in (("xx", 0), ("yy", 1), ("xy", 2)):          # named components (ParaView shows 0..5)
+        cell_data[f"strain {label} [-]"] = f.strain[:, col]
+    for label, col in (("xx", 0), ("yy", 1), ("zz", 2), ("xy", 3)):  # fem.fields order: sxx, syy, szz, sxy
+        cell_data[f"stress {label} [Pa]"] = f.stress[:, col]
     if phi is not None:
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
@@ -75,26 +80,78 @@ def body_mesh(body, u, phi, nodes=None):
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
+def _line_cells(n, degree):
+    """Cells of a line of ``n`` nodes in order along it: P1 ``line`` pairs, or P2 ``line3`` (end, end,
+    midpoint) for interleaved nodes (vertex, midpoint, vertex, ...)."""
+    if degree == 2:
+        i = 2 * np.arange((n - 1) // 2)
+        return [("line3", np.column_stack([i, i + 2, i + 1]))]
+    return [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
+
+
+def _interface(solution):
+    """The first pair's contact line: P1 ``scene.interface``, P2 the solution's quadratic interface."""
+    return solution.interface if getattr(solution, "degree", 1) == 2 else solution.scene.interface
+
+
+def trace_pressure(solution, k):
+    """(x, p): the contact pressure felt by body ``k`` (0 or 1) on its own trace nodes, Pa
+    (:meth:`Solution.traction`: the nodal forces moved to that body's nodes, divided by its own
+    lumped lengths). The pressure to show first; lambda_h is a diagnostic."""
+    return solution.traction(k)
+
+
+def _side_displacements(solution):
+    """Displacement (n_merged, 2) of each body's trace interpolated at the merged nodes (m)."""
+    itf = _interface(solution)
+    return [itf.interpolation(k) @ solution.u[k][t.nodes] for k, t in enumerate(itf.traces)]
+
+
 def contact_mesh(solution):
-    """A meshio.Mesh of the merged Gamma_3 line with lambda_h, [u_nu], nodal forces."""
+    """A meshio.Mesh of the merged Gamma_3 line.
+
+    Point data: ``pressure on body k [Pa]`` (the pressure felt by body k, P1-interpolated from its
+    own trace nodes), ``lambda_h (diagnostic) [Pa]`` (the multiplier on the merged mesh; it may
+    oscillate), ``nodal pressure [Pa]``, ``normal jump [m]``, ``gap [m]``, ``nodal force [N/m]``,
+    ``constrained``, ``active``, ``penetration`` (jump above the gap: at unconstrained nodes
+    with sigma_l), ``displacement body k [m]`` and ``displacement [m]`` (their mean: warp by it).
+    """
     import meshio
 
     c = solution.contact
+    itf = _interface(solution)
     n = len(c.x)
-    points = np.column_stack([c.x, np.full(n, c.line), np.zeros(n)])
-    if getattr(solution, "degree", 1) == 2:      # P2: quadratic edges (end, end, midpoint)
-        i = 2 * np.arange((n - 1) // 2)
-        cells = [("line3", np.column_stack([i, i + 2, i + 1]))]
-    else:
-        cells = [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
-    return meshio.Mesh(points, cells, point_data={
-        "contact pressure lambda_h [Pa]": c.lam,
+    xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
+    points = np.column_stack([xy, np.zeros(n)])
+    sides = _side_displacements(solution)
+    data = {f"pressure on body {k + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k)[1] for k in range(2)}
+    data.update({
+        "lambda_h (diagnostic) [Pa]": c.lam,
         "nodal pressure [Pa]": c.pressure,
         "normal jump [m]": c.jump,
+        "gap [m]": np.zeros(n) if c.gap is None else c.gap,
         "nodal force [N/m]": c.force,
         "constrained [-]": c.constrained.astype(float),
         "active [-]": c.active.astype(float),
+        "penetration [-]": c.penetration.astype(float),
+        "displacement body 1 [m]": _pad3(sides[0]),
+        "displacement body 2 [m]": _pad3(sides[1]),
+        "displacement [m]": _pad3(0.5 * (sides[0] + sides[1])),
     })
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data=data)
+
+
+def trace_mesh(solution, k):
+    """A meshio.Mesh of body ``k``'s own trace on Gamma_3: ``pressure on body {k+1} [Pa]`` and
+    ``displacement [m]`` (that body's, so the line warps with it)."""
+    import meshio
+
+    t = _interface(solution).traces[k]
+    x, p = trace_pressure(solution, k)
+    n = len(x)
+    points = np.column_stack([x, np.full(n, solution.contact.line), np.zeros(n)])
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data={
+        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[k][t.nodes])})
 
 
 def write_vtu(solution, out, stem="solution"):
@@ -109,12 +166,44 @@ def write_vtu(solution, out, stem="solution"):
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
     line = contact_mesh(solution)
     paths.append(atomic_write(out / f"{stem}_contact.vtu", lambda p: meshio.write(p, line, "vtu")))
+    for k in range(2):
+        tr = trace_mesh(solution, k)
+        paths.append(atomic_write(out / f"{stem}_contact_body{k + 1}.vtu", lambda p, m=tr: meshio.write(p, m, "vtu")))
     return paths
 
 
+def write_pvd(vtu_paths, path, groups=None):
+    """A ParaView collection (``.pvd``) listing ``vtu_paths`` (relative to the collection's folder).
+
+    ``groups`` (optional, one label per file, e.g. the condition) become the collection's
+    timesteps 0, 1, ... in order of first appearance, so ParaView's time control steps through them.
+    """
+    path = Path(path)
+    groups = list(groups) if groups is not None else [""] * len(vtu_paths)
+    order = list(dict.fromkeys(groups))
+    rows, parts = [], dict.fromkeys(order, 0)
+    for f, g in zip(vtu_paths, groups):
+        rel = os.path.relpath(Path(f), path.parent).replace(os.sep, "/")
+        rows.append(f'    <DataSet timestep="{order.index(g)}" group="{_xml(g)}" part="{parts[g]}" file="{_xml(rel)}"/>')
+        parts[g] += 1                                   # one block per file within a time step
+    text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+            "  <Collection>\n" + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
+    return atomic_write(path, lambda p: Path(p).write_text(text))
+
+
+def _xml(text):
+    return str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
+
+
 def summary(solution) -> dict:
-    """A JSON-ready summary: status, checks, timings, sizes, energy."""
+    """A JSON-ready summary: status, checks, timings, sizes, energy.
+
+    ``contact.pressure_on_body_Pa`` (max, min, length-weighted mean of the pressure felt by each
+    body on its own trace, Pa) comes first; ``lambda_h_diagnostic_Pa`` (range of lambda_h on the
+    merged mesh, which may oscillate) is a diagnostic; ``penetrating_nodes`` counts unconstrained
+    merged nodes whose jump exceeds the gap (possible with sigma_l)."""
     c = solution.contact
+    felt = [trace_pressure(solution, k)[1] for k in range(2)]
     return {
         "condition": solution.condition,
         "degree": int(getattr(solution, "degree", 1)),
@@ -124,10 +213,15 @@ def summary(solution) -> dict:
         "tolerance": solution.tol,
         "residuals": solution.residuals(),
         "timings_s": {k: float(v) for k, v in solution.timings.items()},
-        "contact": {"merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
+        "contact": {"pressure_on_body_Pa": [{"body": k + 1, "max": float(p.max()), "min": float(p.min()),
+                                             "mean": float(np.average(p, weights=_lengths(solution, k)))}
+                                            for k, p in enumerate(felt)],
+                    "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
                     "active_nodes": int(c.active.sum()),
                     "active_x_m": [float(c.x[c.active].min()), float(c.x[c.active].max())] if c.active.any() else None,
-                    "total_force_N_per_m": float(c.force.sum()), "max_lambda_Pa": float(c.lam.max())},
+                    "total_force_N_per_m": float(c.force.sum()),
+                    "penetrating_nodes": int((c.penetration & ~c.constrained).sum()),
+                    "lambda_h_diagnostic_Pa": {"min": float(c.lam.min()), "max": float(c.lam.max())}},
         "energy_J_per_m": solution.energy,
         "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
                     "triangles": int(len(b.mesh.triangles)), "electric_unknowns": bool(b.piezoelectric),
@@ -135,6 +229,14 @@ def summary(solution) -> dict:
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}
                    for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)],
     }
+
+
+def _lengths(solution, k):
+    x = _interface(solution).traces[k].x
+    if getattr(solution, "degree", 1) == 2:             # P2 trace nodes: the P2 lumped lengths
+        from ..solution.solution import _p2_lumped
+        return _p2_lumped(x)
+    return lumped_lengths(x)
 
 
 def write_summary(solution, path):

@@ -1,7 +1,8 @@
-"""Figures with matplotlib: deformed bodies, and lambda_h / [u_nu] along Gamma_3.
+"""Figures with matplotlib: deformed bodies, and the contact pressure / [u_nu] along Gamma_3.
 
-Every axis is labelled with its unit, every colour map has a colour bar, and the
-displacement magnification is stated in the title.
+Every axis is labelled with its unit in the prefix a reader expects (MPa, kV, µm: chosen from
+the data), every colour map has a colour bar, the displacement magnification is stated in the
+title, and figures that compare conditions share one scale per quantity.
 """
 
 from __future__ import annotations
@@ -20,15 +21,29 @@ if TYPE_CHECKING:
 
     from ..solution.solution import Solution
 
-__all__ = ["plot_deformed", "plot_contact", "magnification"]
+__all__ = ["plot_deformed", "plot_deformed_all", "plot_contact", "magnification", "si_prefix"]
 
-_FIELDS = {"potential": "electric potential [V]", "von_mises": "von Mises stress [Pa]"}
+_FIELDS = {"potential": ("electric potential", "V"), "von_mises": ("von Mises stress", "Pa")}
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
 
 
 def _pyplot():
     import matplotlib.pyplot as plt  # imported late: the solver path never needs matplotlib
 
     return plt
+
+
+def si_prefix(values, unit: str) -> tuple[float, str]:
+    """(factor, unit with prefix) so that the largest |value| / factor lies in [1, 1000):
+    e.g. 2.3e6 Pa -> (1e6, "MPa"), 2e-5 m -> (1e-6, "µm"). All zero or empty -> (1, unit)."""
+    finite = [np.abs(np.asarray(v, dtype=float)) for v in values if v is not None]
+    top = max((float(np.nanmax(v)) for v in finite if v.size and np.isfinite(v).any()), default=0.0)
+    if top == 0 or not np.isfinite(top):
+        return 1.0, unit
+    for factor, prefix in _PREFIXES:
+        if top >= factor:
+            return factor, prefix + unit
+    return _PREFIXES[-1][0], _PREFIXES[-1][1] + unit
 
 
 def magnification(solution, fraction=0.1) -> float:
@@ -42,79 +57,148 @@ def magnification(solution, fraction=0.1) -> float:
     return float(decade * max(m for m in (1, 2, 5) if m * decade <= raw))
 
 
-def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float | None = None,
-                  ax: Axes | None = None) -> Figure:
-    """Deformed meshes (displacement x ``magnify``) coloured by ``field``: "von_mises" or "potential".
+def _field_values(solution, field):
+    """Per body: the nodal potential or the element von Mises stress. P2: the potential at the vertices
+    (listed first) and the stress at the centroids, drawn on the vertex triangulation."""
+    p2 = getattr(solution, "degree", 1) == 2
+    if field == "potential":
+        return [p if p is None or not p2 else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
+    return [body_fields(b, u, p, P2Nodes(b.mesh) if p2 else None).von_mises
+            for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
 
-    An elastic body has no potential and is drawn in grey on a potential plot.
-    Returns the matplotlib Figure.
-    """
+
+def _check_field(field, who):
     if not isinstance(field, str) or field not in _FIELDS:
-        raise SceneError(f"plot_deformed: field must be one of {sorted(_FIELDS)}, got {field!r}")
-    plt = _pyplot()
-    fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(7, 5.5), layout="constrained")
+        raise SceneError(f"{who}: field must be one of {sorted(_FIELDS)}, got {field!r}")
+
+
+def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float | None = None,
+                  ax: Axes | None = None, clim: tuple[float, float] | None = None,
+                  colorbar: bool = True) -> Figure:
+    """Deformed meshes (displacement x ``magnify``) coloured by ``field``: "von_mises" (MPa or the
+    prefix that fits) or "potential" (V, kV, ...).
+
+    An elastic body has no potential and is drawn in grey on a potential plot. ``clim`` (SI
+    units) fixes the colour limits, e.g. to share them across conditions. Returns the Figure.
+    """
+    _check_field(field, "plot_deformed")
     if magnify is not None and (isinstance(magnify, bool) or not isinstance(magnify, (int, float))
                                 or not np.isfinite(magnify) or magnify < 0):
         raise SceneError(f"plot_deformed: magnify must be a finite number >= 0 or None, got {magnify!r}")
+    plt = _pyplot()
+    fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(7, 5.5), layout="constrained")
     k = magnification(solution) if magnify is None else float(magnify)
-    values = []
-    for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):
-        nv = len(body.mesh.points)             # P2: vertices first; drawn on the vertex triangulation
-        if field == "potential":
-            values.append(phi if phi is None else phi[:nv])
-        else:
-            nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
-            values.append(body_fields(body, u, phi, nodes).von_mises)
+    values = _field_values(solution, field)
     finite = [v for v in values if v is not None]
-    vmin = min(float(np.nanmin(v)) for v in finite) if finite else 0.0
-    vmax = max(float(np.nanmax(v)) for v in finite) if finite else 1.0
+    if clim is None:
+        clim = (min(float(np.nanmin(v)) for v in finite) if finite else 0.0,
+                max(float(np.nanmax(v)) for v in finite) if finite else 1.0)
+    name, unit = _FIELDS[field]
+    factor, shown = si_prefix([np.asarray(clim)], unit)
     mappable = None
     for body, u, v in zip(solution.scene.bodies, solution.u, values):
-        p = body.mesh.points + k * u[:len(body.mesh.points)]
+        p = body.mesh.points + k * u[:len(body.mesh.points)]       # P2: vertices first
         tri = body.mesh.triangles
         if v is None:
             ax.tripcolor(p[:, 0], p[:, 1], tri, facecolors=np.zeros(len(tri)), cmap="Greys", vmin=0, vmax=4,
                          edgecolors="0.55", linewidth=0.2)
             continue
+        v = v / factor
         kw = dict(shading="gouraud") if len(v) == len(p) else dict(facecolors=v, edgecolors="face")
         args = (v,) if len(v) == len(p) else ()
-        mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=vmin, vmax=vmax, **kw)
+        mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=clim[0] / factor,
+                                vmax=clim[1] / factor, **kw)
         ax.triplot(p[:, 0], p[:, 1], tri, color="k", linewidth=0.15, alpha=0.5)
-    if mappable is not None:
-        fig.colorbar(mappable, ax=ax, label=_FIELDS[field], shrink=0.85)
+    if mappable is not None and colorbar:
+        fig.colorbar(mappable, ax=ax, label=f"{name} [{shown}]", shrink=0.85)
     ax.set_aspect("equal")
     ax.set_xlabel("x1 [m]")
     ax.set_ylabel("x3 [m] (poling axis)")
-    ax.set_title(f"Deformed bodies, displacement x {k:g}; colour: {_FIELDS[field]}\n"
-                 f"condition {solution.condition}, max |u| = {max(np.abs(u).max() for u in solution.u):.3g} m")
+    umax = max(np.abs(u).max() for u in solution.u)
+    uf, uu = si_prefix([umax], "m")
+    ax.set_title(f"{solution.condition}: displacement x {k:g}, max |u| = {umax / uf:.3g} {uu}\n"
+                 f"colour: {name} [{shown}]")
+    return fig
+
+
+def plot_deformed_all(solutions: dict[str, Solution], field: str = "von_mises") -> Figure:
+    """:func:`plot_deformed` of every solution side by side, with one colour scale and one
+    magnification for all (so conditions compare at a glance). Returns the Figure."""
+    _check_field(field, "plot_deformed_all")
+    if not isinstance(solutions, dict):
+        solutions = {solutions.condition: solutions}
+    plt = _pyplot()
+    n = len(solutions)
+    fig, axes = plt.subplots(1, n, figsize=(5.2 * n + 1, 4.8), squeeze=False, layout="constrained")
+    values = [v for s in solutions.values() for v in _field_values(s, field) if v is not None]
+    clim = (min(float(np.nanmin(v)) for v in values), max(float(np.nanmax(v)) for v in values)) if values \
+        else (0.0, 1.0)
+    k = min(magnification(s) for s in solutions.values())
+    for ax, sol in zip(axes[0], solutions.values()):
+        plot_deformed(sol, field, magnify=k, ax=ax, clim=clim, colorbar=False)
+    name, unit = _FIELDS[field]
+    factor, shown = si_prefix([np.asarray(clim)], unit)
+    if values:
+        import matplotlib as mpl
+
+        norm = mpl.colors.Normalize(clim[0] / factor, clim[1] / factor)
+        fig.colorbar(mpl.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=list(axes[0]),
+                     label=f"{name} [{shown}]", shrink=0.85)
     return fig
 
 
 def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
-    """lambda_h and [u_nu] along Gamma_3, one column per solution (e.g. per condition).
+    """Along Gamma_3, one column per solution (e.g. per condition), one y-scale per row:
 
-    ``solutions`` is a Solution or a dict label -> Solution. Returns the Figure.
+    1. the pressure felt by each body on its own trace nodes (``Solution.traction``), MPa or the
+       prefix that fits: the contact pressure to read;
+    2. lambda_h on the merged mesh and the nodal pressure: diagnostics (lambda_h may oscillate);
+    3. the normal jump [u_nu] (µm or the prefix that fits), with the active nodes marked and
+       penetration at unconstrained nodes (possible with sigma_l) flagged by red crosses.
+
+    ``solutions`` is a Solution or a dict label -> Solution. The legend sits below the axes.
+    Returns the Figure.
     """
     plt = _pyplot()
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
     n = len(solutions)
-    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 6), sharex=True, squeeze=False, layout="constrained")
+    sols = list(solutions.values())
+    felt = [[s.traction(k) for k in range(2)] for s in sols]
+    pf, pu = si_prefix([p for f in felt for _, p in f] + [s.contact.lam for s in sols], "Pa")
+    jf, ju = si_prefix([s.contact.jump for s in sols], "m")
+    fig, axes = plt.subplots(3, n, figsize=(4.2 * n, 8), sharex=True, sharey="row", squeeze=False,
+                             layout="constrained")
     for col, (label, sol) in enumerate(solutions.items()):
         c = sol.contact
-        top, bottom = axes[0, col], axes[1, col]
-        top.plot(c.x, c.lam, "o-", ms=3, lw=1, label=r"$\lambda_h$ (merged mesh)")
-        top.plot(c.x[c.constrained], c.pressure[c.constrained], "s", ms=3, mfc="none",
-                 label="nodal force / lumped length")
+        top, mid, bottom = axes[:, col]
+        for k, (x, p) in enumerate(felt[col]):
+            top.plot(x, p / pf, "o-" if k == 0 else "s--", ms=3, lw=1, color=f"C{k}",
+                     label=f"pressure on body {k + 1} (its own trace nodes)")
         top.axhline(0, color="0.6", lw=0.6)
         top.set_title(f"{label}: {int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
-        top.set_ylabel(r"contact pressure $\lambda$ [Pa]")
-        top.legend(fontsize=8)
-        bottom.plot(c.x, c.jump, "o-", ms=3, lw=1, color="C2")
-        bottom.plot(c.x[c.active], c.jump[c.active], "o", ms=4, color="C3", label="active")
+        mid.plot(c.x, c.lam / pf, "-", lw=1, color="C4", label=r"$\lambda_h$ on the merged mesh (diagnostic)")
+        mid.plot(c.x[c.constrained], c.pressure[c.constrained] / pf, "d", ms=3, mfc="none", color="C5",
+                 label="nodal force / lumped length (constrained nodes)")
+        mid.axhline(0, color="0.6", lw=0.6)
+        bottom.plot(c.x, c.jump / jf, "o-", ms=3, lw=1, color="C2", label=r"normal jump $[u_\nu]$")
+        bottom.plot(c.x[c.active], c.jump[c.active] / jf, "o", ms=4, color="C3", label="active node")
+        pen = c.penetration & ~c.constrained
+        bottom.plot(c.x[pen], c.jump[pen] / jf, "x", ms=8, mew=2, color="red",
+                    label="penetration at an unconstrained node")
+        if pen.any():
+            bottom.set_title(f"{int(pen.sum())} unconstrained node(s) penetrate", color="red", fontsize=9)
         bottom.axhline(0, color="0.6", lw=0.6)
         bottom.set_xlabel("x1 along the contact line [m]")
-        bottom.set_ylabel(r"normal jump $[u_\nu]$ [m]")
-        bottom.legend(fontsize=8)
-    fig.suptitle("Contact pressure and normal jump along the contact line")
+    for row, text in enumerate((f"pressure felt by each body [{pu}]", rf"$\lambda_h$ (diagnostic) [{pu}]",
+                                rf"normal jump $[u_\nu]$ [{ju}]")):
+        for ax in axes[row]:
+            ax.set_ylabel(text)
+    handles, labels = {}, []
+    for ax in axes.ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=min(3, len(handles)),
+               fontsize=8, frameon=False)
+    fig.suptitle("Contact along the contact line (one scale per row)")
     return fig

@@ -6,6 +6,9 @@ names the file, the key and what was expected. Format (all SI units)::
 
     condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
     degree = 1                                # 1: P1 elements, 2: P2 (6-node) elements (optional)
+    law = "signorini"                         # default; or normal compliance (7), docs/formulation.md §10:
+                                              # { normal_compliance = { stiffness = 1e12, exponent = 1,
+                                              #                         penetration_limit = 1e-5 } }  (Pa/m^m, -, m)
     gap = 0.0                                 # initial normal gap g(x) on Gamma_3, m (number or expression)
 
     [solver]                                  # optional
@@ -32,6 +35,27 @@ names the file, the key and what was expected. Format (all SI units)::
     surface_charge = { left = -0.05 }         # C/m^2
     potential = { }                           # V, driven electrodes
     volume_charge = 0.0                       # C/m^3
+
+Contact pairs and rigid obstacles (any number of bodies; without ``[[contact]]`` tables the file
+needs exactly two bodies touching along their ``contact`` parts)::
+
+    [[obstacle]]                              # a rigid obstacle, analytic: one of plane, circle, profile
+    name = "floor"
+    plane = { point = [0.0, 0.0], normal = [0.0, 1.0] }     # normal out of the obstacle, towards the body
+    # circle = { center = [0.5, -0.3], radius = 0.3 }
+    # profile = { f = "1e-3 + (x - 0.5)**2", origin = [0.0, 0.0] }   # distance along the normal, m;
+    #                                           x stands for the tangential coordinate s
+
+    [[contact]]
+    a = "punch"                               # a body's name
+    part_a = "bottom"
+    b = "substrate"                           # a body's or an obstacle's name
+    part_b = "top"                            # omitted for an obstacle
+    condition = "sigma1"                      # optional (default: the file's condition)
+    gap = 0.0                                 # m, number or expression (x stands for s)
+
+With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
+the top-level ``gap`` is refused (each pair has its own).
 """
 
 from __future__ import annotations
@@ -49,13 +73,16 @@ from .expr import Expression, ExpressionError
 from ..geometry.mesh import read_mesh, rectangle
 from ..backends.options import check_solver, check_solver_options
 from ..physics.scene import Body, Scene
+from ..physics.pairs import Contact, Rigid
 from ..backends import METHODS
 
 __all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read_toml", "MATERIALS"]
 
 MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
 
-_TOP = {"condition", "solver", "body", "gap", "degree"}
+_TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle", "degree"}
+_CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
+_OBSTACLE = {"name", "plane", "circle", "profile", "force"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge"}
@@ -78,13 +105,14 @@ class SceneFile:
     polish: bool = True
     method: str = "auto"
     options: dict = field(default_factory=dict)
+    law: object = None
     degree: int = 1
 
     @property
     def settings(self) -> dict:
         """Keyword arguments of :func:`cvxcontact.solve` given by the file (condition excluded)."""
         return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method,
-                    solver_options=dict(self.options), degree=self.degree)
+                    solver_options=dict(self.options), law=self.law, degree=self.degree)
 
     def solve(self, condition: str | None = None, *, solver: str | None = None, method: str | None = None,
               tol: float | None = None, polish: bool | None = None, verbose: bool = False,
@@ -158,6 +186,9 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: solver.options: {exc}") from None
     bodies = data.get("body")
+    if "contact" in data or "obstacle" in data:
+        return SceneFile(path, _pairs_scene(ctx, data, bodies), condition, name, float(tol), polish, method,
+                         options, degree=int(degree))
     if not isinstance(bodies, list) or len(bodies) != 2:
         ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
     built = [ctx.body(b, k) for k, b in enumerate(bodies)]
@@ -166,11 +197,120 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
         scene = Scene(*built, gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
-    return SceneFile(path, scene, condition, name, float(tol), polish, method, options, int(degree))
+    return SceneFile(path, scene, condition, name, float(tol), polish, method, options,
+                     law=_law(data.get("law", "signorini"), path), degree=int(degree))
+
+
+def _law(value, path):
+    """The contact law of a scene file: "signorini" or { normal_compliance = { stiffness, exponent,
+    penetration_limit } } (:mod:`cvxcontact.contact.laws`)."""
+    from ..contact.laws import LAWS, NormalCompliance, Signorini
+
+    if value == "signorini":
+        return Signorini()
+    if isinstance(value, dict) and set(value) == {"normal_compliance"} and isinstance(value["normal_compliance"], dict):
+        params = value["normal_compliance"]
+        unknown = sorted(set(params) - {"stiffness", "exponent", "penetration_limit"})
+        if unknown or "stiffness" not in params:
+            raise SceneFileError(f"{path}: law.normal_compliance: expected keys stiffness (required), exponent, "
+                                 f"penetration_limit; got {sorted(params)}")
+        try:
+            return NormalCompliance(**params)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{path}: law.normal_compliance: {exc}") from None
+    raise SceneFileError(f"{path}: law: expected \"signorini\" or {{ normal_compliance = {{ stiffness = ..., "
+                         f"exponent = ... }} }} (laws: {sorted(LAWS)}), got {value!r}")
+
+
+def _pairs_scene(ctx, data, bodies):
+    """The scene of a file with [[contact]] (and [[obstacle]]) tables."""
+    if not isinstance(bodies, list) or not bodies:
+        ctx.fail("body", "at least one [[body]] table", f"{len(bodies) if isinstance(bodies, list) else 0}")
+    if "gap" in data:
+        raise SceneFileError(f"{ctx.path}: gap: with [[contact]] tables give each contact its own gap "
+                             "(contact[i].gap)")
+    contacts = data.get("contact")
+    if not isinstance(contacts, list) or not contacts:
+        ctx.fail("contact", "one or more [[contact]] tables", contacts)
+    names = [str(b.get("name", f"body {k + 1}")) if isinstance(b, dict) else None for k, b in enumerate(bodies)]
+    if len(set(names)) != len(names):
+        ctx.fail("body", "bodies with distinct names", names)
+    obstacles = {}
+    for i, o in enumerate(data.get("obstacle", []) if isinstance(data.get("obstacle", []), list) else [None]):
+        where = f"obstacle[{i}]"
+        o = ctx.table(o, where)
+        ctx.keys(o, _OBSTACLE, where)
+        oname = o.get("name")
+        if not isinstance(oname, str) or oname in names or oname in obstacles:
+            ctx.fail(f"{where}.name", "a name (string) that no body or other obstacle has", oname)
+        obstacles[oname] = ctx.obstacle(o, where)
+    for i, c in enumerate(contacts):
+        c = ctx.table(c, f"contact[{i}]")
+        ctx.keys(c, _CONTACT, f"contact[{i}]")
+        for req in ("a", "part_a", "b"):
+            if req not in c:
+                raise SceneFileError(f"{ctx.path}: contact[{i}]: missing key {req!r}")
+        if c["a"] not in names:
+            ctx.fail(f"contact[{i}].a", f"the name of a body {names}", c["a"])
+        if c["b"] not in names and c["b"] not in obstacles:
+            ctx.fail(f"contact[{i}].b", f"the name of a body {names} or of an obstacle {sorted(obstacles)}", c["b"])
+    first_part = {}
+    for c in contacts:
+        first_part.setdefault(c["a"], c["part_a"])
+        if c["b"] in names and "part_b" in c:
+            first_part.setdefault(c["b"], c["part_b"])
+    built = []
+    for k, b in enumerate(bodies):
+        if isinstance(b, dict) and "contact" not in b and names[k] in first_part:
+            b = {**b, "contact": first_part[names[k]]}
+        built.append(ctx.body(b, k))
+    by_name = dict(zip(names, built))
+    pairs = []
+    for i, c in enumerate(contacts):
+        where = f"contact[{i}]"
+        condition = c.get("condition")
+        if condition is not None and condition not in CONDITIONS:
+            ctx.fail(f"{where}.condition", f"one of {list(CONDITIONS)}", condition)
+        gap = ctx.load(c.get("gap", 0.0), f"{where}.gap", 1)
+        other = by_name.get(c["b"]) or obstacles[c["b"]]
+        try:
+            pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
+                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap,
+                                 law=c.get("law")))
+        except CvxContactError as exc:
+            raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
+    try:
+        return Scene(*built, contacts=pairs)
+    except CvxContactError as exc:
+        raise SceneFileError(f"{ctx.path}: {exc}") from exc
 
 
 class _Context:
     """Validation helpers that prefix every message with the file name."""
+
+    def obstacle(self, o, where):
+        kinds = [k for k in ("plane", "circle", "profile") if k in o]
+        if len(kinds) != 1:
+            raise SceneFileError(f"{self.path}: {where}: expected exactly one of plane, circle, profile, got "
+                                 f"{kinds or 'none'}")
+        kind = kinds[0]
+        spec = self.table(o[kind], f"{where}.{kind}")
+        allowed = {"plane": {"point", "normal"}, "circle": {"center", "radius"}, "profile": {"f", "origin"}}[kind]
+        self.keys(spec, allowed, f"{where}.{kind}")
+        for req in sorted(allowed - {"origin"}):
+            if req not in spec:
+                raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
+        force = o.get("force")
+        try:
+            if kind == "plane":
+                return Rigid.plane(spec["point"], spec["normal"], force=force)
+            if kind == "circle":
+                return Rigid.circle(spec["center"], spec["radius"], force=force)
+            f = self.load(spec["f"], f"{where}.profile.f", 1)
+            fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
+            return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
 
     def __init__(self, path, allow_outside=False):
         self.path, self.allow_outside = path, allow_outside
@@ -234,7 +374,7 @@ class _Context:
             return float(value)
         if isinstance(value, str):
             try:
-                return Expression(value)
+                return Expression(value, where=f"{self.path}: {key}")
             except ExpressionError as exc:
                 raise SceneFileError(f"{self.path}: {key}: {exc}") from None
         self.fail(key, "a number or an expression in x, y", value)

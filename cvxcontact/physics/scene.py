@@ -14,9 +14,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MeshError, SceneError
-from ..contact.interface import Interface
+from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
 from .materials import Elastic, Piezoelectric
+from .pairs import Contact
 
 __all__ = ["Body", "Scene"]
 
@@ -249,40 +250,138 @@ def _frozen(a):
 
 
 class Scene:
-    """Two bodies in frictionless contact along a straight segment of Gamma_3.
+    """Bodies in frictionless contact along straight segments.
 
-    The body order defines l = 1, 2 of the paper (``sigma1`` / ``sigma2``).
-    The contact geometry (shared line, normals, merged nodes) is validated here.
+    ``Scene(body1, body2)``: the paper's scene, two bodies touching along each body's ``contact``
+    part; the body order defines l = 1, 2 of the paper (``sigma1`` / ``sigma2``). ``gap`` is the
+    initial normal gap g (m) between the bodies, a number or a vectorised callable g(s) of the
+    tangential coordinate (the abscissa x1 for a line parallel to the x1-axis): the condition reads
+    [u_nu] <= g (interpolated in X_h, i.e. at the merged nodes). g = 0 is the paper's problem; g < 0
+    is an initial interference (a prescribed approach), used for Hertz-type tests.
 
-    ``gap`` is the initial normal gap g (m) between the bodies along Gamma_3, a number
-    or a vectorised callable g(x) of the abscissa: the condition reads [u_nu] <= g
-    (interpolated in X_h, i.e. at the merged nodes). g = 0 is the paper's problem;
-    g < 0 is an initial interference (a prescribed approach), used for Hertz-type tests.
+    ``Scene(*bodies, contacts=[Contact(...), ...])``: any number of bodies and contact pairs
+    (:class:`~cvxcontact.physics.pairs.Contact`), each pair against another body or a rigid obstacle,
+    with its own gap and, optionally, its own condition; the bodies' ``contact`` tags are then not
+    used. Every body must take part in at least one pair.
+
+    The contact geometry (lines, normals, overlaps, merged nodes) is validated here: ``interfaces``
+    (one :class:`~cvxcontact.contact.interface.Interface` per pair), ``interface`` (the first),
+    ``stack`` (all pairs' rows stacked, what the solvers use).
     """
 
-    def __init__(self, body1: Body, body2: Body, gap: float | Callable[[np.ndarray], ArrayLike] = 0.0) -> None:
-        for k, b in enumerate((body1, body2), start=1):
+    def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,
+                 gap: float | Callable[[np.ndarray], ArrayLike] = 0.0) -> None:
+        for k, b in enumerate(bodies, start=1):
             if not isinstance(b, Body):
-                raise SceneError(f"Scene takes two Body objects; argument {k} is {type(b).__name__}")
+                raise SceneError(f"Scene takes Body objects; argument {k} is {type(b).__name__}")
+        for k, b in enumerate(bodies, start=1):
             if b.name == "body":
                 b.name = f"body {k}"
-        if body1 is body2:
-            raise SceneError("Scene needs two distinct bodies")
-        self.bodies = (body1, body2)
-        try:
-            self.interface = Interface(self.bodies)
-        except MeshError as exc:
-            raise SceneError(str(exc)) from exc
+        self.bodies = tuple(bodies)
+        if contacts is None:
+            if len(bodies) != 2:
+                raise SceneError(f"Scene without contacts= takes exactly two bodies (each body's contact= part "
+                                 f"touches the other's), got {len(bodies)}; for other scenes pass "
+                                 "contacts=[cc.Contact(...), ...]")
+            if bodies[0] is bodies[1]:
+                raise SceneError("Scene needs two distinct bodies")
+            self._legacy = True
+            self.contacts = (Contact(bodies[0], bodies[0].contact, bodies[1], bodies[1].contact),)
+        else:
+            self._legacy = False
+            self.contacts = self._check_contacts(contacts, gap)
+        members, interfaces = [], []
+        for i, c in enumerate(self.contacts):
+            a = self._index(c.body_a)
+            b = None if c.rigid else self._index(c.other)
+            members.append((a, b))
+            try:
+                if c.rigid:
+                    itf = Interface((c.body_a,), (c.part_a,), obstacle=c.other)
+                elif self._legacy:
+                    itf = Interface(self.bodies)
+                else:
+                    itf = Interface((c.body_a, c.other), (c.part_a, c.part_b))
+            except MeshError as exc:
+                raise SceneError(str(exc)) from exc
+            except SceneError as exc:
+                if self._legacy:
+                    raise
+                raise SceneError(f"contacts[{i}] {c!r}: {exc}") from exc
+            interfaces.append(itf)
+        self.interfaces = tuple(interfaces)
+        self.interface = self.interfaces[0]
+        self.stack = Stack(self.interfaces, members)
+        self.conditions = tuple(c.condition for c in self.contacts)
         self.gap = Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1)
         self.gap_values()                                    # check it now: finite, right shape
 
+    def _index(self, body) -> int:
+        for k, b in enumerate(self.bodies):
+            if b is body:
+                return k
+        same = " (another Body object of the same name)" if any(b.name == body.name for b in self.bodies) else ""
+        raise SceneError(f"contact pair names {body.name}{same}, which is not one of the scene's bodies "
+                         f"{[b.name for b in self.bodies]}: pass the Body objects given to Scene")
+
+    def _check_contacts(self, contacts, gap):
+        if isinstance(contacts, Contact) or not isinstance(contacts, (list, tuple)):
+            raise SceneError(f"contacts must be a list of cc.Contact, got {type(contacts).__name__}")
+        if not contacts:
+            raise SceneError("contacts is empty; a scene needs at least one contact pair")
+        for i, c in enumerate(contacts):
+            if not isinstance(c, Contact):
+                raise SceneError(f"contacts[{i}] must be a cc.Contact, got {type(c).__name__}")
+        if callable(gap) or (_real_scalar(gap) and gap != 0):
+            raise SceneError("with contacts=, give each Contact its own gap (Contact(..., gap=g)); "
+                             "Scene(gap=) is for the two-body scene without contacts")
+        seen = set()
+        for k, b in enumerate(self.bodies):
+            if any(b is a for a in self.bodies[:k]):
+                raise SceneError(f"{b.name} is given twice to Scene")
+        for i, c in enumerate(contacts):
+            self._index(c.body_a)
+            if not c.rigid:
+                self._index(c.other)
+            key = frozenset([(id(c.body_a), c.part_a), (id(c.other), c.part_b)])
+            if key in seen:
+                raise SceneError(f"contacts[{i}] {c!r} repeats an earlier pair")
+            seen.add(key)
+        used = {id(c.body_a) for c in contacts} | {id(c.other) for c in contacts}
+        for b in self.bodies:
+            if id(b) not in used:
+                raise SceneError(f"{b.name} takes part in no contact pair; remove it or add a Contact for it")
+        return tuple(contacts)
+
+    def pair_gap_values(self, i: int, s: np.ndarray | None = None) -> np.ndarray:
+        """The gap g (m) at the merged nodes of pair ``i``: the pair's gap plus, for a rigid
+        obstacle, the distance to it along the body's normal. ``s``: other points of a two-body pair's
+        line instead, given by their tangential coordinate (m; e.g. the P2 nodes of the merged mesh)."""
+        itf = self.interfaces[i]
+        load = self.gap if self._legacy else self.contacts[i].gap
+        if s is not None:
+            if itf.rigid:
+                raise SceneError("pair_gap_values(i, s): points other than the merged nodes are for a pair of "
+                                 "two bodies, not against a rigid obstacle")
+            s = np.asarray(s, dtype=float)
+            return np.array(load(s, np.full_like(s, itf.y)), dtype=float)
+        g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
+        return g + itf.obstacle_gap() if itf.rigid else g
+
     def gap_values(self) -> np.ndarray:
-        """The gap g (m) at the merged nodes of Gamma_3."""
-        x = self.interface.x
-        return np.array(self.gap(x, np.full_like(x, self.interface.y)), dtype=float)
+        """The gap g (m) at the stacked merged nodes of every pair (``stack``)."""
+        return np.concatenate([self.pair_gap_values(i) for i in range(len(self.interfaces))])
+
+    def structure(self) -> tuple:
+        """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition
+        and merged-node count (the gaps and obstacle positions are loads)."""
+        return tuple((m, c.part_a, c.part_b, c.condition, itf.size, c.other.kind if c.rigid else None)
+                     for m, c, itf in zip(self.stack.members, self.contacts, self.interfaces))
 
     def __repr__(self):
-        return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"
+        if self._legacy:
+            return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"
+        return f"Scene({', '.join(repr(b) for b in self.bodies)}, contacts={list(self.contacts)!r})"
 
     @property
     def length(self) -> float:

@@ -8,7 +8,8 @@ All in scaled units, dimensionless, reported by :meth:`cvxcontact.Solution.resid
     cone             max over a of max(-y_a, 0) / Y          (the multiplier lies in Lambda_h)
 
 with r_k the residual of body k's rows of (26), U_a the displacement scale of node a
-(both bodies' normal displacements there plus the gap) and Y the largest contact force.
+(both bodies' normal displacements there plus the gap plus the local displacement w_a |y_a| of
+its own contact force, :func:`force_displacements`) and Y the largest contact force.
 """
 
 from __future__ import annotations
@@ -17,14 +18,30 @@ import numpy as np
 
 from ..contact.quadratic import bernstein_max
 
-__all__ = ["checks", "conic_checks", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
+__all__ = ["checks", "compliance_checks", "conic_checks", "force_displacements", "ipm_active", "node_scales",
+           "equilibrium_with", "row_scales", "row_checks", "rows_active"]
 
 
-def node_scales(parts, g):
+def node_scales(parts, g, extra=None):
     """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
-    displacement scale U_a: the sizes of both parts there plus the gap (floored at 1e-9 of the largest)."""
+    displacement scale U_a: the sizes of both parts there plus the gap plus ``extra`` (the local
+    displacement of the row's own force, :func:`force_displacements`), floored at 1e-9 of the largest."""
     U = sum(np.abs(p) for p in parts) + np.abs(g)
+    if extra is not None:
+        U = U + extra
     return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def force_displacements(blocks, E, y):
+    """w_a |y_a|: the displacement the contact force y_a of row a produces through the diagonal of each
+    body's stiffness, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj (scaled units). A node held at exactly
+    [u_nu] = g by a rigid obstacle or a stuck partner has no other displacement scale (docs/checks.md)."""
+    w = np.zeros(E.shape[0])
+    for b in blocks:
+        R = (E @ b.jump).tocsr()
+        d = b.Kuu.diagonal()
+        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
+    return w * np.abs(y)
 
 
 def ipm_active(parts, g, y):
@@ -49,7 +66,7 @@ def checks(blocks, u, phi, Mlam, E, g, y):
         r = np.concatenate(b.residual(uk, pk, Mlam))
         m = np.concatenate(b.magnitude(uk, pk, Mlam))
         equilibrium = max(equilibrium, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
-    slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g)
+    slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, force_displacements(blocks, E, y))
     Y = max(float(np.abs(y).max(initial=0.0)), tiny)
     return {
         "equilibrium": equilibrium,
@@ -157,3 +174,42 @@ def _segment_scales(B, U):
         R.data[:] = 1.0
         out = np.maximum(out, np.asarray((R.multiply(U[None, :])).max(axis=1).todense()).ravel())
     return out
+
+
+def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
+    """Checks of a normal-compliance solution (docs/formulation.md §10, docs/checks.md), scaled units.
+
+    With r = E [u_nu] - g at the constrained rows, w their lumped lengths, p the scaled ``law``, z >= 0
+    the penetration-limit reaction (zero without a limit) and ``force`` the row forces the backend
+    applied, the read-back is lambda = p(r) + z / w (nodal values) and the checks are
+
+        equilibrium      the residual of (26) with the contact force E^T (w lambda), as in :func:`checks`
+        law              max_a |force_a - z_a - w_a p(r_a)| / Y      (the law (7) at the returned u;
+                         Y the largest row force)
+        feasibility, complementarity, cone    of the limit r <= l with multiplier z, as in :func:`checks`
+                         (only with a penetration limit)
+
+    Returns (checks dict, lambda at the rows (scaled pressure)).
+    """
+    tiny = np.finfo(float).tiny
+    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
+    r = sum(parts) - g
+    w = np.asarray(weights, dtype=float)
+    z = np.zeros(len(r)) if z is None else np.asarray(z, dtype=float)
+    lam = law.pressure(r) + z / w
+    c = E.T @ (w * lam)
+    equilibrium = 0.0
+    for b, uk, pk in zip(blocks, u, phi):
+        res = np.concatenate(b.residual(uk, pk, c))
+        m = np.concatenate(b.magnitude(uk, pk, c))
+        equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
+    force = np.asarray(force, dtype=float)
+    Y = max(float(np.abs(force).max(initial=0.0)), float((w * lam).max(initial=0.0)), tiny)
+    out = {"equilibrium": equilibrium,
+           "law": float((np.abs(force - z - w * law.pressure(r)) / Y).max(initial=0.0))}
+    if law.penetration_limit is not None:
+        slack, U = node_scales(parts, g + law.penetration_limit)
+        out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
+        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / (Y * U)).max(initial=0.0)))
+        out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
+    return out, lam

@@ -33,6 +33,9 @@ class Route(StrEnum):
     """An interior-point solve, then the exact active-set finish."""
     WARM_START = "active-set warm start"
     """A re-solve of a ContactSolver from the previous active set: no convex program, no iterations."""
+    NEWTON_ONLY = "semismooth Newton (the interior point failed)"
+    """Normal compliance: the solver failed on the convex program (e.g. a very stiff law); the exact
+    finish, globally convergent on its own, solved the interface equation from the free slack."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
 
@@ -43,6 +46,8 @@ class Finish(StrEnum):
     ACTIVE_SET = "active set"
     ACTIVE_SET_AFTER_NNLS = "active set after NNLS"
     NNLS = "NNLS"
+    SEMISMOOTH_NEWTON = "semismooth Newton"
+    """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
 
 
 def _frozen_timings(timings: Mapping[str, float] | None) -> Mapping[str, float]:

@@ -10,7 +10,7 @@ docs/checks.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
 import numpy as np
@@ -18,13 +18,12 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths
-from ..contact.quadratic import QuadraticInterface
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, conic_checks
+from .checks import checks, compliance_checks, conic_checks
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "read_back"]
+__all__ = ["Solution", "ContactResult", "read_back", "read_back_compliance"]
 
 
 @dataclass
@@ -35,6 +34,11 @@ class ContactResult:
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
     and ``active`` those among them that carry a positive force; ``line`` is the
     ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
+
+    For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
+    tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to
+    the x1-axis), ``points`` (n, 2) the nodes' coordinates (m), ``normal`` the first body's unit
+    outward normal nu^a and ``line`` the mean x2 of the first body's part.
     """
 
     x: np.ndarray
@@ -45,14 +49,41 @@ class ContactResult:
     active: np.ndarray
     line: float = 0.0
     gap: np.ndarray | None = None
+    points: np.ndarray | None = None
+    normal: np.ndarray | None = None
     degree: int = 1
+    """1: P1 (X_h continuous piecewise linear); 2: P2 (``x`` interleaves merged vertices and segment
+    midpoints, X_h continuous piecewise quadratic)."""
 
     @property
     def pressure(self) -> np.ndarray:
-        """Nodal force divided by the lumped length of each node (Pa): the row sums of the mass matrix
-        of X_h (P1: half of each adjacent segment; P2: h/6 per adjacent segment at a vertex, 2h/3 at a
-        midpoint)."""
-        return self.force / (lumped_lengths(self.x) if self.degree == 1 else _p2_lumped(self.x))
+        """Nodal force divided by the lumped length of each constrained node (Pa).
+
+        The forces E^T y sit on the constrained nodes only (every merged node for gamma3,
+        the nodes of mesh l for sigma_l), so each is divided by the lumped length of the
+        mesh made of those nodes (for sigma_l: mesh l's own trace), never by the merged
+        mesh's shorter lengths. 0 at the nodes without a constraint (they carry no force).
+        For the pressure felt by a body use :meth:`Solution.traction`.
+
+        P2 (``degree == 2``): the forces r = M lambda_h live on every node of X_h, and each is divided
+        by the row sum of the P2 mass matrix of X_h (h/6 per adjacent segment at a vertex, 2h/3 at a
+        midpoint).
+        """
+        if self.degree == 2:
+            return self.force / _p2_lumped(self.x)
+        out = np.zeros(len(self.x))
+        on = np.asarray(self.constrained, dtype=bool)
+        if on.sum() >= 2:
+            out[on] = self.force[on] / lumped_lengths(self.x[on])
+        return out
+
+    @property
+    def penetration(self) -> np.ndarray:
+        """Boolean mask of the merged nodes where [u_nu] exceeds the gap g by more than 1e-9 of the
+        largest |[u_nu]| (with sigma_l, the unconstrained nodes of the other mesh may penetrate)."""
+        gap = np.zeros(len(self.x)) if self.gap is None else self.gap
+        scale = max(float(np.abs(self.jump).max()), float(np.abs(gap).max()), np.finfo(float).tiny)
+        return (self.jump - gap) > 1e-9 * scale
 
 
 @dataclass
@@ -82,10 +113,19 @@ class Solution:
     info: SolveInfo
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
+    law: object = None
+    """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
+    contacts: list = field(default_factory=list)
+    """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
+    the first."""
     points: list = field(default_factory=list)
     """``points[k]``: coordinates (m) of body k's nodes in the order of ``u[k]`` and ``phi[k]`` (P1: the
     mesh points; P2: vertices first, then edge midpoints)."""
     degree: int = 1
+    """1: P1 elements; 2: P2 (6-node) elements (docs/formulation.md §8)."""
+    interface: object = field(default=None, repr=False)
+    """P2: the :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's pair (the merged
+    P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
 
     @property
     def status(self) -> Status:
@@ -121,29 +161,33 @@ class Solution:
         """True if the solver reported optimal and every check is below ``tol``."""
         return self.status == cp.OPTIMAL and all(v <= self.tol for v in self._checks.values())
 
-    def traction(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Contact pressure as felt by body ``k`` (0 or 1): (x, p) on its own trace nodes.
+    def traction(self, k: int, pair: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Contact pressure as felt by body ``k`` (0 or 1: the first or second body of contact pair
+        ``pair``): (x, p) on its own trace nodes (x the tangential coordinate s, m).
 
         The merged nodal forces are moved to the nodes of body k's trace (the transpose
         of the trace interpolation: exact work equivalence) and divided by the lumped
         lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
         """
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k not in (0, 1):
-            raise SceneError(f"traction(k): k must be 0 or 1 (the body), got {k!r}")
-        if self.degree == 2:           # P2: body k's trace nodes (vertices and midpoints), P2 lumped lengths
-            itf = QuadraticInterface(self.scene.bodies)
-            x = itf.traces[k].x
-            return x.copy(), (itf.interpolation(k).T @ self.contact.force) / _p2_lumped(x)
-        itf = self.scene.interface
+        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
+                not 0 <= pair < len(self.scene.interfaces):
+            raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
+                             f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
+        itf = self.scene.interfaces[pair] if self.degree == 1 else self.interface
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
+            raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
+                             f"got {k!r}")
         x = itf.traces[k].x
-        return x.copy(), (itf.interpolation(k).T @ self.contact.force) / lumped_lengths(x)
+        lengths = lumped_lengths(x) if self.degree == 1 else _p2_lumped(x)   # P2: vertices and midpoints
+        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / lengths
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}, "
-                 f"{int(self.contact.active.sum())} of {int(self.contact.constrained.sum())} "
-                 f"constrained nodes active"]
+                 f"{sum(int(c.active.sum()) for c in self.contacts)} of "
+                 f"{sum(int(c.constrained.sum()) for c in self.contacts)} constrained nodes active"
+                 + (f" ({len(self.contacts)} contact pairs)" if len(self.contacts) > 1 else "")]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'FAILED'}" for k, v in self._checks.items()]
         return "\n".join(lines)
 
@@ -152,14 +196,16 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
               interface=None, beta=None, points=None):
     """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
 
-    P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface`): with the conic
-    condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment, ``y`` is the nodal force
-    r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``points`` the P2 node coordinates.
+    P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
+    pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
+    ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``points`` the
+    P2 node coordinates of each body.
     """
-    itf = scene.interface if interface is None else interface
+    p2 = interface is not None
+    itf = scene.stack if not p2 else interface
     g = E @ gap
     Ety = E.T @ y
-    if getattr(itf, "degree", 1) == 2:
+    if p2:
         lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
     else:
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
@@ -185,7 +231,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         phi_si.append(pot)
     constrained = np.zeros(itf.size, dtype=bool)
     on = np.zeros(itf.size, dtype=bool)
-    if getattr(itf, "degree", 1) == 2:      # P2: the merged nodes in the support of the constrained rows
+    if p2:      # P2: the merged nodes in the support of the constrained rows
         support = np.flatnonzero(np.asarray(abs(E).sum(axis=0)).ravel() > 0)
         constrained[support] = True
         if beta is not None:
@@ -195,19 +241,56 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     else:
         constrained[E.indices] = True
         on[E.indices[active]] = True
-    contact = ContactResult(x=itf.x.copy(), lam=lam * un.force, jump=jump * un.displacement, force=Ety * un.force,
-                            constrained=constrained, active=on, line=itf.y, gap=gap * un.displacement,
-                            degree=getattr(itf, "degree", 1))
-    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(contact, f) for f in
-              ("x", "lam", "jump", "force", "constrained", "active", "gap"))]:
+    contacts = []
+    pairs = [itf] if p2 else scene.interfaces
+    offsets = [0, itf.size] if p2 else itf.offsets
+    for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
+        part = slice(offsets[i], offsets[i + 1])
+        contacts.append(ContactResult(
+            x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
+            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
+            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
+            degree=2 if p2 else 1))
+    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
+              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
+    contact = contacts[0]
     info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     pts = points if points is not None else [b.mesh.points for b in scene.bodies]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_, points=list(pts),
-                    degree=getattr(itf, "degree", 1))
+                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
+                    degree=2 if p2 else 1, interface=interface)
+
+
+def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
+                         problem, tol, timings):
+    """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
+
+    ``force`` are the row forces the backend applied (scaled), ``z`` the penetration-limit reactions
+    (None without a limit), ``weights`` the lumped lengths of the constrained nodes (scaled). The
+    read-back is lambda = p(r) + z / w at the constrained nodes (r = [u_nu] - g from the returned u),
+    interpolated on the merged mesh for sigma1/sigma2 (P1 on mesh l's trace); ``contact.force`` is
+    E^T (w lambda), the force the checks put into (26). ``energy`` includes sum_a w_a Phi(r_a).
+    """
+    scaled = law.scaled(un.stress * un.load, un.displacement)
+    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, np.asarray(force, dtype=float),
+                    np.asarray(force) > 0, polished, problem, tol, timings)
+    g = E @ gap
+    checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
+    itf = scene.interface
+    r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+    lam_merged = E.T @ lam if condition == "gamma3" else itf.interpolation(int(condition[-1]) - 1) @ lam
+    unit = un.stress * un.load
+    contact = replace(sol.contact, lam=lam_merged * unit, force=(E.T @ (weights * lam)) * un.force)
+    for a in (contact.lam, contact.force):
+        a.setflags(write=False)
+    sol.contact, sol._checks, sol.law = contact, checks_, law
+    if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
+        sol.info = replace(sol.info, status=Status.OPTIMAL)
+    sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
+    return sol
 
 
 def _p2_lumped(x):

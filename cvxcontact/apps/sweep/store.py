@@ -1,0 +1,249 @@
+"""The output folder of a sweep: its lock, case files (verified on resume), failures, the manifest.
+
+Layout of ``OUT``::
+
+    .lock                      held (flock) by the running sweep, with its pid
+    manifest.json              every case, its state and provenance
+    cases/<id>.npz             arrays (u, phi, contact results, meshes), written first
+    cases/<id>.problem.npz     the conic problem data (with --export-problem)
+    cases/<id>.json            summary, checks, attempts, provenance and the sha256 of the npz files;
+                               written last, so a case is done exactly when its JSON is complete
+                               and the files it names have the recorded checksums
+    failures/<id>.json         why a case has no result
+    superseded/<UTC time>/     results of an earlier input (a changed scene, mesh, material,
+                               version, or a case no longer in the sweep), kept aside
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+
+from ...errors import CvxContactError
+from ...io.output import atomic_write
+
+__all__ = ["SweepOutputError", "SweepLockedError", "FolderLock", "prepare_out", "write_json", "write_case",
+           "case_state", "sha256"]
+
+CASES, FAILURES, SUPERSEDED = "cases", "failures", "superseded"
+
+
+class SweepOutputError(CvxContactError, OSError):
+    """The output folder cannot be created or written (a file in the way, no permission, disk full)."""
+
+
+class SweepLockedError(CvxContactError, RuntimeError):
+    """Another sweep is running on the same output folder."""
+
+
+def output_error(path, exc: OSError) -> SweepOutputError:
+    """A one-line, typed description of a failed write of ``path``."""
+    name = errno.errorcode.get(exc.errno, "") if exc.errno else ""
+    why = exc.strerror or str(exc) or type(exc).__name__
+    return SweepOutputError(f"cannot write {str(path)!r}: {why}{f' ({name})' if name else ''}")
+
+
+def write_json(path, obj) -> Path:
+    """Atomic JSON write; an OSError becomes a :class:`SweepOutputError`."""
+    text = json.dumps(obj, indent=2) + "\n"
+    try:
+        return atomic_write(path, lambda p: Path(p).write_text(text))
+    except OSError as exc:
+        raise output_error(path, exc) from None
+
+
+def write_npz(path, arrays) -> str:
+    """Atomic npz write; returns the sha256 of the file written."""
+    import numpy as np
+
+    digest = {}
+
+    def write(p):
+        np.savez_compressed(p, **arrays)
+        digest["h"] = sha256(p)
+
+    try:
+        atomic_write(path, write)
+    except OSError as exc:
+        raise output_error(path, exc) from None
+    return digest["h"]
+
+
+def sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_case(out, case_id, arrays, info, problem=None) -> None:
+    """Write a finished case: its npz file(s) first, then the JSON naming them with checksums."""
+    cases = Path(out) / CASES
+    files = {"npz": f"{case_id}.npz", "npz_sha256": write_npz(cases / f"{case_id}.npz", arrays)}
+    if problem is not None:
+        files["problem"] = f"{case_id}.problem.npz"
+        files["problem_sha256"] = write_npz(cases / files["problem"], problem)
+    write_json(cases / f"{case_id}.json", {**info, "files": files})
+
+
+def _read_json(path):
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def case_state(out, case_id) -> tuple[str, dict | None]:
+    """("done" | "checks_failed" | "failed" | "pending" | "corrupt", the record or None).
+
+    A result counts only if its JSON parses, names this case, and every file it names exists
+    with the recorded sha256; a failure record only if it parses and names this case."""
+    out = Path(out)
+    path = out / CASES / f"{case_id}.json"
+    if path.exists():
+        info = _read_json(path)
+        files = info.get("files") if isinstance(info, dict) and info.get("case") == case_id else None
+        good = isinstance(files, dict) and "npz" in files
+        if good:
+            for key in ("npz", "problem"):
+                if key in files:
+                    f = out / CASES / str(files[key])
+                    good = good and f.is_file() and sha256(f) == files.get(f"{key}_sha256")
+        if good:
+            return ("done" if info.get("ok") else "checks_failed"), info
+        return "corrupt", None
+    path = out / FAILURES / f"{case_id}.json"
+    if path.exists():
+        info = _read_json(path)
+        if isinstance(info, dict) and info.get("case") == case_id and isinstance(info.get("error"), str):
+            return "failed", info
+        return "corrupt", None
+    return "pending", None
+
+
+def remove_case(out, case_id) -> None:
+    """Remove every file of a case (before it is redone)."""
+    out = Path(out)
+    for p in (out / CASES / f"{case_id}.json", out / CASES / f"{case_id}.npz",
+              out / CASES / f"{case_id}.problem.npz", out / FAILURES / f"{case_id}.json"):
+        p.unlink(missing_ok=True)
+
+
+def supersede(out, keep_ids) -> tuple[int, Path | None]:
+    """Move the results and failures of cases not in ``keep_ids`` to ``OUT/superseded/<UTC time>/``."""
+    out = Path(out)
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    target, moved = out / SUPERSEDED / stamp, set()
+    for sub in (CASES, FAILURES):
+        for p in sorted((out / sub).glob("*")):
+            if p.name.startswith(".") or not p.is_file():
+                continue
+            cid = p.name.split(".", 1)[0]
+            if cid in keep_ids:
+                continue
+            try:
+                (target / sub).mkdir(parents=True, exist_ok=True)
+                shutil.move(str(p), str(target / sub / p.name))
+            except OSError as exc:
+                raise output_error(target / sub / p.name, exc) from None
+            moved.add(cid)
+    return len(moved), (target if moved else None)
+
+
+def prepare_out(out) -> Path:
+    """Create ``OUT``, ``OUT/cases`` and ``OUT/failures``; a typed error if impossible."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise SweepOutputError(f"--out {str(out)!r} names a file, not a folder; give a folder for the results")
+    for sub in (out, out / CASES, out / FAILURES):
+        try:
+            sub.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise SweepOutputError(f"cannot create the output folder {str(sub)!r}: "
+                                   f"{exc.strerror or exc}") from None
+        if not os.access(sub, os.W_OK | os.X_OK):
+            raise SweepOutputError(f"the output folder {str(sub)!r} is not writable")
+    return out
+
+
+def clean_temporaries(out) -> None:
+    """Remove the temporaries of an interrupted run (only ever called under the folder's lock)."""
+    for sub, pattern in ((CASES, ".*"), (FAILURES, ".*"), (".", ".manifest.*")):
+        for stale in (Path(out) / sub).glob(pattern):
+            if stale.is_file():
+                stale.unlink(missing_ok=True)
+
+
+class FolderLock:
+    """An exclusive lock on a sweep's output folder: ``OUT/.lock`` held with ``fcntl.flock``
+    (released by the kernel when the process dies, kill -9 included), holding the pid. Without
+    fcntl (Windows) the file is created with O_EXCL and a stale one (dead pid) is taken over."""
+
+    def __init__(self, out):
+        self.path = Path(out) / ".lock"
+        self.fd = None
+
+    def __enter__(self):
+        try:
+            import fcntl
+        except ImportError:                                    # pragma: no cover - not on POSIX
+            fcntl = None
+        try:
+            if fcntl is not None:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    os.close(fd)
+                    raise SweepLockedError(self._busy()) from None
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+            else:                                              # pragma: no cover
+                fd = self._exclusive()
+        except OSError as exc:
+            raise SweepOutputError(f"cannot lock the output folder ({str(self.path)!r}): "
+                                   f"{exc.strerror or exc}") from None
+        self.fd = fd
+        return self
+
+    def _busy(self):
+        try:
+            pid = self.path.read_text().strip() or "?"
+        except OSError:
+            pid = "?"
+        return (f"the output folder {str(self.path.parent)!r} is in use by another sweep (pid {pid}); "
+                "wait for it to finish or stop it, or choose another --out")
+
+    def _exclusive(self):                                      # pragma: no cover - Windows fallback
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+                os.write(fd, f"{os.getpid()}\n".encode())
+                return fd
+            except FileExistsError:
+                try:
+                    pid = int(self.path.read_text().strip())
+                    os.kill(pid, 0)
+                except (ValueError, OSError):
+                    self.path.unlink(missing_ok=True)          # its owner is gone
+                    continue
+                raise SweepLockedError(self._busy()) from None
+        raise SweepLockedError(self._busy())
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            try:
+                import fcntl
+
+                fcntl.flock(self.fd, fcntl.LOCK_UN)
+            except ImportError:                                # pragma: no cover
+                self.path.unlink(missing_ok=True)
+            os.close(self.fd)
+            self.fd = None
+        return False

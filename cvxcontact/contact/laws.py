@@ -1,0 +1,149 @@
+"""Normal contact laws on Gamma_3: Signorini (the default) and normal compliance (the paper's (7), (17), (19)).
+
+With r = [u_nu] - g the penetration (m; the paper's [u_nu] with the gap g subtracted):
+
+``Signorini()``
+    r <= 0, lambda >= 0, lambda r = 0 (the paper's (8); the package's original problem).
+``NormalCompliance(stiffness=k, exponent=m, penetration_limit=None)``
+    lambda = -sigma_nu = p(r) = k r_+^m (Pa), k > 0 in Pa/m^m, m >= 1: the law (7) with a p_nu
+    that satisfies (17)(b)-(d) (monotone, zero for r <= 0; Lipschitz, (17)(a), for m = 1). It is
+    the derivative of the convex energy density Phi(r) = k/(m+1) r_+^{m+1} (J/m^2), so (19) is the
+    optimality condition of the energy of docs/formulation.md §2 plus integral_Gamma3 Phi(r).
+    With ``penetration_limit`` = l (m, >= 0) the law holds for r <= l and Signorini holds at
+    r = l: r <= l, lambda = p(r) + mu, mu >= 0, mu (r - l) = 0.
+
+Laws are small frozen classes; :func:`check_law` validates a ``law=`` argument (None -> Signorini)
+and raises :class:`~cvxcontact.errors.SceneError` (a :class:`~cvxcontact.errors.CvxContactError`)
+naming what is wrong. The discretisation (the energy lumped on the contact nodes) is in
+docs/formulation.md §10.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SceneError
+
+__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "check_law", "LAWS"]
+
+
+class ContactLaw:
+    """Base class of the normal contact laws (``Signorini``, ``NormalCompliance``)."""
+
+    name = "law"
+
+    @property
+    def compliant(self) -> bool:
+        """True if the law allows penetration with a finite pressure (normal compliance)."""
+        return False
+
+
+@dataclass(frozen=True)
+class Signorini(ContactLaw):
+    """Unilateral contact without penetration: r <= 0, lambda >= 0, lambda r = 0 (the paper's (8))."""
+
+    name = "signorini"
+
+
+def _positive_real(value, what, allow_zero=False):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SceneError(f"NormalCompliance: {what} must be a real number, got {value!r} ({type(value).__name__})")
+    value = float(value)
+    if not math.isfinite(value):
+        raise SceneError(f"NormalCompliance: {what} must be finite, got {value!r}")
+    if value < 0 or (value == 0 and not allow_zero):
+        raise SceneError(f"NormalCompliance: {what} must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class NormalCompliance(ContactLaw):
+    """Normal compliance lambda = p(r) = k r_+^m, r = [u_nu] - g (module docstring).
+
+    Parameters
+    ----------
+    stiffness : float
+        k > 0, Pa/m^m (Pa/m for the linear law m = 1).
+    exponent : float
+        m >= 1 (dimensionless); m = 1 is the linear (penalty-like) law.
+    penetration_limit : float or None
+        l >= 0 (m): beyond it Signorini holds (r <= l). None: no limit.
+
+    Raises
+    ------
+    SceneError
+        A parameter that is not a finite real number in its range (NaN, k <= 0, m < 1, l < 0).
+    """
+
+    stiffness: float
+    exponent: float = 1.0
+    penetration_limit: float | None = None
+    name = "normal_compliance"
+
+    def __post_init__(self):
+        object.__setattr__(self, "stiffness", _positive_real(self.stiffness, "stiffness (Pa/m^m)"))
+        m = _positive_real(self.exponent, "exponent")
+        if m < 1:
+            raise SceneError(f"NormalCompliance: exponent must be >= 1 (p convex in r_+, (17)), got {m!r}")
+        object.__setattr__(self, "exponent", m)
+        if self.penetration_limit is not None:
+            object.__setattr__(self, "penetration_limit",
+                               _positive_real(self.penetration_limit, "penetration_limit (m)", allow_zero=True))
+
+    @property
+    def compliant(self) -> bool:
+        return True
+
+    def pressure(self, r) -> np.ndarray:
+        """p(r) = k r_+^m (Pa) at penetrations r (m)."""
+        return self.stiffness * np.maximum(np.asarray(r, dtype=float), 0.0) ** self.exponent
+
+    def derivative(self, r) -> np.ndarray:
+        """p'(r) = k m r_+^(m-1) (Pa/m; for m = 1 the right derivative k at r = 0 is not used: 0 there)."""
+        r = np.maximum(np.asarray(r, dtype=float), 0.0)
+        return np.where(r > 0, self.stiffness * self.exponent * r ** (self.exponent - 1.0), 0.0)
+
+    def energy(self, r) -> np.ndarray:
+        """Phi(r) = k/(m+1) r_+^(m+1) (J/m^2), the primitive of p vanishing for r <= 0."""
+        m = self.exponent
+        return self.stiffness / (m + 1.0) * np.maximum(np.asarray(r, dtype=float), 0.0) ** (m + 1.0)
+
+    def scaled(self, pressure: float, displacement: float) -> "NormalCompliance":
+        """The same law in units where pressure is ``pressure`` (Pa) and penetration ``displacement`` (m):
+        k~ = k U^m / P, l~ = l / U."""
+        limit = None if self.penetration_limit is None else self.penetration_limit / displacement
+        return NormalCompliance(self.stiffness * displacement ** self.exponent / pressure, self.exponent, limit)
+
+
+LAWS = {"signorini": Signorini, "normal_compliance": NormalCompliance}
+"""Law names as written in scene files."""
+
+
+def check_law(law) -> ContactLaw:
+    """A validated law: None gives ``Signorini()``; a :class:`ContactLaw` instance is returned as is."""
+    if law is None:
+        return Signorini()
+    if isinstance(law, ContactLaw):
+        return law
+    if isinstance(law, type) and issubclass(law, ContactLaw):
+        raise SceneError(f"law must be an instance such as cc.Signorini() or cc.NormalCompliance(stiffness=...), "
+                         f"got the class {law.__name__}")
+    raise SceneError(f"law must be cc.Signorini() or cc.NormalCompliance(stiffness=k, exponent=m), got {law!r} "
+                     f"({type(law).__name__})")
+
+
+def check_law_for(scene, law: ContactLaw) -> ContactLaw:
+    """``law`` if the scene's contact pairs support it: a compliance law is solved for one pair of two
+    bodies (several pairs, rigid obstacles and per-pair laws are not supported yet)."""
+    if law.compliant and (len(scene.interfaces) > 1 or scene.stack.members[0][1] is None):
+        from ..errors import UnsupportedError
+        raise UnsupportedError("a normal-compliance law is solved for a scene with one contact pair between two "
+                               f"bodies; this scene has {len(scene.interfaces)} pair(s)"
+                               + (" against a rigid obstacle" if scene.stack.members[0][1] is None else "")
+                               + ": use law=None (Signorini) here")
+    return law
+

@@ -1,0 +1,250 @@
+"""Sweeps under faults: a changed scene, corrupt files, interrupts (SIGINT, SIGTERM, kill -9) with no
+orphan workers, a killed worker, two runs on one folder, a full disk, an unwritable output folder."""
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps import cli
+from cvxcontact.apps.sweep import SweepLockedError, SweepOutputError, load_sweep, run_sweep
+from cvxcontact.apps.sweep import store
+from cvxcontact.io.scenefile import load_scene
+from test_sweep import write_sweep as setup
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+def results(out):
+    return {p.name: p.read_bytes() for p in (out / "cases").glob("*.json")}
+
+
+def test_changed_scene_is_recomputed_and_old_results_kept_aside(tmp_path):
+    path = setup(tmp_path, {"gap": [0.0, -2e-6]})
+    out = tmp_path / "out"
+    lines = []
+    first = run_sweep(path, out, workers=1)
+    assert first.done == 2
+    old = results(out)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(scene.read_text().replace("E = 70e9", "E = 200e9"))          # the lower body stiffens
+    again = run_sweep(path, out, workers=1, progress=lines.append)
+    assert again.skipped == 0 and again.done == 2 and again.superseded == 2       # nothing reported as done
+    assert any("moved to" in line and "superseded" in line for line in lines)
+    kept = {p.name for p in Path(again.superseded_to, "cases").glob("*.json")}
+    assert kept == set(old)                                                         # old results kept aside
+    assert not set(old) & set(results(out))
+    spec = load_scene(scene)
+    b1, b2 = spec.scene.bodies
+    for case in load_sweep(path).cases:
+        info = json.loads((out / "cases" / f"{case.id}.json").read_text())
+        assert info["scene"]["body"][1]["material"]["E"] == 200e9
+        assert set(info["versions"]) >= {"cvxcontact", "cvxpy", "clarabel", "numpy", "scipy"}
+        assert info["machine"]["platform"] and info["provenance"]["materials"][1]["c"][2][2] == pytest.approx(
+            200e9 / (2 * 1.3))                                                      # shear modulus mu = E / 2(1 + nu)
+        ref = cc.solve(cc.Scene(b1, b2, gap=case.data["gap"]), method="full")
+        u1 = np.load(out / "cases" / f"{case.id}.npz")["u1"]
+        assert np.abs(u1 - ref.u[0]).max() <= 1e-9 * np.abs(ref.u[0]).max()
+
+
+def test_corrupt_files_are_redone_and_a_corrupt_failure_does_not_crash(tmp_path):
+    path = setup(tmp_path, {"gap": [0.0, -1e-6, -2e-6, -3e-6, -4e-6], "body[1].material.nu": [0.3, 0.7]})
+    out = tmp_path / "out"
+    first = run_sweep(path, out, workers=1, skip_invalid=True)
+    assert first.done == 5 and len(first.failed) == 5                               # nu = 0.7 is invalid
+    ids = sorted(p.stem for p in (out / "cases").glob("*.json"))
+    cases = out / "cases"
+    (cases / f"{ids[0]}.json").write_text((cases / f"{ids[0]}.json").read_text()[:100])   # truncated JSON
+    (cases / f"{ids[1]}.json").write_text("")                                              # empty JSON
+    (cases / f"{ids[2]}.npz").unlink()                                                     # missing npz
+    data = (cases / f"{ids[3]}.npz").read_bytes()
+    (cases / f"{ids[3]}.npz").write_bytes(data[: len(data) // 2])                          # truncated npz
+    failure = sorted((out / "failures").glob("*.json"))[0]
+    failure.write_text(failure.read_text()[:20])                                           # truncated failure
+    untouched = (cases / f"{ids[4]}.json").read_bytes()
+    lines = []
+    again = run_sweep(path, out, workers=1, skip_invalid=True, progress=lines.append)
+    assert again.redone == 5 and again.skipped == 1 and again.done == 5 and len(again.failed) == 5
+    assert any("redone" in line for line in lines)
+    assert (cases / f"{ids[4]}.json").read_bytes() == untouched
+    for cid in ids:
+        info = json.loads((cases / f"{cid}.json").read_text())
+        assert store.sha256(cases / f"{cid}.npz") == info["files"]["npz_sha256"]
+    assert json.loads(failure.read_text())["error"].startswith("invalid input")
+
+
+def test_export_problem_writes_the_conic_data(tmp_path):
+    import scipy.sparse as sp
+
+    path = setup(tmp_path, {"gap": [0.0]})
+    out = tmp_path / "out"
+    assert run_sweep(path, out, workers=1, export_problem=True).done == 1
+    (info,) = [json.loads(p.read_text()) for p in (out / "cases").glob("*.json")]
+    f = np.load(out / "cases" / info["files"]["problem"])
+    assert store.sha256(out / "cases" / info["files"]["problem"]) == info["files"]["problem_sha256"]
+    P = sp.csc_matrix((f["P_data"], f["P_indices"], f["P_indptr"]), shape=tuple(f["P_shape"]))
+    A = sp.csc_matrix((f["A_data"], f["A_indices"], f["A_indptr"]), shape=tuple(f["A_shape"]))
+    assert P.shape[0] == P.shape[1] == A.shape[1] == len(f["q"]) and A.shape[0] == len(f["b"])
+    assert int(f["cone_zero"]) + int(f["cone_nonneg"]) + int(np.sum(f["cone_soc"])) == A.shape[0]
+    # an independent solve of the exported QP (Clarabel directly) reaches the optimum CVXPY found
+    import clarabel
+
+    cones = [clarabel.ZeroConeT(int(f["cone_zero"]))] if int(f["cone_zero"]) else []
+    cones += [clarabel.NonnegativeConeT(int(f["cone_nonneg"]))] + [clarabel.SecondOrderConeT(int(k)) for k in f["cone_soc"]]
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    sol = clarabel.DefaultSolver(sp.triu(P).tocsc(), f["q"], A, f["b"], cones, settings).solve()
+    assert str(sol.status) == "Solved"
+    x = np.asarray(sol.x)
+    assert sol.obj_val == pytest.approx(0.5 * x @ (P @ x) + f["q"] @ x, rel=1e-9)
+    assert np.all(f["b"] - A @ x >= -1e-8 * (1 + np.abs(f["b"]).max()))
+
+
+def test_full_disk_and_unwritable_output_give_one_line(tmp_path, monkeypatch, capsys):
+    path = setup(tmp_path, {"gap": [0.0, -1e-6]})
+    calls = {"n": 0}
+    real = store.atomic_write
+
+    def full(target, write):
+        calls["n"] += 1
+        if calls["n"] > 2:                                       # manifest and the first npz, then the disk is full
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(target, write)
+
+    monkeypatch.setattr(store, "atomic_write", full)
+    with pytest.raises(SweepOutputError, match="No space left on device"):
+        run_sweep(path, tmp_path / "out", workers=1)
+    calls["n"] = 0
+    assert cli.main(["sweep", str(path), "--out", str(tmp_path / "out2"), "--workers", "1", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "No space left on device (ENOSPC)" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    monkeypatch.setattr(store, "atomic_write", real)
+    run_sweep(path, tmp_path / "out", workers=1)                 # the lock was released
+    # --out names a file
+    (tmp_path / "file").write_text("x")
+    assert cli.main(["sweep", str(path), "--out", str(tmp_path / "file"), "-q"]) == 1
+    assert "names a file" in capsys.readouterr().err
+    # a folder that cannot be created (read-only parent; simulated, since tests may run as root)
+
+    def refuse(self, *a, **k):
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(self))
+
+    monkeypatch.setattr(Path, "mkdir", refuse)
+    assert cli.main(["sweep", str(path), "--out", str(tmp_path / "ro" / "out"), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "cannot create the output folder" in err and "Permission denied" in err and "Traceback" not in err
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_read_only_output_folder(tmp_path, capsys):
+    path = setup(tmp_path, {"gap": [0.0]})
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        assert cli.main(["sweep", str(path), "--out", str(ro / "out"), "-q"]) == 1
+        assert "Traceback" not in capsys.readouterr().err
+    finally:
+        ro.chmod(0o700)
+
+
+def test_second_run_on_a_folder_is_refused(tmp_path):
+    path = setup(tmp_path, {"gap": [0.0]})
+    out = tmp_path / "out"
+    out.mkdir()
+    with store.FolderLock(out):
+        with pytest.raises(SweepLockedError, match=f"in use by another sweep \\(pid {os.getpid()}\\)"):
+            run_sweep(path, out, workers=1)
+    assert run_sweep(path, out, workers=1).done == 1
+
+
+@pytest.mark.skipif("fork" not in __import__("multiprocessing").get_all_start_methods(), reason="needs fork")
+def test_a_killed_worker_is_a_failure_of_its_case(tmp_path, monkeypatch):
+    from cvxcontact.apps.sweep import worker
+
+    path = setup(tmp_path, {"gap": [-1e-6 * k for k in range(8)]})
+    out = tmp_path / "out"
+    real = worker.solve_case
+
+    def oom(task, *args):                      # forked workers inherit this: one case's worker is SIGKILLed
+        if abs(task["data"]["gap"] + 3e-6) < 1e-12:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(task, *args)
+
+    monkeypatch.setattr(worker, "solve_case", oom)
+    report = run_sweep(path, out, workers=2)
+    assert report.total == 8 and len(report.failed) == 1 and report.done == 7
+    ((cid, reason),) = report.failed.items()
+    assert "SIGKILL" in reason
+    assert json.loads((out / "failures" / f"{cid}.json").read_text())["scene"]["gap"] == pytest.approx(-3e-6)
+    monkeypatch.setattr(worker, "solve_case", real)
+    again = run_sweep(path, out, workers=2, retry_failed=True)
+    assert again.done == 8 and not again.failed
+
+
+def _children(pid):
+    found = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                stat = Path(f"/proc/{d}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                found.append(int(d))
+    return found
+
+
+def _alive(pid):
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=["SIGINT", "SIGTERM", "SIGKILL"])
+def test_interrupted_pooled_sweep_stops_without_orphans(tmp_path, sig):
+    # the full model of the example's scene: ~0.4 s a case, so that the signal comes part-way
+    path = setup(tmp_path, {"gap": [-1e-6 * k for k in range(16)]}, method="full", small=False)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", str(path), "--out", str(out), "--workers", "2", "-q"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and not list((out / "cases").glob("*.json")):
+            time.sleep(0.02)
+        workers = _children(proc.pid)
+        assert len(workers) == 2
+        if sig == signal.SIGINT:
+            with pytest.raises(SweepLockedError, match=f"in use by another sweep \\(pid {proc.pid}\\)"):
+                run_sweep(path, out, workers=1)                   # a second run on the folder is refused
+            os.killpg(proc.pid, signal.SIGINT)                    # Ctrl-C reaches the whole process group
+        else:
+            os.kill(proc.pid, sig)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    deadline = time.time() + 10
+    while time.time() < deadline and any(_alive(p) for p in workers):
+        time.sleep(0.05)
+    assert not any(_alive(p) for p in workers), "orphan workers"
+    done = {p.stem for p in (out / "cases").glob("*.json")}
+    time.sleep(0.5)
+    assert {p.stem for p in (out / "cases").glob("*.json")} == done      # nobody writes any more
+    assert len(done) < 16, "the sweep should have been stopped part-way"
+    if sig != signal.SIGKILL:
+        assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err
+        manifest = json.loads((out / "manifest.json").read_text())
+        assert {c["id"] for c in manifest["cases"] if c["state"] == "done"} == done
+    # resuming after an interrupt: tests/test_sweep.py (kill -9)

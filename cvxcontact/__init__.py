@@ -31,12 +31,13 @@ _WHERE = {
     "ContactResult": (".solve", None), "ContactSolver": (".solve", None), "Solution": (".solve", None),
     "solve": (".solve", None), "Model": (".model", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
+    "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
     "UnsupportedError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
 }
 
 __all__ = [
     "materials", "CONDITIONS",
-    "Mesh", "rectangle", "read_mesh",
+    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
@@ -76,6 +77,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .errors import (CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError,
                          UnsupportedError)
     from .physics.pairs import Contact, Rigid
+    from .geometry.generators import graded_block, half_disk
     from .geometry.mesh import Mesh, read_mesh, rectangle
     from .model import Model
     from .physics import materials

@@ -63,9 +63,15 @@ def units(scene, systems, gap=None) -> Units:
     eps0 = max([float(np.linalg.eigvalsh(m.kappa).max()) for m in mats if m.piezoelectric] or [1.0])
     L0 = scene.length
     load = max(max(np.abs(s.f).sum() / (c0 * L0) for s in systems),
-               max(np.abs(s.q).sum() / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric else 0.0 for s in systems),
+               max((np.abs(s.q).sum() + np.abs(s.charge).sum()) / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric
+                   else 0.0 for s in systems),
                float(np.abs(gap).max()) / L0 if gap is not None and len(gap) else 0.0)
     return Units(L0, c0, eps0, load if load > 0 else 1.0)
+
+
+def _congruence(A, K, B):
+    """A^T K B as CSR; a plain row/column selection when A and B are selections (no round-off)."""
+    return (A.T @ K @ B).tocsr()
 
 
 @dataclass
@@ -81,20 +87,22 @@ class Block:
 
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
-        """The free-dof blocks of ``system`` in the units ``un``, with its loads."""
-        uf = system.u_free
-        blk = cls(Kuu=system.Kuu[uf][:, uf] / un.stress, f=None, jump=jump[:, uf].tocsr())
+        """The reduced blocks of ``system`` in the units ``un``, with its loads: T_u^T Kuu T_u,
+        T_u^T Kup T_p, T_p^T Kpp T_p and J T_u with the prolongations of
+        :func:`cvxcontact.fem.assembly.prolongation` (formulation.md §11)."""
+        Tu = system.Tu
+        blk = cls(Kuu=_congruence(Tu, system.Kuu, Tu) / un.stress, f=None, jump=(jump @ Tu).tocsr())
         if system.piezoelectric:
-            pf = system.phi_free
-            blk.Kup = system.Kup[uf][:, pf] / np.sqrt(un.stress * un.permittivity)
-            blk.Kpp = system.Kpp[pf][:, pf] / un.permittivity
+            Tp = system.Tp
+            blk.Kup = _congruence(Tu, system.Kup, Tp) / np.sqrt(un.stress * un.permittivity)
+            blk.Kpp = _congruence(Tp, system.Kpp, Tp) / un.permittivity
         return blk.with_loads(system, un)
 
     def with_loads(self, system, un: Units) -> "Block":
         """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on
         the load scale)."""
-        q = system.q[system.phi_free] / un.charge if self.Kpp is not None else None
-        return replace(self, f=system.f[system.u_free] / un.force, q=q)
+        fz, qz = system.reduced_loads()
+        return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None)
 
     def energy(self, u, phi):
         """Scaled reduced energy 1/2 u^T Kuu u - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law)."""

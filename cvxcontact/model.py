@@ -105,6 +105,8 @@ class Model:
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
         self.law = check_law_for(scene, check_law(law))
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
+        for body in scene.bodies:
+            body.require_supports()
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):
@@ -114,6 +116,8 @@ class Model:
                                    "degree=1 or law=None (Signorini)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
+        for b in scene.bodies if degree == 2 else ():
+            p2.check_supported(b)                                      # P1-only supports refused
         self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
         if degree == 1:
             itf = self._itf = scene.stack
@@ -169,10 +173,9 @@ class Model:
         k = self._index(body)
         if k not in self._u_expr:
             s = self.systems[k]
-            n = len(s.f) // 2
-            P = sp.csr_matrix((np.ones(len(s.u_free)), (s.u_free, np.arange(len(s.u_free)))),
-                              shape=(2 * n, len(s.u_free)))
-            self._u_expr[k] = self.units.displacement * cp.reshape(P @ self._contact.u[k], (n, 2), order="C")
+            n = len(s.f) // 2                                  # nodes (P2: vertices and midpoints)
+            self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
+                                         (n, 2), order="C")
         return self._u_expr[k]
 
     def phi(self, body) -> cp.Expression | None:
@@ -183,10 +186,7 @@ class Model:
         if not s.piezoelectric:
             return None
         if k not in self._phi_expr:
-            n = len(s.f) // 2
-            Q = sp.csr_matrix((np.ones(len(s.phi_free)), (s.phi_free, np.arange(len(s.phi_free)))),
-                              shape=(n, len(s.phi_free)))
-            self._phi_expr[k] = s.phi_fixed + self.units.potential * (Q @ self._contact.phi[k])
+            self._phi_expr[k] = s.phi_fixed + self.units.potential * (s.Tp @ self._contact.phi[k])
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:
@@ -323,7 +323,7 @@ class Model:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings,
                             interface=None if self._nodes is None else self._itf,
-                            points=None if self._nodes is None else [n.points for n in self._nodes])
+                            nodes=self._nodes)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else

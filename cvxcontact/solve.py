@@ -155,6 +155,7 @@ class ContactSolver:
         self.law = check_law_for(scene, check_law(law))
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
+        held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
         if isinstance(degree, bool) or degree not in (1, 2):
@@ -165,6 +166,8 @@ class ContactSolver:
             if self.law.compliant:
                 raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
                                        "yet; use degree=1 or law=None (Signorini)")
+            for b in scene.bodies:
+                p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
             self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
             pair_condition = scene.conditions[0] or condition
@@ -174,7 +177,8 @@ class ContactSolver:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
-        self.method = choose(method, ProblemDescription())         # the backend actually run
+        self.method = choose(method, ProblemDescription(held_by_contact=held))   # the backend actually run
+        self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
@@ -199,6 +203,9 @@ class ContactSolver:
         else:        # the P2 interpolant of the gap at the merged P2 nodes
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
             gap = scene.pair_gap_values(0, np.array(self.interface.x))
+        for b, s in zip(scene.bodies, systems):
+            if getattr(b, "held_by_contact", None):
+                b.check_pressed(s.f)                    # the load must press it onto the contact
         un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
@@ -224,7 +231,7 @@ class ContactSolver:
         else:
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                             problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
-                            beta=self._beta, points=None if self.nodes is None else [n.points for n in self.nodes])
+                            beta=self._beta, nodes=self.nodes)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -283,7 +290,14 @@ class ContactSolver:
         parts = [self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
         slack = sum(parts) - g
         active, polished = ipm_active(parts, g, y), False
-        if self.polish:
+        if self.polish and self.held:
+            out = _sparse_finish(mixed_kkt(blocks, self.E, g), g, active, timings)
+            if out is None:
+                self.declined = "the active-set steps on the sparse mixed system did not settle"
+            else:
+                ((u, phi, y), active), polished = out, True
+                self.finish_route = "active set"
+        elif self.polish:
             _, _, d = self._lcp(blocks, g, timings)
             W = self._compliance.W
             out = self._finish(d, lcp_start(W, d, y, slack), timings)
@@ -473,6 +487,35 @@ class ContactSolver:
                              "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
                              "build a new ContactSolver for the new geometry")
         return scene
+
+
+def _sparse_finish(kkt, g, active, timings, max_iter=30):
+    """Exact finish on the sparse mixed system (26) (``mixed_kkt``), for scenes whose bodies cannot be
+    condensed alone (a body held by the contact only): primal-dual active-set steps from ``active``
+    until y >= 0 on the active rows and the open rows' slack <= 0, each to SIGN_TOL of the problem's
+    force and displacement scales. Returns ((u, phi, y), active) or None."""
+    from .backends.finish import SIGN_TOL
+
+    t0 = time.perf_counter()
+    seen, out = set(), None
+    for _ in range(max_iter):
+        res = kkt(active)
+        if res is None:
+            break
+        x, y, slack, _ = res
+        ys = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
+        ds = max(float(np.abs(slack + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)),
+                 np.finfo(float).tiny)
+        if (y >= -SIGN_TOL * ys).all() and (slack[~active] <= SIGN_TOL * ds).all():
+            out = (x, active)
+            break
+        new = y / ys + slack / ds > 0
+        if new.tobytes() in seen or np.array_equal(new, active):
+            break
+        seen.add(new.tobytes())
+        active = new
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return out
 
 
 def _run(problem, solver, verbose, options):

@@ -23,7 +23,7 @@ def lower(mesh=None, **kw):
 
 
 @pytest.mark.parametrize("make,match", [
-    (lambda: upper(clamped=[]), "no clamped boundary"),
+    (lambda: upper(clamped=[]), r"nothing holds the rigid motion\(s\) \['translation x'\]"),
     (lambda: upper(grounded=[]), "without a grounded or driven electrode"),
     (lambda: upper(clamped=["roof"]), "unknown boundary tag 'roof'"),
     (lambda: upper(traction={"side": (0, 1)}), "unknown boundary tag 'side'"),

@@ -114,12 +114,19 @@ def test_every_body_parameter_is_classified_as_load_or_geometry():
 def test_fingerprint_excludes_exactly_the_loads():
     ref = geometry_fingerprint(_body())
     loads = dict(body_force=(1.0, -2e9), traction={"right": (0.0, 3e8)}, surface_charge={"right": -0.05},
-                 volume_charge=1e-3, potential={"top": -250.0})                   # potential *values*
+                 volume_charge=1e-3, potential={"top": -250.0}, floating={"bottom": 1e-3})   # *values*
     assert set(loads) == set(LOAD_FIELDS)
     for key, value in loads.items():
+        if key == "floating":     # a floating electrode apart from the driven one: its charge is a load
+            base = dict(potential={}, grounded=["top"])
+            assert (geometry_fingerprint(_body(floating={"bottom": 0.0}, **base))
+                    == geometry_fingerprint(_body(**{key: value}, **base))
+                    != geometry_fingerprint(_body(**base))), key
+            continue
         assert geometry_fingerprint(_body(**{key: value})) == ref, key
     geometry = dict(mesh=cc.rectangle(x=(0, 1), y=(0, 0.5), nx=7, ny=3), material=cc.materials.PZT4,
-                    clamped=["top", "right"], grounded=["left", "right"], contact="top")
+                    clamped=["top", "right"], grounded=["left", "right"], contact="top", roller=["right"],
+                    displacement={"right": (None, 0.0)})
     for key, value in geometry.items():
         kw = {key: value}
         if key == "contact":

@@ -155,3 +155,41 @@ def test_p2_refuses_what_it_does_not_support(case):
             make()
         assert "degree=2" in str(info.value)
     assert cc.solve(scene, "gamma3", **kw).ok                          # the same scene is solved with P1
+
+
+def _supported(kind):
+    """Two blocks, the upper one pressed down by its weight, with one support the P2 assembly refuses."""
+    low = cc.rectangle(x=(0, 1), y=(-A, 0), nx=3, ny=2)
+    up = cc.rectangle(x=(0, 1), y=(0, A), nx=3, ny=2)
+    lower = dict(clamped=["bottom"], contact="top")
+    upper = dict(clamped=["top"], contact="bottom", body_force=(0.0, -F))
+    mat_low = MAT
+    if kind == "roller":
+        lower = dict(lower, roller=["left"])
+    elif kind == "displacement":
+        upper = dict(upper, displacement={"left": (0.0, None)})
+    elif kind == "floating":
+        mat_low = cc.materials.PZT5A
+        lower = dict(lower, grounded=["right"], floating={"left": 0.0})
+    elif kind == "held by the contact only":
+        upper = dict(contact="bottom", body_force=(0.0, -F), roller=["left", "right"])
+    return cc.Scene(cc.Body(up, MAT, **upper), cc.Body(low, mat_low, **lower), gap=GAP)
+
+
+@pytest.mark.parametrize("kind", ["roller", "displacement", "floating", "held by the contact only"])
+def test_p2_refuses_supports_of_the_p1_prolongation(kind):
+    """Rollers, prescribed displacements, floating electrodes and bodies held by the contact only are built
+    by the P1 prolongation u = T z + u_D; with degree=2 they are refused, typed, naming the support."""
+    scene = _supported(kind)
+    for make in (lambda: cc.solve(scene, "gamma3", degree=2),
+                 lambda: cc.ContactSolver(scene, "sigma1", degree=2, method="full"),
+                 lambda: cc.Model(scene, "sigma1", degree=2)):
+        try:
+            make()
+        except cc.UnsupportedError as exc:
+            assert "degree=2" in str(exc) and kind in str(exc)
+        except cc.SceneError as exc:            # cc.Model refuses a body held by the contact only, for P1 too
+            assert kind == "held by the contact only" and "held by the contact" in str(exc)
+        else:
+            raise AssertionError(f"degree=2 with {kind} was not refused")
+    assert cc.solve(scene, "gamma3", method="full").ok                 # P1 takes it

@@ -29,11 +29,14 @@ class ProblemDescription:
     ``user_terms``: number of user-added objective terms or constraints (CVXPY expressions
     on the body unknowns); the condensed backend eliminates the interior unknowns, so it
     cannot take any.
+    ``held_by_contact``: some body has a rigid motion that only the contact holds (its stiffness
+    is singular, so it cannot be condensed on its own).
     """
 
     quadratic_energy: bool = True
     linear_contact: bool = True
     user_terms: int = 0
+    held_by_contact: bool = False
 
 
 @dataclass(frozen=True)
@@ -46,7 +49,7 @@ class Backend:
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
-    return p.quadratic_energy and p.linear_contact and p.user_terms == 0
+    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact
 
 
 BACKENDS: tuple[Backend, ...] = (

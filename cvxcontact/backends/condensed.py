@@ -105,6 +105,9 @@ def condense(block, system, mesh) -> CondensedBody:
     rank = np.empty(len(mesh.points), dtype=np.int64)
     rank[node_order(mesh)] = np.arange(len(mesh.points))
     key = 3 * rank[node] + kind
+    if system.piezoelectric and system.floating.any():                      # a floating electrode couples a
+        fl = n_u + np.flatnonzero(system.floating)                          # whole part: eliminate it late
+        key[fl] = key.max() + 1 + np.arange(len(fl))
     key[gamma] = key.max() + 1 + np.arange(len(gamma))                      # Gamma dofs last, in x order
     perm = np.argsort(key, kind="stable")
     lu = spla.splu(S[perm][:, perm].tocsc(), **_SUPERLU)

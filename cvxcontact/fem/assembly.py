@@ -9,9 +9,18 @@ forms (19)-(20) of the paper read, per unit thickness,
     f = (f0, v) + (f2, v)_Gamma2                     (N/m per node)
     q = (q0, psi) - (q2, psi)_Gamma_b                (C/m per node)
 
-Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node. Driven
-electrodes (phi = V) are lifted: with phi = phi_D + phi_0, the loads become
-f - Kup phi_D and q - Kpp phi_D, and only the free dofs remain unknown.
+Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node. The supports and
+electrodes are imposed by a prolongation (docs/formulation.md §11)
+
+    u = T_u z_u + u_D,      phi = T_p z_p + phi_D
+
+with sparse T_u (2n, m_u) and T_p (n, m_p) and the reduced unknowns z: clamped dofs have no
+column, a roller node one column along the part's tangent (u . n = 0), a prescribed component
+of ``displacement`` no column (its value in u_D, m), grounded and driven electrode nodes no
+column (phi_D = V), and each floating electrode one column equal to 1 on all its nodes (one
+shared potential). The prescribed values are lifted: f - Kuu u_D - Kup phi_D and
+q + Kup^T u_D - Kpp phi_D; the reduced equations are T^T (...) with the floating charges Q
+(C/m) added to their columns' rows.
 """
 
 from __future__ import annotations
@@ -23,7 +32,8 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix"]
+__all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix",
+           "prolongation"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -32,9 +42,14 @@ _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae 
 class BodySystem:
     """Assembled matrices and loads of one body, all dofs, SI units.
 
-    ``u_free`` / ``phi_free`` index the dofs that are not fixed by Gamma_1 / Gamma_a;
-    ``f`` and ``q`` include the lifting of the electrode potentials ``phi_fixed`` (V,
-    zero off the electrodes). The electric fields are None for an elastic body.
+    ``Tu`` / ``Tp`` are the prolongations of the module docstring (u = Tu z_u + u_fixed,
+    phi = Tp z_p + phi_fixed); ``u_free`` / ``phi_free`` give for each of their columns the
+    dof it acts on (for a plain selection, as with clamped parts and grounded or driven
+    electrodes only, exactly the free dofs; a roller column names its node's larger
+    component, a floating electrode column its first node); ``floating`` (m_p,) bool marks the
+    floating-electrode columns and ``charge`` their prescribed total charges (C/m).
+    ``f`` and ``q`` include the lifting of ``u_fixed`` (m) and ``phi_fixed`` (V, zero off the
+    electrodes). The electric fields are None for an elastic body.
     """
 
     Kuu: sp.csr_matrix
@@ -45,10 +60,24 @@ class BodySystem:
     q: np.ndarray | None = None
     phi_free: np.ndarray | None = None
     phi_fixed: np.ndarray | None = None
+    Tu: sp.csr_matrix | None = None
+    u_fixed: np.ndarray | None = None
+    Tp: sp.csr_matrix | None = None
+    floating: np.ndarray | None = None
+    charge: np.ndarray | None = None
 
     @property
     def piezoelectric(self) -> bool:
         return self.Kpp is not None
+
+    def reduced_loads(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """(T_u^T f, T_p^T q + Q): the right-hand sides of the reduced equations, SI (N/m, C/m)."""
+        fz = self.Tu.T @ self.f
+        if not self.piezoelectric:
+            return fz, None
+        qz = self.Tp.T @ self.q
+        qz[self.floating] += self.charge
+        return fz, qz
 
 
 def gradients(points, triangles):
@@ -92,17 +121,66 @@ def assemble_matrices(body) -> BodySystem:
     B = strain_matrix(grad)
     Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, 6, 3), area-weighted
     udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
-    clamped = mesh.boundary_nodes(body.clamped)
-    u_fixed = np.zeros(2 * n, dtype=bool)
-    u_fixed[2 * clamped] = u_fixed[2 * clamped + 1] = True
+    Tu, u_fixed, Tp, floating = prolongation(body)
     system = BodySystem(Kuu=_scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n)), f=np.zeros(2 * n),
-                        u_free=np.flatnonzero(~u_fixed))
+                        u_free=_representative(Tu), Tu=Tu, u_fixed=u_fixed)
     if mat.piezoelectric:
         Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, 3, 2)
         system.Kup = _scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
         system.Kpp = _scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
-        system.phi_free = np.setdiff1d(np.arange(n), mesh.boundary_nodes(body.grounded + list(body.potential)))
+        system.Tp, system.floating = Tp, floating
+        system.phi_free = _representative(Tp)
+        system.charge = np.zeros(int(floating.sum()))
     return system
+
+
+def _representative(T):
+    """For each column of T, the row (dof) with the largest entry (the first one on ties)."""
+    T = T.tocsc()
+    T.sort_indices()
+    a = np.abs(T.data)
+    col = np.repeat(np.arange(T.shape[1]), np.diff(T.indptr))
+    top = np.maximum.reduceat(a, T.indptr[:-1]) if T.shape[1] else np.zeros(0)
+    hit = np.flatnonzero(a == top[col])
+    first = np.unique(col[hit], return_index=True)[1]
+    return T.indices[hit[first]].astype(np.int64)
+
+
+def prolongation(body):
+    """(Tu, u_fixed, Tp, floating) of ``body``: the map from reduced to nodal unknowns (module docstring).
+
+    Tu (2n, m_u) sparse with orthonormal columns, u_fixed (2n,) m; Tp (n, m_p) sparse (None for an
+    elastic body), floating (m_p,) bool marking the floating-electrode columns (the last ones, in the
+    order of ``body.floating``). Columns follow the node order. Raises SceneError if two supports
+    prescribe different values at one node.
+    """
+    mesh = body.mesh
+    n = len(mesh.points)
+    ncols, tangent, u_fixed = body.node_supports()
+    first = np.concatenate([[0], np.cumsum(ncols)[:-1]])
+    plain = np.flatnonzero(ncols == 2)
+    one = np.flatnonzero(ncols == 1)
+    rows = np.concatenate([2 * plain, 2 * plain + 1, 2 * one, 2 * one + 1])
+    cols = np.concatenate([first[plain], first[plain] + 1, first[one], first[one]])
+    data = np.concatenate([np.ones(2 * len(plain)), tangent[one, 0], tangent[one, 1]])
+    keep = data != 0
+    Tu = sp.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(2 * n, int(ncols.sum())))
+    if not body.piezoelectric:
+        return Tu, u_fixed, None, None
+    fixed = mesh.boundary_nodes(body.grounded + list(body.potential))
+    float_nodes = [mesh.boundary_nodes([t]) for t in body.floating]
+    taken = np.zeros(n, dtype=bool)
+    taken[fixed] = True
+    for f in float_nodes:
+        taken[f] = True
+    free = np.flatnonzero(~taken)
+    m = len(free)
+    rows = np.concatenate([free] + float_nodes)
+    cols = np.concatenate([np.arange(m)] + [np.full(len(f), m + k) for k, f in enumerate(float_nodes)])
+    Tp = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, m + len(float_nodes)))
+    floating = np.zeros(m + len(float_nodes), dtype=bool)
+    floating[m:] = True
+    return Tu, u_fixed, Tp, floating
 
 
 def assemble_loads(body, matrices: BodySystem) -> BodySystem:
@@ -121,8 +199,11 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
             q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
         phi_fixed = _electrode_potential(mesh, body)
         system.f = system.f - matrices.Kup @ phi_fixed
-        system.q = q - matrices.Kpp @ phi_fixed
+        system.q = q - matrices.Kpp @ phi_fixed + matrices.Kup.T @ matrices.u_fixed
         system.phi_fixed = phi_fixed
+        system.charge = np.array([body.floating[t] for t in body.floating], dtype=float)    # Q, C/m
+    if np.any(matrices.u_fixed):
+        system.f = system.f - matrices.Kuu @ matrices.u_fixed
     return system
 
 

@@ -59,6 +59,11 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     else:
         field = disp = None
         szz = mat.c[0, 1] * (eps[:, 0] + eps[:, 1])
+    out = getattr(mat, "out_of_plane", None)
+    if getattr(mat, "plane", "strain") == "stress":
+        szz = np.zeros(len(eps))                                       # plane stress: sigma_zz = 0
+    elif out is not None and getattr(mat, "angle", 0.0) != 0.0:        # a rotated material: its rotated row
+        szz = eps @ out[0] - (field @ out[2] if field is not None else 0.0)
     s = np.column_stack([stress[:, 0], stress[:, 1], szz, stress[:, 2]])
     vm = np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)
                  + 3.0 * s[:, 3] ** 2)

@@ -17,11 +17,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import SceneError
+import scipy.sparse as sp
+
+from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .assembly import BodySystem, _accumulate, _scatter, gradients
 
-__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients"]
+__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients",
+           "check_supported"]
 
 # degree-2 rule on the reference triangle (barycentric coordinates, weights summing to 1)
 _TRI3 = (np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]), np.full(3, 1 / 3))
@@ -65,8 +68,31 @@ def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
     return assemble_loads(body, assemble_matrices(body, nodes), nodes)
 
 
+def check_supported(body) -> None:
+    """Raise UnsupportedError if ``body`` uses a support the P2 assembly does not build yet: rollers,
+    prescribed displacements, floating electrodes (the prolongation u = T z + u_D of
+    :func:`cvxcontact.fem.assembly.prolongation` is P1) or rigid motions held by the contact only."""
+    used = [name for name, on in (("roller", getattr(body, "roller", ())),
+                                  ("displacement", getattr(body, "displacement", {})),
+                                  ("floating", getattr(body, "floating", {})),
+                                  ("held by the contact only", getattr(body, "held_by_contact", ()))) if on]
+    if used:
+        raise UnsupportedError(f"{body.name}: P2 elements (degree=2) with {', '.join(used)} supports are not "
+                               "supported yet (P2 takes clamped parts and grounded or driven electrodes); use "
+                               "degree=1")
+
+
+def _selection(free, n) -> sp.csr_matrix:
+    """(n, len(free)) prolongation of a plain selection: column j is the unit vector of dof free[j]."""
+    return sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))), shape=(n, len(free)))
+
+
 def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
-    """P2 stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero."""
+    """P2 stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero.
+
+    The supports are clamped parts and grounded or driven electrodes (:func:`check_supported`), so the
+    prolongations T_u, T_p are plain selections of the free dofs and u_D = 0."""
+    check_supported(body)
     mat = body.material
     n = len(nodes)
     el = nodes.triangles
@@ -84,12 +110,16 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     clamped = nodes.boundary_nodes(body.clamped)
     u_fixed = np.zeros(2 * n, dtype=bool)
     u_fixed[2 * clamped] = u_fixed[2 * clamped + 1] = True
+    u_free = np.flatnonzero(~u_fixed)
     system = BodySystem(Kuu=_scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), f=np.zeros(2 * n),
-                        u_free=np.flatnonzero(~u_fixed))
+                        u_free=u_free, Tu=_selection(u_free, 2 * n), u_fixed=np.zeros(2 * n))
     if mat.piezoelectric:
         system.Kup = _scatter(Kup, udofs, el, (2 * n, n))
         system.Kpp = _scatter(Kpp, el, el, (n, n))
         system.phi_free = np.setdiff1d(np.arange(n), nodes.boundary_nodes(body.grounded + list(body.potential)))
+        system.Tp = _selection(system.phi_free, n)
+        system.floating = np.zeros(len(system.phi_free), dtype=bool)
+        system.charge = np.zeros(0)
     return system
 
 

@@ -435,13 +435,16 @@ def _check_layers(points, boundary):
 # --------------------------------------------------------------------------- generators and readers
 
 def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), nx: int = 8, ny: int = 8,
-              diagonal: str = "alternate") -> Mesh:
+              diagonal: str = "alternate", segments: Mapping[str, tuple] | None = None) -> Mesh:
     """Structured triangulation of the rectangle ``x[0]..x[1]`` by ``y[0]..y[1]`` (metres).
 
     Each of the ``nx`` by ``ny`` cells is cut into two triangles. ``diagonal`` is
     ``"right"`` (all cuts /), ``"left"`` (all cuts \\) or ``"alternate"`` (a chequer
     pattern, mirror-symmetric about the vertical centre line when ``nx`` is even).
     The boundary parts are tagged ``"left"``, ``"right"``, ``"bottom"``, ``"top"``.
+    ``segments`` names sub-segments of the sides as extra tags (the sides keep theirs):
+    ``{"footprint": ("top", 0.25, 0.75)}`` tags the edges of the top side between x = 0.25
+    and 0.75 m (for "left"/"right", between two ordinates); both ends must be grid nodes.
     """
     (x0, x1), (y0, y1) = (_interval(x, "x"), _interval(y, "y"))
     nx, ny = _count(nx, "nx"), _count(ny, "ny")
@@ -464,7 +467,36 @@ def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), 
         "top": np.column_stack([node[-1, 1:], node[-1, :-1]]),
         "left": np.column_stack([node[1:, 0], node[:-1, 0]]),
     }
+    for name, spec in (segments or {}).items():
+        boundaries[name] = _segment(name, spec, boundaries, points)
     return Mesh(points, triangles, boundaries)
+
+
+def _segment(name, spec, sides, points):
+    """The edges of side ``spec[0]`` between the coordinates ``spec[1]`` and ``spec[2]`` (m)."""
+    if not isinstance(name, str) or name in sides:
+        raise MeshError(f"segments: the name {name!r} must be a new tag (a string other than {sorted(sides)})")
+    try:
+        side, a, b = spec
+        a, b = float(a), float(b)
+    except (TypeError, ValueError):
+        raise MeshError(f"segments[{name!r}]: expected (side, start, end) with side one of "
+                        f"{sorted(sides)}, got {spec!r}") from None
+    if side not in ("left", "right", "bottom", "top") or not (np.isfinite(a) and np.isfinite(b) and b > a):
+        raise MeshError(f"segments[{name!r}]: expected (side, start, end) with side one of "
+                        f"['bottom', 'left', 'right', 'top'] and start < end, got {spec!r}")
+    edges = sides[side]
+    axis = 0 if side in ("bottom", "top") else 1
+    coord = points[edges, axis]                                   # (k, 2)
+    grid = np.unique(coord)
+    tol = 1e-9 * float(np.ptp(grid))
+    for v in (a, b):
+        if np.abs(grid - v).min() > tol:
+            near = grid[np.argsort(np.abs(grid - v))[:2]]
+            raise MeshError(f"segments[{name!r}]: {v:.9g} m is not a grid node of side {side!r} (nearest "
+                            f"{sorted(near.tolist())}); choose nx, ny so that the ends fall on grid lines")
+    inside = (coord.min(axis=1) >= a - tol) & (coord.max(axis=1) <= b + tol)
+    return edges[inside]
 
 
 def _interval(v, name):

@@ -228,6 +228,8 @@ def summary(solution) -> dict:
                     "max_displacement_m": float(np.abs(u).max()),
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}
                    for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)],
+        "electrodes": [{"body": e.body, "tag": e.tag, "kind": e.kind, "potential_V": e.potential,
+                        "charge_C_per_m": e.charge} for e in getattr(solution, "electrodes", [])],
     }
 
 

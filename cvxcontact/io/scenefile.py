@@ -35,6 +35,15 @@ names the file, the key and what was expected. Format (all SI units)::
     surface_charge = { left = -0.05 }         # C/m^2
     potential = { }                           # V, driven electrodes
     volume_charge = 0.0                       # C/m^3
+    roller = ["left"]                         # u.n = 0 on straight parts (sliding supports, symmetry)
+    displacement = { right = ["free", -1e-4] }  # prescribed [ux, uy] in m, "free" = not prescribed
+    floating = { side = 0.0 }                 # floating electrodes: total charge Q, C/m (0 = open circuit)
+    rotation = 0.0                            # material turned counter-clockwise, radians (poling axis)
+    plane = "strain"                          # or "stress"
+
+Meshes may also be ``{ rectangle = {..., segments = { footprint = ["top", 0.25, 0.75] } } }``,
+``{ graded_block = { x, y, nx, ny, contact, beta, gamma, center } }`` or
+``{ half_disk = { radius, center, nr, nt, side } }`` (tags "flat", "arc").
 
 Contact pairs and rigid obstacles (any number of bodies; without ``[[contact]]`` tables the file
 needs exactly two bodies touching along their ``contact`` parts)::
@@ -71,6 +80,7 @@ from ..contact.interface import CONDITIONS
 from ..errors import CvxContactError, SceneError
 from .expr import Expression, ExpressionError
 from ..geometry.mesh import read_mesh, rectangle
+from ..geometry.generators import graded_block, half_disk
 from ..backends.options import check_solver, check_solver_options
 from ..physics.scene import Body, Scene
 from ..physics.pairs import Contact, Rigid
@@ -85,7 +95,7 @@ _CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
 _OBSTACLE = {"name", "plane", "circle", "profile", "force"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
-         "surface_charge", "potential", "volume_charge"}
+         "surface_charge", "potential", "volume_charge", "roller", "displacement", "floating", "rotation", "plane"}
 _PIEZO = {"c11", "c12", "c13", "c33", "c44", "e31", "e33", "e15", "eps11", "eps33"}
 
 
@@ -332,12 +342,12 @@ class _Context:
         where = f"body[{k}]"
         b = self.table(b, where)
         self.keys(b, _BODY, where)
-        for req in ("material", "mesh", "clamped", "contact"):
+        for req in ("material", "mesh", "contact"):
             if req not in b:
                 raise SceneFileError(f"{self.path}: {where}: missing key {req!r}")
         name = b.get("name", f"body {k + 1}")
         kw = dict(
-            clamped=self.tags(b["clamped"], f"{where}.clamped"),
+            clamped=self.tags(b.get("clamped", []), f"{where}.clamped"),
             grounded=self.tags(b.get("grounded", []), f"{where}.grounded"),
             contact=b["contact"],
             body_force=self.load(b.get("body_force", [0.0, 0.0]), f"{where}.body_force", 2),
@@ -346,10 +356,43 @@ class _Context:
         for key, n in (("traction", 2), ("surface_charge", 1), ("potential", 1)):
             parts = self.table(b.get(key, {}), f"{where}.{key}")
             kw[key] = {t: self.load(v, f"{where}.{key}.{t}", n) for t, v in parts.items()}
+        kw["roller"] = self.tags(b.get("roller", []), f"{where}.roller")
+        kw["displacement"] = {t: self.prescribed(v, f"{where}.displacement.{t}")
+                              for t, v in self.table(b.get("displacement", {}), f"{where}.displacement").items()}
+        floating = self.table(b.get("floating", {}), f"{where}.floating")
+        for t, v in floating.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                self.fail(f"{where}.floating.{t}", "the total charge in C/m (a number; 0 = open circuit)", v)
+        kw["floating"] = {t: float(v) for t, v in floating.items()}
         material = self.material(b["material"], f"{where}.material")
+        material = self.frame(material, b, where)
         mesh = self.mesh(b["mesh"], f"{where}.mesh")
         try:
             return Body(mesh, material, name=str(name), **kw)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
+
+    def prescribed(self, value, key):
+        """[ux, uy] in m, "free" for a free component."""
+        if not isinstance(value, list) or len(value) != 2 or not all(
+                v == "free" or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in value):
+            self.fail(key, 'a list [ux, uy] of numbers (m) or "free"', value)
+        return tuple(None if v == "free" else float(v) for v in value)
+
+    def frame(self, material, b, where):
+        """The material turned by ``rotation`` (radians, CCW) and reduced to ``plane`` = "stress"."""
+        try:
+            if "rotation" in b:
+                angle = b["rotation"]
+                if isinstance(angle, bool) or not isinstance(angle, (int, float)) or not math.isfinite(angle):
+                    self.fail(f"{where}.rotation", "an angle in radians (a finite number, counter-clockwise)", angle)
+                material = material.rotated(float(angle))
+            plane = b.get("plane", "strain")
+            if plane not in ("strain", "stress"):
+                self.fail(f"{where}.plane", '"strain" (default) or "stress"', plane)
+            return material.plane_stress() if plane == "stress" else material
+        except SceneFileError:
+            raise
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
 
@@ -399,13 +442,23 @@ class _Context:
         try:
             if set(table) == {"rectangle"}:
                 spec = self.table(table["rectangle"], f"{key}.rectangle")
-                self.keys(spec, {"x", "y", "nx", "ny", "diagonal"}, f"{key}.rectangle")
+                self.keys(spec, {"x", "y", "nx", "ny", "diagonal", "segments"}, f"{key}.rectangle")
                 return rectangle(**spec)
+            if set(table) == {"graded_block"}:
+                spec = self.table(table["graded_block"], f"{key}.graded_block")
+                self.keys(spec, {"x", "y", "nx", "ny", "contact", "beta", "gamma", "center", "segments"},
+                          f"{key}.graded_block")
+                return graded_block(**spec)
+            if set(table) == {"half_disk"}:
+                spec = self.table(table["half_disk"], f"{key}.half_disk")
+                self.keys(spec, {"radius", "center", "nr", "nt", "side"}, f"{key}.half_disk")
+                return half_disk(**spec)
             if set(table) <= {"file", "region"} and isinstance(table.get("file"), str):
                 return read_mesh(self.mesh_path(table["file"], f"{key}.file"), region=table.get("region"))
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
-        self.fail(key, "{ rectangle = {...} } or { file = \"mesh.msh\" [, region = \"name\"] }", value)
+        self.fail(key, "{ rectangle = {...} }, { graded_block = {...} }, { half_disk = {...} } or "
+                       "{ file = \"mesh.msh\" [, region = \"name\"] }", value)
 
     def mesh_path(self, name, key):
         """The mesh file ``name`` relative to the scene file, confined to its folder unless allowed."""

@@ -50,7 +50,9 @@ def geometry_fingerprint(body) -> str:
         array(key, getattr(mat, key, None), np.float64)
     # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),
-                        ("potential", list(body.potential)), ("contact", [body.contact])):
+                        ("potential", list(body.potential)), ("contact", [body.contact]),
+                        ("roller", getattr(body, "roller", [])), ("floating", list(getattr(body, "floating", {}))),
+                        ("displacement", [f"{t}={v}" for t, v in getattr(body, "displacement", {}).items()])):
         parts = sorted(set(parts))
         text(role)
         text(len(parts))

@@ -1,4 +1,5 @@
-"""Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain.
+"""Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain (default)
+or plane stress (``material.plane_stress()``), poling axis along +y or turned (``material.rotated(angle)``).
 
 The 2D model plane is the crystal's (x1, x3) plane, poling axis x3 along +y.
 Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (docs/formulation.md §6,
@@ -68,9 +69,39 @@ class Piezoelectric:
         e = _matrix(e, (2, 3), "e", name, spd=False)
         kappa = _matrix(kappa, (2, 2), "kappa", name, spd=True)
         self.c, self.e, self.kappa, self.name, self.c12 = c, e, kappa, str(name), c12
+        self.plane, self.angle = "strain", 0.0
+        # out-of-plane row (x2 of the crystal): sigma_zz = a . eps - b . E with C_zz = c22 (hexagonal: c11)
+        hexagonal = c12 is not None and np.allclose(c[:2, 2], 0.0) and e[1, 2] == 0.0
+        self.out_of_plane = ((np.array([c12, c[0, 1], 0.0]), float(c[0, 0]), np.array([0.0, e[1, 0]]))
+                             if hexagonal else None)
 
     def __repr__(self):
         return f"Piezoelectric({self.name!r})"
+
+    def rotated(self, angle: float) -> Piezoelectric:
+        """The material turned by ``angle`` (radians, counter-clockwise) in the model plane: c, e and
+        kappa (and the out-of-plane row) rotated as tensors; the poling axis points along
+        (-sin angle, cos angle). ``rotated(0)`` equals the material."""
+        angle = _real(angle, "angle", self.name)
+        c, e, kappa, out = _rotate(self.c, self.e, self.kappa, self.out_of_plane, angle)
+        obj = Piezoelectric.from_matrices(c, e, kappa, name=self.name)
+        obj.c12, obj.out_of_plane, obj.plane, obj.angle = self.c12, out, self.plane, self.angle + angle
+        return obj
+
+    def plane_stress(self) -> Piezoelectric:
+        """The plane-stress reduction (sigma_zz = 0 through the thickness; the default is plane strain,
+        eps_zz = 0). Needs the out-of-plane constants (``c12``): with a = C_z,plane, c22 = C_zz and
+        b = e_plane,z, c' = c - a a^T / c22, e' = e - b a^T / c22, kappa' = kappa + b b^T / c22."""
+        if self.plane == "stress":
+            return self
+        if self.out_of_plane is None:
+            raise MaterialError(f"material {self.name!r}: plane stress needs the out-of-plane constant c12 "
+                                "(give c12, or use a built-in material)")
+        a, c22, b = self.out_of_plane
+        obj = Piezoelectric.from_matrices(self.c - np.outer(a, a) / c22, self.e - np.outer(b, a) / c22,
+                                          self.kappa + np.outer(b, b) / c22, name=self.name)
+        obj.c12, obj.out_of_plane, obj.plane, obj.angle = self.c12, self.out_of_plane, "stress", self.angle
+        return obj
 
 
 class Elastic:
@@ -81,9 +112,65 @@ class Elastic:
     def __init__(self, c: ArrayLike, name: str = "elastic", E: float | None = None, nu: float | None = None) -> None:
         self.c = _matrix(c, (3, 3), "c", name, spd=True)
         self.name, self.E, self.nu = str(name), E, nu
+        self.plane, self.angle, self.out_of_plane = "strain", 0.0, None
+        if E is not None and nu is not None:
+            lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+            self.out_of_plane = (np.array([lam, lam, 0.0]), lam + 2 * mu, None)
 
     def __repr__(self):
         return f"Elastic({self.name!r})"
+
+    def rotated(self, angle: float) -> Elastic:
+        """The material turned by ``angle`` (radians, counter-clockwise) in the model plane (c rotated as
+        a tensor; an isotropic material is unchanged up to rounding)."""
+        angle = _real(angle, "angle", self.name)
+        c, _, _, out = _rotate(self.c, None, None, self.out_of_plane, angle)
+        obj = Elastic(c, name=self.name)
+        obj.E, obj.nu, obj.out_of_plane, obj.plane, obj.angle = self.E, self.nu, out, self.plane, self.angle + angle
+        return obj
+
+    def plane_stress(self) -> Elastic:
+        """The plane-stress reduction c - a a^T / c22 (isotropic: E/(1-nu^2) [[1, nu, 0], [nu, 1, 0],
+        [0, 0, (1-nu)/2]]); needs the out-of-plane constants (a material from :func:`isotropic`)."""
+        if self.plane == "stress":
+            return self
+        if self.out_of_plane is None:
+            raise MaterialError(f"material {self.name!r}: plane stress needs the out-of-plane constants; build "
+                                "it with isotropic(E, nu)")
+        a, c22, _ = self.out_of_plane
+        obj = Elastic(self.c - np.outer(a, a) / c22, name=self.name)
+        obj.E, obj.nu, obj.out_of_plane, obj.plane, obj.angle = self.E, self.nu, self.out_of_plane, "stress", self.angle
+        return obj
+
+
+_PAIRS = ((0, 0), (1, 1), (0, 1))          # Voigt index of the plane: (11, 33, 13) of the crystal = (xx, yy, xy)
+
+
+def _voigt(i, j):
+    return i if i == j else 2
+
+
+def _rotate(c, e, kappa, out, angle):
+    """Rotate the plane matrices (c (3,3), e (2,3) or None, kappa (2,2) or None) and the out-of-plane row
+    by ``angle`` (CCW) as tensors: c'_ijkl = Q_ip Q_jq Q_kr Q_ls c_pqrs etc."""
+    Q = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    idx = np.array([[_voigt(i, j) for j in range(2)] for i in range(2)])
+    ct = np.asarray(c)[idx[:, :, None, None], idx[None, None, :, :]]
+    ct = np.einsum("ip,jq,kr,ls,pqrs->ijkl", Q, Q, Q, Q, ct)
+    back = np.array(_PAIRS)
+    c2 = ct[back[:, 0][:, None], back[:, 1][:, None], back[:, 0][None, :], back[:, 1][None, :]]
+    c2 = 0.5 * (c2 + c2.T)
+    e2 = k2 = None
+    if e is not None:
+        et = np.einsum("kp,iq,jr,pqr->kij", Q, Q, Q, np.asarray(e)[:, idx])
+        e2 = et[:, back[:, 0], back[:, 1]]
+        k2 = Q @ kappa @ Q.T
+        k2 = 0.5 * (k2 + k2.T)
+    if out is not None:
+        a, c22, b = out
+        at = Q @ np.asarray(a)[idx] @ Q.T
+        out = (at[back[:, 0], back[:, 1]], c22, None if b is None else Q @ b)
+    return c2, e2, k2, out
 
 
 def isotropic(E: float, nu: float, name: str | None = None) -> Elastic:

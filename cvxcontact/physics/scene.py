@@ -30,8 +30,9 @@ class Body:
     mesh : Mesh
     material : Piezoelectric or Elastic
     clamped : str or list of str
-        Tags of Gamma_1, where u = 0. Must not be empty: a body free to move rigidly
-        has a singular stiffness.
+        Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
+        displacement) must hold every rigid motion the contact does not (a SceneError names
+        the free motion; see :meth:`free_motions`).
     grounded : str or list of str
         Tags of Gamma_a, where phi = 0 (piezoelectric bodies only).
     potential : dict tag -> float or callable, V
@@ -44,15 +45,28 @@ class Body:
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
     volume_charge : float or callable, C/m^3 (q0 in div D = q0)
     name : str, optional
+    roller : str or list of str
+        Straight parts where u . n = 0 (n the part's normal): sliding supports, symmetry planes.
+    displacement : dict tag -> (ux, uy), m
+        Prescribed displacement components; ``None`` leaves a component free.
+    floating : dict tag -> float, C/m
+        Floating electrodes: one unknown potential on the whole part and its total charge Q
+        (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
+
+    Supports and electrodes enter the unknowns through the prolongation of
+    docs/formulation.md §11 (:func:`cvxcontact.fem.assembly.prolongation`).
     """
 
-    def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str],
+    def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
                  contact: str, grounded: str | Sequence[str] = (),
                  potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
                  body_force: Sequence[float] | Callable[..., ArrayLike] = (0.0, 0.0),
                  traction: Mapping[str, Sequence[float] | Callable[..., ArrayLike]] | None = None,
                  surface_charge: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
-                 volume_charge: float | Callable[..., ArrayLike] = 0.0, name: str | None = None) -> None:
+                 volume_charge: float | Callable[..., ArrayLike] = 0.0, name: str | None = None,
+                 roller: str | Sequence[str] = (),
+                 displacement: Mapping[str, Sequence[float | None]] | None = None,
+                 floating: Mapping[str, float] | None = None) -> None:
         if not isinstance(mesh, Mesh):
             raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
@@ -72,6 +86,11 @@ class Body:
         self.volume_charge = Load(volume_charge, f"{self.name}: volume_charge", 1)
         self.potential = {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
                           for t, v in self._parts(potential, "potential").items()}
+        self.roller = self._tags(roller, "roller")
+        self.displacement = {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
+                             for t, v in self._parts(displacement, "displacement").items()}
+        self.floating = {t: _charge(v, f"{self.name}: floating[{t!r}]")
+                         for t, v in self._parts(floating, "floating").items()}
         self._check_parts()
 
     def __repr__(self):
@@ -99,18 +118,23 @@ class Body:
         return dict(loads)
 
     def _check_parts(self):
-        mechanical = [("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
+        mechanical = ([("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
+                      + [("roller", t) for t in self.roller] + [("displacement", t) for t in self.displacement])
         mechanical.append(("contact", self.contact))
         _disjoint(self, mechanical)
-        if not self.clamped:
-            raise SceneError(f"{self.name}: no clamped boundary (Gamma_1 is empty); the body could move "
-                             "rigidly and its stiffness is singular")
-        self._check_components(self.clamped, "touches no clamped part: nothing holds it (contact is "
-                               "unilateral) and its position is undetermined")
+        self._roller_normals = {t: _straight_normal(self, t) for t in self.roller}
         contact_nodes = self.mesh.boundary_nodes([self.contact])
-        if np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
+        if self.clamped and np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
             raise SceneError(f"{self.name}: every node of the contact part {self.contact!r} is clamped; "
                              "the body cannot take part in the contact")
+        for tag, value in self.displacement.items():
+            if any(v not in (None, 0.0) for v in value) and np.isin(self.mesh.boundary_nodes([tag]),
+                                                                      contact_nodes).any():
+                raise SceneError(f"{self.name}: the prescribed displacement {tag!r} = {value} touches the "
+                                 f"contact part {self.contact!r}; a non-zero displacement on a contact node "
+                                 "is not supported (prescribe it away from the contact line)")
+        self.node_supports()                                # consistent at every node (or a SceneError)
+        self._check_kinematics()
         if self.piezoelectric:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
@@ -118,12 +142,186 @@ class Body:
             self._check_components(self.grounded + list(self.potential),
                                    "touches no grounded or driven electrode: its potential is undetermined")
             _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
-                      + [("surface_charge", t) for t in self.surface_charge])
+                      + [("surface_charge", t) for t in self.surface_charge]
+                      + [("floating", t) for t in self.floating])
+            fixed = self.mesh.boundary_nodes(self.grounded + list(self.potential))
+            seen = np.zeros(0, dtype=int)
+            for tag in self.floating:
+                nodes = self.mesh.boundary_nodes([tag])
+                if np.isin(nodes, fixed).any():
+                    raise SceneError(f"{self.name}: floating electrode {tag!r} touches a grounded or driven "
+                                     "electrode; its potential would not be free")
+                if np.isin(nodes, seen).any():
+                    raise SceneError(f"{self.name}: floating electrode {tag!r} touches another floating "
+                                     "electrode; merge them into one part")
+                seen = np.concatenate([seen, nodes])
         else:
-            electric = self.grounded or self.potential or self.surface_charge or self.volume_charge.nonzero
+            electric = (self.grounded or self.potential or self.surface_charge or self.floating
+                        or self.volume_charge.nonzero)
             if electric:
                 raise SceneError(f"{self.name}: elastic material {self.material.name!r} carries no electric "
-                                 "unknowns; remove grounded / potential / surface_charge / volume_charge")
+                                 "unknowns; remove grounded / potential / floating / surface_charge / "
+                                 "volume_charge")
+
+    def supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The kinematic constraints of the supports, one row per constrained direction at a node.
+
+        Returns ``(nodes, directions, values)``: u(node) . direction = value (m), with unit
+        directions: two rows per clamped node (u = 0), one per prescribed component of a
+        ``displacement`` part, one per node of a ``roller`` part (u . n = 0, n the part's unit
+        normal). Rows may repeat or be dependent at corners; conflicting values raise a
+        SceneError when the prolongation is built (:func:`cvxcontact.fem.assembly.prolongation`).
+        """
+        mesh = self.mesh
+        nodes, dirs, vals = [], [], []
+        eye = np.eye(2)
+        if self.clamped:
+            c = mesh.boundary_nodes(self.clamped)
+            for k in range(2):
+                nodes.append(c)
+                dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
+                vals.append(np.zeros(len(c)))
+        for tag, value in self.displacement.items():
+            c = mesh.boundary_nodes([tag])
+            for k in range(2):
+                if value[k] is not None:
+                    nodes.append(c)
+                    dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
+                    vals.append(np.full(len(c), value[k]))
+        for tag in self.roller:
+            c = mesh.boundary_nodes([tag])
+            nodes.append(c)
+            dirs.append(np.broadcast_to(self._roller_normals[tag], (len(c), 2)))
+            vals.append(np.zeros(len(c)))
+        if not nodes:
+            return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
+        return np.concatenate(nodes), np.concatenate(dirs), np.concatenate(vals)
+
+    def node_supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The supports reduced node by node: ``(free, tangent, u_fixed)``.
+
+        ``free`` (n,) the number of free displacement components of each node (2, 1 or 0),
+        ``tangent`` (n, 2) the free unit direction of the nodes with one, ``u_fixed`` (2n,) the
+        prescribed displacement (m; the least-squares value of the node's rows, which must hold
+        exactly: conflicting supports at a node raise a SceneError).
+        """
+        mesh = self.mesh
+        n = len(mesh.points)
+        nodes, dirs, vals = self.supports()
+        u_fixed, free, tangent = np.zeros(2 * n), np.full(n, 2), np.zeros((n, 2))
+        order = np.argsort(nodes, kind="stable")
+        nodes, dirs, vals = nodes[order], dirs[order], vals[order]
+        starts = np.flatnonzero(np.r_[True, np.diff(nodes) != 0]) if len(nodes) else np.zeros(0, dtype=int)
+        for a, b in zip(starts, np.r_[starts[1:], len(nodes)]):          # boundary nodes only
+            i, D, v = int(nodes[a]), dirs[a:b], vals[a:b]
+            _, sv, Vt = np.linalg.svd(D)
+            rank = int((sv > 1e-9).sum())
+            ud = np.linalg.lstsq(D, v, rcond=1e-9)[0]
+            if np.abs(D @ ud - v).max() > 1e-9 * max(float(np.abs(v).max()), 1e-300):
+                rows = ", ".join(f"u.({d[0]:.3g}, {d[1]:.3g}) = {x:.6g}" for d, x in zip(D, v))
+                raise SceneError(f"{self.name}: the supports prescribe incompatible displacements at node {i} "
+                                 f"({mesh.points[i, 0]:.6g}, {mesh.points[i, 1]:.6g}) m: {rows}")
+            u_fixed[2 * i:2 * i + 2] = ud
+            free[i] = 2 - rank
+            if rank == 1:
+                tangent[i] = Vt[1]
+        return free, tangent, u_fixed
+
+    def free_motions(self, contact: bool = True) -> list[str]:
+        """The rigid motions of the body that nothing holds, as readable names (empty if none).
+
+        A rigid motion u(x) = (tx - w (y - yc), ty + w (x - xc)) is held by the supports if some
+        support row has u . direction != 0, and (``contact=True``) by the contact part if
+        u . nu != 0 at some of its nodes (nu the outward normal; contact holds on one side only).
+        Each connected piece of the mesh is checked on its own.
+        """
+        mesh = self.mesh
+        count = int(mesh.components.max()) + 1
+        out = []
+        for c, free, centre, size in self._free_basis(contact):
+            where = ""
+            if count > 1 and len(free):
+                inside = mesh.components == c
+                area = mesh.areas[inside]
+                cg = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
+                where = (f" of mesh component {c} ({int(inside.sum())} triangles, centroid at "
+                         f"({cg[0]:.4g}, {cg[1]:.4g}) m)")
+            out += [_motion_name(v, centre, size) + where for v in free]
+        return out
+
+    def check_pressed(self, f: np.ndarray) -> None:
+        """For the rigid motions only the contact holds: raise SceneError unless the nodal load ``f``
+        ((2n,) N/m, the lifted load of the body) can be balanced by compressive contact forces on the
+        contact part (lambda_i >= 0 along -nu_i at its nodes) in those motions, with a non-zero
+        resultant: otherwise the load pulls the body off its support (or leaves it undetermined)."""
+        from scipy.optimize import nnls
+
+        if not self.held_by_contact:
+            return
+        mesh = self.mesh
+        cn, cdir = mesh.boundary_nodes([self.contact]), _node_normals(mesh, self.contact)
+        for c, V, centre, size in self._free_basis():
+            nodes = np.flatnonzero(mesh.node_components == c)
+            x = (mesh.points[nodes] - centre) / size
+            fx, fy = f[2 * nodes], f[2 * nodes + 1]
+            b = V @ np.array([fx.sum(), fy.sum(), (-x[:, 1] * fx + x[:, 0] * fy).sum()])
+            keep = mesh.node_components[cn] == c
+            xc, d = (mesh.points[cn[keep]] - centre) / size, cdir[keep]
+            A = V @ np.vstack([d[:, 0], d[:, 1], -xc[:, 1] * d[:, 0] + xc[:, 0] * d[:, 1]])
+            _, res = nnls(A, b)
+            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()) or res > 1e-9 * np.linalg.norm(b):
+                names = [_motion_name(v, centre, size) for v in V]
+                raise SceneError(f"{self.name}: the load pulls the body off its support along {names} (held by "
+                                 f"the contact only; its net load there, {np.round(b, 9).tolist()} N/m, cannot be "
+                                 "carried by compressive contact forces): add a support, or load it towards the "
+                                 "contact")
+
+    def _free_basis(self, contact=False):
+        """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's
+        normals) leave free: (component, V (k, 3) orthonormal rows of (tx, ty, w) in scaled coordinates,
+        centre (m), size (m))."""
+        mesh = self.mesh
+        nodes, dirs, _ = self.supports()
+        if contact:
+            nodes = np.concatenate([nodes, mesh.boundary_nodes([self.contact])])
+            dirs = np.concatenate([dirs, _node_normals(mesh, self.contact)])
+        out = []
+        for c in range(int(mesh.components.max()) + 1):
+            pts = mesh.points[mesh.node_components == c]
+            centre = pts.mean(axis=0)
+            size = float(np.ptp(pts, axis=0).max()) or 1.0
+            keep = mesh.node_components[nodes] == c
+            x = (mesh.points[nodes[keep]] - centre) / size
+            d = dirs[keep]
+            A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
+            _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((3, 3))]))
+            free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
+            if len(free):
+                out.append((c, free, centre, size))
+        return out
+
+    def require_supports(self) -> None:
+        """Raise SceneError if some rigid motion of the body is held by the contact only.
+
+        Such a body (a block resting on another under its own weight) has a singular stiffness; its
+        exact solve (the contact forces balancing the load on the free motions) is not supported yet.
+        """
+        if self.held_by_contact:
+            raise SceneError(f"{self.name}: the rigid motion(s) {self.held_by_contact} are held by the contact "
+                             "only; a body held only by contact is not supported yet: add a clamped, roller or "
+                             "displacement support that stops them")
+
+    def _check_kinematics(self):
+        self.held_by_contact: list[str] = []     # rigid motions only the contact holds (see free_motions)
+        free = self.free_motions(contact=False)
+        if not free:
+            return
+        unheld = self.free_motions(contact=True)
+        if unheld:
+            raise SceneError(f"{self.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
+                             "displacement support that stops it (contact is unilateral and holds only along "
+                             "the normal of the contact part)")
+        self.held_by_contact = free
 
     def _check_components(self, tags, problem):
         """Every connected piece of the mesh (``Mesh.components``) has an edge on one of ``tags``."""
@@ -142,6 +340,68 @@ class Body:
         raise SceneError(f"{self.name}: mesh component {c} ({int(inside.sum())} triangles, centroid at "
                          f"({centroid[0]:.4g}, {centroid[1]:.4g}) m) {problem}; expected every one of the "
                          f"{count} separate pieces of the mesh to touch one of {tags}")
+
+
+def _motion_name(v, centre, size):
+    """A readable name of the rigid motion (tx, ty, w) (scaled coordinates, see Body.free_motions)."""
+    tx, ty, w = v
+    if abs(w) <= 1e-9:
+        t = np.array([tx, ty]) / np.hypot(tx, ty)
+        if abs(t[1]) <= 1e-9:
+            return "translation x"
+        if abs(t[0]) <= 1e-9:
+            return "translation y"
+        return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
+    xc, yc = centre[0] - ty / w * size, centre[1] + tx / w * size
+    return f"rotation about ({xc:.4g}, {yc:.4g}) m"
+
+
+def _node_normals(mesh, tag):
+    """(boundary_nodes(tag), 2) unit outward normals of a part at its nodes (mean of the adjacent edges)."""
+    nodes = mesh.boundary_nodes([tag])
+    edges, normals = mesh.boundary(tag), mesh.outward_normals(tag)
+    acc = np.zeros((len(mesh.points), 2))
+    np.add.at(acc, edges[:, 0], normals)
+    np.add.at(acc, edges[:, 1], normals)
+    n = acc[nodes]
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def _straight_normal(body, tag):
+    """The unit outward normal of a straight boundary part; a SceneError if the part is not straight."""
+    normals = body.mesh.outward_normals(tag)
+    n = normals.mean(axis=0)
+    n = n / np.linalg.norm(n)
+    dev = float(np.abs(normals - n).max())
+    if dev > 1e-9:
+        raise SceneError(f"{body.name}: roller part {tag!r} is not straight (its edge normals differ by up to "
+                         f"{dev:.3g}); a roller needs one normal direction (split the part into straight pieces)")
+    return n
+
+
+def _prescribed(value, label):
+    """(ux, uy) with floats (m) or None (free), checked."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
+        raise SceneError(f"{label}: expected a pair (ux, uy) of numbers (m) or None (free), got {value!r}")
+    out = []
+    for v in value:
+        if v is None:
+            out.append(None)
+        elif _real_scalar(v) and np.isfinite(v):
+            out.append(float(v))
+        else:
+            raise SceneError(f"{label}: expected a pair (ux, uy) of finite numbers (m) or None, got {value!r}")
+    if out == [None, None]:
+        raise SceneError(f"{label}: both components are None (free): nothing is prescribed; remove the part")
+    return tuple(out)
+
+
+def _charge(value, label):
+    """A floating electrode's total charge Q (C/m), checked."""
+    if not _real_scalar(value) or not np.isfinite(value):
+        raise SceneError(f"{label}: expected the total charge Q in C/m (a finite number, 0 = open circuit), "
+                         f"got {value!r}")
+    return float(value)
 
 
 def _disjoint(body, roles):

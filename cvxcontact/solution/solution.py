@@ -23,7 +23,7 @@ from ..physics.scene import Scene
 from .checks import checks, compliance_checks, conic_checks
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "read_back", "read_back_compliance"]
+__all__ = ["Solution", "ContactResult", "Electrode", "read_back", "read_back_compliance"]
 
 
 @dataclass
@@ -86,6 +86,46 @@ class ContactResult:
         return (self.jump - gap) > 1e-9 * scale
 
 
+@dataclass(frozen=True)
+class Electrode:
+    """One electrode of a piezoelectric body: grounded (phi = 0), driven (phi = V) or floating.
+
+    ``body`` is the body's index in the scene, ``tag`` the boundary part, ``kind`` one of
+    "grounded", "driven", "floating"; ``potential`` its potential (V; the mean over its nodes
+    for a driven electrode whose potential varies along it) and ``charge`` its total charge
+    (C/m): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
+    (for a floating electrode, the prescribed Q). A node shared by two electrodes counts for
+    the first in the order grounded, driven, floating.
+    """
+
+    body: int
+    tag: str
+    kind: str
+    potential: float
+    charge: float
+
+
+def electrodes(scene, systems, u_si, phi_si, nodes=None) -> list[Electrode]:
+    """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`).
+    ``nodes``: the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body of a P2 solution (an
+    electrode's nodes are then its vertices and edge midpoints)."""
+    out = []
+    for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
+        if phi is None:
+            continue
+        r = s.Kpp @ (phi - s.phi_fixed) - s.Kup.T @ (u.ravel() - s.u_fixed) - s.q      # C/m per node
+        taken = np.zeros(len(phi), dtype=bool)
+        parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
+                 + [(t, "floating") for t in getattr(b, "floating", {})])
+        for tag, kind in parts:
+            on = (b.mesh if nodes is None else nodes[k]).boundary_nodes([tag])
+            mine = on[~taken[on]]
+            taken[on] = True
+            out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[on].mean()),
+                                 charge=float(r[mine].sum())))
+    return out
+
+
 @dataclass
 class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
@@ -126,6 +166,8 @@ class Solution:
     interface: object = field(default=None, repr=False)
     """P2: the :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's pair (the merged
     P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
+    electrodes: list = field(default_factory=list)
+    """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
 
     @property
     def status(self) -> Status:
@@ -193,13 +235,13 @@ class Solution:
 
 
 def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
-              interface=None, beta=None, points=None):
+              interface=None, beta=None, nodes=None):
     """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
 
     P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
     pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
-    ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``points`` the
-    P2 node coordinates of each body.
+    ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``nodes`` the
+    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body.
     """
     p2 = interface is not None
     itf = scene.stack if not p2 else interface
@@ -220,15 +262,12 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
-        full = np.zeros(len(s.f))
-        full[s.u_free] = uk * un.displacement
+        full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
         u_si.append(full.reshape(-1, 2))
         if pk is None:
             phi_si.append(None)
             continue
-        pot = s.phi_fixed.copy()
-        pot[s.phi_free] += pk * un.potential
-        phi_si.append(pot)
+        phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     on = np.zeros(itf.size, dtype=bool)
     if p2:      # P2: the merged nodes in the support of the constrained rows
@@ -258,10 +297,11 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
-    pts = points if points is not None else [b.mesh.points for b in scene.bodies]
+    pts = [b.mesh.points for b in scene.bodies] if nodes is None else [n.points for n in nodes]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
-                    degree=2 if p2 else 1, interface=interface)
+                    degree=2 if p2 else 1, interface=interface,
+                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
@@ -287,6 +327,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     for a in (contact.lam, contact.force):
         a.setflags(write=False)
     sol.contact, sol._checks, sol.law = contact, checks_, law
+    sol.contacts = [contact, *sol.contacts[1:]]
     if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement

@@ -8,27 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...geometry.mesh import Mesh, rectangle
+from ...geometry.generators import graded_block  # noqa: F401  (moved to the geometry layer; kept importable here)
 from ...io.output import atomic_write
-
-
-def graded_block(x, y, nx, ny, contact="bottom", beta=0.0, gamma=0.0, center=0.0):
-    """A structured block on ``x`` by ``y`` whose cells shrink towards x = ``center`` (sinh grading of
-    strength ``beta``) and towards its ``contact`` edge, "bottom" or "top" (exponential grading
-    ``gamma``). Tags as :func:`~cvxcontact.geometry.mesh.rectangle`; beta = gamma = 0 gives a uniform grid."""
-    base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny)
-    xi, eta = base.points[:, 0], base.points[:, 1]
-    (x0, x1), (y0, y1) = x, y
-    X = x0 + (x1 - x0) * xi
-    if beta > 0:
-        t0 = (center - x0) / (x1 - x0)
-        u = np.where(xi < t0, (xi - t0) / t0, (xi - t0) / (1 - t0))          # in [-1, 1], 0 at the centre
-        X = center + np.where(u < 0, center - x0, x1 - center) * np.sinh(beta * u) / np.sinh(beta)
-    d = eta if contact == "bottom" else 1 - eta                             # 0 on the contact edge
-    if gamma > 0:
-        d = (np.exp(gamma * d) - 1) / (np.exp(gamma) - 1)
-    Y = y0 + (y1 - y0) * d if contact == "bottom" else y1 - (y1 - y0) * d
-    return Mesh(np.column_stack([X, Y]), base.triangles, {t: base.boundary(t) for t in base.tags})
 
 
 def write_csv(path, rows):

@@ -434,7 +434,9 @@ def _run(problem, solver, verbose, options):
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
-        problem.solve(solver=solver, verbose=verbose, **options)
+        with warnings.catch_warnings():     # the status is recorded in SolveInfo and the checks say what holds
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            problem.solve(solver=solver, verbose=verbose, **options)
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
     except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError

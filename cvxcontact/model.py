@@ -54,7 +54,7 @@ from .fem import p2
 from .fem.assembly import assemble
 from .geometry.quadratic import P2Nodes
 from .physics.scene import Body, Scene
-from .solution.checks import equilibrium_with, ipm_active, node_scales, row_checks, row_scales, rows_active
+from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
 from .solve import DEFAULT_TOL, _run
@@ -294,7 +294,7 @@ class Model:
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
-        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y)
+        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y, force_displacements(blocks, E, y))
         polished, declined = False, ""
         if self.polish and linear:
             t0 = time.perf_counter()

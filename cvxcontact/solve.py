@@ -32,7 +32,7 @@ from .fem.assembly import assemble_loads, assemble_matrices
 from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
-from .solution.checks import ipm_active
+from .solution.checks import force_displacements, ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
 from .solution.solution import ContactResult, Solution, read_back, read_back_compliance
 
@@ -289,7 +289,7 @@ class ContactSolver:
         y = np.asarray(model.contact.dual_value, dtype=float).ravel()
         parts = [self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
         slack = sum(parts) - g
-        active, polished = ipm_active(parts, g, y), False
+        active, polished = ipm_active(parts, g, y, force_displacements(blocks, self.E, y)), False
         if self.polish and self.held:
             out = _sparse_finish(mixed_kkt(blocks, self.E, g), g, active, timings)
             if out is None:
@@ -333,7 +333,7 @@ class ContactSolver:
             v = [var.value for var in model.v]
             parts = [self.E @ (c.jump @ vk) for c, vk in zip(condensed, v)]
             slack = sum(parts) - g
-            active, polished, problem = ipm_active(parts, g, y), False, model.problem
+            active, polished, problem = ipm_active(parts, g, y, force_displacements(blocks, self.E, y)), False, model.problem
             if self.polish:
                 out = self._finish(d, lcp_start(compliance.W, d, y, slack), timings)
                 if out is not None:
@@ -523,7 +523,9 @@ def _run(problem, solver, verbose, options):
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
-        problem.solve(solver=solver, verbose=verbose, **options)
+        with warnings.catch_warnings():     # the status is recorded in SolveInfo and the checks say what holds
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            problem.solve(solver=solver, verbose=verbose, **options)
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
     except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError

@@ -110,6 +110,8 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
         z = lu.solve(b)
         for _ in range(2):    # iterative refinement: bodies of very different stiffness share one LU
             z += lu.solve(b - K @ z)
+        if not np.isfinite(z).all() or np.abs(K @ z - b).max() > 1e-8 * max(np.abs(b).max(), np.finfo(float).tiny):
+            return None       # numerically singular (e.g. a body held by the contact only, its rows not active)
         n = A.shape[0]
         y = np.zeros(E.shape[0])
         y[active] = z[n:]

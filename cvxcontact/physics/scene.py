@@ -276,6 +276,23 @@ class Body:
                                  "carried by compressive contact forces): add a support, or load it towards the "
                                  "contact")
 
+    def held_modes(self) -> np.ndarray:
+        """(k, 2 n_nodes): the rigid motions only the contact holds, as nodal displacement fields
+        (x, y interleaved per node; translations in m per unit, rotations scaled by the piece's size).
+        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check."""
+        mesh = self.mesh
+        rows = []
+        if self.held_by_contact:
+            for c, V, centre, size in self._free_basis():
+                on = (mesh.node_components == c).astype(float)
+                x = (mesh.points - centre) / size
+                for tx, ty, w in V:
+                    r = np.empty(2 * len(mesh.points))
+                    r[0::2] = on * (tx - w * x[:, 1])
+                    r[1::2] = on * (ty + w * x[:, 0])
+                    rows.append(r)
+        return np.array(rows).reshape(-1, 2 * len(mesh.points))
+
     def _free_basis(self, contact=False):
         """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's
         normals) leave free: (component, V (k, 3) orthonormal rows of (tx, ty, w) in scaled coordinates,

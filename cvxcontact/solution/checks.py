@@ -18,8 +18,8 @@ import numpy as np
 
 from ..contact.quadratic import bernstein_max
 
-__all__ = ["checks", "compliance_checks", "conic_checks", "force_displacements", "ipm_active", "node_scales",
-           "equilibrium_with", "row_scales", "row_checks", "rows_active"]
+__all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+           "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
 
 
 def node_scales(parts, g, extra=None):
@@ -44,10 +44,11 @@ def force_displacements(blocks, E, y):
     return w * np.abs(y)
 
 
-def ipm_active(parts, g, y):
+def ipm_active(parts, g, y, extra=None):
     """Active rows of an interior-point answer: the force, relative to the largest contact force,
-    beats the open gap relative to the row's displacement scale (free of units and load scale)."""
-    slack, U = node_scales(parts, g)
+    beats the open gap relative to the row's displacement scale (free of units and load scale;
+    ``extra`` as in :func:`node_scales`, e.g. :func:`force_displacements`)."""
+    slack, U = node_scales(parts, g, extra)
     return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
 
 
@@ -213,3 +214,20 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
         out["complementarity"] = float(np.sqrt((np.abs(z * slack) / (Y * U)).max(initial=0.0)))
         out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
     return out, lam
+
+
+def rigid_balance(block, modes, u, phi, Mlam):
+    """Balance of the rigid motions only the contact holds (scaled units; docs/checks.md).
+
+    ``modes`` (k, n_free) are those motions in the body's reduced coordinates (T_u^T r): the stiffness
+    does not see them (modes K_uu = 0, modes K_up = 0 exactly), so modes . r_k = modes . (J^T c - f)
+    whatever u is, and it is normalised by |modes| (|f| + |J^T| |c|), the loads and contact forces
+    on those motions alone. The equilibrium check's row scales |A| |x| cannot bound this: a large
+    spurious rigid displacement x inflates them. Returns 0.0 without modes.
+    """
+    if modes is None or len(modes) == 0:
+        return 0.0
+    r_u = block.residual(u, phi, Mlam)[0]
+    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f)
+    return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
+

@@ -20,7 +20,7 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, compliance_checks, conic_checks
+from .checks import checks, compliance_checks, conic_checks, rigid_balance
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "Electrode", "read_back", "read_back_compliance"]
@@ -259,6 +259,11 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
         checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+    for b, s, blk, uk, pk in zip(scene.bodies, systems, blocks, u, phi):      # bodies held by the contact only
+        modes = b.held_modes() if not p2 else ()                              # (refused with P2)
+        if len(modes):
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
+            checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):

@@ -1,0 +1,64 @@
+"""Bodies held by the contact only, against rigid obstacles and deformable partners: closed forms,
+and the rigid-motion balance check that a spurious rigid displacement cannot hide from."""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.solution.checks import rigid_balance
+
+E, NU = 200e9, 0.3
+STEEL = cc.materials.isotropic(E=E, nu=NU)
+LAME_P = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))       # lambda + 2 mu, plane strain (Pa)
+
+
+def layer_on_floor(p=1e7, nx=5, ny=3, method="auto", condition="gamma3"):
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.4), nx=nx, ny=ny)
+    b = cc.Body(m, STEEL, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -p)})
+    floor = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", floor)])
+    return m, cc.solve(scene, condition=condition, method=method)
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_layer_on_a_rigid_plane_held_by_rollers_is_in_exact_uniaxial_strain(condition):
+    p = 1e7
+    m, sol = layer_on_floor(p, condition=condition)
+    assert sol.ok and sol.polished
+    y = m.points[:, 1]
+    exact_uy = -p / LAME_P * y                                   # u_y(0) = 0 on the floor, sigma_yy = -p
+    scale = p / LAME_P * 0.4
+    assert np.abs(sol.u[0][:, 1] - exact_uy).max() < 1e-9 * scale
+    assert np.abs(sol.u[0][:, 0]).max() < 1e-9 * scale
+    assert sol.contact.force.sum() == pytest.approx(p * 1.0, rel=1e-10)       # contact force = load (N/m)
+
+
+def test_block_on_a_rigid_plane_under_its_own_weight_carries_its_weight():
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=2)
+    b = cc.Body(m, STEEL, roller=["left", "right"], contact="bottom", body_force=(0.0, -1e6))
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)))])
+    for method in ("auto", "full"):
+        sol = cc.solve(scene, method=method)
+        assert sol.ok
+        assert sol.contact.force.sum() == pytest.approx(1e6 * 0.5, rel=1e-10)
+        assert np.abs(sol.u[0]).max() < 1e-5           # elastic sag only: micrometres, not a rigid drift
+
+
+def test_rigid_balance_exposes_a_spurious_rigid_displacement():
+    """The equilibrium row scales |A||x| grow with a spurious rigid translation x; the balance of the
+    held motions does not: adding a translation to the exact answer and dropping the contact force
+    must fail it, while the exact answer passes."""
+    m, sol = layer_on_floor()
+    scene = sol.scene
+    from cvxcontact.discrete import Block, Units
+    from cvxcontact.fem.assembly import assemble
+    body = scene.bodies[0]
+    system = assemble(body)
+    blk = Block.scaled(system, scene.stack.jump(0, len(m.points)), Units(1.0, 1.0, 1.0, 1.0))     # SI
+    modes = (system.Tu.T @ body.held_modes().T).T
+    assert modes.shape[0] == 1                                    # translation y only (rollers hold x)
+    z = system.Tu.T @ (sol.u[0].ravel() - system.u_fixed)
+    Mlam = np.asarray(sol.contact.force)                          # M lambda_h = E^T y, N/m
+    assert rigid_balance(blk, modes, z, None, Mlam) < 1e-10
+    drift = system.Tu.T @ np.tile([0.0, 1.0], len(m.points)) * 1e9
+    assert rigid_balance(blk, modes, z + drift, None, 0 * Mlam) > 0.1

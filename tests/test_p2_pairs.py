@@ -193,3 +193,31 @@ def test_p2_refuses_supports_of_the_p1_prolongation(kind):
         else:
             raise AssertionError(f"degree=2 with {kind} was not refused")
     assert cc.solve(scene, "gamma3", method="full").ok                 # P1 takes it
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_contact_vtu_of_a_pair_given_lower_body_first(degree, tmp_path):
+    """cc.Contact(lower, ..., upper, ...) on Scene(upper, lower): the contact line's 'displacement body k'
+    and each trace file's displacement are the pair's body k's own (the lower block first), not the
+    scene's body k's: equal to that body's solution at its own nodes on the line (read from sol.points,
+    sol.u), wherever a point of the file is one of those nodes."""
+    import meshio
+
+    from cvxcontact.io.output import write_vtu
+
+    b1, b2 = patch_bodies(np.eye(2))
+    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b2, "top", b1, "bottom", gap=GAP)])
+    sol = cc.solve(scene, "gamma3", degree=degree)
+    paths = write_vtu(sol, tmp_path, stem="s")
+    line = meshio.read(paths[2])
+    for k, j in enumerate((1, 0)):                  # the pair's order: the lower block (scene body 1) first
+        pts, u = sol.points[j], sol.u[j]
+        on = np.flatnonzero(np.abs(pts[:, 1]) < 1e-12)
+        on = on[np.argsort(pts[on, 0])]             # that body's nodes on the line y = 0, along x
+        trace = meshio.read(paths[3 + k]).point_data["displacement [m]"][:, :2]
+        assert np.array_equal(trace, u[on])
+        hit = np.flatnonzero(np.isin(np.round(line.points[:, 0], 12), np.round(pts[on, 0], 12)))
+        assert len(hit) >= 4
+        got = line.point_data[f"displacement body {k + 1} [m]"][hit, :2]
+        want = u[on][np.searchsorted(np.round(pts[on, 0], 12), np.round(line.points[hit, 0], 12))]
+        assert np.abs(got - want).max() < 1e-12 * np.abs(u).max()

@@ -101,10 +101,19 @@ def trace_pressure(solution, k):
     return solution.traction(k)
 
 
+def _trace_u(solution, itf, k):
+    """Displacements (m) at the trace nodes of the pair's body ``k``, taken from that body's own
+    solution (the pair's first body need not be the scene's first: ``cc.Contact(b2, ..., b1, ...)``)."""
+    members = getattr(itf, "members", None)            # P2: scene indices of the pair's bodies
+    if members is None:
+        members = [next(i for i, b in enumerate(solution.scene.bodies) if b is t.body) for t in itf.traces]
+    return solution.u[members[k]][itf.traces[k].nodes]
+
+
 def _side_displacements(solution):
     """Displacement (n_merged, 2) of each body's trace interpolated at the merged nodes (m)."""
     itf = _interface(solution)
-    return [itf.interpolation(k) @ solution.u[k][t.nodes] for k, t in enumerate(itf.traces)]
+    return [itf.interpolation(k) @ _trace_u(solution, itf, k) for k in range(len(itf.traces))]
 
 
 def contact_mesh(solution):
@@ -146,12 +155,12 @@ def trace_mesh(solution, k):
     ``displacement [m]`` (that body's, so the line warps with it)."""
     import meshio
 
-    t = _interface(solution).traces[k]
+    itf = _interface(solution)
     x, p = trace_pressure(solution, k)
     n = len(x)
     points = np.column_stack([x, np.full(n, solution.contact.line), np.zeros(n)])
     return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data={
-        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[k][t.nodes])})
+        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(_trace_u(solution, itf, k))})
 
 
 def write_vtu(solution, out, stem="solution"):

@@ -18,14 +18,18 @@ import cvxpy as cp
 import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
+from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
 from .backends.full import ContactModel, mixed_kkt
 from .contact.interface import lumped_lengths
 from .contact.laws import ContactLaw, check_law, check_law_for
+from .contact.quadratic import quadratic_interface
 from .discrete import Block, Units, units
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
+from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
+from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import force_displacements, ipm_active
@@ -39,13 +43,20 @@ DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
 _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
+_CLARABEL_CONIC = dict(tol_gap_abs=1e-14, tol_gap_rel=1e-14, tol_feas=1e-10, tol_ktratio=1e-10, max_iter=400,
+                       equilibrate_enable=False)
+"""Clarabel settings of the conic (P2 "gamma3") condition, which has no exact finish (docs/formulation.md §8):
+tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends "inaccurate"); no
+equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
+complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
 
 
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None) -> Solution:
+          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
+          degree: int = 1) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -84,6 +95,14 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
         ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
         sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
+    degree : {1, 2}
+        1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
+        (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
+        segment (a second-order cone per segment, solved by the interior point with tight
+        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
+        pair between two bodies (any orientation, partial overlap) and the Signorini law; several
+        pairs, rigid obstacles and normal-compliance laws raise UnsupportedError.
 
     Returns
     -------
@@ -95,13 +114,15 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         ``scene`` is not a Scene or ``condition`` is unknown.
     SolverError
         A bad parameter or solver option, or the solver failed.
+    UnsupportedError
+        A combination not implemented yet (e.g. degree=2 with several pairs or a compliance law).
 
     See Also
     --------
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options, law=law).solve()
+                         solver_options=solver_options, law=law, degree=degree).solve()
 
 
 class ContactSolver:
@@ -118,13 +139,15 @@ class ContactSolver:
     costs two triangular solves per body and little else. ``scale=False`` hands the
     raw SI matrices to the solver (for the stability study only: it shows what the
     non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
-    parameters as in :func:`solve`; all are checked before anything is assembled.
+    parameters as in :func:`solve` (``degree=2``: P2 elements; the conic "gamma3" condition is
+    re-solved by the interior point each time, the nodal ones warm-start as above); all are
+    checked before anything is assembled.
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law: ContactLaw | None = None):
+                 law: ContactLaw | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
@@ -135,7 +158,23 @@ class ContactSolver:
         held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
-        self.E = scene.stack.evaluation(condition, scene.conditions)     # every pair's rows, stacked
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        self.degree, self.nodes, self.conic = degree, None, False
+        self.interface = scene.stack                                   # P1: every pair's rows, stacked
+        if degree == 2:
+            if self.law.compliant:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
+                                       "yet; use degree=1 or law=None (Signorini)")
+            for b in scene.bodies:
+                p2.check_supported(b)                                  # P1-only supports refused
+            self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
+            self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
+            pair_condition = scene.conditions[0] or condition
+            self.conic = pair_condition == "gamma3"
+            self.E = self.interface.evaluation(pair_condition)
+        else:
+            self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription(held_by_contact=held))   # the backend actually run
@@ -143,7 +182,8 @@ class ContactSolver:
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
-        self.matrices = [assemble_matrices(b) for b in scene.bodies]
+        self.matrices = ([assemble_matrices(b) for b in scene.bodies] if degree == 1 else
+                         [p2.assemble_matrices(b, n) for b, n in zip(scene.bodies, self.nodes)])
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
@@ -157,20 +197,27 @@ class ContactSolver:
         timings = dict(self.setup_time)
         self.setup_time = {}
         t0 = time.perf_counter()
-        systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+        if self.degree == 1:
+            systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+            gap = scene.gap_values()
+        else:        # the P2 interpolant of the gap at the merged P2 nodes
+            systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
+            gap = scene.pair_gap_values(0, np.array(self.interface.x))
         for b, s in zip(scene.bodies, systems):
             if getattr(b, "held_by_contact", None):
                 b.check_pressed(s.f)                    # the load must press it onto the contact
-        gap = scene.gap_values()
         un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         if self._blocks is None:
-            self._blocks = [Block.scaled(s, scene.stack.jump(k, len(b.mesh.points)), un)
-                            for k, (s, b) in enumerate(zip(systems, scene.bodies))]
+            self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
+                            for k, s in enumerate(systems)]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
+        if self.conic:
+            run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
+        self._beta = None
         if self.law.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
         else:
@@ -183,12 +230,13 @@ class ContactSolver:
                                        self._weights / un.length, self.law, polished, problem, self.tol, timings)
         else:
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
-                            problem, self.tol, timings)
+                            problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
+                            beta=self._beta, nodes=self.nodes)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
                            finish=Finish(self.finish_route) if polished and self.finish_route else None)
-        if self.polish and not polished:
+        if self.polish and not polished and not self.conic:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
@@ -201,8 +249,8 @@ class ContactSolver:
         """Condensed bodies and the interface compliance W, built once per geometry."""
         if self._condensed is None:
             t0 = time.perf_counter()
-            self._condensed = [condense(b, s, body.mesh) for b, s, body in
-                               zip(blocks, self.matrices, self.scene.bodies)]
+            meshes = self.nodes or [body.mesh for body in self.scene.bodies]      # P2: the 6-node graph
+            self._condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.matrices, meshes)]
             self._compliance = Compliance(self._condensed, self.E)
             timings["factorization"] = time.perf_counter() - t0
         return self._condensed, self._compliance
@@ -370,6 +418,47 @@ class ContactSolver:
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
+
+    def _conic_options(self):
+        """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
+        tolerances on the scaled data (the user's options still win)."""
+        return {**(_CLARABEL_CONIC if self.solver == "CLARABEL" else {}), **self.options}
+
+    def _conic_full(self, blocks, g, timings):
+        """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
+        t0 = time.perf_counter()
+        model = ConicContactModel(blocks, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        u = [v.value for v in model.u]
+        phi = [v.value if v is not None else None for v in model.phi]
+        return u, phi, self._contact_force(), None, False, model.problem
+
+    def _conic_condensed(self, blocks, g, timings):
+        """The condensed interface SOCP with the P2 "everywhere" condition, then one back-substitution."""
+        condensed, _ = self._interface(blocks, timings)
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+        model = ConicInterfaceModel(condensed, loads, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        r = self._contact_force()
+        x = [c.solve(F - c.lift(r)) for c, F in zip(condensed, rhs)]
+        u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, r, None, False, model.problem
+
+    def _contact_force(self):
+        """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
+        return self.interface.bernstein().T @ self._beta.ravel()
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""

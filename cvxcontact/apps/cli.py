@@ -53,6 +53,8 @@ def _parser():
                        help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
     solve.add_argument("--method", choices=("full", "condensed"), default=None,
                        help="full CVXPY model or condensed interface model (default: the file's, or full)")
+    solve.add_argument("--degree", type=int, choices=(1, 2), default=None,
+                       help="1: P1 elements, 2: P2 (6-node) elements (default: the file's, or 1)")
     solve.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     info = sub.add_parser("info", help="sizes and unknowns of a scene file")
     info.add_argument("scene", help="scene file (TOML)")
@@ -106,6 +108,8 @@ def main(argv=None) -> int:
         settings = spec.settings
         if args.method:
             settings["method"] = args.method
+        if args.degree:
+            settings["degree"] = args.degree
         scene_path = Path(args.scene)
         out = Path(args.out) if args.out else Path(f"{scene_path.stem}-out")      # in the current folder
         return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)

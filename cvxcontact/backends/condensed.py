@@ -41,11 +41,12 @@ def node_order(mesh) -> np.ndarray:
     """A fill-reducing elimination order of the mesh nodes (SuperLU's minimum degree on A + A^T).
 
     Computed on the scalar node graph (a graph Laplacian plus identity), which is
-    several times cheaper to factorise than the body's coupled system.
+    several times cheaper to factorise than the body's coupled system. ``mesh`` may be any object
+    with ``points`` and element rows ``triangles`` (3 nodes for P1, 6 for the P2 nodes).
     """
     tri = mesh.triangles.astype(np.int32)
-    n = len(mesh.points)
-    rows, cols = np.repeat(tri, 3, axis=1).ravel(), np.tile(tri, (1, 3)).ravel()
+    n, k = len(mesh.points), tri.shape[1]
+    rows, cols = np.repeat(tri, k, axis=1).ravel(), np.tile(tri, (1, k)).ravel()
     A = sp.csc_matrix((-np.ones(len(rows)), (rows, cols)), shape=(n, n))
     A.data[:] = -1.0
     A = (A + sp.diags(1.0 - np.asarray(A.sum(axis=0)).ravel())).tocsc()

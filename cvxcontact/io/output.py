@@ -18,6 +18,7 @@ import numpy as np
 from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -53,11 +54,12 @@ def _sym6(xx, yy, zz, xy):
     return np.column_stack([xx, yy, zz, xy, z, z])
 
 
-def body_mesh(body, u, phi):
-    """A meshio.Mesh of one body with point and cell data named with units."""
+def body_mesh(body, u, phi, nodes=None):
+    """A meshio.Mesh of one body with point and cell data named with units (``nodes``: the P2 nodes of a
+    P2 solution, written as quadratic ``triangle6`` cells, cell data at the centroids)."""
     import meshio
 
-    f = body_fields(body, u, phi)
+    f = body_fields(body, u, phi, nodes)
     point_data = {"displacement [m]": _pad3(u)}
     cell_data = {
         "strain [-]": _sym6(f.strain[:, 0], f.strain[:, 1], np.zeros(len(f.strain)), f.strain[:, 2]),
@@ -72,8 +74,24 @@ def body_mesh(body, u, phi):
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
         cell_data["electric displacement [C/m^2]"] = _pad3(f.electric_displacement)
-    return meshio.Mesh(_pad3(body.mesh.points), [("triangle", body.mesh.triangles)], point_data=point_data,
+    cells = [("triangle", body.mesh.triangles)] if nodes is None else [("triangle6", nodes.triangles)]
+    points = body.mesh.points if nodes is None else nodes.points
+    return meshio.Mesh(_pad3(points), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
+
+
+def _line_cells(n, degree):
+    """Cells of a line of ``n`` nodes in order along it: P1 ``line`` pairs, or P2 ``line3`` (end, end,
+    midpoint) for interleaved nodes (vertex, midpoint, vertex, ...)."""
+    if degree == 2:
+        i = 2 * np.arange((n - 1) // 2)
+        return [("line3", np.column_stack([i, i + 2, i + 1]))]
+    return [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
+
+
+def _interface(solution):
+    """The first pair's contact line: P1 ``scene.interface``, P2 the solution's quadratic interface."""
+    return solution.interface if getattr(solution, "degree", 1) == 2 else solution.scene.interface
 
 
 def trace_pressure(solution, k):
@@ -83,10 +101,19 @@ def trace_pressure(solution, k):
     return solution.traction(k)
 
 
+def _trace_u(solution, itf, k):
+    """Displacements (m) at the trace nodes of the pair's body ``k``, taken from that body's own
+    solution (the pair's first body need not be the scene's first: ``cc.Contact(b2, ..., b1, ...)``)."""
+    members = getattr(itf, "members", None)            # P2: scene indices of the pair's bodies
+    if members is None:
+        members = [next(i for i, b in enumerate(solution.scene.bodies) if b is t.body) for t in itf.traces]
+    return solution.u[members[k]][itf.traces[k].nodes]
+
+
 def _side_displacements(solution):
     """Displacement (n_merged, 2) of each body's trace interpolated at the merged nodes (m)."""
-    itf = solution.scene.interface
-    return [itf.interpolation(k) @ solution.u[k][t.nodes] for k, t in enumerate(itf.traces)]
+    itf = _interface(solution)
+    return [itf.interpolation(k) @ _trace_u(solution, itf, k) for k in range(len(itf.traces))]
 
 
 def contact_mesh(solution):
@@ -101,11 +128,10 @@ def contact_mesh(solution):
     import meshio
 
     c = solution.contact
-    itf = solution.scene.interface
+    itf = _interface(solution)
     n = len(c.x)
     xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
     points = np.column_stack([xy, np.zeros(n)])
-    lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
     sides = _side_displacements(solution)
     data = {f"pressure on body {k + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k)[1] for k in range(2)}
     data.update({
@@ -121,7 +147,7 @@ def contact_mesh(solution):
         "displacement body 2 [m]": _pad3(sides[1]),
         "displacement [m]": _pad3(0.5 * (sides[0] + sides[1])),
     })
-    return meshio.Mesh(points, [("line", lines)], point_data=data)
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data=data)
 
 
 def trace_mesh(solution, k):
@@ -129,13 +155,12 @@ def trace_mesh(solution, k):
     ``displacement [m]`` (that body's, so the line warps with it)."""
     import meshio
 
-    t = solution.scene.interface.traces[k]
+    itf = _interface(solution)
     x, p = trace_pressure(solution, k)
     n = len(x)
     points = np.column_stack([x, np.full(n, solution.contact.line), np.zeros(n)])
-    lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return meshio.Mesh(points, [("line", lines)], point_data={
-        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[k][t.nodes])})
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data={
+        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(_trace_u(solution, itf, k))})
 
 
 def write_vtu(solution, out, stem="solution"):
@@ -145,7 +170,8 @@ def write_vtu(solution, out, stem="solution"):
     out = Path(out)
     paths = []
     for k, body in enumerate(solution.scene.bodies, start=1):
-        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1])
+        nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
     line = contact_mesh(solution)
     paths.append(atomic_write(out / f"{stem}_contact.vtu", lambda p: meshio.write(p, line, "vtu")))
@@ -189,6 +215,7 @@ def summary(solution) -> dict:
     felt = [trace_pressure(solution, k)[1] for k in range(2)]
     return {
         "condition": solution.condition,
+        "degree": int(getattr(solution, "degree", 1)),
         "status": solution.status,
         "ok": bool(solution.ok),
         "polished": bool(solution.polished),
@@ -205,7 +232,7 @@ def summary(solution) -> dict:
                     "penetrating_nodes": int((c.penetration & ~c.constrained).sum()),
                     "lambda_h_diagnostic_Pa": {"min": float(c.lam.min()), "max": float(c.lam.max())}},
         "energy_J_per_m": solution.energy,
-        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(b.mesh.points)),
+        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
                     "triangles": int(len(b.mesh.triangles)), "electric_unknowns": bool(b.piezoelectric),
                     "max_displacement_m": float(np.abs(u).max()),
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}
@@ -216,7 +243,11 @@ def summary(solution) -> dict:
 
 
 def _lengths(solution, k):
-    return lumped_lengths(solution.scene.interface.traces[k].x)
+    x = _interface(solution).traces[k].x
+    if getattr(solution, "degree", 1) == 2:             # P2 trace nodes: the P2 lumped lengths
+        from ..solution.solution import _p2_lumped
+        return _p2_lumped(x)
+    return lumped_lengths(x)
 
 
 def write_summary(solution, path):

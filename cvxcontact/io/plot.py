@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -57,9 +58,13 @@ def magnification(solution, fraction=0.1) -> float:
 
 
 def _field_values(solution, field):
+    """Per body: the nodal potential or the element von Mises stress. P2: the potential at the vertices
+    (listed first) and the stress at the centroids, drawn on the vertex triangulation."""
+    p2 = getattr(solution, "degree", 1) == 2
     if field == "potential":
-        return list(solution.phi)
-    return [body_fields(b, u, p).von_mises for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
+        return [p if p is None or not p2 else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
+    return [body_fields(b, u, p, P2Nodes(b.mesh) if p2 else None).von_mises
+            for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
 
 
 def _check_field(field, who):
@@ -92,7 +97,7 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     factor, shown = si_prefix([np.asarray(clim)], unit)
     mappable = None
     for body, u, v in zip(solution.scene.bodies, solution.u, values):
-        p = body.mesh.points + k * u
+        p = body.mesh.points + k * u[:len(body.mesh.points)]       # P2: vertices first
         tri = body.mesh.triangles
         if v is None:
             ax.tripcolor(p[:, 0], p[:, 1], tri, facecolors=np.zeros(len(tri)), cmap="Greys", vmin=0, vmax=4,

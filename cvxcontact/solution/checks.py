@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["checks", "rigid_balance", "compliance_checks", "force_displacements", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
+from ..contact.quadratic import bernstein_max
+
+__all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+           "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
 
 
 def node_scales(parts, g, extra=None):
@@ -124,6 +127,54 @@ def rows_active(slack, S, z, norms, Z):
     """Active rows of an interior-point answer by the rule of :func:`ipm_active`: the force z_i |C_i|
     relative to Z beats the open slack relative to the row's scale S_i."""
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
+
+
+def conic_checks(blocks, u, phi, r, B, g, beta):
+    """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
+
+    ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (3 S, n) the Bernstein map,
+    ``g`` the gap at the nodes of X_h and ``beta`` (S, 3) the Bernstein duals. Per merged segment s,
+    with b_s the Bernstein coefficients of q = [u_h nu] - g_h, U_s the largest displacement scale of its
+    three nodes (both bodies' normal displacements and the gap) and Y the largest entry of beta:
+
+        equilibrium      as in :func:`checks`, with M lambda_h = r                           (26)
+        feasibility      max_s max_{t in [0,1]} q_s(t)^+ / U_s   (exact: :func:`bernstein_max`)
+        complementarity  max_s sqrt(|beta_s . b_s| / (Y U_s))                                (27)
+        cone             max_s of the distance of beta_s to the dual cone beta0, beta2 >= 0,
+                         beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2), over Y
+    """
+    tiny = np.finfo(float).tiny
+    equilibrium = 0.0
+    for blk, uk, pk in zip(blocks, u, phi):
+        res = np.concatenate(blk.residual(uk, pk, r))
+        m = np.concatenate(blk.magnitude(uk, pk, r))
+        equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
+    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
+    b = (B @ (sum(parts) - g)).reshape(-1, 3)
+    Us = _segment_scales(B, U)
+    Y = max(float(np.abs(beta).max(initial=0.0)), tiny)
+    b0, b1, b2 = beta[:, 0], beta[:, 1], beta[:, 2]
+    cone = np.maximum.reduce([np.maximum(-b0, 0), np.maximum(-b2, 0), np.maximum(-b1, 0),
+                              np.maximum(b1 - 2 * np.sqrt(np.maximum(b0, 0) * np.maximum(b2, 0)), 0)])
+    return {
+        "equilibrium": equilibrium,
+        "feasibility": float((np.maximum(bernstein_max(b), 0.0) / Us).max(initial=0.0)),
+        "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / (Y * Us)).max(initial=0.0))),
+        "cone": float(cone.max(initial=0.0) / Y),
+    }
+
+
+def _segment_scales(B, U):
+    """Per segment, the largest node scale U_a among the nodes of its Bernstein rows."""
+    rows = B.tocsr()
+    out = np.zeros(rows.shape[0] // 3)
+    for j in range(3):
+        R = abs(rows[j::3]).tocsr()
+        R.data[:] = 1.0
+        out = np.maximum(out, np.asarray((R.multiply(U[None, :])).max(axis=1).todense()).ravel())
+    return out
 
 
 def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):

@@ -73,7 +73,7 @@ def checks(blocks, u, phi, Mlam, E, g, y):
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),
         # the error this allows grows like the square root of the product (docs/checks.md): report that
-        "complementarity": float(np.sqrt((np.abs(y * slack) / (Y * U)).max(initial=0.0))),
+        "complementarity": float(np.sqrt((np.abs(y * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0))),
         "cone": float(np.maximum(-y, 0.0).max(initial=0.0) / Y),
     }
 
@@ -161,7 +161,7 @@ def conic_checks(blocks, u, phi, r, B, g, beta):
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(bernstein_max(b), 0.0) / Us).max(initial=0.0)),
-        "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / (Y * Us)).max(initial=0.0))),
+        "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
         "cone": float(cone.max(initial=0.0) / Y),
     }
 
@@ -211,7 +211,7 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     if law.penetration_limit is not None:
         slack, U = node_scales(parts, g + law.penetration_limit)
         out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
-        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / (Y * U)).max(initial=0.0)))
+        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
         out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
     return out, lam
 

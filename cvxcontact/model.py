@@ -44,8 +44,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .backends.finish import SIGN_TOL
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError
@@ -54,7 +53,7 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, _run
+from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run
 
 __all__ = ["Model"]
 
@@ -113,9 +112,10 @@ class Model:
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
                        for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
-        self._weights = (lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
-                         if self.law.compliant else None)
-        self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
+        self.rows = _row_laws(scene, condition, self.law)                        # each pair's law on its rows
+        self._weights = (itf.weights(condition, scene.conditions) / un.length   # the law's quadrature, scaled
+                         if self.rows.compliant else None)
+        self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
         self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
@@ -253,8 +253,7 @@ class Model:
         phi = [v.value if v is not None else None for v in self._contact.phi]
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            z = (np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
-                 if self._contact.contact is not None else np.zeros(len(g)))
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z
         else:
             y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
@@ -262,8 +261,8 @@ class Model:
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
             C, c0 = self._rows(c.expr, x)
-            z = np.asarray(c.dual_value, dtype=float).flatten(order="F")
-            rows.append((C, c0, z, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+            zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")      # (not z: the limit reactions)
+            rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
         grad, lin = np.zeros(self._n), True
         if objective is not None:
             Cobj, _ = self._rows(objective, x)
@@ -293,8 +292,9 @@ class Model:
         t0 = time.perf_counter()
         if self._law is not None:
             sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
-                                       u, phi, y, z if self.law.penetration_limit is not None else None,
-                                       self._weights, self.law, polished, problem, self.tol, timings)
+                                       u, phi, y, z if self._law.limited.any() else None,
+                                       self._weights, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings)
@@ -319,8 +319,6 @@ class Model:
         bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
         the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
         from .backends.condensed import Compliance, condense, quasi_definite_rhs
-        from .backends.finish import solve_compliance
-
         E, blocks = self.E, self.blocks
         condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
         rhs = [quasi_definite_rhs(b) for b in blocks]
@@ -328,7 +326,11 @@ class Model:
         compliance = Compliance(condensed, E)
         d = compliance.free_slack(v0, g)
         r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        start = None
+        if (self._law.limited & ~self._law.rows).any():        # Signorini rows: the IPM's active set
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
+            start = self._law.limited & (z * np.diag(compliance.W) + (r - self._law.penetration_limit) > 0)
+        out = ContactSolver._newton(compliance.W, d, self._weights, self._law, r, start)
         if out is None:
             return None
         y, z = out[0], out[1]

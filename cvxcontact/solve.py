@@ -19,12 +19,12 @@ import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
-from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law, check_law_for
+from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
+                              solve_linear_compliance)
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
+from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
 from .discrete import Block, Units, units
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem.assembly import assemble_loads, assemble_matrices
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
@@ -129,7 +129,7 @@ class ContactSolver:
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-        self.law = check_law_for(scene, check_law(law))
+        self.law = check_law_for(scene, check_law(law))   # the default of the pairs without their own law
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
@@ -147,8 +147,10 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self._weights = (lumped_lengths(scene.interface.x[self.E.indices])       # m, the law's quadrature
-                         if self.law.compliant else None)
+        self.rows = _row_laws(scene, condition, self.law, held)                  # each pair's law on its rows
+        self.compliant = self.rows.compliant
+        self._weights = (scene.stack.weights(condition, scene.conditions)        # m, the law's quadrature
+                         if self.compliant else None)
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -171,16 +173,17 @@ class ContactSolver:
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
-        if self.law.compliant:
+        if self.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        if self.law.compliant:
+        if self.compliant:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
-                                       self._weights / un.length, self.law, polished, problem, self.tol, timings)
+                                       self._weights / un.length, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                             problem, self.tol, timings)
@@ -300,10 +303,13 @@ class ContactSolver:
         return u, phi, y, active, polished, problem
 
     def _compliance_solve(self, blocks, g, un, timings):
-        """Normal compliance (docs/formulation.md §10): the convex program with the lumped compliance
-        energy (full or condensed), then the exact finish :func:`solve_compliance` on the interface and
-        one back-substitution per body. Returns (u, phi, row forces y, limit reactions z, polished, problem)."""
-        law = self.law.scaled(un.stress * un.load, un.displacement)
+        """Normal compliance on some or all pairs (docs/formulation.md §10): the convex program with the
+        lumped compliance energy on the compliant rows and r <= l on the limited ones (Signorini rows:
+        l = 0), full or condensed, then the exact finish :func:`solve_compliance` on the interface (or,
+        if its steps do not settle and every compliant row is linear without a limit, the LCP of
+        :func:`solve_linear_compliance`) and one back-substitution per body. Returns (u, phi, row forces
+        y, limit reactions z or None if no row has a limit, polished, problem)."""
+        law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
         problem, polished, z = None, False, None
         condensed = None
@@ -313,7 +319,7 @@ class ContactSolver:
         out = None
         if self.method == "condensed" and self.warm_start and self.polish and self._active is not None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law, r0=self._active)
+            out = self._newton(compliance.W, d, w, law, *self._active)
             timings["polish"] = time.perf_counter() - t0
             if out is not None:
                 self.path, self.finish_route = Route.WARM_START, out[3]
@@ -333,7 +339,7 @@ class ContactSolver:
                 model = None          # the finish converges globally from the free slack (§10)
         if out is None and model is None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law)
+            out = self._newton(compliance.W, d, w, law)
             timings["polish"] = time.perf_counter() - t0
             if out is None:
                 raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
@@ -349,12 +355,14 @@ class ContactSolver:
                 r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             else:
                 r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
-            z = (np.asarray(model.contact.dual_value, dtype=float).ravel() if model.contact is not None
-                 else np.zeros(len(g)))
+            z = limit_reaction(model.contact, model.limit_rows, len(g))
             y = w * law.pressure(r) + z
             if self.polish:
                 t0 = time.perf_counter()
-                out = solve_compliance(compliance.W, d, w, law, r0=r)
+                start = None
+                if (law.limited & ~law.rows).any():        # Signorini rows: start from the IPM's active set
+                    start = law.limited & (z * np.diag(compliance.W) + (r - law.penetration_limit) > 0)
+                out = self._newton(compliance.W, d, w, law, r, start)
                 timings["polish"] = time.perf_counter() - t0
                 if out is None:
                     self.declined = "the semismooth Newton steps on the interface did not settle"
@@ -362,14 +370,23 @@ class ContactSolver:
                     self.finish_route = out[3]
         if out is not None:
             y, z, polished = out[0], out[1], True
-            self._active = d - compliance.W @ y                 # the penetration r, to warm-start a re-solve
+            self._active = (d - compliance.W @ y, out[2])     # the penetration r and the rows at their limit
         if condensed is not None and (polished or self.method == "condensed"):
             t0 = time.perf_counter()
             x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
-        return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
+        return u, phi, y, (z if law.limited.any() else None), polished, problem
+
+    @staticmethod
+    def _newton(W, d, w, law, r0=None, active=None):
+        """:func:`solve_compliance` from (r0, active); if it does not settle and the compliant rows are all
+        linear without a limit, the finite LCP of :func:`solve_linear_compliance`. None if neither does."""
+        out = solve_compliance(W, d, w, law, r0=r0, active=active)
+        if out is None and law.linear:
+            out = solve_linear_compliance(W, d, w, law)
+        return out
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
@@ -398,6 +415,20 @@ class ContactSolver:
                              "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
                              "build a new ContactSolver for the new geometry")
         return scene
+
+
+def _row_laws(scene, condition, law, held=False) -> RowLaws:
+    """Each pair's law (its own ``Contact.law`` or ``law``) on its rows of the stacked evaluation
+    (:class:`~cvxcontact.contact.laws.RowLaws`). A compliance law with a body held by the contact only
+    is refused: its stiffness is singular and the compliance finish condenses every body."""
+    laws = pair_laws(scene, law)
+    offsets = scene.stack.row_offsets(condition, scene.conditions)
+    rows = RowLaws(laws, np.diff(offsets))
+    if rows.compliant and held:
+        names = [b.name for b in scene.bodies if getattr(b, "held_by_contact", None)]
+        raise UnsupportedError(f"a normal-compliance law with a body held by the contact only ({', '.join(names)}) "
+                               "is not supported in this version: support the body, or use Signorini on every pair")
+    return rows
 
 
 def _sparse_finish(kkt, g, active, timings, max_iter=30):

@@ -428,6 +428,13 @@ def _row_laws(scene, condition, law, held=False) -> RowLaws:
         names = [b.name for b in scene.bodies if getattr(b, "held_by_contact", None)]
         raise UnsupportedError(f"a normal-compliance law with a body held by the contact only ({', '.join(names)}) "
                                "is not supported in this version: support the body, or use Signorini on every pair")
+    if rows.compliant:
+        w = scene.stack.weights(condition, scene.conditions)
+        for i, (a, b) in enumerate(zip(offsets[:-1], offsets[1:])):
+            if rows.laws[i].compliant and not (w[a:b] > 0).all():
+                raise SceneError(f"contacts[{i}] {scene.contacts[i]!r}: a normal-compliance law needs at least two "
+                                 f"constrained nodes (it is integrated over their lumped lengths); under "
+                                 f"{scene.conditions[i] or condition!r} the pair has {b - a}: use gamma3 or Signorini")
     return rows
 
 

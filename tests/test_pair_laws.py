@@ -324,3 +324,14 @@ def test_compliance_with_a_body_held_by_contact_only_is_refused_typed():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         assert cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom",
                                                              cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)))])).ok
+
+
+def test_compliance_pair_with_a_single_constrained_node_is_refused_typed():
+    """sigma2 on a punch that covers one node of its substrate: the law's integral has no length there."""
+    punch = cc.Body(cc.rectangle(x=(0.3, 0.5), y=(0.0, 0.2), nx=1, ny=1), STEEL, clamped="top", contact="bottom")
+    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=2, ny=2), STEEL, clamped="bottom", contact="top")
+    scene = cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top", gap=-1e-5, condition="sigma2",
+                                                       law=cc.NormalCompliance(stiffness=1e12))])
+    for make in (cc.solve, cc.Model):
+        with pytest.raises(cc.SceneError, match="at least two constrained nodes"):
+            make(scene)

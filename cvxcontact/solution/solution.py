@@ -145,7 +145,9 @@ class Solution:
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
     law: object = None
-    """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
+    """The normal contact law given to ``solve`` (:mod:`cvxcontact.contact.laws`; the law of the pairs
+    without their own) when some pair follows normal compliance; None means Signorini everywhere. Each
+    pair's own law: ``contacts[i].law``."""
     contacts: list = field(default_factory=list)
     """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
     the first."""

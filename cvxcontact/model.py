@@ -44,9 +44,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .backends.finish import SIGN_TOL
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law, check_law_for
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
+from .contact.laws import ContactLaw, check_law, check_law_for, pair_laws
 from .contact.quadratic import quadratic_interface
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
@@ -57,7 +56,7 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, _run
+from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run
 
 __all__ = ["Model"]
 
@@ -111,7 +110,7 @@ class Model:
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        if degree == 2 and self.law.compliant:
+        if degree == 2 and any(lw.compliant for lw in pair_laws(scene, self.law)):
             raise UnsupportedError("Model(degree=2) with a normal-compliance law is not supported yet; use "
                                    "degree=1 or law=None (Signorini)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
@@ -136,9 +135,10 @@ class Model:
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
-        self._weights = (lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
-                         if self.law.compliant else None)
-        self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
+        self.rows = _row_laws(scene, condition, self.law)                        # each pair's law on its rows
+        self._weights = (itf.weights(condition, scene.conditions) / un.length   # the law's quadrature, scaled
+                         if self.rows.compliant else None)
+        self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
         self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
@@ -277,8 +277,7 @@ class Model:
         phi = [v.value if v is not None else None for v in self._contact.phi]
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            z = (np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
-                 if self._contact.contact is not None else np.zeros(len(g)))
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z
         else:
             y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
@@ -286,8 +285,8 @@ class Model:
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
             C, c0 = self._rows(c.expr, x)
-            z = np.asarray(c.dual_value, dtype=float).flatten(order="F")
-            rows.append((C, c0, z, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+            zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")      # (not z: the limit reactions)
+            rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
         grad, lin = np.zeros(self._n), True
         if objective is not None:
             Cobj, _ = self._rows(objective, x)
@@ -317,8 +316,9 @@ class Model:
         t0 = time.perf_counter()
         if self._law is not None:
             sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
-                                       u, phi, y, z if self.law.penetration_limit is not None else None,
-                                       self._weights, self.law, polished, problem, self.tol, timings)
+                                       u, phi, y, z if self._law.limited.any() else None,
+                                       self._weights, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings,
@@ -345,8 +345,6 @@ class Model:
         bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
         the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
         from .backends.condensed import Compliance, condense, quasi_definite_rhs
-        from .backends.finish import solve_compliance
-
         E, blocks = self.E, self.blocks
         condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
         rhs = [quasi_definite_rhs(b) for b in blocks]
@@ -354,7 +352,11 @@ class Model:
         compliance = Compliance(condensed, E)
         d = compliance.free_slack(v0, g)
         r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        start = None
+        if (self._law.limited & ~self._law.rows).any():        # Signorini rows: the IPM's active set
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
+            start = self._law.limited & (z * np.diag(compliance.W) + (r - self._law.penetration_limit) > 0)
+        out = ContactSolver._newton(compliance.W, d, self._weights, self._law, r, start)
         if out is None:
             return None
         y, z = out[0], out[1]

@@ -20,10 +20,10 @@ import numpy as np
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
-from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law, check_law_for
+from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
+                              solve_linear_compliance)
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
+from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
 from .contact.quadratic import quadratic_interface
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
@@ -152,7 +152,7 @@ class ContactSolver:
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-        self.law = check_law_for(scene, check_law(law))
+        self.law = check_law_for(scene, check_law(law))   # the default of the pairs without their own law
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
@@ -163,7 +163,7 @@ class ContactSolver:
         self.degree, self.nodes, self.conic = degree, None, False
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         if degree == 2:
-            if self.law.compliant:
+            if any(lw.compliant for lw in pair_laws(scene, self.law)):
                 raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
                                        "yet; use degree=1 or law=None (Signorini)")
             for b in scene.bodies:
@@ -187,8 +187,10 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self._weights = (lumped_lengths(scene.interface.x[self.E.indices])       # m, the law's quadrature
-                         if self.law.compliant else None)
+        self.rows = _row_laws(scene, condition, self.law, held)                  # each pair's law on its rows
+        self.compliant = self.rows.compliant
+        self._weights = (scene.stack.weights(condition, scene.conditions)        # m, the law's quadrature
+                         if self.compliant else None)
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -218,16 +220,17 @@ class ContactSolver:
             run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
         self._beta = None
-        if self.law.compliant:
+        if self.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        if self.law.compliant:
+        if self.compliant:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
-                                       self._weights / un.length, self.law, polished, problem, self.tol, timings)
+                                       self._weights / un.length, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                             problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
@@ -348,10 +351,13 @@ class ContactSolver:
         return u, phi, y, active, polished, problem
 
     def _compliance_solve(self, blocks, g, un, timings):
-        """Normal compliance (docs/formulation.md §10): the convex program with the lumped compliance
-        energy (full or condensed), then the exact finish :func:`solve_compliance` on the interface and
-        one back-substitution per body. Returns (u, phi, row forces y, limit reactions z, polished, problem)."""
-        law = self.law.scaled(un.stress * un.load, un.displacement)
+        """Normal compliance on some or all pairs (docs/formulation.md §10): the convex program with the
+        lumped compliance energy on the compliant rows and r <= l on the limited ones (Signorini rows:
+        l = 0), full or condensed, then the exact finish :func:`solve_compliance` on the interface (or,
+        if its steps do not settle and every compliant row is linear without a limit, the LCP of
+        :func:`solve_linear_compliance`) and one back-substitution per body. Returns (u, phi, row forces
+        y, limit reactions z or None if no row has a limit, polished, problem)."""
+        law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
         problem, polished, z = None, False, None
         condensed = None
@@ -361,7 +367,7 @@ class ContactSolver:
         out = None
         if self.method == "condensed" and self.warm_start and self.polish and self._active is not None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law, r0=self._active)
+            out = self._newton(compliance.W, d, w, law, *self._active)
             timings["polish"] = time.perf_counter() - t0
             if out is not None:
                 self.path, self.finish_route = Route.WARM_START, out[3]
@@ -381,7 +387,7 @@ class ContactSolver:
                 model = None          # the finish converges globally from the free slack (§10)
         if out is None and model is None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law)
+            out = self._newton(compliance.W, d, w, law)
             timings["polish"] = time.perf_counter() - t0
             if out is None:
                 raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
@@ -397,12 +403,14 @@ class ContactSolver:
                 r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             else:
                 r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
-            z = (np.asarray(model.contact.dual_value, dtype=float).ravel() if model.contact is not None
-                 else np.zeros(len(g)))
+            z = limit_reaction(model.contact, model.limit_rows, len(g))
             y = w * law.pressure(r) + z
             if self.polish:
                 t0 = time.perf_counter()
-                out = solve_compliance(compliance.W, d, w, law, r0=r)
+                start = None
+                if (law.limited & ~law.rows).any():        # Signorini rows: start from the IPM's active set
+                    start = law.limited & (z * np.diag(compliance.W) + (r - law.penetration_limit) > 0)
+                out = self._newton(compliance.W, d, w, law, r, start)
                 timings["polish"] = time.perf_counter() - t0
                 if out is None:
                     self.declined = "the semismooth Newton steps on the interface did not settle"
@@ -410,14 +418,23 @@ class ContactSolver:
                     self.finish_route = out[3]
         if out is not None:
             y, z, polished = out[0], out[1], True
-            self._active = d - compliance.W @ y                 # the penetration r, to warm-start a re-solve
+            self._active = (d - compliance.W @ y, out[2])     # the penetration r and the rows at their limit
         if condensed is not None and (polished or self.method == "condensed"):
             t0 = time.perf_counter()
             x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
-        return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
+        return u, phi, y, (z if law.limited.any() else None), polished, problem
+
+    @staticmethod
+    def _newton(W, d, w, law, r0=None, active=None):
+        """:func:`solve_compliance` from (r0, active); if it does not settle and the compliant rows are all
+        linear without a limit, the finite LCP of :func:`solve_linear_compliance`. None if neither does."""
+        out = solve_compliance(W, d, w, law, r0=r0, active=active)
+        if out is None and law.linear:
+            out = solve_linear_compliance(W, d, w, law)
+        return out
 
     def _conic_options(self):
         """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
@@ -487,6 +504,27 @@ class ContactSolver:
                              "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
                              "build a new ContactSolver for the new geometry")
         return scene
+
+
+def _row_laws(scene, condition, law, held=False) -> RowLaws:
+    """Each pair's law (its own ``Contact.law`` or ``law``) on its rows of the stacked evaluation
+    (:class:`~cvxcontact.contact.laws.RowLaws`). A compliance law with a body held by the contact only
+    is refused: its stiffness is singular and the compliance finish condenses every body."""
+    laws = pair_laws(scene, law)
+    offsets = scene.stack.row_offsets(condition, scene.conditions)
+    rows = RowLaws(laws, np.diff(offsets))
+    if rows.compliant and held:
+        names = [b.name for b in scene.bodies if getattr(b, "held_by_contact", None)]
+        raise UnsupportedError(f"a normal-compliance law with a body held by the contact only ({', '.join(names)}) "
+                               "is not supported in this version: support the body, or use Signorini on every pair")
+    if rows.compliant:
+        w = scene.stack.weights(condition, scene.conditions)
+        for i, (a, b) in enumerate(zip(offsets[:-1], offsets[1:])):
+            if rows.laws[i].compliant and not (w[a:b] > 0).all():
+                raise SceneError(f"contacts[{i}] {scene.contacts[i]!r}: a normal-compliance law needs at least two "
+                                 f"constrained nodes (it is integrated over their lumped lengths); under "
+                                 f"{scene.conditions[i] or condition!r} the pair has {b - a}: use gamma3 or Signorini")
+    return rows
 
 
 def _sparse_finish(kkt, g, active, timings, max_iter=30):

@@ -62,6 +62,8 @@ needs exactly two bodies touching along their ``contact`` parts)::
     part_b = "top"                            # omitted for an obstacle
     condition = "sigma1"                      # optional (default: the file's condition)
     gap = 0.0                                 # m, number or expression (x stands for s)
+    law = { normal_compliance = { stiffness = 1e13 } }   # optional: this pair's law (as the top-level
+                                              # law); default: the file's law
 
 With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
 the top-level ``gap`` is refused (each pair has its own).
@@ -286,7 +288,7 @@ def _pairs_scene(ctx, data, bodies):
         try:
             pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
                                  gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap,
-                                 law=c.get("law")))
+                                 law=_law(c["law"], f"{ctx.path}: {where}") if "law" in c else None))
         except CvxContactError as exc:
             raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
     try:

@@ -650,9 +650,10 @@ class Scene:
         return np.concatenate([self.pair_gap_values(i) for i in range(len(self.interfaces))])
 
     def structure(self) -> tuple:
-        """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition
-        and merged-node count (the gaps and obstacle positions are loads)."""
-        return tuple((m, c.part_a, c.part_b, c.condition, itf.size, c.other.kind if c.rigid else None)
+        """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition,
+        merged-node count and own law (the gaps and obstacle positions are loads)."""
+        return tuple((m, c.part_a, c.part_b, c.condition, itf.size, c.other.kind if c.rigid else None,
+                      getattr(c, "law", None))
                      for m, c, itf in zip(self.stack.members, self.contacts, self.interfaces))
 
     def __repr__(self):

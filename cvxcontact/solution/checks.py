@@ -180,24 +180,30 @@ def _segment_scales(B, U):
 def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     """Checks of a normal-compliance solution (docs/formulation.md §10, docs/checks.md), scaled units.
 
-    With r = E [u_nu] - g at the constrained rows, w their lumped lengths, p the scaled ``law``, z >= 0
-    the penetration-limit reaction (zero without a limit) and ``force`` the row forces the backend
-    applied, the read-back is lambda = p(r) + z / w (nodal values) and the checks are
+    ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row or a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` (pairs mixing Signorini and compliance; a Signorini row is
+    k = 0 with the limit l = 0). With r = E [u_nu] - g at the constrained rows, w their lumped lengths,
+    p the scaled law, z >= 0 the limit reaction (the Signorini multiplier on a Signorini row; zero
+    without a limit) and ``force`` the row forces the backend applied, the read-back is
+    lambda = p(r) + z / w (nodal values) and the checks are
 
         equilibrium      the residual of (26) with the contact force E^T (w lambda), as in :func:`checks`
-        law              max_a |force_a - z_a - w_a p(r_a)| / Y      (the law (7) at the returned u;
-                         Y the largest row force)
-        feasibility, complementarity, cone    of the limit r <= l with multiplier z, as in :func:`checks`
-                         (only with a penetration limit)
+        law              max over the compliant rows a of |force_a - z_a - w_a p(r_a)| / Y      (the law
+                         (7) at the returned u; Y the largest row force)
+        feasibility, complementarity, cone    of r <= l with multiplier z over the rows with a limit
+                         (Signorini rows and compliance limits), as in :func:`checks` (only if some row
+                         has one)
 
-    Returns (checks dict, lambda at the rows (scaled pressure)).
+    All rows of all pairs are checked together, each normalised by its own scale. Returns (checks dict,
+    lambda at the rows (scaled pressure)).
     """
     tiny = np.finfo(float).tiny
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     r = sum(parts) - g
+    n = len(r)
     w = np.asarray(weights, dtype=float)
-    z = np.zeros(len(r)) if z is None else np.asarray(z, dtype=float)
-    lam = law.pressure(r) + z / w
+    z = np.zeros(n) if z is None else np.asarray(z, dtype=float)
+    lam = law.pressure(r) + np.divide(z, w, out=np.zeros(n), where=w > 0)
     c = E.T @ (w * lam)
     equilibrium = 0.0
     for b, uk, pk in zip(blocks, u, phi):
@@ -206,13 +212,18 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
     force = np.asarray(force, dtype=float)
     Y = max(float(np.abs(force).max(initial=0.0)), float((w * lam).max(initial=0.0)), tiny)
+    compliant = np.broadcast_to(np.asarray(law.stiffness, dtype=float) > 0, (n,))
     out = {"equilibrium": equilibrium,
-           "law": float((np.abs(force - z - w * law.pressure(r)) / Y).max(initial=0.0))}
-    if law.penetration_limit is not None:
-        slack, U = node_scales(parts, g + law.penetration_limit)
+           "law": float((np.abs(force - z - w * law.pressure(r)) / Y)[compliant].max(initial=0.0))}
+    limit = law.penetration_limit
+    limit = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,))
+    on = np.isfinite(limit)
+    if on.any():
+        extra = force_displacements(blocks, E, force)[on] if not compliant[on].all() else None
+        slack, U = node_scales([p[on] for p in parts], g[on] + limit[on], extra)
         out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
-        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
-        out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
+        out["complementarity"] = float(np.sqrt((np.abs(z[on] * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
+        out["cone"] = float(np.maximum(-z[on], 0.0).max(initial=0.0) / Y)
     return out, lam
 
 

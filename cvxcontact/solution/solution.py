@@ -54,6 +54,9 @@ class ContactResult:
     degree: int = 1
     """1: P1 (X_h continuous piecewise linear); 2: P2 (``x`` interleaves merged vertices and segment
     midpoints, X_h continuous piecewise quadratic)."""
+    law: object = None
+    """The pair's normal law (:mod:`cvxcontact.contact.laws`) when a compliance law was solved in the
+    scene; None means Signorini."""
 
     @property
     def pressure(self) -> np.ndarray:
@@ -154,7 +157,9 @@ class Solution:
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
     law: object = None
-    """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
+    """The normal contact law given to ``solve`` (:mod:`cvxcontact.contact.laws`; the law of the pairs
+    without their own) when some pair follows normal compliance; None means Signorini everywhere. Each
+    pair's own law: ``contacts[i].law``."""
     contacts: list = field(default_factory=list)
     """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
     the first."""
@@ -310,29 +315,45 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
-                         problem, tol, timings):
+                         problem, tol, timings, given=None):
     """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
 
-    ``force`` are the row forces the backend applied (scaled), ``z`` the penetration-limit reactions
-    (None without a limit), ``weights`` the lumped lengths of the constrained nodes (scaled). The
-    read-back is lambda = p(r) + z / w at the constrained nodes (r = [u_nu] - g from the returned u),
-    interpolated on the merged mesh for sigma1/sigma2 (P1 on mesh l's trace); ``contact.force`` is
-    E^T (w lambda), the force the checks put into (26). ``energy`` includes sum_a w_a Phi(r_a).
+    ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` of the pairs (Signorini and compliance pairs mixed).
+    ``force`` are the row forces the backend applied (scaled), ``z`` the limit reactions (the
+    multipliers of r <= l; on Signorini rows l = 0; None if no row has a limit), ``weights`` the lumped
+    lengths of the constrained nodes (scaled). Per pair: on a compliance pair lambda = p(r) + z / w at its
+    constrained nodes (r = [u_nu] - g from the returned u), extended to its merged mesh as the P1 function
+    of those nodes (:meth:`~cvxcontact.contact.interface.Interface.extend`), and ``force`` = E^T (w
+    lambda), the force the checks put into (26); on a Signorini pair lambda_h is the multiplier
+    M lambda_h = E^T z of :func:`read_back`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
+    ``given`` (the law given to ``solve``), or ``law`` itself when it is one law. ``energy`` includes
+    sum_a w_a Phi_a(r_a).
     """
-    scaled = law.scaled(un.stress * un.load, un.displacement)
-    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, np.asarray(force, dtype=float),
-                    np.asarray(force) > 0, polished, problem, tol, timings)
+    from ..contact.laws import RowLaws
+
+    rows = law if isinstance(law, RowLaws) else RowLaws.uniform(law, E.shape[0])
+    scaled = rows.scaled(un.stress * un.load, un.displacement)
+    force = np.asarray(force, dtype=float)
+    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, force, force > 0, polished, problem,
+                    tol, timings)
     g = E @ gap
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
-    itf = scene.interface
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-    lam_merged = E.T @ lam if condition == "gamma3" else itf.interpolation(int(condition[-1]) - 1) @ lam
     unit = un.stress * un.load
-    contact = replace(sol.contact, lam=lam_merged * unit, force=(E.T @ (weights * lam)) * un.force)
-    for a in (contact.lam, contact.force):
-        a.setflags(write=False)
-    sol.contact, sol._checks, sol.law = contact, checks_, law
-    sol.contacts = [contact, *sol.contacts[1:]]
+    nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
+    offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
+    contacts = []
+    for i, (itf, c, pair_law) in enumerate(zip(scene.interfaces, sol.contacts, rows.laws)):
+        if pair_law.compliant:
+            cond = condition if scene.conditions[i] is None else scene.conditions[i]
+            merged = slice(scene.stack.offsets[i], scene.stack.offsets[i + 1])
+            c = replace(c, lam=itf.extend(cond, lam[offsets[i]:offsets[i + 1]]) * unit, force=nodal[merged] * un.force)
+            for a in (c.lam, c.force):
+                a.setflags(write=False)
+        contacts.append(replace(c, law=pair_law))
+    sol.contacts, sol.contact, sol._checks = contacts, contacts[0], checks_
+    sol.law = law if given is None else given
     if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement

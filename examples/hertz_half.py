@@ -17,6 +17,7 @@ the block alternates from node to node against a rigid obstacle on this mesh (tr
 ``sol.traction(0)``), so p0_h is the mean over the two nodes nearest the axis.
 
 Run:  python examples/hertz_half.py [nx ...]
+The same scene as a file (nx = 32):  cvxcontact solve examples/hertz_half.toml
 """
 
 import sys
@@ -33,7 +34,7 @@ def build(nx=40):
     # cells shrink towards the top and towards the symmetry line (the grading centre must lie
     # strictly inside the block: a micrometre from its left edge)
     mesh = cc.graded_block(x=(0.0, WIDTH), y=(-DEPTH, 0.0), nx=nx, ny=max(2, nx // 2), contact="top",
-                           beta=5.0, gamma=2.0, center=1e-6)
+                           beta=3.0, gamma=2.0, center=1e-6)
     block = cc.Body(mesh,
                     cc.materials.isotropic(E=E, nu=NU, name="aluminium"), name="block",
                     clamped=["bottom"], roller=["left"], contact="top")

@@ -204,7 +204,7 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
     felt = [[(b, *sol.traction(k, i)) for k, b in enumerate(_pair_bodies(sol, i))] for _, sol, i in cols]
     pf, pu = si_prefix([p for f in felt for _, _, p in f] + [sol.contacts[i].lam for _, sol, i in cols], "Pa")
     jf, ju = si_prefix([sol.contacts[i].jump for _, sol, i in cols], "m")
-    fig, axes = plt.subplots(3, n, figsize=(4.2 * n, 8), sharex="col", sharey="row", squeeze=False,
+    fig, axes = plt.subplots(3, n, figsize=(max(4.2 * n, 8.0), 8), sharex="col", sharey="row", squeeze=False,
                              layout="constrained")
     for col, (label, sol, i) in enumerate(cols):
         c = sol.contacts[i]

@@ -313,3 +313,42 @@ def test_hertz_half_file_equals_the_api_scene():
     ex = runpy.run_path(str(EXAMPLES / "hertz_half.py"))
     a, b = load_scene(EXAMPLES / "hertz_half.toml").solve(), cc.solve(ex["build"](32))
     assert a.ok and rel(a.u[0], b.u[0]) < 1e-10 and rel(a.contact.force, b.contact.force) < 1e-10
+
+
+HALF_DISK_FILE = """
+[[body]]
+name = "dome"
+material = "PZT-5A"
+rotation = 0.3
+plane = "stress"
+mesh = { half_disk = { radius = 0.1, center = [0.5, 0.0], nr = 3, nt = 8, side = "top" } }
+clamped = ["arc"]
+grounded = ["arc"]
+surface_charge = { flat = -0.01 }
+body_force = [0.0, -5e11]
+[[obstacle]]
+name = "floor"
+plane = { point = [0.0, -1e-9], normal = [0.0, 1.0] }
+[[contact]]
+a = "dome"
+part_a = "flat"
+b = "floor"
+"""
+
+
+def test_scene_file_half_disk_rotated_plane_stress_piezo_on_a_plane_equals_the_api(tmp_path):
+    """One generated body (half_disk), a turned plane-stress piezoelectric material, a surface charge on
+    its contact face, pressed by its load on a rigid plane: the file and the API agree."""
+    from cvxcontact.io.scenefile import load_scene
+
+    (tmp_path / "dome.toml").write_text(HALF_DISK_FILE)
+    a = load_scene(tmp_path / "dome.toml").solve()
+    mesh = cc.half_disk(radius=0.1, center=(0.5, 0.0), nr=3, nt=8, side="top")
+    body = cc.Body(mesh, PZT.rotated(0.3).plane_stress(), name="dome", clamped=["arc"], grounded=["arc"],
+                   contact="flat", surface_charge={"flat": -0.01},
+                   body_force=(0.0, -5e11))
+    b = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "flat", cc.Rigid.plane((0.0, -1e-9), (0.0, 1.0)))]))
+    assert a.ok and b.ok and a.contact.active.any()
+    assert rel(a.u[0], b.u[0]) < 1e-12 and rel(a.phi[0], b.phi[0]) < 1e-12
+    (ground,) = a.electrodes                       # Gauss (20): the ground collects the deposited charge
+    assert ground.charge == pytest.approx(-0.01 * 0.2, rel=1e-9)

@@ -197,8 +197,8 @@ def test_p2_refuses_supports_of_the_p1_prolongation(kind):
 
 @pytest.mark.parametrize("degree", [1, 2])
 def test_contact_vtu_of_a_pair_given_lower_body_first(degree, tmp_path):
-    """cc.Contact(lower, ..., upper, ...) on Scene(upper, lower): the contact line's 'displacement body k'
-    and each trace file's displacement are the pair's body k's own (the lower block first), not the
+    """cc.Contact(lower, ..., upper, ...) on Scene(upper, lower): the contact line's 'displacement body j'
+    (j the scene's 1-based body index) and each trace file's displacement are that body's own (the lower block first), not the
     scene's body k's: equal to that body's solution at its own nodes on the line (read from sol.points,
     sol.u), wherever a point of the file is one of those nodes."""
     import meshio
@@ -218,6 +218,18 @@ def test_contact_vtu_of_a_pair_given_lower_body_first(degree, tmp_path):
         assert np.array_equal(trace, u[on])
         hit = np.flatnonzero(np.isin(np.round(line.points[:, 0], 12), np.round(pts[on, 0], 12)))
         assert len(hit) >= 4
-        got = line.point_data[f"displacement body {k + 1} [m]"][hit, :2]
+        got = line.point_data[f"displacement body {j + 1} [m]"][hit, :2]     # named by the scene's body index
         want = u[on][np.searchsorted(np.round(pts[on, 0], 12), np.round(line.points[hit, 0], 12))]
         assert np.abs(got - want).max() < 1e-12 * np.abs(u).max()
+
+
+def test_p2_with_a_per_pair_compliance_law_is_refused_typed():
+    import cvxcontact as cc
+    steel = cc.materials.isotropic(E=200e9, nu=0.3)
+    a = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=3, ny=2), steel, clamped="top", contact="bottom")
+    b = cc.Body(cc.rectangle(x=(0, 1), y=(-0.5, 0), nx=2, ny=2), steel, clamped="bottom", contact="top")
+    scene = cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.NormalCompliance(stiffness=1e13))])
+    with pytest.raises(cc.UnsupportedError, match="normal-compliance"):
+        cc.solve(scene, "sigma1", degree=2)
+    with pytest.raises(cc.UnsupportedError, match="normal-compliance"):
+        cc.Model(scene, "sigma1", degree=2)

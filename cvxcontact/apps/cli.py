@@ -125,6 +125,22 @@ def _one_line(exc):
     return " ".join(str(exc).split())
 
 
+def _pair_and_electrode_lines(sol):
+    """Per contact pair its total force (N/m) and active nodes; per electrode its potential (V) and
+    total charge (C/m): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
+    from ..io.output import pair_label
+
+    lines = []
+    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid:
+        for i, c in enumerate(sol.contacts):
+            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} N/m, "
+                         f"{int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
+    for e in sol.electrodes:
+        lines.append(f"  electrode {sol.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
+                     f"{e.potential:.6g} V, charge {e.charge:.6g} C/m")
+    return lines
+
+
 def _run(scene, conditions, settings, out, plots, progress, quiet):
     import warnings
 
@@ -174,6 +190,8 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     if not quiet:
         for sol in solutions.values():
             print(sol.report())
+            for line in _pair_and_electrode_lines(sol):
+                print(line)
         print(f"results in {out.resolve()}/ (results.pvd opens every VTU file in ParaView)")
     bad = [c for c, s in solutions.items() if not s.ok]
     if bad:

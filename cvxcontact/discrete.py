@@ -91,7 +91,7 @@ class Block:
     def scaled(cls, system, jump, un: Units) -> "Block":
         """The reduced blocks of ``system`` in the units ``un``, with its loads: T_u^T Kuu T_u,
         T_u^T Kup T_p, T_p^T Kpp T_p and J T_u with the prolongations of
-        :func:`cvxcontact.fem.assembly.prolongation` (formulation.md §9)."""
+        :func:`cvxcontact.fem.assembly.prolongation` (formulation.md §11)."""
         Tu = system.Tu
         blk = cls(Kuu=_congruence(Tu, system.Kuu, Tu) / un.stress, f=None, jump=(jump @ Tu).tocsr())
         if system.piezoelectric:

@@ -44,17 +44,19 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .backends.finish import SIGN_TOL
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law, check_law_for
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
+from .contact.laws import ContactLaw, check_law, check_law_for, pair_laws
+from .contact.quadratic import quadratic_interface
 from .discrete import Block, units
-from .errors import ResidualWarning, SceneError, UnsupportedError
+from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
+from .fem import p2
 from .fem.assembly import assemble
+from .geometry.quadratic import P2Nodes
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, _run
+from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run
 
 __all__ = ["Model"]
 
@@ -67,7 +69,11 @@ class Model:
     Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
     contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
     docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
-    checked before anything is assembled.
+    checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
+    ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
+    of the merged mesh; only the nodal conditions "sigma1"/"sigma2" (the conic "gamma3" is
+    :func:`cvxcontact.solve`'s), one contact pair of two bodies and the Signorini law (else
+    UnsupportedError).
 
     Methods
     -------
@@ -91,7 +97,7 @@ class Model:
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
                  polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law: ContactLaw | None = None):
+                 law: ContactLaw | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
@@ -105,20 +111,37 @@ class Model:
                                    "solve them with cc.solve, or fix the obstacle")
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        if degree == 2 and any(lw.compliant for lw in pair_laws(scene, self.law)):
+            raise UnsupportedError("Model(degree=2) with a normal-compliance law is not supported yet; use "
+                                   "degree=1 or law=None (Signorini)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        itf = scene.stack
-        self.E = itf.evaluation(condition, scene.conditions)
-        self.systems = [assemble(b) for b in scene.bodies]
-        gap = scene.gap_values()
+        for b in scene.bodies if degree == 2 else ():
+            p2.check_supported(b)                                      # P1-only supports refused
+        self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
+        if degree == 1:
+            itf = self._itf = scene.stack
+            self.E = itf.evaluation(condition, scene.conditions)
+            self.systems = [assemble(b) for b in scene.bodies]
+            gap = scene.gap_values()
+        else:
+            itf = self._itf = quadratic_interface(scene, self._nodes)     # one pair of two bodies (else refused)
+            if (scene.conditions[0] or condition) == "gamma3":
+                raise SolverError("Model(degree=2) takes the nodal conditions 'sigma1'/'sigma2' (linear rows); the "
+                                  "conic 'gamma3' condition of P2 is solved by cc.solve(scene, 'gamma3', degree=2)")
+            self.E = itf.evaluation(scene.conditions[0] or condition)
+            self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
+            gap = scene.pair_gap_values(0, np.array(itf.x))
         self.units = un = units(scene, self.systems, gap)
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
-        self.blocks = [Block.scaled(s, itf.jump(k, len(b.mesh.points)), un)
-                       for k, (s, b) in enumerate(zip(self.systems, scene.bodies))]
-        self._weights = (lumped_lengths(itf.x[self.E.indices]) / un.length      # the law's quadrature, scaled
-                         if self.law.compliant else None)
-        self._law = self.law.scaled(un.stress * un.load, un.displacement) if self.law.compliant else None
+        self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
+        self.rows = _row_laws(scene, condition, self.law)                        # each pair's law on its rows
+        self._weights = (itf.weights(condition, scene.conditions) / un.length   # the law's quadrature, scaled
+                         if self.rows.compliant else None)
+        self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
         self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
@@ -152,7 +175,8 @@ class Model:
         the clamped dofs (Gamma_1) are the constant 0."""
         k = self._index(body)
         if k not in self._u_expr:
-            s, n = self.systems[k], len(self.scene.bodies[k].mesh.points)
+            s = self.systems[k]
+            n = len(s.f) // 2                                  # nodes (P2: vertices and midpoints)
             self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
                                          (n, 2), order="C")
         return self._u_expr[k]
@@ -256,8 +280,7 @@ class Model:
         phi = [v.value if v is not None else None for v in self._contact.phi]
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            z = (np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
-                 if self._contact.contact is not None else np.zeros(len(g)))
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z
         else:
             y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
@@ -265,8 +288,8 @@ class Model:
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
             C, c0 = self._rows(c.expr, x)
-            z = np.asarray(c.dual_value, dtype=float).flatten(order="F")
-            rows.append((C, c0, z, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+            zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")      # (not z: the limit reactions)
+            rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
         grad, lin = np.zeros(self._n), True
         if objective is not None:
             Cobj, _ = self._rows(objective, x)
@@ -296,11 +319,14 @@ class Model:
         t0 = time.perf_counter()
         if self._law is not None:
             sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
-                                       u, phi, y, z if self.law.penetration_limit is not None else None,
-                                       self._weights, self.law, polished, problem, self.tol, timings)
+                                       u, phi, y, z if self._law.limited.any() else None,
+                                       self._weights, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
-                            active, polished, problem, self.tol, timings)
+                            active, polished, problem, self.tol, timings,
+                            interface=None if self._nodes is None else self._itf,
+                            nodes=self._nodes)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
@@ -322,8 +348,6 @@ class Model:
         bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
         the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
         from .backends.condensed import Compliance, condense, quasi_definite_rhs
-        from .backends.finish import solve_compliance
-
         E, blocks = self.E, self.blocks
         condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
         rhs = [quasi_definite_rhs(b) for b in blocks]
@@ -331,7 +355,11 @@ class Model:
         compliance = Compliance(condensed, E)
         d = compliance.free_slack(v0, g)
         r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-        out = solve_compliance(compliance.W, d, self._weights, self._law, r0=r)
+        start = None
+        if (self._law.limited & ~self._law.rows).any():        # Signorini rows: the IPM's active set
+            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
+            start = self._law.limited & (z * np.diag(compliance.W) + (r - self._law.penetration_limit) > 0)
+        out = ContactSolver._newton(compliance.W, d, self._weights, self._law, r, start)
         if out is None:
             return None
         y, z = out[0], out[1]

@@ -18,14 +18,18 @@ import cvxpy as cp
 import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
+from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
-from .backends.finish import lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp
-from .backends.full import ContactModel, mixed_kkt
-from .contact.interface import lumped_lengths
-from .contact.laws import ContactLaw, check_law, check_law_for
+from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
+                              solve_linear_compliance)
+from .backends.full import ContactModel, limit_reaction, mixed_kkt
+from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
+from .contact.quadratic import quadratic_interface
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
+from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
+from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import force_displacements, ipm_active
@@ -39,13 +43,20 @@ DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
 _CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
+_CLARABEL_CONIC = dict(tol_gap_abs=1e-14, tol_gap_rel=1e-14, tol_feas=1e-10, tol_ktratio=1e-10, max_iter=400,
+                       equilibrate_enable=False)
+"""Clarabel settings of the conic (P2 "gamma3") condition, which has no exact finish (docs/formulation.md §8):
+tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends "inaccurate"); no
+equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
+complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
 
 
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
-          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None) -> Solution:
+          solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
+          degree: int = 1) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -84,6 +95,14 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
         ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
         sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
+    degree : {1, 2}
+        1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
+        (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
+        segment (a second-order cone per segment, solved by the interior point with tight
+        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
+        pair between two bodies (any orientation, partial overlap) and the Signorini law; several
+        pairs, rigid obstacles and normal-compliance laws raise UnsupportedError.
 
     Returns
     -------
@@ -95,13 +114,15 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         ``scene`` is not a Scene or ``condition`` is unknown.
     SolverError
         A bad parameter or solver option, or the solver failed.
+    UnsupportedError
+        A combination not implemented yet (e.g. degree=2 with several pairs or a compliance law).
 
     See Also
     --------
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options, law=law).solve()
+                         solver_options=solver_options, law=law, degree=degree).solve()
 
 
 class ContactSolver:
@@ -118,41 +139,65 @@ class ContactSolver:
     costs two triangular solves per body and little else. ``scale=False`` hands the
     raw SI matrices to the solver (for the stability study only: it shows what the
     non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
-    parameters as in :func:`solve`; all are checked before anything is assembled.
+    parameters as in :func:`solve` (``degree=2``: P2 elements; the conic "gamma3" condition is
+    re-solved by the interior point each time, the nodal ones warm-start as above); all are
+    checked before anything is assembled.
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law: ContactLaw | None = None):
+                 law: ContactLaw | None = None, degree: int = 1):
         from .backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
-        self.law = check_law_for(scene, check_law(law))
+        self.law = check_law_for(scene, check_law(law))   # the default of the pairs without their own law
         tol = check_solve_parameters(condition, method, tol, polish=polish, verbose=verbose,
                                      warm_start=warm_start, scale=scale)
         held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
-        self.E = scene.stack.evaluation(condition, scene.conditions)     # every pair's rows, stacked
-        self._structure = scene.structure()
-        self.scene, self.condition, self.requested = scene, condition, method
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        self.degree, self.nodes, self.conic = degree, None, False
+        self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
-        if self.forced and self.law.compliant:
+        if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
             raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
                                    "not implemented; use the default non-penetration law or a fixed obstacle")
+        if degree == 2:
+            if self.forced:
+                raise UnsupportedError("P2 elements (degree=2) with force-controlled obstacles (Rigid(..., force=)) "
+                                       "are not supported yet; use degree=1 or a fixed obstacle")
+            if any(lw.compliant for lw in pair_laws(scene, self.law)):
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
+                                       "yet; use degree=1 or law=None (Signorini)")
+            for b in scene.bodies:
+                p2.check_supported(b)                                  # P1-only supports refused
+            self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
+            self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
+            pair_condition = scene.conditions[0] or condition
+            self.conic = pair_condition == "gamma3"
+            self.E = self.interface.evaluation(pair_condition)
+        else:
+            self.E = scene.stack.evaluation(condition, scene.conditions)
+        self._structure = scene.structure()
+        self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription(held_by_contact=held, force_control=bool(self.forced)))
         self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
         t0 = time.perf_counter()
-        self.matrices = [assemble_matrices(b) for b in scene.bodies]
+        self.matrices = ([assemble_matrices(b) for b in scene.bodies] if degree == 1 else
+                         [p2.assemble_matrices(b, n) for b, n in zip(scene.bodies, self.nodes)])
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self._weights = (lumped_lengths(scene.interface.x[self.E.indices])       # m, the law's quadrature
-                         if self.law.compliant else None)
+        self.rows = _row_laws(scene, condition, self.law, held)                  # each pair's law on its rows
+        self.compliant = self.rows.compliant
+        self._weights = (scene.stack.weights(condition, scene.conditions)        # m, the law's quadrature
+                         if self.compliant else None)
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -161,44 +206,53 @@ class ContactSolver:
         timings = dict(self.setup_time)
         self.setup_time = {}
         t0 = time.perf_counter()
-        systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+        if self.degree == 1:
+            systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
+            gap = scene.gap_values()
+        else:        # the P2 interpolant of the gap at the merged P2 nodes
+            systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
+            gap = scene.pair_gap_values(0, np.array(self.interface.x))
         for b, s in zip(scene.bodies, systems):
             if getattr(b, "held_by_contact", None):
                 b.check_pressed(s.f)                    # the load must press it onto the contact
-        gap = scene.gap_values()
         forced = [o for o in scene.obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
         self._taus = [np.zeros(o.basis.shape[1]) for o in forced]
         if self._blocks is None:
-            self._blocks = [Block.scaled(s, scene.stack.jump(k, len(b.mesh.points)), un)
-                            for k, (s, b) in enumerate(zip(systems, scene.bodies))]
+            self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
+                            for k, s in enumerate(systems)]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
+        if self.conic:
+            run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
-        if self.law.compliant:
+        self._beta = None
+        if self.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        if self.law.compliant:
+        if self.compliant:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
-                                       self._weights / un.length, self.law, polished, problem, self.tol, timings)
+                                       self._weights / un.length, self.rows, polished, problem, self.tol, timings,
+                                       given=self.law)
         else:
             moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active, polished,
-                            problem, self.tol, timings)
+                            problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
+                            beta=self._beta, nodes=self.nodes)
         if scene.obstacles:
             obstacle_results(sol, [tau * un.displacement for tau in self._taus])
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
                            finish=Finish(self.finish_route) if polished and self.finish_route else None)
-        if self.polish and not polished:
+        if self.polish and not polished and not self.conic:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
@@ -211,8 +265,8 @@ class ContactSolver:
         """Condensed bodies and the interface compliance W, built once per geometry."""
         if self._condensed is None:
             t0 = time.perf_counter()
-            self._condensed = [condense(b, s, body.mesh) for b, s, body in
-                               zip(blocks, self.matrices, self.scene.bodies)]
+            meshes = self.nodes or [body.mesh for body in self.scene.bodies]      # P2: the 6-node graph
+            self._condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.matrices, meshes)]
             self._compliance = Compliance(self._condensed, self.E)
             timings["factorization"] = time.perf_counter() - t0
         return self._condensed, self._compliance
@@ -316,10 +370,13 @@ class ContactSolver:
         return u, phi, y, active, polished, problem
 
     def _compliance_solve(self, blocks, g, un, timings):
-        """Normal compliance (docs/formulation.md §10): the convex program with the lumped compliance
-        energy (full or condensed), then the exact finish :func:`solve_compliance` on the interface and
-        one back-substitution per body. Returns (u, phi, row forces y, limit reactions z, polished, problem)."""
-        law = self.law.scaled(un.stress * un.load, un.displacement)
+        """Normal compliance on some or all pairs (docs/formulation.md §10): the convex program with the
+        lumped compliance energy on the compliant rows and r <= l on the limited ones (Signorini rows:
+        l = 0), full or condensed, then the exact finish :func:`solve_compliance` on the interface (or,
+        if its steps do not settle and every compliant row is linear without a limit, the LCP of
+        :func:`solve_linear_compliance`) and one back-substitution per body. Returns (u, phi, row forces
+        y, limit reactions z or None if no row has a limit, polished, problem)."""
+        law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
         problem, polished, z = None, False, None
         condensed = None
@@ -329,7 +386,7 @@ class ContactSolver:
         out = None
         if self.method == "condensed" and self.warm_start and self.polish and self._active is not None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law, r0=self._active)
+            out = self._newton(compliance.W, d, w, law, *self._active)
             timings["polish"] = time.perf_counter() - t0
             if out is not None:
                 self.path, self.finish_route = Route.WARM_START, out[3]
@@ -349,7 +406,7 @@ class ContactSolver:
                 model = None          # the finish converges globally from the free slack (§10)
         if out is None and model is None:
             t0 = time.perf_counter()
-            out = solve_compliance(compliance.W, d, w, law)
+            out = self._newton(compliance.W, d, w, law)
             timings["polish"] = time.perf_counter() - t0
             if out is None:
                 raise SolverError(f"{self.solver} failed on the normal-compliance program and the semismooth "
@@ -365,12 +422,14 @@ class ContactSolver:
                 r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             else:
                 r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
-            z = (np.asarray(model.contact.dual_value, dtype=float).ravel() if model.contact is not None
-                 else np.zeros(len(g)))
+            z = limit_reaction(model.contact, model.limit_rows, len(g))
             y = w * law.pressure(r) + z
             if self.polish:
                 t0 = time.perf_counter()
-                out = solve_compliance(compliance.W, d, w, law, r0=r)
+                start = None
+                if (law.limited & ~law.rows).any():        # Signorini rows: start from the IPM's active set
+                    start = law.limited & (z * np.diag(compliance.W) + (r - law.penetration_limit) > 0)
+                out = self._newton(compliance.W, d, w, law, r, start)
                 timings["polish"] = time.perf_counter() - t0
                 if out is None:
                     self.declined = "the semismooth Newton steps on the interface did not settle"
@@ -378,14 +437,64 @@ class ContactSolver:
                     self.finish_route = out[3]
         if out is not None:
             y, z, polished = out[0], out[1], True
-            self._active = d - compliance.W @ y                 # the penetration r, to warm-start a re-solve
+            self._active = (d - compliance.W @ y, out[2])     # the penetration r and the rows at their limit
         if condensed is not None and (polished or self.method == "condensed"):
             t0 = time.perf_counter()
             x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
-        return u, phi, y, (z if self.law.penetration_limit is not None else None), polished, problem
+        return u, phi, y, (z if law.limited.any() else None), polished, problem
+
+    @staticmethod
+    def _newton(W, d, w, law, r0=None, active=None):
+        """:func:`solve_compliance` from (r0, active); if it does not settle and the compliant rows are all
+        linear without a limit, the finite LCP of :func:`solve_linear_compliance`. None if neither does."""
+        out = solve_compliance(W, d, w, law, r0=r0, active=active)
+        if out is None and law.linear:
+            out = solve_linear_compliance(W, d, w, law)
+        return out
+
+    def _conic_options(self):
+        """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
+        tolerances on the scaled data (the user's options still win)."""
+        return {**(_CLARABEL_CONIC if self.solver == "CLARABEL" else {}), **self.options}
+
+    def _conic_full(self, blocks, g, timings):
+        """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
+        t0 = time.perf_counter()
+        model = ConicContactModel(blocks, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        u = [v.value for v in model.u]
+        phi = [v.value if v is not None else None for v in model.phi]
+        return u, phi, self._contact_force(), None, False, model.problem
+
+    def _conic_condensed(self, blocks, g, timings):
+        """The condensed interface SOCP with the P2 "everywhere" condition, then one back-substitution."""
+        condensed, _ = self._interface(blocks, timings)
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in blocks]
+        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
+        loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+        model = ConicInterfaceModel(condensed, loads, self.interface.bernstein(), g)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        r = self._contact_force()
+        x = [c.solve(F - c.lift(r)) for c, F in zip(condensed, rhs)]
+        u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, r, None, False, model.problem
+
+    def _contact_force(self):
+        """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
+        return self.interface.bernstein().T @ self._beta.ravel()
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
@@ -414,6 +523,27 @@ class ContactSolver:
                              "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
                              "build a new ContactSolver for the new geometry")
         return scene
+
+
+def _row_laws(scene, condition, law, held=False) -> RowLaws:
+    """Each pair's law (its own ``Contact.law`` or ``law``) on its rows of the stacked evaluation
+    (:class:`~cvxcontact.contact.laws.RowLaws`). A compliance law with a body held by the contact only
+    is refused: its stiffness is singular and the compliance finish condenses every body."""
+    laws = pair_laws(scene, law)
+    offsets = scene.stack.row_offsets(condition, scene.conditions)
+    rows = RowLaws(laws, np.diff(offsets))
+    if rows.compliant and held:
+        names = [b.name for b in scene.bodies if getattr(b, "held_by_contact", None)]
+        raise UnsupportedError(f"a normal-compliance law with a body held by the contact only ({', '.join(names)}) "
+                               "is not supported in this version: support the body, or use Signorini on every pair")
+    if rows.compliant:
+        w = scene.stack.weights(condition, scene.conditions)
+        for i, (a, b) in enumerate(zip(offsets[:-1], offsets[1:])):
+            if rows.laws[i].compliant and not (w[a:b] > 0).all():
+                raise SceneError(f"contacts[{i}] {scene.contacts[i]!r}: a normal-compliance law needs at least two "
+                                 f"constrained nodes (it is integrated over their lumped lengths); under "
+                                 f"{scene.conditions[i] or condition!r} the pair has {b - a}: use gamma3 or Signorini")
+    return rows
 
 
 def _sparse_finish(kkt, g, active, timings, max_iter=30):
@@ -450,7 +580,9 @@ def _run(problem, solver, verbose, options):
     if solver == "CLARABEL":
         options = {**_CLARABEL, **options}
     try:
-        problem.solve(solver=solver, verbose=verbose, **options)
+        with warnings.catch_warnings():     # the status is recorded in SolveInfo and the checks say what holds
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            problem.solve(solver=solver, verbose=verbose, **options)
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
     except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError

@@ -281,16 +281,3 @@ def test_cli_solves_a_scene_file_with_a_law(tmp_path):
     assert main(["solve", str(scene), "--out", str(tmp_path / "out"), "--no-plots", "--quiet"]) == 0
     summary = json.loads((tmp_path / "out" / "gamma3.json").read_text())
     assert summary["ok"] and set(summary["residuals"]) == {"equilibrium", "law"}
-
-
-def test_compliance_with_several_pairs_or_an_obstacle_is_refused_typed():
-    """Until per-pair laws land, a compliance law on a scene it does not support is a typed refusal."""
-    import cvxcontact as cc
-    steel = cc.materials.isotropic(E=200e9, nu=0.3)
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=2), steel, clamped="top", contact="bottom")
-    scene = cc.Scene(block, contacts=[cc.Contact(block, "bottom", cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)))])
-    law = cc.NormalCompliance(stiffness=1e13)
-    with pytest.raises(cc.UnsupportedError, match="one contact pair between two bodies"):
-        cc.solve(scene, law=law)
-    with pytest.raises(cc.UnsupportedError, match="rigid obstacle"):
-        cc.Model(scene, law=law)

@@ -4,6 +4,7 @@ import runpy
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -70,3 +71,33 @@ def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
         assert sol.ok and abs(t - exact) < 1e-9 * abs(exact)
         assert abs(-sol.obstacles[0].force[1] - 1e5) < 1e-10 * 1e5
     assert "affine in V" in capsys.readouterr().out
+
+
+def test_punch_sensor_example_reads_force_linearly(capsys):
+    rows = load("punch_sensor.py")["main"](10, (1e-6, 3e-6))
+    (d0, f0, v0, q0, g0), (d1, f1, v1, q1, g1) = rows
+    assert f0 > 0 and v0 != 0 and q0 != 0
+    # positively homogeneous: 3x the displacement gives 3x force, potential, charge (same active set)
+    for a, b in ((f0, f1), (v0, v1), (q0, q1), (g0, g1)):
+        assert abs(b / a - 3.0) < 1e-8
+    assert "linear sensor" in capsys.readouterr().out
+
+
+def test_hertz_half_example_against_the_closed_form(capsys):
+    rows = load("hertz_half.py")["main"]((16, 32))
+    errors = []
+    for nx, P, a_h, a, h, p0_h, p0 in rows:
+        assert abs(a_h - a) <= h / 2 + 1e-12            # the resolution limit of the half-width
+        errors.append(abs(p0_h / p0 - 1))
+    assert errors[1] < errors[0] < 0.1 and errors[1] < 0.05
+    assert "p0 [MPa]" in capsys.readouterr().out
+
+
+def test_stack_example_matches_uniaxial_strain(capsys):
+    sol, rows, phi = load("stack.py")["main"](6)
+    assert sol.ok and len(sol.contacts) == 2 and all(c.active.all() for c in sol.contacts)
+    for name, short, exact in rows:
+        assert abs(short - exact) < 1e-6 * exact, name
+    (floating,) = [e for e in sol.electrodes if e.kind == "floating"]
+    assert floating.potential == pytest.approx(phi, rel=1e-8)
+    assert "closed form of the floating electrode" in capsys.readouterr().out

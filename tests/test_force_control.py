@@ -126,10 +126,30 @@ def test_force_control_refusals_name_the_reason():
         cc.solve(scene, law=cc.NormalCompliance(stiffness=1e12))
     with pytest.raises(cc.UnsupportedError, match="force-controlled"):
         cc.Model(scene)
+    with pytest.raises(cc.UnsupportedError, match=r"P2 elements \(degree=2\) with force-controlled"):
+        cc.solve(scene, degree=2)
+    with pytest.raises(cc.UnsupportedError, match="force-controlled"):
+        cc.Model(scene, degree=2)
     with pytest.raises(cc.SceneError, match="zero force"):
         cc.Rigid.circle((0, 0), 1.0, force=(0, 0))
     with pytest.raises(cc.SceneError, match="force: expected two finite"):
         cc.Rigid.plane((0, 0), (0, 1), force=(1.0, float("nan")))
+
+
+def test_force_control_with_a_per_pair_compliance_law_is_refused():
+    """A compliance law given to the force-controlled pair itself (Contact(law=)) or to another pair of
+    the scene is refused before anything is assembled; the same scenes with a fixed obstacle solve."""
+    mesh = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=6, ny=3)
+    block = cc.Body(mesh, ALU, clamped="bottom", contact="top", name="block")
+    law = cc.NormalCompliance(stiffness=1e13)
+    for own, other in ((law, None), (None, law)):
+        def scene(**kw):
+            return cc.Scene(block, contacts=[
+                cc.Contact(block, "top", cc.Rigid.plane((0.0, 0.5), (0.0, -1.0), **kw), law=own),
+                cc.Contact(block, "right", cc.Rigid.plane((1.0 + 1e-3, 0.0), (-1.0, 0.0)), law=other)])
+        with pytest.raises(cc.UnsupportedError, match="normal-compliance"):
+            cc.solve(scene(force=(0.0, -1e6)))
+        assert cc.solve(scene()).ok
 
 
 FORCE_FILE = """
@@ -212,3 +232,29 @@ def test_one_obstacle_shared_by_two_bodies_moves_as_one():
     assert sol.ok and len(sol.obstacles) == 1
     assert rel(sol.u[0], disp.u[0]) < 1e-8 and rel(sol.u[1], disp.u[1]) < 1e-8
     assert rel(sol.obstacles[0].translation, [0.0, -1e-4]) < 1e-8
+
+
+def test_figure_draws_a_force_controlled_obstacle_where_it_moved():
+    """plot_deformed draws the bodies with magnified displacements; the force-controlled punch is drawn
+    moved by the same magnification times its translation: its face stays on the block's top nodes
+    under the footprint (they touch it), which a fixed drawing would not."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import plot_deformed
+
+    sol = cc.solve(punch_scene(0.5, nx=10, ny=2)(force=(0.0, -1e8)))
+    t = sol.obstacles[0].translation
+    assert sol.ok and t[1] < 0
+    k = 1e-2 / abs(t[1])
+    fig = plot_deformed(sol, magnify=k)
+    (line,) = [ln for ln in fig.axes[0].lines if ln.get_label().startswith("rigid obstacle")]
+    y = np.asarray(line.get_ydata(), dtype=float)
+    assert np.allclose(y, 0.5 + k * t[1], rtol=0, atol=1e-12)
+    pts = sol.scene.bodies[0].mesh.points
+    under = np.isclose(pts[:, 1], 0.5) & (pts[:, 0] > 0.3 + 1e-9) & (pts[:, 0] < 0.7 - 1e-9)
+    top = pts[under, 1] + k * sol.u[0][:len(pts)][under, 1]
+    assert np.allclose(top, y[0], rtol=0, atol=1e-9)      # the drawn face touches the drawn block
+    plt.close(fig)

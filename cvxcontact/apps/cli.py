@@ -53,6 +53,8 @@ def _parser():
                        help="non-penetration condition (default: the file's, or gamma3); 'all' compares the three")
     solve.add_argument("--method", choices=("full", "condensed"), default=None,
                        help="full CVXPY model or condensed interface model (default: the file's, or full)")
+    solve.add_argument("--degree", type=int, choices=(1, 2), default=None,
+                       help="1: P1 elements, 2: P2 (6-node) elements (default: the file's, or 1)")
     solve.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     info = sub.add_parser("info", help="sizes and unknowns of a scene file")
     info.add_argument("scene", help="scene file (TOML)")
@@ -106,6 +108,8 @@ def main(argv=None) -> int:
         settings = spec.settings
         if args.method:
             settings["method"] = args.method
+        if args.degree:
+            settings["degree"] = args.degree
         scene_path = Path(args.scene)
         out = Path(args.out) if args.out else Path(f"{scene_path.stem}-out")      # in the current folder
         return _run(spec.scene, conditions, settings, out, not args.no_plots, progress, args.quiet)
@@ -119,6 +123,22 @@ def main(argv=None) -> int:
 
 def _one_line(exc):
     return " ".join(str(exc).split())
+
+
+def _pair_and_electrode_lines(sol):
+    """Per contact pair its total force (N/m) and active nodes; per electrode its potential (V) and
+    total charge (C/m): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
+    from ..io.output import pair_label
+
+    lines = []
+    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid:
+        for i, c in enumerate(sol.contacts):
+            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} N/m, "
+                         f"{int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
+    for e in sol.electrodes:
+        lines.append(f"  electrode {sol.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
+                     f"{e.potential:.6g} V, charge {e.charge:.6g} C/m")
+    return lines
 
 
 def _run(scene, conditions, settings, out, plots, progress, quiet):
@@ -170,6 +190,8 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     if not quiet:
         for sol in solutions.values():
             print(sol.report())
+            for line in _pair_and_electrode_lines(sol):
+                print(line)
         print(f"results in {out.resolve()}/ (results.pvd opens every VTU file in ParaView)")
     bad = [c for c, s in solutions.items() if not s.ok]
     if bad:

@@ -41,11 +41,12 @@ def node_order(mesh) -> np.ndarray:
     """A fill-reducing elimination order of the mesh nodes (SuperLU's minimum degree on A + A^T).
 
     Computed on the scalar node graph (a graph Laplacian plus identity), which is
-    several times cheaper to factorise than the body's coupled system.
+    several times cheaper to factorise than the body's coupled system. ``mesh`` may be any object
+    with ``points`` and element rows ``triangles`` (3 nodes for P1, 6 for the P2 nodes).
     """
     tri = mesh.triangles.astype(np.int32)
-    n = len(mesh.points)
-    rows, cols = np.repeat(tri, 3, axis=1).ravel(), np.tile(tri, (1, 3)).ravel()
+    n, k = len(mesh.points), tri.shape[1]
+    rows, cols = np.repeat(tri, k, axis=1).ravel(), np.tile(tri, (1, k)).ravel()
     A = sp.csc_matrix((-np.ones(len(rows)), (rows, cols)), shape=(n, n))
     A.data[:] = -1.0
     A = (A + sp.diags(1.0 - np.asarray(A.sum(axis=0)).ravel())).tocsc()
@@ -130,7 +131,8 @@ class InterfaceModel:
     Attributes: ``problem``, ``v`` (variables ``v1``, ``v2``) and ``contact``. With a normal-compliance
     ``law`` (scaled) the energy gets the lumped compliance energy of the rows
     (:func:`cvxcontact.backends.full.compliance_energy`, ``weights`` the lumped lengths) and ``contact``
-    is the penetration limit E [u_nu] <= E g + l, or None.
+    is the penetration limit E [u_nu] <= E g + l on the rows ``limit_rows`` with a finite limit (per-row
+    laws, :class:`~cvxcontact.contact.laws.RowLaws`: Signorini rows l = 0), or None.
     """
 
     def __init__(self, bodies, loads, E, gap_rows, law=None, weights=None):
@@ -138,14 +140,10 @@ class InterfaceModel:
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
                      for b, v, g in zip(bodies, self.v, loads))
         jump = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v))
-        if law is not None and law.compliant:
-            from .full import compliance_energy
+        from .full import law_rows
 
-            energy += compliance_energy(jump, gap_rows, weights, law)
-            limit = law.penetration_limit
-            self.contact = None if limit is None else jump <= gap_rows + limit
-        else:
-            self.contact = jump <= gap_rows
+        term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)
+        energy += term
         self.problem = cp.Problem(cp.Minimize(energy), [self.contact] if self.contact is not None else [])
 
 

@@ -36,7 +36,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls
 
-__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "SIGN_TOL"]
+__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
+           "SIGN_TOL"]
 
 SIGN_TOL = 1e-10
 """Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
@@ -159,7 +160,7 @@ def _solve_equilibrated(W, d, active, max_iter):
     return None
 
 
-def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
+def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
     """Exact finish for a normal-compliance law (docs/formulation.md §10), on the interface compliance.
 
     In the constrained rows (scaled units) the penetration r, the compliance force w p(r) (w the lumped
@@ -174,6 +175,12 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
     Solved by a damped semismooth Newton method on the free rows (Armijo backtracking on psi; for m = 1
     p' is piecewise constant and the steps end in finitely many once the contact set is right) inside
     primal-dual active-set steps on the limit rows (active next where z_a + (r_a - l) / W_aa > 0).
+
+    ``law`` may be one :class:`~cvxcontact.contact.laws.NormalCompliance` or a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws`: a Signorini row is k = 0 with l = 0, so its row of the
+    system is the LCP y >= 0, r <= 0, y r = 0 (the complementarity function min(y, -r) = 0 of
+    :func:`solve_lcp`, here in the active-set form of the limit rows), and mixed rows are solved together.
+    ``active`` (bool, optional) is the starting set of rows at their limit (default: r0 >= l).
 
     Returns ``(y, z, at_limit, route)`` or None if W is singular on the rows or the steps do not settle
     with the signs holding to ``SIGN_TOL`` of each row's scale (:func:`row_scales`).
@@ -192,9 +199,11 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
         return None
     H = 0.5 * (H + H.T)
     limit = law.penetration_limit
-    ell = np.full(n, np.inf if limit is None else float(limit))
+    ell = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,)).copy()
     r = np.minimum(d if r0 is None else np.asarray(r0, dtype=float), ell)
     at = r >= ell
+    if active is not None:
+        at = at | (np.asarray(active, dtype=bool) & np.isfinite(ell))
     r[at] = ell[at]
 
     def psi(r):
@@ -213,7 +222,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
             _, S = row_scales(W, d, w * law.pressure(r) + np.where(at, -g, 0.0))
             if not free.any() or (np.abs(W @ gF) <= 1e-3 * SIGN_TOL * (S + np.abs(r))).all():
                 break                                    # the interface equation holds to rounding
-            K = H[np.ix_(free, free)] + np.diag(w[free] * law.derivative(r[free]))
+            K = H[np.ix_(free, free)] + np.diag(w[free] * law.derivative(r)[free])
             try:
                 step = sla.solve(K, -g[free], assume_a="pos")
             except (np.linalg.LinAlgError, ValueError):
@@ -231,6 +240,14 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
             r = trial
         g = grad(r)
         z = np.where(at, -g, 0.0)
+        if at.any():     # the reactions from W_AA z_A = d_A - l_A - (W w p(r))_A by Cholesky: the explicit
+            try:         # inverse H loses cond(W) eps in z, which the back-substituted fields would show
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error", sla.LinAlgWarning)
+                    rhs = (d - r - W @ (w * law.pressure(r)))[at]
+                    z[at] = sla.cho_solve(sla.cho_factor(W[np.ix_(at, at)]), rhs)
+            except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+                pass
         y = w * law.pressure(r) + z
         wr, S = row_scales(W, d, y)
         resid = r - d + W @ y                            # the interface equation, displacement units
@@ -246,3 +263,23 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50):
         seen.add(key)
         at = new
     return None
+
+
+def solve_linear_compliance(W, d, weights, law):
+    """Exact finish for rows whose compliance laws are all linear (m = 1) without a limit, mixed with
+    Signorini rows, as one LCP (docs/formulation.md §10): on a compliance row y_a = w_a k_a (r_a)_+ is
+    y_a >= 0, s_a = r_a - y_a / (w_a k_a) <= 0, y_a s_a = 0 with r = d - W y, i.e. the LCP of
+    :func:`solve_lcp` with W + diag(1 / (w_a k_a)) on those rows; Signorini rows keep W. Finite (NNLS
+    fallback) where the Newton steps of :func:`solve_compliance` might cycle. ``law`` a
+    :class:`~cvxcontact.contact.laws.RowLaws` (scaled). Returns ``(y, z, at_limit, route)`` or None."""
+    W = np.asarray(W, dtype=float)
+    k = np.broadcast_to(np.asarray(law.stiffness, dtype=float), (len(d),))
+    on = k > 0
+    soft = np.zeros(len(d))
+    soft[on] = 1.0 / (np.asarray(weights, dtype=float)[on] * k[on])
+    out = solve_lcp(W + np.diag(soft), d)
+    if out is None:
+        return None
+    y, active, route = out
+    z = np.where(on, 0.0, y)
+    return y, z, active & ~on, route

@@ -18,20 +18,63 @@ import scipy.sparse.linalg as spla
 
 from .condensed import quasi_definite
 
-__all__ = ["ContactModel", "mixed_kkt", "compliance_energy"]
+__all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction"]
 
 
 def compliance_energy(jump_rows, gap_rows, weights, law):
-    """The normal-compliance energy sum_a w_a k/(m+1) (r_a)_+^(m+1), r = E [u_nu] - E g (a CVXPY expression).
+    """The normal-compliance energy sum_a w_a k_a/(m_a+1) (r_a)_+^(m_a+1), r = E [u_nu] - E g (a CVXPY expression).
 
-    ``law`` is a :class:`~cvxcontact.contact.laws.NormalCompliance` in the units of ``jump_rows`` (scaled),
-    ``weights`` the lumped lengths of the constrained nodes (docs/formulation.md §10): the trapezoidal
-    rule for integral_Gamma3 Phi([u_nu] - g). m = 1 gives a QP (``square(pos(r))``); other m a power cone.
+    ``law`` is a :class:`~cvxcontact.contact.laws.NormalCompliance` or a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` in the units of ``jump_rows`` (scaled), ``weights`` the lumped
+    lengths of the constrained nodes (docs/formulation.md §10): the trapezoidal rule for
+    integral_Gamma3 Phi([u_nu] - g) over the compliant rows (Signorini rows, k = 0, get no term). m = 1
+    gives a QP (``square(pos(r))``); other m a power cone (one term per distinct exponent).
     """
-    r = cp.pos(jump_rows - gap_rows)
-    m = law.exponent
-    term = cp.square(r) if m == 1 else cp.power(r, m + 1.0)
-    return law.stiffness / (m + 1.0) * cp.sum(cp.multiply(np.asarray(weights, dtype=float), term))
+    n = jump_rows.shape[0]
+    k = np.broadcast_to(np.asarray(law.stiffness, dtype=float), (n,))
+    m_rows = np.broadcast_to(np.asarray(law.exponent, dtype=float), (n,))
+    w = np.asarray(weights, dtype=float)
+    energy = 0
+    for m in (float(v) for v in np.unique(m_rows[k > 0])):
+        on = (m_rows == m) & (k > 0)
+        idx = np.flatnonzero(on)
+        every = len(idx) == n
+        r = cp.pos(jump_rows - gap_rows) if every else cp.pos(jump_rows[idx] - gap_rows[idx])
+        term = cp.square(r) if m == 1 else cp.power(r, m + 1.0)
+        if every and np.ptp(k) == 0:                  # one law on every row (the form of a single pair)
+            energy += k[0] / (m + 1.0) * cp.sum(cp.multiply(w, term))
+        else:
+            energy += cp.sum(cp.multiply(w[idx] * k[idx] / (m + 1.0), term))
+    return energy
+
+
+def law_rows(jump_rows, gap_rows, weights, law):
+    """(energy term, limit constraint or None, its row indices) of the contact rows under ``law``.
+
+    ``law`` None or Signorini: no term, E [u_nu] <= E g on every row. A normal-compliance law or a
+    per-row :class:`~cvxcontact.contact.laws.RowLaws` (scaled): :func:`compliance_energy` and
+    E [u_nu] <= E g + l on the rows with a finite limit l (Signorini rows: l = 0)."""
+    n = jump_rows.shape[0]
+    if law is None or not law.compliant:
+        return 0, jump_rows <= gap_rows, np.arange(n)
+    limit = law.penetration_limit
+    limit = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,))
+    idx = np.flatnonzero(np.isfinite(limit))
+    if len(idx) == 0:
+        constraint = None
+    elif len(idx) == n:
+        constraint = jump_rows <= gap_rows + (limit[0] if np.ptp(limit) == 0 else limit)
+    else:
+        constraint = jump_rows[idx] <= gap_rows[idx] + limit[idx]
+    return compliance_energy(jump_rows, gap_rows, weights, law), constraint, idx
+
+
+def limit_reaction(constraint, rows, n):
+    """The multipliers z >= 0 of the limit rows (:func:`law_rows`) scattered on all ``n`` rows (0 elsewhere)."""
+    z = np.zeros(n)
+    if constraint is not None:
+        z[rows] = np.asarray(constraint.dual_value, dtype=float).ravel()
+    return z
 
 
 class ContactModel:
@@ -41,9 +84,11 @@ class ContactModel:
     for an elastic body), ``gauss`` (equality constraints per body, or None) and
     ``contact`` (the inequality constraint E [u_nu] <= E g).
 
-    With a normal-compliance ``law`` (scaled, :class:`~cvxcontact.contact.laws.NormalCompliance`) and the
+    With a normal-compliance ``law`` (scaled, :class:`~cvxcontact.contact.laws.NormalCompliance`, or a
+    per-row :class:`~cvxcontact.contact.laws.RowLaws` mixing Signorini and compliance rows) and the
     lumped lengths ``weights`` of the constrained nodes, the energy gets :func:`compliance_energy` and
-    ``contact`` becomes E [u_nu] <= E g + l (its penetration limit) or None without a limit.
+    ``contact`` becomes E [u_nu] <= E g + l on the rows ``limit_rows`` with a finite limit l (Signorini
+    rows: l = 0), or None if there is none (:func:`law_rows`, :func:`limit_reaction`).
 
     ``translations``: per force-controlled obstacle (R, F), R (rows of E, k) the rows' sensitivities to
     its translation unknowns tau and F (k,) the prescribed force on them (scaled): a variable ``t[i]``,
@@ -70,12 +115,8 @@ class ContactModel:
             self.t.append(t)
             energy -= F @ t
             jump = jump + R @ t
-        if law is not None and law.compliant:
-            energy += compliance_energy(jump, gap_rows, weights, law)
-            limit = law.penetration_limit
-            self.contact = None if limit is None else jump <= gap_rows + limit
-        else:
-            self.contact = jump <= gap_rows
+        term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)
+        energy += term
         self.energy = energy
         self.constraints = [c for c in self.gauss if c is not None] + ([self.contact] if self.contact is not None
                                                                         else [])

@@ -207,6 +207,22 @@ class Interface:
             rows = self.sigma[int(condition[-1]) - 1]
         return sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)), shape=(len(rows), self.size))
 
+    def weights(self, condition) -> np.ndarray:
+        """The lumped lengths (m) of the nodes constrained under ``condition`` (the rows of
+        :meth:`evaluation`): the row sums of the P1 mass matrix of the 1D mesh those nodes form
+        (the merged mesh for gamma3, mesh l's nodes in the overlap for sigma_l). The quadrature
+        weights of a normal-compliance energy (docs/formulation.md §10)."""
+        return lumped_lengths(self.x[self.evaluation(condition).indices])
+
+    def extend(self, condition, values) -> np.ndarray:
+        """The P1 function of the mesh of the constrained nodes under ``condition`` with nodal
+        ``values`` there, evaluated at every merged node (constant beyond its end nodes)."""
+        xc = self.x[self.evaluation(condition).indices]
+        values = np.asarray(values, dtype=float)
+        if len(xc) == self.size:
+            return values.copy()
+        return _interpolation(self.x, xc) @ values
+
 
 class Stack:
     """The contact rows of several pairs stacked (one merged-node list per pair, concatenated).
@@ -245,6 +261,20 @@ class Stack:
         conditions = conditions or [None] * len(self.interfaces)
         return sp.block_diag([itf.evaluation(condition if c is None else c)
                               for itf, c in zip(self.interfaces, conditions)], format="csr")
+
+    def weights(self, condition, conditions=None) -> np.ndarray:
+        """The lumped lengths (m) of every pair's constrained nodes, in the row order of
+        :meth:`evaluation`: pair i's :meth:`Interface.weights` under ``conditions[i]`` (None:
+        ``condition``), concatenated (each pair's own 1D mesh, never the stacked abscissae)."""
+        conditions = conditions or [None] * len(self.interfaces)
+        return np.concatenate([itf.weights(condition if c is None else c)
+                               for itf, c in zip(self.interfaces, conditions)])
+
+    def row_offsets(self, condition, conditions=None) -> np.ndarray:
+        """Row ranges of the pairs in :meth:`evaluation`: pair i owns rows offsets[i]:offsets[i+1]."""
+        conditions = conditions or [None] * len(self.interfaces)
+        counts = [itf.evaluation(condition if c is None else c).shape[0] for itf, c in zip(self.interfaces, conditions)]
+        return np.concatenate([[0], np.cumsum(counts)]).astype(int)
 
     def split(self, values):
         """Pair i's slice of a stacked array."""

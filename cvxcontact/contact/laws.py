@@ -16,6 +16,10 @@ Laws are small frozen classes; :func:`check_law` validates a ``law=`` argument (
 and raises :class:`~cvxcontact.errors.SceneError` (a :class:`~cvxcontact.errors.CvxContactError`)
 naming what is wrong. The discretisation (the energy lumped on the contact nodes) is in
 docs/formulation.md §10.
+
+Each contact pair may carry its own law (``Contact.law``; None: the law given to ``solve``), see
+:func:`pair_laws`; :class:`RowLaws` holds the law of every stacked contact row (a Signorini row is
+k = 0 with the limit l = 0), which is what the backends, the finish and the checks see.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import numpy as np
 
 from ..errors import SceneError
 
-__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "check_law", "LAWS"]
+__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
 
 
 class ContactLaw:
@@ -137,13 +141,97 @@ def check_law(law) -> ContactLaw:
 
 
 def check_law_for(scene, law: ContactLaw) -> ContactLaw:
-    """``law`` if the scene's contact pairs support it: a compliance law is solved for one pair of two
-    bodies (several pairs, rigid obstacles and per-pair laws are not supported yet)."""
-    if law.compliant and (len(scene.interfaces) > 1 or scene.stack.members[0][1] is None):
-        from ..errors import UnsupportedError
-        raise UnsupportedError("a normal-compliance law is solved for a scene with one contact pair between two "
-                               f"bodies; this scene has {len(scene.interfaces)} pair(s)"
-                               + (" against a rigid obstacle" if scene.stack.members[0][1] is None else "")
-                               + ": use law=None (Signorini) here")
+    """``law`` (the law given to ``solve``/``Model``) once the scene's pairs are known to support it.
+
+    Every pair takes its own ``Contact.law`` or, if None, ``law`` (:func:`pair_laws`); any mix of
+    Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved."""
     return law
 
+
+def pair_laws(scene, law: ContactLaw) -> tuple:
+    """The law of each contact pair of ``scene``: the pair's own ``Contact.law``, or ``law`` (the one
+    given to ``solve``/``Model``, already checked by :func:`check_law`) where it is None."""
+    return tuple(law if getattr(c, "law", None) is None else c.law for c in scene.contacts)
+
+
+class RowLaws:
+    """The normal law of every stacked contact row (docs/formulation.md §10, per pair).
+
+    ``RowLaws(laws, counts)``: pair i has law ``laws[i]`` on ``counts[i]`` consecutive rows. Per row a
+    (arrays of the total row count):
+
+    ``stiffness`` k_a (Pa/m^m; 0 on Signorini rows), ``exponent`` m_a (1 on Signorini rows),
+    ``penetration_limit`` l_a (m; 0 on Signorini rows, ``inf`` for a compliance row without a limit).
+
+    A Signorini row is the compliance law with k = 0 and limit 0 (p vanishes on r <= 0), so one
+    formulation covers every mix: the energy sum_a w_a Phi_a(r_a) over the compliant rows and the
+    rows r_a <= l_a where l_a is finite. ``pressure``, ``derivative``, ``energy`` act row-wise like
+    those of :class:`NormalCompliance`; ``scaled`` gives the same rows in scaled units.
+    """
+
+    def __init__(self, laws, counts):
+        self.laws = tuple(check_law(law) for law in laws)
+        self.counts = tuple(int(n) for n in counts)
+        if len(self.laws) != len(self.counts):
+            raise SceneError(f"RowLaws: {len(self.laws)} laws for {len(self.counts)} pairs")
+        k, m, ell = [], [], []
+        for law in self.laws:
+            if law.compliant:
+                lim = law.penetration_limit
+                k.append(law.stiffness), m.append(law.exponent), ell.append(np.inf if lim is None else lim)
+            else:
+                k.append(0.0), m.append(1.0), ell.append(0.0)
+        rep = lambda v: np.repeat(np.asarray(v, dtype=float), self.counts)  # noqa: E731
+        self.stiffness, self.exponent, self.penetration_limit = rep(k), rep(m), rep(ell)
+        for a in (self.stiffness, self.exponent, self.penetration_limit):
+            a.setflags(write=False)
+
+    @classmethod
+    def uniform(cls, law, n: int) -> "RowLaws":
+        """One law on ``n`` rows."""
+        return cls([law], [n])
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return len(self.stiffness)
+
+    @property
+    def rows(self) -> np.ndarray:
+        """Boolean mask of the compliant rows (k_a > 0)."""
+        return self.stiffness > 0
+
+    @property
+    def compliant(self) -> bool:
+        """True if some row follows a normal-compliance law."""
+        return bool(self.rows.any())
+
+    @property
+    def limited(self) -> np.ndarray:
+        """Boolean mask of the rows with a condition r_a <= l_a (Signorini rows and compliance limits)."""
+        return np.isfinite(self.penetration_limit)
+
+    @property
+    def linear(self) -> bool:
+        """True if every compliant row is linear (m = 1) without a penetration limit."""
+        on = self.rows
+        return bool((self.exponent[on] == 1).all() and not np.isfinite(self.penetration_limit[on]).any())
+
+    def pressure(self, r) -> np.ndarray:
+        """p_a(r_a) = k_a (r_a)_+^m_a (Pa; 0 on Signorini rows)."""
+        return self.stiffness * np.maximum(np.asarray(r, dtype=float), 0.0) ** self.exponent
+
+    def derivative(self, r) -> np.ndarray:
+        """p_a'(r_a) (Pa/m; 0 where r_a <= 0 and on Signorini rows)."""
+        r = np.maximum(np.asarray(r, dtype=float), 0.0)
+        return np.where(r > 0, self.stiffness * self.exponent * r ** (self.exponent - 1.0), 0.0)
+
+    def energy(self, r) -> np.ndarray:
+        """Phi_a(r_a) = k_a/(m_a+1) (r_a)_+^(m_a+1) (J/m^2; 0 on Signorini rows)."""
+        m = self.exponent
+        return self.stiffness / (m + 1.0) * np.maximum(np.asarray(r, dtype=float), 0.0) ** (m + 1.0)
+
+    def scaled(self, pressure: float, displacement: float) -> "RowLaws":
+        """The same rows in units of ``pressure`` (Pa) and ``displacement`` (m) (:meth:`NormalCompliance.scaled`)."""
+        return RowLaws([law.scaled(pressure, displacement) if law.compliant else law for law in self.laws],
+                       self.counts)

@@ -10,7 +10,7 @@ forms (19)-(20) of the paper read, per unit thickness,
     q = (q0, psi) - (q2, psi)_Gamma_b                (C/m per node)
 
 Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node. The supports and
-electrodes are imposed by a prolongation (docs/formulation.md §9)
+electrodes are imposed by a prolongation (docs/formulation.md §11)
 
     u = T_u z_u + u_D,      phi = T_p z_p + phi_D
 

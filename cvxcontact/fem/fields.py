@@ -1,4 +1,5 @@
-"""Derived fields of a solution, element by element (constant on each P1 triangle).
+"""Derived fields of a solution, element by element (constant on each P1 triangle; for P2, the values
+at each triangle's centroid).
 
 Plane strain in the (x1, x3) plane, written x, y here; z is the out-of-plane x2:
 
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import gradients, strain_matrix
+from .p2 import _strain, shape_gradients
 
 __all__ = ["BodyFields", "body_fields"]
 
@@ -32,15 +34,24 @@ class BodyFields:
     electric_displacement: np.ndarray | None = None  # (m, 2), C/m^2
 
 
-def body_fields(body, u, phi) -> BodyFields:
-    """Strain, stress, von Mises stress, and for a piezoelectric body E and D, per triangle."""
+def body_fields(body, u, phi, nodes=None) -> BodyFields:
+    """Strain, stress, von Mises stress, and for a piezoelectric body E and D, per triangle.
+
+    ``nodes``: the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of a P2 solution (``u``, ``phi`` on
+    them); the fields are then evaluated at each triangle's centroid."""
     mesh, mat = body.mesh, body.material
     _, grad = gradients(mesh.points, mesh.triangles)
-    ue = u[mesh.triangles].reshape(len(mesh.triangles), 6)
-    eps = np.einsum("mij,mj->mi", strain_matrix(grad), ue)          # (exx, eyy, 2exy)
+    if nodes is None:
+        el = mesh.triangles
+        ue = u[el].reshape(len(el), 6)
+        eps = np.einsum("mij,mj->mi", strain_matrix(grad), ue)          # (exx, eyy, 2exy)
+    else:
+        el = nodes.triangles
+        grad = shape_gradients(grad, np.full(3, 1.0 / 3.0))             # (m, 2, 6) at the centroid
+        eps = np.einsum("mij,mj->mi", _strain(grad), u[el].reshape(len(el), 12))
     stress = eps @ mat.c.T
     if mat.piezoelectric:
-        field = -np.einsum("mij,mj->mi", grad, phi[mesh.triangles])
+        field = -np.einsum("mij,mj->mi", grad, phi[el])
         stress -= field @ mat.e
         disp = eps @ mat.e.T + field @ mat.kappa.T
         c12 = mat.c12 if mat.c12 is not None else np.nan

@@ -558,11 +558,17 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
     (by name or number) of a file that holds several bodies; its boundary parts are
     the tagged lines on that surface's boundary.
 
+    Second-order gmsh meshes (``triangle6`` with ``line3`` boundary lines) are read as
+    their corner triangles: the P2 nodes of ``degree=2`` are rebuilt as the edge
+    midpoints (:class:`cvxcontact.geometry.quadratic.P2Nodes`), so every edge must be
+    straight with its mid-node at its midpoint (checked).
+
     Raises
     ------
     MeshError
-        If the file is missing or unreadable, holds no linear triangles or holds
-        higher-order elements, or ``region`` names no physical surface of the file.
+        If the file is missing or unreadable, holds no triangles, holds other
+        higher-order elements or curved second-order edges, mixes triangle and
+        triangle6 cells, or ``region`` names no physical surface of the file.
     """
     import meshio
 
@@ -577,9 +583,13 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         raise MeshError(f"cannot read mesh file {str(path)!r} ({type(exc).__name__} in meshio); expected a "
                         "triangle mesh in a format meshio reads (gmsh .msh, .vtu, .xdmf, ...)") from None
     kinds = {block.type for block in m.cells}
-    higher = kinds & {"triangle6", "triangle7", "quad", "quad8", "quad9", "tetra", "hexahedron"}
+    higher = kinds & {"triangle7", "quad", "quad8", "quad9", "tetra", "hexahedron"}
     if higher:
-        raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact needs linear triangles")
+        raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact needs triangles")
+    if "triangle6" in kinds:
+        if "triangle" in kinds:
+            raise MeshError(f"mesh file {str(path)!r} mixes triangle and triangle6 cells")
+        m = _corner_mesh(m, path)
     blocks = [k for k, b in enumerate(m.cells) if b.type == "triangle"]
     if not blocks:
         raise MeshError(f"mesh file {str(path)!r} holds no triangles (cell types: {sorted(kinds)})")
@@ -604,6 +614,26 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         if (renumber[edges] < 0).any():
             raise MeshError(f"boundary part {tag!r} in {str(path)!r} uses nodes that belong to no triangle")
     return Mesh(m.points[used], renumber[triangles], {t: renumber[e] for t, e in parts.items()})
+
+
+def _corner_mesh(m, path):
+    """A second-order mesh as its corner triangles and end-point lines (same points, cell data kept);
+    refuses curved edges (a mid-node off its edge's midpoint by more than 1e-9 of the edge length)."""
+    import meshio
+
+    cells = []
+    for block in m.cells:
+        d = block.data
+        pairs = {"triangle6": [(0, 1, 3), (1, 2, 4), (2, 0, 5)], "line3": [(0, 1, 2)]}.get(block.type, [])
+        for a, b, c in pairs:
+            mid = 0.5 * (m.points[d[:, a], :2] + m.points[d[:, b], :2])
+            length = np.linalg.norm(m.points[d[:, a], :2] - m.points[d[:, b], :2], axis=1)
+            if (np.linalg.norm(m.points[d[:, c], :2] - mid, axis=1) > 1e-9 * length).any():
+                raise MeshError(f"mesh file {str(path)!r}: a {block.type} cell has a curved edge (mid-node off "
+                                "the midpoint); cvxcontact's P2 elements are straight-sided")
+        kind = {"triangle6": "triangle", "line3": "line"}.get(block.type, block.type)
+        cells.append(meshio.CellBlock(kind, d[:, :3] if kind == "triangle" else d[:, :2] if kind == "line" else d))
+    return meshio.Mesh(m.points, cells, cell_data=m.cell_data, field_data=m.field_data)
 
 
 def _region_mask(m, blocks, region, path):

@@ -18,6 +18,7 @@ import numpy as np
 from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -53,11 +54,12 @@ def _sym6(xx, yy, zz, xy):
     return np.column_stack([xx, yy, zz, xy, z, z])
 
 
-def body_mesh(body, u, phi):
-    """A meshio.Mesh of one body with point and cell data named with units."""
+def body_mesh(body, u, phi, nodes=None):
+    """A meshio.Mesh of one body with point and cell data named with units (``nodes``: the P2 nodes of a
+    P2 solution, written as quadratic ``triangle6`` cells, cell data at the centroids)."""
     import meshio
 
-    f = body_fields(body, u, phi)
+    f = body_fields(body, u, phi, nodes)
     point_data = {"displacement [m]": _pad3(u)}
     cell_data = {
         "strain [-]": _sym6(f.strain[:, 0], f.strain[:, 1], np.zeros(len(f.strain)), f.strain[:, 2]),
@@ -72,42 +74,80 @@ def body_mesh(body, u, phi):
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
         cell_data["electric displacement [C/m^2]"] = _pad3(f.electric_displacement)
-    return meshio.Mesh(_pad3(body.mesh.points), [("triangle", body.mesh.triangles)], point_data=point_data,
+    cells = [("triangle", body.mesh.triangles)] if nodes is None else [("triangle6", nodes.triangles)]
+    points = body.mesh.points if nodes is None else nodes.points
+    return meshio.Mesh(_pad3(points), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
-def trace_pressure(solution, k):
-    """(x, p): the contact pressure felt by body ``k`` (0 or 1) on its own trace nodes, Pa
+def _line_cells(n, degree):
+    """Cells of a line of ``n`` nodes in order along it: P1 ``line`` pairs, or P2 ``line3`` (end, end,
+    midpoint) for interleaved nodes (vertex, midpoint, vertex, ...)."""
+    if degree == 2:
+        i = 2 * np.arange((n - 1) // 2)
+        return [("line3", np.column_stack([i, i + 2, i + 1]))]
+    return [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
+
+
+def _interface(solution, pair=0):
+    """Contact pair ``pair``'s line: P1 ``scene.interfaces[pair]``, P2 the solution's quadratic interface
+    (P2 solves one pair)."""
+    return solution.interface if getattr(solution, "degree", 1) == 2 else solution.scene.interfaces[pair]
+
+
+def trace_pressure(solution, k, pair=0):
+    """(s, p): the contact pressure felt by side ``k`` (0: the pair's first body, 1: its second; a
+    rigid pair has side 0 only) of contact pair ``pair`` on that body's own trace nodes, Pa
     (:meth:`Solution.traction`: the nodal forces moved to that body's nodes, divided by its own
     lumped lengths). The pressure to show first; lambda_h is a diagnostic."""
-    return solution.traction(k)
+    return solution.traction(k, pair)
 
 
-def _side_displacements(solution):
-    """Displacement (n_merged, 2) of each body's trace interpolated at the merged nodes (m)."""
-    itf = solution.scene.interface
-    return [itf.interpolation(k) @ solution.u[k][t.nodes] for k, t in enumerate(itf.traces)]
+def pair_bodies(solution, pair=0) -> list[int]:
+    """Scene indices of the bodies on the sides of contact pair ``pair`` (one index for a rigid pair), in
+    the order of that pair's traces (P2: the quadratic interface's own ``members``)."""
+    if getattr(solution, "degree", 1) == 2:
+        return list(solution.interface.members)
+    a, b = solution.scene.stack.members[pair]
+    return [a] if b is None else [a, b]
 
 
-def contact_mesh(solution):
-    """A meshio.Mesh of the merged Gamma_3 line.
+def pair_label(solution, pair=0) -> str:
+    """A short name of contact pair ``pair``: "upper/bottom - lower/top" or "block/bottom - Rigid.plane(...)"."""
+    c = solution.scene.contacts[pair]
+    other = repr(c.other) if c.rigid else f"{c.other.name}/{c.part_b}"
+    return f"{c.body_a.name}/{c.part_a} - {other}"
 
-    Point data: ``pressure on body k [Pa]`` (the pressure felt by body k, P1-interpolated from its
-    own trace nodes), ``lambda_h (diagnostic) [Pa]`` (the multiplier on the merged mesh; it may
-    oscillate), ``nodal pressure [Pa]``, ``normal jump [m]``, ``gap [m]``, ``nodal force [N/m]``,
+
+def _side_displacements(solution, pair=0):
+    """Displacement (n_merged, 2) of each side's trace interpolated at the merged nodes (m)."""
+    itf = _interface(solution, pair)
+    return [itf.interpolation(k) @ solution.u[b][t.nodes]
+            for k, (b, t) in enumerate(zip(pair_bodies(solution, pair), itf.traces))]
+
+
+def contact_mesh(solution, pair=0):
+    """A meshio.Mesh of the merged line of contact pair ``pair`` (any direction, drawn at its nodes).
+
+    Point data: ``pressure on body j [Pa]`` for each side (j the body's 1-based index in the scene;
+    the pressure felt by that body, P1-interpolated from its own trace nodes; a rigid pair has one
+    side), ``lambda_h (diagnostic) [Pa]`` (the multiplier on the merged mesh; it may oscillate),
+    ``nodal pressure [Pa]``, ``normal jump [m]``, ``gap [m]``, ``nodal force [N/m]``,
     ``constrained``, ``active``, ``penetration`` (jump above the gap: at unconstrained nodes
-    with sigma_l), ``displacement body k [m]`` and ``displacement [m]`` (their mean: warp by it).
+    with sigma_l), ``displacement body j [m]`` and ``displacement [m]`` (their mean, or the one
+    body's for a rigid pair: warp by it).
     """
     import meshio
 
-    c = solution.contact
-    itf = solution.scene.interface
+    c = solution.contacts[pair]
+    itf = _interface(solution, pair)
     n = len(c.x)
     xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
     points = np.column_stack([xy, np.zeros(n)])
-    lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    sides = _side_displacements(solution)
-    data = {f"pressure on body {k + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k)[1] for k in range(2)}
+    sides = _side_displacements(solution, pair)
+    bodies = pair_bodies(solution, pair)
+    data = {f"pressure on body {b + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k, pair)[1]
+            for k, b in enumerate(bodies)}
     data.update({
         "lambda_h (diagnostic) [Pa]": c.lam,
         "nodal pressure [Pa]": c.pressure,
@@ -117,41 +157,52 @@ def contact_mesh(solution):
         "constrained [-]": c.constrained.astype(float),
         "active [-]": c.active.astype(float),
         "penetration [-]": c.penetration.astype(float),
-        "displacement body 1 [m]": _pad3(sides[0]),
-        "displacement body 2 [m]": _pad3(sides[1]),
-        "displacement [m]": _pad3(0.5 * (sides[0] + sides[1])),
     })
-    return meshio.Mesh(points, [("line", lines)], point_data=data)
+    data.update({f"displacement body {b + 1} [m]": _pad3(d) for b, d in zip(bodies, sides)})
+    data["displacement [m]"] = _pad3(sum(sides) / len(sides))
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data=data)
 
 
-def trace_mesh(solution, k):
-    """A meshio.Mesh of body ``k``'s own trace on Gamma_3: ``pressure on body {k+1} [Pa]`` and
-    ``displacement [m]`` (that body's, so the line warps with it)."""
+def trace_mesh(solution, k, pair=0):
+    """A meshio.Mesh of side ``k``'s own trace on contact pair ``pair``: ``pressure on body j [Pa]``
+    (j the body's 1-based scene index) and ``displacement [m]`` (that body's, so the line warps with it)."""
     import meshio
 
-    t = solution.scene.interface.traces[k]
-    x, p = trace_pressure(solution, k)
-    n = len(x)
-    points = np.column_stack([x, np.full(n, solution.contact.line), np.zeros(n)])
-    lines = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    return meshio.Mesh(points, [("line", lines)], point_data={
-        f"pressure on body {k + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[k][t.nodes])})
+    itf = _interface(solution, pair)
+    t = itf.traces[k]
+    b = pair_bodies(solution, pair)[k]
+    _, p = trace_pressure(solution, k, pair)
+    n = len(p)
+    xy = t.points if hasattr(t, "points") else itf.points[0] + np.outer(t.x - itf.x[0], itf.tangent)
+    points = np.column_stack([xy, np.zeros(n)])
+    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data={
+        f"pressure on body {b + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[b][t.nodes])})
+
+
+def contact_stem(stem, pair):
+    """File stem of contact pair ``pair``: ``{stem}_contact`` for the first, ``{stem}_contact{i+1}`` after."""
+    return f"{stem}_contact" if pair == 0 else f"{stem}_contact{pair + 1}"
 
 
 def write_vtu(solution, out, stem="solution"):
-    """Write ``{stem}_body1.vtu``, ``{stem}_body2.vtu`` and ``{stem}_contact.vtu`` into ``out``."""
+    """Write ``{stem}_body{j}.vtu`` per body and, per contact pair i (:func:`contact_stem`:
+    ``{stem}_contact.vtu`` for the first, ``{stem}_contact{i+1}.vtu`` after), the merged line and
+    one ``..._body{j}.vtu`` per deformable side (j the body's 1-based index in the scene)."""
     import meshio
 
     out = Path(out)
     paths = []
     for k, body in enumerate(solution.scene.bodies, start=1):
-        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1])
+        nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+        mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
-    line = contact_mesh(solution)
-    paths.append(atomic_write(out / f"{stem}_contact.vtu", lambda p: meshio.write(p, line, "vtu")))
-    for k in range(2):
-        tr = trace_mesh(solution, k)
-        paths.append(atomic_write(out / f"{stem}_contact_body{k + 1}.vtu", lambda p, m=tr: meshio.write(p, m, "vtu")))
+    for i in range(len(solution.contacts)):
+        name = contact_stem(stem, i)
+        line = contact_mesh(solution, i)
+        paths.append(atomic_write(out / f"{name}.vtu", lambda p, m=line: meshio.write(p, m, "vtu")))
+        for k, b in enumerate(pair_bodies(solution, i)):
+            tr = trace_mesh(solution, k, i)
+            paths.append(atomic_write(out / f"{name}_body{b + 1}.vtu", lambda p, m=tr: meshio.write(p, m, "vtu")))
     return paths
 
 
@@ -178,40 +229,58 @@ def _xml(text):
     return str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
 
 
-def summary(solution) -> dict:
-    """A JSON-ready summary: status, checks, timings, sizes, energy.
+def _pair_summary(solution, i) -> dict:
+    c = solution.contacts[i]
+    felt = [(b, trace_pressure(solution, k, i)[1], _lengths(solution, k, i))
+            for k, b in enumerate(pair_bodies(solution, i))]
+    s = c.x
+    return {"pressure_on_body_Pa": [{"body": b + 1, "max": float(p.max()), "min": float(p.min()),
+                                     "mean": float(np.average(p, weights=w))} for b, p, w in felt],
+            "pair": i, "label": pair_label(solution, i),
+            "bodies": [solution.scene.bodies[b].name for b, _, _ in felt],
+            "obstacle": repr(solution.scene.contacts[i].other) if solution.scene.contacts[i].rigid else None,
+            "normal": [float(v) for v in c.normal] if c.normal is not None else None,
+            "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
+            "active_nodes": int(c.active.sum()),
+            "active_x_m": [float(s[c.active].min()), float(s[c.active].max())] if c.active.any() else None,
+            "total_force_N_per_m": float(c.force.sum()),
+            "penetrating_nodes": int((c.penetration & ~c.constrained).sum()),
+            "lambda_h_diagnostic_Pa": {"min": float(c.lam.min()), "max": float(c.lam.max())}}
 
-    ``contact.pressure_on_body_Pa`` (max, min, length-weighted mean of the pressure felt by each
-    body on its own trace, Pa) comes first; ``lambda_h_diagnostic_Pa`` (range of lambda_h on the
-    merged mesh, which may oscillate) is a diagnostic; ``penetrating_nodes`` counts unconstrained
-    merged nodes whose jump exceeds the gap (possible with sigma_l)."""
-    c = solution.contact
-    felt = [trace_pressure(solution, k)[1] for k in range(len(solution.scene.interface.traces))]  # 1 if rigid
+
+def summary(solution) -> dict:
+    """A JSON-ready summary: status, checks, timings, sizes, energy, contact pairs, electrodes.
+
+    ``contacts`` has one entry per contact pair (``contact`` repeats the first): its bodies (and
+    obstacle), ``pressure_on_body_Pa`` (max, min, length-weighted mean of the pressure felt by each
+    body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
+    ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
+    diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
+    (possible with sigma_l); ``active_x_m`` is the range of the tangential coordinate s (m) of the
+    active nodes. ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
+    ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;
+    docs/formulation.md §12)."""
+    pairs = [_pair_summary(solution, i) for i in range(len(solution.contacts))]
     return {
         "condition": solution.condition,
+        "degree": int(getattr(solution, "degree", 1)),
         "status": solution.status,
         "ok": bool(solution.ok),
         "polished": bool(solution.polished),
         "tolerance": solution.tol,
         "residuals": solution.residuals(),
         "timings_s": {k: float(v) for k, v in solution.timings.items()},
-        "contact": {"pressure_on_body_Pa": [{"body": k + 1, "max": float(p.max()), "min": float(p.min()),
-                                             "mean": float(np.average(p, weights=_lengths(solution, k)))}
-                                            for k, p in enumerate(felt)],
-                    "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
-                    "active_nodes": int(c.active.sum()),
-                    "active_x_m": [float(c.x[c.active].min()), float(c.x[c.active].max())] if c.active.any() else None,
-                    "total_force_N_per_m": float(c.force.sum()),
-                    "penetrating_nodes": int((c.penetration & ~c.constrained).sum()),
-                    "lambda_h_diagnostic_Pa": {"min": float(c.lam.min()), "max": float(c.lam.max())}},
+        "contact": pairs[0],
+        "contacts": pairs,
         "energy_J_per_m": solution.energy,
-        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(b.mesh.points)),
+        "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
                     "triangles": int(len(b.mesh.triangles)), "electric_unknowns": bool(b.piezoelectric),
                     "max_displacement_m": float(np.abs(u).max()),
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}
                    for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)],
-        "electrodes": [{"body": e.body, "tag": e.tag, "kind": e.kind, "potential_V": e.potential,
-                        "charge_C_per_m": e.charge} for e in getattr(solution, "electrodes", [])],
+        "electrodes": [{"body": e.body + 1, "body_name": solution.scene.bodies[e.body].name, "tag": e.tag,
+                        "kind": e.kind, "potential_V": e.potential, "charge_C_per_m": e.charge}
+                       for e in getattr(solution, "electrodes", [])],
         "obstacles": [{"obstacle": repr(o.obstacle), "pairs": list(o.pairs),
                        "translation_m": [float(v) for v in o.translation],
                        "contact_force_N_per_m": [float(v) for v in o.force],
@@ -220,8 +289,12 @@ def summary(solution) -> dict:
     }
 
 
-def _lengths(solution, k):
-    return lumped_lengths(solution.scene.interface.traces[k].x)
+def _lengths(solution, k, pair=0):
+    x = _interface(solution, pair).traces[k].x
+    if getattr(solution, "degree", 1) == 2:             # P2 trace nodes: the P2 lumped lengths
+        from ..solution.solution import _p2_lumped
+        return _p2_lumped(x)
+    return lumped_lengths(x)
 
 
 def write_summary(solution, path):

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..fem.fields import body_fields
+from ..geometry.quadratic import P2Nodes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -20,7 +21,8 @@ if TYPE_CHECKING:
 
     from ..solution.solution import Solution
 
-__all__ = ["plot_deformed", "plot_deformed_all", "plot_contact", "magnification", "si_prefix"]
+__all__ = ["plot_deformed", "plot_deformed_all", "plot_contact", "magnification", "si_prefix", "obstacle_outline",
+           "draw_obstacles"]
 
 _FIELDS = {"potential": ("electric potential", "V"), "von_mises": ("von Mises stress", "Pa")}
 _PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
@@ -57,14 +59,58 @@ def magnification(solution, fraction=0.1) -> float:
 
 
 def _field_values(solution, field):
+    """Per body: the nodal potential or the element von Mises stress. P2: the potential at the vertices
+    (listed first) and the stress at the centroids, drawn on the vertex triangulation."""
+    p2 = getattr(solution, "degree", 1) == 2
     if field == "potential":
-        return list(solution.phi)
-    return [body_fields(b, u, p).von_mises for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
+        return [p if p is None or not p2 else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
+    return [body_fields(b, u, p, P2Nodes(b.mesh) if p2 else None).von_mises
+            for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
 
 
 def _check_field(field, who):
     if not isinstance(field, str) or field not in _FIELDS:
         raise SceneError(f"{who}: field must be one of {sorted(_FIELDS)}, got {field!r}")
+
+
+def obstacle_outline(scene, pair: int, samples: int = 200) -> np.ndarray:
+    """Points (n, 2) of the surface of the rigid obstacle of contact pair ``pair``, m, sampled
+    across the scene's bounding box (extended by a quarter of its size on each side).
+
+    Sampled through the obstacle's own distance function (no mesh): from points on the pair's
+    line, stepping along its tangent, the surface point is reached along the body's outward
+    normal nu^a. A plane comes out as a straight segment across the plot, a circle as the arc
+    that faces the body, a profile as its sampled curve. Empty (0, 2) where the rays miss."""
+    itf = scene.interfaces[pair]
+    obstacle = scene.contacts[pair].other
+    nu, t = np.asarray(itf.normal, dtype=float), np.asarray(itf.tangent, dtype=float)
+    pts = np.vstack([b.mesh.points for b in scene.bodies])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    margin = 0.25 * float(np.max(hi - lo))
+    lo, hi = lo - margin, hi + margin
+    base = itf.points[0]
+    reach = float(np.linalg.norm(hi - lo))
+    s = np.linspace(-reach, reach, samples)
+    line = base + np.outer(s, t)
+    d = obstacle.distance(line, nu)
+    hit = np.isfinite(d)
+    out = line[hit] + d[hit, None] * nu
+    return out[np.all((out >= lo) & (out <= hi), axis=1)]
+
+
+def draw_obstacles(solution: Solution, ax: Axes, magnify: float = 0.0) -> None:
+    """Draw every rigid obstacle of ``solution``'s scene on ``ax``, labelled by pair: a fixed obstacle at
+    its true position, a force-controlled one moved by ``magnify`` times its translation (m, from
+    ``solution.obstacles``; docs/formulation.md §12), as the bodies are drawn with magnified displacements."""
+    moved = {i: np.asarray(o.translation, dtype=float) for o in getattr(solution, "obstacles", []) for i in o.pairs}
+    for i, c in enumerate(solution.scene.contacts):
+        if not c.rigid:
+            continue
+        xy = obstacle_outline(solution.scene, i) + magnify * moved.get(i, np.zeros(2))
+        if len(xy):
+            ax.plot(xy[:, 0], xy[:, 1], "-", color="0.25", lw=2.2, solid_capstyle="butt",
+                    label=f"rigid obstacle of pair {i + 1}: {c.other!r}")
+            ax.plot(xy[:, 0], xy[:, 1], ":", color="white", lw=1.0)
 
 
 def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float | None = None,
@@ -92,7 +138,7 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     factor, shown = si_prefix([np.asarray(clim)], unit)
     mappable = None
     for body, u, v in zip(solution.scene.bodies, solution.u, values):
-        p = body.mesh.points + k * u
+        p = body.mesh.points + k * u[:len(body.mesh.points)]       # P2: vertices first
         tri = body.mesh.triangles
         if v is None:
             ax.tripcolor(p[:, 0], p[:, 1], tri, facecolors=np.zeros(len(tri)), cmap="Greys", vmin=0, vmax=4,
@@ -104,6 +150,7 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
         mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=clim[0] / factor,
                                 vmax=clim[1] / factor, **kw)
         ax.triplot(p[:, 0], p[:, 1], tri, color="k", linewidth=0.15, alpha=0.5)
+    draw_obstacles(solution, ax, k)
     if mappable is not None and colorbar:
         fig.colorbar(mappable, ax=ax, label=f"{name} [{shown}]", shrink=0.85)
     ax.set_aspect("equal")
@@ -143,35 +190,42 @@ def plot_deformed_all(solutions: dict[str, Solution], field: str = "von_mises") 
 
 
 def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
-    """Along Gamma_3, one column per solution (e.g. per condition), one y-scale per row:
+    """Along each contact line, one column per solution (e.g. per condition) and contact pair,
+    one y-scale per row:
 
-    1. the pressure felt by each body on its own trace nodes (``Solution.traction``), MPa or the
-       prefix that fits: the contact pressure to read;
+    1. the pressure felt by each body of the pair on its own trace nodes (``Solution.traction``),
+       MPa or the prefix that fits: the contact pressure to read (one side against a rigid obstacle);
     2. lambda_h on the merged mesh and the nodal pressure: diagnostics (lambda_h may oscillate);
     3. the normal jump [u_nu] (µm or the prefix that fits), with the active nodes marked and
        penetration at unconstrained nodes (possible with sigma_l) flagged by red crosses.
 
-    ``solutions`` is a Solution or a dict label -> Solution. The legend sits below the axes.
+    ``solutions`` is a Solution or a dict label -> Solution. The abscissa is the tangential
+    coordinate s along each pair (s = x1 for a line parallel to x1). The legend sits below the axes.
     Returns the Figure.
     """
     plt = _pyplot()
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
-    n = len(solutions)
-    sols = list(solutions.values())
-    felt = [[s.traction(k) for k in range(2)] for s in sols]
-    pf, pu = si_prefix([p for f in felt for _, p in f] + [s.contact.lam for s in sols], "Pa")
-    jf, ju = si_prefix([s.contact.jump for s in sols], "m")
-    fig, axes = plt.subplots(3, n, figsize=(4.2 * n, 8), sharex=True, sharey="row", squeeze=False,
+    cols = [(label, sol, i) for label, sol in solutions.items() for i in range(len(sol.contacts))]
+    n = len(cols)
+    felt = [[(b, *sol.traction(k, i)) for k, b in enumerate(_pair_bodies(sol, i))] for _, sol, i in cols]
+    pf, pu = si_prefix([p for f in felt for _, _, p in f] + [sol.contacts[i].lam for _, sol, i in cols], "Pa")
+    jf, ju = si_prefix([sol.contacts[i].jump for _, sol, i in cols], "m")
+    fig, axes = plt.subplots(3, n, figsize=(max(4.2 * n, 8.0), 8), sharex="col", sharey="row", squeeze=False,
                              layout="constrained")
-    for col, (label, sol) in enumerate(solutions.items()):
-        c = sol.contact
+    for col, (label, sol, i) in enumerate(cols):
+        c = sol.contacts[i]
         top, mid, bottom = axes[:, col]
-        for k, (x, p) in enumerate(felt[col]):
-            top.plot(x, p / pf, "o-" if k == 0 else "s--", ms=3, lw=1, color=f"C{k}",
-                     label=f"pressure on body {k + 1} (its own trace nodes)")
+        for k, (b, x, p) in enumerate(felt[col]):
+            top.plot(x, p / pf, ("o-", "s--", "^-.", "v:")[b % 4], ms=3, lw=1, color=f"C{b % 10}",
+                     label=f"pressure on body {b + 1} (its own trace nodes)")
         top.axhline(0, color="0.6", lw=0.6)
-        top.set_title(f"{label}: {int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
+        names = " on ".join(sol.scene.bodies[b].name for b, _, _ in felt[col])
+        if sol.scene.contacts[i].rigid:
+            names += f" on {sol.scene.contacts[i].other.kind}"
+        pair = f"pair {i + 1} ({names})" if len(sol.contacts) > 1 or sol.scene.contacts[i].rigid else ""
+        top.set_title(f"{label}{': ' + pair if pair else ''}\n{int(c.active.sum())} of "
+                      f"{int(c.constrained.sum())} nodes active", fontsize=9)
         mid.plot(c.x, c.lam / pf, "-", lw=1, color="C4", label=r"$\lambda_h$ on the merged mesh (diagnostic)")
         mid.plot(c.x[c.constrained], c.pressure[c.constrained] / pf, "d", ms=3, mfc="none", color="C5",
                  label="nodal force / lumped length (constrained nodes)")
@@ -184,7 +238,8 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
         if pen.any():
             bottom.set_title(f"{int(pen.sum())} unconstrained node(s) penetrate", color="red", fontsize=9)
         bottom.axhline(0, color="0.6", lw=0.6)
-        bottom.set_xlabel("x1 along the contact line [m]")
+        bottom.set_xlabel("x1 along the contact line [m]" if c.normal is None or abs(abs(c.normal[1]) - 1) < 1e-12
+                          else "s along the contact line [m]")
     for row, text in enumerate((f"pressure felt by each body [{pu}]", rf"$\lambda_h$ (diagnostic) [{pu}]",
                                 rf"normal jump $[u_\nu]$ [{ju}]")):
         for ax in axes[row]:
@@ -195,5 +250,10 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
             handles.setdefault(lab, h)
     fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=min(3, len(handles)),
                fontsize=8, frameon=False)
-    fig.suptitle("Contact along the contact line (one scale per row)")
+    fig.suptitle("Contact along each contact line (one scale per row)")
     return fig
+
+
+def _pair_bodies(solution, pair):
+    a, b = solution.scene.stack.members[pair]
+    return [a] if b is None else [a, b]

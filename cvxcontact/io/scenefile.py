@@ -5,6 +5,7 @@ restricted evaluator of :mod:`cvxcontact.io.expr`; nothing is executed. Every er
 names the file, the key and what was expected. Format (all SI units)::
 
     condition = "gamma3"                      # or "sigma1", "sigma2" (optional)
+    degree = 1                                # 1: P1 elements, 2: P2 (6-node) elements (optional)
     law = "signorini"                         # default; or normal compliance (7), docs/formulation.md §10:
                                               # { normal_compliance = { stiffness = 1e12, exponent = 1,
                                               #                         penetration_limit = 1e-5 } }  (Pa/m^m, -, m)
@@ -63,6 +64,8 @@ needs exactly two bodies touching along their ``contact`` parts)::
     part_b = "top"                            # omitted for an obstacle
     condition = "sigma1"                      # optional (default: the file's condition)
     gap = 0.0                                 # m, number or expression (x stands for s)
+    law = { normal_compliance = { stiffness = 1e13 } }   # optional: this pair's law (as the top-level
+                                              # law); default: the file's law
 
 With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
 the top-level ``gap`` is refused (each pair has its own).
@@ -91,7 +94,7 @@ __all__ = ["SceneFile", "SceneFileError", "load_scene", "scene_from_data", "read
 
 MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO3": mats.BaTiO3}
 
-_TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle"}
+_TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle", "degree"}
 _CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
 _OBSTACLE = {"name", "plane", "circle", "profile", "force"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
@@ -117,22 +120,24 @@ class SceneFile:
     method: str = "auto"
     options: dict = field(default_factory=dict)
     law: object = None
+    degree: int = 1
 
     @property
     def settings(self) -> dict:
         """Keyword arguments of :func:`cvxcontact.solve` given by the file (condition excluded)."""
         return dict(solver=self.solver, tol=self.tol, polish=self.polish, method=self.method,
-                    solver_options=dict(self.options), law=self.law)
+                    solver_options=dict(self.options), law=self.law, degree=self.degree)
 
     def solve(self, condition: str | None = None, *, solver: str | None = None, method: str | None = None,
               tol: float | None = None, polish: bool | None = None, verbose: bool = False,
-              solver_options: dict | None = None):
+              solver_options: dict | None = None, degree: int | None = None):
         """Solve with the file's settings; the arguments that are not None override them
         (``solver_options`` replaces the file's options). Parameters as in :func:`cvxcontact.solve`."""
         from ..solve import solve
 
         kw = self.settings
-        given = dict(solver=solver, method=method, tol=tol, polish=polish, solver_options=solver_options)
+        given = dict(solver=solver, method=method, tol=tol, polish=polish, solver_options=solver_options,
+                     degree=degree)
         kw.update({k: v for k, v in given.items() if v is not None})
         return solve(self.scene, condition or self.condition, verbose=verbose, **kw)
 
@@ -168,6 +173,9 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     condition = data.get("condition", "gamma3")
     if condition not in CONDITIONS:
         ctx.fail("condition", f"one of {list(CONDITIONS)}", condition)
+    degree = data.get("degree", 1)
+    if isinstance(degree, bool) or degree not in (1, 2):
+        ctx.fail("degree", "1 (P1) or 2 (P2)", degree)
     solver = ctx.table(data.get("solver", {}), "solver")
     ctx.keys(solver, _SOLVER, "solver")
     name = solver.get("name", "CLARABEL")
@@ -194,7 +202,7 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     bodies = data.get("body")
     if "contact" in data or "obstacle" in data:
         return SceneFile(path, _pairs_scene(ctx, data, bodies), condition, name, float(tol), polish, method,
-                         options)
+                         options, degree=int(degree))
     if not isinstance(bodies, list) or len(bodies) != 2:
         ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
     built = [ctx.body(b, k) for k, b in enumerate(bodies)]
@@ -204,7 +212,7 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
     return SceneFile(path, scene, condition, name, float(tol), polish, method, options,
-                     law=_law(data.get("law", "signorini"), path))
+                     law=_law(data.get("law", "signorini"), path), degree=int(degree))
 
 
 def _law(value, path):
@@ -282,7 +290,7 @@ def _pairs_scene(ctx, data, bodies):
         try:
             pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
                                  gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap,
-                                 law=c.get("law")))
+                                 law=_law(c["law"], f"{ctx.path}: {where}") if "law" in c else None))
         except CvxContactError as exc:
             raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
     try:

@@ -27,6 +27,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
 from ..contact.interface import CONDITIONS, canonical_tangent
+from ..contact.laws import ContactLaw, check_law
 from ..errors import SceneError, UnsupportedError
 
 __all__ = ["Contact", "Rigid", "ObstacleRows", "obstacle_rows"]
@@ -228,12 +229,15 @@ class Contact:
     gap : float or callable g(s), m
         Initial normal gap g along the pair, s the tangential coordinate (m); added to the distance
         to a rigid obstacle.
-    law : None
-        Reserved for a contact law other than non-penetration (normal compliance); must be None.
+    law : Signorini, NormalCompliance or None
+        This pair's normal law (:mod:`cvxcontact.contact.laws`): ``cc.Signorini()`` (non-penetration)
+        or ``cc.NormalCompliance(stiffness=k, exponent=m)`` (the paper's (7), docs/formulation.md §10);
+        None (default): the law given to ``solve``/``Model`` (itself Signorini by default). A scene may
+        mix the two, against bodies and rigid obstacles alike.
     """
 
     def __init__(self, body_a, part_a: str, other, part_b: str | None = None, *, condition: str | None = None,
-                 gap: float | Callable[[np.ndarray], ArrayLike] = 0.0, law: object | None = None) -> None:
+                 gap: float | Callable[[np.ndarray], ArrayLike] = 0.0, law: ContactLaw | None = None) -> None:
         from .scene import Body, Load
 
         if not isinstance(body_a, Body):
@@ -244,8 +248,7 @@ class Contact:
             raise SceneError(f"Contact: {body_a.name} is paired with itself; a contact pair needs two bodies "
                              "(self-contact is not modelled)")
         if law is not None:
-            raise UnsupportedError(f"Contact(law={law!r}): only non-penetration (law=None) is implemented in "
-                                   "this version")
+            law = check_law(law)
         if condition is not None and condition not in CONDITIONS:
             raise SceneError(f"Contact: condition must be one of {CONDITIONS} or None, got {condition!r}")
         self.body_a, self.other, self.condition, self.law = body_a, other, condition, law

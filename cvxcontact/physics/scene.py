@@ -633,11 +633,18 @@ class Scene:
                 raise SceneError(f"{b.name} takes part in no contact pair; remove it or add a Contact for it")
         return tuple(contacts)
 
-    def pair_gap_values(self, i: int) -> np.ndarray:
+    def pair_gap_values(self, i: int, s: np.ndarray | None = None) -> np.ndarray:
         """The gap g (m) at the merged nodes of pair ``i``: the pair's gap plus, for a rigid
-        obstacle, the distance to it along the body's normal."""
+        obstacle, the distance to it along the body's normal. ``s``: other points of a two-body pair's
+        line instead, given by their tangential coordinate (m; e.g. the P2 nodes of the merged mesh)."""
         itf = self.interfaces[i]
         load = self.gap if self._legacy else self.contacts[i].gap
+        if s is not None:
+            if itf.rigid:
+                raise SceneError("pair_gap_values(i, s): points other than the merged nodes are for a pair of "
+                                 "two bodies, not against a rigid obstacle")
+            s = np.asarray(s, dtype=float)
+            return np.array(load(s, np.full_like(s, itf.y)), dtype=float)
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g
 
@@ -646,10 +653,11 @@ class Scene:
         return np.concatenate([self.pair_gap_values(i) for i in range(len(self.interfaces))])
 
     def structure(self) -> tuple:
-        """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition
-        and merged-node count (the gaps and obstacle positions are loads)."""
+        """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition,
+        merged-node count, own law and whether its obstacle is force controlled (the gaps, obstacle
+        positions and prescribed forces are loads)."""
         return tuple((m, c.part_a, c.part_b, c.condition, itf.size, c.other.kind if c.rigid else None,
-                      c.rigid and c.other.force is not None)
+                      getattr(c, "law", None), c.rigid and c.other.force is not None)
                      for m, c, itf in zip(self.stack.members, self.contacts, self.interfaces))
 
     def __repr__(self):

@@ -16,7 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["checks", "rigid_balance", "compliance_checks", "force_displacements", "ipm_active", "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active", "obstacle_balance"]
+from ..contact.quadratic import bernstein_max
+
+__all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+           "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
+           "obstacle_balance"]
 
 
 def node_scales(parts, g, extra=None):
@@ -70,7 +74,7 @@ def checks(blocks, u, phi, Mlam, E, g, y):
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),
         # the error this allows grows like the square root of the product (docs/checks.md): report that
-        "complementarity": float(np.sqrt((np.abs(y * slack) / (Y * U)).max(initial=0.0))),
+        "complementarity": float(np.sqrt((np.abs(y * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0))),
         "cone": float(np.maximum(-y, 0.0).max(initial=0.0) / Y),
     }
 
@@ -126,27 +130,81 @@ def rows_active(slack, S, z, norms, Z):
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
 
 
+def conic_checks(blocks, u, phi, r, B, g, beta):
+    """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
+
+    ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (3 S, n) the Bernstein map,
+    ``g`` the gap at the nodes of X_h and ``beta`` (S, 3) the Bernstein duals. Per merged segment s,
+    with b_s the Bernstein coefficients of q = [u_h nu] - g_h, U_s the largest displacement scale of its
+    three nodes (both bodies' normal displacements and the gap) and Y the largest entry of beta:
+
+        equilibrium      as in :func:`checks`, with M lambda_h = r                           (26)
+        feasibility      max_s max_{t in [0,1]} q_s(t)^+ / U_s   (exact: :func:`bernstein_max`)
+        complementarity  max_s sqrt(|beta_s . b_s| / (Y U_s))                                (27)
+        cone             max_s of the distance of beta_s to the dual cone beta0, beta2 >= 0,
+                         beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2), over Y
+    """
+    tiny = np.finfo(float).tiny
+    equilibrium = 0.0
+    for blk, uk, pk in zip(blocks, u, phi):
+        res = np.concatenate(blk.residual(uk, pk, r))
+        m = np.concatenate(blk.magnitude(uk, pk, r))
+        equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
+    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
+    b = (B @ (sum(parts) - g)).reshape(-1, 3)
+    Us = _segment_scales(B, U)
+    Y = max(float(np.abs(beta).max(initial=0.0)), tiny)
+    b0, b1, b2 = beta[:, 0], beta[:, 1], beta[:, 2]
+    cone = np.maximum.reduce([np.maximum(-b0, 0), np.maximum(-b2, 0), np.maximum(-b1, 0),
+                              np.maximum(b1 - 2 * np.sqrt(np.maximum(b0, 0) * np.maximum(b2, 0)), 0)])
+    return {
+        "equilibrium": equilibrium,
+        "feasibility": float((np.maximum(bernstein_max(b), 0.0) / Us).max(initial=0.0)),
+        "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
+        "cone": float(cone.max(initial=0.0) / Y),
+    }
+
+
+def _segment_scales(B, U):
+    """Per segment, the largest node scale U_a among the nodes of its Bernstein rows."""
+    rows = B.tocsr()
+    out = np.zeros(rows.shape[0] // 3)
+    for j in range(3):
+        R = abs(rows[j::3]).tocsr()
+        R.data[:] = 1.0
+        out = np.maximum(out, np.asarray((R.multiply(U[None, :])).max(axis=1).todense()).ravel())
+    return out
+
+
 def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     """Checks of a normal-compliance solution (docs/formulation.md §10, docs/checks.md), scaled units.
 
-    With r = E [u_nu] - g at the constrained rows, w their lumped lengths, p the scaled ``law``, z >= 0
-    the penetration-limit reaction (zero without a limit) and ``force`` the row forces the backend
-    applied, the read-back is lambda = p(r) + z / w (nodal values) and the checks are
+    ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row or a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` (pairs mixing Signorini and compliance; a Signorini row is
+    k = 0 with the limit l = 0). With r = E [u_nu] - g at the constrained rows, w their lumped lengths,
+    p the scaled law, z >= 0 the limit reaction (the Signorini multiplier on a Signorini row; zero
+    without a limit) and ``force`` the row forces the backend applied, the read-back is
+    lambda = p(r) + z / w (nodal values) and the checks are
 
         equilibrium      the residual of (26) with the contact force E^T (w lambda), as in :func:`checks`
-        law              max_a |force_a - z_a - w_a p(r_a)| / Y      (the law (7) at the returned u;
-                         Y the largest row force)
-        feasibility, complementarity, cone    of the limit r <= l with multiplier z, as in :func:`checks`
-                         (only with a penetration limit)
+        law              max over the compliant rows a of |force_a - z_a - w_a p(r_a)| / Y      (the law
+                         (7) at the returned u; Y the largest row force)
+        feasibility, complementarity, cone    of r <= l with multiplier z over the rows with a limit
+                         (Signorini rows and compliance limits), as in :func:`checks` (only if some row
+                         has one)
 
-    Returns (checks dict, lambda at the rows (scaled pressure)).
+    All rows of all pairs are checked together, each normalised by its own scale. Returns (checks dict,
+    lambda at the rows (scaled pressure)).
     """
     tiny = np.finfo(float).tiny
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     r = sum(parts) - g
+    n = len(r)
     w = np.asarray(weights, dtype=float)
-    z = np.zeros(len(r)) if z is None else np.asarray(z, dtype=float)
-    lam = law.pressure(r) + z / w
+    z = np.zeros(n) if z is None else np.asarray(z, dtype=float)
+    lam = law.pressure(r) + np.divide(z, w, out=np.zeros(n), where=w > 0)
     c = E.T @ (w * lam)
     equilibrium = 0.0
     for b, uk, pk in zip(blocks, u, phi):
@@ -155,13 +213,18 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
     force = np.asarray(force, dtype=float)
     Y = max(float(np.abs(force).max(initial=0.0)), float((w * lam).max(initial=0.0)), tiny)
+    compliant = np.broadcast_to(np.asarray(law.stiffness, dtype=float) > 0, (n,))
     out = {"equilibrium": equilibrium,
-           "law": float((np.abs(force - z - w * law.pressure(r)) / Y).max(initial=0.0))}
-    if law.penetration_limit is not None:
-        slack, U = node_scales(parts, g + law.penetration_limit)
+           "law": float((np.abs(force - z - w * law.pressure(r)) / Y)[compliant].max(initial=0.0))}
+    limit = law.penetration_limit
+    limit = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,))
+    on = np.isfinite(limit)
+    if on.any():
+        extra = force_displacements(blocks, E, force)[on] if not compliant[on].all() else None
+        slack, U = node_scales([p[on] for p in parts], g[on] + limit[on], extra)
         out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
-        out["complementarity"] = float(np.sqrt((np.abs(z * slack) / (Y * U)).max(initial=0.0)))
-        out["cone"] = float(np.maximum(-z, 0.0).max(initial=0.0) / Y)
+        out["complementarity"] = float(np.sqrt((np.abs(z[on] * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
+        out["cone"] = float(np.maximum(-z[on], 0.0).max(initial=0.0) / Y)
     return out, lam
 
 
@@ -179,7 +242,6 @@ def rigid_balance(block, modes, u, phi, Mlam):
     r_u = block.residual(u, phi, Mlam)[0]
     size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f)
     return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
-
 
 
 def obstacle_balance(force, rows, nodal_forces) -> float:

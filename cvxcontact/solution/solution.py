@@ -15,11 +15,12 @@ from dataclasses import dataclass, field, replace
 import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, compliance_checks, obstacle_balance, rigid_balance
+from .checks import checks, compliance_checks, conic_checks, obstacle_balance, rigid_balance
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back", "read_back_compliance",
@@ -51,6 +52,12 @@ class ContactResult:
     gap: np.ndarray | None = None
     points: np.ndarray | None = None
     normal: np.ndarray | None = None
+    degree: int = 1
+    """1: P1 (X_h continuous piecewise linear); 2: P2 (``x`` interleaves merged vertices and segment
+    midpoints, X_h continuous piecewise quadratic)."""
+    law: object = None
+    """The pair's normal law (:mod:`cvxcontact.contact.laws`) when a compliance law was solved in the
+    scene; None means Signorini."""
 
     @property
     def pressure(self) -> np.ndarray:
@@ -61,7 +68,13 @@ class ContactResult:
         mesh made of those nodes (for sigma_l: mesh l's own trace), never by the merged
         mesh's shorter lengths. 0 at the nodes without a constraint (they carry no force).
         For the pressure felt by a body use :meth:`Solution.traction`.
+
+        P2 (``degree == 2``): the forces r = M lambda_h live on every node of X_h, and each is divided
+        by the row sum of the P2 mass matrix of X_h (h/6 per adjacent segment at a vertex, 2h/3 at a
+        midpoint).
         """
+        if self.degree == 2:
+            return self.force / _p2_lumped(self.x)
         out = np.zeros(len(self.x))
         on = np.asarray(self.constrained, dtype=bool)
         if on.sum() >= 2:
@@ -96,8 +109,10 @@ class Electrode:
     charge: float
 
 
-def electrodes(scene, systems, u_si, phi_si) -> list[Electrode]:
-    """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`)."""
+def electrodes(scene, systems, u_si, phi_si, nodes=None) -> list[Electrode]:
+    """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`).
+    ``nodes``: the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body of a P2 solution (an
+    electrode's nodes are then its vertices and edge midpoints)."""
     out = []
     for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
         if phi is None:
@@ -107,10 +122,10 @@ def electrodes(scene, systems, u_si, phi_si) -> list[Electrode]:
         parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
                  + [(t, "floating") for t in getattr(b, "floating", {})])
         for tag, kind in parts:
-            nodes = b.mesh.boundary_nodes([tag])
-            mine = nodes[~taken[nodes]]
-            taken[nodes] = True
-            out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[nodes].mean()),
+            on = (b.mesh if nodes is None else nodes[k]).boundary_nodes([tag])
+            mine = on[~taken[on]]
+            taken[on] = True
+            out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[on].mean()),
                                  charge=float(r[mine].sum())))
     return out
 
@@ -143,10 +158,20 @@ class Solution:
     energy: float = float("nan")
     _checks: dict = field(default_factory=dict, repr=False)
     law: object = None
-    """The normal contact law solved (:mod:`cvxcontact.contact.laws`); None means Signorini."""
+    """The normal contact law given to ``solve`` (:mod:`cvxcontact.contact.laws`; the law of the pairs
+    without their own) when some pair follows normal compliance; None means Signorini everywhere. Each
+    pair's own law: ``contacts[i].law``."""
     contacts: list = field(default_factory=list)
     """One :class:`ContactResult` per contact pair, in the order of ``scene.contacts``; ``contact`` is
     the first."""
+    points: list = field(default_factory=list)
+    """``points[k]``: coordinates (m) of body k's nodes in the order of ``u[k]`` and ``phi[k]`` (P1: the
+    mesh points; P2: vertices first, then edge midpoints)."""
+    degree: int = 1
+    """1: P1 elements; 2: P2 (6-node) elements (docs/formulation.md §8)."""
+    interface: object = field(default=None, repr=False)
+    """P2: the :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's pair (the merged
+    P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
     obstacles: list = field(default_factory=list)
@@ -199,12 +224,13 @@ class Solution:
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
                              f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
-        itf = self.scene.interfaces[pair]
+        itf = self.scene.interfaces[pair] if self.degree == 1 else self.interface
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
         x = itf.traces[k].x
-        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / lumped_lengths(x)
+        lengths = lumped_lengths(x) if self.degree == 1 else _p2_lumped(x)   # P2: vertices and midpoints
+        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / lengths
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
@@ -258,16 +284,33 @@ def obstacle_results(sol, translations) -> None:
         sol._checks["obstacle balance"] = worst
 
 
-def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings):
-    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27)."""
-    itf = scene.stack
+def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
+              interface=None, beta=None, nodes=None):
+    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
+
+    P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
+    pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
+    ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``nodes`` the
+    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body.
+    """
+    p2 = interface is not None
+    itf = scene.stack if not p2 else interface
     g = E @ gap
     Ety = E.T @ y
-    lam = _solve_mass(itf.mass, Ety)                        # scaled; M lam = E^T y
+    if p2:
+        lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
+    else:
+        lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
-    checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+    if beta is not None:
+        checks_ = conic_checks(blocks, u, phi, Ety, itf.bernstein(), gap, beta)
+        S = itf.segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
+        active = np.zeros(itf.size, dtype=bool)
+        active[S.ravel()] = True              # the nodes of segments that carry a force
+    else:
+        checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
     for b, s, blk, uk, pk in zip(scene.bodies, systems, blocks, u, phi):      # bodies held by the contact only
-        modes = b.held_modes()
+        modes = b.held_modes() if not p2 else ()                              # (refused with P2)
         if len(modes):
             balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
@@ -281,16 +324,27 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
             continue
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
-    constrained[E.indices] = True
     on = np.zeros(itf.size, dtype=bool)
-    on[E.indices[active]] = True
+    if p2:      # P2: the merged nodes in the support of the constrained rows
+        support = np.flatnonzero(np.asarray(abs(E).sum(axis=0)).ravel() > 0)
+        constrained[support] = True
+        if beta is not None:
+            on = active
+        else:
+            on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(active)]).sum(axis=0)).ravel() > 0)] = True
+    else:
+        constrained[E.indices] = True
+        on[E.indices[active]] = True
     contacts = []
-    for i, pair in enumerate(scene.interfaces):                  # each pair's slice of the stacked rows
-        part = slice(itf.offsets[i], itf.offsets[i + 1])
+    pairs = [itf] if p2 else scene.interfaces
+    offsets = [0, itf.size] if p2 else itf.offsets
+    for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
+        part = slice(offsets[i], offsets[i + 1])
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
-            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float)))
+            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
+            degree=2 if p2 else 1))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
@@ -298,39 +352,67 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
+    pts = [b.mesh.points for b in scene.bodies] if nodes is None else [n.points for n in nodes]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts,
-                    electrodes=electrodes(scene, systems, u_si, phi_si))
+                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
+                    degree=2 if p2 else 1, interface=interface,
+                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
-                         problem, tol, timings):
+                         problem, tol, timings, given=None):
     """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
 
-    ``force`` are the row forces the backend applied (scaled), ``z`` the penetration-limit reactions
-    (None without a limit), ``weights`` the lumped lengths of the constrained nodes (scaled). The
-    read-back is lambda = p(r) + z / w at the constrained nodes (r = [u_nu] - g from the returned u),
-    interpolated on the merged mesh for sigma1/sigma2 (P1 on mesh l's trace); ``contact.force`` is
-    E^T (w lambda), the force the checks put into (26). ``energy`` includes sum_a w_a Phi(r_a).
+    ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` of the pairs (Signorini and compliance pairs mixed).
+    ``force`` are the row forces the backend applied (scaled), ``z`` the limit reactions (the
+    multipliers of r <= l; on Signorini rows l = 0; None if no row has a limit), ``weights`` the lumped
+    lengths of the constrained nodes (scaled). Per pair: on a compliance pair lambda = p(r) + z / w at its
+    constrained nodes (r = [u_nu] - g from the returned u), extended to its merged mesh as the P1 function
+    of those nodes (:meth:`~cvxcontact.contact.interface.Interface.extend`), and ``force`` = E^T (w
+    lambda), the force the checks put into (26); on a Signorini pair lambda_h is the multiplier
+    M lambda_h = E^T z of :func:`read_back`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
+    ``given`` (the law given to ``solve``), or ``law`` itself when it is one law. ``energy`` includes
+    sum_a w_a Phi_a(r_a).
     """
-    scaled = law.scaled(un.stress * un.load, un.displacement)
-    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, np.asarray(force, dtype=float),
-                    np.asarray(force) > 0, polished, problem, tol, timings)
+    from ..contact.laws import RowLaws
+
+    rows = law if isinstance(law, RowLaws) else RowLaws.uniform(law, E.shape[0])
+    scaled = rows.scaled(un.stress * un.load, un.displacement)
+    force = np.asarray(force, dtype=float)
+    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, force, force > 0, polished, problem,
+                    tol, timings)
     g = E @ gap
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
-    itf = scene.interface
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-    lam_merged = E.T @ lam if condition == "gamma3" else itf.interpolation(int(condition[-1]) - 1) @ lam
     unit = un.stress * un.load
-    contact = replace(sol.contact, lam=lam_merged * unit, force=(E.T @ (weights * lam)) * un.force)
-    for a in (contact.lam, contact.force):
-        a.setflags(write=False)
-    sol.contact, sol._checks, sol.law = contact, checks_, law
-    sol.contacts = [contact, *sol.contacts[1:]]
+    nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
+    offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
+    contacts = []
+    for i, (itf, c, pair_law) in enumerate(zip(scene.interfaces, sol.contacts, rows.laws)):
+        if pair_law.compliant:
+            cond = condition if scene.conditions[i] is None else scene.conditions[i]
+            merged = slice(scene.stack.offsets[i], scene.stack.offsets[i + 1])
+            c = replace(c, lam=itf.extend(cond, lam[offsets[i]:offsets[i + 1]]) * unit, force=nodal[merged] * un.force)
+            for a in (c.lam, c.force):
+                a.setflags(write=False)
+        contacts.append(replace(c, law=pair_law))
+    sol.contacts, sol.contact, sol._checks = contacts, contacts[0], checks_
+    sol.law = law if given is None else given
     if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
     return sol
+
+
+def _p2_lumped(x):
+    """Row sums of the P2 mass matrix of the 1D mesh with interleaved nodes x (vertex, midpoint, ...), m."""
+    h = x[2::2] - x[:-1:2]
+    w = np.zeros_like(x, dtype=float)
+    w[:-1:2] += h / 6
+    w[2::2] += h / 6
+    w[1::2] = 2 * h / 3
+    return w
 
 
 def _solve_mass(M, rhs):

@@ -168,6 +168,7 @@ def _run_locked(sweep, out, workers, scheduler, retry_failed, say, allow_outside
                 f"{sum(s == 'failed' for s in states.values())} failed, ETA {rate * (len(todo) - finished):.0f} s")
     finally:
         results.close()                                # workers stopped before the folder is read
+        clean_temporaries(out)                         # half-written files of workers stopped mid-write
         for c in sweep.cases:                          # the manifest says what the folder holds
             if states[c.id] == "pending":
                 state, _ = case_state(out, c.id)

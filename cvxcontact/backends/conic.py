@@ -1,0 +1,77 @@
+"""The conic ("everywhere") contact condition of P2 elements, for the full and the condensed model.
+
+docs/formulation.md §8. On merged segment s, with b_s = (b0, b1, b2) the Bernstein coefficients of
+q = [u_h nu] - g_h (``B`` (3 S, n) maps nodal values of X_h to them) and p = -b:
+
+    q <= 0 on the segment   <=>   exists w_s:  ||(2 w_s, p0 - p2)|| <= p0 + p2,   p1 + w_s >= 0.
+
+Read-back: with z_s = (z0, z1, z2) the dual of the cone and mu_s >= 0 that of the linear row,
+stationarity in w_s gives mu_s = -2 z1 and the contact force on the nodes of X_h is
+
+    r = B^T beta,   beta_s = (z0 + z2, mu_s, z0 - z2)   (so M lambda_h = r),
+
+beta_s lying in the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1^2 <= 4 beta0 beta2; the
+complementarity of the segment is beta_s . b_s = 0. The accepts rule: these models take the P2
+"gamma3" condition of the package's own problem (quadratic energy, no user terms).
+"""
+
+from __future__ import annotations
+
+import cvxpy as cp
+import numpy as np
+
+__all__ = ["bernstein_constraints", "bernstein_duals", "ConicContactModel", "ConicInterfaceModel"]
+
+
+def bernstein_constraints(jump, B, g):
+    """(cone, row, w): the constraints of the module docstring for the CVXPY expression ``jump`` (the
+    nodal values of [u_nu] in X_h, scaled), ``B`` (3 S, n) and the gap ``g`` at the nodes (scaled)."""
+    S = B.shape[0] // 3
+    b = B @ jump - B @ g
+    p0, p1, p2 = -b[0::3], -b[1::3], -b[2::3]
+    w = cp.Variable(S, name="w")
+    cone = cp.SOC(p0 + p2, cp.vstack([2 * w, p0 - p2]), axis=0)
+    row = p1 + w >= 0
+    return cone, row, w
+
+
+def bernstein_duals(cone, row) -> np.ndarray:
+    """beta (S, 3) from the duals of :func:`bernstein_constraints` (module docstring)."""
+    z0 = np.asarray(cone.dual_value[0], dtype=float).ravel()
+    Z = np.asarray(cone.dual_value[1], dtype=float).reshape(2, -1)
+    mu = np.asarray(row.dual_value, dtype=float).ravel()
+    return np.column_stack([z0 + Z[1], mu, z0 - Z[1]])
+
+
+class ConicContactModel:
+    """The full phi-form model (:class:`cvxcontact.backends.full.ContactModel`) with the conic condition.
+
+    Attributes: ``problem``, ``u``, ``phi``, ``cone``, ``row``.
+    """
+
+    def __init__(self, blocks, B, g):
+        self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
+        self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
+                    for k, b in enumerate(blocks)]
+        energy, cons = 0, []
+        for b, u, phi in zip(blocks, self.u, self.phi):
+            energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
+            if phi is not None:
+                energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
+                cons.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
+        jump = sum(b.jump @ u for b, u in zip(blocks, self.u))
+        self.cone, self.row, _ = bernstein_constraints(jump, B, g)
+        self.problem = cp.Problem(cp.Minimize(energy), cons + [self.cone, self.row])
+
+
+class ConicInterfaceModel:
+    """The condensed interface problem (:class:`cvxcontact.backends.condensed.InterfaceModel`) with the
+    conic condition: a small SOCP in the Gamma dofs v_l. Attributes: ``problem``, ``v``, ``cone``, ``row``."""
+
+    def __init__(self, bodies, loads, B, g):
+        self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - f @ v
+                     for b, v, f in zip(bodies, self.v, loads))
+        jump = sum(b.jump @ v for b, v in zip(bodies, self.v))
+        self.cone, self.row, _ = bernstein_constraints(jump, B, g)
+        self.problem = cp.Problem(cp.Minimize(energy), [self.cone, self.row])

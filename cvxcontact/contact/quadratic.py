@@ -1,0 +1,181 @@
+"""The contact line Gamma_3 with P2 traces: merged mesh, X_h of continuous quadratics, Bernstein form.
+
+docs/formulation.md §8. Each body's trace on Gamma_3 is piecewise quadratic on its own edges
+(vertices and edge midpoints, :class:`cvxcontact.geometry.quadratic.P2Nodes`). The merged mesh is
+the union of both traces' vertices; on each merged segment both traces are quadratic, so the jump
+[u_h nu] lies in X_h = continuous piecewise quadratics on the merged mesh. The nodes of X_h are
+numbered along the line: ``x[2 i]`` is merged vertex i, ``x[2 i + 1]`` the midpoint of segment i.
+
+    [u_nu] = sum_l J_l U_l        at the P2 nodes of the merged mesh (exact: an evaluation)
+    M                             P2 mass matrix of X_h (m)
+    E                             evaluation at the P2 nodes of mesh l's trace (K_h(Sigma_h^l))
+    B                             Bernstein coefficients (b0, b1, b2) of each merged segment:
+                                  b0 = q(0), b2 = q(1), b1 = 2 q(1/2) - (q(0) + q(1)) / 2
+
+With the P2 interpolant g_h of the gap, q = [u_nu] - g_h <= 0 on a whole segment iff its Bernstein
+coefficients satisfy the second-order-cone condition of docs/formulation.md §8 ("gamma3").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import SceneError, UnsupportedError
+from ..geometry.quadratic import P2Nodes
+from .interface import CONDITIONS, Interface, _frozen
+
+__all__ = ["QuadraticInterface", "quadratic_interface", "p2_interpolation", "bernstein_max"]
+
+_BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
+
+
+def p2_interpolation(xv, pts) -> sp.csr_matrix:
+    """(len(pts), 2 len(xv) - 1): evaluates at ``pts`` the continuous P2 function on the 1D mesh with
+    sorted vertices ``xv`` and interleaved nodes (vertex, midpoint, vertex, ...)."""
+    seg = np.clip(np.searchsorted(xv, pts, side="right") - 1, 0, len(xv) - 2)
+    t = np.clip((pts - xv[seg]) / (xv[seg + 1] - xv[seg]), 0.0, 1.0)
+    vals = np.column_stack([(1 - t) * (1 - 2 * t), 4 * t * (1 - t), t * (2 * t - 1)])
+    cols = 2 * seg[:, None] + np.arange(3)
+    rows = np.repeat(np.arange(len(pts)), 3)
+    M = sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(len(pts), 2 * len(xv) - 1))
+    M.eliminate_zeros()
+    return M
+
+
+def bernstein_max(b) -> np.ndarray:
+    """Exact maximum over t in [0, 1] of q(t) = b0 (1-t)^2 + 2 b1 t (1-t) + b2 t^2, per row of ``b`` (k, 3):
+    the larger endpoint value, or the vertex value (b0 b2 - b1^2) / (b0 - 2 b1 + b2) of a concave q whose
+    vertex t* = (b0 - b1) / (b0 - 2 b1 + b2) lies inside (0, 1)."""
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    out = np.maximum(b0, b2)
+    a = b0 - 2 * b1 + b2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ts = (b0 - b1) / a
+        inner = (a < 0) & (ts > 0) & (ts < 1)
+        vertex = np.where(inner, (b0 * b2 - b1 ** 2) / a, -np.inf)
+    return np.maximum(out, vertex)
+
+
+class _Trace2:
+    """The P2 trace of one body: vertex abscissae s (sorted along the pair's tangent), interleaved P2 node
+    indices (vertex, midpoint, vertex, ...), their abscissae ``x`` and the unit outward normal."""
+
+    def __init__(self, trace, nodes: P2Nodes):
+        v = trace.nodes
+        mids = nodes.midpoint(v[:-1], v[1:])
+        self.k, self.normal, self.unit_normal, self.y = trace.k, trace.normal, trace.unit_normal, trace.y
+        self.xv = trace.x
+        order = np.empty(2 * len(v) - 1, dtype=int)
+        order[0::2], order[1::2] = v, mids
+        self.nodes = _frozen(order)
+        self.x = _frozen(nodes.points[order] @ trace.tangent)
+
+
+class QuadraticInterface:
+    """Geometry and operators of one contact pair of two bodies for P2 traces (module docstring).
+
+    ``QuadraticInterface(linear, nodes, members=(0, 1))``: ``linear`` is the pair's P1
+    :class:`~cvxcontact.contact.interface.Interface` (it has checked the line, the normals and the
+    overlap: any straight orientation, partial overlap), ``nodes`` the :class:`P2Nodes` of its first and
+    second body, ``members`` their indices among the scene's bodies. The merged vertices are the P1
+    merged nodes (both traces' vertices inside the overlap); ``x`` interleaves them with the segment
+    midpoints (tangential coordinate s, m). Same interface as the P1 one (``x``, ``size``, ``mass``,
+    ``evaluation``, ``interpolation(k)`` and ``traces[k]`` by the pair's body k), except that
+    :meth:`jump` takes the *scene's* body index (like :class:`~cvxcontact.contact.interface.Stack`),
+    plus :meth:`bernstein` and ``segments``. Rigid obstacles are not supported (SceneError)."""
+
+    degree = 2
+    rigid = False
+
+    def __init__(self, linear: Interface, nodes, members=(0, 1)):
+        if linear.rigid or len(linear.traces) != 2:
+            raise SceneError("the P2 contact line is built for a pair of two bodies, not against a rigid obstacle")
+        self.linear, self.nodes, self.members = linear, tuple(nodes), tuple(members)
+        self.traces = [_Trace2(t, n) for t, n in zip(linear.traces, nodes)]
+        self.y, self.normal, self.tangent = linear.y, linear.normal, linear.tangent
+        xv = np.asarray(linear.x, dtype=float)
+        self.xv = _frozen(xv)
+        x = np.empty(2 * len(xv) - 1)
+        x[0::2], x[1::2] = xv, 0.5 * (xv[:-1] + xv[1:])
+        self.x = _frozen(x)
+        self.points = _frozen(linear.points[0] + np.outer(x - xv[0], linear.tangent))
+        self.segments = _frozen(2 * np.arange(len(xv) - 1)[:, None] + np.arange(3))   # (S, 3) node indices
+        self.mass = _mass(xv)
+        self._interp = [p2_interpolation(t.xv, self.x) for t in self.traces]
+        # nodes of each trace inside the overlap, as points of X_h: the rows of E for K_h(Sigma_h^l)
+        tol = 1e-9 * max(t.body.mesh.size for t in linear.traces)
+        lo, hi = xv[0], xv[-1]
+        self.sigma_x = tuple(_frozen(np.clip(t.x[(t.x >= lo - tol) & (t.x <= hi + tol)], lo, hi))
+                             for t in self.traces)
+
+
+    @property
+    def size(self) -> int:
+        """Number of P2 nodes of the merged mesh."""
+        return len(self.x)
+
+    def jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes) map from the P2 nodal displacements of the scene's body ``k`` to its part
+        u^k . nu^k of [u_nu] at the merged P2 nodes (zero if k is not a member of the pair)."""
+        if k not in self.members:
+            return sp.csr_matrix((self.size, 2 * n_nodes))
+        t = self.traces[self.members.index(k)]
+        P = self._interp[t.k].tocoo()
+        n = t.unit_normal
+        rows = np.concatenate([P.row, P.row])
+        cols = np.concatenate([2 * t.nodes[P.col], 2 * t.nodes[P.col] + 1])
+        vals = np.concatenate([n[0] * P.data, n[1] * P.data])
+        keep = vals != 0
+        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(self.size, 2 * n_nodes))
+
+    def evaluation(self, condition) -> sp.csr_matrix:
+        """E: rows evaluate X_h at the points where a nodal (linear) condition is imposed.
+
+        ``"sigma1"``/``"sigma2"``: the P2 nodes of that body's trace inside the overlap (vertices and
+        midpoints); ``"gamma3"``: every P2 node of the merged mesh (the nodal relaxation of the conic
+        condition, used only to start or to compare; the conic condition itself is :meth:`bernstein`)."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if condition == "gamma3":
+            return sp.identity(self.size, format="csr")
+        return p2_interpolation(self.xv, self.sigma_x[int(condition[-1]) - 1])
+
+    def bernstein(self) -> sp.csr_matrix:
+        """(3 S, size) map from nodal values of X_h to the Bernstein coefficients, rows (b0, b1, b2) of
+        segment 0, then segment 1, ..."""
+        S = len(self.segments)
+        rows = np.repeat(np.arange(3 * S), 3)
+        cols = np.repeat(self.segments, 3, axis=0).ravel()
+        vals = np.tile(_BERNSTEIN.ravel(), S)
+        B = sp.csr_matrix((vals, (rows, cols)), shape=(3 * S, self.size))
+        B.eliminate_zeros()
+        return B
+
+    def interpolation(self, k) -> sp.csr_matrix:
+        """(size, n_trace_k): evaluates P2 functions on the pair's body k's trace at the merged P2 nodes."""
+        return self._interp[k]
+
+
+def quadratic_interface(scene, nodes) -> QuadraticInterface:
+    """The :class:`QuadraticInterface` of a scene with one contact pair between two of its bodies
+    (``nodes[k]``: the P2 nodes of the scene's body k). Other scenes: UnsupportedError naming the case."""
+    if len(scene.interfaces) != 1:
+        raise UnsupportedError(f"P2 elements (degree=2) with {len(scene.interfaces)} contact pairs are not "
+                               "supported yet (one pair of two bodies only); use degree=1")
+    a, b = scene.stack.members[0]
+    if b is None:
+        raise UnsupportedError("P2 elements (degree=2) against a rigid obstacle (cc.Rigid) are not supported "
+                               "yet (one pair of two bodies only); use degree=1")
+    return QuadraticInterface(scene.interfaces[0], (nodes[a], nodes[b]), (a, b))
+
+
+def _mass(xv):
+    """P2 mass matrix (m) of the 1D mesh with vertices ``xv`` (interleaved node numbering)."""
+    h = np.diff(xv)
+    local = np.array([[4.0, 2.0, -1.0], [2.0, 16.0, 2.0], [-1.0, 2.0, 4.0]]) / 30.0
+    seg = 2 * np.arange(len(h))[:, None] + np.arange(3)
+    rows = np.repeat(seg, 3, axis=1).ravel()
+    cols = np.tile(seg, (1, 3)).ravel()
+    vals = (h[:, None, None] * local).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(xv) - 1,) * 2)

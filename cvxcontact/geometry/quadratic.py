@@ -1,0 +1,64 @@
+"""P2 (6-node triangle) node numbering on a P1 mesh: vertices first, then edge midpoints.
+
+Node ``i < n_vertices`` is vertex i of the mesh; node ``n_vertices + e`` is the midpoint of edge e
+(edges numbered by sorted vertex pairs). The local order of an element is the gmsh triangle6 order
+(v0, v1, v2, m01, m12, m20). Edges are straight, so midpoints are the arithmetic means (m).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MeshError
+
+__all__ = ["P2Nodes"]
+
+
+class P2Nodes:
+    """The P2 nodes of a :class:`~cvxcontact.geometry.mesh.Mesh` (module docstring).
+
+    Attributes: ``mesh``, ``points`` (n, 2) m, ``triangles`` (m, 6) node indices of each element
+    (read-only), ``n_vertices``.
+    """
+
+    def __init__(self, mesh) -> None:
+        self.mesh = mesh
+        tri = mesh.triangles
+        nv = len(mesh.points)
+        pairs = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)  # (m, 3, 2)
+        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
+        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
+        mids = nv + inverse.reshape(-1, 3)
+        edges = np.column_stack([self._keys // nv, self._keys % nv])
+        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]])])
+        self.n_vertices = nv
+        self.points = _frozen(pts)
+        self.triangles = _frozen(np.column_stack([tri, mids]))
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def midpoint(self, a, b) -> np.ndarray:
+        """P2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
+        a, b = np.asarray(a), np.asarray(b)
+        key = np.minimum(a, b).astype(np.int64) * self.n_vertices + np.maximum(a, b)
+        pos = np.searchsorted(self._keys, key)
+        if (pos >= len(self._keys)).any() or (self._keys[np.minimum(pos, len(self._keys) - 1)] != key).any():
+            raise MeshError("midpoint(): a vertex pair that is not an edge of the mesh")
+        return self.n_vertices + pos
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) P2 node indices."""
+        e = self.mesh.boundary(tag)
+        return np.column_stack([e, self.midpoint(e[:, 0], e[:, 1])])
+
+    def boundary_nodes(self, tags) -> np.ndarray:
+        """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
+        parts = [self.boundary(t).ravel() for t in tags]
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+
+
+def _frozen(a):
+    a = np.array(a)
+    a.setflags(write=False)
+    return a

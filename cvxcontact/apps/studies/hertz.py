@@ -8,8 +8,9 @@ solution for the measured load P (N/m) is
     a = sqrt(4 P R / (pi E*)),   p(x) = (2 P / (pi a^2)) sqrt(a^2 - x^2),   p0 = 2 P / (pi a),
     1 / E* = (1 - nu1^2) / E1 + (1 - nu2^2) / E2.
 
-The FE half-width a_h is the mid-point between the outermost active node and the first
-open node on each side (so |a_h - a| <= h/2 is the resolution limit); p0_h is the peak
+The FE half-width a_h is the mid-point between the outermost closed node and the first
+open node on each side (so |a_h - a| <= h/2 is the resolution limit, h/4 for P2 whose X_h
+nodes include the segments' midpoints; "closed": see :func:`half_width`); p0_h is the peak
 pressure felt by the cylinder (:meth:`Solution.traction` on its trace nodes; the merged-
 mesh nodal forces of gamma3 alternate, see the stability study). Meshes are graded towards the contact zone
 and do not match on Gamma_3 (the lower block has about 0.8 times the cells).
@@ -50,8 +51,13 @@ def scene(n, ratio=0.8):
 
 
 def half_width(contact):
-    """Mid-point estimate of the contact half-width from the active set (m)."""
-    x, act = contact.x, contact.active
+    """Mid-point estimate of the contact half-width (m): between the outermost closed node and the
+    next open one on each side. P1: closed = active (a nonzero force at the node). P2: the nodal forces
+    r = B^T beta of X_h are not sign-definite and a segment carrying force has open ends, so a node of
+    X_h is closed where the jump reaches the gap, [u_nu] - g >= -1e-3 DELTA (the approach sets the scale;
+    the interior point closes contact to about 1e-7 DELTA here)."""
+    x = contact.x
+    act = contact.active if contact.degree == 1 else (contact.jump - contact.gap) >= -1e-3 * DELTA
     if not act.any():
         return 0.0
     i0, i1 = np.flatnonzero(act)[[0, -1]]

@@ -202,10 +202,10 @@ def run(out, quick=False, progress=None):
     out = Path(out)
     rows = []
     levels = [8, 16] if quick else [8, 16, 32]
-    ratios = [1, 2, 5, 10, 20] if quick else [1, 2, 3, 5, 10, 20]
+    ratios = [1, 2, 5, 10] if quick else [1, 2, 3, 5, 10, 20]     # quick: fine pairs up to 8 x 81 cells
     for n1 in levels:
         for r in ratios:
-            if n1 * r > (160 if quick else 320):
+            if n1 * r > (80 if quick else 320):
                 continue
             beta = inf_sup(n1, n1 * r + (1 if r > 1 else 0))
             rows.append(dict(study="inf-sup", n1=n1, n2=n1 * r + (1 if r > 1 else 0), shift=0.0, **beta))

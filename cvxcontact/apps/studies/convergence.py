@@ -1,15 +1,19 @@
-"""Convergence study: errors against a much finer reference, for the three contact conditions.
+"""Convergence study: errors against a much finer reference, for the three contact conditions,
+with P1 and P2 elements.
 
-For each scene and condition, five mesh levels with non-matching meshes on Gamma_3
-(the lower body has about 3/4 of the upper body's cells, plus one) are solved and
-compared with a reference solved on matching meshes 4 to 8 times finer (on matching
-meshes the three conditions coincide, so one reference serves all). Errors:
+For each scene, degree and condition, five mesh levels with non-matching meshes on Gamma_3
+(the lower body has about 3/4 of the upper body's cells, plus one) are solved (condensed path)
+and compared with one reference per scene: P2 with the conic "everywhere" condition on matching
+meshes (n = 256 cells; 32 in the quick version), see :class:`Reference` for the choice. P1 levels
+n = 8 ... 128, P2 levels n = 4 ... 64 (P2 at n has about the unknowns of P1 at 2n). Errors:
 
-* energy norm of (u, phi): ||e||_E^2 = e_u^T Kuu e_u + e_phi^T Kpp e_phi on the reference
-  mesh (the symmetric part of the paper's a(., .)), e = I_ref(u_h, phi_h) - (u_ref, phi_ref),
-  relative to the reference's norm; I_ref is P1 interpolation at the reference nodes;
-* lambda in L2(Gamma_3), exact integration of the difference of the two piecewise linear
-  functions on the union of their nodes, relative to ||lambda_ref||;
+* energy norm of (u, phi): ||e||_E^2 = e_u^T Kuu e_u + e_phi^T Kpp e_phi with the reference's P2
+  matrices (the symmetric part of the paper's a(., .)), e = I_ref(u_h, phi_h) - (u_ref, phi_ref),
+  relative to the reference's norm; I_ref is the interpolation of the P1 or P2 field at the
+  reference's P2 nodes;
+* lambda in L2(Gamma_3): exact integration (3-point Gauss on the union of the breakpoints) of the
+  difference of two functions of the line, each piecewise linear (P1) or piecewise quadratic on
+  the merged segments (P2, X_h of docs/formulation.md §8), relative to ||lambda_ref||;
 * lambda in the mesh-dependent H^{-1/2} norm ||mu||_{-1/2,h}^2 = sum_s h_s ||mu||_{L2(s)}^2 over the
   segments s of the coarse merged mesh (the norm of the paper's discrete analysis), relative
   to sqrt(|Gamma_3|) ||lambda_ref||_L2 (a fixed number, so that the rate is that of the norm);
@@ -17,14 +21,16 @@ meshes the three conditions coincide, so one reference serves all). Errors:
   own trace nodes) in L2(Gamma_3), against the same quantity of the reference, relative:
   the non-oscillating view of the multiplier.
 
-Observed rates are least-squares slopes in h. The theorems' rates for the energy error are
-h^{1/2+eta} (Theorems 1 and 3) and h^{1/2+eta/2} (Theorem 2), 0 < eta <= 1/2 by regularity; the
-figure draws the slopes for eta = 1/2 beside the data.
+Observed rates are least-squares slopes in h (and the slope of the two finest levels). The
+theorems' rates for the energy error are h^{1/2+eta} (Theorems 1 and 3) and h^{1/2+eta/2}
+(Theorem 2), with u in H^{3/2+eta}; eta is capped at 1/2 by P1 and tends to 1 with P2 for a solution
+in H^{5/2-eps}; the figure draws h^1.5, h^1 and h^0.75 beside the data.
 
 Scenes: "hertzian" (a parabolic gap, g = (x - 1/2)^2 / 2 - 0.05 m, closes on an interior zone,
 about [0.27, 0.73]: smooth data, two transitions with the square-root behaviour of
-Hertz contact, the setting of Theorem 3) and "partial" (the quickstart scene: the contact
-zone reaches a corner of the bodies, loaded edges, corner singularities: less regular).
+Hertz contact, the setting of Theorem 3; the clamped-free corners of the blocks still limit the
+regularity) and "partial" (the quickstart scene: the contact zone reaches a corner of the bodies,
+loaded edges, corner singularities: less regular).
 """
 
 from __future__ import annotations

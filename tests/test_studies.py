@@ -30,15 +30,55 @@ def test_every_study_writes_csv_png_and_markdown(studies):
 
 
 def test_hertz_errors_shrink(studies):
-    r = rows(studies / "hertz" / "hertz.csv")
-    err = [abs(float(x["p0_rel_error"])) for x in r]
-    assert err[-1] < err[0] and err[-1] < 0.3
-    assert abs(float(r[-1]["a_rel_error"])) < 0.2
+    every = rows(studies / "hertz" / "hertz.csv")
+    for degree in ("1", "2"):
+        r = [x for x in every if x["degree"] == degree]
+        err = [abs(float(x["p0_rel_error"])) for x in r]
+        assert err[-1] < 0.3 and abs(float(r[-1]["a_rel_error"])) < 0.2, degree
+    p1 = [abs(float(x["p0_rel_error"])) for x in every if x["degree"] == "1"]
+    assert p1[-1] < p1[0]
+    # P2 at n has about the unknowns of P1 at 2n: its peak pressure is closer to Hertz at the finest level
+    p2 = [abs(float(x["p0_rel_error"])) for x in every if x["degree"] == "2"]
+    assert p2[-1] < p1[-1]
 
 
 def test_convergence_energy_error_decreases(studies):
-    for r in rows(studies / "convergence" / "convergence_rates.csv"):
+    rates = rows(studies / "convergence" / "convergence_rates.csv")
+    assert {r["degree"] for r in rates} == {"1", "2"}
+    for r in rates:
         assert float(r["rate_energy"]) > 0.4, r
+    # the errors are measured against the P2 reference: P2 beats P1 at its finest quick level
+    err = rows(studies / "convergence" / "convergence.csv")
+    for kind in ("hertzian", "partial"):
+        for condition in ("gamma3", "sigma1", "sigma2"):
+            sub = {d: [float(x["energy"]) for x in err if x["scene"] == kind and x["condition"] == condition
+                       and x["degree"] == d] for d in ("1", "2")}
+            assert min(sub["2"]) < min(sub["1"]), (kind, condition)
+
+
+def test_convergence_line_norms_are_exact_for_quadratics():
+    """The L2 difference of two functions of the line (P1 or P2 of X_h) against closed forms."""
+    import numpy as np
+
+    from cvxcontact.apps.studies.convergence import _line_difference_l2
+
+    x1 = np.linspace(0.0, 1.0, 5)                       # P1: f = t on [0, 1]
+    x2 = np.linspace(0.0, 1.0, 7)                       # P2 on 3 segments: f = t^2 exactly
+    # ||t - t^2||^2 = int (t - t^2)^2 = 1/3 - 1/2 + 1/5 = 1/30
+    assert abs(_line_difference_l2((x1, x1, 1), (x2, x2 ** 2, 2)) - np.sqrt(1 / 30)) < 1e-14
+    # h-weighted with uniform segments h = 1/4: sum h ||.||^2 = (1/4)(1/30)
+    w = _line_difference_l2((x1, x1, 1), (x2, x2 ** 2, 2), weight_mesh=x1)
+    assert abs(w - np.sqrt(1 / 120)) < 1e-14
+
+
+def test_speed_p1_p2_crossover_on_synthetic_curves():
+    from cvxcontact.apps.studies.speed import crossover
+
+    # P1: time = e^-2, P2: time = 4 e^-1 -> equal at e = 1/4; P2 cheaper below
+    e = [1.0, 0.1, 0.01]
+    c = crossover(e, [x ** -2 for x in e], e, [4 * x ** -1 for x in e])
+    assert abs(float(c["p2_cheaper_below"]) / 0.25 - 1) < 0.05
+    assert abs(c["time_ratio_at_finest_common_error"] - 0.01 ** -2 / (4 * 0.01 ** -1)) < 1e-6
 
 
 def test_speed_exact_finish_reaches_rounding(studies):

@@ -8,8 +8,9 @@ solution for the measured load P (N/m) is
     a = sqrt(4 P R / (pi E*)),   p(x) = (2 P / (pi a^2)) sqrt(a^2 - x^2),   p0 = 2 P / (pi a),
     1 / E* = (1 - nu1^2) / E1 + (1 - nu2^2) / E2.
 
-The FE half-width a_h is the mid-point between the outermost active node and the first
-open node on each side (so |a_h - a| <= h/2 is the resolution limit); p0_h is the peak
+The FE half-width a_h is the mid-point between the outermost closed node and the first
+open node on each side (so |a_h - a| <= h/2 is the resolution limit, h/4 for P2 whose X_h
+nodes include the segments' midpoints; "closed": see :func:`half_width`); p0_h is the peak
 pressure felt by the cylinder (:meth:`Solution.traction` on its trace nodes; the merged-
 mesh nodal forces of gamma3 alternate, see the stability study). Meshes are graded towards the contact zone
 and do not match on Gamma_3 (the lower block has about 0.8 times the cells).
@@ -23,8 +24,7 @@ import numpy as np
 
 from ...physics import materials
 from ...physics.scene import Body, Scene
-from ...solve import solve
-from .common import Timer, graded_block, markdown_table, pyplot, save_figure, slope, write_csv, write_text
+from .common import Timer, graded_block, solve_quietly, markdown_table, pyplot, save_figure, slope, write_csv, write_text
 
 STEEL, ALU = (200e9, 0.3), (70e9, 0.33)
 R, DELTA, WIDTH, HEIGHT = 2.0, 1e-2, 2.0, 2.0
@@ -51,8 +51,13 @@ def scene(n, ratio=0.8):
 
 
 def half_width(contact):
-    """Mid-point estimate of the contact half-width from the active set (m)."""
-    x, act = contact.x, contact.active
+    """Mid-point estimate of the contact half-width (m): between the outermost closed node and the
+    next open one on each side. P1: closed = active (a nonzero force at the node). P2: the nodal forces
+    r = B^T beta of X_h are not sign-definite and a segment carrying force has open ends, so a node of
+    X_h is closed where the jump reaches the gap, [u_nu] - g >= -1e-3 DELTA (the approach sets the scale;
+    the interior point closes contact to about 1e-7 DELTA here)."""
+    x = contact.x
+    act = contact.active if contact.degree == 1 else (contact.jump - contact.gap) >= -1e-3 * DELTA
     if not act.any():
         return 0.0
     i0, i1 = np.flatnonzero(act)[[0, -1]]
@@ -64,24 +69,30 @@ def half_width(contact):
 def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
-    levels = [24, 48, 96] if quick else [32, 64, 128, 256, 512]
+    # P2 at n has about the unknowns of P1 at 2n (nodes at every vertex and edge midpoint)
+    levels = {1: [24, 48, 96], 2: [12, 24, 48]} if quick else {1: [32, 64, 128, 256, 512], 2: [16, 32, 64, 128, 256]}
     Es = e_star(*STEEL, *ALU)
-    rows, last = [], None
-    for n in levels:
-        clock = Timer()
-        sol = solve(scene(n), "gamma3", method="condensed")
-        c = sol.contact
-        P = float(c.force.sum())
-        a, p0 = hertz(P, R, Es)
-        a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
-        h = float(np.diff(c.x)[np.abs(c.x[:-1]) <= a].max()) if c.active.any() else float("nan")
-        rows.append(dict(n=n, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h, a_rel_error=a_h / a - 1,
-                         p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, active_nodes=int(c.active.sum()),
-                         ok=sol.ok, seconds=clock()))
-        say(f"hertz n={n}: a_h/a - 1 = {rows[-1]['a_rel_error']:+.2e}, p0_h/p0 - 1 = {rows[-1]['p0_rel_error']:+.2e}")
-        last = (sol, a, p0, P)
+    rows, last = [], {}
+    for degree in (1, 2):
+        for n in levels[degree]:
+            clock = Timer()
+            sol = solve_quietly(scene(n), "gamma3", method="condensed", degree=degree)
+            seconds = clock()
+            c = sol.contact
+            P = float(c.force.sum())
+            a, p0 = hertz(P, R, Es)
+            a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
+            xv = c.x if degree == 1 else c.x[::2]                       # merged vertices
+            h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if c.active.any() else float("nan")
+            dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
+            rows.append(dict(degree=degree, n=n, dofs=dofs, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h,
+                             a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                             active_nodes=int(c.active.sum()), ok=sol.ok, seconds=seconds))
+            say(f"hertz P{degree} n={n}: a_h/a - 1 = {rows[-1]['a_rel_error']:+.2e}, "
+                f"p0_h/p0 - 1 = {rows[-1]['p0_rel_error']:+.2e} ({seconds:.1f} s)")
+            last[degree] = (sol, a, p0, P)
     write_csv(out / "hertz.csv", rows)
-    sol, a, p0, P = last
+    sol, a, p0, P = last[2]
     plt = pyplot()
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     c = sol.contact
@@ -90,30 +101,41 @@ def run(out, quick=False, progress=None):
             label="Hertz (closed form, measured P)")
     xt, pt = sol.traction(0)
     near, nt = np.abs(c.x) <= 1.6 * a, np.abs(xt) <= 1.6 * a
-    ax.plot(xt[nt] * 1e3, pt[nt] / 1e6, "o", ms=3, label="FE: pressure on the cylinder's nodes")
-    ax.plot(c.x[near] * 1e3, c.lam[near] / 1e6, "-", lw=0.6, alpha=0.35, label=r"FE: $\lambda_h$ (merged mesh, oscillates)")
+    ax.plot(xt[nt] * 1e3, pt[nt] / 1e6, "o", ms=3, label="FE P2: pressure on the cylinder's nodes")
+    s1 = last[1][0]
+    x1, p1 = s1.traction(0)
+    n1 = np.abs(x1) <= 1.6 * a
+    ax.plot(x1[n1] * 1e3, p1[n1] / 1e6, "x", ms=3, label=f"FE P1 (n = {levels[1][-1]}): same")
+    ax.plot(c.x[near] * 1e3, c.lam[near] / 1e6, "-", lw=0.6, alpha=0.35, label=r"FE P2: $\lambda_h$ (merged mesh, oscillates)")
     ax.set_xlabel("x1 [mm]")
     ax.set_ylabel("contact pressure [MPa]")
-    ax.set_title(f"Cylinder on block, R = {R} m, finest mesh (n = {levels[-1]})")
+    ax.set_title(f"Cylinder on block, R = {R} m, finest P2 mesh (n = {levels[2][-1]})")
     ax.legend(fontsize=8)
-    hs = [r["h_contact_m"] for r in rows]
-    ax2.loglog(hs, [abs(r["a_rel_error"]) for r in rows], "o-", label="|a_h / a - 1|")
-    ax2.loglog(hs, [abs(r["p0_rel_error"]) for r in rows], "s-", label="|p0_h / p0 - 1|")
-    ax2.loglog(hs, [0.5 * h / a for h in hs], "k:", label="h / (2a) (resolution of a_h)")
-    ax2.set_xlabel("mesh size in the contact zone h [m]")
+    for degree, style in ((1, "-"), (2, "--")):
+        sub = [r for r in rows if r["degree"] == degree]
+        ax2.loglog([r["dofs"] for r in sub], [abs(r["a_rel_error"]) for r in sub], "o" + style, label=f"P{degree}: |a_h / a - 1|")
+        ax2.loglog([r["dofs"] for r in sub], [abs(r["p0_rel_error"]) for r in sub], "s" + style, label=f"P{degree}: |p0_h / p0 - 1|")
+    ax2.set_xlabel("unknowns (u and phi, both bodies)")
     ax2.set_ylabel("relative error")
-    ax2.set_title("Error against the Hertz solution")
+    ax2.set_title("Error against the Hertz solution, P1 and P2 at equal unknowns")
     ax2.legend(fontsize=8)
     ax2.xaxis.set_minor_formatter(plt.NullFormatter())
     save_figure(fig, out / "hertz.png")
-    rate_a, rate_p = slope(hs, [abs(r["a_rel_error"]) for r in rows]), slope(hs, [abs(r["p0_rel_error"]) for r in rows])
+    rate = {}
+    for degree in (1, 2):
+        sub = [r for r in rows if r["degree"] == degree]
+        hs = [r["h_contact_m"] for r in sub]
+        rate[degree] = (slope(hs, [abs(r["a_rel_error"]) for r in sub]), slope(hs, [abs(r["p0_rel_error"]) for r in sub]))
     text = (f"# Hertz validation\n\nCylinder (steel, R = {R} m) on a block (aluminium) as two graded blocks "
-            f"{2 * WIDTH} m wide with gap x^2/(2R) - {DELTA} m, condition gamma3, non-matching meshes.\n\n"
-            + markdown_table(rows, ["n", "h_contact_m", "load_N_per_m", "a_m", "a_h_m", "a_rel_error", "p0_Pa",
-                                    "p0_h_Pa", "p0_rel_error", "active_nodes", "seconds"],
+            f"{2 * WIDTH} m wide with gap x^2/(2R) - {DELTA} m, condition gamma3 (P2: the conic \"everywhere\" "
+            "condition), non-matching meshes. P2 at n has about the unknowns of P1 at 2n. h_contact_m: largest "
+            "merged-mesh segment in the contact zone (P2: between merged vertices; its nodes are twice as dense).\n\n"
+            + markdown_table(rows, ["degree", "n", "dofs", "h_contact_m", "load_N_per_m", "a_m", "a_h_m", "a_rel_error",
+                                    "p0_Pa", "p0_h_Pa", "p0_rel_error", "active_nodes", "ok", "seconds"],
                              {"h_contact_m": ".2e", "load_N_per_m": ".4e", "a_m": ".5f", "a_h_m": ".5f",
                               "a_rel_error": "+.2e", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.2e",
                               "seconds": ".2f"})
-            + f"\nObserved rates in h: half-width {rate_a:.2f}, peak pressure {rate_p:.2f}.\n")
+            + "".join(f"\nObserved rates in h, P{d}: half-width {rate[d][0]:.2f}, peak pressure {rate[d][1]:.2f}.\n"
+                      for d in (1, 2)))
     write_text(out / "hertz.md", text)
-    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p)
+    return dict(rows=rows, rate_a=rate[1][0], rate_p0=rate[1][1], rate_a_p2=rate[2][0], rate_p0_p2=rate[2][1])

@@ -32,7 +32,10 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from ...physics import materials
+from ...contact.quadratic import quadratic_interface
+from ...fem import p2
 from ...fem.assembly import assemble
+from ...geometry.quadratic import P2Nodes
 from ...backends.condensed import condense
 from ...contact.interface import CONDITIONS
 from ...geometry.mesh import Mesh, rectangle
@@ -114,13 +117,69 @@ def _load_matrix(x_fine, x_coarse):
                          shape=(len(x_fine), len(x_coarse)))
 
 
-def inf_sup(n1, n2, shift=0.0, fine_factor=8):
-    """beta_h for the three multiplier choices on the pair (n1, n2)."""
+_FINE = {}
+
+
+def _fine(nf):
+    """The fine matching pair's interface and compliance (cached: P1 and P2 studies share them)."""
+    if nf not in _FINE:
+        fine = fine_pair(nf)
+        _FINE.clear()
+        _FINE[nf] = (fine.interface, compliance(fine))
+    return _FINE[nf]
+
+
+def compliance_p2(scene):
+    """W at the P2 nodes of X_h on the merged mesh (docs/formulation.md §8), and the P2 interface."""
+    nodes = [P2Nodes(b.mesh) for b in scene.bodies]
+    systems = [p2.assemble(b, nd) for b, nd in zip(scene.bodies, nodes)]
+    un = units(scene, systems)
+    itf = quadratic_interface(scene, nodes)
+    condensed = [condense(Block.scaled(s, itf.jump(k, len(nd)), un), s, nd)
+                 for k, (s, nd) in enumerate(zip(systems, nodes))]
+    return Compliance(condensed, itf.evaluation("gamma3")).W, itf
+
+
+def _load_matrix_p2(x_fine, x2):
+    """(n_fine, n_X) sparse: exact integrals (phi_j, phi_i^fine) of the P2 basis of X_h (nodes ``x2``,
+    vertices and midpoints interleaved) against the fine P1 hats (3-point Gauss on the union of the
+    breakpoints: exact for the cubic products)."""
+    import scipy.sparse as sp
+
+    xv = x2[::2]
+    x = np.union1d(x_fine, xv)
+    h = np.diff(x)
+    g = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+    w = np.array([5.0, 8.0, 5.0]) / 18.0
+    t = (x[:-1, None] + h[:, None] * g[None]).ravel()
+    wt = (h[:, None] * w[None]).ravel()
+    kc = np.clip(np.searchsorted(xv, t) - 1, 0, len(xv) - 2)
+    s = (t - xv[kc]) / (xv[kc + 1] - xv[kc])
+    coarse = ((2 * kc, (1 - s) * (1 - 2 * s)), (2 * kc + 1, 4 * s * (1 - s)), (2 * kc + 2, s * (2 * s - 1)))
+    kf = np.clip(np.searchsorted(x_fine, t) - 1, 0, len(x_fine) - 2)
+    sf = (t - x_fine[kf]) / (x_fine[kf + 1] - x_fine[kf])
+    rows, cols, vals = [], [], []
+    for jc, vc in coarse:
+        for jf, vf in ((kf, 1 - sf), (kf + 1, sf)):
+            rows.append(jf)
+            cols.append(jc)
+            vals.append(wt * vc * vf)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(len(x_fine), len(x2)))
+
+
+def inf_sup(n1, n2, shift=0.0, fine_factor=8, degree=1):
+    """beta_h for the three multiplier choices on the pair (n1, n2); ``degree`` 2: P2 bodies and the P2
+    multiplier spaces (X_h continuous piecewise quadratic on the merged mesh; nodal ones at the P2
+    nodes of Sigma_h^l), against the same fine P1 H^{-1/2} norm."""
     coarse = elastic_pair(n1, n2, shift)
-    fine = fine_pair(fine_factor * max(n1, n2))
-    W, Wf = compliance(coarse), compliance(fine)
-    itf, fitf = coarse.interface, fine.interface
-    P = _load_matrix(fitf.x, itf.x)
+    fitf, Wf = _fine(fine_factor * max(n1, n2))
+    if degree == 1:
+        W, itf = compliance(coarse), coarse.interface
+        P = _load_matrix(fitf.x, itf.x)
+    else:
+        W, itf = compliance_p2(coarse)
+        P = _load_matrix_p2(fitf.x, itf.x)
     N = (P.T @ (P.T @ Wf.T).T)
     N = 0.5 * (N + N.T)
     M = itf.mass.toarray()
@@ -143,10 +202,10 @@ def run(out, quick=False, progress=None):
     out = Path(out)
     rows = []
     levels = [8, 16] if quick else [8, 16, 32]
-    ratios = [1, 2, 5, 10, 20] if quick else [1, 2, 3, 5, 10, 20]
+    ratios = [1, 2, 5, 10] if quick else [1, 2, 3, 5, 10, 20]     # quick: fine pairs up to 8 x 81 cells
     for n1 in levels:
         for r in ratios:
-            if n1 * r > (160 if quick else 320):
+            if n1 * r > (80 if quick else 320):
                 continue
             beta = inf_sup(n1, n1 * r + (1 if r > 1 else 0))
             rows.append(dict(study="inf-sup", n1=n1, n2=n1 * r + (1 if r > 1 else 0), shift=0.0, **beta))
@@ -156,6 +215,10 @@ def run(out, quick=False, progress=None):
         beta = inf_sup(n1, n1, shift)
         rows.append(dict(study="inf-sup, nearly coincident nodes", n1=n1, n2=n1, shift=shift, **beta))
         say(f"inf-sup coincident shift {shift:g} h: " + ", ".join(f"{k} {v:.3f}" for k, v in beta.items()))
+    for n1, n2 in ([(8, 8), (8, 17)] if quick else [(8, 8), (8, 17), (8, 41), (16, 16), (16, 33), (32, 65)]):
+        beta = inf_sup(n1, n2, degree=2)
+        rows.append(dict(study="inf-sup P2", n1=n1, n2=n2, shift=0.0, **beta))
+        say(f"inf-sup P2 n1={n1} n2={n2}: " + ", ".join(f"{k} {v:.3f}" for k, v in beta.items()))
     osc = _oscillation(quick, say)
     cases = _failure_cases(quick, say)
     write_csv(out / "stability_infsup.csv", rows)
@@ -163,7 +226,9 @@ def run(out, quick=False, progress=None):
     write_csv(out / "stability_failures.csv", cases)
     _figure(rows, osc, out)
     text = ("# Stability\n\n## Discrete inf-sup constant beta_h\n\nElastic pair (steel on aluminium), "
-            "H^{-1/2} norm from a matching reference 8 times finer (see `cvxcontact/apps/studies/stability.py`).\n\n"
+            "H^{-1/2} norm from a matching reference 8 times finer (see `cvxcontact/apps/studies/stability.py`). "
+            "Rows \"inf-sup P2\": P2 bodies and P2 multipliers (X_h continuous piecewise quadratic on the merged "
+            "mesh for gamma3; represented nodal ones at the P2 nodes of Sigma_h^l), same fine P1 norm.\n\n"
             + markdown_table(rows, ["study", "n1", "n2", "shift", "gamma3", "sigma1", "sigma2"],
                              {"shift": "g", "gamma3": ".4f", "sigma1": ".4f", "sigma2": ".4f"})
             + "\n## Oscillation of lambda_h (partial-contact scene)\n\nTV(lambda_h) / TV(lambda_ref).\n\n"
@@ -268,11 +333,17 @@ def _figure(rows, osc, out):
         for c in CONDITIONS:
             ax.semilogy([r["n2"] / r["n1"] for r in sub], [r[c] for r in sub], marks[c], ms=3,
                         label=f"{c}, n1={n1}", alpha=0.5 + 0.5 * (n1 == max(x["n1"] for x in ratio_rows)))
+    p2_rows = [r for r in rows if r["study"] == "inf-sup P2"]
+    for n1 in sorted({r["n1"] for r in p2_rows}):
+        sub = [r for r in p2_rows if r["n1"] == n1]
+        for c in CONDITIONS:
+            ax.semilogy([r["n2"] / r["n1"] for r in sub], [r[c] for r in sub], marks[c][0] + "--", ms=4,
+                        mfc="none", label=f"P2 {c}, n1={n1}")
     ax.set_xlabel("mesh ratio n2 / n1 (cells on the contact line)")
     ax.set_ylabel(r"inf-sup constant $\beta_h$")
-    ax.set_title("Inf-sup constant against mesh ratio")
+    ax.set_title("Inf-sup constant against mesh ratio (dashed, open: P2)")
     ax.legend(fontsize=6, ncol=2)
-    shift_rows = [r for r in rows if r["study"] != "inf-sup"]
+    shift_rows = [r for r in rows if r["study"] == "inf-sup, nearly coincident nodes"]
     for c in CONDITIONS:
         ax2.loglog([r["shift"] for r in shift_rows], [max(r[c], 1e-12) for r in shift_rows], marks[c], label=c)
     ax2.set_xlabel("offset of the lower nodes [cells]")

@@ -56,8 +56,9 @@ class Units:
         return self.length * np.sqrt(self.stress * self.permittivity) * self.load
 
 
-def units(scene, systems, gap=None) -> Units:
-    """Choose :class:`Units` for a scene from its materials, size, loads and gap (m)."""
+def units(scene, systems, gap=None, forces=()) -> Units:
+    """Choose :class:`Units` for a scene from its materials, size, loads, gap (m) and the prescribed
+    forces (N/m) of force-controlled obstacles."""
     mats = [b.material for b in scene.bodies]
     c0 = max(float(np.abs(m.c).max()) for m in mats)
     eps0 = max([float(np.linalg.eigvalsh(m.kappa).max()) for m in mats if m.piezoelectric] or [1.0])
@@ -65,7 +66,8 @@ def units(scene, systems, gap=None) -> Units:
     load = max(max(np.abs(s.f).sum() / (c0 * L0) for s in systems),
                max((np.abs(s.q).sum() + np.abs(s.charge).sum()) / (L0 * np.sqrt(c0 * eps0)) if s.piezoelectric
                    else 0.0 for s in systems),
-               float(np.abs(gap).max()) / L0 if gap is not None and len(gap) else 0.0)
+               float(np.abs(gap).max()) / L0 if gap is not None and len(gap) else 0.0,
+               sum(float(np.abs(F).sum()) for F in forces) / (c0 * L0))
     return Units(L0, c0, eps0, load if load > 0 else 1.0)
 
 

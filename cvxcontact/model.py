@@ -106,6 +106,9 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         for body in scene.bodies:
             body.require_supports()
+        if any(o.force is not None for o in scene.obstacles):
+            raise UnsupportedError("cc.Model does not take force-controlled obstacles (Rigid(..., force=)); "
+                                   "solve them with cc.solve, or fix the obstacle")
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):

@@ -34,7 +34,7 @@ from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import force_displacements, ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
-from .solution.solution import ContactResult, Solution, read_back, read_back_compliance
+from .solution.solution import ContactResult, Solution, obstacle_results, read_back, read_back_compliance
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
@@ -162,7 +162,14 @@ class ContactSolver:
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
         self.degree, self.nodes, self.conic = degree, None, False
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
+        self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
+        if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
+            raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
+                                   "not implemented; use the default non-penetration law or a fixed obstacle")
         if degree == 2:
+            if self.forced:
+                raise UnsupportedError("P2 elements (degree=2) with force-controlled obstacles (Rigid(..., force=)) "
+                                       "are not supported yet; use degree=1 or a fixed obstacle")
             if any(lw.compliant for lw in pair_laws(scene, self.law)):
                 raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
                                        "yet; use degree=1 or law=None (Signorini)")
@@ -177,7 +184,7 @@ class ContactSolver:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
-        self.method = choose(method, ProblemDescription(held_by_contact=held))   # the backend actually run
+        self.method = choose(method, ProblemDescription(held_by_contact=held, force_control=bool(self.forced)))
         self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
@@ -208,8 +215,11 @@ class ContactSolver:
         for b, s in zip(scene.bodies, systems):
             if getattr(b, "held_by_contact", None):
                 b.check_pressed(s.f)                    # the load must press it onto the contact
-        un = units(scene, systems, gap) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
+        forced = [o for o in scene.obstacles if o.force is not None]
+        un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
+        self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
+        self._taus = [np.zeros(o.basis.shape[1]) for o in forced]
         if self._blocks is None:
             self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
                             for k, s in enumerate(systems)]
@@ -232,9 +242,12 @@ class ContactSolver:
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
                                        given=self.law)
         else:
-            sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
+            moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
+            sol = read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active, polished,
                             problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
                             beta=self._beta, nodes=self.nodes)
+        if scene.obstacles:
+            obstacle_results(sol, [tau * un.displacement for tau in self._taus])
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -282,7 +295,8 @@ class ContactSolver:
 
     def _full(self, blocks, g, timings):
         t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g)
+        tr = self._translations
+        model = ContactModel(blocks, self.E, g, translations=tr)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
         timings["compile"] = model.problem.compilation_time or 0.0
@@ -290,15 +304,20 @@ class ContactSolver:
         u = [v.value for v in model.u]
         phi = [v.value if v is not None else None for v in model.phi]
         y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        self._taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
+        moved = g - sum((R @ tau for (R, _), tau in zip(tr, self._taus)), np.zeros(len(g)))   # the obstacles moved
         parts = [self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
-        slack = sum(parts) - g
-        active, polished = ipm_active(parts, g, y, force_displacements(blocks, self.E, y)), False
-        if self.polish and self.held:
-            out = _sparse_finish(mixed_kkt(blocks, self.E, g), g, active, timings)
+        slack = sum(parts) - moved
+        active, polished = ipm_active(parts, moved, y, force_displacements(blocks, self.E, y)), False
+        if self.polish and (self.held or tr):
+            out = _sparse_finish(mixed_kkt(blocks, self.E, g, translations=tr), g, active, timings)
             if out is None:
                 self.declined = "the active-set steps on the sparse mixed system did not settle"
             else:
-                ((u, phi, y), active), polished = out, True
+                (x, active), polished = out, True
+                u, phi, y = x[:3]
+                if tr:
+                    self._taus = list(x[3])
                 self.finish_route = "active set"
         elif self.polish:
             _, _, d = self._lcp(blocks, g, timings)

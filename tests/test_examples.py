@@ -63,6 +63,16 @@ def test_normal_compliance_example(capsys):
         assert abs(np.log(r0 / r1) / np.log(k1 / k0) - 1 / m) < 0.05
 
 
+def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
+    rows = load("wall_actuator.py")["main"](2)
+    mat = __import__("cvxcontact").materials.PZT5H
+    for voltage, t, _, sol in rows:       # t = -(p H + e33 V) / c33, computed here from the material's constants
+        exact = -(1e5 / 0.2 * 0.5 + mat.e[1, 1] * voltage) / mat.c[1, 1]
+        assert sol.ok and abs(t - exact) < 1e-9 * abs(exact)
+        assert abs(-sol.obstacles[0].force[1] - 1e5) < 1e-10 * 1e5
+    assert "affine in V" in capsys.readouterr().out
+
+
 def test_punch_sensor_example_reads_force_linearly(capsys):
     rows = load("punch_sensor.py")["main"](10, (1e-6, 3e-6))
     (d0, f0, v0, q0, g0), (d1, f1, v1, q1, g1) = rows

@@ -280,7 +280,7 @@ def _block(x=(0.0, 1.0), y=(0.0, 0.5), **kw):
     (lambda: (lambda b: cc.Contact(b, "bottom", b, "top"))(_block()), cc.SceneError, "paired with itself"),
     (lambda: cc.Contact(_block(), "bottom", _block(y=(-0.5, 0), clamped="bottom", contact="top"), "top",
                         law="compliance"), cc.SceneError, "law must be"),
-    (lambda: cc.Rigid.plane((0, 0), (0, 1), force=(0.0, -1.0)), cc.UnsupportedError, "force control"),
+    (lambda: cc.Rigid.plane((0, 0), (0, 1), force=(0.0, 0.0)), cc.SceneError, "zero force"),
     (lambda: cc.Rigid.circle((0, 0), -1.0), cc.SceneError, "radius"),
     (lambda: cc.Contact(_block(), "roof", cc.Rigid.plane((0, 0), (0, 1))), cc.SceneError, "unknown boundary tag"),
     (lambda: cc.Contact(_block(), "top", cc.Rigid.plane((0, 0), (0, 1))), cc.SceneError, "also clamped"),
@@ -389,8 +389,8 @@ def test_scene_files_with_contact_and_obstacle_tables(tmp_path):
     (lambda t: t.replace('part_b = "top"', 'part_b = "roof"'), "unknown boundary tag 'roof'"),
     (lambda t: t + '\n[[obstacle]]\nname = "wall"\nplane = { point = [0, 0], normal = [1, 0] }\n'
      'circle = { center = [0, 0], radius = 1.0 }\n', r"obstacle\[0\]: expected exactly one of plane, circle"),
-    (lambda t: t + '\n[[obstacle]]\nname = "wall"\nplane = { point = [0, 0], normal = [0, 1] }\nforce = [0.0, -1.0]\n',
-     "force control"),
+    (lambda t: t + '\n[[obstacle]]\nname = "wall"\nplane = { point = [0, 0], normal = [0, 1] }\nforce = [0.0, 0.0]\n',
+     r"obstacle\[0\]: .*zero force"),
     (lambda t: t.replace('gap = "-2e-4', 'gap = "__import__(1) -2e-4'), "not allowed"),
 ])
 def test_scene_file_contact_errors(tmp_path, edit, match):

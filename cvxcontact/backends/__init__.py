@@ -31,12 +31,15 @@ class ProblemDescription:
     cannot take any.
     ``held_by_contact``: some body has a rigid motion that only the contact holds (its stiffness
     is singular, so it cannot be condensed on its own).
+    ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
+    stiffness, coupled to every body it touches; docs/formulation.md §12).
     """
 
     quadratic_energy: bool = True
     linear_contact: bool = True
     user_terms: int = 0
     held_by_contact: bool = False
+    force_control: bool = False
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,8 @@ class Backend:
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
-    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact
+    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
+        and not p.force_control
 
 
 BACKENDS: tuple[Backend, ...] = (

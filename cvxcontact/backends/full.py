@@ -89,9 +89,13 @@ class ContactModel:
     lumped lengths ``weights`` of the constrained nodes, the energy gets :func:`compliance_energy` and
     ``contact`` becomes E [u_nu] <= E g + l on the rows ``limit_rows`` with a finite limit l (Signorini
     rows: l = 0), or None if there is none (:func:`law_rows`, :func:`limit_reaction`).
+
+    ``translations``: per force-controlled obstacle (R, F), R (rows of E, k) the rows' sensitivities to
+    its translation unknowns tau and F (k,) the prescribed force on them (scaled): a variable ``t[i]``,
+    the energy gets -F . tau and the rows become E [u_nu] + R tau <= E g (docs/formulation.md §12).
     """
 
-    def __init__(self, blocks, E, gap_rows, law=None, weights=None):
+    def __init__(self, blocks, E, gap_rows, law=None, weights=None, translations=None):
         self.blocks = blocks
         self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
         self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
@@ -105,6 +109,12 @@ class ContactModel:
             energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
             self.gauss.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
         jump = sum((E @ b.jump) @ u for b, u in zip(blocks, self.u))
+        self.t = []
+        for k, (R, F) in enumerate(translations or ()):      # force-controlled obstacles (formulation.md §12)
+            t = cp.Variable(R.shape[1], name=f"t{k + 1}")
+            self.t.append(t)
+            energy -= F @ t
+            jump = jump + R @ t
         term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)
         energy += term
         self.energy = energy
@@ -120,7 +130,7 @@ class ContactModel:
         return cp.Problem(cp.Minimize(energy), self.constraints + list(constraints))
 
 
-def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
+def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None):
     """``kkt(active)`` for the exact finish of the full model: the sparse mixed system (26)
 
     [[A, G^T], [G, 0]] [x; y_A] = [F; g_A] with, per body, A = [[Kuu, Kup], [Kup^T, -Kpp]],
@@ -130,6 +140,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
     the scaled free dofs, as in :class:`ContactModel`) and a linear objective gradient ``load``
     (n,), see :func:`mixed_kkt_rows`: ``kkt(active, active_rows)`` then also returns their
     multipliers and slacks.
+
+    With ``translations`` (as in :class:`ContactModel`) the unknowns tau of force-controlled obstacles
+    join x with no stiffness: their rows are R^T y = F (the obstacle's force balance) and the contact
+    rows gain R tau (docs/formulation.md §12); ``kkt(active)`` then returns (u, phi, y, taus).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load)
@@ -139,6 +153,11 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
     sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
     rows = [sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], n_phi))]) for b, (_, n_phi) in zip(blocks, sizes)]
     G_all = sp.hstack(rows).tocsr()
+    widths = [R.shape[1] for R, _ in translations or ()]
+    if widths:
+        A = sp.block_diag([A, sp.csr_matrix((sum(widths), sum(widths)))])
+        rhs = np.concatenate([rhs, *(np.asarray(F, dtype=float) for _, F in translations)])
+        G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
     def kkt(active):
         G = G_all[active]
@@ -162,7 +181,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None):
             phi.append(z[pos + nu:pos + nu + npf] if npf else None)
             pos += nu + npf
         slack = G_all @ z[:n] - g
-        return (u, phi, y), y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
+        x = (u, phi, y)
+        if widths:
+            x = (u, phi, y, np.split(z[n - sum(widths):n], np.cumsum(widths)[:-1]))
+        return x, y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
 
     return kkt
 

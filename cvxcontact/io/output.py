@@ -257,7 +257,9 @@ def summary(solution) -> dict:
     ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
     diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
     (possible with sigma_l); ``active_x_m`` is the range of the tangential coordinate s (m) of the
-    active nodes. ``electrodes`` lists every electrode's potential (V) and total charge (C/m)."""
+    active nodes. ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
+    ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;
+    docs/formulation.md §12)."""
     pairs = [_pair_summary(solution, i) for i in range(len(solution.contacts))]
     return {
         "condition": solution.condition,
@@ -279,6 +281,11 @@ def summary(solution) -> dict:
         "electrodes": [{"body": e.body + 1, "body_name": solution.scene.bodies[e.body].name, "tag": e.tag,
                         "kind": e.kind, "potential_V": e.potential, "charge_C_per_m": e.charge}
                        for e in getattr(solution, "electrodes", [])],
+        "obstacles": [{"obstacle": repr(o.obstacle), "pairs": list(o.pairs),
+                       "translation_m": [float(v) for v in o.translation],
+                       "contact_force_N_per_m": [float(v) for v in o.force],
+                       "prescribed_force_N_per_m": None if o.prescribed is None else [float(v) for v in o.prescribed]}
+                      for o in getattr(solution, "obstacles", [])],
     }
 
 

@@ -98,13 +98,15 @@ def obstacle_outline(scene, pair: int, samples: int = 200) -> np.ndarray:
     return out[np.all((out >= lo) & (out <= hi), axis=1)]
 
 
-def draw_obstacles(solution: Solution, ax: Axes) -> None:
-    """Draw every rigid obstacle of ``solution``'s scene on ``ax`` at its true position (obstacles
-    do not move; the bodies are drawn with magnified displacements), labelled by pair."""
+def draw_obstacles(solution: Solution, ax: Axes, magnify: float = 0.0) -> None:
+    """Draw every rigid obstacle of ``solution``'s scene on ``ax``, labelled by pair: a fixed obstacle at
+    its true position, a force-controlled one moved by ``magnify`` times its translation (m, from
+    ``solution.obstacles``; docs/formulation.md §12), as the bodies are drawn with magnified displacements."""
+    moved = {i: np.asarray(o.translation, dtype=float) for o in getattr(solution, "obstacles", []) for i in o.pairs}
     for i, c in enumerate(solution.scene.contacts):
         if not c.rigid:
             continue
-        xy = obstacle_outline(solution.scene, i)
+        xy = obstacle_outline(solution.scene, i) + magnify * moved.get(i, np.zeros(2))
         if len(xy):
             ax.plot(xy[:, 0], xy[:, 1], "-", color="0.25", lw=2.2, solid_capstyle="butt",
                     label=f"rigid obstacle of pair {i + 1}: {c.other!r}")
@@ -148,7 +150,7 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
         mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=clim[0] / factor,
                                 vmax=clim[1] / factor, **kw)
         ax.triplot(p[:, 0], p[:, 1], tri, color="k", linewidth=0.15, alpha=0.5)
-    draw_obstacles(solution, ax)
+    draw_obstacles(solution, ax, k)
     if mappable is not None and colorbar:
         fig.colorbar(mappable, ax=ax, label=f"{name} [{shown}]", shrink=0.85)
     ax.set_aspect("equal")

@@ -54,6 +54,8 @@ needs exactly two bodies touching along their ``contact`` parts)::
     # circle = { center = [0.5, -0.3], radius = 0.3 }
     # profile = { f = "1e-3 + (x - 0.5)**2", origin = [0.0, 0.0] }   # distance along the normal, m;
     #                                           x stands for the tangential coordinate s
+    force = [0.0, 1e6]                        # optional, N/m, pressing it onto the body: force control (its
+    #                                           translation is an unknown with this resultant; formulation.md §12)
 
     [[contact]]
     a = "punch"                               # a body's name

@@ -6,24 +6,31 @@ body or of a :class:`Rigid` obstacle. Each pair is the paper's contact problem o
 
     [u_nu] = u^a . nu^a + u^b . nu^b        (each body's outward unit normal; nu^b = -nu^a)
 
-on the overlap of the two parts. A rigid obstacle is analytic (no mesh, no unknowns): u^b = 0 and
+on the overlap of the two parts. A rigid obstacle is analytic (no mesh): u^b = 0 and
 g(x) is the distance (m) from the body's node x to the obstacle along nu^a, plus the pair's gap;
 the linearised condition u^a . nu^a <= g(x) holds at every node of the body's part that can
 reach the obstacle along nu^a (small displacements, like the rest of the model).
+
+Force control (``force=(fx, fy)``, N/m; docs/formulation.md §12): the obstacle's translation t (m) is
+an unknown with that prescribed resultant; the condition becomes u^a . nu^a <= g(x) - c(x) . t with
+c = n / (-nu^a . n) (:meth:`Rigid.sensitivity`) and :func:`obstacle_rows` checks, before solving,
+that compressive contact can balance the force.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
 from ..contact.interface import CONDITIONS, canonical_tangent
 from ..contact.laws import ContactLaw, check_law
 from ..errors import SceneError, UnsupportedError
 
-__all__ = ["Contact", "Rigid"]
+__all__ = ["Contact", "Rigid", "ObstacleRows", "obstacle_rows"]
 
 
 def _point(value, label) -> np.ndarray:
@@ -37,15 +44,21 @@ def _point(value, label) -> np.ndarray:
     return p
 
 
-def _no_force(force, kind):
-    if force is not None:
-        raise UnsupportedError(f"Rigid.{kind}(force=...): force control (the obstacle's translation as an "
-                               "unknown with a prescribed resultant) is not implemented in this version; "
-                               "prescribe the obstacle's position instead (displacement control)")
+def _force(force, kind) -> np.ndarray | None:
+    """The prescribed resultant of a force-controlled obstacle (N/m), or None (fixed obstacle)."""
+    if force is None:
+        return None
+    F = _point(force, f"Rigid.{kind}: force")
+    if not np.linalg.norm(F) > 0:
+        raise SceneError(f"Rigid.{kind}(force=(0, 0)): a zero force holds the obstacle nowhere (its position is "
+                         "undetermined); give a non-zero force (N/m) pressing it onto the bodies, or no force "
+                         "(a fixed obstacle)")
+    return F
 
 
 class Rigid:
-    """A rigid obstacle: analytic, fixed in space (no mesh, no unknowns). Build with
+    """A rigid obstacle: analytic (no mesh), fixed in space or, with ``force=(fx, fy)`` (N/m), free to
+    translate under that prescribed resultant (force control, docs/formulation.md §12). Build with
     :meth:`plane`, :meth:`circle` or :meth:`profile`.
 
     ``distance(points, normal)`` gives, for nodes ``points`` (n, 2) of a straight part with unit
@@ -54,11 +67,38 @@ class Rigid:
     misses it (the node is then left free).
     """
 
-    def __init__(self, kind: str, distance: Callable[[np.ndarray, np.ndarray], np.ndarray], describe: str):
+    def __init__(self, kind: str, distance: Callable[[np.ndarray, np.ndarray], np.ndarray], describe: str,
+                 sensitivity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                 force: np.ndarray | None = None):
         self.kind, self._distance, self._describe = kind, distance, describe
+        self._sensitivity = sensitivity
+        self.force = force
+        """The prescribed resultant (fx, fy) (N/m) of a force-controlled obstacle, or None (fixed)."""
+        if force is not None:
+            self._describe = describe[:-1] + f", force=({force[0]:.6g}, {force[1]:.6g}))"
 
     def __repr__(self):
         return f"Rigid.{self._describe}"
+
+    def sensitivity(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """(n, 2): c(x) = n_o / (-nu . n_o) at each of ``points`` (dimensionless), n_o the obstacle's
+        outward unit normal where the ray from x along ``normal`` nu meets it: a translation t (m) of
+        the obstacle shortens the distance along nu by c(x) . t to first order (docs/formulation.md §12).
+        Rows of nodes that miss the obstacle are 0."""
+        points = np.array(points, dtype=float)
+        points.setflags(write=False)
+        normal = np.asarray(normal, dtype=float)
+        if self._sensitivity is not None:
+            return self._sensitivity(points, normal)
+        # an obstacle given by its distance only: c = grad d by central differences (d_t(x) = d(x - t))
+        h = 1e-7 * max(float(np.ptp(points)), float(np.abs(points).max(initial=0.0)), np.finfo(float).tiny)
+        out = np.zeros_like(points)
+        for k in range(2):
+            step = np.zeros(2)
+            step[k] = h
+            with np.errstate(invalid="ignore"):
+                out[:, k] = (self.distance(points + step, normal) - self.distance(points - step, normal)) / (2 * h)
+        return np.where(np.isfinite(out), out, 0.0)
 
     def distance(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """Distance (m) from each of ``points`` (n, 2) along the unit ``normal`` to the surface."""
@@ -69,8 +109,10 @@ class Rigid:
     @classmethod
     def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None) -> "Rigid":
         """The half-plane {z : (z - point) . n <= 0}; ``normal`` n points out of the obstacle,
-        towards the body (normalised here). The body's part must face it: nu^a . n < 0."""
-        _no_force(force, "plane")
+        towards the body (normalised here). The body's part must face it: nu^a . n < 0. ``force``
+        (N/m): force control; only its component along n, pressing the plane onto the body, can be
+        balanced (frictionless), and only the translation along n is an unknown."""
+        F = _force(force, "plane")
         p = _point(point, "Rigid.plane: point")
         n = _point(normal, "Rigid.plane: normal")
         if np.linalg.norm(n) == 0:
@@ -85,13 +127,18 @@ class Rigid:
                                  f"({nu[0]:.6g}, {nu[1]:.6g}); the plane's normal must point towards the body")
             return ((x - p) @ n) / (-c)
 
-        return cls("plane", distance, f"plane(point=({p[0]:.6g}, {p[1]:.6g}), normal=({n[0]:.6g}, {n[1]:.6g}))")
+        def sensitivity(x, nu):
+            return np.tile(n / (-float(nu @ n)), (len(x), 1))
+
+        return cls("plane", distance, f"plane(point=({p[0]:.6g}, {p[1]:.6g}), normal=({n[0]:.6g}, {n[1]:.6g}))",
+                   sensitivity, F)
 
     @classmethod
     def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
         """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. Nodes whose
-        normal ray misses the disc are left free."""
-        _no_force(force, "circle")
+        normal ray misses the disc are left free. ``force`` (N/m): force control (an indenter under a
+        prescribed load)."""
+        F = _force(force, "circle")
         c = _point(center, "Rigid.circle: center")
         if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(radius) or radius <= 0:
@@ -106,7 +153,16 @@ class Rigid:
             hit = (disc >= 0) & (-b + root > 0)          # the ray enters the disc ahead or the node is inside
             return np.where(hit, -b - root, np.inf)
 
-        return cls("circle", distance, f"circle(center=({c[0]:.6g}, {c[1]:.6g}), radius={R:.6g})")
+        def sensitivity(x, nu):
+            d = distance(x, nu)
+            hit = np.isfinite(d)
+            q = x + np.where(hit, d, 0.0)[:, None] * nu                 # where the ray meets the circle
+            n_o = (q - c) / R                                            # the disc's outward normal there
+            den = -(n_o @ nu)
+            ok = hit & (den > 1e-12)
+            return np.where(ok[:, None], n_o / np.where(ok, den, 1.0)[:, None], 0.0)
+
+        return cls("circle", distance, f"circle(center=({c[0]:.6g}, {c[1]:.6g}), radius={R:.6g})", sensitivity, F)
 
     @classmethod
     def profile(cls, f: Callable[[np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0), *,
@@ -114,8 +170,9 @@ class Rigid:
         """An obstacle whose surface lies at distance ``f(s)`` (m) from the contact part along its
         outward normal, with s = (x - origin) . t (m) the tangential coordinate (t the pair's tangent,
         :func:`cvxcontact.contact.interface.canonical_tangent`: positive x1 component). ``f`` is a
-        vectorised function returning finite values, or ``+inf`` where there is no obstacle."""
-        _no_force(force, "profile")
+        vectorised function returning finite values, or ``+inf`` where there is no obstacle. ``force``
+        (N/m): force control; the sensitivity uses f'(s) by central differences."""
+        F = _force(force, "profile")
         if not callable(f):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "
                              f"got {type(f).__name__}")
@@ -138,8 +195,19 @@ class Rigid:
                 raise SceneError("Rigid.profile: f returned NaN or -inf; use +inf where there is no obstacle")
             return d
 
+        def sensitivity(x, nu):
+            t = canonical_tangent(nu)
+            s = (x - o) @ t
+            h = 1e-6 * max(float(np.ptp(s)), float(np.abs(s).max(initial=0.0)), np.finfo(float).tiny)
+            d0, dp, dm = distance(x, nu), distance(x + h * t, nu), distance(x - h * t, nu)
+            with np.errstate(invalid="ignore"):              # f'(s): central, one-sided at an end of f
+                fp = np.where(np.isfinite(dp) & np.isfinite(dm), (dp - dm) / (2 * h),
+                              np.where(np.isfinite(dp), (dp - d0) / h, (d0 - dm) / h))
+            ok = np.isfinite(fp) & np.isfinite(d0)
+            return np.where(ok[:, None], np.outer(np.where(ok, fp, 0.0), t) - nu, 0.0)
+
         name = getattr(f, "__name__", type(f).__name__)
-        return cls("profile", distance, f"profile({name}, origin=({o[0]:.6g}, {o[1]:.6g}))")
+        return cls("profile", distance, f"profile({name}, origin=({o[0]:.6g}, {o[1]:.6g}))", sensitivity, F)
 
 
 class Contact:
@@ -213,3 +281,78 @@ class Contact:
     def __repr__(self):
         other = repr(self.other) if self.rigid else f"{self.other.name!r}, {self.part_b!r}"
         return f"Contact({self.body_a.name!r}, {self.part_a!r}, {other})"
+
+
+@dataclass(frozen=True)
+class ObstacleRows:
+    """One rigid obstacle of a scene and how its translation t (m) enters the stacked contact rows.
+
+    ``pairs`` are the indices (in ``scene.contacts``) of its pairs; ``rows`` (stack size, 2) the
+    sensitivities c(x) of :meth:`Rigid.sensitivity` at the stacked merged nodes (0 on other pairs'
+    rows): with t the condition at a node reads u . nu <= g(x) - c(x) . t (docs/formulation.md §12).
+    ``force`` is the prescribed resultant (N/m) or None; for a force-controlled obstacle ``basis``
+    (2, k) spans the translations the contact can see (k = 1 when every c(x) is parallel, e.g. a
+    plane: its tangential translation changes nothing and is not an unknown; k = 2 otherwise), and
+    the unknowns are t = basis @ tau.
+    """
+
+    obstacle: Rigid
+    pairs: tuple
+    rows: sp.csr_matrix
+    force: np.ndarray | None
+    basis: np.ndarray
+
+    @property
+    def reduced_rows(self) -> sp.csr_matrix:
+        """(stack size, k): the rows on the unknowns tau (``rows @ basis``)."""
+        return sp.csr_matrix(self.rows @ self.basis)
+
+
+def obstacle_rows(scene) -> list[ObstacleRows]:
+    """The :class:`ObstacleRows` of every distinct rigid obstacle of ``scene`` (an obstacle shared by
+    several pairs moves as one). For a force-controlled obstacle the prescribed force F must be
+    balanced by compressive contact forces y >= 0 at its nodes, F = sum_a y_a c_a (the stationarity of
+    the energy in t): SceneError, naming the free direction, if F lies outside the cone of the c_a
+    (a force pulling the obstacle away from every body, or a plane's tangential force component,
+    which frictionless contact cannot balance)."""
+    from scipy.optimize import nnls
+
+    stack = scene.stack
+    out, seen = [], {}
+    for i, (c, itf) in enumerate(zip(scene.contacts, scene.interfaces)):
+        if c.rigid:
+            seen.setdefault(id(c.other), (c.other, []))[1].append(i)
+    for obstacle, pairs in seen.values():
+        rows = np.zeros((stack.size, 2))
+        for i in pairs:
+            itf = scene.interfaces[i]
+            rows[stack.offsets[i]:stack.offsets[i + 1]] = obstacle.sensitivity(itf.points, itf.normal)
+        F = obstacle.force
+        basis = np.eye(2)
+        if F is not None:
+            label = f"{obstacle!r} (pairs {pairs})"
+            scale = float(np.linalg.norm(rows, axis=1).max(initial=0.0))
+            _, sv, Vt = np.linalg.svd(rows, full_matrices=False)
+            if not scale > 0:
+                raise SceneError(f"{label}: no node of its pairs sees the obstacle move; force control needs contact")
+            if sv[1] <= 1e-9 * sv[0]:                       # every c(x) parallel: one direction only
+                b = Vt[0] * np.sign(rows @ Vt[0])[np.argmax(np.abs(rows @ Vt[0]))]
+                basis = b[:, None]
+                side = np.array([-b[1], b[0]]) + 0.0
+                b = b + 0.0
+                if abs(F @ side) > 1e-9 * np.linalg.norm(F):
+                    raise SceneError(
+                        f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m has a component {F @ side:.6g} N/m along "
+                        f"({side[0]:.6g}, {side[1]:.6g}), which frictionless contact cannot balance: the obstacle "
+                        f"is free to slide along ({side[0]:.6g}, {side[1]:.6g}); give a force along its normal "
+                        f"({b[0]:.6g}, {b[1]:.6g}) only")
+            y, res = nnls(rows.T / scale, F)
+            if res > 1e-9 * np.linalg.norm(F):
+                r = F - rows.T @ y / scale
+                r = r / np.linalg.norm(r)
+                raise SceneError(
+                    f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m pulls the obstacle away from the bodies "
+                    f"(compressive contact forces cannot balance it): the obstacle is free to move along "
+                    f"({r[0]:.6g}, {r[1]:.6g}); give a force pressing it onto the bodies")
+        out.append(ObstacleRows(obstacle, tuple(pairs), sp.csr_matrix(rows), F, basis))
+    return out

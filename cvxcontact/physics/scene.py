@@ -17,7 +17,7 @@ from ..errors import MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
 from .materials import Elastic, Piezoelectric
-from .pairs import Contact
+from .pairs import Contact, obstacle_rows
 
 __all__ = ["Body", "Scene"]
 
@@ -54,7 +54,7 @@ class Body:
         (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
 
     Supports and electrodes enter the unknowns through the prolongation of
-    docs/formulation.md §11 (:func:`cvxcontact.fem.assembly.prolongation`).
+    docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
     """
 
     def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
@@ -543,7 +543,9 @@ class Scene:
 
     The contact geometry (lines, normals, overlaps, merged nodes) is validated here: ``interfaces``
     (one :class:`~cvxcontact.contact.interface.Interface` per pair), ``interface`` (the first),
-    ``stack`` (all pairs' rows stacked, what the solvers use).
+    ``stack`` (all pairs' rows stacked, what the solvers use), ``obstacles`` (one
+    :class:`~cvxcontact.physics.pairs.ObstacleRows` per distinct rigid obstacle; a force-controlled
+    one whose force compressive contact cannot balance is refused here, docs/formulation.md §12).
     """
 
     def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,
@@ -592,6 +594,7 @@ class Scene:
         self.conditions = tuple(c.condition for c in self.contacts)
         self.gap = Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1)
         self.gap_values()                                    # check it now: finite, right shape
+        self.obstacles = obstacle_rows(self)                 # rigid obstacles; force control checked here
 
     def _index(self, body) -> int:
         for k, b in enumerate(self.bodies):
@@ -651,9 +654,10 @@ class Scene:
 
     def structure(self) -> tuple:
         """What a prepared solver depends on beyond the bodies: each pair's members, parts, condition,
-        merged-node count and own law (the gaps and obstacle positions are loads)."""
+        merged-node count, own law and whether its obstacle is force controlled (the gaps, obstacle
+        positions and prescribed forces are loads)."""
         return tuple((m, c.part_a, c.part_b, c.condition, itf.size, c.other.kind if c.rigid else None,
-                      getattr(c, "law", None))
+                      getattr(c, "law", None), c.rigid and c.other.force is not None)
                      for m, c, itf in zip(self.stack.members, self.contacts, self.interfaces))
 
     def __repr__(self):

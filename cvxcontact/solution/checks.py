@@ -19,7 +19,8 @@ import numpy as np
 from ..contact.quadratic import bernstein_max
 
 __all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
-           "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active"]
+           "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
+           "obstacle_balance"]
 
 
 def node_scales(parts, g, extra=None):
@@ -242,3 +243,10 @@ def rigid_balance(block, modes, u, phi, Mlam):
     size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f)
     return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
 
+
+def obstacle_balance(force, rows, nodal_forces) -> float:
+    """Force balance of a force-controlled obstacle (docs/formulation.md §12, docs/checks.md):
+    |F - sum_a c_a y_a| / |F| with F the prescribed force, c_a the rows' sensitivities ``rows``
+    (n, 2) and y_a the nodal contact forces ``nodal_forces`` (n,) (any consistent units)."""
+    F = np.asarray(force, dtype=float)
+    return float(np.linalg.norm(F - rows.T @ nodal_forces) / np.linalg.norm(F))

@@ -20,10 +20,11 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, compliance_checks, conic_checks, rigid_balance
+from .checks import checks, compliance_checks, conic_checks, obstacle_balance, rigid_balance
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "Electrode", "read_back", "read_back_compliance"]
+__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back", "read_back_compliance",
+           "obstacle_results"]
 
 
 @dataclass
@@ -173,6 +174,9 @@ class Solution:
     P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
+    obstacles: list = field(default_factory=list)
+    """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, contact force N/m), in the
+    order of ``scene.obstacles``."""
 
     @property
     def status(self) -> Status:
@@ -237,6 +241,47 @@ class Solution:
                  + (f" ({len(self.contacts)} contact pairs)" if len(self.contacts) > 1 else "")]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'FAILED'}" for k, v in self._checks.items()]
         return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class ObstacleResult:
+    """One rigid obstacle of the solution (docs/formulation.md §12).
+
+    ``translation`` (2,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
+    normal: a tangential translation changes nothing); ``force`` (2,) N/m: the resultant with which
+    the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
+    :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
+    force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
+    ``prescribed`` (the check "obstacle balance"). ``pairs`` are its contact pairs.
+    """
+
+    obstacle: object
+    pairs: tuple
+    translation: np.ndarray
+    force: np.ndarray
+    prescribed: np.ndarray | None = None
+
+
+def obstacle_results(sol, translations) -> None:
+    """Fill ``sol.obstacles`` (:class:`ObstacleResult`) from the stacked nodal forces of ``sol.contacts``
+    and ``translations`` (m, the unknowns tau of each force-controlled obstacle, in order); add the
+    work -F . t of the prescribed forces to ``sol.energy`` and the check "obstacle balance" (the largest
+    |F - sum_a c_a y_a| / |F|) to the residuals."""
+    y = np.concatenate([c.force for c in sol.contacts])                     # N/m at the stacked merged nodes
+    taus, out, worst = iter(translations), [], 0.0
+    for o in sol.scene.obstacles:
+        rows = o.rows.toarray()
+        force = rows.T @ y
+        t = np.zeros(2) if o.force is None else o.basis @ next(taus)
+        if o.force is not None:
+            worst = max(worst, obstacle_balance(o.force, rows, y))
+            sol.energy -= float(o.force @ t)
+        for a in (t, force):
+            a.setflags(write=False)
+        out.append(ObstacleResult(o.obstacle, o.pairs, t, force, o.force))
+    sol.obstacles = out
+    if any(o.force is not None for o in sol.scene.obstacles):
+        sol._checks["obstacle balance"] = worst
 
 
 def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,

@@ -224,6 +224,8 @@ class ContactSolver:
             self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
                             for k, s in enumerate(systems)]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
+        if not self.compliant:
+            _check_reachable(scene, self.interface, self.E, blocks, self.E @ gap, self._translations, un)
         timings["loads"] = time.perf_counter() - t0
         run = self._full if self.method == "full" else self._condensed_solve
         if self.conic:
@@ -573,6 +575,28 @@ def _sparse_finish(kkt, g, active, timings, max_iter=30):
         active = new
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
+
+
+def _check_reachable(scene, interface, E, blocks, g, translations, un):
+    """Refuse, before any solve, a contact row that no unknown can move but whose gap is negative: a node
+    the supports hold (clamped, or a prescribed displacement) that an obstacle or a partner already
+    penetrates. The program would only be 'infeasible'; this names the pair and the point instead."""
+    reach = sum((abs(E @ b.jump) @ np.ones(b.jump.shape[1]) for b in blocks), np.zeros(E.shape[0]))
+    for R, _ in translations:                                       # a force-controlled obstacle can move
+        reach = reach + abs(R) @ np.ones(R.shape[1])
+    bad = np.flatnonzero((reach == 0) & (g < 0))
+    if not len(bad):
+        return
+    a = int(bad[0])
+    node = int(E[a].indices[np.argmax(np.abs(E[a].data))])         # the merged node the row evaluates
+    offsets = getattr(interface, "offsets", np.array([0, interface.size]))
+    pair = int(np.searchsorted(offsets, node, side="right") - 1)
+    points = scene.interfaces[pair].points if hasattr(interface, "offsets") else interface.points
+    x, y = np.asarray(points)[node - offsets[pair]]
+    raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
+                     f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "
+                     f"({x:.6g}, {y:.6g}) m where the gap is {g[a] * un.displacement:.3g} m: the contact condition "
+                     "cannot hold there; free that node, or move the obstacle or the gap so that it is >= 0")
 
 
 def _run(problem, solver, verbose, options):

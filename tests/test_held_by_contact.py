@@ -72,3 +72,15 @@ def test_unloaded_scene_with_zero_gap_passes_its_checks():
         sol = cc.solve(cc.Scene(b1, b2), method=method)
         assert all(v == 0.0 for v in sol.residuals().values()) and sol.ok
         assert np.abs(sol.u[0]).max() == 0.0
+
+
+def test_a_clamped_node_in_penetration_is_a_typed_error_naming_the_point():
+    """A node the supports hold that an obstacle already penetrates: refused before any solve with the
+    pair and the point, never a solver's 'infeasible'."""
+    b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), STEEL, clamped="left", contact="bottom")
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0.0, 1e-6), (0.0, 1.0)))])
+    for method in ("full", "condensed"):
+        with pytest.raises(cc.SceneError, match=r"contact pair 0: 1 constrained node.*\(0, 0\) m.*-1e-06 m"):
+            cc.solve(scene, method=method)
+    ok = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0.0, -1e-6), (0.0, 1.0)))])
+    assert cc.solve(ok).ok                                         # the same node with a positive gap solves

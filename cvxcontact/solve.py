@@ -163,15 +163,17 @@ class ContactSolver:
         self.degree, self.nodes, self.conic = degree, None, False
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         if degree == 2:
-            if any(lw.compliant for lw in pair_laws(scene, self.law)):
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
-                                       "yet; use degree=1 or law=None (Signorini)")
             for b in scene.bodies:
                 p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
             self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
             pair_condition = scene.conditions[0] or condition
-            self.conic = pair_condition == "gamma3"
+            p2_law = pair_laws(scene, self.law)[0]
+            if p2_law.compliant and pair_condition == "gamma3" and p2_law.penetration_limit is not None:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
+                                       "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
+                                       "no limit, or degree=1")
+            self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
             self.E = self.interface.evaluation(pair_condition)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
@@ -187,10 +189,13 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self.rows = _row_laws(scene, condition, self.law, held)                  # each pair's law on its rows
+        self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
+                     else RowLaws(pair_laws(scene, self.law), [self.E.shape[0]]))
         self.compliant = self.rows.compliant
-        self._weights = (scene.stack.weights(condition, scene.conditions)        # m, the law's quadrature
-                         if self.compliant else None)
+        self._weights = None                                                      # m, the law's quadrature
+        if self.compliant:                                                        # P2: Simpson weights (§10)
+            self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1
+                             else self.interface.weights(pair_condition))
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -230,7 +235,8 @@ class ContactSolver:
         if self.compliant:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
-                                       given=self.law)
+                                       given=self.law, interface=None if self.degree == 1 else self.interface,
+                                       nodes=self.nodes)
         else:
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active, polished,
                             problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,

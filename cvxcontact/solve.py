@@ -101,8 +101,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         segment (a second-order cone per segment, solved by the interior point with tight
         tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
         of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
-        pair between two bodies (any orientation, partial overlap) and the Signorini law; several
-        pairs, rigid obstacles and normal-compliance laws raise UnsupportedError.
+        pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
+        raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
+        rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
+        (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
 
     Returns
     -------
@@ -115,7 +117,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs or a compliance law).
+        A combination not implemented yet (e.g. degree=2 with several pairs, or with a compliance
+        penetration limit under "gamma3").
 
     See Also
     --------

@@ -147,7 +147,7 @@ class QuadraticInterface:
         form (Simpson: h/6 at each end vertex of a segment, 2h/3 at its midpoint; all positive). ``"gamma3"``:
         the merged P2 mesh; ``"sigma1"``/``"sigma2"``: that body's P2 trace nodes inside the overlap, which
         must begin and end at a vertex of that trace (else UnsupportedError: the overlap ends inside a
-        segment of it, before its midpoint, and those nodes form no P2 mesh)."""
+        segment of it, at or before its midpoint, and those nodes form no P2 mesh)."""
         xc = self._constrained(condition)
         return np.asarray(_mass(xc[0::2]).sum(axis=1)).ravel()
 
@@ -171,7 +171,7 @@ class QuadraticInterface:
         first = int(np.argmin(np.abs(t.x - xc[0]))) if len(xc) else 0      # its index in the interleaved trace
         if len(xc) < 3 or first % 2 or len(xc) % 2 == 0:
             raise UnsupportedError(f"a normal-compliance law with P2 elements (degree=2) under {condition!r}: the "
-                                   f"overlap of the pair ends inside a segment of body {k + 1}'s trace (before its "
+                                   f"overlap of the pair ends inside a segment of body {k + 1}'s trace (at or before its "
                                    "midpoint), so its constrained nodes form no P2 mesh for the law's quadrature; "
                                    "use 'gamma3' or the other sigma condition")
         return xc

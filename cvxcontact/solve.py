@@ -176,6 +176,8 @@ class ContactSolver:
                 raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
                                        "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
                                        "no limit, or degree=1")
+            if p2_law.compliant:
+                self.interface.weights(pair_condition)                 # refuses sigma rows forming no P2 mesh
             self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
             self.E = self.interface.evaluation(pair_condition)
         else:

@@ -101,8 +101,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         segment (a second-order cone per segment, solved by the interior point with tight
         tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
         of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
-        pair between two bodies (any orientation, partial overlap) and the Signorini law; several
-        pairs, rigid obstacles and normal-compliance laws raise UnsupportedError.
+        pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
+        raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
+        rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
+        (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
 
     Returns
     -------
@@ -115,7 +117,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs or a compliance law).
+        A combination not implemented yet (e.g. degree=2 with several pairs, or with a compliance
+        penetration limit under "gamma3").
 
     See Also
     --------
@@ -170,15 +173,19 @@ class ContactSolver:
             if self.forced:
                 raise UnsupportedError("P2 elements (degree=2) with force-controlled obstacles (Rigid(..., force=)) "
                                        "are not supported yet; use degree=1 or a fixed obstacle")
-            if any(lw.compliant for lw in pair_laws(scene, self.law)):
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance law are not supported "
-                                       "yet; use degree=1 or law=None (Signorini)")
             for b in scene.bodies:
                 p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
             self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
             pair_condition = scene.conditions[0] or condition
-            self.conic = pair_condition == "gamma3"
+            p2_law = pair_laws(scene, self.law)[0]
+            if p2_law.compliant and pair_condition == "gamma3" and p2_law.penetration_limit is not None:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
+                                       "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
+                                       "no limit, or degree=1")
+            if p2_law.compliant:
+                self.interface.weights(pair_condition)                 # refuses sigma rows forming no P2 mesh
+            self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
             self.E = self.interface.evaluation(pair_condition)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
@@ -194,10 +201,13 @@ class ContactSolver:
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = None
-        self.rows = _row_laws(scene, condition, self.law, held)                  # each pair's law on its rows
+        self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
+                     else RowLaws(pair_laws(scene, self.law), [self.E.shape[0]]))
         self.compliant = self.rows.compliant
-        self._weights = (scene.stack.weights(condition, scene.conditions)        # m, the law's quadrature
-                         if self.compliant else None)
+        self._weights = None                                                      # m, the law's quadrature
+        if self.compliant:                                                        # P2: Simpson weights (§10)
+            self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1
+                             else self.interface.weights(pair_condition))
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -242,7 +252,8 @@ class ContactSolver:
         if self.compliant:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
-                                       given=self.law)
+                                       given=self.law, interface=None if self.degree == 1 else self.interface,
+                                       nodes=self.nodes)
         else:
             moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
             sol = read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active, polished,

@@ -141,6 +141,41 @@ class QuadraticInterface:
             return sp.identity(self.size, format="csr")
         return p2_interpolation(self.xv, self.sigma_x[int(condition[-1]) - 1])
 
+    def weights(self, condition) -> np.ndarray:
+        """The quadrature weights (m) of a normal-compliance energy on the rows of :meth:`evaluation`
+        (docs/formulation.md §10): the row sums of the 1D P2 mass matrix of the mesh the constrained nodes
+        form (Simpson: h/6 at each end vertex of a segment, 2h/3 at its midpoint; all positive). ``"gamma3"``:
+        the merged P2 mesh; ``"sigma1"``/``"sigma2"``: that body's P2 trace nodes inside the overlap, which
+        must begin and end at a vertex of that trace (else UnsupportedError: the overlap ends inside a
+        segment of it, at or before its midpoint, and those nodes form no P2 mesh)."""
+        xc = self._constrained(condition)
+        return np.asarray(_mass(xc[0::2]).sum(axis=1)).ravel()
+
+    def extend(self, condition, values) -> np.ndarray:
+        """The P2 function of the mesh of the constrained nodes under ``condition`` (:meth:`weights`) with
+        nodal ``values`` there, evaluated at every node of X_h (constant beyond its end nodes)."""
+        values = np.asarray(values, dtype=float)
+        if condition == "gamma3":
+            return values.copy()
+        xc = self._constrained(condition)
+        return p2_interpolation(xc[0::2], np.asarray(self.x)) @ values
+
+    def _constrained(self, condition) -> np.ndarray:
+        """Abscissae of the constrained nodes of ``condition`` as an interleaved P2 mesh (:meth:`weights`)."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if condition == "gamma3":
+            return np.asarray(self.x)
+        k = int(condition[-1]) - 1
+        t, xc = self.traces[k], self.sigma_x[k]
+        first = int(np.argmin(np.abs(t.x - xc[0]))) if len(xc) else 0      # its index in the interleaved trace
+        if len(xc) < 3 or first % 2 or len(xc) % 2 == 0:
+            raise UnsupportedError(f"a normal-compliance law with P2 elements (degree=2) under {condition!r}: the "
+                                   f"overlap of the pair ends inside a segment of body {k + 1}'s trace (at or before its "
+                                   "midpoint), so its constrained nodes form no P2 mesh for the law's quadrature; "
+                                   "use 'gamma3' or the other sigma condition")
+        return xc
+
     def bernstein(self) -> sp.csr_matrix:
         """(3 S, size) map from nodal values of X_h to the Bernstein coefficients, rows (b0, b1, b2) of
         segment 0, then segment 1, ..."""

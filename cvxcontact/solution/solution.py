@@ -360,7 +360,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
-                         problem, tol, timings, given=None):
+                         problem, tol, timings, given=None, interface=None, nodes=None):
     """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
 
     ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
@@ -373,7 +373,10 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     lambda), the force the checks put into (26); on a Signorini pair lambda_h is the multiplier
     M lambda_h = E^T z of :func:`read_back`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
     ``given`` (the law given to ``solve``), or ``law`` itself when it is one law. ``energy`` includes
-    sum_a w_a Phi_a(r_a).
+    sum_a w_a Phi_a(r_a). P2 (``interface`` the pair's
+    :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, ``nodes`` the bodies' P2 nodes): the rows
+    are the P2 contact nodes of the condition, ``weights`` their Simpson weights, and lambda is extended to
+    X_h as the P2 function of those nodes (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.extend`).
     """
     from ..contact.laws import RowLaws
 
@@ -381,7 +384,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     scaled = rows.scaled(un.stress * un.load, un.displacement)
     force = np.asarray(force, dtype=float)
     sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, force, force > 0, polished, problem,
-                    tol, timings)
+                    tol, timings, interface=interface, nodes=nodes)
     g = E @ gap
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
@@ -389,10 +392,11 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
-    for i, (itf, c, pair_law) in enumerate(zip(scene.interfaces, sol.contacts, rows.laws)):
+    pairs, merged_at = (scene.interfaces, scene.stack.offsets) if interface is None else ([interface], [0, interface.size])
+    for i, (itf, c, pair_law) in enumerate(zip(pairs, sol.contacts, rows.laws)):
         if pair_law.compliant:
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
-            merged = slice(scene.stack.offsets[i], scene.stack.offsets[i + 1])
+            merged = slice(merged_at[i], merged_at[i + 1])
             c = replace(c, lam=itf.extend(cond, lam[offsets[i]:offsets[i + 1]]) * unit, force=nodal[merged] * un.force)
             for a in (c.lam, c.force):
                 a.setflags(write=False)

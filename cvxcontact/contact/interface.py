@@ -183,13 +183,7 @@ class Interface:
         """(n_merged, 2 n_nodes) map from body k's nodal displacements to its part u^k . nu^k of
         [u_nu] = u^a . nu^a + u^b . nu^b at the merged nodes."""
         t = self.traces[k]
-        P = self._interp[k].tocoo()
-        n = t.unit_normal
-        rows = np.concatenate([P.row, P.row])
-        cols = np.concatenate([2 * t.nodes[P.col], 2 * t.nodes[P.col] + 1])
-        vals = np.concatenate([n[0] * P.data, n[1] * P.data])
-        keep = vals != 0
-        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(self.size, 2 * n_nodes))
+        return normal_jump(self._interp[k], t.nodes, t.unit_normal, 2 * n_nodes)
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
@@ -279,6 +273,18 @@ class Stack:
     def split(self, values):
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
+
+
+def normal_jump(P, nodes, unit_normal, n_dofs) -> sp.csr_matrix:
+    """(P.shape[0], n_dofs): u . nu at the merged nodes from a body's nodal displacements (x, y
+    interleaved), with P the interpolation of its trace (columns: trace nodes ``nodes``) and nu its
+    unit outward normal. Shared by the P1 and P2 contact lines."""
+    P = P.tocoo()
+    rows = np.concatenate([P.row, P.row])
+    cols = np.concatenate([2 * nodes[P.col], 2 * nodes[P.col] + 1])
+    vals = np.concatenate([unit_normal[0] * P.data, unit_normal[1] * P.data])
+    keep = vals != 0
+    return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(P.shape[0], n_dofs))
 
 
 def _frozen(a) -> np.ndarray:

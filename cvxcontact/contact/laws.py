@@ -104,17 +104,15 @@ class NormalCompliance(ContactLaw):
 
     def pressure(self, r) -> np.ndarray:
         """p(r) = k r_+^m (Pa) at penetrations r (m)."""
-        return self.stiffness * np.maximum(np.asarray(r, dtype=float), 0.0) ** self.exponent
+        return _pressure(self.stiffness, self.exponent, r)
 
     def derivative(self, r) -> np.ndarray:
         """p'(r) = k m r_+^(m-1) (Pa/m; for m = 1 the right derivative k at r = 0 is not used: 0 there)."""
-        r = np.maximum(np.asarray(r, dtype=float), 0.0)
-        return np.where(r > 0, self.stiffness * self.exponent * r ** (self.exponent - 1.0), 0.0)
+        return _derivative(self.stiffness, self.exponent, r)
 
     def energy(self, r) -> np.ndarray:
         """Phi(r) = k/(m+1) r_+^(m+1) (J/m^2), the primitive of p vanishing for r <= 0."""
-        m = self.exponent
-        return self.stiffness / (m + 1.0) * np.maximum(np.asarray(r, dtype=float), 0.0) ** (m + 1.0)
+        return _energy(self.stiffness, self.exponent, r)
 
     def scaled(self, pressure: float, displacement: float) -> "NormalCompliance":
         """The same law in units where pressure is ``pressure`` (Pa) and penetration ``displacement`` (m):
@@ -219,19 +217,34 @@ class RowLaws:
 
     def pressure(self, r) -> np.ndarray:
         """p_a(r_a) = k_a (r_a)_+^m_a (Pa; 0 on Signorini rows)."""
-        return self.stiffness * np.maximum(np.asarray(r, dtype=float), 0.0) ** self.exponent
+        return _pressure(self.stiffness, self.exponent, r)
 
     def derivative(self, r) -> np.ndarray:
         """p_a'(r_a) (Pa/m; 0 where r_a <= 0 and on Signorini rows)."""
-        r = np.maximum(np.asarray(r, dtype=float), 0.0)
-        return np.where(r > 0, self.stiffness * self.exponent * r ** (self.exponent - 1.0), 0.0)
+        return _derivative(self.stiffness, self.exponent, r)
 
     def energy(self, r) -> np.ndarray:
         """Phi_a(r_a) = k_a/(m_a+1) (r_a)_+^(m_a+1) (J/m^2; 0 on Signorini rows)."""
-        m = self.exponent
-        return self.stiffness / (m + 1.0) * np.maximum(np.asarray(r, dtype=float), 0.0) ** (m + 1.0)
+        return _energy(self.stiffness, self.exponent, r)
 
     def scaled(self, pressure: float, displacement: float) -> "RowLaws":
         """The same rows in units of ``pressure`` (Pa) and ``displacement`` (m) (:meth:`NormalCompliance.scaled`)."""
         return RowLaws([law.scaled(pressure, displacement) if law.compliant else law for law in self.laws],
                        self.counts)
+
+
+def _pressure(k, m, r):
+    """p(r) = k r_+^m (Pa); k, m scalars or per-row arrays."""
+    return k * np.maximum(np.asarray(r, dtype=float), 0.0) ** m
+
+
+def _derivative(k, m, r):
+    """p'(r) = k m r_+^(m-1) (Pa/m), 0 where r <= 0."""
+    r = np.maximum(np.asarray(r, dtype=float), 0.0)
+    return np.where(r > 0, k * m * r ** (m - 1.0), 0.0)
+
+
+def _energy(k, m, r):
+    """Phi(r) = k/(m+1) r_+^(m+1) (J/m^2), the primitive of p vanishing for r <= 0."""
+    return k / (m + 1.0) * np.maximum(np.asarray(r, dtype=float), 0.0) ** (m + 1.0)
+

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
-from .interface import CONDITIONS, Interface, _frozen
+from .interface import CONDITIONS, Interface, _frozen, normal_jump
 
 __all__ = ["QuadraticInterface", "quadratic_interface", "p2_interpolation", "bernstein_max"]
 
@@ -121,13 +121,7 @@ class QuadraticInterface:
         if k not in self.members:
             return sp.csr_matrix((self.size, 2 * n_nodes))
         t = self.traces[self.members.index(k)]
-        P = self._interp[t.k].tocoo()
-        n = t.unit_normal
-        rows = np.concatenate([P.row, P.row])
-        cols = np.concatenate([2 * t.nodes[P.col], 2 * t.nodes[P.col] + 1])
-        vals = np.concatenate([n[0] * P.data, n[1] * P.data])
-        keep = vals != 0
-        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(self.size, 2 * n_nodes))
+        return normal_jump(self._interp[t.k], t.nodes, t.unit_normal, 2 * n_nodes)
 
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows evaluate X_h at the points where a nodal (linear) condition is imposed.

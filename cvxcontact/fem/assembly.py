@@ -208,7 +208,8 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
 
 
 def _electrode_potential(mesh, body):
-    """Nodal potentials (V) on the driven electrodes, zero elsewhere (grounded included)."""
+    """Nodal potentials (V) on the driven electrodes, zero elsewhere (grounded included). ``mesh`` is a
+    Mesh (P1) or P2Nodes (P2: the potential interpolated at vertices and midpoints)."""
     phi = np.zeros(len(mesh.points))
     for tag, load in body.potential.items():
         nodes = mesh.boundary_nodes([tag])

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
-from .assembly import BodySystem, _accumulate, _scatter, gradients
+from .assembly import BodySystem, _accumulate, _electrode_potential, _scatter, gradients
 
 __all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients",
            "check_supported"]
@@ -138,18 +138,6 @@ def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
         system.q = q - matrices.Kpp @ phi_fixed
         system.phi_fixed = phi_fixed
     return system
-
-
-def _electrode_potential(nodes, body):
-    """P2 nodal potentials (V) on the driven electrodes (interpolation), zero elsewhere."""
-    phi = np.zeros(len(nodes))
-    for tag, load in body.potential.items():
-        idx = nodes.boundary_nodes([tag])
-        phi[idx] = load(nodes.points[idx, 0], nodes.points[idx, 1])
-    grounded = nodes.boundary_nodes(body.grounded)
-    if np.any(phi[grounded] != 0):
-        raise SceneError(f"{body.name}: a driven electrode touches a grounded one at a non-zero potential")
-    return phi
 
 
 def _body_load(nodes, load, ncomp):

@@ -20,17 +20,7 @@ import sys
 import numpy as np
 
 import cvxcontact as cc
-
-
-def build(nx=16):
-    """The quickstart scene at nx cells (upper block), about 0.7 nx below."""
-    nx2 = max(2, round(0.7 * nx))
-    upper = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=max(1, nx // 2))
-    lower = cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=nx2, ny=max(1, nx2 // 2))
-    b1 = cc.Body(upper, cc.materials.PZT5A, clamped=["top"], grounded=["top"], contact="bottom",
-                 body_force=(0.0, -2e9), traction={"right": (0.0, 3e8)}, surface_charge={"left": -0.05})
-    b2 = cc.Body(lower, cc.materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"], contact="top")
-    return cc.Scene(b1, b2)
+from cvxcontact.apps.demo import two_blocks
 
 
 def distance(sol, ref):
@@ -42,7 +32,7 @@ def distance(sol, ref):
 
 def main(nx=16, stiffnesses=None):
     """Returns {m: [(k, e_u, e_lam, max penetration, solution)]} and prints the table and rates."""
-    scene = build(nx)
+    scene = two_blocks(nx)                # the quickstart scene (cvxcontact.apps.demo)
     ref = cc.solve(scene)
     print(f"Signorini: {ref.report().splitlines()[0]}")
     out = {}

@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .backends.conic import bernstein_duals
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, check_law, check_law_for, pair_laws
@@ -56,7 +57,7 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run
+from .solve import _CLARABEL_CONIC, DEFAULT_TOL, ContactSolver, _row_laws, _run
 
 __all__ = ["Model"]
 
@@ -71,9 +72,10 @@ class Model:
     docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
     ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
-    of the merged mesh; only the nodal conditions "sigma1"/"sigma2" (the conic "gamma3" is
-    :func:`cvxcontact.solve`'s), one contact pair of two bodies and the Signorini law (else
-    UnsupportedError).
+    of the merged mesh; one contact pair of two bodies and the Signorini law (else UnsupportedError);
+    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
+    segment, interior-point answer with tight tolerances, no exact finish, checked like
+    :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact finish.
 
     Methods
     -------
@@ -128,9 +130,6 @@ class Model:
             gap = scene.gap_values()
         else:
             itf = self._itf = quadratic_interface(scene, self._nodes)     # one pair of two bodies (else refused)
-            if (scene.conditions[0] or condition) == "gamma3":
-                raise SolverError("Model(degree=2) takes the nodal conditions 'sigma1'/'sigma2' (linear rows); the "
-                                  "conic 'gamma3' condition of P2 is solved by cc.solve(scene, 'gamma3', degree=2)")
             self.E = itf.evaluation(scene.conditions[0] or condition)
             self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
             gap = scene.pair_gap_values(0, np.array(itf.x))
@@ -142,7 +141,10 @@ class Model:
         self._weights = (itf.weights(condition, scene.conditions) / un.length   # the law's quadrature, scaled
                          if self.rows.compliant else None)
         self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
-        self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights)
+        self._bernstein = (itf.bernstein() if degree == 2 and (scene.conditions[0] or condition) == "gamma3"
+                           else None)                                   # the conic condition (§8)
+        self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
+                                     bernstein=self._bernstein)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -272,7 +274,9 @@ class Model:
         objective = sum(self._objective) if self._objective else None
         problem = self._contact.with_terms(self.constraints, objective)
         timings["model"] = time.perf_counter() - t0
-        _run(problem, self.solver, self.verbose, self.options)
+        conic = self._bernstein is not None
+        _run(problem, self.solver, self.verbose, {**_CLARABEL_CONIC, **self.options} if conic and
+             self.solver == "CLARABEL" else self.options)
         timings["compile"] = problem.compilation_time or 0.0
         timings["solve"] = problem.solver_stats.solve_time or 0.0
         blocks, E, g = self.blocks, self.E, self._g
@@ -282,6 +286,9 @@ class Model:
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z
+        elif conic:    # the nodal force r = B^T beta on X_h (E = I)
+            beta = bernstein_duals(self._contact.cone, self._contact.row)
+            y = self._bernstein.T @ beta.ravel()
         else:
             y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
         x = self._x()
@@ -296,9 +303,10 @@ class Model:
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
+        finishable = linear and not conic                                  # nor with the conic condition
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y, force_displacements(blocks, E, y))
         polished, declined = False, ""
-        if self.polish and linear:
+        if self.polish and finishable:
             t0 = time.perf_counter()
             out = self._finish(u, phi, y, rows, grad if objective is not None else None, active)
             timings["polish"] = time.perf_counter() - t0
@@ -326,7 +334,7 @@ class Model:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings,
                             interface=None if self._nodes is None else self._itf,
-                            nodes=self._nodes)
+                            beta=beta if conic else None, nodes=self._nodes)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
@@ -334,7 +342,7 @@ class Model:
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
-        if self.polish and linear and not polished:
+        if self.polish and finishable and not polished:
             warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
                           f"({declined}); the interior-point answer is kept (sol.polished is False):\n"
                           f"{sol.report()}", ResidualWarning, stacklevel=2)
@@ -449,7 +457,7 @@ class Model:
         out = dict(base)
         out["equilibrium"] = equilibrium_with(blocks, u, phi, E.T @ y, forces)
         nc = self._contact_norms()
-        Z = float((y * nc).max(initial=0.0))
+        Z = float((np.abs(y) * nc).max(initial=0.0))     # (the conic nodal force r may change sign)
         for C, c0, z, _, _ in rows:
             if C is not None:
                 Z = max(Z, float((np.abs(z) * row_scales(C, x, c0)[1]).max(initial=0.0)))

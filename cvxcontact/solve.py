@@ -18,7 +18,7 @@ import cvxpy as cp
 import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
-from .backends.conic import ConicContactModel, ConicInterfaceModel, bernstein_duals
+from .backends.conic import ConicInterfaceModel, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
                               solve_linear_compliance)
@@ -476,7 +476,7 @@ class ContactSolver:
     def _conic_full(self, blocks, g, timings):
         """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
         t0 = time.perf_counter()
-        model = ConicContactModel(blocks, self.interface.bernstein(), g)
+        model = ContactModel(blocks, self.E, g, bernstein=self.interface.bernstein())
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0

@@ -240,8 +240,31 @@ def test_p2_model_matches_solve_and_takes_user_rows(small):
     model.add(model.phi(0)[mid] <= bound if bound > 0 else model.phi(0)[mid] >= bound)
     sol = model.solve()
     assert sol.ok and abs(sol.phi[0][mid] - bound) < 1e-9 * abs(bound)
-    with pytest.raises(SolverError, match="sigma"):
-        cc.Model(small, "gamma3", degree=2)
+
+
+def test_p2_model_with_the_conic_condition(small):
+    """cc.Model(degree=2) poses the conic "everywhere" condition under "gamma3": without user terms it is
+    cc.solve's full conic program; with an active user row the answer still keeps [u_nu] <= g between the
+    nodes, checked by dense sampling of each body's own P2 trace (independent of the merged mesh)."""
+    ref = cc.solve(small, "gamma3", degree=2, method="full")
+    model = cc.Model(small, "gamma3", degree=2)
+    sol = model.solve()
+    assert sol.ok and sol.degree == 2 and "cone" in sol.residuals()
+    for k in (0, 1):
+        assert rel(sol.u[k], ref.u[k]) < 1e-7
+    assert rel(sol.contact.force, ref.contact.force) < 1e-6
+    xs = np.linspace(0.0, 1.0, 4001)
+    scale = np.abs(sol.u[0]).max()
+    nodes = P2Nodes(small.bodies[0].mesh)
+    mid = nodes.n_vertices + int(np.argmax(np.abs(ref.phi[0][nodes.n_vertices:])))
+    bound = 0.5 * ref.phi[0][mid]
+    model.add(model.phi(0)[mid] <= bound if bound > 0 else model.phi(0)[mid] >= bound)
+    capped = model.solve()
+    assert capped.ok and abs(capped.phi[0][mid] - bound) < 1e-7 * abs(bound)
+    assert "user[0] feasibility" in capped.residuals()
+    assert rel(capped.u[0], sol.u[0]) > 1e-4                       # the row changed the answer
+    for s in (sol, capped):
+        assert _sample_jump(s, xs).max() < 1e-9 * scale           # gap 0: [u_nu] <= 0 everywhere
 
 
 def test_p2_pressure_and_traction_of_the_patch(patch):

@@ -11,8 +11,9 @@ stationarity in w_s gives mu_s = -2 z1 and the contact force on the nodes of X_h
     r = B^T beta,   beta_s = (z0 + z2, mu_s, z0 - z2)   (so M lambda_h = r),
 
 beta_s lying in the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1^2 <= 4 beta0 beta2; the
-complementarity of the segment is beta_s . b_s = 0. The accepts rule: these models take the P2
-"gamma3" condition of the package's own problem (quadratic energy, no user terms).
+complementarity of the segment is beta_s . b_s = 0. The full model with this condition is
+:class:`cvxcontact.backends.full.ContactModel` with ``bernstein=B``; :class:`ConicInterfaceModel` is the
+condensed one (the package's own problem: quadratic energy, no user terms).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from __future__ import annotations
 import cvxpy as cp
 import numpy as np
 
-__all__ = ["bernstein_constraints", "bernstein_duals", "ConicContactModel", "ConicInterfaceModel"]
+__all__ = ["bernstein_constraints", "bernstein_duals", "ConicInterfaceModel"]
 
 
 def bernstein_constraints(jump, B, g):
@@ -41,27 +42,6 @@ def bernstein_duals(cone, row) -> np.ndarray:
     Z = np.asarray(cone.dual_value[1], dtype=float).reshape(2, -1)
     mu = np.asarray(row.dual_value, dtype=float).ravel()
     return np.column_stack([z0 + Z[1], mu, z0 - Z[1]])
-
-
-class ConicContactModel:
-    """The full phi-form model (:class:`cvxcontact.backends.full.ContactModel`) with the conic condition.
-
-    Attributes: ``problem``, ``u``, ``phi``, ``cone``, ``row``.
-    """
-
-    def __init__(self, blocks, B, g):
-        self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
-        self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
-                    for k, b in enumerate(blocks)]
-        energy, cons = 0, []
-        for b, u, phi in zip(blocks, self.u, self.phi):
-            energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
-            if phi is not None:
-                energy += 0.5 * cp.quad_form(phi, cp.psd_wrap(b.Kpp))
-                cons.append(b.Kpp @ phi - b.Kup.T @ u == b.q)
-        jump = sum(b.jump @ u for b, u in zip(blocks, self.u))
-        self.cone, self.row, _ = bernstein_constraints(jump, B, g)
-        self.problem = cp.Problem(cp.Minimize(energy), cons + [self.cone, self.row])
 
 
 class ConicInterfaceModel:

@@ -93,9 +93,15 @@ class ContactModel:
     ``translations``: per force-controlled obstacle (R, F), R (rows of E, k) the rows' sensitivities to
     its translation unknowns tau and F (k,) the prescribed force on them (scaled): a variable ``t[i]``,
     the energy gets -F . tau and the rows become E [u_nu] + R tau <= E g (docs/formulation.md §12).
+
+    ``bernstein``: the P2 "everywhere" condition (docs/formulation.md §8) instead of the rows: ``B`` (3 S, n)
+    of the pair's :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, with E the identity on the nodes
+    of X_h and ``gap_rows`` the gap there; ``contact`` is then None and the attributes ``cone`` and ``row``
+    hold the constraints of :func:`~cvxcontact.backends.conic.bernstein_constraints` (their duals give the
+    Bernstein duals beta, :func:`~cvxcontact.backends.conic.bernstein_duals`).
     """
 
-    def __init__(self, blocks, E, gap_rows, law=None, weights=None, translations=None):
+    def __init__(self, blocks, E, gap_rows, law=None, weights=None, translations=None, bernstein=None):
         self.blocks = blocks
         self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
         self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
@@ -115,11 +121,19 @@ class ContactModel:
             self.t.append(t)
             energy -= F @ t
             jump = jump + R @ t
-        term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)
-        energy += term
+        self.cone = self.row = None
+        if bernstein is not None:
+            from .conic import bernstein_constraints
+
+            self.contact, self.limit_rows = None, None
+            self.cone, self.row, _ = bernstein_constraints(jump, bernstein, gap_rows)
+            contact = [self.cone, self.row]
+        else:
+            term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)
+            energy += term
+            contact = [self.contact] if self.contact is not None else []
         self.energy = energy
-        self.constraints = [c for c in self.gauss if c is not None] + ([self.contact] if self.contact is not None
-                                                                        else [])
+        self.constraints = [c for c in self.gauss if c is not None] + contact
         self.problem = cp.Problem(cp.Minimize(energy), self.constraints)
 
     def with_terms(self, constraints=(), objective=None) -> cp.Problem:

@@ -39,6 +39,8 @@ from scipy.optimize import nnls
 
 from cvxcontact.fem.assembly import assemble
 
+from reference_problems import hat
+
 
 @dataclass
 class TraceRef:
@@ -62,16 +64,6 @@ def merge(x1, x2, tol):
     allx = np.sort(np.concatenate([x1, x2]))
     keep = np.concatenate([[True], np.diff(allx) > tol])
     return allx[keep]
-
-
-def hat_matrix(xm, xt):
-    """(len(xm), len(xt)): the P1 function with nodes xt and nodal values e_j evaluated at xm."""
-    P = np.zeros((len(xm), len(xt)))
-    for j in range(len(xt)):
-        e = np.zeros(len(xt))
-        e[j] = 1.0
-        P[:, j] = np.interp(xm, xt, e)
-    return P
 
 
 @dataclass
@@ -110,7 +102,7 @@ class Reference:
             s = assemble(b)
             n = len(b.mesh.points)
             J = np.zeros((len(self.x), 2 * n))
-            J[:, 2 * t.nodes + 1] = t.normal * hat_matrix(self.x, t.x)
+            J[:, 2 * t.nodes + 1] = t.normal * hat(self.x, t.x)
             uf = s.u_free
             Kuu = s.Kuu[uf][:, uf].toarray()
             c = np.abs(Kuu).max()

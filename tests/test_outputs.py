@@ -1,6 +1,5 @@
 """Outputs a scientist can use: the pressure felt by each body, VTU/PVD files, figures, the CLI's first hour."""
 
-import json
 import subprocess
 import sys
 import xml.etree.ElementTree as ET

@@ -1,7 +1,6 @@
 """P2 elements (issue 11, items 1-3): assembly against closed forms, the quadratic patch test with the
 "everywhere" (conic) condition, dense sampling of the returned jump, condensed = full."""
 
-import warnings
 
 import numpy as np
 import pytest

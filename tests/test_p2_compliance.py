@@ -12,30 +12,11 @@ With P2 the law sits on the P2 contact nodes of the condition's rows with Simpso
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
 
 import cvxcontact as cc
 
 from conftest import rel, two_blocks
-
-E1, E2, H1, H2, DELTA = 70e9, 200e9, 0.5, 0.3, 1e-4
-C = H1 / E1 + H2 / E2
-
-
-def pressed(n1=(7, 3), n2=(5, 2)):
-    """Two nu = 0 blocks (7 : 5 cells on Gamma_3 by default: non-matching), interference DELTA."""
-    m1 = cc.rectangle(x=(0, 1), y=(0, H1), nx=n1[0], ny=n1[1])
-    m2 = cc.rectangle(x=(0, 1), y=(-H2, 0), nx=n2[0], ny=n2[1])
-    b1 = cc.Body(m1, cc.materials.isotropic(E=E1, nu=0.0), clamped=["top"], contact="bottom")
-    b2 = cc.Body(m2, cc.materials.isotropic(E=E2, nu=0.0), clamped=["bottom"], contact="top")
-    return cc.Scene(b1, b2, gap=-DELTA)
-
-
-def closed_form(k, m):
-    """(penetration r, pressure lambda) of the springs in series (module docstring)."""
-    r = brentq(lambda r: r + C * k * r ** m - DELTA, 0.0, DELTA, xtol=1e-22, rtol=1e-15)
-    return r, (DELTA - r) / C
-
+from reference_problems import C, DELTA, E1, E2, H1, H2, closed_form, pressed
 
 def field_error(sol, lam):
     """Largest error of u at every P2 node of both bodies against the springs' fields, over DELTA."""

@@ -17,10 +17,10 @@ import pytest
 from scipy.optimize import brentq
 
 import cvxcontact as cc
-from cvxcontact.fem.assembly import assemble
 from cvxcontact.io.scenefile import SceneFileError, scene_from_data
 
 from conftest import rel
+from reference_problems import merged_rows, per_body, stiffness
 
 STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
@@ -42,45 +42,15 @@ def stack(law_top=None, law_bottom=None):
         cc.Contact(mid, "bottom", bot, "top", gap=GAPS[1], law=law_bottom)])
 
 
-def _trace(body, part):
-    m = body.mesh
-    nodes = np.unique(m.boundary(part))
-    nodes = nodes[np.argsort(m.points[nodes, 0])]
-    sign = -1.0 if m.points[:, 1].mean() > m.points[nodes, 1].mean() else 1.0     # outward normal's y
-    return nodes, m.points[nodes, 0], sign
-
-
-def _rows(bodies, systems, off, ka, pa, kb, pb):
-    """[u_nu] at the merged nodes of the overlap of two horizontal parts (gamma3), test-built."""
-    ta, tb = _trace(bodies[ka], pa), _trace(bodies[kb], pb)
-    lo, hi = max(ta[1][0], tb[1][0]), min(ta[1][-1], tb[1][-1])
-    xs = np.unique(np.round(np.concatenate([t[1][(t[1] >= lo - 1e-12) & (t[1] <= hi + 1e-12)] for t in (ta, tb)]),
-                            12))
-    G = np.zeros((len(xs), off[-1]))
-    for k, (nodes, x, sign) in ((ka, ta), (kb, tb)):
-        full = np.zeros((len(xs), 2 * len(bodies[k].mesh.points)))
-        for j in range(len(x)):
-            e = np.zeros(len(x))
-            e[j] = 1.0
-            full[:, 2 * nodes[j] + 1] = sign * np.interp(xs, x, e)
-        G[:, off[k]:off[k + 1]] += full[:, systems[k].u_free]
-    return xs, G
-
-
 def dense_mixed(bodies, k, m=1):
     """The stack's (26) in SI, dense: pair 0 under lambda = k r_+^m (nodal, trapezoidal weights), pair 1
     under Signorini. Active-set steps on the Signorini rows (y > 0 / slack > 0), each solving the
     equilibrium with the springs by Newton's method (semismooth for m = 1: p' = k on r > 0, 0 else).
     Returns per-body displacements, pair 0's (x, lambda) and pair 1's (x, nodal force E^T y)."""
-    systems = [assemble(b) for b in bodies]
-    off = np.concatenate([[0], np.cumsum([len(s.u_free) for s in systems])])
+    systems, off, K, f = stiffness(bodies)
     n = off[-1]
-    K, f = np.zeros((n, n)), np.zeros(n)
-    for s, a, b in zip(systems, off[:-1], off[1:]):
-        K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
-        f[a:b] = s.f[s.u_free]
-    xc, Gc = _rows(bodies, systems, off, 0, "bottom", 1, "top")
-    xs, Gs = _rows(bodies, systems, off, 1, "bottom", 2, "top")
+    xc, Gc, _ = merged_rows(bodies, systems, off, 0, "bottom", 1, "top")
+    xs, Gs, _ = merged_rows(bodies, systems, off, 1, "bottom", 2, "top")
     gc, gs = GAPS[0](xc), GAPS[1](xs)
     w = _lumped(xc)
     c = np.abs(K).max()
@@ -111,12 +81,7 @@ def dense_mixed(bodies, k, m=1):
     else:
         raise AssertionError("the reference active-set steps did not settle")
     assert y.min() >= -1e-10 * ymax and slack.max() <= 1e-10 * smax     # the reference satisfies (27)
-    us = []
-    for s, b, a, e in zip(systems, bodies, off[:-1], off[1:]):
-        full = np.zeros(2 * len(b.mesh.points))
-        full[s.u_free] = u[a:e]
-        us.append(full.reshape(-1, 2))
-    return us, (xc, k * np.maximum(Gc @ u - gc, 0.0) ** m), (xs, y)
+    return per_body(systems, bodies, off, u), (xc, k * np.maximum(Gc @ u - gc, 0.0) ** m), (xs, y)
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.fem.assembly import assemble
 
 from conftest import rel, two_blocks
+from reference_problems import active_set_solve, merged_rows, per_body, stiffness
 
 STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
@@ -57,83 +57,27 @@ def test_rotated_two_block_scene_gives_the_rotated_solution(degrees):
 
 # ---- an independent dense solve of (26) on the overlap: test-built contact rows, active-set steps ------
 
-def trace(body, part):
-    """Nodes of a horizontal part sorted by x, their abscissae, the line ordinate and the y-normal."""
-    m = body.mesh
-    nodes = np.unique(m.boundary(part))
-    nodes = nodes[np.argsort(m.points[nodes, 0])]
-    line = float(m.points[nodes, 1].mean())
-    return nodes, m.points[nodes, 0], line, (-1.0 if m.points[:, 1].mean() > line else 1.0)
-
-
-def hat(xm, xt):
-    P = np.zeros((len(xm), len(xt)))
-    for j in range(len(xt)):
-        e = np.zeros(len(xt))
-        e[j] = 1.0
-        P[:, j] = np.interp(xm, xt, e)
-    return P
-
-
 def dense_reference(bodies, pairs, condition, gaps):
     """Elastic bodies only. pairs: (ka, part_a, kb, part_b); gaps[i](s) the gap of pair i (m).
     Returns per-body SI displacements and per-pair (merged abscissae, nodal forces E^T y in N/m)."""
-    systems = [assemble(b) for b in bodies]
-    sizes = [len(s.u_free) for s in systems]
-    off = np.concatenate([[0], np.cumsum(sizes)])
-    n = off[-1]
-    K = np.zeros((n, n))
-    f = np.zeros(n)
-    for s, a, b in zip(systems, off[:-1], off[1:]):
-        K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
-        f[a:b] = s.f[s.u_free]
+    systems, off, K, f = stiffness(bodies)
     G, g, where = [], [], []
     for i, (ka, pa, kb, pb) in enumerate(pairs):
-        ta, tb = trace(bodies[ka], pa), trace(bodies[kb], pb)
-        lo, hi = max(ta[1][0], tb[1][0]), min(ta[1][-1], tb[1][-1])
-        inside = [t[1][(t[1] >= lo - 1e-12) & (t[1] <= hi + 1e-12)] for t in (ta, tb)]
-        xs = np.unique(np.round(np.concatenate(inside), 12))
-        rows = np.zeros((len(xs), n))
-        for k, t in ((ka, ta), (kb, tb)):
-            full = np.zeros((len(xs), 2 * len(bodies[k].mesh.points)))
-            full[:, 2 * t[0] + 1] = t[3] * hat(xs, t[1])
-            rows[:, off[k]:off[k + 1]] += full[:, systems[k].u_free]
+        xs, rows, inside = merged_rows(bodies, systems, off, ka, pa, kb, pb)
         keep = {"gamma3": np.ones(len(xs), bool),
                 "sigma1": np.isin(xs, np.round(inside[0], 12)),
                 "sigma2": np.isin(xs, np.round(inside[1], 12))}[condition]
         G.append(rows[keep])
         g.append(gaps[i](xs)[keep])
         where.append((xs, np.flatnonzero(keep)))
-    G, g = np.vstack(G), np.concatenate(g)
-    c = np.abs(K).max()
-    act = np.ones(len(g), bool)
-    for _ in range(50):                      # primal-dual active-set steps on the KKT system of (26)
-        m = int(act.sum())
-        A = np.block([[K / c, G[act].T], [G[act], np.zeros((m, m))]])
-        z = np.linalg.solve(A, np.concatenate([f / c, g[act]]))
-        u, y = z[:n], np.zeros(len(g))
-        y[act] = z[n:] * c
-        slack = G @ u - g
-        ymax, smax = np.abs(y).max(initial=1e-300), np.abs(g).max(initial=0) + np.abs(G @ u).max()
-        new = np.where(act, y > 1e-12 * ymax, slack > 1e-12 * smax)
-        if np.array_equal(new, act):
-            break
-        act = new
-    else:
-        raise AssertionError("the reference active-set steps did not settle")
-    assert y.min() >= -1e-10 * ymax and slack.max() <= 1e-10 * smax      # the reference satisfies (27)
-    us = []
-    for s, b, a, e in zip(systems, bodies, off[:-1], off[1:]):
-        full = np.zeros(2 * len(b.mesh.points))
-        full[s.u_free] = u[a:e]
-        us.append(full.reshape(-1, 2))
+    u, y = active_set_solve(K, f, np.vstack(G), np.concatenate(g))
     forces, pos = [], 0
     for xs, keep in where:
         fr = np.zeros(len(xs))
         fr[keep] = y[pos:pos + len(keep)]
         pos += len(keep)
         forces.append((xs, fr))
-    return us, forces
+    return per_body(systems, bodies, off, u), forces
 
 
 def punch_scene(condition=None, width=(0.3, 0.7)):

@@ -37,6 +37,7 @@ import glob
 import os
 import sys
 import threading
+import warnings
 import weakref
 
 import numpy as np
@@ -77,15 +78,25 @@ class Factorization:
     def __init__(self, n: int, gamma: np.ndarray, schur: np.ndarray):
         self.n, self.gamma = n, gamma
         self.schur = 0.5 * (schur + schur.T)
-        try:
+        self._chol = self._lu = None
+        if not len(gamma):
+            return
+        try:                       # SPD when the Gamma dofs are displacements (the contact dofs)
             self._chol = sla.cho_factor(self.schur)
-        except np.linalg.LinAlgError as exc:
-            raise SolverError(f"the interface stiffness (Schur complement on the {len(gamma)} contact dofs) from "
-                              f"{self.name} is not positive definite: {exc}") from exc
+        except np.linalg.LinAlgError:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", sla.LinAlgWarning)
+                try:
+                    self._lu = sla.lu_factor(self.schur)
+                except (sla.LinAlgWarning, ValueError) as exc:
+                    raise SolverError(f"the Schur complement on the {len(gamma)} contact dofs from {self.name} "
+                                      f"is singular: {exc}") from exc
 
     def schur_solve(self, r: np.ndarray) -> np.ndarray:
-        """Sigma^{-1} r (dense Cholesky)."""
-        return sla.cho_solve(self._chol, r)
+        """Sigma^{-1} r (dense Cholesky; LU if Sigma is indefinite)."""
+        if self._chol is not None:
+            return sla.cho_solve(self._chol, r)
+        return sla.lu_solve(self._lu, r) if self._lu is not None else np.zeros_like(r)
 
     def forward(self, rhs: np.ndarray) -> Forward:
         raise NotImplementedError

@@ -180,6 +180,11 @@ def _load():
     with _LOCK:
         if _LIB is not None or _LIB_ERROR:
             return _LIB
+        # Intel's OpenMP threads spin 200 ms after each parallel region by default; on a few cores they then
+        # starve the BLAS threads of the dense interface work that follows each PARDISO call (measured at
+        # 1.6e5 unknowns on 2 cores: a 241 x 241 Cholesky 0.06-0.15 s instead of < 1 ms, the exact finish
+        # 0.6 -> 2.9 s). Sleep at once unless the user chose otherwise (read when OpenMP starts).
+        os.environ.setdefault("KMP_BLOCKTIME", "0")
         env = os.environ.get("CVXCONTACT_MKL_RT")
         for path in ([env] if env else []) + _candidates():
             try:

@@ -300,8 +300,8 @@ class ContactSolver:
         condensed, compliance = self._interface(blocks, timings)
         t0 = time.perf_counter()
         rhs = [quasi_definite_rhs(b) for b in blocks]
-        x0 = [c.solve(F) for c, F in zip(condensed, rhs)]
-        v0 = [x[c.gamma] for c, x in zip(condensed, x0)]
+        self._sweeps = [c.forward(F) for c, F in zip(condensed, rhs)]      # forward sweeps, kept for the back-
+        v0 = [c.unconstrained(f) for c, f in zip(condensed, self._sweeps)]  # substitution (one backward sweep)
         d = compliance.free_slack(v0, g)
         timings["interface_load"] = time.perf_counter() - t0
         return rhs, v0, d
@@ -387,7 +387,7 @@ class ContactSolver:
         if polished:
             self._active = active
         t0 = time.perf_counter()
-        x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+        x = [c.back_substitute(f, self.E.T @ y) for c, f in zip(condensed, self._sweeps)]
         timings["back_substitution"] = time.perf_counter() - t0
         u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
@@ -464,7 +464,7 @@ class ContactSolver:
             self._active = (d - compliance.W @ y, out[2])     # the penetration r and the rows at their limit
         if condensed is not None and (polished or self.method == "condensed"):
             t0 = time.perf_counter()
-            x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+            x = [c.back_substitute(f, self.E.T @ y) for c, f in zip(condensed, self._sweeps)]
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]

@@ -76,6 +76,11 @@ def test_schur_complement_and_solves_match_dense(bodies, kind):
         x = c.factor.backward(fwd, v)
         assert np.array_equal(x[g], v)
         assert rel(x[i], np.linalg.solve(D[np.ix_(i, i)], b[i] - D[np.ix_(i, g)] @ v)) < 1e-12
+        force = rng.standard_normal(c.jump.shape[0])          # the back-substitution of the condensed solve
+        lifted = b.copy()
+        lifted[g] -= c.jump.T @ force
+        assert rel(c.back_substitute(c.forward(b), force), np.linalg.solve(D, lifted)) < 1e-12
+        assert rel(c.unconstrained(fwd), np.linalg.solve(D, b)[g]) < 1e-12
 
 
 @needs_pardiso

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
-from .factor import Factorization, factorize, resolve
+from .factor import Factorization, Forward, factorize, resolve
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "condense", "node_order", "quasi_definite",
            "quasi_definite_rhs"]
@@ -85,6 +85,20 @@ class CondensedBody:
     def solve(self, rhs):
         """x = S^{-1} rhs, in the body's free-dof order."""
         return self.factor.solve(rhs)
+
+    def forward(self, rhs) -> Forward:
+        """The forward sweep of ``rhs`` = F (one per load case): ``.reduced`` r = F_G - S_GI S_II^{-1} F_I,
+        which is the interface load g = Sigma v0."""
+        return self.factor.forward(rhs)
+
+    def unconstrained(self, fwd: Forward) -> np.ndarray:
+        """v0 = Sigma^{-1} r: the Gamma part of S^{-1} F (no contact force)."""
+        return self.factor.schur_solve(fwd.reduced)
+
+    def back_substitute(self, fwd: Forward, contact_force) -> np.ndarray:
+        """x = S^{-1} (F - J^T contact_force) from the forward sweep of F: v = Sigma^{-1} (r - J^T
+        contact_force) on the Gamma dofs (J^T only touches them), then one backward sweep."""
+        return self.factor.backward(fwd, self.factor.schur_solve(fwd.reduced - self.jump.T @ contact_force))
 
     def lift(self, contact_force):
         """J^T contact_force as a vector over the free dofs (nonzero on the Gamma dofs only)."""

@@ -189,3 +189,43 @@ def test_auto_falls_back_to_superlu_when_pardiso_refuses(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert cc.solve(scene, factorization="superlu").info.factorization == "superlu"
+
+
+def test_mkl_threads_follow_the_argument_then_the_environment(monkeypatch):
+    """threads= wins; else MKL_NUM_THREADS / OMP_NUM_THREADS as set when the factorisation runs (what the
+    sweep workers set after MKL may be loaded); else 0, MKL's default (all cores)."""
+    for k in ("MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        monkeypatch.delenv(k, raising=False)
+    assert factor._threads(None) == 0 and factor._threads(3) == 3
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    assert factor._threads(None) == 2
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    assert factor._threads(None) == 1 and factor._threads(4) == 4
+    monkeypatch.setenv("MKL_NUM_THREADS", "lots")
+    assert factor._threads(None) == 2
+
+
+@needs_pardiso
+def test_pardiso_honours_the_thread_count_of_a_sweep_worker(monkeypatch):
+    """The count reaches MKL for the call only: inside it MKL sees 1 thread, afterwards its own setting."""
+    lib = factor._load()
+    lib.MKL_Get_Max_Threads.restype = int
+    before = lib.MKL_Get_Max_Threads()
+    seen = []
+    original = lib.pardiso
+
+    class Spy:                                            # ctypes functions cannot be patched per attribute
+        def __getattr__(self, name):
+            return getattr(lib, name)
+
+        def pardiso(self, *args):
+            seen.append(lib.MKL_Get_Max_Threads())
+            return original(*args)
+
+    monkeypatch.setattr(factor, "_load", lambda: Spy())
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    S = sp.diags(np.full(6, 2.0)) + sp.diags(np.full(5, -1.0), 1) + sp.diags(np.full(5, -1.0), -1)
+    f = factor.factorize(sp.csc_matrix(S), np.array([5]), "pardiso")
+    f.solve(np.ones(6))
+    assert seen and set(seen) == {1}
+    assert lib.MKL_Get_Max_Threads() == before

@@ -24,6 +24,9 @@ and full solves x = S^{-1} b. :func:`factorize` gives both through one adapter:
              backward sweep (phase 333) with x_G = v, giving x_I = S_II^{-1} (b_I - S_IG v).
 ``auto``     ``pardiso`` if its library loads, else ``superlu``.
 
+``libmkl_rt`` is looked for in the environment's ``lib`` (where the ``mkl`` wheel puts it; ``Library/bin``
+on Windows), then by :func:`ctypes.util.find_library`; the variable CVXCONTACT_MKL_RT may name the file.
+
 Both adapters also give the two sweeps separately (:meth:`Factorization.forward`,
 :meth:`Factorization.backward`): a load case needs r (v0 = Sigma^{-1} r, g = Sigma v0 = r), and the fields
 follow from one backward sweep once the contact has fixed v.
@@ -182,8 +185,8 @@ def _load():
             return _LIB
         # Intel's OpenMP threads spin 200 ms after each parallel region by default; on a few cores they then
         # starve the BLAS threads of the dense interface work that follows each PARDISO call (measured at
-        # 1.6e5 unknowns on 2 cores: a 241 x 241 Cholesky 0.06-0.15 s instead of < 1 ms, the exact finish
-        # 0.6 -> 2.9 s). Sleep at once unless the user chose otherwise (read when OpenMP starts).
+        # 1.6e5 unknowns on 2 cores: the 241 x 241 Cholesky of Sigma after the factorisation took 0.06-0.15 s
+        # instead of < 1 ms). Sleep at once unless the user chose otherwise (read when OpenMP starts).
         os.environ.setdefault("KMP_BLOCKTIME", "0")
         env = os.environ.get("CVXCONTACT_MKL_RT")
         for path in ([env] if env else []) + _candidates():
@@ -202,8 +205,9 @@ def _load():
             lib.pardiso.argtypes = [p] * 16
             lib.pardisoinit.restype = None
             lib.pardisoinit.argtypes = [p] * 3
-            lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int
-            lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
+            if hasattr(lib, "MKL_Set_Num_Threads_Local"):      # else MKL's own setting is used
+                lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int
+                lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
             _LIB = lib
             return _LIB
         _LIB_ERROR = "libmkl_rt (Intel oneMKL) was not found"
@@ -301,19 +305,22 @@ class PardisoFactorization(Factorization):
         ip[35] = 1                 # Schur complement of the rows marked in perm, returned densely in x
         self.n, self.gamma = n, gamma
         self._finalizer = weakref.finalize(self, _release, lib, self._pt, n)
-        schur = np.zeros((m, m))
-        self._call(12, None, schur)
-        if ip[13] > 0:
-            raise SolverError(f"PARDISO perturbed {int(ip[13])} pivot(s) of the body's matrix (n = {n}); the "
-                              'interface stiffness would be wrong: use factorization="superlu"')
+        schur = np.zeros((m, m))                               # row-major from PARDISO (symmetric anyway)
+        try:
+            self._call(12, None, schur)
+            if ip[13] > 0:
+                raise SolverError(f"PARDISO perturbed {int(ip[13])} pivot(s) of the body's matrix (n = {n}); the "
+                                  'interface stiffness would be wrong: use factorization="superlu"')
+        except SolverError:
+            self._finalizer()                                  # free PARDISO's memory now
+            raise
         super().__init__(n, gamma, schur)
-        self._interior = np.ones(n, dtype=bool)
-        self._interior[gamma] = False
 
     def _call(self, phase, b, x, nrhs=1):
         lib, i = self._lib, (lambda v: ctypes.byref(ctypes.c_int32(v)))
         err = ctypes.c_int32(0)
-        old = lib.MKL_Set_Num_Threads_Local(self._nthreads) if self._nthreads else None
+        local = self._nthreads and hasattr(lib, "MKL_Set_Num_Threads_Local")
+        old = lib.MKL_Set_Num_Threads_Local(self._nthreads) if local else None
         try:
             lib.pardiso(self._pt.ctypes.data, i(1), i(1), i(-2), i(phase), i(self.n), self._a.ctypes.data,
                         self._ia.ctypes.data, self._ja.ctypes.data, self._perm.ctypes.data, i(nrhs),

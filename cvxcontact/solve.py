@@ -56,7 +56,7 @@ complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
           solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
-          degree: int = 1) -> Solution:
+          degree: int = 1, factorization: str = "auto") -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -105,6 +105,11 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
         rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
         (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
+    factorization : {"auto", "superlu", "pardiso"}
+        How each body's matrix is factorised with its contact dofs as a Schur block
+        (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
+        extra ``pip install "cvxcontact[pardiso]"``), "auto" (default) PARDISO if it is installed, else
+        SuperLU. Same answer to rounding; ``Solution.info.factorization`` names the one used.
 
     Returns
     -------
@@ -125,7 +130,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     ContactSolver : the same, prepared once for many load cases.
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
-                         solver_options=solver_options, law=law, degree=degree).solve()
+                         solver_options=solver_options, law=law, degree=degree,
+                         factorization=factorization).solve()
 
 
 class ContactSolver:
@@ -150,8 +156,9 @@ class ContactSolver:
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law: ContactLaw | None = None, degree: int = 1):
-        from .backends.options import check_solve_parameters, check_solver, check_solver_options
+                 law: ContactLaw | None = None, degree: int = 1, factorization: str = "auto"):
+        from .backends.options import (check_factorization, check_solve_parameters, check_solver,
+                                       check_solver_options)
 
         if not isinstance(scene, Scene):
             raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
@@ -161,6 +168,8 @@ class ContactSolver:
         held = any(getattr(b, "held_by_contact", None) for b in scene.bodies)   # singular bodies: full backend
         solver = check_solver(solver)
         self.options = check_solver_options(solver_options, solver)
+        check_factorization(factorization)
+        self.factorization = factorization
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
         self.degree, self.nodes, self.conic = degree, None, False
@@ -264,7 +273,8 @@ class ContactSolver:
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=self.method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
-                           finish=Finish(self.finish_route) if polished and self.finish_route else None)
+                           finish=Finish(self.finish_route) if polished and self.finish_route else None,
+                           factorization=",".join(dict.fromkeys(c.factorization for c in self._condensed or ())))
         if self.polish and not polished and not self.conic:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
@@ -279,7 +289,8 @@ class ContactSolver:
         if self._condensed is None:
             t0 = time.perf_counter()
             meshes = self.nodes or [body.mesh for body in self.scene.bodies]      # P2: the 6-node graph
-            self._condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.matrices, meshes)]
+            self._condensed = [condense(b, s, m, self.factorization)
+                               for b, s, m in zip(blocks, self.matrices, meshes)]
             self._compliance = Compliance(self._condensed, self.E)
             timings["factorization"] = time.perf_counter() - t0
         return self._condensed, self._compliance
@@ -289,8 +300,8 @@ class ContactSolver:
         condensed, compliance = self._interface(blocks, timings)
         t0 = time.perf_counter()
         rhs = [quasi_definite_rhs(b) for b in blocks]
-        x0 = [c.solve(F) for c, F in zip(condensed, rhs)]
-        v0 = [x[c.gamma] for c, x in zip(condensed, x0)]
+        self._sweeps = [c.forward(F) for c, F in zip(condensed, rhs)]      # forward sweeps, kept for the back-
+        v0 = [c.unconstrained(f) for c, f in zip(condensed, self._sweeps)]  # substitution (one backward sweep)
         d = compliance.free_slack(v0, g)
         timings["interface_load"] = time.perf_counter() - t0
         return rhs, v0, d
@@ -376,7 +387,7 @@ class ContactSolver:
         if polished:
             self._active = active
         t0 = time.perf_counter()
-        x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+        x = [c.back_substitute(f, self.E.T @ y) for c, f in zip(condensed, self._sweeps)]
         timings["back_substitution"] = time.perf_counter() - t0
         u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
@@ -453,7 +464,7 @@ class ContactSolver:
             self._active = (d - compliance.W @ y, out[2])     # the penetration r and the rows at their limit
         if condensed is not None and (polished or self.method == "condensed"):
             t0 = time.perf_counter()
-            x = [c.solve(F - c.lift(self.E.T @ y)) for c, F in zip(condensed, rhs)]
+            x = [c.back_substitute(f, self.E.T @ y) for c, f in zip(condensed, self._sweeps)]
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]

@@ -37,17 +37,21 @@ def scene_pressed():
 @pytest.mark.parametrize("m,k", [(1, 1e11), (2, 1e16)])
 def test_p2_two_blocks_closed_form(scene_pressed, method, m, k):
     """gamma3 on non-matching meshes: the law at every P2 node of the merged mesh, Simpson weights. Measured
-    (k = 1e11, m = 1 / k = 1e16, m = 2): lambda to 6e-12 / 9e-11, fields to 4e-12 / 1e-11 of delta."""
+    (k = 1e11, m = 1 / k = 1e16, m = 2): lambda to 6e-12 / 9e-11, fields to 4e-12 / 1e-11 of delta. The stiff
+    m = 2 law amplifies rounding: relative perturbations of 1e-15..3e-15 of Sigma (the accuracy of either
+    factorisation against a dense Schur complement) move lambda by 3e-11..1.2e-10 (SuperLU; PARDISO: 1.6e-10),
+    so that case is held to 3e-10."""
     r, lam = closed_form(k, m)
+    tol = 1e-10 if m == 1 else 3e-10
     assert 0.2 < r / DELTA < 0.8                                     # both springs and the law matter
     law = cc.NormalCompliance(stiffness=k, exponent=m)
     sol = cc.solve(scene_pressed, "gamma3", law=law, method=method, degree=2)
     assert sol.ok and sol.polished and sol.method == method and sol.degree == 2
     x = sol.contact.x
     assert len(x) == 2 * 12 - 1                                      # 12 merged vertices (8 + 6 - 2), midpoints
-    assert rel(sol.contact.lam, np.full(len(x), lam)) < 1e-10
-    assert rel(sol.contact.jump - sol.contact.gap, np.full(len(x), r)) < 1e-10
-    assert rel(sol.contact.pressure, np.full(len(x), lam)) < 1e-10  # force / Simpson weights
+    assert rel(sol.contact.lam, np.full(len(x), lam)) < tol
+    assert rel(sol.contact.jump - sol.contact.gap, np.full(len(x), r)) < tol
+    assert rel(sol.contact.pressure, np.full(len(x), lam)) < tol    # force / Simpson weights
     assert field_error(sol, lam) < 1e-10
     assert abs(sol.contact.force.sum() / lam - 1.0) < 1e-10         # lambda times the length of Gamma_3
     assert set(sol.residuals()) == {"equilibrium", "law"} and max(sol.residuals().values()) < 1e-9

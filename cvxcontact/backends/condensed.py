@@ -6,12 +6,11 @@ of (26) on the free dofs (scaled units)
 
     S = [[Kuu, Kup], [Kup^T, -Kpp]],     F = [f; -q],
 
-the dofs are ordered with a fill-reducing (minimum-degree) node order and the
-Gamma dofs last, and S is factorised once without pivoting (a symmetric
-quasi-definite matrix has an LDL^T factorisation in every symmetric order). The
-trailing block of the factors is then the Schur complement
+S is factorised once with the Gamma dofs as its Schur block (:mod:`cvxcontact.backends.factor`: SciPy's
+SuperLU on a minimum-degree order with the Gamma dofs last, reading the trailing block of its factors, or
+Intel oneMKL PARDISO's Schur-complement option), which gives
 
-    Sigma = S_GG - S_GI S_II^{-1} S_IG = (L U)_GG        (interface stiffness, SPD)
+    Sigma = S_GG - S_GI S_II^{-1} S_IG        (interface stiffness, SPD)
 
 so the whole body reduces exactly to  1/2 v^T Sigma v - g^T v  in the Gamma dofs v,
 with g = Sigma v0 and v0 the Gamma part of S^{-1} F. The contact problem becomes a
@@ -21,6 +20,7 @@ x = S^{-1} (F - J^T E^T y).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import cvxpy as cp
@@ -30,12 +30,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
+from .factor import Factorization, Forward, factorize, resolve
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "condense", "node_order", "quasi_definite",
            "quasi_definite_rhs"]
-
-_SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
-
 
 def node_order(mesh) -> np.ndarray:
     """A fill-reducing elimination order of the mesh nodes (SuperLU's minimum degree on A + A^T).
@@ -58,26 +56,53 @@ def node_order(mesh) -> np.ndarray:
 class CondensedBody:
     """One body's factorisation and its interface stiffness (scaled units).
 
-    ``gamma`` indexes the Gamma dofs in the body's free-dof vector x = [u; phi];
+    ``factor`` is the :class:`~cvxcontact.backends.factor.Factorization` of S (``factor.name``: "superlu" or
+    "pardiso"); ``gamma`` indexes the Gamma dofs in the body's free-dof vector x = [u; phi];
     ``stiffness`` is Sigma, ``jump`` the (n_merged, m) map from v to [u_nu].
     """
 
-    lu: object
-    perm: np.ndarray
+    factor: Factorization
     n_u: int
     gamma: np.ndarray
     stiffness: np.ndarray
     jump: np.ndarray
 
+    @property
+    def factorization(self) -> str:
+        """The adapter that factorised S ("superlu" or "pardiso")."""
+        return self.factor.name
+
+    @property
+    def lu(self):
+        """SuperLU's factors (None for another adapter)."""
+        return getattr(self.factor, "lu", None)
+
+    @property
+    def perm(self):
+        """SuperLU's elimination order of the dofs (None for another adapter)."""
+        return getattr(self.factor, "perm", None)
+
     def solve(self, rhs):
         """x = S^{-1} rhs, in the body's free-dof order."""
-        x = np.empty_like(rhs)
-        x[self.perm] = self.lu.solve(rhs[self.perm])
-        return x
+        return self.factor.solve(rhs)
+
+    def forward(self, rhs) -> Forward:
+        """The forward sweep of ``rhs`` = F (one per load case): ``.reduced`` r = F_G - S_GI S_II^{-1} F_I,
+        which is the interface load g = Sigma v0."""
+        return self.factor.forward(rhs)
+
+    def unconstrained(self, fwd: Forward) -> np.ndarray:
+        """v0 = Sigma^{-1} r: the Gamma part of S^{-1} F (no contact force)."""
+        return self.factor.schur_solve(fwd.reduced)
+
+    def back_substitute(self, fwd: Forward, contact_force) -> np.ndarray:
+        """x = S^{-1} (F - J^T contact_force) from the forward sweep of F: v = Sigma^{-1} (r - J^T
+        contact_force) on the Gamma dofs (J^T only touches them), then one backward sweep."""
+        return self.factor.backward(fwd, self.factor.schur_solve(fwd.reduced - self.jump.T @ contact_force))
 
     def lift(self, contact_force):
         """J^T contact_force as a vector over the free dofs (nonzero on the Gamma dofs only)."""
-        out = np.zeros(len(self.perm))
+        out = np.zeros(self.factor.n)
         out[self.gamma] = self.jump.T @ contact_force
         return out
 
@@ -95,11 +120,35 @@ def quasi_definite_rhs(block):
     return block.f if block.Kpp is None else np.concatenate([block.f, -block.q])
 
 
-def condense(block, system, mesh) -> CondensedBody:
-    """Factorise one body with its Gamma dofs last and extract Sigma (module docstring)."""
+def condense(block, system, mesh, factorization: str = "auto", threads: int | None = None) -> CondensedBody:
+    """Factorise one body with its Gamma dofs as the Schur block and extract Sigma (module docstring).
+
+    ``factorization``: one of :data:`~cvxcontact.backends.factor.FACTORIZATIONS` ("auto": PARDISO if Intel
+    oneMKL loads, else SuperLU); ``threads``: MKL threads for PARDISO (default: the environment's, else all
+    cores). With "auto", a PARDISO factorisation that perturbs pivots or fails falls back to SuperLU with a
+    warning; an explicit "pardiso" raises :class:`SolverError` instead.
+    """
     S, _ = quasi_definite(block)
     n_u = block.Kuu.shape[0]
     gamma = np.flatnonzero(np.diff(block.jump.tocsc().indptr))              # columns touching [u_nu]
+    kind = resolve(factorization)
+    factor = None
+    if kind == "pardiso" and 0 < len(gamma) < S.shape[0]:
+        try:
+            factor = factorize(S, gamma, "pardiso", threads=threads)
+        except SolverError as exc:
+            if factorization == "pardiso":
+                raise
+            warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
+    if factor is None:
+        factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
+    return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=factor.schur,
+                         jump=block.jump[:, gamma].toarray())
+
+
+def _superlu_order(S, gamma, n_u, system, mesh):
+    """SuperLU's elimination order: the minimum-degree node order (u_x, u_y, phi of a node together), a
+    floating electrode's potentials late, the Gamma dofs last in their sorted order."""
     node = np.concatenate([system.u_free // 2, system.phi_free if system.piezoelectric else []]).astype(int)
     kind = np.concatenate([system.u_free % 2, np.full(S.shape[0] - n_u, 2)])
     rank = np.empty(len(mesh.points), dtype=np.int64)
@@ -109,17 +158,7 @@ def condense(block, system, mesh) -> CondensedBody:
         fl = n_u + np.flatnonzero(system.floating)                          # whole part: eliminate it late
         key[fl] = key.max() + 1 + np.arange(len(fl))
     key[gamma] = key.max() + 1 + np.arange(len(gamma))                      # Gamma dofs last, in x order
-    perm = np.argsort(key, kind="stable")
-    lu = spla.splu(S[perm][:, perm].tocsc(), **_SUPERLU)
-    m, N = len(gamma), S.shape[0]
-    rows, cols = lu.perm_r[N - m:] - (N - m), lu.perm_c[N - m:] - (N - m)
-    if rows.min() < 0 or cols.min() < 0:
-        raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
-                          "order; use method='full'")
-    tail = (lu.L[N - m:, N - m:] @ lu.U[N - m:, N - m:]).toarray()
-    sigma = tail[np.ix_(rows, cols)]             # gamma[k] sits at position N - m + k of perm
-    return CondensedBody(lu=lu, perm=perm, n_u=n_u, gamma=gamma, stiffness=0.5 * (sigma + sigma.T),
-                         jump=block.jump[:, gamma].toarray())
+    return np.argsort(key, kind="stable")
 
 
 class InterfaceModel:

@@ -17,13 +17,13 @@ from ..contact.interface import CONDITIONS
 from ..errors import SceneError, SolverError
 from . import METHODS
 
-__all__ = ["check_solve_parameters", "check_solver", "check_solver_options", "RESERVED"]
+__all__ = ["check_solve_parameters", "check_solver", "check_solver_options", "check_factorization", "RESERVED"]
 
 RESERVED = {
     "solver": "the solver argument", "verbose": "the verbose argument", "tol": "the tol argument",
     "polish": "the polish argument", "method": "the method argument", "condition": "the condition argument",
     "scale": "the scale argument of ContactSolver", "warm_start": "the warm_start argument of ContactSolver",
-    "solver_options": "a flat table of options", "gp": None, "qcp": None, "requires_grad": None,
+    "solver_options": "a flat table of options", "factorization": "the factorization argument", "gp": None, "qcp": None, "requires_grad": None,
     "enforce_dpp": None, "ignore_dpp": None, "canon_backend": None, "use_quad_obj": None,
 }
 """Names that are not solver options: cvxcontact's own parameters, and CVXPY's ``Problem.solve`` keywords."""
@@ -39,6 +39,17 @@ def check_solver(solver) -> str:
     if not isinstance(solver, str) or solver.upper() not in installed:
         raise SolverError(f"solver {solver!r} is not available; installed CVXPY solvers: {installed}")
     return solver.upper()
+
+
+def check_factorization(factorization) -> str:
+    """The factorisation adapter ``factorization`` will run (:mod:`cvxcontact.backends.factor`): "auto" gives
+    "pardiso" if Intel oneMKL loads, else "superlu". :class:`SolverError` for an unknown name, or for
+    "pardiso" when oneMKL is not installed (``pip install "cvxcontact[pardiso]"``)."""
+    from .factor import FACTORIZATIONS, resolve
+
+    if not isinstance(factorization, str) or factorization not in FACTORIZATIONS:
+        raise SolverError(f"factorization must be one of {FACTORIZATIONS}, got {factorization!r}")
+    return resolve(factorization)
 
 
 def check_solve_parameters(condition, method, tol, **flags) -> float:

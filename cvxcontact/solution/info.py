@@ -78,6 +78,9 @@ class SolveInfo:
         that did not run in this solve is absent: "factorization" appears once per ContactSolver.
     finish : Finish or None
         How the exact finish found its active set; None if there was no finish.
+    factorization : str
+        The adapter that factorised the bodies for the condensed path or the exact finish ("superlu" or
+        "pardiso", :mod:`cvxcontact.backends.factor`); "" if no body was factorised.
     """
 
     status: Status
@@ -88,6 +91,7 @@ class SolveInfo:
     timings: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     finish: Finish | None = None
     requested: str = ""
+    factorization: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))

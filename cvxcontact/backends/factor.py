@@ -1,0 +1,379 @@
+"""Factorisation of one body's quasi-definite matrix with its contact (Gamma) dofs as a Schur block.
+
+Per body the condensed backend (:mod:`cvxcontact.backends.condensed`) needs, from ONE factorisation of
+the symmetric quasi-definite form of (26) on the free dofs (scaled, dimensionless units)
+
+    S = [[Kuu, Kup], [Kup^T, -Kpp]],
+
+the interface stiffness (Schur complement of the interior dofs I onto the Gamma dofs G)
+
+    Sigma = S_GG - S_GI S_II^{-1} S_IG            (dense m x m, SPD)
+
+and full solves x = S^{-1} b. :func:`factorize` gives both through one adapter:
+
+``superlu``  SciPy's SuperLU without pivoting in symmetric mode, on a minimum-degree node order with the
+             Gamma dofs last; Sigma is the trailing m x m block of L U (a symmetric quasi-definite matrix
+             has an LDL^T factorisation in every symmetric order, so no pivoting is needed). SciPy only
+             hands out L and U as whole copies, which costs about a quarter of the factorisation time.
+``pardiso``  Intel oneMKL PARDISO through ctypes on ``libmkl_rt`` (the optional extra
+             ``pip install "cvxcontact[pardiso]"``, x86-64): real symmetric indefinite (mtype -2), its own
+             nested-dissection order for I, the Gamma dofs marked as Schur rows (iparm[35]); the
+             factorisation phase returns Sigma densely and factorises S_II only. A full solve is the
+             partial forward sweep (phase 331, whose Gamma part is the reduced right-hand side
+             r = b_G - S_GI S_II^{-1} b_I), a dense Cholesky solve v = Sigma^{-1} r, and the partial
+             backward sweep (phase 333) with x_G = v, giving x_I = S_II^{-1} (b_I - S_IG v).
+``auto``     ``pardiso`` if its library loads, else ``superlu``.
+
+``libmkl_rt`` is looked for in the environment's ``lib`` (where the ``mkl`` wheel puts it; ``Library/bin``
+on Windows), then by :func:`ctypes.util.find_library`; the variable CVXCONTACT_MKL_RT may name the file.
+
+Both adapters also give the two sweeps separately (:meth:`Factorization.forward`,
+:meth:`Factorization.backward`): a load case needs r (v0 = Sigma^{-1} r, g = Sigma v0 = r), and the fields
+follow from one backward sweep once the contact has fixed v.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import glob
+import os
+import sys
+import threading
+import warnings
+import weakref
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import SolverError
+
+__all__ = ["FACTORIZATIONS", "Factorization", "Forward", "factorize", "pardiso_available", "resolve",
+           "SUPERLU_OPTIONS"]
+
+FACTORIZATIONS = ("auto", "superlu", "pardiso")
+"""Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
+
+SUPERLU_OPTIONS = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+
+PARDISO_INSTALL = 'pip install "cvxcontact[pardiso]"'
+
+
+class Forward:
+    """The forward sweep of a right-hand side b: ``reduced`` r = b_G - S_GI S_II^{-1} b_I (length m), so that
+    the Gamma part of S^{-1} b is Sigma^{-1} r; ``state`` is the adapter's own data for :meth:`backward`."""
+
+    __slots__ = ("reduced", "state")
+
+    def __init__(self, reduced: np.ndarray, state):
+        self.reduced, self.state = reduced, state
+
+
+class Factorization:
+    """One factorisation of a body's S with the Gamma dofs ``gamma`` (sorted indices into the body's dof
+    vector) as its Schur block. ``schur`` is Sigma (dense, symmetrised, m x m, in ``gamma`` order), ``name``
+    the adapter ("superlu" or "pardiso")."""
+
+    name = ""
+
+    def __init__(self, n: int, gamma: np.ndarray, schur: np.ndarray):
+        self.n, self.gamma = n, gamma
+        self.schur = 0.5 * (schur + schur.T)
+        self._chol = self._lu = None
+        if not len(gamma):
+            return
+        try:                       # SPD when the Gamma dofs are displacements (the contact dofs)
+            self._chol = sla.cho_factor(self.schur)
+        except np.linalg.LinAlgError:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", sla.LinAlgWarning)
+                try:
+                    self._lu = sla.lu_factor(self.schur)
+                except (sla.LinAlgWarning, ValueError) as exc:
+                    raise SolverError(f"the Schur complement on the {len(gamma)} contact dofs from {self.name} "
+                                      f"is singular: {exc}") from exc
+
+    def schur_solve(self, r: np.ndarray) -> np.ndarray:
+        """Sigma^{-1} r (dense Cholesky; LU if Sigma is indefinite)."""
+        if self._chol is not None:
+            return sla.cho_solve(self._chol, r)
+        return sla.lu_solve(self._lu, r) if self._lu is not None else np.zeros_like(r)
+
+    def forward(self, rhs: np.ndarray) -> Forward:
+        raise NotImplementedError
+
+    def backward(self, fwd: Forward, v: np.ndarray) -> np.ndarray:
+        """x with x_G = v and x_I = S_II^{-1} (b_I - S_IG v), b the right-hand side of ``fwd``."""
+        raise NotImplementedError
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """x = S^{-1} rhs in the body's dof order."""
+        fwd = self.forward(rhs)
+        return self.backward(fwd, self.schur_solve(fwd.reduced))
+
+
+# --------------------------------------------------------------------------------------------- SuperLU
+
+
+class SuperLUFactorization(Factorization):
+    """SuperLU on ``order`` (a permutation of the dofs with the Gamma dofs last, in ``gamma`` order)."""
+
+    name = "superlu"
+
+    def __init__(self, S, gamma, order):
+        n, m = S.shape[0], len(gamma)
+        if not np.array_equal(order[n - m:], gamma):
+            raise SolverError("the superlu order must end with the Gamma dofs in their sorted order")
+        self.perm = order
+        self.lu = spla.splu(S[order][:, order].tocsc(), **SUPERLU_OPTIONS)
+        rows, cols = self.lu.perm_r[n - m:] - (n - m), self.lu.perm_c[n - m:] - (n - m)
+        if m and (rows.min() < 0 or cols.min() < 0):
+            raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
+                              "order; use method='full'")
+        tail = (self.lu.L[n - m:, n - m:] @ self.lu.U[n - m:, n - m:]).toarray() if m else np.zeros((0, 0))
+        super().__init__(n, gamma, tail[np.ix_(rows, cols)])
+
+    def _full(self, rhs):
+        x = np.empty_like(rhs, dtype=float)
+        x[self.perm] = self.lu.solve(np.asarray(rhs, dtype=float)[self.perm])
+        return x
+
+    def solve(self, rhs):
+        return self._full(rhs)
+
+    def forward(self, rhs):
+        x = self._full(rhs)
+        return Forward(self.schur @ x[self.gamma], x)
+
+    def backward(self, fwd, v):
+        x0 = fwd.state                     # S^{-1} b; subtract S^{-1} [0; Sigma (x0_G - v)] (exact)
+        w = np.zeros(self.n)
+        w[self.gamma] = self.schur @ (x0[self.gamma] - v)
+        x = x0 - self._full(w)
+        x[self.gamma] = v
+        return x
+
+
+# --------------------------------------------------------------------------------------------- PARDISO
+
+_LIB = None
+_LIB_ERROR = ""
+_LOCK = threading.Lock()
+
+
+def _candidates():
+    names = {"linux": ["libmkl_rt.so.3", "libmkl_rt.so.2", "libmkl_rt.so"],
+             "darwin": ["libmkl_rt.3.dylib", "libmkl_rt.2.dylib", "libmkl_rt.dylib"],
+             "win32": ["mkl_rt.3.dll", "mkl_rt.2.dll", "mkl_rt.dll"]}.get(sys.platform, ["libmkl_rt.so"])
+    dirs = [os.path.join(p, sub) for p in dict.fromkeys([sys.prefix, sys.base_prefix, sys.exec_prefix])
+            for sub in ("lib", os.path.join("Library", "bin"), "bin")]
+    out = [os.path.join(d, n) for d in dirs for n in names]
+    out += sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), reverse=True)
+    found = ctypes.util.find_library("mkl_rt")
+    if found:
+        out.append(found)
+    return [p for p in dict.fromkeys(out) if os.path.sep not in p or os.path.exists(p)]
+
+
+def _load():
+    """libmkl_rt with the LP64 interface, or None (the reason in ``_LIB_ERROR``)."""
+    global _LIB, _LIB_ERROR
+    with _LOCK:
+        if _LIB is not None or _LIB_ERROR:
+            return _LIB
+        # Intel's OpenMP threads spin 200 ms after each parallel region by default; on a few cores they then
+        # starve the BLAS threads of the dense interface work that follows each PARDISO call (measured at
+        # 1.6e5 unknowns on 2 cores: the 241 x 241 Cholesky of Sigma after the factorisation took 0.06-0.15 s
+        # instead of < 1 ms). Sleep at once unless the user chose otherwise (read when OpenMP starts).
+        os.environ.setdefault("KMP_BLOCKTIME", "0")
+        env = os.environ.get("CVXCONTACT_MKL_RT")
+        for path in ([env] if env else []) + _candidates():
+            try:
+                lib = ctypes.CDLL(path)
+                lib.pardiso, lib.pardisoinit
+            except (OSError, AttributeError):
+                continue
+            fn = getattr(lib, "MKL_Set_Interface_Layer", None)
+            if fn is not None:
+                fn.restype = ctypes.c_int
+                if fn(ctypes.c_int(0)) != 0:            # 0 = LP64: 32-bit MKL_INT, as below
+                    continue
+            p = ctypes.c_void_p
+            lib.pardiso.restype = None
+            lib.pardiso.argtypes = [p] * 16
+            lib.pardisoinit.restype = None
+            lib.pardisoinit.argtypes = [p] * 3
+            if hasattr(lib, "MKL_Set_Num_Threads_Local"):      # else MKL's own setting is used
+                lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int
+                lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
+            _LIB = lib
+            return _LIB
+        _LIB_ERROR = "libmkl_rt (Intel oneMKL) was not found"
+        return None
+
+
+def pardiso_available() -> bool:
+    """Whether Intel oneMKL PARDISO can be loaded (``pip install "cvxcontact[pardiso]"``)."""
+    return _load() is not None
+
+
+def resolve(kind: str) -> str:
+    """The adapter ``kind`` runs: "auto" -> "pardiso" if available, else "superlu"."""
+    if kind not in FACTORIZATIONS:
+        raise SolverError(f"factorization must be one of {FACTORIZATIONS}, got {kind!r}")
+    if kind == "auto":
+        return "pardiso" if pardiso_available() else "superlu"
+    if kind == "pardiso" and not pardiso_available():
+        raise SolverError(f"factorization='pardiso' needs Intel oneMKL (libmkl_rt), which was not found: "
+                          f'{PARDISO_INSTALL} (x86-64), or use factorization="superlu"')
+    return kind
+
+
+def _threads(threads):
+    """The thread count for MKL: ``threads``, else MKL_NUM_THREADS / OMP_NUM_THREADS read now (the sweep
+    workers set them after MKL may already be loaded), else 0 (MKL's default: all cores)."""
+    if threads is not None:
+        return int(threads)
+    for k in ("MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        try:
+            n = int(os.environ.get(k, "").split(",")[0])
+        except ValueError:
+            continue
+        if n > 0:
+            return n
+    return 0
+
+
+_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
+           -4: "zero pivot, numerical factorization or iterative refinement problem", -5: "unclassified internal error",
+           -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
+           -9: "not enough memory for the out-of-core solver", -10: "error opening out-of-core files",
+           -11: "read/write error with out-of-core files", -12: "pardiso_64 called from a 32-bit library",
+           -13: "interrupted", -15: "the Schur complement could not be computed"}
+
+
+def _release(lib, pt, n):
+    """Phase -1: release PARDISO's memory of the handle ``pt``."""
+    i = lambda v: ctypes.byref(ctypes.c_int32(v))  # noqa: E731
+    iparm = np.zeros(64, dtype=np.int32)
+    err = ctypes.c_int32(0)
+    lib.pardiso(pt.ctypes.data, i(1), i(1), i(-2), i(-1), i(n), None, None, None, None, i(1),
+                iparm.ctypes.data, i(0), None, None, ctypes.byref(err))
+
+
+class PardisoFactorization(Factorization):
+    """Intel oneMKL PARDISO, real symmetric indefinite, with the Gamma dofs as its Schur block (module
+    docstring). Raises :class:`SolverError` on any PARDISO error and on perturbed pivots (iparm[13] > 0: the
+    factors would then be of a nearby matrix, and Sigma wrong)."""
+
+    name = "pardiso"
+
+    def __init__(self, S, gamma, threads=None):
+        lib = _load()
+        if lib is None:
+            raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
+        n, m = S.shape[0], len(gamma)
+        if m == 0 or m == n:
+            raise SolverError("the pardiso adapter needs at least one interior and one contact dof")
+        U = sp.triu(sp.csr_matrix(S), format="coo")
+        d = np.arange(n)                                     # every diagonal stored (PARDISO requires it)
+        U = sp.csr_matrix((np.concatenate([U.data, np.zeros(n)]), (np.concatenate([U.row, d]),
+                                                                    np.concatenate([U.col, d]))), shape=(n, n))
+        U.sum_duplicates()
+        U.sort_indices()
+        self._a = np.ascontiguousarray(U.data, dtype=np.float64)
+        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
+        self._perm = np.zeros(n, dtype=np.int32)
+        self._perm[gamma] = 1
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm = np.zeros(64, dtype=np.int32)
+        self._lib, self._nthreads = lib, _threads(threads)
+        lib.pardisoinit(self._pt.ctypes.data, ctypes.byref(ctypes.c_int32(-2)), self._iparm.ctypes.data)
+        ip = self._iparm
+        ip[0] = 1                  # iparm set here
+        ip[1] = 3                  # parallel nested dissection (METIS) for the interior
+        ip[7] = 0                  # no iterative refinement: the sweeps are exact triangular solves
+        ip[9] = 13                 # pivot perturbation 1e-13 (any perturbation is refused below)
+        ip[10] = 0                 # no scaling and no weighted matching: S is quasi-definite
+        ip[12] = 0
+        ip[17] = 0                 # no reporting of nonzeros (saves a pass)
+        ip[26] = 0
+        ip[34] = 1                 # 0-based indices
+        ip[35] = 1                 # Schur complement of the rows marked in perm, returned densely in x
+        self.n, self.gamma = n, gamma
+        self._finalizer = weakref.finalize(self, _release, lib, self._pt, n)
+        schur = np.zeros((m, m))                               # row-major from PARDISO (symmetric anyway)
+        try:
+            self._call(12, None, schur)
+            if ip[13] > 0:
+                raise SolverError(f"PARDISO perturbed {int(ip[13])} pivot(s) of the body's matrix (n = {n}); the "
+                                  'interface stiffness would be wrong: use factorization="superlu"')
+        except SolverError:
+            self._finalizer()                                  # free PARDISO's memory now
+            raise
+        super().__init__(n, gamma, schur)
+
+    def _call(self, phase, b, x, nrhs=1):
+        lib, i = self._lib, (lambda v: ctypes.byref(ctypes.c_int32(v)))
+        err = ctypes.c_int32(0)
+        local = self._nthreads and hasattr(lib, "MKL_Set_Num_Threads_Local")
+        old = lib.MKL_Set_Num_Threads_Local(self._nthreads) if local else None
+        try:
+            lib.pardiso(self._pt.ctypes.data, i(1), i(1), i(-2), i(phase), i(self.n), self._a.ctypes.data,
+                        self._ia.ctypes.data, self._ja.ctypes.data, self._perm.ctypes.data, i(nrhs),
+                        self._iparm.ctypes.data, i(0), None if b is None else b.ctypes.data,
+                        None if x is None else x.ctypes.data, ctypes.byref(err))
+        finally:
+            if old is not None:
+                lib.MKL_Set_Num_Threads_Local(old)
+        if err.value != 0:
+            raise SolverError(f"PARDISO phase {phase} failed with error {err.value} "
+                              f"({_ERRORS.get(err.value, 'unknown')}) on a body matrix of order {self.n}")
+
+    def forward(self, rhs):
+        b = np.array(rhs, dtype=np.float64, order="F")
+        y = np.zeros_like(b)
+        self._iparm[5] = 0                                     # solution in x, b untouched
+        self._call(331, b, y, b.shape[1] if b.ndim == 2 else 1)
+        return Forward(y[self.gamma].copy(), y)
+
+    def backward(self, fwd, v):
+        y = np.array(fwd.state, order="F")                     # the forward sweep, with x_G = v
+        y[self.gamma] = v
+        x = np.zeros_like(y)
+        self._call(333, y, x, y.shape[1] if y.ndim == 2 else 1)
+        x[self.gamma] = v
+        return x
+
+    def release(self):
+        """Free PARDISO's memory now (otherwise when this object is collected)."""
+        self._finalizer()
+
+
+def factorize(S, gamma, kind: str = "auto", *, order: np.ndarray | None = None,
+              threads: int | None = None) -> Factorization:
+    """Factorise the symmetric quasi-definite ``S`` (sparse, n x n, dimensionless) with the dofs ``gamma``
+    (sorted indices) as its Schur block.
+
+    ``kind``: one of :data:`FACTORIZATIONS`. ``order``: for ``superlu``, a fill-reducing permutation of the
+    dofs ending with ``gamma`` (default: ``gamma`` last, the rest in their order). ``threads``: MKL threads
+    for ``pardiso`` (default: MKL_NUM_THREADS / OMP_NUM_THREADS if set, else MKL's default, all cores).
+    Returns a :class:`Factorization` (``.schur`` = Sigma, ``.solve``, ``.forward`` / ``.backward``).
+    """
+    kind = resolve(kind)
+    gamma = np.asarray(gamma, dtype=np.int64)
+    if len(gamma) and (np.any(np.diff(gamma) <= 0) or gamma[0] < 0 or gamma[-1] >= S.shape[0]):
+        raise SolverError("gamma must be sorted, distinct dof indices of S")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or threads < 1):
+        raise SolverError(f"threads must be a positive integer, got {threads!r}")
+    if kind == "pardiso":
+        return PardisoFactorization(S, gamma, threads)
+    if order is None:
+        rest = np.ones(S.shape[0], dtype=bool)
+        rest[gamma] = False
+        order = np.concatenate([np.flatnonzero(rest), gamma])
+    return SuperLUFactorization(S, gamma, np.asarray(order))

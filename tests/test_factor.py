@@ -1,0 +1,231 @@
+"""The factorisation adapters (cvxcontact.backends.factor): Schur complement and solves against dense
+linear algebra, whole solves with PARDISO against SuperLU, typed errors. PARDISO tests skip without oneMKL."""
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import cvxcontact as cc
+from cvxcontact.apps.demo import two_blocks
+from cvxcontact.backends import factor
+from cvxcontact.backends.condensed import condense, quasi_definite
+from cvxcontact.discrete import Block, units
+from cvxcontact.errors import CvxContactError, SolverError
+from cvxcontact.fem import p2
+from cvxcontact.fem.assembly import assemble
+from cvxcontact.geometry.quadratic import P2Nodes
+from cvxcontact.contact.quadratic import quadratic_interface
+
+from conftest import rel
+
+HAS_PARDISO = factor.pardiso_available()
+needs_pardiso = pytest.mark.skipif(not HAS_PARDISO, reason="Intel oneMKL (libmkl_rt) not installed")
+KINDS = ["superlu", pytest.param("pardiso", marks=needs_pardiso)]
+
+
+def dense_schur(S, g):
+    """S_GG - S_GI S_II^{-1} S_IG by a dense solve (independent of both adapters)."""
+    S = S.toarray()
+    i = np.setdiff1d(np.arange(len(S)), g)
+    return S[np.ix_(g, g)] - S[np.ix_(g, i)] @ np.linalg.solve(S[np.ix_(i, i)], S[np.ix_(i, g)])
+
+
+def body_matrices(degree):
+    """(block, system, mesh or P2 nodes) of both bodies of the demo scene (nx = 8), scaled."""
+    scene = two_blocks(nx=8)
+    if degree == 1:
+        systems = [assemble(b) for b in scene.bodies]
+        meshes = [b.mesh for b in scene.bodies]
+        jump = scene.interface.jump
+    else:
+        meshes = [P2Nodes(b.mesh) for b in scene.bodies]
+        systems = [p2.assemble(b, nd) for b, nd in zip(scene.bodies, meshes)]
+        jump = quadratic_interface(scene, meshes).jump
+    un = units(scene, systems)
+    return [(Block.scaled(s, jump(k, len(m.points)), un), s, m) for k, (s, m) in enumerate(zip(systems, meshes))]
+
+
+@pytest.fixture(scope="module", params=[1, 2], ids=["P1", "P2"])
+def bodies(request):
+    return body_matrices(request.param)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_schur_complement_and_solves_match_dense(bodies, kind):
+    """Sigma to 1e-12 of the dense Schur complement; S^{-1} b, the forward sweep's reduced right-hand side and
+    the backward sweep with given Gamma values against dense solves."""
+    rng = np.random.default_rng(3)
+    for block, system, mesh in bodies:
+        c = condense(block, system, mesh, kind)
+        assert c.factorization == kind
+        S = quasi_definite(block)[0]
+        g = c.gamma
+        assert 0 < len(g) < S.shape[0]
+        assert rel(c.stiffness, dense_schur(S, g)) < 1e-12
+        assert np.array_equal(c.stiffness, c.stiffness.T) and np.linalg.eigvalsh(c.stiffness).min() > 0
+        D = S.toarray()
+        b = rng.standard_normal(len(D))
+        assert rel(c.solve(b), np.linalg.solve(D, b)) < 1e-12
+        i = np.setdiff1d(np.arange(len(D)), g)
+        fwd = c.factor.forward(b)
+        reduced = b[g] - D[np.ix_(g, i)] @ np.linalg.solve(D[np.ix_(i, i)], b[i])
+        assert rel(fwd.reduced, reduced) < 1e-12
+        v = rng.standard_normal(len(g))
+        x = c.factor.backward(fwd, v)
+        assert np.array_equal(x[g], v)
+        assert rel(x[i], np.linalg.solve(D[np.ix_(i, i)], b[i] - D[np.ix_(i, g)] @ v)) < 1e-12
+        force = rng.standard_normal(c.jump.shape[0])          # the back-substitution of the condensed solve
+        lifted = b.copy()
+        lifted[g] -= c.jump.T @ force
+        assert rel(c.back_substitute(c.forward(b), force), np.linalg.solve(D, lifted)) < 1e-12
+        assert rel(c.unconstrained(fwd), np.linalg.solve(D, b)[g]) < 1e-12
+
+
+@needs_pardiso
+def test_pardiso_on_a_random_quasi_definite_matrix_with_threads():
+    """A generic quasi-definite S (not from a mesh), Schur rows scattered, with one MKL thread: Sigma and a
+    solve against dense; the memory is released on request and once only."""
+    rng = np.random.default_rng(0)
+    A = sp.random(80, 80, 0.08, random_state=1)
+    P = sp.random(30, 30, 0.2, random_state=2)
+    C = sp.random(80, 30, 0.1, random_state=3)
+    S = sp.bmat([[A @ A.T + 2 * sp.eye(80), C], [C.T, -(P @ P.T + sp.eye(30))]], format="csc")
+    g = np.sort(rng.choice(110, 12, replace=False))
+    f = factor.factorize(S, g, "pardiso", threads=1)
+    assert f.name == "pardiso"
+    assert rel(f.schur, dense_schur(S, g)) < 1e-12
+    b = rng.standard_normal(110)
+    assert rel(f.solve(b), np.linalg.solve(S.toarray(), b)) < 1e-12
+    f.release()
+    assert not f._finalizer.alive
+    f.release()                                            # idempotent
+
+
+@needs_pardiso
+def test_pardiso_refuses_a_singular_matrix():
+    """A singular interior block (a decoupled dof with a zero diagonal) is a typed error, never a Sigma."""
+    A = sp.diags(np.r_[np.full(20, 2.0), 0.0]) + sp.diags(np.full(20, -1.0), 1) + sp.diags(np.full(20, -1.0), -1)
+    A = sp.csc_matrix(A)
+    A[19, 20] = A[20, 19] = 0.0
+    A.eliminate_zeros()
+    with pytest.raises(SolverError, match="PARDISO"):
+        factor.factorize(A, np.array([0, 1]), "pardiso")
+
+
+def test_bad_factorization_names_and_threads_are_typed_errors(monkeypatch):
+    scene = two_blocks(nx=4)
+    for bad in ("mumps", "", None, 1, "SuperLU"):
+        with pytest.raises(SolverError, match="factorization must be one of .*auto.*superlu.*pardiso"):
+            cc.solve(scene, factorization=bad)
+    with pytest.raises(SolverError, match="factorization must be one of"):
+        cc.ContactSolver(scene, factorization="cholmod")
+    S = sp.eye(4, format="csc")
+    for bad in (0, -1, True, 1.5):
+        with pytest.raises(SolverError, match="threads"):
+            factor.factorize(S, np.array([3]), "superlu", threads=bad)
+    with pytest.raises(SolverError, match="sorted"):
+        factor.factorize(S, np.array([3, 1]), "superlu")
+    # without oneMKL: "pardiso" says how to install it, "auto" runs SuperLU
+    monkeypatch.setattr(factor, "_LIB", None)
+    monkeypatch.setattr(factor, "_LIB_ERROR", "libmkl_rt (Intel oneMKL) was not found")
+    with pytest.raises(SolverError, match=r'pip install "cvxcontact\[pardiso\]"') as info:
+        cc.solve(scene, factorization="pardiso")
+    assert isinstance(info.value, CvxContactError)
+    sol = cc.solve(scene)
+    assert sol.ok and sol.info.factorization == "superlu"
+
+
+CASES = [(1, "gamma3"), (1, "sigma1"), (2, "gamma3"), (2, "sigma1")]
+
+
+@needs_pardiso
+@pytest.mark.parametrize("degree,condition", CASES, ids=[f"P{d}-{c}" for d, c in CASES])
+def test_whole_solve_pardiso_equals_superlu(degree, condition):
+    """cc.solve on the demo scene with each factorisation: both ok, u, phi and the contact force agree to
+    1e-11 of their size (measured 3e-14 or less), except the contact force of P2 "gamma3", an interior-point
+    answer without exact finish: 1e-9 (measured 2.6e-11)."""
+    scene = two_blocks(nx=8)
+    sols = {k: cc.solve(scene, condition, degree=degree, factorization=k) for k in ("superlu", "pardiso")}
+    a, b = sols["superlu"], sols["pardiso"]
+    assert a.ok and b.ok
+    assert a.info.factorization == "superlu" and b.info.factorization == "pardiso"
+    for k in range(2):
+        assert rel(b.u[k], a.u[k]) < 1e-11
+    assert rel(b.phi[0], a.phi[0]) < 1e-11
+    assert rel(b.contact.force, a.contact.force) < (1e-9 if (degree, condition) == (2, "gamma3") else 1e-11)
+
+
+@needs_pardiso
+def test_contact_solver_resolve_with_pardiso():
+    """A ContactSolver re-solve with other loads (warm start, no new factorisation) equals a fresh SuperLU
+    solve of the loaded scene."""
+    base = two_blocks(nx=8)
+    solver = cc.ContactSolver(base, "gamma3", factorization="pardiso")
+    first = solver.solve()
+    assert first.ok and first.info.factorization == "pardiso" and first.info.factorizations == 1
+    again = solver.solve(two_blocks(nx=8, scale=1.7))
+    assert again.ok and again.info.factorizations == 0 and again.info.factorization == "pardiso"
+    fresh = cc.solve(two_blocks(nx=8, scale=1.7), "gamma3", factorization="superlu")
+    for k in range(2):
+        assert rel(again.u[k], fresh.u[k]) < 1e-11
+    assert rel(again.contact.force, fresh.contact.force) < 1e-11
+
+
+@needs_pardiso
+def test_auto_falls_back_to_superlu_when_pardiso_refuses(monkeypatch):
+    """'auto' with a PARDISO that fails: a warning and SuperLU; an explicit 'pardiso' raises."""
+    def refuse(*args, **kwargs):
+        raise SolverError("PARDISO perturbed 1 pivot(s)")
+
+    monkeypatch.setattr(factor, "PardisoFactorization", refuse)
+    scene = two_blocks(nx=4)
+    with pytest.warns(UserWarning, match="falling back to SuperLU"):
+        sol = cc.solve(scene)
+    assert sol.ok and sol.info.factorization == "superlu"
+    with pytest.raises(SolverError, match="perturbed"):
+        cc.solve(scene, factorization="pardiso")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cc.solve(scene, factorization="superlu").info.factorization == "superlu"
+
+
+def test_mkl_threads_follow_the_argument_then_the_environment(monkeypatch):
+    """threads= wins; else MKL_NUM_THREADS / OMP_NUM_THREADS as set when the factorisation runs (what the
+    sweep workers set after MKL may be loaded); else 0, MKL's default (all cores)."""
+    for k in ("MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        monkeypatch.delenv(k, raising=False)
+    assert factor._threads(None) == 0 and factor._threads(3) == 3
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    assert factor._threads(None) == 2
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    assert factor._threads(None) == 1 and factor._threads(4) == 4
+    monkeypatch.setenv("MKL_NUM_THREADS", "lots")
+    assert factor._threads(None) == 2
+
+
+@needs_pardiso
+def test_pardiso_honours_the_thread_count_of_a_sweep_worker(monkeypatch):
+    """The count reaches MKL for the call only: inside it MKL sees 1 thread, afterwards its own setting."""
+    lib = factor._load()
+    lib.MKL_Get_Max_Threads.restype = int
+    before = lib.MKL_Get_Max_Threads()
+    seen = []
+    original = lib.pardiso
+
+    class Spy:                                            # ctypes functions cannot be patched per attribute
+        def __getattr__(self, name):
+            return getattr(lib, name)
+
+        def pardiso(self, *args):
+            seen.append(lib.MKL_Get_Max_Threads())
+            return original(*args)
+
+    monkeypatch.setattr(factor, "_load", lambda: Spy())
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    S = sp.diags(np.full(6, 2.0)) + sp.diags(np.full(5, -1.0), 1) + sp.diags(np.full(5, -1.0), -1)
+    f = factor.factorize(sp.csc_matrix(S), np.array([5]), "pardiso")
+    f.solve(np.ones(6))
+    assert seen and set(seen) == {1}
+    assert lib.MKL_Get_Max_Threads() == before

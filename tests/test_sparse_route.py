@@ -1,0 +1,109 @@
+"""The sparse route for long interfaces (issue 13, cvxcontact/backends/sparse.py): active-set steps on the
+sparse mixed system (26), cross-checked against the condensed and full backends and a dense solve."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import rel, two_blocks
+from test_solve import direct_mixed_solve
+
+import cvxcontact as cc
+import cvxcontact.backends as backends
+from cvxcontact.apps.demo import thin_layer, thin_layer_nodes
+from cvxcontact.backends.condensed import quasi_definite_rhs
+from cvxcontact.backends.sparse import SparseContact
+from cvxcontact.solution.info import Route
+
+
+def _fields_agree(a, b, tol):
+    for ua, ub in zip(a.u, b.u):
+        assert rel(ua, ub) < tol
+    for pa, pb in zip(a.phi, b.phi):
+        if pb is not None:
+            assert rel(pa, pb) < tol
+    assert rel(a.contact.force, b.contact.force) < tol
+    assert np.array_equal(a.contact.active, b.contact.active)
+
+
+@pytest.fixture(scope="module")
+def layer():
+    return thin_layer(40)
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_sparse_agrees_with_condensed_and_full_on_two_blocks(scene, solutions, condition):
+    sol = cc.solve(scene, condition, method="sparse")
+    assert sol.ok and sol.info.method == "sparse" and sol.info.route == Route.SPARSE_ACTIVE_SET
+    assert sol.info.iterations >= 1 and sol.polished
+    _fields_agree(sol, solutions[condition], 1e-10)                 # condensed (the default here)
+    _fields_agree(sol, cc.solve(scene, condition, method="full"), 1e-10)
+
+
+def test_sparse_matches_a_dense_solve_of_the_mixed_system(scene):
+    sol = cc.solve(scene, method="sparse")
+    u, phi, lam, force, _ = direct_mixed_solve(scene, sol)    # dense LU of (26) on the active set, SI
+    for k in range(2):
+        assert rel(sol.u[k], u[k]) < 1e-10
+    assert rel(sol.phi[0], phi[0]) < 1e-10
+    assert rel(sol.contact.force, force) < 1e-10 and (force >= 0).all()
+
+
+def test_thin_layer_scene_has_a_genuine_active_set_and_the_routes_agree(layer):
+    assert layer.stack.size == thin_layer_nodes(40) == 40 + 29 - 1 + 1
+    assert thin_layer_nodes(3000) >= 5000                           # the benchmark size of issue 13
+    sol = cc.solve(layer, method="sparse")
+    assert sol.ok and sol.info.method == "sparse"
+    active = np.asarray(sol.contact.active)
+    assert 0.2 * len(active) < active.sum() < 0.95 * len(active)  # neither empty nor full
+    assert not active[0] and not active[-1]                        # open at the clamped ends (the crown)
+    _fields_agree(sol, cc.solve(layer, method="full"), 1e-10)
+    with warnings.catch_warnings():
+        # the condensed route reaches only ~1e-8 here (its exact finish goes through the dense interface
+        # compliance W of a slender layer: complementarity ~1e-4 > tol, ResidualWarning); 1e-6 bounds it
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        _fields_agree(sol, cc.solve(layer, method="condensed"), 1e-6)
+
+
+def test_capacitance_steps_match_refactorised_steps(layer):
+    """The capacitance (bordered) solves on a base factor give the same steps as a refactorisation at
+    every step: cap=0 refactorises each step, a large cap reuses the first factor throughout."""
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    blocks, E = solver._blocks, solver.E
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    g = np.asarray(solver._sparse._g)
+    every, reuse = SparseContact(blocks, E, cap=0), SparseContact(blocks, E, cap=10**6)
+    a, b = every.solve(F, g), reuse.solve(F, g)
+    assert reuse.factorizations == 1 and every.factorizations == a[4] > 1 and reuse.column_solves > 0
+    assert np.array_equal(a[3], b[3]) and a[4] == b[4]
+    assert rel(np.concatenate(a[0]), np.concatenate(b[0])) < 1e-10 and rel(a[2], b[2]) < 1e-10
+
+
+def test_auto_takes_the_sparse_route_above_the_threshold(monkeypatch, layer):
+    assert cc.ContactSolver(layer).method == "condensed"             # 69 rows: below SPARSE_ROWS
+    monkeypatch.setattr(backends, "SPARSE_ROWS", 50)
+    sol = cc.solve(layer)
+    assert sol.info.method == "sparse" and sol.info.requested == "auto" and sol.ok
+    law = cc.NormalCompliance(stiffness=1e12)                       # compliance: left to condensed
+    assert cc.ContactSolver(layer, law=law).method == "condensed"
+
+
+def test_resolve_starts_from_the_previous_active_set(layer):
+    solver = cc.ContactSolver(layer, method="sparse")
+    first = solver.solve()
+    assert first.info.route == Route.SPARSE_ACTIVE_SET and first.info.factorizations == 1
+    other = thin_layer(40, pressure=1.1e6, voltage=50.0)
+    again = solver.solve(other)
+    assert again.ok and again.info.route == Route.WARM_START
+    assert again.info.iterations < first.info.iterations
+    _fields_agree(again, cc.solve(other, method="full"), 1e-10)
+
+
+def test_sparse_refuses_what_it_cannot_take(scene):
+    with pytest.raises(cc.SolverError, match="'sparse' does not accept"):
+        cc.solve(scene, method="sparse", law=cc.NormalCompliance(stiffness=1e12))
+    with pytest.raises(cc.SolverError, match="'sparse' does not accept"):
+        cc.solve(scene, method="sparse", degree=2)                  # the P2 conic condition
+    with pytest.raises(cc.SceneError, match="n must be an int"):
+        thin_layer(1)

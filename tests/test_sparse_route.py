@@ -107,3 +107,27 @@ def test_sparse_refuses_what_it_cannot_take(scene):
         cc.solve(scene, method="sparse", degree=2)                  # the P2 conic condition
     with pytest.raises(cc.SceneError, match="n must be an int"):
         thin_layer(1)
+
+
+@pytest.mark.parametrize("make", ["punch_gamma3", "punch_sigma2", "three_bodies", "circle"])
+def test_sparse_agrees_with_condensed_on_pairs_and_obstacles(make):
+    """Partial overlap with a prescribed approach, three bodies (two pairs), a rigid circle."""
+    from test_pairs import block_on, punch_scene
+
+    if make.startswith("punch"):
+        scene = punch_scene(condition=make.split("_")[1])[0]
+    elif make == "circle":
+        scene = block_on(cc.Rigid.circle((0.5, -0.3 - 1e-4), 0.3))
+    else:
+        steel, alu = cc.materials.isotropic(E=210e9, nu=0.3), cc.materials.isotropic(E=70e9, nu=0.33)
+        top = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(0.3, 0.5), nx=4, ny=2), steel, clamped="top", contact="bottom",
+                      body_force=(0.0, -5e9))
+        mid = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.3), nx=6, ny=2), alu, clamped="left", contact="top")
+        bot = cc.Body(cc.rectangle(x=(0.1, 0.9), y=(-0.3, 0.0), nx=5, ny=2), steel, clamped="bottom", contact="top")
+        scene = cc.Scene(top, mid, bot, contacts=[cc.Contact(top, "bottom", mid, "top"),
+                                                  cc.Contact(mid, "bottom", bot, "top")])
+    sol, ref = cc.solve(scene, method="sparse"), cc.solve(scene, method="condensed")
+    assert sol.ok and sol.info.method == "sparse" and 0 < np.sum(sol.contact.active)
+    for ua, ub in zip(sol.u, ref.u):
+        assert rel(ua, ub) < 1e-10
+    assert rel(sol.contact.force, ref.contact.force) < 1e-10

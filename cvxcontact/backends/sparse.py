@@ -27,12 +27,12 @@ form on the c rows where A and A_b differ: a row dropped from A_b gets a free ga
 the condition y_a = 0, a row added gets a force s_a on x with the condition G_a x = b_a; the c x c
 dense system for (t, s) needs one base solve per changed row (cached across steps, stored as two
 m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
-column solves, measured) K(A) is refactorised with the stored ordering and becomes the base. Every
-answer is checked against K(A) itself (relative residual <= 1e-8 after two refinement steps) and
-refactorised if the check fails.
+column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
+answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
+refinement steps) and refactorised if the check fails.
 
 Memory: the sparse factor of K (what one bonded solve needs) + O(m c) for the capacitance columns +
-a c x c dense matrix (c <= cap, a few hundred): no m x m matrix.
+a c x c dense matrix (c <= cap <= 500): no m x m matrix.
 
 Accepts: the quadratic energy of linear (piezo)elasticity with linear contact rows E [u_nu] <= E g
 (P1, or P2 with a nodal condition), the Signorini law on every row, every body held by its own
@@ -52,6 +52,7 @@ import scipy.sparse.linalg as spla
 
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
+from ..errors import SolverError
 from .finish import SIGN_TOL
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
@@ -159,7 +160,8 @@ class SparseContact:
         N = n + m
         order = sp.csc_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(N, N))
         if order.nnz != len(rows):
-            raise ValueError("duplicate entries in the mixed system's pattern")
+            raise SolverError("duplicate entries in the sparse mixed system's pattern (a contact row coupling a "
+                              "dof twice); use method='condensed' or 'full'")
         idx = order.data.astype(np.int64) - 1
         self._indices, self._indptr = order.indices, order.indptr
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
@@ -193,19 +195,19 @@ class SparseContact:
         t_fact = time.perf_counter() - t1
         self.factorizations += 1
         self.factor_time += time.perf_counter() - t0
-        self.base = (active.copy(), factor, K)
+        self.base = (active.copy(), factor)
         self._columns = {}
         if self.cap is None:   # a refactorisation costs about this many column solves
             t1 = time.perf_counter()
             factor.solve(np.ones(K.shape[0]))
             t_col = max(time.perf_counter() - t1, 1e-6)
-            self.cap = int(min(max(16, t_fact / t_col / 2), 2000))
+            self.cap = int(min(max(16, t_fact / t_col / 2), 500))
         return True
 
     def _solve_on(self, active, b):
         """z with K(active) z = b through the base factor and the capacitance form; None if singular."""
         n = self.n
-        A_b, factor, _ = self.base
+        A_b, factor = self.base
         drop = np.flatnonzero(A_b & ~active)
         add = np.flatnonzero(active & ~A_b)
         c = len(drop) + len(add)
@@ -215,6 +217,8 @@ class SparseContact:
         if c == 0:
             return factor.solve(bb)
         keys = [(int(a), 0) for a in drop] + [(int(a), 1) for a in add]
+        if len(self._columns) > 2 * max(self.cap, c):       # keep the cache O(m cap): the current rows only
+            self._columns = {k: v for k, v in self._columns.items() if k in set(keys)}
         new = [k for k in keys if k not in self._columns]
         if new:
             cols = np.zeros((n + self.m, len(new)))
@@ -258,15 +262,16 @@ class SparseContact:
             z = self._solve_on(active, b)
             if z is None or not np.isfinite(z).all():
                 continue
-            for _ in range(2):          # iterative refinement against K(A) itself
-                dz = self._solve_on(active, b - K @ z)
-                if dz is None:
+            absK = abs(K)
+            for _ in range(3):          # iterative refinement against K(A) itself, while needed
+                r = b - K @ z
+                scale = absK @ np.abs(z) + np.abs(b)     # componentwise backward error (each row's own terms)
+                if float((np.abs(r) / np.maximum(scale, np.finfo(float).tiny)).max(initial=0.0)) <= 1e-12:
+                    return z
+                dz = self._solve_on(active, r)
+                if dz is None or not np.isfinite(dz).all():
                     break
                 z = z + dz
-            scale = abs(K) @ np.abs(z) + np.abs(b)     # componentwise backward error (each row's own terms)
-            res = float((np.abs(K @ z - b) / np.maximum(scale, np.finfo(float).tiny)).max(initial=0.0))
-            if np.isfinite(z).all() and res <= 1e-12:
-                return z
         return None
 
     def solve(self, F, g, active=None, max_iter: int = 50):

@@ -131,3 +131,38 @@ def test_sparse_agrees_with_condensed_on_pairs_and_obstacles(make):
     for ua, ub in zip(sol.u, ref.u):
         assert rel(ua, ub) < 1e-10
     assert rel(sol.contact.force, ref.contact.force) < 1e-10
+
+
+def test_registry_prefers_sparse_for_long_interfaces_only():
+    from cvxcontact.backends import SPARSE_ROWS, ProblemDescription, choose
+
+    long = SPARSE_ROWS + 1
+    assert choose("auto", ProblemDescription(contact_rows=SPARSE_ROWS)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long)) == "sparse"
+    assert choose("auto", ProblemDescription(contact_rows=long, compliant=True)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long, conic=True)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long, held_by_contact=True)) == "full"
+    assert choose("sparse", ProblemDescription(contact_rows=3)) == "sparse"        # named: any size
+
+
+def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(layer):
+    """ordering() puts each contact row after its dofs so that no pivoting is needed: the factor solves
+    the bonded mixed system as SciPy's pivoting spsolve does."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.sparse import factorize, ordering
+
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    sc = solver._sparse
+    K = sc.matrix(np.ones(sc.m, dtype=bool))
+    perm = ordering(K, sc.n + np.arange(sc.m))
+    assert sorted(perm) == list(range(K.shape[0]))
+    pos = np.empty(len(perm), dtype=int)
+    pos[perm] = np.arange(len(perm))
+    Kc = K.tocsc()
+    for a in range(sc.m):                       # each contact row after every dof it couples to
+        j = sc.n + a
+        assert pos[j] >= pos[Kc.indices[Kc.indptr[j]:Kc.indptr[j + 1]]].max()
+    b = np.concatenate([sc.F, sc._g])
+    assert rel(factorize(K, perm).solve(b), spla.spsolve(K, b)) < 1e-8

@@ -66,10 +66,13 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         Non-penetration on K_h(Gamma_3) (every merged node) or K_h(Sigma_h^l) (nodes of mesh l).
     solver : str
         A CVXPY solver name; Clarabel by default (with tolerances tightened to 1e-10).
-    method : {"auto", "full", "condensed"}
+    method : {"auto", "sparse", "condensed", "full"}
         ``"auto"`` (default): the fastest backend that accepts the problem
         (:func:`cvxcontact.backends.choose`); for the package's own problems (quadratic
-        energy, linear contact rows) that is ``"condensed"``. ``"full"`` (the reference)
+        energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` above
+        :data:`cvxcontact.backends.SPARSE_ROWS` contact rows (a long interface) with the Signorini law.
+        ``"sparse"`` (:mod:`cvxcontact.backends.sparse`) runs exact active-set steps on the sparse mixed
+        system (26) of every body, no dense interface matrix and no interior point. ``"full"`` (the reference)
         poses the whole phi-form model in CVXPY, so that ``Solution.problem`` has the
         variables ``u1, phi1, u2, ...``. ``"condensed"`` (fast, exact) factorises each body
         once, condenses it onto its contact dofs (:mod:`cvxcontact.backends.condensed`) and
@@ -200,7 +203,9 @@ class ContactSolver:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
         self.scene, self.condition, self.requested = scene, condition, method
-        self.method = choose(method, ProblemDescription(held_by_contact=held, force_control=bool(self.forced)))
+        self.method = choose(method, ProblemDescription(
+            held_by_contact=held, force_control=bool(self.forced), contact_rows=int(self.E.shape[0]),
+            compliant=any(lw.compliant for lw in pair_laws(scene, self.law)), conic=self.conic))
         self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve
         self.solver, self.tol, self.polish, self.verbose = solver, tol, polish, verbose
@@ -209,7 +214,7 @@ class ContactSolver:
                          [p2.assemble_matrices(b, n) for b, n in zip(scene.bodies, self.nodes)])
         self.setup_time = {"assembly": time.perf_counter() - t0}
         self.warm_start, self.scale = warm_start, scale
-        self._blocks = self._condensed = self._compliance = self._active = None
+        self._blocks = self._condensed = self._compliance = self._active = self._sparse = None
         self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
                      else RowLaws(pair_laws(scene, self.law), [self.E.shape[0]]))
         self.compliant = self.rows.compliant
@@ -246,7 +251,7 @@ class ContactSolver:
         if not self.compliant:
             _check_reachable(scene, self.interface, self.E, blocks, self.E @ gap, self._translations, un)
         timings["loads"] = time.perf_counter() - t0
-        run = self._full if self.method == "full" else self._condensed_solve
+        run = {"full": self._full, "sparse": self._sparse_solve}.get(self.method, self._condensed_solve)
         if self.conic:
             run = self._conic_full if self.method == "full" else self._conic_condensed
         self.path, self.declined, self.finish_route, self.iterations = Route.INTERIOR_POINT, "", None, 0
@@ -392,6 +397,33 @@ class ContactSolver:
         u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, active, polished, problem
+
+    def _sparse_solve(self, blocks, g, timings):
+        """The sparse route (:mod:`cvxcontact.backends.sparse`): active-set steps on the sparse mixed system
+        (26), from the bonded system (first solve) or the previous active set (re-solve); exact, no
+        interior point (``polish`` does not apply). ``iterations`` counts the systems solved."""
+        from .backends.sparse import SparseContact
+
+        if self._sparse is None:
+            self._sparse = SparseContact(blocks, self.E)
+        sc, f0 = self._sparse, self._sparse.factor_time
+        t0 = time.perf_counter()
+        warm = self.warm_start and self._active is not None
+        out = sc.solve(np.concatenate([quasi_definite_rhs(b) for b in blocks]), g, self._active if warm else None)
+        if out is None and warm:                               # the previous set led nowhere: from bonded
+            out = sc.solve(np.concatenate([quasi_definite_rhs(b) for b in blocks]), g)
+            warm = False
+        if sc.factor_time > f0:
+            timings["factorization"] = sc.factor_time - f0
+        timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time - f0)
+        if out is None:
+            raise SolverError("the active-set steps on the sparse mixed system did not settle (they cycled or met "
+                              "a singular system); use method='condensed' or 'full'")
+        u, phi, y, active, steps = out
+        self._active, self.iterations = active, steps
+        self.path = Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET
+        self.finish_route = "active set"
+        return u, phi, y, active, True, None
 
     def _compliance_solve(self, blocks, g, un, timings):
         """Normal compliance on some or all pairs (docs/formulation.md §10): the convex program with the

@@ -36,6 +36,9 @@ class Route(StrEnum):
     NEWTON_ONLY = "semismooth Newton (the interior point failed)"
     """Normal compliance: the solver failed on the convex program (e.g. a very stiff law); the exact
     finish, globally convergent on its own, solved the interface equation from the free slack."""
+    SPARSE_ACTIVE_SET = "active-set steps on the sparse mixed system"
+    """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
+    bonded system, no convex program (``iterations``: the systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
 
@@ -71,7 +74,8 @@ class SolveInfo:
     polished : bool
         True if the arrays are the exact finish (route INTERIOR_POINT_FINISHED or WARM_START).
     iterations : int
-        Interior-point iterations of this solve (0 for a warm start).
+        Interior-point iterations of this solve (0 for a warm start); for the sparse route the number of
+        active-set steps (systems solved).
     timings : Mapping[str, float]
         Wall-clock seconds per stage of this solve ("assembly", "factorization", "loads",
         "model", "compile", "solve", "polish", "back_substitution", "read_back", ...). A stage

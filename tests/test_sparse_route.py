@@ -1,0 +1,168 @@
+"""The sparse route for long interfaces (issue 13, cvxcontact/backends/sparse.py): active-set steps on the
+sparse mixed system (26), cross-checked against the condensed and full backends and a dense solve."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import rel, two_blocks
+from test_solve import direct_mixed_solve
+
+import cvxcontact as cc
+import cvxcontact.backends as backends
+from cvxcontact.apps.demo import thin_layer, thin_layer_nodes
+from cvxcontact.backends.condensed import quasi_definite_rhs
+from cvxcontact.backends.sparse import SparseContact
+from cvxcontact.solution.info import Route
+
+
+def _fields_agree(a, b, tol):
+    for ua, ub in zip(a.u, b.u):
+        assert rel(ua, ub) < tol
+    for pa, pb in zip(a.phi, b.phi):
+        if pb is not None:
+            assert rel(pa, pb) < tol
+    assert rel(a.contact.force, b.contact.force) < tol
+    assert np.array_equal(a.contact.active, b.contact.active)
+
+
+@pytest.fixture(scope="module")
+def layer():
+    return thin_layer(40)
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_sparse_agrees_with_condensed_and_full_on_two_blocks(scene, solutions, condition):
+    sol = cc.solve(scene, condition, method="sparse")
+    assert sol.ok and sol.info.method == "sparse" and sol.info.route == Route.SPARSE_ACTIVE_SET
+    assert sol.info.iterations >= 1 and sol.polished
+    _fields_agree(sol, solutions[condition], 1e-10)                 # condensed (the default here)
+    _fields_agree(sol, cc.solve(scene, condition, method="full"), 1e-10)
+
+
+def test_sparse_matches_a_dense_solve_of_the_mixed_system(scene):
+    sol = cc.solve(scene, method="sparse")
+    u, phi, lam, force, _ = direct_mixed_solve(scene, sol)    # dense LU of (26) on the active set, SI
+    for k in range(2):
+        assert rel(sol.u[k], u[k]) < 1e-10
+    assert rel(sol.phi[0], phi[0]) < 1e-10
+    assert rel(sol.contact.force, force) < 1e-10 and (force >= 0).all()
+
+
+def test_thin_layer_scene_has_a_genuine_active_set_and_the_routes_agree(layer):
+    assert layer.stack.size == thin_layer_nodes(40) == 40 + 29 - 1 + 1
+    assert thin_layer_nodes(3000) >= 5000                           # the benchmark size of issue 13
+    sol = cc.solve(layer, method="sparse")
+    assert sol.ok and sol.info.method == "sparse"
+    active = np.asarray(sol.contact.active)
+    assert 0.2 * len(active) < active.sum() < 0.95 * len(active)  # neither empty nor full
+    assert not active[0] and not active[-1]                        # open at the clamped ends (the crown)
+    _fields_agree(sol, cc.solve(layer, method="full"), 1e-10)
+    with warnings.catch_warnings():
+        # the condensed route reaches only ~1e-8 here (its exact finish goes through the dense interface
+        # compliance W of a slender layer: complementarity ~1e-4 > tol, ResidualWarning); 1e-6 bounds it
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        _fields_agree(sol, cc.solve(layer, method="condensed"), 1e-6)
+
+
+def test_capacitance_steps_match_refactorised_steps(layer):
+    """The capacitance (bordered) solves on a base factor give the same steps as a refactorisation at
+    every step: cap=0 refactorises each step, a large cap reuses the first factor throughout."""
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    blocks, E = solver._blocks, solver.E
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    g = np.asarray(solver._sparse._g)
+    every, reuse = SparseContact(blocks, E, cap=0), SparseContact(blocks, E, cap=10**6)
+    a, b = every.solve(F, g), reuse.solve(F, g)
+    assert reuse.factorizations == 1 and every.factorizations == a[4] > 1 and reuse.column_solves > 0
+    assert np.array_equal(a[3], b[3]) and a[4] == b[4]
+    assert rel(np.concatenate(a[0]), np.concatenate(b[0])) < 1e-10 and rel(a[2], b[2]) < 1e-10
+
+
+def test_auto_takes_the_sparse_route_above_the_threshold(monkeypatch, layer):
+    assert cc.ContactSolver(layer).method == "condensed"             # 69 rows: below SPARSE_ROWS
+    monkeypatch.setattr(backends, "SPARSE_ROWS", 50)
+    sol = cc.solve(layer)
+    assert sol.info.method == "sparse" and sol.info.requested == "auto" and sol.ok
+    law = cc.NormalCompliance(stiffness=1e12)                       # compliance: left to condensed
+    assert cc.ContactSolver(layer, law=law).method == "condensed"
+
+
+def test_resolve_starts_from_the_previous_active_set(layer):
+    solver = cc.ContactSolver(layer, method="sparse")
+    first = solver.solve()
+    assert first.info.route == Route.SPARSE_ACTIVE_SET and first.info.factorizations == 1
+    other = thin_layer(40, pressure=1.1e6, voltage=50.0)
+    again = solver.solve(other)
+    assert again.ok and again.info.route == Route.WARM_START
+    assert again.info.iterations < first.info.iterations
+    _fields_agree(again, cc.solve(other, method="full"), 1e-10)
+
+
+def test_sparse_refuses_what_it_cannot_take(scene):
+    with pytest.raises(cc.SolverError, match="'sparse' does not accept"):
+        cc.solve(scene, method="sparse", law=cc.NormalCompliance(stiffness=1e12))
+    with pytest.raises(cc.SolverError, match="'sparse' does not accept"):
+        cc.solve(scene, method="sparse", degree=2)                  # the P2 conic condition
+    with pytest.raises(cc.SceneError, match="n must be an int"):
+        thin_layer(1)
+
+
+@pytest.mark.parametrize("make", ["punch_gamma3", "punch_sigma2", "three_bodies", "circle"])
+def test_sparse_agrees_with_condensed_on_pairs_and_obstacles(make):
+    """Partial overlap with a prescribed approach, three bodies (two pairs), a rigid circle."""
+    from test_pairs import block_on, punch_scene
+
+    if make.startswith("punch"):
+        scene = punch_scene(condition=make.split("_")[1])[0]
+    elif make == "circle":
+        scene = block_on(cc.Rigid.circle((0.5, -0.3 - 1e-4), 0.3))
+    else:
+        steel, alu = cc.materials.isotropic(E=210e9, nu=0.3), cc.materials.isotropic(E=70e9, nu=0.33)
+        top = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(0.3, 0.5), nx=4, ny=2), steel, clamped="top", contact="bottom",
+                      body_force=(0.0, -5e9))
+        mid = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.3), nx=6, ny=2), alu, clamped="left", contact="top")
+        bot = cc.Body(cc.rectangle(x=(0.1, 0.9), y=(-0.3, 0.0), nx=5, ny=2), steel, clamped="bottom", contact="top")
+        scene = cc.Scene(top, mid, bot, contacts=[cc.Contact(top, "bottom", mid, "top"),
+                                                  cc.Contact(mid, "bottom", bot, "top")])
+    sol, ref = cc.solve(scene, method="sparse"), cc.solve(scene, method="condensed")
+    assert sol.ok and sol.info.method == "sparse" and 0 < np.sum(sol.contact.active)
+    for ua, ub in zip(sol.u, ref.u):
+        assert rel(ua, ub) < 1e-10
+    assert rel(sol.contact.force, ref.contact.force) < 1e-10
+
+
+def test_registry_prefers_sparse_for_long_interfaces_only():
+    from cvxcontact.backends import SPARSE_ROWS, ProblemDescription, choose
+
+    long = SPARSE_ROWS + 1
+    assert choose("auto", ProblemDescription(contact_rows=SPARSE_ROWS)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long)) == "sparse"
+    assert choose("auto", ProblemDescription(contact_rows=long, compliant=True)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long, conic=True)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long, held_by_contact=True)) == "full"
+    assert choose("sparse", ProblemDescription(contact_rows=3)) == "sparse"        # named: any size
+
+
+def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(layer):
+    """ordering() puts each contact row after its dofs so that no pivoting is needed: the factor solves
+    the bonded mixed system as SciPy's pivoting spsolve does."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.sparse import factorize, ordering
+
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    sc = solver._sparse
+    K = sc.matrix(np.ones(sc.m, dtype=bool))
+    perm = ordering(K, sc.n + np.arange(sc.m))
+    assert sorted(perm) == list(range(K.shape[0]))
+    pos = np.empty(len(perm), dtype=int)
+    pos[perm] = np.arange(len(perm))
+    Kc = K.tocsc()
+    for a in range(sc.m):                       # each contact row after every dof it couples to
+        j = sc.n + a
+        assert pos[j] >= pos[Kc.indices[Kc.indptr[j]:Kc.indptr[j + 1]]].max()
+    b = np.concatenate([sc.F, sc._g])
+    assert rel(factorize(K, perm).solve(b), spla.spsolve(K, b)) < 1e-8

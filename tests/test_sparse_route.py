@@ -166,3 +166,26 @@ def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(lay
         assert pos[j] >= pos[Kc.indices[Kc.indptr[j]:Kc.indptr[j + 1]]].max()
     b = np.concatenate([sc.F, sc._g])
     assert rel(factorize(K, perm).solve(b), spla.spsolve(K, b)) < 1e-8
+
+
+def test_auto_falls_back_to_the_sparse_route_when_the_condensed_answer_fails_its_checks():
+    """thin_layer: a slender layer clamped at its ends has an ill-conditioned interface compliance; the
+    condensed answer, exact on its own interface matrices, fails the checks of (26)-(27) (measured: 5e-6
+    complementarity). method="auto" then re-solves the mixed system from the condensed active set, and
+    says so in the route; an explicit method="condensed" keeps its answer and, if it fails, warns."""
+    scene = thin_layer(50)
+    ref = cc.solve(scene, method="full")
+    solver = cc.ContactSolver(scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                    # no warning: the answer passes its checks
+        sol = solver.solve()
+        again = solver.solve(thin_layer(50, pressure=0.5e6))
+    assert sol.ok and sol.info.method == "sparse" and sol.info.route == cc.Route.SPARSE_FALLBACK
+    for a, b in zip(ref.u, sol.u):
+        assert rel(b, a) < 1e-10
+    assert again.ok and again.info.method == "sparse"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        explicit = cc.solve(scene, method="condensed")
+    assert explicit.info.method == "condensed"
+    assert explicit.ok or any(issubclass(w.category, cc.ResidualWarning) for w in caught)    # never silent

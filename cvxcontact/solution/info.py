@@ -41,6 +41,10 @@ class Route(StrEnum):
     bonded system, no convex program (``iterations``: the systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
+    SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
+    """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
+    compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the
+    mixed system from the condensed active set and its answer passed them."""
 
 
 class Finish(StrEnum):

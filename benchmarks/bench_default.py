@@ -47,8 +47,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this che
 
 
 def make_scene(name, n, scale=1.0):
+    """The canonical scene ``name`` at size ``n`` with its loads x ``scale`` (thin_layer: pressure and voltage)."""
     from cvxcontact.apps import demo
 
+    if name == "thin_layer":
+        return demo.thin_layer(n, pressure=1e6 * scale, voltage=100.0 * scale)
     return getattr(demo, name)(n, scale=scale)
 
 
@@ -56,16 +59,16 @@ def peak_gb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
-def default_part(name, n, degree, runs):
+def default_part(name, n, degree, runs, factorization="auto"):
     """The default solve, its re-solve share, accuracy and peak memory (module docstring)."""
     import cvxcontact as cc
 
-    cc.solve(make_scene(name, 4), degree=degree)        # imports and first-call set-up, not timed
+    cc.solve(make_scene(name, 4), degree=degree, factorization=factorization)   # imports, first-call set-up
     rows = []
     for _ in range(runs):
         sc = make_scene(name, n)
         t0 = time.perf_counter()
-        solver = cc.ContactSolver(sc, degree=degree)
+        solver = cc.ContactSolver(sc, degree=degree, factorization=factorization)
         sol = solver.solve()
         total = time.perf_counter() - t0
         other = make_scene(name, n, scale=0.37)
@@ -80,11 +83,12 @@ def default_part(name, n, degree, runs):
                          back_substitution_s=tm.get("back_substitution", 0.0), read_back_s=tm.get("read_back", 0.0),
                          resolve_s=t_again, resolve_share=t_again / total,
                          method=sol.info.method, route=str(sol.info.route), iterations=sol.info.iterations,
-                         factorization=str(getattr(sol.info, "factorization", "superlu")), ok=bool(sol.ok),
+                         factorization=sol.info.factorization or "-", ok=bool(sol.ok),
                          resolve_ok=bool(again.ok), resolve_route=str(again.info.route),
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
         unknowns = sum(b.Kuu.shape[0] + (b.Kpp.shape[0] if b.Kpp is not None else 0) for b in solver._blocks)
         merged = solver.E.shape[0]
+        del solver, sol, again
     out = _median(rows)
     out.update(unknowns=unknowns, contact_rows=merged, default_peak_gb=peak_gb())
     return out
@@ -208,6 +212,10 @@ def _run(args):
 def case(name, n, degree, runs, superlu_up_to):
     row = dict(scene=name, n=n, degree=degree)
     row.update(_run(dict(part="default", name=name, n=n, degree=degree, runs=runs)))
+    if row["factorization"] == "pardiso" and row["unknowns"] <= superlu_up_to:    # the default install's path
+        alt = _run(dict(part="default", name=name, n=n, degree=degree, runs=runs, factorization="superlu"))
+        row.update({f"scipy_{k}": alt[k] for k in ("default_s", "resolve_share", "default_peak_gb", "ok",
+                                                    "res_complementarity", "route")})
     row.update(_run(dict(part="bonded", name=name, n=n, degree=degree, runs=runs, superlu_up_to=superlu_up_to)))
     nan = float("nan")
     row["ratio_pardiso"] = row["default_s"] / row["pardiso_s"] if row["pardiso_s"] == row["pardiso_s"] else nan
@@ -228,7 +236,7 @@ def main():
     if args.one:
         a = json.loads(args.one)
         if a["part"] == "default":
-            print(json.dumps(default_part(a["name"], a["n"], a["degree"], a["runs"])))
+            print(json.dumps(default_part(a["name"], a["n"], a["degree"], a["runs"], a.get("factorization", "auto"))))
         else:
             print(json.dumps(bonded_part(a["name"], a["n"], a["degree"], a["runs"], a["superlu_up_to"])))
         return
@@ -247,7 +255,11 @@ def main():
               f"default/PARDISO {r['ratio_pardiso']:.2f}  default/SuperLU {r['ratio_superlu']:.2f}  "
               f"re-solve {100 * r['resolve_share']:.1f} % [{r['resolve_route']}]  eq {r['res_equilibrium']:.1e} "
               f"compl {r['res_complementarity']:.1e} ok={r['ok']}  peak default {r['default_peak_gb']:.2f} GB, "
-              f"bonded {r['bonded_peak_gb']:.2f} GB", flush=True)
+              f"bonded {r['bonded_peak_gb']:.2f} GB"
+              + (f"  | SciPy-only default {r['scipy_default_s']:.2f} s (/PARDISO {r['scipy_default_s'] / r['pardiso_s']:.2f}, "
+                 f"/SuperLU {r['scipy_default_s'] / r['superlu_s']:.2f}), re-solve {100 * r['scipy_resolve_share']:.1f} %, "
+                 f"peak {r['scipy_default_peak_gb']:.2f} GB, ok={r['scipy_ok']}" if "scipy_default_s" in r else ""),
+              flush=True)
     for name, degree in sorted({(r["scene"], r["degree"]) for r in rows}):
         sel = [r for r in rows if r["scene"] == name and r["degree"] == degree]
         if len(sel) >= 2:

@@ -69,8 +69,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     method : {"auto", "sparse", "condensed", "full"}
         ``"auto"`` (default): the fastest backend that accepts the problem
         (:func:`cvxcontact.backends.choose`); for the package's own problems (quadratic
-        energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` above
-        :data:`cvxcontact.backends.SPARSE_ROWS` contact rows (a long interface) with the Signorini law.
+        energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` for a long interface with the
+        Signorini law (more contact rows m than :data:`cvxcontact.backends.SPARSE_SLENDER` x sqrt(unknowns),
+        or than :data:`cvxcontact.backends.SPARSE_ROWS`); a condensed answer that fails its checks falls
+        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``).
         ``"sparse"`` (:mod:`cvxcontact.backends.sparse`) runs exact active-set steps on the sparse mixed
         system (26) of every body, no dense interface matrix and no interior point. ``"full"`` (the reference)
         poses the whole phi-form model in CVXPY, so that ``Solution.problem`` has the
@@ -205,6 +207,8 @@ class ContactSolver:
         self.scene, self.condition, self.requested = scene, condition, method
         self.method = choose(method, ProblemDescription(
             held_by_contact=held, force_control=bool(self.forced), contact_rows=int(self.E.shape[0]),
+            unknowns=sum(len(n.points if n is not None else b.mesh.points) * (3 if b.material.piezoelectric else 2)
+                         for b, n in zip(scene.bodies, self.nodes or [None] * len(scene.bodies))),
             compliant=any(lw.compliant for lw in pair_laws(scene, self.law)), conic=self.conic))
         self.held = held
         self._fingerprints = [geometry_fingerprint(b) for b in scene.bodies]   # checked on every solve

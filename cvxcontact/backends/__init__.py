@@ -21,20 +21,23 @@ from dataclasses import dataclass
 
 from ..errors import SolverError
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "SPARSE_ROWS"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "SPARSE_ROWS", "SPARSE_SLENDER"]
 
-SPARSE_ROWS = 1500
-"""``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one
-when the problem has more contact rows than this. Why 1,500: the condensed route holds dense interface
-matrices (W: m x m doubles, 18 MB at m = 1,500, 200 MB at 5,000; each body's Sigma_l and B_l, the dense
-trailing block of its factor, the interface QP's psd matrix) and factorises them in O(m^3); the sparse
-route holds the sparse factor of the mixed system only. Measured (2 shared cores): on bulky bodies with a
-short interface the condensed route wins (two_blocks(128), 217 rows: 1.1 s against 2.9 s); on a thin layer
-the sparse route wins from a few hundred rows (thin_layer(400), 681 rows: 1.1 s against 5.1 s) and at
-1,500-odd rows the dense matrices cost hundreds of MB whatever the bodies (thin_layer(1000), 1,701 rows:
-condensed 14.6 s and 600 MB above the scene, sparse 3.9 s and 140 MB; thin_layer(3000), 5,101 rows:
-condensed 622 s and 5.0 GB, sparse 17 s and 334 MB). Above 1,500 rows the sparse route is therefore
-chosen for every geometry; below, the condensed one (docs/architecture.md, "The sparse route")."""
+SPARSE_ROWS = 8000
+"""``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
+more contact rows than this whatever the bodies (the condensed route's dense interface matrices, W alone
+m x m doubles, reach 0.5 GB), or for a slender interface (:data:`SPARSE_SLENDER`)."""
+
+SPARSE_SLENDER = 3.0
+"""... or when the contact rows m exceed this many times sqrt(N), N the unknowns: a long interface beside
+the bodies (a thin layer). A bulky 2D body has m ~ sqrt(N) (two_blocks: m / sqrt(N) = 1.1-1.2 at every
+size), a thin layer many times more (thin_layer: 5.5 at n = 400, 8.8 at 1,000, 15 at 3,000). Why: the
+condensed route costs a factorisation plus O(m^3) dense work and holds O(m^2) memory, the sparse route a
+few factorisations of the mixed system (measured, 2 cores: two_blocks at 2.5e6 unknowns, 1,793 rows:
+condensed about 40 s / 6 GB against sparse 1,100 s / 17 GB (SuperLU steps); thin_layer(400), 681 rows:
+sparse 1.1 s against condensed 5.1 s; thin_layer(3000), 5,101 rows: sparse 17 s / 334 MB, condensed 622 s
+/ 5 GB). A slender layer's interface compliance is also ill-conditioned: the condensed answer may fail
+its checks, and ``auto`` then falls back to the sparse route anyway (Route.SPARSE_FALLBACK)."""
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,8 @@ class ProblemDescription:
     is singular, so it cannot be condensed on its own).
     ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
     stiffness, coupled to every body it touches; docs/formulation.md §12).
+    ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
+    ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition.
     """
 
     quadratic_energy: bool = True
@@ -58,6 +63,7 @@ class ProblemDescription:
     held_by_contact: bool = False
     force_control: bool = False
     contact_rows: int = 0
+    unknowns: int = 0
     compliant: bool = False
     conic: bool = False
 
@@ -85,7 +91,8 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
 BACKENDS: tuple[Backend, ...] = (
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",
-            prefers=lambda p: p.contact_rows > SPARSE_ROWS),
+            prefers=lambda p: p.contact_rows > SPARSE_ROWS
+            or (p.unknowns > 0 and p.contact_rows > SPARSE_SLENDER * p.unknowns ** 0.5)),
     Backend("condensed", _condensed_accepts,
             "exact condensation onto the contact dofs + interface QP + exact finish (fast)"),
     Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)"),

@@ -9,7 +9,7 @@
 The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
 an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers(problem)``.
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
-``prefers``: every problem it accepts) (:func:`choose`): "sparse" above :data:`SPARSE_ROWS` contact rows
+``prefers``: every problem it accepts) (:func:`choose`): "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
 neither accepts.
 """

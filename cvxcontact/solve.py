@@ -302,7 +302,8 @@ class ContactSolver:
         sol.info = replace(sol.info, method=method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
                            finish=Finish(self.finish_route) if polished and self.finish_route else None,
-                           factorization=",".join(dict.fromkeys(c.factorization for c in self._condensed or ())))
+                           factorization=(self._sparse.factorization if method == "sparse" and self._sparse is not None
+                                          else ",".join(dict.fromkeys(c.factorization for c in self._condensed or ()))))
         if self.polish and not polished and not self.conic:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
@@ -428,7 +429,7 @@ class ContactSolver:
         from .backends.sparse import SparseContact
 
         if self._sparse is None:
-            self._sparse = SparseContact(blocks, self.E)
+            self._sparse = SparseContact(blocks, self.E, factorization=self.factorization)
         sc, f0 = self._sparse, self._sparse.factor_time
         t0 = time.perf_counter()
         warm = self.warm_start and self._active is not None

@@ -189,3 +189,21 @@ def test_auto_falls_back_to_the_sparse_route_when_the_condensed_answer_fails_its
         explicit = cc.solve(scene, method="condensed")
     assert explicit.info.method == "condensed"
     assert explicit.ok or any(issubclass(w.category, cc.ResidualWarning) for w in caught)    # never silent
+
+
+@pytest.mark.skipif(not __import__("cvxcontact.backends.factor", fromlist=["x"]).pardiso_available(),
+                    reason="Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+def test_sparse_route_with_pardiso_matches_superlu_and_the_full_model():
+    """The sparse route's factorisations through PARDISO (analysis once, numeric factorisations per step):
+    the same active-set steps and the same answer as with SuperLU, and as the full CVXPY model."""
+    scene = thin_layer(60)
+    a = cc.ContactSolver(scene, method="sparse", factorization="pardiso")
+    sol = a.solve()
+    ref = cc.solve(scene, method="sparse", factorization="superlu")
+    assert sol.ok and sol.info.factorization == "pardiso" and ref.info.factorization == "superlu"
+    assert sol.info.iterations == ref.info.iterations
+    _fields_agree(sol, ref, 1e-10)
+    _fields_agree(sol, cc.solve(scene, method="full"), 1e-9)
+    again = a.solve(thin_layer(60, pressure=0.6e6))
+    assert again.ok and again.info.route == Route.WARM_START
+    _fields_agree(again, cc.solve(thin_layer(60, pressure=0.6e6), method="full"), 1e-9)

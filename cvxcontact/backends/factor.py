@@ -50,7 +50,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 
-__all__ = ["FACTORIZATIONS", "Factorization", "Forward", "factorize", "pardiso_available", "resolve",
+__all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
            "SUPERLU_OPTIONS"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
@@ -346,6 +346,72 @@ class PardisoFactorization(Factorization):
         x = np.zeros_like(y)
         self._call(333, y, x, y.shape[1] if y.ndim == 2 else 1)
         x[self.gamma] = v
+        return x
+
+    def release(self):
+        """Free PARDISO's memory now (otherwise when this object is collected)."""
+        self._finalizer()
+
+
+class PardisoSymmetric:
+    """Intel oneMKL PARDISO on a real symmetric indefinite matrix of FIXED sparsity pattern (the sparse
+    route's mixed system, :mod:`cvxcontact.backends.sparse`): the analysis (its own nested-dissection order,
+    scaling and weighted matching for the zero diagonal of closed contact rows) is done once, each
+    :meth:`factor` is a numeric factorisation of new values, :meth:`solve` a solve (vector or columns).
+
+    ``K``: CSC with sorted indices, symmetric, every diagonal entry stored (zeros included). Pivots
+    PARDISO perturbs (``perturbed``) make the factor that of a nearby matrix; the caller refines against
+    K itself (the sparse route checks every answer's componentwise backward error)."""
+
+    def __init__(self, K, threads=None):
+        lib = _load()
+        if lib is None:
+            raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
+        K = sp.csc_matrix(K)
+        n = K.shape[0]
+        if not (K.has_sorted_indices and np.all(K.diagonal() == K.diagonal())):
+            K.sort_indices()
+        col = np.repeat(np.arange(n), np.diff(K.indptr))             # CSC of a symmetric K = CSR of K:
+        self._upper = K.indices >= col                                # column j's rows >= j = row j's upper part
+        if int(self._upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
+            raise SolverError("PardisoSymmetric needs every diagonal entry of K stored")
+        counts = np.bincount(col[self._upper], minlength=n)
+        self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(counts)]), dtype=np.int32)
+        self._ja = np.ascontiguousarray(K.indices[self._upper], dtype=np.int32)
+        self._a = np.ascontiguousarray(K.data[self._upper], dtype=np.float64)
+        self.n, self.perturbed, self._analysed = n, 0, False
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm = np.zeros(64, dtype=np.int32)
+        self._perm = np.zeros(n, dtype=np.int32)
+        self._lib, self._nthreads = lib, _threads(threads)
+        lib.pardisoinit(self._pt.ctypes.data, ctypes.byref(ctypes.c_int32(-2)), self._iparm.ctypes.data)
+        ip = self._iparm
+        ip[0] = 1
+        ip[1] = 3                  # parallel nested dissection (METIS)
+        ip[7] = 0                  # the caller refines
+        ip[9] = 8                  # pivot perturbation 1e-8 (counted in ``perturbed``)
+        ip[10] = 1                 # symmetric scaling and weighted matching: saddle-point rows
+        ip[12] = 1
+        ip[17] = 0
+        ip[26] = 0
+        ip[34] = 1                 # 0-based indices
+        self._finalizer = weakref.finalize(self, _release, lib, self._pt, n)
+
+    _call = PardisoFactorization._call
+
+    def factor(self, K):
+        """Numeric factorisation of ``K`` (same pattern as at construction); self."""
+        self._a[:] = sp.csc_matrix(K).data[self._upper]
+        self._call(22 if self._analysed else 12, None, None)
+        self._analysed = True
+        self.perturbed = int(self._iparm[13])
+        return self
+
+    def solve(self, b):
+        b = np.array(b, dtype=np.float64, order="F")
+        x = np.zeros_like(b)
+        self._iparm[5] = 0
+        self._call(33, b, x, b.shape[1] if b.ndim == 2 else 1)
         return x
 
     def release(self):

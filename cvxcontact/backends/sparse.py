@@ -12,7 +12,9 @@ S = diag_l [[Kuu, Kup], [Kup^T, -Kpp]], F = [f_l; -q_l], G = E [u_nu] the m cont
 an active row is closed (G_a x = g_a, its force y_a free), an open row has y_a = 0 and no coupling.
 Every contact row is present whatever A (an open row's couplings are stored as explicit zeros), so the
 sparsity pattern of K(A) is fixed: the fill-reducing ordering is computed once per geometry and reused
-by every factorisation (:func:`factorize`, the one place a sparse factorisation is made).
+by every factorisation (:func:`factorize` with SciPy's SuperLU; with ``factorization="pardiso"``,
+:class:`~cvxcontact.backends.factor.PardisoSymmetric`: one analysis, then a numeric factorisation per
+base, measured 4x faster on thin_layer(3000): 2.9 s against 12.2 s for 16 factorisations).
 
 Primal-dual active-set steps (the semismooth Newton method for min(y, -s) = 0, s = G x - g) from A_0:
 A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj the row's diagonal
@@ -134,7 +136,11 @@ class SparseContact:
     before refactorising (None: the measured cost of one factorisation in column solves, at least 16).
     """
 
-    def __init__(self, blocks, E, cap: int | None = None):
+    def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu"):
+        from .factor import resolve
+
+        self.factorization = resolve(factorization)      # "superlu" or "pardiso" (analysis once, then numeric)
+        self._pardiso = None
         parts = [quasi_definite(b) for b in blocks]
         A = sp.block_diag([S for S, _ in parts], format="coo")
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
@@ -185,13 +191,25 @@ class SparseContact:
     def _refactor(self, active):
         t0 = time.perf_counter()
         K = self.matrix(active)
-        if self.perm is None:
-            self.perm = ordering(K, self.n + np.arange(self.m))
-        t1 = time.perf_counter()
-        try:
-            factor = factorize(K, self.perm)
-        except RuntimeError:
-            return False
+        if self.factorization == "pardiso":
+            from .factor import PardisoSymmetric
+
+            t1 = time.perf_counter()
+            try:
+                if self._pardiso is None:
+                    self._pardiso = PardisoSymmetric(K)
+                factor = self._pardiso.factor(K)
+            except SolverError:
+                self._pardiso, self.factorization = None, "superlu"     # refused: SuperLU from here on
+                return self._refactor(active)
+        else:
+            if self.perm is None:
+                self.perm = ordering(K, self.n + np.arange(self.m))
+            t1 = time.perf_counter()
+            try:
+                factor = factorize(K, self.perm)
+            except RuntimeError:
+                return False
         t_fact = time.perf_counter() - t1
         self.factorizations += 1
         self.factor_time += time.perf_counter() - t0

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import rel, two_blocks
+from conftest import rel
 from test_solve import direct_mixed_solve
 
 import cvxcontact as cc

@@ -57,7 +57,7 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import _CLARABEL_CONIC, DEFAULT_TOL, ContactSolver, _row_laws, _run
+from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run, conic_options
 
 __all__ = ["Model"]
 
@@ -275,8 +275,7 @@ class Model:
         problem = self._contact.with_terms(self.constraints, objective)
         timings["model"] = time.perf_counter() - t0
         conic = self._bernstein is not None
-        _run(problem, self.solver, self.verbose, {**_CLARABEL_CONIC, **self.options} if conic and
-             self.solver == "CLARABEL" else self.options)
+        _run(problem, self.solver, self.verbose, conic_options(self.solver, self.options) if conic else self.options)
         timings["compile"] = problem.compilation_time or 0.0
         timings["solve"] = problem.solver_stats.solve_time or 0.0
         blocks, E, g = self.blocks, self.E, self._g

@@ -53,6 +53,12 @@ complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
 
 
+def conic_options(solver: str, options: Mapping[str, object]) -> dict:
+    """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
+    tolerances on the scaled data (:data:`_CLARABEL_CONIC`; the user's ``options`` still win)."""
+    return {**(_CLARABEL_CONIC if solver == "CLARABEL" else {}), **options}
+
+
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
           solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
@@ -274,9 +280,14 @@ class ContactSolver:
                                        nodes=self.nodes)
         else:
             moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
-            sol = read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active, polished,
-                            problem, self.tol, timings, interface=None if self.degree == 1 else self.interface,
-                            beta=self._beta, nodes=self.nodes)
+
+            def read(u, phi, y, active, polished):
+                return read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active,
+                                 polished, problem, self.tol, timings,
+                                 interface=None if self.degree == 1 else self.interface, beta=self._beta,
+                                 nodes=self.nodes)
+
+            sol = read(u, phi, y, active, polished)
         method = self.method
         if (not sol.ok and polished and method == "condensed" and self.requested == "auto" and self.degree == 1
                 and not self.compliant and not self.held and not forced):
@@ -289,8 +300,7 @@ class ContactSolver:
             except SolverError:
                 pass
             else:
-                other = read_back(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, active,
-                                  polished, problem, self.tol, timings)
+                other = read(u, phi, y, active, polished)
                 if other.ok:
                     sol, method = other, "sparse"
                     self.path = Route.SPARSE_FALLBACK
@@ -536,9 +546,7 @@ class ContactSolver:
         return out
 
     def _conic_options(self):
-        """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
-        tolerances on the scaled data (the user's options still win)."""
-        return {**(_CLARABEL_CONIC if self.solver == "CLARABEL" else {}), **self.options}
+        return conic_options(self.solver, self.options)
 
     def _conic_full(self, blocks, g, timings):
         """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""

@@ -263,6 +263,18 @@ def _release(lib, pt, n):
                 iparm.ctypes.data, i(0), None, None, ctypes.byref(err))
 
 
+def _open(obj, lib, n, threads):
+    """A PARDISO handle on ``obj`` for a real symmetric indefinite matrix of order ``n`` (mtype -2): the
+    internal pointer ``_pt``, ``_iparm`` from pardisoinit, ``_perm`` (zeros), the library and thread count,
+    and a finaliser releasing PARDISO's memory (phase -1)."""
+    obj.n, obj._lib, obj._nthreads = n, lib, _threads(threads)
+    obj._pt = np.zeros(64, dtype=np.int64)
+    obj._iparm = np.zeros(64, dtype=np.int32)
+    obj._perm = np.zeros(n, dtype=np.int32)
+    lib.pardisoinit(obj._pt.ctypes.data, ctypes.byref(ctypes.c_int32(-2)), obj._iparm.ctypes.data)
+    obj._finalizer = weakref.finalize(obj, _release, lib, obj._pt, n)
+
+
 class PardisoFactorization(Factorization):
     """Intel oneMKL PARDISO, real symmetric indefinite, with the Gamma dofs as its Schur block (module
     docstring). Raises :class:`SolverError` on any PARDISO error and on perturbed pivots (iparm[13] > 0: the
@@ -286,12 +298,8 @@ class PardisoFactorization(Factorization):
         self._a = np.ascontiguousarray(U.data, dtype=np.float64)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
-        self._perm = np.zeros(n, dtype=np.int32)
+        _open(self, lib, n, threads)
         self._perm[gamma] = 1
-        self._pt = np.zeros(64, dtype=np.int64)
-        self._iparm = np.zeros(64, dtype=np.int32)
-        self._lib, self._nthreads = lib, _threads(threads)
-        lib.pardisoinit(self._pt.ctypes.data, ctypes.byref(ctypes.c_int32(-2)), self._iparm.ctypes.data)
         ip = self._iparm
         ip[0] = 1                  # iparm set here
         ip[1] = 3                  # parallel nested dissection (METIS) for the interior
@@ -303,8 +311,7 @@ class PardisoFactorization(Factorization):
         ip[26] = 0
         ip[34] = 1                 # 0-based indices
         ip[35] = 1                 # Schur complement of the rows marked in perm, returned densely in x
-        self.n, self.gamma = n, gamma
-        self._finalizer = weakref.finalize(self, _release, lib, self._pt, n)
+        self.gamma = gamma
         schur = np.zeros((m, m))                               # row-major from PARDISO (symmetric anyway)
         try:
             self._call(12, None, schur)
@@ -369,8 +376,8 @@ class PardisoSymmetric:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
         K = sp.csc_matrix(K)
         n = K.shape[0]
-        if not (K.has_sorted_indices and np.all(K.diagonal() == K.diagonal())):
-            K.sort_indices()
+        if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
+            raise SolverError("PardisoSymmetric needs K in CSC with sorted indices")
         col = np.repeat(np.arange(n), np.diff(K.indptr))             # CSC of a symmetric K = CSR of K:
         self._upper = K.indices >= col                                # column j's rows >= j = row j's upper part
         if int(self._upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
@@ -379,12 +386,8 @@ class PardisoSymmetric:
         self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(counts)]), dtype=np.int32)
         self._ja = np.ascontiguousarray(K.indices[self._upper], dtype=np.int32)
         self._a = np.ascontiguousarray(K.data[self._upper], dtype=np.float64)
-        self.n, self.perturbed, self._analysed = n, 0, False
-        self._pt = np.zeros(64, dtype=np.int64)
-        self._iparm = np.zeros(64, dtype=np.int32)
-        self._perm = np.zeros(n, dtype=np.int32)
-        self._lib, self._nthreads = lib, _threads(threads)
-        lib.pardisoinit(self._pt.ctypes.data, ctypes.byref(ctypes.c_int32(-2)), self._iparm.ctypes.data)
+        self.perturbed, self._analysed = 0, False
+        _open(self, lib, n, threads)
         ip = self._iparm
         ip[0] = 1
         ip[1] = 3                  # parallel nested dissection (METIS)
@@ -395,13 +398,15 @@ class PardisoSymmetric:
         ip[17] = 0
         ip[26] = 0
         ip[34] = 1                 # 0-based indices
-        self._finalizer = weakref.finalize(self, _release, lib, self._pt, n)
 
     _call = PardisoFactorization._call
 
     def factor(self, K):
         """Numeric factorisation of ``K`` (same pattern as at construction); self."""
-        self._a[:] = sp.csc_matrix(K).data[self._upper]
+        data = sp.csc_matrix(K).data
+        if len(data) != len(self._upper):
+            raise SolverError("PardisoSymmetric.factor: K's pattern differs from the analysed one")
+        self._a[:] = data[self._upper]
         self._call(22 if self._analysed else 12, None, None)
         self._analysed = True
         self.perturbed = int(self._iparm[13])

@@ -55,7 +55,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import SIGN_TOL
+from .finish import signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
 
@@ -313,7 +313,7 @@ class SparseContact:
             S = np.abs(self.G) @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
             new = y * self.w + s > 0
-            if (y * self.w >= -SIGN_TOL * S).all() and (s[~active] <= SIGN_TOL * S[~active]).all():
+            if signs_hold(y, s, active, self.w, S):
                 return self._split(x) + (np.where(active, y, 0.0), active, step)
             key = new.tobytes()
             if np.array_equal(new, active) or key in seen:

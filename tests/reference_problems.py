@@ -96,16 +96,33 @@ def active_set_solve(K, f, G, g, max_steps=50):
         z = np.linalg.solve(A, np.concatenate([f / c, g[act]]))
         u, y = z[:n], np.zeros(len(g))
         y[act] = z[n:] * c
-        slack = G @ u - g
-        ymax, smax = np.abs(y).max(initial=1e-300), np.abs(g).max(initial=0) + np.abs(G @ u).max()
-        new = np.where(act, y > 1e-12 * ymax, slack > 1e-12 * smax)
+        slack, scales = G @ u - g, sign_scales(y, g, G @ u)
+        new = next_active(act, y, slack, scales)
         if np.array_equal(new, act):
             break
         act = new
     else:
         raise AssertionError("the reference active-set steps did not settle")
-    assert y.min() >= -1e-10 * ymax and slack.max() <= 1e-10 * smax      # the reference satisfies (27)
+    assert_complementary(y, slack, scales)
     return u, y
+
+
+def sign_scales(y, g, Gu):
+    """(force scale, displacement scale) of a reference answer: max |y|, max |g| + max |G u|."""
+    return np.abs(y).max(initial=1e-300), np.abs(g).max(initial=0) + np.abs(Gu).max()
+
+
+def next_active(active, y, slack, scales):
+    """The next active set of the reference steps: active rows that keep a positive force, open rows that
+    penetrate, each beyond 1e-12 of its scale."""
+    ymax, smax = scales
+    return np.where(active, y > 1e-12 * ymax, slack > 1e-12 * smax)
+
+
+def assert_complementary(y, slack, scales):
+    """The reference satisfies the signs of (27) to 1e-10 of its scales."""
+    ymax, smax = scales
+    assert y.min() >= -1e-10 * ymax and slack.max() <= 1e-10 * smax
 
 
 def per_body(systems, bodies, off, u):

@@ -319,8 +319,11 @@ class ContactSolver:
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
         elif not sol.ok:
+            hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops at a "
+                    "complementarity of about 1e-6 (docs/formulation.md §8). Pass tol=1e-5 to accept that, or use "
+                    "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if self.conic else "")
             warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
-                          f"{sol.report()}", ResidualWarning, stacklevel=3)
+                          f"{sol.report()}{hint}", ResidualWarning, stacklevel=3)
         return sol
 
     def _interface(self, blocks, timings):

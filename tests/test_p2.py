@@ -380,3 +380,13 @@ def test_cli_solve_with_degree_2(tmp_path, capsys):
     summary = json.loads((tmp_path / "sigma1.json").read_text())
     assert summary["degree"] == 2 and summary["ok"]
     capsys.readouterr()
+
+
+def test_conic_failure_warning_names_the_floor_and_the_alternatives(small):
+    """A conic answer that misses a tolerance below the interior point's floor warns, and the warning
+    says why (no exact finish) and what to do (a looser tol, or a nodal condition)."""
+    with pytest.warns(cc.ResidualWarning, match="no exact finish") as rec:
+        sol = cc.solve(small, "gamma3", degree=2, tol=1e-7)   # conic: ~6e-7 here
+    assert not sol.ok and "sigma1" in str(rec[0].message)
+    exact = cc.solve(small, "sigma1", degree=2, tol=1e-7)    # nodal: finished, 1.5e-8 (rounding)
+    assert exact.ok

@@ -163,7 +163,7 @@ class Body:
                                  "unknowns; remove grounded / potential / floating / surface_charge / "
                                  "volume_charge")
 
-    def supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The kinematic constraints of the supports, one row per constrained direction at a node.
 
         Returns ``(nodes, directions, values)``: u(node) . direction = value (m), with unit
@@ -171,8 +171,10 @@ class Body:
         ``displacement`` part, one per node of a ``roller`` part (u . n = 0, n the part's unit
         normal). Rows may repeat or be dependent at corners; conflicting values raise a
         SceneError when the prolongation is built (:func:`cvxcontact.fem.assembly.prolongation`).
+        ``nodes``: another node set of the mesh with ``points`` and ``boundary_nodes`` (the
+        :class:`~cvxcontact.geometry.quadratic.P2Nodes` of P2 elements); default the mesh's vertices.
         """
-        mesh = self.mesh
+        mesh = self.mesh if nodes is None else nodes
         nodes, dirs, vals = [], [], []
         eye = np.eye(2)
         if self.clamped:
@@ -197,17 +199,17 @@ class Body:
             return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
         return np.concatenate(nodes), np.concatenate(dirs), np.concatenate(vals)
 
-    def node_supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The supports reduced node by node: ``(free, tangent, u_fixed)``.
 
         ``free`` (n,) the number of free displacement components of each node (2, 1 or 0),
         ``tangent`` (n, 2) the free unit direction of the nodes with one, ``u_fixed`` (2n,) the
         prescribed displacement (m; the least-squares value of the node's rows, which must hold
-        exactly: conflicting supports at a node raise a SceneError).
+        exactly: conflicting supports at a node raise a SceneError). ``nodes`` as in :meth:`supports`.
         """
-        mesh = self.mesh
+        mesh = self.mesh if nodes is None else nodes
         n = len(mesh.points)
-        nodes, dirs, vals = self.supports()
+        nodes, dirs, vals = self.supports(nodes)
         u_fixed, free, tangent = np.zeros(2 * n), np.full(n, 2), np.zeros((n, 2))
         order = np.argsort(nodes, kind="stable")
         nodes, dirs, vals = nodes[order], dirs[order], vals[order]

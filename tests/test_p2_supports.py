@@ -1,0 +1,139 @@
+"""P2 elements (degree=2) with every support type (issue 11): rollers, prescribed displacements, floating
+electrodes, bodies held by the contact only, built by the prolongation u = T_u z + u_D, phi = T_p z + phi_D
+on the P2 nodes (vertices and edge midpoints). Cross-checks: a symmetric scene against its half model with
+a symmetry roller; a column in uniaxial strain (rollers, a prescribed displacement and a body force: u_y
+quadratic) reproduced at every P2 node to rounding by the "everywhere" condition and not by P1.
+"""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.fem.assembly import prolongation
+from cvxcontact.geometry.quadratic import P2Nodes
+
+PZT = cc.materials.PZT5A
+ALU = cc.materials.isotropic(E=70e9, nu=0.3)
+H1, H2, DELTA, RHO_G = 0.4, 0.3, 1e-4, 2e8       # layer heights (m), top displacement (m), body force (N/m^3)
+
+
+def _match(full, half):
+    """Index j (len(half),) of each point of ``half`` in ``full`` (the same point to 1e-12 m)."""
+    d = np.abs(full[None, :, :] - half[:, None, :]).sum(axis=2)
+    assert d.min(axis=1).max() < 1e-12
+    return d.argmin(axis=1)
+
+
+# ---------------------------------------------------------------- the prolongation on the P2 nodes
+
+def test_p2_prolongation_holds_rollers_and_displacements_at_the_midpoints():
+    """A roller on the hypotenuse of a triangle and a prescribed displacement on part of a leg: every P2
+    node of the slope (vertices and midpoints) keeps one column along the slope, every P2 node of the part
+    has u_D = the prescribed value and no column; the other nodes keep two columns and u_D = 0."""
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5], [0.25, 0.25]])
+    tri = np.array([[0, 3, 6], [3, 4, 6], [3, 1, 4], [6, 4, 5], [5, 4, 2], [0, 6, 5]])
+    mesh = cc.Mesh(pts, tri, {"bottom": [[0, 3], [3, 1]], "slope": [[1, 4], [4, 2]], "left": [[2, 5]],
+                              "corner": [[5, 0]]})
+    b = cc.Body(mesh, ALU, displacement={"left": (2e-4, -2e-4)}, roller=["slope"], contact="bottom")
+    nodes = P2Nodes(mesh)
+    Tu, u_fixed, _, _ = prolongation(b, nodes)
+    slope, left = nodes.boundary_nodes(["slope"]), nodes.boundary_nodes(["left"])
+    assert len(slope) == 5 and len(left) == 3 and (slope >= nodes.n_vertices).sum() == 2
+    n = np.array([1.0, 1.0]) / np.sqrt(2.0)
+    ncol = np.diff(Tu.tocsr().indptr).reshape(-1, 2)
+    for i in np.setdiff1d(slope, left):           # the corner (0, 1): the displacement (along the slope) holds it
+        cols = Tu[2 * i:2 * i + 2].toarray()
+        assert np.linalg.matrix_rank(cols) == 1 and np.abs(n @ cols).max() < 1e-15
+    assert not ncol[left].any()
+    assert np.abs(u_fixed.reshape(-1, 2)[left] - [2e-4, -2e-4]).max() <= 1e-19       # least squares at the corner
+    others = np.setdiff1d(np.arange(len(nodes)), np.concatenate([slope, left]))
+    assert (ncol[others] == 1).all() and not u_fixed.reshape(-1, 2)[others].any()
+    assert np.abs((Tu.T @ Tu - np.eye(Tu.shape[1]))).max() < 1e-15        # orthonormal columns
+
+
+# ---------------------------------------------------------------- rollers: the half model of a symmetric scene
+
+def _blocks(x0, nx1, nx2, roller=()):
+    m1 = cc.rectangle(x=(x0, 1.0), y=(0.0, 0.5), nx=nx1, ny=3)
+    m2 = cc.rectangle(x=(x0, 1.0), y=(-0.5, 0.0), nx=nx2, ny=2)
+    b1 = cc.Body(m1, PZT, clamped=["top"], grounded=["top"], contact="bottom", body_force=(0.0, -2e9),
+                 roller=list(roller))
+    b2 = cc.Body(m2, ALU, clamped=["bottom"], contact="top", roller=list(roller))
+    return cc.Scene(b1, b2)
+
+
+@pytest.fixture(scope="module")
+def symmetric():
+    """The full scene (even nx: the "alternate" meshes are mirror-symmetric about x = 0.5) and its right
+    half with a roller on the symmetry line."""
+    return _blocks(0.0, 8, 4), _blocks(0.5, 4, 2, roller=["left"])
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_p2_symmetric_scene_equals_its_half_model_with_a_roller(symmetric, condition):
+    full_scene, half_scene = symmetric
+    full = cc.solve(full_scene, condition, degree=2)
+    half = cc.solve(half_scene, condition, degree=2)
+    assert full.ok and half.ok and half.degree == 2
+    for k in range(2):
+        j = _match(full.points[k], half.points[k])
+        assert np.abs(full.u[k][j] - half.u[k]).max() <= 1e-8 * np.abs(full.u[k]).max(), k
+        on = np.flatnonzero(np.abs(half.points[k][:, 0] - 0.5) < 1e-12)       # the roller's P2 nodes
+        assert (on >= half_scene.bodies[k].mesh.points.shape[0]).any()       # midpoints among them
+        assert np.abs(half.u[k][on, 0]).max() <= 1e-14 * np.abs(full.u[k]).max()
+        assert np.abs(full.u[k][j[on], 0]).max() <= 1e-8 * np.abs(full.u[k]).max()   # u_x = 0 there by symmetry
+    j = _match(full.points[0], half.points[0])
+    assert np.abs(full.phi[0][j] - half.phi[0]).max() <= 1e-8 * np.abs(full.phi[0]).max()
+    assert half.contact.force.sum() == pytest.approx(0.5 * full.contact.force.sum(), rel=1e-8)
+
+
+# ---------------------------------------------------------------- prescribed displacement: a quadratic patch test
+
+def _column(n=(4, 3)):
+    """A layer on a roller foundation between side rollers, an aluminium plate on it between side rollers,
+    its top moved down by DELTA (a prescribed displacement); both under the body force (0, -RHO_G).
+    Non-matching meshes on the contact line."""
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=n[0], ny=n[1])
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=n[0] - 1, ny=n[1] - 1)
+    b1 = cc.Body(low, ALU, roller=["bottom", "left", "right"], contact="top", body_force=(0.0, -RHO_G))
+    b2 = cc.Body(top, ALU, roller=["left", "right"], displacement={"top": (None, -DELTA)}, contact="bottom",
+                 body_force=(0.0, -RHO_G))
+    return cc.Scene(b1, b2)
+
+
+C22 = ALU.c[1, 1]
+# uniaxial strain: d sigma_yy / dy = RHO_G, sigma_yy = S + RHO_G y in both layers (S at the contact line),
+# u_y(-H1) = 0, u_y continuous at y = 0 (closed contact), u_y(H2) = -DELTA
+S = (-DELTA + RHO_G * (H1 ** 2 - H2 ** 2) / (2 * C22)) / ((H1 + H2) / C22)
+
+
+def _exact(y):
+    """u_y (m) of the column at height y (m): quadratic in y."""
+    return (S * (y + H1) + RHO_G * (y ** 2 - H1 ** 2) / 2) / C22
+
+
+def _column_error(sol):
+    return max(max(np.abs(sol.u[k][:, 1] - _exact(sol.points[k][:, 1])).max(), np.abs(sol.u[k][:, 0]).max())
+               for k in (0, 1)) / DELTA
+
+
+@pytest.fixture(scope="module")
+def column():
+    return _column()
+
+
+@pytest.mark.parametrize("method", ["full", "condensed"])
+def test_p2_column_with_rollers_and_prescribed_displacement_is_exact(column, method):
+    assert S < 0                                                          # compressed: the contact is closed
+    sol = cc.solve(column, "gamma3", degree=2, method=method)
+    assert sol.ok and sol.method == method
+    assert _column_error(sol) < 1e-9                                      # at every P2 node
+    top = sol.points[1][:, 1] == H2
+    assert np.abs(sol.u[1][top, 1] + DELTA).max() <= 1e-15               # u_D at the top's vertices and midpoints
+    assert abs(sol.contact.force.sum() + S * 1.0) <= 1e-8 * abs(S)       # the contact carries sigma_yy(0)
+    assert np.abs(sol.contact.lam / -S - 1).max() < 1e-7
+
+
+def test_p1_is_not_exact_on_the_column(column):
+    p1 = cc.solve(column, "gamma3")
+    assert p1.ok and _column_error(p1) > 1e-3               # the same scene: the quadratic u_y is not in P1

@@ -137,3 +137,76 @@ def test_p2_column_with_rollers_and_prescribed_displacement_is_exact(column, met
 def test_p1_is_not_exact_on_the_column(column):
     p1 = cc.solve(column, "gamma3")
     assert p1.ok and _column_error(p1) > 1e-3               # the same scene: the quadratic u_y is not in P1
+
+
+# ---------------------------------------------------------------- floating electrodes
+
+def _piezo_column(charge, n=(4, 3)):
+    """The column with a PZT-5A lower layer grounded at its bottom and a floating electrode (total charge
+    ``charge``, C/m) on its top, no body force; matching meshes on the contact line."""
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=n[0], ny=n[1])
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=n[0], ny=n[1] - 1)
+    b1 = cc.Body(low, PZT, roller=["bottom", "left", "right"], contact="top", grounded=["bottom"],
+                 floating={"top": charge})
+    b2 = cc.Body(top, ALU, roller=["left", "right"], displacement={"top": (None, -DELTA)}, contact="bottom")
+    return cc.Scene(b1, b2)
+
+
+@pytest.mark.parametrize("charge", [0.0, 2e-3])
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
+def test_p2_floating_electrode_closed_form(charge, condition):
+    """Uniaxial strain with D_y = -Q / w: sigma = c33 eps - e33 E_y, E_y = (D_y - e33 eps) / eps33 (for
+    Q = 0 the stiffened modulus c33 + e33^2 / eps33), u_y and phi linear: reproduced at every P2 node, the
+    floating electrode's potential -E_y H1 and charge Q, the grounded one's -Q."""
+    c33, e33, k33 = PZT.c[1, 1], PZT.e[1, 1], PZT.kappa[1, 1]
+    D = -charge / 1.0
+    eps1, eps2 = np.linalg.solve([[c33 + e33 ** 2 / k33, -C22], [H1, H2]], [e33 * D / k33, -DELTA])
+    E = (D - e33 * eps1) / k33
+    # the conic condition is interior-point accurate (its complementarity ~2e-6 on this scene, with or without
+    # the floating electrode); the nodal one has the exact finish
+    tol = 1e-6 if condition == "sigma1" else 1e-5          # 1e-6: the default
+    sol = cc.solve(_piezo_column(charge), condition, degree=2, tol=tol)
+    assert sol.ok
+    p = sol.points[0]
+    assert len(p) > sol.scene.bodies[0].mesh.points.shape[0]
+    assert np.abs(sol.u[0][:, 1] - eps1 * (p[:, 1] + H1)).max() <= 1e-9 * DELTA
+    assert np.abs(sol.phi[0] - (-E) * (p[:, 1] + H1)).max() <= 1e-9 * abs(E) * H1
+    top = [e for e in sol.electrodes if e.tag == "top"][0]
+    ground = [e for e in sol.electrodes if e.tag == "bottom"][0]
+    assert top.kind == "floating" and top.potential == pytest.approx(-E * H1, rel=1e-9)
+    on = sol.points[0][:, 1] == 0.0
+    assert np.ptp(sol.phi[0][on]) <= 1e-12 * abs(E) * H1                # one potential, midpoints included
+    ref = max(abs(charge), abs(e33 * eps1))
+    assert abs(top.charge - charge) <= 1e-9 * ref and abs(ground.charge + charge) <= 1e-9 * ref
+    assert abs(sol.contact.force.sum() + C22 * eps2) <= 1e-8 * abs(C22 * eps2)
+
+
+def _electrode_blocks(left):
+    """Two blocks, the upper one PZT-5A clamped at its top, pressed by its weight, grounded on its right
+    side, a surface charge on its top and on its left side the electrode ``left`` (dict: floating= or
+    potential=)."""
+    m1 = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=3)
+    m2 = cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=3, ny=2)
+    b1 = cc.Body(m1, PZT, clamped=["top"], grounded=["right"], contact="bottom", body_force=(0.0, -2e9),
+                 surface_charge={"top": 0.05}, **left)
+    b2 = cc.Body(m2, ALU, clamped=["bottom"], contact="top")
+    return cc.Scene(b1, b2)
+
+
+@pytest.mark.parametrize("charge", [0.0, -3e-3])
+def test_p2_floating_electrode_equals_the_driven_one_at_its_potential(charge):
+    """A floating electrode (charge Q) in a 2-D field; the potential V it takes, imposed as a driven
+    electrode, gives the same fields (u, phi at every P2 node) and a reaction charge equal to Q."""
+    floating = cc.solve(_electrode_blocks(dict(floating={"left": charge})), "sigma1", degree=2)
+    assert floating.ok
+    V = [e for e in floating.electrodes if e.tag == "left"][0].potential
+    on = P2Nodes(floating.scene.bodies[0].mesh).boundary_nodes(["left"])
+    assert np.ptp(floating.phi[0][on]) <= 1e-12 * abs(V) and abs(V) > 0
+    driven = cc.solve(_electrode_blocks(dict(potential={"left": V})), "sigma1", degree=2)
+    assert driven.ok
+    for k in (0, 1):
+        assert np.abs(driven.u[k] - floating.u[k]).max() <= 1e-9 * np.abs(floating.u[k]).max()
+    assert np.abs(driven.phi[0] - floating.phi[0]).max() <= 1e-9 * np.abs(floating.phi[0]).max()
+    reaction = [e for e in driven.electrodes if e.tag == "left"][0].charge
+    scale = max(abs(e.charge) for e in driven.electrodes)
+    assert abs(reaction - charge) <= 1e-9 * scale and scale > 1e-3

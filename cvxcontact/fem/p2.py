@@ -65,15 +65,14 @@ def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
 
 
 def check_supported(body) -> None:
-    """Raise UnsupportedError if ``body`` uses a support the P2 assembly does not build yet: floating
-    electrodes, rigid motions held by the contact only. Clamped parts, rollers, prescribed displacements,
-    grounded and driven electrodes are built by the prolongation on the P2 nodes."""
-    used = [name for name, on in (("floating", getattr(body, "floating", {})),
-                                  ("held by the contact only", getattr(body, "held_by_contact", ()))) if on]
+    """Raise UnsupportedError if ``body`` uses a support the P2 assembly does not build yet: rigid motions
+    held by the contact only. Clamped parts, rollers, prescribed displacements, grounded, driven and
+    floating electrodes are built by the prolongation on the P2 nodes."""
+    used = [name for name, on in (("held by the contact only", getattr(body, "held_by_contact", ())),) if on]
     if used:
         raise UnsupportedError(f"{body.name}: P2 elements (degree=2) with {', '.join(used)} supports are not "
                                "supported yet (P2 takes clamped parts, rollers, prescribed displacements and "
-                               "grounded or driven electrodes); use degree=1")
+                               "grounded, driven or floating electrodes); use degree=1")
 
 
 def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:

@@ -2,7 +2,10 @@
 electrodes, bodies held by the contact only, built by the prolongation u = T_u z + u_D, phi = T_p z + phi_D
 on the P2 nodes (vertices and edge midpoints). Cross-checks: a symmetric scene against its half model with
 a symmetry roller; a column in uniaxial strain (rollers, a prescribed displacement and a body force: u_y
-quadratic) reproduced at every P2 node to rounding by the "everywhere" condition and not by P1.
+quadratic) reproduced at every P2 node to rounding by the "everywhere" condition and not by P1; the
+piezoelectric column with a floating electrode against its closed form, and a floating electrode against
+the driven one at its potential; a layer held by the contact only in exact uniaxial strain, the held
+motion's balance check on the P2 nodes, a pulling load refused.
 """
 
 import numpy as np
@@ -210,3 +213,79 @@ def test_p2_floating_electrode_equals_the_driven_one_at_its_potential(charge):
     reaction = [e for e in driven.electrodes if e.tag == "left"][0].charge
     scale = max(abs(e.charge) for e in driven.electrodes)
     assert abs(reaction - charge) <= 1e-9 * scale and scale > 1e-3
+
+
+# ---------------------------------------------------------------- bodies held by the contact only
+
+P = 2e7                                        # pressure on the resting layer (Pa)
+
+
+def _resting(p, nx=3, load=None):
+    """A layer between side rollers, pressed by a pressure p (Pa) on its top (or by the traction ``load``),
+    resting on a foundation clamped at its bottom, also between side rollers: only the contact holds the
+    layer vertically. ``nx``: the layer's cells along the contact line (the foundation has 4)."""
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=4, ny=3)
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=nx, ny=2)
+    b1 = cc.Body(top, ALU, roller=["left", "right"], contact="bottom", traction={"top": load or (0.0, -p)})
+    b2 = cc.Body(low, ALU, clamped=["bottom"], roller=["left", "right"], contact="top")
+    return cc.Scene(b1, b2)
+
+
+@pytest.mark.parametrize("condition,nx", [("gamma3", 3), ("sigma1", 4), ("sigma2", 4)])
+def test_p2_layer_held_by_contact_only_is_in_exact_uniaxial_strain(condition, nx):
+    """sigma_yy = -P in both layers: u_y = -P / c22 (y + H1) at every P2 node of both bodies (the nodal
+    conditions on matching meshes, the "everywhere" one on non-matching ones), u_x = 0, contact force P."""
+    scene = _resting(P, nx)
+    assert scene.bodies[0].held_by_contact == ["translation y"]
+    sol = cc.solve(scene, condition, degree=2)
+    assert sol.ok and sol.method == "full" and sol.polished == (condition != "gamma3")
+    scale = P / C22 * H1
+    for k in (0, 1):
+        assert len(sol.points[k]) > len(scene.bodies[k].mesh.points)
+        assert np.abs(sol.u[k][:, 1] + P / C22 * (sol.points[k][:, 1] + H1)).max() <= 1e-9 * scale
+        assert np.abs(sol.u[k][:, 0]).max() <= 1e-9 * scale
+    assert abs(sol.contact.force.sum() - P * 1.0) <= 1e-9 * P
+
+
+def test_p2_held_modes_are_rigid_motions_on_the_p2_nodes():
+    """The held motion on the P2 nodes: the rigid translation at every node (midpoints included), in the
+    kernel of the P2 stiffness; the balance check built on it passes for the solved answer and exposes a
+    spurious rigid displacement (as tests/test_held_by_contact.py does for P1)."""
+    from cvxcontact.discrete import Block, Units
+    from cvxcontact.fem import p2
+    from cvxcontact.solution.checks import rigid_balance
+
+    scene = _resting(P)
+    body = scene.bodies[0]
+    nodes = P2Nodes(body.mesh)
+    modes = body.held_modes(nodes)
+    assert modes.shape == (1, 2 * len(nodes))
+    assert np.abs(modes.reshape(-1, 2) - modes[0, 1] * np.array([0.0, 1.0])).max() == 0.0 and modes[0, 1] != 0
+    system = p2.assemble(body, nodes)
+    assert np.abs(system.Kuu @ modes[0]).max() <= 1e-12 * abs(system.Kuu).max()
+    solver = cc.ContactSolver(scene, "sigma1", degree=2)
+    sol = solver.solve()
+    blk = Block.scaled(system, solver.interface.jump(0, len(nodes)), Units(1.0, 1.0, 1.0, 1.0))     # SI
+    reduced = (system.Tu.T @ modes.T).T
+    z = system.Tu.T @ (sol.u[0].ravel() - system.u_fixed)
+    force = np.asarray(sol.contact.force)                     # M lambda_h on the merged P2 nodes, N/m
+    assert len(force) == solver.interface.size and abs(force.sum() - P) <= 1e-9 * P
+    assert rigid_balance(blk, reduced, z, None, force) < 1e-10
+    drift = system.Tu.T @ np.tile([0.0, 1.0], len(nodes)) * 1e9
+    assert rigid_balance(blk, reduced, z + drift, None, 0 * force) > 0.1
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_p2_held_layer_under_a_varying_pressure_carries_its_load(condition):
+    """A pressure growing along the layer (p(x) = P (0.2 + x)): the contact carries its resultant 0.7 P
+    (N/m) whatever the condition; the answer passes its checks, the rigid balance included."""
+    scene = _resting(P, load=lambda x, y: (0 * x, -P * (0.2 + x)))
+    sol = cc.solve(scene, condition, degree=2)
+    assert sol.ok and sol.method == "full"
+    assert abs(sol.contact.force.sum() - 0.7 * P) <= 1e-9 * P
+
+
+def test_p2_load_pulling_a_held_body_off_its_support_is_a_typed_error():
+    for p in (-P, 0.0):
+        with pytest.raises(cc.SceneError, match=r"pulls the body off its support along \['translation y'\]"):
+            cc.solve(_resting(p), "gamma3", degree=2)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .assembly import BodySystem, _accumulate, _scatter, constrained, gradients, lifted
 
@@ -65,14 +64,9 @@ def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
 
 
 def check_supported(body) -> None:
-    """Raise UnsupportedError if ``body`` uses a support the P2 assembly does not build yet: rigid motions
-    held by the contact only. Clamped parts, rollers, prescribed displacements, grounded, driven and
-    floating electrodes are built by the prolongation on the P2 nodes."""
-    used = [name for name, on in (("held by the contact only", getattr(body, "held_by_contact", ())),) if on]
-    if used:
-        raise UnsupportedError(f"{body.name}: P2 elements (degree=2) with {', '.join(used)} supports are not "
-                               "supported yet (P2 takes clamped parts, rollers, prescribed displacements and "
-                               "grounded, driven or floating electrodes); use degree=1")
+    """Every support is built by the prolongation on the P2 nodes (clamped parts, rollers, prescribed
+    displacements, grounded, driven and floating electrodes) and bodies held by the contact only are
+    solved as with P1; kept for the callers: raises nothing."""
 
 
 def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:

@@ -184,6 +184,20 @@ def test_p2_floating_electrode_closed_form(charge, condition):
     assert abs(sol.contact.force.sum() + C22 * eps2) <= 1e-8 * abs(C22 * eps2)
 
 
+def test_p2_contact_solver_resolves_a_new_floating_charge():
+    """The floating charge is a load: a prepared P2 ContactSolver re-solves the column with another Q (warm
+    start) to the same answer as a fresh solve, the new Q on the electrode."""
+    solver = cc.ContactSolver(_piezo_column(0.0), "sigma1", degree=2)
+    assert solver.solve().ok
+    again = solver.solve(_piezo_column(2e-3))
+    fresh = cc.solve(_piezo_column(2e-3), "sigma1", degree=2)
+    assert again.ok and again.path == cc.Route.WARM_START
+    assert np.abs(again.u[0] - fresh.u[0]).max() <= 1e-12 * np.abs(fresh.u[0]).max()
+    assert np.abs(again.phi[0] - fresh.phi[0]).max() <= 1e-12 * np.abs(fresh.phi[0]).max()
+    top = [e for e in again.electrodes if e.tag == "top"][0]
+    assert abs(top.charge - 2e-3) <= 1e-12
+
+
 def _electrode_blocks(left):
     """Two blocks, the upper one PZT-5A clamped at its top, pressed by its weight, grounded on its right
     side, a surface charge on its top and on its left side the electrode ``left`` (dict: floating= or

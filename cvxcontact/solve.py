@@ -246,9 +246,9 @@ class ContactSolver:
         else:        # the P2 interpolant of the gap at the merged P2 nodes
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
             gap = scene.pair_gap_values(0, np.array(self.interface.x))
-        for b, s in zip(scene.bodies, systems):
-            if getattr(b, "held_by_contact", None):
-                b.check_pressed(s.f)                    # the load must press it onto the contact
+        for k, (b, s) in enumerate(zip(scene.bodies, systems)):
+            if getattr(b, "held_by_contact", None):     # the load must press it onto the contact
+                b.check_pressed(s.f, None if self.nodes is None else self.nodes[k])
         forced = [o for o in scene.obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement

@@ -33,7 +33,7 @@ import scipy.sparse as sp
 from ..errors import SceneError
 
 __all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix",
-           "prolongation"]
+           "prolongation", "constrained", "lifted"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -121,13 +121,22 @@ def assemble_matrices(body) -> BodySystem:
     B = strain_matrix(grad)
     Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, 6, 3), area-weighted
     udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
-    Tu, u_fixed, Tp, floating = prolongation(body)
-    system = BodySystem(Kuu=_scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n)), f=np.zeros(2 * n),
-                        u_free=_representative(Tu), Tu=Tu, u_fixed=u_fixed)
+    Kuu = _scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n))
+    Kup = Kpp = None
     if mat.piezoelectric:
         Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, 3, 2)
-        system.Kup = _scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
-        system.Kpp = _scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
+        Kup = _scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
+        Kpp = _scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
+    return constrained(body, Kuu, Kup, Kpp)
+
+
+def constrained(body, Kuu, Kup=None, Kpp=None, nodes=None) -> BodySystem:
+    """The BodySystem of the assembled matrices (all dofs of ``nodes``; Kup, Kpp None for an elastic body)
+    with the prolongations of ``body``'s supports and electrodes (:func:`prolongation`); loads zero."""
+    Tu, u_fixed, Tp, floating = prolongation(body, nodes)
+    system = BodySystem(Kuu=Kuu, f=np.zeros(Kuu.shape[0]), u_free=_representative(Tu), Tu=Tu, u_fixed=u_fixed)
+    if Kpp is not None:
+        system.Kup, system.Kpp = Kup, Kpp
         system.Tp, system.floating = Tp, floating
         system.phi_free = _representative(Tp)
         system.charge = np.zeros(int(floating.sum()))
@@ -146,17 +155,19 @@ def _representative(T):
     return T.indices[hit[first]].astype(np.int64)
 
 
-def prolongation(body):
+def prolongation(body, nodes=None):
     """(Tu, u_fixed, Tp, floating) of ``body``: the map from reduced to nodal unknowns (module docstring).
 
     Tu (2n, m_u) sparse with orthonormal columns, u_fixed (2n,) m; Tp (n, m_p) sparse (None for an
     elastic body), floating (m_p,) bool marking the floating-electrode columns (the last ones, in the
     order of ``body.floating``). Columns follow the node order. Raises SceneError if two supports
-    prescribe different values at one node.
+    prescribe different values at one node. ``nodes``: the node set of the unknowns, anything with
+    ``points`` and ``boundary_nodes(tags)`` (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`, whose
+    boundary nodes include the midpoints of the boundary edges); default the mesh's vertices (P1).
     """
-    mesh = body.mesh
+    mesh = body.mesh if nodes is None else nodes
     n = len(mesh.points)
-    ncols, tangent, u_fixed = body.node_supports()
+    ncols, tangent, u_fixed = body.node_supports(nodes)
     first = np.concatenate([[0], np.cumsum(ncols)[:-1]])
     plain = np.flatnonzero(ncols == 2)
     one = np.flatnonzero(ncols == 1)
@@ -192,12 +203,22 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
     f = _body_load(mesh, body.body_force, 2)
     for tag, load in body.traction.items():
         f += _edge_load(mesh, mesh.boundary(tag), load, 2)
-    system = replace(matrices, f=f.ravel())
+    q = None
     if matrices.piezoelectric:
         q = _body_load(mesh, body.volume_charge, 1)
         for tag, load in body.surface_charge.items():
             q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
-        phi_fixed = _electrode_potential(mesh, body)
+    return lifted(body, matrices, f.ravel(), q, mesh)
+
+
+def lifted(body, matrices: BodySystem, f: np.ndarray, q: np.ndarray | None, nodes) -> BodySystem:
+    """A BodySystem sharing the matrices of ``matrices`` with the consistent loads ``f`` (2n,) N/m and
+    ``q`` (n,) C/m (None for an elastic body) lifted by the prescribed values (module docstring):
+    f - Kuu u_D - Kup phi_D, q + Kup^T u_D - Kpp phi_D, and the floating charges Q (C/m) of ``body``.
+    ``nodes``: the node set of the unknowns (the Mesh for P1, P2Nodes for P2)."""
+    system = replace(matrices, f=f)
+    if matrices.piezoelectric:
+        phi_fixed = _electrode_potential(nodes, body)
         system.f = system.f - matrices.Kup @ phi_fixed
         system.q = q - matrices.Kpp @ phi_fixed + matrices.Kup.T @ matrices.u_fixed
         system.phi_fixed = phi_fixed

@@ -13,15 +13,10 @@ density times a P2 basis function) and surface loads the 3-point Gauss rule on e
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
-import scipy.sparse as sp
-
-from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
-from .assembly import BodySystem, _accumulate, _electrode_potential, _scatter, gradients
+from .assembly import BodySystem, _accumulate, _scatter, constrained, gradients, lifted
 
 __all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients",
            "check_supported"]
@@ -69,29 +64,18 @@ def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
 
 
 def check_supported(body) -> None:
-    """Raise UnsupportedError if ``body`` uses a support the P2 assembly does not build yet: rollers,
-    prescribed displacements, floating electrodes (the prolongation u = T z + u_D of
-    :func:`cvxcontact.fem.assembly.prolongation` is P1) or rigid motions held by the contact only."""
-    used = [name for name, on in (("roller", getattr(body, "roller", ())),
-                                  ("displacement", getattr(body, "displacement", {})),
-                                  ("floating", getattr(body, "floating", {})),
-                                  ("held by the contact only", getattr(body, "held_by_contact", ()))) if on]
-    if used:
-        raise UnsupportedError(f"{body.name}: P2 elements (degree=2) with {', '.join(used)} supports are not "
-                               "supported yet (P2 takes clamped parts and grounded or driven electrodes); use "
-                               "degree=1")
-
-
-def _selection(free, n) -> sp.csr_matrix:
-    """(n, len(free)) prolongation of a plain selection: column j is the unit vector of dof free[j]."""
-    return sp.csr_matrix((np.ones(len(free)), (free, np.arange(len(free)))), shape=(n, len(free)))
+    """Every support is built by the prolongation on the P2 nodes (clamped parts, rollers, prescribed
+    displacements, grounded, driven and floating electrodes) and bodies held by the contact only are
+    solved as with P1; kept for the callers: raises nothing."""
 
 
 def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
-    """P2 stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero.
+    """P2 stiffness, coupling and permittivity matrices and the prolongations of ``body``; loads zero.
 
-    The supports are clamped parts and grounded or driven electrodes (:func:`check_supported`), so the
-    prolongations T_u, T_p are plain selections of the free dofs and u_D = 0."""
+    The supports and electrodes enter as with P1 (u = T_u z + u_D, phi = T_p z + phi_D,
+    :func:`cvxcontact.fem.assembly.prolongation`) on the P2 nodes: a roller or a prescribed displacement
+    holds at the vertices and at the midpoints of its part's edges, a floating electrode's potential is
+    one unknown on all of them."""
     check_supported(body)
     mat = body.material
     n = len(nodes)
@@ -107,20 +91,10 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
         if mat.piezoelectric:
             Kup = Kup + (Bt @ mat.e.T) @ G
             Kpp = Kpp + ((np.swapaxes(G, 1, 2) * (w * area)[:, None, None]) @ mat.kappa) @ G
-    clamped = nodes.boundary_nodes(body.clamped)
-    u_fixed = np.zeros(2 * n, dtype=bool)
-    u_fixed[2 * clamped] = u_fixed[2 * clamped + 1] = True
-    u_free = np.flatnonzero(~u_fixed)
-    system = BodySystem(Kuu=_scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), f=np.zeros(2 * n),
-                        u_free=u_free, Tu=_selection(u_free, 2 * n), u_fixed=np.zeros(2 * n))
-    if mat.piezoelectric:
-        system.Kup = _scatter(Kup, udofs, el, (2 * n, n))
-        system.Kpp = _scatter(Kpp, el, el, (n, n))
-        system.phi_free = np.setdiff1d(np.arange(n), nodes.boundary_nodes(body.grounded + list(body.potential)))
-        system.Tp = _selection(system.phi_free, n)
-        system.floating = np.zeros(len(system.phi_free), dtype=bool)
-        system.charge = np.zeros(0)
-    return system
+    if not mat.piezoelectric:
+        return constrained(body, _scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), nodes=nodes)
+    return constrained(body, _scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), _scatter(Kup, udofs, el, (2 * n, n)),
+                       _scatter(Kpp, el, el, (n, n)), nodes=nodes)
 
 
 def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
@@ -128,16 +102,12 @@ def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
     f = _body_load(nodes, body.body_force, 2)
     for tag, load in body.traction.items():
         f += _edge_load(nodes, nodes.boundary(tag), load, 2)
-    system = replace(matrices, f=f.ravel())
+    q = None
     if matrices.piezoelectric:
         q = _body_load(nodes, body.volume_charge, 1)[:, 0]
         for tag, load in body.surface_charge.items():
             q -= _edge_load(nodes, nodes.boundary(tag), load, 1)[:, 0]
-        phi_fixed = _electrode_potential(nodes, body)
-        system.f = system.f - matrices.Kup @ phi_fixed
-        system.q = q - matrices.Kpp @ phi_fixed
-        system.phi_fixed = phi_fixed
-    return system
+    return lifted(body, matrices, f.ravel(), q, nodes)
 
 
 def _body_load(nodes, load, ncomp):

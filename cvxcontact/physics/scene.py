@@ -163,7 +163,7 @@ class Body:
                                  "unknowns; remove grounded / potential / floating / surface_charge / "
                                  "volume_charge")
 
-    def supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The kinematic constraints of the supports, one row per constrained direction at a node.
 
         Returns ``(nodes, directions, values)``: u(node) . direction = value (m), with unit
@@ -171,8 +171,10 @@ class Body:
         ``displacement`` part, one per node of a ``roller`` part (u . n = 0, n the part's unit
         normal). Rows may repeat or be dependent at corners; conflicting values raise a
         SceneError when the prolongation is built (:func:`cvxcontact.fem.assembly.prolongation`).
+        ``nodes``: another node set of the mesh with ``points`` and ``boundary_nodes`` (the
+        :class:`~cvxcontact.geometry.quadratic.P2Nodes` of P2 elements); default the mesh's vertices.
         """
-        mesh = self.mesh
+        mesh = self.mesh if nodes is None else nodes
         nodes, dirs, vals = [], [], []
         eye = np.eye(2)
         if self.clamped:
@@ -197,17 +199,17 @@ class Body:
             return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
         return np.concatenate(nodes), np.concatenate(dirs), np.concatenate(vals)
 
-    def node_supports(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The supports reduced node by node: ``(free, tangent, u_fixed)``.
 
         ``free`` (n,) the number of free displacement components of each node (2, 1 or 0),
         ``tangent`` (n, 2) the free unit direction of the nodes with one, ``u_fixed`` (2n,) the
         prescribed displacement (m; the least-squares value of the node's rows, which must hold
-        exactly: conflicting supports at a node raise a SceneError).
+        exactly: conflicting supports at a node raise a SceneError). ``nodes`` as in :meth:`supports`.
         """
-        mesh = self.mesh
+        mesh = self.mesh if nodes is None else nodes
         n = len(mesh.points)
-        nodes, dirs, vals = self.supports()
+        nodes, dirs, vals = self.supports(nodes)
         u_fixed, free, tangent = np.zeros(2 * n), np.full(n, 2), np.zeros((n, 2))
         order = np.argsort(nodes, kind="stable")
         nodes, dirs, vals = nodes[order], dirs[order], vals[order]
@@ -249,20 +251,23 @@ class Body:
             out += [_motion_name(v, centre, size) + where for v in free]
         return out
 
-    def check_pressed(self, f: np.ndarray) -> None:
+    def check_pressed(self, f: np.ndarray, nodes=None) -> None:
         """For the rigid motions only the contact holds: raise SceneError unless the nodal load ``f``
         ((2n,) N/m, the lifted load of the body) can be balanced by compressive contact forces on the
         contact part (lambda_i >= 0 along -nu_i at its nodes) in those motions, with a non-zero
-        resultant: otherwise the load pulls the body off its support (or leaves it undetermined)."""
+        resultant: otherwise the load pulls the body off its support (or leaves it undetermined).
+        ``nodes``: the node set of ``f`` (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default
+        the mesh's vertices."""
         from scipy.optimize import nnls
 
         if not self.held_by_contact:
             return
         mesh = self.mesh
+        points, comp = self._node_set(nodes)
         cn, cdir = mesh.boundary_nodes([self.contact]), _node_normals(mesh, self.contact)
         for c, V, centre, size in self._free_basis():
-            nodes = np.flatnonzero(mesh.node_components == c)
-            x = (mesh.points[nodes] - centre) / size
+            nodes = np.flatnonzero(comp == c)
+            x = (points[nodes] - centre) / size
             fx, fy = f[2 * nodes], f[2 * nodes + 1]
             b = V @ np.array([fx.sum(), fy.sum(), (-x[:, 1] * fx + x[:, 0] * fy).sum()])
             keep = mesh.node_components[cn] == c
@@ -276,22 +281,34 @@ class Body:
                                  "carried by compressive contact forces): add a support, or load it towards the "
                                  "contact")
 
-    def held_modes(self) -> np.ndarray:
+    def held_modes(self, nodes=None) -> np.ndarray:
         """(k, 2 n_nodes): the rigid motions only the contact holds, as nodal displacement fields
         (x, y interleaved per node; translations in m per unit, rotations scaled by the piece's size).
-        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check."""
-        mesh = self.mesh
+        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check.
+        ``nodes``: the node set (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default the mesh's
+        vertices."""
+        points, comp = self._node_set(nodes)
         rows = []
         if self.held_by_contact:
             for c, V, centre, size in self._free_basis():
-                on = (mesh.node_components == c).astype(float)
-                x = (mesh.points - centre) / size
+                on = (comp == c).astype(float)
+                x = (points - centre) / size
                 for tx, ty, w in V:
-                    r = np.empty(2 * len(mesh.points))
+                    r = np.empty(2 * len(points))
                     r[0::2] = on * (tx - w * x[:, 1])
                     r[1::2] = on * (ty + w * x[:, 0])
                     rows.append(r)
-        return np.array(rows).reshape(-1, 2 * len(mesh.points))
+        return np.array(rows).reshape(-1, 2 * len(points))
+
+    def _node_set(self, nodes):
+        """(points (n, 2) m, mesh component of each node) of the mesh's vertices or of ``nodes`` (a node
+        set of the mesh with ``points`` and ``triangles`` (m, k), e.g. the P2 nodes)."""
+        mesh = self.mesh
+        if nodes is None:
+            return mesh.points, mesh.node_components
+        comp = np.empty(len(nodes.points), dtype=mesh.node_components.dtype)
+        comp[np.asarray(nodes.triangles).ravel()] = np.repeat(mesh.components, np.shape(nodes.triangles)[1])
+        return nodes.points, comp
 
     def _free_basis(self, contact=False):
         """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's

@@ -309,8 +309,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
         checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
-    for b, s, blk, uk, pk in zip(scene.bodies, systems, blocks, u, phi):      # bodies held by the contact only
-        modes = b.held_modes() if not p2 else ()                              # (refused with P2)
+    for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
+        modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):
             balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)

@@ -72,10 +72,12 @@ class Model:
     docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
     ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
-    of the merged mesh; one contact pair of two bodies and the Signorini law (else UnsupportedError);
-    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
-    segment, interior-point answer with tight tolerances, no exact finish, checked like
-    :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact finish.
+    of the merged mesh; one contact pair of two bodies (else UnsupportedError); "gamma3" is the conic
+    "everywhere" condition (docs/formulation.md §8: a second-order cone per merged segment, interior-point
+    answer with tight tolerances, no exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2"
+    the nodal rows with the exact finish. A normal-compliance law with P2 sits on the P2 nodes of the
+    condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
+    limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
 
     Methods
     -------

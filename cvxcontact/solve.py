@@ -114,8 +114,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
         pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
         raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
-        rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
-        (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
+        rows ("gamma3": every P2 node of the merged mesh) with Simpson weights (docs/formulation.md §10);
+        its penetration limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
+        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish; "auto" runs the full
+        model for an exponent m != 1).
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
@@ -133,8 +135,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs, or with a compliance
-        penetration limit under "gamma3").
+        A combination not implemented yet (e.g. degree=2 with several pairs or a rigid obstacle).
 
     See Also
     --------

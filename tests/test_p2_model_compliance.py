@@ -174,3 +174,33 @@ def test_p2_conic_limit_tends_to_shifted_signorini(small):
         errs.append(max(rel(a, b) for a, b in zip(sol.u, ref.u)))
     assert errs[0] < 1e-6
     assert 0.8 < np.log10(errs[1] / errs[0]) < 1.2, errs
+
+
+@pytest.mark.parametrize("method", ["full", "condensed"])
+def test_p2_conic_limit_zero_is_p2_signorini(small, method):
+    """l = 0: r <= 0 on every segment makes the law's nodal energy vanish, so the problem is P2 Signorini
+    "everywhere" (cc.solve without a law, the package's other conic program): measured u 4e-10, lambda 1.6e-7,
+    forces 9e-8 (two interior points)."""
+    ref = cc.solve(small, "gamma3", degree=2)
+    sol = cc.solve(small, "gamma3", degree=2, law=cc.NormalCompliance(stiffness=1e12, penetration_limit=0.0),
+                   method=method)
+    assert ref.ok and sol.ok
+    assert rel(sol.u[0], ref.u[0]) < 1e-8 and rel(sol.u[1], ref.u[1]) < 1e-8
+    assert rel(sol.contact.lam, ref.contact.lam) < 1e-6 and rel(sol.contact.force, ref.contact.force) < 1e-6
+
+
+def test_model_p2_conic_limit_with_a_user_row(small):
+    """cc.Model keeps the conic limit under user terms: a user row that binds, and the limit still holds
+    everywhere on the line (4001 samples, measured 1e-14 of l), with the user row's checks."""
+    limit = 5e-5
+    model = cc.Model(small, "gamma3", degree=2, law=cc.NormalCompliance(stiffness=1e12, penetration_limit=limit))
+    base = model.solve()
+    tip = int(np.argmax(np.abs(base.u[0][:, 1])))
+    bound = 0.5 * float(base.u[0][tip, 1])
+    model.add(model.u(0)[tip, 1] >= bound if bound < 0 else model.u(0)[tip, 1] <= bound)
+    sol = model.solve()
+    assert base.ok and sol.ok and {"cone", "user[0] complementarity"} <= set(sol.residuals())
+    assert abs(sol.u[0][tip, 1] / bound - 1) < 1e-9
+    for s in (base, sol):
+        excess = (_sample_jump(s, XS) - small.gap(XS, 0 * XS)).max() / limit - 1
+        assert -1e-6 < excess < 1e-9

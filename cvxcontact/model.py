@@ -148,13 +148,12 @@ class Model:
         self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
         gamma3 = degree == 2 and (scene.conditions[0] or condition) == "gamma3"
         self._bernstein = itf.bernstein() if gamma3 else None          # the conic condition (§8)
-        self._limit = None                                               # P2 compliance: the conic limit (§10)
+        self._limit = None                  # P2 compliance with a limit: the Bernstein map of its cone (§10)
         if gamma3 and self._law is not None:
-            self._limit = (self._bernstein, self._law) if self._law.limited.any() else None
+            self._limit = self._bernstein if self._law.limited.any() else None
             self._bernstein = None                                       # compliance: nodal rows, no cone
         if self._limit is not None:
-            self._contact = conic_limit_model(self.blocks, self.E, self._g, self._law, self._weights,
-                                              self._limit[0])
+            self._contact = conic_limit_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit)
         else:
             self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
                                          bernstein=self._bernstein)
@@ -300,7 +299,7 @@ class Model:
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             if self._limit is not None:     # P2 conic limit: z = B^T beta, the cone's nodal force on X_h
                 beta = bernstein_duals(self._contact.cone, self._contact.row)
-                z = self._limit[0].T @ beta.ravel()
+                z = self._limit.T @ beta.ravel()
             else:
                 z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z

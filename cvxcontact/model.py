@@ -46,7 +46,7 @@ import scipy.sparse.linalg as spla
 from .backends.conic import bernstein_duals
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
-from .contact.laws import ContactLaw, check_law, check_law_for, pair_laws
+from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
 from .contact.quadratic import quadratic_interface
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
@@ -57,7 +57,7 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run, conic_options
+from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run, conic_limit_model, conic_options
 
 __all__ = ["Model"]
 
@@ -72,10 +72,12 @@ class Model:
     docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
     ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
-    of the merged mesh; one contact pair of two bodies and the Signorini law (else UnsupportedError);
-    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
-    segment, interior-point answer with tight tolerances, no exact finish, checked like
-    :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact finish.
+    of the merged mesh; one contact pair of two bodies (else UnsupportedError); "gamma3" is the conic
+    "everywhere" condition (docs/formulation.md §8: a second-order cone per merged segment, interior-point
+    answer with tight tolerances, no exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2"
+    the nodal rows with the exact finish. A normal-compliance law with P2 sits on the P2 nodes of the
+    condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
+    limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
 
     Methods
     -------
@@ -115,9 +117,6 @@ class Model:
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        if degree == 2 and any(lw.compliant for lw in pair_laws(scene, self.law)):
-            raise UnsupportedError("Model(degree=2) with a normal-compliance law is not supported yet; use "
-                                   "degree=1 or law=None (Signorini)")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
         for b in scene.bodies if degree == 2 else ():
@@ -137,14 +136,27 @@ class Model:
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
         self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
-        self.rows = _row_laws(scene, condition, self.law)                        # each pair's law on its rows
-        self._weights = (itf.weights(condition, scene.conditions) / un.length   # the law's quadrature, scaled
-                         if self.rows.compliant else None)
+        if degree == 1:
+            self.rows = _row_laws(scene, condition, self.law)                    # each pair's law on its rows
+        else:                                                                     # P2: one pair, its P2 rows (§10)
+            self.rows = RowLaws(pair_laws(scene, self.law), [self.E.shape[0]])
+        if self.rows.compliant:                                                   # the law's quadrature, scaled
+            self._weights = (itf.weights(condition, scene.conditions) if degree == 1
+                             else itf.weights(scene.conditions[0] or condition)) / un.length   # P2: Simpson
+        else:
+            self._weights = None
         self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
-        self._bernstein = (itf.bernstein() if degree == 2 and (scene.conditions[0] or condition) == "gamma3"
-                           else None)                                   # the conic condition (§8)
-        self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
-                                     bernstein=self._bernstein)
+        gamma3 = degree == 2 and (scene.conditions[0] or condition) == "gamma3"
+        self._bernstein = itf.bernstein() if gamma3 else None          # the conic condition (§8)
+        self._limit = None                  # P2 compliance with a limit: the Bernstein map of its cone (§10)
+        if gamma3 and self._law is not None:
+            self._limit = self._bernstein if self._law.limited.any() else None
+            self._bernstein = None                                       # compliance: nodal rows, no cone
+        if self._limit is not None:
+            self._contact = conic_limit_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit)
+        else:
+            self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
+                                         bernstein=self._bernstein)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -275,15 +287,21 @@ class Model:
         problem = self._contact.with_terms(self.constraints, objective)
         timings["model"] = time.perf_counter() - t0
         conic = self._bernstein is not None
-        _run(problem, self.solver, self.verbose, conic_options(self.solver, self.options) if conic else self.options)
+        cone = conic or self._limit is not None                 # the conic tolerances (§8)
+        _run(problem, self.solver, self.verbose, conic_options(self.solver, self.options) if cone else self.options)
         timings["compile"] = problem.compilation_time or 0.0
         timings["solve"] = problem.solver_stats.solve_time or 0.0
         blocks, E, g = self.blocks, self.E, self._g
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
+        beta = None
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
+            if self._limit is not None:     # P2 conic limit: z = B^T beta, the cone's nodal force on X_h
+                beta = bernstein_duals(self._contact.cone, self._contact.row)
+                z = self._limit.T @ beta.ravel()
+            else:
+                z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
             y = self._weights * self._law.pressure(r) + z
         elif conic:    # the nodal force r = B^T beta on X_h (E = I)
             beta = bernstein_duals(self._contact.cone, self._contact.row)
@@ -316,7 +334,7 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
-        if self._law is not None and self.polish and not rows and objective is None:
+        if self._law is not None and self.polish and not rows and objective is None and self._limit is None:
             t0 = time.perf_counter()
             out = self._finish_compliance(u, g)
             timings["polish"] = time.perf_counter() - t0
@@ -328,7 +346,8 @@ class Model:
             sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
                                        u, phi, y, z if self._law.limited.any() else None,
                                        self._weights, self.rows, polished, problem, self.tol, timings,
-                                       given=self.law)
+                                       given=self.law, interface=None if self._nodes is None else self._itf,
+                                       nodes=self._nodes, beta=beta)
         else:
             sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
                             active, polished, problem, self.tol, timings,
@@ -356,7 +375,8 @@ class Model:
         the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
         from .backends.condensed import Compliance, condense, quasi_definite_rhs
         E, blocks = self.E, self.blocks
-        condensed = [condense(b, s, body.mesh) for b, s, body in zip(blocks, self.systems, self.scene.bodies)]
+        meshes = self._nodes or [body.mesh for body in self.scene.bodies]        # P2: the 6-node graph
+        condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.systems, meshes)]
         rhs = [quasi_definite_rhs(b) for b in blocks]
         v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
         compliance = Compliance(condensed, E)

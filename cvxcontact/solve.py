@@ -18,7 +18,7 @@ import cvxpy as cp
 import numpy as np
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
-from .backends.conic import ConicInterfaceModel, bernstein_duals
+from .backends.conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
                               solve_linear_compliance)
@@ -114,8 +114,9 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
         pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
         raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
-        rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
-        (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
+        rows ("gamma3": every P2 node of the merged mesh) with Simpson weights (docs/formulation.md §10);
+        its penetration limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
+        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish).
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
@@ -133,8 +134,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs, or with a compliance
-        penetration limit under "gamma3").
+        A combination not implemented yet (e.g. degree=2 with several pairs or a rigid obstacle).
 
     See Also
     --------
@@ -183,7 +183,7 @@ class ContactSolver:
         self.factorization = factorization
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        self.degree, self.nodes, self.conic = degree, None, False
+        self.degree, self.nodes, self.conic, self.conic_limit = degree, None, False, False
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
         if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
@@ -199,13 +199,11 @@ class ContactSolver:
             self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
             pair_condition = scene.conditions[0] or condition
             p2_law = pair_laws(scene, self.law)[0]
-            if p2_law.compliant and pair_condition == "gamma3" and p2_law.penetration_limit is not None:
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
-                                       "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
-                                       "no limit, or degree=1")
             if p2_law.compliant:
                 self.interface.weights(pair_condition)                 # refuses sigma rows forming no P2 mesh
             self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
+            self.conic_limit = (pair_condition == "gamma3" and p2_law.compliant   # its limit: the cone at g + l
+                                and p2_law.penetration_limit is not None)
             self.E = self.interface.evaluation(pair_condition)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
@@ -277,7 +275,7 @@ class ContactSolver:
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
                                        given=self.law, interface=None if self.degree == 1 else self.interface,
-                                       nodes=self.nodes)
+                                       nodes=self.nodes, beta=self._beta)
         else:
             moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
 
@@ -314,7 +312,7 @@ class ContactSolver:
                            finish=Finish(self.finish_route) if polished and self.finish_route else None,
                            factorization=(self._sparse.factorization if method == "sparse" and self._sparse is not None
                                           else ",".join(dict.fromkeys(c.factorization for c in self._condensed or ()))))
-        if self.polish and not polished and not self.conic:
+        if self.polish and not polished and not self.conic and not self.conic_limit:
             warnings.warn(f"the exact finish of {scene!r} ({self.condition}) was declined ({self.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
@@ -469,6 +467,8 @@ class ContactSolver:
         if its steps do not settle and every compliant row is linear without a limit, the LCP of
         :func:`solve_linear_compliance`) and one back-substitution per body. Returns (u, phi, row forces
         y, limit reactions z or None if no row has a limit, polished, problem)."""
+        if self.conic_limit:
+            return self._conic_limit_solve(blocks, g, un, timings)
         law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
         problem, polished, z = None, False, None
@@ -538,6 +538,48 @@ class ContactSolver:
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, (z if law.limited.any() else None), polished, problem
+
+    def _conic_limit_solve(self, blocks, g, un, timings):
+        """P2, "gamma3", a compliance law with a penetration limit l (docs/formulation.md §10, "P2"): the
+        Simpson-lumped compliance energy on the merged P2 nodes and the "everywhere" cone of §8 with the gap
+        g + l (:func:`conic_limit_model`), full or condensed; interior point with the conic tolerances, no
+        exact finish. Returns (u, phi, row forces y = w p(r) + B^T beta, cone force z = B^T beta, False,
+        problem); the Bernstein duals beta are kept in ``self._beta``."""
+        law = self.rows.scaled(un.stress * un.load, un.displacement)
+        w = self._weights / un.length
+        B = self.interface.bernstein()
+        t0 = time.perf_counter()
+        if self.method == "full":
+            model = conic_limit_model(blocks, self.E, g, law, w, B)
+        else:
+            condensed, _ = self._interface(blocks, timings)
+            _, v0, _ = self._lcp(blocks, g, timings)
+            loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
+            model = InterfaceModel(condensed, loads, self.E, g, law=_without_limit(law), weights=w)
+            _add_limit_cone(model, sum((self.E @ c.jump) @ v for c, v in zip(condensed, model.v)), B, g, law)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._beta = bernstein_duals(model.cone, model.row)
+        z = B.T @ self._beta.ravel()
+        if self.method == "full":
+            u = [v.value for v in model.u]
+            phi = [v.value if v is not None else None for v in model.phi]
+            r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+        else:
+            r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+        y = w * law.pressure(r) + z
+        if self.method != "full":
+            # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full
+            # model's u: r and the cone stay the program's. Back-substituting the force y instead carried the
+            # power cone's error in y into r (complementarity ~4e-5 with m != 1, measured; here 6e-8)
+            t0 = time.perf_counter()
+            x = [c.factor.backward(f, v.value) for c, f, v in zip(condensed, self._sweeps, model.v)]
+            timings["back_substitution"] = time.perf_counter() - t0
+            u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+            phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, y, z, False, model.problem
 
     @staticmethod
     def _newton(W, d, w, law, r0=None, active=None):
@@ -614,6 +656,34 @@ class ContactSolver:
                              "prepared scene; only loads (and gaps) may change between solves of one ContactSolver: "
                              "build a new ContactSolver for the new geometry")
         return scene
+
+
+def _without_limit(law: RowLaws) -> RowLaws:
+    """The same rows with the compliance laws' penetration limits dropped (the limit posed as a cone)."""
+    return RowLaws([replace(lw, penetration_limit=None) if lw.compliant else lw for lw in law.laws], law.counts)
+
+
+def _add_limit_cone(model, jump, B, g, law) -> None:
+    """Add to ``model`` (a full or condensed model of the compliance energy without the limit) the
+    "everywhere" condition of docs/formulation.md §8 with the gap g + l, [u_h nu] - g_h <= l on every merged
+    segment: ``model.cone``, ``model.row`` (their duals are the Bernstein duals beta), and ``model.problem``
+    (and ``model.constraints`` for a full model) with them."""
+    model.cone, model.row, _ = bernstein_constraints(jump, B, g + law.penetration_limit)
+    if hasattr(model, "constraints"):
+        model.constraints = model.constraints + [model.cone, model.row]
+    model.problem = cp.Problem(model.problem.objective, list(model.problem.constraints) + [model.cone, model.row])
+
+
+def conic_limit_model(blocks, E, g, law, weights, B) -> ContactModel:
+    """The full model of a P2 compliance law with a penetration limit l under "gamma3" (scaled; docs/
+    formulation.md §10, "P2"): the energy with the compliance term sum_a w_a Phi(r_a) on the merged P2 nodes
+    (``E`` the identity on X_h, ``weights`` the Simpson weights) and, instead of the nodal rows r <= l, the
+    second-order cone per merged segment of §8 with the gap ``g`` + l (``B`` the Bernstein map). The
+    returned :class:`~cvxcontact.backends.full.ContactModel` has ``contact`` None and ``cone``, ``row`` set;
+    :meth:`~cvxcontact.backends.full.ContactModel.with_terms` keeps the cone."""
+    model = ContactModel(blocks, E, g, law=_without_limit(law), weights=weights)
+    _add_limit_cone(model, sum((E @ b.jump) @ u for b, u in zip(blocks, model.u)), B, g, law)
+    return model
 
 
 def _row_laws(scene, condition, law, held=False) -> RowLaws:

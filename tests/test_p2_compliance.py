@@ -140,11 +140,10 @@ def test_p2_compliance_full_equals_condensed(condition):
 
 
 def test_p2_compliance_refusals_are_typed():
-    """A penetration limit under gamma3 (the conic limit) and sigma rows that form no P2 mesh (the overlap
-    ends before the midpoint of a segment of that trace) raise UnsupportedError naming the case."""
+    """Sigma rows that form no P2 mesh (the overlap ends before the midpoint of a segment of that trace) raise
+    UnsupportedError naming the case; a nodal limit under sigma1 holds at its rows (the conic limit under
+    gamma3: tests/test_p2_model_compliance.py)."""
     scene = pressed(n1=(4, 2), n2=(4, 2))
-    with pytest.raises(cc.UnsupportedError, match="penetration_limit"):
-        cc.solve(scene, "gamma3", degree=2, law=cc.NormalCompliance(stiffness=1e11, penetration_limit=1e-6))
     sol = cc.solve(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e11, penetration_limit=1e-6))
     assert sol.ok and sol.polished and {"feasibility", "complementarity", "cone"} <= set(sol.residuals())
     assert np.abs(sol.contact.jump - sol.contact.gap).max() < 1e-6 * (1 + 1e-9)     # the limit holds

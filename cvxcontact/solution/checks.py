@@ -130,7 +130,7 @@ def rows_active(slack, S, z, norms, Z):
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
 
 
-def conic_checks(blocks, u, phi, r, B, g, beta):
+def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
     ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (3 S, n) the Bernstein map,
@@ -143,6 +143,9 @@ def conic_checks(blocks, u, phi, r, B, g, beta):
         complementarity  max_s sqrt(|beta_s . b_s| / (Y U_s))                                (27)
         cone             max_s of the distance of beta_s to the dual cone beta0, beta2 >= 0,
                          beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2), over Y
+
+    ``force_scale``: a force scale (scaled) Y may not fall below, e.g. the compliance force of a P2
+    penetration limit (docs/formulation.md §10), whose cone may carry no force at all.
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -155,7 +158,7 @@ def conic_checks(blocks, u, phi, r, B, g, beta):
     U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
     b = (B @ (sum(parts) - g)).reshape(-1, 3)
     Us = _segment_scales(B, U)
-    Y = max(float(np.abs(beta).max(initial=0.0)), tiny)
+    Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     b0, b1, b2 = beta[:, 0], beta[:, 1], beta[:, 2]
     cone = np.maximum.reduce([np.maximum(-b0, 0), np.maximum(-b2, 0), np.maximum(-b1, 0),
                               np.maximum(b1 - 2 * np.sqrt(np.maximum(b0, 0) * np.maximum(b2, 0)), 0)])

@@ -360,7 +360,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
 
 
 def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
-                         problem, tol, timings, given=None, interface=None, nodes=None):
+                         problem, tol, timings, given=None, interface=None, nodes=None, beta=None):
     """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
 
     ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
@@ -377,6 +377,10 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, ``nodes`` the bodies' P2 nodes): the rows
     are the P2 contact nodes of the condition, ``weights`` their Simpson weights, and lambda is extended to
     X_h as the P2 function of those nodes (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.extend`).
+    P2, "gamma3" with a penetration limit l: ``beta`` (S, 3) are the Bernstein duals of the cone
+    [u_h nu] - g_h <= l on every merged segment, ``z`` = B^T beta its nodal force on X_h; lambda = p(r) +
+    M^-1 z (the consistent mass for the cone's part, as in :func:`read_back`), and feasibility,
+    complementarity and cone are those of :func:`~cvxcontact.solution.checks.conic_checks` at the gap g + l.
     """
     from ..contact.laws import RowLaws
 
@@ -390,6 +394,11 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
     unit = un.stress * un.load
     nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
+    if beta is not None:         # P2 conic limit (E = I on X_h): the cone's checks at g + l, its multiplier
+        cone = conic_checks(blocks, u, phi, z, interface.bernstein(), gap + scaled.penetration_limit, beta,
+                            force_scale=float(np.abs(force).max(initial=0.0)))
+        checks_.update({key: cone[key] for key in ("feasibility", "complementarity", "cone")})
+        lam = scaled.pressure(r) + spla.spsolve((interface.mass / un.length).tocsc(), z)    # M scaled like w
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
     pairs, merged_at = (scene.interfaces, scene.stack.offsets) if interface is None else ([interface], [0, interface.size])

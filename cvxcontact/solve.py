@@ -16,6 +16,7 @@ from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.conic import ConicInterfaceModel, bernstein_duals
@@ -24,7 +25,7 @@ from .backends.finish import (lcp_start, row_scales, signs_hold, solve_complianc
                               solve_linear_compliance)
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import quadratic_interface
+from .contact.quadratic import QuadraticStack, quadratic_stack
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -183,7 +184,7 @@ class ContactSolver:
         self.factorization = factorization
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        self.degree, self.nodes, self.conic = degree, None, False
+        self.degree, self.nodes, self.conic, self._p2 = degree, None, False, None
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
         if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
@@ -196,17 +197,27 @@ class ContactSolver:
             for b in scene.bodies:
                 p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
-            self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
-            pair_condition = scene.conditions[0] or condition
-            p2_law = pair_laws(scene, self.law)[0]
-            if p2_law.compliant and pair_condition == "gamma3" and p2_law.penetration_limit is not None:
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
-                                       "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
-                                       "no limit, or degree=1")
-            if p2_law.compliant:
-                self.interface.weights(pair_condition)                 # refuses sigma rows forming no P2 mesh
-            self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
-            self.E = self.interface.evaluation(pair_condition)
+            self.interface = quadratic_stack(scene, self.nodes)        # one QuadraticInterface, or a stack
+            self._p2 = (self.interface if len(scene.interfaces) > 1
+                        else QuadraticStack([self.interface], scene.stack.members))
+            pair_conditions = [c or condition for c in scene.conditions]
+            p2_laws = pair_laws(scene, self.law)
+            conic = []
+            for i, (itf, cond, lw) in enumerate(zip(self._p2.interfaces, pair_conditions, p2_laws)):
+                if lw.compliant and cond == "gamma3" and lw.penetration_limit is not None:
+                    raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
+                                           "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
+                                           "no limit, or degree=1")
+                if lw.compliant:
+                    itf.weights(cond)                                  # refuses sigma rows forming no P2 mesh
+                conic.append(cond == "gamma3" and not lw.compliant)   # compliance: nodal rows (§10)
+            if any(conic) and not all(conic):
+                raise UnsupportedError(
+                    f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
+                    f"{[i for i, c in enumerate(conic) if c]}) and nodal rows on others (a sigma condition or a "
+                    "normal-compliance law) are not supported yet; give every pair the same kind, or use degree=1")
+            self.conic = all(conic)
+            self.E = self._p2.evaluation(condition, pair_conditions)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
@@ -226,12 +237,13 @@ class ContactSolver:
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = self._sparse = None
         self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
-                     else RowLaws(pair_laws(scene, self.law), [self.E.shape[0]]))
+                     else RowLaws(pair_laws(scene, self.law),
+                                  np.diff(self._p2.row_offsets(condition, scene.conditions))))
         self.compliant = self.rows.compliant
         self._weights = None                                                      # m, the law's quadrature
         if self.compliant:                                                        # P2: Simpson weights (§10)
             self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1
-                             else self.interface.weights(pair_condition))
+                             else self._p2.weights(condition, scene.conditions))
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -243,13 +255,15 @@ class ContactSolver:
         if self.degree == 1:
             systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
             gap = scene.gap_values()
-        else:        # the P2 interpolant of the gap at the merged P2 nodes
+        else:        # the P2 interpolant of the gap at the merged P2 nodes of every pair
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
-            gap = scene.pair_gap_values(0, np.array(self.interface.x))
+            gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x))
+                                  for i, itf in enumerate(self._p2.interfaces)])
         for b, s in zip(scene.bodies, systems):
             if getattr(b, "held_by_contact", None):
                 b.check_pressed(s.f)                    # the load must press it onto the contact
-        forced = [o for o in scene.obstacles if o.force is not None]
+        obstacles = scene.obstacles if self.degree == 1 else _p2_obstacles(scene, self._p2)
+        forced = [o for o in obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
@@ -307,7 +321,7 @@ class ContactSolver:
                     self.method = "sparse"         # later load cases of this geometry: the sparse route
             timings["fallback"] = time.perf_counter() - t1
         if scene.obstacles:
-            obstacle_results(sol, [tau * un.displacement for tau in self._taus])
+            obstacle_results(sol, [tau * un.displacement for tau in self._taus], obstacles)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -613,6 +627,20 @@ class ContactSolver:
         return scene
 
 
+def _p2_obstacles(scene, stack):
+    """The scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at the stacked P2 nodes of
+    ``stack`` (a :class:`~cvxcontact.contact.quadratic.QuadraticStack`): the sensitivities c(x) of each
+    obstacle at its pairs' P2 nodes (vertices and midpoints), zero elsewhere; ``basis`` and ``force`` kept."""
+    out = []
+    for o in scene.obstacles:
+        rows = np.zeros((stack.size, 2))
+        for i in o.pairs:
+            itf = stack.interfaces[i]
+            rows[stack.offsets[i]:stack.offsets[i + 1]] = o.obstacle.sensitivity(itf.points, itf.normal)
+        out.append(replace(o, rows=sp.csr_matrix(rows)))
+    return out
+
+
 def _row_laws(scene, condition, law, held=False) -> RowLaws:
     """Each pair's law (its own ``Contact.law`` or ``law``) on its rows of the stacked evaluation
     (:class:`~cvxcontact.contact.laws.RowLaws`). A compliance law with a body held by the contact only
@@ -677,7 +705,7 @@ def _check_reachable(scene, interface, E, blocks, g, translations, un):
     node = int(E[a].indices[np.argmax(np.abs(E[a].data))])         # the merged node the row evaluates
     offsets = getattr(interface, "offsets", np.array([0, interface.size]))
     pair = int(np.searchsorted(offsets, node, side="right") - 1)
-    points = scene.interfaces[pair].points if hasattr(interface, "offsets") else interface.points
+    points = interface.interfaces[pair].points if hasattr(interface, "interfaces") else interface.points
     x, y = np.asarray(points)[node - offsets[pair]]
     raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
                      f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "

@@ -171,7 +171,9 @@ class Solution:
     """1: P1 elements; 2: P2 (6-node) elements (docs/formulation.md §8)."""
     interface: object = field(default=None, repr=False)
     """P2: the :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's pair (the merged
-    P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
+    P2 nodes of ``contact``), or with several pairs their
+    :class:`~cvxcontact.contact.quadratic.QuadraticStack` (pair i: ``interface.interfaces[i]``, the nodes of
+    ``contacts[i]``); None for P1 (``scene.interfaces``)."""
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
     obstacles: list = field(default_factory=list)
@@ -224,7 +226,7 @@ class Solution:
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
                              f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
-        itf = self.scene.interfaces[pair] if self.degree == 1 else self.interface
+        itf = _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
@@ -262,14 +264,16 @@ class ObstacleResult:
     prescribed: np.ndarray | None = None
 
 
-def obstacle_results(sol, translations) -> None:
+def obstacle_results(sol, translations, obstacles=None) -> None:
     """Fill ``sol.obstacles`` (:class:`ObstacleResult`) from the stacked nodal forces of ``sol.contacts``
     and ``translations`` (m, the unknowns tau of each force-controlled obstacle, in order); add the
     work -F . t of the prescribed forces to ``sol.energy`` and the check "obstacle balance" (the largest
-    |F - sum_a c_a y_a| / |F|) to the residuals."""
+    |F - sum_a c_a y_a| / |F|) to the residuals. ``obstacles``: the scene's
+    :class:`~cvxcontact.physics.pairs.ObstacleRows` with rows at the stacked nodes of ``sol.contacts``
+    (default ``sol.scene.obstacles``, the P1 merged nodes; P2: rows at the P2 nodes)."""
     y = np.concatenate([c.force for c in sol.contacts])                     # N/m at the stacked merged nodes
     taus, out, worst = iter(translations), [], 0.0
-    for o in sol.scene.obstacles:
+    for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
         t = np.zeros(2) if o.force is None else o.basis @ next(taus)
@@ -336,8 +340,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         constrained[E.indices] = True
         on[E.indices[active]] = True
     contacts = []
-    pairs = [itf] if p2 else scene.interfaces
-    offsets = [0, itf.size] if p2 else itf.offsets
+    pairs, offsets = _pairs(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
         part = slice(offsets[i], offsets[i + 1])
         contacts.append(ContactResult(
@@ -392,7 +395,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
-    pairs, merged_at = (scene.interfaces, scene.stack.offsets) if interface is None else ([interface], [0, interface.size])
+    pairs, merged_at = _pairs(scene, interface)
     for i, (itf, c, pair_law) in enumerate(zip(pairs, sol.contacts, rows.laws)):
         if pair_law.compliant:
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
@@ -407,6 +410,17 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
     return sol
+
+
+def _pairs(scene, interface):
+    """(each pair's contact line, the offsets of its nodes in the stacked arrays): P1 (``interface`` None)
+    the scene's interfaces; P2 a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` (one pair) or a
+    :class:`~cvxcontact.contact.quadratic.QuadraticStack`."""
+    if interface is None:
+        return scene.interfaces, scene.stack.offsets
+    if hasattr(interface, "interfaces"):
+        return interface.interfaces, interface.offsets
+    return [interface], [0, interface.size]
 
 
 def _p2_lumped(x):

@@ -112,10 +112,12 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
         tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
-        of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
-        pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
-        raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
-        rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
+        of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
+        in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
+        controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
+        each under its own condition; conic ("gamma3") pairs next to nodal ones (a sigma condition or a
+        compliance law) raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the
+        condition's rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
         (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
@@ -134,8 +136,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs, or with a compliance
-        penetration limit under "gamma3").
+        A combination not implemented yet (e.g. degree=2 with conic and nodal pairs mixed, or with a
+        compliance penetration limit under "gamma3").
 
     See Also
     --------
@@ -191,9 +193,6 @@ class ContactSolver:
             raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
                                    "not implemented; use the default non-penetration law or a fixed obstacle")
         if degree == 2:
-            if self.forced:
-                raise UnsupportedError("P2 elements (degree=2) with force-controlled obstacles (Rigid(..., force=)) "
-                                       "are not supported yet; use degree=1 or a fixed obstacle")
             for b in scene.bodies:
                 p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
@@ -565,11 +564,12 @@ class ContactSolver:
     def _conic_full(self, blocks, g, timings):
         """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
         t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g, bernstein=self.interface.bernstein())
+        model = ContactModel(blocks, self.E, g, bernstein=self.interface.bernstein(), translations=self._translations)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]     # force-controlled obstacles
         self._beta = bernstein_duals(model.cone, model.row)
         u = [v.value for v in model.u]
         phi = [v.value if v is not None else None for v in model.phi]

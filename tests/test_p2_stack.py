@@ -125,11 +125,10 @@ def test_conic_condition_against_a_curved_rigid_obstacle():
 
 # ---------------------------------------------------------------- several pairs
 
-def three_blocks(middle_clamped=False, conditions=("sigma1", "sigma2")):
+def three_blocks(conditions=("sigma1", "sigma2")):
     top = cc.Body(cc.rectangle(x=(0, 1), y=(A, 2 * A), nx=4, ny=2), MAT, clamped=["top"], contact="bottom",
                   body_force=(0.0, -2e7), name="top")
-    mid = cc.Body(cc.rectangle(x=(0, 1), y=(0, A), nx=3, ny=2), MAT, clamped=["left", "right"] if middle_clamped
-                  else ["left"], contact="bottom", name="mid")
+    mid = cc.Body(cc.rectangle(x=(0, 1), y=(0, A), nx=3, ny=2), MAT, clamped=["left"], contact="bottom", name="mid")
     bot = cc.Body(cc.rectangle(x=(0, 1), y=(-A, 0), nx=5, ny=2), MAT, clamped=["bottom"], contact="top",
                   body_force=(0.0, 1e7), name="bottom")
     gaps = (lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2, lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2)
@@ -204,21 +203,23 @@ def test_stack_of_three_blocks_against_a_dense_active_set_solve():
                 assert abs(np.sum(p * _simpson(x)) - yi.sum()) < 1e-9 * y.sum()   # the force it receives
 
 
-@pytest.mark.parametrize("conditions", [("sigma1", "sigma2"), ("gamma3", "gamma3")])
-def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions):
-    """Two pairs that share no body (the top block on the middle one; the bottom block, turned upside down
-    as its own body, on a rigid plane): the stacked solve equals the two single-pair solves body by body and
-    pair by pair, for both backends; each pair keeps its own condition (given on the contacts, the
-    ``condition`` argument of solve differs)."""
+@pytest.mark.parametrize("conditions, law", [(("sigma1", "sigma2"), None), (("gamma3", "gamma3"), None),
+                                             (("gamma3", "sigma1"), cc.NormalCompliance(stiffness=1e11, exponent=1))])
+def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions, law):
+    """Two pairs that share no body (the top block on the middle one; a third block on a rigid plane): the
+    stacked solve equals the two single-pair solves body by body and pair by pair, for both backends; each
+    pair keeps its own condition (given on the contacts, the ``condition`` argument of solve differs) and,
+    with ``law``, the first pair its own normal-compliance law (nodal rows at every P2 node of X_h under
+    gamma3, docs/formulation.md §10) next to a Signorini pair."""
     (top, mid, bot), _, gaps = three_blocks()
     plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
     low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
                   body_force=(0.0, -3e7), name="low")
-    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0]),
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0], law=law),
              cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2 - 2e-5, condition=conditions[1])]
     scene = cc.Scene(top, mid, low, contacts=pairs)
     singles = [cc.Scene(top, mid, contacts=[pairs[0]]), cc.Scene(low, contacts=[pairs[1]])]
-    conic = conditions[0] == "gamma3"
+    conic = conditions[0] == "gamma3" and law is None
     tol, bound = (1e-5, 1e-6) if conic else (1e-6, 1e-9)
     lam_bound = 5e-5 if conic else 1e-9      # conic: lambda_h from the cone duals of two separate IPM runs (6.7e-6)
     refs = [cc.solve(sc, "sigma2", degree=2, method="full", tol=tol) for sc in singles]
@@ -230,6 +231,7 @@ def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions):
             assert rel(u, r) < bound
         for c, r in zip(sol.contacts, refs):
             assert np.array_equal(c.x, r.contact.x) and rel(c.lam, r.contact.lam) < lam_bound
+            assert getattr(c.law, "compliant", False) == getattr(r.contact.law, "compliant", False)
             assert c.active.any() and not c.active.all()
         assert rel(sol.obstacles[0].force, refs[1].obstacles[0].force) < lam_bound
 
@@ -245,3 +247,23 @@ def test_p2_stack_refusals_are_typed():
     bodies, pairs, _ = three_blocks(conditions=(None, "sigma2"))
     with pytest.raises(cc.SceneError, match="condition must be one of"):
         cc.ContactSolver(cc.Scene(*bodies, contacts=pairs), "sigma3", degree=2)
+
+
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
+def test_force_controlled_plane_with_p2_closed_form(condition):
+    """A nu = 0 block clamped at its top, pushed up by a rigid plane under the prescribed force F (N/m)
+    over its width 1 m, starting 1 mm below it: uniform pressure p = F, u = (0, p (H - y) / E) exactly (P2
+    holds it), the plane's translation 1 mm + p H / E, lambda_h = p at every node of X_h and the
+    obstacle balance at rounding; both conditions (the conic one through the full model's cone)."""
+    H, force = 0.5, 2e6
+    mat = cc.materials.isotropic(E=YOUNG, nu=0.0)
+    body = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=5, ny=3), mat, clamped=["top"], contact="bottom")
+    plane = cc.Rigid.plane(point=(0.0, -1e-3), normal=(0.0, 1.0), force=(0.0, force))
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane)]), condition, degree=2, tol=1e-5)
+    assert sol.ok and sol.method == "full", sol.report()
+    want = np.column_stack([np.zeros(len(sol.points[0])), force / YOUNG * (H - sol.points[0][:, 1])])
+    assert np.abs(sol.u[0] - want).max() < 1e-9 * force * H / YOUNG
+    ob = sol.obstacles[0]
+    assert np.abs(ob.translation - [0.0, 1e-3 + force * H / YOUNG]).max() < 1e-12
+    assert np.abs(sol.contact.lam / force - 1).max() < 1e-9
+    assert sol.residuals()["obstacle balance"] < 1e-12 and rel(ob.force, np.array([0.0, force])) < 1e-12

@@ -267,3 +267,62 @@ def test_force_controlled_plane_with_p2_closed_form(condition):
     assert np.abs(ob.translation - [0.0, 1e-3 + force * H / YOUNG]).max() < 1e-12
     assert np.abs(sol.contact.lam / force - 1).max() < 1e-9
     assert sol.residuals()["obstacle balance"] < 1e-12 and rel(ob.force, np.array([0.0, force])) < 1e-12
+
+
+def test_p2_stack_outputs_per_pair(tmp_path):
+    """VTU/JSON output and figures of a P2 solution with a two-body pair and a rigid pair: one contact line
+    per pair with that pair's P2 nodes (line3 cells), the bodies of each pair, the obstacle's force."""
+    import json
+
+    import matplotlib
+    matplotlib.use("Agg")
+    from cvxcontact.io.output import pair_bodies, write_all
+    from cvxcontact.io.plot import plot_contact, plot_deformed
+
+    (top, mid, _), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    scene = cc.Scene(top, mid, low, contacts=[cc.Contact(top, "bottom", mid, "top", gap=gaps[0]),
+                                              cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2)])
+    sol = cc.solve(scene, "sigma1", degree=2)
+    assert sol.ok and [pair_bodies(sol, i) for i in (0, 1)] == [[0, 1], [2]]
+    paths = write_all(sol, tmp_path)
+    data = json.loads((tmp_path / "solution.json").read_text())
+    assert len(data["contacts"]) == 2 and data["degree"] == 2
+    assert rel(np.array(data["obstacles"][0]["contact_force_N_per_m"]), sol.obstacles[0].force) < 1e-12
+    assert [c["bodies"] for c in data["contacts"]] == [["top", "mid"], ["low"]]
+    for c, res in zip(data["contacts"], sol.contacts):       # the total force: the sum of the nodal forces
+        assert c["merged_nodes"] == len(res.x) and abs(c["total_force_N_per_m"] - res.force.sum()) < 1e-9 * abs(res.force).sum()
+    import meshio
+    lines = [meshio.read(tmp_path / n) for n in ("solution_contact.vtu", "solution_contact2.vtu")]
+    assert [len(m.points) for m in lines] == [len(c.x) for c in sol.contacts]
+    assert all(m.cells[0].type == "line3" for m in lines)
+    traces = {n: meshio.read(tmp_path / f"{n}.vtu") for n in ("solution_contact_body1", "solution_contact_body2",
+                                                              "solution_contact2_body3")}
+    assert {p.name for p in paths} >= {f"{n}.vtu" for n in traces}
+    assert len(traces["solution_contact2_body3"].points) == 2 * 3 + 1      # low's 3 bottom edges, P2
+    plot_contact(sol)
+    plot_deformed(sol)
+
+
+def test_p2_stack_contact_solver_resolves_a_new_load_case():
+    """ContactSolver with a P2 stack: a second load case (other gaps, a stronger body force) re-solved by the
+    prepared solver (warm start from the previous active set) equals a fresh solve of that scene."""
+    def scene(shift, force):
+        (top, mid, bot), pairs, gaps = three_blocks()
+        top = cc.Body(top.mesh, MAT, clamped=["top"], contact="bottom", body_force=(0.0, force), name="top")
+        return cc.Scene(top, mid, bot, contacts=[
+            cc.Contact(top, "bottom", mid, "top", gap=lambda s: gaps[0](s) + shift, condition="sigma1"),
+            cc.Contact(mid, "bottom", bot, "top", gap=gaps[1], condition="sigma2")])
+    solver = cc.ContactSolver(scene(0.0, -2e7), degree=2)
+    first = solver.solve()
+    assert first.ok and first.polished
+    again = solver.solve(scene(-1e-5, -3e7))
+    fresh = cc.solve(scene(-1e-5, -3e7), degree=2)
+    assert again.ok and again.polished and fresh.ok
+    assert rel(again.u[0], first.u[0]) > 1e-3                           # a different answer ...
+    for a, b in zip(again.u, fresh.u):
+        assert rel(a, b) < 1e-9                                          # ... equal to the fresh solve
+    for a, b in zip(again.contacts, fresh.contacts):
+        assert rel(a.lam, b.lam) < 1e-9

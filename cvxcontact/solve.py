@@ -115,8 +115,9 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
-        each under its own condition; conic ("gamma3") pairs next to nodal ones (a sigma condition or a
-        compliance law) raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the
+        each under its own condition (conic "gamma3" pairs next to sigma pairs: the nodal rows are posed
+        as degenerate cones, and the whole solve is an interior point without the exact finish; next to a
+        compliance law: UnsupportedError). A normal-compliance law with P2 sits on the P2 nodes of the
         condition's rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
         (docs/formulation.md §10); a penetration limit under "gamma3" raises UnsupportedError.
     factorization : {"auto", "superlu", "pardiso"}
@@ -136,8 +137,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with conic and nodal pairs mixed, or with a
-        compliance penetration limit under "gamma3").
+        A combination not implemented yet (e.g. degree=2 with conic pairs next to a compliance law, or
+        with a compliance penetration limit under "gamma3").
 
     See Also
     --------
@@ -186,7 +187,7 @@ class ContactSolver:
         self.factorization = factorization
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        self.degree, self.nodes, self.conic, self._p2 = degree, None, False, None
+        self.degree, self.nodes, self.conic, self._p2, self._cone = degree, None, False, None, None
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
         if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
@@ -202,7 +203,7 @@ class ContactSolver:
             pair_conditions = [c or condition for c in scene.conditions]
             p2_laws = pair_laws(scene, self.law)
             conic = []
-            for i, (itf, cond, lw) in enumerate(zip(self._p2.interfaces, pair_conditions, p2_laws)):
+            for itf, cond, lw in zip(self._p2.interfaces, pair_conditions, p2_laws):
                 if lw.compliant and cond == "gamma3" and lw.penetration_limit is not None:
                     raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
                                            "'gamma3' (the conic limit) are not supported yet; use a sigma condition, "
@@ -210,13 +211,17 @@ class ContactSolver:
                 if lw.compliant:
                     itf.weights(cond)                                  # refuses sigma rows forming no P2 mesh
                 conic.append(cond == "gamma3" and not lw.compliant)   # compliance: nodal rows (§10)
-            if any(conic) and not all(conic):
+            if any(conic) and any(lw.compliant for lw in p2_laws):
                 raise UnsupportedError(
                     f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
-                    f"{[i for i, c in enumerate(conic) if c]}) and nodal rows on others (a sigma condition or a "
-                    "normal-compliance law) are not supported yet; give every pair the same kind, or use degree=1")
-            self.conic = all(conic)
-            self.E = self._p2.evaluation(condition, pair_conditions)
+                    f"{[i for i, c in enumerate(conic) if c]}) and a normal-compliance law on others are not "
+                    "supported yet; give the Signorini pairs a sigma condition, or use degree=1")
+            self.conic = any(conic)           # the cone on the gamma3 pairs, nodal rows as cones on the others (§8)
+            if self.conic:
+                self.E = sp.identity(self._p2.size, format="csr")
+                self._cone = self._p2.cone_rows(condition, pair_conditions)
+            else:
+                self.E = self._p2.evaluation(condition, pair_conditions)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
@@ -298,7 +303,7 @@ class ContactSolver:
                 return read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active,
                                  polished, problem, self.tol, timings,
                                  interface=None if self.degree == 1 else self.interface, beta=self._beta,
-                                 nodes=self.nodes)
+                                 nodes=self.nodes, cone=self._cone)
 
             sol = read(u, phi, y, active, polished)
         method = self.method
@@ -564,7 +569,7 @@ class ContactSolver:
     def _conic_full(self, blocks, g, timings):
         """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
         t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g, bernstein=self.interface.bernstein(), translations=self._translations)
+        model = ContactModel(blocks, self.E, g, bernstein=self._cone[0], translations=self._translations)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0
@@ -582,7 +587,7 @@ class ContactSolver:
         rhs = [quasi_definite_rhs(b) for b in blocks]
         v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
         loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
-        model = ConicInterfaceModel(condensed, loads, self.interface.bernstein(), g)
+        model = ConicInterfaceModel(condensed, loads, self._cone[0], g)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0
@@ -596,7 +601,7 @@ class ContactSolver:
 
     def _contact_force(self):
         """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
-        return self.interface.bernstein().T @ self._beta.ravel()
+        return self._cone[0].T @ self._beta.ravel()
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""

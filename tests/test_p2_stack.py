@@ -237,9 +237,11 @@ def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions, law):
 
 
 def test_p2_stack_refusals_are_typed():
-    """What the P2 stack does not take yet: the conic condition on some pairs and nodal rows on others
-    (UnsupportedError naming the conic pairs); a bad per-pair condition is still a SceneError."""
-    bodies, pairs, _ = three_blocks(conditions=("gamma3", "sigma2"))
+    """What the P2 stack does not take yet: the conic condition on some pairs next to a normal-compliance
+    law on others (UnsupportedError naming the conic pairs); a bad per-pair condition is still a SceneError."""
+    bodies, pairs, gaps = three_blocks(conditions=("gamma3", "sigma2"))
+    pairs[1] = cc.Contact(bodies[1], "bottom", bodies[2], "top", gap=gaps[1], condition="sigma2",
+                          law=cc.NormalCompliance(stiffness=1e11))
     scene = cc.Scene(*bodies, contacts=pairs)
     with pytest.raises(cc.UnsupportedError, match=r"conic 'gamma3' condition on some pairs \(contacts \[0\]\)"):
         cc.ContactSolver(scene, "gamma3", degree=2)
@@ -247,6 +249,68 @@ def test_p2_stack_refusals_are_typed():
     bodies, pairs, _ = three_blocks(conditions=(None, "sigma2"))
     with pytest.raises(cc.SceneError, match="condition must be one of"):
         cc.ContactSolver(cc.Scene(*bodies, contacts=pairs), "sigma3", degree=2)
+
+
+def test_cone_rows_of_a_nodal_pair_are_its_rows_three_times():
+    """QuadraticStack.cone_rows: a gamma3 pair gets its Bernstein rows, a nodal pair each evaluation row as
+    the Bernstein coefficients (e q, e q, e q) of a constant (the cone then holds e q <= 0 exactly), its
+    'segment' the nodes that row reads; checked on random nodal values against the evaluation and the
+    Bernstein form computed here (b1 = 2 q(1/2) - (q(0) + q(1)) / 2)."""
+    from cvxcontact.contact.quadratic import quadratic_stack
+
+    bodies, pairs, _ = three_blocks(conditions=("gamma3", "sigma2"))
+    scene = cc.Scene(*bodies, contacts=pairs)
+    stack = quadratic_stack(scene, [P2Nodes(b.mesh) for b in bodies])
+    B, seg = stack.cone_rows("gamma3", scene.conditions)
+    q = np.random.default_rng(0).normal(size=stack.size)
+    b = (B @ q).reshape(-1, 3)
+    first, second = stack.interfaces
+    S = len(first.segments)
+    q0 = q[:first.size]
+    assert np.allclose(b[:S], np.column_stack([q0[0:-1:2], 2 * q0[1::2] - (q0[0:-1:2] + q0[2::2]) / 2, q0[2::2]]),
+                       rtol=0, atol=1e-14)
+    Eq = second.evaluation("sigma2") @ q[first.size:]
+    assert len(b) - S == len(Eq) and np.allclose(b[S:], Eq[:, None], rtol=0, atol=1e-14)
+    assert (seg[S:] >= first.size).all() and (seg[:S] < first.size).all()
+
+
+def test_conic_and_nodal_pairs_in_one_scene():
+    """gamma3 on the first pair and sigma1 on the second: (1) pairs that share no body equal their single-
+    pair solves (the conic one by the interior point, the nodal one with its exact finish) to 1e-6; (2) on
+    the coupled stack of three blocks ("gamma3", "sigma2") the first pair holds everywhere (4001 samples
+    along each body's own P2 edges) and the second at the bottom body's P2 trace nodes, with open and
+    closed parts; both backends agree to 1e-6."""
+    (top, mid, bot), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition="gamma3"),
+             cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2 - 2e-5, condition="sigma1")]
+    refs = [cc.solve(cc.Scene(top, mid, contacts=[pairs[0]]), degree=2, method="full", tol=1e-5),
+            cc.solve(cc.Scene(low, contacts=[pairs[1]]), degree=2)]
+    assert refs[1].polished
+    for method in ("full", "condensed"):
+        sol = cc.solve(cc.Scene(top, mid, low, contacts=pairs), degree=2, method=method, tol=1e-5)
+        assert sol.ok, sol.report()
+        for u, r in zip(sol.u, [refs[0].u[0], refs[0].u[1], refs[1].u[0]]):
+            assert rel(u, r) < 1e-6
+        for c, r in zip(sol.contacts, refs):
+            assert rel(c.lam, r.contact.lam) < 5e-5 and np.array_equal(c.constrained, r.contact.constrained)
+    bodies, pairs, gaps = three_blocks(conditions=("gamma3", "sigma2"))
+    scene = cc.Scene(*bodies, contacts=pairs)
+    sols = [cc.solve(scene, degree=2, method=m, tol=1e-5) for m in ("full", "condensed")]
+    for sol in sols:
+        assert sol.ok, sol.report()
+        xs = np.linspace(0.0, 1.0, 4001)
+        q = _edge_values(sol, 1, "top", xs) - _edge_values(sol, 0, "bottom", xs) - gaps[0](xs)
+        assert q.max() < 1e-9 * np.abs(gaps[0](xs)).max() and q.min() < -1e-6
+        c = sol.contacts[1]                                            # nodal rows at the bottom body's trace nodes
+        xb = _part_x(P2Nodes(bodies[2].mesh), "top")
+        assert c.constrained.sum() >= len(xb) and c.active.any() and not c.active.all()
+        qb = _edge_values(sol, 2, "top", xb) - _edge_values(sol, 1, "bottom", xb) - gaps[1](xb)
+        assert qb.max() < 1e-9 * np.abs(gaps[1](xb)).max()
+    for a, b in zip(*(s.u for s in sols)):
+        assert rel(a, b) < 1e-6
 
 
 @pytest.mark.parametrize("condition", ["sigma1", "gamma3"])

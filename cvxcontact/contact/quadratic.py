@@ -276,6 +276,29 @@ class QuadraticStack:
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
 
+    def cone_rows(self, condition, conditions=None):
+        """(B, segments): the conic rows of every pair when some pairs are under "gamma3" and others under a
+        nodal condition (docs/formulation.md §8, "Several pairs"). A "gamma3" pair contributes its
+        :meth:`QuadraticInterface.bernstein` rows and ``segments``; a nodal pair each row e of its
+        :meth:`QuadraticInterface.evaluation` three times, (b0, b1, b2) = (e q, e q, e q), the Bernstein
+        coefficients of the constant e q, which the cone holds non-positive iff e q <= 0: exactly the nodal
+        row; its "segment" is the (up to three) nodes of X_h that row reads, the first repeated to fill
+        three. B is (3 S, size) on the stacked nodes of X_h, ``segments`` (S, 3) stacked node indices."""
+        blocks, segs = [], []
+        for itf, c, o in zip(self.interfaces, self._each(condition, conditions), self.offsets):
+            if c == "gamma3":
+                blocks.append(itf.bernstein())
+                segs.append(np.asarray(itf.segments) + o)
+                continue
+            E = itf.evaluation(c).tocsr()
+            blocks.append(sp.csr_matrix(E[np.repeat(np.arange(E.shape[0]), 3)]))
+            seg = np.empty((E.shape[0], 3), dtype=int)
+            for r in range(E.shape[0]):
+                cols = E.indices[E.indptr[r]:E.indptr[r + 1]]
+                seg[r] = np.resize(cols, 3) if len(cols) else 0
+            segs.append(seg + o)
+        return sp.block_diag(blocks, format="csr"), _frozen(np.concatenate(segs))
+
 
 def _mass(xv):
     """P2 mass matrix (m) of the 1D mesh with vertices ``xv`` (interleaved node numbering)."""

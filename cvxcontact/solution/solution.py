@@ -289,13 +289,16 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
 
 
 def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
-              interface=None, beta=None, nodes=None):
+              interface=None, beta=None, nodes=None, cone=None):
     """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
 
     P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
     pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
     ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``nodes`` the
-    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body.
+    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body. ``cone``: (B, segments) of the conic rows
+    when they are not the interface's own :meth:`bernstein` and ``segments`` (several P2 pairs, some of
+    them nodal: :meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`); the constrained nodes are
+    then the nodes B reads.
     """
     p2 = interface is not None
     itf = scene.stack if not p2 else interface
@@ -307,8 +310,9 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
     if beta is not None:
-        checks_ = conic_checks(blocks, u, phi, Ety, itf.bernstein(), gap, beta)
-        S = itf.segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
+        B, segments = (itf.bernstein(), itf.segments) if cone is None else cone
+        checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
+        S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
@@ -329,8 +333,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     on = np.zeros(itf.size, dtype=bool)
-    if p2:      # P2: the merged nodes in the support of the constrained rows
-        support = np.flatnonzero(np.asarray(abs(E).sum(axis=0)).ravel() > 0)
+    if p2:      # P2: the merged nodes in the support of the constrained rows (conic: of the cone's rows)
+        support = np.flatnonzero(np.asarray(abs(E if beta is None else B).sum(axis=0)).ravel() > 0)
         constrained[support] = True
         if beta is not None:
             on = active

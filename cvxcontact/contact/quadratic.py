@@ -14,6 +14,10 @@ numbered along the line: ``x[2 i]`` is merged vertex i, ``x[2 i + 1]`` the midpo
 
 With the P2 interpolant g_h of the gap, q = [u_nu] - g_h <= 0 on a whole segment iff its Bernstein
 coefficients satisfy the second-order-cone condition of docs/formulation.md §8 ("gamma3").
+
+Against a rigid obstacle the line is the body's own P2 trace where it reaches the obstacle
+(:class:`QuadraticInterface` with one trace); several pairs are stacked in a :class:`QuadraticStack`
+(:func:`quadratic_stack`), whose :meth:`QuadraticStack.cone_rows` poses conic and nodal pairs together.
 """
 
 from __future__ import annotations

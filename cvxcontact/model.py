@@ -119,8 +119,6 @@ class Model:
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        for b in scene.bodies if degree == 2 else ():
-            p2.check_supported(b)                                      # P1-only supports refused
         self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
         if degree == 1:
             itf = self._itf = scene.stack

@@ -16,6 +16,7 @@ from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
@@ -24,7 +25,7 @@ from .backends.finish import (lcp_start, row_scales, signs_hold, solve_complianc
                               solve_linear_compliance)
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import quadratic_interface
+from .contact.quadratic import QuadraticStack, quadratic_stack
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -111,12 +112,16 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
         tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
-        of that body's trace (linear, with the exact finish). P2 is solved for a scene with one contact
-        pair between two bodies (any orientation, partial overlap); several pairs and rigid obstacles
-        raise UnsupportedError. A normal-compliance law with P2 sits on the P2 nodes of the condition's
-        rows ("gamma3": every P2 node of the merged mesh) with Simpson weights (docs/formulation.md §10);
-        its penetration limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
-        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish).
+        of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
+        in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
+        controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
+        each under its own condition (conic "gamma3" pairs next to sigma pairs: the nodal rows are posed
+        as degenerate cones, and the whole solve is an interior point without the exact finish; next to a
+        compliance law: UnsupportedError). A normal-compliance law with P2 sits on the P2 nodes of the
+        condition's rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
+        (docs/formulation.md §10); its penetration limit l is nodal under "sigma1"/"sigma2" and, under
+        "gamma3", the "everywhere" cone [u_h nu] - g_h <= l on every merged segment (interior point, no
+        exact finish; one contact pair).
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
@@ -134,7 +139,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with several pairs or a rigid obstacle).
+        A combination not implemented yet (e.g. degree=2 with conic pairs next to a compliance law, or
+        with a compliance penetration limit under "gamma3" on a scene of several pairs).
 
     See Also
     --------
@@ -183,28 +189,42 @@ class ContactSolver:
         self.factorization = factorization
         if isinstance(degree, bool) or degree not in (1, 2):
             raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-        self.degree, self.nodes, self.conic, self.conic_limit = degree, None, False, False
+        self.degree, self.nodes, self.conic, self._p2, self._cone = degree, None, False, None, None
+        self.conic_limit = False                 # P2: a compliance limit under gamma3, the cone at g + l
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
         if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
             raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
                                    "not implemented; use the default non-penetration law or a fixed obstacle")
         if degree == 2:
-            if self.forced:
-                raise UnsupportedError("P2 elements (degree=2) with force-controlled obstacles (Rigid(..., force=)) "
-                                       "are not supported yet; use degree=1 or a fixed obstacle")
-            for b in scene.bodies:
-                p2.check_supported(b)                                  # P1-only supports refused
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
-            self.interface = quadratic_interface(scene, self.nodes)    # one pair of two bodies (else refused)
-            pair_condition = scene.conditions[0] or condition
-            p2_law = pair_laws(scene, self.law)[0]
-            if p2_law.compliant:
-                self.interface.weights(pair_condition)                 # refuses sigma rows forming no P2 mesh
-            self.conic = pair_condition == "gamma3" and not p2_law.compliant   # compliance: nodal rows (§10)
-            self.conic_limit = (pair_condition == "gamma3" and p2_law.compliant   # its limit: the cone at g + l
-                                and p2_law.penetration_limit is not None)
-            self.E = self.interface.evaluation(pair_condition)
+            self.interface = quadratic_stack(scene, self.nodes)        # one QuadraticInterface, or a stack
+            self._p2 = (self.interface if len(scene.interfaces) > 1
+                        else QuadraticStack([self.interface], scene.stack.members))
+            pair_conditions = [c or condition for c in scene.conditions]
+            p2_laws = pair_laws(scene, self.law)
+            conic, limited = [], []
+            for itf, cond, lw in zip(self._p2.interfaces, pair_conditions, p2_laws):
+                if lw.compliant:
+                    itf.weights(cond)                                  # refuses sigma rows forming no P2 mesh
+                conic.append(cond == "gamma3" and not lw.compliant)   # compliance: nodal rows (§10)
+                limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
+            if any(limited) and len(self._p2.interfaces) > 1:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
+                                       "'gamma3' (the conic limit) on a scene of several contact pairs are not "
+                                       "supported yet; use a sigma condition, no limit, one pair, or degree=1")
+            self.conic_limit = any(limited)                            # the cone at g + l (§10, "P2")
+            if any(conic) and any(lw.compliant for lw in p2_laws):
+                raise UnsupportedError(
+                    f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
+                    f"{[i for i, c in enumerate(conic) if c]}) and a normal-compliance law on others are not "
+                    "supported yet; give the Signorini pairs a sigma condition, or use degree=1")
+            self.conic = any(conic)           # the cone on the gamma3 pairs, nodal rows as cones on the others (§8)
+            if self.conic:
+                self.E = sp.identity(self._p2.size, format="csr")
+                self._cone = self._p2.cone_rows(condition, pair_conditions)
+            else:
+                self.E = self._p2.evaluation(condition, pair_conditions)
         else:
             self.E = scene.stack.evaluation(condition, scene.conditions)
         self._structure = scene.structure()
@@ -224,12 +244,13 @@ class ContactSolver:
         self.warm_start, self.scale = warm_start, scale
         self._blocks = self._condensed = self._compliance = self._active = self._sparse = None
         self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
-                     else RowLaws(pair_laws(scene, self.law), [self.E.shape[0]]))
+                     else RowLaws(pair_laws(scene, self.law),
+                                  np.diff(self._p2.row_offsets(condition, scene.conditions))))
         self.compliant = self.rows.compliant
         self._weights = None                                                      # m, the law's quadrature
         if self.compliant:                                                        # P2: Simpson weights (§10)
             self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1
-                             else self.interface.weights(pair_condition))
+                             else self._p2.weights(condition, scene.conditions))
         self.path = ""
 
     def solve(self, scene=None) -> Solution:
@@ -241,13 +262,15 @@ class ContactSolver:
         if self.degree == 1:
             systems = [assemble_loads(b, m) for b, m in zip(scene.bodies, self.matrices)]
             gap = scene.gap_values()
-        else:        # the P2 interpolant of the gap at the merged P2 nodes
+        else:        # the P2 interpolant of the gap at the merged P2 nodes of every pair
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
-            gap = scene.pair_gap_values(0, np.array(self.interface.x))
+            gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x))
+                                  for i, itf in enumerate(self._p2.interfaces)])
         for k, (b, s) in enumerate(zip(scene.bodies, systems)):
             if getattr(b, "held_by_contact", None):     # the load must press it onto the contact
                 b.check_pressed(s.f, None if self.nodes is None else self.nodes[k])
-        forced = [o for o in scene.obstacles if o.force is not None]
+        obstacles = scene.obstacles if self.degree == 1 else _p2_obstacles(scene, self._p2)
+        forced = [o for o in obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
         self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
@@ -283,7 +306,7 @@ class ContactSolver:
                 return read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active,
                                  polished, problem, self.tol, timings,
                                  interface=None if self.degree == 1 else self.interface, beta=self._beta,
-                                 nodes=self.nodes)
+                                 nodes=self.nodes, cone=self._cone)
 
             sol = read(u, phi, y, active, polished)
         method = self.method
@@ -305,7 +328,7 @@ class ContactSolver:
                     self.method = "sparse"         # later load cases of this geometry: the sparse route
             timings["fallback"] = time.perf_counter() - t1
         if scene.obstacles:
-            obstacle_results(sol, [tau * un.displacement for tau in self._taus])
+            obstacle_results(sol, [tau * un.displacement for tau in self._taus], obstacles)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, method=method, requested=self.requested, route=self.path,
                            iterations=self.iterations, timings=timings,
@@ -596,11 +619,12 @@ class ContactSolver:
     def _conic_full(self, blocks, g, timings):
         """The full model with the P2 "everywhere" condition (:mod:`cvxcontact.backends.conic`)."""
         t0 = time.perf_counter()
-        model = ContactModel(blocks, self.E, g, bernstein=self.interface.bernstein())
+        model = ContactModel(blocks, self.E, g, bernstein=self._cone[0], translations=self._translations)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        self._taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]     # force-controlled obstacles
         self._beta = bernstein_duals(model.cone, model.row)
         u = [v.value for v in model.u]
         phi = [v.value if v is not None else None for v in model.phi]
@@ -613,7 +637,7 @@ class ContactSolver:
         rhs = [quasi_definite_rhs(b) for b in blocks]
         v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
         loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
-        model = ConicInterfaceModel(condensed, loads, self.interface.bernstein(), g)
+        model = ConicInterfaceModel(condensed, loads, self._cone[0], g)
         timings["model"] = time.perf_counter() - t0
         self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
         timings["compile"] = model.problem.compilation_time or 0.0
@@ -627,7 +651,7 @@ class ContactSolver:
 
     def _contact_force(self):
         """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
-        return self.interface.bernstein().T @ self._beta.ravel()
+        return self._cone[0].T @ self._beta.ravel()
 
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
@@ -684,6 +708,20 @@ def conic_limit_model(blocks, E, g, law, weights, B) -> ContactModel:
     model = ContactModel(blocks, E, g, law=_without_limit(law), weights=weights)
     _add_limit_cone(model, sum((E @ b.jump) @ u for b, u in zip(blocks, model.u)), B, g, law)
     return model
+
+
+def _p2_obstacles(scene, stack):
+    """The scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at the stacked P2 nodes of
+    ``stack`` (a :class:`~cvxcontact.contact.quadratic.QuadraticStack`): the sensitivities c(x) of each
+    obstacle at its pairs' P2 nodes (vertices and midpoints), zero elsewhere; ``basis`` and ``force`` kept."""
+    out = []
+    for o in scene.obstacles:
+        rows = np.zeros((stack.size, 2))
+        for i in o.pairs:
+            itf = stack.interfaces[i]
+            rows[stack.offsets[i]:stack.offsets[i + 1]] = o.obstacle.sensitivity(itf.points, itf.normal)
+        out.append(replace(o, rows=sp.csr_matrix(rows)))
+    return out
 
 
 def _row_laws(scene, condition, law, held=False) -> RowLaws:
@@ -750,7 +788,7 @@ def _check_reachable(scene, interface, E, blocks, g, translations, un):
     node = int(E[a].indices[np.argmax(np.abs(E[a].data))])         # the merged node the row evaluates
     offsets = getattr(interface, "offsets", np.array([0, interface.size]))
     pair = int(np.searchsorted(offsets, node, side="right") - 1)
-    points = scene.interfaces[pair].points if hasattr(interface, "offsets") else interface.points
+    points = interface.interfaces[pair].points if hasattr(interface, "interfaces") else interface.points
     x, y = np.asarray(points)[node - offsets[pair]]
     raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
                      f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "

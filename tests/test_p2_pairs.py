@@ -1,7 +1,7 @@
 """P2 elements with the contact pairs of main (issue 11 items 1-3 x issue 10): the quadratic patch test in
 any orientation and through a cc.Contact in either body order (closed form at every P2 node), partial
 overlap with the "everywhere" condition (dense sampling of each body's own trace), and the typed
-refusals of what P2 does not support yet (several pairs, rigid obstacles, normal compliance)."""
+refusals of what P2 does not support yet (several pairs in cc.Model, a compliance limit under gamma3)."""
 
 import numpy as np
 import pytest
@@ -140,16 +140,20 @@ def _refusals():
     two = cc.Scene(top, mid, b2, contacts=[cc.Contact(top, "bottom", mid, "top"), cc.Contact(mid, "bottom", b2, "top")])
     plane = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
     rigid = cc.Scene(b1, contacts=[cc.Contact(b1, "bottom", plane, gap=-1e-4)])
-    return [(two, {}, "2 contact pairs"), (rigid, {}, "rigid obstacle")]   # (the conic limit of a compliance
-                                                                              # law: solved, test_p2_model_compliance)
+    # several pairs and rigid obstacles are solved with P2 by solve/ContactSolver (tests/test_p2_stack.py);
+    # cc.Model still refuses several pairs; the conic limit of a compliance law is solved (test_p2_model_compliance)
+    return [(two, {}, "2 contact pairs", ("model",)), (rigid, {"tol": 1e-4}, None, ())]   # the conic check: 1.3e-5
 
 
 @pytest.mark.parametrize("case", range(2))
 def test_p2_refuses_what_it_does_not_support(case):
-    scene, kw, match = _refusals()[case]
-    for make in (lambda: cc.solve(scene, "gamma3", degree=2, **kw),
-                 lambda: cc.ContactSolver(scene, "sigma1", degree=2, **kw),
-                 lambda: cc.Model(scene, "sigma1", degree=2, **kw)):
+    scene, kw, match, refused = _refusals()[case]
+    for name, make in (("solve", lambda: cc.solve(scene, "gamma3", degree=2, **kw)),
+                       ("solver", lambda: cc.ContactSolver(scene, "sigma1", degree=2, **kw)),
+                       ("model", lambda: cc.Model(scene, "sigma1", degree=2, **kw))):
+        if name not in refused:
+            make()
+            continue
         with pytest.raises(cc.UnsupportedError, match=match) as info:
             make()
         assert "degree=2" in str(info.value)
@@ -232,3 +236,15 @@ def test_p2_with_a_per_pair_compliance_law_is_solved_by_solve_and_model():
     other = cc.Model(scene, "sigma1", degree=2).solve()  # and cc.Model (test_p2_model_compliance.py)
     assert other.ok and other.contact.law == sol.contact.law
     assert np.abs(other.u[0] - sol.u[0]).max() <= 1e-9 * np.abs(sol.u[0]).max()     # (no load here: u = 0)
+
+
+def test_p2_conic_limit_on_several_pairs_is_refused():
+    """The conic penetration limit of a compliance law (one pair: tests/test_p2_model_compliance.py) is not
+    built for a stack of pairs: a typed refusal naming it, before anything is assembled; a nodal limit is
+    (its limit rows at the clamped corner checked with their reactions' local displacement, docs/checks.md)."""
+    two = _refusals()[0][0]
+    law = cc.NormalCompliance(stiffness=1e12, exponent=1, penetration_limit=1e-6)
+    with pytest.raises(cc.UnsupportedError, match="conic limit") as info:
+        cc.ContactSolver(two, "gamma3", degree=2, law=law)
+    assert "degree=2" in str(info.value)
+    assert cc.solve(two, "sigma1", degree=2, law=law).ok and cc.solve(two, "sigma1", law=law).ok

@@ -14,6 +14,10 @@ numbered along the line: ``x[2 i]`` is merged vertex i, ``x[2 i + 1]`` the midpo
 
 With the P2 interpolant g_h of the gap, q = [u_nu] - g_h <= 0 on a whole segment iff its Bernstein
 coefficients satisfy the second-order-cone condition of docs/formulation.md §8 ("gamma3").
+
+Against a rigid obstacle the line is the body's own P2 trace where it reaches the obstacle
+(:class:`QuadraticInterface` with one trace); several pairs are stacked in a :class:`QuadraticStack`
+(:func:`quadratic_stack`), whose :meth:`QuadraticStack.cone_rows` poses conic and nodal pairs together.
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .interface import CONDITIONS, Interface, _frozen, normal_jump
 
-__all__ = ["QuadraticInterface", "quadratic_interface", "p2_interpolation", "bernstein_max"]
+__all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
+           "bernstein_max"]
 
 _BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
 
@@ -83,15 +88,23 @@ class QuadraticInterface:
     midpoints (tangential coordinate s, m). Same interface as the P1 one (``x``, ``size``, ``mass``,
     ``evaluation``, ``interpolation(k)`` and ``traces[k]`` by the pair's body k), except that
     :meth:`jump` takes the *scene's* body index (like :class:`~cvxcontact.contact.interface.Stack`),
-    plus :meth:`bernstein` and ``segments``. Rigid obstacles are not supported (SceneError)."""
+    plus :meth:`bernstein` and ``segments``.
+
+    A rigid obstacle (``linear.rigid``; ``nodes`` and ``members`` then name the one body, ``members =
+    (k, None)``): X_h is the body's own P2 trace on the run of vertices that reach the obstacle (the P1
+    merged nodes) with its edge midpoints, [u_nu] = u . nu there, and every condition constrains every
+    node of X_h (as for P1); the gap g_h is the P2 interpolant of the obstacle's distance plus the pair's
+    gap at those nodes (docs/formulation.md §8, "Rigid obstacles")."""
 
     degree = 2
-    rigid = False
 
     def __init__(self, linear: Interface, nodes, members=(0, 1)):
-        if linear.rigid or len(linear.traces) != 2:
-            raise SceneError("the P2 contact line is built for a pair of two bodies, not against a rigid obstacle")
-        self.linear, self.nodes, self.members = linear, tuple(nodes), tuple(members)
+        nodes, members = tuple(nodes), tuple(members)
+        if len(nodes) != len(linear.traces):
+            raise SceneError(f"the P2 contact line needs the P2 nodes of each of its {len(linear.traces)} bodies, "
+                             f"got {len(nodes)}")
+        self.rigid, self.obstacle = linear.rigid, linear.obstacle
+        self.linear, self.nodes, self.members = linear, nodes, members
         self.traces = [_Trace2(t, n) for t, n in zip(linear.traces, nodes)]
         self.y, self.normal, self.tangent = linear.y, linear.normal, linear.tangent
         xv = np.asarray(linear.x, dtype=float)
@@ -131,7 +144,7 @@ class QuadraticInterface:
         condition, used only to start or to compare; the conic condition itself is :meth:`bernstein`)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        if condition == "gamma3":
+        if condition == "gamma3" or self.rigid:
             return sp.identity(self.size, format="csr")
         return p2_interpolation(self.xv, self.sigma_x[int(condition[-1]) - 1])
 
@@ -149,7 +162,7 @@ class QuadraticInterface:
         """The P2 function of the mesh of the constrained nodes under ``condition`` (:meth:`weights`) with
         nodal ``values`` there, evaluated at every node of X_h (constant beyond its end nodes)."""
         values = np.asarray(values, dtype=float)
-        if condition == "gamma3":
+        if condition == "gamma3" or self.rigid:
             return values.copy()
         xc = self._constrained(condition)
         return p2_interpolation(xc[0::2], np.asarray(self.x)) @ values
@@ -158,7 +171,7 @@ class QuadraticInterface:
         """Abscissae of the constrained nodes of ``condition`` as an interleaved P2 mesh (:meth:`weights`)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        if condition == "gamma3":
+        if condition == "gamma3" or self.rigid:
             return np.asarray(self.x)
         k = int(condition[-1]) - 1
         t, xc = self.traces[k], self.sigma_x[k]
@@ -187,16 +200,108 @@ class QuadraticInterface:
 
 
 def quadratic_interface(scene, nodes) -> QuadraticInterface:
-    """The :class:`QuadraticInterface` of a scene with one contact pair between two of its bodies
-    (``nodes[k]``: the P2 nodes of the scene's body k). Other scenes: UnsupportedError naming the case."""
+    """The :class:`QuadraticInterface` of a scene with one contact pair (two of its bodies, or one body and a
+    rigid obstacle; ``nodes[k]``: the P2 nodes of the scene's body k). Several pairs: UnsupportedError
+    (:func:`quadratic_stack` takes them)."""
     if len(scene.interfaces) != 1:
         raise UnsupportedError(f"P2 elements (degree=2) with {len(scene.interfaces)} contact pairs are not "
-                               "supported yet (one pair of two bodies only); use degree=1")
-    a, b = scene.stack.members[0]
+                               "supported here (one pair only); use degree=1")
+    return _pair(scene, nodes, 0)
+
+
+def quadratic_stack(scene, nodes):
+    """The P2 contact line of every pair of ``scene``: its :class:`QuadraticInterface` when it has one pair,
+    else a :class:`QuadraticStack` of one per pair (``nodes[k]``: the P2 nodes of the scene's body k)."""
+    if len(scene.interfaces) == 1:
+        return _pair(scene, nodes, 0)
+    return QuadraticStack([_pair(scene, nodes, i) for i in range(len(scene.interfaces))], scene.stack.members)
+
+
+def _pair(scene, nodes, i) -> QuadraticInterface:
+    a, b = scene.stack.members[i]
     if b is None:
-        raise UnsupportedError("P2 elements (degree=2) against a rigid obstacle (cc.Rigid) are not supported "
-                               "yet (one pair of two bodies only); use degree=1")
-    return QuadraticInterface(scene.interfaces[0], (nodes[a], nodes[b]), (a, b))
+        return QuadraticInterface(scene.interfaces[i], (nodes[a],), (a, None))
+    return QuadraticInterface(scene.interfaces[i], (nodes[a], nodes[b]), (a, b))
+
+
+class QuadraticStack:
+    """The P2 contact lines of several pairs stacked (the P2 counterpart of
+    :class:`~cvxcontact.contact.interface.Stack`): the nodes of X_h of pair 0, then pair 1, ...
+
+    ``interfaces[i]`` is pair i's :class:`QuadraticInterface`, ``members[i]`` its (first body, second body
+    or None) among the scene's bodies, ``offsets`` the node ranges. ``jump(k, n)`` stacks the scene's body
+    k's part of every pair's jump; ``mass``, ``evaluation`` and :meth:`bernstein` are block diagonal (pair
+    i's rows under its own condition), ``segments`` the stacked (S, 3) node indices of every merged
+    segment."""
+
+    degree = 2
+
+    def __init__(self, interfaces, members):
+        self.interfaces, self.members = tuple(interfaces), tuple(members)
+        self.offsets = np.concatenate([[0], np.cumsum([i.size for i in self.interfaces])]).astype(int)
+        self.mass = sp.block_diag([i.mass for i in self.interfaces], format="csr")
+        self.x = _frozen(np.concatenate([i.x for i in self.interfaces]))
+        self.segments = _frozen(np.concatenate([i.segments + o for i, o in zip(self.interfaces, self.offsets)]))
+
+    @property
+    def size(self) -> int:
+        """Number of stacked P2 nodes."""
+        return int(self.offsets[-1])
+
+    def jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes): the scene's body k's part of [u_nu] at every pair's P2 nodes (zero rows where
+        k is not a member)."""
+        return sp.vstack([itf.jump(k, n_nodes) for itf in self.interfaces], format="csr")
+
+    def _each(self, condition, conditions):
+        conditions = conditions or [None] * len(self.interfaces)
+        return [condition if c is None else c for c in conditions]
+
+    def evaluation(self, condition, conditions=None) -> sp.csr_matrix:
+        """Block-diagonal E: pair i's rows (:meth:`QuadraticInterface.evaluation`) under ``conditions[i]``
+        (None: ``condition``)."""
+        return sp.block_diag([itf.evaluation(c) for itf, c in zip(self.interfaces, self._each(condition, conditions))],
+                             format="csr")
+
+    def weights(self, condition, conditions=None) -> np.ndarray:
+        """Pair i's :meth:`QuadraticInterface.weights` under its condition, concatenated (m)."""
+        return np.concatenate([itf.weights(c) for itf, c in zip(self.interfaces, self._each(condition, conditions))])
+
+    def row_offsets(self, condition, conditions=None) -> np.ndarray:
+        """Row ranges of the pairs in :meth:`evaluation`: pair i owns rows offsets[i]:offsets[i+1]."""
+        counts = [itf.evaluation(c).shape[0] for itf, c in zip(self.interfaces, self._each(condition, conditions))]
+        return np.concatenate([[0], np.cumsum(counts)]).astype(int)
+
+    def bernstein(self) -> sp.csr_matrix:
+        """(3 S, size): every pair's :meth:`QuadraticInterface.bernstein`, block diagonal."""
+        return sp.block_diag([itf.bernstein() for itf in self.interfaces], format="csr")
+
+    def split(self, values):
+        """Pair i's slice of a stacked array."""
+        return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
+
+    def cone_rows(self, condition, conditions=None):
+        """(B, segments): the conic rows of every pair when some pairs are under "gamma3" and others under a
+        nodal condition (docs/formulation.md §8, "Several pairs"). A "gamma3" pair contributes its
+        :meth:`QuadraticInterface.bernstein` rows and ``segments``; a nodal pair each row e of its
+        :meth:`QuadraticInterface.evaluation` three times, (b0, b1, b2) = (e q, e q, e q), the Bernstein
+        coefficients of the constant e q, which the cone holds non-positive iff e q <= 0: exactly the nodal
+        row; its "segment" is the (up to three) nodes of X_h that row reads, the first repeated to fill
+        three. B is (3 S, size) on the stacked nodes of X_h, ``segments`` (S, 3) stacked node indices."""
+        blocks, segs = [], []
+        for itf, c, o in zip(self.interfaces, self._each(condition, conditions), self.offsets):
+            if c == "gamma3":
+                blocks.append(itf.bernstein())
+                segs.append(np.asarray(itf.segments) + o)
+                continue
+            E = itf.evaluation(c).tocsr()
+            blocks.append(sp.csr_matrix(E[np.repeat(np.arange(E.shape[0]), 3)]))
+            seg = np.empty((E.shape[0], 3), dtype=int)
+            for r in range(E.shape[0]):
+                cols = E.indices[E.indptr[r]:E.indptr[r + 1]]
+                seg[r] = np.resize(cols, 3) if len(cols) else 0
+            segs.append(seg + o)
+        return sp.block_diag(blocks, format="csr"), _frozen(np.concatenate(segs))
 
 
 def _mass(xv):

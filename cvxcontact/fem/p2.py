@@ -18,8 +18,7 @@ import numpy as np
 from ..geometry.quadratic import P2Nodes
 from .assembly import BodySystem, _accumulate, _scatter, constrained, gradients, lifted
 
-__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients",
-           "check_supported"]
+__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients"]
 
 # degree-2 rule on the reference triangle (barycentric coordinates, weights summing to 1)
 _TRI3 = (np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]), np.full(3, 1 / 3))
@@ -63,12 +62,6 @@ def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
     return assemble_loads(body, assemble_matrices(body, nodes), nodes)
 
 
-def check_supported(body) -> None:
-    """Every support is built by the prolongation on the P2 nodes (clamped parts, rollers, prescribed
-    displacements, grounded, driven and floating electrodes) and bodies held by the contact only are
-    solved as with P1; kept for the callers: raises nothing."""
-
-
 def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     """P2 stiffness, coupling and permittivity matrices and the prolongations of ``body``; loads zero.
 
@@ -76,7 +69,6 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     :func:`cvxcontact.fem.assembly.prolongation`) on the P2 nodes: a roller or a prescribed displacement
     holds at the vertices and at the midpoints of its part's edges, a floating electrode's potential is
     one unknown on all of them."""
-    check_supported(body)
     mat = body.material
     n = len(nodes)
     el = nodes.triangles

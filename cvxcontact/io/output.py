@@ -91,8 +91,11 @@ def _line_cells(n, degree):
 
 def _interface(solution, pair=0):
     """Contact pair ``pair``'s line: P1 ``scene.interfaces[pair]``, P2 the solution's quadratic interface
-    (P2 solves one pair)."""
-    return solution.interface if getattr(solution, "degree", 1) == 2 else solution.scene.interfaces[pair]
+    (or pair ``pair``'s one in its stack of several pairs)."""
+    if getattr(solution, "degree", 1) == 2:
+        itf = solution.interface
+        return itf.interfaces[pair] if hasattr(itf, "interfaces") else itf
+    return solution.scene.interfaces[pair]
 
 
 def trace_pressure(solution, k, pair=0):
@@ -107,7 +110,7 @@ def pair_bodies(solution, pair=0) -> list[int]:
     """Scene indices of the bodies on the sides of contact pair ``pair`` (one index for a rigid pair), in
     the order of that pair's traces (P2: the quadratic interface's own ``members``)."""
     if getattr(solution, "degree", 1) == 2:
-        return list(solution.interface.members)
+        return [m for m in _interface(solution, pair).members if m is not None]
     a, b = solution.scene.stack.members[pair]
     return [a] if b is None else [a, b]
 

@@ -652,16 +652,18 @@ class Scene:
 
     def pair_gap_values(self, i: int, s: np.ndarray | None = None) -> np.ndarray:
         """The gap g (m) at the merged nodes of pair ``i``: the pair's gap plus, for a rigid
-        obstacle, the distance to it along the body's normal. ``s``: other points of a two-body pair's
-        line instead, given by their tangential coordinate (m; e.g. the P2 nodes of the merged mesh)."""
+        obstacle, the distance to it along the body's normal. ``s``: other points of the pair's line
+        instead, given by their tangential coordinate (m; e.g. the P2 nodes of the merged mesh; with a rigid
+        obstacle, points of the body's straight part between its nodes that reach it)."""
         itf = self.interfaces[i]
         load = self.gap if self._legacy else self.contacts[i].gap
         if s is not None:
-            if itf.rigid:
-                raise SceneError("pair_gap_values(i, s): points other than the merged nodes are for a pair of "
-                                 "two bodies, not against a rigid obstacle")
             s = np.asarray(s, dtype=float)
-            return np.array(load(s, np.full_like(s, itf.y)), dtype=float)
+            g = np.array(load(s, np.full_like(s, itf.y)), dtype=float)
+            if itf.rigid:
+                points = itf.points[0] + np.outer(s - itf.x[0], itf.tangent)
+                g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
+            return g
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g
 

@@ -223,7 +223,10 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     limit = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,))
     on = np.isfinite(limit)
     if on.any():
-        extra = force_displacements(blocks, E, force)[on] if not compliant[on].all() else None
+        # the displacement each row's reaction z_a (the Signorini multiplier, or the limit's reaction) produces
+        # (docs/checks.md): zero on rows off their limit; a row held at its limit where nothing else moves
+        # (e.g. at a clamped corner) has no other scale, and its slack is rounding of the bodies' displacements
+        extra = force_displacements(blocks, E, z)[on]
         slack, U = node_scales([p[on] for p in parts], g[on] + limit[on], extra)
         out["feasibility"] = float((np.maximum(slack, 0.0) / U).max(initial=0.0))
         out["complementarity"] = float(np.sqrt((np.abs(z[on] * slack) / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))

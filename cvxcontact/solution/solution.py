@@ -171,7 +171,9 @@ class Solution:
     """1: P1 elements; 2: P2 (6-node) elements (docs/formulation.md §8)."""
     interface: object = field(default=None, repr=False)
     """P2: the :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's pair (the merged
-    P2 nodes of ``contact``); None for P1 (``scene.interfaces``)."""
+    P2 nodes of ``contact``), or with several pairs their
+    :class:`~cvxcontact.contact.quadratic.QuadraticStack` (pair i: ``interface.interfaces[i]``, the nodes of
+    ``contacts[i]``); None for P1 (``scene.interfaces``)."""
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
     obstacles: list = field(default_factory=list)
@@ -224,7 +226,7 @@ class Solution:
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
                              f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
-        itf = self.scene.interfaces[pair] if self.degree == 1 else self.interface
+        itf = _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
@@ -262,14 +264,16 @@ class ObstacleResult:
     prescribed: np.ndarray | None = None
 
 
-def obstacle_results(sol, translations) -> None:
+def obstacle_results(sol, translations, obstacles=None) -> None:
     """Fill ``sol.obstacles`` (:class:`ObstacleResult`) from the stacked nodal forces of ``sol.contacts``
     and ``translations`` (m, the unknowns tau of each force-controlled obstacle, in order); add the
     work -F . t of the prescribed forces to ``sol.energy`` and the check "obstacle balance" (the largest
-    |F - sum_a c_a y_a| / |F|) to the residuals."""
+    |F - sum_a c_a y_a| / |F|) to the residuals. ``obstacles``: the scene's
+    :class:`~cvxcontact.physics.pairs.ObstacleRows` with rows at the stacked nodes of ``sol.contacts``
+    (default ``sol.scene.obstacles``, the P1 merged nodes; P2: rows at the P2 nodes)."""
     y = np.concatenate([c.force for c in sol.contacts])                     # N/m at the stacked merged nodes
     taus, out, worst = iter(translations), [], 0.0
-    for o in sol.scene.obstacles:
+    for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
         t = np.zeros(2) if o.force is None else o.basis @ next(taus)
@@ -285,13 +289,16 @@ def obstacle_results(sol, translations) -> None:
 
 
 def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
-              interface=None, beta=None, nodes=None):
+              interface=None, beta=None, nodes=None, cone=None):
     """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
 
     P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
     pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
     ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``nodes`` the
-    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body.
+    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body. ``cone``: (B, segments) of the conic rows
+    when they are not the interface's own :meth:`bernstein` and ``segments`` (several P2 pairs, some of
+    them nodal: :meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`); the constrained nodes are
+    then the nodes B reads.
     """
     p2 = interface is not None
     itf = scene.stack if not p2 else interface
@@ -303,8 +310,9 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
     if beta is not None:
-        checks_ = conic_checks(blocks, u, phi, Ety, itf.bernstein(), gap, beta)
-        S = itf.segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
+        B, segments = (itf.bernstein(), itf.segments) if cone is None else cone
+        checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
+        S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
@@ -325,8 +333,8 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     on = np.zeros(itf.size, dtype=bool)
-    if p2:      # P2: the merged nodes in the support of the constrained rows
-        support = np.flatnonzero(np.asarray(abs(E).sum(axis=0)).ravel() > 0)
+    if p2:      # P2: the merged nodes in the support of the constrained rows (conic: of the cone's rows)
+        support = np.flatnonzero(np.asarray(abs(E if beta is None else B).sum(axis=0)).ravel() > 0)
         constrained[support] = True
         if beta is not None:
             on = active
@@ -336,8 +344,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         constrained[E.indices] = True
         on[E.indices[active]] = True
     contacts = []
-    pairs = [itf] if p2 else scene.interfaces
-    offsets = [0, itf.size] if p2 else itf.offsets
+    pairs, offsets = _pairs(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
         part = slice(offsets[i], offsets[i + 1])
         contacts.append(ContactResult(
@@ -401,7 +408,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
         lam = scaled.pressure(r) + spla.spsolve((interface.mass / un.length).tocsc(), z)    # M scaled like w
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
-    pairs, merged_at = (scene.interfaces, scene.stack.offsets) if interface is None else ([interface], [0, interface.size])
+    pairs, merged_at = _pairs(scene, interface)
     for i, (itf, c, pair_law) in enumerate(zip(pairs, sol.contacts, rows.laws)):
         if pair_law.compliant:
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
@@ -416,6 +423,17 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
     return sol
+
+
+def _pairs(scene, interface):
+    """(each pair's contact line, the offsets of its nodes in the stacked arrays): P1 (``interface`` None)
+    the scene's interfaces; P2 a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` (one pair) or a
+    :class:`~cvxcontact.contact.quadratic.QuadraticStack`."""
+    if interface is None:
+        return scene.interfaces, scene.stack.offsets
+    if hasattr(interface, "interfaces"):
+        return interface.interfaces, interface.offsets
+    return [interface], [0, interface.size]
 
 
 def _p2_lumped(x):

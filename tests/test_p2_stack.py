@@ -1,0 +1,406 @@
+"""P2 elements with rigid obstacles and several contact pairs (issue 11 x issue 10, items of the p2pairs brief).
+
+Cross-checks, each independent of the code under test:
+* a body pressed onto a rigid plane equals one half of the mirror-image two-body problem with the gap
+  split (the two-body P2 solve, which has its own closed-form patch tests in test_p2.py/test_p2_pairs.py);
+* the conic condition against a rigid circle, sampled densely along the body's own P2 edges against the
+  exact (not interpolated) gap, with the interpolation error of g_h measured separately;
+* a stack of three blocks (two pairs, nodal conditions) against a dense active-set solve of the mixed
+  system (26) whose rows are built here from each body's own quadratic edges;
+* the same stack with the middle body clamped: the pairs decouple, so each equals its single-pair solve.
+"""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.fem import p2
+from cvxcontact.geometry.quadratic import P2Nodes
+
+from conftest import rel
+from reference_problems import active_set_solve
+
+A, YOUNG = 0.5, 1e9
+MAT = cc.materials.isotropic(E=YOUNG, nu=0.3)
+
+
+def mirrored(m):
+    """The mesh reflected through the line x2 = 0 (triangles reordered to stay counter-clockwise)."""
+    return cc.Mesh(m.points * np.array([1.0, -1.0]), m.triangles[:, ::-1], {t: m.boundary(t) for t in m.tags})
+
+
+def upper(force=-1e7):
+    m = cc.rectangle(x=(0, 1), y=(0, A), nx=5, ny=3)
+    return m, cc.Body(m, MAT, clamped=["top"], contact="bottom", body_force=(0.0, force))
+
+
+GAP = lambda s: -1e-4 + 2e-2 * (s - 0.45) ** 2          # noqa: E731  quadratic in s: g_h = g exactly
+
+
+@pytest.mark.parametrize("condition, bound", [("sigma1", 1e-12), ("gamma3", 1e-6)])   # measured 3e-15, 1.4e-7
+def test_rigid_plane_equals_the_mirror_two_body_problem(condition, bound):
+    """Body on the plane x2 = 0 with gap g == the body and its mirror image pressed onto each other with
+    the pair gap 2 g: by symmetry the line stays at x2 = 0 and each body sees g. Fields to ``bound``
+    (nodal: exact finish; conic: interior point), both backends, lambda_h and the plane's force too."""
+    m, body = upper()
+    plane = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+    rigid = cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane, gap=GAP)])
+    mirror = cc.Body(mirrored(m), MAT, clamped=["top"], contact="bottom", body_force=(0.0, 1e7))
+    two = cc.Scene(body, mirror, contacts=[cc.Contact(body, "bottom", mirror, "bottom", gap=lambda s: 2 * GAP(s))])
+    ref = cc.solve(two, condition, degree=2, method="full", tol=1e-5)
+    assert ref.ok, ref.report()
+    flip = np.array([1.0, -1.0])
+    assert rel(ref.u[1], ref.u[0] * flip) < bound                       # the reference is symmetric itself
+    for method in ("full", "condensed"):
+        sol = cc.solve(rigid, condition, degree=2, method=method, tol=1e-5)
+        assert sol.ok and sol.degree == 2, sol.report()
+        assert rel(sol.u[0], ref.u[0]) < bound
+        c, r = sol.contact, ref.contact
+        assert np.allclose(c.x, r.x, atol=1e-15) and np.allclose(c.gap, GAP(c.x), rtol=0, atol=1e-15)
+        assert rel(c.jump, r.jump / 2) < bound and rel(c.lam, r.lam) < bound
+        assert c.active.any() and not c.active.all()                    # a real contact zone
+        # the plane's reaction: the resultant of the nodal forces, = the integral of lambda_h
+        assert rel(sol.obstacles[0].force, np.array([0.0, c.force.sum()])) < 1e-14
+        assert abs(c.force.sum() - np.sum(c.lam * _simpson(c.x))) < 1e-12 * np.abs(c.force).sum()
+        if condition == "sigma1":
+            assert sol.polished
+
+
+def _simpson(x):
+    """Row sums of the P2 mass matrix: integral of each nodal basis function of the interleaved P2 mesh."""
+    h = x[2::2] - x[:-1:2]
+    w = np.zeros_like(x)
+    w[:-1:2] += h / 6
+    w[2::2] += h / 6
+    w[1::2] = 2 * h / 3
+    return w
+
+
+def _edge_values(sol, k, part, xs, comp=1):
+    """Component ``comp`` of body k's displacement at abscissae xs of its horizontal ``part``, from its own
+    P2 edges (Lagrange on start, end, mid): independent of the interface operators."""
+    e = P2Nodes(sol.scene.bodies[k].mesh).boundary(part)
+    pts = sol.points[k]
+    xa, xb = pts[e[:, 0], 0], pts[e[:, 1], 0]
+    lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
+    j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
+    t = (xs - xa[j]) / (xb[j] - xa[j])
+    v = sol.u[k][:, comp]
+    return v[e[j, 0]] * (1 - t) * (1 - 2 * t) + v[e[j, 1]] * t * (2 * t - 1) + v[e[j, 2]] * 4 * t * (1 - t)
+
+
+def test_conic_condition_against_a_curved_rigid_obstacle():
+    """A block pressed onto a rigid cylinder (radius 10 m) with "gamma3": u.nu - g sampled at 4001 points of
+    the body's own P2 edges. Against g_h (what is imposed) no violation above rounding; against the exact
+    gap, no violation beyond the interpolation error max |g - g_h|, which is measured separately (O(h^3)
+    times the gap's third derivative: 8e-8 m on these 0.2 m edges). The nodal condition penetrates g_h
+    between its nodes (2e-6 m here)."""
+    _, body = upper()
+    R, c = 10.0, np.array([0.5, -10.0])
+    disc = cc.Rigid.circle(center=c, radius=R)
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", disc)])
+    xs = np.linspace(0.0, 1.0, 4001)
+    exact = lambda x: -(np.sqrt(R ** 2 - (x - c[0]) ** 2) + c[1])    # noqa: E731  distance down to the circle
+    g = exact(xs)
+    sol = cc.solve(scene, "gamma3", degree=2, tol=1e-5)
+    assert sol.ok, sol.report()
+    cres = sol.contact
+    from cvxcontact.contact.quadratic import p2_interpolation        # the P2 interpolant of the exact gap
+    gh = p2_interpolation(cres.x[0::2], xs) @ exact(cres.x)
+    interp = np.abs(g - gh).max()
+    assert 1e-8 < interp < 1e-6                                      # O(h^3): measured, not zero
+    assert np.allclose(cres.gap, exact(cres.x), rtol=0, atol=1e-15)
+    q = -_edge_values(sol, 0, "bottom", xs)                          # u . nu with nu = (0, -1)
+    scale = np.abs(g).max()
+    assert (q - gh).max() < 1e-9 * scale                             # the condition everywhere, to rounding
+    assert (q - g).max() < interp + 1e-9 * scale                     # against the exact gap: within g - g_h
+    assert (q - gh).min() < -1e-6 and (q - gh).max() > -1e-9 * scale   # an open part and a touching part
+    assert cres.active.any() and not cres.active.all()
+    nodal = cc.solve(scene, "sigma1", degree=2)
+    assert nodal.ok and nodal.polished
+    qn = -_edge_values(nodal, 0, "bottom", xs)
+    assert (qn - gh).max() > 1e-8                                    # between the nodes it penetrates g_h
+    assert rel(nodal.u[0], sol.u[0]) < 5e-2                          # the same problem up to that (0.9 % here)
+
+
+# ---------------------------------------------------------------- several pairs
+
+def three_blocks(conditions=("sigma1", "sigma2")):
+    top = cc.Body(cc.rectangle(x=(0, 1), y=(A, 2 * A), nx=4, ny=2), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -2e7), name="top")
+    mid = cc.Body(cc.rectangle(x=(0, 1), y=(0, A), nx=3, ny=2), MAT, clamped=["left"], contact="bottom", name="mid")
+    bot = cc.Body(cc.rectangle(x=(0, 1), y=(-A, 0), nx=5, ny=2), MAT, clamped=["bottom"], contact="top",
+                  body_force=(0.0, 1e7), name="bottom")
+    gaps = (lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2, lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2)
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0]),
+             cc.Contact(mid, "bottom", bot, "top", gap=gaps[1], condition=conditions[1])]
+    return (top, mid, bot), pairs, gaps
+
+
+def _trace_rows(body, part, nodes, xs):
+    """(len(xs), 2 n): the x2 displacement of ``body`` at abscissae xs of its horizontal ``part``, from its
+    P2 edges (start, end, mid) found here by coordinates."""
+    e = nodes.boundary(part)
+    pts = nodes.points
+    G = np.zeros((len(xs), 2 * len(pts)))
+    for i, x in enumerate(xs):
+        xa, xb = pts[e[:, 0], 0], pts[e[:, 1], 0]
+        j = np.flatnonzero((np.minimum(xa, xb) <= x + 1e-12) & (x <= np.maximum(xa, xb) + 1e-12))[0]
+        t = (x - xa[j]) / (xb[j] - xa[j])
+        for node, w in zip(e[j], ((1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t))):
+            G[i, 2 * node + 1] += w
+    return G
+
+
+def _part_x(nodes, part):
+    return np.unique(np.round(nodes.points[np.unique(nodes.boundary(part)), 0], 12))
+
+
+def test_stack_of_three_blocks_against_a_dense_active_set_solve():
+    """Two pairs, nodal conditions (sigma1: the top body's P2 nodes; sigma2: the bottom body's), non-matching
+    meshes (4 : 3 : 5 edges): the stacked P2 solve equals the dense primal-dual active-set solution of (26)
+    with rows built from each body's own quadratic edges, for both backends; each pair has open and closed
+    rows; sol.contacts[i] is pair i's line."""
+    bodies, pairs, gaps = three_blocks()
+    scene = cc.Scene(*bodies, contacts=pairs)
+    nodes = [P2Nodes(b.mesh) for b in bodies]
+    systems = [p2.assemble(b, n) for b, n in zip(bodies, nodes)]
+    off = np.concatenate([[0], np.cumsum([len(s.u_free) for s in systems])])
+    K, f = np.zeros((off[-1], off[-1])), np.zeros(off[-1])
+    for s, a, b in zip(systems, off[:-1], off[1:]):
+        K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
+        f[a:b] = s.f[s.u_free]
+    rows, gs, xs_all = [], [], []
+    # [u_nu] = u^upper . (0, -1) + u^lower . (0, 1) at the constrained body's own P2 trace nodes
+    for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"), (1, "bottom", 2, "top", 2, "top")),
+                                            gaps):
+        xs = _part_x(nodes[kc], pc)
+        G = np.zeros((len(xs), off[-1]))
+        G[:, off[ka]:off[ka + 1]] -= _trace_rows(bodies[ka], pa, nodes[ka], xs)[:, systems[ka].u_free]
+        G[:, off[kb]:off[kb + 1]] += _trace_rows(bodies[kb], pb, nodes[kb], xs)[:, systems[kb].u_free]
+        rows.append(G)
+        gs.append(gap(xs))
+        xs_all.append(xs)
+    G, g = np.vstack(rows), np.concatenate(gs)
+    u, y = active_set_solve(K, f, G, g)
+    split = np.cumsum([len(x) for x in xs_all])[:-1]
+    for yi in np.split(y, split):
+        assert (yi > 1e-9 * y.max()).any() and (yi < 1e-12 * y.max()).any()      # each pair: open and closed rows
+    for method in ("full", "condensed"):
+        sol = cc.solve(scene, "gamma3", degree=2, method=method)
+        assert sol.ok and sol.polished and len(sol.contacts) == 2, sol.report()
+        for k, (s, a, b) in enumerate(zip(systems, off[:-1], off[1:])):
+            assert rel(sol.u[k].ravel()[s.u_free], u[a:b]) < 1e-12           # measured 8e-15
+        for i, (c, xs) in enumerate(zip(sol.contacts, xs_all)):
+            assert c.degree == 2 and np.allclose(c.gap, gaps[i](c.x), rtol=0, atol=1e-15)
+            # the row forces of the reference, as nodal forces on X_h: their sum, and lambda_h's integral
+            yi = np.split(y, split)[i]
+            assert abs(c.force.sum() - yi.sum()) < 1e-9 * y.sum()
+            assert abs(np.sum(c.lam * _simpson(c.x)) - yi.sum()) < 1e-9 * y.sum()
+            for k in (0, 1):                                              # each pair's own traces
+                x, p = sol.traction(k, pair=i)
+                assert len(x) == 2 * len(bodies[i + k].mesh.boundary(pairs[i].part_a if k == 0 else pairs[i].part_b)) + 1
+                assert abs(np.sum(p * _simpson(x)) - yi.sum()) < 1e-9 * y.sum()   # the force it receives
+
+
+@pytest.mark.parametrize("conditions, law", [(("sigma1", "sigma2"), None), (("gamma3", "gamma3"), None),
+                                             (("gamma3", "sigma1"), cc.NormalCompliance(stiffness=1e11, exponent=1))])
+def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions, law):
+    """Two pairs that share no body (the top block on the middle one; a third block on a rigid plane): the
+    stacked solve equals the two single-pair solves body by body and pair by pair, for both backends; each
+    pair keeps its own condition (given on the contacts, the ``condition`` argument of solve differs) and,
+    with ``law``, the first pair its own normal-compliance law (nodal rows at every P2 node of X_h under
+    gamma3, docs/formulation.md §10) next to a Signorini pair."""
+    (top, mid, bot), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0], law=law),
+             cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2 - 2e-5, condition=conditions[1])]
+    scene = cc.Scene(top, mid, low, contacts=pairs)
+    singles = [cc.Scene(top, mid, contacts=[pairs[0]]), cc.Scene(low, contacts=[pairs[1]])]
+    conic = conditions[0] == "gamma3" and law is None
+    tol, bound = (1e-5, 1e-6) if conic else (1e-6, 1e-9)
+    lam_bound = 5e-5 if conic else 1e-9      # conic: lambda_h from the cone duals of two separate IPM runs (6.7e-6)
+    refs = [cc.solve(sc, "sigma2", degree=2, method="full", tol=tol) for sc in singles]
+    assert all(r.ok for r in refs)
+    for method in ("full", "condensed"):
+        sol = cc.solve(scene, "sigma2", degree=2, method=method, tol=tol)
+        assert sol.ok and sol.polished != conic and len(sol.contacts) == 2, sol.report()
+        for u, r in zip(sol.u, [refs[0].u[0], refs[0].u[1], refs[1].u[0]]):
+            assert rel(u, r) < bound
+        for c, r in zip(sol.contacts, refs):
+            assert np.array_equal(c.x, r.contact.x) and rel(c.lam, r.contact.lam) < lam_bound
+            assert getattr(c.law, "compliant", False) == getattr(r.contact.law, "compliant", False)
+            assert c.active.any() and not c.active.all()
+        assert rel(sol.obstacles[0].force, refs[1].obstacles[0].force) < lam_bound
+
+
+def test_p2_stack_refusals_are_typed():
+    """What the P2 stack does not take yet: the conic condition on some pairs next to a normal-compliance
+    law on others (UnsupportedError naming the conic pairs); a bad per-pair condition is still a SceneError."""
+    bodies, pairs, gaps = three_blocks(conditions=("gamma3", "sigma2"))
+    pairs[1] = cc.Contact(bodies[1], "bottom", bodies[2], "top", gap=gaps[1], condition="sigma2",
+                          law=cc.NormalCompliance(stiffness=1e11))
+    scene = cc.Scene(*bodies, contacts=pairs)
+    with pytest.raises(cc.UnsupportedError, match=r"conic 'gamma3' condition on some pairs \(contacts \[0\]\)"):
+        cc.ContactSolver(scene, "gamma3", degree=2)
+    assert cc.solve(scene, "gamma3").ok                                # P1 takes it (both conditions nodal)
+    bodies, pairs, _ = three_blocks(conditions=(None, "sigma2"))
+    with pytest.raises(cc.SceneError, match="condition must be one of"):
+        cc.ContactSolver(cc.Scene(*bodies, contacts=pairs), "sigma3", degree=2)
+
+
+def test_cone_rows_of_a_nodal_pair_are_its_rows_three_times():
+    """QuadraticStack.cone_rows: a gamma3 pair gets its Bernstein rows, a nodal pair each evaluation row as
+    the Bernstein coefficients (e q, e q, e q) of a constant (the cone then holds e q <= 0 exactly), its
+    'segment' the nodes that row reads; checked on random nodal values against the evaluation and the
+    Bernstein form computed here (b1 = 2 q(1/2) - (q(0) + q(1)) / 2)."""
+    from cvxcontact.contact.quadratic import quadratic_stack
+
+    bodies, pairs, _ = three_blocks(conditions=("gamma3", "sigma2"))
+    scene = cc.Scene(*bodies, contacts=pairs)
+    stack = quadratic_stack(scene, [P2Nodes(b.mesh) for b in bodies])
+    B, seg = stack.cone_rows("gamma3", scene.conditions)
+    q = np.random.default_rng(0).normal(size=stack.size)
+    b = (B @ q).reshape(-1, 3)
+    first, second = stack.interfaces
+    S = len(first.segments)
+    q0 = q[:first.size]
+    assert np.allclose(b[:S], np.column_stack([q0[0:-1:2], 2 * q0[1::2] - (q0[0:-1:2] + q0[2::2]) / 2, q0[2::2]]),
+                       rtol=0, atol=1e-14)
+    Eq = second.evaluation("sigma2") @ q[first.size:]
+    assert len(b) - S == len(Eq) and np.allclose(b[S:], Eq[:, None], rtol=0, atol=1e-14)
+    assert (seg[S:] >= first.size).all() and (seg[:S] < first.size).all()
+
+
+def test_conic_and_nodal_pairs_in_one_scene():
+    """gamma3 on the first pair and sigma1 on the second: (1) pairs that share no body equal their single-
+    pair solves (the conic one by the interior point, the nodal one with its exact finish) to 1e-6; (2) on
+    the coupled stack of three blocks ("gamma3", "sigma2") the first pair holds everywhere (4001 samples
+    along each body's own P2 edges) and the second at the bottom body's P2 trace nodes, with open and
+    closed parts; both backends agree to 1e-6."""
+    (top, mid, bot), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition="gamma3"),
+             cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2 - 2e-5, condition="sigma1")]
+    refs = [cc.solve(cc.Scene(top, mid, contacts=[pairs[0]]), degree=2, method="full", tol=1e-5),
+            cc.solve(cc.Scene(low, contacts=[pairs[1]]), degree=2)]
+    assert refs[1].polished
+    for method in ("full", "condensed"):
+        sol = cc.solve(cc.Scene(top, mid, low, contacts=pairs), degree=2, method=method, tol=1e-5)
+        assert sol.ok, sol.report()
+        for u, r in zip(sol.u, [refs[0].u[0], refs[0].u[1], refs[1].u[0]]):
+            assert rel(u, r) < 1e-6
+        for c, r in zip(sol.contacts, refs):
+            assert rel(c.lam, r.contact.lam) < 5e-5 and np.array_equal(c.constrained, r.contact.constrained)
+    bodies, pairs, gaps = three_blocks(conditions=("gamma3", "sigma2"))
+    scene = cc.Scene(*bodies, contacts=pairs)
+    sols = [cc.solve(scene, degree=2, method=m, tol=1e-5) for m in ("full", "condensed")]
+    for sol in sols:
+        assert sol.ok, sol.report()
+        xs = np.linspace(0.0, 1.0, 4001)
+        q = _edge_values(sol, 1, "top", xs) - _edge_values(sol, 0, "bottom", xs) - gaps[0](xs)
+        assert q.max() < 1e-9 * np.abs(gaps[0](xs)).max() and q.min() < -1e-6
+        c = sol.contacts[1]                                            # nodal rows at the bottom body's trace nodes
+        xb = _part_x(P2Nodes(bodies[2].mesh), "top")
+        assert c.constrained.sum() >= len(xb) and c.active.any() and not c.active.all()
+        qb = _edge_values(sol, 2, "top", xb) - _edge_values(sol, 1, "bottom", xb) - gaps[1](xb)
+        assert qb.max() < 1e-9 * np.abs(gaps[1](xb)).max()
+    for a, b in zip(*(s.u for s in sols)):
+        assert rel(a, b) < 1e-6
+
+
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
+def test_force_controlled_plane_with_p2_closed_form(condition):
+    """A nu = 0 block clamped at its top, pushed up by a rigid plane under the prescribed force F (N/m)
+    over its width 1 m, starting 1 mm below it: uniform pressure p = F, u = (0, p (H - y) / E) exactly (P2
+    holds it), the plane's translation 1 mm + p H / E, lambda_h = p at every node of X_h and the
+    obstacle balance at rounding; both conditions (the conic one through the full model's cone)."""
+    H, force = 0.5, 2e6
+    mat = cc.materials.isotropic(E=YOUNG, nu=0.0)
+    body = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=5, ny=3), mat, clamped=["top"], contact="bottom")
+    plane = cc.Rigid.plane(point=(0.0, -1e-3), normal=(0.0, 1.0), force=(0.0, force))
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane)]), condition, degree=2, tol=1e-5)
+    assert sol.ok and sol.method == "full", sol.report()
+    want = np.column_stack([np.zeros(len(sol.points[0])), force / YOUNG * (H - sol.points[0][:, 1])])
+    assert np.abs(sol.u[0] - want).max() < 1e-9 * force * H / YOUNG
+    ob = sol.obstacles[0]
+    assert np.abs(ob.translation - [0.0, 1e-3 + force * H / YOUNG]).max() < 1e-12
+    assert np.abs(sol.contact.lam / force - 1).max() < 1e-9
+    assert sol.residuals()["obstacle balance"] < 1e-12 and rel(ob.force, np.array([0.0, force])) < 1e-12
+
+
+def test_p2_stack_outputs_per_pair(tmp_path):
+    """VTU/JSON output and figures of a P2 solution with a two-body pair and a rigid pair: one contact line
+    per pair with that pair's P2 nodes (line3 cells), the bodies of each pair, the obstacle's force."""
+    import json
+
+    import matplotlib
+    matplotlib.use("Agg")
+    from cvxcontact.io.output import pair_bodies, write_all
+    from cvxcontact.io.plot import plot_contact, plot_deformed
+
+    (top, mid, _), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    scene = cc.Scene(top, mid, low, contacts=[cc.Contact(top, "bottom", mid, "top", gap=gaps[0]),
+                                              cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2)])
+    sol = cc.solve(scene, "sigma1", degree=2)
+    assert sol.ok and [pair_bodies(sol, i) for i in (0, 1)] == [[0, 1], [2]]
+    paths = write_all(sol, tmp_path)
+    data = json.loads((tmp_path / "solution.json").read_text())
+    assert len(data["contacts"]) == 2 and data["degree"] == 2
+    assert rel(np.array(data["obstacles"][0]["contact_force_N_per_m"]), sol.obstacles[0].force) < 1e-12
+    assert [c["bodies"] for c in data["contacts"]] == [["top", "mid"], ["low"]]
+    for c, res in zip(data["contacts"], sol.contacts):       # the total force: the sum of the nodal forces
+        assert c["merged_nodes"] == len(res.x) and abs(c["total_force_N_per_m"] - res.force.sum()) < 1e-9 * abs(res.force).sum()
+    import meshio
+    lines = [meshio.read(tmp_path / n) for n in ("solution_contact.vtu", "solution_contact2.vtu")]
+    assert [len(m.points) for m in lines] == [len(c.x) for c in sol.contacts]
+    assert all(m.cells[0].type == "line3" for m in lines)
+    traces = {n: meshio.read(tmp_path / f"{n}.vtu") for n in ("solution_contact_body1", "solution_contact_body2",
+                                                              "solution_contact2_body3")}
+    assert {p.name for p in paths} >= {f"{n}.vtu" for n in traces}
+    assert len(traces["solution_contact2_body3"].points) == 2 * 3 + 1      # low's 3 bottom edges, P2
+    plot_contact(sol)
+    plot_deformed(sol)
+
+
+def test_p2_stack_contact_solver_resolves_a_new_load_case():
+    """ContactSolver with a P2 stack: a second load case (other gaps, a stronger body force) re-solved by the
+    prepared solver (warm start from the previous active set) equals a fresh solve of that scene."""
+    def scene(shift, force):
+        (top, mid, bot), pairs, gaps = three_blocks()
+        top = cc.Body(top.mesh, MAT, clamped=["top"], contact="bottom", body_force=(0.0, force), name="top")
+        return cc.Scene(top, mid, bot, contacts=[
+            cc.Contact(top, "bottom", mid, "top", gap=lambda s: gaps[0](s) + shift, condition="sigma1"),
+            cc.Contact(mid, "bottom", bot, "top", gap=gaps[1], condition="sigma2")])
+    solver = cc.ContactSolver(scene(0.0, -2e7), degree=2)
+    first = solver.solve()
+    assert first.ok and first.polished
+    again = solver.solve(scene(-1e-5, -3e7))
+    fresh = cc.solve(scene(-1e-5, -3e7), degree=2)
+    assert again.ok and again.polished and fresh.ok
+    assert rel(again.u[0], first.u[0]) > 1e-3                           # a different answer ...
+    for a, b in zip(again.u, fresh.u):
+        assert rel(a, b) < 1e-9                                          # ... equal to the fresh solve
+    for a, b in zip(again.contacts, fresh.contacts):
+        assert rel(a.lam, b.lam) < 1e-9
+
+
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
+def test_model_with_p2_against_a_rigid_obstacle_is_the_full_solve(condition):
+    """cc.Model(degree=2) takes one pair against a rigid obstacle (its one pair, as before): the same program
+    as solve(..., method="full"), so the same answer (to the interior point's rounding for the cone)."""
+    _, body = upper()
+    plane = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane, gap=GAP)])
+    ref = cc.solve(scene, condition, degree=2, method="full", tol=1e-5)
+    sol = cc.Model(scene, condition, degree=2, tol=1e-5).solve()
+    assert sol.ok and ref.ok, sol.report()
+    assert rel(sol.u[0], ref.u[0]) < (1e-9 if condition == "sigma1" else 1e-6)
+    assert np.array_equal(sol.contact.x, ref.contact.x) and rel(sol.contact.lam, ref.contact.lam) < 1e-5

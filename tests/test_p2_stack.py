@@ -404,3 +404,30 @@ def test_model_with_p2_against_a_rigid_obstacle_is_the_full_solve(condition):
     assert sol.ok and ref.ok, sol.report()
     assert rel(sol.u[0], ref.u[0]) < (1e-9 if condition == "sigma1" else 1e-6)
     assert np.array_equal(sol.contact.x, ref.contact.x) and rel(sol.contact.lam, ref.contact.lam) < 1e-5
+
+
+def _punch_on_base_on_floor(gap=0.0):
+    """The README's P2 scene: a punch pressed onto a base whose clamped corner sits on a rigid floor."""
+    steel = cc.materials.isotropic(E=200e9, nu=0.3)
+    punch = cc.Body(cc.rectangle(x=(0.3, 0.7), y=(0.0, 0.2), nx=4, ny=2), steel, clamped="top", contact="bottom",
+                    body_force=(0.0, -1e9))
+    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), steel, clamped="left", contact="top")
+    floor = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    return cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top"),
+                                           cc.Contact(base, "bottom", floor, gap=gap)])
+
+
+def test_conic_checks_at_a_clamped_corner_on_the_floor():
+    """With g = 0 the base's clamped corner node is held at u.nu = g with nothing moving there: its displacement
+    scale is the local displacement of its own contact force (docs/checks.md), without which the cone's
+    complementarity read 1.2e-4 on both backends while their energies agreed to 1e-14 (rounding of q divided
+    by a scale of 0). Now 4.6e-8; and the check still sees an interior point stopped early."""
+    scene = _punch_on_base_on_floor()
+    full, cond = (cc.solve(scene, "gamma3", degree=2, method=m) for m in ("full", "condensed"))
+    assert full.ok and cond.ok
+    assert abs(full.energy - cond.energy) <= 1e-10 * abs(full.energy)          # two programs, one minimum
+    assert rel(full.u[1], cond.u[1]) < 1e-6
+    with pytest.warns(cc.ResidualWarning):
+        loose = cc.solve(scene, "gamma3", degree=2,
+                         solver_options=dict(tol_gap_abs=1e-6, tol_gap_rel=1e-6, tol_ktratio=1e-6))
+    assert not loose.ok and loose.residuals()["complementarity"] > 1e-4      # measured 1.9e-3

@@ -12,3 +12,19 @@ def test_quickstart_runs(capsys):
     exec(compile(code, str(README), "exec"), ns)  # our own documentation, not user input
     sol = ns["sol"]
     assert sol.ok and sol.u[0].shape == (17 * 9, 2) and "equilibrium" in capsys.readouterr().out
+
+
+def test_p2_pairs_example_runs():
+    """The P2 example of several pairs (a punch, a base, a rigid floor) runs as written and passes its checks
+    (test_readme ran only the first block, the quickstart)."""
+    import numpy as np
+
+    import cvxcontact as cc
+
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+    code = next(b for b in blocks if "cc.Rigid.plane" in b and "degree=2" in b)
+    ns = {"cc": cc}
+    exec(compile(code, str(README), "exec"), ns)  # our own documentation, not user input
+    sol = ns["sol"]
+    assert sol.ok and sol.degree == 2 and len(sol.contacts) == 2
+    assert np.all(np.isfinite(sol.contacts[1].lam)) and sol.obstacles[0].force is not None

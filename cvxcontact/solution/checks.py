@@ -15,6 +15,7 @@ its own contact force, :func:`force_displacements`) and Y the largest contact fo
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact.quadratic import bernstein_max
 
@@ -154,7 +155,10 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
         m = np.concatenate(blk.magnitude(uk, pk, r))
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
     parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
-    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    # plus the displacement each node's own contact force |r_a| produces (as for the nodal conditions,
+    # docs/checks.md): a node held at [u_nu] = g where nothing else moves (a clamped corner on a rigid floor
+    # with g = 0) has no other scale, and its q is rounding of the bodies' displacements
+    U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
     U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
     b = (B @ (sum(parts) - g)).reshape(-1, 3)
     Us = _segment_scales(B, U)

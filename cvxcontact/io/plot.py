@@ -244,7 +244,7 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
                                 rf"normal jump $[u_\nu]$ [{ju}]")):
         for ax in axes[row]:
             ax.set_ylabel(text)
-    handles, labels = {}, []
+    handles = {}
     for ax in axes.ravel():
         for h, lab in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lab, h)

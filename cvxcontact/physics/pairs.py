@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from ..contact.interface import CONDITIONS, canonical_tangent
 from ..contact.laws import ContactLaw, check_law
-from ..errors import SceneError, UnsupportedError
+from ..errors import SceneError
 
 __all__ = ["Contact", "Rigid", "ObstacleRows", "obstacle_rows"]
 

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
-from .backends.conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
+from .backends.conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals, least_held_duals
 from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
 from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
                               solve_linear_compliance)
@@ -291,6 +291,7 @@ class ContactSolver:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+            y = self._held_forces(y, blocks, gap)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
@@ -649,6 +650,26 @@ class ContactSolver:
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, r, None, False, model.problem
 
+    def _held_forces(self, y, blocks, gap):
+        """The contact forces with those of held rows (:func:`_held`: no unknown moves them, and the checks
+        of ``_check_reachable`` leave them a gap >= 0) set to their least admissible value. Such a force acts
+        on no unknown, so (26)-(27) do not determine it and the supports carry it: an interior point returns
+        an arbitrary, typically huge one (measured: a clamped corner on a rigid floor with g = 0 got 8e8 N/m
+        under a 1.4e7 N/m load, and inflated the checks' force scale 4e4 times). Nodal rows: y_a = 0. Conic
+        rows: a Bernstein row b_j whose nodes are all held and whose value B g is 0 gets the least beta_j the
+        dual cone allows (beta0 = beta1^2 / (4 beta2), both ends held: beta0 = beta2 = beta1 / 2, the
+        midpoint row held: the whole segment 0). Equilibrium and complementarity are unchanged (the row
+        moves no unknown; its value is 0); ``self._beta`` is updated. docs/formulation.md §8, docs/checks.md."""
+        held = _held(self.E, blocks, self._translations)
+        if not held.any():
+            return y
+        if self._beta is None:
+            return np.where(held, 0.0, y)
+        B = self._cone[0].tocsr()
+        rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ gap) <= 1e-12 * max(np.abs(gap).max(), 1e-300))
+        self._beta = least_held_duals(self._beta, rows.reshape(-1, 3))
+        return self._contact_force()
+
     def _contact_force(self):
         """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
         return self._cone[0].T @ self._beta.ravel()
@@ -774,14 +795,20 @@ def _sparse_finish(kkt, g, active, timings, max_iter=30):
     return out
 
 
+def _held(E, blocks, translations) -> np.ndarray:
+    """Rows of ``E`` that no unknown moves: nodes the supports hold (clamped, or a prescribed displacement)
+    on both sides of the contact, or against a fixed obstacle. Their slack is the constant -g."""
+    reach = sum((abs(E @ b.jump) @ np.ones(b.jump.shape[1]) for b in blocks), np.zeros(E.shape[0]))
+    for R, _ in translations:                                       # a force-controlled obstacle can move
+        reach = reach + abs(R) @ np.ones(R.shape[1])
+    return reach == 0
+
+
 def _check_reachable(scene, interface, E, blocks, g, translations, un):
     """Refuse, before any solve, a contact row that no unknown can move but whose gap is negative: a node
     the supports hold (clamped, or a prescribed displacement) that an obstacle or a partner already
     penetrates. The program would only be 'infeasible'; this names the pair and the point instead."""
-    reach = sum((abs(E @ b.jump) @ np.ones(b.jump.shape[1]) for b in blocks), np.zeros(E.shape[0]))
-    for R, _ in translations:                                       # a force-controlled obstacle can move
-        reach = reach + abs(R) @ np.ones(R.shape[1])
-    bad = np.flatnonzero((reach == 0) & (g < 0))
+    bad = np.flatnonzero(_held(E, blocks, translations) & (g < 0))
     if not len(bad):
         return
     a = int(bad[0])

@@ -418,16 +418,39 @@ def _punch_on_base_on_floor(gap=0.0):
 
 
 def test_conic_checks_at_a_clamped_corner_on_the_floor():
-    """With g = 0 the base's clamped corner node is held at u.nu = g with nothing moving there: its displacement
-    scale is the local displacement of its own contact force (docs/checks.md), without which the cone's
-    complementarity read 1.2e-4 on both backends while their energies agreed to 1e-14 (rounding of q divided
-    by a scale of 0). Now 4.6e-8; and the check still sees an interior point stopped early."""
+    """With g = 0 the base's clamped corner node is held at u.nu = g by its supports: its force acts on no
+    unknown, (26)-(27) do not determine it, and the interior point returned 8e8 N/m there (under a 1.4e7 N/m
+    punch load), which inflated lambda_h and the checks' force scale (ok read True). It is now set to the least
+    admissible value; the nodal condition's exact finish (declined as singular before) takes it too. Checked:
+    the floor's reaction of the conic and the nodal conditions agree (different conditions: 0.4 %), neither
+    exceeds the punch's force, the held node carries no nodal force under sigma1, full == condensed; the conic
+    answer reports its interior-point complementarity honestly (1.2e-6, tol 1e-5 here), and a solve stopped
+    early is still seen."""
     scene = _punch_on_base_on_floor()
-    full, cond = (cc.solve(scene, "gamma3", degree=2, method=m) for m in ("full", "condensed"))
-    assert full.ok and cond.ok
+    full, cond = (cc.solve(scene, "gamma3", degree=2, method=m, tol=1e-5) for m in ("full", "condensed"))
+    nodal = cc.solve(scene, "sigma1", degree=2)
+    assert full.ok and cond.ok and nodal.ok and nodal.polished
     assert abs(full.energy - cond.energy) <= 1e-10 * abs(full.energy)          # two programs, one minimum
     assert rel(full.u[1], cond.u[1]) < 1e-6
+    punch = nodal.contacts[0].force.sum()
+    floor = [s.obstacles[0].force[1] for s in (full, cond, nodal)]
+    assert all(0 < f < punch for f in floor)
+    assert abs(floor[0] - floor[2]) < 1e-2 * floor[2] and abs(floor[0] - floor[1]) < 1e-6 * floor[0]
+    corner = int(np.argmin(np.hypot(*(nodal.contacts[1].points - [0.0, -0.5]).T)))
+    assert nodal.contacts[1].force[corner] == 0.0
+    assert np.abs(full.contacts[1].lam).max() < 10 * np.abs(nodal.contacts[1].lam).max()   # was 1e5 times
     with pytest.warns(cc.ResidualWarning):
-        loose = cc.solve(scene, "gamma3", degree=2,
+        loose = cc.solve(scene, "gamma3", degree=2, tol=1e-5,
                          solver_options=dict(tol_gap_abs=1e-6, tol_gap_rel=1e-6, tol_ktratio=1e-6))
-    assert not loose.ok and loose.residuals()["complementarity"] > 1e-4      # measured 1.9e-3
+    assert not loose.ok and loose.residuals()["complementarity"] > 1e-4
+
+
+def test_held_corner_row_p1_backends_agree():
+    """P1, the same scene: the corner row no unknown moves was kept by the nodal finish of the full backend
+    (singular, declined: floor force 1.9e8 N/m, ok False) while the condensed one returned another
+    admissible force there (1.30e7 against 1.19e7): the held row now carries y = 0 in every backend, which
+    then agree (sigma2) to rounding."""
+    scene = _punch_on_base_on_floor()
+    full, cond = (cc.solve(scene, "sigma2", method=m) for m in ("full", "condensed"))
+    assert full.ok and cond.ok and full.polished and cond.polished
+    assert abs(full.obstacles[0].force[1] - cond.obstacles[0].force[1]) < 1e-9 * abs(cond.obstacles[0].force[1])

@@ -21,7 +21,7 @@ from __future__ import annotations
 import cvxpy as cp
 import numpy as np
 
-__all__ = ["bernstein_constraints", "bernstein_duals", "ConicInterfaceModel"]
+__all__ = ["bernstein_constraints", "bernstein_duals", "least_held_duals", "ConicInterfaceModel"]
 
 
 def bernstein_constraints(jump, B, g):
@@ -42,6 +42,30 @@ def bernstein_duals(cone, row) -> np.ndarray:
     Z = np.asarray(cone.dual_value[1], dtype=float).reshape(2, -1)
     mu = np.asarray(row.dual_value, dtype=float).ravel()
     return np.column_stack([z0 + Z[1], mu, z0 - Z[1]])
+
+
+def least_held_duals(beta, held) -> np.ndarray:
+    """beta (S, 3) with the entries of the ``held`` Bernstein rows (S, 3 bool: rows no unknown moves, value 0)
+    lowered to the least the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1^2 <= 4 beta0 beta2 allows, the
+    other entries fixed: such an entry multiplies a constant 0, so (26)-(27) do not determine it. Row 0 (or 2)
+    alone: beta0 = beta1^2 / (4 beta2); rows 0 and 2: beta0 = beta2 = beta1 / 2; row 1 held means every node
+    of the segment is (b1 involves all three): beta_s = 0. An entry is never raised."""
+    beta = np.array(beta, dtype=float)
+    held = np.asarray(held, dtype=bool)
+    b0, b1, b2 = beta[:, 0].copy(), beta[:, 1], beta[:, 2].copy()
+    tiny = np.finfo(float).tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        low0 = np.where(b1 > 0, b1 ** 2 / (4 * np.maximum(b2, tiny)), 0.0)
+        low2 = np.where(b1 > 0, b1 ** 2 / (4 * np.maximum(b0, tiny)), 0.0)
+    only0, only2, both = held[:, 0] & ~held[:, 2], held[:, 2] & ~held[:, 0], held[:, 0] & held[:, 2]
+    b0 = np.where(only0, np.minimum(b0, low0), b0)
+    b2 = np.where(only2, np.minimum(b2, low2), b2)
+    half = np.maximum(b1, 0.0) / 2
+    b0 = np.where(both, np.minimum(beta[:, 0], half), b0)
+    b2 = np.where(both, np.minimum(beta[:, 2], half), b2)
+    out = np.column_stack([b0, b1, b2])
+    out[held[:, 1]] = 0.0
+    return out
 
 
 class ConicInterfaceModel:

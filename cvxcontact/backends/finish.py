@@ -136,6 +136,18 @@ def solve_lcp(W, d, active=None, max_iter=30):
     d = np.asarray(d, dtype=float)
     if len(d) == 0:
         return np.zeros(0), np.zeros(0, dtype=bool), "active set"
+    held = np.diag(W) <= 0.0           # rows no unknown moves (W PSD: a zero diagonal is a zero row): y_a = 0
+    if held.any():                     # if their constant slack d_a holds; (26) does not determine their force
+        if (d[held] > 0).any():
+            return None
+        keep = ~held
+        out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
+                        max_iter)
+        if out is None:
+            return None
+        y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
+        y[keep], act[keep] = out[0], out[1]
+        return y, act, out[2]
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])

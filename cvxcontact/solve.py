@@ -341,8 +341,9 @@ class ContactSolver:
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=3)
         elif not sol.ok:
-            hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops at a "
-                    "complementarity of about 1e-6 (docs/formulation.md §8). Pass tol=1e-5 to accept that, or use "
+            hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops where it "
+                    "stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or stacks; "
+                    "docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, or use "
                     "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if self.conic else "")
             warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=3)

@@ -454,3 +454,21 @@ def test_held_corner_row_p1_backends_agree():
     full, cond = (cc.solve(scene, "sigma2", method=m) for m in ("full", "condensed"))
     assert full.ok and cond.ok and full.polished and cond.polished
     assert abs(full.obstacles[0].force[1] - cond.obstacles[0].force[1]) < 1e-9 * abs(cond.obstacles[0].force[1])
+
+
+def test_p2_obstacle_hole_at_a_midpoint_is_a_scene_error():
+    """A profile with no obstacle (+inf) only around a P2 edge midpoint: P1 (vertices only) solves; P2 needs
+    the gap at the midpoint too and names the point with a SceneError (it ended in a solver NaN error)."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.33)
+
+    def hole(s):
+        d = np.zeros_like(s)
+        d[np.abs(s - 0.375) < 0.01] = np.inf
+        return d
+
+    b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.3), nx=4, ny=2), mat, contact="bottom", body_force=(0, -1e8),
+                clamped=["top"])
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.profile(hole))])
+    assert cc.solve(scene, "sigma1").ok
+    with pytest.raises(cc.SceneError, match=r"\(0.375, 0\) m"):
+        cc.solve(scene, "sigma1", degree=2)

@@ -663,6 +663,13 @@ class Scene:
             if itf.rigid:
                 points = itf.points[0] + np.outer(s - itf.x[0], itf.tangent)
                 g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
+                bad = np.flatnonzero(~np.isfinite(g))
+                if len(bad):
+                    x, y = points[bad[0]]
+                    raise SceneError(f"contact pair {i}: the rigid obstacle is not under the point ({x:.6g}, {y:.6g}) m "
+                                     f"of the contact line (distance {g[bad[0]]}), which lies between nodes that reach "
+                                     "it (e.g. a P2 edge midpoint over a hole of the profile): the gap there is "
+                                     "needed; refine the mesh there, or give the profile a finite value")
             return g
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g

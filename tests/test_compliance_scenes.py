@@ -86,14 +86,19 @@ def indenter(center_y, law, **kw):
                                                 law=law)])
 
 
-@pytest.mark.parametrize("m", [1.0, 1.5])
-def test_force_controlled_indenter_through_compliance_equals_the_fixed_one(m):
+@pytest.mark.parametrize("m,limit", [(1.0, None), (1.5, None), (1.0, 1e-4)])
+def test_force_controlled_indenter_through_compliance_equals_the_fixed_one(m, limit):
     """An off-centre circle pressed 3 mm through a law: the fixed indenter (condensed backend, interface
     finish) gives the force F; the force-controlled indenter under F (full model, sparse finish) must come
-    to the same place: translation (0, -3 mm), same u and lambda, partial contact."""
+    to the same place: translation (0, -3 mm), same u and lambda, partial contact. With a penetration
+    limit 1e-4 m (the largest penetration is 2.1e-4 m without it): a row held at the limit, a row below it."""
     R, depth = 0.6, 3e-3
-    law = cc.NormalCompliance(stiffness=1e13 if m == 1 else 1e13 * 3e-3 ** -0.5, exponent=m)
+    law = cc.NormalCompliance(stiffness=1e13 if m == 1 else 1e13 * 3e-3 ** -0.5, exponent=m,
+                              penetration_limit=limit)
     fixed = cc.solve(indenter(0.5 + R - depth, law))
+    if limit is not None:
+        c = fixed.contact
+        assert 1 <= int(np.sum(c.jump - c.gap > (1 - 1e-9) * limit)) < int(c.active.sum())
     F = fixed.obstacles[0].force
     assert fixed.ok and fixed.method == "condensed" and 2 <= int(fixed.contact.active.sum()) < len(fixed.contact.x)
     forced = cc.solve(indenter(0.5 + R, law, force=F))

@@ -161,3 +161,24 @@ def test_p2_conic_limit_with_a_held_body_or_force_control_is_refused_typed():
         with pytest.raises(cc.UnsupportedError, match="conic limit"):
             cc.ContactSolver(scene, degree=2)
         assert cc.solve(scene).ok                                         # P1 solves it
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_piezoelectric_layer_held_through_compliance_closed_form(degree):
+    """The held layer in PZT-5A, grounded at its bottom, an open-circuit floating electrode on top, on the
+    law p = k r: strain -p / (c33 + e33^2/eps33) in the layer, the potential linear, the layer shifted down
+    by r = p / k from the foundation's top -p H1 / M (the Gauss rows in the sparse finish)."""
+    pzt, k = cc.materials.PZT5A, 1e12
+    low = cc.rectangle(x=(0.0, 1.0), y=(-H1, 0.0), nx=4, ny=3)
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, H2), nx=3, ny=2)
+    layer = cc.Body(top, pzt, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -P)},
+                    grounded=["bottom"], floating={"top": 0.0}, name="layer")
+    base = cc.Body(low, ALU, clamped=["bottom"], roller=["left", "right"], contact="top", name="base")
+    sol = cc.solve(cc.Scene(layer, base, contacts=[cc.Contact(layer, "bottom", base, "top",
+                                                              law=cc.NormalCompliance(stiffness=k))]), degree=degree)
+    c33, e33, k33 = pzt.c[1, 1], pzt.e[1, 1], pzt.kappa[1, 1]
+    eps = -P / (c33 + e33 ** 2 / k33)
+    y = sol.points[0][:, 1]
+    assert sol.ok and sol.polished and sol.residuals()["equilibrium"] < 1e-12
+    assert np.abs(sol.u[0][:, 1] - (-P * H1 / M - P / k + eps * y)).max() <= 1e-11 * (P * H1 / M)
+    assert np.abs(sol.phi[0] - e33 * eps / k33 * y).max() <= 1e-10 * abs(e33 * eps / k33) * H2

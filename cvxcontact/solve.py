@@ -107,6 +107,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
         ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
         sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
+        With force-controlled obstacles or a body held by the contact only: the full model, finished by
+        Newton steps on the sparse mixed system with the law's rows (§10).
     degree : {1, 2}
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
@@ -609,7 +611,7 @@ class ContactSolver:
             if out is None:
                 self.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
             else:
-                x, y, z, _, self.iterations = out[0], out[1], out[2], out[3], self.iterations + out[4]
+                x, y, z = out[0], out[1], out[2]
                 polished, self.finish_route, pos = True, "semismooth Newton", 0
                 u, phi = [], []
                 for b, (S, _) in zip(blocks, parts):

@@ -20,9 +20,9 @@ import scipy.sparse as sp
 
 from .backends import DEFAULT_METHOD, METHODS, ProblemDescription, choose
 from .backends.conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals, least_held_duals
-from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite_rhs
+from .backends.condensed import Compliance, InterfaceModel, condense, quasi_definite, quasi_definite_rhs
 from .backends.finish import (lcp_start, row_scales, signs_hold, solve_compliance, solve_lcp,
-                              solve_linear_compliance)
+                              solve_linear_compliance, solve_sparse_compliance)
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
 from .contact.quadratic import QuadraticStack, quadratic_stack
@@ -107,6 +107,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
         ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
         sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
+        With force-controlled obstacles or a body held by the contact only: the full model, finished by
+        Newton steps on the sparse mixed system with the law's rows (§10).
     degree : {1, 2}
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
@@ -193,9 +195,6 @@ class ContactSolver:
         self.conic_limit = False                 # P2: a compliance limit under gamma3, the cone at g + l
         self.interface = scene.stack                                   # P1: every pair's rows, stacked
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
-        if self.forced and any(lw.compliant for lw in pair_laws(scene, self.law)):
-            raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
-                                   "not implemented; use the default non-penetration law or a fixed obstacle")
         if degree == 2:
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
             self.interface = quadratic_stack(scene, self.nodes)        # one QuadraticInterface, or a stack
@@ -247,6 +246,10 @@ class ContactSolver:
                      else RowLaws(pair_laws(scene, self.law),
                                   np.diff(self._p2.row_offsets(condition, scene.conditions))))
         self.compliant = self.rows.compliant
+        if self.conic_limit and (self.forced or held):
+            raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under 'gamma3' "
+                                   "(the conic limit) and a force-controlled obstacle or a body held by the contact "
+                                   "only are not supported yet; use a sigma condition, no limit, or degree=1")
         self._weights = None                                                      # m, the law's quadrature
         if self.compliant:                                                        # P2: Simpson weights (§10)
             self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1
@@ -295,14 +298,13 @@ class ContactSolver:
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
-        if self.compliant:
-            sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, gap, u, phi, y, z,
+        moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
+        if self.compliant:          # r = [u_nu] - g with the gap the force-controlled obstacles moved to
+            sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, z,
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
                                        given=self.law, interface=None if self.degree == 1 else self.interface,
                                        nodes=self.nodes, beta=self._beta)
         else:
-            moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
-
             def read(u, phi, y, active, polished):
                 return read_back(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, active,
                                  polished, problem, self.tol, timings,
@@ -494,6 +496,8 @@ class ContactSolver:
         y, limit reactions z or None if no row has a limit, polished, problem)."""
         if self.conic_limit:
             return self._conic_limit_solve(blocks, g, un, timings)
+        if self.held or self._translations:
+            return self._compliance_sparse(blocks, g, un, timings)
         law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
         problem, polished, z = None, False, None
@@ -563,6 +567,62 @@ class ContactSolver:
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, y, (z if law.limited.any() else None), polished, problem
+
+    def _compliance_sparse(self, blocks, g, un, timings):
+        """Normal compliance with a body held by the contact only or force-controlled obstacles (docs/
+        formulation.md §10-§12): no body can be condensed alone (a singular stiffness) or the obstacles'
+        translations tau couple every body they touch, so the full model (the energy with the compliance
+        term, the limit rows, the unknowns tau with the work -F . tau) is solved by the interior point and
+        finished exactly by Newton steps on the sparse mixed system with the law's rows
+        (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`). Sets ``self._taus`` (scaled).
+        Returns (u, phi, row forces y, limit reactions z or None, polished, problem)."""
+        law = self.rows.scaled(un.stress * un.load, un.displacement)
+        w = self._weights / un.length
+        tr = self._translations
+        t0 = time.perf_counter()
+        model = ContactModel(blocks, self.E, g, law=law, weights=w, translations=tr)
+        timings["model"] = time.perf_counter() - t0
+        self.iterations = _run(model.problem, self.solver, self.verbose, self.options)
+        timings["compile"] = model.problem.compilation_time or 0.0
+        timings["solve"] = model.problem.solver_stats.solve_time or 0.0
+        u = [np.asarray(v.value, dtype=float) for v in model.u]
+        phi = [np.asarray(v.value, dtype=float) if v is not None else None for v in model.phi]
+        self._taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
+        z = limit_reaction(model.contact, model.limit_rows, len(g))
+        r = (sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u))
+             + sum((R @ tau for (R, _), tau in zip(tr, self._taus)), np.zeros(len(g))) - g)
+        y = w * law.pressure(r) + z
+        polished = False
+        if self.polish:
+            t0 = time.perf_counter()
+            parts = [quasi_definite(b) for b in blocks]
+            widths = [R.shape[1] for R, _ in tr]
+            A = sp.block_diag([S for S, _ in parts] + [sp.csr_matrix((sum(widths), sum(widths)))] * bool(widths),
+                              format="csr")
+            F = np.concatenate([Fk for _, Fk in parts] + [np.asarray(Fo, dtype=float) for _, Fo in tr])
+            G = sp.hstack([sp.hstack([self.E @ b.jump, sp.csr_matrix((self.E.shape[0], S.shape[0] - b.Kuu.shape[0]))])
+                           for b, (S, _) in zip(blocks, parts)] + [sp.csr_matrix(R) for R, _ in tr]).tocsr()
+            x0 = np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)]
+                                + self._taus)
+            # the interior point's rows at their limit: reaction beats slack, each relative to its own scale
+            Y = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
+            U = max(float(np.abs(r + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)), np.finfo(float).tiny)
+            start = law.limited & (z / Y + (r - law.penetration_limit) / U > 0)
+            out = solve_sparse_compliance(A, F, G, g, w, law, x0, start)
+            timings["polish"] = time.perf_counter() - t0
+            if out is None:
+                self.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
+            else:
+                x, y, z = out[0], out[1], out[2]
+                polished, self.finish_route, pos = True, "semismooth Newton", 0
+                u, phi = [], []
+                for b, (S, _) in zip(blocks, parts):
+                    nu, npf = b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]
+                    u.append(x[pos:pos + nu])
+                    phi.append(x[pos + nu:pos + nu + npf] if npf else None)
+                    pos += nu + npf
+                self._taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
+        return u, phi, y, (z if law.limited.any() else None), polished, model.problem
 
     def _conic_limit_solve(self, blocks, g, un, timings):
         """P2, "gamma3", a compliance law with a penetration limit l (docs/formulation.md §10, "P2"): the
@@ -748,15 +808,12 @@ def _p2_obstacles(scene, stack):
 
 def _row_laws(scene, condition, law, held=False) -> RowLaws:
     """Each pair's law (its own ``Contact.law`` or ``law``) on its rows of the stacked evaluation
-    (:class:`~cvxcontact.contact.laws.RowLaws`). A compliance law with a body held by the contact only
-    is refused: its stiffness is singular and the compliance finish condenses every body."""
+    (:class:`~cvxcontact.contact.laws.RowLaws`). With a body held by the contact only (``held``) the
+    compliance is solved on the full model and finished on the sparse mixed system
+    (:meth:`ContactSolver._compliance_sparse`), since that body cannot be condensed alone."""
     laws = pair_laws(scene, law)
     offsets = scene.stack.row_offsets(condition, scene.conditions)
     rows = RowLaws(laws, np.diff(offsets))
-    if rows.compliant and held:
-        names = [b.name for b in scene.bodies if getattr(b, "held_by_contact", None)]
-        raise UnsupportedError(f"a normal-compliance law with a body held by the contact only ({', '.join(names)}) "
-                               "is not supported in this version: support the body, or use Signorini on every pair")
     if rows.compliant:
         w = scene.stack.weights(condition, scene.conditions)
         for i, (a, b) in enumerate(zip(offsets[:-1], offsets[1:])):

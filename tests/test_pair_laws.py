@@ -274,16 +274,19 @@ def test_bad_pair_law_is_a_scene_error(law):
         stack(law_top=law)
 
 
-def test_compliance_with_a_body_held_by_contact_only_is_refused_typed():
-    """A body that only the contact holds has a singular stiffness; the compliance finish condenses every
-    body, so this combination stays a typed refusal (Signorini still solves it)."""
+def test_compliance_with_a_body_held_by_contact_only_is_solved():
+    """A body that only the contact holds has a singular stiffness: the compliance is solved on the full
+    model and finished on the sparse mixed system (was a typed refusal before issue 11's held-body item);
+    uniform pressure p under a rigid plane: lambda = p, penetration p / k."""
     layer = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.2), nx=4, ny=2), ALU, roller=["left", "right"],
                     contact="bottom", traction={"top": (0.0, -1e6)}, name="layer")
     scene = cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)),
                                                  law=cc.NormalCompliance(stiffness=1e12))])
     assert layer.held_by_contact
-    with pytest.raises(cc.UnsupportedError, match="held by the contact only"):
-        cc.solve(scene)
+    sol = cc.solve(scene)
+    assert sol.ok and sol.polished and sol.method == "full"
+    assert np.abs(sol.contact.lam - 1e6).max() <= 1e-9 * 1e6
+    assert np.abs(sol.contact.jump - sol.contact.gap - 1e6 / 1e12).max() <= 1e-9 * 1e-6
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         assert cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom",

@@ -37,7 +37,7 @@ import scipy.linalg as sla
 from scipy.optimize import nnls
 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
-           "SIGN_TOL"]
+           "solve_sparse_compliance", "SIGN_TOL"]
 
 SIGN_TOL = 1e-10
 """Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
@@ -295,3 +295,119 @@ def solve_linear_compliance(W, d, weights, law):
     y, active, route = out
     z = np.where(on, 0.0, y)
     return y, z, active & ~on, route
+
+
+def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=50):
+    """Exact finish of a normal-compliance law on the sparse mixed system (26), for scenes that cannot be
+    condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
+    §10-§12). Scaled units.
+
+    ``A`` (n, n) sparse symmetric: the bodies' quasi-definite blocks [[Kuu, Kup], [Kup^T, -Kpp]] and a zero
+    block for the translations tau of force-controlled obstacles; ``F`` (n,) the loads [f; -q; F_obstacle];
+    ``G`` (m, n) sparse the contact rows (E [u_nu] and R tau), ``g`` (m,) their gaps, so that r = G x - g is
+    the penetration; ``weights`` w (m,) the rows' lumped lengths and ``law`` a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` (Signorini rows: k = 0, l = 0). The system is
+
+        A x + G^T y = F,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0   (z = 0 off the limited rows)
+
+    the optimality system of the phi-form energy plus sum_a w_a Phi_a(r_a) subject to r <= l. Solved by
+    Newton steps on the rows' law: with D = diag(w p'(r^k)) and L the rows held at their limit, each step
+    solves the sparse system
+
+        [[A + G^T D G, G_L^T], [G_L, 0]] [x; z_L] = [F - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
+
+    (exact in one step for m = 1 once the penetrating rows are right: a semismooth Newton step), damped by
+    backtracking on the energy 1/2 x^T A x - F^T x + sum_a w_a Phi_a(r_a) (the phi-form energy wherever
+    the Gauss rows hold, which every step after the first keeps), inside primal-dual active-set steps on
+    the limited rows (a row joins L where z_a > 0 is needed or r_a > l_a). ``x0`` the start (e.g. the interior
+    point's answer), ``active`` (bool, m) the starting L (default r(x0) >= l on the limited rows).
+
+    Returns ``(x, y, z, at_limit, steps)`` with the stationarity residual at rounding (each row's residual
+    within 1e-3 ``SIGN_TOL`` of its scale |A| |x| + |G^T| |y| + |F|, or within ``SIGN_TOL`` once a full
+    step no longer halves it) and the signs to ``SIGN_TOL``, or None if a
+    system is singular (e.g. a held body whose rows all left the contact) or the steps do not settle.
+    """
+    import scipy.sparse as sps
+    import scipy.sparse.linalg as spla
+
+    A, G = sps.csr_matrix(A), sps.csr_matrix(G)
+    F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
+    n, m = A.shape[0], G.shape[0]
+    ell = np.asarray(law.penetration_limit, dtype=float)
+    limited = np.isfinite(ell)
+    x = np.asarray(x0, dtype=float).copy()
+    at = limited & ((G @ x - g) >= ell) if active is None else np.asarray(active, dtype=bool) & limited
+    absA, absG = abs(A), abs(G)
+    tiny = np.finfo(float).tiny
+
+    def energy(x):
+        r = G @ x - g
+        return 0.5 * x @ (A @ x) - F @ x + float(w @ law.energy(r))
+
+    def step(x, at):
+        r = G @ x - g
+        D = w * law.derivative(r)
+        K = A + G.T @ sps.diags(D) @ G
+        GL = G[at]
+        M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
+        b = F - G.T @ (w * law.pressure(r) - D * (g + r))
+        b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
+        try:
+            lu = spla.splu(M, permc_spec="MMD_AT_PLUS_A")
+        except RuntimeError:
+            return None
+        s = lu.solve(b)
+        for _ in range(2):
+            s += lu.solve(b - M @ s)
+        if not np.isfinite(s).all() or np.abs(M @ s - b).max() > 1e-8 * max(np.abs(b).max(), tiny):
+            return None
+        zL = np.zeros(m)
+        zL[at] = s[n:]
+        return s[:n], zL
+
+    steps, seen, first = 0, set(), True
+    for _ in range(max_iter):
+        z, last = np.zeros(m), np.inf
+        for _ in range(max_iter):                       # damped Newton with the limit rows L closed
+            out = step(x, at)
+            steps += 1
+            if out is None:
+                return None
+            target, z = out
+            dx = target - x
+            t, f0 = 1.0, energy(x)
+            if not first:
+                while t > 1e-12 and energy(x + t * dx) > f0 + 1e-14 * max(abs(f0), tiny):
+                    t *= 0.5
+            first = False
+            x = x + t * dx
+            r = G @ x - g
+            y = w * law.pressure(r) + z
+            res = A @ x + G.T @ y - F
+            S = absA @ np.abs(x) + absG.T @ np.abs(y) + np.abs(F)
+            S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+            ratio = float((np.abs(res) / S).max(initial=0.0))
+            # converged: at rounding, or within SIGN_TOL and no longer improving (rounding of the steps)
+            if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
+                break
+            last = ratio
+            if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
+                return None                             # stalled above rounding
+        else:
+            return None
+        r = G @ x - g
+        y = w * law.pressure(r) + z
+        scale = absG @ np.abs(x) + np.abs(g)
+        scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), tiny))
+        Y = max(float(np.abs(y).max(initial=0.0)), tiny)
+        neg = at & (z < -SIGN_TOL * Y)
+        over = limited & ~at & (r - ell > SIGN_TOL * scale)
+        if not neg.any() and not over.any():
+            return x, y, z, at, steps
+        new = (at & ~neg) | over
+        key = new.tobytes()
+        if key in seen:
+            return None
+        seen.add(key)
+        at = new
+    return None

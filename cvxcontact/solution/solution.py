@@ -401,6 +401,11 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
     unit = un.stress * un.load
     nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
+    for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
+        modes = b.held_modes(nodes[k] if interface is not None else None)     # bodies held by the contact only
+        if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal)
+            checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     if beta is not None:         # P2 conic limit (E = I on X_h): the cone's checks at g + l, its multiplier
         cone = conic_checks(blocks, u, phi, z, interface.bernstein(), gap + scaled.penetration_limit, beta,
                             force_scale=float(np.abs(force).max(initial=0.0)))

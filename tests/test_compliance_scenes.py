@@ -182,3 +182,32 @@ def test_piezoelectric_layer_held_through_compliance_closed_form(degree):
     assert sol.ok and sol.polished and sol.residuals()["equilibrium"] < 1e-12
     assert np.abs(sol.u[0][:, 1] - (-P * H1 / M - P / k + eps * y)).max() <= 1e-11 * (P * H1 / M)
     assert np.abs(sol.phi[0] - e33 * eps / k33 * y).max() <= 1e-10 * abs(e33 * eps / k33) * H2
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_compliance_limit_with_a_clamped_node_on_the_contact_line(degree):
+    """A body clamped on its sides, pressed onto a rigid floor through a stiff linear law with a penetration
+    limit: its clamped corners sit on the floor (g = 0) and no unknown moves their rows, whose W row is zero.
+    The interface finish inverted W and declined ('did not settle', complementarity 1e-5 from the interior
+    point); it now keeps those rows at r = d (force w p(d) = 0, no limit reaction). Checked: finished and ok;
+    the limit binds (r = l on some rows, to rounding); with a limit 100 times larger, which does not bind, the
+    answer equals the no-limit one (solved by the separate linear-law LCP) to rounding."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.33)
+
+    def scene(lim):
+        b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.3), nx=6, ny=3), mat, clamped=["left", "right"],
+                    contact="bottom", body_force=(0, -1e8))
+        law = cc.NormalCompliance(stiffness=1e16, exponent=1, penetration_limit=lim)
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane(point=(0, 0), normal=(0, 1)), law=law)])
+
+    free = cc.solve(scene(None), "sigma1", degree=degree, method="full")
+    pen = float((free.contacts[0].jump - free.contacts[0].gap).max())       # the deepest penetration r (m)
+    assert pen > 0
+    limit = 0.5 * pen
+    sol = cc.solve(scene(limit), "sigma1", degree=degree, method="full")
+    assert sol.ok and sol.polished
+    r = sol.contacts[0].jump - sol.contacts[0].gap
+    assert abs(r.max() - limit) < 1e-9 * limit
+    loose = cc.solve(scene(100 * pen), "sigma1", degree=degree, method="full")
+    assert loose.ok and loose.polished
+    assert np.abs(loose.u[0] - free.u[0]).max() < 1e-9 * np.abs(free.u[0]).max()

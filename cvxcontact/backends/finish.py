@@ -203,20 +203,28 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
     n = len(d)
     if n == 0:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool), "semismooth Newton"
+    limit = law.penetration_limit
+    ell = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,)).copy()
+    # rows no unknown moves (a zero diagonal of the PSD W is a zero row): r_a = d_a whatever the forces, so
+    # their law force is w_a p(d_a) and their limit reaction, which (26) would not determine, is 0
+    held = np.diag(W) <= 0.0
+    if (d[held] > ell[held]).any():
+        return None
+    keep = ~held
+    H = np.zeros((n, n))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", sla.LinAlgWarning)
-            H = sla.cho_solve(sla.cho_factor(W), np.eye(n))
+            H[np.ix_(keep, keep)] = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), np.eye(int(keep.sum())))
     except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
         return None
     H = 0.5 * (H + H.T)
-    limit = law.penetration_limit
-    ell = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,)).copy()
     r = np.minimum(d if r0 is None else np.asarray(r0, dtype=float), ell)
-    at = r >= ell
+    at = (r >= ell) & keep
     if active is not None:
-        at = at | (np.asarray(active, dtype=bool) & np.isfinite(ell))
+        at = at | (np.asarray(active, dtype=bool) & np.isfinite(ell) & keep)
     r[at] = ell[at]
+    r[held] = d[held]
 
     def psi(r):
         return 0.5 * (r - d) @ (H @ (r - d)) + float(w @ law.energy(r))
@@ -226,7 +234,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
 
     seen = set()
     for _ in range(max_iter):
-        free = ~at
+        free = ~at & keep
         r[at] = ell[at]
         for _ in range(max_iter):                       # damped Newton on the free rows
             g = grad(r)
@@ -265,7 +273,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
         resid = r - d + W @ y                            # the interface equation, displacement units
         ok = (np.abs(resid) <= SIGN_TOL * (S + np.abs(r))).all()
         neg = at & (z * wr < -SIGN_TOL * S)
-        over = ~at & (r - ell > SIGN_TOL * S)
+        over = ~at & keep & (r - ell > SIGN_TOL * S)
         if ok and not neg.any() and not over.any():
             return y, z, at, "semismooth Newton"
         new = (at & ~neg) | over

@@ -1,0 +1,144 @@
+"""cc.Model takes every scene cc.solve takes (issue 11, the modelpairs brief): P2 with several pairs (nodal,
+conic, mixed), rigid obstacles, and force-controlled obstacles (P1 and P2).
+
+Cross-checks, each independent of the Model under test:
+* cc.solve(..., method="full") on the same scene (the same program, posed by ContactSolver);
+* a dense primal-dual active-set solve of (26) whose rows are built here from each body's own quadratic
+  edges (test_p2_stack's reference), with the user row appended as one more inequality row;
+* the closed form of uniaxial strain under a force-controlled plane (test_force_control).
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.fem import p2
+from cvxcontact.geometry.quadratic import P2Nodes
+
+from conftest import rel
+from reference_problems import active_set_solve
+from test_p2_stack import MAT, _part_x, _trace_rows, three_blocks
+
+
+def _stack(conditions=("sigma1", "sigma2")):
+    bodies, pairs, gaps = three_blocks(conditions)
+    return cc.Scene(*bodies, contacts=pairs), gaps
+
+
+def _strict(model):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        return model.solve()
+
+
+# ---------------------------------------------------------------- P2, several pairs
+
+def test_p2_model_on_a_nodal_stack_is_the_full_solve_to_rounding():
+    """Three blocks, two pairs (sigma1, sigma2): cc.Model(degree=2) finishes exactly like solve(method="full")
+    and gives its answer to rounding, pair by pair; model.jump() is every pair's [u_nu] at its P2 nodes of X_h,
+    stacked by model.offsets, and reads back each pair's sol.contacts[i].jump."""
+    scene, _ = _stack()
+    ref = cc.solve(scene, "gamma3", degree=2, method="full")
+    model = cc.Model(scene, "gamma3", degree=2)
+    sol = _strict(model)
+    assert ref.ok and sol.ok and ref.polished and sol.polished, sol.report()
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) < 1e-12                                          # measured 0 (the same program)
+    assert len(sol.contacts) == 2 and list(np.diff(model.offsets)) == [c.x.size for c in sol.contacts]
+    for c, r in zip(sol.contacts, ref.contacts):
+        assert np.array_equal(c.x, r.x) and np.array_equal(c.active, r.active)
+        assert rel(c.lam, r.lam) < 1e-10 and c.active.any() and not c.active.all()
+    assert abs(sol.energy - ref.energy) <= 1e-12 * abs(ref.energy)
+    jump = model.jump().value                                            # the IPM's; sol is the finished one
+    for i, c in enumerate(sol.contacts):
+        part = jump[model.offsets[i]:model.offsets[i + 1]]
+        assert part.shape == c.jump.shape and rel(part, c.jump) < 1e-6
+
+
+@pytest.mark.parametrize("conditions", [("gamma3", "gamma3"), ("gamma3", "sigma2")])
+def test_p2_model_on_a_conic_stack_is_the_full_solve(conditions):
+    """The conic "everywhere" condition on one or both pairs of the stack (nodal rows as degenerate cones
+    next to a conic pair): the same program as solve(method="full"), so the same answer to the interior
+    point's accuracy; no exact finish applies."""
+    scene, _ = _stack(conditions)
+    ref = cc.solve(scene, degree=2, method="full", tol=1e-5)
+    sol = cc.Model(scene, degree=2, tol=1e-5).solve()
+    assert ref.ok and sol.ok and not sol.polished, sol.report()
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) < 1e-7  # measured 0: the same program and IPM run
+    for c, r in zip(sol.contacts, ref.contacts):
+        assert np.array_equal(c.constrained, r.constrained) and rel(c.lam, r.lam) < 1e-5
+    assert sol.residuals()["complementarity"] < 1e-5
+
+
+@pytest.mark.parametrize("conditions", [("sigma1", "sigma1"), ("gamma3", "sigma1"), ("gamma3", "gamma3")])
+def test_p2_model_with_a_body_on_a_rigid_plane_next_to_a_pair(conditions):
+    """A two-body pair and a body on a rigid plane in one scene: Model == solve(method="full") body by body,
+    pair by pair, and the plane's reaction (sol.obstacles) is the same."""
+    (top, mid, _), _, gaps = three_blocks()
+    plane = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    low = cc.Body(cc.rectangle(x=(0.2, 0.8), y=(-0.5, -0.4), nx=3, ny=1), MAT, clamped=["top"], contact="bottom",
+                  body_force=(0.0, -3e7), name="low")
+    pairs = [cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0]),
+             cc.Contact(low, "bottom", plane, gap=lambda s: 5e-3 * (s - 0.45) ** 2 - 2e-5, condition=conditions[1])]
+    scene = cc.Scene(top, mid, low, contacts=pairs)
+    conic = "gamma3" in conditions
+    tol, bound = (1e-5, 1e-7) if conic else (1e-6, 1e-12)
+    ref = cc.solve(scene, degree=2, method="full", tol=tol)
+    sol = cc.Model(scene, degree=2, tol=tol).solve()
+    assert ref.ok and sol.ok and sol.polished != conic, sol.report()
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) < bound
+    for c, r in zip(sol.contacts, ref.contacts):
+        assert rel(c.lam, r.lam) < (1e-5 if conic else 1e-10)
+    assert rel(sol.obstacles[0].force, ref.obstacles[0].force) < (1e-5 if conic else 1e-10)
+
+
+def test_p2_model_user_row_that_binds_on_a_stack_against_a_dense_reference():
+    """A user bound on the middle block's displacement, u_y >= half its value without it, at its right
+    corner: the row binds (positive multiplier), the exact finish closes it, and the answer equals the dense
+    active-set solve of (26) with that row appended (rows built here from each body's own P2 edges), with
+    the same multiplier (N/m)."""
+    scene, gaps = _stack()
+    bodies = scene.bodies
+    nodes = [P2Nodes(b.mesh) for b in bodies]
+    free = cc.solve(scene, degree=2)
+    j = int(np.argmin(np.linalg.norm(free.points[1] - [1.0, 0.0], axis=1)))
+    v0 = free.u[1][j, 1]
+    assert v0 < -1e-6
+    bound = 0.5 * v0
+    model = cc.Model(scene, degree=2)
+    con = model.add(model.u(1)[j, 1] >= bound)
+    sol = _strict(model)
+    assert sol.ok and sol.polished and float(con.dual_value) > 0, sol.report()
+    res = sol.residuals()
+    assert res["user[0] feasibility"] < 1e-9 and res["user[0] complementarity"] < 1e-9
+    assert abs(sol.u[1][j, 1] - bound) <= 1e-12 * abs(bound)
+    # the dense reference: every free dof, the contact rows from the bodies' own edges, the user row -u_y <= -bound
+    systems = [p2.assemble(b, n) for b, n in zip(bodies, nodes)]
+    off = np.concatenate([[0], np.cumsum([len(s.u_free) for s in systems])])
+    K, f = np.zeros((off[-1], off[-1])), np.zeros(off[-1])
+    for s, a, b in zip(systems, off[:-1], off[1:]):
+        K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
+        f[a:b] = s.f[s.u_free]
+    rows, gs = [], []
+    for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"), (1, "bottom", 2, "top", 2, "top")),
+                                            gaps):
+        xs = _part_x(nodes[kc], pc)
+        G = np.zeros((len(xs), off[-1]))
+        G[:, off[ka]:off[ka + 1]] -= _trace_rows(bodies[ka], pa, nodes[ka], xs)[:, systems[ka].u_free]
+        G[:, off[kb]:off[kb + 1]] += _trace_rows(bodies[kb], pb, nodes[kb], xs)[:, systems[kb].u_free]
+        rows.append(G)
+        gs.append(gap(xs))
+    user = np.zeros((1, off[-1]))
+    user[0, off[1] + int(np.flatnonzero(systems[1].u_free == 2 * j + 1)[0])] = -1.0
+    u, y = active_set_solve(K, f, np.vstack(rows + [user]), np.concatenate(gs + [[-bound]]))
+    for k, (s, a, b) in enumerate(zip(systems, off[:-1], off[1:])):
+        assert rel(sol.u[k].ravel()[s.u_free], u[a:b]) < 1e-10            # measured 3e-15
+    assert y[-1] > 0
+    # the interior point's multiplier of the row (CVXPY's dual_value; the finish does not rewrite it) in N/m:
+    # the row is in m, the program's energy in units of force x displacement (J/m)
+    W = model.units.force * model.units.displacement
+    assert abs(float(con.dual_value) * W - y[-1]) < 1e-6 * y[-1]             # measured 6e-8

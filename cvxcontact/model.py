@@ -86,10 +86,15 @@ class Model:
     condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
     limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
 
+    Rigid obstacles, fixed or force controlled, as in :func:`cvxcontact.solve`: a force-controlled obstacle's
+    translation t is an unknown with its force balance (docs/formulation.md §12; ``translation(i)``), finished
+    on the sparse mixed system with the translations; ``sol.obstacles`` as from :func:`cvxcontact.solve`.
+
     Methods
     -------
-    u(body), phi(body), jump()
-        CVXPY expressions of the unknowns in m and V (see the module docstring).
+    u(body), phi(body), jump(), translation(obstacle)
+        CVXPY expressions of the unknowns in m and V (see the module docstring); ``offsets``: pair i's
+        rows of ``jump()`` are ``offsets[i]:offsets[i + 1]``.
     add(item), add_objective(expr)
         User constraints (``==``, ``<=``, ``>=`` of the model's expressions, in SI) and convex
         objective terms (J/m). Items are kept; later solves include them.
@@ -117,9 +122,6 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         for body in scene.bodies:
             body.require_supports()
-        if any(o.force is not None for o in scene.obstacles):
-            raise UnsupportedError("cc.Model does not take force-controlled obstacles (Rigid(..., force=)); "
-                                   "solve them with cc.solve, or fix the obstacle")
         if (any(o.force is not None for o in scene.obstacles)
                 and any(lw.compliant for lw in pair_laws(scene, self.law))):
             raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
@@ -418,6 +420,8 @@ class Model:
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
         if self.scene.obstacles:          # translations, resultants, and the balance of force-controlled ones
             obstacle_results(sol, [tau * self.units.displacement for tau in taus], self._obstacles)
+            if self._forced and rows:        # user rows on a translation carry part of its prescribed force
+                sol._checks["obstacle balance"] = self._balance(y, rows)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
                  Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
@@ -457,6 +461,19 @@ class Model:
         x = [c.solve(F - c.lift(E.T @ y)) for c, F in zip(condensed, rhs)]
         return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
                 [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
+
+    def _balance(self, y, rows) -> float:
+        """The force balance of every force-controlled obstacle with the user rows' forces on its translation
+        (scaled; docs/formulation.md §12): max |F - R^T y - C_t^T z| / |F| (with the obstacle's check of
+        :func:`~cvxcontact.solution.solution.obstacle_results` when no user row touches t)."""
+        worst, pos = 0.0, self._n_bodies
+        for (R, F), t in zip(self._translations, self._contact.t):
+            r = F - R.T @ y
+            for C, _, z, _, _ in rows:
+                r = r - (np.full(t.size, np.nan) if C is None else C[:, pos:pos + t.size].T @ z)
+            worst = float(np.max([worst, np.linalg.norm(r) / np.linalg.norm(F)]))     # (nan propagates)
+            pos += t.size
+        return worst
 
     def _contact_norms(self):
         G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()

@@ -10,6 +10,7 @@ Cross-checks, each independent of the Model under test:
 
 import warnings
 
+import cvxpy as cp
 import numpy as np
 import pytest
 
@@ -19,7 +20,8 @@ from cvxcontact.geometry.quadratic import P2Nodes
 
 from conftest import rel
 from reference_problems import active_set_solve
-from test_p2_stack import MAT, _part_x, _trace_rows, three_blocks
+from test_force_control import indenter_scene, punch_scene
+from test_p2_stack import MAT, YOUNG, _part_x, _trace_rows, three_blocks
 
 
 def _stack(conditions=("sigma1", "sigma2")):
@@ -142,3 +144,94 @@ def test_p2_model_user_row_that_binds_on_a_stack_against_a_dense_reference():
     # the row is in m, the program's energy in units of force x displacement (J/m)
     W = model.units.force * model.units.displacement
     assert abs(float(con.dual_value) * W - y[-1]) < 1e-6 * y[-1]             # measured 6e-8
+
+
+# ---------------------------------------------------------------- force-controlled obstacles (P1, P2)
+
+def _punch_force(depth=1e-4):
+    """test_force_control's flat punch: the resultant F (N/m) of the displacement-controlled punch at
+    ``depth``, and the scene with the punch force-controlled by F (it must sink by ``depth``)."""
+    disp = cc.solve(punch_scene(0.5 - depth)())
+    return disp, punch_scene(0.5)(force=disp.obstacles[0].force)
+
+
+@pytest.mark.parametrize("case", ["punch P1", "indenter P1", "punch P2 sigma1", "punch P2 gamma3"])
+def test_model_with_a_force_controlled_obstacle_is_the_full_solve(case):
+    """The obstacle's translation is an unknown of cc.Model with its force balance (docs/formulation.md §12):
+    the same program as solve(method="full"), finished the same way (the sparse mixed system with the
+    translations; P2 gamma3: the interior point), so the same answer, translation and energy (which includes
+    -F . t); the obstacle balance holds and the obstacle sinks by the depth of the displacement-controlled
+    scene whose resultant was prescribed."""
+    depth, degree, condition = 1e-4, 1, "gamma3"
+    if case == "indenter P1":
+        R, depth = 0.6, 3e-3
+        disp = cc.solve(indenter_scene(0.5 + R - depth, R))
+        scene = indenter_scene(0.5 + R, R, force=disp.obstacles[0].force)
+    else:
+        disp, scene = _punch_force(depth)
+        if "P2" in case:
+            degree, condition = 2, case.split()[-1]
+    conic = degree == 2 and condition == "gamma3"
+    tol, bound = (1e-5, 1e-7) if conic else (1e-6, 1e-12)
+    ref = cc.solve(scene, condition, degree=degree, method="full", tol=tol)
+    model = cc.Model(scene, condition, degree=degree, tol=tol)
+    sol = model.solve() if conic else _strict(model)
+    assert sol.ok and ref.ok and sol.polished != conic, sol.report()
+    assert rel(sol.u[0], ref.u[0]) < bound and rel(sol.contact.lam, ref.contact.lam) < 10 * bound   # measured 0
+    t, tr = sol.obstacles[0].translation, ref.obstacles[0].translation
+    assert np.abs(t - tr).max() < bound * depth and abs(sol.energy - ref.energy) < bound * abs(ref.energy)
+    assert sol.residuals()["obstacle balance"] < 1e-9                   # measured 0 (P2 gamma3: 8e-15)
+    if degree == 1:                                                       # P1: the displacement-controlled answer
+        assert np.abs(t - [0.0, -depth]).max() < 1e-8 * depth and rel(sol.u[0], disp.u[0]) < 1e-8
+    assert np.abs(model.translation(0).value - t).max() < 1e-5 * depth    # the IPM's t, in m (measured 1.4e-6)
+
+
+@pytest.mark.parametrize("degree, condition", [(1, "gamma3"), (2, "sigma1"), (2, "gamma3")])
+def test_model_force_controlled_plane_closed_form(degree, condition):
+    """test_p2_stack's closed form through cc.Model: a nu = 0 block clamped at its top pushed up by a rigid
+    plane with the prescribed force F over its width 1 m, starting 1 mm below it: u = (0, F (H - y) / E)
+    (linear in y: exact for P1 and P2), the plane moves by 1 mm + F H / E, lambda_h = F."""
+    H, force = 0.5, 2e6
+    body = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=5, ny=3), cc.materials.isotropic(E=YOUNG, nu=0.0),
+                   clamped=["top"], contact="bottom")
+    plane = cc.Rigid.plane(point=(0.0, -1e-3), normal=(0.0, 1.0), force=(0.0, force))
+    sol = cc.Model(cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane)]), condition, degree=degree,
+                   tol=1e-5).solve()
+    assert sol.ok, sol.report()
+    want = np.column_stack([np.zeros(len(sol.points[0])), force / YOUNG * (H - sol.points[0][:, 1])])
+    assert np.abs(sol.u[0] - want).max() < 1e-9 * force * H / YOUNG
+    assert np.abs(sol.obstacles[0].translation - [0.0, 1e-3 + force * H / YOUNG]).max() < 1e-12
+    assert np.abs(sol.contact.lam / force - 1).max() < 1e-9
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_user_bound_on_a_force_controlled_translation(degree):
+    """A user row on the obstacle's translation (model.translation(0)): the punch, force-controlled by the
+    resultant F of a 1e-4 m indentation, may sink by at most 5e-5 m. The row binds, the exact finish (mixed
+    system with the translations and the user row) closes it, and the answer is the displacement-controlled
+    punch at 5e-5 m; the user row carries the rest of F: its multiplier (N/m) is |F| minus that punch's
+    reaction, and the obstacle balance counts it."""
+    depth = 1e-4
+    _, scene = _punch_force(depth)
+    F = scene.obstacles[0].force
+    ref = cc.solve(punch_scene(0.5 - depth / 2)(), "sigma1", degree=degree)
+    model = cc.Model(scene, "sigma1", degree=degree)
+    con = model.add(model.translation(0)[1] >= -depth / 2)
+    sol = _strict(model)
+    assert sol.ok and sol.polished and ref.ok, sol.report()
+    assert rel(sol.u[0], ref.u[0]) < 1e-10 and rel(sol.contact.lam, ref.contact.lam) < 1e-10   # measured 1e-13
+    assert np.abs(sol.obstacles[0].translation - [0.0, -depth / 2]).max() < 1e-12 * depth
+    res = sol.residuals()
+    assert res["obstacle balance"] < 1e-12 and res["user[0] complementarity"] < 1e-9      # measured 0
+    W = model.units.force * model.units.displacement
+    rest = -F[1] + ref.obstacles[0].force[1]
+    assert rest > 0.1 * -F[1] and abs(float(con.dual_value) * W - rest) < 1e-6 * rest    # measured 2e-10
+
+
+def test_translation_of_a_fixed_obstacle_and_bad_indices():
+    """model.translation(i): the constant 0 for a fixed obstacle, a typed error naming the bad index."""
+    model = cc.Model(punch_scene(0.5 - 1e-4)())
+    assert isinstance(model.translation(0), cp.Constant) and np.all(model.translation(0).value == 0.0)
+    for bad in (1, -1, True, "0"):
+        with pytest.raises(cc.SceneError, match="obstacle must be an index into scene.obstacles"):
+            model.translation(bad)

@@ -146,6 +146,29 @@ def test_p2_model_user_row_that_binds_on_a_stack_against_a_dense_reference():
     assert abs(float(con.dual_value) * W - y[-1]) < 1e-6 * y[-1]             # measured 6e-8
 
 
+@pytest.mark.parametrize("conditions", [("gamma3", "sigma1"), ("sigma1", "sigma2")])
+def test_p2_model_with_a_per_pair_compliance_law_on_a_stack(conditions):
+    """The top pair under its own normal-compliance law (nodal rows at every P2 node of X_h under gamma3,
+    Simpson weights, docs/formulation.md §10) next to a Signorini pair: Model == solve(method="full"), both
+    finished exactly; the conic condition on a Signorini pair next to it is refused by both, typed."""
+    (top, mid, bot), pairs, gaps = three_blocks(conditions)
+    law = cc.NormalCompliance(stiffness=1e11, exponent=1)
+    pairs[0] = cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition=conditions[0], law=law)
+    scene = cc.Scene(top, mid, bot, contacts=pairs)
+    ref = cc.solve(scene, degree=2, method="full")
+    sol = _strict(cc.Model(scene, degree=2))
+    assert ref.ok and sol.ok and ref.polished and sol.polished, sol.report()
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) < 1e-12                                          # measured 3e-16
+    for c, r in zip(sol.contacts, ref.contacts):
+        assert rel(c.lam, r.lam) < 1e-10 and c.active.any()              # measured 3e-14
+    pairs[1] = cc.Contact(mid, "bottom", bot, "top", gap=gaps[1], condition="gamma3")
+    conic = cc.Scene(top, mid, bot, contacts=pairs)
+    for make in (lambda: cc.solve(conic, degree=2), lambda: cc.Model(conic, degree=2)):
+        with pytest.raises(cc.UnsupportedError, match=r"conic 'gamma3' condition on some pairs \(contacts \[1\]\)"):
+            make()
+
+
 # ---------------------------------------------------------------- force-controlled obstacles (P1, P2)
 
 def _punch_force(depth=1e-4):

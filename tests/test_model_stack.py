@@ -258,3 +258,38 @@ def test_translation_of_a_fixed_obstacle_and_bad_indices():
     for bad in (1, -1, True, "0"):
         with pytest.raises(cc.SceneError, match="obstacle must be an index into scene.obstacles"):
             model.translation(bad)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_piezoelectric_wall_actuator_through_the_model(degree):
+    """examples/wall_actuator.py's PZT-5H column under a force-controlled wall at V = -4000 V: the wall moves
+    by the closed form t = -(p H + e33 V) / c33 (uniaxial strain, exact for P1 and P2; measured 5e-15,
+    2e-14). With a user bound t >= t/2 (x = [u; phi; t]: the translation after the potentials) the answer is
+    the fixed wall at H + t/2 (u, phi, lambda_h), and the user row carries F0 minus that wall's reaction."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+    try:
+        from wall_actuator import F0, H, W, build
+    finally:
+        sys.path.pop(0)
+    mat = cc.materials.PZT5H
+    voltage = -4000.0
+    exact = -(F0 / W * H + mat.e[1, 1] * voltage) / mat.c[1, 1]
+    scene = build(voltage)
+    sol = _strict(cc.Model(scene, "sigma1", degree=degree))
+    assert sol.ok and sol.polished and abs(sol.obstacles[0].translation[1] / exact - 1) < 1e-12
+    model = cc.Model(scene, "sigma1", degree=degree)
+    con = model.add(model.translation(0)[1] >= exact / 2)
+    sol = _strict(model)
+    body = scene.bodies[0]
+    wall = cc.Rigid.plane(point=(0.0, H + exact / 2), normal=(0.0, -1.0))
+    ref = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", wall)]), "sigma1", degree=degree)
+    assert sol.ok and sol.polished and ref.ok, sol.report()
+    assert rel(sol.u[0], ref.u[0]) < 1e-9 and rel(sol.phi[0], ref.phi[0]) < 1e-12     # measured 4e-11, 8e-15
+    assert rel(sol.contact.lam, ref.contact.lam) < 1e-9                                # measured 2e-11
+    rest = F0 + ref.obstacles[0].force[1]
+    assert rest > 0.1 * F0 and sol.residuals()["obstacle balance"] < 1e-12
+    W_ = model.units.force * model.units.displacement
+    assert abs(float(con.dual_value) * W_ - rest) < 1e-6 * rest                        # measured 3e-8

@@ -13,7 +13,8 @@ can be added before solving:
     sol = model.solve()
 
 Internally the variables stay the scaled free dofs of
-:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...], dimensionless):
+:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...; t_1; ...], dimensionless, t_i the
+translation unknowns of force-controlled obstacles, docs/formulation.md §12):
 
     u_SI   = U (P_k u_k)                 P_k: (2n, n_free) selection, clamped dofs 0, U = units.displacement
     phi_SI = phi_D + Phi (Q_k phi_k)     phi_D: electrode potentials (V), Phi = units.potential

@@ -293,3 +293,28 @@ def test_piezoelectric_wall_actuator_through_the_model(degree):
     assert rest > 0.1 * F0 and sol.residuals()["obstacle balance"] < 1e-12
     W_ = model.units.force * model.units.displacement
     assert abs(float(con.dual_value) * W_ - rest) < 1e-6 * rest                        # measured 3e-8
+
+
+@pytest.mark.parametrize("degree, condition", [(1, "sigma1"), (2, "sigma1"), (2, "gamma3")])
+def test_one_force_controlled_plate_on_two_bodies_through_the_model(degree, condition):
+    """test_force_control's plate shared by two blocks of different stiffness (two pairs, one translation):
+    Model == solve(method="full") (measured identical), the plate's balance over both pairs' forces."""
+    soft = cc.materials.isotropic(E=10e9, nu=0.3)
+    alu = cc.materials.isotropic(E=70e9, nu=0.33)
+
+    def scene(top, **kw):
+        a = cc.Body(cc.rectangle(x=(0.0, 0.4), y=(0.0, 0.5), nx=4, ny=3), alu, clamped="bottom", contact="top")
+        b = cc.Body(cc.rectangle(x=(0.6, 1.0), y=(0.2, 0.5), nx=4, ny=2), soft, clamped="bottom", contact="top")
+        plate = cc.Rigid.plane((0.0, top), (0.0, -1.0), **kw)
+        return cc.Scene(a, b, contacts=[cc.Contact(a, "top", plate), cc.Contact(b, "top", plate)])
+
+    F = cc.solve(scene(0.5 - 1e-4)).obstacles[0].force
+    forced = scene(0.5, force=F)
+    ref = cc.solve(forced, condition, degree=degree, method="full", tol=1e-5)
+    sol = cc.Model(forced, condition, degree=degree, tol=1e-5).solve()
+    assert sol.ok and ref.ok and sol.polished == ref.polished, sol.report()
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) < 1e-9
+    assert np.abs(sol.obstacles[0].translation - ref.obstacles[0].translation).max() < 1e-9 * 1e-4
+    assert sol.residuals()["obstacle balance"] < 1e-12                  # measured 3e-14 (P2 gamma3)
+    assert all(c.force.sum() > 0 for c in sol.contacts)

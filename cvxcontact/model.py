@@ -13,7 +13,8 @@ can be added before solving:
     sol = model.solve()
 
 Internally the variables stay the scaled free dofs of
-:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...], dimensionless):
+:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...; t_1; ...], dimensionless, t_i the
+translation unknowns of force-controlled obstacles, docs/formulation.md §12):
 
     u_SI   = U (P_k u_k)                 P_k: (2n, n_free) selection, clamped dofs 0, U = units.displacement
     phi_SI = phi_D + Phi (Q_k phi_k)     phi_D: electrode potentials (V), Phi = units.potential
@@ -47,7 +48,7 @@ from .backends.conic import bernstein_duals
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import quadratic_interface
+from .contact.quadratic import QuadraticStack, quadratic_stack
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -56,12 +57,17 @@ from .geometry.quadratic import P2Nodes
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
-from .solution.solution import Solution, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, ContactSolver, _row_laws, _run, conic_limit_model, conic_options
+from .solution.solution import Solution, obstacle_results, read_back, read_back_compliance
+from .solve import DEFAULT_TOL, ContactSolver, _p2_obstacles, _row_laws, _run, conic_limit_model, conic_options
 
 __all__ = ["Model"]
 
 _MAX_STEPS = 20
+
+
+def _stacked(u, phi, taus=()):
+    """x = [u_1; phi_1; u_2; ...; tau_1; ...]: the scaled unknowns in the order of the model's variables."""
+    return np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))] + list(taus))
 
 
 class Model:
@@ -72,17 +78,24 @@ class Model:
     docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
     checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
     ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
-    of the merged mesh; one contact pair of two bodies (else UnsupportedError); "gamma3" is the conic
-    "everywhere" condition (docs/formulation.md §8: a second-order cone per merged segment, interior-point
-    answer with tight tolerances, no exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2"
-    the nodal rows with the exact finish. A normal-compliance law with P2 sits on the P2 nodes of the
+    of every pair's X_h, stacked; every scene :func:`cvxcontact.solve` takes with P2 (several pairs, rigid
+    obstacles, each pair under its own condition and law), posed as ``solve(..., method="full")`` poses it:
+    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
+    segment, nodal pairs next to it as degenerate cones; interior-point answer with tight tolerances, no
+    exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact
+    finish. A normal-compliance law with P2 sits on the P2 nodes of the
     condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
     limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
 
+    Rigid obstacles, fixed or force controlled, as in :func:`cvxcontact.solve`: a force-controlled obstacle's
+    translation t is an unknown with its force balance (docs/formulation.md §12; ``translation(i)``), finished
+    on the sparse mixed system with the translations; ``sol.obstacles`` as from :func:`cvxcontact.solve`.
+
     Methods
     -------
-    u(body), phi(body), jump()
-        CVXPY expressions of the unknowns in m and V (see the module docstring).
+    u(body), phi(body), jump(), translation(obstacle)
+        CVXPY expressions of the unknowns in m and V (see the module docstring); ``offsets``: pair i's
+        rows of ``jump()`` are ``offsets[i]:offsets[i + 1]``.
     add(item), add_objective(expr)
         User constraints (``==``, ``<=``, ``>=`` of the model's expressions, in SI) and convex
         objective terms (J/m). Items are kept; later solves include them.
@@ -110,9 +123,10 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         for body in scene.bodies:
             body.require_supports()
-        if any(o.force is not None for o in scene.obstacles):
-            raise UnsupportedError("cc.Model does not take force-controlled obstacles (Rigid(..., force=)); "
-                                   "solve them with cc.solve, or fix the obstacle")
+        if (any(o.force is not None for o in scene.obstacles)
+                and any(lw.compliant for lw in pair_laws(scene, self.law))):
+            raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
+                                   "not implemented; use the default non-penetration law or a fixed obstacle")
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
         if isinstance(degree, bool) or degree not in (1, 2):
@@ -120,41 +134,69 @@ class Model:
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
         self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
+        self._cone = self._bernstein = self._limit = None
         if degree == 1:
             itf = self._itf = scene.stack
             self.E = itf.evaluation(condition, scene.conditions)
             self.systems = [assemble(b) for b in scene.bodies]
             gap = scene.gap_values()
-        else:
-            itf = self._itf = quadratic_interface(scene, self._nodes)     # one pair of two bodies (else refused)
-            self.E = itf.evaluation(scene.conditions[0] or condition)
+            self.rows = _row_laws(scene, condition, self.law)                    # each pair's law on its rows
+            obstacles = scene.obstacles
+            self.offsets = np.asarray(itf.offsets)
+        else:    # P2: every pair (one QuadraticInterface, or a QuadraticStack), as ContactSolver poses them (§8)
+            itf = self._itf = quadratic_stack(scene, self._nodes)
+            stack = itf if isinstance(itf, QuadraticStack) else QuadraticStack([itf], scene.stack.members)
+            conditions = [c or condition for c in scene.conditions]
+            laws = pair_laws(scene, self.law)
+            conic, limited = [], []
+            for pair, cond, lw in zip(stack.interfaces, conditions, laws):
+                if lw.compliant:
+                    pair.weights(cond)                                 # refuses sigma rows forming no P2 mesh
+                conic.append(cond == "gamma3" and not lw.compliant)     # compliance: nodal rows (§10)
+                limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
+            if any(limited) and len(stack.interfaces) > 1:
+                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
+                                       "'gamma3' (the conic limit) on a scene of several contact pairs are not "
+                                       "supported yet; use a sigma condition, no limit, one pair, or degree=1")
+            if any(conic) and any(lw.compliant for lw in laws):
+                raise UnsupportedError(
+                    f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
+                    f"{[i for i, c in enumerate(conic) if c]}) and a normal-compliance law on others are not "
+                    "supported yet; give the Signorini pairs a sigma condition, or use degree=1")
+            if any(conic):      # the cone on the gamma3 pairs, nodal rows as degenerate cones on the others (§8)
+                self.E = sp.identity(stack.size, format="csr")
+                self._cone = stack.cone_rows(condition, scene.conditions)
+                self._bernstein = self._cone[0]
+            else:
+                self.E = stack.evaluation(condition, scene.conditions)
+            if any(limited):    # P2 compliance with a limit: the Bernstein map of its cone (§10)
+                self._limit = stack.bernstein()
             self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
-            gap = scene.pair_gap_values(0, np.array(itf.x))
-        self.units = un = units(scene, self.systems, gap)
+            gap = np.concatenate([scene.pair_gap_values(i, np.array(pair.x)) for i, pair in enumerate(stack.interfaces)])
+            self.rows = RowLaws(laws, np.diff(stack.row_offsets(condition, scene.conditions)))
+            obstacles = _p2_obstacles(scene, stack)
+            self.offsets = np.asarray(stack.offsets)
+            self._stack = stack
+        self._obstacles = obstacles
+        forced = self._forced = [o for o in obstacles if o.force is not None]
+        self.units = un = units(scene, self.systems, gap, forces=[o.force for o in forced])
         self._gap = gap / un.displacement
         self._g = self.E @ self._gap
+        # force-controlled obstacles (docs/formulation.md §12): per obstacle (R, F), R the rows' sensitivities
+        # to its translation unknowns tau (scaled), F the prescribed force on them (scaled)
+        self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
         self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
-        if degree == 1:
-            self.rows = _row_laws(scene, condition, self.law)                    # each pair's law on its rows
-        else:                                                                     # P2: one pair, its P2 rows (§10)
-            self.rows = RowLaws(pair_laws(scene, self.law), [self.E.shape[0]])
         if self.rows.compliant:                                                   # the law's quadrature, scaled
             self._weights = (itf.weights(condition, scene.conditions) if degree == 1
-                             else itf.weights(scene.conditions[0] or condition)) / un.length   # P2: Simpson
+                             else self._stack.weights(condition, scene.conditions)) / un.length   # P2: Simpson
         else:
             self._weights = None
         self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
-        gamma3 = degree == 2 and (scene.conditions[0] or condition) == "gamma3"
-        self._bernstein = itf.bernstein() if gamma3 else None          # the conic condition (§8)
-        self._limit = None                  # P2 compliance with a limit: the Bernstein map of its cone (§10)
-        if gamma3 and self._law is not None:
-            self._limit = self._bernstein if self._law.limited.any() else None
-            self._bernstein = None                                       # compliance: nodal rows, no cone
         if self._limit is not None:
             self._contact = conic_limit_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit)
         else:
             self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
-                                         bernstein=self._bernstein)
+                                         bernstein=self._bernstein, translations=self._translations)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -163,6 +205,10 @@ class Model:
                 if v is not None:
                     self._vars.append((v, pos))
                     pos += v.size
+        self._n_bodies = pos
+        for t in self._contact.t:                     # then the obstacles' translations, as in mixed_kkt
+            self._vars.append((t, pos))
+            pos += t.size
         self._n = pos
         self._ids = {v.id for v, _ in self._vars}
         self._u_expr, self._phi_expr = {}, {}
@@ -205,9 +251,25 @@ class Model:
         return self._phi_expr[k]
 
     def jump(self) -> cp.Expression:
-        """[u_nu] at the merged contact nodes of every pair, stacked (``scene.stack``; the rows of pair i
-        are ``scene.stack.offsets[i]:offsets[i + 1]``), m; <= gap where constrained."""
+        """[u_nu] of every pair, stacked, m: pair i's rows are ``model.offsets[i]:offsets[i + 1]`` at the nodes
+        ``sol.contacts[i].x``. P1: the merged nodes of each pair (``scene.stack``); P2: the P2 nodes of each
+        pair's X_h (merged vertices and segment midpoints, interleaved). Against a rigid obstacle [u_nu] is
+        the body's u . nu; the contact condition is [u_nu] <= gap, for a force-controlled obstacle
+        [u_nu] + c . t <= gap with t its translation (:meth:`translation`, docs/formulation.md §12)."""
         return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
+
+    def translation(self, obstacle: int) -> cp.Expression:
+        """The rigid translation (2,) in m of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an
+        unknown (its force balance is part of the program), for a fixed one the constant 0."""
+        if isinstance(obstacle, bool) or not isinstance(obstacle, (int, np.integer)) or \
+                not 0 <= obstacle < len(self._obstacles):
+            raise SceneError(f"obstacle must be an index into scene.obstacles (0..{len(self._obstacles) - 1}), "
+                             f"got {obstacle!r}")
+        o = self._obstacles[int(obstacle)]
+        if o.force is None:
+            return cp.Constant(np.zeros(2))
+        t = self._contact.t[next(i for i, f in enumerate(self._forced) if f is o)]
+        return self.units.displacement * (o.basis @ t)
 
     # ---- user terms ---------------------------------------------------------------------------
     def _own(self, expr, what):
@@ -292,6 +354,7 @@ class Model:
         blocks, E, g = self.blocks, self.E, self._g
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
+        taus = [np.asarray(t.value, dtype=float).ravel() for t in self._contact.t]   # force-controlled obstacles
         beta = None
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
@@ -319,7 +382,9 @@ class Model:
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
         finishable = linear and not conic                                  # nor with the conic condition
-        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, y, force_displacements(blocks, E, y))
+        moved = g - sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g)))
+        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], moved, y,
+                            force_displacements(blocks, E, y))
         polished, declined = False, ""
         if self.polish and finishable:
             t0 = time.perf_counter()
@@ -328,10 +393,10 @@ class Model:
             if isinstance(out, str):
                 declined = out
             else:
-                u, phi, y, zs, active = out
+                u, phi, y, zs, active, taus = out
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
-                x = np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))])
+                x = _stacked(u, phi, taus)
         if self._law is not None and self.polish and not rows and objective is None and self._limit is None:
             t0 = time.perf_counter()
             out = self._finish_compliance(u, g)
@@ -347,11 +412,17 @@ class Model:
                                        given=self.law, interface=None if self._nodes is None else self._itf,
                                        nodes=self._nodes, beta=beta)
         else:
-            sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap, u, phi, y,
+            gap = self._gap - sum((o.reduced_rows @ tau for o, tau in zip(self._forced, taus)),
+                                  np.zeros(len(self._gap)))                    # the obstacles moved (§12)
+            sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, gap, u, phi, y,
                             active, polished, problem, self.tol, timings,
                             interface=None if self._nodes is None else self._itf,
-                            beta=beta if conic else None, nodes=self._nodes)
+                            beta=beta if conic else None, nodes=self._nodes, cone=self._cone)
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
+        if self.scene.obstacles:          # translations, resultants, and the balance of force-controlled ones
+            obstacle_results(sol, [tau * self.units.displacement for tau in taus], self._obstacles)
+            if self._forced and rows:        # user rows on a translation carry part of its prescribed force
+                sol._checks["obstacle balance"] = self._balance(y, rows)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
                  Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
@@ -392,6 +463,19 @@ class Model:
         return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
                 [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
 
+    def _balance(self, y, rows) -> float:
+        """The force balance of every force-controlled obstacle with the user rows' forces on its translation
+        (scaled; docs/formulation.md §12): max |F - R^T y - C_t^T z| / |F| (with the obstacle's check of
+        :func:`~cvxcontact.solution.solution.obstacle_results` when no user row touches t)."""
+        worst, pos = 0.0, self._n_bodies
+        for (R, F), t in zip(self._translations, self._contact.t):
+            r = F - R.T @ y
+            for C, _, z, _, _ in rows:
+                r = r - (np.full(t.size, np.nan) if C is None else C[:, pos:pos + t.size].T @ z)
+            worst = float(np.max([worst, np.linalg.norm(r) / np.linalg.norm(F)]))     # (nan propagates)
+            pos += t.size
+        return worst
+
     def _contact_norms(self):
         G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()
         n = np.sqrt(np.asarray(G.power(2).sum(axis=1)).ravel())
@@ -399,9 +483,10 @@ class Model:
 
     def _finish(self, u, phi, y, rows, load, active):
         """Exact finish with linear user rows: primal-dual active-set steps on the mixed system (26)
-        with the contact rows and the user inequality rows; returns (u, phi, y, [z_i], active) or
-        the reason it was declined."""
-        E, g, blocks = self.E, self._g, self.blocks
+        with the contact rows and the user inequality rows (and, with force-controlled obstacles, their
+        translations tau and force balances R^T y = F, docs/formulation.md §12); returns
+        (u, phi, y, [z_i], active, taus) or the reason it was declined."""
+        E, g, blocks, tr = self.E, self._g, self.blocks, self._translations
         m = [len(r[1]) for r in rows]
         if rows:
             C = sp.vstack([r[0] for r in rows]).tocsr()
@@ -411,13 +496,23 @@ class Model:
         else:
             C, d, z, eq = sp.csr_matrix((0, self._n)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
         if not rows and load is None:
-            base = mixed_kkt(blocks, E, g)
+            base = mixed_kkt(blocks, E, g, translations=tr or None)
 
             def kkt(ac, ar):
                 out = base(ac)
-                return None if out is None else ((*out[0], np.zeros(0)), out[2], np.zeros(0))
+                if out is None:
+                    return None
+                x = out[0] if tr else (*out[0], [])
+                return (*x[:3], np.zeros(0), x[3]), out[2], np.zeros(0)
         else:
-            kkt = mixed_kkt(blocks, E, g, rows=C, bound=d, load=load)
+            rows_kkt = mixed_kkt(blocks, E, g, rows=C, bound=d, load=load, translations=tr or None)
+
+            def kkt(ac, ar):
+                out = rows_kkt(ac, ar)
+                if out is None:
+                    return None
+                x = out[0] if tr else (*out[0], [])
+                return x, out[1], out[2]
         nc = self._contact_norms()
         x = self._x()
         S, norms = row_scales(C, x, d)
@@ -429,9 +524,10 @@ class Model:
             out = kkt(ac, ar)
             if out is None:
                 return "the mixed system on the active set is singular"
-            (uk, pk, yk, zk), sc, sr = out
-            xk = np.concatenate([a for ui, pi in zip(uk, pk) for a in ((ui,) if pi is None else (ui, pi))])
-            _, U = node_scales([E @ (b.jump @ ui) for b, ui in zip(blocks, uk)], g)
+            (uk, pk, yk, zk, tk), sc, sr = out
+            xk = _stacked(uk, pk, tk)
+            moved = g - sum((R @ t for (R, _), t in zip(tr, tk)), np.zeros(len(g)))
+            _, U = node_scales([E @ (b.jump @ ui) for b, ui in zip(blocks, uk)], moved)
             S, _ = row_scales(C, xk, d)
             Z = max(float((yk * nc).max(initial=0.0)), float((np.abs(zk) * norms).max(initial=0.0)),
                     np.finfo(float).tiny)
@@ -441,7 +537,7 @@ class Model:
             bad_r = ~ar & (sr > SIGN_TOL * S)
             if not (neg_c.any() or neg_r.any() or bad_c.any() or bad_r.any()):
                 off = np.cumsum([0] + m)
-                return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac
+                return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)
             ac, ar = (ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r
             key = ac.tobytes() + ar.tobytes()
             if key in seen:

@@ -122,12 +122,10 @@ def test_force_control_refusals_name_the_reason():
     scene = punch_scene(0.5)(force=(0.0, -1e6))
     with pytest.raises(cc.SolverError, match="force_control=True"):
         cc.solve(scene, method="condensed")
-    # a normal-compliance law with force control is solved (tests/test_compliance_scenes.py)
-    with pytest.raises(cc.UnsupportedError, match="force-controlled"):
-        cc.Model(scene)
-    # P2 (degree=2) takes force-controlled obstacles: tests/test_p2_stack.py
-    with pytest.raises(cc.UnsupportedError, match="force-controlled"):
-        cc.Model(scene, degree=2)
+    # a normal-compliance law with force control is solved by cc.solve (tests/test_compliance_scenes.py)
+    with pytest.raises(cc.UnsupportedError, match="normal-compliance"):
+        cc.Model(scene, law=cc.NormalCompliance(stiffness=1e12))
+    # cc.Model takes force-controlled obstacles (P1 and P2): tests/test_model_stack.py
     with pytest.raises(cc.SceneError, match="zero force"):
         cc.Rigid.circle((0, 0), 1.0, force=(0, 0))
     with pytest.raises(cc.SceneError, match="force: expected two finite"):

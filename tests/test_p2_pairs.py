@@ -1,7 +1,7 @@
 """P2 elements with the contact pairs of main (issue 11 items 1-3 x issue 10): the quadratic patch test in
 any orientation and through a cc.Contact in either body order (closed form at every P2 node), partial
 overlap with the "everywhere" condition (dense sampling of each body's own trace), and the typed
-refusals of what P2 does not support yet (several pairs in cc.Model, a compliance limit under gamma3)."""
+refusals of what P2 does not support yet (a compliance limit under gamma3 on several pairs)."""
 
 import numpy as np
 import pytest
@@ -140,9 +140,9 @@ def _refusals():
     two = cc.Scene(top, mid, b2, contacts=[cc.Contact(top, "bottom", mid, "top"), cc.Contact(mid, "bottom", b2, "top")])
     plane = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
     rigid = cc.Scene(b1, contacts=[cc.Contact(b1, "bottom", plane, gap=-1e-4)])
-    # several pairs and rigid obstacles are solved with P2 by solve/ContactSolver (tests/test_p2_stack.py);
-    # cc.Model still refuses several pairs; the conic limit of a compliance law is solved (test_p2_model_compliance)
-    return [(two, {}, "2 contact pairs", ("model",)), (rigid, {"tol": 1e-4}, None, ())]   # the conic check: 1.3e-5
+    # several pairs and rigid obstacles are solved with P2 by solve/ContactSolver (tests/test_p2_stack.py) and
+    # cc.Model (tests/test_model_stack.py); the conic limit of a compliance law is solved (test_p2_model_compliance)
+    return [(two, {}, None, ()), (rigid, {"tol": 1e-4}, None, ())]   # the conic check: 1.3e-5
 
 
 @pytest.mark.parametrize("case", range(2))

@@ -160,7 +160,7 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
     rows gain R tau (docs/formulation.md §12); ``kkt(active)`` then returns (u, phi, y, taus).
     """
     if rows is not None or load is not None:
-        return mixed_kkt_rows(blocks, E, g, rows, bound, load)
+        return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
     parts = [quasi_definite(b) for b in blocks]
     A = sp.block_diag([S for S, _ in parts])
     rhs = np.concatenate([F for _, F in parts])
@@ -203,7 +203,7 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
     return kkt
 
 
-def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
+def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None, translations=None):
     """``kkt(active, active_rows)``: (26) with extra linear rows C x <= d and a linear load term.
 
     Stationarity of the phi-form program with multipliers z >= 0 of C x <= d and an added
@@ -217,6 +217,10 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
     active contact rows and active extra rows are closed (E [u_nu] = g, C x = d); the extra rows
     are normalised to unit norm inside the solve. Returns ((u, phi, y, z), slack, row_slack) or None
     if the system is singular.
+
+    ``translations`` (as in :class:`ContactModel`): the unknowns tau of force-controlled obstacles join x
+    after the bodies' dofs (x = [u_1; phi_1; ...; tau_1; ...], so C has columns for them), with no
+    stiffness, the load F and the rows R^T y + C_tau^T z = F; the result is then ((u, phi, y, z, taus), ...).
     """
     parts = [quasi_definite(b) for b in blocks]
     A = sp.block_diag([S for S, _ in parts]).tocsr()
@@ -225,6 +229,13 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
     sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
     G_all = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], n_phi))])
                        for b, (_, n_phi) in zip(blocks, sizes)]).tocsr()
+    widths = [R.shape[1] for R, _ in translations or ()]
+    n_bodies = n
+    if widths:                               # obstacle translations: no stiffness, load F, rows R (§12)
+        A = sp.block_diag([A, sp.csr_matrix((sum(widths), sum(widths)))]).tocsr()
+        F = np.concatenate([F, *(np.asarray(Ft, dtype=float) for _, Ft in translations)])
+        G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
+        n = A.shape[0]
     C = sp.csr_matrix((0, n)) if C is None else sp.csr_matrix(C)
     d = np.zeros(C.shape[0]) if d is None else np.asarray(d, dtype=float)
     c = np.zeros(n) if load is None else np.asarray(load, dtype=float)
@@ -245,6 +256,7 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
             kpp.append(b.Kpp)
             nw += npf
         pos += nu + npf
+    mu[n_bodies:] = 1.0                      # a row on tau acts on its force balance directly
     cat = lambda a, dt=float: np.concatenate(a).astype(dt) if a else np.zeros(0, dtype=dt)  # noqa: E731
     Lw = sp.csr_matrix((cat(lv), (cat(lr, int), cat(lc, int))), shape=(n, nw))
     Rw = sp.csr_matrix((np.ones(nw), (cat(rr, int), cat(rc, int))), shape=(nw, n))
@@ -280,6 +292,9 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None):
             u.append(x[p:p + nu])
             phi.append(x[p + nu:p + nu + npf] if npf else None)
             p += nu + npf
+        if widths:
+            taus = np.split(x[n_bodies:], np.cumsum(widths)[:-1])
+            return (u, phi, y, z, taus), G_all @ x - g, C @ x - d
         return (u, phi, y, z), G_all @ x - g, C @ x - d
 
     return kkt

@@ -126,12 +126,13 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
         each under its own condition (conic "gamma3" pairs next to sigma pairs: the nodal rows are posed
-        as degenerate cones, and the whole solve is an interior point without the exact finish; next to a
-        compliance law: UnsupportedError). A normal-compliance law with P2 sits on the P2 nodes of the
-        condition's rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
-        (docs/formulation.md §10); its penetration limit l is nodal under "sigma1"/"sigma2" and, under
-        "gamma3", the "everywhere" cone [u_h nu] - g_h <= l on every merged segment (interior point, no
-        exact finish; one contact pair).
+        as degenerate cones, and the whole solve is an interior point without the exact finish). A
+        normal-compliance law with P2 sits on the P2 nodes of the condition's rows ("gamma3": every P2
+        node of the merged mesh, no cone) with Simpson weights (docs/formulation.md §10); its penetration
+        limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
+        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish). Compliance pairs next
+        to conic pairs (Signorini "gamma3", or a conic limit) are one interior point, whose nodal rows are
+        finished exactly with the cones' force held when no cone pair is compliant (§10, "P2").
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
@@ -149,8 +150,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with conic pairs next to a compliance law, or
-        with a compliance penetration limit under "gamma3" on a scene of several pairs).
+        A combination not implemented yet (e.g. force-controlled obstacles with a normal-compliance law).
 
     See Also
     --------
@@ -621,7 +621,7 @@ class ContactSolver:
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
-        if self.polish and not law.cone.all() and not (law.cone & law.rows).any():
+        if self.polish and not self.held and not law.cone.all() and not (law.cone & law.rows).any():
             u, phi, y, z = self._finish_nodal_rows(blocks, g, law, w, u, phi, y, z, r, timings)
         return u, phi, y, z, False, model.problem
 

@@ -141,7 +141,7 @@ def test_interacting_conic_and_compliance_pairs_are_the_limit_of_dense_nodal_sam
         errors.append(max(rel(u, r) for u, r in zip(sampled.u, ref.u)))
         assert gaps[-1] > -1e-9 * abs(ref.energy)
     assert gaps[2] < gaps[1] < gaps[0] and gaps[2] < 1e-4 * abs(ref.energy)
-    assert errors[2] < errors[0] and errors[2] < 1e-2
+    assert errors[2] < errors[0] and errors[2] < 1e-3              # measured 2.0e-4 (gamma3), 6.9e-5 (sigma2)
     c = ref.contacts[1]                          # the compliance pair: lambda = p(r) at its nodes
     itf = ref.interface.interfaces[1]
     r = itf.evaluation(condition1) @ (c.jump - c.gap)

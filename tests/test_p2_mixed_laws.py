@@ -94,6 +94,7 @@ def test_pairs_sharing_no_body_equal_their_single_pair_solves(case):
             assert rel(c.lam, r.contact.lam) < (1e-5 if on else 1e-10)
             assert rel(c.jump, r.contact.jump) < (1e-6 if on else 1e-10)
         assert sol.contacts[0].law == law and not getattr(sol.contacts[1].law, "compliant", False)
+        assert rel(sol.obstacles[0].force, refs[1].obstacles[0].force) < (1e-5 if conic[1] else 1e-10)
         if law.penetration_limit is not None:             # the cone at g + l holds the compliant pair
             assert abs(_sampled_penetration(sol, 0).max() - LIMIT) < 1e-4 * LIMIT
 

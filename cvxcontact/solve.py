@@ -25,7 +25,7 @@ from .backends.finish import (lcp_start, row_scales, signs_hold, solve_complianc
                               solve_linear_compliance, solve_sparse_compliance)
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import QuadraticStack, quadratic_stack
+from .contact.quadratic import ConeRowLaws, QuadraticStack, quadratic_stack
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -35,7 +35,8 @@ from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
 from .solution.checks import force_displacements, ipm_active
 from .solution.info import Finish, Route, SolveInfo, Status
-from .solution.solution import ContactResult, Solution, obstacle_results, read_back, read_back_compliance
+from .solution.solution import (ContactResult, Solution, obstacle_results, read_back, read_back_compliance,
+                                read_back_conic_mix)
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
@@ -52,6 +53,15 @@ equilibration, since the data are already non-dimensionalised (measured: it halv
 complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
 
+_CLARABEL_CONIC_PAIRS = dict(max_step_fraction=0.95)
+"""Added to :data:`_CLARABEL_CONIC` for the program of P2 cones with a normal-compliance law on several
+pairs (docs/formulation.md §10, "P2"; one pair keeps :data:`_CLARABEL_CONIC`, on which its tests were
+measured): steps of at most 0.95 of the way to the cone boundary (Clarabel's default 0.99). Measured on 22
+solves of tests/test_p2_mixed_laws.py's scenes (both backends, single pairs, decoupled and interacting stacks,
+exponent 1): with 0.99, 1 ended "inaccurate" (a compliant pair next to a conic one, condensed: the last step
+left the stalled iterate, complementarity 3.5e-5; gap tolerances of 1e-13 did not help); with 0.95 all 22
+end "optimal" with complementarity <= 1e-5. With exponent 2 (a power cone) the program still ends
+"inaccurate" there (complementarity ~5e-6)."""
 
 
 def conic_options(solver: str, options: Mapping[str, object]) -> dict:
@@ -118,12 +128,13 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
         each under its own condition (conic "gamma3" pairs next to sigma pairs: the nodal rows are posed
-        as degenerate cones, and the whole solve is an interior point without the exact finish; next to a
-        compliance law: UnsupportedError). A normal-compliance law with P2 sits on the P2 nodes of the
-        condition's rows ("gamma3": every P2 node of the merged mesh, no cone) with Simpson weights
-        (docs/formulation.md §10); its penetration limit l is nodal under "sigma1"/"sigma2" and, under
-        "gamma3", the "everywhere" cone [u_h nu] - g_h <= l on every merged segment (interior point, no
-        exact finish; one contact pair).
+        as degenerate cones, and the whole solve is an interior point without the exact finish). A
+        normal-compliance law with P2 sits on the P2 nodes of the condition's rows ("gamma3": every P2
+        node of the merged mesh, no cone) with Simpson weights (docs/formulation.md §10); its penetration
+        limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
+        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish). Compliance pairs next
+        to conic pairs (Signorini "gamma3", or a conic limit) are one interior point, whose nodal rows are
+        finished exactly with the cones' force held when no cone pair is compliant (§10, "P2").
     factorization : {"auto", "superlu", "pardiso"}
         How each body's matrix is factorised with its contact dofs as a Schur block
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
@@ -141,8 +152,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     SolverError
         A bad parameter or solver option, or the solver failed.
     UnsupportedError
-        A combination not implemented yet (e.g. degree=2 with conic pairs next to a compliance law, or
-        with a compliance penetration limit under "gamma3" on a scene of several pairs).
+        A combination not implemented yet (e.g. force-controlled obstacles with a normal-compliance law).
 
     See Also
     --------
@@ -208,17 +218,13 @@ class ContactSolver:
                     itf.weights(cond)                                  # refuses sigma rows forming no P2 mesh
                 conic.append(cond == "gamma3" and not lw.compliant)   # compliance: nodal rows (§10)
                 limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
-            if any(limited) and len(self._p2.interfaces) > 1:
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
-                                       "'gamma3' (the conic limit) on a scene of several contact pairs are not "
-                                       "supported yet; use a sigma condition, no limit, one pair, or degree=1")
-            self.conic_limit = any(limited)                            # the cone at g + l (§10, "P2")
-            if any(conic) and any(lw.compliant for lw in p2_laws):
-                raise UnsupportedError(
-                    f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
-                    f"{[i for i, c in enumerate(conic) if c]}) and a normal-compliance law on others are not "
-                    "supported yet; give the Signorini pairs a sigma condition, or use degree=1")
-            self.conic = any(conic)           # the cone on the gamma3 pairs, nodal rows as cones on the others (§8)
+            compliant = any(lw.compliant for lw in p2_laws)
+            # a compliance law on some pair with cones on others (Signorini "gamma3" pairs at g, limited compliant
+            # "gamma3" pairs at g + l): one program, the compliance energy on the nodal rows plus the cones
+            # (docs/formulation.md §10, "P2"); the nodal Signorini rows stay linear rows
+            self._cone_pairs = [c or lim for c, lim in zip(conic, limited)] if compliant else None
+            self.conic_limit = compliant and any(self._cone_pairs)
+            self.conic = any(conic) and not compliant   # the cone on the gamma3 pairs, nodal rows as cones (§8)
             if self.conic:
                 self.E = sp.identity(self._p2.size, format="csr")
                 self._cone = self._p2.cone_rows(condition, pair_conditions)
@@ -245,6 +251,8 @@ class ContactSolver:
         self.rows = (_row_laws(scene, condition, self.law, held) if degree == 1    # each pair's law on its rows
                      else RowLaws(pair_laws(scene, self.law),
                                   np.diff(self._p2.row_offsets(condition, scene.conditions))))
+        if self.conic_limit:               # P2: the cone pairs' rows take the cone, not nodal limit rows (§10)
+            self.rows = ConeRowLaws(self.rows.laws, self.rows.counts, np.repeat(self._cone_pairs, self.rows.counts))
         self.compliant = self.rows.compliant
         if self.conic_limit and (self.forced or held):
             raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under 'gamma3' "
@@ -299,7 +307,11 @@ class ContactSolver:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
         moved = gap - sum((o.reduced_rows @ tau for o, tau in zip(forced, self._taus)), np.zeros(len(gap)))
-        if self.compliant:          # r = [u_nu] - g with the gap the force-controlled obstacles moved to
+        if self.conic_limit:        # (force control and held bodies are refused with the conic limit)
+            sol = read_back_conic_mix(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, z,
+                                      self._weights / un.length, self.rows, self.interface, self._cone_B, self._beta,
+                                      problem, self.tol, timings, given=self.law, nodes=self.nodes)
+        elif self.compliant:        # r = [u_nu] - g with the gap the force-controlled obstacles moved to
             sol = read_back_compliance(scene, self.condition, blocks, systems, un, self.E, moved, u, phi, y, z,
                                        self._weights / un.length, self.rows, polished, problem, self.tol, timings,
                                        given=self.law, interface=None if self.degree == 1 else self.interface,
@@ -346,7 +358,8 @@ class ContactSolver:
             hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops where it "
                     "stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or stacks; "
                     "docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, or use "
-                    "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if self.conic else "")
+                    "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if self.conic or self.conic_limit
+                    else "")
             warnings.warn(f"the solution of {scene!r} ({self.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=3)
         return sol
@@ -625,29 +638,35 @@ class ContactSolver:
         return u, phi, y, (z if law.limited.any() else None), polished, model.problem
 
     def _conic_limit_solve(self, blocks, g, un, timings):
-        """P2, "gamma3", a compliance law with a penetration limit l (docs/formulation.md §10, "P2"): the
-        Simpson-lumped compliance energy on the merged P2 nodes and the "everywhere" cone of §8 with the gap
-        g + l (:func:`conic_limit_model`), full or condensed; interior point with the conic tolerances, no
-        exact finish. Returns (u, phi, row forces y = w p(r) + B^T beta, cone force z = B^T beta, False,
-        problem); the Bernstein duals beta are kept in ``self._beta``."""
+        """P2 with a normal-compliance law on some pair and the "everywhere" cone of §8 on others (docs/
+        formulation.md §10, "P2"): the Simpson-lumped compliance energy on the compliant pairs' nodal rows,
+        the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
+        "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
+        pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
+        no exact finish. Returns (u, phi, row forces y = w p(r) + z, reactions z = (cone force B^T beta) +
+        (multipliers of the linear rows), False, problem); beta in ``self._beta``, the cone's Bernstein map on
+        the stacked nodes of X_h in ``self._cone_B``."""
         law = self.rows.scaled(un.stress * un.load, un.displacement)
         w = self._weights / un.length
-        B = self.interface.bernstein()
+        self._cone_B = self._p2.bernstein_of(self._cone_pairs)
+        B = (self._cone_B[0] @ self.E.T).tocsr()          # on the rows: E is the identity on a cone pair's nodes
         t0 = time.perf_counter()
         if self.method == "full":
-            model = conic_limit_model(blocks, self.E, g, law, w, B)
+            model = conic_mix_model(blocks, self.E, g, law, w, B)
         else:
             condensed, _ = self._interface(blocks, timings)
             _, v0, _ = self._lcp(blocks, g, timings)
             loads = [c.stiffness @ v for c, v in zip(condensed, v0)]
-            model = InterfaceModel(condensed, loads, self.E, g, law=_without_limit(law), weights=w)
-            _add_limit_cone(model, sum((self.E @ c.jump) @ v for c, v in zip(condensed, model.v)), B, g, law)
+            model = conic_mix_model(blocks, self.E, g, law, w, B, condensed=condensed, loads=loads)
         timings["model"] = time.perf_counter() - t0
-        self.iterations = _run(model.problem, self.solver, self.verbose, self._conic_options())
+        options = self._conic_options()
+        if self.solver == "CLARABEL" and len(self._p2.interfaces) > 1:     # shorter steps (_CLARABEL_CONIC_PAIRS)
+            options = {**options, **_CLARABEL_CONIC_PAIRS, **self.options}
+        self.iterations = _run(model.problem, self.solver, self.verbose, options)
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
         self._beta = bernstein_duals(model.cone, model.row)
-        z = B.T @ self._beta.ravel()
+        z = B.T @ self._beta.ravel() + limit_reaction(model.contact, model.limit_rows, len(g))
         if self.method == "full":
             u = [v.value for v in model.u]
             phi = [v.value if v is not None else None for v in model.phi]
@@ -664,7 +683,45 @@ class ContactSolver:
             timings["back_substitution"] = time.perf_counter() - t0
             u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
             phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        if self.polish and not self.held and not law.cone.all() and not (law.cone & law.rows).any():
+            u, phi, y, z = self._finish_nodal_rows(blocks, g, law, w, u, phi, y, z, r, timings)
         return u, phi, y, z, False, model.problem
+
+    def _finish_nodal_rows(self, blocks, g, law, w, u, phi, y, z, r, timings):
+        """The exact finish of the nodal rows of the cone/compliance program (docs/formulation.md §10, "P2"):
+        with the cones' force y_C of the interior point held, the nodal rows R (compliance, their limits,
+        Signorini sigma rows) solve r_R = d_R - W_RC y_C - W_RR y_R with their laws exactly
+        (:func:`solve_compliance`, the finish of a nodal compliance scene), and every body's unknowns are
+        back-substituted from the forces (one per body), as the conic condensed path does from the cone's
+        duals. Only when every cone pair is a Signorini pair (y_C = B^T beta, the duals): the force of a
+        compliant cone pair, w p(r) of the interior point's r, would carry its error into r (the comment in
+        :meth:`_conic_limit_solve`). On pairs that share no body with a cone pair this is the exact answer
+        of those pairs alone; elsewhere the cones' rows see the finished y_R, which the cone checks measure.
+        Returns (u, phi, y, z); unchanged (and ``self.declined`` set) if the steps do not settle."""
+        condensed, compliance = self._interface(blocks, timings)
+        _, _, d = self._lcp(blocks, g, timings)
+        t0 = time.perf_counter()
+        R, C = np.flatnonzero(~law.cone), np.flatnonzero(law.cone)
+        nodal = [not c for c in self._cone_pairs]
+        rows = RowLaws([lw for lw, on in zip(law.laws, nodal) if on], [n for n, on in zip(law.counts, nodal) if on])
+        W = compliance.W
+        start = None
+        if (rows.limited & ~rows.rows).any():             # Signorini rows: start from the IPM's active set
+            start = rows.limited & (z[R] * np.diag(W)[R] + (r[R] - rows.penetration_limit) > 0)
+        out = self._newton(W[np.ix_(R, R)], d[R] - W[np.ix_(R, C)] @ y[C], w[R], rows, r[R], start)
+        timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+        if out is None:
+            self.declined = "the semismooth Newton steps on the nodal rows did not settle"
+            return u, phi, y, z
+        self.finish_route = out[3]
+        new_y, new_z = y.copy(), z.copy()
+        new_y[R], new_z[R] = out[0], out[1]
+        t0 = time.perf_counter()
+        x = [c.back_substitute(f, self.E.T @ new_y) for c, f in zip(condensed, self._sweeps)]
+        timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        u = [xk[:c.n_u] for c, xk in zip(condensed, x)]
+        phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
+        return u, phi, new_y, new_z
 
     @staticmethod
     def _newton(W, d, w, law, r0=None, active=None):
@@ -789,6 +846,28 @@ def conic_limit_model(blocks, E, g, law, weights, B) -> ContactModel:
     :meth:`~cvxcontact.backends.full.ContactModel.with_terms` keeps the cone."""
     model = ContactModel(blocks, E, g, law=_without_limit(law), weights=weights)
     _add_limit_cone(model, sum((E @ b.jump) @ u for b, u in zip(blocks, model.u)), B, g, law)
+    return model
+
+
+def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None):
+    """The program of a P2 scene mixing cones and a normal-compliance law (scaled; docs/formulation.md §10,
+    "P2"): the energy of every body (full model, or with ``condensed`` bodies and their ``loads`` the
+    condensed interface model) plus sum_a w_a Phi_a(r_a) over the compliant rows, the linear rows
+    r_a <= l_a of the nodal rows with a finite limit, and the second-order cone of §8 per merged segment of
+    every cone pair with the gap g + ``law.cone_shift`` (``law`` a scaled
+    :class:`~cvxcontact.contact.quadratic.ConeRowLaws`, ``B`` (3 S, rows) the cone pairs' Bernstein map on
+    the rows of ``E``). The model's ``contact``/``limit_rows`` are the linear rows (or None), ``cone`` and
+    ``row`` the cone's constraints (their duals the Bernstein duals beta)."""
+    if condensed is None:
+        model = ContactModel(blocks, E, g, law=law, weights=weights)
+        jump = sum((E @ b.jump) @ u for b, u in zip(blocks, model.u))
+    else:
+        model = InterfaceModel(condensed, loads, E, g, law=law, weights=weights)
+        jump = sum((E @ c.jump) @ v for c, v in zip(condensed, model.v))
+    model.cone, model.row, _ = bernstein_constraints(jump, B, g + law.cone_shift)
+    if hasattr(model, "constraints"):
+        model.constraints = model.constraints + [model.cone, model.row]
+    model.problem = cp.Problem(model.problem.objective, list(model.problem.constraints) + [model.cone, model.row])
     return model
 
 

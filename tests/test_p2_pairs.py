@@ -238,13 +238,11 @@ def test_p2_with_a_per_pair_compliance_law_is_solved_by_solve_and_model():
     assert np.abs(other.u[0] - sol.u[0]).max() <= 1e-9 * np.abs(sol.u[0]).max()     # (no load here: u = 0)
 
 
-def test_p2_conic_limit_on_several_pairs_is_refused():
-    """The conic penetration limit of a compliance law (one pair: tests/test_p2_model_compliance.py) is not
-    built for a stack of pairs: a typed refusal naming it, before anything is assembled; a nodal limit is
-    (its limit rows at the clamped corner checked with their reactions' local displacement, docs/checks.md)."""
+def test_p2_conic_limit_on_several_pairs_is_solved():
+    """The conic penetration limit of a compliance law (one pair: tests/test_p2_model_compliance.py) on a stack
+    of pairs is solved (it was refused; tests/test_p2_mixed_laws.py checks it); so is a nodal limit (its limit
+    rows at the clamped corner checked with their reactions' local displacement, docs/checks.md)."""
     two = _refusals()[0][0]
     law = cc.NormalCompliance(stiffness=1e12, exponent=1, penetration_limit=1e-6)
-    with pytest.raises(cc.UnsupportedError, match="conic limit") as info:
-        cc.ContactSolver(two, "gamma3", degree=2, law=law)
-    assert "degree=2" in str(info.value)
+    assert cc.solve(two, "gamma3", degree=2, law=law, tol=1e-5).ok
     assert cc.solve(two, "sigma1", degree=2, law=law).ok and cc.solve(two, "sigma1", law=law).ok

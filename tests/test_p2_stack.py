@@ -237,14 +237,13 @@ def test_decoupled_pairs_equal_the_separate_single_pair_solves(conditions, law):
 
 
 def test_p2_stack_refusals_are_typed():
-    """What the P2 stack does not take yet: the conic condition on some pairs next to a normal-compliance
-    law on others (UnsupportedError naming the conic pairs); a bad per-pair condition is still a SceneError."""
+    """The conic condition on some pairs next to a normal-compliance law on others is solved (it was refused;
+    tests/test_p2_mixed_laws.py checks it); a bad per-pair condition is still a SceneError."""
     bodies, pairs, gaps = three_blocks(conditions=("gamma3", "sigma2"))
     pairs[1] = cc.Contact(bodies[1], "bottom", bodies[2], "top", gap=gaps[1], condition="sigma2",
                           law=cc.NormalCompliance(stiffness=1e11))
     scene = cc.Scene(*bodies, contacts=pairs)
-    with pytest.raises(cc.UnsupportedError, match=r"conic 'gamma3' condition on some pairs \(contacts \[0\]\)"):
-        cc.ContactSolver(scene, "gamma3", degree=2)
+    assert cc.solve(scene, "gamma3", degree=2, tol=1e-5).ok
     assert cc.solve(scene, "gamma3").ok                                # P1 takes it (both conditions nodal)
     bodies, pairs, _ = three_blocks(conditions=(None, "sigma2"))
     with pytest.raises(cc.SceneError, match="condition must be one of"):

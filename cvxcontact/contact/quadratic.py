@@ -28,9 +28,10 @@ import scipy.sparse as sp
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .interface import CONDITIONS, Interface, _frozen, normal_jump
+from .laws import RowLaws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
-           "bernstein_max"]
+           "bernstein_max", "ConeRowLaws"]
 
 _BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
 
@@ -276,6 +277,21 @@ class QuadraticStack:
         """(3 S, size): every pair's :meth:`QuadraticInterface.bernstein`, block diagonal."""
         return sp.block_diag([itf.bernstein() for itf in self.interfaces], format="csr")
 
+    def bernstein_of(self, pairs):
+        """(B, segments) of the "everywhere" condition on the pairs marked in ``pairs`` (a boolean per pair):
+        B (3 S, size) maps the stacked nodes of X_h to the Bernstein coefficients of those pairs' merged
+        segments (pair by pair, :meth:`QuadraticInterface.bernstein`; zero columns on the other pairs' nodes),
+        ``segments`` (S, 3) their stacked node indices. The conic rows of a scene mixing conic pairs with
+        normal-compliance pairs (docs/formulation.md §10, "P2")."""
+        pairs = [bool(p) for p in pairs]
+        if len(pairs) != len(self.interfaces):
+            raise SceneError(f"bernstein_of: {len(pairs)} flags for {len(self.interfaces)} pairs")
+        blocks = [itf.bernstein() if on else sp.csr_matrix((0, itf.size))
+                  for itf, on in zip(self.interfaces, pairs)]
+        segs = [np.asarray(itf.segments) + o for itf, o, on in zip(self.interfaces, self.offsets, pairs) if on]
+        segments = np.concatenate(segs) if segs else np.zeros((0, 3), dtype=int)
+        return sp.block_diag(blocks, format="csr"), _frozen(segments)
+
     def split(self, values):
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
@@ -302,6 +318,33 @@ class QuadraticStack:
                 seg[r] = np.resize(cols, 3) if len(cols) else 0
             segs.append(seg + o)
         return sp.block_diag(blocks, format="csr"), _frozen(np.concatenate(segs))
+
+
+class ConeRowLaws(RowLaws):
+    """The :class:`~cvxcontact.contact.laws.RowLaws` of a P2 scene whose conic pairs sit next to
+    normal-compliance pairs (docs/formulation.md §10, "P2"). ``cone`` marks the rows of the pairs whose
+    condition is the "everywhere" cone of §8 rather than nodal rows: a Signorini "gamma3" pair (the cone at
+    g) and a compliant "gamma3" pair with a penetration limit l (the cone at g + l). On those rows
+    ``penetration_limit`` is ``inf`` (no nodal row r <= l: the cone holds instead) and ``cone_shift`` is the
+    shift of the cone's gap (m: 0 on a Signorini pair, l on a limited compliant one; 0 on the other rows).
+    Stiffness, exponent, pressure and energy are those of :class:`RowLaws` (0 on Signorini rows)."""
+
+    def __init__(self, laws, counts, cone):
+        super().__init__(laws, counts)
+        cone = np.asarray(cone, dtype=bool)
+        if cone.shape != (self.size,):
+            raise SceneError(f"ConeRowLaws: {cone.shape} cone flags for {self.size} rows")
+        limit = np.asarray(self.penetration_limit)
+        self.cone = cone
+        self.cone_shift = np.where(cone & np.isfinite(limit), limit, 0.0)
+        self.penetration_limit = np.where(cone, np.inf, limit)
+        for a in (self.cone, self.cone_shift, self.penetration_limit):
+            a.setflags(write=False)
+
+    def scaled(self, pressure: float, displacement: float) -> "ConeRowLaws":
+        """The same rows in units of ``pressure`` (Pa) and ``displacement`` (m), cone flags kept."""
+        return ConeRowLaws([law.scaled(pressure, displacement) if law.compliant else law for law in self.laws],
+                           self.counts, self.cone)
 
 
 def _mass(xv):

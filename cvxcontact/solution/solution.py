@@ -24,6 +24,7 @@ from .checks import checks, compliance_checks, conic_checks, obstacle_balance, r
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back", "read_back_compliance",
+           "read_back_conic_mix",
            "obstacle_results"]
 
 
@@ -427,6 +428,59 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
+    return sol
+
+
+def read_back_conic_mix(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, interface,
+                        cone, beta, problem, tol, timings, given=None, nodes=None):
+    """:func:`read_back_compliance` for a P2 scene whose "everywhere" cones (docs/formulation.md §8) sit next to
+    a normal-compliance law (§10, "P2"). ``law`` is the :class:`~cvxcontact.contact.quadratic.ConeRowLaws` of
+    the rows of ``E`` (``law.cone``: the rows of the cone pairs, E the identity on their nodes of X_h),
+    ``cone`` = (B, segments) of the cones on the stacked nodes of X_h
+    (:meth:`~cvxcontact.contact.quadratic.QuadraticStack.bernstein_of`), ``beta`` (S, 3) their Bernstein
+    duals, ``z`` the reactions (the cone's nodal force B^T beta plus the multipliers of the nodal limit rows),
+    ``force`` = w p(r) + z the row forces (scaled). Per pair: a nodal pair as in :func:`read_back_compliance`;
+    a Signorini "gamma3" pair lambda_h = M^-1 B^T beta (as :func:`read_back`); a compliant "gamma3" pair with
+    a limit lambda = p(r) + M^-1 B^T beta. Checks: the residual of (26) and the law as in
+    :func:`~cvxcontact.solution.checks.compliance_checks` (with the nodal limit rows' feasibility,
+    complementarity and cone), and feasibility, complementarity and cone of the cones
+    (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
+    ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
+    sol = read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, False,
+                               problem, tol, timings, given=given, interface=interface, nodes=nodes)
+    scaled = law.scaled(un.stress * un.load, un.displacement)
+    B, segments = cone
+    force = np.asarray(force, dtype=float)
+    cone_checks = conic_checks(blocks, u, phi, E.T @ force, B, gap + E.T @ scaled.cone_shift, beta,
+                               force_scale=float(np.abs(force).max(initial=0.0)))
+    checks_ = dict(sol._checks)
+    for key in ("feasibility", "complementarity", "cone"):
+        checks_[key] = max(checks_.get(key, 0.0), cone_checks[key])
+    r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - E @ gap
+    p = scaled.pressure(r)
+    zc = B.T @ beta.ravel()                                                    # the cones' force on X_h, scaled
+    carries = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
+    on = np.zeros(len(gap), dtype=bool)
+    on[carries.ravel()] = True
+    pairs, offsets = _pairs(scene, interface)
+    rows_at = np.concatenate([[0], np.cumsum(law.counts)]).astype(int)
+    contacts = []
+    for i, (itf, c) in enumerate(zip(pairs, sol.contacts)):
+        a, b = rows_at[i], rows_at[i + 1]
+        if b == a or not law.cone[a]:
+            contacts.append(c)
+            continue
+        nodes_i = slice(offsets[i], offsets[i + 1])                            # = rows a:b (E = I there)
+        active = on[nodes_i] | (p[a:b] > 0)
+        changes = {"active": active}
+        if c.law is not None and c.law.compliant:
+            lam = p[a:b] + spla.spsolve((itf.mass / un.length).tocsc(), zc[nodes_i])    # M scaled like w
+            changes["lam"] = lam * (un.stress * un.load)
+        c = replace(c, **changes)
+        for arr in changes.values():
+            arr.setflags(write=False)
+        contacts.append(c)
+    sol.contacts, sol.contact, sol._checks = contacts, contacts[0], checks_
     return sol
 
 

@@ -30,7 +30,14 @@ Scenes: "hertzian" (a parabolic gap, g = (x - 1/2)^2 / 2 - 0.05 m, closes on an 
 about [0.27, 0.73]: smooth data, two transitions with the square-root behaviour of
 Hertz contact, the setting of Theorem 3; the clamped-free corners of the blocks still limit the
 regularity) and "partial" (the quickstart scene: the contact zone reaches a corner of the bodies,
-loaded edges, corner singularities: less regular).
+loaded edges, corner singularities: less regular), both written to ``convergence.*``; and
+"smooth" (the hertzian blocks and gap with roller, i.e. symmetry, lateral sides: no corner
+singularity, the solution in H^{5/2-eps} with its only singularities at the two transition points,
+the setting where P2 can show Theorem 1's h^{3/2}; see :func:`scene`), written to
+``convergence_smooth.*`` with its own reference (P2 gamma3, n = 512; 32 in the quick version), whose
+own error is measured by the reference at half its n (``convergence_smooth_reference.csv``), the
+rates level by level, and the largest penetration max([u_h nu] - g)_+ of every solution
+(:func:`max_penetration`).
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...errors import SceneError
 from ...physics import materials
 from ...fem import p2
 from ...fem.assembly import assemble_matrices
@@ -51,7 +59,36 @@ from .common import Timer, markdown_table, solve_quietly, pyplot, save_figure, s
 THEOREM = {"gamma3": ("Th. 1", 1.0), "sigma1": ("Th. 2", 0.75), "sigma2": ("Th. 2", 0.75)}
 
 
-def scene(kind, n1, n2):
+def scene(kind: str, n1: int, n2: int) -> Scene:
+    """The study's scene ``kind`` with ``n1`` cells on the upper body's contact side, ``n2`` on the lower's.
+
+    Both blocks are 1 m x 0.5 m (upper PZT-5A, poled along y, clamped and grounded on top; lower
+    aluminium, clamped at the bottom), Gamma_3 = [0, 1] x {0}.
+
+    * ``"hertzian"``: the parabolic gap g(x) = (x - 1/2)^2 / 2 - 0.05 m (an interference of 0.05 m
+      at x = 1/2) closes on an interior zone; lateral sides free.
+    * ``"partial"``: g = 0, body force, a traction on the right side and a surface charge on the
+      left; the contact zone reaches the corner x = 0 (the quickstart's scene).
+    * ``"smooth"``: the hertzian blocks and gap with **roller lateral sides** (u_x = 0, no
+      tangential traction, no surface charge, on x = 0 and x = 1 of both blocks). Why this is as
+      smooth as a contact solution can be: x = 0 and x = 1 are then symmetry planes. Both materials
+      are invariant under x -> -x (isotropic; 6mm poled along y has no c16, c26 or e-coupling
+      between x and y that changes sign), and under that reflection u_x is odd, u_y and phi are
+      even, so u_x = 0, sigma_xy = 0 and D_x = 0 are exactly the conditions the even/odd extension
+      satisfies. The solution is therefore the restriction of the solution of the 2 m-periodic
+      layer problem (blocks repeated by reflection), which has no corners at all: the clamped
+      top/bottom, the grounded top and the free part of Gamma_3 become straight boundaries, and the
+      corners of angle pi/2 where a roller meets a clamped, free or grounded side carry no
+      singularity (r^{lambda} with integer lambda only). The contact zone (about [0.24, 0.76]) stays
+      away from the rollers, so the gap's kink in the reflected problem never enters. What is left
+      is the contact condition: at the two transition points the solution behaves like
+      r^{3/2} (pressure ~ sqrt(distance), Hertz), i.e. u in H^{5/2-eps} near them and smooth
+      elsewhere: eta -> 1 in Theorems 1-3, the case where P2 can show h^{3/2}. Roller supports
+      remove the corner singularities exactly, where long blocks or loads far from the corners
+      would only make their coefficients small (and a manufactured solution would need a smooth
+      prescribed contact zone, which Signorini data cannot impose: its transitions are r^{3/2}
+      anyway). The gap is still a parabola, so the conic reference remains conforming.
+    """
     upper = rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=n1, ny=max(2, n1 // 2))
     lower = rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=n2, ny=max(2, n2 // 2))
     alu = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
@@ -63,8 +100,13 @@ def scene(kind, n1, n2):
         b1 = Body(upper, materials.PZT5A, clamped=["top"], grounded=["top"], contact="bottom",
                   body_force=(0.0, -2e9), traction={"right": (0.0, 3e8)}, surface_charge={"left": -0.05})
         b2 = Body(lower, alu, clamped=["bottom"], contact="top")
+    elif kind == "smooth":
+        b1 = Body(upper, materials.PZT5A, clamped=["top"], grounded=["top"], roller=["left", "right"],
+                  contact="bottom")
+        b2 = Body(lower, alu, clamped=["bottom"], roller=["left", "right"], contact="top")
+        return Scene(b1, b2, gap=lambda x: (x - 0.5) ** 2 / 2.0 - 0.05)
     else:
-        raise ValueError(f"unknown scene {kind!r}")
+        raise SceneError(f"unknown convergence scene {kind!r}; known: {SCENES}")
     return Scene(b1, b2)
 
 
@@ -190,6 +232,18 @@ class Reference:
                     lam_h12=lam_h / (np.sqrt(length) * self.norm_l2), traction_l2=body)
 
 
+def max_penetration(contact, samples: int = 8) -> float:
+    """max over Gamma_3 of ([u_h nu] - g)_+ (m): the jump minus the gap, continuous piecewise linear
+    (P1) or quadratic (P2, exact for the scenes' gaps, 0 or a parabola) on the merged segments, sampled
+    at ``samples`` + 1 points per segment: below the true maximum by at most |f''| (h / (2 samples))^2 / 2
+    on a segment of length h (a quadratic f near its maximum). 0 up to the solver's tolerance for
+    gamma3; with sigma_l, how far the other body's trace enters between the nodes of mesh l."""
+    d = contact.degree
+    breaks, ev = _line_function(contact.x, contact.jump - (0.0 if contact.gap is None else contact.gap), d)
+    t = (breaks[:-1, None] + np.diff(breaks)[:, None] * np.linspace(0.0, 1.0, samples + 1)[None]).ravel()
+    return float(max(ev(t).max(), 0.0))
+
+
 def theorem_rates(condition, degree):
     """(theorem, rate) of the energy error bound: h^{1/2+eta} (Th. 1 for gamma3, Th. 3 for the nodal
     conditions with finitely many transition points) or h^{1/2+eta/2} (Th. 2), with eta at the cap of
@@ -200,16 +254,57 @@ def theorem_rates(condition, degree):
     return "Th. 2 / Th. 3", f"{0.5 + eta / 2:g} / {0.5 + eta:g}"
 
 
-def run(out, quick=False, progress=None):
+SCENES = ("hertzian", "partial", "smooth")
+"""The study's scenes; "hertzian" and "partial" are written to ``convergence.*``, "smooth" to
+``convergence_smooth.*`` (its own reference, checked against a second reference level)."""
+
+
+def run(out, quick=False, progress=None, scenes=SCENES):
+    """Run the study on ``scenes`` (a subset of :data:`SCENES`) and write its files into ``out``.
+
+    Full version: P1 n = 8 ... 128, P2 n = 4 ... 64; reference P2 gamma3 n = 256 ("hertzian",
+    "partial") or n = 512 ("smooth", whose finest P2 error is small enough for a 4-times-finer
+    reference to bias it, see :func:`scene`), the smooth one checked against the reference at half its
+    n. Quick version: P1 n = 4, 8, 16, P2 n = 4, 8, reference n = 32 (check: 16).
+    Returns ``{"rows", "rates"}`` (and ``"smooth"``: the smooth scene's rows, rates, reference check)."""
     say = progress or (lambda s: None)
     out = Path(out)
+    unknown = [k for k in scenes if k not in SCENES]
+    if unknown:
+        raise SceneError(f"unknown convergence scene(s) {unknown}; known: {SCENES}")
     levels = {1: [4, 8, 16], 2: [4, 8]} if quick else {1: [8, 16, 32, 64, 128], 2: [4, 8, 16, 32, 64]}
-    n_ref = 32 if quick else 256
-    rows, rates = [], []
-    for kind in ("hertzian", "partial"):
+    result = {}
+    main = [k for k in ("hertzian", "partial") if k in scenes]
+    if main:
+        n_ref = 32 if quick else 256
+        rows, rates, _ = _measure(main, levels, n_ref, say)
+        _write(out, "convergence", main, rows, rates, levels, n_ref)
+        result.update(rows=rows, rates=rates)
+    if "smooth" in scenes:
+        n_ref = 32 if quick else 512
+        rows, rates, check = _measure(["smooth"], levels, n_ref, say, check_reference=True)
+        _write(out, "convergence_smooth", ["smooth"], rows, rates, levels, n_ref, check)
+        result["smooth"] = dict(rows=rows, rates=rates, reference_check=check)
+        if not main:
+            result.update(rows=rows, rates=rates)
+    return result
+
+
+def _measure(kinds, levels, n_ref, say, check_reference=False):
+    """Errors and rates of every (scene, degree, condition, level) against the scene's reference; with
+    ``check_reference``, also the errors of the reference at n_ref / 2 against the one at n_ref."""
+    rows, rates, checks = [], [], []
+    for kind in kinds:
         clock = Timer()
         ref = Reference(kind, n_ref)
         say(f"convergence {kind}: reference P2 gamma3 n = {n_ref} ({clock():.1f} s)")
+        if check_reference:
+            half = Reference(kind, n_ref // 2)
+            checks.append(dict(scene=kind, n_ref=n_ref, n_check=n_ref // 2, **ref.errors(half.sol),
+                               checks_max=max(ref.sol.residuals().values()), ok=ref.sol.ok))
+            say(f"  reference check: P2 gamma3 n = {n_ref // 2} against n = {n_ref}: energy "
+                f"{checks[-1]['energy']:.2e}")
+            del half
         for degree in (1, 2):
             for condition in CONDITIONS:
                 for n in levels[degree]:
@@ -221,7 +316,8 @@ def run(out, quick=False, progress=None):
                     dofs = sum(3 * len(p) if ph is not None else 2 * len(p)
                                for p, ph in zip(sol.points, sol.phi))
                     rows.append(dict(scene=kind, degree=degree, condition=condition, n1=n, n2=n2, h=1.0 / n,
-                                     dofs=dofs, **err, active=int(sol.contact.active.sum()), ok=sol.ok,
+                                     dofs=dofs, **err, penetration=max_penetration(sol.contact),
+                                     active=int(sol.contact.active.sum()), ok=sol.ok,
                                      checks_max=max(sol.residuals().values()), seconds=seconds))
                 sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition and r["degree"] == degree]
                 keys = ("energy", "lam_l2", "lam_h12", "traction_l2")
@@ -233,35 +329,66 @@ def run(out, quick=False, progress=None):
                                   **{f"last_{k}": v for k, v in last.items()}))
                 say(f"  P{degree} {condition}: energy rate {rate['energy']:.2f} (last pair {last['energy']:.2f}), "
                     f"lambda H^-1/2_h rate {rate['lam_h12']:.2f}")
-    write_csv(out / "convergence.csv", rows)
-    write_csv(out / "convergence_rates.csv", rates)
-    _figure(rows, rates, out)
+    return rows, rates, checks
+
+
+def _write(out, stem, kinds, rows, rates, levels, n_ref, checks=()):
+    """The CSV files, the figure and the Markdown summary of one group of scenes, named ``stem``.*."""
+    write_csv(out / f"{stem}.csv", rows)
+    write_csv(out / f"{stem}_rates.csv", rates)
+    _figure(rows, rates, out / f"{stem}.png", kinds)
     f2 = {k: ".2f" for k in ("rate_energy", "last_energy", "rate_lam_l2", "rate_lam_h12", "last_lam_h12",
                              "rate_traction_l2")}
-    text = ("# Convergence study\n\nErrors against a reference solved with P2 and the conic \"everywhere\" "
+    title = "Convergence study" + (": smooth scene" if kinds == ["smooth"] else "")
+    text = (f"# {title}\n\nErrors against a reference solved with P2 and the conic \"everywhere\" "
             f"condition on matching meshes (n = {n_ref} cells on Gamma_3); P1 levels n = "
             f"{', '.join(map(str, levels[1]))}, P2 levels n = {', '.join(map(str, levels[2]))}, lower mesh "
             "n2 = 3n/4 + 1 cells (non-matching). Rates are least-squares slopes over all levels; `last_*` is "
             "the slope between the two finest levels. Theorem rates for the energy error with eta at the "
             "degree's cap (P1: eta = 1/2; P2: eta -> 1): Th. 1 h^{1/2+eta}, Th. 2 h^{1/2+eta/2}, "
-            "Th. 3 h^{1/2+eta}.\n\n## Observed rates\n\n"
-            + markdown_table(rates, ["scene", "degree", "condition", "theorem", "theorem_rate", "rate_energy",
-                                     "last_energy", "rate_lam_l2", "rate_lam_h12", "last_lam_h12",
-                                     "rate_traction_l2"], f2)
-            + "\n## Errors\n\n"
-            + markdown_table(rows, ["scene", "degree", "condition", "n1", "n2", "dofs", "energy", "lam_l2", "lam_h12",
-                                    "traction_l2", "active", "checks_max", "seconds"],
-                             {"energy": ".3e", "lam_l2": ".3e", "lam_h12": ".3e", "traction_l2": ".3e",
-                              "checks_max": ".1e", "seconds": ".2f"}))
-    write_text(out / "convergence.md", text)
-    return dict(rows=rows, rates=rates)
+            "Th. 3 h^{1/2+eta}.\n\n")
+    if kinds == ["smooth"]:
+        text += ("Scene: the \"hertzian\" blocks and gap with roller (symmetry) lateral sides, so that the "
+                 "solution is as smooth as a contact solution can be (H^{5/2-eps}, singular only at the two "
+                 "transition points of the contact zone): see the docstring of "
+                 "`cvxcontact.apps.studies.convergence.scene`.\n\n")
+    if checks:
+        text += ("## The reference's own error\n\nThe reference at half its n (P2 gamma3, matching) measured "
+                 "against the reference, same norms (an upper estimate of the reference's own error: with a "
+                 "rate p it is (2^p - 1) times that error, 1.8 times for p = 1.5):\n\n"
+                 + markdown_table(list(checks), ["scene", "n_check", "n_ref", "energy", "lam_l2", "lam_h12",
+                                                 "traction_l2", "checks_max"],
+                                  {k: ".3e" for k in ("energy", "lam_l2", "lam_h12", "traction_l2")}
+                                  | {"checks_max": ".1e"}) + "\n")
+        pair = [dict(degree=r["degree"], condition=r["condition"], n1=r["n1"],
+                     **{k: slope([p["h"], r["h"]], [p[k], r[k]]) for k in ("energy", "lam_h12", "traction_l2")})
+                for p, r in zip(rows, rows[1:])
+                if (p["scene"], p["degree"], p["condition"]) == (r["scene"], r["degree"], r["condition"])]
+        text += ("## Rates level by level\n\nSlope between level n/2 and level n (energy, lambda in "
+                 "H^{-1/2}_h, pressure on the upper body):\n\n"
+                 + markdown_table(pair, ["degree", "condition", "n1", "energy", "lam_h12", "traction_l2"],
+                                  {k: ".2f" for k in ("energy", "lam_h12", "traction_l2")}) + "\n")
+    text += ("## Observed rates\n\n"
+             + markdown_table(rates, ["scene", "degree", "condition", "theorem", "theorem_rate", "rate_energy",
+                                      "last_energy", "rate_lam_l2", "rate_lam_h12", "last_lam_h12",
+                                      "rate_traction_l2"], f2)
+             + "\n## Errors\n\n"
+             + markdown_table(rows, ["scene", "degree", "condition", "n1", "n2", "dofs", "energy", "lam_l2", "lam_h12",
+                                     "traction_l2"] + (["penetration"] if checks else [])
+                              + ["active", "checks_max", "seconds"],
+                              {"energy": ".3e", "lam_l2": ".3e", "lam_h12": ".3e", "traction_l2": ".3e",
+                               "penetration": ".2e", "checks_max": ".1e", "seconds": ".2f"}))
+    write_text(out / f"{stem}.md", text)
+    if checks:
+        write_csv(out / f"{stem}_reference.csv", list(checks))
 
 
-def _figure(rows, rates, out):
+def _figure(rows, rates, path, kinds=("hertzian", "partial")):
     plt = pyplot()
-    fig, axes = plt.subplots(3, 2, figsize=(12, 12), layout="constrained", sharex=True)
+    fig, axes = plt.subplots(3, len(kinds), figsize=(6 * len(kinds), 12), layout="constrained", sharex=True,
+                             squeeze=False)
     marks = dict(gamma3="o", sigma1="s", sigma2="^")
-    for i, kind in enumerate(("hertzian", "partial")):
+    for i, kind in enumerate(kinds):
         for j, (key, label) in enumerate((("energy", "relative energy error of (u, phi)"),
                                           ("lam_h12", r"$\lambda_h$ in the mesh-dependent $H^{-1/2}$ norm"),
                                           ("traction_l2", r"relative $L^2$ error, pressure on the upper body"))):
@@ -287,4 +414,4 @@ def _figure(rows, rates, out):
             ax.xaxis.set_minor_formatter(plt.NullFormatter())
     for ax in axes[2]:
         ax.set_xlabel("h = 1/n (upper mesh's cell size on the contact line) [m]")
-    save_figure(fig, out / "convergence.png")
+    save_figure(fig, path)

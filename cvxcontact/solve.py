@@ -666,6 +666,11 @@ class ContactSolver:
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
         self._beta = bernstein_duals(model.cone, model.row)
+        held = _held(self.E, blocks, self._translations)
+        if held.any():       # the cone's force on rows no unknown moves, at value 0: least admissible (§8)
+            c = g + law.cone_shift
+            rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ c) <= 1e-12 * max(np.abs(c).max(), 1e-300))
+            self._beta = least_held_duals(self._beta, rows.reshape(-1, 3))
         z = B.T @ self._beta.ravel() + limit_reaction(model.contact, model.limit_rows, len(g))
         if self.method == "full":
             u = [v.value for v in model.u]

@@ -79,7 +79,8 @@ class _Trace2:
 
 
 class QuadraticInterface:
-    """Geometry and operators of one contact pair of two bodies for P2 traces (module docstring).
+    """Geometry and operators of one contact pair for P2 traces (module docstring): two bodies, or a body
+    against a rigid obstacle (one trace).
 
     ``QuadraticInterface(linear, nodes, members=(0, 1))``: ``linear`` is the pair's P1
     :class:`~cvxcontact.contact.interface.Interface` (it has checked the line, the normals and the

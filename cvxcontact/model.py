@@ -48,7 +48,7 @@ from .backends.conic import bernstein_duals
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import QuadraticStack, quadratic_stack
+from .contact.quadratic import p2_pairs
 from .discrete import Block, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -144,25 +144,16 @@ class Model:
             obstacles = scene.obstacles
             self.offsets = np.asarray(itf.offsets)
         else:    # P2: every pair (one QuadraticInterface, or a QuadraticStack), as ContactSolver poses them (§8)
-            itf = self._itf = quadratic_stack(scene, self._nodes)
-            stack = itf if isinstance(itf, QuadraticStack) else QuadraticStack([itf], scene.stack.members)
-            conditions = [c or condition for c in scene.conditions]
-            laws = pair_laws(scene, self.law)
-            conic, limited = [], []
-            for pair, cond, lw in zip(stack.interfaces, conditions, laws):
-                if lw.compliant:
-                    pair.weights(cond)                                 # refuses sigma rows forming no P2 mesh
-                conic.append(cond == "gamma3" and not lw.compliant)     # compliance: nodal rows (§10)
-                limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
-            if any(limited) and len(stack.interfaces) > 1:
-                raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under "
-                                       "'gamma3' (the conic limit) on a scene of several contact pairs are not "
-                                       "supported yet; use a sigma condition, no limit, one pair, or degree=1")
-            if any(conic) and any(lw.compliant for lw in laws):
+            pairs = p2_pairs(scene, self._nodes, condition, self.law)   # as ContactSolver poses them
+            itf = self._itf = pairs.interface
+            stack, laws, conic, limited = pairs.stack, pairs.laws, pairs.conic, pairs.limited
+            if pairs.mixed and (len(stack.interfaces) > 1 or any(conic)):
                 raise UnsupportedError(
-                    f"P2 elements (degree=2) with the conic 'gamma3' condition on some pairs (contacts "
-                    f"{[i for i, c in enumerate(conic) if c]}) and a normal-compliance law on others are not "
-                    "supported yet; give the Signorini pairs a sigma condition, or use degree=1")
+                    "cc.Model with P2 elements (degree=2) and the conic 'gamma3' condition on some pairs (contacts "
+                    f"{[i for i, c in enumerate(pairs.cone_pairs) if c]}) next to a normal-compliance law, on a scene "
+                    f"of {len(stack.interfaces)} contact pair(s), is not supported yet (cc.solve takes it; cc.Model "
+                    "poses the conic limit of one compliant pair alone); give those pairs a sigma condition, or use "
+                    "cc.solve")
             if any(conic):      # the cone on the gamma3 pairs, nodal rows as degenerate cones on the others (§8)
                 self.E = sp.identity(stack.size, format="csr")
                 self._cone = stack.cone_rows(condition, scene.conditions)

@@ -25,7 +25,7 @@ from .backends.finish import (lcp_start, row_scales, signs_hold, solve_complianc
                               solve_linear_compliance, solve_sparse_compliance)
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
 from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import ConeRowLaws, QuadraticStack, quadratic_stack
+from .contact.quadratic import ConeRowLaws, p2_pairs
 from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
@@ -207,24 +207,13 @@ class ContactSolver:
         self.forced = [o for o in scene.obstacles if o.force is not None]     # force-controlled obstacles
         if degree == 2:
             self.nodes = [P2Nodes(b.mesh) for b in scene.bodies]
-            self.interface = quadratic_stack(scene, self.nodes)        # one QuadraticInterface, or a stack
-            self._p2 = (self.interface if len(scene.interfaces) > 1
-                        else QuadraticStack([self.interface], scene.stack.members))
-            pair_conditions = [c or condition for c in scene.conditions]
-            p2_laws = pair_laws(scene, self.law)
-            conic, limited = [], []
-            for itf, cond, lw in zip(self._p2.interfaces, pair_conditions, p2_laws):
-                if lw.compliant:
-                    itf.weights(cond)                                  # refuses sigma rows forming no P2 mesh
-                conic.append(cond == "gamma3" and not lw.compliant)   # compliance: nodal rows (§10)
-                limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
-            compliant = any(lw.compliant for lw in p2_laws)
+            pairs = p2_pairs(scene, self.nodes, condition, self.law)    # every pair, as Model poses them (§8)
+            self.interface, self._p2, pair_conditions = pairs.interface, pairs.stack, list(pairs.conditions)
             # a compliance law on some pair with cones on others (Signorini "gamma3" pairs at g, limited compliant
             # "gamma3" pairs at g + l): one program, the compliance energy on the nodal rows plus the cones
             # (docs/formulation.md §10, "P2"); the nodal Signorini rows stay linear rows
-            self._cone_pairs = [c or lim for c, lim in zip(conic, limited)] if compliant else None
-            self.conic_limit = compliant and any(self._cone_pairs)
-            self.conic = any(conic) and not compliant   # the cone on the gamma3 pairs, nodal rows as cones (§8)
+            self._cone_pairs, self.conic_limit = pairs.cone_pairs, pairs.mixed
+            self.conic = pairs.conic_only       # the cone on the gamma3 pairs, nodal rows as cones (§8)
             if self.conic:
                 self.E = sp.identity(self._p2.size, format="csr")
                 self._cone = self._p2.cone_rows(condition, pair_conditions)

@@ -28,10 +28,10 @@ import scipy.sparse as sp
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .interface import CONDITIONS, Interface, _frozen, normal_jump
-from .laws import RowLaws
+from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
-           "bernstein_max", "ConeRowLaws"]
+           "bernstein_max", "ConeRowLaws", "P2Pairs", "p2_pairs"]
 
 _BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
 
@@ -217,6 +217,44 @@ def quadratic_stack(scene, nodes):
     if len(scene.interfaces) == 1:
         return _pair(scene, nodes, 0)
     return QuadraticStack([_pair(scene, nodes, i) for i in range(len(scene.interfaces))], scene.stack.members)
+
+
+class P2Pairs:
+    """What the contact pairs of a P2 scene pose (docs/formulation.md §8, §10), one place for
+    :class:`~cvxcontact.solve.ContactSolver` and :class:`~cvxcontact.model.Model`.
+
+    ``interface`` is the scene's :class:`QuadraticInterface` (one pair) or :class:`QuadraticStack`, ``stack``
+    always a stack; per pair i: ``conditions[i]`` (its own, else the one given), ``laws[i]``, ``conic[i]``
+    (a Signorini "gamma3" pair: the cone at g) and ``limited[i]`` (a compliant "gamma3" pair with a
+    penetration limit l: the cone at g + l). Without a compliance law the scene is ``conic_only`` if some
+    pair is conic (the nodal pairs' rows then posed as degenerate cones, :meth:`QuadraticStack.cone_rows`);
+    with one, the cone pairs (``cone_pairs``) join the compliance energy in one program (``mixed``)."""
+
+    def __init__(self, interface, stack, conditions, laws, conic, limited):
+        self.interface, self.stack = interface, stack
+        self.conditions, self.laws = tuple(conditions), tuple(laws)
+        self.conic, self.limited = tuple(conic), tuple(limited)
+        self.compliant = any(lw.compliant for lw in self.laws)
+        self.cone_pairs = [c or lim for c, lim in zip(self.conic, self.limited)] if self.compliant else None
+        self.mixed = self.compliant and any(self.cone_pairs)
+        self.conic_only = any(self.conic) and not self.compliant
+
+
+def p2_pairs(scene, nodes, condition: str, law) -> P2Pairs:
+    """The :class:`P2Pairs` of ``scene`` (``nodes[k]``: the P2 nodes of body k; ``condition`` and ``law``
+    those given to ``solve``/``Model``, each pair's own taking precedence). A compliance law under a sigma
+    condition whose rows form no P2 mesh is refused here (UnsupportedError, :meth:`QuadraticInterface.weights`)."""
+    interface = quadratic_stack(scene, nodes)
+    stack = interface if isinstance(interface, QuadraticStack) else QuadraticStack([interface], scene.stack.members)
+    conditions = [c or condition for c in scene.conditions]
+    laws = pair_laws(scene, law)
+    conic, limited = [], []
+    for pair, cond, lw in zip(stack.interfaces, conditions, laws):
+        if lw.compliant:
+            pair.weights(cond)                                   # refuses sigma rows forming no P2 mesh
+        conic.append(cond == "gamma3" and not lw.compliant)      # compliance: nodal rows (§10)
+        limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
+    return P2Pairs(interface, stack, conditions, laws, conic, limited)
 
 
 def _pair(scene, nodes, i) -> QuadraticInterface:

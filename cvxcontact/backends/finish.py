@@ -340,7 +340,8 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
     system is singular (e.g. a held body whose rows all left the contact) or the steps do not settle.
     """
     import scipy.sparse as sps
-    import scipy.sparse.linalg as spla
+
+    from .full import solve_mixed       # (full imports nothing from here)
 
     A, G = sps.csr_matrix(A), sps.csr_matrix(G)
     F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
@@ -364,14 +365,8 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
         M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
         b = F - G.T @ (w * law.pressure(r) - D * (g + r))
         b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
-        try:
-            lu = spla.splu(M, permc_spec="MMD_AT_PLUS_A")
-        except RuntimeError:
-            return None
-        s = lu.solve(b)
-        for _ in range(2):
-            s += lu.solve(b - M @ s)
-        if not np.isfinite(s).all() or np.abs(M @ s - b).max() > 1e-8 * max(np.abs(b).max(), tiny):
+        s = solve_mixed(M, b)
+        if s is None:
             return None
         zL = np.zeros(m)
         zL[at] = s[n:]

@@ -18,8 +18,27 @@ import scipy.sparse.linalg as spla
 
 from .condensed import quasi_definite
 
-__all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction"]
+__all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction", "solve_mixed"]
 
+
+
+def solve_mixed(K, b, residual: float | None = 1e-8):
+    """x with K x = b for a sparse mixed (KKT) matrix K: SuperLU (minimum degree on K^T + K) and two steps of
+    iterative refinement (bodies of very different stiffness share one LU). None if K is singular, x is not
+    finite, or (``residual`` not None) max|K x - b| exceeds ``residual`` times max|b|: the system does not
+    determine the unknowns (e.g. an active set that leaves multipliers free)."""
+    try:
+        lu = spla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A")
+    except RuntimeError:
+        return None
+    x = lu.solve(b)
+    for _ in range(2):
+        x += lu.solve(b - K @ x)
+    if not np.isfinite(x).all():
+        return None
+    if residual is not None and np.abs(K @ x - b).max() > residual * max(np.abs(b).max(), np.finfo(float).tiny):
+        return None
+    return x
 
 def compliance_energy(jump_rows, gap_rows, weights, law):
     """The normal-compliance energy sum_a w_a k_a/(m_a+1) (r_a)_+^(m_a+1), r = E [u_nu] - E g (a CVXPY expression).
@@ -177,15 +196,9 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
         G = G_all[active]
         K = sp.bmat([[A, G.T], [G, None]], format="csc")
         b = np.concatenate([rhs, g[active]])
-        try:
-            lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A")
-        except RuntimeError:  # singular: the active set does not determine the multipliers
+        z = solve_mixed(K, b)  # None: numerically singular (e.g. a body held by the contact only, rows not active)
+        if z is None:
             return None
-        z = lu.solve(b)
-        for _ in range(2):    # iterative refinement: bodies of very different stiffness share one LU
-            z += lu.solve(b - K @ z)
-        if not np.isfinite(z).all() or np.abs(K @ z - b).max() > 1e-8 * max(np.abs(b).max(), np.finfo(float).tiny):
-            return None       # numerically singular (e.g. a body held by the contact only, its rows not active)
         n = A.shape[0]
         y = np.zeros(E.shape[0])
         y[active] = z[n:]
@@ -273,14 +286,8 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None, translations=None):
         rhs = np.concatenate([F - mu * c, Rw @ c, g[active], dn[active_rows]])
         if K.shape[0] != len(rhs):   # an empty block dropped by bmat
             return None
-        try:
-            lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A")
-        except RuntimeError:
-            return None
-        zz = lu.solve(rhs)
-        for _ in range(2):
-            zz += lu.solve(rhs - K @ zz)
-        if not np.isfinite(zz).all():
+        zz = solve_mixed(K, rhs, residual=None)
+        if zz is None:
             return None
         x = zz[:n]
         y = np.zeros(E.shape[0])

@@ -58,7 +58,8 @@ from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
 from .solution.solution import Solution, obstacle_results, read_back, read_back_compliance
-from .solve import DEFAULT_TOL, ContactSolver, _p2_obstacles, _row_laws, _run, conic_limit_model, conic_options
+from .solve import (DEFAULT_TOL, ContactSolver, _held, _held_cone, _p2_obstacles, _release_held, _row_laws, _run,
+                    conic_limit_model, conic_options)
 
 __all__ = ["Model"]
 
@@ -347,19 +348,24 @@ class Model:
         phi = [v.value if v is not None else None for v in self._contact.phi]
         taus = [np.asarray(t.value, dtype=float).ravel() for t in self._contact.t]   # force-controlled obstacles
         beta = None
+        # rows no unknown moves: their force, which (26)-(27) do not determine, at its least admissible value,
+        # as cc.solve sets it (docs/formulation.md §8, "Held nodes")
+        held = _held(E, blocks, self._translations)
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
             r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
             if self._limit is not None:     # P2 conic limit: z = B^T beta, the cone's nodal force on X_h
-                beta = bernstein_duals(self._contact.cone, self._contact.row)
+                beta = _held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,
+                                  g + np.broadcast_to(self._law.penetration_limit, g.shape))
                 z = self._limit.T @ beta.ravel()
             else:
-                z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
+                z = _release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)),
+                                  held)[1]
             y = self._weights * self._law.pressure(r) + z
         elif conic:    # the nodal force r = B^T beta on X_h (E = I)
-            beta = bernstein_duals(self._contact.cone, self._contact.row)
+            beta = _held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._bernstein, held, g)
             y = self._bernstein.T @ beta.ravel()
         else:
-            y = np.asarray(self._contact.contact.dual_value, dtype=float).ravel()
+            y = np.where(held, 0.0, np.asarray(self._contact.contact.dual_value, dtype=float).ravel())
         x = self._x()
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
@@ -375,7 +381,7 @@ class Model:
         finishable = linear and not conic                                  # nor with the conic condition
         moved = g - sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g)))
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], moved, y,
-                            force_displacements(blocks, E, y))
+                            force_displacements(blocks, E, y)) & ~held     # a held row would make the KKT singular
         polished, declined = False, ""
         if self.polish and finishable:
             t0 = time.perf_counter()

@@ -289,6 +289,8 @@ class ContactSolver:
         self._beta = None
         if self.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
+            if z is not None and not self.conic_limit:     # (the conic mix releases its own held rows)
+                y, z = _release_held(y, z, _held(self.E, blocks, self._translations))
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
             y = self._held_forces(y, blocks, gap)
@@ -656,11 +658,9 @@ class ContactSolver:
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
         self._beta = bernstein_duals(model.cone, model.row)
         held = _held(self.E, blocks, self._translations)
-        if held.any():       # the cone's force on rows no unknown moves, at value 0: least admissible (§8)
-            c = g + law.cone_shift
-            rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ c) <= 1e-12 * max(np.abs(c).max(), 1e-300))
-            self._beta = least_held_duals(self._beta, rows.reshape(-1, 3))
-        z = B.T @ self._beta.ravel() + limit_reaction(model.contact, model.limit_rows, len(g))
+        self._beta = _held_cone(self._beta, B, held, g + law.cone_shift)   # rows no unknown moves: least force
+        z = B.T @ self._beta.ravel() + _release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)),
+                                                     held)[1]
         if self.method == "full":
             u = [v.value for v in model.u]
             phi = [v.value if v is not None else None for v in model.phi]
@@ -777,9 +777,7 @@ class ContactSolver:
             return y
         if self._beta is None:
             return np.where(held, 0.0, y)
-        B = self._cone[0].tocsr()
-        rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ gap) <= 1e-12 * max(np.abs(gap).max(), 1e-300))
-        self._beta = least_held_duals(self._beta, rows.reshape(-1, 3))
+        self._beta = _held_cone(self._beta, self._cone[0].tocsr(), held, gap)
         return self._contact_force()
 
     def _contact_force(self):
@@ -933,6 +931,23 @@ def _held(E, blocks, translations) -> np.ndarray:
     for R, _ in translations:                                       # a force-controlled obstacle can move
         reach = reach + abs(R) @ np.ones(R.shape[1])
     return reach == 0
+
+
+def _held_cone(beta, B, held, c):
+    """beta with the entries of the Bernstein rows of ``B`` whose nodes are all ``held`` and whose value
+    (at the cone's gap ``c``) is 0 lowered to the least the dual cone allows (:func:`least_held_duals`)."""
+    if not np.any(held):
+        return beta
+    rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ c) <= 1e-12 * max(np.abs(c).max(), 1e-300))
+    return least_held_duals(beta, rows.reshape(-1, 3))
+
+
+def _release_held(y, z, held):
+    """(y, z) with the limit reactions z of the ``held`` rows (:func:`_held`) set to 0 and the row forces y
+    lowered by them: a reaction on a row no unknown moves acts on nothing, so (26)-(27) do not determine it,
+    and an interior point reports an arbitrary, typically huge one (docs/formulation.md §8, "Held nodes")."""
+    z = np.asarray(z, dtype=float)
+    return y - np.where(held, z, 0.0), np.where(held, 0.0, z)
 
 
 def _check_reachable(scene, interface, E, blocks, g, translations, un):

@@ -490,3 +490,50 @@ def test_held_corner_under_the_conic_compliance_limit(method):
     assert conic.ok and nodal.ok
     f, ref = conic.obstacles[0].force[1], nodal.obstacles[0].force[1]
     assert abs(f - ref) < 1e-2 * abs(ref)                                      # measured 0.2 %
+
+
+@pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (2, "sigma1"), (2, "gamma3")])
+def test_model_releases_held_rows_as_solve_does(degree, condition):
+    """cc.Model on the held-corner scene: it kept the interior point's force on the clamped corner (floor force
+    1.9e9 / 7.4e8 / 8.2e8 N/m against 1.3e7, ok True); it now sets it as cc.solve does, and the two agree."""
+    scene = _punch_on_base_on_floor()
+    ref = cc.solve(scene, condition, degree=degree, method="full", tol=1e-5)
+    sol = cc.Model(scene, condition, degree=degree, tol=1e-5).solve()
+    assert ref.ok and sol.ok
+    f, fr = sol.obstacles[0].force[1], ref.obstacles[0].force[1]
+    assert abs(f - fr) < 1e-6 * abs(fr)
+    assert np.abs(sol.contacts[1].lam).max() < 2 * np.abs(ref.contacts[1].lam).max()
+
+
+def test_conic_mix_releases_held_nodal_rows():
+    """P2, the punch pair compliant with a limit under gamma3 (a cone) and the floor pair nodal with the held
+    corner: the linear rows' reaction at the corner was the interior point's (floor 8.4e8 N/m, ok True);
+    released, the floor's reaction equals the all-nodal compliance answer's to 1 %."""
+    scene = _punch_on_base_on_floor()
+    punch, base = scene.bodies
+    floor = scene.contacts[1].other
+    law = cc.NormalCompliance(stiffness=1e14, exponent=1, penetration_limit=1e-6)
+    pairs = lambda c0: [cc.Contact(punch, "bottom", base, "top", condition=c0, law=law),   # noqa: E731
+                        cc.Contact(base, "bottom", floor, condition="sigma1")]
+    mix = cc.solve(cc.Scene(punch, base, contacts=pairs("gamma3")), degree=2, tol=1e-5)
+    nodal = cc.solve(cc.Scene(punch, base, contacts=pairs("sigma1")), degree=2)
+    assert mix.ok and nodal.ok
+    f, fr = mix.obstacles[0].force[1], nodal.obstacles[0].force[1]
+    assert 0 < f < 2 * mix.contacts[0].force.sum() and abs(f - fr) < 1e-2 * fr
+
+
+def test_least_held_duals_stay_in_the_dual_cone_and_never_rise():
+    """least_held_duals on random points of the dual cone: the result is in the cone, no entry rises, and a
+    lowered single end sits on the cone's boundary (beta1^2 = 4 beta0 beta2: the least value)."""
+    from cvxcontact.backends.conic import least_held_duals
+
+    rng = np.random.default_rng(1)
+    b0, b2 = rng.exponential(size=4000), rng.exponential(size=4000)
+    beta = np.column_stack([b0, 2 * np.sqrt(b0 * b2) * rng.uniform(size=4000), b2])
+    for held in ([1, 0, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1]):
+        out = least_held_duals(beta, np.tile(np.array(held, dtype=bool), (len(beta), 1)))
+        assert (out >= 0).all() and (out <= beta * (1 + 1e-15)).all()
+        assert (out[:, 1] ** 2 <= 4 * out[:, 0] * out[:, 2] * (1 + 1e-12)).all()
+        if held in ([1, 0, 0], [0, 0, 1]):
+            assert np.allclose(out[:, 1] ** 2, 4 * out[:, 0] * out[:, 2], rtol=1e-12)
+    assert not least_held_duals(beta[:5], np.tile([True, True, True], (5, 1))).any()

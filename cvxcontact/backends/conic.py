@@ -48,7 +48,8 @@ def least_held_duals(beta, held) -> np.ndarray:
     """beta (S, 3) with the entries of the ``held`` Bernstein rows (S, 3 bool: rows no unknown moves, value 0)
     lowered to the least the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1^2 <= 4 beta0 beta2 allows, the
     other entries fixed: such an entry multiplies a constant 0, so (26)-(27) do not determine it. Row 0 (or 2)
-    alone: beta0 = beta1^2 / (4 beta2); rows 0 and 2: beta0 = beta2 = beta1 / 2; row 1 held means every node
+    alone: beta0 = beta1^2 / (4 beta2); rows 0 and 2: beta0 = beta2 = beta1 / 2 if both are at least that,
+    else the smaller one kept and the other beta1^2 / (4 smaller); row 1 held means every node
     of the segment is (b1 involves all three): beta_s = 0. An entry is never raised."""
     beta = np.array(beta, dtype=float)
     held = np.asarray(held, dtype=bool)
@@ -60,9 +61,16 @@ def least_held_duals(beta, held) -> np.ndarray:
     only0, only2, both = held[:, 0] & ~held[:, 2], held[:, 2] & ~held[:, 0], held[:, 0] & held[:, 2]
     b0 = np.where(only0, np.minimum(b0, low0), b0)
     b2 = np.where(only2, np.minimum(b2, low2), b2)
+    # both ends held: the least pair on beta0 beta2 >= beta1^2 / 4 below the given one: (beta1/2, beta1/2) if
+    # both are at least beta1/2; else the smaller one s kept and the other lowered to beta1^2 / (4 s)
     half = np.maximum(b1, 0.0) / 2
-    b0 = np.where(both, np.minimum(beta[:, 0], half), b0)
-    b2 = np.where(both, np.minimum(beta[:, 2], half), b2)
+    s0, s2 = beta[:, 0], beta[:, 2]
+    small = np.minimum(s0, s2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        other = np.where(b1 > 0, b1 ** 2 / (4 * np.maximum(small, tiny)), 0.0)
+    sym = small >= half
+    b0 = np.where(both, np.where(sym, half, np.where(s0 <= s2, s0, np.minimum(s0, other))), b0)
+    b2 = np.where(both, np.where(sym, half, np.where(s2 < s0, s2, np.minimum(s2, other))), b2)
     out = np.column_stack([b0, b1, b2])
     out[held[:, 1]] = 0.0
     return out

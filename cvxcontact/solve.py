@@ -405,7 +405,8 @@ class ContactSolver:
         slack = sum(parts) - moved
         active, polished = ipm_active(parts, moved, y, force_displacements(blocks, self.E, y)), False
         if self.polish and (self.held or tr):
-            out = _sparse_finish(mixed_kkt(blocks, self.E, g, translations=tr), g, active, timings)
+            out = _sparse_finish(mixed_kkt(blocks, self.E, g, translations=tr), g,
+                                 active & ~_held(self.E, blocks, tr), timings)     # held rows: force 0 (§8)
             if out is None:
                 self.declined = "the active-set steps on the sparse mixed system did not settle"
             else:

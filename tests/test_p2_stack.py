@@ -537,3 +537,30 @@ def test_least_held_duals_stay_in_the_dual_cone_and_never_rise():
         if held in ([1, 0, 0], [0, 0, 1]):
             assert np.allclose(out[:, 1] ** 2, 4 * out[:, 0] * out[:, 2], rtol=1e-12)
     assert not least_held_duals(beta[:5], np.tile([True, True, True], (5, 1))).any()
+
+
+def _held_punch_on_base_on_floor(floor_gap=0.0, law=None):
+    """A punch held by the contact only (side rollers, pressed on top) on a base whose clamped corner sits on
+    the rigid floor: both the held body and the held corner row."""
+    steel = cc.materials.isotropic(E=200e9, nu=0.3)
+    punch = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.2), nx=4, ny=2), steel, roller=["left", "right"],
+                    contact="bottom", traction={"top": (0.0, -1e7)}, name="punch")
+    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), steel, clamped="left", contact="top",
+                   name="base")
+    floor = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    return cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top", law=law),
+                                           cc.Contact(base, "bottom", floor, gap=floor_gap)])
+
+
+@pytest.mark.parametrize("law", [None, cc.NormalCompliance(stiffness=1e13)])
+@pytest.mark.parametrize("degree,condition", [(1, "sigma2"), (2, "sigma1")])
+def test_finishes_on_the_sparse_mixed_system_leave_held_rows_out(degree, condition, law):
+    """The finishes on the sparse mixed system (a body held by the contact only: Signorini and compliance)
+    put the held corner row in their active set, met a singular system and declined (ok False). They now
+    leave it out; the answer at g = 0 equals the one with the floor lowered by 1e-14 m (the corner then
+    open, its force 0 by complementarity) to 1e-6, an independent limit."""
+    sol = cc.solve(_held_punch_on_base_on_floor(0.0, law), condition, degree=degree)
+    ref = cc.solve(_held_punch_on_base_on_floor(1e-14, law), condition, degree=degree)
+    assert sol.ok and sol.polished and ref.ok and ref.polished
+    f, fr = sol.obstacles[0].force[1], ref.obstacles[0].force[1]
+    assert abs(f - fr) < 1e-6 * abs(fr)

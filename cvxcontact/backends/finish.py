@@ -347,7 +347,9 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
     F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
     n, m = A.shape[0], G.shape[0]
     ell = np.asarray(law.penetration_limit, dtype=float)
-    limited = np.isfinite(ell)
+    # a row no unknown moves (a zero row of G: a held node) keeps r = -g; its limit reaction, which (26) would
+    # not determine and which would make the step matrix singular, is 0 (docs/formulation.md §8, "Held nodes")
+    limited = np.isfinite(ell) & (np.diff(G.indptr) > 0)
     x = np.asarray(x0, dtype=float).copy()
     at = limited & ((G @ x - g) >= ell) if active is None else np.asarray(active, dtype=bool) & limited
     absA, absG = abs(A), abs(G)

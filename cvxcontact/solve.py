@@ -244,9 +244,10 @@ class ContactSolver:
             self.rows = ConeRowLaws(self.rows.laws, self.rows.counts, np.repeat(self._cone_pairs, self.rows.counts))
         self.compliant = self.rows.compliant
         if self.conic_limit and (self.forced or held):
-            raise UnsupportedError("P2 elements (degree=2) with a normal-compliance penetration_limit under 'gamma3' "
-                                   "(the conic limit) and a force-controlled obstacle or a body held by the contact "
-                                   "only are not supported yet; use a sigma condition, no limit, or degree=1")
+            raise UnsupportedError("P2 elements (degree=2) with cones next to a normal-compliance law (the conic "
+                                   "limit under 'gamma3', or Signorini 'gamma3' pairs beside a compliant pair: one "
+                                   "program, docs/formulation.md §10) and a force-controlled obstacle or a body held "
+                                   "by the contact only are not supported yet; use sigma conditions, or degree=1")
         self._weights = None                                                      # m, the law's quadrature
         if self.compliant:                                                        # P2: Simpson weights (§10)
             self._weights = (scene.stack.weights(condition, scene.conditions) if degree == 1

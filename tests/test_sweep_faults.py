@@ -214,25 +214,31 @@ def _alive(pid):
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=["SIGINT", "SIGTERM", "SIGKILL"])
 def test_interrupted_pooled_sweep_stops_without_orphans(tmp_path, sig):
-    # the full model of the example's scene: ~0.4 s a case, 48 cases (>= 10 s on 2 workers), so that the
-    # signal comes part-way and the second run below meets a sweep still in progress
+    # the full model of the example's scene: ~0.4 s a case, 48 cases on 2 workers. As soon as the first
+    # result exists the whole process group is frozen (SIGSTOP), so the sweep is part-way by construction
+    # however loaded the machine is; the second run and the signal come while it is frozen, then it goes on
     path = setup(tmp_path, {"gap": [-1e-6 * k for k in range(48)]}, method="full", small=False)
+    (tmp_path / "other").mkdir()
+    other = setup(tmp_path / "other", {"gap": [0.0]})             # another sweep file, on the same folder
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", str(path), "--out", str(out), "--workers", "2", "-q"]
     proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.time() + 60
+        deadline = time.time() + 120
         while time.time() < deadline and not list((out / "cases").glob("*.json")):
             time.sleep(0.02)
+        os.killpg(proc.pid, signal.SIGSTOP)                       # driver and workers frozen
         workers = _children(proc.pid)
         assert len(workers) == 2
+        assert len(list((out / "cases").glob("*.json"))) < 48, "the sweep should be frozen part-way"
         if sig == signal.SIGINT:
             with pytest.raises(SweepLockedError, match=f"in use by another sweep \\(pid {proc.pid}\\)"):
-                run_sweep(path, out, workers=1)                   # a second run on the folder is refused
+                run_sweep(other, out, workers=1)                  # a second run on the folder is refused
             os.killpg(proc.pid, signal.SIGINT)                    # Ctrl-C reaches the whole process group
         else:
             os.kill(proc.pid, sig)
-        _, err = proc.communicate(timeout=30)
+        os.killpg(proc.pid, signal.SIGCONT)                       # the pending signal is handled on resuming
+        _, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
@@ -249,3 +255,58 @@ def test_interrupted_pooled_sweep_stops_without_orphans(tmp_path, sig):
         manifest = json.loads((out / "manifest.json").read_text())
         assert {c["id"] for c in manifest["cases"] if c["state"] == "done"} == done
     # resuming after an interrupt: tests/test_sweep.py (kill -9)
+
+
+CRASH_AT_RENAME = """
+import os, signal, sys
+import numpy as np
+from cvxcontact.apps.sweep import store
+real = os.replace
+def replace(src, dst):                     # the process dies between writing the case JSON and its rename
+    if str(dst).endswith(".json"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    return real(src, dst)
+os.replace = replace
+store.write_case(sys.argv[1], "c0", {"u1": np.arange(3.0)}, {"case": "c0", "ok": True})
+"""
+
+
+def test_a_crash_between_write_and_rename_leaves_nothing_that_looks_like_a_result(tmp_path):
+    out = store.prepare_out(tmp_path / "out")
+    run = subprocess.run([sys.executable, "-c", CRASH_AT_RENAME, str(out)], cwd=ROOT, capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == -signal.SIGKILL, run.stderr
+    left = sorted(p.name for p in (out / "cases").iterdir())
+    assert "c0.npz" in left and any(n.startswith(".c0.") for n in left)       # the npz, the JSON's temporary
+    # what a reader of results lists (pathlib's glob matches names starting with a dot too): nothing
+    assert list((out / "cases").glob("*.json")) == [] and list((out / "cases").glob("*.npz")) == [out / "cases" / "c0.npz"]
+    assert store.case_state(out, "c0") == ("pending", None)                      # the case is redone on resume
+    store.clean_temporaries(out)
+    assert sorted(p.name for p in (out / "cases").iterdir()) == ["c0.npz"]
+
+
+def test_case_files_are_fsynced_before_their_rename(tmp_path, monkeypatch):
+    from cvxcontact.io import output
+
+    events = []
+    real_fsync, real_replace = os.fsync, os.replace
+
+    def fsync(fd):
+        st = os.fstat(fd)
+        events.append(("fsync", "folder" if os.path.isdir(f"/proc/self/fd/{fd}") else st.st_ino))
+        return real_fsync(fd)
+
+    def replace(src, dst):
+        events.append(("replace", os.stat(src).st_ino, Path(dst).name))
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(output.os, "fsync", fsync)
+    monkeypatch.setattr(output.os, "replace", replace)
+    out = store.prepare_out(tmp_path / "out")
+    store.write_case(out, "c0", {"u1": np.arange(3.0)}, {"case": "c0", "ok": True})
+    renames = [e for e in events if e[0] == "replace"]
+    assert [e[2] for e in renames] == ["c0.npz", "c0.json"]
+    for _, inode, _ in renames:                  # each file: its data synced, renamed, then the folder synced
+        k = events.index(("fsync", inode))
+        assert events[k + 1][:2] == ("replace", inode) and events[k + 2] == ("fsync", "folder")
+    assert store.case_state(out, "c0")[0] == "done"

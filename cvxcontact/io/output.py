@@ -26,22 +26,51 @@ if TYPE_CHECKING:
 __all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure"]
 
 
-def atomic_write(path, write):
-    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it to ``path``."""
+def atomic_write(path, write, *, durable: bool = False):
+    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it to ``path``.
+
+    ``durable``: the temporary is named ``.<name>.<random>.tmp`` (never ``*<suffix>``, so a listing
+    of the final files, e.g. ``glob("*.json")``, cannot pick up a half-written one; ``write`` must
+    then not rely on the path's extension), it is fsynced before the rename and the folder after,
+    so a crash or power loss leaves either the old file or the complete new one."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    if durable:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    else:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
     os.close(fd)
     try:
         write(tmp)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)       # mkstemp makes 0600; give the usual permissions
+        if durable:
+            _fsync(tmp, os.O_RDONLY)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    if durable:
+        _fsync(path.parent, getattr(os, "O_DIRECTORY", 0) | os.O_RDONLY, folder=True)
     return path
+
+
+def _fsync(path, flags, folder=False):
+    """fsync a file, or a folder (its entries; not possible on every platform, then skipped)."""
+    try:
+        fd = os.open(path, flags)
+    except OSError:
+        if folder:                          # e.g. Windows cannot open a folder
+            return
+        raise
+    try:
+        os.fsync(fd)
+    except OSError:
+        if not folder:                      # some file systems refuse fsync on a folder (EINVAL)
+            raise
+    finally:
+        os.close(fd)
 
 
 def _pad3(a):

@@ -12,6 +12,13 @@ Layout of ``OUT``::
     failures/<id>.json         why a case has no result
     superseded/<UTC time>/     results of an earlier input (a changed scene, mesh, material,
                                version, or a case no longer in the sweep), kept aside
+
+Every file is written whole or not at all (:func:`atomic_write`): into a temporary
+``.<name>.<random>.tmp`` in the same folder, fsynced, renamed over the final name, the folder
+fsynced. A temporary never ends in ``.json`` or ``.npz``, so a listing of results
+(``glob("*.json")``, which in :mod:`pathlib` also matches names starting with a dot) cannot pick
+up a half-written one; a run killed mid-write leaves only such temporaries, which the next run
+removes (under the lock) before it verifies what is there.
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ import time
 from pathlib import Path
 
 from ...errors import CvxContactError
-from ...io.output import atomic_write
+from ...io.output import atomic_write as _atomic_write
 
 __all__ = ["SweepOutputError", "SweepLockedError", "FolderLock", "prepare_out", "write_json", "write_case",
            "case_state", "sha256"]
@@ -48,6 +55,12 @@ def output_error(path, exc: OSError) -> SweepOutputError:
     return SweepOutputError(f"cannot write {str(path)!r}: {why}{f' ({name})' if name else ''}")
 
 
+def atomic_write(path, write) -> Path:
+    """``write(tmp)`` then rename to ``path``, durably (see the module docstring); ``write`` gets a
+    path ending in ``.tmp``, so it must not infer the format from the extension."""
+    return _atomic_write(path, write, durable=True)
+
+
 def write_json(path, obj) -> Path:
     """Atomic JSON write; an OSError becomes a :class:`SweepOutputError`."""
     text = json.dumps(obj, indent=2) + "\n"
@@ -64,7 +77,8 @@ def write_npz(path, arrays) -> str:
     digest = {}
 
     def write(p):
-        np.savez_compressed(p, **arrays)
+        with open(p, "wb") as f:            # a file object: numpy would append ".npz" to a ".tmp" path
+            np.savez_compressed(f, **arrays)
         digest["h"] = sha256(p)
 
     try:

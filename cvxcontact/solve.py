@@ -280,8 +280,13 @@ class ContactSolver:
             self._blocks = [Block.scaled(s, self.interface.jump(k, len(s.f) // 2), un)
                             for k, s in enumerate(systems)]
         blocks = [blk.with_loads(s, un) for blk, s in zip(self._blocks, systems)]
-        if not self.compliant:
-            _check_reachable(scene, self.interface, self.E, blocks, self.E @ gap, self._translations, un)
+        allowance = 0.0                  # how far a row may penetrate: 0 (Signorini), l (a compliance limit)
+        if self.compliant:
+            allowance = np.asarray(self.rows.penetration_limit, dtype=float)
+            if hasattr(self.rows, "cone"):                        # the cone rows of the mixed program: g + shift
+                allowance = np.where(self.rows.cone, self.rows.cone_shift, allowance)
+            allowance = allowance / un.displacement
+        _check_reachable(scene, self.interface, self.E, blocks, self.E @ gap + allowance, self._translations, un)
         timings["loads"] = time.perf_counter() - t0
         run = {"full": self._full, "sparse": self._sparse_solve}.get(self.method, self._condensed_solve)
         if self.conic:
@@ -967,8 +972,9 @@ def _check_reachable(scene, interface, E, blocks, g, translations, un):
     x, y = np.asarray(points)[node - offsets[pair]]
     raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
                      f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "
-                     f"({x:.6g}, {y:.6g}) m where the gap is {g[a] * un.displacement:.3g} m: the contact condition "
-                     "cannot hold there; free that node, or move the obstacle or the gap so that it is >= 0")
+                     f"({x:.6g}, {y:.6g}) m where the gap (plus the law's penetration limit, if any) is "
+                     f"{g[a] * un.displacement:.3g} m: the contact condition cannot hold there; free that node, or "
+                     "move the obstacle or the gap so that it is >= 0")
 
 
 def _run(problem, solver, verbose, options):

@@ -564,3 +564,29 @@ def test_finishes_on_the_sparse_mixed_system_leave_held_rows_out(degree, conditi
     assert sol.ok and sol.polished and ref.ok and ref.polished
     f, fr = sol.obstacles[0].force[1], ref.obstacles[0].force[1]
     assert abs(f - fr) < 1e-6 * abs(fr)
+
+
+@pytest.mark.parametrize("degree,condition", [(1, "sigma2"), (2, "gamma3")])
+def test_held_node_beyond_its_limit_is_named_with_compliance_too(degree, condition):
+    """A clamped corner the floor already penetrates (g = -1e-6 m) cannot satisfy its row: a SceneError naming
+    the point before any solve, also when the scene has a compliance law (the check was skipped there, and the
+    solver ended in a vague error), and when the floor's own law allows less (a limit 5e-7 m) than the
+    overlap; a limit that allows it (2e-6 m) solves."""
+    steel = cc.materials.isotropic(E=200e9, nu=0.3)
+
+    def scene(law=None, floor_law=None):
+        punch = cc.Body(cc.rectangle(x=(0.3, 0.7), y=(0.0, 0.2), nx=4, ny=2), steel, clamped="top",
+                        contact="bottom", body_force=(0.0, -1e9))
+        base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), steel, clamped="left", contact="top")
+        floor = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+        return cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top", law=law),
+                                               cc.Contact(base, "bottom", floor, gap=-1e-6, law=floor_law)])
+
+    k = 1e13
+    for sc in (scene(law=cc.NormalCompliance(stiffness=k)),
+               scene(floor_law=cc.NormalCompliance(stiffness=k, penetration_limit=5e-7))):
+        with pytest.raises(cc.SceneError, match=r"start in penetration, e.g. at \(0, -0.5\) m"):
+            cc.solve(sc, condition, degree=degree, tol=1e-5)
+    ok = cc.solve(scene(floor_law=cc.NormalCompliance(stiffness=k, penetration_limit=2e-6)), condition,
+                  degree=degree, tol=1e-5)
+    assert ok.ok

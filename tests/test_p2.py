@@ -390,3 +390,26 @@ def test_conic_failure_warning_names_the_floor_and_the_alternatives(small):
     assert not sol.ok and "sigma1" in str(rec[0].message)
     exact = cc.solve(small, "sigma1", degree=2, tol=1e-7)    # nodal: finished, 1.5e-8 (rounding)
     assert exact.ok
+
+
+def test_conic_condition_without_contact_is_exact():
+    """When the bodies' unconstrained solution already satisfies the conic condition (no load; a load pulling
+    them apart), it is the solution with zero contact force, exactly: no program is solved (route "no
+    contact"). The interior point stopped at rounding around it (u = 5e-8 m under zero load, complementarity
+    1.5, ok False). Checked: zero load gives u = 0 exactly; pulled apart, u equals the nodal condition's
+    exactly finished answer (its forces 0 too) to rounding."""
+    mat = cc.materials.isotropic(E=1e9, nu=0.3)
+    bot = cc.Body(cc.rectangle(x=(0, 1), y=(-0.5, 0), nx=5, ny=2), mat, clamped=["bottom"], contact="top")
+    for force, gap in ((0.0, 0.0), (0.0, 1e-4), (1e6, 0.0)):
+        top = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, clamped=["top"], contact="bottom",
+                      body_force=(0.0, force))
+        scene = cc.Scene(top, bot, gap=gap)
+        sol = cc.solve(scene, "gamma3", degree=2)
+        assert sol.ok and sol.polished and sol.info.route == "no contact at zero force: the unconstrained solution"
+        assert not sol.contact.force.any()
+        if force == 0.0:
+            assert not any(u.any() for u in sol.u)
+        else:
+            ref = cc.solve(scene, "sigma1", degree=2)
+            assert ref.ok and not ref.contact.force.any() and rel(sol.u[0], ref.u[0]) < 1e-12
+            assert np.abs(sol.u[0]).max() > 0

@@ -41,6 +41,9 @@ class Route(StrEnum):
     bonded system, no convex program (``iterations``: the systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
+    NO_CONTACT = "no contact at zero force: the unconstrained solution"
+    """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
+    merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
     SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
     """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
     compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the

@@ -15,13 +15,11 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.fem import p2
-from cvxcontact.geometry.quadratic import P2Nodes
 
 from conftest import rel
 from reference_problems import active_set_solve
 from test_force_control import indenter_scene, punch_scene
-from test_p2_stack import MAT, YOUNG, _part_x, _trace_rows, three_blocks
+from test_p2_stack import MAT, YOUNG, dense_stack, three_blocks
 
 
 def _stack(conditions=("sigma1", "sigma2")):
@@ -105,7 +103,6 @@ def test_p2_model_user_row_that_binds_on_a_stack_against_a_dense_reference():
     the same multiplier (N/m)."""
     scene, gaps = _stack()
     bodies = scene.bodies
-    nodes = [P2Nodes(b.mesh) for b in bodies]
     free = cc.solve(scene, degree=2)
     j = int(np.argmin(np.linalg.norm(free.points[1] - [1.0, 0.0], axis=1)))
     v0 = free.u[1][j, 1]
@@ -119,21 +116,7 @@ def test_p2_model_user_row_that_binds_on_a_stack_against_a_dense_reference():
     assert res["user[0] feasibility"] < 1e-9 and res["user[0] complementarity"] < 1e-9
     assert abs(sol.u[1][j, 1] - bound) <= 1e-12 * abs(bound)
     # the dense reference: every free dof, the contact rows from the bodies' own edges, the user row -u_y <= -bound
-    systems = [p2.assemble(b, n) for b, n in zip(bodies, nodes)]
-    off = np.concatenate([[0], np.cumsum([len(s.u_free) for s in systems])])
-    K, f = np.zeros((off[-1], off[-1])), np.zeros(off[-1])
-    for s, a, b in zip(systems, off[:-1], off[1:]):
-        K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
-        f[a:b] = s.f[s.u_free]
-    rows, gs = [], []
-    for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"), (1, "bottom", 2, "top", 2, "top")),
-                                            gaps):
-        xs = _part_x(nodes[kc], pc)
-        G = np.zeros((len(xs), off[-1]))
-        G[:, off[ka]:off[ka + 1]] -= _trace_rows(bodies[ka], pa, nodes[ka], xs)[:, systems[ka].u_free]
-        G[:, off[kb]:off[kb + 1]] += _trace_rows(bodies[kb], pb, nodes[kb], xs)[:, systems[kb].u_free]
-        rows.append(G)
-        gs.append(gap(xs))
+    systems, off, K, f, rows, gs, _ = dense_stack(bodies, gaps)
     user = np.zeros((1, off[-1]))
     user[0, off[1] + int(np.flatnonzero(systems[1].u_free == 2 * j + 1)[0])] = -1.0
     u, y = active_set_solve(K, f, np.vstack(rows + [user]), np.concatenate(gs + [[-bound]]))

@@ -156,13 +156,11 @@ def _part_x(nodes, part):
     return np.unique(np.round(nodes.points[np.unique(nodes.boundary(part)), 0], 12))
 
 
-def test_stack_of_three_blocks_against_a_dense_active_set_solve():
-    """Two pairs, nodal conditions (sigma1: the top body's P2 nodes; sigma2: the bottom body's), non-matching
-    meshes (4 : 3 : 5 edges): the stacked P2 solve equals the dense primal-dual active-set solution of (26)
-    with rows built from each body's own quadratic edges, for both backends; each pair has open and closed
-    rows; sol.contacts[i] is pair i's line."""
-    bodies, pairs, gaps = three_blocks()
-    scene = cc.Scene(*bodies, contacts=pairs)
+def dense_stack(bodies, gaps):
+    """The dense reference of the stack of :func:`three_blocks` with the gaps ``gaps``, built from each body's
+    own P2 edges: (systems, off, K, f, rows, gs, xs) with each body's P2 system, the offsets of its free dofs,
+    K and f on every free dof and, per pair, the contact rows of [u_nu] = u^upper . (0, -1) + u^lower . (0, 1)
+    at the constrained body's own P2 trace nodes xs and the gaps gs there."""
     nodes = [P2Nodes(b.mesh) for b in bodies]
     systems = [p2.assemble(b, n) for b, n in zip(bodies, nodes)]
     off = np.concatenate([[0], np.cumsum([len(s.u_free) for s in systems])])
@@ -171,7 +169,6 @@ def test_stack_of_three_blocks_against_a_dense_active_set_solve():
         K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
         f[a:b] = s.f[s.u_free]
     rows, gs, xs_all = [], [], []
-    # [u_nu] = u^upper . (0, -1) + u^lower . (0, 1) at the constrained body's own P2 trace nodes
     for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"), (1, "bottom", 2, "top", 2, "top")),
                                             gaps):
         xs = _part_x(nodes[kc], pc)
@@ -181,6 +178,17 @@ def test_stack_of_three_blocks_against_a_dense_active_set_solve():
         rows.append(G)
         gs.append(gap(xs))
         xs_all.append(xs)
+    return systems, off, K, f, rows, gs, xs_all
+
+
+def test_stack_of_three_blocks_against_a_dense_active_set_solve():
+    """Two pairs, nodal conditions (sigma1: the top body's P2 nodes; sigma2: the bottom body's), non-matching
+    meshes (4 : 3 : 5 edges): the stacked P2 solve equals the dense primal-dual active-set solution of (26)
+    with rows built from each body's own quadratic edges, for both backends; each pair has open and closed
+    rows; sol.contacts[i] is pair i's line."""
+    bodies, pairs, gaps = three_blocks()
+    scene = cc.Scene(*bodies, contacts=pairs)
+    systems, off, K, f, rows, gs, xs_all = dense_stack(bodies, gaps)
     G, g = np.vstack(rows), np.concatenate(gs)
     u, y = active_set_solve(K, f, G, g)
     split = np.cumsum([len(x) for x in xs_all])[:-1]

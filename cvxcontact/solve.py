@@ -549,12 +549,7 @@ class ContactSolver:
             timings["compile"] = model.problem.compilation_time or 0.0
             timings["solve"] = model.problem.solver_stats.solve_time or 0.0
             problem = model.problem
-            if self.method == "full":
-                u = [v.value for v in model.u]
-                phi = [v.value if v is not None else None for v in model.phi]
-                r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            else:
-                r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+            u, phi, r = _program_fields(model, blocks, None if self.method == "full" else condensed, self.E, g)
             z = limit_reaction(model.contact, model.limit_rows, len(g))
             y = w * law.pressure(r) + z
             if self.polish:
@@ -668,12 +663,7 @@ class ContactSolver:
         self._beta = _held_cone(self._beta, B, held, g + law.cone_shift)   # rows no unknown moves: least force
         z = B.T @ self._beta.ravel() + _release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)),
                                                      held)[1]
-        if self.method == "full":
-            u = [v.value for v in model.u]
-            phi = [v.value if v is not None else None for v in model.phi]
-            r = sum(self.E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-        else:
-            r = sum(self.E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+        u, phi, r = _program_fields(model, blocks, None if self.method == "full" else condensed, self.E, g)
         y = w * law.pressure(r) + z
         if self.method != "full":
             # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full
@@ -941,6 +931,17 @@ def _sparse_finish(kkt, g, active, timings, max_iter=30):
         active = new
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
+
+
+def _program_fields(model, blocks, condensed, E, g):
+    """(u, phi, r) of a solved program, r = E [u_nu] - g its rows' penetration (scaled): from the full model's
+    fields, or (``condensed`` given) from the condensed model's Gamma values, u and phi then None (they come
+    from a back-substitution)."""
+    if condensed is not None:
+        return None, None, sum(E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+    u = [v.value for v in model.u]
+    phi = [v.value if v is not None else None for v in model.phi]
+    return u, phi, sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
 
 
 def _held(E, blocks, translations) -> np.ndarray:

@@ -280,13 +280,22 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
         over = ~at & keep & (r - ell > SIGN_TOL * S)
         if ok and not neg.any() and not over.any():
             return y, z, at, "semismooth Newton"
-        new = (at & ~neg) | over
-        key = new.tobytes()
-        if key in seen:
+        at = _next_limit_set(at, neg, over, seen)
+        if at is None:
             return None
-        seen.add(key)
-        at = new
     return None
+
+
+def _next_limit_set(at, neg, over, seen):
+    """The next set of rows at their limit in the active-set steps of the compliance finishes: ``at`` without
+    the rows whose reaction is negative (``neg``) and with those beyond their limit (``over``); None if that
+    set was visited before (``seen``, updated): the steps cycle."""
+    new = (at & ~neg) | over
+    key = new.tobytes()
+    if key in seen:
+        return None
+    seen.add(key)
+    return new
 
 
 def solve_linear_compliance(W, d, weights, law):
@@ -413,10 +422,7 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
         over = limited & ~at & (r - ell > SIGN_TOL * scale)
         if not neg.any() and not over.any():
             return x, y, z, at, steps
-        new = (at & ~neg) | over
-        key = new.tobytes()
-        if key in seen:
+        at = _next_limit_set(at, neg, over, seen)
+        if at is None:
             return None
-        seen.add(key)
-        at = new
     return None

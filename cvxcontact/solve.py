@@ -286,7 +286,8 @@ class ContactSolver:
             if hasattr(self.rows, "cone"):                        # the cone rows of the mixed program: g + shift
                 allowance = np.where(self.rows.cone, self.rows.cone_shift, allowance)
             allowance = allowance / un.displacement
-        _check_reachable(scene, self.interface, self.E, blocks, self.E @ gap + allowance, self._translations, un)
+        self._held_rows = _held(self.E, blocks, self._translations)      # rows no unknown moves (§8)
+        _check_reachable(scene, self.interface, self.E, self._held_rows, self.E @ gap + allowance, un)
         timings["loads"] = time.perf_counter() - t0
         run = {"full": self._full, "sparse": self._sparse_solve}.get(self.method, self._condensed_solve)
         if self.conic:
@@ -296,10 +297,10 @@ class ContactSolver:
         if self.compliant:
             u, phi, y, z, polished, problem = self._compliance_solve(blocks, self.E @ gap, un, timings)
             if z is not None and not self.conic_limit:     # (the conic mix releases its own held rows)
-                y, z = _release_held(y, z, _held(self.E, blocks, self._translations))
+                y, z = _release_held(y, z, self._held_rows)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
-            y = self._held_forces(y, blocks, gap)
+            y = self._held_forces(y, gap)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED
         t0 = time.perf_counter()
@@ -412,7 +413,7 @@ class ContactSolver:
         active, polished = ipm_active(parts, moved, y, force_displacements(blocks, self.E, y)), False
         if self.polish and (self.held or tr):
             out = _sparse_finish(mixed_kkt(blocks, self.E, g, translations=tr), g,
-                                 active & ~_held(self.E, blocks, tr), timings)     # held rows: force 0 (§8)
+                                 active & ~self._held_rows, timings)     # held rows: force 0 (§8)
             if out is None:
                 self.declined = "the active-set steps on the sparse mixed system did not settle"
             else:
@@ -659,7 +660,7 @@ class ContactSolver:
         timings["compile"] = model.problem.compilation_time or 0.0
         timings["solve"] = model.problem.solver_stats.solve_time or 0.0
         self._beta = bernstein_duals(model.cone, model.row)
-        held = _held(self.E, blocks, self._translations)
+        held = self._held_rows
         self._beta = _held_cone(self._beta, B, held, g + law.cone_shift)   # rows no unknown moves: least force
         z = B.T @ self._beta.ravel() + _release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)),
                                                      held)[1]
@@ -771,7 +772,7 @@ class ContactSolver:
         phi = [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)]
         return u, phi, r, None, False, model.problem
 
-    def _held_forces(self, y, blocks, gap):
+    def _held_forces(self, y, gap):
         """The contact forces with those of held rows (:func:`_held`: no unknown moves them, and the checks
         of ``_check_reachable`` leave them a gap >= 0) set to their least admissible value. Such a force acts
         on no unknown, so (26)-(27) do not determine it and the supports carry it: an interior point returns
@@ -781,7 +782,7 @@ class ContactSolver:
         dual cone allows (beta0 = beta1^2 / (4 beta2), both ends held: beta0 = beta2 = beta1 / 2, the
         midpoint row held: the whole segment 0). Equilibrium and complementarity are unchanged (the row
         moves no unknown; its value is 0); ``self._beta`` is updated. docs/formulation.md §8, docs/checks.md."""
-        held = _held(self.E, blocks, self._translations)
+        held = self._held_rows
         if not held.any():
             return y
         if self._beta is None:
@@ -970,11 +971,11 @@ def _release_held(y, z, held):
     return y - np.where(held, z, 0.0), np.where(held, 0.0, z)
 
 
-def _check_reachable(scene, interface, E, blocks, g, translations, un):
+def _check_reachable(scene, interface, E, held, g, un):
     """Refuse, before any solve, a contact row that no unknown can move but whose gap is negative: a node
     the supports hold (clamped, or a prescribed displacement) that an obstacle or a partner already
     penetrates. The program would only be 'infeasible'; this names the pair and the point instead."""
-    bad = np.flatnonzero(_held(E, blocks, translations) & (g < 0))
+    bad = np.flatnonzero(held & (g < 0))
     if not len(bad):
         return
     a = int(bad[0])

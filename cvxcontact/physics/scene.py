@@ -274,8 +274,13 @@ class Body:
             xc, d = (mesh.points[cn[keep]] - centre) / size, cdir[keep]
             A = V @ np.vstack([d[:, 0], d[:, 1], -xc[:, 1] * d[:, 0] + xc[:, 0] * d[:, 1]])
             _, res = nnls(A, b)
-            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()) or res > 1e-9 * np.linalg.norm(b):
-                names = [_motion_name(v, centre, size) for v in V]
+            names = [_motion_name(v, centre, size) for v in V]
+            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()):
+                raise SceneError(f"{self.name}: no load presses the body onto the contact along {names} (held by "
+                                 "the contact only, its net load there is 0): its position along them is "
+                                 "undetermined (any lift-off costs nothing); add a support, or load it towards the "
+                                 "contact")
+            if res > 1e-9 * np.linalg.norm(b):
                 raise SceneError(f"{self.name}: the load pulls the body off its support along {names} (held by "
                                  f"the contact only; its net load there, {np.round(b, 9).tolist()} N/m, cannot be "
                                  "carried by compressive contact forces): add a support, or load it towards the "

@@ -139,7 +139,8 @@ class Model:
         self._bernstein = self._cone[0] if self._cone is not None else None
         self._limit = mixed_bernstein_rows(p) if p.mixed else None      # the cones of a mixed program (§10)
         if self._limit is not None:
-            self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit)
+            self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
+                                            translations=self._translations)
         else:
             self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
                                          bernstein=self._bernstein, translations=self._translations)
@@ -310,7 +311,8 @@ class Model:
         # as cc.solve sets it (docs/formulation.md §8, "Held nodes")
         held = self.problem.held_rows
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
-            r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+            r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+                 + sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g))))
             z = release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)), held)[1]
             if self._limit is not None:     # cones next to the law: their nodal force B^T beta joins z
                 beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,

@@ -18,7 +18,7 @@ from .backends.result import Cache, Settings
 from .backends.run import run
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
+from .errors import ResidualWarning, SceneError, SolverError
 from .fem.space import space
 from .physics.scene import Scene
 from .solution.info import Route, SolveInfo, Status
@@ -164,11 +164,6 @@ class ContactSolver:
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
         self._setup = {"assembly": time.perf_counter() - t0}
-        if self.problem.mixed and (self.problem.forced or self.problem.held):
-            raise UnsupportedError("P2 elements (degree=2) with cones next to a normal-compliance law (the conic "
-                                   "limit under 'gamma3', or Signorini 'gamma3' pairs beside a compliant pair: one "
-                                   "program, docs/formulation.md §10) and a force-controlled obstacle or a body held "
-                                   "by the contact only are not supported yet; use sigma conditions, or degree=1")
         self.requested = method
         self.method = choose(method, describe(self.problem))
         self._cache = Cache()

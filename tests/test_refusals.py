@@ -56,8 +56,6 @@ def _same(sol, ref, bound):
 
 # ================================================================ UnsupportedError
 
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="issue 20: cc.Model refuses force control "
-                   "with a normal-compliance law, which cc.solve takes")
 def test_model_takes_a_force_controlled_obstacle_with_a_compliance_law():
     """Row 1 (b). Block pressed by a force-controlled plane through p = k r: cc.solve(full) against the closed
     form (springs in series), then cc.Model on the same scene against cc.solve(full)."""
@@ -82,8 +80,6 @@ def _conic_next_to_compliance():
     return cc.Scene(top, mid, bot, contacts=pairs)
 
 
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="issue 20: cc.Model refuses P2 cones next to "
-                   "a compliance law on several pairs, which cc.solve takes")
 def test_model_takes_p2_cones_next_to_a_compliance_law():
     """Row 2 (b). Three P2 blocks: a compliant sigma1 pair above a Signorini 'gamma3' (conic) pair. Both are
     interior-point answers of one program (no exact finish): cc.solve full vs condensed differ by 6.5e-12 in u
@@ -100,8 +96,6 @@ def test_model_takes_p2_cones_next_to_a_compliance_law():
 
 
 @pytest.mark.parametrize("case", ["held layer", "force-controlled plane"])
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="issue 20: P2 cones next to a compliance law "
-                   "with a body held by the contact or a force-controlled obstacle")
 def test_p2_conic_limit_with_a_held_body_or_force_control(case):
     """Row 3 (b). A compliance law with a penetration limit l below p / k under 'gamma3' (the cone at g + l):
     the contact stops at r = l with lambda = p. Held layer: the base u_y = -p (y + H1) / M, the layer the same
@@ -320,8 +314,6 @@ def test_a_body_pulled_off_its_pair_is_refused_whatever_its_contact_tag():
     assert "layer" in msg and "translation y" in msg and "pulls the body off" in msg
 
 
-@pytest.mark.xfail(strict=True, raises=cc.SceneError, reason="issue 20: cc.Model refuses a body held only by "
-                   "contact, which cc.solve takes")
 def test_model_takes_a_body_held_by_the_contact_only():
     """Row 15 (b). The resting layer: cc.solve(full) against the closed form (uniaxial strain, u_y = -p (y + H1)
     / M in both bodies), then cc.Model against cc.solve(full) (the same program and finish: Model == solve(full)

@@ -73,7 +73,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
                      method="condensed")
 
 
-def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None):
+def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):
     """The program of a P2 scene mixing cones and a normal-compliance law (scaled; docs/formulation.md §10,
     "P2"): the energy of every body (full model, or with ``condensed`` bodies and their ``loads`` the
     condensed interface model) plus sum_a w_a Phi_a(r_a) over the compliant rows, the linear rows
@@ -81,10 +81,11 @@ def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None):
     every cone pair with the gap g + ``law.cone_shift`` (``law`` a scaled
     :class:`~cvxcontact.contact.quadratic.ConeRowLaws`, ``B`` (3 S, rows) the cone pairs' Bernstein map on
     the rows of ``E``). The model's ``contact``/``limit_rows`` are the linear rows (or None), ``cone`` and
-    ``row`` the cone's constraints (their duals the Bernstein duals beta)."""
+    ``row`` the cone's constraints (their duals the Bernstein duals beta). ``translations``: as in
+    :class:`~cvxcontact.backends.full.ContactModel` (full model only): the rows and the cones see R t."""
     if condensed is None:
-        model = ContactModel(blocks, E, g, law=law, weights=weights)
-        jump = sum((E @ b.jump) @ u for b, u in zip(blocks, model.u))
+        model = ContactModel(blocks, E, g, law=law, weights=weights, translations=translations)
+        jump = model.jump
     else:
         model = InterfaceModel(condensed, loads, E, g, law=law, weights=weights)
         jump = sum((E @ c.jump) @ v for c, v in zip(condensed, model.v))
@@ -113,7 +114,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     t0 = time.perf_counter()
     cond = None
     if method == "full":
-        model = conic_mix_model(list(problem.blocks), E, g, law, w, B)
+        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, translations=list(problem.translations))
     else:
         cond, _ = condensed_interface(problem, cache, settings, timings)
         _, v0, _ = interface_load(problem, cache, settings, timings)
@@ -127,6 +128,8 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     beta = held_cone(bernstein_duals(model.cone, model.row), B, held, g + law.cone_shift)  # held: least force
     z = B.T @ beta.ravel() + release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
     u, phi, r = program_fields(model, problem, cond)
+    taus = [np.asarray(t.value, dtype=float).ravel() for t in getattr(model, "t", [])]
+    r = r + sum((R @ tau for (R, _), tau in zip(problem.translations, taus)), np.zeros(len(g)))   # obstacles moved
     y = w * law.pressure(r) + z
     if cond is not None:
         # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full
@@ -136,9 +139,10 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
         x = [c.factor.backward(f, v.value) for c, f, v in zip(cond, cache.sweeps, model.v)]
         timings["back_substitution"] = time.perf_counter() - t0
         u, phi = split(cond, x, problem.blocks)
-    raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, program=model.problem, iterations=iterations,
+    raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, taus=taus, program=model.problem, iterations=iterations,
                     method=method)
-    if settings.polish and not problem.held and not law.cone.all() and not (law.cone & law.rows).any():
+    if (settings.polish and not problem.held and not problem.translations and not law.cone.all()
+            and not (law.cone & law.rows).any()):
         _finish_nodal_rows(problem, cache, settings, timings, raw, r)
     return raw
 

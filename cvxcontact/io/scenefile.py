@@ -291,10 +291,10 @@ def _pairs_scene(ctx, data, bodies):
             ctx.fail(f"{where}.condition", f"one of {list(CONDITIONS)}", condition)
         gap = ctx.load(c.get("gap", 0.0), f"{where}.gap", 1)
         other = by_name.get(c["b"]) or obstacles[c["b"]]
+        law = _law(c["law"], f"{ctx.path}: {where}") if "law" in c else None
         try:
             pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
-                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap,
-                                 law=_law(c["law"], f"{ctx.path}: {where}") if "law" in c else None))
+                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap, law=law))
         except CvxContactError as exc:
             raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
     try:
@@ -319,12 +319,12 @@ class _Context:
             if req not in spec:
                 raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
         force = o.get("force")
+        f = self.load(spec["f"], f"{where}.profile.f", 1) if kind == "profile" else None
         try:
             if kind == "plane":
                 return Rigid.plane(spec["point"], spec["normal"], force=force)
             if kind == "circle":
                 return Rigid.circle(spec["center"], spec["radius"], force=force)
-            f = self.load(spec["f"], f"{where}.profile.f", 1)
             fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
             return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force)
         except CvxContactError as exc:

@@ -206,6 +206,11 @@ def test_with_bodies_rebuilds_the_pairs_on_the_new_bodies():
     assert new.contacts[0].body_a is block and new.contacts[0].other is scene.contacts[0].other
     with pytest.raises(cc.SceneError, match=r"one body per body of the scene \(1"):
         scene.with_bodies(block, block)
+    pair = scene.contacts[0].with_changes(gap=1e-4, condition="sigma1")
+    assert pair.gap.value == 1e-4 and pair.condition == "sigma1" and pair.other is scene.contacts[0].other
+    assert scene.contacts[0].gap.value == 0.0 and scene.contacts[0].condition is None
+    with pytest.raises(cc.SceneError, match=r"unknown field\(s\) \['stiffness'\]"):
+        scene.contacts[0].with_changes(stiffness=1.0)
 
 
 def rigid_points():

@@ -342,13 +342,19 @@ class Contact(Frozen):
         self._set(gap=Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), f"{self}: gap", 1))
 
     def _frozen_hint(self, name: str) -> str:
-        return ("build a new Contact(...), or a changed scene with scene.with_gap(g, pair=i), "
-                "scene.with_obstacles(...) or scene.with_bodies(...)")
+        return ("build a new pair with contact.with_changes(...) or Contact(...), or a changed scene with "
+                "scene.with_gap(g, pair=i), scene.with_obstacles(...) or scene.with_bodies(...)")
 
-    def _rebuilt(self, **changes) -> "Contact":
-        """This pair with some constructor arguments replaced (``body_a``, ``other``, ``gap``, ...)."""
+    def with_changes(self, **changes) -> "Contact":
+        """A new pair: this one with some constructor arguments replaced (``body_a``, ``part_a``, ``other``,
+        ``part_b``, ``condition``, ``gap`` (m), ``law``), validated afresh. A scene takes it through
+        ``Scene(*bodies, contacts=[...])``; :meth:`cvxcontact.Scene.with_gap`, ``with_obstacles`` and
+        ``with_bodies`` do the usual changes on a whole scene."""
         args = dict(body_a=self.body_a, part_a=self.part_a, other=self.other, part_b=self.part_b,
                     condition=self.condition, gap=self._given_gap, law=self.law)
+        unknown = sorted(set(changes) - set(args))
+        if unknown:
+            raise SceneError(f"{self!r}: with_changes got unknown field(s) {unknown}; a Contact takes {sorted(args)}")
         args.update(changes)
         return Contact(args.pop("body_a"), args.pop("part_a"), args.pop("other"), args.pop("part_b"), **args)
 

@@ -734,7 +734,7 @@ class Scene(Frozen):
             if not isinstance(b, Body):
                 raise SceneError(f"with_bodies takes Body objects; argument {k} is {type(b).__name__}")
         swap = {id(old): new for old, new in zip(self.bodies, bodies)}
-        contacts = [c._rebuilt(body_a=swap[id(c.body_a)], other=c.other if c.rigid else swap[id(c.other)])
+        contacts = [c.with_changes(body_a=swap[id(c.body_a)], other=c.other if c.rigid else swap[id(c.other)])
                     for c in self.contacts]
         return self._rebuilt(bodies, contacts, self._given_gap)
 
@@ -763,7 +763,7 @@ class Scene(Frozen):
         if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or not 0 <= pair < len(self.contacts):
             raise SceneError(f"with_gap: name the pair whose gap changes, pair = 0..{len(self.contacts) - 1} (the "
                              f"index into scene.contacts), got pair={pair!r}")
-        contacts = [c._rebuilt(gap=gap) if i == pair else c for i, c in enumerate(self.contacts)]
+        contacts = [c.with_changes(gap=gap) if i == pair else c for i, c in enumerate(self.contacts)]
         return Scene(*self.bodies, contacts=contacts)
 
     def with_obstacles(self, *obstacles: Rigid) -> "Scene":
@@ -779,7 +779,7 @@ class Scene(Frozen):
             if not isinstance(o, Rigid):
                 raise SceneError(f"with_obstacles takes Rigid obstacles; argument {k} is {type(o).__name__}")
         swap = {id(a): b for a, b in zip(old, obstacles)}
-        contacts = [c._rebuilt(other=swap[id(c.other)]) if c.rigid else c for c in self.contacts]
+        contacts = [c.with_changes(other=swap[id(c.other)]) if c.rigid else c for c in self.contacts]
         return Scene(*self.bodies, contacts=contacts)
 
     def _index(self, body) -> int:

@@ -126,7 +126,7 @@ def test_layer_held_by_the_contact_through_compliance_closed_form(degree, m, k):
     """Uniform stress sigma_yy = -p in both bodies; the foundation u_y = -p (y + H1) / M; the layer the same
     shifted down by the law's penetration r = (p / k)^(1/m): u_y = -p (y + H1) / M - r."""
     scene = held_layer(cc.NormalCompliance(stiffness=k, exponent=m))
-    assert scene.bodies[0].held_by_contact == ["translation y"]
+    assert scene.bodies[0].held_by_contact == ("translation y",)
     sol = cc.solve(scene, degree=degree)
     r = (P / k) ** (1.0 / m)
     q1, q2 = sol.points

@@ -149,3 +149,15 @@ def test_problem_is_immutable():
     problem = build_problem(_loaded_pair(), space(1), "gamma3", cc.Signorini())
     with pytest.raises(AttributeError):
         problem.gap = None
+
+
+def test_model_node_out_of_range_is_a_typed_error_naming_the_body():
+    model = cc.Model(_loaded_pair())
+    n = len(model.scene.bodies[0].mesh.points)
+    with pytest.raises(cc.SceneError, match=rf"node {n} of body 0 .* has {n} nodes"):
+        model.u(0, n)
+    with pytest.raises(cc.SceneError, match="node -1 of body 1"):
+        model.u(1, [0, -1])
+    with pytest.raises(cc.SceneError, match="integer node index"):
+        model.phi(0, 0.5)
+    assert model.u(0, [0, 1]).shape == (2, 2) and model.phi(0, 3).shape == ()

@@ -133,6 +133,11 @@ class DiscreteProblem:
         return self.lines.interface
 
     @property
+    def dim(self) -> int:
+        """Displacement components per node (the space's)."""
+        return self.space.dim
+
+    @property
     def meshes(self) -> list:
         """Each body's node graph for the factorisations' orderings (P2: the 6-node graph)."""
         return list(self.nodes) if self.nodes is not None else [b.mesh for b in self.scene.bodies]
@@ -221,17 +226,17 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     if previous is not None and previous.lines.key() == lines.key():
         blocks = tuple(blk.with_loads(s, un) for blk, s in zip(previous.blocks, systems))
     elif previous is not None:                              # the same matrices, new contact rows
-        blocks = tuple(replace(blk, jump=(lines.interface.jump(k, len(s.f) // 2) @ s.Tu).tocsr()).with_loads(s, un)
+        blocks = tuple(replace(blk, jump=(lines.interface.jump(k, len(s.f) // space.dim) @ s.Tu).tocsr()).with_loads(s, un)
                        for k, (blk, s) in enumerate(zip(previous.blocks, systems)))
     else:
-        blocks = tuple(Block.scaled(s, lines.interface.jump(k, len(s.f) // 2), un) for k, s in enumerate(systems))
+        blocks = tuple(Block.scaled(s, lines.interface.jump(k, len(s.f) // space.dim), un) for k, s in enumerate(systems))
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
     held = held_rows(E, blocks, translations)
     shift = np.zeros(len(lines.gap))             # [u_D nu]: prescribed displacements of contact nodes (§11)
     for k, s in enumerate(systems):
         if s.u_fixed is not None and np.any(s.u_fixed):
-            shift = shift + lines.interface.jump(k, len(s.f) // 2) @ s.u_fixed
+            shift = shift + lines.interface.jump(k, len(s.f) // space.dim) @ s.u_fixed
     gap = (lines.gap - shift) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,

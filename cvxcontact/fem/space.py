@@ -81,9 +81,11 @@ def _interface_key(interface) -> bytes:
 
 
 class Space(Protocol):
-    """What the discrete problem asks of a space."""
+    """What the discrete problem asks of a space: its ``degree`` and ``dim`` (displacement components per
+    node), and the methods below."""
 
     degree: int
+    dim: int
 
     def nodes(self, body):
         """The node set of ``body`` (None: the mesh's vertices)."""
@@ -101,7 +103,7 @@ class Space(Protocol):
 class P1:
     """P1 (3-node) triangles: the mesh's vertices, the merged P1 contact mesh of every pair."""
 
-    degree = 1
+    degree, dim = 1, 2
 
     def nodes(self, body):
         return None
@@ -134,7 +136,7 @@ class P1:
 class P2:
     """P2 (6-node) triangles built on the P1 mesh (vertices, then edge midpoints; docs/formulation.md §8)."""
 
-    degree = 2
+    degree, dim = 2, 2
 
     def nodes(self, body):
         return P2Nodes(body.mesh)

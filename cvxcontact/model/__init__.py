@@ -173,9 +173,10 @@ class Model:
         k = self._index(body)
         if k not in self._u_expr:
             s = self.systems[k]
-            n = len(s.f) // 2                                  # nodes (P2: vertices and midpoints)
+            d = self.problem.dim
+            n = len(s.f) // d                                  # nodes (P2: vertices and midpoints)
             self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
-                                         (n, 2), order="C")
+                                         (n, d), order="C")
         return self._u_expr[k] if nodes is None else self._u_expr[k][self._nodes_of(k, nodes)]
 
     def phi(self, body, nodes=None) -> cp.Expression | None:
@@ -191,7 +192,7 @@ class Model:
 
     def _nodes_of(self, k, nodes):
         """``nodes`` as checked node indices of body k (SceneError naming the body and the valid range)."""
-        n = len(self.systems[k].f) // 2
+        n = len(self.systems[k].f) // self.problem.dim
         idx = np.asarray(nodes)
         if idx.dtype.kind not in "iu" or idx.ndim > 1:
             raise SceneError(f"nodes of body {k} ({self.scene.bodies[k].name}) must be an integer node index or a "

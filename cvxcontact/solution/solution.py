@@ -333,7 +333,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
         full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
-        u_si.append(full.reshape(-1, 2))
+        u_si.append(full.reshape(-1, problem.dim))
         if pk is None:
             phi_si.append(None)
             continue

@@ -14,7 +14,7 @@ from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite
 from .finish import solve_compliance, solve_linear_compliance, solve_sparse_compliance
 from .full import ContactModel, limit_reaction
-from .interface import back_substitute, condensed_interface, interface_load, program_fields, release_held
+from .interface import condensation, program_fields, release_held
 from .program import timed_program
 from .result import RawResult, Route
 
@@ -59,8 +59,9 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     raw = RawResult(u=None, phi=None, y=None)
     cond = None
     if method == "condensed" or settings.polish:
-        cond, compliance = condensed_interface(problem, cache, settings, timings)
-        _, v0, d = interface_load(problem, cache, settings, timings)
+        reduction = condensation(problem, cache, settings, timings)
+        cond, compliance = reduction.bodies, reduction.compliance
+        _, loads, d = reduction.apply(problem, timings)
     out = None
     if method == "condensed" and settings.warm_start and settings.polish and cache.active is not None:
         t0 = time.perf_counter()
@@ -74,7 +75,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
         if method == "full":
             model = ContactModel(list(problem.blocks), E, g, law=law, weights=w)
         else:
-            model = InterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], E, g, law=law, weights=w)
+            model = InterfaceModel(cond, loads, E, g, law=law, weights=w)
         timings["model"] = time.perf_counter() - t0
         try:
             raw.iterations = timed_program(model.problem, settings, timings)
@@ -110,7 +111,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
         raw.y, raw.z, raw.polished = out[0], out[1], True
         cache.active = (d - compliance.W @ raw.y, out[2])     # the penetration r and the rows at their limit
     if cond is not None and (raw.polished or method == "condensed"):
-        raw.u, raw.phi = back_substitute(problem, cache, raw.y, timings)
+        raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     if not law.limited.any():
         raw.z = None
     return raw

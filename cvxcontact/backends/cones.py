@@ -16,8 +16,7 @@ from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction
-from .interface import (back_substitute, condensed_interface, held_cone, interface_load, program_fields,
-                        release_held, split)
+from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import RawResult, Route
 
@@ -49,7 +48,7 @@ def full(problem, cache, settings, timings) -> RawResult:
 
 def condensed(problem, cache, settings, timings) -> RawResult:
     """The condensed interface SOCP with the conic condition, then one back-substitution per body."""
-    cond, _ = condensed_interface(problem, cache, settings, timings)
+    cond = condensation(problem, cache, settings, timings).bodies
     t0 = time.perf_counter()
     rhs = [quasi_definite_rhs(b) for b in problem.blocks]
     v0 = [c.solve(F)[c.gamma] for c, F in zip(cond, rhs)]
@@ -126,10 +125,10 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     if method == "full":
         model = conic_mix_model(list(problem.blocks), E, g, law, w, B, translations=list(problem.translations))
     else:
-        cond, _ = condensed_interface(problem, cache, settings, timings)
-        _, v0, _ = interface_load(problem, cache, settings, timings)
-        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, condensed=cond,
-                                loads=[c.stiffness @ v for c, v in zip(cond, v0)])
+        reduction = condensation(problem, cache, settings, timings)
+        cond = reduction.bodies
+        _, loads, _ = reduction.apply(problem, timings)
+        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, condensed=cond, loads=loads)
     timings["model"] = time.perf_counter() - t0
     pairs = len(problem.lines.offsets) - 1
     iterations = timed_program(model.problem, settings, timings,
@@ -145,10 +144,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
         # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full
         # model's u: r and the cone stay the program's. Back-substituting the force y instead carried the
         # power cone's error in y into r (complementarity ~4e-5 with m != 1, measured; here 6e-8)
-        t0 = time.perf_counter()
-        x = [c.factor.backward(f, v.value) for c, f, v in zip(cond, cache.sweeps, model.v)]
-        timings["back_substitution"] = time.perf_counter() - t0
-        u, phi = split(cond, x, problem.blocks)
+        u, phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
     raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, taus=taus, program=model.problem, iterations=iterations,
                     method=method)
     if (settings.polish and not problem.held and not problem.translations and not law.cone.all()
@@ -168,8 +164,9 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
     see the finished y_R, which the cone checks measure. Updates ``raw`` (u, phi, y, z, finish) in place, or
     sets ``raw.declined`` if the steps do not settle."""
     law, w = problem.scaled_law, problem.weights
-    _, compliance = condensed_interface(problem, cache, settings, timings)
-    _, _, d = interface_load(problem, cache, settings, timings)
+    reduction = condensation(problem, cache, settings, timings)
+    compliance = reduction.compliance
+    _, _, d = reduction.apply(problem, timings)
     t0 = time.perf_counter()
     y, z = raw.y, raw.z
     R, C = np.flatnonzero(~law.cone), np.flatnonzero(law.cone)
@@ -187,5 +184,5 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
     raw.finish = out[3]
     new_y, new_z = y.copy(), z.copy()
     new_y[R], new_z[R] = out[0], out[1]
-    raw.u, raw.phi = back_substitute(problem, cache, new_y, timings)
+    raw.u, raw.phi = reduction.invert(problem, new_y, timings)
     raw.y, raw.z = new_y, new_z

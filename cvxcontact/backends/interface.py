@@ -1,6 +1,6 @@
-"""The pieces every route shares: the condensed interface of a problem (built once per geometry and kept in
-the :class:`~cvxcontact.backends.result.Cache`), the interface load of a load case, the back-substitution,
-the fields of a solved program, and the rows no unknown moves (docs/formulation.md §7, §8 "Held nodes")."""
+"""The pieces every route shares: the condensation of a problem onto its contact unknowns (a reduction with
+apply/invert, built once per geometry and kept in the :class:`~cvxcontact.backends.result.Cache`), the fields
+of a solved program, and the rows no unknown moves (docs/formulation.md §7, §8 "Held nodes")."""
 
 from __future__ import annotations
 
@@ -11,46 +11,75 @@ import numpy as np
 from .condensed import Compliance, condense, quasi_definite_rhs
 from .conic import least_held_duals
 
-__all__ = ["condensed_interface", "interface_load", "back_substitute", "split", "program_fields", "held_cone",
-           "release_held"]
+__all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
 
 
-def condensed_interface(problem, cache, settings, timings):
-    """(condensed bodies, interface compliance W) of ``problem``, built once per geometry into ``cache``."""
-    if cache.condensed is None:
+class Condensation:
+    """The reduction of a problem onto its contact unknowns (docs/formulation.md §7), as a pair of maps.
+
+    Built once per geometry (``__init__``: each body's quasi-definite matrix factorised with its contact dofs
+    as a Schur block, :func:`~cvxcontact.backends.condensed.condense`, and the interface compliance W = sum_l
+    R_l Sigma_l^-1 R_l^T of the rows E): the factorisations are the inverse data. :meth:`apply` reduces a load
+    case to the interface: per body the unconstrained Gamma displacements v0 and the interface loads
+    Sigma v0, and the free slack d = E [v0_nu] - g (the forward sweeps are kept). :meth:`invert` maps the
+    contact forces y on the rows back to every body's (u, phi) (one backward sweep per body);
+    :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v).
+    """
+
+    def __init__(self, problem, settings, timings):
         t0 = time.perf_counter()
-        cache.condensed = [condense(b, s, m, settings.factorization)
-                           for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
-        cache.compliance = Compliance(cache.condensed, problem.E)
+        self.bodies = [condense(b, s, m, settings.factorization)
+                       for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
+        self.compliance = Compliance(self.bodies, problem.E)
+        self.sweeps = None
         timings["factorization"] = time.perf_counter() - t0
-    return cache.condensed, cache.compliance
+
+    @property
+    def W(self):
+        """The interface compliance (rows x rows, scaled)."""
+        return self.compliance.W
+
+    @property
+    def factorization(self) -> str:
+        """The adapters that factorised the bodies ("superlu", "pardiso")."""
+        return ",".join(dict.fromkeys(c.factorization for c in self.bodies))
+
+    def apply(self, problem, timings):
+        """(v0, loads, d) of the load case of ``problem`` (see the class docstring)."""
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in problem.blocks]
+        self.sweeps = [c.forward(F) for c, F in zip(self.bodies, rhs)]
+        v0 = [c.unconstrained(f) for c, f in zip(self.bodies, self.sweeps)]
+        d = self.compliance.free_slack(v0, problem.g)
+        timings["interface_load"] = time.perf_counter() - t0
+        return v0, [c.stiffness @ v for c, v in zip(self.bodies, v0)], d
+
+    def invert(self, problem, y, timings):
+        """(u, phi) of every body under the contact forces ``y`` on the rows of the last :meth:`apply`."""
+        t0 = time.perf_counter()
+        x = [c.back_substitute(f, problem.E.T @ y) for c, f in zip(self.bodies, self.sweeps)]
+        timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        return split(self.bodies, x, problem.blocks)
+
+    def invert_gamma(self, problem, v, timings):
+        """(u, phi) of every body with its Gamma values ``v`` (per body) given, for the last :meth:`apply`."""
+        t0 = time.perf_counter()
+        x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
+        timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        return split(self.bodies, x, problem.blocks)
 
 
-def interface_load(problem, cache, settings, timings):
-    """(rhs, v0, d) of the load case: per-body right-hand sides, unconstrained Gamma displacements and the free
-    slack d = E [v0_nu] - g; the forward sweeps are kept in ``cache`` for :func:`back_substitute`."""
-    condensed, compliance = condensed_interface(problem, cache, settings, timings)
-    t0 = time.perf_counter()
-    rhs = [quasi_definite_rhs(b) for b in problem.blocks]
-    cache.sweeps = [c.forward(F) for c, F in zip(condensed, rhs)]
-    v0 = [c.unconstrained(f) for c, f in zip(condensed, cache.sweeps)]
-    d = compliance.free_slack(v0, problem.g)
-    timings["interface_load"] = time.perf_counter() - t0
-    return rhs, v0, d
+def condensation(problem, cache, settings, timings) -> Condensation:
+    """The :class:`Condensation` of ``problem``, built once per geometry into ``cache``."""
+    if cache.condensation is None:
+        cache.condensation = Condensation(problem, settings, timings)
+    return cache.condensation
 
 
 def split(condensed, x, blocks):
     """(u, phi) of each body from its back-substituted unknowns ``x``."""
     return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
             [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)])
-
-
-def back_substitute(problem, cache, y, timings):
-    """(u, phi) of every body under the contact forces ``y`` on the rows (one backward sweep per body)."""
-    t0 = time.perf_counter()
-    x = [c.back_substitute(f, problem.E.T @ y) for c, f in zip(cache.condensed, cache.sweeps)]
-    timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
-    return split(cache.condensed, x, problem.blocks)
 
 
 def program_fields(model, problem, condensed=None):

@@ -103,8 +103,8 @@ class RawResult:
 
 
 class Cache:
-    """What a backend keeps between solves of one geometry (per ContactSolver): the condensed bodies and
-    the interface compliance, the sparse factorisation, the forward sweeps of the last load case and the
+    """What a backend keeps between solves of one geometry (per ContactSolver): the condensation onto the
+    contact unknowns (:class:`~cvxcontact.backends.interface.Condensation`), the sparse factorisation and the
     last exact active set (warm starts). :meth:`matching` empties it when the contact rows change (a moved
     obstacle reaching other nodes)."""
 
@@ -113,7 +113,7 @@ class Cache:
         self.clear()
 
     def clear(self):
-        self.condensed = self.compliance = self.sparse = self.active = self.sweeps = None
+        self.condensation = self.sparse = self.active = None
 
     def matching(self, key) -> "Cache":
         """This cache, emptied first if it was filled for other contact rows than ``key``."""

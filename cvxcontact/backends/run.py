@@ -47,6 +47,6 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     raw = route(method, kind(problem))(problem, cache.matching(problem.lines.key()), settings, timings)
     if kind(problem) == "signorini":
         raw.y = np.where(problem.held_rows, 0.0, raw.y)
-    if not raw.factorization and cache.condensed:
-        raw.factorization = ",".join(dict.fromkeys(c.factorization for c in cache.condensed))
+    if not raw.factorization and cache.condensation is not None:
+        raw.factorization = cache.condensation.factorization
     return raw

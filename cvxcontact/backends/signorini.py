@@ -12,7 +12,7 @@ from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .finish import SIGN_TOL, active_set_steps, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
 from .full import ContactModel, mixed_kkt
-from .interface import back_substitute, condensed_interface, interface_load
+from .interface import condensation
 from .program import timed_program
 from .result import RawResult, Route
 
@@ -57,9 +57,10 @@ def full(problem, cache, settings, timings) -> RawResult:
             raw.taus = list(x[3])
         raw.polished, raw.finish = True, "active set"
         return raw
-    _, _, d = interface_load(problem, cache, settings, timings)
-    W = cache.compliance.W
-    out = interface_finish(cache.compliance, d, lcp_start(W, d, raw.y, slack), timings)
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    W = reduction.W
+    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
     if out is None:
         raw.declined = "no active set satisfies the signs of the contact problem"
         return raw
@@ -78,8 +79,9 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     """Each body condensed onto its contact dofs, the interface QP, the exact LCP finish, one back-substitution
     per body; a re-solve starts from the previous exact active set (no program)."""
     E, g = problem.E, problem.g
-    cond, compliance = condensed_interface(problem, cache, settings, timings)
-    _, v0, d = interface_load(problem, cache, settings, timings)
+    reduction = condensation(problem, cache, settings, timings)
+    cond, compliance = reduction.bodies, reduction.compliance
+    _, loads, d = reduction.apply(problem, timings)
     warm = settings.warm_start and settings.polish and cache.active is not None
     out = solve_lcp(compliance.W, d, cache.active) if warm and len(cache.active) == len(d) else None
     raw = RawResult(u=[], phi=[], y=np.zeros(len(d)), method="condensed")
@@ -87,7 +89,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         raw.y, raw.active, raw.polished, raw.route, raw.finish = out[0], out[1], True, Route.WARM_START, out[2]
     else:
         t0 = time.perf_counter()
-        model = InterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], E, g)
+        model = InterfaceModel(cond, loads, E, g)
         timings["model"] = time.perf_counter() - t0
         raw.iterations = timed_program(model.problem, settings, timings)
         raw.y = np.asarray(model.contact.dual_value, dtype=float).ravel()
@@ -103,7 +105,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
                 raw.y, raw.active, raw.polished, raw.finish = out[0], out[1], True, out[2]
     if raw.polished:
         cache.active = raw.active
-    raw.u, raw.phi = back_substitute(problem, cache, raw.y, timings)
+    raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     return raw
 
 

@@ -30,6 +30,7 @@ from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
+from .fem.kernel import check_well_posed
 from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
@@ -267,10 +268,9 @@ class ContactSolver:
             systems = [p2.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, self.matrices, self.nodes)]
             gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x))
                                   for i, itf in enumerate(self._p2.interfaces)])
-        for k, (b, s) in enumerate(zip(scene.bodies, systems)):
-            if getattr(b, "held_by_contact", None):     # the load must press it onto the contact
-                b.check_pressed(s.f, None if self.nodes is None else self.nodes[k])
         obstacles = scene.obstacles if self.degree == 1 else _p2_obstacles(scene, self._p2)
+        # the rigid motions only the contact holds: determined by the loads and every pair together (or a SceneError)
+        check_well_posed(scene.bodies, [s.f for s in systems], self.E, self.interface, obstacles, self.nodes)
         forced = [o for o in obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement

@@ -30,7 +30,7 @@ from .discrete import Block, Units, units
 from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
 from .fem import p2
 from .fem.assembly import assemble_loads, assemble_matrices
-from .fem.kernel import check_well_posed
+from .fem.kernel import check_determined, check_well_posed
 from .geometry.quadratic import P2Nodes
 from .physics.fingerprint import geometry_fingerprint
 from .physics.scene import Scene
@@ -270,7 +270,7 @@ class ContactSolver:
                                   for i, itf in enumerate(self._p2.interfaces)])
         obstacles = scene.obstacles if self.degree == 1 else _p2_obstacles(scene, self._p2)
         # the rigid motions only the contact holds: determined by the loads and every pair together (or a SceneError)
-        check_well_posed(scene.bodies, [s.f for s in systems], self.E, self.interface, obstacles, self.nodes)
+        kernel = check_well_posed(scene.bodies, [s.f for s in systems], self.E, self.interface, obstacles, self.nodes)
         forced = [o for o in obstacles if o.force is not None]
         un = units(scene, systems, gap, forces=[o.force for o in forced]) if self.scale else Units(1.0, 1.0, 1.0, 1.0)
         gap = gap / un.displacement
@@ -300,6 +300,8 @@ class ContactSolver:
                 y, z = _release_held(y, z, self._held_rows)
         else:
             u, phi, y, active, polished, problem = run(blocks, self.E @ gap, timings)
+            if polished and not self.conic:     # a motion held only by rows open at the solution (fem/kernel.py)
+                check_determined(kernel, active)
             y = self._held_forces(y, gap)
         if polished and self.path == Route.INTERIOR_POINT:
             self.path = Route.INTERIOR_POINT_FINISHED

@@ -45,8 +45,9 @@ solution with a bounded set of minimisers:
 
     (W)   f^T d < 0   for every non-zero d in Z n R.
 
-Not decided here: a non-uniqueness that depends on the gaps, a d in Z with f^T d = 0 that closes only
+Not decided by (W): a non-uniqueness that depends on the gaps, a d in Z with f^T d = 0 that closes only
 rows that stay open at the solution (a load-free body floating in an open gap); such a d is not in R.
+After an exact solve, :func:`check_determined` decides it: (W) on the rows active at the solution.
 
 Normal compliance (docs/formulation.md §10): along a direction that closes a compliant row its energy
 grows like t^(m+1), m >= 1, faster than the work; along one that opens it, it vanishes. So the cone R is
@@ -81,7 +82,7 @@ every load by a constant, or changing the units of length, leaves the decision u
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -91,7 +92,8 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import SceneError
 
-__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "ROW_TOL", "CANCELLATION", "SLACK"]
+__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "check_determined", "ROW_TOL", "CANCELLATION",
+           "SLACK"]
 
 ROW_TOL = 1e-9
 """A contact row that every unit kernel motion moves by less than this (dimensionless) is not moved."""
@@ -111,13 +113,15 @@ class Kernel:
     """The kernel Z of the assembled problem (module docstring) in its coordinates alpha.
 
     ``rows`` (r, m): how each kernel coordinate changes each contact row's value [u_nu] - g, per unit
-    motion (dimensionless; rows that no coordinate moves left out). ``work`` (m,) N/m: the load's work
+    motion (dimensionless; rows that no coordinate moves left out), ``index`` (r,) their rows in the
+    evaluation E. ``work`` (m,) N/m: the load's work
     f^T d per unit motion; ``magnitude`` (m,) N/m the sum of the magnitudes of its terms. ``owners``:
     one (label, kind, coordinate slice, namer) per body or obstacle with kernel coordinates, kind "body"
     or "obstacle", namer(alpha_slice) -> readable motion.
     """
 
     rows: np.ndarray
+    index: np.ndarray
     work: np.ndarray
     magnitude: np.ndarray
     owners: tuple
@@ -126,6 +130,11 @@ class Kernel:
     def size(self) -> int:
         """The dimension m of the kernel."""
         return len(self.work)
+
+    def at(self, active: np.ndarray) -> "Kernel":
+        """The kernel with the rows of E marked in ``active`` (a boolean per row) only."""
+        keep = np.asarray(active, dtype=bool)[self.index]
+        return replace(self, rows=self.rows[keep], index=self.index[keep])
 
     def moved(self, alpha: np.ndarray) -> list[tuple[str, str, str]]:
         """(label, kind, motion) of each owner that the kernel motion ``alpha`` moves."""
@@ -179,10 +188,10 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
                        lambda a, basis=basis: _translation_name(basis @ a)))
         m += basis.shape[1]
     if not m:
-        return Kernel(np.zeros((E.shape[0], 0)), np.zeros(0), np.zeros(0), ())
+        return Kernel(np.zeros((0, 0)), np.zeros(0, dtype=int), np.zeros(0), np.zeros(0), ())
     A = np.hstack(cols)
-    A = A[np.abs(A).max(axis=1) > ROW_TOL]                              # rows no unit motion moves: out
-    return Kernel(A, np.concatenate(work), np.concatenate(magnitude), tuple(owners))
+    index = np.flatnonzero(np.abs(A).max(axis=1) > ROW_TOL)             # rows no unit motion moves: out
+    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners))
 
 
 def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
@@ -270,17 +279,18 @@ def _translation_name(t) -> str:
 
 
 def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.spmatrix, interface,
-                     obstacles: Sequence = (), nodes: Sequence | None = None) -> None:
+                     obstacles: Sequence = (), nodes: Sequence | None = None) -> Kernel | None:
     """Raise a :class:`~cvxcontact.errors.SceneError` naming the body or obstacle and the motion if the
     assembled problem leaves a rigid motion undetermined or unbounded: condition (W) of the module
-    docstring, over every body and obstacle at once. Arguments as in :func:`rigid_kernel`. Cheap when no
-    body has a motion the supports leave free and no obstacle is force controlled (nothing is built)."""
+    docstring, over every body and obstacle at once. Arguments as in :func:`rigid_kernel`. Returns the
+    :class:`Kernel` (for :func:`check_determined` after the solve), or None, at no cost, when no body has
+    a motion the supports leave free and no obstacle is force controlled."""
     if not any(b.held_by_contact for b in bodies) and not any(o.force is not None for o in obstacles):
-        return
+        return None
     kernel = rigid_kernel(bodies, loads, evaluation, interface, obstacles, nodes)
     verdict = undetermined(kernel)
     if verdict is None:
-        return
+        return kernel
     kind, dirs = verdict
     if kind == "pulls":
         d = dirs[0]
@@ -289,6 +299,35 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
         raise SceneError(f"the load pulls {who} off along {motion} (its net load along it, "
                          f"{float(kernel.work @ d):.6g} N/m, is not balanced by compressive contact forces): add a "
                          "support or load it towards the contact")
+    raise SceneError(f"nothing determines the {_names(kernel, dirs)}: the load does no work along it and no contact "
+                     f"resists it: {_hint(kernel, dirs)}")
+
+
+def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
+    """After an exact solve: raise a :class:`~cvxcontact.errors.SceneError` if the solution leaves a kernel
+    motion free, i.e. some non-zero d in Z that no active row resists (G_A d <= 0) along which the load does
+    no work. The minimisers are x* + d with d in Z, x* + d feasible and f^T d = 0; near x* the rows that
+    are open do not matter, and f^T d = y^T G_A d by stationarity; so d is a further minimiser iff
+    G_A d <= 0 and f^T d >= 0: (W) of the module docstring on the active rows A. It catches what (W) on all
+    rows cannot see, a motion held only by rows that are open at the solution (a load-free body floating
+    in an open gap, an obstacle on one contact node whose sensitivity has no tangential part).
+    ``active``: a boolean per row of E (the exact finish's active set)."""
+    if kernel is None or active is None:
+        return
+    here = kernel.at(active)
+    verdict = undetermined(here)
+    if verdict is not None and verdict[0] == "free":
+        raise SceneError(f"the solution does not determine the {_names(here, verdict[1])}: no contact that is closed "
+                         "at the solution resists it and the load does no work along it (the rows that would hold "
+                         f"it are open): {_hint(here, verdict[1])}")
+
+
+def _names(kernel, dirs) -> str:
+    names = [kernel.name(d) for d in dirs]
+    return names[0] if len(names) == 1 else "motions " + "; ".join(names)
+
+
+def _hint(kernel, dirs) -> str:
     kinds = {kind for d in dirs for _, kind, _ in kernel.moved(d)}
     hint = []
     if "obstacle" in kinds:
@@ -298,7 +337,4 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
     if "body" in kinds:
         hint.append("add a clamped, roller or displacement support that stops it, or load the body towards the "
                     "contact")
-    names = [kernel.name(d) for d in dirs]
-    what = names[0] if len(names) == 1 else "motions " + "; ".join(names)
-    raise SceneError(f"nothing determines the {what}: the load does no work along it and no contact resists it: "
-                     + "; or ".join(hint))
+    return "; or ".join(hint)

@@ -365,8 +365,8 @@ def _motion_name(v, centre, size):
         if abs(t[0]) <= 1e-9:
             return "translation y"
         return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
-    xc, yc = centre[0] - ty / w * size, centre[1] + tx / w * size
-    return f"rotation about ({xc:.4g}, {yc:.4g}) m"
+    xc, yc = (round(c / size, 6) * size + 0.0 for c in (centre[0] - ty / w * size, centre[1] + tx / w * size))
+    return f"rotation about ({xc:.4g}, {yc:.4g}) m"                 # (to 1e-6 of the piece's size)
 
 
 def _node_normals(mesh, tag):

@@ -86,8 +86,8 @@ def default_part(name, n, degree, runs, factorization="auto"):
                          factorization=sol.info.factorization or "-", ok=bool(sol.ok),
                          resolve_ok=bool(again.ok), resolve_route=str(again.info.route),
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
-        unknowns = sum(b.Kuu.shape[0] + (b.Kpp.shape[0] if b.Kpp is not None else 0) for b in solver._blocks)
-        merged = solver.E.shape[0]
+        unknowns = sum(b.Kuu.shape[0] + (b.Kpp.shape[0] if b.Kpp is not None else 0) for b in solver.problem.blocks)
+        merged = solver.problem.E.shape[0]
         del solver, sol, again
     out = _median(rows)
     out.update(unknowns=unknowns, contact_rows=merged, default_peak_gb=peak_gb())

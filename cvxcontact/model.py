@@ -44,22 +44,24 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .backends.cones import conic_mix_model, mixed_bernstein_rows
 from .backends.conic import bernstein_duals
 from .backends.finish import SIGN_TOL
 from .backends.full import ContactModel, limit_reaction, mixed_kkt
-from .contact.laws import ContactLaw, RowLaws, check_law, check_law_for, pair_laws
-from .contact.quadratic import p2_pairs
-from .discrete import Block, units
-from .errors import ResidualWarning, SceneError, SolverError, UnsupportedError
-from .fem import p2
-from .fem.assembly import assemble
-from .geometry.quadratic import P2Nodes
+from .backends.interface import held_cone, release_held
+from .backends.program import conic_options, run_program
+from .backends.result import Cache, RawResult, Settings
+from .backends.run import run
+from .contact.laws import ContactLaw, check_law, check_law_for
+from .discrete import build_problem
+from .errors import ResidualWarning, SceneError
+from .fem.space import space
 from .physics.scene import Body, Scene
 from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
 from .solution.info import Route
-from .solution.solution import Solution, obstacle_results, read_back, read_back_compliance
-from .solve import (DEFAULT_TOL, ContactSolver, _held, _held_cone, _p2_obstacles, _release_held, _row_laws, _run,
-                    conic_limit_model, conic_options)
+from .solution.readback import read_back
+from .solution.solution import Solution
+from .solve import DEFAULT_TOL
 
 __all__ = ["Model"]
 
@@ -122,70 +124,23 @@ class Model:
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
         self.law = check_law_for(scene, check_law(law))
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
-        for body in scene.bodies:
-            body.require_supports()
-        if (any(o.force is not None for o in scene.obstacles)
-                and any(lw.compliant for lw in pair_laws(scene, self.law))):
-            raise UnsupportedError("force-controlled obstacles (Rigid(..., force=)) with a normal-compliance law are "
-                                   "not implemented; use the default non-penetration law or a fixed obstacle")
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
-        if isinstance(degree, bool) or degree not in (1, 2):
-            raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+        discretisation = space(degree)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
-        self._nodes = [P2Nodes(b.mesh) for b in scene.bodies] if degree == 2 else None
-        self._cone = self._bernstein = self._limit = None
-        if degree == 1:
-            itf = self._itf = scene.stack
-            self.E = itf.evaluation(condition, scene.conditions)
-            self.systems = [assemble(b) for b in scene.bodies]
-            gap = scene.gap_values()
-            self.rows = _row_laws(scene, condition, self.law)                    # each pair's law on its rows
-            obstacles = scene.obstacles
-            self.offsets = np.asarray(itf.offsets)
-        else:    # P2: every pair (one QuadraticInterface, or a QuadraticStack), as ContactSolver poses them (§8)
-            pairs = p2_pairs(scene, self._nodes, condition, self.law)   # as ContactSolver poses them
-            itf = self._itf = pairs.interface
-            stack, laws, conic, limited = pairs.stack, pairs.laws, pairs.conic, pairs.limited
-            if pairs.mixed and (len(stack.interfaces) > 1 or any(conic)):
-                raise UnsupportedError(
-                    "cc.Model with P2 elements (degree=2) and the conic 'gamma3' condition on some pairs (contacts "
-                    f"{[i for i, c in enumerate(pairs.cone_pairs) if c]}) next to a normal-compliance law, on a scene "
-                    f"of {len(stack.interfaces)} contact pair(s), is not supported yet (cc.solve takes it; cc.Model "
-                    "poses the conic limit of one compliant pair alone); give those pairs a sigma condition, or use "
-                    "cc.solve")
-            if any(conic):      # the cone on the gamma3 pairs, nodal rows as degenerate cones on the others (§8)
-                self.E = sp.identity(stack.size, format="csr")
-                self._cone = stack.cone_rows(condition, scene.conditions)
-                self._bernstein = self._cone[0]
-            else:
-                self.E = stack.evaluation(condition, scene.conditions)
-            if any(limited):    # P2 compliance with a limit: the Bernstein map of its cone (§10)
-                self._limit = stack.bernstein()
-            self.systems = [p2.assemble(b, n) for b, n in zip(scene.bodies, self._nodes)]
-            gap = np.concatenate([scene.pair_gap_values(i, np.array(pair.x)) for i, pair in enumerate(stack.interfaces)])
-            self.rows = RowLaws(laws, np.diff(stack.row_offsets(condition, scene.conditions)))
-            obstacles = _p2_obstacles(scene, stack)
-            self.offsets = np.asarray(stack.offsets)
-            self._stack = stack
-        self._obstacles = obstacles
-        forced = self._forced = [o for o in obstacles if o.force is not None]
-        self.units = un = units(scene, self.systems, gap, forces=[o.force for o in forced])
-        self._gap = gap / un.displacement
-        self._g = self.E @ self._gap
-        # force-controlled obstacles (docs/formulation.md §12): per obstacle (R, F), R the rows' sensitivities
-        # to its translation unknowns tau (scaled), F the prescribed force on them (scaled)
-        self._translations = [(self.E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced]
-        self.blocks = [Block.scaled(s, itf.jump(k, len(s.f) // 2), un) for k, s in enumerate(self.systems)]
-        if self.rows.compliant:                                                   # the law's quadrature, scaled
-            self._weights = (itf.weights(condition, scene.conditions) if degree == 1
-                             else self._stack.weights(condition, scene.conditions)) / un.length   # P2: Simpson
-        else:
-            self._weights = None
-        self._law = self.rows.scaled(un.stress * un.load, un.displacement) if self.rows.compliant else None
+        self.problem = p = build_problem(scene, discretisation, condition, self.law)
+        self._nodes, self._itf = p.nodes, p.interface
+        self.E, self.systems, self.units, self.blocks = p.E, list(p.systems), p.units, list(p.blocks)
+        self._gap, self._g, self.rows, self.offsets = p.gap, p.g, p.rows, np.asarray(p.lines.offsets)
+        self._obstacles, self._forced, self._translations = list(p.obstacles), p.forced, list(p.translations)
+        self._weights, self._law = p.weights, p.scaled_law
+        self._cone = p.lines.cone
+        self._bernstein = self._cone[0] if self._cone is not None else None
+        self._limit = mixed_bernstein_rows(p) if p.mixed else None      # the cones of a mixed program (§10)
         if self._limit is not None:
-            self._contact = conic_limit_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit)
+            self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
+                                            translations=self._translations)
         else:
             self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
                                          bernstein=self._bernstein, translations=self._translations)
@@ -331,7 +286,10 @@ class Model:
         return C, np.asarray(expr.value, dtype=float).flatten(order="F") - C @ x
 
     def solve(self) -> Solution:
-        """Solve with the user terms; a fresh Solution in SI with checks that include them."""
+        """Solve with the user terms; a fresh Solution in SI with checks that include them. Without user terms
+        the program is the one ``cc.solve(..., method="full")`` solves, with the same finish and read-back."""
+        if not self.constraints and not self._objective:
+            return self._solve_plain()
         timings = dict(self._setup)
         self._setup = {}
         t0 = time.perf_counter()
@@ -340,29 +298,29 @@ class Model:
         timings["model"] = time.perf_counter() - t0
         conic = self._bernstein is not None
         cone = conic or self._limit is not None                 # the conic tolerances (§8)
-        _run(problem, self.solver, self.verbose, conic_options(self.solver, self.options) if cone else self.options)
+        run_program(problem, self.solver, self.verbose,
+                    conic_options(self.solver, self.options, pairs=len(self.offsets) - 1) if cone else self.options)
         timings["compile"] = problem.compilation_time or 0.0
         timings["solve"] = problem.solver_stats.solve_time or 0.0
         blocks, E, g = self.blocks, self.E, self._g
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
         taus = [np.asarray(t.value, dtype=float).ravel() for t in self._contact.t]   # force-controlled obstacles
-        beta = None
+        beta, z = None, None
         # rows no unknown moves: their force, which (26)-(27) do not determine, at its least admissible value,
         # as cc.solve sets it (docs/formulation.md §8, "Held nodes")
-        held = _held(E, blocks, self._translations)
+        held = self.problem.held_rows
         if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
-            r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-            if self._limit is not None:     # P2 conic limit: z = B^T beta, the cone's nodal force on X_h
-                beta = _held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,
-                                  g + np.broadcast_to(self._law.penetration_limit, g.shape))
-                z = self._limit.T @ beta.ravel()
-            else:
-                z = _release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)),
-                                  held)[1]
+            r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+                 + sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g))))
+            z = release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)), held)[1]
+            if self._limit is not None:     # cones next to the law: their nodal force B^T beta joins z
+                beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,
+                                 g + self._law.cone_shift)
+                z = z + self._limit.T @ beta.ravel()
             y = self._weights * self._law.pressure(r) + z
         elif conic:    # the nodal force r = B^T beta on X_h (E = I)
-            beta = _held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._bernstein, held, g)
+            beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._bernstein, held, g)
             y = self._bernstein.T @ beta.ravel()
         else:
             y = np.where(held, 0.0, np.asarray(self._contact.contact.dual_value, dtype=float).ravel())
@@ -379,8 +337,8 @@ class Model:
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
         finishable = linear and not conic                                  # nor with the conic condition
-        moved = g - sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g)))
-        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], moved, y,
+        moved = self.problem.moved_gap(taus)
+        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], E @ moved, y,
                             force_displacements(blocks, E, y)) & ~held     # a held row would make the KKT singular
         polished, declined = False, ""
         if self.polish and finishable:
@@ -394,32 +352,14 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = _stacked(u, phi, taus)
-        if self._law is not None and self.polish and not rows and objective is None and self._limit is None:
-            t0 = time.perf_counter()
-            out = self._finish_compliance(u, g)
-            timings["polish"] = time.perf_counter() - t0
-            if out is not None:
-                u, phi, y, z = out
-                polished = True
         t0 = time.perf_counter()
-        if self._law is not None:
-            sol = read_back_compliance(self.scene, self.condition, blocks, self.systems, self.units, E, self._gap,
-                                       u, phi, y, z if self._law.limited.any() else None,
-                                       self._weights, self.rows, polished, problem, self.tol, timings,
-                                       given=self.law, interface=None if self._nodes is None else self._itf,
-                                       nodes=self._nodes, beta=beta)
-        else:
-            gap = self._gap - sum((o.reduced_rows @ tau for o, tau in zip(self._forced, taus)),
-                                  np.zeros(len(self._gap)))                    # the obstacles moved (§12)
-            sol = read_back(self.scene, self.condition, blocks, self.systems, self.units, E, gap, u, phi, y,
-                            active, polished, problem, self.tol, timings,
-                            interface=None if self._nodes is None else self._itf,
-                            beta=beta if conic else None, nodes=self._nodes, cone=self._cone)
+        keep_z = self._law is not None and (self._limit is not None or self._law.limited.any())
+        raw = RawResult(u=u, phi=phi, y=y, active=active, z=z if keep_z else None, beta=beta, taus=taus,
+                        polished=polished, program=problem, method="full")
+        sol = read_back(self.problem, raw, self.tol, timings, "full")
         sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
-        if self.scene.obstacles:          # translations, resultants, and the balance of force-controlled ones
-            obstacle_results(sol, [tau * self.units.displacement for tau in taus], self._obstacles)
-            if self._forced and rows:        # user rows on a translation carry part of its prescribed force
-                sol._checks["obstacle balance"] = self._balance(y, rows)
+        if self._forced and rows:        # user rows on a translation carry part of its prescribed force
+            sol._checks["obstacle balance"] = self._balance(y, rows)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
                  Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
@@ -435,30 +375,29 @@ class Model:
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
         return sol
 
-    def _finish_compliance(self, u, g):
-        """Exact finish of a normal-compliance model without user terms (docs/formulation.md §10): the
-        bodies condensed onto their contact dofs, :func:`~cvxcontact.backends.finish.solve_compliance` from
-        the interior point's penetration, one back-substitution per body. (u, phi, y, z) or None."""
-        from .backends.condensed import Compliance, condense, quasi_definite_rhs
-        E, blocks = self.E, self.blocks
-        meshes = self._nodes or [body.mesh for body in self.scene.bodies]        # P2: the 6-node graph
-        condensed = [condense(b, s, m) for b, s, m in zip(blocks, self.systems, meshes)]
-        rhs = [quasi_definite_rhs(b) for b in blocks]
-        v0 = [c.solve(F)[c.gamma] for c, F in zip(condensed, rhs)]
-        compliance = Compliance(condensed, E)
-        d = compliance.free_slack(v0, g)
-        r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-        start = None
-        if (self._law.limited & ~self._law.rows).any():        # Signorini rows: the IPM's active set
-            z = limit_reaction(self._contact.contact, self._contact.limit_rows, len(g))
-            start = self._law.limited & (z * np.diag(compliance.W) + (r - self._law.penetration_limit) > 0)
-        out = ContactSolver._newton(compliance.W, d, self._weights, self._law, r, start)
-        if out is None:
-            return None
-        y, z = out[0], out[1]
-        x = [c.solve(F - c.lift(E.T @ y)) for c, F in zip(condensed, rhs)]
-        return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
-                [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)], y, z)
+    def _solve_plain(self) -> Solution:
+        """No user terms: the full backend's route on the same :class:`~cvxcontact.discrete.DiscreteProblem`
+        (``cc.solve(..., method="full")``); the model's variables take the answer's values."""
+        timings = dict(self._setup)
+        self._setup = {}
+        settings = Settings(solver=self.solver, options=self.options, verbose=self.verbose, polish=self.polish,
+                            warm_start=False)
+        raw = run("full", self.problem, Cache(), settings, timings)
+        t0 = time.perf_counter()
+        sol = read_back(self.problem, raw, self.tol, timings, "full")
+        timings["read_back"] = time.perf_counter() - t0
+        sol.info = replace(sol.info, timings=timings)
+        for var, val in [*zip(self._contact.u, raw.u), *zip(self._contact.phi, raw.phi), *zip(self._contact.t, raw.taus)]:
+            if var is not None and val is not None:
+                var.value = np.asarray(val, dtype=float).reshape(var.shape)
+        if self.polish and not raw.polished and not self.problem.conic and not self.problem.mixed:
+            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
+                          f"({raw.declined}); the interior-point answer is kept (sol.polished is False):\n"
+                          f"{sol.report()}", ResidualWarning, stacklevel=3)
+        elif not sol.ok:
+            warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=3)
+        return sol
 
     def _balance(self, y, rows) -> float:
         """The force balance of every force-controlled obstacle with the user rows' forces on its translation

@@ -279,11 +279,11 @@ def test_p2_held_modes_are_rigid_motions_on_the_p2_nodes():
     assert np.abs(system.Kuu @ modes[0]).max() <= 1e-12 * abs(system.Kuu).max()
     solver = cc.ContactSolver(scene, "sigma1", degree=2)
     sol = solver.solve()
-    blk = Block.scaled(system, solver.interface.jump(0, len(nodes)), Units(1.0, 1.0, 1.0, 1.0))     # SI
+    blk = Block.scaled(system, solver.problem.interface.jump(0, len(nodes)), Units(1.0, 1.0, 1.0, 1.0))     # SI
     reduced = (system.Tu.T @ modes.T).T
     z = system.Tu.T @ (sol.u[0].ravel() - system.u_fixed)
     force = np.asarray(sol.contact.force)                     # M lambda_h on the merged P2 nodes, N/m
-    assert len(force) == solver.interface.size and abs(force.sum() - P) <= 1e-9 * P
+    assert len(force) == solver.problem.interface.size and abs(force.sum() - P) <= 1e-9 * P
     assert rigid_balance(blk, reduced, z, None, force) < 1e-10
     drift = system.Tu.T @ np.tile([0.0, 1.0], len(nodes)) * 1e9
     assert rigid_balance(blk, reduced, z + drift, None, 0 * force) > 0.1

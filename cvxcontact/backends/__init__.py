@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 from ..errors import SolverError
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "SPARSE_ROWS", "SPARSE_SLENDER"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "describe", "SPARSE_ROWS",
+           "SPARSE_SLENDER"]
 
 SPARSE_ROWS = 8000
 """``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
@@ -66,6 +67,15 @@ class ProblemDescription:
     unknowns: int = 0
     compliant: bool = False
     conic: bool = False
+
+
+def describe(problem, user_terms: int = 0) -> ProblemDescription:
+    """The :class:`ProblemDescription` of a :class:`~cvxcontact.discrete.DiscreteProblem` (with ``user_terms``
+    added by a :class:`~cvxcontact.Model`)."""
+    return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
+                              contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
+                              compliant=problem.compliant, conic=problem.conic or problem.mixed,
+                              user_terms=user_terms)
 
 
 @dataclass(frozen=True)

@@ -176,8 +176,9 @@ class InterfaceModel:
 
     def __init__(self, bodies, loads, E, gap_rows, law=None, weights=None):
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        # a body whose contact dofs its supports all hold (a roller on the pair's part) has none: no term
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
-                     for b, v, g in zip(bodies, self.v, loads))
+                     for b, v, g in zip(bodies, self.v, loads) if len(b.gamma))
         jump = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v))
         from .full import law_rows
 

@@ -317,9 +317,9 @@ def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
     here = kernel.at(active)
     verdict = undetermined(here)
     if verdict is not None and verdict[0] == "free":
-        raise SceneError(f"the solution does not determine the {_names(here, verdict[1])}: no contact that is closed "
-                         "at the solution resists it and the load does no work along it (the rows that would hold "
-                         f"it are open): {_hint(here, verdict[1])}")
+        raise SceneError(f"the solution does not determine the {_names(here, verdict[1])}: the contacts that would "
+                         "hold it are open at the solution and the load does no work along it (e.g. a load-free body "
+                         f"in an open gap): {_hint(here, verdict[1])}")
 
 
 def _names(kernel, dirs) -> str:

@@ -273,9 +273,19 @@ class Contact:
         if part not in body.mesh.tags:
             raise SceneError(f"Contact: {role} names unknown boundary tag {part!r} of {body.name}; "
                              f"the mesh has {sorted(body.mesh.tags)}")
-        for kind, tags in (("clamped", body.clamped), ("traction", list(body.traction))):
-            if part in tags:
-                raise SceneError(f"Contact: {role} {part!r} of {body.name} is also {kind}")
+        if part in body.clamped:
+            raise SceneError(f"Contact: {role} {part!r} of {body.name} is also clamped")
+        if part in body.traction:
+            raise SceneError(f"Contact: {role} {part!r} of {body.name} is also a traction part: where it touches, "
+                             "its stress vector is the contact pressure along the normal (no shear, frictionless), "
+                             "so a prescribed traction there over-determines it (Gamma_2 and Gamma_3 are disjoint); "
+                             "load another part, or split the part into a loaded and a contact segment")
+        nodes = body.mesh.boundary_nodes([part])
+        for tag, value in body.displacement.items():        # (the jump rows see the free dofs only)
+            if any(v not in (None, 0.0) for v in value) and np.isin(body.mesh.boundary_nodes([tag]), nodes).any():
+                raise SceneError(f"Contact: {role} {part!r} of {body.name}: the prescribed displacement {tag!r} = "
+                                 f"{value} touches it; a non-zero displacement on a contact node is not supported "
+                                 "(prescribe it away from the contact line)")
         return part
 
     def __repr__(self):
@@ -334,7 +344,10 @@ def obstacle_rows(scene) -> list[ObstacleRows]:
             scale = float(np.linalg.norm(rows, axis=1).max(initial=0.0))
             _, sv, Vt = np.linalg.svd(rows, full_matrices=False)
             if not scale > 0:
-                raise SceneError(f"{label}: no node of its pairs sees the obstacle move; force control needs contact")
+                raise SceneError(f"{label}: no node of its pairs sees the obstacle move (its distance is finite at "
+                                 "isolated nodes only), so no contact force can balance the prescribed force: give "
+                                 "the obstacle a shape that faces the part around the nodes it reaches, or no force "
+                                 "(a fixed obstacle)")
             if sv[1] <= 1e-9 * sv[0]:                       # every c(x) parallel: one direction only
                 b = Vt[0] * np.sign(rows @ Vt[0])[np.argmax(np.abs(rows @ Vt[0]))]
                 basis = b[:, None]

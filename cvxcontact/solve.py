@@ -129,9 +129,13 @@ class ContactSolver:
 
     ``solve()`` solves the scene it was built with; ``solve(other)`` solves a scene
     that differs only in its loads (body forces, tractions, charges, electrode
-    potentials, the gap: :data:`cvxcontact.physics.loads.LOAD_FIELDS` and ``SCENE_LOAD_FIELDS``),
-    reusing the assembled matrices and, with the condensed backend (what the default
-    ``method="auto"`` runs), the factorisations and interface stiffnesses. With ``warm_start`` (default) a
+    potentials, the gaps: :data:`cvxcontact.physics.loads.LOAD_FIELDS` and ``SCENE_LOAD_FIELDS``; and the
+    positions and prescribed forces of rigid obstacles) through ``problem.with_loads(other)``
+    (:class:`~cvxcontact.discrete.DiscreteProblem`), reusing the assembled matrices and, with the condensed
+    backend (what the default ``method="auto"`` runs), the factorisations and interface stiffnesses while the
+    contact rows stay the same (a moved obstacle that reaches other nodes re-derives them and refactorises).
+    ``problem`` is the prepared :class:`~cvxcontact.discrete.DiscreteProblem`, ``cache`` what the backend
+    keeps between solves. With ``warm_start`` (default) a
     further load case starts from the previous exact active set and is finished by
     active-set steps on the interface (a few dense solves of the size of the active
     set), falling back to the interior-point solve if they do not settle; it then

@@ -250,7 +250,7 @@ def test_p2_layer_held_by_contact_only_is_in_exact_uniaxial_strain(condition, nx
     """sigma_yy = -P in both layers: u_y = -P / c22 (y + H1) at every P2 node of both bodies (the nodal
     conditions on matching meshes, the "everywhere" one on non-matching ones), u_x = 0, contact force P."""
     scene = _resting(P, nx)
-    assert scene.bodies[0].held_by_contact == ["translation y"]
+    assert scene.bodies[0].held_by_contact == ("translation y",)
     sol = cc.solve(scene, condition, degree=2)
     assert sol.ok and sol.method == "full" and sol.polished == (condition != "gamma3")
     scale = P / C22 * H1

@@ -355,8 +355,6 @@ def test_a_motion_held_by_a_pair_on_another_part_is_not_refused():
     assert rel(sol.contact.lam, np.full(len(sol.contact.x), p)) <= 1e-9
 
 
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="issue 20: Body(contact=) is required even when the "
-                   "pairs are given by contacts= (a raw TypeError)")
 def test_body_contact_tag_is_optional_with_contacts():
     """Row 18 (b). The same scene with and without the contact= tag, pairs by contacts=: the same answer."""
     mesh = cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2)

@@ -253,7 +253,7 @@ def _resting(p, material=ALU):
 def test_layer_held_by_contact_only_is_solved_exactly():
     p = 2e7
     scene = _resting(p)
-    assert scene.bodies[0].held_by_contact == ["translation y"]
+    assert scene.bodies[0].held_by_contact == ("translation y",)
     sol = cc.solve(scene)
     assert sol.method == "full" and sol.ok and sol.polished
     assert abs(sol.contact.force.sum() - p * 1.0) <= 1e-9 * p                     # contact force = load

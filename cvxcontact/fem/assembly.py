@@ -178,7 +178,7 @@ def prolongation(body, nodes=None):
     Tu = sp.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(2 * n, int(ncols.sum())))
     if not body.piezoelectric:
         return Tu, u_fixed, None, None
-    fixed = mesh.boundary_nodes(body.grounded + list(body.potential))
+    fixed = mesh.boundary_nodes([*body.grounded, *body.potential])
     float_nodes = [mesh.boundary_nodes([t]) for t in body.floating]
     taken = np.zeros(n, dtype=bool)
     taken[fixed] = True

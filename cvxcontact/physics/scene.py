@@ -8,21 +8,22 @@ paper, ``potential`` electrodes (phi = V), Gamma_b ``surface_charge`` (D nu = q2
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import MeshError, SceneError
+from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
 from .materials import Elastic, Piezoelectric
-from .pairs import Contact, obstacle_rows
+from .loads import LOAD_FIELDS
+from .pairs import Contact, Rigid, obstacle_rows
 
 __all__ = ["Body", "Scene"]
 
 
-class Body:
+class Body(Frozen):
     """One body of the scene.
 
     Parameters
@@ -38,8 +39,11 @@ class Body:
     potential : dict tag -> float or callable, V
         Driven electrodes, phi = V (part of Gamma_a). A piezoelectric body needs
         at least one grounded or driven electrode.
-    contact : str
-        Tag of Gamma_3, a straight segment parallel to the x1-axis.
+    contact : str, optional
+        Tag of Gamma_3, a straight part: the part that touches the other body in ``Scene(body1, body2)``
+        (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
+        may be omitted; if given, it names the part that holds a body no support holds (see
+        :meth:`free_motions`).
     body_force : (2,) or callable f(x, y) -> (fx, fy), N/m^3
     traction : dict tag -> (2,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
@@ -55,10 +59,15 @@ class Body:
 
     Supports and electrodes enter the unknowns through the prolongation of
     docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
+
+    A body is immutable once built: its parts are tuples, its per-part loads read-only mappings, its
+    arrays read-only, and assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`. Other
+    loads make a new body with :meth:`with_loads` (the same geometry: a ContactSolver re-solves it), any
+    other change with :meth:`with_changes`; :meth:`Scene.with_bodies` puts it in a scene.
     """
 
     def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
-                 contact: str, grounded: str | Sequence[str] = (),
+                 contact: str | None = None, grounded: str | Sequence[str] = (),
                  potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
                  body_force: Sequence[float] | Callable[..., ArrayLike] = (0.0, 0.0),
                  traction: Mapping[str, Sequence[float] | Callable[..., ArrayLike]] | None = None,
@@ -71,27 +80,89 @@ class Body:
             raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
-        self.mesh, self.material = mesh, material
-        self.name = name or "body"
-        self.clamped = self._tags(clamped, "clamped")
-        self.grounded = self._tags(grounded, "grounded")
-        if not isinstance(contact, str):
-            raise SceneError(f"{self.name}: contact must be one boundary tag (a string), got {contact!r}")
-        self.contact = self._tags(contact, "contact")[0]
-        self.body_force = Load(body_force, f"{self.name}: body_force", 2)
-        self.traction = {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
-                         for t, v in self._parts(traction, "traction").items()}
-        self.surface_charge = {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
-                               for t, v in self._parts(surface_charge, "surface_charge").items()}
-        self.volume_charge = Load(volume_charge, f"{self.name}: volume_charge", 1)
-        self.potential = {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
-                          for t, v in self._parts(potential, "potential").items()}
-        self.roller = self._tags(roller, "roller")
-        self.displacement = {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
-                             for t, v in self._parts(displacement, "displacement").items()}
-        self.floating = {t: _charge(v, f"{self.name}: floating[{t!r}]")
-                         for t, v in self._parts(floating, "floating").items()}
+        if name is not None and not isinstance(name, str):
+            raise SceneError(f"name must be a string, got {name!r}")
+        self._set(mesh=mesh, material=material, name=name or "body", _named=name is not None)
+        if contact is not None and not isinstance(contact, str):
+            raise SceneError(f"{self.name}: contact must be one boundary tag (a string) or None, got {contact!r}")
+        self._set(clamped=self._tags(clamped, "clamped"), grounded=self._tags(grounded, "grounded"),
+                  contact=None if contact is None else self._tags(contact, "contact")[0],
+                  roller=self._tags(roller, "roller"),
+                  body_force=Load(body_force, f"{self.name}: body_force", 2),
+                  volume_charge=Load(volume_charge, f"{self.name}: volume_charge", 1))
+        self._set(
+            traction=self._map("traction", {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
+                                            for t, v in self._parts(traction, "traction").items()}),
+            surface_charge=self._map("surface_charge", {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
+                                                        for t, v in self._parts(surface_charge,
+                                                                                "surface_charge").items()}),
+            potential=self._map("potential", {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
+                                              for t, v in self._parts(potential, "potential").items()}),
+            displacement=self._map("displacement", {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
+                                                    for t, v in self._parts(displacement, "displacement").items()}),
+            floating=self._map("floating", {t: _charge(v, f"{self.name}: floating[{t!r}]")
+                                            for t, v in self._parts(floating, "floating").items()}))
         self._check_parts()
+
+    # ------------------------------------------------------------------ immutability and variants
+
+    def _label(self, k: int) -> None:
+        """An unnamed body is called "body k" after its place in the first scene it joins (messages only:
+        the name is neither geometry nor load)."""
+        if not self._named and self.name == "body":
+            object.__setattr__(self, "name", f"body {k}")
+
+    def _frozen_hint(self, name: str) -> str:
+        if name in LOAD_FIELDS:
+            return f"build a new Body with body.with_loads({name}=...) (and a new Scene with scene.with_bodies(...))"
+        return (f"build a new Body with body.with_changes({name}=...) (and a new Scene with scene.with_bodies(...))")
+
+    def _map(self, field, items):
+        return FrozenMap(items, f"Body.{field}", self._frozen_hint(field))
+
+    def _arguments(self) -> dict:
+        """The constructor's keyword arguments that rebuild this body (loads as given: constants or callables)."""
+        return dict(mesh=self.mesh, material=self.material, clamped=self.clamped, contact=self.contact,
+                    grounded=self.grounded, potential={t: v.value for t, v in self.potential.items()},
+                    body_force=self.body_force.value, traction={t: v.value for t, v in self.traction.items()},
+                    surface_charge={t: v.value for t, v in self.surface_charge.items()},
+                    volume_charge=self.volume_charge.value, name=self.name if self._named else None,
+                    roller=self.roller, displacement=dict(self.displacement), floating=dict(self.floating))
+
+    def with_changes(self, **fields) -> "Body":
+        """A new body: this one with some constructor arguments replaced (``mesh``, ``material``, parts,
+        loads, ``name``; as :class:`Body` takes them, units there), validated afresh. A change outside the
+        loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`) is a new geometry: a prepared ContactSolver
+        refuses it. ``body.with_changes(mesh=finer, clamped=["top", "left"])``."""
+        args = self._arguments()
+        unknown = sorted(set(fields) - set(args))
+        if unknown:
+            raise SceneError(f"{self.name}: with_changes got unknown field(s) {unknown}; a Body takes {sorted(args)}")
+        args.update(fields)
+        return Body(args.pop("mesh"), args.pop("material"), **args)
+
+    def with_loads(self, **loads) -> "Body":
+        """A new body with the same geometry and other loads: any of ``body_force`` ((2,) or f(x, y), N/m^3),
+        ``traction`` (tag -> (2,) or callable, N/m^2), ``surface_charge`` (tag -> C/m^2), ``volume_charge``
+        (C/m^3), ``potential`` (tag -> V; the same driven electrodes) and ``floating`` (tag -> Q, C/m; the
+        same floating electrodes), as :class:`Body` takes them; each given field replaces the body's whole
+        field, the others are kept. The :data:`~cvxcontact.physics.loads.LOAD_FIELDS`: a ContactSolver
+        prepared for this body re-solves the result (its geometry fingerprint is the same). For a new
+        geometry use :meth:`with_changes`. ``body.with_loads(body_force=(0.0, -2e9), potential={"top": 50.0})``."""
+        other = sorted(set(loads) - set(LOAD_FIELDS))
+        if other:
+            raise SceneError(f"{self.name}: with_loads takes the loads {list(LOAD_FIELDS)}, got {other}: "
+                             "those are geometry (use body.with_changes(...) for a new geometry)")
+        for field in ("potential", "floating"):
+            if field in loads:
+                given, held = loads[field], getattr(self, field)
+                tags = sorted(given) if isinstance(given, Mapping) else None
+                if tags != sorted(held):
+                    raise SceneError(f"{self.name}: with_loads({field}=...) changes the values of the "
+                                     f"{'driven' if field == 'potential' else 'floating'} electrodes "
+                                     f"{sorted(held)} and must name exactly those (got {given!r}); which parts are "
+                                     f"electrodes is geometry: use body.with_changes({field}=...)")
+        return self.with_changes(**loads)
 
     def __repr__(self):
         return f"Body({self.name!r}, {self.mesh!r}, {self.material!r})"
@@ -102,12 +173,15 @@ class Body:
         return self.material.piezoelectric
 
     def _tags(self, tags, role):
+        if isinstance(tags, Mapping) or not (isinstance(tags, str) or isinstance(tags, Iterable)):
+            raise SceneError(f"{self.name}: {role} must be a boundary tag or a sequence of tags (strings), "
+                             f"got {tags!r}")
         tags = [tags] if isinstance(tags, str) else list(tags)
         for t in tags:
             if not isinstance(t, str) or t not in self.mesh.tags:
                 raise SceneError(f"{self.name}: {role} names unknown boundary tag {t!r}; "
                                  f"the mesh has {sorted(self.mesh.tags)}")
-        return tags
+        return FrozenTuple(tags, f"Body.{role}", self._frozen_hint(role))
 
     def _parts(self, loads, role):
         if loads is None:
@@ -120,11 +194,13 @@ class Body:
     def _check_parts(self):
         mechanical = ([("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
                       + [("roller", t) for t in self.roller] + [("displacement", t) for t in self.displacement])
-        mechanical.append(("contact", self.contact))
+        if self.contact is not None:
+            mechanical.append(("contact", self.contact))
         _disjoint(self, mechanical)
-        self._roller_normals = {t: _straight_normal(self, t) for t in self.roller}
-        contact_nodes = self.mesh.boundary_nodes([self.contact])
-        if self.clamped and np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
+        self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
+        contact_nodes = self.mesh.boundary_nodes([] if self.contact is None else [self.contact])
+        if self.clamped and len(contact_nodes) and np.isin(contact_nodes,
+                                                           self.mesh.boundary_nodes(self.clamped)).all():
             raise SceneError(f"{self.name}: every node of the contact part {self.contact!r} is clamped; "
                              "the body cannot take part in the contact")
         for tag, value in self.displacement.items():
@@ -139,12 +215,12 @@ class Body:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
                                  "(Gamma_a is empty); its potential is undetermined")
-            self._check_components(self.grounded + list(self.potential),
+            self._check_components([*self.grounded, *self.potential],
                                    "touches no grounded or driven electrode: its potential is undetermined")
             _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
                       + [("surface_charge", t) for t in self.surface_charge]
                       + [("floating", t) for t in self.floating])
-            fixed = self.mesh.boundary_nodes(self.grounded + list(self.potential))
+            fixed = self.mesh.boundary_nodes([*self.grounded, *self.potential])
             seen = np.zeros(0, dtype=int)
             for tag in self.floating:
                 nodes = self.mesh.boundary_nodes([tag])
@@ -300,7 +376,8 @@ class Body:
         orthonormal rows of (tx, ty, w) in scaled coordinates, centre (m), size (m))."""
         mesh = self.mesh
         nodes, dirs, _ = self.supports()
-        parts = ([self.contact] if contact is True else list(contact)) if contact else []
+        own = [] if self.contact is None else [self.contact]
+        parts = (own if contact is True else list(contact)) if contact else []
         for tag in parts:
             nodes = np.concatenate([nodes, mesh.boundary_nodes([tag])])
             dirs = np.concatenate([dirs, _node_normals(mesh, tag)])
@@ -326,15 +403,21 @@ class Body:
         exact solve (the contact forces balancing the load on the free motions) is not supported yet.
         """
         if self.held_by_contact:
-            raise SceneError(f"{self.name}: the rigid motion(s) {self.held_by_contact} are held by the contact "
+            raise SceneError(f"{self.name}: the rigid motion(s) {list(self.held_by_contact)} are held by the contact "
                              "only; a body held only by contact is not supported yet: add a clamped, roller or "
                              "displacement support that stops them")
+
+    held_by_contact: tuple[str, ...]
+    """The rigid motions no support holds, which the contact must hold (readable names, see
+    :meth:`free_motions`; decided with the scene's pairs and loads, :mod:`cvxcontact.fem.kernel`); empty
+    when the supports hold every rigid motion."""
 
     def _check_kinematics(self):
         # the rigid motions no support holds (see free_motions): the contact must hold them. Whether it does
         # depends on the scene's pairs and loads: refused by the Scene (a motion no contact part resists,
-        # _refuse_unheld) or before solving (cvxcontact.fem.kernel.check_well_posed)
-        self.held_by_contact: list[str] = self.free_motions(contact=False)
+        # _refuse_unheld) or when the problem is built (cvxcontact.fem.kernel.check_well_posed)
+        self._set(held_by_contact=FrozenTuple(self.free_motions(contact=False), "Body.held_by_contact",
+                                              "it follows from the supports"))
 
     def _check_components(self, tags, problem):
         """Every connected piece of the mesh (``Mesh.components``) has an edge on one of ``tags``."""
@@ -389,6 +472,7 @@ def _straight_normal(body, tag):
     if dev > 1e-9:
         raise SceneError(f"{body.name}: roller part {tag!r} is not straight (its edge normals differ by up to "
                          f"{dev:.3g}); a roller needs one normal direction (split the part into straight pieces)")
+    n.setflags(write=False)
     return n
 
 
@@ -442,18 +526,18 @@ def _disjoint(body, roles):
         seen[tag] = role
 
 
-class Load:
+class Load(Frozen):
     """A constant or a vectorised callable of (x, y), evaluated and checked on demand.
 
-    Constants must be real numbers (booleans and complex numbers are refused). A
-    callable receives read-only copies of the coordinates (m) and its result is
-    copied, so no load can write into the meshes or the contact interface.
+    Constants must be real numbers (booleans and complex numbers are refused) and are kept as
+    read-only arrays; a load is immutable. A callable receives read-only copies of the coordinates
+    (m) and its result is copied, so no load can write into the meshes or the contact interface.
     """
 
     def __init__(self, value, label, ncomp):
-        self.label, self.ncomp = label, ncomp
+        self._set(label=label, ncomp=ncomp)
         if callable(value):
-            self.value = value
+            self._set(value=value)
             return
         expected = "a number" if ncomp == 1 else f"a sequence of {ncomp} numbers"
         if not _real_numbers(value):
@@ -467,7 +551,10 @@ class Load:
         if not np.isfinite(v).all():
             raise SceneError(f"{label}: NaN or infinite value {v.tolist()}")
         v.setflags(write=False)
-        self.value = v
+        self._set(value=v)
+
+    def _frozen_hint(self, name: str) -> str:
+        return "build a new Body with body.with_loads(...) (a new scene gap: scene.with_gap(...))"
 
     @property
     def nonzero(self) -> bool:
@@ -539,7 +626,7 @@ def _frozen(a):
     return a
 
 
-class Scene:
+class Scene(Frozen):
     """Bodies in frictionless contact along straight segments.
 
     ``Scene(body1, body2)``: the paper's scene, two bodies touching along each body's ``contact``
@@ -559,6 +646,11 @@ class Scene:
     ``stack`` (all pairs' rows stacked, what the solvers use), ``obstacles`` (one
     :class:`~cvxcontact.physics.pairs.ObstacleRows` per distinct rigid obstacle; a force-controlled
     one whose force compressive contact cannot balance is refused here, docs/formulation.md §12).
+
+    A scene is immutable (tuples; assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`),
+    so what a solver prepared from it always matches it. A changed scene is a new one:
+    :meth:`with_bodies`, :meth:`with_loads` (one body's loads), :meth:`with_gap` and
+    :meth:`with_obstacles` (a moved obstacle, or one under another force).
     """
 
     def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,
@@ -567,9 +659,8 @@ class Scene:
             if not isinstance(b, Body):
                 raise SceneError(f"Scene takes Body objects; argument {k} is {type(b).__name__}")
         for k, b in enumerate(bodies, start=1):
-            if b.name == "body":
-                b.name = f"body {k}"
-        self.bodies = tuple(bodies)
+            b._label(k)
+        self._set(bodies=self._tuple("bodies", bodies), _given_gap=gap)
         if contacts is None:
             if len(bodies) != 2:
                 raise SceneError(f"Scene without contacts= takes exactly two bodies (each body's contact= part "
@@ -577,11 +668,15 @@ class Scene:
                                  "contacts=[cc.Contact(...), ...]")
             if bodies[0] is bodies[1]:
                 raise SceneError("Scene needs two distinct bodies")
-            self._legacy = True
-            self.contacts = (Contact(bodies[0], bodies[0].contact, bodies[1], bodies[1].contact),)
+            for b in bodies:
+                if b.contact is None:
+                    raise SceneError(f"{b.name}: Scene(body1, body2) pairs the bodies' contact= parts and this body "
+                                     "has none: give Body(..., contact=\"tag\"), or pass the pairs with "
+                                     "Scene(..., contacts=[cc.Contact(...)])")
+            pairs = (Contact(bodies[0], bodies[0].contact, bodies[1], bodies[1].contact),)
+            self._set(_legacy=True, contacts=self._tuple("contacts", pairs))
         else:
-            self._legacy = False
-            self.contacts = self._check_contacts(contacts, gap)
+            self._set(_legacy=False, contacts=self._tuple("contacts", self._check_contacts(contacts, gap)))
         members, interfaces = [], []
         for i, c in enumerate(self.contacts):
             a = self._index(c.body_a)
@@ -601,14 +696,87 @@ class Scene:
                     raise
                 raise SceneError(f"contacts[{i}] {c!r}: {exc}") from exc
             interfaces.append(itf)
-        self.interfaces = tuple(interfaces)
-        self.interface = self.interfaces[0]
-        self.stack = Stack(self.interfaces, members)
+        self._set(interfaces=self._tuple("interfaces", interfaces), interface=interfaces[0],
+                  stack=Stack(interfaces, members), conditions=self._tuple("conditions", (c.condition for c in
+                                                                                         self.contacts)),
+                  gap=Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1))
         _refuse_unheld(self)
-        self.conditions = tuple(c.condition for c in self.contacts)
-        self.gap = Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1)
         self.gap_values()                                    # check it now: finite, right shape
-        self.obstacles = obstacle_rows(self)                 # rigid obstacles; force control checked here
+        self._set(obstacles=self._tuple("obstacles", obstacle_rows(self)))   # force control checked here
+
+    # ------------------------------------------------------------------ immutability and variants
+
+    def _frozen_hint(self, name: str) -> str:
+        hints = {"bodies": "build a new scene with scene.with_bodies(*bodies) (one body per body, in order)",
+                 "gap": "build a new scene with scene.with_gap(g)",
+                 "obstacles": "build a new scene with scene.with_obstacles(*obstacles) (e.g. rigid.moved(by=...))"}
+        return hints.get(name, "build a new Scene (scene.with_bodies, with_loads, with_gap, with_obstacles make the "
+                               "usual changes)")
+
+    def _tuple(self, field, items):
+        return FrozenTuple(items, f"Scene.{field}", self._frozen_hint(field))
+
+    def _rebuilt(self, bodies, contacts, gap) -> "Scene":
+        return Scene(*bodies, gap=gap) if self._legacy else Scene(*bodies, contacts=contacts)
+
+    def with_bodies(self, *bodies: Body) -> "Scene":
+        """A new scene with the same pairs (parts, gaps, conditions, laws, obstacles) on other bodies: one per
+        body of this scene, in its order (e.g. ``body.with_loads(...)``; bodies with the same geometry keep a
+        prepared ContactSolver valid)."""
+        if len(bodies) != len(self.bodies):
+            raise SceneError(f"with_bodies takes one body per body of the scene ({len(self.bodies)}, in order), "
+                             f"got {len(bodies)}")
+        for k, b in enumerate(bodies, start=1):
+            if not isinstance(b, Body):
+                raise SceneError(f"with_bodies takes Body objects; argument {k} is {type(b).__name__}")
+        swap = {id(old): new for old, new in zip(self.bodies, bodies)}
+        contacts = [c.with_changes(body_a=swap[id(c.body_a)], other=c.other if c.rigid else swap[id(c.other)])
+                    for c in self.contacts]
+        return self._rebuilt(bodies, contacts, self._given_gap)
+
+    def with_loads(self, body: int | Body, **loads) -> "Scene":
+        """A new scene in which ``body`` (its index in ``bodies`` or the Body itself) has other loads:
+        ``scene.with_loads(0, body_force=(0.0, -2e9))`` is ``scene.with_bodies(b0.with_loads(...), b1, ...)``
+        (units and fields: :meth:`Body.with_loads`)."""
+        k = body if isinstance(body, (int, np.integer)) and not isinstance(body, bool) else None
+        if k is None:
+            k = self._index(body) if isinstance(body, Body) else None
+        if k is None or not 0 <= k < len(self.bodies):
+            raise SceneError(f"with_loads: body must be a Body of the scene or its index 0..{len(self.bodies) - 1}, "
+                             f"got {body!r}")
+        return self.with_bodies(*(b.with_loads(**loads) if i == k else b for i, b in enumerate(self.bodies)))
+
+    def with_gap(self, gap: float | Callable[[np.ndarray], ArrayLike], pair: int | None = None) -> "Scene":
+        """A new scene with another initial gap g (m; a number or a vectorised callable g(s) of the tangential
+        coordinate s, m): the scene's gap for ``Scene(body1, body2)``, pair ``pair``'s gap (an index into
+        ``contacts``; optional when there is one pair) for a scene with ``contacts=``."""
+        if self._legacy:
+            if pair not in (None, 0):
+                raise SceneError(f"with_gap: this scene has one pair (pair 0), got pair={pair!r}")
+            return Scene(*self.bodies, gap=gap)
+        if pair is None and len(self.contacts) == 1:
+            pair = 0
+        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or not 0 <= pair < len(self.contacts):
+            raise SceneError(f"with_gap: name the pair whose gap changes, pair = 0..{len(self.contacts) - 1} (the "
+                             f"index into scene.contacts), got pair={pair!r}")
+        contacts = [c.with_changes(gap=gap) if i == pair else c for i, c in enumerate(self.contacts)]
+        return Scene(*self.bodies, contacts=contacts)
+
+    def with_obstacles(self, *obstacles: Rigid) -> "Scene":
+        """A new scene with other rigid obstacles: one per entry of ``obstacles`` (the scene's distinct
+        obstacles, in that order), each taking the place of the old one in every pair against it, e.g.
+        ``scene.with_obstacles(scene.obstacles[0].obstacle.moved(by=(0.11, 0.0)))``
+        (:meth:`Rigid.moved`, :meth:`Rigid.with_force`)."""
+        old = [o.obstacle for o in self.obstacles]
+        if len(obstacles) != len(old):
+            raise SceneError(f"with_obstacles takes one obstacle per rigid obstacle of the scene ({len(old)}: "
+                             f"{old!r}, in order), got {len(obstacles)}")
+        for k, o in enumerate(obstacles, start=1):
+            if not isinstance(o, Rigid):
+                raise SceneError(f"with_obstacles takes Rigid obstacles; argument {k} is {type(o).__name__}")
+        swap = {id(a): b for a, b in zip(old, obstacles)}
+        contacts = [c.with_changes(other=swap[id(c.other)]) if c.rigid else c for c in self.contacts]
+        return Scene(*self.bodies, contacts=contacts)
 
     def _index(self, body) -> int:
         for k, b in enumerate(self.bodies):

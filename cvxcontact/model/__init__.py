@@ -41,37 +41,27 @@ from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from .backends.cones import conic_mix_model, mixed_bernstein_rows
-from .backends.conic import bernstein_duals
-from .backends.finish import SIGN_TOL
-from .backends.full import ContactModel, limit_reaction, mixed_kkt
-from .backends.interface import held_cone, release_held
-from .backends.program import conic_options, run_program
-from .backends.result import Cache, RawResult, Settings
-from .backends.run import run
-from .contact.laws import ContactLaw, check_law, check_law_for
-from .discrete import build_problem
-from .errors import ResidualWarning, SceneError
-from .fem.space import space
-from .physics.scene import Body, Scene
-from .solution.checks import equilibrium_with, force_displacements, ipm_active, node_scales, row_checks, row_scales, rows_active
-from .solution.info import Route
-from .solution.readback import read_back
-from .solution.solution import Solution
-from .solve import DEFAULT_TOL
+from ..backends.cones import conic_mix_model, mixed_bernstein_rows
+from ..backends.conic import bernstein_duals
+from ..backends.full import ContactModel, limit_reaction
+from ..backends.interface import held_cone, release_held
+from ..backends.program import conic_options, run_program
+from ..backends.result import Cache, RawResult, Settings
+from ..backends.run import run
+from ..contact.laws import ContactLaw, check_law, check_law_for
+from ..discrete import build_problem
+from ..errors import ResidualWarning, SceneError
+from ..fem.space import space
+from ..physics.scene import Body, Scene
+from ..solution.checks import force_displacements, ipm_active
+from ..solution.info import Route
+from ..solution.readback import read_back
+from ..solution.solution import Solution
+from ..solve import DEFAULT_TOL
+from .terms import balance, checks, finish, linearize, stacked
 
 __all__ = ["Model"]
-
-_MAX_STEPS = 20
-
-
-def _stacked(u, phi, taus=()):
-    """x = [u_1; phi_1; u_2; ...; tau_1; ...]: the scaled unknowns in the order of the model's variables."""
-    return np.concatenate([a for uk, pk in zip(u, phi) for a in ((uk,) if pk is None else (uk, pk))] + list(taus))
-
 
 class Model:
     """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
@@ -118,7 +108,7 @@ class Model:
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
                  polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
                  law: ContactLaw | None = None, degree: int = 1):
-        from .backends.options import check_solve_parameters, check_solver, check_solver_options
+        from ..backends.options import check_solve_parameters, check_solver, check_solver_options
 
         if not isinstance(scene, Scene):
             raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
@@ -272,19 +262,6 @@ class Model:
             x[pos:pos + v.size] = v.value
         return x
 
-    def _rows(self, expr, x):
-        """(C, c0) with expr ~ C x + c0 at x (exact for an affine expr); C None if not differentiable."""
-        grad = expr.grad
-        m = expr.size
-        if grad is None or any(grad.get(v) is None for v in expr.variables()):
-            return None, None
-        blocks = []
-        for v, _ in self._vars:
-            G = grad.get(v)
-            blocks.append(sp.csr_matrix((m, v.size)) if G is None else sp.csr_matrix(G).T)
-        C = sp.hstack(blocks).tocsr()
-        return C, np.asarray(expr.value, dtype=float).flatten(order="F") - C @ x
-
     def solve(self) -> Solution:
         """Solve with the user terms; a fresh Solution in SI with checks that include them. Without user terms
         the program is the one ``cc.solve(..., method="full")`` solves, with the same finish and read-back."""
@@ -327,12 +304,12 @@ class Model:
         x = self._x()
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:
-            C, c0 = self._rows(c.expr, x)
+            C, c0 = linearize(c.expr, x, self._vars)
             zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")      # (not z: the limit reactions)
             rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
         grad, lin = np.zeros(self._n), True
         if objective is not None:
-            Cobj, _ = self._rows(objective, x)
+            Cobj, _ = linearize(objective, x, self._vars)
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
@@ -343,7 +320,7 @@ class Model:
         polished, declined = False, ""
         if self.polish and finishable:
             t0 = time.perf_counter()
-            out = self._finish(u, phi, y, rows, grad if objective is not None else None, active)
+            out = finish(self.problem, u, phi, y, rows, grad if objective is not None else None, active, x)
             timings["polish"] = time.perf_counter() - t0
             if isinstance(out, str):
                 declined = out
@@ -351,15 +328,15 @@ class Model:
                 u, phi, y, zs, active, taus = out
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
-                x = _stacked(u, phi, taus)
+                x = stacked(u, phi, taus)
         t0 = time.perf_counter()
         keep_z = self._law is not None and (self._limit is not None or self._law.limited.any())
         raw = RawResult(u=u, phi=phi, y=y, active=active, z=z if keep_z else None, beta=beta, taus=taus,
                         polished=polished, program=problem, method="full")
         sol = read_back(self.problem, raw, self.tol, timings, "full")
-        sol._checks = self._checks(sol._checks, u, phi, y, x, rows, grad)
+        sol._checks = checks(self.problem, sol._checks, u, phi, y, x, rows, grad)
         if self._forced and rows:        # user rows on a translation carry part of its prescribed force
-            sol._checks["obstacle balance"] = self._balance(y, rows)
+            sol._checks["obstacle balance"] = balance(self.problem, y, rows, self._n_bodies)
         timings["read_back"] = time.perf_counter() - t0
         route = (Route.INTERIOR_POINT_FINISHED if polished else
                  Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
@@ -398,126 +375,3 @@ class Model:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=3)
         return sol
-
-    def _balance(self, y, rows) -> float:
-        """The force balance of every force-controlled obstacle with the user rows' forces on its translation
-        (scaled; docs/formulation.md §12): max |F - R^T y - C_t^T z| / |F| (with the obstacle's check of
-        :func:`~cvxcontact.solution.solution.obstacle_results` when no user row touches t)."""
-        worst, pos = 0.0, self._n_bodies
-        for (R, F), t in zip(self._translations, self._contact.t):
-            r = F - R.T @ y
-            for C, _, z, _, _ in rows:
-                r = r - (np.full(t.size, np.nan) if C is None else C[:, pos:pos + t.size].T @ z)
-            worst = float(np.max([worst, np.linalg.norm(r) / np.linalg.norm(F)]))     # (nan propagates)
-            pos += t.size
-        return worst
-
-    def _contact_norms(self):
-        G = sp.hstack([self.E @ b.jump for b in self.blocks]).tocsr()
-        n = np.sqrt(np.asarray(G.power(2).sum(axis=1)).ravel())
-        return np.where(n > 0, n, 1.0)
-
-    def _finish(self, u, phi, y, rows, load, active):
-        """Exact finish with linear user rows: primal-dual active-set steps on the mixed system (26)
-        with the contact rows and the user inequality rows (and, with force-controlled obstacles, their
-        translations tau and force balances R^T y = F, docs/formulation.md §12); returns
-        (u, phi, y, [z_i], active, taus) or the reason it was declined."""
-        E, g, blocks, tr = self.E, self._g, self.blocks, self._translations
-        m = [len(r[1]) for r in rows]
-        if rows:
-            C = sp.vstack([r[0] for r in rows]).tocsr()
-            d = -np.concatenate([r[1] for r in rows])
-            z = np.concatenate([r[2] for r in rows])
-            eq = np.concatenate([np.full(k, r[3]) for k, r in zip(m, rows)])
-        else:
-            C, d, z, eq = sp.csr_matrix((0, self._n)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
-        if not rows and load is None:
-            base = mixed_kkt(blocks, E, g, translations=tr or None)
-
-            def kkt(ac, ar):
-                out = base(ac)
-                if out is None:
-                    return None
-                x = out[0] if tr else (*out[0], [])
-                return (*x[:3], np.zeros(0), x[3]), out[2], np.zeros(0)
-        else:
-            rows_kkt = mixed_kkt(blocks, E, g, rows=C, bound=d, load=load, translations=tr or None)
-
-            def kkt(ac, ar):
-                out = rows_kkt(ac, ar)
-                if out is None:
-                    return None
-                x = out[0] if tr else (*out[0], [])
-                return x, out[1], out[2]
-        nc = self._contact_norms()
-        x = self._x()
-        S, norms = row_scales(C, x, d)
-        Z = max(float((y * nc).max(initial=0.0)), float((np.abs(z) * norms).max(initial=0.0)))
-        ar = eq | rows_active(C @ x - d, S, z, norms, Z)
-        ac = active.copy()
-        seen = set()
-        for _ in range(_MAX_STEPS):
-            out = kkt(ac, ar)
-            if out is None:
-                return "the mixed system on the active set is singular"
-            (uk, pk, yk, zk, tk), sc, sr = out
-            xk = _stacked(uk, pk, tk)
-            moved = g - sum((R @ t for (R, _), t in zip(tr, tk)), np.zeros(len(g)))
-            _, U = node_scales([E @ (b.jump @ ui) for b, ui in zip(blocks, uk)], moved)
-            S, _ = row_scales(C, xk, d)
-            Z = max(float((yk * nc).max(initial=0.0)), float((np.abs(zk) * norms).max(initial=0.0)),
-                    np.finfo(float).tiny)
-            neg_c = ac & (yk * nc < -SIGN_TOL * Z)
-            neg_r = ar & ~eq & (zk * norms < -SIGN_TOL * Z)
-            bad_c = ~ac & (sc > SIGN_TOL * U)
-            bad_r = ~ar & (sr > SIGN_TOL * S)
-            if not (neg_c.any() or neg_r.any() or bad_c.any() or bad_r.any()):
-                off = np.cumsum([0] + m)
-                return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)
-            ac, ar = (ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r
-            key = ac.tobytes() + ar.tobytes()
-            if key in seen:
-                return "the active-set steps cycle"
-            seen.add(key)
-        return f"the active-set steps did not settle in {_MAX_STEPS} steps"
-
-    def _checks(self, base, u, phi, y, x, rows, grad):
-        """The checks of read_back with the user terms: equilibrium of (26) with the user forces,
-        and feasibility/complementarity of each user constraint, normalised per row."""
-        blocks, E = self.blocks, self.E
-        t = grad.copy()
-        tm = np.abs(grad)
-        for C, c0, z, _, _ in rows:
-            if C is None:
-                t[:] = np.nan
-                continue
-            t += C.T @ z
-            tm += abs(C).T @ np.abs(z)
-        forces, pos = [], 0
-        for b, uk, pk in zip(blocks, u, phi):
-            nu, npf = len(uk), (0 if pk is None else len(pk))
-            tu, mu = t[pos:pos + nu].copy(), tm[pos:pos + nu].copy()
-            if npf and np.any(t[pos + nu:pos + nu + npf] != 0):
-                w = spla.splu(b.Kpp.tocsc()).solve(t[pos + nu:pos + nu + npf])
-                tu += b.Kup @ w
-                mu += abs(b.Kup) @ np.abs(w)
-            forces.append((tu, mu))
-            pos += nu + npf
-        out = dict(base)
-        out["equilibrium"] = equilibrium_with(blocks, u, phi, E.T @ y, forces)
-        nc = self._contact_norms()
-        Z = float((np.abs(y) * nc).max(initial=0.0))     # (the conic nodal force r may change sign)
-        for C, c0, z, _, _ in rows:
-            if C is not None:
-                Z = max(Z, float((np.abs(z) * row_scales(C, x, c0)[1]).max(initial=0.0)))
-        for i, (C, c0, z, eq, _) in enumerate(rows):
-            if C is None:
-                out[f"user[{i}] feasibility"] = out[f"user[{i}] complementarity"] = float("nan")
-                continue
-            S, norms = row_scales(C, x, c0)
-            feas, comp, cone = row_checks(C @ x + c0, S, z, norms, Z, equality=eq)
-            out[f"user[{i}] feasibility"] = feas
-            if not eq:
-                out[f"user[{i}] complementarity"] = comp
-                out[f"user[{i}] cone"] = cone
-        return out

@@ -62,7 +62,7 @@ def test_load_free_layer_squeezed_by_a_driven_punch_is_in_exact_uniaxial_strain(
     each body (P1 and P2 exact), u_x = 0, each pair carries p (N/m). (The old per-body check refused it:
     the layer's own load is zero.)"""
     scene = squeezed("punch", 3 if condition == "gamma3" else 4)
-    assert scene.bodies[0].held_by_contact == ["translation y"] and not scene.bodies[1].held_by_contact
+    assert scene.bodies[0].held_by_contact == ("translation y",) and not scene.bodies[1].held_by_contact
     sol = cc.solve(scene, condition, degree=degree)
     assert sol.ok and sol.polished and sol.method == "full"
     p = DELTA / (H1 / M_STEEL + H2 / M_ALU)
@@ -135,14 +135,14 @@ def test_layer_in_an_open_gap_is_refused_after_the_solve():
             cc.solve(scene, condition, degree=degree)
 
 
-def corner_scene(held):
+def corner_scene(held, tag="bottom"):
     """A block with no support at all, pushed by its weight and a sideways body force into a corner (a floor
-    and a wall, pairs given by contacts=), its contact= tag naming the bottom only; ``held`` False: rollers
-    on its bottom and left side instead of the contacts (bilateral), the reference."""
+    and a wall, pairs given by contacts=), its contact= tag ``tag`` (the bottom only, or None: no tag);
+    ``held`` False: rollers on its bottom and left side instead of the contacts (bilateral), the reference."""
     mesh = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=6, ny=3)
     if not held:
         return cc.Body(mesh, STEEL, roller=["bottom", "left"], contact="top", body_force=CORNER_LOAD, name="block")
-    block = cc.Body(mesh, STEEL, contact="bottom", body_force=CORNER_LOAD, name="block")
+    block = cc.Body(mesh, STEEL, contact=tag, body_force=CORNER_LOAD, name="block")
     wall = cc.Rigid.plane((0.0, 0.0), (1.0, 0.0))
     return cc.Scene(block, contacts=[cc.Contact(block, "bottom", floor()), cc.Contact(block, "left", wall)])
 
@@ -169,6 +169,8 @@ def test_body_contact_tag_does_not_drive_the_check():
     area = 0.5
     assert abs(sol.contacts[0].force.sum() + CORNER_LOAD[1] * area) <= 1e-9 * abs(CORNER_LOAD[1] * area)  # 2.3e-16
     assert abs(sol.contacts[1].force.sum() + CORNER_LOAD[0] * area) <= 1e-9 * abs(CORNER_LOAD[0] * area)  # 2.9e-16
+    untagged = cc.solve(corner_scene(True, tag=None))                     # Body(contact=) omitted: the same
+    assert untagged.ok and np.array_equal(untagged.u[0], sol.u[0])
 
 
 # ------------------------------------------------------------------ refusals

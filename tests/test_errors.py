@@ -32,8 +32,6 @@ def lower(mesh=None, **kw):
     (lambda: upper(traction={"right": "up"}), "traction"),
     (lambda: upper(contact=["bottom"]), "one boundary tag"),
     (lambda: upper(clamped=["bottom"]), "'bottom' is both clamped and contact"),
-    (lambda: upper(mesh=cc.rectangle(x=(0, 1), y=(0, 0.5), nx=1, ny=1), clamped=["left", "right"]),
-     "every node of the contact part 'bottom' is clamped"),
     (lambda: upper(surface_charge={"top": 1e-3}), "'top' is both grounded and surface_charge"),
     (lambda: lower(grounded=["bottom"]), "carries no electric unknowns"),
     (lambda: cc.Body("mesh", PZT, clamped="top", contact="bottom"), "must be a cvxcontact.Mesh"),

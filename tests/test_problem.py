@@ -149,3 +149,44 @@ def test_problem_is_immutable():
     problem = build_problem(_loaded_pair(), space(1), "gamma3", cc.Signorini())
     with pytest.raises(AttributeError):
         problem.gap = None
+
+
+def test_model_node_out_of_range_is_a_typed_error_naming_the_body():
+    model = cc.Model(_loaded_pair())
+    n = len(model.scene.bodies[0].mesh.points)
+    with pytest.raises(cc.SceneError, match=rf"node {n} of body 0 .* has {n} nodes"):
+        model.u(0, n)
+    with pytest.raises(cc.SceneError, match="node -1 of body 1"):
+        model.u(1, [0, -1])
+    with pytest.raises(cc.SceneError, match="integer node index"):
+        model.phi(0, 0.5)
+    assert model.u(0, [0, 1]).shape == (2, 2) and model.phi(0, 3).shape == ()
+
+
+def test_a_backend_plugs_in_through_the_registry_alone(monkeypatch):
+    """A new backend is a route function and one registry entry (docs/architecture.md, "A new backend"): here the
+    full program solved by the route of another module, registered under a new name; the orchestration, the
+    read-back and the checks are untouched, and the answer equals the full backend's (measured 0: the same
+    program and finish)."""
+    import cvxcontact.backends as backends
+    from cvxcontact.backends import Backend, signorini
+
+    def other(problem, cache, settings, timings):
+        raw = signorini.full(problem, cache, settings, timings)
+        raw.method = "other"
+        return raw
+
+    import types
+    module = types.ModuleType("cvxcontact.backends.other")
+    module.signorini = other
+    monkeypatch.setitem(__import__("sys").modules, "cvxcontact.backends.other", module)
+    entry = Backend("other", lambda p: not (p.compliant or p.conic), "test", routes={"signorini": "other:signorini"})
+    monkeypatch.setattr(backends, "BACKENDS", backends.BACKENDS + (entry,))
+    import cvxcontact.backends.options as options
+    import cvxcontact.backends.run as run
+    monkeypatch.setattr(options, "METHODS", options.METHODS + ("other",))
+    monkeypatch.setattr(run, "BACKENDS", backends.BACKENDS)
+    monkeypatch.setattr(backends, "METHODS", backends.METHODS + ("other",))
+    scene = _loaded_pair()
+    sol, ref = cc.solve(scene, method="other"), cc.solve(scene, method="full")
+    assert sol.ok and sol.info.method == "other" and rel(sol.u[0], ref.u[0]) < 1e-12

@@ -18,7 +18,7 @@ from .interface import back_substitute, condensed_interface, interface_load, pro
 from .program import timed_program
 from .result import RawResult, Route
 
-__all__ = ["solve", "newton"]
+__all__ = ["solve", "full", "condensed", "newton"]
 
 
 def newton(W, d, w, law, r0=None, active=None):
@@ -28,6 +28,16 @@ def newton(W, d, w, law, r0=None, active=None):
     if out is None and law.linear:
         out = solve_linear_compliance(W, d, w, law)
     return out
+
+
+def full(problem, cache, settings, timings) -> RawResult:
+    """:func:`solve` on the full program (the reference)."""
+    return solve(problem, cache, settings, timings, method="full")
+
+
+def condensed(problem, cache, settings, timings) -> RawResult:
+    """:func:`solve` on the condensed interface program."""
+    return solve(problem, cache, settings, timings, method="condensed")
 
 
 def solve(problem, cache, settings, timings, method: str = "condensed") -> RawResult:

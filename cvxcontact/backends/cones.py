@@ -21,7 +21,7 @@ from .interface import (back_substitute, condensed_interface, held_cone, interfa
 from .program import conic_options, timed_program
 from .result import RawResult, Route
 
-__all__ = ["full", "condensed", "mixed", "conic_mix_model"]
+__all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
 
 
 def _cone_force(problem, beta):
@@ -99,6 +99,16 @@ def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, t
 def mixed_bernstein_rows(problem):
     """The cone pairs' Bernstein map on the rows of E (E is the identity on a cone pair's nodes)."""
     return (problem.lines.mixed_bernstein[0] @ problem.E.T).tocsr()
+
+
+def mixed_full(problem, cache, settings, timings) -> RawResult:
+    """:func:`mixed` on the full program."""
+    return mixed(problem, cache, settings, timings, method="full")
+
+
+def mixed_condensed(problem, cache, settings, timings) -> RawResult:
+    """:func:`mixed` on the condensed interface program."""
+    return mixed(problem, cache, settings, timings, method="condensed")
 
 
 def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawResult:

@@ -86,22 +86,45 @@ def _signs_hold(W, d, y, active):
     return signs_hold(y, d - W @ y, active, w, S)
 
 
+def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobytes()):
+    """The primal-dual active-set iteration every exact finish shares (the semismooth Newton method for the
+    complementarity function min(y, -s) = 0): ``step(active)`` solves the system with the rows of ``active``
+    closed and returns ``(state, new)``, ``new`` the next active set or None when the signs hold (``state``
+    is then the answer), or returns None for a singular system. ``key(active)``: a hashable form of an
+    active set (default its bytes; a tuple of masks needs its own). Returns ``(state, active, steps)``, or
+    the reason it stopped ("singular", "cycle", "max_iter") as a string."""
+    seen, active = set(), start
+    for n in range(1, max_iter + 1):
+        out = step(active)
+        if out is None:
+            return "singular"
+        state, new = out
+        if new is None:
+            return state, active, n
+        k = key(new)
+        if k == key(active) or k in seen:
+            return "cycle"
+        seen.add(k)
+        active = new
+    return "max_iter"
+
+
+STOPPED = {"singular": "the mixed system on the active set is singular", "cycle": "the active-set steps cycle",
+           "max_iter": "the active-set steps did not settle"}
+"""Why :func:`active_set_steps` stopped, in words."""
+
+
 def _pdas(W, d, active, max_iter):
     w, _ = row_scales(W, d, np.zeros(len(d)))
-    seen = set()
-    for _ in range(max_iter):
+
+    def step(active):
         y = _closed(W, d, active)
         if y is None:
             return None
-        if _signs_hold(W, d, y, active):
-            return y, active
-        new = y * w + (d - W @ y) > 0
-        key = new.tobytes()
-        if np.array_equal(new, active) or key in seen:
-            return None
-        seen.add(key)
-        active = new
-    return None
+        return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
+
+    out = active_set_steps(step, active, max_iter)
+    return None if isinstance(out, str) else out[:2]
 
 
 def _least_squares_form(W, d):

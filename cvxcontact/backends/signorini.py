@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .finish import SIGN_TOL, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
+from .finish import SIGN_TOL, active_set_steps, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
 from .full import ContactModel, mixed_kkt
 from .interface import back_substitute, condensed_interface, interface_load
 from .program import timed_program
@@ -142,22 +142,19 @@ def sparse_active_set(kkt, g, active, timings, max_iter=30):
     steps from ``active`` until y >= 0 on the active rows and the open rows' slack <= 0, each to SIGN_TOL of
     the problem's force and displacement scales. Returns ((u, phi, y[, taus]), active) or None."""
     t0 = time.perf_counter()
-    seen, out = set(), None
-    for _ in range(max_iter):
+
+    def step(active):
         res = kkt(active)
         if res is None:
-            break
+            return None
         x, y, slack, _ = res
         ys = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
         ds = max(float(np.abs(slack + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)),
                  np.finfo(float).tiny)
         if (y >= -SIGN_TOL * ys).all() and (slack[~active] <= SIGN_TOL * ds).all():
-            out = (x, active)
-            break
-        new = y / ys + slack / ds > 0
-        if new.tobytes() in seen or np.array_equal(new, active):
-            break
-        seen.add(new.tobytes())
-        active = new
+            return x, None
+        return x, y / ys + slack / ds > 0
+
+    out = active_set_steps(step, active, max_iter)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    return out
+    return None if isinstance(out, str) else out[:2]

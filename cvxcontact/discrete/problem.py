@@ -47,6 +47,9 @@ class DiscreteProblem:
     ``translations``: per force-controlled obstacle (R, F), R its rows' sensitivities to its translation
     unknowns tau, F the prescribed force on them (scaled); ``held_rows``: the rows no unknown moves (nodes
     the supports hold on both sides, or against a fixed obstacle; docs/formulation.md §8, "Held nodes");
+    ``prescribed_jump``: [u_D nu] at the nodes of X_h, the part of the jump that prescribed displacements of
+    contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
+    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
     ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`).
@@ -66,6 +69,7 @@ class DiscreteProblem:
     translations: tuple
     held_rows: np.ndarray
     scale: bool = True
+    prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
     _fingerprints: tuple = field(default=(), repr=False)
 
@@ -230,10 +234,15 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
     held = held_rows(E, blocks, translations)
-    gap = lines.gap / un.displacement
+    shift = np.zeros(len(lines.gap))             # [u_D nu]: prescribed displacements of contact nodes (§11)
+    for k, s in enumerate(systems):
+        if s.u_fixed is not None and np.any(s.u_fixed):
+            shift = shift + lines.interface.jump(k, len(s.f) // 2) @ s.u_fixed
+    gap = (lines.gap - shift) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, scale=scale, kernel=kernel,
+                              prescribed_jump=shift / un.displacement,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies))
     check_reachable(problem)

@@ -165,27 +165,42 @@ class Model:
                              f"got {body!r}")
         return int(body)
 
-    def u(self, body) -> cp.Expression:
+    def u(self, body, nodes=None) -> cp.Expression:
         """Nodal displacements of ``body`` (index 0/1 or the Body), an (n_nodes, 2) expression in m;
-        the clamped dofs (Gamma_1) are the constant 0."""
+        the clamped dofs (Gamma_1) are the constant 0. ``nodes`` (an index or an array of node indices):
+        those rows only, checked (a SceneError naming the body and the valid range, where plain indexing
+        ``model.u(body)[node]`` raises CVXPY's IndexError)."""
         k = self._index(body)
         if k not in self._u_expr:
             s = self.systems[k]
             n = len(s.f) // 2                                  # nodes (P2: vertices and midpoints)
             self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
                                          (n, 2), order="C")
-        return self._u_expr[k]
+        return self._u_expr[k] if nodes is None else self._u_expr[k][self._nodes_of(k, nodes)]
 
-    def phi(self, body) -> cp.Expression | None:
+    def phi(self, body, nodes=None) -> cp.Expression | None:
         """Nodal potentials of ``body``, an (n_nodes,) expression in V with the electrode potentials
-        (Gamma_a, grounded parts) as constants; None for an elastic body."""
+        (Gamma_a, grounded parts) as constants; None for an elastic body. ``nodes`` as in :meth:`u`."""
         k = self._index(body)
         s = self.systems[k]
         if not s.piezoelectric:
             return None
         if k not in self._phi_expr:
             self._phi_expr[k] = s.phi_fixed + self.units.potential * (s.Tp @ self._contact.phi[k])
-        return self._phi_expr[k]
+        return self._phi_expr[k] if nodes is None else self._phi_expr[k][self._nodes_of(k, nodes)]
+
+    def _nodes_of(self, k, nodes):
+        """``nodes`` as checked node indices of body k (SceneError naming the body and the valid range)."""
+        n = len(self.systems[k].f) // 2
+        idx = np.asarray(nodes)
+        if idx.dtype.kind not in "iu" or idx.ndim > 1:
+            raise SceneError(f"nodes of body {k} ({self.scene.bodies[k].name}) must be an integer node index or a "
+                             f"1-D array of them, got {nodes!r}")
+        bad = idx[(idx < 0) | (idx >= n)]
+        if bad.size:
+            raise SceneError(f"node {int(bad.ravel()[0])} of body {k} ({self.scene.bodies[k].name}) is out of range: "
+                             f"the body has {n} nodes (0..{n - 1}; P2: vertices, then edge midpoints, as sol.points)")
+        return idx
 
     def jump(self) -> cp.Expression:
         """[u_nu] of every pair, stacked, m: pair i's rows are ``model.offsets[i]:offsets[i + 1]`` at the nodes
@@ -193,7 +208,8 @@ class Model:
         pair's X_h (merged vertices and segment midpoints, interleaved). Against a rigid obstacle [u_nu] is
         the body's u . nu; the contact condition is [u_nu] <= gap, for a force-controlled obstacle
         [u_nu] + c . t <= gap with t its translation (:meth:`translation`, docs/formulation.md §12)."""
-        return self.units.displacement * sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
+        return self.units.displacement * (sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
+                                          + self.problem.prescribed_jump)
 
     def translation(self, obstacle: int) -> cp.Expression:
         """The rigid translation (2,) in m of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an

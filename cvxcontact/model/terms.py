@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..backends.finish import SIGN_TOL
+from ..backends.finish import SIGN_TOL, STOPPED, active_set_steps
 from ..backends.full import mixed_kkt
 from ..solution.checks import equilibrium_with, node_scales, row_checks, row_scales, rows_active
 
@@ -83,12 +83,12 @@ def finish(problem, u, phi, y, rows, load, active, x):
     S, norms = row_scales(C, x, d)
     Z = max(float((y * nc).max(initial=0.0)), float((np.abs(z) * norms).max(initial=0.0)))
     ar = eq | rows_active(C @ x - d, S, z, norms, Z)
-    ac = active.copy()
-    seen = set()
-    for _ in range(MAX_STEPS):
+
+    def step(state):
+        ac, ar = state
         out = kkt(ac, ar)
         if out is None:
-            return "the mixed system on the active set is singular"
+            return None
         (uk, pk, yk, zk, tk), sc, sr = out
         xk = stacked(uk, pk, tk)
         moved = g - sum((R @ t for (R, _), t in zip(tr, tk)), np.zeros(len(g)))
@@ -101,14 +101,15 @@ def finish(problem, u, phi, y, rows, load, active, x):
         bad_c = ~ac & (sc > SIGN_TOL * U)
         bad_r = ~ar & (sr > SIGN_TOL * S)
         if not (neg_c.any() or neg_r.any() or bad_c.any() or bad_r.any()):
-            off = np.cumsum([0] + m)
-            return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)
-        ac, ar = (ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r
-        key = ac.tobytes() + ar.tobytes()
-        if key in seen:
-            return "the active-set steps cycle"
-        seen.add(key)
-    return f"the active-set steps did not settle in {MAX_STEPS} steps"
+            return (uk, pk, yk, zk, tk), None
+        return None, ((ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r)
+
+    out = active_set_steps(step, (active.copy(), ar), MAX_STEPS, key=lambda s: s[0].tobytes() + s[1].tobytes())
+    if isinstance(out, str):
+        return STOPPED[out] + (f" in {MAX_STEPS} steps" if out == "max_iter" else "")
+    (uk, pk, yk, zk, tk), (ac, _), _ = out
+    off = np.cumsum([0] + m)
+    return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)
 
 
 def checks(problem, base, u, phi, y, x, rows, grad):

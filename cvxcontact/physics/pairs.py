@@ -370,19 +370,11 @@ class Contact(Frozen):
         if part not in body.mesh.tags:
             raise SceneError(f"Contact: {role} names unknown boundary tag {part!r} of {body.name}; "
                              f"the mesh has {sorted(body.mesh.tags)}")
-        if part in body.clamped:
-            raise SceneError(f"Contact: {role} {part!r} of {body.name} is also clamped")
         if part in body.traction:
             raise SceneError(f"Contact: {role} {part!r} of {body.name} is also a traction part: where it touches, "
                              "its stress vector is the contact pressure along the normal (no shear, frictionless), "
                              "so a prescribed traction there over-determines it (Gamma_2 and Gamma_3 are disjoint); "
                              "load another part, or split the part into a loaded and a contact segment")
-        nodes = body.mesh.boundary_nodes([part])
-        for tag, value in body.displacement.items():        # (the jump rows see the free dofs only)
-            if any(v not in (None, 0.0) for v in value) and np.isin(body.mesh.boundary_nodes([tag]), nodes).any():
-                raise SceneError(f"Contact: {role} {part!r} of {body.name}: the prescribed displacement {tag!r} = "
-                                 f"{value} touches it; a non-zero displacement on a contact node is not supported "
-                                 "(prescribe it away from the contact line)")
         return part
 
     def __repr__(self):

@@ -314,7 +314,8 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
     else:
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
-    jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
+    shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
+    jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     if beta is not None:
         B, segments = problem.lines.cone
         checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
@@ -356,7 +357,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
-            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
+            gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
             degree=2 if p2 else 1))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:

@@ -305,8 +305,14 @@ def test_the_two_body_form_still_needs_contact():
 
 
 def test_a_body_held_by_nothing_without_contact_is_a_typed_error():
-    with pytest.raises(cc.SceneError, match=r"no support holds the rigid motion\(s\).*contact="):
-        cc.Body(cc.rectangle(nx=2, ny=2), ALU, roller="bottom")
+    """Without contact= the Body cannot know which parts its pairs use: the Scene decides. A motion that no
+    support holds and that is tangential to every pair part of the body is refused there; a pair on a part
+    whose normal holds it is accepted (and the loads are judged on the assembled problem, fem/kernel.py)."""
+    body = cc.Body(cc.rectangle(nx=2, ny=2), ALU, roller="bottom")
+    assert body.held_by_contact == ("translation x",)
+    with pytest.raises(cc.SceneError, match=r"nothing holds the rigid motion\(s\) \['translation x'\]"):
+        cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.plane((0.0, 1.0), (0.0, -1.0)))])
+    cc.Scene(body, contacts=[cc.Contact(body, "left", cc.Rigid.plane((0.0, 0.0), (1.0, 0.0)))])
 
 
 # ------------------------------------------------------------------ typed errors of bad descriptions

@@ -14,6 +14,7 @@ import importlib
 import numpy as np
 
 from ..errors import SolverError
+from ..fem.kernel import check_determined
 from . import BACKENDS
 from .result import RawResult
 
@@ -45,6 +46,8 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     filling ``cache``; the forces of rows no unknown moves at their least admissible value (docs/formulation.md
     §8, "Held nodes": (26)-(27) do not determine them)."""
     raw = route(method, kind(problem))(problem, cache.matching(problem.lines.key()), settings, timings)
+    if raw.polished and raw.active is not None:     # a motion only rows open at the solution would hold
+        check_determined(problem.kernel, raw.active)
     if kind(problem) == "signorini":
         raw.y = np.where(problem.held_rows, 0.0, raw.y)
     if not raw.factorization and cache.condensation is not None:

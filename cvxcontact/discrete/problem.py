@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import SceneError
+from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
@@ -48,7 +49,10 @@ class DiscreteProblem:
     the supports hold on both sides, or against a fixed obstacle; docs/formulation.md §8, "Held nodes");
     ``prescribed_jump``: [u_D nu] at the nodes of X_h, the part of the jump that prescribed displacements of
     contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
-    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line).
+    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
+    ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
+    against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`).
     """
 
     scene: Scene
@@ -66,6 +70,7 @@ class DiscreteProblem:
     held_rows: np.ndarray
     scale: bool = True
     prescribed_jump: np.ndarray | float = 0.0
+    kernel: Kernel | None = field(default=None, repr=False)
     _fingerprints: tuple = field(default=(), repr=False)
 
     # ---- what the backends read ---------------------------------------------------------------
@@ -180,8 +185,10 @@ class DiscreteProblem:
         lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
                         np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None)
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
+        kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
+                                                               self.interface, self.obstacles, self.nodes)
         return replace(self, lines=lines, translations=translations,
-                       held_rows=held_rows(E, self.blocks, translations))
+                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel)
 
     # ---- re-solves -----------------------------------------------------------------------------
     def accepts(self, scene) -> bool:
@@ -218,9 +225,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     at = [None] * len(scene.bodies) if nodes is None else nodes
     lines = space.contact(scene, condition, law, nodes)
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
-    for b, s, n in zip(scene.bodies, systems, at):
-        if getattr(b, "held_by_contact", None):            # the load must press it onto the contact
-            b.check_pressed(s.f, n)
+    # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
+    kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes)
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
     if previous is not None and previous.lines.key() == lines.key():
@@ -240,7 +246,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     gap = (lines.gap - shift) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
-                              translations=translations, held_rows=held, scale=scale,
+                              translations=translations, held_rows=held, scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies))

@@ -297,67 +297,46 @@ class Body(Frozen):
                 tangent[i] = Vt[1]
         return free, tangent, u_fixed
 
-    def free_motions(self, contact: bool = True) -> list[str]:
+    def free_motions(self, contact: bool | Sequence[str] = True) -> list[str]:
         """The rigid motions of the body that nothing holds, as readable names (empty if none).
 
         A rigid motion u(x) = (tx - w (y - yc), ty + w (x - xc)) is held by the supports if some
-        support row has u . direction != 0, and (``contact=True``) by the contact part if
-        u . nu != 0 at some of its nodes (nu the outward normal; contact holds on one side only).
-        Each connected piece of the mesh is checked on its own.
+        support row has u . direction != 0, and by a contact part (``contact=True``: the ``contact``
+        part; a list: those parts; False: none) if u . nu != 0 at some of its nodes (nu the outward
+        normal; contact holds on one side only). Each connected piece of the mesh is checked on its own.
         """
-        mesh = self.mesh
-        count = int(mesh.components.max()) + 1
         out = []
         for c, free, centre, size in self._free_basis(contact):
-            where = ""
-            if count > 1 and len(free):
-                inside = mesh.components == c
-                area = mesh.areas[inside]
-                cg = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
-                where = (f" of mesh component {c} ({int(inside.sum())} triangles, centroid at "
-                         f"({cg[0]:.4g}, {cg[1]:.4g}) m)")
-            out += [_motion_name(v, centre, size) + where for v in free]
+            out += [_motion_name(v, centre, size) + self._where(c) for v in free]
         return out
 
-    def check_pressed(self, f: np.ndarray, nodes=None) -> None:
-        """For the rigid motions only the contact holds: raise SceneError unless the nodal load ``f``
-        ((2n,) N/m, the lifted load of the body) can be balanced by compressive contact forces on the
-        contact part (lambda_i >= 0 along -nu_i at its nodes) in those motions, with a non-zero
-        resultant: otherwise the load pulls the body off its support (or leaves it undetermined).
-        ``nodes``: the node set of ``f`` (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default
-        the mesh's vertices."""
-        from scipy.optimize import nnls
-
-        if not self.held_by_contact:
-            return
-        mesh = self.mesh
-        points, comp = self._node_set(nodes)
-        cn, cdir = mesh.boundary_nodes([self.contact]), _node_normals(mesh, self.contact)
+    def motion_name(self, coefficients: ArrayLike) -> str:
+        """A readable name of the rigid motion sum_j coefficients[j] held_modes()[j] (e.g. "translation y",
+        "rotation about (0.5, 0) m"; the mesh component too when the mesh has several)."""
+        a = np.asarray(coefficients, dtype=float)
+        names, k = [], 0
         for c, V, centre, size in self._free_basis():
-            nodes = np.flatnonzero(comp == c)
-            x = (points[nodes] - centre) / size
-            fx, fy = f[2 * nodes], f[2 * nodes + 1]
-            b = V @ np.array([fx.sum(), fy.sum(), (-x[:, 1] * fx + x[:, 0] * fy).sum()])
-            keep = mesh.node_components[cn] == c
-            xc, d = (mesh.points[cn[keep]] - centre) / size, cdir[keep]
-            A = V @ np.vstack([d[:, 0], d[:, 1], -xc[:, 1] * d[:, 0] + xc[:, 0] * d[:, 1]])
-            _, res = nnls(A, b)
-            names = [_motion_name(v, centre, size) for v in V]
-            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()):
-                raise SceneError(f"{self.name}: no load presses the body onto the contact along {names} (held by "
-                                 "the contact only, its net load there is 0): its position along them is "
-                                 "undetermined (any lift-off costs nothing); add a support, or load it towards the "
-                                 "contact")
-            if res > 1e-9 * np.linalg.norm(b):
-                raise SceneError(f"{self.name}: the load pulls the body off its support along {names} (held by "
-                                 f"the contact only; its net load there, {np.round(b, 9).tolist()} N/m, cannot be "
-                                 "carried by compressive contact forces): add a support, or load it towards the "
-                                 "contact")
+            v = a[k:k + len(V)] @ V
+            k += len(V)
+            if np.abs(v).max() > 1e-9 * max(float(np.abs(a).max()), 1e-300):
+                names.append(_motion_name(v, centre, size) + self._where(c))
+        return " and ".join(names)
+
+    def _where(self, c) -> str:
+        """" of mesh component c (...)" when the mesh has several components, else ""."""
+        mesh = self.mesh
+        if int(mesh.components.max()) == 0:
+            return ""
+        inside = mesh.components == c
+        area = mesh.areas[inside]
+        cg = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
+        return f" of mesh component {c} ({int(inside.sum())} triangles, centroid at ({cg[0]:.4g}, {cg[1]:.4g}) m)"
 
     def held_modes(self, nodes=None) -> np.ndarray:
-        """(k, 2 n_nodes): the rigid motions only the contact holds, as nodal displacement fields
+        """(k, 2 n_nodes): the rigid motions no support holds (the contact must), as nodal displacement fields
         (x, y interleaved per node; translations in m per unit, rotations scaled by the piece's size).
-        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check.
+        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check and by
+        the well-posedness check of the assembled problem (:mod:`cvxcontact.fem.kernel`).
         ``nodes``: the node set (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default the mesh's
         vertices."""
         points, comp = self._node_set(nodes)
@@ -384,14 +363,16 @@ class Body(Frozen):
         return nodes.points, comp
 
     def _free_basis(self, contact=False):
-        """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's
-        normals) leave free: (component, V (k, 3) orthonormal rows of (tx, ty, w) in scaled coordinates,
-        centre (m), size (m))."""
+        """Per mesh component with rigid motions the supports (and with ``contact`` the normals of the
+        contact parts: True the ``contact`` part, or a list of parts) leave free: (component, V (k, 3)
+        orthonormal rows of (tx, ty, w) in scaled coordinates, centre (m), size (m))."""
         mesh = self.mesh
         nodes, dirs, _ = self.supports()
-        if contact and self.contact is not None:
-            nodes = np.concatenate([nodes, mesh.boundary_nodes([self.contact])])
-            dirs = np.concatenate([dirs, _node_normals(mesh, self.contact)])
+        own = [] if self.contact is None else [self.contact]
+        parts = (own if contact is True else list(contact)) if contact else []
+        for tag in parts:
+            nodes = np.concatenate([nodes, mesh.boundary_nodes([tag])])
+            dirs = np.concatenate([dirs, _node_normals(mesh, tag)])
         out = []
         for c in range(int(mesh.components.max()) + 1):
             pts = mesh.points[mesh.node_components == c]
@@ -419,24 +400,16 @@ class Body(Frozen):
                              "displacement support that stops them")
 
     held_by_contact: tuple[str, ...]
-    """The rigid motions only the ``contact`` part holds (readable names, see :meth:`free_motions`); empty
+    """The rigid motions no support holds, which the contact must hold (readable names, see
+    :meth:`free_motions`; decided with the scene's pairs and loads, :mod:`cvxcontact.fem.kernel`); empty
     when the supports hold every rigid motion."""
 
     def _check_kinematics(self):
-        free = self.free_motions(contact=False)
-        self._set(held_by_contact=FrozenTuple(free, "Body.held_by_contact",
-                                              "it follows from the supports and the contact part"))
-        if not free:
-            return
-        if self.contact is None:
-            raise SceneError(f"{self.name}: no support holds the rigid motion(s) {free}: add a clamped, roller or "
-                             "displacement support that stops it, or, for a body held by its contact, name that "
-                             "part with Body(..., contact=\"tag\")")
-        unheld = self.free_motions(contact=True)
-        if unheld:
-            raise SceneError(f"{self.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
-                             "displacement support that stops it (contact is unilateral and holds only along "
-                             "the normal of the contact part)")
+        # the rigid motions no support holds (see free_motions): the contact must hold them. Whether it does
+        # depends on the scene's pairs and loads: refused by the Scene (a motion no contact part resists,
+        # _refuse_unheld) or when the problem is built (cvxcontact.fem.kernel.check_well_posed)
+        self._set(held_by_contact=FrozenTuple(self.free_motions(contact=False), "Body.held_by_contact",
+                                              "it follows from the supports"))
 
     def _check_components(self, tags, problem):
         """Every connected piece of the mesh (``Mesh.components``) has an edge on one of ``tags``."""
@@ -467,8 +440,8 @@ def _motion_name(v, centre, size):
         if abs(t[0]) <= 1e-9:
             return "translation y"
         return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
-    xc, yc = centre[0] - ty / w * size, centre[1] + tx / w * size
-    return f"rotation about ({xc:.4g}, {yc:.4g}) m"
+    xc, yc = (round(c / size, 6) * size + 0.0 for c in (centre[0] - ty / w * size, centre[1] + tx / w * size))
+    return f"rotation about ({xc:.4g}, {yc:.4g}) m"                 # (to 1e-6 of the piece's size)
 
 
 def _node_normals(mesh, tag):
@@ -518,6 +491,23 @@ def _charge(value, label):
         raise SceneError(f"{label}: expected the total charge Q in C/m (a finite number, 0 = open circuit), "
                          f"got {value!r}")
     return float(value)
+
+
+def _refuse_unheld(scene):
+    """SceneError for a rigid motion of a body that no support holds and that no contact part of the body
+    resists in either direction (u . nu = 0 along each of its parts: a motion tangential to them): whatever
+    the partners and the loads, nothing determines it. What the contact resists in one direction only is
+    decided with the loads, on the assembled problem (:func:`cvxcontact.fem.kernel.check_well_posed`)."""
+    for b in scene.bodies:
+        if not b.held_by_contact:
+            continue
+        parts = list(dict.fromkeys([c.part_a for c in scene.contacts if c.body_a is b]
+                                   + [c.part_b for c in scene.contacts if c.other is b]))
+        unheld = b.free_motions(contact=parts)
+        if unheld:
+            raise SceneError(f"{b.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
+                             f"displacement support that stops it (contact is unilateral and holds only along "
+                             f"the normal of the contact part(s) {parts})")
 
 
 def _disjoint(body, roles):
@@ -702,6 +692,7 @@ class Scene(Frozen):
                   stack=Stack(interfaces, members), conditions=self._tuple("conditions", (c.condition for c in
                                                                                          self.contacts)),
                   gap=Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1))
+        _refuse_unheld(self)
         self.gap_values()                                    # check it now: finite, right shape
         self._set(obstacles=self._tuple("obstacles", obstacle_rows(self)))   # force control checked here
 

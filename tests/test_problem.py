@@ -160,7 +160,7 @@ def test_model_node_out_of_range_is_a_typed_error_naming_the_body():
         model.u(1, [0, -1])
     with pytest.raises(cc.SceneError, match="integer node index"):
         model.phi(0, 0.5)
-    assert model.u(0, [0, 1]).shape == (2, 2) and model.phi(0, 3).shape == ()
+    assert model.u(0, [0, 1]).shape == (2, 2) and model.phi(0, 3).shape == () and model.u(0, 3).shape == (2,)
 
 
 def test_a_backend_plugs_in_through_the_registry_alone(monkeypatch):

@@ -201,7 +201,7 @@ class Model:
         if bad.size:
             raise SceneError(f"node {int(bad.ravel()[0])} of body {k} ({self.scene.bodies[k].name}) is out of range: "
                              f"the body has {n} nodes (0..{n - 1}; P2: vertices, then edge midpoints, as sol.points)")
-        return idx
+        return int(idx) if idx.ndim == 0 else idx
 
     def jump(self) -> cp.Expression:
         """[u_nu] of every pair, stacked, m: pair i's rows are ``model.offsets[i]:offsets[i + 1]`` at the nodes

@@ -283,9 +283,9 @@ def solve_part(root, name, n, degree, out):
     t0 = time.perf_counter()
     sc = make_scene(name, n)
     t_scene = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     sol = cc.solve(sc, degree=degree)
-    t_solve = time.perf_counter() - t0
+    t_solve, cpu = time.perf_counter() - t0, time.process_time() - c0
     timings = {k: float(v) for k, v in dict(sol.timings).items()}
     u = np.concatenate([np.ravel(x) for x in sol.u])
     phi = np.concatenate([np.ravel(x) for x in sol.phi if x is not None] or [np.zeros(0)])
@@ -293,7 +293,7 @@ def solve_part(root, name, n, degree, out):
     active = int(sum(int(np.sum(c.active)) for c in sol.contacts))
     np.savez(out, u=u, phi=phi, force=force)
     info = sol.info
-    return dict(solve_s=t_solve, scene_s=t_scene, assembly_s=timings.get("assembly", float("nan")),
+    return dict(solve_s=t_solve, cpu_s=cpu, scene_s=t_scene, assembly_s=timings.get("assembly", float("nan")),
                 timings=timings, dofs=int(u.size + phi.size), contact_nodes=int(force.size), active=active,
                 method=str(getattr(info, "method", "-")), route=str(getattr(info, "route", "-")),
                 iterations=getattr(info, "iterations", None),
@@ -461,8 +461,10 @@ def compare(args) -> int:
 
 NOTES = ("Times: wall-clock seconds of `cc.solve(scene)` (Scene to checked Solution, assembly included), each "
          "in a fresh subprocess after an untimed `cc.solve(two_blocks(4))`; *w/o assembly* subtracts "
-         "`sol.timings['assembly']`. after/before: ratio of the medians [paired bootstrap 95 %], and the "
-         "per-pair ratios median (min-max). Spread: median absolute deviation / median of each side. "
+         "`sol.timings['assembly']`; *CPU time* is the solving process's user + system time over the same "
+         "call (all its threads; less sensitive than wall time to other work on a shared machine). "
+         "after/before: ratio of the medians [paired bootstrap 95 %], and the per-pair ratios median "
+         "(min-max). Spread: median absolute deviation / median of each side. "
          "Agreement: max |after - before| / max |before| of u, phi and the contact force against the first "
          "before-solve; *rounding* is the same among the before-solves themselves.")
 
@@ -479,6 +481,7 @@ def _summarise(n, degree, runs, files, rng, agree):
     before, after = runs["before"], runs["after"]
     t = {s: [r["solve_s"] for r in runs[s]] for s in runs}
     t_core = {s: [r["solve_s"] - r["assembly_s"] for r in runs[s]] for s in runs}
+    t_cpu = {s: [r["cpu_s"] for r in runs[s]] for s in runs}
     diff = _differences(files["before"], files["after"])
     rounding = _differences(files["before"], files["before"][1:]) if len(files["before"]) > 1 else \
         dict(u=float("nan"), phi=float("nan"), force=float("nan"))
@@ -490,6 +493,9 @@ def _summarise(n, degree, runs, files, rng, agree):
                 total=_ratio_stats(t["before"], t["after"], rng),
                 core=_ratio_stats(t_core["before"], t_core["after"], rng),
                 core_before=statistics.median(t_core["before"]), core_after=statistics.median(t_core["after"]),
+                cpu=_ratio_stats(t_cpu["before"], t_cpu["after"], rng),
+                cpu_before=statistics.median(t_cpu["before"]), cpu_after=statistics.median(t_cpu["after"]),
+                min_before=min(t["before"]), min_after=min(t["after"]),
                 diff=diff, rounding=rounding, differ=differ, same_route=same_route,
                 route_before=f"{before[0]['method']}/{before[0]['factorization']}, {before[0]['route']}",
                 route_after=f"{after[0]['method']}/{after[0]['factorization']}, {after[0]['route']}",
@@ -499,43 +505,49 @@ def _summarise(n, degree, runs, files, rng, agree):
 
 
 def _row_text(r) -> str:
-    tot, core = r["total"], r["core"]
-    return (f"P{r['degree']} nx={r['nx']}: {r['dofs']} dofs (u, phi at every node), {r['repeats']} pairs | "
-            f"before {r['before']:.3f} s (spread {100 * r['spread_before']:.1f} %), after {r['after']:.3f} s "
-            f"(spread {100 * r['spread_after']:.1f} %) | after/before {tot['ratio']:.3f} "
-            f"[{tot['lo']:.3f}, {tot['hi']:.3f}], pairs {tot['pair_median']:.3f} ({tot['pair_min']:.3f}-"
-            f"{tot['pair_max']:.3f}) | w/o assembly {r['core_before']:.3f} -> {r['core_after']:.3f} s, "
-            f"{core['ratio']:.3f} [{core['lo']:.3f}, {core['hi']:.3f}] | answers: u {r['diff']['u']:.1e}, "
-            f"phi {r['diff']['phi']:.1e}, force {r['diff']['force']:.1e} (rounding among before-solves: u "
-            f"{r['rounding']['u']:.1e}, force {r['rounding']['force']:.1e}) "
-            f"{'DIFFERENT' if r['differ'] else 'agree'} | before [{r['route_before']}] after [{r['route_after']}]"
+    tot, core, cpu = r["total"], r["core"], r["cpu"]
+    return (f"P{r['degree']} nx={r['nx']}: {r['dofs']} dofs (u, phi at every node), {r['repeats']} pairs\n"
+            f"    wall: before {r['before']:.3f} s (spread {100 * r['spread_before']:.1f} %), after {r['after']:.3f} s "
+            f"(spread {100 * r['spread_after']:.1f} %); after/before {tot['ratio']:.3f} [{tot['lo']:.3f}, "
+            f"{tot['hi']:.3f}], per pair {tot['pair_median']:.3f} ({tot['pair_min']:.3f}-{tot['pair_max']:.3f}), "
+            f"minima {r['min_before']:.3f} -> {r['min_after']:.3f} s ({r['min_after'] / r['min_before']:.3f})\n"
+            f"    without assembly {r['core_before']:.3f} -> {r['core_after']:.3f} s, {core['ratio']:.3f} "
+            f"[{core['lo']:.3f}, {core['hi']:.3f}]; CPU time {r['cpu_before']:.3f} -> {r['cpu_after']:.3f} s, "
+            f"{cpu['ratio']:.3f} [{cpu['lo']:.3f}, {cpu['hi']:.3f}]\n"
+            f"    answers: u {r['diff']['u']:.1e}, phi {r['diff']['phi']:.1e}, force {r['diff']['force']:.1e} "
+            f"(rounding among before-solves: u {r['rounding']['u']:.1e}, force {r['rounding']['force']:.1e}) "
+            f"{'DIFFERENT' if r['differ'] else 'agree'}; before [{r['route_before']}] after [{r['route_after']}]"
             f"{'' if r['same_route'] else ' ROUTE CHANGED'}, ok={r['ok']}, active nodes {r['active'][0]} / "
             f"{r['active'][1]}, peak {r['peak'][0]:.2f} / {r['peak'][1]:.2f} GB")
 
 
 def _markdown(table) -> str:
-    head = ("| case | dofs | pairs | before [s] | after [s] | after/before [95 %] | per pair: median (min-max) "
-            "| spread before / after | w/o assembly: before -> after [s], ratio | u | phi | force | rounding (u, force) "
-            "| route before / after | factorization |\n|" + "---|" * 15)
-    rows = [head]
-    for r in table:
-        tot, core = r["total"], r["core"]
-        rows.append(
-            f"| two_blocks({r['nx']}) P{r['degree']} | {r['dofs']:,} | {r['repeats']} | {r['before']:.3f} | "
-            f"{r['after']:.3f} | **{tot['ratio']:.3f}** [{tot['lo']:.3f}, {tot['hi']:.3f}] | "
-            f"{tot['pair_median']:.3f} ({tot['pair_min']:.3f}-{tot['pair_max']:.3f}) | "
-            f"{100 * r['spread_before']:.1f} % / {100 * r['spread_after']:.1f} % | {r['core_before']:.3f} -> "
-            f"{r['core_after']:.3f}, {core['ratio']:.3f} [{core['lo']:.3f}, {core['hi']:.3f}] | "
-            f"{r['diff']['u']:.1e} | {r['diff']['phi']:.1e} | {r['diff']['force']:.1e} | "
-            f"{r['rounding']['u']:.1e}, {r['rounding']['force']:.1e} | {r['route_before'].split(', ', 1)[1]} / "
-            f"{r['route_after'].split(', ', 1)[1]} | {r['route_before'].split(',')[0]} / "
-            f"{r['route_after'].split(',')[0]} |")
+    def ci(x):
+        return f"{x['ratio']:.3f} [{x['lo']:.3f}, {x['hi']:.3f}]"
+
+    rows = ["| case | dofs | pairs | before [s] | after [s] | **after/before** [95 %] | per pair: median (min-max) "
+            "| spread before / after | minima [s] (ratio) |", "|" + "---|" * 9]
+    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['dofs']:,} | {r['repeats']} | {r['before']:.3f} | "
+             f"{r['after']:.3f} | **{ci(r['total'])}** | {r['total']['pair_median']:.3f} "
+             f"({r['total']['pair_min']:.3f}-{r['total']['pair_max']:.3f}) | {100 * r['spread_before']:.1f} % / "
+             f"{100 * r['spread_after']:.1f} % | {r['min_before']:.3f} -> {r['min_after']:.3f} "
+             f"({r['min_after'] / r['min_before']:.3f}) |" for r in table]
+    rows += ["", "| case | without assembly: before -> after [s] | ratio [95 %] | CPU time: before -> after [s] "
+             "| ratio [95 %] | peak before / after [GB] |", "|" + "---|" * 6]
+    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['core_before']:.3f} -> {r['core_after']:.3f} | "
+             f"{ci(r['core'])} | {r['cpu_before']:.3f} -> {r['cpu_after']:.3f} | {ci(r['cpu'])} | "
+             f"{r['peak'][0]:.2f} / {r['peak'][1]:.2f} |" for r in table]
+    rows += ["", "| case | u | phi | force | rounding (u, force) | same answer | route before / after | ok | "
+             "active nodes |", "|" + "---|" * 9]
+    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['diff']['u']:.1e} | {r['diff']['phi']:.1e} | "
+             f"{r['diff']['force']:.1e} | {r['rounding']['u']:.1e}, {r['rounding']['force']:.1e} | "
+             f"{'no' if r['differ'] else 'yes'} | {r['route_before']} / {r['route_after']} | {r['ok']} | "
+             f"{r['active'][0]} / {r['active'][1]} |" for r in table]
     rows.append("")
-    rows.append("Times of each solve in run order (s): " + "; ".join(
+    rows.append("Wall times of each solve in run order (s): " + "; ".join(
         f"P{r['degree']} nx={r['nx']} before " + " ".join(f"{x:.2f}" for x in r["times"]["before"]) + ", after "
         + " ".join(f"{x:.2f}" for x in r["times"]["after"]) for r in table))
     return "\n".join(rows)
-
 
 def case(name, n, degree, runs, superlu_up_to):
     row = dict(scene=name, n=n, degree=degree)

@@ -34,7 +34,8 @@ Before and after (issue 20): ``--baseline REV`` times the default ``cc.solve(sce
 git revision REV (or in a directory holding a ``cvxcontact/`` package) against this checkout's working tree,
 in one run:
 
-    python benchmarks/bench_default.py --baseline 92924ab --sizes 1.6e5 6.3e5 --repeats 15 5
+    python benchmarks/bench_default.py --baseline 92924ab --sizes 1.6e5 6.3e5 --repeats 21 9 --threads 1 \
+        --report benchmarks/results/compare-92924ab.md
 
 REV's ``cvxcontact/`` is extracted by ``git archive`` into a temporary directory (removed afterwards; the
 repository is only read). Every timed solve runs in a fresh subprocess of the same interpreter and
@@ -45,14 +46,19 @@ before-after for even i and after-before for odd i (so that a drift of the machi
 Reported: the median of each side; after/before as the median of the per-pair ratios with its
 distribution-free interval (order statistics; about 95 % from 6 pairs on), their min and max, and the ratio
 of the medians; the same without assembly (``sol.timings["assembly"]``) and for the process's CPU time
-(less sensitive to other work on a shared machine); the route, factorisation (``sol.info.factorization``: "pardiso" is MKL)
-and checks of each side; the versions of numpy, scipy, cvxpy, clarabel and mkl. The answers must agree:
-max |a - b| / max |b| of u, phi and the contact force (every pair's ``force``) between each after-solve
-and the first before-solve, beside the same between repeats of one side (the rounding level); above
+(less sensitive to other work on a shared machine); the route, factorisation (``sol.info.factorization``:
+"pardiso" is MKL) and checks of each side; the versions of numpy, scipy, cvxpy, clarabel and mkl. The
+answers must agree: max |a - b| / max |b| of u, phi and the contact force (every pair's ``force``) between
+each after-solve and the first before-solve, beside the same between repeats of one side (the rounding level); above
 ``--agree`` (1e-9) the run says DIFFERENT and exits with status 1. ``--report FILE`` also writes the
 result as Markdown (``benchmarks/results/compare-*.md``). ``--threads N`` sets OMP_NUM_THREADS,
-MKL_NUM_THREADS and OPENBLAS_NUM_THREADS for both sides. One repeat costs about 2 x 7 s at 1.6e5 unknowns
-and 2 x 20 s at 6.3e5 on two cores (imports and scene included).
+MKL_NUM_THREADS and OPENBLAS_NUM_THREADS for both sides. On a machine shared with other work, one thread
+per solve is the steadier instrument (a two-thread factorisation waits for its slower thread whenever
+another process holds a core) and more pairs at 1.6e5 buy more than at 6.3e5: a solve costs about 4 s at
+1.6e5 unknowns and 14 s at 6.3e5 (imports, warm-up and scene included; two cores), the command above
+about 7 min. With identical code on both sides (benchmarks/results/compare-92924ab-validation.md, a load
+average of 2-4 on two cores) after/before came out 0.95-1.02 with intervals as wide as 0.76-1.10 (21
+pairs) and 0.72-1.30 (6 pairs): at such a load a change of a few per cent is below what one run resolves.
 """
 
 from __future__ import annotations

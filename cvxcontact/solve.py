@@ -167,6 +167,7 @@ class ContactSolver:
         discretisation = space(degree)
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
+        self._given = scene                 # what solve() without a scene solves
         self._setup = {"assembly": time.perf_counter() - t0}
         self.requested = method
         self.method = choose(method, describe(self.problem))
@@ -184,7 +185,7 @@ class ContactSolver:
         """Solve ``scene`` (default: the scene given at construction); see the class docstring."""
         timings, self._setup = dict(self._setup), {}
         t0 = time.perf_counter()
-        self.problem = self.problem.with_loads(self.problem.scene if scene is None else scene)
+        self.problem = self.problem.with_loads(self._given if scene is None else scene)
         problem = self.problem
         timings["loads"] = time.perf_counter() - t0
         raw = run(self.method, problem, self._cache, self.settings, timings)

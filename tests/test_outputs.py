@@ -215,3 +215,26 @@ def test_out_naming_a_file_is_one_line_before_any_solve(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("cvxcontact: error: --out") and "is a file, not a folder" in err[-1]
     assert not any("solving" in line for line in err)
+
+
+def test_no_penetration_is_flagged_where_both_sides_move_together_at_zero_gap():
+    """Two blocks between side rollers pressed together over their whole line at zero gap (every row closed),
+    and a block pressed onto a foundation lifted rigidly by a prescribed displacement: [u_nu] - g is rounding
+    of the displacements at every node (measured 1.5e-20 m and 1.1e-21 m against |u| = 7e-5 m and 5e-6 m). The
+    mask took its tolerance from max |[u_nu]|, itself rounding: it flagged 1 and 5 of 9 nodes of exact answers."""
+    alu = cc.materials.isotropic(E=70e9, nu=0.3)
+    up = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=8, ny=3), alu, clamped=["top"], roller=["left", "right"],
+                 body_force=(0, -1e8), contact="bottom", name="upper")
+    low = cc.Body(cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=8, ny=3), alu, clamped=["bottom"],
+                  roller=["left", "right"], contact="top", name="lower")
+    lifted = low.with_changes(clamped=(), roller=(), contact=None,
+                              displacement={t: (0.0, 5e-6) for t in ("top", "bottom", "left", "right")})
+    free = up.with_changes(roller=(), body_force=(0.0, 0.0))
+    moved = cc.Scene(free, lifted, contacts=[cc.Contact(free, "bottom", lifted, "top")])
+    for scene in (cc.Scene(up, low), moved):
+        for condition in ("gamma3", "sigma1"):
+            c = cc.solve(scene, condition).contact
+            assert c.active.all() and np.abs(c.jump - c.gap).max() < 1e-12 * c.scale
+            assert not c.penetration.any()
+    c = cc.solve(moved).contact
+    assert abs(c.scale - 1e-5) <= 1e-16 and np.abs(c.jump).max() < 1e-15    # |u . nu| = lift, plus the lift

@@ -207,3 +207,53 @@ def test_sparse_route_with_pardiso_matches_superlu_and_the_full_model():
     again = a.solve(thin_layer(60, pressure=0.6e6))
     assert again.ok and again.info.route == Route.WARM_START
     _fields_agree(again, cc.solve(thin_layer(60, pressure=0.6e6), method="full"), 1e-9)
+
+
+# ================================================================ rows against a side that does not move
+
+def _floor_reference(body):
+    """Dense primal-dual active-set solve of ``body`` (clamped somewhere) on a rigid floor at y = 0 with a zero
+    gap, rows -u_y <= 0 at the bottom nodes that have a free u_y (tests/reference_problems.py): per-node (n, 2)."""
+    from reference_problems import active_set_solve, per_body, stiffness
+
+    systems, off, K, f = stiffness([body])
+    s = systems[0]
+    nodes = np.unique(body.mesh.boundary("bottom"))
+    dof = np.flatnonzero(np.isin(s.u_free, 2 * nodes + 1))      # the bottom nodes' free u_y, among the free dofs
+    G = np.zeros((len(dof), off[-1]))
+    G[np.arange(len(dof)), dof] = -1.0
+    u, _ = active_set_solve(K, f, G, np.zeros(len(dof)))
+    return per_body(systems, [body], off, u)[0]
+
+
+def test_sparse_route_with_held_rows_and_rows_closed_at_zero_gap_against_a_fixed_side():
+    """A strip clamped at both ends pressed onto a rigid floor at zero distance: its clamped corners are rows no
+    unknown moves, and every other row closes at g = 0 where the floor does not move (the row's only term is
+    its own force). The sparse route started from the bonded system of every row (singular with a held row) and
+    judged its solves by a componentwise backward error that is rounding over rounding on such a row: it raised
+    'did not settle' (method='sparse' and 'auto', which picks it for this slender interface). Against a dense
+    active-set solve: measured 1.9e-14 (nx = 60; the full route 1.7e-14)."""
+    strip = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.02), nx=60, ny=2), cc.materials.isotropic(E=70e9, nu=0.3),
+                    clamped=["left", "right"], traction={"top": (0.0, -1e6)}, name="strip")
+    scene = cc.Scene(strip, contacts=[cc.Contact(strip, "bottom", cc.Rigid.plane((0, 0), (0, 1)))])
+    ref = _floor_reference(strip)
+    for method in ("sparse", "auto"):
+        sol = cc.solve(scene, method=method)
+        assert sol.ok and sol.info.method == "sparse", sol.report()
+        assert rel(sol.u[0], ref) < 1e-9
+
+
+@pytest.mark.parametrize("ny", [1, 3])
+def test_sparse_route_against_a_clamped_foundation_at_zero_gap(ny):
+    """An upper block pressed onto a clamped foundation (a fixed foundation, rows of the upper body only) with
+    no gap: the rows close where the foundation does not move. ny = 1: every node of the foundation clamped
+    (no unknown of its own). Equal to the upper block on a rigid floor, by a dense active-set solve (measured
+    1.1e-15 (ny = 1), 1.9e-15 (ny = 3))."""
+    alu = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=8, ny=3), alu, clamped=["top"], body_force=(0, -1e8),
+                    name="upper")
+    lower = cc.Body(cc.rectangle(x=(0, 1), y=(-0.1, 0), nx=8, ny=ny), alu, clamped=["top", "bottom"], name="lower")
+    scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top")])
+    sol = cc.solve(scene, "sigma1", method="sparse")
+    assert sol.ok, sol.report()
+    assert rel(sol.u[0], _floor_reference(upper)) < 1e-11 and np.abs(sol.u[1]).max() == 0.0

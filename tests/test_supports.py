@@ -306,3 +306,29 @@ def test_model_poses_supports_and_floating_electrodes_in_si():
     resting = cc.Model(_resting(2e7)).solve()                # a body held by the contact: as cc.solve(full)
     full = cc.solve(_resting(2e7), method="full")
     assert resting.ok and np.abs(resting.u[0] - full.u[0]).max() <= 1e-12 * np.abs(full.u[0]).max()
+
+
+@pytest.mark.parametrize("lift", [0.0, 5e-6])
+@pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (1, "sigma2"), (2, "sigma1")])
+def test_a_foundation_with_no_unknown_of_its_own(lift, degree, condition):
+    """A foundation one element thick whose every node is clamped (lift 0) or moved up by ``lift`` (a prescribed
+    displacement of its top and bottom): a body without a free unknown (P1), a fixed foundation or a moved
+    contact line. It equals the upper block on a rigid plane at y = lift on every route (before: a bare
+    ValueError in the condensed body's ordering, CVXPY's 'Invalid dimensions for arguments to quad_form' on the
+    full route). Measured <= 5.1e-15 (P1 and P2, every method)."""
+    gap = lambda s: -2e-6 + 2e-3 * (s - 0.4) ** 2          # noqa: E731  partial contact
+    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=8, ny=3), ALU, clamped=["top"], body_force=(0, -1e8),
+                    name="upper")
+    held = dict(clamped=["top", "bottom"]) if lift == 0 else dict(displacement={"top": (0.0, lift),
+                                                                                "bottom": (0.0, lift)})
+    lower = cc.Body(cc.rectangle(x=(0, 1), y=(-0.1, 0), nx=8, ny=1), ALU, name="lower", **held)
+    scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=gap)])
+    plane = cc.Scene(upper, contacts=[cc.Contact(upper, "bottom", cc.Rigid.plane((0, lift), (0, 1)), gap=gap)])
+    ref = cc.solve(plane, "sigma1" if condition == "sigma1" else "gamma3", degree=degree)   # matching meshes
+    assert ref.ok and ref.contact.active.any() and not ref.contact.active.all()
+    for method in ("auto", "condensed", "full", "sparse"):
+        sol = cc.solve(scene, condition, degree=degree, method=method)
+        assert sol.ok, sol.report()
+        assert np.abs(sol.u[0] - ref.u[0]).max() <= 1e-12 * np.abs(ref.u[0]).max()
+        scale = max(lift, np.abs(ref.u[0]).max())           # (P2: the midpoints of interior edges are free)
+        assert np.abs(sol.u[1] - [0.0, lift]).max() <= 1e-12 * scale

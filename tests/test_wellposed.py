@@ -135,6 +135,24 @@ def test_layer_in_an_open_gap_is_refused_after_the_solve():
             cc.solve(scene, condition, degree=degree)
 
 
+@pytest.mark.parametrize("law", [cc.NormalCompliance(stiffness=1e12),
+                                 cc.NormalCompliance(stiffness=1e12, penetration_limit=1e-6)])
+@pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (2, "sigma1")])
+def test_layer_in_an_open_gap_through_a_compliance_law_is_refused_after_the_solve(law, degree, condition):
+    """The load-free layer between a floor and a plane DELTA above it, both pairs through a normal-compliance
+    law: any height in the gap is a solution (no row carries a force). As with the Signorini law, refused after
+    the exact finish, naming the translation; before, the compliance route passed no rows to the check and
+    returned u = 0 with ok=True (with a limit: u_y = DELTA and equilibrium 0.6, a warning only)."""
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H1), nx=3, ny=2), STEEL, roller=["left", "right"], name="layer")
+    above = cc.Rigid.plane((0.0, H1 + DELTA), (0.0, -1.0))
+    scene = cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", floor()), cc.Contact(layer, "top", above)])
+    for solve in (lambda: cc.solve(scene, condition, degree=degree, law=law),
+                  lambda: cc.Model(scene, condition, degree=degree, law=law).solve()):
+        with pytest.raises(cc.SceneError, match=r"the solution does not determine the translation y of body "
+                                                r"'layer'.*open at the solution"):
+            solve()
+
+
 def corner_scene(held, tag="bottom"):
     """A block with no support at all, pushed by its weight and a sideways body force into a corner (a floor
     and a wall, pairs given by contacts=), its contact= tag ``tag`` (the bottom only, or None: no tag);

@@ -158,7 +158,7 @@ def _superlu_order(S, gamma, n_u, system, mesh):
     if system.piezoelectric and system.floating.any():                      # a floating electrode couples a
         fl = n_u + np.flatnonzero(system.floating)                          # whole part: eliminate it late
         key[fl] = key.max() + 1 + np.arange(len(fl))
-    key[gamma] = key.max() + 1 + np.arange(len(gamma))                      # Gamma dofs last, in x order
+    key[gamma] = key.max(initial=-1) + 1 + np.arange(len(gamma))            # Gamma dofs last, in x order
     return np.argsort(key, kind="stable")
 
 

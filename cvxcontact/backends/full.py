@@ -127,7 +127,8 @@ class ContactModel:
                     for k, b in enumerate(blocks)]
         energy, self.gauss = 0, []
         for b, u, phi in zip(blocks, self.u, self.phi):
-            energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
+            if u.size:                       # (a body every node of which is clamped or prescribed has none)
+                energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
             if phi is None:
                 self.gauss.append(None)
                 continue

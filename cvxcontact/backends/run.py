@@ -44,10 +44,16 @@ def kind(problem) -> str:
 def run(method: str, problem, cache, settings, timings) -> RawResult:
     """Solve ``problem`` with the backend ``method`` (a name of :data:`cvxcontact.backends.BACKENDS`), reusing and
     filling ``cache``; the forces of rows no unknown moves at their least admissible value (docs/formulation.md
-    §8, "Held nodes": (26)-(27) do not determine them)."""
+    §8, "Held nodes": (26)-(27) do not determine them). After an exact finish, a kernel motion that only rows
+    open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
+    rows, or with a compliance law the rows that carry a force)."""
     raw = route(method, kind(problem))(problem, cache.matching(problem.lines.key()), settings, timings)
-    if raw.polished and raw.active is not None:     # a motion only rows open at the solution would hold
-        check_determined(problem.kernel, raw.active)
+    active = raw.active
+    if active is None and kind(problem) == "compliance" and raw.y is not None:   # the rows that carry a force
+        y = np.asarray(raw.y, dtype=float)
+        active = y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
+    if raw.polished and active is not None:         # a motion only rows open at the solution would hold
+        check_determined(problem.kernel, active)
     if kind(problem) == "signorini":
         raw.y = np.where(problem.held_rows, 0.0, raw.y)
     if not raw.factorization and cache.condensation is not None:

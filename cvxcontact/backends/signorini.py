@@ -121,9 +121,10 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     t0 = time.perf_counter()
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
-    out = sc.solve(rhs, problem.g, cache.active if warm else None)
-    if out is None and warm:                               # the previous set led nowhere: from bonded
-        out = sc.solve(rhs, problem.g)
+    free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
+    out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
+    if out is None:                                        # first solve, or the previous set led nowhere
+        out = sc.solve(rhs, problem.g, free)               # from the bonded system of the rows that move
         warm = False
     if sc.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time - f0

@@ -284,6 +284,9 @@ class SparseContact:
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
                 scale = absK @ np.abs(z) + np.abs(b)     # componentwise backward error (each row's own terms)
+                # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
+                # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
+                scale[self.n:] += self.w * np.abs(z[self.n:])
                 if float((np.abs(r) / np.maximum(scale, np.finfo(float).tiny)).max(initial=0.0)) <= 1e-12:
                     return z
                 dz = self._solve_on(active, r)

@@ -59,6 +59,9 @@ class ContactResult:
     law: object = None
     """The pair's normal law (:mod:`cvxcontact.contact.laws`) when a compliance law was solved in the
     scene; None means Signorini."""
+    scale: float = 0.0
+    """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
+    |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
 
     @property
     def pressure(self) -> np.ndarray:
@@ -85,9 +88,12 @@ class ContactResult:
     @property
     def penetration(self) -> np.ndarray:
         """Boolean mask of the merged nodes where [u_nu] exceeds the gap g by more than 1e-9 of the
-        largest |[u_nu]| (with sigma_l, the unconstrained nodes of the other mesh may penetrate)."""
+        largest |[u_nu]|, |g| or :attr:`scale` (with sigma_l, the unconstrained nodes of the other mesh may
+        penetrate). (Where both sides move together and the gap is 0, [u_nu] is rounding of their
+        displacements: ``scale``, not |[u_nu]|, measures it.)"""
         gap = np.zeros(len(self.x)) if self.gap is None else self.gap
-        scale = max(float(np.abs(self.jump).max()), float(np.abs(gap).max()), np.finfo(float).tiny)
+        scale = max(float(np.abs(self.jump).max()), float(np.abs(gap).max()), float(self.scale),
+                    np.finfo(float).tiny)
         return (self.jump - gap) > 1e-9 * scale
 
 
@@ -316,6 +322,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
+    sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
     if beta is not None:
         B, segments = problem.lines.cone
         checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
@@ -358,7 +365,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
             gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
-            degree=2 if p2 else 1))
+            degree=2 if p2 else 1, scale=float(sizes[part].max(initial=0.0)) * un.displacement))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited

@@ -209,9 +209,9 @@ class ContactSolver:
         ill-conditioned interface (e.g. a slender layer, whose compliance W loses digits). The sparse route
         solves the mixed system itself (1-2 steps from the condensed active set); it is kept for later load
         cases of this geometry if its answer passes."""
-        t1 = time.perf_counter()
+        t1, stages = time.perf_counter(), {}            # its stages are inside "fallback", not added twice
         try:
-            raw = run("sparse", problem, self._cache, self.settings, timings)
+            raw = run("sparse", problem, self._cache, self.settings, stages)
         except SolverError:
             timings["fallback"] = time.perf_counter() - t1
             return sol

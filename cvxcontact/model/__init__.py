@@ -346,6 +346,7 @@ class Model:
                 polished = True
                 rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
                 x = stacked(u, phi, taus)
+                self._set_values(u, phi, taus, zs)       # the model's expressions read the finished answer
         t0 = time.perf_counter()
         keep_z = self._law is not None and (self._limit is not None or self._law.limited.any())
         raw = RawResult(u=u, phi=phi, y=y, active=active, z=z if keep_z else None, beta=beta, taus=taus,
@@ -369,6 +370,15 @@ class Model:
                           f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
         return sol
 
+    def _set_values(self, u, phi, taus, duals=()):
+        """The model's variables (and the user constraints' duals) set to an answer, so that ``model.u(k).value``,
+        ``model.jump().value`` and ``constraint.dual_value`` read it (scaled values in, SI expressions out)."""
+        for var, val in [*zip(self._contact.u, u), *zip(self._contact.phi, phi), *zip(self._contact.t, taus)]:
+            if var is not None and val is not None:
+                var.value = np.asarray(val, dtype=float).reshape(var.shape)
+        for c, z in zip(self.constraints, duals):
+            c.dual_variables[0].value = np.asarray(z, dtype=float).reshape(c.dual_variables[0].shape, order="F")
+
     def _solve_plain(self) -> Solution:
         """No user terms: the full backend's route on the same :class:`~cvxcontact.discrete.DiscreteProblem`
         (``cc.solve(..., method="full")``); the model's variables take the answer's values."""
@@ -381,9 +391,7 @@ class Model:
         sol = read_back(self.problem, raw, self.tol, timings, "full")
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
-        for var, val in [*zip(self._contact.u, raw.u), *zip(self._contact.phi, raw.phi), *zip(self._contact.t, raw.taus)]:
-            if var is not None and val is not None:
-                var.value = np.asarray(val, dtype=float).reshape(var.shape)
+        self._set_values(raw.u, raw.phi, raw.taus)
         if self.polish and not raw.polished and not self.problem.conic and not self.problem.mixed:
             warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
                           f"({raw.declined}); the interior-point answer is kept (sol.polished is False):\n"

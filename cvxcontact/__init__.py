@@ -32,7 +32,7 @@ _WHERE = {
     "solve": (".solve", None), "Model": (".model", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
     "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
-    "UnsupportedError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
+    "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
 }
 
 __all__ = [
@@ -41,7 +41,7 @@ __all__ = [
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
-    "UnsupportedError",
+    "UnsupportedError", "FrozenError",
 ]
 
 
@@ -74,8 +74,8 @@ _sys.modules[__name__].__class__ = _Package
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from .contact.interface import CONDITIONS
     from .contact.laws import NormalCompliance, Signorini
-    from .errors import (CvxContactError, MaterialError, MeshError, ResidualWarning, SceneError, SolverError,
-                         UnsupportedError)
+    from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, ResidualWarning, SceneError,
+                         SolverError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .geometry.mesh import Mesh, read_mesh, rectangle

@@ -4,7 +4,13 @@ Every error the package raises on bad input is a :class:`CvxContactError`; the
 subclasses name the stage that refused the input. They also derive from the
 built-in exception a caller would naturally catch (``ValueError`` for bad data,
 ``RuntimeError`` for a failed solve).
+
+Below the errors, the immutability of built descriptions: :class:`Frozen` (objects),
+:class:`FrozenTuple` and :class:`FrozenMap` (their containers), each refusing an edit with a
+:class:`FrozenError` that names what to build instead.
 """
+
+from collections.abc import Mapping
 
 
 class CvxContactError(Exception):
@@ -34,3 +40,120 @@ class ResidualWarning(UserWarning):
 class UnsupportedError(CvxContactError, NotImplementedError):
     """A feature the API names but this version does not provide yet (e.g. a contact law other than
     non-penetration, a force-controlled obstacle); the message says which."""
+
+
+class FrozenError(SceneError, AttributeError):
+    """A built description (a Mesh, Body, Load, Contact, Rigid or Scene, or one of their tuples and
+    mappings) was edited. They are immutable, so that nothing a solver prepared from them can silently
+    disagree with what the user holds; the message names what to build instead (the ``with_*`` variants).
+    An ``AttributeError`` too, so ``hasattr`` and ``getattr(obj, name, default)`` keep their meaning."""
+
+
+# --------------------------------------------------------------------------- immutability
+
+class Frozen:
+    """Mixin: an object that cannot be changed once built.
+
+    Assigning or deleting an attribute raises :class:`FrozenError` naming the attribute and the
+    variant to build instead (:meth:`_frozen_hint`). ``__init__`` sets the attributes with
+    :meth:`_set`; ``functools.cached_property`` still works (it writes the instance ``__dict__``).
+    """
+
+    __slots__ = ()
+
+    def _set(self, **fields) -> None:
+        """Set attributes while the object is being built."""
+        for name, value in fields.items():
+            object.__setattr__(self, name, value)
+
+    def _frozen_hint(self, name: str) -> str:
+        """What to do instead of changing ``name`` (overridden by each description)."""
+        return f"build a new {type(self).__name__}"
+
+    def __setattr__(self, name, value):
+        raise FrozenError(_refusal(f"{type(self).__name__}.{name}", "assigned", self._frozen_hint(name)))
+
+    def __delattr__(self, name):
+        raise FrozenError(_refusal(f"{type(self).__name__}.{name}", "deleted", self._frozen_hint(name)))
+
+
+def _refusal(what, how, hint):
+    return f"{what} cannot be {how}: a built description is immutable; {hint}"
+
+
+_LIST_EDITS = frozenset({"append", "extend", "insert", "remove", "pop", "clear", "sort", "reverse"})
+_DICT_EDITS = frozenset({"update", "pop", "popitem", "setdefault", "clear"})
+
+
+class FrozenTuple(tuple):
+    """A tuple that says what to do when edited as if it were a list: ``body.roller.append("left")``
+    raises :class:`FrozenError` naming the attribute (``what``) and the variant to build (``hint``)."""
+
+    def __new__(cls, items=(), what: str = "this tuple", hint: str = "build a new description"):
+        out = super().__new__(cls, items)
+        object.__setattr__(out, "_edit", (what, hint))
+        return out
+
+    def __getattr__(self, name):
+        if name in _LIST_EDITS:
+            what, hint = object.__getattribute__(self, "_edit")
+            raise FrozenError(_refusal(f"{what} (a tuple)", f"changed with .{name}()", hint))
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __setitem__(self, key, value):
+        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "assigned", self._edit[1]))
+
+    def __delitem__(self, key):
+        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "deleted", self._edit[1]))
+
+    def __setattr__(self, name, value):
+        raise FrozenError(_refusal(f"{self._edit[0]}.{name}", "assigned", self._edit[1]))
+
+    def __reduce__(self):
+        return (FrozenTuple, (tuple(self), *self._edit))
+
+
+class FrozenMap(Mapping):
+    """A read-only mapping (insertion order kept) that says what to do when edited:
+    ``body.traction["right"] = ...`` raises :class:`FrozenError` naming the attribute and the variant."""
+
+    __slots__ = ("_items", "_edit")
+
+    def __init__(self, items=(), what: str = "this mapping", hint: str = "build a new description"):
+        object.__setattr__(self, "_items", dict(items))
+        object.__setattr__(self, "_edit", (what, hint))
+
+    def __getitem__(self, key):
+        return self._items[key]
+
+    def __iter__(self):
+        return iter(self._items)
+
+    def __len__(self):
+        return len(self._items)
+
+    def __repr__(self):
+        return repr(self._items)
+
+    def __eq__(self, other):
+        return dict(self._items) == dict(other) if isinstance(other, Mapping) else NotImplemented
+
+    __hash__ = None
+
+    def __getattr__(self, name):
+        if name in _DICT_EDITS:
+            what, hint = object.__getattribute__(self, "_edit")
+            raise FrozenError(_refusal(f"{what} (a read-only mapping)", f"changed with .{name}()", hint))
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __setitem__(self, key, value):
+        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "assigned", self._edit[1]))
+
+    def __delitem__(self, key):
+        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "deleted", self._edit[1]))
+
+    def __setattr__(self, name, value):
+        raise FrozenError(_refusal(f"{self._edit[0]}.{name}", "assigned", self._edit[1]))
+
+    def __reduce__(self):
+        return (FrozenMap, (self._items, *self._edit))

@@ -6,9 +6,10 @@ its bottom. Every side edge rolls (u_x = 0: a strip cut from a long stack) and a
 pressure p pushes on the top. The two upper layers are held by the contacts only: nothing
 clamps them, the solve holds them exactly (no penalty).
 
-The aluminium layer carries its own weight (rho g = 26.5 kN/m^3): a body held by contacts only
-must be pressed onto its own contact part by its own load (else the solve refuses it as "pulled
-off its support"; a load-free layer squeezed between two others is refused too in this version).
+The aluminium layer carries its own weight (rho g = 26.5 kN/m^3), so that the two pairs carry
+different forces. (It is not needed for the solve: whether the contacts hold the layers is decided on
+the assembled problem, every body and load together; a load-free layer squeezed between the others is
+solved as well.)
 
 The closed form (uniaxial strain): the upper pair carries F = p w (N/m), the lower one adds the
 aluminium's weight, p w + rho g h w; layer i shortens by (p h_i + its weight's share) / M_i with M_i = E(1 - nu)/((1 + nu)(1 - 2 nu)) for the elastic layers and the

@@ -235,7 +235,7 @@ def test_piezoelectric_against_a_dense_solve_of_26():
     u1, lam = _dense_compliance(scene, k)
     for method in ("condensed", "full"):
         sol = cc.solve(scene, law=cc.NormalCompliance(stiffness=k), method=method)
-        free = cc.ContactSolver(scene).matrices[0].u_free
+        free = cc.ContactSolver(scene).problem.matrices[0].u_free
         assert sol.ok and rel(sol.u[0].ravel()[free], u1) < 1e-9
         assert rel(sol.contact.lam, lam) < 1e-9
         assert 0 < (lam > 0).sum() < len(lam)         # partial contact: the set matters

@@ -122,9 +122,12 @@ def test_force_control_refusals_name_the_reason():
     scene = punch_scene(0.5)(force=(0.0, -1e6))
     with pytest.raises(cc.SolverError, match="force_control=True"):
         cc.solve(scene, method="condensed")
-    # a normal-compliance law with force control is solved by cc.solve (tests/test_compliance_scenes.py)
-    with pytest.raises(cc.UnsupportedError, match="normal-compliance"):
-        cc.Model(scene, law=cc.NormalCompliance(stiffness=1e12))
+    # a normal-compliance law with force control: cc.Model poses the problem cc.solve(method="full") solves
+    law = cc.NormalCompliance(stiffness=1e12)
+    ref, sol = cc.solve(scene, law=law, method="full"), cc.Model(scene, law=law).solve()
+    assert ref.ok and sol.ok and sol.polished
+    assert rel(sol.u[0], ref.u[0]) < 1e-12                                     # measured 0 (the same route)
+    assert rel(sol.obstacles[0].translation, ref.obstacles[0].translation) < 1e-12
     # cc.Model takes force-controlled obstacles (P1 and P2): tests/test_model_stack.py
     with pytest.raises(cc.SceneError, match="zero force"):
         cc.Rigid.circle((0, 0), 1.0, force=(0, 0))

@@ -217,7 +217,11 @@ def test_a_reused_solver_notices_an_edited_mesh():
     solver = cc.ContactSolver(scene)
     solver.solve()
     mesh = scene.bodies[0].mesh
-    writeable(mesh.points)[:, 1] *= 2.0              # stretch the upper block to [0, 1] in y
+    with pytest.raises(ValueError, match="read-only"):
+        mesh.points[:, 1] *= 2.0                     # the edit itself is refused: the arrays are read-only
+    with pytest.raises(cc.FrozenError, match=r"Body\.mesh.*with_changes\(mesh="):
+        scene.bodies[0].mesh = mesh.with_points(mesh.points * [1.0, 2.0])     # and so is a new mesh
+    writeable(mesh.points)[:, 1] *= 2.0              # made writable on purpose: stretch to [0, 1] in y
     with pytest.raises(cc.SceneError, match="changed in place"):
         solver.solve()
     assert not solver.accepts(scene)
@@ -229,7 +233,11 @@ def test_a_reused_solver_notices_an_edited_mesh():
 def test_a_reused_solver_notices_an_edited_material():
     scene = small_scene()
     solver = cc.ContactSolver(scene)
-    writeable(scene.bodies[1].material.c)[2, 2] *= 1.5
+    with pytest.raises(ValueError, match="read-only"):
+        scene.bodies[1].material.c[2, 2] *= 1.5      # the edit itself is refused
+    with pytest.raises(cc.FrozenError, match=r"Elastic\.c"):
+        scene.bodies[1].material.c = 1.5 * scene.bodies[1].material.c
+    writeable(scene.bodies[1].material.c)[2, 2] *= 1.5    # made writable on purpose: the solver notices
     with pytest.raises(cc.SceneError, match="changed in place"):
         solver.solve()
 

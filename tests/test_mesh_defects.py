@@ -132,8 +132,9 @@ def test_components_label_triangles_and_nodes():
 def test_unclamped_component_is_refused():
     m = _two_pieces()
     steel = cc.materials.isotropic(E=200e9, nu=0.3)
+    body = cc.Body(m, steel, clamped=["ground"], contact="bottom")   # refused by the scene, which knows its pairs
     with pytest.raises(cc.SceneError, match=r"component 1 \(8 triangles, centroid at \(2.25, 0.25\) m\).*clamped"):
-        cc.Body(m, steel, clamped=["ground"], contact="bottom")
+        cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)))])
     cc.Body(m, steel, clamped=["top"], contact="bottom")    # both pieces held: accepted
 
 

@@ -275,8 +275,10 @@ def test_equilibrium_check_sees_a_missing_user_multiplier(reference):
     sol = model.solve()
     good = sol.residuals()["equilibrium"]
     x = model._x()
-    C, c0 = model._rows(model.constraints[0].expr, x)
-    lying = model._checks({}, [v.value for v in model._contact.u],
+    from cvxcontact.model.terms import checks, linearize
+
+    C, c0 = linearize(model.constraints[0].expr, x, model._vars)
+    lying = checks(model.problem, {}, [v.value for v in model._contact.u],
                           [v.value if v is not None else None for v in model._contact.phi],
                           np.asarray(model._contact.contact.dual_value).ravel(), x,
                           [(C, c0, np.zeros(1), False, True)], np.zeros(model._n))

@@ -27,7 +27,8 @@ def no_assembly(monkeypatch):
     """Fail loudly if a bad parameter gets as far as assembly."""
     def boom(*a, **k):
         raise AssertionError("assembly started before the parameters were checked")
-    monkeypatch.setattr(solve_mod, "assemble_matrices", boom)
+    from cvxcontact.fem import space
+    monkeypatch.setattr(space, "assemble_matrices", boom)
 
 
 # ------------------------------------------------------------------------------ solver options

@@ -364,10 +364,10 @@ def test_conic_condition_is_the_limit_of_dense_nodal_sampling(small):
     gaps = []
     for per_segment in (3, 12, 48):
         solver = cc.ContactSolver(small, "sigma1", degree=2)
-        xv = np.asarray(solver.interface.xv)
+        xv = np.asarray(solver.problem.interface.xv)
         t = np.linspace(0, 1, per_segment + 1)[:-1]
         pts = np.append((xv[:-1, None] + np.diff(xv)[:, None] * t).ravel(), xv[-1])
-        solver.E = p2_interpolation(xv, pts)
+        solver.problem = solver.problem.with_rows(p2_interpolation(xv, pts))
         sampled = solver.solve()
         assert sampled.polished
         gaps.append(conic.energy - sampled.energy)

@@ -116,15 +116,16 @@ def _sampled(scene, per_segment, condition1):
     """The stack with pair 0's cone replaced by the nodal condition at ``per_segment`` points per merged
     segment (a linear relaxation of it, solved with the exact compliance finish), pair 1 as it is."""
     solver = cc.ContactSolver(scene, "gamma3", degree=2)
-    first, second = solver.interface.interfaces
+    problem = solver.problem
+    first, second = problem.interface.interfaces
     xv = np.asarray(first.xv)
     t = np.linspace(0, 1, per_segment + 1)[:-1]
     pts = np.append((xv[:-1, None] + np.diff(xv)[:, None] * t).ravel(), xv[-1])
     E1 = second.evaluation(condition1)
-    solver.E = sp.block_diag([p2_interpolation(xv, pts), E1], format="csr")
-    solver.rows = RowLaws(solver.rows.laws, [len(pts), E1.shape[0]])
-    solver._weights = np.concatenate([np.ones(len(pts)), second.weights(condition1)])   # Signorini rows: unused
-    solver.conic_limit = False                  # no cone left: the nodal compliance program and its finish
+    # no cone left: the nodal compliance program and its finish (weights on Signorini rows are unused)
+    solver.problem = problem.with_rows(sp.block_diag([p2_interpolation(xv, pts), E1], format="csr"),
+                                       RowLaws(problem.rows.laws, [len(pts), E1.shape[0]]),
+                                       np.concatenate([np.ones(len(pts)), second.weights(condition1)]))
     sol = solver.solve()
     assert sol.polished and sol.ok, sol.report()
     return sol

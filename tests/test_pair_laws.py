@@ -144,8 +144,8 @@ def test_linear_lcp_finish_agrees_with_the_newton_finish():
 
     solver = cc.ContactSolver(stack(law_top=cc.NormalCompliance(stiffness=K1)))
     solver.solve()
-    W, w = solver._compliance.W, solver._weights
-    counts = solver.rows.counts
+    W, w = solver.cache.condensation.W, solver.problem.weights
+    counts = solver.problem.rows.counts
     k = 1.0 / (w[:counts[0]].mean() * np.diag(W)[:counts[0]].mean())
     rows = RowLaws([cc.NormalCompliance(stiffness=k), cc.Signorini()], counts)
     d = np.linspace(-0.5, 1.0, len(W))

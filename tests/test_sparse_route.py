@@ -70,9 +70,9 @@ def test_capacitance_steps_match_refactorised_steps(layer):
     every step: cap=0 refactorises each step, a large cap reuses the first factor throughout."""
     solver = cc.ContactSolver(layer, method="sparse")
     solver.solve()
-    blocks, E = solver._blocks, solver.E
+    blocks, E = list(solver.problem.blocks), solver.problem.E
     F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
-    g = np.asarray(solver._sparse._g)
+    g = np.asarray(solver.cache.sparse._g)
     every, reuse = SparseContact(blocks, E, cap=0), SparseContact(blocks, E, cap=10**6)
     a, b = every.solve(F, g), reuse.solve(F, g)
     assert reuse.factorizations == 1 and every.factorizations == a[4] > 1 and reuse.column_solves > 0
@@ -154,7 +154,7 @@ def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(lay
 
     solver = cc.ContactSolver(layer, method="sparse")
     solver.solve()
-    sc = solver._sparse
+    sc = solver.cache.sparse
     K = sc.matrix(np.ones(sc.m, dtype=bool))
     perm = ordering(K, sc.n + np.arange(sc.m))
     assert sorted(perm) == list(range(K.shape[0]))

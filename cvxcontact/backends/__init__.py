@@ -16,12 +16,14 @@ neither accepts.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
 
 from ..errors import SolverError
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "SPARSE_ROWS", "SPARSE_SLENDER"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "describe", "SPARSE_ROWS",
+           "SPARSE_SLENDER"]
 
 SPARSE_ROWS = 8000
 """``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
@@ -68,15 +70,28 @@ class ProblemDescription:
     conic: bool = False
 
 
+def describe(problem, user_terms: int = 0) -> ProblemDescription:
+    """The :class:`ProblemDescription` of a :class:`~cvxcontact.discrete.DiscreteProblem` (with ``user_terms``
+    added by a :class:`~cvxcontact.Model`)."""
+    return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
+                              contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
+                              compliant=problem.compliant, conic=problem.conic or problem.mixed,
+                              user_terms=user_terms)
+
+
 @dataclass(frozen=True)
 class Backend:
-    """A registered backend: its ``name`` (the ``method=`` value), what it ``accepts`` and what it
-    ``prefers`` among those (None: all; ``method="auto"`` only)."""
+    """A registered backend: its ``name`` (the ``method=`` value), what it ``accepts``, what it ``prefers``
+    among those (None: all; ``method="auto"`` only) and its ``routes``: for each kind of problem it solves
+    ("signorini", "compliance", "conic", "mixed": :func:`cvxcontact.backends.run.kind`) the function that
+    solves it, as "module:function" in this package (resolved when first run, so that the registry imports
+    nothing), each ``route(problem, cache, settings, timings) -> RawResult``."""
 
     name: str
     accepts: Callable[[ProblemDescription], bool]
     summary: str = ""
     prefers: Callable[[ProblemDescription], bool] | None = None
+    routes: Mapping[str, str] = field(default_factory=dict)
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
@@ -92,10 +107,15 @@ BACKENDS: tuple[Backend, ...] = (
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",
             prefers=lambda p: p.contact_rows > SPARSE_ROWS
-            or (p.unknowns > 0 and p.contact_rows > SPARSE_SLENDER * p.unknowns ** 0.5)),
+            or (p.unknowns > 0 and p.contact_rows > SPARSE_SLENDER * p.unknowns ** 0.5),
+            routes=MappingProxyType({"signorini": "signorini:sparse"})),
     Backend("condensed", _condensed_accepts,
-            "exact condensation onto the contact dofs + interface QP + exact finish (fast)"),
-    Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)"),
+            "exact condensation onto the contact dofs + interface QP + exact finish (fast)",
+            routes=MappingProxyType({"signorini": "signorini:condensed", "compliance": "compliance:condensed",
+                                     "conic": "cones:condensed", "mixed": "cones:mixed_condensed"})),
+    Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)",
+            routes=MappingProxyType({"signorini": "signorini:full", "compliance": "compliance:full",
+                                     "conic": "cones:full", "mixed": "cones:mixed_full"})),
 )
 """The backends in speed order, fastest first (the sparse route where it prefers the problem: long interfaces)."""
 

@@ -147,13 +147,14 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
 
 
 def _superlu_order(S, gamma, n_u, system, mesh):
-    """SuperLU's elimination order: the minimum-degree node order (u_x, u_y, phi of a node together), a
+    """SuperLU's elimination order: the minimum-degree node order (the displacement components and phi of a node together), a
     floating electrode's potentials late, the Gamma dofs last in their sorted order."""
-    node = np.concatenate([system.u_free // 2, system.phi_free if system.piezoelectric else []]).astype(int)
-    kind = np.concatenate([system.u_free % 2, np.full(S.shape[0] - n_u, 2)])
+    d = len(system.f) // len(mesh.points)                                   # displacement components per node
+    node = np.concatenate([system.u_free // d, system.phi_free if system.piezoelectric else []]).astype(int)
+    kind = np.concatenate([system.u_free % d, np.full(S.shape[0] - n_u, d)])
     rank = np.empty(len(mesh.points), dtype=np.int64)
     rank[node_order(mesh)] = np.arange(len(mesh.points))
-    key = 3 * rank[node] + kind
+    key = (d + 1) * rank[node] + kind
     if system.piezoelectric and system.floating.any():                      # a floating electrode couples a
         fl = n_u + np.flatnonzero(system.floating)                          # whole part: eliminate it late
         key[fl] = key.max() + 1 + np.arange(len(fl))
@@ -176,8 +177,9 @@ class InterfaceModel:
 
     def __init__(self, bodies, loads, E, gap_rows, law=None, weights=None):
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        # a body whose contact dofs its supports all hold (a roller on the pair's part) has none: no term
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - g @ v
-                     for b, v, g in zip(bodies, self.v, loads))
+                     for b, v, g in zip(bodies, self.v, loads) if len(b.gamma))
         jump = sum((E @ b.jump) @ v for b, v in zip(bodies, self.v))
         from .full import law_rows
 

@@ -82,8 +82,9 @@ class ConicInterfaceModel:
 
     def __init__(self, bodies, loads, B, g):
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
+        # a body whose contact dofs its supports all hold (a roller on the pair's part) has none: no term
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - f @ v
-                     for b, v, f in zip(bodies, self.v, loads))
+                     for b, v, f in zip(bodies, self.v, loads) if len(b.gamma))
         jump = sum(b.jump @ v for b, v in zip(bodies, self.v))
         self.cone, self.row, _ = bernstein_constraints(jump, B, g)
         self.problem = cp.Problem(cp.Minimize(energy), [self.cone, self.row])

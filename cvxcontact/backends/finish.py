@@ -86,22 +86,45 @@ def _signs_hold(W, d, y, active):
     return signs_hold(y, d - W @ y, active, w, S)
 
 
+def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobytes()):
+    """The primal-dual active-set iteration every exact finish shares (the semismooth Newton method for the
+    complementarity function min(y, -s) = 0): ``step(active)`` solves the system with the rows of ``active``
+    closed and returns ``(state, new)``, ``new`` the next active set or None when the signs hold (``state``
+    is then the answer), or returns None for a singular system. ``key(active)``: a hashable form of an
+    active set (default its bytes; a tuple of masks needs its own). Returns ``(state, active, steps)``, or
+    the reason it stopped ("singular", "cycle", "max_iter") as a string."""
+    seen, active = set(), start
+    for n in range(1, max_iter + 1):
+        out = step(active)
+        if out is None:
+            return "singular"
+        state, new = out
+        if new is None:
+            return state, active, n
+        k = key(new)
+        if k == key(active) or k in seen:
+            return "cycle"
+        seen.add(k)
+        active = new
+    return "max_iter"
+
+
+STOPPED = {"singular": "the mixed system on the active set is singular", "cycle": "the active-set steps cycle",
+           "max_iter": "the active-set steps did not settle"}
+"""Why :func:`active_set_steps` stopped, in words."""
+
+
 def _pdas(W, d, active, max_iter):
     w, _ = row_scales(W, d, np.zeros(len(d)))
-    seen = set()
-    for _ in range(max_iter):
+
+    def step(active):
         y = _closed(W, d, active)
         if y is None:
             return None
-        if _signs_hold(W, d, y, active):
-            return y, active
-        new = y * w + (d - W @ y) > 0
-        key = new.tobytes()
-        if np.array_equal(new, active) or key in seen:
-            return None
-        seen.add(key)
-        active = new
-    return None
+        return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
+
+    out = active_set_steps(step, active, max_iter)
+    return None if isinstance(out, str) else out[:2]
 
 
 def _least_squares_form(W, d):
@@ -426,3 +449,33 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
         if at is None:
             return None
     return None
+
+
+def node_scales(parts, g, extra=None):
+    """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
+    displacement scale U_a: the sizes of both parts there plus the gap plus ``extra`` (the local
+    displacement of the row's own force, :func:`force_displacements`), floored at 1e-9 of the largest."""
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    if extra is not None:
+        U = U + extra
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def force_displacements(blocks, E, y):
+    """w_a |y_a|: the displacement the contact force y_a of row a produces through the diagonal of each
+    body's stiffness, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj (scaled units). A node held at exactly
+    [u_nu] = g by a rigid obstacle or a stuck partner has no other displacement scale (docs/checks.md)."""
+    w = np.zeros(E.shape[0])
+    for b in blocks:
+        R = (E @ b.jump).tocsr()
+        d = b.Kuu.diagonal()
+        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
+    return w * np.abs(y)
+
+
+def ipm_active(parts, g, y, extra=None):
+    """Active rows of an interior-point answer: the force, relative to the largest contact force,
+    beats the open gap relative to the row's displacement scale (free of units and load scale;
+    ``extra`` as in :func:`node_scales`, e.g. :func:`force_displacements`)."""
+    slack, U = node_scales(parts, g, extra)
+    return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U

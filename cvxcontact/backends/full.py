@@ -140,6 +140,7 @@ class ContactModel:
             self.t.append(t)
             energy -= F @ t
             jump = jump + R @ t
+        self.jump = jump                     # the rows' [u_nu] (+ R t), scaled
         self.cone = self.row = None
         if bernstein is not None:
             from .conic import bernstein_constraints

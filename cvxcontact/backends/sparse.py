@@ -55,7 +55,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import signs_hold
+from .finish import active_set_steps, signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
 
@@ -303,8 +303,8 @@ class SparseContact:
         self._g = np.asarray(g, dtype=float)
         n, m = self.n, self.m
         active = np.ones(m, dtype=bool) if active is None else np.asarray(active, dtype=bool).copy()
-        seen = set()
-        for step in range(1, max_iter + 1):
+
+        def step(active):
             z = self._system(active)
             if z is None:
                 return None
@@ -312,15 +312,13 @@ class SparseContact:
             s = self.G @ x - self._g
             S = np.abs(self.G) @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
-            new = y * self.w + s > 0
-            if signs_hold(y, s, active, self.w, S):
-                return self._split(x) + (np.where(active, y, 0.0), active, step)
-            key = new.tobytes()
-            if np.array_equal(new, active) or key in seen:
-                return None
-            seen.add(key)
-            active = new
-        return None
+            return (x, y), (None if signs_hold(y, s, active, self.w, S) else y * self.w + s > 0)
+
+        out = active_set_steps(step, active, max_iter)
+        if isinstance(out, str):
+            return None
+        (x, y), active, steps = out
+        return self._split(x) + (np.where(active, y, 0.0), active, steps)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

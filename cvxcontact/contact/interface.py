@@ -60,9 +60,9 @@ class Trace:
         t = canonical_tangent(n) if tangent is None else np.asarray(tangent, dtype=float)
         nodes = np.unique(edges)
         order = np.argsort(mesh.points[nodes] @ t, kind="stable")
-        self.nodes = _frozen(nodes[order])
-        self.points = _frozen(mesh.points[self.nodes])
-        self.x = _frozen(self.points @ t)
+        self.nodes = read_only(nodes[order])
+        self.points = read_only(mesh.points[self.nodes])
+        self.x = read_only(self.points @ t)
         self.offset = float(np.mean(self.points @ n))
         off = np.ptp(self.points @ n)
         if off > tol:
@@ -74,9 +74,9 @@ class Trace:
         steps = np.sort(np.abs(np.diff(rank[edges], axis=1)).ravel())
         if len(edges) != len(self.nodes) - 1 or (steps != 1).any():
             raise SceneError(f"{label} is not one connected chain of edges (gaps or branches)")
-        self.unit_normal = _frozen(n)
+        self.unit_normal = read_only(n)
         self.normal = float(np.round(n[1])) if abs(abs(n[1]) - 1.0) <= _ANGLE_TOL else 0.0
-        self.tangent = _frozen(t)
+        self.tangent = read_only(t)
         self.k, self.part, self.body = k, part, body
 
 
@@ -133,9 +133,9 @@ class Interface:
                 f"{first.x[-1]:.9g}] m, {bodies[1].name} {parts[1]!r} spans [{second.x[0]:.9g}, {second.x[-1]:.9g}] m "
                 f"along the tangent ({t[0]:.6g}, {t[1]:.6g})")
         x, sigma = _merge(first.x, second.x, lo, hi, tol)
-        self.x, self.sigma = _frozen(x), tuple(_frozen(s) for s in sigma)
+        self.x, self.sigma = read_only(x), tuple(read_only(s) for s in sigma)
         self.y = first.y
-        self.points = _frozen(first.points[0] + np.outer(self.x - first.x[0], t))
+        self.points = read_only(first.points[0] + np.outer(self.x - first.x[0], t))
         self.mass = _mass(self.x)
         self._interp = [_interpolation(self.x, tr.x) for tr in self.traces]
 
@@ -154,11 +154,11 @@ class Interface:
         if (np.diff(hit) != 1).any():
             raise SceneError(f"{label}: the nodes that reach the obstacle along the normal are not one "
                              "contiguous run; split the part")
-        self.reach = _frozen(hit)
-        self.x = _frozen(first.x[hit])
-        self.sigma = (_frozen(np.arange(len(hit))),)
+        self.reach = read_only(hit)
+        self.x = read_only(first.x[hit])
+        self.sigma = (read_only(np.arange(len(hit))),)
         self.y = first.y
-        self.points = _frozen(first.points[hit])
+        self.points = read_only(first.points[hit])
         self.mass = _mass(self.x)
         P = sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(first.x)))
         self._interp = [P]
@@ -231,7 +231,7 @@ class Stack:
         self.interfaces, self.members = tuple(interfaces), tuple(members)
         self.offsets = np.concatenate([[0], np.cumsum([i.size for i in self.interfaces])]).astype(int)
         self.mass = sp.block_diag([i.mass for i in self.interfaces], format="csr")
-        self.x = _frozen(np.concatenate([i.x for i in self.interfaces]))
+        self.x = read_only(np.concatenate([i.x for i in self.interfaces]))
 
     @property
     def size(self) -> int:
@@ -287,7 +287,7 @@ def normal_jump(P, nodes, unit_normal, n_dofs) -> sp.csr_matrix:
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(P.shape[0], n_dofs))
 
 
-def _frozen(a) -> np.ndarray:
+def read_only(a) -> np.ndarray:
     """A read-only copy: the interface's arrays are shared by every solve and must not change."""
     a = np.array(a)
     a.setflags(write=False)

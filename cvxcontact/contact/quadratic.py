@@ -27,7 +27,7 @@ import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
-from .interface import CONDITIONS, Interface, _frozen, normal_jump
+from .interface import CONDITIONS, Interface, read_only, normal_jump
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
@@ -74,8 +74,8 @@ class _Trace2:
         self.xv = trace.x
         order = np.empty(2 * len(v) - 1, dtype=int)
         order[0::2], order[1::2] = v, mids
-        self.nodes = _frozen(order)
-        self.x = _frozen(nodes.points[order] @ trace.tangent)
+        self.nodes = read_only(order)
+        self.x = read_only(nodes.points[order] @ trace.tangent)
 
 
 class QuadraticInterface:
@@ -110,18 +110,18 @@ class QuadraticInterface:
         self.traces = [_Trace2(t, n) for t, n in zip(linear.traces, nodes)]
         self.y, self.normal, self.tangent = linear.y, linear.normal, linear.tangent
         xv = np.asarray(linear.x, dtype=float)
-        self.xv = _frozen(xv)
+        self.xv = read_only(xv)
         x = np.empty(2 * len(xv) - 1)
         x[0::2], x[1::2] = xv, 0.5 * (xv[:-1] + xv[1:])
-        self.x = _frozen(x)
-        self.points = _frozen(linear.points[0] + np.outer(x - xv[0], linear.tangent))
-        self.segments = _frozen(2 * np.arange(len(xv) - 1)[:, None] + np.arange(3))   # (S, 3) node indices
+        self.x = read_only(x)
+        self.points = read_only(linear.points[0] + np.outer(x - xv[0], linear.tangent))
+        self.segments = read_only(2 * np.arange(len(xv) - 1)[:, None] + np.arange(3))   # (S, 3) node indices
         self.mass = _mass(xv)
         self._interp = [p2_interpolation(t.xv, self.x) for t in self.traces]
         # nodes of each trace inside the overlap, as points of X_h: the rows of E for K_h(Sigma_h^l)
         tol = 1e-9 * max(t.body.mesh.size for t in linear.traces)
         lo, hi = xv[0], xv[-1]
-        self.sigma_x = tuple(_frozen(np.clip(t.x[(t.x >= lo - tol) & (t.x <= hi + tol)], lo, hi))
+        self.sigma_x = tuple(read_only(np.clip(t.x[(t.x >= lo - tol) & (t.x <= hi + tol)], lo, hi))
                              for t in self.traces)
 
 
@@ -280,8 +280,8 @@ class QuadraticStack:
         self.interfaces, self.members = tuple(interfaces), tuple(members)
         self.offsets = np.concatenate([[0], np.cumsum([i.size for i in self.interfaces])]).astype(int)
         self.mass = sp.block_diag([i.mass for i in self.interfaces], format="csr")
-        self.x = _frozen(np.concatenate([i.x for i in self.interfaces]))
-        self.segments = _frozen(np.concatenate([i.segments + o for i, o in zip(self.interfaces, self.offsets)]))
+        self.x = read_only(np.concatenate([i.x for i in self.interfaces]))
+        self.segments = read_only(np.concatenate([i.segments + o for i, o in zip(self.interfaces, self.offsets)]))
 
     @property
     def size(self) -> int:
@@ -329,7 +329,7 @@ class QuadraticStack:
                   for itf, on in zip(self.interfaces, pairs)]
         segs = [np.asarray(itf.segments) + o for itf, o, on in zip(self.interfaces, self.offsets, pairs) if on]
         segments = np.concatenate(segs) if segs else np.zeros((0, 3), dtype=int)
-        return sp.block_diag(blocks, format="csr"), _frozen(segments)
+        return sp.block_diag(blocks, format="csr"), read_only(segments)
 
     def split(self, values):
         """Pair i's slice of a stacked array."""
@@ -356,7 +356,7 @@ class QuadraticStack:
                 cols = E.indices[E.indptr[r]:E.indptr[r + 1]]
                 seg[r] = np.resize(cols, 3) if len(cols) else 0
             segs.append(seg + o)
-        return sp.block_diag(blocks, format="csr"), _frozen(np.concatenate(segs))
+        return sp.block_diag(blocks, format="csr"), read_only(np.concatenate(segs))
 
 
 class ConeRowLaws(RowLaws):

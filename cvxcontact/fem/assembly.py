@@ -99,7 +99,7 @@ def strain_matrix(grad):
     return B
 
 
-def _scatter(blocks, rows, cols, shape):
+def scatter(blocks, rows, cols, shape):
     """Sum element blocks (m, a, b) into a sparse matrix at global rows (m, a) and cols (m, b)."""
     m, a, b = blocks.shape
     R = np.repeat(rows.astype(np.int32), b, axis=1).ravel()
@@ -121,12 +121,12 @@ def assemble_matrices(body) -> BodySystem:
     B = strain_matrix(grad)
     Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, 6, 3), area-weighted
     udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
-    Kuu = _scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n))
+    Kuu = scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n))
     Kup = Kpp = None
     if mat.piezoelectric:
         Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, 3, 2)
-        Kup = _scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
-        Kpp = _scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
+        Kup = scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
+        Kpp = scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
     return constrained(body, Kuu, Kup, Kpp)
 
 
@@ -178,7 +178,7 @@ def prolongation(body, nodes=None):
     Tu = sp.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(2 * n, int(ncols.sum())))
     if not body.piezoelectric:
         return Tu, u_fixed, None, None
-    fixed = mesh.boundary_nodes(body.grounded + list(body.potential))
+    fixed = mesh.boundary_nodes([*body.grounded, *body.potential])
     float_nodes = [mesh.boundary_nodes([t]) for t in body.floating]
     taken = np.zeros(n, dtype=bool)
     taken[fixed] = True
@@ -252,7 +252,7 @@ def _body_load(mesh, load, ncomp):
     mid = 0.5 * (p[tri] + p[np.roll(tri, -1, axis=1)])        # midpoints of edges (0,1), (1,2), (2,0)
     val = load(mid[..., 0], mid[..., 1]).reshape(len(tri), 3, ncomp)
     nodal = (val + np.roll(val, 1, axis=1)) * (mesh.areas / 6.0)[:, None, None]   # node i: edges i and i-1
-    out = _accumulate(tri.ravel(), nodal.reshape(-1, ncomp), len(p))
+    out = accumulate(tri.ravel(), nodal.reshape(-1, ncomp), len(p))
     return out if ncomp > 1 else out[:, 0]
 
 
@@ -264,10 +264,10 @@ def _edge_load(mesh, edges, load, ncomp):
     for t in _GAUSS2:
         x = (1 - t) * a + t * b
         val = load(x[:, 0], x[:, 1]).reshape(len(edges), ncomp) * (0.5 * length)[:, None]
-        out += _accumulate(edges.T.ravel(), np.concatenate([(1 - t) * val, t * val]), len(mesh.points))
+        out += accumulate(edges.T.ravel(), np.concatenate([(1 - t) * val, t * val]), len(mesh.points))
     return out if ncomp > 1 else out[:, 0]
 
 
-def _accumulate(index, values, n):
+def accumulate(index, values, n):
     """Sum rows of ``values`` (k, c) into an (n, c) array at ``index`` (k,)."""
     return np.column_stack([np.bincount(index, weights=values[:, j], minlength=n) for j in range(values.shape[1])])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .assembly import gradients, strain_matrix
-from .p2 import _strain, shape_gradients
+from .p2 import strain_p2, shape_gradients
 
 __all__ = ["BodyFields", "body_fields"]
 
@@ -48,7 +48,7 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     else:
         el = nodes.triangles
         grad = shape_gradients(grad, np.full(3, 1.0 / 3.0))             # (m, 2, 6) at the centroid
-        eps = np.einsum("mij,mj->mi", _strain(grad), u[el].reshape(len(el), 12))
+        eps = np.einsum("mij,mj->mi", strain_p2(grad), u[el].reshape(len(el), 12))
     stress = eps @ mat.c.T
     if mat.piezoelectric:
         field = -np.einsum("mij,mj->mi", grad, phi[el])

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.quadratic import P2Nodes
-from .assembly import BodySystem, _accumulate, _scatter, constrained, gradients, lifted
+from .assembly import BodySystem, accumulate, scatter, constrained, gradients, lifted
 
 __all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients"]
 
@@ -46,7 +46,7 @@ def shape_gradients(gradL, L) -> np.ndarray:
                      4 * (L1 * g0 + L0 * g1), 4 * (L2 * g1 + L1 * g2), 4 * (L0 * g2 + L2 * g0)], axis=2)
 
 
-def _strain(G):
+def strain_p2(G):
     """(m, 3, 12) map from element dofs (u0x, u0y, u1x, ...) to (eps11, eps33, 2 eps13)."""
     B = np.zeros((G.shape[0], 3, 12))
     B[:, 0, 0::2] = G[:, 0]
@@ -77,16 +77,16 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     Kuu = Kup = Kpp = 0.0
     for L, w in zip(*_TRI3):
         G = shape_gradients(gradL, L)                                    # (m, 2, 6)
-        B = _strain(G)
+        B = strain_p2(G)
         Bt = np.swapaxes(B, 1, 2) * (w * area)[:, None, None]
         Kuu = Kuu + (Bt @ mat.c) @ B
         if mat.piezoelectric:
             Kup = Kup + (Bt @ mat.e.T) @ G
             Kpp = Kpp + ((np.swapaxes(G, 1, 2) * (w * area)[:, None, None]) @ mat.kappa) @ G
     if not mat.piezoelectric:
-        return constrained(body, _scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), nodes=nodes)
-    return constrained(body, _scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), _scatter(Kup, udofs, el, (2 * n, n)),
-                       _scatter(Kpp, el, el, (n, n)), nodes=nodes)
+        return constrained(body, scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), nodes=nodes)
+    return constrained(body, scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), scatter(Kup, udofs, el, (2 * n, n)),
+                       scatter(Kpp, el, el, (n, n)), nodes=nodes)
 
 
 def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
@@ -114,7 +114,7 @@ def _body_load(nodes, load, ncomp):
         x = np.einsum("k,mkd->md", L, p)
         val = np.asarray(load(x[:, 0], x[:, 1]), dtype=float).reshape(len(p), ncomp) * (w * mesh.areas)[:, None]
         N = shape_functions(L)                                        # (6,)
-        out += _accumulate(nodes.triangles.T.ravel(), np.concatenate([Ni * val for Ni in N]), n)
+        out += accumulate(nodes.triangles.T.ravel(), np.concatenate([Ni * val for Ni in N]), n)
     return out
 
 
@@ -128,5 +128,5 @@ def _edge_load(nodes, edges, load, ncomp):
         x = (1 - t) * a + t * b
         val = np.asarray(load(x[:, 0], x[:, 1]), dtype=float).reshape(len(edges), ncomp) * (w * length)[:, None]
         N = ((1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t))
-        out += _accumulate(edges.T.ravel(), np.concatenate([Ni * val for Ni in N]), len(pts))
+        out += accumulate(edges.T.ravel(), np.concatenate([Ni * val for Ni in N]), len(pts))
     return out

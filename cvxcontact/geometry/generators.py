@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..errors import MeshError
-from .mesh import Mesh, rectangle
+from .mesh import Mesh, rectangle, segment_parts
 
 __all__ = ["graded_block", "half_disk"]
 
@@ -46,10 +46,7 @@ def graded_block(x: Sequence[float], y: Sequence[float], nx: int, ny: int, conta
     Y = y0 + (y1 - y0) * d if contact == "bottom" else y1 - (y1 - y0) * d
     points = np.column_stack([X, Y])
     tags = {t: base.boundary(t) for t in base.tags}
-    if segments:
-        from .mesh import _segment
-        for name, spec in segments.items():
-            tags[name] = _segment(name, spec, {t: base.boundary(t) for t in base.tags}, points)
+    tags.update(segment_parts(segments, {t: base.boundary(t) for t in base.tags}, points, "graded_block"))
     return Mesh(points, base.triangles, tags)
 
 
@@ -66,7 +63,7 @@ def half_disk(radius: float, center: Sequence[float] = (0.0, 0.0), nr: int = 6, 
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise MeshError(f"half_disk: {key} must be a positive integer, got {v!r}")
     start = {"bottom": np.pi, "right": -np.pi / 2, "top": 0.0, "left": np.pi / 2}
-    if side not in start:
+    if not isinstance(side, str) or side not in start:
         raise MeshError(f"half_disk: side must be one of {sorted(start)}, got {side!r}")
     try:
         cx, cy = (float(c) for c in center)

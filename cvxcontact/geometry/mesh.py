@@ -21,7 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import MeshError
+from ..errors import Frozen, FrozenMap, MeshError
 
 __all__ = ["Mesh", "rectangle", "read_mesh"]
 
@@ -29,7 +29,7 @@ DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
 
 
-class Mesh:
+class Mesh(Frozen):
     """A conforming P1 triangulation of one body in the (x1, x3) plane.
 
     Parameters
@@ -42,9 +42,9 @@ class Mesh:
     boundaries : dict of str to (k, 2) array_like of int, optional
         Named boundary parts, each a list of boundary edges (node index pairs).
 
-    The mesh keeps read-only copies of its arrays: editing ``points`` or
-    ``triangles`` in place raises ``ValueError``; build a new mesh instead
-    (:meth:`with_points`).
+    The mesh is immutable: it keeps read-only copies of its arrays (editing ``points``,
+    ``triangles`` or a boundary part in place raises ``ValueError``) and assigning an attribute
+    raises :class:`~cvxcontact.errors.FrozenError`; build a new mesh instead (:meth:`with_points`).
 
     Raises
     ------
@@ -62,14 +62,20 @@ class Mesh:
         triangles = _as_triangles(triangles, len(points))
         _check_nodes(points, triangles)
         triangles = _orient(points, triangles)
-        self._points, self._triangles = _frozen(points, float), _frozen(triangles, np.int64)
+        self._set(_points=_frozen(points, float), _triangles=_frozen(triangles, np.int64))
         table = _edge_table(self._triangles, len(points))
         keys, edges = _boundary_edges(self._triangles, len(points), table)
         _check_embedding(self._points, self._triangles, edges, table)
-        self._boundary_keys, self._boundary_edges = _frozen(keys, np.int64), _frozen(edges, np.int64)
-        self._tags = {}
-        for tag, tagged in (boundaries or {}).items():
-            self._tags[str(tag)] = _frozen(self._orient_edges(str(tag), tagged), np.int64)
+        self._set(_boundary_keys=_frozen(keys, np.int64), _boundary_edges=_frozen(edges, np.int64))
+        if boundaries is not None and not isinstance(boundaries, Mapping):
+            raise MeshError(f"boundaries must be a dict mapping tags to (k, 2) arrays of node pairs, "
+                            f"got {type(boundaries).__name__}")
+        self._set(_tags=FrozenMap({str(tag): _frozen(self._orient_edges(str(tag), tagged), np.int64)
+                                   for tag, tagged in (boundaries or {}).items()},
+                                  "Mesh boundaries", "build a new Mesh"))
+
+    def _frozen_hint(self, name: str) -> str:
+        return "build a new Mesh (mesh.with_points(points) moves or scales it; cc.Mesh(points, triangles, boundaries))"
 
     def __repr__(self) -> str:
         return (f"Mesh({len(self.points)} nodes, {len(self.triangles)} triangles, "
@@ -467,9 +473,20 @@ def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), 
         "top": np.column_stack([node[-1, 1:], node[-1, :-1]]),
         "left": np.column_stack([node[1:, 0], node[:-1, 0]]),
     }
-    for name, spec in (segments or {}).items():
-        boundaries[name] = _segment(name, spec, boundaries, points)
+    boundaries.update(segment_parts(segments, boundaries, points, "rectangle"))
     return Mesh(points, triangles, boundaries)
+
+
+def segment_parts(segments, sides, points, where) -> dict:
+    """The extra tags ``segments`` (name -> (side, start, end), m) of a structured generator: the edges of
+    ``sides`` (the four side tags -> edges) between the two coordinates, on the node ``points``."""
+    if segments is None:
+        return {}
+    if not isinstance(segments, Mapping):
+        raise MeshError(f"{where}: segments must map new tag names to (side, start, end) in m, e.g. "
+                        f"segments={{\"footprint\": (\"top\", 0.25, 0.75)}} (in a scene file: segments = "
+                        f"{{ footprint = [\"top\", 0.25, 0.75] }}), got {segments!r}")
+    return {name: _segment(name, spec, sides, points) for name, spec in segments.items()}
 
 
 def _segment(name, spec, sides, points):

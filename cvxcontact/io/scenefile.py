@@ -103,6 +103,10 @@ _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_for
 _PIEZO = {"c11", "c12", "c13", "c33", "c44", "e31", "e33", "e15", "eps11", "eps33"}
 
 
+_REQUIRED = object()
+"""Marks a key that must be present (:meth:`_Context.string`)."""
+
+
 class SceneFileError(SceneError):
     """A scene file is missing, not TOML, or has a key with a bad value."""
 
@@ -246,7 +250,8 @@ def _pairs_scene(ctx, data, bodies):
     contacts = data.get("contact")
     if not isinstance(contacts, list) or not contacts:
         ctx.fail("contact", "one or more [[contact]] tables", contacts)
-    names = [str(b.get("name", f"body {k + 1}")) if isinstance(b, dict) else None for k, b in enumerate(bodies)]
+    names = [ctx.string(b, "name", f"body[{k}]", f"body {k + 1}") if isinstance(b, dict) else None
+             for k, b in enumerate(bodies)]
     if len(set(names)) != len(names):
         ctx.fail("body", "bodies with distinct names", names)
     obstacles = {}
@@ -254,16 +259,15 @@ def _pairs_scene(ctx, data, bodies):
         where = f"obstacle[{i}]"
         o = ctx.table(o, where)
         ctx.keys(o, _OBSTACLE, where)
-        oname = o.get("name")
-        if not isinstance(oname, str) or oname in names or oname in obstacles:
+        oname = ctx.string(o, "name", where)
+        if oname in names or oname in obstacles:
             ctx.fail(f"{where}.name", "a name (string) that no body or other obstacle has", oname)
         obstacles[oname] = ctx.obstacle(o, where)
     for i, c in enumerate(contacts):
         c = ctx.table(c, f"contact[{i}]")
         ctx.keys(c, _CONTACT, f"contact[{i}]")
-        for req in ("a", "part_a", "b"):
-            if req not in c:
-                raise SceneFileError(f"{ctx.path}: contact[{i}]: missing key {req!r}")
+        for key in ("a", "part_a", "b", "part_b", "condition"):          # boundary tags and names: strings
+            ctx.string(c, key, f"contact[{i}]", None if key in ("part_b", "condition") else _REQUIRED)
         if c["a"] not in names:
             ctx.fail(f"contact[{i}].a", f"the name of a body {names}", c["a"])
         if c["b"] not in names and c["b"] not in obstacles:
@@ -277,7 +281,7 @@ def _pairs_scene(ctx, data, bodies):
     for k, b in enumerate(bodies):
         if isinstance(b, dict) and "contact" not in b and names[k] in first_part:
             b = {**b, "contact": first_part[names[k]]}
-        built.append(ctx.body(b, k))
+        built.append(ctx.body(b, k, pairs=True))
     by_name = dict(zip(names, built))
     pairs = []
     for i, c in enumerate(contacts):
@@ -287,10 +291,10 @@ def _pairs_scene(ctx, data, bodies):
             ctx.fail(f"{where}.condition", f"one of {list(CONDITIONS)}", condition)
         gap = ctx.load(c.get("gap", 0.0), f"{where}.gap", 1)
         other = by_name.get(c["b"]) or obstacles[c["b"]]
+        law = _law(c["law"], f"{ctx.path}: {where}") if "law" in c else None
         try:
             pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
-                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap,
-                                 law=_law(c["law"], f"{ctx.path}: {where}") if "law" in c else None))
+                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap, law=law))
         except CvxContactError as exc:
             raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
     try:
@@ -315,12 +319,12 @@ class _Context:
             if req not in spec:
                 raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
         force = o.get("force")
+        f = self.load(spec["f"], f"{where}.profile.f", 1) if kind == "profile" else None
         try:
             if kind == "plane":
                 return Rigid.plane(spec["point"], spec["normal"], force=force)
             if kind == "circle":
                 return Rigid.circle(spec["center"], spec["radius"], force=force)
-            f = self.load(spec["f"], f"{where}.profile.f", 1)
             fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
             return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force)
         except CvxContactError as exc:
@@ -328,6 +332,18 @@ class _Context:
 
     def __init__(self, path, allow_outside=False):
         self.path, self.allow_outside = path, allow_outside
+
+    def string(self, table, key, where, default=None):
+        """``table[key]``, which must be a string (a name, a boundary tag, a condition); ``default`` if the
+        key is absent (``_REQUIRED``: a missing key is an error). SceneFileError naming the file and key."""
+        if key not in table:
+            if default is _REQUIRED:
+                raise SceneFileError(f"{self.path}: {where}: missing key {key!r}")
+            return default
+        value = table[key]
+        if not isinstance(value, str):
+            self.fail(f"{where}.{key}", "a string", value)
+        return value
 
     def fail(self, key, expected, got):
         raise SceneFileError(f"{self.path}: {key}: expected {expected}, got {got!r}")
@@ -342,18 +358,20 @@ class _Context:
             self.fail(key, "a table", value)
         return value
 
-    def body(self, b, k):
+    def body(self, b, k, pairs=False):
+        """The Body of table ``b`` (``body[k]``); its ``contact`` key is required unless the file has
+        [[contact]] tables (``pairs``)."""
         where = f"body[{k}]"
         b = self.table(b, where)
         self.keys(b, _BODY, where)
-        for req in ("material", "mesh", "contact"):
+        for req in ("material", "mesh") if pairs else ("material", "mesh", "contact"):
             if req not in b:
                 raise SceneFileError(f"{self.path}: {where}: missing key {req!r}")
-        name = b.get("name", f"body {k + 1}")
+        name = self.string(b, "name", where, f"body {k + 1}")
         kw = dict(
             clamped=self.tags(b.get("clamped", []), f"{where}.clamped"),
             grounded=self.tags(b.get("grounded", []), f"{where}.grounded"),
-            contact=b["contact"],
+            contact=self.string(b, "contact", where),
             body_force=self.load(b.get("body_force", [0.0, 0.0]), f"{where}.body_force", 2),
             volume_charge=self.load(b.get("volume_charge", 0.0), f"{where}.volume_charge", 1),
         )
@@ -433,9 +451,10 @@ class _Context:
                 self.fail(key, f"a built-in material {sorted(MATERIALS)} or a table of constants", value)
             return MATERIALS[norm]
         table = self.table(value, key)
+        name = self.string(table, "name", key)
         try:
             if set(table) <= {"E", "nu", "name"} and {"E", "nu"} <= set(table):
-                return mats.isotropic(table["E"], table["nu"], name=table.get("name"))
+                return mats.isotropic(table["E"], table["nu"], name=name)
             self.keys(table, _PIEZO | {"name"}, key)
             return mats.Piezoelectric(**table)
         except CvxContactError as exc:

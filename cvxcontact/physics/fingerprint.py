@@ -7,8 +7,10 @@ parts: the :data:`~cvxcontact.physics.loads.GEOMETRY_FIELDS` and the potential t
 loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`: forces, tractions, charges, potential
 *values*) are left out: they may change between solves of one ContactSolver. (The scene's
 gap, :data:`~cvxcontact.physics.loads.SCENE_LOAD_FIELDS`, is not a body attribute.)
-Two bodies with equal fingerprints assemble to the same matrices; a body edited in
-place gets a new fingerprint.
+Two bodies with equal fingerprints assemble to the same matrices. Bodies, meshes and materials
+are immutable (read-only arrays, frozen attributes), so a body's fingerprint changes only if an
+array is deliberately made writable again and edited; it is computed afresh on every call so that
+even then a prepared solver notices.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ def geometry_fingerprint(body) -> str:
         array(key, getattr(mat, key, None), np.float64)
     # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),
-                        ("potential", list(body.potential)), ("contact", [body.contact]),
+                        ("potential", list(body.potential)), ("contact", [] if body.contact is None else [body.contact]),
                         ("roller", getattr(body, "roller", [])), ("floating", list(getattr(body, "floating", {}))),
                         ("displacement", [f"{t}={v}" for t, v in getattr(body, "displacement", {}).items()])):
         parts = sorted(set(parts))

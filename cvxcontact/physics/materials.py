@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import MaterialError
+from ..errors import Frozen, MaterialError
 
 __all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3"]
 
@@ -28,12 +28,13 @@ EPS0 = 8.8541878128e-12
 """Vacuum permittivity, F/m."""
 
 
-class Piezoelectric:
+class Piezoelectric(Frozen):
     """Piezoelectric material, plane-strain reduction in the poling plane.
 
     Give either the hexagonal (6mm) constants ``c11, c13, c33, c44`` (Pa),
     ``e31, e33, e15`` (C/m^2), ``eps11, eps33`` (F/m) and optionally ``c12`` (Pa), or
-    use :meth:`from_matrices` for general plane constants.
+    use :meth:`from_matrices` for general plane constants. A material is immutable (read-only arrays;
+    assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`).
     """
 
     piezoelectric = True
@@ -55,25 +56,27 @@ class Piezoelectric:
             if not (v["c11"] > abs(c12) and (v["c11"] + c12) * v["c33"] > 2 * v["c13"] ** 2):
                 raise MaterialError(f"material {name!r}: the 3D elasticity tensor (c11, c12, c13, c33) "
                                     "is not positive definite")
-        self._set(c, e, kappa, name, c12)
+        self._setup(c, e, kappa, name, c12)
 
     @classmethod
     def from_matrices(cls, c: ArrayLike, e: ArrayLike, kappa: ArrayLike, name: str = "piezoelectric") -> Piezoelectric:
         """Material from plane matrices: ``c`` (3, 3) Pa, ``e`` (2, 3) C/m^2, ``kappa`` (2, 2) F/m."""
         obj = cls.__new__(cls)
-        obj._set(c, e, kappa, name, None)
+        obj._setup(c, e, kappa, name, None)
         return obj
 
-    def _set(self, c, e, kappa, name, c12):
+    def _setup(self, c, e, kappa, name, c12):
         c = _matrix(c, (3, 3), "c", name, spd=True)
         e = _matrix(e, (2, 3), "e", name, spd=False)
         kappa = _matrix(kappa, (2, 2), "kappa", name, spd=True)
-        self.c, self.e, self.kappa, self.name, self.c12 = c, e, kappa, str(name), c12
-        self.plane, self.angle = "strain", 0.0
         # out-of-plane row (x2 of the crystal): sigma_zz = a . eps - b . E with C_zz = c22 (hexagonal: c11)
         hexagonal = c12 is not None and np.allclose(c[:2, 2], 0.0) and e[1, 2] == 0.0
-        self.out_of_plane = ((np.array([c12, c[0, 1], 0.0]), float(c[0, 0]), np.array([0.0, e[1, 0]]))
-                             if hexagonal else None)
+        self._set(c=c, e=e, kappa=kappa, name=str(name), c12=c12, plane="strain", angle=0.0,
+                  out_of_plane=_row((np.array([c12, c[0, 1], 0.0]), float(c[0, 0]), np.array([0.0, e[1, 0]]))
+                                    if hexagonal else None))
+
+    def _frozen_hint(self, name: str) -> str:
+        return _MATERIAL_HINT
 
     def __repr__(self):
         return f"Piezoelectric({self.name!r})"
@@ -85,7 +88,7 @@ class Piezoelectric:
         angle = _real(angle, "angle", self.name)
         c, e, kappa, out = _rotate(self.c, self.e, self.kappa, self.out_of_plane, angle)
         obj = Piezoelectric.from_matrices(c, e, kappa, name=self.name)
-        obj.c12, obj.out_of_plane, obj.plane, obj.angle = self.c12, out, self.plane, self.angle + angle
+        obj._set(c12=self.c12, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle)
         return obj
 
     def plane_stress(self) -> Piezoelectric:
@@ -100,22 +103,26 @@ class Piezoelectric:
         a, c22, b = self.out_of_plane
         obj = Piezoelectric.from_matrices(self.c - np.outer(a, a) / c22, self.e - np.outer(b, a) / c22,
                                           self.kappa + np.outer(b, b) / c22, name=self.name)
-        obj.c12, obj.out_of_plane, obj.plane, obj.angle = self.c12, self.out_of_plane, "stress", self.angle
+        obj._set(c12=self.c12, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle)
         return obj
 
 
-class Elastic:
-    """Linear elastic material in plane strain, ``c`` (3, 3) in Pa; carries no electric unknowns."""
+class Elastic(Frozen):
+    """Linear elastic material in plane strain, ``c`` (3, 3) in Pa; carries no electric unknowns.
+    Immutable, as :class:`Piezoelectric`."""
 
     piezoelectric = False
 
     def __init__(self, c: ArrayLike, name: str = "elastic", E: float | None = None, nu: float | None = None) -> None:
-        self.c = _matrix(c, (3, 3), "c", name, spd=True)
-        self.name, self.E, self.nu = str(name), E, nu
-        self.plane, self.angle, self.out_of_plane = "strain", 0.0, None
+        out = None
         if E is not None and nu is not None:
             lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-            self.out_of_plane = (np.array([lam, lam, 0.0]), lam + 2 * mu, None)
+            out = (np.array([lam, lam, 0.0]), lam + 2 * mu, None)
+        self._set(c=_matrix(c, (3, 3), "c", name, spd=True), name=str(name), E=E, nu=nu, plane="strain", angle=0.0,
+                  out_of_plane=_row(out))
+
+    def _frozen_hint(self, name: str) -> str:
+        return _MATERIAL_HINT
 
     def __repr__(self):
         return f"Elastic({self.name!r})"
@@ -126,7 +133,7 @@ class Elastic:
         angle = _real(angle, "angle", self.name)
         c, _, _, out = _rotate(self.c, None, None, self.out_of_plane, angle)
         obj = Elastic(c, name=self.name)
-        obj.E, obj.nu, obj.out_of_plane, obj.plane, obj.angle = self.E, self.nu, out, self.plane, self.angle + angle
+        obj._set(E=self.E, nu=self.nu, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle)
         return obj
 
     def plane_stress(self) -> Elastic:
@@ -139,8 +146,23 @@ class Elastic:
                                 "it with isotropic(E, nu)")
         a, c22, _ = self.out_of_plane
         obj = Elastic(self.c - np.outer(a, a) / c22, name=self.name)
-        obj.E, obj.nu, obj.out_of_plane, obj.plane, obj.angle = self.E, self.nu, self.out_of_plane, "stress", self.angle
+        obj._set(E=self.E, nu=self.nu, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle)
         return obj
+
+
+_MATERIAL_HINT = ("build a new material (Piezoelectric(...), isotropic(E, nu), material.rotated(angle), "
+                  "material.plane_stress()) and a body with body.with_changes(material=...)")
+
+
+def _row(out):
+    """The out-of-plane row (a, c22, b) with read-only arrays, or None."""
+    if out is None:
+        return None
+    arrays = [None if v is None else np.array(v, dtype=float) for v in (out[0], out[2])]
+    for a in arrays:
+        if a is not None:
+            a.setflags(write=False)
+    return arrays[0], float(out[1]), arrays[1]
 
 
 _PAIRS = ((0, 0), (1, 1), (0, 1))          # Voigt index of the plane: (11, 33, 13) of the crystal = (xx, yy, xy)

@@ -8,21 +8,23 @@ paper, ``potential`` electrodes (phi = V), Gamma_b ``surface_charge`` (D nu = q2
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import MeshError, SceneError
+from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
 from .materials import Elastic, Piezoelectric
-from .pairs import Contact, obstacle_rows
+from .loads import LOAD_FIELDS
+from . import supports as _supports
+from .pairs import Contact, Rigid, obstacle_rows
 
 __all__ = ["Body", "Scene"]
 
 
-class Body:
+class Body(Frozen):
     """One body of the scene.
 
     Parameters
@@ -38,8 +40,11 @@ class Body:
     potential : dict tag -> float or callable, V
         Driven electrodes, phi = V (part of Gamma_a). A piezoelectric body needs
         at least one grounded or driven electrode.
-    contact : str
-        Tag of Gamma_3, a straight segment parallel to the x1-axis.
+    contact : str, optional
+        Tag of Gamma_3, a straight part: the part that touches the other body in ``Scene(body1, body2)``
+        (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
+        may be omitted; if given, it names the part that holds a body no support holds (see
+        :meth:`free_motions`).
     body_force : (2,) or callable f(x, y) -> (fx, fy), N/m^3
     traction : dict tag -> (2,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
@@ -55,10 +60,15 @@ class Body:
 
     Supports and electrodes enter the unknowns through the prolongation of
     docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
+
+    A body is immutable once built: its parts are tuples, its per-part loads read-only mappings, its
+    arrays read-only, and assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`. Other
+    loads make a new body with :meth:`with_loads` (the same geometry: a ContactSolver re-solves it), any
+    other change with :meth:`with_changes`; :meth:`Scene.with_bodies` puts it in a scene.
     """
 
     def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
-                 contact: str, grounded: str | Sequence[str] = (),
+                 contact: str | None = None, grounded: str | Sequence[str] = (),
                  potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
                  body_force: Sequence[float] | Callable[..., ArrayLike] = (0.0, 0.0),
                  traction: Mapping[str, Sequence[float] | Callable[..., ArrayLike]] | None = None,
@@ -71,27 +81,89 @@ class Body:
             raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
-        self.mesh, self.material = mesh, material
-        self.name = name or "body"
-        self.clamped = self._tags(clamped, "clamped")
-        self.grounded = self._tags(grounded, "grounded")
-        if not isinstance(contact, str):
-            raise SceneError(f"{self.name}: contact must be one boundary tag (a string), got {contact!r}")
-        self.contact = self._tags(contact, "contact")[0]
-        self.body_force = Load(body_force, f"{self.name}: body_force", 2)
-        self.traction = {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
-                         for t, v in self._parts(traction, "traction").items()}
-        self.surface_charge = {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
-                               for t, v in self._parts(surface_charge, "surface_charge").items()}
-        self.volume_charge = Load(volume_charge, f"{self.name}: volume_charge", 1)
-        self.potential = {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
-                          for t, v in self._parts(potential, "potential").items()}
-        self.roller = self._tags(roller, "roller")
-        self.displacement = {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
-                             for t, v in self._parts(displacement, "displacement").items()}
-        self.floating = {t: _charge(v, f"{self.name}: floating[{t!r}]")
-                         for t, v in self._parts(floating, "floating").items()}
+        if name is not None and not isinstance(name, str):
+            raise SceneError(f"name must be a string, got {name!r}")
+        self._set(mesh=mesh, material=material, name=name or "body", _named=name is not None)
+        if contact is not None and not isinstance(contact, str):
+            raise SceneError(f"{self.name}: contact must be one boundary tag (a string) or None, got {contact!r}")
+        self._set(clamped=self._tags(clamped, "clamped"), grounded=self._tags(grounded, "grounded"),
+                  contact=None if contact is None else self._tags(contact, "contact")[0],
+                  roller=self._tags(roller, "roller"),
+                  body_force=Load(body_force, f"{self.name}: body_force", 2),
+                  volume_charge=Load(volume_charge, f"{self.name}: volume_charge", 1))
+        self._set(
+            traction=self._map("traction", {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
+                                            for t, v in self._parts(traction, "traction").items()}),
+            surface_charge=self._map("surface_charge", {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
+                                                        for t, v in self._parts(surface_charge,
+                                                                                "surface_charge").items()}),
+            potential=self._map("potential", {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
+                                              for t, v in self._parts(potential, "potential").items()}),
+            displacement=self._map("displacement", {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
+                                                    for t, v in self._parts(displacement, "displacement").items()}),
+            floating=self._map("floating", {t: _charge(v, f"{self.name}: floating[{t!r}]")
+                                            for t, v in self._parts(floating, "floating").items()}))
         self._check_parts()
+
+    # ------------------------------------------------------------------ immutability and variants
+
+    def _label(self, k: int) -> None:
+        """An unnamed body is called "body k" after its place in the first scene it joins (messages only:
+        the name is neither geometry nor load)."""
+        if not self._named and self.name == "body":
+            object.__setattr__(self, "name", f"body {k}")
+
+    def _frozen_hint(self, name: str) -> str:
+        if name in LOAD_FIELDS:
+            return f"build a new Body with body.with_loads({name}=...) (and a new Scene with scene.with_bodies(...))"
+        return (f"build a new Body with body.with_changes({name}=...) (and a new Scene with scene.with_bodies(...))")
+
+    def _map(self, field, items):
+        return FrozenMap(items, f"Body.{field}", self._frozen_hint(field))
+
+    def _arguments(self) -> dict:
+        """The constructor's keyword arguments that rebuild this body (loads as given: constants or callables)."""
+        return dict(mesh=self.mesh, material=self.material, clamped=self.clamped, contact=self.contact,
+                    grounded=self.grounded, potential={t: v.value for t, v in self.potential.items()},
+                    body_force=self.body_force.value, traction={t: v.value for t, v in self.traction.items()},
+                    surface_charge={t: v.value for t, v in self.surface_charge.items()},
+                    volume_charge=self.volume_charge.value, name=self.name if self._named else None,
+                    roller=self.roller, displacement=dict(self.displacement), floating=dict(self.floating))
+
+    def with_changes(self, **fields) -> "Body":
+        """A new body: this one with some constructor arguments replaced (``mesh``, ``material``, parts,
+        loads, ``name``; as :class:`Body` takes them, units there), validated afresh. A change outside the
+        loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`) is a new geometry: a prepared ContactSolver
+        refuses it. ``body.with_changes(mesh=finer, clamped=["top", "left"])``."""
+        args = self._arguments()
+        unknown = sorted(set(fields) - set(args))
+        if unknown:
+            raise SceneError(f"{self.name}: with_changes got unknown field(s) {unknown}; a Body takes {sorted(args)}")
+        args.update(fields)
+        return Body(args.pop("mesh"), args.pop("material"), **args)
+
+    def with_loads(self, **loads) -> "Body":
+        """A new body with the same geometry and other loads: any of ``body_force`` ((2,) or f(x, y), N/m^3),
+        ``traction`` (tag -> (2,) or callable, N/m^2), ``surface_charge`` (tag -> C/m^2), ``volume_charge``
+        (C/m^3), ``potential`` (tag -> V; the same driven electrodes) and ``floating`` (tag -> Q, C/m; the
+        same floating electrodes), as :class:`Body` takes them; each given field replaces the body's whole
+        field, the others are kept. The :data:`~cvxcontact.physics.loads.LOAD_FIELDS`: a ContactSolver
+        prepared for this body re-solves the result (its geometry fingerprint is the same). For a new
+        geometry use :meth:`with_changes`. ``body.with_loads(body_force=(0.0, -2e9), potential={"top": 50.0})``."""
+        other = sorted(set(loads) - set(LOAD_FIELDS))
+        if other:
+            raise SceneError(f"{self.name}: with_loads takes the loads {list(LOAD_FIELDS)}, got {other}: "
+                             "those are geometry (use body.with_changes(...) for a new geometry)")
+        for field in ("potential", "floating"):
+            if field in loads:
+                given, held = loads[field], getattr(self, field)
+                tags = sorted(given) if isinstance(given, Mapping) else None
+                if tags != sorted(held):
+                    raise SceneError(f"{self.name}: with_loads({field}=...) changes the values of the "
+                                     f"{'driven' if field == 'potential' else 'floating'} electrodes "
+                                     f"{sorted(held)} and must name exactly those (got {given!r}); which parts are "
+                                     f"electrodes is geometry: use body.with_changes({field}=...)")
+        return self.with_changes(**loads)
 
     def __repr__(self):
         return f"Body({self.name!r}, {self.mesh!r}, {self.material!r})"
@@ -102,12 +174,15 @@ class Body:
         return self.material.piezoelectric
 
     def _tags(self, tags, role):
+        if isinstance(tags, Mapping) or not (isinstance(tags, str) or isinstance(tags, Iterable)):
+            raise SceneError(f"{self.name}: {role} must be a boundary tag or a sequence of tags (strings), "
+                             f"got {tags!r}")
         tags = [tags] if isinstance(tags, str) else list(tags)
         for t in tags:
             if not isinstance(t, str) or t not in self.mesh.tags:
                 raise SceneError(f"{self.name}: {role} names unknown boundary tag {t!r}; "
                                  f"the mesh has {sorted(self.mesh.tags)}")
-        return tags
+        return FrozenTuple(tags, f"Body.{role}", self._frozen_hint(role))
 
     def _parts(self, loads, role):
         if loads is None:
@@ -120,31 +195,24 @@ class Body:
     def _check_parts(self):
         mechanical = ([("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
                       + [("roller", t) for t in self.roller] + [("displacement", t) for t in self.displacement])
-        mechanical.append(("contact", self.contact))
+        if self.contact is not None:
+            mechanical.append(("contact", self.contact))
         _disjoint(self, mechanical)
-        self._roller_normals = {t: _straight_normal(self, t) for t in self.roller}
-        contact_nodes = self.mesh.boundary_nodes([self.contact])
-        if self.clamped and np.isin(contact_nodes, self.mesh.boundary_nodes(self.clamped)).all():
-            raise SceneError(f"{self.name}: every node of the contact part {self.contact!r} is clamped; "
-                             "the body cannot take part in the contact")
-        for tag, value in self.displacement.items():
-            if any(v not in (None, 0.0) for v in value) and np.isin(self.mesh.boundary_nodes([tag]),
-                                                                      contact_nodes).any():
-                raise SceneError(f"{self.name}: the prescribed displacement {tag!r} = {value} touches the "
-                                 f"contact part {self.contact!r}; a non-zero displacement on a contact node "
-                                 "is not supported (prescribe it away from the contact line)")
+        self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
+        # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
+        # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
         self.node_supports()                                # consistent at every node (or a SceneError)
         self._check_kinematics()
         if self.piezoelectric:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
                                  "(Gamma_a is empty); its potential is undetermined")
-            self._check_components(self.grounded + list(self.potential),
+            self._check_components([*self.grounded, *self.potential],
                                    "touches no grounded or driven electrode: its potential is undetermined")
             _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
                       + [("surface_charge", t) for t in self.surface_charge]
                       + [("floating", t) for t in self.floating])
-            fixed = self.mesh.boundary_nodes(self.grounded + list(self.potential))
+            fixed = self.mesh.boundary_nodes([*self.grounded, *self.potential])
             seen = np.zeros(0, dtype=int)
             for tag in self.floating:
                 nodes = self.mesh.boundary_nodes([tag])
@@ -164,198 +232,37 @@ class Body:
                                  "volume_charge")
 
     def supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The kinematic constraints of the supports, one row per constrained direction at a node.
-
-        Returns ``(nodes, directions, values)``: u(node) . direction = value (m), with unit
-        directions: two rows per clamped node (u = 0), one per prescribed component of a
-        ``displacement`` part, one per node of a ``roller`` part (u . n = 0, n the part's unit
-        normal). Rows may repeat or be dependent at corners; conflicting values raise a
-        SceneError when the prolongation is built (:func:`cvxcontact.fem.assembly.prolongation`).
-        ``nodes``: another node set of the mesh with ``points`` and ``boundary_nodes`` (the
-        :class:`~cvxcontact.geometry.quadratic.P2Nodes` of P2 elements); default the mesh's vertices.
-        """
-        mesh = self.mesh if nodes is None else nodes
-        nodes, dirs, vals = [], [], []
-        eye = np.eye(2)
-        if self.clamped:
-            c = mesh.boundary_nodes(self.clamped)
-            for k in range(2):
-                nodes.append(c)
-                dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
-                vals.append(np.zeros(len(c)))
-        for tag, value in self.displacement.items():
-            c = mesh.boundary_nodes([tag])
-            for k in range(2):
-                if value[k] is not None:
-                    nodes.append(c)
-                    dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
-                    vals.append(np.full(len(c), value[k]))
-        for tag in self.roller:
-            c = mesh.boundary_nodes([tag])
-            nodes.append(c)
-            dirs.append(np.broadcast_to(self._roller_normals[tag], (len(c), 2)))
-            vals.append(np.zeros(len(c)))
-        if not nodes:
-            return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
-        return np.concatenate(nodes), np.concatenate(dirs), np.concatenate(vals)
+        """The kinematic constraints of the supports (:func:`cvxcontact.physics.supports.supports`)."""
+        return _supports.supports(self, nodes)
 
     def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The supports reduced node by node: ``(free, tangent, u_fixed)``.
+        """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`)."""
+        return _supports.node_supports(self, nodes)
 
-        ``free`` (n,) the number of free displacement components of each node (2, 1 or 0),
-        ``tangent`` (n, 2) the free unit direction of the nodes with one, ``u_fixed`` (2n,) the
-        prescribed displacement (m; the least-squares value of the node's rows, which must hold
-        exactly: conflicting supports at a node raise a SceneError). ``nodes`` as in :meth:`supports`.
-        """
-        mesh = self.mesh if nodes is None else nodes
-        n = len(mesh.points)
-        nodes, dirs, vals = self.supports(nodes)
-        u_fixed, free, tangent = np.zeros(2 * n), np.full(n, 2), np.zeros((n, 2))
-        order = np.argsort(nodes, kind="stable")
-        nodes, dirs, vals = nodes[order], dirs[order], vals[order]
-        starts = np.flatnonzero(np.r_[True, np.diff(nodes) != 0]) if len(nodes) else np.zeros(0, dtype=int)
-        for a, b in zip(starts, np.r_[starts[1:], len(nodes)]):          # boundary nodes only
-            i, D, v = int(nodes[a]), dirs[a:b], vals[a:b]
-            _, sv, Vt = np.linalg.svd(D)
-            rank = int((sv > 1e-9).sum())
-            ud = np.linalg.lstsq(D, v, rcond=1e-9)[0]
-            if np.abs(D @ ud - v).max() > 1e-9 * max(float(np.abs(v).max()), 1e-300):
-                rows = ", ".join(f"u.({d[0]:.3g}, {d[1]:.3g}) = {x:.6g}" for d, x in zip(D, v))
-                raise SceneError(f"{self.name}: the supports prescribe incompatible displacements at node {i} "
-                                 f"({mesh.points[i, 0]:.6g}, {mesh.points[i, 1]:.6g}) m: {rows}")
-            u_fixed[2 * i:2 * i + 2] = ud
-            free[i] = 2 - rank
-            if rank == 1:
-                tangent[i] = Vt[1]
-        return free, tangent, u_fixed
+    def free_motions(self, contact: bool | Sequence[str] = True) -> list[str]:
+        """The rigid motions nothing holds, as readable names (:func:`cvxcontact.physics.supports.free_motions`)."""
+        return _supports.free_motions(self, contact)
 
-    def free_motions(self, contact: bool = True) -> list[str]:
-        """The rigid motions of the body that nothing holds, as readable names (empty if none).
-
-        A rigid motion u(x) = (tx - w (y - yc), ty + w (x - xc)) is held by the supports if some
-        support row has u . direction != 0, and (``contact=True``) by the contact part if
-        u . nu != 0 at some of its nodes (nu the outward normal; contact holds on one side only).
-        Each connected piece of the mesh is checked on its own.
-        """
-        mesh = self.mesh
-        count = int(mesh.components.max()) + 1
-        out = []
-        for c, free, centre, size in self._free_basis(contact):
-            where = ""
-            if count > 1 and len(free):
-                inside = mesh.components == c
-                area = mesh.areas[inside]
-                cg = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
-                where = (f" of mesh component {c} ({int(inside.sum())} triangles, centroid at "
-                         f"({cg[0]:.4g}, {cg[1]:.4g}) m)")
-            out += [_motion_name(v, centre, size) + where for v in free]
-        return out
-
-    def check_pressed(self, f: np.ndarray, nodes=None) -> None:
-        """For the rigid motions only the contact holds: raise SceneError unless the nodal load ``f``
-        ((2n,) N/m, the lifted load of the body) can be balanced by compressive contact forces on the
-        contact part (lambda_i >= 0 along -nu_i at its nodes) in those motions, with a non-zero
-        resultant: otherwise the load pulls the body off its support (or leaves it undetermined).
-        ``nodes``: the node set of ``f`` (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default
-        the mesh's vertices."""
-        from scipy.optimize import nnls
-
-        if not self.held_by_contact:
-            return
-        mesh = self.mesh
-        points, comp = self._node_set(nodes)
-        cn, cdir = mesh.boundary_nodes([self.contact]), _node_normals(mesh, self.contact)
-        for c, V, centre, size in self._free_basis():
-            nodes = np.flatnonzero(comp == c)
-            x = (points[nodes] - centre) / size
-            fx, fy = f[2 * nodes], f[2 * nodes + 1]
-            b = V @ np.array([fx.sum(), fy.sum(), (-x[:, 1] * fx + x[:, 0] * fy).sum()])
-            keep = mesh.node_components[cn] == c
-            xc, d = (mesh.points[cn[keep]] - centre) / size, cdir[keep]
-            A = V @ np.vstack([d[:, 0], d[:, 1], -xc[:, 1] * d[:, 0] + xc[:, 0] * d[:, 1]])
-            _, res = nnls(A, b)
-            if not np.linalg.norm(b) > 1e-12 * float(np.abs(f).sum()) or res > 1e-9 * np.linalg.norm(b):
-                names = [_motion_name(v, centre, size) for v in V]
-                raise SceneError(f"{self.name}: the load pulls the body off its support along {names} (held by "
-                                 f"the contact only; its net load there, {np.round(b, 9).tolist()} N/m, cannot be "
-                                 "carried by compressive contact forces): add a support, or load it towards the "
-                                 "contact")
+    def motion_name(self, coefficients: ArrayLike) -> str:
+        """A readable name of a combination of :meth:`held_modes` (:func:`cvxcontact.physics.supports.motion_name`)."""
+        return _supports.motion_name(self, coefficients)
 
     def held_modes(self, nodes=None) -> np.ndarray:
-        """(k, 2 n_nodes): the rigid motions only the contact holds, as nodal displacement fields
-        (x, y interleaved per node; translations in m per unit, rotations scaled by the piece's size).
-        Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check.
-        ``nodes``: the node set (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default the mesh's
-        vertices."""
-        points, comp = self._node_set(nodes)
-        rows = []
-        if self.held_by_contact:
-            for c, V, centre, size in self._free_basis():
-                on = (comp == c).astype(float)
-                x = (points - centre) / size
-                for tx, ty, w in V:
-                    r = np.empty(2 * len(points))
-                    r[0::2] = on * (tx - w * x[:, 1])
-                    r[1::2] = on * (ty + w * x[:, 0])
-                    rows.append(r)
-        return np.array(rows).reshape(-1, 2 * len(points))
+        """(k, 2 n_nodes): the rigid motions no support holds, as nodal fields
+        (:func:`cvxcontact.physics.supports.held_modes`)."""
+        return _supports.held_modes(self, nodes)
 
-    def _node_set(self, nodes):
-        """(points (n, 2) m, mesh component of each node) of the mesh's vertices or of ``nodes`` (a node
-        set of the mesh with ``points`` and ``triangles`` (m, k), e.g. the P2 nodes)."""
-        mesh = self.mesh
-        if nodes is None:
-            return mesh.points, mesh.node_components
-        comp = np.empty(len(nodes.points), dtype=mesh.node_components.dtype)
-        comp[np.asarray(nodes.triangles).ravel()] = np.repeat(mesh.components, np.shape(nodes.triangles)[1])
-        return nodes.points, comp
-
-    def _free_basis(self, contact=False):
-        """Per mesh component with rigid motions the supports (and with ``contact`` the contact part's
-        normals) leave free: (component, V (k, 3) orthonormal rows of (tx, ty, w) in scaled coordinates,
-        centre (m), size (m))."""
-        mesh = self.mesh
-        nodes, dirs, _ = self.supports()
-        if contact:
-            nodes = np.concatenate([nodes, mesh.boundary_nodes([self.contact])])
-            dirs = np.concatenate([dirs, _node_normals(mesh, self.contact)])
-        out = []
-        for c in range(int(mesh.components.max()) + 1):
-            pts = mesh.points[mesh.node_components == c]
-            centre = pts.mean(axis=0)
-            size = float(np.ptp(pts, axis=0).max()) or 1.0
-            keep = mesh.node_components[nodes] == c
-            x = (mesh.points[nodes[keep]] - centre) / size
-            d = dirs[keep]
-            A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
-            _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((3, 3))]))
-            free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
-            if len(free):
-                out.append((c, free, centre, size))
-        return out
-
-    def require_supports(self) -> None:
-        """Raise SceneError if some rigid motion of the body is held by the contact only.
-
-        Such a body (a block resting on another under its own weight) has a singular stiffness; its
-        exact solve (the contact forces balancing the load on the free motions) is not supported yet.
-        """
-        if self.held_by_contact:
-            raise SceneError(f"{self.name}: the rigid motion(s) {self.held_by_contact} are held by the contact "
-                             "only; a body held only by contact is not supported yet: add a clamped, roller or "
-                             "displacement support that stops them")
+    held_by_contact: tuple[str, ...]
+    """The rigid motions no support holds, which the contact must hold (readable names, see
+    :meth:`free_motions`; decided with the scene's pairs and loads, :mod:`cvxcontact.fem.kernel`); empty
+    when the supports hold every rigid motion."""
 
     def _check_kinematics(self):
-        self.held_by_contact: list[str] = []     # rigid motions only the contact holds (see free_motions)
-        free = self.free_motions(contact=False)
-        if not free:
-            return
-        unheld = self.free_motions(contact=True)
-        if unheld:
-            raise SceneError(f"{self.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
-                             "displacement support that stops it (contact is unilateral and holds only along "
-                             "the normal of the contact part)")
-        self.held_by_contact = free
+        # the rigid motions no support holds (see free_motions): the contact must hold them. Whether it does
+        # depends on the scene's pairs and loads: refused by the Scene (a motion no contact part resists,
+        # _refuse_unheld) or when the problem is built (cvxcontact.fem.kernel.check_well_posed)
+        self._set(held_by_contact=FrozenTuple(self.free_motions(contact=False), "Body.held_by_contact",
+                                              "it follows from the supports"))
 
     def _check_components(self, tags, problem):
         """Every connected piece of the mesh (``Mesh.components``) has an edge on one of ``tags``."""
@@ -376,31 +283,6 @@ class Body:
                          f"{count} separate pieces of the mesh to touch one of {tags}")
 
 
-def _motion_name(v, centre, size):
-    """A readable name of the rigid motion (tx, ty, w) (scaled coordinates, see Body.free_motions)."""
-    tx, ty, w = v
-    if abs(w) <= 1e-9:
-        t = np.array([tx, ty]) / np.hypot(tx, ty)
-        if abs(t[1]) <= 1e-9:
-            return "translation x"
-        if abs(t[0]) <= 1e-9:
-            return "translation y"
-        return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
-    xc, yc = centre[0] - ty / w * size, centre[1] + tx / w * size
-    return f"rotation about ({xc:.4g}, {yc:.4g}) m"
-
-
-def _node_normals(mesh, tag):
-    """(boundary_nodes(tag), 2) unit outward normals of a part at its nodes (mean of the adjacent edges)."""
-    nodes = mesh.boundary_nodes([tag])
-    edges, normals = mesh.boundary(tag), mesh.outward_normals(tag)
-    acc = np.zeros((len(mesh.points), 2))
-    np.add.at(acc, edges[:, 0], normals)
-    np.add.at(acc, edges[:, 1], normals)
-    n = acc[nodes]
-    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-
-
 def _straight_normal(body, tag):
     """The unit outward normal of a straight boundary part; a SceneError if the part is not straight."""
     normals = body.mesh.outward_normals(tag)
@@ -410,6 +292,7 @@ def _straight_normal(body, tag):
     if dev > 1e-9:
         raise SceneError(f"{body.name}: roller part {tag!r} is not straight (its edge normals differ by up to "
                          f"{dev:.3g}); a roller needs one normal direction (split the part into straight pieces)")
+    n.setflags(write=False)
     return n
 
 
@@ -438,6 +321,23 @@ def _charge(value, label):
     return float(value)
 
 
+def _refuse_unheld(scene):
+    """SceneError for a rigid motion of a body that no support holds and that no contact part of the body
+    resists in either direction (u . nu = 0 along each of its parts: a motion tangential to them): whatever
+    the partners and the loads, nothing determines it. What the contact resists in one direction only is
+    decided with the loads, on the assembled problem (:func:`cvxcontact.fem.kernel.check_well_posed`)."""
+    for b in scene.bodies:
+        if not b.held_by_contact:
+            continue
+        parts = list(dict.fromkeys([c.part_a for c in scene.contacts if c.body_a is b]
+                                   + [c.part_b for c in scene.contacts if c.other is b]))
+        unheld = b.free_motions(contact=parts)
+        if unheld:
+            raise SceneError(f"{b.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
+                             f"displacement support that stops it (contact is unilateral and holds only along "
+                             f"the normal of the contact part(s) {parts})")
+
+
 def _disjoint(body, roles):
     seen = {}
     for role, tag in roles:
@@ -446,18 +346,18 @@ def _disjoint(body, roles):
         seen[tag] = role
 
 
-class Load:
+class Load(Frozen):
     """A constant or a vectorised callable of (x, y), evaluated and checked on demand.
 
-    Constants must be real numbers (booleans and complex numbers are refused). A
-    callable receives read-only copies of the coordinates (m) and its result is
-    copied, so no load can write into the meshes or the contact interface.
+    Constants must be real numbers (booleans and complex numbers are refused) and are kept as
+    read-only arrays; a load is immutable. A callable receives read-only copies of the coordinates
+    (m) and its result is copied, so no load can write into the meshes or the contact interface.
     """
 
     def __init__(self, value, label, ncomp):
-        self.label, self.ncomp = label, ncomp
+        self._set(label=label, ncomp=ncomp)
         if callable(value):
-            self.value = value
+            self._set(value=value)
             return
         expected = "a number" if ncomp == 1 else f"a sequence of {ncomp} numbers"
         if not _real_numbers(value):
@@ -471,7 +371,10 @@ class Load:
         if not np.isfinite(v).all():
             raise SceneError(f"{label}: NaN or infinite value {v.tolist()}")
         v.setflags(write=False)
-        self.value = v
+        self._set(value=v)
+
+    def _frozen_hint(self, name: str) -> str:
+        return "build a new Body with body.with_loads(...) (a new scene gap: scene.with_gap(...))"
 
     @property
     def nonzero(self) -> bool:
@@ -543,7 +446,7 @@ def _frozen(a):
     return a
 
 
-class Scene:
+class Scene(Frozen):
     """Bodies in frictionless contact along straight segments.
 
     ``Scene(body1, body2)``: the paper's scene, two bodies touching along each body's ``contact``
@@ -563,6 +466,11 @@ class Scene:
     ``stack`` (all pairs' rows stacked, what the solvers use), ``obstacles`` (one
     :class:`~cvxcontact.physics.pairs.ObstacleRows` per distinct rigid obstacle; a force-controlled
     one whose force compressive contact cannot balance is refused here, docs/formulation.md §12).
+
+    A scene is immutable (tuples; assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`),
+    so what a solver prepared from it always matches it. A changed scene is a new one:
+    :meth:`with_bodies`, :meth:`with_loads` (one body's loads), :meth:`with_gap` and
+    :meth:`with_obstacles` (a moved obstacle, or one under another force).
     """
 
     def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,
@@ -571,9 +479,8 @@ class Scene:
             if not isinstance(b, Body):
                 raise SceneError(f"Scene takes Body objects; argument {k} is {type(b).__name__}")
         for k, b in enumerate(bodies, start=1):
-            if b.name == "body":
-                b.name = f"body {k}"
-        self.bodies = tuple(bodies)
+            b._label(k)
+        self._set(bodies=self._tuple("bodies", bodies), _given_gap=gap)
         if contacts is None:
             if len(bodies) != 2:
                 raise SceneError(f"Scene without contacts= takes exactly two bodies (each body's contact= part "
@@ -581,11 +488,15 @@ class Scene:
                                  "contacts=[cc.Contact(...), ...]")
             if bodies[0] is bodies[1]:
                 raise SceneError("Scene needs two distinct bodies")
-            self._legacy = True
-            self.contacts = (Contact(bodies[0], bodies[0].contact, bodies[1], bodies[1].contact),)
+            for b in bodies:
+                if b.contact is None:
+                    raise SceneError(f"{b.name}: Scene(body1, body2) pairs the bodies' contact= parts and this body "
+                                     "has none: give Body(..., contact=\"tag\"), or pass the pairs with "
+                                     "Scene(..., contacts=[cc.Contact(...)])")
+            pairs = (Contact(bodies[0], bodies[0].contact, bodies[1], bodies[1].contact),)
+            self._set(_legacy=True, contacts=self._tuple("contacts", pairs))
         else:
-            self._legacy = False
-            self.contacts = self._check_contacts(contacts, gap)
+            self._set(_legacy=False, contacts=self._tuple("contacts", self._check_contacts(contacts, gap)))
         members, interfaces = [], []
         for i, c in enumerate(self.contacts):
             a = self._index(c.body_a)
@@ -605,13 +516,87 @@ class Scene:
                     raise
                 raise SceneError(f"contacts[{i}] {c!r}: {exc}") from exc
             interfaces.append(itf)
-        self.interfaces = tuple(interfaces)
-        self.interface = self.interfaces[0]
-        self.stack = Stack(self.interfaces, members)
-        self.conditions = tuple(c.condition for c in self.contacts)
-        self.gap = Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1)
+        self._set(interfaces=self._tuple("interfaces", interfaces), interface=interfaces[0],
+                  stack=Stack(interfaces, members), conditions=self._tuple("conditions", (c.condition for c in
+                                                                                         self.contacts)),
+                  gap=Load(gap if not callable(gap) else (lambda x, y, g=gap: g(x)), "scene: gap", 1))
+        _refuse_unheld(self)
         self.gap_values()                                    # check it now: finite, right shape
-        self.obstacles = obstacle_rows(self)                 # rigid obstacles; force control checked here
+        self._set(obstacles=self._tuple("obstacles", obstacle_rows(self)))   # force control checked here
+
+    # ------------------------------------------------------------------ immutability and variants
+
+    def _frozen_hint(self, name: str) -> str:
+        hints = {"bodies": "build a new scene with scene.with_bodies(*bodies) (one body per body, in order)",
+                 "gap": "build a new scene with scene.with_gap(g)",
+                 "obstacles": "build a new scene with scene.with_obstacles(*obstacles) (e.g. rigid.moved(by=...))"}
+        return hints.get(name, "build a new Scene (scene.with_bodies, with_loads, with_gap, with_obstacles make the "
+                               "usual changes)")
+
+    def _tuple(self, field, items):
+        return FrozenTuple(items, f"Scene.{field}", self._frozen_hint(field))
+
+    def _rebuilt(self, bodies, contacts, gap) -> "Scene":
+        return Scene(*bodies, gap=gap) if self._legacy else Scene(*bodies, contacts=contacts)
+
+    def with_bodies(self, *bodies: Body) -> "Scene":
+        """A new scene with the same pairs (parts, gaps, conditions, laws, obstacles) on other bodies: one per
+        body of this scene, in its order (e.g. ``body.with_loads(...)``; bodies with the same geometry keep a
+        prepared ContactSolver valid)."""
+        if len(bodies) != len(self.bodies):
+            raise SceneError(f"with_bodies takes one body per body of the scene ({len(self.bodies)}, in order), "
+                             f"got {len(bodies)}")
+        for k, b in enumerate(bodies, start=1):
+            if not isinstance(b, Body):
+                raise SceneError(f"with_bodies takes Body objects; argument {k} is {type(b).__name__}")
+        swap = {id(old): new for old, new in zip(self.bodies, bodies)}
+        contacts = [c.with_changes(body_a=swap[id(c.body_a)], other=c.other if c.rigid else swap[id(c.other)])
+                    for c in self.contacts]
+        return self._rebuilt(bodies, contacts, self._given_gap)
+
+    def with_loads(self, body: int | Body, **loads) -> "Scene":
+        """A new scene in which ``body`` (its index in ``bodies`` or the Body itself) has other loads:
+        ``scene.with_loads(0, body_force=(0.0, -2e9))`` is ``scene.with_bodies(b0.with_loads(...), b1, ...)``
+        (units and fields: :meth:`Body.with_loads`)."""
+        k = body if isinstance(body, (int, np.integer)) and not isinstance(body, bool) else None
+        if k is None:
+            k = self._index(body) if isinstance(body, Body) else None
+        if k is None or not 0 <= k < len(self.bodies):
+            raise SceneError(f"with_loads: body must be a Body of the scene or its index 0..{len(self.bodies) - 1}, "
+                             f"got {body!r}")
+        return self.with_bodies(*(b.with_loads(**loads) if i == k else b for i, b in enumerate(self.bodies)))
+
+    def with_gap(self, gap: float | Callable[[np.ndarray], ArrayLike], pair: int | None = None) -> "Scene":
+        """A new scene with another initial gap g (m; a number or a vectorised callable g(s) of the tangential
+        coordinate s, m): the scene's gap for ``Scene(body1, body2)``, pair ``pair``'s gap (an index into
+        ``contacts``; optional when there is one pair) for a scene with ``contacts=``."""
+        if self._legacy:
+            if pair not in (None, 0):
+                raise SceneError(f"with_gap: this scene has one pair (pair 0), got pair={pair!r}")
+            return Scene(*self.bodies, gap=gap)
+        if pair is None and len(self.contacts) == 1:
+            pair = 0
+        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or not 0 <= pair < len(self.contacts):
+            raise SceneError(f"with_gap: name the pair whose gap changes, pair = 0..{len(self.contacts) - 1} (the "
+                             f"index into scene.contacts), got pair={pair!r}")
+        contacts = [c.with_changes(gap=gap) if i == pair else c for i, c in enumerate(self.contacts)]
+        return Scene(*self.bodies, contacts=contacts)
+
+    def with_obstacles(self, *obstacles: Rigid) -> "Scene":
+        """A new scene with other rigid obstacles: one per entry of ``obstacles`` (the scene's distinct
+        obstacles, in that order), each taking the place of the old one in every pair against it, e.g.
+        ``scene.with_obstacles(scene.obstacles[0].obstacle.moved(by=(0.11, 0.0)))``
+        (:meth:`Rigid.moved`, :meth:`Rigid.with_force`)."""
+        old = [o.obstacle for o in self.obstacles]
+        if len(obstacles) != len(old):
+            raise SceneError(f"with_obstacles takes one obstacle per rigid obstacle of the scene ({len(old)}: "
+                             f"{old!r}, in order), got {len(obstacles)}")
+        for k, o in enumerate(obstacles, start=1):
+            if not isinstance(o, Rigid):
+                raise SceneError(f"with_obstacles takes Rigid obstacles; argument {k} is {type(o).__name__}")
+        swap = {id(a): b for a, b in zip(old, obstacles)}
+        contacts = [c.with_changes(other=swap[id(c.other)]) if c.rigid else c for c in self.contacts]
+        return Scene(*self.bodies, contacts=contacts)
 
     def _index(self, body) -> int:
         for k, b in enumerate(self.bodies):

@@ -17,41 +17,12 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..backends.finish import force_displacements, ipm_active, node_scales  # noqa: F401  (re-exported)
 from ..contact.quadratic import bernstein_max
 
 __all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
-
-
-def node_scales(parts, g, extra=None):
-    """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
-    displacement scale U_a: the sizes of both parts there plus the gap plus ``extra`` (the local
-    displacement of the row's own force, :func:`force_displacements`), floored at 1e-9 of the largest."""
-    U = sum(np.abs(p) for p in parts) + np.abs(g)
-    if extra is not None:
-        U = U + extra
-    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
-
-
-def force_displacements(blocks, E, y):
-    """w_a |y_a|: the displacement the contact force y_a of row a produces through the diagonal of each
-    body's stiffness, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj (scaled units). A node held at exactly
-    [u_nu] = g by a rigid obstacle or a stuck partner has no other displacement scale (docs/checks.md)."""
-    w = np.zeros(E.shape[0])
-    for b in blocks:
-        R = (E @ b.jump).tocsr()
-        d = b.Kuu.diagonal()
-        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
-    return w * np.abs(y)
-
-
-def ipm_active(parts, g, y, extra=None):
-    """Active rows of an interior-point answer: the force, relative to the largest contact force,
-    beats the open gap relative to the row's displacement scale (free of units and load scale;
-    ``extra`` as in :func:`node_scales`, e.g. :func:`force_displacements`)."""
-    slack, U = node_scales(parts, g, extra)
-    return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
 
 
 def checks(blocks, u, phi, Mlam, E, g, y):

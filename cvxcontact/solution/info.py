@@ -11,53 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from enum import StrEnum
 from types import MappingProxyType
 
+from ..backends.result import Finish, Route, Status
+
 __all__ = ["Status", "Route", "Finish", "SolveInfo"]
-
-
-class Status(StrEnum):
-    """Status of the solve (the solver's, or OPTIMAL for a verified active-set warm start)."""
-
-    OPTIMAL = "optimal"
-    OPTIMAL_INACCURATE = "optimal_inaccurate"
-
-
-class Route(StrEnum):
-    """The route that produced the arrays of a :class:`~cvxcontact.solution.Solution`."""
-
-    INTERIOR_POINT = "interior point"
-    """The interior-point answer as it came from the solver (no finish, or the finish was declined)."""
-    INTERIOR_POINT_FINISHED = "interior point + exact finish"
-    """An interior-point solve, then the exact active-set finish."""
-    WARM_START = "active-set warm start"
-    """A re-solve of a ContactSolver from the previous active set: no convex program, no iterations."""
-    NEWTON_ONLY = "semismooth Newton (the interior point failed)"
-    """Normal compliance: the solver failed on the convex program (e.g. a very stiff law); the exact
-    finish, globally convergent on its own, solved the interface equation from the free slack."""
-    SPARSE_ACTIVE_SET = "active-set steps on the sparse mixed system"
-    """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
-    bonded system, no convex program (``iterations``: the systems solved)."""
-    INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
-    """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
-    NO_CONTACT = "no contact at zero force: the unconstrained solution"
-    """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
-    merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
-    SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
-    """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
-    compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the
-    mixed system from the condensed active set and its answer passed them."""
-
-
-class Finish(StrEnum):
-    """How the exact finish found its active set (:func:`cvxcontact.backends.finish.solve_lcp`)."""
-
-    ACTIVE_SET = "active set"
-    ACTIVE_SET_AFTER_NNLS = "active set after NNLS"
-    NNLS = "NNLS"
-    SEMISMOOTH_NEWTON = "semismooth Newton"
-    """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
 
 
 def _frozen_timings(timings: Mapping[str, float] | None) -> Mapping[str, float]:

@@ -23,7 +23,7 @@ from ..physics.scene import Scene
 from .checks import checks, compliance_checks, conic_checks, obstacle_balance, rigid_balance
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back", "read_back_compliance",
+__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back_nodal", "read_back_compliance",
            "read_back_conic_mix",
            "obstacle_results"]
 
@@ -289,29 +289,35 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
         sol._checks["obstacle balance"] = worst
 
 
-def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, polished, problem, tol, timings,
-              interface=None, beta=None, nodes=None, cone=None):
-    """Scaled (u, phi, y) -> a Solution in SI with lambda_h and the checks of (26)-(27).
+def _fields(problem, raw):
+    """The names the read-backs share, from a problem and a raw result (scaled)."""
+    return (problem.scene, problem.condition, problem.blocks, problem.systems, problem.units, problem.E,
+            problem.moved_gap(raw.taus), raw.u, raw.phi)
 
-    P2 (``interface`` a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` of the scene's one
-    pair): with the conic condition, ``beta`` (S, 3) are the Bernstein duals of each merged segment,
-    ``y`` is the nodal force r = B^T beta and M lambda_h = r (docs/formulation.md §8); ``nodes`` the
-    :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body. ``cone``: (B, segments) of the conic rows
-    when they are not the interface's own :meth:`bernstein` and ``segments`` (several P2 pairs, some of
-    them nodal: :meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`); the constrained nodes are
-    then the nodes B reads.
+
+def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
+    """Scaled (u, phi, y) of ``raw`` -> a Solution in SI with lambda_h and the checks of (26)-(27) (nodal rows,
+    ``raw.active`` the closed ones; the gap that force-controlled obstacles moved to).
+
+    P2: with the conic condition, ``raw.beta`` (S, 3) are the Bernstein duals of each merged segment, ``raw.y``
+    is the nodal force r = B^T beta on X_h and M lambda_h = r (docs/formulation.md §8); the cone's rows (B,
+    segments) are ``problem.lines.cone`` and the constrained nodes the nodes B reads.
     """
-    p2 = interface is not None
-    itf = scene.stack if not p2 else interface
+    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
+    y, active, polished, problem_, beta, nodes = raw.y, raw.active, raw.polished, raw.program, raw.beta, problem.nodes
+    p2 = nodes is not None
+    itf = problem.interface
+    interface = itf if p2 else None
     g = E @ gap
     Ety = E.T @ y
     if p2:
         lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
     else:
         lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
-    jump = sum(b.jump @ uk for b, uk in zip(blocks, u))
+    shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
+    jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     if beta is not None:
-        B, segments = (itf.bernstein(), itf.segments) if cone is None else cone
+        B, segments = problem.lines.cone
         checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
         S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
         active = np.zeros(itf.size, dtype=bool)
@@ -327,7 +333,7 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
     u_si, phi_si = [], []
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
         full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
-        u_si.append(full.reshape(-1, 2))
+        u_si.append(full.reshape(-1, problem.dim))
         if pk is None:
             phi_si.append(None)
             continue
@@ -351,25 +357,25 @@ def read_back(scene, condition, blocks, systems, un, E, gap, u, phi, y, active, 
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
-            gap=gap[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
+            gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
             degree=2 if p2 else 1))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
     contact = contacts[0]
-    info = SolveInfo(status=problem.status if problem is not None else Status.OPTIMAL, method="",
+    info = SolveInfo(status=problem_.status if problem_ is not None else Status.OPTIMAL, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     pts = [b.mesh.points for b in scene.bodies] if nodes is None else [n.points for n in nodes]
-    return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem,
+    return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
                     degree=2 if p2 else 1, interface=interface,
                     electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
 
 
-def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, polished,
-                         problem, tol, timings, given=None, interface=None, nodes=None, beta=None):
-    """Like :func:`read_back` for a normal-compliance ``law`` (SI; docs/formulation.md §10).
+def read_back_compliance(problem, raw, tol: float, timings, polished: bool | None = None) -> "Solution":
+    """Like :func:`read_back_nodal` for a normal-compliance law (SI; docs/formulation.md §10). ``polished``:
+    whether to report the arrays as an exact finish (default ``raw.polished``).
 
     ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
     :class:`~cvxcontact.contact.laws.RowLaws` of the pairs (Signorini and compliance pairs mixed).
@@ -379,24 +385,22 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     constrained nodes (r = [u_nu] - g from the returned u), extended to its merged mesh as the P1 function
     of those nodes (:meth:`~cvxcontact.contact.interface.Interface.extend`), and ``force`` = E^T (w
     lambda), the force the checks put into (26); on a Signorini pair lambda_h is the multiplier
-    M lambda_h = E^T z of :func:`read_back`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
+    M lambda_h = E^T z of :func:`read_back_nodal`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
     ``given`` (the law given to ``solve``), or ``law`` itself when it is one law. ``energy`` includes
     sum_a w_a Phi_a(r_a). P2 (``interface`` the pair's
     :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, ``nodes`` the bodies' P2 nodes): the rows
     are the P2 contact nodes of the condition, ``weights`` their Simpson weights, and lambda is extended to
     X_h as the P2 function of those nodes (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.extend`).
-    P2, "gamma3" with a penetration limit l: ``beta`` (S, 3) are the Bernstein duals of the cone
-    [u_h nu] - g_h <= l on every merged segment, ``z`` = B^T beta its nodal force on X_h; lambda = p(r) +
-    M^-1 z (the consistent mass for the cone's part, as in :func:`read_back`), and feasibility,
-    complementarity and cone are those of :func:`~cvxcontact.solution.checks.conic_checks` at the gap g + l.
+    (P2 with a conic penetration limit: :func:`read_back_conic_mix`.)
     """
-    from ..contact.laws import RowLaws
-
-    rows = law if isinstance(law, RowLaws) else RowLaws.uniform(law, E.shape[0])
+    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
+    polished = raw.polished if polished is None else polished
+    law = rows = problem.rows
+    weights, z, nodes, given = problem.weights, raw.z, problem.nodes, problem.law
+    interface = problem.interface if nodes is not None else None
     scaled = rows.scaled(un.stress * un.load, un.displacement)
-    force = np.asarray(force, dtype=float)
-    sol = read_back(scene, condition, blocks, systems, un, E, gap, u, phi, force, force > 0, polished, problem,
-                    tol, timings, interface=interface, nodes=nodes)
+    force = np.asarray(raw.y, dtype=float)
+    sol = read_back_nodal(problem, replace(raw, y=force, active=force > 0, beta=None, polished=polished), tol, timings)
     g = E @ gap
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
@@ -407,11 +411,6 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
         if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
             balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
-    if beta is not None:         # P2 conic limit (E = I on X_h): the cone's checks at g + l, its multiplier
-        cone = conic_checks(blocks, u, phi, z, interface.bernstein(), gap + scaled.penetration_limit, beta,
-                            force_scale=float(np.abs(force).max(initial=0.0)))
-        checks_.update({key: cone[key] for key in ("feasibility", "complementarity", "cone")})
-        lam = scaled.pressure(r) + spla.spsolve((interface.mass / un.length).tocsc(), z)    # M scaled like w
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
     pairs, merged_at = _pairs(scene, interface)
@@ -431,8 +430,7 @@ def read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, 
     return sol
 
 
-def read_back_conic_mix(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, interface,
-                        cone, beta, problem, tol, timings, given=None, nodes=None):
+def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":
     """:func:`read_back_compliance` for a P2 scene whose "everywhere" cones (docs/formulation.md §8) sit next to
     a normal-compliance law (§10, "P2"). ``law`` is the :class:`~cvxcontact.contact.quadratic.ConeRowLaws` of
     the rows of ``E`` (``law.cone``: the rows of the cone pairs, E the identity on their nodes of X_h),
@@ -446,8 +444,9 @@ def read_back_conic_mix(scene, condition, blocks, systems, un, E, gap, u, phi, f
     complementarity and cone), and feasibility, complementarity and cone of the cones
     (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
     ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
-    sol = read_back_compliance(scene, condition, blocks, systems, un, E, gap, u, phi, force, z, weights, law, False,
-                               problem, tol, timings, given=given, interface=interface, nodes=nodes)
+    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
+    law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
+    sol = read_back_compliance(problem, raw, tol, timings, polished=False)
     scaled = law.scaled(un.stress * un.load, un.displacement)
     B, segments = cone
     force = np.asarray(force, dtype=float)

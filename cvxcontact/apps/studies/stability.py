@@ -32,15 +32,13 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from ...physics import materials
-from ...contact.quadratic import quadratic_interface
-from ...fem import p2
-from ...fem.assembly import assemble
-from ...geometry.quadratic import P2Nodes
 from ...backends.condensed import condense
 from ...contact.interface import CONDITIONS
 from ...geometry.mesh import Mesh, rectangle
 from ...backends.condensed import Compliance
-from ...discrete import Block, units
+from ...contact.laws import Signorini
+from ...discrete import build_problem
+from ...fem.space import space
 from ...physics.scene import Body, Scene
 from ...solve import ContactSolver
 from .common import graded_block, markdown_table, pyplot, save_figure, write_csv, write_text
@@ -81,14 +79,13 @@ def fine_pair(nf, rows=48):
                  Body(lower, ALU, clamped="bottom", contact="top"))
 
 
-def compliance(scene):
-    """W at the merged nodes (scaled units; the length and stiffness units are those of the
-    geometry and materials, equal for all scenes here, and the load unit cancels in W)."""
-    systems = [assemble(b) for b in scene.bodies]
-    un = units(scene, systems)
-    condensed = [condense(Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un), s, b.mesh)
-                 for k, (s, b) in enumerate(zip(systems, scene.bodies))]
-    return Compliance(condensed, scene.interface.evaluation("gamma3")).W
+def compliance(scene, degree: int = 1):
+    """W at the rows of "gamma3" (the merged nodes; P2: the nodes of X_h), in the scaled units of the scene's
+    discrete problem (the length and stiffness units are those of the geometry and materials, equal for all
+    scenes here, and the load unit cancels in W), and the problem."""
+    problem = build_problem(scene, space(degree), "gamma3", Signorini())
+    condensed = [condense(b, s, m) for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
+    return Compliance(condensed, problem.E).W, problem
 
 
 def _load_matrix(x_fine, x_coarse):
@@ -125,19 +122,14 @@ def _fine(nf):
     if nf not in _FINE:
         fine = fine_pair(nf)
         _FINE.clear()
-        _FINE[nf] = (fine.interface, compliance(fine))
+        _FINE[nf] = (fine.interface, compliance(fine)[0])
     return _FINE[nf]
 
 
 def compliance_p2(scene):
     """W at the P2 nodes of X_h on the merged mesh (docs/formulation.md §8), and the P2 interface."""
-    nodes = [P2Nodes(b.mesh) for b in scene.bodies]
-    systems = [p2.assemble(b, nd) for b, nd in zip(scene.bodies, nodes)]
-    un = units(scene, systems)
-    itf = quadratic_interface(scene, nodes)
-    condensed = [condense(Block.scaled(s, itf.jump(k, len(nd)), un), s, nd)
-                 for k, (s, nd) in enumerate(zip(systems, nodes))]
-    return Compliance(condensed, itf.evaluation("gamma3")).W, itf
+    W, problem = compliance(scene, degree=2)
+    return W, problem.interface
 
 
 def _load_matrix_p2(x_fine, x2):
@@ -175,7 +167,7 @@ def inf_sup(n1, n2, shift=0.0, fine_factor=8, degree=1):
     coarse = elastic_pair(n1, n2, shift)
     fitf, Wf = _fine(fine_factor * max(n1, n2))
     if degree == 1:
-        W, itf = compliance(coarse), coarse.interface
+        W, itf = compliance(coarse)[0], coarse.interface
         P = _load_matrix(fitf.x, itf.x)
     else:
         W, itf = compliance_p2(coarse)

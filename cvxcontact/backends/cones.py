@@ -1,0 +1,188 @@
+"""Routes for the P2 "everywhere" condition (docs/formulation.md §8): a second-order cone per merged segment,
+alone (full or condensed program), or next to a normal-compliance law in one program (§10, "P2"). Interior
+point with the conic tolerances; no exact finish of the cones (the nodal rows of a mixed program are
+finished with the cones' force held)."""
+
+from __future__ import annotations
+
+import time
+
+import cvxpy as cp
+import numpy as np
+
+from ..contact.laws import RowLaws
+from ..contact.quadratic import bernstein_max
+from .compliance import newton
+from .condensed import InterfaceModel, quasi_definite_rhs
+from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
+from .full import ContactModel, limit_reaction
+from .interface import condensation, held_cone, program_fields, release_held, split
+from .program import conic_options, timed_program
+from .result import RawResult, Route
+
+__all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
+
+
+def _cone_force(problem, beta):
+    """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
+    return problem.lines.cone[0].T @ beta.ravel()
+
+
+def _held_beta(problem, beta):
+    """beta with the cone rows no unknown moves at their least admissible value (§8, "Held nodes")."""
+    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap)
+
+
+def full(problem, cache, settings, timings) -> RawResult:
+    """The full model with the conic condition (:mod:`cvxcontact.backends.conic`)."""
+    t0 = time.perf_counter()
+    model = ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
+                         translations=list(problem.translations))
+    timings["model"] = time.perf_counter() - t0
+    iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    return RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
+                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
+                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
+
+
+def condensed(problem, cache, settings, timings) -> RawResult:
+    """The condensed interface SOCP with the conic condition, then one back-substitution per body."""
+    cond = condensation(problem, cache, settings, timings).bodies
+    t0 = time.perf_counter()
+    rhs = [quasi_definite_rhs(b) for b in problem.blocks]
+    v0 = [c.solve(F)[c.gamma] for c, F in zip(cond, rhs)]
+    B = problem.lines.cone[0]
+    free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, 3)
+    if (bernstein_max(free) <= 0.0).all():
+        # [u_nu] <= g everywhere with no contact force (e.g. no load, or bodies apart): the unconstrained
+        # solution is the solution, beta = 0 exactly; an interior point would stop at rounding around it
+        # (measured: u = 5e-8 m under zero load, complementarity read 1.5)
+        u, phi = split(cond, [c.solve(F) for c, F in zip(cond, rhs)], problem.blocks)
+        timings["model"] = time.perf_counter() - t0
+        return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // 3, 3)),
+                         polished=True, route=Route.NO_CONTACT, method="condensed")
+    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g)
+    timings["model"] = time.perf_counter() - t0
+    iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    r = _cone_force(problem, beta)
+    u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
+    return RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
+                     method="condensed")
+
+
+def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):
+    """The program of a P2 scene mixing cones and a normal-compliance law (scaled; docs/formulation.md §10,
+    "P2"): the energy of every body (full model, or with ``condensed`` bodies and their ``loads`` the
+    condensed interface model) plus sum_a w_a Phi_a(r_a) over the compliant rows, the linear rows
+    r_a <= l_a of the nodal rows with a finite limit, and the second-order cone of §8 per merged segment of
+    every cone pair with the gap g + ``law.cone_shift`` (``law`` a scaled
+    :class:`~cvxcontact.contact.quadratic.ConeRowLaws`, ``B`` (3 S, rows) the cone pairs' Bernstein map on
+    the rows of ``E``). The model's ``contact``/``limit_rows`` are the linear rows (or None), ``cone`` and
+    ``row`` the cone's constraints (their duals the Bernstein duals beta). ``translations``: as in
+    :class:`~cvxcontact.backends.full.ContactModel` (full model only): the rows and the cones see R t."""
+    if condensed is None:
+        model = ContactModel(blocks, E, g, law=law, weights=weights, translations=translations)
+        jump = model.jump
+    else:
+        model = InterfaceModel(condensed, loads, E, g, law=law, weights=weights)
+        jump = sum((E @ c.jump) @ v for c, v in zip(condensed, model.v))
+    model.cone, model.row, _ = bernstein_constraints(jump, B, g + law.cone_shift)
+    if hasattr(model, "constraints"):
+        model.constraints = model.constraints + [model.cone, model.row]
+    model.problem = cp.Problem(model.problem.objective, list(model.problem.constraints) + [model.cone, model.row])
+    return model
+
+
+def mixed_bernstein_rows(problem):
+    """The cone pairs' Bernstein map on the rows of E (E is the identity on a cone pair's nodes)."""
+    return (problem.lines.mixed_bernstein[0] @ problem.E.T).tocsr()
+
+
+def mixed_full(problem, cache, settings, timings) -> RawResult:
+    """:func:`mixed` on the full program."""
+    return mixed(problem, cache, settings, timings, method="full")
+
+
+def mixed_condensed(problem, cache, settings, timings) -> RawResult:
+    """:func:`mixed` on the condensed interface program."""
+    return mixed(problem, cache, settings, timings, method="condensed")
+
+
+def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawResult:
+    """P2 with a normal-compliance law on some pair and the "everywhere" cone of §8 on others (docs/
+    formulation.md §10, "P2"): the Simpson-lumped compliance energy on the compliant pairs' nodal rows,
+    the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
+    "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
+    pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
+    no exact finish of the cones. ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
+    the linear rows), ``raw.beta`` the Bernstein duals."""
+    law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
+    B = mixed_bernstein_rows(problem)
+    t0 = time.perf_counter()
+    cond = None
+    if method == "full":
+        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, translations=list(problem.translations))
+    else:
+        reduction = condensation(problem, cache, settings, timings)
+        cond = reduction.bodies
+        _, loads, _ = reduction.apply(problem, timings)
+        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, condensed=cond, loads=loads)
+    timings["model"] = time.perf_counter() - t0
+    pairs = len(problem.lines.offsets) - 1
+    iterations = timed_program(model.problem, settings, timings,
+                               conic_options(settings.solver, settings.options, pairs=pairs))
+    held = problem.held_rows
+    beta = held_cone(bernstein_duals(model.cone, model.row), B, held, g + law.cone_shift)  # held: least force
+    z = B.T @ beta.ravel() + release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
+    u, phi, r = program_fields(model, problem, cond)
+    taus = [np.asarray(t.value, dtype=float).ravel() for t in getattr(model, "t", [])]
+    r = r + sum((R @ tau for (R, _), tau in zip(problem.translations, taus)), np.zeros(len(g)))   # obstacles moved
+    y = w * law.pressure(r) + z
+    if cond is not None:
+        # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full
+        # model's u: r and the cone stay the program's. Back-substituting the force y instead carried the
+        # power cone's error in y into r (complementarity ~4e-5 with m != 1, measured; here 6e-8)
+        u, phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
+    raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, taus=taus, program=model.problem, iterations=iterations,
+                    method=method)
+    if (settings.polish and not problem.held and not problem.translations and not law.cone.all()
+            and not (law.cone & law.rows).any()):
+        _finish_nodal_rows(problem, cache, settings, timings, raw, r)
+    return raw
+
+
+def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
+    """The exact finish of the nodal rows of the cone/compliance program (docs/formulation.md §10, "P2"):
+    with the cones' force y_C of the interior point held, the nodal rows R (compliance, their limits,
+    Signorini sigma rows) solve r_R = d_R - W_RC y_C - W_RR y_R with their laws exactly
+    (:func:`~cvxcontact.backends.compliance.newton`), and every body's unknowns are back-substituted from the
+    forces (one per body). Only when every cone pair is a Signorini pair (y_C = B^T beta, the duals): the force
+    of a compliant cone pair, w p(r) of the interior point's r, would carry its error into r. On pairs that
+    share no body with a cone pair this is the exact answer of those pairs alone; elsewhere the cones' rows
+    see the finished y_R, which the cone checks measure. Updates ``raw`` (u, phi, y, z, finish) in place, or
+    sets ``raw.declined`` if the steps do not settle."""
+    law, w = problem.scaled_law, problem.weights
+    reduction = condensation(problem, cache, settings, timings)
+    compliance = reduction.compliance
+    _, _, d = reduction.apply(problem, timings)
+    t0 = time.perf_counter()
+    y, z = raw.y, raw.z
+    R, C = np.flatnonzero(~law.cone), np.flatnonzero(law.cone)
+    nodal = [not c for c in problem.lines.cone_pairs]
+    rows = RowLaws([lw for lw, on in zip(law.laws, nodal) if on], [n for n, on in zip(law.counts, nodal) if on])
+    W = compliance.W
+    start = None
+    if (rows.limited & ~rows.rows).any():             # Signorini rows: start from the IPM's active set
+        start = rows.limited & (z[R] * np.diag(W)[R] + (r[R] - rows.penetration_limit) > 0)
+    out = newton(W[np.ix_(R, R)], d[R] - W[np.ix_(R, C)] @ y[C], w[R], rows, r[R], start)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if out is None:
+        raw.declined = "the semismooth Newton steps on the nodal rows did not settle"
+        return
+    raw.finish = out[3]
+    new_y, new_z = y.copy(), z.copy()
+    new_y[R], new_z[R] = out[0], out[1]
+    raw.u, raw.phi = reduction.invert(problem, new_y, timings)
+    raw.y, raw.z = new_y, new_z

@@ -1,0 +1,111 @@
+"""The pieces every route shares: the condensation of a problem onto its contact unknowns (a reduction with
+apply/invert, built once per geometry and kept in the :class:`~cvxcontact.backends.result.Cache`), the fields
+of a solved program, and the rows no unknown moves (docs/formulation.md §7, §8 "Held nodes")."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .condensed import Compliance, condense, quasi_definite_rhs
+from .conic import least_held_duals
+
+__all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
+
+
+class Condensation:
+    """The reduction of a problem onto its contact unknowns (docs/formulation.md §7), as a pair of maps.
+
+    Built once per geometry (``__init__``: each body's quasi-definite matrix factorised with its contact dofs
+    as a Schur block, :func:`~cvxcontact.backends.condensed.condense`, and the interface compliance W = sum_l
+    R_l Sigma_l^-1 R_l^T of the rows E): the factorisations are the inverse data. :meth:`apply` reduces a load
+    case to the interface: per body the unconstrained Gamma displacements v0 and the interface loads
+    Sigma v0, and the free slack d = E [v0_nu] - g (the forward sweeps are kept). :meth:`invert` maps the
+    contact forces y on the rows back to every body's (u, phi) (one backward sweep per body);
+    :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v).
+    """
+
+    def __init__(self, problem, settings, timings):
+        t0 = time.perf_counter()
+        self.bodies = [condense(b, s, m, settings.factorization)
+                       for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
+        self.compliance = Compliance(self.bodies, problem.E)
+        self.sweeps = None
+        timings["factorization"] = time.perf_counter() - t0
+
+    @property
+    def W(self):
+        """The interface compliance (rows x rows, scaled)."""
+        return self.compliance.W
+
+    @property
+    def factorization(self) -> str:
+        """The adapters that factorised the bodies ("superlu", "pardiso")."""
+        return ",".join(dict.fromkeys(c.factorization for c in self.bodies))
+
+    def apply(self, problem, timings):
+        """(v0, loads, d) of the load case of ``problem`` (see the class docstring)."""
+        t0 = time.perf_counter()
+        rhs = [quasi_definite_rhs(b) for b in problem.blocks]
+        self.sweeps = [c.forward(F) for c, F in zip(self.bodies, rhs)]
+        v0 = [c.unconstrained(f) for c, f in zip(self.bodies, self.sweeps)]
+        d = self.compliance.free_slack(v0, problem.g)
+        timings["interface_load"] = time.perf_counter() - t0
+        return v0, [c.stiffness @ v for c, v in zip(self.bodies, v0)], d
+
+    def invert(self, problem, y, timings):
+        """(u, phi) of every body under the contact forces ``y`` on the rows of the last :meth:`apply`."""
+        t0 = time.perf_counter()
+        x = [c.back_substitute(f, problem.E.T @ y) for c, f in zip(self.bodies, self.sweeps)]
+        timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        return split(self.bodies, x, problem.blocks)
+
+    def invert_gamma(self, problem, v, timings):
+        """(u, phi) of every body with its Gamma values ``v`` (per body) given, for the last :meth:`apply`."""
+        t0 = time.perf_counter()
+        x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
+        timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        return split(self.bodies, x, problem.blocks)
+
+
+def condensation(problem, cache, settings, timings) -> Condensation:
+    """The :class:`Condensation` of ``problem``, built once per geometry into ``cache``."""
+    if cache.condensation is None:
+        cache.condensation = Condensation(problem, settings, timings)
+    return cache.condensation
+
+
+def split(condensed, x, blocks):
+    """(u, phi) of each body from its back-substituted unknowns ``x``."""
+    return ([xk[:c.n_u] for c, xk in zip(condensed, x)],
+            [xk[c.n_u:] if b.Kpp is not None else None for c, xk, b in zip(condensed, x, blocks)])
+
+
+def program_fields(model, problem, condensed=None):
+    """(u, phi, r) of a solved program, r = E [u_nu] - g its rows' penetration (scaled): from the full model's
+    fields, or (``condensed`` given) from the condensed model's Gamma values, u and phi then None (they come
+    from a back-substitution)."""
+    E, g = problem.E, problem.g
+    if condensed is not None:
+        return None, None, sum(E @ (c.jump @ v.value) for c, v in zip(condensed, model.v)) - g
+    u = [v.value for v in model.u]
+    phi = [v.value if v is not None else None for v in model.phi]
+    return u, phi, sum(E @ (b.jump @ uk) for b, uk in zip(problem.blocks, u)) - g
+
+
+def held_cone(beta, B, held, c):
+    """beta with the entries of the Bernstein rows of ``B`` whose nodes are all ``held`` and whose value
+    (at the cone's gap ``c``) is 0 lowered to the least the dual cone allows (:func:`least_held_duals`)."""
+    if not np.any(held):
+        return beta
+    rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ c) <= 1e-12 * max(np.abs(c).max(), 1e-300))
+    return least_held_duals(beta, rows.reshape(-1, 3))
+
+
+def release_held(y, z, held):
+    """(y, z) with the limit reactions z of the ``held`` rows set to 0 and the row forces y lowered by them: a
+    reaction on a row no unknown moves acts on nothing, so (26)-(27) do not determine it, and an interior point
+    reports an arbitrary, typically huge one (docs/formulation.md §8, "Held nodes")."""
+    z = np.asarray(z, dtype=float)
+    return y - np.where(held, z, 0.0), np.where(held, 0.0, z)

@@ -1,0 +1,71 @@
+"""Running a CVXPY program: the solver settings of the package and one normalised call (:func:`run_program`)."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+
+import cvxpy as cp
+
+from ..errors import SolverError
+
+__all__ = ["CLARABEL", "CLARABEL_CONIC", "CLARABEL_CONIC_PAIRS", "conic_options", "run_program", "timed_program"]
+
+CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
+"""Clarabel's tolerances for the package's programs (their answers are finished exactly where a finish applies)."""
+
+CLARABEL_CONIC = dict(tol_gap_abs=1e-14, tol_gap_rel=1e-14, tol_feas=1e-10, tol_ktratio=1e-10, max_iter=400,
+                      equilibrate_enable=False)
+"""Clarabel settings of the conic (P2 "gamma3") condition, which has no exact finish (docs/formulation.md §8):
+tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends "inaccurate"); no
+equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
+complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
+
+CLARABEL_CONIC_PAIRS = dict(max_step_fraction=0.95)
+"""Added to :data:`CLARABEL_CONIC` for the program of P2 cones with a normal-compliance law on several
+pairs (docs/formulation.md §10, "P2"; one pair keeps :data:`CLARABEL_CONIC`, on which its tests were
+measured): steps of at most 0.95 of the way to the cone boundary (Clarabel's default 0.99). Measured on 22
+solves of tests/test_p2_mixed_laws.py's scenes (both backends, single pairs, decoupled and interacting stacks,
+exponent 1): with 0.99, 1 ended "inaccurate" (a compliant pair next to a conic one, condensed: the last step
+left the stalled iterate, complementarity 3.5e-5; gap tolerances of 1e-13 did not help); with 0.95 all 22
+end "optimal" with complementarity <= 1e-5. With exponent 2 (a power cone) the program still ends
+"inaccurate" there (complementarity ~5e-6)."""
+
+
+def conic_options(solver: str, options: Mapping[str, object], pairs: int = 1) -> dict:
+    """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
+    tolerances on the scaled data (:data:`CLARABEL_CONIC`, with :data:`CLARABEL_CONIC_PAIRS` for a program of
+    cones and compliance on several ``pairs``); the user's ``options`` still win."""
+    if solver != "CLARABEL":
+        return dict(options)
+    return {**CLARABEL_CONIC, **(CLARABEL_CONIC_PAIRS if pairs > 1 else {}), **options}
+
+
+def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str, object]) -> int:
+    """Solve ``problem`` with ``solver`` (Clarabel: :data:`CLARABEL` under the given ``options``); the number of
+    iterations. SolverError if the solver fails, refuses an option, or ends without a solution."""
+    given = sorted(options)
+    if solver == "CLARABEL":
+        options = {**CLARABEL, **options}
+    try:
+        with warnings.catch_warnings():     # the status is recorded in SolveInfo and the checks say what holds
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            problem.solve(solver=solver, verbose=verbose, **options)
+    except cp.error.SolverError as exc:
+        raise SolverError(f"{solver} failed: {exc}") from exc
+    except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError
+        raise SolverError(f"{solver} refused the problem or the solver options {given}: "
+                          f"{type(exc).__name__}: {exc}") from exc
+    if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")
+    return int(getattr(problem.solver_stats, "num_iters", None) or 0)
+
+
+def timed_program(problem: cp.Problem, settings, timings: dict, options: Mapping[str, object] | None = None) -> int:
+    """:func:`run_program` with ``settings`` (a :class:`~cvxcontact.backends.result.Settings`; ``options``
+    instead of its own if given), recording the compile and solve times in ``timings``."""
+    iterations = run_program(problem, settings.solver, settings.verbose,
+                             settings.options if options is None else options)
+    timings["compile"] = problem.compilation_time or 0.0
+    timings["solve"] = problem.solver_stats.solve_time or 0.0
+    return iterations

@@ -1,0 +1,123 @@
+"""What a backend returns: one :class:`RawResult` per solve, with the routes and statuses as constants.
+
+The constants are :class:`enum.StrEnum` members, so they compare equal to plain strings
+(``Status.OPTIMAL == "optimal" == cvxpy.OPTIMAL``, ``Route.WARM_START == "active-set warm start"``) and
+serialise to JSON as those strings; :class:`~cvxcontact.solution.info.SolveInfo` reports them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+
+__all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache"]
+
+
+class Status(StrEnum):
+    """Status of the solve (the solver's, or OPTIMAL for a verified active-set warm start)."""
+
+    OPTIMAL = "optimal"
+    OPTIMAL_INACCURATE = "optimal_inaccurate"
+
+
+class Route(StrEnum):
+    """The route that produced the arrays of a :class:`~cvxcontact.solution.Solution`."""
+
+    INTERIOR_POINT = "interior point"
+    """The interior-point answer as it came from the solver (no finish, or the finish was declined)."""
+    INTERIOR_POINT_FINISHED = "interior point + exact finish"
+    """An interior-point solve, then the exact active-set finish."""
+    WARM_START = "active-set warm start"
+    """A re-solve of a ContactSolver from the previous active set: no convex program, no iterations."""
+    NEWTON_ONLY = "semismooth Newton (the interior point failed)"
+    """Normal compliance: the solver failed on the convex program (e.g. a very stiff law); the exact
+    finish, globally convergent on its own, solved the interface equation from the free slack."""
+    SPARSE_ACTIVE_SET = "active-set steps on the sparse mixed system"
+    """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
+    bonded system, no convex program (``iterations``: the systems solved)."""
+    INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
+    """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
+    NO_CONTACT = "no contact at zero force: the unconstrained solution"
+    """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
+    merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
+    SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
+    """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
+    compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the
+    mixed system from the condensed active set and its answer passed them."""
+
+
+class Finish(StrEnum):
+    """How the exact finish found its active set (:func:`cvxcontact.backends.finish.solve_lcp`)."""
+
+    ACTIVE_SET = "active set"
+    ACTIVE_SET_AFTER_NNLS = "active set after NNLS"
+    NNLS = "NNLS"
+    SEMISMOOTH_NEWTON = "semismooth Newton"
+    """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How to run a backend: the CVXPY ``solver`` and its ``options`` (checked), ``verbose``, ``polish`` (the
+    exact finish), ``warm_start`` (re-solves from the previous active set), ``factorization`` (the adapter of
+    :mod:`cvxcontact.backends.factor`)."""
+
+    solver: str = "CLARABEL"
+    options: Mapping[str, object] = field(default_factory=dict)
+    verbose: bool = False
+    polish: bool = True
+    warm_start: bool = True
+    factorization: str = "auto"
+
+
+@dataclass(eq=False)
+class RawResult:
+    """What one backend solve returns, scaled (docs/formulation.md §6), read back once into a Solution.
+
+    ``u``, ``phi``: each body's free unknowns; ``y``: the force on every contact row (nodal rows: their
+    multipliers; compliance: w p(r) + z; cones: the nodal force B^T beta on X_h); ``active``: the closed
+    nodal rows (Signorini) or None; ``z``: the limit reactions of a compliance law (None: no row has a
+    limit); ``beta``: the Bernstein duals (S, 3) of the cones or None; ``taus``: the translations of the
+    force-controlled obstacles; ``polished``: the arrays are an exact finish; ``program``: the CVXPY problem
+    solved (None: no program); ``route``, ``finish``, ``iterations``, ``declined`` (why a finish was
+    declined), ``method`` (the backend that ran), ``factorization``: as reported in SolveInfo."""
+
+    u: list
+    phi: list
+    y: np.ndarray
+    active: np.ndarray | None = None
+    z: np.ndarray | None = None
+    beta: np.ndarray | None = None
+    taus: list = field(default_factory=list)
+    polished: bool = False
+    program: object = None
+    route: str = Route.INTERIOR_POINT
+    finish: str | None = None
+    iterations: int = 0
+    declined: str = ""
+    method: str = ""
+    factorization: str = ""
+
+
+class Cache:
+    """What a backend keeps between solves of one geometry (per ContactSolver): the condensation onto the
+    contact unknowns (:class:`~cvxcontact.backends.interface.Condensation`), the sparse factorisation and the
+    last exact active set (warm starts). :meth:`matching` empties it when the contact rows change (a moved
+    obstacle reaching other nodes)."""
+
+    def __init__(self):
+        self.key = None
+        self.clear()
+
+    def clear(self):
+        self.condensation = self.sparse = self.active = None
+
+    def matching(self, key) -> "Cache":
+        """This cache, emptied first if it was filled for other contact rows than ``key``."""
+        if key != self.key:
+            self.clear()
+            self.key = key
+        return self

@@ -1,0 +1,55 @@
+"""One normalised call per backend: :func:`run` picks the route of a backend for the kind of contact term a
+problem poses and returns one :class:`~cvxcontact.backends.result.RawResult`.
+
+The kinds (:func:`kind`): ``"signorini"`` (nodal rows, P1 or P2), ``"compliance"`` (a normal-compliance law on
+some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8) and ``"mixed"`` (cones next to a compliance
+law, §10 "P2"). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
+(``Backend.routes``); :func:`route` finds it.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+
+from ..errors import SolverError
+from ..fem.kernel import check_determined
+from . import BACKENDS
+from .result import RawResult
+
+__all__ = ["route", "kind", "run"]
+
+
+def route(method: str, kind_: str):
+    """The function of backend ``method`` (a name of :data:`cvxcontact.backends.BACKENDS`) for problems of
+    ``kind_``; SolverError if that backend has none."""
+    backend = next((b for b in BACKENDS if b.name == method), None)
+    where = None if backend is None else backend.routes.get(kind_)
+    if where is None:
+        raise SolverError(f"method {method!r} does not solve a {kind_} problem")
+    module, name = where.split(":")
+    return getattr(importlib.import_module(f"{__package__}.{module}"), name)
+
+
+def kind(problem) -> str:
+    """The kind of contact term ``problem`` poses (module docstring)."""
+    if problem.mixed:
+        return "mixed"
+    if problem.conic:
+        return "conic"
+    return "compliance" if problem.compliant else "signorini"
+
+
+def run(method: str, problem, cache, settings, timings) -> RawResult:
+    """Solve ``problem`` with the backend ``method`` (a name of :data:`cvxcontact.backends.BACKENDS`), reusing and
+    filling ``cache``; the forces of rows no unknown moves at their least admissible value (docs/formulation.md
+    §8, "Held nodes": (26)-(27) do not determine them)."""
+    raw = route(method, kind(problem))(problem, cache.matching(problem.lines.key()), settings, timings)
+    if raw.polished and raw.active is not None:     # a motion only rows open at the solution would hold
+        check_determined(problem.kernel, raw.active)
+    if kind(problem) == "signorini":
+        raw.y = np.where(problem.held_rows, 0.0, raw.y)
+    if not raw.factorization and cache.condensation is not None:
+        raw.factorization = cache.condensation.factorization
+    return raw

@@ -1,0 +1,162 @@
+"""Routes for nodal non-penetration rows (Signorini, the paper's (8); P1 and the P2 nodal conditions): the full
+program, the condensed interface program and the sparse active-set route, each finished exactly
+(docs/formulation.md §2, §7, §12; docs/architecture.md "The sparse route")."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import SolverError
+from .condensed import InterfaceModel, quasi_definite_rhs
+from .finish import SIGN_TOL, active_set_steps, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
+from .full import ContactModel, mixed_kkt
+from .interface import condensation
+from .program import timed_program
+from .result import RawResult, Route
+
+__all__ = ["full", "condensed", "sparse", "sparse_active_set", "interface_finish"]
+
+
+def interface_finish(compliance, d, start, timings):
+    """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or None."""
+    t0 = time.perf_counter()
+    out = solve_lcp(compliance.W, d, start)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return out
+
+
+def full(problem, cache, settings, timings) -> RawResult:
+    """The whole phi-form program in CVXPY (the reference), finished exactly: on the interface (bodies held by
+    their supports) or on the sparse mixed system (bodies held by the contact, force-controlled obstacles)."""
+    t0 = time.perf_counter()
+    E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
+    model = ContactModel(blocks, E, g, translations=tr)
+    timings["model"] = time.perf_counter() - t0
+    iterations = timed_program(model.problem, settings, timings)
+    raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
+                    y=np.asarray(model.contact.dual_value, dtype=float).ravel(), program=model.problem,
+                    taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full",
+                    iterations=iterations)
+    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
+    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
+    slack = sum(parts) - moved
+    raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y))
+    if not settings.polish:
+        return raw
+    if problem.held or tr:
+        out = sparse_active_set(mixed_kkt(blocks, E, g, translations=tr), g,
+                                raw.active & ~problem.held_rows, timings)     # held rows: force 0 (§8)
+        if out is None:
+            raw.declined = "the active-set steps on the sparse mixed system did not settle"
+            return raw
+        x, raw.active = out
+        raw.u, raw.phi, raw.y = x[:3]
+        if tr:
+            raw.taus = list(x[3])
+        raw.polished, raw.finish = True, "active set"
+        return raw
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    W = reduction.W
+    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
+    if out is None:
+        raw.declined = "no active set satisfies the signs of the contact problem"
+        return raw
+    t0 = time.perf_counter()
+    exact = mixed_kkt(blocks, E, g)(out[1])      # the full model's own sparse solve
+    timings["polish"] += time.perf_counter() - t0
+    w, S = row_scales(W, d, out[0])
+    if exact is not None and signs_hold(exact[1], exact[2], out[1], w, S):
+        (raw.u, raw.phi, raw.y), raw.active, raw.polished, raw.finish = exact[0], out[1], True, out[2]
+    else:
+        raw.declined = "the sparse mixed system on the finished active set is singular or breaks the signs"
+    return raw
+
+
+def condensed(problem, cache, settings, timings) -> RawResult:
+    """Each body condensed onto its contact dofs, the interface QP, the exact LCP finish, one back-substitution
+    per body; a re-solve starts from the previous exact active set (no program)."""
+    E, g = problem.E, problem.g
+    reduction = condensation(problem, cache, settings, timings)
+    cond, compliance = reduction.bodies, reduction.compliance
+    _, loads, d = reduction.apply(problem, timings)
+    warm = settings.warm_start and settings.polish and cache.active is not None
+    out = solve_lcp(compliance.W, d, cache.active) if warm and len(cache.active) == len(d) else None
+    raw = RawResult(u=[], phi=[], y=np.zeros(len(d)), method="condensed")
+    if out is not None:                                    # re-solve: the previous active set, corrected
+        raw.y, raw.active, raw.polished, raw.route, raw.finish = out[0], out[1], True, Route.WARM_START, out[2]
+    else:
+        t0 = time.perf_counter()
+        model = InterfaceModel(cond, loads, E, g)
+        timings["model"] = time.perf_counter() - t0
+        raw.iterations = timed_program(model.problem, settings, timings)
+        raw.y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+        parts = [E @ (c.jump @ var.value) for c, var in zip(cond, model.v)]
+        slack = sum(parts) - g
+        raw.active = ipm_active(parts, g, raw.y, force_displacements(problem.blocks, E, raw.y))
+        raw.program = model.problem
+        if settings.polish:
+            out = interface_finish(compliance, d, lcp_start(compliance.W, d, raw.y, slack), timings)
+            if out is None:
+                raw.declined = "no active set satisfies the signs of the contact problem"
+            else:
+                raw.y, raw.active, raw.polished, raw.finish = out[0], out[1], True, out[2]
+    if raw.polished:
+        cache.active = raw.active
+    raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
+    return raw
+
+
+def sparse(problem, cache, settings, timings) -> RawResult:
+    """Active-set steps on the sparse mixed system (26) (:mod:`cvxcontact.backends.sparse`), from the bonded
+    system (first solve) or the previous active set (re-solve); exact, no interior point (``polish`` does not
+    apply). ``iterations`` counts the systems solved."""
+    from .sparse import SparseContact
+
+    if cache.sparse is None:
+        cache.sparse = SparseContact(list(problem.blocks), problem.E, factorization=settings.factorization)
+    sc, f0 = cache.sparse, cache.sparse.factor_time
+    t0 = time.perf_counter()
+    warm = settings.warm_start and cache.active is not None
+    rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
+    out = sc.solve(rhs, problem.g, cache.active if warm else None)
+    if out is None and warm:                               # the previous set led nowhere: from bonded
+        out = sc.solve(rhs, problem.g)
+        warm = False
+    if sc.factor_time > f0:
+        timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time - f0
+    timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time - f0)
+    if out is None:
+        raise SolverError("the active-set steps on the sparse mixed system did not settle (they cycled or met "
+                          "a singular system); use method='condensed' or 'full'")
+    u, phi, y, active, steps = out
+    cache.active = active
+    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="sparse",
+                     route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="active set",
+                     factorization=sc.factorization)
+
+
+def sparse_active_set(kkt, g, active, timings, max_iter=30):
+    """Exact finish on the sparse mixed system (26) (``mixed_kkt``), for scenes whose bodies cannot be
+    condensed alone (a body held by the contact only, force-controlled obstacles): primal-dual active-set
+    steps from ``active`` until y >= 0 on the active rows and the open rows' slack <= 0, each to SIGN_TOL of
+    the problem's force and displacement scales. Returns ((u, phi, y[, taus]), active) or None."""
+    t0 = time.perf_counter()
+
+    def step(active):
+        res = kkt(active)
+        if res is None:
+            return None
+        x, y, slack, _ = res
+        ys = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
+        ds = max(float(np.abs(slack + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)),
+                 np.finfo(float).tiny)
+        if (y >= -SIGN_TOL * ys).all() and (slack[~active] <= SIGN_TOL * ds).all():
+            return x, None
+        return x, y / ys + slack / ds > 0
+
+    out = active_set_steps(step, active, max_iter)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return None if isinstance(out, str) else out[:2]

@@ -1,0 +1,320 @@
+"""The discrete problem: one object built once per scene, space, condition and law (docs/architecture.md).
+
+:func:`build_problem` assembles every body in a :class:`~cvxcontact.fem.space.Space`, builds the contact
+lines of the scene (:class:`~cvxcontact.fem.space.ContactLines`), chooses the reference units and scales
+every block (:mod:`cvxcontact.discrete.blocks`). The result, a frozen :class:`DiscreteProblem`, is what
+every backend solves and what the read-back reports on:
+
+    minimise   sum_k 1/2 u_k^T Kuu_k u_k + 1/2 phi_k^T Kpp_k phi_k - f_k^T u_k  (+ compliance energy, -F . t)
+    subject to Kpp_k phi_k - Kup_k^T u_k = q_k                                  (Gauss law (20))
+               E [u_nu] + R t <= E g     (nodal rows)   or   B ([u_nu] - g) in cones (P2 "gamma3", §8)
+
+(scaled, docs/formulation.md §2, §6, §8, §10, §12; t the translations of force-controlled obstacles).
+
+:meth:`DiscreteProblem.with_loads` gives the problem of a scene that differs in its loads only (body
+forces, tractions, charges, electrode potentials, gaps, obstacle positions and prescribed forces),
+re-deriving exactly what depends on them: the loads, the units, and the contact lines (a moved rigid
+obstacle reaches other nodes of the body's trace), reusing the assembled matrices. It refuses (typed) a scene
+whose bodies or pairs differ.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import SceneError
+from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
+from ..fem.space import ContactLines, Space
+from ..physics.fingerprint import geometry_fingerprint
+from ..physics.scene import Scene
+from .blocks import Block, Units, units
+
+__all__ = ["DiscreteProblem", "build_problem"]
+
+
+@dataclass(frozen=True, eq=False)
+class DiscreteProblem:
+    """The scaled discrete problem of a scene (see the module docstring). Immutable: a changed scene is a new
+    problem (:meth:`with_loads`).
+
+    ``scene``, ``space``, ``condition`` and ``law`` (the law of the pairs without their own) as given;
+    ``nodes``: each body's node set (None: the mesh's vertices, P1); ``matrices``: each body's assembled
+    matrices (SI, no loads); ``systems``: the same with the loads; ``lines``: the contact rows;
+    ``units``: the reference units; ``blocks``: the scaled blocks of every body
+    (:class:`~cvxcontact.discrete.blocks.Block`); ``gap``: the gap at the stacked nodes of X_h (scaled);
+    ``translations``: per force-controlled obstacle (R, F), R its rows' sensitivities to its translation
+    unknowns tau, F the prescribed force on them (scaled); ``held_rows``: the rows no unknown moves (nodes
+    the supports hold on both sides, or against a fixed obstacle; docs/formulation.md §8, "Held nodes");
+    ``prescribed_jump``: [u_D nu] at the nodes of X_h, the part of the jump that prescribed displacements of
+    contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
+    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
+    ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
+    against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`).
+    """
+
+    scene: Scene
+    space: Space
+    condition: str
+    law: object
+    nodes: tuple | None
+    matrices: tuple
+    systems: tuple
+    lines: ContactLines
+    units: Units
+    blocks: tuple
+    gap: np.ndarray
+    translations: tuple
+    held_rows: np.ndarray
+    scale: bool = True
+    prescribed_jump: np.ndarray | float = 0.0
+    kernel: Kernel | None = field(default=None, repr=False)
+    _fingerprints: tuple = field(default=(), repr=False)
+
+    # ---- what the backends read ---------------------------------------------------------------
+    @property
+    def E(self):
+        """The evaluation rows of the condition (one per constrained node of X_h)."""
+        return self.lines.E
+
+    @property
+    def g(self) -> np.ndarray:
+        """The gap at the rows, scaled: E g."""
+        return self.lines.E @ self.gap
+
+    @property
+    def rows(self):
+        """The law of every row (:class:`~cvxcontact.contact.laws.RowLaws`)."""
+        return self.lines.rows
+
+    @property
+    def compliant(self) -> bool:
+        """True if some row follows a normal-compliance law (docs/formulation.md §10)."""
+        return self.lines.rows.compliant
+
+    @property
+    def conic(self) -> bool:
+        """True if the rows are the conic "everywhere" condition alone (P2 "gamma3", §8)."""
+        return self.lines.conic
+
+    @property
+    def mixed(self) -> bool:
+        """True if cones sit next to a compliance law in one program (§10, "P2")."""
+        return self.lines.mixed
+
+    @property
+    def weights(self) -> np.ndarray | None:
+        """The law's quadrature weights on the rows, scaled (None without a compliance law)."""
+        w = self.lines.weights
+        return None if w is None else w / self.units.length
+
+    @property
+    def scaled_law(self):
+        """The rows' laws in the scaled units (None without a compliance law)."""
+        if not self.compliant:
+            return None
+        return self.lines.rows.scaled(self.units.stress * self.units.load, self.units.displacement)
+
+    @property
+    def obstacles(self) -> tuple:
+        """Every rigid obstacle's :class:`~cvxcontact.physics.pairs.ObstacleRows` at the rows of this space."""
+        return self.lines.obstacles
+
+    @property
+    def forced(self) -> list:
+        """The force-controlled obstacles (:attr:`obstacles` with a prescribed force)."""
+        return [o for o in self.lines.obstacles if o.force is not None]
+
+    @property
+    def held(self) -> bool:
+        """True if some body has a rigid motion that only the contact holds (a singular stiffness)."""
+        return any(getattr(b, "held_by_contact", None) for b in self.scene.bodies)
+
+    @property
+    def interface(self):
+        """The contact line the jump operators come from (the P1 stack, or the P2 interface/stack)."""
+        return self.lines.interface
+
+    @property
+    def dim(self) -> int:
+        """Displacement components per node (the space's)."""
+        return self.space.dim
+
+    @property
+    def meshes(self) -> list:
+        """Each body's node graph for the factorisations' orderings (P2: the 6-node graph)."""
+        return list(self.nodes) if self.nodes is not None else [b.mesh for b in self.scene.bodies]
+
+    @property
+    def unknowns(self) -> int:
+        """Number of nodal unknowns (u and phi, before the supports)."""
+        return sum(len(s.f) + (len(s.q) if s.q is not None else 0) for s in self.systems)
+
+    @property
+    def allowance(self) -> np.ndarray | float:
+        """How far each row may penetrate, scaled: 0 (Signorini), l (a compliance limit), the cone's shift."""
+        if not self.compliant:
+            return 0.0
+        rows = self.lines.rows
+        allowance = np.asarray(rows.penetration_limit, dtype=float)
+        if hasattr(rows, "cone"):
+            allowance = np.where(rows.cone, rows.cone_shift, allowance)
+        return allowance / self.units.displacement
+
+    def moved_gap(self, taus) -> np.ndarray:
+        """The gap at the stacked nodes with the force-controlled obstacles translated by ``taus`` (scaled)."""
+        return self.gap - sum((o.reduced_rows @ t for o, t in zip(self.forced, taus)), np.zeros(len(self.gap)))
+
+    def with_rows(self, E, rows=None, weights=None) -> "DiscreteProblem":
+        """The same problem with the condition posed by other evaluation rows ``E`` (nodes of X_h -> rows), e.g.
+        the nodal condition sampled at chosen points of every merged segment (a linear relaxation of the conic
+        condition, docs/formulation.md §8); ``rows``: the laws of those rows (default: each pair's law is
+        replaced by Signorini on all of them), ``weights`` (m): their quadrature weights for a compliance law.
+        No cone is left."""
+        import scipy.sparse as sp
+
+        from ..contact.laws import RowLaws, Signorini
+
+        E = sp.csr_matrix(E)
+        rows = RowLaws.uniform(Signorini(), E.shape[0]) if rows is None else rows
+        if E.shape[1] != self.lines.E.shape[1] or rows.size != E.shape[0]:
+            raise SceneError(f"with_rows: E must have {self.lines.E.shape[1]} columns (the nodes of X_h) and one "
+                             f"row per law row; got E {E.shape} and {rows.size} law rows")
+        lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
+                        np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None)
+        translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
+        kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
+                                                               self.interface, self.obstacles, self.nodes)
+        return replace(self, lines=lines, translations=translations,
+                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel)
+
+    # ---- re-solves -----------------------------------------------------------------------------
+    def accepts(self, scene) -> bool:
+        """Whether ``scene`` differs from this problem's scene in its loads only (:meth:`with_loads` takes it)."""
+        try:
+            _same_geometry(self, scene)
+        except SceneError:
+            return False
+        return True
+
+    def with_loads(self, scene: Scene) -> "DiscreteProblem":
+        """The problem of ``scene``, a scene that differs from this one in its loads only (see the module
+        docstring). SceneError, naming what differs, for another geometry, material, supports or pairs."""
+        _same_geometry(self, scene)                 # (also for the same scene: an edit in place is refused)
+        if scene is self.scene:
+            return self
+        return _derive(scene, self.space, self.condition, self.law, self.nodes, self.matrices, self.scale,
+                       previous=self)
+
+
+def build_problem(scene: Scene, space: Space, condition: str, law, *, scale: bool = True) -> DiscreteProblem:
+    """Assemble every body of ``scene`` in ``space`` and build the scaled :class:`DiscreteProblem` of
+    ``condition`` and ``law`` (the law of the pairs without their own). ``scale=False`` keeps SI units (the
+    stability study only)."""
+    nodes = [space.nodes(b) for b in scene.bodies]
+    nodes = None if all(n is None for n in nodes) else tuple(nodes)
+    matrices = tuple(space.assemble_matrices(b, None if nodes is None else nodes[k])
+                     for k, b in enumerate(scene.bodies))
+    return _derive(scene, space, condition, law, nodes, matrices, scale)
+
+
+def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None) -> DiscreteProblem:
+    """Everything that depends on the loads (and on the obstacles' positions), from assembled ``matrices``."""
+    at = [None] * len(scene.bodies) if nodes is None else nodes
+    lines = space.contact(scene, condition, law, nodes)
+    systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
+    # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
+    kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes)
+    forced = [o for o in lines.obstacles if o.force is not None]
+    un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
+    if previous is not None and previous.lines.key() == lines.key():
+        blocks = tuple(blk.with_loads(s, un) for blk, s in zip(previous.blocks, systems))
+    elif previous is not None:                              # the same matrices, new contact rows
+        blocks = tuple(replace(blk, jump=(lines.interface.jump(k, len(s.f) // space.dim) @ s.Tu).tocsr()).with_loads(s, un)
+                       for k, (blk, s) in enumerate(zip(previous.blocks, systems)))
+    else:
+        blocks = tuple(Block.scaled(s, lines.interface.jump(k, len(s.f) // space.dim), un) for k, s in enumerate(systems))
+    E = lines.E
+    translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
+    held = held_rows(E, blocks, translations)
+    shift = np.zeros(len(lines.gap))             # [u_D nu]: prescribed displacements of contact nodes (§11)
+    for k, s in enumerate(systems):
+        if s.u_fixed is not None and np.any(s.u_fixed):
+            shift = shift + lines.interface.jump(k, len(s.f) // space.dim) @ s.u_fixed
+    gap = (lines.gap - shift) / un.displacement
+    problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
+                              matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
+                              translations=translations, held_rows=held, scale=scale, kernel=kernel,
+                              prescribed_jump=shift / un.displacement,
+                              _fingerprints=previous._fingerprints if previous is not None else
+                              tuple(geometry_fingerprint(b) for b in scene.bodies))
+    check_reachable(problem)
+    return problem
+
+
+def held_rows(E, blocks, translations) -> np.ndarray:
+    """Rows of ``E`` that no unknown moves: nodes the supports hold (clamped, or a prescribed displacement)
+    on both sides of the contact, or against a fixed obstacle. Their slack is the constant -g."""
+    reach = sum((abs(E @ b.jump) @ np.ones(b.jump.shape[1]) for b in blocks), np.zeros(E.shape[0]))
+    for R, _ in translations:                                       # a force-controlled obstacle can move
+        reach = reach + abs(R) @ np.ones(R.shape[1])
+    return reach == 0
+
+
+def check_reachable(problem: DiscreteProblem) -> None:
+    """Refuse a contact row that no unknown can move but whose gap (plus the law's penetration allowance) is
+    negative: a node the supports hold that an obstacle or a partner already penetrates. The program would
+    only be 'infeasible'; this names the pair and the point instead."""
+    E, un = problem.E, problem.units
+    g = problem.g + problem.allowance
+    bad = np.flatnonzero(problem.held_rows & (g < 0))
+    if not len(bad):
+        return
+    a = int(bad[0])
+    node = int(E[a].indices[np.argmax(np.abs(E[a].data))])         # the node of X_h the row evaluates
+    offsets = problem.lines.offsets
+    pair = int(np.searchsorted(offsets, node, side="right") - 1)
+    interface = problem.interface
+    points = interface.interfaces[pair].points if hasattr(interface, "interfaces") else interface.points
+    x, y = np.asarray(points)[node - offsets[pair]]
+    raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
+                     f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "
+                     f"({x:.6g}, {y:.6g}) m where the gap (plus the law's penetration limit, if any) is "
+                     f"{g[a] * un.displacement:.3g} m: the contact condition cannot hold there; free that node, or "
+                     "move the obstacle or the gap so that it is >= 0")
+
+
+def _structure(scene) -> tuple:
+    """What a prepared problem depends on beyond the bodies: each pair's members, parts, condition, own law,
+    the kind of its obstacle and whether it is force controlled (the gaps, obstacle positions and prescribed
+    forces are loads), and the merged-node count of two-body pairs."""
+    return tuple((m, c.part_a, c.part_b, c.condition, None if c.rigid else itf.size,
+                  c.other.kind if c.rigid else None, getattr(c, "law", None), c.rigid and c.other.force is not None)
+                 for m, c, itf in zip(scene.stack.members, scene.contacts, scene.interfaces))
+
+
+def _same_geometry(problem: DiscreteProblem, scene) -> None:
+    """SceneError unless ``scene`` differs from ``problem.scene`` in its loads only."""
+    if not isinstance(scene, Scene):
+        raise SceneError(f"solve takes a Scene, got {type(scene).__name__}")
+    prints = problem._fingerprints
+    if len(scene.bodies) != len(prints):
+        raise SceneError(f"the scene has {len(scene.bodies)} bodies, the prepared one {len(prints)}; "
+                         "only loads may change between solves of one ContactSolver")
+    for k, (fp, b) in enumerate(zip(prints, scene.bodies), start=1):
+        if geometry_fingerprint(b) != fp:
+            edited = any(b is a for a in problem.scene.bodies)
+            raise SceneError(
+                f"body {k} ({b.name}): " + ("its mesh, material or boundary parts were changed in place after "
+                                             "this ContactSolver was built" if edited else
+                                             "differs from the prepared scene in its mesh, material or boundary "
+                                             "parts") +
+                "; only loads may change between solves of one ContactSolver: build a new Scene and "
+                "ContactSolver for the new geometry")
+    if _structure(scene) != _structure(problem.scene):
+        raise SceneError("the scene's contact pairs (members, parts, conditions, laws, obstacle kinds, force "
+                         "control) differ from the prepared scene; only loads (gaps, obstacle positions and forces) "
+                         "may change between solves of one ContactSolver: build a new ContactSolver for the new "
+                         "geometry")

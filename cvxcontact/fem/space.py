@@ -1,0 +1,195 @@
+"""Discrete spaces: the one place where the element degree is decided (docs/architecture.md).
+
+A :class:`Space` numbers the nodes of a body, assembles it (``Kuu``, ``Kup``, ``Kpp`` and the loads,
+SI units) and builds the contact lines of a scene (:class:`ContactLines`): the stacked jump operators,
+the evaluation rows of a condition, the laws on those rows, their quadrature weights, the conic rows of the
+"everywhere" condition and the gap at the rows' nodes. Everything above this layer (the discrete problem,
+the backends, the read-back) asks the space and never branches on the degree.
+
+``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
+docs/formulation.md §8) are the two spaces; :func:`space` gives the one of a degree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contact.laws import RowLaws, pair_laws
+from ..contact.quadratic import ConeRowLaws, p2_pairs
+from ..errors import SceneError, SolverError
+from ..geometry.quadratic import P2Nodes
+from . import p2
+from .assembly import BodySystem, assemble_loads, assemble_matrices
+
+__all__ = ["Space", "P1", "P2", "ContactLines", "space"]
+
+
+@dataclass(frozen=True)
+class ContactLines:
+    """The contact rows of a scene in one space (SI; docs/formulation.md §3, §8, §10).
+
+    ``interface``: what the bodies' jump operators come from (``interface.jump(k, n_nodes)``: [u_nu] at the
+    stacked nodes of X_h from body k's nodal displacements) and what the read-back reports per pair;
+    ``offsets``: pair i's nodes of X_h are ``offsets[i]:offsets[i + 1]``; ``E``: the evaluation rows of the
+    condition (one row per constrained node; the identity under the conic condition); ``cone``: (B,
+    segments) of the conic "everywhere" rows (P2 "gamma3"), else None; ``rows``: the law of every row
+    (:class:`~cvxcontact.contact.laws.RowLaws`, or :class:`~cvxcontact.contact.quadratic.ConeRowLaws` when
+    cones sit next to a compliance law); ``weights`` (m): the law's quadrature weights on the rows (None
+    without a compliance law); ``cone_pairs``: per pair whether it is posed as a cone in a program mixing
+    cones and compliance (None otherwise); ``gap`` (m): the gap at the stacked nodes of X_h (pair gaps plus
+    the distance to rigid obstacles); ``obstacles``: the scene's
+    :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
+    cone pairs' Bernstein map of a mixed program (None otherwise).
+    """
+
+    interface: object
+    offsets: np.ndarray
+    E: sp.csr_matrix
+    cone: tuple | None
+    rows: RowLaws
+    weights: np.ndarray | None
+    cone_pairs: tuple | None
+    gap: np.ndarray
+    obstacles: tuple
+    mixed_bernstein: tuple | None = None
+
+    @property
+    def conic(self) -> bool:
+        """True if the rows are the conic condition of docs/formulation.md §8 (no compliance law)."""
+        return self.cone is not None
+
+    @property
+    def mixed(self) -> bool:
+        """True if cones sit next to a compliance law in one program (docs/formulation.md §10, "P2")."""
+        return self.mixed_bernstein is not None
+
+    def key(self) -> tuple:
+        """What the factorisations and interface matrices of a backend depend on: the nodes of X_h, the
+        jump operators' pattern and the evaluation rows (a moved obstacle may change them)."""
+        return (tuple(np.asarray(self.offsets).tolist()), self.E.shape, self.E.indices.tobytes(),
+                self.E.indptr.tobytes(), self.E.data.tobytes(), _interface_key(self.interface))
+
+
+def _interface_key(interface) -> bytes:
+    pairs = getattr(interface, "interfaces", None) or [interface]
+    return b"".join(np.ascontiguousarray(np.asarray(p.x, dtype=float)).tobytes() +
+                    np.ascontiguousarray(np.asarray(p.points, dtype=float)).tobytes() for p in pairs)
+
+
+class Space(Protocol):
+    """What the discrete problem asks of a space: its ``degree`` and ``dim`` (displacement components per
+    node), and the methods below."""
+
+    degree: int
+    dim: int
+
+    def nodes(self, body):
+        """The node set of ``body`` (None: the mesh's vertices)."""
+
+    def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        """Kuu, Kup, Kpp and the Dirichlet prolongations of ``body`` on ``nodes`` (SI), no loads."""
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        """``matrices`` with the loads of ``body`` (SI)."""
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        """The contact rows of ``scene`` under ``condition`` and ``law`` (each pair's own first)."""
+
+
+class P1:
+    """P1 (3-node) triangles: the mesh's vertices, the merged P1 contact mesh of every pair."""
+
+    degree, dim = 1, 2
+
+    def nodes(self, body):
+        return None
+
+    def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        return assemble_matrices(body)
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return assemble_loads(body, matrices)
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        stack = scene.stack
+        laws = pair_laws(scene, law)
+        offsets = stack.row_offsets(condition, scene.conditions)
+        rows = RowLaws(laws, np.diff(offsets))
+        weights = None
+        if rows.compliant:
+            weights = stack.weights(condition, scene.conditions)
+            for i, (a, b) in enumerate(zip(offsets[:-1], offsets[1:])):
+                if rows.laws[i].compliant and not (weights[a:b] > 0).all():
+                    raise SceneError(f"contacts[{i}] {scene.contacts[i]!r}: a normal-compliance law needs at least "
+                                     f"two constrained nodes (it is integrated over their lumped lengths); under "
+                                     f"{scene.conditions[i] or condition!r} the pair has {b - a}: use gamma3 or "
+                                     "Signorini")
+        return ContactLines(interface=stack, offsets=np.asarray(stack.offsets), E=stack.evaluation(
+            condition, scene.conditions), cone=None, rows=rows, weights=weights, cone_pairs=None,
+            gap=scene.gap_values(), obstacles=tuple(scene.obstacles))
+
+
+class P2:
+    """P2 (6-node) triangles built on the P1 mesh (vertices, then edge midpoints; docs/formulation.md §8)."""
+
+    degree, dim = 2, 2
+
+    def nodes(self, body):
+        return P2Nodes(body.mesh)
+
+    def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        return p2.assemble_matrices(body, self.nodes(body) if nodes is None else nodes)
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return p2.assemble_loads(body, matrices, self.nodes(body) if nodes is None else nodes)
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
+        pairs = p2_pairs(scene, nodes, condition, law)
+        stack = pairs.stack
+        cone = None
+        if pairs.conic_only:       # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
+            E = sp.identity(stack.size, format="csr")
+            cone = stack.cone_rows(condition, list(pairs.conditions))
+        else:
+            E = stack.evaluation(condition, list(pairs.conditions))
+        rows = RowLaws(pair_laws(scene, law), np.diff(stack.row_offsets(condition, scene.conditions)))
+        mixed = None
+        if pairs.mixed:            # the cone pairs' rows take the cone, not nodal limit rows (§10)
+            rows = ConeRowLaws(rows.laws, rows.counts, np.repeat(pairs.cone_pairs, rows.counts))
+            mixed = stack.bernstein_of(pairs.cone_pairs)
+        weights = stack.weights(condition, scene.conditions) if rows.compliant else None   # Simpson (§10)
+        gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(stack.interfaces)])
+        return ContactLines(interface=pairs.interface, offsets=np.asarray(stack.offsets), E=E, cone=cone,
+                            rows=rows, weights=weights,
+                            cone_pairs=tuple(pairs.cone_pairs) if pairs.cone_pairs is not None else None,
+                            gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed)
+
+
+def _p2_obstacles(scene, stack):
+    """The scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at the stacked P2 nodes of
+    ``stack`` (a :class:`~cvxcontact.contact.quadratic.QuadraticStack`): the sensitivities c(x) of each
+    obstacle at its pairs' P2 nodes (vertices and midpoints), zero elsewhere; ``basis`` and ``force`` kept."""
+    out = []
+    for o in scene.obstacles:
+        rows = np.zeros((stack.size, 2))
+        for i in o.pairs:
+            itf = stack.interfaces[i]
+            rows[stack.offsets[i]:stack.offsets[i + 1]] = o.obstacle.sensitivity(itf.points, itf.normal)
+        out.append(replace(o, rows=sp.csr_matrix(rows)))
+    return out
+
+
+SPACES = {1: P1, 2: P2}
+"""The spaces by degree."""
+
+
+def space(degree) -> Space:
+    """The :class:`Space` of ``degree`` (1: P1, 2: P2); SolverError for any other value."""
+    if isinstance(degree, bool) or degree not in SPACES:
+        raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
+    return SPACES[degree]()

@@ -1,0 +1,394 @@
+"""The contact problem as an open convex program in physical units: :class:`Model`.
+
+``cc.solve`` poses and solves the phi-form program of docs/formulation.md §2 (the paper's
+(26)-(27) as a convex QP). :class:`Model` poses the same program and hands its unknowns to
+the caller as CVXPY expressions in SI units, so that constraints and convex objective terms
+can be added before solving:
+
+    model = cc.Model(scene, condition="gamma3")
+    U = model.u(1)                       # (n_nodes, 2) displacements, m (clamped dofs 0)
+    P = model.phi(0)                     # (n_nodes,) potentials, V (electrodes included)
+    model.add(U[k, 1] >= -1e-4)          # a user constraint, in metres
+    model.add_objective(expr)            # a convex term in J/m (per unit thickness)
+    sol = model.solve()
+
+Internally the variables stay the scaled free dofs of
+:class:`cvxcontact.backends.full.ContactModel` (x = [u_1; phi_1; u_2; ...; t_1; ...], dimensionless, t_i the
+translation unknowns of force-controlled obstacles, docs/formulation.md §12):
+
+    u_SI   = U (P_k u_k)                 P_k: (2n, n_free) selection, clamped dofs 0, U = units.displacement
+    phi_SI = phi_D + Phi (Q_k phi_k)     phi_D: electrode potentials (V), Phi = units.potential
+
+and user objective terms are divided by the energy unit W = units.force * units.displacement
+(J/m). With user constraints C x + c0 <= 0 (multipliers z >= 0, CVXPY's sign convention:
+Lagrangian + z^T (C x + c0)), the momentum rows of (26) become
+
+    Kuu u + Kup phi + J^T E^T y + C_u^T z + Kup Kpp^{-1} C_phi^T z = f       (26) with user rows
+
+(a row on phi acts through the coupling, phi = Kpp^{-1} (q + Kup^T u)), and the checks of
+:mod:`cvxcontact.solution.checks` use this residual; each user constraint reports its own
+feasibility and complementarity (27), normalised per row. With linear user terms only,
+the exact finish solves that mixed system on the active set of all inequality rows
+(contact and user) and corrects it by primal-dual active-set steps.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+from dataclasses import replace
+
+import cvxpy as cp
+import numpy as np
+
+from ..backends.cones import conic_mix_model, mixed_bernstein_rows
+from ..backends.conic import bernstein_duals
+from ..backends.full import ContactModel, limit_reaction
+from ..backends.interface import held_cone, release_held
+from ..backends.program import conic_options, run_program
+from ..backends.result import Cache, RawResult, Settings
+from ..backends.run import run
+from ..contact.laws import ContactLaw, check_law, check_law_for
+from ..discrete import build_problem
+from ..errors import ResidualWarning, SceneError
+from ..fem.space import space
+from ..physics.scene import Body, Scene
+from ..solution.checks import force_displacements, ipm_active
+from ..solution.info import Route
+from ..solution.readback import read_back
+from ..solution.solution import Solution
+from ..solve import DEFAULT_TOL
+from .terms import balance, checks, finish, linearize, stacked
+
+__all__ = ["Model"]
+
+class Model:
+    """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
+
+    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
+    contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
+    docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
+    checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
+    ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
+    of every pair's X_h, stacked; every scene :func:`cvxcontact.solve` takes with P2 (several pairs, rigid
+    obstacles, each pair under its own condition and law), posed as ``solve(..., method="full")`` poses it:
+    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
+    segment, nodal pairs next to it as degenerate cones; interior-point answer with tight tolerances, no
+    exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact
+    finish. A normal-compliance law with P2 sits on the P2 nodes of the
+    condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
+    limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
+
+    Rigid obstacles, fixed or force controlled, as in :func:`cvxcontact.solve`: a force-controlled obstacle's
+    translation t is an unknown with its force balance (docs/formulation.md §12; ``translation(i)``), finished
+    on the sparse mixed system with the translations; ``sol.obstacles`` as from :func:`cvxcontact.solve`.
+
+    Methods
+    -------
+    u(body), phi(body), jump(), translation(obstacle)
+        CVXPY expressions of the unknowns in m and V (see the module docstring); ``offsets``: pair i's
+        rows of ``jump()`` are ``offsets[i]:offsets[i + 1]``.
+    add(item), add_objective(expr)
+        User constraints (``==``, ``<=``, ``>=`` of the model's expressions, in SI) and convex
+        objective terms (J/m). Items are kept; later solves include them.
+    solve()
+        Solve; returns a fresh :class:`~cvxcontact.Solution` with ``problem`` the program
+        actually solved and the checks including the user terms.
+
+    Raises
+    ------
+    SceneError
+        ``scene`` is not a Scene, ``condition`` is unknown, a body index is unknown, or a
+        user term is not built from this model's expressions or is not convex (DCP).
+    SolverError
+        A bad solver parameter or option, or the solver failed.
+    """
+
+    def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, tol: float = DEFAULT_TOL,
+                 polish: bool = True, verbose: bool = False, solver_options: Mapping[str, object] | None = None,
+                 law: ContactLaw | None = None, degree: int = 1):
+        from ..backends.options import check_solve_parameters, check_solver, check_solver_options
+
+        if not isinstance(scene, Scene):
+            raise SceneError(f"Model takes a Scene, got {type(scene).__name__}")
+        self.law = check_law_for(scene, check_law(law))
+        self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
+        self.solver = check_solver(solver)
+        self.options = check_solver_options(solver_options, self.solver)
+        discretisation = space(degree)
+        self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
+        t0 = time.perf_counter()
+        self.problem = p = build_problem(scene, discretisation, condition, self.law)
+        self._nodes, self._itf = p.nodes, p.interface
+        self.E, self.systems, self.units, self.blocks = p.E, list(p.systems), p.units, list(p.blocks)
+        self._gap, self._g, self.rows, self.offsets = p.gap, p.g, p.rows, np.asarray(p.lines.offsets)
+        self._obstacles, self._forced, self._translations = list(p.obstacles), p.forced, list(p.translations)
+        self._weights, self._law = p.weights, p.scaled_law
+        self._cone = p.lines.cone
+        self._bernstein = self._cone[0] if self._cone is not None else None
+        self._limit = mixed_bernstein_rows(p) if p.mixed else None      # the cones of a mixed program (§10)
+        if self._limit is not None:
+            self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
+                                            translations=self._translations)
+        else:
+            self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
+                                         bernstein=self._bernstein, translations=self._translations)
+        self._setup = {"assembly": time.perf_counter() - t0}
+        # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
+        self._vars, pos = [], 0
+        for u, p in zip(self._contact.u, self._contact.phi):
+            for v in (u, p):
+                if v is not None:
+                    self._vars.append((v, pos))
+                    pos += v.size
+        self._n_bodies = pos
+        for t in self._contact.t:                     # then the obstacles' translations, as in mixed_kkt
+            self._vars.append((t, pos))
+            pos += t.size
+        self._n = pos
+        self._ids = {v.id for v, _ in self._vars}
+        self._u_expr, self._phi_expr = {}, {}
+        self.constraints: list[cp.Constraint] = []
+        self._objective: list[cp.Expression] = []     # scaled (divided by the energy unit)
+
+    # ---- the unknowns in SI -------------------------------------------------------------------
+    def _index(self, body) -> int:
+        bodies = self.scene.bodies
+        if isinstance(body, Body):
+            for k, b in enumerate(bodies):
+                if b is body:
+                    return k
+            raise SceneError(f"body {body!r} is not a body of this model's scene")
+        if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < len(bodies):
+            raise SceneError(f"body must be a body's index (0, 1, ...) or one of the scene's Body objects, "
+                             f"got {body!r}")
+        return int(body)
+
+    def u(self, body, nodes=None) -> cp.Expression:
+        """Nodal displacements of ``body`` (index 0/1 or the Body), an (n_nodes, 2) expression in m;
+        the clamped dofs (Gamma_1) are the constant 0. ``nodes`` (an index or an array of node indices):
+        those rows only, checked (a SceneError naming the body and the valid range, where plain indexing
+        ``model.u(body)[node]`` raises CVXPY's IndexError)."""
+        k = self._index(body)
+        if k not in self._u_expr:
+            s = self.systems[k]
+            d = self.problem.dim
+            n = len(s.f) // d                                  # nodes (P2: vertices and midpoints)
+            self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
+                                         (n, d), order="C")
+        return self._u_expr[k] if nodes is None else self._u_expr[k][self._nodes_of(k, nodes)]
+
+    def phi(self, body, nodes=None) -> cp.Expression | None:
+        """Nodal potentials of ``body``, an (n_nodes,) expression in V with the electrode potentials
+        (Gamma_a, grounded parts) as constants; None for an elastic body. ``nodes`` as in :meth:`u`."""
+        k = self._index(body)
+        s = self.systems[k]
+        if not s.piezoelectric:
+            return None
+        if k not in self._phi_expr:
+            self._phi_expr[k] = s.phi_fixed + self.units.potential * (s.Tp @ self._contact.phi[k])
+        return self._phi_expr[k] if nodes is None else self._phi_expr[k][self._nodes_of(k, nodes)]
+
+    def _nodes_of(self, k, nodes):
+        """``nodes`` as checked node indices of body k (SceneError naming the body and the valid range)."""
+        n = len(self.systems[k].f) // self.problem.dim
+        idx = np.asarray(nodes)
+        if idx.dtype.kind not in "iu" or idx.ndim > 1:
+            raise SceneError(f"nodes of body {k} ({self.scene.bodies[k].name}) must be an integer node index or a "
+                             f"1-D array of them, got {nodes!r}")
+        bad = idx[(idx < 0) | (idx >= n)]
+        if bad.size:
+            raise SceneError(f"node {int(bad.ravel()[0])} of body {k} ({self.scene.bodies[k].name}) is out of range: "
+                             f"the body has {n} nodes (0..{n - 1}; P2: vertices, then edge midpoints, as sol.points)")
+        return int(idx) if idx.ndim == 0 else idx
+
+    def jump(self) -> cp.Expression:
+        """[u_nu] of every pair, stacked, m: pair i's rows are ``model.offsets[i]:offsets[i + 1]`` at the nodes
+        ``sol.contacts[i].x``. P1: the merged nodes of each pair (``scene.stack``); P2: the P2 nodes of each
+        pair's X_h (merged vertices and segment midpoints, interleaved). Against a rigid obstacle [u_nu] is
+        the body's u . nu; the contact condition is [u_nu] <= gap, for a force-controlled obstacle
+        [u_nu] + c . t <= gap with t its translation (:meth:`translation`, docs/formulation.md §12)."""
+        return self.units.displacement * (sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
+                                          + self.problem.prescribed_jump)
+
+    def translation(self, obstacle: int) -> cp.Expression:
+        """The rigid translation (2,) in m of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an
+        unknown (its force balance is part of the program), for a fixed one the constant 0."""
+        if isinstance(obstacle, bool) or not isinstance(obstacle, (int, np.integer)) or \
+                not 0 <= obstacle < len(self._obstacles):
+            raise SceneError(f"obstacle must be an index into scene.obstacles (0..{len(self._obstacles) - 1}), "
+                             f"got {obstacle!r}")
+        o = self._obstacles[int(obstacle)]
+        if o.force is None:
+            return cp.Constant(np.zeros(2))
+        t = self._contact.t[next(i for i, f in enumerate(self._forced) if f is o)]
+        return self.units.displacement * (o.basis @ t)
+
+    # ---- user terms ---------------------------------------------------------------------------
+    def _own(self, expr, what):
+        ids = {v.id for v in expr.variables()}
+        if not ids:
+            raise SceneError(f"{what} involves none of this model's unknowns; build it from model.u(), "
+                             f"model.phi() or model.jump()")
+        if not ids <= self._ids:
+            names = sorted(v.name() for v in expr.variables() if v.id not in self._ids)
+            raise SceneError(f"{what} involves variables that are not this model's ({names}); build it "
+                             f"from model.u(), model.phi() or model.jump() of this Model")
+
+    def add(self, item):
+        """Add a user constraint (``==``, ``<=`` or ``>=`` of this model's expressions, SI units),
+        an objective term (``cp.Minimize(convex)`` / ``cp.Maximize(concave)``, J/m), or a list of
+        them. Returns ``item`` (keep a constraint to read its ``dual_value`` after solving)."""
+        if isinstance(item, (cp.Minimize, cp.Maximize)):
+            expr = item.args[0] if isinstance(item, cp.Minimize) else -item.args[0]
+            self.add_objective(expr)
+            return item
+        if isinstance(item, (list, tuple)):
+            for it in item:
+                self.add(it)
+            return item
+        if not isinstance(item, (cp.constraints.Inequality, cp.constraints.Equality)):
+            raise SceneError(f"model.add takes a constraint (==, <=, >=) or cp.Minimize/cp.Maximize of this "
+                             f"model's expressions, got {type(item).__name__}")
+        what = f"user constraint {len(self.constraints)} ({item})"
+        self._own(item.expr, what)
+        if not item.is_dcp():
+            raise SceneError(f"{what} is not convex (DCP): an inequality needs a convex left side and a "
+                             f"concave right side, an equality affine sides")
+        self.constraints.append(item)
+        return item
+
+    def add_objective(self, expr) -> None:
+        """Add a convex scalar objective term ``expr`` in J/m (per unit thickness) to the energy."""
+        if not isinstance(expr, cp.Expression):
+            raise SceneError(f"add_objective takes a CVXPY expression of this model's unknowns, "
+                             f"got {type(expr).__name__}")
+        what = f"user objective term {len(self._objective)}"
+        if expr.size != 1:
+            raise SceneError(f"{what} must be a scalar (J/m), got shape {expr.shape}")
+        self._own(expr, what)
+        if not expr.is_convex():
+            raise SceneError(f"{what} is not convex (DCP); only convex terms can be minimised")
+        self._objective.append(cp.reshape(expr, (), order="C") / (self.units.force * self.units.displacement))
+
+    # ---- solve --------------------------------------------------------------------------------
+    def _x(self):
+        x = np.zeros(self._n)
+        for v, pos in self._vars:
+            x[pos:pos + v.size] = v.value
+        return x
+
+    def solve(self) -> Solution:
+        """Solve with the user terms; a fresh Solution in SI with checks that include them. Without user terms
+        the program is the one ``cc.solve(..., method="full")`` solves, with the same finish and read-back."""
+        if not self.constraints and not self._objective:
+            return self._solve_plain()
+        timings = dict(self._setup)
+        self._setup = {}
+        t0 = time.perf_counter()
+        objective = sum(self._objective) if self._objective else None
+        problem = self._contact.with_terms(self.constraints, objective)
+        timings["model"] = time.perf_counter() - t0
+        conic = self._bernstein is not None
+        cone = conic or self._limit is not None                 # the conic tolerances (§8)
+        run_program(problem, self.solver, self.verbose,
+                    conic_options(self.solver, self.options, pairs=len(self.offsets) - 1) if cone else self.options)
+        timings["compile"] = problem.compilation_time or 0.0
+        timings["solve"] = problem.solver_stats.solve_time or 0.0
+        blocks, E, g = self.blocks, self.E, self._g
+        u = [v.value for v in self._contact.u]
+        phi = [v.value if v is not None else None for v in self._contact.phi]
+        taus = [np.asarray(t.value, dtype=float).ravel() for t in self._contact.t]   # force-controlled obstacles
+        beta, z = None, None
+        # rows no unknown moves: their force, which (26)-(27) do not determine, at its least admissible value,
+        # as cc.solve sets it (docs/formulation.md §8, "Held nodes")
+        held = self.problem.held_rows
+        if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
+            r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
+                 + sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g))))
+            z = release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)), held)[1]
+            if self._limit is not None:     # cones next to the law: their nodal force B^T beta joins z
+                beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,
+                                 g + self._law.cone_shift)
+                z = z + self._limit.T @ beta.ravel()
+            y = self._weights * self._law.pressure(r) + z
+        elif conic:    # the nodal force r = B^T beta on X_h (E = I)
+            beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._bernstein, held, g)
+            y = self._bernstein.T @ beta.ravel()
+        else:
+            y = np.where(held, 0.0, np.asarray(self._contact.contact.dual_value, dtype=float).ravel())
+        x = self._x()
+        rows = []                                      # per user constraint: C, c0, z, equality
+        for c in self.constraints:
+            C, c0 = linearize(c.expr, x, self._vars)
+            zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")      # (not z: the limit reactions)
+            rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+        grad, lin = np.zeros(self._n), True
+        if objective is not None:
+            Cobj, _ = linearize(objective, x, self._vars)
+            grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
+            lin = objective.is_affine()
+        linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
+        finishable = linear and not conic                                  # nor with the conic condition
+        moved = self.problem.moved_gap(taus)
+        active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], E @ moved, y,
+                            force_displacements(blocks, E, y)) & ~held     # a held row would make the KKT singular
+        polished, declined = False, ""
+        if self.polish and finishable:
+            t0 = time.perf_counter()
+            out = finish(self.problem, u, phi, y, rows, grad if objective is not None else None, active, x)
+            timings["polish"] = time.perf_counter() - t0
+            if isinstance(out, str):
+                declined = out
+            else:
+                u, phi, y, zs, active, taus = out
+                polished = True
+                rows = [(C, c0, z, eq, aff) for (C, c0, _, eq, aff), z in zip(rows, zs)]
+                x = stacked(u, phi, taus)
+        t0 = time.perf_counter()
+        keep_z = self._law is not None and (self._limit is not None or self._law.limited.any())
+        raw = RawResult(u=u, phi=phi, y=y, active=active, z=z if keep_z else None, beta=beta, taus=taus,
+                        polished=polished, program=problem, method="full")
+        sol = read_back(self.problem, raw, self.tol, timings, "full")
+        sol._checks = checks(self.problem, sol._checks, u, phi, y, x, rows, grad)
+        if self._forced and rows:        # user rows on a translation carry part of its prescribed force
+            sol._checks["obstacle balance"] = balance(self.problem, y, rows, self._n_bodies)
+        timings["read_back"] = time.perf_counter() - t0
+        route = (Route.INTERIOR_POINT_FINISHED if polished else
+                 Route.INTERIOR_POINT if linear or self._law is not None else Route.INTERIOR_POINT_NONLINEAR)
+        stats = problem.solver_stats
+        sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
+                           iterations=int(stats.num_iters or 0) if stats is not None else 0)
+        if self.polish and finishable and not polished:
+            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
+                          f"({declined}); the interior-point answer is kept (sol.polished is False):\n"
+                          f"{sol.report()}", ResidualWarning, stacklevel=2)
+        elif not sol.ok:
+            warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
+        return sol
+
+    def _solve_plain(self) -> Solution:
+        """No user terms: the full backend's route on the same :class:`~cvxcontact.discrete.DiscreteProblem`
+        (``cc.solve(..., method="full")``); the model's variables take the answer's values."""
+        timings = dict(self._setup)
+        self._setup = {}
+        settings = Settings(solver=self.solver, options=self.options, verbose=self.verbose, polish=self.polish,
+                            warm_start=False)
+        raw = run("full", self.problem, Cache(), settings, timings)
+        t0 = time.perf_counter()
+        sol = read_back(self.problem, raw, self.tol, timings, "full")
+        timings["read_back"] = time.perf_counter() - t0
+        sol.info = replace(sol.info, timings=timings)
+        for var, val in [*zip(self._contact.u, raw.u), *zip(self._contact.phi, raw.phi), *zip(self._contact.t, raw.taus)]:
+            if var is not None and val is not None:
+                var.value = np.asarray(val, dtype=float).reshape(var.shape)
+        if self.polish and not raw.polished and not self.problem.conic and not self.problem.mixed:
+            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
+                          f"({raw.declined}); the interior-point answer is kept (sol.polished is False):\n"
+                          f"{sol.report()}", ResidualWarning, stacklevel=3)
+        elif not sol.ok:
+            warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=3)
+        return sol

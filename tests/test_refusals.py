@@ -1,0 +1,500 @@
+"""Every refusal of the package, one test per row of docs/refusals.md (issue 20, item 7).
+
+Rows (a), an ill-posed problem: the typed error, and that its message names the input and the reason (key
+words, not sentences). Rows (b), a well-posed problem not implemented yet: the scene solved against an
+independent reference (a closed form, an invariance, the k -> inf limit of a law, or cc.solve(method="full")
+for cc.Model), marked xfail(strict=True, raises=<the refusal's type>) so that each flips when the refusal
+goes. Rows (c): a refusal of a route or an internal helper, the scene being taken by the public API.
+
+The last section is the regression test of an untyped error (a pair's part that a roller or u_n = 0 holds:
+CVXPY's "Invalid dimensions for arguments to quad_form" on the default route), P1 and P2.
+"""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+
+from conftest import rel
+from test_compliance_scenes import H as H_BLOCK
+from test_compliance_scenes import M as M_ALU33
+from test_compliance_scenes import P, W, held_layer, pressed_block
+from test_compliance_scenes import H1 as H_BASE
+from test_p2_stack import three_blocks
+
+E, NU = 70e9, 0.3
+ALU = cc.materials.isotropic(E=E, nu=NU)
+M = ALU.c[1, 1]                  # oedometric modulus E (1 - nu) / ((1 + nu) (1 - 2 nu)), Pa
+H = 0.5                          # block heights (m)
+FLOOR = cc.Rigid.plane((0.0, 0.0), (0.0, 1.0))          # a rigid half-space below y = 0
+GAP = lambda s: -2e-6 + 2e-3 * (s - 0.4) ** 2            # noqa: E731  partial contact (2 of 5 P1 rows active)
+NOT_RAISED = pytest.fail.Exception     # pytest.raises without the error: a missing refusal, however it is missed
+
+
+def _message(info):
+    return str(info.value)
+
+
+def _upper(load=-1e8, nx=4):
+    """A block [0, 1] x [0, H] clamped at its top, pressed down by its weight ``load`` (N/m^3)."""
+    return cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=nx, ny=2), ALU, clamped=["top"], contact="bottom",
+                   body_force=(0.0, load), name="upper")
+
+
+def _on_plane(upper, height=0.0):
+    """The reference: ``upper`` on a rigid plane at y = ``height`` with the gap GAP."""
+    return cc.Scene(upper, contacts=[cc.Contact(upper, "bottom", cc.Rigid.plane((0.0, height), (0.0, 1.0)),
+                                                gap=GAP)])
+
+
+def _same(sol, ref, bound):
+    """The upper body's u and the pair's lambda of ``sol`` equal those of ``ref`` (relative, max-norm)."""
+    assert sol.ok and ref.ok, sol.report()
+    assert rel(sol.u[0], ref.u[0]) <= bound and rel(sol.contact.lam, ref.contact.lam) <= bound
+    assert sol.contact.active.any() and not sol.contact.active.all()
+
+
+# ================================================================ UnsupportedError
+
+def test_model_takes_a_force_controlled_obstacle_with_a_compliance_law():
+    """Row 1 (b). Block pressed by a force-controlled plane through p = k r: cc.solve(full) against the closed
+    form (springs in series), then cc.Model on the same scene against cc.solve(full)."""
+    k = 1e12
+    scene = pressed_block(P * W, cc.NormalCompliance(stiffness=k))
+    ref = cc.solve(scene, method="full")
+    t = ref.obstacles[0].translation[1]
+    assert ref.ok and ref.polished
+    assert abs(t + P * H_BLOCK / M_ALU33 + P / k) <= 1e-9 * (P * H_BLOCK / M_ALU33)      # measured 3.2e-16
+    sol = cc.Model(scene).solve()                                     # the pair's own law
+    # the same program, finished the same way (Model == solve(full) measured 3e-16 on the scenes it takes,
+    # tests/test_model_stack.py)
+    assert sol.ok and rel(sol.u[0], ref.u[0]) <= 1e-9
+    assert rel(sol.obstacles[0].translation, ref.obstacles[0].translation) <= 1e-9
+    assert rel(sol.contact.lam, ref.contact.lam) <= 1e-9
+
+
+def _conic_next_to_compliance():
+    (top, mid, bot), pairs, gaps = three_blocks(("sigma1", "gamma3"))
+    law = cc.NormalCompliance(stiffness=1e11, exponent=1)
+    pairs[0] = cc.Contact(top, "bottom", mid, "top", gap=gaps[0], condition="sigma1", law=law)
+    return cc.Scene(top, mid, bot, contacts=pairs)
+
+
+def test_model_takes_p2_cones_next_to_a_compliance_law():
+    """Row 2 (b). Three P2 blocks: a compliant sigma1 pair above a Signorini 'gamma3' (conic) pair. Both are
+    interior-point answers of one program (no exact finish): cc.solve full vs condensed differ by 6.5e-12 in u
+    and 6.0e-10 in lambda (measured); the bounds leave 1e4."""
+    scene = _conic_next_to_compliance()
+    ref = cc.solve(scene, degree=2, tol=1e-5, method="full")
+    assert ref.ok
+    sol = cc.Model(scene, degree=2, tol=1e-5).solve()
+    assert sol.ok
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) <= 1e-7
+    for a, b in zip(sol.contacts, ref.contacts):
+        assert rel(a.lam, b.lam) <= 1e-5
+
+
+@pytest.mark.parametrize("case", ["held layer", "force-controlled plane"])
+def test_p2_conic_limit_with_a_held_body_or_force_control(case):
+    """Row 3 (b). A compliance law with a penetration limit l below p / k under 'gamma3' (the cone at g + l):
+    the contact stops at r = l with lambda = p. Held layer: the base u_y = -p (y + H1) / M, the layer the same
+    shifted by -l. Force-controlled plane: the block u_y = -p y / M, the plane's translation -(p H / M + l).
+    The same block under a fixed plane at that translation (P2 gamma3, the conic limit) measured 4.2e-14 (u)
+    and 8.1e-14 (lambda), complementarity 1e-8: an interior point, bounds at 1e-6."""
+    ell = 5e-6
+    law = cc.NormalCompliance(stiffness=1e12, penetration_limit=ell)
+    if case == "held layer":
+        sol = cc.solve(held_layer(law), degree=2, tol=1e-5)
+        q1, q2 = sol.points
+        scale = P * H_BASE / M_ALU33
+        assert np.abs(sol.u[1][:, 1] + P * (q2[:, 1] + H_BASE) / M_ALU33).max() <= 1e-6 * scale
+        assert np.abs(sol.u[0][:, 1] + P * (q1[:, 1] + H_BASE) / M_ALU33 + ell).max() <= 1e-6 * scale
+    else:
+        sol = cc.solve(pressed_block(P * W, law), degree=2, tol=1e-5)
+        y = sol.points[0][:, 1]
+        scale = P * H_BLOCK / M_ALU33
+        assert np.abs(sol.u[0][:, 1] + P * y / M_ALU33).max() <= 1e-6 * scale
+        assert abs(sol.obstacles[0].translation[1] + scale + ell) <= 1e-6 * scale
+    assert sol.ok and rel(sol.contact.lam, np.full(len(sol.contact.x), P)) <= 1e-6
+
+
+def _partial_overlap():
+    """test_p2_compliance's partial overlap: the upper block (4 cells of 0.25 m) over a lower one on [0.1, 1];
+    the first node of the upper trace inside the overlap is a P2 midpoint (0.125)."""
+    from reference_problems import DELTA, E1, E2, H1, H2
+
+    m1 = cc.rectangle(x=(0, 1), y=(0, H1), nx=4, ny=2)
+    m2 = cc.rectangle(x=(0.1, 1.0), y=(-H2, 0), nx=3, ny=2)
+    b1 = cc.Body(m1, cc.materials.isotropic(E=E1, nu=0.0), clamped=["top"], contact="bottom")
+    b2 = cc.Body(m2, cc.materials.isotropic(E=E2, nu=0.0), clamped=["bottom"], contact="top")
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", gap=-DELTA)])
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="issue 20: a P2 compliance law under a sigma "
+                   "condition whose rows form no P2 mesh (the law's quadrature there)")
+def test_p2_compliance_under_sigma1_on_a_partial_overlap_tends_to_signorini():
+    """Row 4 (b). Whatever positive, consistent quadrature the law takes on the rows, k -> inf tends to the
+    Signorini answer under the same condition (supported: nodal rows, no weights) at rate 1/k. The same scene
+    under sigma2 (supported) measured: relative u error 3.7e-3, 3.7e-4 at k = 1e14, 1e15 (ratio 9.96)."""
+    scene = _partial_overlap()
+    sig = cc.solve(scene, "sigma1", degree=2)
+    assert sig.ok and sig.polished
+    errs = []
+    for k in (1e14, 1e15):
+        sol = cc.solve(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+        assert sol.ok
+        errs.append(max(rel(a, b) for a, b in zip(sol.u, sig.u)))
+    assert errs[1] <= 1e-3 and 8.0 <= errs[0] / errs[1] <= 12.0
+
+
+def test_p2_one_pair_helper_refuses_several_pairs_which_the_public_route_takes():
+    """Row 5 (c). ``quadratic_interface`` (one pair; the stability study and the benchmark call it) refuses two
+    pairs, typed, naming the count; cc.solve(degree=2) takes the same scene (quadratic_stack)."""
+    from cvxcontact.contact.quadratic import quadratic_interface
+    from cvxcontact.geometry.quadratic import P2Nodes
+
+    bodies, pairs, _ = three_blocks()
+    scene = cc.Scene(*bodies, contacts=pairs)
+    with pytest.raises(cc.UnsupportedError) as info:
+        quadratic_interface(scene, [P2Nodes(b.mesh) for b in scene.bodies])
+    assert "2 contact pairs" in _message(info) and "degree=2" in _message(info)
+    sol = cc.solve(scene, "sigma1", degree=2)
+    assert sol.ok and sol.polished and len(sol.contacts) == 2
+
+
+# ================================================================ held rows, supports on a contact part
+
+def _clamped_foundation(where):
+    """A lower block [0, 1] x [-0.4, 0] whose top is clamped and is the contact part: given as its contact=
+    tag ("body": a segment tag 'pad' covering the clamped top) or as the pair's part ("pair")."""
+    mesh = cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=4, ny=2, segments={"pad": ("top", 0.0, 1.0)})
+    upper = _upper()
+    if where == "body":
+        lower = cc.Body(mesh, ALU, clamped=["top", "bottom"], contact="pad", name="lower")
+        return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "pad", gap=GAP)])
+    lower = cc.Body(mesh, ALU, clamped=["top", "bottom"], contact="left", name="lower")
+    return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=GAP)])
+
+
+@pytest.mark.parametrize("where", ["body", "pair"])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_clamped_contact_part_is_a_fixed_foundation(where, degree):
+    """Rows 6, 7 (b). The upper block pressed onto a clamped top equals the upper block on a rigid plane at
+    y = 0 (the foundation does not move; the rows are the upper body's nodes on matching meshes). The same
+    scene with the top held by a roller instead (supported, tests below) measured 2.8e-16."""
+    upper, scene = _clamped_foundation(where)
+    ref = cc.solve(_on_plane(upper), "sigma1", degree=degree)
+    sol = cc.solve(scene, "sigma1", degree=degree)                     # measured 0 (P1, P2)
+    _same(sol, ref, 1e-12)
+    assert np.abs(sol.u[1]).max() == 0.0                            # the foundation carries it on its supports
+
+
+def test_a_traction_on_a_contact_part_is_refused_naming_the_part_and_the_reason():
+    """Row 8 (a): on a contact part the stress vector is the contact pressure; a prescribed traction there
+    over-determines it."""
+    b = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, clamped=["top"], contact="left",
+                traction={"bottom": (0.0, 1e6)}, name="block")
+    with pytest.raises(cc.SceneError) as info:
+        cc.Contact(b, "bottom", FLOOR)
+    msg = _message(info)
+    assert "'bottom'" in msg and "block" in msg and "traction" in msg and "over-determines" in msg
+    assert "load another part" in msg
+
+
+def _moved_foundation(where, lift):
+    """A lower block between side rollers whose top (the contact part) is moved up by ``lift`` (m): as the
+    body's contact= part ("body": a segment tag 'pad' on the moved top) or as the pair's part ("pair")."""
+    mesh = cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=4, ny=2, segments={"pad": ("top", 0.0, 1.0)})
+    upper = _upper()
+    supports = dict(roller=["left", "right"], displacement={"top": (None, lift)}, name="lower")
+    if where == "body":
+        lower = cc.Body(mesh, ALU, contact="pad", **supports)
+        return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "pad", gap=GAP)])
+    lower = cc.Body(mesh, ALU, contact="bottom", **supports)
+    return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=GAP)])
+
+
+@pytest.mark.parametrize("where", ["body", "pair"])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_prescribed_displacement_of_the_contact_part_moves_the_contact_line(where, degree):
+    """Row 9 (b). The lower block's top pushed up by 5e-5 m: the upper block sees a rigid plane at y = 5e-5 m
+    (its rows are the upper body's nodes on matching meshes; the foundation's top does not deform, its u_y
+    is prescribed). The unmoved top (a roller, supported) measured 2.8e-16. Before this refusal covered the
+    pair's part ("pair"), u_D was silently left out of the rows: the bodies overlapped by u_D."""
+    lift = 5e-5
+    upper, scene = _moved_foundation(where, lift)
+    ref = cc.solve(_on_plane(upper, lift), "sigma1", degree=degree)
+    sol = cc.solve(scene, "sigma1", degree=degree)                     # measured 3e-16 (P1), 4e-16 (P2)
+    _same(sol, ref, 1e-12)
+    assert np.abs(sol.u[1][np.isclose(sol.points[1][:, 1], 0.0), 1] - lift).max() <= 1e-12 * lift
+
+
+# ================================================================ bodies held by the contact only
+
+def _resting(p):
+    """A layer between side rollers under a pressure p (Pa) on its top, on a foundation clamped at its bottom
+    (side rollers too): only the contact holds the layer vertically (tests/test_supports.py)."""
+    low = cc.rectangle(x=(0.0, 1.0), y=(-0.4, 0.0), nx=4, ny=3)
+    top = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.3), nx=3, ny=3)
+    layer = cc.Body(top, ALU, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -p)}, name="layer")
+    base = cc.Body(low, ALU, clamped=["bottom"], roller=["left", "right"], contact="top", name="base")
+    return cc.Scene(layer, base)
+
+
+def test_a_load_pulling_a_held_body_off_is_refused_naming_the_body_the_motion_and_the_reason():
+    """Row 10 (a): no equilibrium (the energy is unbounded below along the free motion)."""
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(_resting(-2e7))
+    msg = _message(info)
+    assert "layer" in msg and "translation y" in msg and "pulls body 'layer' off" in msg
+    assert "compressive contact forces" in msg and "add a support" in msg
+
+
+def test_a_held_body_without_load_is_refused_as_undetermined():
+    """Row 11 (a): a lift-off costs nothing, the position along the held motion is not unique."""
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(_resting(0.0))
+    msg = _message(info)
+    assert "layer" in msg and "translation y" in msg and "nothing determines" in msg and "no work" in msg
+    assert "support" in msg
+
+
+def test_a_load_free_layer_squeezed_between_a_floor_and_a_punch():
+    """Row 12 (b), now solved (the check is made on the assembled problem, fem/kernel.py). A load-free layer between side rollers, on a rigid floor, a rigid punch (a plane) pushed
+    d into its top: uniaxial strain, u_y = -d y / H, lambda = M d / H on both faces (P1 exact). The layer with
+    its top moved by a prescribed displacement instead (supported) measured 3.3e-16 (u), 7.9e-16 (lambda)."""
+    d = 1e-4
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=3, ny=2), ALU, roller=["left", "right"], contact="bottom",
+                    name="layer")
+    punch = cc.Rigid.plane((0.0, H - d), (0.0, -1.0))
+    sol = cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", FLOOR), cc.Contact(layer, "top", punch)]))
+    q = sol.points[0]
+    assert sol.ok and np.abs(sol.u[0][:, 1] + d * q[:, 1] / H).max() <= 1e-9 * d
+    for c in sol.contacts:
+        assert rel(c.lam, np.full(len(c.x), M * d / H)) <= 1e-9
+
+
+def _layer_tagged(tag_on_top):
+    """A layer between side rollers under a pressure p on its top, paired on its bottom with a rigid floor;
+    its contact= tag is the pair's part ('bottom') or a segment 'mark' of its top."""
+    mesh = cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2, segments={"mark": ("top", 0.0, 0.5)})
+    layer = cc.Body(mesh, ALU, roller=["left", "right"], contact="mark" if tag_on_top else "bottom",
+                    traction={"top": (0.0, -1e7)}, name="layer")
+    return cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", FLOOR)])
+
+
+def test_the_pull_off_check_follows_the_pairs_not_the_contact_tag():
+    """Row 13 (b), now solved. The layer on the floor carries p (closed form u_y = -p y / M, lambda = p) whatever part its
+    contact= tag names. With the tag on the pair's part (supported) measured 2.6e-16 (u), 7.5e-16 (lambda)."""
+    p = 1e7
+    sol = cc.solve(_layer_tagged(tag_on_top=True))
+    q = sol.points[0]
+    assert sol.ok and np.abs(sol.u[0][:, 1] + p * q[:, 1] / M).max() <= 1e-9 * p * H / M
+    assert rel(sol.contact.lam, np.full(len(sol.contact.x), p)) <= 1e-9
+
+
+def test_a_body_pulled_off_its_pair_is_refused_whatever_its_contact_tag():
+    """Row 14 (a), refused now (it was left to the solver: 'unbounded'). Layer under its weight, its only pair
+    on its top against a plane above it (the load pulls it away); its contact= tag is its bottom."""
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, roller=["left", "right"], contact="bottom",
+                    body_force=(0.0, -1e6), name="layer")
+    scene = cc.Scene(layer, contacts=[cc.Contact(layer, "top", cc.Rigid.plane((0.0, H), (0.0, -1.0)))])
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(scene)
+    msg = _message(info)
+    assert "layer" in msg and "translation y" in msg and "pulls body 'layer' off" in msg
+
+
+def test_model_takes_a_body_held_by_the_contact_only():
+    """Row 15 (b). The resting layer: cc.solve(full) against the closed form (uniaxial strain, u_y = -p (y + H1)
+    / M in both bodies), then cc.Model against cc.solve(full) (the same program and finish: Model == solve(full)
+    measured 3e-16 on the scenes it takes, tests/test_model_stack.py)."""
+    p = 2e7
+    scene = _resting(p)
+    ref = cc.solve(scene, method="full")
+    for u, q in zip(ref.u, ref.points):
+        assert np.abs(u[:, 1] + p * (q[:, 1] + 0.4) / M).max() <= 1e-9 * p * 0.4 / M      # measured 3e-16
+    sol = cc.Model(scene).solve()
+    assert sol.ok
+    for a, b in zip(sol.u, ref.u):
+        assert rel(a, b) <= 1e-9
+    assert rel(sol.contact.lam, ref.contact.lam) <= 1e-9
+
+
+def test_a_rigid_motion_nothing_holds_is_refused_naming_it():
+    """Row 16 (a): nothing holds the x translation (frictionless contact holds along the normal only). Refused
+    by the Scene, which knows the body's contact parts (a Body alone does not)."""
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, contact="bottom", name="block")
+    with pytest.raises(cc.SceneError) as info:
+        cc.Scene(block, contacts=[cc.Contact(block, "bottom", FLOOR)])
+    msg = _message(info)
+    assert "block" in msg and "translation x" in msg and "nothing holds" in msg and "support" in msg
+
+
+def _pushed_to_a_wall(tag):
+    """A block on a roller floor (its bottom), pushed by a traction -p along x onto a rigid wall at x = 0 through
+    its left side; its contact= tag ``tag``."""
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, contact=tag, roller=["bottom"],
+                    traction={"right": (-1e7, 0.0)}, name="block")
+    return cc.Scene(block, contacts=[cc.Contact(block, "left", cc.Rigid.plane((0.0, 0.0), (1.0, 0.0)))])
+
+
+def test_a_motion_held_by_a_pair_on_another_part_is_not_refused():
+    """Row 17 (b), now solved. The wall holds the x translation through the pair on 'left'; the contact= tag 'top' leaves
+    it free for the check. Closed form: uniform sigma_xx = -p, u_x = eps_xx x, u_y = eps_yy y with plane-strain
+    eps_xx = -(1 - nu^2) p / E, eps_yy = nu (1 + nu) p / E (P1 exact). With the tag on 'left' (supported)
+    measured 2.1e-16 (u), 9.3e-16 (lambda)."""
+    p = 1e7
+    sol = cc.solve(_pushed_to_a_wall("top"))
+    q = sol.points[0]
+    exx, eyy = -(1 - NU ** 2) * p / E, NU * (1 + NU) * p / E
+    assert sol.ok and np.abs(sol.u[0] - np.column_stack([exx * q[:, 0], eyy * q[:, 1]])).max() <= 1e-9 * abs(exx)
+    assert rel(sol.contact.lam, np.full(len(sol.contact.x), p)) <= 1e-9
+
+
+def test_body_contact_tag_is_optional_with_contacts():
+    """Row 18 (b). The same scene with and without the contact= tag, pairs by contacts=: the same answer."""
+    mesh = cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2)
+    tagged = cc.Body(mesh, ALU, clamped=["top"], contact="bottom", body_force=(0.0, -1e8))
+    ref = cc.solve(_on_plane(tagged))
+    untagged = cc.Body(mesh, ALU, clamped=["top"], body_force=(0.0, -1e8))
+    sol = cc.solve(_on_plane(untagged))
+    _same(sol, ref, 1e-14)                                   # the same program: identical to rounding
+
+
+# ================================================================ force-controlled obstacles
+
+def test_a_zero_force_is_refused_as_holding_the_obstacle_nowhere():
+    """Row 19 (a): with F = 0 the obstacle's position is undetermined."""
+    with pytest.raises(cc.SceneError) as info:
+        cc.Rigid.circle((0.5, 1.0), 0.5, force=(0.0, 0.0))
+    msg = _message(info)
+    assert "Rigid.circle" in msg and "zero force" in msg and "undetermined" in msg and "no force" in msg
+
+
+def test_a_forced_obstacle_no_node_sees_move_is_refused():
+    """Row 20 (a): a profile finite at isolated nodes only: no contact row depends on the translation, so
+    nothing balances the force."""
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, clamped=["bottom"], contact="top")
+    spikes = cc.Rigid.profile(lambda s: np.where((np.abs(s - 0.5) <= 1e-9) | (np.abs(s - 0.75) <= 1e-9),
+                                                 0.0, np.inf), force=(0.0, -1e6))
+    with pytest.raises(cc.SceneError) as info:
+        cc.Scene(block, contacts=[cc.Contact(block, "top", spikes)])
+    msg = _message(info)
+    assert "Rigid.profile" in msg and "pairs [0]" in msg and "no node" in msg and "balance" in msg
+    assert "no force" in msg
+
+
+@pytest.mark.parametrize("force,words", [((1e6, -1e6), ["free to slide along (1, 0)", "frictionless"]),
+                                         ((0.0, 1e6), ["pulls the obstacle away", "free to move along (0, 1)"])])
+def test_a_force_contact_cannot_balance_is_refused_naming_the_free_direction(force, words):
+    """Rows 21, 22 (a): a plane's tangential force component (frictionless contact has no shear), a force
+    pulling the obstacle off the bodies (contact forces are compressive)."""
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, clamped=["bottom"], contact="top")
+    with pytest.raises(cc.SceneError) as info:
+        cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.plane((0.0, H), (0.0, -1.0), force=force))])
+    msg = _message(info)
+    assert "Rigid.plane" in msg and all(w in msg for w in words)
+
+
+def test_a_forced_circle_on_a_half_model_symmetry_line_is_refused():
+    """Row 23 (a), refused now (it drifted by 0.68 m with the finish declined). Half model: a block [0, 0.5] with a symmetry roller on x = 0, a circle
+    centred on x = 0 pressed down by a force: every contact force pushes the circle towards +x, so nothing
+    balances a lateral translation."""
+    block = cc.Body(cc.rectangle(x=(0, 0.5), y=(0, 0.5), nx=12, ny=6), ALU, clamped=["bottom"], roller=["left"],
+                    contact="top", name="half")
+    circle = cc.Rigid.circle((0.0, 1.1), 0.6, force=(0.0, -5e7))
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(cc.Scene(block, contacts=[cc.Contact(block, "top", circle)]))
+    msg = _message(info)
+    assert "Rigid.circle" in msg and "nothing determines the translation x of obstacle 0" in msg
+
+
+def test_a_held_node_starting_in_penetration_is_refused_naming_the_pair_and_the_point():
+    """Row 24 (a): a node no unknown moves starts in penetration: the constraint set is empty."""
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, clamped="left", contact="bottom")
+    scene = cc.Scene(block, contacts=[cc.Contact(block, "bottom", cc.Rigid.plane((0.0, 1e-6), (0.0, 1.0)))])
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(scene)
+    msg = _message(info)
+    assert "contact pair 0" in msg and "(0, 0) m" in msg and "-1e-06 m" in msg and "penetration" in msg
+    assert "cannot hold" in msg
+
+
+def test_a_backend_that_cannot_take_the_problem_is_refused_and_auto_takes_it():
+    """Row 25 (c): method='condensed' cannot condense a body held by the contact only (its stiffness is
+    singular) nor a force-controlled obstacle; the error names the flag, 'auto' solves the scene."""
+    for scene, flag in ((_resting(2e7), "held_by_contact=True"),
+                        (pressed_block(P * W), "force_control=True")):
+        with pytest.raises(cc.SolverError) as info:
+            cc.solve(scene, method="condensed")
+        assert "'condensed'" in _message(info) and flag in _message(info) and "'auto'" in _message(info)
+        assert cc.solve(scene).ok
+
+
+# ================================================================ the untyped error: held contact dofs
+
+def _held_top(kind):
+    """A lower block whose pair part 'top' a roller (u_y = 0) or a prescribed u_y = 0 holds, the upper block
+    pressed onto it (matching meshes); its contact= tag is 'left'."""
+    hold = dict(roller=["top"]) if kind == "roller" else dict(displacement={"top": (None, 0.0)})
+    lower = cc.Body(cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=4, ny=2), ALU, clamped=["bottom"], contact="left",
+                    name="lower", **hold)
+    upper = _upper()
+    return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=GAP)])
+
+
+@pytest.mark.parametrize("kind", ["roller", "displacement"])
+@pytest.mark.parametrize("degree,condition,bound", [
+    (1, "gamma3", 1e-12), (1, "sigma2", 1e-12),          # measured 9.8e-16 (auto-full), 2.8e-16 (plane)
+    (2, "sigma1", 1e-12),                                # measured 2.2e-15, 0
+    (2, "gamma3", 1e-6),                                 # the conic interior point: measured 9.4e-12, 0
+])
+def test_a_pair_part_held_by_its_supports_is_solved_on_the_default_route(kind, degree, condition, bound):
+    """The lower body has no free contact dof: the condensed route (the default) gave CVXPY's bare
+    'Invalid dimensions for arguments to quad_form'. Now it equals method='full' and the upper block on a
+    rigid plane at y = 0 (the held top does not move along the normal); the lower block does not move."""
+    upper, scene = _held_top(kind)
+    tol = 1e-5 if (degree, condition) == (2, "gamma3") else 1e-6
+    sol = cc.solve(scene, condition, degree=degree, tol=tol)
+    full = cc.solve(scene, condition, degree=degree, tol=tol, method="full")
+    ref = cc.solve(_on_plane(upper), condition, degree=degree, tol=tol)
+    assert sol.method == "condensed" and full.method == "full"
+    _same(sol, full, bound)
+    _same(sol, ref, bound)
+    assert np.abs(sol.u[1]).max() == 0.0 and np.abs(full.u[1]).max() == 0.0     # no load, no contact dof
+
+
+@pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (2, "sigma1"), (2, "gamma3")])
+@pytest.mark.parametrize("law", [None, cc.NormalCompliance(stiffness=1e12)])
+def test_a_pair_all_of_whose_rows_are_held_is_solved_on_the_default_route(degree, condition, law):
+    """A block on rollers (bottom, left) pressed by p on its top, its roller-held bottom paired with a rigid
+    floor: every contact row is held (no unknown moves it), the contact force is the least admissible, 0
+    (docs/formulation.md §8), and the block is in the closed-form state sigma_yy = -p, sigma_xx = 0:
+    u_x = nu (1 + nu) p x / E, u_y = -(1 - nu^2) p y / E (P1 and P2 exact). Measured 9.1e-16 (of u_y(H)),
+    lambda exactly 0; the same for method='full'."""
+    p = 1e6
+    block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, contact="right", roller=["bottom", "left"],
+                    traction={"top": (0.0, -p)})
+    scene = cc.Scene(block, contacts=[cc.Contact(block, "bottom", FLOOR)])
+    exx, eyy = NU * (1 + NU) * p / E, -(1 - NU ** 2) * p / E
+    for method in ("auto", "full"):
+        sol = cc.solve(scene, condition, degree=degree, law=law, method=method)
+        q = sol.points[0]
+        assert sol.ok and sol.method == ("condensed" if method == "auto" else "full")
+        assert np.abs(sol.u[0] - np.column_stack([exx * q[:, 0], eyy * q[:, 1]])).max() <= 1e-12 * abs(eyy) * H
+        assert np.abs(sol.contact.lam).max() == 0.0
+
+
+def test_a_load_free_layer_in_an_open_gap_is_refused_after_the_solve():
+    """Row 26 (a): a load-free layer between side rollers, on a rigid floor, under a plane 1e-4 m above its top:
+    any height in the gap is a solution. Not visible before the solve (the floor and the plane resist both
+    directions); the rows active at the exact solution show it."""
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=3, ny=2), ALU, roller=["left", "right"], contact="bottom",
+                    name="layer")
+    above = cc.Rigid.plane((0.0, H + 1e-4), (0.0, -1.0))
+    with pytest.raises(cc.SceneError) as info:
+        cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", FLOOR), cc.Contact(layer, "top", above)]))
+    msg = _message(info)
+    assert "does not determine the translation y of body 'layer'" in msg and "open" in msg and "support" in msg

@@ -1,9 +1,17 @@
 """Shared scene builders for the test suite (small sizes: the whole suite runs in seconds)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import cvxcontact as cc
+
+
+def pytest_report_header(config):
+    """Which cvxcontact the suite runs: the installed package (the `pytest` script) or the clone's tree
+    (`python -m pytest` from the clone's root). .ci/run checks this line."""
+    return f"cvxcontact {cc.__version__} from {Path(cc.__file__).resolve().parent}"
 
 
 def two_blocks(n1=(16, 8), n2=(11, 6), mat1=None, mat2=None, scale=1.0, diagonal="alternate", **load):

@@ -144,10 +144,12 @@ CASES = [(1, "gamma3"), (1, "sigma1"), (2, "gamma3"), (2, "sigma1")]
 @pytest.mark.parametrize("degree,condition", CASES, ids=[f"P{d}-{c}" for d, c in CASES])
 def test_whole_solve_pardiso_equals_superlu(degree, condition):
     """cc.solve on the demo scene with each factorisation: both ok, u, phi and the contact force agree to
-    1e-11 of their size (measured 3e-14 or less), except the contact force of P2 "gamma3", an interior-point
-    answer without exact finish: 1e-9 (measured 2.6e-11)."""
+    1e-11 of their size (measured 3e-14 or less), except P2 "gamma3", an interior-point answer without exact
+    finish: u and phi measured 7.9e-14 .. 7.0e-13, the contact force 1e-9 (measured 2.6e-11 .. 1.4e-10), its
+    complementarity 5.0e-7 .. 5.5e-7 (clarabel 0.10.0, 0.11.1), so tol=1e-5 there."""
     scene = two_blocks(nx=8)
-    sols = {k: cc.solve(scene, condition, degree=degree, factorization=k) for k in ("superlu", "pardiso")}
+    tol = 1e-5 if (degree, condition) == (2, "gamma3") else 1e-6
+    sols = {k: cc.solve(scene, condition, degree=degree, factorization=k, tol=tol) for k in ("superlu", "pardiso")}
     a, b = sols["superlu"], sols["pardiso"]
     assert a.ok and b.ok
     assert a.info.factorization == "superlu" and b.info.factorization == "pardiso"

@@ -148,24 +148,31 @@ def small():
     return two_blocks(n1=(8, 4), n2=(5, 3))
 
 
+# The checks' tol for the conic "gamma3" answers on ``small``: an interior point with no exact finish, its
+# complementarity measured 5.7e-7 (full and condensed; clarabel 0.9.0, 0.10.0, 0.11.1, with and without oneMKL,
+# 1 or 2 threads), 3.9e-7 .. 4.3e-7 on the re-solved loads, 2.8e-7 .. 3.1e-7 with a user row (docs/formulation.md §8)
+CONIC_TOL = 1e-5
+
+
 def test_everywhere_holds_between_nodes_nodal_may_not(small):
     xs = np.linspace(0.0, 1.0, 4001)
     results = {}
     for cond in ("gamma3", "sigma1", "sigma2"):
-        sol = cc.solve(small, cond, degree=2)
+        sol = cc.solve(small, cond, degree=2, tol=CONIC_TOL if cond == "gamma3" else 1e-6)
         assert sol.ok
         jump = _sample_jump(sol, xs)
         scale = np.abs(jump).max()
         results[cond] = (jump - small.gap(xs, 0 * xs)).max() / scale
         assert np.abs(jump).max() > 0 and results[cond] > -1.0
-    assert results["gamma3"] < 1e-9                          # no violation above rounding
+    assert results["gamma3"] < 1e-9                          # no violation above rounding (measured -1.1e-13)
     assert max(results["sigma1"], results["sigma2"]) > 1e-6  # the nodal condition penetrates between its nodes
 
 
 def test_p2_condensed_equals_full(small):
-    for cond, tol in (("gamma3", 1e-6), ("sigma1", 1e-9)):
-        a = cc.solve(small, cond, degree=2, method="full")
-        b = cc.solve(small, cond, degree=2, method="condensed")
+    # gamma3: two interior points, measured u 1.0e-13, phi 1.5e-13, lambda 4.0e-11 apart
+    for cond, tol, checks in (("gamma3", 1e-6, CONIC_TOL), ("sigma1", 1e-9, 1e-6)):
+        a = cc.solve(small, cond, degree=2, method="full", tol=checks)
+        b = cc.solve(small, cond, degree=2, method="condensed", tol=checks)
         assert a.ok and b.ok
         for k in (0, 1):
             assert rel(b.u[k], a.u[k]) < tol
@@ -220,7 +227,7 @@ def test_p2_vtu_and_scene_file_key(small, tmp_path):
          "clamped": ["bottom"], "contact": "top"}]}
     spec = scene_from_data(data, tmp_path / "s.toml")
     assert spec.degree == 2 and spec.settings["degree"] == 2
-    assert spec.solve().degree == 2
+    assert spec.solve(tol=CONIC_TOL).degree == 2            # gamma3: complementarity measured 2.0e-7
     with pytest.raises(SceneFileError, match="degree"):
         scene_from_data({**data, "degree": 3}, tmp_path / "s.toml")
 
@@ -245,8 +252,8 @@ def test_p2_model_with_the_conic_condition(small):
     """cc.Model(degree=2) poses the conic "everywhere" condition under "gamma3": without user terms it is
     cc.solve's full conic program; with an active user row the answer still keeps [u_nu] <= g between the
     nodes, checked by dense sampling of each body's own P2 trace (independent of the merged mesh)."""
-    ref = cc.solve(small, "gamma3", degree=2, method="full")
-    model = cc.Model(small, "gamma3", degree=2)
+    ref = cc.solve(small, "gamma3", degree=2, method="full", tol=CONIC_TOL)
+    model = cc.Model(small, "gamma3", degree=2, tol=CONIC_TOL)
     sol = model.solve()
     assert sol.ok and sol.degree == 2 and "cone" in sol.residuals()
     for k in (0, 1):
@@ -337,11 +344,11 @@ def test_p2_contact_solver_resolves_new_loads():
     a = two_blocks(n1=(8, 4), n2=(5, 3))
     b = two_blocks(n1=(8, 4), n2=(5, 3), scale=1.5)
     b = cc.Scene(*b.bodies, gap=lambda x: 1e-5 * (x - 0.5) ** 2)
-    for cond, tol in (("sigma2", 1e-9), ("gamma3", 1e-6)):
-        solver = cc.ContactSolver(a, cond, degree=2)
+    for cond, tol, checks in (("sigma2", 1e-9, 1e-6), ("gamma3", 1e-6, CONIC_TOL)):
+        solver = cc.ContactSolver(a, cond, degree=2, tol=checks)
         solver.solve()
         again = solver.solve(b)
-        fresh = cc.solve(b, cond, degree=2)
+        fresh = cc.solve(b, cond, degree=2, tol=checks)
         assert again.ok and fresh.ok
         for k in (0, 1):
             assert rel(again.u[k], fresh.u[k]) < tol
@@ -353,7 +360,7 @@ def test_conic_condition_is_the_limit_of_dense_nodal_sampling(small):
     one and tends to it as the points get denser."""
     from cvxcontact.contact.quadratic import p2_interpolation
 
-    conic = cc.solve(small, "gamma3", degree=2, method="full")
+    conic = cc.solve(small, "gamma3", degree=2, method="full", tol=CONIC_TOL)
     gaps = []
     for per_segment in (3, 12, 48):
         solver = cc.ContactSolver(small, "sigma1", degree=2)

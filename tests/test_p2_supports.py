@@ -75,8 +75,9 @@ def symmetric():
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
 def test_p2_symmetric_scene_equals_its_half_model_with_a_roller(symmetric, condition):
     full_scene, half_scene = symmetric
-    full = cc.solve(full_scene, condition, degree=2)
-    half = cc.solve(half_scene, condition, degree=2)
+    tol = 1e-5 if condition == "gamma3" else 1e-6       # gamma3: complementarity measured 1.8e-7 .. 2.0e-7
+    full = cc.solve(full_scene, condition, degree=2, tol=tol)
+    half = cc.solve(half_scene, condition, degree=2, tol=tol)
     assert full.ok and half.ok and half.degree == 2
     for k in range(2):
         j = _match(full.points[k], half.points[k])
@@ -128,13 +129,14 @@ def column():
 @pytest.mark.parametrize("method", ["full", "condensed"])
 def test_p2_column_with_rollers_and_prescribed_displacement_is_exact(column, method):
     assert S < 0                                                          # compressed: the contact is closed
-    sol = cc.solve(column, "gamma3", degree=2, method=method)
+    # the conic interior point: complementarity measured 8.0e-7 (clarabel 0.10.0, 0.11.1), so tol=1e-5
+    sol = cc.solve(column, "gamma3", degree=2, method=method, tol=1e-5)
     assert sol.ok and sol.method == method
-    assert _column_error(sol) < 1e-9                                      # at every P2 node
+    assert _column_error(sol) < 1e-9                                      # at every P2 node; measured 1.9e-11
     top = sol.points[1][:, 1] == H2
     assert np.abs(sol.u[1][top, 1] + DELTA).max() <= 1e-15               # u_D at the top's vertices and midpoints
-    assert abs(sol.contact.force.sum() + S * 1.0) <= 1e-8 * abs(S)       # the contact carries sigma_yy(0)
-    assert np.abs(sol.contact.lam / -S - 1).max() < 1e-7
+    assert abs(sol.contact.force.sum() + S * 1.0) <= 1e-8 * abs(S)       # the contact carries sigma_yy(0); 2.6e-12
+    assert np.abs(sol.contact.lam / -S - 1).max() < 2e-7                 # measured 3.6e-8
 
 
 def test_p1_is_not_exact_on_the_column(column):
@@ -165,9 +167,9 @@ def test_p2_floating_electrode_closed_form(charge, condition):
     D = -charge / 1.0
     eps1, eps2 = np.linalg.solve([[c33 + e33 ** 2 / k33, -C22], [H1, H2]], [e33 * D / k33, -DELTA])
     E = (D - e33 * eps1) / k33
-    # the conic condition is interior-point accurate (its complementarity ~2e-6 on this scene, with or without
-    # the floating electrode); the nodal one has the exact finish
-    tol = 1e-6 if condition == "sigma1" else 1e-5          # 1e-6: the default
+    # the conic condition is interior-point accurate (its complementarity measured 5.4e-7 with the floating
+    # electrode's charge, 3.9e-6 without, clarabel 0.10.0 and 0.11.1); the nodal one has the exact finish
+    tol = 1e-6 if condition == "sigma1" else 2e-5          # 1e-6: the default
     sol = cc.solve(_piezo_column(charge), condition, degree=2, tol=tol)
     assert sol.ok
     p = sol.points[0]

@@ -449,14 +449,15 @@ def _held_top(kind):
 @pytest.mark.parametrize("degree,condition,bound", [
     (1, "gamma3", 1e-12), (1, "sigma2", 1e-12),          # measured 9.8e-16 (auto-full), 2.8e-16 (plane)
     (2, "sigma1", 1e-12),                                # measured 2.2e-15, 0
-    (2, "gamma3", 1e-6),                                 # the conic interior point: measured 9.4e-12, 0
+    (2, "gamma3", 1e-6),           # the conic interior point: measured u <= 2.0e-10, lambda <= 9.7e-10
 ])
 def test_a_pair_part_held_by_its_supports_is_solved_on_the_default_route(kind, degree, condition, bound):
     """The lower body has no free contact dof: the condensed route (the default) gave CVXPY's bare
     'Invalid dimensions for arguments to quad_form'. Now it equals method='full' and the upper block on a
     rigid plane at y = 0 (the held top does not move along the normal); the lower block does not move."""
     upper, scene = _held_top(kind)
-    tol = 1e-5 if (degree, condition) == (2, "gamma3") else 1e-6
+    # P2 gamma3: complementarity measured 3.7e-7 .. 3.7e-6 (clarabel 0.10.0, 0.11.1, with and without oneMKL)
+    tol = 2e-5 if (degree, condition) == (2, "gamma3") else 1e-6
     sol = cc.solve(scene, condition, degree=degree, tol=tol)
     full = cc.solve(scene, condition, degree=degree, tol=tol, method="full")
     ref = cc.solve(_on_plane(upper), condition, degree=degree, tol=tol)

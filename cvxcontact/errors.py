@@ -81,23 +81,19 @@ def _refusal(what, how, hint):
     return f"{what} cannot be {how}: a built description is immutable; {hint}"
 
 
-_LIST_EDITS = frozenset({"append", "extend", "insert", "remove", "pop", "clear", "sort", "reverse"})
-_DICT_EDITS = frozenset({"update", "pop", "popitem", "setdefault", "clear"})
+class _RefusesEdits:
+    """Mixin of :class:`FrozenTuple` and :class:`FrozenMap`: the editing methods of the mutable type they stand
+    for (``_EDITS``, named ``_KIND`` in the message) and item or attribute assignment raise
+    :class:`FrozenError` naming the attribute (``_edit[0]``) and the variant to build (``_edit[1]``)."""
 
-
-class FrozenTuple(tuple):
-    """A tuple that says what to do when edited as if it were a list: ``body.roller.append("left")``
-    raises :class:`FrozenError` naming the attribute (``what``) and the variant to build (``hint``)."""
-
-    def __new__(cls, items=(), what: str = "this tuple", hint: str = "build a new description"):
-        out = super().__new__(cls, items)
-        object.__setattr__(out, "_edit", (what, hint))
-        return out
+    __slots__ = ()
+    _EDITS: frozenset = frozenset()
+    _KIND = ""
 
     def __getattr__(self, name):
-        if name in _LIST_EDITS:
+        if name in type(self)._EDITS:
             what, hint = object.__getattribute__(self, "_edit")
-            raise FrozenError(_refusal(f"{what} (a tuple)", f"changed with .{name}()", hint))
+            raise FrozenError(_refusal(f"{what} ({self._KIND})", f"changed with .{name}()", hint))
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def __setitem__(self, key, value):
@@ -109,15 +105,30 @@ class FrozenTuple(tuple):
     def __setattr__(self, name, value):
         raise FrozenError(_refusal(f"{self._edit[0]}.{name}", "assigned", self._edit[1]))
 
+
+class FrozenTuple(_RefusesEdits, tuple):
+    """A tuple that says what to do when edited as if it were a list: ``body.roller.append("left")``
+    raises :class:`FrozenError` naming the attribute (``what``) and the variant to build (``hint``)."""
+
+    _EDITS = frozenset({"append", "extend", "insert", "remove", "pop", "clear", "sort", "reverse"})
+    _KIND = "a tuple"
+
+    def __new__(cls, items=(), what: str = "this tuple", hint: str = "build a new description"):
+        out = super().__new__(cls, items)
+        object.__setattr__(out, "_edit", (what, hint))
+        return out
+
     def __reduce__(self):
         return (FrozenTuple, (tuple(self), *self._edit))
 
 
-class FrozenMap(Mapping):
+class FrozenMap(_RefusesEdits, Mapping):
     """A read-only mapping (insertion order kept) that says what to do when edited:
     ``body.traction["right"] = ...`` raises :class:`FrozenError` naming the attribute and the variant."""
 
     __slots__ = ("_items", "_edit")
+    _EDITS = frozenset({"update", "pop", "popitem", "setdefault", "clear"})
+    _KIND = "a read-only mapping"
 
     def __init__(self, items=(), what: str = "this mapping", hint: str = "build a new description"):
         object.__setattr__(self, "_items", dict(items))
@@ -139,21 +150,6 @@ class FrozenMap(Mapping):
         return dict(self._items) == dict(other) if isinstance(other, Mapping) else NotImplemented
 
     __hash__ = None
-
-    def __getattr__(self, name):
-        if name in _DICT_EDITS:
-            what, hint = object.__getattribute__(self, "_edit")
-            raise FrozenError(_refusal(f"{what} (a read-only mapping)", f"changed with .{name}()", hint))
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-
-    def __setitem__(self, key, value):
-        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "assigned", self._edit[1]))
-
-    def __delitem__(self, key):
-        raise FrozenError(_refusal(f"{self._edit[0]}[{key!r}]", "deleted", self._edit[1]))
-
-    def __setattr__(self, name, value):
-        raise FrozenError(_refusal(f"{self._edit[0]}.{name}", "assigned", self._edit[1]))
 
     def __reduce__(self):
         return (FrozenMap, (self._items, *self._edit))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 
 from .backends import DEFAULT_METHOD, METHODS, choose, describe
 from .backends.result import Cache, Settings
@@ -194,7 +195,7 @@ class ContactSolver:
         if not sol.ok and self._falls_back(raw):
             sol = self._fallback(problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
-        sol.info = _with_timings(sol.info, timings)
+        sol.info = replace(sol.info, timings=timings)
         self._warn(sol, raw)
         return sol
 
@@ -220,7 +221,8 @@ class ContactSolver:
         if not other.ok:
             return sol
         self.method = "sparse"
-        return _with_route(other, Route.SPARSE_FALLBACK)
+        other.info = replace(other.info, route=Route.SPARSE_FALLBACK)
+        return other
 
     def _warn(self, sol, raw) -> None:
         p = self.problem
@@ -244,14 +246,3 @@ class ContactSolver:
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
         return self.problem.accepts(scene)
-
-
-def _with_timings(info: SolveInfo, timings) -> SolveInfo:
-    from dataclasses import replace
-    return replace(info, timings=timings)
-
-
-def _with_route(sol: Solution, route: Route) -> Solution:
-    from dataclasses import replace
-    sol.info = replace(sol.info, route=route)
-    return sol

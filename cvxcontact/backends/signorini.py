@@ -83,7 +83,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     cond, compliance = reduction.bodies, reduction.compliance
     _, loads, d = reduction.apply(problem, timings)
     warm = settings.warm_start and settings.polish and cache.active is not None
-    out = solve_lcp(compliance.W, d, cache.active) if warm and len(cache.active) == len(d) else None
+    out = solve_lcp(compliance.W, d, cache.active) if warm else None
     raw = RawResult(u=[], phi=[], y=np.zeros(len(d)), method="condensed")
     if out is not None:                                    # re-solve: the previous active set, corrected
         raw.y, raw.active, raw.polished, raw.route, raw.finish = out[0], out[1], True, Route.WARM_START, out[2]

@@ -361,14 +361,18 @@ class Model:
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
-        if self.polish and finishable and not polished:
+        self._warn(sol, finishable, declined, stacklevel=3)
+        return sol
+
+    def _warn(self, sol, finishable: bool, declined: str, stacklevel: int) -> None:
+        """A ResidualWarning when an exact finish that applies was declined, or when the checks fail."""
+        if self.polish and finishable and not sol.polished:
             warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
                           f"({declined}); the interior-point answer is kept (sol.polished is False):\n"
-                          f"{sol.report()}", ResidualWarning, stacklevel=2)
+                          f"{sol.report()}", ResidualWarning, stacklevel=stacklevel)
         elif not sol.ok:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
-                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=2)
-        return sol
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=stacklevel)
 
     def _set_values(self, u, phi, taus, duals=()):
         """The model's variables (and the user constraints' duals) set to an answer, so that ``model.u(k).value``,
@@ -392,11 +396,5 @@ class Model:
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
         self._set_values(raw.u, raw.phi, raw.taus)
-        if self.polish and not raw.polished and not self.problem.conic and not self.problem.mixed:
-            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
-                          f"({raw.declined}); the interior-point answer is kept (sol.polished is False):\n"
-                          f"{sol.report()}", ResidualWarning, stacklevel=3)
-        elif not sol.ok:
-            warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
-                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=3)
+        self._warn(sol, not self.problem.conic and not self.problem.mixed, raw.declined, stacklevel=4)
         return sol

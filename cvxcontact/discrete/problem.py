@@ -229,20 +229,27 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes)
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
+    jumps = {}
+
+    def jump(k):                                  # [u_nu] at the nodes of X_h from body k's nodal displacements
+        if k not in jumps:
+            jumps[k] = lines.interface.jump(k, len(systems[k].f) // space.dim)
+        return jumps[k]
+
     if previous is not None and previous.lines.key() == lines.key():
         blocks = tuple(blk.with_loads(s, un) for blk, s in zip(previous.blocks, systems))
     elif previous is not None:                              # the same matrices, new contact rows
-        blocks = tuple(replace(blk, jump=(lines.interface.jump(k, len(s.f) // space.dim) @ s.Tu).tocsr()).with_loads(s, un)
+        blocks = tuple(replace(blk, jump=(jump(k) @ s.Tu).tocsr()).with_loads(s, un)
                        for k, (blk, s) in enumerate(zip(previous.blocks, systems)))
     else:
-        blocks = tuple(Block.scaled(s, lines.interface.jump(k, len(s.f) // space.dim), un) for k, s in enumerate(systems))
+        blocks = tuple(Block.scaled(s, jump(k), un) for k, s in enumerate(systems))
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
     held = held_rows(E, blocks, translations)
     shift = np.zeros(len(lines.gap))             # [u_D nu]: prescribed displacements of contact nodes (§11)
     for k, s in enumerate(systems):
         if s.u_fixed is not None and np.any(s.u_fixed):
-            shift = shift + lines.interface.jump(k, len(s.f) // space.dim) @ s.u_fixed
+            shift = shift + jump(k) @ s.u_fixed
     gap = (lines.gap - shift) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,

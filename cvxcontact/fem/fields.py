@@ -62,7 +62,8 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     out = getattr(mat, "out_of_plane", None)
     if getattr(mat, "plane", "strain") == "stress":
         szz = np.zeros(len(eps))                                       # plane stress: sigma_zz = 0
-    elif out is not None and getattr(mat, "angle", 0.0) != 0.0:        # a rotated material: its rotated row
+    elif out is not None and (mat.angle != 0.0 or not np.array_equal(mat.rotation, np.eye(3))
+                              or (mat.c12 if mat.piezoelectric else mat.E) is None):   # rotated or general: its row
         szz = eps @ out[0] - (field @ out[2] if field is not None else 0.0)
     s = np.column_stack([stress[:, 0], stress[:, 1], szz, stress[:, 2]])
     vm = np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)

@@ -91,6 +91,14 @@ class Mesh(Frozen):
         """(m, 3) node indices of the counter-clockwise triangles (read-only)."""
         return self._triangles
 
+    dim = 2
+    """Space dimension (a tetrahedral mesh has 3)."""
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 3) the elements: the triangles (read-only)."""
+        return self._triangles
+
     def with_points(self, points: ArrayLike) -> Mesh:
         """A new validated mesh with the same triangles and tags on new node coordinates (metres).
 

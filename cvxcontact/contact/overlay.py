@@ -262,7 +262,7 @@ def _hats(vertices, triangles, cell, node, uv, tri):
     T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)   # (o, 2, 2)
     l12 = np.linalg.solve(T, (vertices[other] - P[:, 0])[..., None])[..., 0] if len(other) else np.zeros((0, 2))
     bary = np.column_stack([1.0 - l12.sum(axis=1), l12])
-    bary[np.abs(bary) < 1e-13] = 0.0
+    bary[np.abs(bary) < 1e-15] = 0.0                              # rounding of exact zeros
     rows = np.concatenate([np.flatnonzero(at >= 0), np.repeat(other, 3)])
     cols = np.concatenate([at[at >= 0], tri[host[other]].ravel()])
     vals = np.concatenate([np.ones(int((at >= 0).sum())), bary.ravel()])

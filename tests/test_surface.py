@@ -336,3 +336,32 @@ def test_multiplier_on_nearly_coincident_faces():
     lam = itf.multiplier(r)
     assert np.abs(G.T @ (M @ lam - r)).max() <= 1e-8 * np.abs(G.T @ r).max()      # measured 9e-11
     assert np.abs(itf.multiplier(itf.mass @ np.full(itf.size, 5.0)) - 5.0).max() <= 1e-8 * 5   # measured 2.9e-10
+
+
+def test_on_tetrahedral_boxes():
+    """The same properties on cc.box meshes (two stacked blocks with 5x5 and 7x3 faces, turned by a generic
+    rotation; a punch on a larger block's named patch)."""
+    generators3d = pytest.importorskip("cvxcontact.geometry.generators3d")
+    box = generators3d.box
+    lower = box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=5, ny=5, nz=2)
+    upper = box(x=(0, 1), y=(0, 1), z=(0.5, 1.0), nx=7, ny=3, nz=2)
+    R = rotation(9)
+    itf = SurfaceInterface((StandInBody("upper", upper.with_points(upper.points @ R.T), "bottom"),
+                            StandInBody("lower", lower.with_points(lower.points @ R.T), "top")))
+    assert np.allclose(itf.normal, R @ [0, 0, -1.0], atol=1e-14) and abs(itf.area - 1.0) <= 1e-14
+    assert [len(s) for s in itf.sigma] == [32, 36]
+    rng = np.random.default_rng(4)
+    a, w, b, w2 = rng.normal(size=(4, 3))
+    U = [a + np.cross(w, t.body.mesh.points) for t in itf.traces[:1]] + \
+        [b + np.cross(w2, t.body.mesh.points) for t in itf.traces[1:]]
+    jump = sum(itf.jump(k, len(U[k])) @ U[k].ravel() for k in range(2))
+    X = itf.points
+    assert np.abs(jump - (a + np.cross(w, X) - b - np.cross(w2, X)) @ itf.normal).max() <= 1e-13
+    assert np.abs(itf.multiplier(itf.mass @ np.full(itf.size, 1e5)) - 1e5).max() <= 1e-9 * 1e5  # measured 1e-14
+    assert _patch_rows(itf, np.arange(itf.size))[1] <= 1e-10
+    assert min(_patch_rows(itf, s)[1] for s in itf.sigma) > 1e-3
+    base = box(x=(-1, 2), y=(-1, 2), z=(0, 0.5), nx=6, ny=6, nz=1, patches={"pad": ("top", (0.2, 0.8), (0.3, 0.7))})
+    punch = box(x=(0.2, 0.8), y=(0.3, 0.7), z=(0.5, 0.9), nx=4, ny=3, nz=1)
+    for part in ("top", "pad"):
+        itf = SurfaceInterface((StandInBody("punch", punch, "bottom"), StandInBody("base", base, part)))
+        assert abs(itf.area - 0.24) <= 1e-14

@@ -407,6 +407,11 @@ class ObstacleRows:
         return sp.csr_matrix(self.rows @ self.basis)
 
 
+def _vec(v) -> str:
+    """(a, b[, c]) with 6 significant digits, for messages."""
+    return "(" + ", ".join(f"{float(c):.6g}" for c in v) + ")"
+
+
 def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
     """The :class:`ObstacleRows` of every distinct rigid obstacle of ``scene`` (an obstacle shared by
     several pairs moves as one). For a force-controlled obstacle the prescribed force F must be
@@ -422,40 +427,57 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
         if c.rigid:
             seen.setdefault(id(c.other), (c.other, []))[1].append(i)
     for obstacle, pairs in seen.values():
-        rows = np.zeros((stack.size, 2))
+        d = np.asarray(scene.interfaces[pairs[0]].points).shape[1]          # 2 or 3 components
+        rows = np.zeros((stack.size, d))
         for i in pairs:
             itf = scene.interfaces[i]
             rows[stack.offsets[i]:stack.offsets[i + 1]] = obstacle.sensitivity(itf.points, itf.normal)
         F = obstacle.force
-        basis = np.eye(2)
+        basis = np.eye(d)
         if F is not None:
             label = f"{obstacle!r} (pairs {pairs})"
+            if len(F) != d:
+                raise SceneError(f"{label}: the force has {len(F)} components, the scene is {d}D: give {d}")
             scale = float(np.linalg.norm(rows, axis=1).max(initial=0.0))
-            _, sv, Vt = np.linalg.svd(rows, full_matrices=False)
+            _, sv, Vt = np.linalg.svd(rows, full_matrices=True)
             if not scale > 0:
                 raise SceneError(f"{label}: no node of its pairs sees the obstacle move (its distance is finite at "
                                  "isolated nodes only), so no contact force can balance the prescribed force: give "
                                  "the obstacle a shape that faces the part around the nodes it reaches, or no force "
                                  "(a fixed obstacle)")
-            if sv[1] <= 1e-9 * sv[0]:                       # every c(x) parallel: one direction only
-                b = Vt[0] * np.sign(rows @ Vt[0])[np.argmax(np.abs(rows @ Vt[0]))]
-                basis = b[:, None]
-                side = np.array([-b[1], b[0]]) + 0.0
-                b = b + 0.0
-                if abs(F @ side) > 1e-9 * np.linalg.norm(F):
+            rank = int(np.sum(sv > 1e-9 * sv[0]))
+            if rank < d:                                   # the c(x) span fewer directions: those only
+                basis = Vt[:rank].T
+                free = Vt[rank:]                            # the directions no contact row sees
+                if rank == 1:
+                    b = Vt[0] * np.sign(rows @ Vt[0])[np.argmax(np.abs(rows @ Vt[0]))]
+                    basis = b[:, None]
+                    b = b + 0.0
+                slide = free @ F
+                if np.linalg.norm(slide) > 1e-9 * np.linalg.norm(F):
+                    if d == 2:
+                        side = np.array([-b[1], b[0]]) + 0.0
+                        raise SceneError(
+                            f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m has a component {F @ side:.6g} N/m "
+                            f"along ({side[0]:.6g}, {side[1]:.6g}), which frictionless contact cannot balance: the "
+                            f"obstacle is free to slide along ({side[0]:.6g}, {side[1]:.6g}); give a force along "
+                            f"its normal ({b[0]:.6g}, {b[1]:.6g}) only")
+                    v = free.T @ slide
+                    v = v / np.linalg.norm(v) + 0.0
                     raise SceneError(
-                        f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m has a component {F @ side:.6g} N/m along "
-                        f"({side[0]:.6g}, {side[1]:.6g}), which frictionless contact cannot balance: the obstacle "
-                        f"is free to slide along ({side[0]:.6g}, {side[1]:.6g}); give a force along its normal "
-                        f"({b[0]:.6g}, {b[1]:.6g}) only")
+                        f"{label}: the force {_vec(F)} N has a component {np.linalg.norm(slide):.6g} N along "
+                        f"{_vec(v)}, which frictionless contact cannot balance: the obstacle is free to slide "
+                        f"along {_vec(v)}; give a force in the span of the directions its contact rows see"
+                        + (f" (its normal {_vec(b)})" if rank == 1 else ""))
             y, res = nnls(rows.T / scale, F)
             if res > 1e-9 * np.linalg.norm(F):
                 r = F - rows.T @ y / scale
                 r = r / np.linalg.norm(r)
+                unit = "N/m" if d == 2 else "N"
                 raise SceneError(
-                    f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m pulls the obstacle away from the bodies "
+                    f"{label}: the force {_vec(F)} {unit} pulls the obstacle away from the bodies "
                     f"(compressive contact forces cannot balance it): the obstacle is free to move along "
-                    f"({r[0]:.6g}, {r[1]:.6g}); give a force pressing it onto the bodies")
+                    f"{_vec(r)}; give a force pressing it onto the bodies")
         basis = np.array(basis)
         basis.setflags(write=False)
         out.append(ObstacleRows(obstacle, tuple(pairs), sp.csr_matrix(rows), F, basis))

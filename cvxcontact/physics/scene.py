@@ -720,6 +720,11 @@ class Scene(Frozen):
         return f"Scene({', '.join(repr(b) for b in self.bodies)}, contacts={list(self.contacts)!r})"
 
     @property
+    def dim(self) -> int:
+        """2 (triangle meshes, plane strain or stress) or 3 (tetrahedral meshes)."""
+        return mesh_dim(self.bodies[0])
+
+    @property
     def length(self) -> float:
         """Reference length L0 (m): the bounding-box diagonal of the whole scene."""
         p = np.concatenate([b.mesh.points for b in self.bodies])

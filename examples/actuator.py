@@ -1,4 +1,5 @@
 """A piezoelectric actuator driven only by an electrode voltage, pressing on an elastic foundation.
+================================================================================================
 
 The upper body (PZT-5H, 1 m x 0.25 m, poled along +y) is clamped along its top edge and
 grounded along its bottom edge, which is also the contact face. A driven electrode

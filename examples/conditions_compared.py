@@ -1,4 +1,5 @@
 """The three contact conditions on strongly non-matching meshes.
+=============================================================
 
 The upper PZT-5A block has ``n`` cells on the contact line, the lower aluminium block
 ``n // 6 + 1``: about six upper nodes per lower segment, and the two node sets are

@@ -1,4 +1,5 @@
 """A gmsh-generated geometry read through meshio: a PZT-4 block with a hole on an elastic base.
+============================================================================================
 
 ``examples/meshes/upper_hole.msh`` (a 1 m x 0.5 m block with a circular hole of radius
 0.12 m) and ``examples/meshes/lower.msh`` (a 1 m x 0.4 m base) were made with gmsh; their
@@ -21,7 +22,8 @@ import numpy as np
 
 import cvxcontact as cc
 
-MESHES = Path(__file__).resolve().parent / "meshes"
+# the folder of this script (the documentation build runs it from there, without __file__)
+MESHES = Path(globals().get("__file__", "gmsh_mesh.py")).resolve().parent / "meshes"
 
 
 def build():

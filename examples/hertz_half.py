@@ -1,4 +1,5 @@
 """Hertz half model: a rigid cylinder pressed into a block, only the right half meshed.
+====================================================================================
 
 The scene is symmetric about x = 0, so only x >= 0 is modelled: the block's left edge (on the
 symmetry line) gets a roller (u_x = 0, u_y free), the cylinder is a rigid circle obstacle
@@ -6,12 +7,12 @@ symmetry line) gets a roller (u_x = 0, u_y free), the cylinder is a rigid circle
 block's top (a prescribed approach, displacement control). The block is clamped at its bottom.
 
 The plane-strain Hertz solution of a rigid cylinder on an elastic half-space under the load
-P (N/m) of the WHOLE contact (twice the half model's force) is
+P (N/m) of the WHOLE contact (twice the half model's force) is::
 
     a = sqrt(4 P R / (pi E*)),   p0 = 2 P / (pi a),   E* = E / (1 - nu^2).
 
 Look at: the half-width a_h (half-way between the last active node and the first open one, so
-|a_h - a| <= h/2, h the cell where the contact ends) and the peak pressure p0_h felt by the block
+``|a_h - a| <= h/2``, h the cell where the contact ends) and the peak pressure p0_h felt by the block
 come within a few per cent of Hertz (the block is finite, the mesh is P1). The pressure felt by
 the block alternates from node to node against a rigid obstacle on this mesh (try plotting
 ``sol.traction(0)``), so p0_h is the mean over the two nodes nearest the axis.

@@ -1,9 +1,10 @@
 """Normal compliance (the paper's (7), (19)) on the quickstart scene, and its limit k -> infinity.
+===============================================================================================
 
 The PZT-5A block of the quickstart pressed onto the aluminium block, with the contact law
 lambda = p(r) = k r_+^m (r = [u_nu] - g, the penetration) instead of Signorini. For the linear
 (m = 1) and the quadratic (m = 2) law and growing stiffness k it prints the checks, the largest
-penetration and the distance to the Signorini solution of the same scene,
+penetration and the distance to the Signorini solution of the same scene::
 
     e_u = max |u_k - u_S| / max |u_S|  (both bodies),    e_lam = max |F_k - F_S| / max |F_S|
 

@@ -1,4 +1,5 @@
 """A steel punch pressed into a PZT-5A substrate, read as a force sensor.
+======================================================================
 
 The substrate (1 m x 0.2 m, poled along +y) is clamped and grounded along its bottom; its top
 carries an electrode. The punch (0.2 m wide, steel) is centred on it and touches only the

@@ -1,4 +1,5 @@
 """A three-layer stack: three bodies, two contact pairs, a floating electrode, no clamp but the base.
+==================================================================================================
 
 From the top: a PZT-5A layer (poled along +y) with a grounded bottom face and an open-circuit
 floating electrode on its top face (Q = 0), an aluminium layer, a steel base clamped along

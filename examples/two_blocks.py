@@ -1,4 +1,5 @@
 """Two blocks in partial contact: a PZT-5A block pressed onto an aluminium foundation.
+===================================================================================
 
 The upper block (PZT-5A, poled along +y) is clamped and grounded on its top edge,
 pulled down by its weight-like body force, sheared by a traction on its right edge

@@ -1,4 +1,5 @@
 """A piezoelectric actuator pushing a rigid wall held by a prescribed force (force control).
+=========================================================================================
 
 A PZT-5H column (0.2 m wide, 0.5 m tall, poled along +y) is clamped and grounded along its
 bottom edge and guided by rollers on its sides (u_x = 0 there: it can only stretch along its axis). Its top edge is a driven electrode (phi = V) and touches a rigid wall, the plane

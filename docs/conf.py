@@ -33,8 +33,7 @@ extensions = [
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
-                    "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5",
-                    "studies/*/*.md"]     # the studies' own tables, included by the Results pages
+                    "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
 
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3                 # [text](page.md#a-heading) links resolve
@@ -44,6 +43,28 @@ autodoc_typehints = "description"
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": False}
 napoleon_numpy_docstring = True
 napoleon_google_docstring = False
+napoleon_use_ivar = True                 # "Attributes": fields of the class, not a second object description
+napoleon_custom_sections = [("Methods", "params_style")]   # listed in the class, documented as its members
+
+
+def _escape_bars(app, what, name, obj, options, lines):
+    """The docstrings write mathematics in plain text, where |x| is an absolute value or a norm, never a
+    reStructuredText substitution: escape the bars outside ``literals`` and literal blocks."""
+    literal_indent = None
+    for i, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None and (not line.strip() or indent > literal_indent):
+            continue
+        literal_indent = None
+        if "|" in line:
+            parts = line.split("``")
+            lines[i] = "``".join(p.replace("|", "\\|") if k % 2 == 0 else p for k, p in enumerate(parts))
+        if line.rstrip().endswith("::"):
+            literal_indent = indent
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _escape_bars)
 
 sphinx_gallery_conf = {
     "examples_dirs": str(ROOT / "examples"),

@@ -187,14 +187,14 @@ def test_license_and_citation_agree_with_pyproject():
     assert "demo/" in (ROOT / ".gitignore").read_text().split()
 
 
-def test_readme_command_table_lists_every_command_and_option():
+def test_cli_reference_table_lists_every_command_and_option():
     import argparse
     import re
 
     from cvxcontact.apps.cli import _parser
 
-    text = (ROOT / "README.md").read_text()
-    section = text[text.index("## Command line"):text.index("## Scene files")]
+    text = (ROOT / "docs" / "reference" / "cli.md").read_text(encoding="utf-8")
+    section = text[:text.index("## Output files")]
     rows = {m.group(1): m.group(0) for m in re.finditer(r"^\| `cvxcontact (\w+)[^\n]*", section, re.M)}
     parser = _parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
@@ -203,7 +203,7 @@ def test_readme_command_table_lists_every_command_and_option():
         for action in p._actions:
             longest = max(action.option_strings, key=len, default=None)
             if longest and longest != "--help":
-                assert longest in rows[name], f"README: `cvxcontact {name}` row lacks {longest}"
+                assert longest in rows[name], f"docs/reference/cli.md: `cvxcontact {name}` row lacks {longest}"
     assert "--version" in section and "python -m cvxcontact" in section
 
 

@@ -58,5 +58,15 @@ def main(n=48, out=None):
     return sols
 
 
+def figure(sols):
+    """The contact along Gamma_3 for the three conditions (cvxcontact.io.plot.plot_contact)."""
+    from cvxcontact.io.plot import plot_contact
+
+    return plot_contact(sols)
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 48, sys.argv[2] if len(sys.argv) > 2 else None)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 48, sys.argv[2] if len(sys.argv) > 2 else None))
+    plt.show()

@@ -52,5 +52,15 @@ def main(out=None):
     return sol
 
 
+def figure(sol):
+    """The deformed bodies coloured by the von Mises stress (cvxcontact.io.plot.plot_deformed)."""
+    from cvxcontact.io.plot import plot_deformed
+
+    return plot_deformed(sol, "von_mises")
+
+
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else None)
+    import matplotlib.pyplot as plt
+
+    figure(main(sys.argv[1] if len(sys.argv) > 1 else None))
+    plt.show()

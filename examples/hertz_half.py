@@ -76,5 +76,31 @@ def main(sizes=(20, 40)):
     return rows
 
 
+def figure(rows, nx=None):
+    """The pressure felt by the block on the finest mesh against the Hertz profile at the measured load."""
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import eng
+
+    nx = nx or rows[-1][0]
+    sol = cc.solve(build(nx))
+    P, *_ = measured(sol)
+    a, p0 = hertz(P)
+    x, p = sol.traction(0)
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    xs = np.linspace(0, a, 200)
+    ax.plot(xs, p0 * np.sqrt(1 - (xs / a) ** 2), "k-", label="Hertz (measured load)")
+    ax.plot(x, p, "o-", ms=3, lw=0.8, label=f"pressure felt by the block, nx = {nx}")
+    ax.set(xlabel="x1 (distance from the symmetry line)", ylabel="contact pressure", xlim=(0, 3 * a),
+           title="Rigid cylinder on a block: half model")
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend()
+    return fig
+
+
 if __name__ == "__main__":
-    main(tuple(int(n) for n in sys.argv[1:]) or (20, 40))
+    import matplotlib.pyplot as plt
+
+    figure(main(tuple(int(n) for n in sys.argv[1:]) or (20, 40)))
+    plt.show()

@@ -61,6 +61,8 @@ class Body(Frozen):
         Floating electrodes: one unknown potential on the whole part and its total charge Q
         (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
 
+    Notes
+    -----
     Supports and electrodes enter the unknowns through the prolongation of
     docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
 

@@ -246,42 +246,46 @@ def eliminate(G, g, n):
 
 def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
     """Smoothed-aggregation AMG-preconditioned CG (MINRES with potentials) on the bonded system with its
-    constraints eliminated (module docstring): (seconds, x, iterations, reduction seconds) or None."""
+    constraints eliminated (module docstring): (seconds, x, iterations, reduction seconds, residual) or None.
+
+    The eliminated dofs keep their place as decoupled identity rows (zero right-hand side), so that every
+    node keeps its three displacement dofs and the u block is handed to pyamg node-blocked (BSR 3 x 3: node
+    aggregates; dof-wise aggregation was measured 10x slower); their rows of the near-null space are zero."""
     import pyamg
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    n, m = A.shape[0], G.shape[0]
+    n = A.shape[0]
     t0 = time.perf_counter()
     out = eliminate(G, rhs[n:], n)
     if out is None:
         return None
     T, x0, slaves = out
-    Kr = (T.T @ A @ T).tocsr()
-    br = T.T @ (rhs[:n] - A @ x0)
     keep = np.ones(n, dtype=bool)
     keep[slaves] = False
-    # per unknown: body, u or phi; the near-null space of each body's u block
-    kind, pos, modes = [], 0, []
+    Tn = sp.csr_matrix((np.ones(keep.sum()), (np.flatnonzero(keep), np.arange(keep.sum()))), shape=(n, keep.sum()))
+    Tf = (T @ Tn.T).tocsr()                                  # n x n: the slave columns are zero
+    dummy = sp.csr_matrix((np.ones(len(slaves)), (slaves, slaves)), shape=(n, n))
+    Kr = (Tf.T @ A @ Tf + dummy).tocsr()
+    br = Tf.T @ (rhs[:n] - A @ x0)
+    kind, modes = [], []
     for k, (nu, npf) in enumerate(sizes):
-        kind += [("u", k)] * nu + [("phi", k)] * npf
+        kind += [0] * nu + [1] * npf
         modes.append(rigid_modes(problem, k))
-        pos += nu + npf
-    kind = np.array([f"{a}{b}" for a, b in kind])[keep]
+    kind = np.array(kind)
     t_red = time.perf_counter() - t0
     t0 = time.perf_counter()
-    u_idx = np.flatnonzero(np.char.startswith(kind, "u"))
-    p_idx = np.flatnonzero(np.char.startswith(kind, "phi"))
-    Bfull = np.zeros((n, 6 * len(sizes)))
+    u_idx, p_idx = np.flatnonzero(kind == 0), np.flatnonzero(kind == 1)
+    B = np.zeros((len(u_idx), 6))            # each body's six modes in the same six columns (own aggregates)
     pos = 0
     for k, (nu, npf) in enumerate(sizes):
-        Bfull[pos:pos + nu, 6 * k:6 * k + 6] = modes[k]
-        pos += nu + npf
-    B = Bfull[keep][u_idx]
-    B = B[:, np.abs(B).sum(axis=0) > 0]
+        B[pos:pos + nu] = modes[k]
+        pos += nu
+    B[np.isin(u_idx, slaves)] = 0.0
     Kuu = Kr[u_idx][:, u_idx].tocsr()
-    ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric", strength=("symmetric", {"theta": 0.0}),
-                                             smooth="jacobi", max_coarse=500)
+    if Kuu.shape[0] % 3 == 0:
+        Kuu = Kuu.tobsr(blocksize=(3, 3))
+    ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric", max_coarse=30)   # blocks of 6 dofs
     its = []
     cb = lambda _x: its.append(1)  # noqa: E731
     if len(p_idx) == 0:
@@ -299,12 +303,17 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
             return z
 
         M = spla.LinearOperator(Kr.shape, matvec=prec, dtype=float)
-        x_r, info = spla.minres(Kr, br, M=M, rtol=tol, maxiter=4000, callback=cb)
+        x_r, rtol = None, tol
+        for _ in range(4):           # MINRES stops on the preconditioned residual: tighten until the true one
+            x_r, info = spla.minres(Kr, br, x0=x_r, M=M, rtol=rtol, maxiter=4000, callback=cb)
+            if np.linalg.norm(br - Kr @ x_r) <= tol * np.linalg.norm(br):
+                break
+            rtol /= 30.0
     t = time.perf_counter() - t0
     if info != 0:
         return None
     residual = float(np.linalg.norm(br - Kr @ x_r) / np.linalg.norm(br))
-    return t, T @ x_r + x0, len(its), t_red, residual
+    return t, Tf @ x_r + x0, len(its), t_red, residual
 
 
 def bonded_part(scene, n, condition, elastic, runs):

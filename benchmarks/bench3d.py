@@ -126,14 +126,16 @@ def default_part(scene, n, condition, elastic, runs):
     rows = []
     for _ in range(runs):
         sc = make(scene, n, condition, elastic)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         solver = cc.ContactSolver(sc)
+        t_asm, c_asm = time.perf_counter() - t0, time.process_time() - c0
         sol = solver.solve()
-        total = time.perf_counter() - t0
+        total, cpu = time.perf_counter() - t0, time.process_time() - c0
         tm = {k: float(v) for k, v in dict(sol.timings).items()}
         sparse = solver.cache.sparse
         rows.append(dict(default_total_s=total, assembly_s=tm.get("assembly", 0.0),
-                         default_s=total - tm.get("assembly", 0.0),
+                         default_s=total - tm.get("assembly", 0.0), default_cpu_s=cpu - c_asm,
+                         solver_build_s=t_asm,
                          **{f"t_{k}": v for k, v in tm.items() if k != "assembly"},
                          method=sol.info.method, route=str(sol.info.route), steps=sol.info.iterations,
                          factorization=sol.info.factorization or "-", ok=bool(sol.ok),
@@ -179,14 +181,14 @@ def bonded_system(problem):
 def pardiso_bonded(K, rhs):
     from cvxcontact.backends.factor import PardisoSymmetric
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     ps = PardisoSymmetric(K)
     ps.factor(K)
     z = ps.solve(rhs)
-    t = time.perf_counter() - t0
+    t, c = time.perf_counter() - t0, time.process_time() - c0
     perturbed = ps.perturbed
     ps.release()
-    return t, z, perturbed
+    return t, z, perturbed, c
 
 
 def rigid_modes(problem, k) -> np.ndarray:
@@ -274,7 +276,7 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
         modes.append(rigid_modes(problem, k))
     kind = np.array(kind)
     t_red = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     u_idx, p_idx = np.flatnonzero(kind == 0), np.flatnonzero(kind == 1)
     B = np.zeros((len(u_idx), 6))            # each body's six modes in the same six columns (own aggregates)
     pos = 0
@@ -309,43 +311,45 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
             if np.linalg.norm(br - Kr @ x_r) <= tol * np.linalg.norm(br):
                 break
             rtol /= 30.0
-    t = time.perf_counter() - t0
-    if info != 0:
-        return None
+    t, cpu = time.perf_counter() - t0, time.process_time() - c0
     residual = float(np.linalg.norm(br - Kr @ x_r) / np.linalg.norm(br))
-    return t, Tf @ x_r + x0, len(its), t_red, residual
+    if residual > tol:
+        return None
+    return t, Tf @ x_r + x0, len(its), t_red, residual, cpu
 
 
-def bonded_part(scene, n, condition, elastic, runs):
+def bonded_part(scene, n, condition, elastic, runs, pardiso=True):
+    """Both yardsticks on the bonded system, AMG first (its peak memory is then its own), PARDISO if ``pardiso``."""
     import cvxcontact as cc
 
     solver = cc.ContactSolver(make(scene, n, condition, elastic))
     problem = solver.problem
     t0 = time.perf_counter()
     K, rhs, A, G, sizes = bonded_system(problem)
-    out = dict(kkt_size=int(K.shape[0]), bonded_build_s=time.perf_counter() - t0)
-    ts, z = [], None
-    for _ in range(runs):
-        t, z, perturbed = pardiso_bonded(K, rhs)
-        ts.append(t)
-    out.update(pardiso_s=statistics.median(ts), pardiso_perturbed=int(perturbed),
-               pardiso_residual=float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs)))
-    out["pardiso_peak_gb"] = peak_gb()
+    nan = float("nan")
+    out = dict(kkt_size=int(K.shape[0]), bonded_build_s=time.perf_counter() - t0, amg_s=nan, amg_cpu_s=nan,
+               amg_iterations=-1, amg_reduce_s=nan, amg_vs_pardiso=nan, amg_residual=nan, pardiso_s=nan,
+               pardiso_cpu_s=nan)
+    x = None
     try:
         import pyamg  # noqa: F401
-        have_amg = True
-    except ImportError:
-        have_amg = False
-    nan = float("nan")
-    out.update(amg_s=nan, amg_iterations=-1, amg_reduce_s=nan, amg_vs_pardiso=nan, amg_residual=nan)
-    if have_amg:
         res = [amg_bonded(problem, A, G, rhs, sizes) for _ in range(runs)]
         if all(r is not None for r in res):
             x = res[-1][1]
+            out.update(amg_s=statistics.median(r[0] for r in res), amg_cpu_s=statistics.median(r[5] for r in res),
+                       amg_iterations=res[-1][2], amg_reduce_s=res[-1][3], amg_residual=res[-1][4])
+    except ImportError:
+        pass
+    out["amg_peak_gb"] = peak_gb()
+    if pardiso:
+        ts = [pardiso_bonded(K, rhs) for _ in range(runs)]
+        z = ts[-1][1]
+        out.update(pardiso_s=statistics.median(t[0] for t in ts), pardiso_cpu_s=statistics.median(t[3] for t in ts),
+                   pardiso_perturbed=int(ts[-1][2]),
+                   pardiso_residual=float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs)))
+        if x is not None:
             nA = A.shape[0]
-            out.update(amg_s=statistics.median(r[0] for r in res), amg_iterations=res[-1][2],
-                       amg_reduce_s=res[-1][3], amg_residual=res[-1][4],
-                       amg_vs_pardiso=float(np.abs(x - z[:nA]).max() / np.abs(z[:nA]).max()))
+            out["amg_vs_pardiso"] = float(np.abs(x - z[:nA]).max() / np.abs(z[:nA]).max())
     out["bonded_peak_gb"] = peak_gb()
     return out
 
@@ -365,7 +369,7 @@ def _run(args):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def case(scene, size, condition, elastic, runs, parts):
+def case(scene, size, condition, elastic, runs, parts, pardiso_up_to=float("inf")):
     n = cells(scene, size, elastic)
     row = dict(scene=scene, n=n, condition=condition, elastic=elastic or scene == "sphere",
                load=" ".join(f"{x:.1f}" for x in os.getloadavg()))
@@ -373,7 +377,7 @@ def case(scene, size, condition, elastic, runs, parts):
     if "default" in parts:
         row.update(_run(dict(a, part="default")))
     if "bonded" in parts:
-        row.update(_run(dict(a, part="bonded")))
+        row.update(_run(dict(a, part="bonded", pardiso=bool(size <= pardiso_up_to))))
     nan = float("nan")
     yard = [row.get(k, nan) for k in ("pardiso_s", "amg_s")]
     row["bonded_s"] = min((y for y in yard if y == y), default=nan)
@@ -392,7 +396,7 @@ def growth(rows):
             continue
         N = np.log([r["unknowns"] for r in sel])
         fits = {k: np.polyfit(N, np.log([r[k] for r in sel]), 1)[0]
-                for k in ("default_s", "pardiso_s", "amg_s", "default_peak_gb")
+                for k in ("default_s", "default_cpu_s", "pardiso_s", "amg_s", "amg_cpu_s", "default_peak_gb")
                 if all(k in r and r[k] == r[k] and r[k] > 0 for r in sel)}
         lines.append(f"growth {name}: " + ", ".join(f"{k} N^{v:.2f}" for k, v in fits.items()))
     return lines
@@ -403,27 +407,29 @@ def summary(r) -> str:
     return (f"{r['scene']} n={r['n']}: {g('unknowns', '{:,}')} unknowns, {g('contact_rows', '{}')} rows "
             f"[{r.get('method', '-')}/{r.get('factorization', '-')}, {r.get('route', '-')}, {g('steps', '{}')} "
             f"steps, {g('factorizations', '{}')} factorisations, {g('column_solves', '{}')} column solves] "
-            f"default {g('default_s')} s (+ assembly {g('assembly_s')}; factorisation "
-            f"{g('t_factorization')}, active set {g('t_active_set')}) ok={r.get('ok', '-')} compl "
-            f"{g('res_complementarity', '{:.1e}')} | PARDISO {g('pardiso_s')} s, AMG-CG {g('amg_s')} s "
+            f"default {g('default_s')} s, CPU {g('default_cpu_s')} s (+ assembly {g('assembly_s')}; factorisation "
+            f"{g('t_factorization')}, AMG setup {g('t_amg_setup')}, active set {g('t_active_set')}) ok={r.get('ok', '-')} "
+            f"compl {g('res_complementarity', '{:.1e}')} | PARDISO {g('pardiso_s')} s (CPU {g('pardiso_cpu_s')}), AMG-CG "
+            f"{g('amg_s')} s (CPU {g('amg_cpu_s')}) "
             f"({g('amg_iterations', '{}')} it., vs PARDISO {g('amg_vs_pardiso', '{:.1e}')}) | default/bonded "
             f"{g('ratio_bonded')} (/PARDISO {g('ratio_pardiso')}, /AMG {g('ratio_amg')}) | peak default "
             f"{g('default_peak_gb')} GB, bonded {g('bonded_peak_gb')} GB | load {r['load']}")
 
 
 def markdown(rows) -> str:
-    head = ("| scene | unknowns | contact rows | route | steps / factorisations | default [s] | assembly [s] | "
-            "PARDISO bonded [s] | AMG-CG bonded [s] (it.) | default / faster bonded | / PARDISO | / AMG | "
-            "peak default [GB] | peak bonded [GB] | ok | load |")
+    head = ("| scene | unknowns | contact rows | route | steps | default [s] (CPU) | assembly [s] | "
+            "PARDISO bonded [s] (CPU) | AMG-CG bonded [s] (CPU, it.) | default / faster bonded | / PARDISO | / AMG | "
+            "peak default [GB] | peak AMG / PARDISO [GB] | ok | load |")
     out = [head, "|" + "---|" * (head.count("|") - 1)]
     f = lambda r, k, s="{:.2f}": s.format(r[k]) if k in r and r[k] == r[k] else "-"  # noqa: E731
     for r in rows:
         out.append(f"| {r['scene']} | {f(r, 'unknowns', '{:,}')} | {f(r, 'contact_rows', '{}')} | "
-                   f"{r.get('method', '-')}/{r.get('factorization', '-')} | {f(r, 'steps', '{}')} / "
-                   f"{f(r, 'factorizations', '{}')} | {f(r, 'default_s')} | {f(r, 'assembly_s')} | "
-                   f"{f(r, 'pardiso_s')} | {f(r, 'amg_s')} ({f(r, 'amg_iterations', '{}')}) | "
-                   f"**{f(r, 'ratio_bonded')}** | {f(r, 'ratio_pardiso')} | {f(r, 'ratio_amg')} | "
-                   f"{f(r, 'default_peak_gb')} | {f(r, 'bonded_peak_gb')} | {r.get('ok', '-')} | {r['load']} |")
+                   f"{r.get('method', '-')}/{r.get('factorization', '-')} | {f(r, 'steps', '{}')} | "
+                   f"{f(r, 'default_s')} ({f(r, 'default_cpu_s')}) | {f(r, 'assembly_s')} | "
+                   f"{f(r, 'pardiso_s')} ({f(r, 'pardiso_cpu_s')}) | {f(r, 'amg_s')} ({f(r, 'amg_cpu_s')}, "
+                   f"{f(r, 'amg_iterations', '{}')}) | **{f(r, 'ratio_bonded')}** | {f(r, 'ratio_pardiso')} | "
+                   f"{f(r, 'ratio_amg')} | {f(r, 'default_peak_gb')} | {f(r, 'amg_peak_gb')} / {f(r, 'bonded_peak_gb')} | "
+                   f"{r.get('ok', '-')} | {r['load']} |")
     return "\n".join(out)
 
 
@@ -435,6 +441,8 @@ def main():
     p.add_argument("--elastic", action="store_true", help="two_boxes: an aluminium upper box (no potentials)")
     p.add_argument("--parts", nargs="*", default=["default", "bonded"], choices=("default", "bonded"))
     p.add_argument("--runs", type=int, default=1)
+    p.add_argument("--pardiso-up-to", type=float, default=float("inf"),
+                   help="the PARDISO yardstick only for sizes up to this (it grows like N^2)")
     p.add_argument("--csv", default=str(Path(__file__).with_name("results") / "bench3d.csv"))
     p.add_argument("--md", help="also write the table as Markdown to this file")
     p.add_argument("--append", action="store_true", help="append to the CSV instead of replacing it")
@@ -442,13 +450,15 @@ def main():
     args = p.parse_args()
     if args.one:
         a = json.loads(args.one)
-        fn = default_part if a["part"] == "default" else bonded_part
-        print(json.dumps(fn(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"])))
+        if a["part"] == "default":
+            print(json.dumps(default_part(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"])))
+        else:
+            print(json.dumps(bonded_part(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"], a["pardiso"])))
         return
     rows = []
     for scene in args.scenes:
         for size in args.sizes:
-            r = case(scene, size, args.condition, args.elastic, args.runs, args.parts)
+            r = case(scene, size, args.condition, args.elastic, args.runs, args.parts, args.pardiso_up_to)
             rows.append(r)
             print(summary(r), flush=True)
     for line in growth(rows):

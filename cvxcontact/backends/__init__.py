@@ -10,8 +10,8 @@
 The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
 an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers(problem)``.
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
-``prefers``: every problem it accepts) (:func:`choose`): "amg" for a 3D scene of at least :data:`AMG_UNKNOWNS`
-unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
+``prefers``: every problem it accepts) (:func:`choose`): "amg" for an elastic 3D scene of at least
+:data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
 neither accepts.
 """
@@ -28,9 +28,11 @@ __all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKEN
            "SPARSE_SLENDER", "AMG_UNKNOWNS"]
 
 AMG_UNKNOWNS = 50_000
-"""``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for 3D scenes of at least this many
-unknowns when pyamg is installed: there a sparse factorisation of the 3D bodies (O(N^2) flops) costs more than
-AMG-preconditioned Krylov solves (O(N) each); measured in benchmarks/results/bench3d.md."""
+"""``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for elastic 3D scenes of at least this
+many unknowns when pyamg is installed: there a sparse factorisation of the 3D bodies (O(N^2) flops) costs more
+than AMG-preconditioned Krylov solves (O(N) each); measured in benchmarks/results/bench3d.md. Piezoelectric
+scenes stay with the sparse route: with the block-diagonal AMG preconditioner (u, phi) MINRES needed 83-167
+iterations a solve on a PZT-5A box on aluminium (1.1e4 unknowns) against 26-43 for CG on the elastic pair."""
 
 SPARSE_ROWS = 8000
 """``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
@@ -64,6 +66,7 @@ class ProblemDescription:
     stiffness, coupled to every body it touches; docs/formulation.md §12).
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
     ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3.
+    ``piezoelectric``: some body has potentials.
     """
 
     quadratic_energy: bool = True
@@ -76,6 +79,7 @@ class ProblemDescription:
     compliant: bool = False
     conic: bool = False
     dim: int = 2
+    piezoelectric: bool = False
 
 
 def describe(problem, user_terms: int = 0) -> ProblemDescription:
@@ -84,7 +88,8 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
     return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
-                              user_terms=user_terms, dim=problem.dim)
+                              user_terms=user_terms, dim=problem.dim,
+                              piezoelectric=any(b.Kpp is not None for b in problem.blocks))
 
 
 @dataclass(frozen=True)
@@ -120,7 +125,7 @@ def _amg_available() -> bool:
 BACKENDS: tuple[Backend, ...] = (
     Backend("amg", _sparse_accepts,
             "active-set steps with AMG-preconditioned Krylov solves (large 3D scenes; pyamg; no factorisation)",
-            prefers=lambda p: p.dim == 3 and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
+            prefers=lambda p: p.dim == 3 and not p.piezoelectric and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
             routes=MappingProxyType({"signorini": "amg:signorini"})),
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",

@@ -15,10 +15,11 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
 * K_A r = T_A^T (F - S x_A) is solved by CG (MINRES with a piezoelectric body: S is quasi-definite) to a
   relative residual ``RTOL`` (1e-12; the residual of (26) at the answer is that residual, the eliminated
-  rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) of the
-  bodies' own S built once per geometry: its displacement block node-blocked (3 x 3) with each body's six
-  rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal. Every step, and every
-  re-solve of a :class:`~cvxcontact.ContactSolver`, reuses it and starts from the previous answer.
+  rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once
+  per geometry on the first system solved (the start's rows closed): its displacement block node-blocked
+  (3 x 3) with the scene's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
+  Every step, and every re-solve of a :class:`~cvxcontact.ContactSolver`, reuses it and starts from the
+  previous answer.
 
 The answer is the active set's exact complementarity (y = 0 on open rows, s = 0 on closed ones to rounding,
 signs checked as in the sparse route) with (26) solved to ``RTOL``: the solution's checks (docs/checks.md) are
@@ -84,11 +85,15 @@ def own_dofs(G):
     return dof, coef
 
 
-def rigid_modes(points, Tu) -> np.ndarray:
+def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
     """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
-    prolongation, node-major dofs), coordinates centred and scaled to the body's size."""
+    prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
+    the body's extent): give every body of a scene the same centre and size, and the modes are the scene's
+    rigid motions, which bodies tied at their contact rows share."""
     x = np.asarray(points, dtype=float)
-    x = (x - x.mean(axis=0)) / max(float(np.ptp(x, axis=0).max()), np.finfo(float).tiny)
+    centre = x.mean(axis=0) if centre is None else np.asarray(centre, dtype=float)
+    size = float(np.ptp(x, axis=0).max()) if size is None else float(size)
+    x = (x - centre) / max(size, np.finfo(float).tiny)
     B = np.zeros((3 * len(x), 6))
     for i in range(3):
         B[i::3, i] = 1.0
@@ -130,8 +135,9 @@ class KrylovContact:
             d = b.Kuu.diagonal()
             w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
         self.w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
-        t0 = time.perf_counter()
         u_idx, p_idx, modes, pos = [], [], [], 0
+        every = np.vstack([m.points for m in problem.meshes])
+        centre, size = every.mean(axis=0), float(np.ptp(every, axis=0).max())
         for k, (nu, npf) in enumerate(self.sizes):
             u_idx.append(pos + np.arange(nu))
             p_idx.append(pos + nu + np.arange(npf))
@@ -139,21 +145,32 @@ class KrylovContact:
             Tu = problem.systems[k].Tu
             if Tu.shape[0] != 3 * len(points):
                 raise SolverError("method 'amg' solves 3D bodies (three displacement components per node)")
-            modes.append(rigid_modes(points, Tu))
+            modes.append(rigid_modes(points, Tu, centre, size))
             pos += nu + npf
         self.u_idx, self.p_idx = np.concatenate(u_idx), np.concatenate(p_idx)
-        Suu = self.S[self.u_idx][:, self.u_idx].tocsr()
-        blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
-        self.ml_u = pyamg.smoothed_aggregation_solver(Suu.tobsr(blocksize=(3, 3)) if blocked else Suu,
-                                                      B=np.vstack(modes), symmetry="symmetric",
-                                                      max_coarse=30 if blocked else 200)
-        self.ml_p = None
-        if len(self.p_idx):
-            Kpp = -self.S[self.p_idx][:, self.p_idx].tocsr()          # the Gauss rows were negated
-            self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
-        self.setup_time = time.perf_counter() - t0
+        self.modes = np.vstack(modes)
+        self.ml_u = self.ml_p = None          # built on the first system solved (:meth:`_hierarchy`)
+        self.setup_time = 0.0
         self.iterations = 0                  # Krylov iterations, all solves
         self.x = None                        # the last answer (the next solve's starting point)
+
+    def _hierarchy(self, K, slaves):
+        """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
+        rows eliminated, so that the bodies it ties are tied in the hierarchy too): its displacement block
+        node-blocked with the scene's rigid-body modes (zero on the eliminated dofs), its potential block."""
+        import pyamg
+
+        t0 = time.perf_counter()
+        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
+        B = self.modes.copy()
+        B[np.isin(self.u_idx, slaves)] = 0.0
+        blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
+        self.ml_u = pyamg.smoothed_aggregation_solver(Kuu.tobsr(blocksize=(3, 3)) if blocked else Kuu, B=B,
+                                                      symmetry="symmetric", max_coarse=30 if blocked else 200)
+        if len(self.p_idx):
+            Kpp = -K[self.p_idx][:, self.p_idx].tocsr()               # the Gauss rows were negated
+            self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
+        self.setup_time = time.perf_counter() - t0
 
     def _precondition(self):
         Pu = self.ml_u.aspreconditioner(cycle="V")
@@ -190,6 +207,8 @@ class KrylovContact:
         # the eliminated dofs as decoupled rows with S's own diagonal (the preconditioner's scale there)
         K = (Tt @ S @ T + sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n))).tocsr()
         b = Tt @ (F - S @ x_fix)
+        if self.ml_u is None:
+            self._hierarchy(K, slaves)
         r0 = np.array(x_start) if x_start is not None else np.zeros(n)
         r0[slaves] = 0.0
         its = []
@@ -263,8 +282,8 @@ def signorini(problem, cache, settings, timings):
             if not available():
                 raise
             return sparse(problem, cache, settings, timings)
-        timings["amg_setup"] = cache.amg.setup_time
     kc = cache.amg
+    fresh = kc.ml_u is None
     rhs = np.concatenate([F for _, F in (quasi_definite(b) for b in problem.blocks)])
     free = ~problem.held_rows
     warm = settings.warm_start and cache.active is not None
@@ -273,6 +292,8 @@ def signorini(problem, cache, settings, timings):
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False
+    if fresh:
+        timings["amg_setup"] = kc.setup_time
     timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
     if out is None:
         return sparse(problem, cache, settings, timings)

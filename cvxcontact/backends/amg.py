@@ -46,9 +46,10 @@ __all__ = ["KrylovContact", "available", "own_dofs", "RTOL", "AMG_INSTALL"]
 RTOL = 1e-12
 """Relative residual (2-norm) of the Krylov solve that gives the answer."""
 
-STEP_RTOL = 1e-8
+STEP_RTOL = 1e-4
 """Relative residual of the Krylov solves that only pick the next active set (the signs are then checked again
-on a solve to RTOL before the set is accepted)."""
+on a solve to RTOL before the set is accepted). Measured on two elastic boxes (3.1e4 unknowns, 625 rows): the same
+5 steps and active set at 1e-8, 1e-6 and 1e-4, with 280, 225 and 169 CG iterations in all."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 

@@ -238,12 +238,17 @@ class KrylovContact:
     def solve(self, F, g, active, max_iter: int = 50):
         """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
         ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
-        if the steps cycle or a Krylov solve misses RTOL."""
+        if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
+        solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
         movable = self.dof >= 0
+        last = [np.asarray(active, dtype=bool) & movable]
+        count = [0]
 
-        def step(active):
-            for rtol in (STEP_RTOL, RTOL):       # a loose solve picks the next set; the answer is a tight one
+        def step(active, loose):
+            last[0] = active
+            count[0] += 1
+            for rtol in (loose, RTOL):           # a loose solve picks the next set; the answer is a tight one
                 out = self._system(active & movable, F, g, self.x, rtol)
                 if out is None:
                     return None
@@ -256,9 +261,13 @@ class KrylovContact:
                     return (x, y), (y * self.w + s > 0) & movable
             return (x, y), None
 
-        out = active_set_steps(step, np.asarray(active, dtype=bool) & movable, max_iter)
+        for loose in (STEP_RTOL, RTOL):          # steps that cycle on loose solves are retried on tight ones
+            out = active_set_steps(lambda a: step(a, loose), last[0], max_iter)
+            if not isinstance(out, str) or out == "singular":
+                break
         if isinstance(out, str):
             return None
+        out = (out[0], out[1], count[0])
         (x, y), active, steps = out
         u, phi, pos = [], [], 0
         for nu, npf in self.sizes:

@@ -141,6 +141,7 @@ def default_part(scene, n, condition, elastic, runs):
                          factorization=sol.info.factorization or "-", ok=bool(sol.ok),
                          factorizations=getattr(sparse, "factorizations", -1),
                          column_solves=getattr(sparse, "column_solves", -1),
+                         krylov_iterations=getattr(solver.cache.amg, "iterations", -1),
                          active_rows=int(np.sum(solver.cache.active)) if solver.cache.active is not None else -1,
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
         N, m = unknowns(solver.problem), int(solver.problem.E.shape[0])
@@ -406,7 +407,8 @@ def summary(r) -> str:
     g = lambda k, f="{:.2f}": f.format(r[k]) if k in r else "-"  # noqa: E731
     return (f"{r['scene']} n={r['n']}: {g('unknowns', '{:,}')} unknowns, {g('contact_rows', '{}')} rows "
             f"[{r.get('method', '-')}/{r.get('factorization', '-')}, {r.get('route', '-')}, {g('steps', '{}')} "
-            f"steps, {g('factorizations', '{}')} factorisations, {g('column_solves', '{}')} column solves] "
+            f"steps, {g('factorizations', '{}')} factorisations, {g('column_solves', '{}')} column solves, "
+            f"{g('krylov_iterations', '{}')} Krylov iterations] "
             f"default {g('default_s')} s, CPU {g('default_cpu_s')} s (+ assembly {g('assembly_s')}; factorisation "
             f"{g('t_factorization')}, AMG setup {g('t_amg_setup')}, active set {g('t_active_set')}) ok={r.get('ok', '-')} "
             f"compl {g('res_complementarity', '{:.1e}')} | PARDISO {g('pardiso_s')} s (CPU {g('pardiso_cpu_s')}), AMG-CG "

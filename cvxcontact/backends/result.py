@@ -37,7 +37,8 @@ class Route(StrEnum):
     finish, globally convergent on its own, solved the interface equation from the free slack."""
     SPARSE_ACTIVE_SET = "active-set steps on the sparse mixed system"
     """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
-    bonded system, no convex program (``iterations``: the systems solved)."""
+    bonded system (3D: from the rows the obstacles already close), no convex program (``iterations``: the
+    systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     NO_CONTACT = "no contact at zero force: the unconstrained solution"

@@ -17,7 +17,7 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   relative residual ``RTOL`` (1e-12; the residual of (26) at the answer is that residual, the eliminated
   rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once
   per geometry on the first system solved (the start's rows closed): its displacement block node-blocked
-  (3 x 3) with the scene's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
+  (3 x 3) with each body's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
   Every step, and every re-solve of a :class:`~cvxcontact.ContactSolver`, reuses it and starts from the
   previous answer.
 
@@ -89,8 +89,7 @@ def own_dofs(G):
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
     """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
     prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
-    the body's extent): give every body of a scene the same centre and size, and the modes are the scene's
-    rigid motions, which bodies tied at their contact rows share."""
+    the body's extent)."""
     x = np.asarray(points, dtype=float)
     centre = x.mean(axis=0) if centre is None else np.asarray(centre, dtype=float)
     size = float(np.ptp(x, axis=0).max()) if size is None else float(size)
@@ -137,8 +136,6 @@ class KrylovContact:
             w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
         self.w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
         u_idx, p_idx, modes, pos = [], [], [], 0
-        every = np.vstack([m.points for m in problem.meshes])
-        centre, size = every.mean(axis=0), float(np.ptp(every, axis=0).max())
         for k, (nu, npf) in enumerate(self.sizes):
             u_idx.append(pos + np.arange(nu))
             p_idx.append(pos + nu + np.arange(npf))
@@ -146,9 +143,11 @@ class KrylovContact:
             Tu = problem.systems[k].Tu
             if Tu.shape[0] != 3 * len(points):
                 raise SolverError("method 'amg' solves 3D bodies (three displacement components per node)")
-            modes.append(rigid_modes(points, Tu, centre, size))
+            modes.append(rigid_modes(points, Tu))         # about the body's own centre (below)
             pos += nu + npf
         self.u_idx, self.p_idx = np.concatenate(u_idx), np.concatenate(p_idx)
+        # each body's modes about its own centre, in the same six columns: measured on two tied elastic boxes
+        # (3.1e4 unknowns), 27 CG iterations to 1e-10 against 40 with the modes about the scene's centre
         self.modes = np.vstack(modes)
         self.ml_u = self.ml_p = None          # built on the first system solved (:meth:`_hierarchy`)
         self.setup_time = 0.0
@@ -158,7 +157,7 @@ class KrylovContact:
     def _hierarchy(self, K, slaves):
         """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
         rows eliminated, so that the bodies it ties are tied in the hierarchy too): its displacement block
-        node-blocked with the scene's rigid-body modes (zero on the eliminated dofs), its potential block."""
+        node-blocked with the bodies' rigid-body modes (zero on the eliminated dofs), its potential block."""
         import pyamg
 
         t0 = time.perf_counter()

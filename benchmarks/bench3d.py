@@ -386,6 +386,8 @@ def case(scene, size, condition, elastic, runs, parts, pardiso_up_to=float("inf"
     row["ratio_bonded"] = d / row["bonded_s"]
     row["ratio_pardiso"] = d / row.get("pardiso_s", nan)
     row["ratio_amg"] = d / row.get("amg_s", nan)
+    cpu = [row.get(k, nan) for k in ("pardiso_cpu_s", "amg_cpu_s")]
+    row["ratio_bonded_cpu"] = row.get("default_cpu_s", nan) / min((c for c in cpu if c == c), default=nan)
     return row
 
 
@@ -419,17 +421,17 @@ def summary(r) -> str:
 
 
 def markdown(rows) -> str:
-    head = ("| scene | unknowns | contact rows | route | steps | default [s] (CPU) | assembly [s] | "
-            "PARDISO bonded [s] (CPU) | AMG-CG bonded [s] (CPU, it.) | default / faster bonded | / PARDISO | / AMG | "
+    head = ("| scene | unknowns | contact rows | route | steps (Krylov it.) | default [s] (CPU) | assembly [s] | "
+            "PARDISO bonded [s] (CPU) | AMG-CG bonded [s] (CPU, it.) | default / faster bonded: wall (CPU) | / PARDISO | / AMG | "
             "peak default [GB] | peak AMG / PARDISO [GB] | ok | load |")
     out = [head, "|" + "---|" * (head.count("|") - 1)]
     f = lambda r, k, s="{:.2f}": s.format(r[k]) if k in r and r[k] == r[k] else "-"  # noqa: E731
     for r in rows:
         out.append(f"| {r['scene']} | {f(r, 'unknowns', '{:,}')} | {f(r, 'contact_rows', '{}')} | "
-                   f"{r.get('method', '-')}/{r.get('factorization', '-')} | {f(r, 'steps', '{}')} | "
+                   f"{r.get('method', '-')}/{r.get('factorization', '-')} | {f(r, 'steps', '{}')} ({f(r, 'krylov_iterations', '{}')}) | "
                    f"{f(r, 'default_s')} ({f(r, 'default_cpu_s')}) | {f(r, 'assembly_s')} | "
                    f"{f(r, 'pardiso_s')} ({f(r, 'pardiso_cpu_s')}) | {f(r, 'amg_s')} ({f(r, 'amg_cpu_s')}, "
-                   f"{f(r, 'amg_iterations', '{}')}) | **{f(r, 'ratio_bonded')}** | {f(r, 'ratio_pardiso')} | "
+                   f"{f(r, 'amg_iterations', '{}')}) | **{f(r, 'ratio_bonded')}** ({f(r, 'ratio_bonded_cpu')}) | {f(r, 'ratio_pardiso')} | "
                    f"{f(r, 'ratio_amg')} | {f(r, 'default_peak_gb')} | {f(r, 'amg_peak_gb')} / {f(r, 'bonded_peak_gb')} | "
                    f"{r.get('ok', '-')} | {r['load']} |")
     return "\n".join(out)

@@ -177,3 +177,81 @@ def test_contact_mesh_against_an_obstacle_lists_only_faces_that_reach_it():
     t = itf.traces[0]
     faces = t.faces[np.isin(t.faces, itf.reach).all(axis=1)]
     assert np.array_equal(np.sort(itf.reach[tri], axis=1), np.sort(faces, axis=1))
+
+
+def _zone_length(zone):
+    return float(np.linalg.norm(zone[:, 1] - zone[:, 0], axis=1).sum())
+
+
+def test_contact_zone_outlines_the_active_cells(layer, stack):
+    """Full contact: the zone's boundary is the perimeter of the contact face (4 cm for a 1 cm square), on both
+    the rigid pair (the body's faces) and the two-body overlay. A sphere pressed into a block: a closed outline
+    inside the circle where the undeformed surfaces intersect (plus one cell), away from the face's edge."""
+    from cvxcontact.io.plot import contact_zone
+
+    for sol in (layer, stack):
+        zone = contact_zone(sol)
+        assert zone.shape[1:] == (2, 2) and abs(_zone_length(zone) - 0.04) <= 1e-15
+        ends, count = np.unique(zone.reshape(-1, 2), axis=0, return_counts=True)
+        assert np.all(count == 2)                                     # a closed curve: each end shared by two
+    R, delta, h = 5e-2, 5e-4, 2.5e-3
+    body = cc.Body(cc.box(x=(-1e-2, 1e-2), y=(-1e-2, 1e-2), z=(-4e-3, 0), nx=8, ny=8, nz=2), ALU, clamped=["bottom"])
+    ball = cc.Rigid.sphere((0, 0, R - delta), R)
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", ball)]))
+    assert sol.ok and 0 < sol.contact.active.sum() < sol.contact.constrained.sum()
+    zone = contact_zone(sol)
+    r = np.hypot(zone[..., 0], zone[..., 1])
+    assert len(zone) >= 3 and r.max() <= np.sqrt(2 * R * delta) + h and r.max() < 1e-2
+    _, count = np.unique(zone.reshape(-1, 2), axis=0, return_counts=True)
+    assert np.all(count == 2)
+
+
+def test_boundary_owners_are_the_tetrahedra_behind_each_face():
+    """Each boundary face's owner has the face among its four, and its fourth vertex lies behind the face (inside:
+    against the outward normal)."""
+    from cvxcontact.io.plot import boundary_owners
+
+    mesh = cc.cylinder(radius=1e-2, height=3e-3, n_r=3, n_z=2)
+    owner = boundary_owners(mesh)
+    faces = np.asarray(mesh.boundary_faces)
+    tets = mesh.tets[owner]
+    assert all(set(f) <= set(t) for f, t in zip(faces.tolist(), tets.tolist()))
+    fourth = tets.sum(axis=1) - faces.sum(axis=1)
+    p = mesh.points
+    normal = np.cross(p[faces[:, 1]] - p[faces[:, 0]], p[faces[:, 2]] - p[faces[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", p[fourth] - p[faces[:, 0]], normal) < 0)
+
+
+def test_3d_figures_are_drawn_with_colour_bars_and_units(layer, stack):
+    """The pressure map has one panel per side plus the opening, a shared pressure colour bar, the zone drawn;
+    the deformed boundary view has a 3D axes with a colour bar; a 2D solution is refused by name."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import plot_contact_map, plot_deformed_3d, plot_deformed_3d_all
+
+    fig = plot_contact_map({"rigid": layer, "two bodies": stack})
+    try:
+        panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>" and ax.axison]
+        assert len(panels) == 5                                       # 1 + opening, 2 + opening
+        assert all(ax.collections and ax.lines for ax in panels)
+        labels = [ax.get_ylabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
+        assert "contact pressure" in labels
+        assert "s1 along t1 = (1, 0, 0)" in panels[0].get_xlabel()
+    finally:
+        plt.close(fig)
+    for field in ("von_mises", "displacement", "potential"):
+        fig = plot_deformed_3d(stack, field)
+        try:
+            ax3 = [ax for ax in fig.axes if getattr(ax, "name", "") == "3d"]
+            assert len(ax3) == 1 and ax3[0].collections and len(fig.axes) == 2       # with its colour bar
+        finally:
+            plt.close(fig)
+    fig = plot_deformed_3d_all({"a": layer, "b": layer}, "displacement")
+    plt.close(fig)
+    two_d = cc.Scene(cc.Body(cc.rectangle(x=(0, 1), y=(0, 1), nx=2, ny=2), ALU, clamped=["top"], contact="bottom"),
+                     cc.Body(cc.rectangle(x=(0, 1), y=(-1, 0), nx=2, ny=2), ALU, clamped=["bottom"], contact="top"))
+    with pytest.raises(cc.SceneError, match="draws 3D solutions"):
+        plot_contact_map(cc.solve(two_d))

@@ -30,6 +30,8 @@ UNIT = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
 def test_box_volumes_areas_and_side_tags():
     m = cc.box(x=(-1, 2), y=(0, 0.5), z=(1, 1.25), nx=5, ny=3, nz=2)
     assert m.dim == 3 and cc.Mesh.dim == 2
+    flat = cc.rectangle(nx=2, ny=1)
+    assert flat.dim == 2 and flat.cells is flat.triangles
     assert m.cells is m.tets and m.tets.shape == (6 * 30, 4) and m.points.shape == (6 * 4 * 3, 3)
     assert (m.volumes > 0).all()
     assert m.volumes.sum() == pytest.approx(3 * 0.5 * 0.25, rel=1e-14)            # measured 1e-16

@@ -37,6 +37,11 @@ class P2Nodes:
         self.points = _frozen(pts)
         self.triangles = _frozen(np.column_stack([tri, mids]))
 
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 6) the elements: ``triangles``."""
+        return self.triangles
+
     def __len__(self) -> int:
         return len(self.points)
 

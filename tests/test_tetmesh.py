@@ -8,6 +8,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.errors import FrozenError, MeshError
+from cvxcontact.fem import p2 as p2_basis
 from cvxcontact.geometry.quadratic import P2TetNodes
 from cvxcontact.geometry.tetmesh import TetMesh
 
@@ -349,7 +350,8 @@ def test_p2_tet_nodes_are_the_edge_midpoints():
     n = len(m.points)
     edges = {tuple(sorted(e)) for t in m.tets.tolist() for e in itertools.combinations(t, 2)}
     assert len(p2) == n + len(edges) and p2.cells is p2.tets10 and p2.tets10.shape == (len(m.tets), 10)
-    local = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]                  # the documented tetra10 order
+    local = [(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)]                  # the documented gmsh tetra10 order
+    assert [tuple(e) for e in p2_basis.EDGES[3]] == local                     # the P2 basis numbers them alike
     for k, (i, j) in enumerate(local):
         np.testing.assert_allclose(p2.points[p2.tets10[:, 4 + k]],
                                    0.5 * (m.points[m.tets[:, i]] + m.points[m.tets[:, j]]), atol=1e-15)

@@ -36,8 +36,9 @@ OUTWARD_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 """Local vertices of the faces of a positive tetrahedron, face i opposite vertex i, each oriented
 so that (p1 - p0) x (p2 - p0) points out of it."""
 
-EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
-"""Local vertices of the six edges of a tetrahedron (the order of the edge nodes of a tetra10)."""
+EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
+"""Local vertices of the six edges of a tetrahedron, in the gmsh tetra10 order of the edge nodes
+(the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
 
 class TetMesh(Frozen):
@@ -353,7 +354,7 @@ def _check_boundary_edges(points, bfaces, n):
 def _dihedral_angles(points, tets):
     """(m, 6) interior dihedral angle of each tetrahedron at each edge of EDGES (radians)."""
     p = points[tets]                                                          # (m, 4, 3)
-    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 2], [0, 1]])        # the two vertices off each edge
+    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])        # the two vertices off each edge
     e = p[:, EDGES[:, 1]] - p[:, EDGES[:, 0]]
     n1 = np.cross(e, p[:, other[:, 0]] - p[:, EDGES[:, 0]])
     n2 = np.cross(e, p[:, other[:, 1]] - p[:, EDGES[:, 0]])

@@ -8,7 +8,7 @@ import numpy as np
 
 # Kuhn's split of the unit cube: one tetrahedron per permutation (path 000 -> 111 along the axes)
 _PERMS = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
-TET10_EDGES = np.array([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)])     # VTK's tetra10 order, as P2TetNodes
+TET10_EDGES = np.array([(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)])
 
 
 class TetBox:

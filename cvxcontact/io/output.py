@@ -116,12 +116,23 @@ _VTK_ORDER = np.array([0, 1, 2, 5, 3, 4])
 """fem.fields' 3D component order (xx, yy, zz, yz, xz, xy) -> VTK's symmetric tensor order (xx, yy, zz, xy, yz,
 xz)."""
 _COMPONENTS_3D = ("xx", "yy", "zz", "yz", "xz", "xy")
+_VTK_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
+"""The edges of VTK's tetra10 mid-nodes, in order (gmsh's order swaps the last two)."""
+
+
+def vtk_tetra10(tets10) -> np.ndarray:
+    """(m, 10) P2 tetrahedra in VTK's tetra10 node order, from the order of
+    :class:`~cvxcontact.geometry.quadratic.P2TetNodes` (the edges ``geometry.tetmesh.EDGES``)."""
+    from ..geometry.tetmesh import EDGES
+
+    ours = [tuple(e) for e in np.asarray(EDGES).tolist()]
+    return np.asarray(tets10)[:, [0, 1, 2, 3] + [4 + ours.index(e) for e in _VTK_EDGES]]
 
 
 def _solid_mesh(body, u, phi, nodes=None):
     """A meshio.Mesh of one tetrahedral body: ``tetra`` cells (P1), or ``tetra10`` cells for the P2 nodes
-    ``nodes`` (:class:`~cvxcontact.geometry.quadratic.P2TetNodes`, VTK's node order; cell data at the
-    centroids). Point data ``displacement [m]`` (n, 3) and ``electric potential [V]``; cell data ``strain [-]``
+    ``nodes`` (:class:`~cvxcontact.geometry.quadratic.P2TetNodes`, written in VTK's node order, :func:`vtk_tetra10`;
+    cell data at the centroids). Point data ``displacement [m]`` (n, 3) and ``electric potential [V]``; cell data ``strain [-]``
     and ``stress [Pa]`` (symmetric tensors in VTK order xx, yy, zz, xy, yz, xz; tensor shears), their six
     components as named scalars, ``von Mises stress [Pa]``, ``electric field [V/m]`` and ``electric
     displacement [C/m^2]`` (3 components)."""
@@ -139,7 +150,7 @@ def _solid_mesh(body, u, phi, nodes=None):
         point_data["electric potential [V]"] = np.asarray(phi, dtype=float)
         cell_data["electric field [V/m]"] = f.electric_field
         cell_data["electric displacement [C/m^2]"] = f.electric_displacement
-    cells = [("tetra", body.mesh.tets)] if nodes is None else [("tetra10", nodes.tets10)]
+    cells = [("tetra", body.mesh.tets)] if nodes is None else [("tetra10", vtk_tetra10(nodes.tets10))]
     points = body.mesh.points if nodes is None else nodes.points
     return meshio.Mesh(np.asarray(points, dtype=float), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})

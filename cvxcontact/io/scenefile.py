@@ -69,6 +69,23 @@ needs exactly two bodies touching along their ``contact`` parts)::
 
 With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
 the top-level ``gap`` is refused (each pair has its own).
+
+3D scenes: a body whose mesh is tetrahedral is 3D (every body of a file has one dimension); its loads
+have three components, expressions may use ``z``, ``displacement`` is [ux, uy, uz], ``rotation`` a 3x3
+rotation matrix (no ``plane`` key), and a pair's gap is an expression of the in-plane coordinates x, y =
+(s1, s2) of the pair's frame::
+
+    mesh = { box = { x = [0, 0.02], y = [0, 0.02], z = [0, 0.005], nx = 6, ny = 6, nz = 2,
+                     patches = { footprint = ["top", [0.005, 0.015], [0.005, 0.015]] },
+                     grade = { point = [0.01, 0.01, 0.005], ratio = 4.0 } } }
+    mesh = { cylinder = { radius = 0.01, height = 0.002, n_r = 4, n_z = 2, n_theta = 24, center = [0, 0, 0] } }
+    mesh = { file = "part.msh" }              # gmsh tetra / tetra10
+
+    [[obstacle]]                              # 3D: one of plane (3-vectors), sphere, cylinder, height_field
+    sphere = { center = [0.01, 0.01, 0.025], radius = 0.02 }
+    # cylinder = { point = [0, 0.01, 0.03], axis = [1, 0, 0], radius = 0.025 }
+    # height_field = { f = "(x**2 + y**2) / 0.1", origin = [0.01, 0.01, 0.005] }   # solid above z = f(x, y)
+    force = [0.0, 0.0, -50.0]                 # N
 """
 
 from __future__ import annotations

@@ -255,3 +255,19 @@ def test_3d_figures_are_drawn_with_colour_bars_and_units(layer, stack):
                      cc.Body(cc.rectangle(x=(0, 1), y=(-1, 0), nx=2, ny=2), ALU, clamped=["bottom"], contact="top"))
     with pytest.raises(cc.SceneError, match="draws 3D solutions"):
         plot_contact_map(cc.solve(two_d))
+
+
+def test_2d_figure_functions_draw_3d_solutions_with_the_3d_figures(layer):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import plot_contact, plot_deformed, plot_deformed_all
+
+    for fig in (plot_contact(layer), plot_deformed(layer), plot_deformed_all({"a": layer}, "displacement")):
+        try:
+            assert any(getattr(ax, "name", "") == "3d" for ax in fig.axes) or fig.get_suptitle().startswith(
+                "Contact pressure in the plane")
+        finally:
+            plt.close(fig)

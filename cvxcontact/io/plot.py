@@ -170,8 +170,11 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     prefix that fits) or "potential" (V, kV, ...).
 
     An elastic body has no potential and is drawn in grey on a potential plot. ``clim`` (SI
-    units) fixes the colour limits, e.g. to share them across conditions. Returns the Figure.
+    units) fixes the colour limits, e.g. to share them across conditions. Returns the Figure. A 3D solution
+    is drawn by :func:`plot_deformed_3d`.
     """
+    if solution.scene.dim == 3:
+        return plot_deformed_3d(solution, field, magnify=magnify, ax=ax, clim=clim, colorbar=colorbar)
     _check_field(field, "plot_deformed")
     if magnify is not None and (isinstance(magnify, bool) or not isinstance(magnify, (int, float))
                                 or not np.isfinite(magnify) or magnify < 0):
@@ -214,10 +217,13 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
 
 def plot_deformed_all(solutions: dict[str, Solution], field: str = "von_mises") -> Figure:
     """:func:`plot_deformed` of every solution side by side, with one colour scale and one
-    magnification for all (so conditions compare at a glance). Returns the Figure."""
-    _check_field(field, "plot_deformed_all")
+    magnification for all (so conditions compare at a glance). Returns the Figure. 3D solutions:
+    :func:`plot_deformed_3d_all`."""
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
+    if any(s.scene.dim == 3 for s in solutions.values()):
+        return plot_deformed_3d_all(solutions, field)
+    _check_field(field, "plot_deformed_all")
     plt = _pyplot()
     n = len(solutions)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n + 1, 4.8), squeeze=False, layout="constrained")
@@ -254,11 +260,13 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
 
     ``solutions`` is a Solution or a dict label -> Solution. The abscissa is the tangential
     coordinate s along each pair (s = x1 for a line parallel to x1). The legend sits below the axes.
-    Returns the Figure.
+    Returns the Figure. 3D solutions: :func:`plot_contact_map` (the pressure in the plane of each surface).
     """
     plt = _pyplot()
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
+    if any(s.scene.dim == 3 for s in solutions.values()):
+        return plot_contact_map(solutions)
     cols = [(label, sol, i) for label, sol in solutions.items() for i in range(len(sol.contacts))]
     n = len(cols)
     felt = [[(b, *sol.traction(k, i)) for k, b in enumerate(_pair_bodies(sol, i))] for _, sol, i in cols]

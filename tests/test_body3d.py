@@ -17,6 +17,7 @@ from cvxcontact.fem import p2
 from cvxcontact.fem.assembly import assemble
 from cvxcontact.fem.fields import body_fields
 from cvxcontact.fem.space import space
+from cvxcontact.geometry.quadratic import P2Nodes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from tetbox import TetNodes, box  # noqa: E402
@@ -26,23 +27,24 @@ TRANSVERSE = cc.materials.Elastic(PZT.c3, name="PZT-5A elastic part")      # tra
 SIDES = ["left", "right", "front", "back"]
 
 
-def solve(system):
-    """(u (n, 3), phi (n,)) of the bonded system: the reduced equations (module docstring of fem/assembly.py)
+def solve(system, dim=3):
+    """(u (n, dim), phi (n,)) of the bonded system: the reduced equations (module docstring of fem/assembly.py)
     T_u^T (Kuu u + Kup phi - f) = 0, T_p^T (Kup^T u - Kpp phi + q) + ... = 0, by a sparse LU, the potential
     unknowns scaled to the displacements' magnitude."""
     Tu, fz = system.Tu, system.reduced_loads()[0]
     K = (Tu.T @ system.Kuu @ Tu).tocsc()
     if not system.piezoelectric:
         z = spla.spsolve(K, fz)
-        return (Tu @ z + system.u_fixed).reshape(-1, 3), None
+        return (Tu @ z + system.u_fixed).reshape(-1, dim), None
     Tp, qz = system.Tp, system.reduced_loads()[1]
     C, P = Tu.T @ system.Kup @ Tp, Tp.T @ system.Kpp @ Tp
     s = np.sqrt(abs(K.diagonal()).mean() / abs(P.diagonal()).mean())            # phi = s * w
     A = sp.bmat([[K, s * C], [s * C.T, -s * s * P]], format="csc")
-    z = spla.spsolve(A, np.concatenate([fz, -s * qz]))
+    z = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,           # quasi-definite: no pivoting
+                  options=dict(SymmetricMode=True)).solve(np.concatenate([fz, -s * qz]))
     u = Tu @ z[:K.shape[0]] + system.u_fixed
     phi = Tp @ (s * z[K.shape[0]:]) + system.phi_fixed
-    return u.reshape(-1, 3), phi
+    return u.reshape(-1, dim), phi
 
 
 def rel(a, b):
@@ -231,3 +233,103 @@ def test_polynomial_fields_are_reproduced_exactly(degree, quadratic):
     assert rel(u_in, u(pts[inner])) <= 1e-9                      # measured P1 7e-16, P2 1.3e-15 / 1.1e-15
     assert rel(phi_in, phi(pts[inner])) <= 1e-9                  # measured P1 2.5e-12, P2 3.6e-12 / 4.1e-12 (P1 on the
     # quadratic fields: 9e-4 and 2.2)
+
+
+# ------------------------------------------------------------------ invariance and limits
+
+
+def _generic_rotation():
+    """A rotation about no coordinate axis (QR of a fixed random matrix, det +1)."""
+    Q, r = np.linalg.qr(np.random.default_rng(11).normal(size=(3, 3)))
+    Q = Q * np.sign(np.diag(r))
+    return Q if np.linalg.det(Q) > 0 else -Q
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_turned_body_gives_the_turned_solution(degree):
+    """Mesh, material, supports and loads turned by a generic rotation R: u'(R x) = R u(x), phi'(R x) = phi(x)."""
+    R = _generic_rotation()
+    assert min(abs(R[i, i]) for i in range(3)) < 0.99 and np.abs(R @ R.T - np.eye(3)).max() < 1e-15
+
+    def body(turn):
+        Rt = R if turn else np.eye(3)
+        mesh = box(x=(0, 0.4), y=(0, 0.3), z=(0, 0.2), nx=3, ny=2, nz=2).moved(lambda x: x @ Rt.T)
+        back = lambda x, y, z: np.stack([x, y, z], axis=-1) @ Rt                      # noqa: E731 (R^T x')
+        turned = lambda v: tuple(np.moveaxis(v @ Rt.T, -1, 0))                         # noqa: E731 (R v)
+
+        def traction(x, y, z):
+            X = back(x, y, z)
+            return turned(np.stack([1e6 * X[..., 1], -2e6 + 1e6 * X[..., 0], 5e5 * np.ones_like(x)], axis=-1))
+
+        return cc.Body(mesh, PZT.rotated(Rt), clamped=["bottom"], roller=["left"], grounded=["bottom"],
+                       potential={"top": lambda x, y, z: 40.0 + 100.0 * back(x, y, z)[..., 0]},
+                       traction={"right": traction}, body_force=tuple(Rt @ np.array([1e7, -3e7, 2e7])),
+                       surface_charge={"front": lambda x, y, z: 1e-3 * back(x, y, z)[..., 2]})
+
+    results = []
+    for turn in (False, True):
+        b = body(turn)
+        system = assemble(b) if degree == 1 else p2.assemble(b, TetNodes(b.mesh))
+        results.append(solve(system))
+    (u0, phi0), (u1, phi1) = results
+    assert np.abs(u0).max() > 0 and np.abs(phi0).max() > 0
+    assert rel(u1, u0 @ R.T) <= 1e-9                                          # measured P1 1.5e-15, P2 7e-15
+    assert rel(phi1, phi0) <= 1e-9                                            # measured P1 1.4e-15, P2 6.5e-15
+
+
+def test_y_uniform_block_converges_to_the_plane_strain_section():
+    """A PZT-5A block one layer thick in y with rollers on its front and back (u_y = 0), clamped and grounded at
+    the bottom, a driven top electrode and a body force along -z, against the 2D plane-strain solution of its
+    (x, z) section (2D y = 3D z; P2 on a fine mesh): the top-centre displacement and the centre potential of
+    the 3D P2 solution converge to it. (The rollers hold u_y = 0 on both faces; the midpoints of the edges
+    crossing the layer are free in y.)"""
+    def section(n):
+        m = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=n, ny=n // 2)
+        b = cc.Body(m, PZT, clamped=["bottom"], grounded=["bottom"], potential={"top": 100.0}, body_force=(0.0, -1e9))
+        nodes = P2Nodes(m)
+        u, phi = solve(p2.assemble(b, nodes), dim=2)
+        at = lambda x: np.flatnonzero(np.linalg.norm(nodes.points - x, axis=1) < 1e-12)   # noqa: E731
+        return u[at([0.5, 0.5])][0], phi[at([0.5, 0.25])][0]
+
+    def block(n):
+        m = box(x=(0, 1), y=(0, 0.1), z=(0, 0.5), nx=n, ny=1, nz=n // 2)
+        b = cc.Body(m, PZT, clamped=["bottom"], roller=["front", "back"], grounded=["bottom"],
+                    potential={"top": 100.0}, body_force=(0.0, 0.0, -1e9))
+        nodes = TetNodes(m)
+        u, phi = solve(p2.assemble(b, nodes))
+        at = lambda x: np.flatnonzero(np.linalg.norm(nodes.points[:, [0, 2]] - x, axis=1) < 1e-12)  # noqa: E731
+        return u[at([0.5, 0.5])][:, [0, 2]].mean(axis=0), phi[at([0.5, 0.25])].mean()
+
+    u2, phi2 = section(64)
+    errors = []
+    for n in (4, 8, 16):
+        u3, phi3 = block(n)
+        errors.append((np.abs(u3 - u2).max() / np.abs(u2).max(), abs(phi3 - phi2) / abs(phi2)))
+    eu = [e[0] for e in errors]
+    assert eu[1] <= 0.6 * eu[0] and eu[2] <= 0.6 * eu[1]                  # measured 0.026, 0.012, 0.0054
+    assert eu[2] <= 0.01 and max(e[1] for e in errors[1:]) <= 0.003       # measured phi: 8e-3, 7e-4, 9e-4
+
+
+def test_tet10_and_tet4_converge_to_one_solution():
+    """A PZT-5A bar clamped and grounded at x = 0, driven at x = 1, under a body force and a shear traction:
+    P1 on meshes refined twice approaches the P2 solution (tip displacement, mid potential), and P2 on the
+    coarsest mesh is closer to it than P1 on the finest."""
+    def run(n, degree):
+        m = box(x=(0, 1), y=(0, 0.5), z=(0, 0.5), nx=2 * n, ny=n, nz=n)
+        b = cc.Body(m, PZT, clamped=["left"], grounded=["left"], potential={"right": 50.0},
+                    body_force=(0.0, 0.0, -1e8), traction={"top": lambda x, y, z: (0 * x, 1e6 * x, 0 * x)})
+        nodes = m if degree == 1 else TetNodes(m)
+        u, phi = solve(assemble(b) if degree == 1 else p2.assemble(b, nodes))
+        at = lambda x: np.flatnonzero(np.linalg.norm(nodes.points - x, axis=1) < 1e-12)[0]   # noqa: E731
+        return u[at([1, 0.25, 0.25])], phi[at([0.5, 0.25, 0.25])]
+
+    u_ref, phi_ref = run(4, 2)
+
+    def error(n, degree):
+        u, phi = run(n, degree)
+        return np.abs(u - u_ref).max() / np.abs(u_ref).max(), abs(phi - phi_ref) / abs(phi_ref)
+
+    p1 = [error(n, 1) for n in (2, 4, 8)]
+    assert p1[1][0] <= 0.6 * p1[0][0] and p1[2][0] <= 0.6 * p1[1][0]      # measured 0.42, 0.21, 0.069
+    assert p1[2][1] <= 1e-3                                                 # measured phi 5.9e-3, 9.7e-4, 6e-5
+    assert error(2, 2)[0] <= 0.5 * p1[2][0]                                 # measured P2 (n = 2) 0.028

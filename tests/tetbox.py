@@ -17,28 +17,10 @@ class TetBox:
     def __init__(self, points, tets, boundaries):
         p = np.array(points, dtype=float)
         t = np.array(tets, dtype=np.int64)
-        e = p[t[:, 1:]] - p[t[:, :1]]
-        det = np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))
-        t[det < 0] = t[det < 0][:, [1, 0, 2, 3]]                      # positively oriented
         self.points, self.tets = p, t
-        self._tags = {k: self._orient(np.asarray(v)) for k, v in boundaries.items()}
-        for a in (self.points, self.tets):
+        self._tags = {k: np.array(v, dtype=np.int64) for k, v in boundaries.items()}
+        for a in (self.points, self.tets, *self._tags.values()):
             a.setflags(write=False)
-
-    def _orient(self, faces):
-        """Faces with (p1 - p0) x (p2 - p0) pointing out of the tetrahedron that owns them."""
-        faces = np.array(faces, dtype=np.int64)
-        key = {tuple(sorted(f)): i for i, f in enumerate(faces)}
-        for tet in self.tets:
-            for drop in range(4):
-                f = tuple(sorted(np.delete(tet, drop)))
-                if f in key:
-                    i = key[f]
-                    a, b, c = self.points[faces[i]]
-                    if np.dot(np.cross(b - a, c - a), a - self.points[tet[drop]]) < 0:
-                        faces[i] = faces[i][[0, 2, 1]]
-        faces.setflags(write=False)
-        return faces
 
     cells = property(lambda self: self.tets)
     tags = property(lambda self: tuple(self._tags))
@@ -74,7 +56,7 @@ class TetBox:
     components = cached_property(lambda self: np.zeros(len(self.tets), dtype=int))
 
     def moved(self, f):
-        """The same box with points f(points) (an affine map with positive determinant keeps orientation)."""
+        """The same box with points f(points) (a map preserving orientation: a rotation, a small distortion)."""
         return TetBox(f(self.points), self.tets, {k: self._tags[k] for k in self._tags})
 
 
@@ -100,8 +82,16 @@ def box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 1.0), nx=2, ny=2, nz=2):
         found = []
         for drop in range(4):
             f = np.delete(tets, drop, axis=1)
-            found.append(f[on[f].all(axis=1)])
+            hit = on[f].all(axis=1)
+            f, opposite = f[hit], tets[hit, drop]
+            a, b, c = (points[f[:, k]] for k in range(3))
+            inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), points[opposite] - a) > 0
+            f[inward] = f[inward][:, [0, 2, 1]]                         # (p1 - p0) x (p2 - p0) outward
+            found.append(f)
         faces[name] = np.concatenate(found)
+    e = points[tets[:, 1:]] - points[tets[:, :1]]
+    det = np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))
+    tets[det < 0] = tets[det < 0][:, [1, 0, 2, 3]]
     return TetBox(points, tets, faces)
 
 

@@ -329,6 +329,21 @@ def _charge(value, label):
     return float(value)
 
 
+def mesh_dim(body) -> int:
+    """2 for a triangle mesh, 3 for a tetrahedral one."""
+    return int(getattr(body.mesh, "dim", 2))
+
+
+def pair_interface(bodies, parts=None, obstacle=None):
+    """The contact geometry of one pair: a straight line in 2D (:class:`~cvxcontact.contact.interface.Interface`),
+    a planar surface in 3D (:class:`~cvxcontact.contact.surface.SurfaceInterface`)."""
+    parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
+    if mesh_dim(bodies[0]) == 3:
+        from ..contact.surface import SurfaceInterface
+        return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
+    return Interface(tuple(bodies), parts, obstacle=obstacle)
+
+
 def _refuse_unheld(scene):
     """SceneError for a rigid motion of a body that no support holds and that no contact part of the body
     resists in either direction (u . nu = 0 along each of its parts: a motion tangential to them): whatever
@@ -491,6 +506,9 @@ class Scene(Frozen):
                 raise SceneError(f"Scene takes Body objects; argument {k} is {type(b).__name__}")
         for k, b in enumerate(bodies, start=1):
             b._label(k)
+        dims = [mesh_dim(b) for b in bodies]
+        if len(set(dims)) > 1:
+            raise SceneError(f"the bodies of a scene share one dimension; got {', '.join(f'{b.name}: {d}D' for b, d in zip(bodies, dims))}")
         self._set(bodies=self._tuple("bodies", bodies), _given_gap=gap)
         if contacts is None:
             if len(bodies) != 2:
@@ -515,11 +533,11 @@ class Scene(Frozen):
             members.append((a, b))
             try:
                 if c.rigid:
-                    itf = Interface((c.body_a,), (c.part_a,), obstacle=c.other)
+                    itf = pair_interface((c.body_a,), (c.part_a,), obstacle=c.other)
                 elif self._legacy:
-                    itf = Interface(self.bodies)
+                    itf = pair_interface(self.bodies)
                 else:
-                    itf = Interface((c.body_a, c.other), (c.part_a, c.part_b))
+                    itf = pair_interface((c.body_a, c.other), (c.part_a, c.part_b))
             except MeshError as exc:
                 raise SceneError(str(exc)) from exc
             except SceneError as exc:
@@ -653,6 +671,8 @@ class Scene(Frozen):
         obstacle, points of the body's straight part between its nodes that reach it)."""
         itf = self.interfaces[i]
         load = self.gap if self._legacy else self.contacts[i].gap
+        if getattr(itf, "dim", 2) == 3:
+            return self._surface_gap(i, itf, s)
         if s is not None:
             s = np.asarray(s, dtype=float)
             g = np.array(load(s, np.full_like(s, itf.y)), dtype=float)
@@ -669,6 +689,18 @@ class Scene(Frozen):
             return g
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g
+
+    def _surface_gap(self, i, itf, s):
+        """3D: the gap (m) at the overlay vertices of pair ``i`` (or at in-plane points ``s`` (k, 2), m): the
+        pair's gap g(s1, s2) of the in-plane coordinates (s1, s2) of the pair's frame, plus the distance to a
+        rigid obstacle along the body's normal."""
+        given = self._given_gap if self._legacy else self.contacts[i]._given_gap
+        load = Load(given, f"contacts[{i}]: gap g(s1, s2)", 1)
+        s = itf.x if s is None else np.asarray(s, dtype=float)
+        g = np.array(load(s[:, 0], s[:, 1]), dtype=float)
+        if itf.rigid:
+            g = g + itf.obstacle_gap()
+        return g
 
     def gap_values(self) -> np.ndarray:
         """The gap g (m) at the stacked merged nodes of every pair (``stack``)."""

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, p2_pairs
 from ..errors import SceneError, SolverError
-from ..geometry.quadratic import P2Nodes
+from ..geometry.quadratic import P2Nodes, P2TetNodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices
 
@@ -213,7 +213,6 @@ class P2Tet(P2):
     contact = staticmethod(_no_surfaces)
 
     def nodes(self, body):
-        from ..geometry.tetmesh import P2TetNodes           # the 10-node set of a tetrahedral mesh
         return P2TetNodes(body.mesh)
 
 

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
+from ..geometry.tetmesh import TetMesh
 from .materials import Elastic, Piezoelectric
 from .loads import LOAD_FIELDS
 from . import supports as _supports
@@ -31,7 +32,7 @@ class Body(Frozen):
 
     Parameters
     ----------
-    mesh : Mesh (2D) or a tetrahedral mesh (3D)
+    mesh : Mesh (2D) or TetMesh (3D)
     material : Piezoelectric or Elastic (a 3D body needs the material's 3D tensors: ``material.tensors(3)``)
     clamped : str or list of str
         Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
@@ -80,8 +81,8 @@ class Body(Frozen):
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not (isinstance(mesh, Mesh) or getattr(mesh, "dim", None) == 3):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh or a tetrahedral mesh, got {type(mesh).__name__}")
+        if not isinstance(mesh, (Mesh, TetMesh)):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh or a cvxcontact.TetMesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):

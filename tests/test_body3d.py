@@ -343,3 +343,15 @@ def test_fingerprint_of_a_3d_body_covers_its_tensors_not_its_loads():
     assert fingerprint(body) != fingerprint(body.with_changes(material=turned))
     assert fingerprint(body) != fingerprint(body.with_changes(material=cc.materials.PZT4))
     assert np.abs(about_z.c3 - PZT.c3).max() <= 1e-15 * np.abs(PZT.c3).max()
+
+
+def test_p2_free_body_stiffness_vanishes_exactly_on_the_held_modes():
+    m = box(x=(0, 1), y=(0, 0.6), z=(0, 0.8), nx=1, ny=1, nz=2)
+    body = cc.Body(m, TRANSVERSE.rotated(_generic_rotation()))
+    nodes = TetNodes(m)
+    K = p2.assemble(body, nodes).Kuu.toarray()
+    R = body.held_modes(nodes)
+    assert R.shape == (6, 3 * len(nodes))
+    assert np.abs(K @ R.T).max() <= 1e-12 * np.abs(K).max() * np.abs(R).max()   # measured 3.6e-16
+    ev = np.linalg.eigvalsh(K) / np.abs(K).max()
+    assert np.abs(ev[:6]).max() <= 1e-13 and ev[6] >= 1e-4                     # measured 1.2e-16, 3.1e-3

@@ -105,8 +105,8 @@ def test_refusals_in_3d():
         cc.Body(m, TRANSVERSE, displacement={"bottom": (0.0, 0.0)})
     with pytest.raises(SceneError, match="all components are None"):
         cc.Body(m, TRANSVERSE, displacement={"bottom": (None, None, None)})
-    with pytest.raises(SolverError, match="3D contact surfaces are not available yet"):
-        space(1, 3).contact(None, "gamma3", None)
+    with pytest.raises(SolverError, match="P2 .10-node. tetrahedra in contact are not available yet"):
+        space(2, 3).contact(None, "gamma3", None)
     with pytest.raises(SolverError, match="3D body"):
         space(1).assemble_matrices(cc.Body(m, TRANSVERSE, clamped=["bottom"]))
     assert space(2, 3).dim == 3 and space(1).dim == 2

@@ -202,6 +202,11 @@ class Interface:
         ab[2, :-1] = M.diagonal(-1)
         return sla.solve_banded((1, 1), ab, np.asarray(r, dtype=float))
 
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces
+        interpolation(k)^T r (N/m; exact work equivalence) over the lumped lengths of its trace."""
+        return (self._interp[k].T @ np.asarray(r, dtype=float)) / lumped_lengths(self.traces[k].x)
+
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows select the merged nodes where non-penetration is imposed ("sigma1"/"sigma2": the
         nodes of the pair's first/second body inside the overlap; with a rigid obstacle, every

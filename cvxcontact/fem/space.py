@@ -8,7 +8,7 @@ the backends, the read-back) asks the space and never branches on the degree.
 
 ``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
 docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
-the 3D ones (their contact surfaces are not available yet: ``contact`` raises a SolverError);
+the 3D ones (P2Tet in contact is not available yet: its ``contact`` raises a SolverError);
 :func:`space` gives the one of a degree and a dimension.
 """
 
@@ -195,15 +195,15 @@ def _check_dim(space, body):
 
 
 def _no_surfaces(scene, condition, law, nodes=None):
-    raise SolverError("3D contact surfaces are not available yet: a 3D body can be assembled "
-                      "(space.assemble_matrices, assemble_loads) but not yet solved in contact")
+    raise SolverError("P2 (10-node) tetrahedra in contact are not available yet: solve 3D scenes with degree=1")
 
 
 class P1Tet(P1):
-    """P1 (4-node) tetrahedra: the mesh's vertices (the same dimension-generic assembly as P1)."""
+    """P1 (4-node) tetrahedra: the mesh's vertices (the same dimension-generic assembly as P1) and the planar
+    contact surfaces of the scene (:class:`~cvxcontact.contact.surface.SurfaceInterface`: the overlay's vertices
+    are the nodes of X_h, docs/formulation.md §13), stacked as in 2D."""
 
     degree, dim = 1, 3
-    contact = staticmethod(_no_surfaces)
 
 
 class P2Tet(P2):

@@ -46,6 +46,8 @@ class Mesh(Frozen):
     boundaries : dict of str to (k, 2) array_like of int, optional
         Named boundary parts, each a list of boundary edges (node index pairs).
 
+    Notes
+    -----
     The mesh is immutable: it keeps read-only copies of its arrays (editing ``points``,
     ``triangles`` or a boundary part in place raises ``ValueError``) and assigning an attribute
     raises :class:`~cvxcontact.errors.FrozenError`; build a new mesh instead (:meth:`with_points`).

@@ -1,8 +1,8 @@
 """A fingerprint of what a prepared solver depends on in a body: its geometry and material.
 
-``geometry_fingerprint(body)`` hashes (blake2b) the mesh points (m) and triangles (tetrahedra), every
-tagged boundary part with its edges (faces), the material constants c (Pa), e (C/m^2) and
-kappa (F/m) (the 3D tensors of a 3D body), and the names of the clamped, grounded, driven (potential) and contact
+``geometry_fingerprint(body)`` hashes (blake2b) the mesh points (m) and triangles, every
+tagged boundary part with its edges, the material constants c (Pa), e (C/m^2) and
+kappa (F/m), and the names of the clamped, grounded, driven (potential) and contact
 parts: the :data:`~cvxcontact.physics.loads.GEOMETRY_FIELDS` and the potential tags. The
 loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`: forces, tractions, charges, potential
 *values*) are left out: they may change between solves of one ContactSolver. (The scene's
@@ -42,13 +42,13 @@ def geometry_fingerprint(body) -> str:
 
     mesh, mat = body.mesh, body.material
     array("points", mesh.points, np.float64)
-    array("triangles" if mesh.dim == 2 else "tetrahedra", mesh.cells, np.int64)
+    array("triangles", mesh.cells, np.int64)           # (the 2D name kept: fingerprints stay as they were)
     tags = sorted(mesh.tags)
     text(len(tags))
     for tag in tags:
         array(f"tag {tag}", mesh.boundary(tag), np.int64)
     text(type(mat).__name__)
-    for key in ("c", "e", "kappa") if mesh.dim == 2 else ("c3", "e3", "kappa3"):       # the tensors assembled
+    for key in ("c", "e", "kappa") + (("c3", "e3", "kappa3") if getattr(mesh, "dim", 2) == 3 else ()):
         array(key, getattr(mat, key, None), np.float64)
     # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),

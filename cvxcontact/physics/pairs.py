@@ -492,6 +492,8 @@ class Contact(Frozen):
         None (default): the law given to ``solve``/``Model`` (itself Signorini by default). A scene may
         mix the two, against bodies and rigid obstacles alike.
 
+    Notes
+    -----
     A pair is immutable (assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`); a scene
     with other gaps, obstacles or bodies is built by :meth:`cvxcontact.Scene.with_gap`,
     :meth:`~cvxcontact.Scene.with_obstacles` or :meth:`~cvxcontact.Scene.with_bodies`.

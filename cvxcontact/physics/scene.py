@@ -62,6 +62,8 @@ class Body(Frozen):
         Floating electrodes: one unknown potential on the whole part and its total charge Q
         (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
 
+    Notes
+    -----
     Supports and electrodes enter the unknowns through the prolongation of
     docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
 
@@ -719,6 +721,11 @@ class Scene(Frozen):
         if self._legacy:
             return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"
         return f"Scene({', '.join(repr(b) for b in self.bodies)}, contacts={list(self.contacts)!r})"
+
+    @property
+    def dim(self) -> int:
+        """2 (triangle meshes, plane strain or stress) or 3 (tetrahedral meshes)."""
+        return mesh_dim(self.bodies[0])
 
     @property
     def length(self) -> float:

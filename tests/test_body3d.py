@@ -402,3 +402,20 @@ def test_consistent_loads_integrate_the_densities_exactly(degree):
         got = [F[:, 0] @ mono, F[top, 1] @ mono[top], F[:, 2] @ mono, q @ mono]
         worst = max(worst, max(abs(u - v) / max(abs(v), 1e-3) for u, v in zip(got, expect)))
     assert worst <= 1e-13       # measured P1 5e-16, P2 1e-15 (P2 with a degree-2 volume rule: 7.6e-5)
+
+
+def test_prescribed_displacement_component_lifts_the_uniaxial_solution():
+    """The top moved down by d (only u_z prescribed, None = free), rollers on the sides and bottom: u_z = -d z/c,
+    sigma_zz = -c33 d/c; the top's edges on a roller side keep one free column, its corners none."""
+    d, c = 1e-4, 0.25
+    m = box(x=(0, 0.3), y=(0, 0.2), z=(0, c), nx=2, ny=2, nz=3)
+    body = cc.Body(m, TRANSVERSE, roller=SIDES + ["bottom"], displacement={"top": (None, None, -d)})
+    free = body.node_supports()[0]
+    top = m.boundary_nodes(["top"])
+    sides = [np.isin(top, m.boundary_nodes([s])) for s in SIDES]
+    assert np.array_equal(free[top], 2 - np.sum(sides, axis=0))
+    u, _ = solve(assemble(body))
+    assert rel(u[:, 2], -d * m.points[:, 2] / c) <= 1e-12                 # measured 4e-16
+    assert np.abs(u[:, :2]).max() <= 1e-12 * d                            # measured 2.3e-16 d
+    s = body_fields(body, u, None).stress
+    assert rel(s[:, 2], np.full(len(s), -PZT.c3[2, 2] * d / c)) <= 1e-12   # measured 1.3e-15

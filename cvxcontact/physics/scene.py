@@ -211,7 +211,10 @@ class Body(Frozen):
         self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
         # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
         # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
-        self.node_supports()                                # consistent at every node (or a SceneError)
+        reduced = _supports.node_supports(self)             # consistent at every node (or a SceneError)
+        for a in reduced:
+            a.setflags(write=False)
+        self._set(_node_supports=reduced)                   # kept: the prolongation of the vertices reads it
         self._check_kinematics()
         if self.piezoelectric:
             if not (self.grounded or self.potential):
@@ -246,8 +249,9 @@ class Body(Frozen):
         return _supports.supports(self, nodes)
 
     def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`)."""
-        return _supports.node_supports(self, nodes)
+        """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`; read-only arrays,
+        those of the mesh's vertices computed once)."""
+        return self._node_supports if nodes is None else _supports.node_supports(self, nodes)
 
     def free_motions(self, contact: bool | Sequence[str] = True) -> list[str]:
         """The rigid motions nothing holds, as readable names (:func:`cvxcontact.physics.supports.free_motions`)."""

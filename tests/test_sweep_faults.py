@@ -15,7 +15,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.apps import cli
-from cvxcontact.apps.sweep import SweepLockedError, SweepOutputError, load_sweep, run_sweep
+from cvxcontact.apps.sweep import SweepLockedError, SweepOutputError, read_sweep, run_sweep
 from cvxcontact.apps.sweep import store
 from cvxcontact.io.scenefile import load_scene
 from test_sweep import write_sweep as setup
@@ -45,7 +45,7 @@ def test_changed_scene_is_recomputed_and_old_results_kept_aside(tmp_path):
     assert not set(old) & set(results(out))
     spec = load_scene(scene)
     b1, b2 = spec.scene.bodies
-    for case in load_sweep(path).cases:
+    for case in read_sweep(path).cases:
         info = json.loads((out / "cases" / f"{case.id}.json").read_text())
         assert info["scene"]["body"][1]["material"]["E"] == 200e9
         assert set(info["versions"]) >= {"cvxcontact", "cvxpy", "clarabel", "numpy", "scipy"}

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import CvxContactError
-from .spec import SweepError, load_sweep, machine, versions
+from .spec import SweepError, machine, read_sweep, versions
 from .store import (FAILURES, FolderLock, SweepOutputError, case_state, clean_temporaries, prepare_out,
                     remove_case, supersede, write_json)
 from .worker import THREAD_VARIABLES, solve_case, worker_main
@@ -95,8 +95,8 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
     ``workers``: local processes (default: the number of cores; 1 runs in this process).
     ``scheduler``: address of a Dask distributed scheduler, or a ``distributed.Client``.
     ``retry_failed``: run the recorded failures and the cases whose checks failed again.
-    ``progress``: a callable taking one line of text. ``allow_outside``: accept mesh files
-    outside the scene file's folder. ``export_problem``: also write each case's conic problem
+    ``progress``: a callable taking one line of text. ``allow_outside``: accept a scene file outside
+    the sweep file's folder and mesh files outside the scene file's folder. ``export_problem``: also write each case's conic problem
     data. ``skip_invalid``: record cases whose scene is invalid as failures and run the others
     (default: refuse the sweep, naming them).
 
@@ -111,7 +111,7 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise SweepError(f"workers must be a whole number >= 1, got {workers!r}")
     say = progress or (lambda line: None)
-    sweep = load_sweep(path, allow_outside=allow_outside)
+    sweep = read_sweep(path, allow_outside=allow_outside)
     invalid = sweep.invalid
     if invalid and not skip_invalid:
         first = invalid[0]

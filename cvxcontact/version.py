@@ -1,7 +1,7 @@
 """The version of the code that runs, and where it came from.
 
 Versions follow the git tags (``v0.2.0``): setuptools-scm derives the version of a build from the tag
-and the commits since, e.g. ``0.2.1.dev3+g1a2b3c4`` three commits after ``v0.2.0`` (``.d20260101`` is
+and the commits since, e.g. ``0.2.1.dev3+g1a2b3c4d5`` three commits after ``v0.2.0`` (``.d20260101`` is
 appended when the tree had uncommitted changes). :func:`version` reads it in this order:
 
 1. a git checkout of the package (a clone, an editable install): ``git describe`` now, in the same
@@ -51,17 +51,18 @@ def _checkout() -> bool:
 
 
 def from_describe(described: str, count: int | None = None, today: str | None = None) -> str:
-    """The setuptools-scm version ("guess-next-dev" scheme, "node-and-date" local part) of the output of
-    ``git describe --tags --long --dirty --abbrev=7 --match 'v[0-9]*'``: ``v0.2.0-0-gabc1234`` -> ``0.2.0``;
-    ``v0.2.0-3-gabc1234`` -> ``0.2.1.dev3+gabc1234``; a ``-dirty`` tree adds ``.d<YYYYMMDD>`` (``today``)
-    and counts as one step past its tag. Without a tag (``described`` a bare hash): ``0.1.dev<count>+g<hash>``."""
+    """The setuptools-scm version ("guess-next-dev" scheme, "node-and-date" local part, the commit cut to 9
+    hex digits as setuptools-scm does) of the output of ``git describe --tags --long --dirty --abbrev=40
+    --match 'v[0-9]*'``: ``v0.2.0-0-g<hash>`` -> ``0.2.0``; ``v0.2.0-3-g<hash>`` -> ``0.2.1.dev3+g<hash[:9]>``;
+    a ``-dirty`` tree adds ``.d<YYYYMMDD>`` (``today``) and counts as one step past its tag. Without a tag
+    (``described`` a bare hash): ``0.1.dev<count>+g<hash[:9]>``."""
     today = today or time.strftime("%Y%m%d", time.gmtime())
     m = _TAG.match(described)
     if m is None:
         dirty = described.endswith("-dirty")
-        node = described.removesuffix("-dirty")
+        node = described.removesuffix("-dirty")[:9]
         return f"0.1.dev{count or 0}+g{node}" + (f".d{today}" if dirty else "")
-    release, distance, node, dirty = m.group(1), int(m.group(2)), m.group(3), bool(m.group(4))
+    release, distance, node, dirty = m.group(1), int(m.group(2)), m.group(3)[:9], bool(m.group(4))
     if distance == 0 and not dirty:
         return release
     parts = [int(p) for p in release.split(".")]
@@ -87,9 +88,9 @@ def _installed() -> str | None:
 def version() -> str:
     """The version of the imported code (see the module docstring)."""
     if _checkout():
-        described = _git("describe", "--tags", "--long", "--dirty", "--abbrev=7", "--match", "v[0-9]*")
+        described = _git("describe", "--tags", "--long", "--dirty", "--abbrev=40", "--match", "v[0-9]*")
         if described is None:                                  # no tag reachable: a bare hash
-            described = _git("describe", "--always", "--dirty", "--abbrev=7")
+            described = _git("describe", "--always", "--dirty", "--abbrev=40")
         if described:
             count = _git("rev-list", "--count", "HEAD")
             return from_describe(described, int(count) if count and count.isdigit() else None)

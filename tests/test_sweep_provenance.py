@@ -147,3 +147,17 @@ def test_cli_verbose_shows_the_log(tmp_path, capsys):
         logger.handlers[:], logger.level = handlers, level
     err = capsys.readouterr().err
     assert "[cvxcontact.solve] INFO method" in err and "DEBUG" not in err
+
+
+def test_a_worker_running_other_code_refuses_the_case(tmp_path, monkeypatch):
+    from cvxcontact.apps.sweep import worker
+
+    small_scene(tmp_path / "scene.toml")
+    sweep = read_sweep(sweep_file(tmp_path, "scene.toml"))
+    real = sweep_spec.versions()
+    monkeypatch.setattr(worker, "versions", lambda: {**real, "cvxcontact_source_sha256": "0" * 64})
+    from cvxcontact.apps.sweep.store import prepare_out
+
+    out = prepare_out(tmp_path / "out")
+    case_id, state, message = worker.solve_case(sweep.cases[0].as_task(), sweep.scene_path, "condensed", out)
+    assert state == "failed" and "other cvxcontact code" in message

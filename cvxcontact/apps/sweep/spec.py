@@ -66,7 +66,8 @@ class Case:
     """One case: the resolved scene data (base + overrides), its condition and its content id.
 
     ``provenance``: the sha256 of every mesh file the scene reads and the constants of its
-    materials (c, e, kappa in Pa, C/m^2, F/m), as hashed into ``id``."""
+    materials (c, e, kappa in Pa, C/m^2, F/m), as hashed into ``id``; ``code``: the cvxcontact version and
+    source sha256 hashed into ``id`` (a worker running other code refuses the case)."""
 
     id: str
     name: str
@@ -75,6 +76,7 @@ class Case:
     data: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
     invalid: str = ""
+    code: dict = field(default_factory=dict)
 
     @property
     def geometry(self) -> str:
@@ -93,7 +95,7 @@ class Case:
     def as_task(self) -> dict:
         """What a worker needs (plain data: it crosses process boundaries)."""
         return {"id": self.id, "name": self.name, "overrides": self.overrides, "condition": self.condition,
-                "data": self.data, "provenance": self.provenance, "geometry": self.geometry}
+                "data": self.data, "provenance": self.provenance, "geometry": self.geometry, "code": self.code}
 
 
 @dataclass
@@ -281,5 +283,5 @@ def read_sweep(path, allow_outside: bool = False) -> Sweep:
                 raise SweepError(f"{path}: cases {seen[cid]!r} and {name!r} are the same case (same resolved scene "
                                  f"and condition {condition!r}); remove one")
             seen[cid] = name
-            sweep.cases.append(Case(cid, name, overrides, condition, resolved, provenance, invalid))
+            sweep.cases.append(Case(cid, name, overrides, condition, resolved, provenance, invalid, code))
     return sweep

@@ -171,6 +171,10 @@ def solve_case(task: dict, scene_path, method: str, out, allow_outside: bool = F
               "versions": versions(), "machine": machine(),
               "threads": {k: os.environ.get(k) for k in THREAD_VARIABLES}}
     try:
+        mine = {k: v for k, v in versions().items() if k in task.get("code", {})}
+        if mine != task.get("code", {}):
+            raise CvxContactError(f"this worker runs other cvxcontact code ({mine}) than the sweep was started "
+                                  f"with ({task['code']}); install the same version on every worker")
         spec, provenance = resolve(copy.deepcopy(task["data"]), scene_path, allow_outside)
         if provenance != task["provenance"]:
             raise CvxContactError("a mesh file changed during the sweep (its sha256 differs from the one this "

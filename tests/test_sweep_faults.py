@@ -366,7 +366,7 @@ def test_ctrl_c_stops_the_workers_promptly_and_says_how_to_resume(tmp_path, case
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 130 and not left, (proc.returncode, left)
-    assert seconds < 20, seconds                    # measured 0.2-0.6 s here; 0.6-1.6 s at 1e5-1e6 unknowns
+    assert seconds < 20, seconds                    # measured 1.1-1.2 s (load 8 on 2 cores); 0.6-1.8 s at 1e5-1e6 unknowns
     assert "Traceback" not in err
     hint = err.split("Resume with the same command: ", 1)[1].strip()
     assert hint == "cvxcontact sweep sweep.toml --out out --workers 2 -q"

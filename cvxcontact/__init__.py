@@ -33,6 +33,8 @@ _WHERE = {
     "solve": (".solve", None), "Model": (".model", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
     "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
+    "TetMesh": (".geometry.tetmesh", None), "box": (".geometry.generators3d", None),
+    "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
     "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
     "SweepResultsError": (".apps.sweep.load", None),
@@ -40,7 +42,7 @@ _WHERE = {
 
 __all__ = [
     "materials", "CONDITIONS",
-    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk",
+    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
@@ -85,7 +87,9 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .apps.sweep.load import SweepResults, SweepResultsError, load_sweep
+    from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
+    from .geometry.tetmesh import TetMesh
     from .model import Model
     from .physics import materials
     from .physics.scene import Body, Scene

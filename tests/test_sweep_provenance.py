@@ -56,7 +56,10 @@ def test_the_scene_of_a_sweep_file_is_confined_to_its_folder(tmp_path, where, ca
 
 def test_a_scene_in_a_subfolder_is_inside(tmp_path):
     small_scene(tmp_path / "scenes" / "scene.toml")
-    assert len(read_sweep(sweep_file(tmp_path, "scenes/scene.toml")).cases) == 1
+    path = sweep_file(tmp_path, "scenes/scene.toml")
+    assert len(read_sweep(path).cases) == 1
+    with pytest.raises(SweepError, match="allow_outside must be True or False"):
+        read_sweep(path, allow_outside="yes")
 
 
 @pytest.mark.parametrize("described, expected", [
@@ -94,6 +97,7 @@ def test_the_case_id_follows_the_source_code(tmp_path, monkeypatch):
 
 
 def test_source_hash_changes_with_a_source_file(tmp_path, monkeypatch):
+    cv.source_sha256.cache_clear()                      # the files as they are now (cached once per process)
     original = cv.source_sha256()
     copy = tmp_path / "cvxcontact"
     shutil.copytree(cv.PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))

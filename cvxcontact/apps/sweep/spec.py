@@ -227,6 +227,8 @@ def read_sweep(path, allow_outside: bool = False) -> Sweep:
 
     A case whose scene is invalid (e.g. ``nu = 0.7``) gets ``invalid`` set to the reason; a bad
     key path, a duplicate case, or a malformed sweep file raises :class:`SweepError`."""
+    if not isinstance(allow_outside, bool):
+        raise SweepError(f"allow_outside must be True or False, got {allow_outside!r}")
     path = Path(path)
     data = read_toml(path, "sweep file")
     unknown = sorted(set(data) - set(_KEYS))

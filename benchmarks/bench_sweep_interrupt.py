@@ -83,7 +83,7 @@ def run(folder: Path, nx: int, delay: float, cases: int) -> dict:
     proc = subprocess.Popen(cmd, cwd=folder, env=env, start_new_session=True, stderr=subprocess.PIPE, text=True)
     started = None
     while proc.poll() is None:                                # the workers started
-        if len(group(proc.pid, python=True)) >= 1 + min(2, cases):
+        if (out / "manifest.json").exists() and len(group(proc.pid, python=True)) >= 1 + min(2, cases):
             started = time.monotonic()
             break
         time.sleep(0.01)

@@ -9,6 +9,7 @@ it exactly (:mod:`cvxcontact.backends.finish`) and reads the answer back with it
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from collections.abc import Mapping
@@ -28,6 +29,8 @@ from .solution.solution import ContactResult, Solution
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
+
+log = logging.getLogger(__name__)
 
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
@@ -172,6 +175,8 @@ class ContactSolver:
         self._setup = {"assembly": time.perf_counter() - t0}
         self.requested = method
         self.method = choose(method, describe(self.problem))
+        log.info("method %r: backend %r (%d bodies, condition %s)", method, self.method,
+                 len(self.problem.scene.bodies), self.problem.condition)
         self._cache = Cache()
 
     # the prepared problem, as attributes of the solver (read-only views)
@@ -196,6 +201,7 @@ class ContactSolver:
             sol = self._fallback(problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
         sol.info = replace(sol.info, timings=timings)
+        log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
         return sol
 
@@ -211,15 +217,20 @@ class ContactSolver:
         solves the mixed system itself (1-2 steps from the condensed active set); it is kept for later load
         cases of this geometry if its answer passes."""
         t1, stages = time.perf_counter(), {}            # its stages are inside "fallback", not added twice
+        log.info("the condensed answer fails its checks (%s); falling back to the sparse route",
+                 ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol))
         try:
             raw = run("sparse", problem, self._cache, self.settings, stages)
-        except SolverError:
+        except SolverError as exc:
+            log.info("the sparse fallback failed (%s); the condensed answer is kept", exc)
             timings["fallback"] = time.perf_counter() - t1
             return sol
         other = read_back(problem, raw, self.tol, timings, self.requested)
         timings["fallback"] = time.perf_counter() - t1
         if not other.ok:
+            log.info("the sparse fallback fails its checks too; the condensed answer is kept")
             return sol
+        log.info("the sparse fallback passes its checks; later load cases of this geometry use it")
         self.method = "sparse"
         other.info = replace(other.info, route=Route.SPARSE_FALLBACK)
         return other

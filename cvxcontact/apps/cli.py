@@ -1,4 +1,4 @@
-"""Command line: ``cvxcontact demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
+"""Command line: ``cvxcontact [-v] demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
 2 usage error, 3 solved but the solution fails its checks (files are still written);
@@ -8,6 +8,7 @@ for ``sweep`` see :func:`_sweep`.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -37,6 +38,9 @@ def _parser():
     import cvxcontact  # the package root (already imported, and lazy): only for its version
 
     p.add_argument("--version", action="version", version=f"cvxcontact {cvxcontact.__version__}")
+    p.add_argument("-v", "--verbose", action="count", default=0,
+                   help="the library's log on stderr (before the command: cvxcontact -v solve ...): -v routes and "
+                        "fallbacks, -vv also the stage timings")
     sub = p.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="solve the built-in two-block scene; write VTU, PNG and a JSON summary")
     demo.add_argument("--out", default="cvxcontact-demo",
@@ -75,14 +79,19 @@ def _parser():
     study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
     for s in (solve, info, sweep):
         s.add_argument("--allow-outside-mesh", action="store_true",
-                       help="accept mesh files outside the scene file's folder, or given by absolute paths")
+                       help="accept mesh files outside the scene file's folder, or given by absolute paths "
+                            "(sweep: also the scene file outside the sweep file's folder)")
     for s in (demo, solve, info, sweep, study):
         s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+
     return p
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
+    args.argv = argv
+    _logging(args)
     progress = Progress(args.quiet)
     try:
         if args.command == "info":
@@ -232,10 +241,15 @@ def _sweep(args):
 
     if args.workers is not None and args.workers < 1:
         raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
-    report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
-                       retry_failed=args.retry_failed, progress=main_progress(args.quiet),
-                       allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
-                       skip_invalid=args.skip_invalid)
+    try:
+        report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
+                           retry_failed=args.retry_failed, progress=main_progress(args.quiet),
+                           allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
+                           skip_invalid=args.skip_invalid)
+    except KeyboardInterrupt:
+        print(f"cvxcontact: interrupted; {_sweep_states(args.out)}. Resume with the same command: "
+              f"{shlex.join(['cvxcontact', *args.argv])}", file=sys.stderr, flush=True)
+        return 130
     if not args.quiet:
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
               f"{len(report.checks_failed)} failing their checks, {len(report.failed)} failed, "
@@ -254,6 +268,32 @@ def _sweep(args):
               f"ladder, e.g. {first[0]}: {first[1]} (see {args.out}/cases/{first[0]}.json)", file=sys.stderr)
         return 3
     return 0
+
+
+def _sweep_states(out) -> str:
+    """What the manifest of an interrupted sweep says: "3 of 14 cases done, 11 pending"."""
+    import json
+
+    try:
+        manifest = json.loads((Path(out) / "manifest.json").read_text())
+        states, total = manifest["states"], len(manifest["cases"])
+        return f"{total - states['pending']} of {total} cases have a result or a recorded failure, " \
+               f"{states['pending']} pending (results so far: {out}/manifest.json)"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "no case finished"
+
+
+def _logging(args) -> None:
+    """``-v``: the library's log (routes, fallbacks) on stderr; ``-vv``: with the stage timings (DEBUG)."""
+    if not getattr(args, "verbose", 0):
+        return
+    import logging
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("[%(name)s] %(levelname)s %(message)s"))
+    logger = logging.getLogger("cvxcontact")
+    logger.addHandler(handler)
+    logger.setLevel(logging.DEBUG if args.verbose > 1 else logging.INFO)
 
 
 def _info(args):

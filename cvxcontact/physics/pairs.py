@@ -76,7 +76,7 @@ class Rigid(Frozen):
     :meth:`plane`, :meth:`circle` or :meth:`profile` in 2D, :meth:`plane`, :meth:`sphere`,
     :meth:`cylinder` or :meth:`height_field` in 3D (``force=(fx, fy, fz)``, N); ``Rigid(kind, distance,
     describe, dim=2)`` takes any distance function (its sensitivity, if not given, by central
-    differences). :attr:`dim` is 2 or 3.
+    differences). ``dim`` is 2 or 3.
 
     ``distance(points, normal)`` gives, for nodes ``points`` (n, dim) of a straight (planar) part with
     unit outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
@@ -127,7 +127,7 @@ class Rigid(Frozen):
     """The prescribed resultant (fx, fy) (N/m; (fx, fy, fz) N in 3D, read-only) of a force-controlled
     obstacle, or None (fixed)."""
     position: np.ndarray
-    """(dim,) m, read-only: the obstacle's reference point, the plane's ``point``, the circle's or sphere's
+    """The position (d components, m; read-only): the obstacle's reference point, the plane's ``point``, the circle's or sphere's
     ``center``, the cylinder's ``point``, the profile's or height field's ``origin`` (moved with it); zero
     for ``Rigid(kind, distance, describe)`` as given."""
     dim: int

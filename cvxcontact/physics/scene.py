@@ -48,8 +48,8 @@ class Body(Frozen):
         (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
         may be omitted; if given, it names the part that holds a body no support holds (see
         :meth:`free_motions`).
-    body_force : (dim,) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
-    traction : dict tag -> (dim,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
+    body_force : sequence of d floats (d = 2 or 3, the mesh's dimension) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
+    traction : dict tag -> sequence of d floats or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
     volume_charge : float or callable, C/m^3 (q0 in div D = q0)
     name : str, optional

@@ -289,7 +289,7 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
-        t = np.zeros(2) if o.force is None else o.basis @ next(taus)
+        t = np.zeros(rows.shape[1]) if o.force is None else o.basis @ next(taus)
         if o.force is not None:
             worst = max(worst, obstacle_balance(o.force, rows, y))
             sol.energy -= float(o.force @ t)

@@ -1,0 +1,262 @@
+"""Hertz validation in 3D: a rigid sphere pressed on an elastic block, quarter model.
+
+The sphere (radius R, rigid) touches the block's top face z = 0 at the origin; by symmetry only
+x >= 0, y >= 0 is meshed: the block [0, L] x [0, L] x [-L, 0] (L = ``SIZE`` a_ref) has symmetry
+rollers on x = 0 and y = 0, its bottom clamped and its far sides free, and a tetrahedral grid graded
+towards the contact point (:func:`cvxcontact.box` with ``grade``). The contact part is the patch
+[0, 2 a_ref]^2 of the top face; every node of it is a row of the condition (the rigid pair's nodes).
+
+Hertz's solution for a rigid sphere on an elastic half-space under the total force F (N):
+
+    a = (3 F R / (4 E*))^(1/3),   p0 = 3 F / (2 pi a^2),   delta = a^2 / R,   E* = E / (1 - nu^2),
+    p(r) = p0 sqrt(1 - r^2 / a^2).
+
+Force control at every mesh level: the sphere's approach delta is the unknown that makes the total
+force 4 sum(y) equal to F (the quarter carries F / 4). Two ways, which agree (tests/test_hertz3d.py):
+:func:`guided_sphere` with ``force=(0, 0, -F / 4)`` (the sphere free to move along z only: its x, y
+translations are fixed by the symmetry, which the scene cannot know), or, cheaper on finer meshes,
+:func:`press`: the fixed sphere moved to the approach found by secant steps on F(delta), one
+:class:`~cvxcontact.ContactSolver` re-solving the same geometry (F is affine in delta while the active set
+stays, so the steps end exactly). The study uses :func:`press`.
+
+Read-back: the contact radius a_h is the mean distance from the axis of the mid-points of the trace
+edges joining an active node (a positive force) to an open one (|a_h - a| about h/2; their spread is
+listed), the peak pressure p0_h the pressure felt by the block at the node on the axis (its force over its
+lumped area), delta_h the sphere's approach.
+
+Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
+z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
+u_z(0, 0, -L) = F (1 + nu)(3 - 2 nu) / (2 pi E L) (7 % at L = 10 a) and changes a and p0 only through its
+variation across the zone, O((a / L)^2) of that; :func:`run` measures it by doubling L.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...geometry.generators3d import box
+from ...physics import materials
+from ...physics.pairs import Contact, Rigid
+from ...physics.scene import Body, Scene
+from .common import Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
+
+E, NU = 70e9, 0.3                 # Pa, -: aluminium
+R = 0.02                          # m, the sphere's radius
+A_REF = 1e-3                      # m, Hertz's contact radius at the design force
+SIZE = 10                         # the block's edge (quarter) in units of A_REF
+RATIO = 10.0                      # largest over smallest cell of the graded grid
+E_STAR = E / (1 - NU ** 2)
+FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
+LEVELS = (8, 16, 24)              # cells per edge of the quarter block
+# the same levels on a block twice as large, (n, ratio) giving nearly the same grid inside [0, 2 a_ref]
+# (the grid lines there within 0.8 % of a_ref at 16, 0.4 % at 8): the size effect
+TWICE = {8: (10, 20.0), 16: (18, 18.0)}
+
+
+def hertz(F, R=R, E_star=E_STAR):
+    """(a (m), p0 (Pa), delta (m)) of a rigid sphere of radius R on a half-space under the total force F (N)."""
+    a = (3 * F * R / (4 * E_star)) ** (1 / 3)
+    return a, 3 * F / (2 * np.pi * a ** 2), a ** 2 / R
+
+
+def boussinesq_depth(F, depth, E=E, nu=NU):
+    """u_z (m) on the axis at ``depth`` (m) below a point force F (N) on a half-space (Boussinesq)."""
+    return F * (1 + nu) * (3 - 2 * nu) / (2 * np.pi * E * depth)
+
+
+def guided_sphere(center, radius, force=None) -> Rigid:
+    """A rigid sphere that translates along z only (a quarter model's symmetry holds it in x and y): the
+    sphere's distance, and its sensitivity c(x) restricted to z (the unknown translation is (0, 0, t))."""
+    ball = Rigid.sphere(center, radius)
+
+    def along_z(x, nu):
+        return ball.sensitivity(x, nu) * np.array([0.0, 0.0, 1.0])
+
+    return Rigid("sphere", ball.distance, f"sphere(center={tuple(float(c) for c in center)}, radius={radius:g}, "
+                 "guided along z)", sensitivity=along_z, force=force, dim=3)
+
+
+def block(n, size=SIZE, ratio=RATIO) -> Body:
+    """The quarter block: n cells per edge, graded towards the origin, the contact patch "zone"."""
+    L = size * A_REF
+    mesh = box(x=(0.0, L), y=(0.0, L), z=(-L, 0.0), nx=n, ny=n, nz=n,
+               patches={"zone": ("top", (0.0, 2 * A_REF), (0.0, 2 * A_REF))}, grade=((0.0, 0.0, 0.0), ratio))
+    return Body(mesh, materials.isotropic(E=E, nu=NU, name="aluminium"), name="block", clamped=["bottom"],
+                roller=["left", "front"], contact="zone")
+
+
+def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO) -> Scene:
+    """The quarter scene: the sphere fixed at the approach ``delta`` (m; default Hertz's at FORCE), or with
+    ``force`` (N, the whole sphere's) a guided sphere touching at the origin under force control."""
+    body = block(n, size, ratio)
+    if force is not None:
+        sphere = guided_sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4))
+    else:
+        sphere = Rigid.sphere((0.0, 0.0, R - (hertz(FORCE)[2] if delta is None else delta)), R)
+    return Scene(body, contacts=[Contact(body, "zone", sphere)])
+
+
+def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
+    """(solution, approach delta (m), re-solves): the fixed sphere of ``base`` moved down until the total force
+    (four quarters) is F (N), by secant steps on F(delta) with ``solver`` (a ContactSolver of ``base``, whose sphere touches the block at the origin)."""
+    sphere = base.obstacles[0].obstacle
+    top = sphere.position                                                  # touching at the origin
+
+    def at(delta):
+        sol = solver.solve(base.with_obstacles(sphere.moved(to=top - [0.0, 0.0, delta])))
+        return sol, 4 * float(sol.contact.force.sum())
+
+    d0 = hertz(F)[2]
+    s0, f0 = at(d0)
+    d1 = d0 * (F / f0) ** (2 / 3)                                          # Hertz's scaling as the first step
+    for k in range(steps):
+        s1, f1 = at(d1)
+        if abs(f1 - F) <= rtol * F:
+            return s1, d1, k + 2
+        d0, f0, d1 = d1, f1, d1 + (F - f1) * (d1 - d0) / (f1 - f0)
+    raise RuntimeError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
+
+
+def contact_radius(sol):
+    """(a_h, min, max) (m): the distances from the axis of the mid-points of the trace edges joining an active
+    node to an open one (mean, smallest, largest)."""
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[0]
+    at = np.full(len(trace.nodes), -1)
+    at[itf.reach] = np.arange(len(itf.reach))
+    edges = np.unique(np.sort(trace.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    i, j = at[edges[:, 0]], at[edges[:, 1]]
+    both = (i >= 0) & (j >= 0)
+    act = sol.contact.active
+    cross = both & (act[np.where(both, i, 0)] != act[np.where(both, j, 0)])
+    mid = 0.5 * (trace.points[edges[cross, 0]] + trace.points[edges[cross, 1]])
+    r = np.hypot(mid[:, 0], mid[:, 1])
+    return float(r.mean()), float(r.min()), float(r.max())
+
+
+def measure(sol, delta):
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
+    c = sol.contact
+    F = 4 * float(c.force.sum())
+    a, p0, d = hertz(F)
+    a_h, a_min, a_max = contact_radius(sol)
+    r = np.hypot(c.points[:, 0], c.points[:, 1])
+    p0_h = float(c.pressure[np.argmin(r)])
+    h = float(np.diff(np.unique(np.round(c.points[:, 0], 12)))[:3].max())      # cells near the axis
+    dofs = sum(3 * len(p) for p in sol.points)
+    return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
+                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, delta_m=d,
+                delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
+                contact_nodes=len(c.active), ok=sol.ok)
+
+
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE):
+    """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend)."""
+    from ...solve import ContactSolver
+
+    clock = Timer()
+    base = scene(n, delta=0.0, size=size, ratio=ratio)
+    solver = ContactSolver(base, "gamma3", method="condensed")
+    sol, delta, resolves = press(solver, base, F)
+    row = dict(degree=1, n=n, size_a=size) | measure(sol, delta) | dict(resolves=resolves, seconds=clock())
+    return row, sol
+
+
+def figure(sol, rows):
+    """Left: the pressure felt by the block at every contact node against the radius, with Hertz's profile at
+    the measured force; right: the pressure map of the contact patch (quarter), Hertz's circle outlined."""
+    from matplotlib.ticker import MaxNLocator
+    from matplotlib.tri import Triangulation
+
+    from ...io.plot import eng
+
+    plt = pyplot()
+    c = sol.contact
+    F = 4 * float(c.force.sum())
+    a, p0, _ = hertz(F)
+    r = np.hypot(c.points[:, 0], c.points[:, 1])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    rs = np.linspace(0, a, 300)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
+    ax.plot(r[c.active], c.pressure[c.active], "o", ms=3.5, label=f"P1, n = {rows[-1]['n']}: active nodes", zorder=4)
+    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="open nodes (zero)")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="a_h (active/open mid-points, mean)")
+    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
+           title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
+    ax.title.set_fontsize(10)
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend(fontsize=8)
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[0]
+    p = np.zeros(len(trace.nodes))
+    p[itf.reach] = c.pressure
+    tri = Triangulation(trace.points[:, 0], trace.points[:, 1], trace.faces)
+    m = ax2.tripcolor(tri, p, shading="gouraud", cmap="viridis")
+    t = np.linspace(0, np.pi / 2, 100)
+    ax2.plot(a * np.cos(t), a * np.sin(t), "--", color="C3", lw=1.2, label="Hertz contact radius a")
+    ax2.plot(c.points[c.active, 0], c.points[c.active, 1], ".", ms=3, color="C1", label="active nodes")
+    ax2.set_aspect("equal")
+    ax2.set(xlabel="x", ylabel="y", title="Pressure on the contact patch (quarter model)")
+    ax2.title.set_fontsize(10)
+    for axis in (ax2.xaxis, ax2.yaxis):
+        axis.set_major_locator(MaxNLocator(5))
+        axis.set_major_formatter(eng("m"))
+    fig.colorbar(m, ax=ax2, format=eng("Pa"), label="pressure felt by the block")
+    ax2.legend(fontsize=8, loc="upper right")
+    return fig
+
+
+def run(out, quick=False, progress=None):
+    say = progress or (lambda s: None)
+    out = Path(out)
+    levels = LEVELS[:1] if quick else LEVELS
+    rows, sol = [], None
+    for n in levels:
+        row, sol = solve_level(n)
+        rows.append(row)
+        say(f"hertz3d P1 n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = {row['p0_rel_error']:+.2e}, "
+            f"delta_h/delta - 1 = {row['delta_rel_error']:+.2e} ({row['seconds']:.1f} s)")
+    # the size effect: one level again on a block twice as large, nearly the same grid near the contact
+    ref = rows[min(1, len(rows) - 1)]
+    big, _ = solve_level(TWICE[ref["n"]][0], size=2 * SIZE, ratio=TWICE[ref["n"]][1])
+    rows.append(big)
+    say(f"hertz3d size 2L n={big['n']}: a_h/a - 1 = {big['a_rel_error']:+.2e}, "
+        f"delta_h/delta - 1 = {big['delta_rel_error']:+.2e}")
+    write_csv(out / "hertz3d.csv", rows)
+    save_figure(figure(sol, rows[:len(levels)]), out / "hertz3d.png")
+    conv = rows[:len(levels)]
+    hs = [r["h_m"] for r in conv]
+    rate_a, rate_p0 = slope(hs, [abs(r["a_rel_error"]) for r in conv]), slope(hs, [abs(r["p0_rel_error"]) for r in conv])
+    L = SIZE * A_REF
+    cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "delta_m", "delta_h_m", "delta_rel_error", "active_nodes", "ok",
+            "seconds"]
+    fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
+           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "delta_m": ".4e",
+           "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
+    p2 = "".join(f"| 2 | {r['n']} | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — |\n"
+                 for r in conv)
+    text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
+            f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
+            f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
+            f"contact point, largest/smallest cell {RATIO:g}), P1 tetrahedra, condition gamma3, force control: the "
+            f"total force is F = {FORCE:.6g} N to 1e-10 at every level (Hertz: a = {A_REF * 1e3:g} mm). "
+            "a_h: mean distance from the axis of the mid-points of the edges joining an active node to an open "
+            "one (min and max listed); p0_h: the pressure felt by the block at the node on the axis; delta_h: the "
+            "sphere's approach. h_m: the grid spacing near the axis. The last row (size_a = "
+            f"{2 * SIZE}) is level n = {ref['n']} again on a block twice as large with nearly the same grid near the "
+            "contact (the size effect). Rows of degree 2 await P2 tetrahedra in contact.\n\n"
+            + markdown_table(rows, cols, fmt) + p2
+            + f"\nObserved rates in h (P1, levels {', '.join(str(n) for n in levels)}): contact radius "
+              f"{rate_a:.2f}, peak pressure {rate_p0:.2f}.\n\n"
+              f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
+              f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
+              f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "
+              f"pressure move by {big['a_rel_error'] - ref['a_rel_error']:+.3f} and "
+              f"{big['p0_rel_error'] - ref['p0_rel_error']:+.3f} (relative to Hertz) and the approach by "
+              f"{big['delta_rel_error'] - ref['delta_rel_error']:+.3f} when L doubles at n = {ref['n']}.\n")
+    write_text(out / "hertz3d.md", text)
+    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p0)

@@ -45,6 +45,7 @@ def test_hertz_quantities_at_the_coarsest_level(guided):
     assert abs(row["a_rel_error"]) < 0.15                                # measured +0.075 (h / 2 = 0.28 a)
     assert row["a_h_min_m"] < h.A_REF < row["a_h_max_m"]                 # measured 0.97 a .. 1.37 a
     assert abs(row["p0_rel_error"]) < 0.25                               # measured -0.176
+    assert abs(row["cell_force_rel_error"]) < 0.15                       # measured +0.069
     # the clamped finite block is stiffer than the half-space: a shorter approach, by about Boussinesq's
     # displacement at the clamped depth (0.073 of delta) plus the mesh's stiffness
     assert -0.2 < row["delta_rel_error"] < -0.05                         # measured -0.113
@@ -71,3 +72,14 @@ def test_an_unguided_sphere_on_the_quarter_is_refused():
     sphere = cc.Rigid.sphere((0.0, 0.0, h.R), h.R, force=(0.0, 0.0, -h.FORCE / 4))
     with pytest.raises(SceneError, match="nothing determines the translation"):
         cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "zone", sphere)]))
+
+
+def test_hat_loads_integrate_an_affine_pressure_exactly(guided):
+    """The Hertz nodal forces of the axis cell come from hat_loads: exact for affine pressures, where the
+    trace's P1 mass matrix gives the same integrals independently."""
+    trace = guided.scene.interfaces[0].traces[0]
+    M = trace.mass()
+    x, y = trace.points[:, 0], trace.points[:, 1]
+    got = h.hat_loads(trace, lambda X, Y: 3e9 * (1 + X / h.A_REF - 2 * Y / h.A_REF))
+    want = M @ (3e9 * (1 + x / h.A_REF - 2 * y / h.A_REF))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())   # measured 3e-16

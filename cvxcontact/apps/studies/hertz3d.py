@@ -159,6 +159,26 @@ def contact_radius(sol):
     return float(r.mean()), float(r.min()), float(r.max())
 
 
+def hat_loads(trace, pressure, k=8):
+    """(n_trace,) N: the integrals of ``pressure(x, y)`` (Pa) against each hat of a planar trace: its faces cut
+    into k^2 sub-triangles, on each the three-point rule exact for quadratics (the nodal forces of a
+    prescribed pressure; exact for an affine one)."""
+    u, v = (g.ravel() for g in np.meshgrid(np.arange(k), np.arange(k), indexing="ij"))
+    up, down = u + v <= k - 1, u + v <= k - 2
+    corners = np.concatenate([np.stack([np.c_[u, v], np.c_[u + 1, v], np.c_[u, v + 1]], axis=1)[up],
+                              np.stack([np.c_[u + 1, v], np.c_[u + 1, v + 1], np.c_[u, v + 1]], axis=1)[down]]) / k
+    rule = np.full((3, 3), 1 / 6) + np.eye(3) / 2                       # 2/3 at one corner, 1/6 at the others
+    b = np.einsum("pi,sid->spd", rule, corners).reshape(-1, 2)          # (q, 2): (l1, l2) of every point
+    lam = np.column_stack([1 - b.sum(axis=1), b])                       # (q, 3) barycentric
+    P = trace.points[trace.faces]                                       # (f, 3, 3)
+    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    X = np.einsum("qj,fjd->fqd", lam, P)
+    w = pressure(X[..., 0], X[..., 1]) * (area / (3 * k ** 2))[:, None]  # (f, q)
+    out = np.zeros(len(trace.nodes))
+    np.add.at(out, trace.faces, np.einsum("fq,qj->fj", w, lam))
+    return out
+
+
 def measure(sol, delta):
     """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
     c = sol.contact
@@ -167,10 +187,17 @@ def measure(sol, delta):
     a_h, a_min, a_max = contact_radius(sol)
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     p0_h = float(c.pressure[np.argmin(r)])
-    h = float(np.diff(np.unique(np.round(c.points[:, 0], 12)))[:3].max())      # cells near the axis
+    lines = np.unique(np.round(c.points[:, 0], 12))
+    h = float(np.diff(lines)[:3].max())                                 # cells near the axis
+    # the axis cell's four top nodes: their force against Hertz's on the same hats, their mean pressure
+    itf = sol.scene.interfaces[0]
+    cell = (c.points[:, 0] <= lines[1] * (1 + 1e-9)) & (c.points[:, 1] <= lines[1] * (1 + 1e-9))
+    hertz_y = hat_loads(itf.traces[0], lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
+    y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[itf.reach][cell].sum())
     dofs = sum(3 * len(p) for p in sol.points)
     return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
-                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, delta_m=d,
+                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                p_cell_Pa=y_h / float(c.measure[cell].sum()), cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
                 delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
                 contact_nodes=len(c.active), ok=sol.ok)
 
@@ -209,6 +236,7 @@ def figure(sol, rows):
     ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
            title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
     ax.title.set_fontsize(10)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
     ax.xaxis.set_major_formatter(eng("m"))
     ax.yaxis.set_major_formatter(eng("Pa"))
     ax.legend(fontsize=8)
@@ -253,33 +281,43 @@ def run(out, quick=False, progress=None):
     conv = rows[:len(levels)]
     hs = [r["h_m"] for r in conv]
     rate_a, rate_p0 = slope(hs, [abs(r["a_rel_error"]) for r in conv]), slope(hs, [abs(r["p0_rel_error"]) for r in conv])
+    rate_cell = slope(hs, [abs(r["cell_force_rel_error"]) for r in conv])
     L = SIZE * A_REF
     cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
-            "p0_Pa", "p0_h_Pa", "p0_rel_error", "delta_m", "delta_h_m", "delta_rel_error", "active_nodes", "ok",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m", "delta_rel_error", "active_nodes", "ok",
             "seconds"]
     fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
-           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "delta_m": ".4e",
+           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",
+           "cell_force_rel_error": "+.3f", "delta_m": ".4e",
            "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
-    p2 = "".join(f"| 2 | {r['n']} | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — | — |\n"
-                 for r in conv)
+    def p2(columns):                                    # P2 rows to come: the degree and n only
+        return "".join(f"| 2 | {r['n']} |" + " — |" * (len(columns) - 2) + "\n" for r in conv)
+
+    short = ["degree", "n", "size_a", "dofs", "h_m", "a_rel_error", "p0_rel_error", "cell_force_rel_error",
+             "delta_rel_error", "seconds"]
     text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
             f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
             f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
             f"contact point, largest/smallest cell {RATIO:g}), P1 tetrahedra, condition gamma3, force control: the "
             f"total force is F = {FORCE:.6g} N to 1e-10 at every level (Hertz: a = {A_REF * 1e3:g} mm). "
             "a_h: mean distance from the axis of the mid-points of the edges joining an active node to an open "
-            "one (min and max listed); p0_h: the pressure felt by the block at the node on the axis; delta_h: the "
+            "one (min and max listed); p0_h: the pressure felt by the block at the node on the axis (its force over "
+            "its lumped area; the nodal pressures against a rigid obstacle alternate, low on the axis, high at its "
+            "neighbours); p_cell: the mean pressure of the four top nodes of the cell at the axis, and "
+            "cell_force_rel_error their force against Hertz's pressure integrated on the same hats; delta_h: the "
             "sphere's approach. h_m: the grid spacing near the axis. The last row (size_a = "
             f"{2 * SIZE}) is level n = {ref['n']} again, its grid kept and continued to a block twice as large (the "
             "size effect alone). Rows of degree 2 await P2 tetrahedra in contact.\n\n"
-            + markdown_table(rows, cols, fmt) + p2
+            + markdown_table(rows, short, fmt) + p2(short)
+            + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt) + p2(cols)
             + f"\nObserved rates in h (P1, levels {', '.join(str(n) for n in levels)}): contact radius "
-              f"{rate_a:.2f}, peak pressure {rate_p0:.2f}.\n\n"
+              f"{rate_a:.2f}, peak pressure {rate_p0:.2f}, force of the axis cell {rate_cell:.2f}.\n\n"
               f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
               f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
               f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "
-              f"pressure move by {big['a_rel_error'] - ref['a_rel_error']:+.3f} and "
-              f"{big['p0_rel_error'] - ref['p0_rel_error']:+.3f} (relative to Hertz) and the approach by "
+              f"pressure move by {big['a_rel_error'] - ref['a_rel_error']:+.1e} and "
+              f"{big['p0_rel_error'] - ref['p0_rel_error']:+.1e} (relative to Hertz), the axis cell's force by "
+              f"{big['cell_force_rel_error'] - ref['cell_force_rel_error']:+.1e} and the approach by "
               f"{big['delta_rel_error'] - ref['delta_rel_error']:+.3f} when L doubles at n = {ref['n']}.\n")
     write_text(out / "hertz3d.md", text)
-    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p0)
+    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p0, rate_cell=rate_cell)

@@ -147,14 +147,20 @@ def contact_radius(sol):
     node to an open one (mean, smallest, largest)."""
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
-    at = np.full(len(trace.nodes), -1)
-    at[itf.reach] = np.arange(len(itf.reach))
+    active = np.zeros(len(trace.nodes), dtype=bool)
+    active[itf.reach] = sol.contact.active
+    on = np.zeros(len(trace.nodes), dtype=bool)
+    on[itf.reach] = True
+    return _edge_radius(trace, active, on)
+
+
+def _edge_radius(trace, active, on):
+    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` whose end
+    nodes (both ``on``) differ in ``active``."""
     edges = np.unique(np.sort(trace.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    i, j = at[edges[:, 0]], at[edges[:, 1]]
-    both = (i >= 0) & (j >= 0)
-    act = sol.contact.active
-    cross = both & (act[np.where(both, i, 0)] != act[np.where(both, j, 0)])
-    mid = 0.5 * (trace.points[edges[cross, 0]] + trace.points[edges[cross, 1]])
+    i, j = edges[:, 0], edges[:, 1]
+    cross = on[i] & on[j] & (active[i] != active[j])
+    mid = 0.5 * (trace.points[i[cross]] + trace.points[j[cross]])
     r = np.hypot(mid[:, 0], mid[:, 1])
     return float(r.mean()), float(r.min()), float(r.max())
 

@@ -22,7 +22,10 @@ stays, so the steps end exactly). The study uses :func:`press`.
 Read-back: the contact radius a_h is the mean distance from the axis of the mid-points of the trace
 edges joining an active node (a positive force) to an open one (|a_h - a| about h/2; their spread is
 listed), the peak pressure p0_h the pressure felt by the block at the node on the axis (its force over its
-lumped area), delta_h the sphere's approach.
+lumped area; against a rigid obstacle the nodal pressures alternate, low on the axis and high next to it),
+the axis cell's force: that of the four top nodes of the cell at the axis against Hertz's pressure
+integrated on the same hats (:func:`hat_loads`), delta_h the sphere's approach. P1 only: the table keeps
+rows for P2 tetrahedra in contact, not yet available.
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -40,7 +43,8 @@ from ...geometry.generators3d import box
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
-from .common import Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
+from ...errors import SolverError
+from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
 
 E, NU = 70e9, 0.3                 # Pa, -: aluminium
 R = 0.02                          # m, the sphere's radius
@@ -122,8 +126,9 @@ def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO, twice=False) -> Sce
 
 
 def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
-    """(solution, approach delta (m), re-solves): the fixed sphere of ``base`` moved down until the total force
-    (four quarters) is F (N), by secant steps on F(delta) with ``solver`` (a ContactSolver of ``base``, whose sphere touches the block at the origin)."""
+    """(solution, approach delta (m), re-solves): the fixed sphere of ``base`` (touching the block at the
+    origin) moved down until the total force (four quarters) is F (N), by secant steps on F(delta) with
+    ``solver`` (a ContactSolver of ``base``)."""
     sphere = base.obstacles[0].obstacle
     top = sphere.position                                                  # touching at the origin
 
@@ -139,7 +144,7 @@ def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
         if abs(f1 - F) <= rtol * F:
             return s1, d1, k + 2
         d0, f0, d1 = d1, f1, d1 + (F - f1) * (d1 - d0) / (f1 - f0)
-    raise RuntimeError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
+    raise SolverError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
 
 
 def contact_radius(sol):
@@ -216,7 +221,8 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False):
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
     solver = ContactSolver(base, "gamma3", method="condensed")
     sol, delta, resolves = press(solver, base, F)
-    row = dict(degree=1, n=n, size_a=2 * size if twice else size) | measure(sol, delta) | dict(resolves=resolves, seconds=clock())
+    row = dict(degree=1, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
+    row |= dict(resolves=resolves, seconds=clock())
     return row, sol
 
 
@@ -286,11 +292,12 @@ def run(out, quick=False, progress=None):
     save_figure(figure(sol, rows[:len(levels)]), out / "hertz3d.png")
     conv = rows[:len(levels)]
     hs = [r["h_m"] for r in conv]
-    rate_a, rate_p0 = slope(hs, [abs(r["a_rel_error"]) for r in conv]), slope(hs, [abs(r["p0_rel_error"]) for r in conv])
-    rate_cell = slope(hs, [abs(r["cell_force_rel_error"]) for r in conv])
+    rate_a, rate_p0, rate_cell = (slope(hs, [abs(r[k]) for r in conv])
+                                  for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error"))
     L = SIZE * A_REF
     cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
-            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m", "delta_rel_error", "active_nodes", "ok",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
+            "delta_rel_error", "active_nodes", "ok",
             "seconds"]
     fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
            "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",

@@ -262,8 +262,9 @@ class Solution:
 class ObstacleResult:
     """One rigid obstacle of the solution (docs/formulation.md §12).
 
-    ``translation`` (2,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
-    normal: a tangential translation changes nothing); ``force`` (2,) N/m: the resultant with which
+    ``translation`` (d,) m (d = 2 or 3, the scene's dimension): its rigid translation t (0 for a fixed
+    obstacle; for a plane, along its normal: a tangential translation changes nothing); ``force`` (d,) N/m
+    (N in 3D): the resultant with which
     the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
     :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
     force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
@@ -289,7 +290,7 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
-        t = np.zeros(2) if o.force is None else o.basis @ next(taus)
+        t = np.zeros(rows.shape[1]) if o.force is None else o.basis @ next(taus)    # (d,): 2D or 3D
         if o.force is not None:
             worst = max(worst, obstacle_balance(o.force, rows, y))
             sol.energy -= float(o.force @ t)

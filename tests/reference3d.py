@@ -88,6 +88,7 @@ def crossings(Xa, Ea, Xb, Eb, tol=1e-12) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         s = (q[..., 0] * dr[..., 1] - q[..., 1] * dr[..., 0]) / cross
         t = (q[..., 0] * dp[..., 1] - q[..., 1] * dp[..., 0]) / cross
+    s, t = np.where(ok, s, -1.0), np.where(ok, t, -1.0)                     # parallel edges: no crossing
     hit = ok & (s >= -1e-12) & (s <= 1 + 1e-12) & (t >= -1e-12) & (t <= 1 + 1e-12)
     return (p + s[..., None] * dp)[hit]
 

@@ -62,17 +62,27 @@ def stacked_blocks(lower=(5, 5), upper=(7, 3), p=P, material=STEEL, nz=2, gap=0.
     return cc.Scene(b1, b2, gap=gap)
 
 
-def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7):
+def bumped_gap(x, y):
+    """0.2 r^2 mm, r the distance (m) from the faces' centre (0.5, 0.5) (a gap g(s1, s2) of the plane z = 0.5)."""
+    return 2e-4 * ((np.asarray(x) - .5) ** 2 + (np.asarray(y) - .5) ** 2)
+
+
+def tilted_gap(x, y):
+    """An affine gap, 0.05 x mm (its P1 interpolant on any overlay is itself)."""
+    return 5e-5 * np.asarray(x) + 0 * np.asarray(y)
+
+
+def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap):
     """Two blocks on (0, 1)^2 (lower clamped at its base, upper held by rollers on two sides) meeting at
-    z = 0.5 with a gap that opens away from the centre, g = 0.2 r^2 mm, the upper pushed by a traction
-    ``load`` (Pa) on a central square of its top: a contact zone with an edge inside the faces."""
+    z = 0.5 with the gap ``gap`` (default :func:`bumped_gap`, opening away from the centre), the upper
+    pushed by a traction ``load`` (Pa) on a central square of its top: a contact zone with an edge inside
+    the faces."""
     low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=2)
     up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=2)
     press = lambda x, y, z: np.where((np.abs(x - .5) < .3) & (np.abs(y - .5) < .3), -load, 0.0)
     b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
     b2 = cc.Body(up, STEEL, roller=["left", "front"], contact="bottom", name="upper",
                  traction={"top": lambda x, y, z: (0 * x, 0 * x, press(x, y, z))})
-    gap = lambda x, y: 2e-4 * ((np.asarray(x) - .5) ** 2 + (np.asarray(y) - .5) ** 2)
     return cc.Scene(b1, b2, gap=gap)
 
 

@@ -21,7 +21,7 @@ from cvxcontact.errors import SceneError
 from reference3d import Dense, barycentric, face, match, plane_frame
 from scenes3d import (P, PAD, bumped_blocks, bumped_gap, extruded_pair, floating_potential, layer_on_plane,
                       piezo_pair, punch_on_pad, pzt_layer_on_plane, rotation, section_pair, sphere_on_block,
-                      stacked_blocks, stiffened_modulus, three_blocks, tilted_gap, uniaxial_modulus)
+                      SCENES3D, stacked_blocks, stiffened_modulus, three_blocks, tilted_gap, uniaxial_modulus)
 
 NO_FINISH = "3D 'gamma3' on non-matching faces: the overlay rows are dependent and get no exact finish yet " \
             "(interior-point answer, complementarity ~1e-6)"
@@ -220,6 +220,17 @@ def test_the_sampled_jump_never_exceeds_an_affine_gap_under_gamma3_but_does_betw
     assert sol.contact.penetration[sol.contact.constrained].sum() == 0         # at its own nodes it holds
 
 
+def test_between_vertices_gamma3_holds_against_the_gaps_interpolant_only():
+    """The rows take g at the overlay vertices: a convex gap a r^2 may be exceeded between them, by at most
+    its interpolation error a sum_i lambda_i |x - v_i|^2 <= a diam^2 (diam: the longest face-triangle edge)."""
+    scene = bumped_blocks()
+    sol = solve(scene, "gamma3")
+    excess, _ = sampled_excess(sol, scene, bumped_gap)
+    a, diam = 2e-4, np.hypot(1 / 4, 1 / 4)
+    assert 0 < excess.max() < a * diam ** 2                                     # measured 3.2e-6 < 2.5e-5 m
+    assert (sol.contact.jump - sol.contact.gap).max() < 1e-12 * np.abs(sol.u[1]).max()   # at the vertices
+
+
 # ---------------------------------------------------------------------------------------------------------
 # invariances
 
@@ -341,3 +352,16 @@ def test_solve_mixed_declines_a_structurally_singular_kkt_without_factorising(mo
     K = sp.bmat([[A, G.T], [G, None]], format="csc")
     monkeypatch.setattr(full.spla, "splu", lambda *a, **k: pytest.fail("factorised a singular matrix"))
     assert full.solve_mixed(K, np.ones(6)) is None
+
+
+@pytest.mark.parametrize("name", list(SCENES3D))
+def test_model_agrees_with_solve_on_the_canonical_3d_scenes(name):
+    """cc.Model (the open CVXPY program, no user terms) answers as cc.solve on every scene of
+    tests/scenes3d.py, and flags the same way."""
+    make, keywords = SCENES3D[name]
+    direct = solve(make(), keywords["condition"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        model = cc.Model(make(), keywords["condition"]).solve()
+    assert model.ok == direct.ok and model.polished == direct.polished
+    assert rel(model.u, direct.u) < (1e-12 if direct.polished else 1e-7)       # measured 0 (the same route)

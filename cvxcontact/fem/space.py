@@ -213,7 +213,7 @@ class P2Tet(P2):
     contact = staticmethod(_no_surfaces)
 
     def nodes(self, body):
-        from ..geometry.tetmesh import P2TetNodes           # the 10-node set of a tetrahedral mesh
+        from ..geometry.quadratic import P2TetNodes         # the 10-node set of a tetrahedral mesh
         return P2TetNodes(body.mesh)
 
 

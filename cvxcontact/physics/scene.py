@@ -701,7 +701,11 @@ class Scene(Frozen):
         s = itf.x if s is None else np.asarray(s, dtype=float)
         g = np.array(load(s[:, 0], s[:, 1]), dtype=float)
         if itf.rigid:
-            g = g + itf.obstacle_gap()
+            if s is itf.x:
+                g = g + itf.obstacle_gap()
+            else:                                    # other in-plane points: their distance to the obstacle
+                points = itf.offset * itf.normal + s @ itf.frame
+                g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
         return g
 
     def gap_values(self) -> np.ndarray:

@@ -337,11 +337,11 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
-        checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+        checks_ = checks(blocks, u, phi, Ety, E, g, y)     # the row forces (3D: M lam = E^T y only on the traces)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []

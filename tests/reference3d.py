@@ -16,8 +16,9 @@ its meshes. The contact rows are rebuilt here by brute force:
 
 :meth:`Dense.solve_on` solves the mixed system (26) with the rows of a given active set held as equalities,
 densely (under "gamma3" the rows are dependent: an independent subset is kept; u, phi and t are unique,
-the forces are not) and :meth:`Dense.certify` checks that the answer solves the whole problem: every row feasible, and
-non-negative row forces y with R^T y equal to the contact part of the momentum rows (scipy's nnls).
+the forces are not) and :meth:`Dense.certify` checks that the answer solves the whole problem: every row
+feasible, and non-negative row forces y with R^T y equal to the contact part of the momentum rows (scipy's
+nnls).
 (The rows of the independent subset chosen by :meth:`Dense.solve_on` need not carry non-negative forces:
 the certificate looks for any y >= 0 on all the active rows.)
 """
@@ -111,7 +112,8 @@ def merge_points(s, tol) -> np.ndarray:
 class Rows:
     """The contact rows of one pair: points (m, 3); R[k] (m, 3 n_k) the jump's part of body k; g (m,) the
     gap; D (m, 3) the gap's derivative in the obstacle's translation (None for a fixed one or two bodies);
-    nodal[l] the points that are nodes of body l's part (for sigma_l)."""
+    nodal[l] the points that are nodes of body l's part (for sigma_l); obstacle the Rigid (its prescribed
+    force is read)."""
 
     points: np.ndarray
     R: dict
@@ -119,6 +121,7 @@ class Rows:
     D: np.ndarray | None
     nodal: dict
     obstacle: object = None
+    keep: np.ndarray | None = None     # the constrained rows under the condition (set by Dense)
 
 
 def pair_rows(scene, i, gap=None, shape=None) -> Rows:
@@ -222,7 +225,8 @@ class Dense:
         t_at = self.off[-2]
         for i, p in enumerate(self.pairs):
             cond = scene.contacts[i].condition or condition
-            keep = np.ones(len(p.g), bool) if (cond == "gamma3" or p.obstacle is not None) else p.nodal[int(cond[-1]) - 1]
+            every = cond == "gamma3" or p.obstacle is not None
+            keep = np.ones(len(p.g), bool) if every else p.nodal[int(cond[-1]) - 1]
             Gi = np.zeros((keep.sum(), n))
             gi = p.g[keep].copy()
             for k, Rk in p.R.items():

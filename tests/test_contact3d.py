@@ -84,7 +84,7 @@ def test_pzt_layer_with_an_open_circuit_electrode_is_stiffened():
     assert abs(top.potential / V - 1) < 1e-13                                   # measured 5e-16 (V = -7415 V)
     z = sol.points[0][:, 2]
     assert np.abs(sol.phi[0] - V * z / 0.5).max() < 1e-13 * abs(V)             # linear in z; measured 4.9e-16
-    assert abs(top.charge) < 1e-12 * abs(V) * pzt.kappa3[2, 2]                  # open circuit
+    assert abs(top.charge) < 1e-12 * abs(V) * pzt.kappa3[2, 2]                  # open circuit; measured 2e-20 C
 
 
 def test_stacked_blocks_on_non_matching_faces_transmit_a_uniform_pressure_under_gamma3():

@@ -11,14 +11,15 @@ import cvxpy as cp
 import numpy as np
 
 from ..contact.laws import RowLaws
-from ..contact.quadratic import bernstein_max
+from ..contact.quadratic import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
+from .cuts import interface_cuts, seed_points
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
 
 __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
 
@@ -68,8 +69,34 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
     r = _cone_force(problem, beta)
     u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
-    return RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
-                     method="condensed")
+    raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
+                    method="condensed")
+    if settings.polish:
+        finish_cuts(problem, cache, settings, timings, raw)
+    return raw
+
+
+def finish_cuts(problem, cache, settings, timings, raw) -> None:
+    """The exact finish of the cones by accumulated cuts on the interface compliance
+    (:func:`~cvxcontact.backends.cuts.interface_cuts`), seeded with the interior point's tangency points; the
+    fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw`` (u, phi, y, beta,
+    active: the nodes read by the closed point rows, finish) or sets ``raw.declined``."""
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    B = problem.lines.cone[0]
+    segment, t = seed_points(B, raw.beta)
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings)
+    if isinstance(out, str):
+        raw.declined = out
+        return
+    r = out["state"]
+    raw.u, raw.phi = reduction.invert(problem, r, timings)
+    P = point_rows(B, out["segment"], out["t"])
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
+    raw.y, raw.beta, raw.active = r, out["beta"], active
+    raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
+    raw.cuts = out
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

@@ -139,7 +139,7 @@ def _least_squares_form(W, d):
         return L.T, sla.lstsq(L, d)[0]
 
 
-def solve_lcp(W, d, active=None, max_iter=30):
+def solve_lcp(W, d, active=None, max_iter=30, factor=None):
     """Solve the LCP of the module docstring exactly.
 
     Parameters
@@ -148,6 +148,11 @@ def solve_lcp(W, d, active=None, max_iter=30):
     d : (m,) ndarray, slack at y = 0 (scaled displacement)
     active : (m,) bool ndarray, optional
         Starting active set (default: rows with d > 0, the penetrating ones).
+
+    factor : (A, b), optional
+        A least-squares form of the dual QP, A^T A = W and A^T b = d (A may be short and wide: W only
+        semi-definite, e.g. more point rows than nodes, :mod:`cvxcontact.backends.cuts`), used by the NNLS
+        fallback instead of a factor of W itself (whose eigen-factor loses the digits of a singular W).
 
     Returns
     -------
@@ -165,7 +170,7 @@ def solve_lcp(W, d, active=None, max_iter=30):
             return None
         keep = ~held
         out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
-                        max_iter)
+                        max_iter, None if factor is None else (factor[0][:, keep], factor[1]))
         if out is None:
             return None
         y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
@@ -174,16 +179,17 @@ def solve_lcp(W, d, active=None, max_iter=30):
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
-    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter)
+    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter,
+                              None if factor is None else (factor[0] * D[None, :], factor[1]))
     return None if out is None else (D * out[0], out[1], out[2])
 
 
-def _solve_equilibrated(W, d, active, max_iter):
+def _solve_equilibrated(W, d, active, max_iter, factor=None):
     start = (d > 0) if active is None else np.asarray(active, dtype=bool)
     out = _pdas(W, d, start, max_iter)
     if out is not None:
         return out[0], out[1], "active set"
-    A, b = _least_squares_form(W, d)
+    A, b = _least_squares_form(W, d) if factor is None else factor
     y, _ = nnls(A, b, maxiter=50 * len(d))
     w, S = row_scales(W, d, y)
     support = y * w > SIGN_TOL * S

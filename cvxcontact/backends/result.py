@@ -57,6 +57,9 @@ class Finish(StrEnum):
     NNLS = "NNLS"
     SEMISMOOTH_NEWTON = "semismooth Newton"
     """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
+    ACCUMULATED_CUTS = "accumulated cuts"
+    """The P2 "everywhere" condition: the nodal problem at a growing set of points of every merged segment
+    (:mod:`cvxcontact.backends.cuts`)."""
 
 
 @dataclass(frozen=True)

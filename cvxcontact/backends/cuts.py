@@ -1,0 +1,147 @@
+"""Exact finish of the P2 "everywhere" condition by accumulated cuts (docs/formulation.md §8, "The exact finish").
+
+The condition q_s(t) = [u_h nu](t) - g_h(t) <= 0 for t in [0, 1] on every merged segment s is semi-infinite but
+each q_s is one quadratic. At a finite set of points (s_p, t_p) it is a set of linear rows
+(:func:`~cvxcontact.contact.quadratic.point_rows`), and the contact problem with those rows is the nodal problem
+of §7, solved exactly by the active-set machinery (:func:`~cvxcontact.backends.finish.solve_lcp`). The finish
+
+1. starts from the P2 nodes of every segment (t = 0, 1/2, 1) and, if given, the interior point's tangency
+   points t* = sqrt(beta2) / (sqrt(beta0) + sqrt(beta2)) of the segments that carry a force;
+2. solves the nodal problem at the points exactly;
+3. computes on every segment the exact maximiser of q (:func:`~cvxcontact.contact.quadratic.bernstein_argmax`);
+   where q_max exceeds ``CUT_TOL`` times the segment's displacement scale, that maximiser becomes a new point
+   (a cut: no point is ever removed), and goes back to 2; otherwise it stops.
+
+Every answer is a KKT point of the conic program up to the stopping violation: the point forces y_p >= 0 give
+Bernstein duals beta_s = sum_p y_p (1 - t_p)^2, 2 t_p (1 - t_p), t_p^2), a sum of points of the dual cone (on its
+boundary, beta1^2 = 4 beta0 beta2), so beta lies in the dual cone exactly; r = B^T beta is the nodal force on X_h,
+and beta_s . b_s = sum_p y_p q_s(t_p) = 0 to rounding (complementarity of the rows). Where the forces in X_h are
+not unique (the discrete inf-sup condition fails, formulation.md §9) the displacements still are: the finish
+never asks for unique forces (the nodal solver takes the least-squares route of ``solve_lcp`` on a singular
+active set).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from ..contact.quadratic import bernstein_argmax, bernstein_basis, point_rows
+from .finish import solve_lcp
+
+__all__ = ["CUT_TOL", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
+
+CUT_TOL = 1e-12
+"""Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
+
+
+def _unique_rows(P) -> np.ndarray:
+    """Indices of the first occurrence of every distinct row of the sparse ``P`` (rows with at most 3 entries,
+    identical floats: the same node reached from two segments)."""
+    P = sp.csr_matrix(P)
+    P.sort_indices()
+    k = P.shape[0]
+    width = int(np.diff(P.indptr).max(initial=0))
+    cols = np.full((k, max(width, 1)), -1.0)
+    vals = np.zeros((k, max(width, 1)))
+    for j in range(width):
+        has = np.diff(P.indptr) > j
+        at = P.indptr[:-1][has] + j
+        cols[has, j] = P.indices[at]
+        vals[has, j] = P.data[at]
+    _, first = np.unique(np.hstack([cols, vals]), axis=0, return_index=True)
+    return np.sort(first)
+
+
+def seed_points(B, beta=None, force_floor: float = 1e-6):
+    """(segment, t) of the starting points: the three P2 nodes of every segment of ``B`` (3 S, n) once each, plus,
+    with the interior point's Bernstein duals ``beta`` (S, 3), the tangency point of every segment whose force
+    sum(beta_s) exceeds ``force_floor`` of the largest and whose beta1 > 0 puts it inside the segment."""
+    S = B.shape[0] // 3
+    seg = np.repeat(np.arange(S), 3)
+    t = np.tile([0.0, 0.5, 1.0], S)
+    if beta is not None and S:
+        beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+        total = beta.sum(axis=1)
+        big = total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny)
+        r0, r2 = np.sqrt(beta[:, 0]), np.sqrt(beta[:, 2])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ts = r2 / (r0 + r2)
+        inner = big & (beta[:, 1] > force_floor * total) & (ts > 1e-3) & (ts < 1 - 1e-3) & (np.abs(ts - 0.5) > 1e-3)
+        seg = np.concatenate([seg, np.flatnonzero(inner)])
+        t = np.concatenate([t, ts[inner]])
+    keep = _unique_rows(point_rows(B, seg, t))
+    return seg[keep], t[keep]
+
+
+def point_duals(S: int, segment, t, y) -> np.ndarray:
+    """beta (S, 3): the Bernstein duals of point forces ``y`` at (``segment``, ``t``) (module docstring)."""
+    beta = np.zeros((S, 3))
+    np.add.at(beta, np.asarray(segment, dtype=int), bernstein_basis(t) * np.asarray(y, dtype=float)[:, None])
+    return beta
+
+
+def segment_scales(B, U) -> np.ndarray:
+    """Per segment of ``B`` (3 S, n), the largest node scale ``U`` among the nodes its rows read."""
+    R = abs(sp.csr_matrix(B)).tocsr()
+    R.data[:] = 1.0
+    node = np.asarray(R.multiply(U[None, :]).max(axis=1).todense()).ravel()
+    return node.reshape(-1, 3).max(axis=1)
+
+
+def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL):
+    """The loop of the module docstring. ``solve(P, start)`` solves the nodal problem with the rows ``P`` (k, n)
+    from the starting active set ``start`` (bool (k,) or None) and returns ``(y, slack, scale, state)`` (the
+    point forces, q at the nodes of X_h, each node's displacement scale, anything the caller keeps) or None.
+    Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
+    S = B.shape[0] // 3
+    B = sp.csr_matrix(B)
+    segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
+    start = None
+    for rounds in range(1, max_rounds + 1):
+        out = solve(point_rows(B, segment, t), start)
+        if out is None:
+            return "the nodal problem at the cut points has no exact solution"
+        y, slack, scale, state, active = out
+        qmax, tmax = bernstein_argmax((B @ slack).reshape(-1, 3))
+        Us = segment_scales(B, scale)
+        rel = np.maximum(qmax, 0.0) / Us
+        worst = float(rel.max(initial=0.0))
+        if worst <= tol:
+            return dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
+                        violation=worst, active=active)
+        new = np.flatnonzero(rel > tol)
+        segment = np.concatenate([segment, new])
+        t = np.concatenate([t, tmax[new]])
+        start = np.concatenate([active, np.ones(len(new), dtype=bool)])
+    return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
+
+
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
+    """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
+    there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
+    terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y."""
+    t0 = time.perf_counter()
+    absW = np.abs(W)
+    base = np.abs(d) + np.abs(g)
+
+    L = sla.cholesky(W, lower=True)          # W = L L^T: the least-squares form (P L)^T, L^-1 d of every round
+    Ld = sla.solve_triangular(L, d, lower=True)
+
+    def solve(P, start):
+        PW = np.asarray((P @ W))
+        out = solve_lcp(np.asarray(P @ PW.T), P @ d, start, factor=(np.asarray(P @ L).T, Ld))
+        if out is None:
+            return None
+        y, active = out[0], out[1]
+        r = P.T @ y
+        U = base + absW @ np.abs(r)
+        U = np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+        return y, d - W @ r, U, r, active
+
+    out = accumulate_cuts(B, solve, segment, t, max_rounds)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return out

@@ -14,7 +14,7 @@ from ..contact.laws import RowLaws
 from ..contact.quadratic import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import interface_cuts, seed_points
+from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_points
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction
 from .interface import condensation, held_cone, program_fields, release_held, split
@@ -73,7 +73,27 @@ def condensed(problem, cache, settings, timings) -> RawResult:
                     method="condensed")
     if settings.polish:
         finish_cuts(problem, cache, settings, timings, raw)
+    certify(problem, cache, settings, timings, raw)
     return raw
+
+
+def certify(problem, cache, settings, timings, raw) -> None:
+    """``raw.certificate``: the energy-norm error bound of the answer's Bernstein duals
+    (:func:`~cvxcontact.backends.cuts.energy_bound`; an interior point's duals first moved into the dual cone
+    and the fields re-derived from them by one back-substitution, so that the fields are the bound's primal
+    point). Not for bodies held by the contact only or force-controlled obstacles (no condensation)."""
+    if problem.held or problem.translations:
+        return
+    t0 = time.perf_counter()
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    B = problem.lines.cone[0]
+    if not raw.polished:
+        raw.beta = dual_cone_point(raw.beta)
+        raw.y = _cone_force(problem, raw.beta)
+        raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
+    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows)[0]
+    timings["certificate"] = time.perf_counter() - t0
 
 
 def finish_cuts(problem, cache, settings, timings, raw) -> None:

@@ -34,8 +34,11 @@ from .finish import solve_lcp
 
 __all__ = ["CUT_TOL", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
 
-CUT_TOL = 1e-12
+CUT_TOL = 1e-15
 """Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
+
+STALL_TOL = 1e-12
+"""A violation below this that no longer halves from one round to the next is rounding too (the finish stops)."""
 
 
 def _unique_rows(P) -> np.ndarray:
@@ -93,14 +96,15 @@ def segment_scales(B, U) -> np.ndarray:
 
 
 def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL):
-    """The loop of the module docstring. ``solve(P, start)`` solves the nodal problem with the rows ``P`` (k, n)
+    """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
+    halves per round). ``solve(P, start)`` solves the nodal problem with the rows ``P`` (k, n)
     from the starting active set ``start`` (bool (k,) or None) and returns ``(y, slack, scale, state)`` (the
     point forces, q at the nodes of X_h, each node's displacement scale, anything the caller keeps) or None.
     Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
     S = B.shape[0] // 3
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
-    start = None
+    start, last = None, np.inf
     for rounds in range(1, max_rounds + 1):
         out = solve(point_rows(B, segment, t), start)
         if out is None:
@@ -110,9 +114,10 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         Us = segment_scales(B, scale)
         rel = np.maximum(qmax, 0.0) / Us
         worst = float(rel.max(initial=0.0))
-        if worst <= tol:
+        if worst <= tol or (worst <= STALL_TOL and worst > 0.5 * last):
             return dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
                         violation=worst, active=active)
+        last = worst
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
@@ -145,3 +150,47 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
     out = accumulate_cuts(B, solve, segment, t, max_rounds)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
+
+
+def dual_cone_point(beta) -> np.ndarray:
+    """beta (S, 3) moved into the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2) (each
+    entry clipped; beta1 lowered to the bound): an interior point's duals lie in it only to its tolerance."""
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    beta[:, 1] = np.minimum(beta[:, 1], 2 * np.sqrt(beta[:, 0] * beta[:, 2]))
+    return beta
+
+
+def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
+    """A rigorous bound (scaled energy norm) on ||v - u*||, v the answer of the Bernstein duals ``beta`` and u*
+    the exact solution of the conic problem, on the interface compliance (docs/checks.md, "The certified bound").
+
+    The dual point beta (in the dual cone: :func:`dual_cone_point`) has the primal point v(beta) = Sigma^-1
+    (f - J^T r), r = B^T beta: q = d - W r at the nodes of X_h (the back-substitution, so the residual of (26)
+    is that of one solve). v is made exactly feasible by a uniform push apart, q' = q - tau h with h = 1 on the
+    nodes some unknown moves (h = J delta, delta = Sigma^-1 J^T W^-1 h, ||delta||^2 = h^T W^-1 h; on a segment
+    whose nodes all move, q drops by tau everywhere), tau the largest violation max_s max_t q_s(t)^+ (doubled
+    until every segment holds, for segments next to a held node). The duality gap of (v', beta) is
+
+        gap = -beta . B q' + 1/2 tau^2 h^T W^-1 h      (J(v') - D(beta) >= 1/2 ||v' - u*||^2)
+
+    so ||v - u*|| <= tau sqrt(h^T W^-1 h) + sqrt(2 gap). Returns (bound, tau, gap), or (inf, tau, nan) if no
+    push makes v feasible (a violated segment whose nodes no unknown moves)."""
+    B = sp.csr_matrix(B)
+    held = np.zeros(len(d), dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    r = B.T @ np.asarray(beta, dtype=float).ravel()
+    q = d - W @ r
+    qmax, _ = bernstein_argmax((B @ q).reshape(-1, 3))
+    tau = float(np.maximum(qmax, 0.0).max(initial=0.0))
+    h = (~held).astype(float)
+    keep = ~held
+    hw = 0.0
+    if tau > 0:
+        w = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), h[keep])
+        hw = float(h[keep] @ w)
+    for _ in range(max_doublings):
+        b = (B @ (q - tau * h)).reshape(-1, 3)
+        if (bernstein_argmax(b)[0] <= 0).all():
+            gap = max(float(-(np.asarray(beta).ravel() @ b.ravel())) + 0.5 * tau ** 2 * hw, 0.0)
+            return tau * np.sqrt(hw) + np.sqrt(2 * gap), tau, gap
+        tau *= 2
+    return np.inf, tau, np.nan

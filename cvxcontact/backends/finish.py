@@ -34,6 +34,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
+from scipy.linalg import lapack
 from scipy.optimize import nnls
 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
@@ -60,9 +61,20 @@ def lcp_start(W, d, y, slack):
     return y * w + slack > 0
 
 
-def _closed(W, d, active):
-    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular."""
+def _closed(W, d, active, semidefinite=False):
+    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular. ``semidefinite``: rows of A that depend
+    on the others (a pivoted Cholesky factor of the equilibrated W_AA, pivots below 1e-13 of its unit diagonal)
+    get y = 0 instead: their closing holds once the others' does (W PSD: a dependent row of W_AA is the same
+    combination of the rows of the point rows themselves)."""
     y = np.zeros(len(d))
+    if semidefinite and active.any():
+        idx = np.flatnonzero(active)
+        c, piv, rank, _ = lapack.dpstrf(W[np.ix_(idx, idx)], lower=1, tol=1e-13)
+        if rank == 0:
+            return y
+        keep = idx[piv[:rank] - 1]
+        y[keep] = sla.cho_solve((np.tril(c[:rank, :rank]), True), d[keep])
+        return y
     if active.any():
         try:
             with warnings.catch_warnings():
@@ -114,11 +126,11 @@ STOPPED = {"singular": "the mixed system on the active set is singular", "cycle"
 """Why :func:`active_set_steps` stopped, in words."""
 
 
-def _pdas(W, d, active, max_iter):
+def _pdas(W, d, active, max_iter, semidefinite=False):
     w, _ = row_scales(W, d, np.zeros(len(d)))
 
     def step(active):
-        y = _closed(W, d, active)
+        y = _closed(W, d, active, semidefinite)
         if y is None:
             return None
         return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
@@ -186,14 +198,15 @@ def solve_lcp(W, d, active=None, max_iter=30, factor=None):
 
 def _solve_equilibrated(W, d, active, max_iter, factor=None):
     start = (d > 0) if active is None else np.asarray(active, dtype=bool)
-    out = _pdas(W, d, start, max_iter)
+    semidefinite = factor is not None
+    out = _pdas(W, d, start, max_iter, semidefinite)
     if out is not None:
         return out[0], out[1], "active set"
     A, b = _least_squares_form(W, d) if factor is None else factor
     y, _ = nnls(A, b, maxiter=50 * len(d))
     w, S = row_scales(W, d, y)
     support = y * w > SIGN_TOL * S
-    out = _pdas(W, d, support, max_iter)
+    out = _pdas(W, d, support, max_iter, semidefinite)
     if out is not None:
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from ..backends.finish import force_displacements, ipm_active, node_scales  # noqa: F401  (re-exported)
 from ..contact.quadratic import bernstein_max
 
-__all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
 
@@ -143,6 +143,22 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
         "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
         "cone": float(cone.max(initial=0.0) / Y),
     }
+
+
+ENERGY_ERROR = "energy error"
+"""The key of the conic condition's certified bound in ``Solution.residuals()`` (docs/checks.md)."""
+
+CERTIFIED = ("feasibility", "complementarity", "cone")
+"""The contact checks whose statement the certified bound replaces where it is the sharper one."""
+
+
+def energy_error(blocks, u, phi, bound: float) -> float:
+    """The certified bound ``bound`` on ||u - u*||_K (scaled; :func:`cvxcontact.backends.cuts.energy_bound`)
+    relative to sqrt(sum_k u_k^T Kuu_k u_k + phi_k^T Kpp_k phi_k), the energy norm of the answer in the
+    phi-form (twice its stored energy; docs/checks.md, "The certified bound")."""
+    E = sum(float(uk @ (b.Kuu @ uk)) + (float(pk @ (b.Kpp @ pk)) if pk is not None else 0.0)
+            for b, uk, pk in zip(blocks, u, phi))
+    return float(bound / np.sqrt(max(E, np.finfo(float).tiny))) if np.isfinite(bound) else float("inf")
 
 
 def _segment_scales(B, U):

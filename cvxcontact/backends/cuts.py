@@ -30,9 +30,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..contact.quadratic import bernstein_argmax, bernstein_basis, point_rows
-from .finish import solve_lcp
 
-__all__ = ["CUT_TOL", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
+__all__ = ["CUT_TOL", "nnls_warm", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
 
 CUT_TOL = 1e-15
 """Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
@@ -125,31 +124,124 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
+def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
+    """Lawson-Hanson non-negative least squares min ||A y - b|| over y >= 0 from the warm start ``y0`` (>= 0; its
+    support is the first passive set), with the QR factors of the passive columns updated column by column
+    (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change instead of a new factorisation). The dual
+    w = A^T (b - A y) is the slack of the point rows (module docstring of :func:`interface_cuts`); it stops when
+    w_j <= ``tol`` * ``scale(y)``_j on every column outside the passive set. The passive columns stay linearly
+    independent (a column enters only with w_j > 0, i.e. outside their span), which is what the point rows
+    need: more points than nodes, the forces not unique, the slack unique. Returns (y, passive) or None."""
+    n, k = A.shape
+    y = np.maximum(np.asarray(y0, dtype=float), 0.0)
+    passive = list(np.flatnonzero(y > 0))
+    y[~np.isin(np.arange(k), passive)] = 0.0
+    Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
+    max_iter = 3 * k + 10 if max_iter is None else max_iter
+
+    def least_squares():
+        p = len(passive)
+        z = np.zeros(k)
+        if p:
+            z[passive] = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ b, check_finite=False)
+        return z
+
+    if passive:                               # the warm start's own least-squares point (inner loop below)
+        y_ls = least_squares()
+        if (y_ls[passive] > 0).all():
+            y = y_ls
+    S, fresh = scale(y), True
+    for _ in range(max_iter):
+        w = A.T @ (b - A @ y)
+        out = np.ones(k, dtype=bool)
+        out[passive] = False
+        cand = np.flatnonzero(out & (w > tol * S))
+        if not len(cand):
+            if fresh:
+                return y, np.isin(np.arange(k), passive)
+            S, fresh = scale(y), True                 # the scale of the start, refreshed before stopping
+            continue
+        fresh = False
+        j = int(cand[np.argmax(w[cand] / S[cand])])
+        Q, R = sla.qr_insert(Q, R, A[:, j], len(passive), which="col", check_finite=False)
+        passive.append(j)
+        for _ in range(len(passive) + 1):                          # inner loop: stay feasible
+            z = least_squares()
+            zp = z[passive]
+            if (zp > 0).all():
+                y = z
+                break
+            yp = y[passive]
+            neg = zp <= 0
+            alpha = float(np.min(yp[neg] / (yp[neg] - zp[neg])))
+            y = y + alpha * (z - y)
+            drop = [i for i, c in enumerate(passive) if y[c] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
+            for i in reversed(drop):
+                Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+                y[passive[i]] = 0.0
+                del passive[i]
+        else:
+            return None
+    return None
+
+
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
-    terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y."""
+    terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
+
+    Each round solves the point rows' LCP y >= 0, P (d - W P^T y) <= 0, complementary, as the equivalent
+    non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
+    previous round's forces (the new points at 0). Rows no unknown moves (a zero row and column of W) are left
+    out of the factor and carry no force. ``y0``: the first round's warm start."""
     t0 = time.perf_counter()
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
+    keep = np.diag(W) > 0
+    L = np.zeros_like(W)
+    L[np.ix_(keep, keep)] = sla.cholesky(W[np.ix_(keep, keep)], lower=True)     # W = L L^T
+    Ld = np.zeros(len(d))
+    Ld[keep] = sla.solve_triangular(L[np.ix_(keep, keep)], d[keep], lower=True)
+    held = ~keep
+    prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
 
-    L = sla.cholesky(W, lower=True)          # W = L L^T: the least-squares form (P L)^T, L^-1 d of every round
-    Ld = sla.solve_triangular(L, d, lower=True)
+    def node_scale(r):
+        U = base + absW @ np.abs(r)
+        return np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
 
     def solve(P, start):
-        PW = np.asarray((P @ W))
-        out = solve_lcp(np.asarray(P @ PW.T), P @ d, start, factor=(np.asarray(P @ L).T, Ld))
+        if (P[:, held].multiply(P[:, held]).sum(axis=1) > 0).A.ravel().any() and held.any():
+            moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
+        else:
+            moving = np.ones(P.shape[0], dtype=bool)
+        if (P[~moving] @ d > 0).any():        # a point no unknown moves, penetrating: no solution
+            return None
+        A = np.asarray((P @ L).T)[:, moving] if True else None
+        absP = abs(P)
+        y0 = np.zeros(P.shape[0])
+        if "y" in prev:
+            y0[:len(prev["y"])] = prev["y"]
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving])
         if out is None:
             return None
-        y, active = out[0], out[1]
+        y = np.zeros(P.shape[0])
+        y[moving] = out[0]
+        active = np.zeros(P.shape[0], dtype=bool)
+        active[moving] = out[1]
+        prev["y"] = y
         r = P.T @ y
-        U = base + absW @ np.abs(r)
-        U = np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
-        return y, d - W @ r, U, r, active
+        return y, d - W @ r, node_scale(r), r, active
 
     out = accumulate_cuts(B, solve, segment, t, max_rounds)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
+
+
+def _expand(P, ym, moving):
+    """r = P^T y from the forces ``ym`` of the ``moving`` point rows."""
+    y = np.zeros(P.shape[0])
+    y[moving] = ym
+    return P.T @ y
 
 
 def dual_cone_point(beta) -> np.ndarray:

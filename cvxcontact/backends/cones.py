@@ -42,9 +42,21 @@ def full(problem, cache, settings, timings) -> RawResult:
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
-    return RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
-                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
-                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
+    raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
+                    y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
+                    taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
+    if condensable(problem):
+        if settings.polish:
+            finish_cuts(problem, cache, settings, timings, raw)
+        certify(problem, cache, settings, timings, raw)
+    return raw
+
+
+def condensable(problem) -> bool:
+    """Whether the exact finish and the certificate of the cones apply: every body held by its supports (a
+    body held by the contact only has no interface compliance) and no force-controlled obstacle (its
+    translation has no stiffness). Elsewhere the answer is the interior point's, checked."""
+    return not problem.held and not problem.translations
 
 
 def condensed(problem, cache, settings, timings) -> RawResult:
@@ -81,9 +93,7 @@ def certify(problem, cache, settings, timings, raw) -> None:
     """``raw.certificate``: the energy-norm error bound of the answer's Bernstein duals
     (:func:`~cvxcontact.backends.cuts.energy_bound`; an interior point's duals first moved into the dual cone
     and the fields re-derived from them by one back-substitution, so that the fields are the bound's primal
-    point). Not for bodies held by the contact only or force-controlled obstacles (no condensation)."""
-    if problem.held or problem.translations:
-        return
+    point). Only for :func:`condensable` problems."""
     t0 = time.perf_counter()
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)

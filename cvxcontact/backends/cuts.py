@@ -151,6 +151,7 @@ def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
         if (y_ls[passive] > 0).all():
             y = y_ls
     S, fresh = scale(y), True
+    dependent = set()
     for _ in range(max_iter):
         w = A.T @ (b - A @ y)
         out = np.ones(k, dtype=bool)
@@ -162,8 +163,19 @@ def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
             S, fresh = scale(y), True                 # the scale of the start, refreshed before stopping
             continue
         fresh = False
+        cand = cand[~np.isin(cand, list(dependent))]
+        if not len(cand):
+            return y, np.isin(np.arange(k), passive)
         j = int(cand[np.argmax(w[cand] / S[cand])])
-        Q, R = sla.qr_insert(Q, R, A[:, j], len(passive), which="col", check_finite=False)
+        p = len(passive)
+        if p >= n:
+            dependent.add(j)
+            continue
+        Q, R = sla.qr_insert(Q, R, A[:, j], p, which="col", check_finite=False)
+        if abs(R[p, p]) <= 1e-12 * np.linalg.norm(A[:, j]):   # in the span of the passive columns: rounding
+            Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)   # made its w_j positive; left out
+            dependent.add(j)
+            continue
         passive.append(j)
         for _ in range(len(passive) + 1):                          # inner loop: stay feasible
             z = least_squares()
@@ -192,8 +204,12 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
 
     Each round solves the point rows' LCP y >= 0, P (d - W P^T y) <= 0, complementary, as the equivalent
     non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
-    previous round's forces (the new points at 0). Rows no unknown moves (a zero row and column of W) are left
-    out of the factor and carry no force. ``y0``: the first round's warm start."""
+    previous round's forces (the new points at 0). Rows no unknown moves (a zero row and column of W, at
+    slack 0: the held nodes at g = 0; a held node with a gap declines) are left out of the factor and carry no
+    force. ``y0``: the first round's warm start."""
+    if np.any(d[np.diag(W) <= 0] != 0):
+        return ("a contact node no unknown moves has a non-zero gap (its point rows would carry a constant the "
+                "least-squares form does not)")
     t0 = time.perf_counter()
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
@@ -210,13 +226,8 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         return np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
 
     def solve(P, start):
-        if (P[:, held].multiply(P[:, held]).sum(axis=1) > 0).A.ravel().any() and held.any():
-            moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
-        else:
-            moving = np.ones(P.shape[0], dtype=bool)
-        if (P[~moving] @ d > 0).any():        # a point no unknown moves, penetrating: no solution
-            return None
-        A = np.asarray((P @ L).T)[:, moving] if True else None
+        moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
+        A = np.asarray((P @ L).T)[:, moving]
         absP = abs(P)
         y0 = np.zeros(P.shape[0])
         if "y" in prev:

@@ -85,7 +85,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
-        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        tolerances, then finished exactly by accumulated cuts where the problem condenses), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
         of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),

@@ -126,7 +126,6 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
     raw.y, raw.beta, raw.active = r, out["beta"], active
     raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
-    raw.cuts = out
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

@@ -3,7 +3,7 @@
 The condition q_s(t) = [u_h nu](t) - g_h(t) <= 0 for t in [0, 1] on every merged segment s is semi-infinite but
 each q_s is one quadratic. At a finite set of points (s_p, t_p) it is a set of linear rows
 (:func:`~cvxcontact.contact.quadratic.point_rows`), and the contact problem with those rows is the nodal problem
-of §7, solved exactly by the active-set machinery (:func:`~cvxcontact.backends.finish.solve_lcp`). The finish
+of §7 (an LCP on the interface compliance), solved exactly at every round (:func:`interface_cuts`). The finish
 
 1. starts from the P2 nodes of every segment (t = 0, 1/2, 1) and, if given, the interior point's tangency
    points t* = sqrt(beta2) / (sqrt(beta0) + sqrt(beta2)) of the segments that carry a force;
@@ -16,9 +16,9 @@ Every answer is a KKT point of the conic program up to the stopping violation: t
 Bernstein duals beta_s = sum_p y_p (1 - t_p)^2, 2 t_p (1 - t_p), t_p^2), a sum of points of the dual cone (on its
 boundary, beta1^2 = 4 beta0 beta2), so beta lies in the dual cone exactly; r = B^T beta is the nodal force on X_h,
 and beta_s . b_s = sum_p y_p q_s(t_p) = 0 to rounding (complementarity of the rows). Where the forces in X_h are
-not unique (the discrete inf-sup condition fails, formulation.md §9) the displacements still are: the finish
-never asks for unique forces (the nodal solver takes the least-squares route of ``solve_lcp`` on a singular
-active set).
+not unique (the discrete inf-sup condition fails, formulation.md §9; and the point rows outnumber the nodes)
+the displacements still are: the finish never asks for unique forces (each round is a non-negative least
+squares whose passive rows stay independent, :func:`nnls_warm`).
 """
 
 from __future__ import annotations
@@ -96,16 +96,17 @@ def segment_scales(B, U) -> np.ndarray:
 
 def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL):
     """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
-    halves per round). ``solve(P, start)`` solves the nodal problem with the rows ``P`` (k, n)
-    from the starting active set ``start`` (bool (k,) or None) and returns ``(y, slack, scale, state)`` (the
-    point forces, q at the nodes of X_h, each node's displacement scale, anything the caller keeps) or None.
+    halves per round). ``solve(P)`` solves the nodal problem with the rows ``P`` (k, n) (warm started from
+    its previous call: the points of a round are those of the last plus the new ones, appended) and returns
+    ``(y, slack, scale, state, active)`` (the point forces, q at the nodes of X_h, each node's displacement
+    scale, anything the caller keeps, the rows that carry the forces) or None.
     Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
     S = B.shape[0] // 3
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
-    start, last = None, np.inf
+    last = np.inf
     for rounds in range(1, max_rounds + 1):
-        out = solve(point_rows(B, segment, t), start)
+        out = solve(point_rows(B, segment, t))
         if out is None:
             return "the nodal problem at the cut points has no exact solution"
         y, slack, scale, state, active = out
@@ -120,7 +121,6 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
-        start = np.concatenate([active, np.ones(len(new), dtype=bool)])
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
@@ -197,7 +197,7 @@ def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
     return None
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None):
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
     terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
@@ -206,7 +206,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
     previous round's forces (the new points at 0). Rows no unknown moves (a zero row and column of W, at
     slack 0: the held nodes at g = 0; a held node with a gap declines) are left out of the factor and carry no
-    force. ``y0``: the first round's warm start."""
+    force."""
     if np.any(d[np.diag(W) <= 0] != 0):
         return ("a contact node no unknown moves has a non-zero gap (its point rows would carry a constant the "
                 "least-squares form does not)")
@@ -219,13 +219,13 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     Ld = np.zeros(len(d))
     Ld[keep] = sla.solve_triangular(L[np.ix_(keep, keep)], d[keep], lower=True)
     held = ~keep
-    prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
+    prev = {}
 
     def node_scale(r):
         U = base + absW @ np.abs(r)
         return np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
 
-    def solve(P, start):
+    def solve(P):
         moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
         A = np.asarray((P @ L).T)[:, moving]
         absP = abs(P)

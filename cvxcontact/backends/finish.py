@@ -34,7 +34,6 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg import lapack
 from scipy.optimize import nnls
 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
@@ -61,20 +60,9 @@ def lcp_start(W, d, y, slack):
     return y * w + slack > 0
 
 
-def _closed(W, d, active, semidefinite=False):
-    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular. ``semidefinite``: rows of A that depend
-    on the others (a pivoted Cholesky factor of the equilibrated W_AA, pivots below 1e-13 of its unit diagonal)
-    get y = 0 instead: their closing holds once the others' does (W PSD: a dependent row of W_AA is the same
-    combination of the rows of the point rows themselves)."""
+def _closed(W, d, active):
+    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular."""
     y = np.zeros(len(d))
-    if semidefinite and active.any():
-        idx = np.flatnonzero(active)
-        c, piv, rank, _ = lapack.dpstrf(W[np.ix_(idx, idx)], lower=1, tol=1e-13)
-        if rank == 0:
-            return y
-        keep = idx[piv[:rank] - 1]
-        y[keep] = sla.cho_solve((np.tril(c[:rank, :rank]), True), d[keep])
-        return y
     if active.any():
         try:
             with warnings.catch_warnings():
@@ -126,11 +114,11 @@ STOPPED = {"singular": "the mixed system on the active set is singular", "cycle"
 """Why :func:`active_set_steps` stopped, in words."""
 
 
-def _pdas(W, d, active, max_iter, semidefinite=False):
+def _pdas(W, d, active, max_iter):
     w, _ = row_scales(W, d, np.zeros(len(d)))
 
     def step(active):
-        y = _closed(W, d, active, semidefinite)
+        y = _closed(W, d, active)
         if y is None:
             return None
         return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
@@ -151,7 +139,7 @@ def _least_squares_form(W, d):
         return L.T, sla.lstsq(L, d)[0]
 
 
-def solve_lcp(W, d, active=None, max_iter=30, factor=None):
+def solve_lcp(W, d, active=None, max_iter=30):
     """Solve the LCP of the module docstring exactly.
 
     Parameters
@@ -160,11 +148,6 @@ def solve_lcp(W, d, active=None, max_iter=30, factor=None):
     d : (m,) ndarray, slack at y = 0 (scaled displacement)
     active : (m,) bool ndarray, optional
         Starting active set (default: rows with d > 0, the penetrating ones).
-
-    factor : (A, b), optional
-        A least-squares form of the dual QP, A^T A = W and A^T b = d (A may be short and wide: W only
-        semi-definite, e.g. more point rows than nodes, :mod:`cvxcontact.backends.cuts`), used by the NNLS
-        fallback instead of a factor of W itself (whose eigen-factor loses the digits of a singular W).
 
     Returns
     -------
@@ -182,7 +165,7 @@ def solve_lcp(W, d, active=None, max_iter=30, factor=None):
             return None
         keep = ~held
         out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
-                        max_iter, None if factor is None else (factor[0][:, keep], factor[1]))
+                        max_iter)
         if out is None:
             return None
         y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
@@ -191,22 +174,20 @@ def solve_lcp(W, d, active=None, max_iter=30, factor=None):
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
-    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter,
-                              None if factor is None else (factor[0] * D[None, :], factor[1]))
+    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter)
     return None if out is None else (D * out[0], out[1], out[2])
 
 
-def _solve_equilibrated(W, d, active, max_iter, factor=None):
+def _solve_equilibrated(W, d, active, max_iter):
     start = (d > 0) if active is None else np.asarray(active, dtype=bool)
-    semidefinite = factor is not None
-    out = _pdas(W, d, start, max_iter, semidefinite)
+    out = _pdas(W, d, start, max_iter)
     if out is not None:
         return out[0], out[1], "active set"
-    A, b = _least_squares_form(W, d) if factor is None else factor
+    A, b = _least_squares_form(W, d)
     y, _ = nnls(A, b, maxiter=50 * len(d))
     w, S = row_scales(W, d, y)
     support = y * w > SIGN_TOL * S
-    out = _pdas(W, d, support, max_iter, semidefinite)
+    out = _pdas(W, d, support, max_iter)
     if out is not None:
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):

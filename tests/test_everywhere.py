@@ -163,3 +163,26 @@ def test_point_rows_are_the_lagrange_basis_and_the_maximiser_is_exact():
     qmax, tmax = bernstein_argmax((B @ xi).reshape(-1, 3))
     assert np.all(qmax >= vals.max(axis=1) - 1e-14) and np.all(qmax - vals.max(axis=1) < 1e-7)
     assert np.abs((point_rows(B, np.arange(S), tmax) @ xi) - qmax).max() < 1e-13
+
+
+def test_readme_p2_pairs_scene_is_ok_at_the_default_tol():
+    """The README's P2 pairs snippet (a punch on a base clamped at its left side, the base on a rigid floor with a
+    parabolic gap): the base's clamped corner on the floor is a node no unknown moves, with a gap, whose constant
+    slack enters the point rows of its segment; finished on both backends, no warning at tol = 1e-6 (the README
+    passed tol=1e-5 for the interior point)."""
+    steel = cc.materials.isotropic(E=200e9, nu=0.3)
+    punch = cc.Body(cc.rectangle(x=(0.3, 0.7), y=(0.0, 0.2), nx=4, ny=2), steel, clamped="top", contact="bottom",
+                    body_force=(0.0, -1e9))
+    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), steel, clamped="left", contact="top")
+    floor = cc.Rigid.plane(point=(0.0, -0.5), normal=(0.0, 1.0))
+    scene = cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top"),
+                                            cc.Contact(base, "bottom", floor, gap=lambda s: 1e-3 * (s - 0.6) ** 2)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sols = [cc.solve(scene, "gamma3", degree=2, method=m) for m in ("condensed", "full")]
+    for sol in sols:
+        assert sol.ok and sol.polished
+        assert sol.residuals()["feasibility"] < 1e-13             # measured 4.1e-15, 5.0e-15
+        assert sol.residuals()["energy error"] < 3e-7             # measured 8.0e-8, 8.4e-8
+    force = [s.obstacles[0].force[1] for s in sols]
+    assert abs(force[0] - force[1]) < 1e-9 * force[0]            # measured 9e-14

@@ -124,15 +124,19 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
-def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
-    """Lawson-Hanson non-negative least squares min ||A y - b|| over y >= 0 from the warm start ``y0`` (>= 0; its
-    support is the first passive set), with the QR factors of the passive columns updated column by column
-    (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change instead of a new factorisation). The dual
-    w = A^T (b - A y) is the slack of the point rows (module docstring of :func:`interface_cuts`); it stops when
-    w_j <= ``tol`` * ``scale(y)``_j on every column outside the passive set. The passive columns stay linearly
-    independent (a column enters only with w_j > 0, i.e. outside their span), which is what the point rows
-    need: more points than nodes, the forces not unique, the slack unique. Returns (y, passive) or None."""
+def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None):
+    """Lawson-Hanson non-negative least squares min 1/2 ||A y - b||^2 - c^T y over y >= 0 (``c`` (k,), default 0:
+    the plain NNLS) from the warm start ``y0`` (>= 0; its support is the first passive set), with the QR factors
+    of the passive columns updated column by column (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change
+    instead of a new factorisation). The dual w = A^T (b - A y) + c is the slack of the point rows
+    (:func:`interface_cuts`); it stops when w_j <= ``tol`` * ``scale(y)``_j on every column outside the passive
+    set. The least squares on the passive set P closes its rows, A_P^T A_P z = A_P^T b + c_P, i.e.
+    R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
+    one that rounding or its constant alone made positive while it lies in their span, a vanishing new
+    pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
+    unique, the slack unique. Returns (y, passive) or None."""
     n, k = A.shape
+    c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
     passive = list(np.flatnonzero(y > 0))
     y[~np.isin(np.arange(k), passive)] = 0.0
@@ -143,7 +147,10 @@ def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
         p = len(passive)
         z = np.zeros(k)
         if p:
-            z[passive] = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ b, check_finite=False)
+            rhs = Q[:, :p].T @ b
+            if c.any():
+                rhs = rhs + sla.solve_triangular(R[:p, :p], c[passive], trans="T", check_finite=False)
+            z[passive] = sla.solve_triangular(R[:p, :p], rhs, check_finite=False)
         return z
 
     if passive:                               # the warm start's own least-squares point (inner loop below)
@@ -153,7 +160,7 @@ def nnls_warm(A, b, y0, scale, tol: float = 1e-15, max_iter: int | None = None):
     S, fresh = scale(y), True
     dependent = set()
     for _ in range(max_iter):
-        w = A.T @ (b - A @ y)
+        w = A.T @ (b - A @ y) + c
         out = np.ones(k, dtype=bool)
         out[passive] = False
         cand = np.flatnonzero(out & (w > tol * S))
@@ -204,12 +211,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
 
     Each round solves the point rows' LCP y >= 0, P (d - W P^T y) <= 0, complementary, as the equivalent
     non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
-    previous round's forces (the new points at 0). Rows no unknown moves (a zero row and column of W, at
-    slack 0: the held nodes at g = 0; a held node with a gap declines) are left out of the factor and carry no
-    force."""
-    if np.any(d[np.diag(W) <= 0] != 0):
-        return ("a contact node no unknown moves has a non-zero gap (its point rows would carry a constant the "
-                "least-squares form does not)")
+    previous round's forces (the new points at 0). Nodes no unknown moves (a zero row and column of W: held on
+    both sides, or against a fixed obstacle) keep their constant slack d_h = -g_h: they are left out of the
+    factor, a point row reading one gets the constant c = P_h d_h (the ``c`` of :func:`nnls_warm`), and a point
+    row reading only such nodes carries no force (its slack, a constant, holds: ``_check_reachable``)."""
     t0 = time.perf_counter()
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
@@ -232,7 +237,8 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
         y0 = np.zeros(P.shape[0])
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
-        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving])
+        c = (P[:, held] @ d[held])[moving] if held.any() else None
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c)
         if out is None:
             return None
         y = np.zeros(P.shape[0])

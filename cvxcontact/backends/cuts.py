@@ -124,7 +124,7 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
-def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None):
+def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None):
     """Lawson-Hanson non-negative least squares min 1/2 ||A y - b||^2 - c^T y over y >= 0 (``c`` (k,), default 0:
     the plain NNLS) from the warm start ``y0`` (>= 0; its support is the first passive set), with the QR factors
     of the passive columns updated column by column (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change
@@ -134,7 +134,8 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
     one that rounding or its constant alone made positive while it lies in their span, a vanishing new
     pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
-    unique, the slack unique. Returns (y, passive) or None."""
+    unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
+    Returns (y, passive) or None."""
     n, k = A.shape
     c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
@@ -160,7 +161,7 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     S, fresh = scale(y), True
     dependent = set()
     for _ in range(max_iter):
-        w = A.T @ (b - A @ y) + c
+        w = A.T @ (b - A @ y) + c if dual is None else dual(y)
         out = np.ones(k, dtype=bool)
         out[passive] = False
         cand = np.flatnonzero(out & (w > tol * S))
@@ -178,9 +179,9 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         if p >= n:
             dependent.add(j)
             continue
-        Q, R = sla.qr_insert(Q, R, A[:, j], p, which="col", check_finite=False)
-        if abs(R[p, p]) <= 1e-12 * np.linalg.norm(A[:, j]):   # in the span of the passive columns: rounding
-            Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)   # made its w_j positive; left out
+        Q, R = sla.qr_insert(Q, R, A[:, j].copy(), p, which="col", overwrite_qru=True, check_finite=False)
+        if abs(R[p, p]) <= 1e-12 * np.linalg.norm(A[:, j]):     # in the span of the passive columns: rounding
+            Q, R = sla.qr_delete(Q, R, p, which="col", overwrite_qr=True, check_finite=False)   # made w_j > 0
             dependent.add(j)
             continue
         passive.append(j)
@@ -196,7 +197,7 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
             y = y + alpha * (z - y)
             drop = [i for i, c in enumerate(passive) if y[c] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
             for i in reversed(drop):
-                Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+                Q, R = sla.qr_delete(Q, R, i, which="col", overwrite_qr=True, check_finite=False)
                 y[passive[i]] = 0.0
                 del passive[i]
         else:
@@ -238,7 +239,8 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
         c = (P[:, held] @ d[held])[moving] if held.any() else None
-        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c)
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c,
+                        dual=lambda ym: (P @ (d - W @ _expand(P, ym, moving)))[moving])    # O(n^2), not O(n k)
         if out is None:
             return None
         y = np.zeros(P.shape[0])

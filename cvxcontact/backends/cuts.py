@@ -154,10 +154,30 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
             z[passive] = sla.solve_triangular(R[:p, :p], rhs, check_finite=False)
         return z
 
-    if passive:                               # the warm start's own least-squares point (inner loop below)
-        y_ls = least_squares()
-        if (y_ls[passive] > 0).all():
-            y = y_ls
+    def settle(y):
+        """The inner loop: from the feasible y to the least-squares point of the passive set, dropping the
+        columns that reach 0 on the way. Returns the new y, or None if it does not settle."""
+        nonlocal Q, R
+        for _ in range(len(passive) + 1):
+            z = least_squares()
+            zp = z[passive]
+            if (zp > 0).all():
+                return z
+            yp = y[passive]
+            neg = zp <= 0
+            alpha = float(np.min(yp[neg] / (yp[neg] - zp[neg])))
+            y = y + alpha * (z - y)
+            drop = [i for i, col in enumerate(passive) if y[col] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
+            for i in reversed(drop):
+                Q, R = sla.qr_delete(Q, R, i, which="col", overwrite_qr=True, check_finite=False)
+                y[passive[i]] = 0.0
+                del passive[i]
+        return None
+
+    if passive:                               # the warm start's own least-squares point
+        y = settle(y)
+        if y is None:
+            return None
     S, fresh = scale(y), True
     dependent = set()
     for _ in range(max_iter):
@@ -185,22 +205,8 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
             dependent.add(j)
             continue
         passive.append(j)
-        for _ in range(len(passive) + 1):                          # inner loop: stay feasible
-            z = least_squares()
-            zp = z[passive]
-            if (zp > 0).all():
-                y = z
-                break
-            yp = y[passive]
-            neg = zp <= 0
-            alpha = float(np.min(yp[neg] / (yp[neg] - zp[neg])))
-            y = y + alpha * (z - y)
-            drop = [i for i, c in enumerate(passive) if y[c] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
-            for i in reversed(drop):
-                Q, R = sla.qr_delete(Q, R, i, which="col", overwrite_qr=True, check_finite=False)
-                y[passive[i]] = 0.0
-                del passive[i]
-        else:
+        y = settle(y)
+        if y is None:
             return None
     return None
 

@@ -14,7 +14,7 @@ from ..contact.laws import RowLaws
 from ..contact.quadratic import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_points
+from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction
 from .interface import condensation, held_cone, program_fields, release_held, split
@@ -108,14 +108,14 @@ def certify(problem, cache, settings, timings, raw) -> None:
 
 def finish_cuts(problem, cache, settings, timings, raw) -> None:
     """The exact finish of the cones by accumulated cuts on the interface compliance
-    (:func:`~cvxcontact.backends.cuts.interface_cuts`), seeded with the interior point's tangency points; the
-    fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw`` (u, phi, y, beta,
-    active: the nodes read by the closed point rows, finish) or sets ``raw.declined``."""
+    (:func:`~cvxcontact.backends.cuts.interface_cuts`), seeded with the interior point's tangency points and
+    forces; the fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw`` (u,
+    phi, y, beta, active: the nodes read by the closed point rows, finish) or sets ``raw.declined``."""
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
     segment, t = seed_points(B, raw.beta)
-    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings)
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta))
     if isinstance(out, str):
         raw.declined = out
         return

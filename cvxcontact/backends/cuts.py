@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from ..contact.quadratic import bernstein_argmax, bernstein_basis, point_rows
 
-__all__ = ["CUT_TOL", "nnls_warm", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
+__all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
 
 CUT_TOL = 1e-15
 """Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
@@ -77,6 +77,25 @@ def seed_points(B, beta=None, force_floor: float = 1e-6):
         t = np.concatenate([t, ts[inner]])
     keep = _unique_rows(point_rows(B, seg, t))
     return seg[keep], t[keep]
+
+
+def seed_forces(segment, t, beta) -> np.ndarray:
+    """A warm start of the point forces from an interior point's Bernstein duals ``beta`` (S, 3): the whole force
+    sum(beta_s) of a segment at its first point strictly inside other than the midpoint (its tangency seed,
+    :func:`seed_points`), else beta0 + beta1 / 2 and beta2 + beta1 / 2 at its end points (a shared vertex is one
+    point: it takes the share of the segment it was kept for). Only a start: the first round corrects it."""
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    y = np.zeros(len(t))
+    inner = np.flatnonzero((t > 0) & (t < 1) & (t != 0.5))
+    has = np.zeros(len(beta), dtype=bool)
+    first = np.full(len(beta), -1)
+    first[segment[inner[::-1]]] = inner[::-1]
+    has[first >= 0] = True
+    y[first[has]] = beta[has].sum(axis=1)
+    for end, share in ((0.0, beta[:, 0] + beta[:, 1] / 2), (1.0, beta[:, 2] + beta[:, 1] / 2)):
+        at = np.flatnonzero((t == end) & ~has[segment])
+        y[at] += share[segment[at]]
+    return y
 
 
 def point_duals(S: int, segment, t, y) -> np.ndarray:
@@ -211,14 +230,15 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     return None
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
     terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
 
     Each round solves the point rows' LCP y >= 0, P (d - W P^T y) <= 0, complementary, as the equivalent
     non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
-    previous round's forces (the new points at 0). Nodes no unknown moves (a zero row and column of W: held on
+    previous round's forces (the new points at 0; round 1 from ``y0``, e.g. :func:`seed_forces`). Nodes no
+    unknown moves (a zero row and column of W: held on
     both sides, or against a fixed obstacle) keep their constant slack d_h = -g_h: they are left out of the
     factor, a point row reading one gets the constant c = P_h d_h (the ``c`` of :func:`nnls_warm`), and a point
     row reading only such nodes carries no force (its slack, a constant, holds: ``_check_reachable``)."""
@@ -231,7 +251,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40):
     Ld = np.zeros(len(d))
     Ld[keep] = sla.solve_triangular(L[np.ix_(keep, keep)], d[keep], lower=True)
     held = ~keep
-    prev = {}
+    prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
 
     def node_scale(r):
         U = base + absW @ np.abs(r)

@@ -32,12 +32,14 @@ _WHERE = {
     "solve": (".solve", None), "Model": (".model", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
     "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
+    "TetMesh": (".geometry.tetmesh", None), "box": (".geometry.generators3d", None),
+    "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
 }
 
 __all__ = [
     "materials", "CONDITIONS",
-    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk",
+    "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
@@ -78,7 +80,9 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
                          SolverError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
+    from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
+    from .geometry.tetmesh import TetMesh
     from .model import Model
     from .physics import materials
     from .physics.scene import Body, Scene

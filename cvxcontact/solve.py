@@ -165,7 +165,7 @@ class ContactSolver:
                                  verbose=verbose, polish=polish, warm_start=warm_start,
                                  factorization=factorization)
         check_factorization(factorization)
-        discretisation = space(degree)
+        discretisation = space(degree, scene.dim)
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
         self._given = scene                 # what solve() without a scene solves

@@ -1,4 +1,5 @@
 """A piezoelectric actuator driven only by an electrode voltage, pressing on an elastic foundation.
+================================================================================================
 
 The upper body (PZT-5H, 1 m x 0.25 m, poled along +y) is clamped along its top edge and
 grounded along its bottom edge, which is also the contact face. A driven electrode
@@ -52,5 +53,30 @@ def main(nx=24):
     return rows
 
 
+def figure(rows):
+    """Left: the pressure felt by the foundation along the contact for each voltage; right: the contact
+    force against the voltage (a straight line through zero until lift-off)."""
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import eng
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    for voltage, _, _, sol in rows:
+        x, p = sol.traction(1)
+        ax.plot(x, p, "o-", ms=2, lw=1, label=f"V = {voltage:+.0f} V")
+    ax.set(xlabel="x1 along the contact", ylabel="pressure felt by the foundation", title="Contact pressure")
+    ax.legend(fontsize=8)
+    v = [r[0] for r in rows]
+    ax2.plot(v, [r[1] for r in rows], "s", label="contact force (solved)")
+    ax2.set(xlabel="electrode voltage V", ylabel="contact force", title="Force against voltage")
+    for a, (xu, yu) in ((ax, ("m", "Pa")), (ax2, ("V", "N/m"))):
+        a.xaxis.set_major_formatter(eng(xu))
+        a.yaxis.set_major_formatter(eng(yu))
+    return fig
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 24)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 24))
+    plt.show()

@@ -1,4 +1,5 @@
 """The three contact conditions on strongly non-matching meshes.
+=============================================================
 
 The upper PZT-5A block has ``n`` cells on the contact line, the lower aluminium block
 ``n // 6 + 1``: about six upper nodes per lower segment, and the two node sets are
@@ -57,5 +58,15 @@ def main(n=48, out=None):
     return sols
 
 
+def figure(sols):
+    """The contact along Gamma_3 for the three conditions (cvxcontact.io.plot.plot_contact)."""
+    from cvxcontact.io.plot import plot_contact
+
+    return plot_contact(sols)
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 48, sys.argv[2] if len(sys.argv) > 2 else None)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 48, sys.argv[2] if len(sys.argv) > 2 else None))
+    plt.show()

@@ -1,4 +1,5 @@
 """A gmsh-generated geometry read through meshio: a PZT-4 block with a hole on an elastic base.
+============================================================================================
 
 ``examples/meshes/upper_hole.msh`` (a 1 m x 0.5 m block with a circular hole of radius
 0.12 m) and ``examples/meshes/lower.msh`` (a 1 m x 0.4 m base) were made with gmsh; their
@@ -21,7 +22,8 @@ import numpy as np
 
 import cvxcontact as cc
 
-MESHES = Path(__file__).resolve().parent / "meshes"
+# the folder of this script (the documentation build runs it from there, without __file__)
+MESHES = Path(globals().get("__file__", "gmsh_mesh.py")).resolve().parent / "meshes"
 
 
 def build():
@@ -50,5 +52,15 @@ def main(out=None):
     return sol
 
 
+def figure(sol):
+    """The deformed bodies coloured by the von Mises stress (cvxcontact.io.plot.plot_deformed)."""
+    from cvxcontact.io.plot import plot_deformed
+
+    return plot_deformed(sol, "von_mises")
+
+
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else None)
+    import matplotlib.pyplot as plt
+
+    figure(main(sys.argv[1] if len(sys.argv) > 1 else None))
+    plt.show()

@@ -1,4 +1,5 @@
 """Hertz half model: a rigid cylinder pressed into a block, only the right half meshed.
+====================================================================================
 
 The scene is symmetric about x = 0, so only x >= 0 is modelled: the block's left edge (on the
 symmetry line) gets a roller (u_x = 0, u_y free), the cylinder is a rigid circle obstacle
@@ -6,12 +7,12 @@ symmetry line) gets a roller (u_x = 0, u_y free), the cylinder is a rigid circle
 block's top (a prescribed approach, displacement control). The block is clamped at its bottom.
 
 The plane-strain Hertz solution of a rigid cylinder on an elastic half-space under the load
-P (N/m) of the WHOLE contact (twice the half model's force) is
+P (N/m) of the WHOLE contact (twice the half model's force) is::
 
     a = sqrt(4 P R / (pi E*)),   p0 = 2 P / (pi a),   E* = E / (1 - nu^2).
 
 Look at: the half-width a_h (half-way between the last active node and the first open one, so
-|a_h - a| <= h/2, h the cell where the contact ends) and the peak pressure p0_h felt by the block
+``|a_h - a| <= h/2``, h the cell where the contact ends) and the peak pressure p0_h felt by the block
 come within a few per cent of Hertz (the block is finite, the mesh is P1). The pressure felt by
 the block alternates from node to node against a rigid obstacle on this mesh (try plotting
 ``sol.traction(0)``), so p0_h is the mean over the two nodes nearest the axis.
@@ -75,5 +76,31 @@ def main(sizes=(20, 40)):
     return rows
 
 
+def figure(rows, nx=None):
+    """The pressure felt by the block on the finest mesh against the Hertz profile at the measured load."""
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import eng
+
+    nx = nx or rows[-1][0]
+    sol = cc.solve(build(nx))
+    P, *_ = measured(sol)
+    a, p0 = hertz(P)
+    x, p = sol.traction(0)
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    xs = np.linspace(0, a, 200)
+    ax.plot(xs, p0 * np.sqrt(1 - (xs / a) ** 2), "k-", label="Hertz (measured load)")
+    ax.plot(x, p, "o-", ms=3, lw=0.8, label=f"pressure felt by the block, nx = {nx}")
+    ax.set(xlabel="x1 (distance from the symmetry line)", ylabel="contact pressure", xlim=(0, 3 * a),
+           title="Rigid cylinder on a block: half model")
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend()
+    return fig
+
+
 if __name__ == "__main__":
-    main(tuple(int(n) for n in sys.argv[1:]) or (20, 40))
+    import matplotlib.pyplot as plt
+
+    figure(main(tuple(int(n) for n in sys.argv[1:]) or (20, 40)))
+    plt.show()

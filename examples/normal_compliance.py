@@ -1,9 +1,10 @@
 """Normal compliance (the paper's (7), (19)) on the quickstart scene, and its limit k -> infinity.
+===============================================================================================
 
 The PZT-5A block of the quickstart pressed onto the aluminium block, with the contact law
 lambda = p(r) = k r_+^m (r = [u_nu] - g, the penetration) instead of Signorini. For the linear
 (m = 1) and the quadratic (m = 2) law and growing stiffness k it prints the checks, the largest
-penetration and the distance to the Signorini solution of the same scene,
+penetration and the distance to the Signorini solution of the same scene::
 
     e_u = max |u_k - u_S| / max |u_S|  (both bodies),    e_lam = max |F_k - F_S| / max |F_S|
 
@@ -52,5 +53,22 @@ def main(nx=16, stiffnesses=None):
     return out
 
 
+def figure(out):
+    """e_u and the largest penetration against the stiffness k, for each exponent m (log-log)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(out), figsize=(5 * len(out), 4), layout="constrained", squeeze=False)
+    for ax, (m, rows) in zip(axes[0], out.items()):
+        k = [r[0] for r in rows]
+        ax.loglog(k, [r[1] for r in rows], "o-", label="e_u: distance to Signorini (relative)")
+        ax.loglog(k, [r[3] for r in rows], "s--", label="largest penetration r [m]")
+        ax.set(xlabel=f"stiffness k [Pa/m^{m}]", title=f"law p(r) = k r^{m}: rate 1/m = {1 / m:g} expected")
+        ax.legend(fontsize=8)
+    return fig
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 16)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 16))
+    plt.show()

@@ -1,4 +1,5 @@
 """A steel punch pressed into a PZT-5A substrate, read as a force sensor.
+======================================================================
 
 The substrate (1 m x 0.2 m, poled along +y) is clamped and grounded along its bottom; its top
 carries an electrode. The punch (0.2 m wide, steel) is centred on it and touches only the
@@ -54,5 +55,26 @@ def main(nx=20, displacements=(1e-6, 2e-6, 5e-6)):
     return rows
 
 
+def figure(rows):
+    """The open-circuit potential and the short-circuit charge against the punch force: straight lines."""
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import eng
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    force = [r[1] for r in rows]
+    ax.plot(force, [r[2] for r in rows], "o-")
+    ax2.plot(force, [r[3] for r in rows], "s-", color="C1")
+    ax.set(xlabel="punch force", ylabel="open-circuit potential", title="Open circuit: floating electrode")
+    ax2.set(xlabel="punch force", ylabel="short-circuit charge", title="Short circuit: grounded electrode")
+    for a, unit in ((ax, "V"), (ax2, "C/m")):
+        a.xaxis.set_major_formatter(eng("N/m"))
+        a.yaxis.set_major_formatter(eng(unit))
+    return fig
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 20)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 20))
+    plt.show()

@@ -1,4 +1,5 @@
 """A three-layer stack: three bodies, two contact pairs, a floating electrode, no clamp but the base.
+==================================================================================================
 
 From the top: a PZT-5A layer (poled along +y) with a grounded bottom face and an open-circuit
 floating electrode on its top face (Q = 0), an aluminium layer, a steel base clamped along
@@ -90,5 +91,16 @@ def main(nx=8):
     return sol, rows, exact_phi
 
 
+def figure(result):
+    """The contact along both pairs (cvxcontact.io.plot.plot_contact): the jumps are at rounding level
+    (every node closed) and are drawn as zero with their magnitude stated."""
+    from cvxcontact.io.plot import plot_contact
+
+    return plot_contact(result[0])
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 8)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 8))
+    plt.show()

@@ -1,4 +1,5 @@
 """Two blocks in partial contact: a PZT-5A block pressed onto an aluminium foundation.
+===================================================================================
 
 The upper block (PZT-5A, poled along +y) is clamped and grounded on its top edge,
 pulled down by its weight-like body force, sheared by a traction on its right edge
@@ -48,5 +49,15 @@ def main(nx=16):
     return results
 
 
+def figure(results):
+    """The contact along Gamma_3 for the three conditions (cvxcontact.io.plot.plot_contact)."""
+    from cvxcontact.io.plot import plot_contact
+
+    return plot_contact(results)
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 16)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 16))
+    plt.show()

@@ -1,4 +1,5 @@
 """A piezoelectric actuator pushing a rigid wall held by a prescribed force (force control).
+=========================================================================================
 
 A PZT-5H column (0.2 m wide, 0.5 m tall, poled along +y) is clamped and grounded along its
 bottom edge and guided by rollers on its sides (u_x = 0 there: it can only stretch along its axis). Its top edge is a driven electrode (phi = V) and touches a rigid wall, the plane
@@ -55,5 +56,25 @@ def main(nx=4):
     return rows
 
 
+def figure(rows):
+    """The wall's translation against the voltage: solved (markers) and the closed form (line)."""
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import eng
+
+    rows = sorted(rows, key=lambda r: r[0])
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
+    ax.plot([r[0] for r in rows], [r[2] for r in rows], "k-", label="closed form (uniaxial strain)")
+    ax.plot([r[0] for r in rows], [r[1] for r in rows], "o", label="solved (force control)")
+    ax.set(xlabel="electrode voltage V", ylabel="wall translation", title="Wall lifted by the column")
+    ax.xaxis.set_major_formatter(eng("V"))
+    ax.yaxis.set_major_formatter(eng("m"))
+    ax.legend()
+    return fig
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 4)
+    import matplotlib.pyplot as plt
+
+    figure(main(int(sys.argv[1]) if len(sys.argv) > 1 else 4))
+    plt.show()

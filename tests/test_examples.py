@@ -13,8 +13,23 @@ def load(name):
     return runpy.run_path(str(EXAMPLES / name))
 
 
+def draws(name, result):
+    """The example's figure (the gallery shows it) is drawn from its result: axes with data on them."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = load(name)["figure"](result)
+    try:
+        assert fig.axes and all(ax.lines or ax.collections for ax in fig.axes if ax.get_label() != "<colorbar>")
+    finally:
+        plt.close(fig)
+
+
 def test_two_blocks_example(capsys):
     results = load("two_blocks.py")["main"](8)
+    draws("two_blocks.py", results)
     out = capsys.readouterr().out
     for condition in ("gamma3", "sigma1", "sigma2"):
         assert f"condition {condition}" in out
@@ -25,6 +40,7 @@ def test_two_blocks_example(capsys):
 
 def test_actuator_example_is_linear_in_voltage_and_lifts_off(capsys):
     rows = load("actuator.py")["main"](8)
+    draws("actuator.py", rows)
     force = {v: f for v, f, _, _ in rows}
     assert abs(force[-1000.0] / force[-250.0] - 4.0) < 1e-9
     assert force[1000.0] == 0.0 and all(sol.ok for *_, sol in rows)
@@ -33,12 +49,14 @@ def test_actuator_example_is_linear_in_voltage_and_lifts_off(capsys):
 
 def test_gmsh_example_reads_shipped_meshes(tmp_path, capsys):
     sol = load("gmsh_mesh.py")["main"](str(tmp_path))
+    draws("gmsh_mesh.py", sol)
     assert sol.ok and (tmp_path / "gmsh_body1.vtu").exists()
     assert "tags ['bottom', 'hole', 'sides', 'top']" in capsys.readouterr().out
 
 
 def test_conditions_compared_example(tmp_path):
     sols = load("conditions_compared.py")["main"](18, str(tmp_path))
+    draws("conditions_compared.py", sols)
     assert (tmp_path / "contact.png").exists()
     g, s1, s2 = (sols[c] for c in ("gamma3", "sigma1", "sigma2"))
     assert abs(g.contact.force.sum() - s1.contact.force.sum()) < 0.01 * g.contact.force.sum()
@@ -54,6 +72,7 @@ def test_shipped_sweep_example_runs(tmp_path):
 
 def test_normal_compliance_example(capsys):
     out = load("normal_compliance.py")["main"](8, {1: [1e16, 1e17], 2: [1e23, 1e25]})
+    draws("normal_compliance.py", out)
     text = capsys.readouterr().out
     assert "FAILED" not in text and text.count("rate of e_u in k") == 2
     for m, rows in out.items():
@@ -65,6 +84,7 @@ def test_normal_compliance_example(capsys):
 
 def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
     rows = load("wall_actuator.py")["main"](2)
+    draws("wall_actuator.py", rows)
     mat = __import__("cvxcontact").materials.PZT5H
     for voltage, t, _, sol in rows:       # t = -(p H + e33 V) / c33, computed here from the material's constants
         exact = -(1e5 / 0.2 * 0.5 + mat.e[1, 1] * voltage) / mat.c[1, 1]
@@ -75,6 +95,7 @@ def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
 
 def test_punch_sensor_example_reads_force_linearly(capsys):
     rows = load("punch_sensor.py")["main"](10, (1e-6, 3e-6))
+    draws("punch_sensor.py", rows)
     (d0, f0, v0, q0, g0), (d1, f1, v1, q1, g1) = rows
     assert f0 > 0 and v0 != 0 and q0 != 0
     # positively homogeneous: 3x the displacement gives 3x force, potential, charge (same active set)
@@ -85,6 +106,7 @@ def test_punch_sensor_example_reads_force_linearly(capsys):
 
 def test_hertz_half_example_against_the_closed_form(capsys):
     rows = load("hertz_half.py")["main"]((16, 32))
+    draws("hertz_half.py", rows)
     errors = []
     for nx, P, a_h, a, h, p0_h, p0 in rows:
         assert abs(a_h - a) <= h / 2 + 1e-12            # the resolution limit of the half-width
@@ -95,6 +117,7 @@ def test_hertz_half_example_against_the_closed_form(capsys):
 
 def test_stack_example_matches_uniaxial_strain(capsys):
     sol, rows, phi = load("stack.py")["main"](6)
+    draws("stack.py", (sol, rows, phi))
     assert sol.ok and len(sol.contacts) == 2 and all(c.active.all() for c in sol.contacts)
     for name, short, exact in rows:
         assert abs(short - exact) < 1e-6 * exact, name

@@ -294,14 +294,14 @@ def test_symmetric_scene_on_a_rigid_obstacle_equals_its_half_model_with_a_roller
     assert 2 * half.contact.force[axis_h] == pytest.approx(full.contact.force[axis_f], rel=1e-8)
 
 
-def test_readme_scenes_block_runs():
-    """The README's "Scenes" code runs as written; the half block on the cylinder carries its load."""
+def test_pairs_guide_scenes_block_runs():
+    """The contact-pairs guide's first code block runs as written; the half block on the cylinder carries its load."""
     import re
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    code = re.search(r"## Scenes\n.*?```python\n(.*?)```", text, re.S).group(1)
+    page = Path(__file__).resolve().parents[1] / "docs" / "howto" / "pairs.md"
+    code = re.search(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S).group(1)
     ns = {}
-    exec(compile("import cvxcontact as cc\n" + code, "README.md", "exec"), ns)  # our docs
+    exec(compile("import cvxcontact as cc\n" + code, str(page), "exec"), ns)  # our docs
     assert ns["sol"].ok and ns["sol2"].ok and ns["sol"].contacts[0].force.sum() > 0
     assert ns["sol2"].contact.force.sum() == pytest.approx(1e6 * 0.5, rel=1e-9)     # pressure x half width
     assert [e.kind for e in ns["sol"].electrodes] == ["grounded", "floating"]

@@ -30,8 +30,7 @@ def sweep_file(folder, body):
 
 
 def readme_sweep_block():
-    text = (ROOT / "README.md").read_text()
-    section = text[text.index("**Sweeps of reference solutions**"):]
+    section = (ROOT / "docs" / "reference" / "sweeps.md").read_text(encoding="utf-8")
     return re.search(r"```toml\n(.*?)```", section, re.S).group(1)
 
 

@@ -159,7 +159,8 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
             sol = solve(scene, c, **settings)
         solutions[c] = sol
         progress(f"  {sol.status}, {'exact finish' if sol.polished else 'interior-point answer'}, "
-                 f"{int(sol.contact.active.sum())} active nodes, solve {sol.timings.get('solve', 0):.3f} s")
+                 f"{sum(int(c.active.sum()) for c in sol.contacts)} active nodes"
+                 f"{f' ({len(sol.contacts)} pairs)' if len(sol.contacts) > 1 else ''}, solve {sol.timings.get('solve', 0):.3f} s")
         paths = [p for p in write_all(sol, out, stem=c) if p.suffix == ".vtu"]
         files += paths
         groups += [c] * len(paths)

@@ -12,6 +12,7 @@ displacements U_l of body l,
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..errors import SceneError
@@ -96,6 +97,8 @@ class Interface:
     is the body's trace where the obstacle can be reached along nu^a (a contiguous run of nodes) and
     every condition constrains all of its nodes.
     """
+
+    dim = 2
 
     def __init__(self, bodies, parts=None, obstacle=None):
         bodies = tuple(bodies)
@@ -189,6 +192,21 @@ class Interface:
         """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
         return self._interp[k]
 
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h at the merged nodes (N/m for row forces ``r`` in N): the Riesz representer in X_h of
+        psi -> sum_a r_a psi(a), i.e. M lambda_h = r (X_h is P1 on the merged mesh; docs/formulation.md §4)."""
+        M = self.mass
+        ab = np.zeros((3, M.shape[0]))
+        ab[0, 1:] = M.diagonal(1)
+        ab[1] = M.diagonal()
+        ab[2, :-1] = M.diagonal(-1)
+        return sla.solve_banded((1, 1), ab, np.asarray(r, dtype=float))
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces
+        interpolation(k)^T r (N/m; exact work equivalence) over the lumped lengths of its trace."""
+        return (self._interp[k].T @ np.asarray(r, dtype=float)) / lumped_lengths(self.traces[k].x)
+
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows select the merged nodes where non-penetration is imposed ("sigma1"/"sigma2": the
         nodes of the pair's first/second body inside the overlap; with a rigid obstacle, every
@@ -239,7 +257,7 @@ class Stack:
         return int(self.offsets[-1])
 
     def jump(self, k, n_nodes) -> sp.csr_matrix:
-        """(size, 2 n_nodes): body k's part of [u_nu] at every pair's merged nodes."""
+        """(size, d n_nodes): body k's part of [u_nu] at every pair's merged nodes (d = the pairs' ``dim``)."""
         rows = []
         for itf, (a, b) in zip(self.interfaces, self.members):
             if k == a:
@@ -247,7 +265,7 @@ class Stack:
             elif k == b:
                 rows.append(itf.jump(1, n_nodes))
             else:
-                rows.append(sp.csr_matrix((itf.size, 2 * n_nodes)))
+                rows.append(sp.csr_matrix((itf.size, itf.dim * n_nodes)))
         return sp.vstack(rows, format="csr")
 
     def evaluation(self, condition, conditions=None) -> sp.csr_matrix:
@@ -270,19 +288,25 @@ class Stack:
         counts = [itf.evaluation(condition if c is None else c).shape[0] for itf, c in zip(self.interfaces, conditions)]
         return np.concatenate([[0], np.cumsum(counts)]).astype(int)
 
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h of every pair (:meth:`Interface.multiplier` of its slice of the stacked row forces
+        ``r`` on X_h), concatenated."""
+        return np.concatenate([itf.multiplier(ri) for itf, ri in zip(self.interfaces, self.split(r))])
+
     def split(self, values):
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
 
 
 def normal_jump(P, nodes, unit_normal, n_dofs) -> sp.csr_matrix:
-    """(P.shape[0], n_dofs): u . nu at the merged nodes from a body's nodal displacements (x, y
-    interleaved), with P the interpolation of its trace (columns: trace nodes ``nodes``) and nu its
-    unit outward normal. Shared by the P1 and P2 contact lines."""
+    """(P.shape[0], n_dofs): u . nu at the nodes of X_h from a body's nodal displacements (components
+    interleaved, d = len(unit_normal) per node), with P the interpolation of its trace (columns: trace nodes
+    ``nodes``) and nu its unit outward normal. Shared by the P1 and P2 contact lines and the 3D surfaces."""
     P = P.tocoo()
-    rows = np.concatenate([P.row, P.row])
-    cols = np.concatenate([2 * nodes[P.col], 2 * nodes[P.col] + 1])
-    vals = np.concatenate([unit_normal[0] * P.data, unit_normal[1] * P.data])
+    d = len(unit_normal)
+    rows = np.tile(P.row, d)
+    cols = np.concatenate([d * nodes[P.col] + i for i in range(d)])
+    vals = np.concatenate([unit_normal[i] * P.data for i in range(d)])
     keep = vals != 0
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(P.shape[0], n_dofs))
 

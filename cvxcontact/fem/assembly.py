@@ -1,7 +1,10 @@
-"""Vectorised P1 assembly of the electro-elastic operators of one body (SI units).
+"""Vectorised P1 assembly of the electro-elastic operators of one body (SI units), on triangles (2D, per
+unit thickness) or tetrahedra (3D).
 
 With sigma = c eps(u) + e^T grad(phi) and D = e eps(u) - kappa grad(phi), the weak
-forms (19)-(20) of the paper read, per unit thickness,
+forms (19)-(20) of the paper read, per unit thickness in 2D (the units below; in 3D the integrals are over
+the volume and its boundary faces and every unit gains a factor m: Kuu N/m, Kup C/m, Kpp F, f in N and q
+in C per node),
 
     Kuu u + Kup phi   = f    (+ contact forces)      Kuu = (c eps(u), eps(v))          N/m^2
     -Kup^T u + Kpp phi = q                           v^T Kup phi = (e^T grad phi, eps(v))  C/m^2
@@ -9,13 +12,16 @@ forms (19)-(20) of the paper read, per unit thickness,
     f = (f0, v) + (f2, v)_Gamma2                     (N/m per node)
     q = (q0, psi) - (q2, psi)_Gamma_b                (C/m per node)
 
-Nodal dofs: u has 2 per node (x then y, index 2 i + c), phi one per node. The supports and
-electrodes are imposed by a prolongation (docs/formulation.md §11)
+Nodal dofs: u has dim per node (x, y[, z]; index dim i + c), phi one per node; eps in the Voigt order of
+:mod:`cvxcontact.physics.materials` (2D (xx, yy, 2xy), 3D (xx, yy, zz, 2yz, 2xz, 2xy)) and c, e, kappa the
+material's ``tensors(dim)``. The supports and electrodes are imposed by a prolongation
+(docs/formulation.md §11)
 
     u = T_u z_u + u_D,      phi = T_p z_p + phi_D
 
-with sparse T_u (2n, m_u) and T_p (n, m_p) and the reduced unknowns z: clamped dofs have no
-column, a roller node one column along the part's tangent (u . n = 0), a prescribed component
+with sparse T_u (dim n, m_u) and T_p (n, m_p) and the reduced unknowns z: clamped dofs have no
+column, a roller node one column per free direction (u . n = 0: the tangent in 2D, two tangents of the
+face in 3D, one on the edge of two roller faces, none at a corner of three), a prescribed component
 of ``displacement`` no column (its value in u_D, m), grounded and driven electrode nodes no
 column (phi_D = V), and each floating electrode one column equal to 1 on all its nodes (one
 shared potential). The prescribed values are lifted: f - Kuu u_D - Kup phi_D and
@@ -31,6 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SceneError
+from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix",
            "prolongation", "constrained", "lifted"]
@@ -81,7 +88,10 @@ class BodySystem:
 
 
 def gradients(points, triangles):
-    """Areas (m,) and gradients (m, 2, 3) of the barycentric basis functions, 1/m."""
+    """Measures (m,) (areas, or volumes for tetrahedra (m, 4)) and gradients (m, dim, dim + 1) of the
+    barycentric basis functions, 1/m."""
+    if triangles.shape[1] == 4:
+        return _tet_gradients(points, triangles)
     p = points[triangles]                                     # (m, 3, 2)
     d = np.roll(p, -1, axis=1) - np.roll(p, 1, axis=1)        # p_{i+1} - p_{i-1}
     area = 0.5 * (d[:, 0, 0] * d[:, 1, 1] - d[:, 0, 1] * d[:, 1, 0])
@@ -89,13 +99,31 @@ def gradients(points, triangles):
     return area, grad
 
 
+def _tet_gradients(points, tets):
+    """Volumes (m,) and gradients (m, 3, 4) of the barycentric functions of positively oriented tetrahedra:
+    with e_k = p_k - p_0 and det = e1 . (e2 x e3), grad L1 = e2 x e3 / det (cyclic), grad L0 = -sum."""
+    p = points[tets]                                          # (m, 4, 3)
+    e1, e2, e3 = (p[:, k] - p[:, 0] for k in (1, 2, 3))
+    c = np.stack([np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)], axis=2)     # (m, 3, 3) columns
+    det = np.einsum("md,md->m", e1, c[:, :, 0])
+    g = c / det[:, None, None]
+    return det / 6.0, np.concatenate([-g.sum(axis=2, keepdims=True), g], axis=2)
+
+
+VOIGT = {2: ((0, 0), (1, 1), (0, 1)), 3: ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))}
+"""The strain components (i, j) of the Voigt vector in each dimension (engineering shear for i != j)."""
+
+
 def strain_matrix(grad):
-    """(m, 3, 6) map from element dofs (u0x, u0y, u1x, ...) to (eps11, eps33, 2 eps13)."""
-    B = np.zeros((grad.shape[0], 3, 6))
-    B[:, 0, 0::2] = grad[:, 0]
-    B[:, 1, 1::2] = grad[:, 1]
-    B[:, 2, 0::2] = grad[:, 1]
-    B[:, 2, 1::2] = grad[:, 0]
+    """(m, s, dim k) map from element dofs (u0x, u0y[, u0z], u1x, ...) to the Voigt strain (2D (eps11, eps33,
+    2 eps13): s = 3; 3D (xx, yy, zz, 2yz, 2xz, 2xy): s = 6), ``grad`` (m, dim, k) the basis gradients."""
+    m, dim, k = grad.shape
+    pairs = VOIGT[dim]
+    B = np.zeros((m, len(pairs), dim * k))
+    for row, (i, j) in enumerate(pairs):
+        B[:, row, i::dim] = grad[:, j]
+        if i != j:
+            B[:, row, j::dim] = grad[:, i]
     return B
 
 
@@ -112,21 +140,27 @@ def assemble(body) -> BodySystem:
     return assemble_loads(body, assemble_matrices(body))
 
 
+def element_dofs(cells, dim):
+    """(m, dim k) displacement dofs of the elements' nodes (component c of node i: dim i + c)."""
+    return (dim * cells[:, :, None] + np.arange(dim)).reshape(len(cells), -1)
+
+
 def assemble_matrices(body) -> BodySystem:
     """Stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero."""
-    mesh, mat = body.mesh, body.material
+    mesh, dim = body.mesh, body.dim
+    c, e, kappa = body.material.tensors(dim)
     n = len(mesh.points)
-    tri = mesh.triangles
+    tri = mesh.cells
     area, grad = gradients(mesh.points, tri)
     B = strain_matrix(grad)
-    Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, 6, 3), area-weighted
-    udofs = (2 * tri[:, :, None] + np.arange(2)).reshape(-1, 6)
-    Kuu = scatter((Bt @ mat.c) @ B, udofs, udofs, (2 * n, 2 * n))
+    Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, dim k, s), measure-weighted
+    udofs = element_dofs(tri, dim)
+    Kuu = scatter((Bt @ c) @ B, udofs, udofs, (dim * n, dim * n))
     Kup = Kpp = None
-    if mat.piezoelectric:
-        Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, 3, 2)
-        Kup = scatter((Bt @ mat.e.T) @ grad, udofs, tri, (2 * n, n))
-        Kpp = scatter((Gt @ mat.kappa) @ grad, tri, tri, (n, n))
+    if e is not None:
+        Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, k, dim)
+        Kup = scatter((Bt @ e.T) @ grad, udofs, tri, (dim * n, n))
+        Kpp = scatter((Gt @ kappa) @ grad, tri, tri, (n, n))
     return constrained(body, Kuu, Kup, Kpp)
 
 
@@ -158,7 +192,7 @@ def _representative(T):
 def prolongation(body, nodes=None):
     """(Tu, u_fixed, Tp, floating) of ``body``: the map from reduced to nodal unknowns (module docstring).
 
-    Tu (2n, m_u) sparse with orthonormal columns, u_fixed (2n,) m; Tp (n, m_p) sparse (None for an
+    Tu (dim n, m_u) sparse with orthonormal columns, u_fixed (dim n,) m; Tp (n, m_p) sparse (None for an
     elastic body), floating (m_p,) bool marking the floating-electrode columns (the last ones, in the
     order of ``body.floating``). Columns follow the node order. Raises SceneError if two supports
     prescribe different values at one node. ``nodes``: the node set of the unknowns, anything with
@@ -166,16 +200,20 @@ def prolongation(body, nodes=None):
     boundary nodes include the midpoints of the boundary edges); default the mesh's vertices (P1).
     """
     mesh = body.mesh if nodes is None else nodes
-    n = len(mesh.points)
-    ncols, tangent, u_fixed = body.node_supports(nodes)
+    n, dim = len(mesh.points), body.dim
+    ncols, directions, u_fixed = body.node_supports(nodes)
     first = np.concatenate([[0], np.cumsum(ncols)[:-1]])
-    plain = np.flatnonzero(ncols == 2)
-    one = np.flatnonzero(ncols == 1)
-    rows = np.concatenate([2 * plain, 2 * plain + 1, 2 * one, 2 * one + 1])
-    cols = np.concatenate([first[plain], first[plain] + 1, first[one], first[one]])
-    data = np.concatenate([np.ones(2 * len(plain)), tangent[one, 0], tangent[one, 1]])
+    plain = np.flatnonzero(ncols == dim)
+    part = np.flatnonzero((ncols > 0) & (ncols < dim))
+    # a partly held node i: column first[i] + j is its free direction j (components k at dofs dim i + k)
+    node, j, k = (a.ravel() for a in np.meshgrid(part, np.arange(dim - 1), np.arange(dim), indexing="ij"))
+    used = j < ncols[node]
+    node, j, k = node[used], j[used], k[used]
+    rows = np.concatenate([dim * plain + c for c in range(dim)] + [dim * node + k])
+    cols = np.concatenate([first[plain] + c for c in range(dim)] + [first[node] + j])
+    data = np.concatenate([np.ones(dim * len(plain)), directions[node, j, k]])
     keep = data != 0
-    Tu = sp.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(2 * n, int(ncols.sum())))
+    Tu = sp.csr_matrix((data[keep], (rows[keep], cols[keep])), shape=(dim * n, int(ncols.sum())))
     if not body.piezoelectric:
         return Tu, u_fixed, None, None
     fixed = mesh.boundary_nodes([*body.grounded, *body.potential])
@@ -199,6 +237,8 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
 
     ``body`` must have the mesh, material and boundary parts the matrices were built for.
     """
+    if body.dim == 3:
+        return _tet_loads(body, matrices)
     mesh = body.mesh
     f = _body_load(mesh, body.body_force, 2)
     for tag, load in body.traction.items():
@@ -211,8 +251,42 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
     return lifted(body, matrices, f.ravel(), q, mesh)
 
 
+def _tet_loads(body, matrices):
+    """The P1 consistent loads of a tetrahedral body: volume densities by the degree-2 rule on each
+    tetrahedron, surface densities by the degree-2 rule on each boundary triangle (exact for affine
+    densities times the P1 basis)."""
+    mesh = body.mesh
+    shape = lambda L: L                                                              # noqa: E731
+    tets, n = mesh.cells, len(mesh.points)
+    f = _volume_load(mesh.points, tets, tets, mesh.volumes, body.body_force, 3, 2, shape, n)
+    for tag, load in body.traction.items():
+        f += face_load(mesh.points, mesh.boundary(tag), mesh.boundary(tag), load, 3, 2, shape, n)
+    q = None
+    if matrices.piezoelectric:
+        q = _volume_load(mesh.points, tets, tets, mesh.volumes, body.volume_charge, 1, 2, shape, n)[:, 0]
+        for tag, load in body.surface_charge.items():
+            q -= face_load(mesh.points, mesh.boundary(tag), mesh.boundary(tag), load, 1, 2, shape, n)[:, 0]
+    return lifted(body, matrices, f.ravel(), q, mesh)
+
+
+def _volume_load(points, vertices, nodes, volumes, load, ncomp, degree, shape, n):
+    """(n, ncomp) consistent load of a volume density on tetrahedra (:func:`~cvxcontact.fem.simplex.element_load`
+    with the rule of ``degree``); zero without a load."""
+    if not load.nonzero:
+        return np.zeros((n, ncomp))
+    return element_load(points, vertices, nodes, volumes, load, ncomp, simplex_rule(3, degree), shape, n)
+
+
+def face_load(points, faces, nodes, load, ncomp, degree, shape, n):
+    """(n, ncomp) consistent load of a surface density on boundary triangles ``faces`` (k, 3) (vertex
+    indices; ``nodes`` (k, j) the element nodes the shape functions act on), rule of ``degree``."""
+    a, b, c = (points[faces[:, k]] for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    return element_load(points, faces, nodes, area, load, ncomp, simplex_rule(2, degree), shape, n)
+
+
 def lifted(body, matrices: BodySystem, f: np.ndarray, q: np.ndarray | None, nodes) -> BodySystem:
-    """A BodySystem sharing the matrices of ``matrices`` with the consistent loads ``f`` (2n,) N/m and
+    """A BodySystem sharing the matrices of ``matrices`` with the consistent loads ``f`` (dim n,) N/m and
     ``q`` (n,) C/m (None for an elastic body) lifted by the prescribed values (module docstring):
     f - Kuu u_D - Kup phi_D, q + Kup^T u_D - Kpp phi_D, and the floating charges Q (C/m) of ``body``.
     ``nodes``: the node set of the unknowns (the Mesh for P1, P2Nodes for P2)."""
@@ -234,7 +308,7 @@ def _electrode_potential(mesh, body):
     phi = np.zeros(len(mesh.points))
     for tag, load in body.potential.items():
         nodes = mesh.boundary_nodes([tag])
-        phi[nodes] = load(mesh.points[nodes, 0], mesh.points[nodes, 1])
+        phi[nodes] = load(*mesh.points[nodes].T)
     grounded = mesh.boundary_nodes(body.grounded)
     if np.any(phi[grounded] != 0):
         raise SceneError(f"{body.name}: a driven electrode touches a grounded one at a non-zero potential")

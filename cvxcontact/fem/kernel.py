@@ -166,11 +166,11 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     for k, (b, f, nd) in enumerate(zip(bodies, loads, nodes)):
         if not b.held_by_contact:
             continue
-        modes = b.held_modes(nd)                                       # (k_b, 2 n)
+        modes = b.held_modes(nd)                                       # (k_b, d n)
         if not len(modes):
             continue
         f = np.asarray(f, dtype=float)
-        J = interface.jump(k, modes.shape[1] // 2)
+        J = interface.jump(k, len((b.mesh if nd is None else nd).points))
         cols.append(np.asarray(E @ (J @ modes.T)))
         work.append(modes @ f)
         magnitude.append(np.abs(modes) @ np.abs(f))
@@ -269,13 +269,12 @@ def _readable(L):
 
 
 def _translation_name(t) -> str:
-    """A readable name of an obstacle's translation t (m per unit)."""
+    """A readable name of an obstacle's translation t (m per unit; 2 or 3 components)."""
     t = np.asarray(t, dtype=float) / np.linalg.norm(t)
-    if abs(t[1]) <= 1e-9:
-        return "translation x"
-    if abs(t[0]) <= 1e-9:
-        return "translation y"
-    return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
+    axis = np.flatnonzero(np.abs(t) > 1e-9)
+    if len(axis) == 1:
+        return f"translation {'xyz'[axis[0]]}"
+    return f"translation along ({', '.join(f'{c:.4g}' for c in t)})"
 
 
 def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.spmatrix, interface,

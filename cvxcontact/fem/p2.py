@@ -1,4 +1,5 @@
-"""Vectorised P2 (6-node triangle) assembly of the electro-elastic operators of one body (SI units).
+"""Vectorised P2 (6-node triangle, 10-node tetrahedron) assembly of the electro-elastic operators of one
+body (SI units).
 
 The same weak forms (19)-(20) as :mod:`cvxcontact.fem.assembly` (see there for the blocks and the
 electrode lifting), on the P2 nodes of :class:`cvxcontact.geometry.quadratic.P2Nodes` (vertices
@@ -9,6 +10,12 @@ first, then edge midpoints). The basis on a straight triangle with barycentrics 
 Quadrature: the gradients are linear, so the stiffness integrands are quadratic and the 3-point
 rule (degree 2) is exact; volume loads use a 6-point rule of degree 4 (exact for a quadratic load
 density times a P2 basis function) and surface loads the 3-point Gauss rule on edges (degree 5).
+
+Tetrahedra: the same basis with four barycentrics, N_i = L_i (2 L_i - 1) at the vertices and 4 L_a L_b
+at the midpoints of the edges ``EDGES[3]`` (the gmsh tetra10 order (0,1), (1,2), (0,2), (0,3), (2,3),
+(1,3)); the nodes of a 10-node node set (vertices, then edge midpoints; ``nodes.cells`` (m, 10),
+``nodes.boundary(tag)`` (k, 6) as (v0, v1, v2, m01, m12, m20)). Stiffness by a degree-2 rule, volume and
+face loads by degree-4 rules (:func:`cvxcontact.fem.simplex.simplex_rule`).
 """
 
 from __future__ import annotations
@@ -16,9 +23,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.quadratic import P2Nodes
-from .assembly import BodySystem, accumulate, scatter, constrained, gradients, lifted
+from .assembly import (BodySystem, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
+                       strain_matrix)
+from .simplex import element_load, simplex_rule
 
-__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients"]
+__all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients", "EDGES"]
+
+EDGES = {2: ((0, 1), (1, 2), (2, 0)), 3: ((0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3))}
+"""The local edges (a, b) of the midpoint nodes, in element order, per dimension."""
 
 # degree-2 rule on the reference triangle (barycentric coordinates, weights summing to 1)
 _TRI3 = (np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]), np.full(3, 1 / 3))
@@ -28,32 +40,28 @@ _TRI6 = (np.array([[1 - 2 * _a, _a, _a], [_a, 1 - 2 * _a, _a], [_a, _a, 1 - 2 * 
                    [1 - 2 * _b, _b, _b], [_b, 1 - 2 * _b, _b], [_b, _b, 1 - 2 * _b]]),
          np.array([0.223381589678011] * 3 + [0.109951743655322] * 3))
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
+_STIFFNESS_RULE = {2: _TRI3, 3: simplex_rule(3, 2)}        # degree 2: exact for products of linear gradients
 
 
 def shape_functions(L) -> np.ndarray:
-    """The six P2 basis functions at barycentric coordinates ``L`` (..., 3) -> (..., 6)."""
-    L0, L1, L2 = L[..., 0], L[..., 1], L[..., 2]
-    return np.stack([L0 * (2 * L0 - 1), L1 * (2 * L1 - 1), L2 * (2 * L2 - 1), 4 * L0 * L1, 4 * L1 * L2, 4 * L2 * L0],
-                    axis=-1)
+    """The P2 basis functions at barycentric coordinates ``L`` (..., k): (..., 6) on a triangle (k = 3),
+    (..., 10) on a tetrahedron (k = 4): L_i (2 L_i - 1), then 4 L_a L_b on the ``EDGES``."""
+    L = np.asarray(L)
+    edges = EDGES[L.shape[-1] - 1]
+    return np.stack([L[..., i] * (2 * L[..., i] - 1) for i in range(L.shape[-1])]
+                    + [4 * L[..., a] * L[..., b] for a, b in edges], axis=-1)
 
 
 def shape_gradients(gradL, L) -> np.ndarray:
-    """Gradients (m, 2, 6) of the P2 basis (1/m) at barycentrics ``L`` (3,), with ``gradL`` (m, 2, 3) the
-    gradients of the barycentric coordinates."""
-    g0, g1, g2 = gradL[:, :, 0], gradL[:, :, 1], gradL[:, :, 2]
-    L0, L1, L2 = L
-    return np.stack([(4 * L0 - 1) * g0, (4 * L1 - 1) * g1, (4 * L2 - 1) * g2,
-                     4 * (L1 * g0 + L0 * g1), 4 * (L2 * g1 + L1 * g2), 4 * (L0 * g2 + L2 * g0)], axis=2)
+    """Gradients (m, dim, k) of the P2 basis (1/m) at barycentrics ``L`` (dim + 1,), with ``gradL``
+    (m, dim, dim + 1) the gradients of the barycentric coordinates."""
+    g = [gradL[:, :, i] for i in range(gradL.shape[2])]
+    return np.stack([(4 * L[i] - 1) * g[i] for i in range(len(g))]
+                    + [4 * (L[b] * g[a] + L[a] * g[b]) for a, b in EDGES[len(g) - 1]], axis=2)
 
 
-def strain_p2(G):
-    """(m, 3, 12) map from element dofs (u0x, u0y, u1x, ...) to (eps11, eps33, 2 eps13)."""
-    B = np.zeros((G.shape[0], 3, 12))
-    B[:, 0, 0::2] = G[:, 0]
-    B[:, 1, 1::2] = G[:, 1]
-    B[:, 2, 0::2] = G[:, 1]
-    B[:, 2, 1::2] = G[:, 0]
-    return B
+strain_p2 = strain_matrix
+"""The strain map of the P2 gradients (:func:`cvxcontact.fem.assembly.strain_matrix`)."""
 
 
 def assemble(body, nodes: P2Nodes | None = None) -> BodySystem:
@@ -69,28 +77,31 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     :func:`cvxcontact.fem.assembly.prolongation`) on the P2 nodes: a roller or a prescribed displacement
     holds at the vertices and at the midpoints of its part's edges, a floating electrode's potential is
     one unknown on all of them."""
-    mat = body.material
+    dim = body.dim
+    c, e, kappa = body.material.tensors(dim)
     n = len(nodes)
-    el = nodes.triangles
-    area, gradL = gradients(body.mesh.points, body.mesh.triangles)
-    udofs = (2 * el[:, :, None] + np.arange(2)).reshape(-1, 12)
+    el = nodes.cells
+    area, gradL = gradients(body.mesh.points, body.mesh.cells)
+    udofs = element_dofs(el, dim)
     Kuu = Kup = Kpp = 0.0
-    for L, w in zip(*_TRI3):
-        G = shape_gradients(gradL, L)                                    # (m, 2, 6)
+    for L, w in zip(*_STIFFNESS_RULE[dim]):
+        G = shape_gradients(gradL, L)                                    # (m, dim, k)
         B = strain_p2(G)
         Bt = np.swapaxes(B, 1, 2) * (w * area)[:, None, None]
-        Kuu = Kuu + (Bt @ mat.c) @ B
-        if mat.piezoelectric:
-            Kup = Kup + (Bt @ mat.e.T) @ G
-            Kpp = Kpp + ((np.swapaxes(G, 1, 2) * (w * area)[:, None, None]) @ mat.kappa) @ G
-    if not mat.piezoelectric:
-        return constrained(body, scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), nodes=nodes)
-    return constrained(body, scatter(Kuu, udofs, udofs, (2 * n, 2 * n)), scatter(Kup, udofs, el, (2 * n, n)),
+        Kuu = Kuu + (Bt @ c) @ B
+        if e is not None:
+            Kup = Kup + (Bt @ e.T) @ G
+            Kpp = Kpp + ((np.swapaxes(G, 1, 2) * (w * area)[:, None, None]) @ kappa) @ G
+    if e is None:
+        return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), nodes=nodes)
+    return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), scatter(Kup, udofs, el, (dim * n, n)),
                        scatter(Kpp, el, el, (n, n)), nodes=nodes)
 
 
 def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
     """A BodySystem sharing the matrices of ``matrices`` with the P2 consistent loads of ``body``."""
+    if body.dim == 3:
+        return _tet_loads(body, matrices, nodes)
     f = _body_load(nodes, body.body_force, 2)
     for tag, load in body.traction.items():
         f += _edge_load(nodes, nodes.boundary(tag), load, 2)
@@ -99,6 +110,31 @@ def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
         q = _body_load(nodes, body.volume_charge, 1)[:, 0]
         for tag, load in body.surface_charge.items():
             q -= _edge_load(nodes, nodes.boundary(tag), load, 1)[:, 0]
+    return lifted(body, matrices, f.ravel(), q, nodes)
+
+
+def _tet_loads(body, matrices, nodes):
+    """The P2 consistent loads of a 10-node tetrahedral body (degree-4 rules: exact for quadratic densities)."""
+    mesh, n = body.mesh, len(nodes)
+
+    def volume(load, ncomp):
+        if not load.nonzero:
+            return np.zeros((n, ncomp))
+        return element_load(nodes.points, mesh.cells, nodes.cells, mesh.volumes, load, ncomp, simplex_rule(3, 4),
+                            shape_functions, n)
+
+    def faces(tag, load, ncomp):
+        f = nodes.boundary(tag)
+        return face_load(nodes.points, f[:, :3], f, load, ncomp, 4, shape_functions, n)
+
+    f = volume(body.body_force, 3)
+    for tag, load in body.traction.items():
+        f += faces(tag, load, 3)
+    q = None
+    if matrices.piezoelectric:
+        q = volume(body.volume_charge, 1)[:, 0]
+        for tag, load in body.surface_charge.items():
+            q -= faces(tag, load, 1)[:, 0]
     return lifted(body, matrices, f.ravel(), q, nodes)
 
 

@@ -7,7 +7,9 @@ the evaluation rows of a condition, the laws on those rows, their quadrature wei
 the backends, the read-back) asks the space and never branches on the degree.
 
 ``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
-docs/formulation.md §8) are the two spaces; :func:`space` gives the one of a degree.
+docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
+the 3D ones (their contact surfaces are not available yet: ``contact`` raises a SolverError);
+:func:`space` gives the one of a degree and a dimension.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from ..geometry.quadratic import P2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices
 
-__all__ = ["Space", "P1", "P2", "ContactLines", "space"]
+__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "ContactLines", "space"]
 
 
 @dataclass(frozen=True)
@@ -109,6 +111,7 @@ class P1:
         return None
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        _check_dim(self, body)
         return assemble_matrices(body)
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
@@ -142,6 +145,7 @@ class P2:
         return P2Nodes(body.mesh)
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        _check_dim(self, body)
         return p2.assemble_matrices(body, self.nodes(body) if nodes is None else nodes)
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
@@ -184,12 +188,44 @@ def _p2_obstacles(scene, stack):
     return out
 
 
-SPACES = {1: P1, 2: P2}
-"""The spaces by degree."""
+def _check_dim(space, body):
+    if getattr(body, "dim", 2) != space.dim:
+        raise SolverError(f"{body.name}: a {body.dim}D body in the {space.dim}D space {type(space).__name__}: use "
+                          f"space({space.degree}, dim={body.dim})")
 
 
-def space(degree) -> Space:
-    """The :class:`Space` of ``degree`` (1: P1, 2: P2); SolverError for any other value."""
-    if isinstance(degree, bool) or degree not in SPACES:
+def _no_surfaces(scene, condition, law, nodes=None):
+    raise SolverError("P2 (10-node) tetrahedra in contact are not available yet: solve 3D scenes with degree=1")
+
+
+class P1Tet(P1):
+    """P1 (4-node) tetrahedra: the mesh's vertices (the same dimension-generic assembly as P1) and the planar
+    contact surfaces of the scene (:class:`~cvxcontact.contact.surface.SurfaceInterface`: the overlay's vertices
+    are the nodes of X_h, docs/formulation.md §13), stacked as in 2D."""
+
+    degree, dim = 1, 3
+
+
+class P2Tet(P2):
+    """P2 (10-node) tetrahedra built on the P1 mesh (vertices, then edge midpoints)."""
+
+    degree, dim = 2, 3
+    contact = staticmethod(_no_surfaces)
+
+    def nodes(self, body):
+        from ..geometry.quadratic import P2TetNodes         # the 10-node set of a tetrahedral mesh
+        return P2TetNodes(body.mesh)
+
+
+SPACES = {(1, 2): P1, (2, 2): P2, (1, 3): P1Tet, (2, 3): P2Tet}
+"""The spaces by (degree, dimension)."""
+
+
+def space(degree, dim: int = 2) -> Space:
+    """The :class:`Space` of ``degree`` (1: P1, 2: P2) in dimension ``dim`` (2: triangles, 3: tetrahedra);
+    SolverError for any other value."""
+    if isinstance(degree, bool) or degree not in (1, 2):
         raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-    return SPACES[degree]()
+    if isinstance(dim, bool) or dim not in (2, 3):
+        raise SolverError(f"dim must be 2 or 3, got {dim!r}")
+    return SPACES[degree, dim]()

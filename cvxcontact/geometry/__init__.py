@@ -1,5 +1,8 @@
-"""Geometry: immutable P1 triangle meshes with named boundary parts, generators and gmsh reading."""
+"""Geometry: immutable P1 triangle and tetrahedral meshes with named boundary parts, generators and
+gmsh reading."""
 
+from .generators3d import box, cylinder
 from .mesh import Mesh, read_mesh, rectangle
+from .tetmesh import TetMesh
 
-__all__ = ["Mesh", "rectangle", "read_mesh"]
+__all__ = ["Mesh", "TetMesh", "rectangle", "box", "cylinder", "read_mesh"]

@@ -14,6 +14,7 @@ import os
 from collections.abc import Iterable, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,6 +23,9 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import Frozen, FrozenMap, MeshError
+
+if TYPE_CHECKING:
+    from .tetmesh import TetMesh
 
 __all__ = ["Mesh", "rectangle", "read_mesh"]
 
@@ -42,6 +46,8 @@ class Mesh(Frozen):
     boundaries : dict of str to (k, 2) array_like of int, optional
         Named boundary parts, each a list of boundary edges (node index pairs).
 
+    Notes
+    -----
     The mesh is immutable: it keeps read-only copies of its arrays (editing ``points``,
     ``triangles`` or a boundary part in place raises ``ValueError``) and assigning an attribute
     raises :class:`~cvxcontact.errors.FrozenError`; build a new mesh instead (:meth:`with_points`).
@@ -55,6 +61,9 @@ class Mesh(Frozen):
         covered once), or a tagged edge that is not an edge on the boundary of
         the triangulation.
     """
+
+    dim = 2
+    """Spatial dimension (a :class:`~cvxcontact.geometry.tetmesh.TetMesh` has 3)."""
 
     def __init__(self, points: ArrayLike, triangles: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:
@@ -89,6 +98,11 @@ class Mesh(Frozen):
     @property
     def triangles(self) -> np.ndarray:
         """(m, 3) node indices of the counter-clockwise triangles (read-only)."""
+        return self._triangles
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 3) the elements: :attr:`triangles` (the name shared with the 3D mesh's tetrahedra)."""
         return self._triangles
 
     def with_points(self, points: ArrayLike) -> Mesh:
@@ -215,18 +229,20 @@ def _as_triangles(triangles, n):
     return np.ascontiguousarray(t, dtype=np.int64)
 
 
-def _check_nodes(points, triangles):
+def _check_nodes(points, cells, what="triangle"):
     """Every node is used, and no two nodes are closer than DUPLICATE_TOL times the local element size.
 
     The local size h(v) of node v is its longest incident edge; nodes i, j are
     duplicates when |x_i - x_j| < DUPLICATE_TOL * max(h(i), h(j)), found with a
     k-d tree (nearest neighbour of every node, O(n log n)), whatever the node order.
+    ``cells`` are simplices (triangles or tetrahedra, named ``what`` in the messages).
     """
     used = np.zeros(len(points), dtype=bool)
-    used[triangles.ravel()] = True
+    used[cells.ravel()] = True
     if not used.all():
-        raise MeshError(f"{int((~used).sum())} node(s) belong to no triangle, e.g. node {int(np.argmin(used))}")
-    edges = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        raise MeshError(f"{int((~used).sum())} node(s) belong to no {what}, e.g. node {int(np.argmin(used))}")
+    pairs = [(a, b) for a in range(cells.shape[1]) for b in range(a + 1, cells.shape[1])]
+    edges = cells[:, np.array(pairs).ravel()].reshape(-1, 2)
     length = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
     h = np.zeros(len(points))
     np.maximum.at(h, edges.ravel(), np.repeat(length, 2))
@@ -565,8 +581,13 @@ def _check_size(nx, ny):
 
 
 def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] | None = None,
-              region: str | int | None = None) -> Mesh:
+              region: str | int | None = None) -> Mesh | TetMesh:
     """Read a triangle mesh with meshio (gmsh ``.msh``, VTU, XDMF, ...).
+
+    A file holding tetrahedra (``tetra`` or ``tetra10``) is read as a 3D
+    :class:`~cvxcontact.geometry.tetmesh.TetMesh` instead: its boundary parts are the
+    triangle cells, named by their physical surface, and ``region`` selects a physical
+    volume (:func:`cvxcontact.geometry.tetmesh.read_tets`).
 
     Boundary parts are the line cells, named by gmsh physical names (``field_data``)
     or, without names, by their physical number as a string. Unused nodes (geometry
@@ -600,7 +621,11 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         raise MeshError(f"cannot read mesh file {str(path)!r} ({type(exc).__name__} in meshio); expected a "
                         "triangle mesh in a format meshio reads (gmsh .msh, .vtu, .xdmf, ...)") from None
     kinds = {block.type for block in m.cells}
-    higher = kinds & {"triangle7", "quad", "quad8", "quad9", "tetra", "hexahedron"}
+    if kinds & {"tetra", "tetra10"}:
+        from .tetmesh import read_tets
+
+        return read_tets(m, path, boundaries, region)
+    higher = kinds & {"triangle7", "quad", "quad8", "quad9", "hexahedron"}
     if higher:
         raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact needs triangles")
     if "triangle6" in kinds:

@@ -1,8 +1,11 @@
-"""P2 (6-node triangle) node numbering on a P1 mesh: vertices first, then edge midpoints.
+"""P2 node numbering on a P1 mesh (6-node triangles, 10-node tetrahedra): vertices first, then edge
+midpoints.
 
 Node ``i < n_vertices`` is vertex i of the mesh; node ``n_vertices + e`` is the midpoint of edge e
-(edges numbered by sorted vertex pairs). The local order of an element is the gmsh triangle6 order
-(v0, v1, v2, m01, m12, m20). Edges are straight, so midpoints are the arithmetic means (m).
+(edges numbered by sorted vertex pairs). The local order of a triangle is the gmsh triangle6 order
+(v0, v1, v2, m01, m12, m20); of a tetrahedron the gmsh tetra10 order (v0, v1, v2, v3, m01, m12, m02,
+m03, m23, m13) (VTK's tetra10 swaps the last two). Edges are straight, so midpoints are the arithmetic
+means (m).
 """
 
 from __future__ import annotations
@@ -11,7 +14,7 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["P2Nodes"]
+__all__ = ["P2Nodes", "P2TetNodes"]
 
 
 class P2Nodes:
@@ -35,17 +38,17 @@ class P2Nodes:
         self.points = _frozen(pts)
         self.triangles = _frozen(np.column_stack([tri, mids]))
 
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 6) the elements: ``triangles``."""
+        return self.triangles
+
     def __len__(self) -> int:
         return len(self.points)
 
     def midpoint(self, a, b) -> np.ndarray:
         """P2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
-        a, b = np.asarray(a), np.asarray(b)
-        key = np.minimum(a, b).astype(np.int64) * self.n_vertices + np.maximum(a, b)
-        pos = np.searchsorted(self._keys, key)
-        if (pos >= len(self._keys)).any() or (self._keys[np.minimum(pos, len(self._keys) - 1)] != key).any():
-            raise MeshError("midpoint(): a vertex pair that is not an edge of the mesh")
-        return self.n_vertices + pos
+        return _midpoint(self._keys, self.n_vertices, a, b)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) P2 node indices."""
@@ -56,6 +59,63 @@ class P2Nodes:
         """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
         parts = [self.boundary(t).ravel() for t in tags]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+
+
+class P2TetNodes:
+    """The P2 nodes of a :class:`~cvxcontact.geometry.tetmesh.TetMesh` (module docstring).
+
+    Attributes: ``mesh``, ``points`` (n + e, 3) m, ``tets10`` (m, 10) node indices of each element in the
+    gmsh tetra10 order (v0, v1, v2, v3, m01, m12, m02, m03, m23, m13; ``tetmesh.EDGES``; read-only),
+    ``n_vertices``.
+    """
+
+    def __init__(self, mesh) -> None:
+        from .tetmesh import EDGES
+
+        self.mesh = mesh
+        tets = mesh.tets
+        nv = len(mesh.points)
+        pairs = np.sort(tets[:, EDGES], axis=2)                                   # (m, 6, 2)
+        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
+        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
+        edges = np.column_stack([self._keys // nv, self._keys % nv])
+        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]])])
+        self.n_vertices = nv
+        self.points = _frozen(pts)
+        self.tets10 = _frozen(np.column_stack([tets, nv + inverse.reshape(-1, 6)]))
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 10) the elements: :attr:`tets10`."""
+        return self.tets10
+
+    def midpoint(self, a, b) -> np.ndarray:
+        """P2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
+        return _midpoint(self._keys, self.n_vertices, a, b)
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 6) boundary faces carrying ``tag`` as triangle6 P2 node indices (v0, v1, v2, m01, m12, m20),
+        the vertices oriented as :meth:`TetMesh.boundary <cvxcontact.geometry.tetmesh.TetMesh.boundary>`
+        (outward)."""
+        f = self.mesh.boundary(tag)
+        return np.column_stack([f] + [self.midpoint(f[:, i], f[:, j]) for i, j in ((0, 1), (1, 2), (2, 0))])
+
+    def boundary_nodes(self, tags) -> np.ndarray:
+        """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
+        parts = [self.boundary(t).ravel() for t in ([tags] if isinstance(tags, str) else tags)]
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+
+
+def _midpoint(keys, nv, a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    key = np.minimum(a, b).astype(np.int64) * nv + np.maximum(a, b)
+    pos = np.searchsorted(keys, key)
+    if (pos >= len(keys)).any() or (keys[np.minimum(pos, len(keys) - 1)] != key).any():
+        raise MeshError("midpoint(): a vertex pair that is not an edge of the mesh")
+    return nv + pos
 
 
 def _frozen(a):

@@ -42,13 +42,13 @@ def geometry_fingerprint(body) -> str:
 
     mesh, mat = body.mesh, body.material
     array("points", mesh.points, np.float64)
-    array("triangles", mesh.triangles, np.int64)
+    array("triangles", mesh.cells, np.int64)           # (the 2D name kept: fingerprints stay as they were)
     tags = sorted(mesh.tags)
     text(len(tags))
     for tag in tags:
         array(f"tag {tag}", mesh.boundary(tag), np.int64)
     text(type(mat).__name__)
-    for key in ("c", "e", "kappa"):
+    for key in ("c", "e", "kappa") + (("c3", "e3", "kappa3") if getattr(mesh, "dim", 2) == 3 else ()):
         array(key, getattr(mat, key, None), np.float64)
     # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),

@@ -1,17 +1,25 @@
-"""Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in plane strain (default)
-or plane stress (``material.plane_stress()``), poling axis along +y or turned (``material.rotated(angle)``).
+"""Constitutive laws: piezoelectric (stress-charge form) and isotropic elastic, in 3D and in their plane
+reductions (plane strain by default, plane stress with ``material.plane_stress()``), poling axis along the
+last axis (z in 3D, y in 2D) or turned (``material.rotated(R)``: a 3x3 rotation, or an angle in 2D).
 
-The 2D model plane is the crystal's (x1, x3) plane, poling axis x3 along +y.
-Strain vector (eps11, eps33, 2 eps13), field vector (E1, E3) (docs/formulation.md §6,
-docs/materials.md §3):
+3D (docs/materials.md §3): Voigt order (xx, yy, zz, yz, xz, xy), engineering shear strains, field (Ex, Ey, Ez):
 
     sigma = c eps - e^T E,     D = e eps + kappa E,     E = -grad(phi)
 
+    c (6, 6) Pa, hexagonal 6mm: c11, c12, c13, c33, c44 and c66 = (c11 - c12) / 2
+    e (3, 6) C/m^2: e15 at (x, xz) and (y, yz); e31 at (z, xx), (z, yy); e33 at (z, zz)
+    kappa = diag(eps11, eps11, eps33) (F/m, clamped permittivities)
+
+(``material.c3``, ``e3``, ``kappa3``; ``material.tensors(dim)``). The 2D model plane is the crystal's
+(x1, x3) plane (2D y = 3D z): the plane-strain matrices ``c`` (3, 3), ``e`` (2, 3), ``kappa`` (2, 2) are the
+rows and columns (xx, zz, xz) of c, the rows (D_x, D_z) and those columns of e, the (x, z) block of kappa:
+
     c = [[c11, c13, 0], [c13, c33, 0], [0, 0, c44]]     (Pa)
     e = [[0, 0, e15], [e31, e33, 0]]                     (C/m^2, rows D1, D3)
-    kappa = diag(eps11, eps33)                           (F/m, clamped permittivities)
+    kappa = diag(eps11, eps33)                           (F/m)
 
-``c12`` enters only the out-of-plane stress sigma22 and is kept for output.
+``c12`` enters the plane problem only through the out-of-plane stress sigma22. A material given by its
+plane constants alone (no ``c12``, or 2D matrices) has no 3D tensors: a 3D body refuses it.
 Built-in constants: ``docs/materials.md`` §1 (Berlincourt et al.; IEEE Std 176).
 """
 
@@ -22,19 +30,26 @@ from numpy.typing import ArrayLike
 
 from ..errors import Frozen, MaterialError
 
-__all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3"]
+__all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3", "hexagonal",
+           "bond_matrix"]
 
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity, F/m."""
 
 
-class Piezoelectric(Frozen):
-    """Piezoelectric material, plane-strain reduction in the poling plane.
+_PLANE = np.array([0, 2, 4])               # the 3D Voigt indices (xx, zz, xz) of the 2D strain (xx, yy, xy)
+_PLANE_FIELD = np.array([0, 2])            # the 3D field components (x, z) of the 2D field (x, y)
 
-    Give either the hexagonal (6mm) constants ``c11, c13, c33, c44`` (Pa),
-    ``e31, e33, e15`` (C/m^2), ``eps11, eps33`` (F/m) and optionally ``c12`` (Pa), or
-    use :meth:`from_matrices` for general plane constants. A material is immutable (read-only arrays;
-    assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`).
+
+class Piezoelectric(Frozen):
+    """Piezoelectric material: its 3D tensors and their plane-strain reduction in the poling plane.
+
+    Give either the hexagonal (6mm) constants ``c11, c13, c33, c44`` (Pa), ``e31, e33, e15`` (C/m^2),
+    ``eps11, eps33`` (F/m) and ``c12`` (Pa; without it the material is 2D only), or use
+    :meth:`from_matrices` for general 3D or plane constants. ``c``, ``e``, ``kappa``: the plane matrices;
+    ``c3``, ``e3``, ``kappa3``: the 3D tensors (None for a 2D-only material); :meth:`tensors` gives those of a
+    dimension. A material is immutable (read-only arrays; assigning an attribute raises
+    :class:`~cvxcontact.errors.FrozenError`).
     """
 
     piezoelectric = True
@@ -48,32 +63,41 @@ class Piezoelectric(Frozen):
         if missing:
             raise MaterialError(f"material {name!r}: missing constant(s) {missing}")
         v = {k: _real(val, k, name) for k, val in given.items()}
-        c = [[v["c11"], v["c13"], 0.0], [v["c13"], v["c33"], 0.0], [0.0, 0.0, v["c44"]]]
-        e = [[0.0, 0.0, v["e15"]], [v["e31"], v["e33"], 0.0]]
-        kappa = [[v["eps11"], 0.0], [0.0, v["eps33"]]]
-        if c12 is not None:
-            c12 = _real(c12, "c12", name)
-            if not (v["c11"] > abs(c12) and (v["c11"] + c12) * v["c33"] > 2 * v["c13"] ** 2):
-                raise MaterialError(f"material {name!r}: the 3D elasticity tensor (c11, c12, c13, c33) "
-                                    "is not positive definite")
-        self._setup(c, e, kappa, name, c12)
+        if c12 is None:                     # plane constants only: 2D
+            c = [[v["c11"], v["c13"], 0.0], [v["c13"], v["c33"], 0.0], [0.0, 0.0, v["c44"]]]
+            e = [[0.0, 0.0, v["e15"]], [v["e31"], v["e33"], 0.0]]
+            kappa = [[v["eps11"], 0.0], [0.0, v["eps33"]]]
+            self._setup(c, e, kappa, name, None)
+            return
+        c12 = _real(c12, "c12", name)
+        if not (v["c11"] > abs(c12) and (v["c11"] + c12) * v["c33"] > 2 * v["c13"] ** 2):
+            raise MaterialError(f"material {name!r}: the 3D elasticity tensor (c11, c12, c13, c33) "
+                                "is not positive definite")
+        self._setup(*hexagonal(v["c11"], c12, v["c13"], v["c33"], v["c44"], v["e31"], v["e33"], v["e15"],
+                               v["eps11"], v["eps33"]), name, c12)
 
     @classmethod
     def from_matrices(cls, c: ArrayLike, e: ArrayLike, kappa: ArrayLike, name: str = "piezoelectric") -> Piezoelectric:
-        """Material from plane matrices: ``c`` (3, 3) Pa, ``e`` (2, 3) C/m^2, ``kappa`` (2, 2) F/m."""
+        """Material from 3D tensors, ``c`` (6, 6) Pa, ``e`` (3, 6) C/m^2, ``kappa`` (3, 3) F/m (Voigt order
+        of the module docstring), or from plane matrices, ``c`` (3, 3), ``e`` (2, 3), ``kappa`` (2, 2)
+        (then 2D only)."""
         obj = cls.__new__(cls)
         obj._setup(c, e, kappa, name, None)
         return obj
 
     def _setup(self, c, e, kappa, name, c12):
+        c3 = e3 = k3 = None
+        if np.shape(c) == (6, 6):
+            c3 = _matrix(c, (6, 6), "c", name, spd=True)
+            e3 = _matrix(e, (3, 6), "e", name, spd=False)
+            k3 = _matrix(kappa, (3, 3), "kappa", name, spd=True)
+            c, e, kappa = c3[np.ix_(_PLANE, _PLANE)], e3[np.ix_(_PLANE_FIELD, _PLANE)], k3[np.ix_(_PLANE_FIELD,
+                                                                                                _PLANE_FIELD)]
         c = _matrix(c, (3, 3), "c", name, spd=True)
         e = _matrix(e, (2, 3), "e", name, spd=False)
         kappa = _matrix(kappa, (2, 2), "kappa", name, spd=True)
-        # out-of-plane row (x2 of the crystal): sigma_zz = a . eps - b . E with C_zz = c22 (hexagonal: c11)
-        hexagonal = c12 is not None and np.allclose(c[:2, 2], 0.0) and e[1, 2] == 0.0
-        self._set(c=c, e=e, kappa=kappa, name=str(name), c12=c12, plane="strain", angle=0.0,
-                  out_of_plane=_row((np.array([c12, c[0, 1], 0.0]), float(c[0, 0]), np.array([0.0, e[1, 0]]))
-                                    if hexagonal else None))
+        self._set(c=c, e=e, kappa=kappa, c3=c3, e3=e3, kappa3=k3, name=str(name), c12=c12, plane="strain",
+                  angle=0.0, rotation=_IDENTITY, out_of_plane=_out_of_plane(c3, e3))
 
     def _frozen_hint(self, name: str) -> str:
         return _MATERIAL_HINT
@@ -81,20 +105,37 @@ class Piezoelectric(Frozen):
     def __repr__(self):
         return f"Piezoelectric({self.name!r})"
 
-    def rotated(self, angle: float) -> Piezoelectric:
-        """The material turned by ``angle`` (radians, counter-clockwise) in the model plane: c, e and
-        kappa (and the out-of-plane row) rotated as tensors; the poling axis points along
-        (-sin angle, cos angle). ``rotated(0)`` equals the material."""
-        angle = _real(angle, "angle", self.name)
+    def tensors(self, dim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(c, e, kappa) of a ``dim``-dimensional body: the 3D tensors (dim 3) or the plane matrices (dim 2)."""
+        return _tensors(self, dim, (self.c, self.e, self.kappa), (self.c3, self.e3, self.kappa3))
+
+    def rotated(self, rotation: float | ArrayLike) -> Piezoelectric:
+        """The material turned by ``rotation``: a 3x3 rotation matrix R (its columns the turned axes; the
+        poling axis points along R's last column; c' = M c M^T, e' = R e M^T, kappa' = R kappa R^T with M the
+        Bond stress matrix of R, and the plane matrices the reduction of the turned tensors), or an angle
+        (radians, counter-clockwise in the 2D model plane: c, e and kappa (and the out-of-plane row) rotated
+        as plane tensors, the poling axis along (-sin angle, cos angle); the 3D tensors turned about the
+        crystal's x2 axis accordingly). ``rotated(0)`` equals the material."""
+        R = _rotation(rotation, self)
+        if R is not None:
+            c3, e3, k3 = _rotate3(R, self.c3, self.e3, self.kappa3)
+            obj = Piezoelectric.from_matrices(c3, e3, k3, name=self.name)
+            obj._set(c12=self.c12, angle=self.angle, rotation=_frozen_rotation(R @ self.rotation))
+            return obj
+        angle = _real(rotation, "angle", self.name)
         c, e, kappa, out = _rotate(self.c, self.e, self.kappa, self.out_of_plane, angle)
         obj = Piezoelectric.from_matrices(c, e, kappa, name=self.name)
-        obj._set(c12=self.c12, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle)
+        R = _plane_rotation(angle)
+        c3, e3, k3 = _rotate3(R, self.c3, self.e3, self.kappa3) if self.c3 is not None else (None, None, None)
+        obj._set(c12=self.c12, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle,
+                 rotation=_frozen_rotation(R @ self.rotation), c3=_read_only(c3), e3=_read_only(e3),
+                 kappa3=_read_only(k3))
         return obj
 
     def plane_stress(self) -> Piezoelectric:
         """The plane-stress reduction (sigma_zz = 0 through the thickness; the default is plane strain,
-        eps_zz = 0). Needs the out-of-plane constants (``c12``): with a = C_z,plane, c22 = C_zz and
-        b = e_plane,z, c' = c - a a^T / c22, e' = e - b a^T / c22, kappa' = kappa + b b^T / c22."""
+        eps_zz = 0), a 2D-only material. Needs the out-of-plane constants (``c12``): with a = C_z,plane,
+        c22 = C_zz and b = e_plane,z, c' = c - a a^T / c22, e' = e - b a^T / c22, kappa' = kappa + b b^T / c22."""
         if self.plane == "stress":
             return self
         if self.out_of_plane is None:
@@ -103,23 +144,31 @@ class Piezoelectric(Frozen):
         a, c22, b = self.out_of_plane
         obj = Piezoelectric.from_matrices(self.c - np.outer(a, a) / c22, self.e - np.outer(b, a) / c22,
                                           self.kappa + np.outer(b, b) / c22, name=self.name)
-        obj._set(c12=self.c12, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle)
+        obj._set(c12=self.c12, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle,
+                 rotation=self.rotation)
         return obj
 
 
 class Elastic(Frozen):
-    """Linear elastic material in plane strain, ``c`` (3, 3) in Pa; carries no electric unknowns.
-    Immutable, as :class:`Piezoelectric`."""
+    """Linear elastic material, ``c`` (6, 6) in Pa (3D, Voigt order of the module docstring; the plane
+    matrix its (xx, zz, xz) block) or (3, 3) (plane strain only); carries no electric unknowns. Immutable,
+    as :class:`Piezoelectric`."""
 
     piezoelectric = False
 
     def __init__(self, c: ArrayLike, name: str = "elastic", E: float | None = None, nu: float | None = None) -> None:
-        out = None
-        if E is not None and nu is not None:
+        c3 = None
+        if np.shape(c) == (6, 6):
+            c3 = _matrix(c, (6, 6), "c", name, spd=True)
+            c = c3[np.ix_(_PLANE, _PLANE)]
+        out = _out_of_plane(c3, None)
+        if out is None and E is not None and nu is not None:
             lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-            out = (np.array([lam, lam, 0.0]), lam + 2 * mu, None)
-        self._set(c=_matrix(c, (3, 3), "c", name, spd=True), name=str(name), E=E, nu=nu, plane="strain", angle=0.0,
-                  out_of_plane=_row(out))
+            out = _row((np.array([lam, lam, 0.0]), lam + 2 * mu, None))
+        self._set(c=_matrix(c, (3, 3), "c", name, spd=True), c3=c3, name=str(name), E=E, nu=nu, plane="strain",
+                  angle=0.0, rotation=_IDENTITY, out_of_plane=out)
+
+    e = kappa = e3 = kappa3 = None
 
     def _frozen_hint(self, name: str) -> str:
         return _MATERIAL_HINT
@@ -127,18 +176,32 @@ class Elastic(Frozen):
     def __repr__(self):
         return f"Elastic({self.name!r})"
 
-    def rotated(self, angle: float) -> Elastic:
-        """The material turned by ``angle`` (radians, counter-clockwise) in the model plane (c rotated as
-        a tensor; an isotropic material is unchanged up to rounding)."""
-        angle = _real(angle, "angle", self.name)
+    def tensors(self, dim: int) -> tuple[np.ndarray, None, None]:
+        """(c, None, None) of a ``dim``-dimensional body: the 3D tensor (dim 3) or the plane matrix (dim 2)."""
+        return _tensors(self, dim, (self.c, None, None), (self.c3, None, None))
+
+    def rotated(self, rotation: float | ArrayLike) -> Elastic:
+        """The material turned by ``rotation`` (a 3x3 rotation matrix, or an angle in radians in the 2D
+        model plane; see :meth:`Piezoelectric.rotated`): c rotated as a tensor (an isotropic material is
+        unchanged up to rounding)."""
+        R = _rotation(rotation, self)
+        if R is not None:
+            obj = Elastic(_rotate3(R, self.c3)[0], name=self.name)
+            obj._set(E=self.E, nu=self.nu, angle=self.angle, rotation=_frozen_rotation(R @ self.rotation))
+            return obj
+        angle = _real(rotation, "angle", self.name)
         c, _, _, out = _rotate(self.c, None, None, self.out_of_plane, angle)
         obj = Elastic(c, name=self.name)
-        obj._set(E=self.E, nu=self.nu, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle)
+        R = _plane_rotation(angle)
+        obj._set(E=self.E, nu=self.nu, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle,
+                 rotation=_frozen_rotation(R @ self.rotation),
+                 c3=_read_only(_rotate3(R, self.c3)[0]) if self.c3 is not None else None)
         return obj
 
     def plane_stress(self) -> Elastic:
         """The plane-stress reduction c - a a^T / c22 (isotropic: E/(1-nu^2) [[1, nu, 0], [nu, 1, 0],
-        [0, 0, (1-nu)/2]]); needs the out-of-plane constants (a material from :func:`isotropic`)."""
+        [0, 0, (1-nu)/2]]), a 2D-only material; needs the out-of-plane constants (a material from
+        :func:`isotropic`)."""
         if self.plane == "stress":
             return self
         if self.out_of_plane is None:
@@ -146,12 +209,112 @@ class Elastic(Frozen):
                                 "it with isotropic(E, nu)")
         a, c22, _ = self.out_of_plane
         obj = Elastic(self.c - np.outer(a, a) / c22, name=self.name)
-        obj._set(E=self.E, nu=self.nu, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle)
+        obj._set(E=self.E, nu=self.nu, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle,
+                 rotation=self.rotation)
         return obj
 
 
-_MATERIAL_HINT = ("build a new material (Piezoelectric(...), isotropic(E, nu), material.rotated(angle), "
+_MATERIAL_HINT = ("build a new material (Piezoelectric(...), isotropic(E, nu), material.rotated(R or angle), "
                   "material.plane_stress()) and a body with body.with_changes(material=...)")
+
+
+def hexagonal(c11, c12, c13, c33, c44, e31, e33, e15, eps11, eps33):
+    """The 3D tensors (c (6, 6), e (3, 6), kappa (3, 3)) of a hexagonal (6mm) material poled along z
+    (module docstring; c66 = (c11 - c12) / 2)."""
+    c = np.zeros((6, 6))
+    c[:3, :3] = [[c11, c12, c13], [c12, c11, c13], [c13, c13, c33]]
+    c[3, 3] = c[4, 4] = c44
+    c[5, 5] = 0.5 * (c11 - c12)
+    e = np.zeros((3, 6))
+    e[0, 4] = e[1, 3] = e15
+    e[2, :3] = [e31, e31, e33]
+    return c, e, np.diag([eps11, eps11, eps33])
+
+
+def _tensors(mat, dim, plane, solid):
+    if dim == 2:
+        return plane
+    if dim != 3:
+        raise MaterialError(f"material {mat.name!r}: tensors(dim) takes dim 2 or 3, got {dim!r}")
+    if solid[0] is None:
+        why = ("is a plane-stress reduction (2D only)" if mat.plane == "stress" else
+               "was given by its plane constants only: give c12 (Piezoelectric(..., c12=...)), 3D matrices "
+               "(from_matrices with c (6, 6)), or use isotropic(E, nu) or a built-in material")
+        raise MaterialError(f"material {mat.name!r} has no 3D constants: it {why}")
+    return solid
+
+
+def _out_of_plane(c3, e3):
+    """The out-of-plane row (a, c22, b) of the plane reduction from the 3D tensors (crystal axis x2 = 3D y):
+    a = c[yy, (xx, zz, xz)], c22 = c[yy, yy], b = e[(x, z), yy]; None without 3D tensors."""
+    if c3 is None:
+        return None
+    return _row((c3[1, _PLANE], float(c3[1, 1]), None if e3 is None else e3[_PLANE_FIELD, 1]))
+
+
+_IDENTITY = np.eye(3)
+_IDENTITY.setflags(write=False)
+_VOIGT = np.array([(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)])     # 3D Voigt pairs (xx, yy, zz, yz, xz, xy)
+
+
+def bond_matrix(R) -> np.ndarray:
+    """The 6x6 Bond stress matrix M of a rotation R (Auld, Acoustic Fields and Waves in Solids, vol. 1,
+    ch. 3): sigma'_I = M_IJ sigma_J for sigma'_ij = R_ik R_jl sigma_kl in the Voigt order of the module
+    docstring, M_IJ = (R_ik R_jl + R_il R_jk) / (1 + delta_kl) with I = (i, j), J = (k, l)."""
+    R = np.asarray(R, dtype=float)
+    i, j = _VOIGT[:, 0][:, None], _VOIGT[:, 1][:, None]
+    k, l = _VOIGT[:, 0][None, :], _VOIGT[:, 1][None, :]
+    return (R[i, k] * R[j, l] + R[i, l] * R[j, k]) / np.where(k == l, 2.0, 1.0)
+
+
+def _rotate3(R, c, e=None, kappa=None):
+    """The 3D tensors turned by R: c' = M c M^T, e' = R e M^T, kappa' = R kappa R^T (symmetrised)."""
+    M = bond_matrix(R)
+    c2 = M @ c @ M.T
+    out = [0.5 * (c2 + c2.T)]
+    if e is not None:
+        k2 = R @ kappa @ R.T
+        out += [R @ e @ M.T, 0.5 * (k2 + k2.T)]
+    return tuple(out) + (None,) * (3 - len(out))
+
+
+def _plane_rotation(angle):
+    """The 3D rotation of a 2D rotation by ``angle`` in the model plane (x, y) = the crystal's (x, z)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+
+
+def _rotation(rotation, mat):
+    """A checked 3x3 rotation matrix, or None for a scalar angle."""
+    if _isnum(rotation):
+        return None
+    try:
+        R = np.array(rotation, dtype=float)
+    except (TypeError, ValueError):
+        R = None
+    if R is None or R.shape != (3, 3) or not np.isfinite(R).all():
+        raise MaterialError(f"material {mat.name!r}: rotated() takes a 3x3 rotation matrix or an angle in radians "
+                            f"(2D), got {rotation!r}")
+    dev = float(np.abs(R.T @ R - np.eye(3)).max())
+    if dev > 1e-9 or np.linalg.det(R) < 0:
+        raise MaterialError(f"material {mat.name!r}: rotated() needs a proper rotation matrix (R^T R = I, det R = +1); "
+                            f"got |R^T R - I| = {dev:.3g}, det R = {np.linalg.det(R):.6g}")
+    if mat.c3 is None:
+        _tensors(mat, 3, None, (None,))             # the MaterialError naming why there are no 3D constants
+    return R
+
+
+def _frozen_rotation(R):
+    R = np.array(R, dtype=float)
+    R.setflags(write=False)
+    return R
+
+
+def _read_only(a):
+    if a is not None:
+        a = np.array(a, dtype=float)
+        a.setflags(write=False)
+    return a
 
 
 def _row(out):
@@ -196,13 +359,18 @@ def _rotate(c, e, kappa, out, angle):
 
 
 def isotropic(E: float, nu: float, name: str | None = None) -> Elastic:
-    """Isotropic elastic material, Young's modulus ``E`` (Pa) and Poisson ratio ``nu``, plane strain."""
+    """Isotropic elastic material, Young's modulus ``E`` (Pa) and Poisson ratio ``nu``: the 3D tensor
+    (lambda + 2 mu on the normal diagonal, lambda off it, mu on the shear diagonal) and its plane-strain
+    reduction."""
     label = name or f"isotropic(E={E:g}, nu={nu:g})" if _isnum(E) and _isnum(nu) else "isotropic"
     E, nu = _real(E, "E", label), _real(nu, "nu", label)
     if E <= 0 or not -1.0 < nu < 0.5:
         raise MaterialError(f"material {label!r}: need E > 0 and -1 < nu < 0.5, got E={E!r}, nu={nu!r}")
     lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-    c = [[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]]
+    c = np.zeros((6, 6))
+    c[:3, :3] = lam
+    c[[0, 1, 2], [0, 1, 2]] = lam + 2 * mu
+    c[[3, 4, 5], [3, 4, 5]] = mu
     return Elastic(c, name=label, E=E, nu=nu)
 
 

@@ -15,6 +15,10 @@ Force control (``force=(fx, fy)``, N/m; docs/formulation.md §12): the obstacle'
 an unknown with that prescribed resultant; the condition becomes u^a . nu^a <= g(x) - c(x) . t with
 c = n / (-nu^a . n) (:meth:`Rigid.sensitivity`) and :func:`obstacle_rows` checks, before solving,
 that compressive contact can balance the force.
+
+In 3D (an obstacle built from 3-vectors: :meth:`Rigid.plane`, :meth:`Rigid.sphere`,
+:meth:`Rigid.cylinder`, :meth:`Rigid.height_field`) the same holds with points, normals, translations
+and the force (N) in R^3; ``Rigid.dim`` says which.
 """
 
 from __future__ import annotations
@@ -33,25 +37,35 @@ from ..errors import Frozen, SceneError
 __all__ = ["Contact", "Rigid", "ObstacleRows", "obstacle_rows"]
 
 
-def _point(value, label) -> np.ndarray:
+_WORDS = {2: "two", 3: "three"}
+
+
+def _point(value, label, dims=(2,)) -> np.ndarray:
+    """A read-only vector of one of the lengths ``dims`` (2 in the plane, 3 in space)."""
+    want = " or ".join(_WORDS[d] for d in dims)
     try:
         p = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise SceneError(f"{label}: expected two real numbers (m), got {value!r}") from None
-    if p.shape != (2,) or not np.isfinite(p).all() or isinstance(value, (str, bytes)):
-        raise SceneError(f"{label}: expected two finite real numbers, got {value!r}")
+        raise SceneError(f"{label}: expected {want} real numbers (m), got {value!r}") from None
+    if p.ndim != 1 or len(p) not in dims or not np.isfinite(p).all() or isinstance(value, (str, bytes)):
+        raise SceneError(f"{label}: expected {want} finite real numbers, got {value!r}")
     p.setflags(write=False)
     return p
 
 
-def _force(force, kind) -> np.ndarray | None:
-    """The prescribed resultant of a force-controlled obstacle (N/m), or None (fixed obstacle)."""
+def _fmt(v) -> str:
+    return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
+
+
+def _force(force, kind, dim=2) -> np.ndarray | None:
+    """The prescribed resultant of a force-controlled obstacle (N/m in 2D, N in 3D), or None (fixed)."""
     if force is None:
         return None
-    F = _point(force, f"Rigid.{kind}: force")
+    F = _point(force, f"Rigid.{kind}: force", (dim,))
     if not np.linalg.norm(F) > 0:
-        raise SceneError(f"Rigid.{kind}(force=(0, 0)): a zero force holds the obstacle nowhere (its position is "
-                         "undetermined); give a non-zero force (N/m) pressing it onto the bodies, or no force "
+        unit = "N/m" if dim == 2 else "N"
+        raise SceneError(f"Rigid.{kind}(force={_fmt(F)}): a zero force holds the obstacle nowhere (its position is "
+                         f"undetermined); give a non-zero force ({unit}) pressing it onto the bodies, or no force "
                          "(a fixed obstacle)")
     return F
 
@@ -59,11 +73,13 @@ def _force(force, kind) -> np.ndarray | None:
 class Rigid(Frozen):
     """A rigid obstacle: analytic (no mesh), fixed in space or, with ``force=(fx, fy)`` (N/m), free to
     translate under that prescribed resultant (force control, docs/formulation.md §12). Build with
-    :meth:`plane`, :meth:`circle` or :meth:`profile`; ``Rigid(kind, distance, describe)`` takes any
-    distance function (its sensitivity, if not given, by central differences).
+    :meth:`plane`, :meth:`circle` or :meth:`profile` in 2D, :meth:`plane`, :meth:`sphere`,
+    :meth:`cylinder` or :meth:`height_field` in 3D (``force=(fx, fy, fz)``, N); ``Rigid(kind, distance,
+    describe, dim=2)`` takes any distance function (its sensitivity, if not given, by central
+    differences). :attr:`dim` is 2 or 3.
 
-    ``distance(points, normal)`` gives, for nodes ``points`` (n, 2) of a straight part with unit
-    outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
+    ``distance(points, normal)`` gives, for nodes ``points`` (n, dim) of a straight (planar) part with
+    unit outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
     negative for a node already inside the obstacle (an interference), ``+inf`` where the ray
     misses it (the node is then left free).
 
@@ -75,27 +91,30 @@ class Rigid(Frozen):
 
     def __init__(self, kind: str, distance: Callable[[np.ndarray, np.ndarray], np.ndarray], describe: str,
                  sensitivity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                 force: Sequence[float] | None = None):
+                 force: Sequence[float] | None = None, *, dim: int = 2):
         if not callable(distance) or (sensitivity is not None and not callable(sensitivity)):
             raise SceneError(f"Rigid({kind!r}): distance (and sensitivity, if given) must be callables f(points, "
                              "normal)")
+        if isinstance(dim, bool) or dim not in (2, 3):
+            raise SceneError(f"Rigid({kind!r}): dim must be 2 or 3, got {dim!r}")
 
         def shape(p):                                        # the obstacle as given, translated by p (m)
             moved = bool(np.any(p != 0))
             dist = (lambda x, nu: distance(x - p, nu)) if moved else distance
             sens = sensitivity if sensitivity is None or not moved else (lambda x, nu: sensitivity(x - p, nu))
-            return dist, sens, str(describe), (f".moved(to=({p[0]:.6g}, {p[1]:.6g}))" if moved else "")
+            return dist, sens, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
 
-        self._build(str(kind), shape, np.zeros(2), _force(force, str(kind)))
+        self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim))
 
     def _build(self, kind, shape, position, force):
         """Set the fields: ``shape(position)`` gives (distance, sensitivity or None, description,
-        suffix of the description) of the obstacle with its reference point at ``position`` (m)."""
-        position = _point(position, f"Rigid.{kind}: position")
+        suffix of the description) of the obstacle with its reference point at ``position`` (m); the
+        obstacle's dimension is the length of ``position``."""
+        position = _point(position, f"Rigid.{kind}: position", (2, 3))
         distance, sensitivity, describe, suffix = shape(position)
         if force is not None:
-            describe = describe[:-1] + f", force=({force[0]:.6g}, {force[1]:.6g}))"
-        self._set(kind=kind, force=force, position=position, _shape=shape, _distance=distance,
+            describe = describe[:-1] + f", force={_fmt(force)})"
+        self._set(kind=kind, force=force, position=position, dim=len(position), _shape=shape, _distance=distance,
                   _sensitivity=sensitivity, _describe=describe + suffix)
 
     @classmethod
@@ -105,10 +124,14 @@ class Rigid(Frozen):
         return out
 
     force: np.ndarray | None
-    """The prescribed resultant (fx, fy) (N/m, read-only) of a force-controlled obstacle, or None (fixed)."""
+    """The prescribed resultant (fx, fy) (N/m; (fx, fy, fz) N in 3D, read-only) of a force-controlled
+    obstacle, or None (fixed)."""
     position: np.ndarray
-    """(2,) m, read-only: the obstacle's reference point, the plane's ``point``, the circle's ``center``, the
-    profile's ``origin`` (moved with it); (0, 0) for ``Rigid(kind, distance, describe)`` as given."""
+    """(dim,) m, read-only: the obstacle's reference point, the plane's ``point``, the circle's or sphere's
+    ``center``, the cylinder's ``point``, the profile's or height field's ``origin`` (moved with it); zero
+    for ``Rigid(kind, distance, describe)`` as given."""
+    dim: int
+    """2 (an obstacle of the (x1, x3) plane) or 3 (of space), the length of its points and force."""
 
     def _frozen_hint(self, name: str) -> str:
         if name == "force":
@@ -125,57 +148,113 @@ class Rigid(Frozen):
         if (by is None) == (to is None):
             raise SceneError(f"{self!r}.moved: give exactly one of by=(dx, dy) (a translation, m) or to=(x, y) "
                              "(the new reference point, m)")
-        target = _point(to, "Rigid.moved: to") if by is None else self.position + _point(by, "Rigid.moved: by")
+        d = (self.dim,)
+        target = _point(to, "Rigid.moved: to", d) if by is None else self.position + _point(by, "Rigid.moved: by", d)
         return self._made(self.kind, self._shape, target, self.force)
 
     def with_force(self, force: Sequence[float] | None) -> "Rigid":
         """The same obstacle at the same place under the prescribed resultant ``force`` = (fx, fy) (N/m,
         pressing it onto the bodies), or fixed in space with ``force=None``."""
-        return self._made(self.kind, self._shape, self.position, _force(force, self.kind))
+        return self._made(self.kind, self._shape, self.position, _force(force, self.kind, self.dim))
 
     def __repr__(self):
         return f"Rigid.{self._describe}"
 
     def sensitivity(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
-        """(n, 2): c(x) = n_o / (-nu . n_o) at each of ``points`` (dimensionless), n_o the obstacle's
+        """(n, dim): c(x) = n_o / (-nu . n_o) at each of ``points`` (dimensionless), n_o the obstacle's
         outward unit normal where the ray from x along ``normal`` nu meets it: a translation t (m) of
         the obstacle shortens the distance along nu by c(x) . t to first order (docs/formulation.md §12).
         Rows of nodes that miss the obstacle are 0."""
-        points = np.array(points, dtype=float)
-        points.setflags(write=False)
-        normal = np.asarray(normal, dtype=float)
+        points, normal = self._check(points, normal)
         if self._sensitivity is not None:
             return self._sensitivity(points, normal)
         # an obstacle given by its distance only: c = grad d by central differences (d_t(x) = d(x - t))
         h = 1e-7 * max(float(np.ptp(points)), float(np.abs(points).max(initial=0.0)), np.finfo(float).tiny)
         out = np.zeros_like(points)
-        for k in range(2):
-            step = np.zeros(2)
+        for k in range(self.dim):
+            step = np.zeros(self.dim)
             step[k] = h
             with np.errstate(invalid="ignore"):
                 out[:, k] = (self.distance(points + step, normal) - self.distance(points - step, normal)) / (2 * h)
         return np.where(np.isfinite(out), out, 0.0)
 
     def distance(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
-        """Distance (m) from each of ``points`` (n, 2) along the unit ``normal`` to the surface."""
+        """Distance (m) from each of ``points`` (n, dim) along the unit ``normal`` (dim,) to the surface."""
+        points, normal = self._check(points, normal)
+        return self._distance(points, normal)
+
+    def _check(self, points, normal):
+        """Read-only float copies of ``points`` (n, dim) and ``normal`` (dim,) (unit), or SceneError."""
         points = np.array(points, dtype=float)
+        normal = np.array(normal, dtype=float)
+        if points.ndim != 2 or points.shape[1] != self.dim or normal.shape != (self.dim,):
+            raise SceneError(f"{self!r}: expected points (n, {self.dim}) and a normal ({self.dim},) (m), got "
+                             f"shapes {points.shape} and {normal.shape}")
+        if not (np.isfinite(points).all() and np.isfinite(normal).all()):
+            raise SceneError(f"{self!r}: points and normal must be finite (no NaN or inf)")
+        if abs(np.linalg.norm(normal) - 1) > 1e-9:
+            raise SceneError(f"{self!r}: the normal {_fmt(normal)} must be a unit vector")
         points.setflags(write=False)
-        return self._distance(points, np.asarray(normal, dtype=float))
+        normal.setflags(write=False)
+        return points, normal
 
     @classmethod
     def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None) -> "Rigid":
-        """The half-plane {z : (z - point) . n <= 0}; ``normal`` n points out of the obstacle,
-        towards the body (normalised here). The body's part must face it: nu^a . n < 0. ``force``
-        (N/m): force control; only its component along n, pressing the plane onto the body, can be
-        balanced (frictionless), and only the translation along n is an unknown."""
-        F = _force(force, "plane")
-        p = _point(point, "Rigid.plane: point")
-        n = _point(normal, "Rigid.plane: normal")
+        """The half-plane (half-space in 3D) {z : (z - point) . n <= 0}; ``normal`` n points out of the
+        obstacle, towards the body (normalised here). ``point`` and ``normal`` are 2-vectors in the plane,
+        3-vectors in space. The body's part must face it: nu^a . n < 0. ``force`` (N/m; N in 3D): force
+        control; only its component along n, pressing the plane onto the body, can be balanced
+        (frictionless), and only the translation along n is an unknown."""
+        p = _point(point, "Rigid.plane: point", (2, 3))
+        n = _point(normal, "Rigid.plane: normal", (len(p),))
+        F = _force(force, "plane", len(p))
         if np.linalg.norm(n) == 0:
             raise SceneError("Rigid.plane: normal must not be zero")
         n = n / np.linalg.norm(n)
         n.setflags(write=False)
         return cls._made("plane", lambda p: _plane(p, n), p, F)
+
+    @classmethod
+    def sphere(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
+        """The ball of ``radius`` (m) around ``center`` (x, y, z) (m): a spherical indenter. Nodes whose
+        normal ray misses it are left free. ``force`` (fx, fy, fz) (N): force control."""
+        c = _point(center, "Rigid.sphere: center", (3,))
+        F = _force(force, "sphere", 3)
+        R = _radius(radius, "sphere")
+        return cls._made("sphere", lambda c: _ball(c, R, "sphere"), c, F)
+
+    @classmethod
+    def cylinder(cls, point: Sequence[float], axis: Sequence[float], radius: float, *,
+                 force: Sequence[float] | None = None) -> "Rigid":
+        """The infinite solid circular cylinder of ``radius`` (m) around the line through ``point`` (m)
+        along ``axis`` (3-vectors; the axis is normalised here): a roller in 3D. Nodes whose normal ray
+        misses it, or runs parallel to the axis, are left free. ``force`` (N): force control; a component
+        along the axis cannot be balanced (frictionless)."""
+        p = _point(point, "Rigid.cylinder: point", (3,))
+        a = _point(axis, "Rigid.cylinder: axis", (3,))
+        F = _force(force, "cylinder", 3)
+        R = _radius(radius, "cylinder")
+        if np.linalg.norm(a) == 0:
+            raise SceneError("Rigid.cylinder: axis must not be zero")
+        a = a / np.linalg.norm(a)
+        a.setflags(write=False)
+        return cls._made("cylinder", lambda p: _cylinder(p, a, R), p, F)
+
+    @classmethod
+    def height_field(cls, f: Callable[[np.ndarray, np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0, 0.0),
+                     *, force: Sequence[float] | None = None) -> "Rigid":
+        """The solid above the surface z = f(x - ox, y - oy) + oz (``origin`` (ox, oy, oz), m): an indenter
+        whose underside is the graph of ``f`` (e.g. ``f = lambda x, y: (x**2 + y**2) / (2 * R)``, a
+        paraboloid of tip radius R), pressing down on a body below it. ``f(x, y)`` is vectorised (arrays
+        of equal shape in, m out) and returns finite values, or ``+inf`` where there is no obstacle. The
+        distance along a body's normal nu (nu_z > 0) is the first root of z + d nu_z = f(...) along the
+        ray (closed form for a vertical normal, Newton's method otherwise); the slopes of the sensitivity
+        by central differences. ``force`` (N): force control. Moving the obstacle moves its origin."""
+        if not callable(f):
+            raise SceneError(f"Rigid.height_field: f must be a callable f(x, y) (m), got {type(f).__name__}")
+        o = _point(origin, "Rigid.height_field: origin", (3,))
+        F = _force(force, "height_field", 3)
+        return cls._made("height_field", lambda q: _height_field(f, q), o, F)
 
     @classmethod
     def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
@@ -207,44 +286,146 @@ class Rigid(Frozen):
 
 
 def _plane(p, n):
-    """The half-plane {z : (z - p) . n <= 0} (``n`` its unit normal, out of the obstacle): (distance,
-    sensitivity, description, suffix) as :meth:`Rigid._build` takes them."""
+    """The half-plane (half-space) {z : (z - p) . n <= 0} (``n`` its unit normal, out of the obstacle):
+    (distance, sensitivity, description, suffix) as :meth:`Rigid._build` takes them."""
 
     def distance(x, nu):
         c = float(nu @ n)
         if c >= -1e-12:
-            raise SceneError(f"Rigid.plane through ({p[0]:.6g}, {p[1]:.6g}) m with normal ({n[0]:.6g}, "
-                             f"{n[1]:.6g}) does not face the contact part, whose outward normal is "
-                             f"({nu[0]:.6g}, {nu[1]:.6g}); the plane's normal must point towards the body")
+            raise SceneError(f"Rigid.plane through {_fmt(p)} m with normal {_fmt(n)} does not face the contact "
+                             f"part, whose outward normal is {_fmt(nu)}; the plane's normal must point towards "
+                             "the body")
         return ((x - p) @ n) / (-c)
 
     def sensitivity(x, nu):
         return np.tile(n / (-float(nu @ n)), (len(x), 1))
 
-    return distance, sensitivity, f"plane(point=({p[0]:.6g}, {p[1]:.6g}), normal=({n[0]:.6g}, {n[1]:.6g}))", ""
+    return distance, sensitivity, f"plane(point={_fmt(p)}, normal={_fmt(n)})", ""
 
 
-def _circle(c, R):
-    """The disc of radius ``R`` (m) around ``c`` (m), as :func:`_plane`."""
+def _radius(radius, kind):
+    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(radius) or radius <= 0:
+        raise SceneError(f"Rigid.{kind}: radius must be a positive finite number (m), got {radius!r}")
+    return float(radius)
 
-    def distance(x, nu):
-        w = x - c
-        b = w @ nu
-        disc = b * b - (np.einsum("ij,ij->i", w, w) - R * R)
-        root = np.sqrt(np.maximum(disc, 0.0))
-        hit = (disc >= 0) & (-b + root > 0)          # the ray enters the disc ahead or the node is inside
-        return np.where(hit, -b - root, np.inf)
+
+def _ray_sensitivity(distance, outward):
+    """c(x) = n_o / (-nu . n_o) with n_o = ``outward(q)`` the obstacle's unit outward normal where the ray
+    from x along nu meets it (q, from ``distance``); 0 where it misses or grazes."""
 
     def sensitivity(x, nu):
         d = distance(x, nu)
         hit = np.isfinite(d)
-        q = x + np.where(hit, d, 0.0)[:, None] * nu                 # where the ray meets the circle
-        n_o = (q - c) / R                                            # the disc's outward normal there
+        n_o = outward(x + np.where(hit, d, 0.0)[:, None] * nu)
         den = -(n_o @ nu)
         ok = hit & (den > 1e-12)
         return np.where(ok[:, None], n_o / np.where(ok, den, 1.0)[:, None], 0.0)
 
-    return distance, sensitivity, f"circle(center=({c[0]:.6g}, {c[1]:.6g}), radius={R:.6g})", ""
+    return sensitivity
+
+
+def _quadratic_hit(a, b, c):
+    """The first root d of a d^2 + 2 b d + c = 0 (a > 0) ahead of the node or behind it inside the
+    obstacle (c < 0), +inf where the ray misses."""
+    disc = b * b - a * c
+    root = np.sqrt(np.maximum(disc, 0.0))
+    hit = (disc >= 0) & (-b + root > 0) & (a > 0)     # the ray enters ahead or the node is inside
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(hit, (-b - root) / np.where(a > 0, a, 1.0), np.inf)
+
+
+def _ball(c, R, kind):
+    """The disc (2D) or ball (3D) of radius ``R`` (m) around ``c`` (m), as :func:`_plane`."""
+
+    def distance(x, nu):
+        w = x - c
+        return _quadratic_hit(np.ones(len(w)), w @ nu, np.einsum("ij,ij->i", w, w) - R * R)
+
+    sensitivity = _ray_sensitivity(distance, lambda q: (q - c) / R)
+    return distance, sensitivity, f"{kind}(center={_fmt(c)}, radius={R:.6g})", ""
+
+
+def _circle(c, R):
+    """The disc of radius ``R`` (m) around ``c`` (m), as :func:`_plane`."""
+    return _ball(c, R, "circle")
+
+
+def _cylinder(p, axis, R):
+    """The solid cylinder of radius ``R`` (m) around the line through ``p`` along the unit ``axis``."""
+
+    def across(v):                                          # the components normal to the axis
+        return v - np.multiply.outer(v @ axis, axis)
+
+    def distance(x, nu):
+        w, v = across(x - p), across(nu)
+        a = np.full(len(w), float(v @ v))
+        a = np.where(a > 1e-24, a, 0.0)                     # a ray along the axis misses
+        return _quadratic_hit(a, w @ v, np.einsum("ij,ij->i", w, w) - R * R)
+
+    sensitivity = _ray_sensitivity(distance, lambda q: across(q - p) / R)
+    return distance, sensitivity, f"cylinder(point={_fmt(p)}, axis={_fmt(axis)}, radius={R:.6g})", ""
+
+
+def _height_field(f, o):
+    """The solid above z = f(x - o_x, y - o_y) + o_z (m), as :func:`_plane`."""
+
+    def surface(xy):
+        X, Y = xy[:, 0] - o[0], xy[:, 1] - o[1]
+        X.setflags(write=False)
+        Y.setflags(write=False)
+        try:
+            z = np.array(f(X, Y))
+        except Exception as exc:
+            raise SceneError(f"Rigid.height_field: calling f failed: {exc}") from exc
+        if z.dtype.kind not in "iuf":
+            raise SceneError(f"Rigid.height_field: f returned values of type {z.dtype}, expected real numbers")
+        try:
+            z = np.broadcast_to(z.astype(float), X.shape).copy()
+        except ValueError:
+            raise SceneError(f"Rigid.height_field: f returned shape {z.shape}, expected {X.shape}") from None
+        if np.isnan(z).any() or (z == -np.inf).any():
+            raise SceneError("Rigid.height_field: f returned NaN or -inf; use +inf where there is no obstacle")
+        return z + o[2]
+
+    def slopes(xy):
+        h = 1e-6 * max(float(np.ptp(xy)), float(np.abs(xy - o[:2]).max(initial=0.0)), np.finfo(float).tiny)
+        out = np.empty_like(xy)
+        for k in range(2):
+            step = np.zeros(2)
+            step[k] = h
+            with np.errstate(invalid="ignore"):
+                out[:, k] = (surface(xy + step) - surface(xy - step)) / (2 * h)
+        return out
+
+    def distance(x, nu):
+        if nu[2] <= 1e-12:
+            raise SceneError(f"Rigid.height_field(origin={_fmt(o)}) lies above its surface, so it does not face "
+                             f"a contact part whose outward normal is {_fmt(nu)}: the part must face up (nu_z > 0)")
+        d = (surface(x[:, :2]) - x[:, 2]) / nu[2]           # exact for a vertical normal
+        if abs(nu[2] - 1) > 1e-15:
+            for _ in range(50):                            # Newton on phi(d) = z + d nu_z - f(x + d nu)
+                live = np.isfinite(d)
+                q = x[live] + d[live, None] * nu
+                phi = q[:, 2] - surface(q[:, :2])
+                dphi = nu[2] - slopes(q[:, :2]) @ nu[:2]
+                step = np.where(np.isfinite(phi) & (np.abs(dphi) > 1e-12), phi / np.where(dphi != 0, dphi, 1), np.inf)
+                d[live] = np.where(np.isfinite(step), d[live] - step, np.inf)   # no root on this ray: a miss
+                if (np.abs(step[np.isfinite(step)]) <= 1e-12 * (1 + np.abs(d[live][np.isfinite(step)]))).all():
+                    break
+            else:
+                raise SceneError(f"Rigid.height_field(origin={_fmt(o)}): Newton's method did not find where the "
+                                 f"normal {_fmt(nu)} meets the surface in 50 steps; use a smoother f or a part "
+                                 "facing straight up")
+        return d
+
+    def outward(q):                                        # out of the solid above: down the graph's normal
+        g = slopes(q[:, :2])
+        n = np.column_stack([g, -np.ones(len(q))])
+        return n / np.linalg.norm(n, axis=1)[:, None]
+
+    name = getattr(f, "__name__", type(f).__name__)
+    return distance, _ray_sensitivity(distance, outward), f"height_field({name}, origin={_fmt(o)})", ""
 
 
 def _profile(f, o, q):
@@ -311,6 +492,8 @@ class Contact(Frozen):
         None (default): the law given to ``solve``/``Model`` (itself Signorini by default). A scene may
         mix the two, against bodies and rigid obstacles alike.
 
+    Notes
+    -----
     A pair is immutable (assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`); a scene
     with other gaps, obstacles or bodies is built by :meth:`cvxcontact.Scene.with_gap`,
     :meth:`~cvxcontact.Scene.with_obstacles` or :meth:`~cvxcontact.Scene.with_bodies`.
@@ -386,13 +569,14 @@ class Contact(Frozen):
 class ObstacleRows:
     """One rigid obstacle of a scene and how its translation t (m) enters the stacked contact rows.
 
-    ``pairs`` are the indices (in ``scene.contacts``) of its pairs; ``rows`` (stack size, 2) the
+    ``pairs`` are the indices (in ``scene.contacts``) of its pairs; ``rows`` (stack size, dim) the
     sensitivities c(x) of :meth:`Rigid.sensitivity` at the stacked merged nodes (0 on other pairs'
     rows): with t the condition at a node reads u . nu <= g(x) - c(x) . t (docs/formulation.md §12).
-    ``force`` is the prescribed resultant (N/m) or None; for a force-controlled obstacle ``basis``
-    (2, k) spans the translations the contact can see (k = 1 when every c(x) is parallel, e.g. a
-    plane: its tangential translation changes nothing and is not an unknown; k = 2 otherwise), and
-    the unknowns are t = basis @ tau.
+    ``force`` is the prescribed resultant (N/m; N in 3D) or None; for a force-controlled obstacle
+    ``basis`` (dim, k) spans the translations the contact can see (k = 1 when every c(x) is parallel,
+    e.g. a plane: its tangential translations change nothing and are not unknowns; k = 2 for a 3D
+    cylinder, whose translations along its axis change nothing; k = dim otherwise), and the unknowns
+    are t = basis @ tau.
     """
 
     obstacle: Rigid
@@ -422,12 +606,13 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
         if c.rigid:
             seen.setdefault(id(c.other), (c.other, []))[1].append(i)
     for obstacle, pairs in seen.values():
-        rows = np.zeros((stack.size, 2))
+        dim = obstacle.dim
+        rows = np.zeros((stack.size, dim))
         for i in pairs:
             itf = scene.interfaces[i]
             rows[stack.offsets[i]:stack.offsets[i + 1]] = obstacle.sensitivity(itf.points, itf.normal)
         F = obstacle.force
-        basis = np.eye(2)
+        basis = np.eye(dim)
         if F is not None:
             label = f"{obstacle!r} (pairs {pairs})"
             scale = float(np.linalg.norm(rows, axis=1).max(initial=0.0))
@@ -437,25 +622,28 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
                                  "isolated nodes only), so no contact force can balance the prescribed force: give "
                                  "the obstacle a shape that faces the part around the nodes it reaches, or no force "
                                  "(a fixed obstacle)")
-            if sv[1] <= 1e-9 * sv[0]:                       # every c(x) parallel: one direction only
-                b = Vt[0] * np.sign(rows @ Vt[0])[np.argmax(np.abs(rows @ Vt[0]))]
-                basis = b[:, None]
-                side = np.array([-b[1], b[0]]) + 0.0
-                b = b + 0.0
-                if abs(F @ side) > 1e-9 * np.linalg.norm(F):
+            unit = "N/m" if dim == 2 else "N"
+            rank = int((sv > 1e-9 * sv[0]).sum())
+            if rank < dim:                                  # translations the contact does not see
+                basis = Vt[:rank].T * np.sign(rows @ Vt[:rank].T)[np.argmax(np.abs(rows @ Vt[:rank].T), axis=0),
+                                                                    np.arange(rank)]
+                off = F - basis @ (basis.T @ F)             # the force's part along the unseen translations
+                if np.linalg.norm(off) > 1e-9 * np.linalg.norm(F):
+                    side = off / np.linalg.norm(off) + 0.0
+                    along = "its normal " + _fmt(basis[:, 0] + 0.0) if rank == 1 else \
+                        "the directions " + ", ".join(_fmt(b + 0.0) for b in basis.T)
                     raise SceneError(
-                        f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m has a component {F @ side:.6g} N/m along "
-                        f"({side[0]:.6g}, {side[1]:.6g}), which frictionless contact cannot balance: the obstacle "
-                        f"is free to slide along ({side[0]:.6g}, {side[1]:.6g}); give a force along its normal "
-                        f"({b[0]:.6g}, {b[1]:.6g}) only")
+                        f"{label}: the force {_fmt(F)} {unit} has a component {np.linalg.norm(off):.6g} {unit} along "
+                        f"{_fmt(side)}, which frictionless contact cannot balance: the obstacle is free to slide "
+                        f"along {_fmt(side)}; give a force along {along} only")
             y, res = nnls(rows.T / scale, F)
             if res > 1e-9 * np.linalg.norm(F):
                 r = F - rows.T @ y / scale
-                r = r / np.linalg.norm(r)
+                r = r / np.linalg.norm(r) + 0.0
                 raise SceneError(
-                    f"{label}: the force ({F[0]:.6g}, {F[1]:.6g}) N/m pulls the obstacle away from the bodies "
+                    f"{label}: the force {_fmt(F)} {unit} pulls the obstacle away from the bodies "
                     f"(compressive contact forces cannot balance it): the obstacle is free to move along "
-                    f"({r[0]:.6g}, {r[1]:.6g}); give a force pressing it onto the bodies")
+                    f"{_fmt(r)}; give a force pressing it onto the bodies")
         basis = np.array(basis)
         basis.setflags(write=False)
         out.append(ObstacleRows(obstacle, tuple(pairs), sp.csr_matrix(rows), F, basis))

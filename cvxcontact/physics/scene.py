@@ -3,7 +3,9 @@
 Boundary parts follow the paper: Gamma_1 ``clamped`` (u = 0), Gamma_2 ``traction``
 (sigma nu = f2), Gamma_3 ``contact``, Gamma_a ``grounded`` (phi = 0) and, beyond the
 paper, ``potential`` electrodes (phi = V), Gamma_b ``surface_charge`` (D nu = q2). Loads are constants or vectorised callables of
-(x, y) in metres; they are checked for shape and finiteness where they are used.
+the coordinates in metres ((x, y) in 2D, (x, y, z) in 3D); they are checked for shape and finiteness where they are used.
+A body's dimension is its mesh's (``mesh.dim``): 2 for a :class:`~cvxcontact.geometry.mesh.Mesh`, 3 for a
+tetrahedral mesh; vectors (forces, tractions, displacements) have that many components.
 """
 
 from __future__ import annotations
@@ -29,8 +31,8 @@ class Body(Frozen):
 
     Parameters
     ----------
-    mesh : Mesh
-    material : Piezoelectric or Elastic
+    mesh : Mesh (2D) or a tetrahedral mesh (3D)
+    material : Piezoelectric or Elastic (a 3D body needs the material's 3D tensors: ``material.tensors(3)``)
     clamped : str or list of str
         Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
         displacement) must hold every rigid motion the contact does not (a SceneError names
@@ -45,19 +47,22 @@ class Body(Frozen):
         (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
         may be omitted; if given, it names the part that holds a body no support holds (see
         :meth:`free_motions`).
-    body_force : (2,) or callable f(x, y) -> (fx, fy), N/m^3
-    traction : dict tag -> (2,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
+    body_force : (dim,) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
+    traction : dict tag -> (dim,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
     volume_charge : float or callable, C/m^3 (q0 in div D = q0)
     name : str, optional
     roller : str or list of str
-        Straight parts where u . n = 0 (n the part's normal): sliding supports, symmetry planes.
-    displacement : dict tag -> (ux, uy), m
+        Straight (2D) or planar (3D) parts where u . n = 0 (n the part's normal): sliding supports,
+        symmetry planes.
+    displacement : dict tag -> (ux, uy) or (ux, uy, uz), m
         Prescribed displacement components; ``None`` leaves a component free.
     floating : dict tag -> float, C/m
         Floating electrodes: one unknown potential on the whole part and its total charge Q
         (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
 
+    Notes
+    -----
     Supports and electrodes enter the unknowns through the prolongation of
     docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
 
@@ -70,36 +75,40 @@ class Body(Frozen):
     def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
                  contact: str | None = None, grounded: str | Sequence[str] = (),
                  potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
-                 body_force: Sequence[float] | Callable[..., ArrayLike] = (0.0, 0.0),
+                 body_force: Sequence[float] | Callable[..., ArrayLike] | None = None,
                  traction: Mapping[str, Sequence[float] | Callable[..., ArrayLike]] | None = None,
                  surface_charge: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
                  volume_charge: float | Callable[..., ArrayLike] = 0.0, name: str | None = None,
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not isinstance(mesh, Mesh):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh, got {type(mesh).__name__}")
+        if not (isinstance(mesh, Mesh) or getattr(mesh, "dim", None) == 3):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh or a tetrahedral mesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):
             raise SceneError(f"name must be a string, got {name!r}")
-        self._set(mesh=mesh, material=material, name=name or "body", _named=name is not None)
+        self._set(mesh=mesh, material=material, name=name or "body", _named=name is not None, dim=int(mesh.dim))
+        if self.dim == 3:
+            material.tensors(3)                 # a MaterialError naming why a material has no 3D constants
+        dim = self.dim
         if contact is not None and not isinstance(contact, str):
             raise SceneError(f"{self.name}: contact must be one boundary tag (a string) or None, got {contact!r}")
         self._set(clamped=self._tags(clamped, "clamped"), grounded=self._tags(grounded, "grounded"),
                   contact=None if contact is None else self._tags(contact, "contact")[0],
                   roller=self._tags(roller, "roller"),
-                  body_force=Load(body_force, f"{self.name}: body_force", 2),
-                  volume_charge=Load(volume_charge, f"{self.name}: volume_charge", 1))
+                  body_force=Load(np.zeros(dim) if body_force is None else body_force, f"{self.name}: body_force",
+                                  dim, dim),
+                  volume_charge=Load(volume_charge, f"{self.name}: volume_charge", 1, dim))
         self._set(
-            traction=self._map("traction", {t: Load(v, f"{self.name}: traction[{t!r}]", 2)
+            traction=self._map("traction", {t: Load(v, f"{self.name}: traction[{t!r}]", dim, dim)
                                             for t, v in self._parts(traction, "traction").items()}),
-            surface_charge=self._map("surface_charge", {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1)
+            surface_charge=self._map("surface_charge", {t: Load(v, f"{self.name}: surface_charge[{t!r}]", 1, dim)
                                                         for t, v in self._parts(surface_charge,
                                                                                 "surface_charge").items()}),
-            potential=self._map("potential", {t: Load(v, f"{self.name}: potential[{t!r}]", 1)
+            potential=self._map("potential", {t: Load(v, f"{self.name}: potential[{t!r}]", 1, dim)
                                               for t, v in self._parts(potential, "potential").items()}),
-            displacement=self._map("displacement", {t: _prescribed(v, f"{self.name}: displacement[{t!r}]")
+            displacement=self._map("displacement", {t: _prescribed(v, f"{self.name}: displacement[{t!r}]", dim)
                                                     for t, v in self._parts(displacement, "displacement").items()}),
             floating=self._map("floating", {t: _charge(v, f"{self.name}: floating[{t!r}]")
                                             for t, v in self._parts(floating, "floating").items()}))
@@ -143,8 +152,8 @@ class Body(Frozen):
         return Body(args.pop("mesh"), args.pop("material"), **args)
 
     def with_loads(self, **loads) -> "Body":
-        """A new body with the same geometry and other loads: any of ``body_force`` ((2,) or f(x, y), N/m^3),
-        ``traction`` (tag -> (2,) or callable, N/m^2), ``surface_charge`` (tag -> C/m^2), ``volume_charge``
+        """A new body with the same geometry and other loads: any of ``body_force`` ((dim,) or f(x, y[, z]),
+        N/m^3), ``traction`` (tag -> (dim,) or callable, N/m^2), ``surface_charge`` (tag -> C/m^2), ``volume_charge``
         (C/m^3), ``potential`` (tag -> V; the same driven electrodes) and ``floating`` (tag -> Q, C/m; the
         same floating electrodes), as :class:`Body` takes them; each given field replaces the body's whole
         field, the others are kept. The :data:`~cvxcontact.physics.loads.LOAD_FIELDS`: a ContactSolver
@@ -275,31 +284,31 @@ class Body(Frozen):
         if touched.all():
             return
         c = int(np.argmin(touched))
-        inside = mesh.components == c
-        area = mesh.areas[inside]
-        centroid = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
-        raise SceneError(f"{self.name}: mesh component {c} ({int(inside.sum())} triangles, centroid at "
-                         f"({centroid[0]:.4g}, {centroid[1]:.4g}) m) {problem}; expected every one of the "
-                         f"{count} separate pieces of the mesh to touch one of {tags}")
+        raise SceneError(f"{self.name}: mesh component {c} ({_supports.component_description(self.mesh, c)}) "
+                         f"{problem}; expected every one of the {count} separate pieces of the mesh to touch one "
+                         f"of {tags}")
 
 
 def _straight_normal(body, tag):
-    """The unit outward normal of a straight boundary part; a SceneError if the part is not straight."""
+    """The unit outward normal of a straight (2D) or planar (3D) boundary part; a SceneError if it is not."""
     normals = body.mesh.outward_normals(tag)
     n = normals.mean(axis=0)
     n = n / np.linalg.norm(n)
     dev = float(np.abs(normals - n).max())
     if dev > 1e-9:
-        raise SceneError(f"{body.name}: roller part {tag!r} is not straight (its edge normals differ by up to "
-                         f"{dev:.3g}); a roller needs one normal direction (split the part into straight pieces)")
+        shape, piece, cells = ("straight", "straight pieces", "edge") if body.dim == 2 else ("planar", "planar pieces",
+                                                                                             "face")
+        raise SceneError(f"{body.name}: roller part {tag!r} is not {shape} (its {cells} normals differ by up to "
+                         f"{dev:.3g}); a roller needs one normal direction (split the part into {piece})")
     n.setflags(write=False)
     return n
 
 
-def _prescribed(value, label):
-    """(ux, uy) with floats (m) or None (free), checked."""
-    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != 2:
-        raise SceneError(f"{label}: expected a pair (ux, uy) of numbers (m) or None (free), got {value!r}")
+def _prescribed(value, label, dim=2):
+    """(ux, uy[, uz]) with floats (m) or None (free), checked."""
+    what = "a pair (ux, uy)" if dim == 2 else "a triple (ux, uy, uz)"
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or len(value) != dim:
+        raise SceneError(f"{label}: expected {what} of numbers (m) or None (free), got {value!r}")
     out = []
     for v in value:
         if v is None:
@@ -307,9 +316,10 @@ def _prescribed(value, label):
         elif _real_scalar(v) and np.isfinite(v):
             out.append(float(v))
         else:
-            raise SceneError(f"{label}: expected a pair (ux, uy) of finite numbers (m) or None, got {value!r}")
-    if out == [None, None]:
-        raise SceneError(f"{label}: both components are None (free): nothing is prescribed; remove the part")
+            raise SceneError(f"{label}: expected {what} of finite numbers (m) or None, got {value!r}")
+    if out == [None] * dim:
+        raise SceneError(f"{label}: {'both' if dim == 2 else 'all'} components are None (free): nothing is "
+                         "prescribed; remove the part")
     return tuple(out)
 
 
@@ -319,6 +329,21 @@ def _charge(value, label):
         raise SceneError(f"{label}: expected the total charge Q in C/m (a finite number, 0 = open circuit), "
                          f"got {value!r}")
     return float(value)
+
+
+def mesh_dim(body) -> int:
+    """2 for a triangle mesh, 3 for a tetrahedral one."""
+    return int(getattr(body.mesh, "dim", 2))
+
+
+def pair_interface(bodies, parts=None, obstacle=None):
+    """The contact geometry of one pair: a straight line in 2D (:class:`~cvxcontact.contact.interface.Interface`),
+    a planar surface in 3D (:class:`~cvxcontact.contact.surface.SurfaceInterface`)."""
+    parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
+    if mesh_dim(bodies[0]) == 3:
+        from ..contact.surface import SurfaceInterface
+        return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
+    return Interface(tuple(bodies), parts, obstacle=obstacle)
 
 
 def _refuse_unheld(scene):
@@ -347,21 +372,23 @@ def _disjoint(body, roles):
 
 
 class Load(Frozen):
-    """A constant or a vectorised callable of (x, y), evaluated and checked on demand.
+    """A constant or a vectorised callable of the coordinates ((x, y), or (x, y, z) for ``dim`` 3), evaluated
+    and checked on demand.
 
     Constants must be real numbers (booleans and complex numbers are refused) and are kept as
     read-only arrays; a load is immutable. A callable receives read-only copies of the coordinates
     (m) and its result is copied, so no load can write into the meshes or the contact interface.
     """
 
-    def __init__(self, value, label, ncomp):
-        self._set(label=label, ncomp=ncomp)
+    def __init__(self, value, label, ncomp, dim=2):
+        self._set(label=label, ncomp=ncomp, dim=dim)
         if callable(value):
             self._set(value=value)
             return
         expected = "a number" if ncomp == 1 else f"a sequence of {ncomp} numbers"
         if not _real_numbers(value):
-            raise SceneError(f"{label}: expected {expected} (real, not boolean or complex) or a callable f(x, y), "
+            raise SceneError(f"{label}: expected {expected} (real, not boolean or complex) or a callable "
+                             f"f({'x, y' if dim == 2 else 'x, y, z'}), "
                              f"got {_kind(value)}")
         v = np.array(value, dtype=float)
         shape = () if ncomp == 1 else (ncomp,)
@@ -380,14 +407,15 @@ class Load(Frozen):
     def nonzero(self) -> bool:
         return callable(self.value) or bool(np.any(self.value != 0))
 
-    def __call__(self, x, y) -> np.ndarray:
-        """Values at points (x, y) in metres: shape (k,) for scalars, (k, 2) for vectors."""
-        x, y = _frozen(x), _frozen(y)
+    def __call__(self, *coords) -> np.ndarray:
+        """Values at points (x, y) or (x, y, z) in metres: shape (k,) for scalars, (k, ncomp) for vectors."""
+        coords = [_frozen(c) for c in coords]
+        x = coords[0]
         v = self.value
         if not callable(v):
             return np.broadcast_to(v, x.shape + v.shape)
         try:
-            out = v(x, y)
+            out = v(*coords)
             comps = [np.array(c) for c in ([out] if self.ncomp == 1 else out)]   # copies, never views
         except Exception as exc:
             raise SceneError(f"{self.label}: calling the load function failed: {exc}") from exc
@@ -480,6 +508,9 @@ class Scene(Frozen):
                 raise SceneError(f"Scene takes Body objects; argument {k} is {type(b).__name__}")
         for k, b in enumerate(bodies, start=1):
             b._label(k)
+        dims = [mesh_dim(b) for b in bodies]
+        if len(set(dims)) > 1:
+            raise SceneError(f"the bodies of a scene share one dimension; got {', '.join(f'{b.name}: {d}D' for b, d in zip(bodies, dims))}")
         self._set(bodies=self._tuple("bodies", bodies), _given_gap=gap)
         if contacts is None:
             if len(bodies) != 2:
@@ -504,11 +535,11 @@ class Scene(Frozen):
             members.append((a, b))
             try:
                 if c.rigid:
-                    itf = Interface((c.body_a,), (c.part_a,), obstacle=c.other)
+                    itf = pair_interface((c.body_a,), (c.part_a,), obstacle=c.other)
                 elif self._legacy:
-                    itf = Interface(self.bodies)
+                    itf = pair_interface(self.bodies)
                 else:
-                    itf = Interface((c.body_a, c.other), (c.part_a, c.part_b))
+                    itf = pair_interface((c.body_a, c.other), (c.part_a, c.part_b))
             except MeshError as exc:
                 raise SceneError(str(exc)) from exc
             except SceneError as exc:
@@ -642,6 +673,8 @@ class Scene(Frozen):
         obstacle, points of the body's straight part between its nodes that reach it)."""
         itf = self.interfaces[i]
         load = self.gap if self._legacy else self.contacts[i].gap
+        if getattr(itf, "dim", 2) == 3:
+            return self._surface_gap(i, itf, s)
         if s is not None:
             s = np.asarray(s, dtype=float)
             g = np.array(load(s, np.full_like(s, itf.y)), dtype=float)
@@ -659,6 +692,22 @@ class Scene(Frozen):
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g
 
+    def _surface_gap(self, i, itf, s):
+        """3D: the gap (m) at the overlay vertices of pair ``i`` (or at in-plane points ``s`` (k, 2), m): the
+        pair's gap g(s1, s2) of the in-plane coordinates (s1, s2) of the pair's frame, plus the distance to a
+        rigid obstacle along the body's normal."""
+        given = self._given_gap if self._legacy else self.contacts[i]._given_gap
+        load = Load(given, f"contacts[{i}]: gap g(s1, s2)", 1)
+        s = itf.x if s is None else np.asarray(s, dtype=float)
+        g = np.array(load(s[:, 0], s[:, 1]), dtype=float)
+        if itf.rigid:
+            if s is itf.x:
+                g = g + itf.obstacle_gap()
+            else:                                    # other in-plane points: their distance to the obstacle
+                points = itf.offset * itf.normal + s @ itf.frame
+                g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
+        return g
+
     def gap_values(self) -> np.ndarray:
         """The gap g (m) at the stacked merged nodes of every pair (``stack``)."""
         return np.concatenate([self.pair_gap_values(i) for i in range(len(self.interfaces))])
@@ -675,6 +724,11 @@ class Scene(Frozen):
         if self._legacy:
             return f"Scene({self.bodies[0]!r}, {self.bodies[1]!r})"
         return f"Scene({', '.join(repr(b) for b in self.bodies)}, contacts={list(self.contacts)!r})"
+
+    @property
+    def dim(self) -> int:
+        """2 (triangle meshes, plane strain or stress) or 3 (tetrahedral meshes)."""
+        return mesh_dim(self.bodies[0])
 
     @property
     def length(self) -> float:

@@ -16,15 +16,15 @@ from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 
-__all__ = ["supports", "node_supports", "free_motions", "motion_name", "component_label", "held_modes",
-           "node_set", "free_basis", "motion_label", "node_normals"]
+__all__ = ["supports", "node_supports", "free_motions", "motion_name", "component_label", "component_description",
+           "held_modes", "rigid_field", "node_set", "free_basis", "motion_label", "node_normals"]
 
 
 def supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The kinematic constraints of the supports, one row per constrained direction at a node.
 
     Returns ``(nodes, directions, values)``: u(node) . direction = value (m), with unit
-    directions: two rows per clamped node (u = 0), one per prescribed component of a
+    directions (k, dim): dim rows per clamped node (u = 0), one per prescribed component of a
     ``displacement`` part, one per node of a ``roller`` part (u . n = 0, n the part's unit
     normal). Rows may repeat or be dependent at corners; conflicting values raise a
     SceneError when the prolongation is built (:func:`cvxcontact.fem.assembly.prolongation`).
@@ -32,43 +32,47 @@ def supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     :class:`~cvxcontact.geometry.quadratic.P2Nodes` of P2 elements); default the mesh's vertices.
     """
     mesh = body.mesh if nodes is None else nodes
+    dim = body.dim
     nodes, dirs, vals = [], [], []
-    eye = np.eye(2)
+    eye = np.eye(dim)
     if body.clamped:
         c = mesh.boundary_nodes(body.clamped)
-        for k in range(2):
+        for k in range(dim):
             nodes.append(c)
-            dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
+            dirs.append(np.broadcast_to(eye[k], (len(c), dim)))
             vals.append(np.zeros(len(c)))
     for tag, value in body.displacement.items():
         c = mesh.boundary_nodes([tag])
-        for k in range(2):
+        for k in range(dim):
             if value[k] is not None:
                 nodes.append(c)
-                dirs.append(np.broadcast_to(eye[k], (len(c), 2)))
+                dirs.append(np.broadcast_to(eye[k], (len(c), dim)))
                 vals.append(np.full(len(c), value[k]))
     for tag in body.roller:
         c = mesh.boundary_nodes([tag])
         nodes.append(c)
-        dirs.append(np.broadcast_to(body._roller_normals[tag], (len(c), 2)))
+        dirs.append(np.broadcast_to(body._roller_normals[tag], (len(c), dim)))
         vals.append(np.zeros(len(c)))
     if not nodes:
-        return np.zeros(0, dtype=int), np.zeros((0, 2)), np.zeros(0)
+        return np.zeros(0, dtype=int), np.zeros((0, dim)), np.zeros(0)
     return np.concatenate(nodes), np.concatenate(dirs), np.concatenate(vals)
 
 
 def node_supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The supports reduced node by node: ``(free, tangent, u_fixed)``.
+    """The supports reduced node by node: ``(free, directions, u_fixed)``.
 
-    ``free`` (n,) the number of free displacement components of each node (2, 1 or 0),
-    ``tangent`` (n, 2) the free unit direction of the nodes with one, ``u_fixed`` (2n,) the
-    prescribed displacement (m; the least-squares value of the node's rows, which must hold
-    exactly: conflicting supports at a node raise a SceneError). ``nodes`` as in :func:`supports`.
+    ``free`` (n,) the number of free displacement components of each node (dim, ..., 0),
+    ``directions`` (n, dim, dim) whose first ``free[i]`` rows are node i's free orthonormal directions
+    when it is partly held (a roller node: the part's tangent in 2D, two tangents of the face in 3D; a
+    node on two roller faces: their common direction), ``u_fixed`` (dim n,) the prescribed displacement
+    (m; the least-squares value of the node's rows, which must hold exactly: conflicting supports at a
+    node raise a SceneError). ``nodes`` as in :func:`supports`.
     """
     mesh = body.mesh if nodes is None else nodes
+    dim = body.dim
     n = len(mesh.points)
     nodes, dirs, vals = supports(body, nodes)
-    u_fixed, free, tangent = np.zeros(2 * n), np.full(n, 2), np.zeros((n, 2))
+    u_fixed, free, directions = np.zeros(dim * n), np.full(n, dim), np.zeros((n, dim, dim))
     order = np.argsort(nodes, kind="stable")
     nodes, dirs, vals = nodes[order], dirs[order], vals[order]
     starts = np.flatnonzero(np.r_[True, np.diff(nodes) != 0]) if len(nodes) else np.zeros(0, dtype=int)
@@ -78,22 +82,22 @@ def node_supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         rank = int((sv > 1e-9).sum())
         ud = np.linalg.lstsq(D, v, rcond=1e-9)[0]
         if np.abs(D @ ud - v).max() > 1e-9 * max(float(np.abs(v).max()), 1e-300):
-            rows = ", ".join(f"u.({d[0]:.3g}, {d[1]:.3g}) = {x:.6g}" for d, x in zip(D, v))
+            rows = ", ".join(f"u.({', '.join(f'{x:.3g}' for x in d)}) = {x:.6g}" for d, x in zip(D, v))
             raise SceneError(f"{body.name}: the supports prescribe incompatible displacements at node {i} "
-                             f"({mesh.points[i, 0]:.6g}, {mesh.points[i, 1]:.6g}) m: {rows}")
-        u_fixed[2 * i:2 * i + 2] = ud
-        free[i] = 2 - rank
-        if rank == 1:
-            tangent[i] = Vt[1]
-    return free, tangent, u_fixed
+                             f"({', '.join(f'{x:.6g}' for x in mesh.points[i])}) m: {rows}")
+        u_fixed[dim * i:dim * i + dim] = ud
+        free[i] = dim - rank
+        if 0 < rank < dim:
+            directions[i, :dim - rank] = Vt[rank:]
+    return free, directions, u_fixed
 
 
 def free_motions(body, contact: bool | Sequence[str] = True) -> list[str]:
     """The rigid motions of the body that nothing holds, as readable names (empty if none).
 
-    A rigid motion u(x) = (tx - w (y - yc), ty + w (x - xc)) is held by the supports if some
-    support row has u . direction != 0, and by a contact part (``contact=True``: the ``contact``
-    part; a list: those parts; False: none) if u . nu != 0 at some of its nodes (nu the outward
+    A rigid motion u(x) = t + w x (x - xc) (2D: (tx - w (y - yc), ty + w (x - xc))) is held by the
+    supports if some support row has u . direction != 0, and by a contact part (``contact=True``: the
+    ``contact`` part; a list: those parts; False: none) if u . nu != 0 at some of its nodes (nu the outward
     normal; contact holds on one side only). Each connected piece of the mesh is checked on its own.
     """
     out = []
@@ -104,7 +108,8 @@ def free_motions(body, contact: bool | Sequence[str] = True) -> list[str]:
 
 def motion_name(body, coefficients: ArrayLike) -> str:
     """A readable name of the rigid motion sum_j coefficients[j] held_modes()[j] (e.g. "translation y",
-    "rotation about (0.5, 0) m"; the mesh component too when the mesh has several)."""
+    "rotation about (0.5, 0) m", in 3D "translation along z", "rotation about x through (0, 0.5, 0) m"; the
+    mesh component too when the mesh has several)."""
     a = np.asarray(coefficients, dtype=float)
     names, k = [], 0
     for c, V, centre, size in free_basis(body):
@@ -117,51 +122,63 @@ def motion_name(body, coefficients: ArrayLike) -> str:
 
 def component_label(body, c) -> str:
     """" of mesh component c (...)" when the mesh has several components, else ""."""
-    mesh = body.mesh
-    if int(mesh.components.max()) == 0:
+    if int(body.mesh.components.max()) == 0:
         return ""
+    return f" of mesh component {c} ({component_description(body.mesh, c)})"
+
+
+def component_description(mesh, c) -> str:
+    """"k triangles, centroid at (x, y) m" (tetrahedra, (x, y, z) in 3D) of mesh component c."""
     inside = mesh.components == c
-    area = mesh.areas[inside]
-    cg = (mesh.points[mesh.triangles[inside]].mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
-    return f" of mesh component {c} ({int(inside.sum())} triangles, centroid at ({cg[0]:.4g}, {cg[1]:.4g}) m)"
+    measure = mesh.areas[inside] if mesh.dim == 2 else mesh.volumes[inside]
+    cg = (mesh.points[mesh.cells[inside]].mean(axis=1) * measure[:, None]).sum(axis=0) / measure.sum()
+    return (f"{int(inside.sum())} {'triangles' if mesh.dim == 2 else 'tetrahedra'}, centroid at "
+            f"({', '.join(f'{x:.4g}' for x in cg)}) m")
 
 
 def held_modes(body, nodes=None) -> np.ndarray:
-    """(k, 2 n_nodes): the rigid motions no support holds (the contact must), as nodal displacement fields
-    (x, y interleaved per node; translations in m per unit, rotations scaled by the piece's size).
-    Empty (0, 2 n_nodes) when the supports hold every rigid motion. Used by the balance check and by
+    """(k, dim n_nodes): the rigid motions no support holds (the contact must), as nodal displacement fields
+    (components interleaved per node; translations in m per unit, rotations scaled by the piece's size).
+    Empty (0, dim n_nodes) when the supports hold every rigid motion. Used by the balance check and by
     the well-posedness check of the assembled problem (:mod:`cvxcontact.fem.kernel`).
     ``nodes``: the node set (P2: :class:`~cvxcontact.geometry.quadratic.P2Nodes`); default the mesh's
     vertices."""
     points, comp = node_set(body, nodes)
+    dim = body.dim
     rows = []
     if body.held_by_contact:
         for c, V, centre, size in free_basis(body):
-            on = (comp == c).astype(float)
+            on = (comp == c).astype(float)[:, None]
             x = (points - centre) / size
-            for tx, ty, w in V:
-                r = np.empty(2 * len(points))
-                r[0::2] = on * (tx - w * x[:, 1])
-                r[1::2] = on * (ty + w * x[:, 0])
-                rows.append(r)
-    return np.array(rows).reshape(-1, 2 * len(points))
+            rows += [(on * rigid_field(v, x)).ravel() for v in V]
+    return np.array(rows).reshape(-1, dim * len(points))
+
+
+def rigid_field(v, x) -> np.ndarray:
+    """(n, dim) the rigid motion v at points x (n, dim): 2D v = (tx, ty, w), u = (tx - w y, ty + w x);
+    3D v = (t, w), u = t + w x x."""
+    if x.shape[1] == 2:
+        tx, ty, w = v
+        return np.column_stack([tx - w * x[:, 1], ty + w * x[:, 0]])
+    return v[:3] + np.cross(v[3:], x)
 
 
 def node_set(body, nodes):
-    """(points (n, 2) m, mesh component of each node) of the mesh's vertices or of ``nodes`` (a node
-    set of the mesh with ``points`` and ``triangles`` (m, k), e.g. the P2 nodes)."""
+    """(points (n, dim) m, mesh component of each node) of the mesh's vertices or of ``nodes`` (a node
+    set of the mesh with ``points`` and ``cells`` (m, k), e.g. the P2 nodes)."""
     mesh = body.mesh
     if nodes is None:
         return mesh.points, mesh.node_components
     comp = np.empty(len(nodes.points), dtype=mesh.node_components.dtype)
-    comp[np.asarray(nodes.triangles).ravel()] = np.repeat(mesh.components, np.shape(nodes.triangles)[1])
+    comp[np.asarray(nodes.cells).ravel()] = np.repeat(mesh.components, np.shape(nodes.cells)[1])
     return nodes.points, comp
 
 
 def free_basis(body, contact=False):
     """Per mesh component with rigid motions the supports (and with ``contact`` the normals of the
-    contact parts: True the ``contact`` part, or a list of parts) leave free: (component, V (k, 3)
-    orthonormal rows of (tx, ty, w) in scaled coordinates, centre (m), size (m))."""
+    contact parts: True the ``contact`` part, or a list of parts) leave free: (component, V (k, 3) in 2D
+    orthonormal rows of (tx, ty, w), (k, 6) in 3D of (tx, ty, tz, wx, wy, wz), in scaled coordinates,
+    centre (m), size (m))."""
     mesh = body.mesh
     nodes, dirs, _ = supports(body)
     own = [] if body.contact is None else [body.contact]
@@ -177,34 +194,66 @@ def free_basis(body, contact=False):
         keep = mesh.node_components[nodes] == c
         x = (mesh.points[nodes[keep]] - centre) / size
         d = dirs[keep]
-        A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
-        _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((3, 3))]))
+        if body.dim == 2:
+            A = np.column_stack([d[:, 0], d[:, 1], -x[:, 1] * d[:, 0] + x[:, 0] * d[:, 1]])
+        else:
+            A = np.column_stack([d, np.cross(x, d)])                   # u . d = t . d + w . (x x d)
+        k = A.shape[1]
+        _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((k, k))]))
         free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
         if len(free):
             out.append((c, free, centre, size))
     return out
 
 
+_AXES = "xyz"
+
+
+def _direction(a):
+    """"x" (or "y", "z") for a unit vector along an axis (its largest component positive), else "(a1, a2, a3)"."""
+    for k in range(len(a)):
+        if abs(a[k] - 1.0) <= 1e-9:
+            return _AXES[k]
+    return f"({', '.join(f'{x:.4g}' for x in a)})"
+
+
 def motion_label(v, centre, size):
-    """A readable name of the rigid motion (tx, ty, w) (scaled coordinates, see Body.free_motions)."""
-    tx, ty, w = v
-    if abs(w) <= 1e-9:
-        t = np.array([tx, ty]) / np.hypot(tx, ty)
-        if abs(t[1]) <= 1e-9:
-            return "translation x"
-        if abs(t[0]) <= 1e-9:
-            return "translation y"
-        return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
-    xc, yc = (round(c / size, 6) * size + 0.0 for c in (centre[0] - ty / w * size, centre[1] + tx / w * size))
-    return f"rotation about ({xc:.4g}, {yc:.4g}) m"                 # (to 1e-6 of the piece's size)
+    """A readable name of the rigid motion v (scaled coordinates, see Body.free_motions): 2D (tx, ty, w),
+    3D (tx, ty, tz, wx, wy, wz)."""
+    if len(v) == 3:
+        tx, ty, w = v
+        if abs(w) <= 1e-9:
+            t = np.array([tx, ty]) / np.hypot(tx, ty)
+            if abs(t[1]) <= 1e-9:
+                return "translation x"
+            if abs(t[0]) <= 1e-9:
+                return "translation y"
+            return f"translation along ({t[0]:.4g}, {t[1]:.4g})"
+        xc, yc = (round(c / size, 6) * size + 0.0 for c in (centre[0] - ty / w * size, centre[1] + tx / w * size))
+        return f"rotation about ({xc:.4g}, {yc:.4g}) m"                 # (to 1e-6 of the piece's size)
+    t, w = np.asarray(v[:3], dtype=float), np.asarray(v[3:], dtype=float)
+    nw = np.linalg.norm(w)
+    if nw <= 1e-9:
+        t = t / np.linalg.norm(t)
+        return f"translation along {_direction(t if t[np.argmax(np.abs(t))] > 0 else -t)}"
+    axis = w / nw
+    if axis[np.argmax(np.abs(axis))] < 0:
+        axis = -axis
+    p = centre + size * np.cross(w, t) / nw ** 2                       # the point of the axis nearest the centre
+    p = np.round(p / size, 6) * size + 0.0
+    name = f"rotation about {_direction(axis)} through ({', '.join(f'{x:.4g}' for x in p)}) m"
+    if abs(t @ w) > 1e-9 * nw * max(np.linalg.norm(t), 1e-300) and abs(t @ axis) > 1e-9:
+        name += " with a translation along that axis"
+    return name
 
 
 def node_normals(mesh, tag):
-    """(boundary_nodes(tag), 2) unit outward normals of a part at its nodes (mean of the adjacent edges)."""
+    """(boundary_nodes(tag), dim) unit outward normals of a part at its nodes (mean of the adjacent edges,
+    or faces in 3D)."""
     nodes = mesh.boundary_nodes([tag])
-    edges, normals = mesh.boundary(tag), mesh.outward_normals(tag)
-    acc = np.zeros((len(mesh.points), 2))
-    np.add.at(acc, edges[:, 0], normals)
-    np.add.at(acc, edges[:, 1], normals)
+    cells, normals = mesh.boundary(tag), mesh.outward_normals(tag)
+    acc = np.zeros((len(mesh.points), normals.shape[1]))
+    for k in range(cells.shape[1]):
+        np.add.at(acc, cells[:, k], normals)
     n = acc[nodes]
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]

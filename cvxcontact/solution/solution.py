@@ -14,7 +14,6 @@ from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths
@@ -60,6 +59,9 @@ class ContactResult:
     law: object = None
     """The pair's normal law (:mod:`cvxcontact.contact.laws`) when a compliance law was solved in the
     scene; None means Signorini."""
+    measure: np.ndarray | None = None
+    """P1: the length (2D, m) or area (3D, m^2) attributed to each constrained node by the mesh those nodes
+    form (the quadrature weights of the condition's rows), 0 elsewhere; :attr:`pressure` divides by it."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -82,7 +84,10 @@ class ContactResult:
             return self.force / _p2_lumped(self.x)
         out = np.zeros(len(self.x))
         on = np.asarray(self.constrained, dtype=bool)
-        if on.sum() >= 2:
+        if self.measure is not None:
+            on = on & (self.measure > 0)
+            out[on] = self.force[on] / self.measure[on]
+        elif on.sum() >= 2:
             out[on] = self.force[on] / lumped_lengths(self.x[on])
         return out
 
@@ -253,8 +258,9 @@ class Solution:
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
         x = itf.traces[k].x
-        lengths = lumped_lengths(x) if self.degree == 1 else _p2_lumped(x)   # P2: vertices and midpoints
-        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / lengths
+        if self.degree == 1:
+            return x.copy(), itf.pressure(k, self.contacts[pair].force)
+        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 
     def report(self) -> str:
         """A short human-readable account of the solve and its checks."""
@@ -335,7 +341,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     if p2:
         lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
     else:
-        lam = _solve_mass(itf.mass, Ety)                    # scaled; M lam = E^T y
+        lam = itf.multiplier(Ety)          # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
@@ -348,11 +354,11 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
-        checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+        checks_ = checks(blocks, u, phi, Ety, E, g, y)     # the row forces (3D: M lam = E^T y only on the traces)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
@@ -379,13 +385,19 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     pairs, offsets = _pairs(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
         part = slice(offsets[i], offsets[i + 1])
+        measure = None
+        if not p2:                                    # the rows' quadrature weights (lengths or areas)
+            cond = condition if scene.conditions[i] is None else scene.conditions[i]
+            measure = np.zeros(pair.size)
+            measure[pair.evaluation(cond).indices] = pair.weights(cond)
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
-            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=pair.y,
+            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
             gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
-            degree=2 if p2 else 1, scale=float(sizes[part].max(initial=0.0)) * un.displacement))
+            degree=2 if p2 else 1, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
-              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal"))]:
+              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal", "measure")
+              if getattr(c, f) is not None)]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
     contact = contacts[0]
     # a verified exact finish is the answer whatever the interior point that started it reported
@@ -531,10 +543,7 @@ def _p2_lumped(x):
     return w
 
 
-def _solve_mass(M, rhs):
-    """Solve the tridiagonal P1 mass system M x = rhs."""
-    ab = np.zeros((3, M.shape[0]))
-    ab[0, 1:] = M.diagonal(1)
-    ab[1] = M.diagonal()
-    ab[2, :-1] = M.diagonal(-1)
-    return sla.solve_banded((1, 1), ab, rhs)
+def _line(pair) -> float:
+    """The ordinate (m) of a 2D pair's line (its first part's mean x2); in 3D the offset x . nu of the
+    first part's plane."""
+    return float(pair.y) if hasattr(pair, "y") else float(pair.traces[0].offset)

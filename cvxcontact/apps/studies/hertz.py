@@ -66,6 +66,50 @@ def half_width(contact):
     return 0.5 * (right - left)
 
 
+def figure(rows, last, levels):
+    """The study's figure: left, the pressure on the finest P2 and P1 meshes against the Hertz profile (λ_h of
+    the merged mesh drawn faintly and clipped to the Hertz scale, its range stated); right, the errors of the
+    half-width and the peak pressure against the unknowns. ``last[degree] = (sol, a, p0, P)``."""
+    from matplotlib.ticker import EngFormatter, MaxNLocator
+
+    plt = pyplot()
+    sol, a, p0, P = last[2]
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    c = sol.contact
+    xs = np.linspace(-a, a, 400)
+    ax.plot(xs, 2 * P / (np.pi * a ** 2) * np.sqrt(np.maximum(a ** 2 - xs ** 2, 0)), "k-", lw=1.5,
+            label="Hertz (closed form, measured P)", zorder=3)
+    xt, pt = sol.traction(0)
+    nt = np.abs(xt) <= 1.6 * a
+    ax.plot(xt[nt], pt[nt], "o", ms=3, label=f"P2 (n = {levels[2][-1]}): pressure on the cylinder's nodes", zorder=4)
+    x1, p1 = last[1][0].traction(0)
+    n1 = np.abs(x1) <= 1.6 * a
+    ax.plot(x1[n1], p1[n1], "x", ms=3, label=f"P1 (n = {levels[1][-1]}): the same", zorder=4)
+    near = np.abs(c.x) <= 1.6 * a
+    lam = c.lam[near]
+    top = 1.35 * p0
+    ax.plot(c.x[near], np.clip(lam, -0.25 * p0, top), "-", lw=0.6, alpha=0.35, color="C3",
+            label=rf"P2: $\lambda_h$ on the merged mesh, clipped (range {lam.min() / 1e9:.1f} to {lam.max() / 1e9:.1f} GPa)")
+    ax.set_ylim(-0.25 * p0, top)
+    ax.xaxis.set_major_locator(MaxNLocator(6))
+    ax.xaxis.set_major_formatter(EngFormatter(unit="m"))
+    ax.yaxis.set_major_formatter(EngFormatter(unit="Pa"))
+    ax.set_xlabel("x1 along the contact line")
+    ax.set_ylabel("contact pressure")
+    ax.set_title(f"Cylinder (R = {R} m) on a block: pressure along the contact", fontsize=10)
+    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
+    for degree, style in ((1, "-"), (2, "--")):
+        sub = [r for r in rows if r["degree"] == degree]
+        ax2.loglog([r["dofs"] for r in sub], [abs(r["a_rel_error"]) for r in sub], "o" + style, label=f"P{degree}: |a_h / a - 1|")
+        ax2.loglog([r["dofs"] for r in sub], [abs(r["p0_rel_error"]) for r in sub], "s" + style, label=f"P{degree}: |p0_h / p0 - 1|")
+    ax2.set_xlabel("unknowns (u and phi, both bodies)")
+    ax2.set_ylabel("relative error")
+    ax2.set_title("Error against Hertz, P1 and P2 at equal unknowns", fontsize=10)
+    ax2.legend(fontsize=8)
+    ax2.xaxis.set_minor_formatter(plt.NullFormatter())
+    return fig
+
+
 def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
@@ -92,34 +136,7 @@ def run(out, quick=False, progress=None):
                 f"p0_h/p0 - 1 = {rows[-1]['p0_rel_error']:+.2e} ({seconds:.1f} s)")
             last[degree] = (sol, a, p0, P)
     write_csv(out / "hertz.csv", rows)
-    sol, a, p0, P = last[2]
-    plt = pyplot()
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
-    c = sol.contact
-    xs = np.linspace(-a, a, 400)
-    ax.plot(xs * 1e3, 2 * P / (np.pi * a ** 2) * np.sqrt(np.maximum(a ** 2 - xs ** 2, 0)) / 1e6, "k-",
-            label="Hertz (closed form, measured P)")
-    xt, pt = sol.traction(0)
-    near, nt = np.abs(c.x) <= 1.6 * a, np.abs(xt) <= 1.6 * a
-    ax.plot(xt[nt] * 1e3, pt[nt] / 1e6, "o", ms=3, label="FE P2: pressure on the cylinder's nodes")
-    s1 = last[1][0]
-    x1, p1 = s1.traction(0)
-    n1 = np.abs(x1) <= 1.6 * a
-    ax.plot(x1[n1] * 1e3, p1[n1] / 1e6, "x", ms=3, label=f"FE P1 (n = {levels[1][-1]}): same")
-    ax.plot(c.x[near] * 1e3, c.lam[near] / 1e6, "-", lw=0.6, alpha=0.35, label=r"FE P2: $\lambda_h$ (merged mesh, oscillates)")
-    ax.set_xlabel("x1 [mm]")
-    ax.set_ylabel("contact pressure [MPa]")
-    ax.set_title(f"Cylinder on block, R = {R} m, finest P2 mesh (n = {levels[2][-1]})")
-    ax.legend(fontsize=8)
-    for degree, style in ((1, "-"), (2, "--")):
-        sub = [r for r in rows if r["degree"] == degree]
-        ax2.loglog([r["dofs"] for r in sub], [abs(r["a_rel_error"]) for r in sub], "o" + style, label=f"P{degree}: |a_h / a - 1|")
-        ax2.loglog([r["dofs"] for r in sub], [abs(r["p0_rel_error"]) for r in sub], "s" + style, label=f"P{degree}: |p0_h / p0 - 1|")
-    ax2.set_xlabel("unknowns (u and phi, both bodies)")
-    ax2.set_ylabel("relative error")
-    ax2.set_title("Error against the Hertz solution, P1 and P2 at equal unknowns")
-    ax2.legend(fontsize=8)
-    ax2.xaxis.set_minor_formatter(plt.NullFormatter())
+    fig = figure(rows, last, levels)
     save_figure(fig, out / "hertz.png")
     rate = {}
     for degree in (1, 2):

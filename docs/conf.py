@@ -1,0 +1,84 @@
+"""Sphinx configuration of the cvxcontact documentation.
+
+Build (warnings are errors):  python -m sphinx -W --keep-going -b html docs docs/_build/html
+Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery). The pages are Markdown (MyST);
+the gallery is ``examples/``, every script executed during the build; the API reference is read from
+the docstrings (autodoc + napoleon, numpy style). Why these tools: docs/explanation/about-docs.md.
+"""
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))            # the clone's package, also when it is not installed
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import cvxcontact  # noqa: E402
+
+project = "cvxcontact"
+author = "the cvxcontact developers"
+copyright = "the cvxcontact developers, BSD-3-Clause"
+release = version = cvxcontact.__version__
+
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.napoleon",
+    "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",
+    "sphinx_gallery.gen_gallery",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+root_doc = "index"
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
+                    "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
+
+myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
+myst_heading_anchors = 3                 # [text](page.md#a-heading) links resolve
+
+autodoc_member_order = "bysource"
+autodoc_typehints = "description"
+autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": False}
+napoleon_numpy_docstring = True
+napoleon_google_docstring = False
+napoleon_use_ivar = True                 # "Attributes": fields of the class, not a second object description
+napoleon_custom_sections = [("Methods", "params_style")]   # listed in the class, documented as its members
+
+
+def _escape_bars(app, what, name, obj, options, lines):
+    """The docstrings write mathematics in plain text, where |x| is an absolute value or a norm, never a
+    reStructuredText substitution: escape the bars outside ``literals`` and literal blocks."""
+    literal_indent = None
+    for i, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None and (not line.strip() or indent > literal_indent):
+            continue
+        literal_indent = None
+        if "|" in line:
+            parts = line.split("``")
+            lines[i] = "``".join(p.replace("|", "\\|") if k % 2 == 0 else p for k, p in enumerate(parts))
+        if line.rstrip().endswith("::"):
+            literal_indent = indent
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _escape_bars)
+
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "examples"),
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r".*\.py$",      # every example runs during the build
+    "ignore_pattern": r"__init__\.py",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "matplotlib_animations": False,
+    "within_subsection_order": "FileNameSortKey",
+    "show_memory": False,
+    "plot_gallery": "True",
+}
+
+html_theme = "alabaster"
+html_title = f"cvxcontact {release}"
+html_static_path = []

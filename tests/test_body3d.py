@@ -1,0 +1,233 @@
+"""3D bodies: tetrahedral P1 (and P2) assembly of Kuu, Kup, Kpp and the loads, the supports' prolongation and
+the rigid motions, checked without contact by solving the bonded linear system directly: patch tests (uniaxial
+strain, the open-circuit PZT-5A stiffening), the plane-strain limit of a y-uniform block, the invariance under a
+generic rotation, exact linear and quadratic fields (P2)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import cvxcontact as cc
+from cvxcontact.errors import SceneError, SolverError
+from cvxcontact.fem import p2
+from cvxcontact.fem.assembly import assemble
+from cvxcontact.fem.fields import body_fields
+from cvxcontact.fem.space import space
+
+sys.path.insert(0, str(Path(__file__).parent))
+from tetbox import TetNodes, box  # noqa: E402
+
+PZT = cc.materials.PZT5A
+TRANSVERSE = cc.materials.Elastic(PZT.c3, name="PZT-5A elastic part")      # transversely isotropic, no coupling
+SIDES = ["left", "right", "front", "back"]
+
+
+def solve(system):
+    """(u (n, 3), phi (n,)) of the bonded system: the reduced equations (module docstring of fem/assembly.py)
+    T_u^T (Kuu u + Kup phi - f) = 0, T_p^T (Kup^T u - Kpp phi + q) + ... = 0, by a sparse LU, the potential
+    unknowns scaled to the displacements' magnitude."""
+    Tu, fz = system.Tu, system.reduced_loads()[0]
+    K = (Tu.T @ system.Kuu @ Tu).tocsc()
+    if not system.piezoelectric:
+        z = spla.spsolve(K, fz)
+        return (Tu @ z + system.u_fixed).reshape(-1, 3), None
+    Tp, qz = system.Tp, system.reduced_loads()[1]
+    C, P = Tu.T @ system.Kup @ Tp, Tp.T @ system.Kpp @ Tp
+    s = np.sqrt(abs(K.diagonal()).mean() / abs(P.diagonal()).mean())            # phi = s * w
+    A = sp.bmat([[K, s * C], [s * C.T, -s * s * P]], format="csc")
+    z = spla.spsolve(A, np.concatenate([fz, -s * qz]))
+    u = Tu @ z[:K.shape[0]] + system.u_fixed
+    phi = Tp @ (s * z[K.shape[0]:]) + system.phi_fixed
+    return u.reshape(-1, 3), phi
+
+
+def rel(a, b):
+    return float(np.abs(np.asarray(a) - np.asarray(b)).max() / np.abs(np.asarray(b)).max())
+
+
+# ------------------------------------------------------------------ operators
+
+
+def test_free_body_stiffness_has_exactly_the_six_rigid_motions():
+    m = box(x=(0, 1), y=(0, 0.6), z=(0, 0.8), nx=2, ny=2, nz=2)
+    body = cc.Body(m, PZT.rotated(np.pi / 5), grounded=["bottom"])
+    assert len(body.held_by_contact) == 6
+    s = assemble(body)
+    K = s.Kuu.toarray()
+    assert np.abs(K - K.T).max() <= 1e-15 * np.abs(K).max()                    # measured 4e-17
+    ev = np.linalg.eigvalsh(K) / np.abs(K).max()
+    assert (np.abs(ev[:6]) <= 1e-13).all() and ev[6] >= 1e-4               # measured |ev[:6]| <= 1.2e-16, ev[6] 1.3e-2
+    # the six zero modes are the rigid motions: K R = 0 for the nodal fields of held_modes
+    R = body.held_modes()
+    assert R.shape == (6, 3 * len(m.points))
+    assert np.abs(K @ R.T).max() <= 1e-12 * np.abs(K).max() * np.abs(R).max()   # measured 1.2e-16
+    # Kpp: one constant null mode before grounding, SPD after (the grounded bottom removed by T_p)
+    P = s.Kpp.toarray()
+    assert np.abs(P @ np.ones(len(P))).max() <= 1e-14 * np.abs(P).max()
+    Pr = (s.Tp.T @ s.Kpp @ s.Tp).toarray()
+    assert np.abs(Pr - Pr.T).max() <= 1e-15 * np.abs(Pr).max()                  # measured 4e-17
+    assert np.linalg.eigvalsh(Pr).min() > 1e-3 * np.abs(Pr).max()                # measured 0.023
+
+
+def test_roller_columns_and_rigid_motions_named_in_3d():
+    m = box(nx=2, ny=2, nz=2)
+    body = cc.Body(m, TRANSVERSE, roller=["bottom", "left", "front"])
+    free, directions, _ = body.node_supports()
+    p = m.points
+    on = {f: np.isin(np.arange(len(p)), m.boundary_nodes([f])) for f in ("bottom", "left", "front")}
+    count = sum(on.values())
+    assert np.array_equal(free, 3 - count)                                   # 1 face: 2 columns, 2: 1, 3: none
+    edge = np.flatnonzero(on["bottom"] & on["left"] & ~on["front"])
+    assert np.allclose(np.abs(directions[edge, 0]), [0, 1, 0])                # the bottom-left edge slides along y
+    # three orthogonal roller faces hold translations and rotations alike: nothing is free
+    assert body.held_by_contact == ()
+    # on the bottom alone: two in-plane translations and the rotation about z are free
+    names = cc.Body(m, TRANSVERSE, roller=["bottom"]).free_motions()
+    assert sorted(names) == sorted(["translation along x", "translation along y",
+                                    "rotation about z through (0.5, 0.5, 0.5) m"]), names
+    s = assemble(cc.Body(m, TRANSVERSE, roller=["bottom", "left", "front"]))
+    assert s.Tu.shape == (3 * len(p), int(free.sum()))
+    T = s.Tu.toarray()
+    assert np.abs(T.T @ T - np.eye(T.shape[1])).max() <= 1e-15             # orthonormal columns
+
+
+def test_refusals_in_3d():
+    m = box(nx=1, ny=1, nz=1)
+    plane_only = cc.materials.Piezoelectric(c11=1e11, c13=7e10, c33=1e11, c44=2e10, e31=-5, e33=15, e15=12,
+                                            eps11=1e-8, eps33=1e-8)
+    with pytest.raises(cc.errors.MaterialError, match="no 3D constants"):
+        cc.Body(m, plane_only, grounded=["bottom"])
+    with pytest.raises(SceneError, match=r"3 components"):
+        cc.Body(m, TRANSVERSE, clamped=["bottom"], body_force=(0.0, 1.0))
+    with pytest.raises(SceneError, match=r"triple \(ux, uy, uz\)"):
+        cc.Body(m, TRANSVERSE, displacement={"bottom": (0.0, 0.0)})
+    with pytest.raises(SceneError, match="all components are None"):
+        cc.Body(m, TRANSVERSE, displacement={"bottom": (None, None, None)})
+    with pytest.raises(SolverError, match="P2 .10-node. tetrahedra in contact are not available yet"):
+        space(2, 3).contact(None, "gamma3", None)
+    with pytest.raises(SolverError, match="3D body"):
+        space(1).assemble_matrices(cc.Body(m, TRANSVERSE, clamped=["bottom"]))
+    assert space(2, 3).dim == 3 and space(1).dim == 2
+
+
+# ------------------------------------------------------------------ patch tests (exact to rounding)
+
+
+def test_uniaxial_strain_block_under_pressure():
+    """Rollers on the four sides and the bottom, pressure p on top: u_z = -p z / c33, u_x = u_y = 0,
+    sigma_zz = -p and sigma_xx = sigma_yy = -p c13 / c33 in every tetrahedron."""
+    p = 2e6
+    m = box(x=(0, 0.3), y=(0, 0.2), z=(0, 0.25), nx=3, ny=2, nz=3)
+    body = cc.Body(m, TRANSVERSE, roller=SIDES + ["bottom"], traction={"top": (0.0, 0.0, -p)})
+    u, _ = solve(assemble(body))
+    c13, c33 = PZT.c3[0, 2], PZT.c3[2, 2]
+    z = m.points[:, 2]
+    assert rel(u[:, 2], -p * z / c33) <= 1e-12                                 # measured 8e-16
+    assert np.abs(u[:, :2]).max() <= 1e-12 * np.abs(u[:, 2]).max()
+    f = body_fields(body, u, None)
+    assert rel(f.stress[:, 2], np.full(len(m.tets), -p)) <= 1e-12                 # measured 1.3e-15
+    assert rel(f.stress[:, :2], np.full((len(m.tets), 2), -p * c13 / c33)) <= 1e-12  # measured 1.2e-15
+    assert np.abs(f.stress[:, 3:]).max() <= 1e-12 * p                             # measured 6e-16
+
+
+def test_open_circuit_pzt_block_is_stiffened_by_e33_squared_over_eps33():
+    """PZT-5A poled along z, rollers on the sides and bottom, grounded bottom, an open-circuit floating top
+    electrode, pressure p on top: eps_zz = -p / (c33 + e33^2 / eps33), D_z = 0, phi = -E_z z with
+    E_z = -e33 eps_zz / eps33, sigma_xx = c13 eps_zz - e31 E_z."""
+    p = 5e6
+    m = box(x=(0, 0.2), y=(0, 0.3), z=(0, 0.1), nx=2, ny=3, nz=2)
+    body = cc.Body(m, PZT, roller=SIDES + ["bottom"], grounded=["bottom"], floating={"top": 0.0},
+                   traction={"top": (0.0, 0.0, -p)})
+    u, phi = solve(assemble(body))
+    c13, c33, e31, e33, k33 = PZT.c3[0, 2], PZT.c3[2, 2], PZT.e3[2, 0], PZT.e3[2, 2], PZT.kappa3[2, 2]
+    ezz = -p / (c33 + e33 ** 2 / k33)
+    Ez = -e33 * ezz / k33
+    z = m.points[:, 2]
+    assert rel(u[:, 2], ezz * z) <= 1e-10                                      # measured 7e-16
+    assert rel(phi, -Ez * z) <= 1e-10                                          # measured 7e-16
+    f = body_fields(body, u, phi)
+    assert np.abs(f.electric_displacement).max() <= 1e-10 * abs(e33 * ezz)     # D = 0 (open circuit)
+    assert rel(f.stress[:, 2], np.full(len(m.tets), -p)) <= 1e-10
+    assert rel(f.stress[:, 0], np.full(len(m.tets), c13 * ezz - e31 * Ez)) <= 1e-10
+    # stiffer than the short-circuited block (c33 alone) by the closed-form factor
+    assert abs(c33 / (c33 + e33 ** 2 / k33) - ezz / (-p / c33)) <= 1e-15
+
+
+def _random_fields(seed, quadratic):
+    """u (x) = a + A x (+ 1/2 x^T H_i x), phi(x) = b + g . x (+ 1/2 x^T P x): coefficients of magnitude 1e-3 m
+    and 1e3 V over a unit box."""
+    rng = np.random.default_rng(seed)
+    a, A, b, g = 1e-3 * rng.normal(size=3), 1e-3 * rng.normal(size=(3, 3)), 1e3 * rng.normal(), 1e3 * rng.normal(size=3)
+    H = 1e-3 * rng.normal(size=(3, 3, 3)) * quadratic
+    H = H + np.swapaxes(H, 1, 2)
+    P = 1e3 * rng.normal(size=(3, 3)) * quadratic
+    P = P + P.T
+    u = lambda x: a + x @ A.T + 0.5 * np.einsum("ijk,nj,nk->ni", H, x, x)     # noqa: E731
+    phi = lambda x: b + x @ g + 0.5 * np.einsum("jk,nj,nk->n", P, x, x)         # noqa: E731
+    grad_u = lambda x: A[None] + np.einsum("ijk,nk->nij", H, x)                 # noqa: E731
+    grad_phi = lambda x: g + x @ P                                              # noqa: E731
+    return u, phi, grad_u, grad_phi
+
+
+def _sources(mat, grad_u, grad_phi):
+    """The constant body force f0 = -div sigma and volume charge q0 = div D of quadratic fields, from the
+    constitutive law at the origin and the unit points (sigma and D are affine)."""
+    pairs = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
+
+    def laws(x):
+        G = grad_u(x[None])[0]
+        eps = np.array([G[i, j] + G[j, i] if i != j else G[i, i] for i, j in pairs])
+        E = -grad_phi(x[None])[0]
+        s = mat.c3 @ eps - mat.e3.T @ E
+        sig = np.zeros((3, 3))
+        for k, (i, j) in enumerate(pairs):
+            sig[i, j] = sig[j, i] = s[k]
+        return sig, mat.e3 @ eps + mat.kappa3 @ E
+
+    s0, d0 = laws(np.zeros(3))
+    div_s = sum(laws(np.eye(3)[j])[0][:, j] - s0[:, j] for j in range(3))
+    div_d = sum(laws(np.eye(3)[j])[1][j] - d0[j] for j in range(3))
+    return -div_s, div_d
+
+
+def _dirichlet_solve(system, points, boundary, u_b, phi_b):
+    """Interior values of the assembled (unreduced) system with u and phi given on the boundary nodes."""
+    n = len(points)
+    inner = np.setdiff1d(np.arange(n), boundary)
+    ui = (3 * inner[:, None] + np.arange(3)).ravel()
+    ub = (3 * boundary[:, None] + np.arange(3)).ravel()
+    K, C, P = system.Kuu.tocsr(), system.Kup.tocsr(), system.Kpp.tocsr()
+    s = np.sqrt(abs(K.diagonal()).mean() / abs(P.diagonal()).mean())
+    A = sp.bmat([[K[ui][:, ui], s * C[ui][:, inner]], [s * C[ui][:, inner].T, -s * s * P[inner][:, inner]]], format="csc")
+    rhs = np.concatenate([system.f[ui] - K[ui][:, ub] @ u_b.ravel() - C[ui][:, boundary] @ phi_b,
+                          s * (-system.q[inner] - C[ub][:, inner].T @ u_b.ravel() + P[inner][:, boundary] @ phi_b)])
+    z = spla.spsolve(A, rhs)
+    return inner, z[:len(ui)].reshape(-1, 3), s * z[len(ui):]
+
+
+@pytest.mark.parametrize("degree,quadratic", [(1, False), (2, False), (2, True)],
+                         ids=["P1-linear", "P2-linear", "P2-quadratic"])
+def test_polynomial_fields_are_reproduced_exactly(degree, quadratic):
+    """Coupled fields given on the boundary of a distorted box, with the body force and volume charge of the
+    fields: P1 reproduces affine fields, P2 quadratic ones, at every interior node, to rounding."""
+    mat = PZT.rotated(np.array([[0.36, 0.48, -0.8], [-0.8, 0.6, 0.0], [0.48, 0.64, 0.6]]))
+    mesh = box(nx=3, ny=3, nz=3).moved(lambda x: x + 0.08 * np.sin(3.0 * x[:, [1, 2, 0]]) * (x * (1 - x)))
+    u, phi, grad_u, grad_phi = _random_fields(7, quadratic)
+    f0, q0 = _sources(mat, grad_u, grad_phi)
+    body = cc.Body(mesh, mat, grounded=["bottom"], body_force=tuple(f0), volume_charge=float(q0))
+    if degree == 1:
+        nodes, system = mesh, assemble(body)
+    else:
+        nodes = TetNodes(mesh)
+        system = p2.assemble(body, nodes)
+    pts = nodes.points
+    boundary = nodes.boundary_nodes(list(mesh.tags))
+    inner, u_in, phi_in = _dirichlet_solve(system, pts, boundary, u(pts[boundary]), phi(pts[boundary]))
+    assert len(inner) > 0
+    assert rel(u_in, u(pts[inner])) <= 1e-9                      # measured P1 7e-16, P2 1.3e-15 / 1.1e-15
+    assert rel(phi_in, phi(pts[inner])) <= 1e-9                  # measured P1 2.5e-12, P2 3.6e-12 / 4.1e-12 (P1 on the
+    # quadratic fields: 9e-4 and 2.2)

@@ -8,7 +8,7 @@ the backends, the read-back) asks the space and never branches on the degree.
 
 ``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
 docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
-the 3D ones (their contact surfaces are not available yet: ``contact`` raises a SolverError);
+the 3D ones (P2Tet in contact is not available yet: its ``contact`` raises a SolverError);
 :func:`space` gives the one of a degree and a dimension.
 """
 
@@ -23,7 +23,7 @@ import scipy.sparse as sp
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, p2_pairs
 from ..errors import SceneError, SolverError
-from ..geometry.quadratic import P2Nodes
+from ..geometry.quadratic import P2Nodes, P2TetNodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices
 
@@ -213,7 +213,6 @@ class P2Tet(P2):
     contact = staticmethod(_no_surfaces)
 
     def nodes(self, body):
-        from ..geometry.quadratic import P2TetNodes         # the 10-node set of a tetrahedral mesh
         return P2TetNodes(body.mesh)
 
 

@@ -299,8 +299,7 @@ def _rotation(rotation, mat):
     if dev > 1e-9 or np.linalg.det(R) < 0:
         raise MaterialError(f"material {mat.name!r}: rotated() needs a proper rotation matrix (R^T R = I, det R = +1); "
                             f"got |R^T R - I| = {dev:.3g}, det R = {np.linalg.det(R):.6g}")
-    if mat.c3 is None:
-        _tensors(mat, 3, None, (None,))             # the MaterialError naming why there are no 3D constants
+    mat.tensors(3)                                   # a MaterialError naming why there are no 3D constants
     return R
 
 

@@ -126,18 +126,19 @@ def _one_line(exc):
 
 
 def _pair_and_electrode_lines(sol):
-    """Per contact pair its total force (N/m) and active nodes; per electrode its potential (V) and
-    total charge (C/m): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
-    from ..io.output import pair_label
+    """Per contact pair its total force (N/m; N in 3D) and active nodes; per electrode its potential (V) and
+    total charge (C/m; C in 3D): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
+    from ..io.output import force_unit, pair_label
 
     lines = []
-    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid:
+    solid = sol.scene.dim == 3
+    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid or solid:
         for i, c in enumerate(sol.contacts):
-            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} N/m, "
+            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} {force_unit(sol)}, "
                          f"{int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
     for e in sol.electrodes:
         lines.append(f"  electrode {sol.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
-                     f"{e.potential:.6g} V, charge {e.charge:.6g} C/m")
+                     f"{e.potential:.6g} V, charge {e.charge:.6g} {'C' if solid else 'C/m'}")
     return lines
 
 
@@ -175,12 +176,19 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..io.plot import plot_contact, plot_deformed_all
+        from ..io.plot import plot_contact, plot_contact_map, plot_deformed_3d_all, plot_deformed_all
 
-        figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
-                   "contact.png": plot_contact(solutions)}
+        if scene.dim == 3:
+            figures = {"deformed_von_mises.png": plot_deformed_3d_all(solutions, "von_mises"),
+                       "deformed_displacement.png": plot_deformed_3d_all(solutions, "displacement"),
+                       "contact.png": plot_contact_map(solutions)}
+            deformed = plot_deformed_3d_all
+        else:
+            figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
+                       "contact.png": plot_contact(solutions)}
+            deformed = plot_deformed_all
         if any(b.piezoelectric for b in scene.bodies):               # no potential plot for an all-elastic scene
-            figures["deformed_potential.png"] = plot_deformed_all(solutions, "potential")
+            figures["deformed_potential.png"] = deformed(solutions, "potential")
         for name, fig in figures.items():
             try:
                 atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
@@ -260,9 +268,18 @@ def _info(args):
         s = assemble(b)
         n_u, n_phi = len(s.u_free), len(s.phi_free) if s.piezoelectric else 0
         total += n_u + n_phi
-        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {len(b.mesh.triangles)} "
-              f"triangles; unknowns: {n_u} displacement, "
+        cells = f"{len(b.mesh.cells)} {'tetrahedra' if b.dim == 3 else 'triangles'}"
+        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {cells}; unknowns: "
+              f"{n_u} displacement, "
               + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
+    if spec.scene.dim == 3:                                # planar contact surfaces
+        for i, (c, p) in enumerate(zip(spec.scene.contacts, spec.scene.interfaces)):
+            n = ", ".join(f"{v + 0.0:.4g}" for v in p.normal)
+            sig = f"sigma1 {len(p.sigma[0])}" + ("" if p.rigid else f", sigma2 {len(p.sigma[1])}")
+            print(f"  contact[{i}] {c!r}: normal ({n}), area {p.area:.6g} m^2, {p.size} "
+                  f"{'reachable trace' if p.rigid else 'overlay'} nodes, {sig}")
+        print(f"  total unknowns {total}; constraints (gamma3): {spec.scene.stack.size}")
+        return 0
     if len(spec.scene.interfaces) == 1 and not itf.rigid:
         sig = [len(t.x) for t in itf.traces]
         print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "

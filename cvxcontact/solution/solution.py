@@ -39,8 +39,12 @@ class ContactResult:
 
     For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
     tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to
-    the x1-axis), ``points`` (n, 2) the nodes' coordinates (m), ``normal`` the first body's unit
-    outward normal nu^a and ``line`` the mean x2 of the first body's part.
+    the x1-axis), ``points`` (n, d) the coordinates of the contact nodes (m; in 2D and 3D), ``normal`` the
+    first body's unit outward normal nu^a and ``line`` the mean x2 of the first body's part.
+
+    In 3D (a planar contact surface) ``x`` (n, 2) are the nodes' in-plane coordinates (s1, s2) along the
+    pair's frame (t1, t2) (:func:`cvxcontact.contact.surface.canonical_frame`; (x, y) for a plane
+    z = const), ``points`` (n, 3), ``force`` in N (not N/m), ``line`` the offset x . nu^a of the plane.
     """
 
     x: np.ndarray
@@ -110,7 +114,7 @@ class Electrode:
     ``body`` is the body's index in the scene, ``tag`` the boundary part, ``kind`` one of
     "grounded", "driven", "floating"; ``potential`` its potential (V; the mean over its nodes
     for a driven electrode whose potential varies along it) and ``charge`` its total charge
-    (C/m): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
+    (C/m; C in 3D): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
     (for a floating electrode, the prescribed Q). A node shared by two electrodes counts for
     the first in the order grounded, driven, floating.
     """
@@ -148,7 +152,7 @@ class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
 
     ``energy`` is the reduced coupled energy Pi(u_h) of docs/formulation.md §2 in J/m (per
-    unit thickness; with driven electrodes, up to the constant of the lifting).
+    unit thickness; J in 3D; with driven electrodes, up to the constant of the lifting).
     ``problem`` holds the interior-point values; with ``polished`` the arrays here
     are the exact finish. ``path`` says how the answer was reached: "interior point",
     "interior point + exact finish" or, for a re-solve of a :class:`ContactSolver`,
@@ -190,8 +194,8 @@ class Solution:
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
     obstacles: list = field(default_factory=list)
-    """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, contact force N/m), in the
-    order of ``scene.obstacles``."""
+    """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, reaction ``force`` N/m in 2D,
+    N in 3D), in the order of ``scene.obstacles``."""
 
     @property
     def status(self) -> Status:
@@ -278,8 +282,9 @@ class Solution:
 class ObstacleResult:
     """One rigid obstacle of the solution (docs/formulation.md §12).
 
-    ``translation`` (2,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
-    normal: a tangential translation changes nothing); ``force`` (2,) N/m: the resultant with which
+    ``translation`` (d,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
+    normal: a tangential translation changes nothing); ``force`` (d,): the obstacle's reaction, N/m in 2D
+    (per unit thickness), N in 3D: the resultant with which
     the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
     :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
     force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
@@ -305,7 +310,7 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
-        t = np.zeros(2) if o.force is None else o.basis @ next(taus)
+        t = np.zeros(rows.shape[1]) if o.force is None else o.basis @ next(taus)
         if o.force is not None:
             worst = max(worst, obstacle_balance(o.force, rows, y))
             sol.energy -= float(o.force @ t)

@@ -88,7 +88,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
-        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        tolerances, then finished exactly by accumulated cuts where the problem condenses), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
         of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
@@ -237,15 +237,17 @@ class ContactSolver:
 
     def _warn(self, sol, raw) -> None:
         p = self.problem
-        if self.settings.polish and not raw.polished and not p.conic and not p.mixed:
+        if self.settings.polish and not raw.polished and not p.mixed and (raw.declined or not p.conic):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)
         elif not sol.ok:
-            hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops where it "
-                    "stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or stacks; "
-                    "docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, or use "
-                    "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if p.conic or p.mixed else "")
+            hint = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, a body "
+                    "held by the contact only, a force-controlled obstacle, or cones next to a compliance law), which "
+                    "stops where it stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies "
+                    "or stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, "
+                    "or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)."
+                    if (p.conic or p.mixed) and not raw.polished else "")
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=4)
 

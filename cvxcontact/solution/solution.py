@@ -262,7 +262,7 @@ class Solution:
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
         x = itf.traces[k].x
-        if self.degree == 1:
+        if self.degree == 1 or getattr(itf, "dim", 2) == 3:     # 3D P2: the Riesz pressure on its P2 faces
             return x.copy(), itf.pressure(k, self.contacts[pair].force)
         return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 

@@ -1,5 +1,5 @@
 """A PZT-5A disc pressed by a rigid sphere: the open-circuit electrode as a force sensor (3D).
-==========================================================================================
+===========================================================================================
 
 The disc (radius 5 mm, 2 mm thick, ``cc.cylinder``, poled along +z) stands on a rigid base: its bottom
 face is clamped and carries the grounded electrode. Its top face carries a floating electrode with no net

@@ -24,12 +24,14 @@ def _body_meshes(arrays):
     import meshio
 
     for k in sorted(int(m.group(1)) for m in (re.fullmatch(r"points(\d+)", n) for n in arrays) if m):
-        points, triangles = arrays[f"points{k}"], arrays[f"triangles{k}"]
+        points = arrays[f"points{k}"]
+        kind, cells = (("triangle", arrays[f"triangles{k}"]) if f"triangles{k}" in arrays
+                       else ("tetra", arrays[f"tetrahedra{k}"]))
         n = len(points)                                      # P2: the vertices come first (P2Nodes)
         data = {"displacement [m]": np.asarray(arrays[f"u{k}"])[:n]}
         if f"phi{k}" in arrays:
             data["electric potential [V]"] = np.asarray(arrays[f"phi{k}"])[:n]
-        yield f"body{k}", meshio.Mesh(points, [("triangle", triangles)], point_data=data)
+        yield f"body{k}", meshio.Mesh(points, [(kind, cells)], point_data=data)
 
 
 def _contact_meshes(arrays):

@@ -126,7 +126,7 @@ def arrays(sol) -> dict:
         if phi is not None:
             out[f"phi{k}"] = phi
         out[f"points{k}"] = body.mesh.points
-        out[f"triangles{k}"] = body.mesh.triangles
+        out[f"{'triangles' if body.mesh.dim == 2 else 'tetrahedra'}{k}"] = body.mesh.cells
     return out
 
 

@@ -13,12 +13,13 @@ The public names are imported on first use (PEP 562), so that ``cvxcontact --hel
 ``--version`` start without importing NumPy, SciPy or CVXPY.
 """
 
+import logging as _logging
 import sys as _sys
 from importlib import import_module
 from types import ModuleType as _ModuleType
 from typing import TYPE_CHECKING
 
-__version__ = "0.1.0"
+_logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library prints nothing (logging)
 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
@@ -35,6 +36,8 @@ _WHERE = {
     "TetMesh": (".geometry.tetmesh", None), "box": (".geometry.generators3d", None),
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
+    "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
+    "SweepResultsError": (".apps.sweep.load", None),
 }
 
 __all__ = [
@@ -43,11 +46,14 @@ __all__ = [
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
-    "UnsupportedError", "FrozenError",
+    "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
 ]
 
 
 def __getattr__(name):
+    if name == "__version__":            # from git tags (cvxcontact.version); computed on first use
+        value = globals()[name] = import_module(".version", __name__).version()
+        return value
     if name not in _WHERE:
         raise AttributeError(f"module 'cvxcontact' has no attribute {name!r}")
     module, attr = _WHERE[name]
@@ -57,7 +63,7 @@ def __getattr__(name):
 
 
 def __dir__():
-    return sorted(set(globals()) | set(__all__))
+    return sorted(set(globals()) | set(__all__) | {"__version__"})
 
 
 class _Package(_ModuleType):
@@ -80,6 +86,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
                          SolverError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
+    from .apps.sweep.load import SweepResults, SweepResultsError, load_sweep
     from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
     from .geometry.tetmesh import TetMesh
@@ -88,3 +95,5 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .physics.scene import Body, Scene
     from .solution.info import Finish, Route, SolveInfo, Status
     from .solve import ContactResult, ContactSolver, Solution, solve
+
+    __version__: str

@@ -9,6 +9,7 @@ it exactly (:mod:`cvxcontact.backends.finish`) and reads the answer back with it
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 from collections.abc import Mapping
@@ -28,6 +29,8 @@ from .solution.solution import ContactResult, Solution
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
            "METHODS", "DEFAULT_METHOD"]
+
+log = logging.getLogger(__name__)
 
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
@@ -87,7 +90,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
         (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
         segment (a second-order cone per segment, solved by the interior point with tight
-        tolerances: no exact finish), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
+        tolerances, then finished exactly by accumulated cuts where the problem condenses), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
         of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
         in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
         controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
@@ -174,6 +177,8 @@ class ContactSolver:
         self._setup = {"assembly": time.perf_counter() - t0}
         self.requested = method
         self.method = choose(method, describe(self.problem))
+        log.info("method %r: backend %r (%d bodies, condition %s)", method, self.method,
+                 len(self.problem.scene.bodies), self.problem.condition)
         self._cache = Cache()
 
     # the prepared problem, as attributes of the solver (read-only views)
@@ -198,6 +203,7 @@ class ContactSolver:
             sol = self._fallback(problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
         sol.info = replace(sol.info, timings=timings)
+        log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
         return sol
 
@@ -213,30 +219,37 @@ class ContactSolver:
         solves the mixed system itself (1-2 steps from the condensed active set); it is kept for later load
         cases of this geometry if its answer passes."""
         t1, stages = time.perf_counter(), {}            # its stages are inside "fallback", not added twice
+        log.info("the condensed answer fails its checks (%s); falling back to the sparse route",
+                 ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol))
         try:
             raw = run("sparse", problem, self._cache, self.settings, stages)
-        except SolverError:
+        except SolverError as exc:
+            log.info("the sparse fallback failed (%s); the condensed answer is kept", exc)
             timings["fallback"] = time.perf_counter() - t1
             return sol
         other = read_back(problem, raw, self.tol, timings, self.requested)
         timings["fallback"] = time.perf_counter() - t1
         if not other.ok:
+            log.info("the sparse fallback fails its checks too; the condensed answer is kept")
             return sol
+        log.info("the sparse fallback passes its checks; later load cases of this geometry use it")
         self.method = "sparse"
         other.info = replace(other.info, route=Route.SPARSE_FALLBACK)
         return other
 
     def _warn(self, sol, raw) -> None:
         p = self.problem
-        if self.settings.polish and not raw.polished and not p.conic and not p.mixed:
+        if self.settings.polish and not raw.polished and not p.mixed and (raw.declined or not p.conic):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)
         elif not sol.ok:
-            hint = ("\nThe conic P2 'gamma3' condition has no exact finish: its interior point stops where it "
-                    "stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or stacks; "
-                    "docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, or use "
-                    "'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)." if p.conic or p.mixed else "")
+            hint = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, a body "
+                    "held by the contact only, a force-controlled obstacle, or cones next to a compliance law), which "
+                    "stops where it stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies "
+                    "or stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, "
+                    "or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)."
+                    if (p.conic or p.mixed) and not raw.polished else "")
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=4)
 

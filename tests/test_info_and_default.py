@@ -11,7 +11,7 @@ import pytest
 
 import cvxcontact as cc
 from conftest import rel, two_blocks
-from cvxcontact.apps.sweep import Case, load_sweep, run_sweep
+from cvxcontact.apps.sweep import Case, read_sweep, run_sweep
 from cvxcontact.backends import BACKENDS, METHODS, ProblemDescription, choose
 from cvxcontact.io.scenefile import load_scene
 from cvxcontact.physics.fingerprint import geometry_fingerprint
@@ -156,7 +156,7 @@ def test_gap_only_sweep_shares_one_contact_solver(tmp_path):
                                          .replace("nx = 11, ny = 6", "nx = 6, ny = 3"))
     gaps = [0.0, 2e-6, 5e-6, -1e-6, 1e-5]
     (tmp_path / "sweep.toml").write_text(f'scene = "scene.toml"\n[grid]\ngap = {json.dumps(gaps)}\n')
-    sweep = load_sweep(tmp_path / "sweep.toml")
+    sweep = read_sweep(tmp_path / "sweep.toml")
     assert sweep.method == "auto" and len({c.geometry for c in sweep.cases}) == 1
     report = run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
     assert report.done == 5 and not report.failed

@@ -183,12 +183,14 @@ def test_help_and_version_are_fast_and_light():
 
 
 def test_license_and_citation_agree_with_pyproject():
+    import re
     import tomllib
 
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     assert meta["license"] == "BSD-3-Clause" and "BSD 3-Clause License" in (ROOT / "LICENSE").read_text()
     cff = (ROOT / "CITATION.cff").read_text()
-    assert f'version: "{meta["version"]}"' in cff and "license: BSD-3-Clause" in cff
+    release = re.search(r"^## \[(\d+\.\d+\.\d+)\]", (ROOT / "CHANGELOG.md").read_text(), re.M).group(1)
+    assert meta["dynamic"] == ["version"] and f'version: "{release}"' in cff and "license: BSD-3-Clause" in cff
     assert 'title: "Mixed finite element approximation for a contact problem in electro-elasticity"' in cff
     assert "demo/" in (ROOT / ".gitignore").read_text().split()
 

@@ -390,11 +390,13 @@ def test_cli_solve_with_degree_2(tmp_path, capsys):
 
 
 def test_conic_failure_warning_names_the_floor_and_the_alternatives(small):
-    """A conic answer that misses a tolerance below the interior point's floor warns, and the warning
-    says why (no exact finish) and what to do (a looser tol, or a nodal condition)."""
+    """A conic interior-point answer (here polish=False) that misses a tolerance below the interior point's
+    floor warns, and the warning says why (no exact finish) and what to do (a looser tol, or a nodal
+    condition); the exact finish passes that tol."""
     with pytest.warns(cc.ResidualWarning, match="no exact finish") as rec:
-        sol = cc.solve(small, "gamma3", degree=2, tol=1e-7)   # conic: ~6e-7 here
+        sol = cc.solve(small, "gamma3", degree=2, tol=1e-7, polish=False)   # conic: ~6e-7 here
     assert not sol.ok and "sigma1" in str(rec[0].message)
+    assert cc.solve(small, "gamma3", degree=2, tol=1e-7).ok                 # finished: 1.7e-8
     exact = cc.solve(small, "sigma1", degree=2, tol=1e-7)    # nodal: finished, 1.5e-8 (rounding)
     assert exact.ok
 

@@ -86,7 +86,9 @@ def test_pairs_sharing_no_body_equal_their_single_pair_solves(case):
     law, conditions, conic = CASES[case]
     scene, singles = _decoupled(law, conditions)
     refs = [cc.solve(sc, "sigma2", degree=2, method="full", tol=TOL) for sc in singles]
-    assert all(r.ok for r in refs) and [r.polished for r in refs] == [not c for c in conic]
+    # a single pair finishes exactly unless it is a conic limit (cones next to a compliance law: interior point)
+    limit = [law.penetration_limit is not None and conditions[0] == "gamma3", False]
+    assert all(r.ok for r in refs) and [r.polished for r in refs] == [not lim for lim in limit]
     for method in ("full", "condensed"):
         sol = cc.solve(scene, "sigma2", degree=2, method=method, tol=TOL)
         assert sol.ok and len(sol.contacts) == 2 and not sol.polished, sol.report()

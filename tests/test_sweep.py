@@ -13,7 +13,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.io.scenefile import load_scene
-from cvxcontact.apps.sweep import SweepError, load_sweep, run_sweep
+from cvxcontact.apps.sweep import SweepError, read_sweep, run_sweep
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -69,13 +69,13 @@ def test_load_only_cases_reuse_the_factorisation(tmp_path):
 
 def test_bad_sweep_files(tmp_path):
     with pytest.raises(SweepError, match="does not exist"):
-        load_sweep(write_sweep(tmp_path, {"body[5].mesh": [1]}))
+        read_sweep(write_sweep(tmp_path, {"body[5].mesh": [1]}))
     with pytest.raises(SweepError, match="not a key path"):
-        load_sweep(write_sweep(tmp_path, {"body..x": [1]}))
+        read_sweep(write_sweep(tmp_path, {"body..x": [1]}))
     with pytest.raises(SweepError, match="conditions"):
-        load_sweep(write_sweep(tmp_path, {"body[0].body_force[1]": [1]}, 'conditions = ["gamma9"]'))
+        read_sweep(write_sweep(tmp_path, {"body[0].body_force[1]": [1]}, 'conditions = ["gamma9"]'))
     with pytest.raises(cc.CvxContactError, match="sweep file does not exist"):
-        load_sweep(tmp_path / "none.toml")
+        read_sweep(tmp_path / "none.toml")
 
 
 def test_sweep_killed_with_sigkill_resumes_without_loss(tmp_path):

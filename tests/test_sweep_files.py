@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from cvxcontact.apps import cli
-from cvxcontact.apps.sweep import SweepError, load_sweep, run_sweep
+from cvxcontact.apps.sweep import SweepError, read_sweep, run_sweep
 from cvxcontact.apps.sweep import spec as sweep_spec
 from cvxcontact.io.scenefile import read_toml
 
@@ -40,7 +40,7 @@ def test_grid_plus_case_runs_every_grid_point_and_the_extra_case(tmp_path, sourc
     shutil.copy(EXAMPLES / "two_blocks.toml", tmp_path / "two_blocks.toml")
     (tmp_path / "sweep.toml").write_text(text)
     data = read_toml(tmp_path / "sweep.toml")
-    sweep = load_sweep(tmp_path / "sweep.toml")
+    sweep = read_sweep(tmp_path / "sweep.toml")
     base = read_toml(EXAMPLES / "two_blocks.toml")
     grid = data["grid"]
     n_grid = 1
@@ -63,15 +63,15 @@ def test_grid_plus_case_runs_every_grid_point_and_the_extra_case(tmp_path, sourc
 
 def test_case_tables_alone_and_no_tables(tmp_path):
     small_scene(tmp_path)
-    sweep = load_sweep(sweep_file(tmp_path, '[[case]]\nname = "a"\n"gap" = 0.0\n'
+    sweep = read_sweep(sweep_file(tmp_path, '[[case]]\nname = "a"\n"gap" = 0.0\n'
                                             '[[case]]\nname = "b"\n"gap" = -1e-6\n'))
     assert [c.name for c in sweep.cases] == ["a", "b"]                 # no base case added
     assert [c.data["gap"] for c in sweep.cases] == [0.0, -1e-6]
-    assert [c.name for c in load_sweep(sweep_file(tmp_path, "")).cases] == ["base"]
+    assert [c.name for c in read_sweep(sweep_file(tmp_path, "")).cases] == ["base"]
     with pytest.raises(SweepError, match="same case"):
-        load_sweep(sweep_file(tmp_path, '[grid]\n"gap" = [0.0]\n[[case]]\nname = "again"\n"gap" = 0.0\n'))
+        read_sweep(sweep_file(tmp_path, '[grid]\n"gap" = [0.0]\n[[case]]\nname = "again"\n"gap" = 0.0\n'))
     with pytest.raises(SweepError, match="used twice"):
-        load_sweep(sweep_file(tmp_path, '[[case]]\nname = "a"\n[[case]]\nname = "a"\n"gap" = 1e-9\n'))
+        read_sweep(sweep_file(tmp_path, '[[case]]\nname = "a"\n[[case]]\nname = "a"\n"gap" = 1e-9\n'))
 
 
 @pytest.mark.parametrize("key, value, words", [
@@ -83,7 +83,7 @@ def test_case_tables_alone_and_no_tables(tmp_path):
 def test_bad_override_paths_name_the_key(tmp_path, key, value, words):
     small_scene(tmp_path)
     with pytest.raises(SweepError) as err:
-        load_sweep(sweep_file(tmp_path, f'[grid]\n"{key}" = [{value}]\n'))
+        read_sweep(sweep_file(tmp_path, f'[grid]\n"{key}" = [{value}]\n'))
     assert all(w in str(err.value) for w in words), str(err.value)
     assert key in str(err.value)
 
@@ -106,26 +106,26 @@ def test_invalid_cases_are_refused_up_front_with_the_key(tmp_path, key, value, w
 def test_case_id_follows_the_resolved_content(tmp_path, monkeypatch):
     small_scene(tmp_path)
     path = sweep_file(tmp_path, '[grid]\n"gap" = [0.0, -1e-6]\n')
-    ids = [c.id for c in load_sweep(path).cases]
-    assert ids == [c.id for c in load_sweep(path).cases]         # deterministic
+    ids = [c.id for c in read_sweep(path).cases]
+    assert ids == [c.id for c in read_sweep(path).cases]         # deterministic
     text = (tmp_path / "scene.toml").read_text()
     assert "E = 70e9" in text
     (tmp_path / "scene.toml").write_text(text.replace("E = 70e9", "E = 200e9"))
-    assert not set(ids) & {c.id for c in load_sweep(path).cases}        # a material constant
+    assert not set(ids) & {c.id for c in read_sweep(path).cases}        # a material constant
     (tmp_path / "scene.toml").write_text(text)
     monkeypatch.setattr(sweep_spec, "versions", lambda: {"cvxcontact": "9.9"})
-    assert not set(ids) & {c.id for c in load_sweep(path).cases}        # the package version
+    assert not set(ids) & {c.id for c in read_sweep(path).cases}        # the package version
 
 
 def test_case_id_follows_mesh_file_contents(tmp_path):
     shutil.copy(EXAMPLES / "gmsh_scene.toml", tmp_path / "scene.toml")
     shutil.copytree(EXAMPLES / "meshes", tmp_path / "meshes")
     path = sweep_file(tmp_path, "")
-    first = load_sweep(path).cases[0]
+    first = read_sweep(path).cases[0]
     assert set(first.provenance["mesh_files"]) == {"body[0].mesh.file", "body[1].mesh.file"}
     with open(tmp_path / "meshes" / "lower.msh", "a") as f:           # same mesh, other bytes
         f.write("\n")
-    second = load_sweep(path).cases[0]
+    second = read_sweep(path).cases[0]
     assert second.id != first.id
     assert second.provenance["mesh_files"]["body[1].mesh.file"] != first.provenance["mesh_files"]["body[1].mesh.file"]
 

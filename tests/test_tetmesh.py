@@ -8,6 +8,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.errors import FrozenError, MeshError
+from cvxcontact.fem import p2 as p2_basis
 from cvxcontact.geometry.quadratic import P2TetNodes
 from cvxcontact.geometry.tetmesh import TetMesh
 
@@ -30,6 +31,8 @@ UNIT = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
 def test_box_volumes_areas_and_side_tags():
     m = cc.box(x=(-1, 2), y=(0, 0.5), z=(1, 1.25), nx=5, ny=3, nz=2)
     assert m.dim == 3 and cc.Mesh.dim == 2
+    flat = cc.rectangle(nx=2, ny=1)
+    assert flat.dim == 2 and flat.cells is flat.triangles
     assert m.cells is m.tets and m.tets.shape == (6 * 30, 4) and m.points.shape == (6 * 4 * 3, 3)
     assert (m.volumes > 0).all()
     assert m.volumes.sum() == pytest.approx(3 * 0.5 * 0.25, rel=1e-14)            # measured 1e-16
@@ -215,6 +218,21 @@ def positive(points, tets):
     return np.where((vol < 0)[:, None], t[:, [1, 0, 2, 3]], t)
 
 
+def crossing_bars():
+    """Two bars crossing like a plus sign, no node of either inside the other."""
+    a = cc.box(x=(-2, 2), y=(-0.5, 0.5), z=(0, 1), nx=1, ny=1, nz=1)
+    b = cc.box(x=(-0.5, 0.5), y=(-2, 2), z=(0.2, 0.8), nx=1, ny=1, nz=1)
+    return np.vstack([a.points, b.points]), np.vstack([a.tets, b.tets + 8])
+
+
+def curled_strip(turn):
+    """A strip of 12 cells curled through ``turn`` radians around the z axis: it overlaps its own start
+    when turn > 2 pi (one piece, one boundary surface)."""
+    m = cc.box(x=(0, 1), y=(0, 0.3), z=(0, 0.2), nx=12, ny=1, nz=1)
+    x, y, z = m.points.T
+    return np.column_stack([(1 + y) * np.cos(turn * x), (1 + y) * np.sin(turn * x), z]), m.tets
+
+
 def bad_meshes():
     sq = cc.box(nx=2, ny=2, nz=2)
     flip = sq.tets.copy()
@@ -242,6 +260,8 @@ def bad_meshes():
         (np.vstack([UNIT, -UNIT[1:]]), positive(np.vstack([UNIT, -UNIT[1:]]), [[0, 1, 2, 3], [0, 4, 5, 6]]), None, "node 0 .* joins 2 separate fans"),
         (*ring_around_an_edge(2), None, r"interior edge \(0, 1\) .* turn 2.000 times around it"),
         (np.vstack([a.points, b.points]), np.vstack([a.tets, b.tets + 8]), None, "lies inside 1 other layer"),
+        (*crossing_bars(), None, "boundary faces .* meet near .* the boundary surface cuts through itself"),
+        (*curled_strip(2.2 * np.pi), None, "boundary faces .* meet near .* the boundary surface cuts through itself"),
         (UNIT, [[0, 1, 2, 3]], {"x": [[0, 1, 4]]}, "boundary part 'x' refers to nodes outside"),
         (UNIT, [[0, 1, 2, 3]], {"x": [[0, 1]]}, r"non-empty \(k, 3\) array"),
         (sq.points, sq.tets, {"inner": [[13, 14, 4]]}, "boundary part 'inner': 1 face.s. are not on the boundary"),
@@ -260,6 +280,29 @@ def test_ring_around_an_edge_turning_once_is_a_mesh():
     """The crafted wrap above is a bad mesh only because it turns twice."""
     m = TetMesh(*ring_around_an_edge(1))
     assert m.volumes.sum() == pytest.approx(enclosed_volume(m.points, m.boundary_faces))
+
+
+def test_curled_strip_short_of_a_full_turn_is_a_mesh():
+    """The crafted overlap above is a bad mesh only because it turns more than once (a gap of 0.2 rad)."""
+    m = TetMesh(*curled_strip(2 * np.pi - 0.2))
+    assert m.volumes.sum() == pytest.approx(enclosed_volume(m.points, m.boundary_faces))
+
+
+@pytest.mark.parametrize("a, b, meet", [
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.2, 0.2, -1], [0.2, 0.2, 1], [1, 1, 1]], True),     # pierces
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.6, 0.6, -1], [0.6, 0.6, 1], [1, 1, 1]], False),    # passes by the edge
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.2, 0.2, 0], [2, 0.2, 0], [0.2, 2, 0]], True),      # coplanar overlap
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.6, 0.6, 0], [2, 0.6, 0], [0.6, 2, 0]], False),     # coplanar apart
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0.5, 0.5, 0], [2, 0.5, 0], [0.5, 2, 0]], True),      # touching
+    ([[0.2, 0.2, -1], [0.2, 0.2, 1], [0.2, 0.2, 1]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], True),  # a segment through
+    ([[0.6, 0.6, -1], [0.6, 0.6, 1], [0.6, 0.6, 1]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], False),  # a segment by
+    ([[0.1, 0.1, 0], [0.3, 0.1, 0], [0.3, 0.1, 0]], [[0, 0, 0], [1, 0, 0], [0, 1, 0]], True),  # in the plane, inside
+])
+def test_separating_axes_of_two_triangles(a, b, meet):
+    """The face-face test of the self-intersection check, against cases decided by hand."""
+    from cvxcontact.geometry.tetmesh import _meet
+    assert _meet(np.array([a], float), np.array([b], float), np.array([1e-9]))[0] == meet
+    assert _meet(np.array([b], float), np.array([a], float), np.array([1e-9]))[0] == meet
 
 
 def test_interior_face_of_a_box_is_not_a_boundary_face():
@@ -347,7 +390,8 @@ def test_p2_tet_nodes_are_the_edge_midpoints():
     n = len(m.points)
     edges = {tuple(sorted(e)) for t in m.tets.tolist() for e in itertools.combinations(t, 2)}
     assert len(p2) == n + len(edges) and p2.cells is p2.tets10 and p2.tets10.shape == (len(m.tets), 10)
-    local = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]                  # the documented tetra10 order
+    local = [(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)]                  # the documented gmsh tetra10 order
+    assert [tuple(e) for e in p2_basis.EDGES[3]] == local                     # the P2 basis numbers them alike
     for k, (i, j) in enumerate(local):
         np.testing.assert_allclose(p2.points[p2.tets10[:, 4 + k]],
                                    0.5 * (m.points[m.tets[:, i]] + m.points[m.tets[:, j]]), atol=1e-15)

@@ -1,4 +1,4 @@
-"""Command line: ``cvxcontact demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
+"""Command line: ``cvxcontact [-v] demo | solve | info | sweep | study`` (see ``cvxcontact --help``).
 
 Exit codes: 0 success, 1 bad input or failed solve (one-line reason on stderr),
 2 usage error, 3 solved but the solution fails its checks (files are still written);
@@ -8,6 +8,7 @@ for ``sweep`` see :func:`_sweep`.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -37,6 +38,9 @@ def _parser():
     import cvxcontact  # the package root (already imported, and lazy): only for its version
 
     p.add_argument("--version", action="version", version=f"cvxcontact {cvxcontact.__version__}")
+    p.add_argument("-v", "--verbose", action="count", default=0,
+                   help="the library's log on stderr (before the command: cvxcontact -v solve ...): -v routes and "
+                        "fallbacks, -vv also the stage timings")
     sub = p.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="solve the built-in two-block scene; write VTU, PNG and a JSON summary")
     demo.add_argument("--out", default="cvxcontact-demo",
@@ -70,19 +74,24 @@ def _parser():
     sweep.add_argument("--export-problem", action="store_true",
                        help="also write each case's conic problem data (P, q, A, b, cones) to cases/<id>.problem.npz")
     study = sub.add_parser("study", help="verification studies: CSV, PNG and a Markdown summary")
-    study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "all"))
+    study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "hertz3d", "all"))
     study.add_argument("--out", required=True, help="output folder")
     study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
     for s in (solve, info, sweep):
         s.add_argument("--allow-outside-mesh", action="store_true",
-                       help="accept mesh files outside the scene file's folder, or given by absolute paths")
+                       help="accept mesh files outside the scene file's folder, or given by absolute paths "
+                            "(sweep: also the scene file outside the sweep file's folder)")
     for s in (demo, solve, info, sweep, study):
         s.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+
     return p
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
+    args.argv = argv
+    _logging(args)
     progress = Progress(args.quiet)
     try:
         if args.command == "info":
@@ -126,18 +135,19 @@ def _one_line(exc):
 
 
 def _pair_and_electrode_lines(sol):
-    """Per contact pair its total force (N/m) and active nodes; per electrode its potential (V) and
-    total charge (C/m): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
-    from ..io.output import pair_label
+    """Per contact pair its total force (N/m; N in 3D) and active nodes; per electrode its potential (V) and
+    total charge (C/m; C in 3D): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
+    from ..io.output import force_unit, pair_label
 
     lines = []
-    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid:
+    solid = sol.scene.dim == 3
+    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid or solid:
         for i, c in enumerate(sol.contacts):
-            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} N/m, "
+            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} {force_unit(sol)}, "
                          f"{int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
     for e in sol.electrodes:
         lines.append(f"  electrode {sol.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
-                     f"{e.potential:.6g} V, charge {e.charge:.6g} C/m")
+                     f"{e.potential:.6g} V, charge {e.charge:.6g} {'C' if solid else 'C/m'}")
     return lines
 
 
@@ -175,12 +185,19 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..io.plot import plot_contact, plot_deformed_all
+        from ..io.plot import plot_contact, plot_contact_map, plot_deformed_3d_all, plot_deformed_all
 
-        figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
-                   "contact.png": plot_contact(solutions)}
+        if scene.dim == 3:
+            figures = {"deformed_von_mises.png": plot_deformed_3d_all(solutions, "von_mises"),
+                       "deformed_displacement.png": plot_deformed_3d_all(solutions, "displacement"),
+                       "contact.png": plot_contact_map(solutions)}
+            deformed = plot_deformed_3d_all
+        else:
+            figures = {"deformed_von_mises.png": plot_deformed_all(solutions, "von_mises"),
+                       "contact.png": plot_contact(solutions)}
+            deformed = plot_deformed_all
         if any(b.piezoelectric for b in scene.bodies):               # no potential plot for an all-elastic scene
-            figures["deformed_potential.png"] = plot_deformed_all(solutions, "potential")
+            figures["deformed_potential.png"] = deformed(solutions, "potential")
         for name, fig in figures.items():
             try:
                 atomic_write(out / name, lambda p, f=fig: f.savefig(p, dpi=130, format="png"))
@@ -224,10 +241,15 @@ def _sweep(args):
 
     if args.workers is not None and args.workers < 1:
         raise CvxContactError(f"--workers must be at least 1, got {args.workers}")
-    report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
-                       retry_failed=args.retry_failed, progress=main_progress(args.quiet),
-                       allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
-                       skip_invalid=args.skip_invalid)
+    try:
+        report = run_sweep(args.sweep, args.out, workers=args.workers, scheduler=args.scheduler,
+                           retry_failed=args.retry_failed, progress=main_progress(args.quiet),
+                           allow_outside=args.allow_outside_mesh, export_problem=args.export_problem,
+                           skip_invalid=args.skip_invalid)
+    except KeyboardInterrupt:
+        print(f"cvxcontact: interrupted; {_sweep_states(args.out)}. Resume with the same command: "
+              f"{shlex.join(['cvxcontact', *args.argv])}", file=sys.stderr, flush=True)
+        return 130
     if not args.quiet:
         print(f"{report.done} of {report.total} cases done ({report.skipped} from earlier runs), "
               f"{len(report.checks_failed)} failing their checks, {len(report.failed)} failed, "
@@ -248,6 +270,32 @@ def _sweep(args):
     return 0
 
 
+def _sweep_states(out) -> str:
+    """What the manifest of an interrupted sweep says: "3 of 14 cases done, 11 pending"."""
+    import json
+
+    try:
+        manifest = json.loads((Path(out) / "manifest.json").read_text())
+        states, total = manifest["states"], len(manifest["cases"])
+        return f"{total - states['pending']} of {total} cases have a result or a recorded failure, " \
+               f"{states['pending']} pending (results so far: {out}/manifest.json)"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "no case finished"
+
+
+def _logging(args) -> None:
+    """``-v``: the library's log (routes, fallbacks) on stderr; ``-vv``: with the stage timings (DEBUG)."""
+    if not getattr(args, "verbose", 0):
+        return
+    import logging
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("[%(name)s] %(levelname)s %(message)s"))
+    logger = logging.getLogger("cvxcontact")
+    logger.addHandler(handler)
+    logger.setLevel(logging.DEBUG if args.verbose > 1 else logging.INFO)
+
+
 def _info(args):
     from ..fem.assembly import assemble
     from ..io.scenefile import load_scene
@@ -260,9 +308,18 @@ def _info(args):
         s = assemble(b)
         n_u, n_phi = len(s.u_free), len(s.phi_free) if s.piezoelectric else 0
         total += n_u + n_phi
-        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {len(b.mesh.triangles)} "
-              f"triangles; unknowns: {n_u} displacement, "
+        cells = f"{len(b.mesh.cells)} {'tetrahedra' if b.dim == 3 else 'triangles'}"
+        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {cells}; unknowns: "
+              f"{n_u} displacement, "
               + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
+    if spec.scene.dim == 3:                                # planar contact surfaces
+        for i, (c, p) in enumerate(zip(spec.scene.contacts, spec.scene.interfaces)):
+            n = ", ".join(f"{v + 0.0:.4g}" for v in p.normal)
+            sig = f"sigma1 {len(p.sigma[0])}" + ("" if p.rigid else f", sigma2 {len(p.sigma[1])}")
+            print(f"  contact[{i}] {c!r}: normal ({n}), area {p.area:.6g} m^2, {p.size} "
+                  f"{'reachable trace' if p.rigid else 'overlay'} nodes, {sig}")
+        print(f"  total unknowns {total}; constraints (gamma3): {spec.scene.stack.size}")
+        return 0
     if len(spec.scene.interfaces) == 1 and not itf.rigid:
         sig = [len(t.x) for t in itf.traces]
         print(f"  contact line y = {itf.y:g} m, x in [{itf.x[0]:g}, {itf.x[-1]:g}] m: {sig[0]} + {sig[1]} trace nodes, "

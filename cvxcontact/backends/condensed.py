@@ -40,9 +40,9 @@ def node_order(mesh) -> np.ndarray:
 
     Computed on the scalar node graph (a graph Laplacian plus identity), which is
     several times cheaper to factorise than the body's coupled system. ``mesh`` may be any object
-    with ``points`` and element rows ``triangles`` (3 nodes for P1, 6 for the P2 nodes).
+    with ``points`` and element rows ``cells`` (triangles or tetrahedra, P1 or P2 nodes).
     """
-    tri = mesh.triangles.astype(np.int32)
+    tri = mesh.cells.astype(np.int32)
     n, k = len(mesh.points), tri.shape[1]
     rows, cols = np.repeat(tri, k, axis=1).ravel(), np.tile(tri, (1, k)).ravel()
     A = sp.csc_matrix((-np.ones(len(rows)), (rows, cols)), shape=(n, n))

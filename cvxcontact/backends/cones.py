@@ -11,14 +11,15 @@ import cvxpy as cp
 import numpy as np
 
 from ..contact.laws import RowLaws
-from ..contact.quadratic import bernstein_max
+from ..contact.quadratic import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
+from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
 
 __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
 
@@ -41,9 +42,21 @@ def full(problem, cache, settings, timings) -> RawResult:
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
-    return RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
-                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
-                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
+    raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
+                    y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
+                    taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
+    if condensable(problem):
+        if settings.polish:
+            finish_cuts(problem, cache, settings, timings, raw)
+        certify(problem, cache, settings, timings, raw)
+    return raw
+
+
+def condensable(problem) -> bool:
+    """Whether the exact finish and the certificate of the cones apply: every body held by its supports (a
+    body held by the contact only has no interface compliance) and no force-controlled obstacle (its
+    translation has no stiffness). Elsewhere the answer is the interior point's, checked."""
+    return not problem.held and not problem.translations
 
 
 def condensed(problem, cache, settings, timings) -> RawResult:
@@ -68,8 +81,51 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
     r = _cone_force(problem, beta)
     u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
-    return RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
-                     method="condensed")
+    raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
+                    method="condensed")
+    if settings.polish:
+        finish_cuts(problem, cache, settings, timings, raw)
+    certify(problem, cache, settings, timings, raw)
+    return raw
+
+
+def certify(problem, cache, settings, timings, raw) -> None:
+    """``raw.certificate``: the energy-norm error bound of the answer's Bernstein duals
+    (:func:`~cvxcontact.backends.cuts.energy_bound`; an interior point's duals first moved into the dual cone
+    and the fields re-derived from them by one back-substitution, so that the fields are the bound's primal
+    point). Only for :func:`condensable` problems."""
+    t0 = time.perf_counter()
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    B = problem.lines.cone[0]
+    if not raw.polished:
+        raw.beta = dual_cone_point(raw.beta)
+        raw.y = _cone_force(problem, raw.beta)
+        raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
+    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows)[0]
+    timings["certificate"] = time.perf_counter() - t0
+
+
+def finish_cuts(problem, cache, settings, timings, raw) -> None:
+    """The exact finish of the cones by accumulated cuts on the interface compliance
+    (:func:`~cvxcontact.backends.cuts.interface_cuts`), seeded with the interior point's tangency points and
+    forces; the fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw`` (u,
+    phi, y, beta, active: the nodes read by the closed point rows, finish) or sets ``raw.declined``."""
+    reduction = condensation(problem, cache, settings, timings)
+    _, _, d = reduction.apply(problem, timings)
+    B = problem.lines.cone[0]
+    segment, t = seed_points(B, raw.beta)
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta))
+    if isinstance(out, str):
+        raw.declined = out
+        return
+    r = out["state"]
+    raw.u, raw.phi = reduction.invert(problem, r, timings)
+    P = point_rows(B, out["segment"], out["t"])
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
+    raw.y, raw.beta, raw.active = r, out["beta"], active
+    raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

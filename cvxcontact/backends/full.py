@@ -15,6 +15,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import structural_rank
 
 from .condensed import quasi_definite
 
@@ -26,7 +27,12 @@ def solve_mixed(K, b, residual: float | None = 1e-8):
     """x with K x = b for a sparse mixed (KKT) matrix K: SuperLU (minimum degree on K^T + K) and two steps of
     iterative refinement (bodies of very different stiffness share one LU). None if K is singular, x is not
     finite, or (``residual`` not None) max|K x - b| exceeds ``residual`` times max|b|: the system does not
-    determine the unknowns (e.g. an active set that leaves multipliers free)."""
+    determine the unknowns (e.g. an active set that leaves multipliers free). A structurally singular K (more
+    active rows than the unknowns they touch, as on a 3D overlay whose rows outnumber the jump's dofs) is None
+    before any factorisation: SuperLU 1.17's panel updates call BLAS with illegal sizes on such matrices and
+    can corrupt memory (measured: segmentation faults in later factorisations)."""
+    if structural_rank(sp.csr_matrix(K)) < K.shape[0]:
+        return None
     try:
         lu = spla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A")
     except RuntimeError:

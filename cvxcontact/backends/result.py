@@ -61,6 +61,9 @@ class Finish(StrEnum):
     NNLS = "NNLS"
     SEMISMOOTH_NEWTON = "semismooth Newton"
     """Normal compliance: :func:`cvxcontact.backends.finish.solve_compliance`."""
+    ACCUMULATED_CUTS = "accumulated cuts"
+    """The P2 "everywhere" condition: the nodal problem at a growing set of points of every merged segment
+    (:mod:`cvxcontact.backends.cuts`)."""
 
 
 @dataclass(frozen=True)
@@ -87,7 +90,8 @@ class RawResult:
     limit); ``beta``: the Bernstein duals (S, 3) of the cones or None; ``taus``: the translations of the
     force-controlled obstacles; ``polished``: the arrays are an exact finish; ``program``: the CVXPY problem
     solved (None: no program); ``route``, ``finish``, ``iterations``, ``declined`` (why a finish was
-    declined), ``method`` (the backend that ran), ``factorization``: as reported in SolveInfo."""
+    declined), ``method`` (the backend that ran), ``factorization``: as reported in SolveInfo; ``certificate``: the conic condition's
+    energy-norm error bound (below)."""
 
     u: list
     phi: list
@@ -104,6 +108,9 @@ class RawResult:
     declined: str = ""
     method: str = ""
     factorization: str = ""
+    certificate: float | None = None
+    """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
+    :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""
 
 
 class Cache:

@@ -10,6 +10,7 @@ law, §10 "P2"). Each backend of :data:`cvxcontact.backends.BACKENDS` names the 
 from __future__ import annotations
 
 import importlib
+import logging
 
 import numpy as np
 
@@ -19,6 +20,8 @@ from . import BACKENDS
 from .result import RawResult
 
 __all__ = ["route", "kind", "run"]
+
+log = logging.getLogger(__name__)
 
 
 def route(method: str, kind_: str):
@@ -47,7 +50,12 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     §8, "Held nodes": (26)-(27) do not determine them). After an exact finish, a kernel motion that only rows
     open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
     rows, or with a compliance law the rows that carry a force)."""
-    raw = route(method, kind(problem))(problem, cache.matching(problem.lines.key()), settings, timings)
+    solver = route(method, kind(problem))
+    raw = solver(problem, cache.matching(problem.lines.key()), settings, timings)
+    log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", kind(problem), problem.condition,
+             method, solver.__module__.rsplit(".", 1)[-1], solver.__name__, raw.route,
+             f", finish {raw.finish}" if raw.finish else "", raw.iterations,
+             f"; exact finish declined: {raw.declined}" if raw.declined else "")
     active = raw.active
     if active is None and kind(problem) == "compliance" and raw.y is not None:   # the rows that carry a force
         y = np.asarray(raw.y, dtype=float)

@@ -80,7 +80,7 @@ def overlay(uv_a, tri_a, uv_b, tri_b, tol: float = OVERLAY_TOL) -> Overlay:
     A, B = uv_a[tri_a], uv_b[tri_b]                                # (t, 3, 2) counter-clockwise
     pa, pb = _candidates(A, B, eps)
     poly, count = _clip(A[pa], B[pb], eps)
-    keep = (count >= 3) & (_polygon_area(poly, count) > small)
+    keep = (count >= 3) & (_polygon_area(poly) > small)
     poly, count, pa, pb = poly[keep], count[keep], pa[keep], pb[keep]
 
     # merge: the mesh nodes first, so a cluster holding a node takes its coordinates (a before b)
@@ -205,7 +205,7 @@ def _clip(subject, clip, eps):
     return poly, count
 
 
-def _polygon_area(poly, count):
+def _polygon_area(poly):
     """Areas of polygons padded with their first vertex (shoelace)."""
     if poly.shape[1] == 0:
         return np.zeros(len(poly))

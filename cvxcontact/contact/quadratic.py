@@ -31,7 +31,7 @@ from .interface import CONDITIONS, Interface, read_only, normal_jump
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
-           "bernstein_max", "ConeRowLaws", "P2Pairs", "p2_pairs"]
+           "bernstein_max", "bernstein_argmax", "bernstein_basis", "point_rows", "ConeRowLaws", "P2Pairs", "p2_pairs"]
 
 _BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
 
@@ -61,6 +61,48 @@ def bernstein_max(b) -> np.ndarray:
         inner = (a < 0) & (ts > 0) & (ts < 1)
         vertex = np.where(inner, (b0 * b2 - b1 ** 2) / a, -np.inf)
     return np.maximum(out, vertex)
+
+
+def bernstein_argmax(b) -> tuple[np.ndarray, np.ndarray]:
+    """(q_max, t_max) per row of ``b`` (k, 3): the maximum of q(t) = b0 (1-t)^2 + 2 b1 t (1-t) + b2 t^2 over
+    [0, 1] and a point where it is reached (:func:`bernstein_max`). The value at an interior vertex
+    t* = (b0 - b1) / (b0 - 2 b1 + b2) is evaluated in the Bernstein form itself (non-negative weights summing to
+    one: no cancellation), not by the closed form (b0 b2 - b1^2) / (b0 - 2 b1 + b2)."""
+    b = np.asarray(b, dtype=float)
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    q = np.maximum(b0, b2)
+    t = np.where(b2 > b0, 1.0, 0.0)
+    a = b0 - 2 * b1 + b2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ts = np.where(a < 0, (b0 - b1) / a, -1.0)
+    inner = (ts > 0) & (ts < 1)
+    tv = np.where(inner, ts, 0.0)
+    qv = (bernstein_basis(tv) * b).sum(axis=1)
+    better = inner & (qv > q)
+    return np.where(better, qv, q), np.where(better, tv, t)
+
+
+def bernstein_basis(t) -> np.ndarray:
+    """(k, 3): the Bernstein basis ((1-t)^2, 2 t (1-t), t^2) at the points ``t`` of [0, 1]. A point force y at t
+    on a merged segment has the Bernstein duals beta = y (1-t)^2, 2 y t (1-t), y t^2), which lie on the boundary
+    of the dual cone of docs/formulation.md §8 (beta1^2 = 4 beta0 beta2)."""
+    t = np.asarray(t, dtype=float)
+    return np.column_stack([(1 - t) ** 2, 2 * t * (1 - t), t ** 2])
+
+
+def point_rows(B, segment, t) -> sp.csr_matrix:
+    """(k, n): the rows evaluating q at the points ``t`` (k,) of the merged segments ``segment`` (k,), from the
+    Bernstein map ``B`` (3 S, n) of :meth:`QuadraticInterface.bernstein` (or of ``cone_rows``): row p is
+    phi(t_p)^T B_s, phi the Bernstein basis, i.e. the P2 Lagrange basis of segment s at t_p (a nodal row
+    (e, e, e) of ``cone_rows`` gives e itself). The condition "q <= 0 at these points" is linear."""
+    segment = np.asarray(segment, dtype=int)
+    k = len(segment)
+    cols = 3 * segment[:, None] + np.arange(3)
+    Phi = sp.csr_matrix((bernstein_basis(t).ravel(), (np.repeat(np.arange(k), 3), cols.ravel())),
+                        shape=(k, B.shape[0]))
+    P = (Phi @ sp.csr_matrix(B)).tocsr()
+    P.eliminate_zeros()
+    return P
 
 
 class _Trace2:

@@ -105,7 +105,7 @@ class SurfaceInterface:
     +inf where the obstacle cannot be reached along the normal).
 
     ``normal`` (3,) is the first body's unit outward normal nu^a (the second's is -nu^a), ``frame`` (2, 3) the
-    shared in-plane axes. The nodes of X_h are the vertices of the overlay of the two parts' triangulations:
+    shared in-plane axes, ``offset`` = x . nu^a (m) on the first part's plane. The nodes of X_h are the vertices of the overlay of the two parts' triangulations:
     ``x`` (v, 2) their in-plane coordinates (m), ``points`` (v, 3) on the first part's plane; ``sigma[l]``
     the vertices that are body l's nodes (inside the overlap). With a rigid obstacle they are the body's
     nodes from which the obstacle is reachable along nu^a, and every condition constrains all of them.
@@ -120,7 +120,7 @@ class SurfaceInterface:
         geo_tol = _REL_TOL * scale
         self.obstacle = obstacle
         first = SurfaceTrace(bodies[0], 0, geo_tol, parts[0])
-        self.normal, self.frame = first.unit_normal, first.frame
+        self.normal, self.frame, self.offset = first.unit_normal, first.frame, first.offset
         self._factor = None
         if obstacle is not None:
             self._rigid(first)

@@ -285,10 +285,10 @@ def check_reachable(problem: DiscreteProblem) -> None:
     pair = int(np.searchsorted(offsets, node, side="right") - 1)
     interface = problem.interface
     points = interface.interfaces[pair].points if hasattr(interface, "interfaces") else interface.points
-    x, y = np.asarray(points)[node - offsets[pair]]
+    at = ", ".join(f"{c:.6g}" for c in np.asarray(points)[node - offsets[pair]])
     raise SceneError(f"contact pair {pair}: {len(bad)} constrained node(s) cannot move along the contact normal "
                      f"(held by clamped or prescribed-displacement supports) but start in penetration, e.g. at "
-                     f"({x:.6g}, {y:.6g}) m where the gap (plus the law's penetration limit, if any) is "
+                     f"({at}) m where the gap (plus the law's penetration limit, if any) is "
                      f"{g[a] * un.displacement:.3g} m: the contact condition cannot hold there; free that node, or "
                      "move the obstacle or the gap so that it is >= 0")
 

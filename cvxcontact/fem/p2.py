@@ -12,9 +12,9 @@ rule (degree 2) is exact; volume loads use a 6-point rule of degree 4 (exact for
 density times a P2 basis function) and surface loads the 3-point Gauss rule on edges (degree 5).
 
 Tetrahedra: the same basis with four barycentrics, N_i = L_i (2 L_i - 1) at the vertices and 4 L_a L_b
-at the midpoints of the edges ``EDGES[3]`` (the gmsh tetra10 order (0,1), (1,2), (0,2), (0,3), (2,3),
-(1,3)); the nodes of a 10-node node set (vertices, then edge midpoints; ``nodes.cells`` (m, 10),
-``nodes.boundary(tag)`` (k, 6) as (v0, v1, v2, m01, m12, m20)). Stiffness by a degree-2 rule, volume and
+at the midpoints of the edges ``EDGES[3]`` (the tetra10 order of
+:class:`~cvxcontact.geometry.quadratic.P2TetNodes`: (0,1), (1,2), (0,2), (0,3), (1,3), (2,3)); faces as
+(v0, v1, v2, m01, m12, m20). Stiffness by a degree-2 rule, volume and
 face loads by degree-4 rules (:func:`cvxcontact.fem.simplex.simplex_rule`).
 """
 
@@ -23,13 +23,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.quadratic import P2Nodes
+from ..geometry.tetmesh import EDGES as TET_EDGES
 from .assembly import (BodySystem, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
                        strain_matrix)
 from .simplex import element_load, simplex_rule
 
 __all__ = ["assemble_matrices", "assemble_loads", "assemble", "shape_functions", "shape_gradients", "EDGES"]
 
-EDGES = {2: ((0, 1), (1, 2), (2, 0)), 3: ((0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3))}
+EDGES = {2: ((0, 1), (1, 2), (2, 0)), 3: tuple(tuple(int(v) for v in e) for e in TET_EDGES)}
 """The local edges (a, b) of the midpoint nodes, in element order, per dimension."""
 
 # degree-2 rule on the reference triangle (barycentric coordinates, weights summing to 1)

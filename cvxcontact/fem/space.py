@@ -8,7 +8,7 @@ the backends, the read-back) asks the space and never branches on the degree.
 
 ``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
 docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
-the 3D ones (their contact surfaces are not available yet: ``contact`` raises a SolverError);
+the 3D ones (P2Tet in contact: the nodal conditions and rigid obstacles);
 :func:`space` gives the one of a degree and a dimension.
 """
 
@@ -21,9 +21,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.laws import RowLaws, pair_laws
-from ..contact.quadratic import ConeRowLaws, p2_pairs
-from ..errors import SceneError, SolverError
-from ..geometry.quadratic import P2Nodes
+from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
+from ..contact.quadratic3d import QuadraticSurface
+from ..errors import SceneError, SolverError, UnsupportedError
+from ..geometry.quadratic import P2Nodes, P2TetNodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices
 
@@ -174,13 +175,13 @@ class P2:
                             gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed)
 
 
-def _p2_obstacles(scene, stack):
+def _p2_obstacles(scene, stack, dim: int = 2):
     """The scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at the stacked P2 nodes of
     ``stack`` (a :class:`~cvxcontact.contact.quadratic.QuadraticStack`): the sensitivities c(x) of each
     obstacle at its pairs' P2 nodes (vertices and midpoints), zero elsewhere; ``basis`` and ``force`` kept."""
     out = []
     for o in scene.obstacles:
-        rows = np.zeros((stack.size, 2))
+        rows = np.zeros((stack.size, dim))
         for i in o.pairs:
             itf = stack.interfaces[i]
             rows[stack.offsets[i]:stack.offsets[i + 1]] = o.obstacle.sensitivity(itf.points, itf.normal)
@@ -194,8 +195,6 @@ def _check_dim(space, body):
                           f"space({space.degree}, dim={body.dim})")
 
 
-def _no_surfaces(scene, condition, law, nodes=None):
-    raise SolverError("P2 (10-node) tetrahedra in contact are not available yet: solve 3D scenes with degree=1")
 
 
 class P1Tet(P1):
@@ -207,14 +206,39 @@ class P1Tet(P1):
 
 
 class P2Tet(P2):
-    """P2 (10-node) tetrahedra built on the P1 mesh (vertices, then edge midpoints)."""
+    """P2 (10-node) tetrahedra built on the P1 mesh (vertices, then edge midpoints); in contact, the planar
+    surfaces with P2 traces (:class:`~cvxcontact.contact.quadratic3d.QuadraticSurface`: X_h the continuous
+    piecewise quadratics on the overlay, docs/formulation.md §15) under the nodal conditions "sigma1"/"sigma2"
+    (rows at that body's P2 face nodes) and against rigid obstacles (rows at the body's P2 face nodes that
+    reach it), Signorini law only."""
 
     degree, dim = 2, 3
-    contact = staticmethod(_no_surfaces)
 
     def nodes(self, body):
-        from ..geometry.tetmesh import P2TetNodes           # the 10-node set of a tetrahedral mesh
         return P2TetNodes(body.mesh)
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
+        laws = pair_laws(scene, law)
+        if any(lw.compliant for lw in laws):
+            raise UnsupportedError("a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
+                                   "degree=1, or the Signorini law")
+        conditions = [c or condition for c in scene.conditions]
+        for i, (itf, c) in enumerate(zip(scene.interfaces, conditions)):
+            if c == "gamma3" and not itf.rigid:
+                raise UnsupportedError(f"contacts[{i}]: 'gamma3' between two bodies with P2 (10-node) tetrahedra "
+                                       "is not available: use 'sigma1' or 'sigma2' (nodal conditions at one "
+                                       "body's P2 face nodes), or degree=1")
+        members = scene.stack.members
+        pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
+                 for itf, m in zip(scene.interfaces, members)]
+        stack = QuadraticStack(pairs, members)
+        E = stack.evaluation(condition, conditions)
+        rows = RowLaws(laws, np.diff(stack.row_offsets(condition, conditions)))
+        gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
+        return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
+                            E=E, cone=None, rows=rows, weights=None, cone_pairs=None, gap=gap,
+                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)))
 
 
 SPACES = {(1, 2): P1, (2, 2): P2, (1, 3): P1Tet, (2, 3): P2Tet}

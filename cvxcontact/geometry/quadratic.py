@@ -3,8 +3,9 @@ midpoints.
 
 Node ``i < n_vertices`` is vertex i of the mesh; node ``n_vertices + e`` is the midpoint of edge e
 (edges numbered by sorted vertex pairs). The local order of a triangle is the gmsh triangle6 order
-(v0, v1, v2, m01, m12, m20); of a tetrahedron the VTK/meshio tetra10 order (v0, v1, v2, v3, m01, m12,
-m02, m03, m13, m23). Edges are straight, so midpoints are the arithmetic means (m).
+(v0, v1, v2, m01, m12, m20); of a tetrahedron the gmsh tetra10 order (v0, v1, v2, v3, m01, m12, m02,
+m03, m23, m13) (VTK's tetra10 swaps the last two). Edges are straight, so midpoints are the arithmetic
+means (m).
 """
 
 from __future__ import annotations
@@ -64,7 +65,8 @@ class P2TetNodes:
     """The P2 nodes of a :class:`~cvxcontact.geometry.tetmesh.TetMesh` (module docstring).
 
     Attributes: ``mesh``, ``points`` (n + e, 3) m, ``tets10`` (m, 10) node indices of each element in the
-    tetra10 order (v0, v1, v2, v3, m01, m12, m02, m03, m13, m23; read-only), ``n_vertices``.
+    gmsh tetra10 order (v0, v1, v2, v3, m01, m12, m02, m03, m23, m13; ``tetmesh.EDGES``; read-only),
+    ``n_vertices``.
     """
 
     def __init__(self, mesh) -> None:

@@ -36,8 +36,9 @@ OUTWARD_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
 """Local vertices of the faces of a positive tetrahedron, face i opposite vertex i, each oriented
 so that (p1 - p0) x (p2 - p0) points out of it."""
 
-EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
-"""Local vertices of the six edges of a tetrahedron (the order of the edge nodes of a tetra10)."""
+EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
+"""Local vertices of the six edges of a tetrahedron, in the gmsh tetra10 order of the edge nodes
+(the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
 
 class TetMesh(Frozen):
@@ -63,8 +64,9 @@ class TetMesh(Frozen):
         On non-finite or badly shaped arrays, indices out of range, duplicate or unused nodes,
         degenerate tetrahedra, mixed orientation, a face shared by more than two tetrahedra,
         tetrahedra that overlap or fold over one another (checked locally at every face, edge
-        and node, and between separate pieces of the body; see :func:`_check_embedding`), or a
-        tagged face that is not on the boundary.
+        and node, between separate pieces of the body, and on the boundary surface, which must
+        not cut through itself; see :func:`_check_embedding`), or a tagged face that is not on
+        the boundary.
     """
 
     dim = 3
@@ -287,12 +289,16 @@ def _check_embedding(points, tets):
     (e) separate boundary surfaces (pieces of the body, cavities) do not cross: the winding number of
         the other surfaces at a node of each is 0 for an outer surface and 1 for a cavity.
 
-    Not checked: a boundary surface that passes through another part of the same surface (a fan that
-    spirals over itself at a boundary node, a bent bar through its own end): that needs face-face
-    intersection tests. Note that the divergence theorem
-    (the tetrahedra's volume equal to the volume the boundary encloses) adds nothing once (a) holds:
-    the interior faces' fluxes cancel, so the two volumes agree for any mesh passing (a), overlapping
-    pieces included. Cost: O(m log m) for (a)-(d), O(surfaces x boundary faces) for (e).
+    (f) the boundary surface does not cut through itself: boundary faces with no common node do not
+        meet, and of two faces with one common node, neither's opposite edge meets the other
+        (:func:`_check_self_intersection`; faces sharing an edge are left to (b) and (d)).
+
+    With (a)-(d) the mesh is one sheet near every interior point, so two tetrahedra can overlap only
+    where the boundary surface cuts through itself (f) or one piece lies inside another (e). Note that
+    the divergence theorem (the tetrahedra's volume equal to the volume the boundary encloses) adds
+    nothing once (a) holds: the interior faces' fluxes cancel, so the two volumes agree for any mesh
+    passing (a), overlapping pieces included. Cost: O(m log m) for (a)-(d), O(surfaces x boundary faces)
+    for (e), O(k log k) for (f) on k boundary faces of similar sizes (a grid of buckets).
     """
     n, m = len(points), len(tets)
     local = OUTWARD_FACES                                                     # face j opposite vertex j
@@ -335,6 +341,7 @@ def _check_embedding(points, tets):
                         "parts of the mesh touch at a single node; expected one fan around each node")
     _check_fans(points, tets, bfaces)                                                        # (d)
     _check_surfaces(points, bfaces)                                                          # (e)
+    _check_self_intersection(points, bfaces)                                                 # (f)
     return bkeys, bfaces
 
 
@@ -353,7 +360,7 @@ def _check_boundary_edges(points, bfaces, n):
 def _dihedral_angles(points, tets):
     """(m, 6) interior dihedral angle of each tetrahedron at each edge of EDGES (radians)."""
     p = points[tets]                                                          # (m, 4, 3)
-    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 2], [0, 1]])        # the two vertices off each edge
+    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])        # the two vertices off each edge
     e = p[:, EDGES[:, 1]] - p[:, EDGES[:, 0]]
     n1 = np.cross(e, p[:, other[:, 0]] - p[:, EDGES[:, 0]])
     n2 = np.cross(e, p[:, other[:, 1]] - p[:, EDGES[:, 0]])
@@ -415,6 +422,107 @@ def _check_surfaces(points, bfaces):
             raise MeshError(f"the boundary surface through node {v} at {points[v].tolist()} lies inside "
                             f"{int(wind[i - s])} other layer(s) of tetrahedra, expected {int(cavity[i])}: "
                             "separate parts of the mesh overlap")
+
+
+def _check_self_intersection(points, bfaces):
+    """(f): no two boundary faces meet except at their common nodes (_check_embedding).
+
+    Candidate pairs share a bucket of a uniform grid (spacing: the median face size, doubled while the
+    buckets would hold too many entries) and have overlapping bounding boxes; each pair is tested by
+    separating axes, a gap below TOUCH_TOL times the pair's size counting as contact."""
+    k = len(bfaces)
+    tri = points[bfaces]                                                      # (k, 3, 3)
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    size = (hi - lo).max(axis=1)
+    cell = max(float(np.median(size)), float(size.max()) / 1000.0)
+    while True:
+        first = np.floor((lo - lo.min(axis=0)) / cell).astype(np.int64)
+        last = np.floor((hi - lo.min(axis=0)) / cell).astype(np.int64)
+        span = last - first + 1
+        count = span.prod(axis=1)
+        if count.sum() <= 20 * k + 1_000_000:
+            break
+        cell *= 2.0
+    face = np.repeat(np.arange(k), count)                                     # one entry per (face, bucket)
+    local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    sy, sz = span[face, 1], span[face, 2]
+    ijk = first[face] + np.column_stack([local // (sy * sz), (local // sz) % sy, local % sz])
+    dims = ijk.max(axis=0) + 1
+    key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    order = np.argsort(key, kind="stable")
+    key, face = key[order], face[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    group = np.diff(np.r_[start, len(key)])
+    rank = np.arange(len(key)) - np.repeat(start, group)                      # position in its bucket
+    later = np.repeat(group, group) - rank - 1                                # partners after it
+    a = np.repeat(np.arange(len(key)), later)
+    b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
+    fa, fb = np.minimum(face[a], face[b]), np.maximum(face[a], face[b])
+    pairs = np.unique(fa * np.int64(k) + fb)
+    fa, fb = pairs // k, pairs % k
+    keep = (fa != fb) & (lo[fa] <= hi[fb]).all(axis=1) & (lo[fb] <= hi[fa]).all(axis=1)
+    fa, fb = fa[keep], fb[keep]
+    shared = (bfaces[fa][:, :, None] == bfaces[fb][:, None, :])               # (p, 3, 3)
+    common = shared.sum(axis=(1, 2))
+    tol = TOUCH_TOL * np.maximum(size[fa], size[fb])
+    meet = np.zeros(len(fa), dtype=bool)
+    apart = common == 0
+    meet[apart] = _meet(tri[fa[apart]], tri[fb[apart]], tol[apart])
+    one = np.flatnonzero(common == 1)
+    if len(one):                                                              # the edge opposite the common node
+        ia = np.argmax(shared[one].any(axis=2), axis=1)
+        ib = np.argmax(shared[one].any(axis=1), axis=1)
+        opp = np.array([[1, 2, 2], [0, 2, 2], [0, 1, 1]])                     # a segment as a flat triangle
+        r = np.arange(len(one))[:, None]
+        edge_a = tri[fa[one]][r, opp[ia]]
+        edge_b = tri[fb[one]][r, opp[ib]]
+        meet[one] = _meet(edge_a, tri[fb[one]], tol[one]) | _meet(edge_b, tri[fa[one]], tol[one])
+    if meet.any():
+        i = int(np.argmax(meet))
+        f, g = bfaces[fa[i]], bfaces[fb[i]]
+        raise MeshError(f"boundary faces {f.tolist()} and {g.tolist()} meet near {points[f].mean(axis=0).tolist()} "
+                        "away from their common nodes: the boundary surface cuts through itself (the mesh "
+                        "overlaps itself or touches itself there)")
+
+
+TOUCH_TOL = 1e-9
+"""Two boundary faces closer than this times their size count as touching (:func:`_check_self_intersection`)."""
+
+
+def _meet(A, B, tol):
+    """(p,) True where the convex sets of the (p, 3, 3) vertex triples A and B (triangles, or segments given
+    as a triangle with a repeated vertex) are within ``tol`` (p,) of each other along every axis of the
+    separating-axis test: the two normals, the cross products of each normal with the other's edges (the
+    coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
+    separated. Axes are unit vectors built from unit edges; one whose directions are parallel to 1e-9 is
+    skipped (the others separate such pairs)."""
+    ea = _unit(A[:, [1, 2, 0]] - A)                                           # (p, 3, 3) unit edges, 0 if none
+    eb = _unit(B[:, [1, 2, 0]] - B)
+    na = _unit(np.cross(ea[:, 0], ea[:, 1]) + np.cross(ea[:, 1], ea[:, 2]))[:, None]   # 0 for a segment
+    nb = _unit(np.cross(eb[:, 0], eb[:, 1]) + np.cross(eb[:, 1], eb[:, 2]))[:, None]
+    stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
+              lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(na[i], eb[i]), np.cross(nb[i], ea[i]),
+                                        np.cross(nb[i], eb[i])], axis=1),
+              lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
+    live = np.arange(len(A))
+    for axes in stages:
+        ax = _unit(axes(live))                                                # (q, a, 3)
+        pa, pb = ax @ A[live].transpose(0, 2, 1), ax @ B[live].transpose(0, 2, 1)   # (q, a, 3) projections
+        gap = np.maximum(np.minimum(np.minimum(pb[..., 0], pb[..., 1]), pb[..., 2])
+                         - np.maximum(np.maximum(pa[..., 0], pa[..., 1]), pa[..., 2]),
+                         np.minimum(np.minimum(pa[..., 0], pa[..., 1]), pa[..., 2])
+                         - np.maximum(np.maximum(pb[..., 0], pb[..., 1]), pb[..., 2]))
+        usable = (ax[..., 0] != 0) | (ax[..., 1] != 0) | (ax[..., 2] != 0)
+        live = live[~((gap > tol[live, None]) & usable).any(axis=1)]
+    out = np.zeros(len(A), dtype=bool)
+    out[live] = True
+    return out
+
+
+def _unit(v):
+    """v / |v| along the last axis, 0 where |v| <= 1e-9."""
+    n = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2 + v[..., 2] ** 2)[..., None]
+    return np.where(n > 1e-9, v / np.where(n > 0, n, 1.0), 0.0)
 
 
 # --------------------------------------------------------------------------- reading

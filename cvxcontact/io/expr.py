@@ -1,13 +1,14 @@
 """A restricted evaluator for load expressions in scene files, e.g. ``"-2e9 * (1 + cos(pi * x))"``.
 
 The text is parsed with :mod:`ast` and walked node by node; only numbers, the
-variables ``x`` and ``y`` (metres), the constants ``pi`` and ``e``, the operators
+variables ``x`` and ``y`` (metres; with ``variables=("x", "y", "z")`` also ``z``, for 3D scenes), the constants
+``pi`` and ``e``, the operators
 ``+ - * / ** %``, comparisons, and the whitelisted NumPy functions below are
 accepted. Nothing is ever passed to ``eval`` or ``exec``: a scene file is data.
 
 Every function takes exactly its arity (``ARITY``), checked at parse time: NumPy
 would read an extra positional argument as an output array and write into it.
-Evaluation works on read-only copies of ``x`` and ``y`` and returns a new array.
+Evaluation works on read-only copies of the coordinates and returns a new array.
 Nesting depth and node count are bounded and measured without recursion.
 """
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from ..errors import SceneError
 
-__all__ = ["Expression", "ExpressionError", "FUNCTIONS", "ARITY"]
+__all__ = ["Expression", "ExpressionError", "FUNCTIONS", "ARITY", "VARIABLES"]
 
 FUNCTIONS = {
     "sin": np.sin, "cos": np.cos, "tan": np.tan, "arcsin": np.arcsin, "arccos": np.arccos, "arctan": np.arctan,
@@ -45,14 +46,22 @@ class ExpressionError(SceneError):
     """An expression uses a name, operator or construct outside the whitelist, or is malformed."""
 
 
+VARIABLES = {2: ("x", "y"), 3: ("x", "y", "z")}
+"""The coordinate names (m) an expression may use, by dimension."""
+
+
 class Expression:
-    """A parsed, validated expression in x and y (m); call it with arrays: ``expr(x, y)``.
+    """A parsed, validated expression in x and y (m), or in x, y and z with ``variables=("x", "y", "z")``;
+    call it with arrays: ``expr(x, y)`` or ``expr(x, y, z)`` (one array per variable).
 
     With ``where`` (e.g. ``"scene.toml: body[0].body_force[1]"``), a NaN or infinite value is an
     ``ExpressionError`` naming that place, the expression and the first point where it happens.
     """
 
-    def __init__(self, text: str, where: str | None = None):
+    def __init__(self, text: str, where: str | None = None, variables: tuple[str, ...] = ("x", "y")):
+        if tuple(variables) not in VARIABLES.values():
+            raise ExpressionError(f"variables must be one of {list(VARIABLES.values())}, got {variables!r}")
+        self.variables = tuple(variables)
         if not isinstance(text, str):
             raise ExpressionError(f"an expression must be a string, got {type(text).__name__}")
         if len(text) > _MAX_LENGTH:
@@ -67,21 +76,25 @@ class Expression:
         _check_size(tree.body)
         self.text, self.where = text, where
         self._body = tree.body
-        _check(self._body, text)
+        _check(self._body, text, self.variables)
 
     def __repr__(self):
         return f"Expression({self.text!r})"
 
-    def __call__(self, x, y) -> np.ndarray:
-        """Values at points (x, y) in metres, a new float array of the broadcast shape."""
-        x, y = _frozen(x), _frozen(y)
+    def __call__(self, *coords) -> np.ndarray:
+        """Values at points (x, y) (or (x, y, z)) in metres, a new float array of the broadcast shape."""
+        if len(coords) != len(self.variables):
+            raise ExpressionError(f"{_short(self.text)} is a function of ({', '.join(self.variables)}); called with "
+                                  f"{len(coords)} coordinate array(s)")
+        coords = [_frozen(c) for c in coords]
+        env = dict(zip(self.variables, coords))
         with np.errstate(all="ignore"):  # NaN/inf are reported below (with ``where``) or by the caller
-            out = np.asarray(_eval(self._body, {"x": x, "y": y}), dtype=float) + 0.0 * x
+            out = np.asarray(_eval(self._body, env), dtype=float) + 0.0 * sum(coords)
         if self.where is not None and not np.isfinite(out).all():
             i = np.flatnonzero(~np.isfinite(out))[0]
-            xi, yi = np.broadcast_to(x, out.shape).flat[i], np.broadcast_to(y, out.shape).flat[i]
-            raise ExpressionError(f"{self.where}: {_short(self.text)} is {out.flat[i]} at (x, y) = "
-                                  f"({xi:.6g}, {yi:.6g}) m; expected finite values wherever the load is evaluated")
+            at = ", ".join(f"{np.broadcast_to(c, out.shape).flat[i]:.6g}" for c in coords)
+            raise ExpressionError(f"{self.where}: {_short(self.text)} is {out.flat[i]} at ({', '.join(self.variables)}) "
+                                  f"= ({at}) m; expected finite values wherever the load is evaluated")
         return out
 
 
@@ -109,7 +122,7 @@ def _check_size(root):
         stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node) if isinstance(child, ast.expr))
 
 
-def _check(node, text):
+def _check(node, text, variables=("x", "y")):
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"in {_short(text)}: only numbers are allowed as constants, "
@@ -119,17 +132,18 @@ def _check(node, text):
         except OverflowError:
             raise ExpressionError(f"in {_short(text)}: the integer constant is too large for a float") from None
     elif isinstance(node, ast.Name):
-        if node.id not in ("x", "y") and node.id not in _CONSTANTS:
-            raise ExpressionError(f"in {_short(text)}: unknown name {node.id[:60]!r}; allowed: x, y, pi, e "
-                                  f"and functions {sorted(FUNCTIONS)}")
+        if node.id not in variables and node.id not in _CONSTANTS:
+            hint = " (z exists in 3D scenes only)" if node.id == "z" else ""
+            raise ExpressionError(f"in {_short(text)}: unknown name {node.id[:60]!r}{hint}; allowed: "
+                                  f"{', '.join(variables)}, pi, e and functions {sorted(FUNCTIONS)}")
     elif isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-        _check(node.left, text)
-        _check(node.right, text)
+        _check(node.left, text, variables)
+        _check(node.right, text, variables)
     elif isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-        _check(node.operand, text)
+        _check(node.operand, text, variables)
     elif isinstance(node, ast.Compare) and all(type(op) in _COMPARE for op in node.ops):
         for n in [node.left, *node.comparators]:
-            _check(n, text)
+            _check(n, text, variables)
     elif isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
             name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)[:60]
@@ -144,7 +158,7 @@ def _check(node, text):
             raise ExpressionError(f"in {_short(text)}: function {name!r} takes exactly {want} argument"
                                   f"{'s' if want > 1 else ''}, got {len(node.args)}")
         for a in node.args:
-            _check(a, text)
+            _check(a, text, variables)
     else:
         raise ExpressionError(f"in {_short(text)}: {type(node).__name__} ({_short(ast.unparse(node))}) "
                               "is not allowed")

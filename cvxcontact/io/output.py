@@ -1,4 +1,4 @@
-"""Files of a solution: VTU per body, a VTU line mesh of Gamma_3, a JSON summary.
+"""Files of a solution: VTU per body, a VTU mesh of each contact line (2D) or surface (3D), a JSON summary.
 
 All writes are atomic (a temporary file in the target folder, then a rename), so an
 interrupted run never leaves a half-written file under the final name. Array names
@@ -18,12 +18,13 @@ import numpy as np
 from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
-from ..geometry.quadratic import P2Nodes
+from ..geometry.quadratic import P2Nodes, P2TetNodes
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
 
-__all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure"]
+__all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure",
+           "surface_cells", "force_unit"]
 
 
 def atomic_write(path, write, *, durable: bool = False):
@@ -88,6 +89,8 @@ def body_mesh(body, u, phi, nodes=None):
     P2 solution, written as quadratic ``triangle6`` cells, cell data at the centroids)."""
     import meshio
 
+    if getattr(body, "dim", 2) == 3:
+        return _solid_mesh(body, u, phi, nodes)
     f = body_fields(body, u, phi, nodes)
     point_data = {"displacement [m]": _pad3(u)}
     cell_data = {
@@ -106,6 +109,50 @@ def body_mesh(body, u, phi, nodes=None):
     cells = [("triangle", body.mesh.triangles)] if nodes is None else [("triangle6", nodes.triangles)]
     points = body.mesh.points if nodes is None else nodes.points
     return meshio.Mesh(_pad3(points), cells, point_data=point_data,
+                       cell_data={k: [v] for k, v in cell_data.items()})
+
+
+_VTK_ORDER = np.array([0, 1, 2, 5, 3, 4])
+"""fem.fields' 3D component order (xx, yy, zz, yz, xz, xy) -> VTK's symmetric tensor order (xx, yy, zz, xy, yz,
+xz)."""
+_COMPONENTS_3D = ("xx", "yy", "zz", "yz", "xz", "xy")
+_VTK_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
+"""The edges of VTK's tetra10 mid-nodes, in order (gmsh's order swaps the last two)."""
+
+
+def vtk_tetra10(tets10) -> np.ndarray:
+    """(m, 10) P2 tetrahedra in VTK's tetra10 node order, from the order of
+    :class:`~cvxcontact.geometry.quadratic.P2TetNodes` (the edges ``geometry.tetmesh.EDGES``)."""
+    from ..geometry.tetmesh import EDGES
+
+    ours = [tuple(e) for e in np.asarray(EDGES).tolist()]
+    return np.asarray(tets10)[:, [0, 1, 2, 3] + [4 + ours.index(e) for e in _VTK_EDGES]]
+
+
+def _solid_mesh(body, u, phi, nodes=None):
+    """A meshio.Mesh of one tetrahedral body: ``tetra`` cells (P1), or ``tetra10`` cells for the P2 nodes
+    ``nodes`` (:class:`~cvxcontact.geometry.quadratic.P2TetNodes`, written in VTK's node order, :func:`vtk_tetra10`;
+    cell data at the centroids). Point data ``displacement [m]`` (n, 3) and ``electric potential [V]``; cell data ``strain [-]``
+    and ``stress [Pa]`` (symmetric tensors in VTK order xx, yy, zz, xy, yz, xz; tensor shears), their six
+    components as named scalars, ``von Mises stress [Pa]``, ``electric field [V/m]`` and ``electric
+    displacement [C/m^2]`` (3 components)."""
+    import meshio
+
+    f = body_fields(body, u, phi, nodes)
+    point_data = {"displacement [m]": np.asarray(u, dtype=float).reshape(-1, 3)}
+    cell_data = {"strain [-]": f.strain[:, _VTK_ORDER], "stress [Pa]": f.stress[:, _VTK_ORDER],
+                 "von Mises stress [Pa]": f.von_mises}
+    for col, label in enumerate(_COMPONENTS_3D):                # named components (ParaView shows 0..5)
+        cell_data[f"strain {label} [-]"] = f.strain[:, col]
+    for col, label in enumerate(_COMPONENTS_3D):
+        cell_data[f"stress {label} [Pa]"] = f.stress[:, col]
+    if phi is not None:
+        point_data["electric potential [V]"] = np.asarray(phi, dtype=float)
+        cell_data["electric field [V/m]"] = f.electric_field
+        cell_data["electric displacement [C/m^2]"] = f.electric_displacement
+    cells = [("tetra", body.mesh.tets)] if nodes is None else [("tetra10", vtk_tetra10(nodes.tets10))]
+    points = body.mesh.points if nodes is None else nodes.points
+    return meshio.Mesh(np.asarray(points, dtype=float), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
@@ -152,19 +199,45 @@ def pair_label(solution, pair=0) -> str:
 
 
 def _side_displacements(solution, pair=0):
-    """Displacement (n_merged, 2) of each side's trace interpolated at the merged nodes (m)."""
+    """Displacement (n_merged, d) of each side's trace interpolated at the merged nodes (m)."""
     itf = _interface(solution, pair)
     return [itf.interpolation(k) @ solution.u[b][t.nodes]
             for k, (b, t) in enumerate(zip(pair_bodies(solution, pair), itf.traces))]
 
 
+def surface_cells(itf) -> np.ndarray:
+    """(c, 3) triangles on the nodes of X_h of a 3D contact pair (``itf`` a
+    :class:`~cvxcontact.contact.surface.SurfaceInterface`): the cells of the overlay of the two bodies' faces,
+    or, against a rigid obstacle, the body's faces whose three nodes reach it, numbered as the nodes of X_h."""
+    if itf.overlay is not None:
+        return np.asarray(itf.overlay.triangles)
+    t = itf.traces[0]
+    where = np.full(len(t.nodes), -1)
+    where[itf.reach] = np.arange(len(itf.reach))
+    faces = where[t.faces]
+    return faces[(faces >= 0).all(axis=1)]
+
+
+def _vectors(a):
+    """Vectors (n, 2) or (n, 3) as VTK's 3-component arrays (2D: a zero third component)."""
+    a = np.asarray(a, dtype=float)
+    return _pad3(a) if a.shape[1] == 2 else a
+
+
+def force_unit(solution) -> str:
+    """The unit of a nodal or resultant force of ``solution``: "N/m" in 2D (per unit thickness), "N" in 3D."""
+    return "N" if solution.scene.dim == 3 else "N/m"
+
+
 def contact_mesh(solution, pair=0):
-    """A meshio.Mesh of the merged line of contact pair ``pair`` (any direction, drawn at its nodes).
+    """A meshio.Mesh of contact pair ``pair``: in 2D its merged line (any direction, drawn at its nodes,
+    ``line``/``line3`` cells), in 3D its contact surface (the overlay's ``triangle`` cells at the nodes of
+    X_h, :func:`surface_cells`).
 
     Point data: ``pressure on body j [Pa]`` for each side (j the body's 1-based index in the scene;
     the pressure felt by that body, P1-interpolated from its own trace nodes; a rigid pair has one
     side), ``lambda_h (diagnostic) [Pa]`` (the multiplier on the merged mesh; it may oscillate),
-    ``nodal pressure [Pa]``, ``normal jump [m]``, ``gap [m]``, ``nodal force [N/m]``,
+    ``nodal pressure [Pa]``, ``normal jump [m]``, ``gap [m]``, ``nodal force [N/m]`` (3D: ``[N]``),
     ``constrained``, ``active``, ``penetration`` (jump above the gap: at unconstrained nodes
     with sigma_l), ``displacement body j [m]`` and ``displacement [m]`` (their mean, or the one
     body's for a rigid pair: warp by it).
@@ -174,8 +247,11 @@ def contact_mesh(solution, pair=0):
     c = solution.contacts[pair]
     itf = _interface(solution, pair)
     n = len(c.x)
-    xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
-    points = np.column_stack([xy, np.zeros(n)])
+    if solution.scene.dim == 3:
+        points, cells = np.asarray(c.points, dtype=float), [("triangle", surface_cells(itf))]
+    else:
+        xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
+        points, cells = _pad3(xy), _line_cells(n, getattr(solution, "degree", 1))
     sides = _side_displacements(solution, pair)
     bodies = pair_bodies(solution, pair)
     data = {f"pressure on body {b + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k, pair)[1]
@@ -185,19 +261,20 @@ def contact_mesh(solution, pair=0):
         "nodal pressure [Pa]": c.pressure,
         "normal jump [m]": c.jump,
         "gap [m]": np.zeros(n) if c.gap is None else c.gap,
-        "nodal force [N/m]": c.force,
+        f"nodal force [{force_unit(solution)}]": c.force,
         "constrained [-]": c.constrained.astype(float),
         "active [-]": c.active.astype(float),
         "penetration [-]": c.penetration.astype(float),
     })
-    data.update({f"displacement body {b + 1} [m]": _pad3(d) for b, d in zip(bodies, sides)})
-    data["displacement [m]"] = _pad3(sum(sides) / len(sides))
-    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data=data)
+    data.update({f"displacement body {b + 1} [m]": _vectors(d) for b, d in zip(bodies, sides)})
+    data["displacement [m]"] = _vectors(sum(sides) / len(sides))
+    return meshio.Mesh(points, cells, point_data=data)
 
 
 def trace_mesh(solution, k, pair=0):
-    """A meshio.Mesh of side ``k``'s own trace on contact pair ``pair``: ``pressure on body j [Pa]``
-    (j the body's 1-based scene index) and ``displacement [m]`` (that body's, so the line warps with it)."""
+    """A meshio.Mesh of side ``k``'s own trace on contact pair ``pair`` (2D: a line; 3D: the body's own
+    ``triangle`` faces of its contact part): ``pressure on body j [Pa]`` (j the body's 1-based scene index)
+    and ``displacement [m]`` (that body's, so the trace warps with it)."""
     import meshio
 
     itf = _interface(solution, pair)
@@ -205,10 +282,13 @@ def trace_mesh(solution, k, pair=0):
     b = pair_bodies(solution, pair)[k]
     _, p = trace_pressure(solution, k, pair)
     n = len(p)
-    xy = t.points if hasattr(t, "points") else itf.points[0] + np.outer(t.x - itf.x[0], itf.tangent)
-    points = np.column_stack([xy, np.zeros(n)])
-    return meshio.Mesh(points, _line_cells(n, getattr(solution, "degree", 1)), point_data={
-        f"pressure on body {b + 1} [Pa]": p, "displacement [m]": _pad3(solution.u[b][t.nodes])})
+    if solution.scene.dim == 3:
+        points, cells = np.asarray(t.points, dtype=float), [("triangle", np.asarray(t.faces))]
+    else:
+        xy = t.points if hasattr(t, "points") else itf.points[0] + np.outer(t.x - itf.x[0], itf.tangent)
+        points, cells = _pad3(xy), _line_cells(n, getattr(solution, "degree", 1))
+    return meshio.Mesh(points, cells, point_data={
+        f"pressure on body {b + 1} [Pa]": p, "displacement [m]": _vectors(solution.u[b][t.nodes])})
 
 
 def contact_stem(stem, pair):
@@ -225,7 +305,8 @@ def write_vtu(solution, out, stem="solution"):
     out = Path(out)
     paths = []
     for k, body in enumerate(solution.scene.bodies, start=1):
-        nodes = P2Nodes(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+        p2 = P2TetNodes if getattr(body, "dim", 2) == 3 else P2Nodes
+        nodes = p2(body.mesh) if getattr(solution, "degree", 1) == 2 else None
         mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
     for i in range(len(solution.contacts)):
@@ -261,40 +342,60 @@ def _xml(text):
     return str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
 
 
+def _per_m(solution) -> str:
+    """The suffix of a key whose unit is per unit thickness in 2D: "_per_m" in 2D, "" in 3D."""
+    return "" if solution.scene.dim == 3 else "_per_m"
+
+
 def _pair_summary(solution, i) -> dict:
     c = solution.contacts[i]
     felt = [(b, trace_pressure(solution, k, i)[1], _lengths(solution, k, i))
             for k, b in enumerate(pair_bodies(solution, i))]
     s = c.x
-    return {"pressure_on_body_Pa": [{"body": b + 1, "max": float(p.max()), "min": float(p.min()),
-                                     "mean": float(np.average(p, weights=w))} for b, p, w in felt],
-            "pair": i, "label": pair_label(solution, i),
-            "bodies": [solution.scene.bodies[b].name for b, _, _ in felt],
-            "obstacle": repr(solution.scene.contacts[i].other) if solution.scene.contacts[i].rigid else None,
-            "normal": [float(v) for v in c.normal] if c.normal is not None else None,
-            "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
-            "active_nodes": int(c.active.sum()),
-            "active_x_m": [float(s[c.active].min()), float(s[c.active].max())] if c.active.any() else None,
-            "total_force_N_per_m": float(c.force.sum()),
-            "penetrating_nodes": int((c.penetration & ~c.constrained).sum()),
-            "lambda_h_diagnostic_Pa": {"min": float(c.lam.min()), "max": float(c.lam.max())}}
+    out = {"pressure_on_body_Pa": [{"body": b + 1, "max": float(p.max()), "min": float(p.min()),
+                                    "mean": float(np.average(p, weights=w))} for b, p, w in felt],
+           "pair": i, "label": pair_label(solution, i),
+           "bodies": [solution.scene.bodies[b].name for b, _, _ in felt],
+           "obstacle": repr(solution.scene.contacts[i].other) if solution.scene.contacts[i].rigid else None,
+           "normal": [float(v) for v in c.normal] if c.normal is not None else None,
+           "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
+           "active_nodes": int(c.active.sum())}
+    if solution.scene.dim == 3:
+        frame = _interface(solution, i).frame
+        out["frame"] = [[float(v) for v in t] for t in frame]
+        out["active_s_m"] = ([[float(s[c.active, j].min()), float(s[c.active, j].max())] for j in range(2)]
+                             if c.active.any() else None)
+    else:
+        out["active_x_m"] = [float(s[c.active].min()), float(s[c.active].max())] if c.active.any() else None
+    out[f"total_force_N{_per_m(solution)}"] = float(c.force.sum())
+    out["penetrating_nodes"] = int((c.penetration & ~c.constrained).sum())
+    out["lambda_h_diagnostic_Pa"] = {"min": float(c.lam.min()), "max": float(c.lam.max())}
+    return out
 
 
 def summary(solution) -> dict:
     """A JSON-ready summary: status, checks, timings, sizes, energy, contact pairs, electrodes.
 
     ``contacts`` has one entry per contact pair (``contact`` repeats the first): its bodies (and
-    obstacle), ``pressure_on_body_Pa`` (max, min, length-weighted mean of the pressure felt by each
-    body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
+    obstacle), ``pressure_on_body_Pa`` (max, min, length- (3D: area-) weighted mean of the pressure felt by
+    each body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
     ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
     diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
     (possible with sigma_l); ``active_x_m`` is the range of the tangential coordinate s (m) of the
-    active nodes. ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
+    active nodes (3D: ``active_s_m``, the ranges of both in-plane coordinates (s1, s2) along the pair's
+    ``frame`` (t1, t2)). ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
     ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;
-    docs/formulation.md §12)."""
+    docs/formulation.md §12).
+
+    Quantities per unit thickness in 2D are totals in 3D, and their keys say so: ``total_force_N_per_m``,
+    ``charge_C_per_m``, ``contact_force_N_per_m``, ``prescribed_force_N_per_m``, ``energy_J_per_m`` in 2D are
+    ``total_force_N``, ``charge_C``, ``contact_force_N``, ``prescribed_force_N``, ``energy_J`` in 3D."""
     pairs = [_pair_summary(solution, i) for i in range(len(solution.contacts))]
+    per = _per_m(solution)
+    cells = "tetrahedra" if solution.scene.dim == 3 else "triangles"
     return {
         "condition": solution.condition,
+        "dimension": int(solution.scene.dim),
         "degree": int(getattr(solution, "degree", 1)),
         "status": solution.status,
         "ok": bool(solution.ok),
@@ -304,25 +405,29 @@ def summary(solution) -> dict:
         "timings_s": {k: float(v) for k, v in solution.timings.items()},
         "contact": pairs[0],
         "contacts": pairs,
-        "energy_J_per_m": solution.energy,
+        f"energy_J{per}": solution.energy,
         "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
-                    "triangles": int(len(b.mesh.triangles)), "electric_unknowns": bool(b.piezoelectric),
+                    cells: int(len(b.mesh.cells)), "electric_unknowns": bool(b.piezoelectric),
                     "max_displacement_m": float(np.abs(u).max()),
                     "max_abs_potential_V": float(np.abs(p).max()) if p is not None else None}
                    for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)],
         "electrodes": [{"body": e.body + 1, "body_name": solution.scene.bodies[e.body].name, "tag": e.tag,
-                        "kind": e.kind, "potential_V": e.potential, "charge_C_per_m": e.charge}
+                        "kind": e.kind, "potential_V": e.potential, f"charge_C{per}": e.charge}
                        for e in getattr(solution, "electrodes", [])],
         "obstacles": [{"obstacle": repr(o.obstacle), "pairs": list(o.pairs),
                        "translation_m": [float(v) for v in o.translation],
-                       "contact_force_N_per_m": [float(v) for v in o.force],
-                       "prescribed_force_N_per_m": None if o.prescribed is None else [float(v) for v in o.prescribed]}
+                       f"contact_force_N{per}": [float(v) for v in o.force],
+                       f"prescribed_force_N{per}": None if o.prescribed is None else [float(v) for v in o.prescribed]}
                       for o in getattr(solution, "obstacles", [])],
     }
 
 
 def _lengths(solution, k, pair=0):
-    x = _interface(solution, pair).traces[k].x
+    """The lumped lengths (2D, m) or areas (3D, m^2) of side ``k``'s trace nodes on pair ``pair``."""
+    t = _interface(solution, pair).traces[k]
+    if solution.scene.dim == 3:
+        return np.asarray(t.lumped)
+    x = t.x
     if getattr(solution, "degree", 1) == 2:             # P2 trace nodes: the P2 lumped lengths
         from ..solution.solution import _p2_lumped
         return _p2_lumped(x)

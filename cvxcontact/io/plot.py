@@ -1,4 +1,5 @@
-"""Figures with matplotlib: deformed bodies, and the contact pressure / [u_nu] along Gamma_3.
+"""Figures with matplotlib: deformed bodies, and the contact pressure / [u_nu] along Gamma_3; in 3D the
+pressure map in the plane of each contact surface with the contact zone outlined, and the deformed boundary.
 
 Every axis and colour bar carries engineering prefixes on its ticks (matplotlib's EngFormatter:
 "200 MPa", "5 mm", "2 kV"), so a millimetre part gets millimetre axes; every colour map has a colour
@@ -25,7 +26,8 @@ if TYPE_CHECKING:
     from ..solution.solution import Solution
 
 __all__ = ["plot_deformed", "plot_deformed_all", "plot_contact", "magnification", "si_prefix", "obstacle_outline",
-           "draw_obstacles", "eng", "at_rounding", "quadratic_trace"]
+           "draw_obstacles", "eng", "at_rounding", "quadratic_trace", "plot_contact_map", "contact_zone",
+           "plot_deformed_3d", "plot_deformed_3d_all", "boundary_owners"]
 
 _FIELDS = {"potential": ("electric potential", "V"), "von_mises": ("von Mises stress", "Pa")}
 ROUNDING = 1e-12      # relative to a quantity's scale: below it, a value is rounding noise and drawn as 0
@@ -168,8 +170,11 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     prefix that fits) or "potential" (V, kV, ...).
 
     An elastic body has no potential and is drawn in grey on a potential plot. ``clim`` (SI
-    units) fixes the colour limits, e.g. to share them across conditions. Returns the Figure.
+    units) fixes the colour limits, e.g. to share them across conditions. Returns the Figure. A 3D solution
+    is drawn by :func:`plot_deformed_3d`.
     """
+    if solution.scene.dim == 3:
+        return plot_deformed_3d(solution, field, magnify=magnify, ax=ax, clim=clim, colorbar=colorbar)
     _check_field(field, "plot_deformed")
     if magnify is not None and (isinstance(magnify, bool) or not isinstance(magnify, (int, float))
                                 or not np.isfinite(magnify) or magnify < 0):
@@ -212,10 +217,13 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
 
 def plot_deformed_all(solutions: dict[str, Solution], field: str = "von_mises") -> Figure:
     """:func:`plot_deformed` of every solution side by side, with one colour scale and one
-    magnification for all (so conditions compare at a glance). Returns the Figure."""
-    _check_field(field, "plot_deformed_all")
+    magnification for all (so conditions compare at a glance). Returns the Figure. 3D solutions:
+    :func:`plot_deformed_3d_all`."""
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
+    if any(s.scene.dim == 3 for s in solutions.values()):
+        return plot_deformed_3d_all(solutions, field)
+    _check_field(field, "plot_deformed_all")
     plt = _pyplot()
     n = len(solutions)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n + 1, 4.8), squeeze=False, layout="constrained")
@@ -252,11 +260,13 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
 
     ``solutions`` is a Solution or a dict label -> Solution. The abscissa is the tangential
     coordinate s along each pair (s = x1 for a line parallel to x1). The legend sits below the axes.
-    Returns the Figure.
+    Returns the Figure. 3D solutions: :func:`plot_contact_map` (the pressure in the plane of each surface).
     """
     plt = _pyplot()
     if not isinstance(solutions, dict):
         solutions = {solutions.condition: solutions}
+    if any(s.scene.dim == 3 for s in solutions.values()):
+        return plot_contact_map(solutions)
     cols = [(label, sol, i) for label, sol in solutions.items() for i in range(len(sol.contacts))]
     n = len(cols)
     felt = [[(b, *sol.traction(k, i)) for k, b in enumerate(_pair_bodies(sol, i))] for _, sol, i in cols]
@@ -325,3 +335,229 @@ def plot_contact(solutions: Solution | dict[str, Solution]) -> Figure:
 def _pair_bodies(solution, pair):
     a, b = solution.scene.stack.members[pair]
     return [a] if b is None else [a, b]
+
+
+# ------------------------------------------------------------------------------------------------ 3D figures
+
+_FIELDS_3D = {"von_mises": ("von Mises stress", "Pa"), "displacement": ("|u|", "m"),
+              "potential": ("electric potential", "V")}
+
+
+def contact_zone(solution: Solution, pair: int = 0) -> np.ndarray:
+    """(k, 2, 2) the boundary of the contact zone of 3D contact pair ``pair``, as segments in the in-plane
+    coordinates (s1, s2) of the pair's frame (m): the contact zone is the union of the cells of the contact
+    surface (the overlay, or the body's faces that reach an obstacle) whose three nodes are active; its
+    boundary is every cell edge that belongs to exactly one such cell. Empty (0, 2, 2) without a cell whose
+    nodes are all active."""
+    from .output import surface_cells
+
+    c = solution.contacts[pair]
+    tri = surface_cells(solution.scene.interfaces[pair])
+    on = tri[np.asarray(c.active)[tri].all(axis=1)]
+    if len(on) == 0:
+        return np.zeros((0, 2, 2))
+    edges = np.sort(on[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    return np.asarray(c.x)[unique[count == 1]]
+
+
+def _check_3d(solution, who):
+    if solution.scene.dim != 3:
+        raise SceneError(f"{who} draws 3D solutions; this scene is {solution.scene.dim}D (use plot_contact / "
+                         "plot_deformed)")
+
+
+def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
+    """The contact pressure of 3D contact pairs drawn in the plane of each contact surface: one row per solution
+    (e.g. per condition) and pair; in each row the pressure felt by each body on its own faces
+    (:meth:`Solution.traction`, P1 on that body's triangles; against a rigid obstacle the body's side only),
+    one colour scale for the whole figure, and the opening g - [u_nu] left between the surfaces on the
+    overlay (m; 0 where the surfaces touch). The contact zone (:func:`contact_zone`, the union of the cells
+    whose nodes are all active) is outlined in red on every panel. Axes are the pair's in-plane coordinates
+    (s1, s2) along its frame (t1, t2) ((x, y) for a plane z = const), with engineering prefixes. Returns the
+    Figure."""
+    from .output import surface_cells
+
+    plt = _pyplot()
+    if not isinstance(solutions, dict):
+        solutions = {solutions.condition: solutions}
+    for sol in solutions.values():
+        _check_3d(sol, "plot_contact_map")
+    rows = [(label, sol, i) for label, sol in solutions.items() for i in range(len(sol.contacts))]
+    felt = [[(b, *sol.traction(k, i)) for k, b in enumerate(_pair_bodies(sol, i))] for _, sol, i in rows]
+    top = max((float(np.abs(p).max()) for f in felt for _, _, p in f if len(p)), default=0.0)
+    clim = (min(0.0, min((float(p.min()) for f in felt for _, _, p in f if len(p)), default=0.0)), top or 1.0)
+    ncols = 3
+    fig, axes = plt.subplots(len(rows), ncols, figsize=(13, 3.9 * len(rows) + 0.6), squeeze=False,
+                             layout="constrained")
+    pressure = None
+    for r, ((label, sol, i), sides) in enumerate(zip(rows, felt)):
+        itf = sol.scene.interfaces[i]
+        zone = contact_zone(sol, i)
+        c = sol.contacts[i]
+        frame = np.asarray(itf.frame)
+        for k, (b, x, p) in enumerate(sides):
+            ax = axes[r, k]
+            faces = itf.traces[k].faces
+            p, small = at_rounding(p, top)
+            pressure = ax.tripcolor(x[:, 0], x[:, 1], faces, p, shading="gouraud", cmap="magma",
+                                    vmin=clim[0], vmax=clim[1])
+            ax.triplot(x[:, 0], x[:, 1], faces, color="w", lw=0.2, alpha=0.5)
+            ax.set_title(f"{label}: pressure on {sol.scene.bodies[b].name} (its own faces)"
+                         + (f"\npressure at rounding ({small:.0e} Pa), drawn as 0" if small is not None else ""),
+                         fontsize=9)
+        for k in range(len(sides), 2):
+            axes[r, k].set_axis_off()
+        ax = axes[r, 2]
+        tri = surface_cells(itf)
+        gap = np.zeros(len(c.x)) if c.gap is None else np.asarray(c.gap)
+        u_scale = max(float(np.abs(u).max()) for u in sol.u)
+        opening, small = at_rounding(gap - np.asarray(c.jump), u_scale)
+        vmax = float(opening.max()) if opening.max() > 0 else (u_scale or 1.0)    # closed everywhere: 0 .. max |u|
+        shown = ax.tripcolor(c.x[:, 0], c.x[:, 1], tri, opening, shading="gouraud", cmap="viridis",
+                             vmin=min(0.0, float(opening.min())), vmax=vmax)
+        fig.colorbar(shown, ax=ax, label=r"opening $g - [u_\nu]$", format=eng("m"), shrink=0.9)
+        ax.set_title(f"{label}: {int(c.active.sum())} of {int(c.constrained.sum())} nodes active"
+                     + (f"\nopening at rounding ({small:.0e} m), drawn as 0" if small is not None else ""), fontsize=9)
+        for ax in axes[r, :len(sides)].tolist() + [axes[r, 2]]:
+            for seg in zone:
+                ax.plot(seg[:, 0], seg[:, 1], "-", color="red", lw=1.6)
+            ax.set_aspect("equal")
+            ax.xaxis.set_major_formatter(eng("m"))
+            ax.yaxis.set_major_formatter(eng("m"))
+            ax.set_xlabel(f"s1 along t1 = ({_vec(frame[0])})")
+            ax.set_ylabel(f"s2 along t2 = ({_vec(frame[1])})")
+    if pressure is not None:
+        fig.colorbar(pressure, ax=axes[:, :2].ravel().tolist(), label="contact pressure", format=eng("Pa"),
+                     shrink=0.9)
+    fig.suptitle("Contact pressure in the plane of each contact surface (red: the contact zone's boundary)")
+    return fig
+
+
+def _vec(v) -> str:
+    return ", ".join(f"{float(a) + 0.0:.3g}" for a in v)          # + 0.0: no "-0"
+
+
+def boundary_owners(mesh) -> np.ndarray:
+    """(k,) the tetrahedron of ``mesh`` that owns each of its ``boundary_faces``."""
+    from ..geometry.tetmesh import OUTWARD_FACES
+
+    tets = np.asarray(mesh.tets)
+    n = len(mesh.points)
+    def keys(f):
+        f = np.sort(f, axis=1).astype(np.int64)
+        return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
+    all_keys = keys(tets[:, OUTWARD_FACES].reshape(-1, 3))
+    order = np.argsort(all_keys, kind="stable")
+    where = np.searchsorted(all_keys[order], keys(np.asarray(mesh.boundary_faces)))
+    return order[where] // 4
+
+
+def _face_values(solution, field):
+    """Per body: (its boundary faces (k, 3), the value on each face, SI)."""
+    out = []
+    p2 = getattr(solution, "degree", 1) == 2
+    for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):
+        faces = np.asarray(body.mesh.boundary_faces)
+        nv = len(body.mesh.points)
+        if field == "displacement":
+            v = np.linalg.norm(np.asarray(u)[:nv], axis=1)[faces].mean(axis=1)
+        elif field == "potential":
+            v = None if phi is None else np.asarray(phi)[:nv][faces].mean(axis=1)
+        else:
+            from ..geometry.quadratic import P2TetNodes
+
+            vm = body_fields(body, u, phi, P2TetNodes(body.mesh) if p2 else None).von_mises
+            v = vm[boundary_owners(body.mesh)]
+        out.append((faces, v))
+    return out
+
+
+def plot_deformed_3d(solution: Solution, field: str = "von_mises", magnify: float | None = None,
+                     ax=None, clim: tuple[float, float] | None = None, colorbar: bool = True,
+                     view: tuple[float, float] = (25.0, -60.0)) -> Figure:
+    """The boundary surface of every body of a 3D solution, deformed (displacement x ``magnify``; default: the
+    largest displacement drawn as a tenth of the scene), each face coloured by ``field``: "von_mises" (the
+    von Mises stress of the tetrahedron it bounds, Pa), "displacement" (|u|, mean of its nodes, m) or
+    "potential" (V, mean of its nodes; elastic bodies grey). ``clim`` (SI) fixes the colour limits; ``ax`` a
+    3D axes (``projection="3d"``); ``view`` (elevation, azimuth) in degrees. Returns the Figure."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    _check_3d(solution, "plot_deformed_3d")
+    if not isinstance(field, str) or field not in _FIELDS_3D:
+        raise SceneError(f"plot_deformed_3d: field must be one of {sorted(_FIELDS_3D)}, got {field!r}")
+    if magnify is not None and (isinstance(magnify, bool) or not isinstance(magnify, (int, float))
+                                or not np.isfinite(magnify) or magnify < 0):
+        raise SceneError(f"plot_deformed_3d: magnify must be a finite number >= 0 or None, got {magnify!r}")
+    import matplotlib as mpl
+
+    plt = _pyplot()
+    if ax is None:
+        fig = plt.figure(figsize=(7.5, 6), layout="constrained")
+        ax = fig.add_subplot(projection="3d")
+    elif getattr(ax, "name", "") != "3d":
+        raise SceneError("plot_deformed_3d: ax must be a 3D axes (fig.add_subplot(projection='3d'))")
+    fig = ax.figure
+    k = magnification(solution) if magnify is None else float(magnify)
+    values = _face_values(solution, field)
+    finite = [v for _, v in values if v is not None]
+    if clim is None:
+        clim = (min(float(v.min()) for v in finite) if finite else 0.0,
+                max(float(v.max()) for v in finite) if finite else 1.0)
+    norm = mpl.colors.Normalize(*clim) if clim[1] > clim[0] else mpl.colors.Normalize(clim[0] - 1, clim[0] + 1)
+    cmap = mpl.colormaps["viridis"]
+    moved, polygons, colours = [], [], []
+    for body, u, (faces, v) in zip(solution.scene.bodies, solution.u, values):
+        p = np.asarray(body.mesh.points) + k * np.asarray(u)[:len(body.mesh.points)]
+        moved.append(p)
+        polygons.append(p[faces])
+        colours.append(np.tile(mpl.colors.to_rgba("0.75"), (len(faces), 1)) if v is None else cmap(norm(v)))
+    # one collection for every body, so that the faces are depth-sorted together
+    ax.add_collection3d(Poly3DCollection(np.concatenate(polygons), facecolors=np.concatenate(colours),
+                                         edgecolors=(0, 0, 0, 0.25), linewidths=0.2))
+    pts = np.vstack(moved)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3 * float((hi - lo).max())))
+    ax.view_init(*view)
+    for axis, name in ((ax.xaxis, "x"), (ax.yaxis, "y"), (ax.zaxis, "z")):
+        axis.set_major_formatter(eng("m"))
+        axis.set_label_text(name)
+    name, unit = _FIELDS_3D[field]
+    if finite and colorbar:
+        fig.colorbar(mpl.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, label=name, shrink=0.7, format=eng(unit))
+    umax = max(float(np.abs(u).max()) for u in solution.u)
+    uf, uu = si_prefix([umax], "m")
+    ax.set_title(f"{solution.condition}: boundary displaced x {k:g}, max |u| = {umax / uf:.3g} {uu}\n"
+                 f"colour: {name}", fontsize=10)
+    return fig
+
+
+def plot_deformed_3d_all(solutions: dict[str, Solution], field: str = "von_mises") -> Figure:
+    """:func:`plot_deformed_3d` of every solution side by side, with one colour scale and one magnification for
+    all. Returns the Figure."""
+    import matplotlib as mpl
+
+    if not isinstance(solutions, dict):
+        solutions = {solutions.condition: solutions}
+    for sol in solutions.values():
+        _check_3d(sol, "plot_deformed_3d_all")
+    if not isinstance(field, str) or field not in _FIELDS_3D:
+        raise SceneError(f"plot_deformed_3d_all: field must be one of {sorted(_FIELDS_3D)}, got {field!r}")
+    plt = _pyplot()
+    n = len(solutions)
+    fig = plt.figure(figsize=(5.6 * n + 1.2, 5.2), layout="constrained")
+    values = [v for s in solutions.values() for _, v in _face_values(s, field) if v is not None]
+    clim = (min(float(v.min()) for v in values), max(float(v.max()) for v in values)) if values else (0.0, 1.0)
+    k = min(magnification(s) for s in solutions.values())
+    axes = [fig.add_subplot(1, n, j + 1, projection="3d") for j in range(n)]
+    for ax, sol in zip(axes, solutions.values()):
+        plot_deformed_3d(sol, field, magnify=k, ax=ax, clim=clim, colorbar=False)
+    if values:
+        name, unit = _FIELDS_3D[field]
+        norm = mpl.colors.Normalize(*clim) if clim[1] > clim[0] else mpl.colors.Normalize(clim[0] - 1, clim[0] + 1)
+        fig.colorbar(mpl.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=axes, label=name, shrink=0.7,
+                     format=eng(unit))
+    return fig

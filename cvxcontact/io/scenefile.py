@@ -69,6 +69,23 @@ needs exactly two bodies touching along their ``contact`` parts)::
 
 With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
 the top-level ``gap`` is refused (each pair has its own).
+
+3D scenes: a body whose mesh is tetrahedral is 3D (every body of a file has one dimension); its loads
+have three components, expressions may use ``z``, ``displacement`` is [ux, uy, uz], ``rotation`` a 3x3
+rotation matrix (no ``plane`` key), and a pair's gap is an expression of the in-plane coordinates x, y =
+(s1, s2) of the pair's frame::
+
+    mesh = { box = { x = [0, 0.02], y = [0, 0.02], z = [0, 0.005], nx = 6, ny = 6, nz = 2,
+                     patches = { footprint = ["top", [0.005, 0.015], [0.005, 0.015]] },
+                     grade = { point = [0.01, 0.01, 0.005], ratio = 4.0 } } }
+    mesh = { cylinder = { radius = 0.01, height = 0.002, n_r = 4, n_z = 2, n_theta = 24, center = [0, 0, 0] } }
+    mesh = { file = "part.msh" }              # gmsh tetra / tetra10
+
+    [[obstacle]]                              # 3D: one of plane (3-vectors), sphere, cylinder, height_field
+    sphere = { center = [0.01, 0.01, 0.025], radius = 0.02 }
+    # cylinder = { point = [0, 0.01, 0.03], axis = [1, 0, 0], radius = 0.025 }
+    # height_field = { f = "(x**2 + y**2) / 0.1", origin = [0.01, 0.01, 0.005] }   # solid above z = f(x, y)
+    force = [0.0, 0.0, -50.0]                 # N
 """
 
 from __future__ import annotations
@@ -82,9 +99,10 @@ from pathlib import Path
 from ..physics import materials as mats
 from ..contact.interface import CONDITIONS
 from ..errors import CvxContactError, SceneError
-from .expr import Expression, ExpressionError
+from .expr import VARIABLES, Expression, ExpressionError
 from ..geometry.mesh import read_mesh, rectangle
 from ..geometry.generators import graded_block, half_disk
+from ..geometry.generators3d import box, cylinder
 from ..backends.options import check_solver, check_solver_options
 from ..physics.scene import Body, Scene
 from ..physics.pairs import Contact, Rigid
@@ -96,7 +114,11 @@ MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO
 
 _TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle", "degree"}
 _CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
-_OBSTACLE = {"name", "plane", "circle", "profile", "force"}
+_OBSTACLE = {"name", "plane", "circle", "profile", "sphere", "cylinder", "height_field", "force"}
+_OBSTACLE_KINDS = {"plane": {"point", "normal"}, "circle": {"center", "radius"}, "profile": {"f", "origin"},
+                   "sphere": {"center", "radius"}, "cylinder": {"point", "axis", "radius"},
+                   "height_field": {"f", "origin"}}
+_OPTIONAL = {"origin"}
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge", "roller", "displacement", "floating", "rotation", "plane"}
@@ -210,9 +232,9 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
     if not isinstance(bodies, list) or len(bodies) != 2:
         ctx.fail("body", "exactly two [[body]] tables", f"{len(bodies) if isinstance(bodies, list) else 0}")
     built = [ctx.body(b, k) for k, b in enumerate(bodies)]
-    gap = ctx.load(data.get("gap", 0.0), "gap", 1)
+    gap = ctx.gap(data.get("gap", 0.0), "gap", built[0].dim)
     try:
-        scene = Scene(*built, gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap)
+        scene = Scene(*built, gap=gap)
     except CvxContactError as exc:
         raise SceneFileError(f"{path}: {exc}") from exc
     return SceneFile(path, scene, condition, name, float(tol), polish, method, options,
@@ -289,12 +311,12 @@ def _pairs_scene(ctx, data, bodies):
         condition = c.get("condition")
         if condition is not None and condition not in CONDITIONS:
             ctx.fail(f"{where}.condition", f"one of {list(CONDITIONS)}", condition)
-        gap = ctx.load(c.get("gap", 0.0), f"{where}.gap", 1)
+        gap = ctx.gap(c.get("gap", 0.0), f"{where}.gap", by_name[c["a"]].dim)
         other = by_name.get(c["b"]) or obstacles[c["b"]]
         law = _law(c["law"], f"{ctx.path}: {where}") if "law" in c else None
         try:
             pairs.append(Contact(by_name[c["a"]], c["part_a"], other, c.get("part_b"), condition=condition,
-                                 gap=(lambda x, g=gap: g(x, 0.0 * x)) if callable(gap) else gap, law=law))
+                                 gap=gap, law=law))
         except CvxContactError as exc:
             raise SceneFileError(f"{ctx.path}: {where}: {exc}") from exc
     try:
@@ -307,28 +329,48 @@ class _Context:
     """Validation helpers that prefix every message with the file name."""
 
     def obstacle(self, o, where):
-        kinds = [k for k in ("plane", "circle", "profile") if k in o]
+        kinds = [k for k in _OBSTACLE_KINDS if k in o]
         if len(kinds) != 1:
-            raise SceneFileError(f"{self.path}: {where}: expected exactly one of plane, circle, profile, got "
+            raise SceneFileError(f"{self.path}: {where}: expected exactly one of {', '.join(_OBSTACLE_KINDS)} (2D: "
+                                 f"plane, circle, profile; 3D: plane, sphere, cylinder, height_field), got "
                                  f"{kinds or 'none'}")
         kind = kinds[0]
         spec = self.table(o[kind], f"{where}.{kind}")
-        allowed = {"plane": {"point", "normal"}, "circle": {"center", "radius"}, "profile": {"f", "origin"}}[kind]
+        allowed = _OBSTACLE_KINDS[kind]
         self.keys(spec, allowed, f"{where}.{kind}")
-        for req in sorted(allowed - {"origin"}):
+        for req in sorted(allowed - _OPTIONAL):
             if req not in spec:
                 raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
         force = o.get("force")
-        f = self.load(spec["f"], f"{where}.profile.f", 1) if kind == "profile" else None
+        f = None
+        if kind == "profile":
+            f = self.load(spec["f"], f"{where}.profile.f", 1)
+        elif kind == "height_field":
+            f = self.load(spec["f"], f"{where}.height_field.f", 1)     # a function of (x, y), m
         try:
             if kind == "plane":
                 return Rigid.plane(spec["point"], spec["normal"], force=force)
             if kind == "circle":
                 return Rigid.circle(spec["center"], spec["radius"], force=force)
+            if kind == "sphere":
+                return Rigid.sphere(spec["center"], spec["radius"], force=force)
+            if kind == "cylinder":
+                return Rigid.cylinder(spec["point"], spec["axis"], spec["radius"], force=force)
+            if kind == "height_field":
+                fn = f if callable(f) else (lambda x, y, f=f: f + 0.0 * x)
+                return Rigid.height_field(fn, spec.get("origin", (0.0, 0.0, 0.0)), force=force)
             fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
             return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force)
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
+
+    def gap(self, value, key, dim):
+        """A pair's gap (m): a number, or an expression of the position along the pair: in 2D of x (standing for
+        the tangential coordinate s), in 3D of x, y (the in-plane coordinates (s1, s2) of the pair's frame)."""
+        g = self.load(value, key, 1)
+        if not callable(g):
+            return g
+        return g if dim == 3 else (lambda x, g=g: g(x, 0.0 * x))
 
     def __init__(self, path, allow_outside=False):
         self.path, self.allow_outside = path, allow_outside
@@ -368,18 +410,20 @@ class _Context:
             if req not in b:
                 raise SceneFileError(f"{self.path}: {where}: missing key {req!r}")
         name = self.string(b, "name", where, f"body {k + 1}")
+        mesh = self.mesh(b["mesh"], f"{where}.mesh")
+        dim = int(getattr(mesh, "dim", 2))                # the mesh decides: 2 (triangles) or 3 (tetrahedra)
         kw = dict(
             clamped=self.tags(b.get("clamped", []), f"{where}.clamped"),
             grounded=self.tags(b.get("grounded", []), f"{where}.grounded"),
             contact=self.string(b, "contact", where),
-            body_force=self.load(b.get("body_force", [0.0, 0.0]), f"{where}.body_force", 2),
-            volume_charge=self.load(b.get("volume_charge", 0.0), f"{where}.volume_charge", 1),
+            body_force=self.load(b.get("body_force", [0.0] * dim), f"{where}.body_force", dim, dim),
+            volume_charge=self.load(b.get("volume_charge", 0.0), f"{where}.volume_charge", 1, dim),
         )
-        for key, n in (("traction", 2), ("surface_charge", 1), ("potential", 1)):
+        for key, n in (("traction", dim), ("surface_charge", 1), ("potential", 1)):
             parts = self.table(b.get(key, {}), f"{where}.{key}")
-            kw[key] = {t: self.load(v, f"{where}.{key}.{t}", n) for t, v in parts.items()}
+            kw[key] = {t: self.load(v, f"{where}.{key}.{t}", n, dim) for t, v in parts.items()}
         kw["roller"] = self.tags(b.get("roller", []), f"{where}.roller")
-        kw["displacement"] = {t: self.prescribed(v, f"{where}.displacement.{t}")
+        kw["displacement"] = {t: self.prescribed(v, f"{where}.displacement.{t}", dim)
                               for t, v in self.table(b.get("displacement", {}), f"{where}.displacement").items()}
         floating = self.table(b.get("floating", {}), f"{where}.floating")
         for t, v in floating.items():
@@ -387,22 +431,38 @@ class _Context:
                 self.fail(f"{where}.floating.{t}", "the total charge in C/m (a number; 0 = open circuit)", v)
         kw["floating"] = {t: float(v) for t, v in floating.items()}
         material = self.material(b["material"], f"{where}.material")
-        material = self.frame(material, b, where)
-        mesh = self.mesh(b["mesh"], f"{where}.mesh")
+        material = self.frame(material, b, where, dim)
         try:
             return Body(mesh, material, name=str(name), **kw)
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
 
-    def prescribed(self, value, key):
-        """[ux, uy] in m, "free" for a free component."""
-        if not isinstance(value, list) or len(value) != 2 or not all(
+    def prescribed(self, value, key, dim=2):
+        """[ux, uy] (3D: [ux, uy, uz]) in m, "free" for a free component."""
+        if not isinstance(value, list) or len(value) != dim or not all(
                 v == "free" or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in value):
-            self.fail(key, 'a list [ux, uy] of numbers (m) or "free"', value)
+            self.fail(key, f'a list [{", ".join("u" + c for c in "xyz"[:dim])}] of numbers (m) or "free"', value)
         return tuple(None if v == "free" else float(v) for v in value)
 
-    def frame(self, material, b, where):
-        """The material turned by ``rotation`` (radians, CCW) and reduced to ``plane`` = "stress"."""
+    def frame(self, material, b, where, dim=2):
+        """The material turned by ``rotation`` (2D: radians, CCW; 3D: a 3x3 rotation matrix whose columns are
+        the turned axes, the poling axis its last column) and, in 2D, reduced to ``plane`` = "stress"."""
+        if dim == 3:
+            if "plane" in b:
+                raise SceneFileError(f"{self.path}: {where}.plane: plane strain or stress applies to 2D bodies only; "
+                                     "this body's mesh is tetrahedral (3D): remove the key")
+            if "rotation" not in b:
+                return material
+            R = b["rotation"]
+            if not (isinstance(R, list) and len(R) == 3 and all(isinstance(r, list) and len(r) == 3 and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in r)
+                    for r in R)):
+                self.fail(f"{where}.rotation", "in 3D a 3x3 rotation matrix: three rows of three numbers, e.g. "
+                          "[[1, 0, 0], [0, 0, -1], [0, 1, 0]]", R)
+            try:
+                return material.rotated([[float(v) for v in r] for r in R])
+            except CvxContactError as exc:
+                raise SceneFileError(f"{self.path}: {where}.rotation: {exc}") from exc
         try:
             if "rotation" in b:
                 angle = b["rotation"]
@@ -424,25 +484,28 @@ class _Context:
             self.fail(key, "a tag or a list of tags (strings)", value)
         return value
 
-    def load(self, value, key, ncomp):
-        if ncomp == 2:
-            if not isinstance(value, list) or len(value) != 2:
-                self.fail(key, "a list of 2 components (numbers or expressions)", value)
-            comps = [self.load(v, f"{key}[{i}]", 1) for i, v in enumerate(value)]
+    def load(self, value, key, ncomp, dim=2):
+        """A number, or an expression of the coordinates (x, y; x, y, z in 3D), or for ``ncomp`` > 1 a list of
+        ``ncomp`` of them (a list of numbers, or a callable of the coordinates returning the components)."""
+        variables = VARIABLES[dim]
+        if ncomp > 1:
+            if not isinstance(value, list) or len(value) != ncomp:
+                self.fail(key, f"a list of {ncomp} components (numbers or expressions)", value)
+            comps = [self.load(v, f"{key}[{i}]", 1, dim) for i, v in enumerate(value)]
             if all(isinstance(c, float) for c in comps):
                 return comps
-            fx, fy = (c if callable(c) else (lambda x, y, c=c: c + 0.0 * x) for c in comps)
-            return lambda x, y: (fx(x, y), fy(x, y))
+            fs = [c if callable(c) else (lambda *xs, c=c: c + 0.0 * xs[0]) for c in comps]
+            return lambda *xs: tuple(f(*xs) for f in fs)
         if isinstance(value, bool):
-            self.fail(key, "a number or an expression in x, y", value)
+            self.fail(key, f"a number or an expression in {', '.join(variables)}", value)
         if isinstance(value, (int, float)):
             return float(value)
         if isinstance(value, str):
             try:
-                return Expression(value, where=f"{self.path}: {key}")
+                return Expression(value, where=f"{self.path}: {key}", variables=variables)
             except ExpressionError as exc:
                 raise SceneFileError(f"{self.path}: {key}: {exc}") from None
-        self.fail(key, "a number or an expression in x, y", value)
+        self.fail(key, f"a number or an expression in {', '.join(variables)}", value)
 
     def material(self, value, key):
         if isinstance(value, str):
@@ -476,12 +539,31 @@ class _Context:
                 spec = self.table(table["half_disk"], f"{key}.half_disk")
                 self.keys(spec, {"radius", "center", "nr", "nt", "side"}, f"{key}.half_disk")
                 return half_disk(**spec)
+            if set(table) == {"box"}:
+                spec = dict(self.table(table["box"], f"{key}.box"))
+                self.keys(spec, {"x", "y", "z", "nx", "ny", "nz", "patches", "grade"}, f"{key}.box")
+                if "patches" in spec:
+                    self.table(spec["patches"], f"{key}.box.patches")
+                if "grade" in spec:
+                    grade = self.table(spec["grade"], f"{key}.box.grade")
+                    self.keys(grade, {"point", "ratio"}, f"{key}.box.grade")
+                    if set(grade) != {"point", "ratio"}:
+                        self.fail(f"{key}.box.grade", "{ point = [x, y, z] (m), ratio = r or [rx, ry, rz] }", grade)
+                    spec["grade"] = (grade["point"], grade["ratio"])
+                return box(**spec)
+            if set(table) == {"cylinder"}:
+                spec = self.table(table["cylinder"], f"{key}.cylinder")
+                self.keys(spec, {"radius", "height", "n_r", "n_z", "n_theta", "center"}, f"{key}.cylinder")
+                for req in ("radius", "height"):
+                    if req not in spec:
+                        raise SceneFileError(f"{self.path}: {key}.cylinder: missing key {req!r}")
+                return cylinder(**spec)
             if set(table) <= {"file", "region"} and isinstance(table.get("file"), str):
                 return read_mesh(self.mesh_path(table["file"], f"{key}.file"), region=table.get("region"))
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {key}: {exc}") from exc
-        self.fail(key, "{ rectangle = {...} }, { graded_block = {...} }, { half_disk = {...} } or "
-                       "{ file = \"mesh.msh\" [, region = \"name\"] }", value)
+        self.fail(key, "{ rectangle = {...} }, { graded_block = {...} }, { half_disk = {...} } (2D), { box = {...} }, "
+                       "{ cylinder = {...} } (3D) or { file = \"mesh.msh\" [, region = \"name\"] }", value)
 
     def mesh_path(self, name, key):
         """The mesh file ``name`` relative to the scene file, confined to its folder unless allowed."""

@@ -213,7 +213,7 @@ class Model:
                                           + self.problem.prescribed_jump)
 
     def translation(self, obstacle: int) -> cp.Expression:
-        """The rigid translation (2,) in m of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an
+        """The rigid translation (d,) in m (d = 2 or 3, the scene's dimension) of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an
         unknown (its force balance is part of the program), for a fixed one the constant 0."""
         if isinstance(obstacle, bool) or not isinstance(obstacle, (int, np.integer)) or \
                 not 0 <= obstacle < len(self._obstacles):
@@ -221,7 +221,7 @@ class Model:
                              f"got {obstacle!r}")
         o = self._obstacles[int(obstacle)]
         if o.force is None:
-            return cp.Constant(np.zeros(2))
+            return cp.Constant(np.zeros(self.scene.dim))
         t = self._contact.t[next(i for i, f in enumerate(self._forced) if f is o)]
         return self.units.displacement * (o.basis @ t)
 

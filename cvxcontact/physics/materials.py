@@ -106,7 +106,7 @@ class Piezoelectric(Frozen):
         return f"Piezoelectric({self.name!r})"
 
     def tensors(self, dim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(c, e, kappa) of a ``dim``-dimensional body: the 3D tensors (dim 3) or the plane matrices (dim 2)."""
+        """(c, e, kappa) of a body of dimension ``dim``: the 3D tensors (3) or the plane matrices (2)."""
         return _tensors(self, dim, (self.c, self.e, self.kappa), (self.c3, self.e3, self.kappa3))
 
     def rotated(self, rotation: float | ArrayLike) -> Piezoelectric:
@@ -177,7 +177,7 @@ class Elastic(Frozen):
         return f"Elastic({self.name!r})"
 
     def tensors(self, dim: int) -> tuple[np.ndarray, None, None]:
-        """(c, None, None) of a ``dim``-dimensional body: the 3D tensor (dim 3) or the plane matrix (dim 2)."""
+        """(c, None, None) of a body of dimension ``dim``: the 3D tensor (3) or the plane matrix (2)."""
         return _tensors(self, dim, (self.c, None, None), (self.c3, None, None))
 
     def rotated(self, rotation: float | ArrayLike) -> Elastic:
@@ -299,8 +299,7 @@ def _rotation(rotation, mat):
     if dev > 1e-9 or np.linalg.det(R) < 0:
         raise MaterialError(f"material {mat.name!r}: rotated() needs a proper rotation matrix (R^T R = I, det R = +1); "
                             f"got |R^T R - I| = {dev:.3g}, det R = {np.linalg.det(R):.6g}")
-    if mat.c3 is None:
-        _tensors(mat, 3, None, (None,))             # the MaterialError naming why there are no 3D constants
+    mat.tensors(3)                                   # a MaterialError naming why there are no 3D constants
     return R
 
 

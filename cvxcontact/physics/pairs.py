@@ -57,6 +57,12 @@ def _fmt(v) -> str:
     return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
 
 
+def _direction(v) -> np.ndarray:
+    """The unit vector of v with components below 1e-12 of it set to 0 (rounding, not a direction)."""
+    v = np.asarray(v, dtype=float) / np.linalg.norm(v)
+    return np.where(np.abs(v) < 1e-12, 0.0, v)
+
+
 def _force(force, kind, dim=2) -> np.ndarray | None:
     """The prescribed resultant of a force-controlled obstacle (N/m in 2D, N in 3D), or None (fixed)."""
     if force is None:
@@ -76,7 +82,7 @@ class Rigid(Frozen):
     :meth:`plane`, :meth:`circle` or :meth:`profile` in 2D, :meth:`plane`, :meth:`sphere`,
     :meth:`cylinder` or :meth:`height_field` in 3D (``force=(fx, fy, fz)``, N); ``Rigid(kind, distance,
     describe, dim=2)`` takes any distance function (its sensitivity, if not given, by central
-    differences). :attr:`dim` is 2 or 3.
+    differences). ``dim`` is 2 or 3.
 
     ``distance(points, normal)`` gives, for nodes ``points`` (n, dim) of a straight (planar) part with
     unit outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
@@ -127,7 +133,7 @@ class Rigid(Frozen):
     """The prescribed resultant (fx, fy) (N/m; (fx, fy, fz) N in 3D, read-only) of a force-controlled
     obstacle, or None (fixed)."""
     position: np.ndarray
-    """(dim,) m, read-only: the obstacle's reference point, the plane's ``point``, the circle's or sphere's
+    """The position (d components, m; read-only): the obstacle's reference point, the plane's ``point``, the circle's or sphere's
     ``center``, the cylinder's ``point``, the profile's or height field's ``origin`` (moved with it); zero
     for ``Rigid(kind, distance, describe)`` as given."""
     dim: int
@@ -629,7 +635,7 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
                                                                     np.arange(rank)]
                 off = F - basis @ (basis.T @ F)             # the force's part along the unseen translations
                 if np.linalg.norm(off) > 1e-9 * np.linalg.norm(F):
-                    side = off / np.linalg.norm(off) + 0.0
+                    side = _direction(off)
                     along = "its normal " + _fmt(basis[:, 0] + 0.0) if rank == 1 else \
                         "the directions " + ", ".join(_fmt(b + 0.0) for b in basis.T)
                     raise SceneError(
@@ -639,7 +645,7 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
             y, res = nnls(rows.T / scale, F)
             if res > 1e-9 * np.linalg.norm(F):
                 r = F - rows.T @ y / scale
-                r = r / np.linalg.norm(r) + 0.0
+                r = _direction(r)
                 raise SceneError(
                     f"{label}: the force {_fmt(F)} {unit} pulls the obstacle away from the bodies "
                     f"(compressive contact forces cannot balance it): the obstacle is free to move along "

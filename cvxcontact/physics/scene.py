@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
+from ..geometry.tetmesh import TetMesh
 from .materials import Elastic, Piezoelectric
 from .loads import LOAD_FIELDS
 from . import supports as _supports
@@ -31,7 +32,7 @@ class Body(Frozen):
 
     Parameters
     ----------
-    mesh : Mesh (2D) or a tetrahedral mesh (3D)
+    mesh : Mesh (2D) or TetMesh (3D)
     material : Piezoelectric or Elastic (a 3D body needs the material's 3D tensors: ``material.tensors(3)``)
     clamped : str or list of str
         Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
@@ -47,8 +48,8 @@ class Body(Frozen):
         (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
         may be omitted; if given, it names the part that holds a body no support holds (see
         :meth:`free_motions`).
-    body_force : (dim,) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
-    traction : dict tag -> (dim,) or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
+    body_force : sequence of d floats (d = 2 or 3, the mesh's dimension) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
+    traction : dict tag -> sequence of d floats or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
     surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
     volume_charge : float or callable, C/m^3 (q0 in div D = q0)
     name : str, optional
@@ -82,8 +83,8 @@ class Body(Frozen):
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not (isinstance(mesh, Mesh) or getattr(mesh, "dim", None) == 3):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh or a tetrahedral mesh, got {type(mesh).__name__}")
+        if not isinstance(mesh, (Mesh, TetMesh)):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh or a cvxcontact.TetMesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):
@@ -210,7 +211,10 @@ class Body(Frozen):
         self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
         # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
         # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
-        self.node_supports()                                # consistent at every node (or a SceneError)
+        reduced = _supports.node_supports(self)             # consistent at every node (or a SceneError)
+        for a in reduced:
+            a.setflags(write=False)
+        self._set(_node_supports=reduced)                   # kept: the prolongation of the vertices reads it
         self._check_kinematics()
         if self.piezoelectric:
             if not (self.grounded or self.potential):
@@ -245,8 +249,9 @@ class Body(Frozen):
         return _supports.supports(self, nodes)
 
     def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`)."""
-        return _supports.node_supports(self, nodes)
+        """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`; read-only arrays,
+        those of the mesh's vertices computed once)."""
+        return self._node_supports if nodes is None else _supports.node_supports(self, nodes)
 
     def free_motions(self, contact: bool | Sequence[str] = True) -> list[str]:
         """The rigid motions nothing holds, as readable names (:func:`cvxcontact.physics.supports.free_motions`)."""
@@ -701,7 +706,11 @@ class Scene(Frozen):
         s = itf.x if s is None else np.asarray(s, dtype=float)
         g = np.array(load(s[:, 0], s[:, 1]), dtype=float)
         if itf.rigid:
-            g = g + itf.obstacle_gap()
+            if s is itf.x:
+                g = g + itf.obstacle_gap()
+            else:                                    # other in-plane points: their distance to the obstacle
+                points = itf.offset * itf.normal + s @ itf.frame
+                g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
         return g
 
     def gap_values(self) -> np.ndarray:

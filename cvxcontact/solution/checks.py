@@ -17,10 +17,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..backends.cuts import segment_scales
 from ..backends.finish import force_displacements, ipm_active, node_scales  # noqa: F401  (re-exported)
 from ..contact.quadratic import bernstein_max
 
-__all__ = ["checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
 
@@ -132,7 +133,7 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
     U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
     b = (B @ (sum(parts) - g)).reshape(-1, 3)
-    Us = _segment_scales(B, U)
+    Us = segment_scales(B, U)
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     b0, b1, b2 = beta[:, 0], beta[:, 1], beta[:, 2]
     cone = np.maximum.reduce([np.maximum(-b0, 0), np.maximum(-b2, 0), np.maximum(-b1, 0),
@@ -145,15 +146,20 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     }
 
 
-def _segment_scales(B, U):
-    """Per segment, the largest node scale U_a among the nodes of its Bernstein rows."""
-    rows = B.tocsr()
-    out = np.zeros(rows.shape[0] // 3)
-    for j in range(3):
-        R = abs(rows[j::3]).tocsr()
-        R.data[:] = 1.0
-        out = np.maximum(out, np.asarray((R.multiply(U[None, :])).max(axis=1).todense()).ravel())
-    return out
+ENERGY_ERROR = "energy error"
+"""The key of the conic condition's certified bound in ``Solution.residuals()`` (docs/checks.md)."""
+
+CERTIFIED = ("feasibility", "complementarity", "cone")
+"""The contact checks whose statement the certified bound replaces where it is the sharper one."""
+
+
+def energy_error(blocks, u, phi, bound: float) -> float:
+    """The certified bound ``bound`` on ||u - u*||_K (scaled; :func:`cvxcontact.backends.cuts.energy_bound`)
+    relative to sqrt(sum_k u_k^T Kuu_k u_k + phi_k^T Kpp_k phi_k), the energy norm of the answer in the
+    phi-form (twice its stored energy; docs/checks.md, "The certified bound")."""
+    E = sum(float(uk @ (b.Kuu @ uk)) + (float(pk @ (b.Kpp @ pk)) if pk is not None else 0.0)
+            for b, uk, pk in zip(blocks, u, phi))
+    return float(bound / np.sqrt(max(E, np.finfo(float).tiny))) if np.isfinite(bound) else float("inf")
 
 
 def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):

@@ -19,7 +19,8 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import checks, compliance_checks, conic_checks, obstacle_balance, rigid_balance
+from .checks import (CERTIFIED, ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, obstacle_balance,
+                     rigid_balance)
 from .info import Route, SolveInfo, Status
 
 __all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back_nodal", "read_back_compliance",
@@ -38,8 +39,12 @@ class ContactResult:
 
     For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
     tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to
-    the x1-axis), ``points`` (n, 2) the nodes' coordinates (m), ``normal`` the first body's unit
-    outward normal nu^a and ``line`` the mean x2 of the first body's part.
+    the x1-axis), ``points`` (n, d) the coordinates of the contact nodes (m; in 2D and 3D), ``normal`` the
+    first body's unit outward normal nu^a and ``line`` the mean x2 of the first body's part.
+
+    In 3D (a planar contact surface) ``x`` (n, 2) are the nodes' in-plane coordinates (s1, s2) along the
+    pair's frame (t1, t2) (:func:`cvxcontact.contact.surface.canonical_frame`; (x, y) for a plane
+    z = const), ``points`` (n, 3), ``force`` in N (not N/m), ``line`` the offset x . nu^a of the plane.
     """
 
     x: np.ndarray
@@ -109,7 +114,7 @@ class Electrode:
     ``body`` is the body's index in the scene, ``tag`` the boundary part, ``kind`` one of
     "grounded", "driven", "floating"; ``potential`` its potential (V; the mean over its nodes
     for a driven electrode whose potential varies along it) and ``charge`` its total charge
-    (C/m): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
+    (C/m; C in 3D): the reaction of the Gauss equation (20) summed over its nodes, i.e. -int D.nu ds
     (for a floating electrode, the prescribed Q). A node shared by two electrodes counts for
     the first in the order grounded, driven, floating.
     """
@@ -147,7 +152,7 @@ class Solution:
     """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
 
     ``energy`` is the reduced coupled energy Pi(u_h) of docs/formulation.md §2 in J/m (per
-    unit thickness; with driven electrodes, up to the constant of the lifting).
+    unit thickness; J in 3D; with driven electrodes, up to the constant of the lifting).
     ``problem`` holds the interior-point values; with ``polished`` the arrays here
     are the exact finish. ``path`` says how the answer was reached: "interior point",
     "interior point + exact finish" or, for a re-solve of a :class:`ContactSolver`,
@@ -189,8 +194,8 @@ class Solution:
     electrodes: list = field(default_factory=list)
     """:class:`Electrode` results (potential V, charge C/m) of every electrode of every body."""
     obstacles: list = field(default_factory=list)
-    """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, contact force N/m), in the
-    order of ``scene.obstacles``."""
+    """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, reaction ``force`` N/m in 2D,
+    N in 3D), in the order of ``scene.obstacles``."""
 
     @property
     def status(self) -> Status:
@@ -223,8 +228,22 @@ class Solution:
 
     @property
     def ok(self) -> bool:
-        """True if the solver reported optimal and every check is below ``tol``."""
-        return self.status == cp.OPTIMAL and all(v <= self.tol for v in self._checks.values())
+        """True if the solver reported optimal (or the answer is a verified exact finish) and every check is
+        below ``tol``; where the conic condition's certified bound "energy error" is present, it and the three
+        contact checks it certifies (feasibility, complementarity, cone) pass together if either does
+        (docs/checks.md, "The certified bound")."""
+        return self.status == cp.OPTIMAL and all(self._passes(k) for k in self._checks)
+
+    def _passes(self, key: str) -> bool:
+        """Whether check ``key`` passes at ``tol`` (see :attr:`ok`)."""
+        c, tol = self._checks, self.tol
+        if c[key] <= tol:
+            return True
+        if ENERGY_ERROR not in c:
+            return False
+        if key in CERTIFIED:
+            return c[ENERGY_ERROR] <= tol
+        return key == ENERGY_ERROR and all(c[k] <= tol for k in CERTIFIED if k in c)
 
     def traction(self, k: int, pair: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Contact pressure as felt by body ``k`` (0 or 1: the first or second body of contact pair
@@ -243,7 +262,7 @@ class Solution:
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
         x = itf.traces[k].x
-        if self.degree == 1:
+        if self.degree == 1 or getattr(itf, "dim", 2) == 3:     # 3D P2: the Riesz pressure on its P2 faces
             return x.copy(), itf.pressure(k, self.contacts[pair].force)
         return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 
@@ -254,7 +273,8 @@ class Solution:
                  f"{sum(int(c.active.sum()) for c in self.contacts)} of "
                  f"{sum(int(c.constrained.sum()) for c in self.contacts)} constrained nodes active"
                  + (f" ({len(self.contacts)} contact pairs)" if len(self.contacts) > 1 else "")]
-        lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'FAILED'}" for k, v in self._checks.items()]
+        lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
+                  for k, v in self._checks.items()]
         return "\n".join(lines)
 
 
@@ -262,8 +282,9 @@ class Solution:
 class ObstacleResult:
     """One rigid obstacle of the solution (docs/formulation.md §12).
 
-    ``translation`` (2,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
-    normal: a tangential translation changes nothing); ``force`` (2,) N/m: the resultant with which
+    ``translation`` (d,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
+    normal: a tangential translation changes nothing); ``force`` (d,): the obstacle's reaction, N/m in 2D
+    (per unit thickness), N in 3D: the resultant with which
     the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
     :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
     force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
@@ -289,7 +310,7 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
-        t = np.zeros(2) if o.force is None else o.basis @ next(taus)
+        t = np.zeros(rows.shape[1]) if o.force is None else o.basis @ next(taus)
         if o.force is not None:
             worst = max(worst, obstacle_balance(o.force, rows, y))
             sol.energy -= float(o.force @ t)
@@ -332,15 +353,17 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     if beta is not None:
         B, segments = problem.lines.cone
         checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
+        if raw.certificate is not None:
+            checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
         S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
-        checks_ = checks(blocks, u, phi, itf.mass @ lam, E, g, y)
+        checks_ = checks(blocks, u, phi, Ety, E, g, y)     # the row forces (3D: M lam = E^T y only on the traces)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, itf.mass @ lam)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
@@ -382,7 +405,9 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
               if getattr(c, f) is not None)]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
     contact = contacts[0]
-    info = SolveInfo(status=problem_.status if problem_ is not None else Status.OPTIMAL, method="",
+    # a verified exact finish is the answer whatever the interior point that started it reported
+    status = problem_.status if problem_ is not None and not polished else Status.OPTIMAL
+    info = SolveInfo(status=status, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
     pts = [b.mesh.points for b in scene.bodies] if nodes is None else [n.points for n in nodes]

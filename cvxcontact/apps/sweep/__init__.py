@@ -15,9 +15,10 @@ A sweep file (TOML) names a base scene file and the cases, as overrides of its k
     "body[0].body_force" = [0.0, -5e9]
 
 runs the 4 grid points and the case "heavy" (a ``[[case]]`` is not combined with the grid),
-each under both conditions: 10 cases. See :mod:`.spec` (meaning, validation, ids),
-:mod:`.store` (files, verification on resume, lock), :mod:`.worker` (one case, retry ladder),
-:mod:`.driver` (scheduling, interrupts, worker faults).
+each under both conditions: 10 cases. See :mod:`.spec` (meaning, validation, ids; ``read_sweep``
+reads a sweep file), :mod:`.store` (files, verification on resume, lock), :mod:`.worker` (one case,
+retry ladder), :mod:`.driver` (scheduling, interrupts, worker faults), :mod:`.load` (``load_sweep``:
+the results as a table and arrays with units), :mod:`.export` (XDMF + HDF5).
 
 Cases that differ only in loads (:data:`cvxcontact.physics.loads.LOAD_FIELDS` of a body,
 ``SCENE_LOAD_FIELDS`` of the scene: the gap) share a :class:`~cvxcontact.solve.ContactSolver`
@@ -25,8 +26,10 @@ inside a worker, so they reuse its factorisations.
 """
 
 from .driver import SweepReport, main_progress, run_chunk, run_sweep
-from .spec import Case, SweepError, apply_overrides, load_sweep
+from .load import CaseArrays, SweepResults, SweepResultsError, load_sweep
+from .spec import Case, SweepError, apply_overrides, read_sweep
 from .store import SweepLockedError, SweepOutputError
 
-__all__ = ["Case", "SweepError", "SweepOutputError", "SweepLockedError", "load_sweep", "run_sweep", "SweepReport",
-           "apply_overrides", "main_progress", "run_chunk"]
+__all__ = ["Case", "SweepError", "SweepOutputError", "SweepLockedError", "read_sweep", "run_sweep", "SweepReport",
+           "apply_overrides", "main_progress", "run_chunk", "load_sweep", "SweepResults", "CaseArrays",
+           "SweepResultsError"]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import CvxContactError
-from .spec import SweepError, load_sweep, machine, versions
+from .spec import SweepError, machine, read_sweep, versions
 from .store import (FAILURES, FolderLock, SweepOutputError, case_state, clean_temporaries, prepare_out,
                     remove_case, supersede, write_json)
 from .worker import THREAD_VARIABLES, solve_case, worker_main
@@ -92,11 +92,12 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
               allow_outside: bool = False, export_problem: bool = False, skip_invalid: bool = False) -> SweepReport:
     """Run (or resume) the sweep of ``path`` into the folder ``out``.
 
-    ``workers``: local processes (default: the number of cores; 1 runs in this process).
+    ``workers``: local processes (default: the number of cores; 1 runs in this process, where Ctrl-C
+    takes effect only when the factorisation or solver call under way returns).
     ``scheduler``: address of a Dask distributed scheduler, or a ``distributed.Client``.
     ``retry_failed``: run the recorded failures and the cases whose checks failed again.
-    ``progress``: a callable taking one line of text. ``allow_outside``: accept mesh files
-    outside the scene file's folder. ``export_problem``: also write each case's conic problem
+    ``progress``: a callable taking one line of text. ``allow_outside``: accept a scene file outside
+    the sweep file's folder and mesh files outside the scene file's folder. ``export_problem``: also write each case's conic problem
     data. ``skip_invalid``: record cases whose scene is invalid as failures and run the others
     (default: refuse the sweep, naming them).
 
@@ -111,7 +112,7 @@ def run_sweep(path, out, workers=None, scheduler=None, retry_failed=False, progr
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise SweepError(f"workers must be a whole number >= 1, got {workers!r}")
     say = progress or (lambda line: None)
-    sweep = load_sweep(path, allow_outside=allow_outside)
+    sweep = read_sweep(path, allow_outside=allow_outside)
     invalid = sweep.invalid
     if invalid and not skip_invalid:
         first = invalid[0]
@@ -193,11 +194,12 @@ def _execute(cases, sweep, out, workers, threads, scheduler, allow_outside, expo
     if scheduler is not None:
         yield from _dask(cases, args, scheduler)
         return
-    if workers == 1 or len(cases) <= 1:
+    if workers == 1:                   # in this process: Ctrl-C waits for the numerical call under way
         for c in sorted(cases, key=lambda c: c.geometry):
             yield solve_case(c.as_task(), *args)
         return
-    yield from _Pool(min(workers, len(cases)), threads, args).run(cases)
+    if cases:                          # in worker processes, even a single case: Ctrl-C stops them at once
+        yield from _Pool(min(workers, len(cases)), threads, args).run(cases)
 
 
 def run_chunk(tasks, scene_path, method, out, allow_outside=False, export_problem=False):

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import hashlib
-import importlib
 import itertools
 import json
 import platform
@@ -28,8 +27,9 @@ from ...contact.interface import CONDITIONS
 from ...errors import CvxContactError
 from ...io.scenefile import SceneFileError, read_toml, scene_from_data
 from ...physics.loads import LOAD_FIELDS, SCENE_LOAD_FIELDS
+from ...version import provenance
 
-__all__ = ["Case", "Sweep", "SweepError", "load_sweep", "apply_overrides", "case_id", "versions", "machine"]
+__all__ = ["Case", "Sweep", "SweepError", "read_sweep", "apply_overrides", "case_id", "versions", "machine"]
 
 _TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\]")
 _KEYS = ("scene", "method", "conditions", "grid", "case")
@@ -40,8 +40,11 @@ class SweepError(SceneFileError):
 
 
 def versions() -> dict:
-    """Versions of cvxcontact and of the libraries that decide its numbers."""
-    out = {"cvxcontact": importlib.import_module("cvxcontact").__version__}
+    """Versions of cvxcontact (with its commit, whether the tree was dirty, and the sha256 of its source:
+    :func:`cvxcontact.version.provenance`) and of the libraries that decide its numbers."""
+    code = provenance()
+    out = {"cvxcontact": code["version"], "cvxcontact_commit": code["commit"], "cvxcontact_dirty": code["dirty"],
+           "cvxcontact_source_sha256": code["source_sha256"]}
     for name in ("cvxpy", "clarabel", "numpy", "scipy", "meshio"):
         try:
             out[name] = metadata.version(name)
@@ -63,7 +66,8 @@ class Case:
     """One case: the resolved scene data (base + overrides), its condition and its content id.
 
     ``provenance``: the sha256 of every mesh file the scene reads and the constants of its
-    materials (c, e, kappa in Pa, C/m^2, F/m), as hashed into ``id``."""
+    materials (c, e, kappa in Pa, C/m^2, F/m), as hashed into ``id``; ``code``: the cvxcontact version and
+    source sha256 hashed into ``id`` (a worker running other code refuses the case)."""
 
     id: str
     name: str
@@ -72,6 +76,7 @@ class Case:
     data: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
     invalid: str = ""
+    code: dict = field(default_factory=dict)
 
     @property
     def geometry(self) -> str:
@@ -90,7 +95,7 @@ class Case:
     def as_task(self) -> dict:
         """What a worker needs (plain data: it crosses process boundaries)."""
         return {"id": self.id, "name": self.name, "overrides": self.overrides, "condition": self.condition,
-                "data": self.data, "provenance": self.provenance, "geometry": self.geometry}
+                "data": self.data, "provenance": self.provenance, "geometry": self.geometry, "code": self.code}
 
 
 @dataclass
@@ -111,12 +116,13 @@ def canonical(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"))
 
 
-def case_id(data: dict, provenance: dict, condition: str, method: str, version: str) -> str:
+def case_id(data: dict, provenance: dict, condition: str, method: str, code) -> str:
     """The id of a case: sha256 (first 16 hex digits) of the resolved scene data, the contents of its
     mesh files, its material constants, the condition, the method, the degree (if the scene has one,
-    it is in ``data``) and the cvxcontact version."""
+    it is in ``data``) and the code: ``code`` is the cvxcontact version and the sha256 of its source
+    files (:func:`versions`), so results of other code never count as done."""
     text = canonical({"scene": data, "provenance": provenance, "condition": condition, "method": method,
-                      "cvxcontact": version})
+                      "cvxcontact": code})
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -199,11 +205,30 @@ def resolve(data, scene_path, allow_outside=False):
     return spec, _provenance(spec, data, scene_path, allow_outside)
 
 
-def load_sweep(path, allow_outside: bool = False) -> Sweep:
+def scene_file(path: Path, name: str, allow_outside: bool) -> Path:
+    """The base scene file ``name`` of the sweep file ``path``: relative to the sweep file's folder and
+    confined to it (after resolving '..' and symbolic links), like mesh paths in scene files, unless
+    ``allow_outside``."""
+    if allow_outside:
+        return path.parent / name
+    if not name or Path(name).is_absolute():
+        raise SweepError(f"{path}: scene: expected a path relative to the sweep file's folder, got {name!r} "
+                         "(absolute paths need allow_outside=True / --allow-outside-mesh)")
+    folder = path.parent.resolve()
+    target = (folder / name).resolve()
+    if not target.is_relative_to(folder):
+        raise SweepError(f"{path}: scene: {name!r} leads outside the sweep file's folder {str(folder)!r} (after "
+                         "resolving '..' and symbolic links); allow it with allow_outside=True / --allow-outside-mesh")
+    return path.parent / name
+
+
+def read_sweep(path, allow_outside: bool = False) -> Sweep:
     """Read a sweep file, expand, resolve and validate its cases (see the module docstring).
 
     A case whose scene is invalid (e.g. ``nu = 0.7``) gets ``invalid`` set to the reason; a bad
     key path, a duplicate case, or a malformed sweep file raises :class:`SweepError`."""
+    if not isinstance(allow_outside, bool):
+        raise SweepError(f"allow_outside must be True or False, got {allow_outside!r}")
     path = Path(path)
     data = read_toml(path, "sweep file")
     unknown = sorted(set(data) - set(_KEYS))
@@ -211,7 +236,7 @@ def load_sweep(path, allow_outside: bool = False) -> Sweep:
         raise SweepError(f"{path}: unknown key(s) {unknown}; allowed: {', '.join(_KEYS)}")
     if not isinstance(data.get("scene"), str):
         raise SweepError(f"{path}: scene: expected the path of a scene file (string)")
-    scene_path = path.parent / data["scene"]
+    scene_path = scene_file(path, data["scene"], allow_outside)
     base = read_toml(scene_path)
     method = data.get("method", DEFAULT_METHOD)
     if method not in METHODS:
@@ -244,7 +269,7 @@ def load_sweep(path, allow_outside: bool = False) -> Sweep:
             raise SweepError(f"{path}: case[{k}].name: {name!r} is used twice")
         names.add(name)
         entries.append((name, f"{path}: [[case]] {name!r}", extra))
-    version = versions()["cvxcontact"]
+    code = {k: v for k, v in versions().items() if k in ("cvxcontact", "cvxcontact_source_sha256")}
     sweep = Sweep(path, scene_path, base, method)
     seen: dict = {}
     for name, where, overrides in entries:
@@ -255,10 +280,10 @@ def load_sweep(path, allow_outside: bool = False) -> Sweep:
         except (CvxContactError, OSError) as exc:
             provenance, invalid = {}, " ".join(str(exc).split())
         for condition in conditions:
-            cid = case_id(resolved, provenance, condition, method, version)
+            cid = case_id(resolved, provenance, condition, method, code)
             if cid in seen:
                 raise SweepError(f"{path}: cases {seen[cid]!r} and {name!r} are the same case (same resolved scene "
                                  f"and condition {condition!r}); remove one")
             seen[cid] = name
-            sweep.cases.append(Case(cid, name, overrides, condition, resolved, provenance, invalid))
+            sweep.cases.append(Case(cid, name, overrides, condition, resolved, provenance, invalid, code))
     return sweep

@@ -4,9 +4,9 @@ Layout of ``OUT``::
 
     .lock                      held (flock) by the running sweep, with its pid
     manifest.json              every case, its state and provenance
-    cases/<id>.npz             arrays (u, phi, contact results, meshes), written first
+    cases/<id>.npz             arrays (u, phi, contact results, pressures, meshes; ARRAY_UNITS), written first
     cases/<id>.problem.npz     the conic problem data (with --export-problem)
-    cases/<id>.json            summary, checks, attempts, provenance and the sha256 of the npz files;
+    cases/<id>.json            summary, checks, attempts, provenance, units and the sha256 of the npz files;
                                written last, so a case is done exactly when its JSON is complete
                                and the files it names have the recorded checksums
     failures/<id>.json         why a case has no result
@@ -27,6 +27,7 @@ import errno
 import hashlib
 import json
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -35,7 +36,7 @@ from ...errors import CvxContactError
 from ...io.output import atomic_write as _atomic_write
 
 __all__ = ["SweepOutputError", "SweepLockedError", "FolderLock", "prepare_out", "write_json", "write_case",
-           "case_state", "sha256"]
+           "case_state", "sha256", "ARRAY_UNITS", "array_unit"]
 
 CASES, FAILURES, SUPERSEDED = "cases", "failures", "superseded"
 
@@ -96,14 +97,33 @@ def sha256(path) -> str:
     return h.hexdigest()
 
 
+ARRAY_UNITS = (                  # (pattern of a case array's name, its unit), the first match counts
+    (r"u\d+", "m"), (r"phi\d+", "V"), (r"points\d+", "m"), (r"triangles\d+", "1"), (r"tetrahedra\d+", "1"),
+    (r"(contact\d+_)?(x|trace_s\d+|line_points|jump|gap)", "m"), (r"(contact\d+_)?(lam|pressure\d+)", "Pa"),
+    (r"(contact\d+_)?force", "N/m"), (r"(contact\d+_)?(active|constrained)", "1"),
+)
+"""Units of the arrays of ``cases/<id>.npz``: ``u<k>`` displacement of body k (nodes, 2) and ``phi<k>``
+its electric potential; ``points<k>``/``triangles<k>`` its mesh (triangles: node indices; ``tetrahedra<k>`` in 3D); contact pair 1
+(pair p >= 2: the same names prefixed ``contact<p>_``): ``x`` the tangential coordinate s of the merged
+nodes, ``line_points`` their coordinates, ``lam`` lambda_h (a diagnostic), ``jump`` [u_h nu], ``gap``,
+``force`` the nodal forces, ``active``/``constrained`` (booleans), ``pressure<j>`` the pressure felt by
+body j on its own trace nodes at ``trace_s<j>``. "1": dimensionless (indices, flags)."""
+
+
+def array_unit(name: str) -> str | None:
+    """The unit of the case array ``name`` (:data:`ARRAY_UNITS`), None if unknown."""
+    return next((unit for pattern, unit in ARRAY_UNITS if re.fullmatch(pattern, name)), None)
+
+
 def write_case(out, case_id, arrays, info, problem=None) -> None:
-    """Write a finished case: its npz file(s) first, then the JSON naming them with checksums."""
+    """Write a finished case: its npz file(s) first, then the JSON naming them with checksums and the
+    units of the arrays (``units``)."""
     cases = Path(out) / CASES
     files = {"npz": f"{case_id}.npz", "npz_sha256": write_npz(cases / f"{case_id}.npz", arrays)}
     if problem is not None:
         files["problem"] = f"{case_id}.problem.npz"
         files["problem_sha256"] = write_npz(cases / files["problem"], problem)
-    write_json(cases / f"{case_id}.json", {**info, "files": files})
+    write_json(cases / f"{case_id}.json", {**info, "units": {k: array_unit(k) for k in arrays}, "files": files})
 
 
 def _read_json(path):

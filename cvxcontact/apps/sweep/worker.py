@@ -25,6 +25,8 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from ...errors import CvxContactError, ResidualWarning, SolverError
 from .spec import machine, versions
 from .store import FAILURES, SweepOutputError, write_case, write_json
@@ -103,16 +105,29 @@ def _solve(spec, task, method, scene_path):
     return best, attempts
 
 
-def _arrays(sol):
-    arrays = {"x": sol.contact.x, "lam": sol.contact.lam, "jump": sol.contact.jump, "force": sol.contact.force,
-              "active": sol.contact.active, "constrained": sol.contact.constrained}
+def arrays(sol) -> dict:
+    """The arrays of a case file (names and units: :data:`.store.ARRAY_UNITS`). Contact pair 1 unprefixed,
+    pair p >= 2 prefixed ``contact<p>_``; ``pressure<j>``/``trace_s<j>``: the pressure felt by body j
+    (1-based scene index) on its own trace nodes (:meth:`Solution.traction`), the one to read first."""
+    from ...io.output import pair_bodies
+
+    out = {}
+    for i, c in enumerate(sol.contacts):
+        pre = "" if i == 0 else f"contact{i + 1}_"
+        line = c.points if c.points is not None else np.column_stack([c.x, np.full(len(c.x), c.line)])
+        out.update({f"{pre}x": c.x, f"{pre}line_points": line, f"{pre}lam": c.lam, f"{pre}jump": c.jump,
+                    f"{pre}force": c.force, f"{pre}active": c.active, f"{pre}constrained": c.constrained})
+        if c.gap is not None:
+            out[f"{pre}gap"] = c.gap
+        for k, b in enumerate(pair_bodies(sol, i)):
+            out[f"{pre}trace_s{b + 1}"], out[f"{pre}pressure{b + 1}"] = sol.traction(k, i)
     for k, (body, u, phi) in enumerate(zip(sol.scene.bodies, sol.u, sol.phi), start=1):
-        arrays[f"u{k}"] = u
+        out[f"u{k}"] = u
         if phi is not None:
-            arrays[f"phi{k}"] = phi
-        arrays[f"points{k}"] = body.mesh.points
-        arrays[f"triangles{k}"] = body.mesh.triangles
-    return arrays
+            out[f"phi{k}"] = phi
+        out[f"points{k}"] = body.mesh.points
+        out[f"{'triangles' if body.mesh.dim == 2 else 'tetrahedra'}{k}"] = body.mesh.cells
+    return out
 
 
 def problem_data(spec, condition):
@@ -156,6 +171,10 @@ def solve_case(task: dict, scene_path, method: str, out, allow_outside: bool = F
               "versions": versions(), "machine": machine(),
               "threads": {k: os.environ.get(k) for k in THREAD_VARIABLES}}
     try:
+        mine = {k: v for k, v in versions().items() if k in task.get("code", {})}
+        if mine != task.get("code", {}):
+            raise CvxContactError(f"this worker runs other cvxcontact code ({mine}) than the sweep was started "
+                                  f"with ({task['code']}); install the same version on every worker")
         spec, provenance = resolve(copy.deepcopy(task["data"]), scene_path, allow_outside)
         if provenance != task["provenance"]:
             raise CvxContactError("a mesh file changed during the sweep (its sha256 differs from the one this "
@@ -172,7 +191,7 @@ def solve_case(task: dict, scene_path, method: str, out, allow_outside: bool = F
                        "solver_status": str(sol.problem.status) if sol.problem is not None else None,
                        "iterations": info.iterations, "finish": str(info.finish) if info.finish else None,
                        "seconds": time.perf_counter() - t0})
-        write_case(out, task["id"], _arrays(sol), record, problem)
+        write_case(out, task["id"], arrays(sol), record, problem)
         return task["id"], ("done" if sol.ok else "checks_failed"), "" if sol.ok else "checks failed"
     except SweepOutputError:
         raise

@@ -1,0 +1,336 @@
+"""Hertz validation in 3D: a rigid sphere pressed on an elastic block, quarter model.
+
+The sphere (radius R, rigid) touches the block's top face z = 0 at the origin; by symmetry only
+x >= 0, y >= 0 is meshed: the block [0, L] x [0, L] x [-L, 0] (L = ``SIZE`` a_ref) has symmetry
+rollers on x = 0 and y = 0, its bottom clamped and its far sides free, and a tetrahedral grid graded
+towards the contact point (:func:`cvxcontact.box` with ``grade``). The contact part is the patch
+[0, 2 a_ref]^2 of the top face; every node of it is a row of the condition (the rigid pair's nodes).
+
+Hertz's solution for a rigid sphere on an elastic half-space under the total force F (N):
+
+    a = (3 F R / (4 E*))^(1/3),   p0 = 3 F / (2 pi a^2),   delta = a^2 / R,   E* = E / (1 - nu^2),
+    p(r) = p0 sqrt(1 - r^2 / a^2).
+
+Force control at every mesh level: the sphere's approach delta is the unknown that makes the total
+force 4 sum(y) equal to F (the quarter carries F / 4). Two ways, which agree (tests/test_hertz3d.py):
+:func:`guided_sphere` with ``force=(0, 0, -F / 4)`` (the sphere free to move along z only: its x, y
+translations are fixed by the symmetry, which the scene cannot know), or, cheaper on finer meshes,
+:func:`press`: the fixed sphere moved to the approach found by secant steps on F(delta), one
+:class:`~cvxcontact.ContactSolver` re-solving the same geometry (F is affine in delta while the active set
+stays, so the steps end exactly). The study uses :func:`press`.
+
+Read-back: the contact radius a_h is the mean distance from the axis of the mid-points of the trace
+edges joining an active node (a positive force) to an open one (|a_h - a| about h/2; their spread is
+listed), the peak pressure p0_h the pressure felt by the block at the node on the axis (its force over its
+lumped area; against a rigid obstacle the nodal pressures alternate, low on the axis and high next to it),
+the axis cell's force: that of the four top nodes of the cell at the axis against Hertz's pressure
+integrated on the same hats (:func:`hat_loads`), delta_h the sphere's approach. P1 only: the table keeps
+rows for P2 tetrahedra in contact, not yet available.
+
+Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
+z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
+u_z(0, 0, -L) = F (1 + nu)(3 - 2 nu) / (2 pi E L) (7 % at L = 10 a) and changes a and p0 only through its
+variation across the zone, O((a / L)^2) of that; :func:`run` measures it by doubling L.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...geometry.generators3d import box
+from ...physics import materials
+from ...physics.pairs import Contact, Rigid
+from ...physics.scene import Body, Scene
+from ...errors import SolverError
+from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
+
+E, NU = 70e9, 0.3                 # Pa, -: aluminium
+R = 0.02                          # m, the sphere's radius
+A_REF = 1e-3                      # m, Hertz's contact radius at the design force
+SIZE = 10                         # the block's edge (quarter) in units of A_REF
+RATIO = 10.0                      # largest over smallest cell of the graded grid
+E_STAR = E / (1 - NU ** 2)
+FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
+LEVELS = (8, 16, 24)              # cells per edge of the quarter block
+
+
+def hertz(F, R=R, E_star=E_STAR):
+    """(a (m), p0 (Pa), delta (m)) of a rigid sphere of radius R on a half-space under the total force F (N)."""
+    a = (3 * F * R / (4 * E_star)) ** (1 / 3)
+    return a, 3 * F / (2 * np.pi * a ** 2), a ** 2 / R
+
+
+def boussinesq_depth(F, depth, E=E, nu=NU):
+    """u_z (m) on the axis at ``depth`` (m) below a point force F (N) on a half-space (Boussinesq)."""
+    return F * (1 + nu) * (3 - 2 * nu) / (2 * np.pi * E * depth)
+
+
+def guided_sphere(center, radius, force=None) -> Rigid:
+    """A rigid sphere that translates along z only (a quarter model's symmetry holds it in x and y): the
+    sphere's distance, and its sensitivity c(x) restricted to z (the unknown translation is (0, 0, t))."""
+    ball = Rigid.sphere(center, radius)
+
+    def along_z(x, nu):
+        return ball.sensitivity(x, nu) * np.array([0.0, 0.0, 1.0])
+
+    return Rigid("sphere", ball.distance, f"sphere(center={tuple(float(c) for c in center)}, radius={radius:g}, "
+                 "guided along z)", sensitivity=along_z, force=force, dim=3)
+
+
+def block(n, size=SIZE, ratio=RATIO, twice=False) -> Body:
+    """The quarter block: n cells per edge, graded towards the origin, the contact patch "zone"; ``twice``:
+    the same grid continued to a block twice as large (the cells beyond L growing on), for the size effect."""
+    L = size * A_REF
+    mesh = box(x=(0.0, L), y=(0.0, L), z=(-L, 0.0), nx=n, ny=n, nz=n,
+               patches={"zone": ("top", (0.0, 2 * A_REF), (0.0, 2 * A_REF))}, grade=((0.0, 0.0, 0.0), ratio))
+    if twice:
+        mesh = _continued(mesh, L)
+    return Body(mesh, materials.isotropic(E=E, nu=NU, name="aluminium"), name="block", clamped=["bottom"],
+                roller=["left", "front"], contact="zone")
+
+
+def _continued(mesh, L):
+    """``mesh`` (a graded box [0, L]^2 x [-L, 0] with the patch "zone") with its grid lines kept and continued
+    to [0, 2L]^2 x [-2L, 0], the cells beyond L growing in the ratio of the last two: a uniform box of that
+    many cells mapped axis by axis onto the lines (the patch maps onto [0, 2 a_ref]^2)."""
+    def grown(lines):                                     # lines from 0 to L, continued to 2 L
+        h, q, out = lines[-1] - lines[-2], (lines[-1] - lines[-2]) / (lines[-2] - lines[-3]), [lines[-1]]
+        while out[-1] + h * q < 2 * L - 0.5 * h * q:
+            h *= q
+            out.append(out[-1] + h)
+        extra = np.array(out[1:] + [2 * L])
+        return np.concatenate([lines, L + (extra - L) * L / (extra[-1] - L)]) if len(extra) else lines
+
+    xs = grown(np.unique(mesh.points[:, 0]))
+    zs = -grown(-np.unique(mesh.points[:, 2])[::-1])[::-1]
+    k = int(np.flatnonzero(np.isclose(xs, 2 * A_REF))[0])
+    nx, nz = len(xs) - 1, len(zs) - 1
+    unit = box(x=(0, nx), y=(0, nx), z=(0, nz), nx=nx, ny=nx, nz=nz, patches={"zone": ("top", (0, k), (0, k))})
+    P = unit.points
+    return unit.with_points(np.column_stack([np.interp(P[:, 0], np.arange(nx + 1), xs),
+                                             np.interp(P[:, 1], np.arange(nx + 1), xs),
+                                             np.interp(P[:, 2], np.arange(nz + 1), zs)]))
+
+
+def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO, twice=False) -> Scene:
+    """The quarter scene: the sphere fixed at the approach ``delta`` (m; default Hertz's at FORCE), or with
+    ``force`` (N, the whole sphere's) a guided sphere touching at the origin under force control."""
+    body = block(n, size, ratio, twice)
+    if force is not None:
+        sphere = guided_sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4))
+    else:
+        sphere = Rigid.sphere((0.0, 0.0, R - (hertz(FORCE)[2] if delta is None else delta)), R)
+    return Scene(body, contacts=[Contact(body, "zone", sphere)])
+
+
+def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
+    """(solution, approach delta (m), re-solves): the fixed sphere of ``base`` (touching the block at the
+    origin) moved down until the total force (four quarters) is F (N), by secant steps on F(delta) with
+    ``solver`` (a ContactSolver of ``base``)."""
+    sphere = base.obstacles[0].obstacle
+    top = sphere.position                                                  # touching at the origin
+
+    def at(delta):
+        sol = solver.solve(base.with_obstacles(sphere.moved(to=top - [0.0, 0.0, delta])))
+        return sol, 4 * float(sol.contact.force.sum())
+
+    d0 = hertz(F)[2]
+    s0, f0 = at(d0)
+    d1 = d0 * (F / f0) ** (2 / 3)                                          # Hertz's scaling as the first step
+    for k in range(steps):
+        s1, f1 = at(d1)
+        if abs(f1 - F) <= rtol * F:
+            return s1, d1, k + 2
+        d0, f0, d1 = d1, f1, d1 + (F - f1) * (d1 - d0) / (f1 - f0)
+    raise SolverError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
+
+
+def contact_radius(sol):
+    """(a_h, min, max) (m): the distances from the axis of the mid-points of the trace edges joining an active
+    node to an open one (mean, smallest, largest)."""
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[0]
+    active = np.zeros(len(trace.nodes), dtype=bool)
+    active[itf.reach] = sol.contact.active
+    on = np.zeros(len(trace.nodes), dtype=bool)
+    on[itf.reach] = True
+    return _edge_radius(trace, active, on)
+
+
+def _edge_radius(trace, active, on):
+    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` whose end
+    nodes (both ``on``) differ in ``active``."""
+    edges = np.unique(np.sort(trace.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    i, j = edges[:, 0], edges[:, 1]
+    cross = on[i] & on[j] & (active[i] != active[j])
+    mid = 0.5 * (trace.points[i[cross]] + trace.points[j[cross]])
+    r = np.hypot(mid[:, 0], mid[:, 1])
+    return float(r.mean()), float(r.min()), float(r.max())
+
+
+def hat_loads(trace, pressure, k=8):
+    """(n_trace,) N: the integrals of ``pressure(x, y)`` (Pa) against each hat of a planar trace: its faces cut
+    into k^2 sub-triangles, on each the three-point rule exact for quadratics (the nodal forces of a
+    prescribed pressure; exact for an affine one)."""
+    u, v = (g.ravel() for g in np.meshgrid(np.arange(k), np.arange(k), indexing="ij"))
+    up, down = u + v <= k - 1, u + v <= k - 2
+    corners = np.concatenate([np.stack([np.c_[u, v], np.c_[u + 1, v], np.c_[u, v + 1]], axis=1)[up],
+                              np.stack([np.c_[u + 1, v], np.c_[u + 1, v + 1], np.c_[u, v + 1]], axis=1)[down]]) / k
+    rule = np.full((3, 3), 1 / 6) + np.eye(3) / 2                       # 2/3 at one corner, 1/6 at the others
+    b = np.einsum("pi,sid->spd", rule, corners).reshape(-1, 2)          # (q, 2): (l1, l2) of every point
+    lam = np.column_stack([1 - b.sum(axis=1), b])                       # (q, 3) barycentric
+    P = trace.points[trace.faces]                                       # (f, 3, 3)
+    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    X = np.einsum("qj,fjd->fqd", lam, P)
+    w = pressure(X[..., 0], X[..., 1]) * (area / (3 * k ** 2))[:, None]  # (f, q)
+    out = np.zeros(len(trace.nodes))
+    np.add.at(out, trace.faces, np.einsum("fq,qj->fj", w, lam))
+    return out
+
+
+def measure(sol, delta):
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
+    c = sol.contact
+    F = 4 * float(c.force.sum())
+    a, p0, d = hertz(F)
+    a_h, a_min, a_max = contact_radius(sol)
+    r = np.hypot(c.points[:, 0], c.points[:, 1])
+    p0_h = float(c.pressure[np.argmin(r)])
+    lines = np.unique(np.round(c.points[:, 0], 12))
+    h = float(np.diff(lines)[:3].max())                                 # cells near the axis
+    # the axis cell's four top nodes: their force against Hertz's on the same hats, their mean pressure
+    itf = sol.scene.interfaces[0]
+    cell = (c.points[:, 0] <= lines[1] * (1 + 1e-9)) & (c.points[:, 1] <= lines[1] * (1 + 1e-9))
+    hertz_y = hat_loads(itf.traces[0], lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
+    y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[itf.reach][cell].sum())
+    dofs = sum(3 * len(p) for p in sol.points)
+    return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
+                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                p_cell_Pa=y_h / float(c.measure[cell].sum()), cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
+                delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
+                contact_nodes=len(c.active), ok=sol.ok)
+
+
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False):
+    """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend)."""
+    from ...solve import ContactSolver
+
+    clock = Timer()
+    base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
+    solver = ContactSolver(base, "gamma3", method="condensed")
+    sol, delta, resolves = press(solver, base, F)
+    row = dict(degree=1, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
+    row |= dict(resolves=resolves, seconds=clock())
+    return row, sol
+
+
+def figure(sol, rows):
+    """Left: the pressure felt by the block at every contact node against the radius, with Hertz's profile at
+    the measured force; right: the pressure map of the contact patch (quarter), Hertz's circle outlined."""
+    from matplotlib.ticker import MaxNLocator
+    from matplotlib.tri import Triangulation
+
+    from ...io.plot import eng
+
+    plt = pyplot()
+    c = sol.contact
+    F = 4 * float(c.force.sum())
+    a, p0, _ = hertz(F)
+    r = np.hypot(c.points[:, 0], c.points[:, 1])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    rs = np.linspace(0, a, 300)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
+    ax.plot(r[c.active], c.pressure[c.active], "o", ms=3.5, label=f"P1, n = {rows[-1]['n']}: active nodes", zorder=4)
+    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="open nodes (zero)")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="a_h (active/open mid-points, mean)")
+    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
+           title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
+    ax.title.set_fontsize(10)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend(fontsize=8)
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[0]
+    p = np.zeros(len(trace.nodes))
+    p[itf.reach] = c.pressure
+    tri = Triangulation(trace.points[:, 0], trace.points[:, 1], trace.faces)
+    m = ax2.tripcolor(tri, p, shading="gouraud", cmap="viridis")
+    t = np.linspace(0, np.pi / 2, 100)
+    ax2.plot(a * np.cos(t), a * np.sin(t), "--", color="C3", lw=1.2, label="Hertz contact radius a")
+    ax2.plot(c.points[c.active, 0], c.points[c.active, 1], ".", ms=3, color="C1", label="active nodes")
+    ax2.set_aspect("equal")
+    ax2.set(xlabel="x", ylabel="y", title="Pressure on the contact patch (quarter model)")
+    ax2.title.set_fontsize(10)
+    for axis in (ax2.xaxis, ax2.yaxis):
+        axis.set_major_locator(MaxNLocator(5))
+        axis.set_major_formatter(eng("m"))
+    fig.colorbar(m, ax=ax2, format=eng("Pa"), label="pressure felt by the block")
+    ax2.legend(fontsize=8, loc="upper right")
+    return fig
+
+
+def run(out, quick=False, progress=None):
+    say = progress or (lambda s: None)
+    out = Path(out)
+    levels = LEVELS[:1] if quick else LEVELS
+    rows, sol = [], None
+    for n in levels:
+        row, sol = solve_level(n)
+        rows.append(row)
+        say(f"hertz3d P1 n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = {row['p0_rel_error']:+.2e}, "
+            f"delta_h/delta - 1 = {row['delta_rel_error']:+.2e} ({row['seconds']:.1f} s)")
+    # the size effect: one level again with its grid continued to a block twice as large
+    ref = rows[min(1, len(rows) - 1)]
+    big, _ = solve_level(ref["n"], twice=True)
+    rows.append(big)
+    say(f"hertz3d size 2L n={big['n']}: a_h/a - 1 = {big['a_rel_error']:+.2e}, "
+        f"delta_h/delta - 1 = {big['delta_rel_error']:+.2e}")
+    write_csv(out / "hertz3d.csv", rows)
+    save_figure(figure(sol, rows[:len(levels)]), out / "hertz3d.png")
+    conv = rows[:len(levels)]
+    hs = [r["h_m"] for r in conv]
+    rate_a, rate_p0, rate_cell = (slope(hs, [abs(r[k]) for r in conv])
+                                  for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error"))
+    L = SIZE * A_REF
+    cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
+            "delta_rel_error", "active_nodes", "ok",
+            "seconds"]
+    fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
+           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",
+           "cell_force_rel_error": "+.3f", "delta_m": ".4e",
+           "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
+    def p2(columns):                                    # P2 rows to come: the degree and n only
+        return "".join(f"| 2 | {r['n']} |" + " — |" * (len(columns) - 2) + "\n" for r in conv)
+
+    short = ["degree", "n", "size_a", "dofs", "h_m", "a_rel_error", "p0_rel_error", "cell_force_rel_error",
+             "delta_rel_error", "seconds"]
+    text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
+            f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
+            f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
+            f"contact point, largest/smallest cell {RATIO:g}), P1 tetrahedra, condition gamma3, force control: the "
+            f"total force is F = {FORCE:.6g} N to 1e-10 at every level (Hertz: a = {A_REF * 1e3:g} mm). "
+            "a_h: mean distance from the axis of the mid-points of the edges joining an active node to an open "
+            "one (min and max listed); p0_h: the pressure felt by the block at the node on the axis (its force over "
+            "its lumped area; the nodal pressures against a rigid obstacle alternate, low on the axis, high at its "
+            "neighbours); p_cell: the mean pressure of the four top nodes of the cell at the axis, and "
+            "cell_force_rel_error their force against Hertz's pressure integrated on the same hats; delta_h: the "
+            "sphere's approach. h_m: the grid spacing near the axis. The last row (size_a = "
+            f"{2 * SIZE}) is level n = {ref['n']} again, its grid kept and continued to a block twice as large (the "
+            "size effect alone). Rows of degree 2 await P2 tetrahedra in contact.\n\n"
+            + markdown_table(rows, short, fmt) + p2(short)
+            + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt) + p2(cols)
+            + f"\nObserved rates in h (P1, levels {', '.join(str(n) for n in levels)}): contact radius "
+              f"{rate_a:.2f}, peak pressure {rate_p0:.2f}, force of the axis cell {rate_cell:.2f}.\n\n"
+              f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
+              f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
+              f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "
+              f"pressure move by {big['a_rel_error'] - ref['a_rel_error']:+.1e} and "
+              f"{big['p0_rel_error'] - ref['p0_rel_error']:+.1e} (relative to Hertz), the axis cell's force by "
+              f"{big['cell_force_rel_error'] - ref['cell_force_rel_error']:+.1e} and the approach by "
+              f"{big['delta_rel_error'] - ref['delta_rel_error']:+.3f} when L doubles at n = {ref['n']}.\n")
+    write_text(out / "hertz3d.md", text)
+    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p0, rate_cell=rate_cell)

@@ -1,0 +1,333 @@
+"""Exact finish of the P2 "everywhere" condition by accumulated cuts (docs/formulation.md §8, "The exact finish").
+
+The condition q_s(t) = [u_h nu](t) - g_h(t) <= 0 for t in [0, 1] on every merged segment s is semi-infinite but
+each q_s is one quadratic. At a finite set of points (s_p, t_p) it is a set of linear rows
+(:func:`~cvxcontact.contact.quadratic.point_rows`), and the contact problem with those rows is the nodal problem
+of §7 (an LCP on the interface compliance), solved exactly at every round (:func:`interface_cuts`). The finish
+
+1. starts from the P2 nodes of every segment (t = 0, 1/2, 1) and, if given, the interior point's tangency
+   points t* = sqrt(beta2) / (sqrt(beta0) + sqrt(beta2)) of the segments that carry a force;
+2. solves the nodal problem at the points exactly;
+3. computes on every segment the exact maximiser of q (:func:`~cvxcontact.contact.quadratic.bernstein_argmax`);
+   where q_max exceeds ``CUT_TOL`` times the segment's displacement scale, that maximiser becomes a new point
+   (a cut: no point is ever removed), and goes back to 2; otherwise it stops.
+
+Every answer is a KKT point of the conic program up to the stopping violation: the point forces y_p >= 0 give
+Bernstein duals beta_s = sum_p y_p (1 - t_p)^2, 2 t_p (1 - t_p), t_p^2), a sum of points of the dual cone (on its
+boundary, beta1^2 = 4 beta0 beta2), so beta lies in the dual cone exactly; r = B^T beta is the nodal force on X_h,
+and beta_s . b_s = sum_p y_p q_s(t_p) = 0 to rounding (complementarity of the rows). Where the forces in X_h are
+not unique (the discrete inf-sup condition fails, formulation.md §9; and the point rows outnumber the nodes)
+the displacements still are: the finish never asks for unique forces (each round is a non-negative least
+squares whose passive rows stay independent, :func:`nnls_warm`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from ..contact.quadratic import bernstein_argmax, bernstein_basis, point_rows
+
+__all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
+
+CUT_TOL = 1e-15
+"""Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
+
+STALL_TOL = 1e-12
+"""A violation below this that no longer halves from one round to the next is rounding too (the finish stops)."""
+
+
+def _unique_rows(P) -> np.ndarray:
+    """Indices of the first occurrence of every distinct row of the sparse ``P`` (rows with at most 3 entries,
+    identical floats: the same node reached from two segments)."""
+    P = sp.csr_matrix(P)
+    P.sort_indices()
+    k = P.shape[0]
+    width = int(np.diff(P.indptr).max(initial=0))
+    cols = np.full((k, max(width, 1)), -1.0)
+    vals = np.zeros((k, max(width, 1)))
+    for j in range(width):
+        has = np.diff(P.indptr) > j
+        at = P.indptr[:-1][has] + j
+        cols[has, j] = P.indices[at]
+        vals[has, j] = P.data[at]
+    _, first = np.unique(np.hstack([cols, vals]), axis=0, return_index=True)
+    return np.sort(first)
+
+
+def seed_points(B, beta=None, force_floor: float = 1e-6):
+    """(segment, t) of the starting points: the three P2 nodes of every segment of ``B`` (3 S, n) once each, plus,
+    with the interior point's Bernstein duals ``beta`` (S, 3), the tangency point of every segment whose force
+    sum(beta_s) exceeds ``force_floor`` of the largest and whose beta1 > 0 puts it inside the segment."""
+    S = B.shape[0] // 3
+    seg = np.repeat(np.arange(S), 3)
+    t = np.tile([0.0, 0.5, 1.0], S)
+    if beta is not None and S:
+        beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+        total = beta.sum(axis=1)
+        big = total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny)
+        r0, r2 = np.sqrt(beta[:, 0]), np.sqrt(beta[:, 2])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ts = r2 / (r0 + r2)
+        inner = big & (beta[:, 1] > force_floor * total) & (ts > 1e-3) & (ts < 1 - 1e-3) & (np.abs(ts - 0.5) > 1e-3)
+        seg = np.concatenate([seg, np.flatnonzero(inner)])
+        t = np.concatenate([t, ts[inner]])
+    keep = _unique_rows(point_rows(B, seg, t))
+    return seg[keep], t[keep]
+
+
+def seed_forces(segment, t, beta) -> np.ndarray:
+    """A warm start of the point forces from an interior point's Bernstein duals ``beta`` (S, 3): the whole force
+    sum(beta_s) of a segment at its first point strictly inside other than the midpoint (its tangency seed,
+    :func:`seed_points`), else beta0 + beta1 / 2 and beta2 + beta1 / 2 at its end points (a shared vertex is one
+    point: it takes the share of the segment it was kept for). Only a start: the first round corrects it."""
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    y = np.zeros(len(t))
+    inner = np.flatnonzero((t > 0) & (t < 1) & (t != 0.5))
+    has = np.zeros(len(beta), dtype=bool)
+    first = np.full(len(beta), -1)
+    first[segment[inner[::-1]]] = inner[::-1]
+    has[first >= 0] = True
+    y[first[has]] = beta[has].sum(axis=1)
+    for end, share in ((0.0, beta[:, 0] + beta[:, 1] / 2), (1.0, beta[:, 2] + beta[:, 1] / 2)):
+        at = np.flatnonzero((t == end) & ~has[segment])
+        y[at] += share[segment[at]]
+    return y
+
+
+def point_duals(S: int, segment, t, y) -> np.ndarray:
+    """beta (S, 3): the Bernstein duals of point forces ``y`` at (``segment``, ``t``) (module docstring)."""
+    beta = np.zeros((S, 3))
+    np.add.at(beta, np.asarray(segment, dtype=int), bernstein_basis(t) * np.asarray(y, dtype=float)[:, None])
+    return beta
+
+
+def segment_scales(B, U) -> np.ndarray:
+    """Per segment of ``B`` (3 S, n), the largest node scale ``U`` among the nodes its rows read."""
+    R = abs(sp.csr_matrix(B)).tocsr()
+    R.data[:] = 1.0
+    node = np.asarray(R.multiply(U[None, :]).max(axis=1).todense()).ravel()
+    return node.reshape(-1, 3).max(axis=1)
+
+
+def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL):
+    """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
+    halves per round). ``solve(P)`` solves the nodal problem with the rows ``P`` (k, n) (warm started from
+    its previous call: the points of a round are those of the last plus the new ones, appended) and returns
+    ``(y, slack, scale, state, active)`` (the point forces, q at the nodes of X_h, each node's displacement
+    scale, anything the caller keeps, the rows that carry the forces) or None.
+    Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
+    S = B.shape[0] // 3
+    B = sp.csr_matrix(B)
+    segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
+    last = np.inf
+    for rounds in range(1, max_rounds + 1):
+        out = solve(point_rows(B, segment, t))
+        if out is None:
+            return "the nodal problem at the cut points has no exact solution"
+        y, slack, scale, state, active = out
+        qmax, tmax = bernstein_argmax((B @ slack).reshape(-1, 3))
+        Us = segment_scales(B, scale)
+        rel = np.maximum(qmax, 0.0) / Us
+        worst = float(rel.max(initial=0.0))
+        if worst <= tol or (worst <= STALL_TOL and worst > 0.5 * last):
+            return dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
+                        violation=worst, active=active)
+        last = worst
+        new = np.flatnonzero(rel > tol)
+        segment = np.concatenate([segment, new])
+        t = np.concatenate([t, tmax[new]])
+    return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
+
+
+def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None):
+    """Lawson-Hanson non-negative least squares min 1/2 ||A y - b||^2 - c^T y over y >= 0 (``c`` (k,), default 0:
+    the plain NNLS) from the warm start ``y0`` (>= 0; its support is the first passive set), with the QR factors
+    of the passive columns updated column by column (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change
+    instead of a new factorisation). The dual w = A^T (b - A y) + c is the slack of the point rows
+    (:func:`interface_cuts`); it stops when w_j <= ``tol`` * ``scale(y)``_j on every column outside the passive
+    set. The least squares on the passive set P closes its rows, A_P^T A_P z = A_P^T b + c_P, i.e.
+    R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
+    one that rounding or its constant alone made positive while it lies in their span, a vanishing new
+    pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
+    unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
+    Returns (y, passive) or None."""
+    n, k = A.shape
+    c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
+    y = np.maximum(np.asarray(y0, dtype=float), 0.0)
+    passive = list(np.flatnonzero(y > 0))
+    y[~np.isin(np.arange(k), passive)] = 0.0
+    Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
+    max_iter = 3 * k + 10 if max_iter is None else max_iter
+
+    def least_squares():
+        p = len(passive)
+        z = np.zeros(k)
+        if p:
+            rhs = Q[:, :p].T @ b
+            if c.any():
+                rhs = rhs + sla.solve_triangular(R[:p, :p], c[passive], trans="T", check_finite=False)
+            z[passive] = sla.solve_triangular(R[:p, :p], rhs, check_finite=False)
+        return z
+
+    def settle(y):
+        """The inner loop: from the feasible y to the least-squares point of the passive set, dropping the
+        columns that reach 0 on the way. Returns the new y, or None if it does not settle."""
+        nonlocal Q, R
+        for _ in range(len(passive) + 1):
+            z = least_squares()
+            zp = z[passive]
+            if (zp > 0).all():
+                return z
+            yp = y[passive]
+            neg = zp <= 0
+            alpha = float(np.min(yp[neg] / (yp[neg] - zp[neg])))
+            y = y + alpha * (z - y)
+            drop = [i for i, col in enumerate(passive) if y[col] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
+            for i in reversed(drop):
+                Q, R = sla.qr_delete(Q, R, i, which="col", overwrite_qr=True, check_finite=False)
+                y[passive[i]] = 0.0
+                del passive[i]
+        return None
+
+    if passive:                               # the warm start's own least-squares point
+        y = settle(y)
+        if y is None:
+            return None
+    S, fresh = scale(y), True
+    dependent = set()
+    for _ in range(max_iter):
+        w = A.T @ (b - A @ y) + c if dual is None else dual(y)
+        out = np.ones(k, dtype=bool)
+        out[passive] = False
+        cand = np.flatnonzero(out & (w > tol * S))
+        if not len(cand):
+            if fresh:
+                return y, np.isin(np.arange(k), passive)
+            S, fresh = scale(y), True                 # the scale of the start, refreshed before stopping
+            continue
+        fresh = False
+        cand = cand[~np.isin(cand, list(dependent))]
+        if not len(cand):
+            return y, np.isin(np.arange(k), passive)
+        j = int(cand[np.argmax(w[cand] / S[cand])])
+        p = len(passive)
+        if p >= n:
+            dependent.add(j)
+            continue
+        Q, R = sla.qr_insert(Q, R, A[:, j].copy(), p, which="col", overwrite_qru=True, check_finite=False)
+        if abs(R[p, p]) <= 1e-12 * np.linalg.norm(A[:, j]):     # in the span of the passive columns: rounding
+            Q, R = sla.qr_delete(Q, R, p, which="col", overwrite_qr=True, check_finite=False)   # made w_j > 0
+            dependent.add(j)
+            continue
+        passive.append(j)
+        y = settle(y)
+        if y is None:
+            return None
+    return None
+
+
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None):
+    """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
+    there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
+    terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
+
+    Each round solves the point rows' LCP y >= 0, P (d - W P^T y) <= 0, complementary, as the equivalent
+    non-negative least squares min ||(P L)^T y - L^-1 d|| (W = L L^T, once) by :func:`nnls_warm`, from the
+    previous round's forces (the new points at 0; round 1 from ``y0``, e.g. :func:`seed_forces`). Nodes no
+    unknown moves (a zero row and column of W: held on
+    both sides, or against a fixed obstacle) keep their constant slack d_h = -g_h: they are left out of the
+    factor, a point row reading one gets the constant c = P_h d_h (the ``c`` of :func:`nnls_warm`), and a point
+    row reading only such nodes carries no force (its slack, a constant, holds: ``_check_reachable``)."""
+    t0 = time.perf_counter()
+    absW = np.abs(W)
+    base = np.abs(d) + np.abs(g)
+    keep = np.diag(W) > 0
+    L = np.zeros_like(W)
+    L[np.ix_(keep, keep)] = sla.cholesky(W[np.ix_(keep, keep)], lower=True)     # W = L L^T
+    Ld = np.zeros(len(d))
+    Ld[keep] = sla.solve_triangular(L[np.ix_(keep, keep)], d[keep], lower=True)
+    held = ~keep
+    prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
+
+    def node_scale(r):
+        U = base + absW @ np.abs(r)
+        return np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+    def solve(P):
+        moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
+        A = np.asarray((P @ L).T)[:, moving]
+        absP = abs(P)
+        y0 = np.zeros(P.shape[0])
+        if "y" in prev:
+            y0[:len(prev["y"])] = prev["y"]
+        c = (P[:, held] @ d[held])[moving] if held.any() else None
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c,
+                        dual=lambda ym: (P @ (d - W @ _expand(P, ym, moving)))[moving])    # O(n^2), not O(n k)
+        if out is None:
+            return None
+        y = np.zeros(P.shape[0])
+        y[moving] = out[0]
+        active = np.zeros(P.shape[0], dtype=bool)
+        active[moving] = out[1]
+        prev["y"] = y
+        r = P.T @ y
+        return y, d - W @ r, node_scale(r), r, active
+
+    out = accumulate_cuts(B, solve, segment, t, max_rounds)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return out
+
+
+def _expand(P, ym, moving):
+    """r = P^T y from the forces ``ym`` of the ``moving`` point rows."""
+    y = np.zeros(P.shape[0])
+    y[moving] = ym
+    return P.T @ y
+
+
+def dual_cone_point(beta) -> np.ndarray:
+    """beta (S, 3) moved into the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2) (each
+    entry clipped; beta1 lowered to the bound): an interior point's duals lie in it only to its tolerance."""
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    beta[:, 1] = np.minimum(beta[:, 1], 2 * np.sqrt(beta[:, 0] * beta[:, 2]))
+    return beta
+
+
+def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
+    """A rigorous bound (scaled energy norm) on ||v - u*||, v the answer of the Bernstein duals ``beta`` and u*
+    the exact solution of the conic problem, on the interface compliance (docs/checks.md, "The certified bound").
+
+    The dual point beta (in the dual cone: :func:`dual_cone_point`) has the primal point v(beta) = Sigma^-1
+    (f - J^T r), r = B^T beta: q = d - W r at the nodes of X_h (the back-substitution, so the residual of (26)
+    is that of one solve). v is made exactly feasible by a uniform push apart, q' = q - tau h with h = 1 on the
+    nodes some unknown moves (h = J delta, delta = Sigma^-1 J^T W^-1 h, ||delta||^2 = h^T W^-1 h; on a segment
+    whose nodes all move, q drops by tau everywhere), tau the largest violation max_s max_t q_s(t)^+ (doubled
+    until every segment holds, for segments next to a held node). The duality gap of (v', beta) is
+
+        gap = -beta . B q' + 1/2 tau^2 h^T W^-1 h      (J(v') - D(beta) >= 1/2 ||v' - u*||^2)
+
+    so ||v - u*|| <= tau sqrt(h^T W^-1 h) + sqrt(2 gap). Returns (bound, tau, gap), or (inf, tau, nan) if no
+    push makes v feasible (a violated segment whose nodes no unknown moves)."""
+    B = sp.csr_matrix(B)
+    held = np.zeros(len(d), dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    r = B.T @ np.asarray(beta, dtype=float).ravel()
+    q = d - W @ r
+    qmax, _ = bernstein_argmax((B @ q).reshape(-1, 3))
+    tau = float(np.maximum(qmax, 0.0).max(initial=0.0))
+    h = (~held).astype(float)
+    keep = ~held
+    hw = 0.0
+    if tau > 0:
+        w = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), h[keep])
+        hw = float(h[keep] @ w)
+    for _ in range(max_doublings):
+        b = (B @ (q - tau * h)).reshape(-1, 3)
+        if (bernstein_argmax(b)[0] <= 0).all():
+            gap = max(float(-(np.asarray(beta).ravel() @ b.ravel())) + 0.5 * tau ** 2 * hw, 0.0)
+            return tau * np.sqrt(hw) + np.sqrt(2 * gap), tau, gap
+        tau *= 2
+    return np.inf, tau, np.nan

@@ -1,0 +1,268 @@
+"""Planar contact surfaces with P2 (10-node) tetrahedra: both traces quadratic on every overlay triangle, X_h the
+continuous piecewise quadratics on the overlay (docs/formulation.md §15).
+
+Each body's trace on its planar part is a continuous P2 function on its own faces (6-node triangles: vertices
+and edge midpoints, :class:`~cvxcontact.geometry.quadratic.P2TetNodes`). The overlay of the two P1 face
+triangulations (:mod:`cvxcontact.contact.overlay`; the P2 faces are the same straight triangles) cuts the
+overlap into triangles on each of which both traces are quadratic, so the jump [u_nu] lies in
+
+    X_h = continuous piecewise quadratics on the overlay triangles
+
+whose nodes are the overlay vertices (first, in the overlay's order) and the midpoints of the overlay edges.
+The jump at those nodes is an evaluation of each trace (exact); a nodal condition at other points of the
+overlap (the P2 nodes of one body's faces, "sigma1"/"sigma2") is the P2 interpolation of X_h there (exact, since
+[u_nu] is in X_h). lambda_h is the Riesz representer in X_h of the row forces: M lambda_h = E^T y with M the P2
+mass matrix of the overlay.
+
+Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
+condition constrains every one of them (as for P1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.spatial import cKDTree
+
+from ..errors import SceneError
+from .interface import CONDITIONS, normal_jump, read_only
+
+__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "locate"]
+
+P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
+                             [-1, 6, -1, 0, 0, -4],
+                             [-1, -1, 6, -4, 0, 0],
+                             [0, 0, -4, 32, 16, 16],
+                             [-4, 0, 0, 16, 32, 16],
+                             [0, -4, 0, 16, 16, 32]]) / 180.0
+"""The P2 mass matrix of a triangle of unit area in the triangle6 order (v0, v1, v2, m01, m12, m20)."""
+
+_LOCATE_TOL = 1e-9      # barycentric tolerance of a point on a triangle's edge (relative)
+
+
+def p2_shape(L) -> np.ndarray:
+    """(k, 6): the triangle6 shape functions (v0, v1, v2, m01, m12, m20) at barycentric coordinates L (k, 3):
+    L_i (2 L_i - 1) at the vertices, 4 L_i L_j at the edge midpoints."""
+    L = np.asarray(L, dtype=float)
+    return np.column_stack([L * (2 * L - 1), 4 * L[:, 0] * L[:, 1], 4 * L[:, 1] * L[:, 2], 4 * L[:, 2] * L[:, 0]])
+
+
+def barycentric(x, P) -> np.ndarray:
+    """(k, 3): the barycentric coordinates of the points ``x`` (k, 2) in the triangles ``P`` (k, 3, 2)."""
+    T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
+    l12 = np.linalg.solve(T, (x - P[:, 0])[..., None])[..., 0] if len(x) else np.zeros((0, 2))
+    return np.column_stack([1.0 - l12.sum(axis=1), l12])
+
+
+def p2_triangle_nodes(triangles, n_vertices) -> tuple[np.ndarray, np.ndarray]:
+    """(cells (c, 6), edges (e, 2)): the triangle6 node indices of ``triangles`` (c, 3) on vertices numbered
+    0 .. n_vertices - 1, the edge midpoints numbered n_vertices + e by sorted vertex pair."""
+    tri = np.asarray(triangles, dtype=np.int64)
+    pairs = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
+    keys = pairs[..., 0] * max(n_vertices, 1) + pairs[..., 1]
+    unique, inverse = np.unique(keys.ravel(), return_inverse=True)
+    edges = np.column_stack([unique // max(n_vertices, 1), unique % max(n_vertices, 1)])
+    return np.column_stack([tri, n_vertices + inverse.reshape(-1, 3)]), edges
+
+
+def locate(x, coords, triangles) -> tuple[np.ndarray, np.ndarray]:
+    """(triangle, barycentric): for each point ``x`` (k, 2) a triangle of (``coords``, ``triangles``) that
+    contains it (within a relative tolerance; -1 if none) and its barycentric coordinates there. Candidates
+    by a k-d tree on the centroids (never all pairs)."""
+    x = np.asarray(x, dtype=float)
+    P = coords[triangles]
+    c = P.mean(axis=1)
+    radius = float(np.linalg.norm(P - c[:, None], axis=2).max())
+    near = cKDTree(c).query_ball_point(x, radius * (1 + 1e-9))
+    counts = np.fromiter(map(len, near), dtype=int, count=len(near))
+    point = np.repeat(np.arange(len(x)), counts)
+    cand = np.concatenate([np.asarray(n, dtype=int) for n in near]) if counts.sum() else np.zeros(0, dtype=int)
+    L = barycentric(x[point], P[cand])
+    inside = L.min(axis=1) >= -_LOCATE_TOL
+    point, cand, L = point[inside], cand[inside], L[inside]
+    first = np.full(len(x), -1)
+    at, index = np.unique(point, return_index=True)             # any containing triangle: the first listed
+    first[at] = index
+    found = first >= 0
+    tri = np.full(len(x), -1)
+    bary = np.zeros((len(x), 3))
+    tri[found] = cand[first[found]]
+    bary[found] = np.clip(L[first[found]], 0.0, None)
+    bary[found] /= bary[found].sum(axis=1, keepdims=True)
+    return tri, bary
+
+
+def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:
+    """(k, n_cols): the P2 functions with node columns ``cells`` (k, 6) evaluated at barycentric L (k, 3)."""
+    vals = p2_shape(L)
+    vals[np.abs(vals) < 1e-15] = 0.0                            # rounding of exact zeros
+    rows = np.repeat(np.arange(len(L)), 6)
+    M = sp.csr_matrix((vals.ravel(), (rows, cells.ravel())), shape=(len(L), n_cols))
+    M.eliminate_zeros()
+    return M
+
+
+def _p2_mass(cells, area, n) -> sp.csr_matrix:
+    """(n, n) P2 mass matrix (m^2) of triangles with node indices ``cells`` (c, 6) and ``area`` (c,) m^2."""
+    rows = np.repeat(cells, 6, axis=1).ravel()
+    cols = np.tile(cells, (1, 6)).ravel()
+    vals = (area[:, None, None] * P2_TRIANGLE_MASS[None]).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def _area(P) -> np.ndarray:
+    d1, d2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    return 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+
+
+class _Trace6:
+    """The P2 trace of one body on its planar part: ``faces`` (k, 6) local indices into ``nodes`` (the body's
+    P2 node indices on the part, sorted), ``x`` (n, 2) in-plane coordinates (m), ``points`` (n, 3),
+    ``unit_normal``/``normal``, ``offset``, ``frame``, ``mass`` (n, n) its P2 mass matrix (m^2), ``k``,
+    ``part``, ``body``, and ``linear`` the P1 :class:`~cvxcontact.contact.surface.SurfaceTrace`."""
+
+    def __init__(self, linear, nodes):
+        faces6 = np.asarray(nodes.boundary(linear.part))
+        own = np.unique(faces6)
+        self.linear = linear
+        self.nodes = read_only(own)
+        self.faces = read_only(np.searchsorted(own, faces6))
+        self.points = read_only(np.asarray(nodes.points, dtype=float)[own])
+        self.unit_normal = self.normal = linear.unit_normal
+        self.offset, self.frame = linear.offset, linear.frame
+        self.x = read_only(self.points @ np.asarray(linear.frame).T)
+        self.k, self.part, self.body = linear.k, linear.part, linear.body
+        self.mass = _p2_mass(self.faces, _area(self.x[self.faces[:, :3]]), len(own)).tocsr()
+
+
+class QuadraticSurface:
+    """One contact pair of planar surfaces with P2 traces (module docstring): the 3D counterpart of
+    :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, with the same protocol (``size``, ``x``,
+    ``points``, ``normal``, ``frame``, ``offset``, ``traces``, ``mass``, ``jump(k, n)`` by the scene's body
+    index, ``interpolation(k)``, ``evaluation``, ``pressure``, ``rigid``, ``dim``).
+
+    ``QuadraticSurface(linear, nodes, members)``: ``linear`` the pair's P1
+    :class:`~cvxcontact.contact.surface.SurfaceInterface` (it has checked planarity, the normals and the
+    overlap, and holds the overlay), ``nodes`` the :class:`~cvxcontact.geometry.quadratic.P2TetNodes` of its
+    bodies, ``members`` their indices among the scene's bodies ((k, None) with a rigid obstacle).
+    ``cells`` (c, 6) are the triangle6 node indices of X_h on each overlay triangle (two bodies) or on each
+    face of the body's trace whose six nodes all reach the obstacle.
+    """
+
+    degree, dim = 2, 3
+
+    def __init__(self, linear, nodes, members=(0, 1)):
+        nodes, members = tuple(nodes), tuple(members)
+        if len(nodes) != len(linear.traces):
+            raise SceneError(f"the P2 contact surface needs the P2 nodes of each of its {len(linear.traces)} "
+                             f"bodies, got {len(nodes)}")
+        self.linear, self.members = linear, members
+        self.rigid, self.obstacle = linear.rigid, linear.obstacle
+        self.normal, self.frame, self.offset = linear.normal, linear.frame, linear.offset
+        self.traces = [_Trace6(t, n) for t, n in zip(linear.traces, nodes)]
+        self._factors = {}
+        if self.rigid:
+            self._rigid()
+        else:
+            self._overlay()
+        self.points = read_only(self.offset * np.asarray(self.normal) + self.x @ np.asarray(self.frame))
+
+    def _overlay(self):
+        ov = self.linear.overlay
+        nv = len(ov.vertices)
+        cells, edges = p2_triangle_nodes(ov.triangles, nv)
+        V = np.asarray(ov.vertices)
+        self.x = read_only(np.concatenate([V, 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])]))
+        self.cells = read_only(cells)
+        self.mass = _p2_mass(cells, _area(V[ov.triangles]), self.size).tocsr()
+        # each node of X_h in one overlay triangle t that has it; its value on body l from l's face cell_l[t]
+        host = np.full(self.size, -1)
+        position = np.zeros(self.size, dtype=int)
+        host[cells.ravel()] = np.repeat(np.arange(len(cells)), 6)
+        position[cells.ravel()] = np.tile(np.arange(6), len(cells))
+        self._interp = []
+        for t, cell in zip(self.traces, (ov.cell_a, ov.cell_b)):
+            face = t.faces[np.asarray(cell)[host]]                      # (size, 6)
+            L = barycentric(self.x, t.x[face[:, :3]])
+            self._interp.append(_p2_rows(np.clip(L, 0.0, None) / np.clip(L, 0.0, None).sum(axis=1)[:, None],
+                                         face, len(t.nodes)))
+        # the P2 nodes of each body's faces inside the overlap, located in the overlay triangles
+        self._sigma = []
+        for t in self.traces:
+            tri, L = locate(t.x, V, np.asarray(ov.triangles))
+            inside = np.flatnonzero(tri >= 0)
+            self._sigma.append((read_only(inside), _p2_rows(L[inside], cells[tri[inside]], self.size)))
+
+    def _rigid(self):
+        t = self.traces[0]
+        d = np.asarray(self.obstacle.distance(t.points, t.unit_normal), dtype=float)
+        label = f"{t.body.name}: contact part {t.part!r} against {self.obstacle!r}"
+        if d.shape != (len(t.nodes),) or np.isnan(d).any() or (d == -np.inf).any():
+            raise SceneError(f"{label}: the obstacle's distance is not a finite number or +inf at every P2 node")
+        hit = np.flatnonzero(np.isfinite(d))
+        if len(hit) == 0:
+            raise SceneError(f"{label}: the obstacle cannot be reached along the part's outward normal from any node")
+        at = np.full(len(t.nodes), -1)
+        at[hit] = np.arange(len(hit))
+        whole = (at[t.faces] >= 0).all(axis=1)
+        self.reach = read_only(hit)
+        self.x = read_only(t.x[hit])
+        self.cells = read_only(at[t.faces[whole]])
+        self.mass = t.mass[hit][:, hit].tocsr()
+        self._interp = [sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(t.nodes)))]
+
+    @property
+    def size(self) -> int:
+        """Number of nodes of X_h."""
+        return len(self.x)
+
+    @property
+    def segments(self) -> np.ndarray:
+        """The elements of X_h, ``cells`` (c, 6) (the name the stacked contact lines share with 2D)."""
+        return self.cells
+
+    @property
+    def area(self) -> float:
+        """Area (m^2) of the overlap (with an obstacle, of the faces all of whose P2 nodes reach it)."""
+        return float(_area(self.x[self.cells[:, :3]]).sum())
+
+    def interpolation(self, k) -> sp.csr_matrix:
+        """(size, n_trace_k): the P2 functions of the pair's body k's trace (columns ``traces[k].nodes``) at
+        the nodes of X_h."""
+        return self._interp[k]
+
+    def jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 3 n_nodes): the scene's body ``k``'s part u^k . nu^k of [u_nu] at the nodes of X_h from its
+        P2 nodal displacements (x, y, z interleaved); zero if k is not a member of the pair."""
+        if k not in self.members:
+            return sp.csr_matrix((self.size, 3 * n_nodes))
+        t = self.traces[self.members.index(k)]
+        return normal_jump(self._interp[t.k], np.asarray(t.nodes), np.asarray(t.unit_normal), 3 * n_nodes)
+
+    def sigma_rows(self, l) -> np.ndarray:
+        """The P2 nodes of body l's trace (indices into ``traces[l].nodes``) inside the overlap, in the order
+        of the rows of ``evaluation("sigma<l+1>")``."""
+        return self._sigma[l][0]
+
+    def evaluation(self, condition) -> sp.csr_matrix:
+        """E: the rows evaluate X_h where the nodal condition is imposed: "sigma1"/"sigma2" at the P2 nodes of
+        that body's faces inside the overlap (vertices and edge midpoints); with an obstacle every node of X_h.
+        "gamma3" between two bodies is the copositive condition, not nodal rows (SceneError here)."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if self.rigid:
+            return sp.identity(self.size, format="csr")
+        if condition == "gamma3":
+            raise SceneError("'gamma3' with P2 surfaces is not a set of nodal rows; use 'sigma1' or 'sigma2'")
+        return self._sigma[int(condition[-1]) - 1][1]
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].x``): the Riesz
+        representer, in the P2 functions of its faces, of its nodal forces interpolation(k)^T r (N), i.e.
+        M_k p = interpolation(k)^T r with M_k the P2 mass of its faces (a P2 lumping has zero weight at the
+        vertices). Exact for a uniform pressure over faces the overlap covers."""
+        t = self.traces[k]
+        if k not in self._factors:
+            self._factors[k] = spla.splu(t.mass.tocsc())
+        return self._factors[k].solve(self._interp[k].T @ np.asarray(r, dtype=float))

@@ -1,0 +1,201 @@
+"""Canonical 3D scenes (4-node tetrahedra, cc.box meshes), shared by tests, examples and benchmarks.
+
+Each builder returns a cc.Scene small enough to solve in well under 2 s; ``SCENES3D`` maps a name to
+(builder, keywords of cc.solve). The closed forms of the patch scenes are beside their builders
+(``uniaxial_modulus``, ``floating_potential``); tests/test_contact3d.py checks every scene against them or
+against an independent dense solve of the mixed system (26).
+"""
+
+import numpy as np
+
+import cvxcontact as cc
+
+E, NU, P = 70e9, 0.3, 1e6          # Pa, -, Pa
+SIDES = ["left", "right", "front", "back"]
+STEEL = cc.materials.isotropic(E=E, nu=NU)
+
+
+def uniaxial_modulus(E=E, nu=NU) -> float:
+    """The constrained (oedometric) modulus c33 = E (1 - nu) / ((1 + nu) (1 - 2 nu)) of an isotropic
+    material, Pa: the stiffness of a layer held by rollers on its four sides."""
+    return E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+
+
+def stiffened_modulus(material) -> float:
+    """c33 + e33^2 / eps33 (Pa) of a material poled along z: the uniaxial stiffness along the poling axis
+    with D_z = 0 (an open-circuit electrode), from the material's 3D Voigt tensors."""
+    return float(material.c3[2, 2] + material.e3[2, 2] ** 2 / material.kappa3[2, 2])
+
+
+def floating_potential(material, p=P, height=0.5) -> float:
+    """The potential (V) of the open-circuit top electrode of a layer of ``height`` (m) poled along z,
+    grounded at its base, under a pressure ``p`` with rollers on its sides: S3 = -p / (c33 + e33^2/eps33),
+    D3 = e33 S3 + eps33 E3 = 0, so E3 = -e33 S3 / eps33 and phi(top) = -E3 height."""
+    S3 = -p / stiffened_modulus(material)
+    return float(material.e3[2, 2] * S3 / material.kappa3[2, 2] * height)
+
+
+def layer_on_plane(material=STEEL, n=(3, 3, 2), p=P, height=0.5, piezo=False):
+    """A layer (0, 1) x (0, 1) x (0, height) m held by rollers on its four sides, pressed by ``p`` (Pa) on
+    its top onto the rigid plane z = 0 (its only support along z). ``piezo``: grounded base (the contact
+    face) and an open-circuit (zero-charge) floating top electrode."""
+    mesh = cc.box(x=(0, 1), y=(0, 1), z=(0, height), nx=n[0], ny=n[1], nz=n[2])
+    electric = dict(grounded="bottom", floating={"top": 0.0}) if piezo else {}
+    body = cc.Body(mesh, material, roller=SIDES, contact="bottom", traction={"top": (0, 0, -p)}, name="layer",
+                   **electric)
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))])
+
+
+def pzt_layer_on_plane(n=(3, 3, 2), p=P):
+    """:func:`layer_on_plane` of PZT-5A poled along z with the electrodes described there."""
+    return layer_on_plane(cc.materials.PZT5A, n, p, piezo=True)
+
+
+def stacked_blocks(lower=(5, 5), upper=(7, 3), p=P, material=STEEL, nz=2, gap=0.0):
+    """Two blocks (0, 1)^2 x (0, 0.5) and (0, 1)^2 x (0.5, 1) m with ``lower`` and ``upper`` cells across
+    their common face z = 0.5 (non-matching by default), rollers on every side face and under the lower
+    block, the pressure ``p`` (Pa) on the upper block's top: the uniaxial solution u_z = -p z / c33."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=nz)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=nz)
+    b1 = cc.Body(low, material, roller=SIDES + ["bottom"], contact="top", name="lower")
+    b2 = cc.Body(up, material, roller=SIDES, contact="bottom", traction={"top": (0, 0, -p)}, name="upper")
+    return cc.Scene(b1, b2, gap=gap)
+
+
+def bumped_gap(x, y):
+    """0.2 r^2 mm, r the distance (m) from the faces' centre (0.5, 0.5) (a gap g(s1, s2) of the plane z = 0.5)."""
+    return 2e-4 * ((np.asarray(x) - .5) ** 2 + (np.asarray(y) - .5) ** 2)
+
+
+def tilted_gap(x, y):
+    """An affine gap, 0.05 x mm (its P1 interpolant on any overlay is itself)."""
+    return 5e-5 * np.asarray(x) + 0 * np.asarray(y)
+
+
+def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap):
+    """Two blocks on (0, 1)^2 (lower clamped at its base, upper held by rollers on two sides) meeting at
+    z = 0.5 with the gap ``gap`` (default :func:`bumped_gap`, opening away from the centre), the upper
+    pushed by a traction ``load`` (Pa) on a central square of its top: a contact zone with an edge inside
+    the faces."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=2)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=2)
+    press = lambda x, y, z: np.where((np.abs(x - .5) < .3) & (np.abs(y - .5) < .3), -load, 0.0)
+    b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
+    b2 = cc.Body(up, STEEL, roller=["left", "front"], contact="bottom", name="upper",
+                 traction={"top": lambda x, y, z: (0 * x, 0 * x, press(x, y, z))})
+    return cc.Scene(b1, b2, gap=gap)
+
+
+def sphere_on_block(force=2e9, n=(6, 6, 3)):
+    """A rigid sphere (radius 1 m) under the prescribed force (0, 0, -force) N on a block (-0.5, 0.5)^2 x
+    (-0.5, 0) m clamped at its base, touching its top at the centre: about 9 contact nodes at 2e9 N."""
+    mesh = cc.box(x=(-.5, .5), y=(-.5, .5), z=(-.5, 0), nx=n[0], ny=n[1], nz=n[2])
+    body = cc.Body(mesh, STEEL, clamped="bottom", contact="top", name="block")
+    ball = cc.Rigid.sphere((0, 0, 1.0), 1.0, force=(0, 0, -force))
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
+
+
+def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3")):
+    """Three blocks of height 1/3 m stacked on (0, 1)^2 (rollers on their sides, the lowest on its base),
+    their faces non-matching (``counts`` cells across each block), pressed by ``p`` on the top: the
+    uniaxial solution through two contact pairs."""
+    zs = (0.0, 1 / 3, 2 / 3, 1.0)
+    bodies = []
+    for k, (c, name) in enumerate(zip(counts, ("bottom block", "middle block", "top block"))):
+        mesh = cc.box(x=(0, 1), y=(0, 1), z=(zs[k], zs[k + 1]), nx=c[0], ny=c[1], nz=1)
+        extra = dict(traction={"top": (0, 0, -p)}) if k == 2 else {}
+        bodies.append(cc.Body(mesh, STEEL, roller=SIDES + (["bottom"] if k == 0 else []), name=name, **extra))
+    low, mid, top = bodies
+    pairs = [cc.Contact(low, "top", mid, "bottom", condition=conditions[0]),
+             cc.Contact(mid, "top", top, "bottom", condition=conditions[1])]
+    return cc.Scene(*bodies, contacts=pairs)
+
+
+PAD = ("top", (0.25, 0.75), (0.25, 0.75))
+"""The named patch "pad" of the base of :func:`punch_on_pad`: face, x range, y range (m)."""
+
+
+def punch_on_pad(load=5e7):
+    """A punch (0.5, 1.1) x (0.4, 0.9) x (0.5, 0.8) m pressed by ``load`` (Pa) on its top onto the patch
+    "pad" (0.25, 0.75)^2 of the top of a base (0, 1)^2 x (0, 0.5) clamped at its bottom: the pair's faces
+    overlap only on (0.5, 0.75) x (0.4, 0.75). The punch is held by rollers on its left and front faces and
+    by the contact."""
+    base = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=4, ny=4, nz=2, patches={"pad": PAD})
+    punch = cc.box(x=(.5, 1.1), y=(.4, .9), z=(.5, .8), nx=3, ny=3, nz=1)
+    b1 = cc.Body(base, STEEL, clamped="bottom", name="base")
+    b2 = cc.Body(punch, STEEL, roller=["left", "front"], traction={"top": (0, 0, -load)}, name="punch")
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "pad", b2, "bottom")])
+
+
+def rotation() -> np.ndarray:
+    """A generic rotation (about no coordinate axis; angle 1.2 rad about (1, -2, 0.7)/|.|)."""
+    a = np.array([1.0, -2.0, 0.7]) / np.linalg.norm([1.0, -2.0, 0.7])
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(1.2) * K + (1 - np.cos(1.2)) * K @ K
+
+
+def piezo_pair(R=None, lower=(3, 3), upper=(2, 4), load=1e6, volts=50.0):
+    """Two PZT-5A blocks poled along z (their material turned by R, default the identity) meeting at
+    z = 0.5: the lower clamped and grounded at its base, the upper driven at ``volts`` on its top, which
+    carries a traction (load/3, -load/4, -load) Pa, and held by rollers on its left and front faces. With R
+    the whole scene (points, materials, tractions) is turned by R; the rollers are planar faces and turn
+    with it."""
+    R = np.eye(3) if R is None else np.asarray(R, dtype=float)
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=2)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=2)
+    low, up = (m.with_points(m.points @ R.T) for m in (low, up))
+    pzt = cc.materials.PZT5A.rotated(R)
+    t = R @ np.array([load / 3, -load / 4, -load])
+    b1 = cc.Body(low, pzt, clamped="bottom", grounded="bottom", contact="top", name="lower")
+    b2 = cc.Body(up, pzt, roller=["left", "front"], contact="bottom", traction={"top": tuple(t)},
+                 potential={"top": volts}, name="upper")
+    return cc.Scene(b1, b2)
+
+
+def extruded_pair(n=4, width=None):
+    """The 3D counterpart of :func:`section_pair`: the same section (x, z) extruded along y over ``width``
+    (default one cell, 1/n m) with rollers on its front and back faces (u_y = 0: plane strain)."""
+    w = 1.0 / n if width is None else width
+    low = cc.box(x=(0, 1), y=(0, w), z=(0, .5), nx=n, ny=1, nz=n // 2)
+    up = cc.box(x=(0.2, 0.8), y=(0, w), z=(.5, .8), nx=n, ny=1, nz=n // 2)
+    pzt = cc.materials.PZT5A
+    b1 = cc.Body(low, pzt, clamped="bottom", grounded="bottom", roller=["front", "back"], contact="top",
+                 name="lower")
+    b2 = cc.Body(up, pzt, roller=["left", "front", "back"], grounded="top", contact="bottom", name="upper",
+                 traction={"top": lambda x, y, z: (2e6 * (x - .5), 0 * x, -1e7 * (1 + x))})
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "top", b2, "bottom", gap=_section_gap)])
+
+
+def section_pair(n=4):
+    """Two PZT-5A blocks in the 2D model plane (x, y = 3D z; plane strain, poled along y): the lower
+    (0, 1) x (0, 0.5) m clamped and grounded at its base, the upper (0.2, 0.8) x (0.5, 0.8) m grounded on its
+    top, held by a roller on its left side and pressed by a traction varying along x on its top, with a gap
+    opening away from x = 0.5 (:func:`_section_gap`)."""
+    low = cc.rectangle(x=(0, 1), y=(0, .5), nx=n, ny=n // 2)
+    up = cc.rectangle(x=(0.2, 0.8), y=(.5, .8), nx=n, ny=n // 2)
+    pzt = cc.materials.PZT5A
+    b1 = cc.Body(low, pzt, clamped="bottom", grounded="bottom", contact="top", name="lower")
+    b2 = cc.Body(up, pzt, roller="left", grounded="top", contact="bottom", name="upper",
+                 traction={"top": lambda x, y: (2e6 * (x - .5), -1e7 * (1 + x))})
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "top", b2, "bottom", gap=_section_gap)])
+
+
+def _section_gap(x, *rest):
+    """1e-3 (x - 0.5)^2 m, x the abscissa: the 2D gap g(s, y) and the 3D g(s1, s2) (s1 = x on a plane z = const)."""
+    return 1e-3 * (np.asarray(x, dtype=float) - 0.5) ** 2
+
+
+SCENES3D = {
+    "layer on a rigid plane, gamma3": (layer_on_plane, dict(condition="gamma3")),
+    "layer on a rigid plane, sigma1": (layer_on_plane, dict(condition="sigma1")),
+    "PZT-5A layer, floating electrode": (pzt_layer_on_plane, dict(condition="gamma3")),
+    "stacked blocks 5x5 on 7x3, gamma3": (stacked_blocks, dict(condition="gamma3")),
+    "stacked blocks 5x5 on 7x3, sigma1": (stacked_blocks, dict(condition="sigma1")),
+    "stacked blocks, nested 2x2 in 4x4, sigma2": (lambda: stacked_blocks((2, 2), (4, 4)), dict(condition="sigma2")),
+    "bumped blocks, gamma3": (bumped_blocks, dict(condition="gamma3")),
+    "force-controlled sphere": (sphere_on_block, dict(condition="gamma3")),
+    "three blocks": (three_blocks, dict(condition="gamma3")),
+    "punch on a patch": (punch_on_pad, dict(condition="gamma3")),
+    "two PZT blocks": (piezo_pair, dict(condition="sigma1")),
+}
+"""name -> (builder, keywords of cc.solve)."""

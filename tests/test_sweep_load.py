@@ -1,0 +1,171 @@
+"""Reference solutions people can load: cc.load_sweep(folder) gives the table of cases and each case's
+arrays with units; typed errors for what is not a (complete) result; the XDMF export when h5py is there."""
+
+import json
+import shutil
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps.sweep import SweepResultsError, run_sweep
+from cvxcontact.apps.sweep.spec import apply_overrides
+from cvxcontact.contact.interface import lumped_lengths
+from cvxcontact.io.scenefile import read_toml, scene_from_data
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory):
+    """The README's example sweep (examples/sweep.toml, 14 cases; about 2 s on one worker), run once."""
+    folder = tmp_path_factory.mktemp("example")
+    for name in ("sweep.toml", "two_blocks.toml"):
+        shutil.copy(EXAMPLES / name, folder / name)
+    report = run_sweep(folder / "sweep.toml", folder / "out", workers=1)
+    assert report.done == report.total == 14
+    return folder
+
+
+def rows(table):
+    return table if isinstance(table, list) else table.to_dict("records")
+
+
+def test_the_readme_example_sweep_loads_into_a_table_in_one_call(example):
+    r = cc.load_sweep(example / "out")
+    table = rows(r.cases)
+    sweep = tomllib.loads((example / "sweep.toml").read_text())
+    grid, heavy = sweep["grid"], sweep["case"][0]
+    assert len(table) == 14 and [t["id"] for t in table] == r.ids
+    assert {t["state"] for t in table} == {"done"} and all(t["ok"] for t in table)
+    assert sorted(t["condition"] for t in table) == sorted(sweep["conditions"] * 7)
+    points = {(t["body[0].body_force[1]"], t["body[0].mesh.rectangle.nx"]) for t in table if t["name"] != "heavy"}
+    assert points == {(f, n) for f in grid["body[0].body_force[1]"] for n in grid["body[0].mesh.rectangle.nx"]}
+    for t in table:                                      # the [[case]] "heavy": its own list, flattened
+        if t["name"] == "heavy":
+            assert [t["body[0].body_force[0]"], t["body[0].body_force[1]"]] == heavy["body[0].body_force"]
+    assert list(table[0])[:4] == ["id", "name", "condition", "state"]
+    for t in table:                                      # the checks and timings of the case file
+        assert t["check.equilibrium"] <= t["tolerance"] and t["check.complementarity"] <= t["tolerance"]
+        assert t["seconds"] > 0 and t["time.loads"] >= 0 and t["attempts"] >= 1
+
+
+def test_arrays_are_the_direct_solve_with_units(example):
+    r = cc.load_sweep(example / "out")
+    t = next(t for t in rows(r.cases) if t["name"] == "heavy" and t["condition"] == "sigma1")
+    a = r.arrays(t["id"])
+    sweep = tomllib.loads((example / "sweep.toml").read_text())
+    data = apply_overrides(read_toml(example / "two_blocks.toml"), {"body[0].body_force": [0.0, -5e9]}, "test")
+    ref = cc.solve(scene_from_data(data, example / "two_blocks.toml").scene, "sigma1", method=sweep["method"])
+    scale = np.abs(ref.u[0]).max()
+    assert np.abs(a["u1"] - ref.u[0]).max() <= 1e-10 * scale and np.abs(a["u2"] - ref.u[1]).max() <= 1e-10 * scale
+    assert np.abs(a["phi1"] - ref.phi[0]).max() <= 1e-10 * np.abs(ref.phi[0]).max()
+    assert np.abs(a["lam"] - ref.contact.lam).max() <= 1e-8 * np.abs(ref.contact.lam).max()
+    assert a.units["u1"] == "m" and a.units["phi1"] == "V" and a.units["lam"] == "Pa" and a.units["force"] == "N/m"
+    assert a.units["pressure1"] == a.units["pressure2"] == "Pa" and a.units["x"] == a.units["trace_s1"] == "m"
+    assert set(a.units) == set(a)
+    # the pressure felt by each body carries the whole contact force (partition of unity of the traces):
+    # measured relative differences 1e-16
+    total = a["force"].sum()
+    for j in (1, 2):
+        assert a[f"pressure{j}"] @ lumped_lengths(a[f"trace_s{j}"]) == pytest.approx(total, rel=1e-12)
+    assert a["pressure1"].max() > 0
+    with pytest.raises(ValueError):
+        a["u1"][0, 0] = 1.0                              # read-only
+    assert r.record(t["id"])["units"]["u1"] == "m"
+
+
+def test_without_pandas_the_table_is_a_list_of_dicts(example, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pandas", None)     # import pandas raises ImportError
+    table = cc.load_sweep(example / "out").cases
+    assert isinstance(table, list) and len(table) == 14 and all(len(t) == len(table[0]) for t in table)
+
+
+def test_with_pandas_the_table_is_a_data_frame(example):
+    pandas = pytest.importorskip("pandas", reason="pandas is optional (cvxcontact[tables])")
+    table = cc.load_sweep(example / "out").cases
+    assert isinstance(table, pandas.DataFrame) and table.shape[0] == 14
+    assert table.groupby("condition").size().to_dict() == {"gamma3": 7, "sigma1": 7}
+
+
+def test_bad_folders_and_cases_are_typed_errors(example, tmp_path):
+    with pytest.raises(SweepResultsError, match="is not a folder"):
+        cc.load_sweep(tmp_path / "nowhere")
+    with pytest.raises(SweepResultsError, match="no manifest.json"):
+        cc.load_sweep(tmp_path)
+    (tmp_path / "manifest.json").write_text('{"cases": [{"name": 1}]}')
+    with pytest.raises(SweepResultsError, match="unreadable manifest.json"):
+        cc.load_sweep(tmp_path)
+    with pytest.raises(SweepResultsError, match="expected the path"):
+        cc.load_sweep(3)
+    out = tmp_path / "copy"
+    shutil.copytree(example / "out", out)
+    r = cc.load_sweep(out)
+    with pytest.raises(SweepResultsError, match="is not a case of the sweep"):
+        r.arrays("0123456789abcdef")
+    first, second, third = r.ids[:3]
+    npz = out / "cases" / f"{first}.npz"
+    npz.write_bytes(npz.read_bytes()[:100])              # half-written
+    with pytest.raises(SweepResultsError, match="incomplete or altered"):
+        r.arrays(first)
+    (out / "cases" / f"{second}.json").unlink()          # not computed (yet)
+    with pytest.raises(SweepResultsError, match=r"has no result \(pending\)"):
+        cc.load_sweep(out).arrays(second)
+    assert rows(cc.load_sweep(out).cases)[1]["state"] == "pending"
+    (out / "cases" / f"{third}.json").write_text("{")   # a torn record: the table says pending, no crash
+    with pytest.raises(SweepResultsError, match="incomplete or altered"):
+        cc.load_sweep(out).arrays(third)
+
+
+def test_failed_cases_are_rows_with_their_error(tmp_path):
+    text = (EXAMPLES / "two_blocks.toml").read_text().replace("nx = 16, ny = 8", "nx = 8, ny = 4")
+    (tmp_path / "scene.toml").write_text(text.replace("nx = 11, ny = 6", "nx = 6, ny = 3"))
+    (tmp_path / "sweep.toml").write_text('scene = "scene.toml"\nmethod = "condensed"\n'
+                                         '[grid]\n"body[1].material.nu" = [0.3, 0.7]\n')
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1, skip_invalid=True)
+    r = cc.load_sweep(tmp_path / "out")
+    table = {t["body[1].material.nu"]: t for t in rows(r.cases)}
+    assert table[0.3]["state"] == "done" and table[0.7]["state"] == "failed" and "nu" in table[0.7]["error"]
+    with pytest.raises(SweepResultsError, match=r"has no result \(failed: invalid input.*--retry-failed"):
+        r.arrays(table[0.7]["id"])
+
+
+def test_units_of_records_written_before_units_were_stored(example, tmp_path):
+    out = tmp_path / "old"
+    shutil.copytree(example / "out", out)
+    r = cc.load_sweep(out)
+    path = out / "cases" / f"{r.ids[0]}.json"
+    record = json.loads(path.read_text())
+    del record["units"]
+    path.write_text(json.dumps(record))
+    a = cc.load_sweep(out).arrays(r.ids[0])
+    assert a.units["u1"] == "m" and a.units["lam"] == "Pa" and a.units["triangles1"] == "1"
+
+
+def test_xdmf_export_opens_with_the_arrays(example, tmp_path):
+    pytest.importorskip("h5py", reason="the XDMF export is the optional extra cvxcontact[export] (h5py)")
+    import meshio
+
+    r = cc.load_sweep(example / "out")
+    case = r.ids[0]
+    paths = r.export(tmp_path / "xdmf", ids=[case])
+    assert sorted(p.name for p in paths) == [f"{case}_body1.xdmf", f"{case}_body2.xdmf", f"{case}_contact1.xdmf"]
+    a = r.arrays(case)
+    body = meshio.read(tmp_path / "xdmf" / f"{case}_body1.xdmf")
+    assert np.array_equal(body.points[:, :2], a["points1"]) and np.array_equal(body.cells_dict["triangle"], a["triangles1"])
+    assert np.array_equal(body.point_data["displacement [m]"], a["u1"])
+    assert np.array_equal(body.point_data["electric potential [V]"], a["phi1"])
+    line = meshio.read(tmp_path / "xdmf" / f"{case}_contact1.xdmf")
+    assert np.array_equal(line.point_data["lambda_h [Pa]"], a["lam"]) and len(line.cells_dict["line"]) == len(a["x"]) - 1
+
+
+def test_xdmf_export_without_h5py_names_the_extra(example, tmp_path, monkeypatch):
+    from cvxcontact.apps.sweep.export import ExportError
+
+    monkeypatch.setitem(sys.modules, "h5py", None)
+    with pytest.raises(ExportError, match=r"cvxcontact\[export\]"):
+        cc.load_sweep(example / "out").export(tmp_path / "x")

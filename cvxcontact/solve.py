@@ -48,13 +48,15 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         Non-penetration on K_h(Gamma_3) (every merged node) or K_h(Sigma_h^l) (nodes of mesh l).
     solver : str
         A CVXPY solver name; Clarabel by default (with tolerances tightened to 1e-10).
-    method : {"auto", "sparse", "condensed", "full"}
+    method : {"auto", "amg", "sparse", "condensed", "full"}
         ``"auto"`` (default): the fastest backend that accepts the problem
         (:func:`cvxcontact.backends.choose`); for the package's own problems (quadratic
         energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` for a long interface with the
         Signorini law (more contact rows m than :data:`cvxcontact.backends.SPARSE_SLENDER` x sqrt(unknowns),
         or than :data:`cvxcontact.backends.SPARSE_ROWS`); a condensed answer that fails its checks falls
-        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``).
+        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``); ``"amg"`` for an elastic 3D scene of at least
+        :data:`cvxcontact.backends.AMG_UNKNOWNS` unknowns when pyamg is installed (``cvxcontact[amg]``): the
+        sparse route's steps with AMG-preconditioned Krylov solves (:mod:`cvxcontact.backends.amg`).
         ``"sparse"`` (:mod:`cvxcontact.backends.sparse`) runs exact active-set steps on the sparse mixed
         system (26) of every body, no dense interface matrix and no interior point. ``"full"`` (the reference)
         poses the whole phi-form model in CVXPY, so that ``Solution.problem`` has the

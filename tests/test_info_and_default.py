@@ -25,8 +25,9 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 # ------------------------------------------------------------------------------ default backend
 
 def test_registry_auto_takes_the_first_accepting_backend_in_speed_order():
-    assert METHODS[0] == "auto" and set(METHODS[1:]) == {b.name for b in BACKENDS} == {"full", "condensed", "sparse"}
-    assert [b.name for b in BACKENDS] == ["sparse", "condensed", "full"]           # speed order (sparse: long
+    assert METHODS[0] == "auto" and set(METHODS[1:]) == {b.name for b in BACKENDS} == {"full", "condensed", "sparse",
+                                                                                      "amg"}
+    assert [b.name for b in BACKENDS] == ["amg", "sparse", "condensed", "full"]    # speed order (sparse: long
     assert choose("auto") == "condensed"                                          # interfaces only, issue 13)
     assert choose("auto", ProblemDescription(user_terms=2)) == "full"              # user terms: only full
     assert choose("auto", ProblemDescription(quadratic_energy=False)) == "full"

@@ -2,6 +2,7 @@
 
 ``full``       the phi-form convex program of every body in CVXPY (the reference; accepts everything)
 ``condensed``  each body condensed exactly onto its contact unknowns, a small interface QP in CVXPY
+``amg``        the same steps with AMG-preconditioned Krylov solves, no factorisation: large 3D scenes (pyamg)
 ``sparse``     active-set steps on the sparse mixed system (26) of every body: long interfaces
 ``finish``     the exact finish: the interface LCP solved by scaled active-set steps (NNLS fallback)
 ``options``    validation of solver names and options before anything is assembled
@@ -9,7 +10,8 @@
 The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
 an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers(problem)``.
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
-``prefers``: every problem it accepts) (:func:`choose`): "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
+``prefers``: every problem it accepts) (:func:`choose`): "amg" for an elastic 3D scene of at least
+:data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
 neither accepts.
 """
@@ -23,7 +25,14 @@ from types import MappingProxyType
 from ..errors import SolverError
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "describe", "SPARSE_ROWS",
-           "SPARSE_SLENDER"]
+           "SPARSE_SLENDER", "AMG_UNKNOWNS"]
+
+AMG_UNKNOWNS = 50_000
+"""``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for elastic 3D scenes of at least this
+many unknowns when pyamg is installed: there a sparse factorisation of the 3D bodies (O(N^2) flops) costs more
+than AMG-preconditioned Krylov solves (O(N) each); measured in benchmarks/results/bench3d.md. Piezoelectric
+scenes stay with the sparse route: with the block-diagonal AMG preconditioner (u, phi) MINRES needed 83-167
+iterations a solve on a PZT-5A box on aluminium (1.1e4 unknowns) against 26-43 for CG on the elastic pair."""
 
 SPARSE_ROWS = 8000
 """``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
@@ -56,7 +65,8 @@ class ProblemDescription:
     ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
     stiffness, coupled to every body it touches; docs/formulation.md §12).
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
-    ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition.
+    ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3.
+    ``piezoelectric``: some body has potentials.
     """
 
     quadratic_energy: bool = True
@@ -68,6 +78,8 @@ class ProblemDescription:
     unknowns: int = 0
     compliant: bool = False
     conic: bool = False
+    dim: int = 2
+    piezoelectric: bool = False
 
 
 def describe(problem, user_terms: int = 0) -> ProblemDescription:
@@ -76,7 +88,8 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
     return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
-                              user_terms=user_terms)
+                              user_terms=user_terms, dim=problem.dim,
+                              piezoelectric=any(b.Kpp is not None for b in problem.blocks))
 
 
 @dataclass(frozen=True)
@@ -103,7 +116,17 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
     return _condensed_accepts(p) and not p.compliant and not p.conic
 
 
+def _amg_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("pyamg") is not None
+
+
 BACKENDS: tuple[Backend, ...] = (
+    Backend("amg", _sparse_accepts,
+            "active-set steps with AMG-preconditioned Krylov solves (large 3D scenes; pyamg; no factorisation)",
+            prefers=lambda p: p.dim == 3 and not p.piezoelectric and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
+            routes=MappingProxyType({"signorini": "amg:signorini"})),
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",
             prefers=lambda p: p.contact_rows > SPARSE_ROWS

@@ -37,12 +37,16 @@ class Route(StrEnum):
     finish, globally convergent on its own, solved the interface equation from the free slack."""
     SPARSE_ACTIVE_SET = "active-set steps on the sparse mixed system"
     """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
-    bonded system, no convex program (``iterations``: the systems solved)."""
+    bonded system (3D: from the rows the obstacles already close), no convex program (``iterations``: the
+    systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     NO_CONTACT = "no contact at zero force: the unconstrained solution"
     """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
     merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
+    KRYLOV_ACTIVE_SET = "active-set steps, AMG-preconditioned Krylov solves"
+    """The AMG route (method "amg", :mod:`cvxcontact.backends.amg`): the sparse route's active-set steps with
+    each system solved by AMG-preconditioned CG/MINRES to a relative residual 1e-12, no factorisation."""
     SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
     """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
     compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the
@@ -123,7 +127,7 @@ class Cache:
         self.clear()
 
     def clear(self):
-        self.condensation = self.sparse = self.active = None
+        self.condensation = self.sparse = self.amg = self.active = None
 
     def matching(self, key) -> "Cache":
         """This cache, emptied first if it was filled for other contact rows than ``key``."""

@@ -154,6 +154,9 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
     out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
+    start = cheap_start(problem)
+    if out is None and start is not None:                  # 3D: the rows the obstacles already close
+        out, warm = sc.solve(rhs, problem.g, start), False
     if out is None:                                        # first solve, or the previous set led nowhere
         out = sc.solve(rhs, problem.g, free)               # from the bonded system of the rows that move
         warm = False
@@ -168,6 +171,21 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="sparse",
                      route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="active set",
                      factorization=sc.factorization)
+
+
+def cheap_start(problem):
+    """The first active set of a 3D sparse solve: the rows that move and whose gap is already closed (g <= 0,
+    e.g. the nodes inside a rigid sphere's initial overlap); None in 2D, or where it is every such row or none
+    (then the bonded start). Why 3D: a contact zone is a patch there, and from the bonded start the steps
+    open it ring by ring, each ring more rows than the capacitance form takes, i.e. one refactorisation per
+    step (measured, a sphere 0.02 m into a block, 22,500 unknowns, 625 rows: bonded start 6 steps and 4
+    factorisations, this start 2 steps and 1). In 2D it is not used: on thin_layer(1000) (a crowned gap
+    closed at one node) the steps from it do not settle."""
+    if problem.dim != 3:
+        return None
+    free = ~problem.held_rows
+    start = free & (np.asarray(problem.g) <= 0.0)
+    return start if 0 < start.sum() < free.sum() else None
 
 
 def sparse_active_set(kkt, g, active, timings, max_iter=30):

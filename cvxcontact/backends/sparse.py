@@ -20,8 +20,9 @@ Primal-dual active-set steps (the semismooth Newton method for min(y, -s) = 0, s
 A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj the row's diagonal
 compliance (a force turned into a displacement of that node, as in the checks, docs/checks.md), until
 A_{k+1} = A_k with y >= 0 on A and s <= 0 off A, each to ``SIGN_TOL`` of the row's own scale. A_0 is
-the bonded system (every row closed: [u_nu] = g at every merged node) for a first solve, the previous
-active set for a re-solve of a :class:`~cvxcontact.ContactSolver`.
+the bonded system (every row closed: [u_nu] = g at every merged node) for a first solve (in 3D the rows the
+obstacles already close, :func:`~cvxcontact.backends.signorini.cheap_start`), the previous active set for a
+re-solve of a :class:`~cvxcontact.ContactSolver`.
 
 Most steps change only a few rows near the edges of the contact zone, so K(A) is not refactorised at
 each step: with the factor of a base K(A_b), K(A) z = b is solved exactly by the capacitance (bordered)

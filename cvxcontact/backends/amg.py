@@ -1,0 +1,313 @@
+"""The AMG route for large 3D scenes: active-set steps on the mixed system (26) whose linear systems are solved by
+algebraic-multigrid-preconditioned Krylov iterations, with no factorisation at all.
+
+In 3D a sparse factorisation costs O(N^2) flops and O(N^(4/3)) memory (nested dissection), while
+smoothed-aggregation AMG with the rigid-body modes as near-null space solves elasticity in O(N) (docs/explanation/
+performance.md). This route keeps the primal-dual active-set steps of the sparse route
+(:mod:`cvxcontact.backends.sparse`: the semismooth Newton method for min(y, -s) = 0, the same sign tests, the same
+next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
+
+* every contact row a has its own dof s(a): a dof of largest |coefficient| in that row that no other row
+  touches (the nodal conditions "sigma1"/"sigma2" and rigid obstacles; not "gamma3", whose overlay rows share
+  their dofs: the route then hands the problem to the sparse route). A closed row is eliminated exactly,
+  x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
+  is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes);
+  the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
+* K_A r = T_A^T (F - S x_A) is solved by CG (MINRES with a piezoelectric body: S is quasi-definite) to a
+  relative residual ``RTOL`` (1e-12; the residual of (26) at the answer is that residual, the eliminated
+  rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once
+  per geometry on the first system solved (the start's rows closed): its displacement block node-blocked
+  (3 x 3) with each body's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
+  Every step, and every re-solve of a :class:`~cvxcontact.ContactSolver`, reuses it and starts from the
+  previous answer.
+
+The answer is the active set's exact complementarity (y = 0 on open rows, s = 0 on closed ones to rounding,
+signs checked as in the sparse route) with (26) solved to ``RTOL``: the solution's checks (docs/checks.md) are
+those of every route. A Krylov solve that does not reach ``RTOL`` makes the route hand over to the sparse route.
+
+Needs pyamg (``pip install "cvxcontact[amg]"``); without it ``method="auto"`` never picks this route.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import SolverError
+from .condensed import quasi_definite
+from .finish import active_set_steps, signs_hold
+
+__all__ = ["KrylovContact", "available", "own_dofs", "RTOL", "AMG_INSTALL"]
+
+RTOL = 1e-12
+"""Relative residual (2-norm) of the Krylov solve that gives the answer."""
+
+STEP_RTOL = 1e-4
+"""Relative residual of the Krylov solves that only pick the next active set (the signs are then checked again
+on a solve to RTOL before the set is accepted). Measured on two elastic boxes (3.1e4 unknowns, 625 rows): the same
+5 steps and active set at 1e-8, 1e-6 and 1e-4, with 280, 225 and 169 CG iterations in all."""
+
+AMG_INSTALL = 'pip install "cvxcontact[amg]"'
+
+
+def available() -> bool:
+    """Whether pyamg can be imported (the optional extra ``amg``)."""
+    return importlib.util.find_spec("pyamg") is not None
+
+
+def own_dofs(G):
+    """Each row's own dof: (dof, coefficient) arrays over the rows of ``G`` (m x n), the dof of largest
+    |coefficient| among those no other row touches, or None if a row with entries has none, or if another
+    entry of a row is some row's own dof (then eliminating one row would change another's). Rows without
+    entries get dof -1."""
+    G = sp.csr_matrix(G)
+    m = G.shape[0]
+    rows = np.repeat(np.arange(m), np.diff(G.indptr))
+    used = np.bincount(G.indices, minlength=G.shape[1])
+    score = np.where(used[G.indices] == 1, np.abs(G.data), -1.0)
+    best = np.full(m, -1.0)
+    np.maximum.at(best, rows, score)
+    hit = np.flatnonzero((score == best[rows]) & (best[rows] > 0))
+    first = np.full(m, -1)
+    first[rows[hit[::-1]]] = hit[::-1]                 # the first such entry of each row
+    empty = np.diff(G.indptr) == 0
+    if np.any((first < 0) & ~empty):
+        return None
+    dof = np.where(empty, -1, G.indices[np.maximum(first, 0)])
+    coef = np.where(empty, 0.0, G.data[np.maximum(first, 0)])
+    own = np.zeros(G.shape[1], dtype=bool)
+    own[dof[dof >= 0]] = True
+    if np.any(own[G.indices] & (G.indices != dof[rows])):
+        return None
+    return dof, coef
+
+
+def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
+    """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
+    prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
+    the body's extent)."""
+    x = np.asarray(points, dtype=float)
+    centre = x.mean(axis=0) if centre is None else np.asarray(centre, dtype=float)
+    size = float(np.ptp(x, axis=0).max()) if size is None else float(size)
+    x = (x - centre) / max(size, np.finfo(float).tiny)
+    B = np.zeros((3 * len(x), 6))
+    for i in range(3):
+        B[i::3, i] = 1.0
+    B[0::3, 3], B[1::3, 3] = -x[:, 1], x[:, 0]            # about z
+    B[1::3, 4], B[2::3, 4] = -x[:, 2], x[:, 1]            # about x
+    B[0::3, 5], B[2::3, 5] = x[:, 2], -x[:, 0]            # about y
+    return np.asarray(Tu.T @ B)
+
+
+class KrylovContact:
+    """The mixed system of a 3D problem's scaled blocks with its contact rows, for every active set (module
+    docstring). Built once per geometry (the AMG hierarchy); :meth:`solve` per load case. Raises
+    :class:`SolverError` if pyamg is missing or the rows have no own dofs (gamma3)."""
+
+    def __init__(self, problem):
+        try:
+            import pyamg
+        except ImportError as exc:
+            raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
+        blocks = list(problem.blocks)
+        parts = [quasi_definite(b) for b in blocks]
+        self.S = sp.block_diag([S for S, _ in parts], format="csr")
+        self._diag = np.abs(self.S.diagonal())
+        self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
+        self.n = n = self.S.shape[0]
+        E = problem.E
+        self.m = m = E.shape[0]
+        self.G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((m, npf))])
+                            for b, (_, npf) in zip(blocks, self.sizes)]).tocsr()
+        self.G.sum_duplicates()
+        own = own_dofs(self.G)
+        if own is None:
+            raise SolverError("method 'amg': a contact row has no dof of its own (the overlay rows of 'gamma3' "
+                              "share their dofs); use method='sparse'")
+        self.dof, self.coef = own
+        w = np.zeros(m)
+        for b in blocks:
+            R = (E @ b.jump).tocsr()
+            d = b.Kuu.diagonal()
+            w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
+        self.w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
+        u_idx, p_idx, modes, pos = [], [], [], 0
+        for k, (nu, npf) in enumerate(self.sizes):
+            u_idx.append(pos + np.arange(nu))
+            p_idx.append(pos + nu + np.arange(npf))
+            points = problem.meshes[k].points
+            Tu = problem.systems[k].Tu
+            if Tu.shape[0] != 3 * len(points):
+                raise SolverError("method 'amg' solves 3D bodies (three displacement components per node)")
+            modes.append(rigid_modes(points, Tu))         # about the body's own centre (below)
+            pos += nu + npf
+        self.u_idx, self.p_idx = np.concatenate(u_idx), np.concatenate(p_idx)
+        # each body's modes about its own centre, in the same six columns: measured on two tied elastic boxes
+        # (3.1e4 unknowns), 27 CG iterations to 1e-10 against 40 with the modes about the scene's centre
+        self.modes = np.vstack(modes)
+        self.ml_u = self.ml_p = None          # built on the first system solved (:meth:`_hierarchy`)
+        self.setup_time = 0.0
+        self.iterations = 0                  # Krylov iterations, all solves
+        self.x = None                        # the last answer (the next solve's starting point)
+
+    def _hierarchy(self, K, slaves):
+        """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
+        rows eliminated, so that the bodies it ties are tied in the hierarchy too): its displacement block
+        node-blocked with the bodies' rigid-body modes (zero on the eliminated dofs), its potential block."""
+        import pyamg
+
+        t0 = time.perf_counter()
+        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
+        B = self.modes.copy()
+        B[np.isin(self.u_idx, slaves)] = 0.0
+        blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
+        self.ml_u = pyamg.smoothed_aggregation_solver(Kuu.tobsr(blocksize=(3, 3)) if blocked else Kuu, B=B,
+                                                      symmetry="symmetric", max_coarse=30 if blocked else 200)
+        if len(self.p_idx):
+            Kpp = -K[self.p_idx][:, self.p_idx].tocsr()               # the Gauss rows were negated
+            self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
+        self.setup_time = time.perf_counter() - t0
+
+    def _precondition(self):
+        Pu = self.ml_u.aspreconditioner(cycle="V")
+        if self.ml_p is None:
+            def apply(r):
+                z = np.zeros_like(r)
+                z[self.u_idx] = Pu @ r[self.u_idx]
+                return z
+        else:
+            Pp = self.ml_p.aspreconditioner(cycle="V")
+
+            def apply(r):
+                z = np.empty_like(r)
+                z[self.u_idx] = Pu @ r[self.u_idx]
+                z[self.p_idx] = Pp @ r[self.p_idx]
+                return z
+        return spla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
+
+    def _system(self, active, F, g, x_start, rtol=RTOL):
+        """(x, y) with the rows of ``active`` closed, or None if the Krylov solve misses ``rtol``."""
+        n = self.n
+        rows = np.flatnonzero(active)
+        slaves, piv = self.dof[rows], self.coef[rows]
+        Gc = self.G[rows].tocoo()
+        other = Gc.col != slaves[Gc.row]
+        T = sp.identity(n, format="csr") + sp.csr_matrix(
+            (np.concatenate([-np.ones(len(rows)), -Gc.data[other] / piv[Gc.row[other]]]),
+             (np.concatenate([slaves, slaves[Gc.row[other]]]), np.concatenate([slaves, Gc.col[other]]))),
+            shape=(n, n))
+        Tt = T.T.tocsr()
+        x_fix = np.zeros(n)
+        x_fix[slaves] = g[rows] / piv
+        S = self.S
+        # the eliminated dofs as decoupled rows with S's own diagonal (the preconditioner's scale there)
+        K = (Tt @ S @ T + sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n))).tocsr()
+        b = Tt @ (F - S @ x_fix)
+        if self.ml_u is None:
+            self._hierarchy(K, slaves)
+        r0 = np.array(x_start) if x_start is not None else np.zeros(n)
+        r0[slaves] = 0.0
+        its = []
+        count = lambda _x: its.append(1)  # noqa: E731
+        nb = np.linalg.norm(b)
+        if nb == 0.0:
+            r = np.zeros(n)
+        elif self.ml_p is None:
+            r, info = spla.cg(K, b, x0=r0, M=self._precondition(), rtol=rtol, atol=0.0, maxiter=1000,
+                              callback=count)
+        else:
+            r, tol, M = r0, rtol, self._precondition()
+            for _ in range(4):        # MINRES stops on the preconditioned residual: tighten until the true one
+                r, info = spla.minres(K, b, x0=r, M=M, rtol=tol, maxiter=2000, callback=count)
+                if np.linalg.norm(b - K @ r) <= rtol * nb:
+                    break
+                tol /= 30.0
+        self.iterations += len(its)
+        if nb > 0.0 and not np.linalg.norm(b - K @ r) <= rtol * nb:
+            return None
+        x = T @ r + x_fix
+        y = np.zeros(self.m)
+        y[rows] = (F - S @ x)[slaves] / piv
+        return x, y
+
+    def solve(self, F, g, active, max_iter: int = 50):
+        """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
+        ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
+        if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
+        solve misses its tolerance."""
+        F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
+        movable = self.dof >= 0
+        last = [np.asarray(active, dtype=bool) & movable]
+        count = [0]
+
+        def step(active, loose):
+            last[0] = active
+            count[0] += 1
+            for rtol in (loose, RTOL):           # a loose solve picks the next set; the answer is a tight one
+                out = self._system(active & movable, F, g, self.x, rtol)
+                if out is None:
+                    return None
+                x, y = out
+                self.x = x
+                s = self.G @ x - g
+                scale = np.abs(self.G) @ np.abs(x) + np.abs(g) + self.w * np.abs(y)
+                scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny))
+                if not signs_hold(y, s, active & movable, self.w, scale):
+                    return (x, y), (y * self.w + s > 0) & movable
+            return (x, y), None
+
+        for loose in (STEP_RTOL, RTOL):          # steps that cycle on loose solves are retried on tight ones
+            out = active_set_steps(lambda a: step(a, loose), last[0], max_iter)
+            if not isinstance(out, str) or out == "singular":
+                break
+        if isinstance(out, str):
+            return None
+        out = (out[0], out[1], count[0])
+        (x, y), active, steps = out
+        u, phi, pos = [], [], 0
+        for nu, npf in self.sizes:
+            u.append(x[pos:pos + nu])
+            phi.append(x[pos + nu:pos + nu + npf] if npf else None)
+            pos += nu + npf
+        return u, phi, np.where(active, y, 0.0), active, steps
+
+
+def signorini(problem, cache, settings, timings):
+    """The route of method "amg" for nodal Signorini rows: active-set steps with AMG-preconditioned Krylov
+    solves, from the previous active set (re-solve), the rows the obstacles already close (3D) or the bonded
+    system; hands the problem to the sparse route where it cannot take it (gamma3) or a solve misses RTOL."""
+    from .result import RawResult, Route
+    from .signorini import cheap_start, sparse
+
+    t0 = time.perf_counter()
+    if cache.amg is None:
+        try:
+            cache.amg = KrylovContact(problem)
+        except SolverError:
+            if not available():
+                raise
+            return sparse(problem, cache, settings, timings)
+    kc = cache.amg
+    fresh = kc.ml_u is None
+    rhs = np.concatenate([F for _, F in (quasi_definite(b) for b in problem.blocks)])
+    free = ~problem.held_rows
+    warm = settings.warm_start and cache.active is not None
+    out = kc.solve(rhs, problem.g, cache.active & free) if warm else None
+    if out is None:
+        start = cheap_start(problem)
+        out = kc.solve(rhs, problem.g, start if start is not None else free)
+        warm = False
+    if fresh:
+        timings["amg_setup"] = kc.setup_time
+    timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
+    if out is None:
+        return sparse(problem, cache, settings, timings)
+    u, phi, y, active, steps = out
+    cache.active = active
+    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="amg",
+                     route=Route.WARM_START if warm else Route.KRYLOV_ACTIVE_SET, finish="active set",
+                     factorization="pyamg")

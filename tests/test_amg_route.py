@@ -40,7 +40,7 @@ def _agree(a, b, tol):
 
 @pytest.mark.parametrize("make, n", [("sphere", 12), ("two_boxes", 6)], ids=["sphere", "pzt-on-aluminium"])
 def test_amg_route_agrees_with_the_sparse_route(make, n):
-    """The same active set and fields as the sparse route's factorised steps (Krylov solves to 1e-12):
+    """The same active set and fields as the sparse route's factorised steps (Krylov solves to 1e-10):
     a rigid sphere into an elastic block (CG) and a PZT-5A box on an aluminium box (MINRES, potentials)."""
     pytest.importorskip("pyamg")
     scene = getattr(bench(), make)(n)
@@ -49,8 +49,8 @@ def test_amg_route_agrees_with_the_sparse_route(make, n):
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert a.info.factorization == "pyamg"
     assert 0 < np.sum(a.contact.active)
-    _agree(a, b, 1e-9)                 # measured: sphere 5.9e-13, boxes 1.1e-13
-    assert a.residuals()["equilibrium"] < 1e-10                   # measured 9.2e-14, 2.6e-15
+    _agree(a, b, 1e-9)                 # measured: sphere 1.6e-11, boxes 2.7e-11
+    assert a.residuals()["equilibrium"] < 1e-10                   # measured 3.4e-12, 5.7e-13
 
 
 def test_amg_resolve_starts_from_the_previous_active_set():

@@ -14,7 +14,7 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes);
   the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
 * K_A r = T_A^T (F - S x_A) is solved by CG (MINRES with a piezoelectric body: S is quasi-definite) to a
-  relative residual ``RTOL`` (1e-12; the residual of (26) at the answer is that residual, the eliminated
+  relative residual ``RTOL`` (1e-10, as the AMG yardstick of benchmarks/bench3d.py; the residual of (26) at the answer is that residual, the eliminated
   rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once
   per geometry on the first system solved (the start's rows closed): its displacement block node-blocked
   (3 x 3) with each body's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
@@ -43,8 +43,10 @@ from .finish import active_set_steps, signs_hold
 
 __all__ = ["KrylovContact", "available", "own_dofs", "RTOL", "AMG_INSTALL"]
 
-RTOL = 1e-12
-"""Relative residual (2-norm) of the Krylov solve that gives the answer."""
+RTOL = 1e-10
+"""Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
+tied elastic boxes at 1e5 unknowns the true residual of CG stalled above it (rounding), and the route handed over
+to the sparse one."""
 
 STEP_RTOL = 1e-4
 """Relative residual of the Krylov solves that only pick the next active set (the signs are then checked again

@@ -46,7 +46,7 @@ class Route(StrEnum):
     merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
     KRYLOV_ACTIVE_SET = "active-set steps, AMG-preconditioned Krylov solves"
     """The AMG route (method "amg", :mod:`cvxcontact.backends.amg`): the sparse route's active-set steps with
-    each system solved by AMG-preconditioned CG/MINRES to a relative residual 1e-12, no factorisation."""
+    each system solved by AMG-preconditioned CG/MINRES to a relative residual 1e-10, no factorisation."""
     SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
     """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
     compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the

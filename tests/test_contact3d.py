@@ -4,8 +4,8 @@ tests against closed forms, every condition against an independent dense solve o
 the plane-strain limit of an extruded scene, force control, several pairs and a punch on a patch.
 
 The scenes are those of tests/scenes3d.py. Under "gamma3" on non-matching faces the overlay rows outnumber
-the jump's dofs and the answer is the interior point's (no exact finish yet): those tests assert what holds
-with measured margins and mark ``sol.ok`` xfail(strict=True).
+the jump's dofs (dependent rows); their exact finish keeps the rows carrying the forces independent
+(tests/test_finish3d.py).
 """
 
 import warnings
@@ -22,9 +22,6 @@ from reference3d import Dense, barycentric, face, match, plane_frame
 from scenes3d import (P, PAD, bumped_blocks, bumped_gap, extruded_pair, floating_potential, layer_on_plane,
                       piezo_pair, punch_on_pad, pzt_layer_on_plane, rotation, section_pair, sphere_on_block,
                       SCENES3D, stacked_blocks, stiffened_modulus, three_blocks, tilted_gap, uniaxial_modulus)
-
-NO_FINISH = "3D 'gamma3' on non-matching faces: the overlay rows are dependent and get no exact finish yet " \
-            "(interior-point answer, complementarity ~1e-6)"
 
 
 def solve(scene, condition):
@@ -101,7 +98,6 @@ def test_stacked_blocks_on_non_matching_faces_transmit_a_uniform_pressure_under_
         assert np.abs(sol.traction(k)[1] / P - 1).max() < 1e-7                  # measured 2.2e-9
 
 
-@pytest.mark.xfail(strict=True, reason=NO_FINISH)
 def test_stacked_blocks_on_non_matching_faces_get_an_exact_finish():
     assert solve(stacked_blocks(), "gamma3").ok
 
@@ -138,18 +134,18 @@ DENSE = {
     "layer on a plane, gamma3": (layer_on_plane, "gamma3", dict(obstacles=PLANE), True),
     "layer on a plane, sigma1": (layer_on_plane, "sigma1", dict(obstacles=PLANE), True),
     "PZT layer, floating electrode": (pzt_layer_on_plane, "gamma3", dict(obstacles=PLANE), True),
-    "stacked 5x5 on 7x3, gamma3": (stacked_blocks, "gamma3", {}, False),
+    "stacked 5x5 on 7x3, gamma3": (stacked_blocks, "gamma3", {}, True),
     "stacked 5x5 on 7x3, sigma1": (stacked_blocks, "sigma1", {}, True),
     "stacked 5x5 on 7x3, sigma2": (stacked_blocks, "sigma2", {}, True),
     "bumped, gamma3": (bumped_blocks, "gamma3", dict(gaps={0: lambda x: bumped_gap(x[:, 0], x[:, 1])}), True),
     "bumped, sigma1": (bumped_blocks, "sigma1", dict(gaps={0: lambda x: bumped_gap(x[:, 0], x[:, 1])}), True),
     "bumped, sigma2": (bumped_blocks, "sigma2", dict(gaps={0: lambda x: bumped_gap(x[:, 0], x[:, 1])}), True),
     "force-controlled sphere": (sphere_on_block, "gamma3", dict(obstacles={0: ("sphere", (0, 0, 1.0), 1.0)}), True),
-    "three blocks, gamma3": (three_blocks, "gamma3", {}, False),
+    "three blocks, gamma3": (three_blocks, "gamma3", {}, True),
     "three blocks, sigma2 and sigma1": (lambda: three_blocks(conditions=("sigma2", "sigma1")), "gamma3", {}, True),
     "punch on a patch": (punch_on_pad, "gamma3", {}, True),
     "two PZT blocks, sigma1": (piezo_pair, "sigma1", {}, True),
-    "two PZT blocks, gamma3": (piezo_pair, "gamma3", {}, False),
+    "two PZT blocks, gamma3": (piezo_pair, "gamma3", {}, True),
 }
 
 
@@ -246,11 +242,10 @@ def test_a_piezoelectric_pair_turned_by_a_generic_rotation_gives_the_turned_solu
     assert np.abs(b.contact.normal - R @ a.contact.normal).max() < 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason=NO_FINISH)
 def test_the_turned_pair_under_gamma3_agrees_to_rounding():
     R = rotation()
     a, b = solve(piezo_pair(), "gamma3"), solve(piezo_pair(R), "gamma3")
-    assert a.ok and b.ok and rel(b.u, [u @ R.T for u in a.u]) < 1e-12         # measured 5.2e-9 (interior point)
+    assert a.ok and b.ok and rel(b.u, [u @ R.T for u in a.u]) < 1e-12         # measured 1.6e-15
 
 
 def test_an_extruded_scene_with_rollers_on_front_and_back_converges_to_plane_strain():

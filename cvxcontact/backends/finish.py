@@ -34,6 +34,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 from scipy.optimize import nnls
 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
@@ -479,3 +480,114 @@ def ipm_active(parts, g, y, extra=None):
     ``extra`` as in :func:`node_scales`, e.g. :func:`force_displacements`)."""
     slack, U = node_scales(parts, g, extra)
     return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
+
+
+DEPENDENT_PIVOT = 1e-10
+"""A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
+on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
+
+
+def _independent(M, tol=DEPENDENT_PIVOT) -> np.ndarray:
+    """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
+    column-pivoted QR, in the order of the pivots."""
+    if M.shape[1] == 0:
+        return np.zeros(0, dtype=int)
+    _, R, piv = sla.qr(M, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(R))
+    return piv[:int(np.sum(diag > tol))]
+
+
+def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int | None = None):
+    """Exact finish on the sparse mixed system (26) for contact rows that are linearly dependent (3D overlay
+    rows: more vertices than the jump's degrees of freedom, docs/formulation.md §13): Lawson-Hanson on the
+    dual, whose passive rows (the rows carrying the forces) stay linearly independent, so that every mixed
+    system solved is non-singular whatever the dependence of the rows, structural or numerical.
+
+    ``kkt`` is :func:`~cvxcontact.backends.full.mixed_kkt` (its ``rows`` G, so that r = G x - g is the rows'
+    penetration); ``y0`` the forces of an approximate answer (e.g. the interior point's) and ``start`` its
+    active rows: the first passive set is a maximal independent subset of them (column-pivoted QR of the
+    unit rows weighted by the forces). Each step closes the passive rows P (G_P x = g_P) and
+
+    1. if a passive force is not positive, moves y towards the new forces as far as they stay >= 0 and
+       opens the rows that reach 0 (the inner loop of Lawson-Hanson);
+    2. else, if some other row penetrates (r_j > ``tol`` S_j, S_j = (|G| |x|)_j + |g_j| its displacement
+       scale), takes the worst: independent of G_P it joins P; dependent (G_j = sum c_i G_i) it has the
+       constant slack sum c_i g_i - g_j whatever x (a non-affine gap), and a simplex pivot moves the force
+       along y_j = t, y_P = y_P - t c (x unchanged) until a passive row's force reaches 0, which leaves P;
+    3. stops when none penetrates: y >= 0 on P, 0 elsewhere, every row feasible to ``tol`` of its scale and
+       the passive rows closed, so complementary exactly.
+
+    Returns ((u, phi, y[, taus]), active, steps) with ``active`` the passive rows, or the reason it stopped.
+    A passive set too small to hold a body (rigid motion free) makes its system singular: the reason then."""
+    G = sp.csr_matrix(kkt.rows)
+    m = G.shape[0]
+    touched = np.flatnonzero(np.diff(G.tocsc().indptr))
+    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+    held = norms == 0                                   # rows no unknown moves: force 0 (docs §8)
+    unit = (sp.diags(1.0 / np.where(held, 1.0, norms)) @ G)[:, touched].tocsr()
+    absG = abs(G)
+    y0 = np.where(held, 0.0, np.maximum(np.asarray(y0, dtype=float), 0.0))
+    cand = np.flatnonzero(np.asarray(start, dtype=bool) & ~held)
+    weight = np.maximum(y0[cand], 1e-300)                  # the pivots prefer the rows with the larger forces
+    first = cand[_independent(unit[cand].toarray().T * (weight / weight.max(initial=1.0)))] if len(cand) else cand
+    passive = list(first)
+    Q, R = sla.qr(unit[passive].toarray().T) if passive else (np.eye(len(touched)), np.zeros((len(touched), 0)))
+    y = np.zeros(m)
+    y[passive] = y0[passive]
+    max_iter = 3 * m + 20 if max_iter is None else max_iter
+    dependent = set()
+    for steps in range(1, max_iter + 1):
+        mask = np.zeros(m, dtype=bool)
+        mask[passive] = True
+        res = kkt(mask)
+        if res is None:
+            return "the mixed system on the rows carrying the forces is singular"
+        x, z, slack, _ = res
+        zp = z[passive]
+        if not (zp > 0).all():                          # 1. the inner loop
+            yp = y[passive]
+            neg = zp <= 0
+            ratio = yp[neg] / (yp[neg] - zp[neg])
+            alpha = float(np.min(ratio))
+            y = y + alpha * (z - y)
+            drop = [i for i, row in enumerate(passive) if y[row] <= 0] or \
+                   [int(np.flatnonzero(neg)[np.argmin(ratio)])]
+            for i in sorted(set(drop), reverse=True):
+                Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+                y[passive[i]] = 0.0
+                del passive[i]
+            continue
+        y = z
+        S = absG @ np.abs(kkt.stack(x)) + np.abs(g)
+        S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+        worst = slack / S
+        worst[passive] = -np.inf
+        worst[held] = -np.inf
+        if dependent:
+            worst[list(dependent)] = -np.inf
+        j = int(np.argmax(worst)) if m else 0
+        if not m or worst[j] <= tol:                    # 3. every row feasible
+            return x, mask, steps
+        p = len(passive)                                # 2. the worst row: independent or a pivot
+        col = unit[j].toarray().ravel()
+        if p < len(touched):
+            Q, R = sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
+            if abs(R[p, p]) > DEPENDENT_PIVOT:
+                passive.append(j)
+                continue
+            Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+        c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
+        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
+        if not pos.any():                               # no passive force can give way: infeasible rows
+            dependent.add(j)
+            continue
+        t = y[passive][pos] / c[pos]
+        i = int(np.flatnonzero(pos)[np.argmin(t)])
+        y[passive] = y[passive] - t.min() * c
+        y[j] = t.min()
+        y[passive[i]] = 0.0
+        Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+        del passive[i]
+        Q, R = sla.qr_insert(Q, R, col, len(passive), which="col", check_finite=False)
+        passive.append(j)
+    return "max_iter"

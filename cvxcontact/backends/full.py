@@ -221,6 +221,9 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
             x = (u, phi, y, np.split(z[n - sum(widths):n], np.cumsum(widths)[:-1]))
         return x, y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
 
+    kkt.rows = G_all          # the contact rows on the stacked unknowns [u_1; phi_1; ...; tau_1; ...]
+    kkt.stack = lambda x: np.concatenate([np.concatenate([uk] + ([pk] if pk is not None else []))
+                                          for uk, pk in zip(x[0], x[1])] + list(x[3] if widths else []))
     return kkt
 
 

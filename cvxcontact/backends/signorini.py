@@ -10,13 +10,42 @@ import numpy as np
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .finish import SIGN_TOL, active_set_steps, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
+from .finish import SIGN_TOL, active_set_steps, independent_active_set, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
 from .full import ContactModel, mixed_kkt
 from .interface import condensation
 from .program import timed_program
 from .result import RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "sparse_active_set", "interface_finish"]
+__all__ = ["full", "condensed", "sparse", "sparse_active_set", "interface_finish", "dependent_rows"]
+
+
+def dependent_rows(problem) -> bool:
+    """Whether the contact rows can be linearly dependent: "gamma3" on a 3D pair of two bodies, one row per
+    overlay vertex, more vertices than the jump's degrees of freedom where the faces do not match
+    (docs/formulation.md §13)."""
+    interfaces = getattr(problem.interface, "interfaces", (problem.interface,))
+    return problem.dim == 3 and problem.condition == "gamma3" and any(not getattr(i, "rigid", True)
+                                                                       for i in interfaces)
+
+
+def dependent_finish(problem, raw, timings):
+    """The exact finish of dependent rows (:func:`~cvxcontact.backends.finish.independent_active_set`) on the
+    sparse mixed system, from the interior point's forces and active set in ``raw``; fills ``raw``."""
+    t0 = time.perf_counter()
+    tr = list(problem.translations)
+    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
+    free = ~problem.held_rows
+    out = independent_active_set(kkt, problem.g, np.where(free, raw.y, 0.0), raw.active & free)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = out
+        return raw
+    x, raw.active, raw.iterations = out[0], out[1], raw.iterations + out[2]
+    raw.u, raw.phi, raw.y = x[:3]
+    if tr:
+        raw.taus = list(x[3])
+    raw.polished, raw.finish = True, "independent active set"
+    return raw
 
 
 def interface_finish(compliance, d, start, timings):
@@ -45,6 +74,8 @@ def full(problem, cache, settings, timings) -> RawResult:
     raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y))
     if not settings.polish:
         return raw
+    if dependent_rows(problem):
+        return dependent_finish(problem, raw, timings)
     if problem.held or tr:
         out = sparse_active_set(mixed_kkt(blocks, E, g, translations=tr), g,
                                 raw.active & ~problem.held_rows, timings)     # held rows: force 0 (§8)

@@ -40,6 +40,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 from .condensed import quasi_definite
 from .finish import active_set_steps, signs_hold
+from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "own_dofs", "RTOL", "AMG_INSTALL"]
 
@@ -131,12 +132,7 @@ class KrylovContact:
             raise SolverError("method 'amg': a contact row has no dof of its own (the overlay rows of 'gamma3' "
                               "share their dofs); use method='sparse'")
         self.dof, self.coef = own
-        w = np.zeros(m)
-        for b in blocks:
-            R = (E @ b.jump).tocsr()
-            d = b.Kuu.diagonal()
-            w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
-        self.w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
+        self.w = row_weights(blocks, E)
         u_idx, p_idx, modes, pos = [], [], [], 0
         for k, (nu, npf) in enumerate(self.sizes):
             u_idx.append(pos + np.arange(nu))

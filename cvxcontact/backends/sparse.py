@@ -129,6 +129,18 @@ def factorize(K, perm):
     return _Factor(spla.splu(K[perm][:, perm].tocsc(), **_SUPERLU), perm)
 
 
+def row_weights(blocks, E) -> np.ndarray:
+    """(m,) the Jacobi-scaled squared norm of every contact row, sum over bodies of sum_j R_aj^2 / Kuu_jj with
+    R = E J the rows on the body's free dofs (dimensionless), floored at 1e-14 of the largest: the weights with
+    which the active-set steps compare rows (shared by the sparse and the AMG routes)."""
+    w = np.zeros(E.shape[0])
+    for b in blocks:
+        R = (E @ b.jump).tocsr()
+        d = b.Kuu.diagonal()
+        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
+    return np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
+
+
 class SparseContact:
     """The sparse mixed system of scaled blocks (:class:`~cvxcontact.discrete.Block`) with contact rows
     ``E``, for every active set (module docstring). Built once per geometry; :meth:`solve` per load case.
@@ -152,12 +164,7 @@ class SparseContact:
         G.sum_duplicates()
         self.G = G
         Gc = G.tocoo()
-        w = np.zeros(m)
-        for b in blocks:
-            R = (E @ b.jump).tocsr()
-            d = b.Kuu.diagonal()
-            w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
-        self.w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
+        self.w = row_weights(blocks, E)
         # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `row`, 2 = its diagonal
         rows = np.concatenate([A.row, n + Gc.row, Gc.col, n + np.arange(m)])
         cols = np.concatenate([A.col, Gc.col, n + Gc.row, n + np.arange(m)])

@@ -53,6 +53,25 @@ def _point(value, label, dims=(2,)) -> np.ndarray:
     return p
 
 
+def _surface_values(label, f, args) -> np.ndarray:
+    """``f(*args)`` of a user's obstacle surface (a profile's distance, a height field's height), checked: real
+    values of the arguments' shape (broadcast), no NaN or -inf (+inf: no obstacle there); a copy, floats."""
+    shape = args[0].shape
+    try:
+        v = np.array(f(*args))
+    except Exception as exc:
+        raise SceneError(f"{label}: calling f failed: {exc}") from exc
+    if v.dtype.kind not in "iuf":
+        raise SceneError(f"{label}: f returned values of type {v.dtype}, expected real numbers")
+    try:
+        v = np.broadcast_to(v.astype(float), shape).copy()
+    except ValueError:
+        raise SceneError(f"{label}: f returned shape {v.shape}, expected {shape}") from None
+    if np.isnan(v).any() or (v == -np.inf).any():
+        raise SceneError(f"{label}: f returned NaN or -inf; use +inf where there is no obstacle")
+    return v
+
+
 def _fmt(v) -> str:
     return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
 
@@ -380,19 +399,7 @@ def _height_field(f, o):
         X, Y = xy[:, 0] - o[0], xy[:, 1] - o[1]
         X.setflags(write=False)
         Y.setflags(write=False)
-        try:
-            z = np.array(f(X, Y))
-        except Exception as exc:
-            raise SceneError(f"Rigid.height_field: calling f failed: {exc}") from exc
-        if z.dtype.kind not in "iuf":
-            raise SceneError(f"Rigid.height_field: f returned values of type {z.dtype}, expected real numbers")
-        try:
-            z = np.broadcast_to(z.astype(float), X.shape).copy()
-        except ValueError:
-            raise SceneError(f"Rigid.height_field: f returned shape {z.shape}, expected {X.shape}") from None
-        if np.isnan(z).any() or (z == -np.inf).any():
-            raise SceneError("Rigid.height_field: f returned NaN or -inf; use +inf where there is no obstacle")
-        return z + o[2]
+        return _surface_values("Rigid.height_field", f, (X, Y)) + o[2]
 
     def slopes(xy):
         h = 1e-6 * max(float(np.ptp(xy)), float(np.abs(xy - o[:2]).max(initial=0.0)), np.finfo(float).tiny)
@@ -443,19 +450,7 @@ def _profile(f, o, q):
     def distance(x, nu):
         s = (x - q) @ canonical_tangent(nu)
         s.setflags(write=False)
-        try:
-            d = np.array(f(s))
-        except Exception as exc:
-            raise SceneError(f"Rigid.profile: calling f failed: {exc}") from exc
-        if d.dtype.kind not in "iuf":
-            raise SceneError(f"Rigid.profile: f returned values of type {d.dtype}, expected real numbers")
-        try:
-            d = np.broadcast_to(d.astype(float), s.shape).copy()
-        except ValueError:
-            raise SceneError(f"Rigid.profile: f returned shape {d.shape}, expected {s.shape}") from None
-        if np.isnan(d).any() or (d == -np.inf).any():
-            raise SceneError("Rigid.profile: f returned NaN or -inf; use +inf where there is no obstacle")
-        return d + float(lift @ nu)
+        return _surface_values("Rigid.profile", f, (s,)) + float(lift @ nu)
 
     def sensitivity(x, nu):
         t = canonical_tangent(nu)

@@ -167,19 +167,28 @@ def test_cli_conditions_match_the_package():
     assert cli.CONDITIONS == CONDITIONS
 
 
-def test_help_and_version_are_fast_and_light():
+def test_help_and_version_are_fast_and_light(tmp_path):
     """``--help`` / ``--version`` import neither NumPy, SciPy nor CVXPY (python -X importtime);
-    ``python -m cvxcontact`` is the command line."""
+    ``python -m cvxcontact`` is the command line. The commands run outside the checkout with the folder of
+    the package this process imported first on the path, so they run the same code (an installed package
+    reads its version from its metadata, a checkout from ``git describe``: the two differ without tags)."""
+    import os
+
+    env = {**os.environ, "PYTHONPATH": str(Path(cc.__file__).resolve().parents[1])}
+
+    def run(*args):
+        return subprocess.run([sys.executable, *args], cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=60)
+
     for args in (["--help"], ["--version"], ["solve", "--help"]):
-        run = subprocess.run([sys.executable, "-X", "importtime", "-m", "cvxcontact", *args], cwd=ROOT,
-                             capture_output=True, text=True, timeout=60)
-        assert run.returncode == 0, run.stderr
-        imported = {line.split("|")[-1].strip().split(".")[0] for line in run.stderr.splitlines() if "|" in line}
+        out = run("-X", "importtime", "-m", "cvxcontact", *args)
+        assert out.returncode == 0, out.stderr
+        imported = {line.split("|")[-1].strip().split(".")[0] for line in out.stderr.splitlines() if "|" in line}
         assert "cvxcontact" in imported and not imported & {"numpy", "scipy", "cvxpy", "matplotlib", "meshio"}
-    assert run.stdout.startswith("usage: cvxcontact solve")
-    version = subprocess.run([sys.executable, "-m", "cvxcontact", "--version"], cwd=ROOT, capture_output=True,
-                             text=True, timeout=60)
-    assert version.stdout.strip() == f"cvxcontact {cc.__version__}"
+    assert out.stdout.startswith("usage: cvxcontact solve")
+    where = run("-c", "import cvxcontact; print(cvxcontact.__file__)").stdout.strip()
+    assert Path(where).resolve() == Path(cc.__file__).resolve()
+    assert run("-m", "cvxcontact", "--version").stdout.strip() == f"cvxcontact {cc.__version__}"
 
 
 def test_license_and_citation_agree_with_pyproject():

@@ -139,3 +139,95 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
     a = cc.solve(scene, method="amg")
     assert seen == ["cycle", "settled"] and a.info.method == "amg" and a.ok
     _agree(a, cc.solve(scene, method="sparse"), 1e-9)             # measured 1.7e-13
+
+
+def _electrodes_scene(n=6):
+    """A PZT-5A box pressed on an aluminium box (non-matching faces), driven at 200 V on its right face, a
+    floating electrode with a charge on its left face, no grounded one."""
+    from cvxcontact.physics import materials
+
+    al = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n, ny=n, nz=max(1, n // 2))
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n - 1, ny=n - 1, nz=max(1, n // 2))
+    pzt = cc.Body(upper, materials.PZT5A, clamped=["top"], potential={"right": 200.0}, floating={"left": 1e-3},
+                  name="PZT", body_force=(0.0, 0.0, -2e9), traction={"front": (0.0, 0.0, 3e8)})
+    base = cc.Body(lower, al, clamped=["bottom"], name="aluminium")
+    return cc.Scene(pzt, base, contacts=[cc.Contact(pzt, "bottom", base, "top", condition="sigma1")])
+
+
+def test_amg_route_keeps_driven_and_floating_electrodes():
+    """Driven and floating electrodes on the piezoelectric body (GMRES, block-triangular preconditioner): the
+    sparse route's active set, fields, electrode potentials and charges."""
+    pytest.importorskip("pyamg")
+    scene = _electrodes_scene()
+    a = cc.solve(scene, method="amg")
+    b = cc.solve(scene, method="sparse")
+    assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
+    assert 0 < np.sum(a.contact.active) < len(a.contact.active)                  # measured 42 of 213
+    _agree(a, b, 1e-9)                                                            # measured 1.5e-10
+    assert [(e.tag, e.kind) for e in a.electrodes] == [("right", "driven"), ("left", "floating")]
+    for ea, eb in zip(a.electrodes, b.electrodes):
+        assert abs(ea.potential - eb.potential) < 1e-9 * abs(eb.potential)      # measured 0, 8.9e-11
+        assert abs(ea.charge - eb.charge) < 1e-9 * abs(eb.charge)               # measured 1.1e-10, 8.5e-11
+    assert a.residuals()["equilibrium"] < 1e-10                                   # measured 2.4e-12
+
+
+def test_gmres_reaches_the_true_residual():
+    """The route's GMRES against a dense solve, on a nonsymmetric system with a Jacobi preconditioner: the
+    true residual below rtol with and without restarts, no iteration from the answer itself."""
+    from cvxcontact.backends.amg import gmres
+
+    rng = np.random.default_rng(3)
+    n = 120
+    K = sp.csr_matrix(np.diag(rng.uniform(1.0, 50.0, n)) + rng.normal(0.0, 0.5, (n, n)))
+    b = rng.normal(size=n)
+    x_ref = np.linalg.solve(K.toarray(), b)
+    M = sp.diags(1.0 / K.diagonal())
+    for restart in (120, 7):
+        its = []
+        x = gmres(K, b, np.zeros(n), M, 1e-10, restart=restart, callback=lambda: its.append(1))
+        assert np.linalg.norm(b - K @ x) <= 1e-10 * np.linalg.norm(b)
+        assert np.abs(x - x_ref).max() < 1e-8 * np.abs(x_ref).max()         # measured 6.6e-11, 4.6e-10
+        assert 0 < len(its) < 300                                           # measured 26, 61
+    its = []
+    assert np.array_equal(gmres(K, b, x_ref, M, 1e-6, callback=lambda: its.append(1)), x_ref) and its == []
+
+
+def test_block_triangular_preconditioner_with_exact_blocks():
+    """With the V-cycles replaced by exact solves the route's preconditioner is P^-1, P = [[A, B], [0, -C]]:
+    the eigenvalues of K P^-1 are real, in [1, 1 + rho^2], rho^2 the largest eigenvalue of B^T A^-1 B against
+    C computed on its own (dense), on a bonded PZT-5A box on aluminium."""
+    pytest.importorskip("pyamg")
+    import scipy.linalg as sla
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.amg import KrylovContact
+
+    kc = KrylovContact(cc.ContactSolver(bench().two_boxes(4)).problem)
+    seen, precondition = {}, kc._precondition
+
+    def capture(K=None):
+        seen["K"] = K
+        return precondition(K)
+
+    kc._precondition = capture
+    kc._system(kc.dof >= 0, np.ones(kc.n), np.zeros(kc.m), None)             # every row closed
+    K = seen["K"].tocsr()
+    u, p = kc.u_idx, kc.p_idx
+    A, B, C = K[u][:, u].toarray(), K[u][:, p].toarray(), -K[p][:, p].toarray()
+
+    class Exact:
+        def __init__(self, M):
+            self.M = M
+
+        def aspreconditioner(self, cycle="V"):
+            return spla.aslinearoperator(np.linalg.inv(self.M))
+
+    kc.ml_u, kc.ml_p = Exact(A), Exact(C)
+    P_inv = kc._precondition(K)
+    KP = K.toarray() @ (P_inv @ np.eye(kc.n))
+    ev = np.linalg.eigvals(KP)
+    rho2 = sla.eigh(B.T @ np.linalg.solve(A, B), C, eigvals_only=True).max()
+    assert 0.5 < rho2 < 1.0                                                       # measured 0.62 (PZT-5A)
+    assert np.abs(ev.imag).max() < 1e-8
+    assert ev.real.min() > 1 - 1e-8 and ev.real.max() < 1 + rho2 + 1e-8         # measured [1 - 7e-15, 1 + rho2 + 2e-16]

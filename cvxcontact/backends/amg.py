@@ -13,13 +13,23 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
   is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes);
   the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
-* K_A r = T_A^T (F - S x_A) is solved by CG (MINRES with a piezoelectric body: S is quasi-definite) to a
-  relative residual ``RTOL`` (1e-10, as the AMG yardstick of benchmarks/bench3d.py; the residual of (26) at the answer is that residual, the eliminated
-  rows' equations hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once
-  per geometry on the first system solved (the start's rows closed): its displacement block node-blocked
-  (3 x 3) with each body's six rigid-body modes, its potential block (Gauss rows) on its own, block-diagonal.
-  Every step, and every re-solve of a :class:`~cvxcontact.ContactSolver`, reuses it and starts from the
-  previous answer.
+* K_A r = T_A^T (F - S x_A) is solved by CG to a relative residual ``RTOL`` (1e-10, as the AMG yardstick of
+  benchmarks/bench3d.py; the residual of (26) at the answer is that residual, the eliminated rows' equations
+  hold to rounding), preconditioned by one smoothed-aggregation hierarchy (pyamg) built once per geometry on
+  the first system solved (the start's rows closed): its displacement block node-blocked (3 x 3) with each
+  body's six rigid-body modes. Every step, and every re-solve of a :class:`~cvxcontact.ContactSolver`, reuses
+  it and starts from the previous answer.
+* With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
+  matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
+  GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
+  upper-triangular preconditioner P = [[A, B], [0, -C]], A and C each replaced by one V-cycle of its own
+  hierarchy (C: Gauss rows, scalar, the constant as near-null space). With exact blocks the eigenvalues of
+  K_A P^-1 are 1 and those of the Schur complement C^-1 (C + B^T A^-1 B), in [1, 1 + rho^2] with rho the
+  coupling ||C^-1/2 B^T A^-1/2|| (rho^2 = 0.83 and 0.89 measured, dense, on a PZT-5A box on aluminium of
+  1.7e3 and 5e3 unknowns), so GMRES needs little more than CG on A alone: on a
+  PZT-5A box on aluminium (8.7e4 unknowns, every row closed) 47 iterations against 33 for CG on A alone and
+  100 for MINRES with the block-diagonal diag(V_A, V_C) (whose two-sided spectrum doubles the count);
+  benchmarks/bench_piezo_amg.py.
 
 The answer is the active set's exact complementarity (y = 0 on open rows, s = 0 on closed ones to rounding,
 signs checked as in the sparse route) with (26) solved to ``RTOL``: the solution's checks (docs/checks.md) are

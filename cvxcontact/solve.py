@@ -54,7 +54,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` for a long interface with the
         Signorini law (more contact rows m than :data:`cvxcontact.backends.SPARSE_SLENDER` x sqrt(unknowns),
         or than :data:`cvxcontact.backends.SPARSE_ROWS`); a condensed answer that fails its checks falls
-        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``); ``"amg"`` for an elastic 3D scene of at least
+        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``); ``"amg"`` for a 3D scene of at least
         :data:`cvxcontact.backends.AMG_UNKNOWNS` unknowns when pyamg is installed (``cvxcontact[amg]``): the
         sparse route's steps with AMG-preconditioned Krylov solves (:mod:`cvxcontact.backends.amg`).
         ``"sparse"`` (:mod:`cvxcontact.backends.sparse`) runs exact active-set steps on the sparse mixed

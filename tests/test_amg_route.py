@@ -83,9 +83,12 @@ def test_auto_takes_the_amg_route_for_large_3d_scenes_only(monkeypatch):
     assert choose("auto", ProblemDescription(**dict(big, unknowns=backends.AMG_UNKNOWNS - 1))) == "sparse"
     assert choose("auto", ProblemDescription(**dict(big, dim=2))) == "sparse"
     assert choose("auto", ProblemDescription(**dict(big, compliant=True))) == "condensed"
-    assert choose("auto", ProblemDescription(**dict(big, piezoelectric=True))) == "sparse"
+    assert choose("auto", ProblemDescription(**dict(big, piezoelectric=True))) == "amg"
+    assert choose("auto", ProblemDescription(**dict(big, piezoelectric=True, unknowns=backends.AMG_UNKNOWNS - 1))) \
+        == "sparse"
     monkeypatch.setattr(backends, "_amg_available", lambda: False)          # a SciPy-only install
     assert choose("auto", ProblemDescription(**big)) == "sparse"
+    assert choose("auto", ProblemDescription(**dict(big, piezoelectric=True))) == "sparse"
 
 
 def test_without_pyamg_the_amg_method_says_what_to_install(monkeypatch):
@@ -94,6 +97,8 @@ def test_without_pyamg_the_amg_method_says_what_to_install(monkeypatch):
                         lambda name, *a, _f=importlib.util.find_spec: None if name == "pyamg" else _f(name, *a))
     with pytest.raises(cc.SolverError, match=r'pip install "cvxcontact\[amg\]"'):
         cc.solve(bench().sphere(6), method="amg")
+    with pytest.raises(cc.SolverError, match=r'pip install "cvxcontact\[amg\]"'):
+        cc.solve(_electrodes_scene(4), method="amg")                          # piezoelectric: the same refusal
 
 
 def test_own_dofs():

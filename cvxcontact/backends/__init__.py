@@ -10,7 +10,7 @@
 The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
 an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers(problem)``.
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
-``prefers``: every problem it accepts) (:func:`choose`): "amg" for an elastic 3D scene of at least
+``prefers``: every problem it accepts) (:func:`choose`): "amg" for a 3D scene of at least
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
 neither accepts.
@@ -28,11 +28,11 @@ __all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKEN
            "SPARSE_SLENDER", "AMG_UNKNOWNS"]
 
 AMG_UNKNOWNS = 50_000
-"""``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for elastic 3D scenes of at least this
-many unknowns when pyamg is installed: there a sparse factorisation of the 3D bodies (O(N^2) flops) costs more
-than AMG-preconditioned Krylov solves (O(N) each); measured in benchmarks/results/bench3d.md. Piezoelectric
-scenes stay with the sparse route: with the block-diagonal AMG preconditioner (u, phi) MINRES needed 83-167
-iterations a solve on a PZT-5A box on aluminium (1.1e4 unknowns) against 26-43 for CG on the elastic pair."""
+"""``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for 3D scenes of at least this many
+unknowns when pyamg is installed: there a sparse factorisation of the 3D bodies (O(N^2) flops) costs more than
+AMG-preconditioned Krylov solves (O(N) each); measured in benchmarks/results/bench3d.md (elastic) and
+benchmarks/results/bench_piezo_amg.md (a PZT-5A box on aluminium, GMRES with the block-triangular
+preconditioner: CPU time against the sparse route 1.6 x at 2.2e4 unknowns, 0.6 x at 8.7e4)."""
 
 SPARSE_ROWS = 8000
 """``method="auto"`` prefers the sparse route (:mod:`cvxcontact.backends.sparse`) over the condensed one for
@@ -125,7 +125,7 @@ def _amg_available() -> bool:
 BACKENDS: tuple[Backend, ...] = (
     Backend("amg", _sparse_accepts,
             "active-set steps with AMG-preconditioned Krylov solves (large 3D scenes; pyamg; no factorisation)",
-            prefers=lambda p: p.dim == 3 and not p.piezoelectric and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
+            prefers=lambda p: p.dim == 3 and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
             routes=MappingProxyType({"signorini": "amg:signorini"})),
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",

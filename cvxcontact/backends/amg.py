@@ -78,8 +78,7 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
     ``M`` the preconditioner (a fixed linear operator). Right preconditioning minimises the true residual, so
     the stopping test is on ||b - K x|| itself (checked on the recomputed residual at each restart). Returns
     the last iterate if the test is not met after ``maxiter`` iterations or three restarts whose estimate met it
-    (rounding: the caller checks the residual). ``callback()``
-    once per iteration."""
+    (rounding: the caller checks the residual). ``callback()`` is called once per iteration."""
     n = b.shape[0]
     x = np.array(x0, dtype=float)
     target = rtol * np.linalg.norm(b)
@@ -217,7 +216,7 @@ class KrylovContact:
         # each body's modes about its own centre, in the same six columns: measured on two tied elastic boxes
         # (3.1e4 unknowns), 27 CG iterations to 1e-10 against 40 with the modes about the scene's centre
         self.modes = np.vstack(modes)
-        self.ml_u = self.ml_p = None          # built on each new active set's system (:meth:`_hierarchy`)
+        self.ml_u = self.ml_p = None          # built on the first system, rebuilt when stale (:meth:`_staleness`)
         self.closed = None                   # the closed rows the hierarchy was built with
         self.setup_time = 0.0                # seconds, all set-ups
         self.setup_cpu = 0.0                 # CPU seconds, the last set-up
@@ -275,8 +274,9 @@ class KrylovContact:
         set; ``excess``: the CPU seconds the solves on other sets spent beyond that rate. The next system of
         another set rebuilds the hierarchy once ``excess`` reaches the last set-up's CPU seconds: the
         iterations lost to staleness are then at most the set-ups' cost again. Measured (CPU seconds, steps
-        unchanged): PZT-5A box on aluminium at 8.7e4 unknowns 24.6 with one hierarchy, 13.7 with one per set;
-        a rigid sphere on a block at 7.7e4: 3.9 and 6.9 (few iterations: one hierarchy is the better)."""
+        unchanged): PZT-5A box on aluminium at 8.7e4 unknowns 24.6 with one hierarchy, 13.7 with one per set,
+        15.1 with this rule; a rigid sphere on a block at 7.7e4: 3.9, 6.9 and 4.2 (few iterations: one
+        hierarchy is the better); two aluminium boxes at 5.9e4: 9.7, 7.2 and 7.2."""
         if its == 0:
             return
         if not stale and self.rate is None and decades > 0:

@@ -7,8 +7,8 @@ is a count of unknowns (about 2.8 n^3) or n itself (< 1e3).
 
 Parts of one size, each in a fresh subprocess (its peak memory its own), one thread:
 
-* ``amg``: ``cc.ContactSolver(scene, method="amg").solve()`` (assembly, in the constructor, excluded): wall and CPU seconds, active-set
-  steps, Krylov iterations of all its solves, the solution's checks (``ok``).
+* ``amg``: ``cc.ContactSolver(scene, method="amg").solve()`` (assembly, in the constructor, excluded): wall and
+  CPU seconds, active-set steps, Krylov iterations of all its solves, the solution's checks (``ok``).
 * ``sparse``: the same with ``method="sparse"`` (PARDISO factorisations of the mixed system; up to
   ``--sparse-up-to`` unknowns), and the largest difference of the two answers (max |a - b| / max |b| of u, phi,
   contact force) when both ran (``--compare``: the sparse part then saves its answer for the amg part).
@@ -68,7 +68,8 @@ def route_part(n, method, save=None, against=None):
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     tm = {k: float(v) for k, v in dict(sol.timings).items()}
     out = {f"{method}_s": wall, f"{method}_cpu_s": cpu, "assembly_s": tm.get("assembly", 0.0),    # (not in solve())
-           f"{method}_steps": int(sol.info.iterations), f"{method}_ok": bool(sol.ok), f"{method}_route": sol.info.method,
+           f"{method}_steps": int(sol.info.iterations), f"{method}_ok": bool(sol.ok),
+           f"{method}_route": sol.info.method,
            "unknowns": bench3d.unknowns(solver.problem), "contact_rows": int(solver.problem.E.shape[0]),
            f"{method}_peak_gb": bench3d.peak_gb()}
     if method == "amg":

@@ -19,13 +19,12 @@ from scipy.spatial import cKDTree
 from ..errors import SceneError
 from .interface import CONDITIONS, normal_jump, read_only
 from .overlay import OVERLAY_TOL, overlay
+from .riesz import TraceRiesz
 
 __all__ = ["SurfaceTrace", "SurfaceInterface", "canonical_frame"]
 
 _REL_TOL = 1e-9     # geometric tolerance relative to the scene size (as in 2D)
 _ANGLE_TOL = 1e-8   # largest angle between a face's normal and the part's normal (radians)
-_RIESZ_SHIFT = 1e-12    # relative diagonal shift of the singular Gram matrix (iterated, see multiplier)
-_RIESZ_STEPS = 50
 
 
 def canonical_frame(normal) -> np.ndarray:
@@ -276,23 +275,8 @@ class SurfaceInterface:
                 self._factor = spla.splu(self.mass.tocsc())
             return self._factor.solve(r)
         if self._factor is None:
-            G = sp.hstack(self._interp, format="csc")
-            d = np.asarray(G.multiply(self.mass @ G).sum(axis=0)).ravel()      # int psi^2 over the overlap
-            G = G[:, np.flatnonzero(d > 1e-14 * d.max())].tocsr()           # hats that meet the overlap
-            A = (G.T @ self.mass @ G).tocsc()
-            self._factor = (G, A, spla.splu((A + sp.diags(_RIESZ_SHIFT * A.diagonal())).tocsc()))
-        G, A, lu = self._factor
-        b = G.T @ r
-        c = np.zeros(A.shape[0])
-        size = max(float(np.abs(b).sum()), np.finfo(float).tiny)
-        best, since = (np.inf, c), 0
-        for _ in range(_RIESZ_STEPS):
-            now = float(np.abs(b - A @ c).sum()) / size
-            best, since = ((now, c), 0) if now < best[0] else (best, since + 1)
-            if now <= 1e-14 or since == 3:               # converged, or stalled at the rounding of G c
-                break
-            c = c + lu.solve(b - A @ c)
-        return G @ best[1]
+            self._factor = TraceRiesz(self._interp, self.mass)
+        return self._factor.solve(r)
 
     def pressure(self, k, r) -> np.ndarray:
         """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces

@@ -225,6 +225,9 @@ class P2Tet(P2):
                                    "degree=1, or the Signorini law")
         conditions = [c or condition for c in scene.conditions]
         for i, (itf, c) in enumerate(zip(scene.interfaces, conditions)):
+            if getattr(itf, "curved", None) is not None:
+                raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
+                                       "tetrahedra is not available: use degree=1")
             if c == "gamma3" and not itf.rigid:
                 raise UnsupportedError(f"contacts[{i}]: 'gamma3' between two bodies with P2 (10-node) tetrahedra "
                                        "is not available: use 'sigma1' or 'sigma2' (nodal conditions at one "

@@ -187,3 +187,23 @@ def test_refusals():
 def _no_condition(sc):
     block, punch = sc.bodies
     return cc.Scene(block, punch, contacts=[cc.Contact(block, "top", punch, "bottom")])
+
+
+def test_a_punch_held_by_the_contact_alone_carries_its_load():
+    """No support on the punch's top, a traction on it: the contact (the curved rows) holds the punch along z,
+    and the row forces balance the traction's resultant; a stiff normal-compliance law on the same rows comes
+    close to Signorini's force."""
+    block, punch = h.bodies(4)
+    loaded = punch.with_changes(displacement={}, traction={"top": (0.0, 0.0, -1e7)})
+    sc = cc.Scene(block, loaded, contacts=[cc.Contact(block, "top", loaded, "bottom", condition="sigma2")])
+    sol = cc.solve(sc)
+    assert sol.ok
+    L = h.SIZE * h.A_REF
+    assert sol.contact.force.sum() == pytest.approx(1e7 * L * L, rel=1e-10)     # measured 2e-13
+    pressed = h.scene(4, delta=4e-5)
+    hard = cc.solve(pressed, "sigma2", law=cc.NormalCompliance(stiffness=1e16, exponent=1.0))
+    exact = cc.solve(pressed, "sigma2")
+    assert hard.ok and exact.ok
+    # a penetration of about p / k = 1e-7 m against delta = 4e-5 m: the force 0.27 % lower
+    assert hard.contact.force.sum() == pytest.approx(exact.contact.force.sum(), rel=1e-2)   # measured -2.7e-3
+    assert hard.contact.force.sum() < exact.contact.force.sum()

@@ -190,3 +190,18 @@ def test_a_quadratic_patch_is_reproduced_exactly():
         exact[:, 2] = w(z)
         assert np.abs(sol.u[k] - exact).max() < 1e-9 * d, (k, np.abs(sol.u[k] - exact).max() / d)
     assert np.abs(sol.contact.lam - p).max() < 1e-9 * p, np.abs(sol.contact.lam - p).max() / p
+
+
+def test_blocks_held_by_the_contact_are_finished_on_the_mixed_system():
+    # the upper block has only rollers on its sides (held by the contact): no interface compliance, so the
+    # cuts' rounds are solved on the sparse mixed system (26); the uniaxial patch is then exact
+    from scenes3d import P, stacked_blocks
+
+    scene = stacked_blocks((3, 3), (4, 2), nz=1)
+    sol = solve(scene)
+    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts"
+    M = uniaxial_modulus()
+    for k, body in enumerate(scene.bodies):
+        z = P2TetNodes(body.mesh).points[:, 2]
+        assert np.abs(sol.u[k][:, 2] + P * z / M).max() < 1e-12 * P / M       # measured 1.3e-14, 1.5e-14
+    assert np.abs(sol.contact.lam - P).max() < 1e-9 * P                       # measured 1.3e-11

@@ -9,14 +9,16 @@ import time
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
+from .cuts import accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
+from .finish import independent_active_set
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
-from .full import ContactModel, limit_reaction
+from .full import ContactModel, limit_reaction, mixed_kkt
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
@@ -54,6 +56,8 @@ def full(problem, cache, settings, timings) -> RawResult:
         if settings.polish:
             finish_cuts(problem, cache, settings, timings, raw)
         certify(problem, cache, settings, timings, raw)
+    elif settings.polish:
+        finish_cuts_mixed(problem, timings, raw)
     return raw
 
 
@@ -133,6 +137,66 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
     raw.y, raw.beta, raw.active = r, out["beta"], active
     raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
+
+
+MIXED_CUT_TOL = 1e-11
+"""The cuts' stopping violation on the mixed system: above the tolerance 1e-12 to which each round's active-set
+solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls at 1.1e-12 and every round adds
+points at the same places)."""
+
+
+def finish_cuts_mixed(problem, timings, raw) -> None:
+    """The exact finish of the cones by accumulated cuts where the interface compliance does not exist (a body
+    held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
+    solved on the sparse mixed system (26) with the obstacles' translations
+    (:func:`~cvxcontact.backends.finish.independent_active_set`: the point rows outnumber the nodes, so they
+    depend on each other; the rows carrying the forces stay independent), warm started from the last round.
+    Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
+    needs the compliance; the checks state what holds."""
+    B, cells = problem.lines.cone
+    width = cells.shape[1]
+    blocks, E, g = problem.blocks, problem.E, problem.g
+    tr = list(problem.translations)
+    jumps = [E @ b.jump for b in blocks]
+    held = problem.held_rows
+    prev = {"y": seed_forces(*seed_points(B, raw.beta, width=width), raw.beta)}
+    t0 = time.perf_counter()
+
+    def solve(P):
+        P = sp.csr_matrix(P)
+        kkt = mixed_kkt(blocks, P @ E, P @ g, translations=[(P @ R, F) for R, F in tr])
+        y0 = np.zeros(P.shape[0])
+        y0[:len(prev["y"])] = prev["y"]
+        out = independent_active_set(kkt, P @ g, y0, y0 > 0)
+        if isinstance(out, str):
+            prev["why"] = out
+            return None
+        x, active = out[0], out[1]
+        prev["y"] = y = x[2]
+        taus = list(x[3]) if tr else []
+        parts = [J @ uk for J, uk in zip(jumps, x[0])]
+        moved = sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g)))
+        slack = sum(parts) + moved - g
+        scale = sum(np.abs(p) for p in parts) + np.abs(moved) + np.abs(g)
+        scale = np.where(held, np.abs(g), scale)
+        scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
+        return y, np.where(held, np.minimum(slack, 0.0), slack), scale, (x, taus), active
+
+    segment, t = seed_points(B, raw.beta, width=width)
+    out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = out + (f" ({prev['why']})" if "why" in prev else "")
+        return
+    x, taus = out["state"]
+    raw.u, raw.phi = x[0], x[1]
+    if tr:
+        raw.taus = taus
+    P = point_rows(B, out["segment"], out["t"])
+    raw.y, raw.beta = P.T @ out["y"], out["beta"]
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
+    raw.active, raw.polished, raw.finish = active, True, Finish.ACCUMULATED_CUTS
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

@@ -205,3 +205,32 @@ def test_blocks_held_by_the_contact_are_finished_on_the_mixed_system():
         z = P2TetNodes(body.mesh).points[:, 2]
         assert np.abs(sol.u[k][:, 2] + P * z / M).max() < 1e-12 * P / M       # measured 1.3e-14, 1.5e-14
     assert np.abs(sol.contact.lam - P).max() < 1e-9 * P                       # measured 1.3e-11
+
+
+def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer():
+    # an independent program: the nodal condition at the points of a grid of spacing 1/m on every triangle of
+    # X_h (linear rows, dependent; the exact finish of dependent rows), m = 2 (the P2 nodes), 4, 8, 16; its
+    # answer is a relaxation that tends to the copositive one
+    from cvxcontact.backends import signorini
+    from cvxcontact.backends.cuts import _unique_rows
+    from cvxcontact.backends.result import Cache, Settings
+    from cvxcontact.contact.bernstein import point_rows
+    from cvxcontact.solve import ContactSolver
+
+    scene = pressed_blocks()
+    conic = solve(scene)
+    problem = ContactSolver(scene, "gamma3", degree=2).problem
+    B = problem.lines.cone[0]
+    T = B.shape[0] // 6
+    distance = []
+    for m in (2, 4, 8, 16):
+        L = simplex_grid(m)
+        P = point_rows(B, np.repeat(np.arange(T), len(L)), np.tile(L, (T, 1)))
+        raw = signorini.full(problem.with_rows(P[_unique_rows(P)]), Cache(), Settings(), {})
+        assert raw.polished
+        u = [(s.u_fixed + s.Tu @ (uk * problem.units.displacement)).reshape(-1, 3)
+             for s, uk in zip(problem.systems, raw.u)]
+        d, n = energy_norms(scene, [[a - b for a, b in zip(u, conic.u)], free_part(scene, conic.u)])
+        distance.append(d / n)
+    rates = np.log2(np.array(distance[:-1]) / np.array(distance[1:]))
+    assert (rates > 0.9).all() and distance[-1] < 1.5e-3, distance   # measured 1.0e-2, 5.1e-3, 2.2e-3, 9.0e-4

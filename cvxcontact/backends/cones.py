@@ -112,7 +112,7 @@ def certify(problem, cache, settings, timings, raw) -> None:
         raw.beta = dual_cone_point(raw.beta)
         raw.y = _cone_force(problem, raw.beta)
         raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
-    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows)[0]
+    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors)[0]
     timings["certificate"] = time.perf_counter() - t0
 
 
@@ -126,7 +126,7 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     B = problem.lines.cone[0]
     segment, t = seed_points(B, raw.beta, width=_width(problem))
     out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta),
-                         width=_width(problem))
+                         width=_width(problem), factors=reduction.psd_factors)
     if isinstance(out, str):
         raw.declined = out
         return

@@ -163,7 +163,12 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     n, k = A.shape
     c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
-    passive = list(np.flatnonzero(y > 0))
+    passive = np.flatnonzero(y > 0)
+    if len(passive):        # a warm start's columns may depend on each other (more of them than A has rows)
+        _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
+        d = np.abs(np.diag(Rp))
+        passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
+    passive = list(passive)
     y[~np.isin(np.arange(k), passive)] = 0.0
     Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
     max_iter = 3 * k + 10 if max_iter is None else max_iter
@@ -235,7 +240,7 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     return None
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None, width: int = 3):
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None, width: int = 3, factors=None):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
     terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
@@ -251,10 +256,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
     keep = np.diag(W) > 0
-    F, Fd = psd_factor(W[np.ix_(keep, keep)], d[keep])
-    L = np.zeros((len(d), F.shape[1]))
-    L[keep] = F                                                                 # W = L L^T
-    Ld = Fd
+    factor = psd_factor(W, keep, factors)
+    L = np.zeros((len(d), factor.F.shape[1]))
+    L[keep] = factor.F                                                          # W = L L^T
+    Ld = factor.coordinates(d[keep])
     held = ~keep
     prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
 
@@ -292,30 +297,45 @@ PSD_RANK_TOL = 1e-12
 X_h outnumber the jump's dofs: the overlay of a 3D surface)."""
 
 
-def psd_factor(W, d) -> tuple[np.ndarray, np.ndarray]:
-    """(F, c): a factor W = F F^T of the positive semidefinite ``W`` (n, n) and c with F c = d for ``d`` in its
-    range. A Cholesky factor (c = F^-1 d) where W is definite (the nodes of X_h at most the jump's dofs: 2D);
-    else the eigenvectors with eigenvalues above :data:`PSD_RANK_TOL` of the largest, scaled by their square
-    roots (n, rank), and c = F^+ d: the forces on dependent rows are then not unique, the slack is."""
-    try:
-        F = sla.cholesky(W, lower=True)
-        return F, sla.solve_triangular(F, d, lower=True)
-    except np.linalg.LinAlgError:
-        w, V = np.linalg.eigh(W)
-        big = w > PSD_RANK_TOL * max(float(w.max(initial=0.0)), np.finfo(float).tiny)
-        root = np.sqrt(w[big])
-        return V[:, big] * root, (V[:, big].T @ d) / root
+class PsdFactor:
+    """A factor W = F F^T of a positive semidefinite ``W`` (n, n), computed once: Cholesky where W is definite
+    (the nodes of X_h at most the jump's dofs: 2D); else its eigenvectors with eigenvalues above
+    :data:`PSD_RANK_TOL` of the largest, scaled by their square roots (n, rank): the forces on dependent rows
+    are then not unique, the slack is."""
+
+    def __init__(self, W):
+        W = np.asarray(W, dtype=float)
+        try:
+            self.F, self.cholesky = sla.cholesky(W, lower=True), True
+        except np.linalg.LinAlgError:
+            w, V = np.linalg.eigh(W)
+            big = w > PSD_RANK_TOL * max(float(w.max(initial=0.0)), np.finfo(float).tiny)
+            self.V, self.w, self.cholesky = V[:, big], w[big], False
+            self.F = self.V * np.sqrt(self.w)
+
+    def coordinates(self, d) -> np.ndarray:
+        """c with F c = d (``d`` in the range of W): F^-1 d, or F^+ d."""
+        if self.cholesky:
+            return sla.solve_triangular(self.F, d, lower=True)
+        return (self.V.T @ d) / np.sqrt(self.w)
+
+    def solve(self, h) -> np.ndarray:
+        """z with W z = h (the least-norm solution where W is singular)."""
+        if self.cholesky:
+            return sla.cho_solve((self.F, True), h)
+        return self.V @ ((self.V.T @ h) / self.w)
 
 
-def psd_solve(W, h) -> np.ndarray:
-    """z with W z = h (the least-norm solution for a singular positive semidefinite ``W``: eigenvalues below
-    :data:`PSD_RANK_TOL` of the largest dropped; a Cholesky solve where W is definite)."""
-    try:
-        return sla.cho_solve(sla.cho_factor(W), h)
-    except np.linalg.LinAlgError:
-        w, V = np.linalg.eigh(W)
-        big = w > PSD_RANK_TOL * max(float(w.max(initial=0.0)), np.finfo(float).tiny)
-        return V[:, big] @ ((V[:, big].T @ h) / w[big])
+def psd_factor(W, keep, cache=None) -> PsdFactor:
+    """The :class:`PsdFactor` of W restricted to the nodes ``keep``, from ``cache`` (a dict, e.g. kept by the
+    reduction of the problem: the same W serves the cuts and the certificate) when it has it."""
+    key = np.asarray(keep, dtype=bool).tobytes()
+    if cache is not None and key in cache:
+        return cache[key]
+    out = PsdFactor(W[np.ix_(keep, keep)])
+    if cache is not None:
+        cache[key] = out
+    return out
 
 
 def _expand(P, ym, moving):
@@ -333,7 +353,7 @@ def dual_cone_point(beta) -> np.ndarray:
     return element(beta.shape[1]).dual_cone_point(beta)
 
 
-def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
+def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None):
     """A rigorous bound (scaled energy norm) on ||v - u*||, v the answer of the Bernstein duals ``beta`` and u*
     the exact solution of the conic problem, on the interface compliance (docs/checks.md, "The certified bound").
 
@@ -362,7 +382,7 @@ def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
         # the push delta = Sigma^-1 J^T z, z = W^+ h: J delta = W z (= h where h lies in the range of W, as
         # with a definite W; else its projection, whose feasibility the loop below checks), ||delta||^2 = h . z
         z = np.zeros(len(d))
-        z[keep] = psd_solve(W[np.ix_(keep, keep)], h[keep])
+        z[keep] = psd_factor(W, keep, factors).solve(h[keep])
         h = W @ z
         hw = float(z @ h)
     for _ in range(max_doublings):

@@ -32,6 +32,7 @@ class Condensation:
                        for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
         self.compliance = Compliance(self.bodies, problem.E)
         self.sweeps = None
+        self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
     @property

@@ -234,3 +234,18 @@ def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer
         distance.append(d / n)
     rates = np.log2(np.array(distance[:-1]) / np.array(distance[1:]))
     assert (rates > 0.9).all() and distance[-1] < 1.5e-3, distance   # measured 1.0e-2, 5.1e-3, 2.2e-3, 9.0e-4
+
+
+def test_nnls_from_a_warm_start_with_more_columns_than_rows():
+    # the cuts' least squares warm started with more positive forces than the factor has rows (a singular
+    # compliance: rank below the number of points) against SciPy's own NNLS: the same residual
+    from scipy.optimize import nnls
+
+    from cvxcontact.backends.cuts import nnls_warm
+
+    rng = np.random.default_rng(7)
+    A, b = rng.standard_normal((4, 9)), rng.standard_normal(4)
+    y, passive = nnls_warm(A, b, np.ones(9), lambda y: np.ones(9))
+    ref, _ = nnls(A, b)
+    assert (y >= 0).all() and passive.sum() <= 4
+    assert abs(np.linalg.norm(A @ y - b) - np.linalg.norm(A @ ref - b)) < 1e-12     # measured 0 to 1e-16

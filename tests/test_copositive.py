@@ -249,3 +249,15 @@ def test_nnls_from_a_warm_start_with_more_columns_than_rows():
     ref, _ = nnls(A, b)
     assert (y >= 0).all() and passive.sum() <= 4
     assert abs(np.linalg.norm(A @ y - b) - np.linalg.norm(A @ ref - b)) < 1e-12     # measured 0 to 1e-16
+
+
+def test_a_block_pressed_by_a_fixed_sphere_is_finished():
+    # the copositive condition on the block's P2 faces that reach the sphere (g_h: the P2 interpolant of the
+    # distance); its cuts' least squares once cycled on one column (added and dropped at once) until max_iter
+    mesh = cc.box(x=(-.5, .5), y=(-.5, .5), z=(-.5, 0), nx=10, ny=10, nz=5)
+    body = cc.Body(mesh, STEEL, clamped="bottom", contact="top", name="block")
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0, 0, 1.0 - 2e-3), 1.0))])
+    sol = solve(scene)
+    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts"
+    r = sol.residuals()
+    assert r["feasibility"] < 1e-12 and r["energy error"] < 1e-5          # measured 0, 2.6e-7

@@ -11,7 +11,7 @@ import cvxpy as cp
 import numpy as np
 
 from ..contact.laws import RowLaws
-from ..contact.quadratic import bernstein_max, point_rows
+from ..contact.bernstein import bernstein_max, element, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
@@ -24,6 +24,11 @@ from .result import Finish, RawResult, Route
 __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
 
 
+def _width(problem) -> int:
+    """Bernstein coefficients per element of the problem's cones: 3 (segments, 2D), 6 (triangles, 3D)."""
+    return problem.lines.cone[1].shape[1]
+
+
 def _cone_force(problem, beta):
     """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
     return problem.lines.cone[0].T @ beta.ravel()
@@ -31,17 +36,17 @@ def _cone_force(problem, beta):
 
 def _held_beta(problem, beta):
     """beta with the cone rows no unknown moves at their least admissible value (§8, "Held nodes")."""
-    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap)
+    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap, _width(problem))
 
 
 def full(problem, cache, settings, timings) -> RawResult:
     """The full model with the conic condition (:mod:`cvxcontact.backends.conic`)."""
     t0 = time.perf_counter()
     model = ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
-                         translations=list(problem.translations))
+                         translations=list(problem.translations), width=_width(problem))
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
@@ -66,19 +71,20 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     rhs = [quasi_definite_rhs(b) for b in problem.blocks]
     v0 = [c.solve(F)[c.gamma] for c, F in zip(cond, rhs)]
     B = problem.lines.cone[0]
-    free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, 3)
+    w = _width(problem)
+    free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, w)
     if (bernstein_max(free) <= 0.0).all():
         # [u_nu] <= g everywhere with no contact force (e.g. no load, or bodies apart): the unconstrained
         # solution is the solution, beta = 0 exactly; an interior point would stop at rounding around it
         # (measured: u = 5e-8 m under zero load, complementarity read 1.5)
         u, phi = split(cond, [c.solve(F) for c, F in zip(cond, rhs)], problem.blocks)
         timings["model"] = time.perf_counter() - t0
-        return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // 3, 3)),
+        return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // w, w)),
                          polished=True, route=Route.NO_CONTACT, method="condensed")
-    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g)
+    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g, w)
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
     r = _cone_force(problem, beta)
     u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
     raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
@@ -114,8 +120,9 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
-    segment, t = seed_points(B, raw.beta)
-    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta))
+    segment, t = seed_points(B, raw.beta, width=_width(problem))
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta),
+                         width=_width(problem))
     if isinstance(out, str):
         raw.declined = out
         return

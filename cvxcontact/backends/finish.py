@@ -579,29 +579,16 @@ class FactoredRows:
                                                                                  self.rho[rows], 1.0), 0.0)
 
     def _interface(self, rows, keys, reg, rhs):
-        """w on the rows R (one refinement step; a fresh factorisation if the updated one misses) and C w,
-        C the columns of H on R; None if the system is singular."""
+        """w on the rows R and C w, C the columns of H on R (:func:`refined_solve`); None if singular."""
         cols = self.cols[:, :self.count]
         spread = np.zeros(self.count)
 
-        def product(w):                                   # C w without gathering C
+        def product(w):                                   # (M w, C w) without gathering C
             spread[self.where[rows]] = w
-            return cols @ spread
+            Cw = cols @ spread
+            return Cw[rows] - reg * w, Cw
 
-        for fresh in (False, True):
-            if fresh:
-                self.system.refactor()
-            w = self.system.solve(keys, rhs)
-            if w is None:
-                continue
-            Cw = product(w)
-            w = w + self.system.solve(keys, rhs - Cw[rows] + reg * w)
-            Cw = product(w)
-            res = rhs - Cw[rows] + reg * w
-            size = np.abs(rhs) + np.abs(Cw[rows]) + reg * np.abs(w)
-            if np.isfinite(w).all() and np.abs(res).max(initial=0.0) <= 1e-10 * size.max(initial=0.0):
-                return w, Cw
-        return None
+        return refined_solve(self.system, keys, rhs, product)
 
     def __call__(self, mask, passive):
         """(None, z, slack, S) of (26) with the rows ``passive`` closed (z their forces, 0 elsewhere), or None
@@ -643,6 +630,24 @@ class FactoredRows:
             if (np.abs(f) <= 1e-12 * sf).all() and (np.abs(c[rows[:p]]) <= 1e-12 * sc).all():
                 return x, y
         return None
+
+
+def refined_solve(system, keys, rhs, product):
+    """(w, extra) with M w = rhs on ``keys`` by ``system`` (:class:`UpdatedSystem`) and one step of iterative
+    refinement, ``product(w)`` giving (M w, extra); a fresh factorisation if the updated one misses
+    (residual above 1e-10 of the sizes of the terms); None if M is singular."""
+    for fresh in (False, True):
+        if fresh:
+            system.refactor()
+        w = system.solve(keys, rhs)
+        if w is None:
+            continue
+        w = w + system.solve(keys, rhs - product(w)[0])
+        Mw, extra = product(w)
+        size = np.abs(rhs) + np.abs(Mw)
+        if np.isfinite(w).all() and np.abs(rhs - Mw).max(initial=0.0) <= 1e-10 * size.max(initial=0.0):
+            return w, extra
+    return None
 
 
 class UpdatedSystem:
@@ -740,9 +745,10 @@ def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
 
 class CompliantRows:
     """The steps of :func:`independent_active_set` on a condensed interface: the rows P closed are
-    W_PP y_P = d_P (Cholesky), with W = sum_l R_l Sigma_l^{-1} R_l^T the interface compliance and d the free
-    slack (:class:`~cvxcontact.backends.condensed.Compliance`); the Gamma displacements v = v0 - B y give the
-    slack R v - g of every row and its scale (|R| |v|) + |g|, as the sparse mixed system's steps do."""
+    W_PP y_P = d_P (:class:`UpdatedSystem`, O(|P|^2) a changed row), with W = sum_l R_l Sigma_l^{-1} R_l^T the
+    interface compliance and d the free slack (:class:`~cvxcontact.backends.condensed.Compliance`); the Gamma
+    displacements v = v0 - B y give every row's slack R v - g and its scale (|R| |v|) + |g|, as the sparse
+    mixed system's steps do."""
 
     def __init__(self, compliance, v0, g):
         self.W = compliance.W
@@ -750,19 +756,19 @@ class CompliantRows:
         self.B = np.vstack(compliance.B)
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
+        self.d = self.R @ self.v0 - self.g
         self.absR = np.abs(self.R)
+        self.system = UpdatedSystem(lambda a, b: self.W[np.ix_(a // 2, b // 2)])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)
         y = np.zeros(len(self.g))
         if len(P):
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("error", sla.LinAlgWarning)
-                    d = self.R[P] @ self.v0 - self.g[P]
-                    y[P] = sla.cho_solve(sla.cho_factor(self.W[np.ix_(P, P)]), d)
-            except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+            WP = self.W[:, P]
+            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WP[P] @ w, None))
+            if out is None:
                 return None
+            y[P] = out[0]
         v = self.v0 - self.B[:, P] @ y[P]
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)
 

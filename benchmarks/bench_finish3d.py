@@ -67,7 +67,14 @@ def timed(run, runs):
     return statistics.median(times), out
 
 
-def finish_case(lower, upper, runs, sparse_max_rows):
+VARIANTS = {"sparse": dict(factored=False, purify=False), "sparse+crossover": dict(factored=False, purify=True),
+            "factored": dict(factored=True, purify=False), "factored+crossover": dict(factored=True, purify=True)}
+"""The finishes timed: steps solving the sparse mixed system or factored steps, each from the first independent
+rows of the start (the finish before the crossover) or from the crossover of the start's forces (the default:
+factored+crossover). "sparse" is the finish as it was before the factored steps."""
+
+
+def finish_case(lower, upper, runs, limits):
     solver = cc.ContactSolver(stacked_blocks(lower, upper), "gamma3", method="full", polish=False)
     p = solver.problem
     t0 = time.perf_counter()
@@ -76,15 +83,18 @@ def finish_case(lower, upper, runs, sparse_max_rows):
     free = ~p.held_rows
     kkt = mixed_kkt(p.blocks, p.E, p.g, translations=list(p.translations))
     y0, start = np.where(free, raw.y, 0.0), raw.active & free
-    row = dict(size=f"{lower[0]}x{lower[1]}/{upper[0]}x{upper[1]}", rows=p.E.shape[0], unknowns=p.unknowns, ipm_s=ipm)
-    t_f, out_f = timed(lambda: independent_active_set(kkt, p.g, y0, start, factored=True), runs)
-    assert not isinstance(out_f, str), out_f
-    row.update(factored_s=t_f, steps_f=out_f[2], active=int(out_f[1].sum()))
-    if p.E.shape[0] <= sparse_max_rows:
-        t_s, out_s = timed(lambda: independent_active_set(kkt, p.g, y0, start, factored=False), runs)
-        assert not isinstance(out_s, str), out_s
-        xs, xf = kkt.stack(out_s[0]), kkt.stack(out_f[0])
-        row.update(sparse_s=t_s, steps_s=out_s[2], ratio=t_s / t_f, diff=np.abs(xf - xs).max() / np.abs(xs).max())
+    row = dict(size=f"{lower[0]}x{lower[1]}/{upper[0]}x{upper[1]}", rows=p.E.shape[0], unknowns=p.unknowns,
+               ipm_s=ipm, results={})
+    xs = {}
+    for name, kw in VARIANTS.items():
+        if p.E.shape[0] > limits.get(name, np.inf):
+            continue
+        t, out = timed(lambda: independent_active_set(kkt, p.g, y0, start, **kw), runs)
+        assert not isinstance(out, str), (name, out)
+        row["results"][name] = (t, out[2])
+        xs[name] = kkt.stack(out[0])
+    ref = xs["factored+crossover"]
+    row["diff"] = max((np.abs(x - ref).max() / np.abs(ref).max() for x in xs.values()), default=0.0)
     return row
 
 
@@ -100,20 +110,26 @@ def condensed_case(lower, upper):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", nargs="+", default=["5x5/7x3", "10x10/12x8", "15x15/18x12"])
+    ap.add_argument("--sizes", nargs="+", default=["5x5/7x3", "10x10/12x8", "15x15/18x12", "20x20/24x16"])
     ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--sparse-max-rows", type=int, default=800)
+    ap.add_argument("--sparse-max-rows", type=int, default=800, help="rows above which 'sparse' is skipped")
+    ap.add_argument("--factored-max-rows", type=int, default=1600,
+                    help="rows above which 'factored' (no crossover) is skipped")
     ap.add_argument("--condensed", action="store_true")
     args = ap.parse_args(argv)
-    print("size          rows  unknowns  steps(s/f)  ipm_s   sparse_s  factored_s  sparse/factored  max|dx|/|x|")
+    limits = {"sparse": args.sparse_max_rows, "factored": args.factored_max_rows}
+    print("median of", args.runs, "runs, seconds (steps); ratio = sparse / factored+crossover; "
+          "dx = max |x - x_default| / max |x_default| over the variants")
+    print(f"{'size':12s} {'rows':>5s} {'unknowns':>8s} {'ipm':>6s} " + " ".join(f"{k:>18s}" for k in VARIANTS)
+          + f" {'ratio':>7s} {'dx':>8s}")
     for text in args.sizes:
-        r = finish_case(*parse_size(text), args.runs, args.sparse_max_rows)
-        sparse = f"{r['sparse_s']:8.3f}" if "sparse_s" in r else "       -"
-        ratio = f"{r['ratio']:15.1f}" if "ratio" in r else "              -"
-        diff = f"{r['diff']:.1e}" if "diff" in r else "-"
-        steps = f"{r.get('steps_s', '-')}/{r['steps_f']}"
-        print(f"{r['size']:12s} {r['rows']:5d} {r['unknowns']:9d}  {steps:>10s} {r['ipm_s']:6.2f}  {sparse}  "
-              f"{r['factored_s']:10.3f}  {ratio}  {diff}", flush=True)
+        r = finish_case(*parse_size(text), args.runs, limits)
+        cells = [f"{r['results'][k][0]:10.3f} ({r['results'][k][1]:4d})" if k in r["results"] else f"{'-':>18s}"
+                 for k in VARIANTS]
+        ratio = (f"{r['results']['sparse'][0] / r['results']['factored+crossover'][0]:7.1f}"
+                 if "sparse" in r["results"] else f"{'-':>7s}")
+        print(f"{r['size']:12s} {r['rows']:5d} {r['unknowns']:8d} {r['ipm_s']:6.2f} " + " ".join(cells)
+              + f" {ratio} {r['diff']:8.1e}", flush=True)
     if args.condensed:
         print("\nsqueezed (both bodies held by supports): the condensed route's finish against the full route's")
         print("size          condensed polish_s  full polish_s  max|du|/|u|  ok")

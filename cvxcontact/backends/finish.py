@@ -774,7 +774,7 @@ class CompliantRows:
 
 
 def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int | None = None,
-                           factored: bool = True):
+                           factored: bool = True, purify: bool = True):
     """Exact finish on the sparse mixed system (26) for contact rows that are linearly dependent (3D overlay
     rows: more vertices than the jump's degrees of freedom, docs/formulation.md §13): Lawson-Hanson on the
     dual, whose passive rows (the rows carrying the forces) stay linearly independent, so that every mixed
@@ -813,7 +813,7 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         return x, z, slack, _row_scale(absG, kkt.stack(x), g)
 
     if not factored or getattr(kkt, "matrix", None) is None:
-        return lawson_hanson(G, y0, start, lambda first: exact, None, tol, max_iter)
+        return lawson_hanson(G, y0, start, lambda first: exact, None, tol, max_iter, purify)
     built = []
 
     def steps_from(first):
@@ -830,7 +830,7 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         state = kkt.fields(mask, np.concatenate([x, z[mask]]))[0]
         return state, z, G @ x - g, _row_scale(absG, x, g)
 
-    return lawson_hanson(G, y0, start, steps_from, verify, tol, max_iter)
+    return lawson_hanson(G, y0, start, steps_from, verify, tol, max_iter, purify)
 
 
 def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_iter: int | None = None):
@@ -844,7 +844,50 @@ def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_
 SINGULAR = "the mixed system on the rows carrying the forces is singular"
 
 
-def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max_iter: int | None = None):
+def _purified(U, norms, y0, cand, chosen):
+    """(P, y): the independent rows ``cand[chosen]`` exchanged, row by row, so that the start's forces y0 on the
+    rows ``cand`` (>= 0; ``U`` their unit rows, dense) become forces y >= 0 on P alone with the same resultant
+    G^T y (an LP crossover: each other row j is written G_j = sum_i c_i G_i over P and its force moved onto P,
+    y_P + t c; where a force of P would turn negative first, that row leaves P and j enters). From the
+    interior point's forces this starts the iteration near its end, instead of opening the rows of a basis
+    whose forces are negative one by one (stacked blocks, 685 rows: 1 step instead of 173)."""
+    m = len(norms)
+    y = np.zeros(m)
+    y[cand] = y0[cand]
+    if not len(chosen):
+        return [], np.zeros(m)
+    basis = list(chosen)                                 # positions in cand
+    Q, R = sla.qr(U[basis].T)
+    p = len(basis)
+    for k in np.setdiff1d(np.arange(len(cand)), chosen):
+        j = cand[k]
+        if y[j] <= 0:
+            continue
+        rows = cand[basis]
+        c = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ U[k], check_finite=False) * norms[j] / norms[rows]
+        yP = y[rows]
+        limit = np.where(c < 0, yP / np.where(c < 0, -c, 1.0), np.inf)
+        i = int(np.argmin(limit))
+        if limit[i] >= y[j]:                             # all of y_j moves onto P
+            y[rows] = np.maximum(yP + y[j] * c, 0.0)
+            y[j] = 0.0
+            continue
+        t = limit[i]                                     # row i of P reaches 0 first: it leaves, j enters
+        y[rows] = np.maximum(yP + t * c, 0.0)
+        y[j] -= t
+        y[rows[i]] = 0.0
+        Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+        del basis[i]
+        Q, R = sla.qr_insert(Q, R, U[k], p - 1, which="col", check_finite=False)
+        basis.append(int(k))
+    passive = [int(r) for r in cand[basis]]
+    out = np.zeros(m)
+    out[passive] = y[passive]
+    return passive, out
+
+
+def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max_iter: int | None = None,
+                  purify: bool = True):
     """The iteration of :func:`independent_active_set` on the rows G (sparse, m x n) from the forces ``y0`` and
     active rows ``start``. ``steps_from(first)`` gives the step for the first passive set (None: singular):
     ``step(mask, passive)`` returns (state, z, slack, S) of (26) with the rows ``passive`` closed (z their
@@ -859,14 +902,15 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     y0 = np.where(held, 0.0, np.maximum(np.asarray(y0, dtype=float), 0.0))
     cand = np.flatnonzero(np.asarray(start, dtype=bool) & ~held)
     weight = np.maximum(y0[cand], 1e-300)                  # the pivots prefer the rows with the larger forces
-    first = cand[_independent(unit[cand].toarray().T * (weight / weight.max(initial=1.0)))] if len(cand) else cand
-    step = steps_from(first)
+    U = unit[cand].toarray()                               # the start's unit rows, dense
+    chosen = _independent(U.T * (weight / weight.max(initial=1.0))) if len(cand) else np.zeros(0, dtype=int)
+    first = cand[chosen]
+    passive, y = _purified(U, norms, y0, cand, chosen) if purify else (list(first), np.where(
+        np.isin(np.arange(m), first), y0, 0.0))
+    step = steps_from(np.asarray(passive, dtype=int))
     if step is None:
         return SINGULAR
-    passive = list(first)
     Q, R = sla.qr(unit[passive].toarray().T) if passive else (np.eye(len(touched)), np.zeros((len(touched), 0)))
-    y = np.zeros(m)
-    y[passive] = y0[passive]
     max_iter = 3 * m + 20 if max_iter is None else max_iter
     dependent = set()
 

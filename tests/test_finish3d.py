@@ -107,8 +107,8 @@ def test_a_body_held_by_the_rows_only_from_a_start_closing_every_row(seed):
     """A stiffness with a two-dimensional kernel (a body only the rows hold), three independent rows carrying
     the load and five dependent rows with constant slacks; the start closes every row, so the first rows
     carrying forces (which regularise the factored steps) include rows that must leave, and the steps solve
-    systems with open regularised rows. Both the factored steps and the sparse ones reach the enumerated
-    minimiser."""
+    systems with open regularised rows. The factored steps and the sparse ones, each from the first
+    independent rows or from the crossover of the start's forces, reach the enumerated minimiser."""
     rng = np.random.default_rng(100 + seed)
     n = 6
     B = rng.normal(size=(n, n - 2))
@@ -124,14 +124,37 @@ def test_a_body_held_by_the_rows_only_from_a_start_closing_every_row(seed):
     ref = enumerated(A, F, G, g)
     kkt = dense_kkt(A, F, G, g)
     start = np.ones(8, dtype=bool)
-    for factored in (False, True):
-        out = independent_active_set(kkt, g, start.astype(float), start, factored=factored)
+    for factored, purify in itertools.product((False, True), (False, True)):
+        out = independent_active_set(kkt, g, start.astype(float), start, factored=factored, purify=purify)
         assert not isinstance(out, str), out
         (u, _, y), active, _ = out
         x = u[0]
         assert np.abs(x - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1.2e-14
         assert (y >= 0).all() and np.linalg.matrix_rank(G[active]) == active.sum()
         assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()  # measured <= 1.7e-15
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed):
+    """The start of the finish: the interior point's forces y0 >= 0 on 30 rows of rank 8 (with duplicated and
+    scaled rows) moved onto an independent subset with the same resultant G^T y, checked by numpy: G^T y =
+    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent."""
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=(8, 12))
+    C = rng.uniform(0, 1, size=(30, 8)) * (rng.uniform(size=(30, 8)) < 0.4)
+    C[np.arange(30), rng.integers(0, 8, 30)] = 0.5                           # no zero row
+    C[np.arange(8), np.arange(8)] = 1.0
+    G = C @ base
+    G[20:] = G[:10] * rng.uniform(0.5, 2.0, size=(10, 1))                    # parallel rows, other lengths
+    y0 = rng.uniform(0, 1, size=30) * (rng.uniform(size=30) < 0.8)
+    norms = np.linalg.norm(G, axis=1)
+    U = G / norms[:, None]
+    cand = np.flatnonzero(y0 > 0)
+    chosen = finish._independent(U[cand].T * y0[cand] / y0[cand].max())
+    passive, y = finish._purified(U[cand], norms, y0, cand, chosen)
+    assert len(passive) == np.linalg.matrix_rank(G[cand]) == np.linalg.matrix_rank(G[passive])
+    assert (y >= 0).all() and (y[np.setdiff1d(np.arange(30), passive)] == 0).all()
+    assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
 
 
 def test_the_updated_interface_system_solves_like_a_dense_solve():
@@ -191,14 +214,16 @@ SCENES = {"stacked 5x5 on 7x3": stacked_blocks, "bumped": bumped_blocks, "three 
           "two PZT blocks turned": lambda: piezo_pair(rotation())}
 
 
+@pytest.mark.parametrize("purify", [False, True])
 @pytest.mark.parametrize("name", list(SCENES))
-def test_no_singular_matrix_is_factorised(name, monkeypatch):
+def test_no_singular_matrix_is_factorised(name, purify, monkeypatch):
     """Every matrix the finish factorises is non-singular: the regularised bodies K0 of the factored steps,
     every system on the rows they solve (:class:`UpdatedSystem`; non-singular exactly when the mixed system
     (26) on those rows is, K0 being so) and any sparse mixed system (:func:`cvxcontact.backends.full.solve_mixed`,
     the check's fallback): its smallest singular value is far from rounding relative to the largest (dense SVD
     of each; the turned pair's faces are tilted, so its dependent rows are dependent only numerically). The
-    answer is exact (ok at the default tol, no ResidualWarning)."""
+    answer is exact (ok at the default tol, no ResidualWarning). With and without the crossover start (few
+    steps, many)."""
     seen = {"K0": [], "rows": [], "mixed": []}
     solve_mixed, factored_rows, solve = full.solve_mixed, finish.factored_rows, UpdatedSystem.solve
 
@@ -221,6 +246,9 @@ def test_no_singular_matrix_is_factorised(name, monkeypatch):
 
     monkeypatch.setattr(full, "solve_mixed", recording)
     monkeypatch.setattr(finish, "factored_rows", recording_K0)
+    original = signorini.independent_active_set
+    monkeypatch.setattr(signorini, "independent_active_set",
+                        lambda *args, **kwargs: original(*args, purify=purify, **kwargs))
     monkeypatch.setattr(UpdatedSystem, "solve", recording_rows)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
@@ -232,22 +260,25 @@ def test_no_singular_matrix_is_factorised(name, monkeypatch):
 
 @pytest.mark.parametrize("name", list(SCENES))
 def test_the_factored_steps_agree_with_the_sparse_steps(name, monkeypatch):
-    """The finish with one factorisation of the bodies and the finish that factorises the sparse mixed system
-    at every step, from the same interior point: the same displacements and potentials (unique; the forces
-    on dependent rows are not) to rounding, both exact."""
+    """From the same interior point: the finish that factorises the sparse mixed system at every step from the
+    first independent rows (the finish without the crossover), the factored steps from the same rows (many
+    steps: 39 on the stacked blocks) and the default (factored, from the crossover: 1-2 steps) give the same
+    displacements and potentials (unique; the forces on dependent rows are not) to rounding."""
     runs = []
     original = signorini.independent_active_set
 
-    def both(kkt, g, y0, start, **kwargs):
-        outs = [original(kkt, g, y0, start, factored=f, **kwargs) for f in (False, True)]
+    def all_three(kkt, g, y0, start, **kwargs):
+        outs = [original(kkt, g, y0, start, factored=f, purify=c, **kwargs)
+                for f, c in ((False, False), (True, False), (True, True))]
         runs.append([kkt.stack(o[0]) for o in outs])
-        return outs[1]
+        return outs[-1]
 
-    monkeypatch.setattr(signorini, "independent_active_set", both)
+    monkeypatch.setattr(signorini, "independent_active_set", all_three)
     sol = cc.solve(SCENES[name](), "gamma3", method="full")
     assert sol.ok and sol.polished and len(runs) == 1
-    sparse_x, factored_x = runs[0]
-    assert np.abs(factored_x - sparse_x).max() < 1e-12 * np.abs(sparse_x).max()   # measured <= 2.0e-15
+    sparse_x = runs[0][0]
+    for x in runs[0][1:]:
+        assert np.abs(x - sparse_x).max() < 1e-12 * np.abs(sparse_x).max()   # measured <= 4.0e-15
 
 
 def squeezed_blocks(lower=(5, 5), upper=(7, 3), overlap=1e-5):

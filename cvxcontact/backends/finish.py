@@ -557,7 +557,7 @@ class FactoredRows:
             grown = np.zeros((self.cols.shape[0], max(2 * self.cols.shape[1], self.count + len(new))))
             grown[:, :self.count] = self.cols[:, :self.count]
             self.cols = grown
-        Z = self.solve(self.G[new].T.toarray())
+        Z = self.lu.solve(self.G[new].T.toarray())     # (no refinement: the answers are refined on (26))
         self.cols[:, self.count:self.count + len(new)] = self.G @ Z
         self.where[new] = self.count + np.arange(len(new))
         self.count += len(new)

@@ -11,7 +11,7 @@ import cvxpy as cp
 import numpy as np
 
 from ..contact.laws import RowLaws
-from ..contact.bernstein import bernstein_max, element, point_rows
+from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
@@ -174,6 +175,10 @@ class QuadraticInterface:
         segment 0, then segment 1, ..."""
         return bernstein_map(self.segments, self.size)
 
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h (N/m for forces ``r`` in N) at the nodes of X_h: M lambda_h = r (docs/formulation.md §8)."""
+        return spla.spsolve(self.mass.tocsc(), np.asarray(r, dtype=float))
+
     def interpolation(self, k) -> sp.csr_matrix:
         """(size, n_trace_k): evaluates P2 functions on the pair's body k's trace at the merged P2 nodes."""
         return self._interp[k]
@@ -312,6 +317,10 @@ class QuadraticStack:
     def split(self, values):
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
+
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h of every pair (its ``multiplier`` of its slice of the stacked forces ``r``), concatenated."""
+        return np.concatenate([itf.multiplier(ri) for itf, ri in zip(self.interfaces, self.split(r))])
 
     def cone_rows(self, condition, conditions=None):
         """(B, segments): the conic rows of every pair when some pairs are under "gamma3" and others under a

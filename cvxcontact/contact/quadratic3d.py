@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 from ..errors import SceneError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only
+from .riesz import TraceRiesz
 
 __all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "locate"]
 
@@ -262,6 +263,17 @@ class QuadraticSurface:
         P2 nodes reach it): "q <= 0 on every triangle" is the copositive condition of docs/formulation.md §16
         (:mod:`cvxcontact.contact.bernstein`)."""
         return bernstein_map(self.cells, self.size)
+
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: between two bodies the Riesz representer
+        in the jumps of the two P2 traces, T1 + T2 (:class:`~cvxcontact.contact.riesz.TraceRiesz`: unique where
+        the forces at the overlay's nodes are not, e.g. under the copositive condition); with an obstacle
+        M lambda_h = r."""
+        key = "riesz"
+        if key not in self._factors:
+            self._factors[key] = (spla.splu(self.mass.tocsc()) if self.rigid
+                                  else TraceRiesz(self._interp, self.mass))
+        return self._factors[key].solve(np.asarray(r, dtype=float))
 
     def pressure(self, k, r) -> np.ndarray:
         """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].x``): the Riesz

@@ -224,6 +224,10 @@ class P2Tet(P2):
             raise UnsupportedError("a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
                                    "degree=1, or the Signorini law")
         conditions = [c or condition for c in scene.conditions]
+        for i, itf in enumerate(scene.interfaces):
+            if getattr(itf, "curved", None) is not None:
+                raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
+                                       "tetrahedra is not available: use degree=1")
         members = scene.stack.members
         pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
                  for itf, m in zip(scene.interfaces, members)]

@@ -3,7 +3,10 @@ the jump's degrees of freedom; docs/formulation.md §13, "The exact finish").
 
 Checked independently: on small random problems against the enumeration of every active set (the minimiser
 is unique, the forces are not), on the patch test against the closed-form uniaxial solution, and on every
-3D canonical scene with dependent rows by the singular values of every mixed matrix the finish factorises.
+3D canonical scene with dependent rows by the singular values of every matrix the finish factorises. The
+factored steps (one factorisation of the bodies, the system on the rows updated row by row) against the
+steps that solve the sparse mixed system each time, and the condensed route's finish against the full
+route's and a closed form.
 """
 
 import itertools
@@ -14,11 +17,11 @@ import pytest
 import scipy.sparse as sp
 
 import cvxcontact as cc
-from cvxcontact.backends import full
-from cvxcontact.backends.finish import independent_active_set
+from cvxcontact.backends import finish, full, signorini
+from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
-from scenes3d import P, bumped_blocks, piezo_pair, punch_on_pad, rotation, stacked_blocks, three_blocks, \
-    uniaxial_modulus
+from scenes3d import P, SIDES, STEEL, bumped_blocks, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
+    three_blocks, uniaxial_modulus
 
 
 def dense_kkt(A, F, G, g):
@@ -34,14 +37,21 @@ def dense_kkt(A, F, G, g):
         y[active] = z[n:]
         return ([z[:n]], [None], y), y, G @ z[:n] - g, np.abs(z[:n]).max()
 
+    def fields(active, z):
+        y = np.zeros(len(g))
+        y[active] = z[n:]
+        return ([z[:n]], [None], y), y, G @ z[:n] - g, np.abs(z[:n]).max()
+
     kkt.rows = sp.csr_matrix(G)
     kkt.stack = lambda x: x[0][0]
+    kkt.matrix, kkt.rhs, kkt.fields = sp.csr_matrix(A), F, fields     # for the factored steps
     return kkt
 
 
 def enumerated(A, F, G, g):
     """The minimiser of 1/2 x^T A x - F^T x subject to G x <= g by trying every set of closed rows whose rows
-    are independent: the one whose forces are >= 0 and every row feasible (independent of the finish)."""
+    are independent: the one whose forces are >= 0 and every row feasible (independent of the finish; sets
+    whose mixed matrix is singular, rows not holding A's kernel, are skipped)."""
     m = len(g)
     for k in range(m + 1):
         for rows in itertools.combinations(range(m), k):
@@ -49,6 +59,8 @@ def enumerated(A, F, G, g):
             if k and np.linalg.matrix_rank(Ga) < k:
                 continue
             K = np.block([[A, Ga.T], [Ga, np.zeros((k, k))]])
+            if np.linalg.matrix_rank(K) < len(K):
+                continue
             z = np.linalg.solve(K, np.concatenate([F, g[list(rows)]]))
             x, y = z[:len(F)], z[len(F):]
             if (y >= -1e-12).all() and (G @ x - g <= 1e-12).all():
@@ -56,8 +68,9 @@ def enumerated(A, F, G, g):
     raise AssertionError("no active set solves the problem")
 
 
+@pytest.mark.parametrize("factored", [False, True])
 @pytest.mark.parametrize("seed", range(6))
-def test_dependent_rows_with_constant_slacks_against_every_active_set(seed):
+def test_dependent_rows_with_constant_slacks_against_every_active_set(seed, factored):
     """Six unknowns, three independent rows that the load violates and five rows that are non-negative
     combinations of them, with gaps that make most dependent rows bind (a constant slack whatever x, as under
     a non-affine gap on an overlay): the finish reaches the minimiser (enumerated) from a start that closes
@@ -76,17 +89,104 @@ def test_dependent_rows_with_constant_slacks_against_every_active_set(seed):
     F = A @ x_free
     kkt = dense_kkt(A, F, G, g)
     start = np.arange(8) < 3
-    out = independent_active_set(kkt, g, start.astype(float), start)
+    out = independent_active_set(kkt, g, start.astype(float), start, factored=factored)
     assert not isinstance(out, str), out
     (u, _, y), active, steps = out
     x = u[0]
     ref = enumerated(A, F, G, g)
-    assert np.abs(x - ref).max() < 1e-12 * np.abs(ref).max()               # measured 0 (the same closed rows)
+    assert np.abs(x - ref).max() < 1e-12 * np.abs(ref).max()               # measured <= 6.9e-16
     assert (y >= 0).all() and (y[~active] == 0).all()
     assert np.linalg.matrix_rank(G[active]) == active.sum()                # the force-carrying rows independent
     scale = np.abs(G) @ np.abs(x) + np.abs(g)
     assert (G @ x - g <= 1e-12 * scale).all()                               # measured <= 2.1e-16
-    assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()     # stationarity; measured 3.1e-16
+    assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()     # stationarity; measured <= 8.1e-16
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_body_held_by_the_rows_only_from_a_start_closing_every_row(seed):
+    """A stiffness with a two-dimensional kernel (a body only the rows hold), three independent rows carrying
+    the load and five dependent rows with constant slacks; the start closes every row, so the first rows
+    carrying forces (which regularise the factored steps) include rows that must leave, and the steps solve
+    systems with open regularised rows. The factored steps and the sparse ones, each from the first
+    independent rows or from the crossover of the start's forces, reach the enumerated minimiser."""
+    rng = np.random.default_rng(100 + seed)
+    n = 6
+    B = rng.normal(size=(n, n - 2))
+    A = B @ B.T                                                 # rank n - 2: a kernel the rows must hold
+    base = rng.normal(size=(3, n))
+    C = rng.uniform(0.1, 1.0, size=(5, 3)) * (rng.uniform(size=(5, 3)) < 0.7)
+    C[np.arange(5), rng.integers(0, 3, 5)] = 0.7
+    G = np.vstack([base, C @ base])
+    x_star = rng.normal(size=n)
+    F = A @ x_star + base.T @ rng.uniform(0.5, 2.0, size=3)    # forces >= 0 on the base rows: a minimiser
+    g = np.concatenate([base @ x_star, np.zeros(5)])
+    g[3:] = C @ g[:3] - rng.uniform(-0.1, 0.5, size=5)
+    ref = enumerated(A, F, G, g)
+    kkt = dense_kkt(A, F, G, g)
+    start = np.ones(8, dtype=bool)
+    for factored, purify in itertools.product((False, True), (False, True)):
+        out = independent_active_set(kkt, g, start.astype(float), start, factored=factored, purify=purify)
+        assert not isinstance(out, str), out
+        (u, _, y), active, _ = out
+        x = u[0]
+        assert np.abs(x - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1.2e-14
+        assert (y >= 0).all() and np.linalg.matrix_rank(G[active]) == active.sum()
+        assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()  # measured <= 1.7e-15
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed):
+    """The start of the finish: the interior point's forces y0 >= 0 on 30 rows of rank 8 (with duplicated and
+    scaled rows) moved onto an independent subset with the same resultant G^T y, checked by numpy: G^T y =
+    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent."""
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=(8, 12))
+    C = rng.uniform(0, 1, size=(30, 8)) * (rng.uniform(size=(30, 8)) < 0.4)
+    C[np.arange(30), rng.integers(0, 8, 30)] = 0.5                           # no zero row
+    C[np.arange(8), np.arange(8)] = 1.0
+    G = C @ base
+    G[20:] = G[:10] * rng.uniform(0.5, 2.0, size=(10, 1))                    # parallel rows, other lengths
+    y0 = rng.uniform(0, 1, size=30) * (rng.uniform(size=30) < 0.8)
+    norms = np.linalg.norm(G, axis=1)
+    U = G / norms[:, None]
+    cand = np.flatnonzero(y0 > 0)
+    chosen = finish._independent(U[cand].T * y0[cand] / y0[cand].max())
+    passive, y = finish._purified(U[cand], norms, y0, cand, chosen)
+    assert len(passive) == np.linalg.matrix_rank(G[cand]) == np.linalg.matrix_rank(G[passive])
+    assert (y >= 0).all() and (y[np.setdiff1d(np.arange(30), passive)] == 0).all()
+    assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
+
+
+def test_the_updated_interface_system_solves_like_a_dense_solve():
+    """:class:`UpdatedSystem` (QR updated key by key) on a symmetric indefinite matrix, along 60 random changes
+    of its keys (1-3 keys in or out, now and then many): each answer against numpy's dense solve."""
+    rng = np.random.default_rng(7)
+    N = 40
+    X = rng.normal(size=(N, N))
+    Mfull = X + X.T + np.diag(rng.choice([-1.0, 1.0], N) * 8.0)
+
+    def entries(a, b):
+        return Mfull[np.ix_(a // 2, b // 2)]
+
+    system = UpdatedSystem(entries)
+    keys = 2 * rng.choice(N, 10, replace=False)
+    worst = 0.0
+    for k in range(60):
+        if k % 20 == 19:
+            keys = 2 * rng.choice(N, int(rng.integers(5, 30)), replace=False)
+        else:
+            out = rng.choice(len(keys), min(int(rng.integers(0, 3)), len(keys) - 1), replace=False)
+            keys = np.delete(keys, out)
+            fresh = np.setdiff1d(2 * np.arange(N), keys)
+            keys = np.concatenate([keys, rng.choice(fresh, int(rng.integers(0, 3)), replace=False)])
+            keys = rng.permutation(keys)
+        b = rng.normal(size=len(keys))
+        M = entries(keys, keys)
+        w = system.solve(keys, b)
+        ref = np.linalg.solve(M, b)
+        worst = max(worst, np.abs(w - ref).max() / (np.linalg.cond(M) * np.abs(ref).max()))
+    assert system.updates > 30 and system.factorisations >= 3
+    assert worst < 1e-13                                                  # measured 1.8e-16
 
 
 def uniaxial_error(sol):
@@ -101,12 +201,12 @@ def test_the_patch_test_on_non_matching_faces_holds_to_rounding():
     the finished answer reproduces it to rounding (the interior point: 3.4e-10 in u, 1.2e-7 in lambda_h)."""
     sol = cc.solve(stacked_blocks(), "gamma3")
     assert sol.ok and sol.polished and sol.info.finish == "independent active set"
-    assert uniaxial_error(sol) < 1e-13                                          # measured 3.5e-15
+    assert uniaxial_error(sol) < 1e-13                                          # measured 4.4e-15
     assert np.abs(sol.contact.lam / P - 1).max() < 1e-10                        # measured 1.1e-12 (λ_h's solve)
     for k in (0, 1):
-        assert np.abs(sol.traction(k)[1] / P - 1).max() < 1e-12                 # measured 2.1e-14
+        assert np.abs(sol.traction(k)[1] / P - 1).max() < 1e-12                 # measured 2.4e-14
     r = sol.residuals()
-    assert r["equilibrium"] < 1e-14 and r["feasibility"] < 1e-14             # measured 8.9e-17, 6.1e-16
+    assert r["equilibrium"] < 1e-14 and r["feasibility"] < 1e-14             # measured 1.6e-16, 8.3e-16
 
 
 SCENES = {"stacked 5x5 on 7x3": stacked_blocks, "bumped": bumped_blocks, "three blocks": three_blocks,
@@ -114,23 +214,102 @@ SCENES = {"stacked 5x5 on 7x3": stacked_blocks, "bumped": bumped_blocks, "three 
           "two PZT blocks turned": lambda: piezo_pair(rotation())}
 
 
+@pytest.mark.parametrize("purify", [False, True])
 @pytest.mark.parametrize("name", list(SCENES))
-def test_no_singular_mixed_matrix_is_factorised(name, monkeypatch):
-    """Every mixed matrix the finish solves (:func:`cvxcontact.backends.full.solve_mixed`, the one place it
-    factorises) is non-singular: its smallest singular value is far from rounding relative to the largest
-    (dense SVD of each; the turned pair's faces are tilted, so its dependent rows are dependent only
-    numerically). The answer is exact (ok at the default tol, no ResidualWarning)."""
-    seen = []
-    solve_mixed = full.solve_mixed
+def test_no_singular_matrix_is_factorised(name, purify, monkeypatch):
+    """Every matrix the finish factorises is non-singular: the regularised bodies K0 of the factored steps,
+    every system on the rows they solve (:class:`UpdatedSystem`; non-singular exactly when the mixed system
+    (26) on those rows is, K0 being so) and any sparse mixed system (:func:`cvxcontact.backends.full.solve_mixed`,
+    the check's fallback): its smallest singular value is far from rounding relative to the largest (dense SVD
+    of each; the turned pair's faces are tilted, so its dependent rows are dependent only numerically). The
+    answer is exact (ok at the default tol, no ResidualWarning). With and without the crossover start (few
+    steps, many)."""
+    seen = {"K0": [], "rows": [], "mixed": []}
+    solve_mixed, factored_rows, solve = full.solve_mixed, finish.factored_rows, UpdatedSystem.solve
+
+    def rcond(K):
+        s = np.linalg.svd(K, compute_uv=False)
+        return s[-1] / s[0] if len(s) else 1.0
 
     def recording(K, *args, **kwargs):
-        s = np.linalg.svd(K.toarray(), compute_uv=False)
-        seen.append(s[-1] / s[0])
+        seen["mixed"].append(rcond(K.toarray()))
         return solve_mixed(K, *args, **kwargs)
 
+    def recording_K0(*args):
+        out = factored_rows(*args)
+        seen["K0"].append(rcond(out.K0.toarray()))
+        return out
+
+    def recording_rows(self, keys, b):
+        seen["rows"].append(rcond(self.entries(np.asarray(keys), np.asarray(keys))))
+        return solve(self, keys, b)
+
     monkeypatch.setattr(full, "solve_mixed", recording)
+    monkeypatch.setattr(finish, "factored_rows", recording_K0)
+    original = signorini.independent_active_set
+    monkeypatch.setattr(signorini, "independent_active_set",
+                        lambda *args, **kwargs: original(*args, purify=purify, **kwargs))
+    monkeypatch.setattr(UpdatedSystem, "solve", recording_rows)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
         sol = cc.solve(SCENES[name](), "gamma3", method="full")
     assert sol.ok and sol.polished and sol.info.finish == "independent active set"
-    assert seen and min(seen) > 1e-8                                            # measured >= 4.4e-4
+    assert len(seen["K0"]) == 1 and seen["rows"]
+    assert min(min(v) for v in seen.values() if v) > 1e-8                 # measured >= 9.1e-5 (K0 >= 2.3e-3)
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_the_factored_steps_agree_with_the_sparse_steps(name, monkeypatch):
+    """From the same interior point: the finish that factorises the sparse mixed system at every step from the
+    first independent rows (the finish without the crossover), the factored steps from the same rows (many
+    steps: 39 on the stacked blocks) and the default (factored, from the crossover: 1-2 steps) give the same
+    displacements and potentials (unique; the forces on dependent rows are not) to rounding."""
+    runs = []
+    original = signorini.independent_active_set
+
+    def all_three(kkt, g, y0, start, **kwargs):
+        outs = [original(kkt, g, y0, start, factored=f, purify=c, **kwargs)
+                for f, c in ((False, False), (True, False), (True, True))]
+        runs.append([kkt.stack(o[0]) for o in outs])
+        return outs[-1]
+
+    monkeypatch.setattr(signorini, "independent_active_set", all_three)
+    sol = cc.solve(SCENES[name](), "gamma3", method="full")
+    assert sol.ok and sol.polished and len(runs) == 1
+    sparse_x = runs[0][0]
+    for x in runs[0][1:]:
+        assert np.abs(x - sparse_x).max() < 1e-12 * np.abs(sparse_x).max()   # measured <= 4.0e-15
+
+
+def squeezed_blocks(lower=(5, 5), upper=(7, 3), overlap=1e-5):
+    """:func:`stacked_blocks` with the upper block held by rollers on its top too and an interference
+    ``overlap`` (m) between the faces (gap -overlap): every body held by its supports (the condensed route
+    applies) and the uniaxial solution u_z = -overlap z below, overlap (1 - z) above, pressure c33 overlap."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=2)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=2)
+    b1 = cc.Body(low, STEEL, roller=SIDES + ["bottom"], contact="top", name="lower")
+    b2 = cc.Body(up, STEEL, roller=SIDES + ["top"], contact="bottom", name="upper")
+    return cc.Scene(b1, b2, gap=-overlap)
+
+
+def test_the_condensed_route_finishes_dependent_rows_like_the_full_route():
+    """Both bodies held by their supports: the condensed route finishes the dependent gamma3 rows on the
+    interface compliance W (singular) and agrees with the full route to rounding; both reproduce the
+    uniaxial solution, and a re-solve from the previous active set (warm start) is exact too."""
+    overlap = 1e-5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        cond = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", method="condensed")
+        ref = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", method="full")
+    for sol in (cond, ref):
+        assert sol.ok and sol.polished and sol.info.finish == "independent active set"
+        exact = [-overlap * sol.points[0][:, 2], overlap * (1 - sol.points[1][:, 2])]
+        assert max(np.abs(sol.u[k][:, 2] - exact[k]).max() for k in (0, 1)) < 1e-13 * overlap  # measured <= 5.4e-15
+        assert np.abs(sol.contact.lam / (uniaxial_modulus() * overlap) - 1).max() < 1e-10  # measured <= 1.6e-12
+    scale = max(np.abs(ref.u[k]).max() for k in (0, 1))
+    assert max(np.abs(cond.u[k] - ref.u[k]).max() for k in (0, 1)) < 1e-12 * scale      # measured 9.3e-15
+    solver = cc.ContactSolver(squeezed_blocks(overlap=overlap), "gamma3", method="condensed")
+    solver.solve()
+    again = solver.solve(squeezed_blocks(overlap=2 * overlap))
+    assert again.ok and again.info.route == "active-set warm start"
+    assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.5e-12

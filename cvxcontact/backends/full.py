@@ -205,8 +205,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
         K = sp.bmat([[A, G.T], [G, None]], format="csc")
         b = np.concatenate([rhs, g[active]])
         z = solve_mixed(K, b)  # None: numerically singular (e.g. a body held by the contact only, rows not active)
-        if z is None:
-            return None
+        return None if z is None else fields(active, z)
+
+    def fields(active, z):
+        """kkt's answer from the solution z = [x; y_active] of (26) on ``active``."""
         n = A.shape[0]
         y = np.zeros(E.shape[0])
         y[active] = z[n:]
@@ -222,6 +224,7 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
         return x, y, slack, max(np.abs(uk).max(initial=0.0) for uk in u)
 
     kkt.rows = G_all          # the contact rows on the stacked unknowns [u_1; phi_1; ...; tau_1; ...]
+    kkt.matrix, kkt.rhs, kkt.fields = A, rhs, fields      # for the factored steps of the finish
     kkt.stack = lambda x: np.concatenate([np.concatenate([uk] + ([pk] if pk is not None else []))
                                           for uk, pk in zip(x[0], x[1])] + list(x[3] if widths else []))
     return kkt

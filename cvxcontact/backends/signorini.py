@@ -10,7 +10,8 @@ import numpy as np
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .finish import SIGN_TOL, active_set_steps, independent_active_set, force_displacements, ipm_active, lcp_start, row_scales, signs_hold, solve_lcp
+from .finish import (SIGN_TOL, active_set_steps, independent_active_set, independent_interface, force_displacements,
+                     ipm_active, lcp_start, row_scales, signs_hold, solve_lcp)
 from .full import ContactModel, mixed_kkt
 from .interface import condensation
 from .program import timed_program
@@ -48,10 +49,17 @@ def dependent_finish(problem, raw, timings):
     return raw
 
 
-def interface_finish(compliance, d, start, timings):
-    """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or None."""
+def interface_finish(compliance, d, start, timings, dependent=None):
+    """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or None.
+    ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
+    the finish of :func:`~cvxcontact.backends.finish.independent_interface` from the forces y0 instead."""
     t0 = time.perf_counter()
-    out = solve_lcp(compliance.W, d, start)
+    if dependent is None:
+        out = solve_lcp(compliance.W, d, start)
+    else:
+        v0, g, y0 = dependent
+        res = independent_interface(compliance, v0, g, y0, start)
+        out = None if isinstance(res, str) else (res[0], res[1], "independent active set")
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
 
@@ -112,9 +120,14 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     E, g = problem.E, problem.g
     reduction = condensation(problem, cache, settings, timings)
     cond, compliance = reduction.bodies, reduction.compliance
-    _, loads, d = reduction.apply(problem, timings)
+    v0, loads, d = reduction.apply(problem, timings)
     warm = settings.warm_start and settings.polish and cache.active is not None
-    out = solve_lcp(compliance.W, d, cache.active) if warm else None
+    dependent = dependent_rows(problem)
+
+    def finish(start, y0):
+        return interface_finish(compliance, d, start, timings, (v0, g, y0) if dependent else None)
+
+    out = finish(cache.active, cache.active.astype(float)) if warm else None
     raw = RawResult(u=[], phi=[], y=np.zeros(len(d)), method="condensed")
     if out is not None:                                    # re-solve: the previous active set, corrected
         raw.y, raw.active, raw.polished, raw.route, raw.finish = out[0], out[1], True, Route.WARM_START, out[2]
@@ -129,7 +142,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         raw.active = ipm_active(parts, g, raw.y, force_displacements(problem.blocks, E, raw.y))
         raw.program = model.problem
         if settings.polish:
-            out = interface_finish(compliance, d, lcp_start(compliance.W, d, raw.y, slack), timings)
+            out = finish(raw.active if dependent else lcp_start(compliance.W, d, raw.y, slack), raw.y)
             if out is None:
                 raw.declined = "no active set satisfies the signs of the contact problem"
             else:

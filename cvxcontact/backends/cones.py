@@ -167,7 +167,9 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
         kkt = mixed_kkt(blocks, P @ E, P @ g, translations=[(P @ R, F) for R, F in tr])
         y0 = np.zeros(P.shape[0])
         y0[:len(prev["y"])] = prev["y"]
-        out = independent_active_set(kkt, P @ g, y0, y0 > 0)
+        # the unfactored steps: the factored ones declined on point rows (the layer on a plane: max_iter; the
+        # bumped blocks: a singular system), measured after their merge
+        out = independent_active_set(kkt, P @ g, y0, y0 > 0, factored=False, purify=False)
         if isinstance(out, str):
             prev["why"] = out
             return None

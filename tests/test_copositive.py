@@ -261,3 +261,16 @@ def test_a_block_pressed_by_a_fixed_sphere_is_finished():
     assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts"
     r = sol.residuals()
     assert r["feasibility"] < 1e-12 and r["energy error"] < 1e-5          # measured 0, 2.6e-7
+
+
+@pytest.mark.parametrize("name", ["layer on a rigid plane, gamma3", "PZT-5A layer, floating electrode",
+                                  "punch on a patch"])
+def test_canonical_scenes_held_by_the_contact_are_finished(name):
+    # canonical 3D scenes (tests/scenes3d.py) whose bodies the contact holds, under P2 "gamma3": the cuts on
+    # the mixed system; the layers' uniaxial patch (closed form in scenes3d) is then exact
+    from scenes3d import SCENES3D
+
+    build, kw = SCENES3D[name]
+    sol = solve(build(), kw["condition"])
+    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts", sol.report()
+    assert sol.residuals()["complementarity"] < 1e-7                       # measured 0 ... 2.5e-8

@@ -169,3 +169,20 @@ def test_scene_files_take_the_guide():
     data["obstacle"][0]["guided"] = [0.6, 0.6]
     with pytest.raises(SceneFileError, match=r"obstacle\[0\].*has length"):
         scene_from_data(data, "guided.toml")
+
+
+def test_the_model_and_a_distance_only_obstacle_take_the_guide():
+    """cc.Model poses the guided translation as cc.solve does; an obstacle given by its distance alone (its
+    sensitivity by central differences) is guided the same way."""
+    body, scene = half_scene()
+    ref = cc.solve(scene)
+    model = cc.Model(scene).solve()
+    assert model.ok
+    np.testing.assert_allclose(model.obstacles[0].translation, ref.obstacles[0].translation, rtol=1e-12,
+                               atol=0)                                  # measured 0
+    disc = cc.Rigid.circle((0.0, 0.02), 0.02)
+    by_distance = cc.Rigid("circle", disc.distance, "disc(distance only)", force=(0.0, -1e7), guided=(0, 1))
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", by_distance)]))
+    assert sol.ok and sol.obstacles[0].translation[0] == 0
+    np.testing.assert_allclose(sol.obstacles[0].translation, ref.obstacles[0].translation,
+                               rtol=1e-6, atol=0)                       # measured 1e-9 (differences)

@@ -653,8 +653,8 @@ class ObstacleRows:
     ``force`` is the prescribed resultant (N/m; N in 3D) or None; for a force-controlled obstacle
     ``basis`` (dim, k) spans the translations the contact can see (k = 1 when every c(x) is parallel,
     e.g. a plane: its tangential translations change nothing and are not unknowns; k = 2 for a 3D
-    cylinder, whose translations along its axis change nothing; k = dim otherwise), and the unknowns
-    are t = basis @ tau.
+    cylinder, whose translations along its axis change nothing; k = dim otherwise; a guided obstacle's
+    rows and basis lie along its axes), and the unknowns are t = basis @ tau.
     """
 
     obstacle: Rigid

@@ -105,10 +105,8 @@ def _guide(guided, kind, dim) -> np.ndarray | None:
     """The guided axes (k, dim) of an obstacle (read-only; 1 <= k <= dim unit, orthogonal rows), or None."""
     if guided is None:
         return None
-    want = (f"one unit axis ({_WORDS[dim]} real numbers) or a list of 1 to {dim} orthogonal unit axes, "
-            "e.g. guided=(0, 0, 1)" if dim == 3 else
-            f"one unit axis ({_WORDS[dim]} real numbers) or a list of 1 to {dim} orthogonal unit axes, "
-            "e.g. guided=(0, 1)")
+    want = (f"one unit axis ({_WORDS[dim]} real numbers) or a list of 1 to {dim} orthogonal unit axes, e.g. "
+            f"guided={'(0, 0, 1)' if dim == 3 else '(0, 1)'}")
     try:
         G = np.array(guided, dtype=float)
     except (TypeError, ValueError):

@@ -80,7 +80,8 @@ def run(folder: Path, nx: int, delay: float, cases: int) -> dict:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", str(folder / "sweep.toml"), "--out", str(out),
            "--workers", "2"]
-    proc = subprocess.Popen(cmd, cwd=folder, env=env, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(cmd, cwd=folder, env=env, start_new_session=True, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))   # as a terminal starts it
     started = None
     while proc.poll() is None:                                # the workers started
         if (out / "manifest.json").exists() and len(group(proc.pid, python=True)) >= 1 + min(2, cases):

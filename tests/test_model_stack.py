@@ -190,7 +190,7 @@ def test_model_with_a_force_controlled_obstacle_is_the_full_solve(case):
     ref = cc.solve(scene, condition, degree=degree, method="full", tol=tol)
     model = cc.Model(scene, condition, degree=degree, tol=tol)
     sol = model.solve() if conic else _strict(model)
-    assert sol.ok and ref.ok and sol.polished != conic, sol.report()
+    assert sol.ok and ref.ok and sol.polished and ref.polished, sol.report()    # conic: the cuts on (26)
     assert rel(sol.u[0], ref.u[0]) < bound and rel(sol.contact.lam, ref.contact.lam) < 10 * bound   # measured 0
     t, tr = sol.obstacles[0].translation, ref.obstacles[0].translation
     assert np.abs(t - tr).max() < bound * depth and abs(sol.energy - ref.energy) < bound * abs(ref.energy)

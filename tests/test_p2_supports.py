@@ -254,7 +254,7 @@ def test_p2_layer_held_by_contact_only_is_in_exact_uniaxial_strain(condition, nx
     scene = _resting(P, nx)
     assert scene.bodies[0].held_by_contact == ("translation y",)
     sol = cc.solve(scene, condition, degree=2)
-    assert sol.ok and sol.method == "full" and sol.polished == (condition != "gamma3")
+    assert sol.ok and sol.method == "full" and sol.polished      # gamma3: the cuts on the mixed system (26)
     scale = P / C22 * H1
     for k in (0, 1):
         assert len(sol.points[k]) > len(scene.bodies[k].mesh.points)

@@ -204,6 +204,13 @@ def _children(pid):
     return found
 
 
+def _ctrl_c_enabled():
+    """In the child before its exec: SIGINT back to its default action. A suite run in the background of a
+    non-interactive shell (``pytest &``) has SIGINT ignored, the child inherits that, and a Python started so
+    never raises KeyboardInterrupt (a sweep started with ``nohup``/``&`` rightly ignores Ctrl-C)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _alive(pid):
     try:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
@@ -222,7 +229,8 @@ def test_interrupted_pooled_sweep_stops_without_orphans(tmp_path, sig):
     other = setup(tmp_path / "other", {"gap": [0.0]})             # another sweep file, on the same folder
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", str(path), "--out", str(out), "--workers", "2", "-q"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(cmd, cwd=ROOT, start_new_session=True, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_ctrl_c_enabled)
     try:
         deadline = time.time() + 120
         while time.time() < deadline and not list((out / "cases").glob("*.json")):
@@ -348,7 +356,7 @@ def test_ctrl_c_stops_the_workers_promptly_and_says_how_to_resume(tmp_path, case
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "cvxcontact.apps.cli", "sweep", "sweep.toml", "--out", "out", "--workers", "2", "-q"]
     proc = subprocess.Popen(cmd, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)}, start_new_session=True,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_ctrl_c_enabled)
     try:
         deadline = time.time() + 120
         def started():

@@ -9,19 +9,26 @@ import time
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact.laws import RowLaws
-from ..contact.quadratic import bernstein_max, point_rows
+from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
+from .cuts import accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
+from .finish import independent_active_set
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
-from .full import ContactModel, limit_reaction
+from .full import ContactModel, limit_reaction, mixed_kkt
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 
 __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
+
+
+def _width(problem) -> int:
+    """Bernstein coefficients per element of the problem's cones: 3 (segments, 2D), 6 (triangles, 3D)."""
+    return problem.lines.cone[1].shape[1]
 
 
 def _cone_force(problem, beta):
@@ -31,17 +38,17 @@ def _cone_force(problem, beta):
 
 def _held_beta(problem, beta):
     """beta with the cone rows no unknown moves at their least admissible value (§8, "Held nodes")."""
-    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap)
+    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap, _width(problem))
 
 
 def full(problem, cache, settings, timings) -> RawResult:
     """The full model with the conic condition (:mod:`cvxcontact.backends.conic`)."""
     t0 = time.perf_counter()
     model = ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
-                         translations=list(problem.translations))
+                         translations=list(problem.translations), width=_width(problem))
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
@@ -49,6 +56,8 @@ def full(problem, cache, settings, timings) -> RawResult:
         if settings.polish:
             finish_cuts(problem, cache, settings, timings, raw)
         certify(problem, cache, settings, timings, raw)
+    elif settings.polish:
+        finish_cuts_mixed(problem, timings, raw)
     return raw
 
 
@@ -66,19 +75,20 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     rhs = [quasi_definite_rhs(b) for b in problem.blocks]
     v0 = [c.solve(F)[c.gamma] for c, F in zip(cond, rhs)]
     B = problem.lines.cone[0]
-    free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, 3)
+    w = _width(problem)
+    free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, w)
     if (bernstein_max(free) <= 0.0).all():
         # [u_nu] <= g everywhere with no contact force (e.g. no load, or bodies apart): the unconstrained
         # solution is the solution, beta = 0 exactly; an interior point would stop at rounding around it
         # (measured: u = 5e-8 m under zero load, complementarity read 1.5)
         u, phi = split(cond, [c.solve(F) for c, F in zip(cond, rhs)], problem.blocks)
         timings["model"] = time.perf_counter() - t0
-        return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // 3, 3)),
+        return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // w, w)),
                          polished=True, route=Route.NO_CONTACT, method="condensed")
-    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g)
+    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g, w)
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row))
+    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
     r = _cone_force(problem, beta)
     u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
     raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
@@ -102,7 +112,7 @@ def certify(problem, cache, settings, timings, raw) -> None:
         raw.beta = dual_cone_point(raw.beta)
         raw.y = _cone_force(problem, raw.beta)
         raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
-    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows)[0]
+    raw.certificate = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors)[0]
     timings["certificate"] = time.perf_counter() - t0
 
 
@@ -114,8 +124,9 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
-    segment, t = seed_points(B, raw.beta)
-    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta))
+    segment, t = seed_points(B, raw.beta, width=_width(problem))
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta),
+                         width=_width(problem), factors=reduction.psd_factors)
     if isinstance(out, str):
         raw.declined = out
         return
@@ -126,6 +137,66 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
     raw.y, raw.beta, raw.active = r, out["beta"], active
     raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
+
+
+MIXED_CUT_TOL = 1e-11
+"""The cuts' stopping violation on the mixed system: above the tolerance 1e-12 to which each round's active-set
+solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls at 1.1e-12 and every round adds
+points at the same places)."""
+
+
+def finish_cuts_mixed(problem, timings, raw) -> None:
+    """The exact finish of the cones by accumulated cuts where the interface compliance does not exist (a body
+    held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
+    solved on the sparse mixed system (26) with the obstacles' translations
+    (:func:`~cvxcontact.backends.finish.independent_active_set`: the point rows outnumber the nodes, so they
+    depend on each other; the rows carrying the forces stay independent), warm started from the last round.
+    Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
+    needs the compliance; the checks state what holds."""
+    B, cells = problem.lines.cone
+    width = cells.shape[1]
+    blocks, E, g = problem.blocks, problem.E, problem.g
+    tr = list(problem.translations)
+    jumps = [E @ b.jump for b in blocks]
+    held = problem.held_rows
+    prev = {"y": seed_forces(*seed_points(B, raw.beta, width=width), raw.beta)}
+    t0 = time.perf_counter()
+
+    def solve(P):
+        P = sp.csr_matrix(P)
+        kkt = mixed_kkt(blocks, P @ E, P @ g, translations=[(P @ R, F) for R, F in tr])
+        y0 = np.zeros(P.shape[0])
+        y0[:len(prev["y"])] = prev["y"]
+        out = independent_active_set(kkt, P @ g, y0, y0 > 0)
+        if isinstance(out, str):
+            prev["why"] = out
+            return None
+        x, active = out[0], out[1]
+        prev["y"] = y = x[2]
+        taus = list(x[3]) if tr else []
+        parts = [J @ uk for J, uk in zip(jumps, x[0])]
+        moved = sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g)))
+        slack = sum(parts) + moved - g
+        scale = sum(np.abs(p) for p in parts) + np.abs(moved) + np.abs(g)
+        scale = np.where(held, np.abs(g), scale)
+        scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
+        return y, np.where(held, np.minimum(slack, 0.0), slack), scale, (x, taus), active
+
+    segment, t = seed_points(B, raw.beta, width=width)
+    out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = out + (f" ({prev['why']})" if "why" in prev else "")
+        return
+    x, taus = out["state"]
+    raw.u, raw.phi = x[0], x[1]
+    if tr:
+        raw.taus = taus
+    P = point_rows(B, out["segment"], out["t"])
+    raw.y, raw.beta = P.T @ out["y"], out["beta"]
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
+    raw.active, raw.polished, raw.finish = active, True, Finish.ACCUMULATED_CUTS
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

@@ -14,21 +14,31 @@ beta_s lying in the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1^2 <= 4 beta0 
 complementarity of the segment is beta_s . b_s = 0. The full model with this condition is
 :class:`cvxcontact.backends.full.ContactModel` with ``bernstein=B``; :class:`ConicInterfaceModel` is the
 condensed one (the package's own problem: quadratic energy, no user terms).
+
+On the triangles of a 3D contact surface (6 Bernstein coefficients each, :mod:`cvxcontact.contact.bernstein`,
+docs/formulation.md §16) the condition is "-Q copositive": -Q = P + N with P a 3 x 3 positive semidefinite
+variable and N >= 0 its three off-diagonal entries, one equality per coefficient; the duals of those equalities
+are the Bernstein duals beta directly (Z = (beta_ii; beta_ij / 2) positive semidefinite and, by stationarity in
+N, entrywise non-negative).
 """
 
 from __future__ import annotations
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
-__all__ = ["bernstein_constraints", "bernstein_duals", "least_held_duals", "ConicInterfaceModel"]
+__all__ = ["bernstein_constraints", "copositive_constraints", "bernstein_duals", "least_held_duals", "ConicInterfaceModel"]
 
 
-def bernstein_constraints(jump, B, g):
+def bernstein_constraints(jump, B, g, width: int = 3):
     """(cone, row, w): the constraints of the module docstring for the CVXPY expression ``jump`` (the
-    nodal values of [u_nu] in X_h, scaled), ``B`` (3 S, n) and the gap ``g`` at the nodes (scaled)."""
-    S = B.shape[0] // 3
+    nodal values of [u_nu] in X_h, scaled), ``B`` (width S, n) and the gap ``g`` at the nodes (scaled);
+    ``width`` 3 (segments: a second-order cone each) or 6 (triangles: :func:`copositive_constraints`)."""
     b = B @ jump - B @ g
+    if width == 6:
+        return copositive_constraints(b, B.shape[0] // 6)
+    S = B.shape[0] // 3
     p0, p1, p2 = -b[0::3], -b[1::3], -b[2::3]
     w = cp.Variable(S, name="w")
     cone = cp.SOC(p0 + p2, cp.vstack([2 * w, p0 - p2]), axis=0)
@@ -36,8 +46,27 @@ def bernstein_constraints(jump, B, g):
     return cone, row, w
 
 
-def bernstein_duals(cone, row) -> np.ndarray:
-    """beta (S, 3) from the duals of :func:`bernstein_constraints` (module docstring)."""
+def copositive_constraints(b, T: int):
+    """(equality, row, P): -Q_t = P_t + N_t on each of the ``T`` triangles of the Bernstein coefficients ``b``
+    (a CVXPY expression of length 6 T, order (b00, b11, b22, b01, b12, b20) per triangle), P_t a 3 x 3
+    positive semidefinite variable, N_t its three off-diagonal non-negative entries (``row``: N >= 0). One
+    vectorised equality: its duals are the Bernstein duals (:func:`bernstein_duals`)."""
+    P = [cp.Variable((3, 3), PSD=True) for _ in range(T)]
+    V = cp.hstack([cp.vec(p, order="F") for p in P]) if T else cp.Constant(np.zeros(0))
+    entry = np.array([0, 4, 8, 3, 7, 2])           # (00, 11, 22, 01, 12, 20) in a column-major 3 x 3
+    rows = np.arange(6 * T)
+    select = sp.csr_matrix((np.ones(6 * T), (rows, (9 * np.arange(T)[:, None] + entry).ravel())), shape=(6 * T, 9 * T))
+    off = (6 * np.arange(T)[:, None] + np.arange(3, 6)).ravel()
+    lift = sp.csr_matrix((np.ones(3 * T), (off, np.arange(3 * T))), shape=(6 * T, 3 * T))
+    N = cp.Variable(3 * T, name="N")
+    equality = select @ V + lift @ N + b == 0
+    return equality, N >= 0, P
+
+
+def bernstein_duals(cone, row, width: int = 3) -> np.ndarray:
+    """beta (S, width) from the duals of :func:`bernstein_constraints` (module docstring)."""
+    if width == 6:
+        return np.asarray(cone.dual_value, dtype=float).reshape(-1, 6)
     z0 = np.asarray(cone.dual_value[0], dtype=float).ravel()
     Z = np.asarray(cone.dual_value[1], dtype=float).reshape(2, -1)
     mu = np.asarray(row.dual_value, dtype=float).ravel()
@@ -80,11 +109,11 @@ class ConicInterfaceModel:
     """The condensed interface problem (:class:`cvxcontact.backends.condensed.InterfaceModel`) with the
     conic condition: a small SOCP in the Gamma dofs v_l. Attributes: ``problem``, ``v``, ``cone``, ``row``."""
 
-    def __init__(self, bodies, loads, B, g):
+    def __init__(self, bodies, loads, B, g, width: int = 3):
         self.v = [cp.Variable(len(b.gamma), name=f"v{k + 1}") for k, b in enumerate(bodies)]
         # a body whose contact dofs its supports all hold (a roller on the pair's part) has none: no term
         energy = sum(0.5 * cp.quad_form(v, cp.psd_wrap(b.stiffness)) - f @ v
                      for b, v, f in zip(bodies, self.v, loads) if len(b.gamma))
         jump = sum(b.jump @ v for b, v in zip(bodies, self.v))
-        self.cone, self.row, _ = bernstein_constraints(jump, B, g)
+        self.cone, self.row, _ = bernstein_constraints(jump, B, g, width)
         self.problem = cp.Problem(cp.Minimize(energy), [self.cone, self.row])

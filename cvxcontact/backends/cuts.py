@@ -29,7 +29,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..contact.quadratic import bernstein_argmax, bernstein_basis, point_rows
+from ..contact.bernstein import bernstein_argmax, bernstein_basis, element, point_rows
 
 __all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
 
@@ -58,21 +58,22 @@ def _unique_rows(P) -> np.ndarray:
     return np.sort(first)
 
 
-def seed_points(B, beta=None, force_floor: float = 1e-6):
-    """(segment, t) of the starting points: the three P2 nodes of every segment of ``B`` (3 S, n) once each, plus,
-    with the interior point's Bernstein duals ``beta`` (S, 3), the tangency point of every segment whose force
-    sum(beta_s) exceeds ``force_floor`` of the largest and whose beta1 > 0 puts it inside the segment."""
-    S = B.shape[0] // 3
-    seg = np.repeat(np.arange(S), 3)
-    t = np.tile([0.0, 0.5, 1.0], S)
+def seed_points(B, beta=None, force_floor: float = 1e-6, width: int = 3):
+    """(element, point) of the starting points: the P2 nodes of every element of ``B`` (``width`` S, n; segments
+    or triangles, :mod:`cvxcontact.contact.bernstein`) once each, plus, with the interior point's Bernstein duals
+    ``beta`` (S, width), the tangency point of every element whose force sum(beta_s) exceeds ``force_floor`` of
+    the largest and whose cross terms put it off the nodes."""
+    el = element(width)
+    S = B.shape[0] // width
+    k = len(el.nodes)
+    seg = np.repeat(np.arange(S), k)
+    t = np.tile(el.nodes, (S,) + (1,) * (el.nodes.ndim - 1))
     if beta is not None and S:
         beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
         total = beta.sum(axis=1)
         big = total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny)
-        r0, r2 = np.sqrt(beta[:, 0]), np.sqrt(beta[:, 2])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ts = r2 / (r0 + r2)
-        inner = big & (beta[:, 1] > force_floor * total) & (ts > 1e-3) & (ts < 1 - 1e-3) & (np.abs(ts - 0.5) > 1e-3)
+        ts = el.tangency(beta)
+        inner = big & (beta[:, el.off].max(axis=1) > force_floor * total) & ~el.near_nodes(ts, 1e-3)
         seg = np.concatenate([seg, np.flatnonzero(inner)])
         t = np.concatenate([t, ts[inner]])
     keep = _unique_rows(point_rows(B, seg, t))
@@ -80,47 +81,51 @@ def seed_points(B, beta=None, force_floor: float = 1e-6):
 
 
 def seed_forces(segment, t, beta) -> np.ndarray:
-    """A warm start of the point forces from an interior point's Bernstein duals ``beta`` (S, 3): the whole force
-    sum(beta_s) of a segment at its first point strictly inside other than the midpoint (its tangency seed,
-    :func:`seed_points`), else beta0 + beta1 / 2 and beta2 + beta1 / 2 at its end points (a shared vertex is one
-    point: it takes the share of the segment it was kept for). Only a start: the first round corrects it."""
+    """A warm start of the point forces from an interior point's Bernstein duals ``beta`` (S, w): the whole force
+    sum(beta_s) of an element at its first point off the P2 nodes (its tangency seed, :func:`seed_points`),
+    else the row sums of its Gram matrix at its vertices (a shared vertex is one point: it takes the share of
+    the element it was kept for). Only a start: the first round corrects it."""
     beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    el = element(beta.shape[1])
     y = np.zeros(len(t))
-    inner = np.flatnonzero((t > 0) & (t < 1) & (t != 0.5))
+    inner = np.flatnonzero(~el.near_nodes(t, 0.0))
     has = np.zeros(len(beta), dtype=bool)
     first = np.full(len(beta), -1)
     first[segment[inner[::-1]]] = inner[::-1]
     has[first >= 0] = True
     y[first[has]] = beta[has].sum(axis=1)
-    for end, share in ((0.0, beta[:, 0] + beta[:, 1] / 2), (1.0, beta[:, 2] + beta[:, 1] / 2)):
-        at = np.flatnonzero((t == end) & ~has[segment])
-        y[at] += share[segment[at]]
+    shares = el.vertex_shares(beta)
+    for i, vertex in enumerate(el.vertices):
+        at_vertex = np.abs(np.asarray(t, dtype=float).reshape(len(t), -1) - np.reshape(vertex, (1, -1))).max(axis=1) == 0
+        at = np.flatnonzero(at_vertex & ~has[segment])
+        y[at] += shares[segment[at], i]
     return y
 
 
 def point_duals(S: int, segment, t, y) -> np.ndarray:
-    """beta (S, 3): the Bernstein duals of point forces ``y`` at (``segment``, ``t``) (module docstring)."""
-    beta = np.zeros((S, 3))
-    np.add.at(beta, np.asarray(segment, dtype=int), bernstein_basis(t) * np.asarray(y, dtype=float)[:, None])
+    """beta (S, w): the Bernstein duals of point forces ``y`` at (``segment``, ``t``) (module docstring)."""
+    phi = bernstein_basis(t)
+    beta = np.zeros((S, phi.shape[1]))
+    np.add.at(beta, np.asarray(segment, dtype=int), phi * np.asarray(y, dtype=float)[:, None])
     return beta
 
 
-def segment_scales(B, U) -> np.ndarray:
-    """Per segment of ``B`` (3 S, n), the largest node scale ``U`` among the nodes its rows read."""
+def segment_scales(B, U, width: int = 3) -> np.ndarray:
+    """Per element of ``B`` (``width`` S, n), the largest node scale ``U`` among the nodes its rows read."""
     R = abs(sp.csr_matrix(B)).tocsr()
     R.data[:] = 1.0
     node = np.asarray(R.multiply(U[None, :]).max(axis=1).todense()).ravel()
-    return node.reshape(-1, 3).max(axis=1)
+    return node.reshape(-1, width).max(axis=1)
 
 
-def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL):
+def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL, width: int = 3):
     """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
     halves per round). ``solve(P)`` solves the nodal problem with the rows ``P`` (k, n) (warm started from
     its previous call: the points of a round are those of the last plus the new ones, appended) and returns
     ``(y, slack, scale, state, active)`` (the point forces, q at the nodes of X_h, each node's displacement
     scale, anything the caller keeps, the rows that carry the forces) or None.
     Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
-    S = B.shape[0] // 3
+    S = B.shape[0] // width
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
     last = np.inf
@@ -129,8 +134,8 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         if out is None:
             return "the nodal problem at the cut points has no exact solution"
         y, slack, scale, state, active = out
-        qmax, tmax = bernstein_argmax((B @ slack).reshape(-1, 3))
-        Us = segment_scales(B, scale)
+        qmax, tmax = bernstein_argmax((B @ slack).reshape(-1, width))
+        Us = segment_scales(B, scale, width)
         rel = np.maximum(qmax, 0.0) / Us
         worst = float(rel.max(initial=0.0))
         if worst <= tol or (worst <= STALL_TOL and worst > 0.5 * last):
@@ -158,7 +163,12 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     n, k = A.shape
     c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
-    passive = list(np.flatnonzero(y > 0))
+    passive = np.flatnonzero(y > 0)
+    if len(passive):        # a warm start's columns may depend on each other (more of them than A has rows)
+        _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
+        d = np.abs(np.diag(Rp))
+        passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
+    passive = list(passive)
     y[~np.isin(np.arange(k), passive)] = 0.0
     Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
     max_iter = 3 * k + 10 if max_iter is None else max_iter
@@ -227,10 +237,12 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         y = settle(y)
         if y is None:
             return None
+        if j not in passive:      # dropped at once: its w_j > 0 was rounding of a column the passive ones
+            dependent.add(j)      # nearly span (else it cycles: measured 1370 times on one column)
     return None
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None):
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None, width: int = 3, factors=None):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
     terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
@@ -246,10 +258,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
     keep = np.diag(W) > 0
-    L = np.zeros_like(W)
-    L[np.ix_(keep, keep)] = sla.cholesky(W[np.ix_(keep, keep)], lower=True)     # W = L L^T
-    Ld = np.zeros(len(d))
-    Ld[keep] = sla.solve_triangular(L[np.ix_(keep, keep)], d[keep], lower=True)
+    factor = psd_factor(W, keep, factors)
+    L = np.zeros((len(d), factor.F.shape[1]))
+    L[keep] = factor.F                                                          # W = L L^T
+    Ld = factor.coordinates(d[keep])
     held = ~keep
     prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
 
@@ -277,8 +289,54 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         r = P.T @ y
         return y, d - W @ r, node_scale(r), r, active
 
-    out = accumulate_cuts(B, solve, segment, t, max_rounds)
+    out = accumulate_cuts(B, solve, segment, t, max_rounds, width=width)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    return out
+
+
+PSD_RANK_TOL = 1e-12
+"""Eigenvalues of the interface compliance below this fraction of its largest are its null space (the nodes of
+X_h outnumber the jump's dofs: the overlay of a 3D surface)."""
+
+
+class PsdFactor:
+    """A factor W = F F^T of a positive semidefinite ``W`` (n, n), computed once: Cholesky where W is definite
+    (the nodes of X_h at most the jump's dofs: 2D); else its eigenvectors with eigenvalues above
+    :data:`PSD_RANK_TOL` of the largest, scaled by their square roots (n, rank): the forces on dependent rows
+    are then not unique, the slack is."""
+
+    def __init__(self, W):
+        W = np.asarray(W, dtype=float)
+        try:
+            self.F, self.cholesky = sla.cholesky(W, lower=True), True
+        except np.linalg.LinAlgError:
+            w, V = np.linalg.eigh(W)
+            big = w > PSD_RANK_TOL * max(float(w.max(initial=0.0)), np.finfo(float).tiny)
+            self.V, self.w, self.cholesky = V[:, big], w[big], False
+            self.F = self.V * np.sqrt(self.w)
+
+    def coordinates(self, d) -> np.ndarray:
+        """c with F c = d (``d`` in the range of W): F^-1 d, or F^+ d."""
+        if self.cholesky:
+            return sla.solve_triangular(self.F, d, lower=True)
+        return (self.V.T @ d) / np.sqrt(self.w)
+
+    def solve(self, h) -> np.ndarray:
+        """z with W z = h (the least-norm solution where W is singular)."""
+        if self.cholesky:
+            return sla.cho_solve((self.F, True), h)
+        return self.V @ ((self.V.T @ h) / self.w)
+
+
+def psd_factor(W, keep, cache=None) -> PsdFactor:
+    """The :class:`PsdFactor` of W restricted to the nodes ``keep``, from ``cache`` (a dict, e.g. kept by the
+    reduction of the problem: the same W serves the cuts and the certificate) when it has it."""
+    key = np.asarray(keep, dtype=bool).tobytes()
+    if cache is not None and key in cache:
+        return cache[key]
+    out = PsdFactor(W[np.ix_(keep, keep)])
+    if cache is not None:
+        cache[key] = out
     return out
 
 
@@ -290,14 +348,14 @@ def _expand(P, ym, moving):
 
 
 def dual_cone_point(beta) -> np.ndarray:
-    """beta (S, 3) moved into the dual cone beta0, beta2 >= 0, beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2) (each
-    entry clipped; beta1 lowered to the bound): an interior point's duals lie in it only to its tolerance."""
-    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
-    beta[:, 1] = np.minimum(beta[:, 1], 2 * np.sqrt(beta[:, 0] * beta[:, 2]))
-    return beta
+    """beta (S, w) moved into the dual cone (segments: each entry clipped, beta1 lowered to 2 sqrt(beta0 beta2);
+    triangles: :meth:`~cvxcontact.contact.bernstein.Triangle.dual_cone_point`): an interior point's duals lie
+    in it only to its tolerance."""
+    beta = np.asarray(beta, dtype=float)
+    return element(beta.shape[1]).dual_cone_point(beta)
 
 
-def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
+def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None):
     """A rigorous bound (scaled energy norm) on ||v - u*||, v the answer of the Bernstein duals ``beta`` and u*
     the exact solution of the conic problem, on the interface compliance (docs/checks.md, "The certified bound").
 
@@ -316,16 +374,21 @@ def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20):
     held = np.zeros(len(d), dtype=bool) if held is None else np.asarray(held, dtype=bool)
     r = B.T @ np.asarray(beta, dtype=float).ravel()
     q = d - W @ r
-    qmax, _ = bernstein_argmax((B @ q).reshape(-1, 3))
+    width = np.asarray(beta).shape[1]
+    qmax, _ = bernstein_argmax((B @ q).reshape(-1, width))
     tau = float(np.maximum(qmax, 0.0).max(initial=0.0))
-    h = (~held).astype(float)
     keep = ~held
+    h = keep.astype(float)
     hw = 0.0
     if tau > 0:
-        w = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), h[keep])
-        hw = float(h[keep] @ w)
+        # the push delta = Sigma^-1 J^T z, z = W^+ h: J delta = W z (= h where h lies in the range of W, as
+        # with a definite W; else its projection, whose feasibility the loop below checks), ||delta||^2 = h . z
+        z = np.zeros(len(d))
+        z[keep] = psd_factor(W, keep, factors).solve(h[keep])
+        h = W @ z
+        hw = float(z @ h)
     for _ in range(max_doublings):
-        b = (B @ (q - tau * h)).reshape(-1, 3)
+        b = (B @ (q - tau * h)).reshape(-1, width)
         if (bernstein_argmax(b)[0] <= 0).all():
             gap = max(float(-(np.asarray(beta).ravel() @ b.ravel())) + 0.5 * tau ** 2 * hw, 0.0)
             return tau * np.sqrt(hw) + np.sqrt(2 * gap), tau, gap

@@ -119,14 +119,14 @@ class ContactModel:
     its translation unknowns tau and F (k,) the prescribed force on them (scaled): a variable ``t[i]``,
     the energy gets -F . tau and the rows become E [u_nu] + R tau <= E g (docs/formulation.md §12).
 
-    ``bernstein``: the P2 "everywhere" condition (docs/formulation.md §8) instead of the rows: ``B`` (3 S, n)
-    of the pair's :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, with E the identity on the nodes
+    ``bernstein``: the P2 "everywhere" condition (docs/formulation.md §8, §16) instead of the rows: ``B``
+    (``width`` S, n; 3 coefficients per segment, 6 per triangle), with E the identity on the nodes
     of X_h and ``gap_rows`` the gap there; ``contact`` is then None and the attributes ``cone`` and ``row``
     hold the constraints of :func:`~cvxcontact.backends.conic.bernstein_constraints` (their duals give the
     Bernstein duals beta, :func:`~cvxcontact.backends.conic.bernstein_duals`).
     """
 
-    def __init__(self, blocks, E, gap_rows, law=None, weights=None, translations=None, bernstein=None):
+    def __init__(self, blocks, E, gap_rows, law=None, weights=None, translations=None, bernstein=None, width=3):
         self.blocks = blocks
         self.u = [cp.Variable(b.Kuu.shape[0], name=f"u{k + 1}") for k, b in enumerate(blocks)]
         self.phi = [cp.Variable(b.Kpp.shape[0], name=f"phi{k + 1}") if b.Kpp is not None else None
@@ -153,7 +153,7 @@ class ContactModel:
             from .conic import bernstein_constraints
 
             self.contact, self.limit_rows = None, None
-            self.cone, self.row, _ = bernstein_constraints(jump, bernstein, gap_rows)
+            self.cone, self.row, _ = bernstein_constraints(jump, bernstein, gap_rows, width)
             contact = [self.cone, self.row]
         else:
             term, self.contact, self.limit_rows = law_rows(jump, gap_rows, weights, law)

@@ -32,6 +32,7 @@ class Condensation:
                        for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
         self.compliance = Compliance(self.bodies, problem.E)
         self.sweeps = None
+        self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
     @property
@@ -94,12 +95,17 @@ def program_fields(model, problem, condensed=None):
     return u, phi, sum(E @ (b.jump @ uk) for b, uk in zip(problem.blocks, u)) - g
 
 
-def held_cone(beta, B, held, c):
+def held_cone(beta, B, held, c, width: int = 3):
     """beta with the entries of the Bernstein rows of ``B`` whose nodes are all ``held`` and whose value
-    (at the cone's gap ``c``) is 0 lowered to the least the dual cone allows (:func:`least_held_duals`)."""
+    (at the cone's gap ``c``) is 0 lowered to the least the dual cone allows (segments:
+    :func:`least_held_duals`; triangles: the duals of a triangle all of whose rows are so are 0, others kept)."""
     if not np.any(held):
         return beta
     rows = (abs(B) @ (~held).astype(float) == 0) & (np.abs(B @ c) <= 1e-12 * max(np.abs(c).max(), 1e-300))
+    if width == 6:
+        out = np.array(beta, dtype=float)
+        out[rows.reshape(-1, 6).all(axis=1)] = 0.0
+        return out
     return least_held_duals(beta, rows.reshape(-1, 3))
 
 

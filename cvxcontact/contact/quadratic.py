@@ -24,17 +24,16 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
+from .bernstein import bernstein_argmax, bernstein_basis, bernstein_map, bernstein_max, point_rows  # noqa: F401
 from .interface import CONDITIONS, Interface, read_only, normal_jump
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
            "bernstein_max", "bernstein_argmax", "bernstein_basis", "point_rows", "ConeRowLaws", "P2Pairs", "p2_pairs"]
-
-_BERNSTEIN = np.array([[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]])   # (q0, q_mid, q1) -> (b0, b1, b2)
-
 
 def p2_interpolation(xv, pts) -> sp.csr_matrix:
     """(len(pts), 2 len(xv) - 1): evaluates at ``pts`` the continuous P2 function on the 1D mesh with
@@ -47,62 +46,6 @@ def p2_interpolation(xv, pts) -> sp.csr_matrix:
     M = sp.csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(len(pts), 2 * len(xv) - 1))
     M.eliminate_zeros()
     return M
-
-
-def bernstein_max(b) -> np.ndarray:
-    """Exact maximum over t in [0, 1] of q(t) = b0 (1-t)^2 + 2 b1 t (1-t) + b2 t^2, per row of ``b`` (k, 3):
-    the larger endpoint value, or the vertex value (b0 b2 - b1^2) / (b0 - 2 b1 + b2) of a concave q whose
-    vertex t* = (b0 - b1) / (b0 - 2 b1 + b2) lies inside (0, 1)."""
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    out = np.maximum(b0, b2)
-    a = b0 - 2 * b1 + b2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ts = (b0 - b1) / a
-        inner = (a < 0) & (ts > 0) & (ts < 1)
-        vertex = np.where(inner, (b0 * b2 - b1 ** 2) / a, -np.inf)
-    return np.maximum(out, vertex)
-
-
-def bernstein_argmax(b) -> tuple[np.ndarray, np.ndarray]:
-    """(q_max, t_max) per row of ``b`` (k, 3): the maximum of q(t) = b0 (1-t)^2 + 2 b1 t (1-t) + b2 t^2 over
-    [0, 1] and a point where it is reached (:func:`bernstein_max`). The value at an interior vertex
-    t* = (b0 - b1) / (b0 - 2 b1 + b2) is evaluated in the Bernstein form itself (non-negative weights summing to
-    one: no cancellation), not by the closed form (b0 b2 - b1^2) / (b0 - 2 b1 + b2)."""
-    b = np.asarray(b, dtype=float)
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    q = np.maximum(b0, b2)
-    t = np.where(b2 > b0, 1.0, 0.0)
-    a = b0 - 2 * b1 + b2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ts = np.where(a < 0, (b0 - b1) / a, -1.0)
-    inner = (ts > 0) & (ts < 1)
-    tv = np.where(inner, ts, 0.0)
-    qv = (bernstein_basis(tv) * b).sum(axis=1)
-    better = inner & (qv > q)
-    return np.where(better, qv, q), np.where(better, tv, t)
-
-
-def bernstein_basis(t) -> np.ndarray:
-    """(k, 3): the Bernstein basis ((1-t)^2, 2 t (1-t), t^2) at the points ``t`` of [0, 1]. A point force y at t
-    on a merged segment has the Bernstein duals beta = y (1-t)^2, 2 y t (1-t), y t^2), which lie on the boundary
-    of the dual cone of docs/formulation.md §8 (beta1^2 = 4 beta0 beta2)."""
-    t = np.asarray(t, dtype=float)
-    return np.column_stack([(1 - t) ** 2, 2 * t * (1 - t), t ** 2])
-
-
-def point_rows(B, segment, t) -> sp.csr_matrix:
-    """(k, n): the rows evaluating q at the points ``t`` (k,) of the merged segments ``segment`` (k,), from the
-    Bernstein map ``B`` (3 S, n) of :meth:`QuadraticInterface.bernstein` (or of ``cone_rows``): row p is
-    phi(t_p)^T B_s, phi the Bernstein basis, i.e. the P2 Lagrange basis of segment s at t_p (a nodal row
-    (e, e, e) of ``cone_rows`` gives e itself). The condition "q <= 0 at these points" is linear."""
-    segment = np.asarray(segment, dtype=int)
-    k = len(segment)
-    cols = 3 * segment[:, None] + np.arange(3)
-    Phi = sp.csr_matrix((bernstein_basis(t).ravel(), (np.repeat(np.arange(k), 3), cols.ravel())),
-                        shape=(k, B.shape[0]))
-    P = (Phi @ sp.csr_matrix(B)).tocsr()
-    P.eliminate_zeros()
-    return P
 
 
 class _Trace2:
@@ -230,13 +173,11 @@ class QuadraticInterface:
     def bernstein(self) -> sp.csr_matrix:
         """(3 S, size) map from nodal values of X_h to the Bernstein coefficients, rows (b0, b1, b2) of
         segment 0, then segment 1, ..."""
-        S = len(self.segments)
-        rows = np.repeat(np.arange(3 * S), 3)
-        cols = np.repeat(self.segments, 3, axis=0).ravel()
-        vals = np.tile(_BERNSTEIN.ravel(), S)
-        B = sp.csr_matrix((vals, (rows, cols)), shape=(3 * S, self.size))
-        B.eliminate_zeros()
-        return B
+        return bernstein_map(self.segments, self.size)
+
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h (N/m for forces ``r`` in N) at the nodes of X_h: M lambda_h = r (docs/formulation.md §8)."""
+        return spla.spsolve(self.mass.tocsc(), np.asarray(r, dtype=float))
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(size, n_trace_k): evaluates P2 functions on the pair's body k's trace at the merged P2 nodes."""
@@ -377,6 +318,10 @@ class QuadraticStack:
         """Pair i's slice of a stacked array."""
         return [values[a:b] for a, b in zip(self.offsets[:-1], self.offsets[1:])]
 
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h of every pair (its ``multiplier`` of its slice of the stacked forces ``r``), concatenated."""
+        return np.concatenate([itf.multiplier(ri) for itf, ri in zip(self.interfaces, self.split(r))])
+
     def cone_rows(self, condition, conditions=None):
         """(B, segments): the conic rows of every pair when some pairs are under "gamma3" and others under a
         nodal condition (docs/formulation.md §8, "Several pairs"). A "gamma3" pair contributes its
@@ -384,7 +329,10 @@ class QuadraticStack:
         :meth:`QuadraticInterface.evaluation` three times, (b0, b1, b2) = (e q, e q, e q), the Bernstein
         coefficients of the constant e q, which the cone holds non-positive iff e q <= 0: exactly the nodal
         row; its "segment" is the (up to three) nodes of X_h that row reads, the first repeated to fill
-        three. B is (3 S, size) on the stacked nodes of X_h, ``segments`` (S, 3) stacked node indices."""
+        three. B is (3 S, size) on the stacked nodes of X_h, ``segments`` (S, 3) stacked node indices. On 3D
+        surfaces (triangles, 6 coefficients each) the same with six: a nodal row repeated six times is the
+        constant e q on a degenerate triangle, whose copositive condition is e q <= 0."""
+        w = np.asarray(self.interfaces[0].segments).shape[1]
         blocks, segs = [], []
         for itf, c, o in zip(self.interfaces, self._each(condition, conditions), self.offsets):
             if c == "gamma3":
@@ -392,11 +340,11 @@ class QuadraticStack:
                 segs.append(np.asarray(itf.segments) + o)
                 continue
             E = itf.evaluation(c).tocsr()
-            blocks.append(sp.csr_matrix(E[np.repeat(np.arange(E.shape[0]), 3)]))
-            seg = np.empty((E.shape[0], 3), dtype=int)
+            blocks.append(sp.csr_matrix(E[np.repeat(np.arange(E.shape[0]), w)]))
+            seg = np.empty((E.shape[0], w), dtype=int)
             for r in range(E.shape[0]):
                 cols = E.indices[E.indptr[r]:E.indptr[r + 1]]
-                seg[r] = np.resize(cols, 3) if len(cols) else 0
+                seg[r] = np.resize(cols, w) if len(cols) else 0
             segs.append(seg + o)
         return sp.block_diag(blocks, format="csr"), read_only(np.concatenate(segs))
 

@@ -26,7 +26,9 @@ import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
 from ..errors import SceneError
+from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only
+from .riesz import TraceRiesz
 
 __all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "locate"]
 
@@ -247,15 +249,31 @@ class QuadraticSurface:
 
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: the rows evaluate X_h where the nodal condition is imposed: "sigma1"/"sigma2" at the P2 nodes of
-        that body's faces inside the overlap (vertices and edge midpoints); with an obstacle every node of X_h.
-        "gamma3" between two bodies is the copositive condition, not nodal rows (SceneError here)."""
+        that body's faces inside the overlap (vertices and edge midpoints); with an obstacle, and under
+        "gamma3" (the nodal relaxation of the copositive condition, :meth:`bernstein`), every node of X_h."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        if self.rigid:
+        if self.rigid or condition == "gamma3":
             return sp.identity(self.size, format="csr")
-        if condition == "gamma3":
-            raise SceneError("'gamma3' with P2 surfaces is not a set of nodal rows; use 'sigma1' or 'sigma2'")
         return self._sigma[int(condition[-1]) - 1][1]
+
+    def bernstein(self) -> sp.csr_matrix:
+        """(6 T, size): the map from nodal values of X_h to the Bernstein coefficients (b00, b11, b22, b01, b12,
+        b20) of each of its triangles ``cells`` (overlay triangles; against an obstacle the faces all of whose
+        P2 nodes reach it): "q <= 0 on every triangle" is the copositive condition of docs/formulation.md §16
+        (:mod:`cvxcontact.contact.bernstein`)."""
+        return bernstein_map(self.cells, self.size)
+
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: between two bodies the Riesz representer
+        in the jumps of the two P2 traces, T1 + T2 (:class:`~cvxcontact.contact.riesz.TraceRiesz`: unique where
+        the forces at the overlay's nodes are not, e.g. under the copositive condition); with an obstacle
+        M lambda_h = r."""
+        key = "riesz"
+        if key not in self._factors:
+            self._factors[key] = (spla.splu(self.mass.tocsc()) if self.rigid
+                                  else TraceRiesz(self._interp, self.mass))
+        return self._factors[key].solve(np.asarray(r, dtype=float))
 
     def pressure(self, k, r) -> np.ndarray:
         """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].x``): the Riesz

@@ -16,16 +16,15 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
-from ..errors import SceneError
+from ..errors import SceneError, UnsupportedError
 from .interface import CONDITIONS, normal_jump, read_only
 from .overlay import OVERLAY_TOL, overlay
+from .riesz import TraceRiesz
 
-__all__ = ["SurfaceTrace", "SurfaceInterface", "canonical_frame"]
+__all__ = ["SurfaceTrace", "SurfaceInterface", "CurvedTrace", "CurvedSurfaceInterface", "canonical_frame", "is_planar"]
 
 _REL_TOL = 1e-9     # geometric tolerance relative to the scene size (as in 2D)
 _ANGLE_TOL = 1e-8   # largest angle between a face's normal and the part's normal (radians)
-_RIESZ_SHIFT = 1e-12    # relative diagonal shift of the singular Gram matrix (iterated, see multiplier)
-_RIESZ_STEPS = 50
 
 
 def canonical_frame(normal) -> np.ndarray:
@@ -55,21 +54,14 @@ class SurfaceTrace:
         label = f"{body.name}: contact part {part!r}"
         if part not in mesh.tags:
             raise SceneError(f"{label}: unknown boundary tag; the mesh has {sorted(mesh.tags)}")
-        faces = np.asarray(mesh.boundary(part))
+        faces, areas, n, deviation, turn = _flatness(mesh, part)
         if len(faces) == 0:
             raise SceneError(f"{label} has no face")
-        normals = np.asarray(mesh.outward_normals(part), dtype=float)
-        areas = np.asarray(mesh.face_areas(part), dtype=float)
-        n = (areas[:, None] * normals).sum(axis=0)
-        size = np.linalg.norm(n)
-        if size <= 1e-12 * areas.sum():
+        if n is None:
             raise SceneError(f"{label} is not planar: its outward face normals cancel (a closed or folded surface)")
-        n /= size
         nodes = np.unique(faces)
         points = np.asarray(mesh.points, dtype=float)[nodes]
         offset = float(np.mean(points @ n))
-        deviation = float(np.abs(points @ n - offset).max())
-        turn = float(np.arctan2(np.linalg.norm(np.cross(normals, n), axis=1), normals @ n).max())
         if deviation > tol or turn > _ANGLE_TOL:
             raise SceneError(f"{label} is not planar: its nodes leave its mean plane (normal ({n[0]:.6g}, "
                              f"{n[1]:.6g}, {n[2]:.6g})) by up to {deviation:.3g} m and its face normals turn by "
@@ -96,6 +88,38 @@ class SurfaceTrace:
         rows = np.repeat(self.faces, 3, axis=1).ravel()
         cols = np.tile(self.faces, (1, 3)).ravel()
         return sp.csr_matrix(((area[:, None, None] * local).ravel(), (rows, cols)), shape=(len(self.nodes),) * 2)
+
+
+def _flatness(mesh, part):
+    """(faces, areas (m^2), n, deviation (m), turn (rad)) of boundary part ``part``: its faces and their areas,
+    the unit area-weighted mean of its outward normals n (None if they cancel), the largest distance of its
+    nodes from their mean plane normal to n, and the largest angle between a face's normal and n."""
+    faces = np.asarray(mesh.boundary(part))
+    if len(faces) == 0:
+        return faces, np.zeros(0), None, np.inf, np.inf
+    normals = np.asarray(mesh.outward_normals(part), dtype=float)
+    areas = np.asarray(mesh.face_areas(part), dtype=float)
+    n = (areas[:, None] * normals).sum(axis=0)
+    size = np.linalg.norm(n)
+    if size <= 1e-12 * areas.sum():
+        return faces, areas, None, np.inf, np.inf
+    n = n / size
+    h = np.asarray(mesh.points, dtype=float)[np.unique(faces)] @ n
+    deviation = float(np.abs(h - h.mean()).max())
+    turn = float(np.arctan2(np.linalg.norm(np.cross(normals, n), axis=1), normals @ n).max())
+    return faces, areas, n, deviation, turn
+
+
+def is_planar(body, part, tol: float | None = None) -> bool:
+    """Whether boundary part ``part`` of the 3D ``body`` is one plane, by the test of :class:`SurfaceTrace`
+    (nodes within ``tol`` (m; default 1e-9 of the mesh size) of the mean plane, face normals within 1e-8 rad);
+    True for an unknown or empty part (:class:`SurfaceTrace` names those)."""
+    mesh = body.mesh
+    if part not in mesh.tags:
+        return True
+    tol = _REL_TOL * mesh.size if tol is None else tol
+    faces, _, n, deviation, turn = _flatness(mesh, part)
+    return len(faces) == 0 or (n is not None and deviation <= tol and turn <= _ANGLE_TOL)
 
 
 class SurfaceInterface:
@@ -276,28 +300,206 @@ class SurfaceInterface:
                 self._factor = spla.splu(self.mass.tocsc())
             return self._factor.solve(r)
         if self._factor is None:
-            G = sp.hstack(self._interp, format="csc")
-            d = np.asarray(G.multiply(self.mass @ G).sum(axis=0)).ravel()      # int psi^2 over the overlap
-            G = G[:, np.flatnonzero(d > 1e-14 * d.max())].tocsr()           # hats that meet the overlap
-            A = (G.T @ self.mass @ G).tocsc()
-            self._factor = (G, A, spla.splu((A + sp.diags(_RIESZ_SHIFT * A.diagonal())).tocsc()))
-        G, A, lu = self._factor
-        b = G.T @ r
-        c = np.zeros(A.shape[0])
-        size = max(float(np.abs(b).sum()), np.finfo(float).tiny)
-        best, since = (np.inf, c), 0
-        for _ in range(_RIESZ_STEPS):
-            now = float(np.abs(b - A @ c).sum()) / size
-            best, since = ((now, c), 0) if now < best[0] else (best, since + 1)
-            if now <= 1e-14 or since == 3:               # converged, or stalled at the rounding of G c
-                break
-            c = c + lu.solve(b - A @ c)
-        return G @ best[1]
+            self._factor = TraceRiesz(self._interp, self.mass)
+        return self._factor.solve(r)
 
     def pressure(self, k, r) -> np.ndarray:
         """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces
         interpolation(k)^T r (N; exact work equivalence) over its lumped areas ``traces[k].lumped``."""
         return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
+
+
+class CurvedTrace:
+    """The P1 trace of one body on a curved boundary part facing a planar part (plane unit normal ``n_p``, the
+    planar body's outward normal; in-plane axes ``frame``): ``faces`` (k, 3) (indices into ``nodes``), ``nodes``
+    (n,) its mesh nodes (sorted), ``points`` (n, 3) m, ``unit_normal`` = -n_p (the direction along which the
+    pair measures this side's displacement, not the surface's own normal), ``offset`` = -(the plane's x . n_p)
+    (m; as the planar partner's side would have), ``frame`` (2, 3), ``x`` (n, 2) the in-plane coordinates of the
+    nodes' projections on the plane (m), ``lumped`` (n,) the area of the curved part attributed to each node
+    (m^2, a third of each face's true area)."""
+
+    def __init__(self, body, k, part, n_p, offset, frame):
+        mesh = body.mesh
+        faces, areas, n, _, _ = _flatness(mesh, part)
+        label = f"{body.name}: contact part {part!r}"
+        if len(faces) == 0:
+            raise SceneError(f"{label} has no face")
+        if n is None or n @ n_p >= 0:
+            raise SceneError(f"{label} (curved) does not face the planar part: the area-weighted mean of its outward "
+                             f"normals is {'zero' if n is None else '(' + _v(n) + ')'}, the planar part's outward "
+                             f"normal ({_v(n_p)}); the curved part must turn towards the plane (mean normal . n < 0)")
+        nodes = np.unique(faces)
+        points = np.asarray(mesh.points, dtype=float)[nodes]
+        self.nodes = read_only(nodes)
+        self.faces = read_only(np.searchsorted(nodes, faces))
+        self.points = read_only(points)
+        self.unit_normal = self.normal = read_only(-np.asarray(n_p, dtype=float))
+        self.offset = -float(offset)
+        self.frame = read_only(frame)
+        self.x = read_only(points @ np.asarray(frame).T)
+        lumped = np.zeros(len(nodes))
+        np.add.at(lumped, self.faces.ravel(), np.repeat(areas / 3.0, 3))
+        self.lumped = read_only(lumped)
+        self.k, self.part, self.body = k, part, body
+
+
+class CurvedSurfaceInterface:
+    """A node-to-face contact pair: a curved part of one body against a planar part of the other
+    (docs/formulation.md, "A curved part against a planar one"), with the protocol of
+    :class:`SurfaceInterface`. ``CurvedSurfaceInterface(bodies, parts, curved)``: ``curved`` (0 or 1) is the
+    index of the body whose part is curved.
+
+    Each node x of the curved part is projected along the planar part's outward normal n_p onto its plane; the
+    nodes whose projection X falls on the planar part (within a relative tolerance) are the nodes of X_h and the
+    rows of the only condition posed, K_h(Sigma_h^l) with l the curved body ("sigma1" or "sigma2"). The initial
+    gap at x is (x - X) . n_p (``obstacle_gap``; the pair's gap is added), the jump
+    [u_nu](x) = u^l(x) . (-n_p) + (P1 interpolant of u^p at X) . n_p, u^p the planar body's displacement on the
+    face triangle holding X. Nodes whose projection misses the planar part are free. X_h: the hats of the curved
+    trace at those nodes with the lumped (diagonal) mass, so lambda_h is each row's force over the node's
+    lumped area of the curved part, which is also the pressure that body feels.
+
+    ``normal`` is nu^a of the first body's side: n_p if the planar body is first, -n_p otherwise; ``x`` (v, 2)
+    the in-plane coordinates of the projections, ``points`` (v, 3) the curved nodes themselves (m), ``reach``
+    their indices in ``traces[curved]``, ``cells`` the curved faces whose three nodes are rows (numbered as the
+    nodes of X_h).
+    """
+
+    dim = 3
+    rigid = False
+    obstacle = None
+    overlay = None
+
+    def __init__(self, bodies, parts, curved: int, tol: float = OVERLAY_TOL):
+        bodies, parts = tuple(bodies), tuple(parts)
+        if curved not in (0, 1) or len(bodies) != 2 or len(parts) != 2:
+            raise SceneError(f"a curved pair takes two bodies, two parts and curved = 0 or 1, got {curved!r}")
+        planar = 1 - curved
+        geo_tol = _REL_TOL * max(b.mesh.size for b in bodies)
+        plane = SurfaceTrace(bodies[planar], planar, geo_tol, parts[planar])
+        n_p = np.asarray(plane.unit_normal)
+        curve = CurvedTrace(bodies[curved], curved, parts[curved], n_p, plane.offset, plane.frame)
+        self.curved = curved
+        self.label = (f"{bodies[curved].name} {parts[curved]!r} (curved) against {bodies[planar].name} "
+                      f"{parts[planar]!r} (planar)")
+        self.traces = [plane, curve] if planar == 0 else [curve, plane]
+        self.normal = read_only(n_p if planar == 0 else -n_p)
+        self.frame, self.offset = plane.frame, (plane.offset if planar == 0 else -plane.offset)
+        face, bary = _locate(curve.x, plane.x, plane.faces, tol)
+        hit = np.flatnonzero(face >= 0)
+        if len(hit) == 0:
+            raise SceneError(f"{self.label}: no node of the curved part lies over the planar part along its normal "
+                             f"({_v(n_p)}): in the plane's axes the curved part spans {_box(curve.x)} and the planar "
+                             f"part {_box(plane.x)} (m)")
+        self.reach = read_only(hit)
+        self.x = read_only(curve.x[hit])
+        self.points = read_only(curve.points[hit])
+        self._gap = read_only(curve.points[hit] @ n_p - plane.offset)
+        size = len(hit)
+        own = sp.csr_matrix((np.ones(size), (np.arange(size), hit)), shape=(size, len(curve.nodes)))
+        cols = plane.faces[face[hit]]
+        other = sp.csr_matrix((bary[hit].ravel(), (np.repeat(np.arange(size), 3), cols.ravel())),
+                              shape=(size, len(plane.nodes)))
+        other.eliminate_zeros()
+        self._interp = [other, own] if planar == 0 else [own, other]
+        self.sigma = tuple(read_only(np.arange(size) if k == curved else np.zeros(0, dtype=int)) for k in (0, 1))
+        self._lumped = read_only(curve.lumped[hit])
+        self.mass = sp.diags(self._lumped, format="csr")
+        where = np.full(len(curve.nodes), -1)
+        where[hit] = np.arange(size)
+        cells = where[curve.faces]
+        self.cells = read_only(cells[(cells >= 0).all(axis=1)])
+
+    @property
+    def size(self) -> int:
+        """Number of nodes of X_h (curved nodes over the planar part)."""
+        return len(self.x)
+
+    @property
+    def area(self) -> float:
+        """Area (m^2) of the curved part attributed to the nodes of X_h (their lumped areas)."""
+        return float(self._lumped.sum())
+
+    def obstacle_gap(self) -> np.ndarray:
+        """The initial gap (m) at each node of X_h: its distance (x - X) . n_p from the plane along the planar
+        part's normal (negative: the node starts inside the planar body)."""
+        return np.array(self._gap)
+
+    def interpolation(self, k) -> sp.csr_matrix:
+        """(size, n_trace_k): body k's P1 trace functions at the nodes of X_h (the curved body's: its own nodes;
+        the planar body's: at their projections)."""
+        return self._interp[k]
+
+    def jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 3 n_nodes): body k's part of [u_nu] at the nodes of X_h (the curved side along -n_p, the
+        planar side along n_p), from its nodal displacements (x, y, z interleaved)."""
+        t = self.traces[k]
+        return normal_jump(self._interp[k], t.nodes, t.unit_normal, 3 * n_nodes)
+
+    def _rows(self, condition) -> np.ndarray:
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        own = f"sigma{self.curved + 1}"
+        if condition != own:
+            raise UnsupportedError(
+                f"{self.label}: condition {condition!r} is not available on a curved part (it needs the overlay of "
+                f"a curved surface with a plane); use {own!r}, the nodal condition at the curved body's nodes: "
+                f"Contact(..., condition={own!r}) or solve(..., condition={own!r})")
+        return np.arange(self.size)
+
+    def evaluation(self, condition) -> sp.csr_matrix:
+        """E: the identity on the nodes of X_h under the curved body's nodal condition (UnsupportedError,
+        naming the pair, for any other)."""
+        rows = self._rows(condition)
+        return sp.identity(len(rows), format="csr")
+
+    def weights(self, condition) -> np.ndarray:
+        """The lumped areas (m^2) of the curved part at the rows (a compliance law's quadrature)."""
+        self._rows(condition)
+        return np.array(self._lumped)
+
+    def extend(self, condition, values) -> np.ndarray:
+        """``values`` at the rows, which are every node of X_h."""
+        self._rows(condition)
+        return np.asarray(values, dtype=float).copy()
+
+    def multiplier(self, r) -> np.ndarray:
+        """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: M lambda_h = r with the lumped mass, i.e.
+        each row's force over its node's lumped area of the curved part."""
+        return np.asarray(r, dtype=float) / self._lumped
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by body k on its own trace nodes: its nodal forces interpolation(k)^T r (N)
+        over its lumped areas ``traces[k].lumped``."""
+        return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
+
+
+def _locate(x, coords, triangles, tol):
+    """(triangle, barycentric): for each point ``x`` (k, 2) a triangle of (``coords``, ``triangles``) holding
+    it (barycentric coordinates >= -tol; -1 if none) and its barycentric coordinates there (clipped to >= 0,
+    summing to 1). Candidates by a k-d tree on the centroids."""
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(coords, dtype=float)[np.asarray(triangles)]
+    c = P.mean(axis=1)
+    radius = float(np.linalg.norm(P - c[:, None], axis=2).max())
+    near = cKDTree(c).query_ball_point(x, radius * (1 + 1e-9))
+    counts = np.fromiter(map(len, near), dtype=int, count=len(near))
+    point = np.repeat(np.arange(len(x)), counts)
+    cand = np.concatenate([np.asarray(n, dtype=int) for n in near]) if counts.sum() else np.zeros(0, dtype=int)
+    T = np.stack([P[cand, 1] - P[cand, 0], P[cand, 2] - P[cand, 0]], axis=2)
+    l12 = np.linalg.solve(T, (x[point] - P[cand, 0])[..., None])[..., 0] if len(cand) else np.zeros((0, 2))
+    L = np.column_stack([1.0 - l12.sum(axis=1), l12])
+    inside = L.min(axis=1) >= -tol
+    point, cand, L = point[inside], cand[inside], L[inside]
+    first = np.full(len(x), -1)
+    at, index = np.unique(point, return_index=True)
+    first[at] = index
+    tri = np.full(len(x), -1)
+    bary = np.zeros((len(x), 3))
+    found = first >= 0
+    tri[found] = cand[first[found]]
+    bary[found] = np.clip(L[first[found]], 0.0, None)
+    bary[found] /= bary[found].sum(axis=1, keepdims=True)
+    return tri, bary
 
 
 def _v(a) -> str:

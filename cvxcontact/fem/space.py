@@ -8,7 +8,7 @@ the backends, the read-back) asks the space and never branches on the degree.
 
 ``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
 docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
-the 3D ones (P2Tet in contact: the nodal conditions and rigid obstacles);
+the 3D ones;
 :func:`space` gives the one of a degree and a dimension.
 """
 
@@ -209,8 +209,8 @@ class P2Tet(P2):
     """P2 (10-node) tetrahedra built on the P1 mesh (vertices, then edge midpoints); in contact, the planar
     surfaces with P2 traces (:class:`~cvxcontact.contact.quadratic3d.QuadraticSurface`: X_h the continuous
     piecewise quadratics on the overlay, docs/formulation.md §15) under the nodal conditions "sigma1"/"sigma2"
-    (rows at that body's P2 face nodes) and against rigid obstacles (rows at the body's P2 face nodes that
-    reach it), Signorini law only."""
+    (rows at that body's P2 face nodes; against a rigid obstacle at its P2 face nodes that reach it) and under
+    "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16), Signorini law only."""
 
     degree, dim = 2, 3
 
@@ -224,20 +224,25 @@ class P2Tet(P2):
             raise UnsupportedError("a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
                                    "degree=1, or the Signorini law")
         conditions = [c or condition for c in scene.conditions]
-        for i, (itf, c) in enumerate(zip(scene.interfaces, conditions)):
-            if c == "gamma3" and not itf.rigid:
-                raise UnsupportedError(f"contacts[{i}]: 'gamma3' between two bodies with P2 (10-node) tetrahedra "
-                                       "is not available: use 'sigma1' or 'sigma2' (nodal conditions at one "
-                                       "body's P2 face nodes), or degree=1")
+        for i, itf in enumerate(scene.interfaces):
+            if getattr(itf, "curved", None) is not None:
+                raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
+                                       "tetrahedra is not available: use degree=1")
         members = scene.stack.members
         pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
                  for itf, m in zip(scene.interfaces, members)]
         stack = QuadraticStack(pairs, members)
-        E = stack.evaluation(condition, conditions)
-        rows = RowLaws(laws, np.diff(stack.row_offsets(condition, conditions)))
+        cone = None
+        if "gamma3" in conditions:       # the copositive condition on the gamma3 pairs' triangles (§16)
+            E = sp.identity(stack.size, format="csr")
+            cone = stack.cone_rows(condition, conditions)
+        else:
+            E = stack.evaluation(condition, conditions)
+        counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
+        rows = RowLaws(laws, counts)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
-                            E=E, cone=None, rows=rows, weights=None, cone_pairs=None, gap=gap,
+                            E=E, cone=cone, rows=rows, weights=None, cone_pairs=None, gap=gap,
                             obstacles=tuple(_p2_obstacles(scene, stack, self.dim)))
 
 

@@ -182,7 +182,7 @@ def _axis(lo, hi, n, breaks, p, ratio, name):
 def _graded(ends, n, p, c):
     """n + 1 grid coordinates from ends[0] to ends[-1] with a line at each of ``ends``, equidistributing
     the density 1 / (1 + c |x - p|) (cells spread over the sub-intervals by their share of it)."""
-    lo, hi = ends[0], ends[-1]
+    hi = ends[-1]
 
     def F(x):                                      # cumulative density
         d = x - p

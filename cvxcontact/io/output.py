@@ -208,9 +208,12 @@ def _side_displacements(solution, pair=0):
 def surface_cells(itf) -> np.ndarray:
     """(c, 3) triangles on the nodes of X_h of a 3D contact pair (``itf`` a
     :class:`~cvxcontact.contact.surface.SurfaceInterface`): the cells of the overlay of the two bodies' faces,
-    or, against a rigid obstacle, the body's faces whose three nodes reach it, numbered as the nodes of X_h."""
+    or, against a rigid obstacle, the body's faces whose three nodes reach it, or, for a curved part against a
+    planar one, the curved part's faces whose three nodes lie over the plane, numbered as the nodes of X_h."""
     if itf.overlay is not None:
         return np.asarray(itf.overlay.triangles)
+    if getattr(itf, "curved", None) is not None:        # a curved part's faces over the planar one
+        return np.asarray(itf.cells)
     t = itf.traces[0]
     where = np.full(len(t.nodes), -1)
     where[itf.reach] = np.arange(len(itf.reach))

@@ -127,13 +127,14 @@ class Model:
         self._weights, self._law = p.weights, p.scaled_law
         self._cone = p.lines.cone
         self._bernstein = self._cone[0] if self._cone is not None else None
+        self._width = self._cone[1].shape[1] if self._cone is not None else 3     # 3: segments, 6: triangles
         self._limit = mixed_bernstein_rows(p) if p.mixed else None      # the cones of a mixed program (§10)
         if self._limit is not None:
             self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
                                             translations=self._translations)
         else:
             self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
-                                         bernstein=self._bernstein, translations=self._translations)
+                                         bernstein=self._bernstein, translations=self._translations, width=self._width)
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -314,7 +315,8 @@ class Model:
                 z = z + self._limit.T @ beta.ravel()
             y = self._weights * self._law.pressure(r) + z
         elif conic:    # the nodal force r = B^T beta on X_h (E = I)
-            beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._bernstein, held, g)
+            beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row, self._width), self._bernstein,
+                             held, g, self._width)
             y = self._bernstein.T @ beta.ravel()
         else:
             y = np.where(held, 0.0, np.asarray(self._contact.contact.dual_value, dtype=float).ravel())

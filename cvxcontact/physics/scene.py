@@ -343,10 +343,16 @@ def mesh_dim(body) -> int:
 
 def pair_interface(bodies, parts=None, obstacle=None):
     """The contact geometry of one pair: a straight line in 2D (:class:`~cvxcontact.contact.interface.Interface`),
-    a planar surface in 3D (:class:`~cvxcontact.contact.surface.SurfaceInterface`)."""
+    a planar surface in 3D (:class:`~cvxcontact.contact.surface.SurfaceInterface`), or in 3D a curved part of one
+    body against a planar part of the other (:class:`~cvxcontact.contact.surface.CurvedSurfaceInterface`)."""
     parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
     if mesh_dim(bodies[0]) == 3:
-        from ..contact.surface import SurfaceInterface
+        from ..contact.surface import CurvedSurfaceInterface, SurfaceInterface, is_planar
+        if obstacle is None and len(bodies) == 2:
+            tol = 1e-9 * max(b.mesh.size for b in bodies)
+            flat = [is_planar(b, p, tol) for b, p in zip(bodies, parts)]
+            if flat.count(False) == 1:
+                return CurvedSurfaceInterface(tuple(bodies), parts, curved=flat.index(False))
         return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
     return Interface(tuple(bodies), parts, obstacle=obstacle)
 
@@ -700,17 +706,16 @@ class Scene(Frozen):
     def _surface_gap(self, i, itf, s):
         """3D: the gap (m) at the overlay vertices of pair ``i`` (or at in-plane points ``s`` (k, 2), m): the
         pair's gap g(s1, s2) of the in-plane coordinates (s1, s2) of the pair's frame, plus the distance to a
-        rigid obstacle along the body's normal."""
+        rigid obstacle along the body's normal, or from a curved part's nodes to the plane of its partner."""
         given = self._given_gap if self._legacy else self.contacts[i]._given_gap
         load = Load(given, f"contacts[{i}]: gap g(s1, s2)", 1)
         s = itf.x if s is None else np.asarray(s, dtype=float)
         g = np.array(load(s[:, 0], s[:, 1]), dtype=float)
-        if itf.rigid:
-            if s is itf.x:
-                g = g + itf.obstacle_gap()
-            else:                                    # other in-plane points: their distance to the obstacle
-                points = itf.offset * itf.normal + s @ itf.frame
-                g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
+        if s is itf.x:                               # the distance to an obstacle, or from a curved part's nodes
+            g = g + itf.obstacle_gap()               # to the plane (0 between two planar parts)
+        elif itf.rigid:                              # other in-plane points: their distance to the obstacle
+            points = itf.offset * itf.normal + s @ itf.frame
+            g = g + np.asarray(itf.obstacle.distance(points, itf.normal), dtype=float)
         return g
 
     def gap_values(self) -> np.ndarray:

@@ -19,7 +19,7 @@ import scipy.sparse as sp
 
 from ..backends.cuts import segment_scales
 from ..backends.finish import force_displacements, ipm_active, node_scales  # noqa: F401  (re-exported)
-from ..contact.quadratic import bernstein_max
+from ..contact.bernstein import bernstein_max, element
 
 __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
@@ -106,16 +106,18 @@ def rows_active(slack, S, z, norms, Z):
 def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
-    ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (3 S, n) the Bernstein map,
-    ``g`` the gap at the nodes of X_h and ``beta`` (S, 3) the Bernstein duals. Per merged segment s,
-    with b_s the Bernstein coefficients of q = [u_h nu] - g_h, U_s the largest displacement scale of its
-    three nodes (both bodies' normal displacements and the gap) and Y the largest entry of beta:
+    ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (w S, n) the Bernstein map,
+    ``g`` the gap at the nodes of X_h and ``beta`` (S, w) the Bernstein duals (w = 3 per merged segment, 6 per
+    overlay triangle in 3D, §16). Per element s, with b_s the Bernstein coefficients of q = [u_h nu] - g_h,
+    U_s the largest displacement scale of its nodes (both bodies' normal displacements and the gap) and Y the
+    largest entry of beta:
 
         equilibrium      as in :func:`checks`, with M lambda_h = r                           (26)
-        feasibility      max_s max_{t in [0,1]} q_s(t)^+ / U_s   (exact: :func:`bernstein_max`)
+        feasibility      max_s max_{element} q_s^+ / U_s   (exact: :func:`bernstein_max`)
         complementarity  max_s sqrt(|beta_s . b_s| / (Y U_s))                                (27)
-        cone             max_s of the distance of beta_s to the dual cone beta0, beta2 >= 0,
-                         beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2), over Y
+        cone             max_s of the distance of beta_s to the dual cone (segments: beta0, beta2 >= 0,
+                         beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2); triangles: Z positive semidefinite
+                         and non-negative), over Y
 
     ``force_scale``: a force scale (scaled) Y may not fall below, e.g. the compliance force of a P2
     penetration limit (docs/formulation.md §10), whose cone may carry no force at all.
@@ -132,12 +134,11 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     # rounding of the bodies' displacements (measured: complementarity 3.1e-3 without this term, 1.2e-6 with it)
     U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
     U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
-    b = (B @ (sum(parts) - g)).reshape(-1, 3)
-    Us = segment_scales(B, U)
+    width = beta.shape[1]
+    b = (B @ (sum(parts) - g)).reshape(-1, width)
+    Us = segment_scales(B, U, width)
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
-    b0, b1, b2 = beta[:, 0], beta[:, 1], beta[:, 2]
-    cone = np.maximum.reduce([np.maximum(-b0, 0), np.maximum(-b2, 0), np.maximum(-b1, 0),
-                              np.maximum(b1 - 2 * np.sqrt(np.maximum(b0, 0) * np.maximum(b2, 0)), 0)])
+    cone = element(width).dual_cone_violation(beta)
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(bernstein_max(b), 0.0) / Us).max(initial=0.0)),

@@ -343,10 +343,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     interface = itf if p2 else None
     g = E @ gap
     Ety = E.T @ y
-    if p2:
-        lam = spla.spsolve(itf.mass.tocsc(), Ety)           # scaled; M lam = r (P2 mass of X_h)
-    else:
-        lam = itf.multiplier(Ety)          # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
+    lam = itf.multiplier(Ety)              # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump

@@ -5,4 +5,4 @@ PNG figure(s) and a Markdown summary into ``out``; ``cvxcontact study NAME`` cal
 ``quick=True`` is a reduced version (about a minute on 2 cores) that the test suite runs.
 """
 
-STUDIES = ("hertz", "convergence", "speed", "stability", "hertz3d")
+STUDIES = ("hertz", "convergence", "speed", "stability", "hertz3d", "hertz3d_elastic")

@@ -1,0 +1,289 @@
+"""Hertz validation in 3D, two elastic bodies: a steel punch with a spherical end on an aluminium block.
+
+Quarter model (x >= 0, y >= 0) of a sphere of radius R touching the block's top face z = 0 at the origin.
+The block is [0, L] x [0, L] x [-L, 0] (L = ``SIZE`` a_ref), bottom clamped; the punch is the column
+[0, L] x [0, L] above the sphere's surface z = R - sqrt(R^2 - x^2 - y^2) up to z = L (a square column with
+a spherical end, :func:`punch_mesh`). Both have symmetry rollers on x = 0 and y = 0 and grids graded towards
+the contact point. The punch's curved "bottom" meets the block's planar "top" in a node-to-face pair
+(:class:`~cvxcontact.contact.surface.CurvedSurfaceInterface`) under the punch's nodal condition "sigma2".
+
+Loading: the punch's top is held at u_z = 0 (x, y free) and the pair's gap is -delta: the same problem as
+pushing the top down by delta (the punch's rigid translation by -delta e_z changes no strain and moves every
+jump by delta; tests/test_hertz3d_elastic.py checks it), and a load, so one ContactSolver re-solves it.
+:func:`press` finds the delta giving the total force F (four quarters) by secant steps.
+
+Hertz for two elastic bodies (1/R = 1/R_sphere, the block flat):
+
+    1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2,   a = (3 F R / (4 E*))^(1/3),   p0 = 3 F / (2 pi a^2),
+    delta = a^2 / R,   p(r) = p0 sqrt(1 - r^2 / a^2).
+
+Read-back (P1): a_h the mean distance from the axis of the mid-points of the punch's trace edges joining an
+active node to an open one (in the plane, the projections); p0_h the pressure at the punch's node on the axis
+(its row force over its lumped area of the curved part); p_block the pressure felt by the block at its node
+on the axis; the axis cell's force: the rows of the punch's nodes in the cell at the axis against Hertz's
+pressure integrated on the punch's hats over their projections on the plane (the rows carry the force along
+the plane's normal; :func:`cvxcontact.apps.studies.hertz3d.hat_loads`). The pressures are over the curved part's
+true lumped areas, which exceed the projected ones by under 0.2 % within r < 2 a.
+
+Size effect: both bodies are finite (depth L, column height L, width L) where Hertz assumes half-spaces.
+Their far fields are missing from the approach: about Boussinesq's u_z at depth L in each body,
+F (1 + nu)(3 - 2 nu) / (2 pi E L) (``boussinesq``), against which the approach is listed; a and p0 depend on
+the far field only through its variation across the contact zone, O((a / L)^2).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import SolverError
+from ...geometry.generators3d import box
+from ...physics import materials
+from ...physics.pairs import Contact
+from ...physics.scene import Body, Scene
+from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
+from .hertz3d import _edge_radius, hat_loads
+
+E1, NU1 = 210e9, 0.3             # Pa, -: the steel punch (sphere)
+E2, NU2 = 70e9, 0.3              # Pa, -: the aluminium block
+R = 0.02                         # m, the sphere's radius
+A_REF = 1e-3                     # m, Hertz's contact radius at the design force
+SIZE = 10                        # the bodies' edge (quarter) in units of A_REF
+RATIO = 10.0                     # largest over smallest cell of the graded grids
+E_STAR = 1.0 / ((1 - NU1 ** 2) / E1 + (1 - NU2 ** 2) / E2)
+FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)       # N, the total force giving a = A_REF (3.85 kN)
+LEVELS = (8, 16, 24)            # cells per edge of each quarter body
+CONDITION = "sigma2"             # the punch (second body) carries the rows
+
+
+def hertz(F, R=R, E_star=E_STAR):
+    """(a (m), p0 (Pa), delta (m)) of two elastic bodies (relative radius R, contact modulus E*) under F (N)."""
+    a = (3 * F * R / (4 * E_star)) ** (1 / 3)
+    return a, 3 * F / (2 * np.pi * a ** 2), a ** 2 / R
+
+
+def boussinesq(F, depth, E, nu):
+    """u_z (m) on the axis at ``depth`` (m) below a point force F (N) on a half-space (Boussinesq)."""
+    return F * (1 + nu) * (3 - 2 * nu) / (2 * np.pi * E * depth)
+
+
+def punch_mesh(n, size=SIZE, ratio=RATIO, radius=R):
+    """The quarter punch: the graded box [0, L]^2 x [0, L] (L = size a_ref, n cells per edge) with its bottom
+    mapped onto the sphere z_s(x, y) = R - sqrt(R^2 - x^2 - y^2) touching z = 0 at the origin, each node lifted
+    by z_s (1 - z / L) (the top stays at z = L). Tags as :func:`cvxcontact.box` ("bottom" is curved)."""
+    L = size * A_REF
+    if 2 * L * L >= radius * radius:
+        raise SolverError(f"punch_mesh: the column's corner ({L:g}, {L:g}) m lies outside the sphere of radius "
+                          f"{radius:g} m")
+    mesh = box(x=(0.0, L), y=(0.0, L), z=(0.0, L), nx=n, ny=n, nz=n, grade=((0.0, 0.0, 0.0), ratio))
+    p = np.array(mesh.points)
+    zs = radius - np.sqrt(radius ** 2 - p[:, 0] ** 2 - p[:, 1] ** 2)
+    p[:, 2] += zs * (1 - p[:, 2] / L)
+    return mesh.with_points(p)
+
+
+def bodies(n, size=SIZE, ratio=RATIO, pushed=None):
+    """(block, punch) of level n. ``pushed``: the punch's top pushed down by that much (m) instead of held."""
+    L = size * A_REF
+    block = Body(box(x=(0.0, L), y=(0.0, L), z=(-L, 0.0), nx=n, ny=n, nz=n, grade=((0.0, 0.0, 0.0), ratio)),
+                 materials.isotropic(E=E2, nu=NU2, name="aluminium"), name="block", clamped=["bottom"],
+                 roller=["left", "front"])
+    top = 0.0 if pushed is None else -float(pushed)
+    punch = Body(punch_mesh(n, size, ratio), materials.isotropic(E=E1, nu=NU1, name="steel"), name="punch",
+                 roller=["left", "front"], displacement={"top": (None, None, top)})
+    return block, punch
+
+
+def scene(n, delta=0.0, size=SIZE, ratio=RATIO, pushed=None) -> Scene:
+    """The quarter scene with the pair's gap -delta (m): the punch pressed by delta."""
+    block, punch = bodies(n, size, ratio, pushed)
+    return Scene(block, punch, contacts=[Contact(block, "top", punch, "bottom", condition=CONDITION, gap=-delta)])
+
+
+def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
+    """(solution, delta (m), re-solves): the gap -delta of ``base`` set by secant steps until the total force
+    (four quarters) is F (N), with ``solver`` (a ContactSolver of ``base``)."""
+    def at(delta):
+        sol = solver.solve(base.with_gap(-delta))
+        return sol, 4 * float(sol.contact.force.sum())
+
+    d0 = hertz(F)[2]
+    s0, f0 = at(d0)
+    d1 = d0 * (F / f0) ** (2 / 3)                                          # Hertz's scaling as the first step
+    for k in range(steps):
+        s1, f1 = at(d1)
+        if abs(f1 - F) <= rtol * F:
+            return s1, d1, k + 2
+        d0, f0, d1 = d1, f1, d1 + (F - f1) * (d1 - d0) / (f1 - f0)
+    raise SolverError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
+
+
+def contact_radius(sol):
+    """(a_h, min, max) (m): the distances from the axis of the mid-points of the punch's trace edges (in the
+    plane) joining an active node to an open one (mean, smallest, largest)."""
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[itf.curved]
+    active = np.zeros(len(trace.nodes), dtype=bool)
+    active[itf.reach] = sol.contact.active
+    on = np.zeros(len(trace.nodes), dtype=bool)
+    on[itf.reach] = True
+    return _edge_radius(_Flat(trace), active, on)
+
+
+class _Flat:
+    """A curved trace seen in the plane z = 0 (its nodes' projections), for the radii of :func:`contact_radius`."""
+
+    def __init__(self, trace):
+        self.faces, self.nodes = trace.faces, trace.nodes
+        self.points = np.column_stack([trace.x, np.zeros(len(trace.x))])
+
+
+def measure(sol, delta):
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
+    c = sol.contact
+    itf = sol.scene.interfaces[0]
+    F = 4 * float(c.force.sum())
+    a, p0, d = hertz(F)
+    a_h, a_min, a_max = contact_radius(sol)
+    r = np.hypot(c.x[:, 0], c.x[:, 1])
+    axis = int(np.argmin(r))
+    p0_h = float(c.lam[axis])
+    xb, pb = sol.traction(0)                                            # the block's own top nodes
+    p_block = float(pb[np.argmin(np.hypot(xb[:, 0], xb[:, 1]))])
+    lines = np.unique(np.round(c.x[:, 0], 12))
+    h = float(np.diff(lines)[:3].max())                                 # cells near the axis
+    cell = (c.x[:, 0] <= lines[1] * (1 + 1e-9)) & (c.x[:, 1] <= lines[1] * (1 + 1e-9))
+    trace = itf.traces[itf.curved]
+    hertz_y = hat_loads(_Flat(trace), lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
+    y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[itf.reach][cell].sum())
+    far = boussinesq(F, SIZE * A_REF, E1, NU1) + boussinesq(F, SIZE * A_REF, E2, NU2)
+    dofs = sum(3 * len(p) for p in sol.points)
+    return dict(F_N=F, h_m=h, dofs=dofs, rows=len(c.x), a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
+                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1, p_block_Pa=p_block,
+                p_block_rel_error=p_block / p0 - 1, cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
+                delta_h_m=delta, delta_rel_error=delta / d - 1, far_field_rel=far / d,
+                active_nodes=int(c.active.sum()), ok=sol.ok)
+
+
+
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE):
+    """(row, solution) of one mesh level at the total force F (:func:`press`, the condensed backend)."""
+    from ...solve import ContactSolver
+
+    clock = Timer()
+    base = scene(n, size=size, ratio=ratio)
+    solver = ContactSolver(base, CONDITION, method="condensed")
+    sol, delta, resolves = press(solver, base, F)
+    row = dict(degree=1, n=n) | measure(sol, delta) | dict(resolves=resolves, seconds=clock())
+    return row, sol
+
+
+def figure(sol, rows):
+    """Left: the pressure at the punch's contact nodes (row force over lumped area) and felt by the block at its
+    own nodes against the radius, Hertz's profile at the measured force; right: the punch's pressure on the
+    projection of its curved part (quarter), Hertz's circle outlined."""
+    from matplotlib.ticker import MaxNLocator
+    from matplotlib.tri import Triangulation
+
+    from ...io.plot import eng
+
+    plt = pyplot()
+    c = sol.contact
+    F = 4 * float(c.force.sum())
+    a, p0, _ = hertz(F)
+    r = np.hypot(c.x[:, 0], c.x[:, 1])
+    xb, pb = sol.traction(0)
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    rs = np.linspace(0, a, 300)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
+    ax.plot(r[c.active], c.lam[c.active], "o", ms=3.5, label=f"punch's active nodes (n = {rows[-1]['n']})", zorder=4)
+    ax.plot(r[~c.active], c.lam[~c.active], "x", ms=3, color="0.5", label="punch's open nodes (zero)")
+    rb = np.hypot(xb[:, 0], xb[:, 1])
+    ax.plot(rb[pb > 0], pb[pb > 0], "s", ms=2.5, mfc="none", color="C2", label="felt by the block (its nodes)")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="a_h (active/open mid-points, mean)")
+    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
+           title=f"Steel sphere (R = {R * 1e3:g} mm) on an aluminium block, F = {F / 1e3:.3g} kN")
+    ax.title.set_fontsize(10)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend(fontsize=8)
+    itf = sol.scene.interfaces[0]
+    trace = itf.traces[itf.curved]
+    p = np.zeros(len(trace.nodes))
+    p[itf.reach] = c.lam
+    near = (np.hypot(trace.x[:, 0], trace.x[:, 1]) <= 2.5 * A_REF)[trace.faces].any(axis=1)
+    tri = Triangulation(trace.x[:, 0], trace.x[:, 1], trace.faces[near])
+    m = ax2.tripcolor(tri, p, shading="gouraud", cmap="viridis")
+    t = np.linspace(0, np.pi / 2, 100)
+    ax2.plot(a * np.cos(t), a * np.sin(t), "--", color="C3", lw=1.2, label="Hertz contact radius a")
+    ax2.plot(c.x[c.active, 0], c.x[c.active, 1], ".", ms=3, color="C1", label="active nodes")
+    ax2.set_aspect("equal")
+    ax2.set(xlabel="x", ylabel="y", xlim=(0, 2 * A_REF), ylim=(0, 2 * A_REF),
+            title="Pressure on the punch's curved part, seen along z (quarter)")
+    ax2.title.set_fontsize(10)
+    for axis in (ax2.xaxis, ax2.yaxis):
+        axis.set_major_locator(MaxNLocator(5))
+        axis.set_major_formatter(eng("m"))
+    fig.colorbar(m, ax=ax2, format=eng("Pa"), label="pressure on the punch")
+    ax2.legend(fontsize=8, loc="upper right")
+    return fig
+
+
+def run(out, quick=False, progress=None):
+    say = progress or (lambda s: None)
+    out = Path(out)
+    levels = LEVELS[:1] if quick else LEVELS
+    rows, sol = [], None
+    for n in levels:
+        row, sol = solve_level(n)
+        rows.append(row)
+        say(f"hertz3d_elastic P1 n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
+            f"{row['p0_rel_error']:+.2e}, delta_h/delta - 1 = {row['delta_rel_error']:+.2e} ({row['seconds']:.1f} s)")
+    write_csv(out / "hertz3d_elastic.csv", rows)
+    save_figure(figure(sol, rows), out / "hertz3d_elastic.png")
+    hs = [r["h_m"] for r in rows]
+    rates = {k: slope(hs, [abs(r[k]) for r in rows]) if len(rows) > 1 else float("nan")
+             for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")}
+    L = SIZE * A_REF
+    fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
+           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_block_Pa": ".4e",
+           "p_block_rel_error": "+.3f", "cell_force_rel_error": "+.3f", "delta_m": ".4e", "delta_h_m": ".4e",
+           "delta_rel_error": "+.3f", "far_field_rel": ".3f", "seconds": ".1f"}
+    short = ["degree", "n", "dofs", "rows", "h_m", "a_rel_error", "p0_rel_error", "p_block_rel_error",
+             "cell_force_rel_error", "delta_rel_error", "active_nodes", "seconds"]
+    cols = ["degree", "n", "dofs", "rows", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_block_Pa", "p_block_rel_error", "cell_force_rel_error",
+            "delta_m", "delta_h_m", "delta_rel_error", "far_field_rel", "active_nodes", "ok", "resolves", "seconds"]
+    far = rows[0]["far_field_rel"]
+    text = (f"# Hertz validation in 3D: an elastic sphere on an elastic block\n\n"
+            f"Steel punch with a spherical end (R = {R * 1e3:g} mm, E1 = {E1 / 1e9:g} GPa, nu1 = {NU1}) on an "
+            f"aluminium block (E2 = {E2 / 1e9:g} GPa, nu2 = {NU2}), E* = {E_STAR / 1e9:.4g} GPa. Quarter model: the "
+            f"block [0, L]^2 x [-L, 0] and the punch's column [0, L]^2 from the sphere's surface up to z = L, L = "
+            f"{L * 1e3:g} mm, symmetry rollers on x = 0 and y = 0, the block's bottom clamped, the punch's top held "
+            f"at u_z = 0 and pressed by the pair's gap -delta (the same as pushing the top down by delta), grids "
+            f"graded towards the contact point (largest/smallest cell {RATIO:g}). P1 tetrahedra, the curved part "
+            f"against the block's planar top in a node-to-face pair under the punch's nodal condition "
+            f"{CONDITION!r}; delta set by secant re-solves so that the total force is F = {FORCE:.6g} N to 1e-10 "
+            f"at every level (Hertz: a = {A_REF * 1e3:g} mm). a_h: mean distance from the axis of the mid-points "
+            "of the punch's trace edges joining an active node to an open one (min and max listed); p0_h: the "
+            "pressure at the punch's node on the axis (row force over its lumped area); p_block: the pressure "
+            "felt by the block at its node on the axis; cell_force_rel_error: the rows of the punch's nodes of the "
+            "cell at the axis against Hertz's pressure integrated on their hats (projected on the plane); "
+            "delta_h: the approach (the top's push). h_m: the grid spacing near the axis. rows: the punch's nodes "
+            "over the block (the constrained nodes).\n\n"
+            + markdown_table(rows, short, fmt)
+            + "\nEvery column (CSV: hertz3d_elastic.csv):\n\n" + markdown_table(rows, cols, fmt)
+            + f"\nObserved rates in h (P1, levels {', '.join(str(n) for n in levels)}): contact radius "
+              f"{rates['a_rel_error']:.2f}, peak pressure {rates['p0_rel_error']:.2f}, force of the axis cell "
+              f"{rates['cell_force_rel_error']:.2f} (the radius is read from the active/open edges, so its error "
+              "is within about h/2 and changes sign between levels).\n\n"
+              f"Size effect: both bodies are finite (a block of depth L, a column of height and half-width L) where "
+              f"Hertz assumes half-spaces. Their far fields are missing from the approach: Boussinesq's u_z at depth "
+              f"L in each body adds up to {far:.3f} of Hertz's delta, the order of the approach's shortfall (the rest "
+              "is the coarse mesh's stiffness, shrinking with h); a and p0 see the far field only through its "
+              "variation across the contact zone, O((a/L)^2) of it (measured for the rigid sphere in "
+              "docs/studies/hertz3d: 3e-4 when L doubles).\n")
+    write_text(out / "hertz3d_elastic.md", text)
+    return dict(rows=rows, rates=rates)

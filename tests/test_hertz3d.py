@@ -127,7 +127,7 @@ def test_hat_loads_on_p2_faces():
     of the P2 mass matrix (exact; a vertex's is zero), of an affine one close to them (the rule is exact for
     quadratics, the integrand cubic)."""
     base = h.scene(4, delta=0.0)
-    sol, _, _ = h.press(cc.ContactSolver(base, "gamma3", method="condensed", degree=2), base)
+    sol, _, _ = h.press(cc.ContactSolver(base, "sigma1", method="condensed", degree=2), base)
     trace = sol.interface.traces[0]
     x, y = trace.points[:, 0], trace.points[:, 1]
     one = h.hat_loads(trace, lambda X, Y: np.ones_like(X))
@@ -140,11 +140,12 @@ def test_hat_loads_on_p2_faces():
 
 
 def test_p2_force_control_by_the_guided_sphere_agrees_with_pressing():
-    """P2 at n = 4: the guided sphere's translation unknown (full backend) against press (condensed)."""
-    g = cc.solve(h.scene(4, force=h.FORCE), degree=2)
+    """P2 at n = 4 under the nodal condition: the guided sphere's translation unknown (full backend) against
+    press (condensed)."""
+    g = cc.solve(h.scene(4, force=h.FORCE), "sigma1", degree=2)
     assert g.ok and g.polished
     base = h.scene(4, delta=0.0)
-    sol, delta, _ = h.press(cc.ContactSolver(base, "gamma3", method="condensed", degree=2), base)
+    sol, delta, _ = h.press(cc.ContactSolver(base, "sigma1", method="condensed", degree=2), base)
     assert -g.obstacles[0].translation[2] == pytest.approx(delta, rel=1e-9)   # measured 1e-15
     np.testing.assert_array_equal(sol.contact.active, g.contact.active)
     np.testing.assert_allclose(sol.contact.force, g.contact.force, rtol=0,

@@ -28,8 +28,8 @@ the nodal forces in the P2 functions of the block's contact faces, :meth:`~cvxco
 since a P2 vertex's lumped area is zero), the axis cell's force: that of the top nodes of the cell at the
 axis (P2: with the midpoints of its face edges) against Hertz's pressure integrated on the same shape
 functions (:func:`hat_loads`), delta_h the sphere's approach. P2 (10-node) tetrahedra impose the condition
-at every P2 node of the patch (vertices and edge midpoints: the nodal condition; the condition everywhere on
-the faces is not available for P2 against an obstacle).
+at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`;
+the copositive condition on the faces, "gamma3" with P2, is not in this study).
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -60,6 +60,10 @@ E_STAR = E / (1 - NU ** 2)
 FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
 LEVELS = (8, 16, 24)              # cells per edge of the quarter block (P1)
 LEVELS_P2 = (8, 16, 24)           # the same for P2 (10-node) tetrahedra
+CONDITION = {1: "gamma3", 2: "sigma1"}
+"""The condition of each degree: P1 "gamma3" (at the block's nodes, against an obstacle), P2 "sigma1" (the nodal
+condition at every P2 node of the block's contact faces; "gamma3" with P2 is the copositive condition on the
+faces, not in this study)."""
 
 
 def hertz(F, R=R, E_star=E_STAR):
@@ -151,7 +155,7 @@ def contact_radius(sol):
     active[itf.reach] = sol.contact.active
     on = np.zeros(len(trace.nodes), dtype=bool)
     on[itf.reach] = True
-    return _edge_radius(trace.points, _linear_faces(trace.faces), active, on)
+    return _edge_radius(trace, active, on, outward=True)
 
 
 def _contact_surface(sol):
@@ -167,16 +171,20 @@ def _linear_faces(faces):
     return faces[:, [0, 3, 5, 3, 1, 4, 5, 4, 2, 3, 4, 5]].reshape(-1, 3)
 
 
-def _edge_radius(points, faces, active, on):
-    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of the triangles ``faces``
-    (on ``points``) that leave the active nodes outwards: both ends ``on``, the end nearer the axis active, the
-    other open (an open node inside the contact zone, as P2 vertices may be, marks no edge of the zone)."""
+def _edge_radius(trace, active, on, outward=False):
+    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` (its 3-node
+    faces, or its 6-node faces cut into four) whose end nodes (both ``on``) differ in ``active``; ``outward``:
+    only those whose end nearer the axis is the active one (an open node inside the contact zone, as P2
+    vertices may be, then marks no edge of the zone)."""
+    points = trace.points
+    faces = _linear_faces(trace.faces)
     edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
     rho = np.hypot(points[:, 0], points[:, 1])
-    inner = np.where(rho[edges[:, 0]] <= rho[edges[:, 1]], edges[:, 0], edges[:, 1])
-    outer = np.where(rho[edges[:, 0]] <= rho[edges[:, 1]], edges[:, 1], edges[:, 0])
-    i, j = inner, outer
-    cross = on[i] & on[j] & active[i] & ~active[j]
+    near = rho[edges[:, 0]] <= rho[edges[:, 1]]
+    i, j = np.where(near, edges[:, 0], edges[:, 1]), np.where(near, edges[:, 1], edges[:, 0])
+    cross = on[i] & on[j] & (active[i] != active[j])
+    if outward:
+        cross &= active[i]
     mid = 0.5 * (points[i[cross]] + points[j[cross]])
     r = np.hypot(mid[:, 0], mid[:, 1])
     return float(r.mean()), float(r.min()), float(r.max())
@@ -246,7 +254,7 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1):
 
     clock = Timer()
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
-    solver = ContactSolver(base, "gamma3", method="condensed", degree=degree)
+    solver = ContactSolver(base, CONDITION[degree], method="condensed", degree=degree)
     sol, delta, resolves = press(solver, base, F)
     row = dict(degree=degree, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())
@@ -397,7 +405,7 @@ def write_report(out, rows):
             f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
             f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
             f"contact point, largest/smallest cell {RATIO:g}), P1 (degree 1) and P2 (degree 2, 10-node) "
-            f"tetrahedra, condition gamma3, force control: the total force is F = {FORCE:.6g} N to 1e-10 at every "
+            f"tetrahedra, force control: the total force is F = {FORCE:.6g} N to 1e-10 at every "
             f"level (Hertz: a = {A_REF * 1e3:g} mm). "
             "a_h: mean distance from the axis of the mid-points of the edges that leave the active nodes outwards "
             "(an active node to an open one farther from the axis; min and max listed; P2: the edges of the "
@@ -408,9 +416,10 @@ def write_report(out, rows):
             "`sol.traction(0)`, since a P2 vertex has zero lumped area); p_cell: the mean pressure of the top "
             "nodes of the cell at the axis (P2: with the midpoints of its face edges), and cell_force_rel_error "
             "their force against Hertz's pressure integrated on the same shape functions; delta_h: the sphere's "
-            "approach. h_m: the grid spacing near the axis (P2: of the vertices). The P2 rows impose the "
-            "condition at the P2 nodes of the contact patch (vertices and edge midpoints: the nodal condition); "
-            "the condition everywhere on the faces for P2 against an obstacle is not yet available. The last row "
+            "approach. h_m: the grid spacing near the axis (P2: of the vertices). Conditions: P1 gamma3 (at the "
+            "block's nodes that reach the sphere); P2 sigma1, the nodal condition at every P2 node of the contact "
+            "patch (vertices and edge midpoints); the copositive condition on the faces (gamma3 with P2) is not in "
+            "this table. The last row "
             f"(size_a = {2 * SIZE}) is P1 level n = {ref['n']} again, its grid kept and continued to a block twice "
             "as large (the size effect alone). Seconds: one process on a shared two-core machine.\n\n"
             + markdown_table(rows, short, fmt)

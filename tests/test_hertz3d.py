@@ -15,7 +15,7 @@ N = 8                                                     # the study's coarsest
 
 @pytest.fixture(scope="module")
 def guided():
-    """Force control: the sphere free to move along z under F / 4 on the quarter."""
+    """Force control: the sphere guided along z (Rigid.sphere(..., guided=(0, 0, 1))) under F / 4 on the quarter."""
     return cc.solve(h.scene(N, force=h.FORCE))
 
 
@@ -67,7 +67,8 @@ def test_force_control_agrees_with_pressing_a_fixed_sphere(guided):
 
 
 def test_an_unguided_sphere_on_the_quarter_is_refused():
-    """The scene cannot know the symmetry: a free sphere's x and y translations are undetermined."""
+    """The scene cannot know the symmetry: a free sphere's x and y translations are undetermined (the
+    guided sphere of the other tests is the way to pose it)."""
     body = h.block(4)
     sphere = cc.Rigid.sphere((0.0, 0.0, h.R), h.R, force=(0.0, 0.0, -h.FORCE / 4))
     with pytest.raises(SceneError, match="nothing determines the translation"):
@@ -83,3 +84,69 @@ def test_hat_loads_integrate_an_affine_pressure_exactly(guided):
     got = h.hat_loads(trace, lambda X, Y: 3e9 * (1 + X / h.A_REF - 2 * Y / h.A_REF))
     want = M @ (3e9 * (1 + x / h.A_REF - 2 * y / h.A_REF))
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())   # measured 3e-16
+
+
+@pytest.fixture(scope="module")
+def p2_levels():
+    """The study's coarsest level in P1 and P2 (press: the condensed backend), rows and the P2 solution."""
+    p1, _ = h.solve_level(N)
+    p2, sol = h.solve_level(N, degree=2)
+    return p1, p2, sol
+
+
+def test_p2_hertz_quantities_at_the_coarsest_level(p2_levels):
+    p1, p2, sol = p2_levels
+    assert sol.ok and sol.degree == 2 and p2["ok"]
+    assert p2["F_N"] == pytest.approx(h.FORCE, rel=1e-10)
+    assert p2["contact_nodes"] == 81                                     # the 9 x 9 P2 nodes of the patch
+    # errors of the P2 level n = 8, measured beside each bound
+    assert abs(p2["a_rel_error"]) < 0.1                                  # measured +0.051 (h / 4 = 0.14 a)
+    assert p2["a_h_min_m"] < h.A_REF < p2["a_h_max_m"]                   # measured 0.84 a .. 1.14 a
+    assert abs(p2["p0_rel_error"]) < 0.12                                # measured -0.063
+    assert abs(p2["cell_force_rel_error"]) < 0.03                        # measured -0.005
+    assert -0.1 < p2["delta_rel_error"] < -0.03                          # measured -0.054 (Boussinesq: -0.073)
+    # what P2 gains on the same grid: the peak pressure, the axis cell's force, the approach
+    assert abs(p2["p0_rel_error"]) < 0.5 * abs(p1["p0_rel_error"])       # measured 0.063 against 0.176
+    assert abs(p2["cell_force_rel_error"]) < 0.5 * abs(p1["cell_force_rel_error"])   # 0.005 against 0.069
+    assert abs(p2["delta_rel_error"]) < abs(p1["delta_rel_error"])       # 0.054 against 0.113
+
+
+def test_p2_felt_pressure_carries_the_force(p2_levels):
+    """The P2 peak pressure is read from the felt pressure (a Riesz representer on the block's P2 faces): its
+    integral over the patch is the quarter's force, and it is positive at the axis, where Hertz's is largest."""
+    _, p2, sol = p2_levels
+    trace = sol.interface.traces[0]
+    _, p = sol.traction(0)
+    total = float(np.ones(len(p)) @ (trace.mass @ p))
+    assert total == pytest.approx(h.FORCE / 4, rel=1e-9)                # measured 1e-16
+    assert p2["p0_h_Pa"] > 0.8 * p2["p0_Pa"]
+
+
+def test_hat_loads_on_p2_faces():
+    """hat_loads on 6-node faces: the integrals of a uniform pressure against the P2 functions are the row sums
+    of the P2 mass matrix (exact; a vertex's is zero), of an affine one close to them (the rule is exact for
+    quadratics, the integrand cubic)."""
+    base = h.scene(4, delta=0.0)
+    sol, _, _ = h.press(cc.ContactSolver(base, "sigma1", method="condensed", degree=2), base)
+    trace = sol.interface.traces[0]
+    x, y = trace.points[:, 0], trace.points[:, 1]
+    one = h.hat_loads(trace, lambda X, Y: np.ones_like(X))
+    np.testing.assert_allclose(one, trace.mass @ np.ones(len(x)), rtol=0,
+                               atol=1e-12 * np.abs(one).max())           # measured 3e-16
+    f = lambda X, Y: 3e9 * (1 + X / h.A_REF - 2 * Y / h.A_REF)
+    want = trace.mass @ f(x, y)                                          # P2 interpolates an affine f exactly
+    np.testing.assert_allclose(h.hat_loads(trace, f), want, rtol=0,
+                               atol=1e-4 * np.abs(want).max())           # measured 7e-6
+
+
+def test_p2_force_control_by_the_guided_sphere_agrees_with_pressing():
+    """P2 at n = 4 under the nodal condition: the guided sphere's translation unknown (full backend) against
+    press (condensed)."""
+    g = cc.solve(h.scene(4, force=h.FORCE), "sigma1", degree=2)
+    assert g.ok and g.polished
+    base = h.scene(4, delta=0.0)
+    sol, delta, _ = h.press(cc.ContactSolver(base, "sigma1", method="condensed", degree=2), base)
+    assert -g.obstacles[0].translation[2] == pytest.approx(delta, rel=1e-9)   # measured 1e-15
+    np.testing.assert_array_equal(sol.contact.active, g.contact.active)
+    np.testing.assert_allclose(sol.contact.force, g.contact.force, rtol=0,
+                               atol=1e-9 * h.FORCE)                      # measured 3e-11 N

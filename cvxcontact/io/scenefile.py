@@ -56,6 +56,8 @@ needs exactly two bodies touching along their ``contact`` parts)::
     #                                           x stands for the tangential coordinate s
     force = [0.0, 1e6]                        # optional, N/m, pressing it onto the body: force control (its
     #                                           translation is an unknown with this resultant; formulation.md §12)
+    guided = [0.0, 1.0]                       # optional, with force: translate along this unit axis only (or a
+    #                                           list of orthogonal unit axes), the rest held: a half model
 
     [[contact]]
     a = "punch"                               # a body's name
@@ -86,6 +88,8 @@ rotation matrix (no ``plane`` key), and a pair's gap is an expression of the in-
     # cylinder = { point = [0, 0.01, 0.03], axis = [1, 0, 0], radius = 0.025 }
     # height_field = { f = "(x**2 + y**2) / 0.1", origin = [0.01, 0.01, 0.005] }   # solid above z = f(x, y)
     force = [0.0, 0.0, -50.0]                 # N
+    guided = [0.0, 0.0, 1.0]                  # optional: along z only (a quarter model's symmetry planes hold
+    #                                           the sphere in x and y); or [[0, 1, 0], [0, 0, 1]] (two axes)
 """
 
 from __future__ import annotations
@@ -114,7 +118,7 @@ MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO
 
 _TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle", "degree"}
 _CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
-_OBSTACLE = {"name", "plane", "circle", "profile", "sphere", "cylinder", "height_field", "force"}
+_OBSTACLE = {"name", "plane", "circle", "profile", "sphere", "cylinder", "height_field", "force", "guided"}
 _OBSTACLE_KINDS = {"plane": {"point", "normal"}, "circle": {"center", "radius"}, "profile": {"f", "origin"},
                    "sphere": {"center", "radius"}, "cylinder": {"point", "axis", "radius"},
                    "height_field": {"f", "origin"}}
@@ -342,6 +346,7 @@ class _Context:
             if req not in spec:
                 raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
         force = o.get("force")
+        guided = o.get("guided")
         f = None
         if kind == "profile":
             f = self.load(spec["f"], f"{where}.profile.f", 1)
@@ -349,18 +354,18 @@ class _Context:
             f = self.load(spec["f"], f"{where}.height_field.f", 1)     # a function of (x, y), m
         try:
             if kind == "plane":
-                return Rigid.plane(spec["point"], spec["normal"], force=force)
+                return Rigid.plane(spec["point"], spec["normal"], force=force, guided=guided)
             if kind == "circle":
-                return Rigid.circle(spec["center"], spec["radius"], force=force)
+                return Rigid.circle(spec["center"], spec["radius"], force=force, guided=guided)
             if kind == "sphere":
-                return Rigid.sphere(spec["center"], spec["radius"], force=force)
+                return Rigid.sphere(spec["center"], spec["radius"], force=force, guided=guided)
             if kind == "cylinder":
-                return Rigid.cylinder(spec["point"], spec["axis"], spec["radius"], force=force)
+                return Rigid.cylinder(spec["point"], spec["axis"], spec["radius"], force=force, guided=guided)
             if kind == "height_field":
                 fn = f if callable(f) else (lambda x, y, f=f: f + 0.0 * x)
-                return Rigid.height_field(fn, spec.get("origin", (0.0, 0.0, 0.0)), force=force)
+                return Rigid.height_field(fn, spec.get("origin", (0.0, 0.0, 0.0)), force=force, guided=guided)
             fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
-            return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force)
+            return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force, guided=guided)
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
 

@@ -19,6 +19,12 @@ that compressive contact can balance the force.
 In 3D (an obstacle built from 3-vectors: :meth:`Rigid.plane`, :meth:`Rigid.sphere`,
 :meth:`Rigid.cylinder`, :meth:`Rigid.height_field`) the same holds with points, normals, translations
 and the force (N) in R^3; ``Rigid.dim`` says which.
+
+A guided obstacle (``guided=`` unit, orthogonal axes G, rows of a (k, d) array) translates along those
+axes only, t = G^T tau, as on a linear guide; its other translations are held at zero (a symmetry plane of a
+half or quarter model does this: the scene cannot know it). Only the guided part of c(x) then enters the
+condition, c(x) G^T G, and the prescribed force must lie along the axes: the guide takes the contact
+resultant's other components.
 """
 
 from __future__ import annotations
@@ -95,6 +101,48 @@ def _force(force, kind, dim=2) -> np.ndarray | None:
     return F
 
 
+def _guide(guided, kind, dim) -> np.ndarray | None:
+    """The guided axes (k, dim) of an obstacle (read-only; 1 <= k <= dim unit, orthogonal rows), or None."""
+    if guided is None:
+        return None
+    want = (f"one unit axis ({_WORDS[dim]} real numbers) or a list of 1 to {dim} orthogonal unit axes, e.g. "
+            f"guided={'(0, 0, 1)' if dim == 3 else '(0, 1)'}")
+    try:
+        G = np.array(guided, dtype=float)
+    except (TypeError, ValueError):
+        raise SceneError(f"Rigid.{kind}: guided: expected {want}, got {guided!r}") from None
+    if isinstance(guided, (str, bytes)) or G.ndim not in (1, 2) or G.shape[-1] != dim or G.size == 0 \
+            or not np.isfinite(G).all():
+        raise SceneError(f"Rigid.{kind}: guided: expected {want} for a {dim}D obstacle, got {guided!r}")
+    G = np.atleast_2d(G)
+    if len(G) > dim:
+        raise SceneError(f"Rigid.{kind}: guided: {len(G)} axes in {dim}D; give 1 to {dim} orthogonal unit axes")
+    for i, g in enumerate(G):
+        if abs(np.linalg.norm(g) - 1) > 1e-9:
+            raise SceneError(f"Rigid.{kind}: guided axis {i} {_fmt(g)} has length {np.linalg.norm(g):.6g}; give "
+                             "unit axes (e.g. (0, 0, 1)), the directions along which the obstacle may translate")
+    for i in range(len(G)):
+        for j in range(i + 1, len(G)):
+            if abs(G[i] @ G[j]) > 1e-9:
+                raise SceneError(f"Rigid.{kind}: guided axes {i} {_fmt(G[i])} and {j} {_fmt(G[j])} are not "
+                                 f"orthogonal (dot product {G[i] @ G[j]:.6g}); give orthogonal unit axes")
+    G.setflags(write=False)
+    return G
+
+
+def _guided_force(F, G, kind):
+    """SceneError if the prescribed force ``F`` has a component along a translation the guide ``G`` holds."""
+    if F is None or G is None:
+        return
+    held = F - G.T @ (G @ F)
+    if np.linalg.norm(held) > 1e-9 * np.linalg.norm(F):
+        unit = "N/m" if len(F) == 2 else "N"
+        axes = ", ".join(_fmt(g) for g in G)
+        raise SceneError(f"Rigid.{kind}(force={_fmt(F)}, guided={axes}): the force has a component "
+                         f"{np.linalg.norm(held):.6g} {unit} along {_fmt(_direction(held))}, a direction the guide "
+                         f"holds (the obstacle translates along {axes} only); give a force along the guided axes")
+
+
 class Rigid(Frozen):
     """A rigid obstacle: analytic (no mesh), fixed in space or, with ``force=(fx, fy)`` (N/m), free to
     translate under that prescribed resultant (force control, docs/formulation.md §12). Build with
@@ -102,6 +150,13 @@ class Rigid(Frozen):
     :meth:`cylinder` or :meth:`height_field` in 3D (``force=(fx, fy, fz)``, N); ``Rigid(kind, distance,
     describe, dim=2)`` takes any distance function (its sensitivity, if not given, by central
     differences). ``dim`` is 2 or 3.
+
+    ``guided`` (every constructor; one unit axis or a list of orthogonal unit axes): under force control the
+    obstacle translates along those axes only, its other translations held at zero, as on a linear guide:
+    e.g. ``Rigid.sphere(center, R, force=(0, 0, -F / 4), guided=(0, 0, 1))`` on a quarter model, whose
+    symmetry planes hold the sphere in x and y (without the guide its x and y translations are undetermined
+    and the scene is refused). The force must lie along the axes; :meth:`sensitivity` and so the obstacle's
+    reported force are the components along them (the guide takes the others). A fixed obstacle ignores it.
 
     ``distance(points, normal)`` gives, for nodes ``points`` (n, dim) of a straight (planar) part with
     unit outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
@@ -116,7 +171,7 @@ class Rigid(Frozen):
 
     def __init__(self, kind: str, distance: Callable[[np.ndarray, np.ndarray], np.ndarray], describe: str,
                  sensitivity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                 force: Sequence[float] | None = None, *, dim: int = 2):
+                 force: Sequence[float] | None = None, *, dim: int = 2, guided: ArrayLike | None = None):
         if not callable(distance) or (sensitivity is not None and not callable(sensitivity)):
             raise SceneError(f"Rigid({kind!r}): distance (and sensitivity, if given) must be callables f(points, "
                              "normal)")
@@ -129,23 +184,27 @@ class Rigid(Frozen):
             sens = sensitivity if sensitivity is None or not moved else (lambda x, nu: sensitivity(x - p, nu))
             return dist, sens, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
 
-        self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim))
+        self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim), _guide(guided, str(kind), dim))
 
-    def _build(self, kind, shape, position, force):
+    def _build(self, kind, shape, position, force, guided=None):
         """Set the fields: ``shape(position)`` gives (distance, sensitivity or None, description,
         suffix of the description) of the obstacle with its reference point at ``position`` (m); the
-        obstacle's dimension is the length of ``position``."""
+        obstacle's dimension is the length of ``position``; ``guided`` the checked axes (k, dim) or None."""
         position = _point(position, f"Rigid.{kind}: position", (2, 3))
+        _guided_force(force, guided, kind)
         distance, sensitivity, describe, suffix = shape(position)
         if force is not None:
             describe = describe[:-1] + f", force={_fmt(force)})"
-        self._set(kind=kind, force=force, position=position, dim=len(position), _shape=shape, _distance=distance,
-                  _sensitivity=sensitivity, _describe=describe + suffix)
+        if guided is not None:
+            describe = describe[:-1] + ", guided=" + (_fmt(guided[0]) if len(guided) == 1 else
+                                                      "(" + ", ".join(_fmt(g) for g in guided) + ")") + ")"
+        self._set(kind=kind, force=force, guided=guided, position=position, dim=len(position), _shape=shape,
+                  _distance=distance, _sensitivity=sensitivity, _describe=describe + suffix)
 
     @classmethod
-    def _made(cls, kind, shape, position, force) -> "Rigid":
+    def _made(cls, kind, shape, position, force, guided=None) -> "Rigid":
         out = object.__new__(cls)
-        out._build(kind, shape, position, force)
+        out._build(kind, shape, position, force, guided)
         return out
 
     force: np.ndarray | None
@@ -157,8 +216,14 @@ class Rigid(Frozen):
     for ``Rigid(kind, distance, describe)`` as given."""
     dim: int
     """2 (an obstacle of the (x1, x3) plane) or 3 (of space), the length of its points and force."""
+    guided: np.ndarray | None
+    """The axes (k, dim) (unit, orthogonal rows; read-only) along which a force-controlled obstacle translates,
+    its other translations held; None: free to translate in every direction the contact sees."""
 
     def _frozen_hint(self, name: str) -> str:
+        if name == "guided":
+            return ("build the obstacle again with its constructor's guided=... (e.g. Rigid.sphere(center, radius, "
+                    "force=..., guided=(0, 0, 1))) and put it in the scene with scene.with_obstacles(...)")
         if name == "force":
             return ("build the obstacle under another force with rigid.with_force((fx, fy)) (N/m; None: fixed) "
                     "and put it in the scene with scene.with_obstacles(...)")
@@ -175,12 +240,12 @@ class Rigid(Frozen):
                              "(the new reference point, m)")
         d = (self.dim,)
         target = _point(to, "Rigid.moved: to", d) if by is None else self.position + _point(by, "Rigid.moved: by", d)
-        return self._made(self.kind, self._shape, target, self.force)
+        return self._made(self.kind, self._shape, target, self.force, self.guided)
 
     def with_force(self, force: Sequence[float] | None) -> "Rigid":
-        """The same obstacle at the same place under the prescribed resultant ``force`` = (fx, fy) (N/m,
-        pressing it onto the bodies), or fixed in space with ``force=None``."""
-        return self._made(self.kind, self._shape, self.position, _force(force, self.kind, self.dim))
+        """The same obstacle at the same place (and on the same guide) under the prescribed resultant ``force``
+        = (fx, fy) (N/m, pressing it onto the bodies), or fixed in space with ``force=None``."""
+        return self._made(self.kind, self._shape, self.position, _force(force, self.kind, self.dim), self.guided)
 
     def __repr__(self):
         return f"Rigid.{self._describe}"
@@ -189,7 +254,14 @@ class Rigid(Frozen):
         """(n, dim): c(x) = n_o / (-nu . n_o) at each of ``points`` (dimensionless), n_o the obstacle's
         outward unit normal where the ray from x along ``normal`` nu meets it: a translation t (m) of
         the obstacle shortens the distance along nu by c(x) . t to first order (docs/formulation.md §12).
-        Rows of nodes that miss the obstacle are 0."""
+        Rows of nodes that miss the obstacle are 0. A guided obstacle under force control: the components along
+        its axes G only, c G^T G (its translations t = G^T tau see no other)."""
+        c = self._full_sensitivity(points, normal)
+        if self.guided is not None and self.force is not None:
+            c = c @ (self.guided.T @ self.guided)
+        return c
+
+    def _full_sensitivity(self, points, normal):
         points, normal = self._check(points, normal)
         if self._sensitivity is not None:
             return self._sensitivity(points, normal)
@@ -224,7 +296,8 @@ class Rigid(Frozen):
         return points, normal
 
     @classmethod
-    def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None) -> "Rigid":
+    def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None,
+              guided: ArrayLike | None = None) -> "Rigid":
         """The half-plane (half-space in 3D) {z : (z - point) . n <= 0}; ``normal`` n points out of the
         obstacle, towards the body (normalised here). ``point`` and ``normal`` are 2-vectors in the plane,
         3-vectors in space. The body's part must face it: nu^a . n < 0. ``force`` (N/m; N in 3D): force
@@ -237,20 +310,21 @@ class Rigid(Frozen):
             raise SceneError("Rigid.plane: normal must not be zero")
         n = n / np.linalg.norm(n)
         n.setflags(write=False)
-        return cls._made("plane", lambda p: _plane(p, n), p, F)
+        return cls._made("plane", lambda p: _plane(p, n), p, F, _guide(guided, "plane", len(p)))
 
     @classmethod
-    def sphere(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
+    def sphere(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
+               guided: ArrayLike | None = None) -> "Rigid":
         """The ball of ``radius`` (m) around ``center`` (x, y, z) (m): a spherical indenter. Nodes whose
         normal ray misses it are left free. ``force`` (fx, fy, fz) (N): force control."""
         c = _point(center, "Rigid.sphere: center", (3,))
         F = _force(force, "sphere", 3)
         R = _radius(radius, "sphere")
-        return cls._made("sphere", lambda c: _ball(c, R, "sphere"), c, F)
+        return cls._made("sphere", lambda c: _ball(c, R, "sphere"), c, F, _guide(guided, "sphere", 3))
 
     @classmethod
     def cylinder(cls, point: Sequence[float], axis: Sequence[float], radius: float, *,
-                 force: Sequence[float] | None = None) -> "Rigid":
+                 force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
         """The infinite solid circular cylinder of ``radius`` (m) around the line through ``point`` (m)
         along ``axis`` (3-vectors; the axis is normalised here): a roller in 3D. Nodes whose normal ray
         misses it, or runs parallel to the axis, are left free. ``force`` (N): force control; a component
@@ -263,11 +337,11 @@ class Rigid(Frozen):
             raise SceneError("Rigid.cylinder: axis must not be zero")
         a = a / np.linalg.norm(a)
         a.setflags(write=False)
-        return cls._made("cylinder", lambda p: _cylinder(p, a, R), p, F)
+        return cls._made("cylinder", lambda p: _cylinder(p, a, R), p, F, _guide(guided, "cylinder", 3))
 
     @classmethod
     def height_field(cls, f: Callable[[np.ndarray, np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0, 0.0),
-                     *, force: Sequence[float] | None = None) -> "Rigid":
+                     *, force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
         """The solid above the surface z = f(x - ox, y - oy) + oz (``origin`` (ox, oy, oz), m): an indenter
         whose underside is the graph of ``f`` (e.g. ``f = lambda x, y: (x**2 + y**2) / (2 * R)``, a
         paraboloid of tip radius R), pressing down on a body below it. ``f(x, y)`` is vectorised (arrays
@@ -279,10 +353,11 @@ class Rigid(Frozen):
             raise SceneError(f"Rigid.height_field: f must be a callable f(x, y) (m), got {type(f).__name__}")
         o = _point(origin, "Rigid.height_field: origin", (3,))
         F = _force(force, "height_field", 3)
-        return cls._made("height_field", lambda q: _height_field(f, q), o, F)
+        return cls._made("height_field", lambda q: _height_field(f, q), o, F, _guide(guided, "height_field", 3))
 
     @classmethod
-    def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None) -> "Rigid":
+    def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
+               guided: ArrayLike | None = None) -> "Rigid":
         """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. Nodes whose
         normal ray misses the disc are left free. ``force`` (N/m): force control (an indenter under a
         prescribed load)."""
@@ -292,11 +367,11 @@ class Rigid(Frozen):
                 or not np.isfinite(radius) or radius <= 0:
             raise SceneError(f"Rigid.circle: radius must be a positive finite number (m), got {radius!r}")
         R = float(radius)
-        return cls._made("circle", lambda c: _circle(c, R), c, F)
+        return cls._made("circle", lambda c: _circle(c, R), c, F, _guide(guided, "circle", 2))
 
     @classmethod
     def profile(cls, f: Callable[[np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0), *,
-                force: Sequence[float] | None = None) -> "Rigid":
+                force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
         """An obstacle whose surface lies at distance ``f(s)`` (m) from the contact part along its
         outward normal, with s = (x - origin) . t (m) the tangential coordinate (t the pair's tangent,
         :func:`cvxcontact.contact.interface.canonical_tangent`: positive x1 component). ``f`` is a
@@ -307,7 +382,7 @@ class Rigid(Frozen):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "
                              f"got {type(f).__name__}")
         o = _point(origin, "Rigid.profile: origin")
-        return cls._made("profile", lambda q: _profile(f, o, q), o, F)
+        return cls._made("profile", lambda q: _profile(f, o, q), o, F, _guide(guided, "profile", 2))
 
 
 def _plane(p, n):
@@ -576,8 +651,8 @@ class ObstacleRows:
     ``force`` is the prescribed resultant (N/m; N in 3D) or None; for a force-controlled obstacle
     ``basis`` (dim, k) spans the translations the contact can see (k = 1 when every c(x) is parallel,
     e.g. a plane: its tangential translations change nothing and are not unknowns; k = 2 for a 3D
-    cylinder, whose translations along its axis change nothing; k = dim otherwise), and the unknowns
-    are t = basis @ tau.
+    cylinder, whose translations along its axis change nothing; k = dim otherwise; a guided obstacle's
+    rows and basis lie along its axes), and the unknowns are t = basis @ tau.
     """
 
     obstacle: Rigid
@@ -619,6 +694,10 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
             scale = float(np.linalg.norm(rows, axis=1).max(initial=0.0))
             _, sv, Vt = np.linalg.svd(rows, full_matrices=False)
             if not scale > 0:
+                if obstacle.guided is not None:
+                    raise SceneError(f"{label}: a translation along its guided axes changes no distance to its "
+                                     "pairs' nodes, so no contact force can balance the prescribed force: guide it "
+                                     "along a direction that presses it onto the bodies (e.g. the contact's normal)")
                 raise SceneError(f"{label}: no node of its pairs sees the obstacle move (its distance is finite at "
                                  "isolated nodes only), so no contact force can balance the prescribed force: give "
                                  "the obstacle a shape that faces the part around the nodes it reaches, or no force "

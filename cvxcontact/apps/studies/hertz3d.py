@@ -12,20 +12,24 @@ Hertz's solution for a rigid sphere on an elastic half-space under the total for
     p(r) = p0 sqrt(1 - r^2 / a^2).
 
 Force control at every mesh level: the sphere's approach delta is the unknown that makes the total
-force 4 sum(y) equal to F (the quarter carries F / 4). Two ways, which agree (tests/test_hertz3d.py):
-:func:`guided_sphere` with ``force=(0, 0, -F / 4)`` (the sphere free to move along z only: its x, y
-translations are fixed by the symmetry, which the scene cannot know), or, cheaper on finer meshes,
-:func:`press`: the fixed sphere moved to the approach found by secant steps on F(delta), one
+force 4 sum(y) equal to F (the quarter carries F / 4). Two ways, which agree (tests/test_hertz3d.py): the
+sphere guided along z under ``force=(0, 0, -F / 4)`` (``Rigid.sphere(..., guided=(0, 0, 1))``: its x, y
+translations are held, as the symmetry holds them, which the scene cannot know), or, cheaper on finer
+meshes, :func:`press`: the fixed sphere moved to the approach found by secant steps on F(delta), one
 :class:`~cvxcontact.ContactSolver` re-solving the same geometry (F is affine in delta while the active set
 stays, so the steps end exactly). The study uses :func:`press`.
 
 Read-back: the contact radius a_h is the mean distance from the axis of the mid-points of the trace
-edges joining an active node (a positive force) to an open one (|a_h - a| about h/2; their spread is
-listed), the peak pressure p0_h the pressure felt by the block at the node on the axis (its force over its
-lumped area; against a rigid obstacle the nodal pressures alternate, low on the axis and high next to it),
-the axis cell's force: that of the four top nodes of the cell at the axis against Hertz's pressure
-integrated on the same hats (:func:`hat_loads`), delta_h the sphere's approach. P1 only: the table keeps
-rows for P2 tetrahedra in contact, not yet available.
+edges joining an active node to an open one (|a_h - a| about h/2; their spread is listed; P2: the edges
+of the trace's faces cut into four at their edge midpoints, so about h/4), the peak pressure p0_h the
+pressure felt by the block at the node on the axis (P1: its force over its lumped area; against a rigid
+obstacle the nodal pressures alternate, low on the axis and high next to it; P2: the Riesz representer of
+the nodal forces in the P2 functions of the block's contact faces, :meth:`~cvxcontact.Solution.traction`,
+since a P2 vertex's lumped area is zero), the axis cell's force: that of the top nodes of the cell at the
+axis (P2: with the midpoints of its face edges) against Hertz's pressure integrated on the same shape
+functions (:func:`hat_loads`), delta_h the sphere's approach. P2 (10-node) tetrahedra impose the condition
+at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`;
+the copositive condition on the faces, "gamma3" with P2, is not in this study).
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -39,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...contact.quadratic3d import p2_shape
 from ...geometry.generators3d import box
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -53,7 +58,12 @@ SIZE = 10                         # the block's edge (quarter) in units of A_REF
 RATIO = 10.0                      # largest over smallest cell of the graded grid
 E_STAR = E / (1 - NU ** 2)
 FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
-LEVELS = (8, 16, 24)              # cells per edge of the quarter block
+LEVELS = (8, 16, 24)              # cells per edge of the quarter block (P1)
+LEVELS_P2 = (8, 16, 24)           # the same for P2 (10-node) tetrahedra
+CONDITION = {1: "gamma3", 2: "sigma1"}
+"""The condition of each degree: P1 "gamma3" (at the block's nodes, against an obstacle), P2 "sigma1" (the nodal
+condition at every P2 node of the block's contact faces; "gamma3" with P2 is the copositive condition on the
+faces, not in this study)."""
 
 
 def hertz(F, R=R, E_star=E_STAR):
@@ -65,18 +75,6 @@ def hertz(F, R=R, E_star=E_STAR):
 def boussinesq_depth(F, depth, E=E, nu=NU):
     """u_z (m) on the axis at ``depth`` (m) below a point force F (N) on a half-space (Boussinesq)."""
     return F * (1 + nu) * (3 - 2 * nu) / (2 * np.pi * E * depth)
-
-
-def guided_sphere(center, radius, force=None) -> Rigid:
-    """A rigid sphere that translates along z only (a quarter model's symmetry holds it in x and y): the
-    sphere's distance, and its sensitivity c(x) restricted to z (the unknown translation is (0, 0, t))."""
-    ball = Rigid.sphere(center, radius)
-
-    def along_z(x, nu):
-        return ball.sensitivity(x, nu) * np.array([0.0, 0.0, 1.0])
-
-    return Rigid("sphere", ball.distance, f"sphere(center={tuple(float(c) for c in center)}, radius={radius:g}, "
-                 "guided along z)", sensitivity=along_z, force=force, dim=3)
 
 
 def block(n, size=SIZE, ratio=RATIO, twice=False) -> Body:
@@ -116,10 +114,11 @@ def _continued(mesh, L):
 
 def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO, twice=False) -> Scene:
     """The quarter scene: the sphere fixed at the approach ``delta`` (m; default Hertz's at FORCE), or with
-    ``force`` (N, the whole sphere's) a guided sphere touching at the origin under force control."""
+    ``force`` (N, the whole sphere's) a sphere touching at the origin under force control, guided along z
+    (the quarter's symmetry planes hold it in x and y)."""
     body = block(n, size, ratio, twice)
     if force is not None:
-        sphere = guided_sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4))
+        sphere = Rigid.sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4), guided=(0.0, 0.0, 1.0))
     else:
         sphere = Rigid.sphere((0.0, 0.0, R - (hertz(FORCE)[2] if delta is None else delta)), R)
     return Scene(body, contacts=[Contact(body, "zone", sphere)])
@@ -150,30 +149,52 @@ def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
 def contact_radius(sol):
     """(a_h, min, max) (m): the distances from the axis of the mid-points of the trace edges joining an active
     node to an open one (mean, smallest, largest)."""
-    itf = sol.scene.interfaces[0]
+    itf = _contact_surface(sol)
     trace = itf.traces[0]
     active = np.zeros(len(trace.nodes), dtype=bool)
     active[itf.reach] = sol.contact.active
     on = np.zeros(len(trace.nodes), dtype=bool)
     on[itf.reach] = True
-    return _edge_radius(trace, active, on)
+    return _edge_radius(trace, active, on, outward=True)
 
 
-def _edge_radius(trace, active, on):
-    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` whose end
-    nodes (both ``on``) differ in ``active``."""
-    edges = np.unique(np.sort(trace.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    i, j = edges[:, 0], edges[:, 1]
+def _contact_surface(sol):
+    """The contact surface of the solution: the scene's P1 interface, or the P2 surface of a P2 solve."""
+    return sol.scene.interfaces[0] if sol.degree == 1 else sol.interface
+
+
+def _linear_faces(faces):
+    """(f, 3) faces as given, or each 6-node face (v0, v1, v2, m01, m12, m20) cut into its four triangles."""
+    faces = np.asarray(faces)
+    if faces.shape[1] == 3:
+        return faces
+    return faces[:, [0, 3, 5, 3, 1, 4, 5, 4, 2, 3, 4, 5]].reshape(-1, 3)
+
+
+def _edge_radius(trace, active, on, outward=False):
+    """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` (its 3-node
+    faces, or its 6-node faces cut into four) whose end nodes (both ``on``) differ in ``active``; ``outward``:
+    only those whose end nearer the axis is the active one (an open node inside the contact zone, as P2
+    vertices may be, then marks no edge of the zone)."""
+    points = trace.points
+    faces = _linear_faces(trace.faces)
+    edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    rho = np.hypot(points[:, 0], points[:, 1])
+    near = rho[edges[:, 0]] <= rho[edges[:, 1]]
+    i, j = np.where(near, edges[:, 0], edges[:, 1]), np.where(near, edges[:, 1], edges[:, 0])
     cross = on[i] & on[j] & (active[i] != active[j])
-    mid = 0.5 * (trace.points[i[cross]] + trace.points[j[cross]])
+    if outward:
+        cross &= active[i]
+    mid = 0.5 * (points[i[cross]] + points[j[cross]])
     r = np.hypot(mid[:, 0], mid[:, 1])
     return float(r.mean()), float(r.min()), float(r.max())
 
 
 def hat_loads(trace, pressure, k=8):
-    """(n_trace,) N: the integrals of ``pressure(x, y)`` (Pa) against each hat of a planar trace: its faces cut
-    into k^2 sub-triangles, on each the three-point rule exact for quadratics (the nodal forces of a
-    prescribed pressure; exact for an affine one)."""
+    """(n_trace,) N: the integrals of ``pressure(x, y)`` (Pa) against each shape function of a planar trace
+    (the hats of its 3-node faces, the P2 functions of its 6-node faces): its faces cut into k^2
+    sub-triangles, on each the three-point rule exact for quadratics (the nodal forces of a prescribed
+    pressure; exact for an affine one on 3-node faces)."""
     u, v = (g.ravel() for g in np.meshgrid(np.arange(k), np.arange(k), indexing="ij"))
     up, down = u + v <= k - 1, u + v <= k - 2
     corners = np.concatenate([np.stack([np.c_[u, v], np.c_[u + 1, v], np.c_[u, v + 1]], axis=1)[up],
@@ -181,12 +202,14 @@ def hat_loads(trace, pressure, k=8):
     rule = np.full((3, 3), 1 / 6) + np.eye(3) / 2                       # 2/3 at one corner, 1/6 at the others
     b = np.einsum("pi,sid->spd", rule, corners).reshape(-1, 2)          # (q, 2): (l1, l2) of every point
     lam = np.column_stack([1 - b.sum(axis=1), b])                       # (q, 3) barycentric
-    P = trace.points[trace.faces]                                       # (f, 3, 3)
+    faces = np.asarray(trace.faces)
+    P = trace.points[faces[:, :3]]                                      # (f, 3, 3)
     area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     X = np.einsum("qj,fjd->fqd", lam, P)
     w = pressure(X[..., 0], X[..., 1]) * (area / (3 * k ** 2))[:, None]  # (f, q)
+    shape = lam if faces.shape[1] == 3 else p2_shape(lam)               # (q, 3) or (q, 6)
     out = np.zeros(len(trace.nodes))
-    np.add.at(out, trace.faces, np.einsum("fq,qj->fj", w, lam))
+    np.add.at(out, faces, np.einsum("fq,qj->fj", w, shape))
     return out
 
 
@@ -196,39 +219,53 @@ def measure(sol, delta):
     F = 4 * float(c.force.sum())
     a, p0, d = hertz(F)
     a_h, a_min, a_max = contact_radius(sol)
+    itf = _contact_surface(sol)
+    trace = itf.traces[0]
     r = np.hypot(c.points[:, 0], c.points[:, 1])
-    p0_h = float(c.pressure[np.argmin(r)])
-    lines = np.unique(np.round(c.points[:, 0], 12))
+    axis = int(np.argmin(r))
+    if sol.degree == 1:
+        p0_h = float(c.pressure[axis])                                  # force over lumped area
+    else:                                                               # the Riesz pressure on the P2 faces
+        p0_h = float(sol.traction(0)[1][itf.reach[axis]])
+    vertices = getattr(trace, "linear", trace).points                   # the grid's vertices (P2: not midpoints)
+    lines = np.unique(np.round(vertices[:, 0], 12))
     h = float(np.diff(lines)[:3].max())                                 # cells near the axis
-    # the axis cell's four top nodes: their force against Hertz's on the same hats, their mean pressure
-    itf = sol.scene.interfaces[0]
+    # the axis cell's top nodes (P2: with the midpoints): their force against Hertz's on the same shape
+    # functions, their mean pressure (force over the integral of those shape functions)
     cell = (c.points[:, 0] <= lines[1] * (1 + 1e-9)) & (c.points[:, 1] <= lines[1] * (1 + 1e-9))
-    hertz_y = hat_loads(itf.traces[0], lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
+    hertz_y = hat_loads(trace, lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
     y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[itf.reach][cell].sum())
+    if sol.degree == 1:
+        area = float(c.measure[cell].sum())
+    else:
+        area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[itf.reach][cell].sum())
     dofs = sum(3 * len(p) for p in sol.points)
     return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
                 a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
-                p_cell_Pa=y_h / float(c.measure[cell].sum()), cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
+                p_cell_Pa=y_h / area, cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
                 delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
                 contact_nodes=len(c.active), ok=sol.ok)
 
 
-def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False):
-    """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend)."""
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1):
+    """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend);
+    ``degree`` 2: P2 (10-node) tetrahedra."""
     from ...solve import ContactSolver
 
     clock = Timer()
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
-    solver = ContactSolver(base, "gamma3", method="condensed")
+    solver = ContactSolver(base, CONDITION[degree], method="condensed", degree=degree)
     sol, delta, resolves = press(solver, base, F)
-    row = dict(degree=1, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
+    row = dict(degree=degree, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())
     return row, sol
 
 
-def figure(sol, rows):
-    """Left: the pressure felt by the block at every contact node against the radius, with Hertz's profile at
-    the measured force; right: the pressure map of the contact patch (quarter), Hertz's circle outlined."""
+def figure(sol, rows, sol2=None, rows2=()):
+    """Left: the pressure at every contact node against the radius (P1: force over lumped area, felt by the
+    block; P2 ``sol2``: the pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's
+    profile at the measured force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
+    outlined."""
     from matplotlib.ticker import MaxNLocator
     from matplotlib.tri import Triangulation
 
@@ -243,15 +280,20 @@ def figure(sol, rows):
     rs = np.linspace(0, a, 300)
     ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
     ax.plot(r[c.active], c.pressure[c.active], "o", ms=3.5, label=f"P1, n = {rows[-1]['n']}: active nodes", zorder=4)
-    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="open nodes (zero)")
-    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="a_h (active/open mid-points, mean)")
+    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes (zero)")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (active/open mid-points, mean)")
+    if sol2 is not None:
+        trace = _contact_surface(sol2).traces[0]
+        x2 = trace.points
+        ax.plot(np.hypot(x2[:, 0], x2[:, 1]), sol2.traction(0)[1], "s", ms=2.5, color="C2", zorder=5,
+                label=f"P2, n = {rows2[-1]['n']}: pressure felt by the block (P2 Riesz representer)")
     ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
            title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
     ax.title.set_fontsize(10)
     ax.xaxis.set_major_locator(MaxNLocator(5))
     ax.xaxis.set_major_formatter(eng("m"))
     ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper right")
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
     p = np.zeros(len(trace.nodes))
@@ -262,7 +304,7 @@ def figure(sol, rows):
     ax2.plot(a * np.cos(t), a * np.sin(t), "--", color="C3", lw=1.2, label="Hertz contact radius a")
     ax2.plot(c.points[c.active, 0], c.points[c.active, 1], ".", ms=3, color="C1", label="active nodes")
     ax2.set_aspect("equal")
-    ax2.set(xlabel="x", ylabel="y", title="Pressure on the contact patch (quarter model)")
+    ax2.set(xlabel="x", ylabel="y", title=f"P1 pressure on the contact patch (quarter model, n = {rows[-1]['n']})")
     ax2.title.set_fontsize(10)
     for axis in (ax2.xaxis, ax2.yaxis):
         axis.set_major_locator(MaxNLocator(5))
@@ -276,24 +318,50 @@ def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
     levels = LEVELS[:1] if quick else LEVELS
-    rows, sol = [], None
-    for n in levels:
-        row, sol = solve_level(n)
-        rows.append(row)
-        say(f"hertz3d P1 n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = {row['p0_rel_error']:+.2e}, "
-            f"delta_h/delta - 1 = {row['delta_rel_error']:+.2e} ({row['seconds']:.1f} s)")
-    # the size effect: one level again with its grid continued to a block twice as large
-    ref = rows[min(1, len(rows) - 1)]
+    levels2 = LEVELS_P2[:1] if quick else LEVELS_P2
+    conv, sols = {1: [], 2: []}, {}
+    for degree, ns in ((1, levels), (2, levels2)):
+        for n in ns:
+            row, sols[degree] = solve_level(n, degree=degree)
+            conv[degree].append(row)
+            say(f"hertz3d P{degree} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
+                f"{row['p0_rel_error']:+.2e}, delta_h/delta - 1 = {row['delta_rel_error']:+.2e} "
+                f"({row['seconds']:.1f} s)")
+    # the size effect: one P1 level again with its grid continued to a block twice as large
+    ref = conv[1][min(1, len(conv[1]) - 1)]
     big, _ = solve_level(ref["n"], twice=True)
-    rows.append(big)
     say(f"hertz3d size 2L n={big['n']}: a_h/a - 1 = {big['a_rel_error']:+.2e}, "
         f"delta_h/delta - 1 = {big['delta_rel_error']:+.2e}")
+    rows = conv[1] + conv[2] + [big]
     write_csv(out / "hertz3d.csv", rows)
-    save_figure(figure(sol, rows[:len(levels)]), out / "hertz3d.png")
-    conv = rows[:len(levels)]
-    hs = [r["h_m"] for r in conv]
-    rate_a, rate_p0, rate_cell = (slope(hs, [abs(r[k]) for r in conv])
-                                  for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error"))
+    save_figure(figure(sols[1], conv[1], sols[2], conv[2]), out / "hertz3d.png")
+    return write_report(out, rows)
+
+
+def read_rows(path) -> list[dict]:
+    """The rows of a study's ``hertz3d.csv`` with numbers as numbers (to rewrite its report)."""
+    import csv
+
+    def value(v):
+        if v in ("True", "False"):
+            return v == "True"
+        try:
+            return int(v)
+        except ValueError:
+            return float(v)
+
+    with open(path) as fh:
+        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+
+
+def write_report(out, rows):
+    """hertz3d.md from the study's rows (P1 levels, P2 levels, the P1 level with the block twice as large);
+    returns the rows and the observed rates."""
+    conv = {d: [r for r in rows if r["degree"] == d and r["size_a"] == SIZE] for d in (1, 2)}
+    big = next(r for r in rows if r["size_a"] == 2 * SIZE)
+    ref = next(r for r in conv[1] if r["n"] == big["n"])
+    rates = {d: {k: slope([r["h_m"] for r in conv[d]], [abs(r[k]) for r in conv[d]])
+                 for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in (1, 2)}
     L = SIZE * A_REF
     cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
             "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
@@ -301,36 +369,69 @@ def run(out, quick=False, progress=None):
             "seconds"]
     fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
            "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",
-           "cell_force_rel_error": "+.3f", "delta_m": ".4e",
+           "cell_force_rel_error": "+.4f", "delta_m": ".4e",
            "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
-    def p2(columns):                                    # P2 rows to come: the degree and n only
-        return "".join(f"| 2 | {r['n']} |" + " — |" * (len(columns) - 2) + "\n" for r in conv)
-
     short = ["degree", "n", "size_a", "dofs", "h_m", "a_rel_error", "p0_rel_error", "cell_force_rel_error",
              "delta_rel_error", "seconds"]
+
+    def rate(d):
+        ns = ", ".join(str(r["n"]) for r in conv[d])
+        return (f"P{d} (levels {ns}): contact radius {rates[d]['a_rel_error']:.2f}, peak pressure "
+                f"{rates[d]['p0_rel_error']:.2f}, force of the axis cell {rates[d]['cell_force_rel_error']:.2f}")
+
+    def listed(key, d, f="+.3f"):
+        return ", ".join(f"{r[key]:{f}}" for r in conv[d])
+
+    gains = ""
+    if conv[2]:
+        spread = max((r["a_h_max_m"] - r["a_h_min_m"]) / r["a_m"] for r in conv[2][-1:])
+        gains = (f"What P2 gains on the same grids (n = {', '.join(str(r['n']) for r in conv[2])}; P2 has the "
+                 "unknowns of P1 on a grid twice as fine): the peak pressure, "
+                 f"{listed('p0_rel_error', 2)} against P1's {listed('p0_rel_error', 1)}, and the force of the axis "
+                 f"cell, {listed('cell_force_rel_error', 2, '+.4f')} against "
+                 f"{listed('cell_force_rel_error', 1, '+.4f')}, read from the smooth P2 pressure felt by the block "
+                 "instead of alternating nodal values (the axis cell's error changes sign with P2, so its rate "
+                 "says little); the contact radius, "
+                 f"{listed('a_rel_error', 2)} against {listed('a_rel_error', 1)}, read on the grid of P2 nodes "
+                 f"(spacing h/2; the mean of crossings spread over {spread:.2f} a at the finest P2 level, so its "
+                 "last digit and rate are rough); the approach, "
+                 f"{listed('delta_rel_error', 2)} against {listed('delta_rel_error', 1)}: P2 is at the finite "
+                 "block's own value (size effect, below) from the coarsest level on, P1 approaches it from below "
+                 "(a P1 mesh is too stiff). A P2 vertex carries almost no force under a smooth pressure "
+                 "(the integral of its shape function on a face is zero), so the nodal condition may leave a "
+                 "vertex inside the contact zone with a small gap (at n = 8, the vertex on the axis); such a node "
+                 "marks no edge of the zone.\n\n")
     text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
             f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
             f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
-            f"contact point, largest/smallest cell {RATIO:g}), P1 tetrahedra, condition gamma3, force control: the "
-            f"total force is F = {FORCE:.6g} N to 1e-10 at every level (Hertz: a = {A_REF * 1e3:g} mm). "
-            "a_h: mean distance from the axis of the mid-points of the edges joining an active node to an open "
-            "one (min and max listed); p0_h: the pressure felt by the block at the node on the axis (its force over "
-            "its lumped area; the nodal pressures against a rigid obstacle alternate, low on the axis, high at its "
-            "neighbours); p_cell: the mean pressure of the four top nodes of the cell at the axis, and "
-            "cell_force_rel_error their force against Hertz's pressure integrated on the same hats; delta_h: the "
-            "sphere's approach. h_m: the grid spacing near the axis. The last row (size_a = "
-            f"{2 * SIZE}) is level n = {ref['n']} again, its grid kept and continued to a block twice as large (the "
-            "size effect alone). Rows of degree 2 await P2 tetrahedra in contact.\n\n"
-            + markdown_table(rows, short, fmt) + p2(short)
-            + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt) + p2(cols)
-            + f"\nObserved rates in h (P1, levels {', '.join(str(n) for n in levels)}): contact radius "
-              f"{rate_a:.2f}, peak pressure {rate_p0:.2f}, force of the axis cell {rate_cell:.2f}.\n\n"
-              f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
+            f"contact point, largest/smallest cell {RATIO:g}), P1 (degree 1) and P2 (degree 2, 10-node) "
+            f"tetrahedra, force control: the total force is F = {FORCE:.6g} N to 1e-10 at every "
+            f"level (Hertz: a = {A_REF * 1e3:g} mm). "
+            "a_h: mean distance from the axis of the mid-points of the edges that leave the active nodes outwards "
+            "(an active node to an open one farther from the axis; min and max listed; P2: the edges of the "
+            "contact faces cut into four at their edge midpoints, i.e. of the grid of P2 nodes); p0_h: the "
+            "pressure felt by the block at the node on the axis (P1: its force over its lumped area; the nodal "
+            "pressures against a rigid obstacle alternate, low on the axis, high at its neighbours; P2: the Riesz "
+            "representer of the nodal forces in the P2 functions of the block's contact faces, "
+            "`sol.traction(0)`, since a P2 vertex has zero lumped area); p_cell: the mean pressure of the top "
+            "nodes of the cell at the axis (P2: with the midpoints of its face edges), and cell_force_rel_error "
+            "their force against Hertz's pressure integrated on the same shape functions; delta_h: the sphere's "
+            "approach. h_m: the grid spacing near the axis (P2: of the vertices). Conditions: P1 gamma3 (at the "
+            "block's nodes that reach the sphere); P2 sigma1, the nodal condition at every P2 node of the contact "
+            "patch (vertices and edge midpoints); the copositive condition on the faces (gamma3 with P2) is not in "
+            "this table. The last row "
+            f"(size_a = {2 * SIZE}) is P1 level n = {ref['n']} again, its grid kept and continued to a block twice "
+            "as large (the size effect alone). Seconds: one process on a shared two-core machine.\n\n"
+            + markdown_table(rows, short, fmt)
+            + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt)
+            + f"\nObserved rates in h: {rate(1)}; {rate(2)}.\n\n" + gains
+            + f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
               f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
               f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "
               f"pressure move by {big['a_rel_error'] - ref['a_rel_error']:+.1e} and "
               f"{big['p0_rel_error'] - ref['p0_rel_error']:+.1e} (relative to Hertz), the axis cell's force by "
               f"{big['cell_force_rel_error'] - ref['cell_force_rel_error']:+.1e} and the approach by "
               f"{big['delta_rel_error'] - ref['delta_rel_error']:+.3f} when L doubles at n = {ref['n']}.\n")
-    write_text(out / "hertz3d.md", text)
-    return dict(rows=rows, rate_a=rate_a, rate_p0=rate_p0, rate_cell=rate_cell)
+    write_text(Path(out) / "hertz3d.md", text)
+    return dict(rows=rows, rates=rates, rate_a=rates[1]["a_rel_error"], rate_p0=rates[1]["p0_rel_error"],
+                rate_cell=rates[1]["cell_force_rel_error"])

@@ -247,14 +247,15 @@ def measure(sol, delta):
                 contact_nodes=len(c.active), ok=sol.ok)
 
 
-def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1):
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condition=None):
     """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend);
-    ``degree`` 2: P2 (10-node) tetrahedra."""
+    ``degree`` 2: P2 (10-node) tetrahedra; ``condition`` (default :data:`CONDITION` of the degree), e.g.
+    "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16)."""
     from ...solve import ContactSolver
 
     clock = Timer()
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
-    solver = ContactSolver(base, CONDITION[degree], method="condensed", degree=degree)
+    solver = ContactSolver(base, condition or CONDITION[degree], method="condensed", degree=degree)
     sol, delta, resolves = press(solver, base, F)
     row = dict(degree=degree, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())

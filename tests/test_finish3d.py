@@ -313,3 +313,24 @@ def test_the_condensed_route_finishes_dependent_rows_like_the_full_route():
     again = solver.solve(squeezed_blocks(overlap=2 * overlap))
     assert again.ok and again.info.route == "active-set warm start"
     assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.5e-12
+
+
+def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finished():
+    # P1 "gamma3" between two 3D bodies held by their supports, non-matching faces: the rows depend on each
+    # other. `auto` used to take the sparse route (long interface), which has no dependent-row finish, and
+    # raised SolverError; now the sparse and AMG routes refuse such rows and `auto` takes the condensed one
+    import cvxcontact as cc
+    from cvxcontact.errors import SolverError
+    from scenes3d import STEEL, bumped_gap
+
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=3, ny=3, nz=2)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=4, ny=2, nz=2)
+    scene = cc.Scene(cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower"),
+                     cc.Body(up, STEEL, displacement={"top": (0.0, 0.0, -2e-5)}, contact="bottom", name="upper"),
+                     gap=bumped_gap)
+    sol = cc.solve(scene, "gamma3")
+    assert sol.info.method == "condensed" and sol.ok and sol.polished
+    full = cc.solve(scene, "gamma3", method="full")
+    assert max(np.abs(a - b).max() for a, b in zip(sol.u, full.u)) < 1e-12 * max(np.abs(u).max() for u in full.u)
+    with pytest.raises(SolverError, match="does not accept"):
+        cc.solve(scene, "gamma3", method="sparse")

@@ -67,6 +67,9 @@ class ProblemDescription:
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
     ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3.
     ``piezoelectric``: some body has potentials.
+    ``dependent_rows``: the contact rows can depend on each other (P1 "gamma3" between two 3D bodies: more
+    overlay vertices than the jump's dofs, docs/formulation.md §13); the active-set routes without the
+    dependent-row finish (sparse, amg) do not take them.
     """
 
     quadratic_energy: bool = True
@@ -80,16 +83,20 @@ class ProblemDescription:
     conic: bool = False
     dim: int = 2
     piezoelectric: bool = False
+    dependent_rows: bool = False
 
 
 def describe(problem, user_terms: int = 0) -> ProblemDescription:
     """The :class:`ProblemDescription` of a :class:`~cvxcontact.discrete.DiscreteProblem` (with ``user_terms``
     added by a :class:`~cvxcontact.Model`)."""
+    from .signorini import dependent_rows
+
     return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
                               user_terms=user_terms, dim=problem.dim,
-                              piezoelectric=any(b.Kpp is not None for b in problem.blocks))
+                              piezoelectric=any(b.Kpp is not None for b in problem.blocks),
+                              dependent_rows=bool(dependent_rows(problem)) and not problem.conic)
 
 
 @dataclass(frozen=True)
@@ -113,7 +120,7 @@ def _condensed_accepts(p: ProblemDescription) -> bool:
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
-    return _condensed_accepts(p) and not p.compliant and not p.conic
+    return _condensed_accepts(p) and not p.compliant and not p.conic and not p.dependent_rows
 
 
 def _amg_available() -> bool:

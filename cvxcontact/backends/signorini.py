@@ -21,12 +21,14 @@ __all__ = ["full", "condensed", "sparse", "sparse_active_set", "interface_finish
 
 
 def dependent_rows(problem) -> bool:
-    """Whether the contact rows can be linearly dependent: "gamma3" on a 3D pair of two bodies, one row per
-    overlay vertex, more vertices than the jump's degrees of freedom where the faces do not match
-    (docs/formulation.md §13)."""
+    """Whether the contact rows can be linearly dependent: "gamma3" (the pair's own condition, else the one
+    given) on a 3D pair of two bodies, one row per overlay vertex, more vertices than the jump's degrees of
+    freedom where the faces do not match (docs/formulation.md §13)."""
+    if problem.dim != 3:
+        return False
     interfaces = getattr(problem.interface, "interfaces", (problem.interface,))
-    return problem.dim == 3 and problem.condition == "gamma3" and any(not getattr(i, "rigid", True)
-                                                                       for i in interfaces)
+    conditions = [c or problem.condition for c in problem.scene.conditions]
+    return any(c == "gamma3" and not getattr(i, "rigid", True) for i, c in zip(interfaces, conditions))
 
 
 def dependent_finish(problem, raw, timings):

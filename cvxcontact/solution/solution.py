@@ -82,8 +82,11 @@ class ContactResult:
 
         P2 (``degree == 2``): the forces r = M lambda_h live on every node of X_h, and each is divided
         by the row sum of the P2 mass matrix of X_h (h/6 per adjacent segment at a vertex, 2h/3 at a
-        midpoint).
+        midpoint). On a 3D surface the P2 row sums vanish at the vertices (a vertex's shape function
+        integrates to 0 on a triangle): there the pressure is lambda_h itself (:attr:`lam`).
         """
+        if self.degree == 2 and np.ndim(self.x) == 2:
+            return np.array(self.lam, dtype=float)
         if self.degree == 2:
             return self.force / _p2_lumped(self.x)
         out = np.zeros(len(self.x))

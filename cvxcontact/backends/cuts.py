@@ -262,6 +262,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     L = np.zeros((len(d), factor.F.shape[1]))
     L[keep] = factor.F                                                          # W = L L^T
     Ld = factor.coordinates(d[keep])
+    # the part of d outside the range of W (a gap that is no jump of the traces, nodes held on one side): a
+    # constant of every slack, like the held nodes' (else the least squares closes the wrong rows)
+    d_out = np.zeros(len(d))
+    d_out[keep] = d[keep] - factor.F @ Ld
     held = ~keep
     prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
 
@@ -276,7 +280,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         y0 = np.zeros(P.shape[0])
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
-        c = (P[:, held] @ d[held])[moving] if held.any() else None
+        c = (P[:, held] @ d[held] + P[:, keep] @ d_out[keep])[moving]
         out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c,
                         dual=lambda ym: (P @ (d - W @ _expand(P, ym, moving)))[moving])    # O(n^2), not O(n k)
         if out is None:

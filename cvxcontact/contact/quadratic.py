@@ -337,7 +337,7 @@ class QuadraticStack:
         for itf, c, o in zip(self.interfaces, self._each(condition, conditions), self.offsets):
             if c == "gamma3":
                 blocks.append(itf.bernstein())
-                segs.append(np.asarray(itf.segments) + o)
+                segs.append(np.asarray(getattr(itf, "cone_cells", itf.segments)) + o)     # 3D: with its nodal cells
                 continue
             E = itf.evaluation(c).tocsr()
             blocks.append(sp.csr_matrix(E[np.repeat(np.arange(E.shape[0]), w)]))

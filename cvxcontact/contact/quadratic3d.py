@@ -257,12 +257,21 @@ class QuadraticSurface:
             return sp.identity(self.size, format="csr")
         return self._sigma[int(condition[-1]) - 1][1]
 
+    @property
+    def cone_cells(self) -> np.ndarray:
+        """(T, 6): the elements of the copositive condition: ``cells``, and against an obstacle also every node of
+        X_h on no such face (a node that reaches the obstacle whose faces do not all reach it) as a degenerate
+        cell (the node six times: the constant q there, which the condition holds <= 0, i.e. the nodal row)."""
+        cells = np.asarray(self.cells)
+        orphan = np.setdiff1d(np.arange(self.size), cells.ravel())
+        return read_only(np.concatenate([cells, np.repeat(orphan[:, None], 6, axis=1)]))
+
     def bernstein(self) -> sp.csr_matrix:
         """(6 T, size): the map from nodal values of X_h to the Bernstein coefficients (b00, b11, b22, b01, b12,
-        b20) of each of its triangles ``cells`` (overlay triangles; against an obstacle the faces all of whose
-        P2 nodes reach it): "q <= 0 on every triangle" is the copositive condition of docs/formulation.md §16
-        (:mod:`cvxcontact.contact.bernstein`)."""
-        return bernstein_map(self.cells, self.size)
+        b20) of each element of :attr:`cone_cells` (overlay triangles; against an obstacle the faces all of whose
+        P2 nodes reach it, and the nodes on none): "q <= 0 on every triangle" is the copositive condition of
+        docs/formulation.md §16 (:mod:`cvxcontact.contact.bernstein`)."""
+        return bernstein_map(self.cone_cells, self.size)
 
     def multiplier(self, r) -> np.ndarray:
         """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: between two bodies the Riesz representer

@@ -207,9 +207,14 @@ def _side_displacements(solution, pair=0):
 
 def surface_cells(itf) -> np.ndarray:
     """(c, 3) triangles on the nodes of X_h of a 3D contact pair (``itf`` a
-    :class:`~cvxcontact.contact.surface.SurfaceInterface`): the cells of the overlay of the two bodies' faces,
+    :class:`~cvxcontact.contact.surface.SurfaceInterface`; P2, a
+    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface`: each 6-node cell of X_h split into four at its
+    midpoints): the cells of the overlay of the two bodies' faces,
     or, against a rigid obstacle, the body's faces whose three nodes reach it, or, for a curved part against a
     planar one, the curved part's faces whose three nodes lie over the plane, numbered as the nodes of X_h."""
+    if getattr(itf, "degree", 1) == 2:                 # P2 (triangle6 cells on X_h): each split at its midpoints
+        c = np.asarray(itf.cells)
+        return np.concatenate([c[:, [0, 3, 5]], c[:, [3, 1, 4]], c[:, [5, 4, 2]], c[:, [3, 4, 5]]])
     if itf.overlay is not None:
         return np.asarray(itf.overlay.triangles)
     if getattr(itf, "curved", None) is not None:        # a curved part's faces over the planar one
@@ -286,7 +291,8 @@ def trace_mesh(solution, k, pair=0):
     _, p = trace_pressure(solution, k, pair)
     n = len(p)
     if solution.scene.dim == 3:
-        points, cells = np.asarray(t.points, dtype=float), [("triangle", np.asarray(t.faces))]
+        faces = np.asarray(t.faces)
+        points, cells = np.asarray(t.points, dtype=float), [("triangle6" if faces.shape[1] == 6 else "triangle", faces)]
     else:
         xy = t.points if hasattr(t, "points") else itf.points[0] + np.outer(t.x - itf.x[0], itf.tangent)
         points, cells = _pad3(xy), _line_cells(n, getattr(solution, "degree", 1))
@@ -428,6 +434,8 @@ def summary(solution) -> dict:
 def _lengths(solution, k, pair=0):
     """The lumped lengths (2D, m) or areas (3D, m^2) of side ``k``'s trace nodes on pair ``pair``."""
     t = _interface(solution, pair).traces[k]
+    if solution.scene.dim == 3 and getattr(solution, "degree", 1) == 2:
+        return np.asarray(t.mass.sum(axis=1)).ravel()      # int of each P2 function (0 at the vertices)
     if solution.scene.dim == 3:
         return np.asarray(t.lumped)
     x = t.x

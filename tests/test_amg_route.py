@@ -169,7 +169,7 @@ def test_amg_route_keeps_driven_and_floating_electrodes():
     b = cc.solve(scene, method="sparse")
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert 0 < np.sum(a.contact.active) < len(a.contact.active)                  # measured 42 of 213
-    _agree(a, b, 1e-9)                                                            # measured 1.5e-10
+    _agree(a, b, 1e-8)                            # measured 1.5e-10 (below 1e-9 in CI: the same Krylov tolerance)
     assert [(e.tag, e.kind) for e in a.electrodes] == [("right", "driven"), ("left", "floating")]
     # the route's answer is a Krylov solve to a relative residual of 1e-10 (amg.RTOL), which a floating
     # electrode's potential sees through the conditioning: measured 8.9e-11 and 2.0e-9 in two runs (the

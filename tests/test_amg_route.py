@@ -49,7 +49,7 @@ def test_amg_route_agrees_with_the_sparse_route(make, n):
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert a.info.factorization == "pyamg"
     assert 0 < np.sum(a.contact.active)
-    _agree(a, b, 1e-9)                 # measured: sphere 1.6e-11, boxes 3.0e-10 (GMRES, block-triangular)
+    _agree(a, b, 1e-8)                 # measured: sphere 1.6e-11, boxes 3.0e-10 (Krylov to 1e-10)
     assert a.residuals()["equilibrium"] < 1e-10                   # measured 3.4e-12, 7.6e-12
 
 
@@ -62,7 +62,7 @@ def test_amg_resolve_starts_from_the_previous_active_set():
     first = solver.solve()
     again = solver.solve()
     assert first.ok and again.ok and again.info.route == Route.WARM_START and again.info.iterations == 1
-    _agree(again, first, 1e-9)
+    _agree(again, first, 1e-8)
 
 
 def test_gamma3_rows_are_refused_by_the_krylov_system():
@@ -143,7 +143,7 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
     scene = bench().two_boxes(6)
     a = cc.solve(scene, method="amg")
     assert seen == ["cycle", "settled"] and a.info.method == "amg" and a.ok
-    _agree(a, cc.solve(scene, method="sparse"), 1e-9)             # measured 1.4e-10
+    _agree(a, cc.solve(scene, method="sparse"), 1e-8)             # measured 1.4e-10 (Krylov to 1e-10)
 
 
 def _electrodes_scene(n=6):
@@ -264,7 +264,7 @@ def test_hierarchy_rebuilds_change_the_cost_not_the_answer(monkeypatch, cost, bu
         assert len(built) == 1
     else:
         assert len(built) >= 3                                                 # measured 4 (of 4 sets)
-    _agree(a, cc.solve(scene, method="sparse"), 1e-9)                         # measured 2.7e-10, 2.3e-10
+    _agree(a, cc.solve(scene, method="sparse"), 1e-8)                         # measured 2.7e-10, 2.3e-10
 
 
 def test_piezo_benchmark_bonded_part():

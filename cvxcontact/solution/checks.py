@@ -72,10 +72,14 @@ def equilibrium_with(blocks, u, phi, Mlam, forces):
 
 def row_scales(C, x, c0):
     """Per-row scale |C| |x| + |c0| of the rows C x + c0 (the sizes of the terms each row balances),
-    floored at 1e-9 of the largest, and the Euclidean norm of each row of C (1 for an empty row)."""
+    floored at 1e-9 of the largest and at |C_i| max|x| (the row's terms were the unknowns at their
+    largest: a row u_k == 0 that the answer satisfies to rounding of the displacements must not read its
+    rounding as a violation of order 1 when every row reads nearly 0), and the Euclidean norm of each row of
+    C (1 for an empty row)."""
     S = abs(C) @ np.abs(x) + np.abs(c0)
-    S = np.maximum(S, 1e-9 * S.max(initial=0.0) + np.finfo(float).tiny)
     norms = np.sqrt(np.asarray(abs(C).power(2).sum(axis=1)).ravel())
+    S = np.maximum(S, 1e-9 * S.max(initial=0.0) + np.finfo(float).tiny)
+    S = np.maximum(S, norms * float(np.abs(x).max(initial=0.0)))
     return S, np.where(norms > 0, norms, 1.0)
 
 

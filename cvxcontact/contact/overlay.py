@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError
 
-__all__ = ["Overlay", "overlay", "OVERLAY_TOL"]
+__all__ = ["Overlay", "overlay", "OVERLAY_TOL", "locate", "barycentric", "LOCATE_TOL"]
 
 OVERLAY_TOL = 1e-9
 """Default tolerance of :func:`overlay`, relative to the shortest edge h of the two triangulations."""
@@ -277,3 +277,41 @@ def _mass(triangles, area, v):
     cols = np.tile(triangles, (1, 3)).ravel()
     vals = (area[:, None, None] * local[None]).ravel()
     return sp.csr_matrix((vals, (rows, cols)), shape=(v, v))
+
+
+LOCATE_TOL = 1e-9
+"""Barycentric tolerance of a point on a triangle's edge (relative) in :func:`locate`."""
+
+
+def barycentric(x, P) -> np.ndarray:
+    """(k, 3): the barycentric coordinates of the points ``x`` (k, 2) in the triangles ``P`` (k, 3, 2)."""
+    T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
+    l12 = np.linalg.solve(T, (x - P[:, 0])[..., None])[..., 0] if len(x) else np.zeros((0, 2))
+    return np.column_stack([1.0 - l12.sum(axis=1), l12])
+
+
+def locate(x, coords, triangles, tol: float = LOCATE_TOL) -> tuple[np.ndarray, np.ndarray]:
+    """(triangle, barycentric): for each point ``x`` (k, 2) a triangle of (``coords``, ``triangles``) that
+    contains it (barycentric coordinates >= -``tol``; -1 if none) and its barycentric coordinates there. Candidates
+    by a k-d tree on the centroids (never all pairs)."""
+    x = np.asarray(x, dtype=float)
+    P = np.asarray(coords, dtype=float)[np.asarray(triangles)]
+    c = P.mean(axis=1)
+    radius = float(np.linalg.norm(P - c[:, None], axis=2).max())
+    near = cKDTree(c).query_ball_point(x, radius * (1 + 1e-9))
+    counts = np.fromiter(map(len, near), dtype=int, count=len(near))
+    point = np.repeat(np.arange(len(x)), counts)
+    cand = np.concatenate([np.asarray(n, dtype=int) for n in near]) if counts.sum() else np.zeros(0, dtype=int)
+    L = barycentric(x[point], P[cand])
+    inside = L.min(axis=1) >= -tol
+    point, cand, L = point[inside], cand[inside], L[inside]
+    first = np.full(len(x), -1)
+    at, index = np.unique(point, return_index=True)             # any containing triangle: the first listed
+    first[at] = index
+    found = first >= 0
+    tri = np.full(len(x), -1)
+    bary = np.zeros((len(x), 3))
+    tri[found] = cand[first[found]]
+    bary[found] = np.clip(L[first[found]], 0.0, None)
+    bary[found] /= bary[found].sum(axis=1, keepdims=True)
+    return tri, bary

@@ -23,11 +23,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.spatial import cKDTree
 
 from ..errors import SceneError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only
+from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 
 __all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "locate"]
@@ -40,7 +40,6 @@ P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [0, -4, 0, 16, 16, 32]]) / 180.0
 """The P2 mass matrix of a triangle of unit area in the triangle6 order (v0, v1, v2, m01, m12, m20)."""
 
-_LOCATE_TOL = 1e-9      # barycentric tolerance of a point on a triangle's edge (relative)
 
 
 def p2_shape(L) -> np.ndarray:
@@ -48,13 +47,6 @@ def p2_shape(L) -> np.ndarray:
     L_i (2 L_i - 1) at the vertices, 4 L_i L_j at the edge midpoints."""
     L = np.asarray(L, dtype=float)
     return np.column_stack([L * (2 * L - 1), 4 * L[:, 0] * L[:, 1], 4 * L[:, 1] * L[:, 2], 4 * L[:, 2] * L[:, 0]])
-
-
-def barycentric(x, P) -> np.ndarray:
-    """(k, 3): the barycentric coordinates of the points ``x`` (k, 2) in the triangles ``P`` (k, 3, 2)."""
-    T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)
-    l12 = np.linalg.solve(T, (x - P[:, 0])[..., None])[..., 0] if len(x) else np.zeros((0, 2))
-    return np.column_stack([1.0 - l12.sum(axis=1), l12])
 
 
 def p2_triangle_nodes(triangles, n_vertices) -> tuple[np.ndarray, np.ndarray]:
@@ -66,33 +58,6 @@ def p2_triangle_nodes(triangles, n_vertices) -> tuple[np.ndarray, np.ndarray]:
     unique, inverse = np.unique(keys.ravel(), return_inverse=True)
     edges = np.column_stack([unique // max(n_vertices, 1), unique % max(n_vertices, 1)])
     return np.column_stack([tri, n_vertices + inverse.reshape(-1, 3)]), edges
-
-
-def locate(x, coords, triangles) -> tuple[np.ndarray, np.ndarray]:
-    """(triangle, barycentric): for each point ``x`` (k, 2) a triangle of (``coords``, ``triangles``) that
-    contains it (within a relative tolerance; -1 if none) and its barycentric coordinates there. Candidates
-    by a k-d tree on the centroids (never all pairs)."""
-    x = np.asarray(x, dtype=float)
-    P = coords[triangles]
-    c = P.mean(axis=1)
-    radius = float(np.linalg.norm(P - c[:, None], axis=2).max())
-    near = cKDTree(c).query_ball_point(x, radius * (1 + 1e-9))
-    counts = np.fromiter(map(len, near), dtype=int, count=len(near))
-    point = np.repeat(np.arange(len(x)), counts)
-    cand = np.concatenate([np.asarray(n, dtype=int) for n in near]) if counts.sum() else np.zeros(0, dtype=int)
-    L = barycentric(x[point], P[cand])
-    inside = L.min(axis=1) >= -_LOCATE_TOL
-    point, cand, L = point[inside], cand[inside], L[inside]
-    first = np.full(len(x), -1)
-    at, index = np.unique(point, return_index=True)             # any containing triangle: the first listed
-    first[at] = index
-    found = first >= 0
-    tri = np.full(len(x), -1)
-    bary = np.zeros((len(x), 3))
-    tri[found] = cand[first[found]]
-    bary[found] = np.clip(L[first[found]], 0.0, None)
-    bary[found] /= bary[found].sum(axis=1, keepdims=True)
-    return tri, bary
 
 
 def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:

@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
 from .interface import CONDITIONS, normal_jump, read_only
-from .overlay import OVERLAY_TOL, overlay
+from .overlay import OVERLAY_TOL, locate, overlay
 from .riesz import TraceRiesz
 
 __all__ = ["SurfaceTrace", "SurfaceInterface", "CurvedTrace", "CurvedSurfaceInterface", "canonical_frame", "is_planar"]
@@ -384,7 +384,7 @@ class CurvedSurfaceInterface:
         self.traces = [plane, curve] if planar == 0 else [curve, plane]
         self.normal = read_only(n_p if planar == 0 else -n_p)
         self.frame, self.offset = plane.frame, (plane.offset if planar == 0 else -plane.offset)
-        face, bary = _locate(curve.x, plane.x, plane.faces, tol)
+        face, bary = locate(curve.x, plane.x, plane.faces, tol)
         hit = np.flatnonzero(face >= 0)
         if len(hit) == 0:
             raise SceneError(f"{self.label}: no node of the curved part lies over the planar part along its normal "
@@ -471,35 +471,6 @@ class CurvedSurfaceInterface:
         """The pressure (Pa) felt by body k on its own trace nodes: its nodal forces interpolation(k)^T r (N)
         over its lumped areas ``traces[k].lumped``."""
         return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
-
-
-def _locate(x, coords, triangles, tol):
-    """(triangle, barycentric): for each point ``x`` (k, 2) a triangle of (``coords``, ``triangles``) holding
-    it (barycentric coordinates >= -tol; -1 if none) and its barycentric coordinates there (clipped to >= 0,
-    summing to 1). Candidates by a k-d tree on the centroids."""
-    x = np.asarray(x, dtype=float)
-    P = np.asarray(coords, dtype=float)[np.asarray(triangles)]
-    c = P.mean(axis=1)
-    radius = float(np.linalg.norm(P - c[:, None], axis=2).max())
-    near = cKDTree(c).query_ball_point(x, radius * (1 + 1e-9))
-    counts = np.fromiter(map(len, near), dtype=int, count=len(near))
-    point = np.repeat(np.arange(len(x)), counts)
-    cand = np.concatenate([np.asarray(n, dtype=int) for n in near]) if counts.sum() else np.zeros(0, dtype=int)
-    T = np.stack([P[cand, 1] - P[cand, 0], P[cand, 2] - P[cand, 0]], axis=2)
-    l12 = np.linalg.solve(T, (x[point] - P[cand, 0])[..., None])[..., 0] if len(cand) else np.zeros((0, 2))
-    L = np.column_stack([1.0 - l12.sum(axis=1), l12])
-    inside = L.min(axis=1) >= -tol
-    point, cand, L = point[inside], cand[inside], L[inside]
-    first = np.full(len(x), -1)
-    at, index = np.unique(point, return_index=True)
-    first[at] = index
-    tri = np.full(len(x), -1)
-    bary = np.zeros((len(x), 3))
-    found = first >= 0
-    tri[found] = cand[first[found]]
-    bary[found] = np.clip(L[first[found]], 0.0, None)
-    bary[found] /= bary[found].sum(axis=1, keepdims=True)
-    return tri, bary
 
 
 def _v(a) -> str:

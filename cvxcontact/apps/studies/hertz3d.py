@@ -135,7 +135,12 @@ def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
         sol = solver.solve(base.with_obstacles(sphere.moved(to=top - [0.0, 0.0, delta])))
         return sol, 4 * float(sol.contact.force.sum())
 
-    d0 = hertz(F)[2]
+    return secant_press(at, F, hertz(F)[2], rtol, steps)
+
+
+def secant_press(at, F, d0, rtol=1e-10, steps=30):
+    """(solution, approach delta (m), re-solves): secant steps on F(delta) from the approach ``d0`` (m, e.g.
+    Hertz's), ``at(delta)`` giving (solution, total force (N)), until the force is ``F`` (N) to ``rtol``."""
     s0, f0 = at(d0)
     d1 = d0 * (F / f0) ** (2 / 3)                                          # Hertz's scaling as the first step
     for k in range(steps):

@@ -43,7 +43,7 @@ from ...physics import materials
 from ...physics.pairs import Contact
 from ...physics.scene import Body, Scene
 from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
-from .hertz3d import _edge_radius, hat_loads
+from .hertz3d import _edge_radius, hat_loads, secant_press
 
 E1, NU1 = 210e9, 0.3             # Pa, -: the steel punch (sphere)
 E2, NU2 = 70e9, 0.3              # Pa, -: the aluminium block
@@ -108,15 +108,7 @@ def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
         sol = solver.solve(base.with_gap(-delta))
         return sol, 4 * float(sol.contact.force.sum())
 
-    d0 = hertz(F)[2]
-    s0, f0 = at(d0)
-    d1 = d0 * (F / f0) ** (2 / 3)                                          # Hertz's scaling as the first step
-    for k in range(steps):
-        s1, f1 = at(d1)
-        if abs(f1 - F) <= rtol * F:
-            return s1, d1, k + 2
-        d0, f0, d1 = d1, f1, d1 + (F - f1) * (d1 - d0) / (f1 - f0)
-    raise SolverError(f"press: the force did not reach {F:g} N in {steps} steps (last {f1:g} N)")
+    return secant_press(at, F, hertz(F)[2], rtol, steps)
 
 
 def contact_radius(sol):

@@ -148,7 +148,8 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
-def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None):
+def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None,
+              carry: dict | None = None):
     """Lawson-Hanson non-negative least squares min 1/2 ||A y - b||^2 - c^T y over y >= 0 (``c`` (k,), default 0:
     the plain NNLS) from the warm start ``y0`` (>= 0; its support is the first passive set), with the QR factors
     of the passive columns updated column by column (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change
@@ -159,18 +160,26 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     one that rounding or its constant alone made positive while it lies in their span, a vanishing new
     pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
     unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
+    ``carry`` (a dict): the passive columns and their QR factors at the return, kept there; a later call whose
+    ``A`` has the same first columns (more columns appended: the next round of cuts) and whose warm start is
+    this answer starts from them instead of factoring its passive columns again.
     Returns (y, passive) or None."""
     n, k = A.shape
     c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
-    passive = np.flatnonzero(y > 0)
-    if len(passive):        # a warm start's columns may depend on each other (more of them than A has rows)
-        _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
-        d = np.abs(np.diag(Rp))
-        passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
-    passive = list(passive)
-    y[~np.isin(np.arange(k), passive)] = 0.0
-    Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
+    support = np.flatnonzero(y > 0)
+    if (carry and carry["columns"] <= k and carry["Q"].shape[0] == n and len(carry["passive"]) == len(support)
+            and np.array_equal(np.sort(carry["passive"]), support)):
+        passive, Q, R = list(carry["passive"]), carry["Q"].copy(order="F"), carry["R"].copy(order="F")
+    else:
+        passive = support
+        if len(passive):    # a warm start's columns may depend on each other (more of them than A has rows)
+            _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
+            d = np.abs(np.diag(Rp))
+            passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
+        passive = list(passive)
+        y[~np.isin(np.arange(k), passive)] = 0.0
+        Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
     max_iter = 3 * k + 10 if max_iter is None else max_iter
 
     def least_squares():
@@ -203,6 +212,11 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
                 del passive[i]
         return None
 
+    def done(y):
+        if carry is not None:
+            carry.update(passive=list(passive), Q=Q, R=R, columns=k)
+        return y, np.isin(np.arange(k), passive)
+
     if passive:                               # the warm start's own least-squares point
         y = settle(y)
         if y is None:
@@ -216,13 +230,13 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         cand = np.flatnonzero(out & (w > tol * S))
         if not len(cand):
             if fresh:
-                return y, np.isin(np.arange(k), passive)
+                return done(y)
             S, fresh = scale(y), True                 # the scale of the start, refreshed before stopping
             continue
         fresh = False
         cand = cand[~np.isin(cand, list(dependent))]
         if not len(cand):
-            return y, np.isin(np.arange(k), passive)
+            return done(y)
         j = int(cand[np.argmax(w[cand] / S[cand])])
         p = len(passive)
         if p >= n:
@@ -268,6 +282,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     d_out[keep] = d[keep] - factor.F @ Ld
     held = ~keep
     prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
+    carry = {}                  # the passive columns' QR factors from one round to the next (nnls_warm)
 
     def node_scale(r):
         U = base + absW @ np.abs(r)
@@ -281,8 +296,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
         c = (P[:, held] @ d[held] + P[:, keep] @ d_out[keep])[moving]
-        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c,
-                        dual=lambda ym: (P @ (d - W @ _expand(P, ym, moving)))[moving])    # O(n^2), not O(n k)
+        PT = P.T.tocsr()
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(PT, ym, moving)))[moving], c,
+                        dual=lambda ym: (P @ (d - W @ _expand(PT, ym, moving)))[moving],   # O(n^2), not O(n k)
+                        carry=carry)
         if out is None:
             return None
         y = np.zeros(P.shape[0])
@@ -290,7 +307,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         active = np.zeros(P.shape[0], dtype=bool)
         active[moving] = out[1]
         prev["y"] = y
-        r = P.T @ y
+        r = PT @ y
         return y, d - W @ r, node_scale(r), r, active
 
     out = accumulate_cuts(B, solve, segment, t, max_rounds, width=width)
@@ -344,11 +361,11 @@ def psd_factor(W, keep, cache=None) -> PsdFactor:
     return out
 
 
-def _expand(P, ym, moving):
-    """r = P^T y from the forces ``ym`` of the ``moving`` point rows."""
-    y = np.zeros(P.shape[0])
+def _expand(PT, ym, moving):
+    """r = P^T y from the forces ``ym`` of the ``moving`` point rows (``PT`` = P^T)."""
+    y = np.zeros(PT.shape[1])
     y[moving] = ym
-    return P.T @ y
+    return PT @ y
 
 
 def dual_cone_point(beta) -> np.ndarray:

@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.linalg.blas as blas
 import scipy.sparse as sp
 
 from ..contact.bernstein import bernstein_argmax, bernstein_basis, element, point_rows
@@ -182,14 +183,18 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
     max_iter = 3 * k + 10 if max_iter is None else max_iter
 
+    has_c = bool(c.any())
+    trsv = blas.get_blas_funcs("trsv", (A,))
+
     def least_squares():
         p = len(passive)
         z = np.zeros(k)
-        if p:
+        if p:       # one contiguous copy of R's leading block, BLAS triangular solves on it (no LAPACK wrapper)
+            Rp = np.asfortranarray(R[:p, :p])
             rhs = Q[:, :p].T @ b
-            if c.any():
-                rhs = rhs + sla.solve_triangular(R[:p, :p], c[passive], trans="T", check_finite=False)
-            z[passive] = sla.solve_triangular(R[:p, :p], rhs, check_finite=False)
+            if has_c:
+                rhs = rhs + trsv(Rp, c[passive], trans=1)
+            z[passive] = trsv(Rp, rhs)
         return z
 
     def settle(y):

@@ -65,6 +65,54 @@ def test_amg_resolve_starts_from_the_previous_active_set():
     _agree(again, first, 1e-8)
 
 
+def _elastic_boxes(press, n=8):
+    """An aluminium box clamped on top, pushed down on an aluminium box (non-matching faces, "sigma1") by a body
+    force and a traction ``press`` (N/m^2, along z) on its right face."""
+    from cvxcontact.physics import materials
+
+    al = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n, ny=n, nz=n // 2)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n - 2, ny=n - 2, nz=n // 2)
+    top = cc.Body(upper, al, clamped=["top"], body_force=(0.0, 0.0, -2e9), traction={"right": (0.0, 0.0, press)})
+    base = cc.Body(lower, al, clamped=["bottom"])
+    return cc.Scene(top, base, contacts=[cc.Contact(top, "bottom", base, "top", condition="sigma1")])
+
+
+def test_staged_solves_tighten_only_while_the_signs_hold(monkeypatch):
+    """Each active set is solved to the stages STEP_RTOLS, then RTOL, in order, and left at the first stage whose
+    signs fail: so the tolerances solved on one set are a prefix of that sequence, and only the last set reaches
+    RTOL when it is the answer. Re-solving other loads through one solver (the reduced system of a set is kept
+    between its stages, keyed by the loads) gives the sparse route's answer for each."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    calls, system = [], amg.KrylovContact._system
+
+    def traced(self, active, F, g, x_start, rtol=amg.RTOL):
+        calls.append((active.tobytes(), rtol))
+        return system(self, active, F, g, x_start, rtol)
+
+    monkeypatch.setattr(amg.KrylovContact, "_system", traced)
+    ladder = amg.STEP_RTOLS + (amg.RTOL,)
+    solver = cc.ContactSolver(_elastic_boxes(3e8), method="amg")
+    for press in (3e8, -6e8):                     # the right face's traction: up, then down (other sets)
+        calls.clear()
+        a = solver.solve(_elastic_boxes(press))
+        b = cc.solve(_elastic_boxes(press), method="sparse")
+        assert a.ok and a.info.method == "amg"
+        _agree(a, b, 1e-8)                                  # measured 4.3e-11 .. 7.6e-11 (Krylov to 1e-10)
+        runs, k = [], 0
+        while k < len(calls):                               # consecutive calls on one set
+            j = k
+            while j < len(calls) and calls[j][0] == calls[k][0]:
+                j += 1
+            runs.append([r for _, r in calls[k:j]])
+            k = j
+        assert all(r == list(ladder[:len(r)]) for r in runs)
+        assert runs[-1] == list(ladder) or runs[-1] == [amg.RTOL] * len(runs[-1])
+    assert len(runs) >= 2                                   # measured 2 sets on the second load (4 on the first)
+
+
 def test_gamma3_rows_are_refused_by_the_krylov_system():
     """Overlay rows share their dofs (no row has one of its own): the AMG route's system refuses them (the route
     then hands the problem to the sparse route) rather than eliminating the wrong dofs."""

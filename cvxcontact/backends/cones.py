@@ -17,6 +17,7 @@ from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, seed_forces, seed_points
 from .finish import independent_active_set
+from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
 from .interface import condensation, held_cone, program_fields, release_held, split
@@ -188,7 +189,9 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, str):
-        raw.declined = out + (f" ({prev['why']})" if "why" in prev else "")
+        why = out + (f" ({prev['why']})" if "why" in prev else "")
+        if not _finish_tangency(problem, timings, raw, t0):
+            raw.declined = why + f"; Newton at the tangency points: {raw.declined}"
         return
     x, taus = out["state"]
     raw.u, raw.phi = x[0], x[1]
@@ -199,6 +202,28 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     active = np.zeros(B.shape[1], dtype=bool)
     active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
     raw.active, raw.polished, raw.finish = active, True, Finish.ACCUMULATED_CUTS
+
+
+def _finish_tangency(problem, timings, raw, t0) -> bool:
+    """Where the cuts decline (a round's mixed system singular: a force-controlled curved obstacle touching
+    inside an element), Newton at the tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`)
+    from the interior point's answer. Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
+    B, cells = problem.lines.cone
+    tr = list(problem.translations)
+    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
+    x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
+    out = tangency_newton(kkt, B, problem.g, cells, raw.beta, x0, tol=MIXED_CUT_TOL)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = out
+        return False
+    (u, phi, _, *taus), *_ = kkt.fields(np.zeros(len(problem.g), dtype=bool), out["x"])
+    raw.u, raw.phi = u, phi
+    if tr:
+        raw.taus = list(taus[0])
+    raw.y, raw.beta, raw.active = out["nodal"], out["beta"], out["active"]
+    raw.polished, raw.finish = True, Finish.TANGENCY_NEWTON
+    return True
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):

@@ -1,0 +1,245 @@
+"""The exact finish of the P2 "everywhere" condition at tangency points: Newton on the KKT system of the
+condition written through each touching element's maximum (docs/formulation.md §18).
+
+Where a curved rigid obstacle under force control touches a P2 face at one point inside an element (a disc or
+sphere whose contact zone is smaller than an element), the obstacle's sideways position is set by the tangency:
+the quadratic q of the jump minus the gap reaches 0 at a point L* with zero slope there. Point rows at fixed
+points (the accumulated cuts, :mod:`cvxcontact.backends.cuts`) cannot express that: with one active point
+row the obstacle's balance along the tangent asks for a force along the row's direction that the point row
+does not have, and the round's mixed system is singular.
+
+Here the condition on a touching element (or one of its edges, on triangles) is its maximum itself,
+
+    m(Q) = max { L^T Q L : L >= 0 on the sub-simplex I, sum(L) = 1 } <= 0,
+
+smooth where Q is negative definite on the sub-simplex's tangent plane (the maximiser L* inside): with the
+bordered system Q L* = m 1, 1^T L* = 1, its gradient is dm = L*^T dQ L* (the point row at L*, envelope) and its
+second derivative d2m = -2 (dQ L*)^T T (T^T Q T)^-1 T^T (dQ L*) >= 0 (T a basis of {1^T v = 0}). Vertex
+contacts (and whole elements in contact) stay linear nodal rows. Newton on
+
+    A x + G_v^T y + sum_c mu_c grad m_c = F,   G_v x = g_v,   m_c(x) = 0
+
+with the Hessian A + sum_c mu_c H_c: the curvature terms mu_c H_c carry the stiffness that the obstacle's
+tangential translation lacks. The active structure comes from the interior point's Bernstein duals and is
+corrected in an outer loop (a negative multiplier leaves, a violated element enters, a maximiser leaving its
+sub-simplex moves to the sub-face). Quadratic convergence: from the interior point's answer (~1e-8) two to
+four steps reach rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..contact.bernstein import bernstein_argmax, element, point_rows
+from .cuts import point_duals, segment_scales
+
+__all__ = ["tangency_newton"]
+
+NEWTON_TOL = 1e-14
+"""Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
+
+
+def _sub_basis(m: int) -> np.ndarray:
+    """(m, m-1): an orthonormal basis of {v in R^m : sum(v) = 0}."""
+    V = np.linalg.qr(np.column_stack([np.ones(m), np.eye(m)[:, :m - 1]]))[0]
+    return V[:, 1:]
+
+
+class _Element:
+    """The Bernstein coefficients of one element as affine functions of x: b = D x - d (D (w, n) sparse)."""
+
+    def __init__(self, shape, D, d):
+        self.shape, self.D, self.d = shape, sp.csr_matrix(D), np.asarray(d, dtype=float)
+
+    def coefficients(self, x):
+        return self.D @ x - self.d
+
+
+def _index(shape, i: int, j: int) -> int:
+    """The position of Q_ij in the element's coefficient vector (segments (b0, b1, b2), triangles in
+    triangle6 order)."""
+    if shape.width == 3:
+        return 2 * i if i == j else 1
+    if i == j:
+        return i
+    for a, b, c in shape.edges:
+        if {a, b} == {i, j}:
+            return c
+    raise ValueError((i, j))
+
+
+def _maximum(shape, b, I):
+    """(m, L*, J-coefficient map, M): the maximum of q over the sub-simplex ``I`` of an element with
+    coefficients ``b``, its maximiser (full barycentric), and the matrix M = T (T^T Q_II T)^-1 T^T, or None
+    where Q_II is not negative definite on the tangent plane."""
+    k = 2 if shape.width == 3 else 3
+    Q = np.empty((k, k))
+    for i in range(k):
+        for j in range(k):
+            Q[i, j] = b[_index(shape, i, j)]
+    I = list(I)
+    QI = Q[np.ix_(I, I)]
+    T = _sub_basis(len(I))
+    H = T.T @ QI @ T
+    if np.any(np.linalg.eigvalsh(H) >= 0):
+        return None
+    m = len(I)
+    bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
+    sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+    L = np.zeros(k)
+    L[I] = sol[:m]
+    M = T @ np.linalg.solve(H, T.T)
+    return sol[m], L, M
+
+
+def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: float = 1e-11,
+                    max_steps: int = 30, max_rounds: int = 8):
+    """The exact finish of the module docstring on the sparse mixed system ``kkt``
+    (:func:`cvxcontact.backends.full.mixed_kkt` on the rows of X_h: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
+    ``kkt.rhs`` F), the Bernstein map ``B`` (w S, N) with its ``cells`` (S, w) and the gap ``g`` (N,), from
+    the interior point's Bernstein duals ``beta`` (S, w) and stacked unknowns ``x0`` (n,).
+
+    Returns a dict (x, segment, t, y: the point forces, beta, active: X_h nodes carrying force, steps,
+    violation) or the reason it stopped (str)."""
+    G = sp.csr_matrix(kkt.rows)
+    A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
+    B = sp.csr_matrix(B)
+    w = cells.shape[1]
+    shape = element(w)
+    S = len(cells)
+    k = 2 if w == 3 else 3
+    corner = [0, 2] if w == 3 else [0, 1, 2]          # the cells' columns of the vertices
+    D_all = (B @ G).tocsr()
+    d_all = B @ g
+    elem = lambda s: _Element(shape, D_all[w * s:w * s + w], d_all[w * s:w * s + w])
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    total = beta.sum(axis=1)
+    big = np.flatnonzero(total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny))
+    # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
+    vertices: dict[int, float] = {}
+    tangencies: dict[tuple, tuple] = {}
+    Z = shape.dual_gram(beta[big]) if w == 6 else shape.gram(beta[big])
+
+    def add(s, I, force):
+        nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
+        if len(nodes) == 1:
+            vertices[nodes[0]] = vertices.get(nodes[0], 0.0) + force
+        elif nodes not in tangencies:
+            tangencies[nodes] = (int(s), tuple(I), force)
+
+    for s, Zs in zip(big, Z):
+        ev, V = np.linalg.eigh(Zs)
+        if ev[-2] > 1e-3 * ev[-1]:                # a spread force: the whole element in contact, its nodes
+            for node in cells[s]:
+                vertices.setdefault(int(node), 0.0)
+            continue
+        L = np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()
+        I = tuple(int(i) for i in np.flatnonzero(L > 1e-3))
+        add(s, I, float(total[s]))
+    x = np.asarray(x0, dtype=float).copy()
+    scale_x = lambda x: abs(A) @ np.abs(x) + np.abs(F)
+    for rounds in range(1, max_rounds + 1):
+        vnodes = np.array(sorted(vertices), dtype=int)
+        tkeys = list(tangencies)
+        Gv, gv = G[vnodes], g[vnodes]
+        y = np.array([vertices[v] for v in vnodes])
+        mu = np.array([tangencies[c][2] for c in tkeys])
+        steps, why = 0, None
+        for steps in range(1, max_steps + 1):
+            rows, vals, hess = [], [], sp.csr_matrix(A.shape)
+            points = []
+            for c, m_c in zip(tkeys, mu):
+                s, I, _ = tangencies[c]
+                el = elem(s)
+                out = _maximum(shape, el.coefficients(x), I)
+                if out is None:
+                    why = f"element {s}: the quadratic is not strictly concave where it touches"
+                    break
+                m, L, M = out
+                phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
+                grad = sp.csr_matrix(phi[None, :]) @ el.D
+                J = sp.vstack([sum(L[j] * el.D[_index(shape, i, j)] for j in I) for i in I]).tocsr()
+                hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
+                rows.append(grad)
+                vals.append(m)
+                points.append((s, L))
+            if why:
+                break
+            C = sp.vstack([Gv] + rows).tocsr() if len(vnodes) + len(rows) else sp.csr_matrix((0, A.shape[0]))
+            lam = np.r_[y, mu]
+            r1 = A @ x + C.T @ lam - F
+            r2 = np.r_[Gv @ x - gv, np.array(vals)]
+            K = sp.bmat([[A + hess, C.T], [C, None]], format="csc")
+            try:
+                dz = spla.splu(K).solve(-np.r_[r1, r2])
+            except RuntimeError:
+                why = "the Newton system is singular"
+                break
+            if not np.all(np.isfinite(dz)):
+                why = "the Newton system is singular"
+                break
+            n = A.shape[0]
+            x, lam = x + dz[:n], lam + dz[n:]
+            y, mu = lam[:len(vnodes)], lam[len(vnodes):]
+            if np.abs(dz[:n]).max(initial=0.0) <= NEWTON_TOL * max(np.abs(x).max(initial=0.0), np.finfo(float).tiny):
+                break
+        else:
+            why = f"Newton did not converge in {max_steps} steps"
+        if why:
+            return why
+        # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
+        forces = np.r_[y, mu]
+        fscale = max(np.abs(forces).max(initial=0.0), np.finfo(float).tiny)
+        changed = False
+        for v, yv in zip(vnodes, y):
+            if yv < -1e-12 * fscale:
+                del vertices[int(v)]
+                changed = True
+            else:
+                vertices[int(v)] = float(yv)
+        for c, m_c, (s, L) in zip(tkeys, mu, points):
+            I = tangencies[c][1]
+            if m_c < -1e-12 * fscale:
+                del tangencies[c]
+                changed = True
+            elif np.any(L[list(I)] <= 0):
+                del tangencies[c]
+                add(s, tuple(i for i in I if L[i] > 0), float(m_c))
+                changed = True
+            else:
+                tangencies[c] = (s, I, float(m_c))
+        U = abs(G) @ np.abs(x) + np.abs(g)
+        qmax, Lmax = bernstein_argmax((D_all @ x - d_all).reshape(-1, w))
+        rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
+        bad = np.flatnonzero(rel > tol)
+        for s in bad:
+            Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
+            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0)
+            changed = True
+        if not changed:
+            break
+    else:
+        return f"the tangency structure did not settle in {max_rounds} rounds"
+    # the answer as point forces (the read-back of the cuts): vertex rows at a vertex of an element holding them
+    seg, pts, yk = [], [], []
+    first = {}
+    for s in range(S):
+        for i in range(w):
+            first.setdefault(int(cells[s, i]), (s, i))
+    nodes = shape.nodes if w == 6 else np.column_stack([1 - shape.nodes, shape.nodes])
+    for v, yv in zip(vnodes, y):
+        s, i = first[int(v)]
+        seg.append(s), pts.append(nodes[i]), yk.append(yv)
+    for m_c, (s, L) in zip(mu, points):
+        seg.append(s), pts.append(L), yk.append(m_c)
+    seg = np.array(seg, dtype=int)
+    pts = np.array(pts).reshape(len(seg), k)
+    t = pts if w == 6 else pts[:, 1]
+    yk = np.maximum(np.array(yk, dtype=float), 0.0)
+    P = point_rows(B, seg, t)
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(yk > 0)].indices)] = True
+    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), active=active, rounds=rounds,
+                violation=float(rel.max(initial=0.0)), nodal=P.T @ yk)

@@ -139,7 +139,6 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
         I = tuple(int(i) for i in np.flatnonzero(L > 1e-3))
         add(s, I, float(total[s]))
     x = np.asarray(x0, dtype=float).copy()
-    scale_x = lambda x: abs(A) @ np.abs(x) + np.abs(F)
     for rounds in range(1, max_rounds + 1):
         vnodes = np.array(sorted(vertices), dtype=int)
         tkeys = list(tangencies)

@@ -208,11 +208,11 @@ def _finish_tangency(problem, timings, raw, t0) -> bool:
     """Where the cuts decline (a round's mixed system singular: a force-controlled curved obstacle touching
     inside an element), Newton at the tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`)
     from the interior point's answer. Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
-    B, cells = problem.lines.cone
+    B = problem.lines.cone[0]
     tr = list(problem.translations)
     kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
     x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
-    out = tangency_newton(kkt, B, problem.g, cells, raw.beta, x0, tol=MIXED_CUT_TOL)
+    out = tangency_newton(kkt, B, problem.g, raw.beta, x0, held=problem.held_rows, tol=MIXED_CUT_TOL)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, str):
         raw.declined = out
@@ -301,10 +301,45 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
         u, phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
     raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, taus=taus, program=model.problem, iterations=iterations,
                     method=method)
-    if (settings.polish and not problem.held and not problem.translations and not law.cone.all()
-            and not (law.cone & law.rows).any()):
-        _finish_nodal_rows(problem, cache, settings, timings, raw, r)
+    if settings.polish and not _finish_mixed(problem, timings, raw, B):
+        why = raw.declined
+        raw.declined = None
+        if (not problem.held and not problem.translations and not law.cone.all()
+                and not (law.cone & law.rows).any()):
+            _finish_nodal_rows(problem, cache, settings, timings, raw, r)
+        elif why:
+            raw.declined = why
     return raw
+
+
+def _finish_mixed(problem, timings, raw, B) -> bool:
+    """The exact finish of a cone/compliance program (docs/formulation.md §18): Newton on its KKT system at a
+    fixed contact structure (vertex rows and tangency points of the cones, the compliant rows in penetration,
+    the active limit rows) on the sparse mixed system, from the interior point's answer. Updates ``raw`` and
+    returns True, or sets ``raw.declined`` and returns False."""
+    t0 = time.perf_counter()
+    law, w, g = problem.scaled_law, problem.weights, problem.g
+    tr = list(problem.translations)
+    kkt = mixed_kkt(problem.blocks, problem.E, g, translations=tr)
+    x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
+    z_lim = raw.z - B.T @ raw.beta.ravel()
+    start = z_lim > 1e-6 * max(float(np.abs(raw.y).max(initial=0.0)), np.finfo(float).tiny)
+    out = tangency_newton(kkt, B, g, raw.beta, x0, cone_gap=g + law.cone_shift, law=law, weights=w,
+                          limit=law.penetration_limit, limit_start=start, held=problem.held_rows, tol=MIXED_CUT_TOL)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = f"Newton at the contact structure: {out}"
+        return False
+    (u, phi, _, *taus), *_ = kkt.fields(np.zeros(len(g), dtype=bool), out["x"])
+    raw.u, raw.phi = u, phi
+    if tr:
+        raw.taus = list(taus[0])
+    raw.beta = out["beta"]
+    raw.z = out["nodal"] + out["z"]
+    raw.y = out["pressure"] + raw.z
+    raw.active = out["active"]
+    raw.polished, raw.finish = True, Finish.TANGENCY_NEWTON
+    return True
 
 
 def _finish_nodal_rows(problem, cache, settings, timings, raw, r):

@@ -39,6 +39,8 @@ __all__ = ["tangency_newton"]
 
 NEWTON_TOL = 1e-14
 """Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
+STALL_TOL = 1e-10
+"""Below this relative step, a step that no longer shrinks by 4 ends the iteration (rounding's floor)."""
 
 
 def _sub_basis(m: int) -> np.ndarray:
@@ -94,38 +96,75 @@ def _maximum(shape, b, I):
     return sol[m], L, M
 
 
-def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: float = 1e-11,
-                    max_steps: int = 30, max_rounds: int = 8):
-    """The exact finish of the module docstring on the sparse mixed system ``kkt``
-    (:func:`cvxcontact.backends.full.mixed_kkt` on the rows of X_h: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
-    ``kkt.rhs`` F), the Bernstein map ``B`` (w S, N) with its ``cells`` (S, w) and the gap ``g`` (N,), from
-    the interior point's Bernstein duals ``beta`` (S, w) and stacked unknowns ``x0`` (n,).
+def _cells(B, w: int) -> np.ndarray:
+    """(S, w): the row read at each P2 node of every element of the Bernstein map ``B`` (w S, N) (the values at
+    the nodes are inv(to_bernstein) B_s, unit rows); -1 where a node's value is not one row's."""
+    shape = element(w)
+    V = (sp.kron(sp.eye(B.shape[0] // w), np.linalg.inv(shape.to_bernstein)) @ B).tocsr()
+    V.eliminate_zeros()
+    V.data[np.abs(V.data) < 1e-12] = 0.0
+    V.eliminate_zeros()
+    counts = np.diff(V.indptr)
+    cells = np.full(V.shape[0], -1)
+    one = counts == 1
+    cells[one] = V.indices[V.indptr[:-1][one]]
+    return cells.reshape(-1, w)
 
-    Returns a dict (x, segment, t, y: the point forces, beta, active: X_h nodes carrying force, steps,
-    violation) or the reason it stopped (str)."""
+
+def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
+                    held=None, force_floor: float = 1e-6, tol: float = 1e-11, max_steps: int = 40,
+                    max_rounds: int = 10):
+    """The exact finish of the module docstring on the sparse mixed system ``kkt``
+    (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
+    ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
+    q = B (G x - ``cone_gap``), default ``g``), from the interior point's Bernstein duals ``beta`` (S, w) and
+    stacked unknowns ``x0`` (n,).
+
+    Optionally the rest of a mixed program (docs/formulation.md §10, "P2"): the compliance energy
+    sum_a w_a Phi_a(r_a) of a scaled ``law`` (:class:`~cvxcontact.contact.laws.RowLaws`) with ``weights`` on
+    its compliant rows (semismooth: its Hessian w p'(r) G^T G where r > 0, re-read every step), and linear rows
+    r_a <= ``limit``_a where the limit is finite (active at the start where ``limit_start``). ``held`` rows (no
+    unknown moves them) carry no linear row (their law's force w p(r) is kept: it moves nothing).
+
+    Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
+    active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
+    reason it stopped (str)."""
     G = sp.csr_matrix(kkt.rows)
     A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
     B = sp.csr_matrix(B)
-    w = cells.shape[1]
+    N, n = G.shape
+    g = np.asarray(g, dtype=float)
+    cone_gap = g if cone_gap is None else np.asarray(cone_gap, dtype=float)
+    held = np.zeros(N, dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    w = np.shape(beta)[1]
     shape = element(w)
+    cells = _cells(B, w)
     S = len(cells)
     k = 2 if w == 3 else 3
     corner = [0, 2] if w == 3 else [0, 1, 2]          # the cells' columns of the vertices
     D_all = (B @ G).tocsr()
-    d_all = B @ g
+    d_all = B @ cone_gap
     elem = lambda s: _Element(shape, D_all[w * s:w * s + w], d_all[w * s:w * s + w])
+    compliant = np.zeros(N, dtype=bool) if law is None else np.asarray(law.rows, dtype=bool)   # held: G_a = 0
+    lim = np.full(N, np.inf) if limit is None else np.where(held, np.inf, np.asarray(limit, dtype=float))
+    limited = np.isfinite(lim)
     beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
     total = beta.sum(axis=1)
     big = np.flatnonzero(total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny))
     # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
     vertices: dict[int, float] = {}
     tangencies: dict[tuple, tuple] = {}
+    limits: dict[int, float] = {int(a): 0.0 for a in np.flatnonzero(limited & (False if limit_start is None
+                                                                               else np.asarray(limit_start)))}
     Z = shape.dual_gram(beta[big]) if w == 6 else shape.gram(beta[big])
 
     def add(s, I, force):
         nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
+        if min(nodes) < 0:
+            return
         if len(nodes) == 1:
-            vertices[nodes[0]] = vertices.get(nodes[0], 0.0) + force
+            if not held[nodes[0]]:
+                vertices[nodes[0]] = vertices.get(nodes[0], 0.0) + force
         elif nodes not in tangencies:
             tangencies[nodes] = (int(s), tuple(I), force)
 
@@ -133,21 +172,26 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
         ev, V = np.linalg.eigh(Zs)
         if ev[-2] > 1e-3 * ev[-1]:                # a spread force: the whole element in contact, its nodes
             for node in cells[s]:
-                vertices.setdefault(int(node), 0.0)
+                if node >= 0 and not held[node]:
+                    vertices.setdefault(int(node), 0.0)
             continue
         L = np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()
-        I = tuple(int(i) for i in np.flatnonzero(L > 1e-3))
-        add(s, I, float(total[s]))
+        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-3)), float(total[s]))
     x = np.asarray(x0, dtype=float).copy()
+    kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
+    mm = np.ones(N) if law is None else np.asarray(law.exponent, dtype=float)
+    wt = np.zeros(N) if weights is None else np.asarray(weights, dtype=float)
     for rounds in range(1, max_rounds + 1):
         vnodes = np.array(sorted(vertices), dtype=int)
+        lrows = np.array(sorted(limits), dtype=int)
         tkeys = list(tangencies)
-        Gv, gv = G[vnodes], g[vnodes]
-        y = np.array([vertices[v] for v in vnodes])
+        Gv, gv = G[vnodes], cone_gap[vnodes]
+        Gl, gl = G[lrows], g[lrows] + lim[lrows]
+        lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
         mu = np.array([tangencies[c][2] for c in tkeys])
-        steps, why = 0, None
-        for steps in range(1, max_steps + 1):
-            rows, vals, hess = [], [], sp.csr_matrix(A.shape)
+        why, pen, last = None, None, np.inf
+        for _ in range(max_steps):
+            rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
@@ -158,19 +202,25 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
                     break
                 m, L, M = out
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
-                grad = sp.csr_matrix(phi[None, :]) @ el.D
                 J = sp.vstack([sum(L[j] * el.D[_index(shape, i, j)] for j in I) for i in I]).tocsr()
                 hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
-                rows.append(grad)
+                rows.append(sp.csr_matrix(phi[None, :]) @ el.D)
                 vals.append(m)
                 points.append((s, L))
             if why:
                 break
-            C = sp.vstack([Gv] + rows).tocsr() if len(vnodes) + len(rows) else sp.csr_matrix((0, A.shape[0]))
-            lam = np.r_[y, mu]
-            r1 = A @ x + C.T @ lam - F
-            r2 = np.r_[Gv @ x - gv, np.array(vals)]
-            K = sp.bmat([[A + hess, C.T], [C, None]], format="csc")
+            r = G @ x - g
+            on = compliant & (r > 0)
+            rp = np.where(on, r, 0.0)
+            force = wt * kk * rp ** mm                                   # w p(r)
+            stiff = np.where(on, wt * kk * mm * np.where(on, rp, 1.0) ** (mm - 1.0), 0.0)
+            C = sp.vstack([Gv, Gl] + rows).tocsr() if len(vnodes) + len(lrows) + len(rows) else \
+                sp.csr_matrix((0, n))
+            lam = np.r_[lam_lin, mu]
+            r1 = A @ x + G.T @ force + C.T @ lam - F
+            r2 = np.r_[Gv @ x - gv, Gl @ x - gl, np.array(vals)]
+            K = sp.bmat([[A + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
+                else (A + hess + G.T @ sp.diags(stiff) @ G).tocsc()
             try:
                 dz = spla.splu(K).solve(-np.r_[r1, r2])
             except RuntimeError:
@@ -179,25 +229,31 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
             if not np.all(np.isfinite(dz)):
                 why = "the Newton system is singular"
                 break
-            n = A.shape[0]
             x, lam = x + dz[:n], lam + dz[n:]
-            y, mu = lam[:len(vnodes)], lam[len(vnodes):]
-            if np.abs(dz[:n]).max(initial=0.0) <= NEWTON_TOL * max(np.abs(x).max(initial=0.0), np.finfo(float).tiny):
+            lam_lin, mu = lam[:len(lam_lin)], lam[len(lam_lin):]
+            step = np.abs(dz[:n]).max(initial=0.0) / max(np.abs(x).max(initial=0.0), 1e-300)
+            # converged: a step at rounding, or a small one that no longer shrinks quadratically (the floor of
+            # the system's conditioning, measured 1e-14 .. 1e-13 with k = 1e14 Pa/m^2, m = 2)
+            small = step <= NEWTON_TOL or (step <= STALL_TOL and step > 0.25 * last)
+            last = step
+            if small and pen is not None and np.array_equal(on, pen):
                 break
+            pen = on
         else:
             why = f"Newton did not converge in {max_steps} steps"
         if why:
             return why
         # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
-        forces = np.r_[y, mu]
-        fscale = max(np.abs(forces).max(initial=0.0), np.finfo(float).tiny)
+        y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
+        fscale = max(np.abs(np.r_[lam_lin, mu, force]).max(initial=0.0), np.finfo(float).tiny)
         changed = False
-        for v, yv in zip(vnodes, y):
-            if yv < -1e-12 * fscale:
-                del vertices[int(v)]
-                changed = True
-            else:
-                vertices[int(v)] = float(yv)
+        for table, keys, values in ((vertices, vnodes, y), (limits, lrows, zl)):
+            for a, v in zip(keys, values):
+                if v < -1e-12 * fscale:
+                    del table[int(a)]
+                    changed = True
+                else:
+                    table[int(a)] = float(v)
         for c, m_c, (s, L) in zip(tkeys, mu, points):
             I = tangencies[c][1]
             if m_c < -1e-12 * fscale:
@@ -209,25 +265,29 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
                 changed = True
             else:
                 tangencies[c] = (s, I, float(m_c))
-        U = abs(G) @ np.abs(x) + np.abs(g)
+        U = abs(G) @ np.abs(x) + np.abs(g) + np.abs(cone_gap)
         qmax, Lmax = bernstein_argmax((D_all @ x - d_all).reshape(-1, w))
         rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
-        bad = np.flatnonzero(rel > tol)
-        for s in bad:
+        for s in np.flatnonzero(rel > tol):
             Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
             add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0)
             changed = True
+        over = np.flatnonzero(limited & ((G @ x - g - lim) > tol * np.maximum(U, np.finfo(float).tiny)))
+        for a in over:
+            if int(a) not in limits:
+                limits[int(a)] = 0.0
+                changed = True
         if not changed:
             break
     else:
         return f"the tangency structure did not settle in {max_rounds} rounds"
-    # the answer as point forces (the read-back of the cuts): vertex rows at a vertex of an element holding them
-    seg, pts, yk = [], [], []
+    # the answer as point forces (the read-back of the cuts): a node's row at that node of an element holding it
     first = {}
     for s in range(S):
         for i in range(w):
             first.setdefault(int(cells[s, i]), (s, i))
     nodes = shape.nodes if w == 6 else np.column_stack([1 - shape.nodes, shape.nodes])
+    seg, pts, yk = [], [], []
     for v, yv in zip(vnodes, y):
         s, i = first[int(v)]
         seg.append(s), pts.append(nodes[i]), yk.append(yv)
@@ -237,8 +297,11 @@ def tangency_newton(kkt, B, g, cells, beta, x0, force_floor: float = 1e-6, tol: 
     pts = np.array(pts).reshape(len(seg), k)
     t = pts if w == 6 else pts[:, 1]
     yk = np.maximum(np.array(yk, dtype=float), 0.0)
+    z = np.zeros(N)
+    z[lrows] = np.maximum(zl, 0.0)
     P = point_rows(B, seg, t)
-    active = np.zeros(B.shape[1], dtype=bool)
+    active = np.zeros(N, dtype=bool)
     active[np.unique(P[np.flatnonzero(yk > 0)].indices)] = True
-    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=P.T @ yk)
+    active |= (z > 0) | (force > 0)
+    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
+                violation=float(rel.max(initial=0.0)), nodal=P.T @ yk, pressure=force)

@@ -139,21 +139,28 @@ def test_a_force_controlled_sphere_touching_inside_a_triangle_is_finished():
     assert np.abs(ipm.u[0] - sol.u[0]).max() < 1e-5 * scale                # measured
 
 
-@pytest.mark.parametrize("name", ["force-controlled circle", "three blocks, P2 compliance next to a cone",
-                                  "layer held, P2 conic limit"])
-def test_canonical_scenes_under_p2_gamma3_finish_at_the_default_tol(name):
-    """The canonical scenes (tests/scenes.py) the cuts could not finish, under degree=2, "gamma3", at the
-    default tol without warning: a force-controlled circle; cones next to a compliance law (before: the interior
-    point, ok only at tol 2e-5). The finished answer against the interior point's of the same program (close to
-    the interior point's accuracy: it is not the reference, it bounds a gross error)."""
-    from scenes import SCENES
+from scenes import SCENES  # noqa: E402
 
+NEWTON = {"force-controlled circle", "three blocks, P2 compliance next to a cone", "layer held, P2 conic limit"}
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_every_canonical_scene_under_p2_gamma3_is_finished_at_the_default_tol(name):
+    """Every canonical scene (tests/scenes.py) under degree=2, "gamma3" (a pair's own condition or law kept),
+    at the default tol without warning, with an exact finish. Three needed Newton at the contact structure: a
+    force-controlled circle, cones next to a compliance law (before: the interior point, ok only at tol 2e-5,
+    or not at all). There the finished answer is compared with the interior point's of the same program (not
+    the reference: it bounds a gross error); the references are the other tests of this module and
+    tests/test_p2_mixed_laws.py (dense sampling), tests/test_p2_model_compliance.py (a closed form)."""
     build, kw = SCENES[name]
     kw = {**{k: v for k, v in kw.items() if k != "tol"}, "condition": "gamma3", "degree": 2}
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sol = cc.solve(build(), **kw)
-    assert sol.ok and sol.polished and sol.info.finish == "tangency Newton", sol.report()
+    assert sol.ok and sol.polished, sol.report()
+    if name not in NEWTON:
+        return
+    assert sol.info.finish == "tangency Newton"
     r = sol.residuals()
     assert r["equilibrium"] < 1e-14 and r["feasibility"] < 1e-14          # measured <= 8.3e-16, 6.7e-17
     assert r["complementarity"] < 1e-7 and r.get("law", 0.0) < 1e-12        # measured <= 8.3e-9, 9.0e-14

@@ -1,7 +1,8 @@
-"""Routes for the P2 "everywhere" condition (docs/formulation.md §8): a second-order cone per merged segment,
-alone (full or condensed program), or next to a normal-compliance law in one program (§10, "P2"). Interior
-point with the conic tolerances; no exact finish of the cones (the nodal rows of a mixed program are
-finished with the cones' force held)."""
+"""Routes for the P2 "everywhere" condition (docs/formulation.md §8, §16): a second-order cone per merged
+segment (a copositive 3x3 condition per triangle in 3D), alone (full or condensed program), or next to a
+normal-compliance law in one program (§10, "P2"). Interior point with the conic tolerances, then an exact
+finish: accumulated cuts on the interface compliance (certified), or on the sparse mixed system where no
+compliance exists, or Newton at the contact structure (§18: tangency points, cones next to a compliance law)."""
 
 from __future__ import annotations
 
@@ -270,7 +271,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
     "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
     pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
-    no exact finish of the cones. ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
+    finished by Newton at the contact structure (:func:`_finish_mixed`, §18). ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
     the linear rows), ``raw.beta`` the Bernstein duals."""
     law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
     B = mixed_bernstein_rows(problem)

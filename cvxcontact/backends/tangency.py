@@ -158,6 +158,14 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                                                                                else np.asarray(limit_start)))}
     Z = shape.dual_gram(beta[big]) if w == 6 else shape.gram(beta[big])
 
+    def whole(s, I):
+        """The sub-simplex I of element s in contact: rows at its P2 nodes (q = 0 at all of them: q = 0 on it)."""
+        cols = [corner[i] for i in I] + ([1] if w == 3 and len(I) == 2 else
+                                         [c for i, j, c in getattr(shape, "edges", ()) if i in I and j in I])
+        for node in cells[s, cols]:
+            if node >= 0 and not held[node]:
+                vertices.setdefault(int(node), 0.0)
+
     def add(s, I, force):
         nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
         if min(nodes) < 0:
@@ -165,17 +173,21 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         if len(nodes) == 1:
             if not held[nodes[0]]:
                 vertices[nodes[0]] = vertices.get(nodes[0], 0.0) + force
+        elif any(v in vertices for v in nodes):
+            # a strictly concave q cannot touch 0 inside I and at a vertex of I: the contact covers I
+            whole(s, I)
         elif nodes not in tangencies:
             tangencies[nodes] = (int(s), tuple(I), force)
 
+    points = []
     for s, Zs in zip(big, Z):
         ev, V = np.linalg.eigh(Zs)
-        if ev[-2] > 1e-3 * ev[-1]:                # a spread force: the whole element in contact, its nodes
-            for node in cells[s]:
-                if node >= 0 and not held[node]:
-                    vertices.setdefault(int(node), 0.0)
-            continue
-        L = np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()
+        if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
+            d = np.diag(Zs)
+            whole(s, tuple(int(i) for i in np.flatnonzero(d > 1e-3 * d.max())))
+        else:                                     # a point force: at L* (Z's leading eigenvector)
+            points.append((s, np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()))
+    for s, L in points:
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-3)), float(total[s]))
     x = np.asarray(x0, dtype=float).copy()
     kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
@@ -189,7 +201,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         Gl, gl = G[lrows], g[lrows] + lim[lrows]
         lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
         mu = np.array([tangencies[c][2] for c in tkeys])
-        why, pen, last = None, None, np.inf
+        why, pen, last, flat = None, None, np.inf, None
         for _ in range(max_steps):
             rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
@@ -197,8 +209,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 s, I, _ = tangencies[c]
                 el = elem(s)
                 out = _maximum(shape, el.coefficients(x), I)
-                if out is None:
-                    why = f"element {s}: the quadratic is not strictly concave where it touches"
+                if out is None:              # q flat or convex along I: the contact covers I (next round)
+                    flat = (c, s, I)
                     break
                 m, L, M = out
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
@@ -207,7 +219,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 rows.append(sp.csr_matrix(phi[None, :]) @ el.D)
                 vals.append(m)
                 points.append((s, L))
-            if why:
+            if flat:
                 break
             r = G @ x - g
             on = compliant & (r > 0)
@@ -243,6 +255,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             why = f"Newton did not converge in {max_steps} steps"
         if why:
             return why
+        if flat:
+            del tangencies[flat[0]]
+            whole(flat[1], flat[2])
+            continue
         # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
         y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
         fscale = max(np.abs(np.r_[lam_lin, mu, force]).max(initial=0.0), np.finfo(float).tiny)

@@ -73,9 +73,9 @@ def _index(shape, i: int, j: int) -> int:
 
 
 def _maximum(shape, b, I):
-    """(m, L*, J-coefficient map, M): the maximum of q over the sub-simplex ``I`` of an element with
-    coefficients ``b``, its maximiser (full barycentric), and the matrix M = T (T^T Q_II T)^-1 T^T, or None
-    where Q_II is not negative definite on the tangent plane."""
+    """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
+    maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
+    docstring); None where Q_II is not negative definite on the tangent plane."""
     k = 2 if shape.width == 3 else 3
     Q = np.empty((k, k))
     for i in range(k):

@@ -216,3 +216,41 @@ def test_a_free_sphere_on_a_p2_patch_is_finished():
     t = free.obstacles[0].translation
     assert np.abs(t[:2]).max() < 1e-6 * abs(t[2])                          # measured 2.9e-9 of 5.3e-2 m
     assert np.abs(free.u[0] - guided.u[0]).max() < 3e-5 * np.abs(guided.u[0]).max()   # measured 3.1e-6
+
+
+def _sampled_q(sol, per_segment):
+    """max of q = [u_nu] - g_h over ``per_segment`` + 1 points of every P2 segment of the first pair, from
+    the nodal jump and gap by Lagrange interpolation on each segment's (start, mid, end) (not the Bernstein
+    code), and where it is reached (m)."""
+    c = sol.contacts[0]
+    x = np.asarray(c.x)
+    x = x[:, 0] if x.ndim == 2 else x
+    o = np.argsort(x)
+    xs, q = x[o], (np.asarray(c.jump) - np.asarray(c.gap))[o]
+    a, mid, b = q[0:-1:2], q[1::2], q[2::2]
+    t = np.linspace(0, 1, per_segment + 1)[:, None]
+    vals = a * (1 - t) * (1 - 2 * t) + b * t * (2 * t - 1) + mid * 4 * t * (1 - t)
+    where = xs[0:-1:2] + t * (xs[2::2] - xs[0:-1:2])
+    k = np.unravel_index(np.argmax(vals), vals.shape)
+    return vals[k], where[k]
+
+
+def test_a_circle_touching_just_beside_a_vertex_is_a_tangency():
+    """A large circle (R = 3 m, F = 2 kN/m) centred 1e-3 of an element beside a vertex: the interior point's
+    Bernstein duals put the point force at L = (3.7e-4, 0.99963) on one segment and (0.99919, 8.1e-4) on the
+    next. With a coordinate below 1e-3 read as a vertex row the start was a single vertex row, whose Newton
+    system is singular (the obstacle's two balance rows see one force): declined, ok False. The tangency at
+    L = 0.999 is the answer: checked by sampling q at 4001 points of every segment."""
+    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=24, ny=6), cc.materials.isotropic(E=7e10, nu=0.33),
+                    clamped="bottom", contact="top", name="block")
+    R, cx = 3.0, (13 - 1e-3) / 24
+    circle = cc.Rigid.circle((cx, 0.5 + R - 1e-4), R, force=(0.0, -2e3))
+    sol = _finished(cc.Scene(block, contacts=[cc.Contact(block, "top", circle)]))
+    assert sol.ok and sol.polished and sol.info.finish == "tangency Newton"
+    F = sol.obstacles[0].force
+    assert abs(F[0]) < 1e-14 * abs(F[1])                                   # measured 5e-19
+    q, x = _sampled_q(sol, 4000)
+    # q touches 0 between the samples: -(half the spacing)^2 / (2 R) <= max <= 0 (the gap's curvature 1/R)
+    scale = np.abs(sol.u[0]).max()                                          # 6.9e-8 m
+    assert -(0.5 / 24 / 4000) ** 2 / (2 * R) - 1e-15 * scale <= q <= 1e-15 * scale, q
+    assert abs(x - cx) < 2 / 24 / 4000                                      # at the circle's foot, 1e-3 h from the vertex

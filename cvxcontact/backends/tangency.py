@@ -188,7 +188,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         else:                                     # a point force: at L* (Z's leading eigenvector)
             points.append((s, np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()))
     for s, L in points:
-        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-3)), float(total[s]))
+        # coordinates above 1e-6: a point read as a vertex that is a tangency beside it (1e-3 of the element
+        # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
+        # leaves its sub-simplex and moves to the vertex in the outer loop
+        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]))
     x = np.asarray(x0, dtype=float).copy()
     kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
     mm = np.ones(N) if law is None else np.asarray(law.exponent, dtype=float)

@@ -254,3 +254,21 @@ def test_a_circle_touching_just_beside_a_vertex_is_a_tangency():
     scale = np.abs(sol.u[0]).max()                                          # 6.9e-8 m
     assert -(0.5 / 24 / 4000) ** 2 / (2 * R) - 1e-15 * scale <= q <= 1e-15 * scale, q
     assert abs(x - cx) < 2 / 24 / 4000                                      # at the circle's foot, 1e-3 h from the vertex
+
+
+def test_a_cone_that_carries_nothing_next_to_a_compliance_law_is_finished():
+    """A layer held by the contact through compliance (m = 2) with a P2 conic limit at 3x the free
+    penetration (the limit does not bind, non-matching 3 : 4 meshes): the cones' Bernstein duals are the
+    interior point's noise (5e-16). Read relative to themselves they made every segment a contact (rows at
+    every node), and Newton did not converge in 40 steps (ok False: "optimal_inaccurate"). Against the closed
+    form: uniform stress -p, the law's penetration r = (p / k)^(1/m)."""
+    from test_compliance_scenes import P, held_layer
+
+    k, m = 1e16, 2.0
+    r = (P / k) ** (1 / m)
+    law = cc.NormalCompliance(stiffness=k, exponent=m, penetration_limit=3 * r)
+    sol = _finished(held_layer(law, nx=3))
+    assert sol.ok and sol.polished
+    c = sol.contact
+    assert np.abs(c.jump - c.gap - r).max() < 1e-12 * r          # measured 1.5e-14
+    assert np.abs(c.lam - P).max() < 1e-12 * P                    # measured 3.1e-14

@@ -326,7 +326,8 @@ def _finish_mixed(problem, timings, raw, B) -> bool:
     z_lim = raw.z - B.T @ raw.beta.ravel()
     start = z_lim > 1e-6 * max(float(np.abs(raw.y).max(initial=0.0)), np.finfo(float).tiny)
     out = tangency_newton(kkt, B, g, raw.beta, x0, cone_gap=g + law.cone_shift, law=law, weights=w,
-                          limit=law.penetration_limit, limit_start=start, held=problem.held_rows, tol=MIXED_CUT_TOL)
+                          limit=law.penetration_limit, limit_start=start, held=problem.held_rows, tol=MIXED_CUT_TOL,
+                          force_scale=float(np.abs(raw.y).max(initial=0.0)))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, str):
         raw.declined = f"Newton at the contact structure: {out}"

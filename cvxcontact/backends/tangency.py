@@ -112,7 +112,7 @@ def _cells(B, w: int) -> np.ndarray:
 
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
-                    held=None, force_floor: float = 1e-6, tol: float = 1e-11, max_steps: int = 40,
+                    held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11, max_steps: int = 40,
                     max_rounds: int = 10):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
@@ -128,7 +128,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
 
     Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
     active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
-    reason it stopped (str)."""
+    reason it stopped (str). An element carries a force at the start where its Bernstein duals exceed
+    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest)."""
     G = sp.csr_matrix(kkt.rows)
     A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
     B = sp.csr_matrix(B)
@@ -150,7 +151,14 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     limited = np.isfinite(lim)
     beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
     total = beta.sum(axis=1)
-    big = np.flatnonzero(total > force_floor * max(float(total.max(initial=0.0)), np.finfo(float).tiny))
+    kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
+    mm = np.ones(N) if law is None else np.asarray(law.exponent, dtype=float)
+    wt = np.zeros(N) if weights is None else np.asarray(weights, dtype=float)
+    # the force scale: the cones' and ``force_scale`` (the rest of the program's: cones that carry nothing
+    # next to a compliance law have Bernstein duals at the interior point's noise, ~1e-16, which relative to
+    # themselves read as contact everywhere)
+    fmax = max(float(total.max(initial=0.0)), float(force_scale))
+    big = np.flatnonzero(total > force_floor * max(fmax, np.finfo(float).tiny))
     # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
     vertices: dict[int, float] = {}
     tangencies: dict[tuple, tuple] = {}
@@ -193,9 +201,6 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # leaves its sub-simplex and moves to the vertex in the outer loop
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]))
     x = np.asarray(x0, dtype=float).copy()
-    kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
-    mm = np.ones(N) if law is None else np.asarray(law.exponent, dtype=float)
-    wt = np.zeros(N) if weights is None else np.asarray(weights, dtype=float)
     for rounds in range(1, max_rounds + 1):
         vnodes = np.array(sorted(vertices), dtype=int)
         lrows = np.array(sorted(limits), dtype=int)

@@ -31,7 +31,8 @@ import scipy.sparse as sp
 
 from ..contact.bernstein import bernstein_argmax, bernstein_basis, element, point_rows
 
-__all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "accumulate_cuts", "interface_cuts", "segment_scales"]
+__all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "point_read_back", "accumulate_cuts",
+           "interface_cuts", "segment_scales"]
 
 CUT_TOL = 1e-15
 """Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
@@ -112,6 +113,16 @@ def point_duals(S: int, segment, t, y) -> np.ndarray:
     beta = np.zeros((S, phi.shape[1]))
     np.add.at(beta, np.asarray(segment, dtype=int), phi * np.asarray(y, dtype=float)[:, None])
     return beta
+
+
+def point_read_back(B, segment, t, y, carrying) -> tuple[np.ndarray, np.ndarray]:
+    """(r, active): the nodal force r = P^T y on X_h of point forces ``y`` at (``segment``, ``t``) of the
+    Bernstein map ``B``, and the nodes read by the point rows that carry a force (``carrying``, bool per
+    point): the read-back of every finish that answers with point forces."""
+    P = point_rows(B, segment, t)
+    active = np.zeros(B.shape[1], dtype=bool)
+    active[np.unique(P[np.flatnonzero(carrying)].indices)] = True
+    return P.T @ np.asarray(y, dtype=float), active
 
 
 def segment_scales(B, U, width: int = 3) -> np.ndarray:

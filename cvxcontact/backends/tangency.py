@@ -32,8 +32,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..contact.bernstein import bernstein_argmax, element, point_rows
-from .cuts import point_duals, segment_scales
+from ..contact.bernstein import bernstein_argmax, element
+from .cuts import point_duals, point_read_back, segment_scales
 
 __all__ = ["tangency_newton"]
 
@@ -323,9 +323,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     yk = np.maximum(np.array(yk, dtype=float), 0.0)
     z = np.zeros(N)
     z[lrows] = np.maximum(zl, 0.0)
-    P = point_rows(B, seg, t)
-    active = np.zeros(N, dtype=bool)
-    active[np.unique(P[np.flatnonzero(yk > 0)].indices)] = True
+    nodal, active = point_read_back(B, seg, t, yk, yk > 0)
     active |= (z > 0) | (force > 0)
     return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=P.T @ yk, pressure=force)
+                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force)

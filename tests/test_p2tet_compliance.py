@@ -226,3 +226,58 @@ def test_a_limit_that_does_not_bind_changes_nothing():
     assert free.ok and limited.ok and limited.polished
     for a, b in zip(free.u, limited.u):
         assert np.abs(a - b).max() < 1e-12 * np.abs(b).max()                     # measured 0
+
+
+# ---------------------------------------------------------------------------------------------------------
+# rows of weight 0, the piezoelectric layer, cc.Model
+
+def test_the_lcp_finish_leaves_rows_of_weight_zero_without_force():
+    """solve_linear_compliance (the finite LCP fallback) on rows some of which have weight 0 (P2 face vertices):
+    y = 0 there, and the same (y, r) as the Newton finish solve_compliance (another algorithm) on a random
+    positive definite interface compliance with Signorini and compliance rows mixed."""
+    from cvxcontact.backends.finish import solve_compliance, solve_linear_compliance
+    from cvxcontact.contact.laws import RowLaws
+
+    rng = np.random.default_rng(7)
+    n = 12
+    A = rng.standard_normal((n, n))
+    W = A @ A.T / n + 0.5 * np.eye(n)
+    d = rng.standard_normal(n)
+    w = np.where(np.arange(n) % 3 == 0, 0.0, rng.random(n) + 0.5)        # every third row: weight 0
+    law = RowLaws([cc.Signorini(), cc.NormalCompliance(stiffness=3.0)], [3, n - 3])
+    lcp = solve_linear_compliance(W, d, w, law)
+    newton = solve_compliance(W, d, w, law)
+    assert lcp is not None and newton is not None
+    y = lcp[0]
+    r = d - W @ y
+    assert np.all(y[3:][w[3:] == 0] == 0) and np.isfinite(y).all()
+    assert r[9] > 0.01                     # a compliant row of weight 0 penetrates (measured 0.023) with y = 0
+    assert np.abs(y - newton[0]).max() < 1e-12 * np.abs(y).max()                   # measured 2.7e-16
+    compliant = (np.arange(n) >= 3) & (w > 0)
+    assert np.abs(y[compliant] - w[compliant] * 3.0 * np.maximum(r[compliant], 0)).max() < 1e-12   # the law
+    assert (y[:3] >= 0).all() and (r[:3] <= 1e-12).all() and np.abs(y[:3] * r[:3]).max() < 1e-12    # Signorini
+
+
+def test_a_piezoelectric_layer_through_the_law_floats_at_its_closed_form_potential():
+    """The PZT-5A layer (grounded base, open-circuit top) on the plane through p = k r: shifted by p/k, strained
+    by the stiffened modulus c33 + e33^2/eps33, its top electrode at the closed-form potential."""
+    from scenes3d import floating_potential, pzt_layer_on_plane, stiffened_modulus
+
+    k = 1e12
+    sol = cc.solve(pzt_layer_on_plane(n=(2, 2, 1)), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+    c = stiffened_modulus(cc.materials.PZT5A)
+    u, x = sol.u[0], sol.points[0]
+    assert sol.ok and sol.polished
+    assert np.abs(u[:, 2] + P / k + P * x[:, 2] / c).max() < 1e-12 * P / c            # measured 1.3e-15
+    assert np.abs(sol.contact.lam / P - 1).max() < 1e-12                              # measured 4.4e-15
+    top = [e for e in sol.electrodes if e.kind == "floating"][0]
+    assert abs(top.potential / floating_potential(cc.materials.PZT5A) - 1) < 1e-12   # measured 4.4e-16
+
+
+def test_the_model_poses_the_same_law():
+    """cc.Model(degree=2) of the squeezed blocks under gamma3 on non-matching faces: the closed form."""
+    k, delta = 1e12, 1e-5
+    sol = cc.Model(squeezed_blocks((2, 2), (3, 3), delta), "gamma3", degree=2,
+                   law=cc.NormalCompliance(stiffness=k)).solve()
+    p = delta / (1 / k + 1 / C33)
+    assert sol.ok and np.abs(sol.contact.lam / p - 1).max() < 1e-12                   # measured 8.7e-15

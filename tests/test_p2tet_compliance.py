@@ -170,7 +170,8 @@ def test_a_stiffening_law_tends_to_signorini_at_the_quadratures_nodes():
     assert ref.ok and ref.polished
 
     def err(sol):
-        return max(float(np.abs(a - b).max()) for a, b in zip(sol.u, ref.u)) / max(float(np.abs(b).max()) for b in ref.u)
+        scale = max(float(np.abs(b).max()) for b in ref.u)
+        return max(float(np.abs(a - b).max()) for a, b in zip(sol.u, ref.u)) / scale
 
     errors = []
     for k in (1e13, 1e14, 1e15):

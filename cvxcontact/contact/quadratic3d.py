@@ -16,6 +16,9 @@ mass matrix of the overlay.
 
 Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
 condition constrains every one of them (as for P1).
+
+A normal-compliance law takes the quadrature of the constrained triangles on the rows (:meth:`QuadraticSurface.
+weights`: the integrals of their P2 basis functions, 0 at the vertices and A/3 at the edge midpoints).
 """
 
 from __future__ import annotations

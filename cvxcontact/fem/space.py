@@ -210,7 +210,10 @@ class P2Tet(P2):
     surfaces with P2 traces (:class:`~cvxcontact.contact.quadratic3d.QuadraticSurface`: X_h the continuous
     piecewise quadratics on the overlay, docs/formulation.md §15) under the nodal conditions "sigma1"/"sigma2"
     (rows at that body's P2 face nodes; against a rigid obstacle at its P2 face nodes that reach it) and under
-    "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16), Signorini law only."""
+    "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16). A normal-compliance law sits on
+    the nodal rows of the condition ("gamma3": every node of X_h, no cone) with the P2 quadrature of the
+    constrained triangles (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.weights`, §15); the
+    copositive cones next to it are refused."""
 
     degree, dim = 2, 3
 

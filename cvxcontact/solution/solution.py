@@ -490,7 +490,7 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":
     ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
     scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
     law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
-    sol = read_back_compliance(problem, raw, tol, timings, polished=False)
+    sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
     scaled = law.scaled(un.stress * un.load, un.displacement)
     B, segments = cone
     force = np.asarray(force, dtype=float)

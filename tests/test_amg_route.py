@@ -79,7 +79,7 @@ def test_staged_solves_tighten_only_while_the_signs_hold(monkeypatch):
         a = solver.solve(_elastic_boxes(press))
         b = cc.solve(_elastic_boxes(press), method="sparse")
         assert a.ok and a.info.method == "amg"
-        _agree(a, b, 1e-8)                                  # measured 4.3e-11 .. 7.6e-11 (Krylov to 1e-10)
+        fields_agree(a, b, 1e-8)                            # measured 4.3e-11 .. 7.6e-11 (Krylov to 1e-10)
         runs, k = [], 0
         while k < len(calls):                               # consecutive calls on one set
             j = k

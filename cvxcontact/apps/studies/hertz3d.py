@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...contact.bernstein import TRIANGLE, bernstein_argmax
 from ...contact.quadratic3d import p2_shape
 from ...geometry.generators3d import box
 from ...physics import materials
@@ -60,10 +61,25 @@ E_STAR = E / (1 - NU ** 2)
 FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
 LEVELS = (8, 16, 24)              # cells per edge of the quarter block (P1)
 LEVELS_P2 = (8, 16, 24)           # the same for P2 (10-node) tetrahedra
+LEVELS_G3 = (8, 16, 24)           # the same for P2 under the copositive condition
 CONDITION = {1: "gamma3", 2: "sigma1"}
 """The condition of each degree: P1 "gamma3" (at the block's nodes, against an obstacle), P2 "sigma1" (the nodal
 condition at every P2 node of the block's contact faces; "gamma3" with P2 is the copositive condition on the
 faces, not in this study)."""
+
+
+SUPPORT_TOL = 1e-9
+"""Where the gap closes under P2 "gamma3" (:func:`support_radius`): q_h >= -1e-9 of the approach (measured: the
+touching triangles' maxima within 2e-12 of the approach at n = 8, 16, 24, the nearest separated one 5e-6, 2.7e-8
+and 1e-6 below)."""
+FORCE_RTOL_CONIC = 1e-7
+"""The relative accuracy to which :func:`press` reaches the force under P2 "gamma3": the finished conic answer's
+total force moves by about 1e-8 of F between re-solves at approaches 1e-12 apart (the accumulated cuts' least
+squares), so 1e-10 is out of reach there."""
+
+
+ROWS = {(1, "gamma3"): LEVELS, (2, "sigma1"): LEVELS_P2, (2, "gamma3"): LEVELS_G3}
+"""The study's rows: (degree, condition) -> levels (``quick``: the first of each)."""
 
 
 def hertz(F, R=R, E_star=E_STAR):
@@ -163,6 +179,53 @@ def contact_radius(sol):
     return _edge_radius(trace, active, on, outward=True)
 
 
+def contact_points(x, cells, q, tol) -> np.ndarray:
+    """(k, 2) m: where the gap closes under the copositive condition: the exact maximiser of q_h = [u_nu] - g_h
+    (m; its values at the nodes ``x`` (n, 2) m of the triangle6 ``cells``) on every triangle whose maximum is
+    >= -``tol`` (m), and every node where q_h >= -``tol``. By complementarity the contact force is carried only
+    there (a point force at each tangency point; q_h = 0 on a whole triangle counts its nodes)."""
+    x, cells, q = np.asarray(x, dtype=float), np.asarray(cells), np.asarray(q, dtype=float)
+    q_max, L = bernstein_argmax(q[cells] @ TRIANGLE.to_bernstein.T)
+    touch = q_max >= -tol
+    return np.concatenate([np.einsum("ti,tid->td", L[touch], x[cells[touch, :3]]), x[q >= -tol]])
+
+
+def hull_radius(points) -> float:
+    """m: the radius of the quarter disc with the area of the convex hull of ``points`` (k, 2) m (x, y >= 0)
+    and the axis point (0, 0): sqrt(4 A / pi) (0 for fewer than two points off the axis)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = np.concatenate([np.asarray(points, dtype=float).reshape(-1, 2), [[0.0, 0.0]]])
+    try:
+        return float(np.sqrt(4 * ConvexHull(pts).volume / np.pi))
+    except QhullError:                                   # collinear or too few points: no area
+        return 0.0
+
+
+def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
+    """(a_hull (m), number of points): :func:`hull_radius` of the points where the contact force is carried:
+    the active nodes under a nodal condition (P1, P2 "sigma1"), under P2 "gamma3" the points where the gap
+    closes to ``tol`` of the approach (:func:`contact_points`; the largest |[u_nu]| stands for the approach)."""
+    c = sol.contact
+    x = np.asarray(c.x, dtype=float)
+    if sol.degree == 2 and sol.condition == "gamma3":
+        q = np.asarray(c.jump) - np.asarray(c.gap)
+        pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()))
+    else:
+        pts = x[np.asarray(c.active, dtype=bool)]
+    return hull_radius(pts), len(pts)
+
+
+def moment_radius(x, force) -> float:
+    """m: the radius of Hertz's pressure p0 sqrt(1 - r^2 / a^2) with the second moment of the contact forces
+    ``force`` (N) at the nodes ``x`` (n, 2) m about the axis: int r^2 p dA / int p dA = 2 a^2 / 5, so
+    a = sqrt(5/2 sum(f r^2) / sum(f)). Exact for nodal point forces and for P2 forces (r^2 is quadratic: the sum
+    is the integral of r^2 against the force); it assumes Hertz's profile, so it checks the force's spread, not
+    the edge of the zone."""
+    x, force = np.asarray(x, dtype=float), np.asarray(force, dtype=float)
+    return float(np.sqrt(2.5 * (force @ (x * x).sum(axis=1)) / force.sum()))
+
+
 def _contact_surface(sol):
     """The contact surface of the solution: the scene's P1 interface, or the P2 surface of a P2 solve."""
     return sol.scene.interfaces[0] if sol.degree == 1 else sol.interface
@@ -219,11 +282,17 @@ def hat_loads(trace, pressure, k=8):
 
 
 def measure(sol, delta):
-    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force.
+    The contact radius a_h: under a nodal condition the edge mid-points (:func:`contact_radius`), under P2
+    "gamma3" the hull of the points where the gap closes (:func:`support_radius`; the zone's edge lies inside
+    triangles there, whose nodes need not touch); both estimators, and :func:`moment_radius`, on every row."""
     c = sol.contact
     F = 4 * float(c.force.sum())
     a, p0, d = hertz(F)
-    a_h, a_min, a_max = contact_radius(sol)
+    a_hull, support = support_radius(sol)
+    a_moment = moment_radius(c.x, c.force)
+    conic = sol.degree == 2 and sol.condition == "gamma3"
+    a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
     itf = _contact_surface(sol)
     trace = itf.traces[0]
     r = np.hypot(c.points[:, 0], c.points[:, 1])
@@ -246,7 +315,8 @@ def measure(sol, delta):
         area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[itf.reach][cell].sum())
     dofs = sum(3 * len(p) for p in sol.points)
     return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
-                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                a_rel_error=a_h / a - 1, a_hull_m=a_hull, a_hull_rel_error=a_hull / a - 1, support_points=support,
+                a_moment_m=a_moment, a_moment_rel_error=a_moment / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
                 p_cell_Pa=y_h / area, cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
                 delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
                 contact_nodes=len(c.active), ok=sol.ok)
@@ -255,19 +325,22 @@ def measure(sol, delta):
 def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condition=None):
     """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend);
     ``degree`` 2: P2 (10-node) tetrahedra; ``condition`` (default :data:`CONDITION` of the degree), e.g.
-    "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16)."""
+    "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16), whose force is
+    reached to :data:`FORCE_RTOL_CONIC` (the nodal conditions': 1e-10)."""
     from ...solve import ContactSolver
 
     clock = Timer()
+    condition = condition or CONDITION[degree]
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
-    solver = ContactSolver(base, condition or CONDITION[degree], method="condensed", degree=degree)
-    sol, delta, resolves = press(solver, base, F)
-    row = dict(degree=degree, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
+    solver = ContactSolver(base, condition, method="condensed", degree=degree)
+    conic = degree == 2 and condition == "gamma3"
+    sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10)
+    row = dict(degree=degree, condition=condition, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())
     return row, sol
 
 
-def figure(sol, rows, sol2=None, rows2=()):
+def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     """Left: the pressure at every contact node against the radius (P1: force over lumped area, felt by the
     block; P2 ``sol2``: the pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's
     profile at the measured force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
@@ -292,7 +365,14 @@ def figure(sol, rows, sol2=None, rows2=()):
         trace = _contact_surface(sol2).traces[0]
         x2 = trace.points
         ax.plot(np.hypot(x2[:, 0], x2[:, 1]), sol2.traction(0)[1], "s", ms=2.5, color="C2", zorder=5,
-                label=f"P2, n = {rows2[-1]['n']}: pressure felt by the block (P2 Riesz representer)")
+                label=f"P2 sigma1, n = {rows2[-1]['n']}: pressure felt by the block (P2 Riesz representer)")
+    if sol3 is not None:
+        trace = _contact_surface(sol3).traces[0]
+        x3 = trace.points
+        ax.plot(np.hypot(x3[:, 0], x3[:, 1]), sol3.traction(0)[1], "^", ms=2.5, color="C4", zorder=5,
+                label=f"P2 gamma3, n = {rows3[-1]['n']}: pressure felt by the block")
+        ax.axvline(rows3[-1]["a_hull_m"], color="C4", lw=0.8, ls=":",
+                   label="P2 gamma3 a_h (hull of the points where the gap closes)")
     ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
            title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
     ax.title.set_fontsize(10)
@@ -323,24 +403,26 @@ def figure(sol, rows, sol2=None, rows2=()):
 def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
-    levels = LEVELS[:1] if quick else LEVELS
-    levels2 = LEVELS_P2[:1] if quick else LEVELS_P2
-    conv, sols = {1: [], 2: []}, {}
-    for degree, ns in ((1, levels), (2, levels2)):
-        for n in ns:
-            row, sols[degree] = solve_level(n, degree=degree)
-            conv[degree].append(row)
-            say(f"hertz3d P{degree} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
+    conv, sols = {}, {}
+    for key, levels in ROWS.items():
+        degree, condition = key
+        conv[key] = []
+        for n in levels[:1] if quick else levels:
+            row, sols[key] = solve_level(n, degree=degree, condition=condition)
+            conv[key].append(row)
+            say(f"hertz3d P{degree} {condition} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
                 f"{row['p0_rel_error']:+.2e}, delta_h/delta - 1 = {row['delta_rel_error']:+.2e} "
                 f"({row['seconds']:.1f} s)")
     # the size effect: one P1 level again with its grid continued to a block twice as large
-    ref = conv[1][min(1, len(conv[1]) - 1)]
+    p1 = conv[(1, CONDITION[1])]
+    ref = p1[min(1, len(p1) - 1)]
     big, _ = solve_level(ref["n"], twice=True)
     say(f"hertz3d size 2L n={big['n']}: a_h/a - 1 = {big['a_rel_error']:+.2e}, "
         f"delta_h/delta - 1 = {big['delta_rel_error']:+.2e}")
-    rows = conv[1] + conv[2] + [big]
+    rows = [r for key in ROWS for r in conv[key]] + [big]
     write_csv(out / "hertz3d.csv", rows)
-    save_figure(figure(sols[1], conv[1], sols[2], conv[2]), out / "hertz3d.png")
+    save_figure(figure(sols[(1, CONDITION[1])], p1, sols[(2, CONDITION[2])], conv[(2, CONDITION[2])],
+                       sols[(2, "gamma3")], conv[(2, "gamma3")]), out / "hertz3d.png")
     return write_report(out, rows)
 
 
@@ -351,23 +433,35 @@ def read_rows(path) -> list[dict]:
     def value(v):
         if v in ("True", "False"):
             return v == "True"
+        if v == "":
+            return None
         try:
             return int(v)
         except ValueError:
-            return float(v)
+            try:
+                return float(v)
+            except ValueError:
+                return v
 
     with open(path) as fh:
-        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+        rows = [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    for r in rows:                                   # a table written before the condition column
+        if "condition" in r and not isinstance(r["condition"], str):
+            r["condition"] = CONDITION[r["degree"]]
+        r.setdefault("condition", CONDITION[r["degree"]])
+    return rows
 
 
 def write_report(out, rows):
     """hertz3d.md from the study's rows (P1 levels, P2 levels, the P1 level with the block twice as large);
     returns the rows and the observed rates."""
-    conv = {d: [r for r in rows if r["degree"] == d and r["size_a"] == SIZE] for d in (1, 2)}
+    kind = {1: (1, CONDITION[1]), 2: (2, CONDITION[2]), 3: (2, "gamma3")}      # 3: P2 gamma3
+    conv = {d: [r for r in rows if (r["degree"], r.get("condition", CONDITION[r["degree"]])) == kind[d]
+                and r["size_a"] == SIZE] for d in kind}
     big = next(r for r in rows if r["size_a"] == 2 * SIZE)
     ref = next(r for r in conv[1] if r["n"] == big["n"])
     rates = {d: {k: slope([r["h_m"] for r in conv[d]], [abs(r[k]) for r in conv[d]])
-                 for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in (1, 2)}
+                 for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in kind}
     L = SIZE * A_REF
     cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
             "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",

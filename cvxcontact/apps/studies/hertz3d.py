@@ -28,8 +28,13 @@ the nodal forces in the P2 functions of the block's contact faces, :meth:`~cvxco
 since a P2 vertex's lumped area is zero), the axis cell's force: that of the top nodes of the cell at the
 axis (P2: with the midpoints of its face edges) against Hertz's pressure integrated on the same shape
 functions (:func:`hat_loads`), delta_h the sphere's approach. P2 (10-node) tetrahedra impose the condition
-at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`;
-the copositive condition on the faces, "gamma3" with P2, is not in this study).
+at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`)
+or, in rows of their own, on every face of the patch (the copositive condition, "gamma3" with P2,
+docs/formulation.md §16). Under the copositive condition the gap closes at points inside the faces (one
+tangency point per touching face; at n = 8 no node touches), so its contact radius is read from those points:
+the quarter disc with the area of their convex hull (:func:`support_radius`, an estimate from inside; on the
+nodal rows, from the active nodes, it lies within a grid spacing of the edge mid-points). Every row also gives
+the radius of Hertz's profile with the forces' second moment (:func:`moment_radius`; it assumes Hertz's shape).
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -64,8 +69,8 @@ LEVELS_P2 = (8, 16, 24)           # the same for P2 (10-node) tetrahedra
 LEVELS_G3 = (8, 16, 24)           # the same for P2 under the copositive condition
 CONDITION = {1: "gamma3", 2: "sigma1"}
 """The condition of each degree: P1 "gamma3" (at the block's nodes, against an obstacle), P2 "sigma1" (the nodal
-condition at every P2 node of the block's contact faces; "gamma3" with P2 is the copositive condition on the
-faces, not in this study)."""
+condition at every P2 node of the block's contact faces); "gamma3" with P2, the copositive condition on the
+faces, has rows of its own (:data:`ROWS`)."""
 
 
 SUPPORT_TOL = 1e-9
@@ -463,20 +468,21 @@ def write_report(out, rows):
     rates = {d: {k: slope([r["h_m"] for r in conv[d]], [abs(r[k]) for r in conv[d]])
                  for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in kind}
     L = SIZE * A_REF
-    cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
+    cols = ["degree", "condition", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m",
+            "a_rel_error", "a_hull_m", "a_hull_rel_error", "support_points", "a_moment_m", "a_moment_rel_error",
             "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
-            "delta_rel_error", "active_nodes", "ok",
-            "seconds"]
+            "delta_rel_error", "active_nodes", "ok", "seconds"]
     fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
-           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",
-           "cell_force_rel_error": "+.4f", "delta_m": ".4e",
+           "a_rel_error": "+.3f", "a_hull_m": ".4e", "a_hull_rel_error": "+.3f", "a_moment_m": ".4e",
+           "a_moment_rel_error": "+.4f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f",
+           "p_cell_Pa": ".4e", "cell_force_rel_error": "+.4f", "delta_m": ".4e",
            "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
-    short = ["degree", "n", "size_a", "dofs", "h_m", "a_rel_error", "p0_rel_error", "cell_force_rel_error",
-             "delta_rel_error", "seconds"]
+    short = ["degree", "condition", "n", "size_a", "dofs", "h_m", "a_rel_error", "a_hull_rel_error",
+             "a_moment_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error", "seconds"]
 
     def rate(d):
         ns = ", ".join(str(r["n"]) for r in conv[d])
-        return (f"P{d} (levels {ns}): contact radius {rates[d]['a_rel_error']:.2f}, peak pressure "
+        return (f"P{kind[d][0]} {kind[d][1]} (levels {ns}): contact radius {rates[d]['a_rel_error']:.2f}, peak pressure "
                 f"{rates[d]['p0_rel_error']:.2f}, force of the axis cell {rates[d]['cell_force_rel_error']:.2f}")
 
     def listed(key, d, f="+.3f"):
@@ -501,6 +507,30 @@ def write_report(out, rows):
                  "(the integral of its shape function on a face is zero), so the nodal condition may leave a "
                  "vertex inside the contact zone with a small gap (at n = 8, the vertex on the axis); such a node "
                  "marks no edge of the zone.\n\n")
+    conic = ""
+    if conv[3]:
+        hull = {d: listed("a_hull_rel_error", d) for d in (1, 2, 3)}
+        conic = ("The copositive condition with P2 (\"gamma3\": the jump minus the gap's P2 interpolant <= 0 on "
+                 "every face of the patch, docs/formulation.md §16; levels "
+                 f"{', '.join(str(r['n']) for r in conv[3])}): every answer finished"
+                 f"{' and `ok`' if all(r['ok'] for r in conv[3]) else ''} (the force reached to "
+                 f"{FORCE_RTOL_CONIC:g}: the finished force moves by about 1e-8 between re-solves). Peak pressure {listed('p0_rel_error', 3)} (P2 sigma1: "
+                 f"{listed('p0_rel_error', 2)}), the axis cell's force {listed('cell_force_rel_error', 3, '+.4f')}, "
+                 f"the approach {listed('delta_rel_error', 3)}. The gap closes at points inside the faces (one "
+                 "tangency point per touching face; no node touches at n = 8): the zone's edge cannot be read "
+                 "from nodes or whole faces (the nodes of the faces that carry force give +0.33, +0.18 at n = 8, "
+                 "16). Its a_h is the hull radius (a_hull): the quarter disc with the area of the convex hull of "
+                 "the points where the gap closes (the exact maximiser of q_h on each face whose maximum is 0 to "
+                 f"{SUPPORT_TOL:g} of the approach, and the nodes where q_h is) with the axis point; by "
+                 "complementarity the force is carried there and only there, and the zone reaches at least that "
+                 f"far: an estimate from inside, {hull[3]}. On the nodal rows the same hull of the active nodes, "
+                 f"P1 {hull[1]}, P2 sigma1 {hull[2]}, lies within a grid spacing of their edge mid-points "
+                 f"(a_rel_error there) and converges from below at the same rate. a_moment is the radius of "
+                 "Hertz's profile with the contact forces' second moment about the axis (a = sqrt(5/2 sum f r^2 / "
+                 "sum f), exact for nodal forces and for P2, r^2 being quadratic): "
+                 f"P2 gamma3 {listed('a_moment_rel_error', 3, '+.4f')}, P2 sigma1 "
+                 f"{listed('a_moment_rel_error', 2, '+.4f')}, P1 {listed('a_moment_rel_error', 1, '+.4f')}; it "
+                 "assumes Hertz's shape, so it checks how the force spreads, not where the zone ends.\n\n")
     text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
             f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
             f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
@@ -518,13 +548,14 @@ def write_report(out, rows):
             "their force against Hertz's pressure integrated on the same shape functions; delta_h: the sphere's "
             "approach. h_m: the grid spacing near the axis (P2: of the vertices). Conditions: P1 gamma3 (at the "
             "block's nodes that reach the sphere); P2 sigma1, the nodal condition at every P2 node of the contact "
-            "patch (vertices and edge midpoints); the copositive condition on the faces (gamma3 with P2) is not in "
-            "this table. The last row "
+            "patch (vertices and edge midpoints); P2 gamma3, the copositive condition on every face of the patch "
+            "(its a_h: a_hull, below). a_hull, a_moment: the contact radius from the hull of the points that carry "
+            "force and from the forces' second moment, on every row (below). The last row "
             f"(size_a = {2 * SIZE}) is P1 level n = {ref['n']} again, its grid kept and continued to a block twice "
             "as large (the size effect alone). Seconds: one process on a shared two-core machine.\n\n"
             + markdown_table(rows, short, fmt)
             + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt)
-            + f"\nObserved rates in h: {rate(1)}; {rate(2)}.\n\n" + gains
+            + f"\nObserved rates in h: {'; '.join(rate(d) for d in kind if conv[d])}.\n\n" + gains + conic
             + f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
               f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
               f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "

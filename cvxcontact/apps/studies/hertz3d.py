@@ -466,7 +466,8 @@ def write_report(out, rows):
     big = next(r for r in rows if r["size_a"] == 2 * SIZE)
     ref = next(r for r in conv[1] if r["n"] == big["n"])
     rates = {d: {k: slope([r["h_m"] for r in conv[d]], [abs(r[k]) for r in conv[d]])
-                 for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in kind}
+                 for k in ("a_rel_error", "a_hull_rel_error", "p0_rel_error", "cell_force_rel_error")
+                 if all(r.get(k) is not None for r in conv[d])} for d in kind}
     L = SIZE * A_REF
     cols = ["degree", "condition", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m",
             "a_rel_error", "a_hull_m", "a_hull_rel_error", "support_points", "a_moment_m", "a_moment_rel_error",
@@ -510,6 +511,8 @@ def write_report(out, rows):
     conic = ""
     if conv[3]:
         hull = {d: listed("a_hull_rel_error", d) for d in (1, 2, 3)}
+        hull_rates = ", ".join(f"{name} {rates[d].get('a_hull_rel_error', float('nan')):.2f}"
+                               for d, name in ((1, "P1"), (2, "P2 sigma1"), (3, "P2 gamma3")))
         conic = ("The copositive condition with P2 (\"gamma3\": the jump minus the gap's P2 interpolant <= 0 on "
                  "every face of the patch, docs/formulation.md §16; levels "
                  f"{', '.join(str(r['n']) for r in conv[3])}): every answer finished"
@@ -525,7 +528,8 @@ def write_report(out, rows):
                  "complementarity the force is carried there and only there, and the zone reaches at least that "
                  f"far: an estimate from inside, {hull[3]}. On the nodal rows the same hull of the active nodes, "
                  f"P1 {hull[1]}, P2 sigma1 {hull[2]}, lies within a grid spacing of their edge mid-points "
-                 f"(a_rel_error there) and converges from below at the same rate. a_moment is the radius of "
+                 f"(a_rel_error there); observed rates in h of a_hull: "
+                 f"{hull_rates}. a_moment is the radius of "
                  "Hertz's profile with the contact forces' second moment about the axis (a = sqrt(5/2 sum f r^2 / "
                  "sum f), exact for nodal forces and for P2, r^2 being quadratic): "
                  f"P2 gamma3 {listed('a_moment_rel_error', 3, '+.4f')}, P2 sigma1 "

@@ -384,7 +384,7 @@ def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     ax.xaxis.set_major_locator(MaxNLocator(5))
     ax.xaxis.set_major_formatter(eng("m"))
     ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="lower left")
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
     p = np.zeros(len(trace.nodes))

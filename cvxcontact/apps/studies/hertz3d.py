@@ -362,29 +362,29 @@ def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     rs = np.linspace(0, a, 300)
-    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz", zorder=3)
     ax.plot(r[c.active], c.pressure[c.active], "o", ms=3.5, label=f"P1, n = {rows[-1]['n']}: active nodes", zorder=4)
-    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes (zero)")
-    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (active/open mid-points, mean)")
+    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (edge mid-points)")
     if sol2 is not None:
         trace = _contact_surface(sol2).traces[0]
         x2 = trace.points
         ax.plot(np.hypot(x2[:, 0], x2[:, 1]), sol2.traction(0)[1], "s", ms=2.5, color="C2", zorder=5,
-                label=f"P2 sigma1, n = {rows2[-1]['n']}: pressure felt by the block (P2 Riesz representer)")
+                label=f"P2 sigma1, n = {rows2[-1]['n']}: felt pressure")
     if sol3 is not None:
         trace = _contact_surface(sol3).traces[0]
         x3 = trace.points
         ax.plot(np.hypot(x3[:, 0], x3[:, 1]), sol3.traction(0)[1], "^", ms=2.5, color="C4", zorder=5,
-                label=f"P2 gamma3, n = {rows3[-1]['n']}: pressure felt by the block")
+                label=f"P2 gamma3, n = {rows3[-1]['n']}: felt pressure")
         ax.axvline(rows3[-1]["a_hull_m"], color="C4", lw=0.8, ls=":",
-                   label="P2 gamma3 a_h (hull of the points where the gap closes)")
+                   label="P2 gamma3 a_h (hull)")
     ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
            title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
     ax.title.set_fontsize(10)
     ax.xaxis.set_major_locator(MaxNLocator(5))
     ax.xaxis.set_major_formatter(eng("m"))
     ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=7, loc="lower left")
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
     p = np.zeros(len(trace.nodes))

@@ -347,8 +347,9 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condi
 
 def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     """Left: the pressure at every contact node against the radius (P1: force over lumped area, felt by the
-    block; P2 ``sol2``: the pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's
-    profile at the measured force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
+    block; P2 ``sol2`` (nodal condition) and ``sol3`` (copositive condition, its hull radius marked): the
+    pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's profile at the measured
+    force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
     outlined."""
     from matplotlib.ticker import MaxNLocator
     from matplotlib.tri import Triangulation

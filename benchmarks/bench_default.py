@@ -24,7 +24,7 @@ Parts of one case:
   the constraint rows first, so that the KKT pattern is the geometric one.
 
 Run:  python benchmarks/bench_default.py [--sizes 70 140 280 560 1120] [--runs 3] [--p2] [--thin 1000 5000]
-                                         [--csv FILE]
+                                         [--csv FILE] [--merge]
 Print and CSV (``benchmarks/results/default.csv``): one row per case with both parts, the ratios
 ``default_s / pardiso_s`` and ``default_s / superlu_s``, and growth exponents over the sizes. A size is
 ``two_blocks``' ``nx``, or (a value >= 1e4) a count of unknowns N, taken as nx = 10 round(sqrt(N / 2) / 10)
@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import argparse
 import compileall
+import csv
 import datetime
 import io
 import json
@@ -120,6 +121,9 @@ def default_part(name, n, degree, runs, factorization="auto"):
                          interface_s=tm.get("model", 0.0) + tm.get("compile", 0.0) + tm.get("solve", 0.0)
                          + tm.get("polish", 0.0),
                          back_substitution_s=tm.get("back_substitution", 0.0), read_back_s=tm.get("read_back", 0.0),
+                         compile_s=tm.get("model", 0.0) + tm.get("compile", 0.0), ipm_s=tm.get("solve", 0.0),
+                         polish_s=tm.get("polish", 0.0), certificate_s=tm.get("certificate", 0.0),
+                         finish=str(sol.info.finish),
                          resolve_s=t_again, resolve_share=t_again / total,
                          method=sol.info.method, route=str(sol.info.route), iterations=sol.info.iterations,
                          factorization=sol.info.factorization or "-", ok=bool(sol.ok),
@@ -508,6 +512,8 @@ def main():
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--superlu-up-to", type=int, default=800_000, help="largest KKT size solved by SuperLU")
     p.add_argument("--csv", default=str(Path(__file__).with_name("results") / "default.csv"))
+    p.add_argument("--merge", action="store_true",
+                   help="replace only this run's cases (scene, n, degree) in an existing --csv, keep its other rows")
     p.add_argument("--baseline", help="git revision (or directory holding cvxcontact/) to time against the "
                                       "working tree (module docstring, 'Before and after')")
     p.add_argument("--repeats", type=int, nargs="*", default=[9],
@@ -556,6 +562,14 @@ def main():
         fits = growth(sel, ("default_s", "pardiso_s", "superlu_s"))
         if fits is not None:
             print(f"growth {name} P{degree}: {fits}")
+    if args.merge and Path(args.csv).exists():      # this run's cases replace theirs, the others are kept
+        with open(args.csv, newline="") as fh:
+            old = list(csv.DictReader(fh))
+        ran = {(r["scene"], str(r["n"]), str(r["degree"])) for r in rows}
+        kept = [r for r in old if (r["scene"], r["n"], r["degree"]) not in ran]
+        order = {key: i for i, key in enumerate((r["scene"], str(r["degree"])) for r in old)}
+        rows = sorted(kept + rows, key=lambda r: (order.get((r["scene"], str(r["degree"])), len(order)),
+                                                  int(r["n"])))
     print("wrote", write_csv(args.csv, rows))
 
 

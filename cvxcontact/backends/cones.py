@@ -16,7 +16,8 @@ from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import (accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back, seed_forces,
+from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
+                   seed_forces,
                    seed_points)
 from .finish import independent_active_set
 from .tangency import tangency_newton
@@ -127,7 +128,7 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
-    segment, t = seed_points(B, raw.beta, width=_width(problem))
+    segment, t = seed_points(B, raw.beta, width=_width(problem), around=SEED_SPREAD)
     out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta),
                          width=_width(problem), factors=reduction.psd_factors)
     if isinstance(out, str):

@@ -27,18 +27,27 @@ import time
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.linalg.blas as blas
 import scipy.sparse as sp
 
 from ..contact.bernstein import bernstein_argmax, bernstein_basis, element, point_rows
 
-__all__ = ["CUT_TOL", "nnls_warm", "seed_forces", "seed_points", "point_duals", "point_read_back", "accumulate_cuts",
-           "interface_cuts", "segment_scales"]
+__all__ = ["CUT_TOL", "SEED_SPREAD", "nnls_warm", "seed_forces", "seed_points", "point_duals", "point_read_back",
+           "accumulate_cuts", "interface_cuts", "segment_scales"]
 
 CUT_TOL = 1e-15
 """Relative violation (of each segment's displacement scale) below which no cut is added: rounding."""
 
 STALL_TOL = 1e-12
-"""A violation below this that no longer halves from one round to the next is rounding too (the finish stops)."""
+"""A violation below this that no longer halves from one round to the next, :data:`STALL_ROUNDS` rounds in a
+row, is rounding too (the finish stops)."""
+
+STALL_ROUNDS = 2
+"""Rounds in a row without halving the violation before a stall is rounding: one such round also happens while
+the cuts still converge (the worst segment changes; measured with the points next to the seeds: stopped at
+9e-14 and 3.8e-13, certified 3.7e-7 and 1.2e-6 instead of 4e-8 and 5e-8 on the quickstart at 35x17 and 70x35
+cells of P2)."""
+
 LAST_GOOD_TOL = 1e-9
 """A round whose system is singular (new points nearly on old ones: nearly parallel rows) ends the cuts with the
 last solved round if its violation is below this (of the displacement scale); the checks report what it is
@@ -63,11 +72,21 @@ def _unique_rows(P) -> np.ndarray:
     return np.sort(first)
 
 
-def seed_points(B, beta=None, force_floor: float = 1e-6, width: int = 3):
+SEED_SPREAD = (1e-4, 1e-3, 1e-2)
+"""Distances (in t) on either side of a segment's tangency seed of further starting points (:func:`seed_points`)."""
+
+
+def seed_points(B, beta=None, force_floor: float = 1e-6, width: int = 3, around=()):
     """(element, point) of the starting points: the P2 nodes of every element of ``B`` (``width`` S, n; segments
     or triangles, :mod:`cvxcontact.contact.bernstein`) once each, plus, with the interior point's Bernstein duals
     ``beta`` (S, width), the tangency point of every element whose force sum(beta_s) exceeds ``force_floor`` of
-    the largest and whose cross terms put it off the nodes."""
+    the largest and whose cross terms put it off the nodes; on segments, with ``around`` (e.g.
+    :data:`SEED_SPREAD`), the points at those distances on either side of each such seed (inside (0, 1)).
+
+    Why ``around``: the interior point's tangency point is close to the exact one t* (measured: within 1e-4 to
+    1e-3), but the cuts close in on t* only by halving the interval between two loaded points per round (q, one
+    quadratic, vanishes at both and peaks midway): from a node, about 11 rounds to rounding on the README
+    scene. Points near the seed start that interval small."""
     el = element(width)
     S = B.shape[0] // width
     k = len(el.nodes)
@@ -81,6 +100,13 @@ def seed_points(B, beta=None, force_floor: float = 1e-6, width: int = 3):
         inner = big & (beta[:, el.off].max(axis=1) > force_floor * total) & ~el.near_nodes(ts, 1e-3)
         seg = np.concatenate([seg, np.flatnonzero(inner)])
         t = np.concatenate([t, ts[inner]])
+        if width == 3 and len(around):          # after the seeds: seed_forces loads each segment's first one
+            offsets = np.concatenate([-np.asarray(around, dtype=float), np.asarray(around, dtype=float)])
+            near = (ts[inner][:, None] + offsets[None, :]).ravel()
+            at = np.repeat(np.flatnonzero(inner), len(offsets))
+            ok = (near > 0) & (near < 1)
+            seg = np.concatenate([seg, at[ok]])
+            t = np.concatenate([t, near[ok]])
     keep = _unique_rows(point_rows(B, seg, t))
     return seg[keep], t[keep]
 
@@ -143,7 +169,7 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     S = B.shape[0] // width
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
-    last, good = np.inf, None
+    last, stalled, good = np.inf, 0, None
     for rounds in range(1, max_rounds + 1):
         out = solve(point_rows(B, segment, t))
         if out is None:
@@ -155,19 +181,20 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         Us = segment_scales(B, scale, width)
         rel = np.maximum(qmax, 0.0) / Us
         worst = float(rel.max(initial=0.0))
-        if worst <= tol or (worst <= STALL_TOL and worst > 0.5 * last):
-            return dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
-                        violation=worst, active=active)
-        last = worst
+        stalled = stalled + 1 if worst <= STALL_TOL and worst > 0.5 * last else 0
         good = dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
                     violation=worst, active=active)
+        if worst <= tol or stalled >= STALL_ROUNDS:
+            return good
+        last = worst
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
     return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
 
 
-def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None):
+def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None,
+              carry: dict | None = None):
     """Lawson-Hanson non-negative least squares min 1/2 ||A y - b||^2 - c^T y over y >= 0 (``c`` (k,), default 0:
     the plain NNLS) from the warm start ``y0`` (>= 0; its support is the first passive set), with the QR factors
     of the passive columns updated column by column (``scipy.linalg.qr_insert``/``qr_delete``: O(n^2) per change
@@ -178,28 +205,40 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     one that rounding or its constant alone made positive while it lies in their span, a vanishing new
     pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
     unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
+    ``carry`` (a dict): the passive columns and their QR factors at the return, kept there; a later call whose
+    ``A`` has the same first columns (more columns appended: the next round of cuts) and whose warm start is
+    this answer starts from them instead of factoring its passive columns again.
     Returns (y, passive) or None."""
     n, k = A.shape
     c = np.zeros(k) if c is None else np.asarray(c, dtype=float)
     y = np.maximum(np.asarray(y0, dtype=float), 0.0)
-    passive = np.flatnonzero(y > 0)
-    if len(passive):        # a warm start's columns may depend on each other (more of them than A has rows)
-        _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
-        d = np.abs(np.diag(Rp))
-        passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
-    passive = list(passive)
-    y[~np.isin(np.arange(k), passive)] = 0.0
-    Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
+    support = np.flatnonzero(y > 0)
+    if (carry and carry["columns"] <= k and carry["Q"].shape[0] == n and len(carry["passive"]) == len(support)
+            and np.array_equal(np.sort(carry["passive"]), support)):
+        passive, Q, R = list(carry["passive"]), carry["Q"].copy(order="F"), carry["R"].copy(order="F")
+    else:
+        passive = support
+        if len(passive):    # a warm start's columns may depend on each other (more of them than A has rows)
+            _, Rp, piv = sla.qr(A[:, passive] * (y[passive] / y[passive].max()), mode="economic", pivoting=True)
+            d = np.abs(np.diag(Rp))
+            passive = np.sort(passive[piv[:int(np.sum(d > 1e-12 * d.max(initial=0.0)))]])
+        passive = list(passive)
+        y[~np.isin(np.arange(k), passive)] = 0.0
+        Q, R = sla.qr(A[:, passive]) if passive else (np.eye(n), np.zeros((n, 0)))
     max_iter = 3 * k + 10 if max_iter is None else max_iter
+
+    has_c = bool(c.any())
+    trsv = blas.get_blas_funcs("trsv", (A,))
 
     def least_squares():
         p = len(passive)
         z = np.zeros(k)
-        if p:
+        if p:       # one contiguous copy of R's leading block, BLAS triangular solves on it (no LAPACK wrapper)
+            Rp = np.asfortranarray(R[:p, :p])
             rhs = Q[:, :p].T @ b
-            if c.any():
-                rhs = rhs + sla.solve_triangular(R[:p, :p], c[passive], trans="T", check_finite=False)
-            z[passive] = sla.solve_triangular(R[:p, :p], rhs, check_finite=False)
+            if has_c:
+                rhs = rhs + trsv(Rp, c[passive], trans=1)
+            z[passive] = trsv(Rp, rhs)
         return z
 
     def settle(y):
@@ -222,6 +261,11 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
                 del passive[i]
         return None
 
+    def done(y):
+        if carry is not None:
+            carry.update(passive=list(passive), Q=Q, R=R, columns=k)
+        return y, np.isin(np.arange(k), passive)
+
     if passive:                               # the warm start's own least-squares point
         y = settle(y)
         if y is None:
@@ -235,13 +279,13 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         cand = np.flatnonzero(out & (w > tol * S))
         if not len(cand):
             if fresh:
-                return y, np.isin(np.arange(k), passive)
+                return done(y)
             S, fresh = scale(y), True                 # the scale of the start, refreshed before stopping
             continue
         fresh = False
         cand = cand[~np.isin(cand, list(dependent))]
         if not len(cand):
-            return y, np.isin(np.arange(k), passive)
+            return done(y)
         j = int(cand[np.argmax(w[cand] / S[cand])])
         p = len(passive)
         if p >= n:
@@ -287,6 +331,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     d_out[keep] = d[keep] - factor.F @ Ld
     held = ~keep
     prev = {} if y0 is None else {"y": np.asarray(y0, dtype=float)}
+    carry = {}                  # the passive columns' QR factors from one round to the next (nnls_warm)
 
     def node_scale(r):
         U = base + absW @ np.abs(r)
@@ -300,8 +345,10 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
         c = (P[:, held] @ d[held] + P[:, keep] @ d_out[keep])[moving]
-        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(P, ym, moving)))[moving], c,
-                        dual=lambda ym: (P @ (d - W @ _expand(P, ym, moving)))[moving])    # O(n^2), not O(n k)
+        PT = P.T.tocsr()
+        out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(PT, ym, moving)))[moving], c,
+                        dual=lambda ym: (P @ (d - W @ _expand(PT, ym, moving)))[moving],   # O(n^2), not O(n k)
+                        carry=carry)
         if out is None:
             return None
         y = np.zeros(P.shape[0])
@@ -309,7 +356,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         active = np.zeros(P.shape[0], dtype=bool)
         active[moving] = out[1]
         prev["y"] = y
-        r = P.T @ y
+        r = PT @ y
         return y, d - W @ r, node_scale(r), r, active
 
     out = accumulate_cuts(B, solve, segment, t, max_rounds, width=width)
@@ -363,11 +410,11 @@ def psd_factor(W, keep, cache=None) -> PsdFactor:
     return out
 
 
-def _expand(P, ym, moving):
-    """r = P^T y from the forces ``ym`` of the ``moving`` point rows."""
-    y = np.zeros(P.shape[0])
+def _expand(PT, ym, moving):
+    """r = P^T y from the forces ``ym`` of the ``moving`` point rows (``PT`` = P^T)."""
+    y = np.zeros(PT.shape[1])
     y[moving] = ym
-    return P.T @ y
+    return PT @ y
 
 
 def dual_cone_point(beta) -> np.ndarray:

@@ -72,7 +72,6 @@ import json
 import math
 import os
 import platform
-import resource
 import shlex
 import statistics
 import subprocess
@@ -85,6 +84,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this checkout
+sys.path.insert(0, str(Path(__file__).resolve().parent))              # harness
+
+from harness import (bonded_kkt, growth, markdown_table, median_row, peak_gb, pypardiso_solve, rel,  # noqa: E402
+                     residual, run_part, superlu_solve, unknowns, write_csv)
 
 
 def make_scene(name, n, scale=1.0):
@@ -94,10 +97,6 @@ def make_scene(name, n, scale=1.0):
     if name == "thin_layer":
         return demo.thin_layer(n, pressure=1e6 * scale, voltage=100.0 * scale)
     return getattr(demo, name)(n, scale=scale)
-
-
-def peak_gb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
 def default_part(name, n, degree, runs, factorization="auto"):
@@ -130,11 +129,10 @@ def default_part(name, n, degree, runs, factorization="auto"):
                          factorization=sol.info.factorization or "-", ok=bool(sol.ok),
                          resolve_ok=bool(again.ok), resolve_route=str(again.info.route),
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
-        unknowns = sum(b.Kuu.shape[0] + (b.Kpp.shape[0] if b.Kpp is not None else 0) for b in solver.problem.blocks)
-        merged = solver.problem.E.shape[0]
+        N, merged = unknowns(solver.problem), solver.problem.E.shape[0]
         del solver, sol, again
-    out = _median(rows)
-    out.update(unknowns=unknowns, contact_rows=merged, default_peak_gb=peak_gb())
+    out = median_row(rows)
+    out.update(unknowns=N, contact_rows=merged, default_peak_gb=peak_gb())
     return out
 
 
@@ -157,64 +155,18 @@ def bonded_blocks(sc, degree):
     return [Block.scaled(s, interface.jump(k, len(s.f) // 2), un) for k, s in enumerate(systems)]
 
 
-def bonded_kkt(blocks):
-    """K = [[A, G^T], [G, 0]] and its right-hand side: the bonded scene (module docstring)."""
-    import scipy.sparse as sp
-
-    from cvxcontact.backends.condensed import quasi_definite
-
-    parts = [quasi_definite(b) for b in blocks]
-    jumps = []
-    for b, (S, _) in zip(blocks, parts):
-        J = b.jump.tocsr(copy=True)
-        J.data[np.abs(J.data) < 1e-12 * np.abs(J.data).max()] = 0.0
-        J.eliminate_zeros()
-        jumps.append(sp.hstack([J, sp.csr_matrix((J.shape[0], S.shape[0] - J.shape[1]))]))
-    G = sp.hstack(jumps).tocsr()
-    keep = np.diff(G.indptr) > 0
-    G = G[keep]
-    A = sp.block_diag([S for S, _ in parts])
-    K = sp.bmat([[A, G.T], [G, None]], format="csr")
-    rhs = np.concatenate([F for _, F in parts] + [np.zeros(G.shape[0])])
-    return K, rhs
-
-
-def _pardiso(K, rhs, mtype):
-    import pypardiso
-    import scipy.sparse as sp
-
-    solver = pypardiso.PyPardisoSolver(mtype=mtype)
-    if mtype == -2:                       # upper triangle, every diagonal entry stored (zeros included)
-        U = sp.triu(K, format="coo")
-        n = K.shape[0]
-        diag = np.arange(n)
-        rows, cols = np.concatenate([U.row, diag]), np.concatenate([U.col, diag])
-        vals = np.concatenate([U.data, np.zeros(n)])
-        M = sp.csr_matrix((vals, (rows, cols)), shape=K.shape)
-        M.sum_duplicates()
-        M.sort_indices()
-    else:
-        M = K
-    t0 = time.perf_counter()
-    z = solver.solve(M, rhs)
-    t = time.perf_counter() - t0
-    solver.free_memory(everything=True)
-    return t, float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))
-
-
 def bonded_part(name, n, degree, runs, superlu_up_to):
-    import scipy.sparse.linalg as spla
-
+    """The bonded scene (module docstring): the two bodies glued, [u] = 0 at every merged node."""
     sc = make_scene(name, n)
     t0 = time.perf_counter()
     blocks = bonded_blocks(sc, degree)
     t_asm = time.perf_counter() - t0
-    K, rhs = bonded_kkt(blocks)
+    K, rhs, _, _, _ = bonded_kkt(blocks, [b.jump for b in blocks])
     out = dict(kkt_size=K.shape[0], bonded_assembly_s=t_asm)
     try:
         import pypardiso  # noqa: F401
         for mtype, key in ((-2, "pardiso_sym"), (11, "pardiso_unsym")):
-            ts = [_pardiso(K, rhs, mtype) for _ in range(runs)]
+            ts = [pypardiso_solve(K, rhs, mtype) for _ in range(runs)]
             out[f"{key}_s"] = statistics.median(t for t, _ in ts)
             out[f"{key}_residual"] = max(r for _, r in ts)
         out["pardiso_s"] = min(out["pardiso_sym_s"], out["pardiso_unsym_s"])
@@ -222,35 +174,13 @@ def bonded_part(name, n, degree, runs, superlu_up_to):
         out["pardiso_s"] = float("nan")
     out["pardiso_peak_gb"] = peak_gb()
     if K.shape[0] <= superlu_up_to:
-        ts = []
-        for _ in range(max(1, min(runs, 2))):
-            t0 = time.perf_counter()
-            lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                           options=dict(SymmetricMode=True))
-            z = lu.solve(rhs)
-            ts.append(time.perf_counter() - t0)
-            del lu
-        out["superlu_s"] = statistics.median(ts)
-        out["superlu_residual"] = float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))
+        ts = [superlu_solve(K, rhs) for _ in range(max(1, min(runs, 2)))]
+        out["superlu_s"] = statistics.median(t for t, _ in ts)
+        out["superlu_residual"] = residual(K, ts[-1][1], rhs)
     else:
         out["superlu_s"] = float("nan")
     out["bonded_peak_gb"] = peak_gb()
     return out
-
-
-def _median(rows):
-    out = {}
-    for key, value in rows[0].items():
-        vals = [r[key] for r in rows]
-        out[key] = statistics.median(vals) if isinstance(value, float) else value
-    return out
-
-
-def _run(args):
-    out = subprocess.run([sys.executable, __file__, "--one", json.dumps(args)], capture_output=True, text=True)
-    if out.returncode:
-        raise RuntimeError(f"{args}: exit {out.returncode}\n{out.stderr[-3000:]}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -351,20 +281,12 @@ def _describe(repo, rev) -> str:
     return f"{short} ({date}) {subject[:70] + '...' if len(subject) > 70 else subject}"
 
 
-def _rel(a, b) -> float:
-    """max |a - b| / max |b|; inf if the shapes differ."""
-    if a.shape != b.shape:
-        return float("inf")
-    scale = float(np.abs(b).max()) if b.size else 0.0
-    return float(np.abs(a - b).max()) / scale if scale > 0 else float(np.abs(a - b).max(initial=0.0))
-
-
 def _differences(files_a, files_b):
     """Largest relative differences of u, phi, force between each file of ``files_b`` and the first of ``files_a``."""
     ref = np.load(files_a[0])
     out = {}
     for key in ("u", "phi", "force"):
-        out[key] = max((_rel(np.load(f)[key], ref[key]) for f in files_b), default=float("nan"))
+        out[key] = max((rel(np.load(f)[key], ref[key]) for f in files_b), default=float("nan"))
     return out
 
 
@@ -440,8 +362,8 @@ def compare(args) -> int:
                 for i in range(reps):
                     for side in (("before", "after") if i % 2 == 0 else ("after", "before")):
                         out = Path(tmp) / f"{side}-{n}-{degree}-{i}.npz"
-                        r = _run_env(dict(part="solve", root=str(sides[side]), name="two_blocks", n=n,
-                                          degree=degree, out=str(out)), env)
+                        r = run_part(__file__, dict(part="solve", root=str(sides[side]), name="two_blocks", n=n,
+                                                    degree=degree, out=str(out)), env)
                         runs[side].append(r)
                         files[side].append(out)
                     print(f"  P{degree} nx={n} pair {i + 1}/{reps}: before {runs['before'][-1]['solve_s']:.2f} s, "
@@ -487,14 +409,6 @@ NOTES = ("Times: wall-clock seconds of `cc.solve(scene)` (Scene to checked Solut
          "change of load during the run. Spread: median absolute deviation / median of each side. "
          "Agreement: max |after - before| / max |before| of u, phi and the contact force against the first "
          "before-solve; *rounding* is the same among the before-solves themselves.")
-
-
-def _run_env(args, env):
-    out = subprocess.run([sys.executable, __file__, "--one", json.dumps(args)], capture_output=True, text=True,
-                         env=env)
-    if out.returncode:
-        raise RuntimeError(f"{args}: exit {out.returncode}\n{out.stderr[-3000:]}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def _summarise(n, degree, runs, files, agree):
@@ -545,37 +459,43 @@ def _row_text(r) -> str:
 
 
 def _markdown(table) -> str:
-    rows = ["| case | dofs | pairs | before [s] | after [s] | **after/before** [interval] (coverage) | pairs min-max "
-            "| ratio of the medians | spread before / after | minima [s] |", "|" + "---|" * 10]
-    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['dofs']:,} | {r['repeats']} | {r['before']:.3f} | "
-             f"{r['after']:.3f} | **{_ci(r['total'])}** | {r['total']['pair_min']:.3f}-{r['total']['pair_max']:.3f} "
-             f"| {r['total']['of_medians']:.3f} | {100 * r['spread_before']:.1f} % / {100 * r['spread_after']:.1f} % "
-             f"| {r['min_before']:.3f} -> {r['min_after']:.3f} |" for r in table]
-    rows += ["", "| case | without assembly: before -> after [s] | after/before | CPU time: before -> after [s] "
-             "| after/before | peak before / after [GB] |", "|" + "---|" * 6]
-    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['core_before']:.3f} -> {r['core_after']:.3f} | "
-             f"{_ci(r['core'])} | {r['cpu_before']:.3f} -> {r['cpu_after']:.3f} | {_ci(r['cpu'])} | "
-             f"{r['peak'][0]:.2f} / {r['peak'][1]:.2f} |" for r in table]
-    rows += ["", "| case | u | phi | force | rounding (u, force) | same answer | route before / after | ok | "
-             "active nodes |", "|" + "---|" * 9]
-    rows += [f"| two_blocks({r['nx']}) P{r['degree']} | {r['diff']['u']:.1e} | {r['diff']['phi']:.1e} | "
-             f"{r['diff']['force']:.1e} | {r['rounding']['u']:.1e}, {r['rounding']['force']:.1e} | "
-             f"{'no' if r['differ'] else 'yes'} | {r['route_before']} / {r['route_after']} | {r['ok']} | "
-             f"{r['active'][0]} / {r['active'][1]} |" for r in table]
-    rows.append("")
-    rows.append("Wall times of each solve in run order (s): " + "; ".join(
+    case = [f"two_blocks({r['nx']}) P{r['degree']}" for r in table]
+    times = markdown_table(
+        ["case", "dofs", "pairs", "before [s]", "after [s]", "**after/before** [interval] (coverage)",
+         "pairs min-max", "ratio of the medians", "spread before / after", "minima [s]"],
+        [[c, f"{r['dofs']:,}", str(r["repeats"]), f"{r['before']:.3f}", f"{r['after']:.3f}", f"**{_ci(r['total'])}**",
+          f"{r['total']['pair_min']:.3f}-{r['total']['pair_max']:.3f}", f"{r['total']['of_medians']:.3f}",
+          f"{100 * r['spread_before']:.1f} % / {100 * r['spread_after']:.1f} %",
+          f"{r['min_before']:.3f} -> {r['min_after']:.3f}"] for c, r in zip(case, table)])
+    parts = markdown_table(
+        ["case", "without assembly: before -> after [s]", "after/before", "CPU time: before -> after [s]",
+         "after/before", "peak before / after [GB]"],
+        [[c, f"{r['core_before']:.3f} -> {r['core_after']:.3f}", _ci(r["core"]),
+          f"{r['cpu_before']:.3f} -> {r['cpu_after']:.3f}", _ci(r["cpu"]), f"{r['peak'][0]:.2f} / {r['peak'][1]:.2f}"]
+         for c, r in zip(case, table)])
+    answers = markdown_table(
+        ["case", "u", "phi", "force", "rounding (u, force)", "same answer", "route before / after", "ok",
+         "active nodes"],
+        [[c, f"{r['diff']['u']:.1e}", f"{r['diff']['phi']:.1e}", f"{r['diff']['force']:.1e}",
+          f"{r['rounding']['u']:.1e}, {r['rounding']['force']:.1e}", "no" if r["differ"] else "yes",
+          f"{r['route_before']} / {r['route_after']}", str(r["ok"]), f"{r['active'][0]} / {r['active'][1]}"]
+         for c, r in zip(case, table)])
+    order = "Wall times of each solve in run order (s): " + "; ".join(
         f"P{r['degree']} nx={r['nx']} before " + " ".join(f"{x:.2f}" for x in r["times"]["before"]) + ", after "
-        + " ".join(f"{x:.2f}" for x in r["times"]["after"]) for r in table))
-    return "\n".join(rows)
+        + " ".join(f"{x:.2f}" for x in r["times"]["after"]) for r in table)
+    return "\n".join([times, "", parts, "", answers, "", order])
+
 
 def case(name, n, degree, runs, superlu_up_to):
     row = dict(scene=name, n=n, degree=degree)
-    row.update(_run(dict(part="default", name=name, n=n, degree=degree, runs=runs)))
+    row.update(run_part(__file__, dict(part="default", name=name, n=n, degree=degree, runs=runs)))
     if row["factorization"] == "pardiso" and row["unknowns"] <= superlu_up_to:    # the default install's path
-        alt = _run(dict(part="default", name=name, n=n, degree=degree, runs=runs, factorization="superlu"))
+        alt = run_part(__file__, dict(part="default", name=name, n=n, degree=degree, runs=runs,
+                                      factorization="superlu"))
         row.update({f"scipy_{k}": alt[k] for k in ("default_s", "resolve_share", "default_peak_gb", "ok",
                                                     "res_complementarity", "route")})
-    row.update(_run(dict(part="bonded", name=name, n=n, degree=degree, runs=runs, superlu_up_to=superlu_up_to)))
+    row.update(run_part(__file__, dict(part="bonded", name=name, n=n, degree=degree, runs=runs,
+                                       superlu_up_to=superlu_up_to)))
     nan = float("nan")
     row["ratio_pardiso"] = row["default_s"] / row["pardiso_s"] if row["pardiso_s"] == row["pardiso_s"] else nan
     row["ratio_superlu"] = row["default_s"] / row["superlu_s"] if row["superlu_s"] == row["superlu_s"] else nan
@@ -639,13 +559,10 @@ def main():
               flush=True)
     for name, degree in sorted({(r["scene"], r["degree"]) for r in rows}):
         sel = [r for r in rows if r["scene"] == name and r["degree"] == degree]
-        if len(sel) >= 2:
-            n = np.log([r["unknowns"] for r in sel])
-            fits = {k: np.polyfit(n, np.log([r[k] for r in sel]), 1)[0]
-                    for k in ("default_s", "pardiso_s", "superlu_s") if all(r[k] == r[k] for r in sel)}
-            print(f"growth {name} P{degree}: " + ", ".join(f"{k} N^{v:.2f}" for k, v in fits.items()))
-    Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
-    if args.merge and Path(args.csv).exists():
+        fits = growth(sel, ("default_s", "pardiso_s", "superlu_s"))
+        if fits is not None:
+            print(f"growth {name} P{degree}: {fits}")
+    if args.merge and Path(args.csv).exists():      # this run's cases replace theirs, the others are kept
         with open(args.csv, newline="") as fh:
             old = list(csv.DictReader(fh))
         ran = {(r["scene"], str(r["n"]), str(r["degree"])) for r in rows}
@@ -653,12 +570,7 @@ def main():
         order = {key: i for i, key in enumerate((r["scene"], str(r["degree"])) for r in old)}
         rows = sorted(kept + rows, key=lambda r: (order.get((r["scene"], str(r["degree"])), len(order)),
                                                   int(r["n"])))
-    keys = list(dict.fromkeys(k for r in rows for k in r))
-    with open(args.csv, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    print("wrote", args.csv)
+    print("wrote", write_csv(args.csv, rows))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Benchmark: piezoelectric 3D scenes on the AMG route (``method="amg"``) against the sparse (direct) route and
 the bonded yardsticks.
 
-Scene: ``bench3d.two_boxes(n)`` with potentials, a PZT-5A box (clamped and grounded on top, body force,
+Scene: ``two_boxes(n)`` (tests/scenes3d.py) with potentials, a PZT-5A box (clamped and grounded on top, body force,
 traction, surface charge) on an aluminium box, non-matching faces, "sigma1" (benchmarks/bench3d.py). A size
 is a count of unknowns (about 2.8 n^3) or n itself (< 1e3).
 
@@ -16,8 +16,8 @@ Parts of one size, each in a fresh subprocess (its peak memory its own), one thr
   - ``triangular``: the route's own solve (:meth:`cvxcontact.backends.amg.KrylovContact._system`): GMRES with
     the block upper-triangular AMG preconditioner, hierarchy set-up included, to a relative residual 1e-10;
   - ``diagonal``: MINRES with the block-diagonal AMG preconditioner (the AMG route's previous solve,
-    ``bench3d.amg_bonded``), tightened until the true residual is 1e-10;
-  - PARDISO (``bench3d.pardiso_bonded``: analysis + factorisation + solve), up to ``--pardiso-up-to``.
+    ``harness.amg_bonded``), tightened until the true residual is 1e-10;
+  - PARDISO (``harness.pardiso_symmetric``: analysis + factorisation + solve), up to ``--pardiso-up-to``.
   Iteration counts do not depend on the machine's load; times do.
 
 Run (one thread: the machine is shared):
@@ -32,10 +32,7 @@ triangular solve) and the iteration counts; growth exponents (least squares of l
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -44,13 +41,18 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this checkout
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # scenes3d: the scene
+sys.path.insert(0, str(Path(__file__).resolve().parent))              # harness
 
-import bench3d  # noqa: E402
+from harness import (amg_bonded, bonded_system, cell, growth, load, pardiso_symmetric, peak_gb, rel,  # noqa: E402
+                     run_part, side_cells, unknowns, write_csv)
 
 
 def scene(n):
-    return bench3d.two_boxes(n, "sigma1", elastic=False)
+    """The PZT-5A box on an aluminium box, "sigma1" (tests/scenes3d.py ``two_boxes``)."""
+    from scenes3d import two_boxes
+
+    return two_boxes(n, "sigma1", elastic=False)
 
 
 def answer(sol) -> np.ndarray:
@@ -70,8 +72,8 @@ def route_part(n, method, save=None, against=None):
     out = {f"{method}_s": wall, f"{method}_cpu_s": cpu, "assembly_s": tm.get("assembly", 0.0),    # (not in solve())
            f"{method}_steps": int(sol.info.iterations), f"{method}_ok": bool(sol.ok),
            f"{method}_route": sol.info.method,
-           "unknowns": bench3d.unknowns(solver.problem), "contact_rows": int(solver.problem.E.shape[0]),
-           f"{method}_peak_gb": bench3d.peak_gb()}
+           "unknowns": unknowns(solver.problem), "contact_rows": int(solver.problem.E.shape[0]),
+           f"{method}_peak_gb": peak_gb()}
     if method == "amg":
         out.update(amg_krylov=int(solver.cache.amg.iterations), amg_setup_s=tm.get("amg_setup", 0.0))
     x = answer(sol)
@@ -79,7 +81,7 @@ def route_part(n, method, save=None, against=None):
         np.save(save, x)
     if against and Path(against).exists():
         ref = np.load(against)
-        out["amg_vs_sparse"] = float(np.abs(x - ref).max() / np.abs(ref).max())
+        out["amg_vs_sparse"] = rel(x, ref)
     return out
 
 
@@ -98,35 +100,27 @@ def bonded_part(n, pardiso=True):
     out.update(triangular_s=time.perf_counter() - t0, triangular_cpu_s=time.process_time() - c0,
                triangular_it=kc.iterations, triangular_setup_s=kc.setup_time)
     del kc
-    K, rhs, A, G, sizes = bench3d.bonded_system(problem)
-    res = bench3d.amg_bonded(problem, A, G, rhs, sizes)                  # MINRES, block-diagonal
+    K, rhs, A, G, sizes = bonded_system(problem)
+    res = amg_bonded(problem, A, G, rhs, sizes)                          # MINRES, block-diagonal
     if res is not None:
         out.update(diagonal_s=res[0], diagonal_cpu_s=res[5], diagonal_it=res[2])
-        out["triangular_vs_diagonal"] = float(np.abs(x - res[1]).max() / np.abs(res[1]).max())
+        out["triangular_vs_diagonal"] = rel(x, res[1])
     if pardiso:
-        t, z, perturbed, c = bench3d.pardiso_bonded(K, rhs)
+        t, z, perturbed, c = pardiso_symmetric(K, rhs)
         out.update(pardiso_s=t, pardiso_cpu_s=c, pardiso_perturbed=int(perturbed))
-        nA = A.shape[0]
-        out["triangular_vs_pardiso"] = float(np.abs(x - z[:nA]).max() / np.abs(z[:nA]).max())
-    out["bonded_peak_gb"] = bench3d.peak_gb()
+        out["triangular_vs_pardiso"] = rel(x, z[:A.shape[0]])
+    out["bonded_peak_gb"] = peak_gb()
     return out
 
 
-def _run(args):
-    out = subprocess.run([sys.executable, __file__, "--one", json.dumps(args)], capture_output=True, text=True)
-    if out.returncode:
-        raise RuntimeError(f"{args}: exit {out.returncode}\n{out.stderr[-3000:]}")
-    return json.loads(out.stdout.strip().splitlines()[-1])
-
-
 def case(size, sparse_up_to, pardiso_up_to, tmp):
-    n = bench3d.cells("two_boxes", size, elastic=False)
-    row = dict(n=n, load=" ".join(f"{x:.1f}" for x in os.getloadavg()))
+    n = side_cells(size, 2.8)
+    row = dict(n=n, load=load())
     ref = str(Path(tmp) / f"sparse_{n}.npy")
     if size <= sparse_up_to:
-        row.update(_run(dict(part="route", n=n, method="sparse", save=ref)))
-    row.update(_run(dict(part="route", n=n, method="amg", against=ref)))
-    row.update(_run(dict(part="bonded", n=n, pardiso=bool(size <= pardiso_up_to))))
+        row.update(run_part(__file__, dict(part="route", n=n, method="sparse", save=ref)))
+    row.update(run_part(__file__, dict(part="route", n=n, method="amg", against=ref)))
+    row.update(run_part(__file__, dict(part="bonded", n=n, pardiso=bool(size <= pardiso_up_to))))
     nan = float("nan")
     for key, den in (("amg_over_sparse", "sparse_s"), ("amg_over_pardiso", "pardiso_s"),
                      ("amg_over_triangular", "triangular_s"), ("sparse_over_pardiso", "sparse_s")):
@@ -138,7 +132,7 @@ def case(size, sparse_up_to, pardiso_up_to, tmp):
 
 
 def summary(r) -> str:
-    g = lambda k, f="{:.2f}": f.format(r[k]) if k in r and r[k] == r[k] else "-"  # noqa: E731
+    g = lambda k, f="{:.2f}": cell(r, k, f)  # noqa: E731
     return (f"n={r['n']}: {g('unknowns', '{:,}')} unknowns, {g('contact_rows', '{}')} rows | amg {g('amg_s')} s "
             f"(CPU {g('amg_cpu_s')}; {g('amg_steps', '{}')} steps, {g('amg_krylov', '{}')} GMRES it., setup "
             f"{g('amg_setup_s')}) ok={r.get('amg_ok', '-')} | sparse {g('sparse_s')} s (CPU {g('sparse_cpu_s')}; "
@@ -148,17 +142,6 @@ def summary(r) -> str:
             f"PARDISO {g('pardiso_s')} s | amg/PARDISO bonded {g('amg_over_pardiso')}, amg/AMG bonded "
             f"{g('amg_over_triangular')}, sparse/PARDISO bonded {g('sparse_over_pardiso')} | peak amg "
             f"{g('amg_peak_gb')} GB, sparse {g('sparse_peak_gb')} GB | load {r['load']}")
-
-
-def growth(rows):
-    sel = sorted((r for r in rows if "unknowns" in r), key=lambda r: r["unknowns"])
-    if len(sel) < 2:
-        return ""
-    N = np.log([r["unknowns"] for r in sel])
-    fits = {k: np.polyfit(N, np.log([r[k] for r in sel]), 1)[0]
-            for k in ("amg_s", "amg_cpu_s", "sparse_s", "pardiso_s", "triangular_s", "diagonal_s", "amg_peak_gb")
-            if all(k in r and r[k] == r[k] and r[k] > 0 for r in sel)}
-    return "growth: " + ", ".join(f"{k} N^{v:.2f}" for k, v in fits.items())
 
 
 def main():
@@ -181,15 +164,9 @@ def main():
         for size in args.sizes:
             rows.append(case(size, args.sparse_up_to, args.pardiso_up_to, tmp))
             print(summary(rows[-1]), flush=True)
-    print(growth(rows))
-    path = Path(args.csv)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    keys = list(dict.fromkeys(k for r in rows for k in r))
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    print("wrote", path)
+    fits = growth(rows, ("amg_s", "amg_cpu_s", "sparse_s", "pardiso_s", "triangular_s", "diagonal_s", "amg_peak_gb"))
+    print("" if fits is None else "growth: " + fits)
+    print("wrote", write_csv(args.csv, rows))
 
 
 if __name__ == "__main__":

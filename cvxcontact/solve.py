@@ -244,8 +244,8 @@ class ContactSolver:
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)
         elif not sol.ok:
-            hint = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, a body "
-                    "held by the contact only, a force-controlled obstacle, or cones next to a compliance law), which "
+            hint = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, cones "
+                    "next to a compliance law, or a declined finish), which "
                     "stops where it stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies "
                     "or stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, "
                     "or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)."

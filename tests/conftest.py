@@ -44,3 +44,26 @@ def rel(a, b):
     """Relative max-norm difference of two arrays."""
     a, b = np.asarray(a), np.asarray(b)
     return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+def fields_agree(a, b, tol):
+    """Two Solutions of one scene agree: the same active set, and u, phi and the contact force within ``tol``
+    (:func:`rel`)."""
+    assert np.array_equal(a.contact.active, b.contact.active)
+    for ua, ub in zip(a.u, b.u):
+        assert rel(ua, ub) < tol
+    for pa, pb in zip(a.phi, b.phi):
+        if pb is not None:
+            assert rel(pa, pb) < tol
+    assert rel(a.contact.force, b.contact.force) < tol
+
+
+def benchmark(name):
+    """The module benchmarks/<name>.py (the benchmark scripts are no package), loaded from its file."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -180,6 +180,40 @@ def section_pair(n=4):
     return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "top", b2, "bottom", gap=_section_gap)])
 
 
+def two_boxes(n=4, condition="sigma1", elastic=False):
+    """A PZT-5A box (0, 1)^2 x (0, 0.5) m (n x n x n/2 cells, clamped and grounded on top, body force 2e9 N/m^3
+    downwards, traction 3e8 Pa along z on its right face, surface charge -0.05 C/m^2 on its left face) on an
+    aluminium box (0, 1)^2 x (-0.5, 0) m (about 0.7 n cells a side, clamped at the bottom): non-matching faces
+    on z = 0 under ``condition``, the 3D analogue of ``demo.two_blocks`` (benchmarks/bench3d.py). ``elastic``:
+    the upper box aluminium too (no potentials)."""
+    n = max(2, int(n))
+    n2 = max(2, round(0.7 * n))
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n, ny=n, nz=max(1, n // 2))
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n2, ny=n2, nz=max(1, (n2 + 1) // 2))
+    if elastic:
+        b1 = cc.Body(upper, aluminium, clamped=["top"], name="upper box", body_force=(0.0, 0.0, -2e9),
+                     traction={"right": (0.0, 0.0, 3e8)})
+    else:
+        b1 = cc.Body(upper, cc.materials.PZT5A, clamped=["top"], grounded=["top"], name="PZT-5A box",
+                     body_force=(0.0, 0.0, -2e9), traction={"right": (0.0, 0.0, 3e8)},
+                     surface_charge={"left": -0.05})
+    b2 = cc.Body(lower, aluminium, clamped=["bottom"], name="aluminium box")
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition=condition)])
+
+
+def sphere_into_block(n=6):
+    """An aluminium block (-1, 1)^2 x (-1, 0) m (n x n x n/2 cells, clamped at the bottom) pressed 0.02 m deep
+    by a fixed rigid sphere of radius 2 m: a Hertz contact whose zone (radius about 0.2 m) is a small part of
+    the rows (one per top node; benchmarks/bench3d.py)."""
+    n = max(2, int(n))
+    block = cc.box(x=(-1.0, 1.0), y=(-1.0, 1.0), z=(-1.0, 0.0), nx=n, ny=n, nz=max(1, n // 2))
+    body = cc.Body(block, cc.materials.isotropic(E=70e9, nu=0.3, name="aluminium"), clamped=["bottom"],
+                   name="aluminium block")
+    ball = cc.Rigid.sphere((0.0, 0.0, 2.0 - 0.02), 2.0)
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
+
+
 def _section_gap(x, *rest):
     """1e-3 (x - 0.5)^2 m, x the abscissa: the 2D gap g(s, y) and the 3D g(s1, s2) (s1 = x on a plane z = const)."""
     return 1e-3 * (np.asarray(x, dtype=float) - 0.5) ** 2

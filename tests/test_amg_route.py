@@ -4,12 +4,12 @@ SciPy-only install. No timing is asserted."""
 
 import importlib.util
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import rel
+from conftest import benchmark, fields_agree
+from scenes3d import sphere_into_block, two_boxes
 
 import cvxcontact as cc
 import cvxcontact.backends as backends
@@ -18,38 +18,18 @@ from cvxcontact.backends import ProblemDescription, choose
 from cvxcontact.backends.amg import own_dofs
 from cvxcontact.backends.result import Route
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench3d.py"
-
-
-def bench():
-    spec = importlib.util.spec_from_file_location("bench3d", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def _agree(a, b, tol):
-    assert np.array_equal(a.contact.active, b.contact.active)
-    for ua, ub in zip(a.u, b.u):
-        assert rel(ua, ub) < tol
-    for pa, pb in zip(a.phi, b.phi):
-        if pb is not None:
-            assert rel(pa, pb) < tol
-    assert rel(a.contact.force, b.contact.force) < tol
-
-
-@pytest.mark.parametrize("make, n", [("sphere", 12), ("two_boxes", 6)], ids=["sphere", "pzt-on-aluminium"])
+@pytest.mark.parametrize("make, n", [(sphere_into_block, 12), (two_boxes, 6)], ids=["sphere", "pzt-on-aluminium"])
 def test_amg_route_agrees_with_the_sparse_route(make, n):
     """The same active set and fields as the sparse route's factorised steps (Krylov solves to 1e-10):
     a rigid sphere into an elastic block (CG) and a PZT-5A box on an aluminium box (MINRES, potentials)."""
     pytest.importorskip("pyamg")
-    scene = getattr(bench(), make)(n)
+    scene = make(n)
     a = cc.solve(scene, method="amg")
     b = cc.solve(scene, method="sparse")
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert a.info.factorization == "pyamg"
     assert 0 < np.sum(a.contact.active)
-    _agree(a, b, 1e-8)                 # measured: sphere 1.6e-11, boxes 3.0e-10 (Krylov to 1e-10)
+    fields_agree(a, b, 1e-8)                 # measured: sphere 1.6e-11, boxes 3.0e-10 (Krylov to 1e-10)
     assert a.residuals()["equilibrium"] < 1e-10                   # measured 3.4e-12, 7.6e-12
 
 
@@ -57,12 +37,59 @@ def test_amg_resolve_starts_from_the_previous_active_set():
     """A second solve through one ContactSolver reuses the hierarchy and starts from the exact active set:
     one step, the same answer."""
     pytest.importorskip("pyamg")
-    b = bench()
-    solver = cc.ContactSolver(b.sphere(12), method="amg")
+    solver = cc.ContactSolver(sphere_into_block(12), method="amg")
     first = solver.solve()
     again = solver.solve()
     assert first.ok and again.ok and again.info.route == Route.WARM_START and again.info.iterations == 1
-    _agree(again, first, 1e-8)
+    fields_agree(again, first, 1e-8)
+
+
+def _elastic_boxes(press, n=8):
+    """An aluminium box clamped on top, pushed down on an aluminium box (non-matching faces, "sigma1") by a body
+    force and a traction ``press`` (N/m^2, along z) on its right face."""
+    from cvxcontact.physics import materials
+
+    al = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n, ny=n, nz=n // 2)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n - 2, ny=n - 2, nz=n // 2)
+    top = cc.Body(upper, al, clamped=["top"], body_force=(0.0, 0.0, -2e9), traction={"right": (0.0, 0.0, press)})
+    base = cc.Body(lower, al, clamped=["bottom"])
+    return cc.Scene(top, base, contacts=[cc.Contact(top, "bottom", base, "top", condition="sigma1")])
+
+
+def test_staged_solves_tighten_only_while_the_signs_hold(monkeypatch):
+    """Each active set is solved to the stages STEP_RTOLS, then RTOL, in order, and left at the first stage whose
+    signs fail: so the tolerances solved on one set are a prefix of that sequence, and only the last set reaches
+    RTOL when it is the answer. Re-solving other loads through one solver (the reduced system of a set is kept
+    between its stages, keyed by the loads) gives the sparse route's answer for each."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    calls, system = [], amg.KrylovContact._system
+
+    def traced(self, active, F, g, x_start, rtol=amg.RTOL):
+        calls.append((active.tobytes(), rtol))
+        return system(self, active, F, g, x_start, rtol)
+
+    monkeypatch.setattr(amg.KrylovContact, "_system", traced)
+    ladder = amg.STEP_RTOLS + (amg.RTOL,)
+    solver = cc.ContactSolver(_elastic_boxes(3e8), method="amg")
+    for press in (3e8, -6e8):                     # the right face's traction: up, then down (other sets)
+        calls.clear()
+        a = solver.solve(_elastic_boxes(press))
+        b = cc.solve(_elastic_boxes(press), method="sparse")
+        assert a.ok and a.info.method == "amg"
+        fields_agree(a, b, 1e-8)                            # measured 4.3e-11 .. 7.6e-11 (Krylov to 1e-10)
+        runs, k = [], 0
+        while k < len(calls):                               # consecutive calls on one set
+            j = k
+            while j < len(calls) and calls[j][0] == calls[k][0]:
+                j += 1
+            runs.append([r for _, r in calls[k:j]])
+            k = j
+        assert all(r == list(ladder[:len(r)]) for r in runs)
+        assert runs[-1] == list(ladder) or runs[-1] == [amg.RTOL] * len(runs[-1])
+    assert len(runs) >= 2                                   # measured 2 sets on the second load (4 on the first)
 
 
 def test_gamma3_rows_are_refused_by_the_krylov_system():
@@ -71,7 +98,7 @@ def test_gamma3_rows_are_refused_by_the_krylov_system():
     pytest.importorskip("pyamg")
     from cvxcontact.backends.amg import KrylovContact
 
-    problem = cc.ContactSolver(bench().two_boxes(4, condition="gamma3")).problem
+    problem = cc.ContactSolver(two_boxes(4, condition="gamma3")).problem
     with pytest.raises(cc.SolverError, match="no dof of its own"):
         KrylovContact(problem)
 
@@ -96,7 +123,7 @@ def test_without_pyamg_the_amg_method_says_what_to_install(monkeypatch):
     monkeypatch.setattr(importlib.util, "find_spec",
                         lambda name, *a, _f=importlib.util.find_spec: None if name == "pyamg" else _f(name, *a))
     with pytest.raises(cc.SolverError, match=r'pip install "cvxcontact\[amg\]"'):
-        cc.solve(bench().sphere(6), method="amg")
+        cc.solve(sphere_into_block(6), method="amg")
     with pytest.raises(cc.SolverError, match=r'pip install "cvxcontact\[amg\]"'):
         cc.solve(_electrodes_scene(4), method="amg")                          # piezoelectric: the same refusal
 
@@ -140,10 +167,10 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
 
     monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loose)
-    scene = bench().two_boxes(6)
+    scene = two_boxes(6)
     a = cc.solve(scene, method="amg")
     assert seen == ["cycle", "settled"] and a.info.method == "amg" and a.ok
-    _agree(a, cc.solve(scene, method="sparse"), 1e-8)             # measured 1.4e-10 (Krylov to 1e-10)
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)             # measured 1.4e-10 (Krylov to 1e-10)
 
 
 def _electrodes_scene(n=6):
@@ -169,7 +196,7 @@ def test_amg_route_keeps_driven_and_floating_electrodes():
     b = cc.solve(scene, method="sparse")
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert 0 < np.sum(a.contact.active) < len(a.contact.active)                  # measured 42 of 213
-    _agree(a, b, 1e-8)                            # measured 1.5e-10 (below 1e-9 in CI: the same Krylov tolerance)
+    fields_agree(a, b, 1e-8)                            # measured 1.5e-10 (below 1e-9 in CI: the same Krylov tolerance)
     assert [(e.tag, e.kind) for e in a.electrodes] == [("right", "driven"), ("left", "floating")]
     # the route's answer is a Krylov solve to a relative residual of 1e-10 (amg.RTOL), which a floating
     # electrode's potential sees through the conditioning: measured 8.9e-11 and 2.0e-9 in two runs (the
@@ -211,7 +238,7 @@ def test_block_triangular_preconditioner_with_exact_blocks():
 
     from cvxcontact.backends.amg import KrylovContact
 
-    kc = KrylovContact(cc.ContactSolver(bench().two_boxes(4)).problem)
+    kc = KrylovContact(cc.ContactSolver(two_boxes(4)).problem)
     seen, precondition = {}, kc._precondition
 
     def capture(K=None):
@@ -257,14 +284,14 @@ def test_hierarchy_rebuilds_change_the_cost_not_the_answer(monkeypatch, cost, bu
         built.append(len(slaves))
 
     monkeypatch.setattr(amg.KrylovContact, "_hierarchy", priced)
-    scene = bench().two_boxes(8)
+    scene = two_boxes(8)
     a = cc.solve(scene, method="amg")
     assert a.ok and a.info.method == "amg"
     if builds == "once":
         assert len(built) == 1
     else:
         assert len(built) >= 3                                                 # measured 4 (of 4 sets)
-    _agree(a, cc.solve(scene, method="sparse"), 1e-8)                         # measured 2.7e-10, 2.3e-10
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)                         # measured 2.7e-10, 2.3e-10
 
 
 def test_piezo_benchmark_bonded_part():
@@ -274,10 +301,7 @@ def test_piezo_benchmark_bonded_part():
     pytest.importorskip("pyamg")
     from cvxcontact.backends.factor import pardiso_available
 
-    spec = importlib.util.spec_from_file_location("bench_piezo_amg", SCRIPT.with_name("bench_piezo_amg.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    out = module.bonded_part(6, pardiso=pardiso_available())
+    out = benchmark("bench_piezo_amg").bonded_part(6, pardiso=pardiso_available())
     assert out["triangular_it"] < out["diagonal_it"]                             # measured 23 < 43
     assert out["triangular_vs_diagonal"] < 1e-8                                  # measured 2.8e-10
     if pardiso_available():

@@ -3,7 +3,6 @@
 No timing is asserted here: the times of a shared machine are not a pass/fail criterion.
 """
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -11,16 +10,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import benchmark
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "benchmarks" / "bench_default.py"
 
 
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_default", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return benchmark("bench_default")
 
 
 def test_sizes_are_nx_or_unknowns():

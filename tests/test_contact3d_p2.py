@@ -197,9 +197,3 @@ def test_p2_nodal_conditions_against_a_dense_solve_of_the_mixed_system(name):
     assert penetration < 1e-12 and unbalanced < 1e-12                           # measured <= 5.4e-16, 1.5e-14
     err = max(float(np.abs(a - b).max()) for a, b in zip(sol.u, ans.u)) / scale
     assert err < 1e-12                                                          # measured <= 6.5e-15
-
-
-def test_p2_tetrahedra_refuse_a_compliance_law():
-    scene = stacked_blocks((2, 2), (2, 2), nz=1)
-    with pytest.raises(cc.errors.UnsupportedError, match="normal-compliance law with P2 .10-node. tetrahedra"):
-        cc.solve(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e15))

@@ -150,3 +150,126 @@ def test_p2_force_control_by_the_guided_sphere_agrees_with_pressing():
     np.testing.assert_array_equal(sol.contact.active, g.contact.active)
     np.testing.assert_allclose(sol.contact.force, g.contact.force, rtol=0,
                                atol=1e-9 * h.FORCE)                      # measured 3e-11 N
+
+
+# --- the contact radius of the P2 "gamma3" rows: the hull of the points where the gap closes ---------------------
+
+def test_hull_radius_of_points_on_a_quarter_circle():
+    """k + 1 points equally spaced on a quarter circle of radius s (and points inside it): the hull with the axis
+    point is k triangles of area s^2 sin(pi / 2k) / 2 each, so the radius is s sqrt(2k sin(pi / 2k) / pi)."""
+    s = 1.3e-3
+    for k in (2, 5, 40):
+        t = np.linspace(0.0, np.pi / 2, k + 1)
+        ring = s * np.column_stack([np.cos(t), np.sin(t)])
+        inner = 0.7 * s * np.random.default_rng(k).random((30, 2)) / np.sqrt(2)
+        want = s * np.sqrt(2 * k * np.sin(np.pi / (2 * k)) / np.pi)
+        assert h.hull_radius(np.concatenate([inner, ring])) == pytest.approx(want, rel=1e-12)
+    assert h.hull_radius(ring[:1]) == 0.0                            # one point off the axis: no area
+    assert h.hull_radius(np.zeros((0, 2))) == 0.0
+
+
+def _p2_grid(m, size):
+    """A triangle6 mesh of [0, size]^2 (m x m squares, two triangles each): (x (n, 2), cells (c, 6))."""
+    from cvxcontact.contact.quadratic3d import p2_triangle_nodes
+
+    g = np.linspace(0.0, size, m + 1)
+    X, Y = np.meshgrid(g, g, indexing="ij")
+    V = np.column_stack([X.ravel(), Y.ravel()])
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    v = (i * (m + 1) + j).ravel()
+    tri = np.concatenate([np.c_[v, v + m + 1, v + m + 2], np.c_[v, v + m + 2, v + 1]])
+    cells, edges = p2_triangle_nodes(tri, len(V))
+    return np.concatenate([V, 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])]), cells
+
+
+def test_contact_points_of_a_synthetic_gap():
+    """q_h = -c |x - x0|^2 is quadratic (in P2 exactly), <= 0 and zero at x0 alone: the contact points are x0
+    (once per triangle that holds it), whatever the tolerance below the nearest node's value; q_h = -c (x - x0)^2
+    closes along the line x = x0: points on that line only, and its nodes there."""
+    x, cells = _p2_grid(6, 2e-3)
+    x0 = np.array([0.77e-3, 0.41e-3])                                 # inside one triangle
+    q = -1e3 * ((x - x0) ** 2).sum(axis=1)
+    pts = h.contact_points(x, cells, q, tol=1e-3 * np.abs(q[q < 0]).min())
+    assert len(pts) == 1
+    np.testing.assert_allclose(pts[0], x0, rtol=0, atol=1e-12 * 2e-3)  # measured 0 (exact stationary point)
+    line = -1e3 * (x[:, 0] - 1e-3) ** 2                                # x = 1e-3 is a grid line
+    pts = h.contact_points(x, cells, line, tol=1e-15)
+    assert len(pts) > 0
+    np.testing.assert_allclose(pts[:, 0], 1e-3, rtol=0, atol=1e-15)
+    assert pts[:, 1].min() == 0.0 and pts[:, 1].max() == 2e-3         # its nodes at both ends of the patch
+    # the hull with the axis point: the triangle (0, 0), (1e-3, 0), (1e-3, 2e-3) of area 1e-6 m^2
+    assert h.hull_radius(pts) == pytest.approx(np.sqrt(4e-6 / np.pi), rel=1e-12)
+
+
+def test_moment_radius_of_hertz_forces():
+    """Hertz's pressure of radius s integrated on the P2 functions of the quarter patch (hat_loads): the second
+    moment of the forces gives back s (r^2 is quadratic, so sum f_i r_i^2 is the integral of r^2 p up to the
+    quadrature of hat_loads); a uniform pressure on the whole patch [0, 2a]^2 gives its own moment instead."""
+    x, cells = _p2_grid(8, 2 * h.A_REF)
+
+    class Trace:                                                       # the protocol hat_loads reads
+        points = np.column_stack([x, np.zeros(len(x))])
+        faces = cells
+        nodes = np.arange(len(x))
+
+    for s in (0.6e-3, 1.1e-3):
+        f = h.hat_loads(Trace, lambda X, Y: 2e9 * np.sqrt(np.maximum(1 - (X * X + Y * Y) / s ** 2, 0.0)), k=16)
+        assert h.moment_radius(x, f) == pytest.approx(s, rel=3e-4)     # measured 3.1e-5, 1.3e-6
+    one = h.hat_loads(Trace, lambda X, Y: np.ones_like(X))
+    # a uniform square [0, 2a]^2: <r^2> = 2 (2a)^2 / 3, so sqrt(5/2 <r^2>) = 2a sqrt(5/3)
+    assert h.moment_radius(x, one) == pytest.approx(2 * h.A_REF * np.sqrt(5 / 3), rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def gamma3_level():
+    """The study's P2 "gamma3" row at the coarsest level (the copositive condition on every face of the patch)."""
+    return h.solve_level(N, degree=2, condition="gamma3")
+
+
+def test_p2_gamma3_row_balances_the_force_and_closes_the_gap_at_points(gamma3_level):
+    row, sol = gamma3_level
+    assert sol.ok and sol.polished and row["condition"] == "gamma3", sol.report()
+    # the force is reached to FORCE_RTOL_CONIC, and the felt pressure carries it
+    assert abs(row["F_N"] / h.FORCE - 1) <= h.FORCE_RTOL_CONIC           # measured 5e-9
+    _, p = sol.traction(0)
+    trace = sol.interface.traces[0]
+    assert float(np.ones(len(p)) @ (trace.mass @ p)) == pytest.approx(row["F_N"] / 4, rel=1e-12)
+    # the gap closes at points inside triangles: no node of the patch touches (q_h < 0 at every node,
+    # measured at least 3.7e-5 of the approach below the sphere), so a node count cannot see the zone
+    c = sol.contact
+    q = c.jump - c.gap
+    assert (q < -1e-6 * row["delta_h_m"]).all()
+    # the contact points: sampled on each triangle that holds one, q_h never exceeds its value there (~0)
+    pts = h.contact_points(c.x, sol.interface.cells, q, h.SUPPORT_TOL * np.abs(c.jump).max())
+    assert row["support_points"] == len(pts) == 14                       # measured: 14 tangency points
+    from cvxcontact.contact.overlay import locate
+    from cvxcontact.contact.quadratic3d import p2_shape
+    cells = np.asarray(sol.interface.cells)
+    tri, _ = locate(pts, c.x, cells[:, :3])
+    k = 12
+    u, v = (g.ravel() for g in np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij"))
+    L = np.column_stack([k - u - v, u, v])[u + v <= k] / k
+    samples = p2_shape(L) @ q[cells].T                                   # (91, triangles)
+    hold = np.zeros(len(cells), dtype=bool)
+    hold[tri] = True
+    assert hold.sum() == 14
+    assert samples[:, hold].max() <= 1e-12 * row["delta_h_m"]            # measured -1.8e-9 (samples miss the point)
+    # the triangles without a contact point stay clear of the sphere (exact maxima: 5.2e-6 of the approach
+    # below and lower)
+    assert samples[:, ~hold].max() < -1e-6 * row["delta_h_m"]            # measured -4.6e-5
+
+
+def test_p2_gamma3_hertz_quantities_at_the_coarsest_level(gamma3_level, p2_levels):
+    row, _ = gamma3_level
+    p1, p2, _ = p2_levels
+    # errors of the P2 gamma3 level n = 8, measured beside each bound
+    assert row["a_rel_error"] == row["a_hull_rel_error"]
+    assert -0.3 < row["a_hull_rel_error"] < 0                            # measured -0.200: a hull of inner points
+    assert abs(row["a_moment_rel_error"]) < 0.02                         # measured -0.0007
+    assert abs(row["p0_rel_error"]) < 0.15                               # measured -0.091
+    assert abs(row["cell_force_rel_error"]) < 0.05                       # measured -0.015
+    assert -0.1 < row["delta_rel_error"] < -0.03                         # measured -0.063
+    # the hull estimator against the edge mid-points where both apply (nodal rows): within a mesh size near
+    # the zone's edge (h at the axis, h_m; the grid is graded, coarser at r = a)
+    for r in (p1, p2):
+        assert abs(r["a_hull_m"] - r["a_h_m"]) < r["h_m"]               # measured 0.53 h (P1), 0.19 h (P2)

@@ -106,8 +106,8 @@ def test_model_p2_compliance_with_a_user_row(small):
 @pytest.mark.parametrize("m,k", [(1, 1e11), (2, 1e14)])
 def test_p2_conic_limit_closed_form(scene_pressed, how, m, k):
     """gamma3 with a limit at 0.3 of the free penetration: the limit binds on the whole line, r = l and
-    lambda = (delta - l) / C (p(l) from the law, the rest from the cone's multiplier, M^-1 B^T beta).
-    Measured: lambda to 8e-9 (m = 1) / 2.2e-8 (m = 2), r to 5e-13, the fields to 2e-12 of delta."""
+    lambda = (delta - l) / C (p(l) from the law, the rest from the cone's multiplier, M^-1 B^T beta), finished
+    exactly (docs/formulation.md §18)."""
     r, _ = closed_form(k, m)
     rl, lam = closed_form(k, m, limit=0.3 * r)
     assert rl == 0.3 * r
@@ -116,12 +116,13 @@ def test_p2_conic_limit_closed_form(scene_pressed, how, m, k):
         sol = cc.Model(scene_pressed, "gamma3", law=law, degree=2).solve()
     else:
         sol = cc.solve(scene_pressed, "gamma3", law=law, degree=2, method=how)
-    assert sol.ok and not sol.polished and sol.degree == 2
+    assert sol.ok and sol.polished and sol.info.finish == "tangency Newton" and sol.degree == 2   # §18
     assert sol.method == ("full" if how == "model" else how)
     assert set(sol.residuals()) == {"equilibrium", "law", "feasibility", "complementarity", "cone"}
-    assert rel(sol.contact.lam, _uniform(sol, lam)) < 2e-7          # measured 7.3e-9 .. 8.7e-9 (m = 1), 2.2e-8 (m = 2)
-    assert rel(sol.contact.jump - sol.contact.gap, _uniform(sol, rl)) < 1e-9           # measured <= 1.2e-13
-    assert field_error(sol, lam) < 1e-9                                                # measured <= 1.6e-12
+    # the exact finish (formulation §18); the interior point alone measured 7.3e-9 .. 2.2e-8, 1.2e-13, 1.6e-12
+    assert rel(sol.contact.lam, _uniform(sol, lam)) < 5e-9          # measured 5.8e-11 .. 6.3e-10
+    assert rel(sol.contact.jump - sol.contact.gap, _uniform(sol, rl)) < 1e-13          # measured <= 8.5e-16
+    assert field_error(sol, lam) < 1e-12                                               # measured <= 2.7e-14
     assert abs(sol.contact.force.sum() / lam - 1.0) < 1e-7                             # measured <= 2.0e-9
 
 

@@ -163,6 +163,81 @@ def test_p2_one_pair_helper_refuses_several_pairs_which_the_public_route_takes()
     assert sol.ok and sol.polished and len(sol.contacts) == 2
 
 
+# ---------------------------------------------------------------- P2 tetrahedra with a compliance law
+
+def _three_blocks_3d(conditions, laws):
+    """Three blocks of height 1/3 m on (0, 1)^2 (rollers on their sides, the lowest on its base, the top one on
+    its top: every body held by its supports), non-matching faces, pressed together by an interference
+    ``DELTA3`` at each pair: uniaxial strain."""
+    from scenes3d import SIDES, STEEL
+
+    zs = (0.0, 1 / 3, 2 / 3, 1.0)
+    counts = ((2, 2), (3, 3), (2, 3))
+    extra = (["bottom"], [], ["top"])
+    bodies = [cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(zs[k], zs[k + 1]), nx=c[0], ny=c[1], nz=1), STEEL,
+                      roller=SIDES + e, name=f"block {k}") for k, (c, e) in enumerate(zip(counts, extra))]
+    pairs = [cc.Contact(bodies[k], "top", bodies[k + 1], "bottom", condition=c, law=lw, gap=-DELTA3)
+             for k, (c, lw) in enumerate(zip(conditions, laws))]
+    return cc.Scene(*bodies, contacts=pairs)
+
+
+DELTA3 = 1e-5       # m
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="the copositive gamma3 cones of P2 tetrahedra "
+                   "next to a normal-compliance law")
+def test_p2_tetrahedra_gamma3_next_to_a_compliance_pair_closed_form():
+    """Row 29 (b). A Signorini gamma3 pair below a compliance pair p = k r: the three blocks and the law in series,
+    2 DELTA3 = 3 p (1/3 m) / c33 + p / k (the Signorini pair closes exactly, the compliant one penetrates by
+    p / k): lambda = p on both pairs."""
+    from scenes3d import uniaxial_modulus
+
+    k = 1e12
+    scene = _three_blocks_3d(("gamma3", "sigma1"), (cc.Signorini(), cc.NormalCompliance(stiffness=k)))
+    sol = cc.solve(scene, degree=2)
+    p = 2 * DELTA3 / (1 / uniaxial_modulus() + 1 / k)
+    assert sol.ok
+    for c in sol.contacts:
+        assert np.abs(c.lam / p - 1).max() <= 1e-6
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a penetration limit under gamma3 with P2 "
+                   "tetrahedra (the copositive condition at g + l)")
+def test_p2_tetrahedra_gamma3_with_a_penetration_limit_closed_form():
+    """Row 30 (b). The layer on a rigid plane pressed by p through p = k r with a limit l = p / (2 k): it stops at
+    r = l, u_z = -l - p z / c33, lambda = p (the nodal limit under sigma1 gives this to 8e-16,
+    tests/test_p2tet_compliance.py)."""
+    from scenes3d import P as P3
+    from scenes3d import layer_on_plane, uniaxial_modulus
+
+    k = 1e12
+    ell = 0.5 * P3 / k
+    sol = cc.solve(layer_on_plane(n=(2, 2, 1)), "gamma3", degree=2,
+                   law=cc.NormalCompliance(stiffness=k, penetration_limit=ell))
+    c33 = uniaxial_modulus()
+    assert sol.ok
+    assert np.abs(sol.u[0][:, 2] + ell + P3 * sol.points[0][:, 2] / c33).max() <= 1e-6 * P3 / c33
+    assert np.abs(sol.contact.lam / P3 - 1).max() <= 1e-6
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a P2-tetrahedra compliance law under a sigma "
+                   "condition whose faces the overlap cuts (the law's quadrature there)")
+def test_p2_tetrahedra_compliance_under_sigma1_on_cut_faces_sums_to_the_overlap():
+    """Row 31 (b). A punch on half of a block's face (the edge x = 0.5 inside the block's 1/3 m cells), the two
+    interfering by DELTA3, both held by rollers, through a very soft law (k = 1e6 Pa/m): the bodies barely
+    deform (k L / c33 ~ 1e-5), r = DELTA3 on the overlap, so the total force is k DELTA3 times its area 0.5 m^2
+    whatever consistent quadrature the rows take (sigma2 and gamma3, supported, measured 1.1e-5, 1.0e-5)."""
+    from scenes3d import SIDES, STEEL
+
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=3, ny=3, nz=1)
+    up = cc.box(x=(0, .5), y=(0, 1), z=(.5, 1), nx=2, ny=2, nz=1)
+    b1 = cc.Body(low, STEEL, roller=SIDES + ["bottom"], contact="top", name="lower")
+    b2 = cc.Body(up, STEEL, roller=SIDES + ["top"], contact="bottom", name="upper")
+    k = 1e6
+    sol = cc.solve(cc.Scene(b1, b2, gap=-DELTA3), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+    assert sol.ok and abs(sol.contact.force.sum() / (k * DELTA3 * 0.5) - 1) <= 1e-4
+
+
 # ================================================================ held rows, supports on a contact part
 
 def _clamped_foundation(where):

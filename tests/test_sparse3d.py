@@ -1,13 +1,12 @@
 """The sparse route in 3D (cvxcontact/backends/sparse.py, signorini.cheap_start) and the bonded yardsticks of
-benchmarks/bench3d.py, cross-checked against the condensed route and direct solves. No timing is asserted."""
-
-import importlib.util
-from pathlib import Path
+benchmarks/harness.py (benchmarks/bench3d.py), cross-checked against the condensed route and direct solves. No
+timing is asserted."""
 
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
-from conftest import rel
+from conftest import benchmark, rel
+from scenes3d import sphere_into_block, two_boxes
 
 import cvxcontact as cc
 from cvxcontact.apps.demo import two_blocks
@@ -15,24 +14,14 @@ from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.signorini import cheap_start
 from cvxcontact.backends.sparse import SparseContact
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench3d.py"
-
-
-def bench():
-    spec = importlib.util.spec_from_file_location("bench3d", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
 def sphere():
-    return bench().sphere(12)
+    return sphere_into_block(12)
 
 
 @pytest.fixture(scope="module")
 def boxes():
-    return bench().two_boxes(4)
+    return two_boxes(4)
 
 
 def test_cheap_start_closes_the_overlap_in_3d_only(sphere, boxes):
@@ -74,7 +63,7 @@ def test_cheap_start_and_bonded_start_reach_the_same_answer(sphere):
 def test_bench_elimination_solves_the_bonded_system(scene, request):
     """The AMG yardstick's reduction (each contact row solved for its own dof) gives the bonded system's
     solution: against a direct solve of the whole KKT system."""
-    b = bench()
+    b = benchmark("harness")
     p = cc.ContactSolver(request.getfixturevalue(scene)).problem
     K, rhs, A, G, _ = b.bonded_system(p)
     z = spla.spsolve(K.tocsc(), rhs)
@@ -91,4 +80,4 @@ def test_bench_elimination_refuses_rows_sharing_their_dofs():
     import scipy.sparse as sp
 
     G = sp.csr_matrix(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0]]))
-    assert bench().eliminate(G, np.zeros(2), 3) is None
+    assert benchmark("harness").eliminate(G, np.zeros(2), 3) is None

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import rel
+from conftest import fields_agree, rel
 from test_solve import direct_mixed_solve
 
 import cvxcontact as cc
@@ -14,16 +14,6 @@ from cvxcontact.apps.demo import thin_layer, thin_layer_nodes
 from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.sparse import SparseContact
 from cvxcontact.solution.info import Route
-
-
-def _fields_agree(a, b, tol):
-    for ua, ub in zip(a.u, b.u):
-        assert rel(ua, ub) < tol
-    for pa, pb in zip(a.phi, b.phi):
-        if pb is not None:
-            assert rel(pa, pb) < tol
-    assert rel(a.contact.force, b.contact.force) < tol
-    assert np.array_equal(a.contact.active, b.contact.active)
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +26,8 @@ def test_sparse_agrees_with_condensed_and_full_on_two_blocks(scene, solutions, c
     sol = cc.solve(scene, condition, method="sparse")
     assert sol.ok and sol.info.method == "sparse" and sol.info.route == Route.SPARSE_ACTIVE_SET
     assert sol.info.iterations >= 1 and sol.polished
-    _fields_agree(sol, solutions[condition], 1e-10)                 # condensed (the default here)
-    _fields_agree(sol, cc.solve(scene, condition, method="full"), 1e-10)
+    fields_agree(sol, solutions[condition], 1e-10)                 # condensed (the default here)
+    fields_agree(sol, cc.solve(scene, condition, method="full"), 1e-10)
 
 
 def test_sparse_matches_a_dense_solve_of_the_mixed_system(scene):
@@ -57,12 +47,12 @@ def test_thin_layer_scene_has_a_genuine_active_set_and_the_routes_agree(layer):
     active = np.asarray(sol.contact.active)
     assert 0.2 * len(active) < active.sum() < 0.95 * len(active)  # neither empty nor full
     assert not active[0] and not active[-1]                        # open at the clamped ends (the crown)
-    _fields_agree(sol, cc.solve(layer, method="full"), 1e-10)
+    fields_agree(sol, cc.solve(layer, method="full"), 1e-10)
     with warnings.catch_warnings():
         # the condensed route reaches only ~1e-8 here (its exact finish goes through the dense interface
         # compliance W of a slender layer: complementarity ~1e-4 > tol, ResidualWarning); 1e-6 bounds it
         warnings.simplefilter("ignore", cc.ResidualWarning)
-        _fields_agree(sol, cc.solve(layer, method="condensed"), 1e-6)
+        fields_agree(sol, cc.solve(layer, method="condensed"), 1e-6)
 
 
 def test_capacitance_steps_match_refactorised_steps(layer):
@@ -97,7 +87,7 @@ def test_resolve_starts_from_the_previous_active_set(layer):
     again = solver.solve(other)
     assert again.ok and again.info.route == Route.WARM_START
     assert again.info.iterations < first.info.iterations
-    _fields_agree(again, cc.solve(other, method="full"), 1e-10)
+    fields_agree(again, cc.solve(other, method="full"), 1e-10)
 
 
 def test_sparse_refuses_what_it_cannot_take(scene):
@@ -202,11 +192,11 @@ def test_sparse_route_with_pardiso_matches_superlu_and_the_full_model():
     ref = cc.solve(scene, method="sparse", factorization="superlu")
     assert sol.ok and sol.info.factorization == "pardiso" and ref.info.factorization == "superlu"
     assert sol.info.iterations == ref.info.iterations
-    _fields_agree(sol, ref, 1e-10)
-    _fields_agree(sol, cc.solve(scene, method="full"), 1e-9)
+    fields_agree(sol, ref, 1e-10)
+    fields_agree(sol, cc.solve(scene, method="full"), 1e-9)
     again = a.solve(thin_layer(60, pressure=0.6e6))
     assert again.ok and again.info.route == Route.WARM_START
-    _fields_agree(again, cc.solve(thin_layer(60, pressure=0.6e6), method="full"), 1e-9)
+    fields_agree(again, cc.solve(thin_layer(60, pressure=0.6e6), method="full"), 1e-9)
 
 
 # ================================================================ rows against a side that does not move

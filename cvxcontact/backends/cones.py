@@ -1,7 +1,8 @@
-"""Routes for the P2 "everywhere" condition (docs/formulation.md §8): a second-order cone per merged segment,
-alone (full or condensed program), or next to a normal-compliance law in one program (§10, "P2"). Interior
-point with the conic tolerances; no exact finish of the cones (the nodal rows of a mixed program are
-finished with the cones' force held)."""
+"""Routes for the P2 "everywhere" condition (docs/formulation.md §8, §16): a second-order cone per merged
+segment (a copositive 3x3 condition per triangle in 3D), alone (full or condensed program), or next to a
+normal-compliance law in one program (§10, "P2"). Interior point with the conic tolerances, then an exact
+finish: accumulated cuts on the interface compliance (certified), or on the sparse mixed system where no
+compliance exists, or Newton at the contact structure (§18: tangency points, cones next to a compliance law)."""
 
 from __future__ import annotations
 
@@ -12,12 +13,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.laws import RowLaws
-from ..contact.bernstein import bernstein_max, point_rows
+from ..contact.bernstein import bernstein_max
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, seed_forces,
+from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
+                   seed_forces,
                    seed_points)
 from .finish import independent_active_set
+from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
 from .interface import condensation, held_cone, program_fields, release_held, split
@@ -133,9 +136,7 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
         return
     r = out["state"]
     raw.u, raw.phi = reduction.invert(problem, r, timings)
-    P = point_rows(B, out["segment"], out["t"])
-    active = np.zeros(B.shape[1], dtype=bool)
-    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
+    _, active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.y, raw.beta, raw.active = r, out["beta"], active
     raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
 
@@ -189,17 +190,50 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, str):
-        raw.declined = out + (f" ({prev['why']})" if "why" in prev else "")
+        why = out + (f" ({prev['why']})" if "why" in prev else "")
+        if not _finish_tangency(problem, timings, raw):
+            raw.declined = why + f"; Newton at the tangency points: {raw.declined}"
         return
     x, taus = out["state"]
     raw.u, raw.phi = x[0], x[1]
     if tr:
         raw.taus = taus
-    P = point_rows(B, out["segment"], out["t"])
-    raw.y, raw.beta = P.T @ out["y"], out["beta"]
-    active = np.zeros(B.shape[1], dtype=bool)
-    active[np.unique(P[np.flatnonzero(out["active"])].indices)] = True
-    raw.active, raw.polished, raw.finish = active, True, Finish.ACCUMULATED_CUTS
+    raw.y, raw.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
+    raw.beta, raw.polished, raw.finish = out["beta"], True, Finish.ACCUMULATED_CUTS
+
+
+def _newton_finish(problem, timings, raw, B, **kw):
+    """:func:`~cvxcontact.backends.tangency.tangency_newton` on the problem's sparse mixed system (26) from
+    ``raw`` (the interior point's fields, translations and Bernstein duals ``raw.beta`` on the rows of ``B``);
+    writes the fields, translations, beta and active rows back and marks ``raw`` finished. Returns its dict,
+    or its reason (str) leaving ``raw`` as it was."""
+    t0 = time.perf_counter()
+    tr = list(problem.translations)
+    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
+    x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
+    out = tangency_newton(kkt, B, problem.g, raw.beta, x0, held=problem.held_rows, tol=MIXED_CUT_TOL, **kw)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        return out
+    (u, phi, _, *taus), *_ = kkt.fields(np.zeros(len(problem.g), dtype=bool), out["x"])
+    raw.u, raw.phi = u, phi
+    if tr:
+        raw.taus = list(taus[0])
+    raw.beta, raw.active = out["beta"], out["active"]
+    raw.polished, raw.finish = True, Finish.TANGENCY_NEWTON
+    return out
+
+
+def _finish_tangency(problem, timings, raw) -> bool:
+    """Where the cuts decline (a round's mixed system singular: a force-controlled curved obstacle touching
+    inside an element), Newton at the tangency points from the interior point's answer (:func:`_newton_finish`).
+    Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
+    out = _newton_finish(problem, timings, raw, problem.lines.cone[0])
+    if isinstance(out, str):
+        raw.declined = out
+        return False
+    raw.y = out["nodal"]
+    return True
 
 
 def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):
@@ -246,7 +280,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
     "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
     pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
-    no exact finish of the cones. ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
+    finished by Newton at the contact structure (:func:`_finish_mixed`, §18). ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
     the linear rows), ``raw.beta`` the Bernstein duals."""
     law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
     B = mixed_bernstein_rows(problem)
@@ -277,10 +311,33 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
         u, phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
     raw = RawResult(u=u, phi=phi, y=y, z=z, beta=beta, taus=taus, program=model.problem, iterations=iterations,
                     method=method)
-    if (settings.polish and not problem.held and not problem.translations and not law.cone.all()
-            and not (law.cone & law.rows).any()):
-        _finish_nodal_rows(problem, cache, settings, timings, raw, r)
+    if settings.polish and not _finish_mixed(problem, timings, raw, B):
+        why = raw.declined
+        raw.declined = None
+        if (not problem.held and not problem.translations and not law.cone.all()
+                and not (law.cone & law.rows).any()):
+            _finish_nodal_rows(problem, cache, settings, timings, raw, r)
+        elif why:
+            raw.declined = why
     return raw
+
+
+def _finish_mixed(problem, timings, raw, B) -> bool:
+    """The exact finish of a cone/compliance program (docs/formulation.md §18): Newton on its KKT system at a
+    fixed contact structure (vertex rows and tangency points of the cones, the compliant rows in penetration,
+    the active limit rows) on the sparse mixed system, from the interior point's answer (:func:`_newton_finish`).
+    Updates ``raw`` and returns True, or sets ``raw.declined`` and returns False."""
+    law, g = problem.scaled_law, problem.g
+    scale = float(np.abs(raw.y).max(initial=0.0))
+    start = raw.z - B.T @ raw.beta.ravel() > 1e-6 * max(scale, np.finfo(float).tiny)    # limit rows carrying force
+    out = _newton_finish(problem, timings, raw, B, cone_gap=g + law.cone_shift, law=law, weights=problem.weights,
+                         limit=law.penetration_limit, limit_start=start, force_scale=scale)
+    if isinstance(out, str):
+        raw.declined = f"Newton at the contact structure: {out}"
+        return False
+    raw.z = out["nodal"] + out["z"]
+    raw.y = out["pressure"] + raw.z
+    return True
 
 
 def _finish_nodal_rows(problem, cache, settings, timings, raw, r):

@@ -327,18 +327,22 @@ def solve_linear_compliance(W, d, weights, law):
     """Exact finish for rows whose compliance laws are all linear (m = 1) without a limit, mixed with
     Signorini rows, as one LCP (docs/formulation.md §10): on a compliance row y_a = w_a k_a (r_a)_+ is
     y_a >= 0, s_a = r_a - y_a / (w_a k_a) <= 0, y_a s_a = 0 with r = d - W y, i.e. the LCP of
-    :func:`solve_lcp` with W + diag(1 / (w_a k_a)) on those rows; Signorini rows keep W. Finite (NNLS
+    :func:`solve_lcp` with W + diag(1 / (w_a k_a)) on those rows; Signorini rows keep W; a compliance row of
+    weight 0 carries no force and leaves the LCP. Finite (NNLS
     fallback) where the Newton steps of :func:`solve_compliance` might cycle. ``law`` a
     :class:`~cvxcontact.contact.laws.RowLaws` (scaled). Returns ``(y, z, at_limit, route)`` or None."""
     W = np.asarray(W, dtype=float)
     k = np.broadcast_to(np.asarray(law.stiffness, dtype=float), (len(d),))
+    w = np.asarray(weights, dtype=float)
     on = k > 0
+    keep = ~on | (w > 0)             # a compliance row of weight 0 (a P2 face vertex) carries no force: y = 0
     soft = np.zeros(len(d))
-    soft[on] = 1.0 / (np.asarray(weights, dtype=float)[on] * k[on])
-    out = solve_lcp(W + np.diag(soft), d)
+    soft[on & keep] = 1.0 / (w[on & keep] * k[on & keep])
+    out = solve_lcp((W + np.diag(soft))[np.ix_(keep, keep)], d[keep])
     if out is None:
         return None
-    y, active, route = out
+    y, active, route = np.zeros(len(d)), np.zeros(len(d), dtype=bool), out[2]
+    y[keep], active[keep] = out[0], out[1]
     z = np.where(on, 0.0, y)
     return y, z, active & ~on, route
 

@@ -64,6 +64,9 @@ class Finish(StrEnum):
     ACCUMULATED_CUTS = "accumulated cuts"
     """The P2 "everywhere" condition: the nodal problem at a growing set of points of every merged segment
     (:mod:`cvxcontact.backends.cuts`)."""
+    TANGENCY_NEWTON = "tangency Newton"
+    """The P2 "everywhere" condition touching inside elements: Newton on the KKT system of each touching
+    element's maximum (:mod:`cvxcontact.backends.tangency`)."""
     INDEPENDENT_ACTIVE_SET = "independent active set"
     """Linearly dependent rows (3D "gamma3"): Lawson-Hanson on the sparse mixed system, the rows carrying the
     forces kept independent (:func:`cvxcontact.backends.finish.independent_active_set`)."""

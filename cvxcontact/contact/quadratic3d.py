@@ -16,6 +16,9 @@ mass matrix of the overlay.
 
 Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
 condition constrains every one of them (as for P1).
+
+A normal-compliance law takes the quadrature of the constrained triangles on the rows (:meth:`QuadraticSurface.
+weights`: the integrals of their P2 basis functions, 0 at the vertices and A/3 at the edge midpoints).
 """
 
 from __future__ import annotations
@@ -24,13 +27,15 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import SceneError
+from scipy.spatial import cKDTree
+
+from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only
 from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 
-__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "locate"]
+__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "p2_weights", "locate"]
 
 P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [-1, 6, -1, 0, 0, -4],
@@ -58,6 +63,14 @@ def p2_triangle_nodes(triangles, n_vertices) -> tuple[np.ndarray, np.ndarray]:
     unique, inverse = np.unique(keys.ravel(), return_inverse=True)
     edges = np.column_stack([unique // max(n_vertices, 1), unique % max(n_vertices, 1)])
     return np.column_stack([tri, n_vertices + inverse.reshape(-1, 3)]), edges
+
+
+def p2_weights(cells, area, n) -> np.ndarray:
+    """(n,): the integrals (m^2) of the continuous P2 basis functions of the triangles ``cells`` (c, 6) of
+    ``area`` (c,) m^2: a triangle6 vertex function integrates to 0, an edge function to A/3 (the row sums of
+    :data:`P2_TRIANGLE_MASS`). The quadrature on the nodes exact for quadratics (the only one: the integrals of
+    the interpolant), with non-negative weights; the vertices carry none."""
+    return np.bincount(np.asarray(cells)[:, 3:].ravel(), weights=np.repeat(np.asarray(area) / 3.0, 3), minlength=n)
 
 
 def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:
@@ -221,6 +234,73 @@ class QuadraticSurface:
         if self.rigid or condition == "gamma3":
             return sp.identity(self.size, format="csr")
         return self._sigma[int(condition[-1]) - 1][1]
+
+    def weights(self, condition) -> np.ndarray:
+        """The quadrature weights (m^2) of a normal-compliance energy on the rows of :meth:`evaluation`
+        (docs/formulation.md §15, "Normal compliance"): the integrals of the P2 basis functions of the triangles
+        the constrained nodes form (:func:`p2_weights`: 0 at their vertices, A/3 per triangle at each edge
+        midpoint; exact for quadratics, never negative). "gamma3" (and an obstacle) the triangles of X_h
+        (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
+        body's nodes in the overlap (else UnsupportedError: the overlap's edge cuts one of its faces, and its
+        nodes there form no P2 triangles for the law's quadrature)."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if self.rigid or condition == "gamma3":
+            cells = np.asarray(self.cells)
+            return p2_weights(cells, _area(self.x[cells[:, :3]]), self.size)
+        l = int(condition[-1]) - 1
+        t, inside = self.traces[l], self.sigma_rows(l)
+        faces = self._sigma_faces(condition)
+        at = np.full(len(t.nodes), -1)
+        at[inside] = np.arange(len(inside))
+        return p2_weights(at[faces], _area(t.x[faces[:, :3]]), len(inside))
+
+    def row_mass(self, condition) -> sp.csr_matrix:
+        """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`weights` on the rows of
+        :meth:`evaluation` (its row sums are the weights; zero rows at nodes no such triangle has). The read-back
+        of a penetration limit's reactions z as a pressure: M lambda_z = z (docs/formulation.md §15)."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if self.rigid or condition == "gamma3":
+            cells = np.asarray(self.cells)
+            return _p2_mass(cells, _area(self.x[cells[:, :3]]), self.size).tocsr()
+        l = int(condition[-1]) - 1
+        t, inside = self.traces[l], self.sigma_rows(l)
+        faces = self._sigma_faces(condition)
+        at = np.full(len(t.nodes), -1)
+        at[inside] = np.arange(len(inside))
+        return _p2_mass(at[faces], _area(t.x[faces[:, :3]]), len(inside)).tocsr()
+
+    def _sigma_faces(self, condition) -> np.ndarray:
+        """The faces (k, 6) of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the overlap; refuses
+        (UnsupportedError, :meth:`weights`) when its nodes in the overlap are not exactly their nodes."""
+        l = int(condition[-1]) - 1
+        t, inside = self.traces[l], self.sigma_rows(l)
+        mark = np.zeros(len(t.nodes), dtype=bool)
+        mark[inside] = True
+        faces = np.asarray(t.faces)[mark[t.faces].all(axis=1)]
+        if len(faces) == 0 or len(np.unique(faces)) != len(inside):
+            raise UnsupportedError(f"a normal-compliance law with P2 (10-node) tetrahedra under {condition!r}: the "
+                                   f"overlap of the pair cuts faces of body {l + 1}'s contact part, so its nodes "
+                                   "in the overlap form no P2 triangles for the law's quadrature; use 'gamma3' "
+                                   "or the other sigma condition")
+        return faces
+
+    def extend(self, condition, values) -> np.ndarray:
+        """The P2 function of the constrained nodes under ``condition`` with nodal ``values`` there (the rows of
+        :meth:`evaluation`), at every node of X_h: "gamma3" and an obstacle ``values`` itself; "sigma_l" body
+        l's P2 trace function, its nodes outside the overlap taking the value of the nearest node inside."""
+        values = np.asarray(values, dtype=float)
+        if self.rigid or condition == "gamma3":
+            return values.copy()
+        l = int(condition[-1]) - 1
+        t, inside = self.traces[l], self.sigma_rows(l)
+        full = np.empty(len(t.nodes))
+        full[inside] = values
+        outside = np.setdiff1d(np.arange(len(t.nodes)), inside)
+        if len(outside) and len(inside):
+            full[outside] = values[cKDTree(t.x[inside]).query(t.x[outside])[1]]
+        return self._interp[l] @ full
 
     @property
     def cone_cells(self) -> np.ndarray:

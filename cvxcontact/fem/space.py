@@ -210,7 +210,10 @@ class P2Tet(P2):
     surfaces with P2 traces (:class:`~cvxcontact.contact.quadratic3d.QuadraticSurface`: X_h the continuous
     piecewise quadratics on the overlay, docs/formulation.md §15) under the nodal conditions "sigma1"/"sigma2"
     (rows at that body's P2 face nodes; against a rigid obstacle at its P2 face nodes that reach it) and under
-    "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16), Signorini law only."""
+    "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16). A normal-compliance law sits on
+    the nodal rows of the condition ("gamma3": every node of X_h, no cone) with the P2 quadrature of the
+    constrained triangles (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.weights`, §15); the
+    copositive cones next to it are refused."""
 
     degree, dim = 2, 3
 
@@ -220,10 +223,10 @@ class P2Tet(P2):
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         laws = pair_laws(scene, law)
-        if any(lw.compliant for lw in laws):
-            raise UnsupportedError("a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
-                                   "degree=1, or the Signorini law")
         conditions = [c or condition for c in scene.conditions]
+        compliant = any(lw.compliant for lw in laws)
+        if compliant:
+            _refuse_cones_next_to_compliance(scene, conditions, laws)
         for i, itf in enumerate(scene.interfaces):
             if getattr(itf, "curved", None) is not None:
                 raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
@@ -232,18 +235,38 @@ class P2Tet(P2):
         pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
                  for itf, m in zip(scene.interfaces, members)]
         stack = QuadraticStack(pairs, members)
-        cone = None
-        if "gamma3" in conditions:       # the copositive condition on the gamma3 pairs' triangles (§16)
+        cone = weights = None
+        if "gamma3" in conditions and not compliant:   # the copositive condition on the gamma3 pairs (§16)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, conditions)
-        else:
+        else:                            # nodal rows; a compliant gamma3 pair's: every node of X_h (§15)
             E = stack.evaluation(condition, conditions)
         counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
         rows = RowLaws(laws, counts)
+        if compliant:                    # the P2 quadrature on the compliant pairs' rows, none on Signorini rows
+            weights = np.concatenate([itf.weights(c) if lw.compliant else np.zeros(n)
+                                      for itf, c, lw, n in zip(pairs, conditions, laws, counts)])
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
-                            E=E, cone=cone, rows=rows, weights=None, cone_pairs=None, gap=gap,
+                            E=E, cone=cone, rows=rows, weights=weights, cone_pairs=None, gap=gap,
                             obstacles=tuple(_p2_obstacles(scene, stack, self.dim)))
+
+
+def _refuse_cones_next_to_compliance(scene, conditions, laws):
+    """UnsupportedError for what a normal-compliance law with P2 tetrahedra does not pose: the copositive cones of
+    "gamma3" (§16) next to it, i.e. a Signorini "gamma3" pair in the scene or a compliant "gamma3" pair with a
+    penetration limit (the cone at g + l)."""
+    for i, (c, lw) in enumerate(zip(conditions, laws)):
+        if c != "gamma3":
+            continue
+        if not lw.compliant:
+            raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: the copositive 'gamma3' condition next to "
+                                   "a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
+                                   "'sigma1'/'sigma2' on that pair, the Signorini law on every pair, or degree=1")
+        if lw.penetration_limit is not None:
+            raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: a penetration limit under 'gamma3' with P2 "
+                                   "(10-node) tetrahedra (the copositive condition at g + l) is not available: use "
+                                   "'sigma1'/'sigma2' (a nodal limit), no limit, or degree=1")
 
 
 SPACES = {(1, 2): P1, (2, 2): P2, (1, 3): P1Tet, (2, 3): P2Tet}

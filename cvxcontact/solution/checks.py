@@ -177,7 +177,8 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     without a limit) and ``force`` the row forces the backend applied, the read-back is
     lambda = p(r) + z / w (nodal values) and the checks are
 
-        equilibrium      the residual of (26) with the contact force E^T (w lambda), as in :func:`checks`
+        equilibrium      the residual of (26) with the contact force E^T (w p(r) + z) (= E^T (w lambda);
+                         also where a row's weight is 0, P2 tetrahedra's face vertices), as in :func:`checks`
         law              max over the compliant rows a of |force_a - z_a - w_a p(r_a)| / Y      (the law
                          (7) at the returned u; Y the largest row force)
         feasibility, complementarity, cone    of r <= l with multiplier z over the rows with a limit
@@ -194,14 +195,15 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     w = np.asarray(weights, dtype=float)
     z = np.zeros(n) if z is None else np.asarray(z, dtype=float)
     lam = law.pressure(r) + np.divide(z, w, out=np.zeros(n), where=w > 0)
-    c = E.T @ (w * lam)
+    applied = w * law.pressure(r) + z              # = w lambda; a reaction on a row of weight 0 kept
+    c = E.T @ applied
     equilibrium = 0.0
     for b, uk, pk in zip(blocks, u, phi):
         res = np.concatenate(b.residual(uk, pk, c))
         m = np.concatenate(b.magnitude(uk, pk, c))
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
     force = np.asarray(force, dtype=float)
-    Y = max(float(np.abs(force).max(initial=0.0)), float((w * lam).max(initial=0.0)), tiny)
+    Y = max(float(np.abs(force).max(initial=0.0)), float(applied.max(initial=0.0)), tiny)
     compliant = np.broadcast_to(np.asarray(law.stiffness, dtype=float) > 0, (n,))
     out = {"equilibrium": equilibrium,
            "law": float((np.abs(force - z - w * law.pressure(r)) / Y)[compliant].max(initial=0.0))}

@@ -449,7 +449,8 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
     unit = un.stress * un.load
-    nodal = E.T @ (weights * lam)                              # stacked merged nodes, scaled
+    p = scaled.pressure(r)
+    nodal = E.T @ (weights * p + (0.0 if z is None else z))   # = E^T (w lambda), stacked merged nodes, scaled
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if interface is not None else None)     # bodies held by the contact only
         if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
@@ -462,7 +463,11 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
         if pair_law.compliant:
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
             merged = slice(merged_at[i], merged_at[i + 1])
-            c = replace(c, lam=itf.extend(cond, lam[offsets[i]:offsets[i + 1]]) * unit, force=nodal[merged] * un.force)
+            rows_i = slice(offsets[i], offsets[i + 1])
+            lam_i = lam[rows_i]
+            if z is not None and hasattr(itf, "row_mass"):     # P2 faces: z as a pressure in their P2 functions
+                lam_i = p[rows_i] + _limit_pressure(itf.row_mass(cond) / un.length, z[rows_i])
+            c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
             for a in (c.lam, c.force):
                 a.setflags(write=False)
         contacts.append(replace(c, law=pair_law))
@@ -472,6 +477,18 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
     return sol
+
+
+def _limit_pressure(M, z) -> np.ndarray:
+    """lambda_z with M lambda_z = z on the rows M covers (nonzero diagonal), 0 on the others (a reaction at a
+    node of no quadrature triangle is a point force; the force read-back keeps it): the limit reactions z of a
+    compliance law as a pressure (docs/formulation.md §15)."""
+    M = M.tocsr()
+    on = np.flatnonzero(M.diagonal() > 0)
+    out = np.zeros(len(z))
+    if len(on):
+        out[on] = spla.spsolve(M[on][:, on].tocsc(), np.asarray(z, dtype=float)[on])
+    return out
 
 
 def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":
@@ -490,7 +507,7 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":
     ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
     scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
     law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
-    sol = read_back_compliance(problem, raw, tol, timings, polished=False)
+    sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
     scaled = law.scaled(un.stress * un.load, un.displacement)
     B, segments = cone
     force = np.asarray(force, dtype=float)

@@ -28,8 +28,13 @@ the nodal forces in the P2 functions of the block's contact faces, :meth:`~cvxco
 since a P2 vertex's lumped area is zero), the axis cell's force: that of the top nodes of the cell at the
 axis (P2: with the midpoints of its face edges) against Hertz's pressure integrated on the same shape
 functions (:func:`hat_loads`), delta_h the sphere's approach. P2 (10-node) tetrahedra impose the condition
-at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`;
-the copositive condition on the faces, "gamma3" with P2, is not in this study).
+at every P2 node of the patch (vertices and edge midpoints: the nodal condition "sigma1", :data:`CONDITION`)
+or, in rows of their own, on every face of the patch (the copositive condition, "gamma3" with P2,
+docs/formulation.md §16). Under the copositive condition the gap closes at points inside the faces (one
+tangency point per touching face; at n = 8 no node touches), so its contact radius is read from those points:
+the quarter disc with the area of their convex hull (:func:`support_radius`, an estimate from inside; on the
+nodal rows, from the active nodes, it lies within a grid spacing of the edge mid-points). Every row also gives
+the radius of Hertz's profile with the forces' second moment (:func:`moment_radius`; it assumes Hertz's shape).
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -43,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...contact.bernstein import TRIANGLE, bernstein_argmax
 from ...contact.quadratic3d import p2_shape
 from ...geometry.generators3d import box
 from ...physics import materials
@@ -60,10 +66,25 @@ E_STAR = E / (1 - NU ** 2)
 FORCE = 4 * E_STAR * A_REF ** 3 / (3 * R)      # N, the total force giving a = A_REF (5.13 kN)
 LEVELS = (8, 16, 24)              # cells per edge of the quarter block (P1)
 LEVELS_P2 = (8, 16, 24)           # the same for P2 (10-node) tetrahedra
+LEVELS_G3 = (8, 16, 24)           # the same for P2 under the copositive condition
 CONDITION = {1: "gamma3", 2: "sigma1"}
 """The condition of each degree: P1 "gamma3" (at the block's nodes, against an obstacle), P2 "sigma1" (the nodal
-condition at every P2 node of the block's contact faces; "gamma3" with P2 is the copositive condition on the
-faces, not in this study)."""
+condition at every P2 node of the block's contact faces); "gamma3" with P2, the copositive condition on the
+faces, has rows of its own (:data:`ROWS`)."""
+
+
+SUPPORT_TOL = 1e-9
+"""Where the gap closes under P2 "gamma3" (:func:`support_radius`): q_h >= -1e-9 of the approach (measured: the
+touching triangles' maxima within 2e-12 of the approach at n = 8, 16, 24, the nearest separated one 5e-6, 2.7e-8
+and 1e-6 below)."""
+FORCE_RTOL_CONIC = 1e-7
+"""The relative accuracy to which :func:`press` reaches the force under P2 "gamma3": the finished conic answer's
+total force moves by about 1e-8 of F between re-solves at approaches 1e-12 apart (the accumulated cuts' least
+squares), so 1e-10 is out of reach there."""
+
+
+ROWS = {(1, "gamma3"): LEVELS, (2, "sigma1"): LEVELS_P2, (2, "gamma3"): LEVELS_G3}
+"""The study's rows: (degree, condition) -> levels (``quick``: the first of each)."""
 
 
 def hertz(F, R=R, E_star=E_STAR):
@@ -163,6 +184,53 @@ def contact_radius(sol):
     return _edge_radius(trace, active, on, outward=True)
 
 
+def contact_points(x, cells, q, tol) -> np.ndarray:
+    """(k, 2) m: where the gap closes under the copositive condition: the exact maximiser of q_h = [u_nu] - g_h
+    (m; its values at the nodes ``x`` (n, 2) m of the triangle6 ``cells``) on every triangle whose maximum is
+    >= -``tol`` (m), and every node where q_h >= -``tol``. By complementarity the contact force is carried only
+    there (a point force at each tangency point; q_h = 0 on a whole triangle counts its nodes)."""
+    x, cells, q = np.asarray(x, dtype=float), np.asarray(cells), np.asarray(q, dtype=float)
+    q_max, L = bernstein_argmax(q[cells] @ TRIANGLE.to_bernstein.T)
+    touch = q_max >= -tol
+    return np.concatenate([np.einsum("ti,tid->td", L[touch], x[cells[touch, :3]]), x[q >= -tol]])
+
+
+def hull_radius(points) -> float:
+    """m: the radius of the quarter disc with the area of the convex hull of ``points`` (k, 2) m (x, y >= 0)
+    and the axis point (0, 0): sqrt(4 A / pi) (0 for fewer than two points off the axis)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = np.concatenate([np.asarray(points, dtype=float).reshape(-1, 2), [[0.0, 0.0]]])
+    try:
+        return float(np.sqrt(4 * ConvexHull(pts).volume / np.pi))
+    except QhullError:                                   # collinear or too few points: no area
+        return 0.0
+
+
+def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
+    """(a_hull (m), number of points): :func:`hull_radius` of the points where the contact force is carried:
+    the active nodes under a nodal condition (P1, P2 "sigma1"), under P2 "gamma3" the points where the gap
+    closes to ``tol`` of the approach (:func:`contact_points`; the largest |[u_nu]| stands for the approach)."""
+    c = sol.contact
+    x = np.asarray(c.x, dtype=float)
+    if sol.degree == 2 and sol.condition == "gamma3":
+        q = np.asarray(c.jump) - np.asarray(c.gap)
+        pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()))
+    else:
+        pts = x[np.asarray(c.active, dtype=bool)]
+    return hull_radius(pts), len(pts)
+
+
+def moment_radius(x, force) -> float:
+    """m: the radius of Hertz's pressure p0 sqrt(1 - r^2 / a^2) with the second moment of the contact forces
+    ``force`` (N) at the nodes ``x`` (n, 2) m about the axis: int r^2 p dA / int p dA = 2 a^2 / 5, so
+    a = sqrt(5/2 sum(f r^2) / sum(f)). Exact for nodal point forces and for P2 forces (r^2 is quadratic: the sum
+    is the integral of r^2 against the force); it assumes Hertz's profile, so it checks the force's spread, not
+    the edge of the zone."""
+    x, force = np.asarray(x, dtype=float), np.asarray(force, dtype=float)
+    return float(np.sqrt(2.5 * (force @ (x * x).sum(axis=1)) / force.sum()))
+
+
 def _contact_surface(sol):
     """The contact surface of the solution: the scene's P1 interface, or the P2 surface of a P2 solve."""
     return sol.scene.interfaces[0] if sol.degree == 1 else sol.interface
@@ -219,11 +287,17 @@ def hat_loads(trace, pressure, k=8):
 
 
 def measure(sol, delta):
-    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force."""
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force.
+    The contact radius a_h: under a nodal condition the edge mid-points (:func:`contact_radius`), under P2
+    "gamma3" the hull of the points where the gap closes (:func:`support_radius`; the zone's edge lies inside
+    triangles there, whose nodes need not touch); both estimators, and :func:`moment_radius`, on every row."""
     c = sol.contact
     F = 4 * float(c.force.sum())
     a, p0, d = hertz(F)
-    a_h, a_min, a_max = contact_radius(sol)
+    a_hull, support = support_radius(sol)
+    a_moment = moment_radius(c.x, c.force)
+    conic = sol.degree == 2 and sol.condition == "gamma3"
+    a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
     itf = _contact_surface(sol)
     trace = itf.traces[0]
     r = np.hypot(c.points[:, 0], c.points[:, 1])
@@ -246,7 +320,8 @@ def measure(sol, delta):
         area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[itf.reach][cell].sum())
     dofs = sum(3 * len(p) for p in sol.points)
     return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
-                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                a_rel_error=a_h / a - 1, a_hull_m=a_hull, a_hull_rel_error=a_hull / a - 1, support_points=support,
+                a_moment_m=a_moment, a_moment_rel_error=a_moment / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
                 p_cell_Pa=y_h / area, cell_force_rel_error=y_h / y_hertz - 1, delta_m=d,
                 delta_h_m=delta, delta_rel_error=delta / d - 1, active_nodes=int(c.active.sum()),
                 contact_nodes=len(c.active), ok=sol.ok)
@@ -255,22 +330,26 @@ def measure(sol, delta):
 def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condition=None):
     """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend);
     ``degree`` 2: P2 (10-node) tetrahedra; ``condition`` (default :data:`CONDITION` of the degree), e.g.
-    "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16)."""
+    "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16), whose force is
+    reached to :data:`FORCE_RTOL_CONIC` (the nodal conditions': 1e-10)."""
     from ...solve import ContactSolver
 
     clock = Timer()
+    condition = condition or CONDITION[degree]
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
-    solver = ContactSolver(base, condition or CONDITION[degree], method="condensed", degree=degree)
-    sol, delta, resolves = press(solver, base, F)
-    row = dict(degree=degree, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
+    solver = ContactSolver(base, condition, method="condensed", degree=degree)
+    conic = degree == 2 and condition == "gamma3"
+    sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10)
+    row = dict(degree=degree, condition=condition, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())
     return row, sol
 
 
-def figure(sol, rows, sol2=None, rows2=()):
+def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     """Left: the pressure at every contact node against the radius (P1: force over lumped area, felt by the
-    block; P2 ``sol2``: the pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's
-    profile at the measured force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
+    block; P2 ``sol2`` (nodal condition) and ``sol3`` (copositive condition, its hull radius marked): the
+    pressure felt by the block, the Riesz representer on its P2 faces), with Hertz's profile at the measured
+    force; right: the P1 pressure map of the contact patch (quarter), Hertz's circle
     outlined."""
     from matplotlib.ticker import MaxNLocator
     from matplotlib.tri import Triangulation
@@ -284,22 +363,29 @@ def figure(sol, rows, sol2=None, rows2=()):
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     rs = np.linspace(0, a, 300)
-    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form)", zorder=3)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz", zorder=3)
     ax.plot(r[c.active], c.pressure[c.active], "o", ms=3.5, label=f"P1, n = {rows[-1]['n']}: active nodes", zorder=4)
-    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes (zero)")
-    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (active/open mid-points, mean)")
+    ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes")
+    ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (edge mid-points)")
     if sol2 is not None:
         trace = _contact_surface(sol2).traces[0]
         x2 = trace.points
         ax.plot(np.hypot(x2[:, 0], x2[:, 1]), sol2.traction(0)[1], "s", ms=2.5, color="C2", zorder=5,
-                label=f"P2, n = {rows2[-1]['n']}: pressure felt by the block (P2 Riesz representer)")
+                label=f"P2 sigma1, n = {rows2[-1]['n']}: felt pressure")
+    if sol3 is not None:
+        trace = _contact_surface(sol3).traces[0]
+        x3 = trace.points
+        ax.plot(np.hypot(x3[:, 0], x3[:, 1]), sol3.traction(0)[1], "^", ms=2.5, color="C4", zorder=5,
+                label=f"P2 gamma3, n = {rows3[-1]['n']}: felt pressure")
+        ax.axvline(rows3[-1]["a_hull_m"], color="C4", lw=0.8, ls=":",
+                   label="P2 gamma3 a_h (hull)")
     ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
            title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
     ax.title.set_fontsize(10)
     ax.xaxis.set_major_locator(MaxNLocator(5))
     ax.xaxis.set_major_formatter(eng("m"))
     ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=7, loc="lower left")
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
     p = np.zeros(len(trace.nodes))
@@ -323,24 +409,26 @@ def figure(sol, rows, sol2=None, rows2=()):
 def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
-    levels = LEVELS[:1] if quick else LEVELS
-    levels2 = LEVELS_P2[:1] if quick else LEVELS_P2
-    conv, sols = {1: [], 2: []}, {}
-    for degree, ns in ((1, levels), (2, levels2)):
-        for n in ns:
-            row, sols[degree] = solve_level(n, degree=degree)
-            conv[degree].append(row)
-            say(f"hertz3d P{degree} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
+    conv, sols = {}, {}
+    for key, levels in ROWS.items():
+        degree, condition = key
+        conv[key] = []
+        for n in levels[:1] if quick else levels:
+            row, sols[key] = solve_level(n, degree=degree, condition=condition)
+            conv[key].append(row)
+            say(f"hertz3d P{degree} {condition} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, p0_h/p0 - 1 = "
                 f"{row['p0_rel_error']:+.2e}, delta_h/delta - 1 = {row['delta_rel_error']:+.2e} "
                 f"({row['seconds']:.1f} s)")
     # the size effect: one P1 level again with its grid continued to a block twice as large
-    ref = conv[1][min(1, len(conv[1]) - 1)]
+    p1 = conv[(1, CONDITION[1])]
+    ref = p1[min(1, len(p1) - 1)]
     big, _ = solve_level(ref["n"], twice=True)
     say(f"hertz3d size 2L n={big['n']}: a_h/a - 1 = {big['a_rel_error']:+.2e}, "
         f"delta_h/delta - 1 = {big['delta_rel_error']:+.2e}")
-    rows = conv[1] + conv[2] + [big]
+    rows = [r for key in ROWS for r in conv[key]] + [big]
     write_csv(out / "hertz3d.csv", rows)
-    save_figure(figure(sols[1], conv[1], sols[2], conv[2]), out / "hertz3d.png")
+    save_figure(figure(sols[(1, CONDITION[1])], p1, sols[(2, CONDITION[2])], conv[(2, CONDITION[2])],
+                       sols[(2, "gamma3")], conv[(2, "gamma3")]), out / "hertz3d.png")
     return write_report(out, rows)
 
 
@@ -351,38 +439,52 @@ def read_rows(path) -> list[dict]:
     def value(v):
         if v in ("True", "False"):
             return v == "True"
+        if v == "":
+            return None
         try:
             return int(v)
         except ValueError:
-            return float(v)
+            try:
+                return float(v)
+            except ValueError:
+                return v
 
     with open(path) as fh:
-        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+        rows = [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    for r in rows:                                   # a table written before the condition column
+        if "condition" in r and not isinstance(r["condition"], str):
+            r["condition"] = CONDITION[r["degree"]]
+        r.setdefault("condition", CONDITION[r["degree"]])
+    return rows
 
 
 def write_report(out, rows):
     """hertz3d.md from the study's rows (P1 levels, P2 levels, the P1 level with the block twice as large);
     returns the rows and the observed rates."""
-    conv = {d: [r for r in rows if r["degree"] == d and r["size_a"] == SIZE] for d in (1, 2)}
+    kind = {1: (1, CONDITION[1]), 2: (2, CONDITION[2]), 3: (2, "gamma3")}      # 3: P2 gamma3
+    conv = {d: [r for r in rows if (r["degree"], r.get("condition", CONDITION[r["degree"]])) == kind[d]
+                and r["size_a"] == SIZE] for d in kind}
     big = next(r for r in rows if r["size_a"] == 2 * SIZE)
     ref = next(r for r in conv[1] if r["n"] == big["n"])
     rates = {d: {k: slope([r["h_m"] for r in conv[d]], [abs(r[k]) for r in conv[d]])
-                 for k in ("a_rel_error", "p0_rel_error", "cell_force_rel_error")} for d in (1, 2)}
+                 for k in ("a_rel_error", "a_hull_rel_error", "p0_rel_error", "cell_force_rel_error")
+                 if all(r.get(k) is not None for r in conv[d])} for d in kind}
     L = SIZE * A_REF
-    cols = ["degree", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m", "a_rel_error",
+    cols = ["degree", "condition", "n", "size_a", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m",
+            "a_rel_error", "a_hull_m", "a_hull_rel_error", "support_points", "a_moment_m", "a_moment_rel_error",
             "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
-            "delta_rel_error", "active_nodes", "ok",
-            "seconds"]
+            "delta_rel_error", "active_nodes", "ok", "seconds"]
     fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
-           "a_rel_error": "+.3f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f", "p_cell_Pa": ".4e",
-           "cell_force_rel_error": "+.4f", "delta_m": ".4e",
+           "a_rel_error": "+.3f", "a_hull_m": ".4e", "a_hull_rel_error": "+.3f", "a_moment_m": ".4e",
+           "a_moment_rel_error": "+.4f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f",
+           "p_cell_Pa": ".4e", "cell_force_rel_error": "+.4f", "delta_m": ".4e",
            "delta_h_m": ".4e", "delta_rel_error": "+.3f", "seconds": ".1f"}
-    short = ["degree", "n", "size_a", "dofs", "h_m", "a_rel_error", "p0_rel_error", "cell_force_rel_error",
-             "delta_rel_error", "seconds"]
+    short = ["degree", "condition", "n", "size_a", "dofs", "h_m", "a_rel_error", "a_hull_rel_error",
+             "a_moment_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error", "seconds"]
 
     def rate(d):
         ns = ", ".join(str(r["n"]) for r in conv[d])
-        return (f"P{d} (levels {ns}): contact radius {rates[d]['a_rel_error']:.2f}, peak pressure "
+        return (f"P{kind[d][0]} {kind[d][1]} (levels {ns}): contact radius {rates[d]['a_rel_error']:.2f}, peak pressure "
                 f"{rates[d]['p0_rel_error']:.2f}, force of the axis cell {rates[d]['cell_force_rel_error']:.2f}")
 
     def listed(key, d, f="+.3f"):
@@ -407,6 +509,33 @@ def write_report(out, rows):
                  "(the integral of its shape function on a face is zero), so the nodal condition may leave a "
                  "vertex inside the contact zone with a small gap (at n = 8, the vertex on the axis); such a node "
                  "marks no edge of the zone.\n\n")
+    conic = ""
+    if conv[3]:
+        hull = {d: listed("a_hull_rel_error", d) for d in (1, 2, 3)}
+        hull_rates = ", ".join(f"{name} {rates[d].get('a_hull_rel_error', float('nan')):.2f}"
+                               for d, name in ((1, "P1"), (2, "P2 sigma1"), (3, "P2 gamma3")))
+        conic = ("The copositive condition with P2 (\"gamma3\": the jump minus the gap's P2 interpolant <= 0 on "
+                 "every face of the patch, docs/formulation.md §16; levels "
+                 f"{', '.join(str(r['n']) for r in conv[3])}): every answer finished"
+                 f"{' and `ok`' if all(r['ok'] for r in conv[3]) else ''} (the force reached to "
+                 f"{FORCE_RTOL_CONIC:g}: the finished force moves by about 1e-8 between re-solves). Peak pressure {listed('p0_rel_error', 3)} (P2 sigma1: "
+                 f"{listed('p0_rel_error', 2)}), the axis cell's force {listed('cell_force_rel_error', 3, '+.4f')}, "
+                 f"the approach {listed('delta_rel_error', 3)}. The gap closes at points inside the faces (one "
+                 "tangency point per touching face; no node touches at n = 8): the zone's edge cannot be read "
+                 "from nodes or whole faces (the nodes of the faces that carry force give +0.33, +0.18 at n = 8, "
+                 "16). Its a_h is the hull radius (a_hull): the quarter disc with the area of the convex hull of "
+                 "the points where the gap closes (the exact maximiser of q_h on each face whose maximum is 0 to "
+                 f"{SUPPORT_TOL:g} of the approach, and the nodes where q_h is) with the axis point; by "
+                 "complementarity the force is carried there and only there, and the zone reaches at least that "
+                 f"far: an estimate from inside, {hull[3]}. On the nodal rows the same hull of the active nodes, "
+                 f"P1 {hull[1]}, P2 sigma1 {hull[2]}, lies within a grid spacing of their edge mid-points "
+                 f"(a_rel_error there); observed rates in h of a_hull: "
+                 f"{hull_rates}. a_moment is the radius of "
+                 "Hertz's profile with the contact forces' second moment about the axis (a = sqrt(5/2 sum f r^2 / "
+                 "sum f), exact for nodal forces and for P2, r^2 being quadratic): "
+                 f"P2 gamma3 {listed('a_moment_rel_error', 3, '+.4f')}, P2 sigma1 "
+                 f"{listed('a_moment_rel_error', 2, '+.4f')}, P1 {listed('a_moment_rel_error', 1, '+.4f')}; it "
+                 "assumes Hertz's shape, so it checks how the force spreads, not where the zone ends.\n\n")
     text = (f"# Hertz validation in 3D: a rigid sphere on a block\n\n"
             f"Rigid sphere R = {R * 1e3:g} mm on an aluminium block (E = {E / 1e9:g} GPa, nu = {NU}), quarter model "
             f"({L * 1e3:g} mm cube, symmetry rollers on x = 0 and y = 0, bottom clamped, grid graded towards the "
@@ -424,13 +553,14 @@ def write_report(out, rows):
             "their force against Hertz's pressure integrated on the same shape functions; delta_h: the sphere's "
             "approach. h_m: the grid spacing near the axis (P2: of the vertices). Conditions: P1 gamma3 (at the "
             "block's nodes that reach the sphere); P2 sigma1, the nodal condition at every P2 node of the contact "
-            "patch (vertices and edge midpoints); the copositive condition on the faces (gamma3 with P2) is not in "
-            "this table. The last row "
+            "patch (vertices and edge midpoints); P2 gamma3, the copositive condition on every face of the patch "
+            "(its a_h: a_hull, below). a_hull, a_moment: the contact radius from the hull of the points that carry "
+            "force and from the forces' second moment, on every row (below). The last row "
             f"(size_a = {2 * SIZE}) is P1 level n = {ref['n']} again, its grid kept and continued to a block twice "
             "as large (the size effect alone). Seconds: one process on a shared two-core machine.\n\n"
             + markdown_table(rows, short, fmt)
             + "\nEvery column (CSV: hertz3d.csv):\n\n" + markdown_table(rows, cols, fmt)
-            + f"\nObserved rates in h: {rate(1)}; {rate(2)}.\n\n" + gains
+            + f"\nObserved rates in h: {'; '.join(rate(d) for d in kind if conv[d])}.\n\n" + gains + conic
             + f"Size effect: the approach of the {SIZE} a block is short of Hertz's by about Boussinesq's "
               f"displacement at the clamped depth, u_z(L)/delta = {boussinesq_depth(FORCE, L) / hertz(FORCE)[2]:.3f} "
               f"(at {2 * SIZE} a: {boussinesq_depth(FORCE, 2 * L) / hertz(FORCE)[2]:.3f}); the radius and the peak "

@@ -1,0 +1,329 @@
+"""The exact finish of the P2 "everywhere" condition at tangency points: Newton on the KKT system of the
+condition written through each touching element's maximum (docs/formulation.md §18).
+
+Where a curved rigid obstacle under force control touches a P2 face at one point inside an element (a disc or
+sphere whose contact zone is smaller than an element), the obstacle's sideways position is set by the tangency:
+the quadratic q of the jump minus the gap reaches 0 at a point L* with zero slope there. Point rows at fixed
+points (the accumulated cuts, :mod:`cvxcontact.backends.cuts`) cannot express that: with one active point
+row the obstacle's balance along the tangent asks for a force along the row's direction that the point row
+does not have, and the round's mixed system is singular.
+
+Here the condition on a touching element (or one of its edges, on triangles) is its maximum itself,
+
+    m(Q) = max { L^T Q L : L >= 0 on the sub-simplex I, sum(L) = 1 } <= 0,
+
+smooth where Q is negative definite on the sub-simplex's tangent plane (the maximiser L* inside): with the
+bordered system Q L* = m 1, 1^T L* = 1, its gradient is dm = L*^T dQ L* (the point row at L*, envelope) and its
+second derivative d2m = -2 (dQ L*)^T T (T^T Q T)^-1 T^T (dQ L*) >= 0 (T a basis of {1^T v = 0}). Vertex
+contacts (and whole elements in contact) stay linear nodal rows. Newton on
+
+    A x + G_v^T y + sum_c mu_c grad m_c = F,   G_v x = g_v,   m_c(x) = 0
+
+with the Hessian A + sum_c mu_c H_c: the curvature terms mu_c H_c carry the stiffness that the obstacle's
+tangential translation lacks. The active structure comes from the interior point's Bernstein duals and is
+corrected in an outer loop (a negative multiplier leaves, a violated element enters, a maximiser leaving its
+sub-simplex moves to the sub-face). Quadratic convergence: from the interior point's answer (~1e-8) two to
+four steps reach rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..contact.bernstein import bernstein_argmax, element
+from .cuts import point_duals, point_read_back, segment_scales
+
+__all__ = ["tangency_newton"]
+
+NEWTON_TOL = 1e-14
+"""Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
+STALL_TOL = 1e-10
+"""Below this relative step, a step that no longer shrinks by 4 ends the iteration (rounding's floor)."""
+
+
+def _sub_basis(m: int) -> np.ndarray:
+    """(m, m-1): an orthonormal basis of {v in R^m : sum(v) = 0}."""
+    V = np.linalg.qr(np.column_stack([np.ones(m), np.eye(m)[:, :m - 1]]))[0]
+    return V[:, 1:]
+
+
+class _Element:
+    """The Bernstein coefficients of one element as affine functions of x: b = D x - d (D (w, n) sparse)."""
+
+    def __init__(self, shape, D, d):
+        self.shape, self.D, self.d = shape, sp.csr_matrix(D), np.asarray(d, dtype=float)
+
+    def coefficients(self, x):
+        return self.D @ x - self.d
+
+
+def _index(shape, i: int, j: int) -> int:
+    """The position of Q_ij in the element's coefficient vector (segments (b0, b1, b2), triangles in
+    triangle6 order)."""
+    if shape.width == 3:
+        return 2 * i if i == j else 1
+    if i == j:
+        return i
+    for a, b, c in shape.edges:
+        if {a, b} == {i, j}:
+            return c
+    raise ValueError((i, j))
+
+
+def _maximum(shape, b, I):
+    """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
+    maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
+    docstring); None where Q_II is not negative definite on the tangent plane."""
+    k = 2 if shape.width == 3 else 3
+    Q = np.empty((k, k))
+    for i in range(k):
+        for j in range(k):
+            Q[i, j] = b[_index(shape, i, j)]
+    I = list(I)
+    QI = Q[np.ix_(I, I)]
+    T = _sub_basis(len(I))
+    H = T.T @ QI @ T
+    if np.any(np.linalg.eigvalsh(H) >= 0):
+        return None
+    m = len(I)
+    bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
+    sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+    L = np.zeros(k)
+    L[I] = sol[:m]
+    M = T @ np.linalg.solve(H, T.T)
+    return sol[m], L, M
+
+
+def _cells(B, w: int) -> np.ndarray:
+    """(S, w): the row read at each P2 node of every element of the Bernstein map ``B`` (w S, N) (the values at
+    the nodes are inv(to_bernstein) B_s, unit rows); -1 where a node's value is not one row's."""
+    shape = element(w)
+    V = (sp.kron(sp.eye(B.shape[0] // w), np.linalg.inv(shape.to_bernstein)) @ B).tocsr()
+    V.eliminate_zeros()
+    V.data[np.abs(V.data) < 1e-12] = 0.0
+    V.eliminate_zeros()
+    counts = np.diff(V.indptr)
+    cells = np.full(V.shape[0], -1)
+    one = counts == 1
+    cells[one] = V.indices[V.indptr[:-1][one]]
+    return cells.reshape(-1, w)
+
+
+def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
+                    held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11, max_steps: int = 40,
+                    max_rounds: int = 10):
+    """The exact finish of the module docstring on the sparse mixed system ``kkt``
+    (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
+    ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
+    q = B (G x - ``cone_gap``), default ``g``), from the interior point's Bernstein duals ``beta`` (S, w) and
+    stacked unknowns ``x0`` (n,).
+
+    Optionally the rest of a mixed program (docs/formulation.md §10, "P2"): the compliance energy
+    sum_a w_a Phi_a(r_a) of a scaled ``law`` (:class:`~cvxcontact.contact.laws.RowLaws`) with ``weights`` on
+    its compliant rows (semismooth: its Hessian w p'(r) G^T G where r > 0, re-read every step), and linear rows
+    r_a <= ``limit``_a where the limit is finite (active at the start where ``limit_start``). ``held`` rows (no
+    unknown moves them) carry no linear row (their law's force w p(r) is kept: it moves nothing).
+
+    Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
+    active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
+    reason it stopped (str). An element carries a force at the start where its Bernstein duals exceed
+    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest)."""
+    G = sp.csr_matrix(kkt.rows)
+    A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
+    B = sp.csr_matrix(B)
+    N, n = G.shape
+    g = np.asarray(g, dtype=float)
+    cone_gap = g if cone_gap is None else np.asarray(cone_gap, dtype=float)
+    held = np.zeros(N, dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    w = np.shape(beta)[1]
+    shape = element(w)
+    cells = _cells(B, w)
+    S = len(cells)
+    k = 2 if w == 3 else 3
+    corner = [0, 2] if w == 3 else [0, 1, 2]          # the cells' columns of the vertices
+    D_all = (B @ G).tocsr()
+    d_all = B @ cone_gap
+    elem = lambda s: _Element(shape, D_all[w * s:w * s + w], d_all[w * s:w * s + w])
+    compliant = np.zeros(N, dtype=bool) if law is None else np.asarray(law.rows, dtype=bool)   # held: G_a = 0
+    lim = np.full(N, np.inf) if limit is None else np.where(held, np.inf, np.asarray(limit, dtype=float))
+    limited = np.isfinite(lim)
+    beta = np.maximum(np.asarray(beta, dtype=float), 0.0)
+    total = beta.sum(axis=1)
+    kk = np.zeros(N) if law is None else np.asarray(law.stiffness, dtype=float)
+    mm = np.ones(N) if law is None else np.asarray(law.exponent, dtype=float)
+    wt = np.zeros(N) if weights is None else np.asarray(weights, dtype=float)
+    # the force scale: the cones' and ``force_scale`` (the rest of the program's: cones that carry nothing
+    # next to a compliance law have Bernstein duals at the interior point's noise, ~1e-16, which relative to
+    # themselves read as contact everywhere)
+    fmax = max(float(total.max(initial=0.0)), float(force_scale))
+    big = np.flatnonzero(total > force_floor * max(fmax, np.finfo(float).tiny))
+    # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
+    vertices: dict[int, float] = {}
+    tangencies: dict[tuple, tuple] = {}
+    limits: dict[int, float] = {int(a): 0.0 for a in np.flatnonzero(limited & (False if limit_start is None
+                                                                               else np.asarray(limit_start)))}
+    Z = shape.dual_gram(beta[big]) if w == 6 else shape.gram(beta[big])
+
+    def whole(s, I):
+        """The sub-simplex I of element s in contact: rows at its P2 nodes (q = 0 at all of them: q = 0 on it)."""
+        cols = [corner[i] for i in I] + ([1] if w == 3 and len(I) == 2 else
+                                         [c for i, j, c in getattr(shape, "edges", ()) if i in I and j in I])
+        for node in cells[s, cols]:
+            if node >= 0 and not held[node]:
+                vertices.setdefault(int(node), 0.0)
+
+    def add(s, I, force):
+        nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
+        if min(nodes) < 0:
+            return
+        if len(nodes) == 1:
+            if not held[nodes[0]]:
+                vertices[nodes[0]] = vertices.get(nodes[0], 0.0) + force
+        elif any(v in vertices for v in nodes):
+            # a strictly concave q cannot touch 0 inside I and at a vertex of I: the contact covers I
+            whole(s, I)
+        elif nodes not in tangencies:
+            tangencies[nodes] = (int(s), tuple(I), force)
+
+    points = []
+    for s, Zs in zip(big, Z):
+        ev, V = np.linalg.eigh(Zs)
+        if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
+            d = np.diag(Zs)
+            whole(s, tuple(int(i) for i in np.flatnonzero(d > 1e-3 * d.max())))
+        else:                                     # a point force: at L* (Z's leading eigenvector)
+            points.append((s, np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()))
+    for s, L in points:
+        # coordinates above 1e-6: a point read as a vertex that is a tangency beside it (1e-3 of the element
+        # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
+        # leaves its sub-simplex and moves to the vertex in the outer loop
+        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]))
+    x = np.asarray(x0, dtype=float).copy()
+    for rounds in range(1, max_rounds + 1):
+        vnodes = np.array(sorted(vertices), dtype=int)
+        lrows = np.array(sorted(limits), dtype=int)
+        tkeys = list(tangencies)
+        Gv, gv = G[vnodes], cone_gap[vnodes]
+        Gl, gl = G[lrows], g[lrows] + lim[lrows]
+        lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
+        mu = np.array([tangencies[c][2] for c in tkeys])
+        why, pen, last, flat = None, None, np.inf, None
+        for _ in range(max_steps):
+            rows, vals, hess = [], [], sp.csr_matrix((n, n))
+            points = []
+            for c, m_c in zip(tkeys, mu):
+                s, I, _ = tangencies[c]
+                el = elem(s)
+                out = _maximum(shape, el.coefficients(x), I)
+                if out is None:              # q flat or convex along I: the contact covers I (next round)
+                    flat = (c, s, I)
+                    break
+                m, L, M = out
+                phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
+                J = sp.vstack([sum(L[j] * el.D[_index(shape, i, j)] for j in I) for i in I]).tocsr()
+                hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
+                rows.append(sp.csr_matrix(phi[None, :]) @ el.D)
+                vals.append(m)
+                points.append((s, L))
+            if flat:
+                break
+            r = G @ x - g
+            on = compliant & (r > 0)
+            rp = np.where(on, r, 0.0)
+            force = wt * kk * rp ** mm                                   # w p(r)
+            stiff = np.where(on, wt * kk * mm * np.where(on, rp, 1.0) ** (mm - 1.0), 0.0)
+            C = sp.vstack([Gv, Gl] + rows).tocsr() if len(vnodes) + len(lrows) + len(rows) else \
+                sp.csr_matrix((0, n))
+            lam = np.r_[lam_lin, mu]
+            r1 = A @ x + G.T @ force + C.T @ lam - F
+            r2 = np.r_[Gv @ x - gv, Gl @ x - gl, np.array(vals)]
+            K = sp.bmat([[A + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
+                else (A + hess + G.T @ sp.diags(stiff) @ G).tocsc()
+            try:
+                dz = spla.splu(K).solve(-np.r_[r1, r2])
+            except RuntimeError:
+                why = "the Newton system is singular"
+                break
+            if not np.all(np.isfinite(dz)):
+                why = "the Newton system is singular"
+                break
+            x, lam = x + dz[:n], lam + dz[n:]
+            lam_lin, mu = lam[:len(lam_lin)], lam[len(lam_lin):]
+            step = np.abs(dz[:n]).max(initial=0.0) / max(np.abs(x).max(initial=0.0), 1e-300)
+            # converged: a step at rounding, or a small one that no longer shrinks quadratically (the floor of
+            # the system's conditioning, measured 1e-14 .. 1e-13 with k = 1e14 Pa/m^2, m = 2)
+            small = step <= NEWTON_TOL or (step <= STALL_TOL and step > 0.25 * last)
+            last = step
+            if small and pen is not None and np.array_equal(on, pen):
+                break
+            pen = on
+        else:
+            why = f"Newton did not converge in {max_steps} steps"
+        if why:
+            return why
+        if flat:
+            del tangencies[flat[0]]
+            whole(flat[1], flat[2])
+            continue
+        # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
+        y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
+        fscale = max(np.abs(np.r_[lam_lin, mu, force]).max(initial=0.0), np.finfo(float).tiny)
+        changed = False
+        for table, keys, values in ((vertices, vnodes, y), (limits, lrows, zl)):
+            for a, v in zip(keys, values):
+                if v < -1e-12 * fscale:
+                    del table[int(a)]
+                    changed = True
+                else:
+                    table[int(a)] = float(v)
+        for c, m_c, (s, L) in zip(tkeys, mu, points):
+            I = tangencies[c][1]
+            if m_c < -1e-12 * fscale:
+                del tangencies[c]
+                changed = True
+            elif np.any(L[list(I)] <= 0):
+                del tangencies[c]
+                add(s, tuple(i for i in I if L[i] > 0), float(m_c))
+                changed = True
+            else:
+                tangencies[c] = (s, I, float(m_c))
+        U = abs(G) @ np.abs(x) + np.abs(g) + np.abs(cone_gap)
+        qmax, Lmax = bernstein_argmax((D_all @ x - d_all).reshape(-1, w))
+        rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
+        for s in np.flatnonzero(rel > tol):
+            Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
+            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0)
+            changed = True
+        over = np.flatnonzero(limited & ((G @ x - g - lim) > tol * np.maximum(U, np.finfo(float).tiny)))
+        for a in over:
+            if int(a) not in limits:
+                limits[int(a)] = 0.0
+                changed = True
+        if not changed:
+            break
+    else:
+        return f"the tangency structure did not settle in {max_rounds} rounds"
+    # the answer as point forces (the read-back of the cuts): a node's row at that node of an element holding it
+    first = {}
+    for s in range(S):
+        for i in range(w):
+            first.setdefault(int(cells[s, i]), (s, i))
+    nodes = shape.nodes if w == 6 else np.column_stack([1 - shape.nodes, shape.nodes])
+    seg, pts, yk = [], [], []
+    for v, yv in zip(vnodes, y):
+        s, i = first[int(v)]
+        seg.append(s), pts.append(nodes[i]), yk.append(yv)
+    for m_c, (s, L) in zip(mu, points):
+        seg.append(s), pts.append(L), yk.append(m_c)
+    seg = np.array(seg, dtype=int)
+    pts = np.array(pts).reshape(len(seg), k)
+    t = pts if w == 6 else pts[:, 1]
+    yk = np.maximum(np.array(yk, dtype=float), 0.0)
+    z = np.zeros(N)
+    z[lrows] = np.maximum(zl, 0.0)
+    nodal, active = point_read_back(B, seg, t, yk, yk > 0)
+    active |= (z > 0) | (force > 0)
+    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
+                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force)

@@ -1,0 +1,284 @@
+"""A normal-compliance law with P2 (10-node) tetrahedra (docs/formulation.md §15, "Normal compliance"): the law's
+quadrature on the P2 face nodes, springs in series to rounding, P1 on refined meshes converging to the P2 answer,
+k -> infinity tending to Signorini at the quadrature's nodes, and the nodal penetration limit.
+
+Cross-checks, none taken from the code under test: the closed form of a layer in uniaxial strain pressed through
+the law (the layer and the law are springs in series: u_z = -(p/k)^(1/m) - p z / c33), exact integrals of
+monomials on a triangle, a P1 sequence on refined meshes, a Signorini solve (an LCP on the same rows, another
+route), the Newton finish against the LCP finish.
+"""
+
+from math import factorial
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.contact.quadratic3d import P2_TRIANGLE_MASS, p2_shape, p2_weights
+
+from scenes3d import P, SIDES, STEEL, bumped_gap, layer_on_plane, stacked_blocks, uniaxial_modulus
+
+C33 = uniaxial_modulus()
+
+
+def series_error(sol, k, m=1.0, shift=(0.0, 0.0)) -> float:
+    """max |u - u_exact| / (p / c33) over every node: u_z = -p z / c33 - shift[body], u_x = u_y = 0."""
+    out = 0.0
+    for u, x, s in zip(sol.u, sol.points, shift):
+        out = max(out, float(np.abs(u[:, 2] + P * x[:, 2] / C33 + s).max()), float(np.abs(u[:, :2]).max()))
+    return out / (P / C33)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the quadrature
+
+def test_the_p2_weights_integrate_quadratics_exactly_and_are_the_mass_row_sums():
+    """On a random triangle, sum_a w_a f(x_a) = int f for every monomial of degree <= 2 (exact integrals
+    int L^a = 2 A a! / (|a| + 2)! in barycentric coordinates); the weights are the row sums of the P2 mass
+    matrix (0 at the vertices, A/3 at the midpoints), never negative."""
+    rng = np.random.default_rng(3)
+    V = rng.random((3, 2))
+    (a, b), (c, d) = V[1] - V[0], V[2] - V[0]
+    A = 0.5 * abs(a * d - b * c)
+    cells = np.arange(6)[None]
+    w = p2_weights(cells, np.array([A]), 6)
+    np.testing.assert_allclose(w, A * P2_TRIANGLE_MASS.sum(axis=1), rtol=0, atol=1e-16)   # measured 0
+    assert (w >= 0).all() and (w[:3] == 0).all()
+    nodes_L = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
+    for a in [(0, 0, 0), (1, 0, 0), (0, 0, 1), (2, 0, 0), (1, 1, 0), (0, 1, 1), (0, 0, 2)]:
+        exact = 2 * A * np.prod([factorial(i) for i in a]) / factorial(sum(a) + 2)
+        assert abs(w @ np.prod(nodes_L ** np.array(a), axis=1) - exact) < 1e-15        # measured <= 1.4e-17
+    # a cubic is not integrated exactly (the rule's degree is 2)
+    assert abs(w @ nodes_L[:, 0] ** 3 - 2 * A * 6 / factorial(5)) > 1e-3 * A
+    # the P2 shape functions sum to one: the weights sum to the area
+    assert abs(p2_shape(nodes_L).sum(axis=1) - 1).max() < 1e-15 and abs(w.sum() - A) < 1e-16
+
+
+# ---------------------------------------------------------------------------------------------------------
+# springs in series (rounding)
+
+@pytest.mark.parametrize("m, k", [(1.0, 1e12), (2.0, 1e12 / 5e-6)], ids=["m=1", "m=2"])
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
+def test_a_layer_pressed_on_a_rigid_plane_through_the_law_is_springs_in_series(condition, m, k):
+    """The layer (rollers on its sides) pressed by p onto the plane z = 0 through p(r) = k r^m: uniform stress
+    -p, the layer shifted down by the law's penetration r = (p/k)^(1/m) (1e-6 m, 2.2e-6 m)."""
+    law = cc.NormalCompliance(stiffness=k, exponent=m)
+    sol = cc.solve(layer_on_plane(n=(2, 2, 1)), condition, degree=2, law=law)
+    r = (P / k) ** (1 / m)
+    assert sol.ok and sol.polished and sol.degree == 2
+    assert series_error(sol, k, m, shift=(r,)) < 1e-12                            # measured <= 1.6e-15
+    assert np.abs(sol.contact.lam / P - 1).max() < 1e-12                          # measured <= 5.6e-15
+    assert np.abs(sol.traction(0)[1] / P - 1).max() < 1e-12                       # measured 2.9e-15
+    np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, P], rtol=0, atol=1e-12 * P)   # measured 1.4e-15 P
+
+
+def squeezed_blocks(lower, upper, delta=1e-5):
+    """Two blocks (0, 1)^2 x (0, 0.5) and (0, 1)^2 x (0.5, 1) m held by rollers on every face but their common
+    one, z = 0.5, where they interfere by ``delta`` (m; gap -delta), with ``lower``/``upper`` cells across it:
+    uniaxial strain, p = delta / (1/k + 1/c33) for p(r) = k r (the law and the two half-metre blocks in series)."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=1)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=1)
+    b1 = cc.Body(low, STEEL, roller=SIDES + ["bottom"], contact="top", name="lower")
+    b2 = cc.Body(up, STEEL, roller=SIDES + ["top"], contact="bottom", name="upper")
+    return cc.Scene(b1, b2, gap=-delta)
+
+
+CASES = [(((2, 2), (3, 3)), "gamma3"), (((3, 3), (3, 3)), "sigma1"), (((2, 2), (4, 4)), "sigma2"),
+         (((4, 4), (2, 2)), "sigma1")]
+CASE_IDS = ["non-matching, gamma3", "matching, sigma1", "fine upper, sigma2", "fine lower, sigma1"]
+
+
+@pytest.mark.parametrize("method", ["condensed", "full"])
+@pytest.mark.parametrize("counts, condition", CASES, ids=CASE_IDS)
+def test_two_squeezed_blocks_and_the_law_are_springs_in_series(counts, condition, method):
+    """Exact on non-matching faces under gamma3 (each trace basis function is quadratic on every overlay
+    triangle, which the quadrature integrates exactly) and under the nodal rows of the finer (or either
+    matching) side: lambda = p, u_z = -p z / c33 below, p (1 - z) / c33 above; the interface route (both
+    bodies held by their rollers) with its Newton finish."""
+    k, delta = 1e12, 1e-5
+    sol = cc.solve(squeezed_blocks(*counts, delta), condition, degree=2, method=method,
+                   law=cc.NormalCompliance(stiffness=k))
+    p = delta / (1 / k + 1 / C33)
+    assert sol.ok and sol.polished and sol.method == method
+    assert np.abs(sol.contact.lam / p - 1).max() < 1e-12                         # measured <= 2.8e-14
+    (u1, u2), (x1, x2) = sol.u, sol.points
+    scale = p / C33
+    assert np.abs(u1[:, 2] + p * x1[:, 2] / C33).max() < 1e-12 * scale          # measured <= 2.1e-15
+    assert np.abs(u2[:, 2] - p * (1 - x2[:, 2]) / C33).max() < 1e-12 * scale    # measured <= 2.0e-15
+    assert max(np.abs(u1[:, :2]).max(), np.abs(u2[:, :2]).max()) < 1e-12 * scale  # measured <= 3.5e-16
+    assert abs(sol.contact.force.sum() / p - 1) < 1e-13                          # area 1 m^2; measured <= 4.1e-15
+
+
+@pytest.mark.parametrize("counts, condition", CASES[:3], ids=CASE_IDS[:3])
+def test_a_block_held_by_the_law_on_another_is_springs_in_series(counts, condition):
+    """The upper block held along z by the contact only (rollers on its sides), pressed by p: the lower in
+    uniaxial strain, the upper shifted down by r = p/k more (the sparse route and its Newton finish)."""
+    k = 1e12
+    sol = cc.solve(stacked_blocks(*counts, nz=1), condition, degree=2, law=cc.NormalCompliance(stiffness=k))
+    assert sol.ok and sol.polished
+    assert series_error(sol, k, shift=(0.0, P / k)) < 1e-12                     # measured <= 3.5e-15
+    assert np.abs(sol.contact.lam / P - 1).max() < 1e-12                         # measured <= 1.2e-14
+    assert abs(sol.contact.force.sum() / P - 1) < 1e-13                          # measured <= 1.3e-15
+    for body in (0, 1):
+        assert np.abs(sol.traction(body)[1] / P - 1).max() < 1e-12               # measured <= 9.1e-15
+
+
+def test_the_coarser_sides_rows_on_non_matching_faces_are_not_exact():
+    """As for Signorini (docs/formulation.md §15): the coarser side's rows do not see the finer side's kinks,
+    the patch test fails (the exact tests above can fail)."""
+    sol = cc.solve(stacked_blocks((2, 2), (3, 3), nz=1), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e12))
+    assert sol.ok and series_error(sol, 1e12, shift=(0.0, P / 1e12)) > 1e-2       # measured 0.46
+
+
+# ---------------------------------------------------------------------------------------------------------
+# P1 on refined meshes, k -> infinity
+
+def bumped_pair(n=1, load=2e7):
+    """Two blocks meeting at z = 0.5 with the gap 0.2 r^2 mm, the lower clamped, the upper (rollers on two
+    sides, held along z by the contact) pressed by ``load`` on its top; 4n x 4n and 5n x 3n cells across."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=4 * n, ny=4 * n, nz=n)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=5 * n, ny=3 * n, nz=n)
+    b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
+    b2 = cc.Body(up, STEEL, roller=["left", "front"], contact="bottom", name="upper", traction={"top": (0, 0, -load)})
+    return cc.Scene(b1, b2, gap=bumped_gap)
+
+
+def test_p1_on_refined_meshes_tends_to_the_p2_answer():
+    """The energy of the P1 answers on 1x and 2x refined meshes approaches the P2 one on the coarse mesh
+    (gamma3, k = 1e12 Pa/m: a contact zone inside the faces), the distance shrinking like h^2 (measured
+    115.8, 33.2 J: ratio 3.5), the energies decreasing with refinement and P2 the lowest."""
+    law = cc.NormalCompliance(stiffness=1e12)
+    p2 = cc.solve(bumped_pair(1), "gamma3", degree=2, law=law)
+    p1 = [cc.solve(bumped_pair(n), "gamma3", degree=1, law=law) for n in (1, 2)]
+    assert p2.ok and p2.polished and all(s.ok and s.polished for s in p1)
+    d = [s.energy - p2.energy for s in p1]
+    assert d[0] > d[1] > 0 and d[0] / d[1] > 2.5                                  # measured 115.8, 33.2 J
+    assert d[1] < 0.02 * abs(p2.energy)                                           # measured 9e-3
+    assert abs(p1[1].contact.lam.max() / p2.contact.lam.max() - 1) < 0.02         # measured 4e-3
+
+
+def test_a_stiffening_law_tends_to_signorini_at_the_quadratures_nodes():
+    """As k -> infinity the answer tends to the Signorini one on the rows of positive weight (the midpoints of
+    the constrained triangles: the law's quadrature does not see the vertices), at rate 1/k (measured 7.2e-3,
+    7.2e-4, 7.2e-5 of max|u| at k = 1e13, 1e14, 1e15 Pa/m); that Signorini answer solved as an LCP on those
+    rows (another route). It differs from nodal Signorini at every P2 node (2.2 %: the vertices are free)."""
+    scene = bumped_pair(1)
+    solver = cc.ContactSolver(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e13))
+    lines = solver.problem.lines
+    solver.problem = solver.problem.with_rows(lines.E[np.flatnonzero(lines.weights > 0)])
+    ref = solver.solve()
+    assert ref.ok and ref.polished
+
+    def err(sol):
+        scale = max(float(np.abs(b).max()) for b in ref.u)
+        return max(float(np.abs(a - b).max()) for a, b in zip(sol.u, ref.u)) / scale
+
+    errors = []
+    for k in (1e13, 1e14, 1e15):
+        sol = cc.solve(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+        assert sol.ok and sol.polished
+        errors.append(err(sol))
+    rates = np.log10(np.array(errors[:-1]) / errors[1:])
+    assert errors[0] < 2e-2 and (np.abs(rates - 1) < 0.05).all()                  # measured rates 1.000, 1.000
+    nodal = cc.solve(scene, "sigma1", degree=2)
+    assert err(nodal) > 1e-2                                                      # measured 2.2e-2
+
+
+# ---------------------------------------------------------------------------------------------------------
+# a penetration limit (nodal rows)
+
+def test_a_binding_penetration_limit_holds_the_layer_at_the_limit_with_lambda_p():
+    """A limit l = r/2 below the law's penetration r = p/k: the layer sits at u_z(0) = -l, the law carries
+    p(l) and the limit's reaction the rest; lambda_h = p(l) + M^-1 z reads p at every node (vertices, where the
+    quadrature has no weight, included) and the checks hold (the sparse route: the layer is held by the law)."""
+    k = 1e12
+    ell = 0.5 * P / k
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    sol = cc.solve(layer_on_plane(n=(2, 2, 1)), "sigma1", degree=2, law=law)
+    assert sol.ok and sol.polished
+    assert series_error(sol, k, shift=(ell,)) < 1e-12                              # measured 8.3e-16
+    assert np.abs(sol.contact.lam / P - 1).max() < 1e-12                          # measured 4.4e-15
+    np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, P], rtol=0, atol=1e-12 * P)
+
+
+@pytest.mark.parametrize("method", ["condensed", "full"])
+@pytest.mark.parametrize("condition", ["sigma1", "sigma2"])
+def test_a_binding_penetration_limit_between_squeezed_blocks(condition, method):
+    """The squeezed blocks with l = r/2: the penetration is l, the blocks take the rest of the interference,
+    p = (delta - l) c33 / 1 m, and lambda_h = p at every node (the interface route, active-set finish)."""
+    k, delta = 1e12, 1e-5
+    r = delta / (1 / k + 1 / C33) / k
+    ell = 0.5 * r
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    counts = ((4, 4), (2, 2)) if condition == "sigma1" else ((2, 2), (4, 4))       # the finer side's rows
+    sol = cc.solve(squeezed_blocks(*counts, delta), condition, degree=2, law=law, method=method)
+    p = (delta - ell) * C33
+    assert sol.ok and sol.polished and sol.method == method
+    assert np.abs(sol.contact.lam / p - 1).max() < 1e-12                         # measured <= 3.4e-14
+    (u1, u2), (x1, x2) = sol.u, sol.points
+    assert np.abs(u1[:, 2] + p * x1[:, 2] / C33).max() < 1e-12 * p / C33          # measured <= 1.2e-15
+    assert np.abs(u2[:, 2] - p * (1 - x2[:, 2]) / C33).max() < 1e-12 * p / C33    # measured <= 1.2e-15
+
+
+def test_a_limit_that_does_not_bind_changes_nothing():
+    k = 1e12
+    free = cc.solve(bumped_pair(1), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+    limited = cc.solve(bumped_pair(1), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k, penetration_limit=1.0))
+    assert free.ok and limited.ok and limited.polished
+    for a, b in zip(free.u, limited.u):
+        assert np.abs(a - b).max() < 1e-12 * np.abs(b).max()                     # measured 0
+
+
+# ---------------------------------------------------------------------------------------------------------
+# rows of weight 0, the piezoelectric layer, cc.Model
+
+def test_the_lcp_finish_leaves_rows_of_weight_zero_without_force():
+    """solve_linear_compliance (the finite LCP fallback) on rows some of which have weight 0 (P2 face vertices):
+    y = 0 there, and the same (y, r) as the Newton finish solve_compliance (another algorithm) on a random
+    positive definite interface compliance with Signorini and compliance rows mixed."""
+    from cvxcontact.backends.finish import solve_compliance, solve_linear_compliance
+    from cvxcontact.contact.laws import RowLaws
+
+    rng = np.random.default_rng(7)
+    n = 12
+    A = rng.standard_normal((n, n))
+    W = A @ A.T / n + 0.5 * np.eye(n)
+    d = rng.standard_normal(n)
+    w = np.where(np.arange(n) % 3 == 0, 0.0, rng.random(n) + 0.5)        # every third row: weight 0
+    law = RowLaws([cc.Signorini(), cc.NormalCompliance(stiffness=3.0)], [3, n - 3])
+    lcp = solve_linear_compliance(W, d, w, law)
+    newton = solve_compliance(W, d, w, law)
+    assert lcp is not None and newton is not None
+    y = lcp[0]
+    r = d - W @ y
+    assert np.all(y[3:][w[3:] == 0] == 0) and np.isfinite(y).all()
+    assert r[9] > 0.01                     # a compliant row of weight 0 penetrates (measured 0.023) with y = 0
+    assert np.abs(y - newton[0]).max() < 1e-12 * np.abs(y).max()                   # measured 2.7e-16
+    compliant = (np.arange(n) >= 3) & (w > 0)
+    assert np.abs(y[compliant] - w[compliant] * 3.0 * np.maximum(r[compliant], 0)).max() < 1e-12   # the law
+    assert (y[:3] >= 0).all() and (r[:3] <= 1e-12).all() and np.abs(y[:3] * r[:3]).max() < 1e-12    # Signorini
+
+
+def test_a_piezoelectric_layer_through_the_law_floats_at_its_closed_form_potential():
+    """The PZT-5A layer (grounded base, open-circuit top) on the plane through p = k r: shifted by p/k, strained
+    by the stiffened modulus c33 + e33^2/eps33, its top electrode at the closed-form potential."""
+    from scenes3d import floating_potential, pzt_layer_on_plane, stiffened_modulus
+
+    k = 1e12
+    sol = cc.solve(pzt_layer_on_plane(n=(2, 2, 1)), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=k))
+    c = stiffened_modulus(cc.materials.PZT5A)
+    u, x = sol.u[0], sol.points[0]
+    assert sol.ok and sol.polished
+    assert np.abs(u[:, 2] + P / k + P * x[:, 2] / c).max() < 1e-12 * P / c            # measured 1.3e-15
+    assert np.abs(sol.contact.lam / P - 1).max() < 1e-12                              # measured 4.4e-15
+    top = [e for e in sol.electrodes if e.kind == "floating"][0]
+    assert abs(top.potential / floating_potential(cc.materials.PZT5A) - 1) < 1e-12   # measured 4.4e-16
+
+
+def test_the_model_poses_the_same_law():
+    """cc.Model(degree=2) of the squeezed blocks under gamma3 on non-matching faces: the closed form."""
+    k, delta = 1e12, 1e-5
+    sol = cc.Model(squeezed_blocks((2, 2), (3, 3), delta), "gamma3", degree=2,
+                   law=cc.NormalCompliance(stiffness=k)).solve()
+    p = delta / (1 / k + 1 / C33)
+    assert sol.ok and np.abs(sol.contact.lam / p - 1).max() < 1e-12                   # measured 8.7e-15

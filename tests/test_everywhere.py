@@ -84,7 +84,10 @@ def test_finished_jump_holds_everywhere_by_dense_sampling(method):
     assert jump.max() < 1e-13 * scale                 # measured 1.2e-16 scale (g = 0)
     other = cc.solve(scene, "gamma3", degree=2, method="condensed" if method == "full" else "full")
     for a, b in zip(sol.u, other.u):
-        assert np.abs(a - b).max() < 1e-10 * scale    # measured 4.7e-12 (the same finish from two interior points)
+        # the same finish from two interior points: the displacements are fixed to about the square root of the
+        # cuts' stopping violation (each answer certified to ~5e-8 of ||u||_K, docs/checks.md); measured
+        # 4.7e-12 .. 2.2e-10 of max|u| (oneMKL or not, one thread or two: 2.6e-10 apart on the same code)
+        assert np.abs(a - b).max() < 1e-8 * scale
 
 
 @pytest.mark.parametrize("scene", [lambda: two_blocks((8, 4), (5, 3)), lambda: quickstart(16)], ids=["small", "quickstart"])

@@ -17,8 +17,7 @@ from ..contact.bernstein import bernstein_max
 from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
-                   seed_forces,
-                   seed_points)
+                   seed_forces, seed_points)
 from .finish import independent_active_set
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
@@ -280,8 +279,8 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
     "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
     pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
-    finished by Newton at the contact structure (:func:`_finish_mixed`, §18). ``raw.y`` = w p(r) + z, ``raw.z`` = (cone force B^T beta) + (multipliers of
-    the linear rows), ``raw.beta`` the Bernstein duals."""
+    finished by Newton at the contact structure (:func:`_finish_mixed`, §18). ``raw.y`` = w p(r) + z,
+    ``raw.z`` = (cone force B^T beta) + (multipliers of the linear rows), ``raw.beta`` the Bernstein duals."""
     law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
     B = mixed_bernstein_rows(problem)
     t0 = time.perf_counter()

@@ -112,8 +112,8 @@ def _cells(B, w: int) -> np.ndarray:
 
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
-                    held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11, max_steps: int = 40,
-                    max_rounds: int = 10):
+                    held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
+                    max_steps: int = 40, max_rounds: int = 10):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -187,15 +187,15 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         elif nodes not in tangencies:
             tangencies[nodes] = (int(s), tuple(I), force)
 
-    points = []
+    seeds = []
     for s, Zs in zip(big, Z):
         ev, V = np.linalg.eigh(Zs)
         if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
             d = np.diag(Zs)
             whole(s, tuple(int(i) for i in np.flatnonzero(d > 1e-3 * d.max())))
         else:                                     # a point force: at L* (Z's leading eigenvector)
-            points.append((s, np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()))
-    for s, L in points:
+            seeds.append((s, np.abs(V[:, -1]) / np.abs(V[:, -1]).sum()))
+    for s, L in seeds:
         # coordinates above 1e-6: a point read as a vertex that is a tangency beside it (1e-3 of the element
         # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
         # leaves its sub-simplex and moves to the vertex in the outer loop

@@ -197,3 +197,21 @@ def test_force_control_in_3d_balances_or_names_the_free_translation():
     assert obstacle_rows(fake_scene(roller.with_force((0.5, 0.0, -3.0)), top, UP))[0].basis.shape == (3, 2)
     with pytest.raises(SceneError, match=r"pulls the obstacle away.*free to move along \(0, 0, 1\)"):
         obstacle_rows(fake_scene(cc.Rigid.sphere((0, 0, 1.01), 1.0, force=(0.0, 0.0, 3.0)), top, UP))
+
+
+def test_a_small_sphere_over_too_few_nodes_is_refused_naming_them_and_solves_on_a_finer_mesh():
+    """A sphere (R = 0.2 m) off-centre on a block with cells of 0.25 m reaches 2 top nodes: their rows see
+    two of its three translations, so the prescribed force cannot be balanced; the error names the count and
+    the remedy. Cells of 0.125 m: it is held, and the row forces balance the force (stationarity in t)."""
+    def scene(n):
+        mesh = cc.box(x=(-1, 1), y=(-1, 1), z=(-1, 0), nx=n, ny=n, nz=2)
+        body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top", name="b")
+        ball = cc.Rigid.sphere((0.3, 0.1, 0.2), 0.2, force=(0, 0, -1e8))
+        return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
+
+    with pytest.raises(SceneError, match=r"free to slide.*only 2 nodes of its pairs lie within its reach.*refine "
+                                         r"the mesh under it.*guided="):
+        scene(8)
+    sol = cc.solve(scene(16))
+    assert sol.ok
+    np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, -1e8], rtol=0, atol=1e-6 * 1e8)  # measured 4.7e-10 N

@@ -712,10 +712,15 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
                     side = _direction(off)
                     along = "its normal " + _fmt(basis[:, 0] + 0.0) if rank == 1 else \
                         "the directions " + ", ".join(_fmt(b + 0.0) for b in basis.T)
+                    seen = int((np.abs(rows) > 0).any(axis=1).sum())
+                    few = "" if obstacle.kind in ("plane", "cylinder") else (
+                        f" (only {seen} node{'s' if seen != 1 else ''} of its pairs {'lie' if seen != 1 else 'lies'}"
+                        f" within its reach, too few to hold it in {dim} directions: refine the mesh under it, "
+                        f"cells well below its size, or guide it with guided=<the force's direction>)")
                     raise SceneError(
                         f"{label}: the force {_fmt(F)} {unit} has a component {np.linalg.norm(off):.6g} {unit} along "
                         f"{_fmt(side)}, which frictionless contact cannot balance: the obstacle is free to slide "
-                        f"along {_fmt(side)}; give a force along {along} only")
+                        f"along {_fmt(side)}; give a force along {along} only{few}")
             y, res = nnls(rows.T / scale, F)
             if res > 1e-9 * np.linalg.norm(F):
                 r = F - rows.T @ y / scale

@@ -287,10 +287,11 @@ class ObstacleResult:
 
     ``translation`` (d,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
     normal: a tangential translation changes nothing); ``force`` (d,): the obstacle's reaction, N/m in 2D
-    (per unit thickness), N in 3D: the resultant with which
-    the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
-    :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
-    force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
+    (per unit thickness), N in 3D: the resultant the obstacle
+    exerts on the bodies, sum_a c_a y_a over its nodes a (c_a of
+    :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), equal and
+    opposite to the contact's push on the obstacle, i.e. the force needed to hold it where it is (a plane
+    under a body: upwards; a sphere pressed down onto one: downwards); for a force-controlled obstacle it equals the prescribed
     ``prescribed`` (the check "obstacle balance"). ``pairs`` are its contact pairs.
     """
 

@@ -176,11 +176,11 @@ def contact_radius(sol):
     """(a_h, min, max) (m): the distances from the axis of the mid-points of the trace edges joining an active
     node to an open one (mean, smallest, largest)."""
     itf = _contact_surface(sol)
-    trace = itf.traces[0]
+    trace, reach = itf.traces[0], block_nodes(sol)
     active = np.zeros(len(trace.nodes), dtype=bool)
-    active[itf.reach] = sol.contact.active
+    active[reach] = sol.contact.active
     on = np.zeros(len(trace.nodes), dtype=bool)
-    on[itf.reach] = True
+    on[reach] = True
     return _edge_radius(trace, active, on, outward=True)
 
 
@@ -229,6 +229,23 @@ def moment_radius(x, force) -> float:
     the edge of the zone."""
     x, force = np.asarray(x, dtype=float), np.asarray(force, dtype=float)
     return float(np.sqrt(2.5 * (force @ (x * x).sum(axis=1)) / force.sum()))
+
+
+def block_nodes(sol) -> np.ndarray:
+    """(size,) int: the node of the first body's contact trace (the block's; P2: its trace's P2 nodes) at each
+    node of X_h: against an obstacle the nodes that reach it, between two bodies the trace node at the same
+    in-plane point (the faces match: every node of X_h is one of the block's, else SolverError)."""
+    from scipy.spatial import cKDTree
+
+    itf = _contact_surface(sol)
+    if getattr(itf, "rigid", False):
+        return np.asarray(itf.reach)
+    trace = itf.traces[0]
+    dist, at = cKDTree(np.asarray(trace.x)).query(np.asarray(itf.x))
+    if dist.max() > 1e-9 * float(np.ptp(trace.x)):
+        raise SolverError("block_nodes: a node of X_h is not a node of the block's contact faces (non-matching "
+                          "faces); the study's read-back needs the two bodies' contact faces to match")
+    return at
 
 
 def _contact_surface(sol):
@@ -286,26 +303,28 @@ def hat_loads(trace, pressure, k=8):
     return out
 
 
-def measure(sol, delta):
-    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force.
+def measure(sol, delta, closed_form=None):
+    """The row of one solution: force, radius, peak pressure, approach against Hertz at the measured force
+    (``closed_form(F)`` -> (a, p0, delta), default :func:`hertz`; the peak pressure and the axis cell's force
+    are those felt by the first body, the block).
     The contact radius a_h: under a nodal condition the edge mid-points (:func:`contact_radius`), under P2
     "gamma3" the hull of the points where the gap closes (:func:`support_radius`; the zone's edge lies inside
     triangles there, whose nodes need not touch); both estimators, and :func:`moment_radius`, on every row."""
     c = sol.contact
     F = 4 * float(c.force.sum())
-    a, p0, d = hertz(F)
+    a, p0, d = (closed_form or hertz)(F)
     a_hull, support = support_radius(sol)
     a_moment = moment_radius(c.x, c.force)
     conic = sol.degree == 2 and sol.condition == "gamma3"
     a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
     itf = _contact_surface(sol)
-    trace = itf.traces[0]
+    trace, reach = itf.traces[0], block_nodes(sol)
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     axis = int(np.argmin(r))
     if sol.degree == 1:
         p0_h = float(c.pressure[axis])                                  # force over lumped area
     else:                                                               # the Riesz pressure on the P2 faces
-        p0_h = float(sol.traction(0)[1][itf.reach[axis]])
+        p0_h = float(sol.traction(0)[1][reach[axis]])
     vertices = getattr(trace, "linear", trace).points                   # the grid's vertices (P2: not midpoints)
     lines = np.unique(np.round(vertices[:, 0], 12))
     h = float(np.diff(lines)[:3].max())                                 # cells near the axis
@@ -313,11 +332,11 @@ def measure(sol, delta):
     # functions, their mean pressure (force over the integral of those shape functions)
     cell = (c.points[:, 0] <= lines[1] * (1 + 1e-9)) & (c.points[:, 1] <= lines[1] * (1 + 1e-9))
     hertz_y = hat_loads(trace, lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
-    y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[itf.reach][cell].sum())
+    y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[reach][cell].sum())
     if sol.degree == 1:
         area = float(c.measure[cell].sum())
     else:
-        area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[itf.reach][cell].sum())
+        area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[reach][cell].sum())
     dofs = sum(3 * len(p) for p in sol.points)
     return dict(F_N=F, h_m=h, dofs=dofs, a_m=a, a_h_m=a_h, a_h_min_m=a_min, a_h_max_m=a_max,
                 a_rel_error=a_h / a - 1, a_hull_m=a_hull, a_hull_rel_error=a_hull / a - 1, support_points=support,

@@ -101,11 +101,12 @@ def scene(n, delta=0.0, size=SIZE, ratio=RATIO, pushed=None) -> Scene:
     return Scene(block, punch, contacts=[Contact(block, "top", punch, "bottom", condition=CONDITION, gap=-delta)])
 
 
-def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
+def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30, gap=None):
     """(solution, delta (m), re-solves): the gap -delta of ``base`` set by secant steps until the total force
-    (four quarters) is F (N), with ``solver`` (a ContactSolver of ``base``)."""
+    (four quarters) is F (N), with ``solver`` (a ContactSolver of ``base``); ``gap``: delta -> the pair's gap
+    instead (a number or a callable g(s1, s2), m; the profile variant: :func:`profile_gap`)."""
     def at(delta):
-        sol = solver.solve(base.with_gap(-delta))
+        sol = solver.solve(base.with_gap(-delta if gap is None else gap(delta)))
         return sol, 4 * float(sol.contact.force.sum())
 
     return secant_press(at, F, hertz(F)[2], rtol, steps)
@@ -223,7 +224,72 @@ def figure(sol, rows):
     return fig
 
 
-def run(out, quick=False, progress=None):
+class SphereGap:
+    """The profile variant's initial gap g(s1, s2) = R - sqrt(R^2 - s1^2 - s2^2) - delta (m): the sphere's
+    height over its tangent plane at the in-plane point (s1, s2) (m, the pair's frame, origin on the axis),
+    shifted by the approach ``delta`` (m). A vectorised callable; immutable."""
+
+    __slots__ = ("delta", "radius")
+
+    def __init__(self, delta=0.0, radius=R):
+        object.__setattr__(self, "delta", float(delta))
+        object.__setattr__(self, "radius", float(radius))
+
+    def __setattr__(self, name, value):
+        raise AttributeError("SphereGap is immutable: build another with SphereGap(delta, radius)")
+
+    def __call__(self, s1, s2):
+        r2 = np.asarray(s1, dtype=float) ** 2 + np.asarray(s2, dtype=float) ** 2
+        return self.radius - np.sqrt(self.radius ** 2 - r2) - self.delta
+
+    def __repr__(self):
+        return f"SphereGap(delta={self.delta!r}, radius={self.radius!r})"
+
+
+def sphere_block(n, size=SIZE, ratio=RATIO) -> Body:
+    """The profile variant's upper body: the steel box [0, L]^2 x [0, L] (quarter, n cells per edge, graded
+    towards the origin as the block) with its flat bottom's patch [0, 2 a_ref]^2 as the contact part "zone",
+    symmetry rollers on x = 0 and y = 0, its top held at u_z = 0 (x, y free)."""
+    L = size * A_REF
+    mesh = box(x=(0.0, L), y=(0.0, L), z=(0.0, L), nx=n, ny=n, nz=n,
+               patches={"zone": ("bottom", (0.0, 2 * A_REF), (0.0, 2 * A_REF))}, grade=((0.0, 0.0, 0.0), ratio))
+    return Body(mesh, materials.isotropic(E=E1, nu=NU1, name="steel"), name="sphere", roller=["left", "front"],
+                displacement={"top": (None, None, 0.0)}, contact="zone")
+
+
+def profile_scene(n, delta=0.0, size=SIZE, ratio=RATIO) -> Scene:
+    """Hertz's own boundary-value problem, quarter model: the aluminium block (:func:`hertz3d.block`) under the
+    flat steel body (:func:`sphere_block`), their matching patches "zone" in a pair whose initial gap is the
+    sphere's profile :class:`SphereGap` (delta) (the half-space approximation: a << R)."""
+    from .hertz3d import block
+
+    lower, upper = block(n, size, ratio), sphere_block(n, size, ratio)
+    return Scene(lower, upper, contacts=[Contact(lower, "zone", upper, "zone", gap=SphereGap(delta))])
+
+
+def solve_profile_level(n, degree=1, condition="sigma1", size=SIZE, ratio=RATIO, F=FORCE):
+    """(row, solution) of one level of the profile variant under force control (:func:`press` on the profile's
+    approach, the condensed backend); ``degree`` 2: P2 (10-node) tetrahedra; ``condition`` "sigma1" (the
+    block's nodes; P2: its P2 nodes) or "gamma3" (P1: every merged node; P2: the copositive condition on every
+    face of X_h). The read-back is the rigid study's (:func:`hertz3d.measure`) with E* of both bodies."""
+    from ...solve import ContactSolver
+    from .hertz3d import FORCE_RTOL_CONIC, measure
+
+    clock = Timer()
+    base = profile_scene(n, 0.0, size, ratio)
+    solver = ContactSolver(base, condition, method="condensed", degree=degree)
+    conic = degree == 2 and condition == "gamma3"
+    sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10, gap=SphereGap)
+    far = boussinesq(F, size * A_REF, E1, NU1) + boussinesq(F, size * A_REF, E2, NU2)
+    row = dict(variant="profile", degree=degree, condition=condition, n=n) | measure(sol, delta, hertz)
+    row |= dict(far_field_rel=far / hertz(F)[2], resolves=resolves, seconds=clock())
+    return row, sol
+
+
+def run(out, quick=False, progress=None, profile=False):
+    """The study (``profile``: its gap-profile variant, :func:`run_profile`)."""
+    if profile:
+        return run_profile(out, quick, progress)
     say = progress or (lambda s: None)
     out = Path(out)
     levels = LEVELS[:1] if quick else LEVELS

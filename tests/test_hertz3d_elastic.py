@@ -220,3 +220,131 @@ def test_p1_errors_shrink_with_h(pressed):
     for key in ("p0_rel_error", "cell_force_rel_error", "delta_rel_error"):
         assert abs(fine[key]) < 0.7 * abs(coarse[key]), key                # measured ratios 0.56, 0.59, 0.61
     assert abs(fine["a_rel_error"]) < 0.05                                 # measured -0.006
+
+
+# --- the gap-profile variant: two flat blocks, the sphere's profile carried by the pair's gap ---------------
+
+@pytest.fixture(scope="module")
+def profile():
+    """Level n = 8 of the variant under each degree and condition: (row, solution) by (degree, condition)."""
+    return {key: h.solve_profile_level(N, *key) for key in [(1, "sigma1"), (1, "gamma3"), (2, "sigma1"),
+                                                             (2, "gamma3")]}
+
+
+def test_sphere_gap_is_the_spheres_height_over_its_tangent_plane():
+    g = h.SphereGap(1e-5)
+    r = np.array([0.0, 1e-3, 2e-3])
+    z = h.R - np.sqrt(h.R ** 2 - r ** 2)                        # the sphere's surface touching z = 0 at r = 0
+    np.testing.assert_allclose(g(r, 0 * r), z - 1e-5, rtol=0, atol=1e-18)
+    np.testing.assert_allclose(g(r / np.sqrt(2), r / np.sqrt(2)), z - 1e-5, rtol=0, atol=1e-18)
+    # Hertz's approximation: the parabola r^2 / 2R within (a / R)^2 / 4 of it at r = a (0.06 % at a = 1 mm)
+    assert g(1e-3, 0.0) + 1e-5 == pytest.approx(1e-6 / (2 * h.R), rel=1e-3)   # measured 6.3e-4
+    with pytest.raises(AttributeError, match="immutable"):
+        g.delta = 0.0
+
+
+@pytest.mark.parametrize("key", [(1, "sigma1"), (2, "sigma1"), (2, "gamma3")], ids=["P1", "P2 sigma1", "P2 gamma3"])
+def test_the_rows_carry_the_profile_at_their_nodes(profile, key):
+    """The gap at every node of X_h is the sphere's height over z = 0 at that point minus the approach (read
+    from the 3D points, not the pair's frame); the active nodes touch it."""
+    row, sol = profile[key]
+    c = sol.contact
+    r = np.hypot(c.points[:, 0], c.points[:, 1])
+    np.testing.assert_allclose(c.gap, h.R - np.sqrt(h.R ** 2 - r ** 2) - row["delta_h_m"], rtol=0,
+                               atol=1e-12 * row["delta_h_m"])       # measured 0 (the same floating-point terms)
+    assert np.allclose(c.points[:, 2], 0.0, atol=1e-15)
+    if key != (2, "gamma3"):
+        np.testing.assert_allclose(c.jump[c.active], c.gap[c.active], rtol=0, atol=1e-9 * row["delta_h_m"])
+
+
+@pytest.mark.parametrize("key", [(1, "sigma1"), (1, "gamma3"), (2, "sigma1"), (2, "gamma3")],
+                         ids=["P1 sigma1", "P1 gamma3", "P2 sigma1", "P2 gamma3"])
+def test_profile_hertz_quantities_at_the_coarsest_level(profile, key):
+    """The design force reached; a, p0 and the approach within the measured errors of level 8 (about two cells
+    across the contact radius) against Hertz with E* of both bodies."""
+    row, sol = profile[key]
+    conic = key == (2, "gamma3")
+    assert sol.ok
+    assert row["F_N"] == pytest.approx(h.FORCE, rel=2e-7 if conic else 1e-10)
+    bounds = {  # (|a_h / a - 1|, p0 error range, delta error range); measured beside
+        (1, "sigma1"): (0.12, (-0.22, -0.13), (-0.15, -0.07)),   # +0.075, -0.176, -0.110
+        (1, "gamma3"): (0.12, (-0.22, -0.13), (-0.15, -0.07)),   # +0.075, -0.176, -0.110
+        (2, "sigma1"): (0.10, (-0.10, -0.03), (-0.09, -0.02)),   # +0.051, -0.063, -0.051
+        (2, "gamma3"): (0.25, (-0.13, -0.05), (-0.09, -0.03)),   # -0.200 (hull: from inside), -0.091, -0.060
+    }[key]
+    assert abs(row["a_rel_error"]) < bounds[0]
+    assert bounds[1][0] < row["p0_rel_error"] < bounds[1][1]
+    assert bounds[2][0] < row["delta_rel_error"] < bounds[2][1]
+    # the forces spread as Hertz's: the second-moment radius
+    assert abs(row["a_moment_rel_error"]) < (0.08 if key[0] == 1 else 0.01)   # measured -0.050; +0.002, -0.0007
+
+
+def test_p1_gamma3_is_p1_sigma1_on_matching_faces(profile):
+    """The merged nodes of matching faces are the block's nodes: the overlay's rows and the nodal rows give the
+    same solution (two constructions of the rows)."""
+    (_, s1), (_, s3) = profile[1, "sigma1"], profile[1, "gamma3"]
+    scale = max(float(np.abs(u).max()) for u in s1.u)
+    for u, v in zip(s3.u, s1.u):
+        np.testing.assert_allclose(u, v, rtol=0, atol=1e-9 * scale)           # measured ~1e-16 of the scale
+    np.testing.assert_allclose(s3.contact.force, s1.contact.force, rtol=0, atol=1e-9 * h.FORCE)
+
+
+def test_p2_reads_hertz_closer_than_p1_at_equal_level(profile):
+    """Level 8: the peak pressure and the approach nearer Hertz with P2 under either condition (measured p0:
+    P1 -0.176, P2 sigma1 -0.063, P2 gamma3 -0.091; delta: -0.110, -0.051, -0.060)."""
+    p1 = profile[1, "sigma1"][0]
+    for key in [(2, "sigma1"), (2, "gamma3")]:
+        p2 = profile[key][0]
+        assert abs(p2["p0_rel_error"]) < 0.6 * abs(p1["p0_rel_error"]), key       # measured 0.36, 0.52
+        assert abs(p2["delta_rel_error"]) < 0.7 * abs(p1["delta_rel_error"]), key  # measured 0.46, 0.54
+
+
+def test_profile_and_punch_agree(profile, pressed):
+    """The same contact posed two ways at level 8: the punch with a spherical end (curved node-to-face rows)
+    and the flat bodies with the profile as the gap (Hertz's half-space approximation, error O((a/R)^2)):
+    p0 and the approach within a few percent of each other (measured: p0 -0.179 / -0.176, delta -0.108 /
+    -0.110 relative to Hertz)."""
+    sol, delta, _ = pressed
+    punch = h.measure(sol, delta)
+    flat = profile[1, "sigma1"][0]
+    assert flat["p0_h_Pa"] == pytest.approx(punch["p0_h_Pa"], rel=0.02)        # measured 3e-3
+    assert flat["delta_h_m"] == pytest.approx(punch["delta_h_m"], rel=0.02)    # measured 2e-3
+
+
+def test_profile_force_balance(profile):
+    """The rows carry the force to the block's clamped bottom and the steel body's held top (their reactions
+    K u sum to the quarter's force), P1."""
+    row, sol = profile[1, "sigma1"]
+    for k, part in enumerate(["bottom", "top"]):
+        body = sol.scene.bodies[k]
+        reaction = (assemble_matrices(body).Kuu @ sol.u[k].ravel()).reshape(-1, 3)
+        held = body.mesh.boundary_nodes([part])
+        assert 4 * reaction[held, 2].sum() == pytest.approx((1.0 if k == 0 else -1.0) * h.FORCE, rel=1e-9)
+
+
+def test_gap_interpolation_on_the_cells(profile):
+    """g - g_h on the cells of X_h: P2 interpolates the profile's parabola exactly, so only its quartic part is
+    left (measured 1.9e-4 of the approach at n = 8), P1 leaves h^2 g'' / 8 (0.16 at the patch's coarse outer
+    cells)."""
+    e1 = h.gap_interpolation_error(profile[1, "sigma1"][1]) / profile[1, "sigma1"][0]["delta_h_m"]
+    e2 = h.gap_interpolation_error(profile[2, "gamma3"][1]) / profile[2, "gamma3"][0]["delta_h_m"]
+    assert 0.05 < e1 < 0.3                                                     # measured 0.16
+    assert e2 < 1e-3                                                           # measured 1.9e-4
+    assert e2 < 0.01 * e1
+
+
+def test_p1_profile_errors_shrink_with_h(profile):
+    """Level 16 against 8 (P1): the peak pressure and the approach approach Hertz (measured p0 -0.176 / -0.106,
+    delta -0.110 / -0.072)."""
+    coarse = profile[1, "sigma1"][0]
+    fine, sol = h.solve_profile_level(16)
+    assert sol.ok and fine["F_N"] == pytest.approx(h.FORCE, rel=1e-10)
+    for key in ("p0_rel_error", "delta_rel_error"):
+        assert abs(fine[key]) < 0.75 * abs(coarse[key]), key                  # measured ratios 0.60, 0.65
+
+
+def test_the_profile_variant_is_a_cli_flag_of_this_study_only(capsys):
+    from cvxcontact.apps.cli import main
+
+    assert main(["study", "hertz", "--profile", "--out", "unused", "-q"]) == 1
+    assert "--profile is a variant of the study hertz3d_elastic" in capsys.readouterr().err

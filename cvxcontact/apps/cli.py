@@ -77,6 +77,9 @@ def _parser():
     study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "hertz3d", "hertz3d_elastic", "all"))
     study.add_argument("--out", required=True, help="output folder")
     study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
+    study.add_argument("--profile", action="store_true",
+                       help="hertz3d_elastic only: the gap-profile variant (two flat bodies, the sphere's profile as "
+                            "the pair's initial gap; P1 and P2 rows)")
     for s in (solve, info, sweep):
         s.add_argument("--allow-outside-mesh", action="store_true",
                        help="accept mesh files outside the scene file's folder, or given by absolute paths "
@@ -225,12 +228,17 @@ def _study(args, progress):
     from .studies import STUDIES
 
     names = STUDIES if args.name == "all" else (args.name,)
+    if args.profile and args.name != "hertz3d_elastic":
+        raise CvxContactError(f"--profile is a variant of the study hertz3d_elastic, not of {args.name!r}; "
+                              "run `cvxcontact study hertz3d_elastic --profile`")
     for name in names:
         progress(f"study {name}{' (quick)' if args.quick else ''}")
         out = Path(args.out) / name if len(names) > 1 else Path(args.out)
-        importlib.import_module(f".studies.{name}", __package__).run(out, quick=args.quick, progress=progress)
+        extra = dict(profile=True) if args.profile else {}
+        importlib.import_module(f".studies.{name}", __package__).run(out, quick=args.quick, progress=progress,
+                                                                    **extra)
         if not args.quiet:
-            print(f"{name}: {out}/{name}.md")
+            print(f"{name}: {out}/{name}{'_profile' if args.profile else ''}.md")
     return 0
 
 

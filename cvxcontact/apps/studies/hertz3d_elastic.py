@@ -345,3 +345,166 @@ def run(out, quick=False, progress=None, profile=False):
               "docs/studies/hertz3d: 3e-4 when L doubles).\n")
     write_text(out / "hertz3d_elastic.md", text)
     return dict(rows=rows, rates=rates)
+
+
+PROFILE_ROWS = {(1, "sigma1"): (8, 16, 24), (1, "gamma3"): (8, 16, 24), (2, "sigma1"): (8, 16),
+                (2, "gamma3"): (8, 16)}
+"""The profile variant's rows: (degree, condition) -> levels (``quick``: the first of each)."""
+PROFILE_FINE = {(2, "sigma1"): (24,), (2, "gamma3"): (24,)}
+"""Levels added by ``run_profile(fine=True)``: P2 at n = 24 (two bodies of 350,000 unknowns each; their cost is
+in the study's table)."""
+
+
+def gap_interpolation_error(sol, k=8) -> float:
+    """m: the largest |g - g_h| over the cells of X_h (P1: the overlay triangles, P2: their 6-node cells), each
+    sampled at the (k + 1)(k + 2)/2 points of its k-th barycentric lattice: g the profile :class:`SphereGap`
+    at the solution's approach, g_h the interpolant (P1 linear, P2 quadratic) of the gap the rows carry
+    (``sol.contact.gap``, the profile evaluated at the nodes of X_h). What the copositive "gamma3" condition
+    imposes between nodes (docs/formulation.md §16); the nodal rows see g at their nodes only."""
+    from ...contact.quadratic3d import p2_shape
+
+    c = sol.contact
+    itf = sol.interface if sol.degree == 2 else sol.scene.interfaces[0]
+    cells = np.asarray(itf.cells if sol.degree == 2 else itf.overlay.triangles)
+    i, j = (g.ravel() for g in np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij"))
+    keep = i + j <= k
+    lam = np.column_stack([k - i[keep] - j[keep], i[keep], j[keep]]) / k          # (q, 3) barycentric
+    shape = lam if sol.degree == 1 else p2_shape(lam)
+    x = np.asarray(c.x, dtype=float)
+    X = np.einsum("qj,cjd->cqd", lam, x[cells[:, :3]])                            # (c, q, 2)
+    g_h = np.einsum("qj,cj->cq", shape, np.asarray(c.gap, dtype=float)[cells])
+    depth = float(np.max(SphereGap(0.0)(x[:, 0], x[:, 1]) - np.asarray(c.gap)))    # the approach delta
+    return float(np.abs(SphereGap(depth)(X[..., 0], X[..., 1]) - g_h).max())
+
+
+def run_profile(out, quick=False, progress=None, fine=False):
+    """The gap-profile variant: every row of :data:`PROFILE_ROWS` (``quick``: level 8 only; ``fine``: with
+    :data:`PROFILE_FINE`), written to hertz3d_elastic_profile.csv / .png / .md in ``out``; returns the rows and
+    the observed rates."""
+    say = progress or (lambda s: None)
+    out = Path(out)
+    rows, sols = [], {}
+    for key, levels in PROFILE_ROWS.items():
+        degree, condition = key
+        levels = levels + (PROFILE_FINE.get(key, ()) if fine else ())
+        for n in levels[:1] if quick else levels:
+            row, sol = solve_profile_level(n, degree, condition)
+            row["gap_interp_rel"] = gap_interpolation_error(sol) / row["delta_h_m"]
+            sols[degree, condition] = (n, sol)
+            rows.append(row)
+            say(f"hertz3d_elastic profile P{degree} {condition} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, "
+                f"p0_h/p0 - 1 = {row['p0_rel_error']:+.2e}, delta_h/delta - 1 = {row['delta_rel_error']:+.2e} "
+                f"({row['seconds']:.1f} s)")
+    write_csv(out / "hertz3d_elastic_profile.csv", rows)
+    save_figure(figure_profile(sols), out / "hertz3d_elastic_profile.png")
+    return write_profile_report(out, rows)
+
+
+def figure_profile(sols):
+    """The pressure felt by the block (nonzero values) against r at the finest level of each row (``sols``:
+    (degree, condition) -> (n, solution)), with Hertz's profile at the design force."""
+    from matplotlib.ticker import MaxNLocator
+
+    from ...io.plot import eng
+    from .hertz3d import _contact_surface
+
+    plt = pyplot()
+    a, p0, _ = hertz(FORCE)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
+    rs = np.linspace(0, a, 300)
+    ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form, E* of both)", zorder=3)
+    marks = {(1, "sigma1"): "o", (1, "gamma3"): "x", (2, "sigma1"): "s", (2, "gamma3"): "^"}
+    for key, (n, sol) in sols.items():
+        x = _contact_surface(sol).traces[0].points
+        p = sol.traction(0)[1]
+        on = p != 0
+        ax.plot(np.hypot(x[on, 0], x[on, 1]), p[on], marks[key], ms=3, mfc="none",
+                label=f"P{key[0]} {key[1]}, n = {n}: felt by the block")
+    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
+           title=f"Steel on aluminium, the sphere's profile (R = {R * 1e3:g} mm) as the gap, F = {FORCE / 1e3:.3g} kN")
+    ax.title.set_fontsize(10)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend(fontsize=7)
+    return fig
+
+
+def write_profile_report(out, rows):
+    """hertz3d_elastic_profile.md from the variant's rows; returns the rows and the observed rates in h."""
+    kinds = list(dict.fromkeys((r["degree"], r["condition"]) for r in rows))
+    conv = {k: [r for r in rows if (r["degree"], r["condition"]) == k] for k in kinds}
+    keys = ("a_rel_error", "a_hull_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error")
+    rates = {k: {q: slope([r["h_m"] for r in conv[k]], [abs(r[q]) for r in conv[k]]) for q in keys} for k in kinds}
+    fmt = {"h_m": ".3e", "F_N": ".6g", "a_m": ".4e", "a_h_m": ".4e", "a_h_min_m": ".3e", "a_h_max_m": ".3e",
+           "a_rel_error": "+.3f", "a_hull_m": ".4e", "a_hull_rel_error": "+.3f", "a_moment_m": ".4e",
+           "a_moment_rel_error": "+.4f", "p0_Pa": ".4e", "p0_h_Pa": ".4e", "p0_rel_error": "+.3f",
+           "p_cell_Pa": ".4e", "cell_force_rel_error": "+.4f", "delta_m": ".4e", "delta_h_m": ".4e",
+           "delta_rel_error": "+.3f", "far_field_rel": ".3f", "gap_interp_rel": ".1e", "seconds": ".1f"}
+    short = ["degree", "condition", "n", "dofs", "h_m", "a_rel_error", "a_hull_rel_error", "a_moment_rel_error",
+             "p0_rel_error", "cell_force_rel_error", "delta_rel_error", "gap_interp_rel", "seconds"]
+    cols = ["degree", "condition", "n", "dofs", "h_m", "F_N", "a_m", "a_h_m", "a_h_min_m", "a_h_max_m",
+            "a_rel_error", "a_hull_m", "a_hull_rel_error", "support_points", "a_moment_m", "a_moment_rel_error",
+            "p0_Pa", "p0_h_Pa", "p0_rel_error", "p_cell_Pa", "cell_force_rel_error", "delta_m", "delta_h_m",
+            "delta_rel_error", "far_field_rel", "gap_interp_rel", "active_nodes", "contact_nodes", "ok",
+            "resolves", "seconds"]
+
+    def listed(k, q, f="+.3f", ns=None):
+        return ", ".join(f"{r[q]:{f}}" for r in conv[k] if ns is None or r["n"] in ns)
+
+    def rate(k):
+        return (f"P{k[0]} {k[1]} (levels {', '.join(str(r['n']) for r in conv[k])}): peak pressure "
+                f"{rates[k]['p0_rel_error']:.2f}, axis cell's force {rates[k]['cell_force_rel_error']:.2f}, "
+                f"approach {rates[k]['delta_rel_error']:.2f}, contact radius {rates[k]['a_rel_error']:.2f}")
+
+    same = ""
+    if (1, "sigma1") in conv and (1, "gamma3") in conv:
+        d = max(abs(r1[q] - r3[q]) for r1, r3 in zip(conv[1, "sigma1"], conv[1, "gamma3"]) for q in keys)
+        same = (f"On matching faces the merged nodes are the block's nodes, so P1 \"gamma3\" and P1 \"sigma1\" pose "
+                f"the same rows: their columns agree to {d:.0e} (relative to Hertz). ")
+    p2 = ""
+    if (2, "sigma1") in conv and (1, "sigma1") in conv:
+        common = [n for n in (r["n"] for r in conv[2, "sigma1"]) if n in {r["n"] for r in conv[1, "sigma1"]}]
+        p2 = (f"At equal levels (n = {', '.join(map(str, common))}) P2 reads the peak pressure closer to Hertz: "
+              f"P2 sigma1 {listed((2, 'sigma1'), 'p0_rel_error', ns=common)}"
+              + (f", P2 gamma3 {listed((2, 'gamma3'), 'p0_rel_error', ns=common)}" if (2, "gamma3") in conv else "")
+              + f" against P1's {listed((1, 'sigma1'), 'p0_rel_error', ns=common)}; the approach, P2 sigma1 "
+              f"{listed((2, 'sigma1'), 'delta_rel_error', ns=common)} against P1's "
+              f"{listed((1, 'sigma1'), 'delta_rel_error', ns=common)}. ")
+    text = (f"# Hertz validation in 3D, two elastic bodies: the gap-profile model\n\n"
+            f"Hertz's own boundary-value problem: two elastic half-spaces, here a steel body (E1 = {E1 / 1e9:g} GPa, "
+            f"nu1 = {NU1}) on an aluminium block (E2 = {E2 / 1e9:g} GPa, nu2 = {NU2}), E* = {E_STAR / 1e9:.4g} GPa, "
+            f"both with FLAT contact faces, the curvature of the sphere (R = {R * 1e3:g} mm) carried by the pair's "
+            "initial gap g(x, y) = R - sqrt(R^2 - r^2) - delta (Hertz's approximation: a << R). Quarter model "
+            f"(x, y >= 0): the block [0, L]^2 x [-L, 0] with its bottom clamped, the steel box [0, L]^2 x [0, L] "
+            f"with its top held at u_z = 0, L = {SIZE * A_REF * 1e3:g} mm, symmetry rollers on x = 0 and y = 0, "
+            f"matching grids graded towards the axis (largest/smallest cell {RATIO:g}, n cells per edge), the "
+            f"contact parts the patches [0, 2a]^2 of the two faces. The approach delta is set by secant re-solves "
+            f"so that the total force is F = {FORCE:.6g} N (to 1e-10; P2 gamma3 to 1e-7) at every level "
+            f"(Hertz: a = {A_REF * 1e3:g} mm). The punch with a spherical end (hertz3d_elastic.md) is the same "
+            "contact with a curved part, P1 only; this variant gives the P2 rows.\n\n"
+            "The gap is a function of the in-plane coordinates: the nodal rows (P1 and P2 \"sigma1\": the block's "
+            "nodes, P2: its vertices and edge midpoints; P1 \"gamma3\": the merged nodes) evaluate it at their "
+            "nodes; the copositive condition (P2 \"gamma3\", docs/formulation.md §16) imposes [u_nu] <= g_h on "
+            "every face, g_h the quadratic interpolant of g through the six nodes of the face. gap_interp_rel: "
+            "the largest |g - g_h| on the patch over the approach (P1: the linear interpolant), what the cells see "
+            "of the profile between nodes (the quadratic part of the profile, r^2 / 2R, is interpolated exactly "
+            "by P2).\n\n"
+            "Columns as the rigid sphere's study (docs/studies/hertz3d), against Hertz with E* of both bodies: "
+            "a_h the mean distance from the axis of the mid-points of the block's trace edges leaving the active "
+            "nodes outwards (P2: on the grid of P2 nodes; P2 gamma3: the hull radius a_hull of the points where "
+            "the gap closes, an estimate from inside); a_moment the radius of Hertz's profile with the forces' "
+            "second moment; p0_h the pressure felt by the block on the axis (P1: force over lumped area, P2: the "
+            "Riesz representer on its P2 faces); cell_force_rel_error the force of the axis cell's top nodes "
+            "against Hertz's pressure on the same shape functions; delta_h the approach. h_m: the grid spacing "
+            "near the axis (P2: of the vertices); dofs: both bodies. Seconds: one process on a shared two-core "
+            "machine.\n\n"
+            + markdown_table(rows, short, fmt)
+            + "\nEvery column (CSV: hertz3d_elastic_profile.csv):\n\n" + markdown_table(rows, cols, fmt)
+            + f"\nObserved rates in h: {'; '.join(rate(k) for k in kinds if len(conv[k]) > 1)}.\n\n"
+            + same + p2
+            + f"Size effect: both bodies are finite; Boussinesq's u_z at depth L in each body adds up to "
+              f"{rows[0]['far_field_rel']:.3f} of Hertz's delta, the order of the approach's shortfall on the "
+              "finest levels; a and p0 see the far field only through its variation across the contact zone.\n")
+    write_text(Path(out) / "hertz3d_elastic_profile.md", text)
+    return dict(rows=rows, rates=rates)

@@ -25,6 +25,16 @@ pressure integrated on the punch's hats over their projections on the plane (the
 the plane's normal; :func:`cvxcontact.apps.studies.hertz3d.hat_loads`). The pressures are over the curved part's
 true lumped areas, which exceed the projected ones by under 0.2 % within r < 2 a.
 
+The profile variant (``run(..., profile=True)``, ``cvxcontact study hertz3d_elastic --profile``): Hertz's own
+boundary-value problem, two bodies with FLAT contact faces (the aluminium block of the rigid study,
+:func:`cvxcontact.apps.studies.hertz3d.block`, under a steel box, :func:`sphere_block`, matching grids) whose
+pair's initial gap carries the sphere's profile g = R - sqrt(R^2 - r^2) - delta (:class:`SphereGap`; Hertz's
+half-space approximation, a << R). No part is curved, so P2 (10-node) tetrahedra apply: rows P1 and P2 under the
+nodal condition "sigma1" (the block's nodes; P2: its vertices and edge midpoints; the gap evaluated there) and
+"gamma3" (P1: the merged nodes, here the same; P2: the copositive condition on every face, the gap entering
+through its quadratic interpolant through the face's six nodes, :func:`gap_interpolation_error`), read back as
+the rigid study reads its block (:func:`cvxcontact.apps.studies.hertz3d.measure`) against Hertz with E* of both.
+
 Size effect: both bodies are finite (depth L, column height L, width L) where Hertz assumes half-spaces.
 Their far fields are missing from the approach: about Boussinesq's u_z at depth L in each body,
 F (1 + nu)(3 - 2 nu) / (2 pi E L) (``boussinesq``), against which the approach is listed; a and p0 depend on
@@ -505,6 +515,9 @@ def write_profile_report(out, rows):
             + same + p2
             + f"Size effect: both bodies are finite; Boussinesq's u_z at depth L in each body adds up to "
               f"{rows[0]['far_field_rel']:.3f} of Hertz's delta, the order of the approach's shortfall on the "
-              "finest levels; a and p0 see the far field only through its variation across the contact zone.\n")
+              "finest levels: P2's approach stays near the finite bodies' own value from the coarsest level on "
+              "(its rate in h says nothing), P1's approaches it from below (a P1 mesh is too stiff); a and p0 see "
+              "the far field only through its variation across the contact zone. The axis cell's force changes "
+              "sign with P2 (its rate says little).\n")
     write_text(Path(out) / "hertz3d_elastic_profile.md", text)
     return dict(rows=rows, rates=rates)

@@ -348,3 +348,38 @@ def test_the_profile_variant_is_a_cli_flag_of_this_study_only(capsys):
 
     assert main(["study", "hertz", "--profile", "--out", "unused", "-q"]) == 1
     assert "--profile is a variant of the study hertz3d_elastic" in capsys.readouterr().err
+
+
+def test_profile_report_and_figure(profile, tmp_path):
+    """The variant's report from the level-8 rows: the table, the gap's treatment and the comparison at equal
+    level; the figure written."""
+    from cvxcontact.apps.studies.common import save_figure
+
+    rows = [profile[key][0] | {"gap_interp_rel": 0.0} for key in h.PROFILE_ROWS]
+    out = h.write_profile_report(tmp_path, rows)
+    text = (tmp_path / "hertz3d_elastic_profile.md").read_text()
+    assert "| 2 | gamma3 | 8 | 29478 |" in text and "quadratic interpolant" in text
+    assert "P1 \"gamma3\" and P1 \"sigma1\" pose the same rows" in text
+    assert len(out["rows"]) == 4
+    save_figure(h.figure_profile({key: (N, profile[key][1]) for key in h.PROFILE_ROWS}), tmp_path / "f.png")
+    assert (tmp_path / "f.png").stat().st_size > 10_000
+
+
+def test_the_committed_profile_table_converges():
+    """docs/studies/hertz3d_elastic/hertz3d_elastic_profile.csv: every row at the design force and finished;
+    P1's peak-pressure error shrinks with h; at each level P2 (either condition) reads p0 closer to Hertz than
+    P1 (measured at n = 8, 16: P1 -0.176, -0.106; P2 sigma1 -0.063, -0.025; P2 gamma3 -0.091, -0.031)."""
+    import csv
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "studies" / "hertz3d_elastic" / "hertz3d_elastic_profile.csv"
+    with open(path) as fh:
+        rows = list(csv.DictReader(fh))
+    p0 = {(int(r["degree"]), r["condition"], int(r["n"])): float(r["p0_rel_error"]) for r in rows}
+    assert all(r["ok"] == "True" for r in rows)
+    assert all(abs(float(r["F_N"]) / h.FORCE - 1) < 2e-7 for r in rows)
+    p1 = [abs(p0[1, "sigma1", n]) for n in (8, 16, 24)]
+    assert p1[0] > p1[1] > p1[2]
+    for n in (8, 16):
+        for cond in ("sigma1", "gamma3"):
+            assert abs(p0[2, cond, n]) < abs(p0[1, "sigma1", n]), (cond, n)

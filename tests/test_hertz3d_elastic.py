@@ -383,3 +383,22 @@ def test_the_committed_profile_table_converges():
     for n in (8, 16):
         for cond in ("sigma1", "gamma3"):
             assert abs(p0[2, cond, n]) < abs(p0[1, "sigma1", n]), (cond, n)
+
+
+def test_the_read_back_refuses_non_matching_faces():
+    """The block's nodes of X_h (hertz3d.block_nodes) exist on matching faces only: a steel body of another grid
+    gives merged nodes that are not the block's, a typed error naming it."""
+    from cvxcontact.apps.studies import hertz3d
+    from cvxcontact.errors import SolverError
+
+    lower, upper = hertz3d.block(4), h.sphere_block(5)
+    sc = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "zone", upper, "zone", gap=h.SphereGap(2e-5))])
+    sol = cc.solve(sc, "gamma3")
+    assert sol.ok and sol.contact.active.any()
+    with pytest.raises(SolverError, match="non-matching faces"):
+        hertz3d.block_nodes(sol)
+    matched = cc.solve(h.profile_scene(4, 2e-5), "sigma1")
+    itf = matched.scene.interfaces[0]
+    at = hertz3d.block_nodes(matched)
+    assert len(np.unique(at)) == len(at) == len(itf.x)
+    np.testing.assert_allclose(itf.traces[0].x[at], itf.x, rtol=0, atol=1e-15)   # the same in-plane points

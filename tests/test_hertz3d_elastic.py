@@ -402,3 +402,28 @@ def test_the_read_back_refuses_non_matching_faces():
     at = hertz3d.block_nodes(matched)
     assert len(np.unique(at)) == len(at) == len(itf.x)
     np.testing.assert_allclose(itf.traces[0].x[at], itf.x, rtol=0, atol=1e-15)   # the same in-plane points
+
+
+@pytest.mark.parametrize("degree,condition", [(1, "sigma1"), (2, "sigma1"), (2, "gamma3")],
+                         ids=["P1", "P2 sigma1", "P2 gamma3"])
+def test_mirror_bodies_are_the_rigid_sphere_on_a_block_of_modulus_e_star(degree, condition):
+    """With the steel body's top clamped it is the block's mirror image (the same graded grid, the same
+    Poisson's ratio): its surface compliance is E2/E1 times the block's, so the pair is the rigid sphere on the
+    block with 1/E* = (1 - nu^2)(1/E1 + 1/E2), and every error relative to Hertz is the rigid study's
+    (hertz3d.py: an obstacle's distance instead of a pair's gap function, one body instead of two). Measured
+    differences at n = 8: P1 and P2 sigma1 <= 2.3e-13; P2 gamma3 (the conic answer, its force reached to
+    1e-7) 1.4e-6 on p0 (the Riesz pressure at the axis), 9e-8 on a, <= 6e-8 on the others."""
+    from cvxcontact.apps.studies import hertz3d
+
+    lower, upper = hertz3d.block(N), h.sphere_block(N).with_changes(displacement={}, clamped=["top"])
+    mirror = np.unique(np.round(lower.mesh.points * [1, 1, -1], 12), axis=0)       # to 1e-12 m (of L = 1e-2 m)
+    np.testing.assert_array_equal(mirror, np.unique(np.round(upper.mesh.points, 12), axis=0))
+    base = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "zone", upper, "zone", gap=h.SphereGap(0.0))])
+    conic = condition == "gamma3"
+    solver = cc.ContactSolver(base, condition, method="condensed", degree=degree)
+    sol, delta, _ = h.press(solver, base, rtol=hertz3d.FORCE_RTOL_CONIC if conic else 1e-10, gap=h.SphereGap)
+    pair = hertz3d.measure(sol, delta, h.hertz)
+    rigid, _ = hertz3d.solve_level(N, degree=degree, condition=condition)
+    tol = 1e-5 if conic else 1e-10                    # measured 1.4e-6 and 2.3e-13 (above)
+    for key in ("a_rel_error", "a_moment_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error"):
+        assert pair[key] == pytest.approx(rigid[key], abs=tol), key

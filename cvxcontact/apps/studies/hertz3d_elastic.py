@@ -508,7 +508,9 @@ def write_profile_report(out, rows):
             "Riesz representer on its P2 faces); cell_force_rel_error the force of the axis cell's top nodes "
             "against Hertz's pressure on the same shape functions; delta_h the approach. h_m: the grid spacing "
             "near the axis (P2: of the vertices); dofs: both bodies. Seconds: one process on a shared two-core "
-            "machine.\n\n"
+            "machine (under varying load). `cvxcontact study hertz3d_elastic --profile` runs P1 to n = 24 and P2 "
+            "to n = 16; the P2 rows at n = 24 come from `run_profile(out, fine=True)` (about 11 GB peak memory "
+            "each, measured).\n\n"
             + markdown_table(rows, short, fmt)
             + "\nEvery column (CSV: hertz3d_elastic_profile.csv):\n\n" + markdown_table(rows, cols, fmt)
             + f"\nObserved rates in h: {'; '.join(rate(k) for k in kinds if len(conv[k]) > 1)}.\n\n"

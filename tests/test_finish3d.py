@@ -336,22 +336,30 @@ def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finishe
         cc.solve(scene, "gamma3", method="sparse")
 
 
-@pytest.mark.xfail(strict=True, reason="no exact finish yet for gamma3's dependent overlay rows (P1) in a scene with "
-                   "a normal-compliance pair: the interior point's answer is returned, complementarity ~1e-6")
 def test_dependent_rows_next_to_a_compliance_pair_are_finished():
     """Three blocks on non-matching faces pressed together by an interference at each pair (supported by
-    rollers), a Signorini "gamma3" pair next to a compliance pair p = k r: uniaxial strain with the law in
-    series, 2 delta = 3 p (1/3 m) / c33 + p / k, lambda = p on both pairs. The interior point's answer already
-    has it (lambda to 9.7e-10 and 1.6e-11 of p, measured) but is not finished (polished False; ok False at the
-    default tol: complementarity 1.08e-6 against 1e-6). The same with matching faces is finished exactly."""
+    rollers), a Signorini "gamma3" pair next to a compliance pair p = k r, either way up: uniaxial strain with
+    the law in series, 2 delta = 3 p (1/3 m) / c33 + p / k, lambda = p on both pairs. Finished by Newton on
+    the law around the finish of dependent rows (the interior point alone: lambda to 9.7e-10, complementarity
+    1.08e-6, not ok at the default tol)."""
     from test_refusals import DELTA3, _three_blocks_3d
 
     k = 1e12
-    scene = _three_blocks_3d(("gamma3", "gamma3"), (cc.Signorini(), cc.NormalCompliance(stiffness=k)))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", cc.ResidualWarning)
-        sol = cc.solve(scene)
     p = 2 * DELTA3 / (1 / uniaxial_modulus() + 1 / k)
-    for c in sol.contacts:
-        assert np.abs(c.lam / p - 1).max() < 1e-6                          # measured 9.7e-10, 1.6e-11
-    assert sol.polished and sol.ok
+    c33 = uniaxial_modulus()
+    for laws in ((cc.Signorini(), cc.NormalCompliance(stiffness=k)), (cc.NormalCompliance(stiffness=k), cc.Signorini())):
+        scene = _three_blocks_3d(("gamma3", "gamma3"), laws)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", cc.ResidualWarning)
+            sol = cc.solve(scene)
+        assert sol.polished and sol.ok and sol.info.finish == "semismooth Newton on independent active sets"
+        for c in sol.contacts:
+            assert np.abs(c.lam / p - 1).max() < 1e-9                          # measured <= 5.8e-14
+        # u_z: -p z / c33 in the lowest block, then the jump of each pair: 0 (Signorini) or -p / k (penetration)
+        jumps = [0.0 if not law.compliant else p / k for law in laws]
+        for b in range(3):
+            exact = -p * sol.points[b][:, 2] / c33 + DELTA3 * b - sum(jumps[:b])
+            assert np.abs(sol.u[b][:, 2] - exact).max() < 1e-12 * DELTA3          # measured <= 1.1e-15
+        r = sol.residuals()
+        assert r["equilibrium"] < 1e-14 and r["law"] < 1e-14 and r["feasibility"] < 1e-14   # measured <= 7.4e-16
+        assert r["complementarity"] < 1e-7           # the square root of rounding (1.5e-16): measured <= 1.2e-8

@@ -363,3 +363,92 @@ def test_dependent_rows_next_to_a_compliance_pair_are_finished():
         r = sol.residuals()
         assert r["equilibrium"] < 1e-14 and r["law"] < 1e-14 and r["feasibility"] < 1e-14   # measured <= 7.4e-16
         assert r["complementarity"] < 1e-7           # the square root of rounding (1.5e-16): measured <= 1.2e-8
+
+
+def compliance_problem(seed, exponent):
+    """Six unknowns (A SPD), three independent Signorini rows the unconstrained minimiser x_free violates and
+    three non-negative combinations of them with constant slacks (most binding, as in
+    :func:`test_dependent_rows_with_constant_slacks_against_every_active_set`), and three rows of a compliance
+    law k r_+^m with weights w, some penetrating at x_free."""
+    rng = np.random.default_rng(200 + seed)
+    n = 6
+    B = rng.normal(size=(n, n))
+    A = B @ B.T + n * np.eye(n)
+    base = rng.normal(size=(3, n))
+    C = rng.uniform(0.1, 1.0, size=(3, 3)) * (rng.uniform(size=(3, 3)) < 0.7)
+    C[np.arange(3), rng.integers(0, 3, 3)] = 0.7
+    soft = rng.normal(size=(3, n))
+    G = np.vstack([base, C @ base, soft])
+    x_free = rng.normal(size=n) * 3
+    g = np.concatenate([base @ x_free - rng.uniform(0.5, 2.0, size=3), np.zeros(3),
+                        soft @ x_free - rng.uniform(-1.0, 1.5, size=3)])
+    g[3:6] = C @ g[:3] - rng.uniform(-0.1, 0.5, size=3)
+    law = cc.contact.laws.RowLaws([cc.Signorini(), cc.NormalCompliance(stiffness=5.0, exponent=exponent)], [6, 3])
+    w = rng.uniform(0.5, 1.5, size=9)
+    return A, A @ x_free, G, g, w, law, x_free
+
+
+def enumerated_compliance(A, F, G, g, w, k):
+    """The minimiser of 1/2 x^T A x - F^T x + sum_a w_a k/2 (r_a)_+^2 (the compliance rows 6-8) subject to
+    r_a <= 0 (the Signorini rows 0-5), r = G x - g, by trying every set of closed Signorini rows with
+    independent rows and every set of penetrating compliance rows (the law linear on each): the one whose
+    forces are >= 0, every Signorini row feasible and every compliance row on the side it was taken on."""
+    S, Cr = np.arange(6), np.arange(6, 9)
+    for ks in range(7):
+        for closed in itertools.combinations(S, ks):
+            Gs = G[list(closed)]
+            if ks and np.linalg.matrix_rank(Gs) < ks:
+                continue
+            for kp in range(4):
+                for pen in itertools.combinations(Cr, kp):
+                    Gp, D = G[list(pen)], w[list(pen)] * k
+                    K = np.block([[A + Gp.T @ (D[:, None] * Gp), Gs.T], [Gs, np.zeros((ks, ks))]])
+                    z = np.linalg.solve(K, np.concatenate([F + Gp.T @ (D * g[list(pen)]), g[list(closed)]]))
+                    x, y = z[:6], z[6:]
+                    r = G @ x - g
+                    inside = np.isin(Cr, pen)
+                    if ((y >= -1e-12).all() and (r[S] <= 1e-12).all() and (r[Cr][inside] >= -1e-12).all()
+                            and (r[Cr][~inside] <= 1e-12).all()):
+                        return x
+    raise AssertionError("no active set solves the problem")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dependent_rows_next_to_a_linear_law_against_every_active_set(seed):
+    """Dependent Signorini rows next to compliance rows (m = 1), from the unconstrained minimiser with no row
+    closed and from every row closed: :func:`~cvxcontact.backends.compliance.dependent_newton` reaches the
+    minimiser found by enumerating every set of closed and penetrating rows, its forces >= 0 on independent
+    rows, stationary and feasible to rounding."""
+    from cvxcontact.backends.compliance import dependent_newton
+
+    A, F, G, g, w, law, x_free = compliance_problem(seed, 1.0)
+    ref = enumerated_compliance(A, F, G, g, w, 5.0)
+    for start in (np.zeros(9, dtype=bool), law.limited.copy()):
+        out = dependent_newton(sp.csr_matrix(A), F, sp.csr_matrix(G), g, w, law, x_free, np.zeros(9), start)
+        assert not isinstance(out, str), out
+        x, y, z, at = out[:4]
+        assert np.abs(x - ref).max() < 1e-12 * np.abs(ref).max()            # measured <= 9.3e-16
+        assert (z >= 0).all() and (z[~at] == 0).all() and np.linalg.matrix_rank(G[at]) == at.sum()
+        assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()  # measured <= 1.4e-15
+        assert ((G @ x - g)[:6] <= 1e-12 * np.abs(g).max()).all()            # measured <= 4.5e-16
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dependent_rows_next_to_a_quadratic_law_satisfy_the_optimality_system(seed):
+    """The same with the law k r_+^2 (m = 2): the optimality system of the strictly convex problem, checked by
+    numpy, certifies the unique minimiser: A x + G^T y = F with y = w k r_+^2 + z to rounding, z >= 0 on
+    independent rows, every Signorini row feasible and the rows carrying z closed."""
+    from cvxcontact.backends.compliance import dependent_newton
+
+    A, F, G, g, w, law, x_free = compliance_problem(seed, 2.0)
+    out = dependent_newton(sp.csr_matrix(A), F, sp.csr_matrix(G), g, w, law, x_free, np.zeros(9), np.zeros(9, bool))
+    assert not isinstance(out, str), out
+    x, y, z, at, newton_steps = out[:5]
+    r = G @ x - g
+    law_force = np.where(np.arange(9) >= 6, w * 5.0 * np.maximum(r, 0.0) ** 2, 0.0)
+    assert np.abs(y - law_force - z).max() <= 1e-13 * np.abs(y).max()        # measured <= 6.2e-15
+    assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()      # measured <= 2.4e-15
+    assert (z >= 0).all() and (z[6:] == 0).all() and np.linalg.matrix_rank(G[at]) == at.sum()
+    assert (r[:6] <= 1e-12 * np.abs(g).max()).all()                          # measured <= 3.8e-16
+    assert np.abs(r[at]).max(initial=0.0) <= 1e-12 * np.abs(g).max()         # measured <= 3.8e-16
+    assert newton_steps <= 12                                                 # measured 4-6

@@ -452,3 +452,75 @@ def test_dependent_rows_next_to_a_quadratic_law_satisfy_the_optimality_system(se
     assert (r[:6] <= 1e-12 * np.abs(g).max()).all()                          # measured <= 3.8e-16
     assert np.abs(r[at]).max(initial=0.0) <= 1e-12 * np.abs(g).max()         # measured <= 3.8e-16
     assert newton_steps <= 12                                                 # measured 4-6
+
+
+def _three_block_u_error(sol, p, jumps):
+    """max |u_z - exact| / DELTA3 over the three blocks of :func:`test_refusals._three_blocks_3d`: -p z / c33
+    in the lowest, each block above shifted by the interference DELTA3 less the penetrations ``jumps`` of the
+    pairs below it."""
+    from test_refusals import DELTA3
+
+    c33 = uniaxial_modulus()
+    return max(np.abs(sol.u[b][:, 2] - (-p * sol.points[b][:, 2] / c33 + DELTA3 * b - sum(jumps[:b]))).max()
+               for b in range(3)) / DELTA3
+
+
+def test_dependent_rows_next_to_a_quadratic_compliance_pair_are_finished():
+    """The three blocks with the law p = k r^2 (k = 1e16 Pa/m^2) on one pair, Signorini "gamma3" on the other,
+    either way up: 2 delta = p (1 m) / c33 + (p / k)^(1/2), solved for p by brentq (independent of the
+    package); lambda = p on both pairs, the fields to rounding, the checks at rounding."""
+    from scipy.optimize import brentq
+
+    from test_refusals import DELTA3, _three_blocks_3d
+
+    k, c33 = 1e16, uniaxial_modulus()
+    p = brentq(lambda p: p / c33 + np.sqrt(p / k) - 2 * DELTA3, 0.0, 2 * DELTA3 * c33, xtol=1e-14, rtol=1e-15)
+    law = cc.NormalCompliance(stiffness=k, exponent=2)
+    for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
+        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+        assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < 1e-9             # measured <= 5.1e-14
+        jumps = [np.sqrt(p / k) if lw.compliant else 0.0 for lw in laws]
+        assert _three_block_u_error(sol, p, jumps) < 1e-12                                # measured <= 1.7e-15
+        r = sol.residuals()
+        assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-14                  # measured <= 7.3e-16
+
+
+def test_dependent_limit_rows_of_a_compliance_pair_are_finished():
+    """The three blocks with a compliance law p = k r whose penetration limit l (half the free penetration)
+    binds, on non-matching faces: the limit rows depend on each other. Next to a Signorini pair, r = l and
+    p = c33 (2 delta - l) / (1 m); on both pairs, p = c33 (2 delta - 2 l) / (1 m). lambda = p(r) + z as a
+    pressure (the Riesz representer of the limit reactions in X_h: unique though they are not; z / w was
+    off by 3.2 on the squeezed blocks below) on every pair, the fields to rounding."""
+    from test_refusals import DELTA3, _three_blocks_3d
+
+    k, c33 = 1e12, uniaxial_modulus()
+    ell = 0.5 * 2 * DELTA3 / (1 / c33 + 1 / k) / k
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    for laws in ((cc.Signorini(), law), (law, law)):
+        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        jumps = [ell if lw.compliant else 0.0 for lw in laws]
+        p = c33 * (2 * DELTA3 - sum(jumps))
+        assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+        assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < 1e-9             # measured <= 7.8e-14
+        assert _three_block_u_error(sol, p, jumps) < 1e-12                                # measured <= 3.0e-15
+        r = sol.residuals()
+        assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-14                  # measured <= 2.2e-15
+
+
+@pytest.mark.parametrize("method", ["full", "condensed"])
+def test_dependent_limit_rows_between_supported_bodies_are_finished(method):
+    """Both bodies held by their supports (the interface route: W is singular on the dependent rows, so the
+    finish runs on the sparse mixed system from the program's fields): the squeezed blocks through p = k r
+    with a binding limit l, r = l, p = c33 (overlap - l) / (1 m), u_z = -p z / c33 below and
+    overlap - l - p z / c33 above."""
+    k, c33, overlap = 1e12, uniaxial_modulus(), 1e-5
+    ell = 0.5 * overlap / (1 + k / c33)
+    p = c33 * (overlap - ell)
+    sol = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", law=cc.NormalCompliance(stiffness=k, penetration_limit=ell),
+                   method=method)
+    assert sol.info.method == method and sol.ok and sol.polished
+    assert sol.info.finish == "semismooth Newton on independent active sets"
+    assert np.abs(sol.contact.lam / p - 1).max() < 1e-10                                  # measured <= 4.7e-12
+    exact = [-p * sol.points[0][:, 2] / c33, overlap - ell - p * sol.points[1][:, 2] / c33]
+    assert max(np.abs(sol.u[i][:, 2] - exact[i]).max() for i in (0, 1)) < 1e-12 * overlap  # measured <= 9.8e-15

@@ -20,7 +20,7 @@ import cvxcontact as cc
 from cvxcontact.backends import finish, full, signorini
 from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
-from scenes3d import P, SIDES, STEEL, bumped_blocks, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
+from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
     three_blocks, uniaxial_modulus
 
 
@@ -524,3 +524,76 @@ def test_dependent_limit_rows_between_supported_bodies_are_finished(method):
     assert np.abs(sol.contact.lam / p - 1).max() < 1e-10                                  # measured <= 4.7e-12
     exact = [-p * sol.points[0][:, 2] / c33, overlap - ell - p * sol.points[1][:, 2] / c33]
     assert max(np.abs(sol.u[i][:, 2] - exact[i]).max() for i in (0, 1)) < 1e-12 * overlap  # measured <= 9.8e-15
+
+
+def bumped_stack(k=1e12, load=2e7):
+    """Three blocks of height 1/3 m on (0, 1)^2 (rollers on their sides, the lowest on its base), the top one
+    pressed by ``load`` (Pa) on a central square of its top, the gap :func:`bumped_gap` at both pairs: a
+    Signorini "gamma3" pair on non-matching faces (5x5 below 4x4: dependent rows) under a compliance pair
+    p = k r on matching faces (4x4 on 4x4); the middle and top blocks held by the contact only. Contact
+    zones with edges inside the faces."""
+    zs = (0.0, 1 / 3, 2 / 3, 1.0)
+    press = lambda x, y, z: np.where((np.abs(x - .5) < .3) & (np.abs(y - .5) < .3), -load, 0.0)  # noqa: E731
+    bodies = []
+    for i, c in enumerate(((5, 5), (4, 4), (4, 4))):
+        extra = dict(traction={"top": lambda x, y, z: (0 * x, 0 * x, press(x, y, z))}) if i == 2 else {}
+        bodies.append(cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(zs[i], zs[i + 1]), nx=c[0], ny=c[1], nz=1), STEEL,
+                              roller=SIDES + (["bottom"] if i == 0 else []), name=f"block {i}", **extra))
+    pairs = [cc.Contact(bodies[0], "top", bodies[1], "bottom", condition="gamma3", gap=bumped_gap),
+             cc.Contact(bodies[1], "top", bodies[2], "bottom", condition="gamma3", gap=bumped_gap,
+                        law=cc.NormalCompliance(stiffness=k))]
+    return cc.Scene(*bodies, contacts=pairs)
+
+
+def test_dependent_rows_next_to_a_compliance_pair_against_a_dense_solve():
+    """:func:`bumped_stack` against the independent dense reference (tests/reference3d.py: rows rebuilt by
+    brute force): on the returned active set (the Signorini pair's closed rows, the compliance pair's
+    penetrating rows), the dense mixed system with the law's stiffness w k G_P^T G_P and load w k G_P^T g_P
+    added (w the lumped areas of the matching faces' triangles, computed here) is solved densely and
+    certified: every Signorini row feasible, forces >= 0 on its closed rows balancing the bodies (nnls), each
+    compliance row on the side it was taken on; the package's u and lambda agree with it to rounding."""
+    from scipy.optimize import nnls
+
+    from reference3d import Dense, face, match
+
+    k = 1e12
+    scene = bumped_stack(k)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene)
+    assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+    gap = lambda x: bumped_gap(x[:, 0], x[:, 1])                                          # noqa: E731
+    ref = Dense(scene, "gamma3", gaps={0: gap, 1: gap})
+    m0 = ref.counts[0]
+    active, rows = [], []
+    for i, c in enumerate(sol.contacts):
+        on = np.flatnonzero(c.constrained)
+        j = match(ref.points(i), c.points[on], 1e-9)
+        active.append(c.active[on][j])
+        rows.append(on[j])
+    closed, pen = active
+    assert 0 < closed.sum() < len(closed) and 0 < pen.sum() < len(pen)      # zones inside the faces: 40/133, 21/25
+    f = face(scene, 1, "top")                              # the matching faces: X_h is this face's P1 space
+    X = f.points[f.tri]
+    area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+    lumped = np.zeros(len(f.points))
+    np.add.at(lumped, f.tri.ravel(), np.repeat(area / 3, 3))
+    w = lumped[match(ref.points(1), f.points, 1e-9)]
+    G1, g1 = ref.G[m0:], ref.g[m0:]
+    D = np.where(pen, w * k, 0.0)
+    ref.K = ref.K + G1.T @ (D[:, None] * G1)
+    ref.b = ref.b + G1.T @ (D * g1)
+    stacked = np.concatenate([closed, np.zeros(len(pen), dtype=bool)])
+    ans = ref.solve_on(stacked)
+    slack = ref.G @ ans.x - ref.g
+    scale = max(float(np.abs(ref.g).max()), float((np.abs(ref.G) @ np.abs(ans.x)).max()))
+    assert slack[:m0].max() < 1e-12 * scale                                          # measured 2.6e-16
+    need = ref.b - ref.K @ ans.x
+    _, unbalanced = nnls(ref.G[:m0][closed].T, need, maxiter=5000)
+    assert unbalanced < 1e-12 * np.linalg.norm(need)                                # measured 5.1e-15
+    r1 = slack[m0:]
+    assert (r1[pen] > 0).all() and (r1[~pen] <= 1e-12 * scale).all()
+    err = max(np.abs(a - b).max() for a, b in zip(sol.u, ans.u)) / max(np.abs(b).max() for b in ans.u)
+    assert err < 1e-12                                                               # measured 2.8e-15
+    lam = k * np.maximum(r1, 0.0)
+    assert np.abs(sol.contacts[1].lam[rows[1]] - lam).max() < 1e-10 * lam.max()    # measured 6.8e-15

@@ -347,7 +347,8 @@ def test_dependent_rows_next_to_a_compliance_pair_are_finished():
     k = 1e12
     p = 2 * DELTA3 / (1 / uniaxial_modulus() + 1 / k)
     c33 = uniaxial_modulus()
-    for laws in ((cc.Signorini(), cc.NormalCompliance(stiffness=k)), (cc.NormalCompliance(stiffness=k), cc.Signorini())):
+    law = cc.NormalCompliance(stiffness=k)
+    for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
         scene = _three_blocks_3d(("gamma3", "gamma3"), laws)
         with warnings.catch_warnings():
             warnings.simplefilter("error", cc.ResidualWarning)
@@ -517,8 +518,8 @@ def test_dependent_limit_rows_between_supported_bodies_are_finished(method):
     k, c33, overlap = 1e12, uniaxial_modulus(), 1e-5
     ell = 0.5 * overlap / (1 + k / c33)
     p = c33 * (overlap - ell)
-    sol = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", law=cc.NormalCompliance(stiffness=k, penetration_limit=ell),
-                   method=method)
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    sol = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", law=law, method=method)
     assert sol.info.method == method and sol.ok and sol.polished
     assert sol.info.finish == "semismooth Newton on independent active sets"
     assert np.abs(sol.contact.lam / p - 1).max() < 1e-10                                  # measured <= 4.7e-12

@@ -104,7 +104,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
             if dependent:
                 if raw.u is None:                          # the condensed program's Gamma values, filled in
                     raw.u, raw.phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
-                return _dependent_finish(problem, raw, stacked(raw.u, raw.phi), raw.z, r, timings)
+                return _dependent_finish(problem, raw, _stacked(raw.u, raw.phi), raw.z, r, timings)
             if settings.polish:
                 t0 = time.perf_counter()
                 start = None
@@ -126,7 +126,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     return raw
 
 
-def mixed_system(problem):
+def _mixed_system(problem):
     """(A, F, G, widths) of the sparse mixed system (26) of ``problem`` (scaled): A the bodies' quasi-definite
     blocks [[Kuu, Kup], [Kup^T, -Kpp]] and a zero block for the translations of force-controlled obstacles
     (``widths`` their sizes), F the loads [f; -q; F_obstacle], G the rows E [u_nu] + R tau, on the unknowns
@@ -142,14 +142,14 @@ def mixed_system(problem):
     return A, F, G, widths
 
 
-def stacked(u, phi, taus=()):
-    """x = [u_1; phi_1; ...; tau_1; ...] (the unknowns of :func:`mixed_system`)."""
+def _stacked(u, phi, taus=()):
+    """x = [u_1; phi_1; ...; tau_1; ...] (the unknowns of :func:`_mixed_system`)."""
     return np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)]
                           + [np.asarray(t, dtype=float) for t in taus])
 
 
-def unstacked(problem, x, widths):
-    """(u, phi, taus) of the unknowns x of :func:`mixed_system`."""
+def _unstacked(problem, x, widths):
+    """(u, phi, taus) of the unknowns x of :func:`_mixed_system`."""
     u, phi, pos = [], [], 0
     for b in problem.blocks:
         nu, npf = b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]
@@ -185,17 +185,17 @@ def sparse(problem, settings, timings) -> RawResult:
     raw.u, raw.phi, raw.y, raw.taus = u, phi, y, taus
     if settings.polish:
         if _dependent(problem, law):
-            _dependent_finish(problem, raw, stacked(u, phi, taus), z, r, timings)
+            _dependent_finish(problem, raw, _stacked(u, phi, taus), z, r, timings)
         else:
             t0 = time.perf_counter()
-            A, F, G, widths = mixed_system(problem)
-            out = solve_sparse_compliance(A, F, G, g, w, law, stacked(u, phi, taus), _limit_start(law, y, z, r, g))
+            A, F, G, widths = _mixed_system(problem)
+            out = solve_sparse_compliance(A, F, G, g, w, law, _stacked(u, phi, taus), _limit_start(law, y, z, r, g))
             timings["polish"] = time.perf_counter() - t0
             if out is None:
                 raw.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
             else:
                 raw.polished, raw.finish = True, Finish.SEMISMOOTH_NEWTON
-                raw.u, raw.phi, raw.taus = unstacked(problem, out[0], widths)
+                raw.u, raw.phi, raw.taus = _unstacked(problem, out[0], widths)
                 raw.y, raw.z = out[1], out[2]
     raw.z = (raw.z if raw.polished else z) if law.limited.any() else None
     return raw
@@ -221,7 +221,7 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
     ``declined``."""
     t0 = time.perf_counter()
     law, g = problem.scaled_law, problem.g
-    A, F, G, widths = mixed_system(problem)
+    A, F, G, widths = _mixed_system(problem)
     free = ~problem.held_rows
     z0 = np.where(free, z0, 0.0)
     start = _limit_start(law, problem.weights * law.pressure(r0) + z0, z0, r0, g) & free
@@ -231,7 +231,7 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
         raw.declined = out
         return raw
     x, raw.y, raw.z = out[:3]
-    raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
+    raw.u, raw.phi, raw.taus = _unstacked(problem, x, widths)
     raw.polished, raw.finish = True, Finish.NEWTON_INDEPENDENT
     return raw
 

@@ -16,8 +16,8 @@ the rows G x = g (``bonded_kkt``), solved from scratch by
   (``pardiso_symmetric``) or through ``pypardiso`` (``pypardiso_solve``: mtype -2 or 11);
 * SciPy SuperLU (``superlu_solve``: MMD on A^T + A, threshold pivoting 0.1);
 * smoothed-aggregation AMG (pyamg) preconditioned CG, GMRES with the AMG route's block upper-triangular
-  preconditioner for a piezoelectric body (``amg_bonded``), on the system with its constraints eliminated exactly (``eliminate``:
-  each row solved for its own dof; not "gamma3" overlay rows, which share their dofs).
+  preconditioner for a piezoelectric body (``amg_bonded``), on the system with its constraints eliminated
+  exactly (``eliminate``: each row solved for its own dof; not "gamma3" overlay rows, which share their dofs).
 
 NumPy and SciPy only at import; cvxcontact, pyamg and pypardiso are imported by the yardsticks that need them.
 """

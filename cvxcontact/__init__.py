@@ -24,7 +24,8 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
     "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
-    "ResidualWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None), "SolverError": (".errors", None),
+    "ResidualWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
+    "SolverError": (".errors", None),
     "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
     "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
     "Finish": (".solution.info", None), "Route": (".solution.info", None), "SolveInfo": (".solution.info", None),

@@ -206,8 +206,9 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
     rows gain R tau (docs/formulation.md §12); ``kkt(active)`` then returns (u, phi, y, taus). Where the
     active rows do not see every translation (a sphere touching at one node on its axis: its sideways
     translations change no active row) those components are not determined by (26) but are free within the
-    interval the open rows allow; they are held at ``hold`` (one array per obstacle, e.g. the interior point's
-    translations; default 0) if the force has no component along them, else the set is singular (None).
+    interval the open rows allow; with ``hold`` (one array per obstacle, e.g. the interior point's
+    translations) they are held there if the force has no component along them (else the set is singular:
+    None); without, such a set is singular (the cones' finish then turns to the tangency points, §18).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
@@ -223,7 +224,7 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
         rhs = np.concatenate([rhs, *(np.asarray(F, dtype=float) for _, F in translations)])
         G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
-    held = [np.zeros(w) for w in widths] if hold is None else [np.asarray(h, dtype=float) for h in hold]
+    held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
 
     def kkt(active):
         G, b = G_all[active], np.concatenate([rhs, g[active]])

@@ -101,11 +101,16 @@ def test_3d_benchmark_table_is_the_benchmarks_csv():
     with open(README.parent / "benchmarks" / "results" / "bench3d.csv") as fh:
         bench = list(csv.DictReader(fh))
     table = _table_after(README.read_text(), "| scene | unknowns | default |")
-    assert len(table) == 3
+    assert len(table) == 4
     names = {"rigid sphere on a block": "sphere", "two elastic boxes": "two_boxes"}
-    for scene, unknowns, default, amg, ratio, peak in table:
+    for scene, unknowns, default, amg, pardiso, ratio, peak in table:
         row = next(r for r in bench if r["scene"] == names[scene]
                    and abs(int(r["unknowns"]) / float(unknowns) - 1) < 0.05)
-        for cell, key in ((default, "default_s"), (amg, "amg_s"), (ratio, "ratio_amg"), (peak, "default_peak_gb")):
+        cells = [(default, "default_s"), (amg, "amg_s"), (ratio, "ratio_amg"), (peak, "default_peak_gb")]
+        if pardiso.strip() != "-":
+            cells.append((pardiso, "pardiso_s"))
+        else:
+            assert row["pardiso_s"] in ("", "nan"), (scene, unknowns)
+        for cell, key in cells:
             value, half = _percent(cell.split("(")[0].replace("s", "").replace("GB", ""))
             assert abs(value - float(row[key])) <= half + 1e-9, (scene, unknowns, key)

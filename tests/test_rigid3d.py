@@ -3,6 +3,8 @@ closed forms, invariances and finite differences; force-control balance; typed r
 
 from types import SimpleNamespace
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -255,3 +257,27 @@ def test_a_height_field_plane_is_the_rigid_plane():
     assert np.abs(one.u[0] - two.u[0]).max() < 1e-12 * np.abs(two.u[0]).max()      # measured 2.8e-16
     F = two.obstacles[0].force
     assert np.abs(one.obstacles[0].force - F).max() < 1e-12 * np.abs(F).max()      # measured 1.6e-13
+
+
+@pytest.mark.parametrize("shape", ["sphere", "cylinder"])
+def test_a_sphere_or_cylinder_on_one_node_or_line_is_finished_its_sideways_translation_held(shape):
+    """A force-controlled sphere centred over a node (one active row, on its axis) or a cylinder over a line of
+    nodes (the active rows under its lowest line): the sideways translation changes no active row, so the
+    solution leaves it free within the interval the open rows allow. The field and the forces are unique: the
+    solve finishes exactly (it declined before: complementarity 0.19 at 1e5 N on the sphere, ok False), warns
+    naming the translation, and equals the fixed obstacle at the returned position (an independent solve
+    without translation unknowns), whose reaction is the prescribed force."""
+    mesh = cc.box(x=(-1, 1), y=(-1, 1), z=(-1, 0), nx=8, ny=8, nz=2)
+    body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top", name="block")
+    ob = (cc.Rigid.sphere((0.0, 0.0, 2.0), 2.0, force=(0, 0, -1e6)) if shape == "sphere" else
+          cc.Rigid.cylinder((0.0, 0.0, 2.0), (0, 1, 0), 2.0, force=(0, 0, -1e6)))
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "top", ob)])
+    with pytest.warns(cc.NonUniqueWarning, match=r"translation x of obstacle 0"):
+        sol = cc.solve(scene)
+    assert sol.ok and sol.polished
+    t = sol.obstacles[0].translation
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ref = cc.solve(scene.with_obstacles(ob.moved(by=tuple(t)).with_force(None)))
+    assert np.abs(sol.u[0] - ref.u[0]).max() <= 1e-9 * np.abs(ref.u[0]).max()    # measured 9.4e-13, 3.4e-12
+    np.testing.assert_allclose(ref.obstacles[0].force, [0, 0, -1e6], rtol=0, atol=1e-6 * 1e6)  # 2.2e-9, 6.7e-11 N

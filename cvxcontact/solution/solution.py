@@ -468,6 +468,10 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             lam_i = lam[rows_i]
             if z is not None and hasattr(itf, "row_mass"):     # P2 faces: z as a pressure in their P2 functions
                 lam_i = p[rows_i] + _limit_pressure(itf.row_mass(cond) / un.length, z[rows_i])
+            elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
+                # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
+                # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)
+                lam_i = p[rows_i] + itf.multiplier((E.T @ z)[merged]) * un.force / unit
             c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
             for a in (c.lam, c.force):
                 a.setflags(write=False)

@@ -561,6 +561,7 @@ class FactoredRows:
         self.count = 0
         self.system = UpdatedSystem(self.entries)
         self.sizes = []                                   # (|P|, |Q'|) of each step
+        self.fallbacks = 0                                # steps solved by the sparse LU of (26) instead
 
     def solve(self, b):
         """K0^{-1} b (one step of iterative refinement)."""
@@ -837,7 +838,14 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
 
     def steps_from(first):
         built.append(factored_rows(kkt.matrix, kkt.rhs, G, g, first))
-        return built[0]
+        return None if built[0] is None else step
+
+    def step(mask, passive):
+        out = built[0](mask, passive)
+        if out is None:             # the rows' system (squared conditioning) singular: the sparse LU of (26)
+            built[0].fallbacks += 1
+            return exact(mask, passive)
+        return out
 
     def verify(mask, passive):
         out = built[0].exact(mask, passive)

@@ -976,6 +976,22 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             return "pivot", int(j), col, c
         return ("stop",)
 
+    def exchange(j):
+        """The pivot of the row j that just joined P (last in P, force 0) as if it depended on the others: its
+        own new force came out <= 0, which for an independent row with r_j > 0 only rounding does (a row nearly
+        parallel to some of P: G_j = sum c_i G_i + a remainder near DEPENDENT_PIVOT). None if no force of P can
+        give way."""
+        nonlocal Q, R
+        p = len(passive) - 1
+        Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+        del passive[p]
+        col = unit[j].toarray().ravel()
+        c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
+        if not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
+            return None
+        return "swap", int(j), col, c
+
+    entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
         mask[passive] = True
@@ -984,6 +1000,11 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         while res is not None:
             if not (res[1][passive] > 0).all():
                 move = ("inner",)
+                if entered is not None and res[1][entered] <= 0:
+                    move = exchange(entered) or ("inner",)
+                    if move[0] == "inner":              # it cannot enter: passed over, P as it was
+                        dependent.add(entered)
+                        move = ("back",)
             else:
                 move = next_move(res)
             if move[0] != "stop" or verified:
@@ -992,6 +1013,9 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             verified = True
         if res is None:
             return SINGULAR
+        entered = None
+        if move[0] == "back":
+            continue
         state, z, slack, _ = res
         zp = z[passive]
         if move[0] == "inner":                          # 1. the inner loop
@@ -1008,13 +1032,15 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
                 del passive[i]
             settled.clear()
             continue
-        y = z
+        if move[0] != "swap":                           # (a swap keeps the forces of P before j joined)
+            y = z
         if move[0] == "stop":                           # 3. every row feasible
             return state, mask, steps
         if move[0] == "add":                            # 2. the worst row: independent, it joins P
             passive.append(move[1])
+            entered = move[1]
             continue
-        _, j, col, c = move                             # or dependent: a pivot
+        _, j, col, c = move                             # or dependent: a pivot (a swap likewise)
         pos = c > 1e-12 * np.abs(c).max(initial=0.0)
         t = y[passive][pos] / c[pos]
         i = int(np.flatnonzero(pos)[np.argmin(t)])

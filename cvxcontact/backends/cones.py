@@ -155,7 +155,10 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
     solved on the sparse mixed system (26) with the obstacles' translations
     (:func:`~cvxcontact.backends.finish.independent_active_set`: the point rows outnumber the nodes, so they
-    depend on each other; the rows carrying the forces stay independent), warm started from the last round.
+    depend on each other; the rows carrying the forces stay independent), warm started from the last round,
+    on the factored steps (one factorisation of the bodies a round; the unfactored ones, a sparse LU a step,
+    where they decline: :data:`FACTORED`). A node's scale counts its neighbours' displacements
+    (:func:`~cvxcontact.backends.finish.row_reach`), as the steps' rows do.
     Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
     needs the compliance; the checks state what holds."""
     B, cells = problem.lines.cone

@@ -806,17 +806,20 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
 
     1. if a passive force is not positive, moves y towards the new forces as far as they stay >= 0 and
        opens the rows that reach 0 (the inner loop of Lawson-Hanson);
-    2. else, if some other row penetrates (r_j > ``tol`` S_j, S_j = (|G| |x|)_j + |g_j| its displacement
-       scale), takes the worst: independent of G_P it joins P; dependent (G_j = sum c_i G_i) it has the
-       constant slack sum c_i g_i - g_j whatever x (a non-affine gap), and a simplex pivot moves the force
-       along y_j = t, y_P = y_P - t c (x unchanged) until a passive row's force reaches 0, which leaves P;
+    2. else, if some other row penetrates (r_j > ``tol`` S_j, S_j its displacement scale: (|G| |x|)_j + |g_j|
+       and its neighbours' displacements, :func:`row_reach`), takes the worst: independent of G_P it joins P;
+       dependent (G_j = sum c_i G_i) it has the constant slack sum c_i g_i - g_j whatever x (a non-affine
+       gap), and a simplex pivot moves the force along y_j = t, y_P = y_P - t c (x unchanged) until a passive
+       row's force reaches 0, which leaves P (a constant slack of rounding: the next row is taken; a row whose
+       own force comes out <= 0 on joining P, nearly parallel to some of P, is swapped in by the pivot);
     3. stops when none penetrates: y >= 0 on P, 0 elsewhere, every row feasible to ``tol`` of its scale and
        the passive rows closed, so complementary exactly.
 
     ``factored`` (and ``kkt`` carrying its ``matrix`` and ``rhs``): the steps are solved on the rows with
     one factorisation of the bodies (:class:`FactoredRows`), and the set where they stop is checked by
-    ``kkt`` itself (one sparse LU of (26); its answer is returned, or the steps go on from it). Otherwise
-    every step is ``kkt`` (one sparse LU each).
+    ``kkt`` itself (one sparse LU of (26); its answer is returned, or the steps go on from it); a step whose
+    system on the rows is singular (its conditioning is the rows' squared: nearly parallel point rows) is
+    ``kkt`` too. Otherwise every step is ``kkt`` (one sparse LU each).
 
     Returns ((u, phi, y[, taus]), active, steps) with ``active`` the passive rows, or the reason it stopped.
     A passive set too small to hold a body (rigid motion free) makes its system singular: the reason then."""

@@ -28,8 +28,8 @@ Parts of one case:
   - ``pardiso_s``: Intel oneMKL PARDISO, real symmetric indefinite with weighted matching
     (:class:`cvxcontact.backends.factor.PardisoSymmetric`: analysis + factorisation + solve);
   - ``amg_s``: smoothed-aggregation AMG (pyamg, ``pip install pyamg``) with the rigid-body modes of each
-    body as near-null space, preconditioned CG to a relative residual 1e-10 (MINRES with a block-diagonal
-    AMG preconditioner, u and phi, for a piezoelectric body: its matrix is quasi-definite) on the bonded
+    body as near-null space, preconditioned CG to a relative residual 1e-10 (GMRES with the AMG route's block
+    upper-triangular preconditioner, a V-cycle for u and one for phi, for a piezoelectric body) on the bonded
     system with its constraints eliminated exactly (each row solved for its own dof, the dof of largest
     coefficient, which no other row touches: sigma1 and rigid obstacles; not gamma3), setup + solve.
     Its answer is checked against PARDISO's (``amg_vs_pardiso``, max |a - b| / max |b| of x).

@@ -101,7 +101,7 @@ def bonded_part(n, pardiso=True):
                triangular_it=kc.iterations, triangular_setup_s=kc.setup_time)
     del kc
     K, rhs, A, G, sizes = bonded_system(problem)
-    res = amg_bonded(problem, A, G, rhs, sizes)                          # MINRES, block-diagonal
+    res = amg_bonded(problem, A, G, rhs, sizes, preconditioner="diagonal")     # MINRES, block-diagonal
     if res is not None:
         out.update(diagonal_s=res[0], diagonal_cpu_s=res[5], diagonal_it=res[2])
         out["triangular_vs_diagonal"] = rel(x, res[1])

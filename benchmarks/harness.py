@@ -15,9 +15,9 @@ the rows G x = g (``bonded_kkt``), solved from scratch by
 * Intel oneMKL PARDISO, real symmetric indefinite with weighted matching, through cvxcontact
   (``pardiso_symmetric``) or through ``pypardiso`` (``pypardiso_solve``: mtype -2 or 11);
 * SciPy SuperLU (``superlu_solve``: MMD on A^T + A, threshold pivoting 0.1);
-* smoothed-aggregation AMG (pyamg) preconditioned CG, MINRES with a block-diagonal AMG preconditioner for a
-  piezoelectric body (``amg_bonded``), on the system with its constraints eliminated exactly (``eliminate``:
-  each row solved for its own dof; not "gamma3" overlay rows, which share their dofs).
+* smoothed-aggregation AMG (pyamg) preconditioned CG, GMRES with the AMG route's block upper-triangular
+  preconditioner for a piezoelectric body (``amg_bonded``), on the system with its constraints eliminated
+  exactly (``eliminate``: each row solved for its own dof; not "gamma3" overlay rows, which share their dofs).
 
 NumPy and SciPy only at import; cvxcontact, pyamg and pypardiso are imported by the yardsticks that need them.
 """
@@ -274,8 +274,10 @@ def eliminate(G, g, n):
     return T, x0, slaves
 
 
-def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
-    """Smoothed-aggregation AMG-preconditioned CG (MINRES with potentials) on the bonded system with its
+def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"):
+    """Smoothed-aggregation AMG-preconditioned CG (with potentials: GMRES, right-preconditioned by the block
+    upper-triangular [[V_uu, K_up], [0, -V_pp]] of the AMG route, cvxcontact.backends.amg; ``preconditioner=
+    "diagonal"``: MINRES with the block-diagonal one, the route's former solve) on the bonded system with its
     constraints eliminated (``eliminate``): (seconds, x, iterations, reduction seconds, residual, CPU seconds)
     or None (rows without dofs of their own, or the true residual above ``tol``).
 
@@ -318,7 +320,7 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
         Kuu = Kuu.tobsr(blocksize=(3, 3))
     ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric", max_coarse=30)   # blocks of 6 dofs
     its = []
-    cb = lambda _x: its.append(1)  # noqa: E731
+    cb = lambda _x=None: its.append(1)  # noqa: E731
     if len(p_idx) == 0:
         x_r, info = spla.cg(Kr, br, M=ml_u.aspreconditioner(cycle="V"), rtol=tol, atol=0.0, maxiter=2000,
                             callback=cb)
@@ -327,19 +329,34 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10):
         ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=500)
         Pu, Pp = ml_u.aspreconditioner(cycle="V"), ml_p.aspreconditioner(cycle="V")
 
-        def prec(r):
+        Kup = Kr[u_idx][:, p_idx].tocsr()
+
+        def prec(r):                 # block upper-triangular [[V_uu, Kup], [0, -V_pp]] (the AMG route's)
+            z = np.empty_like(r)
+            z_p = -(Pp @ r[p_idx])
+            z[p_idx] = z_p
+            z[u_idx] = Pu @ (r[u_idx] - Kup @ z_p)
+            return z
+
+        def diagonal(r):             # block-diagonal (for MINRES: symmetric)
             z = np.empty_like(r)
             z[u_idx] = Pu @ r[u_idx]
             z[p_idx] = Pp @ r[p_idx]
             return z
 
-        M = spla.LinearOperator(Kr.shape, matvec=prec, dtype=float)
-        x_r, rtol = None, tol
-        for _ in range(4):           # MINRES stops on the preconditioned residual: tighten until the true one
-            x_r, info = spla.minres(Kr, br, x0=x_r, M=M, rtol=rtol, maxiter=4000, callback=cb)
-            if np.linalg.norm(br - Kr @ x_r) <= tol * np.linalg.norm(br):
-                break
-            rtol /= 30.0
+        if preconditioner == "triangular":
+            from cvxcontact.backends.amg import gmres
+
+            x_r = gmres(Kr, br, np.zeros(n), spla.LinearOperator(Kr.shape, matvec=prec, dtype=float), tol,
+                        callback=cb)
+        else:
+            M = spla.LinearOperator(Kr.shape, matvec=diagonal, dtype=float)
+            x_r, rtol = None, tol
+            for _ in range(4):       # MINRES stops on the preconditioned residual: tighten until the true one
+                x_r, info = spla.minres(Kr, br, x0=x_r, M=M, rtol=rtol, maxiter=4000, callback=cb)
+                if np.linalg.norm(br - Kr @ x_r) <= tol * np.linalg.norm(br):
+                    break
+                rtol /= 30.0
     t, cpu = time.perf_counter() - t0, time.process_time() - c0
     res = float(np.linalg.norm(br - Kr @ x_r) / np.linalg.norm(br))
     if res > tol:

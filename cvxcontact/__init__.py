@@ -24,7 +24,8 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
     "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
-    "ResidualWarning": (".errors", None), "SceneError": (".errors", None), "SolverError": (".errors", None),
+    "ResidualWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
+    "SolverError": (".errors", None),
     "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
     "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
     "Finish": (".solution.info", None), "Route": (".solution.info", None), "SolveInfo": (".solution.info", None),
@@ -46,7 +47,7 @@ __all__ = [
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
-    "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
+    "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
 ]
 
 
@@ -82,8 +83,8 @@ _sys.modules[__name__].__class__ = _Package
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from .contact.interface import CONDITIONS
     from .contact.laws import NormalCompliance, Signorini
-    from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, ResidualWarning, SceneError,
-                         SolverError, UnsupportedError)
+    from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, NonUniqueWarning,
+                         ResidualWarning, SceneError, SolverError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .apps.sweep.load import SweepResults, SweepResultsError, load_sweep

@@ -37,6 +37,13 @@ class ResidualWarning(UserWarning):
     """A solution failed the mixed-formulation checks at the requested tolerance."""
 
 
+class NonUniqueWarning(UserWarning):
+    """The discrete problem has several solutions and one is returned: a force-controlled obstacle's
+    translation along a direction no contact carrying force sees (a sphere touching one node on its axis)
+    is free within the interval its open rows allow; the displacements, potentials, contact forces and
+    the other translations are the same for every solution. The message names the direction."""
+
+
 class UnsupportedError(CvxContactError, NotImplementedError):
     """A feature the API names but this version does not provide yet (e.g. a contact law other than
     non-penetration, a force-controlled obstacle); the message says which."""

@@ -360,3 +360,43 @@ def test_model_agrees_with_solve_on_the_canonical_3d_scenes(name):
         model = cc.Model(make(), keywords["condition"]).solve()
     assert model.ok == direct.ok and model.polished == direct.polished
     assert rel(model.u, direct.u) < (1e-12 if direct.polished else 1e-7)       # measured 0 (the same route)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# electrodes: the charge read back in 3D (C, not C/m)
+
+def _pzt_layer_with(**electrodes):
+    """The PZT-5A layer of pzt_layer_on_plane (1 x 1 x 0.5 m, rollers on its sides, pressure P on top, the
+    rigid plane below, grounded base) with the top electrode given by ``electrodes``."""
+    mesh = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=3, nz=2)
+    body = cc.Body(mesh, cc.materials.PZT5A, roller=["left", "right", "front", "back"], contact="bottom",
+                   grounded=["bottom"], traction={"top": (0, 0, -P)}, **electrodes)
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))])
+
+
+def test_driven_and_floating_electrodes_read_their_charge_back_in_coulombs():
+    """Uniaxial strain along the poling axis z, a uniform field: sigma_zz = c33 S3 - e33 E3 = -P and
+    D3 = e33 S3 + eps33 E3. Driven top at V (E3 = -V/H): the top electrode holds Q = -D3 A and the grounded
+    base +D3 A (the charge is -D.nu over the electrode, A = 1 m^2). Floating top with charge Q: D3 = -Q/A
+    fixes E3 = (-Q/A + e33 P/c33) / (eps33 + e33^2/c33) and the potential -E3 H."""
+    pzt, H, A = cc.materials.PZT5A, 0.5, 1.0
+    c33, e33, k33 = pzt.c3[2, 2], pzt.e3[2, 2], pzt.kappa3[2, 2]
+    V = 100.0
+    sol = cc.solve(_pzt_layer_with(potential={"top": V}), "gamma3")
+    assert sol.ok and sol.polished
+    E3 = -V / H
+    D3 = e33 * (-P + e33 * E3) / c33 + k33 * E3
+    kinds = {e.kind: e for e in sol.electrodes}
+    assert kinds["driven"].potential == V
+    assert abs(kinds["driven"].charge / (-D3 * A) - 1) < 1e-12                  # measured 3.3e-16 (Q = 1.4e-4 C)
+    assert abs(kinds["grounded"].charge / (D3 * A) - 1) < 1e-12                 # measured 2.2e-16
+    Q = 3e-3                                                                     # C
+    sol = cc.solve(_pzt_layer_with(floating={"top": Q}), "gamma3")
+    assert sol.ok and sol.polished
+    E3 = (-Q / A + e33 * P / c33) / (k33 + e33 ** 2 / c33)
+    kinds = {e.kind: e for e in sol.electrodes}
+    assert abs(kinds["floating"].charge / Q - 1) < 1e-12                        # measured 2.2e-16
+    assert abs(kinds["grounded"].charge / -Q - 1) < 1e-12                       # Gauss: the charges sum to 0
+    assert abs(kinds["floating"].potential / (-E3 * H) - 1) < 1e-12             # measured 4.4e-16 (1.5e5 V)
+    z = sol.points[0][:, 2]
+    assert np.abs(sol.phi[0] + E3 * z).max() < 1e-12 * abs(E3 * H)             # linear in z; measured 4.9e-16

@@ -20,7 +20,7 @@ import cvxcontact as cc
 from cvxcontact.backends import finish, full, signorini
 from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
-from scenes3d import P, SIDES, STEEL, bumped_blocks, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
+from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
     three_blocks, uniaxial_modulus
 
 
@@ -334,3 +334,267 @@ def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finishe
     assert max(np.abs(a - b).max() for a, b in zip(sol.u, full.u)) < 1e-12 * max(np.abs(u).max() for u in full.u)
     with pytest.raises(SolverError, match="does not accept"):
         cc.solve(scene, "gamma3", method="sparse")
+
+
+def test_dependent_rows_next_to_a_compliance_pair_are_finished():
+    """Three blocks on non-matching faces pressed together by an interference at each pair (supported by
+    rollers), a Signorini "gamma3" pair next to a compliance pair p = k r, either way up: uniaxial strain with
+    the law in series, 2 delta = 3 p (1/3 m) / c33 + p / k, lambda = p on both pairs. Finished by Newton on
+    the law around the finish of dependent rows (the interior point alone: lambda to 9.7e-10, complementarity
+    1.08e-6, not ok at the default tol)."""
+    from test_refusals import DELTA3, _three_blocks_3d
+
+    k = 1e12
+    p = 2 * DELTA3 / (1 / uniaxial_modulus() + 1 / k)
+    c33 = uniaxial_modulus()
+    law = cc.NormalCompliance(stiffness=k)
+    for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
+        scene = _three_blocks_3d(("gamma3", "gamma3"), laws)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", cc.ResidualWarning)
+            sol = cc.solve(scene)
+        assert sol.polished and sol.ok and sol.info.finish == "semismooth Newton on independent active sets"
+        for c in sol.contacts:
+            assert np.abs(c.lam / p - 1).max() < 1e-9                          # measured <= 5.8e-14
+        # u_z: -p z / c33 in the lowest block, then the jump of each pair: 0 (Signorini) or -p / k (penetration)
+        jumps = [0.0 if not law.compliant else p / k for law in laws]
+        for b in range(3):
+            exact = -p * sol.points[b][:, 2] / c33 + DELTA3 * b - sum(jumps[:b])
+            assert np.abs(sol.u[b][:, 2] - exact).max() < 1e-12 * DELTA3          # measured <= 1.1e-15
+        r = sol.residuals()
+        assert r["equilibrium"] < 1e-14 and r["law"] < 1e-14 and r["feasibility"] < 1e-14   # measured <= 7.4e-16
+        assert r["complementarity"] < 1e-7           # the square root of rounding (1.5e-16): measured <= 1.2e-8
+
+
+def compliance_problem(seed, exponent):
+    """Six unknowns (A SPD), three independent Signorini rows the unconstrained minimiser x_free violates and
+    three non-negative combinations of them with constant slacks (most binding, as in
+    :func:`test_dependent_rows_with_constant_slacks_against_every_active_set`), and three rows of a compliance
+    law k r_+^m with weights w, some penetrating at x_free."""
+    rng = np.random.default_rng(200 + seed)
+    n = 6
+    B = rng.normal(size=(n, n))
+    A = B @ B.T + n * np.eye(n)
+    base = rng.normal(size=(3, n))
+    C = rng.uniform(0.1, 1.0, size=(3, 3)) * (rng.uniform(size=(3, 3)) < 0.7)
+    C[np.arange(3), rng.integers(0, 3, 3)] = 0.7
+    soft = rng.normal(size=(3, n))
+    G = np.vstack([base, C @ base, soft])
+    x_free = rng.normal(size=n) * 3
+    g = np.concatenate([base @ x_free - rng.uniform(0.5, 2.0, size=3), np.zeros(3),
+                        soft @ x_free - rng.uniform(-1.0, 1.5, size=3)])
+    g[3:6] = C @ g[:3] - rng.uniform(-0.1, 0.5, size=3)
+    law = cc.contact.laws.RowLaws([cc.Signorini(), cc.NormalCompliance(stiffness=5.0, exponent=exponent)], [6, 3])
+    w = rng.uniform(0.5, 1.5, size=9)
+    return A, A @ x_free, G, g, w, law, x_free
+
+
+def enumerated_compliance(A, F, G, g, w, k):
+    """The minimiser of 1/2 x^T A x - F^T x + sum_a w_a k/2 (r_a)_+^2 (the compliance rows 6-8) subject to
+    r_a <= 0 (the Signorini rows 0-5), r = G x - g, by trying every set of closed Signorini rows with
+    independent rows and every set of penetrating compliance rows (the law linear on each): the one whose
+    forces are >= 0, every Signorini row feasible and every compliance row on the side it was taken on."""
+    S, Cr = np.arange(6), np.arange(6, 9)
+    for ks in range(7):
+        for closed in itertools.combinations(S, ks):
+            Gs = G[list(closed)]
+            if ks and np.linalg.matrix_rank(Gs) < ks:
+                continue
+            for kp in range(4):
+                for pen in itertools.combinations(Cr, kp):
+                    Gp, D = G[list(pen)], w[list(pen)] * k
+                    K = np.block([[A + Gp.T @ (D[:, None] * Gp), Gs.T], [Gs, np.zeros((ks, ks))]])
+                    z = np.linalg.solve(K, np.concatenate([F + Gp.T @ (D * g[list(pen)]), g[list(closed)]]))
+                    x, y = z[:6], z[6:]
+                    r = G @ x - g
+                    inside = np.isin(Cr, pen)
+                    if ((y >= -1e-12).all() and (r[S] <= 1e-12).all() and (r[Cr][inside] >= -1e-12).all()
+                            and (r[Cr][~inside] <= 1e-12).all()):
+                        return x
+    raise AssertionError("no active set solves the problem")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dependent_rows_next_to_a_linear_law_against_every_active_set(seed):
+    """Dependent Signorini rows next to compliance rows (m = 1), from the unconstrained minimiser with no row
+    closed and from every row closed: :func:`~cvxcontact.backends.compliance.dependent_newton` reaches the
+    minimiser found by enumerating every set of closed and penetrating rows, its forces >= 0 on independent
+    rows, stationary and feasible to rounding."""
+    from cvxcontact.backends.compliance import dependent_newton
+
+    A, F, G, g, w, law, x_free = compliance_problem(seed, 1.0)
+    ref = enumerated_compliance(A, F, G, g, w, 5.0)
+    for start in (np.zeros(9, dtype=bool), law.limited.copy()):
+        out = dependent_newton(sp.csr_matrix(A), F, sp.csr_matrix(G), g, w, law, x_free, np.zeros(9), start)
+        assert not isinstance(out, str), out
+        x, y, z, at = out[:4]
+        assert np.abs(x - ref).max() < 1e-12 * np.abs(ref).max()            # measured <= 9.3e-16
+        assert (z >= 0).all() and (z[~at] == 0).all() and np.linalg.matrix_rank(G[at]) == at.sum()
+        assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()  # measured <= 1.4e-15
+        assert ((G @ x - g)[:6] <= 1e-12 * np.abs(g).max()).all()            # measured <= 4.5e-16
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dependent_rows_next_to_a_quadratic_law_satisfy_the_optimality_system(seed):
+    """The same with the law k r_+^2 (m = 2): the optimality system of the strictly convex problem, checked by
+    numpy, certifies the unique minimiser: A x + G^T y = F with y = w k r_+^2 + z to rounding, z >= 0 on
+    independent rows, every Signorini row feasible and the rows carrying z closed."""
+    from cvxcontact.backends.compliance import dependent_newton
+
+    A, F, G, g, w, law, x_free = compliance_problem(seed, 2.0)
+    out = dependent_newton(sp.csr_matrix(A), F, sp.csr_matrix(G), g, w, law, x_free, np.zeros(9), np.zeros(9, bool))
+    assert not isinstance(out, str), out
+    x, y, z, at, newton_steps = out[:5]
+    r = G @ x - g
+    law_force = np.where(np.arange(9) >= 6, w * 5.0 * np.maximum(r, 0.0) ** 2, 0.0)
+    assert np.abs(y - law_force - z).max() <= 1e-13 * np.abs(y).max()        # measured <= 6.2e-15
+    assert np.abs(A @ x + G.T @ y - F).max() < 1e-12 * np.abs(F).max()      # measured <= 2.4e-15
+    assert (z >= 0).all() and (z[6:] == 0).all() and np.linalg.matrix_rank(G[at]) == at.sum()
+    assert (r[:6] <= 1e-12 * np.abs(g).max()).all()                          # measured <= 3.8e-16
+    assert np.abs(r[at]).max(initial=0.0) <= 1e-12 * np.abs(g).max()         # measured <= 3.8e-16
+    assert newton_steps <= 12                                                 # measured 4-6
+
+
+def _three_block_u_error(sol, p, jumps):
+    """max |u_z - exact| / DELTA3 over the three blocks of :func:`test_refusals._three_blocks_3d`: -p z / c33
+    in the lowest, each block above shifted by the interference DELTA3 less the penetrations ``jumps`` of the
+    pairs below it."""
+    from test_refusals import DELTA3
+
+    c33 = uniaxial_modulus()
+    return max(np.abs(sol.u[b][:, 2] - (-p * sol.points[b][:, 2] / c33 + DELTA3 * b - sum(jumps[:b]))).max()
+               for b in range(3)) / DELTA3
+
+
+def test_dependent_rows_next_to_a_quadratic_compliance_pair_are_finished():
+    """The three blocks with the law p = k r^2 (k = 1e16 Pa/m^2) on one pair, Signorini "gamma3" on the other,
+    either way up: 2 delta = p (1 m) / c33 + (p / k)^(1/2), solved for p by brentq (independent of the
+    package); lambda = p on both pairs, the fields to rounding, the checks at rounding."""
+    from scipy.optimize import brentq
+
+    from test_refusals import DELTA3, _three_blocks_3d
+
+    k, c33 = 1e16, uniaxial_modulus()
+    p = brentq(lambda p: p / c33 + np.sqrt(p / k) - 2 * DELTA3, 0.0, 2 * DELTA3 * c33, xtol=1e-14, rtol=1e-15)
+    law = cc.NormalCompliance(stiffness=k, exponent=2)
+    for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
+        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+        assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < 1e-9             # measured <= 5.1e-14
+        jumps = [np.sqrt(p / k) if lw.compliant else 0.0 for lw in laws]
+        assert _three_block_u_error(sol, p, jumps) < 1e-12                                # measured <= 1.7e-15
+        r = sol.residuals()
+        assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-14                  # measured <= 7.3e-16
+
+
+def test_dependent_limit_rows_of_a_compliance_pair_are_finished():
+    """The three blocks with a compliance law p = k r whose penetration limit l (half the free penetration)
+    binds, on non-matching faces: the limit rows depend on each other. Next to a Signorini pair, r = l and
+    p = c33 (2 delta - l) / (1 m); on both pairs, p = c33 (2 delta - 2 l) / (1 m). lambda = p(r) + z as a
+    pressure (the Riesz representer of the limit reactions in X_h: unique though they are not; z / w was
+    off by 3.2 on the squeezed blocks below) on every pair, the fields to rounding."""
+    from test_refusals import DELTA3, _three_blocks_3d
+
+    k, c33 = 1e12, uniaxial_modulus()
+    ell = 0.5 * 2 * DELTA3 / (1 / c33 + 1 / k) / k
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    for laws in ((cc.Signorini(), law), (law, law)):
+        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        jumps = [ell if lw.compliant else 0.0 for lw in laws]
+        p = c33 * (2 * DELTA3 - sum(jumps))
+        assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+        assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < 1e-9             # measured <= 7.8e-14
+        assert _three_block_u_error(sol, p, jumps) < 1e-12                                # measured <= 3.0e-15
+        r = sol.residuals()
+        assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-14                  # measured <= 2.2e-15
+
+
+@pytest.mark.parametrize("method", ["full", "condensed"])
+def test_dependent_limit_rows_between_supported_bodies_are_finished(method):
+    """Both bodies held by their supports (the interface route: W is singular on the dependent rows, so the
+    finish runs on the sparse mixed system from the program's fields): the squeezed blocks through p = k r
+    with a binding limit l, r = l, p = c33 (overlap - l) / (1 m), u_z = -p z / c33 below and
+    overlap - l - p z / c33 above."""
+    k, c33, overlap = 1e12, uniaxial_modulus(), 1e-5
+    ell = 0.5 * overlap / (1 + k / c33)
+    p = c33 * (overlap - ell)
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    sol = cc.solve(squeezed_blocks(overlap=overlap), "gamma3", law=law, method=method)
+    assert sol.info.method == method and sol.ok and sol.polished
+    assert sol.info.finish == "semismooth Newton on independent active sets"
+    assert np.abs(sol.contact.lam / p - 1).max() < 1e-10                                  # measured <= 4.7e-12
+    exact = [-p * sol.points[0][:, 2] / c33, overlap - ell - p * sol.points[1][:, 2] / c33]
+    assert max(np.abs(sol.u[i][:, 2] - exact[i]).max() for i in (0, 1)) < 1e-12 * overlap  # measured <= 9.8e-15
+
+
+def bumped_stack(k=1e12, load=2e7):
+    """Three blocks of height 1/3 m on (0, 1)^2 (rollers on their sides, the lowest on its base), the top one
+    pressed by ``load`` (Pa) on a central square of its top, the gap :func:`bumped_gap` at both pairs: a
+    Signorini "gamma3" pair on non-matching faces (5x5 below 4x4: dependent rows) under a compliance pair
+    p = k r on matching faces (4x4 on 4x4); the middle and top blocks held by the contact only. Contact
+    zones with edges inside the faces."""
+    zs = (0.0, 1 / 3, 2 / 3, 1.0)
+    press = lambda x, y, z: np.where((np.abs(x - .5) < .3) & (np.abs(y - .5) < .3), -load, 0.0)  # noqa: E731
+    bodies = []
+    for i, c in enumerate(((5, 5), (4, 4), (4, 4))):
+        extra = dict(traction={"top": lambda x, y, z: (0 * x, 0 * x, press(x, y, z))}) if i == 2 else {}
+        bodies.append(cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(zs[i], zs[i + 1]), nx=c[0], ny=c[1], nz=1), STEEL,
+                              roller=SIDES + (["bottom"] if i == 0 else []), name=f"block {i}", **extra))
+    pairs = [cc.Contact(bodies[0], "top", bodies[1], "bottom", condition="gamma3", gap=bumped_gap),
+             cc.Contact(bodies[1], "top", bodies[2], "bottom", condition="gamma3", gap=bumped_gap,
+                        law=cc.NormalCompliance(stiffness=k))]
+    return cc.Scene(*bodies, contacts=pairs)
+
+
+def test_dependent_rows_next_to_a_compliance_pair_against_a_dense_solve():
+    """:func:`bumped_stack` against the independent dense reference (tests/reference3d.py: rows rebuilt by
+    brute force): on the returned active set (the Signorini pair's closed rows, the compliance pair's
+    penetrating rows), the dense mixed system with the law's stiffness w k G_P^T G_P and load w k G_P^T g_P
+    added (w the lumped areas of the matching faces' triangles, computed here) is solved densely and
+    certified: every Signorini row feasible, forces >= 0 on its closed rows balancing the bodies (nnls), each
+    compliance row on the side it was taken on; the package's u and lambda agree with it to rounding."""
+    from scipy.optimize import nnls
+
+    from reference3d import Dense, face, match
+
+    k = 1e12
+    scene = bumped_stack(k)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene)
+    assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+    gap = lambda x: bumped_gap(x[:, 0], x[:, 1])                                          # noqa: E731
+    ref = Dense(scene, "gamma3", gaps={0: gap, 1: gap})
+    m0 = ref.counts[0]
+    active, rows = [], []
+    for i, c in enumerate(sol.contacts):
+        on = np.flatnonzero(c.constrained)
+        j = match(ref.points(i), c.points[on], 1e-9)
+        active.append(c.active[on][j])
+        rows.append(on[j])
+    closed, pen = active
+    assert 0 < closed.sum() < len(closed) and 0 < pen.sum() < len(pen)      # zones inside the faces: 40/133, 21/25
+    f = face(scene, 1, "top")                              # the matching faces: X_h is this face's P1 space
+    X = f.points[f.tri]
+    area = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+    lumped = np.zeros(len(f.points))
+    np.add.at(lumped, f.tri.ravel(), np.repeat(area / 3, 3))
+    w = lumped[match(ref.points(1), f.points, 1e-9)]
+    G1, g1 = ref.G[m0:], ref.g[m0:]
+    D = np.where(pen, w * k, 0.0)
+    ref.K = ref.K + G1.T @ (D[:, None] * G1)
+    ref.b = ref.b + G1.T @ (D * g1)
+    stacked = np.concatenate([closed, np.zeros(len(pen), dtype=bool)])
+    ans = ref.solve_on(stacked)
+    slack = ref.G @ ans.x - ref.g
+    scale = max(float(np.abs(ref.g).max()), float((np.abs(ref.G) @ np.abs(ans.x)).max()))
+    assert slack[:m0].max() < 1e-12 * scale                                          # measured 2.6e-16
+    need = ref.b - ref.K @ ans.x
+    _, unbalanced = nnls(ref.G[:m0][closed].T, need, maxiter=5000)
+    assert unbalanced < 1e-12 * np.linalg.norm(need)                                # measured 5.1e-15
+    r1 = slack[m0:]
+    assert (r1[pen] > 0).all() and (r1[~pen] <= 1e-12 * scale).all()
+    err = max(np.abs(a - b).max() for a, b in zip(sol.u, ans.u)) / max(np.abs(b).max() for b in ans.u)
+    assert err < 1e-12                                                               # measured 2.8e-15
+    lam = k * np.maximum(r1, 0.0)
+    assert np.abs(sol.contacts[1].lam[rows[1]] - lam).max() < 1e-10 * lam.max()    # measured 6.8e-15

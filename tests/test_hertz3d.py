@@ -273,3 +273,16 @@ def test_p2_gamma3_hertz_quantities_at_the_coarsest_level(gamma3_level, p2_level
     # the zone's edge (h at the axis, h_m; the grid is graded, coarser at r = a)
     for r in (p1, p2):
         assert abs(r["a_hull_m"] - r["a_h_m"]) < r["h_m"]               # measured 0.53 h (P1), 0.19 h (P2)
+
+
+def test_p1_errors_shrink_with_h(guided):
+    """Level n = 16 against n = 8 (h at the axis 0.42x): the radius, the peak pressure and the axis cell's
+    force approach Hertz, and the approach approaches it down to the finite block's own compliance (Boussinesq
+    at the clamped depth: -0.073). Measured at n = 8 / 16: a +0.075 / +0.034, p0 -0.176 / -0.106, cell force
+    +0.069 / +0.029, delta -0.113 / -0.075 (docs/studies/hertz3d, the README table)."""
+    coarse = h.measure(guided, -guided.obstacles[0].translation[2])
+    fine, sol = h.solve_level(16)
+    assert sol.ok and fine["F_N"] == pytest.approx(h.FORCE, rel=1e-10)
+    for key in ("a_rel_error", "p0_rel_error", "cell_force_rel_error"):
+        assert abs(fine[key]) < 0.7 * abs(coarse[key]), key                # measured ratios 0.46, 0.60, 0.42
+    assert coarse["delta_rel_error"] < fine["delta_rel_error"] < -0.05     # measured -0.113 < -0.075

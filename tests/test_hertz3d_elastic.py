@@ -207,3 +207,16 @@ def test_a_punch_held_by_the_contact_alone_carries_its_load():
     # a penetration of about p / k = 1e-7 m against delta = 4e-5 m: the force 0.27 % lower
     assert hard.contact.force.sum() == pytest.approx(exact.contact.force.sum(), rel=1e-2)   # measured -2.7e-3
     assert hard.contact.force.sum() < exact.contact.force.sum()
+
+
+def test_p1_errors_shrink_with_h(pressed):
+    """Level n = 16 against n = 8: the peak pressure, the axis cell's force and the approach approach Hertz
+    (the radius, read from active/open edges, is within h/2 at both: -0.035 / -0.006). Measured at n = 8 / 16:
+    p0 -0.179 / -0.101, cell force -0.163 / -0.096, delta -0.108 / -0.066 (docs/studies/hertz3d_elastic)."""
+    sol, delta, _ = pressed
+    coarse = h.measure(sol, delta)
+    fine, fine_sol = h.solve_level(16)
+    assert fine_sol.ok and fine["F_N"] == pytest.approx(h.FORCE, rel=1e-10)
+    for key in ("p0_rel_error", "cell_force_rel_error", "delta_rel_error"):
+        assert abs(fine[key]) < 0.7 * abs(coarse[key]), key                # measured ratios 0.56, 0.59, 0.61
+    assert abs(fine["a_rel_error"]) < 0.05                                 # measured -0.006

@@ -271,3 +271,27 @@ def test_2d_figure_functions_draw_3d_solutions_with_the_3d_figures(layer):
                 "Contact pressure in the plane")
         finally:
             plt.close(fig)
+
+
+def test_p2_files_hold_tetra10_cells_and_both_sides_pressure(tmp_path):
+    """P2 (degree=2) on nested faces (2 x 2 on 4 x 4 cells, sigma2: the finer side's nodes, exact): the body
+    files are tetra10 with the solved displacement at every node; the contact-surface file has both sides'
+    pressure, lambda_h and the jump; each side's own file is triangle6 with its felt pressure, P everywhere."""
+    from scenes3d import P as p0, stacked_blocks
+
+    sol = cc.solve(stacked_blocks((2, 2), (4, 4)), "sigma2", degree=2)
+    assert sol.ok and sol.polished and sol.degree == 2
+    write_all(sol, tmp_path, "q")
+    for k in (1, 2):
+        body = meshio.read(tmp_path / f"q_body{k}.vtu")
+        assert body.cells[0].type == "tetra10" and len(body.cells[0].data) == len(sol.scene.bodies[k - 1].mesh.tets)
+        assert np.array_equal(body.points, sol.points[k - 1])
+        assert np.array_equal(body.point_data["displacement [m]"], sol.u[k - 1])
+        assert np.abs(body.cell_data["stress zz [Pa]"][0] / p0 + 1).max() <= 1e-9          # measured 2.2e-14
+        own = meshio.read(tmp_path / f"q_contact_body{k}.vtu")
+        assert own.cells[0].type == "triangle6"
+        assert np.abs(own.point_data[f"pressure on body {k} [Pa]"] / p0 - 1).max() <= 1e-9  # measured 4.3e-14
+    d = meshio.read(tmp_path / "q_contact.vtu").point_data
+    for name in ("pressure on body 1 [Pa]", "pressure on body 2 [Pa]", "lambda_h (diagnostic) [Pa]"):
+        assert np.abs(d[name] / p0 - 1).max() <= 1e-9, name                               # measured 4.3e-14
+    assert np.array_equal(d["normal jump [m]"], sol.contact.jump)

@@ -3,6 +3,8 @@ closed forms, invariances and finite differences; force-control balance; typed r
 
 from types import SimpleNamespace
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -215,3 +217,67 @@ def test_a_small_sphere_over_too_few_nodes_is_refused_naming_them_and_solves_on_
     sol = cc.solve(scene(16))
     assert sol.ok
     np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, -1e8], rtol=0, atol=1e-6 * 1e8)  # measured 4.7e-10 N
+
+
+# --------------------------------------------------------------------------- cylinders and height fields solved
+
+def _block_under(obstacle, n=8):
+    """A block (-1, 1)^2 x (-1, 0) m, aluminium, clamped at its bottom, its top against ``obstacle``."""
+    mesh = cc.box(x=(-1, 1), y=(-1, 1), z=(-1, 0), nx=n, ny=n, nz=2)
+    body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"], contact="top")
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", obstacle)])
+
+
+def test_a_force_controlled_cylinder_equals_the_fixed_one_whose_force_it_is_given():
+    """A cylinder (axis y, R = 2 m) pressed 0.02 m into the block off the grid's lines: its reaction F, given
+    back as a prescribed force to the cylinder at rest on the top, moves it by the same 0.02 m along z only
+    (free along x as well, where the off-centre contact pushes it; nothing acts along its axis) and gives the same displacements, to rounding (both
+    finished exactly)."""
+    R, depth, x0 = 2.0, 0.02, 0.07
+    fixed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R - depth), (0, 1, 0), R)))
+    assert fixed.ok and fixed.polished
+    F = fixed.obstacles[0].force
+    assert F[2] < 0 and abs(F[1]) == 0 and 10 < fixed.contact.active.sum() < 81     # measured 18 nodes
+    pushed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R), (0, 1, 0), R, force=F)))
+    assert pushed.ok and pushed.polished
+    t = pushed.obstacles[0].translation
+    assert abs(t[2] / -depth - 1) < 1e-12 and abs(t[0]) < 1e-12 * depth          # measured 2e-15, 3e-15
+    assert np.abs(pushed.u[0] - fixed.u[0]).max() < 1e-12 * np.abs(fixed.u[0]).max()   # measured 1.1e-15
+    np.testing.assert_array_equal(pushed.contact.active, fixed.contact.active)
+
+
+def test_a_height_field_plane_is_the_rigid_plane():
+    """z = a x + b y + c as a height field and as cc.Rigid.plane through (0, 0, c) with the downward normal
+    (a, b, -1)/|.|: the same answer, to rounding, reached through the two obstacles' own distances."""
+    a, b, c = 0.01, -0.02, -1e-3
+    field = cc.Rigid.height_field(lambda x, y: a * x + b * y, origin=(0.0, 0.0, c))
+    normal = np.array([a, b, -1.0]) / np.linalg.norm([a, b, -1.0])
+    one, two = cc.solve(_block_under(field, 6)), cc.solve(_block_under(cc.Rigid.plane((0, 0, c), normal), 6))
+    assert one.ok and two.ok and 0 < one.contact.active.sum() < len(one.contact.x)   # measured 21 of 49
+    assert np.abs(one.u[0] - two.u[0]).max() < 1e-12 * np.abs(two.u[0]).max()      # measured 2.8e-16
+    F = two.obstacles[0].force
+    assert np.abs(one.obstacles[0].force - F).max() < 1e-12 * np.abs(F).max()      # measured 1.6e-13
+
+
+@pytest.mark.parametrize("shape", ["sphere", "cylinder"])
+def test_a_sphere_or_cylinder_on_one_node_or_line_is_finished_its_sideways_translation_held(shape):
+    """A force-controlled sphere centred over a node (one active row, on its axis) or a cylinder over a line of
+    nodes (the active rows under its lowest line): the sideways translation changes no active row, so the
+    solution leaves it free within the interval the open rows allow. The field and the forces are unique: the
+    solve finishes exactly (it declined before: complementarity 0.19 at 1e5 N on the sphere, ok False), warns
+    naming the translation, and equals the fixed obstacle at the returned position (an independent solve
+    without translation unknowns), whose reaction is the prescribed force."""
+    mesh = cc.box(x=(-1, 1), y=(-1, 1), z=(-1, 0), nx=8, ny=8, nz=2)
+    body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top", name="block")
+    ob = (cc.Rigid.sphere((0.0, 0.0, 2.0), 2.0, force=(0, 0, -1e6)) if shape == "sphere" else
+          cc.Rigid.cylinder((0.0, 0.0, 2.0), (0, 1, 0), 2.0, force=(0, 0, -1e6)))
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "top", ob)])
+    with pytest.warns(cc.NonUniqueWarning, match=r"translation x of obstacle 0"):
+        sol = cc.solve(scene)
+    assert sol.ok and sol.polished
+    t = sol.obstacles[0].translation
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ref = cc.solve(scene.with_obstacles(ob.moved(by=tuple(t)).with_force(None)))
+    assert np.abs(sol.u[0] - ref.u[0]).max() <= 1e-9 * np.abs(ref.u[0]).max()    # measured 9.4e-13, 3.4e-12
+    np.testing.assert_allclose(ref.obstacles[0].force, [0, 0, -1e6], rtol=0, atol=1e-6 * 1e6)  # 2.2e-9, 6.7e-11 N

@@ -17,7 +17,7 @@ import cvxcontact as cc
 from cvxcontact.backends import cones
 from cvxcontact.backends.full import mixed_kkt
 from cvxcontact.backends.result import Cache, Settings
-from cvxcontact.backends.tangency import _index, _maximum
+from cvxcontact.backends.tangency import _maximum
 from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, point_rows
 
 from test_force_control import indenter_scene
@@ -62,7 +62,7 @@ def test_the_maximum_of_an_element_and_its_derivatives(shape, I):
         d1 = (f(b + h * db) - f(b - h * db)) / (2 * h)
         assert abs(d1 - _q(shape, db, L[None, :])[0]) < 1e-8 * max(1, abs(d1))      # measured ~1e-11
         d2 = (f(b + h * db) - 2 * m + f(b - h * db)) / h ** 2
-        dQL = np.array([sum(L[j] * db[_index(shape, i, j)] for j in I) for i in I])
+        dQL = np.array([sum(L[j] * db[shape.index(i, j)] for j in I) for i in I])
         exact = -2 * dQL @ M @ dQL
         assert exact >= 0 and abs(d2 - exact) < 1e-4 * max(1, abs(exact))         # measured ~1e-6
 
@@ -272,3 +272,21 @@ def test_a_cone_that_carries_nothing_next_to_a_compliance_law_is_finished():
     c = sol.contact
     assert np.abs(c.jump - c.gap - r).max() < 1e-12 * r          # measured 1.5e-14
     assert np.abs(c.lam - P).max() < 1e-12 * P                    # measured 3.1e-14
+
+
+@pytest.mark.parametrize("shape", [SEGMENT, TRIANGLE])
+def test_one_coefficient_map_per_element_shape(shape):
+    """gram(b) is the Q of q = L^T Q L (against the Bernstein basis evaluated directly), index(i, j) its
+    position in b, and dual_gram the Z with beta . b = <Z, Q> (the pairing the cones' duals use)."""
+    rng = np.random.default_rng(3)
+    b, beta = rng.normal(size=(5, shape.width)), rng.normal(size=(5, shape.width))
+    k = 2 if shape.width == 3 else 3
+    L = rng.dirichlet(np.ones(k), size=7)                             # barycentric points
+    Q = shape.gram(b)
+    q = np.einsum("pi,sij,pj->sp", L, Q, L)
+    direct = b @ (shape.basis(L[:, 1]) if k == 2 else shape.basis(L)).T
+    np.testing.assert_allclose(q, direct, rtol=0, atol=1e-13)
+    for i in range(k):
+        for j in range(k):
+            np.testing.assert_array_equal(Q[:, i, j], b[:, shape.index(i, j)])
+    np.testing.assert_allclose((shape.dual_gram(beta) * Q).sum(axis=(1, 2)), (beta * b).sum(axis=1), atol=1e-13)

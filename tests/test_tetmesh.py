@@ -404,3 +404,40 @@ def test_p2_tet_nodes_are_the_edge_midpoints():
     assert np.allclose(p2.points[top, 2], 1.0) and len(top) == (2 * 2 + 1) * (2 * 1 + 1)
     with pytest.raises(MeshError, match="not an edge"):
         p2.midpoint([0], [n - 1])
+
+
+# --------------------------------------------------------------------------- pieces, moved points
+
+def _two_boxes():
+    """Two separate unit boxes (the second at x in (2, 3)), the first one's bottom and top tagged."""
+    a, b = cc.box(nx=1, ny=1, nz=1), cc.box(x=(2, 3), nx=1, ny=1, nz=1)
+    return TetMesh(np.vstack([a.points, b.points]), np.vstack([a.tets, b.tets + len(a.points)]),
+                   {"bottom": a.boundary("bottom"), "top": a.boundary("top")})
+
+
+def test_a_piece_nothing_holds_or_no_electrode_reaches_is_refused_naming_it():
+    """As in 2D: a mesh may have several pieces, but a body's piece held by nothing (its six rigid motions)
+    or a piezoelectric piece no grounded or driven electrode touches is a SceneError naming the piece."""
+    m = _two_boxes()
+    alu = cc.materials.isotropic(E=70e9, nu=0.3)
+    body = cc.Body(m, alu, clamped=["bottom"], contact="top")
+    with pytest.raises(cc.SceneError, match=r"translation along x of mesh component 1 \(6 tetrahedra, centroid at "
+                                            r"\(2.5, 0.5, 0.5\) m\)"):
+        cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.plane((0, 0, 1.5), (0, 0, -1)))])
+    with pytest.raises(cc.SceneError, match=r"mesh component 1 \(6 tetrahedra.*no grounded or driven electrode"):
+        cc.Body(m, cc.materials.PZT5A, clamped=["bottom"], grounded=["bottom"])
+
+
+def test_with_points_refuses_what_the_constructor_refuses():
+    m = cc.box(nx=2, ny=2, nz=2)
+    close = m.points.copy()
+    close[1] = close[0] + 1e-13
+    with pytest.raises(MeshError, match="duplicate nodes 0 and 1"):
+        m.with_points(close)
+    folded = m.points.copy()
+    folded[13] = [0.5, 0.5, 5.0]                               # the centre node pulled out through the top
+    with pytest.raises(MeshError, match="inverted tetrahedra.*e.g. tetrahedron"):
+        m.with_points(folded)
+    mirrored = m.with_points(m.points * [1, 1, -1])            # every element reversed: reoriented, tags outward
+    assert (mirrored.volumes > 0).all()
+    np.testing.assert_allclose(mirrored.outward_normals("top"), [[0, 0, -1]] * len(m.boundary("top")), atol=1e-15)

@@ -1,7 +1,9 @@
 """Routes for a normal-compliance law on some or all pairs (the paper's (7)/(19); docs/formulation.md §10):
 the convex program with the compliance energy (full or condensed), finished exactly by semismooth Newton
 steps on the interface, or, with a body held by the contact or force-controlled obstacles, on the sparse
-mixed system with the law's rows."""
+mixed system with the law's rows; where rows with a condition r <= l depend on each other (3D "gamma3" on
+non-matching faces, docs/formulation.md §13), Newton steps on the law around the finish of dependent rows
+(:func:`dependent_newton`)."""
 
 from __future__ import annotations
 
@@ -12,13 +14,14 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite
-from .finish import solve_compliance, solve_linear_compliance, solve_sparse_compliance
-from .full import ContactModel, limit_reaction
+from .finish import SIGN_TOL, independent_active_set, solve_compliance, solve_linear_compliance, solve_sparse_compliance
+from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
 from .program import timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
+from .signorini import dependent_rows
 
-__all__ = ["solve", "full", "condensed", "newton"]
+__all__ = ["solve", "full", "condensed", "newton", "dependent_newton"]
 
 
 def newton(W, d, w, law, r0=None, active=None):
@@ -63,7 +66,9 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
         cond, compliance = reduction.bodies, reduction.compliance
         _, loads, d = reduction.apply(problem, timings)
     out = None
-    if method == "condensed" and settings.warm_start and settings.polish and cache.active is not None:
+    dependent = settings.polish and _dependent(problem, law)     # W is singular on dependent rows: no Newton on W
+    if method == "condensed" and settings.warm_start and settings.polish and cache.active is not None \
+            and not dependent:
         t0 = time.perf_counter()
         out = newton(compliance.W, d, w, law, *cache.active)
         timings["polish"] = time.perf_counter() - t0
@@ -96,6 +101,10 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
             raw.u, raw.phi, r = program_fields(model, problem, None if method == "full" else cond)
             raw.z = limit_reaction(model.contact, model.limit_rows, len(g))
             raw.y = w * law.pressure(r) + raw.z
+            if dependent:
+                if raw.u is None:                          # the condensed program's Gamma values, filled in
+                    raw.u, raw.phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
+                return _dependent_finish(problem, raw, _stacked(raw.u, raw.phi), raw.z, r, timings)
             if settings.polish:
                 t0 = time.perf_counter()
                 start = None
@@ -117,13 +126,48 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     return raw
 
 
+def _mixed_system(problem):
+    """(A, F, G, widths) of the sparse mixed system (26) of ``problem`` (scaled): A the bodies' quasi-definite
+    blocks [[Kuu, Kup], [Kup^T, -Kpp]] and a zero block for the translations of force-controlled obstacles
+    (``widths`` their sizes), F the loads [f; -q; F_obstacle], G the rows E [u_nu] + R tau, on the unknowns
+    x = [u_1; phi_1; ...; tau_1; ...]."""
+    blocks, E, tr = list(problem.blocks), problem.E, list(problem.translations)
+    parts = [quasi_definite(b) for b in blocks]
+    widths = [R.shape[1] for R, _ in tr]
+    A = sp.block_diag([S for S, _ in parts] + [sp.csr_matrix((sum(widths), sum(widths)))] * bool(widths),
+                      format="csr")
+    F = np.concatenate([Fk for _, Fk in parts] + [np.asarray(Fo, dtype=float) for _, Fo in tr])
+    G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], S.shape[0] - b.Kuu.shape[0]))])
+                   for b, (S, _) in zip(blocks, parts)] + [sp.csr_matrix(R) for R, _ in tr]).tocsr()
+    return A, F, G, widths
+
+
+def _stacked(u, phi, taus=()):
+    """x = [u_1; phi_1; ...; tau_1; ...] (the unknowns of :func:`_mixed_system`)."""
+    return np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)]
+                          + [np.asarray(t, dtype=float) for t in taus])
+
+
+def _unstacked(problem, x, widths):
+    """(u, phi, taus) of the unknowns x of :func:`_mixed_system`."""
+    u, phi, pos = [], [], 0
+    for b in problem.blocks:
+        nu, npf = b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]
+        u.append(x[pos:pos + nu])
+        phi.append(x[pos + nu:pos + nu + npf] if npf else None)
+        pos += nu + npf
+    taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
+    return u, phi, taus
+
+
 def sparse(problem, settings, timings) -> RawResult:
     """Normal compliance with a body held by the contact only or force-controlled obstacles (docs/
     formulation.md §10-§12): no body can be condensed alone (a singular stiffness) or the obstacles'
     translations tau couple every body they touch, so the full model (the energy with the compliance
     term, the limit rows, the unknowns tau with the work -F . tau) is solved by the interior point and
     finished exactly by Newton steps on the sparse mixed system with the law's rows
-    (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`)."""
+    (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`; :func:`dependent_newton` where the rows
+    with a condition r <= l can depend on each other)."""
     law, w, E, g, blocks = problem.scaled_law, problem.weights, problem.E, problem.g, list(problem.blocks)
     tr = list(problem.translations)
     t0 = time.perf_counter()
@@ -138,34 +182,159 @@ def sparse(problem, settings, timings) -> RawResult:
     r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u))
          + sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g))) - g)
     y = w * law.pressure(r) + z
-    if settings.polish:
-        t0 = time.perf_counter()
-        parts = [quasi_definite(b) for b in blocks]
-        widths = [R.shape[1] for R, _ in tr]
-        A = sp.block_diag([S for S, _ in parts] + [sp.csr_matrix((sum(widths), sum(widths)))] * bool(widths),
-                          format="csr")
-        F = np.concatenate([Fk for _, Fk in parts] + [np.asarray(Fo, dtype=float) for _, Fo in tr])
-        G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], S.shape[0] - b.Kuu.shape[0]))])
-                       for b, (S, _) in zip(blocks, parts)] + [sp.csr_matrix(R) for R, _ in tr]).tocsr()
-        x0 = np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)] + taus)
-        # the interior point's rows at their limit: reaction beats slack, each relative to its own scale
-        Y = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
-        U = max(float(np.abs(r + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)), np.finfo(float).tiny)
-        start = law.limited & (z / Y + (r - law.penetration_limit) / U > 0)
-        out = solve_sparse_compliance(A, F, G, g, w, law, x0, start)
-        timings["polish"] = time.perf_counter() - t0
-        if out is None:
-            raw.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
-        else:
-            x, y, z = out[0], out[1], out[2]
-            raw.polished, raw.finish, pos = True, "semismooth Newton", 0
-            u, phi = [], []
-            for b, (S, _) in zip(blocks, parts):
-                nu, npf = b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]
-                u.append(x[pos:pos + nu])
-                phi.append(x[pos + nu:pos + nu + npf] if npf else None)
-                pos += nu + npf
-            taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
     raw.u, raw.phi, raw.y, raw.taus = u, phi, y, taus
-    raw.z = z if law.limited.any() else None
+    if settings.polish:
+        if _dependent(problem, law):
+            _dependent_finish(problem, raw, _stacked(u, phi, taus), z, r, timings)
+        else:
+            t0 = time.perf_counter()
+            A, F, G, widths = _mixed_system(problem)
+            out = solve_sparse_compliance(A, F, G, g, w, law, _stacked(u, phi, taus), _limit_start(law, y, z, r, g))
+            timings["polish"] = time.perf_counter() - t0
+            if out is None:
+                raw.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
+            else:
+                raw.polished, raw.finish = True, Finish.SEMISMOOTH_NEWTON
+                raw.u, raw.phi, raw.taus = _unstacked(problem, out[0], widths)
+                raw.y, raw.z = out[1], out[2]
+    raw.z = (raw.z if raw.polished else z) if law.limited.any() else None
     return raw
+
+
+def _limit_start(law, y, z, r, g):
+    """The interior point's rows at their limit: reaction beats slack, each relative to its own scale."""
+    Y = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
+    U = max(float(np.abs(r + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)), np.finfo(float).tiny)
+    return law.limited & (z / Y + (r - law.penetration_limit) / U > 0)
+
+
+def _dependent(problem, law) -> bool:
+    """Whether the finish must keep the rows with a condition r <= l independent: rows that can depend on
+    each other (:func:`~cvxcontact.backends.signorini.dependent_rows`) and some row with a finite limit (rows
+    of a compliance law alone carry no multiplier: their dependence does not matter)."""
+    return bool(law.limited.any()) and dependent_rows(problem)
+
+
+def _dependent_finish(problem, raw, x0, z0, r0, timings):
+    """:func:`dependent_newton` on the sparse mixed system of ``problem`` from the interior point's unknowns
+    ``x0``, limit reactions ``z0`` and penetration ``r0``; fills ``raw`` (fields, y, z, finish) or its
+    ``declined``."""
+    t0 = time.perf_counter()
+    law, g = problem.scaled_law, problem.g
+    A, F, G, widths = _mixed_system(problem)
+    free = ~problem.held_rows
+    z0 = np.where(free, z0, 0.0)
+    start = _limit_start(law, problem.weights * law.pressure(r0) + z0, z0, r0, g) & free
+    out = dependent_newton(A, F, G, g, problem.weights, law, x0, z0, start)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        raw.declined = out
+        return raw
+    x, raw.y, raw.z = out[:3]
+    raw.u, raw.phi, raw.taus = _unstacked(problem, x, widths)
+    raw.polished, raw.finish = True, Finish.NEWTON_INDEPENDENT
+    return raw
+
+
+def _rows_kkt(K, b, GL, c):
+    """``kkt(active)`` of :func:`~cvxcontact.backends.finish.independent_active_set` for the mixed system
+    [[K, G_A^T], [G_A, 0]] [x; y_A] = [b; c_A] (K sparse, the rows GL x <= c): the state is (x, y)."""
+    n = K.shape[0]
+
+    def fields(active, s):
+        y = np.zeros(GL.shape[0])
+        y[active] = s[n:]
+        x = s[:n]
+        return (x, y), y, GL @ x - c, float(np.abs(x).max(initial=0.0))
+
+    def kkt(active):
+        Ga = GL[active]
+        M = sp.bmat([[K, Ga.T], [Ga, None]], format="csc") if Ga.shape[0] else K.tocsc()
+        s = solve_mixed(M, np.concatenate([b, c[active]]))
+        return None if s is None else fields(active, s)
+
+    kkt.rows, kkt.matrix, kkt.rhs, kkt.fields = GL, K, b, fields
+    kkt.stack = lambda state: state[0]
+    return kkt
+
+
+def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50):
+    """Exact finish of rows with a condition r <= l (Signorini rows, l = 0; compliance rows with a penetration
+    limit) that may depend on each other (3D "gamma3" overlay rows, docs/formulation.md §13) next to rows of
+    a normal-compliance law (§10), on the sparse mixed system (26). Scaled units; ``A``, ``F``, ``G``, ``g``,
+    ``weights`` w, ``law`` (a :class:`~cvxcontact.contact.laws.RowLaws`) as in
+    :func:`~cvxcontact.backends.finish.solve_sparse_compliance`, whose system it solves:
+
+        A x + G^T y = F,   y = w p(r) + z,   r = G x - g <= l,  z >= 0,  z (r - l) = 0.
+
+    Why Newton outside and Lawson-Hanson inside: a compliance row carries no multiplier (its force w p(r) is a
+    function of x), so its dependence on other rows never makes a system singular, while a multiplier z of
+    dependent rows is not unique and every active-set step that closes them factorises a singular matrix.
+    Linearising the law at x^k (r^k = G x^k - g, D = diag(w p'(r^k))) turns the compliance rows into a
+    stiffness and a load on the bodies,
+
+        [A + G^T D G] x + G_L^T z_L = F - G^T (w p(r^k) - D (g + r^k)),   G_L x <= g_L + l_L  (compl.),
+
+    the Signorini problem (26)-(27) of the rows L with a finite limit, which
+    :func:`~cvxcontact.backends.finish.independent_active_set` solves exactly whatever the dependence of its
+    rows (its forces on independent rows; factored steps, warm-started from the previous step's rows and
+    forces). That is one step of Newton's method on the law (a sequential QP with the exact Hessian of the
+    energy 1/2 x^T A x - F^T x + sum_a w_a Phi_a(r_a), convex where the Gauss rows hold): both x^k and the
+    step's answer satisfy G_L x <= g_L + l_L, so the damped step x^k + t (x^{k+1} - x^k) (backtracking on
+    the energy, as in :func:`solve_sparse_compliance`; the first step from the interior point taken whole)
+    stays admissible. For m = 1, p' is piecewise constant: once no compliance row changes sign the step's
+    system is the problem's own, and the answer is exact (semismooth Newton, finite); for m > 1 the steps
+    converge quadratically. Stops with t = 1 when the stationarity residual A x + G^T y - F is within 1e-3
+    ``SIGN_TOL`` of each row's scale |A| |x| + |G^T| |y| + |F| (or within ``SIGN_TOL`` once a step no longer
+    halves it); the signs, feasibility (to 1e-12 of each row's scale) and complementarity (the rows carrying
+    z closed) are the inner finish's.
+
+    ``x0``, ``z0``, ``start``: the start (e.g. the interior point's unknowns, limit reactions and rows at their
+    limit). Returns ``(x, y, z, at_limit, newton_steps, active_set_steps)`` or the reason it stopped (str).
+    """
+    A, G = sp.csr_matrix(A), sp.csr_matrix(G)
+    F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
+    m = G.shape[0]
+    ell = np.broadcast_to(np.asarray(law.penetration_limit, dtype=float), (m,))
+    L = np.flatnonzero(np.isfinite(ell))
+    GL, cL = G[L], g[L] + ell[L]
+    zL = np.maximum(np.asarray(z0, dtype=float)[L], 0.0)
+    active = np.asarray(start, dtype=bool)[L]
+    absA, absG, tiny = abs(A), abs(G), np.finfo(float).tiny
+    x = np.asarray(x0, dtype=float).copy()
+
+    def energy(x):
+        r = G @ x - g
+        return 0.5 * x @ (A @ x) - F @ x + float(w @ law.energy(r))
+
+    inner, last = 0, np.inf
+    for newton_steps in range(1, max_iter + 1):
+        r = G @ x - g
+        D = w * law.derivative(r)
+        K = (A + G.T @ sp.diags(D) @ G).tocsr()
+        b = F - G.T @ (w * law.pressure(r) - D * (g + r))
+        out = independent_active_set(_rows_kkt(K, b, GL, cL), cL, zL, active)
+        if isinstance(out, str):
+            return out
+        (target, zL), active, steps = out
+        inner += steps
+        dx, t = target - x, 1.0
+        if newton_steps > 1:
+            f0 = energy(x)
+            while t > 1e-12 and energy(x + t * dx) > f0 + 1e-14 * max(abs(f0), tiny):
+                t *= 0.5
+        x = x + t * dx
+        z = np.zeros(m)
+        z[L] = zL
+        y = w * law.pressure(G @ x - g) + z
+        S = absA @ np.abs(x) + absG.T @ np.abs(y) + np.abs(F)
+        S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+        ratio = float((np.abs(A @ x + G.T @ y - F) / S).max(initial=0.0))
+        if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
+            at = np.zeros(m, dtype=bool)
+            at[L] = active
+            return x, y, z, at, newton_steps, inner
+        last = ratio
+        if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
+            return "the Newton steps on the law stalled above rounding"
+    return "the Newton steps on the law did not settle"

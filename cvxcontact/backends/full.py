@@ -171,7 +171,26 @@ class ContactModel:
         return cp.Problem(cp.Minimize(energy), self.constraints + list(constraints))
 
 
-def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None):
+def _unseen(R, F, active, hold):
+    """The rows holding a force-controlled obstacle's translations that the active rows do not see:
+    (H, h) with H tau = h fixing tau along the null space V of R[active] at ``hold`` (V^T tau = V^T hold), or
+    None if the prescribed force F has a component along V (no force of these rows balances it: the set
+    cannot hold the obstacle). Empty (0, k) rows where R[active] has full column rank."""
+    k = R.shape[1]
+    Ra = np.asarray(sp.csr_matrix(R)[active].todense())
+    if not len(Ra):
+        V = np.eye(k)
+    else:
+        _, sv, Vt = np.linalg.svd(Ra, full_matrices=True)
+        rank = int((sv > 1e-9 * sv[0]).sum()) if sv.size and sv[0] > 0 else 0
+        V = Vt[rank:].T
+    F = np.asarray(F, dtype=float)
+    if V.shape[1] and np.linalg.norm(V.T @ F) > 1e-9 * max(np.linalg.norm(F), np.finfo(float).tiny):
+        return None
+    return V.T, V.T @ np.asarray(hold, dtype=float)
+
+
+def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None, hold=None):
     """``kkt(active)`` for the exact finish of the full model: the sparse mixed system (26)
 
     [[A, G^T], [G, 0]] [x; y_A] = [F; g_A] with, per body, A = [[Kuu, Kup], [Kup^T, -Kpp]],
@@ -184,7 +203,12 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
 
     With ``translations`` (as in :class:`ContactModel`) the unknowns tau of force-controlled obstacles
     join x with no stiffness: their rows are R^T y = F (the obstacle's force balance) and the contact
-    rows gain R tau (docs/formulation.md §12); ``kkt(active)`` then returns (u, phi, y, taus).
+    rows gain R tau (docs/formulation.md §12); ``kkt(active)`` then returns (u, phi, y, taus). Where the
+    active rows do not see every translation (a sphere touching at one node on its axis: its sideways
+    translations change no active row) those components are not determined by (26) but are free within the
+    interval the open rows allow; with ``hold`` (one array per obstacle, e.g. the interior point's
+    translations) they are held there if the force has no component along them (else the set is singular:
+    None); without, such a set is singular (the cones' finish then turns to the tangency points, §18).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
@@ -200,12 +224,24 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None)
         rhs = np.concatenate([rhs, *(np.asarray(F, dtype=float) for _, F in translations)])
         G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
+    held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
+
     def kkt(active):
-        G = G_all[active]
+        G, b = G_all[active], np.concatenate([rhs, g[active]])
+        n, start = A.shape[0], A.shape[0] - sum(widths)
+        for (R, F), w, h in zip(translations or (), widths, held):
+            fix = _unseen(R, F, active, h)
+            if fix is None:
+                return None
+            H, c = fix
+            if len(H):
+                G = sp.vstack([G, sp.hstack([sp.csr_matrix((len(H), start)), sp.csr_matrix(H),
+                                             sp.csr_matrix((len(H), n - start - w))])]).tocsr()
+                b = np.concatenate([b, c])
+            start += w
         K = sp.bmat([[A, G.T], [G, None]], format="csc")
-        b = np.concatenate([rhs, g[active]])
         z = solve_mixed(K, b)  # None: numerically singular (e.g. a body held by the contact only, rows not active)
-        return None if z is None else fields(active, z)
+        return None if z is None else fields(active, z[:n + int(np.count_nonzero(active))])
 
     def fields(active, z):
         """kkt's answer from the solution z = [x; y_active] of (26) on ``active``."""

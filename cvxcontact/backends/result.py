@@ -70,6 +70,10 @@ class Finish(StrEnum):
     INDEPENDENT_ACTIVE_SET = "independent active set"
     """Linearly dependent rows (3D "gamma3"): Lawson-Hanson on the sparse mixed system, the rows carrying the
     forces kept independent (:func:`cvxcontact.backends.finish.independent_active_set`)."""
+    NEWTON_INDEPENDENT = "semismooth Newton on independent active sets"
+    """Linearly dependent rows with a condition r <= l next to a compliance law (3D "gamma3"): Newton steps on
+    the law, each an independent active set of the linearised mixed system
+    (:func:`cvxcontact.backends.compliance.dependent_newton`)."""
 
 
 @dataclass(frozen=True)

@@ -87,7 +87,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     if dependent_rows(problem):
         return dependent_finish(problem, raw, timings)
     if problem.held or tr:
-        out = sparse_active_set(mixed_kkt(blocks, E, g, translations=tr), g,
+        out = sparse_active_set(mixed_kkt(blocks, E, g, translations=tr, hold=raw.taus or None), g,
                                 raw.active & ~problem.held_rows, timings)     # held rows: force 0 (§8)
         if out is None:
             raw.declined = "the active-set steps on the sparse mixed system did not settle"

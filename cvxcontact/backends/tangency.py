@@ -59,28 +59,12 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _index(shape, i: int, j: int) -> int:
-    """The position of Q_ij in the element's coefficient vector (segments (b0, b1, b2), triangles in
-    triangle6 order)."""
-    if shape.width == 3:
-        return 2 * i if i == j else 1
-    if i == j:
-        return i
-    for a, b, c in shape.edges:
-        if {a, b} == {i, j}:
-            return c
-    raise ValueError((i, j))
-
-
 def _maximum(shape, b, I):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
     docstring); None where Q_II is not negative definite on the tangent plane."""
-    k = 2 if shape.width == 3 else 3
-    Q = np.empty((k, k))
-    for i in range(k):
-        for j in range(k):
-            Q[i, j] = b[_index(shape, i, j)]
+    Q = shape.gram(np.asarray(b, dtype=float)[None, :])[0]
+    k = len(Q)
     I = list(I)
     QI = Q[np.ix_(I, I)]
     T = _sub_basis(len(I))
@@ -164,7 +148,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     tangencies: dict[tuple, tuple] = {}
     limits: dict[int, float] = {int(a): 0.0 for a in np.flatnonzero(limited & (False if limit_start is None
                                                                                else np.asarray(limit_start)))}
-    Z = shape.dual_gram(beta[big]) if w == 6 else shape.gram(beta[big])
+    Z = shape.dual_gram(beta[big])
 
     def whole(s, I):
         """The sub-simplex I of element s in contact: rows at its P2 nodes (q = 0 at all of them: q = 0 on it)."""
@@ -222,7 +206,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                     break
                 m, L, M = out
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
-                J = sp.vstack([sum(L[j] * el.D[_index(shape, i, j)] for j in I) for i in I]).tocsr()
+                J = sp.vstack([sum(L[j] * el.D[shape.index(i, j)] for j in I) for i in I]).tocsr()
                 hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
                 rows.append(sp.csr_matrix(phi[None, :]) @ el.D)
                 vals.append(m)

@@ -111,10 +111,24 @@ class Segment:
         return np.where(better, qv, q), np.where(better, tv, t)
 
     @staticmethod
-    def gram(beta) -> np.ndarray:
-        """(S, 2, 2): Z = [[beta0, beta1 / 2], [beta1 / 2, beta2]] of the Bernstein duals ``beta`` (S, 3)."""
-        beta = np.asarray(beta, dtype=float)
-        return np.stack([np.stack([beta[:, 0], beta[:, 1] / 2], -1), np.stack([beta[:, 1] / 2, beta[:, 2]], -1)], -2)
+    def index(i: int, j: int) -> int:
+        """The position of Q_ij in the coefficient vector (b0, b1, b2) (q = L^T Q L, L = (1 - t, t))."""
+        return 2 * i if i == j else 1
+
+    @staticmethod
+    def gram(b) -> np.ndarray:
+        """(S, 2, 2): Q = [[b0, b1], [b1, b2]] with q = L^T Q L, L = (1 - t, t), from the coefficients ``b``
+        (S, 3)."""
+        b = np.asarray(b, dtype=float)
+        return np.stack([np.stack([b[:, 0], b[:, 1]], -1), np.stack([b[:, 1], b[:, 2]], -1)], -2)
+
+    @staticmethod
+    def dual_gram(beta) -> np.ndarray:
+        """(S, 2, 2): Z = [[beta0, beta1 / 2], [beta1 / 2, beta2]] of the Bernstein duals ``beta`` (S, 3)
+        (beta . b = <Z, Q>)."""
+        Z = Segment.gram(beta)
+        Z[:, [0, 1], [1, 0]] /= 2
+        return Z
 
     @staticmethod
     def dual_cone_violation(beta) -> np.ndarray:
@@ -175,6 +189,13 @@ class Triangle:
         """(k, 6): (L0^2, L1^2, L2^2, 2 L0 L1, 2 L1 L2, 2 L2 L0) at barycentric ``L`` (k, 3)."""
         L = np.asarray(L, dtype=float).reshape(-1, 3)
         return np.column_stack([L ** 2, 2 * L[:, 0] * L[:, 1], 2 * L[:, 1] * L[:, 2], 2 * L[:, 2] * L[:, 0]])
+
+    @staticmethod
+    def index(i: int, j: int) -> int:
+        """The position of Q_ij in the coefficient vector (b00, b11, b22, b01, b12, b20)."""
+        if i == j:
+            return i
+        return next(c for a, b, c in Triangle.edges if {a, b} == {i, j})
 
     @staticmethod
     def gram(b) -> np.ndarray:

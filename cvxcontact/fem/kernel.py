@@ -303,22 +303,77 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
 
 
 def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
-    """After an exact solve: raise a :class:`~cvxcontact.errors.SceneError` if the solution leaves a kernel
-    motion free, i.e. some non-zero d in Z that no active row resists (G_A d <= 0) along which the load does
-    no work. The minimisers are x* + d with d in Z, x* + d feasible and f^T d = 0; near x* the rows that
-    are open do not matter, and f^T d = y^T G_A d by stationarity; so d is a further minimiser iff
+    """After an exact solve: raise a :class:`~cvxcontact.errors.SceneError` if the solution leaves a body's
+    motion free, i.e. some non-zero d in Z moving a body that no active row resists (G_A d <= 0) along which
+    the load does no work. The minimisers are x* + d with d in Z, x* + d feasible and f^T d = 0; near x* the
+    rows that are open do not matter, and f^T d = y^T G_A d by stationarity; so d is a further minimiser iff
     G_A d <= 0 and f^T d >= 0: (W) of the module docstring on the active rows A. It catches what (W) on all
     rows cannot see, a motion held only by rows that are open at the solution (a load-free body floating
-    in an open gap, an obstacle on one contact node whose sensitivity has no tangential part).
-    ``active``: a boolean per row of E (the exact finish's active set)."""
+    in an open gap). ``active``: a boolean per row of E (the exact finish's active set).
+
+    A free motion of obstacles alone (an obstacle on one contact node whose sensitivity has no tangential
+    part: a sphere touching at the node on its axis) is not refused: (W) on all rows held before the solve,
+    so the open rows bound it, and the bodies' fields and the forces are the same at every minimiser (the
+    energy is strictly convex in them); a :class:`~cvxcontact.errors.NonUniqueWarning` names it (the
+    finish holds it at the interior point's value, ``mixed_kkt(hold=)``)."""
     if kernel is None or active is None:
         return
     here = kernel.at(active)
     verdict = undetermined(here)
-    if verdict is not None and verdict[0] == "free":
-        raise SceneError(f"the solution does not determine the {_names(here, verdict[1])}: the contacts that would "
+    if verdict is None or verdict[0] != "free":
+        return
+    moving = _free_body_motion(here)
+    if moving is not None:
+        raise SceneError(f"the solution does not determine the {_names(here, [moving])}: the contacts that would "
                          "hold it are open at the solution and the load does no work along it (e.g. a load-free body "
-                         f"in an open gap): {_hint(here, verdict[1])}")
+                         f"in an open gap): {_hint(here, [moving])}")
+    import warnings
+
+    from ..errors import NonUniqueWarning
+    dirs = verdict[1]
+    obstacle = np.zeros(here.size, dtype=bool)
+    for _, kind, sl, _ in here.owners:
+        obstacle[sl] = kind == "obstacle"
+    A = here.rows[:, obstacle] if len(here.rows) else np.zeros((0, int(obstacle.sum())))
+    _, sv, Vt = np.linalg.svd(A, full_matrices=True) if len(A) else (None, np.zeros(0), np.eye(A.shape[1]))
+    rank = int((sv > 1e-9 * sv[0]).sum()) if len(sv) and sv[0] > 0 else 0
+    if Vt.shape[0] > rank:                              # every unseen translation, not one group's
+        dirs = []
+        for d in _readable(Vt[rank:].T):
+            full = np.zeros(here.size)
+            full[obstacle] = d
+            dirs.append(full)
+    warnings.warn(f"the solution does not determine the {_names(here, dirs)} (no contact carrying force sees "
+                  "it; the open contacts bound it): one solution is returned, the translation held at the interior "
+                  "point's value; the displacements, potentials and contact forces are the same for all. Refine the "
+                  "mesh under the obstacle or guide it (guided=) for a unique translation", NonUniqueWarning,
+                  stacklevel=4)
+
+
+def _free_body_motion(kernel) -> np.ndarray | None:
+    """A kernel direction that moves a body (a body coordinate reaching 1/2 at |alpha|_inf <= 1) with no row of
+    ``kernel`` resisting it and no work of the load against it, or None (the free motions move obstacles
+    only)."""
+    body = np.zeros(kernel.size, dtype=bool)
+    for _, kind, s, _ in kernel.owners:
+        body[s] = kind == "body"
+    if not body.any():
+        return None
+    A = kernel.rows / np.abs(kernel.rows).max(axis=1, keepdims=True) if len(kernel.rows) else kernel.rows
+    w = np.where(np.abs(kernel.work) > CANCELLATION * kernel.magnitude, kernel.work, 0.0)
+    norm = float(np.linalg.norm(w))
+    A_ub = np.vstack([A.reshape(-1, kernel.size), -(w / norm)[None, :]]) if norm > 0 else A.reshape(-1, kernel.size)
+    b_ub = np.full(len(A_ub), SLACK)
+    for j in np.flatnonzero(body):
+        for sign in (1.0, -1.0):
+            c = np.zeros(kernel.size)
+            c[j] = -sign
+            res = linprog(c, A_ub=A_ub if len(A_ub) else None, b_ub=b_ub if len(A_ub) else None, bounds=(-1, 1),
+                          method="highs")
+            if res.status == 0 and -res.fun >= 0.5:
+                x = np.where(np.abs(res.x) > 1e-6, res.x, 0.0)
+                return x / np.abs(x).max()
+    return None
 
 
 def _names(kernel, dirs) -> str:

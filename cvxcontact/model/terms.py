@@ -62,7 +62,9 @@ def finish(problem, u, phi, y, rows, load, active, x):
     else:
         C, d, z, eq = sp.csr_matrix((0, len(x))), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
     if not rows and load is None:
-        base = mixed_kkt(blocks, E, g, translations=tr or None)
+        widths = [R.shape[1] for R, _ in tr]
+        hold = np.split(np.asarray(x)[len(x) - sum(widths):], np.cumsum(widths)[:-1]) if tr else None
+        base = mixed_kkt(blocks, E, g, translations=tr or None, hold=hold)   # translations no row sees: the IPM's
 
         def kkt(ac, ar):
             out = base(ac)

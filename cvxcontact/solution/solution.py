@@ -287,10 +287,11 @@ class ObstacleResult:
 
     ``translation`` (d,) m: its rigid translation t (0 for a fixed obstacle; for a plane, along its
     normal: a tangential translation changes nothing); ``force`` (d,): the obstacle's reaction, N/m in 2D
-    (per unit thickness), N in 3D: the resultant with which
-    the contact pushes the obstacle back, sum_a c_a y_a over its nodes a (c_a of
-    :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), i.e. the
-    force needed to hold it where it is; for a force-controlled obstacle it equals the prescribed
+    (per unit thickness), N in 3D: the resultant the obstacle
+    exerts on the bodies, sum_a c_a y_a over its nodes a (c_a of
+    :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), equal and
+    opposite to the contact's push on the obstacle, i.e. the force needed to hold it where it is (a plane
+    under a body: upwards; a sphere pressed down onto one: downwards); for a force-controlled obstacle it equals the prescribed
     ``prescribed`` (the check "obstacle balance"). ``pairs`` are its contact pairs.
     """
 
@@ -467,6 +468,10 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             lam_i = lam[rows_i]
             if z is not None and hasattr(itf, "row_mass"):     # P2 faces: z as a pressure in their P2 functions
                 lam_i = p[rows_i] + _limit_pressure(itf.row_mass(cond) / un.length, z[rows_i])
+            elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
+                # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
+                # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)
+                lam_i = p[rows_i] + itf.multiplier((E.T @ z)[merged]) * un.force / unit
             c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
             for a in (c.lam, c.force):
                 a.setflags(write=False)

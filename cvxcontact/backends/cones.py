@@ -18,7 +18,7 @@ from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
                    seed_forces, seed_points)
-from .finish import independent_active_set
+from .finish import independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
@@ -140,6 +140,10 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
 
 
+FACTORED = True
+"""Whether the rounds of :func:`finish_cuts_mixed` take the factored steps first (one factorisation of the bodies a
+round, :class:`~cvxcontact.backends.finish.FactoredRows`) or only the unfactored ones (one sparse LU a step)."""
+
 MIXED_CUT_TOL = 1e-11
 """The cuts' stopping violation on the mixed system: above the tolerance 1e-12 to which each round's active-set
 solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls at 1.1e-12 and every round adds
@@ -151,7 +155,10 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
     solved on the sparse mixed system (26) with the obstacles' translations
     (:func:`~cvxcontact.backends.finish.independent_active_set`: the point rows outnumber the nodes, so they
-    depend on each other; the rows carrying the forces stay independent), warm started from the last round.
+    depend on each other; the rows carrying the forces stay independent), warm started from the last round,
+    on the factored steps (one factorisation of the bodies a round; the unfactored ones, a sparse LU a step,
+    where they decline: :data:`FACTORED`). A node's scale counts its neighbours' displacements
+    (:func:`~cvxcontact.backends.finish.row_reach`), as the steps' rows do.
     Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
     needs the compliance; the checks state what holds."""
     B, cells = problem.lines.cone
@@ -162,15 +169,18 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     held = problem.held_rows
     prev = {"y": seed_forces(*seed_points(B, raw.beta, width=width), raw.beta)}
     t0 = time.perf_counter()
+    nodes = mixed_kkt(blocks, E, g, translations=tr)
+    reach = row_reach(nodes.matrix, nodes.rows)       # each node's scale counts its neighbours' displacements
 
     def solve(P):
         P = sp.csr_matrix(P)
         kkt = mixed_kkt(blocks, P @ E, P @ g, translations=[(P @ R, F) for R, F in tr])
         y0 = np.zeros(P.shape[0])
         y0[:len(prev["y"])] = prev["y"]
-        # the unfactored steps: the factored ones declined on point rows (the layer on a plane: max_iter; the
-        # bumped blocks: a singular system), measured after their merge
-        out = independent_active_set(kkt, P @ g, y0, y0 > 0, factored=False, purify=False)
+        out = independent_active_set(kkt, P @ g, y0, y0 > 0, factored=FACTORED, purify=False)
+        if isinstance(out, str) and FACTORED:         # the factored steps declined: one sparse LU a step
+            prev["declined"] = prev.get("declined", 0) + 1
+            out = independent_active_set(kkt, P @ g, y0, y0 > 0, factored=False, purify=False)
         if isinstance(out, str):
             prev["why"] = out
             return None
@@ -180,7 +190,7 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
         parts = [J @ uk for J, uk in zip(jumps, x[0])]
         moved = sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g)))
         slack = sum(parts) + moved - g
-        scale = sum(np.abs(p) for p in parts) + np.abs(moved) + np.abs(g)
+        scale = reach @ np.abs(kkt.stack(x)) + np.abs(g)
         scale = np.where(held, np.abs(g), scale)
         scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
         return y, np.where(held, np.minimum(slack, 0.0), slack), scale, (x, taus), active

@@ -504,9 +504,22 @@ def _independent(M, tol=DEPENDENT_PIVOT) -> np.ndarray:
 
 def _row_scale(absG, x, g):
     """S_j = (|G| |x|)_j + |g_j|, the displacement scale of each row's slack G_j x - g_j (floored at 1e-14 of
-    the largest)."""
+    the largest). With ``absG`` :func:`row_reach` the scale also counts the row's nodes' neighbours."""
     S = absG @ np.abs(x) + np.abs(g)
     return np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+
+
+def row_reach(A, G):
+    """|G| + |G| diag(A)^{-1} |A| (sparse, m x n; only the unknowns with a positive stiffness diagonal count in
+    the second term): with it, :func:`_row_scale` gives S_j = (|G| |x|)_j + |g_j| plus the displacement that
+    the elastic forces at row j's unknowns, (|A| |x|)_k, produce through their own stiffness A_kk. A node that
+    does not move (held at the gap by a rigid plane, carrying no force: a P2 face vertex under a uniform
+    pressure) has a slack of rounding and no displacement of its own, so that its slack over its own scale
+    is rounding over rounding, of either sign; its neighbours' displacements are the scale of that rounding."""
+    A, absG = sp.csr_matrix(A), abs(sp.csr_matrix(G))
+    d = A.diagonal()
+    inv = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+    return (absG + absG @ sp.diags(inv) @ abs(A)).tocsr()
 
 
 class FactoredRows:
@@ -537,6 +550,7 @@ class FactoredRows:
     def __init__(self, A, F, G, g, anchor, lu, K0, rho):
         self.A, self.F, self.G, self.g, self.anchor, self.lu, self.K0 = A, F, G, g, anchor, lu, K0
         self.absA, self.absG = abs(A), abs(G)
+        self.reach = row_reach(A, G)
         self.rho = np.zeros(G.shape[0])
         self.rho[anchor] = rho
         self.Ft = F + G[anchor].T @ (rho * g[anchor])
@@ -547,6 +561,7 @@ class FactoredRows:
         self.count = 0
         self.system = UpdatedSystem(self.entries)
         self.sizes = []                                   # (|P|, |Q'|) of each step
+        self.fallbacks = 0                                # steps solved by the sparse LU of (26) instead
 
     def solve(self, b):
         """K0^{-1} b (one step of iterative refinement)."""
@@ -606,7 +621,7 @@ class FactoredRows:
         z = np.zeros(self.G.shape[0])
         z[passive] = w[:len(passive)]
         self.sizes.append((len(passive), len(rows) - len(passive)))
-        return None, z, self.h - Cw, _row_scale(self.absG, x, self.g)
+        return None, z, self.h - Cw, _row_scale(self.reach, x, self.g)
 
     def exact(self, mask, passive, steps: int = 3):
         """(x, y) solving (26) on the rows ``passive`` with every residual within 1e-12 of its row's scale
@@ -791,23 +806,27 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
 
     1. if a passive force is not positive, moves y towards the new forces as far as they stay >= 0 and
        opens the rows that reach 0 (the inner loop of Lawson-Hanson);
-    2. else, if some other row penetrates (r_j > ``tol`` S_j, S_j = (|G| |x|)_j + |g_j| its displacement
-       scale), takes the worst: independent of G_P it joins P; dependent (G_j = sum c_i G_i) it has the
-       constant slack sum c_i g_i - g_j whatever x (a non-affine gap), and a simplex pivot moves the force
-       along y_j = t, y_P = y_P - t c (x unchanged) until a passive row's force reaches 0, which leaves P;
+    2. else, if some other row penetrates (r_j > ``tol`` S_j, S_j its displacement scale: (|G| |x|)_j + |g_j|
+       and its neighbours' displacements, :func:`row_reach`), takes the worst: independent of G_P it joins P;
+       dependent (G_j = sum c_i G_i) it has the constant slack sum c_i g_i - g_j whatever x (a non-affine
+       gap), and a simplex pivot moves the force along y_j = t, y_P = y_P - t c (x unchanged) until a passive
+       row's force reaches 0, which leaves P (a constant slack of rounding: the next row is taken; a row whose
+       own force comes out <= 0 on joining P, nearly parallel to some of P, is swapped in by the pivot);
     3. stops when none penetrates: y >= 0 on P, 0 elsewhere, every row feasible to ``tol`` of its scale and
        the passive rows closed, so complementary exactly.
 
     ``factored`` (and ``kkt`` carrying its ``matrix`` and ``rhs``): the steps are solved on the rows with
     one factorisation of the bodies (:class:`FactoredRows`), and the set where they stop is checked by
-    ``kkt`` itself (one sparse LU of (26); its answer is returned, or the steps go on from it). Otherwise
-    every step is ``kkt`` (one sparse LU each).
+    ``kkt`` itself (one sparse LU of (26); its answer is returned, or the steps go on from it); a step whose
+    system on the rows is singular (its conditioning is the rows' squared: nearly parallel point rows) is
+    ``kkt`` too. Otherwise every step is ``kkt`` (one sparse LU each).
 
     Returns ((u, phi, y[, taus]), active, steps) with ``active`` the passive rows, or the reason it stopped.
     A passive set too small to hold a body (rigid motion free) makes its system singular: the reason then."""
     G = sp.csr_matrix(kkt.rows)
     g = np.asarray(g, dtype=float)
-    absG = abs(G)
+    A = getattr(kkt, "matrix", None)
+    absG = abs(G) if A is None else row_reach(A, G)      # the rows' scales count their neighbours
 
     def exact(mask, passive):
         res = kkt(mask)
@@ -817,12 +836,19 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         return x, z, slack, _row_scale(absG, kkt.stack(x), g)
 
     if not factored or getattr(kkt, "matrix", None) is None:
-        return lawson_hanson(G, y0, start, lambda first: exact, None, tol, max_iter, purify)
+        return lawson_hanson(G, y0, start, lambda first: exact, None, tol, max_iter, purify, g)
     built = []
 
     def steps_from(first):
         built.append(factored_rows(kkt.matrix, kkt.rhs, G, g, first))
-        return built[0]
+        return None if built[0] is None else step
+
+    def step(mask, passive):
+        out = built[0](mask, passive)
+        if out is None:             # the rows' system (squared conditioning) singular: the sparse LU of (26)
+            built[0].fallbacks += 1
+            return exact(mask, passive)
+        return out
 
     def verify(mask, passive):
         out = built[0].exact(mask, passive)
@@ -834,7 +860,7 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         state = kkt.fields(mask, np.concatenate([x, z[mask]]))[0]
         return state, z, G @ x - g, _row_scale(absG, x, g)
 
-    return lawson_hanson(G, y0, start, steps_from, verify, tol, max_iter, purify)
+    return lawson_hanson(G, y0, start, steps_from, verify, tol, max_iter, purify, g)
 
 
 def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_iter: int | None = None):
@@ -842,7 +868,8 @@ def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_
     unconstrained Gamma displacements, ``g`` the rows' gaps). Returns (y, active, steps) or the reason it
     stopped."""
     rows = sp.csr_matrix(np.hstack(compliance.rows))
-    return lawson_hanson(rows, y0, start, lambda first: CompliantRows(compliance, v0, g), None, tol, max_iter)
+    return lawson_hanson(rows, y0, start, lambda first: CompliantRows(compliance, v0, g), None, tol, max_iter,
+                         g=np.asarray(g, dtype=float))
 
 
 SINGULAR = "the mixed system on the rows carrying the forces is singular"
@@ -891,12 +918,15 @@ def _purified(U, norms, y0, cand, chosen):
 
 
 def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max_iter: int | None = None,
-                  purify: bool = True):
+                  purify: bool = True, g=None):
     """The iteration of :func:`independent_active_set` on the rows G (sparse, m x n) from the forces ``y0`` and
     active rows ``start``. ``steps_from(first)`` gives the step for the first passive set (None: singular):
     ``step(mask, passive)`` returns (state, z, slack, S) of (26) with the rows ``passive`` closed (z their
     forces, slack G x - g of every row, S its scale) or None if singular. ``verify`` (a step, optional)
-    re-solves a set where the steps would stop; its values decide (and its state is returned)."""
+    re-solves a set where the steps would stop; its values decide (and its state is returned). ``g`` (the
+    rows' gaps, optional): a row dependent on the passive rows, G_j = sum c_i G_i, has the slack
+    sum c_i g_i - g_j whatever x; where that is not above ``tol`` of its scale the row's computed slack is
+    rounding (a node that does not move: its own scale is rounding too), and it is passed over."""
     G = sp.csr_matrix(G)
     m = G.shape[0]
     touched = np.flatnonzero(np.diff(G.tocsc().indptr))
@@ -916,30 +946,82 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         return SINGULAR
     Q, R = sla.qr(unit[passive].toarray().T) if passive else (np.eye(len(touched)), np.zeros((len(touched), 0)))
     max_iter = 3 * m + 20 if max_iter is None else max_iter
-    dependent = set()
+    dependent = set()                                   # rows found infeasible: passed over from then on
+    settled = set()                                     # dependent rows whose slack is rounding, while P grows
 
-    def worst_row(res):
-        """(the most penetrating row off P, its slack over its scale), rows found infeasible excluded."""
+    def next_move(res):
+        """What the worst penetrating row off P does: ("add", j) (independent of G_P), ("pivot", j, c)
+        (dependent, G_j = sum c_i G_i, a positive constant slack) or ("stop",) when no row penetrates."""
+        nonlocal Q, R
         _, _, slack, S = res
         worst = slack / S
         worst[passive] = -np.inf
         worst[held] = -np.inf
-        if dependent:
-            worst[list(dependent)] = -np.inf
-        j = int(np.argmax(worst)) if m else 0
-        return j, (worst[j] if m else -np.inf)
+        off = list(dependent | settled)
+        worst[off] = -np.inf
+        p = len(passive)
+        for j in np.flatnonzero(worst > tol)[np.argsort(-worst[worst > tol])]:
+            col = unit[j].toarray().ravel()
+            if p < len(touched):
+                Q, R = sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
+                if abs(R[p, p]) > DEPENDENT_PIVOT:
+                    return "add", int(j), col
+                Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+            c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
+            if g is not None:
+                constant = float(c @ g[passive] - g[j])
+                if constant <= tol * (S[j] + np.abs(c) @ np.abs(g[passive]) + abs(g[j])):
+                    settled.add(int(j))
+                    continue
+            if not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
+                dependent.add(int(j))                   # no passive force can give way: infeasible rows
+                continue
+            return "pivot", int(j), col, c
+        return ("stop",)
 
+    def exchange(j):
+        """The pivot of the row j that just joined P (last in P, force 0) as if it depended on the others: its
+        own new force came out <= 0, which for an independent row with r_j > 0 only rounding does (a row nearly
+        parallel to some of P: G_j = sum c_i G_i + a remainder near DEPENDENT_PIVOT). None if no force of P can
+        give way."""
+        nonlocal Q, R
+        p = len(passive) - 1
+        Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+        del passive[p]
+        col = unit[j].toarray().ravel()
+        c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
+        if not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
+            return None
+        return "swap", int(j), col, c
+
+    entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
         mask[passive] = True
         res = step(mask, passive)
-        if res is not None and verify is not None and (res[1][passive] > 0).all() and worst_row(res)[1] <= tol:
+        verified = verify is None
+        while res is not None:
+            if not (res[1][passive] > 0).all():
+                move = ("inner",)
+                if entered is not None and res[1][entered] <= 0:
+                    move = exchange(entered) or ("inner",)
+                    if move[0] == "inner":              # it cannot enter: passed over, P as it was
+                        dependent.add(entered)
+                        move = ("back",)
+            else:
+                move = next_move(res)
+            if move[0] != "stop" or verified:
+                break
             res = verify(mask, passive)                 # where the steps would stop: the exact solve decides
+            verified = True
         if res is None:
             return SINGULAR
+        entered = None
+        if move[0] == "back":
+            continue
         state, z, slack, _ = res
         zp = z[passive]
-        if not (zp > 0).all():                          # 1. the inner loop
+        if move[0] == "inner":                          # 1. the inner loop
             yp = y[passive]
             neg = zp <= 0
             ratio = yp[neg] / (yp[neg] - zp[neg])
@@ -951,24 +1033,18 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
                 Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
                 y[passive[i]] = 0.0
                 del passive[i]
+            settled.clear()
             continue
-        y = z
-        j, worst = worst_row(res)
-        if not m or worst <= tol:                       # 3. every row feasible
+        if move[0] != "swap":                           # (a swap keeps the forces of P before j joined)
+            y = z
+        if move[0] == "stop":                           # 3. every row feasible
             return state, mask, steps
-        p = len(passive)                                # 2. the worst row: independent or a pivot
-        col = unit[j].toarray().ravel()
-        if p < len(touched):
-            Q, R = sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
-            if abs(R[p, p]) > DEPENDENT_PIVOT:
-                passive.append(j)
-                continue
-            Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
-        c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
-        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
-        if not pos.any():                               # no passive force can give way: infeasible rows
-            dependent.add(j)
+        if move[0] == "add":                            # 2. the worst row: independent, it joins P
+            passive.append(move[1])
+            entered = move[1]
             continue
+        _, j, col, c = move                             # or dependent: a pivot (a swap likewise)
+        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
         t = y[passive][pos] / c[pos]
         i = int(np.flatnonzero(pos)[np.argmin(t)])
         y[passive] = y[passive] - t.min() * c
@@ -978,4 +1054,5 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         del passive[i]
         Q, R = sla.qr_insert(Q, R, col, len(passive), which="col", check_finite=False)
         passive.append(j)
+        settled.clear()
     return "max_iter"

@@ -68,6 +68,17 @@ def enumerated(A, F, G, g):
     raise AssertionError("no active set solves the problem")
 
 
+def _dependent_rows(rng, dependent, n=6):
+    """(A, base, C): an SPD A (n x n), three random rows ``base`` and the non-negative combinations C (dependent
+    x 3, some entries 0, one 0.7 a row) that make the dependent rows C @ base."""
+    B = rng.normal(size=(n, n))
+    A = B @ B.T + n * np.eye(n)
+    base = rng.normal(size=(3, n))
+    C = rng.uniform(0.1, 1.0, size=(dependent, 3)) * (rng.uniform(size=(dependent, 3)) < 0.7)
+    C[np.arange(dependent), rng.integers(0, 3, dependent)] = 0.7
+    return A, base, C
+
+
 @pytest.mark.parametrize("factored", [False, True])
 @pytest.mark.parametrize("seed", range(6))
 def test_dependent_rows_with_constant_slacks_against_every_active_set(seed, factored):
@@ -76,12 +87,8 @@ def test_dependent_rows_with_constant_slacks_against_every_active_set(seed, fact
     a non-affine gap on an overlay): the finish reaches the minimiser (enumerated) from a start that closes
     the independent rows, so the dependent ones enter by simplex pivots (9 over the six seeds)."""
     rng = np.random.default_rng(seed)
-    n = 6
-    B = rng.normal(size=(n, n))
-    A = B @ B.T + n * np.eye(n)
-    base = rng.normal(size=(3, n))
-    C = rng.uniform(0.1, 1.0, size=(5, 3)) * (rng.uniform(size=(5, 3)) < 0.7)
-    C[np.arange(5), rng.integers(0, 3, 5)] = 0.7
+    A, base, C = _dependent_rows(rng, 5)
+    n = len(A)
     G = np.vstack([base, C @ base])
     x_free = rng.normal(size=n) * 3
     g = np.concatenate([base @ x_free - rng.uniform(0.5, 2.0, size=3), np.zeros(5)])
@@ -372,12 +379,8 @@ def compliance_problem(seed, exponent):
     :func:`test_dependent_rows_with_constant_slacks_against_every_active_set`), and three rows of a compliance
     law k r_+^m with weights w, some penetrating at x_free."""
     rng = np.random.default_rng(200 + seed)
-    n = 6
-    B = rng.normal(size=(n, n))
-    A = B @ B.T + n * np.eye(n)
-    base = rng.normal(size=(3, n))
-    C = rng.uniform(0.1, 1.0, size=(3, 3)) * (rng.uniform(size=(3, 3)) < 0.7)
-    C[np.arange(3), rng.integers(0, 3, 3)] = 0.7
+    A, base, C = _dependent_rows(rng, 3)
+    n = len(A)
     soft = rng.normal(size=(3, n))
     G = np.vstack([base, C @ base, soft])
     x_free = rng.normal(size=n) * 3

@@ -364,6 +364,21 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condi
     return row, sol
 
 
+
+def pressure_axes(ax, title: str, xmax: float, **legend):
+    """The axes of a pressure-against-radius plot (m, Pa in engineering notation, at most 5 ticks on r from 0
+    to ``xmax`` m), its ``title`` and legend (``legend``: keywords of ``ax.legend``)."""
+    from matplotlib.ticker import MaxNLocator
+
+    from ...io.plot import eng
+
+    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, xmax), title=title)
+    ax.title.set_fontsize(10)
+    ax.xaxis.set_major_locator(MaxNLocator(5))
+    ax.xaxis.set_major_formatter(eng("m"))
+    ax.yaxis.set_major_formatter(eng("Pa"))
+    ax.legend(**legend)
+
 def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     """Left: the pressure at every contact node against the radius (P1: force over lumped area, felt by the
     block; P2 ``sol2`` (nodal condition) and ``sol3`` (copositive condition, its hull radius marked): the
@@ -398,13 +413,8 @@ def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
                 label=f"P2 gamma3, n = {rows3[-1]['n']}: felt pressure")
         ax.axvline(rows3[-1]["a_hull_m"], color="C4", lw=0.8, ls=":",
                    label="P2 gamma3 a_h (hull)")
-    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
-           title=f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r")
-    ax.title.set_fontsize(10)
-    ax.xaxis.set_major_locator(MaxNLocator(5))
-    ax.xaxis.set_major_formatter(eng("m"))
-    ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=7, loc="lower left")
+    pressure_axes(ax, f"Rigid sphere (R = {R * 1e3:g} mm) on a block, F = {F / 1e3:.3g} kN: pressure against r",
+                  2 * A_REF, fontsize=7, loc="lower left")
     itf = sol.scene.interfaces[0]
     trace = itf.traces[0]
     p = np.zeros(len(trace.nodes))

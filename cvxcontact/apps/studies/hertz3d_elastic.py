@@ -53,7 +53,7 @@ from ...physics import materials
 from ...physics.pairs import Contact
 from ...physics.scene import Body, Scene
 from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
-from .hertz3d import _edge_radius, hat_loads, secant_press
+from .hertz3d import _edge_radius, hat_loads, pressure_axes, secant_press
 
 E1, NU1 = 210e9, 0.3             # Pa, -: the steel punch (sphere)
 E2, NU2 = 70e9, 0.3              # Pa, -: the aluminium block
@@ -205,13 +205,8 @@ def figure(sol, rows):
     rb = np.hypot(xb[:, 0], xb[:, 1])
     ax.plot(rb[pb > 0], pb[pb > 0], "s", ms=2.5, mfc="none", color="C2", label="felt by the block (its nodes)")
     ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="a_h (active/open mid-points, mean)")
-    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
-           title=f"Steel sphere (R = {R * 1e3:g} mm) on an aluminium block, F = {F / 1e3:.3g} kN")
-    ax.title.set_fontsize(10)
-    ax.xaxis.set_major_locator(MaxNLocator(5))
-    ax.xaxis.set_major_formatter(eng("m"))
-    ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=8)
+    pressure_axes(ax, f"Steel sphere (R = {R * 1e3:g} mm) on an aluminium block, F = {F / 1e3:.3g} kN", 2 * A_REF,
+                  fontsize=8)
     itf = sol.scene.interfaces[0]
     trace = itf.traces[itf.curved]
     p = np.zeros(len(trace.nodes))
@@ -413,9 +408,6 @@ def run_profile(out, quick=False, progress=None, fine=False):
 def figure_profile(sols):
     """The pressure felt by the block (nonzero values) against r at the finest level of each row (``sols``:
     (degree, condition) -> (n, solution)), with Hertz's profile at the design force."""
-    from matplotlib.ticker import MaxNLocator
-
-    from ...io.plot import eng
     from .hertz3d import _contact_surface
 
     plt = pyplot()
@@ -430,13 +422,8 @@ def figure_profile(sols):
         on = p != 0
         ax.plot(np.hypot(x[on, 0], x[on, 1]), p[on], marks[key], ms=3, mfc="none",
                 label=f"P{key[0]} {key[1]}, n = {n}: felt by the block")
-    ax.set(xlabel="distance r from the axis", ylabel="contact pressure", xlim=(0, 2 * A_REF),
-           title=f"Steel on aluminium, the sphere's profile (R = {R * 1e3:g} mm) as the gap, F = {FORCE / 1e3:.3g} kN")
-    ax.title.set_fontsize(10)
-    ax.xaxis.set_major_locator(MaxNLocator(5))
-    ax.xaxis.set_major_formatter(eng("m"))
-    ax.yaxis.set_major_formatter(eng("Pa"))
-    ax.legend(fontsize=7)
+    pressure_axes(ax, f"Steel on aluminium, the sphere's profile (R = {R * 1e3:g} mm) as the gap, "
+                  f"F = {FORCE / 1e3:.3g} kN", 2 * A_REF, fontsize=7)
     return fig
 
 

@@ -15,6 +15,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.linalg import null_space
 from scipy.sparse.csgraph import structural_rank
 
 from .condensed import quasi_definite
@@ -176,14 +177,7 @@ def _unseen(R, F, active, hold):
     (H, h) with H tau = h fixing tau along the null space V of R[active] at ``hold`` (V^T tau = V^T hold), or
     None if the prescribed force F has a component along V (no force of these rows balances it: the set
     cannot hold the obstacle). Empty (0, k) rows where R[active] has full column rank."""
-    k = R.shape[1]
-    Ra = np.asarray(sp.csr_matrix(R)[active].todense())
-    if not len(Ra):
-        V = np.eye(k)
-    else:
-        _, sv, Vt = np.linalg.svd(Ra, full_matrices=True)
-        rank = int((sv > 1e-9 * sv[0]).sum()) if sv.size and sv[0] > 0 else 0
-        V = Vt[rank:].T
+    V = null_space(sp.csr_matrix(R)[active].toarray(), rcond=1e-9)
     F = np.asarray(F, dtype=float)
     if V.shape[1] and np.linalg.norm(V.T @ F) > 1e-9 * max(np.linalg.norm(F), np.finfo(float).tiny):
         return None

@@ -86,7 +86,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import qr
+from scipy.linalg import null_space, qr
 from scipy.optimize import linprog
 from scipy.sparse.csgraph import connected_components
 
@@ -200,8 +200,7 @@ def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
     the direction), ``directions`` kernel coordinates alpha (|alpha|_inf = 1)."""
     if not kernel.size:
         return None
-    A = kernel.rows / np.abs(kernel.rows).max(axis=1, keepdims=True) if len(kernel.rows) else kernel.rows
-    w = np.where(np.abs(kernel.work) > CANCELLATION * kernel.magnitude, kernel.work, 0.0)
+    A, w = _scaled(kernel)
     m = kernel.size
     coupled = sp.csr_matrix(np.abs(A).T @ np.abs(A) > 0) if len(A) else sp.csr_matrix((m, m))
     count, group = connected_components(coupled, directed=False)
@@ -247,14 +246,29 @@ def _decide(A, w):
             return "pulls", [res.x / np.abs(res.x).max()]
     # 3. a non-zero direction along which the load does no work and no contact resists
     A_ub, b_ub = (np.vstack([A, -w[None, :]]), np.append(ub, SLACK)) if norm > 0 else (A, ub)
-    for j in range(m):
+    d = _free_direction(A_ub, b_ub, range(m), m)
+    return None if d is None else ("free", [d])
+
+
+def _scaled(kernel) -> tuple[np.ndarray, np.ndarray]:
+    """(A, w): the kernel's rows scaled to a unit largest entry, and its work with cancellation removed."""
+    A = kernel.rows / np.abs(kernel.rows).max(axis=1, keepdims=True) if len(kernel.rows) else kernel.rows
+    w = np.where(np.abs(kernel.work) > CANCELLATION * kernel.magnitude, kernel.work, 0.0)
+    return A, w
+
+
+def _free_direction(A_ub, b_ub, coords, m: int) -> np.ndarray | None:
+    """A direction alpha (m,) with A_ub alpha <= b_ub, |alpha|_inf <= 1 whose coordinate j reaches 1/2 in
+    either sign for some j of ``coords`` (a linear program each), scaled to |alpha|_inf = 1; or None."""
+    for j in coords:
         for sign in (1.0, -1.0):
             c = np.zeros(m)
             c[j] = -sign
-            res = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=(-1, 1), method="highs")
+            res = linprog(c, A_ub=A_ub if len(A_ub) else None, b_ub=b_ub if len(A_ub) else None, bounds=(-1, 1),
+                          method="highs")
             if res.status == 0 and -res.fun >= 0.5:
                 x = np.where(np.abs(res.x) > 1e-6, res.x, 0.0)
-                return "free", [x / np.abs(x).max()]
+                return x / np.abs(x).max()
     return None
 
 
@@ -331,15 +345,12 @@ def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
 
     from ..errors import NonUniqueWarning
     dirs = verdict[1]
-    obstacle = np.zeros(here.size, dtype=bool)
-    for _, kind, sl, _ in here.owners:
-        obstacle[sl] = kind == "obstacle"
-    A = here.rows[:, obstacle] if len(here.rows) else np.zeros((0, int(obstacle.sum())))
-    _, sv, Vt = np.linalg.svd(A, full_matrices=True) if len(A) else (None, np.zeros(0), np.eye(A.shape[1]))
-    rank = int((sv > 1e-9 * sv[0]).sum()) if len(sv) and sv[0] > 0 else 0
-    if Vt.shape[0] > rank:                              # every unseen translation, not one group's
+    obstacle = _owned(here, "obstacle")
+    unseen = null_space(here.rows[:, obstacle].reshape(-1, int(obstacle.sum())), rcond=1e-9) if obstacle.any() \
+        else np.zeros((0, 0))
+    if unseen.shape[1]:                                 # every unseen translation, not one group's
         dirs = []
-        for d in _readable(Vt[rank:].T):
+        for d in _readable(unseen):
             full = np.zeros(here.size)
             full[obstacle] = d
             dirs.append(full)
@@ -354,26 +365,21 @@ def _free_body_motion(kernel) -> np.ndarray | None:
     """A kernel direction that moves a body (a body coordinate reaching 1/2 at |alpha|_inf <= 1) with no row of
     ``kernel`` resisting it and no work of the load against it, or None (the free motions move obstacles
     only)."""
-    body = np.zeros(kernel.size, dtype=bool)
-    for _, kind, s, _ in kernel.owners:
-        body[s] = kind == "body"
+    body = _owned(kernel, "body")
     if not body.any():
         return None
-    A = kernel.rows / np.abs(kernel.rows).max(axis=1, keepdims=True) if len(kernel.rows) else kernel.rows
-    w = np.where(np.abs(kernel.work) > CANCELLATION * kernel.magnitude, kernel.work, 0.0)
+    A, w = _scaled(kernel)
     norm = float(np.linalg.norm(w))
     A_ub = np.vstack([A.reshape(-1, kernel.size), -(w / norm)[None, :]]) if norm > 0 else A.reshape(-1, kernel.size)
-    b_ub = np.full(len(A_ub), SLACK)
-    for j in np.flatnonzero(body):
-        for sign in (1.0, -1.0):
-            c = np.zeros(kernel.size)
-            c[j] = -sign
-            res = linprog(c, A_ub=A_ub if len(A_ub) else None, b_ub=b_ub if len(A_ub) else None, bounds=(-1, 1),
-                          method="highs")
-            if res.status == 0 and -res.fun >= 0.5:
-                x = np.where(np.abs(res.x) > 1e-6, res.x, 0.0)
-                return x / np.abs(x).max()
-    return None
+    return _free_direction(A_ub, np.full(len(A_ub), SLACK), np.flatnonzero(body), kernel.size)
+
+
+def _owned(kernel, kind: str) -> np.ndarray:
+    """(m,) bool: the kernel coordinates of the owners of ``kind`` ("body" or "obstacle")."""
+    mask = np.zeros(kernel.size, dtype=bool)
+    for _, owner, sl, _ in kernel.owners:
+        mask[sl] = owner == kind
+    return mask
 
 
 def _names(kernel, dirs) -> str:

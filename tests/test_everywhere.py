@@ -18,6 +18,8 @@ from cvxcontact.contact.quadratic import bernstein_argmax, point_rows
 from conftest import two_blocks
 from test_p2 import _sample_jump
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def _problem(scene):
     return cc.ContactSolver(scene, "gamma3", degree=2).problem

@@ -15,6 +15,8 @@ from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.sparse import SparseContact
 from cvxcontact.solution.info import Route
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 @pytest.fixture(scope="module")
 def layer():

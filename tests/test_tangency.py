@@ -142,6 +142,8 @@ def test_a_force_controlled_sphere_touching_inside_a_triangle_is_finished():
 
 from scenes import SCENES  # noqa: E402
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 NEWTON = {"force-controlled circle", "three blocks, P2 compliance next to a cone", "layer held, P2 conic limit"}
 
 

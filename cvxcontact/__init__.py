@@ -52,7 +52,7 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name == "__version__":            # from git tags (cvxcontact.version); computed on first use
+    if name == "__version__":            # pyproject.toml's (cvxcontact.version); computed on first use
         value = globals()[name] = import_module(".version", __name__).version()
         return value
     if name not in _WHERE:

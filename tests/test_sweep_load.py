@@ -116,9 +116,53 @@ def test_bad_folders_and_cases_are_typed_errors(example, tmp_path):
     with pytest.raises(SweepResultsError, match=r"has no result \(pending\)"):
         cc.load_sweep(out).arrays(second)
     assert rows(cc.load_sweep(out).cases)[1]["state"] == "pending"
-    (out / "cases" / f"{third}.json").write_text("{")   # a torn record: the table says pending, no crash
-    with pytest.raises(SweepResultsError, match="incomplete or altered"):
+    (out / "cases" / f"{third}.json").write_text("{")   # a torn record: the table says corrupt, no crash
+    assert rows(cc.load_sweep(out).cases)[2]["state"] == "corrupt"
+    with pytest.raises(SweepResultsError, match="is damaged: it is not valid JSON.*run the sweep again"):
         cc.load_sweep(out).arrays(third)
+
+
+@pytest.mark.parametrize("field, wrong", [("residuals", [1e-12, 1e-13]), ("timings_s", 3.5), ("versions", "0.3.0"),
+                                          ("attempts", 2)])
+def test_a_record_with_a_field_of_the_wrong_type_is_a_damaged_case(example, tmp_path, field, wrong):
+    """Valid JSON, the wrong type in one field: the table lists it as corrupt naming the file and the field,
+    the other cases read as before; its record and arrays are a typed error; a rerun of the sweep redoes it."""
+    from cvxcontact.apps.sweep.store import case_state
+
+    out = tmp_path / "out"
+    shutil.copytree(example / "out", out)
+    r = cc.load_sweep(out)
+    bad, good = r.ids[0], r.ids[1]
+    before = rows(r.cases)
+    path = out / "cases" / f"{bad}.json"
+    record = json.loads(path.read_text())
+    assert field in record                              # a field the writer does write
+    record[field] = wrong
+    path.write_text(json.dumps(record))
+    r = cc.load_sweep(out)
+    table = rows(r.cases)
+    assert table[0]["state"] == "corrupt" and str(path) in table[0]["error"] and repr(field) in table[0]["error"]
+    assert [t["state"] for t in table[1:]] == ["done"] * (len(table) - 1)
+    assert {k: v for k, v in table[1].items() if k in before[1]} == before[1]   # the others: as before
+    for read in (r.record, r.arrays):
+        with pytest.raises(SweepResultsError, match=rf"{bad}.json'? is damaged: its field '{field}' is .* not a "
+                                                    r".*run the sweep again") as err:
+            read(bad)
+        assert isinstance(err.value, cc.SweepResultsError) and isinstance(err.value, cc.CvxContactError)
+    assert r.record(good)["case"] == good and r.arrays(good)["u1"].shape[1] == 2
+    assert case_state(out, bad) == ("corrupt", None)    # what `cvxcontact sweep` redoes on its next run
+
+
+def test_a_rerun_redoes_a_damaged_record(example, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(example / "out", out)
+    bad = cc.load_sweep(out).ids[0]
+    path = out / "cases" / f"{bad}.json"
+    record = json.loads(path.read_text())
+    path.write_text(json.dumps({**record, "residuals": "none"}))
+    report = run_sweep(example / "sweep.toml", out, workers=1)
+    assert report.done == report.total == 14
+    assert rows(cc.load_sweep(out).cases)[0]["state"] == "done" and isinstance(cc.load_sweep(out).record(bad)["residuals"], dict)
 
 
 def test_failed_cases_are_rows_with_their_error(tmp_path):

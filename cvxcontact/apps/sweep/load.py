@@ -15,14 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import CvxContactError
-from .store import CASES, FAILURES, array_unit, case_state
+from ...errors import SweepResultsError
+from .store import CASES, FAILURES, array_unit, case_state, record_fault
 
 __all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten"]
-
-
-class SweepResultsError(CvxContactError, ValueError):
-    """A folder that is not a sweep's output, an unknown case id, or a case without a complete result."""
 
 
 def flatten(value, key: str = "") -> dict:
@@ -147,6 +143,11 @@ class SweepResults:
             raise SweepResultsError(f"case {case_id} has no result ({state}{why}); run the sweep (again) to "
                                     "compute it" + (" with --retry-failed" if state == "failed" else ""))
         if state == "corrupt":
+            path = self.folder / CASES / f"{case_id}.json"
+            fault = record_fault(_read_json(path), case_id) if path.exists() else None
+            if fault is not None:
+                raise SweepResultsError(f"case {case_id}: its record {str(path)!r} is damaged: {fault}; run the "
+                                        "sweep again (`cvxcontact sweep SWEEP.toml --out FOLDER`) to redo it")
             raise SweepResultsError(f"case {case_id}: its files in {str(self.folder / CASES)!r} are incomplete or "
                                     "altered (a half-written or damaged result); run the sweep again to redo it")
         try:
@@ -177,6 +178,9 @@ def load_sweep(folder) -> SweepResults:
     ``r.cases`` (a pandas DataFrame when pandas is installed, else a list of dicts), ``r.arrays(id)``,
     ``r.record(id)``, ``r.export()``; see :mod:`cvxcontact.apps.sweep.load`.
 
+    A case whose record is damaged (not valid JSON, another case's, a field of the wrong type) is a row in state
+    ``corrupt`` with an ``error`` naming the file and the field; the other cases read as usual.
+
     Raises :class:`SweepResultsError` if ``folder`` is not a sweep's output folder (no readable
     ``manifest.json``)."""
     if not isinstance(folder, (str, Path)) or not str(folder):
@@ -193,11 +197,15 @@ def load_sweep(folder) -> SweepResults:
                                 "`cvxcontact sweep SWEEP.toml --out FOLDER`)")
     rows = []
     for c in cases:
-        record = _read_json(folder / CASES / f"{c['id']}.json")
+        path = folder / CASES / f"{c['id']}.json"
+        record = _read_json(path)
         failure = _read_json(folder / FAILURES / f"{c['id']}.json")
-        record = record if isinstance(record, dict) and record.get("case") == c["id"] else None
         failure = failure if isinstance(failure, dict) and failure.get("case") == c["id"] else None
-        if record is not None:
+        fault = record_fault(record, c["id"]) if path.exists() else None
+        if fault is not None:               # listed, not read: r.record / r.arrays raise, a rerun redoes it
+            record, failure = None, {"error": f"{str(path)!r} is damaged: {fault}; run the sweep again to redo it"}
+            state = "corrupt"
+        elif record is not None:
             state = "done" if record.get("ok") else "checks_failed"
         else:
             state = "failed" if failure is not None else "pending"

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import cvxcontact as cc
 from cvxcontact.apps.demo import two_blocks
+from cvxcontact.backends import METHODS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -34,3 +35,9 @@ def test_cli_progress_counts_the_active_nodes_of_every_pair(tmp_path):
     total = sum(int(c.active.sum()) for c in sol.contacts)
     assert len(sol.contacts) == 2 and total > int(sol.contacts[0].active.sum())
     assert f"{total} active nodes (2 pairs)" in err.getvalue()
+
+
+def test_solve_info_names_every_method():
+    """SolveInfo's docstring names every backend ``method=`` accepts (cvxcontact.backends.METHODS), not a subset."""
+    doc = cc.SolveInfo.__doc__
+    assert all(f'"{m}"' in doc for m in METHODS), (METHODS, doc)

@@ -19,6 +19,7 @@ from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..geometry.quadratic import P2Nodes, P2TetNodes
+from ..solution.solution import force_unit, pair_label
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -191,13 +192,6 @@ def pair_bodies(solution, pair=0) -> list[int]:
     return [a] if b is None else [a, b]
 
 
-def pair_label(solution, pair=0) -> str:
-    """A short name of contact pair ``pair``: "upper/bottom - lower/top" or "block/bottom - Rigid.plane(...)"."""
-    c = solution.scene.contacts[pair]
-    other = repr(c.other) if c.rigid else f"{c.other.name}/{c.part_b}"
-    return f"{c.body_a.name}/{c.part_a} - {other}"
-
-
 def _side_displacements(solution, pair=0):
     """Displacement (n_merged, d) of each side's trace interpolated at the merged nodes (m)."""
     itf = _interface(solution, pair)
@@ -230,11 +224,6 @@ def _vectors(a):
     """Vectors (n, 2) or (n, 3) as VTK's 3-component arrays (2D: a zero third component)."""
     a = np.asarray(a, dtype=float)
     return _pad3(a) if a.shape[1] == 2 else a
-
-
-def force_unit(solution) -> str:
-    """The unit of a nodal or resultant force of ``solution``: "N/m" in 2D (per unit thickness), "N" in 3D."""
-    return "N" if solution.scene.dim == 3 else "N/m"
 
 
 def contact_mesh(solution, pair=0):

@@ -144,7 +144,7 @@ def test_plots_have_labels_and_colorbars():
 
 def test_cli_prints_the_report_of_the_solution(tmp_path, capsys):
     """`cvxcontact solve` prints ``sol.report()`` itself (one source), and the report holds a line per contact pair
-    (its total force and active nodes) and per electrode (its potential and charge): the
+    (its total force, the nodes in contact, the active ones) and per electrode (its potential and charge): the
     stack of examples/stack.toml, two pairs and a floating electrode, against a solve of the same scene file."""
     scene = EXAMPLES / "stack.toml"
     assert main(["solve", str(scene), "--out", str(tmp_path), "--no-plots", "--condition", "gamma3"]) == 0
@@ -156,7 +156,7 @@ def test_cli_prints_the_report_of_the_solution(tmp_path, capsys):
     for i, c in enumerate(sol.contacts):
         (line,) = [ln for ln in lines if ln.startswith(f"  contact[{i}] ")]
         assert f"force {c.force.sum():.6g} N/m" in line and f"{int(c.active.sum())} of {int(c.constrained.sum())} " \
-            "constrained nodes active" in line
+            "constrained nodes active" in line and f"of {len(c.x)} nodes" in line
     floating = [e for e in sol.electrodes if e.kind == "floating"]
     assert floating
     for e in sol.electrodes:

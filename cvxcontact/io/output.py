@@ -357,7 +357,8 @@ def _pair_summary(solution, i) -> dict:
            "obstacle": repr(solution.scene.contacts[i].other) if solution.scene.contacts[i].rigid else None,
            "normal": [float(v) for v in c.normal] if c.normal is not None else None,
            "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
-           "active_nodes": int(c.active.sum())}
+           "active_nodes": int(c.active.sum()), "contact_zone_nodes": int(solution.in_contact(i).sum()),
+           "contact_zone_fraction": solution.contact_fraction(i)}
     if solution.scene.dim == 3:
         frame = _interface(solution, i).frame
         out["frame"] = [[float(v) for v in t] for t in frame]
@@ -379,7 +380,9 @@ def summary(solution) -> dict:
     each body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
     ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
     diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
-    (possible with sigma_l); ``active_x_m`` is the range of the tangential coordinate s (m) of the
+    (possible with sigma_l); ``contact_zone_nodes`` counts the merged nodes where the pressure is positive
+    and ``contact_zone_fraction`` the share of the surface they cover (:meth:`Solution.in_contact`,
+    :meth:`Solution.contact_fraction`; ``active_nodes``: those that carry a nodal force); ``active_x_m`` is the range of the tangential coordinate s (m) of the
     active nodes (3D: ``active_s_m``, the ranges of both in-plane coordinates (s1, s2) along the pair's
     ``frame`` (t1, t2)). ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
     ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;

@@ -265,6 +265,33 @@ class Solution:
             return x.copy(), itf.pressure(k, self.contacts[pair].force)
         return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 
+    def in_contact(self, pair: int = 0) -> np.ndarray:
+        """The contact zone of contact pair ``pair``: a boolean mask of its merged nodes (``contacts[pair].x``)
+        where the pressure felt by the bodies is positive (:meth:`traction` of each side interpolated at the
+        node, their mean; above 1e-9 of its largest value). This is the zone the report counts and
+        :func:`~cvxcontact.io.plot.plot_contact_map` draws. It differs from ``contacts[pair].active`` (the
+        constrained nodes that carry a nodal force): under "gamma3" on non-matching faces the overlay's rows are
+        dependent and a uniform pressure is carried by the forces of a subset of its nodes."""
+        itf = self._pair_line(pair)
+        sides = range(len(itf.traces))
+        p = sum(itf.interpolation(k) @ self.traction(k, pair)[1] for k in sides) / len(sides)
+        top = float(np.abs(p).max()) if len(p) else 0.0
+        return p > 1e-9 * top if top > 0 else np.zeros(len(p), dtype=bool)
+
+    def contact_fraction(self, pair: int = 0) -> float | None:
+        """The share of contact pair ``pair``'s surface (length in 2D, area in 3D) in its contact zone
+        (:meth:`in_contact`), each merged node weighted by its share of the surface (the lumped lengths or areas
+        of the mesh of the constrained nodes, ``contacts[pair].measure``; P2 in 2D: the P2 lumped lengths);
+        1 for contact over the whole surface. None for P2 in 3D (a face vertex has no lumped area)."""
+        c = self.contacts[pair]
+        if c.measure is not None:
+            w = np.asarray(c.measure, dtype=float)
+        elif np.ndim(c.x) == 1:
+            w = _p2_lumped(c.x) if c.degree == 2 else lumped_lengths(c.x)
+        else:
+            return None
+        return float(w[self.in_contact(pair)].sum() / w.sum()) if w.sum() > 0 else None
+
     def _pair_line(self, pair: int):
         if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
                 not 0 <= pair < len(self.scene.interfaces):
@@ -275,18 +302,23 @@ class Solution:
     def report(self) -> str:
         """A short human-readable account of the solve (what `cvxcontact solve` prints): the condition, the
         solver status and whether the arrays are the exact finish; each check of (26)-(27) against ``tol``;
-        per contact pair its total force and its active nodes (the constrained nodes that carry a nodal force,
-        ``contacts[i].active``); per electrode its potential (V) and charge (C/m; C in 3D); per rigid obstacle
-        its translation (m) and force."""
+        per contact pair its total force, its contact zone (:meth:`in_contact`: the nodes where the pressure is
+        positive, and the share of the surface they cover) and its active nodes (the constrained nodes that
+        carry a nodal force, ``contacts[i].active``); per electrode its potential (V) and charge (C/m; C in
+        3D); per rigid obstacle its translation (m) and force."""
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
                   for k, v in self._checks.items()]
         unit, charge = force_unit(self), "C" if self.scene.dim == 3 else "C/m"
         for i, c in enumerate(self.contacts):
-            lines.append(f"  contact[{i}] {pair_label(self, i)}: force {c.force.sum():.6g} {unit}; "
-                         f"{int(c.active.sum())} of {int(c.constrained.sum())} constrained nodes active "
-                         "(carry a force)")
+            zone, share = self.in_contact(i), self.contact_fraction(i)
+            lines.append(f"  contact[{i}] {pair_label(self, i)}: force {c.force.sum():.6g} {unit}; pressure > 0 at "
+                         f"{int(zone.sum())} of {len(zone)} nodes"
+                         + (f" ({100 * share:.4g} % of the {'area' if self.scene.dim == 3 else 'length'})"
+                            if share is not None else "")
+                         + f"; {int(c.active.sum())} of {int(c.constrained.sum())} constrained nodes active "
+                           "(carry a force)")
         for e in self.electrodes:
             lines.append(f"  electrode {self.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
                          f"{e.potential:.6g} V, charge {e.charge:.6g} {charge}")

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from ..solution.solution import Solution
 
 __all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure",
-           "surface_cells", "force_unit"]
+           "surface_cells"]
 
 
 def atomic_write(path, write, *, durable: bool = False):

@@ -38,7 +38,7 @@ _WHERE = {
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
     "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
-    "SweepResultsError": (".errors", None),
+    "SweepResultsError": (".errors", None), "CaseArrays": (".apps.sweep.load", None),
 }
 
 __all__ = [
@@ -48,6 +48,7 @@ __all__ = [
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
+    "CaseArrays",
 ]
 
 
@@ -87,7 +88,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
                          ResidualWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
-    from .apps.sweep.load import SweepResults, load_sweep
+    from .apps.sweep.load import CaseArrays, SweepResults, load_sweep
     from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
     from .geometry.tetmesh import TetMesh

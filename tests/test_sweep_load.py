@@ -213,3 +213,65 @@ def test_xdmf_export_without_h5py_names_the_extra(example, tmp_path, monkeypatch
     monkeypatch.setitem(sys.modules, "h5py", None)
     with pytest.raises(ExportError, match=r"cvxcontact\[export\]"):
         cc.load_sweep(example / "out").export(tmp_path / "x")
+
+
+def _direct(folder, scene_name, overrides, condition):
+    """The case solved directly: the scene file with the case's overrides, through cc.solve."""
+    data = apply_overrides(read_toml(folder / scene_name), overrides, "test")
+    return cc.solve(scene_from_data(data, folder / scene_name).scene, condition)
+
+
+def test_the_table_reads_each_floating_electrodes_potential(tmp_path):
+    """The punch sensor (2D, examples/punch_sensor.toml: a floating electrode on the PZT substrate) swept over the
+    punch's push: the column ``substrate.top_V`` of each case is the electrode's potential of a direct cc.solve of
+    that case; the energy is labelled per metre (2D); a record without electrodes (an older sweep) still loads."""
+    shutil.copy(EXAMPLES / "punch_sensor.toml", tmp_path / "punch_sensor.toml")
+    (tmp_path / "sweep.toml").write_text('scene = "punch_sensor.toml"\nconditions = ["gamma3"]\n'
+                                         '[grid]\n"body[0].displacement.top[1]" = [-1e-6, -2e-6]\n')
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    r = cc.load_sweep(tmp_path / "out")
+    table = rows(r.cases)
+    assert len(table) == 2 and all(t["ok"] for t in table)
+    for t in table:
+        push = t["body[0].displacement.top[1]"]
+        ref = _direct(tmp_path, "punch_sensor.toml", {"body[0].displacement.top[1]": push}, "gamma3")
+        (volts,) = [e.potential for e in ref.electrodes if e.kind == "floating"]
+        assert abs(volts) > 0 and t["substrate.top_V"] == pytest.approx(volts, rel=1e-9)   # measured: 0
+        assert t["energy_J_per_m"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J" not in t
+    path = tmp_path / "out" / "cases" / f"{r.ids[0]}.json"
+    record = json.loads(path.read_text())
+    del record["electrodes"]
+    path.write_text(json.dumps(record))
+    old = {t["id"]: t for t in rows(cc.load_sweep(tmp_path / "out").cases)}
+    assert old[r.ids[0]]["substrate.top_V"] is None and old[r.ids[1]]["substrate.top_V"] == table[1]["substrate.top_V"]
+
+
+def test_the_table_reads_each_obstacles_force_and_translation(tmp_path):
+    """The Hertz half model (a fixed rigid circle, examples/hertz_half.toml, coarsened): the columns
+    ``obstacle1.contact_force_N_per_m[i]`` and ``obstacle1.translation_m[i]`` are sol.obstacles[0]'s of a direct
+    cc.solve."""
+    shutil.copy(EXAMPLES / "hertz_half.toml", tmp_path / "hertz_half.toml")
+    grid = {"body[0].mesh.graded_block.nx": 8, "body[0].mesh.graded_block.ny": 4}
+    (tmp_path / "sweep.toml").write_text('scene = "hertz_half.toml"\nconditions = ["gamma3"]\n[grid]\n'
+                                         + "".join(f'"{k}" = [{v}]\n' for k, v in grid.items()))
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    (t,) = rows(cc.load_sweep(tmp_path / "out").cases)
+    ref = _direct(tmp_path, "hertz_half.toml", grid, "gamma3").obstacles[0]
+    assert ref.force[1] < 0                                # the block pressed down by the cylinder
+    for i in range(2):
+        assert t[f"obstacle1.contact_force_N_per_m[{i}]"] == pytest.approx(ref.force[i], rel=1e-9, abs=1e-9 * abs(ref.force[1]))
+        assert t[f"obstacle1.translation_m[{i}]"] == ref.translation[i] == 0.0        # a fixed obstacle
+
+
+def test_3d_energies_and_potentials_are_labelled_in_3d_units(tmp_path):
+    """The 3D punch (examples/punch3d.toml: a floating top electrode on the PZT punch): energy in J, not J/m; the
+    column ``punch.top_V`` is the direct solve's potential."""
+    shutil.copy(EXAMPLES / "punch3d.toml", tmp_path / "punch3d.toml")
+    (tmp_path / "sweep.toml").write_text('scene = "punch3d.toml"\nconditions = ["gamma3"]\n'
+                                         '[grid]\n"body[0].displacement.top[2]" = [-1e-6]\n')
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    (t,) = rows(cc.load_sweep(tmp_path / "out").cases)
+    ref = _direct(tmp_path, "punch3d.toml", {"body[0].displacement.top[2]": -1e-6}, "gamma3")
+    (volts,) = [e.potential for e in ref.electrodes if e.kind == "floating"]
+    assert t["energy_J"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J_per_m" not in t
+    assert abs(volts) > 0 and t["punch.top_V"] == pytest.approx(volts, rel=1e-9)

@@ -1,7 +1,8 @@
 """Reading a sweep's results back: ``r = cc.load_sweep(folder)``.
 
 ``r.cases`` is the table of cases (one row per case of the manifest: its id, name, condition, state, its
-overrides as flattened columns, the checks, timings and how it was solved); ``r.arrays(id)`` the arrays
+overrides as flattened columns, the checks, timings, how it was solved and its readings: energy, floating
+electrodes' potentials, obstacles' forces and translations, :func:`readings`); ``r.arrays(id)`` the arrays
 of one case with their units; ``r.export(folder)`` writes the fields as XDMF + HDF5 for ParaView. The
 folder is only read: loading while a sweep runs on it is safe (every file is written whole, the manifest
 last), and shows the cases finished so far.
@@ -18,7 +19,7 @@ import numpy as np
 from ...errors import SweepResultsError
 from .store import CASES, FAILURES, array_unit, case_state, record_fault
 
-__all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten"]
+__all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten", "readings"]
 
 
 def flatten(value, key: str = "") -> dict:
@@ -69,6 +70,29 @@ def _read_json(path: Path):
         return None
 
 
+def readings(record: dict) -> dict:
+    """The physical readings of a case record as table columns, each named with its unit:
+
+    * the energy: ``energy_J_per_m`` in 2D (per unit thickness), ``energy_J`` in 3D (the record's key);
+    * each floating electrode's potential: ``<body>.<part>_V`` (the body's name, the electrode's boundary part);
+    * each rigid obstacle k (1-based, the scene's order): ``obstacle<k>.translation_m[i]`` and its contact
+      force ``obstacle<k>.contact_force_N_per_m[i]`` (2D) or ``obstacle<k>.contact_force_N[i]`` (3D).
+
+    Records of older sweeps (a missing or ill-typed entry) give the columns they have."""
+    out = {k: record[k] for k in ("energy_J_per_m", "energy_J") if k in record}
+    electrodes = record.get("electrodes")
+    for e in electrodes if isinstance(electrodes, list) else ():
+        if isinstance(e, dict) and e.get("kind") == "floating" and "potential_V" in e:
+            body = e.get("body_name") or f"body {e.get('body')}"
+            out[f"{body}.{e.get('tag')}_V"] = e["potential_V"]
+    obstacles = record.get("obstacles")
+    for k, o in enumerate(obstacles if isinstance(obstacles, list) else (), start=1):
+        if isinstance(o, dict):
+            out.update(flatten({key: o[key] for key in ("translation_m", "contact_force_N_per_m", "contact_force_N")
+                                if isinstance(o.get(key), list)}, f"obstacle{k}"))
+    return out
+
+
 def _row(case: dict, record: dict | None, failure: dict | None, state: str) -> dict:
     row = {"id": case["id"], "name": case.get("name"), "condition": case.get("condition"), "state": state}
     row.update(flatten(case.get("overrides") or {}))
@@ -77,7 +101,8 @@ def _row(case: dict, record: dict | None, failure: dict | None, state: str) -> d
                     "route": record.get("route"), "backend": record.get("backend"),
                     "iterations": record.get("iterations"), "attempts": len(record.get("attempts") or []),
                     "kept_attempt": record.get("kept_attempt"), "tolerance": record.get("tolerance"),
-                    "energy_J_per_m": record.get("energy_J_per_m"), "seconds": record.get("seconds")})
+                    "seconds": record.get("seconds")})
+        row.update(readings(record))
         row.update({f"check.{k}": v for k, v in (record.get("residuals") or {}).items()})
         row.update({f"time.{k}": v for k, v in (record.get("timings_s") or {}).items()})
         row["cvxcontact"] = (record.get("versions") or {}).get("cvxcontact")

@@ -159,9 +159,11 @@ def estimate(sol) -> tuple[ErrorEstimate | None, str]:
     parts = dict.fromkeys(("element", "jump", "boundary", "contact traction", "electric element", "electric jump",
                            "electric boundary", "complementarity", "penetration"), 0.0)
     norm2 = 0.0
-    data = []
+    data, cache = [], []
     for k, b in enumerate(bodies):
         fields = vertex_fields(b, sol.u[k], sol.phi[k], sol.degree)
+        edges = _edges(b.mesh)
+        cache.append((fields, edges))
         eps, gphi, sigma, D, gradL, area = fields
         w = 0.0
         for L, wq in zip(*_TRI3):
@@ -173,8 +175,8 @@ def estimate(sol) -> tuple[ErrorEstimate | None, str]:
         data.append((cT, kT))
         hT = _diameters(b.mesh)
         _element_terms(b, fields, hT, cT, kT, eta2[k], parts)
-        _edge_terms(b, k, fields, cT, kT, eta2[k], parts, sol)
-    _contact_terms(sol, data, eta2, parts)
+        _edge_terms(b, fields, edges, cT, kT, eta2[k], parts, sol)
+    _contact_terms(sol, data, cache, eta2, parts)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
@@ -290,12 +292,12 @@ def _boundary_roles(body, sol):
     return mech, elec
 
 
-def _edge_terms(body, k, fields, cT, kT, eta2, parts, sol):
-    """The interior jumps and the boundary residuals of body k (module docstring); contact parts are left
-    to :func:`_contact_terms`."""
+def _edge_terms(body, fields, edges, cT, kT, eta2, parts, sol):
+    """The interior jumps and the boundary residuals of ``body`` (module docstring; ``edges`` its
+    :func:`_edges`); contact parts are left to :func:`_contact_terms`."""
     eps, gphi, sigma, D, gradL, area = fields
     mesh = body.mesh
-    cells, local, pairs = _edges(mesh)
+    cells, local, pairs = edges
     p = mesh.points
     hE = np.linalg.norm(p[pairs[:, 1]] - p[pairs[:, 0]], axis=1)
     # the normal of each edge, outward of its first cell: the tangent from local vertex i to i + 1 turned clockwise
@@ -398,7 +400,7 @@ def _merged_values(c, s, values):
     return values[2 * j] * (1 - t) * (1 - 2 * t) + values[2 * j + 2] * t * (2 * t - 1) + values[2 * j + 1] * 4 * t * (1 - t)
 
 
-def _contact_terms(sol, data, eta2, parts):
+def _contact_terms(sol, data, cache, eta2, parts):
     """On each side of each pair: h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
     Signorini pair the complementarity and the penetration, shared by the cells of the sides (module
     docstring)."""
@@ -411,7 +413,7 @@ def _contact_terms(sol, data, eta2, parts):
         for body, part in sides:
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
-            cells, local, pairs = _edges(mesh)
+            fields, (cells, local, pairs) = cache[k]
             e = mesh.boundary(part)                                   # oriented: domain on the left
             p = mesh.points
             n = mesh.outward_normals(part)
@@ -421,7 +423,6 @@ def _contact_terms(sol, data, eta2, parts):
             cell, loc = cells[at, 0], local[at, 0]
             tri = mesh.triangles
             rev = tri[cell, loc] != e[:, 0]
-            fields = vertex_fields(body, sol.u[k], sol.phi[k], sol.degree)
             acc = np.zeros(len(e))
             for tq, w in zip(*_GAUSS3):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]

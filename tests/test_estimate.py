@@ -151,3 +151,13 @@ def test_the_readme_examples_emit_no_resolution_warning():
         warnings.simplefilter("error", cc.ResolutionWarning)
         for code in blocks:
             exec(compile(code, str(README), "exec"), {})  # our own documentation, not user input
+
+
+def test_the_json_summary_carries_the_estimate():
+    from cvxcontact.io.output import summary
+
+    sol = cc.solve(study.blocks_scene())
+    s = summary(sol)["estimate"]
+    assert s["relative"] == sol.estimate.relative and s["absolute_sqrt_J_per_m"] == sol.estimate.absolute
+    assert s["guaranteed"] is False and s["kind"] == "residual"
+    assert summary(cc.solve(study.blocks_scene(), estimate=False))["estimate"]["reason"].startswith("not computed")

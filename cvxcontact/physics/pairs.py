@@ -680,8 +680,8 @@ def _graph_foot(F, p0, z, origin, label):
                 break
             a = np.where(bad, 0.5 * a, a)
         p[idx], Fp[idx] = trial, Ft
-        size = np.linalg.norm(a[:, None] * step, axis=1)
-        todo[idx] = size > FOOT_TOL * scale
+        settled = (np.linalg.norm(step, axis=1) <= FOOT_TOL * scale) & ~bad   # the full Newton step, taken
+        todo[idx] = ~settled
     else:
         worst = int(np.flatnonzero(todo)[0])
         raise SceneError(f"{label}: the closest point of the surface to the point with parameters {_fmt(p0[worst])} "

@@ -208,3 +208,21 @@ def test_the_hertz_sphere_on_a_rotated_block_gives_the_same_force():
     Fa, Fb = a.obstacles[0].force, b.obstacles[0].force
     assert np.linalg.norm(Q @ Fa - Fb) < 1e-10 * np.linalg.norm(Fa)            # measured 3.3e-15
     assert rel(b.u[0], a.u[0] @ Q.T) < 1e-10                                   # measured 5.5e-15
+
+
+def test_a_scene_file_names_the_posing():
+    """An [[obstacle]] table takes distance = "closest" | "ray" (the constructor's), and refuses another name."""
+    from cvxcontact.io.scenefile import SceneFileError, scene_from_data
+
+    data = {"body": [{"name": "b", "material": "PZT5A", "clamped": ["bottom"], "grounded": ["bottom"],
+                      "contact": "top", "mesh": {"rectangle": {"x": [0, 1], "y": [0, 0.5], "nx": 4, "ny": 2}}}],
+            "obstacle": [{"name": "disc", "circle": {"center": [0.5, 1.1], "radius": 0.6, "distance": "ray"}}],
+            "contact": [{"a": "b", "part_a": "top", "b": "disc"}]}
+    ray = scene_from_data(data, "posed.toml").scene.obstacles[0].obstacle
+    assert repr(ray) == repr(cc.Rigid.circle((0.5, 1.1), 0.6, distance="ray"))
+    del data["obstacle"][0]["circle"]["distance"]
+    closest = scene_from_data(data, "posed.toml").scene.obstacles[0].obstacle
+    assert repr(closest) == repr(cc.Rigid.circle((0.5, 1.1), 0.6))
+    data["obstacle"][0]["circle"]["distance"] = "vertical"
+    with pytest.raises(SceneFileError, match=r"posed.toml: obstacle\[0\].*distance must be one of"):
+        scene_from_data(data, "posed.toml")

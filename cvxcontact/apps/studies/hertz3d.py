@@ -178,7 +178,10 @@ def total_force(sol) -> float:
     """N: the total force on the sphere (four quarters), -4 times the vertical component of the obstacle's
     resultant sum_a c_a y_a (:class:`~cvxcontact.ObstacleResult`): the nodal forces y_a act along the rows'
     directions (radial under ``distance="closest"``, where their plain sum overstates it; vertical under
-    "ray", where it is 4 sum(y) to rounding)."""
+    "ray", where it is 4 sum(y) to rounding). Two elastic bodies (no obstacle, rows along the pair's normal):
+    4 sum(y)."""
+    if not sol.obstacles:
+        return 4 * float(sol.contact.force.sum())
     return -4 * float(sol.obstacles[0].force[2])
 
 

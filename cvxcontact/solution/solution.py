@@ -360,7 +360,8 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
-        checks_ = checks(blocks, u, phi, Ety, E, g, y)     # the row forces (3D: M lam = E^T y only on the traces)
+        checks_ = checks(blocks, u, phi, Ety, E, g, y,     # the row forces (3D: M lam = E^T y only on the traces)
+                         abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):

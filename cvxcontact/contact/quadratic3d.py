@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
-from .interface import CONDITIONS, normal_jump, read_only
+from .interface import CONDITIONS, normal_jump, read_only, row_directions
 from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 
@@ -218,7 +218,7 @@ class QuadraticSurface:
         if k not in self.members:
             return sp.csr_matrix((self.size, 3 * n_nodes))
         t = self.traces[self.members.index(k)]
-        return normal_jump(self._interp[t.k], np.asarray(t.nodes), np.asarray(t.unit_normal), 3 * n_nodes)
+        return normal_jump(self._interp[t.k], np.asarray(t.nodes), row_directions(self, t.unit_normal), 3 * n_nodes)
 
     def sigma_rows(self, l) -> np.ndarray:
         """The P2 nodes of body l's trace (indices into ``traces[l].nodes``) inside the overlap, in the order

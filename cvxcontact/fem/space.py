@@ -20,6 +20,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.interface import row_directions
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
@@ -78,9 +79,13 @@ class ContactLines:
 
 
 def _interface_key(interface) -> bytes:
+    """The nodes of X_h of every pair and the directions of its rows (a curved obstacle's, towards its closest
+    points, move with it: the jump operators change, not only the gap)."""
     pairs = getattr(interface, "interfaces", None) or [interface]
     return b"".join(np.ascontiguousarray(np.asarray(p.x, dtype=float)).tobytes() +
-                    np.ascontiguousarray(np.asarray(p.points, dtype=float)).tobytes() for p in pairs)
+                    np.ascontiguousarray(np.asarray(p.points, dtype=float)).tobytes() +
+                    (np.ascontiguousarray(row_directions(p, p.normal), dtype=float).tobytes()
+                     if getattr(p, "obstacle", None) is not None else b"") for p in pairs)
 
 
 class Space(Protocol):

@@ -46,9 +46,9 @@ class ContactLines:
     cones and compliance (None otherwise); ``gap`` (m): the gap at the stacked nodes of X_h (pair gaps plus
     the distance to rigid obstacles); ``obstacles``: the scene's
     :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
-    cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether rows can depend on
-    each other whatever the condition (a compliance law's quadrature points on P2 faces: six per triangle, more
-    than the nodes; a penetration limit on them is finished as dependent rows, docs/formulation.md §13).
+    cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether a compliance law's rows can depend
+    on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
+    nodes; the interface compliance W is singular on them, docs/formulation.md §15).
     """
 
     interface: object
@@ -256,8 +256,7 @@ class P2Tet(P2):
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
                             E=E, cone=cone, rows=rows, weights=weights, cone_pairs=None, gap=gap,
-                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)),
-                            dependent=any(lw.compliant and lw.penetration_limit is not None for lw in laws))
+                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant)
 
 
 def _refuse_cones_next_to_compliance(scene, conditions, laws):

@@ -147,7 +147,7 @@ def test_the_coarser_sides_rows_on_non_matching_faces_are_not_exact():
     """As for Signorini (docs/formulation.md §15): the coarser side's rows do not see the finer side's kinks,
     the patch test fails (the exact tests above can fail)."""
     sol = cc.solve(stacked_blocks((2, 2), (3, 3), nz=1), "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e12))
-    assert sol.ok and series_error(sol, 1e12, shift=(0.0, P / 1e12)) > 1e-2       # measured 0.46
+    assert sol.ok and series_error(sol, 1e12, shift=(0.0, P / 1e12)) > 1e-2       # measured 0.21
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -166,15 +166,15 @@ def bumped_pair(n=1, load=2e7):
 def test_p1_on_refined_meshes_tends_to_the_p2_answer():
     """The energy of the P1 answers on 1x and 2x refined meshes approaches the P2 one on the coarse mesh
     (gamma3, k = 1e12 Pa/m: a contact zone inside the faces), the distance shrinking like h^2 (measured
-    115.8, 33.2 J: ratio 3.5), the energies decreasing with refinement and P2 the lowest."""
+    115.6, 33.0 J: ratio 3.5), the energies decreasing with refinement and P2 the lowest."""
     law = cc.NormalCompliance(stiffness=1e12)
     p2 = cc.solve(bumped_pair(1), "gamma3", degree=2, law=law)
     p1 = [cc.solve(bumped_pair(n), "gamma3", degree=1, law=law) for n in (1, 2)]
     assert p2.ok and p2.polished and all(s.ok and s.polished for s in p1)
     d = [s.energy - p2.energy for s in p1]
-    assert d[0] > d[1] > 0 and d[0] / d[1] > 2.5                                  # measured 115.8, 33.2 J
+    assert d[0] > d[1] > 0 and d[0] / d[1] > 2.5                                  # measured 115.6, 33.0 J
     assert d[1] < 0.02 * abs(p2.energy)                                           # measured 9e-3
-    assert abs(p1[1].contact.lam.max() / p2.contact.lam.max() - 1) < 0.02         # measured 4e-3
+    assert abs(p1[1].contact.lam.max() / p2.contact.lam.max() - 1) < 0.02         # measured 2.7e-3
 
 
 H, DELTA = 0.5, 1e-5

@@ -51,21 +51,20 @@ P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
 
 
 def _face_rule():
-    s10 = np.sqrt(10.0)
-    root, wroot = np.sqrt(38.0 - 44.0 * np.sqrt(0.4)), np.sqrt(213125.0 - 53320.0 * s10)
-    a, b = (8.0 - s10 + root) / 18.0, (8.0 - s10 - root) / 18.0
+    a, b = 0.445948490915965, 0.091576213509771
     L = np.array([[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a],
                   [1 - 2 * b, b, b], [b, 1 - 2 * b, b], [b, b, 1 - 2 * b]])
-    w = np.repeat([(620.0 + wroot) / 3720.0, (620.0 - wroot) / 3720.0], 3)
+    w = np.array([0.223381589678011] * 3 + [0.109951743655322] * 3)
     L.setflags(write=False), w.setflags(write=False)
     return L, w
 
 
 P2_FACE_RULE = _face_rule()
 """(L (6, 3), w (6,)): the 6-point rule of degree 4 on a triangle (Strang and Fix; Dunavant's degree-4 rule) in
-barycentric coordinates, its weights positive and summing to 1 (times the area: m^2), its points inside; exact for
+barycentric coordinates, its weights positive and summing to 1 (to 1e-15; times the area: m^2), its points inside; exact for
 the energy k/2 r^2 of a linear law and the forces p(r) N_i of a quadratic penetration r on a triangle in contact.
-Closed forms: a, b = (8 - sqrt 10 +- sqrt(38 - 44 sqrt(2/5))) / 18, w = (620 +- sqrt(213125 - 53320 sqrt 10)) / 3720."""
+Tabulated to 15 decimals (their closed forms a, b = (8 - sqrt 10 +- sqrt(38 - 44 sqrt(2/5))) / 18,
+w = (620 +- sqrt(213125 - 53320 sqrt 10)) / 3720); the P2 volume loads of fem/p2.py take the same rule."""
 
 
 

@@ -29,7 +29,8 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
-    "sphinx-mathjax-offline",            # MathJax 3 copied into _static/mathjax: the equations render offline
+    "sphinx-mathjax-offline",            # MathJax 3.2.2 copied into _static/mathjax: the equations render offline
+                                         # (it declares no parallel safety: a build with -j would warn)
     "sphinx.ext.viewcode",
     "sphinx_gallery.gen_gallery",
 ]

@@ -47,7 +47,7 @@ def test_conf_enables_dollar_math_and_a_local_mathjax():
 
 def test_formulation_writes_its_central_equations_as_mathematics():
     blocks = displays(FORMULATION)
-    assert len(blocks) >= 20, len(blocks)                # measured: 20, in §1-§5 and §7
+    assert len(blocks) >= 20, len(blocks)                # measured: 21 (20 in §1-§5 and §7, the rates' in §9)
     tags = set(re.findall(r"\\tag\{([^}]*)\}", "".join(blocks)))
     assert {"1-2", "26", "27", "34", "35"} <= tags, tags
     by_number = sections(FORMULATION)
@@ -58,6 +58,7 @@ def test_formulation_writes_its_central_equations_as_mathematics():
         code = re.findall(r"(?:^|\n\n)( {4}\S[^\n]*)", text)
         assert not code, f"§{n} still writes an equation as a code block: {code[0]!r}"
     assert "y^{\\top} s = 0" in by_number["7"]          # the LCP of the exact finish
+    assert "$h^{1/2+\\eta/2}$" in by_number["9"]         # the theorems' rates
 
 
 def test_model_tutorial_writes_its_equations_as_mathematics():

@@ -37,11 +37,24 @@ class ResidualWarning(UserWarning):
     """A solution failed the mixed-formulation checks at the requested tolerance."""
 
 
+class ResolutionWarning(UserWarning):
+    """The mesh cannot resolve what the solution shows: a contact zone spanned by too few cells (fewer than
+    :data:`cvxcontact.solution.resolution.MIN_CELLS` contact faces of a body carry its pressure). The
+    discrete problem may be solved exactly (``ok`` True) while the pressure is far from the physics; the
+    message names the pair, the body and what to refine."""
+
+
 class NonUniqueWarning(UserWarning):
     """The discrete problem has several solutions and one is returned: a force-controlled obstacle's
     translation along a direction no contact carrying force sees (a sphere touching one node on its axis)
     is free within the interval its open rows allow; the displacements, potentials, contact forces and
     the other translations are the same for every solution. The message names the direction."""
+
+
+class SweepResultsError(CvxContactError, ValueError):
+    """A folder that is not a sweep's output, an unknown case id, or a case without a complete result (not
+    computed, failed, or its files damaged: the message names the file and, for a record of the wrong shape,
+    the field)."""
 
 
 class UnsupportedError(CvxContactError, NotImplementedError):

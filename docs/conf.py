@@ -1,16 +1,19 @@
 """Sphinx configuration of the cvxcontact documentation.
 
 Build (warnings are errors):  python -m sphinx -W --keep-going -b html docs docs/_build/html
-Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery). The pages are Markdown (MyST);
+Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery, sphinx-mathjax-offline). The pages are
+Markdown (MyST), their equations dollar math typeset by a MathJax bundled into the site (readable offline);
 the gallery is ``examples/``, every script executed during the build; the API reference is read from
 the docstrings (autodoc + napoleon, numpy style). Why these tools: docs/explanation/about-docs.md.
 """
 
 import os
+import re
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+DOCS, EXAMPLES = ROOT / "docs", ROOT / "examples"
 sys.path.insert(0, str(ROOT))            # the clone's package, also when it is not installed
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -26,6 +29,8 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",            # MathJax 3.2.2 copied into _static/mathjax: the equations render offline
+                                         # (it declares no parallel safety: a build with -j would warn)
     "sphinx.ext.viewcode",
     "sphinx_gallery.gen_gallery",
 ]
@@ -35,7 +40,8 @@ root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
 
-myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
+myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]   # $...$, $$...$$ \tag{26}: also GitHub's math
+mathjax_path = "mathjax/tex-chtml.js"    # relative: the site's own _static copy (sphinx-mathjax-offline), no CDN
 myst_heading_anchors = 3                 # [text](page.md#a-heading) links resolve
 
 autodoc_member_order = "bysource"
@@ -63,8 +69,28 @@ def _escape_bars(app, what, name, obj, options, lines):
             literal_indent = indent
 
 
+def _gallery_links(app, docname, source):
+    """The pages link an example by its source file, ``[text](../../examples/NAME.py)``, and the gallery by its
+    folder, ``../examples/`` (links GitHub follows, where the gallery is not built); on the site the same links go
+    to the example's gallery page ``auto_examples/NAME`` (built from that file) and to the gallery's index."""
+    page = (DOCS / docname).parent
+
+    def to_gallery(match):
+        target = (page / match[1]).resolve()
+        if target == EXAMPLES:
+            built = DOCS / "auto_examples" / "index.rst"
+        elif target.parent == EXAMPLES and target.suffix == ".py":
+            built = DOCS / "auto_examples" / f"{target.stem}.rst"
+        else:
+            return match[0]
+        return f"]({os.path.relpath(built, page)})"
+
+    source[0] = re.sub(r"\]\(([^()\s#]*examples/[^()\s#]*)\)", to_gallery, source[0])
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", _escape_bars)
+    app.connect("source-read", _gallery_links)
 
 sphinx_gallery_conf = {
     "examples_dirs": str(ROOT / "examples"),

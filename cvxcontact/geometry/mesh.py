@@ -131,15 +131,7 @@ class Mesh(Frozen):
         MeshError
             If ``order`` is not a permutation of the node indices.
         """
-        n = len(self.points)
-        order = np.asarray(order)
-        if (order.shape != (n,) or not np.issubdtype(order.dtype, np.integer)
-                or not np.array_equal(np.sort(order), np.arange(n))):
-            raise MeshError(f"renumbered needs a permutation of 0..{n - 1} (one new place per node, integers), "
-                            f"got an array of shape {order.shape} and dtype {order.dtype}; e.g. "
-                            f"np.random.default_rng(0).permutation({n})")
-        new = np.empty(n, dtype=np.int64)
-        new[order] = np.arange(n)             # new[old index] = new index
+        order, new = _renumbering(order, len(self.points))
         return Mesh(self.points[order], new[self.triangles], {t: new[self.boundary(t)] for t in self.tags})
 
     @property
@@ -253,6 +245,20 @@ def _as_triangles(triangles, n):
     if t.min() < 0 or t.max() >= n:
         raise MeshError(f"triangles refer to nodes outside 0..{n - 1}")
     return np.ascontiguousarray(t, dtype=np.int64)
+
+
+def _renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(order, new) for ``renumbered``: ``order`` checked to be a permutation of 0..n-1 (else a MeshError naming
+    the fix) and its inverse, new[old index] = new index."""
+    order = np.asarray(order)
+    if (order.shape != (n,) or not np.issubdtype(order.dtype, np.integer)
+            or not np.array_equal(np.sort(order), np.arange(n))):
+        raise MeshError(f"renumbered needs a permutation of 0..{n - 1} (one new place per node, integers), "
+                        f"got an array of shape {order.shape} and dtype {order.dtype}; e.g. "
+                        f"np.random.default_rng(0).permutation({n})")
+    new = np.empty(n, dtype=np.int64)
+    new[order] = np.arange(n)
+    return order, new
 
 
 def _check_nodes(points, cells, what="triangle"):

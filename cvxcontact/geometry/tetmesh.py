@@ -19,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Frozen, FrozenMap, MeshError
-from .mesh import _check_nodes, _frozen
+from .mesh import _check_nodes, _frozen, _renumbering
 
 __all__ = ["TetMesh"]
 
@@ -133,15 +133,7 @@ class TetMesh(Frozen):
         MeshError
             If ``order`` is not a permutation of the node indices.
         """
-        n = len(self.points)
-        order = np.asarray(order)
-        if (order.shape != (n,) or not np.issubdtype(order.dtype, np.integer)
-                or not np.array_equal(np.sort(order), np.arange(n))):
-            raise MeshError(f"renumbered needs a permutation of 0..{n - 1} (one new place per node, integers), "
-                            f"got an array of shape {order.shape} and dtype {order.dtype}; e.g. "
-                            f"np.random.default_rng(0).permutation({n})")
-        new = np.empty(n, dtype=np.int64)
-        new[order] = np.arange(n)             # new[old index] = new index
+        order, new = _renumbering(order, len(self.points))
         return TetMesh(self.points[order], new[self.tets], {t: new[self.boundary(t)] for t in self.tags})
 
     @property

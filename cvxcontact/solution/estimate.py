@@ -41,6 +41,7 @@ import numpy as np
 
 from ..fem.assembly import gradients, strain_matrix
 from ..fem.p2 import shape_gradients
+from ..geometry.mesh import _edge_table
 
 __all__ = ["ErrorEstimate", "estimate", "energy_density", "cell_energies", "vertex_fields", "UNCOVERED"]
 
@@ -233,15 +234,8 @@ def _element_terms(body, fields, hT, cT, kT, eta2, parts):
 def _edges(mesh):
     """Every edge of the mesh once: (cells (k, 2) with -1 for a boundary edge's missing neighbour, local
     edge index in each (k, 2), vertex pair (k, 2) sorted)."""
-    tri = mesh.triangles
-    n, m = len(mesh.points), len(tri)
-    a = tri[:, [0, 1, 2]].ravel()
-    b = tri[:, [1, 2, 0]].ravel()
-    keys = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
-    order = np.argsort(keys, kind="stable")
-    keys_s = keys[order]
-    start = np.flatnonzero(np.r_[True, keys_s[1:] != keys_s[:-1]])
-    count = np.diff(np.r_[start, len(keys_s)])
+    n = len(mesh.points)
+    _, keys_s, order, start, count = _edge_table(mesh.triangles.astype(np.int64), n)   # row 3 t + i: i -> i+1
     first = order[start]
     second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
     cells = np.column_stack([first // 3, np.where(second >= 0, second // 3, -1)])

@@ -15,7 +15,7 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 
-from .backends import DEFAULT_METHOD, METHODS, choose, describe
+from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
 from .backends.result import Cache, Settings
 from .backends.run import run
 from .contact.laws import ContactLaw, check_law, check_law_for
@@ -209,8 +209,9 @@ class ContactSolver:
         raw = run(self.method, problem, self._cache, self.settings, timings)
         t0 = time.perf_counter()
         sol = read_back(problem, raw, self.tol, timings, self.requested)
-        if not sol.ok and self._falls_back(raw):
-            sol = self._fallback(problem, sol, timings)
+        fallback = None if sol.ok else self._fallback_of(raw)
+        if fallback is not None:
+            sol = self._fallback(fallback, problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
         if self.estimate:
             t0 = time.perf_counter()
@@ -226,34 +227,37 @@ class ContactSolver:
                 warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol
 
-    def _falls_back(self, raw) -> bool:
-        """True if a condensed answer that fails its checks should be retried by the sparse route (``auto``)."""
-        p = self.problem
-        return (raw.polished and self.method == "condensed" and self.requested == "auto" and p.nodes is None
-                and not p.compliant and not p.held and not p.forced)
+    def _fallback_of(self, raw):
+        """The :class:`~cvxcontact.backends.Fallback` of the backend that ran (``auto`` only): an exact answer that
+        fails its checks is retried by the backend the entry names if that accepts the problem, else None."""
+        fallback = backend(self.method).fallback
+        if fallback is None or not raw.polished or self.requested != DEFAULT_METHOD:
+            return None
+        p = describe(self.problem)
+        return fallback if fallback.when(p) and backend(fallback.method).accepts(p) else None
 
-    def _fallback(self, problem, sol, timings):
-        """The condensed answer is exact on its own interface matrices but fails the checks of (26)-(27): an
-        ill-conditioned interface (e.g. a slender layer, whose compliance W loses digits). The sparse route
-        solves the mixed system itself (1-2 steps from the condensed active set); it is kept for later load
-        cases of this geometry if its answer passes."""
+    def _fallback(self, fallback, problem, sol, timings):
+        """The first answer is exact on its own matrices but fails the checks of (26)-(27) (the condensed route:
+        an ill-conditioned interface, e.g. a slender layer, whose compliance W loses digits). The fallback
+        backend solves the problem again (the sparse route: 1-2 steps from the condensed active set); it is
+        kept for later load cases of this geometry if its answer passes."""
         t1, stages = time.perf_counter(), {}            # its stages are inside "fallback", not added twice
-        log.info("the condensed answer fails its checks (%s); falling back to the sparse route",
-                 ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol))
+        log.info("the %s answer fails its checks (%s); falling back to %r", self.method,
+                 ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol), fallback.method)
         try:
-            raw = run("sparse", problem, self._cache, self.settings, stages)
+            raw = run(fallback.method, problem, self._cache, self.settings, stages)
         except SolverError as exc:
-            log.info("the sparse fallback failed (%s); the condensed answer is kept", exc)
+            log.info("the %s fallback failed (%s); the %s answer is kept", fallback.method, exc, self.method)
             timings["fallback"] = time.perf_counter() - t1
             return sol
         other = read_back(problem, raw, self.tol, timings, self.requested)
         timings["fallback"] = time.perf_counter() - t1
         if not other.ok:
-            log.info("the sparse fallback fails its checks too; the condensed answer is kept")
+            log.info("the %s fallback fails its checks too; the %s answer is kept", fallback.method, self.method)
             return sol
-        log.info("the sparse fallback passes its checks; later load cases of this geometry use it")
-        self.method = "sparse"
-        other.info = replace(other.info, route=Route.SPARSE_FALLBACK)
+        log.info("the %s fallback passes its checks; later load cases of this geometry use it", fallback.method)
+        self.method = fallback.method
+        other.info = replace(other.info, route=fallback.route)
         return other
 
     def _warn(self, sol, raw) -> None:

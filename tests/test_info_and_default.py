@@ -90,11 +90,13 @@ def test_solve_info_is_typed_frozen_and_backs_the_old_attributes(scene):
     assert again.info.factorizations == 0 and again.info.finish is not None and again.info.polished
 
 
-def test_solve_info_rejects_unknown_constants():
+def test_solve_info_rejects_unknown_statuses_and_keeps_a_backend_s_own_route_label():
     with pytest.raises(ValueError):
         SolveInfo(status="infeasible", method="full", route=Route.INTERIOR_POINT)
-    with pytest.raises(ValueError):
-        SolveInfo(status=Status.OPTIMAL, method="full", route="somehow")
+    info = SolveInfo(status=Status.OPTIMAL, method="mine", route="somehow")       # a registered backend's label
+    assert info.route == "somehow" and not isinstance(info.route, Route)        # (tests/test_registry.py)
+    with pytest.raises(cc.SolverError, match="route label"):
+        SolveInfo(status=Status.OPTIMAL, method="full", route=None)
 
 
 # ------------------------------------------------------------------------------ loads vs geometry

@@ -163,30 +163,28 @@ def test_model_node_out_of_range_is_a_typed_error_naming_the_body():
     assert model.u(0, [0, 1]).shape == (2, 2) and model.phi(0, 3).shape == () and model.u(0, 3).shape == (2,)
 
 
-def test_a_backend_plugs_in_through_the_registry_alone(monkeypatch):
-    """A new backend is a route function and one registry entry (docs/architecture.md, "A new backend"): here the
-    full program solved by the route of another module, registered under a new name; the orchestration, the
-    read-back and the checks are untouched, and the answer equals the full backend's (measured 0: the same
-    program and finish)."""
-    import cvxcontact.backends as backends
-    from cvxcontact.backends import Backend, signorini
+def test_a_backend_plugs_in_through_the_registry_alone():
+    """A new backend is a route function and one call, cvxcontact.backends.register (docs/howto/extending.md):
+    here the full program solved by a function outside the package, registered under a new name; the
+    orchestration, the read-back and the checks are untouched, and the answer equals the full backend's (measured
+    0: the same program and finish). Its own route label and cache entry reach the Solution untouched."""
+    from cvxcontact.backends import Backend, register, signorini, unregister
 
     def other(problem, cache, settings, timings):
         raw = signorini.full(problem, cache, settings, timings)
-        raw.method = "other"
+        cache.own["other"] = cache.own.get("other", 0) + 1          # what this backend keeps between solves
+        raw.method, raw.route = "other", "the full program, by another name"
         return raw
 
-    import types
-    module = types.ModuleType("cvxcontact.backends.other")
-    module.signorini = other
-    monkeypatch.setitem(__import__("sys").modules, "cvxcontact.backends.other", module)
-    entry = Backend("other", lambda p: not (p.compliant or p.conic), "test", routes={"signorini": "other:signorini"})
-    monkeypatch.setattr(backends, "BACKENDS", backends.BACKENDS + (entry,))
-    import cvxcontact.backends.options as options
-    import cvxcontact.backends.run as run
-    monkeypatch.setattr(options, "METHODS", options.METHODS + ("other",))
-    monkeypatch.setattr(run, "BACKENDS", backends.BACKENDS)
-    monkeypatch.setattr(backends, "METHODS", backends.METHODS + ("other",))
-    scene = _loaded_pair()
-    sol, ref = cc.solve(scene, method="other"), cc.solve(scene, method="full")
-    assert sol.ok and sol.info.method == "other" and rel(sol.u[0], ref.u[0]) < 1e-12
+    register(Backend("other", lambda p: not (p.compliant or p.conic), "test", routes={"signorini": other}))
+    try:
+        scene = _loaded_pair()
+        solver = cc.ContactSolver(scene, method="other")
+        sol, ref = solver.solve(), cc.solve(scene, method="full")
+        assert sol.ok and sol.info.method == "other" and rel(sol.u[0], ref.u[0]) < 1e-12
+        assert sol.info.route == "the full program, by another name" and solver.cache.own == {"other": 1}
+        assert cc.solve(scene).info.method == "condensed"           # appended last: auto never picks it
+    finally:
+        unregister("other")
+    with pytest.raises(cc.SolverError, match="method must be one of"):
+        cc.solve(_loaded_pair(), method="other")

@@ -7,25 +7,26 @@
 ``finish``     the exact finish: the interface LCP solved by scaled active-set steps (NNLS fallback)
 ``options``    validation of solver names and options before anything is assembled
 
-The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each with
+The registry :data:`BACKENDS` lists the backends in speed order (fastest first), each a :class:`Backend` with
 an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers(problem)``.
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
 ``prefers``: every problem it accepts) (:func:`choose`): "amg" for a 3D scene of at least
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
-neither accepts.
+neither accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from ..errors import SolverError
+from .result import Route
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "BACKENDS", "choose", "describe", "SPARSE_ROWS",
-           "SPARSE_SLENDER", "AMG_UNKNOWNS"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "Fallback", "BACKENDS", "KINDS", "choose",
+           "describe", "register", "unregister", "backend", "SPARSE_ROWS", "SPARSE_SLENDER", "AMG_UNKNOWNS"]
 
 AMG_UNKNOWNS = 50_000
 """``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for 3D scenes of at least this many
@@ -65,7 +66,8 @@ class ProblemDescription:
     ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
     stiffness, coupled to every body it touches; docs/formulation.md §12).
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
-    ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3.
+    ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3. ``degree``:
+    the element degree (1: P1, 2: P2).
     ``piezoelectric``: some body has potentials.
     ``dependent_rows``: the contact rows can depend on each other (P1 "gamma3" between two 3D bodies: more
     overlay vertices than the jump's dofs, docs/formulation.md §13); the active-set routes without the
@@ -82,6 +84,7 @@ class ProblemDescription:
     compliant: bool = False
     conic: bool = False
     dim: int = 2
+    degree: int = 1
     piezoelectric: bool = False
     dependent_rows: bool = False
 
@@ -94,24 +97,43 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
     return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
-                              user_terms=user_terms, dim=problem.dim,
+                              user_terms=user_terms, dim=problem.dim, degree=problem.space.degree,
                               piezoelectric=any(b.Kpp is not None for b in problem.blocks),
                               dependent_rows=bool(dependent_rows(problem)) and not problem.conic)
+
+
+KINDS = ("signorini", "compliance", "conic", "mixed")
+"""The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`); a backend names one route
+per kind it solves."""
+
+
+@dataclass(frozen=True)
+class Fallback:
+    """What ``method="auto"`` runs when a backend's exact (finished) answer fails the checks of (26)-(27):
+    the backend ``method`` (if it accepts the problem and ``when`` holds), whose answer replaces the first one if
+    it passes and then reports ``route`` (:class:`~cvxcontact.backends.result.Route` or a backend's own label);
+    later load cases of the solver keep ``method``."""
+
+    method: str
+    route: str
+    when: Callable[[ProblemDescription], bool] = lambda p: True
 
 
 @dataclass(frozen=True)
 class Backend:
     """A registered backend: its ``name`` (the ``method=`` value), what it ``accepts``, what it ``prefers``
-    among those (None: all; ``method="auto"`` only) and its ``routes``: for each kind of problem it solves
-    ("signorini", "compliance", "conic", "mixed": :func:`cvxcontact.backends.run.kind`) the function that
-    solves it, as "module:function" in this package (resolved when first run, so that the registry imports
-    nothing), each ``route(problem, cache, settings, timings) -> RawResult``."""
+    among those (None: all; ``method="auto"`` only), its ``routes``: for each kind of problem it solves
+    (:data:`KINDS`: :func:`cvxcontact.backends.run.kind`) the function that solves it, each
+    ``route(problem, cache, settings, timings) -> RawResult``, given as the function or as "module:function"
+    (a module name relative to this package when it starts with a dot; resolved when first run, so that the
+    registry imports nothing), and its ``fallback`` (:class:`Fallback`, None: its answer stands)."""
 
     name: str
     accepts: Callable[[ProblemDescription], bool]
     summary: str = ""
     prefers: Callable[[ProblemDescription], bool] | None = None
-    routes: Mapping[str, str] = field(default_factory=dict)
+    routes: Mapping[str, str | Callable] = field(default_factory=dict)
+    fallback: Fallback | None = None
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
@@ -129,31 +151,130 @@ def _amg_available() -> bool:
     return importlib.util.find_spec("pyamg") is not None
 
 
-BACKENDS: tuple[Backend, ...] = (
+_REGISTRY: dict[str, Backend] = {b.name: b for b in (
     Backend("amg", _sparse_accepts,
             "active-set steps with AMG-preconditioned Krylov solves (large 3D scenes; pyamg; no factorisation)",
             prefers=lambda p: p.dim == 3 and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
-            routes=MappingProxyType({"signorini": "amg:signorini"})),
+            routes=MappingProxyType({"signorini": ".amg:signorini"})),
     Backend("sparse", _sparse_accepts,
             "active-set steps on the sparse mixed system (long interfaces; no dense m x m matrix)",
             prefers=lambda p: p.contact_rows > SPARSE_ROWS
             or (p.unknowns > 0 and p.contact_rows > SPARSE_SLENDER * p.unknowns ** 0.5),
-            routes=MappingProxyType({"signorini": "signorini:sparse"})),
+            routes=MappingProxyType({"signorini": ".signorini:sparse"})),
     Backend("condensed", _condensed_accepts,
             "exact condensation onto the contact dofs + interface QP + exact finish (fast)",
-            routes=MappingProxyType({"signorini": "signorini:condensed", "compliance": "compliance:condensed",
-                                     "conic": "cones:condensed", "mixed": "cones:mixed_condensed"})),
+            routes=MappingProxyType({"signorini": ".signorini:condensed", "compliance": ".compliance:condensed",
+                                     "conic": ".cones:condensed", "mixed": ".cones:mixed_condensed"}),
+            # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself
+            fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
     Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)",
-            routes=MappingProxyType({"signorini": "signorini:full", "compliance": "compliance:full",
-                                     "conic": "cones:full", "mixed": "cones:mixed_full"})),
-)
-"""The backends in speed order, fastest first (the sparse route where it prefers the problem: long interfaces)."""
+            routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
+                                     "conic": ".cones:full", "mixed": ".cones:mixed_full"})),
+)}
+"""The registered backends by name, in speed order (fastest first): :func:`register` adds to it."""
+
+REFERENCE = "full"
+"""The backend that accepts every problem (the reference): it cannot be replaced or unregistered."""
+
+
+class _Live(Sequence):
+    """A read-only, always current view of the registry (``items(registry)`` gives its entries)."""
+
+    def __init__(self, items: Callable[[], tuple]):
+        self._items = items
+
+    def __getitem__(self, i):
+        return self._items()[i]
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def __eq__(self, other) -> bool:
+        return tuple(self) == (tuple(other) if isinstance(other, (tuple, list, _Live)) else other)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return repr(self._items())
+
+
+BACKENDS: Sequence[Backend] = _Live(lambda: tuple(_REGISTRY.values()))
+"""The backends in speed order, fastest first (the sparse route where it prefers the problem: long interfaces);
+a live view of the registry (:func:`register`)."""
 
 DEFAULT_METHOD = "auto"
 """The default ``method=``: the fastest backend that accepts the problem."""
 
-METHODS = ("auto",) + tuple(b.name for b in BACKENDS)
-"""Backend names accepted by :func:`cvxcontact.solve` (``method=``)."""
+METHODS: Sequence[str] = _Live(lambda: (DEFAULT_METHOD,) + tuple(_REGISTRY))
+"""Backend names accepted by :func:`cvxcontact.solve` (``method=``); a live view of the registry."""
+
+
+def backend(name: str) -> Backend:
+    """The registered backend ``name``; SolverError naming the registered ones otherwise."""
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise SolverError(f"method must be one of {tuple(METHODS)}, got {name!r}")
+    return _REGISTRY[name]
+
+
+def register(entry: Backend, *, before: str | None = None, replace: bool = False) -> Backend:
+    """Register the backend ``entry`` so that ``cc.solve(scene, method=entry.name)`` runs it (docs/howto/extending.md).
+
+    ``before``: the registered backend it goes before in the speed order that ``method="auto"`` walks (None:
+    last, after the reference "full" that accepts every problem, so that ``auto`` never picks it and only
+    ``method=entry.name`` runs it). ``replace``: allow re-registering a name (not "full"). Returns ``entry``.
+    Raises :class:`~cvxcontact.errors.SolverError` naming what is missing or wrong (a name, a callable
+    ``accepts``/``prefers``, a route per kind of :data:`KINDS` given as a function or "module:function", a
+    fallback to a registered backend).
+    """
+    if not isinstance(entry, Backend):
+        raise SolverError(f"register takes a cvxcontact.backends.Backend(name, accepts, routes=...), got "
+                          f"{type(entry).__name__}")
+    name = entry.name
+    if not isinstance(name, str) or not name.isidentifier():
+        raise SolverError(f"Backend.name must be an identifier (the method= value), got {name!r}")
+    if name == DEFAULT_METHOD or name == REFERENCE or (name in _REGISTRY and not replace):
+        raise SolverError(f"a backend named {name!r} is already registered or reserved; choose another name"
+                          + ("" if name in (DEFAULT_METHOD, REFERENCE) else " or pass replace=True"))
+    for what in ("accepts", "prefers"):
+        f = getattr(entry, what)
+        if not callable(f) and not (what == "prefers" and f is None):
+            raise SolverError(f"Backend {name!r}: {what} must be a function of a ProblemDescription returning "
+                              f"bool, got {f!r}")
+    routes = dict(entry.routes) if isinstance(entry.routes, Mapping) else None
+    if not routes:
+        raise SolverError(f"Backend {name!r}: routes must map at least one kind of {KINDS} to its function "
+                          f"route(problem, cache, settings, timings) -> RawResult, got {entry.routes!r}")
+    for kind_, where in routes.items():
+        if kind_ not in KINDS:
+            raise SolverError(f"Backend {name!r}: unknown kind {kind_!r} in routes; the kinds are {KINDS}")
+        if not (callable(where) or (isinstance(where, str) and where.count(":") == 1 and all(where.split(":")))):
+            raise SolverError(f"Backend {name!r}: the {kind_} route must be a function or 'module:function', "
+                              f"got {where!r}")
+    if entry.fallback is not None and (not isinstance(entry.fallback, Fallback)
+                                       or entry.fallback.method not in _REGISTRY or entry.fallback.method == name):
+        raise SolverError(f"Backend {name!r}: fallback must be a Fallback(method, route) naming another registered "
+                          f"backend {tuple(_REGISTRY)}, got {entry.fallback!r}")
+    if before is not None and (before not in _REGISTRY or before == name):
+        raise SolverError(f"register(before=...) must name another registered backend {tuple(_REGISTRY)}, "
+                          f"got {before!r}")
+    entries = [b for b in _REGISTRY.values() if b.name != name]
+    at = len(entries) if before is None else next(i for i, b in enumerate(entries) if b.name == before)
+    entries.insert(at, entry)
+    _REGISTRY.clear()
+    _REGISTRY.update((b.name, b) for b in entries)
+    return entry
+
+
+def unregister(name: str) -> Backend:
+    """Remove the registered backend ``name`` (not the reference "full", nor one another backend falls back to);
+    returns its entry."""
+    entry = backend(name)
+    users = [b.name for b in _REGISTRY.values() if b.fallback is not None and b.fallback.method == name]
+    if name == REFERENCE or users:
+        raise SolverError(f"backend {name!r} cannot be unregistered: "
+                          + ("it is the reference that accepts every problem" if name == REFERENCE
+                             else f"{users} fall back to it"))
+    return _REGISTRY.pop(name)
 
 
 def choose(method: str, problem: ProblemDescription | None = None) -> str:
@@ -164,14 +285,11 @@ def choose(method: str, problem: ProblemDescription | None = None) -> str:
     unknown name or a backend that does not accept the problem.
     """
     problem = ProblemDescription() if problem is None else problem
-    if method == "auto":
+    if method == DEFAULT_METHOD:
         for b in BACKENDS:
             if b.accepts(problem) and (b.prefers is None or b.prefers(problem)):
                 return b.name
         raise SolverError(f"no backend accepts {problem}; backends: {[b.name for b in BACKENDS]}")
-    for b in BACKENDS:
-        if b.name == method:
-            if not b.accepts(problem):
-                raise SolverError(f"method {method!r} does not accept {problem}; use method='auto' or 'full'")
-            return b.name
-    raise SolverError(f"method must be one of {METHODS}, got {method!r}")
+    if not backend(method).accepts(problem):
+        raise SolverError(f"method {method!r} does not accept {problem}; use method='auto' or 'full'")
+    return method

@@ -125,9 +125,10 @@ class RawResult:
 
 class Cache:
     """What a backend keeps between solves of one geometry (per ContactSolver): the condensation onto the
-    contact unknowns (:class:`~cvxcontact.backends.interface.Condensation`), the sparse factorisation and the
-    last exact active set (warm starts). :meth:`matching` empties it when the contact rows change (a moved
-    obstacle reaching other nodes)."""
+    contact unknowns (:class:`~cvxcontact.backends.interface.Condensation`), the sparse factorisation, the AMG
+    hierarchy and the last exact active set (warm starts); ``own``: a dict for what any other backend keeps
+    (keyed by its name, say). :meth:`matching` empties all of it when the contact rows change (a moved obstacle
+    reaching other nodes)."""
 
     def __init__(self):
         self.key = None
@@ -135,6 +136,7 @@ class Cache:
 
     def clear(self):
         self.condensation = self.sparse = self.amg = self.active = None
+        self.own: dict = {}
 
     def matching(self, key) -> "Cache":
         """This cache, emptied first if it was filled for other contact rows than ``key``."""

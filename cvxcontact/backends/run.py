@@ -4,7 +4,7 @@ problem poses and returns one :class:`~cvxcontact.backends.result.RawResult`.
 The kinds (:func:`kind`): ``"signorini"`` (nodal rows, P1 or P2), ``"compliance"`` (a normal-compliance law on
 some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8) and ``"mixed"`` (cones next to a compliance
 law, §10 "P2"). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
-(``Backend.routes``); :func:`route` finds it.
+(``Backend.routes``: :data:`cvxcontact.backends.KINDS`); :func:`route` finds it.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import SolverError
 from ..fem.kernel import check_determined
 from .finish import SINGULAR
-from . import BACKENDS
+from . import backend
 from .result import RawResult
 
 __all__ = ["route", "kind", "run"]
@@ -27,13 +27,18 @@ log = logging.getLogger(__name__)
 
 def route(method: str, kind_: str):
     """The function of backend ``method`` (a name of :data:`cvxcontact.backends.BACKENDS`) for problems of
-    ``kind_``; SolverError if that backend has none."""
-    backend = next((b for b in BACKENDS if b.name == method), None)
-    where = None if backend is None else backend.routes.get(kind_)
+    ``kind_``; SolverError if that backend has none or its "module:function" does not import."""
+    where = backend(method).routes.get(kind_)
     if where is None:
         raise SolverError(f"method {method!r} does not solve a {kind_} problem")
+    if callable(where):
+        return where
     module, name = where.split(":")
-    return getattr(importlib.import_module(f"{__package__}.{module}"), name)
+    try:
+        return getattr(importlib.import_module(module, __package__), name)
+    except (ImportError, AttributeError) as exc:
+        raise SolverError(f"the {kind_} route {where!r} of backend {method!r} does not import ({exc}); register "
+                          f"the function itself or an importable 'module:function'") from exc
 
 
 def kind(problem) -> str:
@@ -54,7 +59,8 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     solver = route(method, kind(problem))
     raw = solver(problem, cache.matching(problem.lines.key()), settings, timings)
     log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", kind(problem), problem.condition,
-             method, solver.__module__.rsplit(".", 1)[-1], solver.__name__, raw.route,
+             method, (getattr(solver, "__module__", None) or "").rsplit(".", 1)[-1],
+             getattr(solver, "__name__", type(solver).__name__), raw.route,
              f", finish {raw.finish}" if raw.finish else "", raw.iterations,
              f"; exact finish declined: {raw.declined}" if raw.declined else "")
     active = raw.active

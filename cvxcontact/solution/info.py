@@ -11,11 +11,23 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from types import MappingProxyType
 
 from ..backends.result import Finish, Route, Status
+from ..errors import SolverError
 
 __all__ = ["Status", "Route", "Finish", "SolveInfo"]
+
+
+def _label(kind: type[StrEnum], value) -> str:
+    """``value`` as a member of ``kind`` if it is one, else as a backend's own label (a non-empty string)."""
+    if value in kind._value2member_map_:
+        return kind(value)
+    if not isinstance(value, str) or not value:
+        raise SolverError(f"a {kind.__name__.lower()} label must be a {kind.__name__} or a backend's own non-empty "
+                          f"string, got {value!r}")
+    return str(value)
 
 
 def _frozen_timings(timings: Mapping[str, float] | None) -> Mapping[str, float]:
@@ -31,13 +43,14 @@ class SolveInfo:
     status : Status
         OPTIMAL or OPTIMAL_INACCURATE (any other solver status raises SolverError).
     method : str
-        The backend actually used: one of the four backends of :data:`cvxcontact.backends.METHODS` ("amg", "sparse",
-        "condensed" or "full"; never "auto").
+        The backend actually used: one of the backends of :data:`cvxcontact.backends.METHODS` ("amg", "sparse",
+        "condensed" or "full", or one registered by :func:`cvxcontact.backends.register`; never "auto").
     requested : str
-        The ``method=`` that was asked for ("auto" or one of the four backends).
-    route : Route
+        The ``method=`` that was asked for ("auto" or one of the backends).
+    route : Route or str
         The route that produced the arrays (a member of :class:`Route`, e.g. INTERIOR_POINT,
-        INTERIOR_POINT_FINISHED, WARM_START, SPARSE_ACTIVE_SET, KRYLOV_ACTIVE_SET).
+        INTERIOR_POINT_FINISHED, WARM_START, SPARSE_ACTIVE_SET, KRYLOV_ACTIVE_SET; or the own label of a
+        registered backend, :func:`cvxcontact.backends.register`).
     polished : bool
         True if the arrays are an exact finish (the routes of the finish and of the active-set steps).
     iterations : int
@@ -47,8 +60,9 @@ class SolveInfo:
         Wall-clock seconds per stage of this solve ("assembly", "factorization", "loads",
         "model", "compile", "solve", "polish", "back_substitution", "read_back", ...). A stage
         that did not run in this solve is absent: "factorization" appears once per ContactSolver.
-    finish : Finish or None
-        How the exact finish found its active set; None if there was no finish.
+    finish : Finish, str or None
+        How the exact finish found its active set (a :class:`Finish`, or a registered backend's own label);
+        None if there was no finish.
     factorization : str
         The adapter that factorised the bodies for the condensed path or the exact finish ("superlu" or
         "pardiso", :mod:`cvxcontact.backends.factor`); "" if no body was factorised.
@@ -56,19 +70,19 @@ class SolveInfo:
 
     status: Status
     method: str
-    route: Route
+    route: Route | str
     polished: bool = False
     iterations: int = 0
     timings: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
-    finish: Finish | None = None
+    finish: Finish | str | None = None
     requested: str = ""
     factorization: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
-        object.__setattr__(self, "route", Route(self.route))
+        object.__setattr__(self, "route", _label(Route, self.route))
         if self.finish is not None:
-            object.__setattr__(self, "finish", Finish(self.finish))
+            object.__setattr__(self, "finish", _label(Finish, self.finish))
         object.__setattr__(self, "timings", _frozen_timings(self.timings))
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .info import Finish, Route
+from .info import Route
 from .solution import Solution, obstacle_results, read_back_compliance, read_back_conic_mix, read_back_nodal
 
 __all__ = ["read_back"]
@@ -29,6 +29,6 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
         route = Route.INTERIOR_POINT_FINISHED
     sol.info = replace(sol.info, method=raw.method, requested=requested or raw.method, route=route,
                        iterations=raw.iterations, timings=timings,
-                       finish=Finish(raw.finish) if raw.polished and raw.finish else None,
+                       finish=raw.finish if raw.polished and raw.finish else None,
                        factorization=raw.factorization)
     return sol

@@ -56,7 +56,8 @@ its checks, and ``auto`` then falls back to the sparse route anyway (Route.SPARS
 class ProblemDescription:
     """What a backend needs to know about a problem to say whether it can solve it.
 
-    ``quadratic_energy``: the energy is the quadratic form of linear (piezo)elasticity.
+    ``quadratic_energy``: the energy is the quadratic form of linear (piezo)elasticity (False: some body's
+    material has a non-quadratic bulk energy, :mod:`cvxcontact.discrete.energy`; only "full" poses it).
     ``linear_contact``: the contact constraints are linear rows E [u_nu] <= E g.
     ``user_terms``: number of user-added objective terms or constraints (CVXPY expressions
     on the body unknowns); the condensed backend eliminates the interior unknowns, so it
@@ -94,7 +95,7 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
     added by a :class:`~cvxcontact.Model`)."""
     from .signorini import dependent_rows
 
-    return ProblemDescription(held_by_contact=problem.held, force_control=bool(problem.forced),
+    return ProblemDescription(quadratic_energy=problem.quadratic, held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
                               user_terms=user_terms, dim=problem.dim, degree=problem.space.degree,
@@ -145,6 +146,11 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
     return _condensed_accepts(p) and not p.compliant and not p.conic and not p.dependent_rows
 
 
+def _full_accepts(p: ProblemDescription) -> bool:
+    # a non-quadratic bulk energy: the Signorini kind only (the compliance and conic routes finish on Kuu)
+    return p.quadratic_energy or not (p.compliant or p.conic)
+
+
 def _amg_available() -> bool:
     import importlib.util
 
@@ -167,7 +173,8 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
                                      "conic": ".cones:condensed", "mixed": ".cones:mixed_condensed"}),
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself
             fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
-    Backend("full", lambda p: True, "the whole phi-form model in CVXPY (reference; accepts everything)",
+    Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
+            "quadratic energy, a non-quadratic one with the Signorini law: no exact finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full"})),
 )}

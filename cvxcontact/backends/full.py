@@ -135,7 +135,7 @@ class ContactModel:
         energy, self.gauss = 0, []
         for b, u, phi in zip(blocks, self.u, self.phi):
             if u.size:                       # (a body every node of which is clamped or prescribed has none)
-                energy += 0.5 * cp.quad_form(u, cp.psd_wrap(b.Kuu)) - b.f @ u
+                energy += b.bulk.expression(u) - b.f @ u
             if phi is None:
                 self.gauss.append(None)
                 continue

@@ -41,6 +41,10 @@ class Route(StrEnum):
     systems solved)."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
+    INTERIOR_POINT_NONLINEAR_ENERGY = "interior point (no exact finish: a non-quadratic bulk energy)"
+    """A material with a non-quadratic energy (e.g. :func:`cvxcontact.materials.hencky`): the full program's
+    interior-point answer, checked with the nonlinear internal forces (the finish solves linear systems of Kuu;
+    a Newton finish is a later step)."""
     NO_CONTACT = "no contact at zero force: the unconstrained solution"
     """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
     merged segment, so it is the solution, exactly (forces 0), and no program is solved."""

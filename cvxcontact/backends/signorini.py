@@ -86,6 +86,9 @@ def full(problem, cache, settings, timings) -> RawResult:
                     y=np.asarray(model.contact.dual_value, dtype=float).ravel(), program=model.problem,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full",
                     iterations=iterations)
+    if not problem.quadratic:          # the finishes below solve linear systems of Kuu (Newton: a later step)
+        raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
+        return raw
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
     slack = sum(parts) - moved

@@ -22,6 +22,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
+from .energy import BulkEnergy, bulk_energy
+
 __all__ = ["Units", "Block", "units"]
 
 
@@ -101,6 +103,7 @@ class Block:
     Kup: sp.csr_matrix | None = None
     Kpp: sp.csr_matrix | None = None
     q: np.ndarray | None = None
+    bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
 
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
@@ -119,18 +122,21 @@ class Block:
         """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on
         the load scale)."""
         fz, qz = system.reduced_loads()
-        return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None)
+        return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None,
+                       bulk=bulk_energy(system, un, self.Kuu))
 
     def energy(self, u, phi):
-        """Scaled reduced energy 1/2 u^T Kuu u - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law)."""
-        e = 0.5 * u @ (self.Kuu @ u) - self.f @ u
+        """Scaled reduced energy Pi(u) - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law; Pi the bulk energy,
+        1/2 u^T Kuu u for a linear material)."""
+        e = self.bulk.value(u) - self.f @ u
         return e if phi is None else e + 0.5 * phi @ (self.Kpp @ phi)
 
     def internal(self, u, phi):
-        """The operator of (26) applied to (u, phi): momentum rows, Gauss rows."""
+        """The operator of (26) applied to (u, phi): momentum rows (the bulk energy's gradient, Kuu u for a linear
+        material: the internal forces of sigma = A(eps(u)) - E* E(phi)), Gauss rows."""
         if self.Kpp is None:
-            return self.Kuu @ u, np.zeros(0)
-        return self.Kuu @ u + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u
+            return self.bulk.gradient(u), np.zeros(0)
+        return self.bulk.gradient(u) + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u
 
     def loads(self):
         """The right-hand side [f; q] of (26)."""
@@ -140,7 +146,7 @@ class Block:
         """Row scales of (26) for this body: |A| |x| + |F| + |J^T| |c|, the sizes of the terms each
         residual row balances (momentum rows, Gauss rows)."""
         cu = abs(self.jump).T @ np.abs(contact_force) + np.abs(self.f)
-        au = abs(self.Kuu) @ np.abs(u) + cu
+        au = self.bulk.magnitude(u) + cu
         if self.Kpp is None:
             return au, np.zeros(0)
         au = au + abs(self.Kup) @ np.abs(phi)

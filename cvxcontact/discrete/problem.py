@@ -90,6 +90,11 @@ class DiscreteProblem:
         return self.lines.rows
 
     @property
+    def quadratic(self) -> bool:
+        """True if every body's bulk energy is the quadratic form of its Kuu (:mod:`cvxcontact.discrete.energy`)."""
+        return all(b.bulk.quadratic for b in self.blocks)
+
+    @property
     def compliant(self) -> bool:
         """True if some row follows a normal-compliance law (docs/formulation.md §10)."""
         return self.lines.rows.compliant

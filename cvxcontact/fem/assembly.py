@@ -40,6 +40,7 @@ from ..errors import SceneError
 from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix",
+           "strain_points", "points_strain",
            "prolongation", "constrained", "lifted"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
@@ -72,6 +73,12 @@ class BodySystem:
     Tp: sp.csr_matrix | None = None
     floating: np.ndarray | None = None
     charge: np.ndarray | None = None
+    strain: sp.csr_matrix | None = None
+    """A material with a non-quadratic energy (``material.quadratic`` False): the Voigt strains at the
+    quadrature points from all u dofs ((q s, dim n), 1/m), their ``weights`` (q,) (m^2, 2D; m^3, 3D) and the
+    ``material``; None otherwise (the energy is the quadratic form of Kuu)."""
+    weights: np.ndarray | None = None
+    material: object = None
 
     @property
     def piezoelectric(self) -> bool:
@@ -125,6 +132,21 @@ def strain_matrix(grad):
         if i != j:
             B[:, row, j::dim] = grad[:, i]
     return B
+
+
+def points_strain(B, weights, udofs, n_dofs) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The sparse map (q s, n_dofs) from the u dofs to the stacked Voigt strains at q points, from their element
+    strain matrices ``B`` (q, s, dim k) on the element dofs ``udofs`` (q, dim k), with the points' ``weights``."""
+    q, s, _ = B.shape
+    return scatter(B, np.arange(q * s).reshape(q, s), udofs, (q * s, n_dofs)), np.asarray(weights, dtype=float)
+
+
+def strain_points(body) -> tuple[sp.csr_matrix, np.ndarray]:
+    """P1: the strain map and weights of :func:`points_strain` at one point per element (the strain is constant
+    there, so the energy of any density is integrated exactly)."""
+    area, grad = gradients(body.mesh.points, body.mesh.cells)
+    return points_strain(strain_matrix(grad), area, element_dofs(body.mesh.cells, body.dim),
+                         body.dim * len(body.mesh.points))
 
 
 def scatter(blocks, rows, cols, shape):

@@ -25,7 +25,7 @@ import numpy as np
 from ..contact.quadratic3d import P2_FACE_RULE
 from ..geometry.quadratic import P2Nodes
 from ..geometry.tetmesh import EDGES as TET_EDGES
-from .assembly import (BodySystem, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
+from .assembly import (BodySystem, points_strain, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
                        strain_matrix)
 from .simplex import element_load, simplex_rule
 
@@ -94,6 +94,17 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
         return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), nodes=nodes)
     return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), scatter(Kup, udofs, el, (dim * n, n)),
                        scatter(Kpp, el, el, (n, n)), nodes=nodes)
+
+
+def strain_points(body, nodes: P2Nodes):
+    """P2: the strain map and weights (:func:`cvxcontact.fem.assembly.points_strain`) at the points of the
+    stiffness rule (degree 2) of every element, point by point."""
+    dim = body.dim
+    area, gradL = gradients(body.mesh.points, body.mesh.cells)
+    rule = list(zip(*_STIFFNESS_RULE[dim]))
+    B = np.concatenate([strain_p2(shape_gradients(gradL, L)) for L, _ in rule])
+    w = np.concatenate([w * area for _, w in rule])
+    return points_strain(B, w, np.tile(element_dofs(nodes.cells, dim), (len(rule), 1)), dim * len(nodes))
 
 
 def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:

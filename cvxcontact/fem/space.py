@@ -27,7 +27,7 @@ from ..contact.quadratic3d import QuadraticSurface
 from ..errors import SceneError, SolverError, UnsupportedError
 from ..geometry.quadratic import P2Nodes, P2TetNodes
 from . import p2
-from .assembly import BodySystem, assemble_loads, assemble_matrices
+from .assembly import BodySystem, assemble_loads, assemble_matrices, strain_points
 
 __all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "ContactLines", "space"]
 
@@ -121,7 +121,7 @@ class P1:
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         _check_dim(self, body)
-        return assemble_matrices(body)
+        return _bulk(assemble_matrices(body), body, lambda: strain_points(body))
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return assemble_loads(body, matrices)
@@ -155,7 +155,8 @@ class P2:
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         _check_dim(self, body)
-        return p2.assemble_matrices(body, self.nodes(body) if nodes is None else nodes)
+        nodes = self.nodes(body) if nodes is None else nodes
+        return _bulk(p2.assemble_matrices(body, nodes), body, lambda: p2.strain_points(body, nodes))
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return p2.assemble_loads(body, matrices, self.nodes(body) if nodes is None else nodes)
@@ -195,6 +196,15 @@ def _p2_obstacles(scene, stack, dim: int = 2):
             rows[stack.offsets[i]:stack.offsets[i + 1]] = o.obstacle.sensitivity(itf.points, itf.normal)
         out.append(replace(o, rows=sp.csr_matrix(rows)))
     return out
+
+
+def _bulk(system: BodySystem, body, points) -> BodySystem:
+    """``system`` with the quadrature points of its bulk energy (``points()``: the strain map and weights) when
+    the material's energy is not the quadratic form of Kuu (:attr:`BodySystem.strain`)."""
+    if body.material.quadratic:
+        return system
+    strain, weights = points()
+    return replace(system, strain=strain, weights=weights, material=body.material)
 
 
 def _check_dim(space, body):

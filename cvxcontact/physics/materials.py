@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import Frozen, MaterialError
 
-__all__ = ["EPS0", "Piezoelectric", "Elastic", "isotropic", "PZT4", "PZT5A", "PZT5H", "BaTiO3", "hexagonal",
+__all__ = ["EPS0", "Piezoelectric", "Elastic", "Hencky", "hencky", "isotropic", "deviator", "PZT4", "PZT5A", "PZT5H", "BaTiO3", "hexagonal",
            "bond_matrix"]
 
 EPS0 = 8.8541878128e-12
@@ -53,6 +53,8 @@ class Piezoelectric(Frozen):
     """
 
     piezoelectric = True
+    quadratic = True
+    """The bulk energy is the quadratic form of c (:class:`Hencky`: not)."""
 
     def __init__(self, c11: float | None = None, c13: float | None = None, c33: float | None = None,
                  c44: float | None = None, e31: float | None = None, e33: float | None = None,
@@ -155,6 +157,8 @@ class Elastic(Frozen):
     as :class:`Piezoelectric`."""
 
     piezoelectric = False
+    quadratic = True
+    """The bulk energy is the quadratic form of c (:class:`Hencky`: not)."""
 
     def __init__(self, c: ArrayLike, name: str = "elastic", E: float | None = None, nu: float | None = None) -> None:
         c3 = None
@@ -212,6 +216,101 @@ class Elastic(Frozen):
         obj._set(E=self.E, nu=self.nu, out_of_plane=self.out_of_plane, plane="stress", angle=self.angle,
                  rotation=self.rotation)
         return obj
+
+
+def deviator(dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """(P, t): the Voigt strain (engineering shears) of dimension ``dim`` -> a vector whose 2-norm is the Frobenius
+    norm of the deviatoric strain (shear entries counted twice; in plane strain the zz entry -tr/3 kept), and
+    the trace row t (tr eps = t . eps)."""
+    normal = dim if dim == 3 else 2                 # the in-plane normal components (2D: xx, yy; zz = 0)
+    t = np.zeros(3 if dim == 2 else 6)
+    t[:normal] = 1.0
+    rows = [np.eye(len(t))[i] - t / 3.0 for i in range(normal)]
+    if dim == 2:
+        rows.append(-t / 3.0)                       # eps_zz - tr/3 = -tr/3
+    rows += [np.eye(len(t))[i] / np.sqrt(2.0) for i in range(normal, len(t))]   # sqrt(2) eps_ij = gamma_ij / sqrt(2)
+    return np.array(rows), t
+
+
+class Hencky(Elastic):
+    """Hencky (deformation-theory) plasticity with linear hardening: an isotropic nonlinear elastic material whose
+    stress is the gradient of the convex energy density (J/m^3; docs/materials.md, "Hencky")
+
+        W(eps) = K/2 (tr eps)^2 + mu psi(s),   s = |dev eps|,   psi(s) = h s^2 + (1 - h) huber(s, s_y),
+
+    huber(s, M) = s^2 (s <= M), 2 M s - M^2 beyond, s_y = sigma_y / (sqrt(6) mu): linear with shear modulus mu
+    until the von Mises stress sqrt(3/2) |dev sigma| reaches ``sigma_y`` (Pa), then hardening with the deviatoric
+    stiffness scaled by ``h`` (0 < h <= 1). A = grad W is strongly monotone (constant min(2 mu h, 3K)) and
+    Lipschitz (max(2 mu, 3K)): the paper's assumptions on A. ``c``: the tangent at zero strain (that of
+    ``isotropic(E, nu)``). Plane strain only in 2D (no plane-stress reduction)."""
+
+    quadratic = False
+
+    def __init__(self, E: float, nu: float, sigma_y: float, h: float, name: str | None = None) -> None:
+        lin = isotropic(E, nu)
+        label = name or f"hencky(E={lin.E:g}, nu={lin.nu:g}, sigma_y={sigma_y:g}, h={h:g})" \
+            if _isnum(sigma_y) and _isnum(h) else "hencky"
+        sigma_y, h = _real(sigma_y, "sigma_y", label), _real(h, "h", label)
+        if not (sigma_y > 0 and 0 < h <= 1):
+            raise MaterialError(f"material {label!r}: need a yield stress sigma_y > 0 (Pa; np.inf: linear) and a "
+                                f"hardening ratio 0 < h <= 1 (1: linear), got sigma_y={sigma_y!r}, h={h!r}")
+        super().__init__(lin.c3, name=label, E=lin.E, nu=lin.nu)
+        mu, K = lin.E / (2 * (1 + lin.nu)), lin.E / (3 * (1 - 2 * lin.nu))
+        self._set(sigma_y=sigma_y, h=h, mu=mu, K=K, s_y=sigma_y / (np.sqrt(6.0) * mu))
+
+    def __repr__(self):
+        return f"Hencky({self.name!r})"
+
+    def psi(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """psi(s) and psi'(s) of the class docstring (s >= 0)."""
+        s = np.asarray(s, dtype=float)
+        huber = np.where(s <= self.s_y, s ** 2, 2 * self.s_y * s - self.s_y ** 2)
+        return (self.h * s ** 2 + (1 - self.h) * huber,
+                2 * self.h * s + 2 * (1 - self.h) * np.minimum(s, self.s_y))
+
+    def density(self, eps: np.ndarray, dim: int) -> np.ndarray:
+        """W at the Voigt strains ``eps`` (..., 3 or 6), J/m^3."""
+        P, t = deviator(dim)
+        tr, s = eps @ t, np.linalg.norm(eps @ P.T, axis=-1)
+        return 0.5 * self.K * tr ** 2 + self.mu * self.psi(s)[0]
+
+    def stress(self, eps: np.ndarray, dim: int) -> np.ndarray:
+        """sigma = A(eps) = K tr(eps) I + mu psi'(s) dev(eps) / s at the Voigt strains ``eps`` (..., 3 or 6): the
+        Voigt stress (..., 3 or 6), Pa, the work conjugate of the engineering strains (in 2D the in-plane
+        components; sigma_zz = K tr - mu psi'/s tr/3 is not returned)."""
+        P, t = deviator(dim)
+        d = eps @ P.T
+        s = np.linalg.norm(d, axis=-1)
+        ratio = np.where(s > 0, self.psi(s)[1] / np.where(s > 0, s, 1.0), 2.0)     # psi'(s)/s -> 2 at s = 0
+        return self.K * (eps @ t)[..., None] * t + self.mu * (ratio[..., None] * d) @ P
+
+    def tangent(self, eps: np.ndarray, dim: int) -> np.ndarray:
+        """d sigma / d eps (..., s, s) at the Voigt strains ``eps``, Pa: K t t^T + mu P^T [psi'/s (I - n n^T) +
+        psi'' n n^T] P, n = P eps / s (psi'/s and psi'' in [2 h, 2])."""
+        P, t = deviator(dim)
+        d = eps @ P.T
+        s = np.linalg.norm(d, axis=-1)
+        safe = np.where(s > 0, s, 1.0)
+        ratio = np.where(s > 0, self.psi(s)[1] / safe, 2.0)
+        second = 2 * self.h + 2 * (1 - self.h) * (s <= self.s_y)
+        n = d / safe[..., None]
+        inner = ratio[..., None, None] * (np.eye(len(P)) - n[..., :, None] * n[..., None, :]) \
+            + second[..., None, None] * n[..., :, None] * n[..., None, :]
+        return self.K * np.outer(t, t) + self.mu * P.T @ inner @ P
+
+    def rotated(self, rotation):
+        """The material itself: it is isotropic."""
+        return self
+
+    def plane_stress(self):
+        raise MaterialError(f"material {self.name!r}: a Hencky material has no plane-stress reduction here; use "
+                            "plane strain (the default) or a 3D body")
+
+
+def hencky(E: float, nu: float, sigma_y: float, h: float, name: str | None = None) -> Hencky:
+    """The :class:`Hencky` material (Young's modulus ``E`` and yield stress ``sigma_y`` in Pa, Poisson ratio
+    ``nu``, hardening ratio ``h`` in (0, 1])."""
+    return Hencky(E, nu, sigma_y, h, name)
 
 
 _MATERIAL_HINT = ("build a new material (Piezoelectric(...), isotropic(E, nu), material.rotated(R or angle), "

@@ -1,0 +1,133 @@
+"""The bulk energy of one body on its free, scaled displacement unknowns z: a term of the convex program.
+
+The paper's constitutive law sigma = A(eps(u)) - E* E(phi) with A Lipschitz and strongly monotone; when
+A = grad W with W convex (docs/materials.md, "Hencky"), the mechanical part of the energy is
+
+    Pi_k(z) = sum_q w_q W(eps_q(z)) - d . z         (scaled by c0 L0^2 s^2, :class:`~cvxcontact.discrete.Units`)
+
+at the quadrature points q of the body (eps_q(z) = S_q (T_u z U + u_D), S the strain map of the space, w_q the
+points' measures), d = T_u^T Kuu u_D / F the linear lifting that :attr:`Block.f` already holds (so that Block.f
+stays the same for every energy). The coupling (Kup) and the permittivity (Kpp) stay linear. Every energy
+answers the :class:`BulkEnergy` protocol: its ``value``, ``gradient`` (the internal forces of (26)), ``hessian``,
+``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals) and ``expression`` (the
+CVXPY term of the full program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material
+with a non-quadratic density (``material.quadratic`` False). Only the full backend poses a non-quadratic
+energy (the condensed, sparse and AMG routes factorise Kuu; they refuse it: ``quadratic`` is False).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["BulkEnergy", "Quadratic", "StrainEnergy", "bulk_energy"]
+
+
+class BulkEnergy(Protocol):
+    """What a body's bulk energy answers (module docstring); all scaled."""
+
+    quadratic: bool
+    """True if the energy is 1/2 z^T Kuu z (the routes that factorise Kuu accept only these)."""
+
+    def value(self, z: np.ndarray) -> float: ...
+
+    def gradient(self, z: np.ndarray) -> np.ndarray: ...
+
+    def hessian(self, z: np.ndarray) -> sp.spmatrix: ...
+
+    def magnitude(self, z: np.ndarray) -> np.ndarray: ...
+
+    def expression(self, z): ...
+
+
+class Quadratic:
+    """1/2 z^T K z: linear (piezo)elasticity (the default)."""
+
+    quadratic = True
+
+    def __init__(self, K: sp.spmatrix):
+        self.K = K
+
+    def value(self, z):
+        return 0.5 * float(z @ (self.K @ z))
+
+    def gradient(self, z):
+        return self.K @ z
+
+    def hessian(self, z):
+        return self.K
+
+    def magnitude(self, z):
+        return abs(self.K) @ np.abs(z)
+
+    def expression(self, z):
+        import cvxpy as cp
+
+        return 0.5 * cp.quad_form(z, cp.psd_wrap(self.K))
+
+
+class StrainEnergy:
+    """sum_q w_q W(eps_q(z)) - d . z for a material with a convex, non-quadratic density W (module docstring):
+    ``material.density``, ``.stress`` (= grad W) and ``.tangent`` at Voigt strains, and for the CVXPY term its
+    ``K``, ``mu``, ``h``, ``s_y`` (:class:`~cvxcontact.physics.materials.Hencky`)."""
+
+    quadratic = False
+
+    def __init__(self, system, un):
+        S = system.strain
+        self.material, self.load = system.material, un.load
+        self.A = (S @ system.Tu).tocsr() * un.length                 # eps / s = A z + e0 (dimensionless)
+        self.e0 = S @ system.u_fixed / un.load
+        self.w = system.weights / (un.stress * un.length ** 2)       # sum w W(eps) / (c0 L0^2 s^2) = sum w' W / s^2
+        self.d = system.Tu.T @ (system.Kuu @ system.u_fixed) / un.force
+        self.s = S.shape[0] // len(system.weights)                   # Voigt components per point
+        self.dim = 2 if self.s == 3 else 3
+
+    def strains(self, z) -> np.ndarray:
+        """The SI Voigt strains (q, s) at the quadrature points."""
+        return (self.load * (self.A @ z + self.e0)).reshape(-1, self.s)
+
+    def value(self, z):
+        return float(self.w @ self.material.density(self.strains(z), self.dim)) / self.load ** 2 - float(self.d @ z)
+
+    def gradient(self, z):
+        sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
+        return self.A.T @ sigma.ravel() / self.load - self.d
+
+    def hessian(self, z):
+        C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
+        return (self.A.T @ sp.block_diag(list(C), format="csr") @ self.A).tocsr()
+
+    def magnitude(self, z):
+        sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]
+        return abs(self.A).T @ sigma.ravel() / self.load + np.abs(self.d)
+
+    def expression(self, z):
+        """K/2 (tr eps)^2 + mu (h |dev eps|^2 + (1 - h) huber(|dev eps|, s_y)) summed with the weights: second-order
+        cones for the norms (DCP: huber of a non-negative convex argument is convex and non-decreasing there)."""
+        import cvxpy as cp
+
+        from ..physics.materials import deviator
+
+        m, q = self.material, len(self.w)
+        P, t = deviator(self.dim)
+        eps = self.A @ z + self.e0                                     # (q s,), scaled strains eps / s
+        trace = sp.kron(sp.identity(q), t[None, :], format="csr")
+        dev = sp.kron(sp.identity(q), P, format="csr")
+        energy = 0.5 * m.K * cp.sum_squares(cp.multiply(np.sqrt(self.w), trace @ eps))
+        s_y = m.s_y / self.load                                        # huber(s x, s M) = s^2 huber(x, M)
+        hard = m.h if np.isfinite(s_y) else 1.0                        # sigma_y = inf: psi(s) = s^2
+        energy = energy + m.mu * hard * cp.sum_squares(cp.multiply(np.repeat(np.sqrt(self.w), P.shape[0]), dev @ eps))
+        if hard < 1.0:
+            norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
+            energy = energy + m.mu * (1.0 - hard) * (self.w @ cp.huber(norms, s_y))
+        return energy - self.d @ z
+
+
+def bulk_energy(system, un, Kuu) -> BulkEnergy:
+    """The scaled bulk energy of a body: :class:`StrainEnergy` if its system carries quadrature points (a
+    non-quadratic material, :attr:`~cvxcontact.fem.assembly.BodySystem.strain`), else :class:`Quadratic` of
+    ``Kuu`` (scaled)."""
+    return Quadratic(Kuu) if system.strain is None else StrainEnergy(system, un)

@@ -118,11 +118,10 @@ class StrainEnergy:
         dev = sp.kron(sp.identity(q), P, format="csr")
         energy = 0.5 * m.K * cp.sum_squares(cp.multiply(np.sqrt(self.w), trace @ eps))
         s_y = m.s_y / self.load                                        # huber(s x, s M) = s^2 huber(x, M)
-        hard = m.h if np.isfinite(s_y) else 1.0                        # sigma_y = inf: psi(s) = s^2
-        energy = energy + m.mu * hard * cp.sum_squares(cp.multiply(np.repeat(np.sqrt(self.w), P.shape[0]), dev @ eps))
-        if hard < 1.0:
+        energy = energy + m.mu * m.h * cp.sum_squares(cp.multiply(np.repeat(np.sqrt(self.w), P.shape[0]), dev @ eps))
+        if m.h < 1.0:
             norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
-            energy = energy + m.mu * (1.0 - hard) * (self.w @ cp.huber(norms, s_y))
+            energy = energy + m.mu * (1.0 - m.h) * (self.w @ cp.huber(norms, s_y))
         return energy - self.d @ z
 
 

@@ -252,7 +252,7 @@ class Hencky(Elastic):
             if _isnum(sigma_y) and _isnum(h) else "hencky"
         sigma_y, h = _real(sigma_y, "sigma_y", label), _real(h, "h", label)
         if not (sigma_y > 0 and 0 < h <= 1):
-            raise MaterialError(f"material {label!r}: need a yield stress sigma_y > 0 (Pa; np.inf: linear) and a "
+            raise MaterialError(f"material {label!r}: need a finite yield stress sigma_y > 0 (Pa) and a "
                                 f"hardening ratio 0 < h <= 1 (1: linear), got sigma_y={sigma_y!r}, h={h!r}")
         super().__init__(lin.c3, name=label, E=lin.E, nu=lin.nu)
         mu, K = lin.E / (2 * (1 + lin.nu)), lin.E / (3 * (1 - 2 * lin.nu))

@@ -79,6 +79,26 @@ def test_tends_to_signorini_at_rate_one_over_k():
     assert 0.46 < rates[2] < 0.54, rates
 
 
+@pytest.mark.parametrize("k", [1e19, 1e21])
+def test_a_stiff_law_is_checked_to_the_rounding_of_u(k):
+    """Far beyond k L0 / c0 ~ 1e8 the penetration r = lambda / k is below the displacements' rounding: the
+    pressure is read from the finish's force and the law's residual is scaled by its own term w p'(r) U
+    (docs/checks.md), so an exact answer passes its checks (scaled by the force alone, with lambda = p(r), it
+    read 9.8e-6 at 1e19, ``ok`` False). Independent: the answer is within its rate's distance of the Signorini
+    one, and the contact force equals Signorini's to the same order."""
+    scene = two_blocks(n1=(10, 5), n2=(7, 4))
+    ref = cc.solve(scene)
+    sol = cc.solve(scene, law=cc.NormalCompliance(stiffness=k))
+    res = sol.residuals()
+    assert sol.ok and sol.polished
+    assert res["equilibrium"] < 1e-13 and res["law"] < 1e-13          # measured <= 7.8e-17, <= 3.6e-16
+    umax = max(np.abs(u).max() for u in ref.u)
+    # O(1/k): measured 1.454e-7 (1e19), 1.454e-9 (1e21) of max|u|; the total force 1.29e-8, 1.29e-10 apart
+    assert max(np.abs(a - b).max() for a, b in zip(sol.u, ref.u)) / umax < 2e-5 * 1e19 / k
+    F, Fs = (float(np.abs(s.contact.force).sum()) for s in (sol, ref))
+    assert abs(F - Fs) / Fs < 2e-6 * 1e19 / k
+
+
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1", "sigma2"])
 def test_piezoelectric_scene_passes_its_checks(condition):
     """The quickstart-like scene (PZT-5A on aluminium): both backends and cc.Model agree and pass their

@@ -181,13 +181,16 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     :class:`~cvxcontact.contact.laws.RowLaws` (pairs mixing Signorini and compliance; a Signorini row is
     k = 0 with the limit l = 0). With r = E [u_nu] - g at the constrained rows, w their lumped lengths,
     p the scaled law, z >= 0 the limit reaction (the Signorini multiplier on a Signorini row; zero
-    without a limit) and ``force`` the row forces the backend applied, the read-back is
-    lambda = p(r) + z / w (nodal values) and the checks are
+    without a limit) and ``force`` y the row forces the backend applied (w p(r) + z of the returned fields
+    for an interior-point answer, the finish's force after an exact finish), the read-back is
+    lambda = y / w (nodal values; p(r) on a row of weight 0) and the checks are
 
-        equilibrium      the residual of (26) with the contact force E^T (w p(r) + z) (= E^T (w lambda);
-                         also where a row's weight is 0, P2 tetrahedra's face vertices), as in :func:`checks`
-        law              max over the compliant rows a of |force_a - z_a - w_a p(r_a)| / Y      (the law
-                         (7) at the returned u; Y the largest row force)
+        equilibrium      the residual of (26) with the contact force E^T y (= E^T (w lambda)), as in
+                         :func:`checks`
+        law              max over the compliant rows a of |y_a - z_a - w_a p(r_a)| / (Y + w_a p'(r_a) U_a)
+                         (the law (7) at the returned u; Y the largest row force, U_a = |E J u|_a + |g_a|
+                         the row's displacement scale: the sizes of the law's two terms, so a stiff law is
+                         checked to the rounding of u, not k times it)
         feasibility, complementarity, cone    of r <= l with multiplier z over the rows with a limit
                          (Signorini rows and compliance limits), as in :func:`checks` (only if some row
                          has one)
@@ -201,19 +204,26 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     n = len(r)
     w = np.asarray(weights, dtype=float)
     z = np.zeros(n) if z is None else np.asarray(z, dtype=float)
-    lam = law.pressure(r) + np.divide(z, w, out=np.zeros(n), where=w > 0)
-    applied = w * law.pressure(r) + z              # = w lambda; a reaction on a row of weight 0 kept
+    force = np.asarray(force, dtype=float)
+    # lambda from the force the backend applied (= w p(r) + z of the returned fields for an interior-point
+    # answer; the finish's own force after an exact finish: a stiff law reads r, a difference of displacements,
+    # to rounding times k, the finish's force is not); the law between the two is checked below
+    lam = np.divide(force, w, out=law.pressure(r) + 0.0, where=w > 0)
+    applied = force                                # = w lambda; a reaction on a row of weight 0 kept
     c = E.T @ applied
     equilibrium = 0.0
     for b, uk, pk in zip(blocks, u, phi):
         res = np.concatenate(b.residual(uk, pk, c))
         m = np.concatenate(b.magnitude(uk, pk, c))
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
-    force = np.asarray(force, dtype=float)
-    Y = max(float(np.abs(force).max(initial=0.0)), float(applied.max(initial=0.0)), tiny)
+    Y = max(float(np.abs(force).max(initial=0.0)), tiny)
     compliant = np.broadcast_to(np.asarray(law.stiffness, dtype=float) > 0, (n,))
+    # the law's residual against the sizes of its two terms (as equilibrium's |A| |x|): the force Y and the law's
+    # change over the row's displacement scale, w p'(r) U (U = |E J u| + |g|): the backward error in u
+    _, U = node_scales(parts, g)
+    terms = Y + w * law.derivative(r) * U
     out = {"equilibrium": equilibrium,
-           "law": float((np.abs(force - z - w * law.pressure(r)) / Y)[compliant].max(initial=0.0))}
+           "law": float((np.abs(force - z - w * law.pressure(r)) / terms)[compliant].max(initial=0.0))}
     limit = law.penetration_limit
     limit = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,))
     on = np.isfinite(limit)

@@ -526,8 +526,10 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
     unit = un.stress * un.load
-    p = scaled.pressure(r)
-    nodal = E.T @ (weights * p + (0.0 if z is None else z))   # = E^T (w lambda), stacked merged nodes, scaled
+    # the law's pressure as the backend applied it, (y - z) / w (p(r) on a row of weight 0): after an exact
+    # finish a stiff law's p(r) reads r to rounding times k, the finish's force does not (the checks' law)
+    p = np.divide(force - (0.0 if z is None else z), weights, out=scaled.pressure(r) + 0.0, where=weights > 0)
+    nodal = E.T @ force                                     # = E^T (w lambda), stacked merged nodes, scaled
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if interface is not None else None)     # bodies held by the contact only
         if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
@@ -543,8 +545,7 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             rows_i = slice(offsets[i], offsets[i + 1])
             lam_i = lam[rows_i]
             if hasattr(itf, "law_pressure"):     # P2 faces: rows at the law's quadrature points, lambda the Riesz
-                f = weights[rows_i] * p[rows_i] + (0.0 if z is None else z[rows_i])   # representer of w p + z
-                lam_i = itf.law_pressure(cond, f) * un.length
+                lam_i = itf.law_pressure(cond, force[rows_i]) * un.length            # representer of w p + z
             elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
                 # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
                 # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)

@@ -290,6 +290,19 @@ def run(out, quick=False, progress=None, scenes=SCENES):
     return result
 
 
+def level(kind: str, degree: int, condition: str, n: int) -> tuple[dict, object]:
+    """One level of the study without the reference: the row's columns that need no reference (``scene`` ...
+    ``h``, ``dofs``, ``penetration``, ``active``, ``ok``, ``checks_max``, ``seconds``) and the solution."""
+    n2 = 3 * n // 4 + 1
+    clock = Timer()
+    sol = solve_quietly(scene(kind, n, n2), condition, method="condensed", degree=degree)
+    seconds = clock()
+    dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
+    return dict(scene=kind, degree=degree, condition=condition, n1=n, n2=n2, h=1.0 / n, dofs=dofs,
+                penetration=max_penetration(sol.contact), active=int(sol.contact.active.sum()), ok=sol.ok,
+                checks_max=max(sol.residuals().values()), seconds=seconds), sol
+
+
 def _measure(kinds, levels, n_ref, say, check_reference=False):
     """Errors and rates of every (scene, degree, condition, level) against the scene's reference; with
     ``check_reference``, also the errors of the reference at n_ref / 2 against the one at n_ref."""
@@ -308,17 +321,10 @@ def _measure(kinds, levels, n_ref, say, check_reference=False):
         for degree in (1, 2):
             for condition in CONDITIONS:
                 for n in levels[degree]:
-                    n2 = 3 * n // 4 + 1
-                    clock = Timer()
-                    sol = solve_quietly(scene(kind, n, n2), condition, method="condensed", degree=degree)
-                    seconds = clock()
-                    err = ref.errors(sol)
-                    dofs = sum(3 * len(p) if ph is not None else 2 * len(p)
-                               for p, ph in zip(sol.points, sol.phi))
-                    rows.append(dict(scene=kind, degree=degree, condition=condition, n1=n, n2=n2, h=1.0 / n,
-                                     dofs=dofs, **err, penetration=max_penetration(sol.contact),
-                                     active=int(sol.contact.active.sum()), ok=sol.ok,
-                                     checks_max=max(sol.residuals().values()), seconds=seconds))
+                    row, sol = level(kind, degree, condition, n)
+                    head = {k: row[k] for k in ("scene", "degree", "condition", "n1", "n2", "h", "dofs")}
+                    tail = {k: row[k] for k in ("penetration", "active", "ok", "checks_max", "seconds")}
+                    rows.append(dict(head, **ref.errors(sol), **tail))
                 sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition and r["degree"] == degree]
                 keys = ("energy", "lam_l2", "lam_h12", "traction_l2")
                 rate = {k: slope([r["h"] for r in sub], [r[k] for r in sub]) for k in keys}

@@ -112,3 +112,20 @@ def test_a_hencky_block_in_contact_is_in_equilibrium_with_its_nonlinear_forces()
     z = sol.u[1].ravel() @ problem.systems[1].Tu / problem.units.displacement    # free dofs of body 2, scaled
     s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
     assert (s > mat.s_y).any() and rel(sol.u[1], lin.u[1]) > 1e-3
+
+
+def test_a_user_model_of_a_hencky_body_is_not_finished_as_a_linear_one():
+    """cc.Model with a user row on a Hencky body: the exact finish solves linear systems of Kuu, so it is not
+    run (a linear finish there moved u by 3.5e-6 and read equilibrium 3.6e-2); the interior-point answer
+    passes the checks with the nonlinear forces and equals cc.solve's (the user row does not bind)."""
+    scene = pressed_block(cc.materials.hencky(E, NU, SIGMA_Y, H), -1e-2)
+    ref = checked(scene)
+    model = cc.Model(scene, tol=TOL)
+    model.add(model.u(0)[:, 0] <= 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        sol = model.solve()
+    assert not sol.polished
+    # measured (Haswell, Nehalem): equilibrium 1.7e-7, complementarity 1.7e-5 (user row 4.8e-6), u 3.9e-6 apart
+    assert max(sol.residuals().values()) < 2e-3, sol.residuals()
+    assert rel(sol.u[0], ref.u[0]) < 1e-3

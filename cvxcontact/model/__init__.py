@@ -332,7 +332,8 @@ class Model:
             grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
             lin = objective.is_affine()
         linear = lin and all(r[4] for r in rows) and self._law is None   # no exact finish with compliance here
-        finishable = linear and not conic                                  # nor with the conic condition
+        finishable = linear and not conic and self.problem.quadratic       # nor with the conic condition, nor with
+        #                                                   a non-quadratic bulk energy (its finish solves Kuu systems)
         moved = self.problem.moved_gap(taus)
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], E @ moved, y,
                             force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi)) & ~held     # a held row would make the KKT singular

@@ -110,3 +110,25 @@ def test_refusals():
     with pytest.raises(cc.SceneError, match="curves names body 'cylinder'"):
         cc.adapt(scene, curves={"cylinder": {}})
     assert callable(cc.adapt) and cc.adapt.__module__ == "cvxcontact.adapt"
+
+
+def test_the_committed_adapt_table_is_what_its_study_computes():
+    """docs/studies/adapt/adapt.csv's first P1 adaptive steps (0-8) against a fresh run of the loop: cells, unknowns
+    and estimate (rel 1e-6: the condensed P1 route's finish gives them to rounding), and every row docs/accuracy.md
+    quotes is a row of the generated adapt.md. Regenerate with `cvxcontact study adapt --out docs/studies/adapt`."""
+    import csv
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    with open(root / "docs" / "studies" / "adapt" / "adapt.csv") as fh:
+        committed = [r for r in csv.DictReader(fh) if r["refinement"] == "adaptive" and r["degree"] == "1"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        fresh = cc.adapt(coarse_scene(), method="condensed", theta=0.5, max_steps=8).history
+    for old, new in zip(committed, fresh):
+        assert (int(old["cells"]), int(old["unknowns"])) == (new.cells, new.unknowns)
+        assert float(old["estimate"]) == pytest.approx(new.estimate, rel=1e-6)
+    table = (root / "docs" / "studies" / "adapt" / "adapt.md").read_text()
+    quoted = [line for line in (root / "docs" / "accuracy.md").read_text().splitlines()
+              if line.startswith(("| uniform |", "| adaptive |"))]
+    assert len(quoted) == 8 and all(line in table for line in quoted)

@@ -1,7 +1,7 @@
 """cvxcontact: frictionless contact of piezoelectric bodies as convex programs.
 
 Layers (imports flow one way, tests/test_layers.py): geometry -> contact -> physics -> fem ->
-discrete -> backends -> solution -> solve -> io -> apps. See docs/architecture.md.
+discrete -> backends -> solution -> solve -> model -> adapt -> io -> apps. See docs/architecture.md.
 
     >>> import cvxcontact as cc
     >>> m1 = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=8, ny=4)
@@ -32,6 +32,7 @@ _WHERE = {
     "Status": (".solution.info", None),
     "ContactResult": (".solve", None), "ContactSolver": (".solve", None), "Solution": (".solve", None),
     "solve": (".solve", None), "Model": (".model", None),
+    "adapt": (".adapt", None), "Adapted": (".adapt", None), "AdaptStep": (".adapt", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
     "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
     "TetMesh": (".geometry.tetmesh", None), "box": (".geometry.generators3d", None),
@@ -45,7 +46,7 @@ __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
-    "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
+    "solve", "adapt", "Adapted", "AdaptStep", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
     "CaseArrays",
@@ -69,12 +70,13 @@ def __dir__():
 
 
 class _Package(_ModuleType):
-    """The package module: importing the submodule ``cvxcontact.solve`` must not replace the function
-    ``cvxcontact.solve`` (the eager ``from .solve import solve`` used to rebind it; now done here)."""
+    """The package module: importing the submodule ``cvxcontact.solve`` (``cvxcontact.adapt``) must not replace
+    the function ``cvxcontact.solve`` (``cvxcontact.adapt``; the eager ``from .solve import solve`` used to rebind
+    it; now done here)."""
 
     def __setattr__(self, name, value):
-        if name == "solve" and isinstance(value, _ModuleType):
-            value = value.solve
+        if name in ("solve", "adapt") and isinstance(value, _ModuleType):
+            value = getattr(value, name)
         super().__setattr__(name, value)
 
 
@@ -97,5 +99,6 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .physics.scene import Body, Scene
     from .solution.info import Finish, Route, SolveInfo, Status
     from .solve import ContactResult, ContactSolver, Solution, solve
+    from .adapt import Adapted, AdaptStep, adapt
 
     __version__: str

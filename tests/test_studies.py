@@ -29,6 +29,19 @@ def test_every_study_writes_csv_png_and_markdown(studies):
         assert (studies / name / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_adapt_study_restores_the_rates(studies):
+    """Quick version: adaptive P1 and P2 estimates fall faster in the unknowns than uniform ones (measured slopes
+    -0.53, -1.02 against -0.33, -0.44), near N^(-1/2) and N^(-1)."""
+    assert (studies / "adapt" / "adapt.png").read_bytes()[:4] == b"\x89PNG"
+    found = {(r["refinement"], r["degree"]) for r in rows(studies / "adapt" / "adapt.csv")}
+    assert found == {("uniform", "1"), ("adaptive", "1"), ("uniform", "2"), ("adaptive", "2")}
+    from cvxcontact.apps.studies.adapt import rates
+    slopes = rates([dict(r, degree=int(r["degree"]), unknowns=int(r["unknowns"]), estimate=float(r["estimate"]))
+                    for r in rows(studies / "adapt" / "adapt.csv")])
+    assert -0.7 < slopes["adaptive", 1] < -0.4 and -1.3 < slopes["adaptive", 2] < -0.8
+    assert slopes["adaptive", 1] < slopes["uniform", 1] and slopes["adaptive", 2] < slopes["uniform", 2]
+
+
 def test_hertz_errors_shrink(studies):
     every = rows(studies / "hertz" / "hertz.csv")
     for degree in ("1", "2"):

@@ -1,5 +1,7 @@
-"""Uniform (red) refinement of a triangle mesh: the nested meshes of a reference solution.
+"""Refinement of triangle meshes: uniform (red), the nested meshes of a reference solution, and local
+(:func:`refine_marked`, newest-vertex bisection with conforming closure), the meshes of adaptive refinement.
 
+Uniform refinement:
 Each triangle (v0, v1, v2) is split into four by its edge midpoints m01, m12, m20 (straight edges, the
 arithmetic means: a curved boundary stays the polygon it was, so the fine mesh covers exactly the coarse
 one and every coarse P1 or P2 function is a fine one):
@@ -12,12 +14,15 @@ midpoints follow, numbered by sorted vertex pairs.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError
 from .mesh import Mesh
 
-__all__ = ["refine_uniform"]
+__all__ = ["refine_uniform", "refine_marked", "label_longest", "circle"]
 
 
 def refine_uniform(mesh: Mesh, times: int = 1) -> tuple[Mesh, np.ndarray]:
@@ -54,3 +59,168 @@ def _refine_once(mesh: Mesh) -> tuple[Mesh, np.ndarray]:
         m = nv + np.searchsorted(unique, np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * nv + np.maximum(e[:, 0], e[:, 1]))
         tags[tag] = np.concatenate([np.column_stack([e[:, 0], m]), np.column_stack([m, e[:, 1]])])
     return Mesh(points, fine, tags), np.repeat(np.arange(len(tri)), 4)
+
+
+# --------------------------------------------------------------------------- local refinement: bisection
+
+Curve = Callable[[np.ndarray], np.ndarray]
+"""The closest-point map of a curved boundary part: (k, 2) points near it (m) -> (k, 2) points on it (m)."""
+
+
+def label_longest(mesh: Mesh) -> Mesh:
+    """The same mesh with each triangle's vertices rotated so that its longest edge is (v0, v1): the initial
+    refinement edges of :func:`refine_marked` (Mitchell's newest-vertex bisection starts from the longest
+    edges). The triangles keep their order and orientation; tags and cells are unchanged."""
+    if not isinstance(mesh, Mesh):
+        raise MeshError(f"label_longest takes a 2D cc.Mesh, got {type(mesh).__name__}")
+    p, tri = mesh.points, mesh.triangles
+    length = np.stack([np.linalg.norm(p[tri[:, (i + 1) % 3]] - p[tri[:, i]], axis=1) for i in range(3)], axis=1)
+    first = np.argmax(length, axis=1)                                   # edge (v_i, v_i+1) is the longest
+    rotated = tri[np.arange(len(tri))[:, None], (first[:, None] + np.arange(3)) % 3]
+    return Mesh(p, rotated, {t: mesh.boundary(t) for t in mesh.tags})
+
+
+def refine_marked(mesh: Mesh, marked: ArrayLike, curves: Mapping[str, Curve] | None = None
+                  ) -> tuple[Mesh, np.ndarray]:
+    """(fine mesh, parent): ``mesh`` with the ``marked`` triangles bisected by newest-vertex bisection
+    (Mitchell 1991; Binev, Dahmen & DeVore 2004) and as many others as conformity needs.
+
+    The refinement edge of triangle (v0, v1, v2) is (v0, v1) (:func:`label_longest` sets it on a new mesh;
+    the meshes this returns keep the convention, so they can be refined again). A bisected triangle
+    (a, b, c) with midpoint m of (a, b) becomes (c, a, m) and (b, c, m): the new vertex is opposite each
+    child's refinement edge. The closure marks the refinement edge of every triangle with a marked edge
+    until none is added, so every marked edge is bisected in both its triangles (no hanging node); a
+    triangle is cut into 2, 3 or 4. Every triangle is similar to one of finitely many per initial triangle,
+    whatever the number of steps: the smallest angle is bounded below (shape regular).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Triangles labelled as above.
+    marked : (m,) bool or int array_like
+        The triangles to refine (a mask or indices).
+    curves : dict tag -> callable, optional
+        For curved boundary parts: the closest-point map of the part's curve, (k, 2) -> (k, 2) (m). A new
+        node on a tagged edge of such a part is put back on the curve; elsewhere new nodes are the edges'
+        midpoints (a curved part the mesh is not told about stays the polygon it was).
+
+    Returns
+    -------
+    Mesh, (m_fine,) int array
+        The fine mesh (the coarse vertices keep their indices, the midpoints follow in the order of the
+        sorted edges) and ``parent``, the coarse triangle of each fine one: a per-cell tag (material,
+        region) ``tag`` of the coarse mesh is ``tag[parent]`` on the fine one. Boundary tags are carried to
+        the halves of their edges.
+
+    Raises
+    ------
+    MeshError
+        For a mask of the wrong length, an index out of range, a tag in ``curves`` the mesh does not have,
+        a curve map that does not return finite (k, 2) points, or a projected node that folds a triangle.
+    """
+    if not isinstance(mesh, Mesh):
+        raise MeshError(f"refine_marked takes a 2D cc.Mesh, got {type(mesh).__name__}")
+    p, tri = mesh.points, mesh.triangles
+    m, nv = len(tri), len(p)
+    cells = _marked_cells(marked, m)
+    curves = dict(curves or {})
+    for tag, curve in curves.items():
+        if tag not in mesh.tags or not callable(curve):
+            raise MeshError(f"refine_marked: curves must map boundary tags of the mesh ({sorted(mesh.tags)}) to "
+                            f"closest-point maps (k, 2) -> (k, 2), got {tag!r}: {type(curve).__name__}")
+    # the edges of every triangle: column 0 is the refinement edge (v0, v1), then (v1, v2), (v2, v0)
+    ends = np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1)          # (m, 3, 2)
+    keys = np.minimum(ends[..., 0], ends[..., 1]) * nv + np.maximum(ends[..., 0], ends[..., 1])
+    unique, edge = np.unique(keys.ravel(), return_inverse=True)
+    edge = edge.reshape(m, 3)
+    split = np.zeros(len(unique), dtype=bool)
+    split[edge[cells, 0]] = True
+    while True:                                         # closure: a triangle with a split edge splits its own
+        need = split[edge].any(axis=1) & ~split[edge[:, 0]]
+        if not need.any():
+            break
+        split[edge[need, 0]] = True
+    which = np.flatnonzero(split)
+    mid = np.full(len(unique), -1, dtype=np.int64)
+    mid[which] = nv + np.arange(len(which))
+    a, b = unique[which] // nv, unique[which] % nv
+    new = 0.5 * (p[a] + p[b])
+    for tag, curve in curves.items():
+        e = mesh.boundary(tag)
+        at = np.searchsorted(unique, np.minimum(e[:, 0], e[:, 1]) * nv + np.maximum(e[:, 0], e[:, 1]))
+        on = mid[at[split[at]]] - nv
+        if len(on):
+            new[on] = _on_curve(curve, new[on], tag)
+    points = np.concatenate([p, new])
+
+    def midpoint(u, v):
+        return mid[np.searchsorted(unique, np.minimum(u, v) * nv + np.maximum(u, v))]
+
+    n = len(points)
+    wide = (unique // nv) * n + unique % nv                 # the same keys on all n nodes (still sorted)
+    cur, parent = tri, np.arange(m)
+    for _ in range(2):                                  # a marked edge of a child is an edge of its parent
+        mm = np.full(len(cur), -1, dtype=np.int64)
+        k = np.minimum(cur[:, 0], cur[:, 1]) * n + np.maximum(cur[:, 0], cur[:, 1])
+        pos = np.minimum(np.searchsorted(wide, k), len(wide) - 1)
+        known = wide[pos] == k
+        mm[known] = mid[pos[known]]
+        cut = mm >= 0
+        if not cut.any():
+            break
+        x, y, z, w = cur[cut, 0], cur[cut, 1], cur[cut, 2], mm[cut]
+        children = np.stack([np.column_stack([z, x, w]), np.column_stack([y, z, w])], axis=1).reshape(-1, 3)
+        cur = np.concatenate([cur[~cut], children])
+        parent = np.concatenate([parent[~cut], np.repeat(parent[cut], 2)])
+    order = np.argsort(parent, kind="stable")           # the children of a triangle together, in parent order
+    cur, parent = cur[order], parent[order]
+    tags = {}
+    for tag in mesh.tags:
+        e = mesh.boundary(tag)
+        w = midpoint(e[:, 0], e[:, 1])
+        whole = e[w < 0]
+        half = np.flatnonzero(w >= 0)
+        tags[tag] = np.concatenate([whole, np.column_stack([e[half, 0], w[half]]),
+                                    np.column_stack([w[half], e[half, 1]])])
+    return Mesh(points, cur, tags), parent
+
+
+def _marked_cells(marked, m):
+    """Indices of the marked triangles from a mask (m,) or an index array (typed errors)."""
+    marked = np.asarray(marked)
+    if marked.dtype == bool:
+        if marked.shape != (m,):
+            raise MeshError(f"refine_marked: a mask needs one entry per triangle ({m}), got shape {marked.shape}")
+        return np.flatnonzero(marked)
+    if marked.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if not np.issubdtype(marked.dtype, np.integer) or marked.ndim != 1:
+        raise MeshError(f"refine_marked: marked must be a boolean mask (m,) or triangle indices, got dtype "
+                        f"{marked.dtype} and shape {marked.shape}")
+    if marked.min() < 0 or marked.max() >= m:
+        raise MeshError(f"refine_marked: triangle indices must lie in 0..{m - 1}, got {marked.min()}..{marked.max()}")
+    return np.unique(marked)
+
+
+def _on_curve(curve, points, tag):
+    """The curve's closest points to ``points``, checked."""
+    out = np.asarray(curve(points.copy()), dtype=float)
+    if out.shape != points.shape or not np.isfinite(out).all():
+        raise MeshError(f"refine_marked: the curve of part {tag!r} must map (k, 2) points to finite (k, 2) points "
+                        f"on it (m), got shape {out.shape}")
+    return out
+
+
+def circle(center: Sequence[float], radius: float) -> Curve:
+    """The closest-point map of the circle of ``radius`` (m) around ``center`` (m): a :data:`Curve` for
+    :func:`refine_marked` (e.g. the ``"arc"`` of :func:`~cvxcontact.geometry.generators.half_disk`)."""
+    c = np.asarray(center, dtype=float)
+    r = float(radius)
+    if c.shape != (2,) or not np.isfinite(c).all() or not (np.isfinite(r) and r > 0):
+        raise MeshError(f"circle: center must be (x, y) and radius a positive number (m), got {center!r}, {radius!r}")
+
+    def closest(points):
+        d = points - c
+        return c + r * d / np.linalg.norm(d, axis=1)[:, None]
+
+    return closest

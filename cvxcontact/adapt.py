@@ -1,0 +1,221 @@
+"""Adaptive refinement (2D): solve, estimate, mark, refine, until the estimate or a budget says stop.
+
+Each step solves the scene (:func:`cvxcontact.solve.ContactSolver`), reads the error estimate's indicators
+eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), marks by Dorfler's bulk
+criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
+``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
+bisection, conforming closure). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
+``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
+the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
+
+Covered: 2D, P1 and P2, every scene the estimate covers. Not covered: 3D (the estimate and the bisection
+are 2D; :class:`~cvxcontact.errors.UnsupportedError`). Each solve starts afresh (no warm start from the
+previous mesh).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .errors import ResolutionWarning, SceneError, UnsupportedError
+from .geometry.refine import Curve, label_longest, refine_marked
+from .physics.scene import Scene
+from .solve import ContactSolver, Solution
+
+__all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk"]
+
+
+@dataclass(frozen=True)
+class AdaptStep:
+    """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
+
+    ``cells``: triangles of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
+    (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
+    the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
+    bisection and the rebuilt scene (s); ``ok``: the solution's checks.
+    """
+
+    step: int
+    cells: int
+    unknowns: int
+    estimate: float
+    relative: float
+    marked: int
+    solve_s: float
+    refine_s: float
+    ok: bool
+
+
+@dataclass(frozen=True)
+class Adapted:
+    """What :func:`adapt` returns: the last ``solution`` and its ``scene``, the ``history`` (one
+    :class:`AdaptStep` per solve), why it ``stopped`` ("tol", "max_steps" or "max_cells") and, with
+    ``keep=True``, every step's solution in ``solutions``."""
+
+    solution: Solution
+    scene: Scene
+    history: tuple
+    stopped: str
+    solutions: tuple = ()
+
+
+def mark_bulk(indicators: Sequence[ArrayLike], theta: float) -> list[np.ndarray]:
+    """Dorfler's bulk marking over several bodies: boolean masks, one per entry of ``indicators`` (eta_T of
+    each cell, sqrt(J/m)), marking the fewest cells, largest eta_T first, with
+    sum_marked eta_T^2 >= theta sum_all eta_T^2 (0 < theta <= 1). Ties at the threshold are all marked."""
+    theta = _fraction(theta)
+    eta2 = [np.asarray(e, dtype=float) ** 2 for e in indicators]
+    flat = np.concatenate(eta2)
+    total = flat.sum()
+    if not total > 0:
+        return [np.zeros(len(e), dtype=bool) for e in eta2]
+    ranked = np.sort(flat)[::-1]
+    k = int(np.searchsorted(np.cumsum(ranked), theta * total * (1 - 1e-12)))   # first index reaching the bulk
+    threshold = ranked[min(k, len(ranked) - 1)]
+    return [e >= threshold for e in eta2]
+
+
+def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,
+          max_cells: int | None = None, tol: float | None = None,
+          curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
+          progress: Callable[[str], None] | None = None, keep: bool = False, **options) -> Adapted:
+    """Refine ``scene``'s meshes where the error estimate sits, solving on each (module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+        A 2D scene; its meshes are the first step's (relabelled so that each triangle's longest edge is
+        its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`).
+    condition : str
+        The contact condition of every solve, as in :func:`cvxcontact.solve`.
+    theta : float
+        Dorfler's bulk fraction, 0 < theta <= 1 (0.3-0.6 is usual; 1 refines every cell with a
+        non-zero indicator).
+    max_steps : int
+        Refinements at most (``max_steps + 1`` solves).
+    max_cells : int, optional
+        Stop before solving a mesh with more cells than this (all bodies).
+    tol : float, optional
+        Stop when ``sol.estimate.relative`` <= tol.
+    curves : dict, optional
+        Body (its name or index in ``scene.bodies``) -> {tag: closest-point map} of its curved boundary
+        parts (:func:`~cvxcontact.geometry.refine.refine_marked`); without, new boundary nodes are the
+        edges' midpoints.
+    progress : callable, optional
+        Called with one line of text per step (the package's progress convention, as the sweeps and studies).
+    keep : bool
+        Keep every step's solution in ``Adapted.solutions`` (memory: one solution per step).
+    **options
+        Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ...);
+        ``estimate=False`` is refused (the loop needs the estimate).
+
+    Returns
+    -------
+    Adapted
+
+    Raises
+    ------
+    UnsupportedError
+        For a 3D scene, or a solution without an estimate (the reason is named).
+    SceneError
+        For a scene that is not a Scene, or a parameter out of range.
+
+    Notes
+    -----
+    A :class:`~cvxcontact.errors.ResolutionWarning` of an intermediate step is dropped (the loop refines
+    what it names); the last step's are raised. Other warnings pass.
+    """
+    if not isinstance(scene, Scene):
+        raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
+    if scene.dim != 2:
+        raise UnsupportedError(f"adapt covers 2D scenes (triangles) only, got a {scene.dim}D scene: the error "
+                               "estimate and the newest-vertex bisection of this version are 2D; refine a 3D "
+                               "mesh uniformly or with your mesher")
+    if options.get("estimate", True) is not True:
+        raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
+    theta = _fraction(theta)
+    max_steps = _count(max_steps, "max_steps", 0)
+    max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
+    if tol is not None and not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
+        raise SceneError(f"adapt: tol must be a positive number (the relative estimate to reach), got {tol!r}")
+    say = progress or (lambda line: None)
+    body_curves = _curves(scene, curves)
+    scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    history, kept = [], []
+    step = 0
+    while True:
+        clock = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            sol = ContactSolver(scene, condition, **options).solve()
+        solve_s = time.perf_counter() - clock
+        if sol.estimate is None:
+            raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")
+        cells = sum(len(b.mesh.triangles) for b in scene.bodies)
+        est = sol.estimate
+        stopped = ("tol" if tol is not None and est.relative <= tol else "max_steps" if step >= max_steps else "")
+        clock = time.perf_counter()
+        marked, refined = [], None
+        if not stopped:
+            marked = mark_bulk(est.indicators, theta)
+            meshes = [refine_marked(b.mesh, mk, body_curves.get(k))[0]
+                      for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
+            if max_cells is not None and sum(len(m.triangles) for m in meshes) > max_cells:
+                stopped, marked = "max_cells", []
+            else:
+                refined = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)))
+        refine_s = time.perf_counter() - clock
+        for w in caught:                                    # the last step's resolution warnings, all others
+            if stopped or not issubclass(w.category, ResolutionWarning):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
+                                                                   for u, p in zip(sol.u, sol.phi))),
+                        estimate=est.absolute, relative=est.relative, marked=int(sum(m.sum() for m in marked)),
+                        solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok))
+        history.append(row)
+        if keep:
+            kept.append(sol)
+        say(f"adapt step {step}: {cells} cells, {row.unknowns} unknowns, estimate {est.absolute:.4g} "
+            f"({100 * est.relative:.3g} %), {row.marked} marked ({solve_s:.2f} s)")
+        if stopped:
+            return Adapted(solution=sol, scene=scene, history=tuple(history), stopped=stopped, solutions=tuple(kept))
+        scene, step = refined, step + 1
+
+
+def _fraction(theta):
+    if isinstance(theta, bool) or not isinstance(theta, (int, float, np.integer, np.floating)) \
+            or not 0 < theta <= 1:
+        raise SceneError(f"theta (Dorfler's bulk fraction) must be a number in (0, 1], got {theta!r}; "
+                         "0.3-0.6 is usual")
+    return float(theta)
+
+
+def _count(v, name, low):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
+        raise SceneError(f"adapt: {name} must be an integer >= {low}, got {v!r}")
+    return int(v)
+
+
+def _curves(scene, curves) -> dict:
+    """{body index: {tag: curve}} from a mapping keyed by body names or indices."""
+    if curves is None:
+        return {}
+    if not isinstance(curves, Mapping):
+        raise SceneError(f"adapt: curves must map bodies (names or indices) to {{tag: closest-point map}}, "
+                         f"got {type(curves).__name__}")
+    names = [b.name for b in scene.bodies]
+    out = {}
+    for key, parts in curves.items():
+        k = key if isinstance(key, (int, np.integer)) and not isinstance(key, bool) else (
+            names.index(key) if key in names else None)
+        if k is None or not 0 <= k < len(names):
+            raise SceneError(f"adapt: curves names body {key!r}; the scene's bodies are {names} "
+                             f"(or indices 0..{len(names) - 1})")
+        out[int(k)] = dict(parts)
+    return out

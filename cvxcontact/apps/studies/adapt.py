@@ -1,0 +1,174 @@
+"""Adaptive against uniform refinement on the Hertz cylinder (2D, P1 and P2): accuracy against unknowns and time.
+
+The scene is the Hertz validation's (:mod:`.hertz`: a steel cylinder of radius R as the upper block with the gap
+x^2 / (2 R) - delta on an aluminium block, both 4 m x 2 m, non-matching meshes), started from coarse uniform
+grids (``N0`` cells along the upper trace, about 0.8 N0 below: the contact zone, 0.21 m wide, lies inside one
+or two cells). Uniform: the start refined 0, 1, ... times into four (:func:`~cvxcontact.geometry.refine.
+refine_uniform`). Adaptive: :func:`cvxcontact.adapt` (Dorfler's theta = ``THETA``, newest-vertex bisection, each
+body on its own). For every mesh: the unknowns, the estimate ``sol.estimate`` (sqrt(J/m), energy norm), and
+the true errors of the peak pressure p0_h and the half-width a_h against Hertz's closed form for the load P the
+solution carries (:func:`.hertz.hertz`; the finite blocks put the physics within about 1e-3 of it: the
+finest P2 meshes of the Hertz study converge to p0 / p0_Hertz - 1 = +1e-3). Time: the seconds to reach the
+mesh's answer, the sum of every solve, estimate and refinement before it (uniform: its own solve only, the
+mesh being given).
+
+``run(out, quick=False)`` writes adapt.csv, adapt.md and adapt.png into ``out``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ...adapt import adapt as adapt_loop
+from ...errors import ResidualWarning, ResolutionWarning
+from ...geometry.generators import graded_block
+from ...geometry.refine import refine_uniform
+from ...physics import materials
+from ...physics.scene import Body, Scene
+from .common import Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
+from .hertz import ALU, DELTA, HEIGHT, R, STEEL, WIDTH, e_star, half_width, hertz
+
+N0 = 8
+THETA = 0.5
+OPTIONS = dict(condition="gamma3", method="condensed")
+
+
+def coarse_scene(n: int = N0, ratio: float = 0.8) -> Scene:
+    """The Hertz scene (:func:`.hertz.scene`) on uniform grids: ``n`` cells along the upper trace, about ``ratio`` n
+    below."""
+    upper = graded_block((-WIDTH, WIDTH), (0.0, HEIGHT), n, max(2, n // 2), "bottom")
+    m = max(4, round(ratio * n) + 1)
+    lower = graded_block((-WIDTH, WIDTH), (-HEIGHT, 0.0), m, max(2, m // 2), "top")
+    b1 = Body(upper, materials.isotropic(*STEEL, name="steel"), clamped="top", contact="bottom", name="cylinder")
+    b2 = Body(lower, materials.isotropic(*ALU, name="aluminium"), clamped="bottom", contact="top", name="block")
+    return Scene(b1, b2, gap=lambda x: x ** 2 / (2 * R) - DELTA)
+
+
+def measures(sol) -> dict:
+    """The peak pressure and half-width of ``sol`` against Hertz's for the load it carries."""
+    c = sol.contact
+    P = float(c.force.sum())
+    a, p0 = hertz(P, R, e_star(*STEEL, *ALU))
+    p0_h = float(sol.traction(0)[1].max())
+    return dict(load_N_per_m=P, p0_rel_error=p0_h / p0 - 1, a_rel_error=half_width(c) / a - 1,
+                estimate=sol.estimate.absolute, relative=sol.estimate.relative,
+                unknowns=int(sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi))),
+                cells=sum(len(b.mesh.triangles) for b in sol.scene.bodies), ok=bool(sol.ok))
+
+
+def uniform(degree: int, levels: int, progress) -> list[dict]:
+    base = coarse_scene()
+    rows = []
+    for level in range(levels + 1):
+        scene = base.with_bodies(*(b.with_changes(mesh=refine_uniform(b.mesh, level)[0]) for b in base.bodies))
+        clock = Timer()
+        sol = solve_quietly(scene, degree=degree, **OPTIONS)
+        seconds = clock()
+        rows.append(dict(refinement="uniform", degree=degree, step=level, **measures(sol), seconds=seconds))
+        progress(f"adapt study: P{degree} uniform level {level}: {rows[-1]['unknowns']} unknowns, "
+                 f"p0 error {rows[-1]['p0_rel_error']:+.2e}")
+    return rows
+
+
+def adaptive(degree: int, max_unknowns: int, progress) -> list[dict]:
+    # unknowns ~ 2 nodes per cell pair (P1) or twice that (P2): a cell budget that stops near max_unknowns
+    cells = max_unknowns if degree == 1 else max_unknowns // 4
+    result = adapt_loop(coarse_scene(), OPTIONS["condition"], theta=THETA, max_steps=60, max_cells=cells,
+                        keep=True, degree=degree, method=OPTIONS["method"],
+                        progress=lambda line: progress(f"adapt study: P{degree} {line}"))
+    rows, spent = [], 0.0
+    for step, sol in zip(result.history, result.solutions):
+        spent += step.solve_s + step.refine_s
+        rows.append(dict(refinement="adaptive", degree=degree, step=step.step, **measures(sol),
+                         seconds=spent - step.refine_s))
+    progress(f"adapt study: P{degree} adaptive: {len(rows)} steps, {rows[-1]['unknowns']} unknowns, "
+             f"p0 error {rows[-1]['p0_rel_error']:+.2e}")
+    return rows
+
+
+def figure(rows):
+    """2 x 2 log-log panels: the estimate (top) and the peak-pressure error (bottom) against the unknowns
+    (left) and the seconds (right), uniform and adaptive, P1 and P2; N^(-1/2) and N^(-1) for reference."""
+    plt = pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
+    style = {("uniform", 1): ("C0", "o--"), ("adaptive", 1): ("C0", "o-"),
+             ("uniform", 2): ("C1", "s--"), ("adaptive", 2): ("C1", "s-")}
+    for (kind, degree), (color, marker) in style.items():
+        sub = [r for r in rows if r["refinement"] == kind and r["degree"] == degree]
+        for i, (key, what) in enumerate((("estimate", "estimate"), ("p0_rel_error", "p0"))):
+            y = [abs(r[key]) for r in sub]
+            for j, x in enumerate(([r["unknowns"] for r in sub], [r["seconds"] for r in sub])):
+                axes[i, j].loglog(x, y, marker, color=color, ms=4, label=f"P{degree} {kind}")
+    n = np.array([min(r["unknowns"] for r in rows), max(r["unknowns"] for r in rows)], dtype=float)
+    ref = [r for r in rows if r["refinement"] == "adaptive" and r["degree"] == 1][-1]
+    axes[0, 0].loglog(n, ref["estimate"] * (n / ref["unknowns"]) ** -0.5, "k:", lw=1, label=r"$\propto N^{-1/2}$")
+    ref2 = [r for r in rows if r["refinement"] == "adaptive" and r["degree"] == 2][-1]
+    axes[0, 0].loglog(n, ref2["estimate"] * (n / ref2["unknowns"]) ** -1.0, "k-.", lw=1, label=r"$\propto N^{-1}$")
+    for j, xl in enumerate(("unknowns N (u of both bodies)", "seconds to reach the answer (s, 2 shared cores)")):
+        axes[1, j].set_xlabel(xl)
+    axes[0, 0].set_ylabel(r"error estimate $\eta$ (sqrt(J/m), energy norm)")
+    axes[1, 0].set_ylabel(r"$|p_{0,h} / p_0^{Hertz} - 1|$ (peak pressure)")
+    axes[0, 0].set_title("Estimate against unknowns", fontsize=10)
+    axes[0, 1].set_title("Estimate against time", fontsize=10)
+    axes[1, 0].set_title("Peak-pressure error against unknowns", fontsize=10)
+    axes[1, 1].set_title("Peak-pressure error against time", fontsize=10)
+    for ax in axes.ravel():
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"Hertz cylinder (R = {R} m) on a block: adaptive (Dorfler theta = {THETA}) against uniform "
+                 "refinement", fontsize=11)
+    return fig
+
+
+def rates(rows) -> dict:
+    """Slopes of log(estimate) against log(unknowns) over the last half of each series (at least 3 points)."""
+    out = {}
+    for kind in ("uniform", "adaptive"):
+        for degree in (1, 2):
+            sub = [r for r in rows if r["refinement"] == kind and r["degree"] == degree]
+            tail = sub[-max(3, len(sub) // 2):]
+            out[(kind, degree)] = slope([r["unknowns"] for r in tail], [r["estimate"] for r in tail])
+    return out
+
+
+def run(out, quick: bool = False, progress=None) -> dict:
+    """Write adapt.csv, adapt.md and adapt.png into ``out`` (module docstring); returns rows and rates."""
+    say = progress or (lambda s: None)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    timer = Timer()
+    # P2 "gamma3" is an interior-point solve on the condensed (dense) interface, whose size adaptivity grows
+    # fastest: the smaller P2 budget keeps the study to a few minutes
+    levels, budget = ({1: 3, 2: 2}, {1: 8_000, 2: 8_000}) if quick else ({1: 5, 2: 4}, {1: 60_000, 2: 20_000})
+    rows = []
+    with warnings.catch_warnings():          # the coarse meshes do not resolve the zone: what the study shows
+        warnings.simplefilter("ignore", ResolutionWarning)
+        warnings.simplefilter("ignore", ResidualWarning)     # recorded: the ok column
+        for degree in (1, 2):
+            rows += uniform(degree, levels[degree], say)
+            rows += adaptive(degree, budget[degree], say)
+    write_csv(out / "adapt.csv", rows)
+    save_figure(figure(rows), out / "adapt.png")
+    slopes = rates(rows)
+    columns = ["refinement", "degree", "step", "cells", "unknowns", "estimate", "relative", "p0_rel_error",
+               "a_rel_error", "seconds", "ok"]
+    formats = dict(estimate=".4g", relative=".3g", p0_rel_error="+.2e", a_rel_error="+.2e", seconds=".2f")
+    shown = [r for r in rows if r["refinement"] == "uniform"
+             or r["step"] % 3 == 0 or r is [s for s in rows if s["refinement"] == r["refinement"]
+                                            and s["degree"] == r["degree"]][-1]]
+    text = (f"# Adaptive against uniform refinement: the Hertz cylinder\n\nGenerated by `cvxcontact study adapt"
+            f"{' --quick' if quick else ''}` ({timer():.0f} s). Start: uniform grids, {N0} cells along the "
+            f"cylinder's trace (h = {2 * WIDTH / N0:g} m; Hertz half-width 0.105 m), condition gamma3, method "
+            f"condensed. Adaptive: `cc.adapt`, Dorfler theta = {THETA}, every third step and the last shown "
+            "(all in adapt.csv). `estimate`: sqrt(J/m) in the energy norm; `p0_rel_error`, `a_rel_error`: the "
+            "peak pressure and half-width against Hertz's closed form for the load the solution carries; "
+            "`seconds`: to reach the answer (adaptive: every step before it included).\n\n"
+            + markdown_table(shown, columns, formats)
+            + "\n\nSlope of log(estimate) against log(unknowns), last half of each series:\n\n"
+            + markdown_table([dict(refinement=k, degree=d, slope=v) for (k, d), v in slopes.items()],
+                             ["refinement", "degree", "slope"], dict(slope=".2f")))
+    write_text(out / "adapt.md", text)
+    return dict(rows=rows, rates=slopes)

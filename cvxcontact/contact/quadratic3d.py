@@ -229,13 +229,17 @@ class QuadraticSurface:
         """Area (m^2) of the overlap (with an obstacle, of the faces all of whose P2 nodes reach it)."""
         return float(_area(self.x[self.cells[:, :3]]).sum())
 
-    def elements(self) -> tuple[np.ndarray, np.ndarray]:
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
         """The triangles on which a function of X_h (lambda_h, the jump) is quadratic: (triangle6 nodes (e, 6)
-        of X_h, -1 for a node outside it where the function is 0; vertices (e, 3, 2) in-plane, m). Two bodies:
-        ``cells``; with an obstacle: the body's faces with a P2 node that reaches it."""
+        of X_h, -1 for a node outside it where the function is 0; vertices (e, 3, 2) in-plane, m; per side the
+        face of its trace that holds each). Two bodies: ``cells`` (the overlay's triangles); with an obstacle:
+        the body's faces with a P2 node that reaches it."""
         if not self.rigid:
-            return np.asarray(self.cells), np.asarray(self.x)[np.asarray(self.cells)[:, :3]]
-        return reached_faces(self.traces[0], self.reach)
+            ov = self.linear.overlay
+            return (np.asarray(self.cells), np.asarray(self.x)[np.asarray(self.cells)[:, :3]],
+                    [np.asarray(ov.cell_a), np.asarray(ov.cell_b)])
+        nodes, corners, faces = reached_faces(self.traces[0], self.reach)
+        return nodes, corners, [faces]
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(size, n_trace_k): the P2 functions of the pair's body k's trace (columns ``traces[k].nodes``) at

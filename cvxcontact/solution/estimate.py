@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contact.overlay import locate
+from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions, shape_gradients
 from ..fem.simplex import simplex_rule
@@ -112,12 +112,12 @@ def vertex_fields(body, u, phi, degree: int):
     el = _nodes(mesh, degree)
     corners = np.eye(dim + 1)
     if degree == 1:
-        G = np.repeat(gradL[:, None], dim + 1, axis=1)                               # (m, d + 1, d, d + 1)
+        G = gradL[:, None]                                                          # (m, 1, d, d + 1): constant
     else:
         G = np.stack([shape_gradients(gradL, corners[i]) for i in range(dim + 1)], axis=1)   # (m, d + 1, d, k)
     m = len(el)
     ue = u[el].reshape(m, -1)
-    eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(dim + 1)], axis=1)
+    eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(G.shape[1])], axis=1)
     sigma = eps @ c.T
     gphi = D = None
     if e is not None:
@@ -125,6 +125,8 @@ def vertex_fields(body, u, phi, degree: int):
         gphi = np.einsum("mvdj,mj->mvd", G, pe)
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
+    if degree == 1:                                                                   # the same at every vertex
+        eps, gphi, sigma, D = (None if a is None else np.repeat(a, dim + 1, axis=1) for a in (eps, gphi, sigma, D))
     return eps, gphi, sigma, D, gradL, measure
 
 
@@ -138,11 +140,13 @@ def energy_density(body, eps, gphi):
 
 
 def _cell_energies(body, fields) -> np.ndarray:
+    """int_T of the energy density of affine fields with vertex values eps, gphi: the mass matrix of P1 on a
+    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact)."""
     eps, gphi, _, _, gradL, measure = fields
-    total = 0.0
-    for L, w in zip(*simplex_rule(gradL.shape[1], 2)):
-        total = total + w * energy_density(body, L @ eps, None if gphi is None else L @ gphi)
-    return total * measure
+    k = gradL.shape[2]
+    total = sum(energy_density(body, eps[:, v], None if gphi is None else gphi[:, v]) for v in range(k))
+    total = total + energy_density(body, eps.sum(axis=1), None if gphi is None else gphi.sum(axis=1))
+    return total * measure / (k * (k + 1))
 
 
 def cell_energies(body, u, phi, degree: int) -> np.ndarray:
@@ -231,19 +235,17 @@ def _element_terms(body, fields, hT, cT, kT, eta2, parts):
     div = np.einsum("mjij->mi", dsig)
     f0, q0 = body.body_force, body.volume_charge
     rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None           # div D (constant)
-    mech = elec = 0.0
-    for L, w in zip(*simplex_rule(dim, 2)):
-        r = div
-        if f0.nonzero:
+    mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
+    elec = None if D is None else rd ** 2
+    if f0.nonzero or (D is not None and q0.nonzero):
+        mech, elec = 0.0, (None if D is None else 0.0)
+        for L, w in zip(*simplex_rule(dim, 2)):
             x = _at(mesh.points, mesh.cells, L)
-            r = div + np.asarray(f0(*x.T), dtype=float).reshape(len(div), dim)
-        mech = mech + w * (r ** 2).sum(axis=1)
-        if D is not None:
-            re = rd
-            if q0.nonzero:
-                x = _at(mesh.points, mesh.cells, L)
-                re = rd - np.asarray(q0(*x.T), dtype=float).reshape(len(rd))
-            elec = elec + w * re ** 2
+            r = div + np.asarray(f0(*x.T), dtype=float).reshape(len(div), dim) if f0.nonzero else div
+            mech = mech + w * (r ** 2).sum(axis=1)
+            if D is not None:
+                re = rd - np.asarray(q0(*x.T), dtype=float).reshape(len(rd)) if q0.nonzero else rd
+                elec = elec + w * re ** 2
     term = hT ** 2 * mech * measure / cT
     eta2 += term
     parts["element"] += float(term.sum())
@@ -321,9 +323,17 @@ def _boundary_roles(body, sol):
     return mech, elec
 
 
+def _facet_values(values, cell_vertices, facet_vertices):
+    """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
+    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each."""
+    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
+    return np.take_along_axis(values, pos.reshape(pos.shape + (1,) * (values.ndim - 2)), axis=1)
+
+
 def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     """The interior jumps and the boundary residuals of ``body`` (module docstring; ``facets`` its
-    :func:`_facets`); contact parts are left to the contact terms."""
+    :func:`_facets`); contact parts are left to the contact terms. sigma_h and D_h are affine on each facet:
+    their normal components are formed at its vertices and interpolated to the quadrature points."""
     eps, gphi, sigma, D, gradL, measure = fields
     mesh = body.mesh
     dim = gradL.shape[1]
@@ -339,6 +349,11 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     inner = owners[:, 1] >= 0
     ii = np.flatnonzero(inner)
     c1 = owners[ii, 1]
+    Rv = (_tensor(_facet_values(sigma[c0], cells[c0], vertices)) @ n[:, None, :, None])[..., 0]      # (k, d, d)
+    Rv[ii] -= (_tensor(_facet_values(sigma[c1], cells[c1], vertices[ii])) @ n[ii, None, :, None])[..., 0]
+    if D is not None:
+        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], cells[c0], vertices), n)                # (k, d)
+        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], cells[c1], vertices[ii]), n[ii])
     mech_role, elec_role = _boundary_roles(body, sol)
     role_m = np.full(len(key), "free", dtype=object)
     role_e = np.full(len(key), "free", dtype=object)
@@ -350,35 +365,29 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
             out[index[tag]] = role
             if role == kind:
                 loads[tag] = index[tag]
+    keep = np.ones((len(key), dim))                        # the components of R that count
+    keep[(role_m == "dirichlet") | (role_m == "contact")] = 0.0
+    for tag, v in body.displacement.items():
+        if mech_role.get(tag) == "partial":
+            keep[index[tag], [comp for comp, val in enumerate(v) if val is not None]] = 0.0
+    roller = np.flatnonzero(role_m == "roller")
+    keep_e = (role_e != "dirichlet").astype(float)
     mech = np.zeros(len(key))
     elec = np.zeros(len(key))
     weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells
-    roller = np.flatnonzero(role_m == "roller")
     for Lf, w in zip(*simplex_rule(dim - 1, 3)):
-        L0 = _bary(cells[c0], vertices, Lf)
-        R = _traction(sigma[c0], L0, n)
-        x = np.einsum("j,kjd->kd", Lf, p[vertices])
-        L1 = _bary(cells[c1], vertices[ii], Lf)
-        R[ii] -= _traction(sigma[c1], L1, n[ii])
+        R = np.tensordot(Lf, Rv, axes=(0, 1))
+        x = np.tensordot(Lf, p[vertices], axes=(0, 1)) if load_m or load_e else None
         for tag, idx in load_m.items():
             R[idx] -= np.asarray(body.traction[tag](*x[idx].T), dtype=float).reshape(len(idx), dim)
-        R[role_m == "dirichlet"] = 0.0
-        R[role_m == "contact"] = 0.0
-        if len(roller):
-            R[roller] -= (R[roller] * n[roller]).sum(axis=1)[:, None] * n[roller]      # tangential part only
-        for tag, v in body.displacement.items():
-            if mech_role.get(tag) == "partial":
-                for comp, val in enumerate(v):
-                    if val is not None:
-                        R[index[tag], comp] = 0.0
+        R[roller] -= (R[roller] * n[roller]).sum(axis=1)[:, None] * n[roller]          # tangential part only
+        R *= keep
         mech += w * weight * (R ** 2).sum(axis=1)
         if D is not None:
-            r = (np.einsum("kv,kvd->kd", L0, D[c0]) * n).sum(axis=1)
-            r[ii] -= (np.einsum("kv,kvd->kd", L1, D[c1]) * n[ii]).sum(axis=1)
+            r = rv @ Lf
             for tag, idx in load_e.items():
                 r[idx] -= np.asarray(body.surface_charge[tag](*x[idx].T), dtype=float).reshape(len(idx))
-            r[role_e == "dirichlet"] = 0.0
-            elec += w * weight * r ** 2
+            elec += w * weight * (r * keep_e) ** 2
     term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
     parts["jump"] += float(term_m[inner].sum()) * 2
     parts["boundary"] += float(term_m[~inner].sum())
@@ -508,15 +517,21 @@ def _surface_contact_terms(sol, data, cache, eta2, parts):
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
     for i, c in enumerate(sol.contacts):
         itf = sol._pair_line(i)
-        elements, corners = itf.elements()            # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
+        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
+        lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
+        live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
+        elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
+        hosts = [None if h is None else h[live] for h in hosts]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
-        lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements] @ N.T              # (e, q)
+        lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
         d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
         areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
         xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
         wts = (areaS[:, None] * wq[None, :]).ravel()
         owners = []
-        for trace in itf.traces:
+        for trace, host in zip(itf.traces, hosts):
             linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
             k = next(j for j, b in enumerate(bodies) if b is linear.body)
             mesh = linear.body.mesh
@@ -524,11 +539,18 @@ def _surface_contact_terms(sol, data, cache, eta2, parts):
             sigma = fields[2]
             cell, f = _contact_cells(mesh, linear.part, facets)
             normals = mesh.outward_normals(linear.part)
+            tv = np.einsum("kvij,kj->kvi", _tensor(_facet_values(sigma[cell], mesh.cells[cell], f)), normals)
             acc = np.zeros(len(f))
             for Lf, w in zip(*simplex_rule(2, 2)):
-                acc += w * (_traction(sigma[cell], _bary(mesh.cells[cell], f, Lf), normals) ** 2).sum(axis=1)
+                acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
             acc *= mesh.face_areas(linear.part)
-            face, Lf = locate(xq, linear.x, linear.faces)
+            if host is None:                                            # S not matched to the faces: find them
+                face, Lf = locate(xq, linear.x, linear.faces)
+                fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
+            else:
+                face = np.repeat(host, len(wq))
+                Lf = barycentric(xq, np.asarray(linear.x)[np.asarray(linear.faces)[face]])
+                fc = host
             ok = np.flatnonzero(face >= 0)
             fq = face[ok]
             s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
@@ -537,12 +559,9 @@ def _surface_contact_terms(sol, data, cache, eta2, parts):
             term = _diameters(mesh.points, f) * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
             parts["contact traction"] += float(term.sum())
-            fc, _ = locate(corners.mean(axis=1), linear.x, linear.faces)
             owners.append((k, np.where(fc >= 0, cell[np.maximum(fc, 0)], -1)))
         if c.law is not None and getattr(c.law, "compliant", False):
             continue                                                   # compliance: penetration is the law
-        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
-        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements] @ N.T     # g - [u_nu] (e, q)
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
         pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)

@@ -25,7 +25,9 @@ import numpy as np
 
 from ...fem.p2 import shape_functions
 from ...geometry.mesh import rectangle
-from ...geometry.quadratic import P2Nodes
+from ...geometry.generators3d import box
+from ...geometry.quadratic import P2Nodes, P2TetNodes
+from ...geometry.tetmesh import TetMesh
 from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -82,7 +84,7 @@ SCENES = {
 def refined(scene: Scene, times: int) -> tuple[Scene, list]:
     """(the scene with every body's mesh refined ``times`` times uniformly, each body's parent map)."""
     if times == 0:
-        return scene, [np.arange(len(b.mesh.triangles)) for b in scene.bodies]
+        return scene, [np.arange(len(b.mesh.cells)) for b in scene.bodies]
     meshes = [refine_uniform(b.mesh, times) for b in scene.bodies]
     bodies = [b.with_changes(mesh=m) for b, (m, _) in zip(scene.bodies, meshes)]
     return scene.with_bodies(*bodies), [p for _, p in meshes]
@@ -90,19 +92,20 @@ def refined(scene: Scene, times: int) -> tuple[Scene, list]:
 
 def prolong(values, coarse_mesh, fine_mesh, parent, degree: int) -> np.ndarray:
     """The coarse P1 (P2) nodal ``values`` (n_c, ...) evaluated at the fine mesh's P1 (P2) nodes: each fine
-    cell's nodes in its coarse ``parent`` triangle (barycentric coordinates from the points), exact on nested
-    meshes."""
+    cell's nodes in its coarse ``parent`` cell (triangle or tetrahedron; barycentric coordinates from the
+    points), exact on nested meshes."""
     values = np.asarray(values, dtype=float)
     if degree == 1:
-        fine_el, fine_pts, coarse_el = fine_mesh.triangles, fine_mesh.points, coarse_mesh.triangles
+        fine_el, fine_pts, coarse_el = fine_mesh.cells, fine_mesh.points, coarse_mesh.cells
     else:
-        fn, cn = P2Nodes(fine_mesh), P2Nodes(coarse_mesh)
-        fine_el, fine_pts, coarse_el = fn.triangles, fn.points, cn.triangles
-    P = coarse_mesh.points[coarse_mesh.triangles[parent]]                     # (m_f, 3, 2)
-    T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)               # (m_f, 2, 2)
-    X = fine_pts[fine_el] - P[:, None, 0]                                      # (m_f, k, 2)
-    lam = np.linalg.solve(T[:, None], X[..., None])[..., 0]                    # (m_f, k, 2)
-    L = np.concatenate([1.0 - lam.sum(axis=2, keepdims=True), lam], axis=2)    # (m_f, k, 3)
+        nodes = P2TetNodes if isinstance(fine_mesh, TetMesh) else P2Nodes
+        fn, cn = nodes(fine_mesh), nodes(coarse_mesh)
+        fine_el, fine_pts, coarse_el = fn.cells, fn.points, cn.cells
+    P = coarse_mesh.points[coarse_mesh.cells[parent]]                          # (m_f, d + 1, d)
+    T = (P[:, 1:] - P[:, :1]).transpose(0, 2, 1)                                # (m_f, d, d)
+    X = fine_pts[fine_el] - P[:, None, 0]                                      # (m_f, k, d)
+    lam = np.linalg.solve(T[:, None], X[..., None])[..., 0]                    # (m_f, k, d)
+    L = np.concatenate([1.0 - lam.sum(axis=2, keepdims=True), lam], axis=2)    # (m_f, k, d + 1)
     N = L if degree == 1 else shape_functions(L)                               # (m_f, k, k_c)
     coarse = values[coarse_el[parent]]                                         # (m_f, k_c, ...)
     out = np.zeros((len(fine_pts),) + values.shape[1:])
@@ -129,18 +132,19 @@ def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=Non
     base = build()
     ref_scene, _ = refined(base, reference)
     if progress:
-        progress(f"  reference: {sum(len(b.mesh.triangles) for b in ref_scene.bodies)} cells")
+        progress(f"  reference: {sum(len(b.mesh.cells) for b in ref_scene.bodies)} cells")
     ref = solve_quietly(ref_scene, **options)
     rows = []
     for level in levels:
         scene, _ = refined(base, level)
         sol = solve_quietly(scene, **options)
-        parents = [np.repeat(np.arange(len(b.mesh.triangles)), 4 ** (reference - level)) for b in scene.bodies]
+        parents = [np.repeat(np.arange(len(b.mesh.cells)), 2 ** (scene.dim * (reference - level)))
+                   for b in scene.bodies]
         err = true_error(sol, ref, parents)
         est = sol.estimate
         t = sol.timings
         solve_s = sum(v for k, v in t.items() if k != "estimate")
-        rows.append(dict(level=level, cells=sum(len(b.mesh.triangles) for b in scene.bodies),
+        rows.append(dict(level=level, cells=sum(len(b.mesh.cells) for b in scene.bodies),
                          unknowns=sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi)),
                          ok=sol.ok, estimate=est.absolute, relative=est.relative, true_error=err,
                          true_relative=err / est.norm, effectivity=est.absolute / err,

@@ -121,15 +121,6 @@ def test_the_estimate_is_zero_for_a_solution_that_is_exact():
     assert est.relative ** 2 < 1e-12                                  # twice the approach: the same
 
 
-def test_3d_has_no_estimate_and_says_why():
-    mesh = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=2, ny=2, nz=1)
-    block = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top")
-    scene = cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.plane((0.0, 0.0, 0.5 - 1e-4),
-                                                                               (0.0, 0.0, -1.0)))])
-    sol = cc.solve(scene)
-    assert sol.estimate is None and "3D" in sol.estimate_reason
-
-
 def test_a_coarse_circle_warns_and_a_finer_one_does_not():
     """The circle of the effectivity study: at 24 cells along the top the zone has 2 loaded nodes (3 faces),
     its contact force 12 % above the converged one (measured: 1.219e8 against 1.085e8 N/m four levels finer);

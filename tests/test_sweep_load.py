@@ -261,6 +261,8 @@ def test_the_table_reads_each_obstacles_force_and_translation(tmp_path):
     for i in range(2):
         assert t[f"obstacle1.contact_force_N_per_m[{i}]"] == pytest.approx(ref.force[i], rel=1e-9, abs=1e-9 * abs(ref.force[1]))
         assert t[f"obstacle1.translation_m[{i}]"] == ref.translation[i] == 0.0        # a fixed obstacle
+    direct = _direct(tmp_path, "hertz_half.toml", grid, "gamma3")
+    assert t["estimate_rel"] > 0 and t["estimate_rel"] == pytest.approx(direct.estimate.relative, rel=1e-9)
 
 
 def test_3d_energies_and_potentials_are_labelled_in_3d_units(tmp_path):
@@ -275,3 +277,4 @@ def test_3d_energies_and_potentials_are_labelled_in_3d_units(tmp_path):
     (volts,) = [e.potential for e in ref.electrodes if e.kind == "floating"]
     assert t["energy_J"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J_per_m" not in t
     assert abs(volts) > 0 and t["punch.top_V"] == pytest.approx(volts, rel=1e-9)
+    assert t["estimate_rel"] > 0 and t["estimate_rel"] == pytest.approx(ref.estimate.relative, rel=1e-9)

@@ -37,6 +37,7 @@ from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only, row_directions
 from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
+from .surface import reached_faces
 
 __all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "p2_shape", "p2_triangle_nodes", "p2_weights",
            "locate"]
@@ -227,6 +228,18 @@ class QuadraticSurface:
     def area(self) -> float:
         """Area (m^2) of the overlap (with an obstacle, of the faces all of whose P2 nodes reach it)."""
         return float(_area(self.x[self.cells[:, :3]]).sum())
+
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
+        """The triangles on which a function of X_h (lambda_h, the jump) is quadratic: (triangle6 nodes (e, 6)
+        of X_h, -1 for a node outside it where the function is 0; vertices (e, 3, 2) in-plane, m; per side the
+        face of its trace that holds each). Two bodies: ``cells`` (the overlay's triangles); with an obstacle:
+        the body's faces with a P2 node that reaches it."""
+        if not self.rigid:
+            ov = self.linear.overlay
+            return (np.asarray(self.cells), np.asarray(self.x)[np.asarray(self.cells)[:, :3]],
+                    [np.asarray(ov.cell_a), np.asarray(ov.cell_b)])
+        nodes, corners, faces = reached_faces(self.traces[0], self.reach)
+        return nodes, corners, [faces]
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(size, n_trace_k): the P2 functions of the pair's body k's trace (columns ``traces[k].nodes``) at

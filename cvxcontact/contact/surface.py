@@ -308,6 +308,18 @@ class SurfaceInterface:
         interpolation(k)^T r (N; exact work equivalence) over its lumped areas ``traces[k].lumped``."""
         return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
 
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
+        """The triangles on which a function of X_h (lambda_h, the jump) is affine: (nodes (e, 3) of X_h, -1 for
+        a vertex outside it where the function is 0; vertices (e, 3, 2) in-plane, m; per side the face of its
+        trace (index into ``traces[k].faces``) that holds each). Two bodies: the overlay's triangles; with an
+        obstacle: the body's faces with a node that reaches it."""
+        if self.overlay is not None:
+            tri = np.asarray(self.overlay.triangles)
+            return tri, np.asarray(self.overlay.vertices)[tri], [np.asarray(self.overlay.cell_a),
+                                                                 np.asarray(self.overlay.cell_b)]
+        nodes, corners, faces = reached_faces(self.traces[0], self.reach)
+        return nodes, corners, [faces]
+
 
 class CurvedTrace:
     """The P1 trace of one body on a curved boundary part facing a planar part (plane unit normal ``n_p``, the
@@ -419,6 +431,14 @@ class CurvedSurfaceInterface:
         """Area (m^2) of the curved part attributed to the nodes of X_h (their lumped areas)."""
         return float(self._lumped.sum())
 
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
+        """The triangles on which lambda_h is affine (the hats of the curved trace): (nodes (e, 3) of X_h, -1 for
+        a vertex outside it; the projections of their vertices on the plane (e, 3, 2), m; per side the face of
+        its trace that holds each, None for the planar side: the curved faces do not match its faces): the
+        curved faces with a node over the planar part."""
+        nodes, corners, faces = reached_faces(self.traces[self.curved], self.reach)
+        return nodes, corners, [faces if k == self.curved else None for k in (0, 1)]
+
     def obstacle_gap(self) -> np.ndarray:
         """The initial gap (m) at each node of X_h: its distance (x - X) . n_p from the plane along the planar
         part's normal (negative: the node starts inside the planar body)."""
@@ -471,6 +491,17 @@ class CurvedSurfaceInterface:
         """The pressure (Pa) felt by body k on its own trace nodes: its nodal forces interpolation(k)^T r (N)
         over its lumped areas ``traces[k].lumped``."""
         return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
+
+
+def reached_faces(trace, reach):
+    """(nodes (e, k) of X_h with -1 for a node outside it, in-plane vertices (e, 3, 2), face indices (e,)) of
+    the faces of ``trace`` (k nodes each) with a node among ``reach`` (indices into the trace's nodes,
+    numbered as X_h)."""
+    at = np.full(len(trace.nodes), -1)
+    at[reach] = np.arange(len(reach))
+    faces = np.asarray(trace.faces)
+    keep = np.flatnonzero((at[faces] >= 0).any(axis=1))
+    return at[faces[keep]], np.asarray(trace.x)[faces[keep][:, :3]], keep
 
 
 def _v(a) -> str:

@@ -295,7 +295,9 @@ def contact_stem(stem, pair):
 
 
 def write_vtu(solution, out, stem="solution"):
-    """Write ``{stem}_body{j}.vtu`` per body and, per contact pair i (:func:`contact_stem`:
+    """Write ``{stem}_body{j}.vtu`` per body (with the cell field ``error_indicator``, the error estimate's
+    eta_T of each cell, sqrt(J/m) in 2D and sqrt(J) in 3D, when the solution has an estimate) and, per contact
+    pair i (:func:`contact_stem`:
     ``{stem}_contact.vtu`` for the first, ``{stem}_contact{i+1}.vtu`` after), the merged line and
     one ``..._body{j}.vtu`` per deformable side (j the body's 1-based index in the scene)."""
     import meshio
@@ -306,6 +308,9 @@ def write_vtu(solution, out, stem="solution"):
         p2 = P2TetNodes if getattr(body, "dim", 2) == 3 else P2Nodes
         nodes = p2(body.mesh) if getattr(solution, "degree", 1) == 2 else None
         mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
+        est = getattr(solution, "estimate", None)
+        if est is not None:                    # eta_T per cell (docs/accuracy.md), in the estimate's unit
+            mesh.cell_data["error_indicator"] = [np.asarray(est.indicators[k - 1], dtype=float)]
         paths.append(atomic_write(out / f"{stem}_body{k}.vtu", lambda p, m=mesh: meshio.write(p, m, "vtu")))
     for i in range(len(solution.contacts)):
         name = contact_stem(stem, i)

@@ -3,34 +3,38 @@
 The error is measured in the energy norm of the coupled problem (docs/formulation.md §2; the skew
 coupling drops out of A((u, phi), (u, phi))):
 
-    |||(v, psi)|||^2 = sum over bodies int_Omega  c eps(v) : eps(v) + kappa grad psi . grad psi      (J/m)
+    |||(v, psi)|||^2 = sum over bodies int_Omega  c eps(v) : eps(v) + kappa grad psi . grad psi
 
-The estimator (Hild & Nicaise 2005 for Signorini contact, with the electric counterparts) sums, per cell T
-of every body,
+(J/m per unit thickness in 2D, J in 3D). The estimator (Hild & Nicaise 2005 for Signorini contact, with the
+electric counterparts) sums, per cell T (triangle or tetrahedron) of every body,
 
-    eta_T^2 = 1/c_T [ h_T^2 ||f0 + div sigma_h||_T^2 + sum_E h_E ||R_E||_E^2 ]
-            + 1/kappa_T [ h_T^2 ||div D_h - q0||_T^2 + sum_E h_E ||r_E||_E^2 ]
-            + contact terms of the merged segments next to T,
+    eta_T^2 = 1/c_T [ h_T^2 ||f0 + div sigma_h||_T^2 + sum_F h_F ||R_F||_F^2 ]
+            + 1/kappa_T [ h_T^2 ||div D_h - q0||_T^2 + sum_F h_F ||r_F||_F^2 ]
+            + contact terms of the contact cells next to T,
 
-E the edges of T: an interior edge counts half of R_E = [sigma_h n] (r_E = [D_h . n]); a traction edge
-R_E = sigma_h n - f2, a free edge sigma_h n (a roller's: its tangential part; a part with prescribed
-components: the free ones), a charged edge r_E = D_h . n - q2 (D . nu = q2, eq. (11)), a free one D_h . n;
-clamped edges and electrodes none. On the contact part of each side, R_E = sigma_h n + lambda_h n (eq. (8):
-sigma_nu = -lambda, sigma_tau = 0; lambda_h the solution's multiplier, 0 beyond the merged mesh). On each
-merged segment S of a Signorini pair, the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the
-penetration c_T / h_S ||([u_h nu] - g)^+||_S^2 (shared by the cells of both sides). c_T (Pa) is the
-smallest eigenvalue of the body's stiffness on tensor-orthonormal strains (2 mu for an isotropic
-material), kappa_T (F/m) the smallest of its permittivity: with them every term is an energy (J/m).
-h_T is the longest edge of T, h_E the length of E.
+F the facets of T (edges in 2D, faces in 3D): an interior facet counts half of R_F = [sigma_h n]
+(r_F = [D_h . n]); a traction facet R_F = sigma_h n - f2, a free one sigma_h n (a roller's: its tangential
+part; a part with prescribed components: the free ones), a charged facet r_F = D_h . n - q2 (D . nu = q2,
+eq. (11)), a free one D_h . n; clamped facets and electrodes none. On the contact part of each side,
+R_F = sigma_h n + lambda_h n (eq. (8): sigma_nu = -lambda, sigma_tau = 0; lambda_h the solution's multiplier,
+0 beyond its support). On each cell S of the contact mesh of a Signorini pair (2D: the merged segments; 3D:
+the elements of X_h, the overlay triangles or the faces against an obstacle) the complementarity
+int_S lambda_h^+ (g - [u_h nu])^+ and the penetration c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the
+cells of both sides. c_T (Pa) is the smallest eigenvalue of the body's stiffness on tensor-orthonormal
+strains (2 mu for an isotropic material), kappa_T (F/m) the smallest of its permittivity: with them every
+term is an energy. h_T is the longest edge of T, h_F the longest edge of F, h_S that of S.
+
+One dimension-blind core (:func:`vertex_fields`, the element and facet residuals on the simplices, with the
+quadrature of :func:`cvxcontact.fem.simplex.simplex_rule`); the contact terms read lambda_h where it lives,
+on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the pair's surface).
 
 The constants of reliability are unknown: the estimate is not a guaranteed bound (``guaranteed`` False);
 its effectivity (estimate / true error) is measured against nested fine-mesh references
 (:mod:`cvxcontact.apps.studies.estimate`, docs/accuracy.md).
 
-Covered: 2D, P1 and P2 (triangles), elastic and piezoelectric bodies, pairs and rigid obstacles, the three
+Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
-penetration). Not covered yet: 3D (``Solution.estimate`` is None and ``Solution.estimate_reason`` says
-why).
+penetration). A curved part against a planar one (3D) reads lambda_h on the curved side's faces.
 """
 
 from __future__ import annotations
@@ -39,29 +43,26 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..fem.assembly import gradients, strain_matrix
-from ..fem.p2 import shape_gradients
-from ..geometry.mesh import _edge_table
+from ..contact.overlay import barycentric, locate
+from ..fem.assembly import VOIGT, gradients, strain_matrix
+from ..fem.p2 import shape_functions, shape_gradients
+from ..fem.simplex import simplex_rule
 
-__all__ = ["ErrorEstimate", "estimate", "energy_density", "cell_energies", "vertex_fields", "UNCOVERED"]
+__all__ = ["ErrorEstimate", "estimate", "energy_density", "cell_energies", "vertex_fields"]
 
-UNCOVERED = {3: "3D (tetrahedra): the residual estimator of this version covers 2D triangles only"}
-"""Why a solution gets no estimate, by what it is (the dimension)."""
-
-_GAUSS2 = (0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0), np.array([0.5, 0.5]))     # exact to degree 3 on [0, 1]
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
-_TRI3 = (np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]), np.full(3, 1 / 3))
 
 
 @dataclass(frozen=True)
 class ErrorEstimate:
     """The estimated discretisation error of a solution in the energy norm (module docstring).
 
-    ``absolute``: eta = (sum_T eta_T^2)^(1/2), sqrt(J/m) (per unit thickness); ``norm``: the solution's own
-    energy norm |||(u_h, phi_h)|||, same unit; ``relative`` = absolute / norm. ``indicators[k]`` (m_k,):
-    eta_T of each triangle of body k (``scene.bodies[k].mesh.triangles``). ``parts``: eta^2 split by term
-    (J/m). ``guaranteed``: whether ``absolute`` is a proven upper bound of the true error (False: a residual
-    estimator's constants are unknown; its effectivity is measured, docs/accuracy.md). ``kind``: "residual".
+    ``absolute``: eta = (sum_T eta_T^2)^(1/2), sqrt(J/m) in 2D (per unit thickness), sqrt(J) in 3D;
+    ``norm``: the solution's own energy norm |||(u_h, phi_h)|||, same unit; ``relative`` = absolute / norm.
+    ``indicators[k]`` (m_k,): eta_T of each cell of body k (``scene.bodies[k].mesh.cells``: triangles or
+    tetrahedra). ``parts``: eta^2 split by term (J/m, J). ``guaranteed``: whether ``absolute`` is a proven upper
+    bound of the true error (False: a residual estimator's constants are unknown; its effectivity is
+    measured, docs/accuracy.md). ``kind``: "residual". ``unit``: "sqrt(J/m)" (2D) or "sqrt(J)" (3D).
     """
 
     absolute: float
@@ -70,6 +71,7 @@ class ErrorEstimate:
     parts: dict = field(default_factory=dict)
     guaranteed: bool = False
     kind: str = "residual"
+    unit: str = "sqrt(J/m)"
 
     @property
     def relative(self) -> float:
@@ -80,33 +82,42 @@ class ErrorEstimate:
 
     def __str__(self) -> str:
         return (f"{100 * self.relative:.3g} % ({self.kind}, {'guaranteed' if self.guaranteed else 'not guaranteed'}; "
-                f"{self.absolute:.4g} of {self.norm:.4g} sqrt(J/m) in the energy norm)")
+                f"{self.absolute:.4g} of {self.norm:.4g} {self.unit} in the energy norm)")
 
 
 # ---------------------------------------------------------------------------------------------- fields
 
 
-def vertex_fields(body, u, phi, degree: int):
-    """The fields of body ``body`` (2D) at the three vertices of each triangle, from whose barycentric
-    interpolation they follow everywhere in it (constant for P1, affine for P2 on straight triangles):
-    strain eps (m, 3, 3) Voigt (xx, yy, 2xy), grad phi (m, 3, 2) V/m or None, sigma (m, 3, 3) Pa Voigt
-    (xx, yy, xy) = c eps + e^T grad phi, D (m, 3, 2) C/m^2 = e eps - kappa grad phi or None; and the
-    barycentric gradients (m, 2, 3), areas (m,)."""
-    mesh = body.mesh
-    c, e, kappa = body.material.tensors(2)
-    area, gradL = gradients(mesh.points, mesh.triangles)
-    u = np.asarray(u, dtype=float)
+def _nodes(mesh, degree: int) -> np.ndarray:
+    """The element node indices of ``mesh`` for P1 (its cells) or P2 (its P2 nodes' cells)."""
     if degree == 1:
-        el = mesh.triangles
-        G = np.repeat(gradL[:, None], 3, axis=1)                                    # (m, 3 vertices, 2, 3)
-    else:
-        from ..geometry.quadratic import P2Nodes
+        return mesh.cells
+    from ..geometry.quadratic import P2Nodes, P2TetNodes
 
-        el = P2Nodes(mesh).triangles
-        G = np.stack([shape_gradients(gradL, np.eye(3)[i]) for i in range(3)], axis=1)   # (m, 3, 2, 6)
+    return (P2TetNodes if mesh.cells.shape[1] == 4 else P2Nodes)(mesh).cells
+
+
+def vertex_fields(body, u, phi, degree: int):
+    """The fields of body ``body`` (a triangle or tetrahedron mesh of dimension d) at the d + 1 vertices of
+    each cell, from whose barycentric interpolation they follow everywhere in it (constant for P1, affine for
+    P2 on straight cells): strain eps (m, d + 1, s) Voigt (engineering shears; s = 3 in 2D, 6 in 3D), grad phi
+    (m, d + 1, d) V/m or None, sigma (m, d + 1, s) Pa Voigt = c eps + e^T grad phi, D (m, d + 1, d) C/m^2 =
+    e eps - kappa grad phi or None; and the barycentric gradients (m, d, d + 1), measures (m,) (areas or
+    volumes)."""
+    mesh = body.mesh
+    dim = mesh.points.shape[1]
+    c, e, kappa = body.material.tensors(dim)
+    measure, gradL = gradients(mesh.points, mesh.cells)
+    u = np.asarray(u, dtype=float)
+    el = _nodes(mesh, degree)
+    corners = np.eye(dim + 1)
+    if degree == 1:
+        G = gradL[:, None]                                                          # (m, 1, d, d + 1): constant
+    else:
+        G = np.stack([shape_gradients(gradL, corners[i]) for i in range(dim + 1)], axis=1)   # (m, d + 1, d, k)
     m = len(el)
     ue = u[el].reshape(m, -1)
-    eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(3)], axis=1)
+    eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(G.shape[1])], axis=1)
     sigma = eps @ c.T
     gphi = D = None
     if e is not None:
@@ -114,26 +125,34 @@ def vertex_fields(body, u, phi, degree: int):
         gphi = np.einsum("mvdj,mj->mvd", G, pe)
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
-    return eps, gphi, sigma, D, gradL, area
+    if degree == 1:                                                                   # the same at every vertex
+        eps, gphi, sigma, D = (None if a is None else np.repeat(a, dim + 1, axis=1) for a in (eps, gphi, sigma, D))
+    return eps, gphi, sigma, D, gradL, measure
 
 
 def energy_density(body, eps, gphi):
-    """c eps : eps + kappa grad phi . grad phi (J/m^3) of Voigt strains ``eps`` (..., 3) and ``gphi`` (..., 2)."""
-    c, _, kappa = body.material.tensors(2)
+    """c eps : eps + kappa grad phi . grad phi (J/m^3) of Voigt strains ``eps`` (..., s) and ``gphi`` (..., d)."""
+    c, _, kappa = body.material.tensors(3 if eps.shape[-1] == 6 else 2)
     w = np.einsum("...i,ij,...j->...", eps, c, eps)
     if gphi is not None:
         w = w + np.einsum("...i,ij,...j->...", gphi, kappa, gphi)
     return w
 
 
+def _cell_energies(body, fields) -> np.ndarray:
+    """int_T of the energy density of affine fields with vertex values eps, gphi: the mass matrix of P1 on a
+    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact)."""
+    eps, gphi, _, _, gradL, measure = fields
+    k = gradL.shape[2]
+    total = sum(energy_density(body, eps[:, v], None if gphi is None else gphi[:, v]) for v in range(k))
+    total = total + energy_density(body, eps.sum(axis=1), None if gphi is None else gphi.sum(axis=1))
+    return total * measure / (k * (k + 1))
+
+
 def cell_energies(body, u, phi, degree: int) -> np.ndarray:
-    """(m,) int_T c eps(u) : eps(u) + kappa grad phi . grad phi of each triangle (J/m): the squared energy
-    norm of (u, phi) cell by cell (exact: the integrand is at most quadratic, the 3-point rule degree 2)."""
-    eps, gphi, _, _, _, area = vertex_fields(body, u, phi, degree)
-    total = 0.0
-    for L, w in zip(*_TRI3):
-        total = total + w * energy_density(body, L @ eps, None if gphi is None else L @ gphi)
-    return total * area
+    """(m,) int_T c eps(u) : eps(u) + kappa grad phi . grad phi of each cell (J/m in 2D, J in 3D): the squared
+    energy norm of (u, phi) cell by cell (exact: the integrand is at most quadratic, the rule of degree 2)."""
+    return _cell_energies(body, vertex_fields(body, u, phi, degree))
 
 
 def _smallest(matrix, voigt: bool) -> float:
@@ -141,47 +160,51 @@ def _smallest(matrix, voigt: bool) -> float:
     permittivity matrix."""
     a = np.asarray(matrix, dtype=float)
     if voigt:
-        s = np.array([1.0, 1.0, np.sqrt(2.0)])
+        dim = 3 if len(a) == 6 else 2
+        s = np.array([1.0] * dim + [np.sqrt(2.0)] * (len(a) - dim))
         a = s[:, None] * a * s[None, :]
     return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
+
+
+def _tensor(sv):
+    """(..., d, d) symmetric tensors from Voigt vectors (..., s) (xx, yy, xy in 2D; xx, yy, zz, yz, xz, xy in 3D)."""
+    dim = 3 if sv.shape[-1] == 6 else 2
+    out = np.empty(sv.shape[:-1] + (dim, dim))
+    for row, (i, j) in enumerate(VOIGT[dim]):
+        out[..., i, j] = out[..., j, i] = sv[..., row]
+    return out
 
 
 # ---------------------------------------------------------------------------------------------- the estimator
 
 
 def estimate(sol) -> tuple[ErrorEstimate | None, str]:
-    """(the :class:`ErrorEstimate` of ``sol``, "") or (None, why not) for a case not covered (module
-    docstring)."""
+    """(the :class:`ErrorEstimate` of ``sol``, "") (module docstring); the tuple's second entry says why the
+    estimate is None for a case not covered (none at present)."""
     scene = sol.scene
-    if scene.dim in UNCOVERED:
-        return None, UNCOVERED[scene.dim]
     bodies = scene.bodies
-    eta2 = [np.zeros(len(b.mesh.triangles)) for b in bodies]
+    eta2 = [np.zeros(len(b.mesh.cells)) for b in bodies]
     parts = dict.fromkeys(("element", "jump", "boundary", "contact traction", "electric element", "electric jump",
                            "electric boundary", "complementarity", "penetration"), 0.0)
     norm2 = 0.0
     data, cache = [], []
     for k, b in enumerate(bodies):
         fields = vertex_fields(b, sol.u[k], sol.phi[k], sol.degree)
-        edges = _edges(b.mesh)
-        cache.append((fields, edges))
-        eps, gphi, sigma, D, gradL, area = fields
-        w = 0.0
-        for L, wq in zip(*_TRI3):
-            w = w + wq * energy_density(b, L @ eps, None if gphi is None else L @ gphi)
-        norm2 += float((w * area).sum())
-        c, _, kappa = b.material.tensors(2)
+        facets = _facets(b.mesh.cells, len(b.mesh.points))
+        cache.append((fields, facets))
+        norm2 += float(_cell_energies(b, fields).sum())
+        c, _, kappa = b.material.tensors(b.mesh.points.shape[1])
         cT = _smallest(c, True)
         kT = _smallest(kappa, False) if kappa is not None else None
         data.append((cT, kT))
-        hT = _diameters(b.mesh)
-        _element_terms(b, fields, hT, cT, kT, eta2[k], parts)
-        _edge_terms(b, fields, edges, cT, kT, eta2[k], parts, sol)
-    _contact_terms(sol, data, cache, eta2, parts)
+        _element_terms(b, fields, _diameters(b.mesh.points, b.mesh.cells), cT, kT, eta2[k], parts)
+        _facet_terms(b, fields, facets, cT, kT, eta2[k], parts, sol)
+    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, cache, eta2, parts)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
-                         indicators=indicators, parts=parts), ""
+                         indicators=indicators, parts=parts,
+                         unit="sqrt(J)" if scene.dim == 3 else "sqrt(J/m)"), ""
 
 
 def _read_only(a):
@@ -190,75 +213,89 @@ def _read_only(a):
     return a
 
 
-def _diameters(mesh) -> np.ndarray:
-    p = mesh.points[mesh.triangles]
-    return np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).max(axis=1)
+def _diameters(points, simplices) -> np.ndarray:
+    """(m,) the longest edge of each simplex (m, k) of ``points``."""
+    p = points[simplices]
+    k = simplices.shape[1]
+    return np.max([np.linalg.norm(p[:, i] - p[:, j], axis=1) for i in range(k) for j in range(i + 1, k)], axis=0)
 
 
-def _points(mesh, L):
-    """(m, 2) the points of barycentric coordinates L (3,) or (m, 3) in each triangle."""
-    p = mesh.points[mesh.triangles]
-    return np.einsum("...k,mkd->md", L, p)
+def _at(points, cells, L):
+    """(m, d) the points of barycentric coordinates L (d + 1,) or (m, d + 1) in each cell."""
+    return np.einsum("...k,mkd->md", L, points[cells])
 
 
 def _element_terms(body, fields, hT, cT, kT, eta2, parts):
-    """h_T^2 ||f0 + div sigma_h||^2 / c_T and h_T^2 ||div D_h - q0||^2 / kappa_T (the 3-point rule)."""
-    eps, gphi, sigma, D, gradL, area = fields
+    """h_T^2 ||f0 + div sigma_h||^2 / c_T and h_T^2 ||div D_h - q0||^2 / kappa_T (a rule of degree 2)."""
+    eps, gphi, sigma, D, gradL, measure = fields
     mesh = body.mesh
-    # sigma is affine: d sigma / d x_j = sum_i sigma(vertex i) d L_i / d x_j
-    dsig = np.einsum("mvs,mjv->msj", sigma, gradL)                                # (m, 3 voigt, 2)
-    div = np.column_stack([dsig[:, 0, 0] + dsig[:, 2, 1], dsig[:, 2, 0] + dsig[:, 1, 1]])
-    mech = elec = 0.0
+    dim = gradL.shape[1]
+    # sigma is affine: d sigma / d x_j = sum_i sigma(vertex i) d L_i / d x_j;  (div sigma)_i = sum_j d sigma_ij / d x_j
+    dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))                      # (m, j, i, i')
+    div = np.einsum("mjij->mi", dsig)
     f0, q0 = body.body_force, body.volume_charge
-    for L, w in zip(*_TRI3):
-        r = div.copy()
-        if f0.nonzero:
-            x = _points(mesh, L)
-            r += np.asarray(f0(x[:, 0], x[:, 1]), dtype=float).reshape(len(r), 2)
-        mech = mech + w * (r ** 2).sum(axis=1)
-        if D is not None:
-            rd = np.einsum("mvd,mdv->m", D, gradL)                                  # div D (constant)
-            if q0.nonzero:
-                x = _points(mesh, L)
-                rd = rd - np.asarray(q0(x[:, 0], x[:, 1]), dtype=float).reshape(len(rd))
-            elec = elec + w * rd ** 2
-    term = hT ** 2 * mech * area / cT
+    rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None           # div D (constant)
+    mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
+    elec = None if D is None else rd ** 2
+    if f0.nonzero or (D is not None and q0.nonzero):
+        mech, elec = 0.0, (None if D is None else 0.0)
+        for L, w in zip(*simplex_rule(dim, 2)):
+            x = _at(mesh.points, mesh.cells, L)
+            r = div + np.asarray(f0(*x.T), dtype=float).reshape(len(div), dim) if f0.nonzero else div
+            mech = mech + w * (r ** 2).sum(axis=1)
+            if D is not None:
+                re = rd - np.asarray(q0(*x.T), dtype=float).reshape(len(rd)) if q0.nonzero else rd
+                elec = elec + w * re ** 2
+    term = hT ** 2 * mech * measure / cT
     eta2 += term
     parts["element"] += float(term.sum())
     if D is not None:
-        term = hT ** 2 * elec * area / kT
+        term = hT ** 2 * elec * measure / kT
         eta2 += term
         parts["electric element"] += float(term.sum())
 
 
-def _edges(mesh):
-    """Every edge of the mesh once: (cells (k, 2) with -1 for a boundary edge's missing neighbour, local
-    edge index in each (k, 2), vertex pair (k, 2) sorted)."""
-    n = len(mesh.points)
-    _, keys_s, order, start, count = _edge_table(mesh.triangles.astype(np.int64), n)   # row 3 t + i: i -> i+1
+def _keys(sorted_vertices, n):
+    """One int64 key per facet (its vertex indices sorted ascending, (k, d); n^d < 2^63)."""
+    f = sorted_vertices.astype(np.int64)
+    key = f[:, 0]
+    for j in range(1, f.shape[1]):
+        key = key * n + f[:, j]
+    return key
+
+
+def _facets(cells, n):
+    """Every facet (edge of a triangle, face of a tetrahedron) of the mesh once: (cells (k, 2) with -1 for
+    a boundary facet's missing neighbour, the local index in each of the vertex opposite the facet (k, 2),
+    the facet's vertices (k, d) sorted, their keys (k,) sorted)."""
+    m, k = cells.shape
+    opposite = np.array([[j for j in range(k) if j != i] for i in range(k)])
+    vertices = np.sort(cells[:, opposite], axis=2).reshape(-1, k - 1)            # row k t + i: opposite vertex i
+    keys = _keys(vertices, n)
+    order = np.argsort(keys, kind="stable")
+    ks = keys[order]
+    start = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    count = np.diff(np.r_[start, len(ks)])
     first = order[start]
     second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
-    cells = np.column_stack([first // 3, np.where(second >= 0, second // 3, -1)])
-    local = np.column_stack([first % 3, np.where(second >= 0, second % 3, -1)])
-    pairs = np.column_stack([keys_s[start] // n, keys_s[start] % n])
-    return cells, local, pairs
+    owners = np.column_stack([first // k, np.where(second >= 0, second // k, -1)])
+    local = np.column_stack([first % k, np.where(second >= 0, second % k, -1)])
+    return owners, local, vertices[first], ks[start]
 
 
-def _edge_bary(local, t, reverse):
-    """(k, 3) barycentric coordinates of the point at parameter t along local edge ``local`` (i -> i+1) of
-    each cell; ``reverse``: t measured from the edge's other end."""
-    k = len(local)
-    L = np.zeros((k, 3))
-    s = np.where(reverse, 1.0 - t, t)
-    L[np.arange(k), local] = 1.0 - s
-    L[np.arange(k), (local + 1) % 3] = s
+def _bary(cell_vertices, facet_vertices, Lf):
+    """(k, d + 1) the barycentric coordinates in cells with vertices ``cell_vertices`` (k, d + 1) of the points of
+    barycentric coordinates ``Lf`` (d,) or (k, d) on their facets with vertices ``facet_vertices`` (k, d)."""
+    k = len(cell_vertices)
+    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)     # (k, d)
+    L = np.zeros(cell_vertices.shape)
+    np.put_along_axis(L, pos, np.broadcast_to(Lf, (k, pos.shape[1])), axis=1)
     return L
 
 
 def _traction(sigma_v, L, n):
-    """sigma n (k, 2) at barycentric L (k, 3) of Voigt vertex values (k, 3, 3), unit normals n (k, 2)."""
-    s = np.einsum("kv,kvs->ks", L, sigma_v)
-    return np.column_stack([s[:, 0] * n[:, 0] + s[:, 2] * n[:, 1], s[:, 2] * n[:, 0] + s[:, 1] * n[:, 1]])
+    """sigma n (k, d) at barycentric L (k, d + 1) of Voigt vertex values (k, d + 1, s), unit normals n (k, d)."""
+    return np.einsum("kij,kj->ki", _tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
 
 
 def _boundary_roles(body, sol):
@@ -286,105 +323,104 @@ def _boundary_roles(body, sol):
     return mech, elec
 
 
-def _edge_terms(body, fields, edges, cT, kT, eta2, parts, sol):
-    """The interior jumps and the boundary residuals of ``body`` (module docstring; ``edges`` its
-    :func:`_edges`); contact parts are left to :func:`_contact_terms`."""
-    eps, gphi, sigma, D, gradL, area = fields
+def _facet_values(values, cell_vertices, facet_vertices):
+    """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
+    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each."""
+    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
+    return np.take_along_axis(values, pos.reshape(pos.shape + (1,) * (values.ndim - 2)), axis=1)
+
+
+def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
+    """The interior jumps and the boundary residuals of ``body`` (module docstring; ``facets`` its
+    :func:`_facets`); contact parts are left to the contact terms. sigma_h and D_h are affine on each facet:
+    their normal components are formed at its vertices and interpolated to the quadrature points."""
+    eps, gphi, sigma, D, gradL, measure = fields
     mesh = body.mesh
-    cells, local, pairs = edges
+    dim = gradL.shape[1]
+    owners, local, vertices, key = facets
     p = mesh.points
-    hE = np.linalg.norm(p[pairs[:, 1]] - p[pairs[:, 0]], axis=1)
-    # the normal of each edge, outward of its first cell: the tangent from local vertex i to i + 1 turned clockwise
-    c0, l0 = cells[:, 0], local[:, 0]
-    tri = mesh.triangles
-    a, b = tri[c0, l0], tri[c0, (l0 + 1) % 3]
-    tvec = (p[b] - p[a]) / hE[:, None]
-    n = np.column_stack([tvec[:, 1], -tvec[:, 0]])
-    rev0 = a != pairs[:, 0]                     # the first cell runs the edge from its larger vertex
-    inner = cells[:, 1] >= 0
+    cells = mesh.cells
+    c0, l0 = owners[:, 0], local[:, 0]
+    g = gradL[c0, :, l0]                                   # grad of the opposite vertex's coordinate: inward
+    size = np.linalg.norm(g, axis=1)
+    n = -g / size[:, None]                                 # outward of the first cell
+    area = dim * measure[c0] * size                        # |F| = d |T| |grad L_i|
+    hF = _diameters(p, vertices)
+    inner = owners[:, 1] >= 0
+    ii = np.flatnonzero(inner)
+    c1 = owners[ii, 1]
+    Rv = (_tensor(_facet_values(sigma[c0], cells[c0], vertices)) @ n[:, None, :, None])[..., 0]      # (k, d, d)
+    Rv[ii] -= (_tensor(_facet_values(sigma[c1], cells[c1], vertices[ii])) @ n[ii, None, :, None])[..., 0]
+    if D is not None:
+        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], cells[c0], vertices), n)                # (k, d)
+        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], cells[c1], vertices[ii]), n[ii])
     mech_role, elec_role = _boundary_roles(body, sol)
-    key = pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1]
     role_m = np.full(len(key), "free", dtype=object)
     role_e = np.full(len(key), "free", dtype=object)
-    load_m, load_e = {}, {}
+    load_m, load_e, index = {}, {}, {}
     for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
         for tag, role in roles.items():
-            e = mesh.boundary(tag)
-            kt = np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1])
-            idx = np.searchsorted(key, kt)
-            out[idx] = role
+            if tag not in index:
+                index[tag] = np.searchsorted(key, _keys(np.sort(mesh.boundary(tag), axis=1), len(p)))
+            out[index[tag]] = role
             if role == kind:
-                loads[tag] = idx
+                loads[tag] = index[tag]
+    keep = np.ones((len(key), dim))                        # the components of R that count
+    keep[(role_m == "dirichlet") | (role_m == "contact")] = 0.0
+    for tag, v in body.displacement.items():
+        if mech_role.get(tag) == "partial":
+            keep[index[tag], [comp for comp, val in enumerate(v) if val is not None]] = 0.0
+    roller = np.flatnonzero(role_m == "roller")
+    keep_e = (role_e != "dirichlet").astype(float)
     mech = np.zeros(len(key))
     elec = np.zeros(len(key))
-    c1, l1 = cells[:, 1], local[:, 1]
-    for t, w in zip(*_GAUSS2):
-        L0 = _edge_bary(l0, t, rev0)
-        s0 = _traction(sigma[c0], L0, n)
-        x = (1 - t) * p[pairs[:, 0]] + t * p[pairs[:, 1]]
-        R = s0.copy()
-        if D is not None:
-            r = np.einsum("kv,kvd->kd", L0, D[c0])
-            r = (r * n).sum(axis=1)
-        if inner.any():
-            ii = np.flatnonzero(inner)
-            a1 = tri[c1[ii], l1[ii]]
-            L1 = _edge_bary(l1[ii], t, a1 != pairs[ii, 0])
-            R[ii] -= _traction(sigma[c1[ii]], L1, n[ii])
-            if D is not None:
-                r[ii] -= (np.einsum("kv,kvd->kd", L1, D[c1[ii]]) * n[ii]).sum(axis=1)
-        # boundary edges: the loads, the supports
+    weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells
+    for Lf, w in zip(*simplex_rule(dim - 1, 3)):
+        R = np.tensordot(Lf, Rv, axes=(0, 1))
+        x = np.tensordot(Lf, p[vertices], axes=(0, 1)) if load_m or load_e else None
         for tag, idx in load_m.items():
-            R[idx] -= np.asarray(body.traction[tag](x[idx, 0], x[idx, 1]), dtype=float).reshape(len(idx), 2)
-        R[role_m == "dirichlet"] = 0.0
-        R[role_m == "contact"] = 0.0
-        roller = np.flatnonzero(role_m == "roller")
-        if len(roller):
-            R[roller] -= (R[roller] * n[roller]).sum(axis=1)[:, None] * n[roller]      # tangential part only
-        for tag, v in body.displacement.items():
-            if mech_role.get(tag) == "partial":
-                e = mesh.boundary(tag)
-                kt = np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1])
-                idx = np.searchsorted(key, kt)
-                for comp, val in enumerate(v):
-                    if val is not None:
-                        R[idx, comp] = 0.0
-        weight = np.where(inner, 0.5, 1.0)          # an interior jump is shared by its two cells
+            R[idx] -= np.asarray(body.traction[tag](*x[idx].T), dtype=float).reshape(len(idx), dim)
+        R[roller] -= (R[roller] * n[roller]).sum(axis=1)[:, None] * n[roller]          # tangential part only
+        R *= keep
         mech += w * weight * (R ** 2).sum(axis=1)
         if D is not None:
+            r = rv @ Lf
             for tag, idx in load_e.items():
-                r[idx] -= np.asarray(body.surface_charge[tag](x[idx, 0], x[idx, 1]), dtype=float).reshape(len(idx))
-            r[role_e == "dirichlet"] = 0.0
-            elec += w * weight * r ** 2
-    term_m = hE ** 2 * mech / cT                    # h_E ||R||^2 = h_E * (h_E sum_q w_q R_q^2)
-    jump = float(term_m[inner].sum()) * 2
-    parts["jump"] += jump
+                r[idx] -= np.asarray(body.surface_charge[tag](*x[idx].T), dtype=float).reshape(len(idx))
+            elec += w * weight * (r * keep_e) ** 2
+    term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
+    parts["jump"] += float(term_m[inner].sum()) * 2
     parts["boundary"] += float(term_m[~inner].sum())
     np.add.at(eta2, c0, term_m)
-    np.add.at(eta2, c1[inner], term_m[inner])
+    np.add.at(eta2, c1, term_m[ii])
     if D is not None:
-        term_e = hE ** 2 * elec / kT
+        term_e = hF * area * elec / kT
         parts["electric jump"] += float(term_e[inner].sum()) * 2
         parts["electric boundary"] += float(term_e[~inner].sum())
         np.add.at(eta2, c0, term_e)
-        np.add.at(eta2, c1[inner], term_e[inner])
+        np.add.at(eta2, c1, term_e[ii])
+
+
+def _contact_cells(mesh, part, facets):
+    """(cells (k,), the facets' vertices (k, d) in the part's order) of the faces of boundary part ``part``:
+    the cell that holds each."""
+    owners, _, _, key = facets
+    f = np.asarray(mesh.boundary(part))
+    at = np.searchsorted(key, _keys(np.sort(f, axis=1), len(mesh.points)))
+    return owners[at, 0], f
 
 
 def _lambda_at(c, s):
-    """lambda_h (Pa) of contact result ``c`` at tangential coordinates ``s`` (m): its P1 (P2: piecewise
+    """lambda_h (Pa) of 2D contact result ``c`` at tangential coordinates ``s`` (m): its P1 (P2: piecewise
     quadratic) function on the merged mesh, 0 beyond it."""
     x, lam = np.asarray(c.x, dtype=float), np.asarray(c.lam, dtype=float)
     if c.degree == 1:
         return np.interp(s, x, lam, left=0.0, right=0.0)
-    xv = x[::2]
-    j = np.clip(np.searchsorted(xv, s) - 1, 0, len(xv) - 2)
-    t = (s - xv[j]) / (xv[j + 1] - xv[j])
-    val = (lam[2 * j] * (1 - t) * (1 - 2 * t) + lam[2 * j + 2] * t * (2 * t - 1) + lam[2 * j + 1] * 4 * t * (1 - t))
-    return np.where((s < xv[0]) | (s > xv[-1]), 0.0, val)
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, lam))
 
 
 def _merged_values(c, s, values):
-    """A P1 (P2) function on the merged mesh of ``c`` with nodal ``values``, at ``s`` inside it."""
+    """A P1 (P2) function on the merged mesh of ``c`` (2D) with nodal ``values``, at ``s`` inside it."""
     x = np.asarray(c.x, dtype=float)
     if c.degree == 1:
         return np.interp(s, x, values)
@@ -395,7 +431,7 @@ def _merged_values(c, s, values):
 
 
 def _contact_terms(sol, data, cache, eta2, parts):
-    """On each side of each pair: h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
+    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
     Signorini pair the complementarity and the penetration, shared by the cells of the sides (module
     docstring)."""
     scene = sol.scene
@@ -407,20 +443,15 @@ def _contact_terms(sol, data, cache, eta2, parts):
         for body, part in sides:
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
-            fields, (cells, local, pairs) = cache[k]
-            e = mesh.boundary(part)                                   # oriented: domain on the left
+            fields, facets = cache[k]
+            cell, e = _contact_cells(mesh, part, facets)                # e oriented: domain on the left
             p = mesh.points
             n = mesh.outward_normals(part)
             h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
-            key = np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1])
-            at = np.searchsorted(pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1], key)
-            cell, loc = cells[at, 0], local[at, 0]
-            tri = mesh.triangles
-            rev = tri[cell, loc] != e[:, 0]
             acc = np.zeros(len(e))
             for tq, w in zip(*_GAUSS3):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
-                L = _edge_bary(loc, tq, rev)
+                L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
                 R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
                 acc += w * (R ** 2).sum(axis=1)
             term = h ** 2 * acc / data[k][0]
@@ -434,7 +465,7 @@ def _contact_terms(sol, data, cache, eta2, parts):
 
 
 def _signorini_terms(c, located, data, eta2, parts):
-    """int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
+    """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
     split evenly between the sides' cells that hold its midpoint."""
     x = np.asarray(c.x, dtype=float)
     xv = x if c.degree == 1 else x[::2]
@@ -455,13 +486,83 @@ def _signorini_terms(c, located, data, eta2, parts):
     comp *= hS
     pen *= hS
     mid = 0.5 * (a + b)
+    owners = []
     for k, cell, s_lo, s_hi in located:
         order = np.argsort(s_lo)
         j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
-        owner = cell[order[j]]
-        share = 1.0 / len(located)
-        term_c = share * comp
-        term_p = share * data[k][0] * pen / hS
-        np.add.at(eta2[k], owner, term_c + term_p)
+        owners.append((k, cell[order[j]]))
+    _share(owners, comp, pen / hS, data, eta2, parts)
+
+
+def _share(owners, comp, pen, data, eta2, parts):
+    """Add the complementarity ``comp`` and the penetration ``pen`` (times c_T) of each contact cell S, split
+    evenly between the sides' ``owners`` [(body k, cell of k holding S or -1)]."""
+    share = 1.0 / len(owners)
+    for k, owner in owners:
+        ok = owner >= 0
+        term_c = share * comp[ok]
+        term_p = share * data[k][0] * pen[ok]
+        np.add.at(eta2[k], owner[ok], term_c + term_p)
         parts["complementarity"] += float(term_c.sum())
         parts["penetration"] += float(term_p.sum())
+
+
+def _surface_contact_terms(sol, data, cache, eta2, parts):
+    """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
+    int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
+    P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
+    :func:`~cvxcontact.contact.overlay.locate` in the plane); on each S of a Signorini pair the complementarity
+    and the penetration, shared by the cells of the sides that hold its centroid."""
+    bodies = list(sol.scene.bodies)
+    Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
+    for i, c in enumerate(sol.contacts):
+        itf = sol._pair_line(i)
+        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
+        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
+        lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
+        live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
+        elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
+        hosts = [None if h is None else h[live] for h in hosts]
+        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
+        lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
+        d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+        areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+        xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
+        wts = (areaS[:, None] * wq[None, :]).ravel()
+        owners = []
+        for trace, host in zip(itf.traces, hosts):
+            linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
+            k = next(j for j, b in enumerate(bodies) if b is linear.body)
+            mesh = linear.body.mesh
+            fields, facets = cache[k]
+            sigma = fields[2]
+            cell, f = _contact_cells(mesh, linear.part, facets)
+            normals = mesh.outward_normals(linear.part)
+            tv = np.einsum("kvij,kj->kvi", _tensor(_facet_values(sigma[cell], mesh.cells[cell], f)), normals)
+            acc = np.zeros(len(f))
+            for Lf, w in zip(*simplex_rule(2, 2)):
+                acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
+            acc *= mesh.face_areas(linear.part)
+            if host is None:                                            # S not matched to the faces: find them
+                face, Lf = locate(xq, linear.x, linear.faces)
+                fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
+            else:
+                face = np.repeat(host, len(wq))
+                Lf = barycentric(xq, np.asarray(linear.x)[np.asarray(linear.faces)[face]])
+                fc = host
+            ok = np.flatnonzero(face >= 0)
+            fq = face[ok]
+            s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
+            lq = lam.ravel()[ok]
+            np.add.at(acc, fq, wts[ok] * (2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2))
+            term = _diameters(mesh.points, f) * acc / data[k][0]
+            np.add.at(eta2[k], cell, term)
+            parts["contact traction"] += float(term.sum())
+            owners.append((k, np.where(fc >= 0, cell[np.maximum(fc, 0)], -1)))
+        if c.law is not None and getattr(c.law, "compliant", False):
+            continue                                                   # compliance: penetration is the law
+        comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
+        pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
+        hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
+        _share(owners, comp, pen / hS, data, eta2, parts)

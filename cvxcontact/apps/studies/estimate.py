@@ -1,9 +1,10 @@
 """Effectivity of the error estimate (docs/accuracy.md): estimate / true error on nested meshes.
 
 For each scene and level l = 0, 1, 2 the scene's meshes are refined l times uniformly
-(:func:`cvxcontact.geometry.refine.refine_uniform`: every triangle into four, straight midpoints, so the
-meshes are nested) and solved; the reference is the same scene refined ``REFERENCE`` times (two levels
-above the finest tested). The true error of level l is measured in the reference's energy norm,
+(:func:`cvxcontact.geometry.refine.refine_uniform`: every triangle into four, every tetrahedron into eight,
+straight midpoints, so the meshes are nested) and solved; the reference is the same scene refined
+``REFERENCE`` times (two levels above the finest tested). The 3D scenes (:data:`SCENES3D`) run levels 0, 1
+against a reference at level 3 (the sizes two shared cores allow). The true error of level l is measured in the reference's energy norm,
 
     |||(I u_l - u_ref, I phi_l - phi_ref)|||^2 = sum over bodies and fine cells of
         int c eps(e_u) : eps(e_u) + kappa grad e_phi . grad e_phi,
@@ -25,7 +26,9 @@ import numpy as np
 
 from ...fem.p2 import shape_functions
 from ...geometry.mesh import rectangle
-from ...geometry.quadratic import P2Nodes
+from ...geometry.generators3d import box
+from ...geometry.quadratic import P2Nodes, P2TetNodes
+from ...geometry.tetmesh import TetMesh
 from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -70,6 +73,34 @@ def stack_scene():
     return Scene(top, mid, bot, contacts=pairs)
 
 
+def sphere_scene():
+    """A rigid sphere (R = 0.5 m) pressed 20 mm into an aluminium block 1 m x 1 m x 0.5 m (4 x 4 x 2 cubes of
+    six tetrahedra), off-centre, clamped at the bottom: a partial contact."""
+    block = Body(box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=4, ny=4, nz=2), ALU, clamped="bottom",
+                 contact="top", name="block")
+    return Scene(block, contacts=[Contact(block, "top", Rigid.sphere((0.47, 0.5, 0.5 + 0.5 - 0.02), 0.5))])
+
+
+def boxes_scene():
+    """A PZT-5A box on an aluminium-like box, non-matching faces (3 x 3 x 2 over 2 x 2 x 1 cubes), a body force
+    and a surface charge, the top clamped and grounded: the 3D counterpart of "two blocks"."""
+    top = Body(box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=3, ny=3, nz=2), materials.PZT5A, clamped=["top"],
+               contact="bottom", body_force=(0.0, 0.0, -2e9), surface_charge={"left": -0.05}, grounded=["top"],
+               name="pzt")
+    bottom = Body(box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=2, ny=2, nz=1),
+                  materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"], contact="top", name="base")
+    return Scene(top, bottom)
+
+
+SCENES3D = {
+    "sphere (3D), P1": (sphere_scene, dict(condition="gamma3")),
+    "two boxes (3D piezo), P1": (boxes_scene, dict(condition="gamma3")),
+}
+"""name -> (scene builder, solve keywords) in 3D: levels 0, 1 against a reference at level 3 (8^3 = 512 times
+the cells of level 0) in both the full and the quick run."""
+
+LEVELS3D, REFERENCE3D = (0, 1), 3
+
 SCENES = {
     "circle, P1": (circle_scene, dict(condition="gamma3")),
     "two blocks (piezo), P1": (blocks_scene, dict(condition="gamma3")),
@@ -82,7 +113,7 @@ SCENES = {
 def refined(scene: Scene, times: int) -> tuple[Scene, list]:
     """(the scene with every body's mesh refined ``times`` times uniformly, each body's parent map)."""
     if times == 0:
-        return scene, [np.arange(len(b.mesh.triangles)) for b in scene.bodies]
+        return scene, [np.arange(len(b.mesh.cells)) for b in scene.bodies]
     meshes = [refine_uniform(b.mesh, times) for b in scene.bodies]
     bodies = [b.with_changes(mesh=m) for b, (m, _) in zip(scene.bodies, meshes)]
     return scene.with_bodies(*bodies), [p for _, p in meshes]
@@ -90,19 +121,20 @@ def refined(scene: Scene, times: int) -> tuple[Scene, list]:
 
 def prolong(values, coarse_mesh, fine_mesh, parent, degree: int) -> np.ndarray:
     """The coarse P1 (P2) nodal ``values`` (n_c, ...) evaluated at the fine mesh's P1 (P2) nodes: each fine
-    cell's nodes in its coarse ``parent`` triangle (barycentric coordinates from the points), exact on nested
-    meshes."""
+    cell's nodes in its coarse ``parent`` cell (triangle or tetrahedron; barycentric coordinates from the
+    points), exact on nested meshes."""
     values = np.asarray(values, dtype=float)
     if degree == 1:
-        fine_el, fine_pts, coarse_el = fine_mesh.triangles, fine_mesh.points, coarse_mesh.triangles
+        fine_el, fine_pts, coarse_el = fine_mesh.cells, fine_mesh.points, coarse_mesh.cells
     else:
-        fn, cn = P2Nodes(fine_mesh), P2Nodes(coarse_mesh)
-        fine_el, fine_pts, coarse_el = fn.triangles, fn.points, cn.triangles
-    P = coarse_mesh.points[coarse_mesh.triangles[parent]]                     # (m_f, 3, 2)
-    T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)               # (m_f, 2, 2)
-    X = fine_pts[fine_el] - P[:, None, 0]                                      # (m_f, k, 2)
-    lam = np.linalg.solve(T[:, None], X[..., None])[..., 0]                    # (m_f, k, 2)
-    L = np.concatenate([1.0 - lam.sum(axis=2, keepdims=True), lam], axis=2)    # (m_f, k, 3)
+        nodes = P2TetNodes if isinstance(fine_mesh, TetMesh) else P2Nodes
+        fn, cn = nodes(fine_mesh), nodes(coarse_mesh)
+        fine_el, fine_pts, coarse_el = fn.cells, fn.points, cn.cells
+    P = coarse_mesh.points[coarse_mesh.cells[parent]]                          # (m_f, d + 1, d)
+    T = (P[:, 1:] - P[:, :1]).transpose(0, 2, 1)                                # (m_f, d, d)
+    X = fine_pts[fine_el] - P[:, None, 0]                                      # (m_f, k, d)
+    lam = np.linalg.solve(T[:, None], X[..., None])[..., 0]                    # (m_f, k, d)
+    L = np.concatenate([1.0 - lam.sum(axis=2, keepdims=True), lam], axis=2)    # (m_f, k, d + 1)
     N = L if degree == 1 else shape_functions(L)                               # (m_f, k, k_c)
     coarse = values[coarse_el[parent]]                                         # (m_f, k_c, ...)
     out = np.zeros((len(fine_pts),) + values.shape[1:])
@@ -112,7 +144,7 @@ def prolong(values, coarse_mesh, fine_mesh, parent, degree: int) -> np.ndarray:
 
 def true_error(sol, reference, parents) -> float:
     """|||(I u_h - u_ref, I phi_h - phi_ref)||| (sqrt(J/m)) in the reference's energy norm (module docstring);
-    ``parents[k]``: the coarse triangle of each of the reference's triangles of body k."""
+    ``parents[k]``: the coarse cell of each of the reference's cells of body k."""
     total = 0.0
     for k, (bc, bf) in enumerate(zip(sol.scene.bodies, reference.scene.bodies)):
         eu = reference.u[k] - prolong(sol.u[k], bc.mesh, bf.mesh, parents[k], sol.degree)
@@ -129,18 +161,19 @@ def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=Non
     base = build()
     ref_scene, _ = refined(base, reference)
     if progress:
-        progress(f"  reference: {sum(len(b.mesh.triangles) for b in ref_scene.bodies)} cells")
+        progress(f"  reference: {sum(len(b.mesh.cells) for b in ref_scene.bodies)} cells")
     ref = solve_quietly(ref_scene, **options)
     rows = []
     for level in levels:
         scene, _ = refined(base, level)
         sol = solve_quietly(scene, **options)
-        parents = [np.repeat(np.arange(len(b.mesh.triangles)), 4 ** (reference - level)) for b in scene.bodies]
+        parents = [np.repeat(np.arange(len(b.mesh.cells)), 2 ** (scene.dim * (reference - level)))
+                   for b in scene.bodies]
         err = true_error(sol, ref, parents)
         est = sol.estimate
         t = sol.timings
         solve_s = sum(v for k, v in t.items() if k != "estimate")
-        rows.append(dict(level=level, cells=sum(len(b.mesh.triangles) for b in scene.bodies),
+        rows.append(dict(level=level, cells=sum(len(b.mesh.cells) for b in scene.bodies),
                          unknowns=sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi)),
                          ok=sol.ok, estimate=est.absolute, relative=est.relative, true_error=err,
                          true_relative=err / est.norm, effectivity=est.absolute / err,
@@ -159,10 +192,12 @@ def run(out, quick: bool = False, progress=None) -> dict:
     levels, reference = ((0, 1), 3) if quick else (LEVELS, REFERENCE)
     timer = Timer()
     results, table = {}, []
-    for name, (build, options) in SCENES.items():
+    runs = [(name, entry, levels, reference) for name, entry in SCENES.items()]
+    runs += [(name, entry, LEVELS3D, REFERENCE3D) for name, entry in SCENES3D.items()]
+    for name, (build, options), lv, ref in runs:
         if progress:
             progress(f"estimate: {name}")
-        rows = effectivity(build, options, levels, reference, progress)
+        rows = effectivity(build, options, lv, ref, progress)
         results[name] = rows
         table += [dict(scene=name, **r) for r in rows]
     write_csv(out / "estimate.csv", table)
@@ -173,10 +208,11 @@ def run(out, quick: bool = False, progress=None) -> dict:
     summary = [dict(scene=n, lo=min(r["effectivity"] for r in rows), hi=max(r["effectivity"] for r in rows))
                for n, rows in results.items()]
     text = (f"# Effectivity of the error estimate\n\nGenerated by `cvxcontact study estimate{' --quick' if quick else ''}`"
-            f" ({timer():.0f} s). Levels {', '.join(map(str, levels))} against a reference at level {reference} "
-            "(uniform refinement, nested meshes). Estimate and true error in sqrt(J/m) (energy norm of the coupled "
-            "problem); `relative`: the estimate over the solution's own energy norm; `cost`: the estimate's "
-            "seconds over the solve's.\n\n"
+            f" ({timer():.0f} s). 2D: levels {', '.join(map(str, levels))} against a reference at level {reference}; "
+            f"3D: levels {', '.join(map(str, LEVELS3D))} against a reference at level {REFERENCE3D} (uniform "
+            "refinement, nested meshes: every triangle into 4, every tetrahedron into 8). Estimate and true error in "
+            "sqrt(J/m) in 2D, sqrt(J) in 3D (energy norm of the coupled problem); `relative`: the estimate over the "
+            "solution's own energy norm; `cost`: the estimate's seconds over the solve's.\n\n"
             + markdown_table(table, columns, formats)
             + "\n\nEffectivity range per scene:\n\n"
             + markdown_table(summary, ["scene", "lo", "hi"], dict(lo=".3g", hi=".3g")))

@@ -76,10 +76,14 @@ def readings(record: dict) -> dict:
     * the energy: ``energy_J_per_m`` in 2D (per unit thickness), ``energy_J`` in 3D (the record's key);
     * each floating electrode's potential: ``<body>.<part>_V`` (the body's name, the electrode's boundary part);
     * each rigid obstacle k (1-based, the scene's order): ``obstacle<k>.translation_m[i]`` and its contact
-      force ``obstacle<k>.contact_force_N_per_m[i]`` (2D) or ``obstacle<k>.contact_force_N[i]`` (3D).
+      force ``obstacle<k>.contact_force_N_per_m[i]`` (2D) or ``obstacle<k>.contact_force_N[i]`` (3D);
+    * the error estimate's relative value ``estimate_rel`` (:attr:`Solution.estimate`, docs/accuracy.md; None
+      when the case has none).
 
     Records of older sweeps (a missing or ill-typed entry) give the columns they have."""
     out = {k: record[k] for k in ("energy_J_per_m", "energy_J") if k in record}
+    estimate = record.get("estimate")
+    out["estimate_rel"] = estimate.get("relative") if isinstance(estimate, dict) else None
     electrodes = record.get("electrodes")
     for e in electrodes if isinstance(electrodes, list) else ():
         if isinstance(e, dict) and e.get("kind") == "floating" and "potential_V" in e:

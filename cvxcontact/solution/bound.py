@@ -46,7 +46,7 @@ from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
 from .estimate import ErrorEstimate, _boundary_roles, _edges, _read_only, cell_energies
 
-__all__ = ["COVERED", "check_covered", "error_bound"]
+__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
 
 COVERED = ("2D P1, one elastic body against fixed rigid obstacles whose rows keep one direction (a plane, or a "
            "curved obstacle with distance='ray'), the Signorini law, a constant body force and constant tractions")
@@ -146,12 +146,43 @@ def _continuity(rows, sub_a, va, sub_b, vb, n):
 # ---------------------------------------------------------------------------------------------- the bound
 
 
+def equilibrated_stress(sol) -> tuple[np.ndarray, np.ndarray]:
+    """(tau, v) of ``sol`` (module docstring): tau (3m, 3, 3) the equilibrated stress (Pa, Voigt xx, yy, xy) at
+    the vertices (v_s, v_s+1, barycentre) of sub-triangle 3 c + s of cell c, linear in between; v (n, 2) the
+    admissible displacement u_h - w (m). UnsupportedError for a case not covered (:data:`COVERED`)."""
+    built = _construct(sol)
+    return built["tau"].reshape(-1, 3, 3), built["v"]
+
+
 def error_bound(sol) -> ErrorEstimate:
     """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring): an
     :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
-    ("stress", "complementarity", J/m) and the feasibility correction's norm ("correction", sqrt(J/m));
-    ``indicators`` per triangle: (stress + complementarity)^(1/2) of the cell. UnsupportedError for a case not
-    covered (:data:`COVERED`); SolverError if the stress could not be equilibrated to rounding."""
+    ("stress", "complementarity", J/m), the feasibility correction's norm |||w||| ("correction", sqrt(J/m)) and
+    the relative residual of the equilibrium conditions ("equilibrium residual"); ``indicators`` per triangle:
+    (stress + complementarity)^(1/2) of the cell. UnsupportedError for a case not covered
+    (:data:`COVERED`); SolverError if the stress could not be equilibrated to rounding."""
+    b = _construct(sol)
+    body, m, area = b["body"], b["m"], b["area"]
+    compliance = np.linalg.inv(body.material.tensors(2)[0])
+    # || C^-1/2 (C eps(v) - tau) ||^2 per cell, exact: (area / 12) [[2,1,1],..] kron C^-1 per sub-triangle
+    e = (b["tau"] - b["tau0"]).reshape(3 * m, 3, 3)
+    K3 = np.array([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]) / 12.0
+    stress = (area * np.einsum("skc,kl,cd,sld->s", e, K3, compliance, e)).reshape(m, 3).sum(axis=1)
+    comp = np.zeros(m)
+    for cd in b["contacts"]:
+        np.add.at(comp, cd["cells"], cd["term"](b["v"]))
+    eta2 = stress + comp
+    correction = float(np.sqrt(max(cell_energies(body, b["w"], None, 1).sum(), 0.0)))
+    total = float(np.sqrt(max(eta2.sum(), 0.0))) + correction
+    norm = float(np.sqrt(max(cell_energies(body, b["u_h"], None, 1).sum(), 0.0)))
+    parts = {"stress": float(stress.sum()), "complementarity": float(comp.sum()), "correction": correction,
+             "equilibrium residual": b["residual"]}
+    return ErrorEstimate(absolute=total, norm=norm, indicators=(_read_only(np.sqrt(np.maximum(eta2, 0.0))),),
+                         parts=parts, guaranteed=True, kind="equilibrated")
+
+
+def _construct(sol) -> dict:
+    """The admissible v = u_h - w, the equilibrated tau and what the bound needs of them (module docstring)."""
     scene = sol.scene
     check_covered(scene, sol.degree, getattr(sol, "law", None))
     for c in sol.contacts:
@@ -163,7 +194,6 @@ def error_bound(sol) -> ErrorEstimate:
     p_pts, tri = mesh.points, mesh.triangles
     m = len(tri)
     c_mat = body.material.tensors(2)[0]
-    compliance = np.linalg.inv(c_mat)
 
     contacts = [_contact_data(sol, i, body, u_h) for i in range(len(scene.contacts))]
     w = np.zeros_like(u_h)
@@ -223,23 +253,8 @@ def error_bound(sol) -> ErrorEstimate:
     if not residual <= _EQUILIBRIUM_TOL * stress_scale:
         raise SolverError(f"the equilibrated stress satisfies its conditions only to {residual / stress_scale:.3g} "
                           f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
-
-    # || C^-1/2 (C eps(v) - tau) ||^2 per cell, exact: (area / 12) [[2,1,1],..] kron C^-1 per sub-triangle
-    e = (tau - tau0).reshape(3 * m, 3, 3)
-    K3 = np.array([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]) / 12.0
-    stress = area * np.einsum("skc,kl,cd,sld->s", e, K3, compliance, e)
-    stress = stress.reshape(m, 3).sum(axis=1)
-    comp = np.zeros(m)
-    for cd in contacts:
-        np.add.at(comp, cd["cells"], cd["term"](v))
-    eta2 = stress + comp
-    correction = float(np.sqrt(max(cell_energies(body, w, None, 1).sum(), 0.0)))
-    total = float(np.sqrt(max(eta2.sum(), 0.0))) + correction
-    norm = float(np.sqrt(max(cell_energies(body, u_h, None, 1).sum(), 0.0)))
-    parts = {"stress": float(stress.sum()), "complementarity": float(comp.sum()), "correction": correction,
-             "equilibrium residual": float(residual / stress_scale)}
-    return ErrorEstimate(absolute=total, norm=norm, indicators=(_read_only(np.sqrt(np.maximum(eta2, 0.0))),),
-                         parts=parts, guaranteed=True, kind="equilibrated")
+    return dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, contacts=contacts,
+                residual=float(residual / stress_scale))
 
 
 def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):

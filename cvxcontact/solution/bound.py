@@ -204,7 +204,7 @@ def _construct(sol) -> dict:
 
     area, grad, _ = _split(mesh)
     size = 27 * m
-    cell_area, cell_grad = gradients(p_pts, tri)
+    _, cell_grad = gradients(p_pts, tri)
     eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri].reshape(m, -1))     # (m, 3) Voigt
     sigma_v = eps_v @ c_mat.T                                                            # (m, 3) Pa
     tau0 = np.broadcast_to(np.repeat(sigma_v, 3, axis=0)[:, None, :], (3 * m, 3, 3)).ravel()
@@ -267,12 +267,12 @@ def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
     r0 = rhs - A @ tau0
     y = np.zeros_like(r0)
     best, best_y = np.inf, y
-    for _ in range(steps):
+    for step in range(steps):
         res = r0 - S @ y
         norm = np.abs(res).max()
         if norm < best:
             best, best_y = norm, y.copy()
-        if norm <= 1e-15 * max(np.abs(r0).max(), 1e-300) or norm > 0.9 * best and _ > 3:
+        if norm <= 1e-15 * max(np.abs(r0).max(), 1e-300) or (step > 3 and norm > 0.9 * best):
             break
         y = y + lu.solve(res)
     return tau0 + Minv @ (A.T @ best_y)

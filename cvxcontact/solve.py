@@ -23,6 +23,8 @@ from .discrete import DiscreteProblem, build_problem
 from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError
 from .fem.space import space
 from .physics.scene import Scene
+from .solution.bound import check_covered as check_bound_covered
+from .solution.bound import error_bound
 from .solution.estimate import estimate as estimate_error
 from .solution.info import Route, SolveInfo, Status
 from .solution.readback import read_back
@@ -37,10 +39,15 @@ log = logging.getLogger(__name__)
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
+ESTIMATES = {"residual": estimate_error, "equilibrated": lambda sol: (error_bound(sol), "")}
+"""The error estimates ``solve(..., estimate=...)`` computes, by name: (the estimate, why there is none) of a
+solution; ``True`` is "residual"."""
+
+
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
           solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
-          degree: int = 1, factorization: str = "auto", estimate: bool = True) -> Solution:
+          degree: int = 1, factorization: str = "auto", estimate: bool | str = True) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -109,10 +116,12 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
         extra ``pip install "cvxcontact[pardiso]"``), "auto" (default) PARDISO if it is installed, else
         SuperLU. Same answer to rounding; ``Solution.info.factorization`` names the one used.
-    estimate : bool
+    estimate : bool or {"residual", "equilibrated"}
         Compute the a posteriori error estimate ``Solution.estimate`` (default; docs/accuracy.md: a residual
         estimator with contact terms, 2D P1 and P2) and check that the contact zone is resolved (a
-        :class:`~cvxcontact.errors.ResolutionWarning` otherwise). False skips both.
+        :class:`~cvxcontact.errors.ResolutionWarning` otherwise). False skips both. "equilibrated": instead
+        the guaranteed upper bound of :func:`cvxcontact.error_bound` (2D P1, one elastic body against rigid
+        obstacles; other cases are refused before solving with an UnsupportedError naming what is covered).
 
     Returns
     -------
@@ -163,7 +172,7 @@ class ContactSolver:
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
                  law: ContactLaw | None = None, degree: int = 1, factorization: str = "auto",
-                 estimate: bool = True):
+                 estimate: bool | str = True):
         from .backends.options import (check_factorization, check_solve_parameters, check_solver,
                                        check_solver_options)
 
@@ -177,9 +186,13 @@ class ContactSolver:
                                  verbose=verbose, polish=polish, warm_start=warm_start,
                                  factorization=factorization)
         check_factorization(factorization)
-        if not isinstance(estimate, bool):
-            raise SolverError(f"estimate must be True or False (compute the error estimate or not), got {estimate!r}")
-        self.estimate = estimate
+        kind = "residual" if estimate is True else estimate
+        if estimate is not False and (not isinstance(kind, str) or kind not in ESTIMATES):
+            raise SolverError(f"estimate must be True or False (compute the residual error estimate or not) or one "
+                              f"of {sorted(ESTIMATES)}, got {estimate!r}")
+        if kind == "equilibrated":
+            check_bound_covered(scene, degree, self.law)      # refused before anything is solved
+        self.estimate = ESTIMATES[kind] if estimate is not False else None
         discretisation = space(degree, scene.dim)
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
@@ -215,7 +228,7 @@ class ContactSolver:
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
         if self.estimate:
             t0 = time.perf_counter()
-            sol.estimate, sol.estimate_reason = estimate_error(sol)
+            sol.estimate, sol.estimate_reason = self.estimate(sol)
             timings["estimate"] = time.perf_counter() - t0
         else:
             sol.estimate_reason = "not computed (estimate=False)"

@@ -1,0 +1,105 @@
+"""Effectivity of the guaranteed error bound (:func:`cvxcontact.error_bound`, docs/accuracy.md): bound / true
+error on nested meshes, as :mod:`cvxcontact.apps.studies.estimate` measures the residual estimate (same
+refinement, prolongation and energy norm; the reference ``REFERENCE`` levels up). A guaranteed bound reads
+>= 1 up to the reference's own error (its residual estimate is reported beside it).
+
+``run(out, quick=False)`` writes bound.csv and bound.md; ``quick`` runs levels 0, 1 against a reference at
+level 3.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...geometry.mesh import rectangle
+from ...physics.pairs import Contact, Rigid
+from ...physics.scene import Body, Scene
+from ...solution.bound import error_bound
+from .common import Timer, markdown_table, solve_quietly, write_csv, write_text
+from .estimate import ALU, LEVELS, REFERENCE, refined, true_error
+
+
+def circle_scene(distance: str = "ray"):
+    """The estimate study's circle (R = 0.6 m pressed 3 mm into an aluminium block 1 m x 0.5 m, 24 x 6 cells),
+    its rows along the block's normal (``distance="ray"``: the bound needs one row direction per part)."""
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=24, ny=6), ALU, clamped="bottom", contact="top",
+                 name="block")
+    return Scene(block, contacts=[Contact(block, "top", Rigid.circle((0.47, 0.5 + 0.6 - 3e-3), 0.6, distance=distance))])
+
+
+def crowned_scene():
+    """An aluminium block 1 m x 0.5 m (12 x 6 cells) on a rigid plane, its bottom crowned (initial gap
+    2e-3 (s - 0.5)^2 m), its top pushed down 0.1 mm, under a body force (0, -1e8) N/m^3 and a traction
+    (2e6, 0) Pa on its right side: a contact zone of about 0.45 m."""
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=12, ny=6), ALU, displacement={"top": (0.0, -1e-4)},
+                 contact="bottom", body_force=(0.0, -1e8), traction={"right": (2e6, 0.0)}, name="block")
+    return Scene(block, contacts=[Contact(block, "bottom", Rigid.plane((0.0, 0.0), (0.0, 1.0)),
+                                          gap=lambda s: 2e-3 * (s - 0.5) ** 2)])
+
+
+SCENES = {
+    "circle (ray), P1": (circle_scene, dict(condition="gamma3")),
+    "crowned block on a plane, P1": (crowned_scene, dict(condition="gamma3")),
+}
+"""name -> (scene builder, solve keywords)."""
+
+
+def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=None) -> list[dict]:
+    """One row per level: cells, the bound and its parts, the true error, effectivity (bound / true error), the
+    residual estimate's effectivity beside it, the reference's residual estimate, the bound's cost over the
+    solve's."""
+    base = build()
+    ref_scene, _ = refined(base, reference)
+    ref = solve_quietly(ref_scene, **options)
+    rows = []
+    for level in levels:
+        scene, _ = refined(base, level)
+        sol = solve_quietly(scene, **options)
+        parents = [np.repeat(np.arange(len(b.mesh.triangles)), 4 ** (reference - level)) for b in scene.bodies]
+        err = true_error(sol, ref, parents)
+        t0 = time.perf_counter()
+        b = error_bound(sol)
+        bound_s = time.perf_counter() - t0
+        solve_s = sum(v for k, v in sol.timings.items() if k != "estimate")
+        rows.append(dict(level=level, cells=sum(len(x.mesh.triangles) for x in scene.bodies), ok=sol.ok,
+                         bound=b.absolute, relative=b.relative, stress=np.sqrt(b.parts["stress"]),
+                         complementarity=np.sqrt(max(b.parts["complementarity"], 0.0)),
+                         correction=b.parts["correction"], equilibrium=b.parts["equilibrium residual"],
+                         true_error=err, effectivity=b.absolute / err,
+                         residual_effectivity=sol.estimate.absolute / err,
+                         reference_estimate=ref.estimate.absolute, cost=bound_s / solve_s))
+        if progress:
+            progress(f"  level {level}: bound {b.absolute:.4g}, true error {err:.4g}, effectivity {b.absolute / err:.3g}")
+    return rows
+
+
+def run(out, quick: bool = False, progress=None) -> dict:
+    """Write bound.csv and bound.md into ``out`` (module docstring); returns {scene: rows}."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    levels, reference = ((0, 1), 3) if quick else (LEVELS, REFERENCE)
+    timer = Timer()
+    results, table = {}, []
+    for name, (build, options) in SCENES.items():
+        if progress:
+            progress(f"bound: {name}")
+        results[name] = rows = effectivity(build, options, levels, reference, progress)
+        table += [dict(scene=name, **r) for r in rows]
+    write_csv(out / "bound.csv", table)
+    columns = ["scene", "level", "cells", "bound", "true_error", "effectivity", "residual_effectivity", "stress",
+               "complementarity", "correction", "equilibrium", "reference_estimate", "cost"]
+    formats = dict(bound=".4g", true_error=".4g", effectivity=".3g", residual_effectivity=".3g", stress=".4g",
+                   complementarity=".4g", correction=".4g", equilibrium=".1e", reference_estimate=".4g", cost=".2f")
+    text = (f"# Effectivity of the guaranteed error bound\n\nGenerated by `cvxcontact study bound"
+            f"{' --quick' if quick else ''}` ({timer():.0f} s). Levels {', '.join(map(str, levels))} against a "
+            f"reference at level {reference} (uniform refinement, nested meshes). Bound and true error in sqrt(J/m); "
+            "`stress`, `complementarity`: the square roots of the bound's two terms, `correction`: |||w||| of the "
+            "feasible displacement; `equilibrium`: the relative residual of the stress's conditions; "
+            "`residual_effectivity`: the residual estimate's, for comparison; `reference_estimate`: the reference's "
+            "residual estimate (what the true errors are uncertain by); `cost`: the bound's seconds over the "
+            "solve's.\n\n" + markdown_table(table, columns, formats))
+    write_text(out / "bound.md", text)
+    return results

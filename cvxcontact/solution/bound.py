@@ -1,0 +1,411 @@
+"""A guaranteed upper bound of the discretisation error: an equilibrated stress and the Prager-Synge
+inequality with contact (docs/accuracy.md, "A guaranteed bound").
+
+One elastic body, gap g on Gamma_3, rows d . v <= g along one direction d per pair, K = {v in V : d . v <= g
+on Gamma_3}, u = argmin_K J, J(v) = 1/2 a(v, v) - l(v). For a stress tau that is statically admissible
+(div tau + f = 0, tau n = t on traction parts, tau n = 0 on free parts, tau n = -p d with p >= 0 on
+Gamma_3; on a roller the tangential traction 0, on a part with prescribed components the free ones 0) and
+any v in K:
+
+    |||u - v|||^2 <= || C^{-1/2} (C eps(v) - tau) ||^2 + 2 int_{Gamma_3} p (g - d . v)                (PS)
+
+(integrate tau : eps(u - v) by parts; J(v) - J(u) >= 1/2 |||u - v|||^2 as u minimises J on K, and
+-J(u) <= 1/2 int C^{-1} tau : tau + int p g as d . u <= g). Both terms are computed exactly (the second by
+5-point Gauss on each edge: exact for a plane, to rounding for a smooth obstacle).
+
+tau: piecewise linear symmetric on the Clough-Tocher split of every triangle (three sub-triangles at the
+barycentre; the Johnson-Mercier space), H(div)-conforming. Its nodal values solve
+
+    min || C^{-1/2} (C eps(v) - tau) ||^2  subject to  A tau = b,
+
+A the normal-traction continuity across every sub-triangle edge, div tau = -f on every sub-triangle (f
+constant) and the boundary conditions above at the two ends of each boundary edge (tau n is linear there, so
+the conditions hold everywhere on it). p: the solution's lumped contact pressure (the nodal forces over the
+lumped lengths: >= 0, the same resultant). The equality-constrained minimum is one sparse solve with the
+Schur complement A M^-1 A^T (M the compliance mass matrix, block diagonal), regularised and refined to
+rounding; the residual of A tau = b is checked.
+
+v in K: u_h satisfies the rows at the nodes only; a curved obstacle (``distance="ray"``: g convex along the
+part) is violated between them. v = u_h - w with w = a_i d at the contact nodes (0 elsewhere), a_i the
+largest violation max_E (d . u_h - g)^+ on the edges at node i (maximised per edge by golden section: exact
+for a convex g), so d . v <= g on every edge, and
+
+    |||u - u_h||| <= |||u - v||| + |||w|||   (the bound reported).
+
+Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..contact.interface import lumped_lengths, row_directions
+from ..errors import SolverError, UnsupportedError
+from ..fem.assembly import gradients, strain_matrix
+from .estimate import ErrorEstimate, _boundary_roles, _edges, _read_only, cell_energies
+
+__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
+
+COVERED = ("2D P1, one elastic body against fixed rigid obstacles whose rows keep one direction (a plane, or a "
+           "curved obstacle with distance='ray'), the Signorini law, a constant body force and constant tractions")
+"""What :func:`error_bound` covers."""
+
+_GAUSS5 = np.polynomial.legendre.leggauss(5)
+_K3_INV = np.array([[3.0, -1.0, -1.0], [-1.0, 3.0, -1.0], [-1.0, -1.0, 3.0]])   # area/12 [[2,1,1],..]^-1 * area/3
+_EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the stresses (Pa / Pa)
+
+
+def _refuse(what: str):
+    raise UnsupportedError(f"the equilibrated error bound does not cover {what}; it covers {COVERED} "
+                           "(use the residual estimate, estimate=True, there)")
+
+
+def check_covered(scene, degree: int = 1, law=None) -> None:
+    """Raise :class:`UnsupportedError` naming what is not covered (:data:`COVERED`) by the bound of a
+    solve of ``scene`` with ``degree`` and the default contact ``law``; None if covered."""
+    if scene.dim != 2:
+        _refuse("3D (tetrahedra)")
+    if degree != 1:
+        _refuse("P2 elements (degree=2)")
+    if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):
+        _refuse("pairs of deformable bodies")
+    body = scene.bodies[0]
+    if body.piezoelectric:
+        _refuse("piezoelectric bodies (the electric displacement is not equilibrated yet)")
+    if getattr(law, "compliant", False) or any(getattr(c.law, "compliant", False) for c in scene.contacts):
+        _refuse("normal compliance")
+    if any(c.other.force is not None for c in scene.contacts):
+        _refuse("force-controlled obstacles")
+    if callable(body.body_force.value) or any(callable(t.value) for t in body.traction.values()):
+        _refuse("body forces or tractions given as functions (give constants)")
+    for i in range(len(scene.contacts)):
+        d = np.atleast_2d(row_directions(scene.interfaces[i], scene.interfaces[i].normal))
+        if np.abs(d - d[0]).max() > 1e-12:
+            _refuse(f"contacts[{i}]: rows whose direction turns along the part (a curved obstacle posed at the "
+                    "closest point; distance='ray' keeps the part's normal)")
+
+
+# ---------------------------------------------------------------------------------------------- the split
+
+
+def _split(mesh):
+    """The Clough-Tocher split: sub-triangle 3 c + s of cell c has vertices (v_s, v_s+1, barycentre) (same
+    orientation as c). Returns areas (3m,), barycentric gradients (3m, 2, 3), vertex coordinates (3m, 3, 2)."""
+    p, tri = mesh.points, mesh.triangles
+    m, n = len(tri), len(p)
+    pts = np.vstack([p, p[tri].mean(axis=1)])
+    s = np.arange(3)
+    sub = np.stack([tri[:, s], tri[:, (s + 1) % 3], np.repeat((n + np.arange(m))[:, None], 3, axis=1)], axis=2)
+    sub = sub.reshape(3 * m, 3)
+    area, grad = gradients(pts, sub)
+    return area, grad, pts[sub]
+
+
+def _index(sub, vertex, comp):
+    """The unknown of Voigt component ``comp`` (xx, yy, xy) of tau at local ``vertex`` of sub-triangle ``sub``."""
+    return (np.asarray(sub) * 3 + vertex) * 3 + comp
+
+
+class _Rows:
+    """The rows of A tau = b, collected as COO triplets."""
+
+    def __init__(self):
+        self.r, self.c, self.v, self.b = [], [], [], []
+        self.count = 0
+
+    def add(self, terms, rhs):
+        """One row per entry of ``rhs`` (k,): ``terms`` a list of (columns (k,), coefficients (k,))."""
+        rows = self.count + np.arange(len(rhs))
+        for cols, coef in terms:
+            self.r.append(rows)
+            self.c.append(np.asarray(cols))
+            self.v.append(np.broadcast_to(np.asarray(coef, dtype=float), rows.shape))
+        self.b.append(np.asarray(rhs, dtype=float))
+        self.count += len(rhs)
+
+    def traction(self, sub, vertex, n, sign=1.0):
+        """The two (x, y) terms of sign * tau n at local ``vertex`` of ``sub`` (normals n (k, 2))."""
+        xx, yy, xy = (_index(sub, vertex, k) for k in range(3))
+        return ([[(xx, sign * n[:, 0]), (xy, sign * n[:, 1])],
+                 [(xy, sign * n[:, 0]), (yy, sign * n[:, 1])]])
+
+    def matrix(self, size):
+        A = sp.csr_matrix((np.concatenate(self.v), (np.concatenate(self.r), np.concatenate(self.c))),
+                          shape=(self.count, size))
+        return A, np.concatenate(self.b)
+
+
+def _continuity(rows, sub_a, va, sub_b, vb, n):
+    """tau_a n = tau_b n at the points local ``va`` of ``sub_a`` and ``vb`` of ``sub_b``."""
+    for ta, tb in zip(rows.traction(sub_a, va, n), rows.traction(sub_b, vb, n, -1.0)):
+        rows.add(ta + tb, np.zeros(len(n)))
+
+
+# ---------------------------------------------------------------------------------------------- the bound
+
+
+def equilibrated_stress(sol) -> tuple[np.ndarray, np.ndarray]:
+    """(tau, v) of ``sol`` (module docstring): tau (3m, 3, 3) the equilibrated stress (Pa, Voigt xx, yy, xy) at
+    the vertices (v_s, v_s+1, barycentre) of sub-triangle 3 c + s of cell c, linear in between; v (n, 2) the
+    admissible displacement u_h - w (m). UnsupportedError for a case not covered (:data:`COVERED`)."""
+    built = _construct(sol)
+    return built["tau"].reshape(-1, 3, 3), built["v"]
+
+
+def error_bound(sol) -> ErrorEstimate:
+    """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring): an
+    :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
+    ("stress", "complementarity", J/m), the feasibility correction's norm |||w||| ("correction", sqrt(J/m)) and
+    the relative residual of the equilibrium conditions ("equilibrium residual"); ``indicators`` per triangle:
+    (stress + complementarity)^(1/2) of the cell. UnsupportedError for a case not covered
+    (:data:`COVERED`); SolverError if the stress could not be equilibrated to rounding."""
+    b = _construct(sol)
+    body, m, area = b["body"], b["m"], b["area"]
+    compliance = np.linalg.inv(body.material.tensors(2)[0])
+    # || C^-1/2 (C eps(v) - tau) ||^2 per cell, exact: (area / 12) [[2,1,1],..] kron C^-1 per sub-triangle
+    e = (b["tau"] - b["tau0"]).reshape(3 * m, 3, 3)
+    K3 = np.array([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]) / 12.0
+    stress = (area * np.einsum("skc,kl,cd,sld->s", e, K3, compliance, e)).reshape(m, 3).sum(axis=1)
+    comp = np.zeros(m)
+    for cd in b["contacts"]:
+        np.add.at(comp, cd["cells"], cd["term"](b["v"]))
+    eta2 = stress + comp
+    correction = float(np.sqrt(max(cell_energies(body, b["w"], None, 1).sum(), 0.0)))
+    total = float(np.sqrt(max(eta2.sum(), 0.0))) + correction
+    norm = float(np.sqrt(max(cell_energies(body, b["u_h"], None, 1).sum(), 0.0)))
+    parts = {"stress": float(stress.sum()), "complementarity": float(comp.sum()), "correction": correction,
+             "equilibrium residual": b["residual"]}
+    return ErrorEstimate(absolute=total, norm=norm, indicators=(_read_only(np.sqrt(np.maximum(eta2, 0.0))),),
+                         parts=parts, guaranteed=True, kind="equilibrated")
+
+
+def _construct(sol) -> dict:
+    """The admissible v = u_h - w, the equilibrated tau and what the bound needs of them (module docstring)."""
+    scene = sol.scene
+    check_covered(scene, sol.degree, getattr(sol, "law", None))
+    for c in sol.contacts:
+        if getattr(c.law, "compliant", False):
+            _refuse("normal compliance")
+    body = scene.bodies[0]
+    mesh = body.mesh
+    u_h = np.asarray(sol.u[0], dtype=float)
+    p_pts, tri = mesh.points, mesh.triangles
+    m = len(tri)
+    c_mat = body.material.tensors(2)[0]
+
+    contacts = [_contact_data(sol, i, body, u_h) for i in range(len(scene.contacts))]
+    w = np.zeros_like(u_h)
+    for cd in contacts:
+        w += cd["w"]
+    _check_correction(body, w)
+    v = u_h - w
+
+    area, grad, _ = _split(mesh)
+    size = 27 * m
+    _, cell_grad = gradients(p_pts, tri)
+    eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri].reshape(m, -1))     # (m, 3) Voigt
+    sigma_v = eps_v @ c_mat.T                                                            # (m, 3) Pa
+    tau0 = np.broadcast_to(np.repeat(sigma_v, 3, axis=0)[:, None, :], (3 * m, 3, 3)).ravel()
+
+    rows = _Rows()
+    subs = np.arange(3 * m)
+    # normal traction continuity inside each cell: the edge barycentre -> v_s shared by sub s and s - 1
+    P = np.vstack([p_pts, p_pts[tri].mean(axis=1)])
+    for s in range(3):
+        a, b = 3 * np.arange(m) + s, 3 * np.arange(m) + (s - 1) % 3
+        e = P[len(p_pts) + np.arange(m)] - p_pts[tri[:, s]]
+        n = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+        _continuity(rows, a, 0, b, 1, n)            # at v_s: local 0 of sub s, local 1 of sub s - 1
+        _continuity(rows, a, 2, b, 2, n)            # at the barycentre
+    # across the mesh's interior edges; the boundary conditions on its boundary edges
+    cells, local, pairs = _edges(mesh)
+    c0, l0 = cells[:, 0], local[:, 0]
+    sa, sb = p_pts[tri[c0, l0]], p_pts[tri[c0, (l0 + 1) % 3]]
+    h = np.linalg.norm(sb - sa, axis=1)
+    n_out = np.column_stack([(sb - sa)[:, 1], -(sb - sa)[:, 0]]) / h[:, None]     # outward of c0
+    inner = np.flatnonzero(cells[:, 1] >= 0)
+    c1, l1 = cells[inner, 1], local[inner, 1]
+    same = tri[c1, l1] == tri[c0[inner], l0[inner]]
+    sub0, sub1 = 3 * c0[inner] + l0[inner], 3 * c1 + l1
+    _continuity(rows, sub0, 0, sub1, np.where(same, 0, 1), n_out[inner])
+    _continuity(rows, sub0, 1, sub1, np.where(same, 1, 0), n_out[inner])
+    _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts)
+    # div tau = -f on every sub-triangle
+    f = np.asarray(body.body_force.value, dtype=float)
+    g = grad                                                                          # (3m, 2, 3)
+    rows.add([(_index(subs, k, 0), g[:, 0, k]) for k in range(3)] + [(_index(subs, k, 2), g[:, 1, k]) for k in range(3)],
+             np.full(3 * m, -f[0]))
+    rows.add([(_index(subs, k, 2), g[:, 0, k]) for k in range(3)] + [(_index(subs, k, 1), g[:, 1, k]) for k in range(3)],
+             np.full(3 * m, -f[1]))
+    A, rhs = rows.matrix(size)
+    scale = 1.0 / np.sqrt(np.asarray(A.multiply(A).sum(axis=1)).ravel())
+    A = sp.diags(scale) @ A
+    rhs = rhs * scale
+
+    # M^-1: per sub-triangle (3 / area) K3_INV kron C (the inverse of (area / 12) [[2,1,1],..] kron C^-1)
+    blocks = (3.0 / area)[:, None, None] * np.kron(_K3_INV, c_mat)[None]
+    Minv = sp.block_diag(list(blocks), format="csr")
+    tau = _equilibrate(A, rhs, Minv, tau0)
+    residual = np.abs(A @ tau - rhs).max()
+    stress_scale = max(np.abs(tau).max(), np.abs(sigma_v).max(), np.finfo(float).tiny)
+    if not residual <= _EQUILIBRIUM_TOL * stress_scale:
+        raise SolverError(f"the equilibrated stress satisfies its conditions only to {residual / stress_scale:.3g} "
+                          f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
+    return dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, contacts=contacts,
+                residual=float(residual / stress_scale))
+
+
+def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
+    """argmin (tau - tau0)^T M (tau - tau0) subject to A tau = rhs: tau = tau0 + M^-1 A^T y with
+    (A M^-1 A^T) y = rhs - A tau0, the Schur complement regularised (it is singular where rows are redundant)
+    and refined until the residual stops falling."""
+    S = (A @ Minv @ A.T).tocsc()
+    delta = 1e-10 * S.diagonal().max()
+    lu = spla.splu((S + delta * sp.identity(S.shape[0], format="csc")).tocsc())
+    r0 = rhs - A @ tau0
+    y = np.zeros_like(r0)
+    best, best_y = np.inf, y
+    for step in range(steps):
+        res = r0 - S @ y
+        norm = np.abs(res).max()
+        if norm < best:
+            best, best_y = norm, y.copy()
+        if norm <= 1e-15 * max(np.abs(r0).max(), 1e-300) or (step > 3 and norm > 0.9 * best):
+            break
+        y = y + lu.solve(res)
+    return tau0 + Minv @ (A.T @ best_y)
+
+
+def _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts):
+    """tau n on the boundary edges (module docstring): traction t, 0 on free parts, -p d on the contact parts
+    (the edges whose both ends reach the obstacle; 0 on the others), tangential 0 on rollers, the free
+    components 0 on parts with prescribed components, nothing on clamped parts."""
+    mesh = body.mesh
+    p = mesh.points
+    bnd = np.flatnonzero(cells[:, 1] < 0)
+    key = pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1]
+    role = np.full(len(key), "free", dtype=object)
+    tag_of = np.full(len(key), None, dtype=object)
+    mech, _ = _boundary_roles(body, sol)
+    for tag, r in mech.items():
+        e = mesh.boundary(tag)
+        idx = np.searchsorted(key, np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1]))
+        role[idx], tag_of[idx] = r, tag
+    tri = mesh.triangles
+    c0, l0 = cells[:, 0], local[:, 0]
+    ends = np.column_stack([tri[c0, l0], tri[c0, (l0 + 1) % 3]])      # node of local vertex 0, 1 of the sub
+    pressure = np.zeros((len(key), 2, 2))                            # -p d at the two ends of contact edges
+    for cd in contacts:
+        idx = np.searchsorted(key, cd["keys"])
+        for j in range(2):
+            pressure[idx, j] = -cd["p_node"][ends[idx, j]][:, None] * cd["d"][None]
+    for j in range(2):
+        for r in ("free", "traction", "contact"):
+            idx = bnd[role[bnd] == r]
+            if not len(idx):
+                continue
+            t = np.zeros((len(idx), 2))
+            if r == "traction":
+                t = np.array([body.traction[tag_of[i]].value for i in idx], dtype=float)
+            elif r == "contact":
+                t = pressure[idx, j]
+            for comp, terms in enumerate(rows.traction(3 * c0[idx] + l0[idx], j, n_out[idx])):
+                rows.add(terms, t[:, comp])
+        idx = bnd[role[bnd] == "roller"]
+        if len(idx):
+            n = n_out[idx]
+            tx, ty = rows.traction(3 * c0[idx] + l0[idx], j, n)
+            tvec = np.column_stack([-n[:, 1], n[:, 0]])
+            rows.add([(cols, coef * tvec[:, 0]) for cols, coef in tx] + [(cols, coef * tvec[:, 1]) for cols, coef in ty],
+                     np.zeros(len(idx)))
+        idx = bnd[role[bnd] == "partial"]
+        for i in idx:
+            free = [k for k, val in enumerate(body.displacement[tag_of[i]]) if val is None]
+            terms = rows.traction(np.array([3 * c0[i] + l0[i]]), j, n_out[[i]])
+            for k in free:
+                rows.add(terms[k], np.zeros(1))
+
+
+def _contact_data(sol, i, body, u_h):
+    """Pair ``i`` against its obstacle: the row direction d, the pressure p >= 0 at the body's nodes (lumped:
+    the nodal forces over the lumped lengths), the keys of its contact edges (both ends reach the obstacle),
+    the correction w (module docstring) and the complementarity term 2 int_E p (g - d . v) of each edge."""
+    scene = sol.scene
+    itf, res = scene.interfaces[i], sol.contacts[i]
+    mesh = body.mesh
+    p = mesh.points
+    n_nodes = len(p)
+    d = np.atleast_2d(row_directions(itf, itf.normal))[0]
+    trace = itf.traces[0]
+    nodes = trace.nodes[itf.reach] if hasattr(itf, "reach") else trace.nodes
+    pn = np.maximum(np.asarray(res.force, dtype=float), 0.0) / lumped_lengths(np.asarray(res.x, dtype=float))
+    p_node = np.zeros(n_nodes)
+    p_node[nodes] = pn
+    reached = np.zeros(n_nodes, dtype=bool)
+    reached[nodes] = True
+    e = mesh.boundary(scene.contacts[i].part_a)
+    e = e[reached[e].all(axis=1)]
+    t = itf.tangent
+    s0, s1 = p[e[:, 0]] @ t, p[e[:, 1]] @ t
+
+    def gap(s):
+        return scene.pair_gap_values(i, s.ravel()).reshape(s.shape)
+
+    # the largest violation d . u_h - g on each edge: samples, then golden section around the best
+    ts = np.linspace(0.0, 1.0, 33)
+    ua, ub = u_h[e[:, 0]] @ d, u_h[e[:, 1]] @ d
+
+    def violation(tt):
+        return (1 - tt) * ua[:, None] + tt * ub[:, None] - gap(s0[:, None] + tt * (s1 - s0)[:, None])
+
+    val = violation(np.broadcast_to(ts, (len(e), len(ts))))
+    k = val.argmax(axis=1)
+    lo, hi = ts[np.maximum(k - 1, 0)], ts[np.minimum(k + 1, len(ts) - 1)]
+    phi = (np.sqrt(5.0) - 1) / 2
+    for _ in range(60):
+        x1, x2 = hi - phi * (hi - lo), lo + phi * (hi - lo)
+        f1, f2 = violation(x1[:, None])[:, 0], violation(x2[:, None])[:, 0]
+        left = f1 > f2
+        hi, lo = np.where(left, x2, hi), np.where(left, lo, x1)
+    worst = np.maximum(val.max(axis=1), violation(0.5 * (lo + hi)[:, None])[:, 0])
+    a = np.zeros(n_nodes)
+    np.maximum.at(a, e[:, 0], np.maximum(worst, 0.0))
+    np.maximum.at(a, e[:, 1], np.maximum(worst, 0.0))
+    w = a[:, None] * d[None]
+
+    # the cell of each contact edge (its one triangle)
+    cells, local, pairs = _edges(mesh)
+    key_all = pairs[:, 0].astype(np.int64) * n_nodes + pairs[:, 1]
+    keys = np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * n_nodes + np.maximum(e[:, 0], e[:, 1])
+    owner = cells[np.searchsorted(key_all, keys), 0]
+    tq, wq = 0.5 * (_GAUSS5[0] + 1.0), 0.5 * _GAUSS5[1]
+    g_q = gap(s0[:, None] + tq[None] * (s1 - s0)[:, None])                    # (k, 5)
+    length = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
+    pq = (1 - tq)[None] * p_node[e[:, 0]][:, None] + tq[None] * p_node[e[:, 1]][:, None]
+
+    def term(v):
+        va, vb = v[e[:, 0]] @ d, v[e[:, 1]] @ d
+        vq = (1 - tq)[None] * va[:, None] + tq[None] * vb[:, None]
+        return 2.0 * length * ((pq * (g_q - vq)) @ wq)
+
+    return dict(d=d, p_node=p_node, keys=keys, w=w, cells=owner, term=term)
+
+
+def _check_correction(body, w):
+    """UnsupportedError if the correction w moves a node a support holds (it would leave the space V)."""
+    moved = np.flatnonzero(np.abs(w).max(axis=1) > 0)
+    if not len(moved):
+        return
+    mesh = body.mesh
+    held = [*body.clamped, *body.displacement]
+    for tag in held:
+        hit = np.intersect1d(moved, mesh.boundary(tag))
+        if len(hit):
+            _refuse(f"a contact part whose admissible correction moves node {hit[0]} of the supported part {tag!r}")
+    for tag in body.roller:
+        n = mesh.outward_normals(tag).mean(axis=0)
+        hit = np.intersect1d(moved, mesh.boundary(tag))
+        if len(hit) and np.abs(w[hit] @ n).max() > 0:
+            _refuse(f"a contact part whose admissible correction moves node {hit[0]} across the roller {tag!r}")

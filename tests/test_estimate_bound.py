@@ -1,0 +1,143 @@
+"""The guaranteed error bound (cvxcontact.error_bound, solve(..., estimate="equilibrated"); docs/accuracy.md).
+
+Checked independently of the code under test: the bound against the true error measured on nested fine
+references (the estimate study's prolongation and energy norm); a closed form (a uniaxial block whose exact
+solution lies in the P1 space: the bound is rounding); the equilibrium of the stress sampled directly (its
+divergence and its normal traction across every edge at points the construction never used); the refusals.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps.studies import bound as study
+from cvxcontact.solution import bound
+
+# measured effectivity (bound / true error), levels 0 and 1, reference at level 3
+MEASURED = {"circle (ray), P1": (1.66, 2.27), "crowned block on a plane, P1": (1.34, 1.49)}
+
+
+def uniaxial(approach=1e-4, nx=4, ny=2):
+    mat = cc.materials.isotropic(E=70e9, nu=0.3)
+    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny), mat, roller=["bottom", "left", "right"],
+                    contact="top")
+    return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.plane((0.0, 0.5 - approach), (0.0, -1.0)))])
+
+
+def test_the_bound_of_an_exact_solution_is_rounding():
+    """Uniaxial compression by a rigid plane, rollers elsewhere: u is affine, u_h = u, so the bound is 0 up to
+    rounding; its terms: the stress mismatch and the complementarity p (g - u_h . d) at active nodes."""
+    sol = cc.solve(uniaxial(), estimate="equilibrated")
+    est = sol.estimate
+    assert est.kind == "equilibrated" and est.guaranteed is True
+    # measured: relative 1.8e-8 (the unsquared complementarity's rounding, 6e-13 J/m against |||u_h|||^2 = 1.9e3)
+    assert est.relative < 1e-6
+    assert est.parts["stress"] <= 1e-20 * est.norm ** 2          # measured 2.9e-28 / 1.9e3
+    # a plane: u_h is admissible between the nodes; the correction only takes the rows' rounding (measured
+    # |||w||| = 6.8e-15 against |||u_h||| = 43)
+    assert est.parts["correction"] <= 1e-12 * est.norm
+    assert "guaranteed" in str(est) and "not guaranteed" not in str(est)
+
+
+@pytest.mark.parametrize("name", list(study.SCENES))
+def test_the_bound_is_above_the_true_error(name):
+    """Levels 0 and 1 against a reference refined three times: the bound exceeds the true error. A guaranteed
+    bound exceeds |||u - u_h|||, which for nested spaces is at least the measured |||u_ref - I u_h||| (the
+    reference's own error adds to it, Galerkin orthogonality up to the contact's small complementarity): so
+    effectivity >= 1 with no margin needed; above, the measured range widened by 3."""
+    build, options = study.SCENES[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        rows = study.effectivity(build, options, levels=(0, 1), reference=3)
+    for r in rows:
+        assert r["ok"]
+        # the true error is measured against a reference with its own error e_ref <= reference_bound; the
+        # error to the continuous solution is >= true_error - e_ref, so the bound must exceed that
+        assert r["effectivity"] >= 1.0, r
+        assert r["effectivity"] <= MEASURED[name][1] * 3, r
+    assert rows[1]["bound"] < rows[0]["bound"]
+
+
+def test_the_stress_is_equilibrated_where_the_construction_did_not_look():
+    """The crowned block (body force, traction, prescribed top, contact), level 0, checked from tau's nodal
+    values alone: div tau + f = 0 on every sub-triangle (from the barycentric gradients of an independent
+    assembly), tau n continuous across every sub-triangle edge shared by two (found from the coordinates) at
+    its quarter points, and on the boundary: tau n = t on the right, 0 on the left, tangential 0 and normal
+    <= 0 on the contact part, at quarter points (the construction imposes all this at edge ends only)."""
+    scene = study.crowned_scene()
+    sol = cc.solve(scene, estimate=False)
+    tau, v = bound.equilibrated_stress(sol)
+    _, _, verts = bound._split(scene.bodies[0].mesh)
+    scale = np.abs(tau).max()
+    f = np.array([0.0, -1e8])
+    # the divergence: tau linear, so div = sum_k tau_k . grad L_k with grad L from the vertex coordinates
+    d = np.roll(verts, -1, axis=1) - np.roll(verts, 1, axis=1)
+    area2 = d[:, 0, 0] * d[:, 1, 1] - d[:, 0, 1] * d[:, 1, 0]
+    gL = np.stack([d[:, :, 1], -d[:, :, 0]], axis=2) / area2[:, None, None]          # (s, 3, 2)
+    div = np.column_stack([(tau[:, :, 0] * gL[:, :, 0] + tau[:, :, 2] * gL[:, :, 1]).sum(axis=1),
+                           (tau[:, :, 2] * gL[:, :, 0] + tau[:, :, 1] * gL[:, :, 1]).sum(axis=1)])
+    assert np.abs(div + f).max() <= 1e-8 * np.abs(f).max()                          # measured 2e-14 relative
+    # every sub-triangle edge, keyed by its rounded end points
+    edges = {}
+    for s_ in range(len(verts)):
+        for k in range(3):
+            a, b = verts[s_, k], verts[s_, (k + 1) % 3]
+            key = tuple(sorted([tuple(np.round(a, 12)), tuple(np.round(b, 12))]))
+            edges.setdefault(key, []).append((s_, k))
+
+    def traction(s_, k, t, n):                     # tau n at parameter t along local edge k -> k + 1 of s_
+        T = (1 - t) * tau[s_, k] + t * tau[s_, (k + 1) % 3]
+        return np.array([T[0] * n[0] + T[2] * n[1], T[2] * n[0] + T[1] * n[1]])
+
+    worst, boundary = 0.0, {"left": [], "right": [], "bottom": []}
+    for key, owners in edges.items():
+        s_, k = owners[0]
+        a, b = verts[s_, k], verts[s_, (k + 1) % 3]
+        n = np.array([b[1] - a[1], a[0] - b[0]]) / np.linalg.norm(b - a)          # outward of s_
+        if len(owners) == 2:
+            s2, k2 = owners[1]
+            flip = np.allclose(verts[s2, k2], a)
+            for t in (0.25, 0.5, 0.75):
+                worst = max(worst, np.abs(traction(s_, k, t, n) - traction(s2, k2, 1 - t if not flip else t, n)).max())
+        else:
+            side = "left" if max(a[0], b[0]) < 1e-12 else "right" if min(a[0], b[0]) > 1 - 1e-12 else \
+                "bottom" if max(a[1], b[1]) < 1e-12 else None
+            if side:
+                boundary[side] += [traction(s_, k, t, n) for t in (0.25, 0.5, 0.75)]
+    assert worst <= 1e-9 * scale                                                     # measured 3e-15 relative
+    assert np.abs(np.array(boundary["left"])).max() <= 1e-9 * scale
+    assert np.abs(np.array(boundary["right"]) - [2e6, 0.0]).max() <= 1e-9 * scale
+    bottom = np.array(boundary["bottom"])                                            # outward normal (0, -1)
+    assert np.abs(bottom[:, 0]).max() <= 1e-9 * scale and (bottom[:, 1] >= -1e-9 * scale).all()
+    assert bottom[:, 1].max() > 0.1 * scale                                          # the contact pushes up
+    # v is admissible: d . v <= g at many points of the crowned bottom (d = (0, -1), g = 2e-3 (x - 0.5)^2)
+    mesh = scene.bodies[0].mesh
+    e = mesh.boundary("bottom")
+    t = np.linspace(0, 1, 101)[:, None, None]
+    x = (1 - t) * mesh.points[e[:, 0]] + t * mesh.points[e[:, 1]]
+    vy = (1 - t[..., 0]) * v[e[:, 0], 1] + t[..., 0] * v[e[:, 1], 1]
+    assert (-vy <= 2e-3 * (x[..., 0] - 0.5) ** 2 + 1e-15).all()
+
+
+def test_uncovered_cases_are_refused_naming_what_is_covered():
+    mesh3 = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=2, ny=2, nz=1)
+    block3 = cc.Body(mesh3, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top")
+    scene3 = cc.Scene(block3, contacts=[cc.Contact(block3, "top", cc.Rigid.plane((0.0, 0.0, 0.5 - 1e-4),
+                                                                                 (0.0, 0.0, -1.0)))])
+    with pytest.raises(cc.UnsupportedError, match="3D.*it covers 2D P1"):
+        cc.solve(scene3, estimate="equilibrated")
+    with pytest.raises(cc.UnsupportedError, match="P2.*it covers 2D P1"):
+        cc.solve(uniaxial(), estimate="equilibrated", degree=2)
+    with pytest.raises(cc.UnsupportedError, match="compliance"):
+        cc.solve(uniaxial(), estimate="equilibrated", law=cc.NormalCompliance(1e12))
+    with pytest.raises(cc.UnsupportedError, match="closest point; distance='ray'"):
+        cc.solve(study.circle_scene(distance="closest"), estimate="equilibrated")
+    from cvxcontact.apps.studies import estimate as residual_study
+    with pytest.raises(cc.UnsupportedError, match="pairs of deformable bodies"):
+        cc.solve(residual_study.blocks_scene(), estimate="equilibrated")
+    with pytest.raises(cc.UnsupportedError, match="P2"):                  # the function refuses a solved P2 too
+        cc.error_bound(cc.solve(uniaxial(), degree=2, estimate=False))
+    with pytest.raises(cc.SolverError, match="equilibrated"):
+        cc.solve(uniaxial(), estimate="guaranteed")

@@ -50,3 +50,32 @@ def test_tutorial_links_its_notebook_and_the_notebook_is_the_page(page):
     # the notebook runs as the page does: the README's quickstart first, then the page's blocks in order
     assert code[0].strip() == cells.quickstart().strip()
     assert [c.strip() for c in code[1:]] == [b.strip() for b in cells.BLOCK.findall(page.read_text(encoding="utf-8"))]
+
+
+def test_solve_docstring_is_short_and_links_its_options_page():
+    """numpydoc, one short entry per parameter (at most 3 lines); the long explanations live in
+    docs/reference/solve-options.md, one section per option that needs one."""
+    import inspect
+
+    import cvxcontact as cc
+
+    doc = inspect.getdoc(cc.solve)
+    assert "docs/reference/solve-options.md" in doc
+    params = doc.split("Parameters\n----------\n", 1)[1].split("\n\nReturns", 1)[0]
+    entries = re.split(r"\n(?=\w+ : )", params)
+    names = [e.split(" : ", 1)[0] for e in entries]
+    assert names == list(inspect.signature(cc.solve).parameters), names
+    for entry in entries:
+        assert len(entry.splitlines()) <= 4, entry          # the "name : type" line and at most 3 lines
+    page = (ROOT / "docs" / "reference" / "solve-options.md").read_text(encoding="utf-8")
+    for option in ("method", "polish", "law", "degree", "factorization", "estimate"):
+        assert f"## `{option}`" in page, option
+
+
+def test_learning_path_runs_through_every_tutorial_and_ends_with_the_accuracy():
+    text = (ROOT / "docs" / "index.md").read_text(encoding="utf-8").split("## A learning path", 1)[1]
+    steps = re.findall(r"^\d+\. \[[^]]+\]\(([^)]+)\)", text, re.M)
+    assert steps[-1] == "accuracy.md", steps
+    tutorials = [s for s in steps if s.startswith("tutorials/")]
+    assert tutorials == [f"tutorials/{p.name}" for p in PAGES], tutorials   # in the tutorials' own order
+    assert all((ROOT / "docs" / s).exists() for s in steps), steps

@@ -50,78 +50,42 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
           degree: int = 1, factorization: str = "auto", estimate: bool | str = True) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
+    Each option in full: docs/reference/solve-options.md.
+
     Parameters
     ----------
     scene : Scene
+        The bodies, their supports and loads (SI units), and the contact pairs.
     condition : {"gamma3", "sigma1", "sigma2"}
-        Non-penetration on K_h(Gamma_3) (every merged node) or K_h(Sigma_h^l) (nodes of mesh l).
+        Non-penetration on K_h(Gamma_3) (34), at every merged node, or K_h(Sigma_h^l) (35), at the nodes of
+        mesh l.
     solver : str
-        A CVXPY solver name; Clarabel by default (with tolerances tightened to 1e-10).
+        A CVXPY solver name; Clarabel by default (tolerances tightened to 1e-10).
     method : {"auto", "amg", "sparse", "condensed", "full"}
-        ``"auto"`` (default): the fastest backend that accepts the problem
-        (:func:`cvxcontact.backends.choose`); for the package's own problems (quadratic
-        energy, linear contact rows) that is ``"condensed"``, or ``"sparse"`` for a long interface with the
-        Signorini law (more contact rows m than :data:`cvxcontact.backends.SPARSE_SLENDER` x sqrt(unknowns),
-        or than :data:`cvxcontact.backends.SPARSE_ROWS`); a condensed answer that fails its checks falls
-        back to ``"sparse"`` (``Route.SPARSE_FALLBACK``); ``"amg"`` for a 3D scene of at least
-        :data:`cvxcontact.backends.AMG_UNKNOWNS` unknowns when pyamg is installed (``cvxcontact[amg]``): the
-        sparse route's steps with AMG-preconditioned Krylov solves (:mod:`cvxcontact.backends.amg`).
-        ``"sparse"`` (:mod:`cvxcontact.backends.sparse`) runs exact active-set steps on the sparse mixed
-        system (26) of every body, no dense interface matrix and no interior point. ``"full"`` (the reference)
-        poses the whole phi-form model in CVXPY, so that ``Solution.problem`` has the
-        variables ``u1, phi1, u2, ...``. ``"condensed"`` (fast, exact) factorises each body
-        once, condenses it onto its contact dofs (:mod:`cvxcontact.backends.condensed`) and
-        poses only the small interface QP in CVXPY. ``Solution.info.method`` names the
-        backend used.
+        The backend; "auto" (default): the fastest that accepts the problem. ``Solution.info.method`` names it.
     tol : float
-        Tolerance of the mixed-formulation checks. A solution that fails them is
-        returned with ``ok = False`` and a :class:`ResidualWarning`.
+        Tolerance of the checks of (26)-(27) (dimensionless). Failing them: ``ok = False`` and a
+        :class:`ResidualWarning`.
     polish : bool
-        Exact finish (default): from the active set of the interior-point answer,
-        solve the mixed system (26) with the contact closed there and correct the set
-        by primal-dual active-set steps until y >= 0 and the open nodes stay feasible
-        (:func:`cvxcontact.backends.finish.solve_lcp`; ``Solution.polished``). If that fails the
-        interior-point answer stands.
+        Exact finish of the interior-point answer (default; ``Solution.polished``).
     verbose : bool
         Print the solver's progress.
     solver_options : dict, optional
-        Options of the solver, passed to ``cvxpy.Problem.solve``: names to bool, int,
-        float or str values (e.g. ``{"max_iter": 100}``). For Clarabel they are checked
-        against ``clarabel.DefaultSettings()`` (names, types, ranges) before anything
-        is assembled; cvxcontact's own parameters are not accepted here.
+        Options passed to ``cvxpy.Problem.solve`` (e.g. ``{"max_iter": 100}``); Clarabel's are checked
+        against ``clarabel.DefaultSettings()`` before anything is assembled.
     law : Signorini or NormalCompliance, optional
-        The normal contact law (:mod:`cvxcontact.contact.laws`; default Signorini, the paper's (8)).
-        ``cc.NormalCompliance(stiffness=k, exponent=m)`` poses (7)/(19): the energy gets
-        sum_a w_a k/(m+1) r_a+^(m+1) at the constrained nodes of ``condition`` (docs/formulation.md §10).
-        With force-controlled obstacles or a body held by the contact only: the full model, finished by
-        Newton steps on the sparse mixed system with the law's rows (§10).
+        The normal contact law: Signorini (8) by default, or normal compliance (7)/(19), stiffness in
+        Pa/m^m.
     degree : {1, 2}
-        1: P1 elements (default). 2: P2 (6-node) elements for u and phi built on the P1 mesh
-        (docs/formulation.md §8); ``"gamma3"`` then means [u_h nu] <= g on the whole of every merged
-        segment (a second-order cone per segment, solved by the interior point with tight
-        tolerances, then finished exactly by accumulated cuts where the problem condenses), ``"sigma1"``/``"sigma2"`` the nodal condition at the P2 nodes
-        of that body's trace (linear, with the exact finish). P2 takes every pair of the scene (two bodies
-        in any orientation, partial overlap, or a body against a rigid obstacle, fixed or force
-        controlled: every condition then constrains the body's P2 trace nodes, "gamma3" on every segment),
-        each under its own condition (conic "gamma3" pairs next to sigma pairs: the nodal rows are posed
-        as degenerate cones, and the whole solve is an interior point without the exact finish). A
-        normal-compliance law with P2 sits on the P2 nodes of the condition's rows ("gamma3": every P2
-        node of the merged mesh, no cone) with Simpson weights (docs/formulation.md §10); its penetration
-        limit l is nodal under "sigma1"/"sigma2" and, under "gamma3", the "everywhere" cone
-        [u_h nu] - g_h <= l on every merged segment (interior point, no exact finish). Compliance pairs next
-        to conic pairs (Signorini "gamma3", or a conic limit) are one interior point, whose nodal rows are
-        finished exactly with the cones' force held when no cone pair is compliant (§10, "P2").
+        P1 (default) or P2 (6-node) elements for u and phi; with 2, "gamma3" holds on the whole of every
+        merged segment (a cone per segment).
     factorization : {"auto", "superlu", "pardiso"}
-        How each body's matrix is factorised with its contact dofs as a Schur block
-        (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
-        extra ``pip install "cvxcontact[pardiso]"``), "auto" (default) PARDISO if it is installed, else
-        SuperLU. Same answer to rounding; ``Solution.info.factorization`` names the one used.
+        The sparse factorisation of each body; "auto": PARDISO if installed, else SuperLU.
     estimate : bool or {"residual", "equilibrated"}
-        Compute the a posteriori error estimate ``Solution.estimate`` (default; docs/accuracy.md: a residual
-        estimator with contact terms, 2D P1 and P2) and check that the contact zone is resolved (a
-        :class:`~cvxcontact.errors.ResolutionWarning` otherwise). False skips both. "equilibrated": instead
-        the guaranteed upper bound of :func:`cvxcontact.error_bound` (2D P1, one elastic body against rigid
-        obstacles; other cases are refused before solving with an UnsupportedError naming what is covered).
+        Compute the a posteriori error estimate ``Solution.estimate`` and check that the contact zone is
+        resolved (default, True = "residual"); "equilibrated": the guaranteed bound of
+        :func:`cvxcontact.error_bound` instead (2D P1, one elastic body against rigid obstacles); False: neither
+        (docs/accuracy.md).
 
     Returns
     -------

@@ -3,7 +3,8 @@
 Build (warnings are errors):  python -m sphinx -W --keep-going -b html docs docs/_build/html
 Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery, sphinx-mathjax-offline). The pages are
 Markdown (MyST), their equations dollar math typeset by a MathJax bundled into the site (readable offline);
-the gallery is ``examples/``, every script executed during the build; the API reference is read from
+the gallery is ``examples/``, every script executed during the build, and so is the code of every tutorial
+(``_ext/tutorial_cells.py``: its output and figures are inserted into the page); the API reference is read from
 the docstrings (autodoc + napoleon, numpy style). Why these tools: docs/explanation/about-docs.md.
 """
 
@@ -15,6 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 DOCS, EXAMPLES = ROOT / "docs", ROOT / "examples"
 sys.path.insert(0, str(ROOT))            # the clone's package, also when it is not installed
+sys.path.insert(0, str(DOCS / "_ext"))   # tutorial_cells: the tutorials run as the pages are built
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import cvxcontact  # noqa: E402
@@ -33,11 +35,12 @@ extensions = [
                                          # (it declares no parallel safety: a build with -j would warn)
     "sphinx.ext.viewcode",
     "sphinx_gallery.gen_gallery",
+    "tutorial_cells",                    # docs/_ext: each tutorial's code run, its output and figures inserted
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
+exclude_patterns = ["_build", "_ext", "tutorials/_generated", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
 
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]   # $...$, $$...$$ \tag{26}: also GitHub's math

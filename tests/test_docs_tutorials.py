@@ -1,0 +1,81 @@
+"""Every tutorial page has a figure and executed output when the site is built, and a downloadable notebook
+that is the page as it stands (docs/_ext/tutorial_cells.py, which the Sphinx build runs on each page)."""
+
+import importlib.util
+import json
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TUTORIALS = ROOT / "docs" / "tutorials"
+_spec = importlib.util.spec_from_file_location("tutorial_cells", ROOT / "docs" / "_ext" / "tutorial_cells.py")
+cells = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(cells)
+PAGES = cells.pages()
+
+
+def test_every_tutorial_page_is_listed():
+    listed = {p.name for p in PAGES}
+    present = {p.name for p in TUTORIALS.glob("*.md")} - {"index.md"}
+    assert listed == present and len(listed) >= 5, (listed, present)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.stem)
+def test_tutorial_runs_with_output_and_a_figure(page, tmp_path):
+    """What the build inserts into the page: the blocks' printed output and at least one figure, the figure
+    files written (non-empty PNGs) and linked from the page."""
+    text, figures = cells.run(page, figures=tmp_path)
+    assert figures, f"{page.name}: no figure drawn by its code"
+    for path in figures:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000, path
+        assert f"]({os.path.relpath(path, page.parent)})" in text, path
+    assert re.search(r"^```text\n\S", text, re.M), f"{page.name}: no printed output"
+    assert text.startswith(page.read_text(encoding="utf-8").split("```python", 1)[0]), "the page's text changed"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.stem)
+def test_tutorial_links_its_notebook_and_the_notebook_is_the_page(page):
+    pytest.importorskip("jupytext")
+    name = f"notebooks/{page.stem}.ipynb"
+    assert f"]({name})" in page.read_text(encoding="utf-8"), f"{page.name} does not link {name}"
+    committed = TUTORIALS / name
+    assert committed.exists(), f"{committed} missing: run python docs/_ext/tutorial_cells.py"
+    assert json.loads(committed.read_text(encoding="utf-8")) == json.loads(cells.notebook(page)), \
+        f"{committed.name} is out of date with {page.name}: run python docs/_ext/tutorial_cells.py"
+    book = json.loads(committed.read_text(encoding="utf-8"))
+    code = ["".join(c["source"]) for c in book["cells"] if c["cell_type"] == "code"]
+    # the notebook runs as the page does: the README's quickstart first, then the page's blocks in order
+    assert code[0].strip() == cells.quickstart().strip()
+    assert [c.strip() for c in code[1:]] == [b.strip() for b in cells.BLOCK.findall(page.read_text(encoding="utf-8"))]
+
+
+def test_solve_docstring_is_short_and_links_its_options_page():
+    """numpydoc, one short entry per parameter (at most 3 lines); the long explanations live in
+    docs/reference/solve-options.md, one section per option that needs one."""
+    import inspect
+
+    import cvxcontact as cc
+
+    doc = inspect.getdoc(cc.solve)
+    assert "docs/reference/solve-options.md" in doc
+    params = doc.split("Parameters\n----------\n", 1)[1].split("\n\nReturns", 1)[0]
+    entries = re.split(r"\n(?=\w+ : )", params)
+    names = [e.split(" : ", 1)[0] for e in entries]
+    assert names == list(inspect.signature(cc.solve).parameters), names
+    for entry in entries:
+        assert len(entry.splitlines()) <= 4, entry          # the "name : type" line and at most 3 lines
+    page = (ROOT / "docs" / "reference" / "solve-options.md").read_text(encoding="utf-8")
+    for option in ("method", "polish", "law", "degree", "factorization", "estimate"):
+        assert f"## `{option}`" in page, option
+
+
+def test_learning_path_runs_through_every_tutorial_and_ends_with_the_accuracy():
+    text = (ROOT / "docs" / "index.md").read_text(encoding="utf-8").split("## A learning path", 1)[1]
+    steps = re.findall(r"^\d+\. \[[^]]+\]\(([^)]+)\)", text, re.M)
+    assert steps[-1] == "accuracy.md", steps
+    tutorials = [s for s in steps if s.startswith("tutorials/")]
+    assert tutorials == [f"tutorials/{p.name}" for p in PAGES], tutorials   # in the tutorials' own order
+    assert all((ROOT / "docs" / s).exists() for s in steps), steps

@@ -44,7 +44,8 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
-from .estimate import ErrorEstimate, _boundary_roles, _edges, _read_only, cell_energies
+from ..geometry.mesh import _edge_table
+from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
 __all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
 
@@ -55,6 +56,20 @@ COVERED = ("2D P1, one elastic body against fixed rigid obstacles whose rows kee
 _GAUSS5 = np.polynomial.legendre.leggauss(5)
 _K3_INV = np.array([[3.0, -1.0, -1.0], [-1.0, 3.0, -1.0], [-1.0, -1.0, 3.0]])   # area/12 [[2,1,1],..]^-1 * area/3
 _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the stresses (Pa / Pa)
+
+
+def _edges(mesh):
+    """Every edge of a triangle mesh once: (cells (k, 2) with -1 for a boundary edge's missing neighbour, the
+    local edge index i in each (the edge from vertex i to vertex i + 1), vertex pair (k, 2) sorted; the keys
+    a n + b of the pairs ascending)."""
+    n = len(mesh.points)
+    _, keys_s, order, start, count = _edge_table(mesh.triangles.astype(np.int64), n)   # row 3 t + i: i -> i+1
+    first = order[start]
+    second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
+    cells = np.column_stack([first // 3, np.where(second >= 0, second // 3, -1)])
+    local = np.column_stack([first % 3, np.where(second >= 0, second % 3, -1)])
+    pairs = np.column_stack([keys_s[start] // n, keys_s[start] % n])
+    return cells, local, pairs
 
 
 def _refuse(what: str):

@@ -1,0 +1,197 @@
+"""The GetFEM half of benchmarks/compare_getfem_hertz3d.py: the quarter Hertz block pressed by a fixed rigid
+sphere, solved by GetFEM on the mesh cvxcontact wrote.
+
+NOT part of CI and not importable from the project's venv: it needs Debian's GetFEM
+(``apt-get install python3-getfem``, GetFEM 5.4) and runs under the system interpreter, which the
+comparison script calls:
+
+    /usr/bin/python3 benchmarks/getfem_hertz3d_side.py scene.npz answer.npz
+
+Input (npz, plain arrays, no pickle): ``points`` (N, 3) m, ``tets`` (T, 4), ``zone`` (F, 3) the contact faces,
+``bottom``/``left``/``front`` (., 3) the clamped bottom and the roller faces x = 0, y = 0 (their triangles),
+``E`` (Pa), ``nu``, ``center`` (3,) m and ``radius`` m of the sphere.
+
+GetFEM builds its own P1 tetrahedral mesh_fem from those points and cells (its dof numbering, mapped back to
+the points by coordinates), the isotropic linearised elasticity brick (Lame constants from E, nu), the supports
+as explicit dof constraints with multipliers (every component on the bottom's nodes, u_x on x = 0, u_y on
+y = 0) and the sphere three ways, each solved by GetFEM's Newton on the Alart-Curnier augmented Lagrangian:
+
+``obstacle``  GetFEM's nodal contact with a rigid obstacle given by its signed distance expression
+              sqrt(x^2 + y^2 + (z - zc)^2) - R (``add_nodal_contact_with_rigid_obstacle_brick``): one row per
+              node of the contact region, gap d(x), direction minus the gradient of d by a forward difference
+              with step 1e-3 of the node's first cell's radius estimate (GetFEM's own normal).
+``radial``    GetFEM's basic contact brick with the same rows but the gradient in closed form (the unit vector
+              from the centre): the closest-point posing, like for like with cvxcontact's ``distance="closest"``.
+``vertical``  the basic contact brick with rows along +z and the vertical distance to the sphere's lower surface:
+              like for like with ``distance="ray"``.
+
+Output (npz): per variant ``u_<variant>`` (N, 3) m at the input's points, ``lam_<variant>`` the nodal contact
+multipliers, ``fz_<variant>`` the vertical force (N, on the quarter) that the block feels at its contact nodes,
+the z-sum of K u over them (K GetFEM's stiffness assembled alone, so the roller reactions, along x or y, do not
+enter); and ``fz_of`` applied to any displacement given as ``u_in_<name>`` in the input
+(the same sum for cvxcontact's answers, an independent read of their force).
+"""
+
+import sys
+
+import numpy as np
+import getfem as gf
+from scipy.sparse import csc_matrix
+from scipy.spatial import cKDTree
+
+MAX_RES = 1e-8
+"""N: the Newton residual GetFEM is asked for (absolute; the nodal forces are 1e2-1e3 N, and its Newton stalls at
+roundoff, ~3e-11, measured at n = 4)."""
+
+
+def build(data):
+    P, T = data["points"], data["tets"]
+    mesh = gf.Mesh("empty", 3)
+    mesh.add_convex(gf.GeoTrans("GT_PK(3,1)"), np.transpose(P[T], (2, 1, 0)).copy())   # (3, 4, T)
+    mf = gf.MeshFem(mesh, 3)
+    mf.set_classical_fem(1)
+    mim = gf.MeshIm(mesh, gf.Integ("IM_TETRAHEDRON(2)"))
+    dof_points = mf.basic_dof_nodes().T                                              # (ndof, 3)
+    dist, node = cKDTree(P).query(dof_points)
+    assert dist.max() <= 1e-12 * np.abs(P).max(), "GetFEM's dofs do not sit on the input's points"
+    assert mf.nbdof() == 3 * len(P)
+    comp = np.arange(mf.nbdof()) % 3                                 # GetFEM: a node's 3 dofs consecutive
+    assert np.all(node[0::3] == node[1::3]) and np.all(node[0::3] == node[2::3])
+    # the contact region: the outer faces whose vertices are a triangle of the zone
+    faces = mesh.outer_faces()                                                        # (2, nf): cv, face
+    pid_points = mesh.pts().T
+    _, pid_node = cKDTree(P).query(pid_points)
+    zone = {tuple(sorted(t)) for t in data["zone"].tolist()}
+    keep = []
+    for cv, f in faces.T:
+        pids = mesh.pid_in_faces(np.array([[cv], [f]]))
+        if tuple(sorted(pid_node[pids].tolist())) in zone:
+            keep.append((cv, f))
+    assert len(keep) == len(zone), f"found {len(keep)} of the {len(zone)} contact faces"
+    mesh.set_region(1, np.array(keep).T)
+    return mesh, mf, mim, node, comp
+
+
+def spmat(A):
+    """A GetFEM sparse matrix holding the dense array A."""
+    S = gf.Spmat("empty", *A.shape)
+    S.assign(np.arange(A.shape[0]), np.arange(A.shape[1]), A)
+    return S
+
+
+def constraint_matrix(data, node, comp, ndof):
+    """The supports as rows of the identity: every component on the bottom, u_x on x = 0, u_y on y = 0."""
+    held = set()
+    for tag, comps in (("bottom", (0, 1, 2)), ("left", (0,)), ("front", (1,))):
+        nodes = np.unique(data[tag])
+        held |= {(int(a), c) for a in nodes for c in comps}
+    index = {(int(n), int(c)): i for i, (n, c) in enumerate(zip(node, comp))}
+    cols = sorted(index[h] for h in held)
+    B = np.zeros((len(cols), ndof))
+    B[np.arange(len(cols)), cols] = 1.0
+    return B
+
+
+def model(data, mesh, mf, mim, node, comp):
+    E, nu = float(data["E"]), float(data["nu"])
+    md = gf.Model("real")
+    md.add_fem_variable("u", mf)
+    md.add_initialized_data("lambda", [E * nu / ((1 + nu) * (1 - 2 * nu))])
+    md.add_initialized_data("mu", [E / (2 * (1 + nu))])
+    md.add_isotropic_linearized_elasticity_brick(mim, "u", "lambda", "mu")
+    B = constraint_matrix(data, node, comp, mf.nbdof())
+    md.add_variable("held", B.shape[0])
+    md.add_constraint_with_multipliers("u", "held", spmat(B), np.zeros(B.shape[0]))
+    md.add_initialized_data("r", [E])
+    return md
+
+
+def contact_rows(data, mf, node, kind):
+    """(BN (rows, ndof), gap (rows,)) of the region's nodes, one row per node in GetFEM's dof order."""
+    P, c, R = data["points"], data["center"], float(data["radius"])
+    first = np.asarray(mf.basic_dof_on_region(1))
+    first = first[first % 3 == 0]
+    x = P[node[first]]
+    if kind == "radial":
+        w = x - c
+        d = np.linalg.norm(w, axis=1)
+        gap, direction = d - R, -w / d[:, None]
+    else:                                                            # vertical: the sphere's lower surface above x
+        r2 = (x[:, 0] - c[0]) ** 2 + (x[:, 1] - c[1]) ** 2
+        gap = c[2] - np.sqrt(R ** 2 - r2) - x[:, 2]
+        direction = np.tile([0.0, 0.0, 1.0], (len(x), 1))
+    BN = np.zeros((len(first), mf.nbdof()))
+    for k in range(3):
+        BN[np.arange(len(first)), first + k] = direction[:, k]
+    return BN, gap
+
+
+def augmentation_weights(data, mf, mim):
+    """The rows' weights alpha in the augmented complementarity function, as GetFEM's rigid-obstacle brick sets
+    them (the diagonal of the contact region's mass matrix over the mesh's largest extent); they scale the
+    Newton path, not the solution."""
+    M = gf.asm_mass_matrix(mim, mf, mf, 1)
+    M.to_csc()
+    indptr, rows = M.csc_ind()
+    M = csc_matrix((M.csc_val(), rows, indptr), shape=M.size())
+    first = np.asarray(mf.basic_dof_on_region(1))
+    first = first[first % 3 == 0]
+    P = data["points"]
+    return M.diagonal()[first] / np.ptp(P, axis=0).max()
+
+
+def solve(data, variant):
+    mesh, mf, mim, node, comp = build(data)
+    md = model(data, mesh, mf, mim, node, comp)
+    rows = len([d for d in np.asarray(mf.basic_dof_on_region(1)) if d % 3 == 0])
+    md.add_variable("lam", rows)
+    if variant == "obstacle":
+        c, R = data["center"], float(data["radius"])
+        expr = f"sqrt(x*x + y*y + (z-({c[2]!r}))*(z-({c[2]!r}))) - {R!r}"
+        assert c[0] == 0.0 and c[1] == 0.0
+        md.add_nodal_contact_with_rigid_obstacle_brick(mim, "u", "lam", "r", 1, expr, 1)
+    else:
+        BN, gap = contact_rows(data, mf, node, variant)
+        md.add_initialized_data("gap", gap)
+        md.add_initialized_data("alpha", augmentation_weights(data, mf, mim))
+        md.add_basic_contact_brick("u", "lam", "r", spmat(BN), "gap", "alpha", 1)
+    _, converged = md.solve("max_res", MAX_RES, "max_iter", 40)
+    assert converged, f"{variant}: GetFEM's Newton did not reach the residual {MAX_RES} N in 40 steps"
+    U = md.variable("u")
+    u = np.zeros((len(data["points"]), 3))
+    u[node, comp] = U
+    return u, md.variable("lam"), (mesh, mf, mim, node, comp)
+
+
+def vertical_force(data, mf, mim, node, comp, u):
+    """N: the z-sum of K u over the contact nodes (K GetFEM's stiffness, no supports, no contact)."""
+    E, nu = float(data["E"]), float(data["nu"])
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    mfd = gf.MeshFem(mf.linked_mesh(), 1)
+    mfd.set_classical_fem(0)
+    n_el = mfd.nbdof()
+    K = gf.asm_linear_elasticity(mim, mf, mfd, np.full(n_el, lam), np.full(n_el, mu))
+    U = u[node, comp]
+    f = np.asarray(K.mult(U))
+    first = np.asarray(mf.basic_dof_on_region(1))
+    zdofs = first[first % 3 == 2]
+    return float(-f[zdofs].sum())                  # the block pushes up on the sphere: K u is -(contact force)
+
+
+def main(inp, out):
+    with np.load(inp, allow_pickle=False) as f:
+        data = {k: f[k] for k in f.files}
+    result = {}
+    for variant in ("obstacle", "radial", "vertical"):
+        u, lam, (mesh, mf, mim, node, comp) = solve(data, variant)
+        result[f"u_{variant}"] = u
+        result[f"lam_{variant}"] = lam
+        result[f"fz_{variant}"] = np.array(vertical_force(data, mf, mim, node, comp, u))
+    for key in data:
+        if key.startswith("u_in_"):
+            result["fz_of_" + key[5:]] = np.array(vertical_force(data, mf, mim, node, comp, data[key]))
+    np.savez(out, **result)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2])

@@ -40,10 +40,32 @@ POSINGS = ("closest", "ray")
 LIKE = {"closest": "radial", "ray": "vertical"}
 
 
-def export(n: int, path: Path) -> dict:
-    """Solve the scene at level ``n`` with both posings; write GetFEM's input to ``path``; return cvxcontact's
-    answers (force on the quarter (N), u (N, 3) m)."""
-    scenes = {p: hertz3d.scene(n, distance=p) for p in POSINGS}
+def radius(ratio: float) -> float:
+    """m: the sphere's radius at a/R = ``ratio`` (the study's R at its own ratio)."""
+    return hertz3d.R if np.isclose(ratio, hertz3d.A_REF / hertz3d.R, rtol=1e-12) else hertz3d.A_REF / ratio
+
+
+def scene(n: int, ratio: float, posing: str):
+    """The study's quarter scene at level ``n`` with the sphere's radius R = a_ref / ``ratio`` fixed at Hertz's
+    approach a_ref^2 / R for the contact radius a_ref (the study's own scene, ``hertz3d.scene(n)``, at its
+    a/R = 0.05)."""
+    if radius(ratio) == hertz3d.R:
+        return hertz3d.scene(n, distance=posing)
+    body, R = hertz3d.block(n), radius(ratio)
+    sphere = cc.Rigid.sphere((0.0, 0.0, R - hertz3d.A_REF ** 2 / R), R, distance=posing)
+    return cc.Scene(body, contacts=[cc.Contact(body, "zone", sphere)])
+
+
+def active(forces) -> int:
+    """The rows carrying a force above 1e-9 of the largest (either sign convention)."""
+    f = np.abs(np.asarray(forces, float))
+    return int(np.count_nonzero(f > 1e-9 * f.max()))
+
+
+def export(n: int, ratio: float, path: Path) -> dict:
+    """Solve the scene at level ``n`` and a/R = ``ratio`` with both posings; write GetFEM's input to ``path``;
+    return cvxcontact's answers (force on the quarter (N), u (N, 3) m, rows, active rows)."""
+    scenes = {p: scene(n, ratio, p) for p in POSINGS}
     body = scenes["closest"].bodies[0]
     mesh = body.mesh
     # the GetFEM side holds every component on "bottom", u_x on "left" (x = 0), u_y on "front" (y = 0): the
@@ -59,44 +81,52 @@ def export(n: int, path: Path) -> dict:
         mesh.points[mesh.boundary_nodes("front"), 1], 0)
     sphere = scenes["closest"].obstacles[0].obstacle
     out = {}
-    for p, scene in scenes.items():
-        sol = cc.solve(scene)
+    for p, sc in scenes.items():
+        sol = cc.solve(sc)
         assert sol.ok, f"n = {n}, {p}: cvxcontact's answer is not ok ({sol.status})"
         out[p] = dict(force=hertz3d.total_force(sol) / 4, u=np.asarray(sol.u[0]), rows=len(sol.contact.force),
-                      active=int(np.count_nonzero(sol.contact.active)))
+                      active=active(sol.contact.force))
     np.savez(path, points=mesh.points, tets=mesh.tets, zone=mesh.boundary("zone"), bottom=mesh.boundary("bottom"),
              left=mesh.boundary("left"), front=mesh.boundary("front"), E=hertz3d.E, nu=hertz3d.NU,
-             center=np.asarray(sphere.position, float), radius=hertz3d.R, delta=hertz3d.hertz(hertz3d.FORCE)[2],
-             **{f"u_in_{p}": out[p]["u"] for p in POSINGS},
-             **{f"force_{p}": out[p]["force"] for p in POSINGS})
+             center=np.asarray(sphere.position, float), radius=radius(ratio), **{f"u_in_{p}": out[p]["u"] for p in POSINGS})
     return out
 
 
-def compare(levels, python3, out_path):
-    rows = []
+def compare(levels, ratios, python3, out_path):
+    rows, fd = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for n in levels:
-            scene_npz, answer_npz = Path(tmp) / f"scene{n}.npz", Path(tmp) / f"answer{n}.npz"
-            cvx = export(n, scene_npz)
-            subprocess.run([python3, str(SIDE), str(scene_npz), str(answer_npz)], check=True)
-            with np.load(answer_npz, allow_pickle=False) as f:
-                gf = {k: f[k] for k in f.files}
-            for p in POSINGS:
-                u = cvx[p]["u"]
-                scale = np.abs(u).max()
-                for variant in ("obstacle", LIKE[p]):
-                    ug, fg = gf[f"u_{variant}"], float(gf[f"fz_{variant}"])
-                    rows.append(dict(n=n, posing=p, getfem=variant, rows=cvx[p]["rows"], active=cvx[p]["active"],
-                                     active_getfem=int(np.count_nonzero(gf[f"lam_{variant}"])),
-                                     force=cvx[p]["force"], force_k=float(gf[f"fz_of_{p}"]), force_getfem=fg,
-                                     df=(cvx[p]["force"] - fg) / fg, du=np.abs(ug - u).max() / scale))
-                    print("  ".join(f"{k}={v:.3e}" if isinstance(v, float) else f"{k}={v}"
-                                    for k, v in rows[-1].items()), flush=True)
-    write(rows, levels, out_path)
-    return rows
+        for ratio in ratios:
+            for n in levels:
+                scene_npz, answer_npz = Path(tmp) / f"scene{n}.npz", Path(tmp) / f"answer{n}.npz"
+                cvx = export(n, ratio, scene_npz)
+                subprocess.run([python3, str(SIDE), str(scene_npz), str(answer_npz)], check=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                with np.load(answer_npz, allow_pickle=False) as f:
+                    gf = {k: f[k] for k in f.files}
+                for p in POSINGS:
+                    u = cvx[p]["u"]
+                    for variant in ("obstacle", LIKE[p]):
+                        ug, fg = gf[f"u_{variant}"], float(gf[f"fz_{variant}"])
+                        rows.append(dict(ratio=ratio, n=n, posing=p, getfem=variant, rows=cvx[p]["rows"],
+                                         active=cvx[p]["active"], active_getfem=active(gf[f"lam_{variant}"]),
+                                         force=cvx[p]["force"], force_k=float(gf[f"fz_of_{p}"]), force_getfem=fg,
+                                         df=(cvx[p]["force"] - fg) / fg, du=np.abs(ug - u).max() / np.abs(u).max()))
+                        print("  ".join(f"{k}={v:.3e}" if isinstance(v, float) else f"{k}={v}"
+                                        for k, v in rows[-1].items()), flush=True)
+                uo, ug = gf["u_obstacle"], gf["u_given"]
+                fd.append(dict(ratio=ratio, n=n, normal=float(gf["normal_error"]),
+                               df=(float(gf["fz_given"]) - float(gf["fz_obstacle"])) / float(gf["fz_obstacle"]),
+                               du=np.abs(ug - uo).max() / np.abs(uo).max()))
+    write(rows, fd, levels, ratios, out_path)
+    return rows, fd
 
 
-def write(rows, levels, out_path):
+def worst(rows, key, **match):
+    return max(abs(r[key]) for r in rows if all(r[k] == v for k, v in match.items()))
+
+
+def write(rows, fd, levels, ratios, out_path):
+    delta = hertz3d.hertz(hertz3d.FORCE)[2]
     lines = [
         "# cvxcontact's sphere posings against GetFEM (3D Hertz quarter block, P1)",
         "",
@@ -104,47 +134,86 @@ def write(rows, levels, out_path):
         "GetFEM 5.4.2, run by the system python3 through `benchmarks/getfem_hertz3d_side.py`):",
         "",
         "    apt-get install -y python3-getfem",
-        f"    PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py --levels {' '.join(map(str, levels))}",
+        f"    PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py --levels "
+        f"{' '.join(map(str, levels))} --ratios {' '.join(f'{r:g}' for r in ratios)}",
         "",
-        "Scene: `cvxcontact.apps.studies.hertz3d.scene(n, distance=...)`: the quarter block [0, 10 mm]^2 x",
-        "[-10 mm, 0] graded towards the origin, E = 70 GPa, nu = 0.3, bottom clamped, rollers on x = 0 and y = 0,",
-        f"the rigid sphere R = 20 mm fixed at Hertz's approach delta = {hertz3d.hertz(hertz3d.FORCE)[2]:.6g} m at",
-        f"F = {hertz3d.FORCE:.6g} N (a/R = 0.05); P1, condition \"gamma3\" (rows at the nodes of the contact patch).",
-        "Displacement control, so both codes solve one fixed problem on one mesh.",
+        "Scene: `cvxcontact.apps.studies.hertz3d`: the quarter block [0, 10 mm]^2 x [-10 mm, 0] (n cells per edge,",
+        "graded towards the origin), E = 70 GPa, nu = 0.3, bottom clamped, rollers on x = 0 and y = 0, P1,",
+        "condition \"gamma3\" (a row at every node of the contact patch [0, 2 mm]^2), the rigid sphere of radius",
+        "R = a_ref / (a/R) FIXED at Hertz's approach a_ref^2 / R for the contact radius a_ref = 1 mm",
+        f"(displacement control: one problem per mesh, no force loop). At a/R = 0.05 it is the study's own",
+        f"`hertz3d.scene(n, distance=...)` (R = 20 mm, delta = {delta:.6g} m); a/R = 0.1 halves R.",
         "",
-        "GetFEM's variants (all solved by its Newton on the Alart-Curnier augmented Lagrangian, nodal multipliers):",
+        "GetFEM's posings (each solved by its Newton on the Alart-Curnier augmented Lagrangian, nodal multipliers,",
+        "the supports as dof constraints with multipliers; its own P1 mesh_fem, stiffness and dof numbering):",
         "",
         "- `obstacle`: `add_nodal_contact_with_rigid_obstacle_brick` with the signed distance",
         "  `sqrt(x^2 + y^2 + (z - zc)^2) - R`: a row at each contact node, gap d(x), direction -grad d / |grad d|",
-        "  with grad d by a forward difference of step 1e-3 x the radius estimate of the node's first cell.",
-        "  These are the closest-point rows (cvxcontact's `distance=\"closest\"`) up to that difference's error.",
-        "- `radial`: the basic contact brick with the same rows, the direction in closed form (x - c) / |x - c|",
-        "  (like for like with `distance=\"closest\"`).",
+        "  with grad d by a FORWARD difference of step 1e-3 x the node's first cell's radius estimate. These are",
+        "  the closest-point rows (`distance=\"closest\"`) up to that difference's error.",
+        "- `radial`: the basic contact brick with the same rows and gaps, the direction in closed form",
+        "  (c - x) / |x - c|: like for like with `distance=\"closest\"`.",
         "- `vertical`: the basic contact brick with rows along z and the vertical distance to the sphere's lower",
-        "  surface (like for like with `distance=\"ray\"`).",
+        "  surface: like for like with `distance=\"ray\"`.",
         "",
         "F: the vertical force on the quarter (N). cvxcontact's is the obstacle's resultant",
-        "(`hertz3d.total_force(sol) / 4`); F(K u) is the same force read from cvxcontact's u with GetFEM's own",
-        "stiffness (the z-sum of K u over the contact nodes); GetFEM's is that sum on its own u.",
-        "dF = (F_cvx - F_getfem) / F_getfem; du = max |u_getfem - u_cvx| / max |u_cvx|.",
+        "(`hertz3d.total_force(sol) / 4`); F(K u_cvx) reads it from cvxcontact's u with GetFEM's stiffness (the",
+        "z-sum of K u over the contact nodes, an independent read); GetFEM's is that sum on its own u.",
+        "dF = (F_cvx - F_getfem) / F_getfem; du = max |u_getfem - u_cvx| / max |u_cvx|; active: rows whose force",
+        "exceeds 1e-9 of the largest.",
         "",
-        "| n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF | du |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "## Summary",
+        "",
+        f"- closest vs GetFEM's like-for-like radial rows: |dF| <= {worst(rows, 'df', posing='closest', getfem='radial'):.1e}, "
+        f"du <= {worst(rows, 'du', posing='closest', getfem='radial'):.1e} (the same discrete problem: roundoff).",
+        f"- closest vs GetFEM's rigid-obstacle brick: |dF| <= {worst(rows, 'df', posing='closest', getfem='obstacle'):.1e}, "
+        f"du <= {worst(rows, 'du', posing='closest', getfem='obstacle'):.1e}; GetFEM's forward-difference normal is off "
+        f"the exact one by up to {max(r['normal'] for r in fd):.1e}, and GetFEM's basic brick with the rows extracted",
+        f"  from its obstacle brick reproduces the obstacle brick's answer to |dF| <= {max(abs(r['df']) for r in fd):.1e}, "
+        f"du <= {max(r['du'] for r in fd):.1e}: the whole difference is that normal.",
+        f"- ray vs GetFEM's like-for-like vertical rows: |dF| <= {worst(rows, 'df', posing='ray', getfem='vertical'):.1e}, "
+        f"du <= {worst(rows, 'du', posing='ray', getfem='vertical'):.1e}.",
+    ]
+    for ratio in ratios:
+        lines.append(f"- ray vs GetFEM's rigid-obstacle brick at a/R = {ratio:g}: dF from "
+                     f"{min(r['df'] for r in rows if r['posing'] == 'ray' and r['getfem'] == 'obstacle' and r['ratio'] == ratio):.2%} "
+                     f"to {max(r['df'] for r in rows if r['posing'] == 'ray' and r['getfem'] == 'obstacle' and r['ratio'] == ratio):.2%} "
+                     f"(the vertical posing's own error; du up to "
+                     f"{worst(rows, 'du', posing='ray', getfem='obstacle', ratio=ratio):.1e}).")
+    lines += [
+        "",
+        "## Forces and displacements",
+        "",
+        "| a/R | n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF | du |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(f"| {r['n']} | {r['posing']} | {r['getfem']} | {r['rows']} | {r['active']} / {r['active_getfem']} "
-                     f"| {r['force']:.10g} | {r['force_k']:.10g} | {r['force_getfem']:.10g} | {r['df']:.2e} "
-                     f"| {r['du']:.2e} |")
+        lines.append(f"| {r['ratio']:g} | {r['n']} | {r['posing']} | {r['getfem']} | {r['rows']} "
+                     f"| {r['active']} / {r['active_getfem']} | {r['force']:.10g} | {r['force_k']:.10g} "
+                     f"| {r['force_getfem']:.10g} | {r['df']:.2e} | {r['du']:.2e} |")
+    lines += [
+        "",
+        "## GetFEM's finite-difference normal",
+        "",
+        "normal: max over the contact nodes of |n_getfem - n_exact| (n_getfem read from the tangent matrix of the",
+        "obstacle brick, its (u, lambda) block being -B_N^T); dF, du: GetFEM's basic brick with those rows (gap d(x))",
+        "against the obstacle brick.",
+        "",
+        "| a/R | n | normal | dF | du |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [f"| {r['ratio']:g} | {r['n']} | {r['normal']:.2e} | {r['df']:.1e} | {r['du']:.1e} |" for r in fd]
     Path(out_path).write_text("\n".join(lines) + "\n")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--levels", type=int, nargs="+", default=[4, 8])
+    ap.add_argument("--levels", type=int, nargs="+", default=[4, 8, 12])
+    ap.add_argument("--ratios", type=float, nargs="+", default=[0.05, 0.1], help="a/R of the sphere")
     ap.add_argument("--python3", default="/usr/bin/python3")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "getfem_hertz3d.md"))
     args = ap.parse_args(argv)
-    compare(args.levels, args.python3, args.out)
+    compare(args.levels, args.ratios, args.python3, args.out)
 
 
 if __name__ == "__main__":

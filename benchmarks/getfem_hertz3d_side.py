@@ -106,61 +106,85 @@ def model(data, mesh, mf, mim, node, comp):
     return md
 
 
-def contact_rows(data, mf, node, kind):
-    """(BN (rows, ndof), gap (rows,)) of the region's nodes, one row per node in GetFEM's dof order."""
-    P, c, R = data["points"], data["center"], float(data["radius"])
+def contact_dofs(mf):
+    """The first (x) dof of each node of the contact region, in GetFEM's order: one row per node."""
     first = np.asarray(mf.basic_dof_on_region(1))
-    first = first[first % 3 == 0]
+    return first[first % 3 == 0]
+
+
+def contact_rows(data, mf, node, kind):
+    """(BN (rows, ndof), gap (rows,)) of the region's nodes, the condition BN u <= gap: ``kind`` "radial" (the
+    closest point: gap |x - c| - R, direction (c - x) / |x - c|) or "vertical" (the ray along +z: gap the height
+    of the sphere's lower surface above x, direction e_z)."""
+    P, c, R = data["points"], data["center"], float(data["radius"])
+    first = contact_dofs(mf)
     x = P[node[first]]
     if kind == "radial":
         w = x - c
         d = np.linalg.norm(w, axis=1)
         gap, direction = d - R, -w / d[:, None]
-    else:                                                            # vertical: the sphere's lower surface above x
+    else:
         r2 = (x[:, 0] - c[0]) ** 2 + (x[:, 1] - c[1]) ** 2
         gap = c[2] - np.sqrt(R ** 2 - r2) - x[:, 2]
         direction = np.tile([0.0, 0.0, 1.0], (len(x), 1))
-    BN = np.zeros((len(first), mf.nbdof()))
+    return row_matrix(direction, first, mf.nbdof()), gap
+
+
+def row_matrix(direction, first, ndof):
+    BN = np.zeros((len(first), ndof))
     for k in range(3):
         BN[np.arange(len(first)), first + k] = direction[:, k]
-    return BN, gap
+    return BN
 
 
 def augmentation_weights(data, mf, mim):
     """The rows' weights alpha in the augmented complementarity function, as GetFEM's rigid-obstacle brick sets
     them (the diagonal of the contact region's mass matrix over the mesh's largest extent); they scale the
     Newton path, not the solution."""
-    M = gf.asm_mass_matrix(mim, mf, mf, 1)
-    M.to_csc()
-    indptr, rows = M.csc_ind()
-    M = csc_matrix((M.csc_val(), rows, indptr), shape=M.size())
-    first = np.asarray(mf.basic_dof_on_region(1))
-    first = first[first % 3 == 0]
-    P = data["points"]
-    return M.diagonal()[first] / np.ptp(P, axis=0).max()
+    M = scipy_matrix(gf.asm_mass_matrix(mim, mf, mf, 1))
+    return M.diagonal()[contact_dofs(mf)] / np.ptp(data["points"], axis=0).max()
 
 
-def solve(data, variant):
+def scipy_matrix(S):
+    S.to_csc()
+    indptr, rows = S.csc_ind()
+    return csc_matrix((S.csc_val(), rows, indptr), shape=S.size())
+
+
+def solve(data, variant, rows=None):
+    """(u (N, 3) m, the multipliers (N, <= 0), the obstacle brick's rows (the direction of each, (rows, 3)) or
+    None, (mesh, mf, mim, node, comp)) of one posing: ``variant`` "obstacle" (GetFEM's rigid-obstacle brick),
+    "radial", "vertical" (:func:`contact_rows`) or "given" (the directions ``rows`` with the gap d(x))."""
     mesh, mf, mim, node, comp = build(data)
     md = model(data, mesh, mf, mim, node, comp)
-    rows = len([d for d in np.asarray(mf.basic_dof_on_region(1)) if d % 3 == 0])
-    md.add_variable("lam", rows)
+    first = contact_dofs(mf)
+    md.add_variable("lam", len(first))
+    c, R = data["center"], float(data["radius"])
     if variant == "obstacle":
-        c, R = data["center"], float(data["radius"])
         expr = f"sqrt(x*x + y*y + (z-({c[2]!r}))*(z-({c[2]!r}))) - {R!r}"
         assert c[0] == 0.0 and c[1] == 0.0
         md.add_nodal_contact_with_rigid_obstacle_brick(mim, "u", "lam", "r", 1, expr, 1)
     else:
-        BN, gap = contact_rows(data, mf, node, variant)
+        if variant == "given":
+            BN, gap = row_matrix(rows, first, mf.nbdof()), contact_rows(data, mf, node, "radial")[1]
+        else:
+            BN, gap = contact_rows(data, mf, node, variant)
         md.add_initialized_data("gap", gap)
         md.add_initialized_data("alpha", augmentation_weights(data, mf, mim))
         md.add_basic_contact_brick("u", "lam", "r", spmat(BN), "gap", "alpha", 1)
     _, converged = md.solve("max_res", MAX_RES, "max_iter", 40)
     assert converged, f"{variant}: GetFEM's Newton did not reach the residual {MAX_RES} N in 40 steps"
-    U = md.variable("u")
+    directions = None
+    if variant == "obstacle":            # its rows: the tangent's (u, lam) block is -BN^T (unit rows, no alpha)
+        md.assembly("build_matrix")
+        K = scipy_matrix(md.tangent_matrix())
+        iu, il = md.interval_of_variable("u"), md.interval_of_variable("lam")
+        BN = -K[iu[0]:iu[0] + iu[1], il[0]:il[0] + il[1]].toarray().T
+        directions = np.stack([BN[np.arange(len(first)), first + k] for k in range(3)], axis=1)
+        assert np.allclose(np.abs(BN).sum(), np.abs(directions).sum(), rtol=1e-14, atol=0)   # nothing else
     u = np.zeros((len(data["points"]), 3))
-    u[node, comp] = U
-    return u, md.variable("lam"), (mesh, mf, mim, node, comp)
+    u[node, comp] = md.variable("u")
+    return u, md.variable("lam"), directions, (mesh, mf, mim, node, comp)
 
 
 def vertical_force(data, mf, mim, node, comp, u):
@@ -182,11 +206,16 @@ def main(inp, out):
     with np.load(inp, allow_pickle=False) as f:
         data = {k: f[k] for k in f.files}
     result = {}
-    for variant in ("obstacle", "radial", "vertical"):
-        u, lam, (mesh, mf, mim, node, comp) = solve(data, variant)
+    for variant in ("obstacle", "radial", "vertical", "given"):
+        u, lam, directions, (mesh, mf, mim, node, comp) = solve(data, variant, result.get("rows_obstacle"))
         result[f"u_{variant}"] = u
         result[f"lam_{variant}"] = lam
         result[f"fz_{variant}"] = np.array(vertical_force(data, mf, mim, node, comp, u))
+        if directions is not None:
+            result["rows_obstacle"] = directions
+            radial = contact_rows(data, mf, node, "radial")[0]
+            exact = np.stack([radial[np.arange(len(directions)), contact_dofs(mf) + k] for k in range(3)], axis=1)
+            result["normal_error"] = np.array(np.linalg.norm(directions - exact, axis=1).max())
     for key in data:
         if key.startswith("u_in_"):
             result["fz_of_" + key[5:]] = np.array(vertical_force(data, mf, mim, node, comp, data[key]))

@@ -32,8 +32,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import cvxcontact as cc  # noqa: E402
-from cvxcontact.apps.studies import hertz3d  # noqa: E402
+import cvxcontact as cc
+from cvxcontact.apps.studies import hertz3d
 
 SIDE = Path(__file__).with_name("getfem_hertz3d_side.py")
 POSINGS = ("closest", "ray")
@@ -84,11 +84,12 @@ def export(n: int, ratio: float, path: Path) -> dict:
     for p, sc in scenes.items():
         sol = cc.solve(sc)
         assert sol.ok, f"n = {n}, {p}: cvxcontact's answer is not ok ({sol.status})"
-        out[p] = dict(force=hertz3d.total_force(sol) / 4, u=np.asarray(sol.u[0]), rows=len(sol.contact.force),
-                      active=active(sol.contact.force))
+        out[p] = {"force": hertz3d.total_force(sol) / 4, "u": np.asarray(sol.u[0]), "rows": len(sol.contact.force),
+                  "active": active(sol.contact.force)}
     np.savez(path, points=mesh.points, tets=mesh.tets, zone=mesh.boundary("zone"), bottom=mesh.boundary("bottom"),
              left=mesh.boundary("left"), front=mesh.boundary("front"), E=hertz3d.E, nu=hertz3d.NU,
-             center=np.asarray(sphere.position, float), radius=radius(ratio), **{f"u_in_{p}": out[p]["u"] for p in POSINGS})
+             center=np.asarray(sphere.position, float), radius=radius(ratio),
+             **{f"u_in_{p}": out[p]["u"] for p in POSINGS})
     return out
 
 
@@ -107,26 +108,53 @@ def compare(levels, ratios, python3, out_path):
                     u = cvx[p]["u"]
                     for variant in ("obstacle", LIKE[p]):
                         ug, fg = gf[f"u_{variant}"], float(gf[f"fz_{variant}"])
-                        rows.append(dict(ratio=ratio, n=n, posing=p, getfem=variant, rows=cvx[p]["rows"],
-                                         active=cvx[p]["active"], active_getfem=active(gf[f"lam_{variant}"]),
-                                         force=cvx[p]["force"], force_k=float(gf[f"fz_of_{p}"]), force_getfem=fg,
-                                         df=(cvx[p]["force"] - fg) / fg, du=np.abs(ug - u).max() / np.abs(u).max()))
+                        rows.append({"ratio": ratio, "n": n, "posing": p, "getfem": variant, "rows": cvx[p]["rows"],
+                                     "active": cvx[p]["active"], "active_getfem": active(gf[f"lam_{variant}"]),
+                                     "force": cvx[p]["force"], "force_k": float(gf[f"fz_of_{p}"]), "force_getfem": fg,
+                                     "df": (cvx[p]["force"] - fg) / fg, "du": np.abs(ug - u).max() / np.abs(u).max()})
                         print("  ".join(f"{k}={v:.3e}" if isinstance(v, float) else f"{k}={v}"
                                         for k, v in rows[-1].items()), flush=True)
                 uo, ug = gf["u_obstacle"], gf["u_given"]
-                fd.append(dict(ratio=ratio, n=n, normal=float(gf["normal_error"]),
-                               df=(float(gf["fz_given"]) - float(gf["fz_obstacle"])) / float(gf["fz_obstacle"]),
-                               du=np.abs(ug - uo).max() / np.abs(uo).max()))
+                fo = float(gf["fz_obstacle"])
+                fd.append({"ratio": ratio, "n": n, "normal": float(gf["normal_error"]),
+                           "df": (float(gf["fz_given"]) - fo) / fo, "du": np.abs(ug - uo).max() / np.abs(uo).max()})
     write(rows, fd, levels, ratios, out_path)
     return rows, fd
 
 
-def worst(rows, key, **match):
+def worst(rows, key, **match) -> float:
+    """The largest |row[key]| over the rows matching ``match``."""
     return max(abs(r[key]) for r in rows if all(r[k] == v for k, v in match.items()))
 
 
+def summary(rows, fd, ratios) -> list[str]:
+    """The Markdown bullets of the measured agreement."""
+    def pair(posing, getfem):
+        return (f"|dF| <= {worst(rows, 'df', posing=posing, getfem=getfem):.1e}, "
+                f"du <= {worst(rows, 'du', posing=posing, getfem=getfem):.1e}")
+
+    lines = [
+        f"- closest vs GetFEM's like-for-like radial rows: {pair('closest', 'radial')} (the same discrete problem).",
+        f"- closest vs GetFEM's rigid-obstacle brick: {pair('closest', 'obstacle')}. GetFEM's forward-difference",
+        f"  normal is off the exact one by up to {max(r['normal'] for r in fd):.1e}; its basic brick with the rows",
+        "  read from its obstacle brick reproduces the obstacle brick's answer to",
+        f"  |dF| <= {max(abs(r['df']) for r in fd):.1e}, du <= {max(r['du'] for r in fd):.1e}: that normal is all",
+        "  of it.",
+        f"- ray vs GetFEM's like-for-like vertical rows: {pair('ray', 'vertical')}.",
+    ]
+    for ratio in ratios:
+        df = [r["df"] for r in rows if (r["posing"], r["getfem"], r["ratio"]) == ("ray", "obstacle", ratio)]
+        lines.append(f"- ray vs GetFEM's rigid-obstacle brick at a/R = {ratio:g}: dF from {min(df):.2%} to "
+                     f"{max(df):.2%} (the vertical posing's own error; du up to "
+                     f"{worst(rows, 'du', posing='ray', getfem='obstacle', ratio=ratio):.1e}).")
+    return lines
+
+
 def write(rows, fd, levels, ratios, out_path):
+    """Write the results file (Markdown) of :func:`compare`."""
     delta = hertz3d.hertz(hertz3d.FORCE)[2]
+    command = (f"PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py --levels "
+               f"{' '.join(map(str, levels))} --ratios {' '.join(f'{r:g}' for r in ratios)}")
     lines = [
         "# cvxcontact's sphere posings against GetFEM (3D Hertz quarter block, P1)",
         "",
@@ -134,14 +162,13 @@ def write(rows, fd, levels, ratios, out_path):
         "GetFEM 5.4.2, run by the system python3 through `benchmarks/getfem_hertz3d_side.py`):",
         "",
         "    apt-get install -y python3-getfem",
-        f"    PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py --levels "
-        f"{' '.join(map(str, levels))} --ratios {' '.join(f'{r:g}' for r in ratios)}",
+        f"    {command}",
         "",
         "Scene: `cvxcontact.apps.studies.hertz3d`: the quarter block [0, 10 mm]^2 x [-10 mm, 0] (n cells per edge,",
         "graded towards the origin), E = 70 GPa, nu = 0.3, bottom clamped, rollers on x = 0 and y = 0, P1,",
         "condition \"gamma3\" (a row at every node of the contact patch [0, 2 mm]^2), the rigid sphere of radius",
         "R = a_ref / (a/R) FIXED at Hertz's approach a_ref^2 / R for the contact radius a_ref = 1 mm",
-        f"(displacement control: one problem per mesh, no force loop). At a/R = 0.05 it is the study's own",
+        "(displacement control: one problem per mesh, no force loop). At a/R = 0.05 it is the study's own",
         f"`hertz3d.scene(n, distance=...)` (R = 20 mm, delta = {delta:.6g} m); a/R = 0.1 halves R.",
         "",
         "GetFEM's posings (each solved by its Newton on the Alart-Curnier augmented Lagrangian, nodal multipliers,",
@@ -164,27 +191,14 @@ def write(rows, fd, levels, ratios, out_path):
         "",
         "## Summary",
         "",
-        f"- closest vs GetFEM's like-for-like radial rows: |dF| <= {worst(rows, 'df', posing='closest', getfem='radial'):.1e}, "
-        f"du <= {worst(rows, 'du', posing='closest', getfem='radial'):.1e} (the same discrete problem: roundoff).",
-        f"- closest vs GetFEM's rigid-obstacle brick: |dF| <= {worst(rows, 'df', posing='closest', getfem='obstacle'):.1e}, "
-        f"du <= {worst(rows, 'du', posing='closest', getfem='obstacle'):.1e}; GetFEM's forward-difference normal is off "
-        f"the exact one by up to {max(r['normal'] for r in fd):.1e}, and GetFEM's basic brick with the rows extracted",
-        f"  from its obstacle brick reproduces the obstacle brick's answer to |dF| <= {max(abs(r['df']) for r in fd):.1e}, "
-        f"du <= {max(r['du'] for r in fd):.1e}: the whole difference is that normal.",
-        f"- ray vs GetFEM's like-for-like vertical rows: |dF| <= {worst(rows, 'df', posing='ray', getfem='vertical'):.1e}, "
-        f"du <= {worst(rows, 'du', posing='ray', getfem='vertical'):.1e}.",
+        *summary(rows, fd, ratios),
     ]
-    for ratio in ratios:
-        lines.append(f"- ray vs GetFEM's rigid-obstacle brick at a/R = {ratio:g}: dF from "
-                     f"{min(r['df'] for r in rows if r['posing'] == 'ray' and r['getfem'] == 'obstacle' and r['ratio'] == ratio):.2%} "
-                     f"to {max(r['df'] for r in rows if r['posing'] == 'ray' and r['getfem'] == 'obstacle' and r['ratio'] == ratio):.2%} "
-                     f"(the vertical posing's own error; du up to "
-                     f"{worst(rows, 'du', posing='ray', getfem='obstacle', ratio=ratio):.1e}).")
     lines += [
         "",
         "## Forces and displacements",
         "",
-        "| a/R | n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF | du |",
+        "| a/R | n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF "
+        "| du |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -34,8 +34,8 @@ enter); and ``fz_of`` applied to any displacement given as ``u_in_<name>`` in th
 
 import sys
 
-import numpy as np
 import getfem as gf
+import numpy as np
 from scipy.sparse import csc_matrix
 from scipy.spatial import cKDTree
 
@@ -207,7 +207,7 @@ def main(inp, out):
         data = {k: f[k] for k in f.files}
     result = {}
     for variant in ("obstacle", "radial", "vertical", "given"):
-        u, lam, directions, (mesh, mf, mim, node, comp) = solve(data, variant, result.get("rows_obstacle"))
+        u, lam, directions, (_, mf, mim, node, comp) = solve(data, variant, result.get("rows_obstacle"))
         result[f"u_{variant}"] = u
         result[f"lam_{variant}"] = lam
         result[f"fz_{variant}"] = np.array(vertical_force(data, mf, mim, node, comp, u))
@@ -216,9 +216,9 @@ def main(inp, out):
             radial = contact_rows(data, mf, node, "radial")[0]
             exact = np.stack([radial[np.arange(len(directions)), contact_dofs(mf) + k] for k in range(3)], axis=1)
             result["normal_error"] = np.array(np.linalg.norm(directions - exact, axis=1).max())
-    for key in data:
+    for key, u in data.items():
         if key.startswith("u_in_"):
-            result["fz_of_" + key[5:]] = np.array(vertical_force(data, mf, mim, node, comp, data[key]))
+            result["fz_of_" + key[5:]] = np.array(vertical_force(data, mf, mim, node, comp, u))
     np.savez(out, **result)
 
 

@@ -88,8 +88,9 @@ def export(n: int, ratio: float, path: Path) -> dict:
                   "active": active(sol.contact.force)}
     np.savez(path, points=mesh.points, tets=mesh.tets, zone=mesh.boundary("zone"), bottom=mesh.boundary("bottom"),
              left=mesh.boundary("left"), front=mesh.boundary("front"), E=hertz3d.E, nu=hertz3d.NU,
-             center=np.asarray(sphere.position, float), radius=radius(ratio),
-             **{f"u_in_{p}": out[p]["u"] for p in POSINGS})
+             center=np.asarray(sphere.position, float), radius=radius(ratio), delta=hertz3d.A_REF ** 2 / radius(ratio),
+             **{f"u_in_{p}": out[p]["u"] for p in POSINGS}, **{f"force_{p}": out[p]["force"] for p in POSINGS},
+             **{f"umax_{p}": np.abs(out[p]["u"]).max() for p in POSINGS})
     return out
 
 
@@ -197,8 +198,8 @@ def write(rows, fd, levels, ratios, out_path):
         "",
         "## Forces and displacements",
         "",
-        "| a/R | n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF "
-        "| du |",
+        ("| a/R | n | posing | GetFEM | rows | active (cvx / GetFEM) | F cvx (N) | F(K u_cvx) (N) | F GetFEM (N) | dF "
+        "| du |"),
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -9,12 +9,13 @@ comparison script calls:
 
 Input (npz, plain arrays, no pickle): ``points`` (N, 3) m, ``tets`` (T, 4), ``zone`` (F, 3) the contact faces,
 ``bottom``/``left``/``front`` (., 3) the clamped bottom and the roller faces x = 0, y = 0 (their triangles),
-``E`` (Pa), ``nu``, ``center`` (3,) m and ``radius`` m of the sphere.
+``E`` (Pa), ``nu``, ``center`` (3,) m and ``radius`` m of the sphere (further keys, cvxcontact's answers, are
+read only as ``u_in_<name>``).
 
 GetFEM builds its own P1 tetrahedral mesh_fem from those points and cells (its dof numbering, mapped back to
 the points by coordinates), the isotropic linearised elasticity brick (Lame constants from E, nu), the supports
 as explicit dof constraints with multipliers (every component on the bottom's nodes, u_x on x = 0, u_y on
-y = 0) and the sphere three ways, each solved by GetFEM's Newton on the Alart-Curnier augmented Lagrangian:
+y = 0) and the sphere four ways, each solved by GetFEM's Newton on the Alart-Curnier augmented Lagrangian:
 
 ``obstacle``  GetFEM's nodal contact with a rigid obstacle given by its signed distance expression
               sqrt(x^2 + y^2 + (z - zc)^2) - R (``add_nodal_contact_with_rigid_obstacle_brick``): one row per
@@ -24,12 +25,15 @@ y = 0) and the sphere three ways, each solved by GetFEM's Newton on the Alart-Cu
               from the centre): the closest-point posing, like for like with cvxcontact's ``distance="closest"``.
 ``vertical``  the basic contact brick with rows along +z and the vertical distance to the sphere's lower surface:
               like for like with ``distance="ray"``.
+``given``     the basic contact brick with the ``obstacle`` brick's own rows (read from GetFEM's tangent matrix,
+              whose (u, lambda) block is -B_N^T) and the gap d(x): it isolates the forward-difference normal.
 
-Output (npz): per variant ``u_<variant>`` (N, 3) m at the input's points, ``lam_<variant>`` the nodal contact
-multipliers, ``fz_<variant>`` the vertical force (N, on the quarter) that the block feels at its contact nodes,
-the z-sum of K u over them (K GetFEM's stiffness assembled alone, so the roller reactions, along x or y, do not
-enter); and ``fz_of`` applied to any displacement given as ``u_in_<name>`` in the input
-(the same sum for cvxcontact's answers, an independent read of their force).
+Output (npz): ``rows_obstacle`` (rows, 3) the obstacle brick's row directions, ``normal_error`` their largest
+distance from the exact radial ones; per variant ``u_<variant>`` (N, 3) m at the input's points,
+``lam_<variant>`` the nodal contact multipliers (GetFEM's sign: <= 0), ``fz_<variant>`` the vertical force (N, on
+the quarter) that the block feels at its contact nodes, the z-sum of K u over them (K GetFEM's stiffness
+assembled alone, so the roller reactions, along x or y, do not enter); and ``fz_of_<name>``, the same sum on
+each displacement given as ``u_in_<name>`` (cvxcontact's answers: an independent read of their force).
 """
 
 import sys

@@ -154,13 +154,14 @@ class Rigid(Frozen):
     ----------
     kind : str
         A short name of the shape (messages, figures).
-    distance : callable distance(points, normal) -> (n,) array, m
-        Distance along the unit outward ``normal`` from each node (``points`` (n, dim), m) to the surface;
-        negative inside the obstacle, ``+inf`` where the ray misses it (the node is left free).
+    distance : callable, m
+        ``distance(points, normal)``: for nodes (n, dim) of a part with unit outward normal, the distance along it
+        to the surface (n,); negative inside the obstacle, ``+inf`` where the ray misses it (node left free).
     describe : str
         How messages name the obstacle.
-    sensitivity : callable sensitivity(points, normal) -> (n, dim) array, optional
-        The gradient c of the distance in the obstacle's translation (dimensionless); central differences if None.
+    sensitivity : callable, optional
+        ``sensitivity(points, normal)`` (n, dim): the distance's gradient c in the obstacle's translation
+        (dimensionless); central differences if None.
     force : sequence of float, optional
         Prescribed resultant, N/m (N in 3D): force control, the translation an unknown; None: fixed.
     dim : {2, 3}

@@ -110,26 +110,50 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
 
 
 class ContactSolver:
-    """A solver prepared for one geometry: meshes, materials, boundary parts and condition.
+    """A solver prepared for one geometry (meshes, materials, parts, condition), re-solved for other loads.
 
-    ``solve()`` solves the scene it was built with; ``solve(other)`` solves a scene
-    that differs only in its loads (body forces, tractions, charges, electrode
-    potentials, the gaps: :data:`cvxcontact.physics.loads.LOAD_FIELDS` and ``SCENE_LOAD_FIELDS``; and the
-    positions and prescribed forces of rigid obstacles) through ``problem.with_loads(other)``
-    (:class:`~cvxcontact.discrete.DiscreteProblem`), reusing the assembled matrices and, with the condensed
-    backend (what the default ``method="auto"`` runs), the factorisations and interface stiffnesses while the
-    contact rows stay the same (a moved obstacle that reaches other nodes re-derives them and refactorises).
-    ``problem`` is the prepared :class:`~cvxcontact.discrete.DiscreteProblem`, ``cache`` what the backend
-    keeps between solves. With ``warm_start`` (default) a
-    further load case starts from the previous exact active set and is finished by
-    active-set steps on the interface (a few dense solves of the size of the active
-    set), falling back to the interior-point solve if they do not settle; it then
-    costs two triangular solves per body and little else. ``scale=False`` hands the
-    raw SI matrices to the solver (for the stability study only: it shows what the
-    non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
-    parameters as in :func:`solve` (``estimate``: the error estimate and the resolution check of each solve; ``degree=2``: P2 elements; the conic "gamma3" condition is
-    re-solved by the interior point each time, the nodal ones warm-start as above); all are
-    checked before anything is assembled.
+    ``solve()`` solves the scene it was built with, ``solve(other)`` a scene that differs only in its loads
+    (forces, charges, potentials, gaps, the obstacles' positions and forces), reusing the assembly and the
+    factorisations. What is reused, the warm start and ``scale``: docs/reference/solve-options.md,
+    "Re-solving: ContactSolver". Every parameter is checked before anything is assembled.
+
+    Parameters
+    ----------
+    scene : Scene
+        The geometry and the first load case (SI units).
+    condition : {"gamma3", "sigma1", "sigma2"}
+        The discrete contact condition, as in :func:`solve`.
+    solver : str
+        A CVXPY solver name, as in :func:`solve`.
+    method : {"auto", "amg", "sparse", "condensed", "full"}
+        The backend, as in :func:`solve`.
+    tol : float
+        Tolerance of the checks (dimensionless), as in :func:`solve`.
+    polish : bool
+        Exact finish of the interior-point answer (default).
+    warm_start : bool
+        Start a further load case from the previous exact active set (default; nodal conditions).
+    scale : bool
+        Solve in scaled units (default); False hands the SI matrices to the solver (stability study only).
+    verbose : bool
+        Print the solver's progress.
+    solver_options : dict, optional
+        Options passed to ``cvxpy.Problem.solve``, as in :func:`solve`.
+    law : Signorini or NormalCompliance, optional
+        The normal contact law, as in :func:`solve` (stiffness in Pa/m^m).
+    degree : {1, 2}
+        P1 (default) or P2 elements.
+    factorization : {"auto", "superlu", "pardiso"}
+        The sparse factorisation of each body.
+    estimate : bool
+        The a posteriori error estimate and the resolution check of each solve (default).
+
+    Attributes
+    ----------
+    problem : DiscreteProblem
+        The prepared problem (:class:`~cvxcontact.discrete.DiscreteProblem`).
+    cache : object
+        What the backend keeps between solves.
     """
 
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,

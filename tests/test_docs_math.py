@@ -17,12 +17,43 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 FORMULATION = DOCS / "formulation.md"
 MODEL = DOCS / "tutorials" / "model.md"
-MATH_PAGES = [FORMULATION, MODEL]
+CHECKS = DOCS / "checks.md"
+MATH_PAGES = [FORMULATION, MODEL, CHECKS]
+# Characters that only a formula uses: a transpose, an inverse or negative power, a norm, an integral, a sum, an
+# equivalence, a semidefinite order, a gradient, a root. Written as Unicode in prose they are a plain-text formula.
+FORMULA_CHARACTERS = "ᵀ⁻‖∫Σ⇔⪰∇√"
+# The symbols of the model: in a section typeset through, a Greek letter outside $...$ is a plain-text symbol.
+GREEK = "αβγδεηκλμνξπρστφχψωΓΔΛΠΣΦΨΩ"
 
 
 def displays(path: Path) -> list[str]:
     """The $$ ... $$ blocks of a page (each delimiter on a line of its own)."""
     return re.findall(r"^\$\$\n(.*?)^\$\$$", path.read_text(encoding="utf-8"), re.S | re.M)
+
+
+def prose(text: str) -> str:
+    """The running text of a page: without fenced code, $$ displays, inline code and inline $...$ math."""
+    text = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+    text = re.sub(r"^\$\$\n.*?^\$\$$", "", text, flags=re.S | re.M)
+    text = re.sub(r"`[^`\n]*`", "", text)
+    return re.sub(r"\$[^$\n]+\$", "", text)
+
+
+def plain_text_displays(text: str) -> list[str]:
+    """Lines that display an equation in plain text: indented by two or more spaces outside a list (an indented
+    code block, or a two-space "display" that Markdown joins to the paragraph), outside fences and $$ blocks.
+    Indented lines that continue a list item (its wrapped text, a table inside it) are prose."""
+    text = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+    text = re.sub(r"^\$\$\n.*?^\$\$$", "", text, flags=re.S | re.M)
+    found, in_list = [], False
+    for line in text.splitlines():
+        if re.match(r"\s*([-*]|\d+\.) ", line):
+            in_list = True
+        elif line.strip() and not line.startswith(" "):
+            in_list = False
+        elif line.startswith("  ") and line.strip() and not in_list:
+            found.append(line)
+    return found
 
 
 def sections(path: Path) -> dict[str, str]:
@@ -47,20 +78,52 @@ def test_conf_enables_dollar_math_and_a_local_mathjax():
 
 def test_formulation_writes_its_central_equations_as_mathematics():
     blocks = displays(FORMULATION)
-    assert len(blocks) >= 35, len(blocks)                # measured: 38 (§1-§10)
+    assert len(blocks) >= 55, len(blocks)                # measured: 61 (§1-§18)
     tags = set(re.findall(r"\\tag\{([^}]*)\}", "".join(blocks)))
-    assert {"1-2", "26", "27", "34", "35"} <= tags, tags
+    assert {"1-2", "7", "19", "26", "27", "34", "35"} <= tags, tags
     by_number = sections(FORMULATION)
-    for n in ("1", "2", "3", "4", "5", "6", "7", "8", "10"):
-        text = by_number[n]
-        assert "$$" in text, f"§{n} has no displayed equation"
-        # the plain-text equations were indented code blocks: none is left in these sections
-        code = re.findall(r"(?:^|\n\n)( {4}\S[^\n]*)", text)
-        assert not code, f"§{n} still writes an equation as a code block: {code[0]!r}"
+    assert set(by_number) == {str(n) for n in range(1, 19)}, sorted(by_number)
+    for n in ("1", "2", "3", "4", "6", "7", "8", "10", "11", "12", "13", "15", "16", "17", "18"):
+        assert "$$" in by_number[n], f"§{n} has no displayed equation"
+    for n, text in by_number.items():
+        shown = plain_text_displays(text)
+        assert not shown, f"§{n} still displays an equation in plain text: {shown[0]!r}"
     assert "y^{\\top} s = 0" in by_number["7"]          # the LCP of the exact finish
     assert "(2 w_s,\\ p_0 - p_2) \\bigr\\rVert \\le p_0 + p_2" in by_number["8"]   # the cone of P2 "gamma3"
     assert "\\tag{7}" in by_number["10"] and "\\tag{19}" in by_number["10"]     # normal compliance, its energy
     assert "$h^{1/2+\\eta/2}$" in by_number["9"]         # the theorems' rates
+    assert "\\tag{34}" in by_number["13"] and "\\tag{34}" in by_number["16"]   # K_h(Gamma_3): vertices; copositivity
+    assert "\\tag{35}" in by_number["15"]               # K_h(Sigma_h^l) at the P2 nodes
+    assert "P_t \\succeq 0" in by_number["16"]
+
+
+@pytest.mark.parametrize("page", [FORMULATION, CHECKS], ids=lambda p: p.name)
+def test_no_formula_is_left_in_plain_text(page):
+    """How the test decides that no plain-text equation is left: (i) no line displays one (indented outside a
+    list, see ``plain_text_displays``); (ii) no character that only a formula uses (a transpose, a norm, a sum,
+    an integral, ...) stands in the running text outside $...$ and code."""
+    text = page.read_text(encoding="utf-8")
+    assert not plain_text_displays(text), plain_text_displays(text)[0]
+    running = prose(text)
+    for line in running.splitlines():
+        used = [c for c in FORMULA_CHARACTERS if c in line]
+        assert not used, f"{page.name}: {used} outside math in {line.strip()!r}"
+
+
+def test_typeset_sections_write_every_symbol_as_mathematics():
+    """§6 and §11-§18 of the formulation and the whole of checks.md: no Greek symbol in the running text
+    (headings keep plain text: they are the pages' anchors)."""
+    by_number = sections(FORMULATION)
+    pages = {f"formulation §{n}": by_number[n].split("\n", 1)[1]            # without the heading's title
+             for n in ["6"] + [str(n) for n in range(11, 19)]}
+    pages["checks.md"] = CHECKS.read_text(encoding="utf-8")
+    for name, text in pages.items():
+        for line in prose(text).splitlines():
+            if line.startswith("#"):
+                continue
+            used = [c for c in GREEK if c in line]
+            assert not used, f"{name}: {used} outside math in {line.strip()!r}"
+    assert len(displays(CHECKS)) >= 6, len(displays(CHECKS))     # measured: 7
 
 
 def test_model_tutorial_writes_its_equations_as_mathematics():

@@ -79,3 +79,69 @@ def test_learning_path_runs_through_every_tutorial_and_ends_with_the_accuracy():
     tutorials = [s for s in steps if s.startswith("tutorials/")]
     assert tutorials == [f"tutorials/{p.name}" for p in PAGES], tutorials   # in the tutorials' own order
     assert all((ROOT / "docs" / s).exists() for s in steps), steps
+
+
+def _public_callables():
+    import cvxcontact as cc
+
+    rigid = {f"Rigid.{n}": getattr(cc.Rigid, n)
+             for n in ("plane", "circle", "profile", "sphere", "cylinder", "height_field")}
+    return {"solve": cc.solve, "ContactSolver": cc.ContactSolver, "Model": cc.Model, "Scene": cc.Scene,
+            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, **rigid}
+
+
+def _section(doc: str, title: str) -> list[str]:
+    """The entries of a numpydoc section ("Parameters", "Attributes"): one string per ``name : type`` line
+    and its indented description."""
+    body = doc.split(f"{title}\n{'-' * len(title)}\n", 1)[1]
+    body = re.split(r"\n\n(?=\w[\w ]*\n-+\n)", body, maxsplit=1)[0]     # up to the next section
+    return re.split(r"\n(?=\*{0,2}\w+ : )", body.strip("\n"))
+
+
+@pytest.mark.parametrize("name", list(_public_callables()))
+def test_public_callables_have_numpydoc_parameters_naming_every_parameter(name):
+    """numpydoc: a "Parameters" section whose entries are the signature's parameters in order, each with a
+    type (units in the type or the text where the quantity has one) and at most 3 lines of text; the long
+    explanations live on the docs pages the docstring names, and those pages and sections exist."""
+    import inspect
+
+    obj = _public_callables()[name]
+    doc = inspect.getdoc(obj)
+    assert "Parameters\n----------\n" in doc, f"{name}: no numpydoc Parameters section"
+    entries = _section(doc, "Parameters")
+    names = [e.split(" : ", 1)[0].lstrip("*") for e in entries]
+    assert names == list(inspect.signature(obj).parameters), (name, names)
+    for entry in entries:
+        head = entry.splitlines()[0]
+        assert head.split(" : ", 1)[1].strip(), f"{name}: {head!r} has no type"
+        assert len(entry.splitlines()) <= 4, f"{name}: a long entry, move it to a docs page:\n{entry}"
+    summary = doc.split("\n\n", 1)[0]
+    assert len(summary.splitlines()) == 1, f"{name}: the summary is one line: {summary!r}"
+    intro = doc.split("Parameters\n----------\n", 1)[0]
+    assert len(intro.splitlines()) <= 8, f"{name}: {len(intro.splitlines())} lines before Parameters"
+    for page, heading in re.findall(r'(docs/[\w/.-]+\.md),\s+"([^"]+)"', doc):
+        text = (ROOT / page).read_text(encoding="utf-8")
+        headings = {re.sub(r"[`]", "", h).strip() for h in re.findall(r"^#+ (.*)$", text, re.M)}
+        assert heading in headings, f"{name} names {page}, {heading!r}: no such heading"
+    for page in re.findall(r"(docs/[\w/.-]+\.md)", doc):
+        assert (ROOT / page).exists(), f"{name} names {page}, which does not exist"
+
+
+def test_solution_documents_its_main_attributes():
+    """The Solution's docstring lists its main attributes (numpydoc "Attributes", short entries with units),
+    and every name listed is an attribute of a solved Solution."""
+    import inspect
+
+    import cvxcontact as cc
+    from cvxcontact.apps.demo import two_blocks
+
+    doc = inspect.getdoc(cc.Solution)
+    entries = _section(doc, "Attributes")
+    names = [e.split(" : ", 1)[0] for e in entries]
+    assert {"u", "phi", "contact", "energy", "ok", "tol", "info", "electrodes", "obstacles"} <= set(names), names
+    for entry in entries:
+        assert len(entry.splitlines()) <= 4, entry
+    sol = cc.solve(two_blocks(nx=4))
+    for attribute in names:
+        assert hasattr(sol, attribute), attribute
+    assert len(doc.split("Attributes\n----------\n", 1)[0].splitlines()) <= 8

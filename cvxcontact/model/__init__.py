@@ -66,23 +66,31 @@ __all__ = ["Model"]
 class Model:
     """The contact problem of ``scene`` as a CVXPY program in SI units, open to user terms.
 
-    Parameters as in :func:`cvxcontact.solve` (``method`` is always ``"full"``; ``law=`` a normal
-    contact law: with ``cc.NormalCompliance`` the energy gets the lumped compliance term of
-    docs/formulation.md §10; exact finish without user terms, else the interior-point answer, checked); all are
-    checked before anything is assembled. ``degree=2``: P2 elements, the nodes of ``u(body)`` and
-    ``phi(body)`` being ``sol.points[k]`` (vertices, then edge midpoints), and ``jump()`` at the P2 nodes
-    of every pair's X_h, stacked; every scene :func:`cvxcontact.solve` takes with P2 (several pairs, rigid
-    obstacles, each pair under its own condition and law), posed as ``solve(..., method="full")`` poses it:
-    "gamma3" is the conic "everywhere" condition (docs/formulation.md §8: a second-order cone per merged
-    segment, nodal pairs next to it as degenerate cones; interior-point answer with tight tolerances, no
-    exact finish, checked like :func:`cvxcontact.solve`'s), "sigma1"/"sigma2" the nodal rows with the exact
-    finish. A normal-compliance law with P2 sits on the P2 nodes of the
-    condition's rows with Simpson weights, finished exactly without user terms (§10, "P2"); its penetration
-    limit under "gamma3" is the cone of §8 at the gap g + l (interior point, checked like the cone).
+    Every scene :func:`cvxcontact.solve` takes, posed as ``solve(..., method="full")`` poses it; exact finish
+    without user terms or with linear ones, else the interior-point answer, checked. What is posed with P2, a
+    compliance law and force-controlled obstacles, and what the finish does: docs/howto/extending.md,
+    "What the model poses". Every parameter is checked before anything is assembled.
 
-    Rigid obstacles, fixed or force controlled, as in :func:`cvxcontact.solve`: a force-controlled obstacle's
-    translation t is an unknown with its force balance (docs/formulation.md §12; ``translation(i)``), finished
-    on the sparse mixed system with the translations; ``sol.obstacles`` as from :func:`cvxcontact.solve`.
+    Parameters
+    ----------
+    scene : Scene
+        The bodies, supports, loads (SI units) and contact pairs.
+    condition : {"gamma3", "sigma1", "sigma2"}
+        The discrete contact condition, as in :func:`cvxcontact.solve`.
+    solver : str
+        A CVXPY solver name; Clarabel by default.
+    tol : float
+        Tolerance of the checks (dimensionless), user terms included.
+    polish : bool
+        Exact finish where the program allows it (default).
+    verbose : bool
+        Print the solver's progress.
+    solver_options : dict, optional
+        Options passed to ``cvxpy.Problem.solve``.
+    law : Signorini or NormalCompliance, optional
+        The normal contact law (stiffness in Pa/m^m); compliance adds its energy (docs/formulation.md §10).
+    degree : {1, 2}
+        P1 (default) or P2 elements; ``u(body)``, ``phi(body)`` then live on ``sol.points[k]``.
 
     Methods
     -------

@@ -144,25 +144,33 @@ def _guided_force(F, G, kind):
 
 
 class Rigid(Frozen):
-    """A rigid obstacle: analytic (no mesh), fixed in space or, with ``force=(fx, fy)`` (N/m), free to
-    translate under that prescribed resultant (force control, docs/formulation.md §12). Build with
-    :meth:`plane`, :meth:`circle` or :meth:`profile` in 2D, :meth:`plane`, :meth:`sphere`,
-    :meth:`cylinder` or :meth:`height_field` in 3D (``force=(fx, fy, fz)``, N); ``Rigid(kind, distance,
-    describe, dim=2)`` takes any distance function (its sensitivity, if not given, by central
-    differences). ``dim`` is 2 or 3.
+    """A rigid obstacle: analytic (no mesh), fixed in space or force controlled.
 
-    ``guided`` (every constructor; one unit axis or a list of orthogonal unit axes): under force control the
-    obstacle translates along those axes only, its other translations held at zero, as on a linear guide:
-    e.g. ``Rigid.sphere(center, R, force=(0, 0, -F / 4), guided=(0, 0, 1))`` on a quarter model, whose
-    symmetry planes hold the sphere in x and y (without the guide its x and y translations are undetermined
-    and the scene is refused). The force must lie along the axes; :meth:`sensitivity` and so the obstacle's
-    reported force are the components along them (the guide takes the others). A fixed obstacle ignores it.
+    Build with :meth:`plane`, :meth:`circle` or :meth:`profile` in 2D, :meth:`plane`, :meth:`sphere`,
+    :meth:`cylinder` or :meth:`height_field` in 3D; the constructor itself takes any distance function.
+    Posing, force control and guides: docs/howto/obstacles.md; the rows: docs/formulation.md §12.
 
-    ``distance(points, normal)`` gives, for nodes ``points`` (n, dim) of a straight (planar) part with
-    unit outward normal ``normal``, the distance (m) along ``normal`` to the obstacle's surface:
-    negative for a node already inside the obstacle (an interference), ``+inf`` where the ray
-    misses it (the node is then left free).
+    Parameters
+    ----------
+    kind : str
+        A short name of the shape (messages, figures).
+    distance : callable, m
+        ``distance(points, normal)``: for nodes (n, dim) of a part with unit outward normal, the distance along it
+        to the surface (n,); negative inside the obstacle, ``+inf`` where the ray misses it (node left free).
+    describe : str
+        How messages name the obstacle.
+    sensitivity : callable, optional
+        ``sensitivity(points, normal)`` (n, dim): the distance's gradient c in the obstacle's translation
+        (dimensionless); central differences if None.
+    force : sequence of float, optional
+        Prescribed resultant, N/m (N in 3D): force control, the translation an unknown; None: fixed.
+    dim : {2, 3}
+        The dimension of the scene.
+    guided : axis or list of axes, optional
+        Unit axes of the only translations allowed under force control (a linear guide).
 
+    Notes
+    -----
     An obstacle is immutable (assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`).
     Its position and prescribed force are loads of a re-solve: :meth:`moved` gives the obstacle
     translated, :meth:`with_force` the same obstacle under another force, and
@@ -313,13 +321,25 @@ class Rigid(Frozen):
     @classmethod
     def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None,
               guided: ArrayLike | None = None, distance: str = "ray") -> "Rigid":
-        """The half-plane (half-space in 3D) {z : (z - point) . n <= 0}; ``normal`` n points out of the
-        obstacle, towards the body (normalised here). ``point`` and ``normal`` are 2-vectors in the plane,
-        3-vectors in space. The body's part must face it: nu^a . n < 0. ``force`` (N/m; N in 3D): force
-        control; only its component along n, pressing the plane onto the body, can be balanced
-        (frictionless), and only the translation along n is an unknown. ``distance``: "ray" (default), the
-        distance along the part's normal and rows along it, or "closest", the distance (x - point) . n and rows
-        along -n; the two agree when the part faces the plane squarely (nu^a = -n)."""
+        """The half-plane (half-space in 3D) {z : (z - point) . n <= 0} (docs/howto/obstacles.md).
+
+        Parameters
+        ----------
+        point : sequence of 2 or 3 floats, m
+            A point of the boundary line (plane).
+        normal : sequence of 2 or 3 floats
+            Its normal n, out of the obstacle towards the body (normalised here); the part must face it.
+        force : sequence of float, optional
+            Prescribed resultant along n, N/m (N in 3D): force control, the translation an unknown; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("ray" the default).
+
+        Returns
+        -------
+        Rigid
+        """
         p = _point(point, "Rigid.plane: point", (2, 3))
         n = _point(normal, "Rigid.plane: normal", (len(p),))
         F = _force(force, "plane", len(p))
@@ -334,10 +354,25 @@ class Rigid(Frozen):
     @classmethod
     def sphere(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
                guided: ArrayLike | None = None, distance: str = "closest") -> "Rigid":
-        """The ball of ``radius`` (m) around ``center`` (x, y, z) (m): a spherical indenter. ``distance``:
-        "closest" (default), rows along the radius to the closest point, gap |x - center| - radius; "ray", along
-        the part's normal (nodes whose normal ray misses the ball left free). ``force`` (fx, fy, fz) (N): force
-        control."""
+        """The ball of ``radius`` around ``center``: a spherical indenter (docs/howto/obstacles.md).
+
+        Parameters
+        ----------
+        center : sequence of 3 floats, m
+            The centre (x, y, z).
+        radius : float, m
+            The radius R; the gap at a node x is |x - center| - R.
+        force : sequence of float, optional
+            Prescribed resultant (fx, fy, fz), N: force control, the translation an unknown; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("closest" the default).
+
+        Returns
+        -------
+        Rigid
+        """
         c = _point(center, "Rigid.sphere: center", (3,))
         F = _force(force, "sphere", 3)
         R = _radius(radius, "sphere")
@@ -349,12 +384,27 @@ class Rigid(Frozen):
     def cylinder(cls, point: Sequence[float], axis: Sequence[float], radius: float, *,
                  force: Sequence[float] | None = None, guided: ArrayLike | None = None,
                  distance: str = "closest") -> "Rigid":
-        """The infinite solid circular cylinder of ``radius`` (m) around the line through ``point`` (m)
-        along ``axis`` (3-vectors; the axis is normalised here): a roller in 3D. ``distance``: "closest"
-        (default), rows along the radius of the cross-section through the node, gap (its distance from the
-        axis) - radius; "ray", along the part's normal (nodes whose normal ray misses it, or runs parallel to
-        the axis, left free). ``force`` (N): force control; a component along the axis cannot be balanced
-        (frictionless)."""
+        """The infinite solid circular cylinder around a line: a roller in 3D (docs/howto/obstacles.md).
+
+        Parameters
+        ----------
+        point : sequence of 3 floats, m
+            A point of the axis.
+        axis : sequence of 3 floats
+            The axis' direction (normalised here).
+        radius : float, m
+            The radius R; the gap at a node is its distance from the axis minus R.
+        force : sequence of float, optional
+            Prescribed resultant (fx, fy, fz), N, none along the axis: force control; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("closest" the default).
+
+        Returns
+        -------
+        Rigid
+        """
         p = _point(point, "Rigid.cylinder: point", (3,))
         a = _point(axis, "Rigid.cylinder: axis", (3,))
         F = _force(force, "cylinder", 3)
@@ -371,16 +421,29 @@ class Rigid(Frozen):
     def height_field(cls, f: Callable[[np.ndarray, np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0, 0.0),
                      *, force: Sequence[float] | None = None, guided: ArrayLike | None = None,
                      distance: str = "closest") -> "Rigid":
-        """The solid above the surface z = f(x - ox, y - oy) + oz (``origin`` (ox, oy, oz), m): an indenter
-        whose underside is the graph of ``f`` (e.g. ``f = lambda x, y: (x**2 + y**2) / (2 * R)``, a
-        paraboloid of tip radius R), pressing down on a body below it. ``f(x, y)`` is vectorised (arrays
-        of equal shape in, m out) and returns finite values, or ``+inf`` where there is no obstacle; the
-        body's part faces up (nu_z > 0). ``distance``: "closest" (default), the signed distance to the foot
-        point of the node on the graph (a safeguarded Newton's method from the point straight above, to
-        rounding; slopes by fourth-order differences) and rows towards it; a node with no surface straight
-        above it is left free. "ray": the distance along the body's normal nu, the first root of z + d nu_z
-        = f(...) (closed form for a vertical normal, Newton's method otherwise). ``force`` (N): force
-        control. Moving the obstacle moves its origin."""
+        """The solid above the surface z = f(x - ox, y - oy) + oz: an indenter pressing down on a body below.
+
+        Parameters
+        ----------
+        f : callable f(x, y) -> array, m
+            Vectorised height of the underside over the origin; ``+inf`` where there is no obstacle.
+        origin : sequence of 3 floats, m
+            (ox, oy, oz); moving the obstacle moves it.
+        force : sequence of float, optional
+            Prescribed resultant (fx, fy, fz), N: force control, the translation an unknown; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("closest" the default).
+
+        Returns
+        -------
+        Rigid
+
+        Notes
+        -----
+        The foot point and the ray's root: docs/howto/obstacles.md, "Each obstacle's surface".
+        """
         if not callable(f):
             raise SceneError(f"Rigid.height_field: f must be a callable f(x, y) (m), got {type(f).__name__}")
         o = _point(origin, "Rigid.height_field: origin", (3,))
@@ -392,10 +455,25 @@ class Rigid(Frozen):
     @classmethod
     def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
                guided: ArrayLike | None = None, distance: str = "closest") -> "Rigid":
-        """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. ``distance``:
-        "closest" (default), rows along the radius to the closest point, gap |x - center| - radius; "ray",
-        along the part's normal (nodes whose normal ray misses the disc left free). ``force`` (N/m): force
-        control (an indenter under a prescribed load)."""
+        """The disc of ``radius`` around ``center``: a cylinder in plane strain (docs/howto/obstacles.md).
+
+        Parameters
+        ----------
+        center : sequence of 2 floats, m
+            The centre.
+        radius : float, m
+            The radius R; the gap at a node x is |x - center| - R.
+        force : sequence of float, optional
+            Prescribed resultant (fx, fy), N/m: force control, the translation an unknown; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("closest" the default).
+
+        Returns
+        -------
+        Rigid
+        """
         F = _force(force, "circle")
         c = _point(center, "Rigid.circle: center")
         if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
@@ -410,14 +488,29 @@ class Rigid(Frozen):
     def profile(cls, f: Callable[[np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0), *,
                 force: Sequence[float] | None = None, guided: ArrayLike | None = None,
                 distance: str = "closest") -> "Rigid":
-        """An obstacle whose surface lies at distance ``f(s)`` (m) from the contact part along its
-        outward normal, with s = (x - origin) . t (m) the tangential coordinate (t the pair's tangent,
-        :func:`cvxcontact.contact.interface.canonical_tangent`: positive x1 component). ``f`` is a
-        vectorised function returning finite values, or ``+inf`` where there is no obstacle. ``distance``:
-        "closest" (default), the signed distance from a node to the foot point of the curve (s, f(s)) (a
-        safeguarded Newton's method from s of the node, to rounding; f' and f'' by fourth-order differences)
-        and rows towards it; "ray", f(s) itself and rows along the part's normal. A node with f(s) = +inf is
-        left free. ``force`` (N/m): force control."""
+        """An obstacle whose surface lies at distance f(s) from the contact part along its outward normal.
+
+        Parameters
+        ----------
+        f : callable f(s) -> array, m
+            Vectorised distance at the tangential coordinate s = (x - origin) . t (m); ``+inf``: no obstacle.
+        origin : sequence of 2 floats, m
+            Where s = 0.
+        force : sequence of float, optional
+            Prescribed resultant (fx, fy), N/m: force control, the translation an unknown; None: fixed.
+        guided : axis or list of axes, optional
+            Unit axes of the only translations allowed under force control (a linear guide).
+        distance : {"closest", "ray"}
+            Posing: rows towards the closest point, or along the part's normal ("closest" the default).
+
+        Returns
+        -------
+        Rigid
+
+        Notes
+        -----
+        The tangent t and the foot point: docs/howto/obstacles.md, "Each obstacle's surface".
+        """
         F = _force(force, "profile")
         if not callable(f):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "
@@ -845,15 +938,16 @@ def _quadratic_hit(a, b, c):
 
 
 class Contact(Frozen):
-    """A contact pair: part ``part_a`` of ``body_a`` against part ``part_b`` of ``other`` (a Body)
-    or against a :class:`Rigid` obstacle (then ``part_b`` is omitted).
+    """A contact pair: a part of one body against a part of another body or against a rigid obstacle.
 
     Parameters
     ----------
     body_a : Body
+        The first body of the pair (l = 1 of "sigma1").
     part_a : str
-        A straight boundary part of body_a (any direction).
+        A straight (planar in 3D) boundary part of body_a (any direction).
     other : Body or Rigid
+        The second body, or a rigid obstacle.
     part_b : str, optional
         A straight boundary part of ``other``, parallel to part_a with the opposite normal; None for a
         rigid obstacle.
@@ -864,10 +958,8 @@ class Contact(Frozen):
         Initial normal gap g along the pair, s the tangential coordinate (m); added to the distance
         to a rigid obstacle.
     law : Signorini, NormalCompliance or None
-        This pair's normal law (:mod:`cvxcontact.contact.laws`): ``cc.Signorini()`` (non-penetration)
-        or ``cc.NormalCompliance(stiffness=k, exponent=m)`` (the paper's (7), docs/formulation.md §10);
-        None (default): the law given to ``solve``/``Model`` (itself Signorini by default). A scene may
-        mix the two, against bodies and rigid obstacles alike.
+        This pair's normal law: non-penetration (8) or normal compliance (7), stiffness in Pa/m^m
+        (docs/formulation.md §10); None (default): the law given to ``solve``/``Model``.
 
     Notes
     -----

@@ -28,44 +28,44 @@ __all__ = ["Body", "Scene"]
 
 
 class Body(Frozen):
-    """One body of the scene.
+    """One body of the scene: a mesh, a material, its supports, electrodes and loads (SI units).
 
     Parameters
     ----------
-    mesh : Mesh (2D) or TetMesh (3D)
-    material : Piezoelectric or Elastic (a 3D body needs the material's 3D tensors: ``material.tensors(3)``)
+    mesh : Mesh or TetMesh
+        The body's mesh, 2D (plane strain, per unit thickness) or 3D.
+    material : Piezoelectric or Elastic
+        A 3D body needs the material's 3D tensors (``material.tensors(3)``).
     clamped : str or list of str
-        Tags of Gamma_1, where u = 0. Optional: the supports together (clamped, roller,
-        displacement) must hold every rigid motion the contact does not (a SceneError names
-        the free motion; see :meth:`free_motions`).
+        Tags of Gamma_1, where u = 0. The supports together must hold every rigid motion the contact
+        does not (:meth:`free_motions`).
+    contact : str, optional
+        Tag of Gamma_3 in ``Scene(body1, body2)``; with ``contacts=`` optional (docs/howto/pairs.md).
     grounded : str or list of str
         Tags of Gamma_a, where phi = 0 (piezoelectric bodies only).
     potential : dict tag -> float or callable, V
-        Driven electrodes, phi = V (part of Gamma_a). A piezoelectric body needs
-        at least one grounded or driven electrode.
-    contact : str, optional
-        Tag of Gamma_3, a straight part: the part that touches the other body in ``Scene(body1, body2)``
-        (required there). With ``Scene(..., contacts=[...])`` the pairs name their parts and ``contact``
-        may be omitted; if given, it names the part that holds a body no support holds (see
-        :meth:`free_motions`).
-    body_force : sequence of d floats (d = 2 or 3, the mesh's dimension) or callable f(x, y[, z]) -> (fx, fy[, fz]), N/m^3 (None: zero)
-    traction : dict tag -> sequence of d floats or callable, N/m^2 (surface traction f2, eq. sigma nu = f2)
-    surface_charge : dict tag -> float or callable, C/m^2 (q2 in D nu = q2)
-    volume_charge : float or callable, C/m^3 (q0 in div D = q0)
+        Driven electrodes, phi = V; a piezoelectric body needs a grounded or driven electrode.
+    body_force : sequence of d floats or callable f(x, y[, z]), N/m^3
+        Volume force f0 (d = 2 or 3, the mesh's dimension); None: zero.
+    traction : dict tag -> sequence of d floats or callable, N/m^2
+        Surface traction f2 (sigma nu = f2).
+    surface_charge : dict tag -> float or callable, C/m^2
+        Surface charge q2 (D . nu = q2).
+    volume_charge : float or callable, C/m^3
+        Volume charge q0 (div D = q0).
     name : str, optional
+        How messages and outputs name the body.
     roller : str or list of str
-        Straight (2D) or planar (3D) parts where u . n = 0 (n the part's normal): sliding supports,
-        symmetry planes.
+        Straight (planar in 3D) parts where u . n = 0: sliding supports, symmetry planes.
     displacement : dict tag -> (ux, uy) or (ux, uy, uz), m
         Prescribed displacement components; ``None`` leaves a component free.
     floating : dict tag -> float, C/m
-        Floating electrodes: one unknown potential on the whole part and its total charge Q
-        (0 = open circuit). Piezoelectric bodies only; must not touch a grounded or driven one.
+        Floating electrodes: one unknown potential on the part, total charge Q (0: open circuit).
 
     Notes
     -----
     Supports and electrodes enter the unknowns through the prolongation of
-    docs/formulation.md §12 (:func:`cvxcontact.fem.assembly.prolongation`).
+    docs/formulation.md §11 (:func:`cvxcontact.fem.assembly.prolongation`).
 
     A body is immutable once built: its parts are tuples, its per-part loads read-only mappings, its
     arrays read-only, and assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`. Other
@@ -486,30 +486,35 @@ def _frozen(a):
 
 
 class Scene(Frozen):
-    """Bodies in frictionless contact along straight segments.
+    """Bodies in frictionless contact: the paper's two bodies, or any bodies and contact pairs.
 
-    ``Scene(body1, body2)``: the paper's scene, two bodies touching along each body's ``contact``
-    part; the body order defines l = 1, 2 of the paper (``sigma1`` / ``sigma2``). ``gap`` is the
-    initial normal gap g (m) between the bodies, a number or a vectorised callable g(s) of the
-    tangential coordinate (the abscissa x1 for a line parallel to the x1-axis): the condition reads
-    [u_nu] <= g (interpolated in X_h, i.e. at the merged nodes). g = 0 is the paper's problem; g < 0
-    is an initial interference (a prescribed approach), used for Hertz-type tests.
+    ``Scene(body1, body2)`` is the paper's scene (the order is l = 1, 2: ``sigma1`` / ``sigma2``);
+    ``Scene(*bodies, contacts=[...])`` any number of bodies and pairs, against bodies or rigid obstacles.
+    The contact geometry is validated here; what a scene checks and keeps: docs/howto/pairs.md,
+    "What a scene checks and keeps".
 
-    ``Scene(*bodies, contacts=[Contact(...), ...])``: any number of bodies and contact pairs
-    (:class:`~cvxcontact.physics.pairs.Contact`), each pair against another body or a rigid obstacle,
-    with its own gap and, optionally, its own condition; the bodies' ``contact`` tags are then not
-    used. Every body must take part in at least one pair.
+    Parameters
+    ----------
+    *bodies : Body
+        The bodies; every body takes part in at least one pair.
+    contacts : list of Contact, optional
+        The contact pairs; None: the pair of the two bodies' ``contact`` parts.
+    gap : float or callable g(s), m
+        Initial normal gap of that pair (s the tangential coordinate, m); g < 0 is an interference.
 
-    The contact geometry (lines, normals, overlaps, merged nodes) is validated here: ``interfaces``
-    (one :class:`~cvxcontact.contact.interface.Interface` per pair), ``interface`` (the first),
-    ``stack`` (all pairs' rows stacked, what the solvers use), ``obstacles`` (one
-    :class:`~cvxcontact.physics.pairs.ObstacleRows` per distinct rigid obstacle; a force-controlled
-    one whose force compressive contact cannot balance is refused here, docs/formulation.md §12).
+    Attributes
+    ----------
+    bodies : tuple of Body
+        The bodies, in order.
+    contacts : tuple of Contact
+        The pairs (the implicit one included).
+    interfaces : tuple of Interface
+        One validated contact geometry per pair (merged nodes, normals, rows).
 
-    A scene is immutable (tuples; assigning an attribute raises :class:`~cvxcontact.errors.FrozenError`),
-    so what a solver prepared from it always matches it. A changed scene is a new one:
-    :meth:`with_bodies`, :meth:`with_loads` (one body's loads), :meth:`with_gap` and
-    :meth:`with_obstacles` (a moved obstacle, or one under another force).
+    Notes
+    -----
+    A scene is immutable; :meth:`with_bodies`, :meth:`with_loads`, :meth:`with_gap` and
+    :meth:`with_obstacles` make changed ones.
     """
 
     def __init__(self, *bodies: Body, contacts: Sequence[Contact] | None = None,

@@ -152,19 +152,33 @@ def electrodes(scene, systems, u_si, phi_si, nodes=None) -> list[Electrode]:
 
 @dataclass
 class Solution:
-    """Result of :func:`solve`. Displacements in m, potentials in V, lambda in Pa.
+    """Result of :func:`solve`: the fields, the contact forces and the checks of one solve.
 
-    ``energy`` is the reduced coupled energy Pi(u_h) of docs/formulation.md §2 in J/m (per
-    unit thickness; J in 3D; with driven electrodes, up to the constant of the lifting).
-    ``problem`` holds the interior-point values; with ``polished`` the arrays here
-    are the exact finish. ``path`` says how the answer was reached: "interior point",
-    "interior point + exact finish" or, for a re-solve of a :class:`ContactSolver`,
-    "active-set warm start" (then ``problem`` is None: no convex program was needed,
-    and the answer passed the same sign and residual checks).
+    How the answer was reached (``path``, ``problem``, ``polished``): docs/reference/solve-options.md, "What
+    the solution records"; what the checks guarantee: docs/checks.md.
 
-    ``info`` (:class:`~cvxcontact.solution.info.SolveInfo`, frozen) records how the solve
-    went: status, backend used, route, iterations, timings (s), finish. ``status``,
-    ``path``, ``method``, ``timings`` and ``polished`` are read-only views of it.
+    Attributes
+    ----------
+    u : list of (n_k, d) arrays, m
+        Nodal displacements of each body k, at ``points[k]``.
+    phi : list of (n_k,) arrays or None, V
+        Nodal potentials of each body (None for an elastic body).
+    contact : ContactResult
+        The first pair's contact: jump, gap, lambda_h (Pa), forces; ``contacts`` holds every pair's.
+    energy : float, J/m (J in 3D)
+        The reduced coupled energy Pi(u_h) of docs/formulation.md §2.
+    ok : bool
+        True if the solve succeeded and every check of (26)-(27) is within ``tol``.
+    tol : float
+        The checks' tolerance (dimensionless).
+    info : SolveInfo
+        How the solve went: status, backend, route, iterations, timings (s), finish.
+    electrodes : list of Electrode
+        Potential (V) and charge (C/m; C in 3D) of every electrode.
+    obstacles : list of ObstacleResult
+        Each rigid obstacle's translation (m) and force (N/m; N in 3D).
+    estimate : ErrorEstimate or None
+        The a posteriori estimate of the discretisation error (docs/accuracy.md).
     """
 
     scene: Scene

@@ -82,10 +82,9 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     factorization : {"auto", "superlu", "pardiso"}
         The sparse factorisation of each body; "auto": PARDISO if installed, else SuperLU.
     estimate : bool or {"residual", "equilibrated"}
-        Compute the a posteriori error estimate ``Solution.estimate`` and check that the contact zone is
-        resolved (default, True = "residual"); "equilibrated": the guaranteed bound of
-        :func:`cvxcontact.error_bound` instead (2D P1, one elastic body against rigid obstacles); False: neither
-        (docs/accuracy.md).
+        ``Solution.estimate`` and the resolution check (default; True = "residual"); "equilibrated": the
+        guaranteed bound of :func:`cvxcontact.error_bound` (2D P1, one elastic body on rigid obstacles); False:
+        neither (docs/reference/solve-options.md).
 
     Returns
     -------

@@ -119,8 +119,12 @@ def _condensed_accepts(p: ProblemDescription) -> bool:
         and not p.force_control
 
 
-def _sparse_accepts(p: ProblemDescription) -> bool:
+def _amg_accepts(p: ProblemDescription) -> bool:
     return _condensed_accepts(p) and not p.compliant and not p.conic and not p.dependent_rows
+
+
+def _sparse_accepts(p: ProblemDescription) -> bool:
+    return _condensed_accepts(p) and not p.compliant and not p.conic
 
 
 def _amg_available() -> bool:
@@ -130,7 +134,7 @@ def _amg_available() -> bool:
 
 
 BACKENDS: tuple[Backend, ...] = (
-    Backend("amg", _sparse_accepts,
+    Backend("amg", _amg_accepts,
             "active-set steps with AMG-preconditioned Krylov solves (large 3D scenes; pyamg; no factorisation)",
             prefers=lambda p: p.dim == 3 and p.unknowns >= AMG_UNKNOWNS and _amg_available(),
             routes=MappingProxyType({"signorini": "amg:signorini"})),

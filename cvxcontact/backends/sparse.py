@@ -56,9 +56,16 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import active_set_steps, row_compliance, row_reach, signs_hold
+from .finish import active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
+
+SOFT = 1e-6
+"""The relative compliance of the regularised stage of the sparse route for dependent rows
+(:func:`~cvxcontact.backends.signorini._sparse_dependent`): each closed row a reads G_a x - SOFT w_a y_a = g_a,
+w_a its own compliance (:func:`row_weights`). Small enough that the exact finish from its forces takes one step
+(measured, two elastic boxes 7,578 unknowns, 1,009 rows: Lawson-Hanson steps 94, 5, 1, 1 from 1e-2, 1e-4, 1e-6,
+1e-8), large enough that the quasi-definite pivots of dependent rows stay far above rounding."""
 
 _SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 """SuperLU on the matrix permuted by :func:`ordering`: no pivoting (every pivot is a quasi-definite one,
@@ -145,7 +152,7 @@ class SparseContact:
     before refactorising (None: the measured cost of one factorisation in column solves, at least 16).
     """
 
-    def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu"):
+    def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
         from .factor import resolve
 
         self.factorization = resolve(factorization)      # "superlu" or "pardiso" (analysis once, then numeric)
@@ -177,6 +184,7 @@ class SparseContact:
         self._indices, self._indptr = order.indices, order.indptr
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
         self.F = np.concatenate([F for _, F in parts])
+        self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
         self.cap = cap
         self.base = None                  # (active set, factor) of the current base
@@ -189,7 +197,8 @@ class SparseContact:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
         on = np.asarray(active, dtype=bool)[self._rid]
         data = np.where(self._kind == 0, self._vals,
-                        np.where(self._kind == 1, np.where(on, self._vals, 0.0), np.where(on, 0.0, -1.0)))
+                        np.where(self._kind == 1, np.where(on, self._vals, 0.0),
+                                 np.where(on, -self.soft[self._rid], -1.0)))
         N = self.n + self.m
         return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=(N, N))
 
@@ -259,7 +268,8 @@ class SparseContact:
         z0 = factor.solve(bb)
         GZ = np.column_stack([self._columns[k][0] for k in keys])
         YZ = np.column_stack([self._columns[k][1] for k in keys])
-        M = np.vstack([YZ[drop], GZ[add]])                           # y_drop = 0, G_add x = b_add
+        M = np.vstack([YZ[drop], GZ[add]])                           # y_drop = 0, G_add x - soft y_add = b_add
+        M[len(drop) + np.arange(len(add)), len(drop) + np.arange(len(add))] -= self.soft[add]
         r = np.concatenate([-z0[n + drop], b[n + add] - self.G[add] @ z0[:n]])
         try:
             ts = sla.solve(M, r)
@@ -328,6 +338,35 @@ class SparseContact:
             return None
         (x, y), active, steps = out
         return self._split(x) + (np.where(active, y, 0.0), active, steps)
+
+    def _state(self, active):
+        """(x, y, slack G x - g, S each row's displacement scale) of K(active) z = [F; P g], or None if singular."""
+        z = self._system(active)
+        if z is None:
+            return None
+        x, y = z[:self.n], np.where(active, z[self.n:], 0.0)
+        S = self.reach @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
+        return x, y, self.G @ x - self._g, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+
+    def independent(self, F, g, y0, start, max_iter: int | None = None):
+        """The exact finish for rows that may be linearly dependent (3D "gamma3" overlays, docs/formulation.md
+        §13): :func:`~cvxcontact.backends.finish.lawson_hanson` from the forces ``y0`` >= 0 on the rows
+        ``start`` (crossover onto an independent subset, then Lawson-Hanson steps on the dual), each step K(P) z
+        = [F; P g] on this mixed system with the passive rows P closed (independent, so K(P) is not singular)
+        through the base factor and the capacitance form, checked against K(P) itself (:meth:`_system`).
+        Returns ``(u, phi, y, passive, steps)`` or the reason it stopped (a string)."""
+        self.F = np.asarray(F, dtype=float)
+        self._g = np.asarray(g, dtype=float)
+
+        def step(mask, passive):
+            out = self._state(mask)
+            return None if out is None else ((out[0], out[1]),) + out[1:]
+
+        out = lawson_hanson(self.G, y0, start, lambda first: step, None, g=self._g, max_iter=max_iter)
+        if isinstance(out, str):
+            return out
+        (x, y), passive, steps = out
+        return self._split(x) + (y, passive, steps)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

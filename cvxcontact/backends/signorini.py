@@ -201,7 +201,7 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     2. the exact finish, :meth:`~cvxcontact.backends.sparse.SparseContact.independent` (crossover of those forces
        onto an independent subset, then Lawson-Hanson on the dual, finite), each step on the exact mixed system
        with the independent passive rows closed, by the capacitance form on one base factor."""
-    from .sparse import SOFT, SparseContact
+    from .sparse import SOFT, SOFT_PATH, SparseContact
 
     E, g = problem.E, problem.g
     if cache.sparse is None or getattr(cache.sparse, "twin", None) is None:
@@ -215,28 +215,30 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows
     warm = settings.warm_start and soft.last is not None
-    out = soft.solve(rhs, g, soft.last & free) if warm else None
     start = cheap_start(problem)
-    if out is None and start is not None:
-        out, warm = soft.solve(rhs, g, start), False
+    active, steps, out = soft.last & free if warm else (free if start is None else start), 0, None
+    for delta in (SOFT,) if warm else SOFT_PATH:      # continuation: each stage starts near its answer
+        soft.set_soft(delta * sc.w)
+        out = soft.regularised(rhs, g, active)
+        if out is None:
+            break
+        active, steps = out[1], steps + out[2]
     if out is None:
-        out, warm = soft.solve(rhs, g, free), False
-    if out is None:
-        raise SolverError("the active-set steps of the regularised problem on the sparse mixed system did not settle "
-                          "(they cycled or met a singular system); use method='condensed' or 'full'")
-    soft.last = out[3]
+        raise SolverError("the Newton steps of the regularised problem on the sparse mixed system did not settle "
+                          "(a singular system); use method='condensed' or 'full'")
+    soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
-    exact = sc.independent(rhs, g, out[2], out[3] & free)
+    exact = sc.independent(rhs, g, out[0], out[1] & free)
     if sc.factor_time + soft.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time + soft.factor_time - f0
     timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time + soft.factor_time - f0)
     if isinstance(exact, str):
         raise SolverError(f"the exact finish on the sparse mixed system stopped ({exact}); use method='condensed' "
                           "or 'full'")
-    u, phi, y, active, steps = exact
+    u, phi, y, active, lh_steps = exact
     cache.active = active
-    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=out[4] + steps, method="sparse",
+    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps + lh_steps, method="sparse",
                      route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="independent active set",
                      factorization=sc.factorization)
 

@@ -67,6 +67,11 @@ w_a its own compliance (:func:`row_weights`). Small enough that the exact finish
 (measured, two elastic boxes 7,578 unknowns, 1,009 rows: Lawson-Hanson steps 94, 5, 1, 1 from 1e-2, 1e-4, 1e-6,
 1e-8), large enough that the quasi-definite pivots of dependent rows stay far above rounding."""
 
+SOFT_PATH = (1e-2, 1e-4, SOFT)
+"""The continuation of the regularised stage on a first solve: each compliance's Newton steps start from the
+previous one's penetrating rows (from the bonded start at SOFT directly, the damped steps were many: 52 and 66
+systems on two elastic boxes of 3,138 and 7,578 unknowns)."""
+
 _SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 """SuperLU on the matrix permuted by :func:`ordering`: no pivoting (every pivot is a quasi-definite one,
 see :func:`ordering`), so the ordering's sparsity is kept exactly. Measured on thin_layer(1500)'s bonded
@@ -166,6 +171,7 @@ class SparseContact:
                        in zip(blocks, self.sizes)]).tocsr()
         G.sum_duplicates()
         self.G = G
+        self.A = A.tocsr()
         self.reach = row_reach(A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         Gc = G.tocoo()
         self.w = row_weights(blocks, E)
@@ -347,6 +353,56 @@ class SparseContact:
         x, y = z[:self.n], np.where(active, z[self.n:], 0.0)
         S = self.reach @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
         return x, y, self.G @ x - self._g, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+
+    def set_soft(self, soft):
+        """New compliances of the closed rows (the base factor no longer holds)."""
+        self.soft = np.broadcast_to(np.asarray(soft, dtype=float), (self.m,)).copy()
+        self.base, self._columns = None, {}
+
+    def regularised(self, F, g, active, max_iter: int = 100):
+        """The regularised problem of the rows' compliances ``soft`` (> 0): min Phi(x) = 1/2 x^T A x - F^T x +
+        sum_a (G_a x - g_a)_+^2 / (2 soft_a) (the phi-form energy where the Gauss rows hold, which every iterate
+        keeps), strictly convex and piecewise quadratic, by damped semismooth Newton: at x the penetrating rows
+        are closed and the Newton point is K(A) z = [F; P g] with G_a x - soft_a y_a = g_a on them (the sparse
+        mixed system, quasi-definite whatever the dependence of the rows), with Armijo backtracking on Phi (the
+        undamped steps, i.e. primal-dual active-set steps, cycle on dependent rows: W + soft is ill-conditioned).
+        Starts from the Newton point of the rows ``active``. Returns ``(y, active, steps)``, y = the penetration
+        over soft on the penetrating rows (after ``max_iter`` steps the last iterate's), or None if a system is
+        singular."""
+        self.F = np.asarray(F, dtype=float)
+        self._g = g = np.asarray(g, dtype=float)
+        G, soft, n = self.G, self.soft, self.n
+
+        def newton_point(active):
+            z = self._system(active)
+            return None if z is None else z[:n]
+
+        def energy(x):
+            r = np.maximum(G @ x - g, 0.0)
+            return 0.5 * x @ (self.A @ x) - self.F @ x + 0.5 * float(np.sum(r * r / soft))
+
+        active = np.asarray(active, dtype=bool).copy()
+        x = newton_point(active)
+        for steps in range(1, max_iter + 1):
+            if x is None:
+                return None
+            r = G @ x - g
+            new = r > 0
+            if steps > 1 and np.array_equal(new, active) and full:
+                return np.where(active, r / soft, 0.0), active, steps
+            active = new
+            target = newton_point(active)
+            if target is None:
+                return None
+            dx = target - x
+            slope = float((self.A @ x - self.F + G.T @ (np.maximum(r, 0.0) / soft)) @ dx)
+            t, f0 = 1.0, energy(x)
+            while t > 1e-10 and energy(x + t * dx) > f0 + 1e-4 * t * min(slope, 0.0) + 1e-14 * abs(f0):
+                t *= 0.5
+            full = t == 1.0
+            x = x + t * dx
+        r = G @ x - g                           # not settled: its forces still start the exact finish
+        return np.where(r > 0, r / soft, 0.0), r > 0, max_iter
 
     def independent(self, F, g, y0, start, max_iter: int | None = None):
         """The exact finish for rows that may be linearly dependent (3D "gamma3" overlays, docs/formulation.md

@@ -326,8 +326,9 @@ def test_the_condensed_route_finishes_dependent_rows_like_the_full_route():
 
 def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finished():
     # P1 "gamma3" between two 3D bodies held by their supports, non-matching faces: the rows depend on each
-    # other. `auto` used to take the sparse route (long interface), which has no dependent-row finish, and
-    # raised SolverError; now the sparse and AMG routes refuse such rows and `auto` takes the condensed one
+    # other. `auto` used to take the sparse route (long interface), which had no dependent-row finish, and
+    # raised SolverError; `auto` takes the condensed one (faster there), the AMG route refuses such rows and the
+    # sparse route finishes them (a regularised stage, then Lawson-Hanson on the mixed system)
     import cvxcontact as cc
     from cvxcontact.errors import SolverError
     from scenes3d import STEEL, bumped_gap
@@ -342,7 +343,10 @@ def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finishe
     full = cc.solve(scene, "gamma3", method="full")
     assert max(np.abs(a - b).max() for a, b in zip(sol.u, full.u)) < 1e-12 * max(np.abs(u).max() for u in full.u)
     with pytest.raises(SolverError, match="does not accept"):
-        cc.solve(scene, "gamma3", method="sparse")
+        cc.solve(scene, "gamma3", method="amg")          # no dependent-row finish with Krylov solves (yet)
+    sparse = cc.solve(scene, "gamma3", method="sparse")  # the sparse route's own finish of dependent rows
+    assert sparse.ok and sparse.info.finish == "independent active set"
+    assert max(np.abs(a - b).max() for a, b in zip(sparse.u, full.u)) < 1e-12 * max(np.abs(u).max() for u in full.u)
 
 
 def test_dependent_rows_next_to_a_compliance_pair_are_finished():
@@ -603,3 +607,55 @@ def test_dependent_rows_next_to_a_compliance_pair_against_a_dense_solve():
     assert err < 1e-12                                                               # measured 2.8e-15
     lam = k * np.maximum(r1, 0.0)
     assert np.abs(sol.contacts[1].lam[rows[1]] - lam).max() < 1e-10 * lam.max()    # measured 6.8e-15
+
+
+@pytest.mark.parametrize("name", ["squeezed", "squeezed, turned", "two PZT-5A-on-aluminium boxes", "two elastic boxes"])
+def test_the_sparse_route_finishes_dependent_rows_like_the_condensed_and_full_routes(name):
+    """P1 "gamma3" between two 3D bodies held by their supports, non-matching faces: the sparse route (a
+    regularised stage on the quasi-definite mixed system, then Lawson-Hanson on the exact one, no interior point)
+    agrees with the condensed route (interior point + the finish on W) and the full route (interior point + the
+    finish on (26) by sparse LU) to rounding; on the squeezed blocks both give the uniaxial solution (the patch
+    test of a uniform pressure through non-matching faces), also after a rotation of the whole scene."""
+    from scenes3d import rotation, two_boxes
+
+    overlap = 1e-5
+    turned = "turned" in name
+    if name.startswith("squeezed"):
+        scene = squeezed_blocks(overlap=overlap)
+        if turned:
+            R = rotation()
+            b1, b2 = scene.bodies
+            scene = cc.Scene(*(cc.Body(b.mesh.with_points(b.mesh.points @ R.T), STEEL, roller=rollers,
+                                       contact=face, name=b.name) for b, rollers, face in
+                               ((b1, SIDES + ["bottom"], "top"), (b2, SIDES + ["top"], "bottom"))), gap=-overlap)
+    else:
+        scene = two_boxes(6, "gamma3", elastic="elastic" in name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sols = {m: cc.solve(scene, "gamma3", method=m) for m in ("sparse", "condensed", "full")}
+    sparse = sols["sparse"]
+    assert sparse.ok and sparse.polished and sparse.info.finish == "independent active set"
+    assert sparse.info.method == "sparse"
+    scale = max(np.abs(u).max() for u in sols["full"].u)
+    for other in ("condensed", "full"):
+        # measured <= 8.8e-15 of the largest displacement (squeezed; PZT boxes 6.8e-15, elastic boxes 2.6e-15)
+        assert max(np.abs(a - b).max() for a, b in zip(sparse.u, sols[other].u)) < 1e-12 * scale
+        if sparse.phi[0] is not None:
+            pscale = max(np.abs(p).max() for p in sols[other].phi if p is not None)
+            assert max(np.abs(a - b).max() for a, b in zip(sparse.phi, sols[other].phi) if a is not None) \
+                < 1e-12 * pscale
+    if name.startswith("squeezed") and not turned:
+        exact = [-overlap * sparse.points[0][:, 2], overlap * (1 - sparse.points[1][:, 2])]
+        assert max(np.abs(sparse.u[k][:, 2] - exact[k]).max() for k in (0, 1)) < 1e-13 * overlap  # measured 2.0e-15
+        assert np.abs(sparse.contact.lam / (uniaxial_modulus() * overlap) - 1).max() < 1e-10      # measured 6.6e-13
+
+
+def test_a_sparse_re_solve_of_dependent_rows_is_exact():
+    """A ContactSolver on the sparse route re-solves dependent rows from its previous regularised set (warm
+    start) and reaches the uniaxial solution of the doubled interference exactly."""
+    overlap = 1e-5
+    solver = cc.ContactSolver(squeezed_blocks(overlap=overlap), "gamma3", method="sparse")
+    solver.solve()
+    again = solver.solve(squeezed_blocks(overlap=2 * overlap))
+    assert again.ok and again.info.route == "active-set warm start"
+    assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.6e-13

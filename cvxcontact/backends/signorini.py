@@ -161,6 +161,8 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     apply). ``iterations`` counts the systems solved."""
     from .sparse import SparseContact
 
+    if dependent_rows(problem):
+        return _sparse_dependent(problem, cache, settings, timings)
     if cache.sparse is None:
         cache.sparse = SparseContact(list(problem.blocks), problem.E, factorization=settings.factorization)
     sc, f0 = cache.sparse, cache.sparse.factor_time
@@ -185,6 +187,62 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     cache.active = active
     return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="sparse",
                      route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="active set",
+                     factorization=sc.factorization)
+
+
+def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
+    """The sparse route for rows that may be linearly dependent (P1 "gamma3" between 3D bodies, docs/formulation.md
+    §13): two stages on the sparse mixed system (26), no interior point and no dense interface matrix.
+
+    1. the regularised problem, each closed row a compliant by ``SOFT`` times its own compliance w_a
+       (G_a x - SOFT w_a y_a = g_a: the mixed matrix is quasi-definite whatever the dependence of the rows, its
+       forces unique), by the active-set steps of :meth:`~cvxcontact.backends.sparse.SparseContact.solve` from the
+       previous regularised set (re-solve), the rows the obstacles already close (3D) or the bonded system. As
+       SOFT -> 0 its forces tend to the least (compliance-weighted) norm forces of the exact problem, which are
+       >= 0 on every closed row: the start an interior point gives the finish, at the cost of a few sparse
+       factorisations;
+    2. the exact finish, :meth:`~cvxcontact.backends.sparse.SparseContact.independent` (crossover of those forces
+       onto an independent subset, then Lawson-Hanson on the dual, finite), each step on the exact mixed system
+       with the independent passive rows closed, by the capacitance form on one base factor."""
+    from .sparse import SOFT, SOFT_PATH, SparseContact
+
+    E, g = problem.E, problem.g
+    if cache.sparse is None or getattr(cache.sparse, "twin", None) is None:
+        cache.sparse = SparseContact(list(problem.blocks), E, factorization=settings.factorization)
+        cache.sparse.twin = SparseContact(list(problem.blocks), E, factorization=settings.factorization,
+                                          soft=SOFT * cache.sparse.w)
+        cache.sparse.twin.last = None
+    sc, soft = cache.sparse, cache.sparse.twin
+    f0 = sc.factor_time + soft.factor_time
+    t0 = time.perf_counter()
+    rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
+    free = ~problem.held_rows
+    warm = settings.warm_start and soft.last is not None
+    start = cheap_start(problem)
+    active, steps, out = soft.last & free if warm else (free if start is None else start), 0, None
+    for delta in (SOFT,) if warm else SOFT_PATH:      # continuation: each stage starts near its answer
+        soft.set_soft(delta * sc.w)
+        out = soft.regularised(rhs, g, active)
+        if out is None:
+            break
+        active, steps = out[1], steps + out[2]
+    if out is None:
+        raise SolverError("the Newton steps of the regularised problem on the sparse mixed system did not settle "
+                          "(a singular system); use method='condensed' or 'full'")
+    soft.last = out[1]
+    if sc.perm is None and soft.perm is not None:
+        sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
+    exact = sc.independent(rhs, g, out[0], out[1] & free)
+    if sc.factor_time + soft.factor_time > f0:
+        timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time + soft.factor_time - f0
+    timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time + soft.factor_time - f0)
+    if isinstance(exact, str):
+        raise SolverError(f"the exact finish on the sparse mixed system stopped ({exact}); use method='condensed' "
+                          "or 'full'")
+    u, phi, y, active, lh_steps = exact
+    cache.active = active
+    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps + lh_steps, method="sparse",
+                     route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="independent active set",
                      factorization=sc.factorization)
 
 

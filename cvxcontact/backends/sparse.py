@@ -56,9 +56,21 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import active_set_steps, row_compliance, row_reach, signs_hold
+from .finish import active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
+
+SOFT = 1e-6
+"""The relative compliance of the regularised stage of the sparse route for dependent rows
+(:func:`~cvxcontact.backends.signorini._sparse_dependent`): each closed row a reads G_a x - SOFT w_a y_a = g_a,
+w_a its own compliance (:func:`row_weights`). Small enough that the exact finish from its forces takes one step
+(measured, two elastic boxes 7,578 unknowns, 1,009 rows: Lawson-Hanson steps 94, 5, 1, 1 from 1e-2, 1e-4, 1e-6,
+1e-8), large enough that the quasi-definite pivots of dependent rows stay far above rounding."""
+
+SOFT_PATH = (1e-2, 1e-4, SOFT)
+"""The continuation of the regularised stage on a first solve: each compliance's Newton steps start from the
+previous one's penetrating rows (from the bonded start at SOFT directly, the damped steps were many: 52 and 66
+systems on two elastic boxes of 3,138 and 7,578 unknowns)."""
 
 _SUPERLU = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 """SuperLU on the matrix permuted by :func:`ordering`: no pivoting (every pivot is a quasi-definite one,
@@ -145,7 +157,7 @@ class SparseContact:
     before refactorising (None: the measured cost of one factorisation in column solves, at least 16).
     """
 
-    def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu"):
+    def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
         from .factor import resolve
 
         self.factorization = resolve(factorization)      # "superlu" or "pardiso" (analysis once, then numeric)
@@ -159,6 +171,7 @@ class SparseContact:
                        in zip(blocks, self.sizes)]).tocsr()
         G.sum_duplicates()
         self.G = G
+        self.A = A.tocsr()
         self.reach = row_reach(A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         Gc = G.tocoo()
         self.w = row_weights(blocks, E)
@@ -177,6 +190,7 @@ class SparseContact:
         self._indices, self._indptr = order.indices, order.indptr
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
         self.F = np.concatenate([F for _, F in parts])
+        self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
         self.cap = cap
         self.base = None                  # (active set, factor) of the current base
@@ -189,7 +203,8 @@ class SparseContact:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
         on = np.asarray(active, dtype=bool)[self._rid]
         data = np.where(self._kind == 0, self._vals,
-                        np.where(self._kind == 1, np.where(on, self._vals, 0.0), np.where(on, 0.0, -1.0)))
+                        np.where(self._kind == 1, np.where(on, self._vals, 0.0),
+                                 np.where(on, -self.soft[self._rid], -1.0)))
         N = self.n + self.m
         return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=(N, N))
 
@@ -259,7 +274,8 @@ class SparseContact:
         z0 = factor.solve(bb)
         GZ = np.column_stack([self._columns[k][0] for k in keys])
         YZ = np.column_stack([self._columns[k][1] for k in keys])
-        M = np.vstack([YZ[drop], GZ[add]])                           # y_drop = 0, G_add x = b_add
+        M = np.vstack([YZ[drop], GZ[add]])                           # y_drop = 0, G_add x - soft y_add = b_add
+        M[len(drop) + np.arange(len(add)), len(drop) + np.arange(len(add))] -= self.soft[add]
         r = np.concatenate([-z0[n + drop], b[n + add] - self.G[add] @ z0[:n]])
         try:
             ts = sla.solve(M, r)
@@ -328,6 +344,85 @@ class SparseContact:
             return None
         (x, y), active, steps = out
         return self._split(x) + (np.where(active, y, 0.0), active, steps)
+
+    def _state(self, active):
+        """(x, y, slack G x - g, S each row's displacement scale) of K(active) z = [F; P g], or None if singular."""
+        z = self._system(active)
+        if z is None:
+            return None
+        x, y = z[:self.n], np.where(active, z[self.n:], 0.0)
+        S = self.reach @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
+        return x, y, self.G @ x - self._g, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+
+    def set_soft(self, soft):
+        """New compliances of the closed rows (the base factor no longer holds)."""
+        self.soft = np.broadcast_to(np.asarray(soft, dtype=float), (self.m,)).copy()
+        self.base, self._columns = None, {}
+
+    def regularised(self, F, g, active, max_iter: int = 100):
+        """The regularised problem of the rows' compliances ``soft`` (> 0): min Phi(x) = 1/2 x^T A x - F^T x +
+        sum_a (G_a x - g_a)_+^2 / (2 soft_a) (the phi-form energy where the Gauss rows hold, which every iterate
+        keeps), strictly convex and piecewise quadratic, by damped semismooth Newton: at x the penetrating rows
+        are closed and the Newton point is K(A) z = [F; P g] with G_a x - soft_a y_a = g_a on them (the sparse
+        mixed system, quasi-definite whatever the dependence of the rows), with Armijo backtracking on Phi (the
+        undamped steps, i.e. primal-dual active-set steps, cycle on dependent rows: W + soft is ill-conditioned).
+        Starts from the Newton point of the rows ``active``. Returns ``(y, active, steps)``, y = the penetration
+        over soft on the penetrating rows (after ``max_iter`` steps the last iterate's), or None if a system is
+        singular."""
+        self.F = np.asarray(F, dtype=float)
+        self._g = g = np.asarray(g, dtype=float)
+        G, soft, n = self.G, self.soft, self.n
+
+        def newton_point(active):
+            z = self._system(active)
+            return None if z is None else z[:n]
+
+        def energy(x):
+            r = np.maximum(G @ x - g, 0.0)
+            return 0.5 * x @ (self.A @ x) - self.F @ x + 0.5 * float(np.sum(r * r / soft))
+
+        active = np.asarray(active, dtype=bool).copy()
+        x = newton_point(active)
+        for steps in range(1, max_iter + 1):
+            if x is None:
+                return None
+            r = G @ x - g
+            new = r > 0
+            if steps > 1 and np.array_equal(new, active) and full:
+                return np.where(active, r / soft, 0.0), active, steps
+            active = new
+            target = newton_point(active)
+            if target is None:
+                return None
+            dx = target - x
+            slope = float((self.A @ x - self.F + G.T @ (np.maximum(r, 0.0) / soft)) @ dx)
+            t, f0 = 1.0, energy(x)
+            while t > 1e-10 and energy(x + t * dx) > f0 + 1e-4 * t * min(slope, 0.0) + 1e-14 * abs(f0):
+                t *= 0.5
+            full = t == 1.0
+            x = x + t * dx
+        r = G @ x - g                           # not settled: its forces still start the exact finish
+        return np.where(r > 0, r / soft, 0.0), r > 0, max_iter
+
+    def independent(self, F, g, y0, start, max_iter: int | None = None):
+        """The exact finish for rows that may be linearly dependent (3D "gamma3" overlays, docs/formulation.md
+        §13): :func:`~cvxcontact.backends.finish.lawson_hanson` from the forces ``y0`` >= 0 on the rows
+        ``start`` (crossover onto an independent subset, then Lawson-Hanson steps on the dual), each step K(P) z
+        = [F; P g] on this mixed system with the passive rows P closed (independent, so K(P) is not singular)
+        through the base factor and the capacitance form, checked against K(P) itself (:meth:`_system`).
+        Returns ``(u, phi, y, passive, steps)`` or the reason it stopped (a string)."""
+        self.F = np.asarray(F, dtype=float)
+        self._g = np.asarray(g, dtype=float)
+
+        def step(mask, passive):
+            out = self._state(mask)
+            return None if out is None else ((out[0], out[1]),) + out[1:]
+
+        out = lawson_hanson(self.G, y0, start, lambda first: step, None, g=self._g, max_iter=max_iter)
+        if isinstance(out, str):
+            return out
+        (x, y), passive, steps = out
+        return self._split(x) + (y, passive, steps)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

@@ -7,7 +7,7 @@ NOT part of CI: the GetFEM half (benchmarks/getfem_hertz3d_side.py) needs Debian
 (``apt-get install python3-getfem``, 5.4) and runs under the system interpreter (its numpy ABI differs from the
 venv's); the two processes exchange plain npz files (no pickle) in a temporary directory.
 
-    PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py [--levels 4 8 12]
+    PYTHONPATH=. python benchmarks/compare_getfem_hertz3d.py [--levels 4 8 12]
         [--python3 /usr/bin/python3] [--out benchmarks/results/getfem_hertz3d.md]
 
 GetFEM poses the sphere three ways (see the side script): its nodal rigid-obstacle brick (rows at the contact
@@ -154,7 +154,7 @@ def summary(rows, fd, ratios) -> list[str]:
 def write(rows, fd, levels, ratios, out_path):
     """Write the results file (Markdown) of :func:`compare`."""
     delta = hertz3d.hertz(hertz3d.FORCE)[2]
-    command = (f"PYTHONPATH=. /work/venv/bin/python benchmarks/compare_getfem_hertz3d.py --levels "
+    command = (f"PYTHONPATH=. python benchmarks/compare_getfem_hertz3d.py --levels "
                f"{' '.join(map(str, levels))} --ratios {' '.join(f'{r:g}' for r in ratios)}")
     lines = [
         "# cvxcontact's sphere posings against GetFEM (3D Hertz quarter block, P1)",

@@ -34,6 +34,7 @@ from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from ...solution.estimate import cell_energies
+from .adapt import coarse_scene as hertz_coarse_scene
 from .common import Timer, markdown_table, solve_quietly, write_csv, write_text
 
 LEVELS = (0, 1, 2)
@@ -73,6 +74,38 @@ def stack_scene():
     return Scene(top, mid, bot, contacts=pairs)
 
 
+def hertz_scene():
+    """The Hertz cylinder of the hertz and adapt studies (:func:`.adapt.coarse_scene`: a steel cylinder of radius
+    R = 2 m as the upper block 4 m x 2 m with the gap x^2 / (2 R) - 10 mm on an aluminium block), on uniform grids
+    of 16 x 8 cells over 13 x 6, non-matching: the contact zone (about 0.42 m wide) spans two cells at level 0."""
+    return hertz_coarse_scene(16)
+
+
+def punch_scene():
+    """A steel punch 0.6 m x 0.2 m (6 x 2 cells) whose bottom overlaps only [0.6, 1] of the top of an aluminium
+    block 1 m x 0.5 m (8 x 4 cells), its top pushed down by 0.1 mm: a partial overlap, the contact ending at the
+    punch's corner (x = 0.6) on one side and at the block's (x = 1) on the other."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4), ALU, clamped="bottom", contact="top",
+                 name="block")
+    punch = Body(rectangle(x=(0.6, 1.2), y=(0.5, 0.7), nx=6, ny=2), steel, contact="bottom",
+                 displacement={"top": (0.0, -1e-4)}, name="punch")
+    return Scene(punch, block, contacts=[Contact(punch, "bottom", block, "top")])
+
+
+def floating_scene():
+    """A PZT-5A layer 1 m x 0.2 m (10 x 2 cells), clamped and grounded along its bottom, its top a floating
+    electrode with no net charge, pressed by a steel punch 0.2 m x 0.1 m (2 x 2 cells) on its footprint
+    [0.4, 0.6] by a displacement of 2 um: the open-circuit force sensor of examples/punch_sensor.py."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    layer = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.2), nx=10, ny=2, segments={"footprint": ("top", 0.4, 0.6)}),
+                 materials.PZT5A, clamped=["bottom"], grounded=["bottom"], floating={"top": 0.0},
+                 contact="footprint", name="layer")
+    punch = Body(rectangle(x=(0.4, 0.6), y=(0.2, 0.3), nx=2, ny=2), steel, contact="bottom",
+                 displacement={"top": (0.0, -2e-6)}, name="punch")
+    return Scene(punch, layer, contacts=[Contact(punch, "bottom", layer, "footprint")])
+
+
 def sphere_scene():
     """A rigid sphere (R = 0.5 m) pressed 20 mm into an aluminium block 1 m x 1 m x 0.5 m (4 x 4 x 2 cubes of
     six tetrahedra), off-centre, clamped at the bottom: a partial contact."""
@@ -106,6 +139,12 @@ SCENES = {
     "two blocks (piezo), P1": (blocks_scene, dict(condition="gamma3")),
     "two blocks (piezo), P2": (blocks_scene, dict(condition="sigma1", degree=2)),
     "stack, P2": (stack_scene, dict(condition="sigma1", degree=2)),
+    "Hertz cylinder, P1": (hertz_scene, dict(condition="gamma3")),
+    "Hertz cylinder, P2": (hertz_scene, dict(condition="sigma1", degree=2)),
+    "punch, partial overlap, P1": (punch_scene, dict(condition="gamma3")),
+    "punch, partial overlap, P2": (punch_scene, dict(condition="sigma1", degree=2)),
+    "PZT layer, floating electrode, P1": (floating_scene, dict(condition="gamma3")),
+    "PZT layer, floating electrode, P2": (floating_scene, dict(condition="sigma1", degree=2)),
 }
 """name -> (scene builder, solve keywords)."""
 

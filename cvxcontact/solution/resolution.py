@@ -13,8 +13,10 @@ nodes (joined by the faces they share) is one zone; the contact faces that touch
   direction, width / h + 2 (width: the extent of its nodes along their minor principal axis; h = sqrt(2 |F|)
   of the median area |F| of the faces touching it: the leg of a right isosceles face, 0.93 of an equilateral
   face's edge; P2: h / 2, the spacing of the P2 nodes; + 2: the faces on either side that carry the pressure
-  of its outermost nodes, as the 2D count has them). On a structured face it is the 2D count along that
-  direction. With fewer than :data:`MIN_CELLS` the pressure's shape across the zone is not resolved: a
+  of its outermost nodes, as the 2D count has them), rounded to an integer: the least width of a ring of nodes
+  around a vertex of a triangulated face is cos 30 deg = 0.87 of its diameter (the README's PZT disc: a centre
+  node and a ring of six, 3.7 -> 4, the 2D count of a centre node and its two neighbours). On a structured
+  face it is the 2D count along that direction. With fewer than :data:`MIN_CELLS` the pressure's shape across the zone is not resolved: a
   Hertz zone of 1-3 faces gives a peak pressure tens of per cent off while the discrete problem is solved
   exactly. A zone covering every node of the face a side offers (a flat punch) has no edge to resolve and is
   not counted.
@@ -185,7 +187,7 @@ def _zones_3d(sol, itf, k, p, merged, degree) -> list[_Zone]:
         width = float(np.ptp(loaded @ minor))
         where = (f"around ({centre[0]:.4g}, {centre[1]:.4g}) m in the plane's axes, {len(loaded)} loaded "
                  f"node{'s' if len(loaded) != 1 else ''}")
-        out.append(_Zone(width / h + 2, where, width, h, bool(mine[can].all()), nodes[faces[touching][:, :3]]))
+        out.append(_Zone(float(np.round(width / h + 2)), where, width, h, bool(mine[can].all()), nodes[faces[touching][:, :3]]))
     return out
 
 
@@ -219,9 +221,9 @@ def unresolved(sol) -> list[str]:
                     out.append(f"{head} ({z.where}) lies on {len(cells)} cell{'s' if len(cells) != 1 else ''} of "
                                f"{body.name} with aspect ratio up to {ratio.max():.3g} (cell {worst}; above "
                                f"{MAX_ASPECT:g}; 1 is the {'equilateral triangle' if dim == 2 else 'regular tetrahedron'}"
-                               f"): cells that thin across the zone do not resolve its stress. Remesh the cells "
-                               f"along {part!r} there with aspect ratio at most {MAX_ASPECT:g} (e.g. as many cells "
-                               f"across the body's thickness near the contact as their size along the face allows).")
+                               f"): cells that elongated do not resolve the stress across the zone. Remesh the cells "
+                               f"along {part!r} there with aspect ratio at most {MAX_ASPECT:g} (e.g. more cells "
+                               f"across the body's thickness near the contact, or fewer along the face).")
     return out
 
 
@@ -234,7 +236,7 @@ def _too_few(head, z, name, part, dim, degree) -> str:
                 f"(fewer than {MIN_CELLS}; faces about {z.h:.3g} m long): its pressure is not resolved. "
                 f"Refine the contact face there: faces of at most {need:.3g} m along {z.where} (e.g. "
                 f"cc.graded_block towards the zone, or more cells along {part!r}).")
-    return (f"{head} ({z.where}, {z.width:.3g} m across its narrowest direction) is spanned by {z.across:.2g} "
-            f"face sizes of {name} (fewer than {MIN_CELLS}; faces of about {z.h:.3g} m{' between P2 nodes' if degree == 2 else ''}): "
+    return (f"{head} ({z.where}, {z.width:.3g} m across its narrowest direction) is spanned by {z.across:.0f} "
+            f"faces of {name} (fewer than {MIN_CELLS}; faces of about {z.h:.3g} m{' between P2 nodes' if degree == 2 else ''}): "
             f"its pressure is not resolved. Refine the contact face there: faces of at most {need:.3g} m "
             f"across the zone (e.g. refine the mesh towards it, or more cells along {part!r}).")

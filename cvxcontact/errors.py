@@ -39,9 +39,10 @@ class ResidualWarning(UserWarning):
 
 class ResolutionWarning(UserWarning):
     """The mesh cannot resolve what the solution shows: a contact zone spanned by too few cells (fewer than
-    :data:`cvxcontact.solution.resolution.MIN_CELLS` contact faces of a body carry its pressure). The
-    discrete problem may be solved exactly (``ok`` True) while the pressure is far from the physics; the
-    message names the pair, the body and what to refine."""
+    :data:`cvxcontact.solution.resolution.MIN_CELLS` contact faces of a body across it, 2D and 3D), or
+    carried by cells of aspect ratio above :data:`cvxcontact.solution.resolution.MAX_ASPECT`. The discrete
+    problem may be solved exactly (``ok`` True) while the pressure is far from the physics; the message names
+    the pair, the body, the part and what to refine or remesh."""
 
 
 class NonUniqueWarning(UserWarning):

@@ -29,6 +29,13 @@ MEASURED = {
     "two blocks (piezo), P1": (5.77, 5.99),
     "two blocks (piezo), P2": (8.37, 8.99),
     "stack, P2": (6.75, 7.91),
+    # issue 30's further scenes (measured with this configuration, 2026-12-05):
+    "Hertz cylinder, P1": (4.30, 4.52),
+    "Hertz cylinder, P2": (6.36, 7.89),
+    "punch, partial overlap, P1": (5.35, 6.81),
+    "punch, partial overlap, P2": (7.96, 9.00),
+    "PZT layer, floating electrode, P1": (3.49, 4.70),
+    "PZT layer, floating electrode, P2": (7.61, 7.95),
 }
 
 
@@ -42,7 +49,7 @@ def test_effectivity_within_the_measured_range_and_the_estimate_falls(name):
     for r in rows:
         assert r["ok"]
         assert lo / 3 <= r["effectivity"] <= hi * 3, r
-    assert rows[1]["estimate"] < rows[0]["estimate"]               # measured ratios 0.63 .. 0.80
+    assert rows[1]["estimate"] < rows[0]["estimate"]               # measured ratios 0.39 .. 0.87
     assert rows[1]["true_error"] < rows[0]["true_error"]
 
 

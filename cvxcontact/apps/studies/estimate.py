@@ -4,7 +4,8 @@ For each scene and level l = 0, 1, 2 the scene's meshes are refined l times unif
 (:func:`cvxcontact.geometry.refine.refine_uniform`: every triangle into four, every tetrahedron into eight,
 straight midpoints, so the meshes are nested) and solved; the reference is the same scene refined
 ``REFERENCE`` times (two levels above the finest tested). The 3D scenes (:data:`SCENES3D`) run levels 0, 1
-against a reference at level 3 (the sizes two shared cores allow). The true error of level l is measured in the reference's energy norm,
+against a reference at level 3, the sphere levels 0, 1, 2 against level 4 in the full run (:data:`FULL3D`: the
+sizes two shared cores allow). The true error of level l is measured in the reference's energy norm,
 
     |||(I u_l - u_ref, I phi_l - phi_ref)|||^2 = sum over bodies and fine cells of
         int c eps(e_u) : eps(e_u) + kappa grad e_phi . grad e_phi,
@@ -34,6 +35,7 @@ from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from ...solution.estimate import cell_energies
+from .adapt import coarse_scene as hertz_coarse_scene
 from .common import Timer, markdown_table, solve_quietly, write_csv, write_text
 
 LEVELS = (0, 1, 2)
@@ -73,6 +75,38 @@ def stack_scene():
     return Scene(top, mid, bot, contacts=pairs)
 
 
+def hertz_scene():
+    """The Hertz cylinder of the hertz and adapt studies (:func:`.adapt.coarse_scene`: a steel cylinder of radius
+    R = 2 m as the upper block 4 m x 2 m with the gap x^2 / (2 R) - 10 mm on an aluminium block), on uniform grids
+    of 16 x 8 cells over 13 x 6, non-matching: the contact zone (about 0.42 m wide) spans two cells at level 0."""
+    return hertz_coarse_scene(16)
+
+
+def punch_scene():
+    """A steel punch 0.6 m x 0.2 m (6 x 2 cells) whose bottom overlaps only [0.6, 1] of the top of an aluminium
+    block 1 m x 0.5 m (8 x 4 cells), its top pushed down by 0.1 mm: a partial overlap, the contact ending at the
+    punch's corner (x = 0.6) on one side and at the block's (x = 1) on the other."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4), ALU, clamped="bottom", contact="top",
+                 name="block")
+    punch = Body(rectangle(x=(0.6, 1.2), y=(0.5, 0.7), nx=6, ny=2), steel, contact="bottom",
+                 displacement={"top": (0.0, -1e-4)}, name="punch")
+    return Scene(punch, block, contacts=[Contact(punch, "bottom", block, "top")])
+
+
+def floating_scene():
+    """A PZT-5A layer 1 m x 0.2 m (10 x 2 cells), clamped and grounded along its bottom, its top a floating
+    electrode with no net charge, pressed by a steel punch 0.2 m x 0.1 m (2 x 2 cells) on its footprint
+    [0.4, 0.6] by a displacement of 2 um: the open-circuit force sensor of examples/punch_sensor.py."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    layer = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.2), nx=10, ny=2, segments={"footprint": ("top", 0.4, 0.6)}),
+                 materials.PZT5A, clamped=["bottom"], grounded=["bottom"], floating={"top": 0.0},
+                 contact="footprint", name="layer")
+    punch = Body(rectangle(x=(0.4, 0.6), y=(0.2, 0.3), nx=2, ny=2), steel, contact="bottom",
+                 displacement={"top": (0.0, -2e-6)}, name="punch")
+    return Scene(punch, layer, contacts=[Contact(punch, "bottom", layer, "footprint")])
+
+
 def sphere_scene():
     """A rigid sphere (R = 0.5 m) pressed 20 mm into an aluminium block 1 m x 1 m x 0.5 m (4 x 4 x 2 cubes of
     six tetrahedra), off-centre, clamped at the bottom: a partial contact."""
@@ -101,11 +135,23 @@ the cells of level 0) in both the full and the quick run."""
 
 LEVELS3D, REFERENCE3D = (0, 1), 3
 
+FULL3D = {"sphere (3D), P1": ((0, 1, 2), 4)}
+"""name -> (levels, reference level) of the 3D scenes that the full run takes further: the sphere's level-4
+reference (786,432 tetrahedra) takes 100 s and 4.7 GB (measured); the two boxes' (540,672 tetrahedra, a direct
+factorisation of the piezoelectric pair and its polish) more than two shared cores allow, so they stay at
+levels 0, 1 against level 3."""
+
 SCENES = {
     "circle, P1": (circle_scene, dict(condition="gamma3")),
     "two blocks (piezo), P1": (blocks_scene, dict(condition="gamma3")),
     "two blocks (piezo), P2": (blocks_scene, dict(condition="sigma1", degree=2)),
     "stack, P2": (stack_scene, dict(condition="sigma1", degree=2)),
+    "Hertz cylinder, P1": (hertz_scene, dict(condition="gamma3")),
+    "Hertz cylinder, P2": (hertz_scene, dict(condition="sigma1", degree=2)),
+    "punch, partial overlap, P1": (punch_scene, dict(condition="gamma3")),
+    "punch, partial overlap, P2": (punch_scene, dict(condition="sigma1", degree=2)),
+    "PZT layer, floating electrode, P1": (floating_scene, dict(condition="gamma3")),
+    "PZT layer, floating electrode, P2": (floating_scene, dict(condition="sigma1", degree=2)),
 }
 """name -> (scene builder, solve keywords)."""
 
@@ -193,23 +239,27 @@ def run(out, quick: bool = False, progress=None) -> dict:
     timer = Timer()
     results, table = {}, []
     runs = [(name, entry, levels, reference) for name, entry in SCENES.items()]
-    runs += [(name, entry, LEVELS3D, REFERENCE3D) for name, entry in SCENES3D.items()]
+    runs += [(name, entry) + (FULL3D.get(name, (LEVELS3D, REFERENCE3D)) if not quick else (LEVELS3D, REFERENCE3D))
+             for name, entry in SCENES3D.items()]
     for name, (build, options), lv, ref in runs:
         if progress:
             progress(f"estimate: {name}")
         rows = effectivity(build, options, lv, ref, progress)
         results[name] = rows
-        table += [dict(scene=name, **r) for r in rows]
+        table += [dict(scene=name, **r, reference_level=ref) for r in rows]
     write_csv(out / "estimate.csv", table)
     columns = ["scene", "level", "cells", "unknowns", "estimate", "true_error", "effectivity", "relative",
-               "true_relative", "reference_estimate", "cost"]
+               "true_relative", "reference_level", "reference_estimate", "cost"]
     formats = dict(estimate=".4g", true_error=".4g", effectivity=".3g", relative=".3g", true_relative=".3g",
                    reference_estimate=".4g", cost=".2f")
     summary = [dict(scene=n, lo=min(r["effectivity"] for r in rows), hi=max(r["effectivity"] for r in rows))
                for n, rows in results.items()]
     text = (f"# Effectivity of the error estimate\n\nGenerated by `cvxcontact study estimate{' --quick' if quick else ''}`"
             f" ({timer():.0f} s). 2D: levels {', '.join(map(str, levels))} against a reference at level {reference}; "
-            f"3D: levels {', '.join(map(str, LEVELS3D))} against a reference at level {REFERENCE3D} (uniform "
+            f"3D: levels {', '.join(map(str, LEVELS3D))} against a reference at level {REFERENCE3D}"
+            + ("" if quick else "".join(f", {n}: levels {', '.join(map(str, lv))} against level {r}"
+                                        for n, (lv, r) in FULL3D.items()))
+            + " (`reference_level`; uniform "
             "refinement, nested meshes: every triangle into 4, every tetrahedron into 8). Estimate and true error in "
             "sqrt(J/m) in 2D, sqrt(J) in 3D (energy norm of the coupled problem); `relative`: the estimate over the "
             "solution's own energy norm; `cost`: the estimate's seconds over the solve's.\n\n"

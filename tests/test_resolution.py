@@ -1,0 +1,86 @@
+"""cc.ResolutionWarning in 3D (cells across the contact zone) and the aspect-ratio rule of the contact cells
+(2D and 3D); the aspect ratio against closed forms. The 2D count is tested in tests/test_estimate.py."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps.studies import estimate as study
+from cvxcontact.solution.resolution import MAX_ASPECT, aspect_ratios
+
+ALU = cc.materials.isotropic(E=70e9, nu=0.33)
+
+
+def _resolution_messages(scene, **options):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = cc.solve(scene, **options)
+    return sol, [str(w.message) for w in caught if w.category is cc.ResolutionWarning]
+
+
+def test_a_coarse_3d_sphere_warns_and_a_refined_one_does_not():
+    """The sphere of the effectivity study refined once (faces of 0.125 m): its zone has 2 loaded nodes, 2 faces
+    across; refined twice (0.0625 m): 10 loaded nodes, 4 faces across, and no warning (measured)."""
+    coarse, _ = study.refined(study.sphere_scene(), 1)
+    sol, messages = _resolution_messages(coarse)
+    assert sol.ok and len(messages) == 1
+    assert "block/top" in messages[0] and "spanned by 2 faces of block" in messages[0]
+    assert "Refine the contact face there: faces of at most" in messages[0]
+    fine, _ = study.refined(study.sphere_scene(), 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResolutionWarning)
+        assert cc.solve(fine).ok
+
+
+def test_p2_in_3d_counts_the_zone_of_the_nodal_forces():
+    """P2 on the sphere at level 0: the P2 Riesz pressure of the small zone has lobes of either sign over the
+    whole face (its minimum -0.40 of its maximum at level 1, measured), the nodal forces are local: one zone,
+    10 loaded P2 nodes spanning 2 node spacings, 4 spacings across with the ones either side, no warning;
+    the same mesh in P1 (1 loaded node) warns."""
+    scene = study.sphere_scene()
+    sol, messages = _resolution_messages(scene, degree=2)
+    assert sol.ok and messages == []
+    _, messages = _resolution_messages(scene)
+    assert len(messages) == 1 and "1 loaded node" in messages[0]
+
+
+def test_the_aspect_ratio_of_simplices_against_closed_forms():
+    """Longest edge over the inscribed diameter, over sqrt(3) (sqrt(6)): 1 for the regular simplices; the right
+    isosceles triangle with legs 1: sqrt(2) / (2 - sqrt(2)) / sqrt(3); a flat triangle (base b, height t):
+    b / (2 r) / sqrt(3) with its inradius r = area / semi-perimeter computed here."""
+    tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    tet = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float)
+    right = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    assert aspect_ratios(tri, [[0, 1, 2]])[0] == pytest.approx(1.0, rel=1e-14)
+    assert aspect_ratios(tet, [[0, 1, 2, 3]])[0] == pytest.approx(1.0, rel=1e-14)
+    assert aspect_ratios(right, [[0, 1, 2]])[0] == pytest.approx(np.sqrt(2) / (2 - np.sqrt(2)) / np.sqrt(3), rel=1e-14)
+    b, t = 1.0, 0.01
+    flat = np.array([[0.0, 0.0], [b, 0.0], [0.3, t]])
+    sides = np.linalg.norm(flat - np.roll(flat, 1, axis=0), axis=1)
+    r = 0.5 * b * t / (0.5 * sides.sum())
+    assert aspect_ratios(flat, [[0, 1, 2]])[0] == pytest.approx(b / (2 * r) / np.sqrt(3), rel=1e-14)
+    # the orientation does not matter
+    assert aspect_ratios(flat, [[0, 2, 1]])[0] == aspect_ratios(flat, [[0, 1, 2]])[0]
+
+
+def test_thin_contact_cells_warn_in_2d_and_3d():
+    """Cells 1/192 m along the face and 1/4 m deep (aspect ratio 28.0) under the study's circle; tetrahedra
+    1/32 m along the face and 1 m deep (up to 22.5 at the zone, 26.2 in the mesh) under its sphere: each zone is
+    resolved (no 'spanned by') but its cells are too thin, and the message names the body, the part, the ratio
+    and the fix."""
+    mesh = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=192, ny=2)
+    block = cc.Body(mesh, ALU, clamped="bottom", contact="top", name="block")
+    scene = cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((0.47, 0.5 + 0.6 - 3e-3), 0.6))])
+    mesh3 = cc.box(x=(0, 1), y=(0, 1), z=(0, 1.0), nx=32, ny=32, nz=1)
+    block3 = cc.Body(mesh3, ALU, clamped="bottom", contact="top", name="block")
+    scene3 = cc.Scene(block3, contacts=[cc.Contact(block3, "top", cc.Rigid.sphere((0.47, 0.5, 1.48), 0.5))])
+    for s, shape in ((scene, "equilateral triangle"), (scene3, "regular tetrahedron")):
+        sol, messages = _resolution_messages(s)
+        assert sol.ok and len(messages) == 1, messages
+        (m,) = messages
+        assert "block/top" in m and "aspect ratio up to" in m and shape in m and "spanned by" not in m
+        assert f"Remesh the cells along 'top' there with aspect ratio at most {MAX_ASPECT:g}" in m
+        ratio = float(m.split("aspect ratio up to ")[1].split(" ")[0])
+        assert MAX_ASPECT < ratio <= aspect_ratios(s.bodies[0].mesh.points, s.bodies[0].mesh.cells).max() * (1 + 1e-3)

@@ -412,7 +412,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     with T the tangent at x^k, D = diag(w p'(r^k)) and L the rows held at their limit, each step solves the
     sparse system (the sparsity of the linear one)
 
-        [[T + G^T D G, G_L^T], [G_L, 0]] [dx; z_L] = [-grad L(x^k) - G^T w p(r^k); g_L + l_L - G_L x^k]
+        [[T + G^T D G, G_L^T], [G_L, 0]] [x^k + dx; z_L] = [T x^k - grad L(x^k) - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
 
     (a semismooth Newton step: p' and a Hencky tangent jump where a row opens or a point yields; exact in one
     step for a linear material and m = 1 once the penetrating rows are right), damped by backtracking on the
@@ -450,17 +450,18 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     def step(x, at):
         r = G @ x - g
         D = w * law.derivative(r)
-        K = operator.tangent(x) + G.T @ sps.diags(D) @ G
+        T, load = operator.linearised(x)          # gradient(x') ~ T x' - load near x
+        K = T + G.T @ sps.diags(D) @ G
         GL = G[at]
         M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
-        b = -operator.gradient(x) - G.T @ (w * law.pressure(r))
-        b = np.concatenate([b, (g + ell - G @ x)[at]]) if at.any() else b
+        b = load - G.T @ (w * law.pressure(r) - D * (g + r))
+        b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
         s = solve_mixed(M, b)
         if s is None:
             return None
         zL = np.zeros(m)
         zL[at] = s[len(x):]
-        return s[:len(x)], zL
+        return s[:len(x)] - x, zL
 
     steps, seen, history = 0, set(), []
     for _ in range(max_iter):

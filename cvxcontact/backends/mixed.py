@@ -86,6 +86,8 @@ class MixedEnergy:
         """(T, b): the tangent T at ``x`` and b = T x - gradient(x), so that gradient(x') ~ T x' - b near ``x``
         (exact for a linear material: at x = 0, b = [f; -q; ...; F] the loads of (26))."""
         T = self.tangent(x)
+        if self.linear:                         # the loads themselves, exactly (no rounding of T x - T x)
+            return T, -self.gradient(np.zeros_like(x))
         return T, T @ x - self.gradient(x)
 
     def _assemble(self, x):

@@ -1,7 +1,8 @@
-"""The bulk energy as a term (issue 31): the Hencky material (docs/materials.md), posed by the full backend only,
-checked against the closed form of uniaxial strain, the linear material in its limits, and the equilibrium of
-(26) with the nonlinear internal forces. The interior point has no exact finish here (a Newton finish is a later
-step), so the checks run at the interior point's accuracy: tolerances are 100x the measured values."""
+"""The bulk energy as a term (issue 31): the Hencky material (docs/materials.md), posed by the full backend only and
+finished exactly by Newton on the nonlinear mixed system (26) with the contact active set
+(:func:`cvxcontact.backends.signorini.newton_finish`), checked against the closed form of uniaxial strain, the linear
+material in its limits, the interior point, a dense Newton written here, and the equilibrium of (26) with the
+nonlinear internal forces. Tolerances are 100x the measured values (or the finish's rounding)."""
 
 import warnings
 
@@ -11,6 +12,10 @@ import pytest
 import cvxcontact as cc
 from conftest import rel, two_blocks
 from cvxcontact.backends import choose, describe
+from cvxcontact.backends.finish import solve_sparse_compliance
+from cvxcontact.backends.mixed import mixed_system
+from cvxcontact.backends.result import Finish
+from cvxcontact.contact.laws import RowLaws, Signorini
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
 from cvxcontact.physics.materials import deviator
@@ -18,15 +23,30 @@ from cvxcontact.physics.materials import deviator
 E, NU, SIGMA_Y, H = 70e9, 0.3, 200e6, 0.1
 MU, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
 TOL = 1e-3          # the checks of an unfinished interior point: measured <= 5e-6 (complementarity), 1.4e-6 (equilibrium)
+EXACT = 1e-12       # the Newton finish: equilibrium measured <= 3e-16, complementarity 0 (planes), 6e-9 (circles:
+#                     the check's own, the linear material's is 1.1e-8 on the same scene)
 
 
 def checked(scene, **kw):
-    """cc.solve at TOL; Clarabel may end "optimal_inaccurate" on these SOCPs (then sol.ok is False and a
-    ResidualWarning says so): the checks of (26)-(27) are asserted here instead."""
+    """cc.solve, finished by Newton on (26): sol.ok at the default tol, the route and finish of that finish."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene, estimate=False, **kw)
+    assert sol.ok and sol.polished and sol.status == "optimal", sol.report()
+    assert sol.info.route == cc.Route.INTERIOR_POINT_FINISHED and sol.info.finish == Finish.NEWTON_BULK
+    assert sol.residuals()["equilibrium"] < EXACT, sol.residuals()
+    return sol
+
+
+def interior_point(scene):
+    """The full program's answer unfinished (polish=False): checked at TOL (Clarabel may end
+    "optimal_inaccurate" on these SOCPs, then sol.ok is False)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         warnings.simplefilter("ignore", cc.ResolutionWarning)
-        sol = cc.solve(scene, tol=TOL, estimate=False, **kw)
+        sol = cc.solve(scene, tol=TOL, estimate=False, polish=False)
+    assert sol.info.route == cc.Route.INTERIOR_POINT_NONLINEAR_ENERGY and not sol.polished
     assert max(sol.residuals().values()) < TOL, sol.residuals()
     return sol
 
@@ -42,6 +62,42 @@ def pressed_block(material, strain):
     m = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2)
     b = cc.Body(m, material, roller=["left", "right"], displacement={"top": (None, strain * 0.5)}, contact="bottom")
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0, 0), (0, 1)))])
+
+
+def indented(material, nx=16, ny=6, depth=3e-3, radius=0.6):
+    """A rigid circle pressed ``depth`` into a block 1 m x 0.5 m clamped at its bottom (yields under the circle)."""
+    b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=nx, ny=ny), material, clamped="bottom", contact="top")
+    return cc.Scene(b, contacts=[cc.Contact(b, "top", cc.Rigid.circle((0.47, 0.5 + radius - depth), radius))])
+
+
+def dense_newton(bulk, f, G, g):
+    """An independent solution of the Signorini problem of one elastic body with the energy ``bulk`` (its value,
+    gradient and Hessian, checked against differences below), the loads ``f`` and the rows G z <= g (dense):
+    primal-dual active-set steps from the rows penetrating at z = 0, each with Newton steps on the equality
+    constrained problem (dense solves; the first step of a set whole, then halved until the energy does not
+    increase) until the step is at rounding. Returns (z, y, active)."""
+    z, active = np.zeros(G.shape[1]), g < 0
+    for _ in range(30):
+        for k in range(50):
+            H, r = bulk.hessian(z).toarray(), bulk.gradient(z) - f
+            GA = G[active]
+            M = np.block([[H, GA.T], [GA, np.zeros((len(GA), len(GA)))]])
+            sol = np.linalg.solve(M, np.concatenate([-r, g[active] - GA @ z]))
+            dz, t = sol[:len(z)], 1.0
+            energy = lambda v: bulk.value(v) - f @ v                                     # noqa: E731
+            while k and t > 1e-10 and energy(z + t * dz) > energy(z):
+                t /= 2
+            z = z + t * dz
+            y = np.zeros(len(g))
+            y[active] = sol[len(z):]
+            if np.abs(t * dz).max() <= 1e-15 * np.abs(z).max():
+                break
+        slack = G @ z - g
+        new = (active & (y >= 0)) | (slack > 1e-14 * np.abs(g).max())
+        if (new == active).all():
+            return z, y, active
+        active = new
+    raise AssertionError("the dense active-set steps did not settle")
 
 
 def test_the_deviator_and_the_stress_are_those_of_the_tensors():
@@ -66,19 +122,27 @@ def test_the_deviator_and_the_stress_are_those_of_the_tensors():
 @pytest.mark.parametrize("strain", [-2e-3, -1e-2])    # below yield (at -3.7e-3), above it
 def test_uniaxial_strain_follows_the_closed_form(strain):
     sol = checked(pressed_block(cc.materials.hencky(E, NU, SIGMA_Y, H), strain))
-    assert sol.info.method == "full" and sol.info.route == cc.Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    assert sol.info.method == "full"
     expected = -uniaxial_stress(strain)
-    assert rel(sol.contact.lam, np.full_like(sol.contact.lam, expected)) < 1e-3      # measured 2.5e-6, 1.0e-5
-    assert abs(sol.obstacles[0].force[1] - expected) < 1e-6 * abs(expected)         # measured < 1e-9
+    assert rel(sol.contact.lam, np.full_like(sol.contact.lam, expected)) < 1e-12     # measured 6.3e-16, 6.5e-16
+    assert abs(sol.obstacles[0].force[1] - expected) < 1e-12 * abs(expected)        # measured 1.6e-16
+    ip = interior_point(pressed_block(cc.materials.hencky(E, NU, SIGMA_Y, H), strain))
+    assert rel(ip.contact.lam, sol.contact.lam) < 1e-3                              # measured 2.5e-6, 1.0e-5
 
 
 def test_h_one_and_a_huge_yield_stress_are_the_linear_material():
     """h = 1 (no softening) and sigma_y -> inf (1e15 Pa) (never yields) give psi(s) = s^2: the linear isotropic material, to
-    the interior point's accuracy; a finite sigma_y that the strain passes does not."""
+    rounding after the Newton finish, on the pressed block and on a circle pressed into a clamped block (whose
+    answer the linear material's condensed route and LCP finish give independently); a finite sigma_y that the
+    strain passes does not."""
     lin = cc.solve(pressed_block(cc.materials.isotropic(E, NU), -1e-2), estimate=False)
     for mat in (cc.materials.hencky(E, NU, SIGMA_Y, 1.0), cc.materials.hencky(E, NU, 1e15, H)):
         sol = checked(pressed_block(mat, -1e-2))
-        assert rel(sol.contact.lam, lin.contact.lam) < 1e-4, mat      # measured below 1e-6
+        assert rel(sol.contact.lam, lin.contact.lam) < 1e-12, mat     # measured 6.3e-16, 8.9e-16
+    circle = cc.solve(indented(cc.materials.isotropic(E, NU)), estimate=False)
+    sol = checked(indented(cc.materials.hencky(E, NU, SIGMA_Y, 1.0)))
+    assert circle.info.method == "condensed" and sol.info.iterations > 0
+    assert rel(sol.u[0], circle.u[0]) < 1e-12 and rel(sol.contact.lam, circle.contact.lam) < 1e-12   # measured 5.8e-16, 1.1e-15
     soft = checked(pressed_block(cc.materials.hencky(E, NU, SIGMA_Y, H), -1e-2))
     assert rel(soft.contact.lam, lin.contact.lam) > 0.1           # the closed forms: 1 - 7.392/9.423 = 0.2155
 
@@ -101,11 +165,45 @@ def test_the_energy_object_answers_and_the_fast_routes_refuse():
     assert rel(bulk.gradient(z + dz) - bulk.gradient(z - dz), 2 * bulk.hessian(z) @ dz) < 1e-5
 
 
+def test_a_hencky_block_under_a_circle_is_the_newton_answer():
+    """A rigid circle pressed into a Hencky block: the finished answer is the interior point's (to its accuracy), the
+    answer of a dense Newton written here (to rounding), yields under the circle, and the Newton steps of the finish
+    from the rest state converge quadratically (each residual below C times the square of the one before, once
+    below 1e-2)."""
+    mat = cc.materials.hencky(E, NU, SIGMA_Y, H)
+    scene = indented(mat, nx=24, ny=8, depth=5e-3)
+    sol, ip = checked(scene), interior_point(scene)
+    assert rel(ip.u[0], sol.u[0]) < 3e-3 and rel(ip.contact.lam, sol.contact.lam) < 3e-3    # measured 2.0e-5, 1.0e-5
+    problem = build_problem(scene, space(1), "gamma3", cc.Signorini())
+    bulk, block, un = problem.blocks[0].bulk, problem.blocks[0], problem.units
+    G = (problem.E @ block.jump).toarray()
+    z, y, active = dense_newton(bulk, block.f, G, problem.g)
+    x = sol.u[0].ravel() @ problem.systems[0].Tu / un.displacement
+    assert rel(x, z) < 1e-12                                    # measured 1.4e-16
+    assert active.sum() >= 3 and (y[active] > 0).all()
+    s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
+    assert (s > mat.s_y).sum() >= 10                            # measured 67 of 384 points yielded
+    # the finish's own steps from the rest state (the sparse route's start): quadratic convergence
+    op, Gs, _ = mixed_system(problem)
+    out = solve_sparse_compliance(op, Gs, problem.g, np.zeros(len(problem.g)),
+                                  RowLaws.uniform(Signorini(), len(problem.g)), np.zeros(Gs.shape[1]), problem.g < 0)
+    assert rel(out[0], z) < 1e-10 and (out[3] == active).all()
+    history = np.array(out[5])
+    print("relative residuals of (26) per Newton step:", " ".join(f"{h:.1e}" for h in history))
+    # measured: 6.5e-01 1.0 1.0 1.0 1.3e-01 5.8e-03 4.1e-06 4.3e-12 5.8e-14 | 9.7e-01 2.3e-01 3.6e-02 1.1e-03
+    # 5.8e-07 5.2e-13 1.1e-13 1.1e-13 (| an active-set change): r_k+1 / r_k^2 <= 1.5 (a linear rate rho would need
+    # rho < 150 r_k, 1e-4 at these r_k, to pass)
+    pairs = [(a, b) for a, b in zip(history, history[1:]) if 1e-11 < a < 1e-2 and b > 1e-13]
+    assert len(pairs) >= 3 and all(b <= 150 * a ** 2 for a, b in pairs), history
+
+
 def test_a_hencky_block_in_contact_is_in_equilibrium_with_its_nonlinear_forces():
-    """two_blocks with the lower block Hencky: the full program's answer satisfies (26) with the nonlinear internal
-    forces; yielded points exist (the nonlinear branch is exercised) and the answer differs from the linear one."""
+    """two_blocks with the lower block Hencky: the finished answer satisfies (26) with the nonlinear internal forces
+    to rounding; yielded points exist (the nonlinear branch is exercised) and the answer differs from the linear
+    one."""
     mat = cc.materials.hencky(E, NU, 1e8, H)
-    sol, lin = checked(two_blocks(mat2=mat, scale=4.0)), checked(two_blocks(scale=4.0))
+    sol = checked(two_blocks(mat2=mat, scale=4.0))
+    lin = cc.solve(two_blocks(scale=4.0), estimate=False)
     assert sol.info.method == "full" and lin.info.method == "condensed"
     problem = build_problem(two_blocks(mat2=mat, scale=4.0), space(1), "gamma3", cc.Signorini())
     bulk = problem.blocks[1].bulk

@@ -181,7 +181,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself
             fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
-            "quadratic energy, a non-quadratic one with the Signorini law: no exact finish)",
+            "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full"})),
 )}

@@ -13,10 +13,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .condensed import InterfaceModel, quasi_definite
+from .condensed import InterfaceModel
 from .finish import SIGN_TOL, independent_active_set, solve_compliance, solve_linear_compliance, solve_sparse_compliance
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
+from .mixed import mixed_system, stacked, unstacked
 from .program import timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
@@ -105,7 +106,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
             if dependent:
                 if raw.u is None:                          # the condensed program's Gamma values, filled in
                     raw.u, raw.phi = reduction.invert_gamma(problem, [v.value for v in model.v], timings)
-                return _dependent_finish(problem, raw, _stacked(raw.u, raw.phi), raw.z, r, timings)
+                return _dependent_finish(problem, raw, stacked(raw.u, raw.phi), raw.z, r, timings)
             if settings.polish:
                 t0 = time.perf_counter()
                 start = None
@@ -128,37 +129,12 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
 
 
 def _mixed_system(problem):
-    """(A, F, G, widths) of the sparse mixed system (26) of ``problem`` (scaled): A the bodies' quasi-definite
-    blocks [[Kuu, Kup], [Kup^T, -Kpp]] and a zero block for the translations of force-controlled obstacles
-    (``widths`` their sizes), F the loads [f; -q; F_obstacle], G the rows E [u_nu] + R tau, on the unknowns
-    x = [u_1; phi_1; ...; tau_1; ...]."""
-    blocks, E, tr = list(problem.blocks), problem.E, list(problem.translations)
-    parts = [quasi_definite(b) for b in blocks]
-    widths = [R.shape[1] for R, _ in tr]
-    A = sp.block_diag([S for S, _ in parts] + [sp.csr_matrix((sum(widths), sum(widths)))] * bool(widths),
-                      format="csr")
-    F = np.concatenate([Fk for _, Fk in parts] + [np.asarray(Fo, dtype=float) for _, Fo in tr])
-    G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], S.shape[0] - b.Kuu.shape[0]))])
-                   for b, (S, _) in zip(blocks, parts)] + [sp.csr_matrix(R) for R, _ in tr]).tocsr()
+    """(A, F, G, widths) of the sparse mixed system (26) of ``problem`` (a linear material, scaled): A the
+    bodies' quasi-definite blocks and a zero block for the obstacles' translations, F the loads
+    (:func:`~cvxcontact.backends.mixed.mixed_system`)."""
+    op, G, widths = mixed_system(problem)
+    A, F = op.linearised(np.zeros(G.shape[1]))
     return A, F, G, widths
-
-
-def _stacked(u, phi, taus=()):
-    """x = [u_1; phi_1; ...; tau_1; ...] (the unknowns of :func:`_mixed_system`)."""
-    return np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)]
-                          + [np.asarray(t, dtype=float) for t in taus])
-
-
-def _unstacked(problem, x, widths):
-    """(u, phi, taus) of the unknowns x of :func:`_mixed_system`."""
-    u, phi, pos = [], [], 0
-    for b in problem.blocks:
-        nu, npf = b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]
-        u.append(x[pos:pos + nu])
-        phi.append(x[pos + nu:pos + nu + npf] if npf else None)
-        pos += nu + npf
-    taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
-    return u, phi, taus
 
 
 def sparse(problem, settings, timings) -> RawResult:
@@ -186,17 +162,17 @@ def sparse(problem, settings, timings) -> RawResult:
     raw.u, raw.phi, raw.y, raw.taus = u, phi, y, taus
     if settings.polish:
         if _dependent(problem, law):
-            _dependent_finish(problem, raw, _stacked(u, phi, taus), z, r, timings)
+            _dependent_finish(problem, raw, stacked(u, phi, taus), z, r, timings)
         else:
             t0 = time.perf_counter()
-            A, F, G, widths = _mixed_system(problem)
-            out = solve_sparse_compliance(A, F, G, g, w, law, _stacked(u, phi, taus), _limit_start(law, y, z, r, g))
+            op, G, widths = mixed_system(problem)
+            out = solve_sparse_compliance(op, G, g, w, law, stacked(u, phi, taus), _limit_start(law, y, z, r, g))
             timings["polish"] = time.perf_counter() - t0
             if out is None:
                 raw.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
             else:
                 raw.polished, raw.finish = True, Finish.SEMISMOOTH_NEWTON
-                raw.u, raw.phi, raw.taus = _unstacked(problem, out[0], widths)
+                raw.u, raw.phi, raw.taus = unstacked(problem, out[0], widths)
                 raw.y, raw.z = out[1], out[2]
     raw.z = (raw.z if raw.polished else z) if law.limited.any() else None
     return raw
@@ -232,7 +208,7 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
         raw.declined = out
         return raw
     x, raw.y, raw.z = out[:3]
-    raw.u, raw.phi, raw.taus = _unstacked(problem, x, widths)
+    raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
     raw.polished, raw.finish = True, Finish.NEWTON_INDEPENDENT
     return raw
 

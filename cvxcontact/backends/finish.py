@@ -391,81 +391,87 @@ def solve_linear_compliance(W, d, weights, law):
     return y, z, active & ~on, route
 
 
-def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=50):
-    """Exact finish of a normal-compliance law on the sparse mixed system (26), for scenes that cannot be
+def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50):
+    """Exact finish of the contact rows' law on the sparse mixed system (26), for scenes that cannot be
     condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
-    §10-§12). Scaled units.
+    §10-§12) and for a non-quadratic bulk energy (the paper's nonlinear A, docs/materials.md "Hencky"), whose
+    (26) is nonlinear in the displacements. Scaled units.
 
-    ``A`` (n, n) sparse symmetric: the bodies' quasi-definite blocks [[Kuu, Kup], [Kup^T, -Kpp]] and a zero
-    block for the translations tau of force-controlled obstacles; ``F`` (n,) the loads [f; -q; F_obstacle];
-    ``G`` (m, n) sparse the contact rows (E [u_nu] and R tau), ``g`` (m,) their gaps, so that r = G x - g is
-    the penetration; ``weights`` w (m,) the rows' lumped lengths and ``law`` a per-row
-    :class:`~cvxcontact.contact.laws.RowLaws` (Signorini rows: k = 0, l = 0). The system is
+    ``operator`` (:class:`~cvxcontact.backends.mixed.MixedEnergy`) gives the residual of (26) without the
+    contact forces, ``gradient(x)`` (A x - F for a linear material: A the bodies' quasi-definite blocks
+    [[Kuu, Kup], [Kup^T, -Kpp]] and a zero block for the translations tau of force-controlled obstacles, F the
+    loads [f; -q; F_obstacle]), its ``tangent(x)``, its ``value`` L(x) (the energy) and ``magnitude(x)``; ``G``
+    (m, n) sparse the contact rows (E [u_nu] and R tau), ``g`` (m,) their gaps, so that r = G x - g is the
+    penetration; ``weights`` w (m,) the rows' lumped lengths and ``law`` a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` (Signorini rows: k = 0, l = 0; all of them for the Signorini
+    problem). The system is
 
-        A x + G^T y = F,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0   (z = 0 off the limited rows)
+        grad L(x) + G^T y = 0,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0   (z = 0 off the limited rows)
 
-    the optimality system of the phi-form energy plus sum_a w_a Phi_a(r_a) subject to r <= l. Solved by
-    Newton steps on the rows' law: with D = diag(w p'(r^k)) and L the rows held at their limit, each step
-    solves the sparse system
+    the optimality system of the energy L plus sum_a w_a Phi_a(r_a) subject to r <= l. Solved by Newton steps:
+    with T the tangent at x^k, D = diag(w p'(r^k)) and L the rows held at their limit, each step solves the
+    sparse system (the sparsity of the linear one)
 
-        [[A + G^T D G, G_L^T], [G_L, 0]] [x; z_L] = [F - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
+        [[T + G^T D G, G_L^T], [G_L, 0]] [x^k + dx; z_L] = [T x^k - grad L(x^k) - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
 
-    (exact in one step for m = 1 once the penetrating rows are right: a semismooth Newton step), damped by
-    backtracking on the energy 1/2 x^T A x - F^T x + sum_a w_a Phi_a(r_a) (the phi-form energy wherever
-    the Gauss rows hold, which every step after the first keeps), inside primal-dual active-set steps on
-    the limited rows (a row joins L where z_a > 0 is needed or r_a > l_a). ``x0`` the start (e.g. the interior
-    point's answer), ``active`` (bool, m) the starting L (default r(x0) >= l on the limited rows).
+    (a semismooth Newton step: p' and a Hencky tangent jump where a row opens or a point yields; exact in one
+    step for a linear material and m = 1 once the penetrating rows are right), damped by backtracking on the
+    energy L(x) + sum_a w_a Phi_a(r_a) (strongly convex with a Lipschitz gradient on the rows L closed, which
+    every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole),
+    inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
+    r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
+    m) the starting L (default r(x0) >= l on the limited rows).
 
-    Returns ``(x, y, z, at_limit, steps)`` with the stationarity residual at rounding (each row's residual
-    within 1e-3 ``SIGN_TOL`` of its scale |A| |x| + |G^T| |y| + |F|, or within ``SIGN_TOL`` once a full
-    step no longer halves it) and the signs to ``SIGN_TOL``, or None if a
-    system is singular (e.g. a held body whose rows all left the contact) or the steps do not settle.
+    Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (each row's
+    residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y|, or within ``SIGN_TOL`` once a
+    full step no longer halves it) and the signs to ``SIGN_TOL``; ``history`` the largest relative residual
+    after each step (the convergence to read). None if a system is singular (e.g. a held body whose rows all
+    left the contact) or the steps do not settle.
     """
     import scipy.sparse as sps
 
     from .full import solve_mixed       # (full imports nothing from here)
 
-    A, G = sps.csr_matrix(A), sps.csr_matrix(G)
-    F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
-    n, m = A.shape[0], G.shape[0]
+    G = sps.csr_matrix(G)
+    g, w = (np.asarray(a, dtype=float) for a in (g, weights))
+    m = G.shape[0]
     ell = np.asarray(law.penetration_limit, dtype=float)
     # a row no unknown moves (a zero row of G: a held node) keeps r = -g; its limit reaction, which (26) would
     # not determine and which would make the step matrix singular, is 0 (docs/formulation.md §8, "Held nodes")
     limited = np.isfinite(ell) & (np.diff(G.indptr) > 0)
     x = np.asarray(x0, dtype=float).copy()
     at = limited & ((G @ x - g) >= ell) if active is None else np.asarray(active, dtype=bool) & limited
-    absA, absG = abs(A), abs(G)
+    absG = abs(G)
     tiny = np.finfo(float).tiny
 
     def energy(x):
-        r = G @ x - g
-        return 0.5 * x @ (A @ x) - F @ x + float(w @ law.energy(r))
+        return operator.value(x) + float(w @ law.energy(G @ x - g))
 
     def step(x, at):
         r = G @ x - g
         D = w * law.derivative(r)
-        K = A + G.T @ sps.diags(D) @ G
+        T, load = operator.linearised(x)          # gradient(x') ~ T x' - load near x
+        K = T + G.T @ sps.diags(D) @ G
         GL = G[at]
         M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
-        b = F - G.T @ (w * law.pressure(r) - D * (g + r))
+        b = load - G.T @ (w * law.pressure(r) - D * (g + r))
         b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
         s = solve_mixed(M, b)
         if s is None:
             return None
         zL = np.zeros(m)
-        zL[at] = s[n:]
-        return s[:n], zL
+        zL[at] = s[len(x):]
+        return s[:len(x)] - x, zL
 
-    steps, seen, first = 0, set(), True
+    steps, seen, history = 0, set(), []
     for _ in range(max_iter):
-        z, last = np.zeros(m), np.inf
+        z, last, first = np.zeros(m), np.inf, True
         for _ in range(max_iter):                       # damped Newton with the limit rows L closed
             out = step(x, at)
             steps += 1
             if out is None:
                 return None
-            target, z = out
-            dx = target - x
+            dx, z = out
             t, f0 = 1.0, energy(x)
             if not first:
                 while t > 1e-12 and energy(x + t * dx) > f0 + 1e-14 * max(abs(f0), tiny):
@@ -474,10 +480,11 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
             x = x + t * dx
             r = G @ x - g
             y = w * law.pressure(r) + z
-            res = A @ x + G.T @ y - F
-            S = absA @ np.abs(x) + absG.T @ np.abs(y) + np.abs(F)
+            res = operator.gradient(x) + G.T @ y
+            S = operator.magnitude(x) + absG.T @ np.abs(y)
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
             ratio = float((np.abs(res) / S).max(initial=0.0))
+            history.append(ratio)
             # converged: at rounding, or within SIGN_TOL and no longer improving (rounding of the steps)
             if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
                 break
@@ -494,7 +501,7 @@ def solve_sparse_compliance(A, F, G, g, weights, law, x0, active=None, max_iter=
         neg = at & (z < -SIGN_TOL * Y)
         over = limited & ~at & (r - ell > SIGN_TOL * scale)
         if not neg.any() and not over.any():
-            return x, y, z, at, steps
+            return x, y, z, at, steps, history
         at = _next_limit_set(at, neg, over, seen)
         if at is None:
             return None

@@ -42,9 +42,10 @@ class Route(StrEnum):
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     INTERIOR_POINT_NONLINEAR_ENERGY = "interior point (no exact finish: a non-quadratic bulk energy)"
-    """A material with a non-quadratic energy (e.g. :func:`cvxcontact.materials.hencky`): the full program's
-    interior-point answer, checked with the nonlinear internal forces (the finish solves linear systems of Kuu;
-    a Newton finish is a later step)."""
+    """A material with a non-quadratic energy (e.g. :func:`cvxcontact.materials.hencky`) whose Newton finish
+    (:attr:`Finish.NEWTON_BULK`) did not run (``polish=False``) or was declined (rows that may be linearly
+    dependent, or steps that did not settle; ``SolveInfo.declined`` says which): the full program's
+    interior-point answer, checked with the nonlinear internal forces."""
     NO_CONTACT = "no contact at zero force: the unconstrained solution"
     """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
     merged segment, so it is the solution, exactly (forces 0), and no program is solved."""
@@ -74,6 +75,11 @@ class Finish(StrEnum):
     INDEPENDENT_ACTIVE_SET = "independent active set"
     """Linearly dependent rows (3D "gamma3"): Lawson-Hanson on the sparse mixed system, the rows carrying the
     forces kept independent (:func:`cvxcontact.backends.finish.independent_active_set`)."""
+    NEWTON_BULK = "Newton on the nonlinear mixed system with the contact active set"
+    """A non-quadratic bulk energy (the paper's nonlinear A, e.g. Hencky) with Signorini rows: semismooth Newton
+    steps on (26) with the energy's tangent, damped on the energy, inside primal-dual active-set steps on the
+    contact rows, from the interior point's answer
+    (:func:`cvxcontact.backends.finish.solve_sparse_compliance`)."""
     NEWTON_INDEPENDENT = "semismooth Newton on independent active sets"
     """Linearly dependent rows with a condition r <= l next to a compliance law (3D "gamma3"): Newton steps on
     the law, each an independent active set of the linearised mixed system

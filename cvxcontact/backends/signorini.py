@@ -4,20 +4,25 @@ program, the condensed interface program and the sparse active-set route, each f
 
 from __future__ import annotations
 
+import logging
 import time
 
 import numpy as np
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
+from ..contact.laws import RowLaws, Signorini
 from .finish import (force_displacements, independent_active_set, independent_interface, ipm_active, lcp_start,
-                     reach_forces, row_scales, signs_hold, solve_lcp)
+                     reach_forces, row_scales, signs_hold, solve_lcp, solve_sparse_compliance)
 from .full import ContactModel, mixed_kkt
 from .interface import condensation
+from .mixed import mixed_system, stacked, unstacked
 from .program import timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "interface_finish", "dependent_rows"]
+__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows"]
+
+log = logging.getLogger(__name__)
 
 
 def dependent_rows(problem) -> bool:
@@ -59,6 +64,40 @@ def mixed_finish(problem, raw, timings, hold=None):
     return raw
 
 
+def newton_finish(problem, raw, timings):
+    """The exact finish of a non-quadratic bulk energy (the paper's nonlinear A, e.g. Hencky) with Signorini rows:
+    semismooth Newton on the nonlinear mixed system (26), the tangent from the energy's Hessian, inside
+    primal-dual active-set steps on the contact rows, damped on the energy
+    (:func:`~cvxcontact.backends.finish.solve_sparse_compliance` with every row a Signorini row, on
+    :class:`~cvxcontact.backends.mixed.MixedEnergy`), from the interior point's answer and active set in
+    ``raw``; fills ``raw`` or its ``declined`` (then the interior point is kept). Rows that may be linearly
+    dependent (:func:`dependent_rows`) are declined: the steps close the active rows as they are, which
+    dependent rows make singular."""
+    if dependent_rows(problem):
+        raw.declined = ("the contact rows may be linearly dependent (3D 'gamma3' between bodies); the Newton finish "
+                        "of a non-quadratic energy closes the active rows as they are")
+        return raw
+    t0 = time.perf_counter()
+    E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
+    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
+    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
+    start = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y),
+                       reach_forces(blocks, E, raw.u, raw.phi)) & ~problem.held_rows
+    op, G, widths = mixed_system(problem)
+    out = solve_sparse_compliance(op, G, g, np.zeros(len(g)), RowLaws.uniform(Signorini(), len(g)),
+                                  stacked(raw.u, raw.phi, raw.taus), start)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if out is None:
+        raw.declined = "the Newton steps on the nonlinear mixed system did not settle (a singular step or a cycle)"
+        return raw
+    x, raw.y, _, raw.active, steps, history = out
+    log.info("Newton finish of the bulk energy: %d steps, relative residuals %s", steps,
+             ", ".join(f"{h:.1e}" for h in history))
+    raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
+    raw.polished, raw.finish, raw.iterations = True, Finish.NEWTON_BULK, raw.iterations + steps
+    return raw
+
+
 def interface_finish(compliance, d, start, timings, dependent=None):
     """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or None.
     ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
@@ -86,8 +125,11 @@ def full(problem, cache, settings, timings) -> RawResult:
                     y=np.asarray(model.contact.dual_value, dtype=float).ravel(), program=model.problem,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full",
                     iterations=iterations)
-    if not problem.quadratic:          # the finishes below solve linear systems of Kuu (Newton: a later step)
-        raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    if not problem.quadratic:          # the finishes below solve linear systems of Kuu: Newton on (26) instead
+        if settings.polish:
+            newton_finish(problem, raw, timings)
+        if not raw.polished:
+            raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
         return raw
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]

@@ -1,0 +1,130 @@
+"""The sparse mixed system (26) as an operator on the stacked unknowns x = [u_1; phi_1; ...; tau_1; ...]
+(scaled; docs/formulation.md §2, §12): what the Newton finishes of :func:`~cvxcontact.backends.finish.
+solve_sparse_compliance` linearise, for a linear material (the quadratic energy 1/2 u^T Kuu u) and for a
+non-quadratic bulk energy (:mod:`cvxcontact.discrete.energy`, e.g. Hencky) alike.
+
+Per body the momentum and the (negated, symmetric) Gauss rows of (26) without the contact forces are
+
+    r_u = grad Pi(u) + Kup phi - f,      r_phi = Kup^T u - Kpp phi + q,
+
+and r_tau = -F for the translations of force-controlled obstacles (no stiffness, load F). They are the
+gradient of the saddle energy
+
+    L(x) = sum_bodies Pi(u) - f^T u + u^T Kup phi - 1/2 phi^T Kpp phi + q^T phi  -  sum_obstacles F^T tau,
+
+which equals the phi-form energy of the convex program wherever the Gauss rows hold (Kpp phi = Kup^T u + q:
+then u^T Kup phi + q^T phi = phi^T Kpp phi), so that it is the merit of a Newton step that keeps them. Its
+tangent, [[Hess Pi(u), Kup], [Kup^T, -Kpp]] per body and a zero block for tau, has the sparsity of the linear
+system's matrix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .condensed import quasi_definite
+
+__all__ = ["MixedEnergy", "mixed_system", "stacked", "unstacked"]
+
+
+class MixedEnergy:
+    """The operator of the module docstring for scaled ``blocks`` and ``translations`` ((R, F) per
+    force-controlled obstacle, as in :class:`~cvxcontact.backends.full.ContactModel`).
+
+    ``value(x)`` L(x), ``gradient(x)`` [r_u; r_phi; ...; -F] (the residual of (26) without the contact forces),
+    ``tangent(x)`` its derivative (sparse, symmetric), ``magnitude(x)`` the sizes of the terms each row of the
+    gradient balances (for the relative residuals); ``linear``: every body's energy is quadratic (then the
+    tangent is one constant matrix)."""
+
+    def __init__(self, blocks, translations=()):
+        self.blocks = list(blocks)
+        self.forces = [np.asarray(F, dtype=float) for _, F in translations or ()]
+        self.sizes = [(b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]) for b in self.blocks]
+        self.width = sum(len(F) for F in self.forces)
+        self.linear = all(b.bulk.quadratic for b in self.blocks)
+        self._tangent = self._assemble(None) if self.linear else None
+
+    def _split(self, x):
+        pos = 0
+        for b, (nu, npf) in zip(self.blocks, self.sizes):
+            yield b, x[pos:pos + nu], (x[pos + nu:pos + nu + npf] if npf else None)
+            pos += nu + npf
+
+    def _taus(self, x):
+        return x[len(x) - self.width:]
+
+    def value(self, x) -> float:
+        e = sum(float(b.bulk.value(u) - b.f @ u) + (0.0 if p is None else float(
+            u @ (b.Kup @ p) - 0.5 * p @ (b.Kpp @ p) + b.q @ p)) for b, u, p in self._split(x))
+        return e - float(np.concatenate(self.forces or [np.zeros(0)]) @ self._taus(x))
+
+    def gradient(self, x) -> np.ndarray:
+        parts = []
+        for b, u, p in self._split(x):
+            ru = b.bulk.gradient(u) - b.f
+            if p is None:
+                parts.append(ru)
+            else:
+                parts += [ru + b.Kup @ p, b.Kup.T @ u - b.Kpp @ p + b.q]
+        return np.concatenate(parts + [-F for F in self.forces])
+
+    def magnitude(self, x) -> np.ndarray:
+        parts = []
+        for b, u, p in self._split(x):
+            mu = b.bulk.magnitude(u) + np.abs(b.f)
+            if p is None:
+                parts.append(mu)
+            else:
+                parts += [mu + abs(b.Kup) @ np.abs(p), abs(b.Kup).T @ np.abs(u) + abs(b.Kpp) @ np.abs(p) + np.abs(b.q)]
+        return np.concatenate(parts + [np.abs(F) for F in self.forces])
+
+    def tangent(self, x) -> sp.csr_matrix:
+        return self._tangent if self.linear else self._assemble(x)
+
+    def linearised(self, x):
+        """(T, b): the tangent T at ``x`` and b = T x - gradient(x), so that gradient(x') ~ T x' - b near ``x``
+        (exact for a linear material: at x = 0, b = [f; -q; ...; F] the loads of (26))."""
+        T = self.tangent(x)
+        if self.linear:                         # the loads themselves, exactly (no rounding of T x - T x)
+            return T, -self.gradient(np.zeros_like(x))
+        return T, T @ x - self.gradient(x)
+
+    def _assemble(self, x):
+        if x is None:
+            mats = [quasi_definite(b)[0] for b in self.blocks]
+        else:
+            mats = []
+            for b, u, p in self._split(x):
+                H = b.bulk.hessian(u)
+                mats.append(H if p is None else sp.bmat([[H, b.Kup], [b.Kup.T, -b.Kpp]]))
+        return sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width), format="csr")
+
+
+def mixed_system(problem):
+    """(operator, G, widths) of the sparse mixed system (26) of ``problem`` (scaled): the :class:`MixedEnergy`
+    of its bodies and force-controlled obstacles (``widths`` their translation sizes) and G the rows
+    E [u_nu] + R tau on the unknowns x = [u_1; phi_1; ...; tau_1; ...], so that G x - g is the penetration."""
+    blocks, E, tr = list(problem.blocks), problem.E, list(problem.translations)
+    widths = [R.shape[1] for R, _ in tr]
+    G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((E.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]))])
+                   for b in blocks] + [sp.csr_matrix(R) for R, _ in tr]).tocsr()
+    return MixedEnergy(blocks, tr), G, widths
+
+
+def stacked(u, phi, taus=()):
+    """x = [u_1; phi_1; ...; tau_1; ...] (the unknowns of :func:`mixed_system`)."""
+    return np.concatenate([np.concatenate([uk, pk]) if pk is not None else uk for uk, pk in zip(u, phi)]
+                          + [np.asarray(t, dtype=float) for t in taus])
+
+
+def unstacked(problem, x, widths):
+    """(u, phi, taus) of the unknowns x of :func:`mixed_system`."""
+    u, phi, pos = [], [], 0
+    for b in problem.blocks:
+        nu, npf = b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]
+        u.append(x[pos:pos + nu])
+        phi.append(x[pos + nu:pos + nu + npf] if npf else None)
+        pos += nu + npf
+    taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
+    return u, phi, taus

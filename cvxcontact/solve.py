@@ -262,7 +262,8 @@ class ContactSolver:
 
     def _warn(self, sol, raw) -> None:
         p = self.problem
-        if self.settings.polish and not raw.polished and not p.mixed and p.quadratic and (raw.declined or not p.conic):
+        if self.settings.polish and not raw.polished and not p.mixed and p.quadratic and not p.friction \
+                and (raw.declined or not p.conic):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)

@@ -299,12 +299,17 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
 
 
 def _slip(interface, k, n_nodes):
-    """Body k's part of the slip [u_t] at the nodes of X_h, or UnsupportedError where the contact line poses
-    no tangential part (only the 2D P1 lines do so far)."""
+    """Body k's part of the slip [u_t] at the nodes of X_h (:func:`_tangential`)."""
+    return _tangential(interface).tangential_jump(k, n_nodes)
+
+
+def _tangential(interface):
+    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the 2D P1 lines
+    do so far)."""
     if not hasattr(interface, "tangential_jump"):
         raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (P2 elements) is not "
                                "available yet: use degree=1")
-    return interface.tangential_jump(k, n_nodes)
+    return interface
 
 
 def _capacity(scene, condition, lines):
@@ -314,7 +319,7 @@ def _capacity(scene, condition, lines):
     if not rows.friction:
         return None
     E = lines.E
-    weights = lines.interface.weights(condition, scene.conditions)
+    weights = _tangential(lines.interface).weights(condition, scene.conditions)
     return (lambda k, n: E @ _slip(lines.interface, k, n)), rows.thresholds(0.0) * weights
 
 

@@ -1,7 +1,9 @@
 """Read-back and checks of a friction law (Tresca; docs/howto/friction.md, docs/checks.md "Friction").
 
 With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.friction`), s_a its slip
-E [u_t], c_a = g_a w_a its friction capacity, C = max c_a and U the largest nodal displacement of the bodies
+E [u_t], c_a = g_a w_a its friction capacity, C = max(max c_a, max y_a) (the largest capacity or normal row
+force: tangential forces are measured against the contact forces, and a threshold far below the pressure, or
+zero, leaves the normal forces' scale) and U the largest nodal displacement of the bodies
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
 
     equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
@@ -20,11 +22,12 @@ from .checks import equilibrium_with
 __all__ = ["friction_checks", "read_back_friction"]
 
 
-def friction_checks(mu, slip, capacity, U) -> dict[str, float]:
+def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
     """The friction cone, stick-slip and slip-direction checks (module docstring) of row forces ``mu``, slips
-    ``slip`` and capacities ``capacity`` (scaled), ``U`` the displacement scale (scaled)."""
+    ``slip`` and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row
+    force (scaled)."""
     tiny = np.finfo(float).tiny
-    C = max(float(np.max(capacity, initial=0.0)), tiny)
+    C = max(float(np.max(capacity, initial=0.0)), float(Y), tiny)
     CU = max(C * U, tiny)
     a = np.abs(mu)
     return {"friction cone": float((np.maximum(a - capacity, 0.0) / C).max(initial=0.0)),
@@ -64,7 +67,8 @@ def read_back_friction(problem, raw, sol) -> None:
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
     rows = problem.rows.frictional
     capacity = problem.thresholds * problem.row_lengths
-    checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U))
+    checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U,
+                                  float(np.max(raw.y, initial=0.0))))
     offsets = problem.lines.offsets
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
                             threshold=problem.rows.laws[i].friction.threshold

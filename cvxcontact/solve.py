@@ -213,7 +213,9 @@ class ContactSolver:
         if fallback is not None:
             sol = self._fallback(fallback, problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
-        if self.estimate:
+        if self.estimate and problem.friction:
+            sol.estimate_reason = "not computed: the estimates do not count a friction law's tangential traction yet"
+        elif self.estimate:
             t0 = time.perf_counter()
             sol.estimate, sol.estimate_reason = self.estimate(sol)
             timings["estimate"] = time.perf_counter() - t0
@@ -222,7 +224,7 @@ class ContactSolver:
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
-        if self.estimate:
+        if self.estimate and not problem.friction:
             for message in unresolved(sol):
                 warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol

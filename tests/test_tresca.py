@@ -127,3 +127,13 @@ def test_friction_is_refused_where_it_is_not_posed():
     floor = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
     with pytest.raises(cc.UnsupportedError, match="3D"):
         cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]))
+
+
+def test_a_scene_file_names_the_law():
+    from cvxcontact.io.scenefile import SceneFileError, _law
+
+    assert _law({"tresca": {"threshold": 2e6}}, "scene.toml") == cc.Tresca(2e6)
+    with pytest.raises(SceneFileError, match="law.tresca: expected the key threshold"):
+        _law({"tresca": {"g": 2e6}}, "scene.toml")
+    with pytest.raises(SceneFileError, match="law.tresca: Tresca: threshold"):
+        _law({"tresca": {"threshold": -1.0}}, "scene.toml")

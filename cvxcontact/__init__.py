@@ -38,6 +38,7 @@ _WHERE = {
     "TetMesh": (".geometry.tetmesh", None), "box": (".geometry.generators3d", None),
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
+    "Tresca": (".contact.laws", None),
     "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
     "SweepResultsError": (".errors", None), "CaseArrays": (".apps.sweep.load", None),
 }
@@ -45,7 +46,7 @@ _WHERE = {
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
-    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
+    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance", "Tresca",
     "solve", "error_bound", "adapt", "Adapted", "AdaptStep", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
@@ -85,7 +86,7 @@ _sys.modules[__name__].__class__ = _Package
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from .contact.interface import CONDITIONS
-    from .contact.laws import NormalCompliance, Signorini
+    from .contact.laws import NormalCompliance, Signorini, Tresca
     from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, NonUniqueWarning,
                          ResidualWarning, ResolutionWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid

@@ -213,7 +213,9 @@ class ContactSolver:
         if fallback is not None:
             sol = self._fallback(fallback, problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
-        if self.estimate:
+        if self.estimate and problem.friction:
+            sol.estimate_reason = "not computed: the estimates do not count a friction law's tangential traction yet"
+        elif self.estimate:
             t0 = time.perf_counter()
             sol.estimate, sol.estimate_reason = self.estimate(sol)
             timings["estimate"] = time.perf_counter() - t0
@@ -222,7 +224,7 @@ class ContactSolver:
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
-        if self.estimate:
+        if self.estimate and not problem.friction:
             for message in unresolved(sol):
                 warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol
@@ -262,7 +264,8 @@ class ContactSolver:
 
     def _warn(self, sol, raw) -> None:
         p = self.problem
-        if self.settings.polish and not raw.polished and not p.mixed and (raw.declined or (p.quadratic and not p.conic)):
+        if self.settings.polish and not raw.polished and not p.mixed and not p.friction \
+                and (raw.declined or (p.quadratic and not p.conic)):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)

@@ -90,6 +90,9 @@ class ProblemDescription:
     degree: int = 1
     piezoelectric: bool = False
     dependent_rows: bool = False
+    friction: bool = False
+    """Some pair has a friction law (:class:`~cvxcontact.contact.laws.Tresca`): a cone per contact row on the
+    slip, posed by the full program only (no condensed, sparse or AMG route, no exact finish yet)."""
 
 
 def describe(problem, user_terms: int = 0) -> ProblemDescription:
@@ -102,10 +105,11 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
                               compliant=problem.compliant, conic=problem.conic or problem.mixed,
                               user_terms=user_terms, dim=problem.dim, degree=problem.space.degree,
                               piezoelectric=any(b.Kpp is not None for b in problem.blocks),
-                              dependent_rows=bool(dependent_rows(problem)) and not problem.conic)
+                              dependent_rows=bool(dependent_rows(problem)) and not problem.conic,
+                              friction=problem.friction)
 
 
-KINDS = ("signorini", "compliance", "conic", "mixed")
+KINDS = ("signorini", "compliance", "conic", "mixed", "friction")
 """The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`); a backend names one route
 per kind it solves."""
 
@@ -141,7 +145,7 @@ class Backend:
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
     return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
-        and not p.force_control
+        and not p.force_control and not p.friction
 
 
 def _amg_accepts(p: ProblemDescription) -> bool:
@@ -183,7 +187,8 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
             "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
-                                     "conic": ".cones:full", "mixed": ".cones:mixed_full"})),
+                                     "conic": ".cones:full", "mixed": ".cones:mixed_full",
+                                     "friction": ".friction:full"})),
 )}
 """The registered backends by name, in speed order (fastest first): :func:`register` adds to it."""
 

@@ -39,6 +39,10 @@ class Route(StrEnum):
     """The sparse route (method "sparse"): exact active-set steps on the sparse mixed system (26) from the
     bonded system (3D: from the rows the obstacles already close), no convex program (``iterations``: the
     systems solved)."""
+    INTERIOR_POINT_FRICTION = "interior point (no exact finish: friction)"
+    """A friction law (:mod:`cvxcontact.backends.friction`): the full program's interior-point answer at the
+    conic tolerances, checked (the friction cone, stick/slip complementarity, slip direction); no exact finish
+    yet."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     INTERIOR_POINT_NONLINEAR_ENERGY = "interior point (no exact finish: a non-quadratic bulk energy)"
@@ -128,6 +132,9 @@ class RawResult:
     declined: str = ""
     method: str = ""
     factorization: str = ""
+    tangential: np.ndarray | None = None
+    """A friction law: the tangential force mu_a of every row (scaled; the force on the pair's first body along
+    its tangent is -mu_a, :mod:`cvxcontact.backends.friction`), None without friction."""
     certificate: float | None = None
     """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
     :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""

@@ -2,8 +2,8 @@
 problem poses and returns one :class:`~cvxcontact.backends.result.RawResult`.
 
 The kinds (:func:`kind`): ``"signorini"`` (nodal rows, P1 or P2), ``"compliance"`` (a normal-compliance law on
-some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8) and ``"mixed"`` (cones next to a compliance
-law, §10 "P2"). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
+some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8), ``"mixed"`` (cones next to a compliance
+law, §10 "P2") and ``"friction"`` (Signorini rows and a friction law's cones on the slip, docs/howto/friction.md). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
 (``Backend.routes``: :data:`cvxcontact.backends.KINDS`); :func:`route` finds it.
 """
 
@@ -43,6 +43,8 @@ def route(method: str, kind_: str):
 
 def kind(problem) -> str:
     """The kind of contact term ``problem`` poses (module docstring)."""
+    if problem.friction:
+        return "friction"
     if problem.mixed:
         return "mixed"
     if problem.conic:

@@ -5,6 +5,7 @@ merged mesh is their union, on which X_h (continuous P1) lives. With nodal
 displacements U_l of body l,
 
     [u_nu] = sum_l J_l U_l        at the merged nodes (J_l = nu_l . trace interpolation)
+    [u_t]  = sum_l T_l U_l        the tangential part, (u^a - u^b) . t (T_l = +-t . trace interpolation)
     M                             P1 mass matrix of X_h on the merged mesh (m)
     E                             evaluation at the constrained nodes (``condition``)
 """
@@ -17,7 +18,8 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent", "row_directions"]
+__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent", "row_directions",
+           "row_tangents"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
@@ -188,6 +190,13 @@ class Interface:
         t = self.traces[k]
         return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 2 * n_nodes)
 
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(n_merged, 2 n_nodes) map from body k's nodal displacements to its part of the slip
+        [u_t] = (u^a - u^b) . t at the merged nodes (t the pair's tangent, :func:`row_tangents`; against a
+        rigid obstacle, u^a . t)."""
+        t = self.traces[k]
+        return normal_jump(self._interp[k], t.nodes, row_tangents(self, k), 2 * n_nodes)
+
     def interpolation(self, k) -> sp.csr_matrix:
         """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
         return self._interp[k]
@@ -258,12 +267,22 @@ class Stack:
 
     def jump(self, k, n_nodes) -> sp.csr_matrix:
         """(size, d n_nodes): body k's part of [u_nu] at every pair's merged nodes (d = the pairs' ``dim``)."""
+        return self._stacked(k, n_nodes, lambda itf, side: itf.jump(side, n_nodes))
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes): body k's part of the slip [u_t] at every pair's merged nodes
+        (:meth:`Interface.tangential_jump`)."""
+        return self._stacked(k, n_nodes, lambda itf, side: itf.tangential_jump(side, n_nodes))
+
+    def _stacked(self, k, n_nodes, part) -> sp.csr_matrix:
+        """``part(interface, side)`` of every pair body k belongs to (side 0: first body, 1: second), zero
+        rows where it is not a member, stacked."""
         rows = []
         for itf, (a, b) in zip(self.interfaces, self.members):
             if k == a:
-                rows.append(itf.jump(0, n_nodes))
+                rows.append(part(itf, 0))
             elif k == b:
-                rows.append(itf.jump(1, n_nodes))
+                rows.append(part(itf, 1))
             else:
                 rows.append(sp.csr_matrix((itf.size, itf.dim * n_nodes)))
         return sp.vstack(rows, format="csr")
@@ -328,6 +347,19 @@ def row_directions(interface, normal) -> np.ndarray:
         cached = read_only(obstacle.direction(interface.points, interface.normal))
         interface.__dict__["_row_directions"] = cached
     return cached
+
+
+def row_tangents(interface, k) -> np.ndarray:
+    """The direction (2,) or directions (size, 2) along which a 2D pair's rows measure body k's part of the slip
+    [u_t] = (u^a - u^b) . t: the pair's tangent t for the first body (k = 0), -t for the second; against a
+    curved rigid obstacle, each row's direction (:func:`row_directions`) turned by +90 degrees, oriented
+    like t (the tangent of the obstacle's surface at the closest point)."""
+    t = np.asarray(interface.tangent, dtype=float)
+    d = np.asarray(row_directions(interface, interface.normal), dtype=float)
+    if d.ndim == 2:
+        turned = np.column_stack([-d[:, 1], d[:, 0]])
+        t = turned * np.where(turned @ t < 0, -1.0, 1.0)[:, None]
+    return t if k == 0 else -t
 
 
 def read_only(a) -> np.ndarray:

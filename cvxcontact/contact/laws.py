@@ -12,6 +12,18 @@ With r = [u_nu] - g the penetration (m; the paper's [u_nu] with the gap g subtra
     With ``penetration_limit`` = l (m, >= 0) the law holds for r <= l and Signorini holds at
     r = l: r <= l, lambda = p(r) + mu, mu >= 0, mu (r - l) = 0.
 
+``Tresca(threshold=g)``
+    Signorini in the normal direction and Tresca friction with a given threshold g (Pa): the energy
+    gains integral_Gamma3 g |[v_t]| (docs/howto/friction.md), one cone
+    t_a >= |[u_t](x_a)| per contact row with weight g w_a; the tangential traction sigma_t lies in
+    the ball of radius g, (g - |sigma_t|) |[u_t]| = 0, and sigma_t is anti-parallel to the slip.
+
+A law answers two questions of the discrete problem (the contact-term protocol): its normal part
+(``compliant`` and, for compliance, the parameters of :class:`RowLaws`) and its tangential part,
+``friction``: None (frictionless) or an object with ``thresholds(normal_pressure)`` (Pa per row) that
+says how the rows' slip is penalised. Tresca's thresholds do not depend on the normal pressure; a
+Coulomb law, mu lambda_nu, is a fixed point on them (an addition, not a branch).
+
 Laws are small frozen classes; :func:`check_law` validates a ``law=`` argument (None -> Signorini)
 and raises :class:`~cvxcontact.errors.SceneError` (a :class:`~cvxcontact.errors.CvxContactError`)
 naming what is wrong. The discretisation (the energy lumped on the contact nodes) is in
@@ -30,9 +42,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, UnsupportedError
 
-__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
+__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "Tresca", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
 
 
 class ContactLaw:
@@ -45,6 +57,12 @@ class ContactLaw:
         """True if the law allows penetration with a finite pressure (normal compliance)."""
         return False
 
+    @property
+    def friction(self):
+        """The law's tangential part: None (frictionless), or an object with ``thresholds(pressure)`` giving
+        the slip threshold (Pa) of each row from its normal pressure (Pa), e.g. :class:`Tresca`."""
+        return None
+
 
 @dataclass(frozen=True)
 class Signorini(ContactLaw):
@@ -53,14 +71,14 @@ class Signorini(ContactLaw):
     name = "signorini"
 
 
-def _positive_real(value, what, allow_zero=False):
+def _positive_real(value, what, allow_zero=False, law="NormalCompliance"):
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise SceneError(f"NormalCompliance: {what} must be a real number, got {value!r} ({type(value).__name__})")
+        raise SceneError(f"{law}: {what} must be a real number, got {value!r} ({type(value).__name__})")
     value = float(value)
     if not math.isfinite(value):
-        raise SceneError(f"NormalCompliance: {what} must be finite, got {value!r}")
+        raise SceneError(f"{law}: {what} must be finite, got {value!r}")
     if value < 0 or (value == 0 and not allow_zero):
-        raise SceneError(f"NormalCompliance: {what} must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+        raise SceneError(f"{law}: {what} must be {'>= 0' if allow_zero else '> 0'}, got {value!r}")
     return value
 
 
@@ -121,7 +139,40 @@ class NormalCompliance(ContactLaw):
         return NormalCompliance(self.stiffness * displacement ** self.exponent / pressure, self.exponent, limit)
 
 
-LAWS = {"signorini": Signorini, "normal_compliance": NormalCompliance}
+@dataclass(frozen=True)
+class Tresca(ContactLaw):
+    """Signorini normal contact with Tresca friction of a given threshold (module docstring).
+
+    Parameters
+    ----------
+    threshold : float
+        g >= 0 (Pa): the largest tangential traction |sigma_t| the contact transmits before it slips;
+        the friction energy is integral_Gamma3 g |[u_t]| (J/m in 2D). g = 0 is frictionless.
+
+    Raises
+    ------
+    SceneError
+        A threshold that is not a finite real number >= 0.
+    """
+
+    threshold: float
+    name = "tresca"
+
+    def __post_init__(self):
+        object.__setattr__(self, "threshold", _positive_real(self.threshold, "threshold (Pa)", allow_zero=True,
+                                                             law="Tresca"))
+
+    @property
+    def friction(self) -> "Tresca":
+        return self
+
+    def thresholds(self, pressure) -> np.ndarray:
+        """The slip threshold g (Pa) at rows with normal pressure ``pressure`` (Pa): g everywhere (Tresca's
+        threshold is given, not the normal pressure's)."""
+        return np.full(np.shape(pressure), self.threshold)
+
+
+LAWS = {"signorini": Signorini, "normal_compliance": NormalCompliance, "tresca": Tresca}
 """Law names as written in scene files."""
 
 
@@ -134,7 +185,8 @@ def check_law(law) -> ContactLaw:
     if isinstance(law, type) and issubclass(law, ContactLaw):
         raise SceneError(f"law must be an instance such as cc.Signorini() or cc.NormalCompliance(stiffness=...), "
                          f"got the class {law.__name__}")
-    raise SceneError(f"law must be cc.Signorini() or cc.NormalCompliance(stiffness=k, exponent=m), got {law!r} "
+    raise SceneError(f"law must be cc.Signorini(), cc.NormalCompliance(stiffness=k, exponent=m) or "
+                     f"cc.Tresca(threshold=g), got {law!r} "
                      f"({type(law).__name__})")
 
 
@@ -142,7 +194,18 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
     """``law`` (the law given to ``solve``/``Model``) once the scene's pairs are known to support it.
 
     Every pair takes its own ``Contact.law`` or, if None, ``law`` (:func:`pair_laws`); any mix of
-    Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved."""
+    Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved. A friction
+    law (:class:`Tresca`) is posed in 2D (3D: its cones are norms of two tangential components, not yet
+    posed) next to Signorini pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
+    laws = pair_laws(scene, law)
+    if any(lw.friction is not None for lw in laws):
+        if getattr(scene, "dim", 2) != 2:
+            raise UnsupportedError("Tresca friction in 3D (a second-order cone on the two tangential components "
+                                   "of the slip at every contact point) is not available yet: solve the 2D "
+                                   "scene, or use a frictionless law in 3D")
+        if any(lw.compliant for lw in laws):
+            raise UnsupportedError("Tresca friction next to a normal-compliance pair is not available yet: use "
+                                   "Signorini (or Tresca) on every pair")
     return law
 
 
@@ -181,7 +244,8 @@ class RowLaws:
                 k.append(0.0), m.append(1.0), ell.append(0.0)
         rep = lambda v: np.repeat(np.asarray(v, dtype=float), self.counts)  # noqa: E731
         self.stiffness, self.exponent, self.penetration_limit = rep(k), rep(m), rep(ell)
-        for a in (self.stiffness, self.exponent, self.penetration_limit):
+        self.frictional = rep([law.friction is not None for law in self.laws]).astype(bool)
+        for a in (self.stiffness, self.exponent, self.penetration_limit, self.frictional):
             a.setflags(write=False)
 
     @classmethod
@@ -203,6 +267,22 @@ class RowLaws:
     def compliant(self) -> bool:
         """True if some row follows a normal-compliance law."""
         return bool(self.rows.any())
+
+    @property
+    def friction(self) -> bool:
+        """True if some row has a tangential (friction) part (``frictional``: the mask of those rows)."""
+        return bool(self.frictional.any())
+
+    def thresholds(self, pressure) -> np.ndarray:
+        """The slip threshold (Pa) of every row from the rows' normal pressures (Pa): each pair's
+        ``law.friction.thresholds`` on its rows, 0 on frictionless rows."""
+        pressure = np.broadcast_to(np.asarray(pressure, dtype=float), (self.size,))
+        out, start = np.zeros(self.size), 0
+        for law, n in zip(self.laws, self.counts):
+            if law.friction is not None:
+                out[start:start + n] = law.friction.thresholds(pressure[start:start + n])
+            start += n
+        return out
 
     @property
     def limited(self) -> np.ndarray:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
@@ -50,7 +50,8 @@ class DiscreteProblem:
     ``prescribed_jump``: [u_D nu] at the nodes of X_h, the part of the jump that prescribed displacements of
     contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
     given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
-    ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
+    law only); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`).
     """
@@ -71,6 +72,7 @@ class DiscreteProblem:
     scale: bool = True
     prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
+    prescribed_slip: np.ndarray | float = 0.0
     _fingerprints: tuple = field(default=(), repr=False)
 
     # ---- what the backends read ---------------------------------------------------------------
@@ -108,6 +110,21 @@ class DiscreteProblem:
     def mixed(self) -> bool:
         """True if cones sit next to a compliance law in one program (§10, "P2")."""
         return self.lines.mixed
+
+    @property
+    def friction(self) -> bool:
+        """True if some row has a friction law (the blocks then carry ``slip``, [u_t] from the free unknowns)."""
+        return self.lines.rows.friction
+
+    @property
+    def thresholds(self) -> np.ndarray:
+        """The slip thresholds of the rows, scaled (g / (c0 s); 0 on frictionless rows)."""
+        return self.lines.rows.thresholds(0.0) / (self.units.stress * self.units.load)
+
+    @property
+    def row_lengths(self) -> np.ndarray:
+        """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
+        return self.interface.weights(self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -237,7 +254,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     lines = space.contact(scene, condition, law, nodes)
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
-    kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes)
+    kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes,
+                              capacity=_capacity(scene, condition, lines))
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
     jumps = {}
@@ -254,6 +272,10 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                        for k, (blk, s) in enumerate(zip(previous.blocks, systems)))
     else:
         blocks = tuple(Block.scaled(s, jump(k), un) for k, s in enumerate(systems))
+    slips = None
+    if lines.rows.friction:                         # [u_t] from the free unknowns (a friction law)
+        slips = [_slip(lines.interface, k, len(s.f) // space.dim) for k, s in enumerate(systems)]
+        blocks = tuple(replace(blk, slip=(T @ s.Tu).tocsr()) for blk, T, s in zip(blocks, slips, systems))
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
     held = held_rows(E, blocks, translations)
@@ -262,14 +284,43 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
         if s.u_fixed is not None and np.any(s.u_fixed):
             shift = shift + jump(k) @ s.u_fixed
     gap = (lines.gap - shift) / un.displacement
+    slip_shift = 0.0
+    if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
+        slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
+                         np.zeros(lines.interface.size)) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, scale=scale, kernel=kernel,
-                              prescribed_jump=shift / un.displacement,
+                              prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies))
     check_reachable(problem)
     return problem
+
+
+def _slip(interface, k, n_nodes):
+    """Body k's part of the slip [u_t] at the nodes of X_h (:func:`_tangential`)."""
+    return _tangential(interface).tangential_jump(k, n_nodes)
+
+
+def _tangential(interface):
+    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the 2D P1 lines
+    do so far)."""
+    if not hasattr(interface, "tangential_jump"):
+        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (P2 elements) is not "
+                               "available yet: use degree=1")
+    return interface
+
+
+def _capacity(scene, condition, lines):
+    """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
+    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m); None without."""
+    rows = lines.rows
+    if not rows.friction:
+        return None
+    E = lines.E
+    weights = _tangential(lines.interface).weights(condition, scene.conditions)
+    return (lambda k, n: E @ _slip(lines.interface, k, n)), rows.thresholds(0.0) * weights
 
 
 def held_rows(E, blocks, translations) -> np.ndarray:

@@ -125,6 +125,10 @@ class Kernel:
     work: np.ndarray
     magnitude: np.ndarray
     owners: tuple
+    slip: np.ndarray | None = None
+    """With a friction law: (r_t, m) how each kernel coordinate changes each row's slip [u_t] per unit motion
+    (dimensionless), and ``capacity`` (r_t,) N/m each row's friction capacity g_a w_a."""
+    capacity: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -149,7 +153,7 @@ class Kernel:
 
 
 def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.spmatrix, interface,
-                 obstacles: Sequence = (), nodes: Sequence | None = None) -> Kernel:
+                 obstacles: Sequence = (), nodes: Sequence | None = None, capacity=None) -> Kernel:
     """The :class:`Kernel` of a scene's assembled problem.
 
     ``bodies``: the scene's bodies; ``loads[k]`` (2 n_k,) N/m body k's lifted nodal load
@@ -158,10 +162,11 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     (P1 ``scene.stack``, P2 the :class:`~cvxcontact.contact.quadratic.QuadraticStack`); ``obstacles`` the
     scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with rows on the same merged nodes (fixed ones
     are skipped); ``nodes[k]`` body k's node set (P2 :class:`~cvxcontact.geometry.quadratic.P2Nodes`) or
-    None (P1 vertices)."""
+    None (P1 vertices). ``capacity``: with a friction law, (slip, c): ``slip(k, n)`` body k's slip rows at the
+    rows of E and c (N/m) their friction capacities (the kernel's ``slip`` and ``capacity``), else None."""
     E = sp.csr_matrix(evaluation)
     nodes = list(nodes) if nodes is not None else [None] * len(bodies)
-    cols, work, magnitude, owners = [], [], [], []
+    cols, work, magnitude, owners, slips = [], [], [], [], []
     m = 0
     for k, (b, f, nd) in enumerate(zip(bodies, loads, nodes)):
         if not b.held_by_contact:
@@ -170,8 +175,11 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
         if not len(modes):
             continue
         f = np.asarray(f, dtype=float)
-        J = interface.jump(k, len((b.mesh if nd is None else nd).points))
+        n = len((b.mesh if nd is None else nd).points)
+        J = interface.jump(k, n)
         cols.append(np.asarray(E @ (J @ modes.T)))
+        if capacity is not None:
+            slips.append(np.asarray(capacity[0](k, n) @ modes.T))
         work.append(modes @ f)
         magnitude.append(np.abs(modes) @ np.abs(f))
         owners.append((f"body {b.name!r}", "body", slice(m, m + len(modes)), b.motion_name))
@@ -191,7 +199,42 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
         return Kernel(np.zeros((0, 0)), np.zeros(0, dtype=int), np.zeros(0), np.zeros(0), ())
     A = np.hstack(cols)
     index = np.flatnonzero(np.abs(A).max(axis=1) > ROW_TOL)             # rows no unit motion moves: out
-    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners))
+    slip = c = None
+    if capacity is not None:
+        if len(slips) != len(cols):
+            from ..errors import UnsupportedError
+            raise UnsupportedError("a friction law next to a force-controlled obstacle is not available yet: "
+                                   "prescribe the obstacle's position instead")
+        slip = np.hstack(slips)
+        moved = np.abs(slip).max(axis=1) > ROW_TOL
+        slip, c = slip[moved], np.asarray(capacity[1], dtype=float)[moved]
+    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners), slip, c)
+
+
+def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
+    """With a friction law: a kernel motion alpha (|alpha|_inf = 1) that no contact row resists (A alpha <= 0)
+    along which the load's work exceeds the friction dissipation sum_a c_a |(S alpha)_a| (the energy is then
+    unbounded below: no equilibrium), with that work and dissipation (N/m per unit motion); None if there is
+    none. The linear program max w^T alpha - c^T s, A alpha <= 0, -s <= S alpha <= s, |alpha|_inf <= 1."""
+    if kernel.slip is None or not kernel.size:
+        return None
+    A, w = _scaled(kernel)
+    S, c = kernel.slip, kernel.capacity
+    m, r = kernel.size, len(c)
+    norm = float(np.linalg.norm(w))
+    if norm == 0:
+        return None
+    obj = np.concatenate([-w / norm, c / norm])
+    blocks = [np.hstack([A, np.zeros((len(A), r))])] if len(A) else []
+    blocks += [np.hstack([S, -np.eye(r)]), np.hstack([-S, -np.eye(r)])]
+    A_ub = np.vstack(blocks)
+    b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(2 * r)])
+    res = linprog(obj, A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m + [(0, None)] * r, method="highs")
+    if res.status != 0 or -res.fun <= _PULL:
+        return None
+    alpha = res.x[:m]
+    alpha = alpha / np.abs(alpha).max()
+    return alpha, float(kernel.work @ alpha), float(c @ np.abs(S @ alpha))
 
 
 def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
@@ -201,6 +244,9 @@ def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
     if not kernel.size:
         return None
     A, w = _scaled(kernel)
+    if kernel.slip is not None and len(kernel.slip):   # friction resists slip both ways: S alpha = 0
+        S = kernel.slip / np.abs(kernel.slip).max(axis=1, keepdims=True)
+        A = np.vstack([A, S, -S]) if len(A) else np.vstack([S, -S])
     m = kernel.size
     coupled = sp.csr_matrix(np.abs(A).T @ np.abs(A) > 0) if len(A) else sp.csr_matrix((m, m))
     count, group = connected_components(coupled, directed=False)
@@ -292,15 +338,25 @@ def _translation_name(t) -> str:
 
 
 def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.spmatrix, interface,
-                     obstacles: Sequence = (), nodes: Sequence | None = None) -> Kernel | None:
+                     obstacles: Sequence = (), nodes: Sequence | None = None, capacity=None) -> Kernel | None:
     """Raise a :class:`~cvxcontact.errors.SceneError` naming the body or obstacle and the motion if the
     assembled problem leaves a rigid motion undetermined or unbounded: condition (W) of the module
     docstring, over every body and obstacle at once. Arguments as in :func:`rigid_kernel`. Returns the
     :class:`Kernel` (for :func:`check_determined` after the solve), or None, at no cost, when no body has
-    a motion the supports leave free and no obstacle is force controlled."""
+    a motion the supports leave free and no obstacle is force controlled. With a friction law (``capacity``, as in
+    :func:`rigid_kernel`) the friction holds slipping motions up to its capacity: a load beyond it slides the
+    body (:func:`sliding`), refused naming the motion."""
     if not any(b.held_by_contact for b in bodies) and not any(o.force is not None for o in obstacles):
         return None
-    kernel = rigid_kernel(bodies, loads, evaluation, interface, obstacles, nodes)
+    kernel = rigid_kernel(bodies, loads, evaluation, interface, obstacles, nodes, capacity)
+    slide = sliding(kernel)
+    if slide is not None:
+        d, work, dissipation = slide
+        moved = kernel.moved(d)
+        who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
+        raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} N/m, exceeds "
+                         f"the friction capacity {dissipation:.6g} N/m (threshold times contact length), so no "
+                         "equilibrium exists: add a support, reduce the tangential load or raise the threshold")
     verdict = undetermined(kernel)
     if verdict is None:
         return kernel

@@ -246,9 +246,9 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
 
 
 def _law(value, path):
-    """The contact law of a scene file: "signorini" or { normal_compliance = { stiffness, exponent,
-    penetration_limit } } (:mod:`cvxcontact.contact.laws`)."""
-    from ..contact.laws import LAWS, NormalCompliance, Signorini
+    """The contact law of a scene file: "signorini", { normal_compliance = { stiffness, exponent,
+    penetration_limit } } or { tresca = { threshold } } (:mod:`cvxcontact.contact.laws`)."""
+    from ..contact.laws import LAWS, NormalCompliance, Signorini, Tresca
 
     if value == "signorini":
         return Signorini()
@@ -262,6 +262,13 @@ def _law(value, path):
             return NormalCompliance(**params)
         except CvxContactError as exc:
             raise SceneFileError(f"{path}: law.normal_compliance: {exc}") from None
+    if isinstance(value, dict) and set(value) == {"tresca"} and isinstance(value["tresca"], dict):
+        if set(value["tresca"]) != {"threshold"}:
+            raise SceneFileError(f"{path}: law.tresca: expected the key threshold (Pa); got {sorted(value['tresca'])}")
+        try:
+            return Tresca(**value["tresca"])
+        except CvxContactError as exc:
+            raise SceneFileError(f"{path}: law.tresca: {exc}") from None
     raise SceneFileError(f"{path}: law: expected \"signorini\" or {{ normal_compliance = {{ stiffness = ..., "
                          f"exponent = ... }} }} (laws: {sorted(LAWS)}), got {value!r}")
 

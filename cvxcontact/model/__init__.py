@@ -51,7 +51,7 @@ from ..backends.result import Cache, RawResult, Settings
 from ..backends.run import run
 from ..contact.laws import ContactLaw, check_law, check_law_for
 from ..discrete import build_problem
-from ..errors import ResidualWarning, SceneError
+from ..errors import ResidualWarning, SceneError, UnsupportedError
 from ..fem.space import space
 from ..physics.scene import Body, Scene
 from ..solution.checks import force_displacements, ipm_active, reach_forces
@@ -293,6 +293,9 @@ class Model:
         the program is the one ``cc.solve(..., method="full")`` solves, with the same finish and read-back."""
         if not self.constraints and not self._objective:
             return self._solve_plain()
+        if self.problem.friction:
+            raise UnsupportedError("user terms next to a friction law are not available yet: solve the model "
+                                   "without them, or use a frictionless law")
         timings = dict(self._setup)
         self._setup = {}
         t0 = time.perf_counter()
@@ -407,5 +410,6 @@ class Model:
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
         self._set_values(raw.u, raw.phi, raw.taus)
-        self._warn(sol, not self.problem.conic and not self.problem.mixed, raw.declined, stacklevel=4)
+        self._warn(sol, not (self.problem.conic or self.problem.mixed or self.problem.friction), raw.declined,
+                   stacklevel=4)
         return sol

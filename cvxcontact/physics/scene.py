@@ -361,9 +361,13 @@ def _refuse_unheld(scene):
     """SceneError for a rigid motion of a body that no support holds and that no contact part of the body
     resists in either direction (u . nu = 0 along each of its parts: a motion tangential to them): whatever
     the partners and the loads, nothing determines it. What the contact resists in one direction only is
-    decided with the loads, on the assembled problem (:func:`cvxcontact.fem.kernel.check_well_posed`)."""
+    decided with the loads, on the assembled problem (:func:`cvxcontact.fem.kernel.check_well_posed`). A pair with a
+    friction law of its own (``Contact(..., law=cc.Tresca(g))``) resists every motion that moves its part, up to
+    its capacity, which is decided with the loads too."""
     for b in scene.bodies:
         if not b.held_by_contact:
+            continue
+        if any(getattr(c.law, "friction", None) is not None for c in scene.contacts if b in (c.body_a, c.other)):
             continue
         parts = list(dict.fromkeys([c.part_a for c in scene.contacts if c.body_a is b]
                                    + [c.part_b for c in scene.contacts if c.other is b]))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from .friction import read_back_friction
 from .info import Route
 from .solution import Solution, obstacle_results, read_back_compliance, read_back_conic_mix, read_back_nodal
 
@@ -22,6 +23,8 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
         sol = read_back_compliance(problem, raw, tol, timings)
     else:
         sol = read_back_nodal(problem, raw, tol, timings)
+    if problem.friction:
+        read_back_friction(problem, raw, sol)
     if scene.obstacles:
         obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles)
     route = raw.route

@@ -66,6 +66,14 @@ class ContactResult:
     measure: np.ndarray | None = None
     """P1: the length (2D, m) or area (3D, m^2) attributed to each constrained node by the mesh those nodes
     form (the quadrature weights of the condition's rows), 0 elsewhere; :attr:`pressure` divides by it."""
+    slip: np.ndarray | None = None
+    """A friction law (:class:`~cvxcontact.contact.laws.Tresca`): the slip [u_t] = (u^a - u^b) . t (m) at the
+    merged nodes, t the pair's tangent; None without friction."""
+    shear_force: np.ndarray | None = None
+    """A friction law: the tangential nodal force on the first body along t (N/m; anti-parallel to ``slip``
+    where it slips); :attr:`shear` divides it by the lumped lengths. None without friction."""
+    threshold: float | None = None
+    """A friction law: the pair's slip threshold g (Pa); None without friction."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -96,6 +104,17 @@ class ContactResult:
             out[on] = self.force[on] / self.measure[on]
         elif on.sum() >= 2:
             out[on] = self.force[on] / lumped_lengths(self.x[on])
+        return out
+
+    @property
+    def shear(self) -> np.ndarray | None:
+        """The tangential traction sigma_t on the first body along t (Pa): :attr:`shear_force` over the lumped
+        lengths of the constrained nodes (as :attr:`pressure`); |sigma_t| <= g. None without friction."""
+        if self.shear_force is None:
+            return None
+        out = np.zeros(len(self.x))
+        on = np.asarray(self.constrained, dtype=bool) & (self.measure > 0)
+        out[on] = self.shear_force[on] / self.measure[on]
         return out
 
     @property

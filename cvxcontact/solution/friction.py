@@ -1,0 +1,80 @@
+"""Read-back and checks of a friction law (Tresca; docs/howto/friction.md, docs/checks.md "Friction").
+
+With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.friction`), s_a its slip
+E [u_t], c_a = g_a w_a its friction capacity, C = max(max c_a, max y_a) (the largest capacity or normal row
+force: tangential forces are measured against the contact forces, and a threshold far below the pressure, or
+zero, leaves the normal forces' scale) and U the largest nodal displacement of the bodies
+(one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
+
+    equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
+                     balance of the rigid motions only the contact holds)
+    friction cone    max over a of (|mu_a| - c_a)^+ / C                |sigma_t| <= g
+    stick-slip       max over a of sqrt( |c_a - |mu_a|| |s_a| / (C U) )  (g - |sigma_t|) |[u_t]| = 0
+    slip direction   max over a of sqrt( (-mu_a s_a)^+ / (C U) )        sigma_t anti-parallel to the slip
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .checks import equilibrium_with
+
+__all__ = ["friction_checks", "read_back_friction"]
+
+
+def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
+    """The friction cone, stick-slip and slip-direction checks (module docstring) of row forces ``mu``, slips
+    ``slip`` and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row
+    force (scaled)."""
+    tiny = np.finfo(float).tiny
+    C = max(float(np.max(capacity, initial=0.0)), float(Y), tiny)
+    CU = max(C * U, tiny)
+    a = np.abs(mu)
+    return {"friction cone": float((np.maximum(a - capacity, 0.0) / C).max(initial=0.0)),
+            "stick-slip": float(np.sqrt((np.abs(capacity - a) * np.abs(slip) / CU).max(initial=0.0))),
+            "slip direction": float(np.sqrt((np.maximum(-mu * slip, 0.0) / CU).max(initial=0.0)))}
+
+
+def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
+    """The balance of the rigid motions only the contact holds (:func:`~cvxcontact.solution.checks.rigid_balance`)
+    with the tangential forces T^T mu on the momentum rows."""
+    if modes is None or len(modes) == 0:
+        return 0.0
+    r_u = block.residual(u, phi, Mlam)[0] + block.slip.T @ Tmu
+    size = abs(block.jump).T @ np.abs(Mlam) + abs(block.slip).T @ np.abs(Tmu) + np.abs(block.f)
+    return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
+
+
+def read_back_friction(problem, raw, sol) -> None:
+    """Complete ``sol`` (read back as nodal Signorini rows) with the friction law: every pair's ``slip`` (m),
+    ``shear_force`` (N/m, on the first body along the pair's tangent) and the checks of the module docstring,
+    the equilibrium check recomputed with the tangential forces."""
+    from dataclasses import replace
+
+    E, blocks, un, u, phi = problem.E, problem.blocks, problem.units, raw.u, raw.phi
+    mu = np.asarray(raw.tangential, dtype=float)
+    Ety, Tmu = E.T @ raw.y, E.T @ mu
+    forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
+    checks = sol._checks
+    equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
+    for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
+        modes = body.held_modes(None)
+        if len(modes):
+            equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
+    checks["equilibrium"] = equilibrium
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
+    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
+    rows = problem.rows.frictional
+    capacity = problem.thresholds * problem.row_lengths
+    checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U,
+                                  float(np.max(raw.y, initial=0.0))))
+    offsets = problem.lines.offsets
+    sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
+                            threshold=problem.rows.laws[i].friction.threshold
+                            if problem.rows.laws[i].friction is not None else None)
+                    for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
+    for c in sol.contacts:
+        for f in ("slip", "shear_force"):
+            getattr(c, f).setflags(write=False)
+    sol.contact = sol.contacts[0]

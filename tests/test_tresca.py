@@ -1,0 +1,139 @@
+"""Tresca friction (cc.Tresca, 2D P1, the full program): closed forms, limits and refusals.
+
+A block (1 m x 0.5 m, steel) pressed on a rigid plane by p = 10 MPa on its top:
+- sheared by q below what the contact can stick: the same answer as the block tied tangentially (g above the
+  tied contact's largest shear traction: the tied answer satisfies every Tresca condition, so it is the answer);
+- sheared beyond the capacity g L: no equilibrium, refused naming the sliding motion;
+- pushed sideways by a prescribed u_x = s on its left face (nu = 0): frictionless, it translates rigidly
+  (u = (s, -p y / E), a closed form); with a small threshold g every contact node slides, the friction force is
+  the capacity -g L exactly, and the departure from the rigid translation is linear in g.
+"""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+
+E, P, L, H = 200e9, 1e7, 1.0, 0.5
+FLOOR = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+
+
+def steel(nu=0.3, scale=1.0):
+    return cc.materials.isotropic(E=E * scale, nu=nu)
+
+
+def sheared(q, g, tied=False, nx=8, ny=4):
+    """The block under (q, -p) on its top; ``tied``: frictionless contact, u_x = 0 on the contact edges."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
+    if tied:     # the same edges under a second tag "base": u_x = 0 there, the contact on "bottom"
+        m = cc.Mesh(m.points, m.triangles, {**{t: m.boundary(t) for t in m.tags}, "base": m.boundary("bottom")})
+        b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)}, displacement={"base": (0.0, None)})
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
+    b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=cc.Tresca(g))])
+
+
+def pushed(law, s=1e-4):
+    """The nu = 0 block pushed by u_x = s on its left face, pressed by p."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
+    b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
+    return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def test_a_block_that_sticks_is_the_block_tied_tangentially():
+    q = 0.2 * P
+    tied = cc.solve(sheared(q, None, tied=True))
+    sol = cc.solve(sheared(q, 1e7))      # the tied answer's largest |sigma_t|: 9.46e6 Pa (corner) < g
+    assert tied.ok and sol.ok
+    assert sol.path == cc.Route.INTERIOR_POINT_FRICTION and not sol.polished
+    scale = np.abs(tied.u[0]).max()
+    assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-10 * scale               # measured 2.0e-13
+    c = sol.contact
+    assert np.abs(c.slip).max() < 1e-10 * scale                               # stuck: measured 2.0e-13
+    assert c.shear_force.sum() == pytest.approx(-q * L, rel=1e-12)           # the floor holds the load; 3.3e-15
+    assert np.abs(c.shear).max() < 1e7
+
+
+def test_partial_slip_stays_in_the_friction_cone_and_slides_against_the_slip():
+    g = 1e6
+    sol = cc.solve(sheared(0.9 * g, g))
+    assert sol.ok
+    c = sol.contact
+    assert c.shear_force.sum() == pytest.approx(-0.9 * g * L, rel=1e-9)      # equilibrium
+    assert (np.abs(c.shear) <= g * (1 + 1e-9)).all()                          # friction cone: 7.5e-14 over
+    slipping = np.abs(c.slip) > 1e-3 * np.abs(c.slip).max()
+    assert slipping.sum() >= 7                                                # measured: 8 of 9 nodes slip
+    assert np.abs(np.abs(c.shear[slipping]) - g).max() < 1e-4 * g             # |sigma_t| = g there
+    assert (c.shear[slipping] * c.slip[slipping] < 0).all()                   # anti-parallel
+
+
+def test_a_tangential_load_beyond_the_capacity_is_refused_naming_the_motion():
+    with pytest.raises(cc.SceneError, match=r"slides body 'body 1' along translation x.*1\.1e\+06 N/m.*capacity "
+                                            r"1e\+06 N/m"):
+        cc.solve(sheared(1.1e6, 1e6))
+
+
+def test_zero_threshold_is_frictionless_and_the_rigid_translation():
+    m, frictionless = pushed(None)
+    _, zero = pushed(cc.Tresca(0.0))
+    exact = np.column_stack([np.full(len(m.points), 1e-4), -P * m.points[:, 1] / E])
+    sols = [cc.solve(frictionless), cc.solve(zero)]
+    for sol in sols:
+        assert sol.ok
+        assert np.abs(sol.u[0] - exact).max() < 1e-9 * 1e-4                   # measured 1.1e-14, 3.4e-13 (x 1e-4)
+    assert np.abs(sols[1].contact.shear_force).max() < 1e-6 * P * L           # measured 3.2e-8 * P L
+
+
+def test_a_small_threshold_slides_with_the_full_capacity_and_departs_linearly_in_g():
+    m, _ = pushed(None)
+    exact = np.column_stack([np.full(len(m.points), 1e-4), -P * m.points[:, 1] / E])
+    errors = []
+    for g in (1e2, 1e3):
+        sol = cc.solve(pushed(cc.Tresca(g))[1])
+        assert sol.ok
+        c = sol.contact
+        assert (c.slip > 0.5e-4).all()                                        # every node slides forward
+        assert c.shear_force.sum() == pytest.approx(-g * L, rel=1e-6)         # measured 1.6e-8, 1.2e-9
+        errors.append(np.abs(sol.u[0] - exact).max())
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-3)            # measured 10.00000
+
+
+def test_a_pair_on_a_much_stiffer_block_sticks_like_the_block_on_the_rigid_plane():
+    q = 0.2 * P
+    top = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
+    below = cc.rectangle(x=(0.0, L), y=(-H, 0.0), nx=8, ny=4)
+    a = cc.Body(top, steel(), contact="bottom", traction={"top": (q, -P)}, name="top")
+    b = cc.Body(below, steel(scale=1e6), contact="top", clamped="bottom", name="below")
+    sol = cc.solve(cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(1e7))]))
+    rigid = cc.solve(sheared(q, 1e7))
+    assert sol.ok
+    assert sol.contact.shear_force.sum() == pytest.approx(-q * L, rel=1e-9)
+    scale = np.abs(rigid.u[0]).max()
+    assert np.abs(sol.u[0] - rigid.u[0]).max() < 1e-3 * scale               # measured 1.8e-6 (the stiffness ratio 1e-6)
+
+
+def test_friction_is_refused_where_it_is_not_posed():
+    with pytest.raises(cc.SceneError, match="threshold"):
+        cc.Tresca(-1.0)
+    with pytest.raises(cc.SceneError, match="threshold"):
+        cc.Tresca(float("nan"))
+    scene = sheared(0.2 * P, 1e7)
+    with pytest.raises(cc.SolverError, match="condensed"):
+        cc.solve(scene, method="condensed")
+    with pytest.raises(cc.UnsupportedError, match="P2"):
+        cc.solve(scene, degree=2)
+    box = cc.box(nx=2, ny=2, nz=2)
+    body = cc.Body(box, steel(), contact="bottom", traction={"top": (0.0, 0.0, -P)})
+    floor = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+    with pytest.raises(cc.UnsupportedError, match="3D"):
+        cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]))
+
+
+def test_a_scene_file_names_the_law():
+    from cvxcontact.io.scenefile import SceneFileError, _law
+
+    assert _law({"tresca": {"threshold": 2e6}}, "scene.toml") == cc.Tresca(2e6)
+    with pytest.raises(SceneFileError, match="law.tresca: expected the key threshold"):
+        _law({"tresca": {"g": 2e6}}, "scene.toml")
+    with pytest.raises(SceneFileError, match="law.tresca: Tresca: threshold"):
+        _law({"tresca": {"threshold": -1.0}}, "scene.toml")

@@ -103,8 +103,9 @@ def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1):
 
 def solve(scene, condition="gamma3", **kw):
     with warnings.catch_warnings():
-        warnings.simplefilter("error")                    # no warning on these scenes
-        return cc.solve(scene, condition, degree=2, **kw)
+        warnings.simplefilter("error")                    # no solver warning on these scenes; the resolution
+        warnings.simplefilter("ignore", cc.ResolutionWarning)   # check says what it should: a bowl-shaped zone
+        return cc.solve(scene, condition, degree=2, **kw)       # of 3 faces on these 2 x 2 x 2 test meshes
 
 
 def sampled_penetration(scene, sol, n=12):

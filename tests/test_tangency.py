@@ -109,7 +109,9 @@ def test_the_sampled_condition_converges_to_the_finished_answer():
         seg, t = np.repeat(np.arange(S), M), np.tile(np.linspace(0, 1, M), S)
         P = point_rows(B, seg, t)
         x = cp.Variable(A.shape[0])
-        prob = cp.Problem(cp.Minimize(0.5 * cp.quad_form(x, cp.psd_wrap(A)) - F @ x), [(P @ G) @ x <= P @ problem.g])
+        # the circle's own gap at the points: the interpolant's plus its departure there (formulation §8)
+        gp = P @ problem.g + problem.departure.at(seg, t)
+        prob = cp.Problem(cp.Minimize(0.5 * cp.quad_form(x, cp.psd_wrap(A)) - F @ x), [(P @ G) @ x <= gp])
         prob.solve(solver="CLARABEL", tol_gap_abs=1e-13, tol_gap_rel=1e-13, tol_feas=1e-13)
         v = x.value
         errors.append([np.abs(v[:nu] - exact[:nu]).max() / np.abs(exact[:nu]).max(),     # u
@@ -189,7 +191,7 @@ def test_the_cuts_end_with_the_last_solved_round_when_a_round_is_singular():
     # Bernstein coefficients (-1, 1 + v, -1): q(1/2) = v / 2 is its maximum, the violation (scale 1)
     for q, expected in (((-1.0, 1.0 + 0.2 * LAST_GOOD_TOL, -1.0), 1), ((-1.0, 1.2, -1.0), None)):
         calls.clear()
-        out = accumulate_cuts(B, lambda P: solve(P, 2, q), np.array([0, 0, 0]), np.array([0.0, 0.5, 1.0]),
+        out = accumulate_cuts(B, lambda P, delta: solve(P, 2, q), np.array([0, 0, 0]), np.array([0.0, 0.5, 1.0]),
                               tol=1e-15)
         if expected is None:
             assert isinstance(out, str) and "no exact solution" in out

@@ -41,6 +41,11 @@ NEWTON_TOL = 1e-14
 """Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
 STALL_TOL = 1e-10
 """Below this relative step, a step that no longer shrinks by 4 ends the iteration (rounding's floor)."""
+STALL_TOL_CURVED = 1e-7
+"""The same against a curved obstacle's own gap: its tangency point is found through central differences of the
+gap (:data:`FD_STEP`), whose rounding (measured: gradients to ~1e-12 of the scaled gap) places it to ~1e-10 of the
+element on a nearly flat slack, and the sideways translation of a force-controlled obstacle, which only that point
+sets, to ~1e-8 of itself (measured: the force-controlled circle of docs/formulation.md §18)."""
 
 
 def _sub_basis(m: int) -> np.ndarray:
@@ -59,10 +64,20 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _maximum(shape, b, I):
+FD_STEP = 1e-4
+"""Step (in barycentric coordinates) of the central differences of a curved obstacle's gap departure delta
+(its gradient and Hessian on the sub-simplex: delta is smooth, O(h^3), so their error only slows Newton)."""
+
+
+def _maximum(shape, b, I, delta=None):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
-    docstring); None where Q_II is not negative definite on the tangent plane."""
+    docstring); None where Q_II is not negative definite on the tangent plane.
+
+    ``delta(L)`` (L (k, n) full barycentric points): a curved obstacle's departure of its gap from the P2
+    interpolant (:class:`~cvxcontact.contact.truegap.GapDeparture`): then q = L^T Q L - delta(L), the maximiser
+    by Newton on its stationarity on I (delta's derivatives by central differences, :data:`FD_STEP`), and Q_II
+    on the tangent plane is T^T Q T - T^T D2delta T / 2."""
     Q = shape.gram(np.asarray(b, dtype=float)[None, :])[0]
     k = len(Q)
     I = list(I)
@@ -76,8 +91,35 @@ def _maximum(shape, b, I):
     sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
     L = np.zeros(k)
     L[I] = sol[:m]
-    M = T @ np.linalg.solve(H, T.T)
-    return sol[m], L, M
+    if delta is None:
+        return sol[m], L, T @ np.linalg.solve(H, T.T)
+    TT = np.zeros((k, m - 1))
+    TT[I] = T
+    h, e = FD_STEP, np.eye(m - 1)
+    for _ in range(30):
+        # delta at L + h (+-e_a +- e_b) T: gradient and Hessian in the tangent coordinates z
+        z = [np.zeros(m - 1)] + [s * h * e[a] for a in range(m - 1) for s in (1, -1)] + \
+            [h * (sa * e[a] + sb * e[b]) for a in range(m - 1) for b in range(a + 1, m - 1)
+             for sa in (1, -1) for sb in (1, -1)]
+        d = delta(np.array([L + TT @ zz for zz in z]))
+        g = np.array([(d[1 + 2 * a] - d[2 + 2 * a]) / (2 * h) for a in range(m - 1)])
+        D2 = np.diag([(d[1 + 2 * a] + d[2 + 2 * a] - 2 * d[0]) / h ** 2 for a in range(m - 1)])
+        at = 1 + 2 * (m - 1)
+        for a in range(m - 1):
+            for b_ in range(a + 1, m - 1):
+                pp, pm, mp, mm = d[at:at + 4]
+                D2[a, b_] = D2[b_, a] = (pp - pm - mp + mm) / (4 * h ** 2)
+                at += 4
+        Hs = H - 0.5 * D2                                          # half the Hessian of q on the plane
+        if np.any(np.linalg.eigvalsh(Hs) >= 0):
+            return None
+        grad = T.T @ (2 * QI @ L[I]) - g                           # of q = L^T Q L - delta along T
+        step = -np.linalg.solve(2 * Hs, grad)
+        L = L + TT @ step
+        if np.abs(step).max(initial=0.0) <= 1e-15:
+            break
+    q = float(L @ Q @ L - delta(L[None, :])[0])
+    return q, L, T @ np.linalg.solve(Hs, T.T)
 
 
 def _cells(B, w: int) -> np.ndarray:
@@ -97,7 +139,7 @@ def _cells(B, w: int) -> np.ndarray:
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
-                    max_steps: int = 40, max_rounds: int = 10):
+                    max_steps: int = 40, max_rounds: int = 10, departure=None):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -113,7 +155,12 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
     active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
     reason it stopped (str). An element carries a force at the start where its Bernstein duals exceed
-    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest)."""
+    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest).
+
+    ``departure``: a curved obstacle's true gap on the cones' elements
+    (:class:`~cvxcontact.contact.truegap.GapDeparture`, scaled): each element's maximum is then that of the true
+    slack q_h - delta (:func:`_maximum`), and the answer carries ``pairing`` (the point forces' sum y_p delta_p
+    per element)."""
     G = sp.csr_matrix(kkt.rows)
     A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
     B = sp.csr_matrix(B)
@@ -200,7 +247,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
                 el = elem(s)
-                out = _maximum(shape, el.coefficients(x), I)
+                out = _maximum(shape, el.coefficients(x), I, None if departure is None else _local(departure, s, w))
                 if out is None:              # q flat or convex along I: the contact covers I (next round)
                     flat = (c, s, I)
                     break
@@ -238,7 +285,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             step = np.abs(dz[:n]).max(initial=0.0) / max(np.abs(x).max(initial=0.0), 1e-300)
             # converged: a step at rounding, or a small one that no longer shrinks quadratically (the floor of
             # the system's conditioning, measured 1e-14 .. 1e-13 with k = 1e14 Pa/m^2, m = 2)
-            small = step <= NEWTON_TOL or (step <= STALL_TOL and step > 0.25 * last)
+            small = step <= NEWTON_TOL or (step <= (STALL_TOL if departure is None else STALL_TOL_CURVED)
+                                            and step > 0.25 * last)
             last = step
             if small and pen is not None and np.array_equal(on, pen):
                 break
@@ -274,7 +322,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             else:
                 tangencies[c] = (s, I, float(m_c))
         U = abs(G) @ np.abs(x) + np.abs(g) + np.abs(cone_gap)
-        qmax, Lmax = bernstein_argmax((D_all @ x - d_all).reshape(-1, w))
+        qmax, Lmax = (bernstein_argmax if departure is None else departure.argmax)((D_all @ x - d_all).reshape(-1, w))
         rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
         for s in np.flatnonzero(rel > tol):
             Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
@@ -310,4 +358,13 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     nodal, active = point_read_back(B, seg, t, yk, yk > 0)
     active |= (z > 0) | (force > 0)
     return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force)
+                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force,
+                pairing=None if departure is None else departure.pairing(S, seg, t, yk))
+
+
+def _local(departure, s: int, w: int):
+    """delta(L) on element ``s`` of ``departure`` at full barycentric points L (k, 2 or 3)."""
+    def delta(L):
+        L = np.asarray(L, dtype=float)
+        return departure.at(np.full(len(L), s), L[:, 1] if w == 3 else L)
+    return delta

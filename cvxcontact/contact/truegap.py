@@ -1,0 +1,173 @@
+"""The gap of a curved rigid obstacle on the elements of the P2 "everywhere" condition (docs/formulation.md §8,
+"Rigid obstacles", and §16).
+
+The cones hold q_h = [u_h nu] - g_h <= 0, g_h the P2 interpolant of the gap at the nodes of X_h. Against a
+curved obstacle the gap g(x) (the pair's gap plus the obstacle's distance) is no quadratic, and g_h dips below
+it between the nodes (a sphere touching one node: g_h < 0 beside it, a phantom penetration). The condition the
+package answers is the one against the obstacle itself,
+
+    s(x) = [u_h nu](x) - g(x) = q_h(x) - delta(x) <= 0   at every point x of every element,
+
+with delta = g - g_h the departure of the gap from its interpolant: semi-infinite, and convex in u (one
+half-space per x). :class:`GapDeparture` is delta on the elements of the cones (zero on the elements where the
+gap is quadratic: between two bodies, against a plane) and the exact maximum of s over each element
+(:meth:`GapDeparture.argmax`), which the accumulated cuts, the checks and the certificate use in place of the
+quadratic's maximum (:func:`~cvxcontact.contact.bernstein.bernstein_argmax`).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from .bernstein import bernstein_argmax, element
+
+__all__ = ["GapDeparture", "CURVED_TOL", "simplex_grid"]
+
+CURVED_TOL = 1e-13
+"""An element is curved where |delta| at its sample points exceeds this fraction of its gap's size (the
+largest |g| at its nodes and its diameter): below it, delta is the rounding of the gap's evaluation."""
+
+GRID = {3: 64, 6: 12}
+"""Intervals of the first sampling of an element (segments: 65 points; triangles: 91)."""
+
+ZOOM_ROUNDS = 40
+"""Rounds of the local search around the best sample (each shrinks the box by :data:`ZOOM`)."""
+ZOOM = 0.5
+
+
+def simplex_grid(m: int) -> np.ndarray:
+    """(k, 3): the barycentric points (i, j, m - i - j) / m of a triangle."""
+    i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
+    keep = i + j <= m
+    i, j = i[keep], j[keep]
+    return np.column_stack([i, j, m - i - j]) / m
+
+
+class GapDeparture:
+    """delta(x) = g(x) - g_h(x) on the elements of the everywhere condition (module docstring).
+
+    ``gap(elements, points)``: the true gap (m) at ``points`` (t (k,) on segments, L (k, 3) on triangles) of the
+    cone's ``elements`` (k,), for the curved ones; ``nodal`` (S, w): the gap at each element's P2 nodes (m; its
+    P2 interpolant is g_h); ``curved`` (S,) bool: the elements whose gap is not quadratic (the others have
+    delta = 0 and the quadratic's exact maximum). :meth:`scaled` gives the same in another unit of length."""
+
+    def __init__(self, gap: Callable, nodal, curved, scale: float = 1.0):
+        self._gap = gap
+        self.nodal = np.asarray(nodal, dtype=float)
+        self.curved = np.asarray(curved, dtype=bool)
+        self.width = self.nodal.shape[1]
+        self.shape = element(self.width)
+        self.scale = float(scale)
+
+    @classmethod
+    def build(cls, gap: Callable, nodal, candidates) -> "GapDeparture | None":
+        """The departure on the ``candidates`` (S,) bool elements (rigid obstacles' faces), each marked curved
+        where delta at its first sample points is above rounding (:data:`CURVED_TOL`); None if none is."""
+        nodal = np.asarray(nodal, dtype=float)
+        shape = element(nodal.shape[1])
+        on = np.flatnonzero(np.asarray(candidates, dtype=bool))
+        curved = np.zeros(len(nodal), dtype=bool)
+        if len(on):
+            pts = cls._grid(shape)
+            k = len(pts)
+            el = np.repeat(on, k)
+            P = np.tile(pts, (len(on),) + (1,) * (pts.ndim - 1))
+            g = np.asarray(gap(el, P), dtype=float).reshape(len(on), k)
+            gh = cls._interpolant(shape, nodal[on], pts)
+            size = np.maximum(np.abs(nodal[on]).max(axis=1), np.abs(g).max(axis=1))
+            curved[on] = (np.abs(g - gh).max(axis=1) > CURVED_TOL * np.maximum(size, np.finfo(float).tiny)) \
+                | ~np.isfinite(g).all(axis=1)
+        if not curved.any():
+            return None
+        return cls(gap, nodal, curved)
+
+    def scaled(self, length: float) -> "GapDeparture":
+        """The same departure in units of ``length`` (m): delta / length."""
+        return GapDeparture(self._gap, self.nodal, self.curved, self.scale / float(length))
+
+    @staticmethod
+    def _grid(shape) -> np.ndarray:
+        m = GRID[shape.width]
+        return np.linspace(0.0, 1.0, m + 1) if shape.width == 3 else simplex_grid(m)
+
+    @staticmethod
+    def _interpolant(shape, nodal, points) -> np.ndarray:
+        """(S, k): the P2 interpolant of the ``nodal`` values (S, w) at ``points`` (k, ...) of every element."""
+        phi = shape.basis(points)                               # (k, w) Bernstein basis
+        b = nodal @ shape.to_bernstein.T                        # (S, w) Bernstein coefficients
+        return b @ phi.T
+
+    def at(self, elements, points) -> np.ndarray:
+        """delta (scaled) at ``points`` of ``elements`` (0 on the straight ones)."""
+        elements = np.asarray(elements, dtype=int)
+        points = np.asarray(points, dtype=float)
+        out = np.zeros(len(elements))
+        on = np.flatnonzero(self.curved[elements]) if len(elements) else np.zeros(0, dtype=int)
+        if len(on):
+            e, p = elements[on], points[on]
+            phi = self.shape.basis(p)
+            gh = ((self.nodal[e] @ self.shape.to_bernstein.T) * phi).sum(axis=1)
+            out[on] = (np.asarray(self._gap(e, p), dtype=float) - gh) * self.scale
+        return out
+
+    def argmax(self, b) -> tuple[np.ndarray, np.ndarray]:
+        """(s_max, point) per element: the maximum over the element of s = q_h - delta, q_h the quadratic of
+        Bernstein coefficients ``b`` (S, w) (scaled), and a point where it is reached. Straight elements: the
+        quadratic's exact maximum; curved ones: the best of a grid (:data:`GRID`) refined by a shrinking local
+        grid around it (:data:`ZOOM_ROUNDS`), to rounding of the point (s is smooth: its value then to rounding
+        at an interior maximum, and exact at a vertex)."""
+        b = np.asarray(b, dtype=float)
+        best, point = bernstein_argmax(b)
+        on = np.flatnonzero(self.curved)
+        if not len(on):
+            return best, point
+        seg = self.width == 3
+        pts = self._grid(self.shape)
+        k = len(pts)
+
+        def value(el, P):                      # s at points P (n, k[, 3]) of the elements el (n,)
+            flat = P.reshape(len(el) * P.shape[1], -1) if not seg else P.ravel()
+            e = np.repeat(el, P.shape[1])
+            q = (self.shape.basis(flat) * b[e]).sum(axis=1)
+            return (q - self.at(e, flat)).reshape(len(el), P.shape[1])
+
+        P = np.broadcast_to(pts[None], (len(on),) + pts.shape)
+        s = value(on, P)
+        j = np.argmax(s, axis=1)
+        x = P[np.arange(len(on)), j].copy()
+        v = s[np.arange(len(on)), j]
+        h = 1.0 / GRID[self.width]
+        if seg:
+            steps = np.array([-1.0, -0.5, 0.5, 1.0])
+        else:
+            d = np.array([[1, -1, 0], [-1, 1, 0], [0, 1, -1], [0, -1, 1], [1, 0, -1], [-1, 0, 1]], dtype=float)
+            steps = np.concatenate([d, 0.5 * d])
+        for _ in range(ZOOM_ROUNDS):
+            if seg:
+                cand = np.clip(x[:, None] + h * steps[None, :], 0.0, 1.0)
+            else:
+                cand = np.clip(x[:, None, :] + h * steps[None], 0.0, None)
+                cand = cand / cand.sum(axis=2, keepdims=True)
+            sc = value(on, cand)
+            j = np.argmax(sc, axis=1)
+            better = sc[np.arange(len(on)), j] > v
+            x[better] = cand[np.arange(len(on)), j][better]
+            v = np.where(better, sc[np.arange(len(on)), j], v)
+            h *= ZOOM
+        # the quadratic's own maximiser, checked against s itself (delta moves the maximum off it)
+        q0 = value(on, point[on][:, None] if seg else point[on][:, None, :])[:, 0]
+        keep = v >= q0
+        best, point = best.copy(), point.copy()
+        best[on] = np.where(keep, v, q0)
+        point[on] = np.where(keep if seg else keep[:, None], x, point[on])
+        return best, point
+
+    def pairing(self, S: int, elements, points, y) -> np.ndarray:
+        """(S,): sum over the point forces ``y`` of each element of y_p delta(x_p) (scaled): what the pairing of
+        the point forces with the true slack adds to beta . b (docs/formulation.md §8: sum_p y_p s(x_p) =
+        beta . b - this)."""
+        out = np.zeros(S)
+        np.add.at(out, np.asarray(elements, dtype=int), np.asarray(y, dtype=float) * self.at(elements, points))
+        return out

@@ -38,7 +38,7 @@ _WHERE = {
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
     "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
-    "SweepResultsError": (".apps.sweep.load", None),
+    "SweepResultsError": (".errors", None), "CaseArrays": (".apps.sweep.load", None),
 }
 
 __all__ = [
@@ -48,11 +48,12 @@ __all__ = [
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
+    "CaseArrays",
 ]
 
 
 def __getattr__(name):
-    if name == "__version__":            # from git tags (cvxcontact.version); computed on first use
+    if name == "__version__":            # pyproject.toml's (cvxcontact.version); computed on first use
         value = globals()[name] = import_module(".version", __name__).version()
         return value
     if name not in _WHERE:
@@ -84,10 +85,10 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .contact.interface import CONDITIONS
     from .contact.laws import NormalCompliance, Signorini
     from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, NonUniqueWarning,
-                         ResidualWarning, SceneError, SolverError, UnsupportedError)
+                         ResidualWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
-    from .apps.sweep.load import SweepResults, SweepResultsError, load_sweep
+    from .apps.sweep.load import CaseArrays, SweepResults, load_sweep
     from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
     from .geometry.tetmesh import TetMesh

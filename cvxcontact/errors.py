@@ -44,6 +44,12 @@ class NonUniqueWarning(UserWarning):
     the other translations are the same for every solution. The message names the direction."""
 
 
+class SweepResultsError(CvxContactError, ValueError):
+    """A folder that is not a sweep's output, an unknown case id, or a case without a complete result (not
+    computed, failed, or its files damaged: the message names the file and, for a record of the wrong shape,
+    the field)."""
+
+
 class UnsupportedError(CvxContactError, NotImplementedError):
     """A feature the API names but this version does not provide yet (e.g. a contact law other than
     non-penetration, a force-controlled obstacle); the message says which."""

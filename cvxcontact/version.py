@@ -1,27 +1,29 @@
 """The version of the code that runs, and where it came from.
 
-Versions follow the git tags (``v0.2.0``): setuptools-scm derives the version of a build from the tag
-and the commits since, e.g. ``0.2.1.dev3+g1a2b3c4d5`` three commits after ``v0.2.0`` (``.d20260101`` is
-appended when the tree had uncommitted changes). :func:`version` reads it in this order:
+The version is one number in one place: ``project.version`` in ``pyproject.toml`` (equal to
+CITATION.cff's ``version`` and to CHANGELOG.md's newest release; tests/test_version.py checks it). No
+git tags are needed: a clone without tags, an archive of the files, a wheel and an editable install all
+name the same version. :func:`version` reads it
 
-1. a git checkout of the package (a clone, an editable install): ``git describe`` now, in the same
-   scheme, so the version follows every commit (the metadata of an editable install is frozen at
-   install time);
-2. an installed distribution whose files are the ones imported (a wheel or an sdist, no git needed):
-   its metadata;
-3. otherwise ``0+unknown``.
+1. from the installed distribution's metadata when its files are the ones imported (a wheel or an
+   sdist installed with pip);
+2. else from the ``pyproject.toml`` beside the package (a source checkout, an editable install, whose
+   metadata is frozen at install time, or a copy of the files);
+3. else ``0+unknown``.
 
-:func:`provenance` adds the commit, whether the tree was dirty, and the sha256 of the package's own
-source files: the last changes whenever the code does, installed or not, tagged or not.
+Between two commits of one version, :func:`provenance` tells the code apart: the commit and whether the
+tree was dirty (from git in a checkout; in an installed wheel, as recorded at build time by setup.py in
+``cvxcontact/_build.json``), and the sha256 of the package's own source files, which changes whenever the
+code does, installed or not.
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
-import re
+import json
 import subprocess
-import time
+import tomllib
 from importlib import metadata
 from pathlib import Path
 
@@ -29,7 +31,7 @@ __all__ = ["version", "provenance", "source_sha256", "UNKNOWN"]
 
 UNKNOWN = "0+unknown"
 PACKAGE = Path(__file__).resolve().parent
-_TAG = re.compile(r"^v?(\d+(?:\.\d+)*)-(\d+)-g([0-9a-f]+)(-dirty)?$")
+BUILD_RECORD = "_build.json"         # {"commit": ..., "dirty": ...} written into a wheel by setup.py
 
 
 def _git(*args: str) -> str | None:
@@ -50,26 +52,6 @@ def _checkout() -> bool:
     return top is not None and (Path(top) / "cvxcontact" / "__init__.py").resolve() == PACKAGE / "__init__.py"
 
 
-def from_describe(described: str, count: int | None = None, today: str | None = None) -> str:
-    """The setuptools-scm version ("guess-next-dev" scheme, "node-and-date" local part, the commit cut to 9
-    hex digits as setuptools-scm does) of the output of ``git describe --tags --long --dirty --abbrev=40
-    --match 'v[0-9]*'``: ``v0.2.0-0-g<hash>`` -> ``0.2.0``; ``v0.2.0-3-g<hash>`` -> ``0.2.1.dev3+g<hash[:9]>``;
-    a ``-dirty`` tree adds ``.d<YYYYMMDD>`` (``today``) and counts as one step past its tag. Without a tag
-    (``described`` a bare hash): ``0.1.dev<count>+g<hash[:9]>``."""
-    today = today or time.strftime("%Y%m%d", time.gmtime())
-    m = _TAG.match(described)
-    if m is None:
-        dirty = described.endswith("-dirty")
-        node = described.removesuffix("-dirty")[:9]
-        return f"0.1.dev{count or 0}+g{node}" + (f".d{today}" if dirty else "")
-    release, distance, node, dirty = m.group(1), int(m.group(2)), m.group(3)[:9], bool(m.group(4))
-    if distance == 0 and not dirty:
-        return release
-    parts = [int(p) for p in release.split(".")]
-    parts[-1] += 1
-    return f"{'.'.join(map(str, parts))}.dev{distance}+g{node}" + (f".d{today}" if dirty else "")
-
-
 def _installed() -> str | None:
     """The metadata version of the installed distribution, if its files are the ones imported."""
     try:
@@ -84,17 +66,23 @@ def _installed() -> str | None:
     return dist.version
 
 
+def from_pyproject(path: Path) -> str | None:
+    """``project.version`` of the pyproject.toml at ``path`` if it is cvxcontact's and states its version,
+    else None (no such file, unreadable, another project's, a dynamic version)."""
+    try:
+        project = tomllib.loads(path.read_text(encoding="utf-8")).get("project")
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    if not isinstance(project, dict) or project.get("name") != "cvxcontact":
+        return None
+    found = project.get("version")
+    return found if isinstance(found, str) and found else None
+
+
 @functools.lru_cache(maxsize=1)
 def version() -> str:
     """The version of the imported code (see the module docstring)."""
-    if _checkout():
-        described = _git("describe", "--tags", "--long", "--dirty", "--abbrev=40", "--match", "v[0-9]*")
-        if described is None:                                  # no tag reachable: a bare hash
-            described = _git("describe", "--always", "--dirty", "--abbrev=40")
-        if described:
-            count = _git("rev-list", "--count", "HEAD")
-            return from_describe(described, int(count) if count and count.isdigit() else None)
-    return _installed() or UNKNOWN
+    return _installed() or from_pyproject(PACKAGE.parent / "pyproject.toml") or UNKNOWN
 
 
 @functools.lru_cache(maxsize=1)
@@ -109,19 +97,25 @@ def source_sha256() -> str:
     return h.hexdigest()
 
 
+def _built_from() -> tuple[str | None, bool | None]:
+    """(commit, dirty) recorded in an installed wheel at build time, else (None, None)."""
+    try:
+        record = json.loads((PACKAGE / BUILD_RECORD).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None, None
+    commit, dirty = (record.get("commit"), record.get("dirty")) if isinstance(record, dict) else (None, None)
+    return (commit if isinstance(commit, str) else None), (dirty if isinstance(dirty, bool) else None)
+
+
 @functools.lru_cache(maxsize=1)
 def provenance() -> dict:
-    """``version``; ``commit`` (full hash) and ``dirty`` (uncommitted changes to tracked files) when the code
-    runs from a git checkout, else as recorded in the version (``+g<hash>``, ``.d<date>``), else None;
-    ``source_sha256`` (:func:`source_sha256`)."""
-    v = version()
-    commit = dirty = None
+    """``version`` (:func:`version`); ``commit`` (full hash) and ``dirty`` (uncommitted changes to tracked
+    files) from git when the code runs from a checkout, else as recorded when its wheel was built, else
+    None; ``source_sha256`` (:func:`source_sha256`)."""
     if _checkout():
         commit = _git("rev-parse", "HEAD")
         status = _git("status", "--porcelain", "--untracked-files=no")
         dirty = None if status is None else bool(status)
     else:
-        m = re.search(r"\+g([0-9a-f]{7,40})(\.d\d{8})?", v)
-        if m:
-            commit, dirty = m.group(1), bool(m.group(2))
-    return {"version": v, "commit": commit, "dirty": dirty, "source_sha256": source_sha256()}
+        commit, dirty = _built_from()
+    return {"version": version(), "commit": commit, "dirty": dirty, "source_sha256": source_sha256()}

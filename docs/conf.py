@@ -7,10 +7,12 @@ the docstrings (autodoc + napoleon, numpy style). Why these tools: docs/explanat
 """
 
 import os
+import re
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+DOCS, EXAMPLES = ROOT / "docs", ROOT / "examples"
 sys.path.insert(0, str(ROOT))            # the clone's package, also when it is not installed
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -63,8 +65,28 @@ def _escape_bars(app, what, name, obj, options, lines):
             literal_indent = indent
 
 
+def _gallery_links(app, docname, source):
+    """The pages link an example by its source file, ``[text](../../examples/NAME.py)``, and the gallery by its
+    folder, ``../examples/`` (links GitHub follows, where the gallery is not built); on the site the same links go
+    to the example's gallery page ``auto_examples/NAME`` (built from that file) and to the gallery's index."""
+    page = (DOCS / docname).parent
+
+    def to_gallery(match):
+        target = (page / match[1]).resolve()
+        if target == EXAMPLES:
+            built = DOCS / "auto_examples" / "index.rst"
+        elif target.parent == EXAMPLES and target.suffix == ".py":
+            built = DOCS / "auto_examples" / f"{target.stem}.rst"
+        else:
+            return match[0]
+        return f"]({os.path.relpath(built, page)})"
+
+    source[0] = re.sub(r"\]\(([^()\s#]*examples/[^()\s#]*)\)", to_gallery, source[0])
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", _escape_bars)
+    app.connect("source-read", _gallery_links)
 
 sphinx_gallery_conf = {
     "examples_dirs": str(ROOT / "examples"),

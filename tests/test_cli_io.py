@@ -140,3 +140,25 @@ def test_plots_have_labels_and_colorbars():
     fig = plot_contact(sols)
     assert len(fig.axes) == 9 and all(ax.get_ylabel() and ax.yaxis.get_major_formatter().unit in ("Pa", "m")
                                       for ax in fig.axes)
+
+
+def test_cli_prints_the_report_of_the_solution(tmp_path, capsys):
+    """`cvxcontact solve` prints ``sol.report()`` itself (one source), and the report holds a line per contact pair
+    (its total force, the nodes in contact, the active ones) and per electrode (its potential and charge): the
+    stack of examples/stack.toml, two pairs and a floating electrode, against a solve of the same scene file."""
+    scene = EXAMPLES / "stack.toml"
+    assert main(["solve", str(scene), "--out", str(tmp_path), "--no-plots", "--condition", "gamma3"]) == 0
+    printed = capsys.readouterr().out
+    sol = load_scene(scene).solve("gamma3")
+    report = sol.report()
+    assert report in printed
+    lines = report.splitlines()
+    for i, c in enumerate(sol.contacts):
+        (line,) = [ln for ln in lines if ln.startswith(f"  contact[{i}] ")]
+        assert f"force {c.force.sum():.6g} N/m" in line and f"{int(c.active.sum())} of {int(c.constrained.sum())} " \
+            "constrained nodes active" in line and f"of {len(c.x)} nodes" in line
+    floating = [e for e in sol.electrodes if e.kind == "floating"]
+    assert floating
+    for e in sol.electrodes:
+        name = sol.scene.bodies[e.body].name
+        assert f"  electrode {name}/{e.tag} ({e.kind}): potential {e.potential:.6g} V, charge {e.charge:.6g} C/m" in lines

@@ -92,6 +92,26 @@ def test_square_nested_inside_another():
         cc.Mesh(*_union(_square(0, 0, 1, 2)[:2], _square(0.2, 0.15, 0.2, 1)[:2]))
 
 
+@pytest.mark.parametrize("h", [1e-12, 1e-9, 1.0, 1e6])
+def test_checks_decide_alike_at_any_length_scale(h):
+    """The 2D checks are relative to the mesh: a square grid of side h passes, two overlapping squares and
+    a nested one are refused, and a third coordinate varying by 1e-6 of the size is refused (it was
+    accepted below 1 m: the planar check had an absolute floor of 1e-12 m), 1e-14 of it accepted."""
+    p, t, _ = _square(0, 0, h, 3)
+    assert cc.Mesh(p, t).areas.sum() == pytest.approx(h * h, rel=1e-13)
+    assert cc.rectangle(x=(0, h), y=(0, h), nx=3, ny=3).areas.sum() == pytest.approx(h * h, rel=1e-13)
+    with pytest.raises(cc.MeshError, match="boundary edges .* cross"):
+        cc.Mesh(*_union(_square(0, 0, h, 2)[:2], _square(0.6 * h, 0.3 * h, h, 2)[:2]))
+    with pytest.raises(cc.MeshError, match="inside 1 other layer"):
+        cc.Mesh(*_union(_square(0, 0, h, 2)[:2], _square(0.2 * h, 0.15 * h, 0.2 * h, 1)[:2]))
+    z = np.zeros(len(p))
+    z[4] = 1e-6 * h
+    with pytest.raises(cc.MeshError, match="varying third coordinate"):
+        cc.Mesh(np.column_stack([p, z]), t)
+    z[4] = 1e-14 * h
+    assert cc.Mesh(np.column_stack([p, z]), t).areas.sum() == pytest.approx(h * h, rel=1e-13)
+
+
 # ------------------------------------------------------------------------------------ near-duplicate nodes
 
 @pytest.mark.parametrize("dx", [1e-13, 1e-10])

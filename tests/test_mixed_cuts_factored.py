@@ -51,7 +51,12 @@ def residual_of_26(kkt, x, y, active, g):
     r = A @ x + G.T @ y - F
     s = abs(A) @ np.abs(x) + abs(G).T @ np.abs(y) + np.abs(F)
     c = (G @ x - g)[active]
-    sc = (abs(G) @ np.abs(x) + np.abs(g))[active]
+    # the scale of a closed row's slack: its terms, plus the displacement the elastic forces at its unknowns give
+    # them through their own stiffness (a P2 face vertex on a rigid plane does not move: its slack is rounding of
+    # its neighbours' displacements; |G| |x| alone read 1.0 there under the Nehalem OpenBLAS kernels)
+    diag = A.diagonal()
+    reach = abs(A) @ np.abs(x) * np.where(diag > 0, 1.0 / np.where(diag > 0, diag, 1.0), 0.0)
+    sc = (abs(G) @ (np.abs(x) + reach) + np.abs(g))[active]
     return float(np.max(np.abs(r) / np.maximum(s, 1e-300))), float(np.max(np.abs(c) / np.maximum(sc, 1e-300),
                                                                        initial=0.0))
 

@@ -236,7 +236,10 @@ def test_user_bound_on_a_force_controlled_translation(degree):
     assert rel(sol.u[0], ref.u[0]) < 1e-10 and rel(sol.contact.lam, ref.contact.lam) < 1e-10   # measured 1e-13
     assert np.abs(sol.obstacles[0].translation - [0.0, -depth / 2]).max() < 1e-12 * depth
     res = sol.residuals()
-    assert res["obstacle balance"] < 1e-12 and res["user[0] complementarity"] < 1e-9      # measured 0
+    # the user row is closed by the finish: its slack is rounding, and the check reports the square root of
+    # the normalised product z |slack| (docs/checks.md), i.e. up to ~sqrt(eps) = 1.5e-8: measured 0 (Haswell,
+    # Nehalem, Sandybridge, Prescott OpenBLAS kernels) and 8.2e-9 (SkylakeX, an AVX-512 CPU); bound 120x that
+    assert res["obstacle balance"] < 1e-12 and res["user[0] complementarity"] < 1e-6
     W = model.units.force * model.units.displacement
     rest = -F[1] + ref.obstacles[0].force[1]
     assert rest > 0.1 * -F[1] and abs(float(con.dual_value) * W - rest) < 1e-6 * rest    # measured 2e-10

@@ -183,7 +183,7 @@ def _zone_length(zone):
     return float(np.linalg.norm(zone[:, 1] - zone[:, 0], axis=1).sum())
 
 
-def test_contact_zone_outlines_the_active_cells(layer, stack):
+def test_contact_zone_outlines_the_cells_in_contact(layer, stack):
     """Full contact: the zone's boundary is the perimeter of the contact face (4 cm for a 1 cm square), on both
     the rigid pair (the body's faces) and the two-body overlay. A sphere pressed into a block: a closed outline
     inside the circle where the undeformed surfaces intersect (plus one cell), away from the face's edge."""
@@ -199,6 +199,9 @@ def test_contact_zone_outlines_the_active_cells(layer, stack):
     ball = cc.Rigid.sphere((0, 0, R - delta), R)
     sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", ball)]))
     assert sol.ok and 0 < sol.contact.active.sum() < sol.contact.constrained.sum()
+    # a rigid pair: the pressure at a node is its force over its area, positive where the force is
+    assert np.array_equal(sol.in_contact(), sol.contact.active)
+    assert 0 < sol.contact_fraction() < 1
     zone = contact_zone(sol)
     r = np.hypot(zone[..., 0], zone[..., 1])
     assert len(zone) >= 3 and r.max() <= np.sqrt(2 * R * delta) + h and r.max() < 1e-2
@@ -295,3 +298,29 @@ def test_p2_files_hold_tetra10_cells_and_both_sides_pressure(tmp_path):
     for name in ("pressure on body 1 [Pa]", "pressure on body 2 [Pa]", "lambda_h (diagnostic) [Pa]"):
         assert np.abs(d[name] / p0 - 1).max() <= 1e-9, name                               # measured 4.3e-14
     assert np.array_equal(d["normal jump [m]"], sol.contact.jump)
+
+
+def test_full_contact_under_gamma3_on_non_matching_faces_is_the_whole_face():
+    """Stacked blocks, 5 x 5 on 7 x 3 faces (non-matching), a uniform pressure P, "gamma3": the pressure felt by
+    each body is P on its whole face, so the contact zone is the whole face: every overlay node in contact, the
+    contact area fraction 1 in the report and the JSON, and the outline the face's perimeter (4 m) -- though
+    the nodal forces sit on a third of the overlay's nodes (the rows are dependent; measured 65 of 193), which
+    the report names as active."""
+    from scenes3d import P as p0, stacked_blocks
+
+    from cvxcontact.io.plot import contact_zone
+
+    sol = cc.solve(stacked_blocks(), "gamma3")
+    c = sol.contact
+    assert sol.ok and sol.polished
+    for k in (0, 1):                                                  # the independent fact: P on both faces
+        assert np.abs(sol.traction(k)[1] / p0 - 1).max() <= 1e-9      # measured 4.7e-14
+    assert c.active.sum() < c.constrained.sum() == len(c.x)           # forces on a subset of the overlay
+    assert sol.in_contact().all() and sol.contact_fraction() == pytest.approx(1.0, abs=1e-12)   # measured 0
+    zone = contact_zone(sol)
+    assert abs(_zone_length(zone) - 4.0) <= 1e-12                    # the perimeter of the unit square face
+    pair = summary(sol)["contact"]
+    assert pair["contact_zone_nodes"] == len(c.x) and pair["contact_zone_fraction"] == pytest.approx(1.0, abs=1e-12)
+    line = next(ln for ln in sol.report().splitlines() if ln.startswith("  contact[0]"))
+    assert f"pressure > 0 at {len(c.x)} of {len(c.x)} nodes (100 % of the area)" in line
+    assert f"{int(c.active.sum())} of {len(c.x)} constrained nodes active (carry a force)" in line

@@ -116,9 +116,53 @@ def test_bad_folders_and_cases_are_typed_errors(example, tmp_path):
     with pytest.raises(SweepResultsError, match=r"has no result \(pending\)"):
         cc.load_sweep(out).arrays(second)
     assert rows(cc.load_sweep(out).cases)[1]["state"] == "pending"
-    (out / "cases" / f"{third}.json").write_text("{")   # a torn record: the table says pending, no crash
-    with pytest.raises(SweepResultsError, match="incomplete or altered"):
+    (out / "cases" / f"{third}.json").write_text("{")   # a torn record: the table says corrupt, no crash
+    assert rows(cc.load_sweep(out).cases)[2]["state"] == "corrupt"
+    with pytest.raises(SweepResultsError, match="is damaged: it is not valid JSON.*run the sweep again"):
         cc.load_sweep(out).arrays(third)
+
+
+@pytest.mark.parametrize("field, wrong", [("residuals", [1e-12, 1e-13]), ("timings_s", 3.5), ("versions", "0.3.0"),
+                                          ("attempts", 2)])
+def test_a_record_with_a_field_of_the_wrong_type_is_a_damaged_case(example, tmp_path, field, wrong):
+    """Valid JSON, the wrong type in one field: the table lists it as corrupt naming the file and the field,
+    the other cases read as before; its record and arrays are a typed error; a rerun of the sweep redoes it."""
+    from cvxcontact.apps.sweep.store import case_state
+
+    out = tmp_path / "out"
+    shutil.copytree(example / "out", out)
+    r = cc.load_sweep(out)
+    bad, good = r.ids[0], r.ids[1]
+    before = rows(r.cases)
+    path = out / "cases" / f"{bad}.json"
+    record = json.loads(path.read_text())
+    assert field in record                              # a field the writer does write
+    record[field] = wrong
+    path.write_text(json.dumps(record))
+    r = cc.load_sweep(out)
+    table = rows(r.cases)
+    assert table[0]["state"] == "corrupt" and str(path) in table[0]["error"] and repr(field) in table[0]["error"]
+    assert [t["state"] for t in table[1:]] == ["done"] * (len(table) - 1)
+    assert {k: v for k, v in table[1].items() if k in before[1]} == before[1]   # the others: as before
+    for read in (r.record, r.arrays):
+        with pytest.raises(SweepResultsError, match=rf"{bad}.json'? is damaged: its field '{field}' is .* not a "
+                                                    r".*run the sweep again") as err:
+            read(bad)
+        assert isinstance(err.value, cc.SweepResultsError) and isinstance(err.value, cc.CvxContactError)
+    assert r.record(good)["case"] == good and r.arrays(good)["u1"].shape[1] == 2
+    assert case_state(out, bad) == ("corrupt", None)    # what `cvxcontact sweep` redoes on its next run
+
+
+def test_a_rerun_redoes_a_damaged_record(example, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(example / "out", out)
+    bad = cc.load_sweep(out).ids[0]
+    path = out / "cases" / f"{bad}.json"
+    record = json.loads(path.read_text())
+    path.write_text(json.dumps({**record, "residuals": "none"}))
+    report = run_sweep(example / "sweep.toml", out, workers=1)
+    assert report.done == report.total == 14
+    assert rows(cc.load_sweep(out).cases)[0]["state"] == "done" and isinstance(cc.load_sweep(out).record(bad)["residuals"], dict)
 
 
 def test_failed_cases_are_rows_with_their_error(tmp_path):
@@ -169,3 +213,65 @@ def test_xdmf_export_without_h5py_names_the_extra(example, tmp_path, monkeypatch
     monkeypatch.setitem(sys.modules, "h5py", None)
     with pytest.raises(ExportError, match=r"cvxcontact\[export\]"):
         cc.load_sweep(example / "out").export(tmp_path / "x")
+
+
+def _direct(folder, scene_name, overrides, condition):
+    """The case solved directly: the scene file with the case's overrides, through cc.solve."""
+    data = apply_overrides(read_toml(folder / scene_name), overrides, "test")
+    return cc.solve(scene_from_data(data, folder / scene_name).scene, condition)
+
+
+def test_the_table_reads_each_floating_electrodes_potential(tmp_path):
+    """The punch sensor (2D, examples/punch_sensor.toml: a floating electrode on the PZT substrate) swept over the
+    punch's push: the column ``substrate.top_V`` of each case is the electrode's potential of a direct cc.solve of
+    that case; the energy is labelled per metre (2D); a record without electrodes (an older sweep) still loads."""
+    shutil.copy(EXAMPLES / "punch_sensor.toml", tmp_path / "punch_sensor.toml")
+    (tmp_path / "sweep.toml").write_text('scene = "punch_sensor.toml"\nconditions = ["gamma3"]\n'
+                                         '[grid]\n"body[0].displacement.top[1]" = [-1e-6, -2e-6]\n')
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    r = cc.load_sweep(tmp_path / "out")
+    table = rows(r.cases)
+    assert len(table) == 2 and all(t["ok"] for t in table)
+    for t in table:
+        push = t["body[0].displacement.top[1]"]
+        ref = _direct(tmp_path, "punch_sensor.toml", {"body[0].displacement.top[1]": push}, "gamma3")
+        (volts,) = [e.potential for e in ref.electrodes if e.kind == "floating"]
+        assert abs(volts) > 0 and t["substrate.top_V"] == pytest.approx(volts, rel=1e-9)   # measured: 0
+        assert t["energy_J_per_m"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J" not in t
+    path = tmp_path / "out" / "cases" / f"{r.ids[0]}.json"
+    record = json.loads(path.read_text())
+    del record["electrodes"]
+    path.write_text(json.dumps(record))
+    old = {t["id"]: t for t in rows(cc.load_sweep(tmp_path / "out").cases)}
+    assert old[r.ids[0]]["substrate.top_V"] is None and old[r.ids[1]]["substrate.top_V"] == table[1]["substrate.top_V"]
+
+
+def test_the_table_reads_each_obstacles_force_and_translation(tmp_path):
+    """The Hertz half model (a fixed rigid circle, examples/hertz_half.toml, coarsened): the columns
+    ``obstacle1.contact_force_N_per_m[i]`` and ``obstacle1.translation_m[i]`` are sol.obstacles[0]'s of a direct
+    cc.solve."""
+    shutil.copy(EXAMPLES / "hertz_half.toml", tmp_path / "hertz_half.toml")
+    grid = {"body[0].mesh.graded_block.nx": 8, "body[0].mesh.graded_block.ny": 4}
+    (tmp_path / "sweep.toml").write_text('scene = "hertz_half.toml"\nconditions = ["gamma3"]\n[grid]\n'
+                                         + "".join(f'"{k}" = [{v}]\n' for k, v in grid.items()))
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    (t,) = rows(cc.load_sweep(tmp_path / "out").cases)
+    ref = _direct(tmp_path, "hertz_half.toml", grid, "gamma3").obstacles[0]
+    assert ref.force[1] < 0                                # the block pressed down by the cylinder
+    for i in range(2):
+        assert t[f"obstacle1.contact_force_N_per_m[{i}]"] == pytest.approx(ref.force[i], rel=1e-9, abs=1e-9 * abs(ref.force[1]))
+        assert t[f"obstacle1.translation_m[{i}]"] == ref.translation[i] == 0.0        # a fixed obstacle
+
+
+def test_3d_energies_and_potentials_are_labelled_in_3d_units(tmp_path):
+    """The 3D punch (examples/punch3d.toml: a floating top electrode on the PZT punch): energy in J, not J/m; the
+    column ``punch.top_V`` is the direct solve's potential."""
+    shutil.copy(EXAMPLES / "punch3d.toml", tmp_path / "punch3d.toml")
+    (tmp_path / "sweep.toml").write_text('scene = "punch3d.toml"\nconditions = ["gamma3"]\n'
+                                         '[grid]\n"body[0].displacement.top[2]" = [-1e-6]\n')
+    run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    (t,) = rows(cc.load_sweep(tmp_path / "out").cases)
+    ref = _direct(tmp_path, "punch3d.toml", {"body[0].displacement.top[2]": -1e-6}, "gamma3")
+    (volts,) = [e.potential for e in ref.electrodes if e.kind == "floating"]
+    assert t["energy_J"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J_per_m" not in t
+    assert abs(volts) > 0 and t["punch.top_V"] == pytest.approx(volts, rel=1e-9)

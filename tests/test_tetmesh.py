@@ -305,6 +305,47 @@ def test_separating_axes_of_two_triangles(a, b, meet):
     assert _meet(np.array([b], float), np.array([a], float), np.array([1e-9]))[0] == meet
 
 
+SCALES = [1e-12, 1e-9, 1e6]     # lengths in m; 1e-9 and 1e-12 were refused as "cuts through itself" (issue 29)
+
+
+@pytest.mark.parametrize("h", SCALES)
+def test_a_box_builds_at_any_length_scale(h):
+    """The same grid at edge h: the same tetrahedra, faces and tags as at 1 m, the volume h^3 times."""
+    unit = cc.box(x=(0, 1), y=(0, 2), z=(0, 1), nx=3, ny=4, nz=2)
+    m = cc.box(x=(0, h), y=(0, 2 * h), z=(0, h), nx=3, ny=4, nz=2)
+    np.testing.assert_array_equal(m.tets, unit.tets)
+    assert face_set(m.boundary_faces) == face_set(unit.boundary_faces) and m.tags == unit.tags
+    assert m.volumes.sum() == pytest.approx(2 * h ** 3, rel=1e-13)              # measured ~1e-16
+    assert enclosed_volume(m.points, m.boundary_faces) == pytest.approx(2 * h ** 3, rel=1e-13)
+    assert unit.with_points(h * unit.points).volumes.sum() == pytest.approx(2 * h ** 3, rel=1e-13)
+    c = cc.cylinder(radius=h, height=2 * h, n_r=2, n_z=2)
+    assert c.volumes.sum() == pytest.approx(h ** 3 * cc.cylinder(radius=1, height=2, n_r=2, n_z=2).volumes.sum(),
+                                            rel=1e-12)
+
+
+@pytest.mark.parametrize("h", SCALES)
+def test_a_surface_cutting_through_itself_is_refused_at_any_length_scale(h):
+    """The crafted self-intersections above, scaled: still refused; the strip short of a turn still a mesh."""
+    for points, tets in (crossing_bars(), curled_strip(2.2 * np.pi)):
+        with pytest.raises(MeshError, match="boundary faces .* meet near .* the boundary surface cuts through itself"):
+            TetMesh(h * points, tets)
+    points, tets = curled_strip(2 * np.pi - 0.2)
+    assert TetMesh(h * points, tets).volumes.sum() == pytest.approx(h ** 3 * TetMesh(points, tets).volumes.sum(),
+                                                                     rel=1e-12)
+
+
+@pytest.mark.parametrize("h", SCALES)
+def test_separating_axes_decide_alike_at_any_length_scale(h):
+    """The hand-decided face pairs of test_separating_axes_of_two_triangles, scaled by h (tol too)."""
+    from cvxcontact.geometry.tetmesh import _meet
+
+    cases = test_separating_axes_of_two_triangles.pytestmark[0].args[1]
+    a = h * np.array([c[0] for c in cases], float)
+    b = h * np.array([c[1] for c in cases], float)
+    tol = np.full(len(cases), 1e-9 * h)
+    assert _meet(a, b, tol).tolist() == _meet(b, a, tol).tolist() == [c[2] for c in cases]
+
+
 def test_interior_face_of_a_box_is_not_a_boundary_face():
     m = cc.box(nx=2, ny=2, nz=2)
     inner = [[13, 14, 4]]                                       # the centre node 13 is interior

@@ -137,23 +137,6 @@ def _one_line(exc):
     return " ".join(str(exc).split())
 
 
-def _pair_and_electrode_lines(sol):
-    """Per contact pair its total force (N/m; N in 3D) and active nodes; per electrode its potential (V) and
-    total charge (C/m; C in 3D): what `cvxcontact solve` prints after each report (also in <condition>.json)."""
-    from ..io.output import force_unit, pair_label
-
-    lines = []
-    solid = sol.scene.dim == 3
-    if len(sol.contacts) > 1 or sol.scene.contacts[0].rigid or solid:
-        for i, c in enumerate(sol.contacts):
-            lines.append(f"  contact[{i}] {pair_label(sol, i)}: force {c.force.sum():.6g} {force_unit(sol)}, "
-                         f"{int(c.active.sum())} of {int(c.constrained.sum())} nodes active")
-    for e in sol.electrodes:
-        lines.append(f"  electrode {sol.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
-                     f"{e.potential:.6g} V, charge {e.charge:.6g} {'C' if solid else 'C/m'}")
-    return lines
-
-
 def _run(scene, conditions, settings, out, plots, progress, quiet):
     import warnings
 
@@ -211,8 +194,6 @@ def _run(scene, conditions, settings, out, plots, progress, quiet):
     if not quiet:
         for sol in solutions.values():
             print(sol.report())
-            for line in _pair_and_electrode_lines(sol):
-                print(line)
         print(f"results in {out.resolve()}/ (results.pvd opens every VTU file in ParaView)")
     bad = [c for c, s in solutions.items() if not s.ok]
     if bad:

@@ -38,7 +38,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import nnls
 
-__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "solve_compliance", "solve_linear_compliance",
+__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
+           "force_scale", "FORCE_FLOOR", "solve_compliance", "solve_linear_compliance",
            "solve_sparse_compliance", "SIGN_TOL"]
 
 SIGN_TOL = 1e-10
@@ -287,6 +288,8 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
                     break
                 t *= 0.5
             r = trial
+        if free.any():   # refinement on the interface equation itself, r - d + W w p(r) = 0 on the free rows:
+            r = _refined(W, d, w, law, r, free, at)   # H = W^-1 explicit loses cond(W) eps in r (1e-11 measured)
         g = grad(r)
         z = np.where(at, -g, 0.0)
         if at.any():     # the reactions from W_AA z_A = d_A - l_A - (W w p(r))_A by Cholesky: the explicit
@@ -309,6 +312,47 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
         if at is None:
             return None
     return None
+
+
+def _refined(W, d, w, law, r, free, at, steps=3):
+    """``r`` refined by Newton steps on the interface equation r - d + W (w p(r) + z) = 0 of
+    :func:`solve_compliance` with the residual computed with W itself (not its inverse): the unknowns are r on
+    the ``free`` rows and the reactions z on the rows ``at`` their limit (r = l there). The inner Newton on psi
+    (through H = W^-1) reaches cond(W) eps (1e-11 ... 2e-10 measured); these steps reach rounding of the
+    equation's terms. A step is kept only if it reduces the residual; the caller solves z afterwards."""
+    F, A = np.flatnonzero(free), np.flatnonzero(at)
+    if not len(F):
+        return r
+    rows = np.concatenate([F, A])
+
+    def residual(r, zA):
+        y = w * law.pressure(r)
+        y[A] += zA
+        return (r - d + W @ y)[rows]
+
+    zA = np.zeros(len(A))
+    if len(A):
+        try:
+            zA = sla.solve(W[np.ix_(A, A)], (d - r - W @ (w * law.pressure(r)))[A], assume_a="pos")
+        except (np.linalg.LinAlgError, ValueError):
+            return r
+    res = residual(r, zA)
+    for _ in range(steps):
+        J = np.zeros((len(rows), len(rows)))
+        J[:, :len(F)] = W[np.ix_(rows, F)] * (w * law.derivative(r))[F][None, :]
+        J[:len(F), :len(F)] += np.eye(len(F))
+        J[:, len(F):] = W[np.ix_(rows, A)]
+        try:
+            delta = sla.solve(J, -res)
+        except (np.linalg.LinAlgError, ValueError):
+            return r
+        trial = r.copy()
+        trial[F] += delta[:len(F)]
+        new = residual(trial, zA + delta[len(F):])
+        if not np.isfinite(new).all() or np.linalg.norm(new) >= np.linalg.norm(res):
+            return r
+        r, zA, res = trial, zA + delta[len(F):], new
+    return r
 
 
 def _next_limit_set(at, neg, over, seen):
@@ -479,12 +523,60 @@ def force_displacements(blocks, E, y):
     return w * np.abs(y)
 
 
-def ipm_active(parts, g, y, extra=None):
-    """Active rows of an interior-point answer: the force, relative to the largest contact force,
-    beats the open gap relative to the row's displacement scale (free of units and load scale;
-    ``extra`` as in :func:`node_scales`, e.g. :func:`force_displacements`)."""
+def reach_displacements(blocks, E, u, phi=None):
+    """The displacement each row's unknowns would have from the elastic forces of their neighbours alone:
+    sum_l |E J_l| D_l^{-1} (|Kuu_l| |u_l| + |Kup_l| |phi_l|), D_l the positive diagonal of Kuu_l (scaled units;
+    the check-side twin of :func:`row_reach`). The rounding of a node's displacement is relative to it: a node
+    that does not move (a P2 face vertex on a rigid plane under a uniform pressure) has a slack of rounding and
+    no displacement of its own, and its neighbours' displacements are the scale of that rounding."""
+    out = np.zeros(E.shape[0])
+    for k, (b, uk) in enumerate(zip(blocks, u)):
+        d = b.Kuu.diagonal()
+        inv = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+        f = abs(b.Kuu) @ np.abs(uk)
+        pk = None if phi is None else phi[k]
+        if pk is not None and getattr(b, "Kup", None) is not None:
+            f = f + abs(b.Kup) @ np.abs(pk)
+        out += abs(E @ b.jump) @ (inv * f)
+    return out
+
+
+def reach_forces(blocks, E, u, phi=None):
+    """The size of the elastic forces at each row's unknowns, sum_l |E J_l| (|Kuu_l| |u_l| + |Kup_l| |phi_l|)
+    (scaled forces): the force scale of a contact row that carries no force (an open contact, or forces of
+    interior-point noise), below which a contact force is not read as a force (:data:`FORCE_FLOOR`)."""
+    out = np.zeros(E.shape[0])
+    for k, (b, uk) in enumerate(zip(blocks, u)):
+        f = abs(b.Kuu) @ np.abs(uk)
+        pk = None if phi is None else phi[k]
+        if pk is not None and getattr(b, "Kup", None) is not None:
+            f = f + abs(b.Kup) @ np.abs(pk)
+        out += abs(E @ b.jump) @ f
+    return out
+
+
+FORCE_FLOOR = 1e-6
+"""The largest contact force Y is floored at this fraction of the largest elastic force at the contact rows
+(:func:`reach_forces`) where it normalises the forces (the active rows of an interior point, the
+complementarity and cone checks): with the contact open, an interior point's forces are noise (1e-8 of
+that scale, measured) and must not read as a contact (docs/checks.md)."""
+
+
+def force_scale(y, reach=None) -> float:
+    """Y = max(max |y|, FORCE_FLOOR max ``reach``) (:func:`reach_forces`), at least the smallest float."""
+    Y = float(np.abs(y).max(initial=0.0))
+    if reach is not None:
+        Y = max(Y, FORCE_FLOOR * float(np.max(reach, initial=0.0)))
+    return max(Y, np.finfo(float).tiny)
+
+
+def ipm_active(parts, g, y, extra=None, reach=None):
+    """Active rows of an interior-point answer: the force, relative to the largest contact force
+    (:func:`force_scale`, floored by ``reach``, :func:`reach_forces`), beats the open gap relative to the
+    row's displacement scale (free of units and load scale; ``extra`` as in :func:`node_scales`, e.g.
+    :func:`force_displacements`)."""
     slack, U = node_scales(parts, g, extra)
-    return y / max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny) > np.abs(slack) / U
+    return y / force_scale(y, reach) > np.abs(slack) / U
 
 
 DEPENDENT_PIVOT = 1e-10
@@ -841,7 +933,8 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
 
     def steps_from(first):
         built.append(factored_rows(kkt.matrix, kkt.rhs, G, g, first))
-        return None if built[0] is None else step
+        return exact if built[0] is None else step      # no anchor holds the bodies (e.g. a translation held
+        # by ``hold`` rather than by a row): every step is the sparse LU of (26)
 
     def step(mask, passive):
         out = built[0](mask, passive)
@@ -851,6 +944,8 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         return out
 
     def verify(mask, passive):
+        if built[0] is None:                            # the steps were the sparse LU of (26) already
+            return exact(mask, passive)
         out = built[0].exact(mask, passive)
         if out is None:                                 # not at rounding: the sparse LU of (26)
             return exact(mask, passive)

@@ -10,14 +10,14 @@ import numpy as np
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
-from .finish import (SIGN_TOL, active_set_steps, independent_active_set, independent_interface, force_displacements,
-                     ipm_active, lcp_start, row_scales, signs_hold, solve_lcp)
+from .finish import (force_displacements, independent_active_set, independent_interface, ipm_active, lcp_start,
+                     reach_forces, row_scales, signs_hold, solve_lcp)
 from .full import ContactModel, mixed_kkt
 from .interface import condensation
 from .program import timed_program
 from .result import RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "sparse_active_set", "interface_finish", "dependent_rows"]
+__all__ = ["full", "condensed", "sparse", "interface_finish", "dependent_rows"]
 
 
 def dependent_rows(problem) -> bool:
@@ -31,12 +31,16 @@ def dependent_rows(problem) -> bool:
     return any(c == "gamma3" and not getattr(i, "rigid", True) for i, c in zip(interfaces, conditions))
 
 
-def dependent_finish(problem, raw, timings):
-    """The exact finish of dependent rows (:func:`~cvxcontact.backends.finish.independent_active_set`) on the
-    sparse mixed system, from the interior point's forces and active set in ``raw``; fills ``raw``."""
+def dependent_finish(problem, raw, timings, hold=None):
+    """The exact finish on the sparse mixed system (26) (:func:`~cvxcontact.backends.finish.independent_active_set`,
+    Lawson-Hanson on the dual: finite, its passive rows independent, its signs measured on each row's own
+    displacement scale), from the interior point's forces and active set in ``raw``; fills ``raw``. The one
+    finish of the mixed system: rows that may be dependent (3D "gamma3" overlays), bodies held by the contact
+    only, force-controlled obstacles (``hold``: the interior point's translations, for the components no
+    active row sees, see :func:`~cvxcontact.backends.full.mixed_kkt`)."""
     t0 = time.perf_counter()
     tr = list(problem.translations)
-    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
+    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr, hold=hold)
     free = ~problem.held_rows
     out = independent_active_set(kkt, problem.g, np.where(free, raw.y, 0.0), raw.active & free)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
@@ -81,23 +85,12 @@ def full(problem, cache, settings, timings) -> RawResult:
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
     slack = sum(parts) - moved
-    raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y))
+    raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y),
+                            reach_forces(blocks, E, raw.u, raw.phi))
     if not settings.polish:
         return raw
-    if dependent_rows(problem):
-        return dependent_finish(problem, raw, timings)
-    if problem.held or tr:
-        out = sparse_active_set(mixed_kkt(blocks, E, g, translations=tr, hold=raw.taus or None), g,
-                                raw.active & ~problem.held_rows, timings)     # held rows: force 0 (§8)
-        if out is None:
-            raw.declined = "the active-set steps on the sparse mixed system did not settle"
-            return raw
-        x, raw.active = out
-        raw.u, raw.phi, raw.y = x[:3]
-        if tr:
-            raw.taus = list(x[3])
-        raw.polished, raw.finish = True, "active set"
-        return raw
+    if dependent_rows(problem) or problem.held or tr:
+        return dependent_finish(problem, raw, timings, hold=raw.taus or None)
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     W = reduction.W
@@ -201,27 +194,3 @@ def cheap_start(problem):
     free = ~problem.held_rows
     start = free & (np.asarray(problem.g) <= 0.0)
     return start if 0 < start.sum() < free.sum() else None
-
-
-def sparse_active_set(kkt, g, active, timings, max_iter=30):
-    """Exact finish on the sparse mixed system (26) (``mixed_kkt``), for scenes whose bodies cannot be
-    condensed alone (a body held by the contact only, force-controlled obstacles): primal-dual active-set
-    steps from ``active`` until y >= 0 on the active rows and the open rows' slack <= 0, each to SIGN_TOL of
-    the problem's force and displacement scales. Returns ((u, phi, y[, taus]), active) or None."""
-    t0 = time.perf_counter()
-
-    def step(active):
-        res = kkt(active)
-        if res is None:
-            return None
-        x, y, slack, _ = res
-        ys = max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
-        ds = max(float(np.abs(slack + g).max(initial=0.0)), float(np.abs(g).max(initial=0.0)),
-                 np.finfo(float).tiny)
-        if (y >= -SIGN_TOL * ys).all() and (slack[~active] <= SIGN_TOL * ds).all():
-            return x, None
-        return x, y / ys + slack / ds > 0
-
-    out = active_set_steps(step, active, max_iter)
-    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    return None if isinstance(out, str) else out[:2]

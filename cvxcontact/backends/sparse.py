@@ -56,7 +56,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import active_set_steps, signs_hold
+from .finish import active_set_steps, row_reach, signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
 
@@ -163,6 +163,7 @@ class SparseContact:
                        in zip(blocks, self.sizes)]).tocsr()
         G.sum_duplicates()
         self.G = G
+        self.reach = row_reach(A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         Gc = G.tocoo()
         self.w = row_weights(blocks, E)
         # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `row`, 2 = its diagonal
@@ -321,7 +322,8 @@ class SparseContact:
                 return None
             x, y = z[:n], z[n:]
             s = self.G @ x - self._g
-            S = np.abs(self.G) @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)
+            S = self.reach @ np.abs(x) + np.abs(self._g) + self.w * np.abs(y)     # (a node that does not move:
+            # a P2 face vertex under a uniform pressure, has a slack of rounding of its neighbours' displacements)
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
             return (x, y), (None if signs_hold(y, s, active, self.w, S) else y * self.w + s > 0)
 

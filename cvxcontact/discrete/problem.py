@@ -175,6 +175,12 @@ class DiscreteProblem:
         """The gap at the stacked nodes with the force-controlled obstacles translated by ``taus`` (scaled)."""
         return self.gap - sum((o.reduced_rows @ t for o, t in zip(self.forced, taus)), np.zeros(len(self.gap)))
 
+    def translation_sizes(self, taus) -> np.ndarray:
+        """|R tau| summed over the force-controlled obstacles at the stacked nodes (scaled): the size of the terms
+        the translations add to the gap, the displacement scale of a row whose moved gap is their cancellation
+        (an obstacle that travels far before touching)."""
+        return sum((np.abs(o.reduced_rows @ t) for o, t in zip(self.forced, taus)), np.zeros(len(self.gap)))
+
     def with_rows(self, E, rows=None, weights=None) -> "DiscreteProblem":
         """The same problem with the condition posed by other evaluation rows ``E`` (nodes of X_h -> rows), e.g.
         the nodal condition sampled at chosen points of every merged segment (a linear relaxation of the conic

@@ -210,7 +210,7 @@ def _as_points(points):
     if p.ndim != 2 or p.shape[1] not in (2, 3) or len(p) < 3:
         raise MeshError(f"points must be an (n, 2) array with n >= 3, got shape {p.shape}")
     if p.shape[1] == 3:
-        if np.ptp(p[:, 2]) > 1e-12 * max(np.ptp(p[:, :2]), 1.0):
+        if np.ptp(p[:, 2]) > 1e-12 * np.ptp(p[:, :2]):               # relative: the same at every scale
             raise MeshError("points have a varying third coordinate; cvxcontact meshes are planar (x, y)")
         p = p[:, :2]
     if not np.isfinite(p).all():

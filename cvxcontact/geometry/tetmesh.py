@@ -494,8 +494,15 @@ def _meet(A, B, tol):
     as a triangle with a repeated vertex) are within ``tol`` (p,) of each other along every axis of the
     separating-axis test: the two normals, the cross products of each normal with the other's edges (the
     coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
-    separated. Axes are unit vectors built from unit edges; one whose directions are parallel to 1e-9 is
-    skipped (the others separate such pairs)."""
+    separated. Each pair is first moved and scaled to unit size, so the test is the same at every length
+    scale (a box of 1e-12 m as of 1 m). Axes are unit vectors built from unit edges; an edge shorter than
+    1e-9 of its pair's size is no edge (a segment's repeated vertex), an axis from directions parallel to
+    1e-9 is skipped (the others separate such pairs)."""
+    origin = A[:, :1]
+    scale = np.ptp(np.concatenate([A, B], axis=1), axis=1).max(axis=1)        # (p,) the pair's size
+    scale = np.where(scale > 0, scale, 1.0)
+    A, B = (A - origin) / scale[:, None, None], (B - origin) / scale[:, None, None]
+    tol = tol / scale
     ea = _unit(A[:, [1, 2, 0]] - A)                                           # (p, 3, 3) unit edges, 0 if none
     eb = _unit(B[:, [1, 2, 0]] - B)
     na = _unit(np.cross(ea[:, 0], ea[:, 1]) + np.cross(ea[:, 1], ea[:, 2]))[:, None]   # 0 for a segment
@@ -520,7 +527,7 @@ def _meet(A, B, tol):
 
 
 def _unit(v):
-    """v / |v| along the last axis, 0 where |v| <= 1e-9."""
+    """v / |v| along the last axis, 0 where |v| <= 1e-9 (v dimensionless: unit-size pairs, unit vectors)."""
     n = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2 + v[..., 2] ** 2)[..., None]
     return np.where(n > 1e-9, v / np.where(n > 0, n, 1.0), 0.0)
 

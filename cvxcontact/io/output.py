@@ -19,12 +19,13 @@ from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..geometry.quadratic import P2Nodes, P2TetNodes
+from ..solution.solution import force_unit, pair_label
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
 
 __all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure",
-           "surface_cells", "force_unit"]
+           "surface_cells"]
 
 
 def atomic_write(path, write, *, durable: bool = False):
@@ -191,13 +192,6 @@ def pair_bodies(solution, pair=0) -> list[int]:
     return [a] if b is None else [a, b]
 
 
-def pair_label(solution, pair=0) -> str:
-    """A short name of contact pair ``pair``: "upper/bottom - lower/top" or "block/bottom - Rigid.plane(...)"."""
-    c = solution.scene.contacts[pair]
-    other = repr(c.other) if c.rigid else f"{c.other.name}/{c.part_b}"
-    return f"{c.body_a.name}/{c.part_a} - {other}"
-
-
 def _side_displacements(solution, pair=0):
     """Displacement (n_merged, d) of each side's trace interpolated at the merged nodes (m)."""
     itf = _interface(solution, pair)
@@ -230,11 +224,6 @@ def _vectors(a):
     """Vectors (n, 2) or (n, 3) as VTK's 3-component arrays (2D: a zero third component)."""
     a = np.asarray(a, dtype=float)
     return _pad3(a) if a.shape[1] == 2 else a
-
-
-def force_unit(solution) -> str:
-    """The unit of a nodal or resultant force of ``solution``: "N/m" in 2D (per unit thickness), "N" in 3D."""
-    return "N" if solution.scene.dim == 3 else "N/m"
 
 
 def contact_mesh(solution, pair=0):
@@ -368,7 +357,8 @@ def _pair_summary(solution, i) -> dict:
            "obstacle": repr(solution.scene.contacts[i].other) if solution.scene.contacts[i].rigid else None,
            "normal": [float(v) for v in c.normal] if c.normal is not None else None,
            "merged_nodes": int(len(c.x)), "constrained_nodes": int(c.constrained.sum()),
-           "active_nodes": int(c.active.sum())}
+           "active_nodes": int(c.active.sum()), "contact_zone_nodes": int(solution.in_contact(i).sum()),
+           "contact_zone_fraction": solution.contact_fraction(i)}
     if solution.scene.dim == 3:
         frame = _interface(solution, i).frame
         out["frame"] = [[float(v) for v in t] for t in frame]
@@ -390,7 +380,9 @@ def summary(solution) -> dict:
     each body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
     ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
     diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
-    (possible with sigma_l); ``active_x_m`` is the range of the tangential coordinate s (m) of the
+    (possible with sigma_l); ``contact_zone_nodes`` counts the merged nodes where the pressure is positive
+    and ``contact_zone_fraction`` the share of the surface they cover (:meth:`Solution.in_contact`,
+    :meth:`Solution.contact_fraction`; ``active_nodes``: those that carry a nodal force); ``active_x_m`` is the range of the tangential coordinate s (m) of the
     active nodes (3D: ``active_s_m``, the ranges of both in-plane coordinates (s1, s2) along the pair's
     ``frame`` (t1, t2)). ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
     ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;

@@ -346,19 +346,26 @@ _FIELDS_3D = {"von_mises": ("von Mises stress", "Pa"), "displacement": ("|u|", "
 def contact_zone(solution: Solution, pair: int = 0) -> np.ndarray:
     """(k, 2, 2) the boundary of the contact zone of 3D contact pair ``pair``, as segments in the in-plane
     coordinates (s1, s2) of the pair's frame (m): the contact zone is the union of the cells of the contact
-    surface (the overlay, or the body's faces that reach an obstacle) whose three nodes are active; its
-    boundary is every cell edge that belongs to exactly one such cell. Empty (0, 2, 2) without a cell whose
-    nodes are all active."""
-    from .output import surface_cells
+    surface (the overlay, or the body's faces that reach an obstacle) whose three nodes are in contact, i.e.
+    where the pressure is positive (:meth:`Solution.in_contact`; not the ``active`` nodes, which carry the
+    nodal forces: under "gamma3" a subset of the overlay's); its boundary is every cell edge that belongs to
+    exactly one such cell. Empty (0, 2, 2) without a cell whose nodes are all in contact."""
+    from .output import _interface, surface_cells
 
     c = solution.contacts[pair]
-    tri = surface_cells(solution.scene.interfaces[pair])
-    on = tri[np.asarray(c.active)[tri].all(axis=1)]
+    tri = surface_cells(_interface(solution, pair))
+    on = tri[solution.in_contact(pair)[tri].all(axis=1)]
     if len(on) == 0:
         return np.zeros((0, 2, 2))
     edges = np.sort(on[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
     unique, count = np.unique(edges, axis=0, return_counts=True)
     return np.asarray(c.x)[unique[count == 1]]
+
+
+def _zone_words(solution, pair) -> tuple[int, str]:
+    """The number of nodes of contact pair ``pair`` in its contact zone and " (p % of the area)" (or "")."""
+    share = solution.contact_fraction(pair)
+    return int(solution.in_contact(pair).sum()), "" if share is None else f" ({100 * share:.4g} % of the area)"
 
 
 def _check_3d(solution, who):
@@ -373,7 +380,8 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
     (:meth:`Solution.traction`, P1 on that body's triangles; against a rigid obstacle the body's side only),
     one colour scale for the whole figure, and the opening g - [u_nu] left between the surfaces on the
     overlay (m; 0 where the surfaces touch). The contact zone (:func:`contact_zone`, the union of the cells
-    whose nodes are all active) is outlined in red on every panel. Axes are the pair's in-plane coordinates
+    whose nodes are all in contact: positive pressure) is outlined in red on every panel; the overlay's title
+    counts its nodes, the share of the area it covers, and the active nodes (those carrying a nodal force). Axes are the pair's in-plane coordinates
     (s1, s2) along its frame (t1, t2) ((x, y) for a plane z = const), with engineering prefixes. Returns the
     Figure."""
     from .output import surface_cells
@@ -417,7 +425,9 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
         shown = ax.tripcolor(c.x[:, 0], c.x[:, 1], tri, opening, shading="gouraud", cmap="viridis",
                              vmin=min(0.0, float(opening.min())), vmax=vmax)
         fig.colorbar(shown, ax=ax, label=r"opening $g - [u_\nu]$", format=eng("m"), shrink=0.9)
-        ax.set_title(f"{label}: {int(c.active.sum())} of {int(c.constrained.sum())} nodes active"
+        zone_nodes, share = _zone_words(sol, i)
+        ax.set_title(f"{label}: pressure > 0 at {zone_nodes} of {len(c.x)} nodes{share},\n"
+                     f"{int(c.active.sum())} active (carry a force)"
                      + (f"\nopening at rounding ({small:.0e} m), drawn as 0" if small is not None else ""), fontsize=9)
         for ax in axes[r, :len(sides)].tolist() + [axes[r, 2]]:
             for seg in zone:

@@ -54,7 +54,7 @@ from ..discrete import build_problem
 from ..errors import ResidualWarning, SceneError
 from ..fem.space import space
 from ..physics.scene import Body, Scene
-from ..solution.checks import force_displacements, ipm_active
+from ..solution.checks import force_displacements, ipm_active, reach_forces
 from ..solution.info import Route
 from ..solution.readback import read_back
 from ..solution.solution import Solution
@@ -335,7 +335,7 @@ class Model:
         finishable = linear and not conic                                  # nor with the conic condition
         moved = self.problem.moved_gap(taus)
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], E @ moved, y,
-                            force_displacements(blocks, E, y)) & ~held     # a held row would make the KKT singular
+                            force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi)) & ~held     # a held row would make the KKT singular
         polished, declined = False, ""
         if self.polish and finishable:
             t0 = time.perf_counter()

@@ -9,7 +9,10 @@ All in scaled units, dimensionless, reported by :meth:`cvxcontact.Solution.resid
 
 with r_k the residual of body k's rows of (26), U_a the displacement scale of node a
 (both bodies' normal displacements there plus the gap plus the local displacement w_a |y_a| of
-its own contact force, :func:`force_displacements`) and Y the largest contact force.
+its own contact force, :func:`force_displacements`, plus the displacement its neighbours' elastic forces give
+it, :func:`reach_displacements`: a node that does not move has no other scale) and Y the largest contact force,
+floored at FORCE_FLOOR = 1e-6 of the largest elastic force at the contact rows (:func:`force_scale`): with the
+contact open the forces are zero or noise, and noise over noise is not a violation.
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..backends.cuts import segment_scales
-from ..backends.finish import force_displacements, ipm_active, node_scales  # noqa: F401  (re-exported)
+from ..backends.finish import (force_displacements, force_scale, ipm_active, node_scales,  # noqa: F401
+                               reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
 __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
@@ -26,14 +30,15 @@ __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance
            "obstacle_balance"]
 
 
-def checks(blocks, u, phi, Mlam, E, g, y):
+def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     """The relative residuals of the mixed formulation, in scaled units (module docstring).
 
     Each is normalised where nothing can hide: equilibrium per body by that body's own
     row scales |A||x| + |F| + |J^T||M lambda_h|; feasibility, complementarity and cone
     per constrained node by that node's displacement scale U_a (the sizes of both
     bodies' normal displacements there and of the gap) and by the largest contact
-    force, never by the total load.
+    force, never by the total load. ``moved`` (per row, optional): the size of the obstacles' translation
+    terms in the gap ``g`` (:meth:`~cvxcontact.discrete.DiscreteProblem.translation_sizes`), added to U_a.
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -41,8 +46,10 @@ def checks(blocks, u, phi, Mlam, E, g, y):
         r = np.concatenate(b.residual(uk, pk, Mlam))
         m = np.concatenate(b.magnitude(uk, pk, Mlam))
         equilibrium = max(equilibrium, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
-    slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g, force_displacements(blocks, E, y))
-    Y = max(float(np.abs(y).max(initial=0.0)), tiny)
+    slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g,
+                           force_displacements(blocks, E, y) + reach_displacements(blocks, E, u, phi)
+                           + (0.0 if moved is None else np.abs(moved)))
+    Y = force_scale(y, reach_forces(blocks, E, u, phi))
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),

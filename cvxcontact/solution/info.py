@@ -31,13 +31,15 @@ class SolveInfo:
     status : Status
         OPTIMAL or OPTIMAL_INACCURATE (any other solver status raises SolverError).
     method : str
-        The backend actually used ("full" or "condensed"; never "auto").
+        The backend actually used: one of the four backends of :data:`cvxcontact.backends.METHODS` ("amg", "sparse",
+        "condensed" or "full"; never "auto").
     requested : str
-        The ``method=`` that was asked for ("auto", "full" or "condensed").
+        The ``method=`` that was asked for ("auto" or one of the four backends).
     route : Route
-        INTERIOR_POINT, INTERIOR_POINT_FINISHED or WARM_START.
+        The route that produced the arrays (a member of :class:`Route`, e.g. INTERIOR_POINT,
+        INTERIOR_POINT_FINISHED, WARM_START, SPARSE_ACTIVE_SET, KRYLOV_ACTIVE_SET).
     polished : bool
-        True if the arrays are the exact finish (route INTERIOR_POINT_FINISHED or WARM_START).
+        True if the arrays are an exact finish (the routes of the finish and of the active-set steps).
     iterations : int
         Interior-point iterations of this solve (0 for a warm start); for the sparse route the number of
         active-set steps (systems solved).

@@ -23,7 +23,7 @@ from .checks import (CERTIFIED, ENERGY_ERROR, checks, compliance_checks, conic_c
                      rigid_balance)
 from .info import Route, SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back_nodal", "read_back_compliance",
+__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back_nodal", "read_back_compliance", "pair_label", "force_unit",
            "read_back_conic_mix",
            "obstacle_results"]
 
@@ -212,7 +212,7 @@ class Solution:
 
     @property
     def method(self) -> str:
-        """The backend actually used ("full" or "condensed")."""
+        """The backend actually used ("amg", "sparse", "condensed" or "full")."""
         return self.info.method
 
     @property
@@ -256,11 +256,7 @@ class Solution:
         of the trace interpolation: exact work equivalence) and divided by the lumped
         lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
         """
-        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
-                not 0 <= pair < len(self.scene.interfaces):
-            raise SceneError(f"traction(k, pair): pair must be an index of scene.contacts "
-                             f"(0 to {len(self.scene.interfaces) - 1}), got {pair!r}")
-        itf = _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
+        itf = self._pair_line(pair)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
@@ -269,16 +265,83 @@ class Solution:
             return x.copy(), itf.pressure(k, self.contacts[pair].force)
         return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 
+    def in_contact(self, pair: int = 0) -> np.ndarray:
+        """The contact zone of contact pair ``pair``: a boolean mask of its merged nodes (``contacts[pair].x``)
+        where the pressure felt by the bodies is positive (:meth:`traction` of each side interpolated at the
+        node, their mean; above 1e-9 of its largest value). This is the zone the report counts and
+        :func:`~cvxcontact.io.plot.plot_contact_map` draws. It differs from ``contacts[pair].active`` (the
+        constrained nodes that carry a nodal force): under "gamma3" on non-matching faces the overlay's rows are
+        dependent and a uniform pressure is carried by the forces of a subset of its nodes."""
+        itf = self._pair_line(pair)
+        sides = range(len(itf.traces))
+        p = sum(itf.interpolation(k) @ self.traction(k, pair)[1] for k in sides) / len(sides)
+        top = float(np.abs(p).max()) if len(p) else 0.0
+        return p > 1e-9 * top if top > 0 else np.zeros(len(p), dtype=bool)
+
+    def contact_fraction(self, pair: int = 0) -> float | None:
+        """The share of contact pair ``pair``'s surface (length in 2D, area in 3D) in its contact zone
+        (:meth:`in_contact`), each merged node weighted by its share of the surface (the lumped lengths or areas
+        of the mesh of the constrained nodes, ``contacts[pair].measure``; P2 in 2D: the P2 lumped lengths);
+        1 for contact over the whole surface. None for P2 in 3D (a face vertex has no lumped area)."""
+        c = self.contacts[pair]
+        if c.measure is not None:
+            w = np.asarray(c.measure, dtype=float)
+        elif np.ndim(c.x) == 1:
+            w = _p2_lumped(c.x) if c.degree == 2 else lumped_lengths(c.x)
+        else:
+            return None
+        return float(w[self.in_contact(pair)].sum() / w.sum()) if w.sum() > 0 else None
+
+    def _pair_line(self, pair: int):
+        if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
+                not 0 <= pair < len(self.scene.interfaces):
+            raise SceneError(f"pair must be an index of scene.contacts (0 to {len(self.scene.interfaces) - 1}), "
+                             f"got {pair!r}")
+        return _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
+
     def report(self) -> str:
-        """A short human-readable account of the solve and its checks."""
+        """A short human-readable account of the solve (what `cvxcontact solve` prints): the condition, the
+        solver status and whether the arrays are the exact finish; each check of (26)-(27) against ``tol``;
+        per contact pair its total force, its contact zone (:meth:`in_contact`: the nodes where the pressure is
+        positive, and the share of the surface they cover) and its active nodes (the constrained nodes that
+        carry a nodal force, ``contacts[i].active``); per electrode its potential (V) and charge (C/m; C in
+        3D); per rigid obstacle its translation (m) and force."""
         finish = "exact finish" if self.polished else "interior-point answer"
-        lines = [f"condition {self.condition}, solver status {self.status}, {finish}, "
-                 f"{sum(int(c.active.sum()) for c in self.contacts)} of "
-                 f"{sum(int(c.constrained.sum()) for c in self.contacts)} constrained nodes active"
-                 + (f" ({len(self.contacts)} contact pairs)" if len(self.contacts) > 1 else "")]
+        lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
                   for k, v in self._checks.items()]
+        unit, charge = force_unit(self), "C" if self.scene.dim == 3 else "C/m"
+        for i, c in enumerate(self.contacts):
+            zone, share = self.in_contact(i), self.contact_fraction(i)
+            lines.append(f"  contact[{i}] {pair_label(self, i)}: force {c.force.sum():.6g} {unit}; pressure > 0 at "
+                         f"{int(zone.sum())} of {len(zone)} nodes"
+                         + (f" ({100 * share:.4g} % of the {'area' if self.scene.dim == 3 else 'length'})"
+                            if share is not None else "")
+                         + f"; {int(c.active.sum())} of {int(c.constrained.sum())} constrained nodes active "
+                           "(carry a force)")
+        for e in self.electrodes:
+            lines.append(f"  electrode {self.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
+                         f"{e.potential:.6g} V, charge {e.charge:.6g} {charge}")
+        for j, o in enumerate(self.obstacles):
+            lines.append(f"  obstacle[{j}] {o.obstacle!r}: translation ({_numbers(o.translation)}) m, force "
+                         f"({_numbers(o.force)}) {unit}")
         return "\n".join(lines)
+
+
+def _numbers(v) -> str:
+    return ", ".join(f"{float(a) + 0.0:.6g}" for a in v)              # + 0.0: no "-0"
+
+
+def pair_label(solution, pair=0) -> str:
+    """A short name of contact pair ``pair``: "upper/bottom - lower/top" or "block/bottom - Rigid.plane(...)"."""
+    c = solution.scene.contacts[pair]
+    other = repr(c.other) if c.rigid else f"{c.other.name}/{c.part_b}"
+    return f"{c.body_a.name}/{c.part_a} - {other}"
+
+
+def force_unit(solution) -> str:
+    """The unit of a nodal or resultant force of ``solution``: "N/m" in 2D (per unit thickness), "N" in 3D."""
+    return "N" if solution.scene.dim == 3 else "N/m"
 
 
 @dataclass(frozen=True)
@@ -360,7 +423,8 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         active = np.zeros(itf.size, dtype=bool)
         active[S.ravel()] = True              # the nodes of segments that carry a force
     else:
-        checks_ = checks(blocks, u, phi, Ety, E, g, y)     # the row forces (3D: M lam = E^T y only on the traces)
+        checks_ = checks(blocks, u, phi, Ety, E, g, y,     # the row forces (3D: M lam = E^T y only on the traces)
+                         abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
         if len(modes):

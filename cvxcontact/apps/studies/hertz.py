@@ -110,31 +110,36 @@ def figure(rows, last, levels):
     return fig
 
 
+def level(degree, n):
+    """One row of the study's table (the scene at ``n`` cells with P``degree`` elements, solved) and the solution."""
+    clock = Timer()
+    sol = solve_quietly(scene(n), "gamma3", method="condensed", degree=degree)
+    seconds = clock()
+    c = sol.contact
+    P = float(c.force.sum())
+    a, p0 = hertz(P, R, e_star(*STEEL, *ALU))
+    a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
+    xv = c.x if degree == 1 else c.x[::2]                       # merged vertices
+    h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if c.active.any() else float("nan")
+    dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
+    return dict(degree=degree, n=n, dofs=dofs, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h,
+                a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
+                active_nodes=int(c.active.sum()), ok=sol.ok, seconds=seconds), sol
+
+
 def run(out, quick=False, progress=None):
     say = progress or (lambda s: None)
     out = Path(out)
     # P2 at n has about the unknowns of P1 at 2n (nodes at every vertex and edge midpoint)
     levels = {1: [24, 48, 96], 2: [12, 24, 48]} if quick else {1: [32, 64, 128, 256, 512], 2: [16, 32, 64, 128, 256]}
-    Es = e_star(*STEEL, *ALU)
     rows, last = [], {}
     for degree in (1, 2):
         for n in levels[degree]:
-            clock = Timer()
-            sol = solve_quietly(scene(n), "gamma3", method="condensed", degree=degree)
-            seconds = clock()
-            c = sol.contact
-            P = float(c.force.sum())
-            a, p0 = hertz(P, R, Es)
-            a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
-            xv = c.x if degree == 1 else c.x[::2]                       # merged vertices
-            h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if c.active.any() else float("nan")
-            dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
-            rows.append(dict(degree=degree, n=n, dofs=dofs, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h,
-                             a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,
-                             active_nodes=int(c.active.sum()), ok=sol.ok, seconds=seconds))
-            say(f"hertz P{degree} n={n}: a_h/a - 1 = {rows[-1]['a_rel_error']:+.2e}, "
-                f"p0_h/p0 - 1 = {rows[-1]['p0_rel_error']:+.2e} ({seconds:.1f} s)")
-            last[degree] = (sol, a, p0, P)
+            row, sol = level(degree, n)
+            rows.append(row)
+            say(f"hertz P{degree} n={n}: a_h/a - 1 = {row['a_rel_error']:+.2e}, "
+                f"p0_h/p0 - 1 = {row['p0_rel_error']:+.2e} ({row['seconds']:.1f} s)")
+            last[degree] = (sol, row["a_m"], row["p0_Pa"], row["load_N_per_m"])
     write_csv(out / "hertz.csv", rows)
     fig = figure(rows, last, levels)
     save_figure(fig, out / "hertz.png")

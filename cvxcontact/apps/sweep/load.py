@@ -1,7 +1,8 @@
 """Reading a sweep's results back: ``r = cc.load_sweep(folder)``.
 
 ``r.cases`` is the table of cases (one row per case of the manifest: its id, name, condition, state, its
-overrides as flattened columns, the checks, timings and how it was solved); ``r.arrays(id)`` the arrays
+overrides as flattened columns, the checks, timings, how it was solved and its readings: energy, floating
+electrodes' potentials, obstacles' forces and translations, :func:`readings`); ``r.arrays(id)`` the arrays
 of one case with their units; ``r.export(folder)`` writes the fields as XDMF + HDF5 for ParaView. The
 folder is only read: loading while a sweep runs on it is safe (every file is written whole, the manifest
 last), and shows the cases finished so far.
@@ -15,14 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import CvxContactError
-from .store import CASES, FAILURES, array_unit, case_state
+from ...errors import SweepResultsError
+from .store import CASES, FAILURES, array_unit, case_state, record_fault
 
-__all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten"]
-
-
-class SweepResultsError(CvxContactError, ValueError):
-    """A folder that is not a sweep's output, an unknown case id, or a case without a complete result."""
+__all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten", "readings"]
 
 
 def flatten(value, key: str = "") -> dict:
@@ -73,6 +70,29 @@ def _read_json(path: Path):
         return None
 
 
+def readings(record: dict) -> dict:
+    """The physical readings of a case record as table columns, each named with its unit:
+
+    * the energy: ``energy_J_per_m`` in 2D (per unit thickness), ``energy_J`` in 3D (the record's key);
+    * each floating electrode's potential: ``<body>.<part>_V`` (the body's name, the electrode's boundary part);
+    * each rigid obstacle k (1-based, the scene's order): ``obstacle<k>.translation_m[i]`` and its contact
+      force ``obstacle<k>.contact_force_N_per_m[i]`` (2D) or ``obstacle<k>.contact_force_N[i]`` (3D).
+
+    Records of older sweeps (a missing or ill-typed entry) give the columns they have."""
+    out = {k: record[k] for k in ("energy_J_per_m", "energy_J") if k in record}
+    electrodes = record.get("electrodes")
+    for e in electrodes if isinstance(electrodes, list) else ():
+        if isinstance(e, dict) and e.get("kind") == "floating" and "potential_V" in e:
+            body = e.get("body_name") or f"body {e.get('body')}"
+            out[f"{body}.{e.get('tag')}_V"] = e["potential_V"]
+    obstacles = record.get("obstacles")
+    for k, o in enumerate(obstacles if isinstance(obstacles, list) else (), start=1):
+        if isinstance(o, dict):
+            out.update(flatten({key: o[key] for key in ("translation_m", "contact_force_N_per_m", "contact_force_N")
+                                if isinstance(o.get(key), list)}, f"obstacle{k}"))
+    return out
+
+
 def _row(case: dict, record: dict | None, failure: dict | None, state: str) -> dict:
     row = {"id": case["id"], "name": case.get("name"), "condition": case.get("condition"), "state": state}
     row.update(flatten(case.get("overrides") or {}))
@@ -81,7 +101,8 @@ def _row(case: dict, record: dict | None, failure: dict | None, state: str) -> d
                     "route": record.get("route"), "backend": record.get("backend"),
                     "iterations": record.get("iterations"), "attempts": len(record.get("attempts") or []),
                     "kept_attempt": record.get("kept_attempt"), "tolerance": record.get("tolerance"),
-                    "energy_J_per_m": record.get("energy_J_per_m"), "seconds": record.get("seconds")})
+                    "seconds": record.get("seconds")})
+        row.update(readings(record))
         row.update({f"check.{k}": v for k, v in (record.get("residuals") or {}).items()})
         row.update({f"time.{k}": v for k, v in (record.get("timings_s") or {}).items()})
         row["cvxcontact"] = (record.get("versions") or {}).get("cvxcontact")
@@ -147,6 +168,11 @@ class SweepResults:
             raise SweepResultsError(f"case {case_id} has no result ({state}{why}); run the sweep (again) to "
                                     "compute it" + (" with --retry-failed" if state == "failed" else ""))
         if state == "corrupt":
+            path = self.folder / CASES / f"{case_id}.json"
+            fault = record_fault(_read_json(path), case_id) if path.exists() else None
+            if fault is not None:
+                raise SweepResultsError(f"case {case_id}: its record {str(path)!r} is damaged: {fault}; run the "
+                                        "sweep again (`cvxcontact sweep SWEEP.toml --out FOLDER`) to redo it")
             raise SweepResultsError(f"case {case_id}: its files in {str(self.folder / CASES)!r} are incomplete or "
                                     "altered (a half-written or damaged result); run the sweep again to redo it")
         try:
@@ -177,6 +203,9 @@ def load_sweep(folder) -> SweepResults:
     ``r.cases`` (a pandas DataFrame when pandas is installed, else a list of dicts), ``r.arrays(id)``,
     ``r.record(id)``, ``r.export()``; see :mod:`cvxcontact.apps.sweep.load`.
 
+    A case whose record is damaged (not valid JSON, another case's, a field of the wrong type) is a row in state
+    ``corrupt`` with an ``error`` naming the file and the field; the other cases read as usual.
+
     Raises :class:`SweepResultsError` if ``folder`` is not a sweep's output folder (no readable
     ``manifest.json``)."""
     if not isinstance(folder, (str, Path)) or not str(folder):
@@ -193,11 +222,15 @@ def load_sweep(folder) -> SweepResults:
                                 "`cvxcontact sweep SWEEP.toml --out FOLDER`)")
     rows = []
     for c in cases:
-        record = _read_json(folder / CASES / f"{c['id']}.json")
+        path = folder / CASES / f"{c['id']}.json"
+        record = _read_json(path)
         failure = _read_json(folder / FAILURES / f"{c['id']}.json")
-        record = record if isinstance(record, dict) and record.get("case") == c["id"] else None
         failure = failure if isinstance(failure, dict) and failure.get("case") == c["id"] else None
-        if record is not None:
+        fault = record_fault(record, c["id"]) if path.exists() else None
+        if fault is not None:               # listed, not read: r.record / r.arrays raise, a rerun redoes it
+            record, failure = None, {"error": f"{str(path)!r} is damaged: {fault}; run the sweep again to redo it"}
+            state = "corrupt"
+        elif record is not None:
             state = "done" if record.get("ok") else "checks_failed"
         else:
             state = "failed" if failure is not None else "pending"

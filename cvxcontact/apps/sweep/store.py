@@ -36,7 +36,7 @@ from ...errors import CvxContactError
 from ...io.output import atomic_write as _atomic_write
 
 __all__ = ["SweepOutputError", "SweepLockedError", "FolderLock", "prepare_out", "write_json", "write_case",
-           "case_state", "sha256", "ARRAY_UNITS", "array_unit"]
+           "case_state", "record_fault", "RECORD_FIELDS", "sha256", "ARRAY_UNITS", "array_unit"]
 
 CASES, FAILURES, SUPERSEDED = "cases", "failures", "superseded"
 
@@ -133,16 +133,38 @@ def _read_json(path):
         return None
 
 
+RECORD_FIELDS = {"files": dict, "residuals": dict, "timings_s": dict, "versions": dict, "units": dict,
+                 "attempts": list}     # the fields of a case record read as a table or a list (absent or null: none)
+_JSON = {dict: "a table (JSON object)", list: "a list (JSON array)"}
+
+
+def record_fault(info, case_id) -> str | None:
+    """What makes ``info`` (a case's JSON record, None if it did not parse) unusable as the record of
+    ``case_id``, or None if nothing does: not parsed, another case's, or a field of :data:`RECORD_FIELDS` of
+    the wrong JSON type."""
+    if not isinstance(info, dict):
+        return "it is not a JSON object (a torn or damaged file)" if info is not None else \
+            "it is not valid JSON (a torn or damaged file)"
+    if info.get("case") != case_id:
+        return f"it names case {info.get('case')!r}, not {case_id!r}"
+    for field, kind in RECORD_FIELDS.items():
+        value = info.get(field)
+        if value is not None and not isinstance(value, kind):
+            return f"its field {field!r} is {type(value).__name__} {json.dumps(value)[:40]}, not {_JSON[kind]}"
+    return None
+
+
 def case_state(out, case_id) -> tuple[str, dict | None]:
     """("done" | "checks_failed" | "failed" | "pending" | "corrupt", the record or None).
 
-    A result counts only if its JSON parses, names this case, and every file it names exists
-    with the recorded sha256; a failure record only if it parses and names this case."""
+    A result counts only if its JSON parses, names this case, has its fields of the right types
+    (:func:`record_fault`), and every file it names exists with the recorded sha256; a failure record
+    only if it parses and names this case."""
     out = Path(out)
     path = out / CASES / f"{case_id}.json"
     if path.exists():
         info = _read_json(path)
-        files = info.get("files") if isinstance(info, dict) and info.get("case") == case_id else None
+        files = info.get("files") if record_fault(info, case_id) is None else None
         good = isinstance(files, dict) and "npz" in files
         if good:
             for key in ("npz", "problem"):

@@ -14,7 +14,9 @@ by a sensitivity that falls off from the axis. That weight has a meaning of its 
 u2 the top face's displacement when a charge Q2 sits on the electrode and nothing presses, the
 open-circuit potential under contact forces y_a at the nodes x_a is
 
-    V = sum_a y_a u2_z(x_a) / Q2,
+    V = sum_a y_a d_a . u2(x_a) / Q2,
+
+d_a the direction of the node's row (towards the sphere's closest point: radial, nearly vertical here),
 
 exact for the discrete problem too (its matrix is symmetric). The example solves that second state (the
 sphere lifted clear: no contact) and prints both sides, and the point-force limit F u2_z(0) / Q2.
@@ -43,11 +45,11 @@ def build(n_r=8, force=FORCES[0], lift=0.0, charge=0.0):
 
 
 def sensitivity(n_r=8, Q2=1e-9):
-    """(x, u2_z / Q2): the top nodes' vertical displacement per unit electrode charge (m/C), nothing pressing
-    (the sphere fixed 1 mm above the disc: no contact)."""
+    """u2 / Q2 (n, 3): the nodes' displacement per unit electrode charge (m/C), nothing pressing (the sphere
+    fixed 1 mm above the disc: no contact)."""
     sol = cc.solve(build(n_r, force=None, lift=1e-3, charge=Q2))
     assert sol.ok and not sol.contact.active.any(), sol.report()
-    return sol.u[0][:, 2] / Q2
+    return sol.u[0] / Q2
 
 
 def main(n_r=8, forces=FORCES):
@@ -57,6 +59,7 @@ def main(n_r=8, forces=FORCES):
     w = sensitivity(n_r)                                       # m/C at every node of the disc
     itf = scene.interfaces[0]
     nodes = itf.traces[0].nodes[itf.reach]                     # the disc's nodes of the contact rows
+    along = np.einsum("ij,ij->i", sphere.direction(itf.points, itf.normal), w[nodes])   # d_a . u2(x_a) / Q2
     centre = np.argmin(np.linalg.norm(scene.bodies[0].mesh.points - [0.0, 0.0, THICKNESS], axis=1))
     print(f"{'F [N]':>7s} {'V [V]':>10s} {'V/F [mV/N]':>11s} {'reciprocity [V]':>16s} {'point force [V]':>16s} "
           f"{'active':>6s} {'outermost active node [mm]':>27s}")
@@ -66,14 +69,14 @@ def main(n_r=8, forces=FORCES):
         assert sol.ok, sol.report()
         V = next(e.potential for e in sol.electrodes if e.tag == "top")
         c = sol.contact
-        reciprocal = float(c.force @ w[nodes])                 # sum_a y_a u2_z(x_a) / Q2
-        point = F * w[centre]
+        reciprocal = float(c.force @ along)                    # sum_a y_a d_a . u2(x_a) / Q2
+        point = F * w[centre, 2]
         r = np.hypot(c.points[c.active, 0], c.points[c.active, 1]).max()
         rows.append(dict(F=F, V=V, reciprocal=reciprocal, point=point, sol=sol))
         print(f"{F:7.1f} {V:10.4f} {1e3 * V / F:11.4f} {reciprocal:16.4f} {point:16.4f} {int(c.active.sum()):6d} "
               f"{1e3 * r:27.3f}")
     worst = max(abs(r["V"] - r["reciprocal"]) / abs(r["V"]) for r in rows)
-    print(f"reciprocity: V = sum_a y_a u2_z(x_a) / Q2 to {worst:.1e} (relative); the point-force limit F u2_z(0) / Q2 "
+    print(f"reciprocity: V = sum_a y_a d_a . u2(x_a) / Q2 to {worst:.1e} (relative); the point-force limit F u2_z(0) / Q2 "
           f"is {abs(rows[0]['point'] / rows[0]['V'] - 1):.1%} off at {forces[0]:g} N, "
           f"{abs(rows[-1]['point'] / rows[-1]['V'] - 1):.1%} at {forces[-1]:g} N")
     return rows

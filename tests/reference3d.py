@@ -9,10 +9,13 @@ its meshes. The contact rows are rebuilt here by brute force:
   crossings of their edges (every pair of edges tried), merged within 1e-9 of the scene size;
 * [u_nu] at a point is sum_k nu^k . u^k(point), u^k interpolated in the face triangle of mesh k that
   contains it (every triangle tried); "sigma_l" keeps the points that are nodes of mesh l;
-* a rigid plane or sphere: every node of the part whose normal ray meets it, the distance d along nu by
-  its closed form, and its derivative D = n_o / (nu . n_o) with respect to a translation of the obstacle
-  (n_o the obstacle's outward normal at the hit point), so that the rows of a force-controlled obstacle are
-  [u_nu] - D . t <= d.
+* a rigid plane ("plane") or a sphere posed along the normal ("sphere-ray"): every node of the part whose
+  normal ray meets it, the distance d along nu by its closed form, and its derivative D = n_o / (nu . n_o)
+  with respect to a translation of the obstacle (n_o the obstacle's outward normal at the hit point), so that
+  the rows of a force-controlled obstacle are [u_nu] - D . t <= d;
+* a sphere posed at the closest point ("sphere"): every node whose closest point of the sphere faces the part
+  (n_o . nu < 0), d = |x - centre| - radius, the row's direction (centre - x)/|centre - x| in place of nu and
+  D = -n_o: the rows are (centre - x)/|.| . u + n_o . t <= d.
 
 :meth:`Dense.solve_on` solves the mixed system (26) with the rows of a given active set held as equalities,
 densely (under "gamma3" the rows are dependent: an independent subset is kept; u, phi and t are unique,
@@ -135,11 +138,11 @@ def pair_rows(scene, i, gap=None, shape=None) -> Rows:
     gap = (lambda x: np.zeros(len(x))) if gap is None else gap
     na = [len(b.mesh.points) for b in scene.bodies]
     if c.rigid:
-        d, D = obstacle_distance(shape, fa.points, fa.normal)
+        d, D, direction = obstacle_distance(shape, fa.points, fa.normal)
         hit = np.isfinite(d)
         R = np.zeros((hit.sum(), 3 * na[ka]))
         for a in range(3):
-            R[np.arange(hit.sum()), 3 * fa.nodes[hit] + a] = fa.normal[a]
+            R[np.arange(hit.sum()), 3 * fa.nodes[hit] + a] = direction[hit, a]
         return Rows(fa.points[hit], {ka: R}, gap(fa.points[hit]) + d[hit],
                     None if c.other.force is None else D[hit], {0: np.ones(hit.sum(), bool)}, c.other)
     kb = scene.bodies.index(c.other)
@@ -166,15 +169,22 @@ def pair_rows(scene, i, gap=None, shape=None) -> Rows:
 
 
 def obstacle_distance(shape, x, nu):
-    """(d, D): the distance (m) along nu from the points x to a rigid plane or sphere (``shape``, as in
-    :func:`pair_rows`; +inf where the ray misses it) and its derivative (3,) per point with respect to the
-    obstacle's translation, closed forms."""
+    """(d, D, direction): the gap (m) from the points x to a rigid plane or sphere (``shape``, as in
+    :func:`pair_rows`; +inf where there is no contact), its derivative (3,) per point with respect to the
+    obstacle's translation and the rows' unit directions (n, 3), closed forms."""
     kind, a, b = shape
     if kind == "plane":
         p0, n = np.asarray(a, float), np.asarray(b, float) / np.linalg.norm(b)
         d = ((p0 - x) @ n) / (nu @ n)
-        return d, np.tile(n / (nu @ n), (len(x), 1))
+        return d, np.tile(n / (nu @ n), (len(x), 1)), np.tile(nu, (len(x), 1))
     centre, radius = np.asarray(a, float), float(b)
+    if kind == "sphere":                                 # closest point: radial
+        w = x - centre
+        r = np.sqrt((w * w).sum(axis=1))
+        n_o = w / r[:, None]
+        d = np.where(n_o @ nu < -1e-12, r - radius, np.inf)
+        return d, -n_o, -n_o
+    assert kind == "sphere-ray", kind
     w = x - centre
     b, c2 = w @ nu, (w * w).sum(axis=1) - radius ** 2
     disc = b * b - c2
@@ -182,7 +192,7 @@ def obstacle_distance(shape, x, nu):
         d = np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0)), np.inf)
     q = x + np.where(np.isfinite(d), d, 0)[:, None] * nu
     n_o = (q - centre) / radius
-    return d, n_o / (n_o @ nu)[:, None]
+    return d, n_o / (n_o @ nu)[:, None], np.tile(nu, (len(x), 1))
 
 
 @dataclass

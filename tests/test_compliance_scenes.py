@@ -95,13 +95,15 @@ def test_force_controlled_indenter_through_compliance_equals_the_fixed_one(m, li
     R, depth = 0.6, 3e-3
     law = cc.NormalCompliance(stiffness=1e13 if m == 1 else 1e13 * 3e-3 ** -0.5, exponent=m,
                               penetration_limit=limit)
-    fixed = cc.solve(indenter(0.5 + R - depth, law))
+    # posed along the block's normal (distance="ray"): there the rows of the circle moved down by t equal the
+    # force-controlled rows g - c . t exactly; the closest-point rows (the default) are their linearisation in t
+    fixed = cc.solve(indenter(0.5 + R - depth, law, distance="ray"))
     if limit is not None:
         c = fixed.contact
         assert 1 <= int(np.sum(c.jump - c.gap > (1 - 1e-9) * limit)) < int(c.active.sum())
     F = fixed.obstacles[0].force
     assert fixed.ok and fixed.method == "condensed" and 2 <= int(fixed.contact.active.sum()) < len(fixed.contact.x)
-    forced = cc.solve(indenter(0.5 + R, law, force=F))
+    forced = cc.solve(indenter(0.5 + R, law, force=F, distance="ray"))
     assert forced.ok and forced.polished and forced.method == "full"
     assert np.abs(forced.obstacles[0].translation - [0.0, -depth]).max() < 1e-8 * depth
     assert rel(forced.u[0], fixed.u[0]) < 1e-7

@@ -129,7 +129,7 @@ def dense_p2(scene, condition, gap=None, plane=None):
         nodes, f6, nu = _faces(scene, 0, c.part_a)
         at = np.unique(f6)
         x = np.asarray(nodes.points)[at]
-        d, _ = obstacle_distance(("plane", *plane), x, nu)
+        d = obstacle_distance(("plane", *plane), x, nu)[0]
         R = {0: np.zeros((len(at), n[0]))}
         for a in range(3):
             R[0][np.arange(len(at)), 3 * at + a] = nu[a]

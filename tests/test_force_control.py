@@ -55,10 +55,12 @@ def test_force_controlled_flat_punch_equals_the_displacement_controlled_one():
 
 def test_force_controlled_circle_indenter_equals_the_displacement_controlled_one():
     R, depth = 0.6, 3e-3
-    disp = cc.solve(indenter_scene(0.5 + R - depth, R))
+    # posed along the block's normal (distance="ray"): there the rows of the circle moved down by t equal the
+    # force-controlled rows g - c . t exactly; the closest-point rows (the default) are their linearisation in t
+    disp = cc.solve(indenter_scene(0.5 + R - depth, R, distance="ray"))
     F = disp.obstacles[0].force
     assert disp.ok and int(disp.contact.active.sum()) >= 2 and abs(F[0]) > 1e-4 * abs(F[1])   # off-centre
-    force = cc.solve(indenter_scene(0.5 + R, R, force=F))
+    force = cc.solve(indenter_scene(0.5 + R, R, force=F, distance="ray"))
     assert force.ok and force.polished
     assert rel(force.u[0], disp.u[0]) < 1e-8
     assert rel(force.contact.lam, disp.contact.lam) < 1e-8

@@ -64,12 +64,13 @@ def test_a_guided_sphere_on_a_quarter_is_the_whole_block_under_a_free_sphere():
     np.testing.assert_allclose(q.obstacles[0].force, [0.0, 0.0, -h.FORCE / 4], rtol=0, atol=1e-12 * h.FORCE)
 
 
-def half_scene(guided=(0.0, 1.0), force=-2e7):
-    """2D: a cylinder (a disc in plane strain) pressed on the top of the half block x >= 0 (roller on x = 0)."""
+def half_scene(guided=(0.0, 1.0), force=-2e7, distance="closest"):
+    """2D: a cylinder (a disc in plane strain) pressed on the top of the half block x >= 0 (roller on x = 0),
+    posed by ``distance``."""
     mesh = cc.rectangle((0.0, 0.01), (-0.01, 0.0), nx=10, ny=6)
     body = cc.Body(mesh, isotropic(E=70e9, nu=0.3), name="half", clamped=["bottom"], roller=["left"],
                    contact="top")
-    disc = cc.Rigid.circle((0.0, 0.02), 0.02, force=(0.0, force / 2), guided=guided)
+    disc = cc.Rigid.circle((0.0, 0.02), 0.02, force=(0.0, force / 2), guided=guided, distance=distance)
     return body, cc.Scene(body, contacts=[cc.Contact(body, "top", disc)])
 
 
@@ -180,9 +181,11 @@ def test_the_model_and_a_distance_only_obstacle_take_the_guide():
     assert model.ok
     np.testing.assert_allclose(model.obstacles[0].translation, ref.obstacles[0].translation, rtol=1e-12,
                                atol=0)                                  # measured 0
-    disc = cc.Rigid.circle((0.0, 0.02), 0.02)
+    # an obstacle given by its distance alone is posed along the body's normal: the ray circle's twin
+    disc = cc.Rigid.circle((0.0, 0.02), 0.02, distance="ray")
     by_distance = cc.Rigid("circle", disc.distance, "disc(distance only)", force=(0.0, -1e7), guided=(0, 1))
     sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", by_distance)]))
     assert sol.ok and sol.obstacles[0].translation[0] == 0
-    np.testing.assert_allclose(sol.obstacles[0].translation, ref.obstacles[0].translation,
+    ray = cc.solve(half_scene(distance="ray")[1])
+    np.testing.assert_allclose(sol.obstacles[0].translation, ray.obstacles[0].translation,
                                rtol=1e-6, atol=0)                       # measured 1e-9 (differences)

@@ -38,6 +38,22 @@ def test_force_control_balances_the_force_exactly(guided):
                                atol=1e-9 * h.hertz(h.FORCE)[2])          # measured 7e-21 m
 
 
+def test_closest_point_rows_balance_the_vertical_resultant_not_the_sum_of_the_nodal_forces():
+    """The sphere posed at the closest point (the rows along the radius): the balance holds for the obstacle's
+    resultant sum_a n_o y_a (total_force), exactly; the nodal forces' plain sum is larger (they lean outwards),
+    by sum y (1 - cos theta) over sum y cos theta at most, theta the angle off the axis; the study's ray posing (:data:`h.DISTANCE`) gives a
+    longer approach, the closest point's rows being stiffer off the axis."""
+    sol = cc.solve(h.scene(N, force=h.FORCE, distance="closest"))
+    assert sol.ok and sol.polished, sol.report()
+    assert abs(h.total_force(sol) - h.FORCE) <= 1e-12 * h.FORCE              # measured 1.8e-16
+    excess = 4 * sol.contact.force.sum() / h.FORCE - 1
+    theta = np.arcsin(2 * np.sqrt(2) * h.A_REF / h.R)     # the patch [0, 2a]^2 sees the sphere within theta
+    assert 0 < excess <= 1 / np.cos(theta) - 1                                 # measured 4.5e-4 (bound 1.0e-2)
+    ray = cc.solve(h.scene(N, force=h.FORCE, distance="ray"))
+    t, t_ray = -sol.obstacles[0].translation[2], -ray.obstacles[0].translation[2]
+    assert 0 < 1 - t / t_ray < 0.4                                             # measured 3.8e-3
+
+
 def test_hertz_quantities_at_the_coarsest_level(guided):
     row = h.measure(guided, -guided.obstacles[0].translation[2])
     assert row["F_N"] == pytest.approx(h.FORCE, rel=1e-12)

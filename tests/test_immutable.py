@@ -10,6 +10,7 @@ import copy
 import pickle
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 import pytest
 
 import cvxcontact as cc
@@ -263,9 +264,18 @@ def test_moved_plane_and_circle_equal_those_built_there_and_a_profile_follows_it
         assert repr(moved) == repr(built)
         assert np.allclose(moved.distance(x, nu), built.distance(x, nu), rtol=0, atol=1e-15)
     f = lambda s: 1e-3 + 0.2 * (s - 0.5) ** 2                           # noqa: E731
-    prof = cc.Rigid.profile(f, (0.1, 0.0)).moved(by=d)
     s = (x - np.array([0.1, 0.0]) - d) @ np.array([1.0, 0.0])           # the tangent of a line with nu = +y
-    assert np.allclose(prof.distance(x, nu), f(s) + d @ nu, rtol=0, atol=1e-15)
+    ray = cc.Rigid.profile(f, (0.1, 0.0), distance="ray").moved(by=d)  # the definition: f(s) along nu, lifted
+    assert np.allclose(ray.distance(x, nu), f(s) + d @ nu, rtol=0, atol=1e-15)
+    prof = cc.Rigid.profile(f, (0.1, 0.0)).moved(by=d)                 # closest point: to that curve, sampled
+    curve = np.linspace(-1.0, 2.0, 30001)
+    near = []
+    for si in s:                                  # the sampled nearest point, refined by a bounded 1D search
+        r = lambda c: np.hypot(c - si, f(c) + d @ nu)                   # noqa: E731
+        c0 = curve[np.argmin(r(curve))]
+        near.append(minimize_scalar(r, bounds=(c0 - 1e-4, c0 + 1e-4), method="bounded",
+                                    options={"xatol": 1e-12}).fun)
+    assert np.allclose(prof.distance(x, nu), np.sign(f(s) + d @ nu) * np.array(near), rtol=0, atol=1e-12)  # 2.9e-16
     assert "moved(to=(0.17, -0.03))" in repr(prof)
     with pytest.raises(cc.SceneError, match="exactly one of by="):
         prof.moved(by=d, to=d)

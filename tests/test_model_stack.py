@@ -179,8 +179,10 @@ def test_model_with_a_force_controlled_obstacle_is_the_full_solve(case):
     depth, degree, condition = 1e-4, 1, "gamma3"
     if case == "indenter P1":
         R, depth = 0.6, 3e-3
-        disp = cc.solve(indenter_scene(0.5 + R - depth, R))
-        scene = indenter_scene(0.5 + R, R, force=disp.obstacles[0].force)
+        # posed along the normal (distance="ray"): moving the circle down by t is then exactly g - c . t, so the
+        # force-controlled answer is the displacement-controlled one (closest point: to first order in t)
+        disp = cc.solve(indenter_scene(0.5 + R - depth, R, distance="ray"))
+        scene = indenter_scene(0.5 + R, R, force=disp.obstacles[0].force, distance="ray")
     else:
         disp, scene = _punch_force(depth)
         if "P2" in case:

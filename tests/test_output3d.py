@@ -162,11 +162,14 @@ def test_two_body_surface_vtu_has_both_sides_and_the_overlay(stack, tmp_path):
 
 
 def test_contact_mesh_against_an_obstacle_lists_only_faces_that_reach_it():
-    """A sphere reaches only the nodes under it: the surface mesh's triangles are the faces of the body whose
-    three nodes all reach the sphere, numbered as the nodes of X_h."""
+    """A sphere posed along the normal (distance="ray") reaches only the nodes under it: the surface mesh's
+    triangles are the faces of the body whose three nodes all reach the sphere, numbered as the nodes of X_h.
+    (Posed at the closest point, the default, every node of the top face faces the sphere and reaches it.)"""
     body = cc.Body(cc.box(x=(-1e-2, 1e-2), y=(-1e-2, 1e-2), z=(-4e-3, 0), nx=8, ny=8, nz=1), ALU,
                    clamped=["bottom"])
-    ball = cc.Rigid.sphere((0, 0, 6e-3 + 1e-6), 6e-3)
+    closest = cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0, 0, 6e-3 + 1e-6), 6e-3))])
+    assert closest.interfaces[0].size == len(closest.interfaces[0].traces[0].nodes)
+    ball = cc.Rigid.sphere((0, 0, 6e-3 + 1e-6), 6e-3, distance="ray")
     scene = cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
     itf = scene.interfaces[0]
     from cvxcontact.io.output import surface_cells

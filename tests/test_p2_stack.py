@@ -98,7 +98,7 @@ def test_conic_condition_against_a_curved_rigid_obstacle():
     between its nodes (2e-6 m here)."""
     _, body = upper()
     R, c = 10.0, np.array([0.5, -10.0])
-    disc = cc.Rigid.circle(center=c, radius=R)
+    disc = cc.Rigid.circle(center=c, radius=R, distance="ray")       # the vertical gap, rows along nu = (0, -1)
     scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", disc)])
     xs = np.linspace(0.0, 1.0, 4001)
     exact = lambda x: -(np.sqrt(R ** 2 - (x - c[0]) ** 2) + c[1])    # noqa: E731  distance down to the circle

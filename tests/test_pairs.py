@@ -187,17 +187,25 @@ def test_rigid_plane_turned_and_distance_along_the_normal():
 
 def test_rigid_circle_and_profile():
     R = 0.3
-    circle = cc.Rigid.circle((0.5, -R - 1e-4), R)
-    scene = block_on(circle)
-    x = scene.interface.x
+    ray = block_on(cc.Rigid.circle((0.5, -R - 1e-4), R, distance="ray"))
+    x = ray.interface.x
     assert x.min() > 0.5 - R and x.max() < 0.5 + R and len(x) >= 2      # only nodes that reach the disc
     exact = 1e-4 + R - np.sqrt(R ** 2 - (x - 0.5) ** 2) - 1e-4           # the Contact's gap -1e-4 added
+    assert np.abs(ray.gap_values() - exact).max() < 1e-15
+    # the default: the distance to the closest point, at every node of the part
+    scene = block_on(cc.Rigid.circle((0.5, -R - 1e-4), R))
+    x = scene.interface.x
+    assert len(x) == len(scene.interface.traces[0].x)
+    exact = np.hypot(x - 0.5, R + 1e-4) - R - 1e-4
     assert np.abs(scene.gap_values() - exact).max() < 1e-15
     sol = cc.solve(scene)
     assert sol.ok and sol.contact.active.any()
     f = lambda s: np.where(np.abs(s - 0.5) < R, 1e-4 + R - np.sqrt(np.maximum(R ** 2 - (s - 0.5) ** 2, 0)), np.inf)  # noqa: E731
     prof = cc.solve(block_on(cc.Rigid.profile(f)))
-    assert prof.ok and rel(prof.u[0], sol.u[0]) < 1e-9 and rel(prof.contact.force, sol.contact.force) < 1e-9
+    # the profile is the disc's arc where it is finite (its foot points are the disc's closest points there); the
+    # circle's other nodes are inactive
+    assert prof.ok and rel(prof.u[0], sol.u[0]) < 1e-9
+    assert abs(prof.contact.force.sum() / sol.contact.force.sum() - 1) < 1e-9
 
 
 # ---- legacy meaning and typed errors --------------------------------------------------------------------

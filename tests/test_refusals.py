@@ -450,15 +450,20 @@ def test_a_zero_force_is_refused_as_holding_the_obstacle_nowhere():
 
 def test_a_forced_obstacle_no_node_sees_move_is_refused():
     """Row 20 (a): a profile finite at isolated nodes only: no contact row depends on the translation, so
-    nothing balances the force."""
+    nothing balances the force (posed along the normal, distance="ray": the closest point of isolated points is
+    not a surface's, and that posing refuses them by its own message)."""
     block = cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=4, ny=2), ALU, clamped=["bottom"], contact="top")
-    spikes = cc.Rigid.profile(lambda s: np.where((np.abs(s - 0.5) <= 1e-9) | (np.abs(s - 0.75) <= 1e-9),
-                                                 0.0, np.inf), force=(0.0, -1e6))
+    f = lambda s: np.where((np.abs(s - 0.5) <= 1e-9) | (np.abs(s - 0.75) <= 1e-9), 0.0, np.inf)  # noqa: E731
+    spikes = cc.Rigid.profile(f, force=(0.0, -1e6), distance="ray")
     with pytest.raises(cc.SceneError) as info:
         cc.Scene(block, contacts=[cc.Contact(block, "top", spikes)])
     msg = _message(info)
     assert "Rigid.profile" in msg and "pairs [0]" in msg and "no node" in msg and "balance" in msg
     assert "no force" in msg
+    with pytest.raises(cc.SceneError) as info:
+        cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.profile(f, force=(0.0, -1e6)))])
+    msg = _message(info)
+    assert "Rigid.profile" in msg and "closest point" in msg and "distance='ray'" in msg
 
 
 @pytest.mark.parametrize("force,words", [((1e6, -1e6), ["free to slide along (1, 0)", "frictionless"]),

@@ -30,7 +30,7 @@ def rotation():
 
 def test_sphere_distance_is_the_ray_sphere_closed_form():
     R, gap = 1.0, 0.01
-    ball = cc.Rigid.sphere((0.1, -0.2, R + gap), R)
+    ball = cc.Rigid.sphere((0.1, -0.2, R + gap), R, distance="ray")
     x = grid()
     d = ball.distance(x, UP)
     r2 = (x[:, 0] - 0.1) ** 2 + (x[:, 1] + 0.2) ** 2
@@ -66,8 +66,9 @@ def test_distance_is_invariant_under_a_rotation_and_a_translation(make):
     assert np.isfinite(d).sum() >= 10
     np.testing.assert_array_equal(np.isinf(d), np.isinf(d2))
     np.testing.assert_allclose(d2[np.isfinite(d)], d[np.isfinite(d)], rtol=1e-12, atol=1e-14)  # measured 5e-15 rel., 3e-16 abs.
-    # and the hit points lie on the surface (the defining equation, by a formula of its own)
-    q = x + np.where(np.isfinite(d), d, 0)[:, None] * nu
+    # and the hit points (along nu for the plane's ray, to the closest point of a curved obstacle) lie on the
+    # surface (the defining equation, by a formula of its own)
+    q = x + np.where(np.isfinite(d), d, 0)[:, None] * obstacle.direction(x, nu)
     hit = np.isfinite(d)
     if kind == "sphere":
         res = np.linalg.norm(q - [0.2, 0.1, 1.3], axis=1) - 1.2
@@ -82,23 +83,24 @@ def test_distance_is_invariant_under_a_rotation_and_a_translation(make):
 
 def test_cylinder_closed_form_and_rays_along_its_axis():
     R, h = 0.5, 0.02
-    roller = cc.Rigid.cylinder((0.0, 3.0, R + h), (0.0, 1.0, 0.0), R)
+    roller = cc.Rigid.cylinder((0.0, 3.0, R + h), (0.0, 1.0, 0.0), R, distance="ray")
     x = grid()
     want = np.where(np.abs(x[:, 0]) < R, R + h - np.sqrt(np.maximum(R ** 2 - x[:, 0] ** 2, 0)), np.inf)
     np.testing.assert_allclose(roller.distance(x, UP), want, atol=1e-15)
     assert np.isinf(roller.distance(x, np.array([0.0, 1.0, 0.0]))).all()     # along the axis: never met
-    assert roller.dim == 3 and "cylinder(point=(0, 3, 0.52), axis=(0, 1, 0), radius=0.5)" in repr(roller)
+    assert roller.dim == 3 and "cylinder(point=(0, 3, 0.52), axis=(0, 1, 0), radius=0.5, distance='ray')" \
+        in repr(roller)
 
 
 def test_height_field_closed_form_and_against_a_plane():
     R, g = 2.0, 0.01
-    para = cc.Rigid.height_field(lambda x, y: (x ** 2 + y ** 2) / (2 * R), origin=(0.1, 0.0, g))
+    para = cc.Rigid.height_field(lambda x, y: (x ** 2 + y ** 2) / (2 * R), origin=(0.1, 0.0, g), distance="ray")
     x = grid(z=-0.05)
     np.testing.assert_allclose(para.distance(x, UP), ((x[:, 0] - 0.1) ** 2 + x[:, 1] ** 2) / (2 * R) + g + 0.05,
                                atol=1e-15)
     # a linear height field is a half-space: compare with Rigid.plane under a tilted normal (Newton's path)
     a, b = 0.2, -0.1
-    field = cc.Rigid.height_field(lambda x, y: a * x + b * y, origin=(0.0, 0.0, 0.3))
+    field = cc.Rigid.height_field(lambda x, y: a * x + b * y, origin=(0.0, 0.0, 0.3), distance="ray")
     plane = cc.Rigid.plane((0.0, 0.0, 0.3), (a, b, -1.0))
     nu = np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
     np.testing.assert_allclose(field.distance(x, nu), plane.distance(x, nu), rtol=1e-12)  # measured 2e-16
@@ -130,7 +132,10 @@ def test_sensitivity_is_the_derivative_of_the_distance_under_a_translation(obsta
     fd = np.column_stack([(obstacle.moved(by=-eps * e).distance(x, nu) - obstacle.moved(by=eps * e).distance(x, nu))
                           / (2 * eps) for e in np.eye(3)])
     np.testing.assert_allclose(c, fd, atol=1e-6)                            # measured 2e-10 at most
-    np.testing.assert_allclose(np.einsum("ij,j->i", c, nu), -1.0, atol=1e-12)  # moving along -nu: 1:1; measured 2e-16
+    if obstacle.kind == "plane":                                            # the ray: moving along -nu is 1:1
+        np.testing.assert_allclose(np.einsum("ij,j->i", c, nu), -1.0, atol=1e-12)  # measured 2e-16
+    else:                                                                   # closest point: the unit normal there
+        np.testing.assert_allclose(np.linalg.norm(c, axis=1), 1.0, atol=1e-12)
 
 
 def test_moved_with_force_and_repr():
@@ -138,7 +143,8 @@ def test_moved_with_force_and_repr():
     up = ball.moved(by=(0.0, 0.0, 0.25))
     x = grid()
     d0, d1 = ball.distance(x, UP), up.distance(x, UP)
-    np.testing.assert_allclose(d1[np.isfinite(d0)], d0[np.isfinite(d0)] + 0.25, atol=1e-15)
+    np.testing.assert_allclose(d0, np.linalg.norm(x - [0, 0, 1], axis=1) - 1, atol=1e-15)   # closest point
+    np.testing.assert_allclose(d1, np.linalg.norm(x - [0, 0, 1.25], axis=1) - 1, atol=1e-15)
     np.testing.assert_array_equal(up.position, [0, 0, 1.25])
     assert np.array_equal(ball.moved(to=(1.0, 2.0, 3.0)).position, [1, 2, 3])
     pressed = ball.with_force((0.0, 0.0, -5.0))
@@ -205,10 +211,10 @@ def test_a_small_sphere_over_too_few_nodes_is_refused_naming_them_and_solves_on_
     """A sphere (R = 0.2 m) off-centre on a block with cells of 0.25 m reaches 2 top nodes: their rows see
     two of its three translations, so the prescribed force cannot be balanced; the error names the count and
     the remedy. Cells of 0.125 m: it is held, and the row forces balance the force (stationarity in t)."""
-    def scene(n):
+    def scene(n, distance="ray"):
         mesh = cc.box(x=(-1, 1), y=(-1, 1), z=(-1, 0), nx=n, ny=n, nz=2)
         body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), clamped="bottom", contact="top", name="b")
-        ball = cc.Rigid.sphere((0.3, 0.1, 0.2), 0.2, force=(0, 0, -1e8))
+        ball = cc.Rigid.sphere((0.3, 0.1, 0.2), 0.2, force=(0, 0, -1e8), distance=distance)
         return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
 
     with pytest.raises(SceneError, match=r"free to slide.*only 2 nodes of its pairs lie within its reach.*refine "
@@ -217,6 +223,11 @@ def test_a_small_sphere_over_too_few_nodes_is_refused_naming_them_and_solves_on_
     sol = cc.solve(scene(16))
     assert sol.ok
     np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, -1e8], rtol=0, atol=1e-6 * 1e8)  # measured 4.7e-10 N
+    # posed at the closest point every top node sees the sphere, its rows radial: on the coarse mesh it slides
+    # sideways into the hollow of three nodes and is held there
+    sol = cc.solve(scene(8, "closest"))
+    assert sol.ok and sol.contact.active.sum() == 3
+    np.testing.assert_allclose(sol.obstacles[0].force, [0, 0, -1e8], rtol=0, atol=1e-6 * 1e8)  # measured 4e-9 N
 
 
 # --------------------------------------------------------------------------- cylinders and height fields solved
@@ -234,11 +245,13 @@ def test_a_force_controlled_cylinder_equals_the_fixed_one_whose_force_it_is_give
     (free along x as well, where the off-centre contact pushes it; nothing acts along its axis) and gives the same displacements, to rounding (both
     finished exactly)."""
     R, depth, x0 = 2.0, 0.02, 0.07
-    fixed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R - depth), (0, 1, 0), R)))
+    # the ray posing: its distance along the vertical normal shifts by exactly the vertical translation, so the
+    # linearised rows of the moved cylinder are those of the fixed one (closest point: to first order in depth)
+    fixed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R - depth), (0, 1, 0), R, distance="ray")))
     assert fixed.ok and fixed.polished
     F = fixed.obstacles[0].force
     assert F[2] < 0 and abs(F[1]) == 0 and 10 < fixed.contact.active.sum() < 81     # measured 18 nodes
-    pushed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R), (0, 1, 0), R, force=F)))
+    pushed = cc.solve(_block_under(cc.Rigid.cylinder((x0, 0.0, R), (0, 1, 0), R, force=F, distance="ray")))
     assert pushed.ok and pushed.polished
     t = pushed.obstacles[0].translation
     assert abs(t[2] / -depth - 1) < 1e-12 and abs(t[0]) < 1e-12 * depth          # measured 2e-15, 3e-15
@@ -246,13 +259,16 @@ def test_a_force_controlled_cylinder_equals_the_fixed_one_whose_force_it_is_give
     np.testing.assert_array_equal(pushed.contact.active, fixed.contact.active)
 
 
-def test_a_height_field_plane_is_the_rigid_plane():
+@pytest.mark.parametrize("posing", ["closest", "ray"])
+def test_a_height_field_plane_is_the_rigid_plane(posing):
     """z = a x + b y + c as a height field and as cc.Rigid.plane through (0, 0, c) with the downward normal
-    (a, b, -1)/|.|: the same answer, to rounding, reached through the two obstacles' own distances."""
+    (a, b, -1)/|.|, both posed the same way: the same answer, to rounding, reached through the two obstacles' own
+    distances (the height field's closest point by its Newton projection)."""
     a, b, c = 0.01, -0.02, -1e-3
-    field = cc.Rigid.height_field(lambda x, y: a * x + b * y, origin=(0.0, 0.0, c))
+    field = cc.Rigid.height_field(lambda x, y: a * x + b * y, origin=(0.0, 0.0, c), distance=posing)
     normal = np.array([a, b, -1.0]) / np.linalg.norm([a, b, -1.0])
-    one, two = cc.solve(_block_under(field, 6)), cc.solve(_block_under(cc.Rigid.plane((0, 0, c), normal), 6))
+    one = cc.solve(_block_under(field, 6))
+    two = cc.solve(_block_under(cc.Rigid.plane((0, 0, c), normal, distance=posing), 6))
     assert one.ok and two.ok and 0 < one.contact.active.sum() < len(one.contact.x)   # measured 21 of 49
     assert np.abs(one.u[0] - two.u[0]).max() < 1e-12 * np.abs(two.u[0]).max()      # measured 2.8e-16
     F = two.obstacles[0].force

@@ -66,7 +66,8 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
         cond, compliance = reduction.bodies, reduction.compliance
         _, loads, d = reduction.apply(problem, timings)
     out = None
-    dependent = settings.polish and _dependent(problem, law)     # W is singular on dependent rows: no Newton on W
+    # W is singular on dependent rows: no Newton on W (a linear law without a limit has the LCP of `newton`)
+    dependent = settings.polish and (_dependent(problem, law) or (problem.lines.dependent and not law.linear))
     if method == "condensed" and settings.warm_start and settings.polish and cache.active is not None \
             and not dependent:
         t0 = time.perf_counter()

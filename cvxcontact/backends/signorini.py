@@ -23,7 +23,11 @@ __all__ = ["full", "condensed", "sparse", "interface_finish", "dependent_rows"]
 def dependent_rows(problem) -> bool:
     """Whether the contact rows can be linearly dependent: "gamma3" (the pair's own condition, else the one
     given) on a 3D pair of two bodies, one row per overlay vertex, more vertices than the jump's degrees of
-    freedom where the faces do not match (docs/formulation.md §13)."""
+    freedom where the faces do not match (docs/formulation.md §13); or a penetration limit on rows the space
+    marks as dependent (``lines.dependent``: a compliance law's quadrature points on P2 faces, §15)."""
+    rows = problem.rows
+    if problem.lines.dependent and (rows.limited & rows.rows).any():
+        return True
     if problem.dim != 3:
         return False
     interfaces = getattr(problem.interface, "interfaces", (problem.interface,))

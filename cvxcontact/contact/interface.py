@@ -17,7 +17,7 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent"]
+__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent", "row_directions"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
@@ -186,7 +186,7 @@ class Interface:
         """(n_merged, 2 n_nodes) map from body k's nodal displacements to its part u^k . nu^k of
         [u_nu] = u^a . nu^a + u^b . nu^b at the merged nodes."""
         t = self.traces[k]
-        return normal_jump(self._interp[k], t.nodes, t.unit_normal, 2 * n_nodes)
+        return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 2 * n_nodes)
 
     def interpolation(self, k) -> sp.csr_matrix:
         """(n_merged, n_trace_k): evaluates P1 functions on body k's trace at the merged nodes."""
@@ -300,15 +300,34 @@ class Stack:
 
 def normal_jump(P, nodes, unit_normal, n_dofs) -> sp.csr_matrix:
     """(P.shape[0], n_dofs): u . nu at the nodes of X_h from a body's nodal displacements (components
-    interleaved, d = len(unit_normal) per node), with P the interpolation of its trace (columns: trace nodes
-    ``nodes``) and nu its unit outward normal. Shared by the P1 and P2 contact lines and the 3D surfaces."""
+    interleaved, d = the normal's length per node), with P the interpolation of its trace (columns: trace nodes
+    ``nodes``) and nu its unit outward normal (d,), or one unit direction per row of P (P.shape[0], d): a rigid
+    obstacle's row directions (:func:`row_directions`). Shared by the P1 and P2 contact lines and the 3D
+    surfaces."""
     P = P.tocoo()
-    d = len(unit_normal)
+    unit_normal = np.asarray(unit_normal, dtype=float)
+    d = unit_normal.shape[-1]
+    N = np.broadcast_to(unit_normal, (P.shape[0], d))
     rows = np.tile(P.row, d)
     cols = np.concatenate([d * nodes[P.col] + i for i in range(d)])
-    vals = np.concatenate([unit_normal[i] * P.data for i in range(d)])
+    vals = np.concatenate([N[P.row, i] * P.data for i in range(d)])
     keep = vals != 0
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(P.shape[0], n_dofs))
+
+
+def row_directions(interface, normal) -> np.ndarray:
+    """The unit direction (d,) or directions (size, d) along which a pair's rows measure the displacement of its
+    body with outward normal ``normal``: ``normal`` itself, or, against a rigid obstacle that poses its own
+    directions (:meth:`cvxcontact.physics.pairs.Rigid.direction`: towards the closest point of a curved
+    obstacle), those at the nodes of X_h (``interface.points``), computed once per interface."""
+    obstacle = getattr(interface, "obstacle", None)
+    if obstacle is None or not hasattr(obstacle, "direction"):
+        return normal
+    cached = interface.__dict__.get("_row_directions")
+    if cached is None:
+        cached = read_only(obstacle.direction(interface.points, interface.normal))
+        interface.__dict__["_row_directions"] = cached
+    return cached
 
 
 def read_only(a) -> np.ndarray:

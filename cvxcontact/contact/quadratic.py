@@ -29,7 +29,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .bernstein import bernstein_argmax, bernstein_basis, bernstein_map, bernstein_max, point_rows  # noqa: F401
-from .interface import CONDITIONS, Interface, read_only, normal_jump
+from .interface import CONDITIONS, Interface, read_only, normal_jump, row_directions
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
@@ -121,7 +121,7 @@ class QuadraticInterface:
         if k not in self.members:
             return sp.csr_matrix((self.size, 2 * n_nodes))
         t = self.traces[self.members.index(k)]
-        return normal_jump(self._interp[t.k], t.nodes, t.unit_normal, 2 * n_nodes)
+        return normal_jump(self._interp[t.k], t.nodes, row_directions(self, t.unit_normal), 2 * n_nodes)
 
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows evaluate X_h at the points where a nodal (linear) condition is imposed.

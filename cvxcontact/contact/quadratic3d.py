@@ -17,8 +17,11 @@ mass matrix of the overlay.
 Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
 condition constrains every one of them (as for P1).
 
-A normal-compliance law takes the quadrature of the constrained triangles on the rows (:meth:`QuadraticSurface.
-weights`: the integrals of their P2 basis functions, 0 at the vertices and A/3 at the edge midpoints).
+A normal-compliance law is integrated by a quadrature of positive weights on the constrained triangles
+(:meth:`QuadraticSurface.quadrature`: the 6-point rule of degree 4, :data:`P2_FACE_RULE`, at whose points the
+law's rows evaluate [u_nu]); the integrals of the P2 basis functions (:meth:`QuadraticSurface.weights`) are 0 at
+the vertices and A/3 at the edge midpoints, so a nodal quadrature would let a vertex penetrate for free
+(docs/formulation.md §15, "Normal compliance").
 """
 
 from __future__ import annotations
@@ -31,11 +34,12 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
-from .interface import CONDITIONS, normal_jump, read_only
+from .interface import CONDITIONS, normal_jump, read_only, row_directions
 from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 
-__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "p2_shape", "p2_triangle_nodes", "p2_weights", "locate"]
+__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "p2_shape", "p2_triangle_nodes", "p2_weights",
+           "locate"]
 
 P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [-1, 6, -1, 0, 0, -4],
@@ -44,6 +48,23 @@ P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [-4, 0, 0, 16, 32, 16],
                              [0, -4, 0, 16, 16, 32]]) / 180.0
 """The P2 mass matrix of a triangle of unit area in the triangle6 order (v0, v1, v2, m01, m12, m20)."""
+
+
+def _face_rule():
+    a, b = 0.445948490915965, 0.091576213509771
+    L = np.array([[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a],
+                  [1 - 2 * b, b, b], [b, 1 - 2 * b, b], [b, b, 1 - 2 * b]])
+    w = np.array([0.223381589678011] * 3 + [0.109951743655322] * 3)
+    L.setflags(write=False), w.setflags(write=False)
+    return L, w
+
+
+P2_FACE_RULE = _face_rule()
+"""(L (6, 3), w (6,)): the 6-point rule of degree 4 on a triangle (Strang and Fix; Dunavant's degree-4 rule) in
+barycentric coordinates, its weights positive and summing to 1 (to 1e-15; times the area: m^2), its points inside; exact for
+the energy k/2 r^2 of a linear law and the forces p(r) N_i of a quadratic penetration r on a triangle in contact.
+Tabulated to 15 decimals (their closed forms a, b = (8 - sqrt 10 +- sqrt(38 - 44 sqrt(2/5))) / 18,
+w = (620 +- sqrt(213125 - 53320 sqrt 10)) / 3720); the P2 volume loads of fem/p2.py take the same rule."""
 
 
 
@@ -218,7 +239,7 @@ class QuadraticSurface:
         if k not in self.members:
             return sp.csr_matrix((self.size, 3 * n_nodes))
         t = self.traces[self.members.index(k)]
-        return normal_jump(self._interp[t.k], np.asarray(t.nodes), np.asarray(t.unit_normal), 3 * n_nodes)
+        return normal_jump(self._interp[t.k], np.asarray(t.nodes), row_directions(self, t.unit_normal), 3 * n_nodes)
 
     def sigma_rows(self, l) -> np.ndarray:
         """The P2 nodes of body l's trace (indices into ``traces[l].nodes``) inside the overlap, in the order
@@ -235,45 +256,67 @@ class QuadraticSurface:
             return sp.identity(self.size, format="csr")
         return self._sigma[int(condition[-1]) - 1][1]
 
-    def weights(self, condition) -> np.ndarray:
-        """The quadrature weights (m^2) of a normal-compliance energy on the rows of :meth:`evaluation`
-        (docs/formulation.md §15, "Normal compliance"): the integrals of the P2 basis functions of the triangles
-        the constrained nodes form (:func:`p2_weights`: 0 at their vertices, A/3 per triangle at each edge
-        midpoint; exact for quadratics, never negative). "gamma3" (and an obstacle) the triangles of X_h
-        (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
-        body's nodes in the overlap (else UnsupportedError: the overlap's edge cuts one of its faces, and its
-        nodes there form no P2 triangles for the law's quadrature)."""
+    def _law_triangles(self, condition) -> tuple[np.ndarray, np.ndarray]:
+        """(cells (c, 6), area (c,) m^2): the P2 triangles a normal-compliance law integrates over under
+        ``condition``, their node indices the rows of :meth:`evaluation`. "gamma3" (and an obstacle) the triangles of
+        X_h (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
+        body's nodes in the overlap (else UnsupportedError: the overlap's edge cuts one of its faces, and its nodes
+        there form no P2 triangles for the law's quadrature)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if self.rigid or condition == "gamma3":
             cells = np.asarray(self.cells)
-            return p2_weights(cells, _area(self.x[cells[:, :3]]), self.size)
+            return cells, _area(self.x[cells[:, :3]])
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
         faces = self._sigma_faces(condition)
         at = np.full(len(t.nodes), -1)
         at[inside] = np.arange(len(inside))
-        return p2_weights(at[faces], _area(t.x[faces[:, :3]]), len(inside))
+        return at[faces], _area(t.x[faces[:, :3]])
+
+    def _rows(self, condition) -> int:
+        return self.size if self.rigid or condition == "gamma3" else len(self.sigma_rows(int(condition[-1]) - 1))
+
+    def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(Q (6 c, rows), w (6 c,) m^2): the quadrature of a normal-compliance energy under ``condition``
+        (docs/formulation.md §15, "Normal compliance"): :data:`P2_FACE_RULE` on each triangle of
+        :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
+        triangle, the rule's order within each), w = rule weight x area > 0. The law's rows are Q E: the energy
+        sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in contact), the nodal forces
+        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the :meth:`weights`."""
+        cells, area = self._law_triangles(condition)
+        L, w = P2_FACE_RULE
+        Q = _p2_rows(np.tile(L, (len(cells), 1)), np.repeat(cells, len(w), axis=0), self._rows(condition))
+        return Q, np.outer(area, w).ravel()
+
+    def weights(self, condition) -> np.ndarray:
+        """The integrals (m^2) of the P2 functions of the rows of :meth:`evaluation` over the triangles of
+        :meth:`quadrature` (:func:`p2_weights`: 0 at their vertices, A/3 per triangle at each edge midpoint)."""
+        cells, area = self._law_triangles(condition)
+        return p2_weights(cells, area, self._rows(condition))
 
     def row_mass(self, condition) -> sp.csr_matrix:
-        """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`weights` on the rows of
-        :meth:`evaluation` (its row sums are the weights; zero rows at nodes no such triangle has). The read-back
-        of a penetration limit's reactions z as a pressure: M lambda_z = z (docs/formulation.md §15)."""
-        if condition not in CONDITIONS:
-            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        if self.rigid or condition == "gamma3":
-            cells = np.asarray(self.cells)
-            return _p2_mass(cells, _area(self.x[cells[:, :3]]), self.size).tocsr()
-        l = int(condition[-1]) - 1
-        t, inside = self.traces[l], self.sigma_rows(l)
-        faces = self._sigma_faces(condition)
-        at = np.full(len(t.nodes), -1)
-        at[inside] = np.arange(len(inside))
-        return _p2_mass(at[faces], _area(t.x[faces[:, :3]]), len(inside)).tocsr()
+        """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of
+        :meth:`evaluation` (its row sums are the :meth:`weights`; zero rows at nodes no such triangle has)."""
+        cells, area = self._law_triangles(condition)
+        return _p2_mass(cells, area, self._rows(condition)).tocsr()
+
+    def law_pressure(self, condition, force) -> np.ndarray:
+        """The pressure at the rows of :meth:`evaluation` (Pa for ``force`` in N at the points of
+        :meth:`quadrature`, e.g. w_q p(r_q) + z_q): the Riesz representer lambda in the P2 functions of the
+        law's triangles, M lambda = Q^T force (M = :meth:`row_mass`; exact for a pressure that is quadratic
+        on those triangles, a uniform one included); 0 at rows on no such triangle."""
+        Q, _ = self.quadrature(condition)
+        M = self.row_mass(condition)
+        on = np.flatnonzero(M.diagonal() > 0)
+        out = np.zeros(M.shape[0])
+        if len(on):
+            out[on] = spla.spsolve(M[on][:, on].tocsc(), (Q.T @ np.asarray(force, dtype=float))[on])
+        return out
 
     def _sigma_faces(self, condition) -> np.ndarray:
         """The faces (k, 6) of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the overlap; refuses
-        (UnsupportedError, :meth:`weights`) when its nodes in the overlap are not exactly their nodes."""
+        (UnsupportedError, :meth:`quadrature`) when its nodes in the overlap are not exactly their nodes."""
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
         mark = np.zeros(len(t.nodes), dtype=bool)

@@ -17,7 +17,7 @@ import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
-from .interface import CONDITIONS, normal_jump, read_only
+from .interface import CONDITIONS, normal_jump, read_only, row_directions
 from .overlay import OVERLAY_TOL, locate, overlay
 from .riesz import TraceRiesz
 
@@ -232,7 +232,7 @@ class SurfaceInterface:
         """(size, 3 n_nodes): body k's part u^k . nu^k of [u_nu] at the nodes of X_h from its nodal
         displacements (x, y, z interleaved)."""
         t = self.traces[k]
-        return normal_jump(self._interp[k], t.nodes, t.unit_normal, 3 * n_nodes)
+        return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 3 * n_nodes)
 
     def _rows(self, condition) -> np.ndarray:
         if condition not in CONDITIONS:
@@ -433,7 +433,7 @@ class CurvedSurfaceInterface:
         """(size, 3 n_nodes): body k's part of [u_nu] at the nodes of X_h (the curved side along -n_p, the
         planar side along n_p), from its nodal displacements (x, y, z interleaved)."""
         t = self.traces[k]
-        return normal_jump(self._interp[k], t.nodes, t.unit_normal, 3 * n_nodes)
+        return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 3 * n_nodes)
 
     def _rows(self, condition) -> np.ndarray:
         if condition not in CONDITIONS:

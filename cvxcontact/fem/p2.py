@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contact.quadratic3d import P2_FACE_RULE
 from ..geometry.quadratic import P2Nodes
 from ..geometry.tetmesh import EDGES as TET_EDGES
 from .assembly import (BodySystem, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
@@ -35,11 +36,7 @@ EDGES = {2: ((0, 1), (1, 2), (2, 0)), 3: tuple(tuple(int(v) for v in e) for e in
 
 # degree-2 rule on the reference triangle (barycentric coordinates, weights summing to 1)
 _TRI3 = (np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]]), np.full(3, 1 / 3))
-# degree-4 rule (Strang-Fix / Dunavant 6 points), weights summing to 1
-_a, _b = 0.445948490915965, 0.091576213509771
-_TRI6 = (np.array([[1 - 2 * _a, _a, _a], [_a, 1 - 2 * _a, _a], [_a, _a, 1 - 2 * _a],
-                   [1 - 2 * _b, _b, _b], [_b, 1 - 2 * _b, _b], [_b, _b, 1 - 2 * _b]]),
-         np.array([0.223381589678011] * 3 + [0.109951743655322] * 3))
+_TRI6 = P2_FACE_RULE                       # degree-4 rule (Strang-Fix / Dunavant 6 points), weights summing to 1
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
 _STIFFNESS_RULE = {2: _TRI3, 3: simplex_rule(3, 2)}        # degree 2: exact for products of linear gradients
 

@@ -20,6 +20,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.interface import row_directions
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
@@ -47,8 +48,10 @@ class ContactLines:
     cones and compliance (None otherwise); ``gap`` (m): the gap at the stacked nodes of X_h (pair gaps plus
     the distance to rigid obstacles); ``obstacles``: the scene's
     :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
-    cone pairs' Bernstein map of a mixed program (None otherwise); ``departure``: the departure of the true gap
-    from its P2 interpolant on the cone's elements that face a curved rigid obstacle
+    cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether a compliance law's rows can depend
+    on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
+    nodes; the interface compliance W is singular on them, docs/formulation.md §15); ``departure``: the
+    departure of the true gap from its P2 interpolant on the cone's elements that face a curved rigid obstacle
     (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element.
     """
 
@@ -62,6 +65,7 @@ class ContactLines:
     gap: np.ndarray
     obstacles: tuple
     mixed_bernstein: tuple | None = None
+    dependent: bool = False
     departure: GapDeparture | None = None
 
     @property
@@ -82,9 +86,13 @@ class ContactLines:
 
 
 def _interface_key(interface) -> bytes:
+    """The nodes of X_h of every pair and the directions of its rows (a curved obstacle's, towards its closest
+    points, move with it: the jump operators change, not only the gap)."""
     pairs = getattr(interface, "interfaces", None) or [interface]
     return b"".join(np.ascontiguousarray(np.asarray(p.x, dtype=float)).tobytes() +
-                    np.ascontiguousarray(np.asarray(p.points, dtype=float)).tobytes() for p in pairs)
+                    np.ascontiguousarray(np.asarray(p.points, dtype=float)).tobytes() +
+                    (np.ascontiguousarray(row_directions(p, p.normal), dtype=float).tobytes()
+                     if getattr(p, "obstacle", None) is not None else b"") for p in pairs)
 
 
 class Space(Protocol):
@@ -257,9 +265,10 @@ class P2Tet(P2):
     piecewise quadratics on the overlay, docs/formulation.md §15) under the nodal conditions "sigma1"/"sigma2"
     (rows at that body's P2 face nodes; against a rigid obstacle at its P2 face nodes that reach it) and under
     "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16). A normal-compliance law sits on
-    the nodal rows of the condition ("gamma3": every node of X_h, no cone) with the P2 quadrature of the
-    constrained triangles (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.weights`, §15); the
-    copositive cones next to it are refused."""
+    the quadrature points of the triangles the condition's nodes form ("gamma3": the triangles of X_h, no cone):
+    its rows evaluate [u_nu] there (the P2 interpolant of the condition's nodal rows, a positive-weight rule of
+    degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15); the copositive cones
+    next to it are refused."""
 
     degree, dim = 2, 3
 
@@ -288,15 +297,19 @@ class P2Tet(P2):
         else:                            # nodal rows; a compliant gamma3 pair's: every node of X_h (§15)
             E = stack.evaluation(condition, conditions)
         counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
+        if compliant:                    # a compliant pair's rows: the law's quadrature points on its triangles (§15)
+            rules = [itf.quadrature(c) if lw.compliant else (sp.identity(n, format="csr"), np.zeros(n))
+                     for itf, c, lw, n in zip(pairs, conditions, laws, counts)]
+            E = (sp.block_diag([Q for Q, _ in rules], format="csr") @ E).tocsr()
+            weights = np.concatenate([w for _, w in rules])
+            counts = np.array([len(w) for _, w in rules])
         rows = RowLaws(laws, counts)
-        if compliant:                    # the P2 quadrature on the compliant pairs' rows, none on Signorini rows
-            weights = np.concatenate([itf.weights(c) if lw.compliant else np.zeros(n)
-                                      for itf, c, lw, n in zip(pairs, conditions, laws, counts)])
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
                             E=E, cone=cone, rows=rows, weights=weights, cone_pairs=None, gap=gap,
-                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), departure=departure)
+                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant,
+                            departure=departure)
 
 
 def _refuse_cones_next_to_compliance(scene, conditions, laws):

@@ -128,8 +128,8 @@ def obstacle_outline(scene, pair: int, samples: int = 200) -> np.ndarray:
     across the scene's bounding box (extended by a quarter of its size on each side).
 
     Sampled through the obstacle's own distance function (no mesh): from points on the pair's
-    line, stepping along its tangent, the surface point is reached along the body's outward
-    normal nu^a. A plane comes out as a straight segment across the plot, a circle as the arc
+    line, stepping along its tangent, the surface point is reached along the row direction (the body's
+    outward normal nu^a for a ray posing, towards the closest point otherwise: the foot point). A plane comes out as a straight segment across the plot, a circle as the arc
     that faces the body, a profile as its sampled curve. Empty (0, 2) where the rays miss."""
     itf = scene.interfaces[pair]
     obstacle = scene.contacts[pair].other
@@ -144,7 +144,7 @@ def obstacle_outline(scene, pair: int, samples: int = 200) -> np.ndarray:
     line = base + np.outer(s, t)
     d = obstacle.distance(line, nu)
     hit = np.isfinite(d)
-    out = line[hit] + d[hit, None] * nu
+    out = line[hit] + d[hit, None] * obstacle.direction(line, nu)[hit]   # the foot: along nu or to the closest point
     return out[np.all((out >= lo) & (out <= hi), axis=1)]
 
 

@@ -119,10 +119,10 @@ MATERIALS = {"PZT4": mats.PZT4, "PZT5A": mats.PZT5A, "PZT5H": mats.PZT5H, "BATIO
 _TOP = {"condition", "solver", "body", "gap", "law", "contact", "obstacle", "degree"}
 _CONTACT = {"a", "part_a", "b", "part_b", "condition", "gap", "law"}
 _OBSTACLE = {"name", "plane", "circle", "profile", "sphere", "cylinder", "height_field", "force", "guided"}
-_OBSTACLE_KINDS = {"plane": {"point", "normal"}, "circle": {"center", "radius"}, "profile": {"f", "origin"},
-                   "sphere": {"center", "radius"}, "cylinder": {"point", "axis", "radius"},
-                   "height_field": {"f", "origin"}}
-_OPTIONAL = {"origin"}
+_OBSTACLE_KINDS = {"plane": {"point", "normal", "distance"}, "circle": {"center", "radius", "distance"},
+                   "profile": {"f", "origin", "distance"}, "sphere": {"center", "radius", "distance"},
+                   "cylinder": {"point", "axis", "radius", "distance"}, "height_field": {"f", "origin", "distance"}}
+_OPTIONAL = {"origin", "distance"}     # distance: the posing, "closest" or "ray" (physics.pairs.POSINGS)
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge", "roller", "displacement", "floating", "rotation", "plane"}
@@ -347,6 +347,7 @@ class _Context:
                 raise SceneFileError(f"{self.path}: {where}.{kind}: missing key {req!r}")
         force = o.get("force")
         guided = o.get("guided")
+        posed = {"distance": spec["distance"]} if "distance" in spec else {}
         f = None
         if kind == "profile":
             f = self.load(spec["f"], f"{where}.profile.f", 1)
@@ -354,18 +355,18 @@ class _Context:
             f = self.load(spec["f"], f"{where}.height_field.f", 1)     # a function of (x, y), m
         try:
             if kind == "plane":
-                return Rigid.plane(spec["point"], spec["normal"], force=force, guided=guided)
+                return Rigid.plane(spec["point"], spec["normal"], force=force, guided=guided, **posed)
             if kind == "circle":
-                return Rigid.circle(spec["center"], spec["radius"], force=force, guided=guided)
+                return Rigid.circle(spec["center"], spec["radius"], force=force, guided=guided, **posed)
             if kind == "sphere":
-                return Rigid.sphere(spec["center"], spec["radius"], force=force, guided=guided)
+                return Rigid.sphere(spec["center"], spec["radius"], force=force, guided=guided, **posed)
             if kind == "cylinder":
-                return Rigid.cylinder(spec["point"], spec["axis"], spec["radius"], force=force, guided=guided)
+                return Rigid.cylinder(spec["point"], spec["axis"], spec["radius"], force=force, guided=guided, **posed)
             if kind == "height_field":
                 fn = f if callable(f) else (lambda x, y, f=f: f + 0.0 * x)
-                return Rigid.height_field(fn, spec.get("origin", (0.0, 0.0, 0.0)), force=force, guided=guided)
+                return Rigid.height_field(fn, spec.get("origin", (0.0, 0.0, 0.0)), force=force, guided=guided, **posed)
             fn = (lambda s, f=f: f(s, 0.0 * s)) if callable(f) else (lambda s, f=f: f + 0.0 * s)
-            return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force, guided=guided)
+            return Rigid.profile(fn, spec.get("origin", (0.0, 0.0)), force=force, guided=guided, **posed)
         except CvxContactError as exc:
             raise SceneFileError(f"{self.path}: {where}: {exc}") from exc
 

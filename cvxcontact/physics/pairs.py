@@ -182,24 +182,25 @@ class Rigid(Frozen):
             moved = bool(np.any(p != 0))
             dist = (lambda x, nu: distance(x - p, nu)) if moved else distance
             sens = sensitivity if sensitivity is None or not moved else (lambda x, nu: sensitivity(x - p, nu))
-            return dist, sens, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
+            return dist, sens, None, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
 
         self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim), _guide(guided, str(kind), dim))
 
     def _build(self, kind, shape, position, force, guided=None):
-        """Set the fields: ``shape(position)`` gives (distance, sensitivity or None, description,
-        suffix of the description) of the obstacle with its reference point at ``position`` (m); the
+        """Set the fields: ``shape(position)`` gives (distance, sensitivity or None, row direction or None (the
+        part's normal), description, suffix of the description) of the obstacle with its reference point at
+        ``position`` (m); the
         obstacle's dimension is the length of ``position``; ``guided`` the checked axes (k, dim) or None."""
         position = _point(position, f"Rigid.{kind}: position", (2, 3))
         _guided_force(force, guided, kind)
-        distance, sensitivity, describe, suffix = shape(position)
+        distance, sensitivity, direction, describe, suffix = shape(position)
         if force is not None:
             describe = describe[:-1] + f", force={_fmt(force)})"
         if guided is not None:
             describe = describe[:-1] + ", guided=" + (_fmt(guided[0]) if len(guided) == 1 else
                                                       "(" + ", ".join(_fmt(g) for g in guided) + ")") + ")"
         self._set(kind=kind, force=force, guided=guided, position=position, dim=len(position), _shape=shape,
-                  _distance=distance, _sensitivity=sensitivity, _describe=describe + suffix)
+                  _distance=distance, _sensitivity=sensitivity, _direction=direction, _describe=describe + suffix)
 
     @classmethod
     def _made(cls, kind, shape, position, force, guided=None) -> "Rigid":
@@ -251,10 +252,11 @@ class Rigid(Frozen):
         return f"Rigid.{self._describe}"
 
     def sensitivity(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
-        """(n, dim): c(x) = n_o / (-nu . n_o) at each of ``points`` (dimensionless), n_o the obstacle's
-        outward unit normal where the ray from x along ``normal`` nu meets it: a translation t (m) of
-        the obstacle shortens the distance along nu by c(x) . t to first order (docs/formulation.md §12).
-        Rows of nodes that miss the obstacle are 0. A guided obstacle under force control: the components along
+        """(n, dim): c(x) at each of ``points`` (dimensionless): a translation t (m) of the obstacle shortens
+        the gap g(x) by c(x) . t to first order (docs/formulation.md §12): c = n_o, the obstacle's outward unit
+        normal at the closest point of its surface (``distance="closest"``), or c = n_o / (-nu . n_o) with n_o
+        where the ray from x along ``normal`` nu meets it (``distance="ray"``, a plane). Rows of nodes that miss
+        the obstacle are 0. A guided obstacle under force control: the components along
         its axes G only, c G^T G (its translations t = G^T tau see no other)."""
         c = self._full_sensitivity(points, normal)
         if self.guided is not None and self.force is not None:
@@ -276,9 +278,22 @@ class Rigid(Frozen):
         return np.where(np.isfinite(out), out, 0.0)
 
     def distance(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
-        """Distance (m) from each of ``points`` (n, dim) along the unit ``normal`` (dim,) to the surface."""
+        """The gap g (m) from each of ``points`` (n, dim) of a part with unit outward ``normal`` (dim,) to the
+        surface: to its closest point (a curved obstacle's default, ``distance="closest"``), or along ``normal``
+        (``distance="ray"``, a plane, an obstacle given by its distance function); negative inside the obstacle,
+        +inf where there is none (the node is left free)."""
         points, normal = self._check(points, normal)
         return self._distance(points, normal)
+
+    def direction(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """(n, dim): the unit direction d(x) along which the row at each of ``points`` measures the body's
+        displacement, d . u <= g - c . t: towards the closest point of a curved obstacle's surface (``distance=
+        "closest"``, the default), or the part's outward ``normal`` itself (``distance="ray"``, a plane, an
+        obstacle given by its distance function)."""
+        points, normal = self._check(points, normal)
+        if self._direction is None:
+            return np.tile(normal, (len(points), 1))
+        return self._direction(points, normal)
 
     def _check(self, points, normal):
         """Read-only float copies of ``points`` (n, dim) and ``normal`` (dim,) (unit), or SceneError."""
@@ -297,12 +312,14 @@ class Rigid(Frozen):
 
     @classmethod
     def plane(cls, point: Sequence[float], normal: Sequence[float], *, force: Sequence[float] | None = None,
-              guided: ArrayLike | None = None) -> "Rigid":
+              guided: ArrayLike | None = None, distance: str = "ray") -> "Rigid":
         """The half-plane (half-space in 3D) {z : (z - point) . n <= 0}; ``normal`` n points out of the
         obstacle, towards the body (normalised here). ``point`` and ``normal`` are 2-vectors in the plane,
         3-vectors in space. The body's part must face it: nu^a . n < 0. ``force`` (N/m; N in 3D): force
         control; only its component along n, pressing the plane onto the body, can be balanced
-        (frictionless), and only the translation along n is an unknown."""
+        (frictionless), and only the translation along n is an unknown. ``distance``: "ray" (default), the
+        distance along the part's normal and rows along it, or "closest", the distance (x - point) . n and rows
+        along -n; the two agree when the part faces the plane squarely (nu^a = -n)."""
         p = _point(point, "Rigid.plane: point", (2, 3))
         n = _point(normal, "Rigid.plane: normal", (len(p),))
         F = _force(force, "plane", len(p))
@@ -310,25 +327,34 @@ class Rigid(Frozen):
             raise SceneError("Rigid.plane: normal must not be zero")
         n = n / np.linalg.norm(n)
         n.setflags(write=False)
-        return cls._made("plane", lambda p: _plane(p, n), p, F, _guide(guided, "plane", len(p)))
+        posing = _posing(distance, "plane")
+        return cls._made("plane", lambda p: _posed(_Plane(p, n), posing, POSINGS["ray"]), p, F,
+                         _guide(guided, "plane", len(p)))
 
     @classmethod
     def sphere(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
-               guided: ArrayLike | None = None) -> "Rigid":
-        """The ball of ``radius`` (m) around ``center`` (x, y, z) (m): a spherical indenter. Nodes whose
-        normal ray misses it are left free. ``force`` (fx, fy, fz) (N): force control."""
+               guided: ArrayLike | None = None, distance: str = "closest") -> "Rigid":
+        """The ball of ``radius`` (m) around ``center`` (x, y, z) (m): a spherical indenter. ``distance``:
+        "closest" (default), rows along the radius to the closest point, gap |x - center| - radius; "ray", along
+        the part's normal (nodes whose normal ray misses the ball left free). ``force`` (fx, fy, fz) (N): force
+        control."""
         c = _point(center, "Rigid.sphere: center", (3,))
         F = _force(force, "sphere", 3)
         R = _radius(radius, "sphere")
-        return cls._made("sphere", lambda c: _ball(c, R, "sphere"), c, F, _guide(guided, "sphere", 3))
+        posing = _posing(distance, "sphere")
+        return cls._made("sphere", lambda c: _posed(_Ball(c, R, "sphere"), posing, POSINGS["closest"]), c, F,
+                         _guide(guided, "sphere", 3))
 
     @classmethod
     def cylinder(cls, point: Sequence[float], axis: Sequence[float], radius: float, *,
-                 force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
+                 force: Sequence[float] | None = None, guided: ArrayLike | None = None,
+                 distance: str = "closest") -> "Rigid":
         """The infinite solid circular cylinder of ``radius`` (m) around the line through ``point`` (m)
-        along ``axis`` (3-vectors; the axis is normalised here): a roller in 3D. Nodes whose normal ray
-        misses it, or runs parallel to the axis, are left free. ``force`` (N): force control; a component
-        along the axis cannot be balanced (frictionless)."""
+        along ``axis`` (3-vectors; the axis is normalised here): a roller in 3D. ``distance``: "closest"
+        (default), rows along the radius of the cross-section through the node, gap (its distance from the
+        axis) - radius; "ray", along the part's normal (nodes whose normal ray misses it, or runs parallel to
+        the axis, left free). ``force`` (N): force control; a component along the axis cannot be balanced
+        (frictionless)."""
         p = _point(point, "Rigid.cylinder: point", (3,))
         a = _point(axis, "Rigid.cylinder: axis", (3,))
         F = _force(force, "cylinder", 3)
@@ -337,70 +363,453 @@ class Rigid(Frozen):
             raise SceneError("Rigid.cylinder: axis must not be zero")
         a = a / np.linalg.norm(a)
         a.setflags(write=False)
-        return cls._made("cylinder", lambda p: _cylinder(p, a, R), p, F, _guide(guided, "cylinder", 3))
+        posing = _posing(distance, "cylinder")
+        return cls._made("cylinder", lambda p: _posed(_Cylinder(p, a, R), posing, POSINGS["closest"]), p, F,
+                         _guide(guided, "cylinder", 3))
 
     @classmethod
     def height_field(cls, f: Callable[[np.ndarray, np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0, 0.0),
-                     *, force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
+                     *, force: Sequence[float] | None = None, guided: ArrayLike | None = None,
+                     distance: str = "closest") -> "Rigid":
         """The solid above the surface z = f(x - ox, y - oy) + oz (``origin`` (ox, oy, oz), m): an indenter
         whose underside is the graph of ``f`` (e.g. ``f = lambda x, y: (x**2 + y**2) / (2 * R)``, a
         paraboloid of tip radius R), pressing down on a body below it. ``f(x, y)`` is vectorised (arrays
-        of equal shape in, m out) and returns finite values, or ``+inf`` where there is no obstacle. The
-        distance along a body's normal nu (nu_z > 0) is the first root of z + d nu_z = f(...) along the
-        ray (closed form for a vertical normal, Newton's method otherwise); the slopes of the sensitivity
-        by central differences. ``force`` (N): force control. Moving the obstacle moves its origin."""
+        of equal shape in, m out) and returns finite values, or ``+inf`` where there is no obstacle; the
+        body's part faces up (nu_z > 0). ``distance``: "closest" (default), the signed distance to the foot
+        point of the node on the graph (a safeguarded Newton's method from the point straight above, to
+        rounding; slopes by fourth-order differences) and rows towards it; a node with no surface straight
+        above it is left free. "ray": the distance along the body's normal nu, the first root of z + d nu_z
+        = f(...) (closed form for a vertical normal, Newton's method otherwise). ``force`` (N): force
+        control. Moving the obstacle moves its origin."""
         if not callable(f):
             raise SceneError(f"Rigid.height_field: f must be a callable f(x, y) (m), got {type(f).__name__}")
         o = _point(origin, "Rigid.height_field: origin", (3,))
         F = _force(force, "height_field", 3)
-        return cls._made("height_field", lambda q: _height_field(f, q), o, F, _guide(guided, "height_field", 3))
+        posing = _posing(distance, "height_field")
+        return cls._made("height_field", lambda q: _posed(_HeightField(f, q), posing, POSINGS["closest"]), o, F,
+                         _guide(guided, "height_field", 3))
 
     @classmethod
     def circle(cls, center: Sequence[float], radius: float, *, force: Sequence[float] | None = None,
-               guided: ArrayLike | None = None) -> "Rigid":
-        """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. Nodes whose
-        normal ray misses the disc are left free. ``force`` (N/m): force control (an indenter under a
-        prescribed load)."""
+               guided: ArrayLike | None = None, distance: str = "closest") -> "Rigid":
+        """The disc of ``radius`` (m) around ``center`` (m): a cylinder in plane strain. ``distance``:
+        "closest" (default), rows along the radius to the closest point, gap |x - center| - radius; "ray",
+        along the part's normal (nodes whose normal ray misses the disc left free). ``force`` (N/m): force
+        control (an indenter under a prescribed load)."""
         F = _force(force, "circle")
         c = _point(center, "Rigid.circle: center")
         if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(radius) or radius <= 0:
             raise SceneError(f"Rigid.circle: radius must be a positive finite number (m), got {radius!r}")
         R = float(radius)
-        return cls._made("circle", lambda c: _circle(c, R), c, F, _guide(guided, "circle", 2))
+        posing = _posing(distance, "circle")
+        return cls._made("circle", lambda c: _posed(_Ball(c, R, "circle"), posing, POSINGS["closest"]), c, F,
+                         _guide(guided, "circle", 2))
 
     @classmethod
     def profile(cls, f: Callable[[np.ndarray], ArrayLike], origin: Sequence[float] = (0.0, 0.0), *,
-                force: Sequence[float] | None = None, guided: ArrayLike | None = None) -> "Rigid":
+                force: Sequence[float] | None = None, guided: ArrayLike | None = None,
+                distance: str = "closest") -> "Rigid":
         """An obstacle whose surface lies at distance ``f(s)`` (m) from the contact part along its
         outward normal, with s = (x - origin) . t (m) the tangential coordinate (t the pair's tangent,
         :func:`cvxcontact.contact.interface.canonical_tangent`: positive x1 component). ``f`` is a
-        vectorised function returning finite values, or ``+inf`` where there is no obstacle. ``force``
-        (N/m): force control; the sensitivity uses f'(s) by central differences."""
+        vectorised function returning finite values, or ``+inf`` where there is no obstacle. ``distance``:
+        "closest" (default), the signed distance from a node to the foot point of the curve (s, f(s)) (a
+        safeguarded Newton's method from s of the node, to rounding; f' and f'' by fourth-order differences)
+        and rows towards it; "ray", f(s) itself and rows along the part's normal. A node with f(s) = +inf is
+        left free. ``force`` (N/m): force control."""
         F = _force(force, "profile")
         if not callable(f):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "
                              f"got {type(f).__name__}")
         o = _point(origin, "Rigid.profile: origin")
-        return cls._made("profile", lambda q: _profile(f, o, q), o, F, _guide(guided, "profile", 2))
+        posing = _posing(distance, "profile")
+        return cls._made("profile", lambda q: _posed(_Profile(f, o, q), posing, POSINGS["closest"]), o, F,
+                         _guide(guided, "profile", 2))
 
 
-def _plane(p, n):
-    """The half-plane (half-space) {z : (z - p) . n <= 0} (``n`` its unit normal, out of the obstacle):
-    (distance, sensitivity, description, suffix) as :meth:`Rigid._build` takes them."""
+class Posing:
+    """How a rigid obstacle's surface becomes contact rows (the strategy behind the constructors' ``distance=``):
+    ``pose(surface)`` gives (distance g(x, nu) (m), sensitivity c(x, nu), direction d(x, nu) or None) with which
+    the row at a node x of a part with outward normal nu reads d . u <= g - c . t (t the obstacle's translation,
+    m; ``direction`` None: d = nu). :data:`POSINGS` holds the two: ``"closest"`` and ``"ray"``."""
 
-    def distance(x, nu):
-        c = float(nu @ n)
+    name: str = ""
+
+    def pose(self, surface):
+        raise NotImplementedError
+
+
+class ClosestPoint(Posing):
+    """The field's linearised non-penetration (docs/formulation.md §12, "Closest point"): g(x) the signed distance
+    from x to the closest point q of the obstacle's surface (negative inside), d(x) = -n_o(q) the unit direction
+    from x to q (n_o the obstacle's outward unit normal at q) and c(x) = n_o(q): a translation t of the obstacle
+    moves its surface near q by n_o . t along n_o, so the condition reads -n_o . (u - t) <= g. A node whose
+    closest point faces away from the part (n_o . nu >= 0: the obstacle lies behind it or beside it) is left
+    free (g = +inf), as a ray that misses."""
+
+    name = "closest"
+
+    def pose(self, surface):
+        memo = {}
+
+        def closest(x, nu):                                  # the foot once per (points, normal)
+            key = (x.tobytes(), x.shape, nu.tobytes())
+            if memo.get("key") != key:
+                g, n_o = surface.closest(x, nu)
+                facing = n_o @ nu < -1e-12                  # the surface there faces the part; else: no contact
+                memo["key"], memo["value"] = key, (np.where(facing, g, np.inf), n_o)
+            return memo["value"]
+
+        def distance(x, nu):
+            return closest(x, nu)[0].copy()
+
+        def direction(x, nu):
+            g, n_o = closest(x, nu)
+            return np.where(np.isfinite(g)[:, None], -n_o, nu)
+
+        def sensitivity(x, nu):
+            g, n_o = closest(x, nu)
+            return np.where(np.isfinite(g)[:, None], n_o, 0.0)
+
+        return distance, sensitivity, direction
+
+
+class Ray(Posing):
+    """The distance along the body's normal (a ray cast): g(x) the distance from x along nu to the surface (+inf
+    where the ray misses), d = nu and c(x) = n_o / (-nu . n_o), n_o the outward normal where the ray meets the
+    surface. Exact for a plane the part faces squarely; for a curved obstacle it is the vertical-distance
+    approximation (the obstacle's slope under the contact is neglected in the row direction), kept for comparison
+    with results posed that way."""
+
+    name = "ray"
+
+    def pose(self, surface):
+        return surface.ray, surface.ray_sensitivity(), None
+
+
+POSINGS = {p.name: p for p in (ClosestPoint(), Ray())}
+"""The posings of :class:`Posing` by the name a constructor's ``distance=`` takes."""
+
+
+def _posing(distance, kind) -> Posing:
+    """The :class:`Posing` named ``distance`` (SceneError naming the choices otherwise)."""
+    if isinstance(distance, Posing):
+        return distance
+    if not isinstance(distance, str) or distance not in POSINGS:
+        raise SceneError(f"Rigid.{kind}: distance must be one of {sorted(POSINGS)} (how the rows measure the "
+                         f"distance to the obstacle: 'closest', to the closest point of its surface, the default; "
+                         f"'ray', along the body's normal), got {distance!r}")
+    return POSINGS[distance]
+
+
+def _posed(surface, posing, default):
+    """(distance, sensitivity, direction, description, suffix) of ``surface`` posed by ``posing`` (the
+    description names the posing where it is not the kind's ``default``)."""
+    distance, sensitivity, direction = posing.pose(surface)
+    describe = surface.describe if posing is default else surface.describe[:-1] + f", distance={posing.name!r})"
+    return distance, sensitivity, direction, describe, surface.suffix
+
+
+class _Surface:
+    """An analytic obstacle surface at its place: ``ray(x, nu)`` the distance along nu (m, +inf where the ray
+    misses), ``outward(q)`` the obstacle's outward unit normals at surface points q, ``closest(x, nu)`` (g, n_o):
+    the signed distance (m) to the closest surface point and n_o there (g = +inf where there is none)."""
+
+    describe, suffix = "", ""
+
+    def ray_sensitivity(self):
+        return _ray_sensitivity(self.ray, self.outward)
+
+
+class _Plane(_Surface):
+    """The half-plane (half-space) {z : (z - p) . n <= 0} (``n`` its unit normal, out of the obstacle)."""
+
+    def __init__(self, p, n):
+        self.p, self.n = p, n
+        self.describe = f"plane(point={_fmt(p)}, normal={_fmt(n)})"
+
+    def _facing(self, nu):
+        c = float(nu @ self.n)
         if c >= -1e-12:
-            raise SceneError(f"Rigid.plane through {_fmt(p)} m with normal {_fmt(n)} does not face the contact "
-                             f"part, whose outward normal is {_fmt(nu)}; the plane's normal must point towards "
-                             "the body")
-        return ((x - p) @ n) / (-c)
+            raise SceneError(f"Rigid.plane through {_fmt(self.p)} m with normal {_fmt(self.n)} does not face the "
+                             f"contact part, whose outward normal is {_fmt(nu)}; the plane's normal must point "
+                             "towards the body")
+        return -c
 
-    def sensitivity(x, nu):
-        return np.tile(n / (-float(nu @ n)), (len(x), 1))
+    def ray(self, x, nu):
+        return ((x - self.p) @ self.n) / self._facing(nu)
 
-    return distance, sensitivity, f"plane(point={_fmt(p)}, normal={_fmt(n)})", ""
+    def ray_sensitivity(self):
+        return lambda x, nu: np.tile(self.n / self._facing(nu), (len(x), 1))
+
+    def outward(self, q):
+        return np.tile(self.n, (len(q), 1))
+
+    def closest(self, x, nu):
+        self._facing(nu)
+        return (x - self.p) @ self.n, self.outward(x)
+
+
+class _Ball(_Surface):
+    """The disc (2D) or ball (3D) of radius ``R`` (m) around ``c`` (m)."""
+
+    def __init__(self, c, R, kind):
+        self.c, self.R = c, R
+        self.describe = f"{kind}(center={_fmt(c)}, radius={R:.6g})"
+
+    def ray(self, x, nu):
+        w = x - self.c
+        return _quadratic_hit(np.ones(len(w)), w @ nu, np.einsum("ij,ij->i", w, w) - self.R * self.R)
+
+    def outward(self, q):
+        return (q - self.c) / self.R
+
+    def closest(self, x, nu):
+        w = x - self.c
+        r = np.linalg.norm(w, axis=1)
+        centre = r == 0                                     # at the centre: straight out along -nu
+        n_o = np.where(centre[:, None], -nu, w / np.where(centre, 1.0, r)[:, None])
+        return r - self.R, n_o
+
+
+class _Cylinder(_Surface):
+    """The solid cylinder of radius ``R`` (m) around the line through ``p`` along the unit ``axis``."""
+
+    def __init__(self, p, axis, R):
+        self.p, self.axis, self.R = p, axis, R
+        self.describe = f"cylinder(point={_fmt(p)}, axis={_fmt(axis)}, radius={R:.6g})"
+
+    def across(self, v):                                    # the components normal to the axis
+        return v - np.multiply.outer(v @ self.axis, self.axis)
+
+    def ray(self, x, nu):
+        w, v = self.across(x - self.p), self.across(nu)
+        a = np.full(len(w), float(v @ v))
+        a = np.where(a > 1e-24, a, 0.0)                     # a ray along the axis misses
+        return _quadratic_hit(a, w @ v, np.einsum("ij,ij->i", w, w) - self.R * self.R)
+
+    def outward(self, q):
+        return self.across(q - self.p) / self.R
+
+    def closest(self, x, nu):
+        w = self.across(x - self.p)
+        r = np.linalg.norm(w, axis=1)
+        v = -self.across(nu)                                # on the axis: out along -nu across the axis
+        on_axis = r == 0
+        n_o = w / np.where(on_axis, 1.0, r)[:, None]
+        if on_axis.any():
+            if np.linalg.norm(v) > 1e-12:
+                n_o[on_axis] = v / np.linalg.norm(v)
+            else:                                           # a part normal along the axis, on the axis: none
+                r = np.where(on_axis, np.inf, r)
+        return r - self.R, n_o
+
+
+def _fd_scale(p, o):
+    """A length (m) for the finite-difference steps of a graph's derivatives at parameters ``p`` (n, k)."""
+    return max(float(np.ptp(p)) if p.size else 0.0, float(np.abs(p - o).max(initial=0.0)), 1e-300)
+
+
+def _graph_derivatives(F, p, h):
+    """(grad (n, k), hess (n, k, k)) of the graph function ``F`` ((n, k) -> (n,), m) at ``p`` by fourth-order
+    central differences of step ``h`` (m; one-sided second-order slopes where a central stencil leaves the
+    graph, i.e. meets +inf; the Hessian NaN there)."""
+    n, k = p.shape
+    f0 = F(p)
+    grad = np.empty((n, k))
+    hess = np.full((n, k, k), np.nan)
+    E = np.eye(k) * h
+    with np.errstate(invalid="ignore"):
+        for i in range(k):
+            fp, fm, fp2, fm2 = F(p + E[i]), F(p - E[i]), F(p + 2 * E[i]), F(p - 2 * E[i])
+            central = (8 * (fp - fm) - (fp2 - fm2)) / (12 * h)
+            forward = (-3 * f0 + 4 * fp - fp2) / (2 * h)
+            backward = (3 * f0 - 4 * fm + fm2) / (2 * h)
+            grad[:, i] = np.where(np.isfinite(central), central, np.where(np.isfinite(forward), forward, backward))
+            hess[:, i, i] = (16 * (fp + fm) - (fp2 + fm2) - 30 * f0) / (12 * h * h)
+            for j in range(i):
+                hess[:, i, j] = hess[:, j, i] = (F(p + E[i] + E[j]) - F(p + E[i] - E[j]) - F(p - E[i] + E[j])
+                                                 + F(p - E[i] - E[j])) / (4 * h * h)
+    return grad, hess
+
+
+FOOT_TOL = 1e-12
+"""Relative size (of the scene's length) of a Newton step on a graph's foot point at which it has converged."""
+
+
+def _graph_foot(F, p0, z, origin, label):
+    """The foot point of each point (p0, z) on the graph w = F(p) (p in R^k, k = 1 or 2; +inf: no obstacle):
+    p* minimising phi(p) = |p - p0|^2 / 2 + (F(p) - z)^2 / 2 by Newton's method from p0, safeguarded (the
+    Gauss-Newton matrix where the Hessian is not positive definite, halved steps until phi does not grow).
+    Returns (p*, F(p*), grad F(p*)); rows with F(p0) = +inf (no obstacle above the point) are +inf.
+    SceneError naming ``label`` if it does not settle in 100 steps."""
+    n, k = p0.shape
+    p = p0.copy()
+    Fp = F(p)
+    live = np.isfinite(Fp)
+    scale = max(_fd_scale(p0[live], origin), float(np.abs(Fp[live] - z[live]).max(initial=0.0)))
+    h = 1e-3 * scale
+
+    def phi(q, Fq, zz, q0):
+        return 0.5 * (np.einsum("ij,ij->i", q - q0, q - q0) + (Fq - zz) ** 2)
+
+    todo = live.copy()
+    for _ in range(100):
+        idx = np.flatnonzero(todo)
+        if len(idx) == 0:
+            break
+        q, Fq, zz, q0 = p[idx], Fp[idx], z[idx], p0[idx]
+        G, H = _graph_derivatives(F, q, h)
+        r = Fq - zz
+        grad = (q - q0) + r[:, None] * G
+        A = np.eye(k) + G[:, :, None] * G[:, None, :]
+        full = A + r[:, None, None] * H
+        pd = np.isfinite(full).all(axis=(1, 2)) & (np.linalg.eigvalsh(np.where(np.isfinite(full), full, 1.0))
+                                                   .min(axis=1) > 1e-12)
+        A = np.where(pd[:, None, None], full, A)
+        step = -np.linalg.solve(A, grad[:, :, None])[:, :, 0]
+        base = phi(q, Fq, zz, q0)
+        a = np.ones(len(idx))
+        for _ in range(60):                                 # halve until phi does not grow (off the graph: grows)
+            trial = q + a[:, None] * step
+            Ft = F(trial)
+            with np.errstate(invalid="ignore"):
+                bad = ~(phi(trial, Ft, zz, q0) <= base * (1 + 1e-12) + 1e-300)
+            if not bad.any():
+                break
+            a = np.where(bad, 0.5 * a, a)
+        p[idx], Fp[idx] = trial, Ft
+        settled = (np.linalg.norm(step, axis=1) <= FOOT_TOL * scale) & ~bad   # the full Newton step, taken
+        todo[idx] = ~settled
+    else:
+        worst = int(np.flatnonzero(todo)[0])
+        raise SceneError(f"{label}: the closest point of the surface to the point with parameters {_fmt(p0[worst])} "
+                         "was not found to rounding in 100 Newton steps (the surface is not smooth there, or the "
+                         "point is far from it compared with its curvature radius); use a smoother f, or "
+                         "distance='ray'")
+    G = np.full((n, k), np.nan)
+    if live.any():
+        G[live] = _graph_derivatives(F, p[live], h)[0]
+    return p, np.where(live, Fp, np.inf), G
+
+
+class _HeightField(_Surface):
+    """The solid above z = f(x - o_x, y - o_y) + o_z (m)."""
+
+    def __init__(self, f, o):
+        self.f, self.o = f, o
+        name = getattr(f, "__name__", type(f).__name__)
+        self.describe = f"height_field({name}, origin={_fmt(o)})"
+
+    def surface(self, xy):
+        X, Y = xy[:, 0] - self.o[0], xy[:, 1] - self.o[1]
+        X.setflags(write=False)
+        Y.setflags(write=False)
+        return _surface_values("Rigid.height_field", self.f, (X, Y)) + self.o[2]
+
+    def slopes(self, xy):
+        o = self.o
+        h = 1e-6 * max(float(np.ptp(xy)), float(np.abs(xy - o[:2]).max(initial=0.0)), np.finfo(float).tiny)
+        out = np.empty_like(xy)
+        for k in range(2):
+            step = np.zeros(2)
+            step[k] = h
+            with np.errstate(invalid="ignore"):
+                out[:, k] = (self.surface(xy + step) - self.surface(xy - step)) / (2 * h)
+        return out
+
+    def _up(self, nu):
+        if nu[2] <= 1e-12:
+            raise SceneError(f"Rigid.height_field(origin={_fmt(self.o)}) lies above its surface, so it does not "
+                             f"face a contact part whose outward normal is {_fmt(nu)}: the part must face up "
+                             "(nu_z > 0)")
+
+    def ray(self, x, nu):
+        self._up(nu)
+        surface, slopes = self.surface, self.slopes
+        d = (surface(x[:, :2]) - x[:, 2]) / nu[2]           # exact for a vertical normal
+        if abs(nu[2] - 1) > 1e-15:
+            for _ in range(50):                            # Newton on phi(d) = z + d nu_z - f(x + d nu)
+                live = np.isfinite(d)
+                q = x[live] + d[live, None] * nu
+                phi = q[:, 2] - surface(q[:, :2])
+                dphi = nu[2] - slopes(q[:, :2]) @ nu[:2]
+                step = np.where(np.isfinite(phi) & (np.abs(dphi) > 1e-12), phi / np.where(dphi != 0, dphi, 1), np.inf)
+                d[live] = np.where(np.isfinite(step), d[live] - step, np.inf)   # no root on this ray: a miss
+                if (np.abs(step[np.isfinite(step)]) <= 1e-12 * (1 + np.abs(d[live][np.isfinite(step)]))).all():
+                    break
+            else:
+                raise SceneError(f"Rigid.height_field(origin={_fmt(self.o)}): Newton's method did not find where "
+                                 f"the normal {_fmt(nu)} meets the surface in 50 steps; use a smoother f or a part "
+                                 "facing straight up")
+        return d
+
+    def outward(self, q):                                  # out of the solid above: down the graph's normal
+        g = self.slopes(q[:, :2])
+        n = np.column_stack([g, -np.ones(len(q))])
+        return n / np.linalg.norm(n, axis=1)[:, None]
+
+    def closest(self, x, nu):
+        self._up(nu)
+        p, Fp, G = _graph_foot(self.surface, x[:, :2].copy(), x[:, 2], self.o[:2], repr_of(self))
+        live = np.isfinite(Fp)
+        r = np.where(live, Fp - x[:, 2], 0.0)
+        dist = np.sqrt(np.einsum("ij,ij->i", p - x[:, :2], p - x[:, :2]) + r * r)
+        n = np.column_stack([np.where(live[:, None], G, 0.0), -np.ones(len(x))])
+        n_o = n / np.linalg.norm(n, axis=1)[:, None]
+        return np.where(live, np.sign(r) * dist, np.inf), n_o
+
+
+class _Profile(_Surface):
+    """The profile ``f`` built with origin ``o`` and moved so that its origin is at ``q`` (m): the surface lies at
+    F(s) = f(s) + (q - o) . nu from the contact part along its outward normal nu, s = (x - q) . t (a profile's
+    distances are measured from the contact part; the translation's normal component adds to them)."""
+
+    def __init__(self, f, o, q):
+        self.f, self.o, self.q = f, o, q
+        self.lift = q - o
+        name = getattr(f, "__name__", type(f).__name__)
+        self.describe = f"profile({name}, origin=({o[0]:.6g}, {o[1]:.6g}))"
+        self.suffix = f".moved(to=({q[0]:.6g}, {q[1]:.6g}))" if np.any(self.lift != 0) else ""
+
+    def height(self, s, nu):
+        s = np.array(s, dtype=float).reshape(-1)
+        s.setflags(write=False)
+        return _surface_values("Rigid.profile", self.f, (s,)) + float(self.lift @ nu)
+
+    def ray(self, x, nu):
+        return self.height((x - self.q) @ canonical_tangent(nu), nu)
+
+    def ray_sensitivity(self):
+        def sensitivity(x, nu):
+            t = canonical_tangent(nu)
+            s = (x - self.q) @ t
+            h = 1e-6 * max(float(np.ptp(s)), float(np.abs(s).max(initial=0.0)), np.finfo(float).tiny)
+            d0, dp, dm = self.ray(x, nu), self.ray(x + h * t, nu), self.ray(x - h * t, nu)
+            with np.errstate(invalid="ignore"):              # f'(s): central, one-sided at an end of f
+                fp = np.where(np.isfinite(dp) & np.isfinite(dm), (dp - dm) / (2 * h),
+                              np.where(np.isfinite(dp), (dp - d0) / h, (d0 - dm) / h))
+            ok = np.isfinite(fp) & np.isfinite(d0)
+            return np.where(ok[:, None], np.outer(np.where(ok, fp, 0.0), t) - nu, 0.0)
+
+        return sensitivity
+
+    def closest(self, x, nu):
+        t = canonical_tangent(nu)
+        s0 = ((x - self.q) @ t)[:, None]
+        F = lambda s: self.height(s[:, 0], nu)             # noqa: E731  (the graph over the part's line)
+        s, Fs, G = _graph_foot(F, s0.copy(), np.zeros(len(x)), np.zeros(1), repr_of(self))
+        live = np.isfinite(Fs)
+        r = np.where(live, Fs, 0.0)
+        slope = np.where(live, G[:, 0], 0.0)
+        dist = np.hypot(s[:, 0] - s0[:, 0], r)
+        n_o = (np.outer(slope, t) - nu) / np.sqrt(1 + slope * slope)[:, None]
+        return np.where(live, np.sign(r) * dist, np.inf), n_o
+
+
+def repr_of(surface) -> str:
+    return "Rigid." + surface.describe + surface.suffix
 
 
 def _radius(radius, kind):
@@ -433,114 +842,6 @@ def _quadratic_hit(a, b, c):
     hit = (disc >= 0) & (-b + root > 0) & (a > 0)     # the ray enters ahead or the node is inside
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(hit, (-b - root) / np.where(a > 0, a, 1.0), np.inf)
-
-
-def _ball(c, R, kind):
-    """The disc (2D) or ball (3D) of radius ``R`` (m) around ``c`` (m), as :func:`_plane`."""
-
-    def distance(x, nu):
-        w = x - c
-        return _quadratic_hit(np.ones(len(w)), w @ nu, np.einsum("ij,ij->i", w, w) - R * R)
-
-    sensitivity = _ray_sensitivity(distance, lambda q: (q - c) / R)
-    return distance, sensitivity, f"{kind}(center={_fmt(c)}, radius={R:.6g})", ""
-
-
-def _circle(c, R):
-    """The disc of radius ``R`` (m) around ``c`` (m), as :func:`_plane`."""
-    return _ball(c, R, "circle")
-
-
-def _cylinder(p, axis, R):
-    """The solid cylinder of radius ``R`` (m) around the line through ``p`` along the unit ``axis``."""
-
-    def across(v):                                          # the components normal to the axis
-        return v - np.multiply.outer(v @ axis, axis)
-
-    def distance(x, nu):
-        w, v = across(x - p), across(nu)
-        a = np.full(len(w), float(v @ v))
-        a = np.where(a > 1e-24, a, 0.0)                     # a ray along the axis misses
-        return _quadratic_hit(a, w @ v, np.einsum("ij,ij->i", w, w) - R * R)
-
-    sensitivity = _ray_sensitivity(distance, lambda q: across(q - p) / R)
-    return distance, sensitivity, f"cylinder(point={_fmt(p)}, axis={_fmt(axis)}, radius={R:.6g})", ""
-
-
-def _height_field(f, o):
-    """The solid above z = f(x - o_x, y - o_y) + o_z (m), as :func:`_plane`."""
-
-    def surface(xy):
-        X, Y = xy[:, 0] - o[0], xy[:, 1] - o[1]
-        X.setflags(write=False)
-        Y.setflags(write=False)
-        return _surface_values("Rigid.height_field", f, (X, Y)) + o[2]
-
-    def slopes(xy):
-        h = 1e-6 * max(float(np.ptp(xy)), float(np.abs(xy - o[:2]).max(initial=0.0)), np.finfo(float).tiny)
-        out = np.empty_like(xy)
-        for k in range(2):
-            step = np.zeros(2)
-            step[k] = h
-            with np.errstate(invalid="ignore"):
-                out[:, k] = (surface(xy + step) - surface(xy - step)) / (2 * h)
-        return out
-
-    def distance(x, nu):
-        if nu[2] <= 1e-12:
-            raise SceneError(f"Rigid.height_field(origin={_fmt(o)}) lies above its surface, so it does not face "
-                             f"a contact part whose outward normal is {_fmt(nu)}: the part must face up (nu_z > 0)")
-        d = (surface(x[:, :2]) - x[:, 2]) / nu[2]           # exact for a vertical normal
-        if abs(nu[2] - 1) > 1e-15:
-            for _ in range(50):                            # Newton on phi(d) = z + d nu_z - f(x + d nu)
-                live = np.isfinite(d)
-                q = x[live] + d[live, None] * nu
-                phi = q[:, 2] - surface(q[:, :2])
-                dphi = nu[2] - slopes(q[:, :2]) @ nu[:2]
-                step = np.where(np.isfinite(phi) & (np.abs(dphi) > 1e-12), phi / np.where(dphi != 0, dphi, 1), np.inf)
-                d[live] = np.where(np.isfinite(step), d[live] - step, np.inf)   # no root on this ray: a miss
-                if (np.abs(step[np.isfinite(step)]) <= 1e-12 * (1 + np.abs(d[live][np.isfinite(step)]))).all():
-                    break
-            else:
-                raise SceneError(f"Rigid.height_field(origin={_fmt(o)}): Newton's method did not find where the "
-                                 f"normal {_fmt(nu)} meets the surface in 50 steps; use a smoother f or a part "
-                                 "facing straight up")
-        return d
-
-    def outward(q):                                        # out of the solid above: down the graph's normal
-        g = slopes(q[:, :2])
-        n = np.column_stack([g, -np.ones(len(q))])
-        return n / np.linalg.norm(n, axis=1)[:, None]
-
-    name = getattr(f, "__name__", type(f).__name__)
-    return distance, _ray_sensitivity(distance, outward), f"height_field({name}, origin={_fmt(o)})", ""
-
-
-def _profile(f, o, q):
-    """The profile ``f`` built with origin ``o`` and moved so that its origin is at ``q`` (m), as
-    :func:`_plane`: s = (x - q) . t, and the distance f(s) grows by (q - o) . nu (the translation's normal
-    component; a profile's distances are measured from the contact part)."""
-    lift = q - o
-
-    def distance(x, nu):
-        s = (x - q) @ canonical_tangent(nu)
-        s.setflags(write=False)
-        return _surface_values("Rigid.profile", f, (s,)) + float(lift @ nu)
-
-    def sensitivity(x, nu):
-        t = canonical_tangent(nu)
-        s = (x - q) @ t
-        h = 1e-6 * max(float(np.ptp(s)), float(np.abs(s).max(initial=0.0)), np.finfo(float).tiny)
-        d0, dp, dm = distance(x, nu), distance(x + h * t, nu), distance(x - h * t, nu)
-        with np.errstate(invalid="ignore"):              # f'(s): central, one-sided at an end of f
-            fp = np.where(np.isfinite(dp) & np.isfinite(dm), (dp - dm) / (2 * h),
-                          np.where(np.isfinite(dp), (dp - d0) / h, (d0 - dm) / h))
-        ok = np.isfinite(fp) & np.isfinite(d0)
-        return np.where(ok[:, None], np.outer(np.where(ok, fp, 0.0), t) - nu, 0.0)
-
-    name = getattr(f, "__name__", type(f).__name__)
-    moved = f".moved(to=({q[0]:.6g}, {q[1]:.6g}))" if np.any(lift != 0) else ""
-    return distance, sensitivity, f"profile({name}, origin=({o[0]:.6g}, {o[1]:.6g}))", moved
 
 
 class Contact(Frozen):

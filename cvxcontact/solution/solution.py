@@ -500,6 +500,9 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, ``nodes`` the bodies' P2 nodes): the rows
     are the P2 contact nodes of the condition, ``weights`` their Simpson weights, and lambda is extended to
     X_h as the P2 function of those nodes (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.extend`).
+    P2 tetrahedra: the rows of a compliance pair are the law's quadrature points on its P2 faces, and lambda at
+    the condition's nodes is the Riesz representer of the row forces w p(r) + z in the P2 functions of those
+    faces (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`), extended likewise.
     (P2 with a conic penetration limit: :func:`read_back_conic_mix`.)
     """
     scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
@@ -530,8 +533,9 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             merged = slice(merged_at[i], merged_at[i + 1])
             rows_i = slice(offsets[i], offsets[i + 1])
             lam_i = lam[rows_i]
-            if z is not None and hasattr(itf, "row_mass"):     # P2 faces: z as a pressure in their P2 functions
-                lam_i = p[rows_i] + _limit_pressure(itf.row_mass(cond) / un.length, z[rows_i])
+            if hasattr(itf, "law_pressure"):     # P2 faces: rows at the law's quadrature points, lambda the Riesz
+                f = weights[rows_i] * p[rows_i] + (0.0 if z is None else z[rows_i])   # representer of w p + z
+                lam_i = itf.law_pressure(cond, f) * un.length
             elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
                 # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
                 # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)
@@ -546,18 +550,6 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
         sol.info = replace(sol.info, status=Status.OPTIMAL)
     sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
     return sol
-
-
-def _limit_pressure(M, z) -> np.ndarray:
-    """lambda_z with M lambda_z = z on the rows M covers (nonzero diagonal), 0 on the others (a reaction at a
-    node of no quadrature triangle is a point force; the force read-back keeps it): the limit reactions z of a
-    compliance law as a pressure (docs/formulation.md §15)."""
-    M = M.tocsr()
-    on = np.flatnonzero(M.diagonal() > 0)
-    out = np.zeros(len(z))
-    if len(on):
-        out[on] = spla.spsolve(M[on][:, on].tocsc(), np.asarray(z, dtype=float)[on])
-    return out
 
 
 def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":

@@ -12,7 +12,8 @@ Hertz's solution for a rigid sphere on an elastic half-space under the total for
     p(r) = p0 sqrt(1 - r^2 / a^2).
 
 Force control at every mesh level: the sphere's approach delta is the unknown that makes the total
-force 4 sum(y) equal to F (the quarter carries F / 4). Two ways, which agree (tests/test_hertz3d.py): the
+force F (the quarter carries F / 4; :func:`total_force`, the obstacle's vertical resultant) equal to the
+prescribed one. Two ways, which agree (tests/test_hertz3d.py): the
 sphere guided along z under ``force=(0, 0, -F / 4)`` (``Rigid.sphere(..., guided=(0, 0, 1))``: its x, y
 translations are held, as the symmetry holds them, which the scene cannot know), or, cheaper on finer
 meshes, :func:`press`: the fixed sphere moved to the approach found by secant steps on F(delta), one
@@ -35,6 +36,13 @@ tangency point per touching face; at n = 8 no node touches), so its contact radi
 the quarter disc with the area of their convex hull (:func:`support_radius`, an estimate from inside; on the
 nodal rows, from the active nodes, it lies within a grid spacing of the edge mid-points). Every row also gives
 the radius of Hertz's profile with the forces' second moment (:func:`moment_radius`; it assumes Hertz's shape).
+
+Posing (:data:`DISTANCE`): the study's tables were measured with the sphere posed by the distance along the
+block's normal (``distance="ray"``, the vertical distance and rows along z), and keep it so that they stay
+reproducible; ``scene(..., distance="closest")`` poses it as the field does (the distance to the closest point
+and rows along the radius, docs/formulation.md §12, the default of ``Rigid.sphere``). At a / R = 0.05, n = 8 the
+closest-point rows give a 0.59 % larger force at Hertz's approach and a 0.38 % shorter approach under force
+control (``cc.solve(scene(8, distance=...))``, ``total_force``).
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -81,6 +89,12 @@ FORCE_RTOL_CONIC = 1e-7
 """The relative accuracy to which :func:`press` reaches the force under P2 "gamma3": the finished conic answer's
 total force moves by about 1e-8 of F between re-solves at approaches 1e-12 apart (the accumulated cuts' least
 squares), so 1e-10 is out of reach there."""
+
+
+DISTANCE = "ray"
+"""The sphere's posing in the study (``Rigid.sphere(..., distance=DISTANCE)``): "ray", the vertical distance and
+rows along the block's normal, with which the committed tables were measured; "closest" is the field's posing
+(re-run the study with it: ``cvxcontact study hertz3d`` after setting this to "closest")."""
 
 
 ROWS = {(1, "gamma3"): LEVELS, (2, "sigma1"): LEVELS_P2, (2, "gamma3"): LEVELS_G3}
@@ -133,15 +147,16 @@ def _continued(mesh, L):
                                              np.interp(P[:, 2], np.arange(nz + 1), zs)]))
 
 
-def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO, twice=False) -> Scene:
+def scene(n, delta=None, force=None, size=SIZE, ratio=RATIO, twice=False, distance=DISTANCE) -> Scene:
     """The quarter scene: the sphere fixed at the approach ``delta`` (m; default Hertz's at FORCE), or with
     ``force`` (N, the whole sphere's) a sphere touching at the origin under force control, guided along z
-    (the quarter's symmetry planes hold it in x and y)."""
+    (the quarter's symmetry planes hold it in x and y); ``distance``: the sphere's posing (:data:`DISTANCE`)."""
     body = block(n, size, ratio, twice)
     if force is not None:
-        sphere = Rigid.sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4), guided=(0.0, 0.0, 1.0))
+        sphere = Rigid.sphere((0.0, 0.0, R), R, force=(0.0, 0.0, -force / 4), guided=(0.0, 0.0, 1.0),
+                              distance=distance)
     else:
-        sphere = Rigid.sphere((0.0, 0.0, R - (hertz(FORCE)[2] if delta is None else delta)), R)
+        sphere = Rigid.sphere((0.0, 0.0, R - (hertz(FORCE)[2] if delta is None else delta)), R, distance=distance)
     return Scene(body, contacts=[Contact(body, "zone", sphere)])
 
 
@@ -154,9 +169,20 @@ def press(solver, base: Scene, F=FORCE, rtol=1e-10, steps=30):
 
     def at(delta):
         sol = solver.solve(base.with_obstacles(sphere.moved(to=top - [0.0, 0.0, delta])))
-        return sol, 4 * float(sol.contact.force.sum())
+        return sol, total_force(sol)
 
     return secant_press(at, F, hertz(F)[2], rtol, steps)
+
+
+def total_force(sol) -> float:
+    """N: the total force on the sphere (four quarters), -4 times the vertical component of the obstacle's
+    resultant sum_a c_a y_a (:class:`~cvxcontact.ObstacleResult`): the nodal forces y_a act along the rows'
+    directions (radial under ``distance="closest"``, where their plain sum overstates it; vertical under
+    "ray", where it is 4 sum(y) to rounding). Two elastic bodies (no obstacle, rows along the pair's normal):
+    4 sum(y)."""
+    if not sol.obstacles:
+        return 4 * float(sol.contact.force.sum())
+    return -4 * float(sol.obstacles[0].force[2])
 
 
 def secant_press(at, F, d0, rtol=1e-10, steps=30):
@@ -311,7 +337,7 @@ def measure(sol, delta, closed_form=None):
     "gamma3" the hull of the points where the gap closes (:func:`support_radius`; the zone's edge lies inside
     triangles there, whose nodes need not touch); both estimators, and :func:`moment_radius`, on every row."""
     c = sol.contact
-    F = 4 * float(c.force.sum())
+    F = total_force(sol)
     a, p0, d = (closed_form or hertz)(F)
     a_hull, support = support_radius(sol)
     a_moment = moment_radius(c.x, c.force)
@@ -392,7 +418,7 @@ def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
 
     plt = pyplot()
     c = sol.contact
-    F = 4 * float(c.force.sum())
+    F = total_force(sol)
     a, p0, _ = hertz(F)
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")

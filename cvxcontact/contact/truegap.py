@@ -51,10 +51,14 @@ class GapDeparture:
     ``gap(elements, points)``: the true gap (m) at ``points`` (t (k,) on segments, L (k, 3) on triangles) of the
     cone's ``elements`` (k,), for the curved ones; ``nodal`` (S, w): the gap at each element's P2 nodes (m; its
     P2 interpolant is g_h); ``curved`` (S,) bool: the elements whose gap is not quadratic (the others have
-    delta = 0 and the quadratic's exact maximum). :meth:`scaled` gives the same in another unit of length."""
+    delta = 0 and the quadratic's exact maximum). ``derivatives(elements, points)``: (g (k,), grad (k, c),
+    hess (k, c, c)), the true gap and its derivatives (m) in the full barycentric coordinates L of the element's
+    c corners (L = (1 - t, t) on segments; their components along sum(L) = const are the meaningful ones), for
+    :meth:`curvature`. :meth:`scaled` gives the same in another unit of length."""
 
-    def __init__(self, gap: Callable, nodal, curved, scale: float = 1.0):
+    def __init__(self, gap: Callable, nodal, curved, scale: float = 1.0, derivatives: Callable | None = None):
         self._gap = gap
+        self._derivatives = derivatives
         self.nodal = np.asarray(nodal, dtype=float)
         self.curved = np.asarray(curved, dtype=bool)
         self.width = self.nodal.shape[1]
@@ -62,7 +66,7 @@ class GapDeparture:
         self.scale = float(scale)
 
     @classmethod
-    def build(cls, gap: Callable, nodal, candidates) -> "GapDeparture | None":
+    def build(cls, gap: Callable, nodal, candidates, derivatives: Callable | None = None) -> "GapDeparture | None":
         """The departure on the ``candidates`` (S,) bool elements (rigid obstacles' faces), each marked curved
         where delta at its first sample points is above rounding (:data:`CURVED_TOL`); None if none is."""
         nodal = np.asarray(nodal, dtype=float)
@@ -81,11 +85,11 @@ class GapDeparture:
                 | ~np.isfinite(g).all(axis=1)
         if not curved.any():
             return None
-        return cls(gap, nodal, curved)
+        return cls(gap, nodal, curved, derivatives=derivatives)
 
     def scaled(self, length: float) -> "GapDeparture":
         """The same departure in units of ``length`` (m): delta / length."""
-        return GapDeparture(self._gap, self.nodal, self.curved, self.scale / float(length))
+        return GapDeparture(self._gap, self.nodal, self.curved, self.scale / float(length), self._derivatives)
 
     @staticmethod
     def _grid(shape) -> np.ndarray:
@@ -111,6 +115,22 @@ class GapDeparture:
             gh = ((self.nodal[e] @ self.shape.to_bernstein.T) * phi).sum(axis=1)
             out[on] = (np.asarray(self._gap(e, p), dtype=float) - gh) * self.scale
         return out
+
+    def curvature(self, element: int, L) -> tuple[float, np.ndarray, np.ndarray]:
+        """(delta, grad, hess) (scaled) at the full barycentric point ``L`` (c,) of ``element``: delta = g - g_h
+        and its gradient (c,) and Hessian (c, c) in L, g's from ``derivatives`` (closed form, docs/formulation.md
+        §18) and g_h = L^T Q L's (2 Q L, 2 Q); zero on a straight element. Their components along the element
+        (directions with sum 0) are its slope and curvature (the tangency Newton's)."""
+        L = np.asarray(L, dtype=float)
+        c = len(L)
+        if not self.curved[element]:
+            return 0.0, np.zeros(c), np.zeros((c, c))
+        if self._derivatives is None:
+            raise ValueError("GapDeparture.curvature: built without the gap's derivatives")
+        Q = self.shape.gram((self.nodal[element] @ self.shape.to_bernstein.T)[None, :])[0]
+        g, grad, hess = self._derivatives(np.array([element]), L[None, 1] if self.width == 3 else L[None, :])
+        return ((float(g[0]) - L @ Q @ L) * self.scale, (grad[0] - 2 * Q @ L) * self.scale,
+                (hess[0] - 2 * Q) * self.scale)
 
     def argmax(self, b) -> tuple[np.ndarray, np.ndarray]:
         """(s_max, point) per element: the maximum over the element of s = q_h - delta, q_h the quadratic of

@@ -213,20 +213,33 @@ def gap_departure(scene, stack, conditions, cells, gap) -> GapDeparture | None:
     x = np.asarray(stack.x, dtype=float)
     corners = cells[:, [0, 2]] if w == 3 else cells[:, :3]
 
-    def true_gap(elements, points):
-        out = np.empty(len(elements))
+    def located(elements, points):
+        """Per pair i: (on, s, X): the elements of pair i, their points' coordinates s on the pair's line or
+        plane (m) and their corners' X (k, c, m) (s = L X, L the full barycentric coordinates)."""
         for i in np.unique(pair[elements]):
             on = np.flatnonzero(pair[elements] == i)
             X = x[corners[elements[on]]]                       # (k, 2) abscissae or (k, 3, 2) in-plane points
-            if w == 3:
-                t = points[on]
-                s = (1 - t) * X[:, 0] + t * X[:, 1]
-            else:
-                s = np.einsum("kv,kvd->kd", points[on], X)
-            out[on] = scene.pair_gap_values(int(i), s)
+            X = X[:, :, None] if w == 3 else X
+            L = np.column_stack([1 - points[on], points[on]]) if w == 3 else points[on]
+            s = np.einsum("kv,kvd->kd", L, X)
+            yield int(i), on, (s[:, 0] if w == 3 else s), X
+
+    def true_gap(elements, points):
+        out = np.empty(len(elements))
+        for i, on, s, _ in located(elements, points):
+            out[on] = scene.pair_gap_values(i, s)
         return out
 
-    return GapDeparture.build(true_gap, np.asarray(gap, dtype=float)[cells], pair >= 0)
+    def derivatives(elements, points):
+        k, c = len(elements), (2 if w == 3 else 3)
+        g, grad, hess = np.empty(k), np.empty((k, c)), np.empty((k, c, c))
+        for i, on, s, X in located(elements, points):
+            g[on], gs, hs = scene.pair_gap_derivatives(i, s)
+            grad[on] = np.einsum("kvd,kd->kv", X, gs)          # ds/dL = X
+            hess[on] = np.einsum("kvd,kde,kue->kvu", X, hs, X)
+        return g, grad, hess
+
+    return GapDeparture.build(true_gap, np.asarray(gap, dtype=float)[cells], pair >= 0, derivatives)
 
 
 def _p2_obstacles(scene, stack, dim: int = 2):

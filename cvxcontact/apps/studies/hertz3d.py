@@ -228,7 +228,10 @@ def true_departure(sol) -> GapDeparture | None:
     """The :class:`~cvxcontact.contact.truegap.GapDeparture` (m) of the sphere's own gap from its P2 interpolant on
     the triangles of a P2 solution's contact surface (the gap at in-plane points from the scene,
     :meth:`~cvxcontact.physics.scene.Scene.pair_gap_values`; the nodal gap the contact's): the slack whose
-    maxima are the contact points of P2 "gamma3" (docs/formulation.md §8)."""
+    maxima are the contact points of P2 "gamma3" (docs/formulation.md §8); None between two bodies (a pair's gap
+    function stays interpolated there, as the condition poses it)."""
+    if not getattr(sol.scene.interfaces[0], "rigid", False):
+        return None
     c = sol.contact
     x, cells = np.asarray(c.x, dtype=float), np.asarray(_contact_surface(sol).cells)
 

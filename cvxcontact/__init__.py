@@ -24,7 +24,7 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
     "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
-    "ResidualWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
+    "ResidualWarning": (".errors", None), "ResolutionWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
     "SolverError": (".errors", None),
     "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
     "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
@@ -46,7 +46,7 @@ __all__ = [
     "Mesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance",
     "solve", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
-    "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning",
+    "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
     "CaseArrays",
 ]
@@ -85,7 +85,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .contact.interface import CONDITIONS
     from .contact.laws import NormalCompliance, Signorini
     from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, NonUniqueWarning,
-                         ResidualWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
+                         ResidualWarning, ResolutionWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .apps.sweep.load import CaseArrays, SweepResults, load_sweep

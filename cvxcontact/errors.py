@@ -37,6 +37,13 @@ class ResidualWarning(UserWarning):
     """A solution failed the mixed-formulation checks at the requested tolerance."""
 
 
+class ResolutionWarning(UserWarning):
+    """The mesh cannot resolve what the solution shows: a contact zone spanned by too few cells (fewer than
+    :data:`cvxcontact.solution.resolution.MIN_CELLS` contact faces of a body carry its pressure). The
+    discrete problem may be solved exactly (``ok`` True) while the pressure is far from the physics; the
+    message names the pair, the body and what to refine."""
+
+
 class NonUniqueWarning(UserWarning):
     """The discrete problem has several solutions and one is returned: a force-controlled obstacle's
     translation along a direction no contact carrying force sees (a sphere touching one node on its axis)

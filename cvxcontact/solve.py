@@ -20,11 +20,13 @@ from .backends.result import Cache, Settings
 from .backends.run import run
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .errors import ResidualWarning, SceneError, SolverError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError
 from .fem.space import space
 from .physics.scene import Scene
+from .solution.estimate import estimate as estimate_error
 from .solution.info import Route, SolveInfo, Status
 from .solution.readback import read_back
+from .solution.resolution import unresolved
 from .solution.solution import ContactResult, Solution
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
@@ -38,7 +40,7 @@ DEFAULT_TOL = 1e-6
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
           tol: float = DEFAULT_TOL, polish: bool = True, verbose: bool = False,
           solver_options: Mapping[str, object] | None = None, law: ContactLaw | None = None,
-          degree: int = 1, factorization: str = "auto") -> Solution:
+          degree: int = 1, factorization: str = "auto", estimate: bool = True) -> Solution:
     """Solve the frictionless contact problem of ``scene`` as a convex program.
 
     Parameters
@@ -107,6 +109,10 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         (:mod:`cvxcontact.backends.factor`): "superlu" (SciPy), "pardiso" (Intel oneMKL PARDISO, the optional
         extra ``pip install "cvxcontact[pardiso]"``), "auto" (default) PARDISO if it is installed, else
         SuperLU. Same answer to rounding; ``Solution.info.factorization`` names the one used.
+    estimate : bool
+        Compute the a posteriori error estimate ``Solution.estimate`` (default; docs/accuracy.md: a residual
+        estimator with contact terms, 2D P1 and P2) and check that the contact zone is resolved (a
+        :class:`~cvxcontact.errors.ResolutionWarning` otherwise). False skips both.
 
     Returns
     -------
@@ -127,7 +133,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
     """
     return ContactSolver(scene, condition, solver, method=method, tol=tol, polish=polish, verbose=verbose,
                          solver_options=solver_options, law=law, degree=degree,
-                         factorization=factorization).solve()
+                         factorization=factorization, estimate=estimate).solve()
 
 
 class ContactSolver:
@@ -148,7 +154,7 @@ class ContactSolver:
     costs two triangular solves per body and little else. ``scale=False`` hands the
     raw SI matrices to the solver (for the stability study only: it shows what the
     non-dimensionalisation prevents). ``warm_start`` and ``scale`` are booleans. Other
-    parameters as in :func:`solve` (``degree=2``: P2 elements; the conic "gamma3" condition is
+    parameters as in :func:`solve` (``estimate``: the error estimate and the resolution check of each solve; ``degree=2``: P2 elements; the conic "gamma3" condition is
     re-solved by the interior point each time, the nodal ones warm-start as above); all are
     checked before anything is assembled.
     """
@@ -156,7 +162,8 @@ class ContactSolver:
     def __init__(self, scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
-                 law: ContactLaw | None = None, degree: int = 1, factorization: str = "auto"):
+                 law: ContactLaw | None = None, degree: int = 1, factorization: str = "auto",
+                 estimate: bool = True):
         from .backends.options import (check_factorization, check_solve_parameters, check_solver,
                                        check_solver_options)
 
@@ -170,6 +177,9 @@ class ContactSolver:
                                  verbose=verbose, polish=polish, warm_start=warm_start,
                                  factorization=factorization)
         check_factorization(factorization)
+        if not isinstance(estimate, bool):
+            raise SolverError(f"estimate must be True or False (compute the error estimate or not), got {estimate!r}")
+        self.estimate = estimate
         discretisation = space(degree, scene.dim)
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
@@ -202,9 +212,18 @@ class ContactSolver:
         if not sol.ok and self._falls_back(raw):
             sol = self._fallback(problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
+        if self.estimate:
+            t0 = time.perf_counter()
+            sol.estimate, sol.estimate_reason = estimate_error(sol)
+            timings["estimate"] = time.perf_counter() - t0
+        else:
+            sol.estimate_reason = "not computed (estimate=False)"
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
+        if self.estimate:
+            for message in unresolved(sol):
+                warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol
 
     def _falls_back(self, raw) -> bool:

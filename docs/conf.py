@@ -1,7 +1,8 @@
 """Sphinx configuration of the cvxcontact documentation.
 
 Build (warnings are errors):  python -m sphinx -W --keep-going -b html docs docs/_build/html
-Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery). The pages are Markdown (MyST);
+Needs ``pip install ".[docs]"`` (Sphinx, MyST-parser, sphinx-gallery, sphinx-mathjax-offline). The pages are
+Markdown (MyST), their equations dollar math typeset by a MathJax bundled into the site (readable offline);
 the gallery is ``examples/``, every script executed during the build; the API reference is read from
 the docstrings (autodoc + napoleon, numpy style). Why these tools: docs/explanation/about-docs.md.
 """
@@ -28,6 +29,8 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",            # MathJax 3.2.2 copied into _static/mathjax: the equations render offline
+                                         # (it declares no parallel safety: a build with -j would warn)
     "sphinx.ext.viewcode",
     "sphinx_gallery.gen_gallery",
 ]
@@ -37,7 +40,8 @@ root_doc = "index"
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "auto_examples/*.ipynb", "auto_examples/*.py",
                     "auto_examples/*.zip", "auto_examples/*.json", "auto_examples/*.md5"]
 
-myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
+myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]   # $...$, $$...$$ \tag{26}: also GitHub's math
+mathjax_path = "mathjax/tex-chtml.js"    # relative: the site's own _static copy (sphinx-mathjax-offline), no CDN
 myst_heading_anchors = 3                 # [text](page.md#a-heading) links resolve
 
 autodoc_member_order = "bysource"

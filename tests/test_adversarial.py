@@ -20,6 +20,8 @@ import cvxcontact as cc
 from adversarial_reference import Reference, mixed_residual
 from cvxcontact.io.scenefile import load_scene
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 TOL_U = 1e-6        # displacement / potential, relative to each body's own max
 TOL_F = 1e-5        # nodal contact forces, relative to the largest reference nodal force
 METHODS = ("full", "condensed")

@@ -18,6 +18,8 @@ from cvxcontact.backends import ProblemDescription, choose
 from cvxcontact.backends.amg import own_dofs
 from cvxcontact.backends.result import Route
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 @pytest.mark.parametrize("make, n", [(sphere_into_block, 12), (two_boxes, 6)], ids=["sphere", "pzt-on-aluminium"])
 def test_amg_route_agrees_with_the_sparse_route(make, n):
     """The same active set and fields as the sparse route's factorised steps (Krylov solves to 1e-10):

@@ -18,6 +18,8 @@ from cvxcontact.io.scenefile import SceneFileError, scene_from_data
 from conftest import rel, two_blocks
 from reference_problems import C, DELTA, E1, E2, H1, H2, closed_form, pressed
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 @pytest.fixture(scope="module")
 def scene_pressed():
     return pressed()

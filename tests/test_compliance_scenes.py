@@ -19,6 +19,8 @@ import pytest
 
 import cvxcontact as cc
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 M = ALU.c[1, 1]                 # P-wave (oedometric) modulus E (1-nu) / ((1+nu) (1-2nu)), Pa
 H, W, P = 0.5, 1.0, 2e7         # block height and width (m), pressure (Pa)

@@ -23,6 +23,8 @@ from scenes3d import (P, PAD, bumped_blocks, bumped_gap, extruded_pair, floating
                       piezo_pair, punch_on_pad, pzt_layer_on_plane, rotation, section_pair, sphere_on_block,
                       SCENES3D, stacked_blocks, stiffened_modulus, three_blocks, tilted_gap, uniaxial_modulus)
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def solve(scene, condition):
     """cc.solve, asserting that an answer whose checks fail is flagged by a ResidualWarning (and that a

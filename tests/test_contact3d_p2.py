@@ -17,6 +17,8 @@ from cvxcontact.geometry.quadratic import P2TetNodes
 from reference3d import Dense, obstacle_distance, plane_frame
 from scenes3d import P, bumped_blocks, bumped_gap, layer_on_plane, stacked_blocks, uniaxial_modulus
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def uniaxial_error(sol) -> float:
     c = uniaxial_modulus()

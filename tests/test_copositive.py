@@ -22,6 +22,8 @@ from cvxcontact.fem.space import space
 from cvxcontact.geometry.quadratic import P2TetNodes
 from scenes3d import SIDES, STEEL, bumped_gap, uniaxial_modulus
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def simplex_grid(n) -> np.ndarray:
     """Barycentric points of the triangle with spacing 1/n ((n+1)(n+2)/2, 3)."""

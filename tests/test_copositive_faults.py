@@ -12,6 +12,8 @@ import cvxcontact as cc
 from scenes3d import SIDES, STEEL, bumped_gap, layer_on_plane
 from test_copositive import pressed_blocks
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def quartic_gap(x, y):
     """A gap that is no quadratic: not a jump of the P2 traces at the nodes of X_h."""

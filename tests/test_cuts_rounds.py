@@ -15,6 +15,8 @@ from cvxcontact.apps import demo
 from cvxcontact.backends import cones, cuts
 from cvxcontact.contact.bernstein import SEGMENT, bernstein_map
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def test_nnls_carried_factors_give_scipys_answer_without_a_new_factorisation(monkeypatch):
     # a second call on more columns (the next round's points appended), warm started from the first answer:

@@ -18,6 +18,8 @@ from cvxcontact.contact.quadratic import bernstein_argmax, point_rows
 from conftest import two_blocks
 from test_p2 import _sample_jump
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def _problem(scene):
     return cc.ContactSolver(scene, "gamma3", degree=2).problem
@@ -140,13 +142,21 @@ def test_sampled_condition_converges_to_the_conic_answer():
 
 def test_interior_point_alone_is_certified_by_the_bound_or_fails():
     """polish=False: the interior point's answer, its duals moved into the dual cone and its fields re-derived
-    from them; `ok` is True only if the certified bound or the three contact checks pass at tol."""
-    sol = cc.solve(quickstart(16), "gamma3", degree=2, polish=False, tol=1e-6)
+    from them; `ok` is True only if the certified bound or the three contact checks pass at tol, and a
+    ResidualWarning says so when they do not. Where the interior point stops depends on the BLAS kernels
+    (measured alone, complementarity / energy error: Haswell 9.5e-7 / 7.6e-7 and Nehalem 1.36e-6 / 7.6e-7,
+    `ok` True; Sandybridge 1.04e-6 / 1.04e-6 and Prescott 1.35e-6 / 1.05e-6, `ok` False and warned), so either
+    outcome must be consistent."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", cc.errors.ResidualWarning)
+        sol = cc.solve(quickstart(16), "gamma3", degree=2, polish=False, tol=1e-6)
     res = sol.residuals()
     assert not sol.polished and "energy error" in res
     certified = res["energy error"] <= 1e-6
     checked = all(res[k] <= 1e-6 for k in ("feasibility", "complementarity", "cone"))
     assert sol.ok == (res["equilibrium"] <= 1e-6 and (certified or checked))
+    warned = any(issubclass(w.category, cc.errors.ResidualWarning) for w in caught)
+    assert warned == (not sol.ok)
 
 
 def test_point_rows_are_the_lagrange_basis_and_the_maximiser_is_exact():

@@ -20,6 +20,8 @@ from cvxcontact.contact.quadratic import quadratic_interface
 
 from conftest import rel
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 HAS_PARDISO = factor.pardiso_available()
 needs_pardiso = pytest.mark.skipif(not HAS_PARDISO, reason="Intel oneMKL (libmkl_rt) not installed")
 KINDS = ["superlu", pytest.param("pardiso", marks=needs_pardiso)]

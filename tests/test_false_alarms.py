@@ -12,11 +12,14 @@
 import warnings
 
 import numpy as np
+import pytest
 
 import cvxcontact as cc
 from cvxcontact.apps.studies import hertz3d
 
 from scenes3d import STEEL
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
 
 def hanging_block(floor=0.0):

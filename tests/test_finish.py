@@ -7,6 +7,8 @@ import pytest
 
 from cvxcontact.backends.finish import solve_lcp
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def brute_force_lcp(W, d):
     """The solution of y >= 0, d - W y <= 0, y.(d - W y) = 0 by trying every active set (small m)."""

@@ -23,6 +23,8 @@ from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
     three_blocks, uniaxial_modulus
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def dense_kkt(A, F, G, g):
     """A mixed-system callable of the form :func:`cvxcontact.backends.full.mixed_kkt` returns, dense: one body

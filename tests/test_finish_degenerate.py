@@ -16,6 +16,8 @@ from cvxcontact.backends import finish, signorini
 
 from scenes3d import P, layer_on_plane, stacked_blocks, uniaxial_modulus
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 SCENES = {"P2 layer on a rigid plane": lambda: layer_on_plane(n=(2, 2, 1)),
           "P2 blocks on matching faces": lambda: stacked_blocks((3, 3), (3, 3), nz=1)}
 

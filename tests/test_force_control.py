@@ -11,6 +11,8 @@ import pytest
 
 import cvxcontact as cc
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 
 

@@ -11,6 +11,8 @@ from cvxcontact.errors import FrozenError, SceneError
 from cvxcontact.io.scenefile import SceneFileError, scene_from_data
 from cvxcontact.physics.materials import isotropic
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def mirrored(mesh, axis, symmetry):
     """``mesh`` and its mirror image across the plane x_axis = 0 (a face of it), the nodes on the plane shared;

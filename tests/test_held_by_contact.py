@@ -7,6 +7,8 @@ import pytest
 import cvxcontact as cc
 from cvxcontact.solution.checks import rigid_balance
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 E, NU = 200e9, 0.3
 STEEL = cc.materials.isotropic(E=E, nu=NU)
 LAME_P = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))       # lambda + 2 mu, plane strain (Pa)

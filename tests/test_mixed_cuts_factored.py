@@ -25,6 +25,8 @@ from test_compliance_scenes import held_layer
 from test_finish3d import dense_kkt, enumerated
 from test_force_control import punch_scene
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 SCENES = {
     "2D layer held by the contact": lambda: held_layer(None),
     "2D force-controlled punch": lambda: punch_scene(0.5)(force=(0.0, -1e6)),

@@ -11,6 +11,8 @@ import cvxcontact as cc
 from cvxcontact.fem.assembly import assemble
 from conftest import rel, two_blocks
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 
 def _split(x, sizes):

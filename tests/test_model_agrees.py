@@ -22,6 +22,8 @@ import cvxcontact as cc
 from conftest import rel
 from scenes import SCENES
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def _quiet(fn):
     with warnings.catch_warnings():

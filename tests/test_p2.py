@@ -12,6 +12,8 @@ from cvxcontact.geometry.quadratic import P2Nodes
 
 from conftest import rel, two_blocks
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 A, YOUNG, F, GAP = 0.5, 1e9, 4e9, -1e-3        # half-height (m), Young (Pa), body force (N/m^3), gap (m)
 
 

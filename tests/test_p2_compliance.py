@@ -18,6 +18,8 @@ import cvxcontact as cc
 from conftest import rel, two_blocks
 from reference_problems import C, DELTA, E1, E2, H1, H2, closed_form, pressed
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 def field_error(sol, lam):
     """Largest error of u at every P2 node of both bodies against the springs' fields, over DELTA."""
     err = 0.0

@@ -22,6 +22,8 @@ from cvxcontact.contact.quadratic import p2_interpolation
 
 from conftest import rel
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 A = 0.5
 MAT = cc.materials.isotropic(E=1e9, nu=0.3)
 GAPS = (lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2, lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2)

@@ -17,6 +17,8 @@ from reference_problems import closed_form, pressed
 from test_p2 import _sample_jump
 from test_p2_compliance import field_error
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 XS = np.linspace(0.0, 1.0, 4001)
 
 

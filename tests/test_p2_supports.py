@@ -15,6 +15,8 @@ import cvxcontact as cc
 from cvxcontact.fem.assembly import prolongation
 from cvxcontact.geometry.quadratic import P2Nodes
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 PZT = cc.materials.PZT5A
 ALU = cc.materials.isotropic(E=70e9, nu=0.3)
 H1, H2, DELTA, RHO_G = 0.4, 0.3, 1e-4, 2e8       # layer heights (m), top displacement (m), body force (N/m^3)

@@ -22,6 +22,8 @@ from cvxcontact.contact.quadratic3d import P2_FACE_RULE, P2_TRIANGLE_MASS, p2_sh
 
 from scenes3d import P, SIDES, STEEL, bumped_gap, layer_on_plane, stacked_blocks, uniaxial_modulus
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 C33 = uniaxial_modulus()
 
 

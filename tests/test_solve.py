@@ -10,6 +10,8 @@ import cvxcontact as cc
 from cvxcontact.fem.assembly import assemble
 from conftest import rel, two_blocks
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 def direct_mixed_solve(scene, sol):
     """Solve the nonsymmetric mixed system (26) with the contact held closed on the active set.

@@ -14,6 +14,8 @@ from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.signorini import cheap_start
 from cvxcontact.backends.sparse import SparseContact
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 @pytest.fixture(scope="module")
 def sphere():
     return sphere_into_block(12)

@@ -15,6 +15,8 @@ from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.sparse import SparseContact
 from cvxcontact.solution.info import Route
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 
 @pytest.fixture(scope="module")
 def layer():
@@ -47,7 +49,10 @@ def test_thin_layer_scene_has_a_genuine_active_set_and_the_routes_agree(layer):
     active = np.asarray(sol.contact.active)
     assert 0.2 * len(active) < active.sum() < 0.95 * len(active)  # neither empty nor full
     assert not active[0] and not active[-1]                        # open at the clamped ends (the crown)
-    fields_agree(sol, cc.solve(layer, method="full"), 1e-10)
+    # both routes exact on the same active set; the slender layer's forces carry its conditioning: u measured
+    # 2.4e-13 .. 5.0e-12, phi <= 6.2e-13, the force 6.2e-13 .. 1.7e-10 (Haswell, Sandybridge, Nehalem, Prescott
+    # OpenBLAS kernels; the largest once each under Sandybridge and Prescott), so 1e-9 and 2e-8 (>= 160x, 115x)
+    fields_agree(sol, cc.solve(layer, method="full"), 1e-9, force_tol=2e-8)
     with warnings.catch_warnings():
         # the condensed route reaches only ~1e-8 here (its exact finish goes through the dense interface
         # compliance W of a slender layer: complementarity ~1e-4 > tol, ResidualWarning); 1e-6 bounds it

@@ -70,6 +70,7 @@ def test_the_maximum_of_an_element_and_its_derivatives(shape, I):
 def _finished(scene):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        warnings.simplefilter("ignore", cc.ResolutionWarning)   # point contacts on coarse meshes, on purpose
         return cc.solve(scene, "gamma3", degree=2)
 
 
@@ -151,6 +152,8 @@ def test_a_force_controlled_sphere_touching_inside_a_triangle_is_finished():
 
 from scenes import SCENES  # noqa: E402
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 NEWTON = {"force-controlled circle", "three blocks, P2 compliance next to a cone", "layer held, P2 conic limit"}
 
 
@@ -166,6 +169,7 @@ def test_every_canonical_scene_under_p2_gamma3_is_finished_at_the_default_tol(na
     kw = {**{k: v for k, v in kw.items() if k != "tol"}, "condition": "gamma3", "degree": 2}
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        warnings.simplefilter("ignore", cc.ResolutionWarning)   # the finish is checked here, not the resolution
         sol = cc.solve(build(), **kw)
     assert sol.ok and sol.polished, sol.report()
     if name not in NEWTON:

@@ -19,6 +19,8 @@ import cvxcontact as cc
 from cvxcontact.fem.assembly import assemble_loads, assemble_matrices
 from cvxcontact.fem.kernel import check_determined, check_well_posed, rigid_kernel, undetermined
 
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
 STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 

@@ -38,7 +38,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.optimize import nnls
 
-__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
+__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces", "row_compliance",
            "force_scale", "FORCE_FLOOR", "solve_compliance", "solve_linear_compliance",
            "solve_sparse_compliance", "SIGN_TOL"]
 
@@ -515,12 +515,33 @@ def force_displacements(blocks, E, y):
     """w_a |y_a|: the displacement the contact force y_a of row a produces through the diagonal of each
     body's stiffness, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj (scaled units). A node held at exactly
     [u_nu] = g by a rigid obstacle or a stuck partner has no other displacement scale (docs/checks.md)."""
+    return row_compliance(blocks, E) * np.abs(y)
+
+
+def row_compliance(blocks, E) -> np.ndarray:
+    """w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj: each row's compliance through the diagonal of each body's
+    stiffness (scaled units; the unknowns with no stiffness diagonal do not count)."""
     w = np.zeros(E.shape[0])
     for b in blocks:
         R = (E @ b.jump).tocsr()
-        d = b.Kuu.diagonal()
-        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
-    return w * np.abs(y)
+        w += np.asarray(R.multiply(R) @ _inverse_diagonal(b.Kuu)).ravel()
+    return w
+
+
+def _inverse_diagonal(K) -> np.ndarray:
+    """1 / K_jj where the diagonal is positive, 0 elsewhere (an unknown no stiffness holds)."""
+    d = K.diagonal()
+    return np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+
+
+def _elastic_forces(blocks, u, phi):
+    """Per body (block, |Kuu| |u| + |Kup| |phi|): the sizes of the elastic forces at its unknowns (scaled)."""
+    for k, (b, uk) in enumerate(zip(blocks, u)):
+        f = abs(b.Kuu) @ np.abs(uk)
+        pk = None if phi is None else phi[k]
+        if pk is not None and getattr(b, "Kup", None) is not None:
+            f = f + abs(b.Kup) @ np.abs(pk)
+        yield b, f
 
 
 def reach_displacements(blocks, E, u, phi=None):
@@ -529,30 +550,15 @@ def reach_displacements(blocks, E, u, phi=None):
     the check-side twin of :func:`row_reach`). The rounding of a node's displacement is relative to it: a node
     that does not move (a P2 face vertex on a rigid plane under a uniform pressure) has a slack of rounding and
     no displacement of its own, and its neighbours' displacements are the scale of that rounding."""
-    out = np.zeros(E.shape[0])
-    for k, (b, uk) in enumerate(zip(blocks, u)):
-        d = b.Kuu.diagonal()
-        inv = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
-        f = abs(b.Kuu) @ np.abs(uk)
-        pk = None if phi is None else phi[k]
-        if pk is not None and getattr(b, "Kup", None) is not None:
-            f = f + abs(b.Kup) @ np.abs(pk)
-        out += abs(E @ b.jump) @ (inv * f)
-    return out
+    return sum((abs(E @ b.jump) @ (_inverse_diagonal(b.Kuu) * f) for b, f in _elastic_forces(blocks, u, phi)),
+               np.zeros(E.shape[0]))
 
 
 def reach_forces(blocks, E, u, phi=None):
     """The size of the elastic forces at each row's unknowns, sum_l |E J_l| (|Kuu_l| |u_l| + |Kup_l| |phi_l|)
     (scaled forces): the force scale of a contact row that carries no force (an open contact, or forces of
     interior-point noise), below which a contact force is not read as a force (:data:`FORCE_FLOOR`)."""
-    out = np.zeros(E.shape[0])
-    for k, (b, uk) in enumerate(zip(blocks, u)):
-        f = abs(b.Kuu) @ np.abs(uk)
-        pk = None if phi is None else phi[k]
-        if pk is not None and getattr(b, "Kup", None) is not None:
-            f = f + abs(b.Kup) @ np.abs(pk)
-        out += abs(E @ b.jump) @ f
-    return out
+    return sum((abs(E @ b.jump) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(E.shape[0]))
 
 
 FORCE_FLOOR = 1e-6
@@ -609,9 +615,7 @@ def row_reach(A, G):
     pressure) has a slack of rounding and no displacement of its own, so that its slack over its own scale
     is rounding over rounding, of either sign; its neighbours' displacements are the scale of that rounding."""
     A, absG = sp.csr_matrix(A), abs(sp.csr_matrix(G))
-    d = A.diagonal()
-    inv = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
-    return (absG + absG @ sp.diags(inv) @ abs(A)).tocsr()
+    return (absG + absG @ sp.diags(_inverse_diagonal(A)) @ abs(A)).tocsr()
 
 
 class FactoredRows:

@@ -35,7 +35,7 @@ def dependent_rows(problem) -> bool:
     return any(c == "gamma3" and not getattr(i, "rigid", True) for i, c in zip(interfaces, conditions))
 
 
-def dependent_finish(problem, raw, timings, hold=None):
+def mixed_finish(problem, raw, timings, hold=None):
     """The exact finish on the sparse mixed system (26) (:func:`~cvxcontact.backends.finish.independent_active_set`,
     Lawson-Hanson on the dual: finite, its passive rows independent, its signs measured on each row's own
     displacement scale), from the interior point's forces and active set in ``raw``; fills ``raw``. The one
@@ -94,7 +94,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     if not settings.polish:
         return raw
     if dependent_rows(problem) or problem.held or tr:
-        return dependent_finish(problem, raw, timings, hold=raw.taus or None)
+        return mixed_finish(problem, raw, timings, hold=raw.taus or None)
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     W = reduction.W

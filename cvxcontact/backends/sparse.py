@@ -56,7 +56,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import active_set_steps, row_reach, signs_hold
+from .finish import active_set_steps, row_compliance, row_reach, signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS"]
 
@@ -133,11 +133,7 @@ def row_weights(blocks, E) -> np.ndarray:
     """(m,) the Jacobi-scaled squared norm of every contact row, sum over bodies of sum_j R_aj^2 / Kuu_jj with
     R = E J the rows on the body's free dofs (dimensionless), floored at 1e-14 of the largest: the weights with
     which the active-set steps compare rows (shared by the sparse and the AMG routes)."""
-    w = np.zeros(E.shape[0])
-    for b in blocks:
-        R = (E @ b.jump).tocsr()
-        d = b.Kuu.diagonal()
-        w += np.asarray(R.multiply(R) @ (1.0 / np.where(d > 0, d, np.inf))).ravel()
+    w = row_compliance(blocks, E)
     return np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
 
 

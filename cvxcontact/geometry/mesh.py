@@ -116,6 +116,24 @@ class Mesh(Frozen):
                             f"metres), got shape {p.shape}")
         return Mesh(p, self.triangles, {t: self.boundary(t) for t in self.tags})
 
+    def renumbered(self, order: ArrayLike) -> Mesh:
+        """The same mesh with its nodes numbered in a new order: node i of the new mesh is node ``order[i]``
+        of this one.
+
+        ``order`` is a permutation of 0..n-1 (n nodes). The points are ``self.points[order]``, the
+        triangles and every tagged part keep their order with their node indices renumbered, so a nodal
+        field ``f`` of this mesh is ``f[order]`` on the new one (and ``g[np.argsort(order)]`` takes a field
+        ``g`` of the new mesh back). The body, its parts and its cells are unchanged: only the numbering,
+        and with it the order of the unknowns, differs.
+
+        Raises
+        ------
+        MeshError
+            If ``order`` is not a permutation of the node indices.
+        """
+        order, new = _renumbering(order, len(self.points))
+        return Mesh(self.points[order], new[self.triangles], {t: new[self.boundary(t)] for t in self.tags})
+
     @property
     def tags(self) -> tuple[str, ...]:
         """Names of the tagged boundary parts."""
@@ -227,6 +245,20 @@ def _as_triangles(triangles, n):
     if t.min() < 0 or t.max() >= n:
         raise MeshError(f"triangles refer to nodes outside 0..{n - 1}")
     return np.ascontiguousarray(t, dtype=np.int64)
+
+
+def _renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(order, new) for ``renumbered``: ``order`` checked to be a permutation of 0..n-1 (else a MeshError naming
+    the fix) and its inverse, new[old index] = new index."""
+    order = np.asarray(order)
+    if (order.shape != (n,) or not np.issubdtype(order.dtype, np.integer)
+            or not np.array_equal(np.sort(order), np.arange(n))):
+        raise MeshError(f"renumbered needs a permutation of 0..{n - 1} (one new place per node, integers), "
+                        f"got an array of shape {order.shape} and dtype {order.dtype}; e.g. "
+                        f"np.random.default_rng(0).permutation({n})")
+    new = np.empty(n, dtype=np.int64)
+    new[order] = np.arange(n)
+    return order, new
 
 
 def _check_nodes(points, cells, what="triangle"):

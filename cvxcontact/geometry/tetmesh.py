@@ -19,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Frozen, FrozenMap, MeshError
-from .mesh import _check_nodes, _frozen
+from .mesh import _check_nodes, _frozen, _renumbering
 
 __all__ = ["TetMesh"]
 
@@ -117,6 +117,24 @@ class TetMesh(Frozen):
             raise MeshError(f"with_points needs an array of shape {self.points.shape} (one (x, y, z) per node, "
                             f"metres), got shape {p.shape}")
         return TetMesh(p, self.tets, {t: self.boundary(t) for t in self.tags})
+
+    def renumbered(self, order: ArrayLike) -> TetMesh:
+        """The same mesh with its nodes numbered in a new order: node i of the new mesh is node ``order[i]``
+        of this one.
+
+        ``order`` is a permutation of 0..n-1 (n nodes). The points are ``self.points[order]``, the
+        tets and every tagged part keep their order with their node indices renumbered, so a nodal
+        field ``f`` of this mesh is ``f[order]`` on the new one (and ``g[np.argsort(order)]`` takes a field
+        ``g`` of the new mesh back). The body, its parts and its cells are unchanged: only the numbering,
+        and with it the order of the unknowns, differs.
+
+        Raises
+        ------
+        MeshError
+            If ``order`` is not a permutation of the node indices.
+        """
+        order, new = _renumbering(order, len(self.points))
+        return TetMesh(self.points[order], new[self.tets], {t: new[self.boundary(t)] for t in self.tags})
 
     @property
     def tags(self) -> tuple[str, ...]:

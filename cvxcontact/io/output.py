@@ -386,7 +386,8 @@ def summary(solution) -> dict:
     active nodes (3D: ``active_s_m``, the ranges of both in-plane coordinates (s1, s2) along the pair's
     ``frame`` (t1, t2)). ``electrodes`` lists every electrode's potential (V) and total charge (C/m);
     ``obstacles`` every rigid obstacle's translation (m), contact force and prescribed force (N/m;
-    docs/formulation.md §12).
+    docs/formulation.md §12). ``estimate``: the error estimate (:attr:`Solution.estimate`: kind, guaranteed,
+    relative, the absolute and the solution's energy norm in sqrt(J/m), sqrt(J) in 3D) or {"reason": why none}.
 
     Quantities per unit thickness in 2D are totals in 3D, and their keys say so: ``total_force_N_per_m``,
     ``charge_C_per_m``, ``contact_force_N_per_m``, ``prescribed_force_N_per_m``, ``energy_J_per_m`` in 2D are
@@ -407,6 +408,7 @@ def summary(solution) -> dict:
         "contact": pairs[0],
         "contacts": pairs,
         f"energy_J{per}": solution.energy,
+        "estimate": _estimate_summary(solution),
         "bodies": [{"name": b.name, "material": b.material.name, "nodes": int(len(u)),
                     cells: int(len(b.mesh.cells)), "electric_unknowns": bool(b.piezoelectric),
                     "max_displacement_m": float(np.abs(u).max()),
@@ -421,6 +423,15 @@ def summary(solution) -> dict:
                        f"prescribed_force_N{per}": None if o.prescribed is None else [float(v) for v in o.prescribed]}
                       for o in getattr(solution, "obstacles", [])],
     }
+
+
+def _estimate_summary(solution) -> dict:
+    est = getattr(solution, "estimate", None)
+    if est is None:
+        return {"reason": getattr(solution, "estimate_reason", "") or "not computed"}
+    unit = "sqrt_J" + _per_m(solution)
+    return {"kind": est.kind, "guaranteed": bool(est.guaranteed), "relative": float(est.relative),
+            f"absolute_{unit}": float(est.absolute), f"energy_norm_{unit}": float(est.norm)}
 
 
 def _lengths(solution, k, pair=0):

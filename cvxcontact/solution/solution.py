@@ -199,6 +199,12 @@ class Solution:
     obstacles: list = field(default_factory=list)
     """One :class:`ObstacleResult` per distinct rigid obstacle (translation m, reaction ``force`` N/m in 2D,
     N in 3D), in the order of ``scene.obstacles``."""
+    estimate: object = None
+    """The a posteriori :class:`~cvxcontact.solution.estimate.ErrorEstimate` of the discretisation error in the
+    energy norm (docs/accuracy.md), computed with every solve (``solve(..., estimate=False)`` skips it); None
+    when it was skipped or the case is not covered: :attr:`estimate_reason` says which."""
+    estimate_reason: str = ""
+    """Why :attr:`estimate` is None ("" when it is not)."""
 
     @property
     def status(self) -> Status:
@@ -305,7 +311,8 @@ class Solution:
         per contact pair its total force, its contact zone (:meth:`in_contact`: the nodes where the pressure is
         positive, and the share of the surface they cover) and its active nodes (the constrained nodes that
         carry a nodal force, ``contacts[i].active``); per electrode its potential (V) and charge (C/m; C in
-        3D); per rigid obstacle its translation (m) and force."""
+        3D); per rigid obstacle its translation (m) and force; the error estimate (:attr:`estimate`, relative and
+        absolute in the energy norm) or why there is none."""
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
@@ -325,6 +332,8 @@ class Solution:
         for j, o in enumerate(self.obstacles):
             lines.append(f"  obstacle[{j}] {o.obstacle!r}: translation ({_numbers(o.translation)}) m, force "
                          f"({_numbers(o.force)}) {unit}")
+        lines.append(f"  estimate         {self.estimate}" if self.estimate is not None
+                     else f"  estimate         none ({self.estimate_reason or 'not computed'})")
         return "\n".join(lines)
 
 

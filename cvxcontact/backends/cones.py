@@ -219,6 +219,7 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     raw.y, raw.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.beta, raw.polished, raw.finish = out["beta"], True, Finish.ACCUMULATED_CUTS
     raw.pairing = out["pairing"]
+    _tangency_after_cuts(problem, timings, raw, B, out)
 
 
 def _newton_finish(problem, timings, raw, B, **kw):
@@ -241,6 +242,19 @@ def _newton_finish(problem, timings, raw, B, **kw):
     raw.beta, raw.active, raw.pairing = out["beta"], out["active"], out["pairing"]
     raw.polished, raw.finish = True, Finish.TANGENCY_NEWTON
     return out
+
+
+def _tangency_after_cuts(problem, timings, raw, B, cuts) -> None:
+    """Newton at the tangency points (:func:`_newton_finish`) from the accumulated cuts' answer ``cuts`` (its
+    point forces the structure, its fields the start): the cuts close in on a tangency point only linearly
+    (the violation shrinks ~4x a round, the fields' error as its square root: measured 1e-6 of the energy norm
+    at a violation of 1e-11, a sphere pressed into P2 triangles, the answer then depending on the BLAS kernels),
+    Newton reaches rounding in two or three steps. Where it declines, the cuts' answer stays (its violation is
+    what the checks report). Updates ``raw`` (fields, beta, active, pairing, y: the nodal force, finish)."""
+    out = _newton_finish(problem, timings, raw, B, departure=problem.departure,
+                         points=(cuts["segment"], cuts["t"], cuts["y"]))
+    if not isinstance(out, str):
+        raw.y = out["nodal"]
 
 
 def _finish_tangency(problem, timings, raw) -> bool:

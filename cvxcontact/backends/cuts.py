@@ -49,9 +49,11 @@ the cuts still converge (the worst segment changes; measured with the points nex
 cells of P2)."""
 
 LAST_GOOD_TOL = 1e-9
-"""A round whose system is singular (new points nearly on old ones: nearly parallel rows) ends the cuts with the
-last solved round if its violation is below this (of the displacement scale); the checks report what it is
-(measured: a free sphere's patch on P2 triangles, singular at round 11 after 3.0e-11)."""
+"""A round whose system is singular (new points nearly on old ones: nearly parallel rows) is solved again with
+its worst new point alone; if that is singular too, the cuts end with the last solved round if its violation is
+below this (of the displacement scale); the checks report what it is (measured: a free sphere's patch on P2
+triangles, singular at round 11 after 3.0e-11; against the sphere's own distance, singular at round 9 after
+1.5e-10, then the worst point alone went on to 7.4e-12 in three more rounds)."""
 
 
 def _unique_rows(P) -> np.ndarray:
@@ -159,34 +161,48 @@ def segment_scales(B, U, width: int = 3) -> np.ndarray:
     return node.reshape(-1, width).max(axis=1)
 
 
-def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL, width: int = 3):
+def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL, width: int = 3,
+                    departure=None):
     """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
-    halves per round). ``solve(P)`` solves the nodal problem with the rows ``P`` (k, n) (warm started from
+    halves per round). ``solve(P, delta)`` solves the nodal problem with the rows ``P`` (k, n), each point's
+    slack P q - delta (``delta`` (k,): the true gap's departure from its interpolant at the points,
+    ``departure`` a :class:`~cvxcontact.contact.truegap.GapDeparture`; zero without one) (warm started from
     its previous call: the points of a round are those of the last plus the new ones, appended) and returns
     ``(y, slack, scale, state, active)`` (the point forces, q at the nodes of X_h, each node's displacement
     scale, anything the caller keeps, the rows that carry the forces) or None.
-    Returns a dict (state, y, segment, t, beta, rounds, violation, active) or the reason it stopped (str)."""
+    The new cut on an element is the maximiser of its true slack q_h - delta (``departure.argmax``; the
+    quadratic's exact one without a departure). Returns a dict (state, y, segment, t, beta, pairing: the
+    point forces' sum y_p delta_p per element, rounds, violation, active) or the reason it stopped (str)."""
     S = B.shape[0] // width
+    maximum = bernstein_argmax if departure is None else departure.argmax
+    offsets = (lambda e, p: np.zeros(len(e))) if departure is None else departure.at
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
     last, stalled, good = np.inf, 0, None
     for rounds in range(1, max_rounds + 1):
-        out = solve(point_rows(B, segment, t))
+        out = solve(point_rows(B, segment, t), offsets(segment, t))
+        if out is None and good is not None and len(segment) > len(good["segment"]) + 1:
+            # the new points together made the round singular: the worst one alone
+            k = len(good["segment"])
+            keep = k + int(np.argmax(good_rel[segment[k:]]))
+            segment, t = np.concatenate([segment[:k], segment[keep:keep + 1]]), np.concatenate([t[:k], t[keep:keep + 1]])
+            out = solve(point_rows(B, segment, t), offsets(segment, t))
         if out is None:
             if good is not None and good["violation"] <= LAST_GOOD_TOL:
                 return good                  # nearly parallel new rows made the round singular
             return "the nodal problem at the cut points has no exact solution"
         y, slack, scale, state, active = out
-        qmax, tmax = bernstein_argmax((B @ slack).reshape(-1, width))
+        qmax, tmax = maximum((B @ slack).reshape(-1, width))
         Us = segment_scales(B, scale, width)
         rel = np.maximum(qmax, 0.0) / Us
         worst = float(rel.max(initial=0.0))
         stalled = stalled + 1 if worst <= STALL_TOL and worst > 0.5 * last else 0
         good = dict(state=state, y=y, segment=segment, t=t, beta=point_duals(S, segment, t, y), rounds=rounds,
-                    violation=worst, active=active)
+                    violation=worst, active=active,
+                    pairing=np.zeros(S) if departure is None else departure.pairing(S, segment, t, y))
         if worst <= tol or stalled >= STALL_ROUNDS:
             return good
-        last = worst
+        last, good_rel = worst, rel
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
@@ -305,7 +321,8 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     return None
 
 
-def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None, width: int = 3, factors=None):
+def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=None, width: int = 3, factors=None,
+                   departure=None):
     """:func:`accumulate_cuts` on the interface compliance: ``W`` (n, n) on the nodes of X_h, ``d`` the slack
     there at zero force, ``g`` the gap (scaled). The node scale is |d| + |g| + |W| |r| (the sizes of the
     terms of the slack q = d - W r), floored at 1e-9 of its largest. The state is r = P^T y.
@@ -316,7 +333,8 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
     unknown moves (a zero row and column of W: held on
     both sides, or against a fixed obstacle) keep their constant slack d_h = -g_h: they are left out of the
     factor, a point row reading one gets the constant c = P_h d_h (the ``c`` of :func:`nnls_warm`), and a point
-    row reading only such nodes carries no force (its slack, a constant, holds: ``_check_reachable``)."""
+    row reading only such nodes carries no force (its slack, a constant, holds: ``_check_reachable``).
+    ``departure``: the true gap's (:func:`accumulate_cuts`); its value at a point is one more constant."""
     t0 = time.perf_counter()
     absW = np.abs(W)
     base = np.abs(d) + np.abs(g)
@@ -337,17 +355,17 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         U = base + absW @ np.abs(r)
         return np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
 
-    def solve(P):
+    def solve(P, delta):
         moving = np.asarray(abs(P[:, keep]).sum(axis=1)).ravel() > 0
         A = np.asarray((P @ L).T)[:, moving]
         absP = abs(P)
         y0 = np.zeros(P.shape[0])
         if "y" in prev:
             y0[:len(prev["y"])] = prev["y"]
-        c = (P[:, held] @ d[held] + P[:, keep] @ d_out[keep])[moving]
+        c = (P[:, held] @ d[held] + P[:, keep] @ d_out[keep] - delta)[moving]
         PT = P.T.tocsr()
         out = nnls_warm(A, Ld, y0[moving], lambda ym: (absP @ node_scale(_expand(PT, ym, moving)))[moving], c,
-                        dual=lambda ym: (P @ (d - W @ _expand(PT, ym, moving)))[moving],   # O(n^2), not O(n k)
+                        dual=lambda ym: (P @ (d - W @ _expand(PT, ym, moving)) - delta)[moving],  # O(n^2), not O(nk)
                         carry=carry)
         if out is None:
             return None
@@ -359,7 +377,7 @@ def interface_cuts(W, d, g, B, segment, t, timings, max_rounds: int = 40, y0=Non
         r = PT @ y
         return y, d - W @ r, node_scale(r), r, active
 
-    out = accumulate_cuts(B, solve, segment, t, max_rounds, width=width)
+    out = accumulate_cuts(B, solve, segment, t, max_rounds, width=width, departure=departure)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
 
@@ -425,7 +443,7 @@ def dual_cone_point(beta) -> np.ndarray:
     return element(beta.shape[1]).dual_cone_point(beta)
 
 
-def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None):
+def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None, departure=None, pairing=None):
     """A rigorous bound (scaled energy norm) on ||v - u*||, v the answer of the Bernstein duals ``beta`` and u*
     the exact solution of the conic problem, on the interface compliance (docs/checks.md, "The certified bound").
 
@@ -439,13 +457,20 @@ def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None
         gap = -beta . B q' + 1/2 tau^2 h^T W^-1 h      (J(v') - D(beta) >= 1/2 ||v' - u*||^2)
 
     so ||v - u*|| <= tau sqrt(h^T W^-1 h) + sqrt(2 gap). Returns (bound, tau, gap), or (inf, tau, nan) if no
-    push makes v feasible (a violated segment whose nodes no unknown moves)."""
+    push makes v feasible (a violated segment whose nodes no unknown moves).
+
+    Against a curved obstacle's true gap (``departure``, :class:`~cvxcontact.contact.truegap.GapDeparture`) the
+    slack is q - delta: tau and the feasibility of v' are its maxima, and the dual point is the point forces
+    whose Bernstein duals are ``beta``, their pairing with the slack beta . b' - ``pairing`` (S,) (the forces'
+    sum y_p delta_p per element, :func:`accumulate_cuts`): the same bound for the semi-infinite problem."""
     B = sp.csr_matrix(B)
     held = np.zeros(len(d), dtype=bool) if held is None else np.asarray(held, dtype=bool)
     r = B.T @ np.asarray(beta, dtype=float).ravel()
     q = d - W @ r
     width = np.asarray(beta).shape[1]
-    qmax, _ = bernstein_argmax((B @ q).reshape(-1, width))
+    maximum = bernstein_argmax if departure is None else departure.argmax
+    offset = 0.0 if pairing is None else float(np.sum(pairing))
+    qmax, _ = maximum((B @ q).reshape(-1, width))
     tau = float(np.maximum(qmax, 0.0).max(initial=0.0))
     keep = ~held
     h = keep.astype(float)
@@ -459,8 +484,8 @@ def energy_bound(W, d, B, beta, held=None, max_doublings: int = 20, factors=None
         hw = float(z @ h)
     for _ in range(max_doublings):
         b = (B @ (q - tau * h)).reshape(-1, width)
-        if (bernstein_argmax(b)[0] <= 0).all():
-            gap = max(float(-(np.asarray(beta).ravel() @ b.ravel())) + 0.5 * tau ** 2 * hw, 0.0)
+        if (maximum(b)[0] <= 0).all():
+            gap = max(float(-(np.asarray(beta).ravel() @ b.ravel()) + offset) + 0.5 * tau ** 2 * hw, 0.0)
             return tau * np.sqrt(hw) + np.sqrt(2 * gap), tau, gap
         tau *= 2
     return np.inf, tau, np.nan

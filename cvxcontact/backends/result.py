@@ -138,6 +138,10 @@ class RawResult:
     certificate: float | None = None
     """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
     :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""
+    pairing: np.ndarray | None = None
+    """Against a curved obstacle's true gap (docs/formulation.md §8, "Rigid obstacles"): per element, the
+    finish's point forces' sum y_p delta(x_p) (scaled), so that their pairing with the true slack is
+    beta . b - pairing; None where the answer's duals are no such point forces (or there is no departure)."""
 
 
 class Cache:

@@ -41,6 +41,35 @@ NEWTON_TOL = 1e-14
 """Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
 STALL_TOL = 1e-10
 """Below this relative step, a step that no longer shrinks by 4 ends the iteration (rounding's floor)."""
+RESIDUAL_STALL_TOL = 1e-12
+"""Below this relative KKT residual, a residual that no longer shrinks by 4 ends the iteration: two tangency
+points that nearly coincide (a curved obstacle touching on both sides of a vertex, where the P2 jump has a kink)
+have nearly parallel rows, and the direction that splits their forces (and the obstacle's sideways position with
+it) is then set only to the system's conditioning (measured: the steps stall at 7.7e-7 of the largest unknown,
+the residual at 1e-13, the circle beside a vertex of tests/test_tangency.py)."""
+
+
+DEPENDENT_TOL = 1e-6
+"""A tangency row whose component outside the span of the rows before it (vertex rows, then the tangencies by
+decreasing force; unit rows) is below this is dependent on them and leaves the system (its multiplier 0): two
+tangencies of an element and its edge that both touch, one of them with no force, make the rows dependent
+up to rounding and the multipliers free along that direction (measured: a sphere pressed into P2 triangles,
+16 tangencies, smallest singular value 5e-9 of the largest; Newton's multipliers swung in sign and it did
+not converge). Its own condition is then held by the others' (checked with every element's maximum)."""
+
+
+def _dependent(C_fixed, rows, mu) -> list[int]:
+    """Indices into ``rows`` (the tangency rows, sparse (1, n) each, multipliers ``mu``) of those dependent on
+    the rows ``C_fixed`` and the tangencies of larger force (:data:`DEPENDENT_TOL`)."""
+    if not rows:
+        return []
+    order = np.argsort(-np.asarray(mu, dtype=float), kind="stable")
+    M = sp.vstack([C_fixed] + [rows[i] for i in order]).toarray()
+    norms = np.linalg.norm(M, axis=1)
+    M = M / np.where(norms > 0, norms, 1.0)[:, None]
+    R = np.linalg.qr(M.T, mode="r")
+    d = np.abs(np.diag(R))[C_fixed.shape[0]:]
+    return [int(order[j]) for j in np.flatnonzero(d < DEPENDENT_TOL)]
 
 
 def _sub_basis(m: int) -> np.ndarray:
@@ -59,25 +88,60 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _maximum(shape, b, I):
+def _maximum(shape, b, I, delta=None, start=None):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
-    docstring); None where Q_II is not negative definite on the tangent plane."""
+    docstring); None where Q_II is not negative definite on the tangent plane.
+
+    ``delta(L)`` (L (k,) a full barycentric point): a curved obstacle's departure of its gap from the P2
+    interpolant and its gradient and Hessian in L (:meth:`~cvxcontact.contact.truegap.GapDeparture.curvature`,
+    in closed form): then q = L^T Q L - delta(L), the maximiser by Newton on its stationarity on I (quadratic
+    convergence) from ``start`` (the last maximiser; else the quadratic's own where it is concave, else I's
+    centre), and the condition is that q's Hessian on the tangent plane, T^T Q T - T^T D2delta T / 2, is
+    negative definite there (not the quadratic's alone: where the body conforms to the obstacle, L^T Q L is
+    flat or convex and the obstacle's curvature makes the maximum)."""
     Q = shape.gram(np.asarray(b, dtype=float)[None, :])[0]
     k = len(Q)
     I = list(I)
     QI = Q[np.ix_(I, I)]
     T = _sub_basis(len(I))
     H = T.T @ QI @ T
-    if np.any(np.linalg.eigvalsh(H) >= 0):
-        return None
     m = len(I)
-    bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
-    sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+    concave = not np.any(np.linalg.eigvalsh(H) >= 0)
+    if delta is None and not concave:
+        return None
     L = np.zeros(k)
-    L[I] = sol[:m]
-    M = T @ np.linalg.solve(H, T.T)
-    return sol[m], L, M
+    if delta is not None and start is not None:
+        L[I] = np.asarray(start, dtype=float)[I] / np.sum(np.asarray(start, dtype=float)[I])
+    elif concave:
+        bordered = np.block([[QI, -np.ones((m, 1))], [np.ones((1, m)), np.zeros((1, 1))]])
+        sol = np.linalg.solve(bordered, np.r_[np.zeros(m), 1.0])
+        L[I] = sol[:m]
+        if delta is None:
+            return sol[m], L, T @ np.linalg.solve(H, T.T)
+    else:
+        L[I] = 1.0 / m
+    TT = np.zeros((k, m - 1))
+    TT[I] = T
+    last = np.inf
+    for _ in range(30):
+        _, gd, hd = delta(L)                                       # in L; along the tangent coordinates z:
+        Hs = H - 0.5 * (TT.T @ hd @ TT)                            # half the Hessian of q on the plane
+        if np.any(np.linalg.eigvalsh(Hs) >= 0):
+            return None
+        grad = T.T @ (2 * QI @ L[I]) - TT.T @ gd                   # of q = L^T Q L - delta along T
+        step = -np.linalg.solve(2 * Hs, grad)
+        L = L + TT @ step
+        size = np.abs(step).max(initial=0.0)
+        if size <= 1e-15 or (size <= 1e-8 and size >= 0.5 * last):   # rounding: no longer shrinking
+            break
+        last = size
+    _, gd, hd = delta(L)
+    Hs = H - 0.5 * (TT.T @ hd @ TT)
+    if np.any(np.linalg.eigvalsh(Hs) >= 0):
+        return None
+    q = float(L @ Q @ L - delta(L)[0])
+    return q, L, T @ np.linalg.solve(Hs, T.T)
 
 
 def _cells(B, w: int) -> np.ndarray:
@@ -97,7 +161,7 @@ def _cells(B, w: int) -> np.ndarray:
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
-                    max_steps: int = 40, max_rounds: int = 10):
+                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -113,7 +177,18 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
     active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
     reason it stopped (str). An element carries a force at the start where its Bernstein duals exceed
-    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest)."""
+    ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest).
+
+    ``departure``: a curved obstacle's true gap on the cones' elements
+    (:class:`~cvxcontact.contact.truegap.GapDeparture`, scaled): each element's maximum is then that of the true
+    slack q_h - delta (:func:`_maximum`), and the answer carries ``pairing`` (the point forces' sum y_p delta_p
+    per element).
+
+    ``points``: (segment, t, y) point forces to start from instead of the Bernstein duals' structure (the
+    accumulated cuts' answer, :mod:`cvxcontact.backends.cuts`): every point carrying a force is a tangency on
+    the sub-simplex of its nonzero coordinates (a vertex row at a vertex); the points of one sub-simplex are
+    one tangency (the cuts close in on a tangency from both sides). Where one element holds several points
+    (an interior and an edge tangency) its Bernstein duals read as a spread force; the points do not."""
     G = sp.csr_matrix(kkt.rows)
     A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
     B = sp.csr_matrix(B)
@@ -146,6 +221,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     # the starting structure: a vertex row per node, a tangency constraint per (element, sub-simplex)
     vertices: dict[int, float] = {}
     tangencies: dict[tuple, tuple] = {}
+    where: dict[tuple, np.ndarray] = {}             # each tangency's last maximiser (Newton's start on a curved gap)
+    dependent: set[tuple] = set()                   # tangencies left out: their rows depend on the others'
     limits: dict[int, float] = {int(a): 0.0 for a in np.flatnonzero(limited & (False if limit_start is None
                                                                                else np.asarray(limit_start)))}
     Z = shape.dual_gram(beta[big])
@@ -158,7 +235,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             if node >= 0 and not held[node]:
                 vertices.setdefault(int(node), 0.0)
 
-    def add(s, I, force):
+    def add(s, I, force, L=None):
         nodes = tuple(sorted({int(cells[s, corner[i]]) for i in I}))
         if min(nodes) < 0:
             return
@@ -168,10 +245,25 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         elif any(v in vertices for v in nodes):
             # a strictly concave q cannot touch 0 inside I and at a vertex of I: the contact covers I
             whole(s, I)
+        elif nodes in dependent:
+            return
         elif nodes not in tangencies:
             tangencies[nodes] = (int(s), tuple(I), force)
+            if L is not None:
+                where[nodes] = np.where(np.isin(np.arange(len(L)), I), L, 0.0)
+        else:                                     # the same tangency seen again (from the element beside an
+            s0, I0, f0 = tangencies[nodes]        # edge, or a second point of the cuts): its forces add up
+            tangencies[nodes] = (s0, I0, f0 + force)
 
     seeds = []
+    if points is not None:                        # the cuts' points: each its own seed, the largest first
+        seg_p, t_p, y_p = (np.asarray(a, dtype=float) for a in points)
+        seg_p = seg_p.astype(int)
+        L_p = t_p if w == 6 else np.column_stack([1 - t_p, t_p])
+        on_p = np.flatnonzero(y_p > force_floor * max(float(y_p.max(initial=0.0)), np.finfo(float).tiny))
+        for i in on_p[np.argsort(-y_p[on_p], kind="stable")]:
+            add(int(seg_p[i]), tuple(int(j) for j in np.flatnonzero(L_p[i] > 1e-6)), float(y_p[i]), L_p[i])
+        big, Z = big[:0], Z[:0]
     for s, Zs in zip(big, Z):
         ev, V = np.linalg.eigh(Zs)
         if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
@@ -183,7 +275,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # coordinates above 1e-6: a point read as a vertex that is a tangency beside it (1e-3 of the element
         # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
         # leaves its sub-simplex and moves to the vertex in the outer loop
-        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]))
+        add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
     x = np.asarray(x0, dtype=float).copy()
     for rounds in range(1, max_rounds + 1):
         vnodes = np.array(sorted(vertices), dtype=int)
@@ -193,18 +285,21 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         Gl, gl = G[lrows], g[lrows] + lim[lrows]
         lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
         mu = np.array([tangencies[c][2] for c in tkeys])
-        why, pen, last, flat = None, None, np.inf, None
-        for _ in range(max_steps):
+        why, pen, last, last_res, flat, drop = None, None, np.inf, np.inf, None, []
+        for step_no in range(max_steps):
             rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
                 el = elem(s)
-                out = _maximum(shape, el.coefficients(x), I)
+                out = _maximum(shape, el.coefficients(x), I,
+                               None if departure is None else (lambda L, s=s: departure.curvature(s, L)),
+                               start=where.get(c))
                 if out is None:              # q flat or convex along I: the contact covers I (next round)
                     flat = (c, s, I)
                     break
                 m, L, M = out
+                where[c] = L
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
                 J = sp.vstack([sum(L[j] * el.D[shape.index(i, j)] for j in I) for i in I]).tocsr()
                 hess = hess + m_c * (-2.0) * (J.T @ sp.csr_matrix(M) @ J)
@@ -213,6 +308,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 points.append((s, L))
             if flat:
                 break
+            if step_no == 0:
+                drop = _dependent(sp.vstack([Gv, Gl]), rows, mu)
+                if drop:
+                    break
             r = G @ x - g
             on = compliant & (r > 0)
             rp = np.where(on, r, 0.0)
@@ -233,13 +332,20 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             if not np.all(np.isfinite(dz)):
                 why = "the Newton system is singular"
                 break
+            # the residual before the step, relative to its terms' sizes
+            res = max(np.abs(r1).max(initial=0.0) / max(np.abs(A @ x).max(initial=0.0), np.abs(F).max(initial=0.0),
+                                                         np.finfo(float).tiny),
+                      np.abs(r2).max(initial=0.0) / max(np.abs(G @ x).max(initial=0.0), np.abs(g).max(initial=0.0),
+                                                         np.finfo(float).tiny))
             x, lam = x + dz[:n], lam + dz[n:]
             lam_lin, mu = lam[:len(lam_lin)], lam[len(lam_lin):]
             step = np.abs(dz[:n]).max(initial=0.0) / max(np.abs(x).max(initial=0.0), 1e-300)
             # converged: a step at rounding, or a small one that no longer shrinks quadratically (the floor of
-            # the system's conditioning, measured 1e-14 .. 1e-13 with k = 1e14 Pa/m^2, m = 2)
-            small = step <= NEWTON_TOL or (step <= STALL_TOL and step > 0.25 * last)
-            last = step
+            # the system's conditioning, measured 1e-14 .. 1e-13 with k = 1e14 Pa/m^2, m = 2), or a residual at
+            # its floor that no longer shrinks (:data:`RESIDUAL_STALL_TOL`)
+            small = step <= NEWTON_TOL or (step <= STALL_TOL and step > 0.25 * last) or \
+                (res <= RESIDUAL_STALL_TOL and res > 0.25 * last_res)
+            last, last_res = step, res
             if small and pen is not None and np.array_equal(on, pen):
                 break
             pen = on
@@ -250,6 +356,11 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         if flat:
             del tangencies[flat[0]]
             whole(flat[1], flat[2])
+            continue
+        if drop:
+            for i in drop:
+                dependent.add(tkeys[i])
+                del tangencies[tkeys[i]]
             continue
         # the structure: signs of the multipliers, maximisers inside their sub-simplex, feasibility elsewhere
         y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
@@ -269,22 +380,23 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 changed = True
             elif np.any(L[list(I)] <= 0):
                 del tangencies[c]
-                add(s, tuple(i for i in I if L[i] > 0), float(m_c))
+                add(s, tuple(i for i in I if L[i] > 0), float(m_c), np.maximum(L, 0.0))
                 changed = True
             else:
                 tangencies[c] = (s, I, float(m_c))
         U = abs(G) @ np.abs(x) + np.abs(g) + np.abs(cone_gap)
-        qmax, Lmax = bernstein_argmax((D_all @ x - d_all).reshape(-1, w))
+        qmax, Lmax = (bernstein_argmax if departure is None else departure.argmax)((D_all @ x - d_all).reshape(-1, w))
         rel = np.maximum(qmax, 0.0) / np.maximum(segment_scales(B, U, w), np.finfo(float).tiny)
         for s in np.flatnonzero(rel > tol):
             Ls = Lmax[s] if w == 6 else np.array([1 - Lmax[s], Lmax[s]])
-            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0)
+            add(s, tuple(int(i) for i in np.flatnonzero(Ls > 0)), 0.0, Ls)
             changed = True
         over = np.flatnonzero(limited & ((G @ x - g - lim) > tol * np.maximum(U, np.finfo(float).tiny)))
         for a in over:
             if int(a) not in limits:
                 limits[int(a)] = 0.0
                 changed = True
+            print("DBG tn round", rounds, "vert", len(vertices), "tang", len(tangencies), "viol", float(rel.max(initial=0)), "nviol", int((rel > tol).sum()), "changed", changed, "mu", np.sort(mu)[:3] / fscale if len(mu) else None, "y", np.sort(y)[:3] / fscale if len(y) else None, "Ls", [np.round(L[list(tangencies.get(c, (0, ()))[1])], 4).tolist() for c, (s_, L) in zip(tkeys, points)][:4])
         if not changed:
             break
     else:
@@ -310,4 +422,6 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     nodal, active = point_read_back(B, seg, t, yk, yk > 0)
     active |= (z > 0) | (force > 0)
     return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force)
+                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force,
+                pairing=None if departure is None else departure.pairing(S, seg, t, yk))
+

@@ -87,6 +87,14 @@ class DiscreteProblem:
         return self.lines.E @ self.gap
 
     @property
+    def departure(self):
+        """The true gap's departure from its P2 interpolant on the cone's elements facing a curved rigid
+        obstacle, scaled (:class:`~cvxcontact.contact.truegap.GapDeparture`; None: the gap is quadratic on
+        every element)."""
+        d = self.lines.departure
+        return None if d is None else d.scaled(self.units.displacement)
+
+    @property
     def rows(self):
         """The law of every row (:class:`~cvxcontact.contact.laws.RowLaws`)."""
         return self.lines.rows
@@ -211,7 +219,8 @@ class DiscreteProblem:
             raise SceneError(f"with_rows: E must have {self.lines.E.shape[1]} columns (the nodes of X_h) and one "
                              f"row per law row; got E {E.shape} and {rows.size} law rows")
         lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
-                        np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None)
+                        np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None,
+                        departure=None)
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)

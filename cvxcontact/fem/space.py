@@ -24,6 +24,7 @@ from ..contact.interface import row_directions
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
+from ..contact.truegap import GapDeparture
 from ..errors import SceneError, SolverError, UnsupportedError
 from ..geometry.quadratic import P2Nodes, P2TetNodes
 from . import p2
@@ -49,7 +50,9 @@ class ContactLines:
     :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
     cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether a compliance law's rows can depend
     on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
-    nodes; the interface compliance W is singular on them, docs/formulation.md §15).
+    nodes; the interface compliance W is singular on them, docs/formulation.md §15); ``departure``: the
+    departure of the true gap from its P2 interpolant on the cone's elements that face a curved rigid obstacle
+    (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element.
     """
 
     interface: object
@@ -63,6 +66,7 @@ class ContactLines:
     obstacles: tuple
     mixed_bernstein: tuple | None = None
     dependent: bool = False
+    departure: GapDeparture | None = None
 
     @property
     def conic(self) -> bool:
@@ -178,10 +182,65 @@ class P2:
             mixed = stack.bernstein_of(pairs.cone_pairs)
         weights = stack.weights(condition, scene.conditions) if rows.compliant else None   # Simpson (§10)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(stack.interfaces)])
+        departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), cone[1], gap)
         return ContactLines(interface=pairs.interface, offsets=np.asarray(stack.offsets), E=E, cone=cone,
                             rows=rows, weights=weights,
                             cone_pairs=tuple(pairs.cone_pairs) if pairs.cone_pairs is not None else None,
-                            gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed)
+                            gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed,
+                            departure=departure)
+
+
+def gap_departure(scene, stack, conditions, cells, gap) -> GapDeparture | None:
+    """The :class:`~cvxcontact.contact.truegap.GapDeparture` of the cone's elements ``cells`` (S, w; stacked
+    nodes of X_h, in the order of :meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`) that lie on a
+    "gamma3" pair with a rigid obstacle: the true gap there is :meth:`~cvxcontact.physics.scene.Scene.
+    pair_gap_values` (the pair's gap plus the obstacle's own distance) at the element's points, ``gap`` (m) the
+    gap at the nodes. None where every such element's gap is quadratic (a plane, no obstacle)."""
+    cells = np.asarray(cells)
+    S, w = cells.shape
+    pair = np.full(S, -1)
+    at = 0
+    for i, (itf, c) in enumerate(zip(stack.interfaces, conditions)):
+        if c == "gamma3":
+            real = len(np.asarray(itf.segments))        # 3D: the faces; the orphan nodes' cells come after
+            count = len(np.asarray(getattr(itf, "cone_cells", itf.segments)))
+            if itf.rigid:
+                pair[at:at + real] = i
+        else:
+            count = itf.evaluation(c).shape[0]
+        at += count
+    if not (pair >= 0).any():
+        return None
+    x = np.asarray(stack.x, dtype=float)
+    corners = cells[:, [0, 2]] if w == 3 else cells[:, :3]
+
+    def located(elements, points):
+        """Per pair i: (on, s, X): the elements of pair i, their points' coordinates s on the pair's line or
+        plane (m) and their corners' X (k, c, m) (s = L X, L the full barycentric coordinates)."""
+        for i in np.unique(pair[elements]):
+            on = np.flatnonzero(pair[elements] == i)
+            X = x[corners[elements[on]]]                       # (k, 2) abscissae or (k, 3, 2) in-plane points
+            X = X[:, :, None] if w == 3 else X
+            L = np.column_stack([1 - points[on], points[on]]) if w == 3 else points[on]
+            s = np.einsum("kv,kvd->kd", L, X)
+            yield int(i), on, (s[:, 0] if w == 3 else s), X
+
+    def true_gap(elements, points):
+        out = np.empty(len(elements))
+        for i, on, s, _ in located(elements, points):
+            out[on] = scene.pair_gap_values(i, s)
+        return out
+
+    def derivatives(elements, points):
+        k, c = len(elements), (2 if w == 3 else 3)
+        g, grad, hess = np.empty(k), np.empty((k, c)), np.empty((k, c, c))
+        for i, on, s, X in located(elements, points):
+            g[on], gs, hs = scene.pair_gap_derivatives(i, s)
+            grad[on] = np.einsum("kvd,kd->kv", X, gs)          # ds/dL = X
+            hess[on] = np.einsum("kvd,kde,kue->kvu", X, hs, X)
+        return g, grad, hess
+
+    return GapDeparture.build(true_gap, np.asarray(gap, dtype=float)[cells], pair >= 0, derivatives)
 
 
 def _p2_obstacles(scene, stack, dim: int = 2):
@@ -269,9 +328,11 @@ class P2Tet(P2):
             counts = np.array([len(w) for _, w in rules])
         rows = RowLaws(laws, counts)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
+        departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
                             E=E, cone=cone, rows=rows, weights=weights, cone_pairs=None, gap=gap,
-                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant)
+                            obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant,
+                            departure=departure)
 
 
 def _refuse_cones_next_to_compliance(scene, conditions, laws):

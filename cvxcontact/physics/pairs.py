@@ -190,25 +190,26 @@ class Rigid(Frozen):
             moved = bool(np.any(p != 0))
             dist = (lambda x, nu: distance(x - p, nu)) if moved else distance
             sens = sensitivity if sensitivity is None or not moved else (lambda x, nu: sensitivity(x - p, nu))
-            return dist, sens, None, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
+            return dist, sens, None, None, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
 
         self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim), _guide(guided, str(kind), dim))
 
     def _build(self, kind, shape, position, force, guided=None):
         """Set the fields: ``shape(position)`` gives (distance, sensitivity or None, row direction or None (the
-        part's normal), description, suffix of the description) of the obstacle with its reference point at
-        ``position`` (m); the
+        part's normal), the distance's derivatives or None (:meth:`Posing.derivatives`), description, suffix of
+        the description) of the obstacle with its reference point at ``position`` (m); the
         obstacle's dimension is the length of ``position``; ``guided`` the checked axes (k, dim) or None."""
         position = _point(position, f"Rigid.{kind}: position", (2, 3))
         _guided_force(force, guided, kind)
-        distance, sensitivity, direction, describe, suffix = shape(position)
+        distance, sensitivity, direction, derivatives, describe, suffix = shape(position)
         if force is not None:
             describe = describe[:-1] + f", force={_fmt(force)})"
         if guided is not None:
             describe = describe[:-1] + ", guided=" + (_fmt(guided[0]) if len(guided) == 1 else
                                                       "(" + ", ".join(_fmt(g) for g in guided) + ")") + ")"
         self._set(kind=kind, force=force, guided=guided, position=position, dim=len(position), _shape=shape,
-                  _distance=distance, _sensitivity=sensitivity, _direction=direction, _describe=describe + suffix)
+                  _distance=distance, _sensitivity=sensitivity, _direction=direction, _derivatives=derivatives,
+                  _describe=describe + suffix)
 
     @classmethod
     def _made(cls, kind, shape, position, force, guided=None) -> "Rigid":
@@ -292,6 +293,19 @@ class Rigid(Frozen):
         +inf where there is none (the node is left free)."""
         points, normal = self._check(points, normal)
         return self._distance(points, normal)
+
+    def distance_derivatives(self, points: np.ndarray, normal: np.ndarray) \
+            -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(g (n,), grad (n, dim), hess (n, dim, dim)): the gap :meth:`distance` (m) at ``points`` of a part with
+        unit outward ``normal`` and its gradient (dimensionless) and Hessian (1/m) along the part's plane (line in
+        2D): the derivatives of g(x + v) in v . ``normal`` = 0, their components along the normal zero. In closed
+        form for the constructors' obstacles under either posing (:meth:`Posing.derivatives`); by central
+        differences of :meth:`distance` for ``Rigid(kind, distance, describe)``. Points where g = +inf (no
+        obstacle) have zero derivatives."""
+        points, normal = self._check(points, normal)
+        if self._derivatives is not None:
+            return self._derivatives(points, normal)
+        return _central_derivatives(self._distance, points, normal)
 
     def direction(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """(n, dim): the unit direction d(x) along which the row at each of ``points`` measures the body's
@@ -532,6 +546,12 @@ class Posing:
     def pose(self, surface):
         raise NotImplementedError
 
+    def derivatives(self, surface):
+        """``(x, nu) -> (g, grad, hess)``: the posed gap g (n,) (m) at points ``x`` (n, d) of a part with outward
+        ``nu`` and its gradient (n, d) and Hessian (n, d, d) (1/m) along the part (:meth:`Rigid.
+        distance_derivatives`), in closed form from the surface's geometry."""
+        raise NotImplementedError
+
 
 class ClosestPoint(Posing):
     """The field's linearised non-penetration (docs/formulation.md §12, "Closest point"): g(x) the signed distance
@@ -567,6 +587,20 @@ class ClosestPoint(Posing):
 
         return distance, sensitivity, direction
 
+    def derivatives(self, surface):
+        """grad g = n_o (the signed distance's gradient: x - q = g n_o, the foot q stationary) and
+        hess g = d n_o(q(x)) / dx, the shape operator at the foot seen from x (:meth:`_Surface.closest_hessian`:
+        (I - n_o n_o^T) / |x - c| for a ball, the same across the axis for a cylinder, 0 for a plane, through the
+        foot point's motion for a graph), both projected on the part's plane; g = +inf where the surface there
+        does not face the part (as :meth:`pose`)."""
+
+        def derivatives(x, nu):
+            g, n_o, H = surface.closest_hessian(x, nu)
+            g = np.where(n_o @ nu < -1e-12, g, np.inf)
+            return _along_part(g, n_o, H, nu)
+
+        return derivatives
+
 
 class Ray(Posing):
     """The distance along the body's normal (a ray cast): g(x) the distance from x along nu to the surface (+inf
@@ -579,6 +613,16 @@ class Ray(Posing):
 
     def pose(self, surface):
         return surface.ray, surface.ray_sensitivity(), None
+
+    def derivatives(self, surface):
+        """The ray's distance g(x) with the surface phi(y) = 0 at y = x + g nu: grad g = -grad phi / (grad phi .
+        nu) and hess g = -J^T (hess phi) J / (grad phi . nu), J = I + nu grad g^T (:meth:`_Surface.
+        ray_derivatives`), projected on the part's plane."""
+
+        def derivatives(x, nu):
+            return _along_part(*surface.ray_derivatives(x, nu), nu)
+
+        return derivatives
 
 
 POSINGS = {p.name: p for p in (ClosestPoint(), Ray())}
@@ -601,7 +645,53 @@ def _posed(surface, posing, default):
     description names the posing where it is not the kind's ``default``)."""
     distance, sensitivity, direction = posing.pose(surface)
     describe = surface.describe if posing is default else surface.describe[:-1] + f", distance={posing.name!r})"
-    return distance, sensitivity, direction, describe, surface.suffix
+    return distance, sensitivity, direction, posing.derivatives(surface), describe, surface.suffix
+
+
+def _along_part(g, grad, hess, nu):
+    """(g, grad, hess) with the derivatives' components along the part's normal ``nu`` removed (P grad,
+    P hess P, P = I - nu nu^T) and zero where g = +inf."""
+    P = np.eye(len(nu)) - np.outer(nu, nu)
+    live = np.isfinite(g)
+    grad = np.where(live[:, None], grad @ P, 0.0)
+    hess = np.where(live[:, None, None], np.einsum("ij,njk,kl->nil", P, hess, P), 0.0)
+    return g, grad, hess
+
+
+def _implicit_ray(g, grad_phi, hess_phi, nu):
+    """(g, grad g, hess g) of the ray distance g(x), x + g nu on the surface phi = 0, from phi's gradient (n, d)
+    and Hessian (n, d, d) at the hit point (:meth:`Ray.derivatives`); zero derivatives where the ray misses or
+    grazes."""
+    a = grad_phi @ nu
+    ok = np.isfinite(g) & (np.abs(a) > 1e-300)
+    a = np.where(ok, a, 1.0)
+    grad = -grad_phi / a[:, None]
+    J = np.eye(len(nu))[None] + nu[None, :, None] * grad[:, None, :]
+    hess = -np.einsum("nji,njk,nkl->nil", J, hess_phi, J) / a[:, None, None]
+    return g, np.where(ok[:, None], grad, 0.0), np.where(ok[:, None, None], hess, 0.0)
+
+
+def _central_derivatives(distance, points, normal):
+    """(g, grad, hess) of an obstacle given by its ``distance`` only, by central differences along the part
+    (step 1e-4 of the points' extent; second-order: what an analytic surface gives in closed form)."""
+    d = len(normal)
+    P = np.eye(d) - np.outer(normal, normal)
+    E = np.linalg.svd(P)[0][:, :d - 1].T                     # an orthonormal basis of the part's plane
+    h = 1e-4 * max(float(np.ptp(points)), float(np.abs(points).max(initial=0.0)), np.finfo(float).tiny)
+    g = np.asarray(distance(points, normal), dtype=float)
+    grad = np.zeros((len(points), d))
+    hess = np.zeros((len(points), d, d))
+    with np.errstate(invalid="ignore"):
+        at = lambda v: np.asarray(distance(points + v, normal), dtype=float)      # noqa: E731
+        for i, ei in enumerate(E):
+            fp, fm = at(h * ei), at(-h * ei)
+            grad += np.outer((fp - fm) / (2 * h), ei)
+            hess += np.einsum("n,i,j->nij", (fp + fm - 2 * g) / h ** 2, ei, ei)
+            for ej in E[:i]:
+                c = (at(h * (ei + ej)) - at(h * (ei - ej)) - at(h * (ej - ei)) + at(-h * (ei + ej))) / (4 * h * h)
+                hess += np.einsum("n,i,j->nij", c, ei, ej) + np.einsum("n,i,j->nij", c, ej, ei)
+    live = np.isfinite(g) & np.isfinite(grad).all(axis=1) & np.isfinite(hess).all(axis=(1, 2))
+    return g, np.where(live[:, None], grad, 0.0), np.where(live[:, None, None], hess, 0.0)
 
 
 class _Surface:
@@ -613,6 +703,14 @@ class _Surface:
 
     def ray_sensitivity(self):
         return _ray_sensitivity(self.ray, self.outward)
+
+    def closest_hessian(self, x, nu):
+        """(g, n_o, H): :meth:`closest` and the Hessian (n, d, d) (1/m) of the signed distance at ``x``."""
+        raise NotImplementedError
+
+    def ray_derivatives(self, x, nu):
+        """(g, grad, hess) of :meth:`ray` at ``x`` (:func:`_implicit_ray`)."""
+        raise NotImplementedError
 
 
 class _Plane(_Surface):
@@ -643,6 +741,12 @@ class _Plane(_Surface):
         self._facing(nu)
         return (x - self.p) @ self.n, self.outward(x)
 
+    def closest_hessian(self, x, nu):
+        return *self.closest(x, nu), np.zeros((len(x), len(nu), len(nu)))
+
+    def ray_derivatives(self, x, nu):
+        return _implicit_ray(self.ray(x, nu), self.outward(x), np.zeros((len(x), len(nu), len(nu))), nu)
+
 
 class _Ball(_Surface):
     """The disc (2D) or ball (3D) of radius ``R`` (m) around ``c`` (m)."""
@@ -664,6 +768,18 @@ class _Ball(_Surface):
         centre = r == 0                                     # at the centre: straight out along -nu
         n_o = np.where(centre[:, None], -nu, w / np.where(centre, 1.0, r)[:, None])
         return r - self.R, n_o
+
+    def closest_hessian(self, x, nu):
+        g, n_o = self.closest(x, nu)
+        r = g + self.R                                      # (I - n_o n_o^T) / r: the sphere through x
+        with np.errstate(divide="ignore"):
+            H = (np.eye(len(nu))[None] - n_o[:, :, None] * n_o[:, None, :]) / r[:, None, None]
+        return g, n_o, H
+
+    def ray_derivatives(self, x, nu):
+        g = self.ray(x, nu)                                 # phi(y) = |y - c|^2 / 2 - R^2 / 2
+        y = x - self.c + np.where(np.isfinite(g), g, 0.0)[:, None] * nu
+        return _implicit_ray(g, y, np.broadcast_to(np.eye(len(nu)), (len(x), len(nu), len(nu))), nu)
 
 
 class _Cylinder(_Surface):
@@ -697,6 +813,20 @@ class _Cylinder(_Surface):
             else:                                           # a part normal along the axis, on the axis: none
                 r = np.where(on_axis, np.inf, r)
         return r - self.R, n_o
+
+    def closest_hessian(self, x, nu):
+        g, n_o = self.closest(x, nu)
+        r = g + self.R                                      # (I - a a^T - n_o n_o^T) / r: the cylinder through x
+        with np.errstate(divide="ignore"):
+            H = (np.eye(3) - np.outer(self.axis, self.axis))[None] - n_o[:, :, None] * n_o[:, None, :]
+            H = H / r[:, None, None]
+        return g, n_o, H
+
+    def ray_derivatives(self, x, nu):
+        g = self.ray(x, nu)                                 # phi(y) = |y_across|^2 / 2 - R^2 / 2
+        y = self.across(x - self.p + np.where(np.isfinite(g), g, 0.0)[:, None] * nu)
+        A = np.eye(3) - np.outer(self.axis, self.axis)
+        return _implicit_ray(g, y, np.broadcast_to(A, (len(x), 3, 3)), nu)
 
 
 def _fd_scale(p, o):
@@ -735,7 +865,7 @@ def _graph_foot(F, p0, z, origin, label):
     """The foot point of each point (p0, z) on the graph w = F(p) (p in R^k, k = 1 or 2; +inf: no obstacle):
     p* minimising phi(p) = |p - p0|^2 / 2 + (F(p) - z)^2 / 2 by Newton's method from p0, safeguarded (the
     Gauss-Newton matrix where the Hessian is not positive definite, halved steps until phi does not grow).
-    Returns (p*, F(p*), grad F(p*)); rows with F(p0) = +inf (no obstacle above the point) are +inf.
+    Returns (p*, F(p*), grad F(p*), hess F(p*)); rows with F(p0) = +inf (no obstacle above the point) are +inf.
     SceneError naming ``label`` if it does not settle in 100 steps."""
     n, k = p0.shape
     p = p0.copy()
@@ -782,9 +912,28 @@ def _graph_foot(F, p0, z, origin, label):
                          "point is far from it compared with its curvature radius); use a smoother f, or "
                          "distance='ray'")
     G = np.full((n, k), np.nan)
+    H = np.full((n, k, k), np.nan)
     if live.any():
-        G[live] = _graph_derivatives(F, p[live], h)[0]
-    return p, np.where(live, Fp, np.inf), G
+        G[live], H[live] = _graph_derivatives(F, p[live], h)
+    return p, np.where(live, Fp, np.inf), G, H
+
+
+def _graph_hessian(g, G, H, E, U):
+    """(n_o, hess g): the outward normal and the Hessian (n, d, d) (1/m) of the signed distance g (n,) to the
+    graph S(p) = p E + F(p) U (E (k, d) orthonormal rows, U (d,) the unit up direction, the obstacle the solid
+    above) at points whose foot has slopes ``G`` = grad F (n, k) and curvature ``H`` = hess F (n, k, k).
+
+    With x - S(p*) = g n_o, n_o = (G E - U) / w, w = sqrt(1 + |G|^2), the foot's condition (x - S) . S_i = 0
+    moves it by dp/dx = A^-1 S_p^T, A = I + G G^T + g H / w, S_p^T = E + G U^T; grad g = n_o and
+    hess g = dn_o/dp dp/dx with dn_o/dp = (I - n_o n_o^T) E^T H / w."""
+    k = E.shape[0]
+    w = np.sqrt(1 + np.einsum("ni,ni->n", G, G))
+    n_o = (G @ E - U) / w[:, None]
+    A = np.eye(k)[None] + G[:, :, None] * G[:, None, :] + g[:, None, None] * H / w[:, None, None]
+    Sp = E[None] + G[:, :, None] * U[None, None, :]                                    # (n, k, d)
+    dn = np.einsum("nij,jk,nkl->nil", np.eye(len(U))[None] - n_o[:, :, None] * n_o[:, None, :], E.T, H) \
+        / w[:, None, None]                                                              # (n, d, k)
+    return n_o, dn @ np.linalg.solve(A, Sp)
 
 
 class _HeightField(_Surface):
@@ -844,14 +993,31 @@ class _HeightField(_Surface):
         return n / np.linalg.norm(n, axis=1)[:, None]
 
     def closest(self, x, nu):
+        return self.closest_hessian(x, nu)[:2]
+
+    def closest_hessian(self, x, nu):
         self._up(nu)
-        p, Fp, G = _graph_foot(self.surface, x[:, :2].copy(), x[:, 2], self.o[:2], repr_of(self))
+        p, Fp, G, H = _graph_foot(self.surface, x[:, :2].copy(), x[:, 2], self.o[:2], repr_of(self))
         live = np.isfinite(Fp)
         r = np.where(live, Fp - x[:, 2], 0.0)
         dist = np.sqrt(np.einsum("ij,ij->i", p - x[:, :2], p - x[:, :2]) + r * r)
-        n = np.column_stack([np.where(live[:, None], G, 0.0), -np.ones(len(x))])
-        n_o = n / np.linalg.norm(n, axis=1)[:, None]
-        return np.where(live, np.sign(r) * dist, np.inf), n_o
+        g = np.where(live, np.sign(r) * dist, np.inf)
+        n_o, hess = _graph_hessian(np.where(live, g, 0.0), np.where(live[:, None], G, 0.0),
+                                   np.where(live[:, None, None], H, 0.0), np.eye(3)[:2], np.eye(3)[2])
+        return g, n_o, hess
+
+    def ray_derivatives(self, x, nu):
+        g = self.ray(x, nu)                                 # phi(y) = f(y_x, y_y) - y_z (the solid above)
+        live = np.isfinite(g)
+        y = x + np.where(live, g, 0.0)[:, None] * nu
+        G = np.zeros((len(x), 2))
+        H2 = np.zeros((len(x), 2, 2))
+        if live.any():
+            G[live], H2[live] = _graph_derivatives(self.surface, y[live, :2],
+                                                   1e-3 * _fd_scale(y[live, :2], self.o[:2]))
+        hess = np.zeros((len(x), 3, 3))
+        hess[:, :2, :2] = H2
+        return _implicit_ray(g, np.column_stack([G, -np.ones(len(x))]), hess, nu)
 
 
 class _Profile(_Surface):
@@ -889,16 +1055,33 @@ class _Profile(_Surface):
         return sensitivity
 
     def closest(self, x, nu):
+        return self.closest_hessian(x, nu)[:2]
+
+    def closest_hessian(self, x, nu):
         t = canonical_tangent(nu)
         s0 = ((x - self.q) @ t)[:, None]
         F = lambda s: self.height(s[:, 0], nu)             # noqa: E731  (the graph over the part's line)
-        s, Fs, G = _graph_foot(F, s0.copy(), np.zeros(len(x)), np.zeros(1), repr_of(self))
+        s, Fs, G, H = _graph_foot(F, s0.copy(), np.zeros(len(x)), np.zeros(1), repr_of(self))
         live = np.isfinite(Fs)
         r = np.where(live, Fs, 0.0)
-        slope = np.where(live, G[:, 0], 0.0)
         dist = np.hypot(s[:, 0] - s0[:, 0], r)
-        n_o = (np.outer(slope, t) - nu) / np.sqrt(1 + slope * slope)[:, None]
-        return np.where(live, np.sign(r) * dist, np.inf), n_o
+        g = np.where(live, np.sign(r) * dist, np.inf)
+        # the graph over the part's line: S(s) = s t + F(s) nu, its point at s0 (height 0)
+        n_o, hess = _graph_hessian(np.where(live, g, 0.0), np.where(live[:, None], G, 0.0),
+                                   np.where(live[:, None, None], H, 0.0), t[None, :], nu)
+        return g, n_o, hess
+
+    def ray_derivatives(self, x, nu):
+        t = canonical_tangent(nu)                           # g = F(s), s = (x - q) . t
+        g = self.ray(x, nu)
+        live = np.isfinite(g)
+        s = ((x - self.q) @ t)[:, None]
+        G = np.zeros((len(x), 1))
+        H = np.zeros((len(x), 1, 1))
+        if live.any():
+            G[live], H[live] = _graph_derivatives(lambda v: self.height(v[:, 0], nu), s[live],
+                                                  1e-3 * _fd_scale(s[live], np.zeros(1)))
+        return g, G[:, 0, None] * t, H[:, 0, 0, None, None] * np.outer(t, t)
 
 
 def repr_of(surface) -> str:

@@ -712,6 +712,43 @@ class Scene(Frozen):
         g = np.array(load(itf.x, np.full_like(itf.x, itf.y)), dtype=float)
         return g + itf.obstacle_gap() if itf.rigid else g
 
+    def pair_gap_derivatives(self, i: int, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(g (k,), grad (k, m), hess (k, m, m)): :meth:`pair_gap_values` of rigid pair ``i`` at the points ``s``
+        of its line or plane (tangential coordinates (k,) in 2D, in-plane (k, 2) in 3D, m) and its derivatives in
+        those coordinates (m = 1 or 2): the obstacle's distance in closed form (:meth:`~cvxcontact.physics.pairs.
+        Rigid.distance_derivatives`), the pair's own gap g(s) by central differences (exactly zero for a
+        constant one). The curvature of the true gap along a P2 face (docs/formulation.md §8, §18)."""
+        itf = self.interfaces[i]
+        three = getattr(itf, "dim", 2) == 3
+        s = np.asarray(s, dtype=float)
+        S = s if three else s[:, None]
+        if three:
+            frame = np.asarray(itf.frame, dtype=float)                        # (2, 3) in-plane axes
+            points = itf.offset * itf.normal + S @ frame
+            given = self._given_gap if self._legacy else self.contacts[i]._given_gap
+            f = Load(given, f"contacts[{i}]: gap g(s1, s2)", 1)
+            load = lambda S: np.array(f(S[:, 0], S[:, 1]), dtype=float)       # noqa: E731
+        else:
+            frame = np.asarray(itf.tangent, dtype=float)[None, :]
+            points = itf.points[0] + np.outer(S[:, 0] - itf.x[0], itf.tangent)
+            f = self.gap if self._legacy else self.contacts[i].gap
+            load = lambda S: np.array(f(S[:, 0], np.full(len(S), itf.y)), dtype=float)    # noqa: E731
+        g, grad, hess = itf.obstacle.distance_derivatives(points, np.asarray(itf.normal, dtype=float))
+        grad, hess = grad @ frame.T, np.einsum("ai,nij,bj->nab", frame, hess, frame)
+        m = S.shape[1]
+        h = 1e-4 * max(float(np.ptp(S)), float(np.abs(S).max(initial=0.0)), np.finfo(float).tiny)
+        g0 = load(S)
+        E = np.eye(m) * h
+        for a in range(m):
+            grad[:, a] += (load(S + E[a]) - load(S - E[a])) / (2 * h)
+            hess[:, a, a] += (load(S + E[a]) + load(S - E[a]) - 2 * g0) / h ** 2
+            for b in range(a):
+                c = (load(S + E[a] + E[b]) - load(S + E[a] - E[b]) - load(S - E[a] + E[b])
+                     + load(S - E[a] - E[b])) / (4 * h * h)
+                hess[:, a, b] += c
+                hess[:, b, a] += c
+        return g + g0, grad, hess
+
     def _surface_gap(self, i, itf, s):
         """3D: the gap (m) at the overlay vertices of pair ``i`` (or at in-plane points ``s`` (k, 2), m): the
         pair's gap g(s1, s2) of the in-plane coordinates (s1, s2) of the pair's frame, plus the distance to a

@@ -114,7 +114,7 @@ def rows_active(slack, S, z, norms, Z):
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
 
 
-def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
+def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
     ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (w S, n) the Bernstein map,
@@ -132,6 +132,11 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
 
     ``force_scale``: a force scale (scaled) Y may not fall below, e.g. the compliance force of a P2
     penetration limit (docs/formulation.md §10), whose cone may carry no force at all.
+
+    Against a curved rigid obstacle (``departure``, :class:`~cvxcontact.contact.truegap.GapDeparture`, scaled)
+    the slack is the true one, q_h - delta: feasibility is its maximum over each element, complementarity
+    beta_s . b_s - ``pairing``_s (the finish's point forces' sum y_p delta(x_p): their pairing with the true
+    slack; None: 0, the duals read as the interpolant's).
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -150,10 +155,12 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0):
     Us = segment_scales(B, U, width)
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     cone = element(width).dual_cone_violation(beta)
+    smax = bernstein_max(b) if departure is None else departure.argmax(b)[0]
+    pair = (beta * b).sum(axis=1) - (0.0 if pairing is None else np.asarray(pairing, dtype=float))
     return {
         "equilibrium": equilibrium,
-        "feasibility": float((np.maximum(bernstein_max(b), 0.0) / Us).max(initial=0.0)),
-        "complementarity": float(np.sqrt((np.abs((beta * b).sum(axis=1)) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
+        "feasibility": float((np.maximum(smax, 0.0) / Us).max(initial=0.0)),
+        "complementarity": float(np.sqrt((np.abs(pair) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
         "cone": float(cone.max(initial=0.0) / Y),
     }
 

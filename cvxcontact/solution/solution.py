@@ -458,7 +458,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
     if beta is not None:
         B, segments = problem.lines.cone
-        checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta)
+        checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta, departure=problem.departure, pairing=raw.pairing)
         if raw.certificate is not None:
             checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
         S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]

@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from ...contact.bernstein import TRIANGLE, bernstein_argmax
+from ...contact.truegap import GapDeparture
 from ...contact.quadratic3d import p2_shape
 from ...geometry.generators3d import box
 from ...physics import materials
@@ -210,15 +211,34 @@ def contact_radius(sol):
     return _edge_radius(trace, active, on, outward=True)
 
 
-def contact_points(x, cells, q, tol) -> np.ndarray:
-    """(k, 2) m: where the gap closes under the copositive condition: the exact maximiser of q_h = [u_nu] - g_h
-    (m; its values at the nodes ``x`` (n, 2) m of the triangle6 ``cells``) on every triangle whose maximum is
-    >= -``tol`` (m), and every node where q_h >= -``tol``. By complementarity the contact force is carried only
-    there (a point force at each tangency point; q_h = 0 on a whole triangle counts its nodes)."""
+def contact_points(x, cells, q, tol, departure=None) -> np.ndarray:
+    """(k, 2) m: where the gap closes under the copositive condition: the maximiser of the slack on every
+    triangle whose maximum is >= -``tol`` (m), and every node where q_h >= -``tol``; q_h = [u_nu] - g_h (m; its
+    values at the nodes ``x`` (n, 2) m of the triangle6 ``cells``), the slack q_h itself (its exact maximum), or
+    against a curved obstacle's own gap q_h - delta (``departure``, a :class:`~cvxcontact.contact.truegap.
+    GapDeparture` in m: :func:`true_departure`). By complementarity the contact force is carried only there (a
+    point force at each tangency point; a zero slack on a whole triangle counts its nodes)."""
     x, cells, q = np.asarray(x, dtype=float), np.asarray(cells), np.asarray(q, dtype=float)
-    q_max, L = bernstein_argmax(q[cells] @ TRIANGLE.to_bernstein.T)
+    q_max, L = (bernstein_argmax if departure is None else departure.argmax)(q[cells] @ TRIANGLE.to_bernstein.T)
     touch = q_max >= -tol
     return np.concatenate([np.einsum("ti,tid->td", L[touch], x[cells[touch, :3]]), x[q >= -tol]])
+
+
+def true_departure(sol) -> GapDeparture | None:
+    """The :class:`~cvxcontact.contact.truegap.GapDeparture` (m) of the sphere's own gap from its P2 interpolant on
+    the triangles of a P2 solution's contact surface (the gap at in-plane points from the scene,
+    :meth:`~cvxcontact.physics.scene.Scene.pair_gap_values`; the nodal gap the contact's): the slack whose
+    maxima are the contact points of P2 "gamma3" (docs/formulation.md §8); None between two bodies (a pair's gap
+    function stays interpolated there, as the condition poses it)."""
+    if not getattr(sol.scene.interfaces[0], "rigid", False):
+        return None
+    c = sol.contact
+    x, cells = np.asarray(c.x, dtype=float), np.asarray(_contact_surface(sol).cells)
+
+    def gap(elements, L):
+        return sol.scene.pair_gap_values(0, np.einsum("kv,kvd->kd", L, x[cells[elements, :3]]))
+
+    return GapDeparture.build(gap, np.asarray(c.gap, dtype=float)[cells], np.ones(len(cells), dtype=bool))
 
 
 def hull_radius(points) -> float:
@@ -236,12 +256,14 @@ def hull_radius(points) -> float:
 def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
     """(a_hull (m), number of points): :func:`hull_radius` of the points where the contact force is carried:
     the active nodes under a nodal condition (P1, P2 "sigma1"), under P2 "gamma3" the points where the gap
-    closes to ``tol`` of the approach (:func:`contact_points`; the largest |[u_nu]| stands for the approach)."""
+    closes to ``tol`` of the approach (:func:`contact_points` of the slack against the sphere's own gap; the
+    largest |[u_nu]| stands for the approach)."""
     c = sol.contact
     x = np.asarray(c.x, dtype=float)
     if sol.degree == 2 and sol.condition == "gamma3":
         q = np.asarray(c.jump) - np.asarray(c.gap)
-        pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()))
+        pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()),
+                             true_departure(sol))
     else:
         pts = x[np.asarray(c.active, dtype=bool)]
     return hull_radius(pts), len(pts)

@@ -37,12 +37,11 @@ the quarter disc with the area of their convex hull (:func:`support_radius`, an 
 nodal rows, from the active nodes, it lies within a grid spacing of the edge mid-points). Every row also gives
 the radius of Hertz's profile with the forces' second moment (:func:`moment_radius`; it assumes Hertz's shape).
 
-Posing (:data:`DISTANCE`): the study's tables were measured with the sphere posed by the distance along the
-block's normal (``distance="ray"``, the vertical distance and rows along z), and keep it so that they stay
-reproducible; ``scene(..., distance="closest")`` poses it as the field does (the distance to the closest point
-and rows along the radius, docs/formulation.md §12, the default of ``Rigid.sphere``). At a / R = 0.05, n = 8 the
-closest-point rows give a 0.59 % larger force at Hertz's approach and a 0.38 % shorter approach under force
-control (``cc.solve(scene(8, distance=...))``, ``total_force``).
+Posing (:data:`DISTANCE`): the sphere is posed as the field poses it, by the distance to its closest point and
+rows along the radius (``distance="closest"``, docs/formulation.md §12, the default of ``Rigid.sphere``; equal to
+GetFEM's radial rows to 1e-14, benchmarks/results/getfem_hertz3d.md). ``scene(..., distance="ray")`` gives the
+vertical variant (the distance along the block's normal, rows along z): at a / R = 0.05, n = 8 it gives a 0.59 %
+smaller force at Hertz's approach and a 0.38 % longer approach under force control.
 
 Size effect: the block's finite depth (clamped at z = -L) removes the half-space's displacement below
 z = -L, nearly uniform over the contact zone: it shortens the approach by about Boussinesq's
@@ -92,10 +91,9 @@ total force moves by about 1e-8 of F between re-solves at approaches 1e-12 apart
 squares), so 1e-10 is out of reach there."""
 
 
-DISTANCE = "ray"
-"""The sphere's posing in the study (``Rigid.sphere(..., distance=DISTANCE)``): "ray", the vertical distance and
-rows along the block's normal, with which the committed tables were measured; "closest" is the field's posing
-(re-run the study with it: ``cvxcontact study hertz3d`` after setting this to "closest")."""
+DISTANCE = "closest"
+"""The sphere's posing in the study (``Rigid.sphere(..., distance=DISTANCE)``): "closest", the distance to the
+closest point of the sphere and rows along the radius (the field's posing; "ray": the vertical variant)."""
 
 
 ROWS = {(1, "gamma3"): LEVELS, (2, "sigma1"): LEVELS_P2, (2, "gamma3"): LEVELS_G3}

@@ -410,7 +410,8 @@ def test_mirror_bodies_are_the_rigid_sphere_on_a_block_of_modulus_e_star(degree,
     """With the steel body's top clamped it is the block's mirror image (the same graded grid, the same
     Poisson's ratio): its surface compliance is E2/E1 times the block's, so the pair is the rigid sphere on the
     block with 1/E* = (1 - nu^2)(1/E1 + 1/E2), and every error relative to Hertz is the rigid study's
-    (hertz3d.py: an obstacle's distance instead of a pair's gap function, one body instead of two). Measured
+    (hertz3d.py posed along the vertical, `distance="ray"`, the gap a profile is: an obstacle's distance instead
+    of a pair's gap function, one body instead of two). Measured
     differences at n = 8: P1 and P2 sigma1 <= 2.3e-13; P2 gamma3 (the conic answer, its force reached to
     1e-7) 1.4e-6 on p0 (the Riesz pressure at the axis), 9e-8 on a, <= 6e-8 on the others while both were held
     against the interpolant of the gap; now the rigid sphere is held against its own distance (below)."""
@@ -424,7 +425,7 @@ def test_mirror_bodies_are_the_rigid_sphere_on_a_block_of_modulus_e_star(degree,
     solver = cc.ContactSolver(base, condition, method="condensed", degree=degree)
     sol, delta, _ = h.press(solver, base, rtol=hertz3d.FORCE_RTOL_CONIC if conic else 1e-10, gap=h.SphereGap)
     pair = hertz3d.measure(sol, delta, h.hertz)
-    rigid, _ = hertz3d.solve_level(N, degree=degree, condition=condition)
+    rigid, _ = hertz3d.solve_level(N, degree=degree, condition=condition, distance="ray")   # the vertical gap
     # P2 gamma3: the rigid sphere is held against its own distance at every point, the pair against the P2
     # interpolant of its gap function (docs/formulation.md §8): two conditions, 2.2e-4 apart on p0, 3.3e-5 on the
     # cell's force, <= 5.2e-6 on the others (measured), and the contact points differ (8 against 14: the hull's

@@ -392,16 +392,17 @@ def measure(sol, delta, closed_form=None):
                 contact_nodes=len(c.active), ok=sol.ok)
 
 
-def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condition=None):
+def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condition=None, distance=DISTANCE):
     """(row, solution) of one mesh level under force control (:func:`press`, the condensed backend);
     ``degree`` 2: P2 (10-node) tetrahedra; ``condition`` (default :data:`CONDITION` of the degree), e.g.
     "gamma3" with P2: the copositive condition on the block's faces (docs/formulation.md §16), whose force is
-    reached to :data:`FORCE_RTOL_CONIC` (the nodal conditions': 1e-10)."""
+    reached to :data:`FORCE_RTOL_CONIC` (the nodal conditions': 1e-10); ``distance``: the sphere's posing
+    (:data:`DISTANCE`)."""
     from ...solve import ContactSolver
 
     clock = Timer()
     condition = condition or CONDITION[degree]
-    base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice)
+    base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice, distance=distance)
     solver = ContactSolver(base, condition, method="condensed", degree=degree)
     conic = degree == 2 and condition == "gamma3"
     sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10)

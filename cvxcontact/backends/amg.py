@@ -52,7 +52,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 from .condensed import quasi_definite
-from .finish import active_set_steps, signs_hold
+from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART"]
@@ -376,10 +376,10 @@ class KrylovContact:
 
         for stages in (STEP_RTOLS + (RTOL,), (RTOL,)):   # steps that cycle on loose solves: retried on tight ones
             out = active_set_steps(lambda a: step(a, stages), last[0], max_iter)
-            if not isinstance(out, str) or out == "singular":
+            if not isinstance(out, Declined) or out.stop is Stop.SINGULAR:
                 break
         self._reduction = None
-        if isinstance(out, str):
+        if isinstance(out, Declined):
             return None
         out = (out[0], out[1], count[0])
         (x, y), active, steps = out

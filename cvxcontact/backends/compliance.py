@@ -14,7 +14,8 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel
-from .finish import SIGN_TOL, independent_active_set, solve_compliance, solve_linear_compliance, solve_sparse_compliance
+from .finish import (SIGN_TOL, Declined, independent_active_set, solve_compliance, solve_linear_compliance,
+                     solve_sparse_compliance)
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
 from .mixed import mixed_system, stacked, unstacked
@@ -291,7 +292,7 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
         K = (A + G.T @ sp.diags(D) @ G).tocsr()
         b = F - G.T @ (w * law.pressure(r) - D * (g + r))
         out = independent_active_set(_rows_kkt(K, b, GL, cL), cL, zL, active)
-        if isinstance(out, str):
+        if isinstance(out, Declined):
             return out
         (target, zL), active, steps = out
         inner += steps

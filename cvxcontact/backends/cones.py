@@ -18,7 +18,7 @@ from .compliance import newton
 from .condensed import InterfaceModel, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
                    seed_forces, seed_points)
-from .finish import independent_active_set, row_reach
+from .finish import Declined, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
@@ -186,7 +186,7 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
         y0 = np.zeros(P.shape[0])
         y0[:len(prev["y"])] = prev["y"]
         out = independent_active_set(kkt, gp, y0, y0 > 0, factored=FACTORED, purify=False)
-        if isinstance(out, str) and FACTORED:         # the factored steps declined: one sparse LU a step
+        if isinstance(out, Declined) and FACTORED:         # the factored steps declined: one sparse LU a step
             prev["declined"] = prev.get("declined", 0) + 1
             out = independent_active_set(kkt, gp, y0, y0 > 0, factored=False, purify=False)
         if isinstance(out, str):

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..fem.kernel import check_determined
-from .finish import SINGULAR
+from .finish import SINGULAR_FORCES
 from . import backend
 from .result import RawResult
 
@@ -69,7 +69,7 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     if active is None and kind(problem) == "compliance" and raw.y is not None:   # the rows that carry a force
         y = np.asarray(raw.y, dtype=float)
         active = y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
-    if active is not None and (raw.polished or raw.declined == SINGULAR):
+    if active is not None and (raw.polished or raw.declined == SINGULAR_FORCES):
         check_determined(problem.kernel, active)    # a motion only rows open at the solution would hold (a
         # finish whose rows carrying forces cannot hold a body: is it the problem that leaves the body free?)
     if kind(problem) == "signorini":

@@ -12,8 +12,8 @@ import numpy as np
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
 from ..contact.laws import RowLaws, Signorini
-from .finish import (force_displacements, independent_active_set, independent_interface, ipm_active, lcp_start,
-                     reach_forces, row_scales, signs_hold, solve_lcp, solve_sparse_compliance)
+from .finish import (Declined, force_displacements, independent_active_set, independent_interface, ipm_active,
+                     lcp_start, reach_forces, row_scales, signs_hold, solve_lcp, solve_sparse_compliance)
 from .full import ContactModel, mixed_kkt
 from .interface import condensation
 from .mixed import mixed_system, stacked, unstacked
@@ -53,7 +53,7 @@ def mixed_finish(problem, raw, timings, hold=None):
     free = ~problem.held_rows
     out = independent_active_set(kkt, problem.g, np.where(free, raw.y, 0.0), raw.active & free)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         raw.declined = out
         return raw
     x, raw.active, raw.iterations = out[0], out[1], raw.iterations + out[2]
@@ -108,7 +108,7 @@ def interface_finish(compliance, d, start, timings, dependent=None):
     else:
         v0, g, y0 = dependent
         res = independent_interface(compliance, v0, g, y0, start)
-        out = None if isinstance(res, str) else (res[0], res[1], "independent active set")
+        out = None if isinstance(res, Declined) else (res[0], res[1], "independent active set")
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
 

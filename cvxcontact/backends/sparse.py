@@ -56,7 +56,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from .finish import active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
+from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
 
@@ -340,7 +340,7 @@ class SparseContact:
             return (x, y), (None if signs_hold(y, s, active, self.w, S) else y * self.w + s > 0)
 
         out = active_set_steps(step, active, max_iter)
-        if isinstance(out, str):
+        if isinstance(out, Declined):
             return None
         (x, y), active, steps = out
         return self._split(x) + (np.where(active, y, 0.0), active, steps)
@@ -419,7 +419,7 @@ class SparseContact:
             return None if out is None else ((out[0], out[1]),) + out[1:]
 
         out = lawson_hanson(self.G, y0, start, lambda first: step, None, g=self._g, max_iter=max_iter)
-        if isinstance(out, str):
+        if isinstance(out, Declined):
             return out
         (x, y), passive, steps = out
         return self._split(x) + (y, passive, steps)

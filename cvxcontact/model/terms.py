@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..backends.finish import SIGN_TOL, STOPPED, active_set_steps
+from ..backends.finish import Declined, MAX_ITER, SIGN_TOL, active_set_steps
 from ..backends.full import mixed_kkt
 from ..solution.checks import equilibrium_with, node_scales, row_checks, row_scales, rows_active
 
@@ -107,8 +107,8 @@ def finish(problem, u, phi, y, rows, load, active, x):
         return None, ((ac & ~neg_c) | bad_c, (ar & ~neg_r) | bad_r)
 
     out = active_set_steps(step, (active.copy(), ar), MAX_STEPS, key=lambda s: s[0].tobytes() + s[1].tobytes())
-    if isinstance(out, str):
-        return STOPPED[out] + (f" in {MAX_STEPS} steps" if out == "max_iter" else "")
+    if isinstance(out, Declined):
+        return str(out) + (f" in {MAX_STEPS} steps" if out is MAX_ITER else "")
     (uk, pk, yk, zk, tk), (ac, _), _ = out
     off = np.cumsum([0] + m)
     return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)

@@ -1,0 +1,29 @@
+"""Exact finishes (docs/formulation.md §7, §12, §13): the steps that turn an interior point into the exact
+answer of the discrete problem, one module per algorithm.
+
+- :mod:`.lcp`: the condensed interface problem as a linear complementarity problem (active-set steps, then
+  Lawson-Hanson on the factor);
+- :mod:`.normal_compliance`: Newton on a normal compliance law's interface equation, dense or on the sparse mixed
+  system;
+- :mod:`.forces`: nodal forces, row reaches and scales, the interior point's active set;
+- :mod:`.rows`: the rows carrying the forces kept independent and factored, updated a row at a time;
+- :mod:`.dependent`: the finish on rows that may be linearly dependent (independent active sets, Lawson-Hanson);
+- :mod:`.declined`: why a finish stopped without an answer (:class:`Declined`, a typed result).
+"""
+
+from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, Declined, Stop
+from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson
+from .forces import (FORCE_FLOOR, force_displacements, force_scale, ipm_active, node_scales, reach_displacements,
+                     reach_forces, row_compliance)
+from .lcp import SIGN_TOL, active_set_steps, lcp_start, row_scales, signs_hold, solve_lcp
+from .normal_compliance import solve_compliance, solve_linear_compliance, solve_sparse_compliance
+from .rows import (DEPENDENT_PIVOT, CompliantRows, FactoredRows, UpdatedSystem, _independent, _row_scale,
+                   factored_rows, refined_solve, row_reach)
+
+__all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
+           "row_compliance", "force_scale", "FORCE_FLOOR", "solve_compliance", "solve_linear_compliance",
+           "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set",
+           "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",
+           "FactoredRows", "UpdatedSystem", "CompliantRows", "factored_rows", "refined_solve", "row_reach",
+           "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES",
+           "_independent", "_purified", "_row_scale"]

@@ -1,0 +1,38 @@
+"""Why an exact finish stopped without an answer: a typed result, not a bare string."""
+
+from __future__ import annotations
+
+import enum
+
+__all__ = ["Stop", "Declined", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES"]
+
+
+class Stop(enum.Enum):
+    """What stopped a finish's steps."""
+
+    SINGULAR = "the mixed system on the active set is singular"
+    CYCLE = "the active-set steps cycle"
+    MAX_ITER = "the active-set steps did not settle"
+    SINGULAR_FORCES = "the mixed system on the rows carrying the forces is singular"
+
+
+class Declined(str):
+    """A finish's refusal: its :class:`Stop` (``.stop``) and, as the string itself, the words the solution's
+    ``info.declined`` reports (a ``str`` so that the backends compose their messages from it). Test for it with
+    ``isinstance(out, Declined)``; an answer is a tuple."""
+
+    stop: Stop
+
+    def __new__(cls, stop: Stop, words: str | None = None) -> "Declined":
+        self = super().__new__(cls, stop.value if words is None else words)
+        self.stop = stop
+        return self
+
+    def __repr__(self) -> str:
+        return f"Declined({self.stop.name})"
+
+
+SINGULAR = Declined(Stop.SINGULAR)
+CYCLE = Declined(Stop.CYCLE)
+MAX_ITER = Declined(Stop.MAX_ITER)
+SINGULAR_FORCES = Declined(Stop.SINGULAR_FORCES)

@@ -1,0 +1,90 @@
+"""Forces and scales of the finish: nodal forces from the rows, each row's reach and scale, the interior point's
+active set read from its forces."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def node_scales(parts, g, extra=None):
+    """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
+    displacement scale U_a: the sizes of both parts there plus the gap plus ``extra`` (the local
+    displacement of the row's own force, :func:`force_displacements`), floored at 1e-9 of the largest."""
+    U = sum(np.abs(p) for p in parts) + np.abs(g)
+    if extra is not None:
+        U = U + extra
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def force_displacements(blocks, E, y):
+    """w_a |y_a|: the displacement the contact force y_a of row a produces through the diagonal of each
+    body's stiffness, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj (scaled units). A node held at exactly
+    [u_nu] = g by a rigid obstacle or a stuck partner has no other displacement scale (docs/checks.md)."""
+    return row_compliance(blocks, E) * np.abs(y)
+
+
+def row_compliance(blocks, E) -> np.ndarray:
+    """w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj: each row's compliance through the diagonal of each body's
+    stiffness (scaled units; the unknowns with no stiffness diagonal do not count)."""
+    w = np.zeros(E.shape[0])
+    for b in blocks:
+        R = (E @ b.jump).tocsr()
+        w += np.asarray(R.multiply(R) @ _inverse_diagonal(b.Kuu)).ravel()
+    return w
+
+
+def _inverse_diagonal(K) -> np.ndarray:
+    """1 / K_jj where the diagonal is positive, 0 elsewhere (an unknown no stiffness holds)."""
+    d = K.diagonal()
+    return np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+
+
+def _elastic_forces(blocks, u, phi):
+    """Per body (block, |Kuu| |u| + |Kup| |phi|): the sizes of the elastic forces at its unknowns (scaled)."""
+    for k, (b, uk) in enumerate(zip(blocks, u)):
+        f = abs(b.Kuu) @ np.abs(uk)
+        pk = None if phi is None else phi[k]
+        if pk is not None and getattr(b, "Kup", None) is not None:
+            f = f + abs(b.Kup) @ np.abs(pk)
+        yield b, f
+
+
+def reach_displacements(blocks, E, u, phi=None):
+    """The displacement each row's unknowns would have from the elastic forces of their neighbours alone:
+    sum_l |E J_l| D_l^{-1} (|Kuu_l| |u_l| + |Kup_l| |phi_l|), D_l the positive diagonal of Kuu_l (scaled units;
+    the check-side twin of :func:`row_reach`). The rounding of a node's displacement is relative to it: a node
+    that does not move (a P2 face vertex on a rigid plane under a uniform pressure) has a slack of rounding and
+    no displacement of its own, and its neighbours' displacements are the scale of that rounding."""
+    return sum((abs(E @ b.jump) @ (_inverse_diagonal(b.Kuu) * f) for b, f in _elastic_forces(blocks, u, phi)),
+               np.zeros(E.shape[0]))
+
+
+def reach_forces(blocks, E, u, phi=None):
+    """The size of the elastic forces at each row's unknowns, sum_l |E J_l| (|Kuu_l| |u_l| + |Kup_l| |phi_l|)
+    (scaled forces): the force scale of a contact row that carries no force (an open contact, or forces of
+    interior-point noise), below which a contact force is not read as a force (:data:`FORCE_FLOOR`)."""
+    return sum((abs(E @ b.jump) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(E.shape[0]))
+
+
+FORCE_FLOOR = 1e-6
+"""The largest contact force Y is floored at this fraction of the largest elastic force at the contact rows
+(:func:`reach_forces`) where it normalises the forces (the active rows of an interior point, the
+complementarity and cone checks): with the contact open, an interior point's forces are noise (1e-8 of
+that scale, measured) and must not read as a contact (docs/checks.md)."""
+
+
+def force_scale(y, reach=None) -> float:
+    """Y = max(max |y|, FORCE_FLOOR max ``reach``) (:func:`reach_forces`), at least the smallest float."""
+    Y = float(np.abs(y).max(initial=0.0))
+    if reach is not None:
+        Y = max(Y, FORCE_FLOOR * float(np.max(reach, initial=0.0)))
+    return max(Y, np.finfo(float).tiny)
+
+
+def ipm_active(parts, g, y, extra=None, reach=None):
+    """Active rows of an interior-point answer: the force, relative to the largest contact force
+    (:func:`force_scale`, floored by ``reach``, :func:`reach_forces`), beats the open gap relative to the
+    row's displacement scale (free of units and load scale; ``extra`` as in :func:`node_scales`, e.g.
+    :func:`force_displacements`)."""
+    slack, U = node_scales(parts, g, extra)
+    return y / force_scale(y, reach) > np.abs(slack) / U

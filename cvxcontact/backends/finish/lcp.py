@@ -1,0 +1,190 @@
+"""Exact finish: the interface contact problem as a linear complementarity problem (LCP).
+
+Condensed onto the contact rows (:class:`cvxcontact.backends.condensed.Compliance`;
+docs/formulation.md §7), the discrete contact problem (26)-(27) is, in the constrained
+rows a of E and scaled units,
+
+    y >= 0,    s = d - W y <= 0,    y . s = 0                      (LCP)
+
+with W = sum_l R_l Sigma_l^{-1} R_l^T the (symmetric positive semi-definite) interface
+compliance, d the slack the contact would have with no contact force and y the nodal
+contact forces. It is the optimality system of the strictly convex dual QP
+min 1/2 y^T W y - d^T y over y >= 0, whose solution set is exact and finite to
+enumerate. :func:`solve_lcp` finds it exactly:
+
+1. primal-dual active-set steps (the semismooth Newton method for
+   min(y, -s) = 0) from a starting set, with the complementarity function scaled
+   *per row* by the row's own compliance w_a = W_aa: a row is active when
+   y_a w_a + s_a > 0, both terms being displacements of that node. (A single global
+   force scale, as in cvxcontact 0.1, cycles when the contact forces are small beside
+   the loads, e.g. a stiff body on a soft foundation.)
+2. if the steps cycle or stall, Lawson-Hanson non-negative least squares on the
+   factor W = L L^T: min ||L^T y - L^{-1} d|| over y >= 0 has the same minimiser as
+   the dual QP, and terminates in finitely many steps; its support is then refined by
+   step 1.
+
+Every returned answer satisfies the signs to rounding, measured per row:
+y_a w_a >= -eps S_a and s_a <= eps S_a, with S_a = |d_a| + (|W| |y|)_a the size of
+the terms of that row's slack (eps = SIGN_TOL).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.optimize import nnls
+
+from .declined import CYCLE, MAX_ITER, SINGULAR, Declined
+
+SIGN_TOL = 1e-10
+"""Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
+
+
+def row_scales(W, d, y):
+    """Per-row compliance w (floored at 1e-14 of its max) and per-row displacement scale S_a =
+    |d_a| + (|W| |y|)_a, the sizes of the terms of the slack s_a = d_a - (W y)_a (floored likewise)."""
+    tiny = np.finfo(float).tiny
+    w = np.diag(W).copy()
+    w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), tiny))
+    S = np.abs(d) + np.abs(W) @ np.abs(y)
+    return w, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+
+
+def lcp_start(W, d, y, slack):
+    """Active set of an approximate answer (e.g. an interior point's): rows where the force,
+    turned into a displacement by the row's compliance, beats the open gap: y w + s > 0."""
+    w, _ = row_scales(W, d, y)
+    return y * w + slack > 0
+
+
+def _closed(W, d, active):
+    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular."""
+    y = np.zeros(len(d))
+    if active.any():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", sla.LinAlgWarning)
+                c = sla.cho_factor(W[np.ix_(active, active)])
+                y[active] = sla.cho_solve(c, d[active])
+        except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+            return None
+    return y
+
+
+def signs_hold(y, slack, active, w, S):
+    """Whether y >= 0 (as displacements y w) and the open rows' slack <= 0, each to SIGN_TOL times
+    the row's own scale S_a: a row cannot hide behind a larger one."""
+    return bool(np.isfinite(y).all() and np.isfinite(slack).all() and (y * w >= -SIGN_TOL * S).all()
+                and (slack[~active] <= SIGN_TOL * S[~active]).all())
+
+
+def _signs_hold(W, d, y, active):
+    w, S = row_scales(W, d, y)
+    return signs_hold(y, d - W @ y, active, w, S)
+
+
+def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobytes()):
+    """The primal-dual active-set iteration every exact finish shares (the semismooth Newton method for the
+    complementarity function min(y, -s) = 0): ``step(active)`` solves the system with the rows of ``active``
+    closed and returns ``(state, new)``, ``new`` the next active set or None when the signs hold (``state``
+    is then the answer), or returns None for a singular system. ``key(active)``: a hashable form of an
+    active set (default its bytes; a tuple of masks needs its own). Returns ``(state, active, steps)``, or
+    the reason it stopped, a :class:`~cvxcontact.backends.finish.declined.Declined` (SINGULAR, CYCLE,
+    MAX_ITER)."""
+    seen, active = set(), start
+    for n in range(1, max_iter + 1):
+        out = step(active)
+        if out is None:
+            return SINGULAR
+        state, new = out
+        if new is None:
+            return state, active, n
+        k = key(new)
+        if k == key(active) or k in seen:
+            return CYCLE
+        seen.add(k)
+        active = new
+    return MAX_ITER
+
+
+def _pdas(W, d, active, max_iter):
+    w, _ = row_scales(W, d, np.zeros(len(d)))
+
+    def step(active):
+        y = _closed(W, d, active)
+        if y is None:
+            return None
+        return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
+
+    out = active_set_steps(step, active, max_iter)
+    return None if isinstance(out, Declined) else out[:2]
+
+
+def _least_squares_form(W, d):
+    """(A, b) with 1/2 y^T W y - d^T y = 1/2 ||A y - b||^2 + const: A = L^T, L b = d, W = L L^T
+    (Cholesky; a symmetric eigen-factor and least squares if W is only semi-definite)."""
+    try:
+        L = sla.cholesky(W, lower=True)
+        return L.T, sla.solve_triangular(L, d, lower=True)
+    except np.linalg.LinAlgError:
+        lam, V = np.linalg.eigh(W)
+        L = V * np.sqrt(np.maximum(lam, 0.0))
+        return L.T, sla.lstsq(L, d)[0]
+
+
+def solve_lcp(W, d, active=None, max_iter=30):
+    """Solve the LCP of the module docstring exactly.
+
+    Parameters
+    ----------
+    W : (m, m) ndarray, symmetric positive (semi-)definite compliance (scaled units)
+    d : (m,) ndarray, slack at y = 0 (scaled displacement)
+    active : (m,) bool ndarray, optional
+        Starting active set (default: rows with d > 0, the penetrating ones).
+
+    Returns
+    -------
+    (y, active, route) with route "active set" or "active set after NNLS", or None if
+    no set satisfying the signs was found (W singular on the contact rows in a way
+    that leaves the forces undetermined and the NNLS support too).
+    """
+    W = np.asarray(W, dtype=float)
+    d = np.asarray(d, dtype=float)
+    if len(d) == 0:
+        return np.zeros(0), np.zeros(0, dtype=bool), "active set"
+    held = np.diag(W) <= 0.0           # rows no unknown moves (W PSD: a zero diagonal is a zero row): y_a = 0
+    if held.any():                     # if their constant slack d_a holds; (26) does not determine their force
+        if (d[held] > 0).any():
+            return None
+        keep = ~held
+        out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
+                        max_iter)
+        if out is None:
+            return None
+        y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
+        y[keep], act[keep] = out[0], out[1]
+        return y, act, out[2]
+    # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
+    # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
+    D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
+    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter)
+    return None if out is None else (D * out[0], out[1], out[2])
+
+
+def _solve_equilibrated(W, d, active, max_iter):
+    start = (d > 0) if active is None else np.asarray(active, dtype=bool)
+    out = _pdas(W, d, start, max_iter)
+    if out is not None:
+        return out[0], out[1], "active set"
+    A, b = _least_squares_form(W, d)
+    y, _ = nnls(A, b, maxiter=50 * len(d))
+    w, S = row_scales(W, d, y)
+    support = y * w > SIGN_TOL * S
+    out = _pdas(W, d, support, max_iter)
+    if out is not None:
+        return out[0], out[1], "active set after NNLS"
+    if _signs_hold(W, d, y, support):
+        return y, support, "NNLS"
+    return None

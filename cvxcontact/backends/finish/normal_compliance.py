@@ -1,0 +1,321 @@
+"""The exact finish of a normal compliance law (docs/formulation.md §7, §12): Newton on the interface
+equation of the law, dense or on the sparse mixed system."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+
+from .lcp import SIGN_TOL, row_scales, solve_lcp
+
+
+def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
+    """Exact finish for a normal-compliance law (docs/formulation.md §10), on the interface compliance.
+
+    In the constrained rows (scaled units) the penetration r, the compliance force w p(r) (w the lumped
+    lengths ``weights``, p the scaled ``law``) and the penetration-limit reaction z satisfy
+
+        r = d - W y,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0     (z = 0 without a limit l)
+
+    which is the optimality system of the strictly convex problem
+
+        min_r  psi(r) = 1/2 (r - d)^T W^{-1} (r - d) + sum_a w_a Phi(r_a)     subject to r <= l.
+
+    Solved by a damped semismooth Newton method on the free rows (Armijo backtracking on psi; for m = 1
+    p' is piecewise constant and the steps end in finitely many once the contact set is right) inside
+    primal-dual active-set steps on the limit rows (active next where z_a + (r_a - l) / W_aa > 0).
+
+    ``law`` may be one :class:`~cvxcontact.contact.laws.NormalCompliance` or a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws`: a Signorini row is k = 0 with l = 0, so its row of the
+    system is the LCP y >= 0, r <= 0, y r = 0 (the complementarity function min(y, -r) = 0 of
+    :func:`solve_lcp`, here in the active-set form of the limit rows), and mixed rows are solved together.
+    ``active`` (bool, optional) is the starting set of rows at their limit (default: r0 >= l).
+
+    Returns ``(y, z, at_limit, route)`` or None if W is singular on the rows or the steps do not settle
+    with the signs holding to ``SIGN_TOL`` of each row's scale (:func:`row_scales`).
+    """
+    W = np.asarray(W, dtype=float)
+    d = np.asarray(d, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    n = len(d)
+    if n == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool), "semismooth Newton"
+    limit = law.penetration_limit
+    ell = np.full(n, np.inf) if limit is None else np.broadcast_to(np.asarray(limit, dtype=float), (n,)).copy()
+    # rows no unknown moves (a zero diagonal of the PSD W is a zero row): r_a = d_a whatever the forces, so
+    # their law force is w_a p(d_a) and their limit reaction, which (26) would not determine, is 0
+    held = np.diag(W) <= 0.0
+    if (d[held] > ell[held]).any():
+        return None
+    if (d <= ell).all() and not np.any(w * law.pressure(d)):
+        # nothing is pressed at zero force (e.g. no load): y = z = 0 is the solution, exactly; Newton steps
+        # from an interior point would stop at rounding around it (1e-36), which no force scale can judge
+        return np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), "semismooth Newton"
+    keep = ~held
+    H = np.zeros((n, n))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", sla.LinAlgWarning)
+            H[np.ix_(keep, keep)] = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), np.eye(int(keep.sum())))
+    except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+        return None
+    H = 0.5 * (H + H.T)
+    r = np.minimum(d if r0 is None else np.asarray(r0, dtype=float), ell)
+    at = (r >= ell) & keep
+    if active is not None:
+        at = at | (np.asarray(active, dtype=bool) & np.isfinite(ell) & keep)
+    r[at] = ell[at]
+    r[held] = d[held]
+
+    def psi(r):
+        return 0.5 * (r - d) @ (H @ (r - d)) + float(w @ law.energy(r))
+
+    def grad(r):
+        return H @ (r - d) + w * law.pressure(r)
+
+    seen = set()
+    for _ in range(max_iter):
+        free = ~at & keep
+        r[at] = ell[at]
+        for _ in range(max_iter):                       # damped Newton on the free rows
+            g = grad(r)
+            gF = np.where(free, g, 0.0)
+            _, S = row_scales(W, d, w * law.pressure(r) + np.where(at, -g, 0.0))
+            if not free.any() or (np.abs(W @ gF) <= 1e-3 * SIGN_TOL * (S + np.abs(r))).all():
+                break                                    # the interface equation holds to rounding
+            K = H[np.ix_(free, free)] + np.diag(w[free] * law.derivative(r)[free])
+            try:
+                step = sla.solve(K, -g[free], assume_a="pos")
+            except (np.linalg.LinAlgError, ValueError):
+                return None
+            t, f0, slope, n0 = 1.0, psi(r), float(g[free] @ step), np.linalg.norm(g[free])
+            while True:
+                trial = r.copy()
+                trial[free] += t * step
+                # Armijo on psi; near the solution psi's decrease drowns in rounding, so a step that
+                # reduces the gradient is accepted too
+                if (psi(trial) <= f0 + 1e-4 * t * slope or np.linalg.norm(grad(trial)[free]) < n0
+                        or t < 1e-12):
+                    break
+                t *= 0.5
+            r = trial
+        if free.any():   # refinement on the interface equation itself, r - d + W w p(r) = 0 on the free rows:
+            r = _refined(W, d, w, law, r, free, at)   # H = W^-1 explicit loses cond(W) eps in r (1e-11 measured)
+        g = grad(r)
+        z = np.where(at, -g, 0.0)
+        if at.any():     # the reactions from W_AA z_A = d_A - l_A - (W w p(r))_A by Cholesky: the explicit
+            try:         # inverse H loses cond(W) eps in z, which the back-substituted fields would show
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error", sla.LinAlgWarning)
+                    rhs = (d - r - W @ (w * law.pressure(r)))[at]
+                    z[at] = sla.cho_solve(sla.cho_factor(W[np.ix_(at, at)]), rhs)
+            except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+                pass
+        y = w * law.pressure(r) + z
+        wr, S = row_scales(W, d, y)
+        resid = r - d + W @ y                            # the interface equation, displacement units
+        ok = (np.abs(resid) <= SIGN_TOL * (S + np.abs(r))).all()
+        neg = at & (z * wr < -SIGN_TOL * S)
+        over = ~at & keep & (r - ell > SIGN_TOL * S)
+        if ok and not neg.any() and not over.any():
+            return y, z, at, "semismooth Newton"
+        at = _next_limit_set(at, neg, over, seen)
+        if at is None:
+            return None
+    return None
+
+
+def _refined(W, d, w, law, r, free, at, steps=3):
+    """``r`` refined by Newton steps on the interface equation r - d + W (w p(r) + z) = 0 of
+    :func:`solve_compliance` with the residual computed with W itself (not its inverse): the unknowns are r on
+    the ``free`` rows and the reactions z on the rows ``at`` their limit (r = l there). The inner Newton on psi
+    (through H = W^-1) reaches cond(W) eps (1e-11 ... 2e-10 measured); these steps reach rounding of the
+    equation's terms. A step is kept only if it reduces the residual; the caller solves z afterwards."""
+    F, A = np.flatnonzero(free), np.flatnonzero(at)
+    if not len(F):
+        return r
+    rows = np.concatenate([F, A])
+
+    def residual(r, zA):
+        y = w * law.pressure(r)
+        y[A] += zA
+        return (r - d + W @ y)[rows]
+
+    zA = np.zeros(len(A))
+    if len(A):
+        try:
+            zA = sla.solve(W[np.ix_(A, A)], (d - r - W @ (w * law.pressure(r)))[A], assume_a="pos")
+        except (np.linalg.LinAlgError, ValueError):
+            return r
+    res = residual(r, zA)
+    for _ in range(steps):
+        J = np.zeros((len(rows), len(rows)))
+        J[:, :len(F)] = W[np.ix_(rows, F)] * (w * law.derivative(r))[F][None, :]
+        J[:len(F), :len(F)] += np.eye(len(F))
+        J[:, len(F):] = W[np.ix_(rows, A)]
+        try:
+            delta = sla.solve(J, -res)
+        except (np.linalg.LinAlgError, ValueError):
+            return r
+        trial = r.copy()
+        trial[F] += delta[:len(F)]
+        new = residual(trial, zA + delta[len(F):])
+        if not np.isfinite(new).all() or np.linalg.norm(new) >= np.linalg.norm(res):
+            return r
+        r, zA, res = trial, zA + delta[len(F):], new
+    return r
+
+
+def _next_limit_set(at, neg, over, seen):
+    """The next set of rows at their limit in the active-set steps of the compliance finishes: ``at`` without
+    the rows whose reaction is negative (``neg``) and with those beyond their limit (``over``); None if that
+    set was visited before (``seen``, updated): the steps cycle."""
+    new = (at & ~neg) | over
+    key = new.tobytes()
+    if key in seen:
+        return None
+    seen.add(key)
+    return new
+
+
+def solve_linear_compliance(W, d, weights, law):
+    """Exact finish for rows whose compliance laws are all linear (m = 1) without a limit, mixed with
+    Signorini rows, as one LCP (docs/formulation.md §10): on a compliance row y_a = w_a k_a (r_a)_+ is
+    y_a >= 0, s_a = r_a - y_a / (w_a k_a) <= 0, y_a s_a = 0 with r = d - W y, i.e. the LCP of
+    :func:`solve_lcp` with W + diag(1 / (w_a k_a)) on those rows; Signorini rows keep W; a compliance row of
+    weight 0 carries no force and leaves the LCP. Finite (NNLS
+    fallback) where the Newton steps of :func:`solve_compliance` might cycle. ``law`` a
+    :class:`~cvxcontact.contact.laws.RowLaws` (scaled). Returns ``(y, z, at_limit, route)`` or None."""
+    W = np.asarray(W, dtype=float)
+    k = np.broadcast_to(np.asarray(law.stiffness, dtype=float), (len(d),))
+    w = np.asarray(weights, dtype=float)
+    on = k > 0
+    keep = ~on | (w > 0)             # a compliance row of weight 0 (a P2 face vertex) carries no force: y = 0
+    soft = np.zeros(len(d))
+    soft[on & keep] = 1.0 / (w[on & keep] * k[on & keep])
+    out = solve_lcp((W + np.diag(soft))[np.ix_(keep, keep)], d[keep])
+    if out is None:
+        return None
+    y, active, route = np.zeros(len(d)), np.zeros(len(d), dtype=bool), out[2]
+    y[keep], active[keep] = out[0], out[1]
+    z = np.where(on, 0.0, y)
+    return y, z, active & ~on, route
+
+
+def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50):
+    """Exact finish of the contact rows' law on the sparse mixed system (26), for scenes that cannot be
+    condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
+    §10-§12) and for a non-quadratic bulk energy (the paper's nonlinear A, docs/materials.md "Hencky"), whose
+    (26) is nonlinear in the displacements. Scaled units.
+
+    ``operator`` (:class:`~cvxcontact.backends.mixed.MixedEnergy`) gives the residual of (26) without the
+    contact forces, ``gradient(x)`` (A x - F for a linear material: A the bodies' quasi-definite blocks
+    [[Kuu, Kup], [Kup^T, -Kpp]] and a zero block for the translations tau of force-controlled obstacles, F the
+    loads [f; -q; F_obstacle]), its ``tangent(x)``, its ``value`` L(x) (the energy) and ``magnitude(x)``; ``G``
+    (m, n) sparse the contact rows (E [u_nu] and R tau), ``g`` (m,) their gaps, so that r = G x - g is the
+    penetration; ``weights`` w (m,) the rows' lumped lengths and ``law`` a per-row
+    :class:`~cvxcontact.contact.laws.RowLaws` (Signorini rows: k = 0, l = 0; all of them for the Signorini
+    problem). The system is
+
+        grad L(x) + G^T y = 0,   y = w p(r) + z,   r <= l,  z >= 0,  z (r - l) = 0   (z = 0 off the limited rows)
+
+    the optimality system of the energy L plus sum_a w_a Phi_a(r_a) subject to r <= l. Solved by Newton steps:
+    with T the tangent at x^k, D = diag(w p'(r^k)) and L the rows held at their limit, each step solves the
+    sparse system (the sparsity of the linear one)
+
+        [[T + G^T D G, G_L^T], [G_L, 0]] [x^k + dx; z_L] = [T x^k - grad L(x^k) - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
+
+    (a semismooth Newton step: p' and a Hencky tangent jump where a row opens or a point yields; exact in one
+    step for a linear material and m = 1 once the penetrating rows are right), damped by backtracking on the
+    energy L(x) + sum_a w_a Phi_a(r_a) (strongly convex with a Lipschitz gradient on the rows L closed, which
+    every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole),
+    inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
+    r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
+    m) the starting L (default r(x0) >= l on the limited rows).
+
+    Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (each row's
+    residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y|, or within ``SIGN_TOL`` once a
+    full step no longer halves it) and the signs to ``SIGN_TOL``; ``history`` the largest relative residual
+    after each step (the convergence to read). None if a system is singular (e.g. a held body whose rows all
+    left the contact) or the steps do not settle.
+    """
+    import scipy.sparse as sps
+
+    from ..full import solve_mixed  # (full imports nothing from here)
+
+    G = sps.csr_matrix(G)
+    g, w = (np.asarray(a, dtype=float) for a in (g, weights))
+    m = G.shape[0]
+    ell = np.asarray(law.penetration_limit, dtype=float)
+    # a row no unknown moves (a zero row of G: a held node) keeps r = -g; its limit reaction, which (26) would
+    # not determine and which would make the step matrix singular, is 0 (docs/formulation.md §8, "Held nodes")
+    limited = np.isfinite(ell) & (np.diff(G.indptr) > 0)
+    x = np.asarray(x0, dtype=float).copy()
+    at = limited & ((G @ x - g) >= ell) if active is None else np.asarray(active, dtype=bool) & limited
+    absG = abs(G)
+    tiny = np.finfo(float).tiny
+
+    def energy(x):
+        return operator.value(x) + float(w @ law.energy(G @ x - g))
+
+    def step(x, at):
+        r = G @ x - g
+        D = w * law.derivative(r)
+        T, load = operator.linearised(x)          # gradient(x') ~ T x' - load near x
+        K = T + G.T @ sps.diags(D) @ G
+        GL = G[at]
+        M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
+        b = load - G.T @ (w * law.pressure(r) - D * (g + r))
+        b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
+        s = solve_mixed(M, b)
+        if s is None:
+            return None
+        zL = np.zeros(m)
+        zL[at] = s[len(x):]
+        return s[:len(x)] - x, zL
+
+    steps, seen, history = 0, set(), []
+    for _ in range(max_iter):
+        z, last, first = np.zeros(m), np.inf, True
+        for _ in range(max_iter):                       # damped Newton with the limit rows L closed
+            out = step(x, at)
+            steps += 1
+            if out is None:
+                return None
+            dx, z = out
+            t, f0 = 1.0, energy(x)
+            if not first:
+                while t > 1e-12 and energy(x + t * dx) > f0 + 1e-14 * max(abs(f0), tiny):
+                    t *= 0.5
+            first = False
+            x = x + t * dx
+            r = G @ x - g
+            y = w * law.pressure(r) + z
+            res = operator.gradient(x) + G.T @ y
+            S = operator.magnitude(x) + absG.T @ np.abs(y)
+            S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+            ratio = float((np.abs(res) / S).max(initial=0.0))
+            history.append(ratio)
+            # converged: at rounding, or within SIGN_TOL and no longer improving (rounding of the steps)
+            if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
+                break
+            last = ratio
+            if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
+                return None                             # stalled above rounding
+        else:
+            return None
+        r = G @ x - g
+        y = w * law.pressure(r) + z
+        scale = absG @ np.abs(x) + np.abs(g)
+        scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), tiny))
+        Y = max(float(np.abs(y).max(initial=0.0)), tiny)
+        neg = at & (z < -SIGN_TOL * Y)
+        over = limited & ~at & (r - ell > SIGN_TOL * scale)
+        if not neg.any() and not over.any():
+            return x, y, z, at, steps, history
+        at = _next_limit_set(at, neg, over, seen)
+        if at is None:
+            return None
+    return None

@@ -1,0 +1,314 @@
+"""Factored rows of the mixed system (26): the rows carrying the forces kept independent, updated one row at a time
+(docs/formulation.md §13)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .forces import _inverse_diagonal
+
+DEPENDENT_PIVOT = 1e-10
+"""A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
+on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
+
+def _independent(M, tol=DEPENDENT_PIVOT) -> np.ndarray:
+    """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
+    column-pivoted QR, in the order of the pivots."""
+    if M.shape[1] == 0:
+        return np.zeros(0, dtype=int)
+    _, R, piv = sla.qr(M, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(R))
+    return piv[:int(np.sum(diag > tol))]
+
+
+def _row_scale(absG, x, g):
+    """S_j = (|G| |x|)_j + |g_j|, the displacement scale of each row's slack G_j x - g_j (floored at 1e-14 of
+    the largest). With ``absG`` :func:`row_reach` the scale also counts the row's nodes' neighbours."""
+    S = absG @ np.abs(x) + np.abs(g)
+    return np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
+
+
+def row_reach(A, G):
+    """|G| + |G| diag(A)^{-1} |A| (sparse, m x n; only the unknowns with a positive stiffness diagonal count in
+    the second term): with it, :func:`_row_scale` gives S_j = (|G| |x|)_j + |g_j| plus the displacement that
+    the elastic forces at row j's unknowns, (|A| |x|)_k, produce through their own stiffness A_kk. A node that
+    does not move (held at the gap by a rigid plane, carrying no force: a P2 face vertex under a uniform
+    pressure) has a slack of rounding and no displacement of its own, so that its slack over its own scale
+    is rounding over rounding, of either sign; its neighbours' displacements are the scale of that rounding."""
+    A, absG = sp.csr_matrix(A), abs(sp.csr_matrix(G))
+    return (absG + absG @ sp.diags(_inverse_diagonal(A)) @ abs(A)).tocsr()
+
+
+class FactoredRows:
+    """The mixed system (26) with the rows P closed, solved on the rows with one factorisation of the bodies.
+
+    With A the bodies' quasi-definite blocks (singular for a body held by the contact only or a
+    force-controlled obstacle), F the loads and G the rows, the anchor rows Q (independent, holding every
+    body: the first rows carrying forces) regularise A once:
+
+        K0 = A + G_Q^T D G_Q,   D = diag(rho_a),
+
+    rho_a the largest diagonal stiffness of the unknowns row a touches over |G_a|^2 (K0 is quasi-definite,
+    factorised once by SuperLU without pivoting in a symmetric minimum-degree order). For (26) on P with the
+    right-hand side [f; c] (c the rows' values, c = g for the contact problem): on P the rows of Q are closed
+    and the terms G_Q^T D (G_Q x - c_Q) added to both sides vanish; a row of Q open at P (Q' = Q \\ P) keeps
+    its term as the unknown tau = -D (G_Q' x - c_Q'). With H = G K0^{-1} G^T, f~ = f + G_Q^T D c_Q and
+    h = G K0^{-1} f~ - c, (26) on P is the system on the rows R = P + Q'
+
+        [[H_PP,  H_PQ'          ], [[y_P ],   [[h_P ],
+         [H_Q'P, H_Q'Q' - D^{-1}]]  [tau ]] =  [h_Q']],     x = K0^{-1} (f~ - G_R^T [y_P; tau])
+
+    (block elimination of the mixed matrix with the factored K0). A column of H costs one solve with K0's
+    factors, computed when its row first enters R and kept (m doubles a row); the system on R is solved by
+    :class:`UpdatedSystem` (O(|R|^2) a changed row); a step costs that and one solve with K0 for x (the rows'
+    scales). :meth:`exact` solves (26) on P to rounding (iterative refinement on (26) itself).
+    """
+
+    def __init__(self, A, F, G, g, anchor, lu, K0, rho):
+        self.A, self.F, self.G, self.g, self.anchor, self.lu, self.K0 = A, F, G, g, anchor, lu, K0
+        self.absA, self.absG = abs(A), abs(G)
+        self.reach = row_reach(A, G)
+        self.rho = np.zeros(G.shape[0])
+        self.rho[anchor] = rho
+        self.Ft = F + G[anchor].T @ (rho * g[anchor])
+        self.h = G @ self.solve(self.Ft) - g
+        m = G.shape[0]
+        self.where = np.full(m, -1)
+        self.cols = np.zeros((m, min(m, max(16, 2 * len(anchor)))))
+        self.count = 0
+        self.system = UpdatedSystem(self.entries)
+        self.sizes = []                                   # (|P|, |Q'|) of each step
+        self.fallbacks = 0                                # steps solved by the sparse LU of (26) instead
+
+    def solve(self, b):
+        """K0^{-1} b (one step of iterative refinement)."""
+        x = self.lu.solve(b)
+        return x + self.lu.solve(b - self.K0 @ x)
+
+    def _columns(self, rows):
+        new = rows[self.where[rows] < 0]
+        if not len(new):
+            return
+        if self.count + len(new) > self.cols.shape[1]:
+            grown = np.zeros((self.cols.shape[0], max(2 * self.cols.shape[1], self.count + len(new))))
+            grown[:, :self.count] = self.cols[:, :self.count]
+            self.cols = grown
+        Z = self.lu.solve(self.G[new].T.toarray())     # (no refinement: the answers are refined on (26))
+        self.cols[:, self.count:self.count + len(new)] = self.G @ Z
+        self.where[new] = self.count + np.arange(len(new))
+        self.count += len(new)
+
+    def entries(self, keys_a, keys_b):
+        """The matrix of the system on the rows at keys a x b: H less 1/rho on the diagonal of the open anchor
+        rows; a key is 2 row + 1 for an open anchor row, 2 row for a closed row."""
+        ra, rb = keys_a // 2, keys_b // 2
+        M = self.cols[np.ix_(ra, self.where[rb])]
+        reg = np.where(keys_a % 2 == 1, 1.0 / np.where(self.rho[ra] > 0, self.rho[ra], 1.0), 0.0)
+        return M - np.where(keys_a[:, None] == keys_b[None, :], reg[:, None], 0.0)
+
+    def _rows(self, mask, passive):
+        passive = np.asarray(passive, dtype=int)
+        rows = np.concatenate([passive, self.anchor[~mask[self.anchor]]]).astype(int)
+        self._columns(rows)
+        open_anchor = np.arange(len(rows)) >= len(passive)
+        return rows, 2 * rows + open_anchor, np.where(open_anchor, 1.0 / np.where(self.rho[rows] > 0,
+                                                                                 self.rho[rows], 1.0), 0.0)
+
+    def _interface(self, rows, keys, reg, rhs):
+        """w on the rows R and C w, C the columns of H on R (:func:`refined_solve`); None if singular."""
+        cols = self.cols[:, :self.count]
+        spread = np.zeros(self.count)
+
+        def product(w):                                   # (M w, C w) without gathering C
+            spread[self.where[rows]] = w
+            Cw = cols @ spread
+            return Cw[rows] - reg * w, Cw
+
+        return refined_solve(self.system, keys, rhs, product)
+
+    def __call__(self, mask, passive):
+        """(None, z, slack, S) of (26) with the rows ``passive`` closed (z their forces, 0 elsewhere), or None
+        if the system on them is singular (they do not hold the bodies)."""
+        rows, keys, reg = self._rows(mask, passive)
+        out = self._interface(rows, keys, reg, self.h[rows]) if len(rows) else (np.zeros(0), np.zeros(len(self.h)))
+        if out is None:
+            return None
+        w, Cw = out
+        x = self.lu.solve(self.Ft - self.G[rows].T @ w)      # for the rows' scales only: no refinement
+        z = np.zeros(self.G.shape[0])
+        z[passive] = w[:len(passive)]
+        self.sizes.append((len(passive), len(rows) - len(passive)))
+        return None, z, self.h - Cw, _row_scale(self.reach, x, self.g)
+
+    def exact(self, mask, passive, steps: int = 3):
+        """(x, y) solving (26) on the rows ``passive`` with every residual within 1e-12 of its row's scale
+        (componentwise backward error, after up to ``steps`` refinement steps on (26)), or None."""
+        rows, keys, reg = self._rows(mask, passive)
+        p = len(passive)
+        GP = self.G[rows[:p]]
+        x, y = np.zeros(self.A.shape[0]), np.zeros(p)
+        f, c = self.F.copy(), np.zeros(self.G.shape[0])
+        c[rows[:p]] = self.g[rows[:p]]
+        for _ in range(steps + 1):
+            ft = f + self.G[self.anchor].T @ (self.rho[self.anchor] * c[self.anchor])
+            u = self.solve(ft)
+            out = self._interface(rows, keys, reg, self.G[rows] @ u - c[rows]) if len(rows) else (np.zeros(0), 0)
+            if out is None:
+                return None
+            w = out[0]
+            x = x + self.solve(ft - self.G[rows].T @ w)
+            y = y + w[:p]
+            f = self.F - self.A @ x - GP.T @ y               # the residuals of (26) and their scales
+            c = np.zeros(self.G.shape[0])
+            c[rows[:p]] = self.g[rows[:p]] - GP @ x
+            sf = self.absA @ np.abs(x) + abs(GP).T @ np.abs(y) + np.abs(self.F)
+            sc = abs(GP) @ np.abs(x) + np.abs(self.g[rows[:p]])
+            if (np.abs(f) <= 1e-12 * sf).all() and (np.abs(c[rows[:p]]) <= 1e-12 * sc).all():
+                return x, y
+        return None
+
+
+def refined_solve(system, keys, rhs, product):
+    """(w, extra) with M w = rhs on ``keys`` by ``system`` (:class:`UpdatedSystem`) and one step of iterative
+    refinement, ``product(w)`` giving (M w, extra); a fresh factorisation if the updated one misses
+    (residual above 1e-10 of the sizes of the terms); None if M is singular."""
+    for fresh in (False, True):
+        if fresh:
+            system.refactor()
+        w = system.solve(keys, rhs)
+        if w is None:
+            continue
+        w = w + system.solve(keys, rhs - product(w)[0])
+        Mw, extra = product(w)
+        size = np.abs(rhs) + np.abs(Mw)
+        if np.isfinite(w).all() and np.abs(rhs - Mw).max(initial=0.0) <= 1e-10 * size.max(initial=0.0):
+            return w, extra
+    return None
+
+
+class UpdatedSystem:
+    """A dense square system on a changing set of keys (the rows of :class:`FactoredRows`), by a QR
+    factorisation updated key by key (scipy.linalg.qr_insert/qr_delete: O(r^2) a key, r the size),
+    refactorised when more than an eighth of the keys change (or on :meth:`refactor`). ``entries(a, b)``
+    gives the matrix's block on the keys a x b."""
+
+    def __init__(self, entries):
+        self.entries = entries
+        self.keys = np.zeros(0, dtype=int)
+        self.Q = self.R = None
+        self.factorisations = self.updates = 0
+
+    def refactor(self, keys=None):
+        """A fresh factorisation (of the matrix on ``keys``, default the present ones)."""
+        self.keys = self.keys if keys is None else np.asarray(keys, dtype=int)
+        self.Q, self.R = sla.qr(self.entries(self.keys, self.keys))
+        self.factorisations += 1
+
+    def _update(self, keys):
+        keep = np.isin(self.keys, keys)
+        for k in np.flatnonzero(~keep)[::-1]:
+            self.Q, self.R = sla.qr_delete(self.Q, self.R, k, 1, which="row", check_finite=False)
+            self.Q, self.R = sla.qr_delete(self.Q, self.R, k, 1, which="col", check_finite=False)
+        self.keys = self.keys[keep]
+        for key in keys[~np.isin(keys, self.keys)]:
+            r = len(self.keys)
+            both = np.append(self.keys, key)
+            if r == 0:
+                self.Q, self.R = sla.qr(self.entries(both, both))
+            else:
+                row = self.entries(np.array([key]), self.keys).ravel()
+                self.Q, self.R = sla.qr_insert(self.Q, self.R, row, r, which="row", check_finite=False)
+                col = self.entries(both, np.array([key])).ravel()
+                self.Q, self.R = sla.qr_insert(self.Q, self.R, col, r, which="col", check_finite=False)
+            self.keys = both
+        self.updates += 1
+
+    def solve(self, keys, b):
+        """w with M w = b, M the matrix on ``keys`` (in their order), or None if M is numerically singular
+        (a diagonal entry of R below 1e-13 of the largest)."""
+        keys = np.asarray(keys, dtype=int)
+        if not len(keys):
+            return np.zeros(0)
+        changes = len(np.setxor1d(keys, self.keys))
+        if self.Q is None or changes > max(4, len(keys) // 8):
+            self.refactor(keys)
+        elif changes:
+            self._update(keys)
+        d = np.abs(np.diag(self.R))
+        if not d.min() > 1e-13 * d.max():
+            return None
+        order = np.argsort(self.keys)
+        where = order[np.searchsorted(self.keys[order], keys)]     # keys[i] = self.keys[where[i]]
+        bk = np.zeros(len(keys))
+        bk[where] = b
+        return sla.solve_triangular(self.R, self.Q.T @ bk, check_finite=False)[where]
+
+
+def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
+    """:class:`FactoredRows` of the mixed system, or None if K0 is singular (the anchor rows do not hold every
+    body): structurally (checked before SuperLU, which can corrupt memory on such matrices, see
+    :func:`~cvxcontact.backends.full.solve_mixed`), by a zero pivot, or numerically (a solve of K0 z = K0 v
+    misses v by more than 1e-6, v a fixed vector with components along any kernel)."""
+    from scipy.sparse.csgraph import structural_rank
+
+    A, G = sp.csr_matrix(A), sp.csr_matrix(G)
+    anchor = np.asarray(anchor, dtype=int)
+    GQ = G[anchor]
+    touch = abs(GQ).tocsr()
+    touch.data[:] = 1.0
+    diag = np.abs(A.diagonal())
+    big = np.asarray(touch.multiply(diag[None, :]).max(axis=1).todense()).ravel() if len(anchor) else np.zeros(0)
+    big = np.where(big > 0, big, max(float(diag.max(initial=0.0)), np.finfo(float).tiny))
+    rho = big / np.asarray(GQ.multiply(GQ).sum(axis=1)).ravel()
+    K0 = (A + GQ.T @ sp.diags(rho) @ GQ).tocsc()
+    n = K0.shape[0]
+    if structural_rank(K0) < n:
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", spla.MatrixRankWarning)
+            lu = spla.splu(K0, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options=dict(SymmetricMode=True))
+    except RuntimeError:
+        return None
+    v = np.cos(np.arange(n) * 0.7548776662466927) + 1.5          # fixed, no zero entry
+    out = FactoredRows(A, np.asarray(F, dtype=float), G, np.asarray(g, dtype=float), anchor, lu, K0, rho)
+    with np.errstate(all="ignore"):
+        if not np.abs(out.solve(K0 @ v) - v).max() <= 1e-6 * np.abs(v).max():
+            return None
+    return out
+
+
+class CompliantRows:
+    """The steps of :func:`independent_active_set` on a condensed interface: the rows P closed are
+    W_PP y_P = d_P (:class:`UpdatedSystem`, O(|P|^2) a changed row), with W = sum_l R_l Sigma_l^{-1} R_l^T the
+    interface compliance and d the free slack (:class:`~cvxcontact.backends.condensed.Compliance`); the Gamma
+    displacements v = v0 - B y give every row's slack R v - g and its scale (|R| |v|) + |g|, as the sparse
+    mixed system's steps do."""
+
+    def __init__(self, compliance, v0, g):
+        self.W = compliance.W
+        self.R = np.hstack(compliance.rows)
+        self.B = np.vstack(compliance.B)
+        self.v0 = np.concatenate(v0)
+        self.g = np.asarray(g, dtype=float)
+        self.d = self.R @ self.v0 - self.g
+        self.absR = np.abs(self.R)
+        self.system = UpdatedSystem(lambda a, b: self.W[np.ix_(a // 2, b // 2)])
+
+    def __call__(self, mask, passive):
+        P = np.asarray(passive, dtype=int)
+        y = np.zeros(len(self.g))
+        if len(P):
+            WP = self.W[:, P]
+            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WP[P] @ w, None))
+            if out is None:
+                return None
+            y[P] = out[0]
+        v = self.v0 - self.B[:, P] @ y[P]
+        return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)

@@ -7,6 +7,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from .declined import MAX_ITER, SINGULAR_FORCES
 from .rows import (
     DEPENDENT_PIVOT,
     CompliantRows,

@@ -22,8 +22,9 @@ MATH_PAGES = [FORMULATION, MODEL, CHECKS]
 # Characters that only a formula uses: a transpose, an inverse or negative power, a norm, an integral, a sum, an
 # equivalence, a semidefinite order, a gradient, a root. Written as Unicode in prose they are a plain-text formula.
 FORMULA_CHARACTERS = "ᵀ⁻‖∫Σ⇔⪰∇√"
-# The symbols of the model: in a section typeset through, a Greek letter outside $...$ is a plain-text symbol.
-GREEK = "αβγδεηκλμνξπρστφχψωΓΔΛΠΣΦΨΩ"
+# The symbols of the model: in a section typeset through, a Greek letter (or the body index ℓ) outside $...$ is a
+# plain-text symbol.
+GREEK = "αβγδεηκλμνξπρστφχψωΓΔΛΠΣΦΨΩℓ"
 
 
 def displays(path: Path) -> list[str]:
@@ -111,11 +112,13 @@ def test_no_formula_is_left_in_plain_text(page):
 
 
 def test_typeset_sections_write_every_symbol_as_mathematics():
-    """§6 and §11-§18 of the formulation and the whole of checks.md: no Greek symbol in the running text
-    (headings keep plain text: they are the pages' anchors)."""
+    """The formulation (its preamble and §1-§19) and the whole of checks.md: no Greek symbol in the running
+    text (headings keep plain text: they are the pages' anchors)."""
     by_number = sections(FORMULATION)
-    pages = {f"formulation §{n}": by_number[n].split("\n", 1)[1]            # without the heading's title
-             for n in ["6"] + [str(n) for n in range(11, 19)]}
+    assert len(by_number) == 19, sorted(by_number)
+    pages = {f"formulation §{n}": text.split("\n", 1)[1]                    # without the heading's title
+             for n, text in by_number.items()}
+    pages["formulation preamble"] = FORMULATION.read_text(encoding="utf-8").split("\n## 1. ", 1)[0]
     pages["checks.md"] = CHECKS.read_text(encoding="utf-8")
     for name, text in pages.items():
         for line in prose(text).splitlines():

@@ -129,6 +129,22 @@ def test_typeset_sections_write_every_symbol_as_mathematics():
     assert len(displays(CHECKS)) >= 6, len(displays(CHECKS))     # measured: 7
 
 
+GUIDES = [DOCS / "accuracy.md", *sorted((DOCS / "howto").glob("*.md"))]
+
+
+@pytest.mark.parametrize("page", GUIDES, ids=lambda p: p.name)
+def test_guides_write_their_symbols_and_formulas_as_mathematics(page):
+    """The accuracy page and the how-to guides: no plain-text display, no character only a formula uses and no
+    Greek symbol in the running text outside $...$ and code (headings keep plain text)."""
+    text = page.read_text(encoding="utf-8")
+    assert not plain_text_displays(text), plain_text_displays(text)[0]
+    for line in prose(text).splitlines():
+        if line.startswith("#"):
+            continue
+        used = [c for c in FORMULA_CHARACTERS + GREEK if c in line]
+        assert not used, f"{page.name}: {used} outside math in {line.strip()!r}"
+    assert len(GUIDES) >= 10, len(GUIDES)                # measured: 13 (accuracy.md and 12 guides)
+
 def test_model_tutorial_writes_its_equations_as_mathematics():
     text = re.sub(r"^```.*?^```", "", MODEL.read_text(encoding="utf-8"), flags=re.S | re.M)   # the code run
     assert len(displays(MODEL)) >= 5, len(displays(MODEL))

@@ -129,13 +129,13 @@ def test_typeset_sections_write_every_symbol_as_mathematics():
     assert len(displays(CHECKS)) >= 6, len(displays(CHECKS))     # measured: 7
 
 
-GUIDES = [DOCS / "accuracy.md", *sorted((DOCS / "howto").glob("*.md"))]
+GUIDES = [DOCS / "accuracy.md", *sorted((DOCS / "howto").glob("*.md")), *sorted((DOCS / "tutorials").glob("*.md"))]
 
 
-@pytest.mark.parametrize("page", GUIDES, ids=lambda p: p.name)
+@pytest.mark.parametrize("page", GUIDES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_guides_write_their_symbols_and_formulas_as_mathematics(page):
-    """The accuracy page and the how-to guides: no plain-text display, no character only a formula uses and no
-    Greek symbol in the running text outside $...$ and code (headings keep plain text)."""
+    """The accuracy page, the how-to guides and the tutorials: no plain-text display, no character only a formula
+    uses and no Greek symbol in the running text outside $...$ and code (headings keep plain text)."""
     text = page.read_text(encoding="utf-8")
     assert not plain_text_displays(text), plain_text_displays(text)[0]
     for line in prose(text).splitlines():
@@ -143,7 +143,7 @@ def test_guides_write_their_symbols_and_formulas_as_mathematics(page):
             continue
         used = [c for c in FORMULA_CHARACTERS + GREEK if c in line]
         assert not used, f"{page.name}: {used} outside math in {line.strip()!r}"
-    assert len(GUIDES) >= 10, len(GUIDES)                # measured: 13 (accuracy.md and 12 guides)
+    assert len(GUIDES) >= 15, len(GUIDES)                # measured: 19 (accuracy.md, 12 guides, 6 tutorial pages)
 
 def test_model_tutorial_writes_its_equations_as_mathematics():
     text = re.sub(r"^```.*?^```", "", MODEL.read_text(encoding="utf-8"), flags=re.S | re.M)   # the code run

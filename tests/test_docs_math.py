@@ -22,8 +22,9 @@ MATH_PAGES = [FORMULATION, MODEL, CHECKS]
 # Characters that only a formula uses: a transpose, an inverse or negative power, a norm, an integral, a sum, an
 # equivalence, a semidefinite order, a gradient, a root. Written as Unicode in prose they are a plain-text formula.
 FORMULA_CHARACTERS = "ᵀ⁻‖∫Σ⇔⪰∇√"
-# The symbols of the model: in a section typeset through, a Greek letter outside $...$ is a plain-text symbol.
-GREEK = "αβγδεηκλμνξπρστφχψωΓΔΛΠΣΦΨΩ"
+# The symbols of the model: in a section typeset through, a Greek letter (or the body index ℓ) outside $...$ is a
+# plain-text symbol.
+GREEK = "αβγδεηκλμνξπρστφχψωΓΔΛΠΣΦΨΩℓ"
 
 
 def displays(path: Path) -> list[str]:
@@ -111,11 +112,13 @@ def test_no_formula_is_left_in_plain_text(page):
 
 
 def test_typeset_sections_write_every_symbol_as_mathematics():
-    """§6 and §11-§18 of the formulation and the whole of checks.md: no Greek symbol in the running text
-    (headings keep plain text: they are the pages' anchors)."""
+    """The formulation (its preamble and §1-§19) and the whole of checks.md: no Greek symbol in the running
+    text (headings keep plain text: they are the pages' anchors)."""
     by_number = sections(FORMULATION)
-    pages = {f"formulation §{n}": by_number[n].split("\n", 1)[1]            # without the heading's title
-             for n in ["6"] + [str(n) for n in range(11, 19)]}
+    assert len(by_number) == 19, sorted(by_number)
+    pages = {f"formulation §{n}": text.split("\n", 1)[1]                    # without the heading's title
+             for n, text in by_number.items()}
+    pages["formulation preamble"] = FORMULATION.read_text(encoding="utf-8").split("\n## 1. ", 1)[0]
     pages["checks.md"] = CHECKS.read_text(encoding="utf-8")
     for name, text in pages.items():
         for line in prose(text).splitlines():
@@ -125,6 +128,22 @@ def test_typeset_sections_write_every_symbol_as_mathematics():
             assert not used, f"{name}: {used} outside math in {line.strip()!r}"
     assert len(displays(CHECKS)) >= 6, len(displays(CHECKS))     # measured: 7
 
+
+GUIDES = [DOCS / "accuracy.md", *sorted((DOCS / "howto").glob("*.md")), *sorted((DOCS / "tutorials").glob("*.md"))]
+
+
+@pytest.mark.parametrize("page", GUIDES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_guides_write_their_symbols_and_formulas_as_mathematics(page):
+    """The accuracy page, the how-to guides and the tutorials: no plain-text display, no character only a formula
+    uses and no Greek symbol in the running text outside $...$ and code (headings keep plain text)."""
+    text = page.read_text(encoding="utf-8")
+    assert not plain_text_displays(text), plain_text_displays(text)[0]
+    for line in prose(text).splitlines():
+        if line.startswith("#"):
+            continue
+        used = [c for c in FORMULA_CHARACTERS + GREEK if c in line]
+        assert not used, f"{page.name}: {used} outside math in {line.strip()!r}"
+    assert len(GUIDES) >= 15, len(GUIDES)                # measured: 19 (accuracy.md, 12 guides, 6 tutorial pages)
 
 def test_model_tutorial_writes_its_equations_as_mathematics():
     text = re.sub(r"^```.*?^```", "", MODEL.read_text(encoding="utf-8"), flags=re.S | re.M)   # the code run

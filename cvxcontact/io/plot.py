@@ -201,7 +201,10 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
         kw = dict(shading="gouraud") if len(v) == len(p) else dict(facecolors=v, edgecolors="face")
         args = (v,) if len(v) == len(p) else ()
         mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=clim[0], vmax=clim[1], **kw)
-        ax.triplot(p[:, 0], p[:, 1], tri, color="k", linewidth=0.15, alpha=0.5)
+        from matplotlib.collections import PolyCollection
+
+        ax.add_collection(PolyCollection(p[body.mesh.cells], facecolors="none", edgecolors="k", linewidths=0.15,
+                                         alpha=0.5))                # the cells' sides (a quadrilateral's, not its cut)
     draw_obstacles(solution, ax, k)
     if mappable is not None and colorbar:
         fig.colorbar(mappable, ax=ax, label=name, shrink=0.85, format=eng(unit))

@@ -54,16 +54,21 @@ def system(body, cell, degree):
 @pytest.mark.parametrize("cell,degree", ELEMENTS, ids=IDS)
 def test_partition_of_unity_and_reproduction_of_x(cell, degree):
     """At each cell's centre the shape gradients sum to zero and map the nodes' x to the identity; the consistent
-    load of a constant density sums to density x area (the basis integrates to the cell's measure)."""
-    body = cc.Body(distorted(cell), STEEL, clamped=["bottom"], body_force=(3.0, -5.0))
+    loads of constant densities sum to density x measure (the basis integrates to the cell's area and to the
+    side's length): a body force and a volume charge over the body, a traction on "top", a surface charge on
+    "right" (which enters q with a minus sign: D nu = q2 is the charge leaving the body)."""
+    b, t, qv, q2 = (3.0, -5.0), (7.0, 11.0), 13.0, 17.0
+    body = cc.Body(distorted(cell), PZT, clamped=["bottom"], grounded=["bottom"], body_force=b, traction={"top": t},
+                   volume_charge=qv, surface_charge={"right": q2})
     S, nodes, held, sys_ = system(body, cell, degree)
     el, G = S.centre_gradients(body, nodes)
     assert np.abs(G.sum(axis=2)).max() <= 1e-12 * np.abs(G).max()                 # measured <= 2.4e-16
     X = held.points[el]                                                            # (m, k, 2)
     assert np.abs(np.einsum("mdk,mke->mde", G, X) - np.eye(2)).max() <= 1e-12      # measured <= 2.2e-15
-    f = sys_.f.reshape(-1, 2) + (sys_.Kuu @ sys_.u_fixed).reshape(-1, 2)           # undo the (zero) lifting
-    area = body.mesh.areas.sum()
-    assert np.allclose(f.sum(axis=0), [3.0 * area, -5.0 * area], rtol=1e-12, atol=0)   # measured <= 1.2e-15
+    area = body.mesh.areas.sum()                                                   # 1 m^2; each side 1 m long
+    force = np.array(b) * area + np.array(t) * 1.0
+    assert np.abs(sys_.f.reshape(-1, 2).sum(axis=0) / force - 1).max() <= 1e-12    # measured <= 8.9e-16
+    assert abs(sys_.q.sum() / (qv * area - q2 * 1.0) - 1) <= 1e-12                # measured <= 3.6e-15 (P1, P2 the same)
 
 
 @pytest.mark.parametrize("element", [Q1_ELEMENT, Q2_ELEMENT], ids=["Q1", "Q2"])
@@ -342,3 +347,18 @@ def test_scene_file_rectangle_takes_the_cell(tmp_path):
     assert a.ok and b.ok
     for ua, ub in zip(a.u, b.u):
         assert np.abs(ua - ub).max() <= 1e-12 * 1e-5                              # measured 0 (the same program)
+
+
+def test_sweep_case_arrays_name_the_quadrilaterals():
+    """A sweep case of a quadrilateral scene stores its cells as ``quads<k>`` (m, 4), with their unit, and the
+    surface charge of a Q1 body is loaded (it failed before on the 1D segment load)."""
+    from cvxcontact.apps.sweep.store import ARRAY_UNITS
+    from cvxcontact.apps.sweep.worker import arrays
+
+    lower = cc.Body(cc.rectangle(x=(0, 1e-3), y=(0, 5e-4), nx=3, ny=2, cell="quad"), PZT, clamped=["bottom"],
+                    grounded=["bottom"], surface_charge={"left": -0.05}, contact="top")
+    upper = cc.Body(cc.rectangle(x=(0, 1e-3), y=(5e-4, 1e-3), nx=3, ny=2, cell="quad"), STEEL,
+                    displacement={"top": (0.0, -1e-7)}, contact="bottom")
+    out = arrays(cc.solve(cc.Scene(lower, upper), "sigma1"))
+    assert out["quads1"].shape == (6, 4) and out["quads2"].shape == (6, 4) and "triangles1" not in out
+    assert any(re.fullmatch(pattern, "quads1") and unit == "1" for pattern, unit in ARRAY_UNITS)

@@ -126,8 +126,11 @@ class QuadElement:
         mesh = body.mesh
         held = mesh if nodes is None else nodes
         cells, n = held.cells, len(held.points)
-        edges = (lambda tag, load, c: _edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
+        segment = (lambda tag, load, c: _edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
             (lambda tag, load, c: p2._edge_load(nodes, nodes.boundary(tag), load, c))
+
+        def edges(tag, load, c):                                    # (n, c) whatever the segment rule returns
+            return np.reshape(segment(tag, load, c), (n, c))
         f = self._volume(mesh, cells, body.body_force, 2, n)
         for tag, load in body.traction.items():
             f += edges(tag, load, 2)

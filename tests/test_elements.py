@@ -185,12 +185,14 @@ def test_patch_test_on_distorted_cells(cell, degree):
 H1, H2, DELTA = 0.4, 0.2, 1e-4
 
 
-@pytest.mark.parametrize("degree,condition", [(1, "sigma1"), (1, "gamma3"), (2, "sigma1"), (2, "sigma2"),
-                                              (2, "gamma3")])
-def test_quadrilateral_layers_squeezed_through_contact_are_in_uniaxial_strain(degree, condition):
+@pytest.mark.parametrize("degree,condition,law", [(1, "sigma1", None), (1, "gamma3", None), (2, "sigma1", None),
+                                                  (2, "sigma2", None), (2, "gamma3", None), (1, "sigma1", 2e12),
+                                                  (2, "sigma1", 2e12)])
+def test_quadrilateral_layers_squeezed_through_contact_are_in_uniaxial_strain(degree, condition, law):
     """A steel layer on a rigid floor under an aluminium block driven down by DELTA, both between side rollers,
     meshed with distorted quadrilaterals (non-matching under "gamma3"): springs in series, sigma_yy = -p,
-    p = DELTA / (H1/M_steel + H2/M_alu), u_y linear in each body, u_x = 0, each pair carries p (N/m). The contact
+    p = DELTA / (H1/M_steel + H2/M_alu [+ 2/k through a linear normal-compliance law of stiffness k on both
+    pairs, each then penetrated by p/k]), u_y piecewise linear, u_x = 0, each pair carries p (N/m). The contact
     rows are P1's and P2's on the segments of the traces, unchanged."""
     M_s, M_a = float(STEEL.c[1, 1]), float(ALU.c[1, 1])
     layer = cc.Body(distorted("quad", 4, 3, x=(0.0, 1.0), y=(0.0, H1)), STEEL, roller=["left", "right"],
@@ -199,13 +201,15 @@ def test_quadrilateral_layers_squeezed_through_contact_are_in_uniaxial_strain(de
                     ALU, roller=["left", "right"], displacement={"top": (None, -DELTA)}, contact="bottom", name="punch")
     floor = cc.Rigid.plane((0.0, 0.0), (0.0, 1.0))
     scene = cc.Scene(layer, punch, contacts=[cc.Contact(layer, "bottom", floor), cc.Contact(punch, "bottom", layer, "top")])
-    sol = cc.solve(scene, condition, degree=degree)
+    sol = cc.solve(scene, condition, degree=degree, law=None if law is None else cc.NormalCompliance(law))
     assert sol.ok and sol.polished
     assert sol.estimate is None and "quad" in sol.estimate_reason
-    p = DELTA / (H1 / M_s + H2 / M_a)
-    for k, exact in enumerate((lambda y: -p * y / M_s, lambda y: -p * H1 / M_s - p * (y - H1) / M_a)):
+    gap = 0.0 if law is None else 1.0 / law                      # m per Pa: each pair's penetration p / k
+    p = DELTA / (H1 / M_s + H2 / M_a + 2 * gap)
+    for k, exact in enumerate((lambda y: -p * gap - p * y / M_s,
+                               lambda y: -2 * p * gap - p * H1 / M_s - p * (y - H1) / M_a)):
         y = sol.points[k][:, 1]
-        assert np.abs(sol.u[k][:, 1] - exact(y)).max() <= 1e-9 * DELTA              # measured <= 2.0e-15 DELTA
+        assert np.abs(sol.u[k][:, 1] - exact(y)).max() <= 1e-9 * DELTA              # measured <= 2.2e-15 DELTA
         assert np.abs(sol.u[k][:, 0]).max() <= 1e-9 * DELTA
     for c in sol.contacts:
         assert abs(c.force.sum() - p) <= 1e-9 * p                                    # measured <= 8.9e-16 p

@@ -314,12 +314,18 @@ class Q1(P1):
     element = Q1_ELEMENT
 
     def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
-        cells = body.mesh.cells if nodes is None else nodes.cells
-        return cells, self.element.at(body.mesh.points[body.mesh.cells], np.zeros(2))[1]
+        held = self._held(body, nodes)
+        return held.cells, self.element.at(body.mesh.points[body.mesh.cells], np.zeros(2))[1]
+
+    def _held(self, body, nodes):
+        """The node set the unknowns live on (``nodes``, else the space's, else the mesh's vertices)."""
+        nodes = self.nodes(body) if nodes is None else nodes
+        return body.mesh if nodes is None else nodes
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         _check_cell(self, body)
-        held = body.mesh if nodes is None else nodes
+        held = self._held(body, nodes)
+        nodes = None if held is body.mesh else held
         points = self.element.points(body.mesh)
         return _bulk(assemble_points(body, held.cells, len(held.points), points, nodes), body,
                      lambda: strain_at(points, held.cells, body.dim, len(held.points)))
@@ -341,10 +347,7 @@ class Q2(P2):
     def nodes(self, body):
         return Q2Nodes(body.mesh)
 
-    centre_gradients = Q1.centre_gradients
-
-    def assemble_matrices(self, body, nodes=None) -> BodySystem:
-        return Q1.assemble_matrices(self, body, self.nodes(body) if nodes is None else nodes)
+    centre_gradients, _held, assemble_matrices = Q1.centre_gradients, Q1._held, Q1.assemble_matrices
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return self.element.loads(body, matrices, self.nodes(body) if nodes is None else nodes)

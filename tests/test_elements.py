@@ -366,3 +366,14 @@ def test_sweep_case_arrays_name_the_quadrilaterals():
     out = arrays(cc.solve(cc.Scene(lower, upper), "sigma1"))
     assert out["quads1"].shape == (6, 4) and out["quads2"].shape == (6, 4) and "triangles1" not in out
     assert any(re.fullmatch(pattern, "quads1") and unit == "1" for pattern, unit in ARRAY_UNITS)
+
+
+def test_graded_block_takes_the_cell():
+    """``graded_block(..., cell="quad")``: the graded triangle mesh's nodes and tags on its uncut cells (each
+    quadrilateral the union of two of the triangles: the same total area, the same points)."""
+    kw = dict(x=(0.0, 2.0), y=(0.0, 1.0), nx=6, ny=4, beta=2.0, gamma=1.5, center=0.8)
+    tri, quad = cc.graded_block(**kw), cc.graded_block(**kw, cell="quad")
+    assert type(quad).__name__ == "QuadMesh" and np.array_equal(tri.points, quad.points)
+    assert np.isclose(quad.areas.sum(), 2.0, rtol=1e-14) and np.isclose(tri.areas.sum(), quad.areas.sum(), rtol=1e-14)
+    for t in tri.tags:
+        assert np.array_equal(tri.boundary(t), quad.boundary(t))

@@ -43,7 +43,7 @@ names the file, the key and what was expected. Format (all SI units)::
 
 Meshes may also be ``{ rectangle = {..., segments = { footprint = ["top", 0.25, 0.75] } } }`` (``cell = "quad"``:
 quadrilaterals, Q1 and Q2 with ``degree``),
-``{ graded_block = { x, y, nx, ny, contact, beta, gamma, center } }`` or
+``{ graded_block = { x, y, nx, ny, contact, beta, gamma, center, cell } }`` or
 ``{ half_disk = { radius, center, nr, nt, side } }`` (tags "flat", "arc").
 
 Contact pairs and rigid obstacles (any number of bodies; without ``[[contact]]`` tables the file
@@ -546,7 +546,7 @@ class _Context:
                 return rectangle(**spec)
             if set(table) == {"graded_block"}:
                 spec = self.table(table["graded_block"], f"{key}.graded_block")
-                self.keys(spec, {"x", "y", "nx", "ny", "contact", "beta", "gamma", "center", "segments"},
+                self.keys(spec, {"x", "y", "nx", "ny", "contact", "beta", "gamma", "center", "segments", "cell"},
                           f"{key}.graded_block")
                 return graded_block(**spec)
             if set(table) == {"half_disk"}:

@@ -44,7 +44,8 @@ def _lagrange_1d(nodes, t):
         den = np.prod([nodes[i] - nodes[j] for j in others])
         factors = [t[..., 0] - nodes[j] for j in others]
         value[..., i] = np.prod(factors, axis=0) / den
-        slope[..., i] = sum(np.prod([f for m, f in enumerate(factors) if m != k], axis=0) for k in range(len(others))) / den
+        slope[..., i] = sum(np.prod([f for m, f in enumerate(factors) if m != k], axis=0)
+                            for k in range(len(others))) / den
     return value, slope
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import ResolutionWarning, SceneError, UnsupportedError
+from .fem.space import space
 from .geometry.refine import Curve, label_longest, refine_marked
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
@@ -137,6 +138,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise UnsupportedError(f"adapt covers 2D scenes (triangles) only, got a {scene.dim}D scene: the error "
                                "estimate and the newest-vertex bisection of this version are 2D; refine a 3D "
                                "mesh uniformly or with your mesher")
+    if not space(1, scene.cell).estimates:
+        raise UnsupportedError(f"adapt covers triangle meshes only, got {scene.cell} cells: the error estimate and "
+                               "the newest-vertex bisection are those of triangles; mesh the bodies with triangles "
+                               "(cc.rectangle(..., cell='triangle')) or refine the quadrilaterals uniformly")
     if options.get("estimate", True) is not True:
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     theta = _fraction(theta)

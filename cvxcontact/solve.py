@@ -20,7 +20,7 @@ from .backends.result import Cache, Settings
 from .backends.run import run
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError
 from .fem.space import space
 from .physics.scene import Scene
 from .solution.bound import check_covered as check_bound_covered
@@ -177,10 +177,16 @@ class ContactSolver:
         if estimate is not False and (not isinstance(kind, str) or kind not in ESTIMATES):
             raise SolverError(f"estimate must be True or False (compute the residual error estimate or not) or one "
                               f"of {sorted(ESTIMATES)}, got {estimate!r}")
-        if kind == "equilibrated":
+        discretisation = space(degree, scene.cell)
+        if estimate is not False and not discretisation.estimates:
+            if estimate is not True:                          # asked by name: refused before anything is solved
+                raise UnsupportedError(f"the {kind} error estimate on {scene.cell} cells is not available yet: use "
+                                       "estimate=False, or triangles (cc.rectangle(..., cell='triangle'))")
+            estimate = False                                  # the default: said in estimate_reason
+        if kind == "equilibrated" and estimate is not False:
             check_bound_covered(scene, degree, self.law)      # refused before anything is solved
         self.estimate = ESTIMATES[kind] if estimate is not False else None
-        discretisation = space(degree, scene.dim)
+        self._unestimated = not discretisation.estimates
         t0 = time.perf_counter()
         self.problem: DiscreteProblem = build_problem(scene, discretisation, condition, self.law, scale=scale)
         self._given = scene                 # what solve() without a scene solves
@@ -219,6 +225,9 @@ class ContactSolver:
             t0 = time.perf_counter()
             sol.estimate, sol.estimate_reason = self.estimate(sol)
             timings["estimate"] = time.perf_counter() - t0
+        elif self._unestimated:
+            sol.estimate_reason = (f"not computed: the error estimates do not cover {problem.scene.cell} cells yet "
+                                   "(use triangles for an estimate)")
         else:
             sol.estimate_reason = "not computed (estimate=False)"
         sol.info = replace(sol.info, timings=timings)

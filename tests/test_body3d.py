@@ -107,11 +107,11 @@ def test_refusals_in_3d():
         cc.Body(m, TRANSVERSE, displacement={"bottom": (None, None, None)})
     lower = cc.Body(box(nx=1, ny=1, nz=1), TRANSVERSE, clamped=["bottom"], contact="top", name="lower")
     upper = cc.Body(box(nx=1, ny=1, nz=1, z=(1, 2)), TRANSVERSE, clamped=["top"], contact="bottom", name="upper")
-    lines = space(2, 3).contact(cc.Scene(lower, upper), "gamma3", cc.Signorini())     # the copositive condition
+    lines = space(2, "tetra").contact(cc.Scene(lower, upper), "gamma3", cc.Signorini())     # the copositive condition
     assert lines.cone is not None and lines.cone[1].shape[1] == 6
-    with pytest.raises(SolverError, match="3D body"):
+    with pytest.raises(SolverError, match="tetra cells in the space P1"):
         space(1).assemble_matrices(cc.Body(m, TRANSVERSE, clamped=["bottom"]))
-    assert space(2, 3).dim == 3 and space(1).dim == 2
+    assert space(2, "tetra").dim == 3 and space(1).dim == 2
 
 
 # ------------------------------------------------------------------ patch tests (exact to rounding)

@@ -112,7 +112,7 @@ def sampled_penetration(scene, sol, n=12):
     """max over sample points of every overlay triangle of ([u_nu] - g) / (d scale), the jump evaluated from
     each body's own P2 face functions at the point (not through X_h) and the scene's gap function itself (a
     quadratic: its P2 interpolant on a triangle is itself)."""
-    itf = space(2, 3).contact(scene, "sigma1", cc.Signorini()).interface
+    itf = space(2, "tetra").contact(scene, "sigma1", cc.Signorini()).interface
     ov = itf.linear.overlay
     V = np.asarray(ov.vertices)
     L = simplex_grid(n)
@@ -145,13 +145,13 @@ def test_pressed_blocks_hold_everywhere_where_the_nodal_conditions_penetrate():
 def energy_norms(scene, fields):
     """sqrt(sum_k v_k^T Kuu_k v_k) (SI, Kuu on all dofs from an assembly of its own) of each list of per-body
     displacement fields v_k (n_k, 3): differences of two answers, or an answer minus its prescribed part."""
-    Kuu = [space(2, 3).assemble_matrices(b).Kuu for b in scene.bodies]
+    Kuu = [space(2, "tetra").assemble_matrices(b).Kuu for b in scene.bodies]
     return [np.sqrt(sum(float(v.ravel() @ (K @ v.ravel())) for K, v in zip(Kuu, f))) for f in fields]
 
 
 def free_part(scene, u):
     """u - u_D of each body (the energy norm of the answer the certified bound is relative to)."""
-    return [uk - space(2, 3).assemble_matrices(b).u_fixed.reshape(uk.shape) for b, uk in zip(scene.bodies, u)]
+    return [uk - space(2, "tetra").assemble_matrices(b).u_fixed.reshape(uk.shape) for b, uk in zip(scene.bodies, u)]
 
 
 def test_full_and_condensed_routes_and_the_certified_bound():

@@ -49,7 +49,7 @@ def test_gamma3_constrains_every_node_that_reaches_the_obstacle():
 
     scene = flat_punch()
     sol = cc.solve(scene, "gamma3", degree=2)
-    itf = space(2, 3).contact(scene, "sigma1", cc.Signorini()).interface
+    itf = space(2, "tetra").contact(scene, "sigma1", cc.Signorini()).interface
     t = itf.traces[0]
     un = sol.u[0][np.asarray(t.nodes)] @ np.asarray(t.unit_normal)
     d = np.asarray(itf.obstacle.distance(np.asarray(t.points), t.unit_normal))

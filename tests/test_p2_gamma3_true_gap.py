@@ -45,7 +45,7 @@ def true_slack(sc, sol, center_z, translation=0.0, distance="closest", samples=2
     there); "ray", g(x) = c_z - sqrt(R^2 - |x|^2) and the rows u_z - t_z (a vertical translation is exact along
     the normal). [u_nu]_h is the P2 interpolant of the rows with the block's own P2 face functions: independent
     of the package's gap, rows and X_h."""
-    itf = space(2, 3).contact(sc, "sigma1", cc.Signorini()).interface
+    itf = space(2, "tetra").contact(sc, "sigma1", cc.Signorini()).interface
     trace = itf.traces[0]
     faces = np.asarray(trace.faces)
     x = np.asarray(trace.x)

@@ -299,7 +299,7 @@ def test_a_vertex_pushed_into_the_obstacle_is_resisted_as_the_quadrature_energy_
     assert sol.ok and sol.polished
     # the independent energy 1/2 u^T K u + sum_q w_q k/2 (u_z(x_q) - g(x_q))_+^2 on the free dofs
     body = scene.bodies[0]
-    P2 = space(2, 3)
+    P2 = space(2, "tetra")
     nodes = P2.nodes(body)
     S = P2.assemble_matrices(body, nodes)
     T = S.Tu.toarray()

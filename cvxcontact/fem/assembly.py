@@ -169,21 +169,40 @@ def element_dofs(cells, dim):
 
 def assemble_matrices(body) -> BodySystem:
     """Stiffness, coupling and permittivity matrices and the free dofs of ``body``; loads zero."""
-    mesh, dim = body.mesh, body.dim
+    mesh = body.mesh
+    area, grad = gradients(mesh.points, mesh.cells)
+    return assemble_points(body, mesh.cells, len(mesh.points), [(grad, area)])
+
+
+def assemble_points(body, cells, n, points, nodes=None) -> BodySystem:
+    """Kuu, Kup, Kpp (weak forms (19)-(20), SI) of any element, blind to it: the sums over quadrature points of
+    the element integrands, ``points`` a sequence of (G (m, dim, k) 1/m, w (m,)): the shape gradients of the
+    ``cells`` (m, k) at one point of every element and its weights (m^2 in 2D, m^3 in 3D); ``n`` nodes; with
+    the prolongations of the supports and electrodes on ``nodes`` (None: the mesh's vertices), loads zero."""
+    dim = body.dim
     c, e, kappa = body.material.tensors(dim)
-    n = len(mesh.points)
-    tri = mesh.cells
-    area, grad = gradients(mesh.points, tri)
-    B = strain_matrix(grad)
-    Bt = np.swapaxes(B, 1, 2) * area[:, None, None]                 # (m, dim k, s), measure-weighted
-    udofs = element_dofs(tri, dim)
-    Kuu = scatter((Bt @ c) @ B, udofs, udofs, (dim * n, dim * n))
-    Kup = Kpp = None
-    if e is not None:
-        Gt = np.swapaxes(grad, 1, 2) * area[:, None, None]            # (m, k, dim)
-        Kup = scatter((Bt @ e.T) @ grad, udofs, tri, (dim * n, n))
-        Kpp = scatter((Gt @ kappa) @ grad, tri, tri, (n, n))
-    return constrained(body, Kuu, Kup, Kpp)
+    udofs = element_dofs(cells, dim)
+    Kuu = Kup = Kpp = 0.0
+    for G, w in points:
+        B = strain_matrix(G)
+        Bt = np.swapaxes(B, 1, 2) * w[:, None, None]                   # (m, dim k, s), measure-weighted
+        Kuu = Kuu + (Bt @ c) @ B
+        if e is not None:
+            Kup = Kup + (Bt @ e.T) @ G
+            Kpp = Kpp + ((np.swapaxes(G, 1, 2) * w[:, None, None]) @ kappa) @ G
+    Kuu = scatter(Kuu, udofs, udofs, (dim * n, dim * n))
+    if e is None:
+        return constrained(body, Kuu, nodes=nodes)
+    return constrained(body, Kuu, scatter(Kup, udofs, cells, (dim * n, n)), scatter(Kpp, cells, cells, (n, n)),
+                       nodes=nodes)
+
+
+def strain_at(points, cells, dim, n) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The strain map and weights (:func:`points_strain`) at ``points`` [(G, w)] (as :func:`assemble_points`),
+    point by point, of the ``cells`` (m, k) of ``n`` nodes."""
+    B = np.concatenate([strain_matrix(G) for G, _ in points])
+    w = np.concatenate([w for _, w in points])
+    return points_strain(B, w, np.tile(element_dofs(cells, dim), (len(points), 1)), dim * n)
 
 
 def constrained(body, Kuu, Kup=None, Kpp=None, nodes=None) -> BodySystem:

@@ -1,5 +1,6 @@
-"""Derived fields of a solution, element by element (constant on each P1 triangle; for P2, the values
-at each triangle's centroid).
+"""Derived fields of a solution, element by element: the values at each cell's centre (constant on each P1
+triangle or tetrahedron), from the shape gradients there that the body's space gives
+(:meth:`~cvxcontact.fem.space.Space.centre_gradients`).
 
 Plane strain in the (x1, x3) plane, written x, y here; z is the out-of-plane x2:
 
@@ -21,8 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import gradients, strain_matrix
-from .p2 import strain_p2, shape_gradients
+from .assembly import strain_matrix
 
 __all__ = ["BodyFields", "body_fields"]
 
@@ -39,22 +39,17 @@ class BodyFields:
 
 
 def body_fields(body, u, phi, nodes=None) -> BodyFields:
-    """Strain, stress, von Mises stress, and for a piezoelectric body E and D, per triangle.
+    """Strain, stress, von Mises stress, and for a piezoelectric body E and D, per cell (at its centre).
 
-    ``nodes``: the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of a P2 solution (``u``, ``phi`` on
-    them); the fields are then evaluated at each triangle's centroid."""
-    mesh, mat = body.mesh, body.material
+    ``nodes``: the node set of a degree-2 solution (:class:`~cvxcontact.geometry.quadratic.P2Nodes`,
+    ``Q2Nodes``, ``P2TetNodes``; ``u``, ``phi`` on them), None for the mesh's vertices."""
+    from .space import space
+
+    mat = body.material
+    el, grad = space(1 if nodes is None else 2, body.mesh.cell).centre_gradients(body, nodes)
     if body.dim == 3:
-        return _solid_fields(body, u, phi, nodes)
-    _, grad = gradients(mesh.points, mesh.triangles)
-    if nodes is None:
-        el = mesh.triangles
-        ue = u[el].reshape(len(el), 6)
-        eps = np.einsum("mij,mj->mi", strain_matrix(grad), ue)          # (exx, eyy, 2exy)
-    else:
-        el = nodes.triangles
-        grad = shape_gradients(grad, np.full(3, 1.0 / 3.0))             # (m, 2, 6) at the centroid
-        eps = np.einsum("mij,mj->mi", strain_p2(grad), u[el].reshape(len(el), 12))
+        return _solid_fields(body, u, phi, el, grad)
+    eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))  # (exx, eyy, 2exy)
     stress = eps @ mat.c.T
     if mat.piezoelectric:
         field = -np.einsum("mij,mj->mi", grad, phi[el])
@@ -78,14 +73,10 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     return BodyFields(strain=strain, stress=s, von_mises=vm, electric_field=field, electric_displacement=disp)
 
 
-def _solid_fields(body, u, phi, nodes):
-    """The fields of a 3D body (module docstring), per tetrahedron (P2: at its centroid)."""
-    mesh = body.mesh
+def _solid_fields(body, u, phi, el, grad):
+    """The fields of a 3D body (module docstring), per tetrahedron at its centroid (element nodes ``el``, shape
+    gradients ``grad`` there)."""
     c, e, kappa = body.material.tensors(3)
-    _, grad = gradients(mesh.points, mesh.cells)
-    el = mesh.cells if nodes is None else nodes.cells
-    if nodes is not None:
-        grad = shape_gradients(grad, np.full(4, 0.25))                   # (m, 3, 10) at the centroid
     eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))
     stress = eps @ c.T
     field = disp = None

@@ -25,7 +25,7 @@ import numpy as np
 from ..contact.quadratic3d import P2_FACE_RULE
 from ..geometry.quadratic import P2Nodes
 from ..geometry.tetmesh import EDGES as TET_EDGES
-from .assembly import (BodySystem, points_strain, accumulate, scatter, constrained, element_dofs, face_load, gradients, lifted,
+from .assembly import (BodySystem, accumulate, assemble_points, face_load, gradients, lifted, strain_at,
                        strain_matrix)
 from .simplex import element_load, simplex_rule
 
@@ -75,36 +75,20 @@ def assemble_matrices(body, nodes: P2Nodes) -> BodySystem:
     :func:`cvxcontact.fem.assembly.prolongation`) on the P2 nodes: a roller or a prescribed displacement
     holds at the vertices and at the midpoints of its part's edges, a floating electrode's potential is
     one unknown on all of them."""
-    dim = body.dim
-    c, e, kappa = body.material.tensors(dim)
-    n = len(nodes)
-    el = nodes.cells
+    return assemble_points(body, nodes.cells, len(nodes), stiffness_points(body), nodes)
+
+
+def stiffness_points(body) -> list[tuple[np.ndarray, np.ndarray]]:
+    """[(G (m, dim, k), w (m,))]: the P2 shape gradients and weights at the points of the stiffness rule
+    (degree 2) of every element (:func:`~cvxcontact.fem.assembly.assemble_points`)."""
     area, gradL = gradients(body.mesh.points, body.mesh.cells)
-    udofs = element_dofs(el, dim)
-    Kuu = Kup = Kpp = 0.0
-    for L, w in zip(*_STIFFNESS_RULE[dim]):
-        G = shape_gradients(gradL, L)                                    # (m, dim, k)
-        B = strain_p2(G)
-        Bt = np.swapaxes(B, 1, 2) * (w * area)[:, None, None]
-        Kuu = Kuu + (Bt @ c) @ B
-        if e is not None:
-            Kup = Kup + (Bt @ e.T) @ G
-            Kpp = Kpp + ((np.swapaxes(G, 1, 2) * (w * area)[:, None, None]) @ kappa) @ G
-    if e is None:
-        return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), nodes=nodes)
-    return constrained(body, scatter(Kuu, udofs, udofs, (dim * n, dim * n)), scatter(Kup, udofs, el, (dim * n, n)),
-                       scatter(Kpp, el, el, (n, n)), nodes=nodes)
+    return [(shape_gradients(gradL, L), w * area) for L, w in zip(*_STIFFNESS_RULE[body.dim])]
 
 
 def strain_points(body, nodes: P2Nodes):
     """P2: the strain map and weights (:func:`cvxcontact.fem.assembly.points_strain`) at the points of the
     stiffness rule (degree 2) of every element, point by point."""
-    dim = body.dim
-    area, gradL = gradients(body.mesh.points, body.mesh.cells)
-    rule = list(zip(*_STIFFNESS_RULE[dim]))
-    B = np.concatenate([strain_p2(shape_gradients(gradL, L)) for L, _ in rule])
-    w = np.concatenate([w * area for _, w in rule])
-    return points_strain(B, w, np.tile(element_dofs(nodes.cells, dim), (len(rule), 1)), dim * len(nodes))
+    return strain_at(stiffness_points(body), nodes.cells, body.dim, len(nodes))
 
 
 def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:

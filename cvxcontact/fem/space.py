@@ -6,10 +6,13 @@ the evaluation rows of a condition, the laws on those rows, their quadrature wei
 "everywhere" condition and the gap at the rows' nodes. Everything above this layer (the discrete problem,
 the backends, the read-back) asks the space and never branches on the degree.
 
-``P1`` (3-node triangles, the paper's elements) and ``P2`` (6-node triangles on the P1 mesh,
-docs/formulation.md §8) are the 2D spaces, ``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra)
-the 3D ones;
-:func:`space` gives the one of a degree and a dimension.
+``P1`` (3-node triangles, the paper's elements), ``P2`` (6-node triangles on the P1 mesh,
+docs/formulation.md §8), ``Q1`` (4-node quadrilaterals) and ``Q2`` (9-node quadrilaterals) are the 2D spaces,
+``P1Tet`` (4-node tetrahedra) and ``P2Tet`` (10-node tetrahedra) the 3D ones; :data:`SPACES` holds them by
+(cell, degree) and :func:`space` gives the one of a degree on a mesh's cell (``mesh.cell``). A space answers
+its node sets, its assembly, its contact lines (the traces of Q1/Q2 on a side are the 2- and 3-node segments
+of P1/P2, so they share P1's and P2's contact code), the VTK cells of its output, the shape gradients at
+the cells' centres (the fields of the output) and whether the error estimates cover it.
 """
 
 from __future__ import annotations
@@ -26,11 +29,13 @@ from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
 from ..contact.truegap import GapDeparture
 from ..errors import SceneError, SolverError, UnsupportedError
-from ..geometry.quadratic import P2Nodes, P2TetNodes
+from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2Nodes
 from . import p2
-from .assembly import BodySystem, assemble_loads, assemble_matrices, strain_points
+from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
+    strain_points
+from .quad import Q1_ELEMENT, Q2_ELEMENT
 
-__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "ContactLines", "space"]
+__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "ContactLines", "space", "SPACES"]
 
 
 @dataclass(frozen=True)
@@ -96,14 +101,24 @@ def _interface_key(interface) -> bytes:
 
 
 class Space(Protocol):
-    """What the discrete problem asks of a space: its ``degree`` and ``dim`` (displacement components per
-    node), and the methods below."""
+    """What the discrete problem asks of a space: its ``cell`` (the mesh's cell type, ``mesh.cell``),
+    ``degree`` (of its traces on the contact lines: 1 segments of 2 nodes, 2 of 3 nodes), ``dim``
+    (displacement components per node), whether the error ``estimates`` cover it, and the methods below."""
 
+    cell: str
     degree: int
     dim: int
+    estimates: bool
 
     def nodes(self, body):
         """The node set of ``body`` (None: the mesh's vertices)."""
+
+    def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
+        """The cells of ``body`` as meshio (VTK) blocks [(type, (m, k) node indices in VTK's order)]."""
+
+    def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
+        """(cells (m, k), G (m, dim, k) 1/m): the element nodes and the shape gradients at each cell's centre
+        (where the output evaluates the fields)."""
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         """Kuu, Kup, Kpp and the Dirichlet prolongations of ``body`` on ``nodes`` (SI), no loads."""
@@ -118,13 +133,21 @@ class Space(Protocol):
 class P1:
     """P1 (3-node) triangles: the mesh's vertices, the merged P1 contact mesh of every pair."""
 
-    degree, dim = 1, 2
+    cell, degree, dim, estimates = "triangle", 1, 2, True
+    vtk = "triangle"
+    """The meshio (VTK) cell type."""
 
     def nodes(self, body):
         return None
 
+    def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
+        return [(self.vtk, np.asarray((body.mesh if nodes is None else nodes).cells))]
+
+    def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
+        return body.mesh.cells, gradients(body.mesh.points, body.mesh.cells)[1]
+
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
-        _check_dim(self, body)
+        _check_cell(self, body)
         return _bulk(assemble_matrices(body), body, lambda: strain_points(body))
 
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
@@ -152,13 +175,22 @@ class P1:
 class P2:
     """P2 (6-node) triangles built on the P1 mesh (vertices, then edge midpoints; docs/formulation.md §8)."""
 
-    degree, dim = 2, 2
+    cell, degree, dim, estimates = "triangle", 2, 2, True
+    vtk = "triangle6"
 
     def nodes(self, body):
         return P2Nodes(body.mesh)
 
+    def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
+        return [(self.vtk, np.asarray((self.nodes(body) if nodes is None else nodes).cells))]
+
+    def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
+        nodes = self.nodes(body) if nodes is None else nodes
+        gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+        return nodes.cells, p2.shape_gradients(gradL, np.full(gradL.shape[2], 1.0 / gradL.shape[2]))
+
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
-        _check_dim(self, body)
+        _check_cell(self, body)
         nodes = self.nodes(body) if nodes is None else nodes
         return _bulk(p2.assemble_matrices(body, nodes), body, lambda: p2.strain_points(body, nodes))
 
@@ -266,10 +298,59 @@ def _bulk(system: BodySystem, body, points) -> BodySystem:
     return replace(system, strain=strain, weights=weights, material=body.material)
 
 
-def _check_dim(space, body):
-    if getattr(body, "dim", 2) != space.dim:
-        raise SolverError(f"{body.name}: a {body.dim}D body in the {space.dim}D space {type(space).__name__}: use "
-                          f"space({space.degree}, dim={body.dim})")
+def _check_cell(space, body):
+    cell = body.mesh.cell
+    if cell != space.cell:
+        raise SolverError(f"{body.name}: a body of {cell} cells in the space {type(space).__name__} of "
+                          f"{space.cell} cells: use space({space.degree}, {cell!r})")
+
+
+class Q1(P1):
+    """Q1 (4-node, bilinear) quadrilaterals (:mod:`cvxcontact.fem.quad`, 2 x 2 Gauss): the mesh's vertices;
+    the traces on the contact lines are P1's segments, so the contact rows are P1's."""
+
+    cell, degree, dim, estimates = "quad", 1, 2, False
+    vtk = "quad"
+    element = Q1_ELEMENT
+
+    def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
+        held = self._held(body, nodes)
+        return held.cells, self.element.at(body.mesh.points[body.mesh.cells], np.zeros(2))[1]
+
+    def _held(self, body, nodes):
+        """The node set the unknowns live on (``nodes``, else the space's, else the mesh's vertices)."""
+        nodes = self.nodes(body) if nodes is None else nodes
+        return body.mesh if nodes is None else nodes
+
+    def assemble_matrices(self, body, nodes=None) -> BodySystem:
+        _check_cell(self, body)
+        held = self._held(body, nodes)
+        nodes = None if held is body.mesh else held
+        points = self.element.points(body.mesh)
+        return _bulk(assemble_points(body, held.cells, len(held.points), points, nodes), body,
+                     lambda: strain_at(points, held.cells, body.dim, len(held.points)))
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return self.element.loads(body, matrices, nodes)
+
+
+class Q2(P2):
+    """Q2 (9-node, biquadratic Lagrange) quadrilaterals on the bilinear map of each cell (vertices, edge
+    midpoints, centres: :class:`~cvxcontact.geometry.quadratic.Q2Nodes`; 3 x 3 Gauss; why 9 nodes and not the
+    8-node serendipity: :mod:`cvxcontact.fem.quad`); the traces on the contact lines are P2's 3-node segments,
+    so the contact rows (nodal and the "gamma3" cones) are P2's."""
+
+    cell, degree, dim, estimates = "quad", 2, 2, False
+    vtk = "quad9"
+    element = Q2_ELEMENT
+
+    def nodes(self, body):
+        return Q2Nodes(body.mesh)
+
+    centre_gradients, _held, assemble_matrices = Q1.centre_gradients, Q1._held, Q1.assemble_matrices
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return self.element.loads(body, matrices, self.nodes(body) if nodes is None else nodes)
 
 
 
@@ -279,7 +360,8 @@ class P1Tet(P1):
     contact surfaces of the scene (:class:`~cvxcontact.contact.surface.SurfaceInterface`: the overlay's vertices
     are the nodes of X_h, docs/formulation.md §13), stacked as in 2D."""
 
-    degree, dim = 1, 3
+    cell, degree, dim, estimates = "tetra", 1, 3, True
+    vtk = "tetra"
 
 
 class P2Tet(P2):
@@ -293,10 +375,15 @@ class P2Tet(P2):
     degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15); the copositive cones
     next to it are refused."""
 
-    degree, dim = 2, 3
+    cell, degree, dim, estimates = "tetra", 2, 3, True
+    vtk = "tetra10"
 
     def nodes(self, body):
         return P2TetNodes(body.mesh)
+
+    def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
+        cells = np.asarray((self.nodes(body) if nodes is None else nodes).cells)
+        return [(self.vtk, cells[:, [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]])]      # VTK's tetra10 swaps the last two
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
@@ -352,15 +439,17 @@ def _refuse_cones_next_to_compliance(scene, conditions, laws):
                                    "'sigma1'/'sigma2' (a nodal limit), no limit, or degree=1")
 
 
-SPACES = {(1, 2): P1, (2, 2): P2, (1, 3): P1Tet, (2, 3): P2Tet}
-"""The spaces by (degree, dimension)."""
+SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,
+          ("quad", 2): Q2}
+"""The spaces by (cell, degree): the cell type of a mesh (``mesh.cell``) and the element degree."""
 
 
-def space(degree, dim: int = 2) -> Space:
-    """The :class:`Space` of ``degree`` (1: P1, 2: P2) in dimension ``dim`` (2: triangles, 3: tetrahedra);
-    SolverError for any other value."""
+def space(degree, cell: str = "triangle") -> Space:
+    """The :class:`Space` of ``degree`` (1: P1/Q1, 2: P2/Q2) on cells of type ``cell`` ("triangle", "quad",
+    "tetra": ``mesh.cell``, ``scene.cell``); SolverError for any other value."""
     if isinstance(degree, bool) or degree not in (1, 2):
-        raise SolverError(f"degree must be 1 (P1) or 2 (P2), got {degree!r}")
-    if isinstance(dim, bool) or dim not in (2, 3):
-        raise SolverError(f"dim must be 2 or 3, got {dim!r}")
-    return SPACES[degree, dim]()
+        raise SolverError(f"degree must be 1 (P1, Q1) or 2 (P2, Q2), got {degree!r}")
+    cells = sorted({c for c, _ in SPACES})
+    if not isinstance(cell, str) or cell not in cells:
+        raise SolverError(f"cell must be one of {cells} (the mesh's cell type, mesh.cell), got {cell!r}")
+    return SPACES[cell, degree]()

@@ -18,11 +18,12 @@ __all__ = ["graded_block", "half_disk"]
 
 def graded_block(x: Sequence[float], y: Sequence[float], nx: int, ny: int, contact: str = "bottom",
                  beta: float = 0.0, gamma: float = 0.0, center: float = 0.0,
-                 segments: Mapping[str, tuple] | None = None) -> Mesh:
+                 segments: Mapping[str, tuple] | None = None, cell: str = "triangle") -> Mesh:
     """A structured block on ``x`` by ``y`` (m) whose cells shrink towards x = ``center`` (m; sinh
     grading of strength ``beta``) and towards its ``contact`` edge, "bottom" or "top" (exponential
     grading ``gamma``). Tags as :func:`~cvxcontact.geometry.mesh.rectangle`; beta = gamma = 0 gives a
-    uniform grid. ``segments`` as in :func:`rectangle`, on the graded coordinates (ends on grid nodes)."""
+    uniform grid. ``segments`` and ``cell`` ("quad": a :class:`~cvxcontact.geometry.quadmesh.QuadMesh`) as in
+    :func:`rectangle`, on the graded coordinates (ends on grid nodes)."""
     if contact not in ("bottom", "top"):
         raise MeshError(f"graded_block: contact must be 'bottom' or 'top', got {contact!r}")
     for key, v in (("beta", beta), ("gamma", gamma), ("center", center)):
@@ -30,7 +31,7 @@ def graded_block(x: Sequence[float], y: Sequence[float], nx: int, ny: int, conta
             raise MeshError(f"graded_block: {key} must be a finite number, got {v!r}")
     if beta < 0 or gamma < 0:
         raise MeshError(f"graded_block: beta and gamma must be >= 0, got beta={beta!r}, gamma={gamma!r}")
-    base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny)
+    base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny, cell=cell)
     xi, eta = base.points[:, 0], base.points[:, 1]
     (x0, x1), (y0, y1) = rectangle(x=x, y=y, nx=1, ny=1).points[[0, 3]].T    # validated intervals
     if beta > 0 and not x0 < center < x1:
@@ -47,7 +48,7 @@ def graded_block(x: Sequence[float], y: Sequence[float], nx: int, ny: int, conta
     points = np.column_stack([X, Y])
     tags = {t: base.boundary(t) for t in base.tags}
     tags.update(segment_parts(segments, {t: base.boundary(t) for t in base.tags}, points, "graded_block"))
-    return Mesh(points, base.triangles, tags)
+    return type(base)(points, base.cells, tags)
 
 
 def half_disk(radius: float, center: Sequence[float] = (0.0, 0.0), nr: int = 6, nt: int = 12,

@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 from ..errors import Frozen, FrozenMap, MeshError
 
 if TYPE_CHECKING:
+    from .quadmesh import QuadMesh
     from .tetmesh import TetMesh
 
 __all__ = ["Mesh", "rectangle", "read_mesh"]
@@ -64,6 +65,8 @@ class Mesh(Frozen):
 
     dim = 2
     """Spatial dimension (a :class:`~cvxcontact.geometry.tetmesh.TetMesh` has 3)."""
+    cell = "triangle"
+    """The cell type (the key of the spaces, :func:`cvxcontact.fem.space.space`)."""
 
     def __init__(self, points: ArrayLike, triangles: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:
@@ -489,10 +492,13 @@ def _check_layers(points, boundary):
 # --------------------------------------------------------------------------- generators and readers
 
 def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), nx: int = 8, ny: int = 8,
-              diagonal: str = "alternate", segments: Mapping[str, tuple] | None = None) -> Mesh:
-    """Structured triangulation of the rectangle ``x[0]..x[1]`` by ``y[0]..y[1]`` (metres).
+              diagonal: str = "alternate", segments: Mapping[str, tuple] | None = None,
+              cell: str = "triangle") -> Mesh | QuadMesh:
+    """Structured mesh of the rectangle ``x[0]..x[1]`` by ``y[0]..y[1]`` (metres).
 
-    Each of the ``nx`` by ``ny`` cells is cut into two triangles. ``diagonal`` is
+    ``cell="quad"``: the ``nx`` by ``ny`` cells themselves, a
+    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (``diagonal`` unused), the same boundary tags.
+    ``cell="triangle"`` (default): each cell is cut into two triangles. ``diagonal`` is
     ``"right"`` (all cuts /), ``"left"`` (all cuts \\) or ``"alternate"`` (a chequer
     pattern, mirror-symmetric about the vertical centre line when ``nx`` is even).
     The boundary parts are tagged ``"left"``, ``"right"``, ``"bottom"``, ``"top"``.
@@ -503,6 +509,8 @@ def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), 
     (x0, x1), (y0, y1) = (_interval(x, "x"), _interval(y, "y"))
     nx, ny = _count(nx, "nx"), _count(ny, "ny")
     _check_size(nx, ny)
+    if cell not in ("triangle", "quad"):
+        raise MeshError(f"cell must be 'triangle' or 'quad', got {cell!r}")
     if diagonal not in ("right", "left", "alternate"):
         raise MeshError(f"diagonal must be 'right', 'left' or 'alternate', got {diagonal!r}")
     X, Y = np.meshgrid(np.linspace(x0, x1, nx + 1), np.linspace(y0, y1, ny + 1))
@@ -522,6 +530,10 @@ def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), 
         "left": np.column_stack([node[1:, 0], node[:-1, 0]]),
     }
     boundaries.update(segment_parts(segments, boundaries, points, "rectangle"))
+    if cell == "quad":
+        from .quadmesh import QuadMesh
+
+        return QuadMesh(points, np.column_stack([sw, se, ne, nw]), boundaries)
     return Mesh(points, triangles, boundaries)
 
 
@@ -633,6 +645,10 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
     midpoints (:class:`cvxcontact.geometry.quadratic.P2Nodes`), so every edge must be
     straight with its mid-node at its midpoint (checked).
 
+    Quadrilaterals (``quad``, or ``quad9`` read as their corners the same way, the centre node at the
+    image of the cell's centre by its bilinear map) give a
+    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (Q1, Q2 with ``degree=2``).
+
     Raises
     ------
     MeshError
@@ -657,14 +673,17 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         from .tetmesh import read_tets
 
         return read_tets(m, path, boundaries, region)
-    higher = kinds & {"triangle7", "quad", "quad8", "quad9", "hexahedron"}
+    cell = "quad" if kinds & {"quad", "quad9"} else "triangle"
+    higher = kinds & {"triangle7", "quad8", "hexahedron"} | (kinds & {"triangle", "triangle6"} if cell == "quad" else set())
     if higher:
-        raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact needs triangles")
-    if "triangle6" in kinds:
-        if "triangle" in kinds:
-            raise MeshError(f"mesh file {str(path)!r} mixes triangle and triangle6 cells")
-        m = _corner_mesh(m, path)
-    blocks = [k for k, b in enumerate(m.cells) if b.type == "triangle"]
+        raise MeshError(f"mesh file {str(path)!r} holds {sorted(higher)} cells; cvxcontact reads triangles "
+                        "(triangle, triangle6) or quadrilaterals (quad, quad9), one kind per file")
+    for first, second in (("triangle", "triangle6"), ("quad", "quad9")):
+        if second in kinds:
+            if first in kinds:
+                raise MeshError(f"mesh file {str(path)!r} mixes {first} and {second} cells")
+            m = _corner_mesh(m, path)
+    blocks = [k for k, b in enumerate(m.cells) if b.type == cell]
     if not blocks:
         raise MeshError(f"mesh file {str(path)!r} holds no triangles (cell types: {sorted(kinds)})")
     triangles = np.concatenate([m.cells[k].data for k in blocks])
@@ -676,7 +695,10 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
     renumber = np.full(len(m.points), -1, dtype=np.int64)
     renumber[used] = np.arange(len(used))
     if region is not None:                                    # keep the lines on this region's boundary
-        keys, _ = _boundary_edges(renumber[triangles], len(used))
+        corners = renumber[triangles]
+        if cell == "quad":                                    # the same boundary as its cells cut in two
+            corners = corners[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3)
+        keys, _ = _boundary_edges(corners, len(used))
         for tag, edges in list(parts.items()):
             inside = (renumber[edges] >= 0).all(axis=1)
             e = np.sort(renumber[edges[inside]], axis=1) @ np.array([len(used), 1])
@@ -686,8 +708,13 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
                 del parts[tag]
     for tag, edges in parts.items():
         if (renumber[edges] < 0).any():
-            raise MeshError(f"boundary part {tag!r} in {str(path)!r} uses nodes that belong to no triangle")
-    return Mesh(m.points[used], renumber[triangles], {t: renumber[e] for t, e in parts.items()})
+            raise MeshError(f"boundary part {tag!r} in {str(path)!r} uses nodes that belong to no {cell}")
+    tagged = {t: renumber[e] for t, e in parts.items()}
+    if cell == "quad":
+        from .quadmesh import QuadMesh
+
+        return QuadMesh(m.points[used], renumber[triangles], tagged)
+    return Mesh(m.points[used], renumber[triangles], tagged)
 
 
 def _corner_mesh(m, path):
@@ -698,15 +725,19 @@ def _corner_mesh(m, path):
     cells = []
     for block in m.cells:
         d = block.data
-        pairs = {"triangle6": [(0, 1, 3), (1, 2, 4), (2, 0, 5)], "line3": [(0, 1, 2)]}.get(block.type, [])
+        pairs = {"triangle6": [(0, 1, 3), (1, 2, 4), (2, 0, 5)], "line3": [(0, 1, 2)],
+                 "quad9": [(0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7), (4, 6, 8)]}.get(block.type, [])
         for a, b, c in pairs:
             mid = 0.5 * (m.points[d[:, a], :2] + m.points[d[:, b], :2])
             length = np.linalg.norm(m.points[d[:, a], :2] - m.points[d[:, b], :2], axis=1)
             if (np.linalg.norm(m.points[d[:, c], :2] - mid, axis=1) > 1e-9 * length).any():
                 raise MeshError(f"mesh file {str(path)!r}: a {block.type} cell has a curved edge (mid-node off "
-                                "the midpoint); cvxcontact's P2 elements are straight-sided")
-        kind = {"triangle6": "triangle", "line3": "line"}.get(block.type, block.type)
-        cells.append(meshio.CellBlock(kind, d[:, :3] if kind == "triangle" else d[:, :2] if kind == "line" else d))
+                                "the midpoint, or a quad9's centre node off the middle of its side midpoints: the image of the centre "
+                                "by the bilinear map); "
+                                "cvxcontact's P2 and Q2 elements are straight-sided")
+        kind = {"triangle6": "triangle", "line3": "line", "quad9": "quad"}.get(block.type, block.type)
+        corners = {"triangle": 3, "line": 2, "quad": 4}.get(kind)
+        cells.append(meshio.CellBlock(kind, d[:, :corners] if corners else d))
     return meshio.Mesh(m.points, cells, cell_data=m.cell_data, field_data=m.field_data)
 
 

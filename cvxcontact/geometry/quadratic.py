@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["P2Nodes", "P2TetNodes"]
+__all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes"]
 
 
 class P2Nodes:
@@ -106,6 +106,56 @@ class P2TetNodes:
     def boundary_nodes(self, tags) -> np.ndarray:
         """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
         parts = [self.boundary(t).ravel() for t in ([tags] if isinstance(tags, str) else tags)]
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+
+
+class Q2Nodes:
+    """The Q2 (9-node) nodes of a :class:`~cvxcontact.geometry.quadmesh.QuadMesh`: its vertices, then the
+    midpoints of its edges (numbered by sorted vertex pairs), then the cells' centres (the mean of the
+    corners: the image of the reference centre by the bilinear map, as the midpoints are of the edges' middles).
+
+    Attributes: ``mesh``, ``points`` (n, 2) m, ``quads9`` (m, 9) node indices of each element in the gmsh
+    quad9 / VTK_BIQUADRATIC_QUAD order (v0, v1, v2, v3, m01, m12, m23, m30, centre; read-only),
+    ``n_vertices``. The boundary traces are those of :class:`P2Nodes`: (start, end, midpoint).
+    """
+
+    def __init__(self, mesh) -> None:
+        from .quadmesh import EDGES
+
+        self.mesh = mesh
+        quads = mesh.quads
+        nv = len(mesh.points)
+        pairs = np.sort(quads[:, EDGES], axis=2)                                  # (m, 4, 2)
+        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
+        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
+        edges = np.column_stack([self._keys // nv, self._keys % nv])
+        ne = len(edges)
+        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]]),
+                              mesh.points[quads].mean(axis=1)])
+        self.n_vertices = nv
+        self.points = _frozen(pts)
+        self.quads9 = _frozen(np.column_stack([quads, nv + inverse.reshape(-1, 4), nv + ne + np.arange(len(quads))]))
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 9) the elements: ``quads9``."""
+        return self.quads9
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def midpoint(self, a, b) -> np.ndarray:
+        """Q2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
+        return _midpoint(self._keys, self.n_vertices, a, b)
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) node indices."""
+        e = self.mesh.boundary(tag)
+        return np.column_stack([e, self.midpoint(e[:, 0], e[:, 1])])
+
+    def boundary_nodes(self, tags) -> np.ndarray:
+        """Sorted unique node indices (vertices and midpoints) on the parts named in ``tags``."""
+        parts = [self.boundary(t).ravel() for t in tags]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
 
 

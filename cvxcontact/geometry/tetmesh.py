@@ -71,6 +71,8 @@ class TetMesh(Frozen):
 
     dim = 3
     """Spatial dimension (a 2D :class:`~cvxcontact.geometry.mesh.Mesh` has 2)."""
+    cell = "tetra"
+    """The cell type (the key of the spaces, :func:`cvxcontact.fem.space.space`)."""
 
     def __init__(self, points: ArrayLike, tets: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
-from ..geometry.quadratic import P2Nodes, P2TetNodes
+from ..fem.space import space
 from ..solution.solution import force_unit, pair_label
 
 if TYPE_CHECKING:
@@ -86,8 +86,9 @@ def _sym6(xx, yy, zz, xy):
 
 
 def body_mesh(body, u, phi, nodes=None):
-    """A meshio.Mesh of one body with point and cell data named with units (``nodes``: the P2 nodes of a
-    P2 solution, written as quadratic ``triangle6`` cells, cell data at the centroids)."""
+    """A meshio.Mesh of one body with point and cell data named with units (``nodes``: the nodes of a
+    degree-2 solution; the cells are the space's VTK cells: ``triangle``/``triangle6``, ``quad`` (VTK_QUAD, 9)
+    /``quad9`` (VTK_BIQUADRATIC_QUAD, 28); cell data at the cells' centres)."""
     import meshio
 
     if getattr(body, "dim", 2) == 3:
@@ -107,7 +108,7 @@ def body_mesh(body, u, phi, nodes=None):
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
         cell_data["electric displacement [C/m^2]"] = _pad3(f.electric_displacement)
-    cells = [("triangle", body.mesh.triangles)] if nodes is None else [("triangle6", nodes.triangles)]
+    cells = space(1 if nodes is None else 2, body.mesh.cell).vtk_cells(body, nodes)
     points = body.mesh.points if nodes is None else nodes.points
     return meshio.Mesh(_pad3(points), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
@@ -117,22 +118,9 @@ _VTK_ORDER = np.array([0, 1, 2, 5, 3, 4])
 """fem.fields' 3D component order (xx, yy, zz, yz, xz, xy) -> VTK's symmetric tensor order (xx, yy, zz, xy, yz,
 xz)."""
 _COMPONENTS_3D = ("xx", "yy", "zz", "yz", "xz", "xy")
-_VTK_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
-"""The edges of VTK's tetra10 mid-nodes, in order (gmsh's order swaps the last two)."""
-
-
-def vtk_tetra10(tets10) -> np.ndarray:
-    """(m, 10) P2 tetrahedra in VTK's tetra10 node order, from the order of
-    :class:`~cvxcontact.geometry.quadratic.P2TetNodes` (the edges ``geometry.tetmesh.EDGES``)."""
-    from ..geometry.tetmesh import EDGES
-
-    ours = [tuple(e) for e in np.asarray(EDGES).tolist()]
-    return np.asarray(tets10)[:, [0, 1, 2, 3] + [4 + ours.index(e) for e in _VTK_EDGES]]
-
-
 def _solid_mesh(body, u, phi, nodes=None):
     """A meshio.Mesh of one tetrahedral body: ``tetra`` cells (P1), or ``tetra10`` cells for the P2 nodes
-    ``nodes`` (:class:`~cvxcontact.geometry.quadratic.P2TetNodes`, written in VTK's node order, :func:`vtk_tetra10`;
+    ``nodes`` (:class:`~cvxcontact.geometry.quadratic.P2TetNodes`, written in VTK's node order by the space;
     cell data at the centroids). Point data ``displacement [m]`` (n, 3) and ``electric potential [V]``; cell data ``strain [-]``
     and ``stress [Pa]`` (symmetric tensors in VTK order xx, yy, zz, xy, yz, xz; tensor shears), their six
     components as named scalars, ``von Mises stress [Pa]``, ``electric field [V/m]`` and ``electric
@@ -151,7 +139,7 @@ def _solid_mesh(body, u, phi, nodes=None):
         point_data["electric potential [V]"] = np.asarray(phi, dtype=float)
         cell_data["electric field [V/m]"] = f.electric_field
         cell_data["electric displacement [C/m^2]"] = f.electric_displacement
-    cells = [("tetra", body.mesh.tets)] if nodes is None else [("tetra10", vtk_tetra10(nodes.tets10))]
+    cells = space(1 if nodes is None else 2, body.mesh.cell).vtk_cells(body, nodes)
     points = body.mesh.points if nodes is None else nodes.points
     return meshio.Mesh(np.asarray(points, dtype=float), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
@@ -305,8 +293,7 @@ def write_vtu(solution, out, stem="solution"):
     out = Path(out)
     paths = []
     for k, body in enumerate(solution.scene.bodies, start=1):
-        p2 = P2TetNodes if getattr(body, "dim", 2) == 3 else P2Nodes
-        nodes = p2(body.mesh) if getattr(solution, "degree", 1) == 2 else None
+        nodes = space(getattr(solution, "degree", 1), body.mesh.cell).nodes(body)
         mesh = body_mesh(body, solution.u[k - 1], solution.phi[k - 1], nodes)
         est = getattr(solution, "estimate", None)
         if est is not None:                    # eta_T per cell (docs/accuracy.md), in the estimate's unit

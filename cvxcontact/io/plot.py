@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..fem.fields import body_fields
-from ..geometry.quadratic import P2Nodes
+from ..fem.space import space
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -70,7 +70,7 @@ def _field_values(solution, field):
     p2 = getattr(solution, "degree", 1) == 2
     if field == "potential":
         return [p if p is None or not p2 else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
-    return [body_fields(b, u, p, P2Nodes(b.mesh) if p2 else None).von_mises
+    return [body_fields(b, u, p, space(getattr(solution, "degree", 1), b.mesh.cell).nodes(b)).von_mises
             for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
 
 
@@ -191,7 +191,9 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
     mappable = None
     for body, u, v in zip(solution.scene.bodies, solution.u, values):
         p = body.mesh.points + k * u[:len(body.mesh.points)]       # P2: vertices first
-        tri = body.mesh.triangles
+        tri = getattr(body.mesh, "split", body.mesh).triangles     # quadrilaterals: drawn as their two triangles
+        if v is not None and len(v) != len(p) and len(v) != len(tri):
+            v = np.repeat(v, len(tri) // len(v))                    # a cell's value on each of its triangles
         if v is None:
             ax.tripcolor(p[:, 0], p[:, 1], tri, facecolors=np.zeros(len(tri)), cmap="Greys", vmin=0, vmax=4,
                          edgecolors="0.55", linewidth=0.2)
@@ -199,7 +201,10 @@ def plot_deformed(solution: Solution, field: str = "von_mises", magnify: float |
         kw = dict(shading="gouraud") if len(v) == len(p) else dict(facecolors=v, edgecolors="face")
         args = (v,) if len(v) == len(p) else ()
         mappable = ax.tripcolor(p[:, 0], p[:, 1], tri, *args, cmap="viridis", vmin=clim[0], vmax=clim[1], **kw)
-        ax.triplot(p[:, 0], p[:, 1], tri, color="k", linewidth=0.15, alpha=0.5)
+        from matplotlib.collections import PolyCollection
+
+        ax.add_collection(PolyCollection(p[body.mesh.cells], facecolors="none", edgecolors="k", linewidths=0.15,
+                                         alpha=0.5))                # the cells' sides (a quadrilateral's, not its cut)
     draw_obstacles(solution, ax, k)
     if mappable is not None and colorbar:
         fig.colorbar(mappable, ax=ax, label=name, shrink=0.85, format=eng(unit))

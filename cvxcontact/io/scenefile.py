@@ -41,8 +41,9 @@ names the file, the key and what was expected. Format (all SI units)::
     rotation = 0.0                            # material turned counter-clockwise, radians (poling axis)
     plane = "strain"                          # or "stress"
 
-Meshes may also be ``{ rectangle = {..., segments = { footprint = ["top", 0.25, 0.75] } } }``,
-``{ graded_block = { x, y, nx, ny, contact, beta, gamma, center } }`` or
+Meshes may also be ``{ rectangle = {..., segments = { footprint = ["top", 0.25, 0.75] } } }`` (``cell = "quad"``:
+quadrilaterals, Q1 and Q2 with ``degree``),
+``{ graded_block = { x, y, nx, ny, contact, beta, gamma, center, cell } }`` or
 ``{ half_disk = { radius, center, nr, nt, side } }`` (tags "flat", "arc").
 
 Contact pairs and rigid obstacles (any number of bodies; without ``[[contact]]`` tables the file
@@ -541,11 +542,11 @@ class _Context:
         try:
             if set(table) == {"rectangle"}:
                 spec = self.table(table["rectangle"], f"{key}.rectangle")
-                self.keys(spec, {"x", "y", "nx", "ny", "diagonal", "segments"}, f"{key}.rectangle")
+                self.keys(spec, {"x", "y", "nx", "ny", "diagonal", "segments", "cell"}, f"{key}.rectangle")
                 return rectangle(**spec)
             if set(table) == {"graded_block"}:
                 spec = self.table(table["graded_block"], f"{key}.graded_block")
-                self.keys(spec, {"x", "y", "nx", "ny", "contact", "beta", "gamma", "center", "segments"},
+                self.keys(spec, {"x", "y", "nx", "ny", "contact", "beta", "gamma", "center", "segments", "cell"},
                           f"{key}.graded_block")
                 return graded_block(**spec)
             if set(table) == {"half_disk"}:

@@ -124,7 +124,7 @@ class Model:
         self.tol = check_solve_parameters(condition, "full", tol, polish=polish, verbose=verbose)
         self.solver = check_solver(solver)
         self.options = check_solver_options(solver_options, self.solver)
-        discretisation = space(degree, scene.dim)
+        discretisation = space(degree, scene.cell)
         self.scene, self.condition, self.polish, self.verbose = scene, condition, polish, verbose
         t0 = time.perf_counter()
         self.problem = p = build_problem(scene, discretisation, condition, self.law)

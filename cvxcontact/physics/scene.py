@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
+from ..geometry.quadmesh import QuadMesh
 from ..geometry.tetmesh import TetMesh
 from .materials import Elastic, Piezoelectric
 from .loads import LOAD_FIELDS
@@ -83,8 +84,8 @@ class Body(Frozen):
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not isinstance(mesh, (Mesh, TetMesh)):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh or a cvxcontact.TetMesh, got {type(mesh).__name__}")
+        if not isinstance(mesh, (Mesh, QuadMesh, TetMesh)):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh, QuadMesh or TetMesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):
@@ -531,6 +532,10 @@ class Scene(Frozen):
         dims = [mesh_dim(b) for b in bodies]
         if len(set(dims)) > 1:
             raise SceneError(f"the bodies of a scene share one dimension; got {', '.join(f'{b.name}: {d}D' for b, d in zip(bodies, dims))}")
+        cells = [b.mesh.cell for b in bodies]
+        if len(set(cells)) > 1:       # one space per scene (fem/space.py): triangles and quadrilaterals not mixed yet
+            raise SceneError(f"the bodies of a scene share one cell type; got {', '.join(f'{b.name}: {c}' for b, c in zip(bodies, cells))}: "
+                             "mesh every body with the same cells (e.g. cc.rectangle(..., cell='quad') for all)")
         self._set(bodies=self._tuple("bodies", bodies), _given_gap=gap)
         if contacts is None:
             if len(bodies) != 2:
@@ -785,6 +790,12 @@ class Scene(Frozen):
     def dim(self) -> int:
         """2 (triangle meshes, plane strain or stress) or 3 (tetrahedral meshes)."""
         return mesh_dim(self.bodies[0])
+
+    @property
+    def cell(self) -> str:
+        """The cell type of the bodies' meshes ("triangle", "quad", "tetra"; the key of the spaces with the
+        degree, :func:`cvxcontact.fem.space.space`)."""
+        return self.bodies[0].mesh.cell
 
     @property
     def length(self) -> float:

@@ -44,6 +44,7 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
+from ..fem.space import space
 from ..geometry.mesh import _edge_table
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
@@ -82,6 +83,8 @@ def check_covered(scene, degree: int = 1, law=None) -> None:
     solve of ``scene`` with ``degree`` and the default contact ``law``; None if covered."""
     if scene.dim != 2:
         _refuse("3D (tetrahedra)")
+    if not space(degree, scene.cell).estimates:
+        _refuse(f"{scene.cell} cells")
     if degree != 1:
         _refuse("P2 elements (degree=2)")
     if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):

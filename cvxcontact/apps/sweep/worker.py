@@ -126,8 +126,12 @@ def arrays(sol) -> dict:
         if phi is not None:
             out[f"phi{k}"] = phi
         out[f"points{k}"] = body.mesh.points
-        out[f"{'triangles' if body.mesh.dim == 2 else 'tetrahedra'}{k}"] = body.mesh.cells
+        out[f"{CELL_ARRAYS[body.mesh.cell]}{k}"] = body.mesh.cells
     return out
+
+
+CELL_ARRAYS = {"triangle": "triangles", "quad": "quads", "tetra": "tetrahedra"}
+"""The name of a body's cell array in a case's arrays, by the mesh's cell type (``mesh.cell``)."""
 
 
 def problem_data(spec, condition):

@@ -1,0 +1,162 @@
+"""Quadrilateral Lagrange elements Q1 (4 nodes) and Q2 (9 nodes) on the bilinear map of each cell (SI units).
+
+Reference cell [-1, 1]^2, nodes in the gmsh quad / quad9 order (VTK_QUAD, VTK_BIQUADRATIC_QUAD): the corners
+(-1, -1), (1, -1), (1, 1), (-1, 1), then (Q2) the side midpoints (0, -1), (1, 0), (0, 1), (-1, 0) and the centre
+(0, 0). The shape functions are tensor products of the 1D Lagrange polynomials on {-1, 1} (Q1) or {-1, 0, 1}
+(Q2). The geometry is the bilinear map x(xi) = sum_i X_i N1_i(xi) of the cell's corners X_i for both (Q2 is
+subparametric: its edge and centre nodes are the images of the reference ones, straight sides), with Jacobian
+J = dx/dxi; the physical gradients are J^-T grad_xi N and the measure det J dxi.
+
+Why the 9-node Q2 and not the 8-node serendipity element: the bilinear map of a non-parallelogram cell keeps
+every polynomial of total degree 2 in x inside the mapped 9-node space (it is Q2 in xi, and a quadratic in x of
+a bilinear x(xi) is of degree at most 2 in each of xi, eta), while the mapped serendipity space loses some of
+them, and with them the O(h^2) energy-norm rate, on distorted cells (Arnold, Boffi & Falk, Math. Comp. 71,
+2002); its trace on a side is the same 3-node quadratic as a P2 triangle's (the contact lines need no change);
+its centre node couples only to its own cell, so a condensation can eliminate it element by element.
+
+Quadrature: Gauss-Legendre n x n, n = degree + 1 (2 x 2 for Q1, 3 x 3 for Q2): exact for the stiffness on
+parallelograms and for the consistent loads of affine (Q1) or quadratic (Q2) densities on parallelograms, and
+exact for the patch tests on any convex cell (the integrand of a(u, v) with a polynomial u in the space times
+det J is a polynomial of degree at most 2 n - 1 in each variable).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .assembly import BodySystem, accumulate, lifted
+
+__all__ = ["QuadElement", "Q1_ELEMENT", "Q2_ELEMENT", "gauss_square"]
+
+
+def _lagrange_1d(nodes, t):
+    """(values (..., p), derivatives (..., p)) of the 1D Lagrange polynomials on ``nodes`` (p,) at ``t`` (...)."""
+    t = np.asarray(t, dtype=float)[..., None]
+    nodes = np.asarray(nodes, dtype=float)
+    p = len(nodes)
+    value = np.ones(t.shape[:-1] + (p,))
+    slope = np.zeros(t.shape[:-1] + (p,))
+    for i in range(p):
+        others = [j for j in range(p) if j != i]
+        den = np.prod([nodes[i] - nodes[j] for j in others])
+        factors = [t[..., 0] - nodes[j] for j in others]
+        value[..., i] = np.prod(factors, axis=0) / den
+        slope[..., i] = sum(np.prod([f for m, f in enumerate(factors) if m != k], axis=0)
+                            for k in range(len(others))) / den
+    return value, slope
+
+
+def gauss_square(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(xi (n^2, 2), w (n^2,)): the n x n Gauss-Legendre rule on [-1, 1]^2 (weights summing to 4), exact for
+    polynomials of degree 2 n - 1 in each variable."""
+    t, w = np.polynomial.legendre.leggauss(n)
+    a, b = np.meshgrid(t, t, indexing="ij")
+    return np.column_stack([a.ravel(), b.ravel()]), np.outer(w, w).ravel()
+
+
+@dataclass(frozen=True)
+class QuadElement:
+    """A Lagrange element on the reference square (module docstring): ``degree`` 1 (4 nodes) or 2 (9 nodes)."""
+
+    degree: int
+
+    @cached_property
+    def reference(self) -> np.ndarray:
+        """(k, 2) the reference nodes in element order."""
+        corners = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+        if self.degree == 1:
+            return corners
+        return np.concatenate([corners, [[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, 0.0]]])
+
+    @cached_property
+    def _index(self) -> np.ndarray:
+        """(k, 2) each node's 1D node indices (into -1, [0,] 1 sorted) in xi and eta."""
+        line = np.linspace(-1.0, 1.0, self.degree + 1)
+        return np.searchsorted(line, self.reference)
+
+    @property
+    def rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (degree + 1)^2 Gauss rule of the stiffness and the loads."""
+        return gauss_square(self.degree + 1)
+
+    def shape(self, xi) -> np.ndarray:
+        """(..., k) the shape functions at reference points ``xi`` (..., 2)."""
+        return self.shape_derivatives(xi)[0]
+
+    def shape_derivatives(self, xi) -> tuple[np.ndarray, np.ndarray]:
+        """(N (..., k), dN/dxi (..., 2, k)) at reference points ``xi`` (..., 2)."""
+        xi = np.asarray(xi, dtype=float)
+        line = np.linspace(-1.0, 1.0, self.degree + 1)
+        va, da = _lagrange_1d(line, xi[..., 0])
+        vb, db = _lagrange_1d(line, xi[..., 1])
+        i, j = self._index[:, 0], self._index[:, 1]
+        N = va[..., i] * vb[..., j]
+        dN = np.stack([da[..., i] * vb[..., j], va[..., i] * db[..., j]], axis=-2)
+        return N, dN
+
+    def at(self, corners, xi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x (m, 2) m, G (m, 2, k) 1/m, det J (m,)) at the reference point ``xi`` (2,) of the cells with
+        corner coordinates ``corners`` (m, 4, 2): the point, the physical shape gradients, the Jacobian."""
+        N1, dN1 = Q1_ELEMENT.shape_derivatives(xi)                            # the bilinear map
+        J = np.einsum("mid,ai->mda", corners, dN1)                          # (m, 2, 2): dx_d / dxi_a
+        det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+        inv_T = np.stack([np.stack([J[:, 1, 1], -J[:, 1, 0]], -1), np.stack([-J[:, 0, 1], J[:, 0, 0]], -1)], 1)
+        inv_T = inv_T / det[:, None, None]                                   # J^-T
+        _, dN = self.shape_derivatives(xi)
+        return np.einsum("i,mid->md", N1, corners), inv_T @ dN, det
+
+    def points(self, mesh) -> list[tuple[np.ndarray, np.ndarray]]:
+        """[(G (m, 2, k), w (m,) m^2)] at the points of :attr:`rule` on every cell of ``mesh``: what
+        :func:`~cvxcontact.fem.assembly.assemble_points` integrates."""
+        corners = mesh.points[mesh.cells]
+        out = []
+        for xi, w in zip(*self.rule):
+            _, G, det = self.at(corners, xi)
+            out.append((G, w * det))
+        return out
+
+    def loads(self, body, matrices: BodySystem, nodes) -> BodySystem:
+        """``matrices`` with the consistent loads of ``body`` (SI): volume densities by :attr:`rule`, surface
+        densities on the boundary edges by the segments' rules of the same trace as P1 (2 nodes) or P2 (3)."""
+        from . import p2
+        from .assembly import _edge_load
+
+        mesh = body.mesh
+        held = mesh if nodes is None else nodes
+        cells, n = held.cells, len(held.points)
+        segment = (lambda tag, load, c: _edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
+            (lambda tag, load, c: p2._edge_load(nodes, nodes.boundary(tag), load, c))
+
+        def edges(tag, load, c):                                    # (n, c) whatever the segment rule returns
+            return np.reshape(segment(tag, load, c), (n, c))
+        f = self._volume(mesh, cells, body.body_force, 2, n)
+        for tag, load in body.traction.items():
+            f += edges(tag, load, 2)
+        q = None
+        if matrices.piezoelectric:
+            q = self._volume(mesh, cells, body.volume_charge, 1, n)[:, 0]
+            for tag, load in body.surface_charge.items():
+                q -= edges(tag, load, 1)[:, 0]
+        return lifted(body, matrices, f.ravel(), q, held)
+
+    def _volume(self, mesh, cells, load, ncomp, n) -> np.ndarray:
+        """(n, ncomp) consistent nodal load of a volume density over the cells."""
+        out = np.zeros((n, ncomp))
+        if not load.nonzero:
+            return out
+        corners = mesh.points[mesh.cells]
+        for xi, w in zip(*self.rule):
+            x, _, det = self.at(corners, xi)
+            val = np.asarray(load(x[:, 0], x[:, 1]), dtype=float).reshape(len(x), ncomp) * (w * det)[:, None]
+            N = self.shape(xi)
+            out += accumulate(cells.T.ravel(), (N[:, None, None] * val[None]).reshape(-1, ncomp), n)
+        return out
+
+
+Q1_ELEMENT = QuadElement(1)
+"""The bilinear 4-node element."""
+Q2_ELEMENT = QuadElement(2)
+"""The biquadratic 9-node element."""

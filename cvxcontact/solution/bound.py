@@ -44,7 +44,7 @@ import scipy.sparse.linalg as spla
 from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
-from ..geometry.mesh import _edge_table
+from ..geometry.facets import facets
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
 __all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
@@ -59,17 +59,12 @@ _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the s
 
 
 def _edges(mesh):
-    """Every edge of a triangle mesh once: (cells (k, 2) with -1 for a boundary edge's missing neighbour, the
-    local edge index i in each (the edge from vertex i to vertex i + 1), vertex pair (k, 2) sorted; the keys
-    a n + b of the pairs ascending)."""
-    n = len(mesh.points)
-    _, keys_s, order, start, count = _edge_table(mesh.triangles.astype(np.int64), n)   # row 3 t + i: i -> i+1
-    first = order[start]
-    second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
-    cells = np.column_stack([first // 3, np.where(second >= 0, second // 3, -1)])
-    local = np.column_stack([first % 3, np.where(second >= 0, second % 3, -1)])
-    pairs = np.column_stack([keys_s[start] // n, keys_s[start] % n])
-    return cells, local, pairs
+    """Every edge of a triangle mesh once, from the facet table (:func:`~cvxcontact.geometry.facets.facets`):
+    (cells (k, 2) with -1 for a boundary edge's missing neighbour, the local edge index i in each (the edge
+    from vertex i to vertex i + 1, opposite vertex i + 2), vertex pair (k, 2) sorted; the keys a n + b of the
+    pairs ascending)."""
+    owners, opposite, pairs, _ = facets(mesh.triangles, len(mesh.points))
+    return owners, np.where(owners >= 0, (opposite + 1) % 3, -1), pairs
 
 
 def _refuse(what: str):

@@ -32,6 +32,18 @@ for a convex g), so d . v <= g on every edge, and
 
     |||u - u_h||| <= |||u - v||| + |||w|||   (the bound reported).
 
+A piezoelectric body (docs/accuracy.md, "Piezoelectric bodies"): the coupled energy norm |||(e_u, e_phi)|||^2 =
+a(e_u, e_u) + b(e_phi, e_phi) (the skew coupling cancels), the coupled law sigma = c eps + e^T grad phi,
+D = e eps - kappa grad phi, and an equilibrated electric displacement D~ (div D~ = q0, D~ . n = q2 on charged
+edges, 0 on the other non-electrode edges, total flux -Q through each floating electrode) give, for v in K,
+
+    |||(u - v, phi - phi_h)|||^2 <= || c^{-1/2} (tau - sigma(v, phi_h)) ||^2
+                                   + || kappa^{-1/2} (D~ - D(v, phi_h)) ||^2 + 2 int_{Gamma_3} p (g - d . v)   (PS-e)
+
+(the dual of the energy norm is block diagonal: the coupling enters through sigma(v, phi_h) and D(v, phi_h)).
+tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field closest to D(v, phi_h) in
+|| kappa^{-1/2} . ||: one global sparse solve over the edge fluxes.
+
 Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
 """
 
@@ -47,10 +59,11 @@ from ..fem.assembly import gradients, strain_matrix
 from ..geometry.facets import facets
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
-__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
+__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_displacement", "equilibrated_stress"]
 
-COVERED = ("2D P1, one elastic body against fixed rigid obstacles whose rows keep one direction (a plane, or a "
-           "curved obstacle with distance='ray'), the Signorini law, a constant body force and constant tractions")
+COVERED = ("2D P1, one elastic or piezoelectric body against fixed rigid obstacles whose rows keep one direction "
+           "(a plane, or a curved obstacle with distance='ray'), the Signorini law, a constant body force and "
+           "constant tractions; constant volume and surface charges, grounded, driven and floating electrodes")
 """What :func:`error_bound` covers."""
 
 _GAUSS5 = np.polynomial.legendre.leggauss(5)
@@ -165,6 +178,16 @@ def equilibrated_stress(sol) -> tuple[np.ndarray, np.ndarray]:
     return built["tau"].reshape(-1, 3, 3), built["v"]
 
 
+def equilibrated_displacement(sol) -> np.ndarray:
+    """The equilibrated electric displacement D~ of ``sol``'s piezoelectric body (docs/accuracy.md,
+    "Piezoelectric bodies"): (m, 3, 2) C/m^2 at the vertices of every triangle, linear in between (a
+    Raviart-Thomas field). UnsupportedError for a case not covered (:data:`COVERED`) or an elastic body."""
+    if not sol.scene.bodies[0].piezoelectric:
+        raise UnsupportedError("equilibrated_displacement: the body is elastic (no electric displacement); "
+                               "give a solution of a piezoelectric body")
+    return _construct(sol)["D"]
+
+
 def error_bound(sol) -> ErrorEstimate:
     """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring): an
     :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
@@ -275,8 +298,8 @@ def _construct(sol) -> dict:
     built = dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, phi_h=phi_h,
                  contacts=contacts, residual=float(residual / stress_scale), electric=np.zeros(m))
     if body.piezoelectric:
-        flux, electric, residual_e = _equilibrated_flux(sol, body, D_v)
-        built.update(flux=flux, electric=electric, residual=max(built["residual"], residual_e))
+        D_vertices, electric, residual_e = _equilibrated_flux(sol, body, D_v)
+        built.update(D=D_vertices, electric=electric, residual=max(built["residual"], residual_e))
     return built
 
 
@@ -461,7 +484,8 @@ def _equilibrated_flux(sol, body, D_v):
         sign[owners[has, j], opposite[has, j]] = s_
     # the RT0 basis of flux 1 through edge i: b_i(x) = sign_i (x - p_i) / (2 |T|), at the edge midpoints
     P = p[tri]                                                                       # (m, 3, 2)
-    area = 0.5 * np.abs(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
     mid = 0.5 * (np.roll(P, -1, axis=1) + np.roll(P, -2, axis=1))                   # midpoint opposite vertex q
     B = sign[:, None, :, None] * (mid[:, :, None, :] - P[:, None, :, :]) / (2.0 * area)[:, None, None, None]
     # exact for the quadratic integrands: int_T f = |T| / 3 sum over the edge midpoints
@@ -511,7 +535,9 @@ def _equilibrated_flux(sol, body, D_v):
     if not residual <= _EQUILIBRIUM_TOL:
         raise SolverError(f"the equilibrated electric displacement satisfies its conditions only to {residual:.3g} "
                           f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
-    return F, electric, residual
+    D_vertices = np.einsum("mi,mjid->mjd", sign * F[edge],
+                           (P[:, :, None, :] - P[:, None, :, :]) / (2.0 * area)[:, None, None, None])
+    return D_vertices, electric, residual
 
 
 def _constrained_minimum(M, g, C, c, steps: int = 30):

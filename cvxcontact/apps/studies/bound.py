@@ -19,8 +19,8 @@ from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from ...solution.bound import error_bound
-from .common import Timer, markdown_table, solve_quietly, write_csv, write_text
-from .estimate import ALU, LEVELS, REFERENCE, refined, true_error
+from .common import Timer, markdown_table, write_csv, write_text
+from .estimate import ALU, LEVELS, REFERENCE, against_reference
 
 
 def circle_scene(distance: str = "ray"):
@@ -71,34 +71,26 @@ SCENES = {
 """name -> (scene builder, solve keywords)."""
 
 
+def measure_bound(sol, err: float, ref) -> tuple[dict, str]:
+    """The bound's columns of a level (:func:`.estimate.against_reference`): the bound and its parts, the true
+    error, effectivity (bound / true error), the residual estimate's effectivity beside it, the reference's
+    residual estimate, the bound's cost over the solve's."""
+    t0 = time.perf_counter()
+    b = error_bound(sol)
+    bound_s = time.perf_counter() - t0
+    solve_s = sum(v for k, v in sol.timings.items() if k != "estimate")
+    columns = dict(ok=sol.ok, bound=b.absolute, relative=b.relative, stress=np.sqrt(b.parts["stress"]),
+                   electric=np.sqrt(b.parts["electric"]),
+                   complementarity=np.sqrt(max(b.parts["complementarity"], 0.0)),
+                   correction=b.parts["correction"], equilibrium=b.parts["equilibrium residual"],
+                   true_error=err, effectivity=b.absolute / err, residual_effectivity=sol.estimate.absolute / err,
+                   reference_estimate=ref.estimate.absolute, cost=bound_s / solve_s)
+    return columns, f"bound {b.absolute:.4g}, true error {err:.4g}, effectivity {b.absolute / err:.3g}"
+
+
 def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=None) -> list[dict]:
-    """One row per level: cells, the bound and its parts, the true error, effectivity (bound / true error), the
-    residual estimate's effectivity beside it, the reference's residual estimate, the bound's cost over the
-    solve's."""
-    base = build()
-    ref_scene, _ = refined(base, reference)
-    ref = solve_quietly(ref_scene, **options)
-    rows = []
-    for level in levels:
-        scene, _ = refined(base, level)
-        sol = solve_quietly(scene, **options)
-        parents = [np.repeat(np.arange(len(b.mesh.triangles)), 4 ** (reference - level)) for b in scene.bodies]
-        err = true_error(sol, ref, parents)
-        t0 = time.perf_counter()
-        b = error_bound(sol)
-        bound_s = time.perf_counter() - t0
-        solve_s = sum(v for k, v in sol.timings.items() if k != "estimate")
-        rows.append(dict(level=level, cells=sum(len(x.mesh.triangles) for x in scene.bodies), ok=sol.ok,
-                         bound=b.absolute, relative=b.relative, stress=np.sqrt(b.parts["stress"]),
-                         electric=np.sqrt(b.parts["electric"]),
-                         complementarity=np.sqrt(max(b.parts["complementarity"], 0.0)),
-                         correction=b.parts["correction"], equilibrium=b.parts["equilibrium residual"],
-                         true_error=err, effectivity=b.absolute / err,
-                         residual_effectivity=sol.estimate.absolute / err,
-                         reference_estimate=ref.estimate.absolute, cost=bound_s / solve_s))
-        if progress:
-            progress(f"  level {level}: bound {b.absolute:.4g}, true error {err:.4g}, effectivity {b.absolute / err:.3g}")
-    return rows
+    """One row per level (:func:`.estimate.against_reference`, :func:`measure_bound`)."""
+    return against_reference(build, options, levels, reference, measure_bound, progress)
 
 
 def run(out, quick: bool = False, progress=None) -> dict:
@@ -124,7 +116,8 @@ def run(out, quick: bool = False, progress=None) -> dict:
             f"reference at level {reference} (uniform refinement, nested meshes). Bound and true error in sqrt(J/m) "
             "(the coupled energy norm of (u, phi) for the piezoelectric scenes); `stress`, `electric`, "
             "`complementarity`: the square roots of the bound's three terms (`electric` 0 on elastic bodies), "
-            "`correction`: |||w||| of the feasible displacement; `equilibrium`: the relative residual of the stress's conditions; "
+            "`correction`: |||w||| of the feasible displacement; `equilibrium`: the relative residual of the "
+            "stress's (and the electric displacement's) conditions; "
             "`residual_effectivity`: the residual estimate's, for comparison; `reference_estimate`: the reference's "
             "residual estimate (what the true errors are uncertain by); `cost`: the bound's seconds over the "
             "solve's.\n\n" + markdown_table(table, columns, formats))

@@ -466,9 +466,9 @@ def _equilibrated_flux(sol, body, D_v):
     || kappa^{-1/2} (.) ||, subject to div D~ = q0 on every triangle, D~ . n = q2 on the charged edges, 0 on
     the other edges that are no electrode, and on each floating electrode the total flux int D~ . n = -Q (its
     charge; D~ . n free along it: phi - phi_h is one constant there); free on grounded and driven electrodes.
-    One global sparse saddle-point solve over the edge fluxes (C/m). Returns (the fluxes (k,) through the
-    edges of :func:`_edges`, oriented outward of their first cell; per triangle || kappa^{-1/2} (D~ - D_v)
-    ||_T^2 (J/m); the relative residual of the conditions)."""
+    One global sparse saddle-point solve over the edge fluxes (C/m). Returns (D~ (m, 3, 2) at the vertices of
+    every triangle, C/m^2, linear in between; per triangle || kappa^{-1/2} (D~ - D_v) ||_T^2 (J/m); the
+    relative residual of the conditions)."""
     mesh = body.mesh
     p, tri = mesh.points, mesh.triangles
     m, n = len(tri), len(p)

@@ -495,7 +495,8 @@ def _equilibrated_flux(sol, body, D_v):
                       shape=(k, k))
     g = np.bincount(edge.ravel(), gloc.ravel(), minlength=k)
     # the conditions C F = c: the divergence on each triangle, the boundary fluxes, the floating charges
-    rows, cols, vals, rhs = [np.repeat(np.arange(m), 3)], [edge.ravel()], [sign.ravel()], [body.volume_charge.value * area]
+    rows, cols, vals = [np.repeat(np.arange(m), 3)], [edge.ravel()], [sign.ravel()]
+    rhs = [body.volume_charge.value * area]
     count = m
     boundary = np.flatnonzero(owners[:, 1] < 0)
     role = dict.fromkeys(boundary.tolist(), 0.0)                     # edge -> prescribed flux; free electrodes out

@@ -19,6 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Frozen, FrozenMap, MeshError
+from .facets import facet_keys
 from .mesh import _check_nodes, _frozen, _renumbering
 
 __all__ = ["TetMesh"]
@@ -207,7 +208,7 @@ class TetMesh(Frozen):
         n = len(self.points)
         if faces.min() < 0 or faces.max() >= n:
             raise MeshError(f"boundary part {tag!r} refers to nodes outside 0..{n - 1}")
-        keys = _face_keys(np.sort(faces, axis=1), n)
+        keys = facet_keys(np.sort(faces, axis=1), n)
         where = np.minimum(np.searchsorted(self._boundary_keys, keys), len(self._boundary_keys) - 1)
         bad = self._boundary_keys[where] != keys
         if bad.any():
@@ -275,12 +276,6 @@ def _orient(points, tets):
     return tets
 
 
-def _face_keys(sorted_faces, n):
-    """One int64 key per face (node triples sorted ascending; n^3 < 2^63)."""
-    f = sorted_faces.astype(np.int64)
-    return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
-
-
 def _face_cross(points, faces):
     p0 = points[faces[:, 0]]
     return np.cross(points[faces[:, 1]] - p0, points[faces[:, 2]] - p0)
@@ -325,7 +320,7 @@ def _check_embedding(points, tets):
     faces = tets[:, local].reshape(-1, 3)                                     # (4m, 3), row 4 t + j
     order_in_face = np.argsort(faces, axis=1)
     sorted_faces = np.take_along_axis(faces, order_in_face, axis=1)
-    keys = _face_keys(sorted_faces, n)
+    keys = facet_keys(sorted_faces, n)
     order = np.argsort(keys, kind="stable")
     skeys = keys[order]
     start = np.flatnonzero(np.r_[True, skeys[1:] != skeys[:-1]])
@@ -607,7 +602,7 @@ def read_tets(m, path, boundaries: Mapping[str, ArrayLike] | None = None,
         own = TetMesh(points, renumber[tets])
         for tag, f in list(faces.items()):
             inside = (renumber[f] >= 0).all(axis=1)
-            k = _face_keys(np.sort(renumber[f[inside]], axis=1), len(used))
+            k = facet_keys(np.sort(renumber[f[inside]], axis=1), len(used))
             keep = np.isin(k, own._boundary_keys)
             if keep.any():
                 faces[tag] = f[inside][keep]

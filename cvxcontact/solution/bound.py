@@ -32,6 +32,18 @@ for a convex g), so d . v <= g on every edge, and
 
     |||u - u_h||| <= |||u - v||| + |||w|||   (the bound reported).
 
+A piezoelectric body (docs/accuracy.md, "Piezoelectric bodies"): the coupled energy norm |||(e_u, e_phi)|||^2 =
+a(e_u, e_u) + b(e_phi, e_phi) (the skew coupling cancels), the coupled law sigma = c eps + e^T grad phi,
+D = e eps - kappa grad phi, and an equilibrated electric displacement D~ (div D~ = q0, D~ . n = q2 on charged
+edges, 0 on the other non-electrode edges, total flux -Q through each floating electrode) give, for v in K,
+
+    |||(u - v, phi - phi_h)|||^2 <= || c^{-1/2} (tau - sigma(v, phi_h)) ||^2
+                                   + || kappa^{-1/2} (D~ - D(v, phi_h)) ||^2 + 2 int_{Gamma_3} p (g - d . v)   (PS-e)
+
+(the dual of the energy norm is block diagonal: the coupling enters through sigma(v, phi_h) and D(v, phi_h)).
+tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field closest to D(v, phi_h) in
+|| kappa^{-1/2} . ||: one global sparse solve over the edge fluxes.
+
 Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
 """
 
@@ -45,13 +57,14 @@ from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
 from ..fem.space import space
-from ..geometry.mesh import _edge_table
+from ..geometry.facets import facets
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
-__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_stress"]
+__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_displacement", "equilibrated_stress"]
 
-COVERED = ("2D P1, one elastic body against fixed rigid obstacles whose rows keep one direction (a plane, or a "
-           "curved obstacle with distance='ray'), the Signorini law, a constant body force and constant tractions")
+COVERED = ("2D P1, one elastic or piezoelectric body against fixed rigid obstacles whose rows keep one direction "
+           "(a plane, or a curved obstacle with distance='ray'), the Signorini law, a constant body force and "
+           "constant tractions; constant volume and surface charges, grounded, driven and floating electrodes")
 """What :func:`error_bound` covers."""
 
 _GAUSS5 = np.polynomial.legendre.leggauss(5)
@@ -60,17 +73,12 @@ _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the s
 
 
 def _edges(mesh):
-    """Every edge of a triangle mesh once: (cells (k, 2) with -1 for a boundary edge's missing neighbour, the
-    local edge index i in each (the edge from vertex i to vertex i + 1), vertex pair (k, 2) sorted; the keys
-    a n + b of the pairs ascending)."""
-    n = len(mesh.points)
-    _, keys_s, order, start, count = _edge_table(mesh.triangles.astype(np.int64), n)   # row 3 t + i: i -> i+1
-    first = order[start]
-    second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
-    cells = np.column_stack([first // 3, np.where(second >= 0, second // 3, -1)])
-    local = np.column_stack([first % 3, np.where(second >= 0, second % 3, -1)])
-    pairs = np.column_stack([keys_s[start] // n, keys_s[start] % n])
-    return cells, local, pairs
+    """Every edge of a triangle mesh once, from the facet table (:func:`~cvxcontact.geometry.facets.facets`):
+    (cells (k, 2) with -1 for a boundary edge's missing neighbour, the local edge index i in each (the edge
+    from vertex i to vertex i + 1, opposite vertex i + 2), vertex pair (k, 2) sorted; the keys a n + b of the
+    pairs ascending)."""
+    owners, opposite, pairs, _ = facets(mesh.triangles, len(mesh.points))
+    return owners, np.where(owners >= 0, (opposite + 1) % 3, -1), pairs
 
 
 def _refuse(what: str):
@@ -90,8 +98,9 @@ def check_covered(scene, degree: int = 1, law=None) -> None:
     if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):
         _refuse("pairs of deformable bodies")
     body = scene.bodies[0]
-    if body.piezoelectric:
-        _refuse("piezoelectric bodies (the electric displacement is not equilibrated yet)")
+    if body.piezoelectric and (callable(body.volume_charge.value)
+                               or any(callable(q.value) for q in body.surface_charge.values())):
+        _refuse("volume or surface charges given as functions (give constants)")
     if getattr(law, "compliant", False) or any(getattr(c.law, "compliant", False) for c in scene.contacts):
         _refuse("normal compliance")
     if any(c.other.force is not None for c in scene.contacts):
@@ -172,6 +181,16 @@ def equilibrated_stress(sol) -> tuple[np.ndarray, np.ndarray]:
     return built["tau"].reshape(-1, 3, 3), built["v"]
 
 
+def equilibrated_displacement(sol) -> np.ndarray:
+    """The equilibrated electric displacement D~ of ``sol``'s piezoelectric body (docs/accuracy.md,
+    "Piezoelectric bodies"): (m, 3, 2) C/m^2 at the vertices of every triangle, linear in between (a
+    Raviart-Thomas field). UnsupportedError for a case not covered (:data:`COVERED`) or an elastic body."""
+    if not sol.scene.bodies[0].piezoelectric:
+        raise UnsupportedError("equilibrated_displacement: the body is elastic (no electric displacement); "
+                               "give a solution of a piezoelectric body")
+    return _construct(sol)["D"]
+
+
 def error_bound(sol) -> ErrorEstimate:
     """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring): an
     :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
@@ -189,12 +208,13 @@ def error_bound(sol) -> ErrorEstimate:
     comp = np.zeros(m)
     for cd in b["contacts"]:
         np.add.at(comp, cd["cells"], cd["term"](b["v"]))
-    eta2 = stress + comp
-    correction = float(np.sqrt(max(cell_energies(body, b["w"], None, 1).sum(), 0.0)))
+    eta2 = stress + b["electric"] + comp
+    zero = None if b["phi_h"] is None else np.zeros_like(b["phi_h"])
+    correction = float(np.sqrt(max(cell_energies(body, b["w"], zero, 1).sum(), 0.0)))
     total = float(np.sqrt(max(eta2.sum(), 0.0))) + correction
-    norm = float(np.sqrt(max(cell_energies(body, b["u_h"], None, 1).sum(), 0.0)))
-    parts = {"stress": float(stress.sum()), "complementarity": float(comp.sum()), "correction": correction,
-             "equilibrium residual": b["residual"]}
+    norm = float(np.sqrt(max(cell_energies(body, b["u_h"], b["phi_h"], 1).sum(), 0.0)))
+    parts = {"stress": float(stress.sum()), "electric": float(b["electric"].sum()), "complementarity": float(comp.sum()),
+             "correction": correction, "equilibrium residual": b["residual"]}
     return ErrorEstimate(absolute=total, norm=norm, indicators=(_read_only(np.sqrt(np.maximum(eta2, 0.0))),),
                          parts=parts, guaranteed=True, kind="equilibrated")
 
@@ -225,6 +245,13 @@ def _construct(sol) -> dict:
     _, cell_grad = gradients(p_pts, tri)
     eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri].reshape(m, -1))     # (m, 3) Voigt
     sigma_v = eps_v @ c_mat.T                                                            # (m, 3) Pa
+    phi_h = D_v = None
+    if body.piezoelectric:                     # the coupled law: sigma = c eps + e^T grad phi, D = e eps - kappa grad phi
+        _, e_mat, kappa = body.material.tensors(2)
+        phi_h = np.asarray(sol.phi[0], dtype=float)
+        gphi = np.einsum("mdj,mj->md", cell_grad, phi_h[tri])                          # (m, 2) V/m
+        sigma_v = sigma_v + gphi @ e_mat
+        D_v = eps_v @ e_mat.T - gphi @ kappa.T                                           # (m, 2) C/m^2
     tau0 = np.broadcast_to(np.repeat(sigma_v, 3, axis=0)[:, None, :], (3 * m, 3, 3)).ravel()
 
     rows = _Rows()
@@ -271,8 +298,12 @@ def _construct(sol) -> dict:
     if not residual <= _EQUILIBRIUM_TOL * stress_scale:
         raise SolverError(f"the equilibrated stress satisfies its conditions only to {residual / stress_scale:.3g} "
                           f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
-    return dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, contacts=contacts,
-                residual=float(residual / stress_scale))
+    built = dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, phi_h=phi_h,
+                 contacts=contacts, residual=float(residual / stress_scale), electric=np.zeros(m))
+    if body.piezoelectric:
+        D_vertices, electric, residual_e = _equilibrated_flux(sol, body, D_v)
+        built.update(D=D_vertices, electric=electric, residual=max(built["residual"], residual_e))
+    return built
 
 
 def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
@@ -427,3 +458,115 @@ def _check_correction(body, w):
         hit = np.intersect1d(moved, mesh.boundary(tag))
         if len(hit) and np.abs(w[hit] @ n).max() > 0:
             _refuse(f"a contact part whose admissible correction moves node {hit[0]} across the roller {tag!r}")
+
+
+# ---------------------------------------------------------------------------------------------- the flux
+
+
+def _equilibrated_flux(sol, body, D_v):
+    """The equilibrated electric displacement of a piezoelectric body (docs/accuracy.md, "Piezoelectric
+    bodies"): the Raviart-Thomas (RT0) field D~ closest to the solution's D_v = e eps(v) - kappa grad phi_h in
+    || kappa^{-1/2} (.) ||, subject to div D~ = q0 on every triangle, D~ . n = q2 on the charged edges, 0 on
+    the other edges that are no electrode, and on each floating electrode the total flux int D~ . n = -Q (its
+    charge; D~ . n free along it: phi - phi_h is one constant there); free on grounded and driven electrodes.
+    One global sparse saddle-point solve over the edge fluxes (C/m). Returns (D~ (m, 3, 2) at the vertices of
+    every triangle, C/m^2, linear in between; per triangle || kappa^{-1/2} (D~ - D_v) ||_T^2 (J/m); the
+    relative residual of the conditions)."""
+    mesh = body.mesh
+    p, tri = mesh.points, mesh.triangles
+    m, n = len(tri), len(p)
+    kappa_inv = np.linalg.inv(body.material.tensors(2)[2])
+    owners, opposite, pairs, key = facets(tri, n)
+    k = len(key)
+    # the edge opposite local vertex i of each triangle, and its orientation (+1: outward of the triangle)
+    edge = np.zeros((m, 3), dtype=np.int64)
+    sign = np.zeros((m, 3))
+    for j, s_ in ((0, 1.0), (1, -1.0)):
+        has = owners[:, j] >= 0
+        edge[owners[has, j], opposite[has, j]] = np.flatnonzero(has)
+        sign[owners[has, j], opposite[has, j]] = s_
+    # the RT0 basis of flux 1 through edge i: b_i(x) = sign_i (x - p_i) / (2 |T|), at the edge midpoints
+    P = p[tri]                                                                       # (m, 3, 2)
+    e1, e2 = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    mid = 0.5 * (np.roll(P, -1, axis=1) + np.roll(P, -2, axis=1))                   # midpoint opposite vertex q
+    B = sign[:, None, :, None] * (mid[:, :, None, :] - P[:, None, :, :]) / (2.0 * area)[:, None, None, None]
+    # exact for the quadratic integrands: int_T f = |T| / 3 sum over the edge midpoints
+    Mloc = (area / 3.0)[:, None, None] * np.einsum("mqid,de,mqje->mij", B, kappa_inv, B)
+    gloc = (area / 3.0)[:, None] * np.einsum("mqid,de,me->mi", B, kappa_inv, D_v)
+    M = sp.csr_matrix((Mloc.ravel(), (np.repeat(edge, 3, axis=1).ravel(), np.tile(edge, (1, 3)).ravel())),
+                      shape=(k, k))
+    g = np.bincount(edge.ravel(), gloc.ravel(), minlength=k)
+    # the conditions C F = c: the divergence on each triangle, the boundary fluxes, the floating charges
+    rows, cols, vals = [np.repeat(np.arange(m), 3)], [edge.ravel()], [sign.ravel()]
+    rhs = [body.volume_charge.value * area]
+    count = m
+    boundary = np.flatnonzero(owners[:, 1] < 0)
+    role = dict.fromkeys(boundary.tolist(), 0.0)                     # edge -> prescribed flux; free electrodes out
+    length = np.linalg.norm(p[pairs[:, 1]] - p[pairs[:, 0]], axis=1)
+
+    def edges_of(tag):
+        e = np.sort(mesh.boundary(tag), axis=1)
+        return np.searchsorted(key, e[:, 0].astype(np.int64) * n + e[:, 1])
+
+    for tag, q2 in body.surface_charge.items():
+        role.update({int(i): float(q2.value) * length[i] for i in edges_of(tag)})
+    for tag in [*body.grounded, *body.potential, *body.floating]:
+        for i in edges_of(tag):
+            role.pop(int(i), None)
+    fixed = np.array(sorted(role), dtype=np.int64)
+    rows.append(count + np.arange(len(fixed)))
+    cols.append(fixed)
+    vals.append(np.ones(len(fixed)))
+    rhs.append(np.array([role[i] for i in fixed.tolist()]))
+    count += len(fixed)
+    for tag, charge in body.floating.items():
+        e = edges_of(tag)
+        rows.append(np.full(len(e), count))
+        cols.append(e)
+        vals.append(np.ones(len(e)))
+        rhs.append(np.array([-float(charge)]))
+        count += 1
+    C = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(count, k))
+    c = np.concatenate(rhs)
+    F = _constrained_minimum(M, g, C, c)
+    D_at = np.einsum("mqid,mi->mqd", B, F[edge])                                       # D~ at the midpoints
+    diff = D_at - D_v[:, None, :]
+    electric = (area / 3.0) * np.einsum("mqd,de,mqe->m", diff, kappa_inv, diff)
+    scale = max(np.abs(c).max(initial=0.0), (np.abs(D_v).max() + np.abs(D_at).max()) * length.max(),
+                np.finfo(float).tiny)
+    residual = float(np.abs(C @ F - c).max() / scale)
+    if not residual <= _EQUILIBRIUM_TOL:
+        raise SolverError(f"the equilibrated electric displacement satisfies its conditions only to {residual:.3g} "
+                          f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
+    D_vertices = np.einsum("mi,mjid->mjd", sign * F[edge],
+                           (P[:, :, None, :] - P[:, None, :, :]) / (2.0 * area)[:, None, None, None])
+    return D_vertices, electric, residual
+
+
+def _constrained_minimum(M, g, C, c, steps: int = 30):
+    """argmin 1/2 F^T M F - g^T F subject to C F = c (M symmetric positive definite): the saddle-point system
+    [[M, C^T], [C, 0]], factorised with -delta I in its second block (C may have dependent rows: the
+    divergences and boundary fluxes of a body without electrode sum to the same total) and refined on the
+    unregularised system until its residual stops falling."""
+    k, r = M.shape[0], C.shape[0]
+    rs = 1.0 / np.sqrt(np.maximum(np.asarray(C.multiply(C).sum(axis=1)).ravel(), np.finfo(float).tiny))
+    C, c = sp.diags(rs) @ C, c * rs
+    delta = 1e-10 / M.diagonal().max()                  # against the Schur complement C M^-1 C^T ~ 1 / M
+    K = sp.bmat([[M, C.T], [C, None]], format="csc")
+    lu = spla.splu((K - sp.block_diag([sp.csc_matrix((k, k)), delta * sp.identity(r)], format="csc")).tocsc())
+    rhs = np.concatenate([g, c])
+    x = np.zeros(k + r)
+    best, best_x = np.inf, x
+    absK = abs(K)
+    for step in range(steps):
+        res = rhs - K @ x
+        scale = np.maximum(np.abs(rhs), absK @ np.abs(x))                  # each row's own size
+        norm = max(np.abs(res[:k]).max() / max(scale[:k].max(), 1e-300),
+                   np.abs(res[k:]).max(initial=0.0) / max(scale[k:].max(initial=0.0), 1e-300))
+        if norm < best:
+            best, best_x = norm, x.copy()
+        if norm <= 1e-15 or (step > 3 and norm > 0.9 * best):
+            break
+        x = x + lu.solve(res)
+    return best_x[:k]

@@ -47,6 +47,7 @@ from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions, shape_gradients
 from ..fem.simplex import simplex_rule
+from ..geometry.facets import facet_keys, facets as facet_table
 
 __all__ = ["ErrorEstimate", "estimate", "energy_density", "cell_energies", "vertex_fields"]
 
@@ -190,7 +191,7 @@ def estimate(sol) -> tuple[ErrorEstimate | None, str]:
     data, cache = [], []
     for k, b in enumerate(bodies):
         fields = vertex_fields(b, sol.u[k], sol.phi[k], sol.degree)
-        facets = _facets(b.mesh.cells, len(b.mesh.points))
+        facets = facet_table(b.mesh.cells, len(b.mesh.points))
         cache.append((fields, facets))
         norm2 += float(_cell_energies(b, fields).sum())
         c, _, kappa = b.material.tensors(b.mesh.points.shape[1])
@@ -255,34 +256,6 @@ def _element_terms(body, fields, hT, cT, kT, eta2, parts):
         parts["electric element"] += float(term.sum())
 
 
-def _keys(sorted_vertices, n):
-    """One int64 key per facet (its vertex indices sorted ascending, (k, d); n^d < 2^63)."""
-    f = sorted_vertices.astype(np.int64)
-    key = f[:, 0]
-    for j in range(1, f.shape[1]):
-        key = key * n + f[:, j]
-    return key
-
-
-def _facets(cells, n):
-    """Every facet (edge of a triangle, face of a tetrahedron) of the mesh once: (cells (k, 2) with -1 for
-    a boundary facet's missing neighbour, the local index in each of the vertex opposite the facet (k, 2),
-    the facet's vertices (k, d) sorted, their keys (k,) sorted)."""
-    m, k = cells.shape
-    opposite = np.array([[j for j in range(k) if j != i] for i in range(k)])
-    vertices = np.sort(cells[:, opposite], axis=2).reshape(-1, k - 1)            # row k t + i: opposite vertex i
-    keys = _keys(vertices, n)
-    order = np.argsort(keys, kind="stable")
-    ks = keys[order]
-    start = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-    count = np.diff(np.r_[start, len(ks)])
-    first = order[start]
-    second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
-    owners = np.column_stack([first // k, np.where(second >= 0, second // k, -1)])
-    local = np.column_stack([first % k, np.where(second >= 0, second % k, -1)])
-    return owners, local, vertices[first], ks[start]
-
-
 def _bary(cell_vertices, facet_vertices, Lf):
     """(k, d + 1) the barycentric coordinates in cells with vertices ``cell_vertices`` (k, d + 1) of the points of
     barycentric coordinates ``Lf`` (d,) or (k, d) on their facets with vertices ``facet_vertices`` (k, d)."""
@@ -332,7 +305,8 @@ def _facet_values(values, cell_vertices, facet_vertices):
 
 def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     """The interior jumps and the boundary residuals of ``body`` (module docstring; ``facets`` its
-    :func:`_facets`); contact parts are left to the contact terms. sigma_h and D_h are affine on each facet:
+    :func:`~cvxcontact.geometry.facets.facets`); contact parts are left to the contact terms.
+    sigma_h and D_h are affine on each facet:
     their normal components are formed at its vertices and interpolated to the quadrature points."""
     eps, gphi, sigma, D, gradL, measure = fields
     mesh = body.mesh
@@ -361,7 +335,7 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
         for tag, role in roles.items():
             if tag not in index:
-                index[tag] = np.searchsorted(key, _keys(np.sort(mesh.boundary(tag), axis=1), len(p)))
+                index[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(p)))
             out[index[tag]] = role
             if role == kind:
                 loads[tag] = index[tag]
@@ -406,7 +380,7 @@ def _contact_cells(mesh, part, facets):
     the cell that holds each."""
     owners, _, _, key = facets
     f = np.asarray(mesh.boundary(part))
-    at = np.searchsorted(key, _keys(np.sort(f, axis=1), len(mesh.points)))
+    at = np.searchsorted(key, facet_keys(np.sort(f, axis=1), len(mesh.points)))
     return owners[at, 0], f
 
 

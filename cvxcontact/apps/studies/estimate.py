@@ -201,9 +201,12 @@ def true_error(sol, reference, parents) -> float:
     return float(np.sqrt(total))
 
 
-def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=None) -> list[dict]:
-    """One row per level: cells, unknowns, estimate (absolute, relative), true error, effectivity, the solve's
-    and the estimate's seconds; the reference's own estimate in every row."""
+def against_reference(build, options, levels, reference, measure, progress=None) -> list[dict]:
+    """Effectivity against a nested reference, the loop both the estimate and the bound studies run: the scene
+    ``build()`` refined ``reference`` times is solved with ``options`` (the reference), then refined each of
+    ``levels`` times and solved; per level, the true error (:func:`true_error`) is handed with the solution and
+    the reference to ``measure(sol, true_error, ref) -> (columns: dict, progress text)``. One row per level:
+    level, cells, then ``measure``'s columns."""
     base = build()
     ref_scene, _ = refined(base, reference)
     if progress:
@@ -215,20 +218,32 @@ def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=Non
         sol = solve_quietly(scene, **options)
         parents = [np.repeat(np.arange(len(b.mesh.cells)), 2 ** (scene.dim * (reference - level)))
                    for b in scene.bodies]
-        err = true_error(sol, ref, parents)
-        est = sol.estimate
-        t = sol.timings
-        solve_s = sum(v for k, v in t.items() if k != "estimate")
-        rows.append(dict(level=level, cells=sum(len(b.mesh.cells) for b in scene.bodies),
-                         unknowns=sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi)),
-                         ok=sol.ok, estimate=est.absolute, relative=est.relative, true_error=err,
-                         true_relative=err / est.norm, effectivity=est.absolute / err,
-                         reference_estimate=ref.estimate.absolute, solve_s=solve_s, estimate_s=t["estimate"],
-                         cost=t["estimate"] / solve_s))
+        columns, line = measure(sol, true_error(sol, ref, parents), ref)
+        rows.append(dict(level=level, cells=sum(len(b.mesh.cells) for b in scene.bodies), **columns))
         if progress:
-            progress(f"  level {level}: estimate {est.absolute:.4g}, true error {err:.4g}, "
-                     f"effectivity {est.absolute / err:.3g}")
+            progress(f"  level {level}: {line}")
     return rows
+
+
+def measure_estimate(sol, err: float, ref) -> tuple[dict, str]:
+    """The residual estimate's columns of a level (:func:`against_reference`): unknowns, estimate (absolute,
+    relative), true error, effectivity, the solve's and the estimate's seconds, the reference's own estimate."""
+    est = sol.estimate
+    t = sol.timings
+    solve_s = sum(v for k, v in t.items() if k != "estimate")
+    columns = dict(unknowns=sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi)),
+                   ok=sol.ok, estimate=est.absolute, relative=est.relative, true_error=err,
+                   true_relative=err / est.norm, effectivity=est.absolute / err,
+                   reference_estimate=ref.estimate.absolute, solve_s=solve_s, estimate_s=t["estimate"],
+                   cost=t["estimate"] / solve_s)
+    return columns, f"estimate {est.absolute:.4g}, true error {err:.4g}, effectivity {est.absolute / err:.3g}"
+
+
+def effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=None) -> list[dict]:
+    """One row per level (:func:`against_reference`, :func:`measure_estimate`): cells, unknowns, estimate
+    (absolute, relative), true error, effectivity, the solve's and the estimate's seconds; the reference's own
+    estimate in every row."""
+    return against_reference(build, options, levels, reference, measure_estimate, progress)
 
 
 def run(out, quick: bool = False, progress=None) -> dict:

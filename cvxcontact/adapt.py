@@ -8,9 +8,14 @@ bisection, conforming closure). The scene is rebuilt on the refined meshes (``Bo
 ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
 the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
 
+Each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
+:mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
+a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
+answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
+cold). The fields are not carried over: the routes adapt uses solve the bodies directly.
+
 Covered: 2D, P1 and P2, every scene the estimate covers. Not covered: 3D (the estimate and the bisection
-are 2D; :class:`~cvxcontact.errors.UnsupportedError`). Each solve starts afresh (no warm start from the
-previous mesh).
+are 2D; :class:`~cvxcontact.errors.UnsupportedError`).
 """
 
 from __future__ import annotations
@@ -112,8 +117,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     keep : bool
         Keep every step's solution in ``Adapted.solutions`` (memory: one solution per step).
     **options
-        Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ...);
-        ``estimate=False`` is refused (the loop needs the estimate).
+        Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
+        ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
+        each step's solution to the next).
 
     Returns
     -------
@@ -139,6 +145,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
                                "mesh uniformly or with your mesher")
     if options.get("estimate", True) is not True:
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
+    if "start" in options:
+        raise SceneError("adapt starts each solve from the previous step's solution itself: remove start=")
     theta = _fraction(theta)
     max_steps = _count(max_steps, "max_steps", 0)
     max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
@@ -148,12 +156,12 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     body_curves = _curves(scene, curves)
     scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
     history, kept = [], []
-    step = 0
+    step, sol = 0, None
     while True:
         clock = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            sol = ContactSolver(scene, condition, **options).solve()
+            sol = ContactSolver(scene, condition, start=sol, **options).solve()
         solve_s = time.perf_counter() - clock
         if sol.estimate is None:
             raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")

@@ -155,9 +155,11 @@ def point_read_back(B, segment, t, y, carrying) -> tuple[np.ndarray, np.ndarray]
 
 def segment_scales(B, U, width: int = 3) -> np.ndarray:
     """Per element of ``B`` (``width`` S, n), the largest node scale ``U`` among the nodes its rows read."""
-    R = abs(sp.csr_matrix(B)).tocsr()
-    R.data[:] = 1.0
-    node = np.asarray(R.multiply(U[None, :]).max(axis=1).todense()).ravel()
+    B = sp.csr_matrix(B)
+    counts = np.diff(B.indptr)
+    node = np.zeros(B.shape[0])
+    has = counts > 0                                     # the row maxima of U over each row's stored columns
+    node[has] = np.maximum.reduceat(np.asarray(U, dtype=float)[B.indices], B.indptr[:-1][has])
     return node.reshape(-1, width).max(axis=1)
 
 
@@ -179,14 +181,27 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
     last, stalled, good = np.inf, 0, None
+    built = {"segment": segment[:0], "t": t[:0], "P": point_rows(B, segment[:0], t[:0])}
+
+    def rows(segment, t):
+        """point_rows(B, segment, t), the rows of the points kept from the last call not built again (a round's
+        points are the last round's plus new ones, or a prefix of them plus one)."""
+        k = min(len(segment), len(built["segment"]))
+        moved = (t[:k] != built["t"][:k]).reshape(k, -1).any(axis=1) if k else np.zeros(0, dtype=bool)  # t or (k, 3)
+        same = np.flatnonzero((segment[:k] != built["segment"][:k]) | moved)
+        k = int(same[0]) if len(same) else k
+        P = sp.vstack([built["P"][:k], point_rows(B, segment[k:], t[k:])], format="csr")
+        built.update(segment=segment, t=t, P=P)
+        return P
+
     for rounds in range(1, max_rounds + 1):
-        out = solve(point_rows(B, segment, t), offsets(segment, t))
+        out = solve(rows(segment, t), offsets(segment, t))
         if out is None and good is not None and len(segment) > len(good["segment"]) + 1:
             # the new points together made the round singular: the worst one alone
             k = len(good["segment"])
             keep = k + int(np.argmax(good_rel[segment[k:]]))
             segment, t = np.concatenate([segment[:k], segment[keep:keep + 1]]), np.concatenate([t[:k], t[keep:keep + 1]])
-            out = solve(point_rows(B, segment, t), offsets(segment, t))
+            out = solve(rows(segment, t), offsets(segment, t))
         if out is None:
             if good is not None and good["violation"] <= LAST_GOOD_TOL:
                 return good                  # nearly parallel new rows made the round singular

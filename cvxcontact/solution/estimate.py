@@ -228,8 +228,9 @@ def _read_only(a):
 def _diameters(points, simplices) -> np.ndarray:
     """(m,) the longest edge of each simplex (m, k) of ``points``."""
     p = points[simplices]
-    k = simplices.shape[1]
-    return np.max([np.linalg.norm(p[:, i] - p[:, j], axis=1) for i in range(k) for j in range(i + 1, k)], axis=0)
+    i, j = np.triu_indices(simplices.shape[1], 1)
+    edge = p[:, i] - p[:, j]                                                    # (m, edges, dim)
+    return np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
 
 
 def _at(points, cells, L):
@@ -434,14 +435,12 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
     parts["jump"] += float(term_m[inner].sum()) * 2
     parts["boundary"] += float(term_m[~inner].sum())
-    np.add.at(eta2, c0, term_m)
-    np.add.at(eta2, c1, term_m[ii])
+    eta2 += np.bincount(c0, term_m, len(eta2)) + np.bincount(c1, term_m[ii], len(eta2))
     if D is not None:
         term_e = hF * area * elec / kT
         parts["electric jump"] += float(term_e[inner].sum()) * 2
         parts["electric boundary"] += float(term_e[~inner].sum())
-        np.add.at(eta2, c0, term_e)
-        np.add.at(eta2, c1, term_e[ii])
+        eta2 += np.bincount(c0, term_e, len(eta2)) + np.bincount(c1, term_e[ii], len(eta2))
 
 
 def _contact_cells(mesh, part, facets):

@@ -148,12 +148,9 @@ class ContactSolver:
     estimate : bool
         The a posteriori error estimate and the resolution check of each solve (default).
     start : Solution, optional
-        A solution of the same scene on another mesh (e.g. the coarser mesh of :func:`cvxcontact.adapt`): the
-        first solve starts from its contact forces (``Solution.state``, point loads along the contact lines)
-        instead of an interior point: a nodal Signorini condition's first active set, the P2 "gamma3" cuts'
-        first points and forces. Only a start: the answer is the exact finish's, checked as without it
-        (:mod:`cvxcontact.backends.start`; 2D; not used with compliance or mixed laws and friction, where the
-        solution's ``state`` is None).
+        A solution of the same scene on another mesh: the first solve starts from its contact forces
+        (``Solution.state``) instead of an interior point; the answer is the exact finish's as without it
+        (docs/reference/solve-options.md, "start").
 
     Attributes
     ----------

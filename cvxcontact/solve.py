@@ -18,6 +18,7 @@ from dataclasses import replace
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
 from .backends.result import Cache, Settings
 from .backends.run import run
+from .backends.start import ContactState
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
 from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError
@@ -146,6 +147,10 @@ class ContactSolver:
         The sparse factorisation of each body.
     estimate : bool
         The a posteriori error estimate and the resolution check of each solve (default).
+    start : Solution, optional
+        A solution of the same scene on another mesh: the first solve starts from its contact forces
+        (``Solution.state``) instead of an interior point; the answer is the exact finish's as without it
+        (docs/reference/solve-options.md, "start").
 
     Attributes
     ----------
@@ -159,7 +164,7 @@ class ContactSolver:
                  tol: float = DEFAULT_TOL, polish: bool = True, warm_start: bool = True, scale: bool = True,
                  verbose: bool = False, solver_options: Mapping[str, object] | None = None,
                  law: ContactLaw | None = None, degree: int = 1, factorization: str = "auto",
-                 estimate: bool | str = True):
+                 estimate: bool | str = True, start: Solution | None = None):
         from .backends.options import (check_factorization, check_solve_parameters, check_solver,
                                        check_solver_options)
 
@@ -196,6 +201,7 @@ class ContactSolver:
         log.info("method %r: backend %r (%d bodies, condition %s)", method, self.method,
                  len(self.problem.scene.bodies), self.problem.condition)
         self._cache = Cache()
+        self._cache.start = _start_state(start, scene)
 
     # the prepared problem, as attributes of the solver (read-only views)
     scene = property(lambda self: self.problem.scene, doc="The scene of the last solve.")
@@ -214,7 +220,9 @@ class ContactSolver:
         timings["loads"] = time.perf_counter() - t0
         raw = run(self.method, problem, self._cache, self.settings, timings)
         t0 = time.perf_counter()
+        self._cache.start = None                                    # a start serves the first solve only
         sol = read_back(problem, raw, self.tol, timings, self.requested)
+        sol.state = raw.state
         fallback = None if sol.ok else self._fallback_of(raw)
         if fallback is not None:
             sol = self._fallback(fallback, problem, sol, timings)
@@ -262,6 +270,7 @@ class ContactSolver:
             timings["fallback"] = time.perf_counter() - t1
             return sol
         other = read_back(problem, raw, self.tol, timings, self.requested)
+        other.state = raw.state
         timings["fallback"] = time.perf_counter() - t1
         if not other.ok:
             log.info("the %s fallback fails its checks too; the %s answer is kept", fallback.method, self.method)
@@ -296,3 +305,17 @@ class ContactSolver:
     def accepts(self, scene) -> bool:
         """Whether ``scene`` differs from the prepared one in its loads only."""
         return self.problem.accepts(scene)
+
+
+def _start_state(start, scene) -> ContactState | None:
+    """The :class:`~cvxcontact.backends.start.ContactState` of ``start`` (a Solution or None), checked against
+    ``scene`` (typed errors)."""
+    if start is None:
+        return None
+    if not isinstance(start, Solution):
+        raise SolverError(f"start must be a Solution of the same scene on another mesh (or None), got "
+                          f"{type(start).__name__}")
+    if start.scene.dim != scene.dim or len(start.scene.contacts) != len(scene.contacts):
+        raise SolverError(f"start: the solution's scene ({start.scene.dim}D, {len(start.scene.contacts)} contact "
+                          f"pairs) is not this scene on another mesh ({scene.dim}D, {len(scene.contacts)} pairs)")
+    return start.state

@@ -25,6 +25,7 @@ from .full import ContactModel, limit_reaction, mixed_kkt
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
+from .start import cone_seeds
 
 __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
 
@@ -90,8 +91,17 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // w, w)),
                          polished=True, route=Route.NO_CONTACT, method="condensed",
                          pairing=None if departure is None else np.zeros(B.shape[0] // w))
-    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g, w)
     timings["model"] = time.perf_counter() - t0
+    if cache.start is not None and settings.warm_start and settings.polish and _width(problem) == 3:
+        # a state from another mesh (cvxcontact.backends.start): the cuts from its point forces, no program
+        raw = RawResult(u=[], phi=[], y=np.zeros(B.shape[1]), route=Route.WARM_START, method="condensed")
+        finish_cuts(problem, cache, settings, timings, raw, seeds=cone_seeds(problem, cache.start))
+        if raw.polished:
+            certify(problem, cache, settings, timings, raw)
+            return raw
+    t0 = time.perf_counter()
+    model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g, w)
+    timings["model"] = timings.get("model", 0.0) + time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
     r = _cone_force(problem, beta)
@@ -126,16 +136,21 @@ def certify(problem, cache, settings, timings, raw) -> None:
     timings["certificate"] = time.perf_counter() - t0
 
 
-def finish_cuts(problem, cache, settings, timings, raw) -> None:
+def finish_cuts(problem, cache, settings, timings, raw, seeds=None) -> None:
     """The exact finish of the cones by accumulated cuts on the interface compliance
     (:func:`~cvxcontact.backends.cuts.interface_cuts`), seeded with the interior point's tangency points and
-    forces; the fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw`` (u,
-    phi, y, beta, active: the nodes read by the closed point rows, finish) or sets ``raw.declined``."""
+    forces, or with ``seeds`` (element, t, y0) (:func:`~cvxcontact.backends.start.cone_seeds`: a warm start from
+    another mesh); the fields by one back-substitution per body from the nodal force r = P^T y. Updates ``raw``
+    (u, phi, y, beta, active: the nodes read by the closed point rows, points, finish) or sets ``raw.declined``."""
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
-    segment, t = seed_points(B, raw.beta, width=_width(problem), around=SEED_SPREAD)
-    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=seed_forces(segment, t, raw.beta),
+    if seeds is None:
+        segment, t = seed_points(B, raw.beta, width=_width(problem), around=SEED_SPREAD)
+        y0 = seed_forces(segment, t, raw.beta)
+    else:
+        segment, t, y0 = seeds
+    out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=y0,
                          width=_width(problem), factors=reduction.psd_factors, departure=problem.departure)
     if isinstance(out, str):
         raw.declined = out
@@ -144,7 +159,8 @@ def finish_cuts(problem, cache, settings, timings, raw) -> None:
     raw.u, raw.phi = reduction.invert(problem, r, timings)
     _, active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.y, raw.beta, raw.active, raw.pairing = r, out["beta"], active, out["pairing"]
-    raw.polished, raw.finish = True, Finish.ACCUMULATED_CUTS
+    raw.points = (out["segment"], out["t"], out["y"])
+    raw.polished, raw.finish, raw.declined = True, Finish.ACCUMULATED_CUTS, ""
 
 
 FACTORED = True

@@ -136,6 +136,12 @@ class RawResult:
     """A friction law: the tangential force mu_a of every row (scaled; the force on the pair's first body along
     its tangent is -mu_a, :mod:`cvxcontact.backends.friction`), None without friction."""
     certificate: float | None = None
+    points: tuple | None = None
+    """The cuts' answer as point forces (:mod:`cvxcontact.backends.cuts`): (element, t, y) of every cut point (y
+    scaled), None from every other finish (what :func:`~cvxcontact.backends.start.contact_state` reads)."""
+    state: object = None
+    """The answer's :class:`~cvxcontact.backends.start.ContactState` (set by :func:`~cvxcontact.backends.run.run`;
+    None where a start does not apply): ``Solution.state``, what ``ContactSolver(start=...)`` reads."""
     """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
     :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""
     pairing: np.ndarray | None = None
@@ -153,6 +159,9 @@ class Cache:
 
     def __init__(self):
         self.key = None
+        self.start = None
+        """A :class:`~cvxcontact.backends.start.ContactState` of a solution on another mesh, the first solve's
+        warm start (``ContactSolver(start=...)``); kept when the rest is cleared, emptied after that solve."""
         self.clear()
 
     def clear(self):

@@ -19,6 +19,7 @@ from ..fem.kernel import check_determined
 from .finish import SINGULAR_FORCES
 from . import backend
 from .result import RawResult
+from .start import contact_state, start_active
 
 __all__ = ["route", "kind", "run"]
 
@@ -59,7 +60,10 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
     rows, or with a compliance law the rows that carry a force)."""
     solver = route(method, kind(problem))
-    raw = solver(problem, cache.matching(problem.lines.key()), settings, timings)
+    cache = cache.matching(problem.lines.key())
+    if cache.start is not None and cache.active is None and kind(problem) == "signorini" and problem.dim == 2:
+        cache.active = start_active(problem, cache.start)     # a state from another mesh: the first guess
+    raw = solver(problem, cache, settings, timings)
     log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", kind(problem), problem.condition,
              method, (getattr(solver, "__module__", None) or "").rsplit(".", 1)[-1],
              getattr(solver, "__name__", type(solver).__name__), raw.route,
@@ -76,4 +80,5 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
         raw.y = np.where(problem.held_rows, 0.0, raw.y)
     if not raw.factorization and cache.condensation is not None:
         raw.factorization = cache.condensation.factorization
+    raw.state = contact_state(problem, raw)
     return raw

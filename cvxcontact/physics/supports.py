@@ -76,19 +76,29 @@ def node_supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     order = np.argsort(nodes, kind="stable")
     nodes, dirs, vals = nodes[order], dirs[order], vals[order]
     starts = np.flatnonzero(np.r_[True, np.diff(nodes) != 0]) if len(nodes) else np.zeros(0, dtype=int)
-    for a, b in zip(starts, np.r_[starts[1:], len(nodes)]):          # boundary nodes only
-        i, D, v = int(nodes[a]), dirs[a:b], vals[a:b]
-        _, sv, Vt = np.linalg.svd(D)
-        rank = int((sv > 1e-9).sum())
-        ud = np.linalg.lstsq(D, v, rcond=1e-9)[0]
-        if np.abs(D @ ud - v).max() > 1e-9 * max(float(np.abs(v).max()), 1e-300):
-            rows = ", ".join(f"u.({', '.join(f'{x:.3g}' for x in d)}) = {x:.6g}" for d, x in zip(D, v))
-            raise SceneError(f"{body.name}: the supports prescribe incompatible displacements at node {i} "
-                             f"({', '.join(f'{x:.6g}' for x in mesh.points[i])}) m: {rows}")
-        u_fixed[dim * i:dim * i + dim] = ud
+    counts = np.diff(np.r_[starts, len(nodes)])
+    for r in np.unique(counts):                 # the nodes with r rows together: (k, r, dim) stacked SVDs
+        first = starts[counts == r]
+        at = first[:, None] + np.arange(r)
+        i, D, v = nodes[first], dirs[at], vals[at]
+        U, sv, Vt = np.linalg.svd(D)                                    # (k, r, r), (k, min), (k, dim, dim)
+        keep = sv > 1e-9
+        rank = keep.sum(axis=1)
+        # the least-squares value V diag(1/s) U^T v over the singular values kept (lstsq with rcond 1e-9)
+        coef = np.where(keep, np.einsum("kji,kj->ki", U[:, :, :sv.shape[1]], v) / np.where(keep, sv, 1.0), 0.0)
+        ud = np.einsum("kji,kj->ki", Vt[:, :sv.shape[1], :], coef)
+        miss = np.abs(np.einsum("kjd,kd->kj", D, ud) - v).max(axis=1)
+        bad = np.flatnonzero(miss > 1e-9 * np.maximum(np.abs(v).max(axis=1), 1e-300))
+        if len(bad):
+            b = bad[0]
+            rows = ", ".join(f"u.({', '.join(f'{x:.3g}' for x in d)}) = {x:.6g}" for d, x in zip(D[b], v[b]))
+            raise SceneError(f"{body.name}: the supports prescribe incompatible displacements at node {int(i[b])} "
+                             f"({', '.join(f'{x:.6g}' for x in mesh.points[i[b]])}) m: {rows}")
+        u_fixed[(dim * i[:, None] + np.arange(dim)).ravel()] = ud.ravel()
         free[i] = dim - rank
-        if 0 < rank < dim:
-            directions[i, :dim - rank] = Vt[rank:]
+        for q in np.unique(rank[(rank > 0) & (rank < dim)]):           # partly held: the free directions
+            sel = rank == q
+            directions[i[sel], :dim - q] = Vt[sel, q:]
     return free, directions, u_fixed
 
 

@@ -167,6 +167,18 @@ def _smallest(matrix, voigt: bool) -> float:
     return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
 
 
+def _voigt_traction(sv, n) -> np.ndarray:
+    """(k, v, d): sigma n of Voigt vectors ``sv`` (k, v, s) on the unit normals ``n`` (k, d), component by
+    component (t_i += sigma_ij n_j over the Voigt pairs), without forming the tensors."""
+    dim = n.shape[1]
+    t = np.zeros(sv.shape[:2] + (dim,))
+    for row, (i, j) in enumerate(VOIGT[dim]):
+        t[..., i] += sv[..., row] * n[:, None, j]
+        if i != j:
+            t[..., j] += sv[..., row] * n[:, None, i]
+    return t
+
+
 def _tensor(sv):
     """(..., d, d) symmetric tensors from Voigt vectors (..., s) (xx, yy, xy in 2D; xx, yy, zz, yz, xz, xy in 3D)."""
     dim = 3 if sv.shape[-1] == 6 else 2
@@ -217,8 +229,9 @@ def _read_only(a):
 def _diameters(points, simplices) -> np.ndarray:
     """(m,) the longest edge of each simplex (m, k) of ``points``."""
     p = points[simplices]
-    k = simplices.shape[1]
-    return np.max([np.linalg.norm(p[:, i] - p[:, j], axis=1) for i in range(k) for j in range(i + 1, k)], axis=0)
+    i, j = np.triu_indices(simplices.shape[1], 1)
+    edge = p[:, i] - p[:, j]                                                    # (m, edges, dim)
+    return np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
 
 
 def _at(points, cells, L):
@@ -296,11 +309,25 @@ def _boundary_roles(body, sol):
     return mech, elec
 
 
-def _facet_values(values, cell_vertices, facet_vertices):
+def _affine_mean_square(values) -> np.ndarray:
+    """(k,): the mean over each simplex of |f|^2 for the affine f of vertex values ``values`` (k, v, c) (v
+    vertices): (sum_i |f_i|^2 + |sum_i f_i|^2) / (v (v + 1))."""
+    v = values.shape[1]
+    return ((values ** 2).sum(axis=(1, 2)) + (values.sum(axis=1) ** 2).sum(axis=1)) / (v * (v + 1))
+
+
+def _facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
+    """(k, d): the local index in each cell (vertices ``cell_vertices`` (k, d + 1)) of each vertex of its facet
+    ``facet_vertices`` (k, d)."""
+    return np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
+
+
+def _facet_values(values, cell_vertices, facet_vertices, pos=None):
     """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
-    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each."""
-    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
-    return np.take_along_axis(values, pos.reshape(pos.shape + (1,) * (values.ndim - 2)), axis=1)
+    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each (``pos``: their
+    :func:`_facet_positions`, if known)."""
+    pos = _facet_positions(cell_vertices, facet_vertices) if pos is None else pos
+    return values[np.arange(len(values))[:, None], pos]
 
 
 def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
@@ -323,56 +350,71 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     inner = owners[:, 1] >= 0
     ii = np.flatnonzero(inner)
     c1 = owners[ii, 1]
-    Rv = (_tensor(_facet_values(sigma[c0], cells[c0], vertices)) @ n[:, None, :, None])[..., 0]      # (k, d, d)
-    Rv[ii] -= (_tensor(_facet_values(sigma[c1], cells[c1], vertices[ii])) @ n[ii, None, :, None])[..., 0]
+    pos0 = _facet_positions(cells[c0], vertices)
+    pos1 = _facet_positions(cells[c1], vertices[ii])
+    Rv = _voigt_traction(_facet_values(sigma[c0], None, None, pos0), n)                            # (k, d, d)
+    Rv[ii] -= _voigt_traction(_facet_values(sigma[c1], None, None, pos1), n[ii])
     if D is not None:
-        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], cells[c0], vertices), n)                # (k, d)
-        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], cells[c1], vertices[ii]), n[ii])
+        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], None, None, pos0), n)                    # (k, d)
+        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], None, None, pos1), n[ii])
     mech_role, elec_role = _boundary_roles(body, sol)
-    role_m = np.full(len(key), "free", dtype=object)
-    role_e = np.full(len(key), "free", dtype=object)
+    code = {role: c for c, role in enumerate(("free", "dirichlet", "contact", "roller", "partial", "traction",
+                                               "charge"))}      # each facet's role as a small integer
+    role_m = np.zeros(len(key), dtype=np.int8)
+    role_e = np.zeros(len(key), dtype=np.int8)
     load_m, load_e, index = {}, {}, {}
     for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
         for tag, role in roles.items():
             if tag not in index:
                 index[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(p)))
-            out[index[tag]] = role
+            out[index[tag]] = code[role]
             if role == kind:
                 loads[tag] = index[tag]
     keep = np.ones((len(key), dim))                        # the components of R that count
-    keep[(role_m == "dirichlet") | (role_m == "contact")] = 0.0
+    keep[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
     for tag, v in body.displacement.items():
         if mech_role.get(tag) == "partial":
             keep[index[tag], [comp for comp, val in enumerate(v) if val is not None]] = 0.0
-    roller = np.flatnonzero(role_m == "roller")
-    keep_e = (role_e != "dirichlet").astype(float)
-    mech = np.zeros(len(key))
-    elec = np.zeros(len(key))
+    roller = np.flatnonzero(role_m == code["roller"])
+    keep_e = (role_e != code["dirichlet"]).astype(float)
     weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells
-    for Lf, w in zip(*simplex_rule(dim - 1, 3)):
-        R = np.tensordot(Lf, Rv, axes=(0, 1))
-        x = np.tensordot(Lf, p[vertices], axes=(0, 1)) if load_m or load_e else None
-        for tag, idx in load_m.items():
-            R[idx] -= np.asarray(body.traction[tag](*x[idx].T), dtype=float).reshape(len(idx), dim)
-        R[roller] -= (R[roller] * n[roller]).sum(axis=1)[:, None] * n[roller]          # tangential part only
-        R *= keep
-        mech += w * weight * (R ** 2).sum(axis=1)
+    # without a load R is affine on the facet: the mean of |R|^2 from its vertex values, exactly (the rule of
+    # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function)
+    Re = Rv.copy()
+    Re[roller] -= (Re[roller] * n[roller, None, :]).sum(axis=2)[..., None] * n[roller, None, :]
+    Re *= keep[:, None, :]
+    mech = weight * _affine_mean_square(Re)
+    elec = None if D is None else weight * _affine_mean_square((rv * keep_e[:, None])[..., None])
+    loaded = np.unique(np.concatenate([np.zeros(0, dtype=int), *load_m.values(), *load_e.values()]))
+    if len(loaded):
+        mech[loaded] = 0.0
         if D is not None:
-            r = rv @ Lf
-            for tag, idx in load_e.items():
-                r[idx] -= np.asarray(body.surface_charge[tag](*x[idx].T), dtype=float).reshape(len(idx))
-            elec += w * weight * (r * keep_e) ** 2
+            elec[loaded] = 0.0
+        at = np.full(len(key), -1)
+        at[loaded] = np.arange(len(loaded))
+        roller_l = at[roller][at[roller] >= 0]
+        for Lf, w in zip(*simplex_rule(dim - 1, 3)):
+            R = np.tensordot(Lf, Rv[loaded], axes=(0, 1))
+            x = np.tensordot(Lf, p[vertices[loaded]], axes=(0, 1))
+            for tag, idx in load_m.items():
+                R[at[idx]] -= np.asarray(body.traction[tag](*x[at[idx]].T), dtype=float).reshape(len(idx), dim)
+            R[roller_l] -= (R[roller_l] * n[loaded][roller_l]).sum(axis=1)[:, None] * n[loaded][roller_l]
+            R *= keep[loaded]
+            mech[loaded] += w * weight[loaded] * (R ** 2).sum(axis=1)
+            if D is not None:
+                r = rv[loaded] @ Lf
+                for tag, idx in load_e.items():
+                    r[at[idx]] -= np.asarray(body.surface_charge[tag](*x[at[idx]].T), dtype=float).reshape(len(idx))
+                elec[loaded] += w * weight[loaded] * (r * keep_e[loaded]) ** 2
     term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
     parts["jump"] += float(term_m[inner].sum()) * 2
     parts["boundary"] += float(term_m[~inner].sum())
-    np.add.at(eta2, c0, term_m)
-    np.add.at(eta2, c1, term_m[ii])
+    eta2 += np.bincount(c0, term_m, len(eta2)) + np.bincount(c1, term_m[ii], len(eta2))
     if D is not None:
         term_e = hF * area * elec / kT
         parts["electric jump"] += float(term_e[inner].sum()) * 2
         parts["electric boundary"] += float(term_e[~inner].sum())
-        np.add.at(eta2, c0, term_e)
-        np.add.at(eta2, c1, term_e[ii])
+        eta2 += np.bincount(c0, term_e, len(eta2)) + np.bincount(c1, term_e[ii], len(eta2))
 
 
 def _contact_cells(mesh, part, facets):
@@ -513,7 +555,7 @@ def _surface_contact_terms(sol, data, cache, eta2, parts):
             sigma = fields[2]
             cell, f = _contact_cells(mesh, linear.part, facets)
             normals = mesh.outward_normals(linear.part)
-            tv = np.einsum("kvij,kj->kvi", _tensor(_facet_values(sigma[cell], mesh.cells[cell], f)), normals)
+            tv = _voigt_traction(_facet_values(sigma[cell], mesh.cells[cell], f), normals)
             acc = np.zeros(len(f))
             for Lf, w in zip(*simplex_rule(2, 2)):
                 acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)

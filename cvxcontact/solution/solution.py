@@ -238,6 +238,11 @@ class Solution:
     when it was skipped or the case is not covered: :attr:`estimate_reason` says which."""
     estimate_reason: str = ""
     """Why :attr:`estimate` is None ("" when it is not)."""
+    state: object = field(default=None, repr=False)
+    """The contact forces as point loads along the contact lines (a
+    :class:`~cvxcontact.backends.start.ContactState`: pair, position s in m, force in N/m), what a solve of the
+    same scene on another mesh starts from (``ContactSolver(..., start=sol)``); None where that does not apply
+    (3D, compliance or mixed laws, friction, an answer without an exact finish)."""
 
     @property
     def status(self) -> Status:

@@ -17,6 +17,7 @@ quadratic's maximum (:func:`~cvxcontact.contact.bernstein.bernstein_argmax`).
 
 from __future__ import annotations
 
+import functools
 from typing import Callable
 
 import numpy as np
@@ -32,9 +33,16 @@ largest |g| at its nodes and its diameter): below it, delta is the rounding of t
 GRID = {3: 64, 6: 12}
 """Intervals of the first sampling of an element (segments: 65 points; triangles: 91)."""
 
+NEWTON_STEPS = 100
+"""Safety bound on the Newton steps of one start (:meth:`GapDeparture.argmax`; measured on the Hertz 3D quarter,
+n = 8, 197 calls: at most 23, median 7 per call); a start still improving after it is handed to the pattern search.
+Newton stops on its own where its step's predicted gain is below the rounding of s (:meth:`GapDeparture._newton`)."""
+LINE_SEARCH = 0.5 ** np.arange(12)
+"""The fractions of a Newton step tried at once (the best that improves s is taken)."""
 ZOOM_ROUNDS = 400
-"""Largest number of steps of the local search from each local maximum of the grid (a pattern search: it moves
-to the best of its neighbours at distance h where one is better, else shrinks h by :data:`ZOOM`)."""
+"""Largest number of steps of the fallback pattern search (without the gap's derivatives, or where Newton stalls
+at a point that is no maximum): it moves to the best of its neighbours at distance h where one is better, else
+shrinks h by :data:`ZOOM`."""
 ZOOM = 0.5
 ZOOM_STEP = 1e-14
 """The pattern search stops where its step h (in barycentric coordinates) is below this: rounding of the point."""
@@ -128,93 +136,213 @@ class GapDeparture:
         c = len(L)
         if not self.curved[element]:
             return 0.0, np.zeros(c), np.zeros((c, c))
+        d, grad, hess = self._departure_derivatives(np.array([element]), L[None, :])
+        return float(d[0]), grad[0], hess[0]
+
+    def _departure_derivatives(self, elements, L) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(delta (k,), grad (k, c), hess (k, c, c)) (scaled) at the full barycentric points ``L`` (k, c) of the
+        curved ``elements`` (k,) (:meth:`curvature`)."""
         if self._derivatives is None:
             raise ValueError("GapDeparture.curvature: built without the gap's derivatives")
-        Q = self.shape.gram((self.nodal[element] @ self.shape.to_bernstein.T)[None, :])[0]
-        g, grad, hess = self._derivatives(np.array([element]), L[None, 1] if self.width == 3 else L[None, :])
-        return ((float(g[0]) - L @ Q @ L) * self.scale, (grad[0] - 2 * Q @ L) * self.scale,
-                (hess[0] - 2 * Q) * self.scale)
+        Q = self.shape.gram(self.nodal[elements] @ self.shape.to_bernstein.T)          # g_h = L^T Q L
+        g, grad, hess = self._derivatives(elements, L[:, 1] if self.width == 3 else L)
+        QL = (Q * L[:, None, :]).sum(axis=2)
+        return ((g - (QL * L).sum(axis=1)) * self.scale, (grad - 2 * QL) * self.scale, (hess - 2 * Q) * self.scale)
 
     def argmax(self, b) -> tuple[np.ndarray, np.ndarray]:
         """(s_max, point) per element: the maximum over the element of s = q_h - delta, q_h the quadratic of
         Bernstein coefficients ``b`` (S, w) (scaled), and a point where it is reached. Straight elements: the
-        quadratic's exact maximum; curved ones: a grid (:data:`GRID`), then a shrinking local grid
-        (:data:`ZOOM_ROUNDS`) around every local maximum of the grid (each sample at least its neighbours'),
-        the best of them (s is smooth: its value then to rounding at an interior maximum, and exact at a
-        vertex). Every local maximum, not the best sample's alone: where the body conforms to the obstacle, s
-        has several maxima of nearly equal height in one element, and the best sample need not be next to the
-        highest (measured: a sphere pressed into P2 triangles, the best sample at an edge's maximum -2.3e-6
-        below zero, the interior one 9.7e-6 above it, of the slack's scale; the cuts stopped with the true
-        slack violated by 1e-5 and an answer that depended on the BLAS kernels)."""
+        quadratic's exact maximum; curved ones: a grid (:data:`GRID`), then from every local maximum of the grid
+        (each sample at least its neighbours') a safeguarded Newton ascent to the maximum it climbs
+        (:meth:`_newton`), the best of them (s is smooth: its value then to rounding at an interior maximum, and
+        exact at a vertex). Every local maximum, not the best sample's alone: where the body conforms to the
+        obstacle, s has several maxima of nearly equal height in one element, and the best sample need not be
+        next to the highest (measured: a sphere pressed into P2 triangles, the best sample at an edge's maximum
+        -2.3e-6 below zero, the interior one 9.7e-6 above it, of the slack's scale; the cuts stopped with the true
+        slack violated by 1e-5 and an answer that depended on the BLAS kernels). Each start climbs until no step
+        improves s by more than its rounding: a search stopped by a count of steps would underestimate the
+        maximum (measured, a pattern search capped at 400 steps on the Hertz 3D quarter, n = 8: starts still
+        climbing a ridge, the maximum 4.5e-8 of the slack's scale returned as 1.5e-8). Without the gap's
+        derivatives the starts climb by a pattern search (:data:`ZOOM_ROUNDS`)."""
+        return self._argmax(b)[:2]
+
+    def _argmax(self, b):
+        """:meth:`argmax`, and per start (element, final point, s there, how it stopped: 0 Newton converged,
+        1 the pattern search's step below rounding, 2 the pattern search's :data:`ZOOM_ROUNDS`)."""
         b = np.asarray(b, dtype=float)
         best, point = bernstein_argmax(b)
         on = np.flatnonzero(self.curved)
         if not len(on):
-            return best, point
+            return best, point, None
         seg = self.width == 3
         pts = self._grid(self.shape)
-
-        def value(el, P):                      # s at points P (n, k[, 3]) of the elements el (n,)
-            flat = P.reshape(len(el) * P.shape[1], -1) if not seg else P.ravel()
-            e = np.repeat(el, P.shape[1])
-            q = (self.shape.basis(flat) * b[e]).sum(axis=1)
-            return (q - self.at(e, flat)).reshape(len(el), P.shape[1])
-
-        s = value(on, np.broadcast_to(pts[None], (len(on),) + pts.shape))
-        nb = self._neighbours(self.shape)
+        s = self._slack(b, np.repeat(on, len(pts)), np.tile(self._full(pts), (len(on), 1))).reshape(len(on), -1)
+        nb = self._neighbours(self.width)
         peak = (s[:, :, None] >= np.where(nb[None] >= 0, s[:, np.maximum(nb, 0)], -np.inf)).all(axis=2)
         which, j = np.nonzero(peak)                        # the starts: (element, sample) of every local maximum
-        x = pts[j].copy()
-        v = s[which, j]
         el = on[which]
-        if seg:
-            steps = np.array([-1.0, -0.5, 0.5, 1.0])
+        L, v = self._full(pts[j]), s[which, j]
+        if self._derivatives is not None:
+            L, v, stop = self._newton(b, el, L, v)
         else:
-            d = np.array([[1, -1, 0], [-1, 1, 0], [0, 1, -1], [0, -1, 1], [1, 0, -1], [-1, 0, 1]], dtype=float)
-            steps = np.concatenate([d, 0.5 * d])
-        h = np.full(len(el), 1.0 / GRID[self.width])
-        rows = np.arange(len(el))
-        live = rows
-        for _ in range(ZOOM_ROUNDS):
-            if seg:
-                cand = np.clip(x[live, None] + h[live, None] * steps[None, :], 0.0, 1.0)
-            else:
-                cand = np.clip(x[live, None, :] + h[live, None, None] * steps[None], 0.0, None)
-                cand = cand / cand.sum(axis=2, keepdims=True)
-            sc = value(el[live], cand)
-            k = np.argmax(sc, axis=1)
-            up = sc[np.arange(len(live)), k] > v[live]
-            x[live[up]] = cand[np.arange(len(live)), k][up]
-            v[live[up]] = sc[np.arange(len(live)), k][up]
-            h[live[~up]] *= ZOOM                       # a pattern search: the step shrinks where none is better
-            live = live[h[live] > ZOOM_STEP]
-            if not len(live):
-                break
+            stop = np.ones(len(el), dtype=int)
+        climb = np.flatnonzero(stop)                       # no derivatives, or Newton stalled at no maximum
+        if len(climb):
+            L[climb], v[climb], capped = self._pattern(b, el[climb], L[climb], v[climb])
+            stop[climb] = 1 + capped
         # per element the best start (the first of equal ones: independent of the order of the arithmetic)
         order = np.lexsort((-v, which))
         first = order[np.r_[True, which[order][1:] != which[order][:-1]]]
-        x, v = x[first], v[first]
+        x, vb = (L[first, 1] if seg else L[first]), v[first]
         # the quadratic's own maximiser, checked against s itself (delta moves the maximum off it)
-        q0 = value(on, point[on][:, None] if seg else point[on][:, None, :])[:, 0]
-        keep = v >= q0
+        q0 = self._slack(b, on, self._full(point[on]))
+        keep = vb >= q0
         best, point = best.copy(), point.copy()
-        best[on] = np.where(keep, v, q0)
+        best[on] = np.where(keep, vb, q0)
         point[on] = np.where(keep if seg else keep[:, None], x, point[on])
-        return best, point
+        return best, point, (el, L, v, stop)
+
+    def _full(self, points) -> np.ndarray:
+        """(k, c): the full barycentric coordinates of ``points`` (t (k,) on segments, L (k, 3) on triangles)."""
+        points = np.asarray(points, dtype=float)
+        return np.column_stack([1 - points, points]) if self.width == 3 else points
+
+    def _slack(self, b, el, L) -> np.ndarray:
+        """s = q_h - delta (k,) at the full barycentric points ``L`` (k, c) of the curved elements ``el`` (k,)."""
+        point = L[:, 1] if self.width == 3 else L
+        return (self.shape.basis(point) * b[el]).sum(axis=1) - self.at(el, point)
+
+    def _newton(self, b, el, L, v):
+        """(L, s, stop) of a safeguarded Newton ascent of s from the points ``L`` (k, c) of the curved elements
+        ``el`` (k,) where s is ``v`` (k,): stop 0 where it converged, 1 where it stalled at a point that is no
+        maximum (or ran out of :data:`NEWTON_STEPS`).
+
+        Each step solves the Newton system of s (gradient 2 Q_b L - grad delta, Hessian 2 Q_b - hess delta, Q_b
+        the Gram matrix of ``b``, :meth:`_departure_derivatives`) on the face of the simplex the point is on:
+        the free coordinates are L_i > 0 and the zero ones whose derivative exceeds the largest coordinate's
+        (moving weight there increases s); the step moves weight from the largest coordinate to the other free
+        ones. Where the reduced Hessian is not negative definite it is shifted to be (an ascent direction); the
+        step is cut to at most 1/2 and to the simplex, and the best of the fractions :data:`LINE_SEARCH` of it
+        that improves s is taken. A start has converged where the predicted gain g . y / 2 of a step of the
+        unshifted (concave) system is below the rounding of s (then s there is its maximum to rounding: 16 eps of
+        its terms' size, or, where no fraction improves s, the scatter of s over the shortest fractions, the
+        rounding of the gap's own evaluation, e.g. eps R of a sphere's |x - c| - R), or where the step is below
+        the rounding of the point; it has stalled where no fraction improves s before that."""
+        eps = np.finfo(float).eps
+        L, v = L.copy(), v.copy()
+        k, c = L.shape
+        stop = np.ones(k, dtype=int)
+        rounding = 16 * eps * (np.abs(b[el]).max(axis=1) + abs(self.scale) * np.abs(self.nodal[el]).max(axis=1))
+        others = np.array([[1, 0], [0, 0]]) if c == 2 else np.array([[1, 2], [0, 2], [0, 1]])
+        live = np.arange(k)
+        for _ in range(NEWTON_STEPS):
+            n = len(live)
+            r = np.arange(n)
+            X = L[live]
+            Q = self.shape.gram(b[el[live]])
+            _, gd, hd = self._departure_derivatives(el[live], X)
+            G = 2 * (Q * X[:, None, :]).sum(axis=2) - gd                 # ds/dL (n, c)
+            H = 2 * Q - hd
+            p = np.argmax(X, axis=1)                                     # the pivot: the largest coordinate
+            o = others[p]                                                # (n, 2) the other coordinates
+            real = np.ones((n, 2), dtype=bool) if c == 3 else np.column_stack([np.ones(n, bool), np.zeros(n, bool)])
+            go = np.take_along_axis(G, o, axis=1) - G[r, p][:, None]     # derivative along e_o - e_p
+            Xo = np.take_along_axis(X, o, axis=1)
+            free = real & ((Xo > 0) | (go > 0))
+            Hpp = H[r, p, p]
+            Hop = H[r[:, None], o, p[:, None]]
+            Hoo = H[r[:, None, None], o[:, :, None], o[:, None, :]]
+            Hr = Hoo - Hop[:, :, None] - Hop[:, None, :] + Hpp[:, None, None]   # the Hessian along e_o - e_p
+            y, gain, concave = self._newton_step(go, Hr, free)
+            back = free & (Xo <= 0) & (y < 0)                            # a released coordinate the step lowers
+            if back.any():
+                y, gain, concave = self._newton_step(go, Hr, free & ~back)
+            d = np.zeros_like(X)
+            np.put_along_axis(d, o[:, :c - 1], y[:, :c - 1], axis=1)
+            d[r, p] -= y.sum(axis=1)
+            d *= np.minimum(1.0, 0.5 / np.maximum(np.abs(d).max(axis=1), np.finfo(float).tiny))[:, None]
+            cand = np.clip(X[:, None, :] + LINE_SEARCH[None, :, None] * d[:, None, :], 0.0, None)
+            cand /= cand.sum(axis=2, keepdims=True)
+            sc = self._slack(b, np.repeat(el[live], len(LINE_SEARCH)), cand.reshape(-1, c)).reshape(n, -1)
+            a = np.argmax(sc, axis=1)                                    # the first of equal best fractions
+            moved = (sc[r, a] > v[live]) & (np.abs(cand[r, a] - X).max(axis=1) > 0)
+            L[live[moved]] = cand[r, a][moved]
+            v[live[moved]] = sc[r, a][moved]
+            # the scatter of s over the shortest fractions (whose predicted change is below gain / 32): the
+            # rounding of the gap's own evaluation (e.g. |x - c| - R of a sphere, to rounding of R, not of g)
+            scatter = np.abs(sc[:, LINE_SEARCH <= 1 / 64] - v[live][:, None]).max(axis=1)
+            done = concave & (gain <= np.where(moved, rounding[live], np.maximum(rounding[live], scatter))) \
+                | (np.abs(d).max(axis=1) <= 4 * eps)
+            stop[live[done]] = 0
+            live = live[moved & ~done]
+            if not len(live):
+                break
+        return L, v, stop
 
     @staticmethod
-    def _neighbours(shape) -> np.ndarray:
-        """(k, 6): the indices of each sample's neighbours on the grid of :meth:`_grid` (-1: none): t +- 1/m on
-        segments, L + (e_i - e_j) / m on triangles."""
-        m = GRID[shape.width]
-        if shape.width == 3:
+    def _newton_step(g, H, free):
+        """(y (n, 2), predicted gain g . y / 2 (n,), concave (n,)): the ascent step y = -H^-1 g on the ``free`` (n, 2)
+        components of the reduced gradient ``g`` (n, 2) and Hessian ``H`` (n, 2, 2), H shifted to negative
+        definite where it is not (concave False there); closed form (2 x 2)."""
+        g = np.where(free, g, 0.0)
+        both = free[:, 0] & free[:, 1]
+        o = np.where(both, H[:, 0, 1], 0.0)
+        size = np.maximum(np.where(free, np.abs(H[:, [0, 1], [0, 1]]), 0.0).max(axis=1) + np.abs(o), 1e-150)
+        a = np.where(free[:, 0], H[:, 0, 0], -size)                    # a fixed component: a neutral -size
+        d = np.where(free[:, 1], H[:, 1, 1], -size)
+        top = (a + d) / 2 + np.hypot((a - d) / 2, o)                   # the largest eigenvalue
+        concave = top < 0
+        shift = np.where(concave, 0.0, top + 1e-3 * size)
+        a, d = a - shift, d - shift
+        det = a * d - o * o
+        y = np.column_stack([-(d * g[:, 0] - o * g[:, 1]), -(a * g[:, 1] - o * g[:, 0])]) / det[:, None]
+        y = np.where(free, y, 0.0)
+        return y, (g * y).sum(axis=1) / 2, concave
+
+    def _pattern(self, b, el, L, v):
+        """(L, s, capped): the pattern search from the points ``L`` (k, c) of the curved elements ``el`` where s
+        is ``v``: each step moves to the best of the neighbours L + h (e_i - e_j) (and h / 2) where one is
+        better, else shrinks h by :data:`ZOOM`; it stops where h is below :data:`ZOOM_STEP` or after
+        :data:`ZOOM_ROUNDS` steps (capped True)."""
+        L, v = L.copy(), v.copy()
+        c = L.shape[1]
+        d = np.array([[-1, 1], [1, -1]], dtype=float) if c == 2 else \
+            np.array([[1, -1, 0], [-1, 1, 0], [0, 1, -1], [0, -1, 1], [1, 0, -1], [-1, 0, 1]], dtype=float)
+        steps = np.concatenate([d, 0.5 * d])
+        h = np.full(len(el), 1.0 / GRID[self.width])
+        live = np.arange(len(el))
+        for _ in range(ZOOM_ROUNDS):
+            r = np.arange(len(live))
+            cand = np.clip(L[live, None, :] + h[live, None, None] * steps[None], 0.0, None)
+            cand /= cand.sum(axis=2, keepdims=True)
+            sc = self._slack(b, np.repeat(el[live], len(steps)), cand.reshape(-1, c)).reshape(len(live), -1)
+            a = np.argmax(sc, axis=1)
+            up = sc[r, a] > v[live]
+            L[live[up]] = cand[r, a][up]
+            v[live[up]] = sc[r, a][up]
+            h[live[~up]] *= ZOOM
+            live = live[h[live] > ZOOM_STEP]
+            if not len(live):
+                break
+        return L, v, h > ZOOM_STEP
+
+    @staticmethod
+    @functools.cache
+    def _neighbours(width: int) -> np.ndarray:
+        """(k, 6): the indices of each sample's neighbours on the grid of :meth:`_grid` of the elements of
+        ``width`` coefficients (-1: none): t +- 1/m on segments, L + (e_i - e_j) / m on triangles."""
+        m = GRID[width]
+        if width == 3:
             i = np.arange(m + 1)
             nb = np.column_stack([i - 1, i + 1])
-            return np.where((nb >= 0) & (nb <= m), nb, -1)
-        P = np.rint(simplex_grid(m) * m).astype(int)
-        index = {tuple(p): n for n, p in enumerate(P)}
-        d = [(1, -1, 0), (-1, 1, 0), (0, 1, -1), (0, -1, 1), (1, 0, -1), (-1, 0, 1)]
-        return np.array([[index.get(tuple(p + np.array(e)), -1) for e in d] for p in P])
+            nb = np.where((nb >= 0) & (nb <= m), nb, -1)
+        else:
+            P = np.rint(simplex_grid(m) * m).astype(int)
+            index = {tuple(p): n for n, p in enumerate(P)}
+            d = [(1, -1, 0), (-1, 1, 0), (0, 1, -1), (0, -1, 1), (1, 0, -1), (-1, 0, 1)]
+            nb = np.array([[index.get(tuple(p + np.array(e)), -1) for e in d] for p in P])
+        nb.flags.writeable = False
+        return nb
 
     def pairing(self, S: int, elements, points, y) -> np.ndarray:
         """(S,): sum over the point forces ``y`` of each element of y_p delta(x_p) (scaled): what the pairing of

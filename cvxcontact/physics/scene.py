@@ -741,7 +741,10 @@ class Scene(Frozen):
         g, grad, hess = itf.obstacle.distance_derivatives(points, np.asarray(itf.normal, dtype=float))
         grad, hess = grad @ frame.T, np.einsum("ai,nij,bj->nab", frame, hess, frame)
         m = S.shape[1]
-        h = 1e-4 * max(float(np.ptp(S)), float(np.abs(S).max(initial=0.0)), np.finfo(float).tiny)
+        # the step from the pair's own extent (m), not the points': each point's derivatives then do not depend on
+        # the others given (one point at the origin gave h = 0)
+        span = np.asarray(itf.x, dtype=float)
+        h = 1e-4 * max(float(np.ptp(span)), float(np.abs(span).max(initial=0.0)), np.finfo(float).tiny)
         g0 = load(S)
         E = np.eye(m) * h
         for a in range(m):

@@ -224,10 +224,10 @@ def contact_points(x, cells, q, tol, departure=None) -> np.ndarray:
 
 def true_departure(sol) -> GapDeparture | None:
     """The :class:`~cvxcontact.contact.truegap.GapDeparture` (m) of the sphere's own gap from its P2 interpolant on
-    the triangles of a P2 solution's contact surface (the gap at in-plane points from the scene,
-    :meth:`~cvxcontact.physics.scene.Scene.pair_gap_values`; the nodal gap the contact's): the slack whose
-    maxima are the contact points of P2 "gamma3" (docs/formulation.md §8); None between two bodies (a pair's gap
-    function stays interpolated there, as the condition poses it)."""
+    the triangles of a P2 solution's contact surface (the gap at in-plane points and its derivatives from the
+    scene, :meth:`~cvxcontact.physics.scene.Scene.pair_gap_values` and ``pair_gap_derivatives``; the nodal gap the
+    contact's): the slack whose maxima are the contact points of P2 "gamma3" (docs/formulation.md §8); None
+    between two bodies (a pair's gap function stays interpolated there, as the condition poses it)."""
     if not getattr(sol.scene.interfaces[0], "rigid", False):
         return None
     c = sol.contact
@@ -236,7 +236,13 @@ def true_departure(sol) -> GapDeparture | None:
     def gap(elements, L):
         return sol.scene.pair_gap_values(0, np.einsum("kv,kvd->kd", L, x[cells[elements, :3]]))
 
-    return GapDeparture.build(gap, np.asarray(c.gap, dtype=float)[cells], np.ones(len(cells), dtype=bool))
+    def derivatives(elements, L):                 # the gap's, in closed form, in L: the point s = L X, ds/dL = X
+        X = x[cells[elements, :3]]
+        g, gs, hs = sol.scene.pair_gap_derivatives(0, np.einsum("kv,kvd->kd", L, X))
+        return g, np.einsum("kvd,kd->kv", X, gs), np.einsum("kvd,kde,kue->kvu", X, hs, X)
+
+    return GapDeparture.build(gap, np.asarray(c.gap, dtype=float)[cells], np.ones(len(cells), dtype=bool),
+                              derivatives)
 
 
 def hull_radius(points) -> float:

@@ -73,9 +73,15 @@ def test_solve_docstring_is_short_and_links_its_options_page():
 
 
 def test_learning_path_runs_through_every_tutorial_and_ends_with_the_accuracy():
+    """The path ends with the accuracy of an answer; after it come only the extensions (a nonlinear material,
+    quadrilaterals, friction), each a tutorial (issue 32)."""
     text = (ROOT / "docs" / "index.md").read_text(encoding="utf-8").split("## A learning path", 1)[1]
     steps = re.findall(r"^\d+\. \[[^]]+\]\(([^)]+)\)", text, re.M)
-    assert steps[-1] == "accuracy.md", steps
+    assert "accuracy.md" in steps, steps
+    after = steps[steps.index("accuracy.md") + 1:]
+    assert all(s.startswith("tutorials/") for s in after), steps
+    assert {"tutorials/hencky.md", "tutorials/quadrilaterals.md", "tutorials/friction.md"} <= set(after), steps
+    assert [int(n) for n in re.findall(r"^(\d+)\. \[", text, re.M)] == list(range(1, len(steps) + 1)), steps
     tutorials = [s for s in steps if s.startswith("tutorials/")]
     assert tutorials == [f"tutorials/{p.name}" for p in PAGES], tutorials   # in the tutorials' own order
     assert all((ROOT / "docs" / s).exists() for s in steps), steps

@@ -14,6 +14,8 @@ from cvxcontact.backends.result import Route
 from cvxcontact.backends.start import cone_seeds, start_active
 from cvxcontact.geometry.refine import label_longest, refine_marked
 
+pytestmark = pytest.mark.numerics   # warm-started finishes, P2 cuts (every kernel set)
+
 
 def nested(degree):
     """The study's Hertz scene (16 cells along the cylinder), its solution, and the mesh Dorfler (theta = 0.5)

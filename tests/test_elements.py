@@ -24,6 +24,8 @@ from cvxcontact.fem.quad import Q1_ELEMENT, Q2_ELEMENT
 from cvxcontact.fem.space import space
 from cvxcontact.io.output import body_mesh
 
+pytestmark = pytest.mark.numerics   # every element through the contact finishes (every kernel set)
+
 ELEMENTS = [("triangle", 1), ("triangle", 2), ("quad", 1), ("quad", 2)]
 IDS = ["P1", "P2", "Q1", "Q2"]
 STEEL = cc.materials.isotropic(E=200e9, nu=0.3)

@@ -15,6 +15,8 @@ import cvxcontact as cc
 from cvxcontact.apps.studies import bound as study
 from cvxcontact.solution import bound
 
+pytestmark = pytest.mark.numerics   # equilibrated fluxes, sparse saddle-point solves (every kernel set)
+
 # measured effectivity (bound / true error), levels 0, 1 and 2, reference at level 3
 MEASURED = {"circle (ray), P1": (1.57, 2.27), "crowned block on a plane, P1": (1.34, 1.49),
             "PZT layer, floating electrode, rigid circle, P1": (2.18, 2.62),

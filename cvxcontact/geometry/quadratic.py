@@ -17,7 +17,34 @@ from ..errors import MeshError
 __all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes"]
 
 
-class P2Nodes:
+class _MidpointNodes:
+    """What the quadratic node sets share (module docstring): vertices first, then the edge midpoints numbered by
+    sorted vertex pairs (``_keys``). A subclass sets ``mesh``, ``points``, ``n_vertices`` and ``_keys`` and
+    answers ``cells`` and ``boundary(tag)``."""
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def midpoint(self, a, b) -> np.ndarray:
+        """Node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
+        return _midpoint(self._keys, self.n_vertices, a, b)
+
+    def boundary_nodes(self, tags) -> np.ndarray:
+        """Sorted unique node indices (vertices and midpoints) on the parts named in ``tags`` (a name or names)."""
+        parts = [self.boundary(t).ravel() for t in ([tags] if isinstance(tags, str) else tags)]
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
+
+
+class _SegmentTraces(_MidpointNodes):
+    """2D node sets (6-node triangles, 9-node quadrilaterals): boundary traces are 3-node segments."""
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) node indices."""
+        e = self.mesh.boundary(tag)
+        return np.column_stack([e, self.midpoint(e[:, 0], e[:, 1])])
+
+
+class P2Nodes(_SegmentTraces):
     """The P2 nodes of a :class:`~cvxcontact.geometry.mesh.Mesh` (module docstring).
 
     Attributes: ``mesh``, ``points`` (n, 2) m, ``triangles`` (m, 6) node indices of each element
@@ -43,25 +70,9 @@ class P2Nodes:
         """(m, 6) the elements: ``triangles``."""
         return self.triangles
 
-    def __len__(self) -> int:
-        return len(self.points)
-
-    def midpoint(self, a, b) -> np.ndarray:
-        """P2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
-        return _midpoint(self._keys, self.n_vertices, a, b)
-
-    def boundary(self, tag: str) -> np.ndarray:
-        """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) P2 node indices."""
-        e = self.mesh.boundary(tag)
-        return np.column_stack([e, self.midpoint(e[:, 0], e[:, 1])])
-
-    def boundary_nodes(self, tags) -> np.ndarray:
-        """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
-        parts = [self.boundary(t).ravel() for t in tags]
-        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
 
 
-class P2TetNodes:
+class P2TetNodes(_MidpointNodes):
     """The P2 nodes of a :class:`~cvxcontact.geometry.tetmesh.TetMesh` (module docstring).
 
     Attributes: ``mesh``, ``points`` (n + e, 3) m, ``tets10`` (m, 10) node indices of each element in the
@@ -84,17 +95,10 @@ class P2TetNodes:
         self.points = _frozen(pts)
         self.tets10 = _frozen(np.column_stack([tets, nv + inverse.reshape(-1, 6)]))
 
-    def __len__(self) -> int:
-        return len(self.points)
-
     @property
     def cells(self) -> np.ndarray:
         """(m, 10) the elements: :attr:`tets10`."""
         return self.tets10
-
-    def midpoint(self, a, b) -> np.ndarray:
-        """P2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
-        return _midpoint(self._keys, self.n_vertices, a, b)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 6) boundary faces carrying ``tag`` as triangle6 P2 node indices (v0, v1, v2, m01, m12, m20),
@@ -103,13 +107,9 @@ class P2TetNodes:
         f = self.mesh.boundary(tag)
         return np.column_stack([f] + [self.midpoint(f[:, i], f[:, j]) for i, j in ((0, 1), (1, 2), (2, 0))])
 
-    def boundary_nodes(self, tags) -> np.ndarray:
-        """Sorted unique P2 node indices (vertices and midpoints) on the parts named in ``tags``."""
-        parts = [self.boundary(t).ravel() for t in ([tags] if isinstance(tags, str) else tags)]
-        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
 
 
-class Q2Nodes:
+class Q2Nodes(_SegmentTraces):
     """The Q2 (9-node) nodes of a :class:`~cvxcontact.geometry.quadmesh.QuadMesh`: its vertices, then the
     midpoints of its edges (numbered by sorted vertex pairs), then the cells' centres (the mean of the
     corners: the image of the reference centre by the bilinear map, as the midpoints are of the edges' middles).
@@ -141,22 +141,6 @@ class Q2Nodes:
         """(m, 9) the elements: ``quads9``."""
         return self.quads9
 
-    def __len__(self) -> int:
-        return len(self.points)
-
-    def midpoint(self, a, b) -> np.ndarray:
-        """Q2 node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
-        return _midpoint(self._keys, self.n_vertices, a, b)
-
-    def boundary(self, tag: str) -> np.ndarray:
-        """(k, 3) boundary edges carrying ``tag`` as (start, end, midpoint) node indices."""
-        e = self.mesh.boundary(tag)
-        return np.column_stack([e, self.midpoint(e[:, 0], e[:, 1])])
-
-    def boundary_nodes(self, tags) -> np.ndarray:
-        """Sorted unique node indices (vertices and midpoints) on the parts named in ``tags``."""
-        parts = [self.boundary(t).ravel() for t in tags]
-        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=int)
 
 
 def _midpoint(keys, nv, a, b):

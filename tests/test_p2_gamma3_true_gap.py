@@ -73,11 +73,16 @@ def true_slack(sc, sol, center_z, translation=0.0, distance="closest", samples=2
 @pytest.mark.parametrize("n", [4, 8])
 def test_a_touching_sphere_carries_no_force(n, distance):
     # before, posed along the normal: 5.34e6 N (n = 4) and 2.17e4 N (n = 8), max|u| 5.2e-4 and 4.9e-6 m, ok True
-    # (the interpolant penetrated the sphere); at the closest point 0 N
+    # (the interpolant penetrated the sphere); now 0 N up to the rounding of the tangency: at the closest point the
+    # true slack's maximum is 0 in exact arithmetic and +-eps R in floating point, so a kernel set may add a cut
+    # carrying the force of that rounding (measured: 0 N under Haswell, Nehalem, Prescott; 1.7e-9 ... 5.0e-9 N
+    # under Sandybridge), bounded by the block's stiffness E L times eps R (7.8e-6 N)
     p2 = solve(scene(n, distance=distance))
     for ref in (solve(scene(n, distance=distance), degree=1), solve(scene(n, distance=distance), "sigma1")):
-        assert ref.ok and np.all(ref.obstacles[0].force == 0) and np.all(ref.u[0] == 0)   # P1, P2 nodal
-    assert p2.ok and np.all(p2.obstacles[0].force == 0) and np.all(p2.u[0] == 0)
+        assert ref.ok and np.all(ref.obstacles[0].force == 0) and np.all(ref.u[0] == 0)   # P1, P2 nodal: exact
+    rounding = ALU.E * 1.0 * np.finfo(float).eps * R                                  # N: E L eps R, L = 1 m
+    assert p2.ok and np.abs(p2.obstacles[0].force).max() <= rounding
+    assert np.abs(p2.u[0]).max() <= np.finfo(float).eps * R                           # measured 0 ... 1.2e-18 m
 
 
 @pytest.mark.parametrize("distance", POSINGS)

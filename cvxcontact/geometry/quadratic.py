@@ -55,14 +55,9 @@ class P2Nodes(_SegmentTraces):
         self.mesh = mesh
         tri = mesh.triangles
         nv = len(mesh.points)
-        pairs = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)  # (m, 3, 2)
-        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
-        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
-        mids = nv + inverse.reshape(-1, 3)
-        edges = np.column_stack([self._keys // nv, self._keys % nv])
-        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]])])
+        self._keys, mids, middles = _numbered_edges(mesh.points, tri, [[0, 1], [1, 2], [2, 0]])
         self.n_vertices = nv
-        self.points = _frozen(pts)
+        self.points = _frozen(np.concatenate([mesh.points, middles]))
         self.triangles = _frozen(np.column_stack([tri, mids]))
 
     @property
@@ -86,14 +81,10 @@ class P2TetNodes(_MidpointNodes):
         self.mesh = mesh
         tets = mesh.tets
         nv = len(mesh.points)
-        pairs = np.sort(tets[:, EDGES], axis=2)                                   # (m, 6, 2)
-        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
-        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
-        edges = np.column_stack([self._keys // nv, self._keys % nv])
-        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]])])
+        self._keys, mids, middles = _numbered_edges(mesh.points, tets, EDGES)
         self.n_vertices = nv
-        self.points = _frozen(pts)
-        self.tets10 = _frozen(np.column_stack([tets, nv + inverse.reshape(-1, 6)]))
+        self.points = _frozen(np.concatenate([mesh.points, middles]))
+        self.tets10 = _frozen(np.column_stack([tets, mids]))
 
     @property
     def cells(self) -> np.ndarray:
@@ -125,22 +116,27 @@ class Q2Nodes(_SegmentTraces):
         self.mesh = mesh
         quads = mesh.quads
         nv = len(mesh.points)
-        pairs = np.sort(quads[:, EDGES], axis=2)                                  # (m, 4, 2)
-        keys = pairs[..., 0].astype(np.int64) * nv + pairs[..., 1]
-        self._keys, inverse = np.unique(keys.ravel(), return_inverse=True)
-        edges = np.column_stack([self._keys // nv, self._keys % nv])
-        ne = len(edges)
-        pts = np.concatenate([mesh.points, 0.5 * (mesh.points[edges[:, 0]] + mesh.points[edges[:, 1]]),
-                              mesh.points[quads].mean(axis=1)])
+        self._keys, mids, middles = _numbered_edges(mesh.points, quads, EDGES)
         self.n_vertices = nv
-        self.points = _frozen(pts)
-        self.quads9 = _frozen(np.column_stack([quads, nv + inverse.reshape(-1, 4), nv + ne + np.arange(len(quads))]))
+        self.points = _frozen(np.concatenate([mesh.points, middles, mesh.points[quads].mean(axis=1)]))
+        self.quads9 = _frozen(np.column_stack([quads, mids, nv + len(middles) + np.arange(len(quads))]))
 
     @property
     def cells(self) -> np.ndarray:
         """(m, 9) the elements: ``quads9``."""
         return self.quads9
 
+
+
+def _numbered_edges(points, cells, local_edges):
+    """(keys, mids, middles): the edges of ``cells`` (vertex pairs ``local_edges`` of each) numbered by sorted
+    vertex pairs: ``keys`` (e,) int64 a * nv + b (a < b), ``mids`` (m, k) the node index nv + e of each cell's
+    k edges, ``middles`` (e, d) m their midpoints."""
+    nv = len(points)
+    pairs = np.sort(np.asarray(cells)[:, local_edges], axis=2)                   # (m, k, 2)
+    keys, inverse = np.unique(pairs[..., 0].astype(np.int64) * nv + pairs[..., 1], return_inverse=True)
+    ends = np.column_stack([keys // nv, keys % nv])
+    return keys, nv + inverse.reshape(len(pairs), -1), 0.5 * (points[ends[:, 0]] + points[ends[:, 1]])
 
 
 def _midpoint(keys, nv, a, b):

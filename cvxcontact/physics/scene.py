@@ -721,7 +721,7 @@ class Scene(Frozen):
         """(g (k,), grad (k, m), hess (k, m, m)): :meth:`pair_gap_values` of rigid pair ``i`` at the points ``s``
         of its line or plane (tangential coordinates (k,) in 2D, in-plane (k, 2) in 3D, m) and its derivatives in
         those coordinates (m = 1 or 2): the obstacle's distance in closed form (:meth:`~cvxcontact.physics.pairs.
-        Rigid.distance_derivatives`), the pair's own gap g(s) by central differences (exactly zero for a
+        Rigid.distance_derivatives`), the pair's own gap g(s) by central differences (none taken for a
         constant one). The curvature of the true gap along a P2 face (docs/formulation.md §8, §18)."""
         itf = self.interfaces[i]
         three = getattr(itf, "dim", 2) == 3
@@ -740,6 +740,8 @@ class Scene(Frozen):
             load = lambda S: np.array(f(S[:, 0], np.full(len(S), itf.y)), dtype=float)    # noqa: E731
         g, grad, hess = itf.obstacle.distance_derivatives(points, np.asarray(itf.normal, dtype=float))
         grad, hess = grad @ frame.T, np.einsum("ai,nij,bj->nab", frame, hess, frame)
+        if not callable(f.value):                  # a constant gap: no derivatives, no differences to take
+            return g + float(f.value), grad, hess
         m = S.shape[1]
         # the step from the pair's own extent (m), not the points': each point's derivatives then do not depend on
         # the others given (one point at the origin gave h = 0)

@@ -132,7 +132,7 @@ def test_typeset_sections_write_every_symbol_as_mathematics():
 # Every written page of docs/: not the build products (the gallery, the tutorials' executed copies) nor the studies'
 # output (docs/studies/: tables a study writes, where a symbol is data).
 GENERATED = {"_build", "auto_examples", "_generated", "studies"}
-PAGES = sorted(p for p in DOCS.rglob("*.md") if not GENERATED & set(p.relative_to(DOCS).parts))
+PAGES = sorted(p for p in DOCS.rglob("*.md") if not GENERATED & set(p.relative_to(DOCS).parts)) + [ROOT / "README.md"]
 
 
 def plain_text_symbols(text: str) -> list[str]:
@@ -143,11 +143,11 @@ def plain_text_symbols(text: str) -> list[str]:
 
 
 def test_the_page_list_is_every_written_page():
-    names = {p.relative_to(DOCS).as_posix() for p in PAGES}
-    assert {"materials.md", "architecture.md", "getting-started.md", "refusals.md", "meshes3d.md",
+    names = {p.relative_to(DOCS).as_posix() for p in PAGES if p.is_relative_to(DOCS)}
+    assert (ROOT / "README.md") in PAGES and {"materials.md", "architecture.md", "getting-started.md", "refusals.md", "meshes3d.md",
             "explanation/performance.md", "reference/cli.md", "results/studies.md", "tutorials/model.md",
             "howto/3d.md", "formulation.md", "checks.md", "accuracy.md"} <= names, sorted(names)
-    assert len(PAGES) >= 40, len(PAGES)                  # measured: 45 pages
+    assert len(PAGES) >= 40, len(PAGES)                  # measured: 45 pages and the README
 
 
 def test_a_planted_symbol_is_found():
@@ -160,7 +160,7 @@ def test_a_planted_symbol_is_found():
                                   "```python\nσ = 1  # λ\n```\n$$\n\\lambda_h\n$$\n## σ in a heading\n")
 
 
-@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(DOCS).as_posix())
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_pages_write_their_symbols_and_formulas_as_mathematics(page):
     """Every page: no plain-text display, no character only a formula uses and no Greek symbol in the running text
     outside $...$ and code (headings keep plain text); inline math on one line (GitHub reads $...$ within a
@@ -179,7 +179,7 @@ def test_model_tutorial_writes_its_equations_as_mathematics():
     assert not re.search(r"^ {4}\S", text, re.M), "an indented code block (a plain-text equation?) in the model tutorial"
 
 
-@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(DOCS).as_posix())
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_math_is_written_for_sphinx_and_for_github(page):
     """What breaks a formula on one of the two renderers: Sphinx wraps a display holding ``\\\\`` in a split
     environment, where MathJax refuses ``\\tag`` (seen in the first build: "\\tag not allowed in split

@@ -93,8 +93,10 @@ def _public_callables():
     rigid = {f"Rigid.{n}": getattr(cc.Rigid, n)
              for n in ("plane", "circle", "profile", "sphere", "cylinder", "height_field")}
     solution = {f"Solution.{n}": getattr(cc.Solution, n) for n in ("traction", "in_contact", "contact_fraction")}
+    model = {f"Model.{n}": getattr(cc.Model, n) for n in ("u", "phi", "translation", "add", "add_objective")}
     return {"solve": cc.solve, "ContactSolver": cc.ContactSolver, "Model": cc.Model, "Scene": cc.Scene,
-            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, "adapt": cc.adapt, **rigid, **solution}
+            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, "adapt": cc.adapt, **rigid, **solution,
+            **model}
 
 
 def _section(doc: str, title: str) -> list[str]:

@@ -93,7 +93,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
           max_cells: int | None = None, tol: float | None = None,
           curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
           progress: Callable[[str], None] | None = None, keep: bool = False, **options) -> Adapted:
-    """Refine ``scene``'s meshes where the error estimate sits, solving on each (module docstring).
+    """Refine ``scene``'s meshes where the error estimate sits, solving on each.
+
+    The loop is the module's docstring; how to use it, and what it measured: docs/accuracy.md,
+    "Adaptive refinement: cc.adapt".
 
     Parameters
     ----------
@@ -119,7 +122,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         Called with one line of text per step (the package's progress convention, as the sweeps and studies).
     keep : bool
         Keep every step's solution in ``Adapted.solutions`` (memory: one solution per step).
-    **options
+    **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
         each step's solution to the next).

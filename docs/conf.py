@@ -20,6 +20,9 @@ sys.path.insert(0, str(DOCS / "_ext"))   # tutorial_cells: the tutorials run as 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import cvxcontact  # noqa: E402
+from sphinx.util import logging  # noqa: E402
+
+_LOG = logging.getLogger(__name__)
 
 project = "cvxcontact"
 author = "the cvxcontact developers"
@@ -91,9 +94,34 @@ def _gallery_links(app, docname, source):
     source[0] = re.sub(r"\]\(([^()\s#]*examples/[^()\s#]*)\)", to_gallery, source[0])
 
 
+def _check_site(app, exception):
+    """What issue 32 asks of the built site, checked on it (a warning: an error under -W): every page with
+    mathematics loads the MathJax copied into the site and no script from the network (readable offline), and
+    every tutorial page shows a figure and links its notebook."""
+    if exception is not None or app.builder.name != "html":
+        return
+    out = Path(app.outdir)
+    for page in sorted(out.rglob("*.html")):
+        if "_static" in page.relative_to(out).parts or "_modules" in page.relative_to(out).parts:
+            continue
+        html, name = page.read_text(encoding="utf-8"), page.relative_to(out).as_posix()
+        scripts = re.findall(r'<script[^>]*\ssrc="([^"]*)"', html)
+        remote = [s for s in scripts if re.match(r"([a-z]+:)?//", s)]
+        if remote:
+            _LOG.warning("%s loads scripts from the network: %s", name, remote)
+        if 'class="math' in html:
+            local = [s for s in scripts if s.split("?")[0].endswith("_static/" + mathjax_path)]
+            if not local or not (page.parent / local[0].split("?")[0]).is_file():
+                _LOG.warning("%s has mathematics but no local MathJax (%s)", name, mathjax_path)
+        if name.startswith("tutorials/") and name != "tutorials/index.html":
+            if "<img" not in html or not re.search(r'href="[^"]*\.ipynb"', html):
+                _LOG.warning("%s: a tutorial page without a figure or without its notebook's link", name)
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", _escape_bars)
     app.connect("source-read", _gallery_links)
+    app.connect("build-finished", _check_site)
 
 sphinx_gallery_conf = {
     "examples_dirs": str(ROOT / "examples"),
@@ -105,6 +133,7 @@ sphinx_gallery_conf = {
     "matplotlib_animations": False,
     "within_subsection_order": "FileNameSortKey",
     "show_memory": False,
+    "write_computation_times": False,    # its pages load jQuery and DataTables from CDNs: the site loads nothing remote
     "plot_gallery": "True",
 }
 

@@ -92,8 +92,11 @@ def _public_callables():
 
     rigid = {f"Rigid.{n}": getattr(cc.Rigid, n)
              for n in ("plane", "circle", "profile", "sphere", "cylinder", "height_field")}
+    solution = {f"Solution.{n}": getattr(cc.Solution, n) for n in ("traction", "in_contact", "contact_fraction")}
+    model = {f"Model.{n}": getattr(cc.Model, n) for n in ("u", "phi", "translation", "add", "add_objective")}
     return {"solve": cc.solve, "ContactSolver": cc.ContactSolver, "Model": cc.Model, "Scene": cc.Scene,
-            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, **rigid}
+            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, "adapt": cc.adapt, **rigid, **solution,
+            **model}
 
 
 def _section(doc: str, title: str) -> list[str]:
@@ -116,7 +119,7 @@ def test_public_callables_have_numpydoc_parameters_naming_every_parameter(name):
     assert "Parameters\n----------\n" in doc, f"{name}: no numpydoc Parameters section"
     entries = _section(doc, "Parameters")
     names = [e.split(" : ", 1)[0].lstrip("*") for e in entries]
-    assert names == list(inspect.signature(obj).parameters), (name, names)
+    assert names == [p for p in inspect.signature(obj).parameters if p != "self"], (name, names)
     for entry in entries:
         head = entry.splitlines()[0]
         assert head.split(" : ", 1)[1].strip(), f"{name}: {head!r} has no type"
@@ -131,6 +134,26 @@ def test_public_callables_have_numpydoc_parameters_naming_every_parameter(name):
         assert heading in headings, f"{name} names {page}, {heading!r}: no such heading"
     for page in re.findall(r"(docs/[\w/.-]+\.md)", doc):
         assert (ROOT / page).exists(), f"{name} names {page}, which does not exist"
+
+
+@pytest.mark.parametrize("name", ["residuals", "report", "traction", "in_contact", "contact_fraction"])
+def test_solution_methods_have_numpydoc_returns(name):
+    """numpydoc: a one-line summary, a "Returns" section whose entries name a type and hold at most 3 lines of
+    text (units in the text); the docs pages and headings the docstring names exist."""
+    import inspect
+
+    import cvxcontact as cc
+
+    doc = inspect.getdoc(getattr(cc.Solution, name))
+    assert len(doc.split("\n\n", 1)[0].splitlines()) == 1, f"{name}: the summary is one line"
+    assert "Returns\n-------\n" in doc, f"{name}: no numpydoc Returns section"
+    entries = re.split(r"\n(?=\S)", doc.split("Returns\n-------\n", 1)[1].strip("\n"))
+    for entry in entries:
+        assert len(entry.splitlines()) <= 4, f"{name}: a long entry, move it to a docs page:\n{entry}"
+    for page, heading in re.findall(r'(docs/[\w/.-]+\.md),\s+"([^"]+)"', doc):
+        headings = {re.sub(r"[`$]", "", h).strip()
+                    for h in re.findall(r"^#+ (.*)$", (ROOT / page).read_text(encoding="utf-8"), re.M)}
+        assert heading in headings, f"Solution.{name} names {page}, {heading!r}: no such heading"
 
 
 def test_solution_documents_its_main_attributes():

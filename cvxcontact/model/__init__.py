@@ -175,10 +175,21 @@ class Model:
         return int(body)
 
     def u(self, body, nodes=None) -> cp.Expression:
-        """Nodal displacements of ``body`` (index 0/1 or the Body), an (n_nodes, 2) expression in m;
-        the clamped dofs (Gamma_1) are the constant 0. ``nodes`` (an index or an array of node indices):
-        those rows only, checked (a SceneError naming the body and the valid range, where plain indexing
-        ``model.u(body)[node]`` raises CVXPY's IndexError)."""
+        """Nodal displacements of ``body``, m: a CVXPY expression, the clamped dofs (Gamma_1) the constant 0.
+
+        Parameters
+        ----------
+        body : int or Body
+            The body's index in ``scene.bodies``, or the Body.
+        nodes : int or array of int, optional
+            Those rows only, checked (a SceneError naming the valid range; plain indexing of the expression
+            raises CVXPY's IndexError).
+
+        Returns
+        -------
+        cvxpy.Expression
+            (n_nodes, d) in m, d the scene's dimension; (d,) or (len(nodes), d) with ``nodes``.
+        """
         k = self._index(body)
         if k not in self._u_expr:
             s = self.systems[k]
@@ -189,8 +200,20 @@ class Model:
         return self._u_expr[k] if nodes is None else self._u_expr[k][self._nodes_of(k, nodes)]
 
     def phi(self, body, nodes=None) -> cp.Expression | None:
-        """Nodal potentials of ``body``, an (n_nodes,) expression in V with the electrode potentials
-        (Gamma_a, grounded parts) as constants; None for an elastic body. ``nodes`` as in :meth:`u`."""
+        """Nodal potentials of ``body``, V: a CVXPY expression, the electrodes' potentials (Gamma_a) constants.
+
+        Parameters
+        ----------
+        body : int or Body
+            The body's index in ``scene.bodies``, or the Body.
+        nodes : int or array of int, optional
+            Those rows only, checked as in :meth:`u`.
+
+        Returns
+        -------
+        cvxpy.Expression or None
+            (n_nodes,) in V (or the rows of ``nodes``); None for an elastic body.
+        """
         k = self._index(body)
         s = self.systems[k]
         if not s.piezoelectric:
@@ -213,17 +236,31 @@ class Model:
         return int(idx) if idx.ndim == 0 else idx
 
     def jump(self) -> cp.Expression:
-        """[u_nu] of every pair, stacked, m: pair i's rows are ``model.offsets[i]:offsets[i + 1]`` at the nodes
-        ``sol.contacts[i].x``. P1: the merged nodes of each pair (``scene.stack``); P2: the P2 nodes of each
-        pair's X_h (merged vertices and segment midpoints, interleaved). Against a rigid obstacle [u_nu] is
-        the body's u . nu; the contact condition is [u_nu] <= gap, for a force-controlled obstacle
-        [u_nu] + c . t <= gap with t its translation (:meth:`translation`, docs/formulation.md §12)."""
+        """The normal jump [u_nu] of every contact pair at its nodes, stacked.
+
+        Returns
+        -------
+        cvxpy.Expression
+            In m; pair i's rows ``model.offsets[i]:offsets[i + 1]`` at the nodes ``sol.contacts[i].x``. Which
+            nodes, and the rows against an obstacle: docs/howto/extending.md, "The model's expressions".
+        """
         return self.units.displacement * (sum(b.jump @ u for b, u in zip(self.blocks, self._contact.u))
                                           + self.problem.prescribed_jump)
 
     def translation(self, obstacle: int) -> cp.Expression:
-        """The rigid translation (d,) in m (d = 2 or 3, the scene's dimension) of ``scene.obstacles[obstacle]``: for a force-controlled obstacle an
-        unknown (its force balance is part of the program), for a fixed one the constant 0."""
+        """The rigid translation of ``scene.obstacles[obstacle]``: an unknown if the obstacle is force-controlled.
+
+        Parameters
+        ----------
+        obstacle : int
+            Index in ``scene.obstacles``.
+
+        Returns
+        -------
+        cvxpy.Expression
+            (d,) in m, d the scene's dimension: for a force-controlled obstacle an unknown (its force balance is
+            part of the program), for a fixed one the constant 0.
+        """
         if isinstance(obstacle, bool) or not isinstance(obstacle, (int, np.integer)) or \
                 not 0 <= obstacle < len(self._obstacles):
             raise SceneError(f"obstacle must be an index into scene.obstacles (0..{len(self._obstacles) - 1}), "
@@ -246,9 +283,19 @@ class Model:
                              f"from model.u(), model.phi() or model.jump() of this Model")
 
     def add(self, item):
-        """Add a user constraint (``==``, ``<=`` or ``>=`` of this model's expressions, SI units),
-        an objective term (``cp.Minimize(convex)`` / ``cp.Maximize(concave)``, J/m), or a list of
-        them. Returns ``item`` (keep a constraint to read its ``dual_value`` after solving)."""
+        """Add a user constraint, an objective term, or a list of them.
+
+        Parameters
+        ----------
+        item : cvxpy.Constraint, cvxpy.Minimize, cvxpy.Maximize or list
+            A constraint (``==``, ``<=``, ``>=``) of this model's expressions in SI units, or
+            ``cp.Minimize(convex)`` / ``cp.Maximize(concave)`` in J/m (J in 3D); convex (DCP), else SceneError.
+
+        Returns
+        -------
+        item
+            As given: keep a constraint to read its ``dual_value`` after solving.
+        """
         if isinstance(item, (cp.Minimize, cp.Maximize)):
             expr = item.args[0] if isinstance(item, cp.Minimize) else -item.args[0]
             self.add_objective(expr)
@@ -269,7 +316,13 @@ class Model:
         return item
 
     def add_objective(self, expr) -> None:
-        """Add a convex scalar objective term ``expr`` in J/m (per unit thickness) to the energy."""
+        """Add a convex scalar term to the energy the program minimises.
+
+        Parameters
+        ----------
+        expr : cvxpy.Expression
+            Scalar, convex (DCP), of this model's unknowns; J/m in 2D (per unit thickness), J in 3D.
+        """
         if not isinstance(expr, cp.Expression):
             raise SceneError(f"add_objective takes a CVXPY expression of this model's unknowns, "
                              f"got {type(expr).__name__}")
@@ -289,8 +342,14 @@ class Model:
         return x
 
     def solve(self) -> Solution:
-        """Solve with the user terms; a fresh Solution in SI with checks that include them. Without user terms
-        the program is the one ``cc.solve(..., method="full")`` solves, with the same finish and read-back."""
+        """Solve the program with the user terms.
+
+        Returns
+        -------
+        Solution
+            A fresh Solution in SI whose checks include the user terms. Without them, the answer of
+            ``cc.solve(..., method="full")``, with the same finish and read-back.
+        """
         if not self.constraints and not self._objective:
             return self._solve_plain()
         if self.problem.friction:

@@ -270,7 +270,14 @@ class Solution:
         return self.info.timings
 
     def residuals(self) -> dict[str, float]:
-        """Relative residuals of the mixed formulation (26)-(27): see the module docstring."""
+        """The checks of the mixed formulation (26)-(27): relative residuals, each passing below ``tol``.
+
+        Returns
+        -------
+        dict[str, float]
+            Check name ("equilibrium", "feasibility", "complementarity", "cone", ...) -> relative residual
+            (dimensionless). What each bounds: docs/checks.md, "The four checks".
+        """
         return dict(self._checks)
 
     @property
@@ -293,12 +300,22 @@ class Solution:
         return key == ENERGY_ERROR and all(c[k] <= tol for k in CERTIFIED if k in c)
 
     def traction(self, k: int, pair: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """Contact pressure as felt by body ``k`` (0 or 1: the first or second body of contact pair
-        ``pair``): (x, p) on its own trace nodes (x the tangential coordinate s, m).
+        """The contact pressure felt by body ``k`` of pair ``pair`` on its own trace nodes: the pressure to plot.
 
-        The merged nodal forces are moved to the nodes of body k's trace (the transpose
-        of the trace interpolation: exact work equivalence) and divided by the lumped
-        lengths there. A non-oscillating view of lambda, in Pa, on that body's mesh.
+        Parameters
+        ----------
+        k : int
+            0 or 1: the first or the second body of the pair (0 only against a rigid obstacle).
+        pair : int
+            Index of the contact pair in ``scene.contacts``.
+
+        Returns
+        -------
+        x : ndarray
+            The trace nodes' tangential coordinate s (m; in 3D (n, 2) in-plane coordinates).
+        p : ndarray
+            The pressure at those nodes (Pa). How it is made from the nodal forces, and how it differs from
+            ``lam``: docs/checks.md, "The pressure views: what to plot, what to check".
         """
         itf = self._pair_line(pair)
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
@@ -310,12 +327,20 @@ class Solution:
         return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
 
     def in_contact(self, pair: int = 0) -> np.ndarray:
-        """The contact zone of contact pair ``pair``: a boolean mask of its merged nodes (``contacts[pair].x``)
-        where the pressure felt by the bodies is positive (:meth:`traction` of each side interpolated at the
-        node, their mean; above 1e-9 of its largest value). This is the zone the report counts and
-        :func:`~cvxcontact.io.plot.plot_contact_map` draws. It differs from ``contacts[pair].active`` (the
-        constrained nodes that carry a nodal force): under "gamma3" on non-matching faces the overlay's rows are
-        dependent and a uniform pressure is carried by the forces of a subset of its nodes."""
+        """The contact zone of pair ``pair``: where the pressure felt by the bodies is positive.
+
+        Parameters
+        ----------
+        pair : int
+            Index of the contact pair in ``scene.contacts``.
+
+        Returns
+        -------
+        ndarray of bool
+            One entry per merged node (``contacts[pair].x``): the mean of :meth:`traction` of each side at the
+            node is above 1e-9 of its largest value. Why it differs from ``contacts[pair].active``:
+            docs/checks.md, "The pressure views: what to plot, what to check".
+        """
         itf = self._pair_line(pair)
         sides = range(len(itf.traces))
         p = sum(itf.interpolation(k) @ self.traction(k, pair)[1] for k in sides) / len(sides)
@@ -323,10 +348,20 @@ class Solution:
         return p > 1e-9 * top if top > 0 else np.zeros(len(p), dtype=bool)
 
     def contact_fraction(self, pair: int = 0) -> float | None:
-        """The share of contact pair ``pair``'s surface (length in 2D, area in 3D) in its contact zone
-        (:meth:`in_contact`), each merged node weighted by its share of the surface (the lumped lengths or areas
-        of the mesh of the constrained nodes, ``contacts[pair].measure``; P2 in 2D: the P2 lumped lengths);
-        1 for contact over the whole surface. None for P2 in 3D (a face vertex has no lumped area)."""
+        """The share of pair ``pair``'s surface (length in 2D, area in 3D) in its contact zone (:meth:`in_contact`).
+
+        Parameters
+        ----------
+        pair : int
+            Index of the contact pair in ``scene.contacts``.
+
+        Returns
+        -------
+        float or None
+            Between 0 and 1 (dimensionless; 1: contact over the whole surface), each merged node weighted by its
+            lumped length or area (``contacts[pair].measure``; P2 in 2D: the P2 lumped lengths). None for P2 in
+            3D (a face vertex has no lumped area).
+        """
         c = self.contacts[pair]
         if c.measure is not None:
             w = np.asarray(c.measure, dtype=float)
@@ -344,13 +379,15 @@ class Solution:
         return _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
 
     def report(self) -> str:
-        """A short human-readable account of the solve (what `cvxcontact solve` prints): the condition, the
-        solver status and whether the arrays are the exact finish; each check of (26)-(27) against ``tol``;
-        per contact pair its total force, its contact zone (:meth:`in_contact`: the nodes where the pressure is
-        positive, and the share of the surface they cover) and its active nodes (the constrained nodes that
-        carry a nodal force, ``contacts[i].active``); per electrode its potential (V) and charge (C/m; C in
-        3D); per rigid obstacle its translation (m) and force; the error estimate (:attr:`estimate`, relative and
-        absolute in the energy norm) or why there is none."""
+        """A short human-readable account of the solve: what `cvxcontact solve` prints.
+
+        Returns
+        -------
+        str
+            The condition, the status, the exact finish or not, each check of (26)-(27) against ``tol``; per
+            pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode its potential
+            (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; the error :attr:`estimate`.
+        """
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"

@@ -16,11 +16,51 @@ def rows(path):
         return list(csv.DictReader(fh))
 
 
+READ = ("hertz", "convergence", "speed", "stability", "adapt", "hertz3d_elastic", "bound")
+"""The quick studies this module runs end to end. Not run here (their numbers are tested where they are computed,
+at a fraction of the cost): "estimate" (206 s quick on a loaded machine; tests/test_estimate.py, test_estimate3d.py
+and test_committed_tables.py solve its scenes and levels) and "hertz3d" (51 s; tests/test_hertz3d.py and
+test_committed_tables.py); `study all` is checked to dispatch to every study below."""
+
+
 @pytest.fixture(scope="module")
 def studies(tmp_path_factory):
     out = tmp_path_factory.mktemp("studies")
-    assert main(["study", "all", "--quick", "--out", str(out), "-q"]) == 0
+    for name in READ:
+        assert main(["study", name, "--quick", "--out", str(out / name), "-q"]) == 0
     return out
+
+
+def test_study_all_runs_every_study_into_its_own_folder(tmp_path, monkeypatch):
+    """`cvxcontact study all` calls each study of STUDIES once, quick, into <out>/<name> (the studies' run replaced
+    by a recorder: their numbers are tested elsewhere)."""
+    import importlib
+
+    from cvxcontact.apps.studies import STUDIES
+
+    called = []
+    for name in STUDIES:
+        module = importlib.import_module(f"cvxcontact.apps.studies.{name}")
+        monkeypatch.setattr(module, "run", lambda out, quick, progress, name=name: called.append((name, out, quick)))
+    assert main(["study", "all", "--quick", "--out", str(tmp_path), "-q"]) == 0
+    assert [c[0] for c in called] == list(STUDIES) and all(quick for _, _, quick in called)
+    assert [c[1] for c in called] == [tmp_path / name for name in STUDIES]
+
+
+def test_estimate_study_writes_its_table(tmp_path, monkeypatch):
+    """The estimate study's writer (its effectivity runs replaced by two rows per scene of known values: the
+    numbers are tested in tests/test_estimate*.py) prints every scene with its columns."""
+    from cvxcontact.apps.studies import estimate
+
+    row = dict(level=0, cells=8, unknowns=30, estimate=2.0, true_error=1.0, effectivity=2.0, relative=0.1,
+               true_relative=0.05, reference_estimate=0.5, cost=0.2)
+    monkeypatch.setattr(estimate, "effectivity", lambda *a: [row, dict(row, level=1, effectivity=2.5)])
+    results = estimate.run(tmp_path, quick=True)
+    table = (tmp_path / "estimate.md").read_text()
+    assert set(results) == set(estimate.SCENES) | set(estimate.SCENES3D)
+    for name in results:
+        assert f"| {name} | 0 | 8 | 30 | 2 | 1 | 2 |" in table and f"| {name} | 2 | 2.5 |" in table
+    assert len(rows(tmp_path / "estimate.csv")) == 2 * len(results)
 
 
 def test_every_study_writes_csv_png_and_markdown(studies):

@@ -63,7 +63,7 @@ def _positions(problem) -> np.ndarray | None:
 def contact_state(problem, raw) -> ContactState | None:
     """The :class:`ContactState` of an exact finish ``raw`` (scaled) on ``problem``; None where a start does not
     apply (module docstring) or the answer is not an exact finish."""
-    if not problem.term.hands_on_state or not raw.polished or raw.y is None:
+    if not _hands_on(problem, raw):
         return None
     x = _positions(problem)
     if x is None:
@@ -104,13 +104,21 @@ class _Forces:
     polished: bool = True
 
 
+def _hands_on(problem, raw) -> bool:
+    """Whether ``raw`` on ``problem`` has a state: an exact finish of a term that hands one on (2D Signorini rows
+    or cones)."""
+    return problem.term.hands_on_state and raw.polished and raw.y is not None
+
+
 def deferred_state(problem, raw) -> Callable[[], ContactState | None] | None:
     """:func:`contact_state` of ``problem`` and ``raw`` as a call made when the state is first read
-    (``Solution.state``), holding only the contact lines, the units and the forces; None where no state
-    applies (the same cases as :func:`contact_state`)."""
-    if not problem.term.hands_on_state or not raw.polished or raw.y is None:
+    (``Solution.state``), holding only the contact lines, the units and copies of the forces; None where no
+    state applies (the same cases as :func:`contact_state`)."""
+    if not _hands_on(problem, raw):
         return None
-    return _Deferred(_Lines(problem.term, problem.dim, problem.lines, problem.units), _Forces(raw.y, raw.points))
+    points = None if raw.points is None else tuple(np.array(a) for a in raw.points)
+    return _Deferred(_Lines(problem.term, problem.dim, problem.lines, problem.units),
+                     _Forces(np.array(raw.y, dtype=float), points))
 
 
 @dataclass(frozen=True)

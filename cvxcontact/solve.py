@@ -18,7 +18,7 @@ from dataclasses import replace
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
 from .backends.result import Cache, Settings
 from .backends.run import run
-from .backends.start import ContactState
+from .backends.start import ContactState, deferred_state
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
 from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError
@@ -222,12 +222,12 @@ class ContactSolver:
         t0 = time.perf_counter()
         self._cache.start = None                                    # a start serves the first solve only
         sol = read_back(problem, raw, self.tol, timings, self.requested)
-        sol.state = raw.state
+        sol.defer_state(deferred_state(problem, raw))          # computed when a later solve starts from it
         fallback = None if sol.ok else self._fallback_of(raw)
         if fallback is not None:
             sol = self._fallback(fallback, problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
-        if self.estimate and problem.friction:
+        if self.estimate and not problem.term.estimated:
             sol.estimate_reason = "not computed: the estimates do not count a friction law's tangential traction yet"
         elif self.estimate:
             t0 = time.perf_counter()
@@ -241,7 +241,7 @@ class ContactSolver:
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
-        if self.estimate and not problem.friction:
+        if self.estimate and problem.term.estimated:
             for message in unresolved(sol):
                 warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol
@@ -270,7 +270,7 @@ class ContactSolver:
             timings["fallback"] = time.perf_counter() - t1
             return sol
         other = read_back(problem, raw, self.tol, timings, self.requested)
-        other.state = raw.state
+        other.defer_state(deferred_state(problem, raw))
         timings["fallback"] = time.perf_counter() - t1
         if not other.ok:
             log.info("the %s fallback fails its checks too; the %s answer is kept", fallback.method, self.method)
@@ -281,9 +281,9 @@ class ContactSolver:
         return other
 
     def _warn(self, sol, raw) -> None:
-        p = self.problem
-        if self.settings.polish and not raw.polished and not p.mixed and not p.friction \
-                and (raw.declined or (p.quadratic and not p.conic)):
+        p, term = self.problem, self.problem.term
+        if self.settings.polish and not raw.polished and term.finishes \
+                and (raw.declined or (p.quadratic and term.always_finished)):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)
@@ -293,7 +293,7 @@ class ContactSolver:
                     "stops where it stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies "
                     "or stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, "
                     "or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)."
-                    if (p.conic or p.mixed) and not raw.polished else "")
+                    if term.cones and not raw.polished else "")
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=4)
 

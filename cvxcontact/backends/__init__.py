@@ -100,13 +100,14 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
     added by a :class:`~cvxcontact.Model`)."""
     from .signorini import dependent_rows
 
+    term = problem.term
     return ProblemDescription(quadratic_energy=problem.quadratic, held_by_contact=problem.held, force_control=bool(problem.forced),
                               contact_rows=int(problem.E.shape[0]), unknowns=problem.unknowns,
-                              compliant=problem.compliant, conic=problem.conic or problem.mixed,
+                              compliant=term.compliant, conic=term.cones,
                               user_terms=user_terms, dim=problem.dim, degree=problem.space.degree,
                               piezoelectric=any(b.Kpp is not None for b in problem.blocks),
-                              dependent_rows=bool(dependent_rows(problem)) and not problem.conic,
-                              friction=problem.friction)
+                              dependent_rows=term.rows_may_depend and bool(dependent_rows(problem)),
+                              friction=term.tangential)
 
 
 KINDS = ("signorini", "compliance", "conic", "mixed", "friction")

@@ -309,7 +309,10 @@ def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, t
 
 
 def mixed_bernstein_rows(problem):
-    """The cone pairs' Bernstein map on the rows of E (E is the identity on a cone pair's nodes)."""
+    """The cone pairs' Bernstein map on the rows of E (E is the identity on a cone pair's nodes); None where no
+    cones sit beside a compliance law."""
+    if problem.lines.mixed_bernstein is None:
+        return None
     return (problem.lines.mixed_bernstein[0] @ problem.E.T).tocsr()
 
 

@@ -136,14 +136,11 @@ class RawResult:
     """A friction law: the tangential force mu_a of every row (scaled; the force on the pair's first body along
     its tangent is -mu_a, :mod:`cvxcontact.backends.friction`), None without friction."""
     certificate: float | None = None
+    """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
+    :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""
     points: tuple | None = None
     """The cuts' answer as point forces (:mod:`cvxcontact.backends.cuts`): (element, t, y) of every cut point (y
     scaled), None from every other finish (what :func:`~cvxcontact.backends.start.contact_state` reads)."""
-    state: object = None
-    """The answer's :class:`~cvxcontact.backends.start.ContactState` (set by :func:`~cvxcontact.backends.run.run`;
-    None where a start does not apply): ``Solution.state``, what ``ContactSolver(start=...)`` reads."""
-    """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
-    :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""
     pairing: np.ndarray | None = None
     """Against a curved obstacle's true gap (docs/formulation.md §8, "Rigid obstacles"): per element, the
     finish's point forces' sum y_p delta(x_p) (scaled), so that their pairing with the true slack is

@@ -1,8 +1,8 @@
 """One normalised call per backend: :func:`run` picks the route of a backend for the kind of contact term a
 problem poses and returns one :class:`~cvxcontact.backends.result.RawResult`.
 
-The kinds (:func:`kind`): ``"signorini"`` (nodal rows, P1 or P2), ``"compliance"`` (a normal-compliance law on
-some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8), ``"mixed"`` (cones next to a compliance
+The kinds (``problem.term.kind``, :mod:`cvxcontact.discrete.terms`; :func:`kind`): ``"signorini"`` (nodal
+rows, P1 or P2), ``"compliance"`` (a normal-compliance law on some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8), ``"mixed"`` (cones next to a compliance
 law, §10 "P2") and ``"friction"`` (Signorini rows and a friction law's cones on the slip, docs/howto/friction.md). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
 (``Backend.routes``: :data:`cvxcontact.backends.KINDS`); :func:`route` finds it.
 """
@@ -19,7 +19,7 @@ from ..fem.kernel import check_determined
 from .finish import SINGULAR_FORCES
 from . import backend
 from .result import RawResult
-from .start import contact_state, start_active
+from .start import start_active
 
 __all__ = ["route", "kind", "run"]
 
@@ -43,14 +43,8 @@ def route(method: str, kind_: str):
 
 
 def kind(problem) -> str:
-    """The kind of contact term ``problem`` poses (module docstring)."""
-    if problem.friction:
-        return "friction"
-    if problem.mixed:
-        return "mixed"
-    if problem.conic:
-        return "conic"
-    return "compliance" if problem.compliant else "signorini"
+    """The kind of contact term ``problem`` poses: ``problem.term.kind`` (:mod:`cvxcontact.discrete.terms`)."""
+    return problem.term.kind
 
 
 def run(method: str, problem, cache, settings, timings) -> RawResult:
@@ -59,26 +53,26 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     §8, "Held nodes": (26)-(27) do not determine them). After an exact finish, a kernel motion that only rows
     open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
     rows, or with a compliance law the rows that carry a force)."""
-    solver = route(method, kind(problem))
+    term = problem.term
+    solver = route(method, term.kind)
     cache = cache.matching(problem.lines.key())
-    if cache.start is not None and cache.active is None and kind(problem) == "signorini" and problem.dim == 2:
+    if cache.start is not None and cache.active is None and term.takes_active_start:
         cache.active = start_active(problem, cache.start)     # a state from another mesh: the first guess
     raw = solver(problem, cache, settings, timings)
-    log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", kind(problem), problem.condition,
+    log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", term.kind, problem.condition,
              method, (getattr(solver, "__module__", None) or "").rsplit(".", 1)[-1],
              getattr(solver, "__name__", type(solver).__name__), raw.route,
              f", finish {raw.finish}" if raw.finish else "", raw.iterations,
              f"; exact finish declined: {raw.declined}" if raw.declined else "")
     active = raw.active
-    if active is None and kind(problem) == "compliance" and raw.y is not None:   # the rows that carry a force
+    if active is None and term.active_from_forces and raw.y is not None:   # the rows that carry a force
         y = np.asarray(raw.y, dtype=float)
         active = y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
     if active is not None and (raw.polished or raw.declined == SINGULAR_FORCES):
         check_determined(problem.kernel, active)    # a motion only rows open at the solution would hold (a
         # finish whose rows carrying forces cannot hold a body: is it the problem that leaves the body free?)
-    if kind(problem) == "signorini":
+    if term.zeroes_held_forces:
         raw.y = np.where(problem.held_rows, 0.0, raw.y)
     if not raw.factorization and cache.condensation is not None:
         raw.factorization = cache.condensation.factorization
-    raw.state = contact_state(problem, raw)
     return raw

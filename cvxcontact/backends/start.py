@@ -15,11 +15,14 @@ What a new solve takes from it, only as a start (the answer is the finish's, ver
   plus the old loaded points on the new elements), instead of an interior point's tangency seeds; the cuts stop
   at rounding whatever their start (docs/formulation.md §8).
 
-Not used: normal-compliance and mixed laws, friction, 3D (:func:`contact_state` returns None there).
+Not used: normal-compliance and mixed laws, friction, 3D (:func:`contact_state` returns None there: the contact
+term's ``hands_on_state``, :mod:`cvxcontact.discrete.terms`). A solve computes its state only when it is read
+(``Solution.state``, :func:`deferred_state`): most solutions never start another.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +30,7 @@ import numpy as np
 from ..contact.bernstein import point_rows
 from .cuts import _unique_rows, seed_points
 
-__all__ = ["ContactState", "contact_state", "start_active", "cone_seeds", "AROUND"]
+__all__ = ["ContactState", "contact_state", "deferred_state", "start_active", "cone_seeds", "AROUND"]
 
 AROUND = np.array([-1e-2, -1e-3, 1e-3, 1e-2])
 """Offsets (in t) of further zero-force starting points on either side of each loaded point inside an element
@@ -60,8 +63,7 @@ def _positions(problem) -> np.ndarray | None:
 def contact_state(problem, raw) -> ContactState | None:
     """The :class:`ContactState` of an exact finish ``raw`` (scaled) on ``problem``; None where a start does not
     apply (module docstring) or the answer is not an exact finish."""
-    if problem.dim != 2 or problem.mixed or problem.compliant or problem.friction or not raw.polished \
-            or raw.y is None:
+    if not _hands_on(problem, raw):
         return None
     x = _positions(problem)
     if x is None:
@@ -76,6 +78,58 @@ def contact_state(problem, raw) -> ContactState | None:
         s, pair = x, _node_pair(problem, np.arange(len(x)))
     force = np.maximum(np.asarray(y, dtype=float), 0.0) * problem.units.force
     return ContactState(pair=np.asarray(pair), s=np.asarray(s, dtype=float), force=force)
+
+
+@dataclass(frozen=True)
+class _Lines:
+    """What :func:`contact_state` reads of a problem: its term, dimension, contact lines and units (not the
+    bodies' matrices, which a solution kept for a later start would otherwise hold)."""
+
+    term: object
+    dim: int
+    lines: object
+    units: object
+
+    @property
+    def E(self):
+        return self.lines.E
+
+
+@dataclass(frozen=True)
+class _Forces:
+    """What :func:`contact_state` reads of an exact finish: its row forces and the cuts' point forces."""
+
+    y: np.ndarray
+    points: tuple | None
+    polished: bool = True
+
+
+def _hands_on(problem, raw) -> bool:
+    """Whether ``raw`` on ``problem`` has a state: an exact finish of a term that hands one on (2D Signorini rows
+    or cones)."""
+    return problem.term.hands_on_state and raw.polished and raw.y is not None
+
+
+def deferred_state(problem, raw) -> Callable[[], ContactState | None] | None:
+    """:func:`contact_state` of ``problem`` and ``raw`` as a call made when the state is first read
+    (``Solution.state``), holding only the contact lines, the units and copies of the forces; None where no
+    state applies (the same cases as :func:`contact_state`)."""
+    if not _hands_on(problem, raw):
+        return None
+    points = None if raw.points is None else tuple(np.array(a) for a in raw.points)
+    return _Deferred(_Lines(problem.term, problem.dim, problem.lines, problem.units),
+                     _Forces(np.array(raw.y, dtype=float), points))
+
+
+@dataclass(frozen=True)
+class _Deferred:
+    """A later :func:`contact_state` call (:func:`deferred_state`)."""
+
+    lines: _Lines
+    forces: _Forces
+
+    def __call__(self) -> ContactState | None:
+        return contact_state(self.lines, self.forces)
 
 
 def _profile(state, pair, s) -> np.ndarray:

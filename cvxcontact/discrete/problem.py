@@ -30,6 +30,7 @@ from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
 from .blocks import Block, Units, units
+from .terms import ContactTerm, contact_term
 
 __all__ = ["DiscreteProblem", "build_problem"]
 
@@ -53,7 +54,9 @@ class DiscreteProblem:
     ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
     law only); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
-    against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`).
+    against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`); ``term``: the
+    contact term its law poses (:class:`~cvxcontact.discrete.terms.ContactTerm`: its route key, its warm start,
+    its held rows' forces, its finish, its read-back), built with the problem from its contact lines.
     """
 
     scene: Scene
@@ -69,6 +72,7 @@ class DiscreteProblem:
     gap: np.ndarray
     translations: tuple
     held_rows: np.ndarray
+    term: ContactTerm
     scale: bool = True
     prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
@@ -225,7 +229,8 @@ class DiscreteProblem:
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)
         return replace(self, lines=lines, translations=translations,
-                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel)
+                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel,
+                       term=contact_term(lines, self.dim))
 
     # ---- re-solves -----------------------------------------------------------------------------
     def accepts(self, scene) -> bool:
@@ -299,7 +304,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                          np.zeros(lines.interface.size)) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
-                              translations=translations, held_rows=held, scale=scale, kernel=kernel,
+                              translations=translations, held_rows=held, term=contact_term(lines, space.dim),
+                              scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies))

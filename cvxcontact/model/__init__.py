@@ -136,7 +136,7 @@ class Model:
         self._cone = p.lines.cone
         self._bernstein = self._cone[0] if self._cone is not None else None
         self._width = self._cone[1].shape[1] if self._cone is not None else 3     # 3: segments, 6: triangles
-        self._limit = mixed_bernstein_rows(p) if p.mixed else None      # the cones of a mixed program (§10)
+        self._limit = mixed_bernstein_rows(p)         # the cones beside a compliance law (§10), None without
         if self._limit is not None:
             self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
                                             translations=self._translations)
@@ -352,7 +352,7 @@ class Model:
         """
         if not self.constraints and not self._objective:
             return self._solve_plain()
-        if self.problem.friction:
+        if not self.problem.term.takes_user_terms:
             raise UnsupportedError("user terms next to a friction law are not available yet: solve the model "
                                    "without them, or use a frictionless law")
         timings = dict(self._setup)
@@ -469,6 +469,5 @@ class Model:
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
         self._set_values(raw.u, raw.phi, raw.taus)
-        self._warn(sol, not (self.problem.conic or self.problem.mixed or self.problem.friction), raw.declined,
-                   stacklevel=4)
+        self._warn(sol, self.problem.term.always_finished, raw.declined, stacklevel=4)
         return sol

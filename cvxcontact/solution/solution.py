@@ -238,11 +238,28 @@ class Solution:
     when it was skipped or the case is not covered: :attr:`estimate_reason` says which."""
     estimate_reason: str = ""
     """Why :attr:`estimate` is None ("" when it is not)."""
-    state: object = field(default=None, repr=False)
-    """The contact forces as point loads along the contact lines (a
-    :class:`~cvxcontact.backends.start.ContactState`: pair, position s in m, force in N/m), what a solve of the
-    same scene on another mesh starts from (``ContactSolver(..., start=sol)``); None where that does not apply
-    (3D, compliance or mixed laws, friction, an answer without an exact finish)."""
+    _state: object = field(default=None, repr=False)
+    _pending_state: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def state(self):
+        """The contact forces as point loads along the contact lines (a
+        :class:`~cvxcontact.backends.start.ContactState`: pair, position s in m, force in N/m), what a solve of
+        the same scene on another mesh starts from (``ContactSolver(..., start=sol)``); None where that does not
+        apply (3D, compliance or mixed laws, friction, an answer without an exact finish). Computed when first
+        read (:meth:`defer_state`)."""
+        if self._pending_state is not None:
+            self._state, self._pending_state = self._pending_state(), None
+        return self._state
+
+    @state.setter
+    def state(self, value) -> None:
+        self._state, self._pending_state = value, None
+
+    def defer_state(self, compute) -> None:
+        """Let :attr:`state` be ``compute()`` (a call without arguments, or None: no state), made when it is
+        first read (:func:`~cvxcontact.backends.start.deferred_state`)."""
+        self._state, self._pending_state = None, compute
 
     @property
     def status(self) -> Status:

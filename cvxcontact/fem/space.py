@@ -29,13 +29,14 @@ from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
 from ..contact.truegap import GapDeparture
 from ..errors import SceneError, SolverError, UnsupportedError
-from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2Nodes
+from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
+from .hex import HEX1_ELEMENT, HEX2_ELEMENT
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 
-__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "ContactLines", "space", "SPACES"]
+__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "SPACES"]
 
 
 @dataclass(frozen=True)
@@ -315,7 +316,7 @@ class Q1(P1):
 
     def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
         held = self._held(body, nodes)
-        return held.cells, self.element.at(body.mesh.points[body.mesh.cells], np.zeros(2))[1]
+        return held.cells, self.element.at(body.mesh.points[body.mesh.cells], np.zeros(body.dim))[1]
 
     def _held(self, body, nodes):
         """The node set the unknowns live on (``nodes``, else the space's, else the mesh's vertices)."""
@@ -439,14 +440,69 @@ def _refuse_cones_next_to_compliance(scene, conditions, laws):
                                    "'sigma1'/'sigma2' (a nodal limit), no limit, or degree=1")
 
 
+class Q1Hex(P1Tet):
+    """Q1 (8-node, trilinear) hexahedra (:mod:`cvxcontact.fem.hex`, 2 x 2 x 2 Gauss): the mesh's vertices. Its trace
+    on a face is bilinear; the contact rows are P1Tet's on the faces' triangles (:attr:`HexMesh.triangulation
+    <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`), whose vertices are the faces' corners: nodal rows
+    ("sigma1"/"sigma2") at a body's own face nodes, exact wherever a row's point is a node of both traces (a
+    rigid obstacle, matching faces). "gamma3" is posed where it reduces to those nodal rows exactly (a bilinear
+    jump is non-negative on a face if it is at its corners; module :mod:`cvxcontact.fem.hex`): pairs whose faces
+    match corner to corner, or against a rigid plane; elsewhere it is refused by name (:func:`_hex_contact`)."""
+
+    cell, degree, dim, estimates = "hex", 1, 3, False
+    vtk = "hexahedron"
+    element = HEX1_ELEMENT
+
+    centre_gradients, _held, assemble_matrices = Q1.centre_gradients, Q1._held, Q1.assemble_matrices
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return self.element.loads(body, matrices, nodes)
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        _hex_contact(self, scene, condition)
+        return super().contact(scene, condition, law, nodes)
+
+
+class Q2Hex(P2Tet):
+    """Q2 (27-node, triquadratic Lagrange) hexahedra on the trilinear map of each cell (vertices, edge midpoints,
+    face and cell centres: :class:`~cvxcontact.geometry.quadratic.Q2HexNodes`; 3 x 3 x 3 Gauss; why 27 nodes:
+    :mod:`cvxcontact.fem.hex`). Contact on its biquadratic faces is not posed yet (:func:`_hex_contact`)."""
+
+    cell, degree, dim, estimates = "hex", 2, 3, False
+    vtk = "hexahedron27"
+    element = HEX2_ELEMENT
+
+    def nodes(self, body):
+        return Q2HexNodes(body.mesh)
+
+    def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
+        return [(self.vtk, np.asarray((self.nodes(body) if nodes is None else nodes).cells))]
+
+    centre_gradients, _held, assemble_matrices = Q1.centre_gradients, Q1._held, Q1.assemble_matrices
+
+    def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
+        return self.element.loads(body, matrices, self.nodes(body) if nodes is None else nodes)
+
+    def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
+        _hex_contact(self, scene, condition)
+
+
+def _hex_contact(space, scene, condition):
+    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings)."""
+    if space.degree == 2:
+        raise UnsupportedError("contact on the faces of Q2 (27-node) hexahedra is not available yet: use degree=1 "
+                               "(Q1 hexahedra, nodal rows on the faces' corners) or tetrahedra (cc.box(..., "
+                               "cell='tetra'), P2 with degree=2)")
+
+
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,
-          ("quad", 2): Q2}
+          ("quad", 2): Q2, ("hex", 1): Q1Hex, ("hex", 2): Q2Hex}
 """The spaces by (cell, degree): the cell type of a mesh (``mesh.cell``) and the element degree."""
 
 
 def space(degree, cell: str = "triangle") -> Space:
     """The :class:`Space` of ``degree`` (1: P1/Q1, 2: P2/Q2) on cells of type ``cell`` ("triangle", "quad",
-    "tetra": ``mesh.cell``, ``scene.cell``); SolverError for any other value."""
+    "tetra", "hex": ``mesh.cell``, ``scene.cell``); SolverError for any other value."""
     if isinstance(degree, bool) or degree not in (1, 2):
         raise SolverError(f"degree must be 1 (P1, Q1) or 2 (P2, Q2), got {degree!r}")
     cells = sorted({c for c, _ in SPACES})

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes"]
+__all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes", "Q2HexNodes"]
 
 
 class _MidpointNodes:
@@ -126,6 +126,55 @@ class Q2Nodes(_SegmentTraces):
         """(m, 9) the elements: ``quads9``."""
         return self.quads9
 
+
+
+class Q2HexNodes(_MidpointNodes):
+    """The Q2 (27-node) nodes of a :class:`~cvxcontact.geometry.hexmesh.HexMesh`: its vertices, the midpoints of
+    its edges (numbered by sorted vertex pairs), the centres of its faces (numbered by sorted corner quadruples)
+    and the cells' centres, each the mean of the corners it stands on (the image of the reference node by the
+    trilinear map: straight edges, the faces' and cells' centres).
+
+    Attributes: ``mesh``, ``points`` (n, 3) m, ``hexes27`` (m, 27) node indices of each element in the
+    VTK_TRIQUADRATIC_HEXAHEDRON order (meshio's ``hexahedron27``): corners, edge midpoints in ``HEX_EDGES``
+    order, face centres in ``HEX_FACES`` order (x = -1, +1, y = -1, +1, z = -1, +1), centre; ``n_vertices``.
+    """
+
+    def __init__(self, mesh) -> None:
+        from .hexmesh import HEX_EDGES, HEX_FACES
+
+        self.mesh = mesh
+        hexes = mesh.hexes
+        nv = len(mesh.points)
+        self._keys, mids, middles = _numbered_edges(mesh.points, hexes, HEX_EDGES)
+        faces = np.sort(hexes[:, HEX_FACES].reshape(-1, 4), axis=1)
+        self._faces, inverse = np.unique(faces, axis=0, return_inverse=True)
+        first = nv + len(middles)
+        centres = mesh.points[self._faces].mean(axis=1)
+        self.n_vertices = nv
+        self.points = _frozen(np.concatenate([mesh.points, middles, centres, mesh.points[hexes].mean(axis=1)]))
+        self.hexes27 = _frozen(np.column_stack([hexes, mids, first + inverse.reshape(len(hexes), 6),
+                                                first + len(centres) + np.arange(len(hexes))]))
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 27) the elements: ``hexes27``."""
+        return self.hexes27
+
+    def face_centre(self, faces) -> np.ndarray:
+        """Node indices of the centres of the faces ``faces`` (k, 4) (corner indices, any order)."""
+        f = np.sort(np.asarray(faces), axis=1)
+        uniq, inverse = np.unique(np.concatenate([self._faces, f]), axis=0, return_inverse=True)
+        if len(uniq) != len(self._faces):
+            raise MeshError("face_centre(): corners that are not a face of the mesh")
+        return self.n_vertices + len(self._keys) + inverse.ravel()[len(self._faces):]
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 9) boundary faces carrying ``tag`` as quad9 node indices (corners as :meth:`HexMesh.boundary
+        <cvxcontact.geometry.hexmesh.HexMesh.boundary>`, outward; the midpoints of sides 01, 12, 23, 30; the
+        centre)."""
+        f = self.mesh.boundary(tag)
+        sides = [self.midpoint(f[:, i], f[:, (i + 1) % 4]) for i in range(4)]
+        return np.column_stack([f] + sides + [self.face_centre(f)])
 
 
 def _numbered_edges(points, cells, local_edges):

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
 from ..geometry.mesh import Mesh
+from ..geometry.hexmesh import HexMesh
 from ..geometry.quadmesh import QuadMesh
 from ..geometry.tetmesh import TetMesh
 from .materials import Elastic, Piezoelectric
@@ -84,8 +85,8 @@ class Body(Frozen):
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not isinstance(mesh, (Mesh, QuadMesh, TetMesh)):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh, QuadMesh or TetMesh, got {type(mesh).__name__}")
+        if not isinstance(mesh, (Mesh, QuadMesh, TetMesh, HexMesh)):
+            raise SceneError(f"mesh must be a cvxcontact.Mesh, QuadMesh, TetMesh or HexMesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):

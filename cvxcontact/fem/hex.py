@@ -1,0 +1,77 @@
+"""Hexahedral Lagrange elements Q1 (8 nodes) and Q2 (27 nodes) on the trilinear map of each cell (SI units).
+
+Reference cell [-1, 1]^3, nodes in the VTK_HEXAHEDRON / VTK_TRIQUADRATIC_HEXAHEDRON order (meshio's
+``hexahedron`` / ``hexahedron27``; gmsh's hexahedron27 differs in its edge and face nodes and meshio converts):
+the corners (:data:`~cvxcontact.geometry.hexmesh.CORNERS`), then (Q2) the midpoints of the twelve edges
+(``HEX_EDGES``), the centres of the six faces (``HEX_FACES``: x = -1, +1, y = -1, +1, z = -1, +1) and the centre.
+The shape functions are tensor products of the 1D Lagrange polynomials on {-1, 1} (Q1) or {-1, 0, 1} (Q2)
+(:class:`~cvxcontact.fem.quad.TensorElement`, shared with the quadrilaterals). The geometry is the trilinear
+map of the corners for both (Q2 subparametric: its edge, face and centre nodes are the images of the reference
+ones); the physical gradients are J^-T grad_xi N and the measure det J dxi.
+
+Why 27 nodes and not the 20-node serendipity hexahedron: as for the 9-node quadrilateral
+(:mod:`cvxcontact.fem.quad`), the trilinear image of Q2 keeps every polynomial of total degree 2 in x, and with
+it the O(h^2) energy-norm rate, on cells that are not parallelepipeds; the serendipity space loses some. Its
+trace on a face is the 9-node biquadratic quadrilateral.
+
+Quadrature: Gauss-Legendre n x n x n, n = degree + 1 (2 x 2 x 2 for Q1, 3 x 3 x 3 for Q2), full integration
+(no hourglass modes: the six rigid motions are the only zero-energy modes); surface densities on the faces by
+the n x n rule on each face's bilinear map, |dx/dxi x dx/deta| its area element.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .assembly import BodySystem, accumulate, lifted
+from .quad import QuadElement, TensorElement
+
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT"]
+
+
+class HexElement(TensorElement):
+    """A Lagrange element on the reference cube (module docstring): ``degree`` 1 (8 nodes) or 2 (27 nodes)."""
+
+    def __init__(self, degree: int) -> None:
+        super().__init__(degree, 3)
+
+    def loads(self, body, matrices: BodySystem, nodes) -> BodySystem:
+        """``matrices`` with the consistent loads of ``body`` (SI, N and C per node): volume densities by
+        :attr:`rule`, surface densities on the tagged faces by the faces' rule (4 or 9 face nodes: the
+        corners, ``nodes.boundary(tag)`` for Q2)."""
+        mesh = body.mesh
+        held = mesh if nodes is None else nodes
+        cells, n = held.cells, len(held.points)
+        f = self._volume(mesh, cells, body.body_force, 3, n)
+        for tag, load in body.traction.items():
+            f += self._faces(mesh, held.boundary(tag), load, 3, n)
+        q = None
+        if matrices.piezoelectric:
+            q = self._volume(mesh, cells, body.volume_charge, 1, n)[:, 0]
+            for tag, load in body.surface_charge.items():
+                q -= self._faces(mesh, held.boundary(tag), load, 1, n)[:, 0]
+        return lifted(body, matrices, f.ravel(), q, held)
+
+    def _faces(self, mesh, faces, load, ncomp, n) -> np.ndarray:
+        """(n, ncomp) consistent nodal load of a surface density on the faces ``faces`` (k, 4 or 9), corners
+        first."""
+        out = np.zeros((n, ncomp))
+        if not load.nonzero:
+            return out
+        face = QuadElement(self.degree)
+        X = mesh.points[faces[:, :4]]                                          # (k, 4, 3) the bilinear map
+        for xi, w in zip(*face.rule):
+            N1, dN1 = face.linear.shape_derivatives(xi)
+            x = np.einsum("i,kid->kd", N1, X)
+            J = np.einsum("kid,ai->kad", X, dN1)
+            da = w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+            val = np.asarray(load(*x.T), dtype=float).reshape(len(x), ncomp) * da[:, None]
+            N = face.shape(xi)
+            out += accumulate(faces.T.ravel(), (N[:, None, None] * val[None]).reshape(-1, ncomp), n)
+        return out
+
+
+HEX1_ELEMENT = HexElement(1)
+"""The trilinear 8-node element."""
+HEX2_ELEMENT = HexElement(2)
+"""The triquadratic 27-node element."""

@@ -26,22 +26,28 @@ from cvxcontact.io.output import body_mesh
 
 pytestmark = pytest.mark.numerics   # every element through the contact finishes (every kernel set)
 
-ELEMENTS = [("triangle", 1), ("triangle", 2), ("quad", 1), ("quad", 2)]
-IDS = ["P1", "P2", "Q1", "Q2"]
+ELEMENTS = [("triangle", 1), ("triangle", 2), ("quad", 1), ("quad", 2), ("hex", 1), ("hex", 2)]
+IDS = ["P1", "P2", "Q1", "Q2", "Q1hex", "Q2hex"]
 STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 PZT = cc.materials.PZT5A
 
 
-def distorted(cell, nx=3, ny=3, amount=0.25, seed=0, x=(0.0, 1.0), y=(0.0, 1.0)):
-    """A rectangle mesh whose interior nodes are moved at random by up to ``amount`` of a cell (the sides stay
-    straight: one tag, one normal)."""
-    mesh = cc.rectangle(x=x, y=y, nx=nx, ny=ny, cell=cell)
+def distorted(cell, nx=3, ny=3, amount=0.25, seed=0, x=(0.0, 1.0), y=(0.0, 1.0), nz=None, z=(0.0, 1.0)):
+    """A rectangle mesh (a unit box of hexahedra for ``cell="hex"``, ``nz`` = ``ny`` cells high unless given)
+    whose interior nodes are moved at random by up to ``amount`` of a cell (the sides stay straight or planar:
+    one tag, one normal)."""
+    if cell == "hex":
+        nz = ny if nz is None else nz
+        mesh = cc.box(x=x, y=y, z=z, nx=nx, ny=ny, nz=nz, cell="hex")
+        h = np.array([(x[1] - x[0]) / nx, (y[1] - y[0]) / ny, (z[1] - z[0]) / nz])
+    else:
+        mesh = cc.rectangle(x=x, y=y, nx=nx, ny=ny, cell=cell)
+        h = np.array([(x[1] - x[0]) / nx, (y[1] - y[0]) / ny])
     p = mesh.points.copy()
     inside = np.ones(len(p), dtype=bool)
     inside[mesh.boundary_nodes(mesh.tags)] = False
-    h = np.array([(x[1] - x[0]) / nx, (y[1] - y[0]) / ny])
-    p[inside] += amount * h * np.random.default_rng(seed).uniform(-1, 1, (int(inside.sum()), 2))
+    p[inside] += amount * h * np.random.default_rng(seed).uniform(-1, 1, (int(inside.sum()), len(h)))
     return mesh.with_points(p)
 
 
@@ -59,17 +65,20 @@ def test_partition_of_unity_and_reproduction_of_x(cell, degree):
     loads of constant densities sum to density x measure (the basis integrates to the cell's area and to the
     side's length): a body force and a volume charge over the body, a traction on "top", a surface charge on
     "right" (which enters q with a minus sign: D nu = q2 is the charge leaving the body)."""
-    b, t, qv, q2 = (3.0, -5.0), (7.0, 11.0), 13.0, 17.0
-    body = cc.Body(distorted(cell), PZT, clamped=["bottom"], grounded=["bottom"], body_force=b, traction={"top": t},
+    b, t, qv, q2 = (3.0, -5.0, 19.0), (7.0, 11.0, -23.0), 13.0, 17.0
+    mesh = distorted(cell)
+    d = mesh.dim
+    body = cc.Body(mesh, PZT, clamped=["bottom"], grounded=["bottom"], body_force=b[:d], traction={"top": t[:d]},
                    volume_charge=qv, surface_charge={"right": q2})
     S, nodes, held, sys_ = system(body, cell, degree)
     el, G = S.centre_gradients(body, nodes)
     assert np.abs(G.sum(axis=2)).max() <= 1e-12 * np.abs(G).max()                 # measured <= 2.4e-16
-    X = held.points[el]                                                            # (m, k, 2)
-    assert np.abs(np.einsum("mdk,mke->mde", G, X) - np.eye(2)).max() <= 1e-12      # measured <= 2.2e-15
-    area = body.mesh.areas.sum()                                                   # 1 m^2; each side 1 m long
-    force = np.array(b) * area + np.array(t) * 1.0
-    assert np.abs(sys_.f.reshape(-1, 2).sum(axis=0) / force - 1).max() <= 1e-12    # measured <= 8.9e-16
+    X = held.points[el]                                                            # (m, k, d)
+    assert np.abs(np.einsum("mdk,mke->mde", G, X) - np.eye(d)).max() <= 1e-12      # measured <= 2.2e-15
+    area = (mesh.areas if d == 2 else mesh.volumes).sum()     # 1 m^2 (m^3); each side 1 m long (face 1 m^2)
+    assert abs(area - 1) <= 1e-12                                                  # hex: measured 2.2e-16
+    force = np.array(b[:d]) * area + np.array(t[:d]) * 1.0
+    assert np.abs(sys_.f.reshape(-1, d).sum(axis=0) / force - 1).max() <= 1e-12    # measured <= 8.9e-16
     assert abs(sys_.q.sum() / (qv * area - q2 * 1.0) - 1) <= 1e-12                # measured <= 3.6e-15
 
 
@@ -85,77 +94,95 @@ def test_quadrilateral_shape_functions_are_a_lagrange_basis(element):
 
 @pytest.mark.parametrize("cell,degree", ELEMENTS, ids=IDS)
 def test_rigid_motions_span_the_kernel_and_nothing_else(cell, degree):
-    """K r = 0 for the two translations and the rotation; K has exactly three zero eigenvalues (full
-    integration: no hourglass or other spurious mode); Kpp has the constants alone and Kup^T r = 0."""
+    """K r = 0 for the translations and the rotations (3 in 2D, 6 in 3D); K has exactly that many zero
+    eigenvalues (full integration: no hourglass or other spurious mode); Kpp has the constants alone and
+    Kup^T r = 0."""
     body = cc.Body(distorted(cell, 2, 2), PZT, clamped=["bottom"], grounded=["bottom"])
     _, _, held, s = system(body, cell, degree)
     x = held.points
-    n = len(x)
-    modes = np.stack([np.tile([1.0, 0.0], n), np.tile([0.0, 1.0], n), np.column_stack([-x[:, 1], x[:, 0]]).ravel()])
+    n, d = x.shape
+    if d == 2:
+        modes = np.stack([np.tile([1.0, 0.0], n), np.tile([0.0, 1.0], n), np.column_stack([-x[:, 1], x[:, 0]]).ravel()])
+    else:
+        modes = np.stack([np.tile(e, n) for e in np.eye(3)] + [np.cross(w, x).ravel() for w in np.eye(3)])
+    rigid = len(modes)
     K = s.Kuu.toarray()
     scale = np.abs(K).max()
     assert np.abs(K @ modes.T).max() <= 1e-12 * scale                               # measured <= 2.5e-16
     assert np.abs(s.Kup.T @ modes.T).max() <= 1e-12 * np.abs(s.Kup).max()          # measured <= 2.3e-16
     ev = np.linalg.eigvalsh(K) / scale
-    assert (ev < 1e-10).sum() == 3 and ev[3] > 1e-6                                 # measured ev[3] >= 0.018
+    assert (ev < 1e-10).sum() == rigid and ev[rigid] > 1e-6  # measured ev[rigid] >= 0.018 (2D), 0.0048 (Q2 hex)
     P = s.Kpp.toarray()
     ep = np.linalg.eigvalsh(P) / np.abs(P).max()
     assert np.abs(P @ np.ones(n)).max() <= 1e-12 * np.abs(P).max()
     assert (ep < 1e-10).sum() == 1 and ep[1] > 1e-6                                 # measured ep[1] >= 0.047
 
 
-def _divergence_free_field(degree, rng):
-    """(u(x) (k, 2), phi(x) (k,)): a random field of total degree ``degree`` with div sigma = 0 and div D = 0
+def _divergence_free_field(degree, rng, dim=2):
+    """(u(x) (k, dim), phi(x) (k,)): a random field of total degree ``degree`` with div sigma = 0 and div D = 0
     for PZT (sigma = c eps + e^T grad phi, D = e eps - kappa grad phi; linear fields: any). Its quadratic part
     spans the null space of the divergences, found by central differences (exact on the linear stresses)."""
-    c, e, kappa = PZT.tensors(2)
+    c, e, kappa = PZT.tensors(dim)
+    voigt = [(0, 0), (1, 1), (0, 1)] if dim == 2 else [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
+    pairs = [(i, j) for i in range(dim) for j in range(i, dim)]          # the quadratic monomials x_i x_j
+    nq = len(pairs)
     U, V = 1e-6, 1e2                        # the scales of u (m) and phi (V)
 
+    def monomials(x):
+        return np.stack([x[..., i] * x[..., j] for i, j in pairs], -1)
+
+    def gradient(A, Q, x):
+        """(r, dim) the gradient at x (dim,) of x -> A x + Q monomials(x) (A (r, dim), Q (r, nq))."""
+        out = np.array(A, dtype=float)
+        for m, (i, j) in enumerate(pairs):
+            out[:, i] += Q[:, m] * x[j]
+            out[:, j] += Q[:, m] * x[i]
+        return out
+
     def fields(coef):
-        A, b, Q, q = coef                   # u = A x + Q.(x^2, xy, y^2), phi = b.x + q.(x^2, xy, y^2)
+        A, b, Q, q = coef                   # u = A x + Q monomials, phi = b.x + q.monomials
 
         def flux(x):
-            X, Y = x[..., 0], x[..., 1]
-            du = A + np.stack([np.stack([2 * Q[a, 0] * X + Q[a, 1] * Y, Q[a, 1] * X + 2 * Q[a, 2] * Y], -1)
-                                     for a in range(2)], -2)                          # (k, 2, 2) du_a/dx_j
-            dphi = b + np.stack([2 * q[0] * X + q[1] * Y, q[1] * X + 2 * q[2] * Y], -1)
-            eps = np.stack([du[..., 0, 0], du[..., 1, 1], du[..., 0, 1] + du[..., 1, 0]], -1)
-            return eps @ c.T + dphi @ e, eps @ e.T - dphi @ kappa.T                 # Voigt sigma, D
+            du = gradient(A, Q, x)                                         # (dim, dim) du_a/dx_j
+            dphi = gradient(b[None], q[None], x)[0]
+            eps = np.array([du[a, a] if a == k else du[a, k] + du[k, a] for a, k in voigt])
+            return eps @ c.T + dphi @ e, eps @ e.T - dphi @ kappa.T        # Voigt sigma, D
 
         def div(x):
             h = 0.5
-            out = np.zeros(3)
-            for j in range(2):
-                step = np.zeros(2)
+            out = np.zeros(dim + 1)
+            for j in range(dim):
+                step = np.zeros(dim)
                 step[j] = h
                 (sp, Dp), (sm, Dm) = flux(x + step), flux(x - step)
                 ds, dD = (sp - sm) / (2 * h), (Dp - Dm) / (2 * h)
-                out[0] += ds[[0, 2][j]]            # d sxx/dx + d sxy/dy
-                out[1] += ds[[2, 1][j]]            # d sxy/dx + d syy/dy
-                out[2] += dD[j]
+                for v, (a, k) in enumerate(voigt):                        # sigma_ak = sigma_ka
+                    if k == j:
+                        out[a] += ds[v]
+                    if a == j and a != k:
+                        out[k] += ds[v]
+                out[dim] += dD[j]
             return out
 
         return div
 
-    A, b = U * rng.standard_normal((2, 2)), V * rng.standard_normal(2)
-    Q, q = np.zeros((2, 3)), np.zeros(3)
+    A, b = U * rng.standard_normal((dim, dim)), V * rng.standard_normal(dim)
+    Q, q = np.zeros((dim, nq)), np.zeros(nq)
     if degree == 2:
-        basis = np.eye(9)
-        M = np.column_stack([fields((np.zeros((2, 2)), np.zeros(2), (U * k[:6]).reshape(2, 3), V * k[6:]))(np.zeros(2))
-                             for k in basis])
+        size_k = dim * nq + nq
+        M = np.column_stack([fields((np.zeros((dim, dim)), np.zeros(dim), (U * k[:dim * nq]).reshape(dim, nq),
+                                     V * k[dim * nq:]))(np.zeros(dim)) for k in np.eye(size_k)])
         size = np.abs(M).max(axis=1)                         # the divergences of unit coefficients, per row
-        Z = null_space(M / size[:, None])                    # (9, 6)
+        Z = null_space(M / size[:, None])                    # (size_k, size_k - dim - 1)
         k = Z @ rng.standard_normal(Z.shape[1])
-        Q, q = (U * k[:6]).reshape(2, 3), V * k[6:]
-        assert (np.abs(fields((A, b, Q, q))(np.array([0.3, 0.7]))) <= 1e-12 * size * np.abs(k).max()).all()
+        Q, q = (U * k[:dim * nq]).reshape(dim, nq), V * k[dim * nq:]
+        assert (np.abs(fields((A, b, Q, q))(np.full(dim, 0.3))) <= 1e-12 * size * np.abs(k).max()).all()
 
     def u(x):
-        m = np.column_stack([x[:, 0] ** 2, x[:, 0] * x[:, 1], x[:, 1] ** 2])
-        return x @ A.T + m @ Q.T
+        return x @ A.T + monomials(x) @ Q.T
 
     def phi(x):
-        m = np.column_stack([x[:, 0] ** 2, x[:, 0] * x[:, 1], x[:, 1] ** 2])
-        return x @ b + m @ q
+        return x @ b + monomials(x) @ q
 
     return u, phi
 
@@ -165,16 +192,18 @@ def test_patch_test_on_distorted_cells(cell, degree):
     """Irons' patch test: a field of the element's degree with divergence-free stress and electric displacement
     (linear for P1/Q1, quadratic for P2/Q2; quadrilaterals moved off parallelograms) makes the rows of every
     interior node of [Kuu Kup; Kup^T -Kpp] vanish: the element represents it exactly and integrates its weak
-    form exactly (2 x 2 and 3 x 3 Gauss on the bilinear map)."""
+    form exactly (2 x 2 and 3 x 3 Gauss on the bilinear map; 2 x 2 x 2 and 3 x 3 x 3 on the trilinear map of
+    hexahedra whose interior nodes moved, so their faces are warped)."""
     body = cc.Body(distorted(cell, 4, 3, seed=degree), PZT, clamped=["bottom"], grounded=["bottom"])
     _, _, held, s = system(body, cell, degree)
-    u, phi = _divergence_free_field(degree, np.random.default_rng(7))
+    d = body.dim
+    u, phi = _divergence_free_field(degree, np.random.default_rng(7), d)
     x = held.points
     U, P = u(x).ravel(), phi(x)
     inside = np.ones(len(x), dtype=bool)
     inside[held.boundary_nodes(body.mesh.tags)] = False
     assert inside.sum() >= 4
-    rows = np.flatnonzero(np.repeat(inside, 2))
+    rows = np.flatnonzero(np.repeat(inside, d))
     Kuu, Kup, Kpp = s.Kuu, s.Kup, s.Kpp
     r_u = (Kuu @ U + Kup @ P)[rows]
     r_p = (Kup.T @ U - Kpp @ P)[inside]
@@ -380,3 +409,45 @@ def test_graded_block_takes_the_cell():
     assert np.isclose(quad.areas.sum(), 2.0, rtol=1e-14) and np.isclose(tri.areas.sum(), quad.areas.sum(), rtol=1e-14)
     for t in tri.tags:
         assert np.array_equal(tri.boundary(t), quad.boundary(t))
+
+
+def _energy_error_3d(degree, n, amount):
+    """sqrt(a(u - u_h, u - u_h) / a(u, u)) on the unit cube of hexahedra clamped all round, u = U0 sin(pi x)
+    sin(pi y) sin(pi z) (1, 1, 1) with its body force b = -div sigma(u) (isotropic steel): as
+    :func:`_energy_error` (Galerkin orthogonality), a(u, u) by a 24 x 24 x 24 Gauss rule of the exact strain."""
+    lam, mu = float(STEEL.c[0, 1]), float(STEEL.c[2, 2])
+    U0, pi = 1e-3, np.pi
+
+    def force(x, y, z):
+        s, c = np.sin(pi * np.stack([x, y, z])), np.cos(pi * np.stack([x, y, z]))
+        sss = s[0] * s[1] * s[2]
+        cross = [c[0] * (c[1] * s[2] + s[1] * c[2]), c[1] * (c[0] * s[2] + s[0] * c[2]),
+                 c[2] * (c[0] * s[1] + s[0] * c[1])]                 # sum over j != i of c_i c_j s_k
+        return tuple(-U0 * pi ** 2 * (-3 * mu * sss + (lam + mu) * (-sss + cross[i])) for i in range(3))
+
+    mesh = distorted("hex", n, n, amount=amount, seed=n)
+    body = cc.Body(mesh, STEEL, clamped=list(mesh.tags), body_force=force)
+    _, _, _, s = system(body, "hex", degree)
+    T = s.Tu
+    z = spla.spsolve((T.T @ s.Kuu @ T).tocsc(), T.T @ s.f)
+    t, w = np.polynomial.legendre.leggauss(24)
+    X = np.stack(np.meshgrid(0.5 + 0.5 * t, 0.5 + 0.5 * t, 0.5 + 0.5 * t, indexing="ij"))
+    W = np.einsum("i,j,k->ijk", w, w, w) / 8
+    s_, c_ = np.sin(pi * X), np.cos(pi * X)
+    grad = np.stack([pi * c_[j] * s_[(j + 1) % 3] * s_[(j + 2) % 3] for j in range(3)]) * U0   # d u_i / dx_j
+    div = grad.sum(axis=0)
+    sym = 0.5 * (grad[:, None] + grad[None, :])                      # eps_jk = (d_j u_k + d_k u_j) / 2, u_i equal
+    a_uu = float((W * (lam * div ** 2 + 2 * mu * (sym ** 2).sum(axis=(0, 1)))).sum())
+    return np.sqrt(max(a_uu - float(s.f @ (T @ z)), 0.0) / a_uu)
+
+
+@pytest.mark.parametrize("degree", [1, 2], ids=["Q1hex", "Q2hex"])
+def test_observed_energy_norm_rates_of_hexahedra(degree):
+    """Energy-norm error ~ h^degree on hexahedra whose interior nodes are moved at random by 15 % of a cell
+    (warped faces, not parallelepipeds: the 27-node Q2 keeps its O(h^2), module cvxcontact.fem.hex). Observed
+    rates, h = 1/4 -> 1/8 (Q1), 1/3 -> 1/6 (Q2): measured Q1 0.95, Q2 1.94 (Q1 2 -> 4: 0.96, Q2 2 -> 4: 1.86;
+    uniform cubes: Q1 0.96, 0.98, Q2 1.96, 1.98, 1.99 on n = 2, 3, 4, 6)."""
+    n0 = 4 if degree == 1 else 3
+    e0, e1 = _energy_error_3d(degree, n0, 0.15), _energy_error_3d(degree, 2 * n0, 0.15)
+    rate = np.log2(e0 / e1)
+    assert degree - 0.25 <= rate <= degree + 0.5, (e0, e1, rate)

@@ -93,7 +93,9 @@ class SurfaceTrace:
 def _flatness(mesh, part):
     """(faces, areas (m^2), n, deviation (m), turn (rad)) of boundary part ``part``: its faces and their areas,
     the unit area-weighted mean of its outward normals n (None if they cancel), the largest distance of its
-    nodes from their mean plane normal to n, and the largest angle between a face's normal and n."""
+    nodes from their mean plane normal to n, and the largest angle between a face's normal and n. The faces are
+    the triangles of ``mesh.triangulation`` (a hexahedral mesh's faces cut in two, on their corners)."""
+    mesh = mesh.triangulation
     faces = np.asarray(mesh.boundary(part))
     if len(faces) == 0:
         return faces, np.zeros(0), None, np.inf, np.inf

@@ -26,7 +26,7 @@ import numpy as np
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "hat_integrals"]
 
 
 class HexElement(TensorElement):
@@ -58,17 +58,32 @@ class HexElement(TensorElement):
         out = np.zeros((n, ncomp))
         if not load.nonzero:
             return out
-        face = QuadElement(self.degree)
-        X = mesh.points[faces[:, :4]]                                          # (k, 4, 3) the bilinear map
-        for xi, w in zip(*face.rule):
-            N1, dN1 = face.linear.shape_derivatives(xi)
-            x = np.einsum("i,kid->kd", N1, X)
-            J = np.einsum("kid,ai->kad", X, dN1)
-            da = w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+        for x, N, da in face_points(mesh.points, faces, self.degree):
             val = np.asarray(load(*x.T), dtype=float).reshape(len(x), ncomp) * da[:, None]
-            N = face.shape(xi)
             out += accumulate(faces.T.ravel(), (N[:, None, None] * val[None]).reshape(-1, ncomp), n)
         return out
+
+
+def face_points(points, faces, degree):
+    """Yield (x (k, 3) m, N (j,), da (k,) m^2) at the points of the (degree + 1)^2 Gauss rule of the faces
+    ``faces`` (k, j) (j = 4 corners, or 9 quad9 nodes for degree 2; the geometry the bilinear map of the corners):
+    the points, the face shape functions there, the weights times the area element |dx/dxi x dx/deta|."""
+    face = QuadElement(degree)
+    X = points[faces[:, :4]]                                                   # (k, 4, 3) the bilinear map
+    for xi, w in zip(*face.rule):
+        N1, dN1 = face.linear.shape_derivatives(xi)
+        J = np.einsum("kid,ai->kad", X, dN1)
+        yield np.einsum("i,kid->kd", N1, X), face.shape(xi), w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+
+
+def hat_integrals(points, faces, n) -> np.ndarray:
+    """(n,) the integral (m^2) of each node's Q1 hat over the quadrilateral faces ``faces`` (k, 4): the
+    positive-weight quadrature of a contact law on the corners of hexahedral faces (each weight is > 0 on a convex
+    face: the bilinear hats are non-negative there)."""
+    out = np.zeros(n)
+    for _, N, da in face_points(points, faces, 1):
+        out += np.bincount(faces.T.ravel(), weights=(N[:, None] * da[None]).ravel(), minlength=n)
+    return out
 
 
 HEX1_ELEMENT = HexElement(1)

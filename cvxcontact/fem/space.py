@@ -33,7 +33,7 @@ from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
-from .hex import HEX1_ELEMENT, HEX2_ELEMENT
+from .hex import HEX1_ELEMENT, HEX2_ELEMENT, hat_integrals
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 
 __all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "SPACES"]
@@ -460,13 +460,37 @@ class Q1Hex(P1Tet):
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
         _hex_contact(self, scene, condition)
-        return super().contact(scene, condition, law, nodes)
+        lines = super().contact(scene, condition, law, nodes)
+        if lines.weights is None:
+            return lines
+        weights = []             # a compliance law's quadrature: the Q1 hats' integrals over the faces, not the triangles'
+        for itf, c in zip(scene.interfaces, scene.conditions):
+            c = c or condition
+            side = 1 if c == "sigma2" and not itf.rigid else 0
+            trace = itf.traces[side]
+            mesh = trace.body.mesh
+            hats = hat_integrals(mesh.points, mesh.boundary(trace.part), len(mesh.points))[trace.nodes]
+            if itf.rigid:
+                node = np.asarray(itf.reach)
+            else:                # matching faces (_hex_contact): every vertex of X_h is a node of each trace
+                at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
+                node = np.empty(itf.size, dtype=np.int64)
+                node[at[at >= 0]] = np.flatnonzero(at >= 0)
+            weights.append(hats[node[itf.evaluation(c).indices]])
+        weights = np.concatenate(weights)
+        if weights.shape != lines.weights.shape:
+            raise SolverError(f"Q1 hexahedra: {len(weights)} quadrature weights for {len(lines.weights)} contact rows")
+        return replace(lines, weights=weights)
 
 
 class Q2Hex(P2Tet):
     """Q2 (27-node, triquadratic Lagrange) hexahedra on the trilinear map of each cell (vertices, edge midpoints,
     face and cell centres: :class:`~cvxcontact.geometry.quadratic.Q2HexNodes`; 3 x 3 x 3 Gauss; why 27 nodes:
-    :mod:`cvxcontact.fem.hex`). Contact on its biquadratic faces is not posed yet (:func:`_hex_contact`)."""
+    :mod:`cvxcontact.fem.hex`). Its trace on a face is biquadratic (9 nodes); in contact, the Signorini nodal rows
+    ("sigma1"/"sigma2") at a body's face nodes, posed by P2Tet's code on the faces' 6-node triangles
+    (``Q2HexNodes.triangulation``: on a parallelogram face its 9 nodes are those of its two triangles), exact where
+    every row's point is a node of both traces (a rigid obstacle, matching faces). "gamma3" and a compliance law
+    would evaluate the trace between the nodes: refused by name (:func:`_hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, False
     vtk = "hexahedron27"
@@ -484,15 +508,53 @@ class Q2Hex(P2Tet):
         return self.element.loads(body, matrices, self.nodes(body) if nodes is None else nodes)
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        _hex_contact(self, scene, condition)
+        _hex_contact(self, scene, condition, law)
+        nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
+        return super().contact(scene, condition, law, [n.triangulation for n in nodes])
 
 
-def _hex_contact(space, scene, condition):
-    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings)."""
+def _hex_contact(space, scene, condition, law=None):
+    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings): a pair
+    whose rows would evaluate a trace between its nodes (two bodies whose faces do not match corner to corner:
+    the faces' triangles are not the bilinear trace there), a curved part, "gamma3" against a curved obstacle
+    on Q1 (the gap is not bilinear on a face: the corners do not decide), and on Q2 "gamma3", a compliance law
+    and faces that are not parallelograms (the face's centre off its diagonal's midpoint)."""
+    alternative = "tetrahedra (cc.box(..., cell='tetra'))"
     if space.degree == 2:
-        raise UnsupportedError("contact on the faces of Q2 (27-node) hexahedra is not available yet: use degree=1 "
-                               "(Q1 hexahedra, nodal rows on the faces' corners) or tetrahedra (cc.box(..., "
-                               "cell='tetra'), P2 with degree=2)")
+        conditions = [c or condition for c in scene.conditions]
+        if "gamma3" in conditions:
+            raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
+                                   "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
+                                   f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
+        if any(lw.compliant for lw in pair_laws(scene, law)):
+            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
+                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
+                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
+        for i, itf in enumerate(scene.interfaces):
+            for t in itf.traces:
+                X = t.body.mesh.points[t.body.mesh.boundary(t.part)]
+                skew = np.abs(X[:, 0] + X[:, 2] - X[:, 1] - X[:, 3]).max()
+                if skew > 1e-9 * t.body.mesh.size:
+                    raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: {t.body.name}'s contact faces "
+                                           f"are not parallelograms (off by {skew:.3g} m): contact on Q2 hexahedra "
+                                           f"needs them; use degree=1 (Q1 hexahedra) or {alternative}")
+    for i, (itf, c) in enumerate(zip(scene.interfaces, scene.conditions)):
+        c = c or condition
+        label = f"contacts[{i}] {scene.contacts[i]!r}"
+        if getattr(itf, "curved", None) is not None:
+            raise UnsupportedError(f"{label}: a curved contact part of hexahedra is not available: use {alternative}")
+        if itf.rigid:
+            if c == "gamma3" and getattr(itf.obstacle, "kind", None) != "plane":   # Q2: refused above
+                raise UnsupportedError(f"{label}: 'gamma3' on Q1 hexahedra against a curved obstacle is not exact "
+                                       "(its gap is not bilinear on a face): use condition='sigma1' (nodal rows) or "
+                                       f"{alternative}")
+            continue
+        if not all(len(nodes) == itf.size for nodes in itf.sigma):
+            raise UnsupportedError(f"{label}: the contact faces of the two hexahedral bodies do not match corner to "
+                                   f"corner ({itf.size} nodes of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} "
+                                   "of them the bodies' nodes): the rows would evaluate a trace between its nodes, on its "
+                                   "faces' triangles. Mesh the two faces alike (the same grid on the contact plane) "
+                                   f"or use {alternative}; condition='sigma1' does not lift this yet")
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

@@ -177,6 +177,45 @@ class Q2HexNodes(_MidpointNodes):
         return np.column_stack([f] + sides + [self.face_centre(f)])
 
 
+    @property
+    def triangulation(self) -> _FaceTriangles6:
+        """The P2 node set of the faces' triangles (:attr:`HexMesh.triangulation
+        <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`): ``boundary(tag)`` (2 k, 6) triangle6 nodes of the
+        two triangles of each face, the face's centre on the diagonal (its midpoint when the face is a
+        parallelogram: then the 9 nodes of a face are the 6 + 6 of its triangles)."""
+        return _FaceTriangles6(self)
+
+
+class _FaceTriangles6:
+    """The 6-node triangles of the faces of a :class:`Q2HexNodes` (its ``triangulation``): ``points`` and
+    ``boundary(tag)`` as :class:`P2TetNodes`', on the triangles of the hexahedral mesh's split in their order."""
+
+    def __init__(self, nodes) -> None:
+        self.nodes, self.points = nodes, nodes.points
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(2 k, 6) triangle6 node indices (v0, v1, v2, m01, m12, m20) of the triangles of the faces carrying
+        ``tag`` (triangles 2 q and 2 q + 1 on face q of ``mesh.boundary(tag)``)."""
+        mesh = self.nodes.mesh
+        quads, tri = mesh.boundary(tag), np.asarray(mesh.triangulation.boundary(tag))
+        quad = np.repeat(quads, 2, axis=0)                                   # the face of each triangle
+        centre = np.repeat(self.nodes.face_centre(quads), 2)
+        where = np.argmax(tri[:, :, None] == quad[:, None, :], axis=2)       # (2 k, 3) corner positions
+        mids = []
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            diagonal = (where[:, i] - where[:, j]) % 2 == 0
+            mids.append(_side_or_centre(self.nodes, tri[:, i], tri[:, j], diagonal, centre))
+        return np.column_stack([tri] + mids)
+
+
+def _side_or_centre(nodes, a, b, diagonal, centre):
+    """The midpoints of the sides (a, b) of the faces, the face's ``centre`` where (a, b) is its ``diagonal``."""
+    out = centre.copy()
+    side = ~diagonal
+    out[side] = nodes.midpoint(a[side], b[side])
+    return out
+
+
 def _numbered_edges(points, cells, local_edges):
     """(keys, mids, middles): the edges of ``cells`` (vertex pairs ``local_edges`` of each) numbered by sorted
     vertex pairs: ``keys`` (e,) int64 a * nv + b (a < b), ``mids`` (m, k) the node index nv + e of each cell's

@@ -104,6 +104,12 @@ class TetMesh(Frozen):
         return self._points
 
     @property
+    def triangulation(self) -> TetMesh:
+        """The tetrahedral mesh whose boundary triangles are the contact surfaces' faces: itself (a
+        :class:`~cvxcontact.geometry.hexmesh.HexMesh` answers its split)."""
+        return self
+
+    @property
     def tets(self) -> np.ndarray:
         """(m, 4) node indices of the positively oriented tetrahedra (read-only)."""
         return self._tets

@@ -451,3 +451,73 @@ def test_observed_energy_norm_rates_of_hexahedra(degree):
     e0, e1 = _energy_error_3d(degree, n0, 0.15), _energy_error_3d(degree, 2 * n0, 0.15)
     rate = np.log2(e0 / e1)
     assert degree - 0.25 <= rate <= degree + 0.5, (e0, e1, rate)
+
+
+@pytest.mark.parametrize("degree,condition,law", [(1, "sigma1", None), (1, "sigma2", None), (1, "gamma3", None),
+                                                  (1, "sigma1", 2e12), (1, "gamma3", 2e12), (2, "sigma1", None),
+                                                  (2, "sigma2", None)])
+def test_hexahedral_layers_squeezed_through_contact_are_in_uniaxial_strain(degree, condition, law):
+    """The 3D counterpart of the quadrilateral layers: a steel layer of hexahedra (interior nodes moved, warped
+    cells) on a rigid plane under an aluminium block driven down by DELTA, matching faces between them, rollers
+    on the four sides: uniaxial strain, sigma_zz = -p, p = DELTA / (H1/M_steel + H2/M_alu [+ 2/k]), M = c33,
+    u_z piecewise linear, u_x = u_y = 0, each pair carries p A (A = 1 m^2). Q1 through the faces' triangles
+    (nodal rows at their corners, "gamma3" = those rows on matching faces and a plane; a compliance law weighted
+    by the Q1 hats' integrals), Q2 Signorini nodal rows at the 9 nodes of each face."""
+    sides = ["left", "right", "front", "back"]
+    M_s, M_a = float(STEEL.tensors(3)[0][2, 2]), float(ALU.tensors(3)[0][2, 2])
+    layer = cc.Body(distorted("hex", 3, 2, nz=2, z=(0.0, H1)), STEEL, roller=sides, contact="bottom", name="layer")
+    punch = cc.Body(distorted("hex", 3, 2, nz=2, z=(H1, H1 + H2), seed=1), ALU, roller=sides,
+                    displacement={"top": (None, None, -DELTA)}, contact="bottom", name="punch")
+    floor = cc.Rigid.plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    scene = cc.Scene(layer, punch, contacts=[cc.Contact(layer, "bottom", floor),
+                                             cc.Contact(punch, "bottom", layer, "top")])
+    sol = cc.solve(scene, condition, degree=degree, law=None if law is None else cc.NormalCompliance(law))
+    assert sol.ok and sol.polished
+    assert sol.estimate is None and "hex" in sol.estimate_reason
+    gap = 0.0 if law is None else 1.0 / law
+    p = DELTA / (H1 / M_s + H2 / M_a + 2 * gap)
+    for k, exact in enumerate((lambda z: -p * gap - p * z / M_s,
+                               lambda z: -2 * p * gap - p * H1 / M_s - p * (z - H1) / M_a)):
+        z = sol.points[k][:, 2]
+        assert np.abs(sol.u[k][:, 2] - exact(z)).max() <= 1e-12 * DELTA * 100      # measured <= 2.1e-15 DELTA
+        assert np.abs(sol.u[k][:, :2]).max() <= 1e-12 * DELTA * 100                # measured <= 1.6e-15 DELTA
+    for c in sol.contacts:
+        assert abs(c.force.sum() - p) <= 1e-12 * p                                   # measured <= 6.7e-16 p
+
+
+def test_hexahedral_contact_refusals_name_the_alternative():
+    """Typed refusals where the hexahedral rows would not be exact: faces of two bodies that do not match corner
+    to corner, Q1 "gamma3" against a curved obstacle, Q2 "gamma3", Q2 with a compliance law, Q2 faces that are not
+    parallelograms; the estimates, the bound and adapt on hexahedra."""
+    lower = cc.Body(cc.box(z=(0.0, 0.5), nx=3, ny=2, nz=1, cell="hex"), STEEL, clamped=["bottom"], contact="top")
+    upper = cc.Body(cc.box(z=(0.5, 1.0), nx=2, ny=2, nz=1, cell="hex"), STEEL, displacement={"top": (0, 0, -1e-5)},
+                    contact="bottom")
+    for degree in (1, 2):
+        with pytest.raises(UnsupportedError, match="do not match corner to corner.*tetrahedra"):
+            cc.solve(cc.Scene(lower, upper), "sigma1", degree=degree)
+    ball = cc.Rigid.sphere((0.5, 0.5, -1.0), 1.0)
+    body = cc.Body(cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex"), STEEL,
+                   displacement={"top": (0.0, 0.0, -1e-5)}, contact="bottom")
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", ball)])
+    with pytest.raises(UnsupportedError, match="curved obstacle.*sigma1"):
+        cc.solve(scene, "gamma3")
+    assert cc.solve(scene, "sigma1").ok
+    plane = cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))])
+    with pytest.raises(UnsupportedError, match="'gamma3' on Q2.*sigma1"):
+        cc.solve(plane, "gamma3", degree=2)
+    with pytest.raises(UnsupportedError, match="normal-compliance law on Q2.*degree=1"):
+        cc.solve(plane, "sigma1", degree=2, law=cc.NormalCompliance(1e12))
+    mesh = cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex")
+    p = mesh.points.copy()
+    p[(p[:, 0] == 0.5) & (p[:, 1] == 0.5), 0] += 0.1                     # an interior node of the bottom face
+    skew = cc.Body(mesh.with_points(p), STEEL, displacement={"top": (0.0, 0.0, -1e-5)}, contact="bottom")
+    with pytest.raises(UnsupportedError, match="not parallelograms"):
+        cc.solve(cc.Scene(skew, contacts=[cc.Contact(skew, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))]),
+                 "sigma1", degree=2)
+    for kind in ("residual", "equilibrated"):
+        with pytest.raises(UnsupportedError, match="estimate=False, or triangles"):
+            cc.solve(plane, "sigma1", estimate=kind)
+    with pytest.raises(UnsupportedError, match=r"2D scenes \(triangles\) only"):
+        cc.adapt(plane, "sigma1")
+    with pytest.raises(UnsupportedError, match="does not cover 3D"):
+        cc.error_bound(cc.solve(plane, "sigma1"))

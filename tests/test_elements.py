@@ -521,3 +521,102 @@ def test_hexahedral_contact_refusals_name_the_alternative():
         cc.adapt(plane, "sigma1")
     with pytest.raises(UnsupportedError, match="does not cover 3D"):
         cc.error_bound(cc.solve(plane, "sigma1"))
+
+
+@pytest.mark.parametrize("degree,vtk", [(1, 12), (2, 29)])
+def test_vtu_writes_vtk_hexahedra_that_meshio_reads_back(tmp_path, degree, vtk):
+    """The body's cells in the file's own types array are VTK_HEXAHEDRON (12) / VTK_TRIQUADRATIC_HEXAHEDRON (29);
+    meshio reads them back with the points, the connectivity and the affine field's constant strain per cell."""
+    mesh = distorted("hex", 2, 2)
+    body = cc.Body(mesh, STEEL, clamped=["bottom"])
+    S = space(degree, "hex")
+    nodes = S.nodes(body)
+    x = (mesh if nodes is None else nodes).points
+    A = np.array([[1e-4, 2e-5, -7e-5], [-3e-5, 5e-5, 4e-5], [6e-5, -1e-5, 3e-5]])
+    m = body_mesh(body, x @ A.T, None, nodes)
+    meshio.write(tmp_path / "a.vtu", m, binary=False)
+    meshio.write(tmp_path / "b.vtu", m)
+    text = (tmp_path / "a.vtu").read_text()
+    types = re.search(r'Name="types"[^>]*>([^<]*)<', text).group(1).split()
+    assert set(types) == {str(vtk)} and len(types) == len(mesh.hexes)
+    back = meshio.read(tmp_path / "b.vtu")
+    assert back.cells[0].type == ("hexahedron" if degree == 1 else "hexahedron27")
+    assert np.array_equal(back.cells[0].data, (mesh if nodes is None else nodes).cells)
+    assert np.allclose(back.points, x, rtol=0, atol=1e-15)
+    for label, (i, j) in (("xx", (0, 0)), ("yz", (1, 2)), ("xy", (0, 1))):
+        strain = back.cell_data[f"strain {label} [-]"][0]
+        assert np.allclose(strain, 0.5 * (A[i, j] + A[j, i]), rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("kind", ["hexahedron", "hexahedron27"])
+def test_gmsh_hexahedra_read_as_the_hexahedral_mesh(tmp_path, kind):
+    """A gmsh hexahedron / hexahedron27 file with quad / quad9 physical faces (meshio converts gmsh's hex27 order)
+    reads back as its corner HexMesh with the tags of its physical surfaces; a hex27 face node off its face's
+    centre is refused."""
+    mesh = distorted("hex", 2, 2)
+    body = cc.Body(mesh, STEEL, clamped=["bottom"])
+    nodes = space(2, "hex").nodes(body) if kind == "hexahedron27" else None
+    held = mesh if nodes is None else nodes
+    faces = {t: held.boundary(t) for t in mesh.tags}
+    face_kind = "quad" if nodes is None else "quad9"
+    cells = [meshio.CellBlock(kind, held.cells)] + [meshio.CellBlock(face_kind, f) for f in faces.values()]
+    physical = [np.full(len(held.cells), 10)] + [np.full(len(f), i + 1) for i, f in enumerate(faces.values())]
+    field = {"body": np.array([10, 3])} | {t: np.array([i + 1, 2]) for i, t in enumerate(faces)}
+    points = np.array(held.points)
+    path = tmp_path / "h.msh"
+
+    def write():
+        meshio.write(path, meshio.Mesh(points, cells, cell_data={"gmsh:physical": physical,
+                                                                 "gmsh:geometrical": physical},
+                                       field_data=field), file_format="gmsh22", binary=False)
+    write()
+    back = cc.read_mesh(path)
+    assert type(back).__name__ == "HexMesh" and back.cell == "hex"
+    assert np.array_equal(back.points, mesh.points) and np.array_equal(back.hexes, mesh.hexes)
+    for t in mesh.tags:
+        assert np.array_equal(back.boundary(t), mesh.boundary(t))
+    if nodes is not None:
+        points[nodes.cells[0, 20], 0] += 1e-3
+        write()
+        with pytest.raises(MeshError, match="off the mean of its corners"):
+            cc.read_mesh(path)
+
+
+def test_hexahedral_mesh_checks_and_the_scene_file_box_cell(tmp_path):
+    """HexMesh refuses a cell folded at a corner and a tagged face off the boundary; cc.box(cell="hex") has the
+    tetrahedral box's points and tags (each hexahedral face the union of two of its triangles: the same areas);
+    ``box = {..., cell = "hex"}`` in a scene file gives the same solution as the scene built in Python."""
+    from cvxcontact.io.scenefile import load_scene
+
+    cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    with pytest.raises(MeshError, match="inverted at some corners"):
+        cc.HexMesh(cube, [[0, 1, 3, 2, 4, 5, 6, 7]])
+    with pytest.raises(MeshError, match="not on the boundary"):
+        cc.HexMesh(np.concatenate([cube, cube[4:] + [0, 0, 1]]), [list(range(8)), [4, 5, 6, 7, 8, 9, 10, 11]],
+                   {"mid": [[4, 5, 6, 7]]})
+    kw = {"x": (0.0, 2.0), "y": (0.0, 1.0), "z": (0.0, 0.5), "nx": 4, "ny": 3, "nz": 2,
+          "patches": {"punch": ("top", (0.5, 1.5), (0.0, 1.0 / 3.0))}}
+    tet, hexa = cc.box(**kw), cc.box(**kw, cell="hex")
+    assert type(hexa).__name__ == "HexMesh" and np.array_equal(tet.points, hexa.points) and tet.tags == hexa.tags
+    assert np.isclose(hexa.volumes.sum(), 1.0, rtol=1e-14)
+    for t in tet.tags:
+        assert np.isclose(tet.face_areas(t).sum(), hexa.face_areas(t).sum(), rtol=1e-14)
+        assert np.array_equal(tet.boundary_nodes([t]), hexa.boundary_nodes([t]))
+    path = tmp_path / "h.toml"
+    path.write_text('condition = "sigma1"\n\n'
+                    '[[body]]\nname = "lower"\nmaterial = { E = 200e9, nu = 0.3 }\n'
+                    'mesh = { box = { z = [0.0, 0.5], nx = 2, ny = 2, nz = 1, cell = "hex" } }\n'
+                    'clamped = ["bottom"]\ncontact = "top"\n\n'
+                    '[[body]]\nname = "upper"\nmaterial = { E = 200e9, nu = 0.3 }\n'
+                    'mesh = { box = { z = [0.5, 1.0], nx = 2, ny = 2, nz = 1, cell = "hex" } }\n'
+                    'displacement = { top = [0.0, 0.0, -1e-5] }\ncontact = "bottom"\n')
+    scene = load_scene(path).scene
+    assert scene.cell == "hex"
+    mat = cc.materials.isotropic(E=200e9, nu=0.3)
+    lower = cc.Body(cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex"), mat, clamped=["bottom"], contact="top")
+    upper = cc.Body(cc.box(z=(0.5, 1.0), nx=2, ny=2, nz=1, cell="hex"), mat, displacement={"top": (0.0, 0.0, -1e-5)},
+                    contact="bottom")
+    a, b = cc.solve(scene, "sigma1", degree=2), cc.solve(cc.Scene(lower, upper), "sigma1", degree=2)
+    assert a.ok and b.ok
+    for ua, ub in zip(a.u, b.u):
+        assert np.abs(ua - ub).max() <= 1e-12 * 1e-5                              # measured 0 (the same program)

@@ -28,7 +28,7 @@ from .mesh import _frozen, _renumbering
 from .tetmesh import TetMesh
 from .tetmesh import _as_points as _as_points3
 
-__all__ = ["HexMesh", "HEX_FACES", "HEX_EDGES", "CORNERS"]
+__all__ = ["HexMesh", "HEX_FACES", "HEX_EDGES", "CORNERS", "read_hexes"]
 
 CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
@@ -310,3 +310,61 @@ def _lex_less(a, b):
 
 def _diagonal_cross(points, faces):
     return np.cross(points[faces[:, 2]] - points[faces[:, 0]], points[faces[:, 3]] - points[faces[:, 1]])
+
+
+def read_hexes(m, path, boundaries: Mapping[str, ArrayLike] | None = None, region: str | int | None = None) -> HexMesh:
+    """The :class:`HexMesh` of a meshio mesh ``m`` read from ``path`` (called by
+    :func:`~cvxcontact.geometry.mesh.read_mesh` for files holding hexahedra).
+
+    Boundary parts are the quadrilateral cells (``quad``, ``quad9``), named by gmsh physical names (dimension 2) or,
+    without names, by their physical number as a string; ``boundaries`` may add or override parts as corner
+    quadruples in the file's numbering. Second-order ``hexahedron27`` files (meshio's order, converted from gmsh's
+    by meshio) are read as their corner hexahedra: the Q2 space rebuilds the other 19 nodes as the means of the
+    corners they stand on, so each must lie there (checked, 1e-9 of the cell's longest edge). Unused nodes are
+    dropped; ``region`` (one physical volume of several) is not read for hexahedra.
+    """
+    kinds = {block.type for block in m.cells}
+    if {"hexahedron", "hexahedron27"} <= kinds:
+        raise MeshError(f"mesh file {str(path)!r} mixes hexahedron and hexahedron27 cells")
+    other = kinds & {"tetra", "tetra10", "wedge", "pyramid", "hexahedron20", "triangle", "triangle6"}
+    if other:
+        raise MeshError(f"mesh file {str(path)!r} holds {sorted(other)} cells next to hexahedra; cvxcontact's "
+                        "hexahedral meshes hold hexahedra (hexahedron, hexahedron27) with quadrilateral faces only")
+    if region is not None:
+        raise MeshError(f"mesh file {str(path)!r}: region= is not read for hexahedra yet; write one body per file")
+    blocks = [b.data for b in m.cells if b.type in ("hexahedron", "hexahedron27")]
+    points = np.asarray(m.points, dtype=float)
+    if points.shape[1] != 3:
+        raise MeshError(f"mesh file {str(path)!r} holds hexahedra with {points.shape[1]}D points; expected 3D")
+    for data in blocks:
+        if data.shape[1] == 27:
+            X = points[data[:, :8]]                          # the order of Q2HexNodes: edges, faces, centre
+            expected = np.concatenate([X, X[:, HEX_EDGES].mean(axis=2), X[:, HEX_FACES].mean(axis=2),
+                                       X.mean(axis=1, keepdims=True)], axis=1)
+            edge = np.linalg.norm(points[data[:, HEX_EDGES[:, 0]]] - points[data[:, HEX_EDGES[:, 1]]], axis=2)
+            off = np.linalg.norm(points[data] - expected, axis=2).max(axis=1)
+            bad = off > 1e-9 * edge.max(axis=1)
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise MeshError(f"mesh file {str(path)!r}: hexahedron27 cell {k} has a node off the mean of its "
+                                "corners (a curved edge or face, or another node order); cvxcontact's Q2 hexahedra "
+                                "are the images of the trilinear map")
+    hexes = np.concatenate([b[:, :8] for b in blocks]).astype(np.int64)
+    physical = m.cell_data.get("gmsh:physical")
+    names = {int(v[0]): k for k, v in (m.field_data or {}).items() if len(v) > 1 and int(v[1]) == 2}
+    parts: dict[str, list] = {}
+    for k, block in enumerate(m.cells):
+        if block.type not in ("quad", "quad9"):
+            continue
+        ids = physical[k] if physical is not None else np.zeros(len(block.data), dtype=int)
+        for pid in np.unique(ids):
+            parts.setdefault(names.get(int(pid), str(int(pid))), []).append(block.data[ids == pid, :4])
+    faces = {tag: np.concatenate(v).astype(np.int64) for tag, v in parts.items()}
+    faces.update({str(k): np.asarray(v) for k, v in (boundaries or {}).items()})
+    used = np.unique(hexes)
+    renumber = np.full(len(points), -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    for tag, f in faces.items():
+        if (renumber[f] < 0).any():
+            raise MeshError(f"boundary part {tag!r} in {str(path)!r} uses nodes that belong to no hexahedron")
+    return HexMesh(points[used], renumber[hexes], {t: renumber[f] for t, f in faces.items()})

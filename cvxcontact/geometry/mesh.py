@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 from ..errors import Frozen, FrozenMap, MeshError
 
 if TYPE_CHECKING:
+    from .hexmesh import HexMesh
     from .quadmesh import QuadMesh
     from .tetmesh import TetMesh
 
@@ -625,7 +626,7 @@ def _check_size(nx, ny):
 
 
 def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] | None = None,
-              region: str | int | None = None) -> Mesh | TetMesh:
+              region: str | int | None = None) -> Mesh | TetMesh | HexMesh:
     """Read a triangle mesh with meshio (gmsh ``.msh``, VTU, XDMF, ...).
 
     A file holding tetrahedra (``tetra`` or ``tetra10``) is read as a 3D
@@ -647,7 +648,9 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
 
     Quadrilaterals (``quad``, or ``quad9`` read as their corners the same way, the centre node at the
     image of the cell's centre by its bilinear map) give a
-    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (Q1, Q2 with ``degree=2``).
+    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (Q1, Q2 with ``degree=2``); hexahedra (``hexahedron``,
+    ``hexahedron27`` with ``quad``/``quad9`` faces) a :class:`~cvxcontact.geometry.hexmesh.HexMesh`
+    (:func:`cvxcontact.geometry.hexmesh.read_hexes`).
 
     Raises
     ------
@@ -673,6 +676,10 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         from .tetmesh import read_tets
 
         return read_tets(m, path, boundaries, region)
+    if kinds & {"hexahedron", "hexahedron27"}:
+        from .hexmesh import read_hexes
+
+        return read_hexes(m, path, boundaries, region)
     cell = "quad" if kinds & {"quad", "quad9"} else "triangle"
     higher = kinds & {"triangle7", "quad8", "hexahedron"} | (kinds & {"triangle", "triangle6"} if cell == "quad" else set())
     if higher:

@@ -34,12 +34,13 @@ PZT = cc.materials.PZT5A
 
 
 def distorted(cell, nx=3, ny=3, amount=0.25, seed=0, x=(0.0, 1.0), y=(0.0, 1.0), nz=None, z=(0.0, 1.0)):
-    """A rectangle mesh (a unit box of hexahedra for ``cell="hex"``, ``nz`` = ``ny`` cells high unless given)
+    """A rectangle mesh (a unit box of hexahedra or tetrahedra for ``cell="hex"``/``"tetra"``, ``nz`` = ``ny`` cells
+    high unless given)
     whose interior nodes are moved at random by up to ``amount`` of a cell (the sides stay straight or planar:
     one tag, one normal)."""
-    if cell == "hex":
+    if cell in ("hex", "tetra"):
         nz = ny if nz is None else nz
-        mesh = cc.box(x=x, y=y, z=z, nx=nx, ny=ny, nz=nz, cell="hex")
+        mesh = cc.box(x=x, y=y, z=z, nx=nx, ny=ny, nz=nz, cell=cell)
         h = np.array([(x[1] - x[0]) / nx, (y[1] - y[0]) / ny, (z[1] - z[0]) / nz])
     else:
         mesh = cc.rectangle(x=x, y=y, nx=nx, ny=ny, cell=cell)
@@ -411,7 +412,7 @@ def test_graded_block_takes_the_cell():
         assert np.array_equal(tri.boundary(t), quad.boundary(t))
 
 
-def _energy_error_3d(degree, n, amount):
+def _energy_error_3d(degree, n, amount, cell="hex"):
     """sqrt(a(u - u_h, u - u_h) / a(u, u)) on the unit cube of hexahedra clamped all round, u = U0 sin(pi x)
     sin(pi y) sin(pi z) (1, 1, 1) with its body force b = -div sigma(u) (isotropic steel): as
     :func:`_energy_error` (Galerkin orthogonality), a(u, u) by a 24 x 24 x 24 Gauss rule of the exact strain."""
@@ -425,9 +426,9 @@ def _energy_error_3d(degree, n, amount):
                  c[2] * (c[0] * s[1] + s[0] * c[1])]                 # sum over j != i of c_i c_j s_k
         return tuple(-U0 * pi ** 2 * (-3 * mu * sss + (lam + mu) * (-sss + cross[i])) for i in range(3))
 
-    mesh = distorted("hex", n, n, amount=amount, seed=n)
+    mesh = distorted(cell, n, n, amount=amount, seed=n)
     body = cc.Body(mesh, STEEL, clamped=list(mesh.tags), body_force=force)
-    _, _, _, s = system(body, "hex", degree)
+    _, _, _, s = system(body, cell, degree)
     T = s.Tu
     z = spla.spsolve((T.T @ s.Kuu @ T).tocsc(), T.T @ s.f)
     t, w = np.polynomial.legendre.leggauss(24)
@@ -483,6 +484,9 @@ def test_hexahedral_layers_squeezed_through_contact_are_in_uniaxial_strain(degre
         assert np.abs(sol.u[k][:, :2]).max() <= 1e-12 * DELTA * 100                # measured <= 1.6e-15 DELTA
     for c in sol.contacts:
         assert abs(c.force.sum() - p) <= 1e-12 * p                                   # measured <= 6.7e-16 p
+    if degree == 1:              # the pressure read-back: nodal forces over the Q1 hats' areas (mesh.node_areas)
+        for pair, k in ((0, 0), (1, 0), (1, 1)):
+            assert np.abs(sol.traction(k, pair)[1] - p).max() <= 1e-12 * p          # measured <= 1.5e-15 p
 
 
 def test_hexahedral_contact_refusals_name_the_alternative():

@@ -26,7 +26,7 @@ import numpy as np
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "hat_integrals"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points"]
 
 
 class HexElement(TensorElement):
@@ -74,16 +74,6 @@ def face_points(points, faces, degree):
         N1, dN1 = face.linear.shape_derivatives(xi)
         J = np.einsum("kid,ai->kad", X, dN1)
         yield np.einsum("i,kid->kd", N1, X), face.shape(xi), w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
-
-
-def hat_integrals(points, faces, n) -> np.ndarray:
-    """(n,) the integral (m^2) of each node's Q1 hat over the quadrilateral faces ``faces`` (k, 4): the
-    positive-weight quadrature of a contact law on the corners of hexahedral faces (each weight is > 0 on a convex
-    face: the bilinear hats are non-negative there)."""
-    out = np.zeros(n)
-    for _, N, da in face_points(points, faces, 1):
-        out += np.bincount(faces.T.ravel(), weights=(N[:, None] * da[None]).ravel(), minlength=n)
-    return out
 
 
 HEX1_ELEMENT = HexElement(1)

@@ -33,7 +33,7 @@ from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
-from .hex import HEX1_ELEMENT, HEX2_ELEMENT, hat_integrals
+from .hex import HEX1_ELEMENT, HEX2_ELEMENT
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 
 __all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "SPACES"]
@@ -469,7 +469,7 @@ class Q1Hex(P1Tet):
             side = 1 if c == "sigma2" and not itf.rigid else 0
             trace = itf.traces[side]
             mesh = trace.body.mesh
-            hats = hat_integrals(mesh.points, mesh.boundary(trace.part), len(mesh.points))[trace.nodes]
+            hats = mesh.node_areas(trace.part)[trace.nodes]
             if itf.rigid:
                 node = np.asarray(itf.reach)
             else:                # matching faces (_hex_contact): every vertex of X_h is a node of each trace

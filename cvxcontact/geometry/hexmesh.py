@@ -86,7 +86,8 @@ class HexMesh(Frozen):
         if (count > 2).any():
             k = int(np.argmax(count > 2))
             raise MeshError(f"face {uniq[k].tolist()} is shared by {int(count[k])} hexahedra (at most two)")
-        bfaces = faces[np.sort(first[count == 1])]
+        owned = np.sort(first[count == 1])
+        bfaces = faces[owned]
         if boundaries is not None and not isinstance(boundaries, Mapping):
             raise MeshError(f"boundaries must be a dict mapping tags to (k, 4) arrays of face corners, "
                             f"got {type(boundaries).__name__}")
@@ -98,7 +99,7 @@ class HexMesh(Frozen):
         split = TetMesh(np.concatenate([points, centres]), tets,
                         {t: _triangles(f, rank) for t, f in tags.items()})
         self._set(_points=split.points[:len(points)], _hexes=_frozen(h, np.int64), split=split,
-                  _boundary_faces=_frozen(bfaces, np.int64),
+                  _boundary_faces=_frozen(bfaces, np.int64), boundary_cells=_frozen(owned // 6, np.int64),
                   _tags=FrozenMap({t: _frozen(f, np.int64) for t, f in tags.items()}, "HexMesh boundaries",
                                   "build a new HexMesh"))
 
@@ -112,6 +113,9 @@ class HexMesh(Frozen):
     """The 12 tetrahedra of each cell (module docstring; cell c: tetrahedra 12 c .. 12 c + 11), on the points
     followed by the cells' centres: the mesh the checks ran on and whose boundary triangles are the contact
     surfaces' (:attr:`triangulation`)."""
+
+    boundary_cells: np.ndarray
+    """(k,) the cell that owns each of :attr:`boundary_faces` (read-only)."""
 
     @property
     def triangulation(self) -> TetMesh:
@@ -198,6 +202,24 @@ class HexMesh(Frozen):
                 J = np.einsum("kid,ia->kad", X, dxi)
                 area += wa * wb * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
         return area
+
+    def node_areas(self, tag: str) -> np.ndarray:
+        """(n,) the area (m^2) of the faces carrying ``tag`` attributed to each node: the integral of its bilinear
+        (Q1) hat over them (2 x 2 Gauss, exact on parallelograms; a quarter of such a face to each corner), zero
+        off the part. Positive on the part's nodes (the hats are non-negative on a convex face): the lumped
+        areas of a contact law and of the pressure read-back."""
+        faces = self.boundary(tag)
+        X = self.points[faces]                                                 # (k, 4, 3)
+        out = np.zeros(len(self.points))
+        t = np.array([-1.0, 1.0]) / np.sqrt(3.0)
+        for a in t:
+            for b in t:
+                N = np.array([(1 - a) * (1 - b), (1 + a) * (1 - b), (1 + a) * (1 + b), (1 - a) * (1 + b)]) / 4
+                dxi = np.array([[-(1 - b), -(1 - a)], [1 - b, -(1 + a)], [1 + b, 1 + a], [-(1 + b), 1 - a]]) / 4
+                J = np.einsum("kid,ia->kad", X, dxi)
+                da = np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+                out += np.bincount(faces.T.ravel(), weights=(N[:, None] * da[None]).ravel(), minlength=len(out))
+        return out
 
     def with_points(self, points: ArrayLike) -> HexMesh:
         """A new validated mesh with the same cells and tags on new node coordinates (metres)."""

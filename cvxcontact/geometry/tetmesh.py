@@ -183,6 +183,14 @@ class TetMesh(Frozen):
         """(k, 3) every face on the boundary, oriented outwards (read-only)."""
         return self._boundary_faces
 
+    @cached_property
+    def boundary_cells(self) -> np.ndarray:
+        """(k,) the tetrahedron that owns each of :attr:`boundary_faces` (read-only)."""
+        keys = facet_keys(np.sort(self.tets[:, OUTWARD_FACES].reshape(-1, 3), axis=1), len(self.points))
+        order = np.argsort(keys, kind="stable")
+        where = np.searchsorted(keys[order], facet_keys(np.sort(self._boundary_faces, axis=1), len(self.points)))
+        return _frozen(order[where] // 4, np.int64)
+
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 3) faces carrying ``tag``, oriented so that (p1 - p0) x (p2 - p0) points out (read-only)."""
         try:
@@ -203,6 +211,12 @@ class TetMesh(Frozen):
     def face_areas(self, tag: str) -> np.ndarray:
         """(k,) areas of the faces carrying ``tag``, in m^2."""
         return 0.5 * np.linalg.norm(_face_cross(self.points, self.boundary(tag)), axis=1)
+
+    def node_areas(self, tag: str) -> np.ndarray:
+        """(n,) the area (m^2) of the faces carrying ``tag`` attributed to each node (a third of each face's),
+        zero off the part."""
+        return np.bincount(self.boundary(tag).ravel(), weights=np.repeat(self.face_areas(tag) / 3.0, 3),
+                           minlength=len(self.points))
 
     def _orient_faces(self, tag, faces):
         faces = np.asarray(faces)

@@ -22,11 +22,12 @@ the n x n rule on each face's bilinear map, |dx/dxi x dx/deta| its area element.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "bilinear_rows"]
 
 
 class HexElement(TensorElement):
@@ -74,6 +75,24 @@ def face_points(points, faces, degree):
         N1, dN1 = face.linear.shape_derivatives(xi)
         J = np.einsum("kid,ai->kad", X, dN1)
         yield np.einsum("i,kid->kd", N1, X), face.shape(xi), w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+
+
+def bilinear_rows(X, corners, host, points, n):
+    """(v, n) sparse: the bilinear (Q1) functions of planar quadrilaterals at ``points`` (v, 2) m, point i in face
+    ``host[i]``; the faces' corners ``X`` (k, 4, 2) m (in-plane coordinates, in order around each) and their
+    indices ``corners`` (k, 4) among the n columns. The reference point of each is found by Newton's method on
+    the bilinear map (quadratic convergence from the centre on a convex face; 30 steps, far more than enough)."""
+    element = QuadElement(1)
+    Xh = X[host]                                                                # (v, 4, 2)
+    xi = np.zeros((len(points), 2))
+    for _ in range(30):
+        N, dN = element.shape_derivatives(xi)                                   # (v, 4), (v, 2, 4)
+        residual = np.asarray(points) - np.einsum("vi,vid->vd", N, Xh)
+        J = np.einsum("vai,vid->vda", dN, Xh)                                   # dx_d / dxi_a
+        xi = xi + np.linalg.solve(J, residual[..., None])[..., 0]
+    N = element.shape(np.clip(xi, -1.0, 1.0))
+    return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(points)), 4), corners[host].ravel())),
+                         shape=(len(points), n))
 
 
 HEX1_ELEMENT = HexElement(1)

@@ -17,13 +17,14 @@ the cells' centres (the fields of the output) and whether the error estimates co
 
 from __future__ import annotations
 
+from copy import copy
 from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.interface import row_directions
+from ..contact.interface import Stack, row_directions
 from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
@@ -33,7 +34,7 @@ from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
-from .hex import HEX1_ELEMENT, HEX2_ELEMENT
+from .hex import HEX1_ELEMENT, HEX2_ELEMENT, bilinear_rows
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 
 __all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "SPACES"]
@@ -154,8 +155,12 @@ class P1:
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return assemble_loads(body, matrices)
 
+    def _stack(self, scene):
+        """The stacked pairs the contact rows are read from: the scene's."""
+        return scene.stack
+
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        stack = scene.stack
+        stack = self._stack(scene)
         laws = pair_laws(scene, law)
         offsets = stack.row_offsets(condition, scene.conditions)
         rows = RowLaws(laws, np.diff(offsets))
@@ -443,11 +448,13 @@ def _refuse_cones_next_to_compliance(scene, conditions, laws):
 class Q1Hex(P1Tet):
     """Q1 (8-node, trilinear) hexahedra (:mod:`cvxcontact.fem.hex`, 2 x 2 x 2 Gauss): the mesh's vertices. Its trace
     on a face is bilinear; the contact rows are P1Tet's on the faces' triangles (:attr:`HexMesh.triangulation
-    <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`), whose vertices are the faces' corners: nodal rows
-    ("sigma1"/"sigma2") at a body's own face nodes, exact wherever a row's point is a node of both traces (a
-    rigid obstacle, matching faces). "gamma3" is posed where it reduces to those nodal rows exactly (a bilinear
-    jump is non-negative on a face if it is at its corners; module :mod:`cvxcontact.fem.hex`): pairs whose faces
-    match corner to corner, or against a rigid plane; elsewhere it is refused by name (:func:`_hex_contact`)."""
+    <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`), whose vertices are the faces' corners, with each trace
+    evaluated at the nodes of X_h by its bilinear faces (:func:`_bilinear_pair`; the triangles' P1 functions where
+    the faces match, the same values): nodal rows ("sigma1"/"sigma2") at a body's face nodes on any faces. "gamma3"
+    is posed where it reduces to those nodal rows exactly (a bilinear jump is non-negative on a face if it is at
+    its corners): matching faces and rigid planes; a normal-compliance law is integrated by the Q1 hats' face
+    integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
+    (:func:`_hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 1, 3, False
     vtk = "hexahedron"
@@ -458,8 +465,15 @@ class Q1Hex(P1Tet):
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return self.element.loads(body, matrices, nodes)
 
+    def _stack(self, scene):
+        """The scene's pairs, those whose faces do not match with the bilinear traces at the nodes of X_h
+        (:func:`_bilinear_pair`)."""
+        pairs = [itf if itf.rigid or _matching(itf) else _bilinear_pair(itf) for itf in scene.interfaces]
+        return scene.stack if all(a is b for a, b in zip(pairs, scene.interfaces)) else \
+            Stack(pairs, scene.stack.members)
+
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        _hex_contact(self, scene, condition)
+        _hex_contact(self, scene, condition, law)
         lines = super().contact(scene, condition, law, nodes)
         if lines.weights is None:
             return lines
@@ -514,19 +528,20 @@ class Q2Hex(P2Tet):
 
 
 def _hex_contact(space, scene, condition, law=None):
-    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings): a pair
-    whose rows would evaluate a trace between its nodes (two bodies whose faces do not match corner to corner:
-    the faces' triangles are not the bilinear trace there), a curved part, "gamma3" against a curved obstacle
-    on Q1 (the gap is not bilinear on a face: the corners do not decide), and on Q2 "gamma3", a compliance law
-    and faces that are not parallelograms (the face's centre off its diagonal's midpoint)."""
+    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings): curved
+    parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
+    decide), and "gamma3" or a compliance law between faces that do not match corner to corner; on Q2, "gamma3",
+    a compliance law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that
+    do not match."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
+    laws = pair_laws(scene, law)
     if space.degree == 2:
         conditions = [c or condition for c in scene.conditions]
         if "gamma3" in conditions:
             raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
                                    "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
                                    f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
-        if any(lw.compliant for lw in pair_laws(scene, law)):
+        if any(getattr(lw, "compliant", False) for lw in laws):
             raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
                                    "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
                                    f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
@@ -549,12 +564,48 @@ def _hex_contact(space, scene, condition, law=None):
                                        "(its gap is not bilinear on a face): use condition='sigma1' (nodal rows) or "
                                        f"{alternative}")
             continue
-        if not all(len(nodes) == itf.size for nodes in itf.sigma):
-            raise UnsupportedError(f"{label}: the contact faces of the two hexahedral bodies do not match corner to "
-                                   f"corner ({itf.size} nodes of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} "
-                                   "of them the bodies' nodes): the rows would evaluate a trace between its nodes, on its "
-                                   "faces' triangles. Mesh the two faces alike (the same grid on the contact plane) "
-                                   f"or use {alternative}; condition='sigma1' does not lift this yet")
+        if _matching(itf):
+            continue
+        what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
+               f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
+        if space.degree == 2:
+            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
+                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
+                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
+        if c == "gamma3":
+            raise UnsupportedError(f"{label}: {what}: 'gamma3' on Q1 hexahedra is posed on matching faces only (the "
+                                   "bilinear jump is not decided by the overlay's vertices): use condition='sigma1' "
+                                   f"(nodal rows), mesh the two faces alike, or use {alternative}")
+        if getattr(laws[i], "compliant", False):
+            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
+                                   f"matching faces only: mesh the two faces alike or use {alternative}")
+
+
+def _matching(itf) -> bool:
+    """True if every node of X_h of the two-body pair ``itf`` is a node of both traces (faces matching corner to
+    corner, on the overlap)."""
+    return all(len(nodes) == itf.size for nodes in itf.sigma)
+
+
+def _bilinear_pair(itf):
+    """A copy of the two-body :class:`~cvxcontact.contact.surface.SurfaceInterface` ``itf`` whose traces are
+    evaluated at the nodes of X_h (the overlay's vertices) by their Q1 faces' bilinear functions instead of the
+    P1 functions of the faces' triangles: the nodal rows "sigma1"/"sigma2" (a body's nodes, located on the other
+    body's faces) are then the Q1 jump exactly. Each vertex is located in an overlay triangle and with it in a
+    triangle of each trace, whose face is that triangle's quadrilateral (the split's triangles 2 q, 2 q + 1 are
+    face q's)."""
+    ov = itf.overlay
+    triangles = np.asarray(ov.triangles)
+    host = np.empty(itf.size, dtype=np.int64)
+    host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
+    rows = []
+    for trace, cell in zip(itf.traces, (ov.cell_a, ov.cell_b)):
+        corners = np.searchsorted(trace.nodes, trace.body.mesh.boundary(trace.part))     # (k, 4) trace-local
+        rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2, np.asarray(ov.vertices),
+                                  len(trace.nodes)))
+    out = copy(itf)
+    out._interp, out._factor = rows, None
+    return out
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

@@ -477,7 +477,7 @@ class Q1Hex(P1Tet):
         lines = super().contact(scene, condition, law, nodes)
         if lines.weights is None:
             return lines
-        weights = []             # a compliance law's quadrature: the Q1 hats' integrals over the faces, not the triangles'
+        weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'
         for itf, c in zip(scene.interfaces, scene.conditions):
             c = c or condition
             side = 1 if c == "sigma2" and not itf.rigid else 0

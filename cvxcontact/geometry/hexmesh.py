@@ -17,13 +17,14 @@ corners.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import Frozen, FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError
+from .base import CellMesh
 from .mesh import _frozen, _renumbering
 from .tetmesh import TetMesh
 from .tetmesh import _as_points as _as_points3
@@ -43,7 +44,7 @@ HEX_EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7
 """Local corners of the twelve edges, in the VTK_QUADRATIC/TRIQUADRATIC_HEXAHEDRON order of the edge nodes."""
 
 
-class HexMesh(Frozen):
+class HexMesh(CellMesh):
     """A conforming mesh of hexahedra of one body in (x, y, z) space.
 
     Parameters
@@ -139,16 +140,6 @@ class HexMesh(Frozen):
         return self._hexes
 
     @property
-    def tags(self) -> tuple[str, ...]:
-        """Names of the tagged boundary parts."""
-        return tuple(self._tags)
-
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
-
-    @property
     def boundary_faces(self) -> np.ndarray:
         """(k, 4) every face on the boundary, oriented outwards (read-only)."""
         return self._boundary_faces
@@ -179,11 +170,6 @@ class HexMesh(Frozen):
             return self._tags[tag]
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
-
-    def boundary_nodes(self, tags: Iterable[str] | str) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        faces = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
-        return np.unique(np.concatenate(faces)) if faces else np.zeros(0, dtype=np.int64)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 3) unit outward normals of the faces carrying ``tag`` (at each face's centre: the cross product of

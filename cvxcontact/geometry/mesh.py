@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,7 +22,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import Frozen, FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError
+from .base import CellMesh
 
 if TYPE_CHECKING:
     from .hexmesh import HexMesh
@@ -35,7 +36,7 @@ DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
 
 
-class Mesh(Frozen):
+class Mesh(CellMesh):
     """A conforming P1 triangulation of one body in the (x1, x3) plane.
 
     Parameters
@@ -138,11 +139,6 @@ class Mesh(Frozen):
         order, new = _renumbering(order, len(self.points))
         return Mesh(self.points[order], new[self.triangles], {t: new[self.boundary(t)] for t in self.tags})
 
-    @property
-    def tags(self) -> tuple[str, ...]:
-        """Names of the tagged boundary parts."""
-        return tuple(self._tags)
-
     @cached_property
     def areas(self) -> np.ndarray:
         """(m,) triangle areas in m^2."""
@@ -175,22 +171,12 @@ class Mesh(Frozen):
         """
         return _frozen(self.node_components[self.triangles[:, 0]], np.int64)
 
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
-
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their triangle (domain on the left; read-only)."""
         try:
             return self._tags[tag]
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
-
-    def boundary_nodes(self, tags: Iterable[str]) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        edges = [self.boundary(t) for t in tags]
-        return np.unique(np.concatenate(edges)) if edges else np.zeros(0, dtype=int)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 2) unit outward normals of the edges carrying ``tag``."""

@@ -10,7 +10,7 @@ tagged faces, oriented so that ``(p1 - p0) x (p2 - p0)`` points out of the body.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from functools import cached_property
 
 import numpy as np
@@ -18,7 +18,8 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import Frozen, FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError
+from .base import CellMesh
 from .facets import facet_keys
 from .mesh import _check_nodes, _frozen, _renumbering
 
@@ -42,7 +43,7 @@ EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
 (the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
 
-class TetMesh(Frozen):
+class TetMesh(CellMesh):
     """A conforming P1 tetrahedral mesh of one body in (x, y, z) space.
 
     Parameters
@@ -145,20 +146,10 @@ class TetMesh(Frozen):
         order, new = _renumbering(order, len(self.points))
         return TetMesh(self.points[order], new[self.tets], {t: new[self.boundary(t)] for t in self.tags})
 
-    @property
-    def tags(self) -> tuple[str, ...]:
-        """Names of the tagged boundary parts."""
-        return tuple(self._tags)
-
     @cached_property
     def volumes(self) -> np.ndarray:
         """(m,) tetrahedron volumes in m^3 (read-only)."""
         return _frozen(_signed_volumes(self.points, self.tets), float)
-
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
 
     @cached_property
     def node_components(self) -> np.ndarray:
@@ -197,11 +188,6 @@ class TetMesh(Frozen):
             return self._tags[tag]
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
-
-    def boundary_nodes(self, tags: Iterable[str] | str) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        faces = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
-        return np.unique(np.concatenate(faces)) if faces else np.zeros(0, dtype=np.int64)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 3) unit outward normals of the faces carrying ``tag``."""

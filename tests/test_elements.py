@@ -274,7 +274,7 @@ def _energy_error(cell, degree, n, amount):
     return np.sqrt(max(a_uu - float(s.f @ (T @ z)), 0.0) / a_uu)
 
 
-@pytest.mark.parametrize("cell,degree", ELEMENTS, ids=IDS)
+@pytest.mark.parametrize("cell,degree", ELEMENTS[:4], ids=IDS[:4])      # the hexahedra: the test below
 def test_observed_energy_norm_rates(cell, degree):
     """Energy-norm error ~ h^degree on meshes whose interior nodes are moved at random by 15 % of a cell (the
     quadrilaterals are not parallelograms, even asymptotically: the 9-node Q2 keeps its O(h^2), module

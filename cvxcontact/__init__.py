@@ -35,7 +35,7 @@ _WHERE = {
     "adapt": (".adapt", None), "Adapted": (".adapt", None), "AdaptStep": (".adapt", None),
     "Contact": (".physics.pairs", None), "Rigid": (".physics.pairs", None),
     "graded_block": (".geometry.generators", None), "half_disk": (".geometry.generators", None),
-    "TetMesh": (".geometry.tetmesh", None), "QuadMesh": (".geometry.quadmesh", None), "box": (".geometry.generators3d", None),
+    "TetMesh": (".geometry.tetmesh", None), "QuadMesh": (".geometry.quadmesh", None), "HexMesh": (".geometry.hexmesh", None), "box": (".geometry.generators3d", None),
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
     "Tresca": (".contact.laws", None),
@@ -45,7 +45,7 @@ _WHERE = {
 
 __all__ = [
     "materials", "CONDITIONS",
-    "Mesh", "QuadMesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
+    "Mesh", "QuadMesh", "HexMesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance", "Tresca",
     "solve", "error_bound", "adapt", "Adapted", "AdaptStep", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning",
@@ -94,6 +94,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .apps.sweep.load import CaseArrays, SweepResults, load_sweep
     from .geometry.generators3d import box, cylinder
     from .geometry.mesh import Mesh, read_mesh, rectangle
+    from .geometry.hexmesh import HexMesh
     from .geometry.quadmesh import QuadMesh
     from .geometry.tetmesh import TetMesh
     from .model import Model

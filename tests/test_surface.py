@@ -20,7 +20,8 @@ from test_overlay import grid, random_mesh, rotated
 
 class StandInMesh:
     """What SurfaceInterface reads of a tetrahedral mesh: points (n, 3), tags, boundary(tag) (k, 3) faces with
-    (p1 - p0) x (p2 - p0) pointing out of the body, outward_normals(tag), face_areas(tag), size."""
+    (p1 - p0) x (p2 - p0) pointing out of the body, outward_normals(tag), face_areas(tag), node_areas(tag) (a third
+    of each face's area to each of its nodes), size, and triangulation (the mesh whose faces these are: itself)."""
 
     dim = 3
 
@@ -42,6 +43,14 @@ class StandInMesh:
 
     def face_areas(self, tag):
         return 0.5 * np.linalg.norm(self._cross(tag), axis=1)
+
+    def node_areas(self, tag):
+        return np.bincount(self._faces[tag].ravel(), weights=np.repeat(self.face_areas(tag) / 3.0, 3),
+                           minlength=len(self.points))
+
+    @property
+    def triangulation(self):
+        return self
 
     @property
     def size(self):

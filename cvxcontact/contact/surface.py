@@ -46,7 +46,7 @@ class SurfaceTrace:
     ``nodes`` (n,) the mesh nodes of the part (sorted), ``points`` (n, 3) m, ``unit_normal`` (3,) the outward
     normal, ``offset`` = x . nu (m) of the plane, ``frame`` (2, 3) the in-plane axes (t1, t2) shared with the
     other side, ``x`` (n, 2) the nodes' in-plane coordinates (m), ``lumped`` (n,) the area of the part
-    attributed to each node (m^2, a third of each face's)."""
+    attributed to each node (m^2, ``mesh.node_areas``: a third of each triangle's, a hexahedral face's Q1 hats)."""
 
     def __init__(self, body, k, tol, part=None, frame=None):
         mesh = body.mesh
@@ -54,7 +54,7 @@ class SurfaceTrace:
         label = f"{body.name}: contact part {part!r}"
         if part not in mesh.tags:
             raise SceneError(f"{label}: unknown boundary tag; the mesh has {sorted(mesh.tags)}")
-        faces, areas, n, deviation, turn = _flatness(mesh, part)
+        faces, _, n, deviation, turn = _flatness(mesh, part)
         if len(faces) == 0:
             raise SceneError(f"{label} has no face")
         if n is None:
@@ -74,9 +74,7 @@ class SurfaceTrace:
         self.offset = offset
         self.frame = read_only(frame)
         self.x = read_only(points @ frame.T)
-        lumped = np.zeros(len(nodes))
-        np.add.at(lumped, self.faces.ravel(), np.repeat(areas / 3.0, 3))
-        self.lumped = read_only(lumped)
+        self.lumped = read_only(np.asarray(mesh.node_areas(part), dtype=float)[nodes])   # hexahedra: the Q1 hats'
         self.k, self.part, self.body = k, part, body
 
     def mass(self) -> sp.csr_matrix:
@@ -93,7 +91,9 @@ class SurfaceTrace:
 def _flatness(mesh, part):
     """(faces, areas (m^2), n, deviation (m), turn (rad)) of boundary part ``part``: its faces and their areas,
     the unit area-weighted mean of its outward normals n (None if they cancel), the largest distance of its
-    nodes from their mean plane normal to n, and the largest angle between a face's normal and n."""
+    nodes from their mean plane normal to n, and the largest angle between a face's normal and n. The faces are
+    the triangles of ``mesh.triangulation`` (a hexahedral mesh's faces cut in two, on their corners)."""
+    mesh = mesh.triangulation
     faces = np.asarray(mesh.boundary(part))
     if len(faces) == 0:
         return faces, np.zeros(0), None, np.inf, np.inf

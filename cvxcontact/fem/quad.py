@@ -29,7 +29,7 @@ import numpy as np
 
 from .assembly import BodySystem, accumulate, lifted
 
-__all__ = ["QuadElement", "Q1_ELEMENT", "Q2_ELEMENT", "gauss_square"]
+__all__ = ["TensorElement", "QuadElement", "Q1_ELEMENT", "Q2_ELEMENT", "gauss_square", "gauss_cube"]
 
 
 def _lagrange_1d(nodes, t):
@@ -52,64 +52,94 @@ def _lagrange_1d(nodes, t):
 def gauss_square(n: int) -> tuple[np.ndarray, np.ndarray]:
     """(xi (n^2, 2), w (n^2,)): the n x n Gauss-Legendre rule on [-1, 1]^2 (weights summing to 4), exact for
     polynomials of degree 2 n - 1 in each variable."""
+    return gauss_cube(n, 2)
+
+
+def gauss_cube(n: int, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """(xi (n^dim, dim), w (n^dim,)): the tensor Gauss-Legendre rule of n points per axis on [-1, 1]^dim (weights
+    summing to 2^dim), exact for polynomials of degree 2 n - 1 in each variable."""
     t, w = np.polynomial.legendre.leggauss(n)
-    a, b = np.meshgrid(t, t, indexing="ij")
-    return np.column_stack([a.ravel(), b.ravel()]), np.outer(w, w).ravel()
+    grids = np.meshgrid(*([t] * dim), indexing="ij")
+    weights = np.meshgrid(*([w] * dim), indexing="ij")
+    return np.column_stack([g.ravel() for g in grids]), np.prod([g.ravel() for g in weights], axis=0)
 
 
 @dataclass(frozen=True)
-class QuadElement:
-    """A Lagrange element on the reference square (module docstring): ``degree`` 1 (4 nodes) or 2 (9 nodes)."""
+class TensorElement:
+    """A Lagrange element on the reference cube [-1, 1]^dim (module docstring; 3D: :mod:`cvxcontact.fem.hex`):
+    ``degree`` 1 (2^dim nodes) or 2 (3^dim nodes), on the multilinear map of each cell's corners."""
 
     degree: int
+    dim: int = 2
+
+    @cached_property
+    def _subsets(self) -> list:
+        """The corner subsets each reference node is the centre of: the corners, then (degree 2) the edges, the
+        faces (3D) and the cell, in the VTK / gmsh order of the element's nodes."""
+        if self.dim == 2:
+            corners = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+            groups = [[[0, 1], [1, 2], [2, 3], [3, 0]], [[0, 1, 2, 3]]]
+        else:
+            from ..geometry.hexmesh import CORNERS, HEX_EDGES, HEX_FACES
+            corners = CORNERS
+            groups = [HEX_EDGES.tolist(), HEX_FACES.tolist(), [list(range(8))]]
+        out = [[i] for i in range(len(corners))]
+        return out + ([g for group in groups for g in group] if self.degree == 2 else []), corners
 
     @cached_property
     def reference(self) -> np.ndarray:
-        """(k, 2) the reference nodes in element order."""
-        corners = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
-        if self.degree == 1:
-            return corners
-        return np.concatenate([corners, [[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, 0.0]]])
+        """(k, dim) the reference nodes in element order."""
+        subsets, corners = self._subsets
+        return np.array([corners[s].mean(axis=0) for s in subsets])
 
     @cached_property
     def _index(self) -> np.ndarray:
-        """(k, 2) each node's 1D node indices (into -1, [0,] 1 sorted) in xi and eta."""
+        """(k, dim) each node's 1D node indices (into -1, [0,] 1 sorted) along each reference axis."""
         line = np.linspace(-1.0, 1.0, self.degree + 1)
         return np.searchsorted(line, self.reference)
 
     @property
     def rule(self) -> tuple[np.ndarray, np.ndarray]:
-        """The (degree + 1)^2 Gauss rule of the stiffness and the loads."""
-        return gauss_square(self.degree + 1)
+        """The (degree + 1)^dim Gauss rule of the stiffness and the loads."""
+        return gauss_cube(self.degree + 1, self.dim)
+
+    @cached_property
+    def linear(self) -> TensorElement:
+        """The element of degree 1 of the same dimension: the geometry's map."""
+        return self if self.degree == 1 else TensorElement(1, self.dim)
 
     def shape(self, xi) -> np.ndarray:
-        """(..., k) the shape functions at reference points ``xi`` (..., 2)."""
+        """(..., k) the shape functions at reference points ``xi`` (..., dim)."""
         return self.shape_derivatives(xi)[0]
 
     def shape_derivatives(self, xi) -> tuple[np.ndarray, np.ndarray]:
-        """(N (..., k), dN/dxi (..., 2, k)) at reference points ``xi`` (..., 2)."""
+        """(N (..., k), dN/dxi (..., dim, k)) at reference points ``xi`` (..., dim)."""
         xi = np.asarray(xi, dtype=float)
         line = np.linspace(-1.0, 1.0, self.degree + 1)
-        va, da = _lagrange_1d(line, xi[..., 0])
-        vb, db = _lagrange_1d(line, xi[..., 1])
-        i, j = self._index[:, 0], self._index[:, 1]
-        N = va[..., i] * vb[..., j]
-        dN = np.stack([da[..., i] * vb[..., j], va[..., i] * db[..., j]], axis=-2)
+        v, d = zip(*(_lagrange_1d(line, xi[..., a]) for a in range(self.dim)))
+        f = [v[a][..., self._index[:, a]] for a in range(self.dim)]
+        g = [d[a][..., self._index[:, a]] for a in range(self.dim)]
+        N = np.prod(f, axis=0)
+        dN = np.stack([np.prod([g[a] if b == a else f[b] for b in range(self.dim)], axis=0)
+                       for a in range(self.dim)], axis=-2)
         return N, dN
 
     def at(self, corners, xi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(x (m, 2) m, G (m, 2, k) 1/m, det J (m,)) at the reference point ``xi`` (2,) of the cells with
-        corner coordinates ``corners`` (m, 4, 2): the point, the physical shape gradients, the Jacobian."""
-        N1, dN1 = Q1_ELEMENT.shape_derivatives(xi)                            # the bilinear map
-        J = np.einsum("mid,ai->mda", corners, dN1)                          # (m, 2, 2): dx_d / dxi_a
-        det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
-        inv_T = np.stack([np.stack([J[:, 1, 1], -J[:, 1, 0]], -1), np.stack([-J[:, 0, 1], J[:, 0, 0]], -1)], 1)
-        inv_T = inv_T / det[:, None, None]                                   # J^-T
+        """(x (m, dim) m, G (m, dim, k) 1/m, det J (m,)) at the reference point ``xi`` (dim,) of the cells with
+        corner coordinates ``corners`` (m, 2^dim, dim): the point, the physical shape gradients, the Jacobian."""
+        N1, dN1 = self.linear.shape_derivatives(xi)                          # the multilinear map
+        J = np.einsum("mid,ai->mda", corners, dN1)                          # (m, dim, dim): dx_d / dxi_a
+        if self.dim == 2:
+            det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+            inv_T = np.stack([np.stack([J[:, 1, 1], -J[:, 1, 0]], -1), np.stack([-J[:, 0, 1], J[:, 0, 0]], -1)], 1)
+            inv_T = inv_T / det[:, None, None]                               # J^-T
+        else:
+            det, inv_T = np.linalg.det(J), np.linalg.inv(J).transpose(0, 2, 1)
         _, dN = self.shape_derivatives(xi)
         return np.einsum("i,mid->md", N1, corners), inv_T @ dN, det
 
     def points(self, mesh) -> list[tuple[np.ndarray, np.ndarray]]:
-        """[(G (m, 2, k), w (m,) m^2)] at the points of :attr:`rule` on every cell of ``mesh``: what
+        """[(G (m, dim, k), w (m,) m^dim)] at the points of :attr:`rule` on every cell of ``mesh``: what
         :func:`~cvxcontact.fem.assembly.assemble_points` integrates."""
         corners = mesh.points[mesh.cells]
         out = []
@@ -117,6 +147,26 @@ class QuadElement:
             _, G, det = self.at(corners, xi)
             out.append((G, w * det))
         return out
+
+    def _volume(self, mesh, cells, load, ncomp, n) -> np.ndarray:
+        """(n, ncomp) consistent nodal load of a volume density over the cells."""
+        out = np.zeros((n, ncomp))
+        if not load.nonzero:
+            return out
+        corners = mesh.points[mesh.cells]
+        for xi, w in zip(*self.rule):
+            x, _, det = self.at(corners, xi)
+            val = np.asarray(load(*x.T), dtype=float).reshape(len(x), ncomp) * (w * det)[:, None]
+            N = self.shape(xi)
+            out += accumulate(cells.T.ravel(), (N[:, None, None] * val[None]).reshape(-1, ncomp), n)
+        return out
+
+
+class QuadElement(TensorElement):
+    """A Lagrange element on the reference square (module docstring): ``degree`` 1 (4 nodes) or 2 (9 nodes)."""
+
+    def __init__(self, degree: int) -> None:
+        super().__init__(degree, 2)
 
     def loads(self, body, matrices: BodySystem, nodes) -> BodySystem:
         """``matrices`` with the consistent loads of ``body`` (SI): volume densities by :attr:`rule`, surface
@@ -141,19 +191,6 @@ class QuadElement:
             for tag, load in body.surface_charge.items():
                 q -= edges(tag, load, 1)[:, 0]
         return lifted(body, matrices, f.ravel(), q, held)
-
-    def _volume(self, mesh, cells, load, ncomp, n) -> np.ndarray:
-        """(n, ncomp) consistent nodal load of a volume density over the cells."""
-        out = np.zeros((n, ncomp))
-        if not load.nonzero:
-            return out
-        corners = mesh.points[mesh.cells]
-        for xi, w in zip(*self.rule):
-            x, _, det = self.at(corners, xi)
-            val = np.asarray(load(x[:, 0], x[:, 1]), dtype=float).reshape(len(x), ncomp) * (w * det)[:, None]
-            N = self.shape(xi)
-            out += accumulate(cells.T.ravel(), (N[:, None, None] * val[None]).reshape(-1, ncomp), n)
-        return out
 
 
 Q1_ELEMENT = QuadElement(1)

@@ -3,7 +3,8 @@ gmsh reading."""
 
 from .generators3d import box, cylinder
 from .mesh import Mesh, read_mesh, rectangle
+from .hexmesh import HexMesh
 from .quadmesh import QuadMesh
 from .tetmesh import TetMesh
 
-__all__ = ["Mesh", "QuadMesh", "TetMesh", "rectangle", "box", "cylinder", "read_mesh"]
+__all__ = ["Mesh", "QuadMesh", "HexMesh", "TetMesh", "rectangle", "box", "cylinder", "read_mesh"]

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import MeshError
 from .mesh import _count, _interval, _physical_memory
+from .hexmesh import HEX_FACES, HexMesh
 from .tetmesh import OUTWARD_FACES, TetMesh
 
 __all__ = ["box", "cylinder"]
@@ -30,7 +31,7 @@ at), so the guard refuses only meshes that cannot be solved on this machine by a
 
 def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Sequence[float] = (0.0, 1.0),
         nx: int = 4, ny: int = 4, nz: int = 4, patches: Mapping[str, tuple] | None = None,
-        grade: tuple | None = None) -> TetMesh:
+        grade: tuple | None = None, cell: str = "tetra") -> TetMesh | HexMesh:
     """Structured tetrahedral mesh of the box ``x[0]..x[1]`` by ``y[0]..y[1]`` by ``z[0]..z[1]`` (metres).
 
     Each of the ``nx`` by ``ny`` by ``nz`` hexahedral cells is cut into six tetrahedra around one of its
@@ -49,7 +50,12 @@ def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Seq
     grid without patch edges; patch edges take lines, which shifts the others); ``ratio`` may be one
     number or one per axis. A grid line passes through the point. The counts nx, ny, nz are kept: the cells are distributed over the sub-intervals
     between patch edges and the point in proportion to their share of the grading density.
+
+    ``cell="hex"`` returns the grid's hexahedra uncut as a :class:`~cvxcontact.geometry.hexmesh.HexMesh` (Q1, Q2
+    with ``degree=2``): the same points, the same tags on the quadrilateral faces.
     """
+    if cell not in ("tetra", "hex"):
+        raise MeshError(f"box: cell must be 'tetra' (tetrahedra) or 'hex' (hexahedra), got {cell!r}")
     bounds = [_interval(v, k) for v, k in ((x, "x"), (y, "y"), (z, "z"))]
     counts = [_count(v, k) for v, k in ((nx, "nx"), (ny, "ny"), (nz, "nz"))]
     _check_size(counts[0] * counts[1] * counts[2], int(np.prod([n + 1 for n in counts])))
@@ -66,8 +72,12 @@ def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Seq
     I, J, K = I.ravel(), J.ravel(), K.ravel()
     points = np.column_stack([axes[0][I], axes[1][J], axes[2][K]])
     index = np.column_stack([I, J, K])                                        # grid index of each node
-    tets = _kuhn_tets(*counts)
-    faces = tets[:, OUTWARD_FACES].reshape(-1, 3)
+    if cell == "hex":
+        cells = _grid_cells(*counts)[:, [0, 1, 3, 2, 4, 5, 7, 6]]             # VTK order of the corners
+        faces = cells[:, HEX_FACES].reshape(-1, 4)
+    else:
+        cells = _kuhn_tets(*counts)
+        faces = cells[:, OUTWARD_FACES].reshape(-1, 3)
     boundaries = {}
     for tag, (axis, end) in SIDES.items():
         on = (index[faces, axis] == end * counts[axis]).all(axis=1)
@@ -79,7 +89,7 @@ def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Seq
             c = points[f, axis]
             inside &= (c >= a).all(axis=1) & (c <= b).all(axis=1)          # grid lines hold a, b exactly
         boundaries[name] = f[inside]
-    return TetMesh(points, tets, boundaries)
+    return (HexMesh if cell == "hex" else TetMesh)(points, cells, boundaries)
 
 
 def _kuhn_tets(nx, ny, nz):
@@ -103,10 +113,15 @@ def _kuhn_tets(nx, ny, nz):
         vol = np.einsum("ij,ij->i", xyz[:, 1] - xyz[:, 0], np.cross(xyz[:, 2] - xyz[:, 0], xyz[:, 3] - xyz[:, 0]))
         templates[mask] = np.where((vol < 0)[:, None], corners[:, [0, 2, 1, 3]], corners)
     ck, cj, ci = (a.ravel() for a in np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij"))
-    node = lambda i, j, k: i + (nx + 1) * (j + (ny + 1) * k)                   # noqa: E731
-    corner_nodes = np.stack([node(ci + b[0], cj + b[1], ck + b[2]) for b in bits], axis=1)     # (cells, 8)
     mask = (ci % 2) + 2 * (cj % 2) + 4 * (ck % 2)
-    return np.take_along_axis(corner_nodes[:, None, :], templates[mask], axis=2).reshape(-1, 4)
+    return np.take_along_axis(_grid_cells(nx, ny, nz)[:, None, :], templates[mask], axis=2).reshape(-1, 4)
+
+
+def _grid_cells(nx, ny, nz):
+    """(nx ny nz, 8) the corner nodes of the grid's cells, corner b = bx + 2 by + 4 bz (x fastest, cells too)."""
+    ck, cj, ci = (a.ravel() for a in np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij"))
+    node = lambda i, j, k: i + (nx + 1) * (j + (ny + 1) * k)                   # noqa: E731
+    return np.stack([node(ci + (b & 1), cj + ((b >> 1) & 1), ck + ((b >> 2) & 1)) for b in range(8)], axis=1)
 
 
 def _patch_specs(patches, bounds):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,9 +22,11 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import Frozen, FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError
+from .base import CellMesh
 
 if TYPE_CHECKING:
+    from .hexmesh import HexMesh
     from .quadmesh import QuadMesh
     from .tetmesh import TetMesh
 
@@ -34,7 +36,7 @@ DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
 
 
-class Mesh(Frozen):
+class Mesh(CellMesh):
     """A conforming P1 triangulation of one body in the (x1, x3) plane.
 
     Parameters
@@ -137,11 +139,6 @@ class Mesh(Frozen):
         order, new = _renumbering(order, len(self.points))
         return Mesh(self.points[order], new[self.triangles], {t: new[self.boundary(t)] for t in self.tags})
 
-    @property
-    def tags(self) -> tuple[str, ...]:
-        """Names of the tagged boundary parts."""
-        return tuple(self._tags)
-
     @cached_property
     def areas(self) -> np.ndarray:
         """(m,) triangle areas in m^2."""
@@ -174,22 +171,12 @@ class Mesh(Frozen):
         """
         return _frozen(self.node_components[self.triangles[:, 0]], np.int64)
 
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
-
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their triangle (domain on the left; read-only)."""
         try:
             return self._tags[tag]
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
-
-    def boundary_nodes(self, tags: Iterable[str]) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        edges = [self.boundary(t) for t in tags]
-        return np.unique(np.concatenate(edges)) if edges else np.zeros(0, dtype=int)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 2) unit outward normals of the edges carrying ``tag``."""
@@ -625,7 +612,7 @@ def _check_size(nx, ny):
 
 
 def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] | None = None,
-              region: str | int | None = None) -> Mesh | TetMesh:
+              region: str | int | None = None) -> Mesh | TetMesh | HexMesh:
     """Read a triangle mesh with meshio (gmsh ``.msh``, VTU, XDMF, ...).
 
     A file holding tetrahedra (``tetra`` or ``tetra10``) is read as a 3D
@@ -647,7 +634,9 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
 
     Quadrilaterals (``quad``, or ``quad9`` read as their corners the same way, the centre node at the
     image of the cell's centre by its bilinear map) give a
-    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (Q1, Q2 with ``degree=2``).
+    :class:`~cvxcontact.geometry.quadmesh.QuadMesh` (Q1, Q2 with ``degree=2``); hexahedra (``hexahedron``,
+    ``hexahedron27`` with ``quad``/``quad9`` faces) a :class:`~cvxcontact.geometry.hexmesh.HexMesh`
+    (:func:`cvxcontact.geometry.hexmesh.read_hexes`).
 
     Raises
     ------
@@ -673,6 +662,10 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         from .tetmesh import read_tets
 
         return read_tets(m, path, boundaries, region)
+    if kinds & {"hexahedron", "hexahedron27"}:
+        from .hexmesh import read_hexes
+
+        return read_hexes(m, path, boundaries, region)
     cell = "quad" if kinds & {"quad", "quad9"} else "triangle"
     higher = kinds & {"triangle7", "quad8", "hexahedron"} | (kinds & {"triangle", "triangle6"} if cell == "quad" else set())
     if higher:

@@ -10,13 +10,14 @@ one place (``Mesh``) and the quadrilateral mesh adds only what is its own (conve
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import Frozen, MeshError
+from ..errors import MeshError
+from .base import CellMesh
 from .mesh import Mesh, _as_points, _frozen, _renumbering
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
@@ -30,7 +31,7 @@ EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
 gmsh quad9 / VTK_BIQUADRATIC_QUAD)."""
 
 
-class QuadMesh(Frozen):
+class QuadMesh(CellMesh):
     """A conforming mesh of convex quadrilaterals of one body in the (x1, x3) plane.
 
     Parameters
@@ -99,11 +100,6 @@ class QuadMesh(Frozen):
         """Names of the tagged boundary parts."""
         return self.split.tags
 
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return self.split.size
-
     @cached_property
     def areas(self) -> np.ndarray:
         """(m,) cell areas in m^2 (the two triangles of each cell)."""
@@ -124,10 +120,6 @@ class QuadMesh(Frozen):
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their cell (domain on the left; read-only)."""
         return self.split.boundary(tag)
-
-    def boundary_nodes(self, tags: Iterable[str]) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        return self.split.boundary_nodes(tags)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 2) unit outward normals of the edges carrying ``tag``."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes"]
+__all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes", "Q2HexNodes"]
 
 
 class _MidpointNodes:
@@ -126,6 +126,94 @@ class Q2Nodes(_SegmentTraces):
         """(m, 9) the elements: ``quads9``."""
         return self.quads9
 
+
+
+class Q2HexNodes(_MidpointNodes):
+    """The Q2 (27-node) nodes of a :class:`~cvxcontact.geometry.hexmesh.HexMesh`: its vertices, the midpoints of
+    its edges (numbered by sorted vertex pairs), the centres of its faces (numbered by sorted corner quadruples)
+    and the cells' centres, each the mean of the corners it stands on (the image of the reference node by the
+    trilinear map: straight edges, the faces' and cells' centres).
+
+    Attributes: ``mesh``, ``points`` (n, 3) m, ``hexes27`` (m, 27) node indices of each element in the
+    VTK_TRIQUADRATIC_HEXAHEDRON order (meshio's ``hexahedron27``): corners, edge midpoints in ``HEX_EDGES``
+    order, face centres in ``HEX_FACES`` order (x = -1, +1, y = -1, +1, z = -1, +1), centre; ``n_vertices``.
+    """
+
+    def __init__(self, mesh) -> None:
+        from .hexmesh import HEX_EDGES, HEX_FACES
+
+        self.mesh = mesh
+        hexes = mesh.hexes
+        nv = len(mesh.points)
+        self._keys, mids, middles = _numbered_edges(mesh.points, hexes, HEX_EDGES)
+        faces = np.sort(hexes[:, HEX_FACES].reshape(-1, 4), axis=1)
+        self._faces, inverse = np.unique(faces, axis=0, return_inverse=True)
+        first = nv + len(middles)
+        centres = mesh.points[self._faces].mean(axis=1)
+        self.n_vertices = nv
+        self.points = _frozen(np.concatenate([mesh.points, middles, centres, mesh.points[hexes].mean(axis=1)]))
+        self.hexes27 = _frozen(np.column_stack([hexes, mids, first + inverse.reshape(len(hexes), 6),
+                                                first + len(centres) + np.arange(len(hexes))]))
+
+    @property
+    def cells(self) -> np.ndarray:
+        """(m, 27) the elements: ``hexes27``."""
+        return self.hexes27
+
+    def face_centre(self, faces) -> np.ndarray:
+        """Node indices of the centres of the faces ``faces`` (k, 4) (corner indices, any order)."""
+        f = np.sort(np.asarray(faces), axis=1)
+        uniq, inverse = np.unique(np.concatenate([self._faces, f]), axis=0, return_inverse=True)
+        if len(uniq) != len(self._faces):
+            raise MeshError("face_centre(): corners that are not a face of the mesh")
+        return self.n_vertices + len(self._keys) + inverse.ravel()[len(self._faces):]
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(k, 9) boundary faces carrying ``tag`` as quad9 node indices (corners as :meth:`HexMesh.boundary
+        <cvxcontact.geometry.hexmesh.HexMesh.boundary>`, outward; the midpoints of sides 01, 12, 23, 30; the
+        centre)."""
+        f = self.mesh.boundary(tag)
+        sides = [self.midpoint(f[:, i], f[:, (i + 1) % 4]) for i in range(4)]
+        return np.column_stack([f] + sides + [self.face_centre(f)])
+
+
+    @property
+    def triangulation(self) -> _FaceTriangles6:
+        """The P2 node set of the faces' triangles (:attr:`HexMesh.triangulation
+        <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`): ``boundary(tag)`` (2 k, 6) triangle6 nodes of the
+        two triangles of each face, the face's centre on the diagonal (its midpoint when the face is a
+        parallelogram: then the 9 nodes of a face are the 6 + 6 of its triangles)."""
+        return _FaceTriangles6(self)
+
+
+class _FaceTriangles6:
+    """The 6-node triangles of the faces of a :class:`Q2HexNodes` (its ``triangulation``): ``points`` and
+    ``boundary(tag)`` as :class:`P2TetNodes`', on the triangles of the hexahedral mesh's split in their order."""
+
+    def __init__(self, nodes) -> None:
+        self.nodes, self.points = nodes, nodes.points
+
+    def boundary(self, tag: str) -> np.ndarray:
+        """(2 k, 6) triangle6 node indices (v0, v1, v2, m01, m12, m20) of the triangles of the faces carrying
+        ``tag`` (triangles 2 q and 2 q + 1 on face q of ``mesh.boundary(tag)``)."""
+        mesh = self.nodes.mesh
+        quads, tri = mesh.boundary(tag), np.asarray(mesh.triangulation.boundary(tag))
+        quad = np.repeat(quads, 2, axis=0)                                   # the face of each triangle
+        centre = np.repeat(self.nodes.face_centre(quads), 2)
+        where = np.argmax(tri[:, :, None] == quad[:, None, :], axis=2)       # (2 k, 3) corner positions
+        mids = []
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            diagonal = (where[:, i] - where[:, j]) % 2 == 0
+            mids.append(_side_or_centre(self.nodes, tri[:, i], tri[:, j], diagonal, centre))
+        return np.column_stack([tri] + mids)
+
+
+def _side_or_centre(nodes, a, b, diagonal, centre):
+    """The midpoints of the sides (a, b) of the faces, the face's ``centre`` where (a, b) is its ``diagonal``."""
+    out = centre.copy()
+    side = ~diagonal
+    out[side] = nodes.midpoint(a[side], b[side])
+    return out
 
 
 def _numbered_edges(points, cells, local_edges):

@@ -10,7 +10,7 @@ tagged faces, oriented so that ``(p1 - p0) x (p2 - p0)`` points out of the body.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from functools import cached_property
 
 import numpy as np
@@ -18,7 +18,8 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import Frozen, FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError
+from .base import CellMesh
 from .facets import facet_keys
 from .mesh import _check_nodes, _frozen, _renumbering
 
@@ -42,7 +43,7 @@ EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
 (the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
 
-class TetMesh(Frozen):
+class TetMesh(CellMesh):
     """A conforming P1 tetrahedral mesh of one body in (x, y, z) space.
 
     Parameters
@@ -104,6 +105,12 @@ class TetMesh(Frozen):
         return self._points
 
     @property
+    def triangulation(self) -> TetMesh:
+        """The tetrahedral mesh whose boundary triangles are the contact surfaces' faces: itself (a
+        :class:`~cvxcontact.geometry.hexmesh.HexMesh` answers its split)."""
+        return self
+
+    @property
     def tets(self) -> np.ndarray:
         """(m, 4) node indices of the positively oriented tetrahedra (read-only)."""
         return self._tets
@@ -139,20 +146,10 @@ class TetMesh(Frozen):
         order, new = _renumbering(order, len(self.points))
         return TetMesh(self.points[order], new[self.tets], {t: new[self.boundary(t)] for t in self.tags})
 
-    @property
-    def tags(self) -> tuple[str, ...]:
-        """Names of the tagged boundary parts."""
-        return tuple(self._tags)
-
     @cached_property
     def volumes(self) -> np.ndarray:
         """(m,) tetrahedron volumes in m^3 (read-only)."""
         return _frozen(_signed_volumes(self.points, self.tets), float)
-
-    @property
-    def size(self) -> float:
-        """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
 
     @cached_property
     def node_components(self) -> np.ndarray:
@@ -177,17 +174,20 @@ class TetMesh(Frozen):
         """(k, 3) every face on the boundary, oriented outwards (read-only)."""
         return self._boundary_faces
 
+    @cached_property
+    def boundary_cells(self) -> np.ndarray:
+        """(k,) the tetrahedron that owns each of :attr:`boundary_faces` (read-only)."""
+        keys = facet_keys(np.sort(self.tets[:, OUTWARD_FACES].reshape(-1, 3), axis=1), len(self.points))
+        order = np.argsort(keys, kind="stable")
+        where = np.searchsorted(keys[order], facet_keys(np.sort(self._boundary_faces, axis=1), len(self.points)))
+        return _frozen(order[where] // 4, np.int64)
+
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 3) faces carrying ``tag``, oriented so that (p1 - p0) x (p2 - p0) points out (read-only)."""
         try:
             return self._tags[tag]
         except KeyError:
             raise MeshError(f"unknown boundary tag {tag!r}; this mesh has {sorted(self._tags)}") from None
-
-    def boundary_nodes(self, tags: Iterable[str] | str) -> np.ndarray:
-        """Sorted unique node indices on the union of the parts named in ``tags``."""
-        faces = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
-        return np.unique(np.concatenate(faces)) if faces else np.zeros(0, dtype=np.int64)
 
     def outward_normals(self, tag: str) -> np.ndarray:
         """(k, 3) unit outward normals of the faces carrying ``tag``."""
@@ -197,6 +197,12 @@ class TetMesh(Frozen):
     def face_areas(self, tag: str) -> np.ndarray:
         """(k,) areas of the faces carrying ``tag``, in m^2."""
         return 0.5 * np.linalg.norm(_face_cross(self.points, self.boundary(tag)), axis=1)
+
+    def node_areas(self, tag: str) -> np.ndarray:
+        """(n,) the area (m^2) of the faces carrying ``tag`` attributed to each node (a third of each face's),
+        zero off the part."""
+        return np.bincount(self.boundary(tag).ravel(), weights=np.repeat(self.face_areas(tag) / 3.0, 3),
+                           minlength=len(self.points))
 
     def _orient_faces(self, tag, faces):
         faces = np.asarray(faces)

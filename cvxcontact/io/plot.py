@@ -454,22 +454,12 @@ def _vec(v) -> str:
 
 
 def boundary_owners(mesh) -> np.ndarray:
-    """(k,) the tetrahedron of ``mesh`` that owns each of its ``boundary_faces``."""
-    from ..geometry.tetmesh import OUTWARD_FACES
-
-    tets = np.asarray(mesh.tets)
-    n = len(mesh.points)
-    def keys(f):
-        f = np.sort(f, axis=1).astype(np.int64)
-        return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
-    all_keys = keys(tets[:, OUTWARD_FACES].reshape(-1, 3))
-    order = np.argsort(all_keys, kind="stable")
-    where = np.searchsorted(all_keys[order], keys(np.asarray(mesh.boundary_faces)))
-    return order[where] // 4
+    """(k,) the cell of ``mesh`` (a tetrahedron, a hexahedron) that owns each of its ``boundary_faces``."""
+    return mesh.boundary_cells
 
 
 def _face_values(solution, field):
-    """Per body: (its boundary faces (k, 3), the value on each face, SI)."""
+    """Per body: (its boundary faces (k, 3) triangles or (k, 4) quadrilaterals, the value on each face, SI)."""
     out = []
     p2 = getattr(solution, "degree", 1) == 2
     for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):
@@ -480,9 +470,7 @@ def _face_values(solution, field):
         elif field == "potential":
             v = None if phi is None else np.asarray(phi)[:nv][faces].mean(axis=1)
         else:
-            from ..geometry.quadratic import P2TetNodes
-
-            vm = body_fields(body, u, phi, P2TetNodes(body.mesh) if p2 else None).von_mises
+            vm = body_fields(body, u, phi, space(2 if p2 else 1, body.mesh.cell).nodes(body)).von_mises
             v = vm[boundary_owners(body.mesh)]
         out.append((faces, v))
     return out

@@ -73,7 +73,7 @@ needs exactly two bodies touching along their ``contact`` parts)::
 With ``[[contact]]`` tables a body's ``contact`` key is optional (its first part in a pair) and
 the top-level ``gap`` is refused (each pair has its own).
 
-3D scenes: a body whose mesh is tetrahedral is 3D (every body of a file has one dimension); its loads
+3D scenes: a body whose mesh is tetrahedral or hexahedral (``box = {..., cell = "hex"}``: Q1, Q2 with ``degree``) is 3D (every body of a file has one dimension); its loads
 have three components, expressions may use ``z``, ``displacement`` is [ux, uy, uz], ``rotation`` a 3x3
 rotation matrix (no ``plane`` key), and a pair's gap is an expression of the in-plane coordinates x, y =
 (s1, s2) of the pair's frame::
@@ -82,7 +82,7 @@ rotation matrix (no ``plane`` key), and a pair's gap is an expression of the in-
                      patches = { footprint = ["top", [0.005, 0.015], [0.005, 0.015]] },
                      grade = { point = [0.01, 0.01, 0.005], ratio = 4.0 } } }
     mesh = { cylinder = { radius = 0.01, height = 0.002, n_r = 4, n_z = 2, n_theta = 24, center = [0, 0, 0] } }
-    mesh = { file = "part.msh" }              # gmsh tetra / tetra10
+    mesh = { file = "part.msh" }              # gmsh tetra / tetra10, hexahedron / hexahedron27
 
     [[obstacle]]                              # 3D: one of plane (3-vectors), sphere, cylinder, height_field
     sphere = { center = [0.01, 0.01, 0.025], radius = 0.02 }
@@ -555,7 +555,7 @@ class _Context:
                 return half_disk(**spec)
             if set(table) == {"box"}:
                 spec = dict(self.table(table["box"], f"{key}.box"))
-                self.keys(spec, {"x", "y", "z", "nx", "ny", "nz", "patches", "grade"}, f"{key}.box")
+                self.keys(spec, {"x", "y", "z", "nx", "ny", "nz", "patches", "grade", "cell"}, f"{key}.box")
                 if "patches" in spec:
                     self.table(spec["patches"], f"{key}.box.patches")
                 if "grade" in spec:

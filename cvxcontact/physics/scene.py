@@ -17,9 +17,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import Frozen, FrozenMap, FrozenTuple, MeshError, SceneError
 from ..contact.interface import Interface, Stack
-from ..geometry.mesh import Mesh
-from ..geometry.quadmesh import QuadMesh
-from ..geometry.tetmesh import TetMesh
+from ..geometry.base import CellMesh
 from .materials import Elastic, Piezoelectric
 from .loads import LOAD_FIELDS
 from . import supports as _supports
@@ -33,7 +31,7 @@ class Body(Frozen):
 
     Parameters
     ----------
-    mesh : Mesh or TetMesh
+    mesh : Mesh, QuadMesh, TetMesh or HexMesh
         The body's mesh, 2D (plane strain, per unit thickness) or 3D.
     material : Piezoelectric or Elastic
         A 3D body needs the material's 3D tensors (``material.tensors(3)``).
@@ -74,7 +72,7 @@ class Body(Frozen):
     other change with :meth:`with_changes`; :meth:`Scene.with_bodies` puts it in a scene.
     """
 
-    def __init__(self, mesh: Mesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
+    def __init__(self, mesh: CellMesh, material: Piezoelectric | Elastic, *, clamped: str | Sequence[str] = (),
                  contact: str | None = None, grounded: str | Sequence[str] = (),
                  potential: Mapping[str, float | Callable[..., ArrayLike]] | None = None,
                  body_force: Sequence[float] | Callable[..., ArrayLike] | None = None,
@@ -84,8 +82,8 @@ class Body(Frozen):
                  roller: str | Sequence[str] = (),
                  displacement: Mapping[str, Sequence[float | None]] | None = None,
                  floating: Mapping[str, float] | None = None) -> None:
-        if not isinstance(mesh, (Mesh, QuadMesh, TetMesh)):
-            raise SceneError(f"mesh must be a cvxcontact.Mesh, QuadMesh or TetMesh, got {type(mesh).__name__}")
+        if not isinstance(mesh, CellMesh):          # every mesh's base (geometry/base.py)
+            raise SceneError(f"mesh must be a cvxcontact.Mesh, QuadMesh, TetMesh or HexMesh, got {type(mesh).__name__}")
         if not isinstance(material, (Piezoelectric, Elastic)):
             raise SceneError(f"material must be a Piezoelectric or Elastic material, got {type(material).__name__}")
         if name is not None and not isinstance(name, str):

@@ -527,7 +527,7 @@ def test_hexahedral_contact_refusals_name_the_alternative():
             cc.solve(plane, "sigma1", estimate=kind)
     with pytest.raises(UnsupportedError, match=r"2D scenes \(triangles\) only"):
         cc.adapt(plane, "sigma1")
-    with pytest.raises(UnsupportedError, match="does not cover 3D"):
+    with pytest.raises(UnsupportedError, match="does not cover hex cells"):
         cc.error_bound(cc.solve(plane, "sigma1"))
 
 
@@ -674,3 +674,22 @@ def test_q1_nodal_rows_on_faces_that_do_not_match_evaluate_the_bilinear_trace(am
     assert sol.ok
     if amount == 0 and n1 % n2 == 0:     # nested rectangles: the fine nodes integrate the coarse hats exactly
         assert abs(sol.contacts[0].force.sum() - p) <= 1e-12 * p                 # measured 0
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_sweep_case_arrays_name_the_hexahedra(degree):
+    """A sweep case of a hexahedral scene stores its cells as ``hexahedra<k>`` (m, 8), with their unit, and the
+    export reads them back as meshio hexahedra over the body's vertices (a plain KeyError before)."""
+    from cvxcontact.apps.sweep.export import _body_meshes
+    from cvxcontact.apps.sweep.store import ARRAY_UNITS
+    from cvxcontact.apps.sweep.worker import arrays
+
+    mesh = cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex")
+    body = cc.Body(mesh, STEEL, displacement={"top": (0.0, 0.0, -1e-5)}, contact="bottom")
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))])
+    out = arrays(cc.solve(scene, "sigma1", degree=degree))
+    assert out["hexahedra1"].shape == (4, 8) and "tetrahedra1" not in out
+    assert any(re.fullmatch(pattern, "hexahedra1") and unit == "1" for pattern, unit in ARRAY_UNITS)
+    (name, exported), = _body_meshes(out)
+    assert name == "body1" and exported.cells[0].type == "hexahedron"
+    assert np.array_equal(exported.cells[0].data, mesh.cells) and len(exported.points) == len(mesh.points)

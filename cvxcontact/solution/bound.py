@@ -89,10 +89,10 @@ def _refuse(what: str):
 def check_covered(scene, degree: int = 1, law=None) -> None:
     """Raise :class:`UnsupportedError` naming what is not covered (:data:`COVERED`) by the bound of a
     solve of ``scene`` with ``degree`` and the default contact ``law``; None if covered."""
-    if scene.dim != 2:
-        _refuse("3D (tetrahedra)")
     if not space(degree, scene.cell).estimates:
         _refuse(f"{scene.cell} cells")
+    if scene.dim != 2:
+        _refuse("3D (tetrahedra)")
     if degree != 1:
         _refuse("P2 elements (degree=2)")
     if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):

@@ -26,7 +26,8 @@ def _body_meshes(arrays):
     for k in sorted(int(m.group(1)) for m in (re.fullmatch(r"points(\d+)", n) for n in arrays) if m):
         points = arrays[f"points{k}"]
         kind, cells = next((kind, arrays[f"{name}{k}"]) for name, kind in
-                           (("triangles", "triangle"), ("quads", "quad"), ("tetrahedra", "tetra")) if f"{name}{k}" in arrays)
+                           (("triangles", "triangle"), ("quads", "quad"), ("tetrahedra", "tetra"),
+                            ("hexahedra", "hexahedron")) if f"{name}{k}" in arrays)
         n = len(points)                                      # P2: the vertices come first (P2Nodes)
         data = {"displacement [m]": np.asarray(arrays[f"u{k}"])[:n]}
         if f"phi{k}" in arrays:

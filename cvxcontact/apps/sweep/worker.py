@@ -130,7 +130,7 @@ def arrays(sol) -> dict:
     return out
 
 
-CELL_ARRAYS = {"triangle": "triangles", "quad": "quads", "tetra": "tetrahedra"}
+CELL_ARRAYS = {"triangle": "triangles", "quad": "quads", "tetra": "tetrahedra", "hex": "hexahedra"}
 """The name of a body's cell array in a case's arrays, by the mesh's cell type (``mesh.cell``)."""
 
 

@@ -1,6 +1,6 @@
 """Refinement of triangle and tetrahedron meshes: uniform (red; a tetrahedron into 8), the nested meshes of a
-reference solution, and local (:func:`refine_marked`, triangles only: newest-vertex bisection with conforming
-closure), the meshes of adaptive refinement.
+reference solution, and local (:func:`refine_marked`: newest-vertex bisection of triangles, longest-edge
+bisection of tetrahedra (:func:`bisect_tets`), both with conforming closure), the meshes of adaptive refinement.
 
 Uniform refinement:
 Each triangle (v0, v1, v2) is split into four by its edge midpoints m01, m12, m20 (straight edges, the

@@ -323,7 +323,7 @@ def test_quadrilateral_mesh_refusals_and_what_is_not_covered_yet():
     for kind in ("residual", "equilibrated"):
         with pytest.raises(UnsupportedError, match="estimate=False, or triangles"):
             cc.solve(scene, "sigma1", estimate=kind)
-    with pytest.raises(UnsupportedError, match="triangle meshes only"):
+    with pytest.raises(UnsupportedError, match="triangle and tetrahedron meshes only"):
         cc.adapt(scene, "sigma1")
     sol = cc.solve(scene, "sigma1")
     assert sol.ok and sol.estimate is None

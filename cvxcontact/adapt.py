@@ -1,21 +1,25 @@
-"""Adaptive refinement (2D): solve, estimate, mark, refine, until the estimate or a budget says stop.
+"""Adaptive refinement (2D and 3D): solve, estimate, mark, refine, until the estimate or a budget says stop.
 
 Each step solves the scene (:func:`cvxcontact.solve.ContactSolver`), reads the error estimate's indicators
 eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), marks by Dorfler's bulk
 criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
-bisection, conforming closure). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
+bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
 ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
 the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
 
-Each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
+In 2D each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
 :mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
 a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
 answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
-cold). The fields are not carried over: the routes adapt uses solve the bodies directly.
+cold). In 3D every step is solved cold: the contact state a solution hands on is the point loads along 2D
+contact lines (:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried
+over: the routes adapt uses solve the bodies directly.
 
-Covered: 2D, P1 and P2, every scene the estimate covers. Not covered: 3D (the estimate and the bisection
-are 2D; :class:`~cvxcontact.errors.UnsupportedError`).
+Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
+boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'
+edges (``curves`` is 2D only); a rigid obstacle is exact whatever the mesh. Not covered: quadrilaterals
+(no estimate; :class:`~cvxcontact.errors.UnsupportedError`).
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ __all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk"]
 class AdaptStep:
     """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
 
-    ``cells``: triangles of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
+    ``cells``: triangles or tetrahedra of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
     (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
     the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
     bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
@@ -101,8 +105,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     Parameters
     ----------
     scene : Scene
-        A 2D scene; its meshes are the first step's (relabelled so that each triangle's longest edge is
-        its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`).
+        A 2D or 3D scene of triangles or tetrahedra; its meshes are the first step's (2D: relabelled so that
+        each triangle's longest edge is its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`;
+        3D: a tetrahedron's refinement edge is its longest, :func:`~cvxcontact.geometry.refine.bisect_tets`).
     condition : str
         The contact condition of every solve, as in :func:`cvxcontact.solve`.
     theta : float
@@ -117,7 +122,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     curves : dict, optional
         Body (its name or index in ``scene.bodies``) -> {tag: closest-point map} of its curved boundary
         parts (:func:`~cvxcontact.geometry.refine.refine_marked`); without, new boundary nodes are the
-        edges' midpoints.
+        edges' midpoints. 2D only (a 3D scene with ``curves`` is refused).
     progress : callable, optional
         Called with one line of text per step (the package's progress convention, as the sweeps and studies).
     keep : bool
@@ -134,7 +139,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     Raises
     ------
     UnsupportedError
-        For a 3D scene, or a solution without an estimate (the reason is named).
+        For a mesh of quadrilaterals, ``curves`` in 3D, or a solution without an estimate (the reason is named).
     SceneError
         For a scene that is not a Scene, or a parameter out of range.
 
@@ -145,14 +150,15 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
-    if scene.dim != 2:
-        raise UnsupportedError(f"adapt covers 2D scenes (triangles) only, got a {scene.dim}D scene: the error "
-                               "estimate and the newest-vertex bisection of this version are 2D; refine a 3D "
-                               "mesh uniformly or with your mesher")
     if not space(1, scene.cell).estimates:
-        raise UnsupportedError(f"adapt covers triangle meshes only, got {scene.cell} cells: the error estimate and "
-                               "the newest-vertex bisection are those of triangles; mesh the bodies with triangles "
-                               "(cc.rectangle(..., cell='triangle')) or refine the quadrilaterals uniformly")
+        raise UnsupportedError(f"adapt covers triangle and tetrahedron meshes only, got {scene.cell} cells: the "
+                               "error estimate and the bisections are those of simplices; mesh the bodies with "
+                               "triangles (cc.rectangle(..., cell='triangle')) or refine the quadrilaterals "
+                               "uniformly")
+    if scene.dim == 3 and curves:
+        raise UnsupportedError("adapt: curves= puts new boundary nodes back on 2D curves only; in 3D the new "
+                               "boundary nodes stay on the flat facets of the first mesh: remove curves= (or mesh "
+                               "the curved body finely where it matters)")
     if options.get("estimate", True) is not True:
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     if "start" in options:
@@ -164,18 +170,19 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise SceneError(f"adapt: tol must be a positive number (the relative estimate to reach), got {tol!r}")
     say = progress or (lambda line: None)
     body_curves = _curves(scene, curves)
-    scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    if scene.dim == 2:
+        scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
     history, kept = [], []
     step, sol = 0, None
     while True:
         clock, cpu = time.perf_counter(), time.process_time()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            sol = ContactSolver(scene, condition, start=sol, **options).solve()
+            sol = ContactSolver(scene, condition, start=sol if scene.dim == 2 else None, **options).solve()
         solve_s = time.perf_counter() - clock
         if sol.estimate is None:
             raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")
-        cells = sum(len(b.mesh.triangles) for b in scene.bodies)
+        cells = sum(len(b.mesh.cells) for b in scene.bodies)
         est = sol.estimate
         stopped = ("tol" if tol is not None and est.relative <= tol else "max_steps" if step >= max_steps else "")
         clock = time.perf_counter()
@@ -184,7 +191,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
             marked = mark_bulk(est.indicators, theta)
             meshes = [refine_marked(b.mesh, mk, body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
-            if max_cells is not None and sum(len(m.triangles) for m in meshes) > max_cells:
+            if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:
                 stopped, marked = "max_cells", []
             else:
                 refined = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)))

@@ -11,8 +11,6 @@ from cvxcontact.adapt import mark_bulk
 from cvxcontact.apps.studies.adapt import coarse_scene, measures
 from cvxcontact.geometry.refine import refine_uniform
 
-from scenes3d import layer_on_plane
-
 
 def indented_block(nx=8, ny=2):
     """A rigid circle (R = 0.6 m) pressed 3 mm into an aluminium block 1 m x 0.5 m (the estimate study's circle,
@@ -94,8 +92,6 @@ def test_stops():
 
 def test_refusals():
     scene = indented_block()
-    with pytest.raises(cc.UnsupportedError, match="2D scenes .* 3D"):
-        cc.adapt(layer_on_plane())
     with pytest.raises(cc.SceneError, match="takes a cc.Scene"):
         cc.adapt(scene.bodies[0])
     for bad in (0, 1.5, "half", True):

@@ -353,7 +353,7 @@ def test_quadrilateral_mesh_refusals_and_what_is_not_covered_yet():
     for kind in ("residual", "equilibrated"):
         with pytest.raises(UnsupportedError, match="estimate=False, or triangles"):
             cc.solve(scene, "sigma1", estimate=kind)
-    with pytest.raises(UnsupportedError, match="triangle meshes only"):
+    with pytest.raises(UnsupportedError, match="triangle and tetrahedron meshes only"):
         cc.adapt(scene, "sigma1")
     sol = cc.solve(scene, "sigma1")
     assert sol.ok and sol.estimate is None
@@ -525,7 +525,7 @@ def test_hexahedral_contact_refusals_name_the_alternative():
     for kind in ("residual", "equilibrated"):
         with pytest.raises(UnsupportedError, match="estimate=False, or triangles"):
             cc.solve(plane, "sigma1", estimate=kind)
-    with pytest.raises(UnsupportedError, match=r"2D scenes \(triangles\) only"):
+    with pytest.raises(UnsupportedError, match="triangle and tetrahedron meshes only, got hex cells"):
         cc.adapt(plane, "sigma1")
     with pytest.raises(UnsupportedError, match="does not cover hex cells"):
         cc.error_bound(cc.solve(plane, "sigma1"))

@@ -1,4 +1,5 @@
-"""Goal-oriented estimate of the total contact force of a pair (docs/accuracy.md, "The total contact force").
+"""Goal-oriented estimate of the total contact force of a pair (docs/accuracy.md, "The total contact force:
+cc.force_estimate").
 
 The quantity read is F = int_{A} lambda (N/m in 2D): the resultant of the contact pressure of pair ``i``
 over its contact zone A. With A held fixed (the solution's active rows as equalities), F is a linear
@@ -72,7 +73,10 @@ class ForceEstimate:
 
 
 def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
-    """The goal-oriented estimate of pair ``pair``'s total contact force error (module docstring).
+    """The goal-oriented estimate of the error of pair ``pair``'s total contact force (N/m).
+
+    The dual problem, the estimate and what it measured:
+    docs/accuracy.md, "The total contact force: cc.force_estimate".
 
     Parameters
     ----------

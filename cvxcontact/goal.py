@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError, UnsupportedError
+from .physics.pairs import Rigid
+from .physics.scene import Scene
 from .solution.estimate import estimate as residual_estimate
 from .solve import ContactSolver, Solution
 
@@ -107,10 +109,11 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
     n = len(sol.contacts)
     if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or not 0 <= pair < n:
         raise SceneError(f"force_estimate: pair must be an index 0..{n - 1} into scene.contacts, got {pair!r}")
-    if any(c.rigid for c in scene.contacts):
-        raise UnsupportedError("force_estimate covers pairs of bodies; this scene has a rigid obstacle, whose gap "
-                               "is its shape (the dual needs the gap replaced): read sol.estimate, or model the "
-                               "obstacle as a stiff body")
+    forced = [c for c in scene.contacts if c.rigid and c.other.force is not None]
+    if forced:
+        raise UnsupportedError(f"force_estimate: {forced[0]} is pressed by a prescribed force, which is then the "
+                               "pair's force (no discretisation error); fix the obstacle (Rigid.with_force(None)) "
+                               "to estimate the force of a prescribed position")
     if any(c.law is not None and getattr(c.law, "compliant", False) for c in sol.contacts):
         raise UnsupportedError("force_estimate covers Signorini conditions; under normal compliance the force "
                                "is the law's, not the multiplier of an equality: read sol.estimate")
@@ -146,10 +149,24 @@ def dual_scene(sol: Solution, pair: int, delta: float):
             loads["floating"] = dict.fromkeys(b.floating, 0.0)
         bodies.append(b.with_loads(**loads))
     out = scene.with_bodies(*bodies)
-    for i, c in enumerate(sol.contacts):
-        out = out.with_gap(_step(np.asarray(c.x, dtype=float), np.asarray(c.active, dtype=float),
-                                 -delta if i == pair else 0.0, delta), pair=i)
-    return out
+    gaps = [_step(np.asarray(c.x, dtype=float), np.asarray(c.active, dtype=float), -delta if i == pair else 0.0,
+                  delta) for i, c in enumerate(sol.contacts)]
+    if not any(c.rigid for c in out.contacts):
+        for i, g in enumerate(gaps):
+            out = out.with_gap(g, pair=i)
+        return out
+    return Scene(*out.bodies, contacts=[c.with_changes(other=_plane(c), gap=g) if c.rigid else c.with_changes(gap=g)
+                                        for c, g in zip(out.contacts, gaps)])
+
+
+def _plane(pair) -> Rigid:
+    """A fixed rigid half-plane whose boundary is the line of ``pair``'s straight part, facing it: the distance
+    to it is 0 along the part, so the pair's gap alone poses the dual's rows, along the part's normal (a curved
+    obstacle posed at the closest point has rows along its own normals: they differ by the angle the contact
+    zone spans on it, a / R for a circle)."""
+    mesh = pair.body_a.mesh
+    n = mesh.outward_normals(pair.part_a).mean(axis=0)
+    return Rigid.plane(mesh.points[np.asarray(mesh.boundary(pair.part_a))[0, 0]], -n / np.linalg.norm(n))
 
 
 def _step(x, active, inside, outside):

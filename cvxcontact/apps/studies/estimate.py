@@ -286,6 +286,8 @@ def run(out, quick: bool = False, progress=None) -> dict:
 
 
 FORCE_SCENES = {
+    "circle, P1": (circle_scene, dict(condition="gamma3")),
+    "circle, P2": (circle_scene, dict(condition="sigma1", degree=2)),
     "Hertz cylinder, P1": (hertz_scene, dict(condition="gamma3")),
     "Hertz cylinder, P2": (hertz_scene, dict(condition="sigma1", degree=2)),
     "punch, partial overlap, P1": (punch_scene, dict(condition="gamma3")),

@@ -20,9 +20,11 @@ contact rows of A are pressed apart by delta; its estimate drops the complementa
 
 Not guaranteed: the estimator's constants are unknown, the active set of the exact solution is not the
 discrete one, and the product is a Cauchy-Schwarz bound that ignores how e_u and e_z align (it overestimates
-when they do not). The measured effectivity is in docs/accuracy.md. Covered: 2D pairs of bodies, P1 and P2,
-Signorini conditions; not covered (a typed error): rigid obstacles (their gap is the obstacle's shape, not a
-function the dual can replace), normal compliance (its force is not the multiplier of an equality), 3D.
+when they do not). The measured effectivity is in docs/accuracy.md. Covered: 2D, P1 and P2, Signorini
+conditions, pairs of bodies and fixed rigid obstacles (the dual replaces the obstacle by the plane of the
+part: rows along its normal, which a curved obstacle posed at the closest point does not have exactly); not
+covered (a typed error): a force-controlled obstacle (its force is prescribed), normal compliance (its force is
+not the multiplier of an equality), 3D.
 """
 
 from __future__ import annotations
@@ -83,7 +85,7 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
     Parameters
     ----------
     sol : Solution
-        A 2D solution of a scene whose pair ``pair`` joins two bodies (Signorini conditions, P1 or P2).
+        A 2D solution (P1 or P2, Signorini conditions, fixed obstacles).
     pair : int
         The index of the pair in ``sol.scene.contacts``.
     **options : dict, optional
@@ -98,7 +100,7 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
     Raises
     ------
     UnsupportedError
-        For a 3D scene, a rigid obstacle or a compliance law in the scene.
+        For a 3D scene, a force-controlled obstacle or a compliance law in the scene.
     SceneError
         For a ``pair`` that is not an index into ``sol.scene.contacts``.
     """

@@ -19,8 +19,10 @@ from cvxcontact.apps.studies.adapt import DELTA, R
 from cvxcontact.goal import dual_scene, force_estimate
 from cvxcontact.solution.estimate import estimate as residual_estimate
 
-# measured effectivity (estimate / |F_h - F_ref|), levels 0, 1, 2 against level 4 (2026-12-04):
+# measured effectivity (estimate / |F_h - F_ref|), levels 0, 1, 2 against level 4 (2026-12-04); the circle P2
+# (341, 222, 844) is left out: its force converges faster than a level-4 reference resolves (docs/accuracy.md)
 MEASURED = {
+    "circle, P1": (18.1, 45.4),                  # 18.1, 32.4, 45.4
     "Hertz cylinder, P1": (31.3, 43.9),          # 31.3, 38.5, 43.9
     "Hertz cylinder, P2": (43.5, 98.8),          # 43.5, 43.5, 98.8
     "punch, partial overlap, P1": (21.4, 35.9),  # 35.9, 21.4, 24.7

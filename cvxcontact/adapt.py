@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike
 from .errors import ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
 from .geometry.refine import Curve, label_longest, refine_marked
+from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
@@ -38,8 +39,6 @@ __all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk", "TARGETS"]
 
 
 def _force_target(sol):
-    from .goal import force_estimate
-
     est = force_estimate(sol)
     return est.indicators, est.relative
 

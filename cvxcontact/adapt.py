@@ -35,10 +35,25 @@ from numpy.typing import ArrayLike
 from .errors import ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
 from .geometry.refine import Curve, label_longest, refine_marked
+from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk"]
+__all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk", "TARGETS"]
+
+
+def _force_target(sol):
+    est = force_estimate(sol)
+    return est.indicators, est.relative
+
+
+TARGETS: dict[str, Callable[[Solution], tuple]] = {
+    "energy": lambda sol: (sol.estimate.indicators, sol.estimate.relative),
+    "force": _force_target,
+}
+"""What :func:`adapt` refines for (``target=``): name -> sol -> (the cell indicators it marks by, one array per
+body; the relative estimate ``tol`` reads): "energy", the residual estimate (docs/accuracy.md); "force", the
+first pair's total contact force (:func:`cvxcontact.goal.force_estimate`: one more solve per step)."""
 
 
 @dataclass(frozen=True)
@@ -96,7 +111,8 @@ def mark_bulk(indicators: Sequence[ArrayLike], theta: float) -> list[np.ndarray]
 def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,
           max_cells: int | None = None, tol: float | None = None,
           curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
-          progress: Callable[[str], None] | None = None, keep: bool = False, **options) -> Adapted:
+          progress: Callable[[str], None] | None = None, keep: bool = False, target: str = "energy",
+          **options) -> Adapted:
     """Refine ``scene``'s meshes where the error estimate sits, solving on each.
 
     The loop is the module's docstring; how to use it, and what it measured: docs/accuracy.md,
@@ -118,7 +134,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     max_cells : int, optional
         Stop before solving a mesh with more cells than this (all bodies).
     tol : float, optional
-        Stop when ``sol.estimate.relative`` <= tol.
+        Stop when the target's relative estimate <= tol (``sol.estimate.relative`` for "energy").
     curves : dict, optional
         Body (its name or index in ``scene.bodies``) -> {tag: closest-point map} of its curved boundary
         parts (:func:`~cvxcontact.geometry.refine.refine_marked`); without, new boundary nodes are the
@@ -127,6 +143,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         Called with one line of text per step (the package's progress convention, as the sweeps and studies).
     keep : bool
         Keep every step's solution in ``Adapted.solutions`` (memory: one solution per step).
+    target : str
+        What the marking aims at, a key of :data:`TARGETS`: "energy" (the energy-norm estimate) or "force"
+        (the first pair's total contact force, goal-oriented).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -163,6 +182,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     if "start" in options:
         raise SceneError("adapt starts each solve from the previous step's solution itself: remove start=")
+    if target not in TARGETS:
+        raise SceneError(f"adapt: target must be one of {sorted(TARGETS)}, got {target!r}")
     theta = _fraction(theta)
     max_steps = _count(max_steps, "max_steps", 0)
     max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
@@ -184,11 +205,12 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
             raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")
         cells = sum(len(b.mesh.cells) for b in scene.bodies)
         est = sol.estimate
-        stopped = ("tol" if tol is not None and est.relative <= tol else "max_steps" if step >= max_steps else "")
+        indicators, relative = TARGETS[target](sol)
+        stopped = ("tol" if tol is not None and relative <= tol else "max_steps" if step >= max_steps else "")
         clock = time.perf_counter()
         marked, refined = [], None
         if not stopped:
-            marked = mark_bulk(est.indicators, theta)
+            marked = mark_bulk(indicators, theta)
             meshes = [refine_marked(b.mesh, mk, body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:

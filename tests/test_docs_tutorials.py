@@ -95,7 +95,7 @@ def _public_callables():
     solution = {f"Solution.{n}": getattr(cc.Solution, n) for n in ("traction", "in_contact", "contact_fraction")}
     model = {f"Model.{n}": getattr(cc.Model, n) for n in ("u", "phi", "translation", "add", "add_objective")}
     return {"solve": cc.solve, "ContactSolver": cc.ContactSolver, "Model": cc.Model, "Scene": cc.Scene,
-            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, "adapt": cc.adapt, **rigid, **solution,
+            "Body": cc.Body, "Contact": cc.Contact, "Rigid": cc.Rigid, "adapt": cc.adapt, "force_estimate": cc.force_estimate, **rigid, **solution,
             **model}
 
 

@@ -7,7 +7,7 @@ import pytest
 
 import cvxcontact
 
-LAYERS = ["errors", "version", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve", "model", "adapt", "io",
+LAYERS = ["errors", "version", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve", "model", "goal", "adapt", "io",
           "apps"]
 ROOT = Path(cvxcontact.__file__).parent
 MODULES = sorted(p for p in ROOT.rglob("*.py") if p not in (ROOT / "__init__.py", ROOT / "__main__.py"))

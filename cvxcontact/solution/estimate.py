@@ -191,9 +191,11 @@ def _tensor(sv):
 # ---------------------------------------------------------------------------------------------- the estimator
 
 
-def estimate(sol) -> tuple[ErrorEstimate | None, str]:
+def estimate(sol, signorini: bool = True) -> tuple[ErrorEstimate | None, str]:
     """(the :class:`ErrorEstimate` of ``sol``, "") (module docstring); the tuple's second entry says why the
-    estimate is None for a case not covered (none at present)."""
+    estimate is None for a case not covered (none at present). ``signorini=False`` leaves out the
+    complementarity and penetration terms (a problem whose contact rows are equalities: the dual problem of
+    :mod:`cvxcontact.goal`)."""
     scene = sol.scene
     bodies = scene.bodies
     eta2 = [np.zeros(len(b.mesh.cells)) for b in bodies]
@@ -212,7 +214,7 @@ def estimate(sol) -> tuple[ErrorEstimate | None, str]:
         data.append((cT, kT))
         _element_terms(b, fields, _diameters(b.mesh.points, b.mesh.cells), cT, kT, eta2[k], parts)
         _facet_terms(b, fields, facets, cT, kT, eta2[k], parts, sol)
-    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, cache, eta2, parts)
+    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, cache, eta2, parts, signorini)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
@@ -446,7 +448,7 @@ def _merged_values(c, s, values):
     return values[2 * j] * (1 - t) * (1 - 2 * t) + values[2 * j + 2] * t * (2 * t - 1) + values[2 * j + 1] * 4 * t * (1 - t)
 
 
-def _contact_terms(sol, data, cache, eta2, parts):
+def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """2D: on each side of each pair h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
     Signorini pair the complementarity and the penetration, shared by the cells of the sides (module
     docstring)."""
@@ -475,7 +477,7 @@ def _contact_terms(sol, data, cache, eta2, parts):
             parts["contact traction"] += float(term.sum())
             s_lo, s_hi = np.minimum(p[e[:, 0]] @ t, p[e[:, 1]] @ t), np.maximum(p[e[:, 0]] @ t, p[e[:, 1]] @ t)
             located.append((k, cell, s_lo, s_hi))
-        if c.law is not None and getattr(c.law, "compliant", False):
+        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
         _signorini_terms(c, located, data, eta2, parts)
 
@@ -523,7 +525,7 @@ def _share(owners, comp, pen, data, eta2, parts):
         parts["penetration"] += float(term_p.sum())
 
 
-def _surface_contact_terms(sol, data, cache, eta2, parts):
+def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
     int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
     P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
@@ -576,7 +578,7 @@ def _surface_contact_terms(sol, data, cache, eta2, parts):
             np.add.at(eta2[k], cell, term)
             parts["contact traction"] += float(term.sum())
             owners.append((k, np.where(fc >= 0, cell[np.maximum(fc, 0)], -1)))
-        if c.law is not None and getattr(c.law, "compliant", False):
+        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
         pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)

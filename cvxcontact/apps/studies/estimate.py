@@ -283,3 +283,36 @@ def run(out, quick: bool = False, progress=None) -> dict:
             + markdown_table(summary, ["scene", "lo", "hi"], dict(lo=".3g", hi=".3g")))
     write_text(out / "estimate.md", text)
     return results
+
+
+FORCE_SCENES = {
+    "circle, P1": (circle_scene, dict(condition="gamma3")),
+    "circle, P2": (circle_scene, dict(condition="sigma1", degree=2)),
+    "Hertz cylinder, P1": (hertz_scene, dict(condition="gamma3")),
+    "Hertz cylinder, P2": (hertz_scene, dict(condition="sigma1", degree=2)),
+    "punch, partial overlap, P1": (punch_scene, dict(condition="gamma3")),
+    "punch, partial overlap, P2": (punch_scene, dict(condition="sigma1", degree=2)),
+}
+"""name -> (scene builder, solve keywords) of the force estimate's study (:func:`force_effectivity`)."""
+
+
+def measure_force(sol, err: float, ref) -> tuple[dict, str]:
+    """The force estimate's columns of a level (:func:`against_reference`; ``err``, the energy error, unused):
+    F_h (N/m), the reference's F, the true error |F_h - F_ref|, the estimate eta_F
+    (:func:`cvxcontact.goal.force_estimate`), its effectivity, and the dual's held fraction."""
+    from ...goal import force_estimate
+
+    est = force_estimate(sol)
+    force, force_ref = float(sol.contacts[0].force.sum()), float(ref.contacts[0].force.sum())
+    true = abs(force - force_ref)
+    columns = dict(force=force, reference_force=force_ref, true_error=true, estimate=est.absolute,
+                   effectivity=est.absolute / true if true > 0 else float("inf"), held=est.held,
+                   energy_error=err, energy_estimate=sol.estimate.absolute)
+    return columns, (f"F {force:.6g}, true error {true:.4g}, estimate {est.absolute:.4g}, effectivity "
+                     f"{columns['effectivity']:.3g}, held {est.held:.2f}")
+
+
+def force_effectivity(build, options, levels=LEVELS, reference=REFERENCE, progress=None) -> list[dict]:
+    """One row per level (:func:`against_reference`, :func:`measure_force`): the total contact force's error
+    estimate against a nested reference."""
+    return against_reference(build, options, levels, reference, measure_force, progress)

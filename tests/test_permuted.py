@@ -47,11 +47,10 @@ so TOL keeps a 110x margin over the largest. The scenes of NOT_TO_ROUNDING excee
 
 NOT_TO_ROUNDING = {
     "two blocks, P2 gamma3 (cones)":
-        'P2 "gamma3" on the interface compliance is not exact to 1e-12 (issue 29; docs/formulation.md section 8, '
-        '"How exact"): the pressure differs by 7.7e-10 (Haswell, Sandybridge, Prescott) and 7.8e-10 (Nehalem) on '
-        '2 of the 3 seeds (1e-11 ... 3e-12 on the third), u by 7.2e-11. The forces of X_h are set by u only to '
-        'cond(W) eps (W: 3.9e6): with the exact tangency points (Newton on the mixed system) u agrees to 3e-15, '
-        'the pressure still 4e-10 ... 6e-10 apart; the route back-substitutes u from the forces (2.8e-11)',
+        'P2 "gamma3" on the interface compliance: the displacements are exact to rounding (Newton at the tangency '
+        'points after the cuts: u 2.6e-15 apart, test_p2_gamma3_renumbered_to_rounding), the pressures are not: '
+        '3.6e-11 ... 1.5e-10 apart (7.7e-10 with the cuts alone). The forces of X_h are set by u only to '
+        'cond(W) eps (W: 3.9e6) (docs/formulation.md section 8, "How exact")',
 }
 """Scenes whose answer moves by more than TOL under a renumbering (the largest over the 3 seeds, each kernel
 set); xfail(strict=True): when their finish reaches rounding, the test passes and the mark must go."""
@@ -153,3 +152,36 @@ def test_renumbered_is_the_same_mesh_in_another_order():
         for bad in (order[:-1], order.astype(float), np.zeros_like(order)):
             with pytest.raises(cc.errors.MeshError, match="permutation"):
                 mesh.renumbered(bad)
+
+
+def test_p2_gamma3_renumbered_to_rounding():
+    """P2 "gamma3" on the interface compliance (the condensed route), finished by Newton at the tangency points
+    after the cuts (docs/formulation.md section 8, "How exact"): renumbered (3 seeds) and with every load
+    scaled by 1e-3 and 10 (the problem is homogeneous: no gap), the displacements and potentials equal the
+    reference's (scaled back) to 1e-12 of their largest (measured: 2.6e-15 renumbered, 8.1e-16 rescaled; the
+    cuts alone 7.2e-11 and 7.1e-11), the total contact force to 1e-12 (measured 1.6e-15 renumbered). The nodal
+    pressures are set by u only to cond(W) eps (W: 3.9e6): 1e-8 (measured 1.5e-10 renumbered, 6.9e-11 rescaled;
+    the cuts alone 7.7e-10 and 8.9e-10)."""
+    from conftest import two_blocks
+
+    keywords = dict(condition="gamma3", degree=2)
+    ref = cc.solve(two_blocks((8, 4), (5, 3)), **keywords)
+    assert ref.info.finish == "tangency Newton" and ref.ok
+    fields, forces = {}, {}
+    for seed in SEEDS:
+        scene, _ = renumbered(two_blocks((8, 4), (5, 3)), seed)
+        sol = cc.solve(scene, **keywords)
+        assert sol.info.finish == "tangency Newton" and sol.ok
+        for q, v in differences(sol, ref).items():
+            (forces if q.startswith("pressure") else fields)[f"{q}, seed {seed}"] = v
+    for s in (1e-3, 10.0):
+        sol = cc.solve(two_blocks((8, 4), (5, 3), scale=s), **keywords)
+        assert sol.info.finish == "tangency Newton" and sol.ok
+        for k, (a, b) in enumerate(zip(sol.u, ref.u)):
+            fields[f"u[{k}], scale {s}"] = rel(a / s, b)
+        fields[f"phi[0], scale {s}"] = rel(sol.phi[0] / s, ref.phi[0])
+        forces[f"contact force, scale {s}"] = rel(sol.contact.force / s, ref.contact.force)
+    worst = max(fields, key=fields.get)
+    assert fields[worst] <= 1e-12, f"{worst} differs by {fields[worst]:.2e}"
+    worst = max(forces, key=forces.get)
+    assert forces[worst] <= 1e-8, f"{worst} differs by {forces[worst]:.2e}"

@@ -230,7 +230,7 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     raw.certificate = bound + np.sqrt(max(apart, 0.0))
 
 
-NEWTON_ROUNDS = 10
+NEWTON_ROUNDS = 4
 """Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""
 
 NEWTON_BALANCE_TOL = 1e-8

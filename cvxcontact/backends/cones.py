@@ -178,8 +178,9 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     condensed onto the Gamma dofs (:class:`~cvxcontact.backends.condensed.InterfaceSystem`: the same equations,
     exactly reduced): the cuts' fields are exact only to the square root of their violation, Newton's to
     rounding. Its Gamma values v_N are kept, the fields back-substituted from them (one backward sweep per body),
-    the force the admissible one (y >= 0 at points) that balances v_N best: Newton's multipliers, the
-    non-negative least-squares forces at its points, or the cuts'. The certificate by the triangle inequality,
+    the force the admissible one (y >= 0 at points) that balances v_N best: Newton's multipliers, the cuts', or
+    the non-negative least-squares forces at both sets of points (the one kept on the quickstart: to rounding).
+    The certificate by the triangle inequality,
     ||v_N - u*|| <= bound(cuts) + ||v_N - v_cuts||_Sigma (the cuts' bound,
     :func:`~cvxcontact.backends.cuts.energy_bound`, is for their fields; both fields are back-substitutions from
     their Gamma values, so the Sigma norm is the energy norm of their difference). Where Newton declines, or
@@ -204,15 +205,17 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         return np.abs(G.T @ r - load).max(initial=0.0) / max(
             (abs(A) @ np.abs(x) + np.abs(F) + abs(G).T @ np.abs(r)).max(initial=0.0), np.finfo(float).tiny)
 
-    # three admissible forces (y >= 0 at points: beta in the dual cone) for Newton's x: its multipliers, which
-    # balance x only to its residual's floor (the rows at the tangency points of nearly flat segments move with
-    # x's rounding: measured 5e-11 and 1e-9 on the quickstart at 8x4 and 16x8); the least-squares y >= 0 at its
-    # points (1.9e-11, 5.3e-10); the cuts' (they balance the cuts' fields, ||x - x_cuts|| away). The best kept.
-    P = point_rows(B, out["segment"], out["t"])
-    y_fit = nnls((G.T @ P.T).toarray(), load)[0]
+    # admissible forces (y >= 0 at points: beta in the dual cone) for Newton's x: its multipliers, which balance
+    # x only to its residual's floor (the rows at the tangency points of nearly flat segments move with x's
+    # rounding: measured 1.3e-11 and 7.9e-10 on the quickstart at 8x4 and 16x8), the cuts' (they balance the
+    # cuts' fields, ||x - x_cuts|| away: 2.7e-10, 3.5e-10), and the least-squares y >= 0 at Newton's points and
+    # the cuts' together (3.1e-16, 1.4e-16; at Newton's points alone 5.2e-12, 8.4e-10). The best kept.
     P_cuts = point_rows(B, cuts["segment"], cuts["t"])
-    candidates = [(out["segment"], out["t"], out["y"], P), (out["segment"], out["t"], y_fit, P),
-                  (cuts["segment"], cuts["t"], cuts["y"], P_cuts)]
+    seg_u, t_u = np.concatenate([out["segment"], cuts["segment"]]), np.concatenate([out["t"], cuts["t"]])
+    P_u = point_rows(B, seg_u, t_u)
+    y_u = nnls((G.T @ P_u.T).toarray(), load)[0]
+    candidates = [(out["segment"], out["t"], out["y"], point_rows(B, out["segment"], out["t"])),
+                  (cuts["segment"], cuts["t"], cuts["y"], P_cuts), (seg_u, t_u, y_u, P_u)]
     seg, t, y, P = min(candidates, key=lambda c: balance(c[3].T @ c[2]))
     r = P.T @ y
     bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
@@ -234,10 +237,9 @@ NEWTON_ROUNDS = 4
 """Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""
 
 NEWTON_BALANCE_TOL = 1e-8
-"""The largest residual of the condensed system (26) (its contact force against Newton's x, relative to the
-terms' sizes) at which Newton's answer replaces the cuts': a Newton that stopped on a small step with a large
-residual is not taken (measured: 1.9e-11 and 5.3e-10 on the quickstart at 8x4 and 16x8; 8.5e-5 where it had
-not converged)."""
+"""The largest residual of the condensed system (26) (the force kept against Newton's x, relative to the terms'
+sizes) at which Newton's answer replaces the cuts': a Newton that stopped on a small step far from balance is
+not taken (measured: the force kept balances to 3.1e-16 and 1.4e-16 on the quickstart at 8x4 and 16x8)."""
 
 
 FACTORED = True

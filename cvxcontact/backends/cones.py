@@ -11,14 +11,13 @@ import time
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import nnls
 
 from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
-from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_duals,
-                   point_read_back, seed_forces, seed_points)
+from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
+                   point_duals, point_read_back, seed_forces, seed_points, segment_scales)
 from .finish import Declined, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
@@ -178,8 +177,8 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     condensed onto the Gamma dofs (:class:`~cvxcontact.backends.condensed.InterfaceSystem`: the same equations,
     exactly reduced): the cuts' fields are exact only to the square root of their violation, Newton's to
     rounding. Its Gamma values v_N are kept, the fields back-substituted from them (one backward sweep per body),
-    the force the admissible one (y >= 0 at points) that balances v_N best: Newton's multipliers, the cuts', or
-    the non-negative least-squares forces at both sets of points (the one kept on the quickstart: to rounding).
+    the force the admissible one (y >= 0 at points) with the smallest KKT residual for v_N (its balance and its
+    complementarity): Newton's multipliers, the cuts', or the non-negative least squares at both sets of points.
     The certificate by the triangle inequality,
     ||v_N - u*|| <= bound(cuts) + ||v_N - v_cuts||_Sigma (the cuts' bound,
     :func:`~cvxcontact.backends.cuts.energy_bound`, is for their fields; both fields are back-substitutions from
@@ -205,18 +204,41 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         return np.abs(G.T @ r - load).max(initial=0.0) / max(
             (abs(A) @ np.abs(x) + np.abs(F) + abs(G).T @ np.abs(r)).max(initial=0.0), np.finfo(float).tiny)
 
-    # admissible forces (y >= 0 at points: beta in the dual cone) for Newton's x: its multipliers, which balance
-    # x only to its residual's floor (the rows at the tangency points of nearly flat segments move with x's
-    # rounding: measured 1.3e-11 and 7.9e-10 on the quickstart at 8x4 and 16x8), the cuts' (they balance the
-    # cuts' fields, ||x - x_cuts|| away: 2.7e-10, 3.5e-10), and the least-squares y >= 0 at Newton's points and
-    # the cuts' together (3.1e-16, 1.4e-16; at Newton's points alone 5.2e-12, 8.4e-10). The best kept.
-    P_cuts = point_rows(B, cuts["segment"], cuts["t"])
+    # admissible forces (y >= 0 at points: beta in the dual cone) for Newton's x, the one with the smallest KKT
+    # residual kept (the larger of the balance and the complementarity products y_p q_p / (Y U_p)): Newton's
+    # multipliers, which balance x only to its residual's floor (the rows at the tangency points of nearly flat
+    # segments move with x's rounding: 1.3e-11 and 7.9e-10 on the quickstart at 8x4 and 16x8); the cuts' (they
+    # balance the cuts' fields, ||x - x_cuts|| away: 2.7e-10, 3.5e-10); the non-negative least squares at
+    # Newton's and the cuts' points together (3e-16, but a force may sit where q(x) < 0), and at those of them
+    # where q(x) is 0 to Newton's tolerance (complementary, balance 1e-15 ... 3e-14)
+    U = segment_scales(B, abs(G) @ np.abs(x) + np.abs(problem.g), _width(problem))
+    slack = G @ x - problem.g
+    departure = problem.departure
+
+    def q(seg, t, P):
+        """The slack at the points (a curved obstacle's: less its gap's departure there)."""
+        return P @ slack - (0.0 if departure is None else departure.at(seg, t))
+
+    def least_squares(seg, t, start):
+        P = point_rows(B, seg, t)
+        M = (G.T @ P.T).toarray()
+        fit = nnls_warm(M, load, start, lambda y: np.abs(M).T @ (np.abs(load) + np.abs(M) @ y))
+        return seg, t, (start if fit is None else fit[0]), P    # (declined: its start, Newton's forces)
+
     seg_u, t_u = np.concatenate([out["segment"], cuts["segment"]]), np.concatenate([out["t"], cuts["t"]])
-    P_u = point_rows(B, seg_u, t_u)
-    y_u = nnls((G.T @ P_u.T).toarray(), load)[0]
+    start = np.r_[out["y"], np.zeros(len(cuts["t"]))]
+    touching = q(seg_u, t_u, point_rows(B, seg_u, t_u)) >= -MIXED_CUT_TOL * U[seg_u]
     candidates = [(out["segment"], out["t"], out["y"], point_rows(B, out["segment"], out["t"])),
-                  (cuts["segment"], cuts["t"], cuts["y"], P_cuts), (seg_u, t_u, y_u, P_u)]
-    seg, t, y, P = min(candidates, key=lambda c: balance(c[3].T @ c[2]))
+                  (cuts["segment"], cuts["t"], cuts["y"], point_rows(B, cuts["segment"], cuts["t"])),
+                  least_squares(seg_u, t_u, start),
+                  least_squares(seg_u[touching], t_u[touching], start[touching])]
+
+    def kkt_residual(c):
+        seg, t, y, P = c
+        products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
+        return max(balance(P.T @ y), float(products.max(initial=0.0)))
+
+    seg, t, y, P = min(candidates, key=kkt_residual)
     r = P.T @ y
     bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
                          departure=problem.departure, pairing=raw.pairing)[0]
@@ -239,7 +261,8 @@ NEWTON_ROUNDS = 4
 NEWTON_BALANCE_TOL = 1e-8
 """The largest residual of the condensed system (26) (the force kept against Newton's x, relative to the terms'
 sizes) at which Newton's answer replaces the cuts': a Newton that stopped on a small step far from balance is
-not taken (measured: the force kept balances to 3.1e-16 and 1.4e-16 on the quickstart at 8x4 and 16x8)."""
+not taken (measured: the force kept reads equilibrium 3.5e-16, 2.7e-16, 3.2e-14 on the quickstart at 8x4, 16x8,
+20x10)."""
 
 
 FACTORED = True

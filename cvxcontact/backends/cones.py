@@ -222,7 +222,8 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     def least_squares(seg, t, start):
         P = point_rows(B, seg, t)
         M = (G.T @ P.T).toarray()
-        fit = nnls_warm(M, load, start, lambda y: np.abs(M).T @ (np.abs(load) + np.abs(M) @ y))
+        fit = nnls_warm(M, load, start,                         # each column's scale: the sizes of its terms
+                        lambda y: np.abs(M).T @ (np.abs(load) + np.abs(M) @ y) + np.finfo(float).tiny)
         return seg, t, (start if fit is None else fit[0]), P    # (declined: its start, Newton's forces)
 
     seg_u, t_u = np.concatenate([out["segment"], cuts["segment"]]), np.concatenate([out["t"], cuts["t"]])

@@ -261,7 +261,7 @@ def test_a_block_pressed_by_a_fixed_sphere_is_finished():
     body = cc.Body(mesh, STEEL, clamped="bottom", contact="top", name="block")
     scene = cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0, 0, 1.0 - 2e-3), 1.0))])
     sol = solve(scene)
-    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts"
+    assert sol.ok and sol.polished and sol.info.finish in ("accumulated cuts", "tangency Newton")
     r = sol.residuals()
     assert r["feasibility"] < 1e-12 and r["energy error"] < 1e-5          # measured 0, 2.6e-7
 

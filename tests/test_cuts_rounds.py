@@ -98,7 +98,7 @@ def test_seeds_near_the_tangency_points_save_rounds_not_accuracy(monkeypatch, n)
             sols.append(cc.solve(demo.two_blocks(n), degree=2))
     near, plain = sols
     for sol in sols:
-        assert sol.ok and sol.info.finish == "accumulated cuts"
+        assert sol.ok and sol.info.finish in ("accumulated cuts", "tangency Newton")
         r = sol.residuals()
         assert r["energy error"] < 1e-7 and r["feasibility"] < 1e-14   # measured 4.4e-8 ... 5.9e-8, 1.7e-15 ... 2.5e-15
     u1, u2 = (np.concatenate([np.ravel(x) for x in s.u]) for s in sols)

@@ -65,7 +65,7 @@ def test_quickstart_p2_gamma3_is_ok_at_the_default_tol_without_warning(nx):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sol = cc.solve(quickstart(nx), "gamma3", degree=2)
-    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts" and sol.status == "optimal"
+    assert sol.ok and sol.polished and sol.info.finish in ("accumulated cuts", "tangency Newton") and sol.status == "optimal"
     res = sol.residuals()
     assert res["equilibrium"] < 1e-14                # measured 6.1e-17 ... 7.6e-17 (nx = 8, 16, 24)
     assert res["feasibility"] < 1e-13                # measured 1.0e-15 ... 2.0e-15

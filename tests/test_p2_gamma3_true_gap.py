@@ -90,7 +90,7 @@ def test_a_touching_sphere_carries_no_force(n, distance):
 def test_a_fixed_sphere_pressed_in_holds_everywhere_against_its_own_surface(method, distance):
     d = 1e-4
     sol = solve(scene(4, gap=-d, distance=distance), method=method)
-    assert sol.ok and sol.polished and sol.info.finish == "accumulated cuts"
+    assert sol.ok and sol.polished and sol.info.finish in ("accumulated cuts", "tangency Newton")
     r = sol.residuals()
     assert r["feasibility"] < 1e-12                                            # measured 0 (ray), 1.8e-17
     # the independent sampled check: 200 random points of every face, the sphere in closed form; the samples

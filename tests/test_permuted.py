@@ -45,16 +45,11 @@ largest over the seeds:
 
 so TOL keeps a 110x margin over the largest. The scenes of NOT_TO_ROUNDING exceed it."""
 
-NOT_TO_ROUNDING = {
-    "two blocks, P2 gamma3 (cones)":
-        'P2 "gamma3" on the interface compliance is not exact to 1e-12 (issue 29; docs/formulation.md section 8, '
-        '"How exact"): the pressure differs by 7.7e-10 (Haswell, Sandybridge, Prescott) and 7.8e-10 (Nehalem) on '
-        '2 of the 3 seeds (1e-11 ... 3e-12 on the third), u by 7.2e-11. The forces of X_h are set by u only to '
-        'cond(W) eps (W: 3.9e6): with the exact tangency points (Newton on the mixed system) u agrees to 3e-15, '
-        'the pressure still 4e-10 ... 6e-10 apart; the route back-substitutes u from the forces (2.8e-11)',
-}
+NOT_TO_ROUNDING: dict[str, str] = {}
 """Scenes whose answer moves by more than TOL under a renumbering (the largest over the 3 seeds, each kernel
-set); xfail(strict=True): when their finish reaches rounding, the test passes and the mark must go."""
+set); xfail(strict=True): when their finish reaches rounding, the test passes and the mark must go. Empty since
+P2 "gamma3" on the interface compliance is finished by Newton at the tangency points after the cuts (it moved
+by 7.2e-11 in u and 7.7e-10 in the pressure before; docs/formulation.md section 8, "How exact")."""
 
 
 def renumbered(scene, seed):
@@ -153,3 +148,40 @@ def test_renumbered_is_the_same_mesh_in_another_order():
         for bad in (order[:-1], order.astype(float), np.zeros_like(order)):
             with pytest.raises(cc.errors.MeshError, match="permutation"):
                 mesh.renumbered(bad)
+
+
+def test_p2_gamma3_renumbered_to_rounding():
+    """P2 "gamma3" on the interface compliance (the condensed route), finished by Newton at the tangency points
+    after the cuts (docs/formulation.md section 8, "How exact"): renumbered (3 seeds) and with every load
+    scaled by 1e-3 and 10 (the problem is homogeneous: no gap, so u, phi and the forces scale with the loads),
+    the displacements and potentials equal the reference's (scaled back) to 1e-12 of their largest (measured:
+    4.8e-15 renumbered, 1.3e-15 rescaled; the cuts alone 7.2e-11 and 7.1e-11), the pressure each body feels and
+    the total force to TOL (measured: 1.6e-13 renumbered, 3.3e-14 rescaled; the cuts alone 7.7e-10 renumbered)."""
+    from conftest import two_blocks
+
+    keywords = dict(condition="gamma3", degree=2)
+    ref = cc.solve(two_blocks((8, 4), (5, 3)), **keywords)
+    assert ref.info.finish == "tangency Newton" and ref.ok
+    fields, forces = {}, {}
+    for seed in SEEDS:
+        scene, _ = renumbered(two_blocks((8, 4), (5, 3)), seed)
+        sol = cc.solve(scene, **keywords)
+        assert sol.info.finish == "tangency Newton" and sol.ok
+        for q, v in differences(sol, ref).items():
+            (fields if q[0] in "up" and not q.startswith("pressure") else forces)[f"{q}, seed {seed}"] = v
+    for s in (1e-3, 10.0):
+        sol = cc.solve(two_blocks((8, 4), (5, 3), scale=s), **keywords)
+        assert sol.info.finish == "tangency Newton" and sol.ok
+        for k, (a, b) in enumerate(zip(sol.u, ref.u)):
+            fields[f"u[{k}], scale {s}"] = rel(a / s, b)
+        fields[f"phi[0], scale {s}"] = rel(sol.phi[0] / s, ref.phi[0])
+        forces[f"total contact force, scale {s}"] = rel(sol.contact.force.sum() / s, ref.contact.force.sum())
+        for k in range(2):                              # the pressure felt by each body, at the same points
+            (x, p), (xr, pr) = sol.traction(k, 0), ref.traction(k, 0)
+            assert np.array_equal(x, xr)
+            forces[f"pressure on body {k}, scale {s}"] = rel(p / s, pr)
+    assert {"u[0], seed 0", "phi[0], seed 0", "pressure on body 1 of pair 0, seed 0"} <= fields.keys() | forces.keys()
+    worst = max(fields, key=fields.get)
+    assert fields[worst] <= 1e-12, f"{worst} differs by {fields[worst]:.2e}"
+    worst = max(forces, key=forces.get)
+    assert forces[worst] <= TOL, f"{worst} differs by {forces[worst]:.2e}"

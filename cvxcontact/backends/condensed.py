@@ -32,8 +32,8 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 from .factor import Factorization, Forward, factorize, resolve
 
-__all__ = ["CondensedBody", "Compliance", "InterfaceModel", "condense", "node_order", "quasi_definite",
-           "quasi_definite_rhs"]
+__all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "node_order",
+           "quasi_definite", "quasi_definite_rhs"]
 
 def node_order(mesh) -> np.ndarray:
     """A fill-reducing elimination order of the mesh nodes (SuperLU's minimum degree on A + A^T).
@@ -206,3 +206,25 @@ class Compliance:
     def free_slack(self, v0, gap_rows) -> np.ndarray:
         """d = sum_l R_l v0_l - E g: the slack of the contact rows with no contact force."""
         return sum(R @ v for R, v in zip(self.rows, v0)) - gap_rows
+
+
+class InterfaceSystem:
+    """The mixed system (26) condensed exactly onto the Gamma dofs (module docstring), in the form the tangency
+    Newton reads (:func:`~cvxcontact.backends.tangency.tangency_newton`): unknowns x = [v_1; v_2; ...], ``matrix``
+    A = diag(Sigma_l), ``rhs`` F = (Sigma_l v0_l) (the interface loads), ``rows`` G = [E J_1, E J_2, ...] the
+    contact rows (r = G x - g). Its answer x is every body's Gamma values (:meth:`split`); the bodies' fields
+    follow by one backward sweep each. Dense blocks (Gamma dofs: O(sqrt(n)) in 2D), stored sparse."""
+
+    def __init__(self, bodies, loads, E):
+        self.sizes = [len(b.gamma) for b in bodies]
+        self.matrix = sp.block_diag([sp.csr_matrix(b.stiffness) for b in bodies], format="csr")
+        self.rhs = np.concatenate([np.asarray(f, dtype=float) for f in loads])
+        self.rows = sp.csr_matrix(np.hstack([np.asarray(E @ b.jump) for b in bodies]))
+
+    def stack(self, v) -> np.ndarray:
+        """x from each body's Gamma values ``v``."""
+        return np.concatenate([np.asarray(vk, dtype=float) for vk in v])
+
+    def split(self, x) -> list:
+        """Each body's Gamma values from x."""
+        return np.split(np.asarray(x, dtype=float), np.cumsum(self.sizes)[:-1])

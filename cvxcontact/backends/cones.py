@@ -13,11 +13,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.laws import RowLaws
-from ..contact.bernstein import bernstein_max
+from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton
-from .condensed import InterfaceModel, quasi_definite_rhs
-from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, point_read_back,
-                   seed_forces, seed_points)
+from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
+from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
+                   point_duals, point_read_back, seed_forces, seed_points, segment_scales)
 from .finish import Declined, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
@@ -120,6 +120,8 @@ def certify(problem, cache, settings, timings, raw) -> None:
     and the fields re-derived from them by one back-substitution, so that the fields are the bound's primal
     point). Only for :func:`condensable` problems; against a curved obstacle's own gap only for the finish's
     point forces (``raw.pairing``: an interior point's duals are those of the interpolant's cones)."""
+    if raw.certificate is not None:              # certified by the finish (:func:`_tangency_on_compliance`)
+        return
     t0 = time.perf_counter()
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
@@ -161,6 +163,107 @@ def finish_cuts(problem, cache, settings, timings, raw, seeds=None) -> None:
     raw.y, raw.beta, raw.active, raw.pairing = r, out["beta"], active, out["pairing"]
     raw.points = (out["segment"], out["t"], out["y"])
     raw.polished, raw.finish, raw.declined = True, Finish.ACCUMULATED_CUTS, ""
+    _tangency_on_compliance(problem, reduction, d, timings, raw, B, out)
+
+
+def _gamma_values(bodies, u, phi) -> list:
+    """Each body's Gamma values v (its contact dofs, :class:`~cvxcontact.backends.condensed.CondensedBody`)."""
+    return [np.concatenate([uk] + ([pk] if pk is not None else []))[c.gamma] for c, uk, pk in zip(bodies, u, phi)]
+
+
+def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> None:
+    """Newton at the tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`) after the cuts on the
+    interface compliance, as on the mixed route (:func:`_tangency_after_cuts`), on the mixed system (26)
+    condensed onto the Gamma dofs (:class:`~cvxcontact.backends.condensed.InterfaceSystem`: the same equations,
+    exactly reduced): the cuts' fields are exact only to the square root of their violation, Newton's to
+    rounding. Its Gamma values v_N are kept, the fields back-substituted from them (one backward sweep per body),
+    the force the admissible one (y >= 0 at points) with the smallest KKT residual for v_N (its balance and its
+    complementarity): Newton's multipliers, the cuts', or the non-negative least squares at both sets of points.
+    The certificate by the triangle inequality,
+    ||v_N - u*|| <= bound(cuts) + ||v_N - v_cuts||_Sigma (the cuts' bound,
+    :func:`~cvxcontact.backends.cuts.energy_bound`, is for their fields; both fields are back-substitutions from
+    their Gamma values, so the Sigma norm is the energy norm of their difference). Where Newton declines, or
+    its answer does not balance the system to :data:`NEWTON_BALANCE_TOL`, the cuts' answer stays
+    (:func:`certify` then bounds it). Updates ``raw``."""
+    t0 = time.perf_counter()
+    bodies = reduction.bodies
+    v_cuts = _gamma_values(bodies, raw.u, raw.phi)
+    loads = [c.stiffness @ c.unconstrained(f) for c, f in zip(bodies, reduction.sweeps)]
+    system = InterfaceSystem(bodies, loads, problem.E)
+    out = tangency_newton(system, B, problem.g, raw.beta, system.stack(v_cuts), held=problem.held_rows,
+                          tol=MIXED_CUT_TOL, departure=problem.departure,
+                          points=(cuts["segment"], cuts["t"], cuts["y"]), max_rounds=NEWTON_ROUNDS)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, str):
+        return
+    x = out["x"]
+    A, G, F = system.matrix, system.rows, system.rhs
+    load = F - A @ x                                 # what the contact force must balance: G^T r = F - A x
+
+    def balance(r):
+        return np.abs(G.T @ r - load).max(initial=0.0) / max(
+            (abs(A) @ np.abs(x) + np.abs(F) + abs(G).T @ np.abs(r)).max(initial=0.0), np.finfo(float).tiny)
+
+    # admissible forces (y >= 0 at points: beta in the dual cone) for Newton's x, the one with the smallest KKT
+    # residual kept (the larger of the balance and the complementarity products y_p q_p / (Y U_p)): Newton's
+    # multipliers, which balance x only to its residual's floor (the rows at the tangency points of nearly flat
+    # segments move with x's rounding: 1.3e-11 and 7.9e-10 on the quickstart at 8x4 and 16x8); the cuts' (they
+    # balance the cuts' fields, ||x - x_cuts|| away: 2.7e-10, 3.5e-10); the non-negative least squares at
+    # Newton's and the cuts' points together (3e-16, but a force may sit where q(x) < 0), and at those of them
+    # where q(x) is 0 to Newton's tolerance (complementary, balance 1e-15 ... 3e-14)
+    U = segment_scales(B, abs(G) @ np.abs(x) + np.abs(problem.g), _width(problem))
+    slack = G @ x - problem.g
+    departure = problem.departure
+
+    def q(seg, t, P):
+        """The slack at the points (a curved obstacle's: less its gap's departure there)."""
+        return P @ slack - (0.0 if departure is None else departure.at(seg, t))
+
+    def least_squares(seg, t, start):
+        P = point_rows(B, seg, t)
+        M = (G.T @ P.T).toarray()
+        fit = nnls_warm(M, load, start,                         # each column's scale: the sizes of its terms
+                        lambda y: np.abs(M).T @ (np.abs(load) + np.abs(M) @ y) + np.finfo(float).tiny)
+        return seg, t, (start if fit is None else fit[0]), P    # (declined: its start, Newton's forces)
+
+    seg_u, t_u = np.concatenate([out["segment"], cuts["segment"]]), np.concatenate([out["t"], cuts["t"]])
+    start = np.r_[out["y"], np.zeros(len(cuts["t"]))]
+    touching = q(seg_u, t_u, point_rows(B, seg_u, t_u)) >= -MIXED_CUT_TOL * U[seg_u]
+    candidates = [(out["segment"], out["t"], out["y"], point_rows(B, out["segment"], out["t"])),
+                  (cuts["segment"], cuts["t"], cuts["y"], point_rows(B, cuts["segment"], cuts["t"])),
+                  least_squares(seg_u, t_u, start),
+                  least_squares(seg_u[touching], t_u[touching], start[touching])]
+
+    def kkt_residual(c):
+        seg, t, y, P = c
+        products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
+        return max(balance(P.T @ y), float(products.max(initial=0.0)))
+
+    seg, t, y, P = min(candidates, key=kkt_residual)
+    r = P.T @ y
+    bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
+                         departure=problem.departure, pairing=raw.pairing)[0]
+    if not (balance(r) <= NEWTON_BALANCE_TOL and np.isfinite(bound)):
+        return
+    v = system.split(x)
+    raw.u, raw.phi = reduction.invert_gamma(problem, v, timings)
+    S = B.shape[0] // _width(problem)
+    raw.y, raw.beta, raw.points = r, point_duals(S, seg, t, y), (seg, t, y)
+    _, raw.active = point_read_back(B, seg, t, y, y > 0)
+    raw.pairing = None if problem.departure is None else problem.departure.pairing(S, seg, t, y)
+    raw.finish = Finish.TANGENCY_NEWTON
+    apart = sum(float((vk - wk) @ (c.stiffness @ (vk - wk))) for c, vk, wk in zip(bodies, v, v_cuts))
+    raw.certificate = bound + np.sqrt(max(apart, 0.0))
+
+
+NEWTON_ROUNDS = 4
+"""Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""
+
+NEWTON_BALANCE_TOL = 1e-8
+"""The largest residual of the condensed system (26) (the force kept against Newton's x, relative to the terms'
+sizes) at which Newton's answer replaces the cuts': a Newton that stopped on a small step far from balance is
+not taken (measured: the force kept reads equilibrium 3.5e-16, 2.7e-16, 3.2e-14 on the quickstart at 8x4, 16x8,
+20x10)."""
 
 
 FACTORED = True

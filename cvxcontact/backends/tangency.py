@@ -396,7 +396,6 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             if int(a) not in limits:
                 limits[int(a)] = 0.0
                 changed = True
-            print("DBG tn round", rounds, "vert", len(vertices), "tang", len(tangencies), "viol", float(rel.max(initial=0)), "nviol", int((rel > tol).sum()), "changed", changed, "mu", np.sort(mu)[:3] / fscale if len(mu) else None, "y", np.sort(y)[:3] / fscale if len(y) else None, "Ls", [np.round(L[list(tangencies.get(c, (0, ()))[1])], 4).tolist() for c, (s_, L) in zip(tkeys, points)][:4])
         if not changed:
             break
     else:

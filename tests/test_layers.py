@@ -50,3 +50,23 @@ def test_the_check_sees_upward_imports():
     assert upward("from ..solve import solve\n", own) == [["solve"]]
     assert upward("def f():\n    from cvxcontact.apps.cli import main\n", own) == [["apps", "cli"]]
     assert upward("from .. import physics\n", own) == [["physics"]]
+
+
+def prints(source):
+    """Line numbers of the calls of the built-in print in ``source``."""
+    return [node.lineno for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print"]
+
+
+@pytest.mark.parametrize("path", [p for p in MODULES if p.relative_to(ROOT).parts[0] != "apps"],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_library_does_not_print(path):
+    """Below the command line and the studies (apps/), the package speaks through return values, warnings,
+    errors, ``progress=`` callbacks and logging, never print (a debug print of the tangency Newton's rounds once
+    reached main)."""
+    assert prints(path.read_text()) == []
+
+
+def test_the_print_check_sees_a_print():
+    assert prints("def f(x):\n    print('DBG', x)\n    return x\n") == [2]
+    assert prints("def f(out):\n    out.print(1)\n") == []

@@ -285,14 +285,9 @@ def run(out, quick: bool = False, progress=None) -> dict:
     return results
 
 
-FORCE_SCENES = {
-    "circle, P1": (circle_scene, dict(condition="gamma3")),
-    "circle, P2": (circle_scene, dict(condition="sigma1", degree=2)),
-    "Hertz cylinder, P1": (hertz_scene, dict(condition="gamma3")),
-    "Hertz cylinder, P2": (hertz_scene, dict(condition="sigma1", degree=2)),
-    "punch, partial overlap, P1": (punch_scene, dict(condition="gamma3")),
-    "punch, partial overlap, P2": (punch_scene, dict(condition="sigma1", degree=2)),
-}
+FORCE_SCENES = {"circle, P2": (circle_scene, dict(condition="sigma1", degree=2)),
+                **{name: SCENES[name] for name in ("circle, P1", "Hertz cylinder, P1", "Hertz cylinder, P2",
+                                                   "punch, partial overlap, P1", "punch, partial overlap, P2")}}
 """name -> (scene builder, solve keywords) of the force estimate's study (:func:`force_effectivity`)."""
 
 

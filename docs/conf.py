@@ -118,7 +118,15 @@ def _check_site(app, exception):
                 _LOG.warning("%s: a tutorial page without a figure or without its notebook's link", name)
 
 
+def _stale_timing_pages(app, config):
+    """Remove the computation-times pages an earlier build wrote into the sources (they are no longer written:
+    ``write_computation_times`` below; a checkout built before that would otherwise keep their remote scripts)."""
+    for stale in (Path(app.srcdir) / "sg_execution_times.rst", Path(app.srcdir) / "auto_examples" / "sg_execution_times.rst"):
+        stale.unlink(missing_ok=True)
+
+
 def setup(app):
+    app.connect("config-inited", _stale_timing_pages)
     app.connect("autodoc-process-docstring", _escape_bars)
     app.connect("source-read", _gallery_links)
     app.connect("build-finished", _check_site)

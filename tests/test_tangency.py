@@ -320,3 +320,22 @@ def test_one_coefficient_map_per_element_shape(shape):
         for j in range(k):
             np.testing.assert_array_equal(Q[:, i, j], b[:, shape.index(i, j)])
     np.testing.assert_allclose((shape.dual_gram(beta) * Q).sum(axis=(1, 2)), (beta * b).sum(axis=1), atol=1e-13)
+
+
+def test_a_segment_flat_to_rounding_has_no_maximum_rather_than_a_singular_system(monkeypatch):
+    """Coefficients at rounding along a whole segment (a pair's slack 0 to rounding: found on the P2 stack of
+    test_p2_pairs under OpenBLAS's Prescott kernels, where the bordered system was exactly singular and its
+    LinAlgError escaped the solve): no maximum (None), never an exception or a non-finite point, whatever the
+    kernels; where a solve does fail (forced here), None too."""
+    b = np.array([-2.77555756e-16, -3.74700271e-16, -4.71844785e-16])       # the coefficients found there
+    out = _maximum(SEGMENT, b, (0, 1))
+    assert out is None or (np.isfinite(out[0]) and np.isfinite(out[1]).all() and np.isfinite(out[2]).all())
+
+    def singular(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    concave = np.array([0.0, 1.0, 0.0])                                        # q = 2 t (1 - t): max 1/2 at 1/2
+    m, L, _ = _maximum(SEGMENT, concave, (0, 1))
+    assert m == pytest.approx(0.5, abs=1e-15) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
+    monkeypatch.setattr(np.linalg, "solve", singular)
+    assert _maximum(SEGMENT, concave, (0, 1)) is None

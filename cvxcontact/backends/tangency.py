@@ -91,7 +91,20 @@ class _Element:
 def _maximum(shape, b, I, delta=None, start=None):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
-    docstring); None where Q_II is not negative definite on the tangent plane.
+    docstring); None where Q_II is not negative definite on the tangent plane, or is so by the signs of
+    eigenvalues at rounding only (coefficients that are 0 to rounding along a whole segment: the systems below
+    are then singular or not finite under some BLAS kernels, found under OpenBLAS's Prescott ones)."""
+    try:
+        out = _stationary(shape, b, I, delta, start)
+    except np.linalg.LinAlgError:
+        return None
+    if out is not None and not (np.isfinite(out[0]) and np.isfinite(out[1]).all() and np.isfinite(out[2]).all()):
+        return None
+    return out
+
+
+def _stationary(shape, b, I, delta=None, start=None):
+    """:func:`_maximum` without its guard against singular systems.
 
     ``delta(L)`` (L (k,) a full barycentric point): a curved obstacle's departure of its gap from the P2
     interpolant and its gradient and Hessian in L (:meth:`~cvxcontact.contact.truegap.GapDeparture.curvature`,

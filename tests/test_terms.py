@@ -118,8 +118,8 @@ def test_the_state_is_computed_when_first_read(monkeypatch):
     import cvxcontact.backends.start as start
 
     calls = []
-    real = start.contact_state
-    monkeypatch.setattr(start, "contact_state", lambda *a: calls.append(1) or real(*a))
+    real = start.point_loads
+    monkeypatch.setattr(start, "point_loads", lambda *a: calls.append(1) or real(*a))
     sol = cc.solve(_small(), "gamma3", estimate=False)
     assert sol.ok and sol.polished and calls == []
     state = sol.state
@@ -137,7 +137,7 @@ def test_no_state_where_none_applies(monkeypatch):
     import cvxcontact.backends.start as start
 
     calls = []
-    monkeypatch.setattr(start, "contact_state", lambda *a: calls.append(1))
+    monkeypatch.setattr(start, "point_loads", lambda *a: calls.append(1))
     sol = cc.solve(_small(), "gamma3", law=cc.NormalCompliance(stiffness=1e13), estimate=False)
     assert sol.state is None and calls == []
     sol.state = "given"

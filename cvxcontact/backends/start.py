@@ -24,13 +24,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from ..contact.bernstein import point_rows
 from .cuts import _unique_rows, seed_points
 
-__all__ = ["ContactState", "contact_state", "deferred_state", "start_active", "cone_seeds", "AROUND"]
+__all__ = ["ContactState", "contact_state", "point_loads", "deferred_state", "start_active", "cone_seeds", "AROUND"]
 
 AROUND = np.array([-1e-2, -1e-3, 1e-3, 1e-2])
 """Offsets (in t) of further zero-force starting points on either side of each loaded point inside an element
@@ -49,59 +50,15 @@ class ContactState:
     force: np.ndarray
 
 
-def _node_pair(problem, nodes) -> np.ndarray:
-    """The pair of each stacked node of X_h."""
-    return np.searchsorted(np.asarray(problem.lines.offsets), nodes, side="right") - 1
+def _node_pair(lines, nodes) -> np.ndarray:
+    """The pair of each stacked node of X_h of the contact lines ``lines``."""
+    return np.searchsorted(np.asarray(lines.offsets), nodes, side="right") - 1
 
 
-def _positions(problem) -> np.ndarray | None:
-    """s (m) of the stacked nodes of X_h, or None where the contact lines have no such positions (3D)."""
-    x = getattr(problem.lines.interface, "x", None)
+def _positions(lines) -> np.ndarray | None:
+    """s (m) of the stacked nodes of X_h of ``lines``, or None where they have no such positions (3D)."""
+    x = getattr(lines.interface, "x", None)
     return None if x is None or np.ndim(x) != 1 else np.asarray(x, dtype=float)
-
-
-def contact_state(problem, raw) -> ContactState | None:
-    """The :class:`ContactState` of an exact finish ``raw`` (scaled) on ``problem``; None where a start does not
-    apply (module docstring) or the answer is not an exact finish."""
-    if not _hands_on(problem, raw):
-        return None
-    x = _positions(problem)
-    if x is None:
-        return None
-    if raw.points is not None:                      # the cuts' point forces
-        segment, t, y = raw.points
-        cells = problem.lines.cone[1]
-        a, b = x[cells[segment, 0]], x[cells[segment, 2]]
-        s, pair = (1 - t) * a + t * b, _node_pair(problem, cells[segment, 0])
-    else:                                           # nodal forces on X_h
-        y = problem.E.T @ np.asarray(raw.y, dtype=float)
-        s, pair = x, _node_pair(problem, np.arange(len(x)))
-    force = np.maximum(np.asarray(y, dtype=float), 0.0) * problem.units.force
-    return ContactState(pair=np.asarray(pair), s=np.asarray(s, dtype=float), force=force)
-
-
-@dataclass(frozen=True)
-class _Lines:
-    """What :func:`contact_state` reads of a problem: its term, dimension, contact lines and units (not the
-    bodies' matrices, which a solution kept for a later start would otherwise hold)."""
-
-    term: object
-    dim: int
-    lines: object
-    units: object
-
-    @property
-    def E(self):
-        return self.lines.E
-
-
-@dataclass(frozen=True)
-class _Forces:
-    """What :func:`contact_state` reads of an exact finish: its row forces and the cuts' point forces."""
-
-    y: np.ndarray
-    points: tuple | None
-    polished: bool = True
 
 
 def _hands_on(problem, raw) -> bool:
@@ -110,26 +67,42 @@ def _hands_on(problem, raw) -> bool:
     return problem.term.hands_on_state and raw.polished and raw.y is not None
 
 
+def contact_state(problem, raw) -> ContactState | None:
+    """The :class:`ContactState` of an exact finish ``raw`` (scaled) on ``problem``; None where a start does not
+    apply (module docstring) or the answer is not an exact finish."""
+    if not _hands_on(problem, raw):
+        return None
+    return point_loads(problem.lines, problem.units, raw.y, raw.points)
+
+
+def point_loads(lines, units, y, points=None) -> ContactState | None:
+    """The :class:`ContactState` of the row forces ``y`` (scaled) on the contact lines ``lines`` (units
+    ``units``), or of the cuts' point forces ``points`` = (segment, t, force) where given; None where the lines
+    have no positions along s (3D)."""
+    x = _positions(lines)
+    if x is None:
+        return None
+    if points is not None:                          # the cuts' point forces
+        segment, t, f = points
+        cells = lines.cone[1]
+        a, b = x[cells[segment, 0]], x[cells[segment, 2]]
+        s, pair = (1 - t) * a + t * b, _node_pair(lines, cells[segment, 0])
+    else:                                           # nodal forces on X_h
+        f = lines.E.T @ np.asarray(y, dtype=float)
+        s, pair = x, _node_pair(lines, np.arange(len(x)))
+    force = np.maximum(np.asarray(f, dtype=float), 0.0) * units.force
+    return ContactState(pair=np.asarray(pair), s=np.asarray(s, dtype=float), force=force)
+
+
 def deferred_state(problem, raw) -> Callable[[], ContactState | None] | None:
     """:func:`contact_state` of ``problem`` and ``raw`` as a call made when the state is first read
-    (``Solution.state``), holding only the contact lines, the units and copies of the forces; None where no
-    state applies (the same cases as :func:`contact_state`)."""
+    (``Solution.state``): :func:`point_loads` on the contact lines, the units and copies of the forces (not the
+    bodies' matrices, which a solution kept for a later start would otherwise hold); None where no state applies
+    (the same cases as :func:`contact_state`)."""
     if not _hands_on(problem, raw):
         return None
     points = None if raw.points is None else tuple(np.array(a) for a in raw.points)
-    return _Deferred(_Lines(problem.term, problem.dim, problem.lines, problem.units),
-                     _Forces(np.array(raw.y, dtype=float), points))
-
-
-@dataclass(frozen=True)
-class _Deferred:
-    """A later :func:`contact_state` call (:func:`deferred_state`)."""
-
-    lines: _Lines
-    forces: _Forces
-
-    def __call__(self) -> ContactState | None:
-        return contact_state(self.lines, self.forces)
+    return partial(point_loads, problem.lines, problem.units, np.array(raw.y, dtype=float), points)
 
 
 def _profile(state, pair, s) -> np.ndarray:
@@ -145,10 +118,10 @@ def start_active(problem, state: ContactState) -> np.ndarray:
     """The nodal rows of ``problem`` guessed closed: where the state's force, interpolated linearly along s, is
     positive at the row's position (the rows read nodes of one pair; a row's position is its evaluation of the
     nodes' s)."""
-    x = _positions(problem)
+    x = _positions(problem.lines)
     E = problem.E.tocsr()
     where = E @ x / np.maximum(np.asarray(abs(E).sum(axis=1)).ravel(), np.finfo(float).tiny)
-    pair = _node_pair(problem, E.indices[E.indptr[:-1]])
+    pair = _node_pair(problem.lines, E.indices[E.indptr[:-1]])
     active = np.zeros(E.shape[0], dtype=bool)
     for i in np.unique(pair):
         rows = pair == i
@@ -161,10 +134,10 @@ def cone_seeds(problem, state: ContactState):
     that hold them (their forces, scaled), then the P2 nodes of every element at zero force (a point on a node
     is that node, once)."""
     B, cells = problem.lines.cone
-    x = _positions(problem)
+    x = _positions(problem.lines)
     a, b = x[cells[:, 0]], x[cells[:, 2]]
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    element_pair = _node_pair(problem, cells[:, 0])
+    element_pair = _node_pair(problem.lines, cells[:, 0])
     seg, t, y = [], [], []
     loaded = state.force > 0
     for i in np.unique(state.pair[loaded]):

@@ -693,3 +693,19 @@ def test_sweep_case_arrays_name_the_hexahedra(degree):
     (name, exported), = _body_meshes(out)
     assert name == "body1" and exported.cells[0].type == "hexahedron"
     assert np.array_equal(exported.cells[0].data, mesh.cells) and len(exported.points) == len(mesh.points)
+
+
+@pytest.mark.parametrize("cls,corners,name", [(cc.Mesh, 3, "triangles"), (cc.QuadMesh, 4, "quads"),
+                                              (cc.HexMesh, 8, "hexes")])
+def test_every_mesh_refuses_bad_cells_by_name(cls, corners, name):
+    """Cells of the wrong shape, not integer, or naming a node that does not exist: a MeshError naming the array
+    (one check for every mesh, geometry.base.cell_corners)."""
+    dim = 3 if cls is cc.HexMesh else 2
+    points = np.zeros((corners, dim))
+    good = np.arange(corners)[None, :]
+    for cells, match in ((good[:, :-1], rf"{name} must be a non-empty \(m, {corners}\) array"),
+                         (np.zeros((0, corners), dtype=int), rf"{name} must be a non-empty"),
+                         (good.astype(float), f"{name} must hold integer node indices"),
+                         (good + 1, rf"{name} refer to nodes outside 0..{corners - 1}")):
+        with pytest.raises(MeshError, match=match):
+            cls(points, cells)

@@ -13,9 +13,9 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from ..errors import Frozen
+from ..errors import Frozen, MeshError
 
-__all__ = ["CellMesh"]
+__all__ = ["CellMesh", "cell_corners"]
 
 
 class CellMesh(Frozen):
@@ -38,3 +38,16 @@ class CellMesh(Frozen):
         """Sorted unique node indices on the union of the parts named in ``tags`` (a name or names)."""
         parts = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.int64)
+
+
+def cell_corners(cells, corners: int, name: str, n: int) -> np.ndarray:
+    """``cells`` as a contiguous int64 (m, ``corners``) array of node indices below ``n``; MeshError naming the
+    array (``name``) where it is empty, of another shape, not integer or refers to a node that does not exist."""
+    c = np.asarray(cells)
+    if c.ndim != 2 or c.shape[1] != corners or len(c) == 0:
+        raise MeshError(f"{name} must be a non-empty (m, {corners}) array of corner indices, got shape {c.shape}")
+    if not np.issubdtype(c.dtype, np.integer):
+        raise MeshError(f"{name} must hold integer node indices")
+    if c.min() < 0 or c.max() >= n:
+        raise MeshError(f"{name} refer to nodes outside 0..{n - 1}")
+    return np.ascontiguousarray(c, dtype=np.int64)

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import FrozenMap, MeshError
-from .base import CellMesh
+from .base import CellMesh, cell_corners
 from .mesh import _frozen, _renumbering
 from .tetmesh import TetMesh
 from .tetmesh import _as_points as _as_points3
@@ -73,14 +73,7 @@ class HexMesh(CellMesh):
 
     def __init__(self, points: ArrayLike, hexes: ArrayLike, boundaries: Mapping[str, ArrayLike] | None = None) -> None:
         points = _as_points3(points)
-        h = np.asarray(hexes)
-        if h.ndim != 2 or h.shape[1] != 8 or len(h) == 0:
-            raise MeshError(f"hexes must be a non-empty (m, 8) array of corner indices, got shape {h.shape}")
-        if not np.issubdtype(h.dtype, np.integer):
-            raise MeshError("hexes must hold integer node indices")
-        if h.min() < 0 or h.max() >= len(points):
-            raise MeshError(f"hexes refer to nodes outside 0..{len(points) - 1}")
-        h = _orient(points, np.ascontiguousarray(h, dtype=np.int64))
+        h = _orient(points, cell_corners(hexes, 8, "hexes", len(points)))
         faces = h[:, HEX_FACES].reshape(-1, 4)                                 # (6 m, 4) outward
         keys = np.sort(faces, axis=1)
         uniq, first, count = np.unique(keys, axis=0, return_index=True, return_counts=True)

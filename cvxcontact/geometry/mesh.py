@@ -23,7 +23,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..errors import FrozenMap, MeshError
-from .base import CellMesh
+from .base import CellMesh, cell_corners
 
 if TYPE_CHECKING:
     from .hexmesh import HexMesh
@@ -73,7 +73,7 @@ class Mesh(CellMesh):
     def __init__(self, points: ArrayLike, triangles: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:
         points = _as_points(points)
-        triangles = _as_triangles(triangles, len(points))
+        triangles = cell_corners(triangles, 3, "triangles", len(points))
         _check_nodes(points, triangles)
         triangles = _orient(points, triangles)
         self._set(_points=_frozen(points, float), _triangles=_frozen(triangles, np.int64))
@@ -224,17 +224,6 @@ def _as_points(points):
     if not np.isfinite(p).all():
         raise MeshError("points contain NaN or infinite coordinates")
     return np.ascontiguousarray(p)
-
-
-def _as_triangles(triangles, n):
-    t = np.asarray(triangles)
-    if t.ndim != 2 or t.shape[1] != 3 or len(t) == 0:
-        raise MeshError(f"triangles must be a non-empty (m, 3) array, got shape {t.shape}")
-    if not np.issubdtype(t.dtype, np.integer):
-        raise MeshError("triangles must hold integer node indices")
-    if t.min() < 0 or t.max() >= n:
-        raise MeshError(f"triangles refer to nodes outside 0..{n - 1}")
-    return np.ascontiguousarray(t, dtype=np.int64)
 
 
 def _renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MeshError
-from .base import CellMesh
+from .base import CellMesh, cell_corners
 from .mesh import Mesh, _as_points, _frozen, _renumbering
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
@@ -59,14 +59,7 @@ class QuadMesh(CellMesh):
 
     def __init__(self, points: ArrayLike, quads: ArrayLike, boundaries: Mapping[str, ArrayLike] | None = None) -> None:
         points = _as_points(points)
-        q = np.asarray(quads)
-        if q.ndim != 2 or q.shape[1] != 4 or len(q) == 0:
-            raise MeshError(f"quads must be a non-empty (m, 4) array of corner indices, got shape {q.shape}")
-        if not np.issubdtype(q.dtype, np.integer):
-            raise MeshError("quads must hold integer node indices")
-        if q.min() < 0 or q.max() >= len(points):
-            raise MeshError(f"quads refer to nodes outside 0..{len(points) - 1}")
-        q = _orient(points, np.ascontiguousarray(q, dtype=np.int64))
+        q = _orient(points, cell_corners(quads, 4, "quads", len(points)))
         split = Mesh(points, q[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3), boundaries)   # every Mesh check
         self._set(_points=split.points, _quads=_frozen(q, np.int64), split=split)
 

@@ -282,31 +282,23 @@ def _tagged(tag, faces, bfaces, n):
         raise MeshError(f"boundary part {tag!r} must hold integer node indices")
     if f.min() < 0 or f.max() >= n:
         raise MeshError(f"boundary part {tag!r} refers to nodes outside 0..{n - 1}")
-    keys = np.sort(bfaces, axis=1)
-    order = np.lexsort(keys.T[::-1])
+    keys = _rows(np.sort(bfaces, axis=1))        # one record per face, compared lexicographically (no base-n
+    order = np.argsort(keys, kind="stable")       # key: n^4 overflows int64 from 55,109 nodes)
     keys = keys[order]
-    want = np.sort(f, axis=1)
-    lo, hi = np.zeros(len(want), dtype=np.int64), np.full(len(want), len(keys))
-    for _ in range(int(np.ceil(np.log2(len(keys) + 1))) + 1):          # vectorised lexicographic bisection
-        mid = (lo + hi) // 2
-        less = _lex_less(keys[np.minimum(mid, len(keys) - 1)], want) & (mid < len(keys))
-        lo, hi = np.where(less, mid + 1, lo), np.where(less, hi, mid)
-    pos = np.minimum(lo, len(keys) - 1)
-    bad = ~(keys[pos] == want).all(axis=1)
+    want = _rows(np.sort(f, axis=1))
+    pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+    bad = keys[pos] != want
     if bad.any():
         raise MeshError(f"boundary part {tag!r}: {int(bad.sum())} face(s) are not on the boundary of the mesh, "
                         f"e.g. nodes {f[bad][0].tolist()}")
     return bfaces[order[pos]]
 
 
-def _lex_less(a, b):
-    """(k,) a < b row by row, lexicographically."""
-    less = np.zeros(len(a), dtype=bool)
-    equal = np.ones(len(a), dtype=bool)
-    for j in range(a.shape[1]):
-        less |= equal & (a[:, j] < b[:, j])
-        equal &= a[:, j] == b[:, j]
-    return less
+def _rows(a) -> np.ndarray:
+    """(k,) the rows of the integer array ``a`` (k, c) as records of c int64 fields: NumPy sorts, searches and
+    compares them lexicographically."""
+    a = np.ascontiguousarray(a, dtype=np.int64)
+    return a.view(np.dtype([(f"f{j}", np.int64) for j in range(a.shape[1])])).ravel()
 
 
 def _diagonal_cross(points, faces):

@@ -189,7 +189,7 @@ class ContactSolver:
                                        "estimate=False, or triangles (cc.rectangle(..., cell='triangle'))")
             estimate = False                                  # the default: said in estimate_reason
         if kind == "equilibrated" and estimate is not False:
-            check_bound_covered(scene, degree, self.law)      # refused before anything is solved
+            check_bound_covered(scene, degree, self.law, condition)   # refused before anything is solved
         self.estimate = ESTIMATES[kind] if estimate is not False else None
         self._unestimated = not discretisation.estimates
         t0 = time.perf_counter()

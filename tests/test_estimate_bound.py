@@ -227,15 +227,17 @@ def test_uncovered_cases_are_refused_naming_what_is_covered():
     with pytest.raises(cc.UnsupportedError, match="closest point; distance='ray'"):
         cc.solve(study.circle_scene(distance="closest"), estimate="equilibrated")
     from cvxcontact.apps.studies import estimate as residual_study
-    with pytest.raises(cc.UnsupportedError, match="pairs of deformable bodies"):
-        cc.solve(residual_study.blocks_scene(), estimate="equilibrated")
+    with pytest.raises(cc.UnsupportedError, match="pair of deformable bodies under condition 'sigma1'.*gamma3"):
+        cc.solve(residual_study.blocks_scene(), estimate="equilibrated", condition="sigma1")
     with pytest.raises(cc.UnsupportedError, match="P2"):                  # the function refuses a solved P2 too
         cc.error_bound(cc.solve(uniaxial(), degree=2, estimate=False))
     with pytest.raises(cc.SolverError, match="equilibrated"):
         cc.solve(uniaxial(), estimate="guaranteed")
     with pytest.raises(cc.UnsupportedError, match="charges given as functions"):
         cc.solve(pzt_uniaxial(volume_charge=lambda x, y: 0.1 * x), estimate="equilibrated")
-    with pytest.raises(cc.UnsupportedError, match="pairs of deformable bodies"):    # the piezoelectric pairs
-        cc.solve(residual_study.floating_scene(), estimate="equilibrated")
-    with pytest.raises(cc.UnsupportedError, match="the body is elastic"):
+    with pytest.raises(cc.UnsupportedError, match=r"contacts\[0\]: a pair .* condition 'sigma1'"):   # its own condition
+        cc.solve(residual_study.stack_scene(), estimate="equilibrated", condition="gamma3")
+    with pytest.raises(cc.UnsupportedError, match="friction"):
+        cc.solve(uniaxial(), estimate="equilibrated", law=cc.Tresca(1e6))
+    with pytest.raises(cc.UnsupportedError, match="body 0 is elastic"):
         bound.equilibrated_displacement(cc.solve(uniaxial(), estimate=False))

@@ -58,6 +58,7 @@ from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
 from ..fem.space import space
 from ..geometry.facets import facets
+from ..geometry.mesh import Mesh
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
 __all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_displacement", "equilibrated_stress"]
@@ -86,27 +87,33 @@ def _refuse(what: str):
                            "(use the residual estimate, estimate=True, there)")
 
 
-def check_covered(scene, degree: int = 1, law=None) -> None:
+def check_covered(scene, degree: int = 1, law=None, condition: str = "gamma3") -> None:
     """Raise :class:`UnsupportedError` naming what is not covered (:data:`COVERED`) by the bound of a
-    solve of ``scene`` with ``degree`` and the default contact ``law``; None if covered."""
+    solve of ``scene`` with ``degree``, the default contact ``law`` and ``condition``; None if covered."""
     if not space(degree, scene.cell).estimates:
         _refuse(f"{scene.cell} cells")
     if scene.dim != 2:
         _refuse("3D (tetrahedra)")
     if degree != 1:
         _refuse("P2 elements (degree=2)")
-    if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):
-        _refuse("pairs of deformable bodies")
-    body = scene.bodies[0]
-    if body.piezoelectric and (callable(body.volume_charge.value)
-                               or any(callable(q.value) for q in body.surface_charge.values())):
-        _refuse("volume or surface charges given as functions (give constants)")
-    if getattr(law, "compliant", False) or any(getattr(c.law, "compliant", False) for c in scene.contacts):
+    for i, c in enumerate(scene.contacts):
+        if not c.rigid and (scene.conditions[i] or condition) != "gamma3":
+            _refuse(f"contacts[{i}]: a pair of deformable bodies under condition "
+                    f"{scene.conditions[i] or condition!r} (rows at one body's nodes leave the jump between them "
+                    "unchecked; solve with condition='gamma3')")
+    for body in scene.bodies:
+        if body.piezoelectric and (callable(body.volume_charge.value)
+                                   or any(callable(q.value) for q in body.surface_charge.values())):
+            _refuse("volume or surface charges given as functions (give constants)")
+        if callable(body.body_force.value) or any(callable(t.value) for t in body.traction.values()):
+            _refuse("body forces or tractions given as functions (give constants)")
+    laws = [law, *(c.law for c in scene.contacts)]
+    if any(getattr(x, "compliant", False) for x in laws):
         _refuse("normal compliance")
-    if any(c.other.force is not None for c in scene.contacts):
+    if any(getattr(x, "friction", None) is not None for x in laws):
+        _refuse("friction (the bound's stress has no tangential traction on Gamma_3)")
+    if any(c.rigid and c.other.force is not None for c in scene.contacts):
         _refuse("force-controlled obstacles")
-    if callable(body.body_force.value) or any(callable(t.value) for t in body.traction.values()):
-        _refuse("body forces or tractions given as functions (give constants)")
     for i in range(len(scene.contacts)):
         d = np.atleast_2d(row_directions(scene.interfaces[i], scene.interfaces[i].normal))
         if np.abs(d - d[0]).max() > 1e-12:
@@ -173,86 +180,121 @@ def _continuity(rows, sub_a, va, sub_b, vb, n):
 # ---------------------------------------------------------------------------------------------- the bound
 
 
-def equilibrated_stress(sol) -> tuple[np.ndarray, np.ndarray]:
-    """(tau, v) of ``sol`` (module docstring): tau (3m, 3, 3) the equilibrated stress (Pa, Voigt xx, yy, xy) at
-    the vertices (v_s, v_s+1, barycentre) of sub-triangle 3 c + s of cell c, linear in between; v (n, 2) the
-    admissible displacement u_h - w (m). UnsupportedError for a case not covered (:data:`COVERED`)."""
-    built = _construct(sol)
-    return built["tau"].reshape(-1, 3, 3), built["v"]
+def equilibrated_stress(sol, body: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(tau, v) of body ``body`` of ``sol`` (module docstring): tau (3m, 3, 3) the equilibrated stress (Pa, Voigt
+    xx, yy, xy) at the vertices (v_s, v_s+1, barycentre) of sub-triangle 3 c + s of cell c of the body's
+    reconstruction mesh (:func:`reconstruction_mesh`: its mesh, the cells along a pair's Gamma_3 divided at the
+    other body's nodes), linear in between; v (n, 2) the admissible displacement u_h - w (m) at that mesh's
+    nodes. UnsupportedError for a case not covered (:data:`COVERED`)."""
+    part = _construct(sol)["bodies"][body]
+    return part["tau"].reshape(-1, 3, 3), part["v"]
 
 
-def equilibrated_displacement(sol) -> np.ndarray:
-    """The equilibrated electric displacement D~ of ``sol``'s piezoelectric body (docs/accuracy.md,
-    "Piezoelectric bodies"): (m, 3, 2) C/m^2 at the vertices of every triangle, linear in between (a
+def reconstruction_mesh(sol, body: int = 0):
+    """The mesh on which :func:`equilibrated_stress` builds the stress of body ``body`` of ``sol``: the body's
+    mesh with each edge of a pair's contact part divided at the other body's nodes inside it (the cells along it
+    divided into fans from the opposite vertex; the same tags); the body's mesh itself against rigid obstacles.
+    Returns (mesh, parent (m',): the body's cell each of its cells lies in)."""
+    part = _construct(sol)["bodies"][body]
+    return part["mesh"], part["parent"]
+
+
+def equilibrated_displacement(sol, body: int = 0) -> np.ndarray:
+    """The equilibrated electric displacement D~ of piezoelectric body ``body`` of ``sol`` (docs/accuracy.md,
+    "Piezoelectric bodies"): (m, 3, 2) C/m^2 at the vertices of every triangle of its mesh, linear in between (a
     Raviart-Thomas field). UnsupportedError for a case not covered (:data:`COVERED`) or an elastic body."""
-    if not sol.scene.bodies[0].piezoelectric:
-        raise UnsupportedError("equilibrated_displacement: the body is elastic (no electric displacement); "
+    if not sol.scene.bodies[body].piezoelectric:
+        raise UnsupportedError(f"equilibrated_displacement: body {body} is elastic (no electric displacement); "
                                "give a solution of a piezoelectric body")
-    return _construct(sol)["D"]
+    return _construct(sol)["bodies"][body]["D"]
 
 
 def error_bound(sol) -> ErrorEstimate:
-    """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring): an
-    :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
-    ("stress", "complementarity", J/m), the feasibility correction's norm |||w||| ("correction", sqrt(J/m)) and
-    the relative residual of the equilibrium conditions ("equilibrium residual"); ``indicators`` per triangle:
-    (stress + complementarity)^(1/2) of the cell. UnsupportedError for a case not covered
-    (:data:`COVERED`); SolverError if the stress could not be equilibrated to rounding."""
+    """The guaranteed upper bound (PS) of |||u - u_h||| of ``sol`` (module docstring; summed over the bodies):
+    an :class:`ErrorEstimate` of kind "equilibrated", ``guaranteed`` True, ``parts`` the squared terms
+    ("stress", "electric", "complementarity", J/m), the feasibility correction's norm |||w||| ("correction",
+    sqrt(J/m)) and the relative residual of the equilibrium conditions ("equilibrium residual"); ``indicators``
+    per body and triangle: (stress + electric + complementarity)^(1/2) of the cell (a pair's complementarity
+    in the first body's cells). UnsupportedError for a case not covered (:data:`COVERED`); SolverError if a
+    stress could not be equilibrated to rounding."""
     b = _construct(sol)
-    body, m, area = b["body"], b["m"], b["area"]
-    compliance = np.linalg.inv(body.material.tensors(2)[0])
-    # || C^-1/2 (C eps(v) - tau) ||^2 per cell, exact: (area / 12) [[2,1,1],..] kron C^-1 per sub-triangle
-    e = (b["tau"] - b["tau0"]).reshape(3 * m, 3, 3)
-    K3 = np.array([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]) / 12.0
-    stress = (area * np.einsum("skc,kl,cd,sld->s", e, K3, compliance, e)).reshape(m, 3).sum(axis=1)
-    comp = np.zeros(m)
+    eta2, stress, electric, correction2, norm2 = [], 0.0, 0.0, 0.0, 0.0
+    for k, part in enumerate(b["bodies"]):
+        body = sol.scene.bodies[k]
+        compliance = np.linalg.inv(body.material.tensors(2)[0])
+        # || C^-1/2 (C eps(v) - tau) ||^2 per sub-triangle, exact: (area / 12) [[2,1,1],..] kron C^-1
+        e = (part["tau"] - part["tau0"]).reshape(-1, 3, 3)
+        K3 = np.array([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]) / 12.0
+        sub = part["area"] * np.einsum("skc,kl,cd,sld->s", e, K3, compliance, e)
+        cell = np.bincount(np.repeat(part["parent"], 3), sub, minlength=part["m"])
+        stress += float(cell.sum())
+        electric += float(part["electric"].sum())
+        eta2.append(cell + part["electric"])
+        zero = None if part["phi_h"] is None else np.zeros_like(part["phi_h"])
+        correction2 += float(cell_energies(body, b["w"][k], zero, 1).sum())
+        norm2 += float(cell_energies(body, b["u_h"][k], part["phi_h"], 1).sum())
+    comp = 0.0
     for cd in b["contacts"]:
-        np.add.at(comp, cd["cells"], cd["term"](b["v"]))
-    eta2 = stress + b["electric"] + comp
-    zero = None if b["phi_h"] is None else np.zeros_like(b["phi_h"])
-    correction = float(np.sqrt(max(cell_energies(body, b["w"], zero, 1).sum(), 0.0)))
-    total = float(np.sqrt(max(eta2.sum(), 0.0))) + correction
-    norm = float(np.sqrt(max(cell_energies(body, b["u_h"], b["phi_h"], 1).sum(), 0.0)))
-    parts = {"stress": float(stress.sum()), "electric": float(b["electric"].sum()), "complementarity": float(comp.sum()),
-             "correction": correction, "equilibrium residual": b["residual"]}
-    return ErrorEstimate(absolute=total, norm=norm, indicators=(_read_only(np.sqrt(np.maximum(eta2, 0.0))),),
+        term = cd["term"](b["v"])
+        comp += float(term.sum())
+        np.add.at(eta2[cd["owner_body"]], cd["cells"], term)
+    correction = float(np.sqrt(max(correction2, 0.0)))
+    total = float(np.sqrt(max(stress + electric + comp, 0.0))) + correction
+    parts = {"stress": stress, "electric": electric, "complementarity": comp, "correction": correction,
+             "equilibrium residual": b["residual"]}
+    return ErrorEstimate(absolute=total, norm=float(np.sqrt(max(norm2, 0.0))),
+                         indicators=tuple(_read_only(np.sqrt(np.maximum(e2, 0.0))) for e2 in eta2),
                          parts=parts, guaranteed=True, kind="equilibrated")
 
 
 def _construct(sol) -> dict:
-    """The admissible v = u_h - w, the equilibrated tau and what the bound needs of them (module docstring)."""
+    """The admissible v = u_h - w, the equilibrated tau of every body and what the bound needs of them (module
+    docstring)."""
     scene = sol.scene
-    check_covered(scene, sol.degree, getattr(sol, "law", None))
+    check_covered(scene, sol.degree, getattr(sol, "law", None), getattr(sol, "condition", "gamma3"))
     for c in sol.contacts:
         if getattr(c.law, "compliant", False):
             _refuse("normal compliance")
-    body = scene.bodies[0]
-    mesh = body.mesh
-    u_h = np.asarray(sol.u[0], dtype=float)
-    p_pts, tri = mesh.points, mesh.triangles
-    m = len(tri)
-    c_mat = body.material.tensors(2)[0]
-
-    contacts = [_contact_data(sol, i, body, u_h) for i in range(len(scene.contacts))]
-    w = np.zeros_like(u_h)
+    u_h = [np.asarray(u, dtype=float) for u in sol.u]
+    contacts = [_contact_data(sol, i, u_h) for i in range(len(scene.contacts))]
+    w = [np.zeros_like(u) for u in u_h]
     for cd in contacts:
-        w += cd["w"]
-    _check_correction(body, w)
-    v = u_h - w
+        for k, wk in cd["w"]:
+            w[k] += wk
+    v = [u - wk for u, wk in zip(u_h, w)]
+    bodies, residual = [], 0.0
+    for k, body in enumerate(scene.bodies):
+        phi_h = None if sol.phi[k] is None else np.asarray(sol.phi[k], dtype=float)
+        loads = [side for cd in contacts for side in cd["sides"] if side["body"] == k]
+        part = _body_stress(sol, body, v[k], phi_h, loads)
+        residual = max(residual, part["residual"])
+        bodies.append(part)
+    return dict(bodies=bodies, contacts=contacts, w=w, v=v, u_h=u_h, residual=residual)
 
-    area, grad, _ = _split(mesh)
-    size = 27 * m
-    _, cell_grad = gradients(p_pts, tri)
-    eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri].reshape(m, -1))     # (m, 3) Voigt
+
+def _body_stress(sol, body, v, phi_h, loads) -> dict:
+    """The equilibrated stress of one body (module docstring) on its reconstruction mesh (the contact edges of
+    its pairs divided at the breakpoints in ``loads``), for the admissible displacement ``v`` (n, 2) and the
+    potential ``phi_h`` (n,) or None; ``loads``: per contact side, dict(breaks, pressure(s), d, part, lo, hi)."""
+    mesh0 = body.mesh
+    tri0 = mesh0.triangles
+    m0 = len(tri0)
+    c_mat = body.material.tensors(2)[0]
+    _, cell_grad = gradients(mesh0.points, tri0)
+    eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri0].reshape(m0, -1))  # (m, 3) Voigt
     sigma_v = eps_v @ c_mat.T                                                            # (m, 3) Pa
-    phi_h = D_v = None
+    D_v = None
     if body.piezoelectric:                     # the coupled law: sigma = c eps + e^T grad phi, D = e eps - kappa grad phi
         _, e_mat, kappa = body.material.tensors(2)
-        phi_h = np.asarray(sol.phi[0], dtype=float)
-        gphi = np.einsum("mdj,mj->md", cell_grad, phi_h[tri])                          # (m, 2) V/m
+        gphi = np.einsum("mdj,mj->md", cell_grad, phi_h[tri0])                          # (m, 2) V/m
         sigma_v = sigma_v + gphi @ e_mat
         D_v = eps_v @ e_mat.T - gphi @ kappa.T                                           # (m, 2) C/m^2
-    tau0 = np.broadcast_to(np.repeat(sigma_v, 3, axis=0)[:, None, :], (3 * m, 3, 3)).ravel()
+    mesh, parent, lift = _divided(mesh0, [(s["part"], s["breaks"]) for s in loads])
+    p_pts, tri = mesh.points, mesh.triangles
+    m = len(tri)
+    area, grad, _ = _split(mesh)
+    size = 27 * m
+    tau0 = np.broadcast_to(np.repeat(sigma_v[parent], 3, axis=0)[:, None, :], (3 * m, 3, 3)).ravel()
 
     rows = _Rows()
     subs = np.arange(3 * m)
@@ -276,7 +318,7 @@ def _construct(sol) -> dict:
     sub0, sub1 = 3 * c0[inner] + l0[inner], 3 * c1 + l1
     _continuity(rows, sub0, 0, sub1, np.where(same, 0, 1), n_out[inner])
     _continuity(rows, sub0, 1, sub1, np.where(same, 1, 0), n_out[inner])
-    _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts)
+    _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads)
     # div tau = -f on every sub-triangle
     f = np.asarray(body.body_force.value, dtype=float)
     g = grad                                                                          # (3m, 2, 3)
@@ -296,14 +338,81 @@ def _construct(sol) -> dict:
     residual = np.abs(A @ tau - rhs).max()
     stress_scale = max(np.abs(tau).max(), np.abs(sigma_v).max(), np.finfo(float).tiny)
     if not residual <= _EQUILIBRIUM_TOL * stress_scale:
-        raise SolverError(f"the equilibrated stress satisfies its conditions only to {residual / stress_scale:.3g} "
-                          f"(relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is not available for this mesh")
-    built = dict(body=body, m=m, area=area, tau=tau, tau0=tau0, v=v, w=w, u_h=u_h, phi_h=phi_h,
-                 contacts=contacts, residual=float(residual / stress_scale), electric=np.zeros(m))
+        raise SolverError(f"{body.name}: the equilibrated stress satisfies its conditions only to "
+                          f"{residual / stress_scale:.3g} (relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is "
+                          "not available for this mesh")
+    part = dict(mesh=mesh, parent=parent, m=m0, area=area, tau=tau, tau0=tau0, v=lift @ v, phi_h=phi_h,
+                residual=float(residual / stress_scale), electric=np.zeros(m0))
     if body.piezoelectric:
         D_vertices, electric, residual_e = _equilibrated_flux(sol, body, D_v)
-        built.update(D=D_vertices, electric=electric, residual=max(built["residual"], residual_e))
-    return built
+        part.update(D=D_vertices, electric=electric, residual=max(part["residual"], residual_e))
+    return part
+
+
+def _divided(mesh, cuts):
+    """``mesh`` with boundary edges divided (the reconstruction mesh of :func:`reconstruction_mesh`): ``cuts``
+    a list of (tag, breaks), breaks (k,) positions along the tag's line, s = x . t for a unit direction t
+    given with them as breaks = (t, s values): each edge of the tag gets nodes at the s strictly inside it, its
+    cell becomes a fan from the opposite vertex. Returns (mesh, parent cell (m',), lift (n', n): the nodal
+    values of a P1 function of ``mesh`` at the new mesh's nodes, sparse)."""
+    p, tri = mesh.points, mesh.triangles
+    n, m = len(p), len(tri)
+    new_pts, new_tri, parent = [p], [tri], [np.arange(m)]
+    lift_r, lift_c, lift_v = [np.arange(n)], [np.arange(n)], [np.ones(n)]
+    chains = {}                                       # sorted edge (a, b) -> the node chain from a to b
+    owners, _, _, keys = facets(tri, n)
+    tri = tri.copy()
+    count, divided = n, set()
+    for tag, (t, s_breaks) in cuts:
+        if not len(s_breaks):
+            continue
+        for a, b in mesh.boundary(tag):
+            key = min(a, b) * n + max(a, b)
+            if (min(a, b), max(a, b)) in chains:
+                continue
+            sa, sb = p[a] @ t, p[b] @ t
+            lo, hi = min(sa, sb), max(sa, sb)
+            tol = 1e-9 * (hi - lo)
+            inside = s_breaks[(s_breaks > lo + tol) & (s_breaks < hi - tol)]
+            if not len(inside):
+                continue
+            c = int(owners[np.searchsorted(keys, key), 0])
+            if c in divided:
+                raise UnsupportedError(f"the equilibrated error bound: cell {c} has two contact edges to divide "
+                                       "(a cell touching two contact parts); refine the mesh once")
+            divided.add(c)
+            local = list(tri[c])
+            la = local.index(a)
+            first, second = (a, b) if local[(la + 1) % 3] == b else (b, a)
+            o = local[(local.index(first) + 2) % 3]
+            s0, s1 = p[first] @ t, p[second] @ t
+            tt = np.sort((inside - s0) / (s1 - s0))
+            ids = count + np.arange(len(tt))
+            count += len(tt)
+            new_pts.append(p[first][None] + tt[:, None] * (p[second] - p[first])[None])
+            lift_r += [ids, ids]
+            lift_c += [np.full(len(tt), first), np.full(len(tt), second)]
+            lift_v += [1.0 - tt, tt]
+            chain = np.concatenate([[first], ids, [second]])
+            fan = np.column_stack([chain[:-1], chain[1:], np.full(len(chain) - 1, o)])
+            tri[c] = fan[0]
+            new_tri.append(fan[1:])
+            parent.append(np.full(len(fan) - 1, c))
+            chains[(min(a, b), max(a, b))] = chain
+    if not chains:
+        return mesh, np.arange(m), sp.identity(n, format="csr")
+    points = np.vstack(new_pts)
+    triangles = np.vstack([tri] + new_tri[1:])
+    boundaries = {}
+    for tag in mesh.tags:
+        edges = []
+        for a, b in mesh.boundary(tag):
+            chain = chains.get((min(a, b), max(a, b)))
+            edges.append(np.array([[a, b]]) if chain is None else np.column_stack([chain[:-1], chain[1:]]))
+        boundaries[tag] = np.vstack(edges)
+    lift = sp.csr_matrix((np.concatenate(lift_v), (np.concatenate(lift_r), np.concatenate(lift_c))),
+                         shape=(count, n))
+    return Mesh(points, triangles, boundaries), np.concatenate(parent), lift
 
 
 def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
@@ -327,11 +436,11 @@ def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
     return tau0 + Minv @ (A.T @ best_y)
 
 
-def _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts):
-    """tau n on the boundary edges (module docstring): traction t, 0 on free parts, -p d on the contact parts
-    (the edges whose both ends reach the obstacle; 0 on the others), tangential 0 on rollers, the free
-    components 0 on parts with prescribed components, nothing on clamped parts."""
-    mesh = body.mesh
+def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
+    """tau n on the boundary edges of ``mesh`` (``body``'s reconstruction mesh; module docstring): traction t,
+    0 on free parts, -p d on the contact parts (``loads``: the edges inside a pair's overlap; 0 on the others),
+    tangential 0 on rollers, the free components 0 on parts with prescribed components, nothing on clamped
+    parts."""
     p = mesh.points
     bnd = np.flatnonzero(cells[:, 1] < 0)
     key = pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1]
@@ -346,10 +455,15 @@ def _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts):
     c0, l0 = cells[:, 0], local[:, 0]
     ends = np.column_stack([tri[c0, l0], tri[c0, (l0 + 1) % 3]])      # node of local vertex 0, 1 of the sub
     pressure = np.zeros((len(key), 2, 2))                            # -p d at the two ends of contact edges
-    for cd in contacts:
-        idx = np.searchsorted(key, cd["keys"])
+    for load in loads:
+        e = mesh.boundary(load["part"])
+        idx = np.searchsorted(key, np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1]))
+        s = p[ends[idx]] @ load["tangent"]                                               # (k, 2)
+        x, tol = load["x"], load["tol"]
+        inside = ((s >= x[0] - tol) & (s <= x[-1] + tol)).all(axis=1)
+        idx, s = idx[inside], s[inside]
         for j in range(2):
-            pressure[idx, j] = -cd["p_node"][ends[idx, j]][:, None] * cd["d"][None]
+            pressure[idx, j] = -np.interp(s[:, j], x, load["p"])[:, None] * load["d"][None]
     for j in range(2):
         for r in ("free", "traction", "contact"):
             idx = bnd[role[bnd] == r]
@@ -377,87 +491,126 @@ def _boundary_rows(rows, sol, body, cells, local, pairs, n_out, contacts):
                 rows.add(terms[k], np.zeros(1))
 
 
-def _contact_data(sol, i, body, u_h):
-    """Pair ``i`` against its obstacle: the row direction d, the pressure p >= 0 at the body's nodes (lumped:
-    the nodal forces over the lumped lengths), the keys of its contact edges (both ends reach the obstacle),
-    the correction w (module docstring) and the complementarity term 2 int_E p (g - d . v) of each edge."""
+def _contact_data(sol, i, u_h):
+    """Pair ``i`` (module docstring, "Pairs"): on its merged mesh x (s = x . t, m) the pressure p >= 0 (lumped:
+    the row forces over the lumped lengths; P1 on x), per side (each body of the pair) its row direction d, the
+    breakpoints of the other side inside its edges and the load -p d it carries; the correction w (on one
+    side's trace, along its d) that makes [v . nu] <= g everywhere; the complementarity term
+    2 int p (g - [v . nu]) of each merged segment (5-point Gauss: exact for a polynomial gap of degree <= 8)
+    and the cell of the first body holding it."""
     scene = sol.scene
     itf, res = scene.interfaces[i], sol.contacts[i]
-    mesh = body.mesh
-    p = mesh.points
-    n_nodes = len(p)
-    d = np.atleast_2d(row_directions(itf, itf.normal))[0]
-    trace = itf.traces[0]
-    nodes = trace.nodes[itf.reach] if hasattr(itf, "reach") else trace.nodes
-    pn = np.maximum(np.asarray(res.force, dtype=float), 0.0) / lumped_lengths(np.asarray(res.x, dtype=float))
-    p_node = np.zeros(n_nodes)
-    p_node[nodes] = pn
-    reached = np.zeros(n_nodes, dtype=bool)
-    reached[nodes] = True
-    e = mesh.boundary(scene.contacts[i].part_a)
-    e = e[reached[e].all(axis=1)]
-    t = itf.tangent
-    s0, s1 = p[e[:, 0]] @ t, p[e[:, 1]] @ t
+    members = scene.stack.members[i]
+    x = np.asarray(itf.x, dtype=float)
+    if not np.asarray(res.constrained, dtype=bool).all() or len(res.x) != len(x):
+        _refuse(f"contacts[{i}]: rows at some merged nodes only (condition 'sigma1' or 'sigma2'; the jump "
+                "between them is unchecked): solve with condition='gamma3'")
+    p_merged = np.maximum(np.asarray(res.force, dtype=float), 0.0) / lumped_lengths(x)
+    tol = 1e-9 * max(b.mesh.size for b in scene.bodies)
+    sides = []
+    jump_h = np.zeros(len(x))
+    for k, trace in enumerate(itf.traces):
+        d = np.atleast_2d(row_directions(itf, trace.unit_normal))[0]
+        body = members[k]
+        jump_h += itf.interpolation(k) @ (u_h[body][trace.nodes] @ d)
+        mine = np.zeros(len(x), dtype=bool)
+        mine[itf.sigma[k]] = True
+        sides.append(dict(body=body, part=trace.part, d=d, trace=trace, x=x, p=p_merged, tol=tol,
+                          tangent=np.asarray(itf.tangent, dtype=float),
+                          breaks=(np.asarray(itf.tangent, dtype=float), x[~mine])))
 
     def gap(s):
         return scene.pair_gap_values(i, s.ravel()).reshape(s.shape)
 
-    # the largest violation d . u_h - g on each edge: samples, then golden section around the best
+    # the largest violation [u_h . nu] - g on each merged segment: samples, then golden section around the best
+    s0, s1 = x[:-1], x[1:]
     ts = np.linspace(0.0, 1.0, 33)
-    ua, ub = u_h[e[:, 0]] @ d, u_h[e[:, 1]] @ d
+    ja, jb = jump_h[:-1], jump_h[1:]
 
     def violation(tt):
-        return (1 - tt) * ua[:, None] + tt * ub[:, None] - gap(s0[:, None] + tt * (s1 - s0)[:, None])
+        return (1 - tt) * ja[:, None] + tt * jb[:, None] - gap(s0[:, None] + tt * (s1 - s0)[:, None])
 
-    val = violation(np.broadcast_to(ts, (len(e), len(ts))))
-    k = val.argmax(axis=1)
-    lo, hi = ts[np.maximum(k - 1, 0)], ts[np.minimum(k + 1, len(ts) - 1)]
-    phi = (np.sqrt(5.0) - 1) / 2
+    val = violation(np.broadcast_to(ts, (len(s0), len(ts))))
+    kbest = val.argmax(axis=1)
+    lo, hi = ts[np.maximum(kbest - 1, 0)], ts[np.minimum(kbest + 1, len(ts) - 1)]
+    golden = (np.sqrt(5.0) - 1) / 2
     for _ in range(60):
-        x1, x2 = hi - phi * (hi - lo), lo + phi * (hi - lo)
+        x1, x2 = hi - golden * (hi - lo), lo + golden * (hi - lo)
         f1, f2 = violation(x1[:, None])[:, 0], violation(x2[:, None])[:, 0]
         left = f1 > f2
         hi, lo = np.where(left, x2, hi), np.where(left, lo, x1)
-    worst = np.maximum(val.max(axis=1), violation(0.5 * (lo + hi)[:, None])[:, 0])
-    a = np.zeros(n_nodes)
-    np.maximum.at(a, e[:, 0], np.maximum(worst, 0.0))
-    np.maximum.at(a, e[:, 1], np.maximum(worst, 0.0))
-    w = a[:, None] * d[None]
+    worst = np.maximum(np.maximum(val.max(axis=1), violation(0.5 * (lo + hi)[:, None])[:, 0]), 0.0)
+    w = _correction(sol, i, sides, worst, u_h)
 
-    # the cell of each contact edge (its one triangle)
-    cells, local, pairs = _edges(mesh)
-    key_all = pairs[:, 0].astype(np.int64) * n_nodes + pairs[:, 1]
-    keys = np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * n_nodes + np.maximum(e[:, 0], e[:, 1])
-    owner = cells[np.searchsorted(key_all, keys), 0]
+    # the first body's cell over each merged segment
+    first = sides[0]["trace"]
+    mesh_a = scene.bodies[members[0]].mesh
+    n_a = len(mesh_a.points)
+    seg = np.clip(np.searchsorted(first.x, 0.5 * (s0 + s1)) - 1, 0, len(first.x) - 2)
+    ea, eb = first.nodes[seg], first.nodes[seg + 1]
+    cells_a, _, pairs_a = _edges(mesh_a)
+    key_all = pairs_a[:, 0].astype(np.int64) * n_a + pairs_a[:, 1]
+    owner = cells_a[np.searchsorted(key_all, np.minimum(ea, eb).astype(np.int64) * n_a + np.maximum(ea, eb)), 0]
     tq, wq = 0.5 * (_GAUSS5[0] + 1.0), 0.5 * _GAUSS5[1]
-    g_q = gap(s0[:, None] + tq[None] * (s1 - s0)[:, None])                    # (k, 5)
-    length = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
-    pq = (1 - tq)[None] * p_node[e[:, 0]][:, None] + tq[None] * p_node[e[:, 1]][:, None]
+    g_q = gap(s0[:, None] + tq[None] * (s1 - s0)[:, None])                     # (k, 5)
+    length = s1 - s0
+    pq = (1 - tq)[None] * p_merged[:-1, None] + tq[None] * p_merged[1:, None]
 
     def term(v):
-        va, vb = v[e[:, 0]] @ d, v[e[:, 1]] @ d
-        vq = (1 - tq)[None] * va[:, None] + tq[None] * vb[:, None]
-        return 2.0 * length * ((pq * (g_q - vq)) @ wq)
+        jump = sum(itf.interpolation(k) @ (v[sd["body"]][sd["trace"].nodes] @ sd["d"]) for k, sd in enumerate(sides))
+        jq = (1 - tq)[None] * jump[:-1, None] + tq[None] * jump[1:, None]
+        return 2.0 * length * ((pq * (g_q - jq)) @ wq)
 
-    return dict(d=d, p_node=p_node, keys=keys, w=w, cells=owner, term=term)
+    return dict(sides=sides, w=w, cells=owner, owner_body=members[0], term=term)
 
 
-def _check_correction(body, w):
-    """UnsupportedError if the correction w moves a node a support holds (it would leave the space V)."""
+def _correction(sol, i, sides, worst, u_h):
+    """[(body, w)]: the correction of pair ``i`` (module docstring): on a side's trace, w = a_j d at its nodes,
+    a_j the largest violation ``worst`` (per merged segment) over the segments inside the trace's edges at node
+    j, so that [u_h . nu] - a <= g everywhere. Shared theta : 1 - theta between the two sides of a pair when no
+    support holds either (theta = e_b / (e_a + e_b) for the energies e of the full correction on each side:
+    the least energy of the split, e_a e_b / (e_a + e_b)); else all on the side no support holds."""
+    full, message = [], None
+    for side in sides:
+        trace, k = side["trace"], side["body"]
+        body = sol.scene.bodies[k]
+        x = side["x"]
+        a = np.zeros(len(trace.x))
+        seg = np.clip(np.searchsorted(trace.x, 0.5 * (x[:-1] + x[1:])) - 1, 0, len(trace.x) - 2)
+        np.maximum.at(a, seg, worst)
+        np.maximum.at(a, seg + 1, worst)
+        w = np.zeros_like(u_h[k])
+        w[trace.nodes] = a[:, None] * side["d"][None]
+        held = _held(body, w)
+        if held is None:
+            zero = None if sol.phi[k] is None else np.zeros(len(w))
+            full.append((k, w, float(cell_energies(body, w, zero, 1).sum())))
+        message = message or held
+    if not full:
+        _refuse(message)
+    if len(full) == 1 or full[0][2] + full[1][2] <= 0.0:
+        return [full[0][:2]]
+    (ka, wa, ea), (kb, wb, eb) = full
+    theta = eb / (ea + eb)
+    return [(ka, theta * wa), (kb, (1.0 - theta) * wb)]
+
+
+def _held(body, w) -> str | None:
+    """What is wrong if the correction w moves a node a support holds (it would leave the space V), else None."""
     moved = np.flatnonzero(np.abs(w).max(axis=1) > 0)
     if not len(moved):
-        return
+        return None
     mesh = body.mesh
-    held = [*body.clamped, *body.displacement]
-    for tag in held:
+    for tag in [*body.clamped, *body.displacement]:
         hit = np.intersect1d(moved, mesh.boundary(tag))
         if len(hit):
-            _refuse(f"a contact part whose admissible correction moves node {hit[0]} of the supported part {tag!r}")
+            return f"a contact part whose admissible correction moves node {hit[0]} of the supported part {tag!r}"
     for tag in body.roller:
         n = mesh.outward_normals(tag).mean(axis=0)
         hit = np.intersect1d(moved, mesh.boundary(tag))
         if len(hit) and np.abs(w[hit] @ n).max() > 0:
-            _refuse(f"a contact part whose admissible correction moves node {hit[0]} across the roller {tag!r}")
+            return f"a contact part whose admissible correction moves node {hit[0]} across the roller {tag!r}"
+    return None
 
 
 # ---------------------------------------------------------------------------------------------- the flux

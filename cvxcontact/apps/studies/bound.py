@@ -20,7 +20,7 @@ from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from ...solution.bound import error_bound
 from .common import Timer, markdown_table, write_csv, write_text
-from .estimate import ALU, LEVELS, REFERENCE, against_reference
+from .estimate import ALU, LEVELS, REFERENCE, against_reference, blocks_scene, floating_scene, hertz_scene, punch_scene
 
 
 def circle_scene(distance: str = "ray"):
@@ -62,11 +62,30 @@ def charged_block_scene():
                                           gap=lambda s: 2e-3 * (s - 0.5) ** 2)])
 
 
+def stack_scene():
+    """Three elastic blocks, two pairs with parabolic gaps, non-matching meshes (4 x 2 over 3 x 2 over 5 x 2): the
+    estimate study's stack (:func:`.estimate.stack_scene`) with the bound's condition, gamma3, on both pairs."""
+    a, mat = 0.5, materials.isotropic(E=1e9, nu=0.3)
+    top = Body(rectangle(x=(0, 1), y=(a, 2 * a), nx=4, ny=2), mat, clamped=["top"], contact="bottom",
+               body_force=(0.0, -2e7), name="top")
+    mid = Body(rectangle(x=(0, 1), y=(0, a), nx=3, ny=2), mat, clamped=["left"], contact="bottom", name="mid")
+    bot = Body(rectangle(x=(0, 1), y=(-a, 0), nx=5, ny=2), mat, clamped=["bottom"], contact="top",
+               body_force=(0.0, 1e7), name="bottom")
+    pairs = [Contact(top, "bottom", mid, "top", gap=lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2),
+             Contact(mid, "bottom", bot, "top", gap=lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2)]
+    return Scene(top, mid, bot, contacts=pairs)
+
+
 SCENES = {
     "circle (ray), P1": (circle_scene, dict(condition="gamma3")),
     "crowned block on a plane, P1": (crowned_scene, dict(condition="gamma3")),
     "PZT layer, floating electrode, rigid circle, P1": (floating_layer_scene, dict(condition="gamma3")),
     "PZT block, charges, crowned on a plane, P1": (charged_block_scene, dict(condition="gamma3")),
+    "punch, partial overlap (pair), P1": (punch_scene, dict(condition="gamma3")),
+    "Hertz cylinder (pair), P1": (hertz_scene, dict(condition="gamma3")),
+    "stack of three (two pairs), P1": (stack_scene, dict(condition="gamma3")),
+    "two blocks (piezo pair), P1": (blocks_scene, dict(condition="gamma3")),
+    "PZT layer, floating electrode, punch (pair), P1": (floating_scene, dict(condition="gamma3")),
 }
 """name -> (scene builder, solve keywords)."""
 

@@ -1,0 +1,182 @@
+"""The guaranteed error bound for pairs of deformable bodies (cvxcontact.error_bound; docs/accuracy.md, "Pairs
+of deformable bodies").
+
+Checked independently of the code under test: a closed form (two blocks squeezed uniformly, matching and
+non-matching meshes on Gamma_3: the exact solution lies in the P1 space, the bound is rounding); the bound
+against the true error on nested fine references (the estimate study's prolongation and energy norm); the
+two stresses sampled directly along Gamma_3 at points the construction never used (equal and opposite
+tractions, normal, compressive); the admissible displacement sampled against a curved gap; the refusals.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps.studies import bound as study
+from cvxcontact.solution import bound
+
+pytestmark = pytest.mark.numerics   # equilibrated stresses on divided meshes, sparse saddle-point solves
+
+PAIRS = ["punch, partial overlap (pair), P1", "Hertz cylinder (pair), P1", "stack of three (two pairs), P1",
+         "two blocks (piezo pair), P1", "PZT layer, floating electrode, punch (pair), P1"]
+
+# measured effectivity (bound / true error) at levels 0, 1, 2 against a reference at level 3: (smallest, largest)
+MEASURED = {"punch, partial overlap (pair), P1": (2.45, 3.45), "Hertz cylinder (pair), P1": (1.82, 2.36),
+            "stack of three (two pairs), P1": (1.50, 1.59), "two blocks (piezo pair), P1": (1.58, 2.00),
+            "PZT layer, floating electrode, punch (pair), P1": (1.31, 1.37)}
+
+
+def squeezed(nx_lower: int, piezo: bool = False):
+    """Two blocks 1 m x 0.5 m, rollers on their sides and the lower one's bottom, the upper one's top pushed
+    down 0.1 mm: uniaxial strain in each, the same stress sigma_yy, uniform contact pressure. The lower block's
+    mesh has ``nx_lower`` columns (4: matching the upper block's; 3: non-matching)."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper_mat = cc.materials.PZT5A if piezo else cc.materials.isotropic(E=200e9, nu=0.25)
+    electric = dict(grounded=["top"]) if piezo else {}
+    upper = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=2), upper_mat, roller=["left", "right"],
+                    displacement={"top": (None, -1e-4)}, contact="bottom", name="upper", **electric)
+    lower = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=nx_lower, ny=2), mat,
+                    roller=["left", "right", "bottom"], contact="top", name="lower")
+    return cc.Scene(upper, lower)
+
+
+@pytest.mark.parametrize("nx_lower", [4, 3], ids=["matching", "non-matching"])
+@pytest.mark.parametrize("piezo", [False, True], ids=["elastic", "piezo"])
+def test_the_bound_of_an_exact_pair_solution_is_rounding(nx_lower, piezo):
+    """Two blocks squeezed: u is affine in each block (the P1 answer is exact), the pressure uniform, so the
+    bound is 0 up to rounding, on matching and on non-matching meshes (the reconstruction divides the lower
+    block's contact cells at the upper block's nodes and vice versa). The piezoelectric upper block (poled along
+    y, grounded on top, its bottom uncharged: D_y = 0) stays uniform too (E_x = 0)."""
+    sol = cc.solve(squeezed(nx_lower, piezo), estimate="equilibrated", condition="gamma3")
+    est = sol.estimate
+    assert est.guaranteed and est.kind == "equilibrated" and len(est.indicators) == 2
+    # measured: relative 2.0e-8, 1.7e-8 (elastic matching, non-matching), 1.7e-8, 1.7e-8 (piezo): the
+    # unsquared complementarity's rounding (|||u_h||| = 37 and 34)
+    assert est.relative < 1e-6
+    assert est.parts["stress"] <= 1e-20 * est.norm ** 2            # measured 6e-28 .. 1.7e-25 J/m
+    assert est.parts["electric"] <= 1e-20 * est.norm ** 2          # measured 1.4e-28 J/m
+    assert est.parts["correction"] <= 1e-12 * est.norm              # measured 7e-15 .. 1.8e-14 sqrt(J/m)
+
+
+def test_a_deformed_pair_is_not_rounding():
+    """The same squeeze with a body force in the lower block (a non-affine answer): the bound is far from 0, so
+    the rounding above is not a bound that always vanishes."""
+    scene = squeezed(3)
+    lower = scene.bodies[1].with_changes(body_force=(3e9, -1e9))
+    sol = cc.solve(scene.with_bodies(scene.bodies[0], lower), estimate="equilibrated", condition="gamma3")
+    assert sol.estimate.relative > 1e-3                              # measured 0.33
+
+
+@pytest.mark.parametrize("name", PAIRS)
+def test_the_pair_bound_is_above_the_true_error(name):
+    """Levels 0, 1 and 2 against a reference refined three times: the bound exceeds the true error (the
+    piezoelectric scenes in the coupled energy norm). |||u - u_h||| >= |||u_ref - I u_h||| for nested spaces (up
+    to the contact's complementarity), so effectivity >= 1 with no margin; above, the measured largest times 3.
+    The bound falls under refinement."""
+    build, options = study.SCENES[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        rows = study.effectivity(build, options, levels=(0, 1, 2), reference=3)
+    for r in rows:
+        assert r["ok"]
+        assert r["effectivity"] >= 1.0, r
+        assert r["effectivity"] <= MEASURED[name][1] * 3, r
+        assert r["equilibrium"] <= 1e-9                              # measured <= 1e-13
+    assert rows[2]["bound"] < rows[0]["bound"]
+
+
+def _traction(mesh, tau, point, normal):
+    """tau n at ``point`` on a boundary edge of ``mesh`` (the reconstruction mesh; tau (3m, 3, 3) per
+    sub-triangle (v_s, v_s+1, barycentre)), found from the coordinates alone: the sub-triangle whose edge
+    v_s -> v_s+1 (the cell's boundary edge) contains the point."""
+    p, tri = mesh.points, mesh.triangles
+    a, b = p[tri], p[np.roll(tri, -1, axis=1)]                               # (m, 3, 2) edge s: a -> b
+    ab = b - a
+    t = np.einsum("msd,msd->ms", point - a, ab) / np.einsum("msd,msd->ms", ab, ab)
+    off = np.abs((point - a)[..., 0] * ab[..., 1] - (point - a)[..., 1] * ab[..., 0]) / np.linalg.norm(ab, axis=2)
+    hit = np.argwhere((off < 1e-12) & (t > 1e-9) & (t < 1 - 1e-9))
+    assert len(hit) == 1, (point, hit)
+    c, s = hit[0]
+    T = (1 - t[c, s]) * tau[3 * c + s, 0] + t[c, s] * tau[3 * c + s, 1]
+    return np.array([T[0] * normal[0] + T[2] * normal[1], T[2] * normal[0] + T[1] * normal[1]])
+
+
+@pytest.mark.parametrize("name", ["punch, partial overlap (pair), P1", "two blocks (piezo pair), P1"])
+def test_the_two_stresses_carry_equal_and_opposite_tractions(name):
+    """Non-matching meshes: at points of Gamma_3 strictly inside the overlap (not nodes of either mesh), the
+    tractions of the two equilibrated stresses, each read from its own mesh's sub-triangles, are equal and
+    opposite, normal to the line and compressive; on the punch, the block's top outside the overlap is free.
+    The divergence: div tau + f = 0 on every sub-triangle of both reconstruction meshes."""
+    build, _ = study.SCENES[name]
+    scene = build()
+    sol = cc.solve(scene, condition="gamma3", estimate=False)
+    taus = [bound.equilibrated_stress(sol, k)[0] for k in range(2)]
+    meshes = [bound.reconstruction_mesh(sol, k)[0] for k in range(2)]
+    scale = max(np.abs(t).max() for t in taus)
+    itf = scene.interfaces[0]
+    n_a = np.asarray(itf.normal)
+    xs = np.linspace(itf.x[0], itf.x[-1], 158)[1:-1]       # 157 intervals: no node of either mesh
+    points = itf.points[0] + np.outer(xs - itf.x[0], itf.tangent)
+    ta = np.array([_traction(meshes[0], taus[0], q, n_a) for q in points])
+    tb = np.array([_traction(meshes[1], taus[1], q, -n_a) for q in points])
+    assert np.abs(ta + tb).max() <= 1e-9 * scale               # measured 7e-15 (punch), 1.4e-14 (blocks) relative
+    normal = ta @ n_a
+    assert np.abs(ta @ np.asarray(itf.tangent)).max() <= 1e-9 * scale          # measured 6.5e-15, 5.8e-16
+    # measured: normal traction in [-0.43, -3.8e-4] (punch), [-0.33, 2.8e-15] (blocks) of the stress scale
+    assert (normal <= 1e-9 * scale).all() and normal.min() < -1e-3 * scale
+    for k, body in enumerate(scene.bodies):
+        f = np.asarray(body.body_force.value, dtype=float)
+        mesh, tau = meshes[k], taus[k]
+        verts = mesh.points[mesh.triangles]
+        bc = verts.mean(axis=1)
+        allv = np.concatenate([np.stack([verts[:, s], verts[:, (s + 1) % 3], bc], axis=1) for s in range(3)])
+        order = np.arange(len(allv)).reshape(3, -1).T.ravel()          # sub-triangle 3 c + s
+        v = allv[order]
+        d = np.roll(v, -1, axis=1) - np.roll(v, 1, axis=1)
+        area2 = d[:, 0, 0] * d[:, 1, 1] - d[:, 0, 1] * d[:, 1, 0]
+        gL = np.stack([d[:, :, 1], -d[:, :, 0]], axis=2) / area2[:, None, None]
+        div = np.column_stack([(tau[:, :, 0] * gL[:, :, 0] + tau[:, :, 2] * gL[:, :, 1]).sum(axis=1),
+                               (tau[:, :, 2] * gL[:, :, 0] + tau[:, :, 1] * gL[:, :, 1]).sum(axis=1)])
+        assert np.abs(div + f).max() <= 1e-9 * scale                  # measured 1e-14 relative
+    if name.startswith("punch"):                                       # the block's top left of the punch: free
+        block = meshes[1]
+        free = np.array([[x, 0.5] for x in np.linspace(0.03, 0.57, 10)])
+        tf = np.array([_traction(block, taus[1], q, np.array([0.0, 1.0])) for q in free])
+        assert np.abs(tf).max() <= 1e-9 * scale
+
+
+def test_the_admissible_displacement_keeps_the_curved_gap_between_nodes():
+    """Hertz (a parabolic gap between non-matching meshes): u_h penetrates between the merged nodes (the rows
+    hold at the nodes only); v = u_h - w does not, sampled at 4001 points of Gamma_3: [v . nu] <= g."""
+    scene = study.SCENES["Hertz cylinder (pair), P1"][0]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        sol = cc.solve(scene, condition="gamma3", estimate=False)
+    itf = scene.interfaces[0]
+    s = np.linspace(itf.x[0], itf.x[-1], 4001)
+    g = scene.pair_gap_values(0, s)
+
+    def jump(fields):
+        total = np.zeros_like(s)
+        for k, trace in enumerate(itf.traces):
+            un = fields[k][trace.nodes] @ trace.unit_normal
+            total += np.interp(s, trace.x, un)
+        return total
+
+    u_h = [np.asarray(u) for u in sol.u]
+    v = [bound.equilibrated_stress(sol, k)[1][: len(u)] for k, u in enumerate(u_h)]   # original nodes first
+    scale = np.abs(jump(u_h)).max()
+    assert (jump(u_h) - g).max() > 1e-6 * scale                       # u_h penetrates: measured 3.7e-2 relative
+    assert (jump(v) - g).max() <= 1e-12 * scale                       # measured -3.3e-6 relative
+
+
+def test_pairs_outside_the_bound_are_refused_by_name():
+    scene = study.SCENES["punch, partial overlap (pair), P1"][0]()
+    with pytest.raises(cc.UnsupportedError, match="under condition 'sigma2'.*condition='gamma3'"):
+        cc.solve(scene, estimate="equilibrated", condition="sigma2")
+    with pytest.raises(cc.UnsupportedError, match="friction"):
+        cc.solve(scene, estimate="equilibrated", condition="gamma3", law=cc.Tresca(1e6))
+    with pytest.raises(cc.UnsupportedError, match="P2"):
+        cc.solve(scene, estimate="equilibrated", condition="gamma3", degree=2)

@@ -84,8 +84,8 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         The sparse factorisation of each body; "auto": PARDISO if installed, else SuperLU.
     estimate : bool or {"residual", "equilibrated"}
         ``Solution.estimate`` and the resolution check (default; True = "residual"); "equilibrated": the
-        guaranteed bound of :func:`cvxcontact.error_bound` (2D P1, one elastic body on rigid obstacles); False:
-        neither (docs/reference/solve-options.md).
+        guaranteed bound of :func:`cvxcontact.error_bound` (2D P1, elastic or piezoelectric bodies on rigid
+        obstacles and in pairs); False: neither (docs/reference/solve-options.md).
 
     Returns
     -------

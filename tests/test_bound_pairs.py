@@ -23,9 +23,9 @@ PAIRS = ["punch, partial overlap (pair), P1", "Hertz cylinder (pair), P1", "stac
          "two blocks (piezo pair), P1", "PZT layer, floating electrode, punch (pair), P1"]
 
 # measured effectivity (bound / true error) at levels 0, 1, 2 against a reference at level 3: (smallest, largest)
-MEASURED = {"punch, partial overlap (pair), P1": (2.45, 3.45), "Hertz cylinder (pair), P1": (1.82, 2.36),
-            "stack of three (two pairs), P1": (1.50, 1.59), "two blocks (piezo pair), P1": (1.58, 2.00),
-            "PZT layer, floating electrode, punch (pair), P1": (1.31, 1.37)}
+MEASURED = {"punch, partial overlap (pair), P1": (2.45, 3.45), "Hertz cylinder (pair), P1": (1.85, 2.78),
+            "stack of three (two pairs), P1": (1.55, 1.81), "two blocks (piezo pair), P1": (1.58, 2.29),
+            "PZT layer, floating electrode, punch (pair), P1": (1.40, 1.61)}
 
 
 def squeezed(nx_lower: int, piezo: bool = False):
@@ -83,7 +83,7 @@ def test_the_pair_bound_is_above_the_true_error(name):
         assert r["ok"]
         assert r["effectivity"] >= 1.0, r
         assert r["effectivity"] <= MEASURED[name][1] * 3, r
-        assert r["equilibrium"] <= 1e-9                              # measured <= 1e-13
+        assert r["equilibrium"] <= 1e-9                              # measured <= 1.1e-13
     assert rows[2]["bound"] < rows[0]["bound"]
 
 

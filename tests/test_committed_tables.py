@@ -140,6 +140,24 @@ def test_estimate_rows():
             agree(find(rows, scene=name, level=level), fresh, rel=1e-6, where=f"estimate {name} {level}")
 
 
+def test_bound_rows():
+    """The bound study's level 0 of every scene: cells, ``ok``, the bound and its terms (measured agreement
+    <= 1e-9: one sparse solve per body); the true error needs the level-4 reference and is not compared here
+    (tests/test_estimate_bound.py and tests/test_bound_pairs.py measure it)."""
+    from cvxcontact.apps.studies.bound import SCENES
+    from cvxcontact.apps.studies.common import solve_quietly
+    from cvxcontact.solution.bound import error_bound
+
+    rows = committed("bound")
+    for name, (build, options) in SCENES.items():
+        scene = build()
+        b = error_bound(solve_quietly(scene, **options))
+        fresh = dict(cells=sum(len(body.mesh.triangles) for body in scene.bodies), bound=b.absolute,
+                     stress=math.sqrt(b.parts["stress"]), electric=math.sqrt(b.parts["electric"]),
+                     complementarity=math.sqrt(max(b.parts["complementarity"], 0.0)))
+        agree(find(rows, scene=name, level=0), fresh, rel=1e-6, where=f"bound {name} 0")
+
+
 def test_stability_oscillation_rows():
     """TV(lambda_h) / TV(lambda_ref) of the partial-contact scene, every row (P1 condensed exact solves and a
     P1 reference at n = 256), to 1e-6."""

@@ -44,6 +44,14 @@ edges, 0 on the other non-electrode edges, total flux -Q through each floating e
 tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field closest to D(v, phi_h) in
 || kappa^{-1/2} . ||: one global sparse solve over the edge fluxes.
 
+Pairs of deformable bodies (docs/accuracy.md, "Pairs of deformable bodies"): K = {v : [v . nu] <= g on
+Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (the
+pair's lumped pressure, P1 on the merged mesh), so tau^1 n^1 = -tau^2 n^2, and (PS) holds with the sum of the
+bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's reconstruction mesh: the cells
+along Gamma_3 divided at the other body's nodes (a fan from the opposite vertex), so that p is linear on each
+of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
+traces, shared theta : 1 - theta at least energy. A rigid obstacle is the one-sided case (no division).
+
 Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
 """
 
@@ -61,10 +69,11 @@ from ..geometry.facets import facets
 from ..geometry.mesh import Mesh
 from .estimate import ErrorEstimate, _boundary_roles, _read_only, cell_energies
 
-__all__ = ["COVERED", "check_covered", "error_bound", "equilibrated_displacement", "equilibrated_stress"]
+__all__ = ["COVERED", "check_covered", "equilibrated_displacement", "equilibrated_stress", "error_bound",
+           "reconstruction_mesh"]
 
-COVERED = ("2D P1, one elastic or piezoelectric body against fixed rigid obstacles whose rows keep one direction "
-           "(a plane, or a curved obstacle with distance='ray'), the Signorini law, a constant body force and "
+COVERED = ("2D P1, elastic or piezoelectric bodies against fixed rigid obstacles whose rows keep one direction "
+           "(a plane, or a curved obstacle with distance='ray') and in pairs under condition 'gamma3', the Signorini law, a constant body force and "
            "constant tractions; constant volume and surface charges, grounded, driven and floating electrodes")
 """What :func:`error_bound` covers."""
 

@@ -45,7 +45,7 @@ def test_the_bound_of_an_exact_solution_is_rounding():
     assert "guaranteed" in str(est) and "not guaranteed" not in str(est)
 
 
-@pytest.mark.parametrize("name", list(study.SCENES))
+@pytest.mark.parametrize("name", list(MEASURED))          # the pairs: tests/test_bound_pairs.py
 def test_the_bound_is_above_the_true_error(name):
     """Levels 0, 1 and 2 against a reference refined three times: the bound exceeds the true error (for the
     piezoelectric scenes in the coupled energy norm of (u, phi)). A guaranteed

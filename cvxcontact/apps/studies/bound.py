@@ -20,7 +20,8 @@ from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from ...solution.bound import error_bound
 from .common import Timer, markdown_table, write_csv, write_text
-from .estimate import ALU, LEVELS, REFERENCE, against_reference, blocks_scene, floating_scene, hertz_scene, punch_scene
+from .estimate import (ALU, LEVELS, REFERENCE, against_reference, blocks_scene, floating_scene, hertz_scene,
+                       punch_scene)
 
 
 def circle_scene(distance: str = "ray"):

@@ -22,6 +22,7 @@ from ...solution.bound import error_bound
 from .common import Timer, markdown_table, write_csv, write_text
 from .estimate import (ALU, LEVELS, REFERENCE, against_reference, blocks_scene, floating_scene, hertz_scene,
                        punch_scene)
+from .estimate import stack_scene as estimate_stack_scene
 
 
 def circle_scene(distance: str = "ray"):
@@ -66,15 +67,7 @@ def charged_block_scene():
 def stack_scene():
     """Three elastic blocks, two pairs with parabolic gaps, non-matching meshes (4 x 2 over 3 x 2 over 5 x 2): the
     estimate study's stack (:func:`.estimate.stack_scene`) with the bound's condition, gamma3, on both pairs."""
-    a, mat = 0.5, materials.isotropic(E=1e9, nu=0.3)
-    top = Body(rectangle(x=(0, 1), y=(a, 2 * a), nx=4, ny=2), mat, clamped=["top"], contact="bottom",
-               body_force=(0.0, -2e7), name="top")
-    mid = Body(rectangle(x=(0, 1), y=(0, a), nx=3, ny=2), mat, clamped=["left"], contact="bottom", name="mid")
-    bot = Body(rectangle(x=(0, 1), y=(-a, 0), nx=5, ny=2), mat, clamped=["bottom"], contact="top",
-               body_force=(0.0, 1e7), name="bottom")
-    pairs = [Contact(top, "bottom", mid, "top", gap=lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2),
-             Contact(mid, "bottom", bot, "top", gap=lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2)]
-    return Scene(top, mid, bot, contacts=pairs)
+    return estimate_stack_scene(conditions=("gamma3", "gamma3"))
 
 
 SCENES = {

@@ -62,16 +62,17 @@ def blocks_scene():
     return Scene(b1, b2)
 
 
-def stack_scene():
-    """Three elastic blocks, two pairs with parabolic gaps ("three blocks, P2 nodal stack" of tests/scenes.py)."""
+def stack_scene(conditions=("sigma1", "sigma2")):
+    """Three elastic blocks, two pairs with parabolic gaps ("three blocks, P2 nodal stack" of tests/scenes.py), the
+    pairs under ``conditions`` (top/middle, middle/bottom)."""
     a, mat = 0.5, materials.isotropic(E=1e9, nu=0.3)
     top = Body(rectangle(x=(0, 1), y=(a, 2 * a), nx=4, ny=2), mat, clamped=["top"], contact="bottom",
                body_force=(0.0, -2e7), name="top")
     mid = Body(rectangle(x=(0, 1), y=(0, a), nx=3, ny=2), mat, clamped=["left"], contact="bottom", name="mid")
     bot = Body(rectangle(x=(0, 1), y=(-a, 0), nx=5, ny=2), mat, clamped=["bottom"], contact="top",
                body_force=(0.0, 1e7), name="bottom")
-    pairs = [Contact(top, "bottom", mid, "top", gap=lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2, condition="sigma1"),
-             Contact(mid, "bottom", bot, "top", gap=lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2, condition="sigma2")]
+    pairs = [Contact(top, "bottom", mid, "top", gap=lambda s: -2e-5 + 1e-2 * (s - 0.6) ** 2, condition=conditions[0]),
+             Contact(mid, "bottom", bot, "top", gap=lambda s: -3e-5 + 1e-2 * (s - 0.3) ** 2, condition=conditions[1])]
     return Scene(top, mid, bot, contacts=pairs)
 
 

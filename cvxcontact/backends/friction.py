@@ -1,5 +1,5 @@
-"""The route of a friction law (Tresca, :class:`~cvxcontact.contact.laws.Tresca`): the full program with the
-friction energy (docs/howto/friction.md).
+"""The route of a friction law (:class:`~cvxcontact.contact.laws.Tresca`, :class:`~cvxcontact.contact.laws.Coulomb`):
+the full program with the friction energy (docs/howto/friction.md).
 
     minimise   (the full program of :mod:`cvxcontact.backends.full`) + sum_a c_a |s_a|
     subject to s = E [u_t] + E [u_D t]           (the slip at the contact rows)
@@ -10,6 +10,15 @@ with c_a = g_a w_a the friction capacity of row a (threshold g_a times its lumpe
 tangential force of each row: with the momentum rows K u - f + J^T y + T^T mu = 0, ``mu`` lies in
 [-c_a, c_a] and mu_a = c_a sign(s_a) where the row slips; the force on the first body along t is -mu_a.
 
+Coulomb (thresholds g_a = mu p_a that depend on the pressure): a fixed point on the capacities. The start is the
+stuck contact (the slip of those rows held at 0: the limit mu -> infinity, posed wherever the friction will hold
+the body); then c^(k) = mu y^(k-1) (the normal row forces of the previous iterate; c_a = mu p_a w_a = mu y_a)
+and the same program, compiled once (a CVXPY parameter), is solved again, until
+max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``); at most ``max_iterations`` times, then
+the last iterate with a :class:`~cvxcontact.errors.FixedPointWarning`. Before each iterate the capacities are
+checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
+the sliding motion.
+
 No exact finish: the answer is the interior point's (Clarabel at the conic tolerances,
 :data:`~cvxcontact.backends.program.CLARABEL_CONIC`), checked (:mod:`cvxcontact.solution.friction`).
 """
@@ -17,10 +26,13 @@ No exact finish: the answer is the interior point's (Clarabel at the conic toler
 from __future__ import annotations
 
 import time
+import warnings
 
 import cvxpy as cp
 import numpy as np
 
+from ..errors import FixedPointWarning
+from ..fem.kernel import refuse_sliding
 from .finish import force_displacements, ipm_active, reach_forces
 from .full import ContactModel
 from .program import conic_options, timed_program
@@ -30,28 +42,76 @@ __all__ = ["full", "friction_program"]
 
 
 def friction_program(problem, model: ContactModel):
-    """(the CVXPY problem, the slip equality constraint, its rows) of ``problem``'s friction term added to
-    ``model`` (the full program of the normal rows): one slip variable per frictional row."""
+    """(the CVXPY problem, the slip equality constraint, its rows, the capacities parameter c (scaled), the
+    slip variable s) of ``problem``'s friction term added to ``model`` (the full program of the normal rows):
+    one slip variable per frictional row, the energy c^T |s|."""
     E, rows = problem.E, np.flatnonzero(problem.rows.frictional)
-    capacity = (problem.thresholds * problem.row_lengths)[rows]
     slip_rows = E[rows]
     slip = sum((slip_rows @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) \
         + slip_rows @ np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
     s = cp.Variable(len(rows), name="slip")
+    capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
     constraint = s == slip
     program = model.with_terms([constraint], objective=capacity @ cp.abs(s))
-    return program, constraint, rows
+    return program, constraint, rows, capacity, s
+
+
+def _moved_slip(problem, rows) -> np.ndarray:
+    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+    slip_rows = problem.E[rows]
+    reach = sum((abs(slip_rows @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(len(rows)))
+    return reach > 0
 
 
 def full(problem, cache, settings, timings) -> RawResult:
-    """The full program with the friction energy (module docstring); the normal rows' forces ``y`` and the
-    tangential row forces ``raw.tangential`` (scaled) from its duals, no exact finish."""
+    """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
+    rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
+    of the last iterate ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
+    finish."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
     model = ContactModel(blocks, E, g, translations=tr)
-    program, constraint, rows = friction_program(problem, model)
+    program, constraint, rows, capacity, s = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
-    iterations = timed_program(program, settings, timings, conic_options(settings.solver, settings.options))
+    options = conic_options(settings.solver, settings.options)
+    fixed_point, changes, iterations = problem.rows.fixed_point, [], 0
+    if fixed_point is None:                                       # Tresca: the thresholds are given
+        capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
+        iterations = timed_program(program, settings, timings, options)
+    else:
+        tol, most = fixed_point
+        dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
+        capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+        stuck = model.with_terms([constraint, s[np.flatnonzero(dependent)] == 0] if dependent.any()
+                                 else [constraint], objective=capacity @ cp.abs(s))
+        iterations = timed_program(stuck, settings, timings, options)
+        previous, converged = None, False
+        for _ in range(most + 1):
+            y = np.asarray(model.contact.dual_value, dtype=float).ravel()
+            c_all = problem.capacities(y)
+            c = c_all[rows]
+            if previous is not None:
+                changes.append(float(np.abs(c - previous).max(initial=0.0)
+                                     / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
+                                           np.finfo(float).tiny)))
+                if changes[-1] <= tol:
+                    converged = True
+                    break
+                if len(changes) == most:
+                    break
+            if problem.kernel is not None:
+                refuse_sliding(problem.kernel.with_capacity(c_all * problem.units.force),
+                               "the friction coefficient times the normal force of the fixed point's iterate "
+                               f"{len(changes) + 1}", "raise the friction coefficient")
+            capacity.value = c
+            iterations += timed_program(program, settings, timings, options)
+            previous = c
+        if not converged:
+            warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
+                          f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
+                          f"{tol:.3g}: the answer is the last iterate (its checks say how far from Coulomb's law): "
+                          f"raise Coulomb(max_iterations=...), or lower the coefficient (the fixed point contracts "
+                          f"for small mu only)", FixedPointWarning, stacklevel=2)
     u = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
     phi = [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi]
     y = np.asarray(model.contact.dual_value, dtype=float).ravel()
@@ -64,4 +124,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
     raw.tangential = mu
+    raw.capacity = np.zeros(E.shape[0])
+    raw.capacity[rows] = capacity.value
+    raw.fixed_point = tuple(changes) if fixed_point is not None else None
     return raw

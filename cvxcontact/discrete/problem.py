@@ -130,8 +130,17 @@ class DiscreteProblem:
 
     @property
     def thresholds(self) -> np.ndarray:
-        """The slip thresholds of the rows, scaled (g / (c0 s); 0 on frictionless rows)."""
+        """The slip thresholds of the rows at zero pressure, scaled (g / (c0 s); 0 on frictionless rows and on
+        rows whose threshold is the pressure's, :meth:`capacities`)."""
         return self.lines.rows.thresholds(0.0) / (self.units.stress * self.units.load)
+
+    def capacities(self, y: np.ndarray) -> np.ndarray:
+        """The friction capacity c_a = g_a(p_a) w_a of every row (scaled), the thresholds at the pressures
+        p_a = y_a / w_a of the normal row forces ``y`` (scaled; Coulomb: c_a = mu y_a)."""
+        w = self.row_lengths
+        stress = self.units.stress * self.units.load
+        pressure = np.divide(np.asarray(y, dtype=float), w, out=np.zeros(len(w)), where=w > 0) * stress
+        return self.lines.rows.thresholds(pressure) / stress * w
 
     @property
     def row_lengths(self) -> np.ndarray:
@@ -329,13 +338,16 @@ def _tangential(interface):
 
 def _capacity(scene, condition, lines):
     """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
-    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m); None without."""
+    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
+    threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
+    route checks its capacity at every iterate); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
     E = lines.E
     weights = _tangential(lines.interface).weights(condition, scene.conditions)
-    return (lambda k, n: E @ _slip(lines.interface, k, n)), rows.thresholds(0.0) * weights
+    capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
+    return (lambda k, n: E @ _slip(lines.interface, k, n)), capacity
 
 
 def held_rows(E, blocks, translations) -> np.ndarray:

@@ -92,7 +92,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import SceneError
 
-__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "check_determined", "ROW_TOL", "CANCELLATION",
+__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "refuse_sliding", "check_determined", "ROW_TOL", "CANCELLATION",
            "SLACK"]
 
 ROW_TOL = 1e-9
@@ -127,8 +127,16 @@ class Kernel:
     owners: tuple
     slip: np.ndarray | None = None
     """With a friction law: (r_t, m) how each kernel coordinate changes each row's slip [u_t] per unit motion
-    (dimensionless), and ``capacity`` (r_t,) N/m each row's friction capacity g_a w_a."""
+    (dimensionless), ``capacity`` (r_t,) N/m each row's friction capacity g_a w_a (``inf``: not known yet, a
+    Coulomb row before its pressure: the row resists any slip), ``slip_index`` (r_t,) their rows in E."""
     capacity: np.ndarray | None = None
+    slip_index: np.ndarray | None = None
+
+    def with_capacity(self, capacity: np.ndarray) -> Kernel:
+        """The kernel with the friction capacities ``capacity`` (N/m, one per row of E)."""
+        if self.slip_index is None:
+            return self
+        return replace(self, capacity=np.asarray(capacity, dtype=float)[self.slip_index])
 
     @property
     def size(self) -> int:
@@ -208,18 +216,23 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
         slip = np.hstack(slips)
         moved = np.abs(slip).max(axis=1) > ROW_TOL
         slip, c = slip[moved], np.asarray(capacity[1], dtype=float)[moved]
-    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners), slip, c)
+        return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners), slip, c,
+                      np.flatnonzero(moved))
+    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners))
 
 
 def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
     """With a friction law: a kernel motion alpha (|alpha|_inf = 1) that no contact row resists (A alpha <= 0)
     along which the load's work exceeds the friction dissipation sum_a c_a |(S alpha)_a| (the energy is then
     unbounded below: no equilibrium), with that work and dissipation (N/m per unit motion); None if there is
-    none. The linear program max w^T alpha - c^T s, A alpha <= 0, -s <= S alpha <= s, |alpha|_inf <= 1."""
+    none. The linear program max w^T alpha - c^T s, A alpha <= 0, -s <= S alpha <= s, |alpha|_inf <= 1 (a row
+    of infinite capacity: S_a alpha = 0)."""
     if kernel.slip is None or not kernel.size:
         return None
     A, w = _scaled(kernel)
     S, c = kernel.slip, kernel.capacity
+    tied = ~np.isfinite(c)
+    c = np.where(tied, 0.0, c)
     m, r = kernel.size, len(c)
     norm = float(np.linalg.norm(w))
     if norm == 0:
@@ -227,8 +240,11 @@ def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
     obj = np.concatenate([-w / norm, c / norm])
     blocks = [np.hstack([A, np.zeros((len(A), r))])] if len(A) else []
     blocks += [np.hstack([S, -np.eye(r)]), np.hstack([-S, -np.eye(r)])]
+    if tied.any():                                     # -0 <= S_a alpha <= 0 where the capacity is unbounded
+        blocks += [np.hstack([S[tied], np.zeros((int(tied.sum()), r))]),
+                   np.hstack([-S[tied], np.zeros((int(tied.sum()), r))])]
     A_ub = np.vstack(blocks)
-    b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(2 * r)])
+    b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(2 * r + 2 * int(tied.sum()))])
     res = linprog(obj, A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m + [(0, None)] * r, method="highs")
     if res.status != 0 or -res.fun <= _PULL:
         return None
@@ -349,14 +365,7 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
     if not any(b.held_by_contact for b in bodies) and not any(o.force is not None for o in obstacles):
         return None
     kernel = rigid_kernel(bodies, loads, evaluation, interface, obstacles, nodes, capacity)
-    slide = sliding(kernel)
-    if slide is not None:
-        d, work, dissipation = slide
-        moved = kernel.moved(d)
-        who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
-        raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} N/m, exceeds "
-                         f"the friction capacity {dissipation:.6g} N/m (threshold times contact length), so no "
-                         "equilibrium exists: add a support, reduce the tangential load or raise the threshold")
+    refuse_sliding(kernel)
     verdict = undetermined(kernel)
     if verdict is None:
         return kernel
@@ -370,6 +379,21 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
                          "support or load it towards the contact")
     raise SceneError(f"nothing determines the {_names(kernel, dirs)}: the load does no work along it and no contact "
                      f"resists it: {_hint(kernel, dirs)}")
+
+
+def refuse_sliding(kernel: Kernel | None, what: str = "threshold times contact length",
+                   remedy: str = "raise the threshold") -> None:
+    """Raise a :class:`~cvxcontact.errors.SceneError` naming the motion if the load slides a body beyond its
+    friction capacity (:func:`sliding`); ``what`` says what the capacity is and ``remedy`` what raises it."""
+    slide = None if kernel is None else sliding(kernel)
+    if slide is None:
+        return
+    d, work, dissipation = slide
+    moved = kernel.moved(d)
+    who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
+    raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} N/m, exceeds "
+                     f"the friction capacity {dissipation:.6g} N/m ({what}), so no "
+                     f"equilibrium exists: add a support, reduce the tangential load or {remedy}")
 
 
 def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:

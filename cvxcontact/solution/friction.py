@@ -1,7 +1,8 @@
-"""Read-back and checks of a friction law (Tresca; docs/howto/friction.md, docs/checks.md "Friction").
+"""Read-back and checks of a friction law (Tresca, Coulomb; docs/howto/friction.md, docs/checks.md "Friction").
 
 With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.friction`), s_a its slip
-E [u_t], c_a = g_a w_a its friction capacity, C = max(max c_a, max y_a) (the largest capacity or normal row
+E [u_t], c_a = g_a w_a its friction capacity at the answer's own pressures (Coulomb: c_a = mu y_a, so the
+checks are Coulomb's cone and complementarity, not the last Tresca iterate's), C = max(max c_a, max y_a) (the largest capacity or normal row
 force: tangential forces are measured against the contact forces, and a threshold far below the pressure, or
 zero, leaves the normal forces' scale) and U the largest nodal displacement of the bodies
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
@@ -66,15 +67,27 @@ def read_back_friction(problem, raw, sol) -> None:
     slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
     rows = problem.rows.frictional
-    capacity = problem.thresholds * problem.row_lengths
+    capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U,
                                   float(np.max(raw.y, initial=0.0))))
     offsets = problem.lines.offsets
+    stress = un.stress * un.load
+    w = problem.row_lengths
+    pressure = np.divide(raw.y, w, out=np.zeros(len(w)), where=w > 0) * stress
+    nodal = E.T @ problem.rows.thresholds(pressure)                 # rows -> nodes of X_h (P1: one each)
+
+    def threshold(law, a, b):
+        """The pair's threshold: Tresca's g (Pa), Coulomb's mu p at each node (Pa), None without friction."""
+        f = law.friction
+        if f is None:
+            return None
+        return nodal[a:b].copy() if f.pressure_dependent else f.threshold
+
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=problem.rows.laws[i].friction.threshold
-                            if problem.rows.laws[i].friction is not None else None)
+                            threshold=threshold(problem.rows.laws[i], a, b))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
-        for f in ("slip", "shear_force"):
-            getattr(c, f).setflags(write=False)
+        for f in ("slip", "shear_force", "threshold"):
+            if isinstance(getattr(c, f), np.ndarray):
+                getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]

@@ -72,8 +72,9 @@ class ContactResult:
     shear_force: np.ndarray | None = None
     """A friction law: the tangential nodal force on the first body along t (N/m; anti-parallel to ``slip``
     where it slips); :attr:`shear` divides it by the lumped lengths. None without friction."""
-    threshold: float | None = None
-    """A friction law: the pair's slip threshold g (Pa); None without friction."""
+    threshold: float | np.ndarray | None = None
+    """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa); None without
+    friction."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""

@@ -194,9 +194,9 @@ class Coulomb(ContactLaw):
         mu >= 0 (dimensionless): the friction coefficient. mu = 0 is frictionless.
     tolerance : float
         The fixed point stops when the thresholds change by at most ``tolerance`` relative to the largest
-        (> 0; default 1e-9: the stick-slip check is the square root of a product, so a change d of the
-        thresholds shows there as ~sqrt(d |s_a|/U); on the block of docs/howto/friction.md a change 1e-7
-        left it at 6e-6, 1e-10 at 2e-7; the interior point's own noise is below 1e-10 there).
+        (> 0; default 1e-12). The stick-slip check is the square root of a product, so a change d of the
+        thresholds shows there as ~sqrt(d |s_a| / U): on a sheared layer (tests/test_coulomb.py) a change of
+        5e-10 left it at 4.8e-6, 7e-13 at 6.1e-7, which is the interior point's own level (8.6e-15: 6.1e-7).
     max_iterations : int
         Iterations at most (>= 1); beyond them the answer is the last iterate, with a
         :class:`~cvxcontact.errors.FixedPointWarning` (its checks then say how far it is from Coulomb's law).
@@ -208,7 +208,7 @@ class Coulomb(ContactLaw):
     """
 
     coefficient: float
-    tolerance: float = 1e-9
+    tolerance: float = 1e-12
     max_iterations: int = 50
     name = "coulomb"
 

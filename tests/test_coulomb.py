@@ -192,6 +192,10 @@ def test_the_fixed_point_warns_at_its_iteration_limit_and_its_checks_say_how_far
     fixed = [w for w in caught if issubclass(w.category, cc.FixedPointWarning)]
     assert len(fixed) == 1 and "max_iterations" in str(fixed[0].message)
     assert not sol.ok and sol.residuals()["stick-slip"] > 1e-4        # one iterate from the stuck start: 1.3e-3
+    assert len(sol.info.fixed_point) == 1
+    converged = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4)))
+    changes = converged.info.fixed_point                                # contracting, then at the tolerance
+    assert converged.ok and 2 <= len(changes) < 50 and changes[-1] <= 1e-8
 
 
 def test_the_law_refuses_bad_parameters_and_scene_files_name_it():

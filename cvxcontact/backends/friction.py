@@ -6,7 +6,9 @@ the full program with the friction energy (docs/howto/friction.md).
                E [u_nu] + R t <= E g              (Signorini rows)
 
 with c_a = g_a w_a the friction capacity of row a (threshold g_a times its lumped length w_a, scaled). In 2D
-|s_a| is an absolute value (a second-order cone of one component). The multiplier of the slip rows is the
+|s_a| is an absolute value (a second-order cone of one component); in 3D s_a is the row's slip along the two
+tangents of the pair's frame and |s_a| its Euclidean norm (a second-order cone of two components), the rows'
+multipliers 2-vectors with |mu_a| <= c_a. The multiplier of the slip rows is the
 tangential force of each row: with the momentum rows K u - f + J^T y + T^T mu = 0, ``mu`` lies in
 [-c_a, c_a] and mu_a = c_a sign(s_a) where the row slips; the force on the first body along t is -mu_a.
 
@@ -49,24 +51,32 @@ tests/test_coulomb.py the change wanders at ~1e-11 there; a true contraction of 
 
 def friction_program(problem, model: ContactModel):
     """(the CVXPY problem, the slip equality constraint, its rows, the capacities parameter c (scaled), the
-    slip variable s) of ``problem``'s friction term added to ``model`` (the full program of the normal rows):
-    one slip variable per frictional row, the energy c^T |s|."""
-    E, rows = problem.E, np.flatnonzero(problem.rows.frictional)
-    slip_rows = E[rows]
-    slip = sum((slip_rows @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) \
-        + slip_rows @ np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
-    s = cp.Variable(len(rows), name="slip")
+    slip variable s, the friction energy) of ``problem``'s friction term added to ``model`` (the full program of the normal rows):
+    one slip variable per frictional row and slip component (s: (rows, c), c = 1 in 2D, 2 in 3D), the energy
+    sum_a c_a |s_a| (2D: an absolute value; 3D: the Euclidean norm of the row's two components, a
+    second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major)."""
+    rows = np.flatnonzero(problem.rows.frictional)
+    n_c = problem.slip_components
+    Es = problem.slip_rows[np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])]
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + Es @ shift
     capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
-    constraint = s == slip
-    program = model.with_terms([constraint], objective=capacity @ cp.abs(s))
-    return program, constraint, rows, capacity, s
+    if n_c == 1:
+        s = cp.Variable(len(rows), name="slip")
+        constraint, energy = s == slip, capacity @ cp.abs(s)
+    else:
+        s = cp.Variable((len(rows), n_c), name="slip")
+        constraint, energy = cp.vec(s, order="F") == slip, capacity @ cp.norm(s, 2, axis=1)
+    program = model.with_terms([constraint], objective=energy)
+    return program, constraint, rows, capacity, s, energy
 
 
 def _moved_slip(problem, rows) -> np.ndarray:
     """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
-    slip_rows = problem.E[rows]
-    reach = sum((abs(slip_rows @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(len(rows)))
-    return reach > 0
+    n_c, R = problem.slip_components, problem.E.shape[0]
+    Es = problem.slip_rows
+    reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
+    return reach.reshape(n_c, R).max(axis=0)[rows] > 0
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -77,7 +87,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
     model = ContactModel(blocks, E, g, translations=tr)
-    program, constraint, rows, capacity, s = friction_program(problem, model)
+    program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
     options = conic_options(settings.solver, settings.options)
     fixed_point, changes, iterations = problem.rows.fixed_point, [], 0
@@ -89,7 +99,7 @@ def full(problem, cache, settings, timings) -> RawResult:
         dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
         capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
         stuck = model.with_terms([constraint, s[np.flatnonzero(dependent)] == 0] if dependent.any()
-                                 else [constraint], objective=capacity @ cp.abs(s))
+                                 else [constraint], objective=friction)
         iterations = timed_program(stuck, settings, timings, options)
         previous, converged = None, False
         for _ in range(most + 1):
@@ -122,8 +132,10 @@ def full(problem, cache, settings, timings) -> RawResult:
     u = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
     phi = [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi]
     y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-    mu = np.zeros(E.shape[0])
-    mu[rows] = -np.asarray(constraint.dual_value, dtype=float).ravel()     # CVXPY: L = ... + nu^T (s - slip)
+    n_c = problem.slip_components                  # mu: (c R,) component-major, like the slip rows
+    mu = np.zeros((n_c, E.shape[0]))
+    mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))  # L = ... + nu^T (s - slip)
+    mu = mu.ravel()
     raw = RawResult(u=u, phi=phi, y=y, program=program, taus=[np.asarray(t.value, dtype=float).ravel()
                                                                  for t in model.t],
                     method="full", iterations=iterations, route=Route.INTERIOR_POINT_FRICTION)

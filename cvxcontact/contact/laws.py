@@ -259,17 +259,12 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
 
     Every pair takes its own ``Contact.law`` or, if None, ``law`` (:func:`pair_laws`); any mix of
     Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved. A friction
-    law (:class:`Tresca`) is posed in 2D (3D: its cones are norms of two tangential components, not yet
-    posed) next to Signorini pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
+    law (:class:`Tresca`, :class:`Coulomb`; 2D, and 3D with planar contact parts) is posed next to Signorini
+    pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
     laws = pair_laws(scene, law)
-    if any(lw.friction is not None for lw in laws):
-        if getattr(scene, "dim", 2) != 2:
-            raise UnsupportedError("Tresca friction in 3D (a second-order cone on the two tangential components "
-                                   "of the slip at every contact point) is not available yet: solve the 2D "
-                                   "scene, or use a frictionless law in 3D")
-        if any(lw.compliant for lw in laws):
-            raise UnsupportedError("Tresca friction next to a normal-compliance pair is not available yet: use "
-                                   "Signorini (or Tresca) on every pair")
+    if any(lw.friction is not None for lw in laws) and any(lw.compliant for lw in laws):
+        raise UnsupportedError("friction (Tresca, Coulomb) next to a normal-compliance pair is not available yet: "
+                               "use Signorini, Tresca or Coulomb on every pair")
     return law
 
 

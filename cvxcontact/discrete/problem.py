@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
@@ -141,6 +142,16 @@ class DiscreteProblem:
         stress = self.units.stress * self.units.load
         pressure = np.divide(np.asarray(y, dtype=float), w, out=np.zeros(len(w)), where=w > 0) * stress
         return self.lines.rows.thresholds(pressure) / stress * w
+
+    @property
+    def slip_components(self) -> int:
+        """Components of the slip per row: 1 in 2D (along t), 2 in 3D (along the pair's frame)."""
+        return getattr(self.lines.interface, "slip_components", 1)
+
+    @property
+    def slip_rows(self) -> sp.csr_matrix:
+        """kron(I_c, E): the rows of every slip component (component-major, :func:`slip_rows`)."""
+        return slip_rows(self.E, self.lines.interface)
 
     @property
     def row_lengths(self) -> np.ndarray:
@@ -310,7 +321,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     slip_shift = 0.0
     if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
         slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
-                         np.zeros(lines.interface.size)) / un.displacement
+                         np.zeros(slips[0].shape[0])) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=contact_term(lines, space.dim),
@@ -328,8 +339,8 @@ def _slip(interface, k, n_nodes):
 
 
 def _tangential(interface):
-    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the 2D P1 lines
-    do so far)."""
+    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the P1 lines
+    and planar 3D surfaces do so far)."""
     if not hasattr(interface, "tangential_jump"):
         raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (P2 elements) is not "
                                "available yet: use degree=1")
@@ -347,7 +358,14 @@ def _capacity(scene, condition, lines):
     E = lines.E
     weights = _tangential(lines.interface).weights(condition, scene.conditions)
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
-    return (lambda k, n: E @ _slip(lines.interface, k, n)), capacity
+    Ec = slip_rows(E, lines.interface)
+    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity
+
+
+def slip_rows(E, interface) -> sp.csr_matrix:
+    """The evaluation rows of every slip component: kron(I_c, E) (c = the interface's ``slip_components``, 1 in
+    2D, 2 in 3D; component-major like :meth:`~cvxcontact.contact.interface.Stack.tangential_jump`)."""
+    return sp.kron(sp.identity(getattr(interface, "slip_components", 1), format="csr"), E, format="csr")
 
 
 def held_rows(E, blocks, translations) -> np.ndarray:

@@ -25,15 +25,22 @@ __all__ = ["friction_checks", "read_back_friction"]
 
 def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
     """The friction cone, stick-slip and slip-direction checks (module docstring) of row forces ``mu``, slips
-    ``slip`` and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row
-    force (scaled)."""
+    ``slip`` ((r,) in 2D, (r, 2) in 3D: |.| the Euclidean norm of a row, the slip direction
+    (|mu_a| |s_a| - mu_a . s_a) / 2, which is (-mu_a s_a)^+ in 2D and vanishes only where mu_a is parallel to s_a)
+    and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row force
+    (scaled)."""
     tiny = np.finfo(float).tiny
     C = max(float(np.max(capacity, initial=0.0)), float(Y), tiny)
     CU = max(C * U, tiny)
-    a = np.abs(mu)
+    mu, slip = np.asarray(mu, dtype=float), np.asarray(slip, dtype=float)
+    if mu.ndim == 1:
+        a, s, turned = np.abs(mu), np.abs(slip), np.maximum(-mu * slip, 0.0)
+    else:
+        a, s = np.linalg.norm(mu, axis=1), np.linalg.norm(slip, axis=1)
+        turned = np.maximum(a * s - np.einsum("ij,ij->i", mu, slip), 0.0) / 2
     return {"friction cone": float((np.maximum(a - capacity, 0.0) / C).max(initial=0.0)),
-            "stick-slip": float(np.sqrt((np.abs(capacity - a) * np.abs(slip) / CU).max(initial=0.0))),
-            "slip direction": float(np.sqrt((np.maximum(-mu * slip, 0.0) / CU).max(initial=0.0)))}
+            "stick-slip": float(np.sqrt((np.abs(capacity - a) * s / CU).max(initial=0.0))),
+            "slip direction": float(np.sqrt((turned / CU).max(initial=0.0)))}
 
 
 def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
@@ -48,13 +55,15 @@ def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
 
 def read_back_friction(problem, raw, sol) -> None:
     """Complete ``sol`` (read back as nodal Signorini rows) with the friction law: every pair's ``slip`` (m),
-    ``shear_force`` (N/m, on the first body along the pair's tangent) and the checks of the module docstring,
+    ``shear_force`` (N/m, on the first body along the pair's tangent; 3D: (n, 2) along the pair's frame
+    (t_1, t_2)) and the checks of the module docstring,
     the equilibrium check recomputed with the tangential forces."""
     from dataclasses import replace
 
     E, blocks, un, u, phi = problem.E, problem.blocks, problem.units, raw.u, raw.phi
-    mu = np.asarray(raw.tangential, dtype=float)
-    Ety, Tmu = E.T @ raw.y, E.T @ mu
+    Es, n_c = problem.slip_rows, problem.slip_components
+    mu = np.asarray(raw.tangential, dtype=float)                          # (c R,) component-major
+    Ety, Tmu = E.T @ raw.y, Es.T @ mu
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
@@ -63,12 +72,13 @@ def read_back_friction(problem, raw, sol) -> None:
         if len(modes):
             equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
     checks["equilibrium"] = equilibrium
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
-    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
     rows = problem.rows.frictional
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
-    checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U,
+    by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
+    checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
                                   float(np.max(raw.y, initial=0.0))))
     offsets = problem.lines.offsets
     stress = un.stress * un.load
@@ -83,6 +93,7 @@ def read_back_friction(problem, raw, sol) -> None:
             return None
         return nodal[a:b].copy() if f.pressure_dependent else f.threshold
 
+    slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
                             threshold=threshold(problem.rows.laws[i], a, b))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]

@@ -68,10 +68,11 @@ class ContactResult:
     form (the quadrature weights of the condition's rows), 0 elsewhere; :attr:`pressure` divides by it."""
     slip: np.ndarray | None = None
     """A friction law (:class:`~cvxcontact.contact.laws.Tresca`): the slip [u_t] = (u^a - u^b) . t (m) at the
-    merged nodes, t the pair's tangent; None without friction."""
+    merged nodes, t the pair's tangent (3D: (n, 2), along the pair's frame t_1, t_2); None without friction."""
     shear_force: np.ndarray | None = None
-    """A friction law: the tangential nodal force on the first body along t (N/m; anti-parallel to ``slip``
-    where it slips); :attr:`shear` divides it by the lumped lengths. None without friction."""
+    """A friction law: the tangential nodal force on the first body along t (N/m, 3D N, (n, 2) like ``slip``;
+    anti-parallel to ``slip`` where it slips); :attr:`shear` divides it by the lumped lengths (areas). None
+    without friction."""
     threshold: float | np.ndarray | None = None
     """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa); None without
     friction."""
@@ -113,9 +114,9 @@ class ContactResult:
         lengths of the constrained nodes (as :attr:`pressure`); |sigma_t| <= g. None without friction."""
         if self.shear_force is None:
             return None
-        out = np.zeros(len(self.x))
+        out = np.zeros(np.shape(self.shear_force))
         on = np.asarray(self.constrained, dtype=bool) & (self.measure > 0)
-        out[on] = self.shear_force[on] / self.measure[on]
+        out[on] = self.shear_force[on] / self.measure[on].reshape((-1,) + (1,) * (out.ndim - 1))
         return out
 
     @property

@@ -39,7 +39,7 @@ class ResidualWarning(UserWarning):
 
 class FixedPointWarning(UserWarning):
     """A fixed point (Coulomb friction's, on the slip thresholds) stopped at its iteration limit before its
-    tolerance: the answer is the last iterate, and its checks say how far it is from the law. The message says
+    tolerance: the answer is its iterate of smallest change, and its checks say how far it is from the law. The message says
     the change reached and what to do (more iterations, a smaller coefficient, a finer load step)."""
 
 

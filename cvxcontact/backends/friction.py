@@ -18,7 +18,9 @@ the body); then c^(k) = mu y^(k-1) (the normal row forces of the previous iterat
 and the same program, compiled once (a CVXPY parameter), is solved again, until
 max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or the change stops decreasing (by 10 %) below
 :data:`RESOLUTION` (the interior point's resolution); at most ``max_iterations`` times, then
-the last iterate with a :class:`~cvxcontact.errors.FixedPointWarning`. Before each iterate the capacities are
+the iterate of smallest change (the one closest to its own law: its capacities and those of its pressures differ
+least) with a :class:`~cvxcontact.errors.FixedPointWarning`; a converged fixed point also answers with its
+iterate of smallest change (at the interior point's resolution the change wanders). Before each iterate the capacities are
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
@@ -82,7 +84,7 @@ def _moved_slip(problem, rows) -> np.ndarray:
 def full(problem, cache, settings, timings) -> RawResult:
     """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
-    of the last iterate ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
+    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
     finish."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
@@ -90,10 +92,23 @@ def full(problem, cache, settings, timings) -> RawResult:
     program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
     options = conic_options(settings.solver, settings.options)
+    n_c = problem.slip_components
+
+    def answer():
+        """The arrays of the program's current solution: u, phi, y, mu ((c R,) component-major, like the slip
+        rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
+        mu = np.zeros((n_c, E.shape[0]))
+        mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))
+        return ([np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u],
+                [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi],
+                np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
+                [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
+
     fixed_point, changes, iterations = problem.rows.fixed_point, [], 0
     if fixed_point is None:                                       # Tresca: the thresholds are given
         capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
         iterations = timed_program(program, settings, timings, options)
+        best = answer()
     else:
         tol, most = fixed_point
         dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
@@ -101,7 +116,7 @@ def full(problem, cache, settings, timings) -> RawResult:
         stuck = model.with_terms([constraint, s[np.flatnonzero(dependent)] == 0] if dependent.any()
                                  else [constraint], objective=friction)
         iterations = timed_program(stuck, settings, timings, options)
-        previous, converged = None, False
+        previous, converged, best = None, False, None
         for _ in range(most + 1):
             y = np.asarray(model.contact.dual_value, dtype=float).ravel()
             c_all = problem.capacities(y)
@@ -110,6 +125,8 @@ def full(problem, cache, settings, timings) -> RawResult:
                 changes.append(float(np.abs(c - previous).max(initial=0.0)
                                      / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
                                            np.finfo(float).tiny)))
+                if best is None or changes[-1] <= min(changes[:-1]):   # the iterate closest to its own law
+                    best = answer()
                 if changes[-1] <= tol or (changes[-1] <= RESOLUTION and len(changes) > 1
                                           and changes[-1] > 0.9 * changes[-2]):
                     converged = True                 # below the tolerance, or at the interior point's resolution
@@ -126,24 +143,17 @@ def full(problem, cache, settings, timings) -> RawResult:
         if not converged:
             warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
                           f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
-                          f"{tol:.3g}: the answer is the last iterate (its checks say how far from Coulomb's law): "
-                          f"raise Coulomb(max_iterations=...), or lower the coefficient (the fixed point contracts "
-                          f"for small mu only)", FixedPointWarning, stacklevel=2)
-    u = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
-    phi = [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi]
-    y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-    n_c = problem.slip_components                  # mu: (c R,) component-major, like the slip rows
-    mu = np.zeros((n_c, E.shape[0]))
-    mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))  # L = ... + nu^T (s - slip)
-    mu = mu.ravel()
-    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=[np.asarray(t.value, dtype=float).ravel()
-                                                                 for t in model.t],
-                    method="full", iterations=iterations, route=Route.INTERIOR_POINT_FRICTION)
+                          f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
+                          f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
+                          f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=2)
+    u, phi, y, mu, taus, posed = best
+    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
+                    route=Route.INTERIOR_POINT_FRICTION)
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
     raw.tangential = mu
     raw.capacity = np.zeros(E.shape[0])
-    raw.capacity[rows] = capacity.value
+    raw.capacity[rows] = posed
     raw.fixed_point = tuple(changes) if fixed_point is not None else None
     return raw

@@ -198,7 +198,7 @@ class Coulomb(ContactLaw):
         thresholds shows there as ~sqrt(d |s_a| / U): on a sheared layer (tests/test_coulomb.py) a change of
         5e-10 left it at 4.8e-6, 7e-13 at 6.1e-7, which is the interior point's own level (8.6e-15: 6.1e-7).
     max_iterations : int
-        Iterations at most (>= 1); beyond them the answer is the last iterate, with a
+        Iterations at most (>= 1); beyond them the answer is the iterate of smallest change, with a
         :class:`~cvxcontact.errors.FixedPointWarning` (its checks then say how far it is from Coulomb's law).
 
     Raises

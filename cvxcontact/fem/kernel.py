@@ -266,6 +266,21 @@ def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
         return None
     alpha = res.x[:m]
     alpha = alpha / np.abs(alpha).max()
+
+    def margin(a):                      # the load's work beyond the exact dissipation, per unit |a|_inf
+        return float(kernel.work @ a - c @ np.linalg.norm(S @ a, axis=0)) / float(np.abs(a).max())
+
+    if n_c > 1:                         # the polygon may tilt the motion: drop coordinates that only cost
+        alpha[np.abs(alpha) < 1e-6] = 0.0
+        for i in np.argsort(np.abs(alpha)):
+            trial = alpha.copy()
+            trial[i] = 0.0
+            if alpha[i] == 0.0 or not trial.any():
+                continue
+            trial /= np.abs(trial).max()
+            held = (len(A) and (A @ trial > SLACK).any()) or (tied.any() and np.abs(S[:, tied] @ trial).max() > ROW_TOL)
+            if not held and margin(trial) >= margin(alpha):
+                alpha = trial
     return alpha, float(kernel.work @ alpha), float(c @ np.linalg.norm(S @ alpha, axis=0))
 
 
@@ -398,18 +413,20 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
                      f"resists it: {_hint(kernel, dirs)}")
 
 
-def refuse_sliding(kernel: Kernel | None, what: str = "threshold times contact length",
-                   remedy: str = "raise the threshold") -> None:
+def refuse_sliding(kernel: Kernel | None, what: str | None = None, remedy: str = "raise the threshold") -> None:
     """Raise a :class:`~cvxcontact.errors.SceneError` naming the motion if the load slides a body beyond its
-    friction capacity (:func:`sliding`); ``what`` says what the capacity is and ``remedy`` what raises it."""
+    friction capacity (:func:`sliding`); ``what`` says what the capacity is (default: the threshold times the
+    contact length, 2D, or area, 3D) and ``remedy`` what raises it."""
     slide = None if kernel is None else sliding(kernel)
     if slide is None:
         return
     d, work, dissipation = slide
     moved = kernel.moved(d)
     who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
-    raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} N/m, exceeds "
-                     f"the friction capacity {dissipation:.6g} N/m ({what}), so no "
+    unit = "N" if kernel.components > 1 else "N/m"                     # 3D: two slip components per row
+    what = what or f"threshold times contact {'area' if kernel.components > 1 else 'length'}"
+    raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} {unit}, exceeds "
+                     f"the friction capacity {dissipation:.6g} {unit} ({what}), so no "
                      f"equilibrium exists: add a support, reduce the tangential load or {remedy}")
 
 

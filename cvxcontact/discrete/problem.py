@@ -156,7 +156,7 @@ class DiscreteProblem:
     @property
     def row_lengths(self) -> np.ndarray:
         """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
-        return self.interface.weights(self.condition, self.scene.conditions) / self.units.length
+        return row_weights(self.interface, self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -342,7 +342,7 @@ def _tangential(interface):
     """``interface``, or UnsupportedError where the contact line poses no tangential part (only the P1 lines
     and planar 3D surfaces do so far)."""
     if not hasattr(interface, "tangential_jump"):
-        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (P2 elements) is not "
+        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (3D P2 elements) is not "
                                "available yet: use degree=1")
     return interface
 
@@ -355,11 +355,24 @@ def _capacity(scene, condition, lines):
     rows = lines.rows
     if not rows.friction:
         return None
+    if lines.conic or lines.mixed:
+        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition) is not "
+                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes; "
+                               "against a rigid obstacle every P2 node)")
     E = lines.E
-    weights = _tangential(lines.interface).weights(condition, scene.conditions)
+    weights = row_weights(_tangential(lines.interface), condition, scene.conditions)
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity
+
+
+def row_weights(interface, condition, conditions) -> np.ndarray:
+    """The lumped lengths (areas) of the rows (m; docs/formulation.md §10) of a stack of pairs under their own
+    ``conditions`` (None: ``condition``), or of one P2 pair (:class:`~cvxcontact.contact.quadratic.QuadraticInterface`,
+    which poses its own condition: Simpson's weights, all positive)."""
+    if hasattr(interface, "interfaces"):
+        return interface.weights(condition, conditions)
+    return interface.weights(conditions[0] or condition if conditions else condition)
 
 
 def slip_rows(E, interface) -> sp.csr_matrix:

@@ -68,7 +68,7 @@ def read_back_friction(problem, raw, sol) -> None:
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
     for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
-        modes = body.held_modes(None)
+        modes = body.held_modes(None if problem.nodes is None else problem.nodes[k])
         if len(modes):
             equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
     checks["equilibrium"] = equilibrium
@@ -81,21 +81,18 @@ def read_back_friction(problem, raw, sol) -> None:
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
                                   float(np.max(raw.y, initial=0.0))))
     offsets = problem.lines.offsets
-    stress = un.stress * un.load
-    w = problem.row_lengths
-    pressure = np.divide(raw.y, w, out=np.zeros(len(w)), where=w > 0) * stress
-    nodal = E.T @ problem.rows.thresholds(pressure)                 # rows -> nodes of X_h (P1: one each)
 
-    def threshold(law, a, b):
-        """The pair's threshold: Tresca's g (Pa), Coulomb's mu p at each node (Pa), None without friction."""
+    def threshold(law, contact):
+        """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of
+        X_h from the pair's own read-back pressure (Pa); None without friction."""
         f = law.friction
         if f is None:
             return None
-        return nodal[a:b].copy() if f.pressure_dependent else f.threshold
+        return f.thresholds(contact.pressure) if f.pressure_dependent else f.threshold
 
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=threshold(problem.rows.laws[i], a, b))
+                            threshold=threshold(problem.rows.laws[i], c))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
         for f in ("slip", "shear_force", "threshold"):

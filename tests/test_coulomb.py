@@ -213,3 +213,35 @@ def test_the_law_refuses_bad_parameters_and_scene_files_name_it():
         _law({"coulomb": {"mu": 0.3}}, "scene.toml")
     with pytest.raises(SceneFileError, match="law.coulomb: Coulomb: coefficient"):
         _law({"coulomb": {"coefficient": -1.0}}, "scene.toml")
+
+
+SCENE = """
+[[body]]
+name = "block"
+material = { E = 200e9, nu = 0.3 }
+mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.5], nx = 8, ny = 4 } }
+contact = "bottom"
+traction = { top = [3.5e6, -1e7] }
+
+[[obstacle]]
+name = "floor"
+plane = { point = [0.0, 0.0], normal = [0.0, 1.0] }
+
+[[contact]]
+a = "block"
+part_a = "bottom"
+b = "floor"
+law = { coulomb = { coefficient = 0.4 } }
+"""
+
+
+def test_a_scene_file_poses_coulomb_on_its_pair(tmp_path):
+    from cvxcontact.io.scenefile import load_scene
+
+    path = tmp_path / "block.toml"
+    path.write_text(SCENE, encoding="utf-8")
+    sol = load_scene(path).solve()
+    assert sol.ok and sol.scene.contacts[0].law == cc.Coulomb(0.4)
+    assert sol.contact.shear_force.sum() == pytest.approx(-3.5e6, rel=1e-9)          # the file's shear load
+    direct = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4)))                              # the same scene in code
+    assert np.abs(sol.u[0] - direct.u[0]).max() < 1e-12 * np.abs(direct.u[0]).max()

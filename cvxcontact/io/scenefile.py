@@ -9,6 +9,8 @@ names the file, the key and what was expected. Format (all SI units)::
     law = "signorini"                         # default; or normal compliance (7), docs/formulation.md §10:
                                               # { normal_compliance = { stiffness = 1e12, exponent = 1,
                                               #                         penetration_limit = 1e-5 } }  (Pa/m^m, -, m)
+                                              # or friction (docs/howto/friction.md): { tresca = {
+                                              # threshold = 1e6 } } (Pa), { coulomb = { coefficient = 0.3 } }
     gap = 0.0                                 # initial normal gap g(x) on Gamma_3, m (number or expression)
 
     [solver]                                  # optional

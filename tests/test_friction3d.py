@@ -10,11 +10,16 @@ A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10
   gives the rotated answer;
 - a load beyond the capacity along the diagonal (each component below it, the norm above) is refused naming the
   diagonal translation;
-- a pair on a much stiffer box matches the rigid plane.
+- a pair on a much stiffer box matches the rigid plane;
+- a layer (its top moved by (s cos t, s sin t, -d)) in partial slip against an independent reference written
+  here: the same nodal Tresca law as its dual, min 1/2 R^T W R + q^T R over R_n >= 0, |R_t| <= g w_a (W the
+  condensed contact compliance, w_a the nodes' lumped areas computed here from the faces), solved by an
+  accelerated projected gradient (FISTA with restart).
 """
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import cvxcontact as cc
 
@@ -136,3 +141,70 @@ def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
     tresca = cc.Tresca(0.3 * P)           # the departure is the partner's compliance: linear in it
     assert departures[tresca, 1e3] / departures[tresca, 1e4] == pytest.approx(10.0, rel=1e-2)   # measured 10.000
     assert departures[cc.Coulomb(0.4), 1e3] < 1e-2                   # measured 2.4e-3 (Tresca's: 2.2e-3)
+
+
+def projected_gradient_tresca(W, q, capacity, iterations=20000):
+    """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
+    n = len(q) // 3
+
+    def project(V):
+        V = V.reshape(n, 3).copy()
+        norm = np.linalg.norm(V[:, :2], axis=1)
+        V[:, :2] *= np.minimum(1.0, capacity / np.maximum(norm, np.finfo(float).tiny))[:, None]
+        V[:, 2] = np.maximum(V[:, 2], 0.0)
+        return V.ravel()
+
+    def energy(X):
+        return 0.5 * X @ W @ X + q @ X
+
+    step = 1.0 / np.linalg.eigvalsh(W).max()
+    R = Y = np.zeros(3 * n)
+    t, restarted = 1.0, False
+    for _ in range(iterations):
+        new = project(Y - step * (W @ Y + q))
+        if np.abs(new - R).max() <= 1e-15 * np.abs(new).max():
+            return new
+        if energy(new) > energy(R):                        # restart the momentum; twice in a row: at rounding
+            if restarted:
+                return R
+            Y, t, restarted = R, 1.0, True
+            continue
+        restarted = False
+        t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
+        Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
+    return R
+
+
+@pytest.mark.numerics
+def test_a_sheared_layer_in_partial_slip_matches_a_projected_gradient_reference():
+    from cvxcontact.fem.space import P1Tet
+
+    s, d, g = 4e-6, 1e-5, 0.25 * P
+    body = cc.Body(BOX, steel(), contact="bottom", displacement={"top": (s * DIAGONAL[0], s * DIAGONAL[1], -d)})
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=cc.Tresca(g))]))
+    assert sol.ok
+    system = P1Tet().assemble_loads(body, P1Tet().assemble_matrices(body))     # SI, the prescribed top lifted
+    Tu, u_fixed = system.Tu, system.u_fixed
+    Kzz = (Tu.T @ system.Kuu @ Tu).toarray()
+    fz = Tu.T @ system.f
+    points, faces = BOX.points, np.asarray(BOX.boundary("bottom"))
+    bottom = np.unique(faces)
+    areas = 0.5 * np.linalg.norm(np.cross(points[faces[:, 1]] - points[faces[:, 0]],
+                                          points[faces[:, 2]] - points[faces[:, 0]]), axis=1)
+    lumped = np.zeros(len(points))
+    np.add.at(lumped, faces.ravel(), np.repeat(areas / 3, 3))
+    dofs = np.ravel(np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]))
+    Pc = sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(Kzz, PT.T)                                        # m per N
+    q = PT @ np.linalg.solve(Kzz, fz) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, g * lumped[bottom])
+    ref = (Tu @ np.linalg.solve(Kzz, fz + PT.T @ R) + u_fixed).reshape(-1, 3)
+    slip = np.linalg.norm(ref[bottom, :2], axis=1)
+    assert 2 <= (slip > 1e-3 * slip.max()).sum() <= len(bottom) - 2             # partial slip: 4 of 16 nodes
+    assert np.abs(sol.u[0] - ref).max() < 1e-5 * np.abs(ref).max()             # measured 5.9e-8
+    c = sol.contact
+    at = [int(np.argmin(np.linalg.norm(c.points - points[b], axis=1))) for b in bottom]
+    R = R.reshape(-1, 3)
+    assert np.abs(c.shear_force[at] - R[:, :2]).max() < 2e-5 * np.abs(R).max()  # measured 1.5e-7
+    assert np.abs(c.force[at] - R[:, 2]).max() < 2e-5 * np.abs(R).max()        # measured 1.6e-7

@@ -104,48 +104,14 @@ def full(problem, cache, settings, timings) -> RawResult:
                 np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
                 [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
 
-    fixed_point, changes, iterations = problem.rows.fixed_point, [], 0
+    fixed_point = problem.rows.fixed_point
     if fixed_point is None:                                       # Tresca: the thresholds are given
         capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
-        iterations = timed_program(program, settings, timings, options)
-        best = answer()
+        iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
     else:
-        tol, most = fixed_point
-        dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
-        capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
-        stuck = model.with_terms([constraint, s[np.flatnonzero(dependent)] == 0] if dependent.any()
-                                 else [constraint], objective=friction)
-        iterations = timed_program(stuck, settings, timings, options)
-        previous, converged, best = None, False, None
-        for _ in range(most + 1):
-            y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-            c_all = problem.capacities(y)
-            c = c_all[rows]
-            if previous is not None:
-                changes.append(float(np.abs(c - previous).max(initial=0.0)
-                                     / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
-                                           np.finfo(float).tiny)))
-                if best is None or changes[-1] <= min(changes[:-1]):   # the iterate closest to its own law
-                    best = answer()
-                if changes[-1] <= tol or (changes[-1] <= RESOLUTION and len(changes) > 1
-                                          and changes[-1] > 0.9 * changes[-2]):
-                    converged = True                 # below the tolerance, or at the interior point's resolution
-                    break
-                if len(changes) == most:
-                    break
-            if problem.kernel is not None:
-                refuse_sliding(problem.kernel.with_capacity(c_all * problem.units.force),
-                               "the friction coefficient times the normal force of the fixed point's iterate "
-                               f"{len(changes) + 1}", "raise the friction coefficient")
-            capacity.value = c
-            iterations += timed_program(program, settings, timings, options)
-            previous = c
-        if not converged:
-            warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
-                          f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
-                          f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
-                          f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
-                          f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=2)
+        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
+        iterations, best, changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point,
+                                                 lambda p: timed_program(p, settings, timings, options))
     u, phi, y, mu, taus, posed = best
     raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
                     route=Route.INTERIOR_POINT_FRICTION)
@@ -155,5 +121,53 @@ def full(problem, cache, settings, timings) -> RawResult:
     raw.tangential = mu
     raw.capacity = np.zeros(E.shape[0])
     raw.capacity[rows] = posed
-    raw.fixed_point = tuple(changes) if fixed_point is not None else None
+    raw.fixed_point = changes
     return raw
+
+
+def _stuck(problem, model, constraint, rows, capacity, s, friction):
+    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that some
+    unknown moves held at 0, the other rows at their given thresholds (``capacity`` set here)."""
+    E = problem.E
+    dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
+    capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+    held = [s[np.flatnonzero(dependent)] == 0] if dependent.any() else []
+    return model.with_terms([constraint, *held], objective=friction)
+
+
+def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve):
+    """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
+    ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
+    iterations); (iterations, ``answer()`` of the iterate of smallest change, the relative changes)."""
+    tol, most = fixed_point
+    iterations = solve(stuck)
+    previous, changes, best, converged = None, [], None, False
+    for _ in range(most + 1):
+        c_all = problem.capacities(np.asarray(model.contact.dual_value, dtype=float).ravel())
+        c = c_all[rows]
+        if previous is not None:
+            changes.append(float(np.abs(c - previous).max(initial=0.0)
+                                 / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
+                                       np.finfo(float).tiny)))
+            if best is None or changes[-1] <= min(changes[:-1]):   # the iterate closest to its own law
+                best = answer()
+            if changes[-1] <= tol or (changes[-1] <= RESOLUTION and len(changes) > 1
+                                      and changes[-1] > 0.9 * changes[-2]):
+                converged = True                 # below the tolerance, or at the interior point's resolution
+                break
+            if len(changes) == most:
+                break
+        if problem.kernel is not None:
+            refuse_sliding(problem.kernel.with_capacity(c_all * problem.units.force),
+                           "the friction coefficient times the normal force of the fixed point's iterate "
+                           f"{len(changes) + 1}", "raise the friction coefficient")
+        capacity.value = c
+        iterations += solve(program)
+        previous = c
+    if not converged:
+        warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
+                      f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
+                      f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
+                      f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
+                      f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=4)
+    return iterations, best, tuple(changes)

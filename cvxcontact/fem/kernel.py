@@ -255,10 +255,9 @@ def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
         angles = 2 * np.pi * np.arange(SLIP_POLYGON) / SLIP_POLYGON
         cos = np.cos(np.pi / SLIP_POLYGON)
         blocks += [np.hstack([np.cos(a) * S[0] + np.sin(a) * S[1], -cos * np.eye(r)]) for a in angles]
-    for j in range(n_c):                               # S_a alpha = 0 where the capacity is unbounded
-        if tied.any():
-            blocks += [np.hstack([S[j][tied], np.zeros((int(tied.sum()), r))]),
-                       np.hstack([-S[j][tied], np.zeros((int(tied.sum()), r))])]
+    if tied.any():                                     # S_a alpha = 0 where the capacity is unbounded
+        zeros = np.zeros((int(tied.sum()), r))
+        blocks += [np.hstack([sign * S[j][tied], zeros]) for j in range(n_c) for sign in (1.0, -1.0)]
     A_ub = np.vstack(blocks)
     b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(len(A_ub) - len(A))])
     res = linprog(obj, A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m + [(0, None)] * r, method="highs")

@@ -24,7 +24,7 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
     "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
-    "ResidualWarning": (".errors", None), "ResolutionWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
+    "ResidualWarning": (".errors", None), "ResolutionWarning": (".errors", None), "FixedPointWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
     "SolverError": (".errors", None),
     "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
     "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
@@ -40,6 +40,7 @@ _WHERE = {
     "cylinder": (".geometry.generators3d", None),
     "UnsupportedError": (".errors", None), "FrozenError": (".errors", None), "Signorini": (".contact.laws", None), "NormalCompliance": (".contact.laws", None),
     "Tresca": (".contact.laws", None),
+    "Coulomb": (".contact.laws", None),
     "load_sweep": (".apps.sweep.load", None), "SweepResults": (".apps.sweep.load", None),
     "SweepResultsError": (".errors", None), "CaseArrays": (".apps.sweep.load", None),
 }
@@ -47,9 +48,9 @@ _WHERE = {
 __all__ = [
     "materials", "CONDITIONS",
     "Mesh", "QuadMesh", "HexMesh", "rectangle", "read_mesh", "graded_block", "half_disk", "TetMesh", "box", "cylinder",
-    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance", "Tresca",
+    "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance", "Tresca", "Coulomb",
     "solve", "error_bound", "force_estimate", "ForceEstimate", "adapt", "Adapted", "AdaptStep", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
-    "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning",
+    "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning", "FixedPointWarning",
     "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
     "CaseArrays",
 ]
@@ -87,8 +88,8 @@ _sys.modules[__name__].__class__ = _Package
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from .contact.interface import CONDITIONS
-    from .contact.laws import NormalCompliance, Signorini, Tresca
-    from .errors import (CvxContactError, FrozenError, MaterialError, MeshError, NonUniqueWarning,
+    from .contact.laws import Coulomb, NormalCompliance, Signorini, Tresca
+    from .errors import (CvxContactError, FixedPointWarning, FrozenError, MaterialError, MeshError, NonUniqueWarning,
                          ResidualWarning, ResolutionWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk

@@ -37,6 +37,12 @@ class ResidualWarning(UserWarning):
     """A solution failed the mixed-formulation checks at the requested tolerance."""
 
 
+class FixedPointWarning(UserWarning):
+    """A fixed point (Coulomb friction's, on the slip thresholds) stopped at its iteration limit before its
+    tolerance: the answer is its iterate of smallest change, and its checks say how far it is from the law. The message says
+    the change reached and what to do (more iterations, a smaller coefficient, a finer load step)."""
+
+
 class ResolutionWarning(UserWarning):
     """The mesh cannot resolve what the solution shows: a contact zone spanned by too few cells (fewer than
     :data:`cvxcontact.solution.resolution.MIN_CELLS` contact faces of a body across it, 2D and 3D), or

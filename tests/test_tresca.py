@@ -125,8 +125,8 @@ def test_friction_is_refused_where_it_is_not_posed():
     box = cc.box(nx=2, ny=2, nz=2)
     body = cc.Body(box, steel(), contact="bottom", traction={"top": (0.0, 0.0, -P)})
     floor = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-    with pytest.raises(cc.UnsupportedError, match="3D"):
-        cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]))
+    with pytest.raises(cc.UnsupportedError, match="P2"):            # 3D P1 is posed (test_friction3d.py)
+        cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]), degree=2)
 
 
 def test_a_scene_file_names_the_law():
@@ -137,3 +137,66 @@ def test_a_scene_file_names_the_law():
         _law({"tresca": {"g": 2e6}}, "scene.toml")
     with pytest.raises(SceneFileError, match="law.tresca: Tresca: threshold"):
         _law({"tresca": {"threshold": -1.0}}, "scene.toml")
+
+
+P2 = {"degree": 2, "condition": "sigma1", "tol": 1e-5}
+"""P2 (6-node triangles) with nodal rows at the P2 nodes ('sigma1'; against the rigid plane every P2 node), their
+weights Simpson's (all positive: no vertex slips for free). tol 1e-5: the interior point's own normal
+complementarity on these P2 rows is 1e-7 ... 2.7e-6 (no exact finish), above the default 1e-6."""
+
+
+@pytest.mark.numerics
+def test_p2_a_block_that_sticks_is_the_block_tied_tangentially():
+    q = 0.2 * P
+    tied = cc.solve(sheared(q, None, tied=True), estimate=False, **P2)
+    big = cc.solve(sheared(q, 1e9), **P2)                 # far above any shear: stuck
+    assert tied.ok and big.ok
+    scale = np.abs(tied.u[0]).max()
+    assert np.abs(big.u[0] - tied.u[0]).max() < 1e-10 * scale                       # measured 4.5e-15
+    largest = np.abs(big.contact.shear).max()                                       # 1.46e7 Pa
+    sol = cc.solve(sheared(q, 1.01 * largest), **P2)
+    assert sol.ok
+    assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-8 * scale                        # measured 2.1e-11
+    assert sol.contact.shear_force.sum() == pytest.approx(-q * L, rel=1e-12)        # measured 1.0e-14
+    below = cc.solve(sheared(q, 0.5 * largest), **P2)
+    assert below.ok and np.abs(below.contact.slip).max() > 1e-3 * scale             # measured 3.3e-2
+
+
+@pytest.mark.numerics
+def test_p2_a_small_threshold_slides_with_the_full_capacity_and_departs_linearly():
+    errors = []
+    for g in (1e2, 1e3):
+        sol = cc.solve(pushed(cc.Tresca(g))[1], **P2)
+        assert sol.ok
+        points = sol.points[0]
+        exact = np.column_stack([np.full(len(points), 1e-4), -P * points[:, 1] / E])
+        c = sol.contact
+        assert (c.slip > 0.5e-4).all()                                                # every P2 node slides
+        assert c.shear_force.sum() == pytest.approx(-g * L, rel=5e-6)                 # Simpson: 5.4e-8, 9.0e-10
+        assert np.abs(np.abs(c.shear) - g).max() < 1e-4 * g                           # measured 5.0e-7, 2.9e-9
+        errors.append(np.abs(sol.u[0] - exact).max())
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-3)                    # measured 10.000004
+    sol = cc.solve(pushed(cc.Coulomb(1e-5))[1], **P2)
+    assert sol.ok and sol.contact.shear_force.sum() == pytest.approx(-1e-5 * P * L, rel=5e-6)   # measured 5.4e-8
+
+
+@pytest.mark.numerics
+def test_p2_a_pair_tends_to_the_rigid_plane_linearly_in_the_partners_compliance():
+    q = 0.2 * P
+    rigid = cc.solve(sheared(q, 1e7), **P2)
+    departures = []
+    for stiffer in (1e3, 1e4):
+        a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4), steel(), contact="bottom",
+                    traction={"top": (q, -P)}, name="top")
+        b = cc.Body(cc.rectangle(x=(0.0, L), y=(-H, 0.0), nx=8, ny=4), steel(scale=stiffer), contact="top",
+                    clamped="bottom", name="below")
+        sol = cc.solve(cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(1e7))]), **P2)
+        assert sol.ok
+        assert sol.contact.shear_force.sum() == pytest.approx(-q * L, rel=1e-12)    # measured 2.6e-15
+        departures.append(np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max())
+    assert departures[0] / departures[1] == pytest.approx(10.0, rel=1e-2)           # 1.96e-3 / 1.96e-4
+
+
+def test_p2_friction_under_the_conic_condition_is_refused_naming_the_nodal_conditions():
+    with pytest.raises(cc.UnsupportedError, match=r"gamma3.*condition='sigma1' or 'sigma2'"):
+        cc.solve(sheared(0.2 * P, 1e7), degree=2)

@@ -91,7 +91,7 @@ class ProblemDescription:
     piezoelectric: bool = False
     dependent_rows: bool = False
     friction: bool = False
-    """Some pair has a friction law (:class:`~cvxcontact.contact.laws.Tresca`): a cone per contact row on the
+    """Some pair has a friction law (:class:`~cvxcontact.contact.laws.Tresca`, ``Coulomb``): a cone per contact row on the
     slip, posed by the full program only (no condensed, sparse or AMG route, no exact finish yet)."""
 
 

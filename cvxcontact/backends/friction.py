@@ -1,14 +1,28 @@
-"""The route of a friction law (Tresca, :class:`~cvxcontact.contact.laws.Tresca`): the full program with the
-friction energy (docs/howto/friction.md).
+"""The route of a friction law (:class:`~cvxcontact.contact.laws.Tresca`, :class:`~cvxcontact.contact.laws.Coulomb`):
+the full program with the friction energy (docs/howto/friction.md).
 
     minimise   (the full program of :mod:`cvxcontact.backends.full`) + sum_a c_a |s_a|
     subject to s = E [u_t] + E [u_D t]           (the slip at the contact rows)
                E [u_nu] + R t <= E g              (Signorini rows)
 
 with c_a = g_a w_a the friction capacity of row a (threshold g_a times its lumped length w_a, scaled). In 2D
-|s_a| is an absolute value (a second-order cone of one component). The multiplier of the slip rows is the
+|s_a| is an absolute value (a second-order cone of one component); in 3D s_a is the row's slip along the two
+tangents of the pair's frame and |s_a| its Euclidean norm (a second-order cone of two components), the rows'
+multipliers 2-vectors with |mu_a| <= c_a. The multiplier of the slip rows is the
 tangential force of each row: with the momentum rows K u - f + J^T y + T^T mu = 0, ``mu`` lies in
 [-c_a, c_a] and mu_a = c_a sign(s_a) where the row slips; the force on the first body along t is -mu_a.
+
+Coulomb (thresholds g_a = mu p_a that depend on the pressure): a fixed point on the capacities. The start is the
+stuck contact (the slip of those rows held at 0: the limit mu -> infinity, posed wherever the friction will hold
+the body); then c^(k) = mu y^(k-1) (the normal row forces of the previous iterate; c_a = mu p_a w_a = mu y_a)
+and the same program, compiled once (a CVXPY parameter), is solved again, until
+max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or the change stops decreasing (by 10 %) below
+:data:`RESOLUTION` (the interior point's resolution); at most ``max_iterations`` times, then
+the iterate of smallest change (the one closest to its own law: its capacities and those of its pressures differ
+least) with a :class:`~cvxcontact.errors.FixedPointWarning`; a converged fixed point also answers with its
+iterate of smallest change (at the interior point's resolution the change wanders). Before each iterate the capacities are
+checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
+the sliding motion.
 
 No exact finish: the answer is the interior point's (Clarabel at the conic tolerances,
 :data:`~cvxcontact.backends.program.CLARABEL_CONIC`), checked (:mod:`cvxcontact.solution.friction`).
@@ -17,51 +31,143 @@ No exact finish: the answer is the interior point's (Clarabel at the conic toler
 from __future__ import annotations
 
 import time
+import warnings
 
 import cvxpy as cp
 import numpy as np
 
+from ..errors import FixedPointWarning
+from ..fem.kernel import refuse_sliding
 from .finish import force_displacements, ipm_active, reach_forces
 from .full import ContactModel
 from .program import conic_options, timed_program
 from .result import RawResult, Route
 
-__all__ = ["full", "friction_program"]
+__all__ = ["RESOLUTION", "friction_program", "full"]
+
+RESOLUTION = 1e-8
+"""Below this relative change of the capacities, a fixed point whose change no longer decreases by 10 % per
+iteration has reached the interior point's resolution and stops as converged (on the sheared layers of
+tests/test_coulomb.py the change wanders at ~1e-11 there; a true contraction of 0.52 is not mistaken for it)."""
 
 
 def friction_program(problem, model: ContactModel):
-    """(the CVXPY problem, the slip equality constraint, its rows) of ``problem``'s friction term added to
-    ``model`` (the full program of the normal rows): one slip variable per frictional row."""
-    E, rows = problem.E, np.flatnonzero(problem.rows.frictional)
-    capacity = (problem.thresholds * problem.row_lengths)[rows]
-    slip_rows = E[rows]
-    slip = sum((slip_rows @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) \
-        + slip_rows @ np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
-    s = cp.Variable(len(rows), name="slip")
-    constraint = s == slip
-    program = model.with_terms([constraint], objective=capacity @ cp.abs(s))
-    return program, constraint, rows
+    """(the CVXPY problem, the slip equality constraint, its rows, the capacities parameter c (scaled), the
+    slip variable s, the friction energy) of ``problem``'s friction term added to ``model`` (the full program of the normal rows):
+    one slip variable per frictional row and slip component (s: (rows, c), c = 1 in 2D, 2 in 3D), the energy
+    sum_a c_a |s_a| (2D: an absolute value; 3D: the Euclidean norm of the row's two components, a
+    second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major)."""
+    rows = np.flatnonzero(problem.rows.frictional)
+    n_c = problem.slip_components
+    Es = problem.slip_rows[np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])]
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + Es @ shift
+    capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
+    if n_c == 1:
+        s = cp.Variable(len(rows), name="slip")
+        constraint, energy = s == slip, capacity @ cp.abs(s)
+    else:
+        s = cp.Variable((len(rows), n_c), name="slip")
+        constraint, energy = cp.vec(s, order="F") == slip, capacity @ cp.norm(s, 2, axis=1)
+    program = model.with_terms([constraint], objective=energy)
+    return program, constraint, rows, capacity, s, energy
+
+
+def _moved_slip(problem, rows) -> np.ndarray:
+    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+    n_c, R = problem.slip_components, problem.E.shape[0]
+    Es = problem.slip_rows
+    reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
+    return reach.reshape(n_c, R).max(axis=0)[rows] > 0
 
 
 def full(problem, cache, settings, timings) -> RawResult:
-    """The full program with the friction energy (module docstring); the normal rows' forces ``y`` and the
-    tangential row forces ``raw.tangential`` (scaled) from its duals, no exact finish."""
+    """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
+    rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
+    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
+    finish."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
     model = ContactModel(blocks, E, g, translations=tr)
-    program, constraint, rows = friction_program(problem, model)
+    program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
-    iterations = timed_program(program, settings, timings, conic_options(settings.solver, settings.options))
-    u = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
-    phi = [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi]
-    y = np.asarray(model.contact.dual_value, dtype=float).ravel()
-    mu = np.zeros(E.shape[0])
-    mu[rows] = -np.asarray(constraint.dual_value, dtype=float).ravel()     # CVXPY: L = ... + nu^T (s - slip)
-    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=[np.asarray(t.value, dtype=float).ravel()
-                                                                 for t in model.t],
-                    method="full", iterations=iterations, route=Route.INTERIOR_POINT_FRICTION)
+    options = conic_options(settings.solver, settings.options)
+    n_c = problem.slip_components
+
+    def answer():
+        """The arrays of the program's current solution: u, phi, y, mu ((c R,) component-major, like the slip
+        rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
+        mu = np.zeros((n_c, E.shape[0]))
+        mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))
+        return ([np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u],
+                [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi],
+                np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
+                [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
+
+    fixed_point = problem.rows.fixed_point
+    if fixed_point is None:                                       # Tresca: the thresholds are given
+        capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
+        iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
+    else:
+        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
+        iterations, best, changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point,
+                                                 lambda p: timed_program(p, settings, timings, options))
+    u, phi, y, mu, taus, posed = best
+    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
+                    route=Route.INTERIOR_POINT_FRICTION)
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
     raw.tangential = mu
+    raw.capacity = np.zeros(E.shape[0])
+    raw.capacity[rows] = posed
+    raw.fixed_point = changes
     return raw
+
+
+def _stuck(problem, model, constraint, rows, capacity, s, friction):
+    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that some
+    unknown moves held at 0, the other rows at their given thresholds (``capacity`` set here)."""
+    E = problem.E
+    dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
+    capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+    held = [s[np.flatnonzero(dependent)] == 0] if dependent.any() else []
+    return model.with_terms([constraint, *held], objective=friction)
+
+
+def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve):
+    """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
+    ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
+    iterations); (iterations, ``answer()`` of the iterate of smallest change, the relative changes)."""
+    tol, most = fixed_point
+    iterations = solve(stuck)
+    previous, changes, best, converged = None, [], None, False
+    for _ in range(most + 1):
+        c_all = problem.capacities(np.asarray(model.contact.dual_value, dtype=float).ravel())
+        c = c_all[rows]
+        if previous is not None:
+            changes.append(float(np.abs(c - previous).max(initial=0.0)
+                                 / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
+                                       np.finfo(float).tiny)))
+            if best is None or changes[-1] <= min(changes[:-1]):   # the iterate closest to its own law
+                best = answer()
+            if changes[-1] <= tol or (changes[-1] <= RESOLUTION and len(changes) > 1
+                                      and changes[-1] > 0.9 * changes[-2]):
+                converged = True                 # below the tolerance, or at the interior point's resolution
+                break
+            if len(changes) == most:
+                break
+        if problem.kernel is not None:
+            refuse_sliding(problem.kernel.with_capacity(c_all * problem.units.force),
+                           "the friction coefficient times the normal force of the fixed point's iterate "
+                           f"{len(changes) + 1}", "raise the friction coefficient")
+        capacity.value = c
+        iterations += solve(program)
+        previous = c
+    if not converged:
+        warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
+                      f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
+                      f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
+                      f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
+                      f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=4)
+    return iterations, best, tuple(changes)

@@ -135,6 +135,12 @@ class RawResult:
     tangential: np.ndarray | None = None
     """A friction law: the tangential force mu_a of every row (scaled; the force on the pair's first body along
     its tangent is -mu_a, :mod:`cvxcontact.backends.friction`), None without friction."""
+    capacity: np.ndarray | None = None
+    """A friction law: the capacity c_a = g_a w_a of every row the answer was solved with (scaled; Coulomb: the
+    last iterate's mu y_a), None without friction."""
+    fixed_point: tuple | None = None
+    """Coulomb friction: the relative change of the capacities at each iteration of the fixed point
+    (:mod:`cvxcontact.backends.friction`), None for a given threshold or without friction."""
     certificate: float | None = None
     """The P2 "everywhere" condition: a rigorous bound on the energy-norm error of the displacements (scaled;
     :func:`cvxcontact.backends.cuts.energy_bound`), None where none was computed."""

@@ -19,7 +19,7 @@ import scipy.sparse as sp
 from ..errors import SceneError
 
 __all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent", "row_directions",
-           "row_tangents"]
+           "row_tangents", "row_frames"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
@@ -269,10 +269,30 @@ class Stack:
         """(size, d n_nodes): body k's part of [u_nu] at every pair's merged nodes (d = the pairs' ``dim``)."""
         return self._stacked(k, n_nodes, lambda itf, side: itf.jump(side, n_nodes))
 
+    @property
+    def slip_components(self) -> int:
+        """Components of the slip per merged node: 1 in 2D (along t), 2 in 3D (along the pairs' frames)."""
+        return self.interfaces[0].dim - 1
+
     def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
-        """(size, 2 n_nodes): body k's part of the slip [u_t] at every pair's merged nodes
-        (:meth:`Interface.tangential_jump`)."""
-        return self._stacked(k, n_nodes, lambda itf, side: itf.tangential_jump(side, n_nodes))
+        """(c size, d n_nodes): body k's part of the slip [u_t] at every pair's merged nodes
+        (:meth:`Interface.tangential_jump`, :meth:`~cvxcontact.contact.surface.SurfaceInterface.tangential_jump`),
+        c = :attr:`slip_components`, component-major (rows j size + a: component j at stacked node a). An
+        interface without a tangential part (P2, a curved 3D part): UnsupportedError."""
+        from ..errors import UnsupportedError
+
+        c = self.slip_components
+        for itf in self.interfaces:
+            if not hasattr(itf, "tangential_jump"):
+                raise UnsupportedError(f"a friction law on {type(itf).__name__} contact lines is not available "
+                                       "yet: use planar contact parts (or a rigid obstacle) and degree=1")
+        parts = []
+        for itf, (a, b) in zip(self.interfaces, self.members):
+            side = 0 if k == a else 1 if k == b else None
+            T = (itf.tangential_jump(side, n_nodes) if side is not None
+                 else sp.csr_matrix((c * itf.size, itf.dim * n_nodes)))
+            parts.append((T, itf.size))
+        return sp.vstack([T[j * n:(j + 1) * n] for j in range(c) for T, n in parts], format="csr")
 
     def _stacked(self, k, n_nodes, part) -> sp.csr_matrix:
         """``part(interface, side)`` of every pair body k belongs to (side 0: first body, 1: second), zero
@@ -360,6 +380,21 @@ def row_tangents(interface, k) -> np.ndarray:
         turned = np.column_stack([-d[:, 1], d[:, 0]])
         t = turned * np.where(turned @ t < 0, -1.0, 1.0)[:, None]
     return t if k == 0 else -t
+
+
+def row_frames(interface) -> np.ndarray:
+    """The two unit tangents along which a 3D pair's rows measure the first body's slip: the interface's
+    ``frame`` (2, 3), or, against a curved rigid obstacle that poses its own row directions d_a
+    (:func:`row_directions`), per row the frame made orthogonal to d_a (Gram-Schmidt, t1 first) (2, size, 3)."""
+    frame = np.asarray(interface.frame, dtype=float)
+    d = np.asarray(row_directions(interface, interface.normal), dtype=float)
+    if d.ndim == 1:
+        return frame
+    t1 = frame[0] - (d @ frame[0])[:, None] * d
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = frame[1] - (d @ frame[1])[:, None] * d - np.einsum("ij,j->i", t1, frame[1])[:, None] * t1
+    t2 /= np.linalg.norm(t2, axis=1, keepdims=True)
+    return np.array([t1, t2])
 
 
 def read_only(a) -> np.ndarray:

@@ -17,12 +17,16 @@ With r = [u_nu] - g the penetration (m; the paper's [u_nu] with the gap g subtra
     gains integral_Gamma3 g |[v_t]| (docs/howto/friction.md), one cone
     t_a >= |[u_t](x_a)| per contact row with weight g w_a; the tangential traction sigma_t lies in
     the ball of radius g, (g - |sigma_t|) |[u_t]| = 0, and sigma_t is anti-parallel to the slip.
+``Coulomb(coefficient=mu)``
+    Signorini in the normal direction and Coulomb friction: Tresca with the threshold g = mu lambda_nu
+    (the normal pressure), found by a fixed point on the thresholds (docs/howto/friction.md, "Coulomb").
 
 A law answers two questions of the discrete problem (the contact-term protocol): its normal part
 (``compliant`` and, for compliance, the parameters of :class:`RowLaws`) and its tangential part,
 ``friction``: None (frictionless) or an object with ``thresholds(normal_pressure)`` (Pa per row) that
-says how the rows' slip is penalised. Tresca's thresholds do not depend on the normal pressure; a
-Coulomb law, mu lambda_nu, is a fixed point on them (an addition, not a branch).
+says how the rows' slip is penalised, and ``pressure_dependent``: Tresca's thresholds do not depend on the
+normal pressure; Coulomb's, mu lambda_nu, do, and the friction route finds them by a fixed point
+(:mod:`cvxcontact.backends.friction`) with the law's ``tolerance`` and ``max_iterations``.
 
 Laws are small frozen classes; :func:`check_law` validates a ``law=`` argument (None -> Signorini)
 and raises :class:`~cvxcontact.errors.SceneError` (a :class:`~cvxcontact.errors.CvxContactError`)
@@ -44,7 +48,7 @@ import numpy as np
 
 from ..errors import SceneError, UnsupportedError
 
-__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "Tresca", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
+__all__ = ["ContactLaw", "Signorini", "NormalCompliance", "Tresca", "Coulomb", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
 
 
 class ContactLaw:
@@ -171,8 +175,68 @@ class Tresca(ContactLaw):
         threshold is given, not the normal pressure's)."""
         return np.full(np.shape(pressure), self.threshold)
 
+    @property
+    def pressure_dependent(self) -> bool:
+        """False: the threshold is given."""
+        return False
 
-LAWS = {"signorini": Signorini, "normal_compliance": NormalCompliance, "tresca": Tresca}
+
+@dataclass(frozen=True)
+class Coulomb(ContactLaw):
+    """Signorini normal contact with Coulomb friction: |sigma_t| <= mu |sigma_nu| (module docstring).
+
+    Solved as Tresca with the thresholds g = mu lambda_nu of the previous iterate's normal pressure, a fixed
+    point from the stuck contact (docs/howto/friction.md, "Coulomb").
+
+    Parameters
+    ----------
+    coefficient : float
+        mu >= 0 (dimensionless): the friction coefficient. mu = 0 is frictionless.
+    tolerance : float
+        The fixed point stops when the thresholds change by at most ``tolerance`` relative to the largest
+        (> 0; default 1e-12). The stick-slip check is the square root of a product, so a change d of the
+        thresholds shows there as ~sqrt(d |s_a| / U): on a sheared layer (tests/test_coulomb.py) a change of
+        5e-10 left it at 4.8e-6, 7e-13 at 6.1e-7, which is the interior point's own level (8.6e-15: 6.1e-7).
+    max_iterations : int
+        Iterations at most (>= 1); beyond them the answer is the iterate of smallest change, with a
+        :class:`~cvxcontact.errors.FixedPointWarning` (its checks then say how far it is from Coulomb's law).
+
+    Raises
+    ------
+    SceneError
+        A coefficient that is not a finite real number >= 0, a tolerance not > 0, max_iterations not >= 1.
+    """
+
+    coefficient: float
+    tolerance: float = 1e-12
+    max_iterations: int = 50
+    name = "coulomb"
+
+    def __post_init__(self):
+        object.__setattr__(self, "coefficient", _positive_real(self.coefficient, "coefficient", allow_zero=True,
+                                                               law="Coulomb"))
+        object.__setattr__(self, "tolerance", _positive_real(self.tolerance, "tolerance", law="Coulomb"))
+        n = self.max_iterations
+        if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
+            raise SceneError(f"Coulomb: max_iterations must be an integer >= 1, got {n!r}")
+        object.__setattr__(self, "max_iterations", int(n))
+
+    @property
+    def friction(self) -> Coulomb:
+        return self
+
+    def thresholds(self, pressure) -> np.ndarray:
+        """The slip threshold mu lambda_nu (Pa) at rows with normal pressure ``pressure`` (Pa; a tension,
+        never reached at a solution, counts as 0)."""
+        return self.coefficient * np.maximum(np.asarray(pressure, dtype=float), 0.0)
+
+    @property
+    def pressure_dependent(self) -> bool:
+        """True: the threshold is the pressure's (a fixed point)."""
+        return True
+
+
+LAWS = {"signorini": Signorini, "normal_compliance": NormalCompliance, "tresca": Tresca, "coulomb": Coulomb}
 """Law names as written in scene files."""
 
 
@@ -185,8 +249,8 @@ def check_law(law) -> ContactLaw:
     if isinstance(law, type) and issubclass(law, ContactLaw):
         raise SceneError(f"law must be an instance such as cc.Signorini() or cc.NormalCompliance(stiffness=...), "
                          f"got the class {law.__name__}")
-    raise SceneError(f"law must be cc.Signorini(), cc.NormalCompliance(stiffness=k, exponent=m) or "
-                     f"cc.Tresca(threshold=g), got {law!r} "
+    raise SceneError(f"law must be cc.Signorini(), cc.NormalCompliance(stiffness=k, exponent=m), "
+                     f"cc.Tresca(threshold=g) or cc.Coulomb(coefficient=mu), got {law!r} "
                      f"({type(law).__name__})")
 
 
@@ -195,17 +259,12 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
 
     Every pair takes its own ``Contact.law`` or, if None, ``law`` (:func:`pair_laws`); any mix of
     Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved. A friction
-    law (:class:`Tresca`) is posed in 2D (3D: its cones are norms of two tangential components, not yet
-    posed) next to Signorini pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
+    law (:class:`Tresca`, :class:`Coulomb`; 2D, and 3D with planar contact parts) is posed next to Signorini
+    pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
     laws = pair_laws(scene, law)
-    if any(lw.friction is not None for lw in laws):
-        if getattr(scene, "dim", 2) != 2:
-            raise UnsupportedError("Tresca friction in 3D (a second-order cone on the two tangential components "
-                                   "of the slip at every contact point) is not available yet: solve the 2D "
-                                   "scene, or use a frictionless law in 3D")
-        if any(lw.compliant for lw in laws):
-            raise UnsupportedError("Tresca friction next to a normal-compliance pair is not available yet: use "
-                                   "Signorini (or Tresca) on every pair")
+    if any(lw.friction is not None for lw in laws) and any(lw.compliant for lw in laws):
+        raise UnsupportedError("friction (Tresca, Coulomb) next to a normal-compliance pair is not available yet: "
+                               "use Signorini, Tresca or Coulomb on every pair")
     return law
 
 
@@ -245,7 +304,9 @@ class RowLaws:
         rep = lambda v: np.repeat(np.asarray(v, dtype=float), self.counts)  # noqa: E731
         self.stiffness, self.exponent, self.penetration_limit = rep(k), rep(m), rep(ell)
         self.frictional = rep([law.friction is not None for law in self.laws]).astype(bool)
-        for a in (self.stiffness, self.exponent, self.penetration_limit, self.frictional):
+        self.pressure_dependent = rep([law.friction is not None and law.friction.pressure_dependent
+                                       for law in self.laws]).astype(bool)
+        for a in (self.stiffness, self.exponent, self.penetration_limit, self.frictional, self.pressure_dependent):
             a.setflags(write=False)
 
     @classmethod
@@ -273,9 +334,19 @@ class RowLaws:
         """True if some row has a tangential (friction) part (``frictional``: the mask of those rows)."""
         return bool(self.frictional.any())
 
+    @property
+    def fixed_point(self) -> tuple[float, int] | None:
+        """(tolerance, max_iterations) of the fixed point on the thresholds if some row's threshold depends
+        on the pressure (the finest tolerance and the most iterations of those laws), else None."""
+        laws = [law.friction for law in self.laws if law.friction is not None and law.friction.pressure_dependent]
+        if not laws:
+            return None
+        return min(f.tolerance for f in laws), max(f.max_iterations for f in laws)
+
     def thresholds(self, pressure) -> np.ndarray:
         """The slip threshold (Pa) of every row from the rows' normal pressures (Pa): each pair's
-        ``law.friction.thresholds`` on its rows, 0 on frictionless rows."""
+        ``law.friction.thresholds`` on its rows, 0 on frictionless rows (``pressure_dependent``: the mask of
+        the rows whose threshold depends on the pressure)."""
         pressure = np.broadcast_to(np.asarray(pressure, dtype=float), (self.size,))
         out, start = np.zeros(self.size), 0
         for law, n in zip(self.laws, self.counts):

@@ -29,7 +29,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .bernstein import bernstein_argmax, bernstein_basis, bernstein_map, bernstein_max, point_rows  # noqa: F401
-from .interface import CONDITIONS, Interface, read_only, normal_jump, row_directions
+from .interface import CONDITIONS, Interface, normal_jump, read_only, row_directions, row_tangents
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
@@ -122,6 +122,16 @@ class QuadraticInterface:
             return sp.csr_matrix((self.size, 2 * n_nodes))
         t = self.traces[self.members.index(k)]
         return normal_jump(self._interp[t.k], t.nodes, row_directions(self, t.unit_normal), 2 * n_nodes)
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes) map from the P2 nodal displacements of the scene's body ``k`` to its part of the
+        slip [u_t] = (u^a - u^b) . t at the merged P2 nodes (t the pair's tangent for the first body, -t for
+        the second, :func:`~cvxcontact.contact.interface.row_tangents`; zero if k is not a member)."""
+        if k not in self.members:
+            return sp.csr_matrix((self.size, 2 * n_nodes))
+        side = self.members.index(k)
+        t = self.traces[side]
+        return normal_jump(self._interp[t.k], t.nodes, row_tangents(self, side), 2 * n_nodes)
 
     def evaluation(self, condition) -> sp.csr_matrix:
         """E: rows evaluate X_h at the points where a nodal (linear) condition is imposed.
@@ -275,6 +285,11 @@ class QuadraticStack:
         """(size, 2 n_nodes): the scene's body k's part of [u_nu] at every pair's P2 nodes (zero rows where
         k is not a member)."""
         return sp.vstack([itf.jump(k, n_nodes) for itf in self.interfaces], format="csr")
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(size, 2 n_nodes): the scene's body k's part of the slip [u_t] at every pair's P2 nodes
+        (:meth:`QuadraticInterface.tangential_jump`)."""
+        return sp.vstack([itf.tangential_jump(k, n_nodes) for itf in self.interfaces], format="csr")
 
     def _each(self, condition, conditions):
         conditions = conditions or [None] * len(self.interfaces)

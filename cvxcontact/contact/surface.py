@@ -17,7 +17,7 @@ import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
-from .interface import CONDITIONS, normal_jump, read_only, row_directions
+from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
 from .overlay import OVERLAY_TOL, locate, overlay
 from .riesz import TraceRiesz
 
@@ -233,6 +233,15 @@ class SurfaceInterface:
         displacements (x, y, z interleaved)."""
         t = self.traces[k]
         return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 3 * n_nodes)
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(2 size, 3 n_nodes): body k's part of the slip [u_t]_j = (u^a - u^b) . t_j at the nodes of X_h,
+        component-major (rows j size + a), (t_1, t_2) the pair's ``frame`` (:func:`row_frames`: against a curved
+        obstacle, turned into each row's tangent plane) for the first body, their opposites for the second."""
+        t = self.traces[k]
+        sign = 1.0 if k == 0 else -1.0
+        return sp.vstack([normal_jump(self._interp[k], t.nodes, sign * tj, 3 * n_nodes) for tj in row_frames(self)],
+                         format="csr")
 
     def _rows(self, condition) -> np.ndarray:
         if condition not in CONDITIONS:

@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
@@ -130,13 +131,32 @@ class DiscreteProblem:
 
     @property
     def thresholds(self) -> np.ndarray:
-        """The slip thresholds of the rows, scaled (g / (c0 s); 0 on frictionless rows)."""
+        """The slip thresholds of the rows at zero pressure, scaled (g / (c0 s); 0 on frictionless rows and on
+        rows whose threshold is the pressure's, :meth:`capacities`)."""
         return self.lines.rows.thresholds(0.0) / (self.units.stress * self.units.load)
+
+    def capacities(self, y: np.ndarray) -> np.ndarray:
+        """The friction capacity c_a = g_a(p_a) w_a of every row (scaled), the thresholds at the pressures
+        p_a = y_a / w_a of the normal row forces ``y`` (scaled; Coulomb: c_a = mu y_a)."""
+        w = self.row_lengths
+        stress = self.units.stress * self.units.load
+        pressure = np.divide(np.asarray(y, dtype=float), w, out=np.zeros(len(w)), where=w > 0) * stress
+        return self.lines.rows.thresholds(pressure) / stress * w
+
+    @property
+    def slip_components(self) -> int:
+        """Components of the slip per row: 1 in 2D (along t), 2 in 3D (along the pair's frame)."""
+        return getattr(self.lines.interface, "slip_components", 1)
+
+    @property
+    def slip_rows(self) -> sp.csr_matrix:
+        """kron(I_c, E): the rows of every slip component (component-major, :func:`slip_rows`)."""
+        return slip_rows(self.E, self.lines.interface)
 
     @property
     def row_lengths(self) -> np.ndarray:
         """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
-        return self.interface.weights(self.condition, self.scene.conditions) / self.units.length
+        return row_weights(self.interface, self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -301,7 +321,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     slip_shift = 0.0
     if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
         slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
-                         np.zeros(lines.interface.size)) / un.displacement
+                         np.zeros(slips[0].shape[0])) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=contact_term(lines, space.dim),
@@ -319,23 +339,46 @@ def _slip(interface, k, n_nodes):
 
 
 def _tangential(interface):
-    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the 2D P1 lines
-    do so far)."""
+    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the P1 lines
+    and planar 3D surfaces do so far)."""
     if not hasattr(interface, "tangential_jump"):
-        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (P2 elements) is not "
+        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (3D P2 elements) is not "
                                "available yet: use degree=1")
     return interface
 
 
 def _capacity(scene, condition, lines):
     """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
-    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m); None without."""
+    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
+    threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
+    route checks its capacity at every iterate); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
+    if lines.conic or lines.mixed:
+        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition) is not "
+                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes; "
+                               "against a rigid obstacle every P2 node)")
     E = lines.E
-    weights = _tangential(lines.interface).weights(condition, scene.conditions)
-    return (lambda k, n: E @ _slip(lines.interface, k, n)), rows.thresholds(0.0) * weights
+    weights = row_weights(_tangential(lines.interface), condition, scene.conditions)
+    capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
+    Ec = slip_rows(E, lines.interface)
+    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity
+
+
+def row_weights(interface, condition, conditions) -> np.ndarray:
+    """The lumped lengths (areas) of the rows (m; docs/formulation.md §10) of a stack of pairs under their own
+    ``conditions`` (None: ``condition``), or of one P2 pair (:class:`~cvxcontact.contact.quadratic.QuadraticInterface`,
+    which poses its own condition: Simpson's weights, all positive)."""
+    if hasattr(interface, "interfaces"):
+        return interface.weights(condition, conditions)
+    return interface.weights(conditions[0] or condition if conditions else condition)
+
+
+def slip_rows(E, interface) -> sp.csr_matrix:
+    """The evaluation rows of every slip component: kron(I_c, E) (c = the interface's ``slip_components``, 1 in
+    2D, 2 in 3D; component-major like :meth:`~cvxcontact.contact.interface.Stack.tangential_jump`)."""
+    return sp.kron(sp.identity(getattr(interface, "slip_components", 1), format="csr"), E, format="csr")
 
 
 def held_rows(E, blocks, translations) -> np.ndarray:

@@ -148,8 +148,9 @@ class ConesBesideCompliance(_Term):
 
 @dataclass(frozen=True)
 class TrescaFriction(_Term):
-    """Signorini rows and a friction law's cone per row on the slip (docs/howto/friction.md): the full program
-    only, no exact finish, no error estimate, no user terms yet."""
+    """Signorini rows and a friction law's cone per row on the slip (docs/howto/friction.md; Tresca, and Coulomb
+    by a fixed point on the thresholds; 2D and 3D P1, 2D P2 under the nodal conditions): the full program only,
+    no exact finish, no error estimate, no user terms yet."""
 
     kind: ClassVar[str] = "friction"
     tangential: ClassVar[bool] = True

@@ -92,10 +92,12 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import SceneError
 
-__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "check_determined", "ROW_TOL", "CANCELLATION",
+__all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "refuse_sliding", "check_determined", "ROW_TOL", "CANCELLATION",
            "SLACK"]
 
 ROW_TOL = 1e-9
+SLIP_POLYGON = 24
+"""Sides of the polygon around the circle of a 3D row's slip in :func:`sliding` (the LP's stand-in for the norm)."""
 """A contact row that every unit kernel motion moves by less than this (dimensionless) is not moved."""
 
 CANCELLATION = 1e-10
@@ -126,9 +128,19 @@ class Kernel:
     magnitude: np.ndarray
     owners: tuple
     slip: np.ndarray | None = None
-    """With a friction law: (r_t, m) how each kernel coordinate changes each row's slip [u_t] per unit motion
-    (dimensionless), and ``capacity`` (r_t,) N/m each row's friction capacity g_a w_a."""
+    """With a friction law: (c r_t, m) how each kernel coordinate changes each row's slip [u_t] per unit motion
+    (dimensionless; ``components`` c per row, component-major: 1 in 2D, 2 in 3D), ``capacity`` (r_t,) N/m
+    each row's friction capacity g_a w_a (``inf``: not known yet, a Coulomb row before its pressure: the row
+    resists any slip), ``slip_index`` (r_t,) their rows in E."""
     capacity: np.ndarray | None = None
+    slip_index: np.ndarray | None = None
+    components: int = 1
+
+    def with_capacity(self, capacity: np.ndarray) -> Kernel:
+        """The kernel with the friction capacities ``capacity`` (N/m, one per row of E)."""
+        if self.slip_index is None:
+            return self
+        return replace(self, capacity=np.asarray(capacity, dtype=float)[self.slip_index])
 
     @property
     def size(self) -> int:
@@ -205,36 +217,70 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
             from ..errors import UnsupportedError
             raise UnsupportedError("a friction law next to a force-controlled obstacle is not available yet: "
                                    "prescribe the obstacle's position instead")
+        c = np.asarray(capacity[1], dtype=float)
         slip = np.hstack(slips)
-        moved = np.abs(slip).max(axis=1) > ROW_TOL
-        slip, c = slip[moved], np.asarray(capacity[1], dtype=float)[moved]
-    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners), slip, c)
+        n_c = slip.shape[0] // len(c)                                  # slip components per row
+        slip = slip.reshape(n_c, len(c), -1)
+        moved = np.abs(slip).max(axis=(0, 2)) > ROW_TOL
+        return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners),
+                      slip[:, moved].reshape(-1, m), c[moved], np.flatnonzero(moved), n_c)
+    return Kernel(A[index], index, np.concatenate(work), np.concatenate(magnitude), tuple(owners))
 
 
 def sliding(kernel: Kernel) -> tuple[np.ndarray, float, float] | None:
     """With a friction law: a kernel motion alpha (|alpha|_inf = 1) that no contact row resists (A alpha <= 0)
     along which the load's work exceeds the friction dissipation sum_a c_a |(S alpha)_a| (the energy is then
     unbounded below: no equilibrium), with that work and dissipation (N/m per unit motion); None if there is
-    none. The linear program max w^T alpha - c^T s, A alpha <= 0, -s <= S alpha <= s, |alpha|_inf <= 1."""
+    none. The linear program max w^T alpha - c^T s, A alpha <= 0, -s <= S alpha <= s, |alpha|_inf <= 1 (a row
+    of infinite capacity: S_a alpha = 0). In 3D (two slip components) s_a >= |(S alpha)_a|_2 is replaced by the
+    polygon of :data:`SLIP_POLYGON` sides around the circle (s_a >= d_k . (S alpha)_a / cos(pi/K)): the
+    dissipation is over-estimated by at most 1/cos(pi/K) - 1 (0.8 % for K = 24), so a motion is refused only
+    where the load truly exceeds the capacity; the dissipation returned is the exact one."""
     if kernel.slip is None or not kernel.size:
         return None
     A, w = _scaled(kernel)
-    S, c = kernel.slip, kernel.capacity
-    m, r = kernel.size, len(c)
+    c = kernel.capacity
+    m, r, n_c = kernel.size, len(c), kernel.components
+    S = kernel.slip.reshape(n_c, r, m)
+    tied = ~np.isfinite(c)
+    c = np.where(tied, 0.0, c)
     norm = float(np.linalg.norm(w))
     if norm == 0:
         return None
     obj = np.concatenate([-w / norm, c / norm])
     blocks = [np.hstack([A, np.zeros((len(A), r))])] if len(A) else []
-    blocks += [np.hstack([S, -np.eye(r)]), np.hstack([-S, -np.eye(r)])]
+    if n_c == 1:
+        blocks += [np.hstack([S[0], -np.eye(r)]), np.hstack([-S[0], -np.eye(r)])]
+    else:
+        angles = 2 * np.pi * np.arange(SLIP_POLYGON) / SLIP_POLYGON
+        cos = np.cos(np.pi / SLIP_POLYGON)
+        blocks += [np.hstack([np.cos(a) * S[0] + np.sin(a) * S[1], -cos * np.eye(r)]) for a in angles]
+    if tied.any():                                     # S_a alpha = 0 where the capacity is unbounded
+        zeros = np.zeros((int(tied.sum()), r))
+        blocks += [np.hstack([sign * S[j][tied], zeros]) for j in range(n_c) for sign in (1.0, -1.0)]
     A_ub = np.vstack(blocks)
-    b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(2 * r)])
+    b_ub = np.concatenate([np.full(len(A), SLACK), np.zeros(len(A_ub) - len(A))])
     res = linprog(obj, A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m + [(0, None)] * r, method="highs")
     if res.status != 0 or -res.fun <= _PULL:
         return None
     alpha = res.x[:m]
     alpha = alpha / np.abs(alpha).max()
-    return alpha, float(kernel.work @ alpha), float(c @ np.abs(S @ alpha))
+
+    def margin(a):                      # the load's work beyond the exact dissipation, per unit |a|_inf
+        return float(kernel.work @ a - c @ np.linalg.norm(S @ a, axis=0)) / float(np.abs(a).max())
+
+    if n_c > 1:                         # the polygon may tilt the motion: drop coordinates that only cost
+        alpha[np.abs(alpha) < 1e-6] = 0.0
+        for i in np.argsort(np.abs(alpha)):
+            trial = alpha.copy()
+            trial[i] = 0.0
+            if alpha[i] == 0.0 or not trial.any():
+                continue
+            trial /= np.abs(trial).max()
+            held = (len(A) and (A @ trial > SLACK).any()) or (tied.any() and np.abs(S[:, tied] @ trial).max() > ROW_TOL)
+            if not held and margin(trial) >= margin(alpha):
+                alpha = trial
+    return alpha, float(kernel.work @ alpha), float(c @ np.linalg.norm(S @ alpha, axis=0))
 
 
 def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
@@ -245,7 +291,8 @@ def undetermined(kernel: Kernel) -> tuple[str, list[np.ndarray]] | None:
         return None
     A, w = _scaled(kernel)
     if kernel.slip is not None and len(kernel.slip):   # friction resists slip both ways: S alpha = 0
-        S = kernel.slip / np.abs(kernel.slip).max(axis=1, keepdims=True)
+        S = kernel.slip[np.abs(kernel.slip).max(axis=1) > 0]
+        S = S / np.abs(S).max(axis=1, keepdims=True)
         A = np.vstack([A, S, -S]) if len(A) else np.vstack([S, -S])
     m = kernel.size
     coupled = sp.csr_matrix(np.abs(A).T @ np.abs(A) > 0) if len(A) else sp.csr_matrix((m, m))
@@ -349,14 +396,7 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
     if not any(b.held_by_contact for b in bodies) and not any(o.force is not None for o in obstacles):
         return None
     kernel = rigid_kernel(bodies, loads, evaluation, interface, obstacles, nodes, capacity)
-    slide = sliding(kernel)
-    if slide is not None:
-        d, work, dissipation = slide
-        moved = kernel.moved(d)
-        who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
-        raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} N/m, exceeds "
-                         f"the friction capacity {dissipation:.6g} N/m (threshold times contact length), so no "
-                         "equilibrium exists: add a support, reduce the tangential load or raise the threshold")
+    refuse_sliding(kernel)
     verdict = undetermined(kernel)
     if verdict is None:
         return kernel
@@ -370,6 +410,23 @@ def check_well_posed(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: 
                          "support or load it towards the contact")
     raise SceneError(f"nothing determines the {_names(kernel, dirs)}: the load does no work along it and no contact "
                      f"resists it: {_hint(kernel, dirs)}")
+
+
+def refuse_sliding(kernel: Kernel | None, what: str | None = None, remedy: str = "raise the threshold") -> None:
+    """Raise a :class:`~cvxcontact.errors.SceneError` naming the motion if the load slides a body beyond its
+    friction capacity (:func:`sliding`); ``what`` says what the capacity is (default: the threshold times the
+    contact length, 2D, or area, 3D) and ``remedy`` what raises it."""
+    slide = None if kernel is None else sliding(kernel)
+    if slide is None:
+        return
+    d, work, dissipation = slide
+    moved = kernel.moved(d)
+    who, motion = ((moved[0][0], moved[0][2]) if len(moved) == 1 else ("the bodies", kernel.name(d)))
+    unit = "N" if kernel.components > 1 else "N/m"                     # 3D: two slip components per row
+    what = what or f"threshold times contact {'area' if kernel.components > 1 else 'length'}"
+    raise SceneError(f"the load slides {who} along {motion}: its net load along it, {work:.6g} {unit}, exceeds "
+                     f"the friction capacity {dissipation:.6g} {unit} ({what}), so no "
+                     f"equilibrium exists: add a support, reduce the tangential load or {remedy}")
 
 
 def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:

@@ -9,6 +9,8 @@ names the file, the key and what was expected. Format (all SI units)::
     law = "signorini"                         # default; or normal compliance (7), docs/formulation.md §10:
                                               # { normal_compliance = { stiffness = 1e12, exponent = 1,
                                               #                         penetration_limit = 1e-5 } }  (Pa/m^m, -, m)
+                                              # or friction (docs/howto/friction.md): { tresca = {
+                                              # threshold = 1e6 } } (Pa), { coulomb = { coefficient = 0.3 } }
     gap = 0.0                                 # initial normal gap g(x) on Gamma_3, m (number or expression)
 
     [solver]                                  # optional
@@ -248,8 +250,9 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
 
 def _law(value, path):
     """The contact law of a scene file: "signorini", { normal_compliance = { stiffness, exponent,
-    penetration_limit } } or { tresca = { threshold } } (:mod:`cvxcontact.contact.laws`)."""
-    from ..contact.laws import LAWS, NormalCompliance, Signorini, Tresca
+    penetration_limit } }, { tresca = { threshold } } or { coulomb = { coefficient, tolerance, max_iterations } }
+    (:mod:`cvxcontact.contact.laws`)."""
+    from ..contact.laws import LAWS, Coulomb, NormalCompliance, Signorini, Tresca
 
     if value == "signorini":
         return Signorini()
@@ -270,6 +273,16 @@ def _law(value, path):
             return Tresca(**value["tresca"])
         except CvxContactError as exc:
             raise SceneFileError(f"{path}: law.tresca: {exc}") from None
+    if isinstance(value, dict) and set(value) == {"coulomb"} and isinstance(value["coulomb"], dict):
+        params = value["coulomb"]
+        unknown = sorted(set(params) - {"coefficient", "tolerance", "max_iterations"})
+        if unknown or "coefficient" not in params:
+            raise SceneFileError(f"{path}: law.coulomb: expected keys coefficient (required), tolerance, "
+                                 f"max_iterations; got {sorted(params)}")
+        try:
+            return Coulomb(**params)
+        except CvxContactError as exc:
+            raise SceneFileError(f"{path}: law.coulomb: {exc}") from None
     raise SceneFileError(f"{path}: law: expected \"signorini\" or {{ normal_compliance = {{ stiffness = ..., "
                          f"exponent = ... }} }} (laws: {sorted(LAWS)}), got {value!r}")
 

@@ -1,7 +1,8 @@
-"""Read-back and checks of a friction law (Tresca; docs/howto/friction.md, docs/checks.md "Friction").
+"""Read-back and checks of a friction law (Tresca, Coulomb; docs/howto/friction.md, docs/checks.md "Friction").
 
 With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.friction`), s_a its slip
-E [u_t], c_a = g_a w_a its friction capacity, C = max(max c_a, max y_a) (the largest capacity or normal row
+E [u_t], c_a = g_a w_a its friction capacity at the answer's own pressures (Coulomb: c_a = mu y_a, so the
+checks are Coulomb's cone and complementarity, not the last Tresca iterate's), C = max(max c_a, max y_a) (the largest capacity or normal row
 force: tangential forces are measured against the contact forces, and a threshold far below the pressure, or
 zero, leaves the normal forces' scale) and U the largest nodal displacement of the bodies
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
@@ -24,15 +25,22 @@ __all__ = ["friction_checks", "read_back_friction"]
 
 def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
     """The friction cone, stick-slip and slip-direction checks (module docstring) of row forces ``mu``, slips
-    ``slip`` and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row
-    force (scaled)."""
+    ``slip`` ((r,) in 2D, (r, 2) in 3D: |.| the Euclidean norm of a row, the slip direction
+    (|mu_a| |s_a| - mu_a . s_a) / 2, which is (-mu_a s_a)^+ in 2D and vanishes only where mu_a is parallel to s_a)
+    and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row force
+    (scaled)."""
     tiny = np.finfo(float).tiny
     C = max(float(np.max(capacity, initial=0.0)), float(Y), tiny)
     CU = max(C * U, tiny)
-    a = np.abs(mu)
+    mu, slip = np.asarray(mu, dtype=float), np.asarray(slip, dtype=float)
+    if mu.ndim == 1:
+        a, s, turned = np.abs(mu), np.abs(slip), np.maximum(-mu * slip, 0.0)
+    else:
+        a, s = np.linalg.norm(mu, axis=1), np.linalg.norm(slip, axis=1)
+        turned = np.maximum(a * s - np.einsum("ij,ij->i", mu, slip), 0.0) / 2
     return {"friction cone": float((np.maximum(a - capacity, 0.0) / C).max(initial=0.0)),
-            "stick-slip": float(np.sqrt((np.abs(capacity - a) * np.abs(slip) / CU).max(initial=0.0))),
-            "slip direction": float(np.sqrt((np.maximum(-mu * slip, 0.0) / CU).max(initial=0.0)))}
+            "stick-slip": float(np.sqrt((np.abs(capacity - a) * s / CU).max(initial=0.0))),
+            "slip direction": float(np.sqrt((turned / CU).max(initial=0.0)))}
 
 
 def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
@@ -47,34 +55,47 @@ def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
 
 def read_back_friction(problem, raw, sol) -> None:
     """Complete ``sol`` (read back as nodal Signorini rows) with the friction law: every pair's ``slip`` (m),
-    ``shear_force`` (N/m, on the first body along the pair's tangent) and the checks of the module docstring,
+    ``shear_force`` (N/m, on the first body along the pair's tangent; 3D: (n, 2) along the pair's frame
+    (t_1, t_2)) and the checks of the module docstring,
     the equilibrium check recomputed with the tangential forces."""
     from dataclasses import replace
 
     E, blocks, un, u, phi = problem.E, problem.blocks, problem.units, raw.u, raw.phi
-    mu = np.asarray(raw.tangential, dtype=float)
-    Ety, Tmu = E.T @ raw.y, E.T @ mu
+    Es, n_c = problem.slip_rows, problem.slip_components
+    mu = np.asarray(raw.tangential, dtype=float)                          # (c R,) component-major
+    Ety, Tmu = E.T @ raw.y, Es.T @ mu
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
     for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
-        modes = body.held_modes(None)
+        modes = body.held_modes(None if problem.nodes is None else problem.nodes[k])
         if len(modes):
             equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
     checks["equilibrium"] = equilibrium
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (E.shape[1],))
-    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
     rows = problem.rows.frictional
-    capacity = problem.thresholds * problem.row_lengths
-    checks.update(friction_checks(mu[rows], (E @ slip)[rows], capacity[rows], U,
+    capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
+    by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
+    checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
                                   float(np.max(raw.y, initial=0.0))))
     offsets = problem.lines.offsets
+
+    def threshold(law, contact):
+        """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of
+        X_h from the pair's own read-back pressure (Pa); None without friction."""
+        f = law.friction
+        if f is None:
+            return None
+        return f.thresholds(contact.pressure) if f.pressure_dependent else f.threshold
+
+    slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=problem.rows.laws[i].friction.threshold
-                            if problem.rows.laws[i].friction is not None else None)
+                            threshold=threshold(problem.rows.laws[i], c))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
-        for f in ("slip", "shear_force"):
-            getattr(c, f).setflags(write=False)
+        for f in ("slip", "shear_force", "threshold"):
+            if isinstance(getattr(c, f), np.ndarray):
+                getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]

@@ -66,6 +66,9 @@ class SolveInfo:
     factorization : str
         The adapter that factorised the bodies for the condensed path or the exact finish ("superlu" or
         "pardiso", :mod:`cvxcontact.backends.factor`); "" if no body was factorised.
+    fixed_point : tuple of float
+        Coulomb friction: the relative change of the friction capacities at each iteration of the fixed point
+        (docs/howto/friction.md, "Coulomb"; its length is the number of iterations); () otherwise.
     """
 
     status: Status
@@ -77,6 +80,7 @@ class SolveInfo:
     finish: Finish | str | None = None
     requested: str = ""
     factorization: str = ""
+    fixed_point: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
@@ -86,6 +90,7 @@ class SolveInfo:
         object.__setattr__(self, "timings", _frozen_timings(self.timings))
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
+        object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
         if not self.requested:
             object.__setattr__(self, "requested", self.method)
 

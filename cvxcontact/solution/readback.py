@@ -43,5 +43,5 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
     sol.info = replace(sol.info, method=raw.method, requested=requested or raw.method, route=route,
                        iterations=raw.iterations, timings=timings,
                        finish=raw.finish if raw.polished and raw.finish else None,
-                       factorization=raw.factorization)
+                       factorization=raw.factorization, fixed_point=raw.fixed_point or ())
     return sol

@@ -68,12 +68,14 @@ class ContactResult:
     form (the quadrature weights of the condition's rows), 0 elsewhere; :attr:`pressure` divides by it."""
     slip: np.ndarray | None = None
     """A friction law (:class:`~cvxcontact.contact.laws.Tresca`): the slip [u_t] = (u^a - u^b) . t (m) at the
-    merged nodes, t the pair's tangent; None without friction."""
+    merged nodes, t the pair's tangent (3D: (n, 2), along the pair's frame t_1, t_2); None without friction."""
     shear_force: np.ndarray | None = None
-    """A friction law: the tangential nodal force on the first body along t (N/m; anti-parallel to ``slip``
-    where it slips); :attr:`shear` divides it by the lumped lengths. None without friction."""
-    threshold: float | None = None
-    """A friction law: the pair's slip threshold g (Pa); None without friction."""
+    """A friction law: the tangential nodal force on the first body along t (N/m, 3D N, (n, 2) like ``slip``;
+    anti-parallel to ``slip`` where it slips); :attr:`shear` divides it by the lumped lengths (areas). None
+    without friction."""
+    threshold: float | np.ndarray | None = None
+    """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa); None without
+    friction."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -112,9 +114,11 @@ class ContactResult:
         lengths of the constrained nodes (as :attr:`pressure`); |sigma_t| <= g. None without friction."""
         if self.shear_force is None:
             return None
-        out = np.zeros(len(self.x))
+        if self.degree == 2:                  # as the pressure: over the row sums of the P2 mass matrix of X_h
+            return self.shear_force / _p2_lumped(self.x)
+        out = np.zeros(np.shape(self.shear_force))
         on = np.asarray(self.constrained, dtype=bool) & (self.measure > 0)
-        out[on] = self.shear_force[on] / self.measure[on]
+        out[on] = self.shear_force[on] / self.measure[on].reshape((-1,) + (1,) * (out.ndim - 1))
         return out
 
     @property

@@ -1,0 +1,210 @@
+"""Tresca and Coulomb friction in 3D (P1 tetrahedra, one second-order cone ||[u_t]_a||_2 per contact row).
+
+A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10 MPa on its top:
+- sheared along a diagonal direction below what it can stick: the answer is the box tied tangentially;
+- pushed along a diagonal direction by a prescribed (s cos t, s sin t) on its left face (nu = 0): frictionless it
+  translates rigidly, u = (s cos t, s sin t, -p z / E) (a closed form); with a small threshold g (or mu) every
+  node slides along t and the friction force is -g A (cos t, sin t) (-mu p A (cos t, sin t)): an isotropic cone
+  (a polygonal or componentwise one would push back along (1, 1));
+- in partial slip the answer does not depend on the orientation of the frame: the scene rotated about the normal
+  gives the rotated answer;
+- a load beyond the capacity along the diagonal (each component below it, the norm above) is refused naming the
+  diagonal translation;
+- a pair on a much stiffer box matches the rigid plane;
+- a layer (its top moved by (s cos t, s sin t, -d)) in partial slip against an independent reference written
+  here: the same nodal Tresca law as its dual, min 1/2 R^T W R + q^T R over R_n >= 0, |R_t| <= g w_a (W the
+  condensed contact compliance, w_a the nodes' lumped areas computed here from the faces), solved by an
+  accelerated projected gradient (FISTA with restart).
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import cvxcontact as cc
+
+P, E = 1e7, 200e9
+FLOOR = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+BOX = cc.box(nx=3, ny=3, nz=2)
+THETA = 0.5
+DIAGONAL = np.array([np.cos(THETA), np.sin(THETA)])
+
+
+def steel(nu=0.3, scale=1.0):
+    return cc.materials.isotropic(E=E * scale, nu=nu)
+
+
+def sheared(q, law, mesh=BOX, tied=False):
+    """The box under (q_x, q_y, -p) on its top; ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
+    if tied:
+        mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags},
+                                                   "base": mesh.boundary("bottom")})
+        b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)},
+                    displacement={"base": (0.0, 0.0, None)})
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
+    b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def pushed(law, s=1e-4):
+    """The nu = 0 box pushed by (s cos t, s sin t) on its left face, pressed by p."""
+    b = cc.Body(BOX, steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
+                displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+@pytest.mark.numerics
+def test_a_box_that_sticks_is_the_box_tied_tangentially():
+    q = 0.2 * P * DIAGONAL
+    tied = cc.solve(sheared(q, None, tied=True), estimate=False)
+    big = cc.solve(sheared(q, cc.Tresca(1e9)))            # far above any shear: stuck, the tied answer
+    assert tied.ok and big.ok
+    scale = np.abs(tied.u[0]).max()
+    assert np.abs(big.u[0] - tied.u[0]).max() < 1e-9 * scale                       # measured 7.2e-13
+    largest = np.linalg.norm(big.contact.shear, axis=1).max()                       # the tied |sigma_t|: 2.43e7 Pa
+    sol = cc.solve(sheared(q, cc.Tresca(1.01 * largest)))
+    assert sol.ok and sol.contact.slip.shape == (16, 2)
+    assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-9 * scale                       # measured 1.0e-12
+    assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-12)        # measured 4.1e-15
+    below = cc.solve(sheared(q, cc.Tresca(0.8 * largest)))
+    assert below.ok and np.linalg.norm(below.contact.slip, axis=1).max() > 1e-3 * scale   # measured 2.7e-2
+
+
+@pytest.mark.numerics
+def test_pushed_along_a_diagonal_it_translates_and_slides_against_the_push():
+    exact = np.column_stack([np.full(len(BOX.points), 1e-4 * DIAGONAL[0]),
+                             np.full(len(BOX.points), 1e-4 * DIAGONAL[1]), -P * BOX.points[:, 2] / E])
+    zero = cc.solve(pushed(cc.Tresca(0.0)))
+    assert zero.ok and np.abs(zero.u[0] - exact).max() < 1e-9 * 1e-4                 # measured 7.0e-13 (x 1e-4)
+    errors = []
+    for g in (1e2, 1e3):
+        sol = cc.solve(pushed(cc.Tresca(g)))
+        assert sol.ok
+        c = sol.contact
+        slip = np.linalg.norm(c.slip, axis=1)
+        assert (slip > 0.5e-4).all()                                                  # every node slides
+        assert np.abs(c.slip / slip[:, None] - DIAGONAL).max() < 1e-3                 # along t: 4.1e-6, 4.1e-5
+        force = c.shear_force.sum(axis=0)
+        assert np.abs(force / g + DIAGONAL).max() < 1e-2                              # measured 1e-6, 1e-5 (x A=1)
+        errors.append(np.abs(sol.u[0] - exact).max())
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-2)                    # linear in g: 9.99
+    for mu in (1e-5, 1e-4):
+        sol = cc.solve(pushed(cc.Coulomb(mu)))
+        assert sol.ok
+        assert np.abs(sol.contact.shear_force.sum(axis=0) / (mu * P) + DIAGONAL).max() < 1e-3   # 1.5e-6, 1.4e-5
+
+
+@pytest.mark.numerics
+def test_the_answer_turns_with_the_scene_about_the_normal():
+    q = 0.2 * P * DIAGONAL
+    g = 0.3 * P                                            # partial slip: 15 of 16 nodes slip
+    sol = cc.solve(sheared(q, cc.Tresca(g)))
+    phi = 0.3
+    R = np.array([[np.cos(phi), -np.sin(phi), 0.0], [np.sin(phi), np.cos(phi), 0.0], [0.0, 0.0, 1.0]])
+    turned = cc.solve(sheared(R[:2, :2] @ q, cc.Tresca(g), mesh=BOX.with_points(BOX.points @ R.T)))
+    assert sol.ok and turned.ok
+    slip = np.linalg.norm(sol.contact.slip, axis=1)
+    assert (slip > 1e-3 * slip.max()).sum() >= 12
+    assert np.abs(turned.u[0] - sol.u[0] @ R.T).max() < 1e-6 * np.abs(sol.u[0]).max()   # measured 4.3e-9
+    for c in (sol.contact, turned.contact):                # the shear is 2-vectors in the cone |sigma_t| <= g
+        assert (np.linalg.norm(c.shear, axis=1) <= g * (1 + 1e-9)).all()
+
+
+def test_a_diagonal_load_beyond_the_capacity_is_refused_naming_the_diagonal():
+    g = 0.25 * P                                           # each component 0.8 g: the norm 1.13 g > g
+    with pytest.raises(cc.SceneError, match=r"translation along \(0\.7071, 0\.7071, 0\).*4e\+06 N.*capacity "
+                                            r"3\.53553e\+06 N \(threshold times contact area\)"):
+        cc.solve(sheared((0.8 * g, 0.8 * g), cc.Tresca(g)))
+    assert cc.solve(sheared((0.75 * g, 0.0), cc.Tresca(g))).ok          # within the capacity: solved
+    with pytest.raises(cc.SceneError, match=r"translation along \(0\.7071, 0\.7071, 0\).*friction coefficient"):
+        cc.solve(sheared((0.3 * P, 0.3 * P), cc.Coulomb(0.4)))       # |q| = 0.42 P > 0.4 P
+
+
+def pair(law, stiffer, q):
+    """The box on a box ``stiffer`` times stiffer, clamped at its bottom."""
+    a = cc.Body(BOX, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top")
+    b = cc.Body(BOX.with_points(BOX.points - [0.0, 0.0, 1.0]), steel(scale=stiffer), contact="top",
+                clamped="bottom", name="below")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law)])
+
+
+@pytest.mark.numerics
+def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
+    q = 0.2 * P * DIAGONAL
+    departures = {}
+    for law, stiffer in ((cc.Tresca(0.3 * P), 1e3), (cc.Tresca(0.3 * P), 1e4), (cc.Coulomb(0.4), 1e3)):
+        sol = cc.solve(pair(law, stiffer, q))
+        rigid = cc.solve(sheared(q, law))
+        assert sol.ok and rigid.ok
+        assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-9)      # measured 6e-13, 3e-11
+        departures[law, stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
+    tresca = cc.Tresca(0.3 * P)           # the departure is the partner's compliance: linear in it
+    assert departures[tresca, 1e3] / departures[tresca, 1e4] == pytest.approx(10.0, rel=1e-2)   # measured 10.000
+    assert departures[cc.Coulomb(0.4), 1e3] < 1e-2                   # measured 2.4e-3 (Tresca's: 2.2e-3)
+
+
+def projected_gradient_tresca(W, q, capacity, iterations=20000):
+    """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
+    n = len(q) // 3
+
+    def project(V):
+        V = V.reshape(n, 3).copy()
+        norm = np.linalg.norm(V[:, :2], axis=1)
+        V[:, :2] *= np.minimum(1.0, capacity / np.maximum(norm, np.finfo(float).tiny))[:, None]
+        V[:, 2] = np.maximum(V[:, 2], 0.0)
+        return V.ravel()
+
+    def energy(X):
+        return 0.5 * X @ W @ X + q @ X
+
+    step = 1.0 / np.linalg.eigvalsh(W).max()
+    R = Y = np.zeros(3 * n)
+    t, restarted = 1.0, False
+    for _ in range(iterations):
+        new = project(Y - step * (W @ Y + q))
+        if np.abs(new - R).max() <= 1e-15 * np.abs(new).max():
+            return new
+        if energy(new) > energy(R):                        # restart the momentum; twice in a row: at rounding
+            if restarted:
+                return R
+            Y, t, restarted = R, 1.0, True
+            continue
+        restarted = False
+        t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
+        Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
+    return R
+
+
+@pytest.mark.numerics
+def test_a_sheared_layer_in_partial_slip_matches_a_projected_gradient_reference():
+    from cvxcontact.fem.space import P1Tet
+
+    s, d, g = 4e-6, 1e-5, 0.25 * P
+    body = cc.Body(BOX, steel(), contact="bottom", displacement={"top": (s * DIAGONAL[0], s * DIAGONAL[1], -d)})
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=cc.Tresca(g))]))
+    assert sol.ok
+    system = P1Tet().assemble_loads(body, P1Tet().assemble_matrices(body))     # SI, the prescribed top lifted
+    Tu, u_fixed = system.Tu, system.u_fixed
+    Kzz = (Tu.T @ system.Kuu @ Tu).toarray()
+    fz = Tu.T @ system.f
+    points, faces = BOX.points, np.asarray(BOX.boundary("bottom"))
+    bottom = np.unique(faces)
+    areas = 0.5 * np.linalg.norm(np.cross(points[faces[:, 1]] - points[faces[:, 0]],
+                                          points[faces[:, 2]] - points[faces[:, 0]]), axis=1)
+    lumped = np.zeros(len(points))
+    np.add.at(lumped, faces.ravel(), np.repeat(areas / 3, 3))
+    dofs = np.ravel(np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]))
+    Pc = sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(Kzz, PT.T)                                        # m per N
+    q = PT @ np.linalg.solve(Kzz, fz) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, g * lumped[bottom])
+    ref = (Tu @ np.linalg.solve(Kzz, fz + PT.T @ R) + u_fixed).reshape(-1, 3)
+    slip = np.linalg.norm(ref[bottom, :2], axis=1)
+    assert 2 <= (slip > 1e-3 * slip.max()).sum() <= len(bottom) - 2             # partial slip: 4 of 16 nodes
+    assert np.abs(sol.u[0] - ref).max() < 1e-5 * np.abs(ref).max()             # measured 5.9e-8
+    c = sol.contact
+    at = [int(np.argmin(np.linalg.norm(c.points - points[b], axis=1))) for b in bottom]
+    R = R.reshape(-1, 3)
+    assert np.abs(c.shear_force[at] - R[:, :2]).max() < 2e-5 * np.abs(R).max()  # measured 1.5e-7
+    assert np.abs(c.force[at] - R[:, 2]).max() < 2e-5 * np.abs(R).max()        # measured 1.6e-7

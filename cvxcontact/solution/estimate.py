@@ -376,7 +376,7 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     keep[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
     for tag, v in body.displacement.items():
         if mech_role.get(tag) == "partial":
-            keep[index[tag], [comp for comp, val in enumerate(v) if val is not None]] = 0.0
+            keep[np.ix_(index[tag], [comp for comp, val in enumerate(v) if val is not None])] = 0.0
     roller = np.flatnonzero(role_m == code["roller"])
     keep_e = (role_e != code["dirichlet"]).astype(float)
     weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells

@@ -93,7 +93,7 @@ def check_covered(scene, degree: int = 1, law=None) -> None:
         _refuse(f"{scene.cell} cells")
     if scene.dim != 2:
         _refuse("3D (tetrahedra)")
-    if degree != 1:
+    if not space(degree, scene.cell).bounded:
         _refuse("P2 elements (degree=2)")
     if len(scene.bodies) != 1 or any(not c.rigid for c in scene.contacts):
         _refuse("pairs of deformable bodies")

@@ -53,7 +53,7 @@ class LinearTrace:
     """The meshio (VTK) cell type of a 2D contact line."""
     span, spacing = "face", ""
     """What lies between two neighbouring nodes of a 2D trace, and how a 3D message qualifies a face's size."""
-    conic = False
+    gamma3_cones = False
     """Whether "gamma3" (the condition everywhere on the contact line) is posed as cones on the elements of X_h
     (docs/formulation.md §8, §16); False: it reduces to nodal rows (a linear function is non-negative on an
     element if it is at its vertices)."""
@@ -126,7 +126,7 @@ class QuadraticTrace(LinearTrace):
     step = 2
     line = "line3"
     span, spacing = "half-face", " between P2 nodes"
-    conic = True
+    gamma3_cones = True
 
     def vertices(self, x) -> np.ndarray:
         return np.asarray(x)[::2]

@@ -57,7 +57,7 @@ def half_width(contact):
     X_h is closed where the jump reaches the gap, [u_nu] - g >= -1e-3 DELTA (the approach sets the scale;
     the interior point closes contact to about 1e-7 DELTA here)."""
     x = contact.x
-    act = (contact.jump - contact.gap) >= -1e-3 * DELTA if contact.trace.conic else contact.active
+    act = (contact.jump - contact.gap) >= -1e-3 * DELTA if contact.trace.gamma3_cones else contact.active
     if not act.any():
         return 0.0
     i0, i1 = np.flatnonzero(act)[[0, -1]]

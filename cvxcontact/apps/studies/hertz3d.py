@@ -265,7 +265,7 @@ def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
     largest |[u_nu]| stands for the approach)."""
     c = sol.contact
     x = np.asarray(c.x, dtype=float)
-    if sol.contact.trace.conic and sol.condition == "gamma3":
+    if sol.contact.trace.gamma3_cones and sol.condition == "gamma3":
         q = np.asarray(c.jump) - np.asarray(c.gap)
         pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()),
                              true_departure(sol))
@@ -368,7 +368,7 @@ def measure(sol, delta, closed_form=None):
     a, p0, d = (closed_form or hertz)(F)
     a_hull, support = support_radius(sol)
     a_moment = moment_radius(c.x, c.force)
-    conic = sol.contact.trace.conic and sol.condition == "gamma3"
+    conic = sol.contact.trace.gamma3_cones and sol.condition == "gamma3"
     a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
     itf = _contact_surface(sol)
     trace, reach = itf.traces[0], block_nodes(sol)
@@ -411,7 +411,7 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condi
     condition = condition or CONDITION[degree]
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice, distance=distance)
     solver = ContactSolver(base, condition, method="condensed", degree=degree)
-    conic = space(degree, "tetra").trace.conic and condition == "gamma3"
+    conic = space(degree, "tetra").trace.gamma3_cones and condition == "gamma3"
     sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10)
     row = dict(degree=degree, condition=condition, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())

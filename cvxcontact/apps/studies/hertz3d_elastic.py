@@ -284,7 +284,7 @@ def solve_profile_level(n, degree=1, condition="sigma1", size=SIZE, ratio=RATIO,
     clock = Timer()
     base = profile_scene(n, 0.0, size, ratio)
     solver = ContactSolver(base, condition, method="condensed", degree=degree)
-    conic = space(degree, "tetra").trace.conic and condition == "gamma3"
+    conic = space(degree, "tetra").trace.gamma3_cones and condition == "gamma3"
     sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10, gap=SphereGap)
     far = boussinesq(F, size * A_REF, E1, NU1) + boussinesq(F, size * A_REF, E2, NU2)
     row = dict(variant="profile", degree=degree, condition=condition, n=n) | measure(sol, delta, hertz)

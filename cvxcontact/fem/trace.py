@@ -17,7 +17,7 @@ import numpy as np
 from ..contact.interface import lumped_lengths
 from .p2 import shape_functions
 
-__all__ = ["LinearTrace", "QuadraticTrace", "TRACES", "quadratic_lumped", "quadratic_curve"]
+__all__ = ["TRACES", "LinearTrace", "QuadraticTrace", "quadratic_curve", "quadratic_lumped"]
 
 
 def quadratic_lumped(x) -> np.ndarray:
@@ -77,7 +77,6 @@ class LinearTrace:
     def curve(self, x, values):
         """A sampled curve through the nodal ``values`` for a figure, or None where the straight lines between
         the nodes are the function (here always)."""
-        return None
 
     def elements(self, itf) -> np.ndarray:
         """(c, 3) the triangles of X_h of the 3D two-body pair ``itf`` (its overlay's), numbered as its nodes."""
@@ -91,7 +90,6 @@ class LinearTrace:
     def kept(self, interface):
         """What a :class:`~cvxcontact.solution.solution.Solution` keeps of the contact lines' ``interface``
         (``Solution.interface``): None, the pairs being the scene's own (``scene.interfaces``)."""
-        return None
 
     def measure(self, pair, condition: str) -> np.ndarray:
         """The quadrature weights of ``condition``'s rows of ``pair`` at its nodes of X_h (lengths in 2D, m;
@@ -168,7 +166,6 @@ class QuadraticTrace(LinearTrace):
 
     def measure(self, pair, condition: str) -> None:
         """None: the forces M lambda_h live on every node of X_h (:meth:`pressure`)."""
-        return None
 
     def pressure(self, contact) -> np.ndarray:
         """The forces r = M lambda_h over the row sums of the P2 mass matrix of X_h on a 2D line; on a 3D surface,

@@ -52,7 +52,8 @@ def scene(n, ratio=0.8):
 
 def half_width(contact):
     """Mid-point estimate of the contact half-width (m): between the outermost closed node and the
-    next open one on each side. P1: closed = active (a nonzero force at the node). P2: the nodal forces
+    next open one on each side. P1: closed = active (a nonzero force at the node). P2 (a trace whose "gamma3"
+    takes cones, ``contact.trace.gamma3_cones``): the nodal forces
     r = B^T beta of X_h are not sign-definite and a segment carrying force has open ends, so a node of
     X_h is closed where the jump reaches the gap, [u_nu] - g >= -1e-3 DELTA (the approach sets the scale;
     the interior point closes contact to about 1e-7 DELTA here)."""

@@ -33,7 +33,15 @@ import numpy as np
 from ...contact.interface import CONDITIONS
 from ...errors import CvxContactError
 from ...solve import ContactSolver
-from .common import DEGREES, Timer, markdown_table, pyplot, save_figure, write_csv, write_text
+from .common import (
+    DEGREES,
+    Timer,
+    markdown_table,
+    pyplot,
+    save_figure,
+    write_csv,
+    write_text,
+)
 from .convergence import Reference, scene
 
 

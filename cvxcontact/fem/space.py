@@ -141,8 +141,9 @@ class Space(Protocol):
         (where the output evaluates the fields)."""
 
     def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
-        """(cells (m, k), G (m, d + 1, d, k) 1/m): the element nodes and the shape gradients at each simplex's
-        d + 1 vertices (the error estimates' fields, affine on a cell for P2); spaces the estimates cover."""
+        """(cells (m, k), G (m, q, d, k) 1/m): the element nodes and the shape gradients at each simplex's
+        q = d + 1 vertices (the error estimates' fields, affine on a cell for P2), q = 1 where they are constant
+        on a cell (P1); spaces the estimates cover."""
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         """Kuu, Kup, Kpp and the Dirichlet prolongations of ``body`` on ``nodes`` (SI), no loads."""
@@ -175,7 +176,7 @@ class P1:
     def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
         _estimated(self)
         gradL = gradients(body.mesh.points, body.mesh.cells)[1]
-        return body.mesh.cells, np.repeat(gradL[:, None], gradL.shape[2], axis=1)      # constant on a cell
+        return body.mesh.cells, gradL[:, None]                                  # constant on a cell: q = 1
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         return [(self.vtk, np.asarray((body.mesh if nodes is None else nodes).cells))]

@@ -102,7 +102,7 @@ def vertex_fields(body, u, phi, degree: int):
     c, e, kappa = body.material.tensors(dim)
     measure, gradL = gradients(mesh.points, mesh.cells)
     u = np.asarray(u, dtype=float)
-    el, G = space(degree, mesh.cell).corner_gradients(body)                       # G (m, d + 1, d, k)
+    el, G = space(degree, mesh.cell).corner_gradients(body)               # G (m, q, d, k): q = d + 1 or 1
     m = len(el)
     ue = u[el].reshape(m, -1)
     eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(G.shape[1])], axis=1)
@@ -113,6 +113,8 @@ def vertex_fields(body, u, phi, degree: int):
         gphi = np.einsum("mvdj,mj->mvd", G, pe)
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
+    copies = (dim + 1) // G.shape[1]                                   # constant on a cell: the same at each vertex
+    eps, gphi, sigma, D = (None if a is None else np.repeat(a, copies, axis=1) for a in (eps, gphi, sigma, D))
     return eps, gphi, sigma, D, gradL, measure
 
 

@@ -66,6 +66,11 @@ class LinearTrace:
         """The length attributed to each node of a 2D line of sorted nodes ``x`` (m): its mass matrix's row sums."""
         return lumped_lengths(np.asarray(x, dtype=float))
 
+    def side_lengths(self, side) -> np.ndarray:
+        """The length (2D, m) or area (3D, m^2) attributed to each node of one body's ``side`` of a pair (its
+        trace: ``x``, in 3D ``lumped``): its lumped lengths or areas."""
+        return np.asarray(side.lumped) if np.ndim(side.x) == 2 else self.lumped(side.x)
+
     def values(self, x, values, s) -> np.ndarray:
         """The function of nodal ``values`` on the 2D line of sorted nodes ``x`` at abscissae ``s`` inside it."""
         return np.interp(s, x, values)
@@ -131,6 +136,11 @@ class QuadraticTrace(LinearTrace):
 
     def lumped(self, x) -> np.ndarray:
         return quadratic_lumped(x)
+
+    def side_lengths(self, side) -> np.ndarray:
+        """2D: the P2 lumped lengths of the side's nodes; 3D: the integral of each P2 function of its faces (its
+        mass matrix's row sums, 0 at the vertices)."""
+        return np.asarray(side.mass.sum(axis=1)).ravel() if np.ndim(side.x) == 2 else self.lumped(side.x)
 
     def values(self, x, values, s) -> np.ndarray:
         x = np.asarray(x, dtype=float)

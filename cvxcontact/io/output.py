@@ -19,7 +19,7 @@ from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..fem.space import space, space_of
 from ..fem.trace import TRACES
-from ..solution.solution import force_unit, pair_label
+from ..solution.solution import _pairs, force_unit, pair_label
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -148,10 +148,7 @@ def _solid_mesh(body, u, phi, nodes=None):
 def _interface(solution, pair=0):
     """Contact pair ``pair``'s line: P1 ``scene.interfaces[pair]``, P2 the solution's quadratic interface
     (or pair ``pair``'s one in its stack of several pairs)."""
-    if getattr(solution, "degree", 1) == 2:
-        itf = solution.interface
-        return itf.interfaces[pair] if hasattr(itf, "interfaces") else itf
-    return solution.scene.interfaces[pair]
+    return _pairs(solution.scene, getattr(solution, "interface", None))[0][pair]
 
 
 def trace_pressure(solution, k, pair=0):
@@ -419,12 +416,7 @@ def _estimate_summary(solution) -> dict:
 
 def _lengths(solution, k, pair=0):
     """The lumped lengths (2D, m) or areas (3D, m^2) of side ``k``'s trace nodes on pair ``pair``."""
-    t = _interface(solution, pair).traces[k]
-    if solution.scene.dim == 3 and getattr(solution, "degree", 1) == 2:
-        return np.asarray(t.mass.sum(axis=1)).ravel()      # int of each P2 function (0 at the vertices)
-    if solution.scene.dim == 3:
-        return np.asarray(t.lumped)
-    return TRACES[getattr(solution, "degree", 1)].lumped(t.x)     # 2D: the trace's lumped lengths
+    return TRACES[getattr(solution, "degree", 1)].side_lengths(_interface(solution, pair).traces[k])
 
 
 def write_summary(solution, path):

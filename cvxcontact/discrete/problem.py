@@ -198,7 +198,8 @@ class DiscreteProblem:
 
     @property
     def meshes(self) -> list:
-        """Each body's node graph for the factorisations' orderings (P2: the 6-node graph)."""
+        """Each body's node set (its mesh, or the space's nodes, e.g. P2's 6-node graph): where the unknowns
+        live (points, cells, boundary nodes; the factorisations' orderings, the read-back)."""
         return list(self.nodes) if self.nodes is not None else [b.mesh for b in self.scene.bodies]
 
     @property

@@ -43,10 +43,10 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
 
     ``nodes``: the node set of a degree-2 solution (:class:`~cvxcontact.geometry.quadratic.P2Nodes`,
     ``Q2Nodes``, ``P2TetNodes``; ``u``, ``phi`` on them), None for the mesh's vertices."""
-    from .space import space
+    from .space import space_of
 
     mat = body.material
-    el, grad = space(1 if nodes is None else 2, body.mesh.cell).centre_gradients(body, nodes)
+    el, grad = space_of(body, nodes).centre_gradients(body, nodes)
     if body.dim == 3:
         return _solid_fields(body, u, phi, el, grad)
     eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))  # (exx, eyy, 2exy)

@@ -36,8 +36,10 @@ from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_po
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT, bilinear_rows
 from .quad import Q1_ELEMENT, Q2_ELEMENT
+from .trace import TRACES, LinearTrace
 
-__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "SPACES"]
+__all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "space_of",
+           "SPACES"]
 
 
 @dataclass(frozen=True)
@@ -105,15 +107,31 @@ def _interface_key(interface) -> bytes:
 class Space(Protocol):
     """What the discrete problem asks of a space: its ``cell`` (the mesh's cell type, ``mesh.cell``),
     ``degree`` (of its traces on the contact lines: 1 segments of 2 nodes, 2 of 3 nodes), ``dim``
-    (displacement components per node), whether the error ``estimates`` cover it, and the methods below."""
+    (displacement components per node), whether the error ``estimates`` cover it and whether the equilibrated
+    error bound does (``bounded``: :mod:`cvxcontact.solution.bound`, P1 triangles), its ``trace`` on the contact
+    lines (:mod:`cvxcontact.fem.trace`: what the read-back, estimates and output ask of X_h), its ``label``
+    ("P1", "Q2", ...: figures and reports), the ``order`` of its energy-norm error on smooth solutions (h^order:
+    the rate the studies expect) and the methods below."""
 
     cell: str
     degree: int
     dim: int
     estimates: bool
+    bounded: bool
+    trace: LinearTrace
+    label: str
+    order: int
 
     def nodes(self, body):
         """The node set of ``body`` (None: the mesh's vertices)."""
+
+    def node_set(self, mesh):
+        """The node set of this space on ``mesh`` (``points``, ``cells``, ``boundary_nodes``,
+        ``node_components``): the mesh itself where the nodes are its vertices."""
+
+    def shape_values(self, L) -> np.ndarray:
+        """(..., k): the element's shape functions at barycentric coordinates ``L`` (..., d + 1) of a simplex
+        (the order of ``node_set(mesh).cells``); simplex spaces."""
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         """The cells of ``body`` as meshio (VTK) blocks [(type, (m, k) node indices in VTK's order)]."""
@@ -121,6 +139,11 @@ class Space(Protocol):
     def centre_gradients(self, body, nodes=None) -> tuple[np.ndarray, np.ndarray]:
         """(cells (m, k), G (m, dim, k) 1/m): the element nodes and the shape gradients at each cell's centre
         (where the output evaluates the fields)."""
+
+    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+        """(cells (m, k), G (m, q, d, k) 1/m): the element nodes and the shape gradients at each simplex's
+        q = d + 1 vertices (the error estimates' fields, affine on a cell for P2), q = 1 where they are constant
+        on a cell (P1); spaces the estimates cover."""
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         """Kuu, Kup, Kpp and the Dirichlet prolongations of ``body`` on ``nodes`` (SI), no loads."""
@@ -136,11 +159,24 @@ class P1:
     """P1 (3-node) triangles: the mesh's vertices, the merged P1 contact mesh of every pair."""
 
     cell, degree, dim, estimates = "triangle", 1, 2, True
+    trace, label, order, bounded = TRACES[1], "P1", 1, True
     vtk = "triangle"
     """The meshio (VTK) cell type."""
 
     def nodes(self, body):
         return None
+
+    def node_set(self, mesh):
+        return mesh
+
+    def shape_values(self, L) -> np.ndarray:
+        _simplex(self)
+        return np.asarray(L)
+
+    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+        _estimated(self)
+        gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+        return body.mesh.cells, gradL[:, None]                                  # constant on a cell: q = 1
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         return [(self.vtk, np.asarray((body.mesh if nodes is None else nodes).cells))]
@@ -182,10 +218,24 @@ class P2:
     """P2 (6-node) triangles built on the P1 mesh (vertices, then edge midpoints; docs/formulation.md §8)."""
 
     cell, degree, dim, estimates = "triangle", 2, 2, True
+    trace, label, order, bounded = TRACES[2], "P2", 2, False
     vtk = "triangle6"
 
     def nodes(self, body):
-        return P2Nodes(body.mesh)
+        return self.node_set(body.mesh)
+
+    def node_set(self, mesh):
+        return P2Nodes(mesh)
+
+    def shape_values(self, L) -> np.ndarray:
+        _simplex(self)
+        return p2.shape_functions(L)
+
+    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+        _estimated(self)
+        gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+        corners = np.eye(gradL.shape[2])
+        return self.nodes(body).cells, np.stack([p2.shape_gradients(gradL, c) for c in corners], axis=1)
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         return [(self.vtk, np.asarray((self.nodes(body) if nodes is None else nodes).cells))]
@@ -304,6 +354,20 @@ def _bulk(system: BodySystem, body, points) -> BodySystem:
     return replace(system, strain=strain, weights=weights, material=body.material)
 
 
+def _estimated(space):
+    """UnsupportedError where the error estimates do not cover ``space`` (``space.estimates``)."""
+    if not space.estimates:
+        raise UnsupportedError(f"the error estimates do not cover {space.label} {space.cell} cells: use "
+                               "triangles or tetrahedra")
+
+
+def _simplex(space):
+    """UnsupportedError for a space whose cells are not simplices (barycentric coordinates do not place a point)."""
+    if space.cell not in ("triangle", "tetra"):
+        raise UnsupportedError(f"{space.label} {space.cell} cells: shape functions at barycentric coordinates "
+                               "are those of triangles and tetrahedra")
+
+
 def _check_cell(space, body):
     cell = body.mesh.cell
     if cell != space.cell:
@@ -316,6 +380,7 @@ class Q1(P1):
     the traces on the contact lines are P1's segments, so the contact rows are P1's."""
 
     cell, degree, dim, estimates = "quad", 1, 2, False
+    label, bounded = "Q1", False
     vtk = "quad"
     element = Q1_ELEMENT
 
@@ -347,11 +412,12 @@ class Q2(P2):
     so the contact rows (nodal and the "gamma3" cones) are P2's."""
 
     cell, degree, dim, estimates = "quad", 2, 2, False
+    label = "Q2"
     vtk = "quad9"
     element = Q2_ELEMENT
 
-    def nodes(self, body):
-        return Q2Nodes(body.mesh)
+    def node_set(self, mesh):
+        return Q2Nodes(mesh)
 
     centre_gradients, _held, assemble_matrices = Q1.centre_gradients, Q1._held, Q1.assemble_matrices
 
@@ -367,6 +433,7 @@ class P1Tet(P1):
     are the nodes of X_h, docs/formulation.md §13), stacked as in 2D."""
 
     cell, degree, dim, estimates = "tetra", 1, 3, True
+    bounded = False
     vtk = "tetra"
 
 
@@ -384,8 +451,8 @@ class P2Tet(P2):
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
 
-    def nodes(self, body):
-        return P2TetNodes(body.mesh)
+    def node_set(self, mesh):
+        return P2TetNodes(mesh)
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         cells = np.asarray((self.nodes(body) if nodes is None else nodes).cells)
@@ -457,6 +524,7 @@ class Q1Hex(P1Tet):
     (:func:`_hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 1, 3, False
+    label = "Q1"
     vtk = "hexahedron"
     element = HEX1_ELEMENT
 
@@ -507,11 +575,12 @@ class Q2Hex(P2Tet):
     would evaluate the trace between the nodes: refused by name (:func:`_hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, False
+    label = "Q2"
     vtk = "hexahedron27"
     element = HEX2_ELEMENT
 
-    def nodes(self, body):
-        return Q2HexNodes(body.mesh)
+    def node_set(self, mesh):
+        return Q2HexNodes(mesh)
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
         return [(self.vtk, np.asarray((self.nodes(body) if nodes is None else nodes).cells))]
@@ -622,3 +691,9 @@ def space(degree, cell: str = "triangle") -> Space:
     if not isinstance(cell, str) or cell not in cells:
         raise SolverError(f"cell must be one of {cells} (the mesh's cell type, mesh.cell), got {cell!r}")
     return SPACES[cell, degree]()
+
+
+def space_of(body, nodes=None) -> Space:
+    """The :class:`Space` of ``body``'s cells whose node set is ``nodes`` (None: the mesh's vertices, degree 1;
+    a quadratic node set such as :class:`~cvxcontact.geometry.quadratic.P2Nodes`: degree 2)."""
+    return space(1 if nodes is None else 2, body.mesh.cell)

@@ -39,6 +39,12 @@ class CellMesh(Frozen):
         parts = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.int64)
 
+    def node_set(self, nodes=None):
+        """The node set a body's unknowns live on: ``nodes`` (another node set of this mesh with ``points``,
+        ``cells``, ``boundary_nodes`` and ``node_components``, e.g. its P2 nodes), else the mesh itself (its
+        vertices)."""
+        return self if nodes is None else nodes
+
 
 def cell_corners(cells, corners: int, name: str, n: int) -> np.ndarray:
     """``cells`` as a contiguous int64 (m, ``corners``) array of node indices below ``n``; MeshError naming the

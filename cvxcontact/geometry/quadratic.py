@@ -25,6 +25,14 @@ class _MidpointNodes:
     def __len__(self) -> int:
         return len(self.points)
 
+    @property
+    def node_components(self) -> np.ndarray:
+        """(n,) the mesh component of each node (that of the cells it belongs to, as ``mesh.node_components``)."""
+        comp = np.empty(len(self.points), dtype=self.mesh.node_components.dtype)
+        cells = np.asarray(self.cells)
+        comp[cells.ravel()] = np.repeat(self.mesh.components, cells.shape[1])
+        return comp
+
     def midpoint(self, a, b) -> np.ndarray:
         """Node indices of the midpoints of the edges (a, b) (arrays of vertex indices)."""
         return _midpoint(self._keys, self.n_vertices, a, b)

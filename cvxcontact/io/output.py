@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..contact.interface import lumped_lengths
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
-from ..fem.space import space
-from ..solution.solution import force_unit, pair_label
+from ..fem.space import space, space_of
+from ..fem.trace import TRACES
+from ..solution.solution import _pairs, force_unit, pair_label
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -108,8 +108,8 @@ def body_mesh(body, u, phi, nodes=None):
         point_data["electric potential [V]"] = phi
         cell_data["electric field [V/m]"] = _pad3(f.electric_field)
         cell_data["electric displacement [C/m^2]"] = _pad3(f.electric_displacement)
-    cells = space(1 if nodes is None else 2, body.mesh.cell).vtk_cells(body, nodes)
-    points = body.mesh.points if nodes is None else nodes.points
+    cells = space_of(body, nodes).vtk_cells(body, nodes)
+    points = body.mesh.node_set(nodes).points
     return meshio.Mesh(_pad3(points), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
 
@@ -139,28 +139,16 @@ def _solid_mesh(body, u, phi, nodes=None):
         point_data["electric potential [V]"] = np.asarray(phi, dtype=float)
         cell_data["electric field [V/m]"] = f.electric_field
         cell_data["electric displacement [C/m^2]"] = f.electric_displacement
-    cells = space(1 if nodes is None else 2, body.mesh.cell).vtk_cells(body, nodes)
-    points = body.mesh.points if nodes is None else nodes.points
+    cells = space_of(body, nodes).vtk_cells(body, nodes)
+    points = body.mesh.node_set(nodes).points
     return meshio.Mesh(np.asarray(points, dtype=float), cells, point_data=point_data,
                        cell_data={k: [v] for k, v in cell_data.items()})
-
-
-def _line_cells(n, degree):
-    """Cells of a line of ``n`` nodes in order along it: P1 ``line`` pairs, or P2 ``line3`` (end, end,
-    midpoint) for interleaved nodes (vertex, midpoint, vertex, ...)."""
-    if degree == 2:
-        i = 2 * np.arange((n - 1) // 2)
-        return [("line3", np.column_stack([i, i + 2, i + 1]))]
-    return [("line", np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
 
 
 def _interface(solution, pair=0):
     """Contact pair ``pair``'s line: P1 ``scene.interfaces[pair]``, P2 the solution's quadratic interface
     (or pair ``pair``'s one in its stack of several pairs)."""
-    if getattr(solution, "degree", 1) == 2:
-        itf = solution.interface
-        return itf.interfaces[pair] if hasattr(itf, "interfaces") else itf
-    return solution.scene.interfaces[pair]
+    return _pairs(solution.scene, getattr(solution, "interface", None))[0][pair]
 
 
 def trace_pressure(solution, k, pair=0):
@@ -236,7 +224,7 @@ def contact_mesh(solution, pair=0):
         points, cells = np.asarray(c.points, dtype=float), [("triangle", surface_cells(itf))]
     else:
         xy = np.column_stack([c.x, np.full(n, c.line)]) if c.points is None else c.points   # any direction
-        points, cells = _pad3(xy), _line_cells(n, getattr(solution, "degree", 1))
+        points, cells = _pad3(xy), TRACES[getattr(solution, "degree", 1)].line_cells(n)
     sides = _side_displacements(solution, pair)
     bodies = pair_bodies(solution, pair)
     data = {f"pressure on body {b + 1} [Pa]": itf.interpolation(k) @ trace_pressure(solution, k, pair)[1]
@@ -272,7 +260,7 @@ def trace_mesh(solution, k, pair=0):
         points, cells = np.asarray(t.points, dtype=float), [("triangle6" if faces.shape[1] == 6 else "triangle", faces)]
     else:
         xy = t.points if hasattr(t, "points") else itf.points[0] + np.outer(t.x - itf.x[0], itf.tangent)
-        points, cells = _pad3(xy), _line_cells(n, getattr(solution, "degree", 1))
+        points, cells = _pad3(xy), TRACES[getattr(solution, "degree", 1)].line_cells(n)
     return meshio.Mesh(points, cells, point_data={
         f"pressure on body {b + 1} [Pa]": p, "displacement [m]": _vectors(solution.u[b][t.nodes])})
 
@@ -428,16 +416,7 @@ def _estimate_summary(solution) -> dict:
 
 def _lengths(solution, k, pair=0):
     """The lumped lengths (2D, m) or areas (3D, m^2) of side ``k``'s trace nodes on pair ``pair``."""
-    t = _interface(solution, pair).traces[k]
-    if solution.scene.dim == 3 and getattr(solution, "degree", 1) == 2:
-        return np.asarray(t.mass.sum(axis=1)).ravel()      # int of each P2 function (0 at the vertices)
-    if solution.scene.dim == 3:
-        return np.asarray(t.lumped)
-    x = t.x
-    if getattr(solution, "degree", 1) == 2:             # P2 trace nodes: the P2 lumped lengths
-        from ..solution.solution import _p2_lumped
-        return _p2_lumped(x)
-    return lumped_lengths(x)
+    return TRACES[getattr(solution, "degree", 1)].side_lengths(_interface(solution, pair).traces[k])
 
 
 def write_summary(solution, path):

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import SceneError
 from ..fem.fields import body_fields
 from ..fem.space import space
+from ..fem.trace import TRACES, quadratic_curve
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -67,9 +68,8 @@ def magnification(solution, fraction=0.1) -> float:
 def _field_values(solution, field):
     """Per body: the nodal potential or the element von Mises stress. P2: the potential at the vertices
     (listed first) and the stress at the centroids, drawn on the vertex triangulation."""
-    p2 = getattr(solution, "degree", 1) == 2
-    if field == "potential":
-        return [p if p is None or not p2 else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
+    if field == "potential":                  # the vertices' (listed first in every node set)
+        return [p if p is None else p[:len(b.mesh.points)] for b, p in zip(solution.scene.bodies, solution.phi)]
     return [body_fields(b, u, p, space(getattr(solution, "degree", 1), b.mesh.cell).nodes(b)).von_mises
             for b, u, p in zip(solution.scene.bodies, solution.u, solution.phi)]
 
@@ -94,13 +94,9 @@ def at_rounding(values, scale: float) -> tuple[np.ndarray, float | None]:
 
 def quadratic_trace(x, values, samples: int = 9) -> tuple[np.ndarray, np.ndarray]:
     """The continuous piecewise quadratic through P2 nodes ``x`` (vertices and midpoints alternating,
-    sorted, 2n + 1 of them) with nodal ``values``, sampled at ``samples`` points per segment."""
-    x, v = np.asarray(x, dtype=float), np.asarray(values, dtype=float)
-    t = np.linspace(0.0, 1.0, samples)
-    basis = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)])      # at t = 0, 1/2, 1
-    xs = x[0:-1:2, None] + (x[2::2] - x[0:-1:2])[:, None] * t
-    vs = v[0:-1:2, None] * basis[0] + v[1::2, None] * basis[1] + v[2::2, None] * basis[2]
-    return xs.ravel(), vs.ravel()
+    sorted, 2n + 1 of them) with nodal ``values``, sampled at ``samples`` points per segment
+    (:meth:`QuadraticTrace.curve <cvxcontact.fem.trace.QuadraticTrace.curve>`)."""
+    return quadratic_curve(x, values, samples)
 
 
 def _draw(ax, x, v, degree, style, **kw):
@@ -108,8 +104,9 @@ def _draw(ax, x, v, degree, style, **kw):
     the line is the quadratic through the nodes and the markers sit at the nodes."""
     marker = "".join(ch for ch in style if ch in "os^vdx")
     line = style[len(marker):] if style.startswith(marker) else style.replace(marker, "")
-    if degree == 2 and len(x) >= 3 and len(x) % 2 == 1 and line:
-        xs, vs = quadratic_trace(x, v)
+    curve = TRACES[degree].curve(x, v)
+    if curve is not None and line:
+        xs, vs = curve
         ms = kw.pop("ms", 3)
         drawn = ax.plot(xs, vs, line, **kw)[0]
         if marker:
@@ -461,7 +458,6 @@ def boundary_owners(mesh) -> np.ndarray:
 def _face_values(solution, field):
     """Per body: (its boundary faces (k, 3) triangles or (k, 4) quadrilaterals, the value on each face, SI)."""
     out = []
-    p2 = getattr(solution, "degree", 1) == 2
     for body, u, phi in zip(solution.scene.bodies, solution.u, solution.phi):
         faces = np.asarray(body.mesh.boundary_faces)
         nv = len(body.mesh.points)
@@ -470,7 +466,7 @@ def _face_values(solution, field):
         elif field == "potential":
             v = None if phi is None else np.asarray(phi)[:nv][faces].mean(axis=1)
         else:
-            vm = body_fields(body, u, phi, space(2 if p2 else 1, body.mesh.cell).nodes(body)).von_mises
+            vm = body_fields(body, u, phi, space(getattr(solution, "degree", 1), body.mesh.cell).nodes(body)).von_mises
             v = vm[boundary_owners(body.mesh)]
         out.append((faces, v))
     return out

@@ -197,7 +197,7 @@ class Model:
             n = len(s.f) // d                                  # nodes (P2: vertices and midpoints)
             self._u_expr[k] = cp.reshape(s.u_fixed + self.units.displacement * (s.Tu @ self._contact.u[k]),
                                          (n, d), order="C")
-        return self._u_expr[k] if nodes is None else self._u_expr[k][self._nodes_of(k, nodes)]
+        return self._rows(k, self._u_expr[k], nodes)
 
     def phi(self, body, nodes=None) -> cp.Expression | None:
         """Nodal potentials of ``body``, V: a CVXPY expression, the electrodes' potentials (Gamma_a) constants.
@@ -220,7 +220,11 @@ class Model:
             return None
         if k not in self._phi_expr:
             self._phi_expr[k] = s.phi_fixed + self.units.potential * (s.Tp @ self._contact.phi[k])
-        return self._phi_expr[k] if nodes is None else self._phi_expr[k][self._nodes_of(k, nodes)]
+        return self._rows(k, self._phi_expr[k], nodes)
+
+    def _rows(self, k, expr, which):
+        """``expr`` (body k's nodal expression), or its rows ``which`` (a user's node selection, checked)."""
+        return expr if which is None else expr[self._nodes_of(k, which)]
 
     def _nodes_of(self, k, nodes):
         """``nodes`` as checked node indices of body k (SceneError naming the body and the valid range)."""

@@ -250,7 +250,8 @@ class Body(Frozen):
     def node_supports(self, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The supports reduced node by node (:func:`cvxcontact.physics.supports.node_supports`; read-only arrays,
         those of the mesh's vertices computed once)."""
-        return self._node_supports if nodes is None else _supports.node_supports(self, nodes)
+        held = self.mesh.node_set(nodes)
+        return self._node_supports if held is self.mesh else _supports.node_supports(self, held)
 
     def free_motions(self, contact: bool | Sequence[str] = True) -> list[str]:
         """The rigid motions nothing holds, as readable names (:func:`cvxcontact.physics.supports.free_motions`)."""

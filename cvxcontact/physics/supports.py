@@ -31,7 +31,7 @@ def supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ``nodes``: another node set of the mesh with ``points`` and ``boundary_nodes`` (the
     :class:`~cvxcontact.geometry.quadratic.P2Nodes` of P2 elements); default the mesh's vertices.
     """
-    mesh = body.mesh if nodes is None else nodes
+    mesh = body.mesh.node_set(nodes)
     dim = body.dim
     nodes, dirs, vals = [], [], []
     eye = np.eye(dim)
@@ -68,7 +68,7 @@ def node_supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     (m; the least-squares value of the node's rows, which must hold exactly: conflicting supports at a
     node raise a SceneError). ``nodes`` as in :func:`supports`.
     """
-    mesh = body.mesh if nodes is None else nodes
+    mesh = body.mesh.node_set(nodes)
     dim = body.dim
     n = len(mesh.points)
     nodes, dirs, vals = supports(body, nodes)
@@ -176,12 +176,8 @@ def rigid_field(v, x) -> np.ndarray:
 def node_set(body, nodes):
     """(points (n, dim) m, mesh component of each node) of the mesh's vertices or of ``nodes`` (a node
     set of the mesh with ``points`` and ``cells`` (m, k), e.g. the P2 nodes)."""
-    mesh = body.mesh
-    if nodes is None:
-        return mesh.points, mesh.node_components
-    comp = np.empty(len(nodes.points), dtype=mesh.node_components.dtype)
-    comp[np.asarray(nodes.cells).ravel()] = np.repeat(mesh.components, np.shape(nodes.cells)[1])
-    return nodes.points, comp
+    held = body.mesh.node_set(nodes)
+    return held.points, held.node_components
 
 
 def free_basis(body, contact=False):

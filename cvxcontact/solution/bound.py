@@ -103,7 +103,7 @@ def check_covered(scene, degree: int = 1, law=None, condition: str = "gamma3") -
         _refuse(f"{scene.cell} cells")
     if scene.dim != 2:
         _refuse("3D (tetrahedra)")
-    if degree != 1:
+    if not space(degree, scene.cell).bounded:
         _refuse("P2 elements (degree=2)")
     for i, c in enumerate(scene.contacts):
         if not c.rigid and (scene.conditions[i] or condition) != "gamma3":

@@ -45,7 +45,8 @@ import numpy as np
 
 from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
-from ..fem.p2 import shape_functions, shape_gradients
+from ..fem.p2 import shape_functions
+from ..fem.space import space
 from ..fem.simplex import simplex_rule
 from ..geometry.facets import facet_keys, facets as facet_table
 
@@ -89,15 +90,6 @@ class ErrorEstimate:
 # ---------------------------------------------------------------------------------------------- fields
 
 
-def _nodes(mesh, degree: int) -> np.ndarray:
-    """The element node indices of ``mesh`` for P1 (its cells) or P2 (its P2 nodes' cells)."""
-    if degree == 1:
-        return mesh.cells
-    from ..geometry.quadratic import P2Nodes, P2TetNodes
-
-    return (P2TetNodes if mesh.cells.shape[1] == 4 else P2Nodes)(mesh).cells
-
-
 def vertex_fields(body, u, phi, degree: int):
     """The fields of body ``body`` (a triangle or tetrahedron mesh of dimension d) at the d + 1 vertices of
     each cell, from whose barycentric interpolation they follow everywhere in it (constant for P1, affine for
@@ -110,12 +102,7 @@ def vertex_fields(body, u, phi, degree: int):
     c, e, kappa = body.material.tensors(dim)
     measure, gradL = gradients(mesh.points, mesh.cells)
     u = np.asarray(u, dtype=float)
-    el = _nodes(mesh, degree)
-    corners = np.eye(dim + 1)
-    if degree == 1:
-        G = gradL[:, None]                                                          # (m, 1, d, d + 1): constant
-    else:
-        G = np.stack([shape_gradients(gradL, corners[i]) for i in range(dim + 1)], axis=1)   # (m, d + 1, d, k)
+    el, G = space(degree, mesh.cell).corner_gradients(body)               # G (m, q, d, k): q = d + 1 or 1
     m = len(el)
     ue = u[el].reshape(m, -1)
     eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(G.shape[1])], axis=1)
@@ -126,8 +113,8 @@ def vertex_fields(body, u, phi, degree: int):
         gphi = np.einsum("mvdj,mj->mvd", G, pe)
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
-    if degree == 1:                                                                   # the same at every vertex
-        eps, gphi, sigma, D = (None if a is None else np.repeat(a, dim + 1, axis=1) for a in (eps, gphi, sigma, D))
+    copies = (dim + 1) // G.shape[1]                                   # constant on a cell: the same at each vertex
+    eps, gphi, sigma, D = (None if a is None else np.repeat(a, copies, axis=1) for a in (eps, gphi, sigma, D))
     return eps, gphi, sigma, D, gradL, measure
 
 
@@ -432,20 +419,12 @@ def _lambda_at(c, s):
     """lambda_h (Pa) of 2D contact result ``c`` at tangential coordinates ``s`` (m): its P1 (P2: piecewise
     quadratic) function on the merged mesh, 0 beyond it."""
     x, lam = np.asarray(c.x, dtype=float), np.asarray(c.lam, dtype=float)
-    if c.degree == 1:
-        return np.interp(s, x, lam, left=0.0, right=0.0)
     return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, lam))
 
 
 def _merged_values(c, s, values):
     """A P1 (P2) function on the merged mesh of ``c`` (2D) with nodal ``values``, at ``s`` inside it."""
-    x = np.asarray(c.x, dtype=float)
-    if c.degree == 1:
-        return np.interp(s, x, values)
-    xv = x[::2]
-    j = np.clip(np.searchsorted(xv, s) - 1, 0, len(xv) - 2)
-    t = (s - xv[j]) / (xv[j + 1] - xv[j])
-    return values[2 * j] * (1 - t) * (1 - 2 * t) + values[2 * j + 2] * t * (2 * t - 1) + values[2 * j + 1] * 4 * t * (1 - t)
+    return c.trace.values(np.asarray(c.x, dtype=float), values, s)
 
 
 def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
@@ -486,7 +465,7 @@ def _signorini_terms(c, located, data, eta2, parts):
     """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
     split evenly between the sides' cells that hold its midpoint."""
     x = np.asarray(c.x, dtype=float)
-    xv = x if c.degree == 1 else x[::2]
+    xv = c.trace.vertices(x)
     if len(xv) < 2:
         return
     gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)

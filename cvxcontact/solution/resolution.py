@@ -132,14 +132,15 @@ def _linear_trace(itf, k):
     return itf.linear.traces[k] if hasattr(itf, "linear") else itf.traces[k]
 
 
-def _zones_2d(sol, itf, k, p, merged, degree) -> list[_Zone]:
-    """The zones of side k of a 2D pair (:class:`_Zone`; ``p`` the pressure at ``itf.traces[k].x``)."""
-    trace = itf.traces[k]
-    x = np.asarray(trace.x, dtype=float)
-    nodes = np.asarray(trace.nodes)
+def _zones_2d(sol, itf, k, p, merged, trace) -> list[_Zone]:
+    """The zones of side k of a 2D pair (:class:`_Zone`; ``p`` the pressure at ``itf.traces[k].x``; ``trace``
+    the solution's :mod:`~cvxcontact.fem.trace`)."""
+    side = itf.traces[k]
+    x = np.asarray(side.x, dtype=float)
+    nodes = np.asarray(side.nodes)
     tol = 1e-9 * max(float(np.ptp(x)), np.finfo(float).tiny)
     face = (x >= merged.min() - tol) & (x <= merged.max() + tol)           # the nodes that can touch
-    step = 2 if degree == 2 else 1
+    step = trace.step
     h = float(np.median(np.diff(x[::step])))
     out = []
     for intervals, lo, hi in _runs(x, p):
@@ -150,13 +151,13 @@ def _zones_2d(sol, itf, k, p, merged, degree) -> list[_Zone]:
     return out
 
 
-def _zones_3d(sol, itf, k, p, merged, degree) -> list[_Zone]:
+def _zones_3d(sol, itf, k, p, merged, trace) -> list[_Zone]:
     """The zones of side k of a 3D pair (:class:`_Zone`): connected sets of loaded nodes (joined by the faces
     they share), width / h + 2 cells across (module docstring)."""
-    trace = itf.traces[k]
-    x = np.asarray(trace.x, dtype=float)                                   # (n, 2) in-plane coordinates
-    faces = np.asarray(trace.faces)                                        # (f, 3) or (f, 6), local
-    nodes = np.asarray(trace.nodes)
+    side = itf.traces[k]
+    x = np.asarray(side.x, dtype=float)                                    # (n, 2) in-plane coordinates
+    faces = np.asarray(side.faces)                                         # (f, 3) or (f, 6), local
+    nodes = np.asarray(side.nodes)
     top = float(np.abs(p).max(initial=0.0))
     if top == 0:
         return []
@@ -183,7 +184,7 @@ def _zones_3d(sol, itf, k, p, merged, degree) -> list[_Zone]:
             minor = vecs[:, 0]
         else:
             minor = np.array([1.0, 0.0])
-        h = float(np.sqrt(2 * np.median(areas[touching]))) / degree
+        h = float(np.sqrt(2 * np.median(areas[touching]))) / trace.step       # between nodes
         width = float(np.ptp(loaded @ minor))
         where = (f"around ({centre[0]:.4g}, {centre[1]:.4g}) m in the plane's axes, {len(loaded)} loaded "
                  f"node{'s' if len(loaded) != 1 else ''}")
@@ -203,6 +204,7 @@ def unresolved(sol) -> list[str]:
         condition = sol.scene.conditions[i] or sol.condition
         merged = np.asarray(sol.contacts[i].x, dtype=float)
         itf = sol._pair_line(i)
+        trace = sol.contacts[i].trace
         for k, (body, part) in enumerate(sides):
             if not pair.rigid and condition in ("sigma1", "sigma2") and k != int(condition[-1]) - 1:
                 continue
@@ -211,9 +213,9 @@ def unresolved(sol) -> list[str]:
             else:                                       # the nodal forces: local (module docstring)
                 p = itf.interpolation(k).T @ np.asarray(sol.contacts[i].force, dtype=float)
             head = f"contact[{i}] {pair_label(sol, i)}: the contact zone on {body.name}/{part}"
-            for z in zones_of(sol, itf, k, np.asarray(p, dtype=float), merged, sol.degree):
+            for z in zones_of(sol, itf, k, np.asarray(p, dtype=float), merged, trace):
                 if z.across < MIN_CELLS and not z.whole:
-                    out.append(_too_few(head, z, body.name, part, dim, sol.degree))
+                    out.append(_too_few(head, z, body.name, part, dim, trace))
                 cells = _owners(body.mesh.cells, z.facets)
                 ratio = aspect_ratios(body.mesh.points, body.mesh.cells[cells])
                 if ratio.max() > MAX_ASPECT:
@@ -227,16 +229,16 @@ def unresolved(sol) -> list[str]:
     return out
 
 
-def _too_few(head, z, name, part, dim, degree) -> str:
+def _too_few(head, z, name, part, dim, trace) -> str:
     """The message of a zone spanned by fewer than MIN_CELLS cells."""
     need = max(z.width, z.h) / MIN_CELLS
     if dim == 2:
-        unit = f"{'half-' if degree == 2 else ''}face{'s' if z.across != 1 else ''}"
+        unit = f"{trace.span}{'s' if z.across != 1 else ''}"
         return (f"{head} ({z.where}, {z.width:.3g} m wide) is carried by {z.across} {unit} of {name} "
                 f"(fewer than {MIN_CELLS}; faces about {z.h:.3g} m long): its pressure is not resolved. "
                 f"Refine the contact face there: faces of at most {need:.3g} m along {z.where} (e.g. "
                 f"cc.graded_block towards the zone, or more cells along {part!r}).")
     return (f"{head} ({z.where}, {z.width:.3g} m across its narrowest direction) is spanned by {z.across:.0f} "
-            f"faces of {name} (fewer than {MIN_CELLS}; faces of about {z.h:.3g} m{' between P2 nodes' if degree == 2 else ''}): "
+            f"faces of {name} (fewer than {MIN_CELLS}; faces of about {z.h:.3g} m{trace.spacing}): "
             f"its pressure is not resolved. Refine the contact face there: faces of at most {need:.3g} m "
             f"across the zone (e.g. refine the mesh towards it, or more cells along {part!r}).")

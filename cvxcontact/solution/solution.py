@@ -16,7 +16,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from ..contact.interface import lumped_lengths
+from ..fem.trace import TRACES, LinearTrace
 from ..errors import SceneError
 from ..physics.scene import Scene
 from .checks import (CERTIFIED, ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, obstacle_balance,
@@ -90,23 +90,17 @@ class ContactResult:
         mesh's shorter lengths. 0 at the nodes without a constraint (they carry no force).
         For the pressure felt by a body use :meth:`Solution.traction`.
 
-        P2 (``degree == 2``): the forces r = M lambda_h live on every node of X_h, and each is divided
+        P2 (a quadratic trace, ``degree`` 2): the forces r = M lambda_h live on every node of X_h, each divided
         by the row sum of the P2 mass matrix of X_h (h/6 per adjacent segment at a vertex, 2h/3 at a
         midpoint). On a 3D surface the P2 row sums vanish at the vertices (a vertex's shape function
         integrates to 0 on a triangle): there the pressure is lambda_h itself (:attr:`lam`).
         """
-        if self.degree == 2 and np.ndim(self.x) == 2:
-            return np.array(self.lam, dtype=float)
-        if self.degree == 2:
-            return self.force / _p2_lumped(self.x)
-        out = np.zeros(len(self.x))
-        on = np.asarray(self.constrained, dtype=bool)
-        if self.measure is not None:
-            on = on & (self.measure > 0)
-            out[on] = self.force[on] / self.measure[on]
-        elif on.sum() >= 2:
-            out[on] = self.force[on] / lumped_lengths(self.x[on])
-        return out
+        return self.trace.pressure(self)
+
+    @property
+    def trace(self) -> LinearTrace:
+        """The trace of the solution's space on this pair (:mod:`cvxcontact.fem.trace`, by :attr:`degree`)."""
+        return TRACES[self.degree]
 
     @property
     def shear(self) -> np.ndarray | None:
@@ -152,10 +146,10 @@ class Electrode:
     charge: float
 
 
-def electrodes(scene, systems, u_si, phi_si, nodes=None) -> list[Electrode]:
+def electrodes(scene, systems, u_si, phi_si, nodes) -> list[Electrode]:
     """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`).
-    ``nodes``: the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of each body of a P2 solution (an
-    electrode's nodes are then its vertices and edge midpoints)."""
+    ``nodes``: each body's node set (its mesh, or e.g. the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of a
+    P2 solution: an electrode's nodes are then its vertices and edge midpoints)."""
     out = []
     for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
         if phi is None:
@@ -165,7 +159,7 @@ def electrodes(scene, systems, u_si, phi_si, nodes=None) -> list[Electrode]:
         parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
                  + [(t, "floating") for t in getattr(b, "floating", {})])
         for tag, kind in parts:
-            on = (b.mesh if nodes is None else nodes[k]).boundary_nodes([tag])
+            on = nodes[k].boundary_nodes([tag])
             mine = on[~taken[on]]
             taken[on] = True
             out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[on].mean()),
@@ -342,10 +336,7 @@ class Solution:
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < len(itf.traces):
             raise SceneError(f"traction(k): k must be {'0 (the body; the other side is rigid)' if itf.rigid else '0 or 1 (the body)'}, "
                              f"got {k!r}")
-        x = itf.traces[k].x
-        if self.degree == 1 or getattr(itf, "dim", 2) == 3:     # 3D P2: the Riesz pressure on its P2 faces
-            return x.copy(), itf.pressure(k, self.contacts[pair].force)
-        return x.copy(), (itf.interpolation(k).T @ self.contacts[pair].force) / _p2_lumped(x)   # vertices, midpoints
+        return itf.traces[k].x.copy(), TRACES[self.degree].felt(itf, k, self.contacts[pair].force)
 
     def in_contact(self, pair: int = 0) -> np.ndarray:
         """The contact zone of pair ``pair``: where the pressure felt by the bodies is positive.
@@ -387,17 +378,22 @@ class Solution:
         if c.measure is not None:
             w = np.asarray(c.measure, dtype=float)
         elif np.ndim(c.x) == 1:
-            w = _p2_lumped(c.x) if c.degree == 2 else lumped_lengths(c.x)
+            w = c.trace.lumped(c.x)
         else:
             return None
         return float(w[self.in_contact(pair)].sum() / w.sum()) if w.sum() > 0 else None
+
+    def contact_line(self, pair: int = 0):
+        """The contact line (surface) pair ``pair``'s results live on: ``scene.interfaces[pair]``, or the
+        quadratic interface of the space's traces (:attr:`interface`); its ``traces``, ``x``, ``points``."""
+        return self._pair_line(pair)
 
     def _pair_line(self, pair: int):
         if isinstance(pair, bool) or not isinstance(pair, (int, np.integer)) or \
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"pair must be an index of scene.contacts (0 to {len(self.scene.interfaces) - 1}), "
                              f"got {pair!r}")
-        return _pairs(self.scene, None if self.degree == 1 else self.interface)[0][pair]
+        return _pairs(self.scene, self.interface)[0][pair]
 
     def report(self) -> str:
         """A short human-readable account of the solve: what `cvxcontact solve` prints.
@@ -509,10 +505,10 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     segments) are ``problem.lines.cone`` and the constrained nodes the nodes B reads.
     """
     scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
-    y, active, polished, problem_, beta, nodes = raw.y, raw.active, raw.polished, raw.program, raw.beta, problem.nodes
-    p2 = nodes is not None
+    y, active, polished, problem_, beta, nodes = raw.y, raw.active, raw.polished, raw.program, raw.beta, problem.meshes
+    trace = problem.space.trace
     itf = problem.interface
-    interface = itf if p2 else None
+    interface = trace.kept(itf)
     g = E @ gap
     Ety = E.T @ y
     lam = itf.multiplier(Ety)              # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
@@ -531,7 +527,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         checks_ = checks(blocks, u, phi, Ety, E, g, y,     # the row forces (3D: M lam = E^T y only on the traces)
                          abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
-        modes = b.held_modes(nodes[k] if p2 else None)                        # bodies held by the contact only
+        modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
         if len(modes):
             balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
@@ -546,30 +542,24 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = np.zeros(itf.size, dtype=bool)
     on = np.zeros(itf.size, dtype=bool)
-    if p2:      # P2: the merged nodes in the support of the constrained rows (conic: of the cone's rows)
-        support = np.flatnonzero(np.asarray(abs(E if beta is None else B).sum(axis=0)).ravel() > 0)
-        constrained[support] = True
-        if beta is not None:
-            on = active
-        else:
-            on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(active)]).sum(axis=0)).ravel() > 0)] = True
+    # the merged nodes in the support of the constrained rows (conic: of the cone's rows; P1: the rows' nodes)
+    support = np.flatnonzero(np.asarray(abs(E if beta is None else B).sum(axis=0)).ravel() > 0)
+    constrained[support] = True
+    if beta is not None:
+        on = active
     else:
-        constrained[E.indices] = True
-        on[E.indices[active]] = True
+        on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(active)]).sum(axis=0)).ravel() > 0)] = True
     contacts = []
     pairs, offsets = _pairs(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
         part = slice(offsets[i], offsets[i + 1])
-        measure = None
-        if not p2:                                    # the rows' quadrature weights (lengths or areas)
-            cond = condition if scene.conditions[i] is None else scene.conditions[i]
-            measure = np.zeros(pair.size)
-            measure[pair.evaluation(cond).indices] = pair.weights(cond)
+        cond = condition if scene.conditions[i] is None else scene.conditions[i]
+        measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
             gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
-            degree=2 if p2 else 1, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure))
+            degree=trace.degree, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
               ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal", "measure")
               if getattr(c, f) is not None)]:
@@ -580,10 +570,10 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
     info = SolveInfo(status=status, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it
-    pts = [b.mesh.points for b in scene.bodies] if nodes is None else [n.points for n in nodes]
+    pts = [n.points for n in nodes]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
-                    degree=2 if p2 else 1, interface=interface,
+                    degree=trace.degree, interface=interface,
                     electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
 
 
@@ -613,8 +603,8 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
     polished = raw.polished if polished is None else polished
     law = rows = problem.rows
-    weights, z, nodes, given = problem.weights, raw.z, problem.nodes, problem.law
-    interface = problem.interface if nodes is not None else None
+    weights, z, nodes, given = problem.weights, raw.z, problem.meshes, problem.law
+    interface = problem.space.trace.kept(problem.interface)
     scaled = rows.scaled(un.stress * un.load, un.displacement)
     force = np.asarray(raw.y, dtype=float)
     sol = read_back_nodal(problem, replace(raw, y=force, active=force > 0, beta=None, polished=polished), tol, timings)
@@ -627,7 +617,7 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     p = np.divide(force - (0.0 if z is None else z), weights, out=scaled.pressure(r) + 0.0, where=weights > 0)
     nodal = E.T @ force                                     # = E^T (w lambda), stacked merged nodes, scaled
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
-        modes = b.held_modes(nodes[k] if interface is not None else None)     # bodies held by the contact only
+        modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
         if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
             balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
@@ -720,16 +710,6 @@ def _pairs(scene, interface):
     if hasattr(interface, "interfaces"):
         return interface.interfaces, interface.offsets
     return [interface], [0, interface.size]
-
-
-def _p2_lumped(x):
-    """Row sums of the P2 mass matrix of the 1D mesh with interleaved nodes x (vertex, midpoint, ...), m."""
-    h = x[2::2] - x[:-1:2]
-    w = np.zeros_like(x, dtype=float)
-    w[:-1:2] += h / 6
-    w[2::2] += h / 6
-    w[1::2] = 2 * h / 3
-    return w
 
 
 def _line(pair) -> float:

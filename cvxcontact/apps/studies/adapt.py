@@ -28,11 +28,12 @@ import numpy as np
 
 from ...adapt import adapt as adapt_loop
 from ...errors import ResidualWarning, ResolutionWarning
+from ...fem.space import space
 from ...geometry.generators import graded_block
 from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.scene import Body, Scene
-from .common import Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
+from .common import DEGREES, Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
 from .hertz import ALU, DELTA, HEIGHT, R, STEEL, WIDTH, e_star, half_width, hertz
 
 N0 = 8
@@ -79,7 +80,7 @@ def uniform(degree: int, levels: int, progress) -> list[dict]:
 
 def adaptive(degree: int, max_unknowns: int, progress) -> list[dict]:
     # unknowns ~ 2 nodes per cell pair (P1) or twice that (P2): a cell budget that stops near max_unknowns
-    cells = max_unknowns if degree == 1 else max_unknowns // 4
+    cells = max_unknowns // space(degree).order ** 2
     result = adapt_loop(coarse_scene(), OPTIONS["condition"], theta=THETA, max_steps=60, max_cells=cells,
                         keep=True, degree=degree, method=OPTIONS["method"],
                         progress=lambda line: progress(f"adapt study: P{degree} {line}"))
@@ -136,7 +137,7 @@ def reached(rows, target: float = TARGET) -> list[dict]:
     mesh of the series (a nodal value jumps as nodes enter the zone: the first mesh under it may not stay), its
     unknowns and seconds; None where the series ends above it. Then per degree the ratios uniform / adaptive."""
     out = []
-    for degree in (1, 2):
+    for degree in DEGREES:
         got = {}
         for kind in ("uniform", "adaptive"):
             sub = [r for r in rows if r["refinement"] == kind and r["degree"] == degree]
@@ -161,7 +162,7 @@ def rates(rows) -> dict:
     """Slopes of log(estimate) against log(unknowns) over the last half of each series (at least 3 points)."""
     out = {}
     for kind in ("uniform", "adaptive"):
-        for degree in (1, 2):
+        for degree in DEGREES:
             sub = [r for r in rows if r["refinement"] == kind and r["degree"] == degree]
             tail = sub[-max(3, len(sub) // 2):]
             out[(kind, degree)] = slope([r["unknowns"] for r in tail], [r["estimate"] for r in tail])
@@ -188,7 +189,7 @@ def run(out, quick: bool = False, progress=None) -> dict:
     with warnings.catch_warnings():          # the coarse meshes do not resolve the zone: what the study shows
         warnings.simplefilter("ignore", ResolutionWarning)
         warnings.simplefilter("ignore", ResidualWarning)     # recorded: the ok column
-        for degree in (1, 2):
+        for degree in DEGREES:
             rows += uniform(degree, levels[degree], say)
             rows += adaptive(degree, budget[degree], say)
     write_csv(out / "adapt.csv", rows)

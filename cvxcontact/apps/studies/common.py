@@ -15,6 +15,11 @@ from ...errors import ResidualWarning
 from ...io.output import atomic_write
 
 
+DEGREES = (1, 2)
+"""The element degrees a study compares (data: each is ``space(degree, cell)``, which answers its label, trace and
+order)."""
+
+
 def solve_quietly(scene, condition, **options):
     """``ContactSolver(scene, condition, **options).solve()`` without the ResidualWarning: the studies
     record the checks themselves (``sol.ok``, ``sol.residuals()``). The P2 conic condition ends at the

@@ -48,13 +48,12 @@ import numpy as np
 
 from ...errors import SceneError
 from ...physics import materials
-from ...fem import p2
-from ...fem.assembly import assemble_matrices
-from ...geometry.quadratic import P2Nodes
+from ...fem.space import space
+from ...fem.trace import TRACES
 from ...contact.interface import CONDITIONS
 from ...geometry.mesh import rectangle
 from ...physics.scene import Body, Scene
-from .common import Timer, markdown_table, solve_quietly, pyplot, save_figure, slope, write_csv, write_text
+from .common import DEGREES, Timer, markdown_table, solve_quietly, pyplot, save_figure, slope, write_csv, write_text
 
 THEOREM = {"gamma3": ("Th. 1", 1.0), "sigma1": ("Th. 2", 0.75), "sigma2": ("Th. 2", 0.75)}
 
@@ -131,25 +130,16 @@ def _transfer(mesh, values, points, degree=1):
     """Interpolation at ``points`` (m, 2) of the P1 (``degree`` 1, values at the mesh points) or P2
     (values at the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of ``mesh``) field ``values`` (n, k)."""
     idx, bary = _locate(mesh, points)
-    if degree == 1:
-        return np.einsum("mi,mik->mk", bary, values[mesh.triangles[idx]])
-    return np.einsum("mi,mik->mk", p2.shape_functions(bary), values[P2Nodes(mesh).triangles[idx]])
+    element = space(degree, mesh.cell)
+    return np.einsum("mi,mik->mk", element.shape_values(bary), values[element.node_set(mesh).cells[idx]])
 
 
 def _line_function(x, f, degree):
     """The piecewise polynomial on the line: P1 through (x, f), or P2 with ``x`` interleaving the
     vertices and the midpoints of the segments (X_h of docs/formulation.md §8). Returns (breaks, eval)."""
     x, f = np.asarray(x, float), np.asarray(f, float)
-    if degree == 1:
-        return x, lambda t: np.interp(t, x, f)
-    xv, f0, fm, f1 = x[::2], f[:-1:2], f[1::2], f[2::2]
-
-    def ev(t):
-        k = np.clip(np.searchsorted(xv, t) - 1, 0, len(xv) - 2)
-        s = (t - xv[k]) / (xv[k + 1] - xv[k])                           # in [0, 1] on segment k
-        return f0[k] * (1 - s) * (1 - 2 * s) + fm[k] * 4 * s * (1 - s) + f1[k] * s * (2 * s - 1)
-
-    return xv, ev
+    trace = TRACES[degree]
+    return trace.vertices(x), lambda t: trace.values(x, f, t)
 
 
 def _line_difference_l2(a, b, weight_mesh=None):
@@ -191,13 +181,9 @@ class Reference:
         self.degree = degree
         self.scene = scene(kind, n, n)
         self.sol = solve_quietly(self.scene, "gamma3", method="condensed", degree=degree)
-        if degree == 1:
-            self.mats = [assemble_matrices(b) for b in self.scene.bodies]
-            self.points = [b.mesh.points for b in self.scene.bodies]
-        else:
-            nodes = [P2Nodes(b.mesh) for b in self.scene.bodies]
-            self.mats = [p2.assemble_matrices(b, nd) for b, nd in zip(self.scene.bodies, nodes)]
-            self.points = [nd.points for nd in nodes]
+        element = space(degree, self.scene.cell)
+        self.mats = [element.assemble_matrices(b, element.nodes(b)) for b in self.scene.bodies]
+        self.points = [element.node_set(b.mesh).points for b in self.scene.bodies]
         self.norm_E = np.sqrt(sum(self._energy(k, self.sol.u[k], self.sol.phi[k]) for k in range(2)))
         c = self.sol.contact
         self.lam = (c.x, c.lam, degree)
@@ -248,7 +234,7 @@ def theorem_rates(condition, degree):
     """(theorem, rate) of the energy error bound: h^{1/2+eta} (Th. 1 for gamma3, Th. 3 for the nodal
     conditions with finitely many transition points) or h^{1/2+eta/2} (Th. 2), with eta at the cap of
     the degree's approximation (P1: eta = 1/2; P2: eta -> 1)."""
-    eta = 0.5 if degree == 1 else 1.0
+    eta = space(degree).order / 2
     if condition == "gamma3":
         return "Th. 1", 0.5 + eta
     return "Th. 2 / Th. 3", f"{0.5 + eta / 2:g} / {0.5 + eta:g}"
@@ -318,7 +304,7 @@ def _measure(kinds, levels, n_ref, say, check_reference=False):
             say(f"  reference check: P2 gamma3 n = {n_ref // 2} against n = {n_ref}: energy "
                 f"{checks[-1]['energy']:.2e}")
             del half
-        for degree in (1, 2):
+        for degree in DEGREES:
             for condition in CONDITIONS:
                 for n in levels[degree]:
                     row, sol = level(kind, degree, condition, n)

@@ -25,11 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...fem.p2 import shape_functions
+from ...fem.space import space
 from ...geometry.mesh import rectangle
 from ...geometry.generators3d import box
-from ...geometry.quadratic import P2Nodes, P2TetNodes
-from ...geometry.tetmesh import TetMesh
 from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -171,18 +169,15 @@ def prolong(values, coarse_mesh, fine_mesh, parent, degree: int) -> np.ndarray:
     cell's nodes in its coarse ``parent`` cell (triangle or tetrahedron; barycentric coordinates from the
     points), exact on nested meshes."""
     values = np.asarray(values, dtype=float)
-    if degree == 1:
-        fine_el, fine_pts, coarse_el = fine_mesh.cells, fine_mesh.points, coarse_mesh.cells
-    else:
-        nodes = P2TetNodes if isinstance(fine_mesh, TetMesh) else P2Nodes
-        fn, cn = nodes(fine_mesh), nodes(coarse_mesh)
-        fine_el, fine_pts, coarse_el = fn.cells, fn.points, cn.cells
+    element = space(degree, fine_mesh.cell)
+    fn, cn = element.node_set(fine_mesh), element.node_set(coarse_mesh)
+    fine_el, fine_pts, coarse_el = fn.cells, fn.points, cn.cells
     P = coarse_mesh.points[coarse_mesh.cells[parent]]                          # (m_f, d + 1, d)
     T = (P[:, 1:] - P[:, :1]).transpose(0, 2, 1)                                # (m_f, d, d)
     X = fine_pts[fine_el] - P[:, None, 0]                                      # (m_f, k, d)
     lam = np.linalg.solve(T[:, None], X[..., None])[..., 0]                    # (m_f, k, d)
     L = np.concatenate([1.0 - lam.sum(axis=2, keepdims=True), lam], axis=2)    # (m_f, k, d + 1)
-    N = L if degree == 1 else shape_functions(L)                               # (m_f, k, k_c)
+    N = element.shape_values(L)                                                # (m_f, k, k_c)
     coarse = values[coarse_el[parent]]                                         # (m_f, k_c, ...)
     out = np.zeros((len(fine_pts),) + values.shape[1:])
     out[fine_el.ravel()] = np.einsum("mkc,mc...->mk...", N, coarse).reshape((-1,) + values.shape[1:])

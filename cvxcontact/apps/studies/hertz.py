@@ -24,7 +24,7 @@ import numpy as np
 
 from ...physics import materials
 from ...physics.scene import Body, Scene
-from .common import Timer, graded_block, solve_quietly, markdown_table, pyplot, save_figure, slope, write_csv, write_text
+from .common import DEGREES, Timer, graded_block, solve_quietly, markdown_table, pyplot, save_figure, slope, write_csv, write_text
 
 STEEL, ALU = (200e9, 0.3), (70e9, 0.33)
 R, DELTA, WIDTH, HEIGHT = 2.0, 1e-2, 2.0, 2.0
@@ -52,12 +52,13 @@ def scene(n, ratio=0.8):
 
 def half_width(contact):
     """Mid-point estimate of the contact half-width (m): between the outermost closed node and the
-    next open one on each side. P1: closed = active (a nonzero force at the node). P2: the nodal forces
+    next open one on each side. P1: closed = active (a nonzero force at the node). P2 (a trace whose "gamma3"
+    takes cones, ``contact.trace.gamma3_cones``): the nodal forces
     r = B^T beta of X_h are not sign-definite and a segment carrying force has open ends, so a node of
     X_h is closed where the jump reaches the gap, [u_nu] - g >= -1e-3 DELTA (the approach sets the scale;
     the interior point closes contact to about 1e-7 DELTA here)."""
     x = contact.x
-    act = contact.active if contact.degree == 1 else (contact.jump - contact.gap) >= -1e-3 * DELTA
+    act = (contact.jump - contact.gap) >= -1e-3 * DELTA if contact.trace.gamma3_cones else contact.active
     if not act.any():
         return 0.0
     i0, i1 = np.flatnonzero(act)[[0, -1]]
@@ -119,7 +120,7 @@ def level(degree, n):
     P = float(c.force.sum())
     a, p0 = hertz(P, R, e_star(*STEEL, *ALU))
     a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
-    xv = c.x if degree == 1 else c.x[::2]                       # merged vertices
+    xv = c.trace.vertices(c.x)                                  # merged vertices
     h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if c.active.any() else float("nan")
     dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
     return dict(degree=degree, n=n, dofs=dofs, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h,
@@ -133,7 +134,7 @@ def run(out, quick=False, progress=None):
     # P2 at n has about the unknowns of P1 at 2n (nodes at every vertex and edge midpoint)
     levels = {1: [24, 48, 96], 2: [12, 24, 48]} if quick else {1: [32, 64, 128, 256, 512], 2: [16, 32, 64, 128, 256]}
     rows, last = [], {}
-    for degree in (1, 2):
+    for degree in DEGREES:
         for n in levels[degree]:
             row, sol = level(degree, n)
             rows.append(row)
@@ -144,7 +145,7 @@ def run(out, quick=False, progress=None):
     fig = figure(rows, last, levels)
     save_figure(fig, out / "hertz.png")
     rate = {}
-    for degree in (1, 2):
+    for degree in DEGREES:
         sub = [r for r in rows if r["degree"] == degree]
         hs = [r["h_contact_m"] for r in sub]
         rate[degree] = (slope(hs, [abs(r["a_rel_error"]) for r in sub]), slope(hs, [abs(r["p0_rel_error"]) for r in sub]))

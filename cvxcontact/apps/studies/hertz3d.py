@@ -58,6 +58,7 @@ import numpy as np
 from ...contact.bernstein import TRIANGLE, bernstein_argmax
 from ...contact.truegap import GapDeparture
 from ...contact.quadratic3d import p2_shape
+from ...fem.space import space
 from ...geometry.generators3d import box
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -264,7 +265,7 @@ def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
     largest |[u_nu]| stands for the approach)."""
     c = sol.contact
     x = np.asarray(c.x, dtype=float)
-    if sol.degree == 2 and sol.condition == "gamma3":
+    if sol.contact.trace.gamma3_cones and sol.condition == "gamma3":
         q = np.asarray(c.jump) - np.asarray(c.gap)
         pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()),
                              true_departure(sol))
@@ -302,7 +303,7 @@ def block_nodes(sol) -> np.ndarray:
 
 def _contact_surface(sol):
     """The contact surface of the solution: the scene's P1 interface, or the P2 surface of a P2 solve."""
-    return sol.scene.interfaces[0] if sol.degree == 1 else sol.interface
+    return sol.contact_line(0)
 
 
 def _linear_faces(faces):
@@ -367,7 +368,7 @@ def measure(sol, delta, closed_form=None):
     a, p0, d = (closed_form or hertz)(F)
     a_hull, support = support_radius(sol)
     a_moment = moment_radius(c.x, c.force)
-    conic = sol.degree == 2 and sol.condition == "gamma3"
+    conic = sol.contact.trace.gamma3_cones and sol.condition == "gamma3"
     a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
     itf = _contact_surface(sol)
     trace, reach = itf.traces[0], block_nodes(sol)
@@ -410,7 +411,7 @@ def solve_level(n, size=SIZE, ratio=RATIO, F=FORCE, twice=False, degree=1, condi
     condition = condition or CONDITION[degree]
     base = scene(n, delta=0.0, size=size, ratio=ratio, twice=twice, distance=distance)
     solver = ContactSolver(base, condition, method="condensed", degree=degree)
-    conic = degree == 2 and condition == "gamma3"
+    conic = space(degree, "tetra").trace.gamma3_cones and condition == "gamma3"
     sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10)
     row = dict(degree=degree, condition=condition, n=n, size_a=2 * size if twice else size) | measure(sol, delta)
     row |= dict(resolves=resolves, seconds=clock())

@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import SolverError
+from ...fem.space import space
 from ...geometry.generators3d import box
 from ...physics import materials
 from ...physics.pairs import Contact
@@ -283,7 +284,7 @@ def solve_profile_level(n, degree=1, condition="sigma1", size=SIZE, ratio=RATIO,
     clock = Timer()
     base = profile_scene(n, 0.0, size, ratio)
     solver = ContactSolver(base, condition, method="condensed", degree=degree)
-    conic = degree == 2 and condition == "gamma3"
+    conic = space(degree, "tetra").trace.gamma3_cones and condition == "gamma3"
     sol, delta, resolves = press(solver, base, F, rtol=FORCE_RTOL_CONIC if conic else 1e-10, gap=SphereGap)
     far = boussinesq(F, size * A_REF, E1, NU1) + boussinesq(F, size * A_REF, E2, NU2)
     row = dict(variant="profile", degree=degree, condition=condition, n=n) | measure(sol, delta, hertz)
@@ -366,15 +367,13 @@ def gap_interpolation_error(sol, k=8) -> float:
     at the solution's approach, g_h the interpolant (P1 linear, P2 quadratic) of the gap the rows carry
     (``sol.contact.gap``, the profile evaluated at the nodes of X_h). What the copositive "gamma3" condition
     imposes between nodes (docs/formulation.md §16); the nodal rows see g at their nodes only."""
-    from ...contact.quadratic3d import p2_shape
-
     c = sol.contact
-    itf = sol.interface if sol.degree == 2 else sol.scene.interfaces[0]
-    cells = np.asarray(itf.cells if sol.degree == 2 else itf.overlay.triangles)
+    itf = sol.contact_line(0)
+    cells = c.trace.elements(itf)
     i, j = (g.ravel() for g in np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij"))
     keep = i + j <= k
     lam = np.column_stack([k - i[keep] - j[keep], i[keep], j[keep]]) / k          # (q, 3) barycentric
-    shape = lam if sol.degree == 1 else p2_shape(lam)
+    shape = c.trace.shape_values(lam)
     x = np.asarray(c.x, dtype=float)
     X = np.einsum("qj,cjd->cqd", lam, x[cells[:, :3]])                            # (c, q, 2)
     g_h = np.einsum("qj,cj->cq", shape, np.asarray(c.gap, dtype=float)[cells])

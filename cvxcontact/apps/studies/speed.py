@@ -33,7 +33,15 @@ import numpy as np
 from ...contact.interface import CONDITIONS
 from ...errors import CvxContactError
 from ...solve import ContactSolver
-from .common import Timer, markdown_table, pyplot, save_figure, write_csv, write_text
+from .common import (
+    DEGREES,
+    Timer,
+    markdown_table,
+    pyplot,
+    save_figure,
+    write_csv,
+    write_text,
+)
 from .convergence import Reference, scene
 
 
@@ -130,7 +138,7 @@ def _degrees(quick, n_ref, refs, say):
     for kind in ("hertzian", "partial"):
         ref = refs.get(kind) or Reference(kind, n_ref)
         for condition in CONDITIONS:
-            for degree in (1, 2):
+            for degree in DEGREES:
                 for n in levels[degree]:
                     sc = scene(kind, n, 3 * n // 4 + 1)
                     clock = Timer()

@@ -1,0 +1,196 @@
+"""The traces of a space on the contact lines and surfaces: what the read-back, the error estimates and the
+output ask of the functions of X_h (docs/formulation.md §3, §8, §15), so that none of them asks for the degree.
+
+:class:`LinearTrace` (P1, Q1, P1 tetrahedra, Q1 hexahedra: X_h continuous piecewise linear on the merged
+line or the overlay) and :class:`QuadraticTrace` (P2, Q2, P2 tetrahedra, Q2 hexahedra: continuous piecewise
+quadratic; on a 2D line the nodes interleave vertices and segment midpoints, vertex first) answer the
+vertices of a line's nodes, its lumped lengths, the values of a nodal function between the nodes, its VTK
+line cells, a sampled curve for figures, the pressure a :class:`~cvxcontact.solution.solution.ContactResult`
+reports and the pressure a body feels on its own trace. :data:`TRACES` holds them by degree; a space names
+its own (``Space.trace``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..contact.interface import lumped_lengths
+from .p2 import shape_functions
+
+__all__ = ["TRACES", "LinearTrace", "QuadraticTrace", "quadratic_curve", "quadratic_lumped"]
+
+
+def quadratic_lumped(x) -> np.ndarray:
+    """Row sums of the P2 mass matrix of the 1D mesh with interleaved nodes ``x`` (vertex, midpoint, ...), m:
+    h/6 per adjacent segment at a vertex, 2h/3 at a midpoint."""
+    x = np.asarray(x, dtype=float)
+    h = x[2::2] - x[:-1:2]
+    w = np.zeros_like(x)
+    w[:-1:2] += h / 6
+    w[2::2] += h / 6
+    w[1::2] = 2 * h / 3
+    return w
+
+
+def quadratic_curve(x, values, samples: int = 9) -> tuple[np.ndarray, np.ndarray]:
+    """The continuous piecewise quadratic through P2 nodes ``x`` (vertices and midpoints alternating, sorted,
+    2n + 1 of them) with nodal ``values``, sampled at ``samples`` points per segment: (xs, vs)."""
+    x, v = np.asarray(x, dtype=float), np.asarray(values, dtype=float)
+    t = np.linspace(0.0, 1.0, samples)
+    basis = np.stack([2 * (t - 0.5) * (t - 1), 4 * t * (1 - t), 2 * t * (t - 0.5)])      # at t = 0, 1/2, 1
+    xs = x[0:-1:2, None] + (x[2::2] - x[0:-1:2])[:, None] * t
+    vs = v[0:-1:2, None] * basis[0] + v[1::2, None] * basis[1] + v[2::2, None] * basis[2]
+    return xs.ravel(), vs.ravel()
+
+
+class LinearTrace:
+    """X_h continuous piecewise linear: the nodes of a 2D line are its vertices (module docstring)."""
+
+    degree = 1
+    step = 1
+    """Nodes from one vertex of a 2D line to the next."""
+    line = "line"
+    """The meshio (VTK) cell type of a 2D contact line."""
+    span, spacing = "face", ""
+    """What lies between two neighbouring nodes of a 2D trace, and how a 3D message qualifies a face's size."""
+    gamma3_cones = False
+    """Whether "gamma3" (the condition everywhere on the contact line) is posed as cones on the elements of X_h
+    (docs/formulation.md §8, §16); False: it reduces to nodal rows (a linear function is non-negative on an
+    element if it is at its vertices)."""
+
+    def vertices(self, x) -> np.ndarray:
+        """The vertices among the sorted nodes ``x`` of a 2D line (m)."""
+        return np.asarray(x)
+
+    def lumped(self, x) -> np.ndarray:
+        """The length attributed to each node of a 2D line of sorted nodes ``x`` (m): its mass matrix's row sums."""
+        return lumped_lengths(np.asarray(x, dtype=float))
+
+    def side_lengths(self, side) -> np.ndarray:
+        """The length (2D, m) or area (3D, m^2) attributed to each node of one body's ``side`` of a pair (its
+        trace: ``x``, in 3D ``lumped``): its lumped lengths or areas."""
+        return np.asarray(side.lumped) if np.ndim(side.x) == 2 else self.lumped(side.x)
+
+    def values(self, x, values, s) -> np.ndarray:
+        """The function of nodal ``values`` on the 2D line of sorted nodes ``x`` at abscissae ``s`` inside it."""
+        return np.interp(s, x, values)
+
+    def line_cells(self, n: int) -> list[tuple[str, np.ndarray]]:
+        """The cells of a 2D line of ``n`` nodes in order along it, as meshio blocks."""
+        return [(self.line, np.column_stack([np.arange(n - 1), np.arange(1, n)]))]
+
+    def curve(self, x, values):
+        """A sampled curve through the nodal ``values`` for a figure, or None where the straight lines between
+        the nodes are the function (here always)."""
+
+    def elements(self, itf) -> np.ndarray:
+        """(c, 3) the triangles of X_h of the 3D two-body pair ``itf`` (its overlay's), numbered as its nodes."""
+        return np.asarray(itf.overlay.triangles)
+
+    def shape_values(self, L) -> np.ndarray:
+        """(k, 3): the functions of X_h on a triangle of :meth:`elements` at its barycentric coordinates ``L``
+        (k, 3)."""
+        return np.asarray(L, dtype=float)
+
+    def kept(self, interface):
+        """What a :class:`~cvxcontact.solution.solution.Solution` keeps of the contact lines' ``interface``
+        (``Solution.interface``): None, the pairs being the scene's own (``scene.interfaces``)."""
+
+    def measure(self, pair, condition: str) -> np.ndarray:
+        """The quadrature weights of ``condition``'s rows of ``pair`` at its nodes of X_h (lengths in 2D, m;
+        areas in 3D, m^2), 0 at the nodes without a row: what :attr:`ContactResult.pressure` divides by."""
+        out = np.zeros(pair.size)
+        out[pair.evaluation(condition).indices] = pair.weights(condition)
+        return out
+
+    def pressure(self, contact) -> np.ndarray:
+        """The pressure (Pa) of a :class:`~cvxcontact.solution.solution.ContactResult`: each constrained node's
+        force over its measure (the lumped length of the constrained nodes without one); 0 elsewhere."""
+        out = np.zeros(len(contact.x))
+        on = np.asarray(contact.constrained, dtype=bool)
+        if contact.measure is not None:
+            on = on & (contact.measure > 0)
+            out[on] = contact.force[on] / contact.measure[on]
+        elif on.sum() >= 2:
+            out[on] = contact.force[on] / lumped_lengths(contact.x[on])
+        return out
+
+    def felt(self, itf, k: int, force) -> np.ndarray:
+        """The pressure (Pa) side ``k`` of the pair ``itf`` feels at its own trace nodes under the nodal
+        forces ``force`` on the nodes of X_h."""
+        return itf.pressure(k, force)
+
+
+class QuadraticTrace(LinearTrace):
+    """X_h continuous piecewise quadratic: a 2D line's nodes interleave vertices and midpoints (module
+    docstring)."""
+
+    degree = 2
+    step = 2
+    line = "line3"
+    span, spacing = "half-face", " between P2 nodes"
+    gamma3_cones = True
+
+    def vertices(self, x) -> np.ndarray:
+        return np.asarray(x)[::2]
+
+    def lumped(self, x) -> np.ndarray:
+        return quadratic_lumped(x)
+
+    def side_lengths(self, side) -> np.ndarray:
+        """2D: the P2 lumped lengths of the side's nodes; 3D: the integral of each P2 function of its faces (its
+        mass matrix's row sums, 0 at the vertices)."""
+        return np.asarray(side.mass.sum(axis=1)).ravel() if np.ndim(side.x) == 2 else self.lumped(side.x)
+
+    def values(self, x, values, s) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        xv = x[::2]
+        j = np.clip(np.searchsorted(xv, s) - 1, 0, len(xv) - 2)
+        t = (s - xv[j]) / (xv[j + 1] - xv[j])
+        return (values[2 * j] * (1 - t) * (1 - 2 * t) + values[2 * j + 2] * t * (2 * t - 1)
+                + values[2 * j + 1] * 4 * t * (1 - t))
+
+    def line_cells(self, n: int) -> list[tuple[str, np.ndarray]]:
+        """``line3`` cells (end, end, midpoint) of a line of ``n`` interleaved nodes."""
+        i = 2 * np.arange((n - 1) // 2)
+        return [(self.line, np.column_stack([i, i + 2, i + 1]))]
+
+    def curve(self, x, values, samples: int = 9):
+        """The piecewise quadratic through the nodes ``x`` (2n + 1 of them, interleaved) sampled at ``samples``
+        points per segment, (xs, vs); None if ``x`` is not such a line."""
+        if len(x) < 3 or len(x) % 2 != 1:
+            return None
+        return quadratic_curve(x, values, samples)
+
+    def elements(self, itf) -> np.ndarray:
+        """(c, 6) the 6-node triangles of X_h of the 3D pair ``itf`` (its ``cells``; triangle6 order)."""
+        return np.asarray(itf.cells)
+
+    def shape_values(self, L) -> np.ndarray:
+        """(k, 6): the triangle6 functions (v0, v1, v2, m01, m12, m20) at barycentric coordinates ``L`` (k, 3)."""
+        return shape_functions(np.asarray(L, dtype=float))
+
+    def kept(self, interface):
+        """The quadratic interface (or stack) the pairs' P2 nodes are read from."""
+        return interface
+
+    def measure(self, pair, condition: str) -> None:
+        """None: the forces M lambda_h live on every node of X_h (:meth:`pressure`)."""
+
+    def pressure(self, contact) -> np.ndarray:
+        """The forces r = M lambda_h over the row sums of the P2 mass matrix of X_h on a 2D line; on a 3D surface,
+        where those row sums vanish at the vertices, lambda_h itself."""
+        if np.ndim(contact.x) == 2:
+            return np.array(contact.lam, dtype=float)
+        return contact.force / quadratic_lumped(contact.x)
+
+    def felt(self, itf, k: int, force) -> np.ndarray:
+        """2D: the forces moved to side ``k``'s P2 nodes over their P2 lumped lengths; 3D: the Riesz pressure
+        on its P2 faces."""
+        if getattr(itf, "dim", 2) == 3:
+            return itf.pressure(k, force)
+        return (itf.interpolation(k).T @ force) / quadratic_lumped(itf.traces[k].x)
+
+
+TRACES = {1: LinearTrace(), 2: QuadraticTrace()}
+"""The traces by the degree of X_h (``Space.degree``, ``ContactResult.degree``)."""

@@ -115,6 +115,15 @@ class LinearTrace:
             out[on] = contact.force[on] / lumped_lengths(contact.x[on])
         return out
 
+    def per_length(self, contact, force) -> np.ndarray:
+        """Nodal forces ``force`` (N/m; (n,) or (n, c)) at the constrained nodes of a
+        :class:`~cvxcontact.solution.solution.ContactResult` over their measures (Pa), 0 elsewhere (e.g. the
+        tangential traction from the shear forces)."""
+        out = np.zeros(np.shape(force))
+        on = np.asarray(contact.constrained, dtype=bool) & (contact.measure > 0)
+        out[on] = force[on] / contact.measure[on].reshape((-1,) + (1,) * (out.ndim - 1))
+        return out
+
     def felt(self, itf, k: int, force) -> np.ndarray:
         """The pressure (Pa) side ``k`` of the pair ``itf`` feels at its own trace nodes under the nodal
         forces ``force`` on the nodes of X_h."""
@@ -183,6 +192,10 @@ class QuadraticTrace(LinearTrace):
         if np.ndim(contact.x) == 2:
             return np.array(contact.lam, dtype=float)
         return contact.force / quadratic_lumped(contact.x)
+
+    def per_length(self, contact, force) -> np.ndarray:
+        """As the pressure: the forces over the row sums of the P2 mass matrix of X_h (a 2D line)."""
+        return force / quadratic_lumped(contact.x)
 
     def felt(self, itf, k: int, force) -> np.ndarray:
         """2D: the forces moved to side ``k``'s P2 nodes over their P2 lumped lengths; 3D: the Riesz pressure

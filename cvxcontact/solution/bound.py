@@ -505,7 +505,7 @@ def _contact_data(sol, i, u_h):
     the row forces over the lumped lengths; P1 on x), per side (each body of the pair) its row direction d, the
     breakpoints of the other side inside its edges and the load -p d it carries; the correction w (on one
     side's trace, along its d) that makes [v . nu] <= g everywhere; the complementarity term
-    2 int p (g - [v . nu]) of each merged segment (5-point Gauss: exact for a polynomial gap of degree <= 8)
+    2 int p (g - [v . nu]) of each merged segment (5-point Gauss: exact for a polynomial gap of at most eighth degree)
     and the cell of the first body holding it."""
     scene = sol.scene
     itf, res = scene.interfaces[i], sol.contacts[i]

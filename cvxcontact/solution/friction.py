@@ -68,7 +68,7 @@ def read_back_friction(problem, raw, sol) -> None:
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
     for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
-        modes = body.held_modes(None if problem.nodes is None else problem.nodes[k])
+        modes = body.held_modes(problem.meshes[k])
         if len(modes):
             equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
     checks["equilibrium"] = equilibrium

@@ -108,12 +108,7 @@ class ContactResult:
         lengths of the constrained nodes (as :attr:`pressure`); |sigma_t| <= g. None without friction."""
         if self.shear_force is None:
             return None
-        if self.degree == 2:                  # as the pressure: over the row sums of the P2 mass matrix of X_h
-            return self.shear_force / _p2_lumped(self.x)
-        out = np.zeros(np.shape(self.shear_force))
-        on = np.asarray(self.constrained, dtype=bool) & (self.measure > 0)
-        out[on] = self.shear_force[on] / self.measure[on].reshape((-1,) + (1,) * (out.ndim - 1))
-        return out
+        return self.trace.per_length(self, self.shear_force)
 
     @property
     def penetration(self) -> np.ndarray:

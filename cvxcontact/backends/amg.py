@@ -23,9 +23,10 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   hierarchy, a closed one's couples across the interface), so its V-cycle is corrected there by an exact
   solve on those dofs, the set's own block K_II factorised once per set (:meth:`KrylovContact._corrected`: a
   symmetric multiplicative Schwarz step, exact solve, V-cycle, exact solve). Measured on two elastic boxes
-  (P1, 3.4e4 unknowns, the same answer): 34 CG iterations in all and one set-up, against 100 with the bare
-  V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as much as a
-  new one, the former rule). Every solve starts from the previous answer. A set still changing is
+  (P1, 3.1e4 unknowns; answers agreeing to 8e-11 relative): 34 CG iterations in all and one set-up, against 100
+  with the bare V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as
+  much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
+  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous answer. A set still changing is
   solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold,
   so only the last set is solved to ``RTOL``.
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity

@@ -102,6 +102,7 @@ def default_part(scene, n, condition, elastic, runs):
                          factorizations=getattr(sparse, "factorizations", -1),
                          column_solves=getattr(sparse, "column_solves", -1),
                          krylov_iterations=getattr(solver.cache.amg, "iterations", -1),
+                         hierarchies=getattr(solver.cache.amg, "setups", -1),
                          active_rows=int(np.sum(solver.cache.active)) if solver.cache.active is not None else -1,
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
         N, m = unknowns(solver.problem), int(solver.problem.E.shape[0])

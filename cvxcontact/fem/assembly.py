@@ -39,9 +39,9 @@ import scipy.sparse as sp
 from ..errors import SceneError
 from .simplex import element_load, simplex_rule
 
-__all__ = ["BodySystem", "assemble", "assemble_matrices", "assemble_loads", "gradients", "strain_matrix",
-           "strain_points", "points_strain",
-           "prolongation", "constrained", "lifted"]
+__all__ = ["BodySystem", "NodePattern", "assemble", "assemble_loads", "assemble_matrices", "coefficients",
+           "constrained", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
+           "strain_matrix", "strain_points"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -151,7 +151,7 @@ def strain_points(body) -> tuple[sp.csr_matrix, np.ndarray]:
 
 def scatter(blocks, rows, cols, shape):
     """Sum element blocks (m, a, b) into a sparse matrix at global rows (m, a) and cols (m, b)."""
-    m, a, b = blocks.shape
+    _, a, b = blocks.shape
     R = np.repeat(rows.astype(np.int32), b, axis=1).ravel()
     C = np.tile(cols.astype(np.int32), (1, a)).ravel()
     return sp.csr_matrix((blocks.ravel(), (R, C)), shape=shape)
@@ -178,23 +178,122 @@ def assemble_points(body, cells, n, points, nodes=None) -> BodySystem:
     """Kuu, Kup, Kpp (weak forms (19)-(20), SI) of any element, blind to it: the sums over quadrature points of
     the element integrands, ``points`` a sequence of (G (m, dim, k) 1/m, w (m,)): the shape gradients of the
     ``cells`` (m, k) at one point of every element and its weights (m^2 in 2D, m^3 in 3D); ``n`` nodes; with
-    the prolongations of the supports and electrodes on ``nodes`` (None: the mesh's vertices), loads zero."""
+    the prolongations of the supports and electrodes on ``nodes`` (None: the mesh's vertices), loads zero.
+
+    Every element matrix entry is bilinear in the gradients: the (p, q) entry of the node pair (a, b) is
+    sum_{j,l} D[(p, q), (j, l)] w G[j, a] G[l, b] (:func:`coefficients`). The products w G[j, a] G[l, b] of
+    ``ENTRIES_PER_PASS`` // k^2 elements at a time times the rows of D (one matrix product) give their
+    Kuu, Kup and Kpp entries at once, summed straight into the nodal pattern (:class:`NodePattern`): no
+    coordinate list of the element entries is ever stored."""
     dim = body.dim
     c, e, kappa = body.material.tensors(dim)
-    udofs = element_dofs(cells, dim)
-    Kuu = Kup = Kpp = 0.0
-    for G, w in points:
-        B = strain_matrix(G)
-        Bt = np.swapaxes(B, 1, 2) * w[:, None, None]                   # (m, dim k, s), measure-weighted
-        Kuu = Kuu + (Bt @ c) @ B
+    D = coefficients(dim, c, e, kappa)                                   # (dim^2 [+ dim + 1], dim^2)
+    pattern = NodePattern(cells, n)
+    m, k = cells.shape
+    Kuu = pattern.zeros(dim, dim)
+    Kup = pattern.zeros(dim, 1) if e is not None else None
+    Kpp = pattern.zeros(1, 1) if e is not None else None
+    step = max(1, ENTRIES_PER_PASS // (k * k))
+    for lo in range(0, m, step):
+        part = slice(lo, lo + step)
+        entries = sum(D @ gradient_products(G[part], w[part]) for G, w in points)     # (rows, m_part k k)
+        pattern.add(Kuu, part, entries[:dim * dim])
         if e is not None:
-            Kup = Kup + (Bt @ e.T) @ G
-            Kpp = Kpp + ((np.swapaxes(G, 1, 2) * w[:, None, None]) @ kappa) @ G
-    Kuu = scatter(Kuu, udofs, udofs, (dim * n, dim * n))
+            pattern.add(Kup, part, entries[dim * dim:dim * dim + dim])
+            pattern.add(Kpp, part, entries[dim * dim + dim:])
+        del entries
+    Kuu = pattern.matrix(Kuu)
     if e is None:
         return constrained(body, Kuu, nodes=nodes)
-    return constrained(body, Kuu, scatter(Kup, udofs, cells, (dim * n, n)), scatter(Kpp, cells, cells, (n, n)),
-                       nodes=nodes)
+    return constrained(body, Kuu, pattern.matrix(Kup), pattern.matrix(Kpp), nodes=nodes)
+
+
+ENTRIES_PER_PASS = 1 << 20
+"""Element node pairs whose entries :func:`assemble_points` holds at once (about 0.25 GB of products)."""
+
+
+def coefficients(dim: int, c, e=None, kappa=None) -> np.ndarray:
+    """The rows D ((dim^2, dim^2) elastic; (dim^2 + dim + 1, dim^2) with e (dim, s) C/m^2 and kappa (dim, dim)
+    F/m) with which an element's Kuu, Kup and Kpp entries of the node pair (a, b) are
+    sum_{j,l} D[row, dim j + l] w G[j, a] G[l, b] (G the shape gradients, w the weight; :func:`assemble_points`):
+    Kuu's (p, q) at row dim p + q, D = sum_{r,s} M[r, p, j] c[r, s] M[s, q, l]; Kup's (p, 0) at dim^2 + p,
+    sum_r M[r, p, j] e[l, r]; Kpp's at the last row, kappa[j, l]. M[r, p, j] (:data:`VOIGT`) is the Voigt strain
+    r's coefficient of d u_p / d x_j (the strain matrix of :func:`strain_matrix` is B[r, (a, p)] =
+    sum_j M[r, p, j] G[j, a])."""
+    pairs = VOIGT[dim]
+    M = np.zeros((len(pairs), dim, dim))
+    for r, (i, j) in enumerate(pairs):
+        M[r, i, j] = M[r, j, i] = 1.0
+    rows = [np.einsum("rpj,rs,sql->pqjl", M, np.asarray(c, dtype=float), M).reshape(dim * dim, dim * dim)]
+    if e is not None:
+        rows.append(np.einsum("rpj,lr->pjl", M, np.asarray(e, dtype=float)).reshape(dim, dim * dim))
+        rows.append(np.asarray(kappa, dtype=float).reshape(1, dim * dim))
+    return np.vstack(rows)
+
+
+def gradient_products(G: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(dim^2, m k k): the products w G[j, a] G[l, b] at row dim j + l, column k^2 e + k a + b, of the gradients
+    ``G`` (m, dim, k) (1/m) and weights ``w`` (m,) of m elements (:func:`coefficients`)."""
+    m, dim, k = G.shape
+    left = [np.repeat(G[:, j] * w[:, None], k, axis=1) for j in range(dim)]     # (m, k k): a-major
+    right = [np.tile(G[:, l], (1, k)) for l in range(dim)]
+    out = np.empty((dim, dim, m, k * k))
+    for j in range(dim):
+        for l in range(dim):
+            np.multiply(left[j], right[l], out=out[j, l])
+    return out.reshape(dim * dim, m * k * k)
+
+
+class NodePattern:
+    """The nodal sparsity pattern of ``cells`` (m, k) on ``n`` nodes: node i couples to node j when an element has
+    both, as a CSR pattern (``indptr``, ``indices``, sorted), and for each element's node pair (a, b) the position
+    ``pos`` (m, k, k) of (cells[e, a], cells[e, b]) in it. A matrix with a (r, s) block per node pair is held as
+    its blocks ``data`` (nnz, r, s) on this pattern (:meth:`zeros`), element blocks are summed in by
+    :meth:`add` and it is returned in CSR by :meth:`matrix` (rows r i + p, columns s j + q)."""
+
+    def __init__(self, cells, n: int):
+        cells = np.asarray(cells)
+        m, k = cells.shape
+        rows = np.repeat(cells, k, axis=1).ravel()             # element-major, node pair (a, b) a-major
+        cols = np.tile(cells, (1, k)).ravel()
+        graph = sp.csr_matrix((np.ones(len(rows), dtype=bool), (rows, cols)), shape=(n, n))
+        graph.sum_duplicates()                                 # canonical: sorted, unique (as the lookup needs)
+        self.n, self.indptr, self.indices = n, graph.indptr, graph.indices
+        index = np.int32 if graph.nnz < np.iinfo(np.int32).max else np.int64
+        where = sp.csr_matrix((np.arange(graph.nnz, dtype=index), graph.indices, graph.indptr), shape=(n, n))
+        self.pos = np.asarray(where[rows, cols]).reshape(m, k, k)
+
+    @property
+    def nnz(self) -> int:
+        return len(self.indices)
+
+    def zeros(self, r: int, s: int) -> np.ndarray:
+        """The blocks (nnz, r, s) of a zero matrix on the pattern."""
+        return np.zeros((self.nnz, r, s))
+
+    def add(self, data: np.ndarray, part: slice, entries: np.ndarray) -> None:
+        """Sum the element entries (r s, m_part k k) (row s p + q: the (p, q) entry of each element's node pairs
+        (a, b), a-major) of the elements ``part`` into the blocks ``data`` (nnz, r, s), in element order. The
+        positions of a run of neighbouring elements span a short range of the pattern (a mesh numbered by
+        location), so only that range is summed into."""
+        pos = self.pos[part].ravel()
+        if not len(pos):
+            return
+        low = int(pos.min())
+        pos = pos - low
+        size = int(pos.max()) + 1
+        _, r, s = data.shape
+        for i in range(r):
+            for j in range(s):
+                data[low:low + size, i, j] += np.bincount(pos, weights=entries[s * i + j], minlength=size)
+
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        """The CSR matrix (r n, s n) of the blocks ``data`` (nnz, r, s)."""
+        _, r, s = data.shape
+        if r == s == 1:
+            return sp.csr_matrix((data.ravel(), self.indices, self.indptr), shape=(self.n, self.n))
+        bsr = sp.bsr_matrix((data, self.indices, self.indptr), shape=(r * self.n, s * self.n))
+        return bsr.tocsr()
 
 
 def strain_at(points, cells, dim, n) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -297,7 +396,7 @@ def _tet_loads(body, matrices):
     tetrahedron, surface densities by the degree-2 rule on each boundary triangle (exact for affine
     densities times the P1 basis)."""
     mesh = body.mesh
-    shape = lambda L: L                                                              # noqa: E731
+    shape = lambda L: L
     tets, n = mesh.cells, len(mesh.points)
     f = _volume_load(mesh.points, tets, tets, mesh.volumes, body.body_force, 3, 2, shape, n)
     for tag, load in body.traction.items():

@@ -39,7 +39,7 @@ from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk", "TARGETS"]
+__all__ = ["TARGETS", "AdaptStep", "Adapted", "adapt", "mark_bisections", "mark_bulk", "refine_times"]
 
 
 def _force_target(sol):
@@ -108,11 +108,65 @@ def mark_bulk(indicators: Sequence[ArrayLike], theta: float) -> list[np.ndarray]
     return [e >= threshold for e in eta2]
 
 
+def mark_bisections(indicators: Sequence[ArrayLike], theta: float, rate: float, dim: int = 2,
+                    most: int = 8) -> list[np.ndarray]:
+    """Dorfler's set (:func:`mark_bulk`) with the bisections each marked cell is predicted to need: one int array
+    per entry of ``indicators``, 0 on unmarked cells, on a marked cell T
+
+        k_T = ceil(dim log2(eta_T / eta_free) / rate),   1 <= k_T <= most,
+
+    the fewest bisections after which eta_T ~ h_T^rate, with h_T shrinking by 2^(1/dim) per bisection (a bisection
+    halves a triangle's area, a tetrahedron's volume), predicts its children's indicators at or below eta_free,
+    the largest indicator left unmarked (the level the unmarked cells already meet: equidistribution; every
+    marked cell gets 1 if none is left). ``rate`` (> 0): the exponent s of eta_T ~ h_T^s where the cell's
+    error lives (s = p + 1 for a smooth solution, area-weighted, in 2D; about 1.5 at the edge of a contact
+    zone, u ~ r^(3/2)); a larger ``rate`` asks fewer bisections (the loop's next steps add what is missing)."""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)) or not rate > 0:
+        raise SceneError(f"adapt: rate (the exponent s of eta_T ~ h_T^s) must be a positive number, got {rate!r}")
+    most = _count(most, "most", 1)
+    masks = mark_bulk(indicators, theta)
+    eta = [np.asarray(e, dtype=float) for e in indicators]
+    free = max((float(e[~m].max()) for e, m in zip(eta, masks) if (~m).any()), default=0.0)
+    out = []
+    for e, m in zip(eta, masks):
+        k = np.zeros(len(e), dtype=np.int64)
+        if free > 0:
+            k[m] = np.ceil(dim * np.log2(e[m] / free) / rate - 1e-9)
+        k[m] = np.clip(k[m], 1, most)
+        out.append(k)
+    return out
+
+
+def refine_times(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None):
+    """(fine mesh, parent): ``mesh`` with each cell bisected ``times[T]`` times (an int per cell; 0: only as
+    conformity asks) by repeated :func:`~cvxcontact.geometry.refine.refine_marked`: a child of T whose
+    bisections so far (log2 of T's area or volume over its own) fall short of ``times[T]`` is marked again.
+    ``parent``: the cell of ``mesh`` each fine cell lies in (the maps of the rounds composed)."""
+    times = np.asarray(times)
+    if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
+        raise SceneError(f"refine_times: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
+                         f"got dtype {times.dtype} and shape {times.shape}")
+    size0 = _sizes(mesh)
+    parent = np.arange(len(mesh.cells))
+    left = times.astype(np.int64)
+    while (left > 0).any():
+        mesh, up = refine_marked(mesh, left > 0, curves)
+        parent = parent[up]
+        done = np.rint(np.log2(size0[parent] / _sizes(mesh))).astype(np.int64)
+        left = times[parent] - done
+    return mesh, parent
+
+
+def _sizes(mesh) -> np.ndarray:
+    """Areas (triangles) or volumes (tetrahedra) of ``mesh``'s cells."""
+    return mesh.areas if hasattr(mesh, "areas") else mesh.volumes
+
+
 def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,
           max_cells: int | None = None, tol: float | None = None,
           curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
           progress: Callable[[str], None] | None = None, keep: bool = False, target: str = "energy",
-          **options) -> Adapted:
+          rate: float | None = None, most: int = 8, exact_steps: bool = True, **options) -> Adapted:
     """Refine ``scene``'s meshes where the error estimate sits, solving on each.
 
     The loop is the module's docstring; how to use it, and what it measured: docs/accuracy.md,
@@ -146,6 +200,18 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     target : str
         What the marking aims at, a key of :data:`TARGETS`: "energy" (the energy-norm estimate) or "force"
         (the first pair's total contact force, goal-oriented).
+    rate : float, optional
+        Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`: eta_T ~ h_T^rate, down to
+        the largest unmarked indicator, at most ``most`` times in a step) instead of once: fewer steps to grade
+        the mesh. None (default): each marked cell once.
+    most : int
+        The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
+    exact_steps : bool
+        True (default): every step's answer is the exact finish's. False: the steps before the last keep the
+        interior point's answer (``polish=False``: checked at the solver's tolerance, not exact; they only
+        steer the marking), and the mesh the loop stops on is solved again with the exact finish, warm-started
+        from that answer: the returned solution is exact and checked as with True (``tol`` reads the
+        interior point's estimate; the history's last row is the exact solve's).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -182,6 +248,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     if "start" in options:
         raise SceneError("adapt starts each solve from the previous step's solution itself: remove start=")
+    if not isinstance(exact_steps, bool):
+        raise SceneError(f"adapt: exact_steps must be True or False, got {exact_steps!r}")
     if target not in TARGETS:
         raise SceneError(f"adapt: target must be one of {sorted(TARGETS)}, got {target!r}")
     theta = _fraction(theta)
@@ -193,32 +261,37 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     body_curves = _curves(scene, curves)
     if scene.dim == 2:
         scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    exact = options.pop("polish", True)             # the last step's finish; the others' too with exact_steps
     history, kept = [], []
     step, sol = 0, None
     while True:
         clock, cpu = time.perf_counter(), time.process_time()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            sol = ContactSolver(scene, condition, start=sol if scene.dim == 2 else None, **options).solve()
-        solve_s = time.perf_counter() - clock
+        finished = exact and (exact_steps or step >= max_steps)    # the last step by count: exact at once
+        sol, caught = _solve(scene, condition, sol, options, finished)
         if sol.estimate is None:
             raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")
         cells = sum(len(b.mesh.cells) for b in scene.bodies)
-        est = sol.estimate
         indicators, relative = TARGETS[target](sol)
         stopped = ("tol" if tol is not None and relative <= tol else "max_steps" if step >= max_steps else "")
+        solve_s = time.perf_counter() - clock
         clock = time.perf_counter()
         marked, refined = [], None
         if not stopped:
-            marked = mark_bulk(indicators, theta)
-            meshes = [refine_marked(b.mesh, mk, body_curves.get(k))[0]
+            marked = (mark_bulk(indicators, theta) if rate is None
+                      else mark_bisections(indicators, theta, rate, scene.dim, most))
+            meshes = [refine_times(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:
                 stopped, marked = "max_cells", []
             else:
                 refined = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)))
         refine_s = time.perf_counter() - clock
+        if stopped and exact and not finished:             # the mesh it stops on, solved exactly
+            clock = time.perf_counter()
+            sol, caught = _solve(scene, condition, sol, options, True)
+            solve_s += time.perf_counter() - clock
         cpu_s = time.process_time() - cpu
+        est = sol.estimate
         for w in caught:                                    # the last step's resolution warnings, all others
             if stopped or not issubclass(w.category, ResolutionWarning):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
@@ -234,6 +307,15 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         if stopped:
             return Adapted(solution=sol, scene=scene, history=tuple(history), stopped=stopped, solutions=tuple(kept))
         scene, step = refined, step + 1
+
+
+def _solve(scene, condition, previous, options, polish):
+    """(solution, the warnings it raised): one step's solve, from ``previous`` in 2D (module docstring)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = ContactSolver(scene, condition, start=previous if scene.dim == 2 else None, polish=polish,
+                            **options).solve()
+    return sol, caught
 
 
 def _fraction(theta):

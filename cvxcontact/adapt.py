@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import ResolutionWarning, SceneError, UnsupportedError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
 from .geometry.refine import Curve, label_longest, refine_marked
 from .goal import force_estimate
@@ -231,7 +231,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     Notes
     -----
     A :class:`~cvxcontact.errors.ResolutionWarning` of an intermediate step is dropped (the loop refines
-    what it names); the last step's are raised. Other warnings pass.
+    what it names), and with ``exact_steps=False`` its :class:`~cvxcontact.errors.ResidualWarning` (an interior
+    point's answer, not exact by design: ``AdaptStep.ok`` records its checks); the last step's are raised.
+    Other warnings pass.
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
@@ -292,8 +294,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
             solve_s += time.perf_counter() - clock
         cpu_s = time.process_time() - cpu
         est = sol.estimate
-        for w in caught:                                    # the last step's resolution warnings, all others
-            if stopped or not issubclass(w.category, ResolutionWarning):
+        dropped = ResolutionWarning if finished else (ResolutionWarning, ResidualWarning)   # steps before the last
+        for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
+            if stopped or not issubclass(w.category, dropped):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),

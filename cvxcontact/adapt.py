@@ -4,7 +4,9 @@ Each step solves the scene (:func:`cvxcontact.solve.ContactSolver`), reads the e
 eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), marks by Dorfler's bulk
 criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
-bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
+bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure); with ``rate``, each
+marked cell as often as its indicator predicts (:func:`mark_bisections`, :func:`~cvxcontact.geometry.refine.refine_times`: "h-prediction",
+fewer steps to grade the mesh). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
 ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
 the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
 
@@ -12,9 +14,12 @@ In 2D each solve after the first starts from the previous step's contact forces 
 :mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
 a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
 answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
-cold). In 3D every step is solved cold: the contact state a solution hands on is the point loads along 2D
-contact lines (:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried
-over: the routes adapt uses solve the bodies directly.
+cold). With ``exact_steps=False`` the steps before the last keep the interior point's answer (no exact finish,
+no state handed on: the next step's interior point starts cold) and the mesh the loop stops on is solved with
+the exact finish: the answer returned is exact and checked either way. In 3D every step is solved cold: the
+contact state a solution hands on is the point loads along 2D contact lines
+(:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried over: the routes
+adapt uses solve the bodies directly.
 
 Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
 boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'
@@ -34,12 +39,12 @@ from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import Curve, label_longest, refine_marked
+from .geometry.refine import Curve, label_longest, refine_times
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["TARGETS", "AdaptStep", "Adapted", "adapt", "mark_bisections", "mark_bulk", "refine_times"]
+__all__ = ["TARGETS", "AdaptStep", "Adapted", "adapt", "mark_bisections", "mark_bulk"]
 
 
 def _force_target(sol):
@@ -135,31 +140,6 @@ def mark_bisections(indicators: Sequence[ArrayLike], theta: float, rate: float, 
         k[m] = np.clip(k[m], 1, most)
         out.append(k)
     return out
-
-
-def refine_times(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None):
-    """(fine mesh, parent): ``mesh`` with each cell bisected ``times[T]`` times (an int per cell; 0: only as
-    conformity asks) by repeated :func:`~cvxcontact.geometry.refine.refine_marked`: a child of T whose
-    bisections so far (log2 of T's area or volume over its own) fall short of ``times[T]`` is marked again.
-    ``parent``: the cell of ``mesh`` each fine cell lies in (the maps of the rounds composed)."""
-    times = np.asarray(times)
-    if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
-        raise SceneError(f"refine_times: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
-                         f"got dtype {times.dtype} and shape {times.shape}")
-    size0 = _sizes(mesh)
-    parent = np.arange(len(mesh.cells))
-    left = times.astype(np.int64)
-    while (left > 0).any():
-        mesh, up = refine_marked(mesh, left > 0, curves)
-        parent = parent[up]
-        done = np.rint(np.log2(size0[parent] / _sizes(mesh))).astype(np.int64)
-        left = times[parent] - done
-    return mesh, parent
-
-
-def _sizes(mesh) -> np.ndarray:
-    """Areas (triangles) or volumes (tetrahedra) of ``mesh``'s cells."""
-    return mesh.areas if hasattr(mesh, "areas") else mesh.volumes
 
 
 def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,

@@ -274,7 +274,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
             solve_s += time.perf_counter() - clock
         cpu_s = time.process_time() - cpu
         est = sol.estimate
-        dropped = ResolutionWarning if finished else (ResolutionWarning, ResidualWarning)   # steps before the last
+        dropped = (ResolutionWarning, ResidualWarning) if exact and not finished else ResolutionWarning
         for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
             if stopped or not issubclass(w.category, dropped):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

@@ -5,8 +5,8 @@ eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), mar
 criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
 bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure); with ``rate``, each
-marked cell as often as its indicator predicts (:func:`mark_bisections`, :func:`~cvxcontact.geometry.refine.refine_times`: "h-prediction",
-fewer steps to grade the mesh). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
+marked cell as often as its indicator predicts (:func:`mark_bisections`, "h-prediction";
+:func:`~cvxcontact.geometry.refine.refine_times`): fewer steps to grade the mesh. The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
 ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
 the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
 
@@ -126,9 +126,7 @@ def mark_bisections(indicators: Sequence[ArrayLike], theta: float, rate: float, 
     marked cell gets 1 if none is left). ``rate`` (> 0): the exponent s of eta_T ~ h_T^s where the cell's
     error lives (s = p + 1 for a smooth solution, area-weighted, in 2D; about 1.5 at the edge of a contact
     zone, u ~ r^(3/2)); a larger ``rate`` asks fewer bisections (the loop's next steps add what is missing)."""
-    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)) or not rate > 0:
-        raise SceneError(f"adapt: rate (the exponent s of eta_T ~ h_T^s) must be a positive number, got {rate!r}")
-    most = _count(most, "most", 1)
+    rate, most = _rate(rate), _count(most, "most", 1)
     masks = mark_bulk(indicators, theta)
     eta = [np.asarray(e, dtype=float) for e in indicators]
     free = max((float(e[~m].max()) for e, m in zip(eta, masks) if (~m).any()), default=0.0)
@@ -189,9 +187,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     exact_steps : bool
         True (default): every step's answer is the exact finish's. False: the steps before the last keep the
         interior point's answer (``polish=False``: checked at the solver's tolerance, not exact; they only
-        steer the marking), and the mesh the loop stops on is solved again with the exact finish, warm-started
-        from that answer: the returned solution is exact and checked as with True (``tol`` reads the
-        interior point's estimate; the history's last row is the exact solve's).
+        steer the marking; they hand no contact state on), and the mesh the loop stops on is solved with the
+        exact finish (at once on the step ``max_steps`` names, else solved again): the returned solution is
+        exact and checked as with True (``tol`` reads the interior point's estimate; the history's last row
+        is the exact solve's).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -235,6 +234,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     if target not in TARGETS:
         raise SceneError(f"adapt: target must be one of {sorted(TARGETS)}, got {target!r}")
     theta = _fraction(theta)
+    rate, most = None if rate is None else _rate(rate), _count(most, "most", 1)
     max_steps = _count(max_steps, "max_steps", 0)
     max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
     if tol is not None and not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
@@ -307,6 +307,12 @@ def _fraction(theta):
         raise SceneError(f"theta (Dorfler's bulk fraction) must be a number in (0, 1], got {theta!r}; "
                          "0.3-0.6 is usual")
     return float(theta)
+
+
+def _rate(rate) -> float:
+    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)) or not rate > 0:
+        raise SceneError(f"adapt: rate (the exponent s of eta_T ~ h_T^s) must be a positive number, got {rate!r}")
+    return float(rate)
 
 
 def _count(v, name, low):

@@ -145,4 +145,6 @@ def test_fast_loop_refusals():
     with pytest.raises(cc.SceneError, match="exact_steps"):
         cc.adapt(scene, exact_steps=1)
     with pytest.raises(cc.SceneError, match="rate"):
-        cc.adapt(scene, rate=-1.0, max_steps=1)
+        cc.adapt(scene, rate=-1.0)
+    with pytest.raises(cc.SceneError, match="most"):
+        cc.adapt(scene, rate=1.0, most=0)

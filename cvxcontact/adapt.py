@@ -6,9 +6,10 @@ criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest f
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
 bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure); with ``rate``, each
 marked cell as often as its indicator predicts (:func:`mark_bisections`, "h-prediction";
-:func:`~cvxcontact.geometry.refine.refine_times`): fewer steps to grade the mesh. The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
-``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
-the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
+:func:`~cvxcontact.geometry.refine.refine_times`): fewer steps to grade the mesh. The scene is rebuilt on the
+refined meshes (``Body.with_changes(mesh=...)``, ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles
+kept); each body is refined on its own, so the two sides of a pair need not match (the merged mesh of the pair
+is rebuilt by the next solve).
 
 In 2D each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
 :mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):

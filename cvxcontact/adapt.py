@@ -4,17 +4,23 @@ Each step solves the scene (:func:`cvxcontact.solve.ContactSolver`), reads the e
 eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), marks by Dorfler's bulk
 criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
-bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure). The scene is rebuilt on the refined meshes (``Body.with_changes(mesh=...)``,
-``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles kept); each body is refined on its own, so
-the two sides of a pair need not match (the merged mesh of the pair is rebuilt by the next solve).
+bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure); with ``rate``, each
+marked cell as often as its indicator predicts (:func:`mark_bisections`, "h-prediction";
+:func:`~cvxcontact.geometry.refine.refine_times`): fewer steps to grade the mesh. The scene is rebuilt on the
+refined meshes (``Body.with_changes(mesh=...)``, ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles
+kept); each body is refined on its own, so the two sides of a pair need not match (the merged mesh of the pair
+is rebuilt by the next solve).
 
 In 2D each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
 :mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
 a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
 answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
-cold). In 3D every step is solved cold: the contact state a solution hands on is the point loads along 2D
-contact lines (:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried
-over: the routes adapt uses solve the bodies directly.
+cold). With ``exact_steps=False`` the steps before the last keep the interior point's answer (no exact finish,
+no state handed on: the next step's interior point starts cold) and the mesh the loop stops on is solved with
+the exact finish: the answer returned is exact and checked either way. In 3D every step is solved cold: the
+contact state a solution hands on is the point loads along 2D contact lines
+(:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried over: the routes
+adapt uses solve the bodies directly.
 
 Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
 boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'
@@ -32,14 +38,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import ResolutionWarning, SceneError, UnsupportedError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import Curve, label_longest, refine_marked
+from .geometry.refine import Curve, label_longest, refine_times
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["adapt", "Adapted", "AdaptStep", "mark_bulk", "TARGETS"]
+__all__ = ["TARGETS", "AdaptStep", "Adapted", "adapt", "mark_bisections", "mark_bulk"]
 
 
 def _force_target(sol):
@@ -108,11 +114,38 @@ def mark_bulk(indicators: Sequence[ArrayLike], theta: float) -> list[np.ndarray]
     return [e >= threshold for e in eta2]
 
 
+def mark_bisections(indicators: Sequence[ArrayLike], theta: float, rate: float, dim: int = 2,
+                    most: int = 8) -> list[np.ndarray]:
+    """Dorfler's set (:func:`mark_bulk`) with the bisections each marked cell is predicted to need: one int array
+    per entry of ``indicators``, 0 on unmarked cells, on a marked cell T
+
+        k_T = ceil(dim log2(eta_T / eta_free) / rate),   1 <= k_T <= most,
+
+    the fewest bisections after which eta_T ~ h_T^rate, with h_T shrinking by 2^(1/dim) per bisection (a bisection
+    halves a triangle's area, a tetrahedron's volume), predicts its children's indicators at or below eta_free,
+    the largest indicator left unmarked (the level the unmarked cells already meet: equidistribution; every
+    marked cell gets 1 if none is left). ``rate`` (> 0): the exponent s of eta_T ~ h_T^s where the cell's
+    error lives (s = p + 1 for a smooth solution, area-weighted, in 2D; about 1.5 at the edge of a contact
+    zone, u ~ r^(3/2)); a larger ``rate`` asks fewer bisections (the loop's next steps add what is missing)."""
+    rate, most = _rate(rate), _count(most, "most", 1)
+    masks = mark_bulk(indicators, theta)
+    eta = [np.asarray(e, dtype=float) for e in indicators]
+    free = max((float(e[~m].max()) for e, m in zip(eta, masks) if (~m).any()), default=0.0)
+    out = []
+    for e, m in zip(eta, masks):
+        k = np.zeros(len(e), dtype=np.int64)
+        if free > 0:
+            k[m] = np.ceil(dim * np.log2(e[m] / free) / rate - 1e-9)
+        k[m] = np.clip(k[m], 1, most)
+        out.append(k)
+    return out
+
+
 def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,
           max_cells: int | None = None, tol: float | None = None,
           curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
           progress: Callable[[str], None] | None = None, keep: bool = False, target: str = "energy",
-          **options) -> Adapted:
+          rate: float | None = None, most: int = 8, exact_steps: bool = True, **options) -> Adapted:
     """Refine ``scene``'s meshes where the error estimate sits, solving on each.
 
     The loop is the module's docstring; how to use it, and what it measured: docs/accuracy.md,
@@ -146,6 +179,19 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     target : str
         What the marking aims at, a key of :data:`TARGETS`: "energy" (the energy-norm estimate) or "force"
         (the first pair's total contact force, goal-oriented).
+    rate : float, optional
+        Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`: eta_T ~ h_T^rate, down to
+        the largest unmarked indicator, at most ``most`` times in a step) instead of once: fewer steps to grade
+        the mesh. None (default): each marked cell once.
+    most : int
+        The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
+    exact_steps : bool
+        True (default): every step's answer is the exact finish's. False: the steps before the last keep the
+        interior point's answer (``polish=False``: checked at the solver's tolerance, not exact; they only
+        steer the marking; they hand no contact state on), and the mesh the loop stops on is solved with the
+        exact finish (at once on the step ``max_steps`` names, else solved again): the returned solution is
+        exact and checked as with True (``tol`` reads the interior point's estimate; the history's last row
+        is the exact solve's).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -165,7 +211,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     Notes
     -----
     A :class:`~cvxcontact.errors.ResolutionWarning` of an intermediate step is dropped (the loop refines
-    what it names); the last step's are raised. Other warnings pass.
+    what it names), and with ``exact_steps=False`` its :class:`~cvxcontact.errors.ResidualWarning` (an interior
+    point's answer, not exact by design: ``AdaptStep.ok`` records its checks); the last step's are raised.
+    Other warnings pass.
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
@@ -182,9 +230,12 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     if "start" in options:
         raise SceneError("adapt starts each solve from the previous step's solution itself: remove start=")
+    if not isinstance(exact_steps, bool):
+        raise SceneError(f"adapt: exact_steps must be True or False, got {exact_steps!r}")
     if target not in TARGETS:
         raise SceneError(f"adapt: target must be one of {sorted(TARGETS)}, got {target!r}")
     theta = _fraction(theta)
+    rate, most = None if rate is None else _rate(rate), _count(most, "most", 1)
     max_steps = _count(max_steps, "max_steps", 0)
     max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
     if tol is not None and not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
@@ -193,34 +244,40 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
     body_curves = _curves(scene, curves)
     if scene.dim == 2:
         scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    exact = options.pop("polish", True)             # the last step's finish; the others' too with exact_steps
     history, kept = [], []
     step, sol = 0, None
     while True:
         clock, cpu = time.perf_counter(), time.process_time()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            sol = ContactSolver(scene, condition, start=sol if scene.dim == 2 else None, **options).solve()
-        solve_s = time.perf_counter() - clock
+        finished = exact and (exact_steps or step >= max_steps)    # the last step by count: exact at once
+        sol, caught = _solve(scene, condition, sol, options, finished)
         if sol.estimate is None:
             raise UnsupportedError(f"adapt: the solution has no error estimate ({sol.estimate_reason})")
         cells = sum(len(b.mesh.cells) for b in scene.bodies)
-        est = sol.estimate
         indicators, relative = TARGETS[target](sol)
         stopped = ("tol" if tol is not None and relative <= tol else "max_steps" if step >= max_steps else "")
+        solve_s = time.perf_counter() - clock
         clock = time.perf_counter()
         marked, refined = [], None
         if not stopped:
-            marked = mark_bulk(indicators, theta)
-            meshes = [refine_marked(b.mesh, mk, body_curves.get(k))[0]
+            marked = (mark_bulk(indicators, theta) if rate is None
+                      else mark_bisections(indicators, theta, rate, scene.dim, most))
+            meshes = [refine_times(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:
                 stopped, marked = "max_cells", []
             else:
                 refined = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)))
         refine_s = time.perf_counter() - clock
+        if stopped and exact and not finished:             # the mesh it stops on, solved exactly
+            clock = time.perf_counter()
+            sol, caught = _solve(scene, condition, sol, options, True)
+            solve_s += time.perf_counter() - clock
         cpu_s = time.process_time() - cpu
-        for w in caught:                                    # the last step's resolution warnings, all others
-            if stopped or not issubclass(w.category, ResolutionWarning):
+        est = sol.estimate
+        dropped = (ResolutionWarning, ResidualWarning) if exact and not finished else ResolutionWarning
+        for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
+            if stopped or not issubclass(w.category, dropped):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),
@@ -236,12 +293,27 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         scene, step = refined, step + 1
 
 
+def _solve(scene, condition, previous, options, polish):
+    """(solution, the warnings it raised): one step's solve, from ``previous`` in 2D (module docstring)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = ContactSolver(scene, condition, start=previous if scene.dim == 2 else None, polish=polish,
+                            **options).solve()
+    return sol, caught
+
+
 def _fraction(theta):
     if isinstance(theta, bool) or not isinstance(theta, (int, float, np.integer, np.floating)) \
             or not 0 < theta <= 1:
         raise SceneError(f"theta (Dorfler's bulk fraction) must be a number in (0, 1], got {theta!r}; "
                          "0.3-0.6 is usual")
     return float(theta)
+
+
+def _rate(rate) -> float:
+    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)) or not rate > 0:
+        raise SceneError(f"adapt: rate (the exponent s of eta_T ~ h_T^s) must be a positive number, got {rate!r}")
+    return float(rate)
 
 
 def _count(v, name, low):

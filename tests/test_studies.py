@@ -71,7 +71,7 @@ def test_every_study_writes_csv_png_and_markdown(studies):
 
 def test_adapt_study_restores_the_rates(studies):
     """Quick version: adaptive P1 and P2 estimates fall faster in the unknowns than uniform ones (measured slopes
-    -0.53, -1.02 against -0.33, -0.44), near N^(-1/2) and N^(-1)."""
+    -0.53, -1.07 against -0.33, -0.44), near N^(-1/2) and N^(-1)."""
     assert (studies / "adapt" / "adapt.png").read_bytes()[:4] == b"\x89PNG"
     found = {(r["refinement"], r["degree"]) for r in rows(studies / "adapt" / "adapt.csv")}
     assert found == {("uniform", "1"), ("adaptive", "1"), ("uniform", "2"), ("adaptive", "2")}

@@ -1,6 +1,7 @@
 """Refinement of triangle and tetrahedron meshes: uniform (red; a tetrahedron into 8), the nested meshes of a
 reference solution, and local (:func:`refine_marked`: newest-vertex bisection of triangles, longest-edge
-bisection of tetrahedra (:func:`bisect_tets`), both with conforming closure), the meshes of adaptive refinement.
+bisection of tetrahedra (:func:`bisect_tets`), both with conforming closure; :func:`refine_times`: a number of
+bisections per cell), the meshes of adaptive refinement.
 
 Uniform refinement:
 Each triangle (v0, v1, v2) is split into four by its edge midpoints m01, m12, m20 (straight edges, the
@@ -29,7 +30,7 @@ from ..errors import MeshError
 from .mesh import Mesh
 from .tetmesh import TetMesh
 
-__all__ = ["refine_uniform", "refine_marked", "bisect_tets", "label_longest", "circle"]
+__all__ = ["bisect_tets", "circle", "label_longest", "refine_marked", "refine_times", "refine_uniform"]
 
 
 def refine_uniform(mesh: Mesh | TetMesh, times: int = 1) -> tuple[Mesh | TetMesh, np.ndarray]:
@@ -199,6 +200,33 @@ def refine_marked(mesh: Mesh | TetMesh, marked: ArrayLike, curves: Mapping[str, 
         tags[tag] = np.concatenate([whole, np.column_stack([e[half, 0], w[half]]),
                                     np.column_stack([w[half], e[half, 1]])])
     return Mesh(points, cur, tags), parent
+
+
+def refine_times(mesh: Mesh | TetMesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None
+                 ) -> tuple[Mesh | TetMesh, np.ndarray]:
+    """(fine mesh, parent): ``mesh`` with each cell bisected ``times[T]`` times (an int per cell; 0: only as
+    conformity asks) by repeated :func:`refine_marked` (``curves`` as there): a child of T whose
+    bisections so far (log2 of T's area or volume over its own, rounded: a child whose new boundary node went
+    back on a curve is close to, not exactly, half its parent) fall short of ``times[T]`` is marked again.
+    ``parent``: the cell of ``mesh`` each fine cell lies in (the maps of the rounds composed)."""
+    times = np.asarray(times)
+    if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
+        raise MeshError(f"refine_times: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
+                        f"got dtype {times.dtype} and shape {times.shape}")
+    size0 = _sizes(mesh)
+    parent = np.arange(len(mesh.cells))
+    left = times.astype(np.int64)
+    while (left > 0).any():
+        mesh, up = refine_marked(mesh, left > 0, curves)
+        parent = parent[up]
+        done = np.rint(np.log2(size0[parent] / _sizes(mesh))).astype(np.int64)
+        left = times[parent] - done
+    return mesh, parent
+
+
+def _sizes(mesh) -> np.ndarray:
+    """Areas (triangles) or volumes (tetrahedra) of ``mesh``'s cells."""
+    return mesh.volumes if isinstance(mesh, TetMesh) else mesh.areas
 
 
 def _marked_cells(marked, m, cell="triangle"):

@@ -204,7 +204,7 @@ def solve_linear_compliance(W, d, weights, law):
     return y, z, active & ~on, route
 
 
-def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50):
+def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50, solve=None):
     """Exact finish of the contact rows' law on the sparse mixed system (26), for scenes that cannot be
     condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
     §10-§12) and for a non-quadratic bulk energy (the paper's nonlinear A, docs/materials.md "Hencky"), whose
@@ -233,7 +233,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole),
     inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
     r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
-    m) the starting L (default r(x0) >= l on the limited rows).
+    m) the starting L (default r(x0) >= l on the limited rows). ``solve(M, b)``: the sparse solve of each step
+    (x or None if M is singular; default :func:`~cvxcontact.backends.full.solve_mixed`).
 
     Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (each row's
     residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y|, or within ``SIGN_TOL`` once a
@@ -243,7 +244,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     """
     import scipy.sparse as sps
 
-    from ..full import solve_mixed  # (full imports nothing from here)
+    if solve is None:
+        from ..full import solve_mixed as solve  # (full imports nothing from here)
 
     G = sps.csr_matrix(G)
     g, w = (np.asarray(a, dtype=float) for a in (g, weights))
@@ -269,7 +271,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
         b = load - G.T @ (w * law.pressure(r) - D * (g + r))
         b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
-        s = solve_mixed(M, b)
+        s = solve(M, b)
         if s is None:
             return None
         zL = np.zeros(m)

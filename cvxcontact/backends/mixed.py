@@ -90,6 +90,16 @@ class MixedEnergy:
             return T, -self.gradient(np.zeros_like(x))
         return T, T @ x - self.gradient(x)
 
+    def pattern(self) -> sp.csr_matrix:
+        """Ones wherever :meth:`tangent` may be non-zero at any x (the bodies' :meth:`BulkEnergy.pattern` and
+        coupling blocks): one sparsity for every Newton step's factor."""
+        mats = []
+        for b in self.blocks:
+            P = b.bulk.pattern()
+            mats.append(P if b.Kpp is None else sp.bmat([[P, abs(b.Kup) > 0], [abs(b.Kup.T) > 0, abs(b.Kpp) > 0]]))
+        return (sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width), format="csr")
+                != 0).astype(float)
+
     def _assemble(self, x):
         if x is None:
             mats = [quasi_definite(b)[0] for b in self.blocks]

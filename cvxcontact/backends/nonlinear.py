@@ -25,10 +25,10 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import structural_rank
 
 from ..contact.laws import RowLaws, Signorini
+from ..errors import SolverError
 from .finish import solve_sparse_compliance
 from .mixed import mixed_system, stacked, unstacked
 from .result import Finish, RawResult, Route
@@ -39,55 +39,75 @@ log = logging.getLogger(__name__)
 
 
 class TangentSolver:
-    """x with M x = b for the Newton steps' systems [[T + G^T D G, G_L^T], [G_L, 0]] of one problem: SuperLU with
-    the column order of minimum degree on M^T + M computed for the first pattern and reused while the pattern
-    (the tangent's and the closed rows L) is the same, two steps of iterative refinement; None if M is singular,
-    x not finite or the residual above ``residual`` max|b| (as :func:`~cvxcontact.backends.full.solve_mixed`).
-    ``factorizations`` counts the numeric factorisations, ``orderings`` the orderings computed."""
+    """x with M x = b for the Newton steps' systems M = [[T + G^T D G, G_L^T], [G_L, 0]] (the unknowns x, then the
+    closed rows L) of one problem, each put on one sparsity: ``pattern`` (n x n) ones wherever the tangent may be
+    non-zero (:meth:`~cvxcontact.backends.mixed.MixedEnergy.pattern`; a product drops the moduli's zeros, which
+    would change the pattern from step to step), every diagonal entry stored. Factorised as the sparse route's
+    systems (:mod:`cvxcontact.backends.sparse`):
+    with ``factorization="pardiso"`` one PARDISO analysis per pattern (:class:`~cvxcontact.backends.factor.
+    PardisoSymmetric`), else SuperLU without pivoting in the sparse route's quasi-definite order
+    (:func:`~cvxcontact.backends.sparse.ordering`, computed once per pattern); the pattern changes only with L.
+    Then up to three steps of iterative refinement against M itself. None if M is singular, x not finite or the
+    residual above ``residual`` max|b| (as :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations``
+    counts the numeric factorisations, ``analyses`` the orderings (one per pattern)."""
 
-    def __init__(self, residual: float = 1e-8):
-        self.residual = residual
-        self._key, self._perm = None, None
-        self.factorizations = self.orderings = 0
+    def __init__(self, pattern, factorization: str = "auto", residual: float = 1e-8):
+        from .factor import resolve
 
-    def __call__(self, M, b):
-        M = sp.csc_matrix(M)
-        M.sort_indices()
+        P = sp.coo_matrix(pattern)
+        self.n, self.kind, self.residual = P.shape[0], resolve(factorization), residual
+        diag = np.arange(self.n)
+        self._rows, self._cols = np.concatenate([P.row, diag]), np.concatenate([P.col, diag])
+        self._key = self._perm = self._pardiso = None
+        self.factorizations = self.analyses = 0
+
+    def _factor(self, M):
+        from .factor import PardisoSymmetric
+        from .sparse import factorize, ordering
+
         key = (M.shape, M.indptr.tobytes(), M.indices.tobytes())
+        if key != self._key:
+            if structural_rank(M) < M.shape[0]:       # (SuperLU can corrupt memory on these: solve_mixed)
+                return None
+            self._key, self._perm, self._pardiso = key, None, None
+            self.analyses += 1
+            if self.kind == "pardiso":
+                try:
+                    self._pardiso = PardisoSymmetric(M)
+                except SolverError:
+                    self.kind = "superlu"              # refused: SuperLU from here on
+            if self._pardiso is None:
+                self._perm = ordering(M, np.arange(self.n, M.shape[0]))
+        self.factorizations += 1
+        if self._pardiso is not None:
+            return self._pardiso.factor(M)
         try:
-            if key != self._key:
-                if structural_rank(M) < M.shape[0]:      # (SuperLU can corrupt memory on these: solve_mixed)
-                    return None
-                lu = spla.splu(M, permc_spec="MMD_AT_PLUS_A")
-                self._key, self._perm = key, lu.perm_c
-                self.orderings += 1
-            else:
-                p = self._perm
-                lu = _Permuted(spla.splu(M[p][:, p].tocsc(), permc_spec="NATURAL"), p)
+            return factorize(M, self._perm)
         except RuntimeError:
             return None
-        self.factorizations += 1
-        x = lu.solve(b)
-        for _ in range(2):
-            x += lu.solve(b - M @ x)
+
+    def __call__(self, M, b):
+        M, N = sp.coo_matrix(M), M.shape[0]          # on the fixed pattern, every diagonal entry stored (zeros kept)
+        extra = np.arange(self.n, N)
+        M = sp.coo_matrix((np.concatenate([M.data, np.zeros(len(self._rows) + len(extra))]),
+                           (np.concatenate([M.row, self._rows, extra]), np.concatenate([M.col, self._cols, extra]))),
+                          shape=M.shape).tocsc()
+        M.sort_indices()
+        factor = self._factor(M)
+        if factor is None:
+            return None
+        x = factor.solve(b)
+        scale = max(np.abs(b).max(initial=0.0), np.finfo(float).tiny)
+        for _ in range(3):
+            r = b - M @ x
+            if not np.isfinite(r).all() or np.abs(r).max(initial=0.0) <= 1e-15 * scale:
+                break
+            x = x + factor.solve(r)
         if not np.isfinite(x).all():
             return None
-        if self.residual is not None and np.abs(M @ x - b).max() > self.residual * max(np.abs(b).max(),
-                                                                                       np.finfo(float).tiny):
+        if self.residual is not None and np.abs(M @ x - b).max() > self.residual * scale:
             return None
         return x
-
-
-class _Permuted:
-    """The LU of M[p][:, p] with ``solve`` in M's order."""
-
-    def __init__(self, lu, p):
-        self.lu, self.p = lu, p
-
-    def solve(self, b):
-        z = np.empty_like(b)
-        z[self.p] = self.lu.solve(np.ascontiguousarray(b[self.p]))
-        return z
 
 
 def newton(problem, cache, settings, timings) -> RawResult:
@@ -102,9 +122,12 @@ def newton(problem, cache, settings, timings) -> RawResult:
     t1 = time.perf_counter()
     op, G, widths = mixed_system(problem)
     m = len(problem.g)
-    solver = cache.own.setdefault("newton", TangentSolver())
+    x0 = stacked(lin.u, lin.phi)
+    solver = cache.own.get("newton")
+    if solver is None or solver.n != len(x0):
+        solver = cache.own["newton"] = TangentSolver(op.pattern(), settings.factorization)
     out = solve_sparse_compliance(op, G, problem.g, np.zeros(m), RowLaws.uniform(Signorini(), m),
-                                  stacked(lin.u, lin.phi), lin.active & ~problem.held_rows, solve=solver)
+                                  x0, lin.active & ~problem.held_rows, solve=solver)
     timings["newton"] = time.perf_counter() - t1
     if out is None:
         why = "the Newton steps on the nonlinear mixed system did not settle (a singular step, a cycle or a stall)"

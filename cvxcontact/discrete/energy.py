@@ -39,6 +39,10 @@ class BulkEnergy(Protocol):
 
     def magnitude(self, z: np.ndarray) -> np.ndarray: ...
 
+    def pattern(self) -> sp.spmatrix:
+        """Ones wherever a Hessian may be non-zero, at every z (a fixed sparsity for the Newton steps' factors)."""
+        ...
+
     def expression(self, z): ...
 
 
@@ -61,6 +65,9 @@ class Quadratic:
 
     def magnitude(self, z):
         return abs(self.K) @ np.abs(z)
+
+    def pattern(self):
+        return (abs(self.K) > 0).astype(float)
 
     def expression(self, z):
         import cvxpy as cp
@@ -96,9 +103,19 @@ class StrainEnergy:
         sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
+    def _blocks(self, C):
+        """The block diagonal (q s, q s) CSR of the (q, s, s) moduli C (every entry stored)."""
+        q, s = C.shape[0], self.s
+        cols = (np.arange(q)[:, None, None] * s + np.arange(s)[None, None, :]).repeat(s, axis=1)
+        return sp.csr_matrix((C.ravel(), cols.ravel(), np.arange(0, q * s * s + 1, s)), shape=(q * s, q * s))
+
+    def pattern(self):
+        absA = abs(self.A)
+        return (absA.T @ self._blocks(np.ones((len(self.w), self.s, self.s))) @ absA > 0).astype(float)
+
     def hessian(self, z):
         C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        return (self.A.T @ sp.block_diag(list(C), format="csr") @ self.A).tocsr()
+        return (self.A.T @ self._blocks(C) @ self.A).tocsr()
 
     def magnitude(self, z):
         sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]

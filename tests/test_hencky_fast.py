@@ -1,0 +1,145 @@
+"""The fast route of a non-quadratic bulk energy (issue 31 item 2, :mod:`cvxcontact.backends.nonlinear`, method
+"newton"): the linear answer by the sparse route, then Newton on the nonlinear mixed system (26) with the contact
+active set, no interior point. Checked against the full route (the interior point + its Newton finish, the
+reference) to rounding, the closed form of uniaxial strain, a dense Newton written in tests/test_bulk_energy.py,
+and (26)-(27) by the read-back; its fallback to the full route when the steps do not settle. Tolerances: the
+finish's rounding or 100x the measured values (beside them)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+import cvxcontact.backends.nonlinear as nonlinear
+from conftest import rel, two_blocks
+from cvxcontact.backends import choose, describe
+from cvxcontact.backends.result import Finish
+from cvxcontact.discrete import build_problem
+from cvxcontact.fem.space import space
+from cvxcontact.physics.materials import deviator
+from test_bulk_energy import E, EXACT, H, NU, SIGMA_Y, dense_newton, indented, pressed_block, uniaxial_stress
+
+pytestmark = pytest.mark.numerics
+
+HENCKY = cc.materials.hencky(E, NU, SIGMA_Y, H)
+SAME = 1e-12        # fast against full: both exact finishes of (26); measured <= 7e-14 (forces of a pair), 5e-15 (u)
+
+
+def both(scene, **kw):
+    """(fast, full): cc.solve by method "auto" (asserted to be the fast route, finished exactly, sol.ok) and by the
+    full route (interior point + Newton finish)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        fast = cc.solve(scene, estimate=False, **kw)
+        full = cc.solve(scene, estimate=False, method="full", **kw)
+    assert fast.info.method == "newton" and fast.info.requested == "auto", fast.info
+    assert fast.info.route == cc.Route.NEWTON_FROM_LINEAR and fast.info.finish == Finish.NEWTON_BULK
+    assert fast.ok and fast.polished and fast.residuals()["equilibrium"] < EXACT, fast.report()
+    assert full.info.method == "full" and full.info.finish == Finish.NEWTON_BULK and full.ok
+    return fast, full
+
+
+def same(fast, full, tol=SAME):
+    for a, b in zip(fast.u, full.u):
+        assert rel(a, b) < tol
+    assert rel(fast.contact.lam, full.contact.lam) < tol
+
+
+def test_auto_takes_the_fast_route_for_a_non_quadratic_energy_with_signorini_rows():
+    problem = build_problem(two_blocks(mat2=HENCKY), space(1), "gamma3", cc.Signorini())
+    assert choose("auto", describe(problem)) == "newton"
+    linear = build_problem(two_blocks(), space(1), "gamma3", cc.Signorini())
+    assert choose("auto", describe(linear)) == "condensed"
+    with pytest.raises(cc.SolverError, match="method 'newton' does not accept"):     # a quadratic energy
+        cc.solve(two_blocks(), method="newton")
+    with pytest.raises(cc.SolverError, match="no backend accepts"):       # a compliance law beside Hencky
+        cc.solve(two_blocks(mat2=HENCKY), law=cc.NormalCompliance(stiffness=1e12, exponent=1.0))
+
+
+@pytest.mark.parametrize("strain", [-2e-3, -1e-2])    # below yield (at -3.7e-3), above it
+def test_uniaxial_strain_follows_the_closed_form(strain):
+    fast, full = both(pressed_block(HENCKY, strain))
+    expected = -uniaxial_stress(strain)
+    assert rel(fast.contact.lam, np.full_like(fast.contact.lam, expected)) < 1e-12     # measured 8e-16
+    assert abs(fast.obstacles[0].force[1] - expected) < 1e-12 * abs(expected)
+    same(fast, full)
+
+
+def test_a_circle_pressed_into_a_yielding_block_is_the_dense_newton_answer():
+    """The fast answer equals the full route's and a dense Newton's (tests/test_bulk_energy.py) to rounding, and the
+    block yields under the circle (the nonlinear branch is exercised, with active-set changes inside Newton)."""
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    fast, full = both(scene)
+    same(fast, full)                                            # measured 3.3e-15 (u), 4.4e-15 (forces)
+    problem = build_problem(scene, space(1), "gamma3", cc.Signorini())
+    bulk, block, un = problem.blocks[0].bulk, problem.blocks[0], problem.units
+    z, y, active = dense_newton(bulk, block.f, (problem.E @ block.jump).toarray(), problem.g)
+    x = fast.u[0].ravel() @ problem.systems[0].Tu / un.displacement
+    assert rel(x, z) < 1e-12                                    # measured 1e-15
+    s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
+    assert (s > HENCKY.s_y).sum() >= 10 and active.sum() >= 3
+    assert fast.info.iterations > 2                             # linear steps + Newton steps (systems solved)
+
+
+def test_a_pair_with_a_hencky_body():
+    fast, full = both(two_blocks(mat2=cc.materials.hencky(E, NU, 1e8, H), scale=4.0))
+    same(fast, full)                                            # measured 9e-15 (u), 5.4e-14 (forces)
+
+
+def test_p2_sigma1():
+    fast, full = both(indented(HENCKY, nx=12, ny=4, depth=5e-3), degree=2, condition="sigma1")
+    same(fast, full)
+
+
+def test_3d_p1_sigma1_between_two_boxes():
+    """3D P1, "sigma1" between two non-matching boxes, the lower one Hencky and yielding under the load."""
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=3, ny=3, nz=2)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=2, ny=2, nz=1)
+    b1 = cc.Body(upper, aluminium, clamped=["top"], body_force=(0.0, 0.0, -8e9), traction={"right": (0.0, 0.0, 1e9)})
+    b2 = cc.Body(lower, cc.materials.hencky(E, NU, 1e8, H), clamped=["bottom"])
+    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition="sigma1")])
+    fast, full = both(scene)
+    same(fast, full)
+
+
+def test_3d_gamma3_between_bodies_is_left_to_the_full_route():
+    """Rows that may be linearly dependent (3D "gamma3" between two bodies): the Newton steps close the active rows
+    as they are; the fast route does not accept them and auto takes the full route."""
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=3, ny=3, nz=1)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=2, ny=2, nz=1)
+    scene = cc.Scene(cc.Body(upper, aluminium, clamped=["top"], body_force=(0.0, 0.0, -2e9), contact="bottom"),
+                     cc.Body(lower, HENCKY, clamped=["bottom"], contact="top"))
+    problem = build_problem(scene, space(1, "tetra"), "gamma3", cc.Signorini())
+    assert describe(problem).dependent_rows and choose("auto", describe(problem)) == "full"
+
+
+def test_steps_that_do_not_settle_fall_back_to_the_full_route(monkeypatch):
+    """Newton steps that do not settle (forced here: the solve of each step declines) are never the answer: the
+    full route's (interior point + Newton finish) is, route NEWTON_FELL_BACK."""
+    scene = indented(HENCKY, nx=16, ny=6, depth=5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        full = cc.solve(scene, estimate=False, method="full")
+        monkeypatch.setattr(nonlinear.TangentSolver, "__call__", lambda self, M, b: None)
+        sol = cc.solve(scene, estimate=False)
+    assert sol.info.method == "full" and sol.info.route == cc.Route.NEWTON_FELL_BACK
+    assert sol.ok and sol.polished and sol.info.finish == Finish.NEWTON_BULK
+    assert rel(sol.u[0], full.u[0]) < SAME                      # the same computation: measured 1.7e-15
+
+
+def test_a_contact_solver_re_solves_a_new_load():
+    """A ContactSolver keeps the sparse factor and the tangent solver's analysis: a second, deeper indentation is
+    solved by the fast route again and equals a fresh full solve."""
+    solver = cc.ContactSolver(indented(HENCKY, nx=16, ny=6, depth=3e-3), estimate=False)
+    first = solver.solve()
+    deeper = indented(HENCKY, nx=16, ny=6, depth=5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        second = solver.solve(deeper)
+        ref = cc.solve(deeper, estimate=False, method="full")
+    assert first.info.method == second.info.method == "newton" and second.ok
+    assert rel(second.u[0], ref.u[0]) < SAME and rel(second.contact.lam, ref.contact.lam) < SAME

@@ -9,16 +9,25 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import rel, two_blocks
+from test_bulk_energy import (
+    EXACT,
+    NU,
+    SIGMA_Y,
+    E,
+    H,
+    dense_newton,
+    indented,
+    pressed_block,
+    uniaxial_stress,
+)
 
 import cvxcontact as cc
-import cvxcontact.backends.nonlinear as nonlinear
-from conftest import rel, two_blocks
-from cvxcontact.backends import choose, describe
+from cvxcontact.backends import choose, describe, nonlinear
 from cvxcontact.backends.result import Finish
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
 from cvxcontact.physics.materials import deviator
-from test_bulk_energy import E, EXACT, H, NU, SIGMA_Y, dense_newton, indented, pressed_block, uniaxial_stress
 
 pytestmark = pytest.mark.numerics
 
@@ -75,7 +84,7 @@ def test_a_circle_pressed_into_a_yielding_block_is_the_dense_newton_answer():
     same(fast, full)                                            # measured 3.3e-15 (u), 4.4e-15 (forces)
     problem = build_problem(scene, space(1), "gamma3", cc.Signorini())
     bulk, block, un = problem.blocks[0].bulk, problem.blocks[0], problem.units
-    z, y, active = dense_newton(bulk, block.f, (problem.E @ block.jump).toarray(), problem.g)
+    z, _, active = dense_newton(bulk, block.f, (problem.E @ block.jump).toarray(), problem.g)
     x = fast.u[0].ravel() @ problem.systems[0].Tu / un.displacement
     assert rel(x, z) < 1e-12                                    # measured 1e-15
     s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)

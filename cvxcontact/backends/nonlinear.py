@@ -25,7 +25,6 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import structural_rank
 
 from ..contact.laws import RowLaws, Signorini
 from ..errors import SolverError
@@ -47,37 +46,56 @@ the full route, never in a wrong answer)."""
 
 
 class TangentSolver:
-    """x with M x = b for the Newton steps' systems M = [[T + G^T D G, G_L^T], [G_L, 0]] (the unknowns x, then the
-    closed rows L) of one problem, each put on one sparsity: ``pattern`` (n x n) ones wherever the tangent may be
-    non-zero (:meth:`~cvxcontact.backends.mixed.MixedEnergy.pattern`; a product drops the moduli's zeros, which
-    would change the pattern from step to step), every diagonal entry stored. Factorised as the sparse route's
-    systems (:mod:`cvxcontact.backends.sparse`):
-    with ``factorization="pardiso"`` one PARDISO analysis per pattern (:class:`~cvxcontact.backends.factor.
-    PardisoSymmetric`), else SuperLU without pivoting in the sparse route's quasi-definite order
-    (:func:`~cvxcontact.backends.sparse.ordering`, computed once per pattern); the pattern changes only with L.
-    Then up to three steps of iterative refinement against M itself. None if M is singular, x not finite or the
-    residual above ``residual`` max|b| (as :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations``
-    counts the numeric factorisations, ``analyses`` the orderings (one per pattern)."""
+    """x with M x = b for the Newton steps' systems M = [[K, G_L^T], [G_L, 0]] (K = T + G^T D G the tangent, the
+    unknowns x, then the closed rows L) of one problem, solved as the sparse route's system of every row
+    (:mod:`cvxcontact.backends.sparse`)
 
-    def __init__(self, pattern, factorization: str = "auto", residual: float = 1e-8):
+        [[K, G^T P], [P G, -(I - P)]] [x; y] = [b_x; P b_L]        P = diag(1 on L)
+
+    (an open row: y_a = 0, no coupling), on ONE sparsity for every step and every L: ``pattern`` (n x n) ones
+    wherever the tangent may be non-zero (:meth:`~cvxcontact.backends.mixed.MixedEnergy.pattern`; a product drops
+    the moduli's zeros) and every row's couplings, stored as explicit zeros where off. So the fill-reducing
+    analysis is done once: with ``factorization="pardiso"`` :class:`~cvxcontact.backends.factor.PardisoSymmetric`,
+    else SuperLU without pivoting in the quasi-definite order :func:`~cvxcontact.backends.sparse.ordering`; each
+    step is one numeric factorisation. Then up to three steps of iterative refinement against the matrix itself.
+    None if it is singular, x not finite or the residual above ``residual`` max|b| (as
+    :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
+    ``analyses`` the analyses."""
+
+    def __init__(self, pattern, G, factorization: str = "auto", residual: float = 1e-8):
         from .factor import resolve
 
-        P = sp.coo_matrix(pattern)
-        self.n, self.kind, self.residual = P.shape[0], resolve(factorization), residual
-        diag = np.arange(self.n)
-        self._rows, self._cols = np.concatenate([P.row, diag]), np.concatenate([P.col, diag])
-        self._key = self._perm = self._pardiso = None
+        P, Gc = sp.coo_matrix(pattern), sp.coo_matrix(G)
+        self.n, self.m = n, m = P.shape[0], G.shape[0]
+        self.kind, self.residual = resolve(factorization), residual
+        self._G = (Gc.row, Gc.col, Gc.data)
+        rows = np.concatenate([P.row, np.arange(n), n + Gc.row, Gc.col, n + np.arange(m)])
+        cols = np.concatenate([P.col, np.arange(n), Gc.col, n + Gc.row, n + np.arange(m)])
+        self._frame = (rows, cols)                  # the fixed pattern, as zeros (added to every step's values)
+        self._perm = self._pardiso = None
         self.factorizations = self.analyses = 0
+
+    def matrix(self, K, at) -> sp.csc_matrix:
+        """The system of every row for the tangent block ``K`` (n x n) and the closed rows ``at``, on the pattern."""
+        n, m = self.n, self.m
+        K = sp.coo_matrix(K)
+        gr, gc, gv = self._G
+        on = np.asarray(at, dtype=bool)
+        coupling = np.where(on[gr], gv, 0.0)
+        rows, cols = self._frame
+        M = sp.coo_matrix((np.concatenate([K.data, np.zeros(len(rows)), coupling, coupling,
+                                           np.where(on, 0.0, -1.0)]),
+                           (np.concatenate([K.row, rows, n + gr, gc, n + np.arange(m)]),
+                            np.concatenate([K.col, cols, gc, n + gr, n + np.arange(m)]))),
+                          shape=(n + m, n + m)).tocsc()
+        M.sort_indices()
+        return M
 
     def _factor(self, M):
         from .factor import PardisoSymmetric
         from .sparse import factorize, ordering
 
-        key = (M.shape, M.indptr.tobytes(), M.indices.tobytes())
-        if key != self._key:
-            if structural_rank(M) < M.shape[0]:       # (SuperLU can corrupt memory on these: solve_mixed)
-                return None
-            self._key, self._perm, self._pardiso = key, None, None
+        if self._pardiso is None and self._perm is None:
             self.analyses += 1
             if self.kind == "pardiso":
                 try:
@@ -85,7 +103,7 @@ class TangentSolver:
                 except SolverError:
                     self.kind = "superlu"              # refused: SuperLU from here on
             if self._pardiso is None:
-                self._perm = ordering(M, np.arange(self.n, M.shape[0]))
+                self._perm = ordering(M, self.n + np.arange(self.m))
         self.factorizations += 1
         if self._pardiso is not None:
             return self._pardiso.factor(M)
@@ -94,28 +112,27 @@ class TangentSolver:
         except RuntimeError:
             return None
 
-    def __call__(self, M, b):
-        M, N = sp.coo_matrix(M), M.shape[0]          # on the fixed pattern, every diagonal entry stored (zeros kept)
-        extra = np.arange(self.n, N)
-        M = sp.coo_matrix((np.concatenate([M.data, np.zeros(len(self._rows) + len(extra))]),
-                           (np.concatenate([M.row, self._rows, extra]), np.concatenate([M.col, self._cols, extra]))),
-                          shape=M.shape).tocsc()
-        M.sort_indices()
-        factor = self._factor(M)
+    def __call__(self, M, b, at):
+        n, at = self.n, np.asarray(at, dtype=bool)
+        M = sp.csc_matrix(M)
+        A = self.matrix(M[:n, :n], at)
+        bb = np.zeros(n + self.m)
+        bb[:n] = b[:n]
+        bb[n + np.flatnonzero(at)] = b[n:]
+        factor = self._factor(A)
         if factor is None:
             return None
-        x = factor.solve(b)
-        scale = max(np.abs(b).max(initial=0.0), np.finfo(float).tiny)
+        z = factor.solve(bb)
+        scale = max(np.abs(bb).max(initial=0.0), np.finfo(float).tiny)
         for _ in range(3):
-            r = b - M @ x
+            r = bb - A @ z
             if not np.isfinite(r).all() or np.abs(r).max(initial=0.0) <= 1e-15 * scale:
                 break
-            x = x + factor.solve(r)
-        if not np.isfinite(x).all():
+            z = z + factor.solve(r)
+        if not np.isfinite(z).all() or (self.residual is not None
+                                        and np.abs(A @ z - bb).max() > self.residual * scale):
             return None
-        if self.residual is not None and np.abs(M @ x - b).max() > self.residual * scale:
-            return None
-        return x
+        return np.concatenate([z[:n], z[n:][at]])
 
 
 def newton(problem, cache, settings, timings) -> RawResult:
@@ -133,7 +150,7 @@ def newton(problem, cache, settings, timings) -> RawResult:
     x0 = stacked(lin.u, lin.phi)
     solver = cache.own.get("newton")
     if solver is None or solver.n != len(x0):
-        solver = cache.own["newton"] = TangentSolver(op.pattern(), settings.factorization)
+        solver = cache.own["newton"] = TangentSolver(op.pattern(), G, settings.factorization)
     out = solve_sparse_compliance(op, G, problem.g, np.zeros(m), RowLaws.uniform(Signorini(), m),
                                   x0, lin.active & ~problem.held_rows, solve=solver, early=EARLY)
     timings["newton"] = time.perf_counter() - t1

@@ -1,6 +1,6 @@
 """The fast route of a non-quadratic bulk energy (issue 31 item 2, :mod:`cvxcontact.backends.nonlinear`, method
-"newton"): the linear answer by the sparse route, then Newton on the nonlinear mixed system (26) with the contact
-active set, no interior point. Checked against the full route (the interior point + its Newton finish, the
+"newton"): Newton on the nonlinear mixed system (26) with the contact active set from the elastic predictor, no
+interior point. Checked against the full route (the interior point + its Newton finish, the
 reference) to rounding, the closed form of uniaxial strain, a dense Newton written in tests/test_bulk_energy.py,
 and (26)-(27) by the read-back; its fallback to the full route when the steps do not settle. Tolerances: the
 finish's rounding or 100x the measured values (beside them)."""
@@ -44,7 +44,7 @@ def both(scene, **kw):
         fast = cc.solve(scene, estimate=False, **kw)
         full = cc.solve(scene, estimate=False, method="full", **kw)
     assert fast.info.method == "newton" and fast.info.requested == "auto", fast.info
-    assert fast.info.route == cc.Route.NEWTON_FROM_LINEAR and fast.info.finish == Finish.NEWTON_BULK
+    assert fast.info.route == cc.Route.NEWTON_DIRECT and fast.info.finish == Finish.NEWTON_BULK
     assert fast.ok and fast.polished and fast.residuals()["equilibrium"] < EXACT, fast.report()
     assert full.info.method == "full" and full.info.finish == Finish.NEWTON_BULK and full.ok
     return fast, full
@@ -89,7 +89,7 @@ def test_a_circle_pressed_into_a_yielding_block_is_the_dense_newton_answer():
     assert rel(x, z) < 1e-12                                    # measured 1e-15
     s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
     assert (s > HENCKY.s_y).sum() >= 10 and active.sum() >= 3
-    assert fast.info.iterations > 2                             # linear steps + Newton steps (systems solved)
+    assert fast.info.iterations > 2                             # Newton steps (systems solved)
 
 
 def test_a_pair_with_a_hencky_body():
@@ -141,8 +141,8 @@ def test_steps_that_do_not_settle_fall_back_to_the_full_route(monkeypatch):
 
 
 def test_a_contact_solver_re_solves_a_new_load():
-    """A ContactSolver keeps the sparse factor and the tangent solver's analysis: a second, deeper indentation is
-    solved by the fast route again and equals a fresh full solve."""
+    """A ContactSolver keeps the tangent solver's analysis and starts a re-solve from the previous answer: a second,
+    deeper indentation is solved by the fast route again and equals a fresh full solve."""
     solver = cc.ContactSolver(indented(HENCKY, nx=16, ny=6, depth=3e-3), estimate=False)
     first = solver.solve()
     deeper = indented(HENCKY, nx=16, ny=6, depth=5e-3)

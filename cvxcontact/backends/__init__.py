@@ -4,7 +4,7 @@
 ``condensed``  each body condensed exactly onto its contact unknowns, a small interface QP in CVXPY
 ``amg``        the same steps with AMG-preconditioned Krylov solves, no factorisation: large 3D scenes (pyamg)
 ``sparse``     active-set steps on the sparse mixed system (26) of every body: long interfaces
-``newton``     a non-quadratic bulk energy (Hencky): the linear answer, then Newton on the nonlinear (26)
+``newton``     a non-quadratic bulk energy (Hencky): Newton on the nonlinear (26), no interior point
 ``finish``     the exact finish: the interface LCP solved by scaled active-set steps (NNLS fallback)
 ``options``    validation of solver names and options before anything is assembled
 
@@ -164,8 +164,8 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
 
 
 def _newton_accepts(p: ProblemDescription) -> bool:
-    # a non-quadratic energy with Signorini rows: the linear start is the sparse route's, the finish closes the
-    # active rows as they are (independent rows)
+    # a non-quadratic energy with Signorini rows on bodies held by their supports (the rest state's tangent is
+    # then definite); the steps close the active rows as they are (independent rows)
     return not p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
         and not p.force_control and not p.friction and not p.compliant and not p.conic and not p.dependent_rows
 
@@ -194,9 +194,8 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself
             fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
     Backend("newton", _newton_accepts,
-            "a non-quadratic bulk energy (Hencky): the linear answer by the sparse route, then Newton on the "
-            "nonlinear mixed system with the contact active set (no interior point; the full route if it does "
-            "not settle)",
+            "a non-quadratic bulk energy (Hencky): Newton on the nonlinear mixed system with the contact active "
+            "set from the elastic predictor (no interior point; the full route if it does not settle)",
             routes=MappingProxyType({"signorini": ".nonlinear:newton"})),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
             "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",

@@ -1,15 +1,16 @@
 """The fast route of a non-quadratic bulk energy (the paper's nonlinear A, e.g. Hencky; docs/formulation.md §19):
-Newton on the nonlinear mixed system (26) with the contact active set, from the linear problem's answer, no
-interior point and no CVXPY program.
+Newton on the nonlinear mixed system (26) with the contact active set, no interior point and no CVXPY program.
 
-1. the linear start: the same scene with every body's initial tangent (its ``Kuu``, the material's moduli at zero
-   strain) solved by the sparse route's active-set steps (:func:`~cvxcontact.backends.signorini.sparse`: exact,
-   its factor kept in the cache for re-solves);
-2. from its displacements and active set, the semismooth Newton steps of the finish of the full route
-   (:func:`~cvxcontact.backends.finish.solve_sparse_compliance` on :class:`~cvxcontact.backends.mixed.MixedEnergy`,
-   every row a Signorini row): damped on the energy, inside primal-dual active-set steps on the contact rows,
-   each step one sparse solve of the tangent system with the fill-reducing order of the first
-   (:class:`TangentSolver`);
+1. the start: the elastic predictor, i.e. the rest state (the free unknowns 0, the prescribed displacements
+   applied) with the rows it penetrates closed, so that the first step is the linear problem of the initial
+   tangent on those rows (a re-solve of a :class:`~cvxcontact.ContactSolver`: the previous answer and its active
+   set; a ``start=`` state: its rows). Measured against starting from the linear problem's exact answer (the sparse
+   route's active-set steps, then Newton): 11 steps and 2.1 s against 8 systems + 9 steps and 3.2 s on a circle
+   pressed into a block of 26,082 unknowns (the linear answer's set is not the plastic one either);
+2. the semismooth Newton steps of the full route's finish (:func:`~cvxcontact.backends.finish.
+   solve_sparse_compliance` on :class:`~cvxcontact.backends.mixed.MixedEnergy`, every row a Signorini row): damped
+   on the energy, the contact rows' signs checked after every full step (the primal-dual active-set update,
+   :data:`EARLY`), each step one numeric factorisation on one sparsity (:class:`TangentSolver`);
 3. if those steps do not settle (the active-set steps revisit a set, a singular step, or a stall above
    rounding), the full route (:func:`~cvxcontact.backends.signorini.full`: the interior point, then the same
    Newton finish) answers instead, ``sol.info.route`` :attr:`~cvxcontact.backends.result.Route.NEWTON_FELL_BACK`
@@ -29,7 +30,7 @@ import scipy.sparse as sp
 from ..contact.laws import RowLaws, Signorini
 from ..errors import SolverError
 from .finish import solve_sparse_compliance
-from .mixed import mixed_system, stacked, unstacked
+from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
 
 __all__ = ["TangentSolver", "newton"]
@@ -39,10 +40,10 @@ log = logging.getLogger(__name__)
 EARLY = 1.0
 """The relative residual of (26) below which the Newton steps check the contact rows' signs and leave a set they
 reject (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s ``early``): 1, i.e. after every full step,
-the primal-dual active-set (semismooth Newton) update of the rows. The linear answer's active set is rarely the
-plastic one; converging on each wrong set first cost more steps (measured, the circle pressed into a block of
-26,082 unknowns: 16 Newton steps with 1e-4, 21 checking converged sets only, 9 with 1; a revisited set ends in
-the full route, never in a wrong answer)."""
+the primal-dual active-set (semismooth Newton) update of the rows. The start's active set is rarely the plastic
+one; converging on each wrong set first cost more steps (measured from the linear answer, the circle pressed into
+a block of 26,082 unknowns: 16 Newton steps with 1e-4, 21 checking converged sets only, 9 with 1; a revisited set
+ends in the full route, never in a wrong answer)."""
 
 
 class TangentSolver:
@@ -136,35 +137,36 @@ class TangentSolver:
 
 
 def newton(problem, cache, settings, timings) -> RawResult:
-    """The route of module docstring for a Signorini problem with a non-quadratic bulk energy: the linear answer,
-    then Newton on (26) with the contact active set; the full route if the steps do not settle. ``iterations``:
-    the systems solved (the linear start's and the Newton steps)."""
-    from .signorini import full, sparse
+    """The route of the module docstring for a Signorini problem with a non-quadratic bulk energy: Newton on (26)
+    with the contact active set from the elastic predictor (a re-solve: from the previous answer); the full route
+    if the steps do not settle. ``iterations``: the Newton steps (systems solved)."""
+    from .signorini import full
 
     t0 = time.perf_counter()
-    lin = sparse(problem, cache, settings, timings)          # the initial tangent's answer (exact, linear)
-    timings["linear_start"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
     op, G, widths = mixed_system(problem)
-    m = len(problem.g)
-    x0 = stacked(lin.u, lin.phi)
-    solver = cache.own.get("newton")
-    if solver is None or solver.n != len(x0):
+    m, free = len(problem.g), ~problem.held_rows
+    solver, last = cache.own.get("newton"), cache.own.get("newton_answer")
+    if solver is None:
         solver = cache.own["newton"] = TangentSolver(op.pattern(), G, settings.factorization)
-    out = solve_sparse_compliance(op, G, problem.g, np.zeros(m), RowLaws.uniform(Signorini(), m),
-                                  x0, lin.active & ~problem.held_rows, solve=solver, early=EARLY)
-    timings["newton"] = time.perf_counter() - t1
+    if settings.warm_start and last is not None:
+        x0, start = last                                         # the previous answer of this geometry
+    else:                                                        # the elastic predictor: the rest state, the
+        x0 = np.zeros(G.shape[1])                                # rows it penetrates closed (or a state's rows)
+        start = cache.active if cache.active is not None else np.asarray(problem.g) < 0
+    out = solve_sparse_compliance(op, G, problem.g, np.zeros(m), RowLaws.uniform(Signorini(), m), x0,
+                                  start & free, solve=solver, early=EARLY)
+    timings["newton"] = time.perf_counter() - t0
     if out is None:
-        why = "the Newton steps on the nonlinear mixed system did not settle (a singular step, a cycle or a stall)"
-        log.info("%s from the linear answer; the full route answers instead", why)
+        log.info("the Newton steps on the nonlinear mixed system did not settle (a singular step, a revisited active "
+                 "set or a stall); the full route answers instead")
+        cache.own.pop("newton_answer", None)
         raw = full(problem, cache, settings, timings)
         raw.route = Route.NEWTON_FELL_BACK
         return raw
     x, y, _, active, steps, history = out
-    log.info("Newton from the linear answer: %d steps, relative residuals %s", steps,
+    log.info("Newton on (26), no interior point: %d steps, relative residuals %s", steps,
              ", ".join(f"{h:.1e}" for h in history))
+    cache.active, cache.own["newton_answer"] = active, (x, active)
     u, phi, _ = unstacked(problem, x, widths)
-    cache.active = active
-    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=lin.iterations + steps,
-                     method="newton", route=Route.NEWTON_FROM_LINEAR, finish=Finish.NEWTON_BULK,
-                     factorization=lin.factorization)
+    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="newton",
+                     route=Route.NEWTON_DIRECT, finish=Finish.NEWTON_BULK, factorization=solver.kind)

@@ -237,7 +237,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     the closed rows L (x or None if M is singular; default :func:`~cvxcontact.backends.full.solve_mixed`). ``early``: once a full
     step brings the relative residual below it, the signs of the limit rows are checked and a set they reject is
     left at once, without converging on it (None: only a converged set is checked; the last set is always
-    converged, so the answer is the same, in fewer steps when the start's set is wrong).
+    converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
+    turns it off (signs read before convergence can alternate between two sets).
 
     Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (each row's
     residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y|, or within ``SIGN_TOL`` once a
@@ -284,9 +285,9 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         zL[at] = s[len(x):]
         return s[:len(x)] - x, zL
 
-    steps, seen, history = 0, set(), []
+    steps, seen, left, history = 0, set(), set(), []
     for _ in range(max_iter):
-        z, last, first = np.zeros(m), np.inf, True
+        z, last, first, hasty = np.zeros(m), np.inf, True, False
         for _ in range(max_iter):                       # damped Newton with the limit rows L closed
             out = step(x, at)
             steps += 1
@@ -310,7 +311,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
                 break
             if early is not None and t == 1.0 and ratio <= early and _rejected(G, g, x, y, z, at, limited, ell):
-                break                                   # this set is wrong: leave it now (the outer check below)
+                hasty = True                            # this set is wrong: leave it now (the outer check below)
+                break
             last = ratio
             if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
                 return None                             # stalled above rounding
@@ -321,6 +323,14 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         neg, over = _signs(G, g, x, y, z, at, limited, ell)
         if not neg.any() and not over.any():
             return x, y, z, at, steps, history
+        if hasty:           # signs read before convergence: a set left so before is not left so again (they can
+            new = (at & ~neg) | over            # alternate between two sets); from there every set is converged
+            if new.tobytes() in left:
+                early = None
+            else:
+                left.add(new.tobytes())
+                at = new
+            continue
         at = _next_limit_set(at, neg, over, seen)
         if at is None:
             return None

@@ -58,7 +58,8 @@ class TangentSolver:
     the moduli's zeros) and every row's couplings, stored as explicit zeros where off. So the fill-reducing
     analysis is done once: with ``factorization="pardiso"`` :class:`~cvxcontact.backends.factor.PardisoSymmetric`,
     else SuperLU without pivoting in the quasi-definite order :func:`~cvxcontact.backends.sparse.ordering`; each
-    step is one numeric factorisation. Then up to three steps of iterative refinement against the matrix itself.
+    step is one numeric factorisation. Then up to three steps of iterative refinement against the matrix itself,
+    while a row's residual exceeds 1e-14 of its terms.
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
     ``analyses`` the analyses."""
@@ -74,7 +75,7 @@ class TangentSolver:
         cols = np.concatenate([P.col, np.arange(n), Gc.col, n + Gc.row, n + np.arange(m)])
         self._frame = (rows, cols)                  # the fixed pattern, as zeros (added to every step's values)
         self._perm = self._pardiso = None
-        self.factorizations = self.analyses = 0
+        self.factorizations = self.analyses = self.refinements = 0
 
     def matrix(self, K, at) -> sp.csc_matrix:
         """The system of every row for the tangent block ``K`` (n x n) and the closed rows ``at``, on the pattern."""
@@ -125,9 +126,11 @@ class TangentSolver:
             return None
         z = factor.solve(bb)
         scale = max(np.abs(bb).max(initial=0.0), np.finfo(float).tiny)
-        for _ in range(3):
+        absA, tiny = abs(A), np.finfo(float).tiny
+        for _ in range(3):         # refined while a row's residual exceeds 1e-14 of its own terms
             r = bb - A @ z
-            if not np.isfinite(r).all() or np.abs(r).max(initial=0.0) <= 1e-15 * scale:
+            self.refinements += 1
+            if not np.isfinite(r).all() or (np.abs(r) <= 1e-14 * np.maximum(absA @ np.abs(z) + np.abs(bb), tiny)).all():
                 break
             z = z + factor.solve(r)
         if not np.isfinite(z).all() or (self.residual is not None

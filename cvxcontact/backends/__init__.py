@@ -58,7 +58,7 @@ class ProblemDescription:
     """What a backend needs to know about a problem to say whether it can solve it.
 
     ``quadratic_energy``: the energy is the quadratic form of linear (piezo)elasticity (False: some body's
-    material has a non-quadratic bulk energy, :mod:`cvxcontact.discrete.energy`; only "full" poses it).
+    material has a non-quadratic bulk energy, :mod:`cvxcontact.discrete.energy`; "newton" and "full" solve it).
     ``linear_contact``: the contact constraints are linear rows E [u_nu] <= E g.
     ``user_terms``: number of user-added objective terms or constraints (CVXPY expressions
     on the body unknowns); the condensed backend eliminates the interior unknowns, so it

@@ -9,10 +9,12 @@ at the quadrature points q of the body (eps_q(z) = S_q (T_u z U + u_D), S the st
 points' measures), d = T_u^T Kuu u_D / F the linear lifting that :attr:`Block.f` already holds (so that Block.f
 stays the same for every energy). The coupling (Kup) and the permittivity (Kpp) stay linear. Every energy
 answers the :class:`BulkEnergy` protocol: its ``value``, ``gradient`` (the internal forces of (26)), ``hessian``,
-``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals) and ``expression`` (the
-CVXPY term of the full program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material
-with a non-quadratic density (``material.quadratic`` False). Only the full backend poses a non-quadratic
-energy (the condensed, sparse and AMG routes factorise Kuu; they refuse it: ``quadratic`` is False).
+``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals), ``pattern`` (where a
+Hessian may be non-zero: one sparsity for every Newton step) and ``expression`` (the CVXPY term of the full
+program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material with a non-quadratic
+density (``material.quadratic`` False). A non-quadratic energy is solved by Newton on (26), from the elastic
+predictor (the "newton" route, :mod:`cvxcontact.backends.nonlinear`) or from the full program's interior point;
+the condensed, sparse and AMG routes factorise Kuu and refuse it (``quadratic`` is False).
 """
 
 from __future__ import annotations

@@ -137,7 +137,7 @@ def test_steps_that_do_not_settle_fall_back_to_the_full_route(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
         full = cc.solve(scene, estimate=False, method="full")
-        monkeypatch.setattr(nonlinear.TangentSolver, "__call__", lambda self, M, b, at: None)
+        monkeypatch.setattr(nonlinear.TangentSolver, "__call__", lambda self, K, b, at: None)
         sol = cc.solve(scene, estimate=False)
     assert sol.info.method == "full" and sol.info.route == cc.Route.NEWTON_FELL_BACK
     assert sol.ok and sol.polished and sol.info.finish == Finish.NEWTON_BULK

@@ -47,8 +47,9 @@ ends in the full route, never in a wrong answer)."""
 
 
 class TangentSolver:
-    """x with M x = b for the Newton steps' systems M = [[K, G_L^T], [G_L, 0]] (K = T + G^T D G the tangent, the
-    unknowns x, then the closed rows L) of one problem, solved as the sparse route's system of every row
+    """[x; z_L] with [[K, G_L^T], [G_L, 0]] [x; z_L] = b for the Newton steps of one problem (K = T + G^T D G the
+    tangent block, L the closed rows ``at``; :func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s
+    ``solve(K, b, at)``), solved as the sparse route's system of every row
     (:mod:`cvxcontact.backends.sparse`)
 
         [[K, G^T P], [P G, -(I - P)]] [x; y] = [b_x; P b_L]        P = diag(1 on L)
@@ -114,10 +115,9 @@ class TangentSolver:
         except RuntimeError:
             return None
 
-    def __call__(self, M, b, at):
+    def __call__(self, K, b, at):
         n, at = self.n, np.asarray(at, dtype=bool)
-        M = sp.csc_matrix(M)
-        A = self.matrix(M[:n, :n], at)
+        A = self.matrix(K, at)
         bb = np.zeros(n + self.m)
         bb[:n] = b[:n]
         bb[n + np.flatnonzero(at)] = b[n:]

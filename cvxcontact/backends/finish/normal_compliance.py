@@ -233,8 +233,9 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole),
     inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
     r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
-    m) the starting L (default r(x0) >= l on the limited rows). ``solve(M, b, at)``: the sparse solve of each step, ``at``
-    the closed rows L (x or None if M is singular; default :func:`~cvxcontact.backends.full.solve_mixed`). ``early``: once a full
+    m) the starting L (default r(x0) >= l on the limited rows). ``solve(K, b, at)``: the sparse solve of each step's
+    system, given by its block K = T + G^T D G and the closed rows ``at`` (L) of G, [x; z_L] or None if it is
+    singular (default: :func:`~cvxcontact.backends.full.solve_mixed` on the matrix above). ``early``: once a full
     step brings the relative residual below it, the signs of the limit rows are checked and a set they reject is
     left at once, without converging on it (None: only a converged set is checked; the last set is always
     converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
@@ -251,8 +252,9 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     if solve is None:
         from ..full import solve_mixed  # (full imports nothing from here)
 
-        def solve(M, b, at):
-            return solve_mixed(M, b)
+        def solve(K, b, at):
+            GL = G[at]
+            return solve_mixed(sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc(), b)
 
     G = sps.csr_matrix(G)
     g, w = (np.asarray(a, dtype=float) for a in (g, weights))
@@ -273,12 +275,10 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         r = G @ x - g
         D = w * law.derivative(r)
         T, load = operator.linearised(x)          # gradient(x') ~ T x' - load near x
-        K = T + G.T @ sps.diags(D) @ G
-        GL = G[at]
-        M = sps.bmat([[K, GL.T], [GL, None]], format="csc") if at.any() else K.tocsc()
+        K = T + G.T @ sps.diags(D) @ G if D.any() else T
         b = load - G.T @ (w * law.pressure(r) - D * (g + r))
         b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
-        s = solve(M, b, at)
+        s = solve(K, b, at)
         if s is None:
             return None
         zL = np.zeros(m)

@@ -14,7 +14,8 @@ an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers
 ``prefers``: every problem it accepts) (:func:`choose`): "amg" for a 3D scene of at least
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed"; "newton" for a
-non-quadratic bulk energy with Signorini rows (:mod:`cvxcontact.backends.nonlinear`), "full" for what none accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
+non-quadratic bulk energy with Signorini rows or a compliance law (:mod:`cvxcontact.backends.nonlinear`), "full"
+for what none accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
 """
 
 from __future__ import annotations
@@ -164,10 +165,10 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
 
 
 def _newton_accepts(p: ProblemDescription) -> bool:
-    # a non-quadratic energy with Signorini rows on bodies held by their supports (the rest state's tangent is
-    # then definite); the steps close the active rows as they are (independent rows)
+    # a non-quadratic energy with Signorini rows or a compliance law on bodies held by their supports (the rest
+    # state's tangent is then definite); the steps close the active rows as they are (independent rows)
     return not p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
-        and not p.force_control and not p.friction and not p.compliant and not p.conic and not p.dependent_rows
+        and not p.force_control and not p.friction and not p.conic and not p.dependent_rows
 
 
 def _amg_available() -> bool:
@@ -195,8 +196,9 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
     Backend("newton", _newton_accepts,
             "a non-quadratic bulk energy (Hencky): Newton on the nonlinear mixed system with the contact active "
-            "set from the elastic predictor (no interior point; the full route if it does not settle)",
-            routes=MappingProxyType({"signorini": ".nonlinear:newton"})),
+            "set from the elastic predictor, Signorini rows or a compliance law (no interior point; Signorini: the "
+            "full route if it does not settle)",
+            routes=MappingProxyType({"signorini": ".nonlinear:newton", "compliance": ".nonlinear:compliance"})),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
             "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",

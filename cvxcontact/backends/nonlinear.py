@@ -30,10 +30,11 @@ import scipy.sparse as sp
 from ..contact.laws import RowLaws, Signorini
 from ..errors import SolverError
 from .finish import solve_sparse_compliance
+from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
 
-__all__ = ["TangentSolver", "newton"]
+__all__ = ["TangentSolver", "compliance", "newton"]
 
 log = logging.getLogger(__name__)
 
@@ -140,36 +141,68 @@ class TangentSolver:
 
 
 def newton(problem, cache, settings, timings) -> RawResult:
-    """The route of the module docstring for a Signorini problem with a non-quadratic bulk energy: Newton on (26)
-    with the contact active set from the elastic predictor (a re-solve: from the previous answer); the full route
+    """The route of the module docstring for Signorini rows: Newton on (26) with the contact active set from the
+    elastic predictor (the rows the rest state penetrates closed; a re-solve: the previous answer); the full route
     if the steps do not settle. ``iterations``: the Newton steps (systems solved)."""
     from .signorini import full
 
-    t0 = time.perf_counter()
-    op, G, widths = mixed_system(problem)
-    m, free = len(problem.g), ~problem.held_rows
-    solver, last = cache.own.get("newton"), cache.own.get("newton_answer")
-    if solver is None:
-        solver = cache.own["newton"] = TangentSolver(op.pattern(), G, settings.factorization)
-    if settings.warm_start and last is not None:
-        x0, start = last                                         # the previous answer of this geometry
-    else:                                                        # the elastic predictor: the rest state, the
-        x0 = np.zeros(G.shape[1])                                # rows it penetrates closed (or a state's rows)
-        start = cache.active if cache.active is not None else np.asarray(problem.g) < 0
-    out = solve_sparse_compliance(op, G, problem.g, np.zeros(m), RowLaws.uniform(Signorini(), m), x0,
-                                  start & free, solve=solver, early=EARLY)
-    timings["newton"] = time.perf_counter() - t0
-    if out is None:
+    m = len(problem.g)
+    start = cache.active if cache.active is not None else np.asarray(problem.g) < 0
+    raw = _steps(problem, cache, settings, timings, RowLaws.uniform(Signorini(), m), np.zeros(m), start)
+    if raw is None:
         log.info("the Newton steps on the nonlinear mixed system did not settle (a singular step, a revisited active "
                  "set or a stall); the full route answers instead")
-        cache.own.pop("newton_answer", None)
         raw = full(problem, cache, settings, timings)
         raw.route = Route.NEWTON_FELL_BACK
-        return raw
-    x, y, _, active, steps, history = out
+    return raw
+
+
+def compliance(problem, cache, settings, timings) -> RawResult:
+    """The route of the module docstring for a normal-compliance law on some rows (docs/formulation.md §10): the
+    same Newton steps with the law's forces w p(r) and their derivative in the tangent, the rows with a
+    penetration limit (and Signorini rows) in the active set, from the rest state. No other route poses a
+    compliance law beside a non-quadratic energy: steps that do not settle raise SolverError. ``raw.z``: the
+    limit reactions (None without a limit)."""
+    law, w = problem.scaled_law, problem.weights
+    raw = _steps(problem, cache, settings, timings, law, w, None)
+    if raw is None:
+        raise SolverError("the Newton steps on the nonlinear mixed system with the compliance law did not settle (a "
+                          "singular step, a revisited active set or a stall), and no other route poses a compliance "
+                          "law beside a non-quadratic energy: use a linear material, or the Signorini law")
+    if law.limited.any():
+        raw.y, raw.z = release_held(raw.y, raw.z, problem.held_rows)
+    else:
+        raw.z = None
+    return raw
+
+
+def _steps(problem, cache, settings, timings, law, weights, start):
+    """The Newton steps of :func:`~cvxcontact.backends.finish.solve_sparse_compliance` for the rows' ``law`` with
+    their ``weights`` from the rest state and the active set ``start`` (None: the rows at or past their limit
+    there), or from the previous answer of this geometry: a RawResult, or None if they do not settle."""
+    t0 = time.perf_counter()
+    op, G, widths = mixed_system(problem)
+    free = ~problem.held_rows
+    solver, last = cache.own.get("newton"), cache.own.get("newton_answer")
+    if solver is None:
+        pattern = op.pattern()
+        if np.any(np.asarray(law.stiffness) > 0):              # the law's G^T D G beside the tangent
+            pattern = pattern + abs(G).T @ abs(G)
+        solver = cache.own["newton"] = TangentSolver(pattern, G, settings.factorization)
+    if settings.warm_start and last is not None:
+        x0, start = last                                     # the previous answer of this geometry
+    else:                                                    # the elastic predictor: the rest state
+        x0 = np.zeros(G.shape[1])
+    out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
+                                  solve=solver, early=EARLY)
+    timings["newton"] = time.perf_counter() - t0
+    if out is None:
+        cache.own.pop("newton_answer", None)
+        return None
+    x, y, z, active, steps, history = out
     log.info("Newton on (26), no interior point: %d steps, relative residuals %s", steps,
              ", ".join(f"{h:.1e}" for h in history))
     cache.active, cache.own["newton_answer"] = active, (x, active)
     u, phi, _ = unstacked(problem, x, widths)
-    return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="newton",
+    return RawResult(u=u, phi=phi, y=y, z=z, active=active, polished=True, iterations=steps, method="newton",
                      route=Route.NEWTON_DIRECT, finish=Finish.NEWTON_BULK, factorization=solver.kind)

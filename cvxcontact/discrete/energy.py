@@ -69,7 +69,8 @@ class Quadratic:
         return abs(self.K) @ np.abs(z)
 
     def pattern(self):
-        return (abs(self.K) > 0).astype(float)
+        K = sp.csr_matrix(self.K)
+        return sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)    # every stored entry
 
     def expression(self, z):
         import cvxpy as cp

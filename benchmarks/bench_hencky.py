@@ -37,6 +37,8 @@ def timed(material, method, nx, ny, degree):
         sol = solver.solve()
         seconds = time.perf_counter() - t0
     assert sol.ok, sol.report()
+    print(f"  {method} {material.name} {nx} x {ny} P{degree}: {seconds:.2f} s, {sol.info.iterations} iterations, "
+          f"stages {', '.join(f'{k} {v:.2f}' for k, v in sol.info.timings.items())}", file=sys.stderr, flush=True)
     return seconds, sol, solver.problem.unknowns
 
 
@@ -46,6 +48,8 @@ def main(quick=False):
     cases = [(64, 24, 1, True), (160, 80, 1, False), (320, 160, 1, False), (160, 80, 2, False)]
     if quick:
         cases = [(64, 24, 1, True), (96, 48, 1, False)]
+    elif "--large" in sys.argv:
+        cases = cases[2:]
     print("| mesh | P | unknowns | linear auto (s) | linear sparse (s) | fast (s) | steps | fast / linear auto "
           "| fast / linear sparse | full (s) | full / fast |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

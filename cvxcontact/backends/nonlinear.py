@@ -47,6 +47,20 @@ a block of 26,082 unknowns: 16 Newton steps with 1e-4, 21 checking converged set
 ends in the full route, never in a wrong answer)."""
 
 
+ARMIJO = 1e-4
+"""The sufficient decrease of the steps' backtracking on the energy (:func:`~cvxcontact.backends.finish.
+solve_sparse_compliance`'s ``armijo``): without it, full steps from the rest state zigzagged where points cross the
+yield surface (58k unknowns: 50 steps on one active set, no convergence)."""
+
+
+SETTLED = 1e-8
+"""The relative residual of (26) below which a full Newton step that no longer halves it is rounding
+(:func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s ``settled``): the rounding of the residual grows with
+the tangent's conditioning (measured on the circle pressed into a block: 3e-11 at 26k unknowns, 1.0e-10 to 2.3e-10
+at 58k, above the default SIGN_TOL = 1e-10, where the steps went on at rounding until the iteration limit). The
+answer is then checked by the read-back like every other ((26)-(27) at ``tol``)."""
+
+
 class TangentSolver:
     """[x; z_L] with [[K, G_L^T], [G_L, 0]] [x; z_L] = b for the Newton steps of one problem (K = T + G^T D G the
     tangent block, L the closed rows ``at``; :func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s
@@ -194,7 +208,8 @@ def _steps(problem, cache, settings, timings, law, weights, start):
     else:                                                    # the elastic predictor: the rest state
         x0 = np.zeros(G.shape[1])
     out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
-                                  solve=solver, early=EARLY)
+                                  solve=solver, early=EARLY, armijo=ARMIJO,
+                                  settled=SETTLED)
     timings["newton"] = time.perf_counter() - t0
     if out is None:
         cache.own.pop("newton_answer", None)

@@ -4,9 +4,9 @@ the same mesh and against the full route (interior point + Newton finish), as ra
 Scene: a rigid circle (radius 0.6 m) pressed 5 mm into a block 1 m x 0.5 m clamped at its bottom
 (tests/test_bulk_energy.py ``indented``), Hencky E = 70 GPa, nu = 0.3, sigma_y = 200 MPa, h = 0.1 (yields under
 the circle); the linear solve: the same scene with the isotropic material of the same E, nu (the Hencky body's
-initial tangent), by ``auto`` (the condensed route) and by the sparse route (the fast route's own linear start).
+initial tangent), by ``auto`` (the condensed route) and by the sparse route; P2 with the nodal condition "sigma1".
 
-    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_hencky.py [--quick]
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_hencky.py [--quick|--large|--p2]
 
 prints a Markdown table (seconds of ``ContactSolver.solve``, the assembly excluded; ratios to the linear solves;
 "steps": the Newton steps, one numeric factorisation each).
@@ -30,7 +30,7 @@ LINEAR = cc.materials.isotropic(E, NU)
 
 def timed(material, method, nx, ny, degree):
     solver = cc.ContactSolver(indented(material, nx=nx, ny=ny, depth=5e-3), method=method, estimate=False,
-                              degree=degree)
+                              degree=degree, condition="sigma1" if degree == 2 else "gamma3")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
         t0 = time.perf_counter()
@@ -50,6 +50,8 @@ def main(quick=False):
         cases = [(64, 24, 1, True), (96, 48, 1, False)]
     elif "--large" in sys.argv:
         cases = cases[2:]
+    elif "--p2" in sys.argv:
+        cases = cases[3:]
     print("| mesh | P | unknowns | linear auto (s) | linear sparse (s) | fast (s) | steps | fast / linear auto "
           "| fast / linear sparse | full (s) | full / fast |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -6,7 +6,7 @@ Scene: a rigid circle (radius 0.6 m) pressed 5 mm into a block 1 m x 0.5 m clamp
 the circle); the linear solve: the same scene with the isotropic material of the same E, nu (the Hencky body's
 initial tangent), by ``auto`` (the condensed route) and by the sparse route; P2 with the nodal condition "sigma1".
 
-    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_hencky.py [--quick|--large|--p2]
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_hencky.py [--quick|--large|--p2|--3d]
 
 prints a Markdown table (seconds of ``ContactSolver.solve``, the assembly excluded; ratios to the linear solves;
 "steps": the Newton steps, one numeric factorisation each).
@@ -28,8 +28,17 @@ HENCKY = cc.materials.hencky(E, NU, SIGMA_Y, H)
 LINEAR = cc.materials.isotropic(E, NU)
 
 
+def sphere(material, n):
+    """3D: a block (-1, 1)^2 x (-1, 0) m (n x n x n/2 cells, clamped at the bottom) pressed 0.02 m deep by a rigid
+    sphere of radius 2 m (tests/scenes3d.py ``sphere_into_block`` with the given material)."""
+    block = cc.box(x=(-1.0, 1.0), y=(-1.0, 1.0), z=(-1.0, 0.0), nx=n, ny=n, nz=max(1, n // 2))
+    body = cc.Body(block, material, clamped=["bottom"])
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0.0, 0.0, 2.0 - 0.02), 2.0))])
+
+
 def timed(material, method, nx, ny, degree):
-    solver = cc.ContactSolver(indented(material, nx=nx, ny=ny, depth=5e-3), method=method, estimate=False,
+    scene = sphere(material, nx) if ny == 0 else indented(material, nx=nx, ny=ny, depth=5e-3)
+    solver = cc.ContactSolver(scene, method=method, estimate=False,
                               degree=degree, condition="sigma1" if degree == 2 else "gamma3")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
@@ -52,6 +61,8 @@ def main(quick=False):
         cases = cases[2:]
     elif "--p2" in sys.argv:
         cases = cases[3:]
+    elif "--3d" in sys.argv:
+        cases = [(24, 0, 1, False)]            # ny = 0: the 3D sphere (nx cells a side)
     print("| mesh | P | unknowns | linear auto (s) | linear sparse (s) | fast (s) | steps | fast / linear auto "
           "| fast / linear sparse | full (s) | full / fast |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -67,7 +78,7 @@ def main(quick=False):
             full = f"{t_full:.2f} | {t_full / t_fast:.1f}"
         else:
             full = "- | -"
-        print(f"| {nx} x {ny} | {degree} | {N} | {t_auto:.2f} | {t_sparse:.2f} | {t_fast:.2f} | {steps} "
+        print(f"| {f'3D sphere {nx}' if ny == 0 else f'{nx} x {ny}'} | {degree} | {N} | {t_auto:.2f} | {t_sparse:.2f} | {t_fast:.2f} | {steps} "
               f"| {t_fast / t_auto:.1f} | {t_fast / t_sparse:.1f} | {full} |", flush=True)
 
 

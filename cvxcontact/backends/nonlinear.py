@@ -8,13 +8,16 @@ Newton on the nonlinear mixed system (26) with the contact active set, no interi
    route's active-set steps, then Newton): 11 steps and 2.1 s against 8 systems + 9 steps and 3.2 s on a circle
    pressed into a block of 26,082 unknowns (the linear answer's set is not the plastic one either);
 2. the semismooth Newton steps of the full route's finish (:func:`~cvxcontact.backends.finish.
-   solve_sparse_compliance` on :class:`~cvxcontact.backends.mixed.MixedEnergy`, every row a Signorini row): damped
-   on the energy, the contact rows' signs checked after every full step (the primal-dual active-set update,
-   :data:`EARLY`), each step one numeric factorisation on one sparsity (:class:`TangentSolver`);
+   solve_sparse_compliance` on :class:`~cvxcontact.backends.mixed.MixedEnergy`, every row a Signorini row, or the
+   rows' normal-compliance law, :func:`compliance`): damped on the energy with a sufficient decrease
+   (:data:`ARMIJO`), the contact rows' signs checked after every full step (the primal-dual active-set update,
+   :data:`EARLY`), rounding recognised below :data:`SETTLED`, each step one numeric factorisation on one
+   sparsity (:class:`TangentSolver`);
 3. if those steps do not settle (the active-set steps revisit a set, a singular step, or a stall above
    rounding), the full route (:func:`~cvxcontact.backends.signorini.full`: the interior point, then the same
    Newton finish) answers instead, ``sol.info.route`` :attr:`~cvxcontact.backends.result.Route.NEWTON_FELL_BACK`
-   and the reason logged: never an unfinished answer in its place.
+   and the reason logged (a compliance law, which no other route poses beside a non-quadratic energy: a
+   SolverError): never an unfinished answer in its place.
 
 The answer is then checked by the read-back like every other ((26)-(27) with the nonlinear internal forces).
 """

@@ -52,8 +52,9 @@ ends in the full route, never in a wrong answer)."""
 
 ARMIJO = 1e-4
 """The sufficient decrease of the steps' backtracking on the energy (:func:`~cvxcontact.backends.finish.
-solve_sparse_compliance`'s ``armijo``): without it, full steps from the rest state zigzagged where points cross the
-yield surface (58k unknowns: 50 steps on one active set, no convergence)."""
+solve_sparse_compliance`'s ``armijo``), the condition under which damped Newton on a convex energy with a Lipschitz
+gradient converges from any start (the full route's finish starts near the answer and only asks no increase). On
+the measured scenes it changes nothing (58k unknowns: the same 18 steps with 0)."""
 
 
 SETTLED = 1e-8

@@ -242,8 +242,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
     turns it off (signs read before convergence can alternate between two sets). ``armijo``: the sufficient
     decrease c of the backtracking, L(x + t dx) <= L(x) + c t grad . dx (beside the rounding of L); 0: no
-    increase only, which lets full steps zigzag where points cross the yield surface (measured from the rest
-    state on 58k unknowns: 50 full steps on one set without converging; 1e-4 there: converged). ``settled``: the
+    increase only (enough from an interior point, near the answer). ``settled``: the
     relative residual below which a full step that no longer halves it is taken as rounding (default
     ``SIGN_TOL``; that rounding grows with the conditioning of the tangent: measured 3e-11 at 26k unknowns,
     1.0e-10 to 2.3e-10 at 58k, where the default never stopped).

@@ -62,7 +62,7 @@ def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method:
         mesh l.
     solver : str
         A CVXPY solver name; Clarabel by default (tolerances tightened to 1e-10).
-    method : {"auto", "amg", "sparse", "condensed", "full"}
+    method : {"auto", "amg", "sparse", "condensed", "newton", "full"}
         The backend; "auto" (default): the fastest that accepts the problem. ``Solution.info.method`` names it.
     tol : float
         Tolerance of the checks of (26)-(27) (dimensionless). Failing them: ``ok = False`` and a
@@ -125,7 +125,7 @@ class ContactSolver:
         The discrete contact condition, as in :func:`solve`.
     solver : str
         A CVXPY solver name, as in :func:`solve`.
-    method : {"auto", "amg", "sparse", "condensed", "full"}
+    method : {"auto", "amg", "sparse", "condensed", "newton", "full"}
         The backend, as in :func:`solve`.
     tol : float
         Tolerance of the checks (dimensionless), as in :func:`solve`.

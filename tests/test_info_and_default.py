@@ -26,11 +26,12 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 def test_registry_auto_takes_the_first_accepting_backend_in_speed_order():
     assert METHODS[0] == "auto" and set(METHODS[1:]) == {b.name for b in BACKENDS} == {"full", "condensed", "sparse",
-                                                                                      "amg"}
-    assert [b.name for b in BACKENDS] == ["amg", "sparse", "condensed", "full"]    # speed order (sparse: long
+                                                                                      "amg", "newton"}
+    assert [b.name for b in BACKENDS] == ["amg", "sparse", "condensed", "newton", "full"]    # speed order (sparse: long
     assert choose("auto") == "condensed"                                          # interfaces only, issue 13)
     assert choose("auto", ProblemDescription(user_terms=2)) == "full"              # user terms: only full
-    assert choose("auto", ProblemDescription(quadratic_energy=False)) == "full"
+    assert choose("auto", ProblemDescription(quadratic_energy=False)) == "newton"     # Hencky: the Newton route
+    assert choose("auto", ProblemDescription(quadratic_energy=False, dependent_rows=True)) == "full"
     assert choose("full", ProblemDescription(user_terms=1)) == "full"
     with pytest.raises(cc.SolverError, match="'condensed' does not accept"):
         choose("condensed", ProblemDescription(user_terms=1))

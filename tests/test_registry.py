@@ -67,7 +67,7 @@ def test_a_registered_name_is_a_method_everywhere_and_auto_walks_it_where_placed
     assert check_solve_parameters("gamma3", "mine", 1e-6) == 1e-6
     assert backends.choose("auto") == "condensed"                       # last: after "full", never auto
     registry(Backend("mine", _signorini_only, routes={"signorini": full_route}), before="condensed", replace=True)
-    assert [b.name for b in BACKENDS] == ["amg", "sparse", "mine", "condensed", "full"]
+    assert [b.name for b in BACKENDS] == ["amg", "sparse", "mine", "condensed", "newton", "full"]
     assert backends.choose("auto") == "mine"
     assert backends.choose("auto", backends.ProblemDescription(compliant=True)) == "condensed"
     unregister("mine")

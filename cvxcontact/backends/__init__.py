@@ -4,6 +4,7 @@
 ``condensed``  each body condensed exactly onto its contact unknowns, a small interface QP in CVXPY
 ``amg``        the same steps with AMG-preconditioned Krylov solves, no factorisation: large 3D scenes (pyamg)
 ``sparse``     active-set steps on the sparse mixed system (26) of every body: long interfaces
+``newton``     a non-quadratic bulk energy (Hencky): Newton on the nonlinear (26), no interior point
 ``finish``     the exact finish: the interface LCP solved by scaled active-set steps (NNLS fallback)
 ``options``    validation of solver names and options before anything is assembled
 
@@ -12,8 +13,9 @@ an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers
 ``method="auto"`` (the default) takes the first backend that accepts the problem and prefers it (no
 ``prefers``: every problem it accepts) (:func:`choose`): "amg" for a 3D scene of at least
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
-(where the condensed route's dense m x m interface matrices dominate), else "condensed", "full" for what
-neither accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
+(where the condensed route's dense m x m interface matrices dominate), else "condensed"; "newton" for a
+non-quadratic bulk energy with Signorini rows or a compliance law (:mod:`cvxcontact.backends.nonlinear`), "full"
+for what none accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ class ProblemDescription:
     """What a backend needs to know about a problem to say whether it can solve it.
 
     ``quadratic_energy``: the energy is the quadratic form of linear (piezo)elasticity (False: some body's
-    material has a non-quadratic bulk energy, :mod:`cvxcontact.discrete.energy`; only "full" poses it).
+    material has a non-quadratic bulk energy, :mod:`cvxcontact.discrete.energy`; "newton" and "full" solve it).
     ``linear_contact``: the contact constraints are linear rows E [u_nu] <= E g.
     ``user_terms``: number of user-added objective terms or constraints (CVXPY expressions
     on the body unknowns); the condensed backend eliminates the interior unknowns, so it
@@ -162,6 +164,13 @@ def _sparse_accepts(p: ProblemDescription) -> bool:
     return _condensed_accepts(p) and not p.compliant and not p.conic
 
 
+def _newton_accepts(p: ProblemDescription) -> bool:
+    # a non-quadratic energy with Signorini rows or a compliance law on bodies held by their supports (the rest
+    # state's tangent is then definite); the steps close the active rows as they are (independent rows)
+    return not p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
+        and not p.force_control and not p.friction and not p.conic and not p.dependent_rows
+
+
 def _amg_available() -> bool:
     import importlib.util
 
@@ -185,6 +194,11 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
                                      "conic": ".cones:condensed", "mixed": ".cones:mixed_condensed"}),
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself
             fallback=Fallback("sparse", Route.SPARSE_FALLBACK, when=lambda p: p.degree == 1)),
+    Backend("newton", _newton_accepts,
+            "a non-quadratic bulk energy (Hencky): Newton on the nonlinear mixed system with the contact active "
+            "set from the elastic predictor, Signorini rows or a compliance law (no interior point; Signorini: the "
+            "full route if it does not settle)",
+            routes=MappingProxyType({"signorini": ".nonlinear:newton", "compliance": ".nonlinear:compliance"})),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
             "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",

@@ -90,6 +90,20 @@ class MixedEnergy:
             return T, -self.gradient(np.zeros_like(x))
         return T, T @ x - self.gradient(x)
 
+    def pattern(self) -> sp.csr_matrix:
+        """Ones wherever :meth:`tangent` may be non-zero at any x (the bodies' :meth:`BulkEnergy.pattern` and
+        coupling blocks): one sparsity for every Newton step's factor."""
+        def stored(M):                          # ones on every stored entry (explicit zeros included)
+            M = sp.csr_matrix(M)
+            return sp.csr_matrix((np.ones(M.nnz), M.indices, M.indptr), shape=M.shape)
+
+        mats = []
+        for b in self.blocks:
+            P = b.bulk.pattern()
+            mats.append(P if b.Kpp is None else sp.bmat([[P, stored(b.Kup)], [stored(b.Kup.T), stored(b.Kpp)]]))
+        return stored(sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width),
+                                    format="coo"))
+
     def _assemble(self, x):
         if x is None:
             mats = [quasi_definite(b)[0] for b in self.blocks]

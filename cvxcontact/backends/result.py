@@ -50,6 +50,13 @@ class Route(StrEnum):
     (:attr:`Finish.NEWTON_BULK`) did not run (``polish=False``) or was declined (rows that may be linearly
     dependent, or steps that did not settle; ``SolveInfo.declined`` says which): the full program's
     interior-point answer, checked with the nonlinear internal forces."""
+    NEWTON_DIRECT = "Newton on the nonlinear mixed system, no interior point"
+    """A non-quadratic bulk energy (method "newton", :mod:`cvxcontact.backends.nonlinear`): Newton on (26) with the
+    contact active set (:attr:`Finish.NEWTON_BULK`) from the elastic predictor (a re-solve: the previous answer);
+    ``iterations`` counts the Newton steps."""
+    NEWTON_FELL_BACK = "Newton without an interior point did not settle -> interior point + Newton finish"
+    """Method "newton": its Newton steps did not settle (a revisited active set, a singular
+    step, a stall); the full route (the interior point, then the Newton finish) answered instead."""
     NO_CONTACT = "no contact at zero force: the unconstrained solution"
     """The conic P2 condition (condensed): the bodies' unconstrained solution already satisfies it on every
     merged segment, so it is the solution, exactly (forces 0), and no program is solved."""

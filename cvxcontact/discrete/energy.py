@@ -9,10 +9,12 @@ at the quadrature points q of the body (eps_q(z) = S_q (T_u z U + u_D), S the st
 points' measures), d = T_u^T Kuu u_D / F the linear lifting that :attr:`Block.f` already holds (so that Block.f
 stays the same for every energy). The coupling (Kup) and the permittivity (Kpp) stay linear. Every energy
 answers the :class:`BulkEnergy` protocol: its ``value``, ``gradient`` (the internal forces of (26)), ``hessian``,
-``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals) and ``expression`` (the
-CVXPY term of the full program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material
-with a non-quadratic density (``material.quadratic`` False). Only the full backend poses a non-quadratic
-energy (the condensed, sparse and AMG routes factorise Kuu; they refuse it: ``quadratic`` is False).
+``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals), ``pattern`` (where a
+Hessian may be non-zero: one sparsity for every Newton step) and ``expression`` (the CVXPY term of the full
+program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material with a non-quadratic
+density (``material.quadratic`` False). A non-quadratic energy is solved by Newton on (26), from the elastic
+predictor (the "newton" route, :mod:`cvxcontact.backends.nonlinear`) or from the full program's interior point;
+the condensed, sparse and AMG routes factorise Kuu and refuse it (``quadratic`` is False).
 """
 
 from __future__ import annotations
@@ -39,6 +41,10 @@ class BulkEnergy(Protocol):
 
     def magnitude(self, z: np.ndarray) -> np.ndarray: ...
 
+    def pattern(self) -> sp.spmatrix:
+        """Ones wherever a Hessian may be non-zero, at every z (a fixed sparsity for the Newton steps' factors)."""
+        ...
+
     def expression(self, z): ...
 
 
@@ -61,6 +67,10 @@ class Quadratic:
 
     def magnitude(self, z):
         return abs(self.K) @ np.abs(z)
+
+    def pattern(self):
+        K = sp.csr_matrix(self.K)
+        return sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)    # every stored entry
 
     def expression(self, z):
         import cvxpy as cp
@@ -96,9 +106,19 @@ class StrainEnergy:
         sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
+    def _blocks(self, C):
+        """The block diagonal (q s, q s) CSR of the (q, s, s) moduli C (every entry stored)."""
+        q, s = C.shape[0], self.s
+        cols = (np.arange(q)[:, None, None] * s + np.arange(s)[None, None, :]).repeat(s, axis=1)
+        return sp.csr_matrix((C.ravel(), cols.ravel(), np.arange(0, q * s * s + 1, s)), shape=(q * s, q * s))
+
+    def pattern(self):
+        absA = abs(self.A)
+        return (absA.T @ self._blocks(np.ones((len(self.w), self.s, self.s))) @ absA > 0).astype(float)
+
     def hessian(self, z):
         C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        return (self.A.T @ sp.block_diag(list(C), format="csr") @ self.A).tocsr()
+        return (self.A.T @ self._blocks(C) @ self.A).tocsr()
 
     def magnitude(self, z):
         sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]

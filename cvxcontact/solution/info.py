@@ -44,7 +44,7 @@ class SolveInfo:
         OPTIMAL or OPTIMAL_INACCURATE (any other solver status raises SolverError).
     method : str
         The backend actually used: one of the backends of :data:`cvxcontact.backends.METHODS` ("amg", "sparse",
-        "condensed" or "full", or one registered by :func:`cvxcontact.backends.register`; never "auto").
+        "condensed", "newton" or "full", or one registered by :func:`cvxcontact.backends.register`; never "auto").
     requested : str
         The ``method=`` that was asked for ("auto" or one of the backends).
     route : Route or str

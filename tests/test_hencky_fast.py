@@ -1,0 +1,204 @@
+"""The fast route of a non-quadratic bulk energy (issue 31 item 2, :mod:`cvxcontact.backends.nonlinear`, method
+"newton"): Newton on the nonlinear mixed system (26) with the contact active set from the elastic predictor, no
+interior point. Checked against the full route (the interior point + its Newton finish, the
+reference) to rounding, the closed form of uniaxial strain, a dense Newton written in tests/test_bulk_energy.py,
+and (26)-(27) by the read-back; its fallback to the full route when the steps do not settle. Tolerances: the
+finish's rounding or 100x the measured values (beside them)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import rel, two_blocks
+from test_bulk_energy import (
+    EXACT,
+    NU,
+    SIGMA_Y,
+    E,
+    H,
+    dense_newton,
+    indented,
+    pressed_block,
+    uniaxial_stress,
+)
+
+import cvxcontact as cc
+from cvxcontact.backends import choose, describe, nonlinear
+from cvxcontact.backends.result import Finish
+from cvxcontact.discrete import build_problem
+from cvxcontact.fem.space import space
+from cvxcontact.physics.materials import deviator
+
+pytestmark = pytest.mark.numerics
+
+HENCKY = cc.materials.hencky(E, NU, SIGMA_Y, H)
+SAME = 1e-11        # fast against full: both exact finishes of (26); measured <= 5.7e-14 (forces of a pair), 7.1e-15 (u)
+
+
+def both(scene, **kw):
+    """(fast, full): cc.solve by method "auto" (asserted to be the fast route, finished exactly, sol.ok) and by the
+    full route (interior point + Newton finish)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        fast = cc.solve(scene, estimate=False, **kw)
+        full = cc.solve(scene, estimate=False, method="full", **kw)
+    assert fast.info.method == "newton" and fast.info.requested == "auto", fast.info
+    assert fast.info.route == cc.Route.NEWTON_DIRECT and fast.info.finish == Finish.NEWTON_BULK
+    assert fast.ok and fast.polished and fast.residuals()["equilibrium"] < EXACT, fast.report()
+    assert full.info.method == "full" and full.info.finish == Finish.NEWTON_BULK and full.ok
+    return fast, full
+
+
+def same(fast, full, tol=SAME):
+    for a, b in zip(fast.u, full.u):
+        assert rel(a, b) < tol
+    assert rel(fast.contact.lam, full.contact.lam) < tol
+
+
+def test_auto_takes_the_fast_route_for_a_non_quadratic_energy_with_signorini_rows():
+    problem = build_problem(two_blocks(mat2=HENCKY), space(1), "gamma3", cc.Signorini())
+    assert choose("auto", describe(problem)) == "newton"
+    linear = build_problem(two_blocks(), space(1), "gamma3", cc.Signorini())
+    assert choose("auto", describe(linear)) == "condensed"
+    with pytest.raises(cc.SolverError, match="method 'newton' does not accept"):     # a quadratic energy
+        cc.solve(two_blocks(), method="newton")
+    with pytest.raises(cc.SolverError, match="no backend accepts"):       # the P2 cones beside Hencky
+        cc.solve(two_blocks(mat2=HENCKY), degree=2)
+
+
+@pytest.mark.parametrize("strain", [-2e-3, -1e-2])    # below yield (at -3.7e-3), above it
+def test_uniaxial_strain_follows_the_closed_form(strain):
+    fast, full = both(pressed_block(HENCKY, strain))
+    expected = -uniaxial_stress(strain)
+    assert rel(fast.contact.lam, np.full_like(fast.contact.lam, expected)) < 1e-12     # measured <= 2.2e-15
+    assert abs(fast.obstacles[0].force[1] - expected) < 1e-12 * abs(expected)
+    same(fast, full)                                            # measured 2.2e-16 (u), 2.2e-15 (forces)
+
+
+def test_a_circle_pressed_into_a_yielding_block_is_the_dense_newton_answer():
+    """The fast answer equals the full route's and a dense Newton's (tests/test_bulk_energy.py) to rounding, and the
+    block yields under the circle (the nonlinear branch is exercised, with active-set changes inside Newton)."""
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    fast, full = both(scene)
+    same(fast, full)                                            # measured 2.0e-15 (u), 1.0e-15 (forces)
+    problem = build_problem(scene, space(1), "gamma3", cc.Signorini())
+    bulk, block, un = problem.blocks[0].bulk, problem.blocks[0], problem.units
+    z, _, active = dense_newton(bulk, block.f, (problem.E @ block.jump).toarray(), problem.g)
+    x = fast.u[0].ravel() @ problem.systems[0].Tu / un.displacement
+    assert rel(x, z) < 1e-12                                    # measured 1.6e-15
+    s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
+    assert (s > HENCKY.s_y).sum() >= 10 and active.sum() >= 3
+    assert fast.info.iterations > 2                             # Newton steps (systems solved)
+
+
+def test_a_pair_with_a_hencky_body():
+    fast, full = both(two_blocks(mat2=cc.materials.hencky(E, NU, 1e8, H), scale=4.0))
+    same(fast, full)                                            # measured 7.1e-15 (u), 5.7e-14 (forces)
+
+
+def test_p2_sigma1():
+    fast, full = both(indented(HENCKY, nx=12, ny=4, depth=5e-3), degree=2, condition="sigma1")
+    same(fast, full)                                            # measured 3.0e-15 (u), 4.1e-15 (forces)
+
+
+def test_3d_p1_sigma1_between_two_boxes():
+    """3D P1, "sigma1" between two non-matching boxes, the lower one Hencky and yielding under the load."""
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=3, ny=3, nz=2)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=2, ny=2, nz=1)
+    b1 = cc.Body(upper, aluminium, clamped=["top"], body_force=(0.0, 0.0, -8e9), traction={"right": (0.0, 0.0, 1e9)})
+    b2 = cc.Body(lower, cc.materials.hencky(E, NU, 1e8, H), clamped=["bottom"])
+    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition="sigma1")])
+    fast, full = both(scene)
+    same(fast, full)                                            # measured 1.2e-15 (u), 2.0e-15 (forces)
+    problem = build_problem(scene, space(1, "tetra"), "sigma1", cc.Signorini())
+    bulk = problem.blocks[1].bulk
+    z = fast.u[1].ravel() @ problem.systems[1].Tu / problem.units.displacement
+    assert (np.linalg.norm(bulk.strains(z) @ deviator(3)[0].T, axis=1) > b2.material.s_y).any()   # 24 of 24
+
+
+def test_3d_gamma3_between_bodies_is_left_to_the_full_route():
+    """Rows that may be linearly dependent (3D "gamma3" between two bodies): the Newton steps close the active rows
+    as they are; the fast route does not accept them and auto takes the full route."""
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3)
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=3, ny=3, nz=1)
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=2, ny=2, nz=1)
+    scene = cc.Scene(cc.Body(upper, aluminium, clamped=["top"], body_force=(0.0, 0.0, -2e9), contact="bottom"),
+                     cc.Body(lower, HENCKY, clamped=["bottom"], contact="top"))
+    problem = build_problem(scene, space(1, "tetra"), "gamma3", cc.Signorini())
+    assert describe(problem).dependent_rows and choose("auto", describe(problem)) == "full"
+
+
+def test_steps_that_do_not_settle_fall_back_to_the_full_route(monkeypatch):
+    """Newton steps that do not settle (forced here: the solve of each step declines) are never the answer: the
+    full route's (interior point + Newton finish) is, route NEWTON_FELL_BACK."""
+    scene = indented(HENCKY, nx=16, ny=6, depth=5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        full = cc.solve(scene, estimate=False, method="full")
+        monkeypatch.setattr(nonlinear.TangentSolver, "__call__", lambda self, K, b, at: None)
+        sol = cc.solve(scene, estimate=False)
+    assert sol.info.method == "full" and sol.info.route == cc.Route.NEWTON_FELL_BACK
+    assert sol.ok and sol.polished and sol.info.finish == Finish.NEWTON_BULK
+    assert rel(sol.u[0], full.u[0]) < SAME                      # the same computation: measured 1.7e-15
+
+
+def test_a_contact_solver_re_solves_a_new_load():
+    """A ContactSolver keeps the tangent solver's analysis and starts a re-solve from the previous answer: a second,
+    deeper indentation is solved by the fast route again and equals a fresh full solve."""
+    solver = cc.ContactSolver(indented(HENCKY, nx=16, ny=6, depth=3e-3), estimate=False)
+    first = solver.solve()
+    deeper = indented(HENCKY, nx=16, ny=6, depth=5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        second = solver.solve(deeper)
+        ref = cc.solve(deeper, estimate=False, method="full")
+    assert first.info.method == second.info.method == "newton" and second.ok
+    assert rel(second.u[0], ref.u[0]) < SAME and rel(second.contact.lam, ref.contact.lam) < SAME
+
+
+def dense_compliance(bulk, f, G, g, w, law):
+    """An independent solution of one body with the energy ``bulk`` and a normal-compliance law on the rows G z - g
+    (no limit): min bulk(z) - f z + sum_a w_a Phi_a(G z - g) by damped Newton on dense matrices, until the step is
+    at rounding."""
+    z = np.zeros(G.shape[1])
+
+    def energy(v):
+        return bulk.value(v) - f @ v + float(w @ law.energy(G @ v - g))
+
+    for _ in range(100):
+        r = G @ z - g
+        grad = bulk.gradient(z) - f + G.T @ (w * law.pressure(r))
+        hess = bulk.hessian(z).toarray() + G.T @ ((w * law.derivative(r))[:, None] * G)
+        dz, t = np.linalg.solve(hess, -grad), 1.0
+        while t > 1e-10 and energy(z + t * dz) > energy(z):
+            t /= 2
+        z = z + t * dz
+        if np.abs(t * dz).max() <= 1e-15 * np.abs(z).max():
+            return z
+    raise AssertionError("the dense Newton steps did not settle")
+
+
+@pytest.mark.parametrize("law", [cc.NormalCompliance(stiffness=1e13, exponent=1.0),
+                                 cc.NormalCompliance(stiffness=1e15, exponent=2.0)], ids=["m=1", "m=2"])
+def test_a_compliance_law_beside_a_hencky_body_is_the_dense_newton_answer(law):
+    """A normal-compliance law with a Hencky block (no other route poses it: the full route's compliance finish
+    solves systems of Kuu): the fast route's answer passes the checks and equals a dense Newton's on the same
+    energy to rounding; the block yields and the law carries the load."""
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene, estimate=False, law=law)
+    assert sol.info.method == "newton" and sol.info.route == cc.Route.NEWTON_DIRECT and sol.ok and sol.polished
+    assert sol.residuals()["equilibrium"] < EXACT, sol.report()
+    problem = build_problem(scene, space(1), "gamma3", law)
+    bulk, block, un = problem.blocks[0].bulk, problem.blocks[0], problem.units
+    G = (problem.E @ block.jump).toarray()
+    z = dense_compliance(bulk, block.f, G, problem.g, problem.weights, problem.scaled_law)
+    x = sol.u[0].ravel() @ problem.systems[0].Tu / un.displacement
+    assert rel(x, z) < 1e-12                                    # measured 1.2e-15 (m = 1), 2.8e-15 (m = 2)
+    assert (G @ z - problem.g > 0).sum() >= 3                    # rows pressed into the circle: 3
+    s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
+    assert (s > HENCKY.s_y).sum() >= 10

@@ -137,7 +137,6 @@ def test_fast_loop_answer_is_exact_and_checked():
     diff = max(np.abs(a - b).max() for a, b in zip(sol.u, fresh.u)) / max(np.abs(a).max() for a in fresh.u)
     assert diff < 1e-6
     assert by_tol.stopped == "tol" and by_tol.solution.polished and by_tol.solution.ok
-    assert by_tol.history[-1].relative <= 0.4                # the exact answer's estimate: measured 0.343
 
 
 def test_fast_loop_refusals():

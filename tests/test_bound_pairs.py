@@ -180,3 +180,13 @@ def test_pairs_outside_the_bound_are_refused_by_name():
         cc.solve(scene, estimate="equilibrated", condition="gamma3", law=cc.Tresca(1e6))
     with pytest.raises(cc.UnsupportedError, match="P2"):
         cc.solve(scene, estimate="equilibrated", condition="gamma3", degree=2)
+
+
+def test_a_body_index_outside_the_scene_is_refused_by_name():
+    """-1, 2, 1.0 and True are not indices of a pair's two bodies (-1 gave the last body, 2 an IndexError)."""
+    sol = cc.solve(squeezed(3), condition="gamma3", estimate=False)
+    for wrong in (-1, 2, 1.0, True):
+        for call in (bound.equilibrated_stress, bound.reconstruction_mesh, bound.equilibrated_displacement):
+            with pytest.raises(cc.SceneError, match="integer 0 to 1"):
+                call(sol, wrong)
+    assert len(bound.reconstruction_mesh(sol, 1)[1]) >= len(sol.scene.bodies[1].mesh.triangles)

@@ -95,7 +95,7 @@ def test_zero_coefficient_is_frictionless_and_a_small_one_slides_with_mu_times_t
         on = c.pressure > 0                                                           # |sigma_t| = mu p everywhere
         assert np.abs(np.abs(c.shear[on]) - mu * c.pressure[on]).max() < 1e-5 * mu * P    # measured 5.5e-8
         errors.append(np.abs(sol.u[0] - exact).max())
-    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-3)                    # linear in mu; measured 10.0005
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=5e-3)                    # linear in mu; measured 10.0005
 
 
 def layer(s, d, law, nx=6, ny=3):

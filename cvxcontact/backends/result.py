@@ -145,6 +145,9 @@ class RawResult:
     capacity: np.ndarray | None = None
     """A friction law: the capacity c_a = g_a w_a of every row the answer was solved with (scaled; Coulomb: the
     last iterate's mu y_a), None without friction."""
+    status: str | None = None
+    """The solver status of the iterate the arrays are (None: ``program``'s own, its last solve; Coulomb's answer
+    is the fixed point's iterate of smallest change, not necessarily its last)."""
     fixed_point: tuple | None = None
     """Coulomb friction: the relative change of the capacities at each iteration of the fixed point
     (:mod:`cvxcontact.backends.friction`), None for a given threshold or without friction."""

@@ -96,9 +96,9 @@ __all__ = ["Kernel", "rigid_kernel", "undetermined", "check_well_posed", "refuse
            "SLACK"]
 
 ROW_TOL = 1e-9
+"""A contact row that every unit kernel motion moves by less than this (dimensionless) is not moved."""
 SLIP_POLYGON = 24
 """Sides of the polygon around the circle of a 3D row's slip in :func:`sliding` (the LP's stand-in for the norm)."""
-"""A contact row that every unit kernel motion moves by less than this (dimensionless) is not moved."""
 
 CANCELLATION = 1e-10
 """A kernel direction's work below this fraction of the sum of the magnitudes of its terms is zero."""

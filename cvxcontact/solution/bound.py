@@ -62,7 +62,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..contact.interface import lumped_lengths, row_directions
-from ..errors import SolverError, UnsupportedError
+from ..errors import SceneError, SolverError, UnsupportedError
 from ..fem.assembly import gradients, strain_matrix
 from ..fem.space import space
 from ..geometry.facets import facets
@@ -189,13 +189,22 @@ def _continuity(rows, sub_a, va, sub_b, vb, n):
 # ---------------------------------------------------------------------------------------------- the bound
 
 
+def _body(sol, body) -> int:
+    """``body`` checked as the index of one of ``sol``'s bodies (SceneError naming the valid range)."""
+    n = len(sol.scene.bodies)
+    if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < n:
+        raise SceneError(f"body must be the index of one of the solution's {n} bodies, an integer 0 to {n - 1} "
+                         f"(the order of cc.Scene(...)), got {body!r}")
+    return int(body)
+
+
 def equilibrated_stress(sol, body: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(tau, v) of body ``body`` of ``sol`` (module docstring): tau (3m, 3, 3) the equilibrated stress (Pa, Voigt
     xx, yy, xy) at the vertices (v_s, v_s+1, barycentre) of sub-triangle 3 c + s of cell c of the body's
     reconstruction mesh (:func:`reconstruction_mesh`: its mesh, the cells along a pair's Gamma_3 divided at the
     other body's nodes), linear in between; v (n, 2) the admissible displacement u_h - w (m) at that mesh's
     nodes. UnsupportedError for a case not covered (:data:`COVERED`)."""
-    part = _construct(sol)["bodies"][body]
+    part = _construct(sol)["bodies"][_body(sol, body)]
     return part["tau"].reshape(-1, 3, 3), part["v"]
 
 
@@ -204,7 +213,7 @@ def reconstruction_mesh(sol, body: int = 0):
     mesh with each edge of a pair's contact part divided at the other body's nodes inside it (the cells along it
     divided into fans from the opposite vertex; the same tags); the body's mesh itself against rigid obstacles.
     Returns (mesh, parent (m',): the body's cell each of its cells lies in)."""
-    part = _construct(sol)["bodies"][body]
+    part = _construct(sol)["bodies"][_body(sol, body)]
     return part["mesh"], part["parent"]
 
 
@@ -212,6 +221,7 @@ def equilibrated_displacement(sol, body: int = 0) -> np.ndarray:
     """The equilibrated electric displacement D~ of piezoelectric body ``body`` of ``sol`` (docs/accuracy.md,
     "Piezoelectric bodies"): (m, 3, 2) C/m^2 at the vertices of every triangle of its mesh, linear in between (a
     Raviart-Thomas field). UnsupportedError for a case not covered (:data:`COVERED`) or an elastic body."""
+    body = _body(sol, body)
     if not sol.scene.bodies[body].piezoelectric:
         raise UnsupportedError(f"equilibrated_displacement: body {body} is elastic (no electric displacement); "
                                "give a solution of a piezoelectric body")

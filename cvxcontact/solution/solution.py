@@ -561,7 +561,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
         a.setflags(write=False)                 # results are data: read-only, never silently edited
     contact = contacts[0]
     # a verified exact finish is the answer whatever the interior point that started it reported
-    status = problem_.status if problem_ is not None and not polished else Status.OPTIMAL
+    status = (raw.status or problem_.status) if problem_ is not None and not polished else Status.OPTIMAL
     info = SolveInfo(status=status, method="",
                      route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
                      polished=polished, timings=timings)              # provisional: the caller completes it

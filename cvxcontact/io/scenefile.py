@@ -248,6 +248,12 @@ def scene_from_data(data, path, allow_outside: bool = False) -> SceneFile:
                      law=_law(data.get("law", "signorini"), path), degree=int(degree))
 
 
+_LAW_KEYS = {"normal_compliance": ({"stiffness"}, ("stiffness", "exponent", "penetration_limit")),
+             "tresca": ({"threshold"}, ("threshold",)),
+             "coulomb": ({"coefficient"}, ("coefficient", "tolerance", "max_iterations"))}
+"""A scene file's law tables: name -> (required keys, all keys), in the order the messages name them."""
+
+
 def _law(value, path):
     """The contact law of a scene file: "signorini", { normal_compliance = { stiffness, exponent,
     penetration_limit } }, { tresca = { threshold } } or { coulomb = { coefficient, tolerance, max_iterations } }
@@ -256,33 +262,18 @@ def _law(value, path):
 
     if value == "signorini":
         return Signorini()
-    if isinstance(value, dict) and set(value) == {"normal_compliance"} and isinstance(value["normal_compliance"], dict):
-        params = value["normal_compliance"]
-        unknown = sorted(set(params) - {"stiffness", "exponent", "penetration_limit"})
-        if unknown or "stiffness" not in params:
-            raise SceneFileError(f"{path}: law.normal_compliance: expected keys stiffness (required), exponent, "
-                                 f"penetration_limit; got {sorted(params)}")
+    if isinstance(value, dict) and len(value) == 1 and set(value) <= set(_LAW_KEYS):
+        ((name, params),) = value.items()
+        required, keys = _LAW_KEYS[name]
+        if not isinstance(params, dict) or set(params) - set(keys) or required - set(params):
+            expected = ", ".join(f"{k} (required)" if k in required else k for k in keys)
+            got = sorted(params) if isinstance(params, dict) else repr(params)
+            raise SceneFileError(f"{path}: law.{name}: expected keys {expected}; got {got}")
+        law = {"normal_compliance": NormalCompliance, "tresca": Tresca, "coulomb": Coulomb}[name]
         try:
-            return NormalCompliance(**params)
+            return law(**params)
         except CvxContactError as exc:
-            raise SceneFileError(f"{path}: law.normal_compliance: {exc}") from None
-    if isinstance(value, dict) and set(value) == {"tresca"} and isinstance(value["tresca"], dict):
-        if set(value["tresca"]) != {"threshold"}:
-            raise SceneFileError(f"{path}: law.tresca: expected the key threshold (Pa); got {sorted(value['tresca'])}")
-        try:
-            return Tresca(**value["tresca"])
-        except CvxContactError as exc:
-            raise SceneFileError(f"{path}: law.tresca: {exc}") from None
-    if isinstance(value, dict) and set(value) == {"coulomb"} and isinstance(value["coulomb"], dict):
-        params = value["coulomb"]
-        unknown = sorted(set(params) - {"coefficient", "tolerance", "max_iterations"})
-        if unknown or "coefficient" not in params:
-            raise SceneFileError(f"{path}: law.coulomb: expected keys coefficient (required), tolerance, "
-                                 f"max_iterations; got {sorted(params)}")
-        try:
-            return Coulomb(**params)
-        except CvxContactError as exc:
-            raise SceneFileError(f"{path}: law.coulomb: {exc}") from None
+            raise SceneFileError(f"{path}: law.{name}: {exc}") from None
     raise SceneFileError(f"{path}: law: expected \"signorini\" or {{ normal_compliance = {{ stiffness = ..., "
                          f"exponent = ... }} }} (laws: {sorted(LAWS)}), got {value!r}")
 

@@ -294,11 +294,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
 
 
 def _solve(scene, condition, previous, options, polish):
-    """(solution, the warnings it raised): one step's solve, from ``previous`` in 2D (module docstring)."""
+    """(solution, the warnings it raised): one step's solve, from ``previous`` (module docstring)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = ContactSolver(scene, condition, start=previous if scene.dim == 2 else None, polish=polish,
-                            **options).solve()
+        sol = ContactSolver(scene, condition, start=previous, polish=polish, **options).solve()
     return sol, caught
 
 

@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-
 from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 from scipy.spatial import QhullError
 

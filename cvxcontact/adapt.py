@@ -11,16 +11,16 @@ refined meshes (``Body.with_changes(mesh=...)``, ``Scene.with_bodies``: loads, p
 kept); each body is refined on its own, so the two sides of a pair need not match (the merged mesh of the pair
 is rebuilt by the next solve).
 
-In 2D each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
-:mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
-a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
-answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
-cold). With ``exact_steps=False`` the steps before the last keep the interior point's answer (no exact finish,
-no state handed on: the next step's interior point starts cold) and the mesh the loop stops on is solved with
-the exact finish: the answer returned is exact and checked either way. In 3D every step is solved cold: the
-contact state a solution hands on is the point loads along 2D contact lines
-(:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried over: the routes
-adapt uses solve the bodies directly.
+Each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
+:mod:`cvxcontact.backends.start`: point loads along the contact lines, in 3D at the overlay's vertices in the
+pair's plane, which do not depend on the mesh): a nodal condition's first active set (2D and 3D), the 2D P2
+"gamma3" cuts' first points, instead of an interior point (on the sparse and AMG routes: instead of the rows the
+obstacles close); the answer is the exact finish's as from a cold start (``warm_start=False`` among the options
+solves every step cold). 3D P2 "gamma3" (copositive cones) starts every step cold. With ``exact_steps=False``
+the steps before the last keep the interior point's answer (no exact finish, no state handed on: the next
+step's interior point starts cold) and the mesh the loop stops on is solved with the exact finish: the answer
+returned is exact and checked either way. The fields are not carried over: the routes adapt uses solve the
+bodies directly.
 
 Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
 boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'

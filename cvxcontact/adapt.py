@@ -187,11 +187,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool
         True (default): every step's answer is the exact finish's. False: the steps before the last keep the
-        interior point's answer (``polish=False``: checked at the solver's tolerance, not exact; they only
-        steer the marking; they hand no contact state on), and the mesh the loop stops on is solved with the
-        exact finish (at once on the step ``max_steps`` names, else solved again): the returned solution is
-        exact and checked as with True (``tol`` reads the interior point's estimate; the history's last row
-        is the exact solve's).
+        interior point's answer (not exact; no contact state handed on), the mesh the loop stops on is solved
+        exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt": ``exact_steps=False``).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes

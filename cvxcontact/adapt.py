@@ -11,16 +11,16 @@ refined meshes (``Body.with_changes(mesh=...)``, ``Scene.with_bodies``: loads, p
 kept); each body is refined on its own, so the two sides of a pair need not match (the merged mesh of the pair
 is rebuilt by the next solve).
 
-In 2D each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
-:mod:`cvxcontact.backends.start`: the point loads along the contact lines, which do not depend on the mesh):
-a nodal condition's first active set, the P2 "gamma3" cuts' first points, instead of an interior point; the
-answer is the exact finish's as from a cold start (``warm_start=False`` among the options solves every step
-cold). With ``exact_steps=False`` the steps before the last keep the interior point's answer (no exact finish,
-no state handed on: the next step's interior point starts cold) and the mesh the loop stops on is solved with
-the exact finish: the answer returned is exact and checked either way. In 3D every step is solved cold: the
-contact state a solution hands on is the point loads along 2D contact lines
-(:func:`cvxcontact.backends.start.contact_state` has none in 3D). The fields are not carried over: the routes
-adapt uses solve the bodies directly.
+Each solve after the first starts from the previous step's contact forces (``ContactSolver(..., start=sol)``,
+:mod:`cvxcontact.backends.start`: point loads along the contact lines, in 3D at the overlay's vertices in the
+pair's plane, which do not depend on the mesh): a nodal condition's first active set (2D and 3D), the 2D P2
+"gamma3" cuts' first points, instead of an interior point (on the sparse and AMG routes: instead of the rows the
+obstacles close); the answer is the exact finish's as from a cold start (``warm_start=False`` among the options
+solves every step cold). 3D P2 "gamma3" (copositive cones) starts every step cold. With ``exact_steps=False``
+the steps before the last keep the interior point's answer (no exact finish, no state handed on: the next
+step's interior point starts cold) and the mesh the loop stops on is solved with the exact finish: the answer
+returned is exact and checked either way. The fields are not carried over: the routes adapt uses solve the
+bodies directly.
 
 Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
 boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'
@@ -187,11 +187,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool
         True (default): every step's answer is the exact finish's. False: the steps before the last keep the
-        interior point's answer (``polish=False``: checked at the solver's tolerance, not exact; they only
-        steer the marking; they hand no contact state on), and the mesh the loop stops on is solved with the
-        exact finish (at once on the step ``max_steps`` names, else solved again): the returned solution is
-        exact and checked as with True (``tol`` reads the interior point's estimate; the history's last row
-        is the exact solve's).
+        interior point's answer (not exact; no contact state handed on), the mesh the loop stops on is solved
+        exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt": ``exact_steps=False``).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -294,11 +291,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
 
 
 def _solve(scene, condition, previous, options, polish):
-    """(solution, the warnings it raised): one step's solve, from ``previous`` in 2D (module docstring)."""
+    """(solution, the warnings it raised): one step's solve, from ``previous`` (module docstring)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = ContactSolver(scene, condition, start=previous if scene.dim == 2 else None, polish=polish,
-                            **options).solve()
+        sol = ContactSolver(scene, condition, start=previous, polish=polish, **options).solve()
     return sol, caught
 
 

@@ -90,10 +90,10 @@ def test_the_term_answers_as_the_flag_branches_it_replaces(case):
     backends/__init__.py, backends/start.py, model/__init__.py before the term)."""
     p, _ = case
     t, k = p.term, _flags_kind(p)
-    assert t.takes_active_start == (k == "signorini" and p.dim == 2)                # run.py: the warm start
+    assert t.takes_active_start == (k == "signorini")                # run.py: the warm start (2D and 3D since issue 30)
     assert t.zeroes_held_forces == (k == "signorini")                              # run.py: held rows' forces
     assert t.active_from_forces == (k == "compliance")                             # run.py: determinacy check
-    assert t.hands_on_state == (not (p.dim != 2 or p.mixed or p.compliant or p.friction))    # start.py
+    assert t.hands_on_state == (k == "signorini" or (k == "conic" and p.dim == 2))  # start.py (the cones: 2D)
     assert t.finishes == (not p.mixed and not p.friction)                          # solve.py: declined finish
     assert t.always_finished == (not (p.conic or p.mixed or p.friction))           # solve.py, Model._warn
     assert t.cones == (p.conic or p.mixed)                                         # solve.py's hint

@@ -1,22 +1,24 @@
-"""A solve started from the contact forces of a solution on another mesh of the same scene (2D): the warm start of
+"""A solve started from the contact forces of a solution on another mesh of the same scene: the warm start of
 :func:`cvxcontact.adapt` (``ContactSolver(..., start=previous_solution)``).
 
-The state a solution hands on is its contact force as point loads on the contact lines (:class:`ContactState`):
-per point its pair, its position s along the pair's tangent (m) and its force (N/m). A nodal condition's forces
-are point loads at the nodes of X_h; the P2 "gamma3" finish's (:mod:`cvxcontact.backends.cuts`) are the point
+The state a solution hands on is its contact force as point loads on the contact lines or surfaces
+(:class:`ContactState`): per point its pair, its position on the pair (2D: s along the pair's tangent, m; 3D:
+(s1, s2) in the pair's plane axes ``frame``, the overlay's vertex coordinates, m) and its force (N/m in 2D, N in
+3D). A nodal condition's forces are point loads at the nodes of X_h (3D: the overlay's vertices); the P2 "gamma3" finish's (:mod:`cvxcontact.backends.cuts`) are the point
 forces of its cut points, so the state is mesh-independent: the same loads sit at the same places on any mesh.
 
 What a new solve takes from it, only as a start (the answer is the finish's, verified as without it):
 
-- nodal Signorini conditions: the first active-set guess (:func:`start_active`: the rows where the old force,
-  interpolated linearly along s, is positive), which the condensed, sparse and AMG routes verify and correct
+- nodal Signorini conditions (2D and 3D): the first active-set guess (:func:`start_active`: the rows where the
+  old force, interpolated linearly along s, or in 3D over the Delaunay triangles of the old points, is positive), which the condensed, sparse and AMG routes verify and correct
   instead of running an interior point first (as a re-solve of the same geometry does from its last active set);
 - the P2 "gamma3" cones: the cuts' starting points and forces (:func:`cone_seeds`: the P2 nodes of every element
   plus the old loaded points on the new elements), instead of an interior point's tangency seeds; the cuts stop
   at rounding whatever their start (docs/formulation.md §8).
 
-Not used: normal-compliance and mixed laws, friction, 3D (:func:`contact_state` returns None there: the contact
-term's ``hands_on_state``, :mod:`cvxcontact.discrete.terms`). A solve computes its state only when it is read
+Not used: normal-compliance and mixed laws, friction (:func:`contact_state` returns None there: the contact
+term's ``hands_on_state``, :mod:`cvxcontact.discrete.terms`); the cones' seeds are 2D only (3D P2 conditions are
+nodal rows). A solve computes its state only when it is read
 (``Solution.state``, :func:`deferred_state`): most solutions never start another.
 """
 
@@ -27,6 +29,8 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
+from scipy.spatial import QhullError
 
 from ..contact.bernstein import point_rows
 from .cuts import _unique_rows, seed_points
@@ -42,8 +46,9 @@ to 17,356 unknowns: 333 rounds in all with these, 336 without, 179 from the inte
 
 @dataclass(frozen=True)
 class ContactState:
-    """Contact forces as point loads: ``pair`` (k,) the contact pair of each point, ``s`` (k,) its position along
-    the pair's tangent (m), ``force`` (k,) its force (N/m, >= 0; zero-force points mark where contact is not)."""
+    """Contact forces as point loads: ``pair`` (k,) the contact pair of each point, ``s`` its position on the pair
+    (m; 2D: (k,) along the pair's tangent; 3D: (k, 2) in the pair's plane axes), ``force`` (k,) its force (N/m
+    in 2D, N in 3D, >= 0; zero-force points mark where contact is not)."""
 
     pair: np.ndarray
     s: np.ndarray
@@ -56,14 +61,15 @@ def _node_pair(lines, nodes) -> np.ndarray:
 
 
 def _positions(lines) -> np.ndarray | None:
-    """s (m) of the stacked nodes of X_h of ``lines``, or None where they have no such positions (3D)."""
+    """Positions (m) of the stacked nodes of X_h of ``lines``: s (n,) in 2D, (s1, s2) (n, 2) in the pairs' plane
+    axes in 3D; None where they have none."""
     x = getattr(lines.interface, "x", None)
-    return None if x is None or np.ndim(x) != 1 else np.asarray(x, dtype=float)
+    return None if x is None or np.ndim(x) not in (1, 2) else np.asarray(x, dtype=float)
 
 
 def _hands_on(problem, raw) -> bool:
-    """Whether ``raw`` on ``problem`` has a state: an exact finish of a term that hands one on (2D Signorini rows
-    or cones)."""
+    """Whether ``raw`` on ``problem`` has a state: an exact finish of a term that hands one on (Signorini rows,
+    2D cones)."""
     return problem.term.hands_on_state and raw.polished and raw.y is not None
 
 
@@ -77,8 +83,8 @@ def contact_state(problem, raw) -> ContactState | None:
 
 def point_loads(lines, units, y, points=None) -> ContactState | None:
     """The :class:`ContactState` of the row forces ``y`` (scaled) on the contact lines ``lines`` (units
-    ``units``), or of the cuts' point forces ``points`` = (segment, t, force) where given; None where the lines
-    have no positions along s (3D)."""
+    ``units``), or of the cuts' point forces ``points`` = (segment, t, force) where given (2D); None where the
+    lines have no positions."""
     x = _positions(lines)
     if x is None:
         return None
@@ -106,21 +112,33 @@ def deferred_state(problem, raw) -> Callable[[], ContactState | None] | None:
 
 
 def _profile(state, pair, s) -> np.ndarray:
-    """The state's force of ``pair`` interpolated linearly along s at ``s`` (0 outside its points)."""
+    """The state's force of ``pair`` interpolated linearly at the positions ``s`` (0 outside its points): along s
+    in 2D, over the Delaunay triangles of its points in 3D (the nearest point's force where they span no
+    triangle)."""
     on = state.pair == pair
-    if not on.any():
+    if not on.any() or np.ndim(s) != np.ndim(state.s):
         return np.zeros(len(s))
-    order = np.argsort(state.s[on], kind="stable")
-    return np.interp(s, state.s[on][order], state.force[on][order], left=0.0, right=0.0)
+    if np.ndim(s) == 1:
+        order = np.argsort(state.s[on], kind="stable")
+        return np.interp(s, state.s[on][order], state.force[on][order], left=0.0, right=0.0)
+    points, force = state.s[on], state.force[on]
+    try:
+        return LinearNDInterpolator(points, force, fill_value=0.0)(s)
+    except (QhullError, ValueError):                    # fewer than 3 points, or all on a line
+        return NearestNDInterpolator(points, force)(s)
 
 
 def start_active(problem, state: ContactState) -> np.ndarray:
-    """The nodal rows of ``problem`` guessed closed: where the state's force, interpolated linearly along s, is
-    positive at the row's position (the rows read nodes of one pair; a row's position is its evaluation of the
-    nodes' s)."""
+    """The nodal rows of ``problem`` guessed closed: where the state's force, interpolated linearly
+    (:func:`_profile`), is positive at the row's position (the rows read nodes of one pair; a row's position is
+    its evaluation of the nodes' positions); none where the state's positions are not this problem's kind (2D
+    against 3D)."""
     x = _positions(problem.lines)
     E = problem.E.tocsr()
-    where = E @ x / np.maximum(np.asarray(abs(E).sum(axis=1)).ravel(), np.finfo(float).tiny)
+    if x is None or len(x) != E.shape[1]:
+        return np.zeros(E.shape[0], dtype=bool)
+    weight = np.maximum(np.asarray(abs(E).sum(axis=1)).ravel(), np.finfo(float).tiny)
+    where = E @ x / weight.reshape((-1,) + (1,) * (x.ndim - 1))
     pair = _node_pair(problem.lines, E.indices[E.indptr[:-1]])
     active = np.zeros(E.shape[0], dtype=bool)
     for i in np.unique(pair):

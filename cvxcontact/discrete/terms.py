@@ -73,18 +73,18 @@ class _Term:
     rows_may_depend: ClassVar[bool] = True
     estimated: ClassVar[bool] = True
     takes_user_terms: ClassVar[bool] = True
-    _starts: ClassVar[bool] = False       # the mapped active set of another mesh's state is its first guess
-    _states: ClassVar[bool] = False       # its exact finish's forces are point loads along s
+    _starts: ClassVar[tuple[int, ...]] = ()   # dims where another mesh's state gives its first active-set guess
+    _states: ClassVar[tuple[int, ...]] = ()   # dims where its exact finish's forces are point loads on the pairs
 
     @property
     def takes_active_start(self) -> bool:
-        """A state from another mesh gives the first active-set guess (2D: the rows' positions s)."""
-        return self._starts and self.dim == 2
+        """A state from another mesh gives the first active-set guess (the rows' positions on the pairs)."""
+        return self.dim in self._starts
 
     @property
     def hands_on_state(self) -> bool:
-        """Its exact finish's forces, as point loads along s, can start a solve on another mesh (2D)."""
-        return self._states and self.dim == 2
+        """Its exact finish's forces, as point loads on the pairs, can start a solve on another mesh."""
+        return self.dim in self._states
 
 
 @dataclass(frozen=True)
@@ -93,8 +93,8 @@ class SignoriniRows(_Term):
 
     kind: ClassVar[str] = "signorini"
     zeroes_held_forces: ClassVar[bool] = True
-    _starts: ClassVar[bool] = True
-    _states: ClassVar[bool] = True
+    _starts: ClassVar[tuple[int, ...]] = (2, 3)
+    _states: ClassVar[tuple[int, ...]] = (2, 3)
 
     @staticmethod
     def poses(lines) -> bool:
@@ -123,7 +123,7 @@ class EverywhereCones(_Term):
     cones: ClassVar[bool] = True
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
-    _states: ClassVar[bool] = True
+    _states: ClassVar[tuple[int, ...]] = (2,)     # the cuts' point loads along s (backends.start.cone_seeds)
 
     @staticmethod
     def poses(lines) -> bool:

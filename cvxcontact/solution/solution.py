@@ -236,11 +236,12 @@ class Solution:
 
     @property
     def state(self):
-        """The contact forces as point loads along the contact lines (a
-        :class:`~cvxcontact.backends.start.ContactState`: pair, position s in m, force in N/m), what a solve of
-        the same scene on another mesh starts from (``ContactSolver(..., start=sol)``); None where that does not
-        apply (3D, compliance or mixed laws, friction, an answer without an exact finish). Computed when first
-        read (:meth:`defer_state`)."""
+        """The contact forces as point loads on the contact lines or surfaces (a
+        :class:`~cvxcontact.backends.start.ContactState`: pair, position in m (2D: s; 3D: (s1, s2) in the
+        pair's plane axes), force in N/m in 2D, N in 3D), what a solve of the same scene on another mesh starts
+        from (``ContactSolver(..., start=sol)``); None where that does not apply (3D P2 "gamma3", compliance or
+        mixed laws, friction, an answer without an exact finish). Computed when first read
+        (:meth:`defer_state`)."""
         if self._pending_state is not None:
             self._state, self._pending_state = self._pending_state(), None
         return self._state

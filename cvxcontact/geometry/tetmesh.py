@@ -378,14 +378,28 @@ def _check_boundary_edges(points, bfaces, n):
                         "expected 2: parts of the mesh touch along an edge (or the boundary is not closed)")
 
 
+OTHER = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])
+"""The two local vertices off each edge of EDGES: the edge lies on the faces opposite them."""
+
+CHUNK = 1 << 16
+"""Tetrahedra per block of the per-element geometry of the checks (bounds their temporary arrays)."""
+
+
 def _dihedral_angles(points, tets):
-    """(m, 6) interior dihedral angle of each tetrahedron at each edge of EDGES (radians)."""
+    """(m, 6) interior dihedral angle of each positive tetrahedron at each edge of EDGES (radians).
+
+    At the edge shared by the faces opposite vertices k and l, with outward face normals N_k, N_l
+    (|N| twice the face's area): |N_k x N_l| = 6 V |e| and the angle is atan2(6 V |e|, -N_k . N_l)."""
     p = points[tets]                                                          # (m, 4, 3)
-    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])        # the two vertices off each edge
+    side = p[:, OUTWARD_FACES]                                                # (m, 4, 3, 3)
+    normal = np.cross(side[:, :, 1] - side[:, :, 0], side[:, :, 2] - side[:, :, 0])
+    del side
+    d = p[:, 1:] - p[:, :1]
+    six_v = np.einsum("mk,mk->m", d[:, 0], np.cross(d[:, 1], d[:, 2]))
     e = p[:, EDGES[:, 1]] - p[:, EDGES[:, 0]]
-    n1 = np.cross(e, p[:, other[:, 0]] - p[:, EDGES[:, 0]])
-    n2 = np.cross(e, p[:, other[:, 1]] - p[:, EDGES[:, 0]])
-    return np.arctan2(np.linalg.norm(np.cross(n1, n2), axis=2), np.einsum("mek,mek->me", n1, n2))
+    length = np.sqrt(np.einsum("mek,mek->me", e, e))
+    dot = np.einsum("mek,mek->me", normal[:, OTHER[:, 0]], normal[:, OTHER[:, 1]])
+    return np.arctan2(six_v[:, None] * length, -dot)
 
 
 def _solid_angles(a, b, c):
@@ -399,19 +413,35 @@ def _solid_angles(a, b, c):
 
 
 def _check_fans(points, tets, bfaces):
-    """(d): the tetrahedra turn once around every edge (dihedral angle sums, _check_embedding)."""
-    n = len(points)
-    e = np.sort(tets[:, EDGES.ravel()].reshape(-1, 2), axis=1)
-    keys, inverse = np.unique(e[:, 0] * n + e[:, 1], return_inverse=True)
-    total = np.bincount(inverse, weights=_dihedral_angles(points, tets).ravel())
+    """(d): the tetrahedra turn once around every edge (dihedral angle sums, _check_embedding).
+
+    The angles are summed per edge by a sparse (n, n) matrix built from blocks of CHUNK tetrahedra
+    (int32 node indices, about 100 bytes per tetrahedron at the peak)."""
+    n, m = len(points), len(tets)
+    row = np.empty((m, 6), dtype=np.int32)
+    col = np.empty((m, 6), dtype=np.int32)
+    angle = np.empty((m, 6))
+    for s in range(0, m, CHUNK):
+        t = tets[s:s + CHUNK]
+        a, b = t[:, EDGES[:, 0]], t[:, EDGES[:, 1]]
+        row[s:s + CHUNK], col[s:s + CHUNK] = np.minimum(a, b), np.maximum(a, b)
+        angle[s:s + CHUNK] = _dihedral_angles(points, t)
+    total = coo_matrix((angle.ravel(), (row.ravel(), col.ravel())), shape=(n, n)).tocsr()   # sums per edge
+    del row, col, angle
+    total.sum_duplicates()                                                    # rows' columns ascending
+    off = np.flatnonzero(np.abs(total.data - 2 * np.pi) > ANGLE_TOL)         # not one turn: bad unless boundary
+    if not len(off):
+        return
+    keys = (np.searchsorted(total.indptr, off, side="right") - 1) * np.int64(n) + total.indices[off]
     be = np.sort(bfaces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    boundary_edge = np.isin(keys, be[:, 0] * n + be[:, 1])
-    bad = np.where(boundary_edge, total > 2 * np.pi + ANGLE_TOL, np.abs(total - 2 * np.pi) > ANGLE_TOL)
+    boundary_edge = np.isin(keys, be[:, 0] * np.int64(n) + be[:, 1])
+    turns = total.data[off]
+    bad = np.where(boundary_edge, turns > 2 * np.pi + ANGLE_TOL, True)
     if bad.any():
         k = int(np.argmax(bad))
         a, b = divmod(int(keys[k]), n)
         raise MeshError(f"the tetrahedra around {'boundary' if boundary_edge[k] else 'interior'} edge ({a}, {b}) "
-                        f"at {points[a].tolist()} turn {total[k] / (2 * np.pi):.3f} times around it, expected "
+                        f"at {points[a].tolist()} turn {turns[k] / (2 * np.pi):.3f} times around it, expected "
                         f"{'less than ' if boundary_edge[k] else ''}1: the mesh folds over itself there")
 
 

@@ -542,9 +542,17 @@ TOUCH_TOL = 1e-9
 
 def _meet(A, B, tol):
     """(p,) True where the convex sets of the (p, 3, 3) vertex triples A and B (triangles, or segments given
+    as a triangle with a repeated vertex) are within ``tol`` (p,) of each other (:func:`_meet_block`, by
+    blocks of CHUNK pairs)."""
+    return np.concatenate([_meet_block(A[s:s + CHUNK], B[s:s + CHUNK], tol[s:s + CHUNK])
+                           for s in range(0, len(A), CHUNK)] or [np.zeros(0, dtype=bool)])
+
+
+def _meet_block(A, B, tol):
+    """(p,) True where the convex sets of the (p, 3, 3) vertex triples A and B (triangles, or segments given
     as a triangle with a repeated vertex) are within ``tol`` (p,) of each other along every axis of the
-    separating-axis test: the two normals, the cross products of each normal with the other's edges (the
-    coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
+    separating-axis test: the two normals, the cross products of each normal with its own edges, then with
+    the other's edges (the coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
     separated. Each pair is first moved and scaled to unit size, so the test is the same at every length
     scale (a box of 1e-12 m as of 1 m). Axes are unit vectors built from unit edges; an edge shorter than
     1e-9 of its pair's size is no edge (a segment's repeated vertex), an axis from directions parallel to
@@ -559,8 +567,8 @@ def _meet(A, B, tol):
     na = _unit(np.cross(ea[:, 0], ea[:, 1]) + np.cross(ea[:, 1], ea[:, 2]))[:, None]   # 0 for a segment
     nb = _unit(np.cross(eb[:, 0], eb[:, 1]) + np.cross(eb[:, 1], eb[:, 2]))[:, None]
     stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
-              lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(na[i], eb[i]), np.cross(nb[i], ea[i]),
-                                        np.cross(nb[i], eb[i])], axis=1),
+              lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(nb[i], eb[i])], axis=1),
+              lambda i: np.concatenate([np.cross(na[i], eb[i]), np.cross(nb[i], ea[i])], axis=1),
               lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
     live = np.arange(len(A))
     for axes in stages:

@@ -42,6 +42,12 @@ EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
 """Local vertices of the six edges of a tetrahedron, in the gmsh tetra10 order of the edge nodes
 (the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
+OTHER = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])
+"""The two local vertices off each edge of EDGES: the edge lies on the faces opposite them."""
+
+CHUNK = 1 << 16
+"""Tetrahedra per block of the per-element geometry of the checks (bounds their temporary arrays)."""
+
 
 class TetMesh(CellMesh):
     """A conforming P1 tetrahedral mesh of one body in (x, y, z) space.
@@ -247,7 +253,9 @@ def _as_tets(tets, n):
     if bad.any():
         k = int(np.argmax(bad.any(axis=1)))
         raise MeshError(f"tetrahedron {k} (nodes {t[k].tolist()}) refers to nodes outside 0..{n - 1}")
-    repeated = (np.sort(t, axis=1)[:, 1:] == np.sort(t, axis=1)[:, :-1]).any(axis=1)
+    st = np.sort(t, axis=1)
+    repeated = (st[:, 1:] == st[:, :-1]).any(axis=1)
+    del st
     if repeated.any():
         k = int(np.argmax(repeated))
         raise MeshError(f"tetrahedron {k} repeats a node (nodes {t[k].tolist()}); expected four distinct nodes")
@@ -260,12 +268,17 @@ def _signed_volumes(points, tets):
                      np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a)) / 6.0
 
 
+def _longest_edges(points, tets):
+    """(m,) the longest edge of each tetrahedron (metres)."""
+    edge = points[tets[:, EDGES[:, 1]]] - points[tets[:, EDGES[:, 0]]]                   # (m, 6, 3)
+    return np.sqrt((edge ** 2).sum(axis=2).max(axis=1))
+
+
 def _orient(points, tets):
     """Refuse degenerate tetrahedra (volume <= DEGENERATE_TOL x longest edge^3) and mixed orientation;
     reorient a mesh that is negative throughout."""
-    vol = _signed_volumes(points, tets)
-    edge = points[tets[:, EDGES[:, 1]]] - points[tets[:, EDGES[:, 0]]]                   # (m, 6, 3)
-    longest = np.sqrt((edge ** 2).sum(axis=2).max(axis=1))
+    vol = np.concatenate([_signed_volumes(points, tets[s:s + CHUNK]) for s in range(0, len(tets), CHUNK)])
+    longest = np.concatenate([_longest_edges(points, tets[s:s + CHUNK]) for s in range(0, len(tets), CHUNK)])
     tiny = np.abs(vol) <= DEGENERATE_TOL * longest ** 3
     if tiny.any():
         k = int(np.argmax(tiny))
@@ -322,13 +335,15 @@ def _check_embedding(points, tets):
     for (e), O(k log k) for (f) on k boundary faces of similar sizes (a grid of buckets).
     """
     n, m = len(points), len(tets)
-    local = OUTWARD_FACES                                                     # face j opposite vertex j
-    faces = tets[:, local].reshape(-1, 3)                                     # (4m, 3), row 4 t + j
-    order_in_face = np.argsort(faces, axis=1)
+    local = OUTWARD_FACES.astype(np.int8)                                     # face j opposite vertex j
+    faces = tets.astype(np.int32)[:, local].reshape(-1, 3)                   # (4m, 3), row 4 t + j (n < 2^31)
+    order_in_face = np.argsort(faces, axis=1).astype(np.int8)
     sorted_faces = np.take_along_axis(faces, order_in_face, axis=1)
-    keys = facet_keys(sorted_faces, n)
+    keys = np.concatenate([facet_keys(sorted_faces[s:s + 4 * CHUNK], n) for s in range(0, 4 * m, 4 * CHUNK)])
+    del sorted_faces
     order = np.argsort(keys, kind="stable")
     skeys = keys[order]
+    del keys
     start = np.flatnonzero(np.r_[True, skeys[1:] != skeys[:-1]])
     count = np.diff(np.r_[start, len(skeys)])
     if (count > 2).any():                                                                     # (a)
@@ -344,18 +359,21 @@ def _check_embedding(points, tets):
                         f"and {tets[r2[k] // 4].tolist()}) lie on the same side of their common face "
                         f"{sorted(faces[r1[k]].tolist())}: they overlap; expected neighbours on opposite sides")
     once = start[count == 1]
-    bkeys, bfaces = skeys[once], faces[order[once]]
+    bkeys, bfaces = skeys[once], faces[order[once]].astype(np.int64)
+    del faces, skeys, order, start, count, pair, same, once
     _check_boundary_edges(points, bfaces, n)                                                  # (b)
-    # (c): incidences (node, tet) = 4 t + i, joined across each interior face at its three nodes
-    li1 = local[r1 % 4][np.arange(len(r1))[:, None], order_in_face[r1]]        # local vertex, sorted node order
-    li2 = local[r2 % 4][np.arange(len(r2))[:, None], order_in_face[r2]]
-    a = (4 * (r1 // 4))[:, None] + li1
-    b = (4 * (r2 // 4))[:, None] + li2
-    _, label = connected_components(coo_matrix((np.ones(a.size), (a.ravel(), b.ravel())), shape=(4 * m, 4 * m)),
-                                    directed=False)
-    node = tets.ravel()
-    fans = np.unique(node * np.int64(4 * m) + label) // (4 * m)             # (node, fan) pairs -> node
-    per_node = np.bincount(fans, minlength=n)
+    # (c): incidences (node, tet) = 4 t + i, joined across each interior face at its three nodes; each
+    # component (a fan) holds one node's incidences, so a node's fans are the components that name it
+    a = (4 * (r1 // 4)).astype(np.int32)[:, None] + local[(r1 % 4)[:, None], order_in_face[r1]]
+    b = (4 * (r2 // 4)).astype(np.int32)[:, None] + local[(r2 % 4)[:, None], order_in_face[r2]]
+    del order_in_face, r1, r2
+    graph = coo_matrix((np.ones(a.size), (a.ravel(), b.ravel())), shape=(4 * m, 4 * m)).tocsr()
+    del a, b
+    fans, label = connected_components(graph, directed=False)
+    del graph
+    fan_node = np.empty(fans, dtype=np.int64)
+    fan_node[label] = tets.ravel()
+    per_node = np.bincount(fan_node, minlength=n)
     if (per_node > 1).any():
         v = int(np.argmax(per_node > 1))
         raise MeshError(f"node {v} at {points[v].tolist()} joins {int(per_node[v])} separate fans of tetrahedra: "
@@ -369,20 +387,13 @@ def _check_embedding(points, tets):
 def _check_boundary_edges(points, bfaces, n):
     """(b): each boundary edge on exactly two boundary faces."""
     e = np.sort(bfaces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    keys, inverse, count = np.unique(e[:, 0] * n + e[:, 1], return_inverse=True, return_counts=True)
+    keys, count = np.unique(e[:, 0] * n + e[:, 1], return_counts=True)
     bad = count != 2
     if bad.any():
         k = int(np.argmax(bad))
         a, b = divmod(int(keys[k]), n)
         raise MeshError(f"boundary edge ({a}, {b}) at {points[a].tolist()} lies on {int(count[k])} boundary faces, "
                         "expected 2: parts of the mesh touch along an edge (or the boundary is not closed)")
-
-
-OTHER = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])
-"""The two local vertices off each edge of EDGES: the edge lies on the faces opposite them."""
-
-CHUNK = 1 << 16
-"""Tetrahedra per block of the per-element geometry of the checks (bounds their temporary arrays)."""
 
 
 def _dihedral_angles(points, tets):

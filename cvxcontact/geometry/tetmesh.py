@@ -45,7 +45,7 @@ EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
 OTHER = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])
 """The two local vertices off each edge of EDGES: the edge lies on the faces opposite them."""
 
-CHUNK = 1 << 16
+CHUNK = 1 << 14
 """Tetrahedra per block of the per-element geometry of the checks (bounds their temporary arrays)."""
 
 
@@ -524,6 +524,24 @@ def _check_self_intersection(points, bfaces):
     fa, fb = pairs // k, pairs % k
     keep = (fa != fb) & (lo[fa] <= hi[fb]).all(axis=1) & (lo[fb] <= hi[fa]).all(axis=1)
     fa, fb = fa[keep], fb[keep]
+    meet = np.concatenate([_faces_meet(bfaces, tri, size, fa[s:s + CHUNK], fb[s:s + CHUNK])
+                           for s in range(0, len(fa), CHUNK)] or [np.zeros(0, dtype=bool)])
+    if meet.any():
+        i = int(np.argmax(meet))
+        f, g = bfaces[fa[i]], bfaces[fb[i]]
+        raise MeshError(f"boundary faces {f.tolist()} and {g.tolist()} meet near {points[f].mean(axis=0).tolist()} "
+                        "away from their common nodes: the boundary surface cuts through itself (the mesh "
+                        "overlaps itself or touches itself there)")
+
+
+TOUCH_TOL = 1e-9
+"""Two boundary faces closer than this times their size count as touching (:func:`_check_self_intersection`)."""
+
+
+def _faces_meet(bfaces, tri, size, fa, fb):
+    """(p,) True where boundary faces fa and fb (p,) meet away from their common nodes: faces with no common
+    node anywhere, faces with one common node where either's opposite edge meets the other (faces sharing an
+    edge: False, left to (b) and (d)); ``tri`` (k, 3, 3) their vertices, ``size`` (k,) their sizes."""
     shared = (bfaces[fa][:, :, None] == bfaces[fb][:, None, :])               # (p, 3, 3)
     common = shared.sum(axis=(1, 2))
     tol = TOUCH_TOL * np.maximum(size[fa], size[fb])
@@ -539,16 +557,7 @@ def _check_self_intersection(points, bfaces):
         edge_a = tri[fa[one]][r, opp[ia]]
         edge_b = tri[fb[one]][r, opp[ib]]
         meet[one] = _meet(edge_a, tri[fb[one]], tol[one]) | _meet(edge_b, tri[fa[one]], tol[one])
-    if meet.any():
-        i = int(np.argmax(meet))
-        f, g = bfaces[fa[i]], bfaces[fb[i]]
-        raise MeshError(f"boundary faces {f.tolist()} and {g.tolist()} meet near {points[f].mean(axis=0).tolist()} "
-                        "away from their common nodes: the boundary surface cuts through itself (the mesh "
-                        "overlaps itself or touches itself there)")
-
-
-TOUCH_TOL = 1e-9
-"""Two boundary faces closer than this times their size count as touching (:func:`_check_self_intersection`)."""
+    return meet
 
 
 def _meet(A, B, tol):

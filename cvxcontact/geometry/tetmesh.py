@@ -335,7 +335,7 @@ def _check_embedding(points, tets):
     (c) (connected components; a node's fans counted from them) and (d) (the angles summed per edge by a
     sparse matrix), O(surfaces x boundary faces) for (e), O(k log k) for (f) on k boundary faces of similar
     sizes (a grid of buckets). The per-element geometry and the pairs of (f) go by blocks of CHUNK, the face
-    table is int32: the peak is about 200 bytes per tetrahedron (benchmarks/bench_tetmesh.py).
+    table is int32: the peak is about 480 bytes per tetrahedron (benchmarks/bench_tetmesh.py).
     """
     n, m = len(points), len(tets)
     local = OUTWARD_FACES.astype(np.int8)                                     # face j opposite vertex j

@@ -590,10 +590,16 @@ def _meet_block(A, B, tol):
     eb = _unit(B[:, [1, 2, 0]] - B)
     na = _unit(np.cross(ea[:, 0], ea[:, 1]) + np.cross(ea[:, 1], ea[:, 2]))[:, None]   # 0 for a segment
     nb = _unit(np.cross(eb[:, 0], eb[:, 1]) + np.cross(eb[:, 1], eb[:, 2]))[:, None]
-    stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
-              lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(nb[i], eb[i])], axis=1),
-              lambda i: np.concatenate([np.cross(na[i], eb[i]), np.cross(nb[i], ea[i])], axis=1),
-              lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
+    if (A[:, 2] == A[:, 1]).all():          # segments: na = ea[1] = 0, ea[2] = -ea[0]; the axes left, once each
+        stages = [lambda i: nb[i],
+                  lambda i: np.cross(nb[i], eb[i]),
+                  lambda i: np.cross(nb[i], ea[i][:, :1]),
+                  lambda i: np.cross(ea[i][:, :1, None], eb[i][:, None, :]).reshape(-1, 3, 3)]
+    else:
+        stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
+                  lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(nb[i], eb[i])], axis=1),
+                  lambda i: np.concatenate([np.cross(na[i], eb[i]), np.cross(nb[i], ea[i])], axis=1),
+                  lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
     live = np.arange(len(A))
     for axes in stages:
         ax = _unit(axes(live))                                                # (q, a, 3)

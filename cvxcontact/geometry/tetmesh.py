@@ -430,7 +430,7 @@ def _check_fans(points, tets, bfaces):
     """(d): the tetrahedra turn once around every edge (dihedral angle sums, _check_embedding).
 
     The angles are summed per edge by a sparse (n, n) matrix built from blocks of CHUNK tetrahedra
-    (int32 node indices, about 100 bytes per tetrahedron at the peak)."""
+    (int32 node indices)."""
     n, m = len(points), len(tets)
     row = np.empty((m, 6), dtype=np.int32)
     col = np.empty((m, 6), dtype=np.int32)

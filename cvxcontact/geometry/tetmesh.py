@@ -42,6 +42,12 @@ EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]])
 """Local vertices of the six edges of a tetrahedron, in the gmsh tetra10 order of the edge nodes
 (the order of :class:`~cvxcontact.geometry.quadratic.P2TetNodes` and of the P2 basis)."""
 
+OTHER = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])
+"""The two local vertices off each edge of EDGES: the edge lies on the faces opposite them."""
+
+CHUNK = 1 << 14
+"""Tetrahedra per block of the per-element geometry of the checks (bounds their temporary arrays)."""
+
 
 class TetMesh(CellMesh):
     """A conforming P1 tetrahedral mesh of one body in (x, y, z) space.
@@ -247,7 +253,9 @@ def _as_tets(tets, n):
     if bad.any():
         k = int(np.argmax(bad.any(axis=1)))
         raise MeshError(f"tetrahedron {k} (nodes {t[k].tolist()}) refers to nodes outside 0..{n - 1}")
-    repeated = (np.sort(t, axis=1)[:, 1:] == np.sort(t, axis=1)[:, :-1]).any(axis=1)
+    st = np.sort(t, axis=1)
+    repeated = (st[:, 1:] == st[:, :-1]).any(axis=1)
+    del st
     if repeated.any():
         k = int(np.argmax(repeated))
         raise MeshError(f"tetrahedron {k} repeats a node (nodes {t[k].tolist()}); expected four distinct nodes")
@@ -260,12 +268,17 @@ def _signed_volumes(points, tets):
                      np.cross(points[tets[:, 2]] - a, points[tets[:, 3]] - a)) / 6.0
 
 
+def _longest_edges(points, tets):
+    """(m,) the longest edge of each tetrahedron (metres)."""
+    edge = points[tets[:, EDGES[:, 1]]] - points[tets[:, EDGES[:, 0]]]                   # (m, 6, 3)
+    return np.sqrt((edge ** 2).sum(axis=2).max(axis=1))
+
+
 def _orient(points, tets):
     """Refuse degenerate tetrahedra (volume <= DEGENERATE_TOL x longest edge^3) and mixed orientation;
     reorient a mesh that is negative throughout."""
-    vol = _signed_volumes(points, tets)
-    edge = points[tets[:, EDGES[:, 1]]] - points[tets[:, EDGES[:, 0]]]                   # (m, 6, 3)
-    longest = np.sqrt((edge ** 2).sum(axis=2).max(axis=1))
+    vol = np.concatenate([_signed_volumes(points, tets[s:s + CHUNK]) for s in range(0, len(tets), CHUNK)])
+    longest = np.concatenate([_longest_edges(points, tets[s:s + CHUNK]) for s in range(0, len(tets), CHUNK)])
     tiny = np.abs(vol) <= DEGENERATE_TOL * longest ** 3
     if tiny.any():
         k = int(np.argmax(tiny))
@@ -318,17 +331,22 @@ def _check_embedding(points, tets):
     where the boundary surface cuts through itself (f) or one piece lies inside another (e). Note that
     the divergence theorem (the tetrahedra's volume equal to the volume the boundary encloses) adds
     nothing once (a) holds: the interior faces' fluxes cancel, so the two volumes agree for any mesh
-    passing (a), overlapping pieces included. Cost: O(m log m) for (a)-(d), O(surfaces x boundary faces)
-    for (e), O(k log k) for (f) on k boundary faces of similar sizes (a grid of buckets).
+    passing (a), overlapping pieces included. Cost: one sort of the 4m face keys for (a), linear in m for
+    (c) (connected components; a node's fans counted from them) and (d) (the angles summed per edge by a
+    sparse matrix), O(surfaces x boundary faces) for (e), O(k log k) for (f) on k boundary faces of similar
+    sizes (a grid of buckets). The per-element geometry and the pairs of (f) go by blocks of CHUNK, the face
+    table is int32: the peak is about 480 bytes per tetrahedron (benchmarks/bench_tetmesh.py).
     """
     n, m = len(points), len(tets)
-    local = OUTWARD_FACES                                                     # face j opposite vertex j
-    faces = tets[:, local].reshape(-1, 3)                                     # (4m, 3), row 4 t + j
-    order_in_face = np.argsort(faces, axis=1)
+    local = OUTWARD_FACES.astype(np.int8)                                     # face j opposite vertex j
+    faces = tets.astype(np.int32)[:, local].reshape(-1, 3)                   # (4m, 3), row 4 t + j (n < 2^31)
+    order_in_face = np.argsort(faces, axis=1).astype(np.int8)
     sorted_faces = np.take_along_axis(faces, order_in_face, axis=1)
-    keys = facet_keys(sorted_faces, n)
+    keys = np.concatenate([facet_keys(sorted_faces[s:s + 4 * CHUNK], n) for s in range(0, 4 * m, 4 * CHUNK)])
+    del sorted_faces
     order = np.argsort(keys, kind="stable")
     skeys = keys[order]
+    del keys
     start = np.flatnonzero(np.r_[True, skeys[1:] != skeys[:-1]])
     count = np.diff(np.r_[start, len(skeys)])
     if (count > 2).any():                                                                     # (a)
@@ -344,18 +362,21 @@ def _check_embedding(points, tets):
                         f"and {tets[r2[k] // 4].tolist()}) lie on the same side of their common face "
                         f"{sorted(faces[r1[k]].tolist())}: they overlap; expected neighbours on opposite sides")
     once = start[count == 1]
-    bkeys, bfaces = skeys[once], faces[order[once]]
+    bkeys, bfaces = skeys[once], faces[order[once]].astype(np.int64)
+    del faces, skeys, order, start, count, pair, same, once
     _check_boundary_edges(points, bfaces, n)                                                  # (b)
-    # (c): incidences (node, tet) = 4 t + i, joined across each interior face at its three nodes
-    li1 = local[r1 % 4][np.arange(len(r1))[:, None], order_in_face[r1]]        # local vertex, sorted node order
-    li2 = local[r2 % 4][np.arange(len(r2))[:, None], order_in_face[r2]]
-    a = (4 * (r1 // 4))[:, None] + li1
-    b = (4 * (r2 // 4))[:, None] + li2
-    _, label = connected_components(coo_matrix((np.ones(a.size), (a.ravel(), b.ravel())), shape=(4 * m, 4 * m)),
-                                    directed=False)
-    node = tets.ravel()
-    fans = np.unique(node * np.int64(4 * m) + label) // (4 * m)             # (node, fan) pairs -> node
-    per_node = np.bincount(fans, minlength=n)
+    # (c): incidences (node, tet) = 4 t + i, joined across each interior face at its three nodes; each
+    # component (a fan) holds one node's incidences, so a node's fans are the components that name it
+    a = (4 * (r1 // 4)).astype(np.int32)[:, None] + local[(r1 % 4)[:, None], order_in_face[r1]]
+    b = (4 * (r2 // 4)).astype(np.int32)[:, None] + local[(r2 % 4)[:, None], order_in_face[r2]]
+    del order_in_face, r1, r2
+    graph = coo_matrix((np.ones(a.size), (a.ravel(), b.ravel())), shape=(4 * m, 4 * m)).tocsr()
+    del a, b
+    fans, label = connected_components(graph, directed=False)
+    del graph
+    fan_node = np.empty(fans, dtype=np.int64)
+    fan_node[label] = tets.ravel()
+    per_node = np.bincount(fan_node, minlength=n)
     if (per_node > 1).any():
         v = int(np.argmax(per_node > 1))
         raise MeshError(f"node {v} at {points[v].tolist()} joins {int(per_node[v])} separate fans of tetrahedra: "
@@ -369,7 +390,7 @@ def _check_embedding(points, tets):
 def _check_boundary_edges(points, bfaces, n):
     """(b): each boundary edge on exactly two boundary faces."""
     e = np.sort(bfaces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    keys, inverse, count = np.unique(e[:, 0] * n + e[:, 1], return_inverse=True, return_counts=True)
+    keys, count = np.unique(e[:, 0] * n + e[:, 1], return_counts=True)
     bad = count != 2
     if bad.any():
         k = int(np.argmax(bad))
@@ -379,13 +400,20 @@ def _check_boundary_edges(points, bfaces, n):
 
 
 def _dihedral_angles(points, tets):
-    """(m, 6) interior dihedral angle of each tetrahedron at each edge of EDGES (radians)."""
+    """(m, 6) interior dihedral angle of each positive tetrahedron at each edge of EDGES (radians).
+
+    At the edge shared by the faces opposite vertices k and l, with outward face normals N_k, N_l
+    (|N| twice the face's area): |N_k x N_l| = 6 V |e| and the angle is atan2(6 V |e|, -N_k . N_l)."""
     p = points[tets]                                                          # (m, 4, 3)
-    other = np.array([[2, 3], [0, 3], [1, 3], [1, 2], [0, 1], [0, 2]])        # the two vertices off each edge
+    side = p[:, OUTWARD_FACES]                                                # (m, 4, 3, 3)
+    normal = np.cross(side[:, :, 1] - side[:, :, 0], side[:, :, 2] - side[:, :, 0])
+    del side
+    d = p[:, 1:] - p[:, :1]
+    six_v = np.einsum("mk,mk->m", d[:, 0], np.cross(d[:, 1], d[:, 2]))
     e = p[:, EDGES[:, 1]] - p[:, EDGES[:, 0]]
-    n1 = np.cross(e, p[:, other[:, 0]] - p[:, EDGES[:, 0]])
-    n2 = np.cross(e, p[:, other[:, 1]] - p[:, EDGES[:, 0]])
-    return np.arctan2(np.linalg.norm(np.cross(n1, n2), axis=2), np.einsum("mek,mek->me", n1, n2))
+    length = np.sqrt(np.einsum("mek,mek->me", e, e))
+    dot = np.einsum("mek,mek->me", normal[:, OTHER[:, 0]], normal[:, OTHER[:, 1]])
+    return np.arctan2(six_v[:, None] * length, -dot)
 
 
 def _solid_angles(a, b, c):
@@ -399,19 +427,35 @@ def _solid_angles(a, b, c):
 
 
 def _check_fans(points, tets, bfaces):
-    """(d): the tetrahedra turn once around every edge (dihedral angle sums, _check_embedding)."""
-    n = len(points)
-    e = np.sort(tets[:, EDGES.ravel()].reshape(-1, 2), axis=1)
-    keys, inverse = np.unique(e[:, 0] * n + e[:, 1], return_inverse=True)
-    total = np.bincount(inverse, weights=_dihedral_angles(points, tets).ravel())
+    """(d): the tetrahedra turn once around every edge (dihedral angle sums, _check_embedding).
+
+    The angles are summed per edge by a sparse (n, n) matrix built from blocks of CHUNK tetrahedra
+    (int32 node indices)."""
+    n, m = len(points), len(tets)
+    row = np.empty((m, 6), dtype=np.int32)
+    col = np.empty((m, 6), dtype=np.int32)
+    angle = np.empty((m, 6))
+    for s in range(0, m, CHUNK):
+        t = tets[s:s + CHUNK]
+        a, b = t[:, EDGES[:, 0]], t[:, EDGES[:, 1]]
+        row[s:s + CHUNK], col[s:s + CHUNK] = np.minimum(a, b), np.maximum(a, b)
+        angle[s:s + CHUNK] = _dihedral_angles(points, t)
+    total = coo_matrix((angle.ravel(), (row.ravel(), col.ravel())), shape=(n, n)).tocsr()   # sums per edge
+    del row, col, angle
+    total.sum_duplicates()                                                    # rows' columns ascending
+    off = np.flatnonzero(np.abs(total.data - 2 * np.pi) > ANGLE_TOL)         # not one turn: bad unless boundary
+    if not len(off):
+        return
+    keys = (np.searchsorted(total.indptr, off, side="right") - 1) * np.int64(n) + total.indices[off]
     be = np.sort(bfaces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    boundary_edge = np.isin(keys, be[:, 0] * n + be[:, 1])
-    bad = np.where(boundary_edge, total > 2 * np.pi + ANGLE_TOL, np.abs(total - 2 * np.pi) > ANGLE_TOL)
+    boundary_edge = np.isin(keys, be[:, 0] * np.int64(n) + be[:, 1])
+    turns = total.data[off]
+    bad = np.where(boundary_edge, turns > 2 * np.pi + ANGLE_TOL, True)
     if bad.any():
         k = int(np.argmax(bad))
         a, b = divmod(int(keys[k]), n)
         raise MeshError(f"the tetrahedra around {'boundary' if boundary_edge[k] else 'interior'} edge ({a}, {b}) "
-                        f"at {points[a].tolist()} turn {total[k] / (2 * np.pi):.3f} times around it, expected "
+                        f"at {points[a].tolist()} turn {turns[k] / (2 * np.pi):.3f} times around it, expected "
                         f"{'less than ' if boundary_edge[k] else ''}1: the mesh folds over itself there")
 
 
@@ -479,10 +523,29 @@ def _check_self_intersection(points, bfaces):
     a = np.repeat(np.arange(len(key)), later)
     b = a + 1 + (np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later))
     fa, fb = np.minimum(face[a], face[b]), np.maximum(face[a], face[b])
-    pairs = np.unique(fa * np.int64(k) + fb)
+    pairs = np.sort(fa * np.int64(k) + fb)                                    # each pair once, by a sort (NumPy
+    pairs = pairs[np.r_[True, pairs[1:] != pairs[:-1]]]                       # 2.4's hashing np.unique: 47x slower)
     fa, fb = pairs // k, pairs % k
     keep = (fa != fb) & (lo[fa] <= hi[fb]).all(axis=1) & (lo[fb] <= hi[fa]).all(axis=1)
     fa, fb = fa[keep], fb[keep]
+    meet = np.concatenate([_faces_meet(bfaces, tri, size, fa[s:s + CHUNK], fb[s:s + CHUNK])
+                           for s in range(0, len(fa), CHUNK)] or [np.zeros(0, dtype=bool)])
+    if meet.any():
+        i = int(np.argmax(meet))
+        f, g = bfaces[fa[i]], bfaces[fb[i]]
+        raise MeshError(f"boundary faces {f.tolist()} and {g.tolist()} meet near {points[f].mean(axis=0).tolist()} "
+                        "away from their common nodes: the boundary surface cuts through itself (the mesh "
+                        "overlaps itself or touches itself there)")
+
+
+TOUCH_TOL = 1e-9
+"""Two boundary faces closer than this times their size count as touching (:func:`_check_self_intersection`)."""
+
+
+def _faces_meet(bfaces, tri, size, fa, fb):
+    """(p,) True where boundary faces fa and fb (p,) meet away from their common nodes: faces with no common
+    node anywhere, faces with one common node where either's opposite edge meets the other (faces sharing an
+    edge: False, left to (b) and (d)); ``tri`` (k, 3, 3) their vertices, ``size`` (k,) their sizes."""
     shared = (bfaces[fa][:, :, None] == bfaces[fb][:, None, :])               # (p, 3, 3)
     common = shared.sum(axis=(1, 2))
     tol = TOUCH_TOL * np.maximum(size[fa], size[fb])
@@ -498,23 +561,22 @@ def _check_self_intersection(points, bfaces):
         edge_a = tri[fa[one]][r, opp[ia]]
         edge_b = tri[fb[one]][r, opp[ib]]
         meet[one] = _meet(edge_a, tri[fb[one]], tol[one]) | _meet(edge_b, tri[fa[one]], tol[one])
-    if meet.any():
-        i = int(np.argmax(meet))
-        f, g = bfaces[fa[i]], bfaces[fb[i]]
-        raise MeshError(f"boundary faces {f.tolist()} and {g.tolist()} meet near {points[f].mean(axis=0).tolist()} "
-                        "away from their common nodes: the boundary surface cuts through itself (the mesh "
-                        "overlaps itself or touches itself there)")
-
-
-TOUCH_TOL = 1e-9
-"""Two boundary faces closer than this times their size count as touching (:func:`_check_self_intersection`)."""
+    return meet
 
 
 def _meet(A, B, tol):
     """(p,) True where the convex sets of the (p, 3, 3) vertex triples A and B (triangles, or segments given
+    as a triangle with a repeated vertex) are within ``tol`` (p,) of each other (:func:`_meet_block`, by
+    blocks of CHUNK pairs)."""
+    return np.concatenate([_meet_block(A[s:s + CHUNK], B[s:s + CHUNK], tol[s:s + CHUNK])
+                           for s in range(0, len(A), CHUNK)] or [np.zeros(0, dtype=bool)])
+
+
+def _meet_block(A, B, tol):
+    """(p,) True where the convex sets of the (p, 3, 3) vertex triples A and B (triangles, or segments given
     as a triangle with a repeated vertex) are within ``tol`` (p,) of each other along every axis of the
-    separating-axis test: the two normals, the cross products of each normal with the other's edges (the
-    coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
+    separating-axis test: the two normals, the cross products of each normal with its own edges, then with
+    the other's edges (the coplanar cases) and the cross products of their edges, tried in that order on the pairs not yet
     separated. Each pair is first moved and scaled to unit size, so the test is the same at every length
     scale (a box of 1e-12 m as of 1 m). Axes are unit vectors built from unit edges; an edge shorter than
     1e-9 of its pair's size is no edge (a segment's repeated vertex), an axis from directions parallel to
@@ -528,10 +590,16 @@ def _meet(A, B, tol):
     eb = _unit(B[:, [1, 2, 0]] - B)
     na = _unit(np.cross(ea[:, 0], ea[:, 1]) + np.cross(ea[:, 1], ea[:, 2]))[:, None]   # 0 for a segment
     nb = _unit(np.cross(eb[:, 0], eb[:, 1]) + np.cross(eb[:, 1], eb[:, 2]))[:, None]
-    stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
-              lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(na[i], eb[i]), np.cross(nb[i], ea[i]),
-                                        np.cross(nb[i], eb[i])], axis=1),
-              lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
+    if (A[:, 2] == A[:, 1]).all():          # segments: na = ea[1] = 0, ea[2] = -ea[0]; the axes left, once each
+        stages = [lambda i: nb[i],
+                  lambda i: np.cross(nb[i], eb[i]),
+                  lambda i: np.cross(nb[i], ea[i][:, :1]),
+                  lambda i: np.cross(ea[i][:, :1, None], eb[i][:, None, :]).reshape(-1, 3, 3)]
+    else:
+        stages = [lambda i: np.concatenate([na[i], nb[i]], axis=1),
+                  lambda i: np.concatenate([np.cross(na[i], ea[i]), np.cross(nb[i], eb[i])], axis=1),
+                  lambda i: np.concatenate([np.cross(na[i], eb[i]), np.cross(nb[i], ea[i])], axis=1),
+                  lambda i: np.cross(ea[i][:, :, None], eb[i][:, None, :]).reshape(-1, 9, 3)]
     live = np.arange(len(A))
     for axes in stages:
         ax = _unit(axes(live))                                                # (q, a, 3)

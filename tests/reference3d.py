@@ -286,7 +286,10 @@ class Dense:
         """(largest penetration over every row / the rows' scale, relative residual of R^T y = (b - K x)
         over y >= 0 on ``active``): both ~0 iff ``ans`` solves the contact problem."""
         slack = self.G @ ans.x - self.g
-        scale = max(float(np.abs(self.g).max()), float((np.abs(self.G) @ np.abs(ans.x)).max()))   # the rows' terms
+        # the rows' terms, or the field's size where the rows' nodes do not move (a layer held on its plane: G x and
+        # g are rounding there, and slack / scale was 0 or 1.0 by the BLAS kernels' rounding)
+        scale = max(float(np.abs(self.g).max()), float((np.abs(self.G) @ np.abs(ans.x)).max()),
+                    float(np.abs(self.G).max()) * float(np.abs(ans.x).max()))
         need = self.b - self.K @ ans.x
         y, res = nnls(self.G[active].T, need, maxiter=50 * int(active.sum()) + 100)
         return float(max(slack.max(), 0.0) / scale), float(res / np.linalg.norm(need)), y

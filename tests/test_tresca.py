@@ -14,30 +14,13 @@ import pytest
 
 import cvxcontact as cc
 
-E, P, L, H = 200e9, 1e7, 1.0, 0.5
-FLOOR = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+from friction_scenes import E, H, L, P, pushed, steel  # noqa: E402
+from friction_scenes import sheared as _sheared  # noqa: E402
 
 
-def steel(nu=0.3, scale=1.0):
-    return cc.materials.isotropic(E=E * scale, nu=nu)
-
-
-def sheared(q, g, tied=False, nx=8, ny=4):
-    """The block under (q, -p) on its top; ``tied``: frictionless contact, u_x = 0 on the contact edges."""
-    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
-    if tied:     # the same edges under a second tag "base": u_x = 0 there, the contact on "bottom"
-        m = cc.Mesh(m.points, m.triangles, {**{t: m.boundary(t) for t in m.tags}, "base": m.boundary("bottom")})
-        b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)}, displacement={"base": (0.0, None)})
-        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
-    b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=cc.Tresca(g))])
-
-
-def pushed(law, s=1e-4):
-    """The nu = 0 block pushed by u_x = s on its left face, pressed by p."""
-    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
-    b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
-    return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+def sheared(q, g, **options):
+    """:func:`friction_scenes.sheared` with Tresca's threshold ``g`` (Pa)."""
+    return _sheared(q, None if g is None else cc.Tresca(g), **options)
 
 
 def test_a_block_that_sticks_is_the_block_tied_tangentially():

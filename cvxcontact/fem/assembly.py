@@ -185,6 +185,7 @@ def assemble_points(body, cells, n, points, nodes=None) -> BodySystem:
     ``ENTRIES_PER_PASS`` // k^2 elements at a time times the rows of D (one matrix product) give their
     Kuu, Kup and Kpp entries at once, summed straight into the nodal pattern (:class:`NodePattern`): no
     coordinate list of the element entries is ever stored."""
+    points = list(points)                   # read once per pass: a generator would be used up by the first
     dim = body.dim
     c, e, kappa = body.material.tensors(dim)
     D = coefficients(dim, c, e, kappa)                                   # (dim^2 [+ dim + 1], dim^2)

@@ -282,8 +282,7 @@ class ContactSolver:
 
     def _warn(self, sol, raw) -> None:
         p, term = self.problem, self.problem.term
-        if self.settings.polish and not raw.polished and term.finishes \
-                and (raw.declined or (p.quadratic and term.always_finished)):
+        if term.finish_declined(p, raw, self.settings.polish):
             warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)

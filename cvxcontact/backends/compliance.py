@@ -23,7 +23,8 @@ from .program import timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 
-__all__ = ["solve", "full", "condensed", "newton", "dependent_newton"]
+__all__ = ["solve", "full", "condensed", "newton", "dependent_newton", "compliance_program", "compliance_forces",
+           "program_penetration"]
 
 
 def newton(W, d, w, law, r0=None, active=None):
@@ -33,6 +34,28 @@ def newton(W, d, w, law, r0=None, active=None):
     if out is None and law.linear:
         out = solve_linear_compliance(W, d, w, law)
     return out
+
+
+def compliance_program(problem) -> ContactModel:
+    """The full program of a normal-compliance law on some rows (the term
+    :class:`~cvxcontact.discrete.terms.ComplianceRows`): the bodies' energy plus the law's energy on the rows
+    and the rows with a finite penetration limit (:func:`~cvxcontact.backends.full.law_rows`; scaled)."""
+    return ContactModel(list(problem.blocks), problem.E, problem.g, law=problem.scaled_law, weights=problem.weights,
+                        translations=list(problem.translations))
+
+
+def program_penetration(problem, u, taus) -> np.ndarray:
+    """r = E [u_nu] + R t - E g at the program's values ``u``, ``taus`` (scaled)."""
+    E, g = problem.E, problem.g
+    return (sum(E @ (b.jump @ uk) for b, uk in zip(problem.blocks, u)) - g
+            + sum((R @ tau for (R, _), tau in zip(problem.translations, taus)), np.zeros(len(g))))
+
+
+def compliance_forces(problem, model: ContactModel, u, taus) -> tuple:
+    """(y, z, None) of the solved :func:`compliance_program`: the row forces y = w p(r) + z and the limit
+    reactions z, those of the rows no unknown moves at 0 (docs/formulation.md §8, "Held nodes"); scaled."""
+    z = release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(problem.g)), problem.held_rows)[1]
+    return problem.weights * problem.scaled_law.pressure(program_penetration(problem, u, taus)) + z, z, None
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -81,7 +104,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     if out is None:
         t0 = time.perf_counter()
         if method == "full":
-            model = ContactModel(list(problem.blocks), E, g, law=law, weights=w)
+            model = problem.term.program(problem)     # its rows and energy (compliance_program)
         else:
             model = InterfaceModel(cond, loads, E, g, law=law, weights=w)
         timings["model"] = time.perf_counter() - t0
@@ -149,7 +172,7 @@ def sparse(problem, settings, timings) -> RawResult:
     law, w, E, g, blocks = problem.scaled_law, problem.weights, problem.E, problem.g, list(problem.blocks)
     tr = list(problem.translations)
     t0 = time.perf_counter()
-    model = ContactModel(blocks, E, g, law=law, weights=w, translations=tr)
+    model = problem.term.program(problem)              # the compliance law's rows (compliance_program)
     timings["model"] = time.perf_counter() - t0
     raw = RawResult(u=None, phi=None, y=None, program=model.problem)
     raw.iterations = timed_program(model.problem, settings, timings)

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 
 from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max, point_rows
-from .compliance import newton
+from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
@@ -27,7 +27,8 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .start import cone_seeds
 
-__all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model"]
+__all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic_mix_model", "cone_program",
+           "cone_forces", "mixed_program", "mixed_forces"]
 
 
 def _width(problem) -> int:
@@ -45,11 +46,44 @@ def _held_beta(problem, beta):
     return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap, _width(problem))
 
 
+def cone_program(problem) -> ContactModel:
+    """The full program of the P2 "everywhere" cones (the term :class:`~cvxcontact.discrete.terms.EverywhereCones`;
+    :mod:`cvxcontact.backends.conic`, docs/formulation.md §8)."""
+    return ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
+                        translations=list(problem.translations), width=_width(problem))
+
+
+def cone_forces(problem, model, u, taus) -> tuple:
+    """(y, None, beta) of the solved :func:`cone_program`: the Bernstein duals beta (the held elements' at their
+    least admissible value) and the nodal force y = B^T beta on X_h (E = I); scaled."""
+    B, w = problem.lines.cone[0], _width(problem)
+    beta = held_cone(bernstein_duals(model.cone, model.row, w), B, problem.held_rows, problem.g, w)
+    return B.T @ beta.ravel(), None, beta
+
+
+def mixed_program(problem):
+    """The full program of cones beside a normal-compliance law (the term
+    :class:`~cvxcontact.discrete.terms.ConesBesideCompliance`; :func:`conic_mix_model`)."""
+    return conic_mix_model(list(problem.blocks), problem.E, problem.g, problem.scaled_law, problem.weights,
+                           mixed_bernstein_rows(problem), translations=list(problem.translations))
+
+
+def mixed_forces(problem, model, u, taus) -> tuple:
+    """(y, z, beta) of the solved :func:`mixed_program`: the limit reactions and the cones' nodal force
+    z = (multipliers of the linear rows) + B^T beta, the row forces y = w p(r) + z, the Bernstein duals beta
+    (held rows and elements at their least admissible value); scaled."""
+    law, g, held = problem.scaled_law, problem.g, problem.held_rows
+    B = mixed_bernstein_rows(problem)
+    z = release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
+    beta = held_cone(bernstein_duals(model.cone, model.row), B, held, g + law.cone_shift)
+    z = z + B.T @ beta.ravel()
+    return problem.weights * law.pressure(program_penetration(problem, u, taus)) + z, z, beta
+
+
 def full(problem, cache, settings, timings) -> RawResult:
     """The full model with the conic condition (:mod:`cvxcontact.backends.conic`)."""
     t0 = time.perf_counter()
-    model = ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
-                         translations=list(problem.translations), width=_width(problem))
+    model = problem.term.program(problem)
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
@@ -442,7 +476,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     t0 = time.perf_counter()
     cond = None
     if method == "full":
-        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, translations=list(problem.translations))
+        model = problem.term.program(problem)          # mixed_program
     else:
         reduction = condensation(problem, cache, settings, timings)
         cond = reduction.bodies

@@ -88,7 +88,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     finish."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
-    model = ContactModel(blocks, E, g, translations=tr)
+    model = problem.term.program(problem)              # the normal rows (full.signorini_program)
     program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
     options = conic_options(settings.solver, settings.options)

@@ -20,7 +20,8 @@ from scipy.sparse.csgraph import structural_rank
 
 from .condensed import quasi_definite
 
-__all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction", "solve_mixed"]
+__all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction", "solve_mixed",
+           "signorini_program", "signorini_forces"]
 
 
 
@@ -170,6 +171,18 @@ class ContactModel:
         of :class:`cvxcontact.Model`). ``self.problem`` is left as it is."""
         energy = self.energy if objective is None else self.energy + objective
         return cp.Problem(cp.Minimize(energy), self.constraints + list(constraints))
+
+
+def signorini_program(problem) -> ContactModel:
+    """The full program of Signorini rows E [u_nu] + R t <= E g (the term
+    :class:`~cvxcontact.discrete.terms.SignoriniRows`, and the normal rows of a friction law)."""
+    return ContactModel(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
+
+
+def signorini_forces(problem, model: ContactModel, u, taus) -> tuple:
+    """(y, None, None): the multipliers of the solved :func:`signorini_program`'s rows, those of the rows no
+    unknown moves at 0, their least admissible value (docs/formulation.md §8, "Held nodes"); scaled."""
+    return np.where(problem.held_rows, 0.0, np.asarray(model.contact.dual_value, dtype=float).ravel()), None, None
 
 
 def _unseen(R, F, active, hold):

@@ -14,7 +14,7 @@ from .condensed import InterfaceModel, quasi_definite_rhs
 from ..contact.laws import RowLaws, Signorini
 from .finish import (Declined, force_displacements, independent_active_set, independent_interface, ipm_active,
                      lcp_start, reach_forces, row_scales, signs_hold, solve_lcp, solve_sparse_compliance)
-from .full import ContactModel, mixed_kkt
+from .full import mixed_kkt
 from .interface import condensation
 from .mixed import mixed_system, stacked, unstacked
 from .program import timed_program
@@ -118,7 +118,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     their supports) or on the sparse mixed system (bodies held by the contact, force-controlled obstacles)."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
-    model = ContactModel(blocks, E, g, translations=tr)
+    model = problem.term.program(problem)              # its rows (full.signorini_program)
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings)
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],

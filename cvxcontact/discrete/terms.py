@@ -1,15 +1,36 @@
-"""The contact term of a discrete problem: what its law poses and what the solve asks of it (docs/architecture.md,
-"A new contact law").
+"""The contact term of a discrete problem: what its law poses and does in a solve (docs/architecture.md, "A new
+contact law"; issue 31, "Seams").
 
 A :class:`ContactTerm` is built once with the :class:`~cvxcontact.discrete.DiscreteProblem` (``problem.term``)
-from its contact lines, the first term of :data:`TERMS` that poses them. It answers the questions the backends,
-the read-back and the solve ask of a law, instead of each branching on flags:
+from its contact lines, the first term of :data:`TERMS` that poses them. The backends, the read-back, the solve
+and ``cc.Model`` call its methods instead of branching on its kind:
 
-- ``kind``: the key of its route in a backend's ``routes`` (:data:`cvxcontact.backends.KINDS`) and of its
-  read-back (:data:`cvxcontact.solution.readback.READ_BACKS`);
+- ``term.program(problem)``: its rows or cones in the full convex program, a
+  :class:`~cvxcontact.backends.full.ContactModel` (``.problem``, ``.u``, ``.phi``, ``.t``, and the contact
+  constraints whose duals are its forces); ``term.program_forces(problem, model, u, taus) -> (y, z, beta)``: those
+  forces read from the solved program (the rows no unknown moves at their least admissible force);
+- ``term.read_back(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law (each
+  read-back computes the checks of (26)-(27) that apply: nodal, compliance, conic; docs/checks.md);
+- ``term.finish_declined(problem, raw, polish) -> bool``: an exact finish of its law applies and did not run (a
+  :class:`~cvxcontact.errors.ResidualWarning`). Which finish runs is the backend's route for the term's ``kind``
+  (each backend declares the kinds it solves in ``routes``, :data:`cvxcontact.backends.KINDS`; one that has no
+  route for the kind refuses the problem with a SolverError), since a finish works on that backend's matrices.
+
+Where the methods' work lives: discrete/ sits below backends/ and solution/ in the layers (tests/test_layers.py),
+so a term names its functions as "module:function" (or gives the function itself, for a term from outside the
+package), resolved on first call (:func:`named`, the pattern of a backend's ``routes``,
+:func:`cvxcontact.backends.run.route`): the import order stays one way, and each law's program, forces and
+read-back stay beside the code of their layer (backends/full.py, backends/cones.py, solution/solution.py,
+solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
+:data:`TERMS` (:func:`register_term` from outside), its functions, and a route for its kind in each backend that
+solves it; nothing else branches on it.
+
+The answers a backend or the solve still asks as data (what :class:`~cvxcontact.backends.ProblemDescription`
+tells a backend, and the solve's bookkeeping):
+
+- ``kind``: the key of its route in a backend's ``routes``;
 - ``compliant``, ``cones``, ``tangential``: a normal-compliance law on some rows; the P2 "everywhere" cones in
-  its program (docs/formulation.md §8, §10); a friction law's tangential part (what
-  :class:`~cvxcontact.backends.ProblemDescription` tells a backend);
+  its program (docs/formulation.md §8, §10); a friction law's tangential part;
 - ``takes_active_start``: a state from another mesh gives the first active-set guess
   (:func:`~cvxcontact.backends.start.start_active`); ``hands_on_state``: its exact finish's forces can start a
   solve on another mesh (:func:`~cvxcontact.backends.start.contact_state`);
@@ -22,18 +43,32 @@ the read-back and the solve ask of a law, instead of each branching on flags:
   E is the identity on X_h);
 - ``estimated``: the a posteriori error estimates count its forces; ``takes_user_terms``: ``cc.Model`` poses
   user terms beside it.
-
-A new law that needs another program adds a class here (its answers and its ``poses(lines)``), an entry of
-:data:`TERMS`, a route per backend that solves it and a read-back (docs/architecture.md).
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
+from ..errors import SolverError
+
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "TERMS", "contact_term"]
+           "TrescaFriction", "TERMS", "contact_term", "register_term", "named"]
+
+
+def named(where: str | Callable) -> Callable:
+    """The function a term names: ``where`` itself if callable, else the "module:function" (an absolute module
+    name) imported on first call; SolverError if it does not import."""
+    if callable(where):
+        return where
+    module, _, name = where.partition(":")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError, ValueError) as exc:
+        raise SolverError(f"the contact term's function {where!r} does not import ({exc}); name the function "
+                          f"itself or an importable 'module:function'") from exc
 
 
 @runtime_checkable
@@ -56,6 +91,14 @@ class ContactTerm(Protocol):
     @property
     def takes_active_start(self) -> bool: ...
 
+    def program(self, problem): ...
+
+    def program_forces(self, problem, model, u, taus) -> tuple: ...
+
+    def read_back(self, problem, raw, tol: float, timings: dict): ...
+
+    def finish_declined(self, problem, raw, polish: bool) -> bool: ...
+
 
 @dataclass(frozen=True)
 class _Term:
@@ -75,6 +118,32 @@ class _Term:
     takes_user_terms: ClassVar[bool] = True
     _starts: ClassVar[tuple[int, ...]] = ()   # dims where another mesh's state gives its first active-set guess
     _states: ClassVar[tuple[int, ...]] = ()   # dims where its exact finish's forces are point loads on the pairs
+    programs: ClassVar[str | Callable] = "cvxcontact.backends.full:signorini_program"
+    """``(problem) -> ContactModel``: its rows or cones in the full convex program (scaled)."""
+    forces: ClassVar[str | Callable] = "cvxcontact.backends.full:signorini_forces"
+    """``(problem, model, u, taus) -> (y, z, beta)``: its forces from the solved program's duals (scaled)."""
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_nodal"
+    """``(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law."""
+
+    def program(self, problem):
+        """The full convex program of ``problem`` with this term's rows or cones (:attr:`programs`)."""
+        return named(self.programs)(problem)
+
+    def program_forces(self, problem, model, u, taus) -> tuple:
+        """(y, z, beta) of the solved ``model`` (:meth:`program`; ``u``, ``taus`` its values): the row forces, the
+        limit reactions (None without) and the Bernstein duals (None without cones), scaled (:attr:`forces`)."""
+        return named(self.forces)(problem, model, u, taus)
+
+    def read_back(self, problem, raw, tol: float, timings: dict):
+        """The :class:`~cvxcontact.solution.Solution` of a backend's ``raw`` answer on ``problem``, checked at
+        ``tol`` (:attr:`reads_back`)."""
+        return named(self.reads_back)(problem, raw, tol, timings)
+
+    def finish_declined(self, problem, raw, polish: bool) -> bool:
+        """An exact finish of this law applies to ``problem`` (``polish`` asked for it) and ``raw`` is not finished:
+        declined by the route, or not run where it always runs (a quadratic energy)."""
+        return bool(polish and not raw.polished and self.finishes
+                    and (raw.declined or (problem.quadratic and self.always_finished)))
 
     @property
     def takes_active_start(self) -> bool:
@@ -108,6 +177,9 @@ class ComplianceRows(_Term):
     kind: ClassVar[str] = "compliance"
     compliant: ClassVar[bool] = True
     active_from_forces: ClassVar[bool] = True
+    programs: ClassVar[str | Callable] = "cvxcontact.backends.compliance:compliance_program"
+    forces: ClassVar[str | Callable] = "cvxcontact.backends.compliance:compliance_forces"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_compliance"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -124,6 +196,8 @@ class EverywhereCones(_Term):
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
     _states: ClassVar[tuple[int, ...]] = (2,)     # the cuts' point loads along s (backends.start.cone_seeds)
+    programs: ClassVar[str | Callable] = "cvxcontact.backends.cones:cone_program"
+    forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:cone_forces"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -140,6 +214,9 @@ class ConesBesideCompliance(_Term):
     cones: ClassVar[bool] = True
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
+    programs: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_program"
+    forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_forces"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_conic_mix"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -158,6 +235,9 @@ class TrescaFriction(_Term):
     always_finished: ClassVar[bool] = False
     estimated: ClassVar[bool] = False
     takes_user_terms: ClassVar[bool] = False
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
+    # its program: the Signorini rows, to which the friction route adds the slip's cones
+    # (:func:`cvxcontact.backends.friction.friction_program`)
 
     @staticmethod
     def poses(lines) -> bool:

@@ -42,10 +42,7 @@ from dataclasses import replace
 import cvxpy as cp
 import numpy as np
 
-from ..backends.cones import conic_mix_model, mixed_bernstein_rows
-from ..backends.conic import bernstein_duals
-from ..backends.full import ContactModel, limit_reaction
-from ..backends.interface import held_cone, release_held
+from ..backends.cones import mixed_bernstein_rows
 from ..backends.program import conic_options, run_program
 from ..backends.result import Cache, RawResult, Settings
 from ..backends.run import run
@@ -137,12 +134,7 @@ class Model:
         self._bernstein = self._cone[0] if self._cone is not None else None
         self._width = self._cone[1].shape[1] if self._cone is not None else 3     # 3: segments, 6: triangles
         self._limit = mixed_bernstein_rows(p)         # the cones beside a compliance law (§10), None without
-        if self._limit is not None:
-            self._contact = conic_mix_model(self.blocks, self.E, self._g, self._law, self._weights, self._limit,
-                                            translations=self._translations)
-        else:
-            self._contact = ContactModel(self.blocks, self.E, self._g, law=self._law, weights=self._weights,
-                                         bernstein=self._bernstein, translations=self._translations, width=self._width)
+        self._contact = p.term.program(p)             # the full program with the term's rows or cones
         self._setup = {"assembly": time.perf_counter() - t0}
         # x = [u_1; phi_1; u_2; ...]: each variable's offset in the stacked scaled unknowns
         self._vars, pos = [], 0
@@ -371,29 +363,14 @@ class Model:
                     conic_options(self.solver, self.options, pairs=len(self.offsets) - 1) if cone else self.options)
         timings["compile"] = problem.compilation_time or 0.0
         timings["solve"] = problem.solver_stats.solve_time or 0.0
-        blocks, E, g = self.blocks, self.E, self._g
+        blocks, E = self.blocks, self.E
         u = [v.value for v in self._contact.u]
         phi = [v.value if v is not None else None for v in self._contact.phi]
         taus = [np.asarray(t.value, dtype=float).ravel() for t in self._contact.t]   # force-controlled obstacles
-        beta, z = None, None
-        # rows no unknown moves: their force, which (26)-(27) do not determine, at its least admissible value,
+        # the term's forces from the program's duals: the rows no unknown moves at their least admissible force,
         # as cc.solve sets it (docs/formulation.md §8, "Held nodes")
+        y, z, beta = self.problem.term.program_forces(self.problem, self._contact, u, taus)
         held = self.problem.held_rows
-        if self._law is not None:      # normal compliance: row forces w p(r) + limit reactions z (§10)
-            r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-                 + sum((R @ tau for (R, _), tau in zip(self._translations, taus)), np.zeros(len(g))))
-            z = release_held(0.0, limit_reaction(self._contact.contact, self._contact.limit_rows, len(g)), held)[1]
-            if self._limit is not None:     # cones next to the law: their nodal force B^T beta joins z
-                beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row), self._limit, held,
-                                 g + self._law.cone_shift)
-                z = z + self._limit.T @ beta.ravel()
-            y = self._weights * self._law.pressure(r) + z
-        elif conic:    # the nodal force r = B^T beta on X_h (E = I)
-            beta = held_cone(bernstein_duals(self._contact.cone, self._contact.row, self._width), self._bernstein,
-                             held, g, self._width)
-            y = self._bernstein.T @ beta.ravel()
-        else:
-            y = np.where(held, 0.0, np.asarray(self._contact.contact.dual_value, dtype=float).ravel())
         x = self._x()
         rows = []                                      # per user constraint: C, c0, z, equality
         for c in self.constraints:

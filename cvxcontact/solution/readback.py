@@ -4,18 +4,18 @@ and the checks of (26)-(27) (docs/checks.md)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import replace
-from types import MappingProxyType
 
+from ..discrete.terms import TERMS, named
 from .friction import read_back_friction
 from .info import Route
-from .solution import Solution, obstacle_results, read_back_compliance, read_back_conic_mix, read_back_nodal
+from .solution import Solution, obstacle_results, read_back_nodal
 
-__all__ = ["read_back", "READ_BACKS"]
+__all__ = ["read_back", "read_back_tresca", "READ_BACKS"]
 
 
-def _read_back_tresca(problem, raw, tol: float, timings) -> Solution:
+def read_back_tresca(problem, raw, tol: float, timings) -> Solution:
     """Nodal Signorini rows (:func:`~cvxcontact.solution.solution.read_back_nodal`) completed with the friction
     law's slip, shear force and checks (:func:`~cvxcontact.solution.friction.read_back_friction`)."""
     sol = read_back_nodal(problem, raw, tol, timings)
@@ -23,18 +23,32 @@ def _read_back_tresca(problem, raw, tol: float, timings) -> Solution:
     return sol
 
 
-READ_BACKS: Mapping[str, Callable] = MappingProxyType({
-    "signorini": read_back_nodal, "conic": read_back_nodal, "compliance": read_back_compliance,
-    "mixed": read_back_conic_mix, "friction": _read_back_tresca})
-"""The read-back of each kind of contact term (``problem.term.kind``, :mod:`cvxcontact.discrete.terms`):
-``(problem, raw, tol, timings) -> Solution``, lambda_h and the checks that apply to the term's law."""
+class _ReadBacks(Mapping):
+    """The read-back each term names, by kind (read-only, always current)."""
+
+    def _terms(self) -> dict:
+        return {t.kind: t for t in reversed(tuple(TERMS))}       # the first term of a kind names it
+
+    def __getitem__(self, kind: str) -> Callable:
+        return named(self._terms()[kind].reads_back)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._terms())
+
+    def __len__(self) -> int:
+        return len(self._terms())
+
+
+READ_BACKS: Mapping[str, Callable] = _ReadBacks()
+"""Compatibility view: the read-back of each kind of contact term, ``(problem, raw, tol, timings) -> Solution``,
+as the term names it (``problem.term.read_back``, :mod:`cvxcontact.discrete.terms`)."""
 
 
 def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> Solution:
     """The Solution of ``raw`` on ``problem`` (scaled -> SI), checked at ``tol``; ``timings`` and ``requested``
     (the ``method=`` asked for) go into its SolveInfo."""
     scene, un = problem.scene, problem.units
-    sol = READ_BACKS[problem.term.kind](problem, raw, tol, timings)
+    sol = problem.term.read_back(problem, raw, tol, timings)
     if scene.obstacles:
         obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles)
     route = raw.route

@@ -253,7 +253,7 @@ class ContactSolver:
         if fallback is None or not raw.polished or self.requested != DEFAULT_METHOD:
             return None
         p = describe(self.problem)
-        return fallback if fallback.when(p) and backend(fallback.method).accepts(p) else None
+        return fallback if fallback.when(p) and backend(fallback.method).solves(p) else None
 
     def _fallback(self, fallback, problem, sol, timings):
         """The first answer is exact on its own matrices but fails the checks of (26)-(27) (the condensed route:

@@ -6,14 +6,21 @@ flags, not from the term classes) on a problem of every kind, P1 and P2, 2D and 
 hands on to a warm start is computed only when it is read.
 """
 
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
 import numpy as np
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.backends import describe
+from cvxcontact.backends import Backend, describe, register, unregister
+from cvxcontact.backends.full import ContactModel
 from cvxcontact.backends.run import kind
 from cvxcontact.backends.signorini import dependent_rows
-from cvxcontact.discrete.terms import TERMS, ContactTerm, SignoriniRows
+from cvxcontact.discrete.terms import TERMS, ContactTerm, SignoriniRows, register_term, unregister_term
+from cvxcontact.errors import SolverError
 from cvxcontact.solution.readback import READ_BACKS
 
 from conftest import two_blocks
@@ -142,3 +149,126 @@ def test_no_state_where_none_applies(monkeypatch):
     assert sol.state is None and calls == []
     sol.state = "given"
     assert sol.state == "given"
+
+
+# ---- a term from outside the package (issue 31 item 1: a new law adds one term class and its functions) --------
+
+
+
+PROGRAMS = []
+
+
+def _toy_program(problem):
+    """Signorini's rows E [u_nu] <= E g in the full program, written here from the public ContactModel (the
+    term's own program, not SignoriniRows' name); counts its calls."""
+    PROGRAMS.append(problem)
+    return ContactModel(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
+
+
+@dataclass(frozen=True)
+class ToyRows(SignoriniRows):
+    """A toy law posed like Signorini's rows under another kind: its own program function, SignoriniRows' forces
+    and read-back; its problems solved by a backend registered with a route for its kind."""
+
+    kind: ClassVar[str] = "toy"
+    programs: ClassVar = staticmethod(_toy_program)
+
+    @staticmethod
+    def poses(lines) -> bool:
+        return not (lines.conic or lines.mixed or lines.rows.compliant or lines.rows.friction)
+
+
+@pytest.fixture
+def toy():
+    """ToyRows and a backend "toy" whose route for it is the package's Signorini full route, registered for one
+    test and removed after it."""
+    register_term(ToyRows)
+    register(Backend("toy", lambda p: True, "a toy law's backend",
+                     routes={"toy": "cvxcontact.backends.signorini:full"}))
+    PROGRAMS.clear()
+    try:
+        yield
+    finally:
+        unregister("toy")
+        unregister_term(ToyRows)
+
+
+def test_a_term_from_outside_solves(toy):
+    """The toy term is the problem's, its program is the one the full route solves, and the answer is the Signorini
+    answer of the package's own term (computed after the toy is removed), exactly: the same rows, program and
+    finish; its checks of (26)-(27) pass."""
+    scene = _small()
+    solver = cc.ContactSolver(scene, estimate=False)                 # method="auto"
+    assert type(solver.problem.term) is ToyRows and solver.method == "toy"       # the only backend with its route
+    assert "toy" in cc.backends.KINDS and "toy" in READ_BACKS
+    sol = solver.solve()
+    assert len(PROGRAMS) == 1 and PROGRAMS[0] is solver.problem                  # its own program, called once
+    assert sol.ok and sol.polished
+    with pytest.raises(SolverError, match="does not accept"):                    # no route for the toy kind
+        cc.ContactSolver(scene, method="condensed", estimate=False)
+    model = cc.Model(scene)                                                      # Model asks the term too
+    assert len(PROGRAMS) == 2
+    model.add(model.jump() <= 1.0)                                               # a user row that never binds
+    with_row = model.solve()
+    assert with_row.ok and with_row.polished
+    unregister("toy")
+    unregister_term(ToyRows)
+    try:
+        plain = cc.solve(scene, method="full", estimate=False)           # SignoriniRows, the same route
+        assert type(cc.ContactSolver(scene, estimate=False).problem.term) is SignoriniRows
+        for mine, theirs in zip(sol.u, plain.u):
+            assert np.array_equal(mine, theirs)                              # measured: identical to the bit
+        for mine, theirs in zip(sol.contacts, plain.contacts):
+            assert np.array_equal(mine.force, theirs.force)
+        for mine, theirs in zip(with_row.u, plain.u):                    # Model's own finish with the user row
+            assert np.allclose(mine, theirs, rtol=0.0, atol=1e-10 * np.abs(theirs).max())   # measured 3e-16
+    finally:
+        register_term(ToyRows)                                               # for the fixture's removal
+        register(Backend("toy", lambda p: True, routes={"toy": "cvxcontact.backends.signorini:full"}))
+
+
+def test_a_term_from_outside_is_checked():
+    """register_term refuses what is not a term (typed errors naming what is missing), a second registration, and
+    unregister_term the package's own terms."""
+    with pytest.raises(SolverError, match="class"):
+        register_term(ToyRows(2))
+    with pytest.raises(SolverError, match="kind must be an identifier"):
+        register_term(type("NoKind", (), {"poses": staticmethod(lambda lines: True)}))
+    with pytest.raises(SolverError, match="missing"):
+        register_term(type("Bare", (), {"kind": "bare", "poses": staticmethod(lambda lines: True),
+                                        "__init__": lambda self, dim: None}))
+    with pytest.raises(SolverError, match="not a registered term from outside"):
+        unregister_term(SignoriniRows)
+    register_term(ToyRows)
+    try:
+        with pytest.raises(SolverError, match="already registered"):
+            register_term(ToyRows)
+    finally:
+        unregister_term(ToyRows)
+    assert ToyRows not in TERMS and "toy" not in cc.backends.KINDS
+
+
+# ---- the seam stays closed: the term is asked for flags only where docs/architecture.md counts them -------------
+
+
+FLAG_ASKS = re.compile(r"term\.(kind|compliant|cones|tangential|finishes|always_finished|estimated|takes_user_terms|"
+                       r"zeroes_held_forces|active_from_forces|rows_may_depend|hands_on_state|takes_active_start)\b")
+KIND_TABLES = re.compile(r"\[ *(problem\.)?term\.kind *\]|READ_BACKS\[")
+"""A table looked up by the term's kind (the read-back's before the methods)."""
+
+
+def _asks(pattern, files):
+    return [f"{path}:{i}" for path, text in files.items() if path.split("/")[0] != "discrete"
+            for i, line in enumerate(text.splitlines(), 1) if pattern.search(line)]
+
+
+def test_the_term_is_asked_for_flags_only_where_counted():
+    """Outside discrete/, the term's flags and kind are read on 17 lines (docs/architecture.md, "A new contact law":
+    21 before its methods) and no table is looked up by its kind; a planted lookup is found."""
+    root = Path(cc.__file__).parent
+    files = {p.relative_to(root).as_posix(): p.read_text() for p in sorted(root.rglob("*.py"))}
+    asks = _asks(FLAG_ASKS, files)
+    assert len(asks) <= 17, asks
+    assert _asks(KIND_TABLES, files) == []
+    planted = {"solution/x.py": "sol = READ_BACKS[problem.term.kind](problem)\n", "discrete/y.py": "term.kind\n"}
+    assert _asks(KIND_TABLES, planted) == ["solution/x.py:1"] and _asks(FLAG_ASKS, planted) == ["solution/x.py:1"]

@@ -24,6 +24,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from ..discrete.terms import TERMS
 from ..errors import SolverError
 from .result import Route
 
@@ -95,6 +96,8 @@ class ProblemDescription:
     friction: bool = False
     """Some pair has a friction law (:class:`~cvxcontact.contact.laws.Tresca`, ``Coulomb``): a cone per contact row on the
     slip, posed by the full program only (no condensed, sparse or AMG route, no exact finish yet)."""
+    kind: str = "signorini"
+    """The kind of the problem's contact term (:data:`KINDS`): a backend with no route for it refuses the problem."""
 
 
 def describe(problem, user_terms: int = 0) -> ProblemDescription:
@@ -109,12 +112,11 @@ def describe(problem, user_terms: int = 0) -> ProblemDescription:
                               user_terms=user_terms, dim=problem.dim, degree=problem.space.degree,
                               piezoelectric=any(b.Kpp is not None for b in problem.blocks),
                               dependent_rows=term.rows_may_depend and bool(dependent_rows(problem)),
-                              friction=term.tangential)
+                              friction=term.tangential, kind=term.kind)
 
 
-KINDS = ("signorini", "compliance", "conic", "mixed", "friction")
-"""The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`); a backend names one route
-per kind it solves."""
+def _kinds() -> tuple:
+    return tuple(dict.fromkeys(t.kind for t in reversed(TERMS)))
 
 
 @dataclass(frozen=True)
@@ -144,6 +146,10 @@ class Backend:
     prefers: Callable[[ProblemDescription], bool] | None = None
     routes: Mapping[str, str | Callable] = field(default_factory=dict)
     fallback: Fallback | None = None
+
+    def solves(self, problem: ProblemDescription) -> bool:
+        """It has a route for the kind of ``problem``'s contact term and accepts ``problem``."""
+        return problem.kind in self.routes and self.accepts(problem)
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
@@ -232,6 +238,11 @@ class _Live(Sequence):
         return repr(self._items())
 
 
+KINDS: Sequence[str] = _Live(_kinds)
+"""The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`): "signorini", "compliance",
+"conic", "mixed", "friction" and those of terms registered from outside
+(:func:`cvxcontact.discrete.terms.register_term`); a backend names one route per kind it solves. A live view."""
+
 BACKENDS: Sequence[Backend] = _Live(lambda: tuple(_REGISTRY.values()))
 """The backends in speed order, fastest first (the sparse route where it prefers the problem: long interfaces);
 a live view of the registry (:func:`register`)."""
@@ -276,11 +287,11 @@ def register(entry: Backend, *, before: str | None = None, replace: bool = False
                               f"bool, got {f!r}")
     routes = dict(entry.routes) if isinstance(entry.routes, Mapping) else None
     if not routes:
-        raise SolverError(f"Backend {name!r}: routes must map at least one kind of {KINDS} to its function "
+        raise SolverError(f"Backend {name!r}: routes must map at least one kind of {tuple(KINDS)} to its function "
                           f"route(problem, cache, settings, timings) -> RawResult, got {entry.routes!r}")
     for kind_, where in routes.items():
         if kind_ not in KINDS:
-            raise SolverError(f"Backend {name!r}: unknown kind {kind_!r} in routes; the kinds are {KINDS}")
+            raise SolverError(f"Backend {name!r}: unknown kind {kind_!r} in routes; the kinds are {tuple(KINDS)}")
         if not (callable(where) or (isinstance(where, str) and where.count(":") == 1 and all(where.split(":")))):
             raise SolverError(f"Backend {name!r}: the {kind_} route must be a function or 'module:function', "
                               f"got {where!r}")
@@ -321,9 +332,9 @@ def choose(method: str, problem: ProblemDescription | None = None) -> str:
     problem = ProblemDescription() if problem is None else problem
     if method == DEFAULT_METHOD:
         for b in BACKENDS:
-            if b.accepts(problem) and (b.prefers is None or b.prefers(problem)):
+            if b.solves(problem) and (b.prefers is None or b.prefers(problem)):
                 return b.name
         raise SolverError(f"no backend accepts {problem}; backends: {[b.name for b in BACKENDS]}")
-    if not backend(method).accepts(problem):
+    if not backend(method).solves(problem):
         raise SolverError(f"method {method!r} does not accept {problem}; use method='auto' or 'full'")
     return method

@@ -48,14 +48,14 @@ tells a backend, and the solve's bookkeeping):
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
 from ..errors import SolverError
 
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "TERMS", "contact_term", "register_term", "named"]
+           "TrescaFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -244,9 +244,70 @@ class TrescaFriction(_Term):
         return lines.rows.friction
 
 
-TERMS: tuple = (TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows)
-"""The terms in the order they are tried: the first whose ``poses(lines)`` holds is the problem's (a friction
-law before the normal ones, cones beside a law before cones alone, Signorini rows last)."""
+_ANSWERS = (*ContactTerm.__annotations__, "takes_active_start", "program", "program_forces", "read_back",
+            "finish_declined")
+"""What a term answers (the :class:`ContactTerm` protocol's members)."""
+
+_REGISTRY: list = [TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
+_BUILT_IN = tuple(_REGISTRY)
+
+
+class _Terms(Sequence):
+    """A read-only, always current view of the term registry (:func:`register_term`)."""
+
+    def __getitem__(self, i):
+        return tuple(_REGISTRY)[i]
+
+    def __len__(self) -> int:
+        return len(_REGISTRY)
+
+    def __repr__(self) -> str:
+        return repr(tuple(_REGISTRY))
+
+
+TERMS: Sequence[type] = _Terms()
+"""The term classes in the order they are tried: the first whose ``poses(lines)`` holds is the problem's (a
+friction law before the normal ones, cones beside a law before cones alone, Signorini rows last); a live view
+of the registry (:func:`register_term` puts a term from outside first)."""
+
+
+def register_term(term: type, *, before: type | None = None) -> type:
+    """Register the contact term class ``term`` (from outside the package: a frozen dataclass of ``dim``, like the
+    classes here, with a ``kind``, a ``poses(lines)`` and the :class:`ContactTerm` answers and methods), tried
+    before the registered term ``before`` (None: first of all). Its ``kind`` keys the backends' routes
+    (:func:`cvxcontact.backends.register`): a backend without a route for it refuses its problems. Problems built
+    afterwards get it where it poses their lines. Returns ``term``; SolverError naming what is missing."""
+    if not isinstance(term, type):
+        raise SolverError(f"register_term takes a contact term class, got {type(term).__name__}")
+    kind = getattr(term, "kind", None)
+    if not isinstance(kind, str) or not kind.isidentifier():
+        raise SolverError(f"contact term {term.__name__}: kind must be an identifier (its backends' route key), "
+                          f"got {kind!r}")
+    if not callable(getattr(term, "poses", None)):
+        raise SolverError(f"contact term {term.__name__}: poses(lines) -> bool is missing")
+    try:
+        instance = term(2)
+    except TypeError as exc:
+        raise SolverError(f"contact term {term.__name__} must be built from the space's dim alone ({exc})") from exc
+    missing = [name for name in _ANSWERS if not hasattr(instance, name)]
+    if missing or not isinstance(instance, ContactTerm):
+        raise SolverError(f"contact term {term.__name__} does not answer what a term answers: missing {missing} "
+                          "(derive it from one of cvxcontact.discrete.terms' classes)")
+    if term in _REGISTRY:
+        raise SolverError(f"contact term {term.__name__} is already registered")
+    if before is not None and before not in _REGISTRY:
+        raise SolverError(f"register_term(before=...) must be a registered term {tuple(TERMS)}, got {before!r}")
+    _REGISTRY.insert(0 if before is None else _REGISTRY.index(before), term)
+    return term
+
+
+def unregister_term(term: type) -> type:
+    """Remove the registered term class ``term`` (not one of the package's own); returns it."""
+    if term in _BUILT_IN or term not in _REGISTRY:
+        raise SolverError(f"contact term {term!r} is not a registered term from outside the package "
+                          f"({[t.__name__ for t in TERMS if t not in _BUILT_IN]})")
+    _REGISTRY.remove(term)
+    return term
 
 
 def contact_term(lines, dim: int) -> ContactTerm:

@@ -171,7 +171,7 @@ class ToyRows(SignoriniRows):
     and read-back; its problems solved by a backend registered with a route for its kind."""
 
     kind: ClassVar[str] = "toy"
-    programs: ClassVar = staticmethod(_toy_program)
+    programs: ClassVar = _toy_program                 # a plain function (not bound to the term)
 
     @staticmethod
     def poses(lines) -> bool:

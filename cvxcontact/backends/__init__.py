@@ -138,7 +138,8 @@ class Backend:
     (:data:`KINDS`: :func:`cvxcontact.backends.run.kind`) the function that solves it, each
     ``route(problem, cache, settings, timings) -> RawResult``, given as the function or as "module:function"
     (a module name relative to this package when it starts with a dot; resolved when first run, so that the
-    registry imports nothing), and its ``fallback`` (:class:`Fallback`, None: its answer stands)."""
+    registry imports nothing), and its ``fallback`` (:class:`Fallback`, None: its answer stands). It solves a
+    problem (:meth:`solves`) that it accepts and whose kind it has a route for: ``choose`` refuses the others."""
 
     name: str
     accepts: Callable[[ProblemDescription], bool]

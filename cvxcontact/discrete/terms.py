@@ -127,17 +127,17 @@ class _Term:
 
     def program(self, problem):
         """The full convex program of ``problem`` with this term's rows or cones (:attr:`programs`)."""
-        return named(self.programs)(problem)
+        return named(type(self).programs)(problem)      # (from the class: a plain function stays unbound)
 
     def program_forces(self, problem, model, u, taus) -> tuple:
         """(y, z, beta) of the solved ``model`` (:meth:`program`; ``u``, ``taus`` its values): the row forces, the
         limit reactions (None without) and the Bernstein duals (None without cones), scaled (:attr:`forces`)."""
-        return named(self.forces)(problem, model, u, taus)
+        return named(type(self).forces)(problem, model, u, taus)
 
     def read_back(self, problem, raw, tol: float, timings: dict):
         """The :class:`~cvxcontact.solution.Solution` of a backend's ``raw`` answer on ``problem``, checked at
         ``tol`` (:attr:`reads_back`)."""
-        return named(self.reads_back)(problem, raw, tol, timings)
+        return named(type(self).reads_back)(problem, raw, tol, timings)
 
     def finish_declined(self, problem, raw, polish: bool) -> bool:
         """An exact finish of this law applies to ``problem`` (``polish`` asked for it) and ``raw`` is not finished:

@@ -35,20 +35,29 @@ import warnings
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
-from .finish import force_displacements, ipm_active, reach_forces
+from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
+from .finish.friction import FrictionRows, solve_friction
 from .full import ContactModel
+from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
 
-__all__ = ["RESOLUTION", "friction_program", "full"]
+__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
 
 RESOLUTION = 1e-8
 """Below this relative change of the capacities, a fixed point whose change no longer decreases by 10 % per
 iteration has reached the interior point's resolution and stops as converged (on the sheared layers of
 tests/test_coulomb.py the change wanders at ~1e-11 there; a true contraction of 0.52 is not mistaken for it)."""
+
+
+ENERGY_SLACK = 1e-9
+"""The finish is declined if its objective exceeds the interior point's by more than this, relative to the
+larger of |objective| and C U: the interior point's own answer may sit below the true minimum by its
+infeasibility (its rows at the conic tolerances)."""
 
 
 def friction_program(problem, model: ContactModel):
@@ -124,6 +133,67 @@ def full(problem, cache, settings, timings) -> RawResult:
     raw.capacity = np.zeros(E.shape[0])
     raw.capacity[rows] = posed
     raw.fixed_point = changes
+    if settings.polish:
+        exact_finish(problem, raw, timings)
+    return raw
+
+
+def exact_finish(problem, raw, timings) -> RawResult:
+    """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
+    Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
+    from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
+    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept): rows
+    that may be linearly dependent, a non-quadratic energy, a singular step, steps that do not settle, broken
+    signs, or an energy above the interior point's (beyond :data:`ENERGY_SLACK`)."""
+    if not problem.quadratic:
+        raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
+        return raw
+    t0 = time.perf_counter()
+    E, g, blocks = problem.E, problem.g, problem.blocks
+    op, G, widths = mixed_system(problem)
+    x0 = stacked(raw.u, raw.phi, raw.taus)
+    T, b = op.linearised(x0)
+    R, n_c = E.shape[0], problem.slip_components
+    rows = np.flatnonzero(problem.rows.frictional)
+    order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
+    Es = problem.slip_rows[order]
+    S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
+                   for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    c0 = problem.capacities(np.zeros(R))
+    fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
+                      _moved_slip(problem, rows))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
+    C = max(float(np.max(raw.capacity, initial=0.0)), float(np.max(raw.y, initial=0.0)))
+    if not (U > 0 and C > 0):
+        raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
+        return raw
+    out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
+                         (C, U))
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, Declined):
+        raw.declined = out
+        return raw
+    x, y, mu, closed, steps = out
+
+    def objective(x_, capacity):
+        """The program's objective at x_ (the energy of (26) and the friction energy at ``capacity``)."""
+        return op.value(x_) + float(capacity @ np.linalg.norm(fr.slip(x_), axis=1))
+
+    c = fr.capacity(y)
+    before, after = objective(x0, c), objective(x, c)
+    if after > before + ENERGY_SLACK * max(abs(before), C * U):
+        raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
+        return raw
+    raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
+    raw.y, raw.active = y, closed
+    raw.tangential = np.zeros((n_c, R))
+    raw.tangential[:, rows] = mu.T
+    raw.tangential = raw.tangential.ravel()
+    raw.capacity = np.zeros(R)
+    raw.capacity[rows] = c
+    raw.polished, raw.finish, raw.route = True, Finish.FRICTION_NEWTON, Route.INTERIOR_POINT_FINISHED
+    raw.iterations += steps
     return raw
 
 

@@ -38,7 +38,7 @@ def test_a_block_that_sticks_is_the_block_tied_tangentially():
     ratio = (np.abs(cb.shear[on]) / cb.pressure[on]).max()                           # measured 0.724
     assert np.abs(cb.shear[~on]).max(initial=0.0) < 1e-6 * P                          # no force off contact
     sol = cc.solve(sheared(q, cc.Coulomb(1.01 * ratio)))
-    assert sol.ok and sol.path == cc.Route.INTERIOR_POINT_FRICTION and not sol.polished
+    assert sol.ok and sol.path == cc.Route.INTERIOR_POINT_FINISHED and sol.info.finish == cc.Finish.FRICTION_NEWTON
     scale = np.abs(tied.u[0]).max()
     assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-9 * scale                         # measured 3.7e-12
     assert sol.contact.shear_force.sum() == pytest.approx(-q * L, rel=1e-12)         # the load; measured 2.9e-15
@@ -165,14 +165,22 @@ def test_a_pair_on_a_much_stiffer_block_sticks_like_the_block_on_the_rigid_plane
 def test_the_fixed_point_warns_at_its_iteration_limit_and_its_checks_say_how_far():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)))
+        sol = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)), polish=False)
     fixed = [w for w in caught if issubclass(w.category, cc.FixedPointWarning)]
     assert len(fixed) == 1 and "max_iterations" in str(fixed[0].message)
     assert not sol.ok and sol.residuals()["stick-slip"] > 1e-4        # one iterate from the stuck start: 1.3e-3
     assert len(sol.info.fixed_point) == 1
+    # the exact finish from that iterate reaches Coulomb's law itself (its capacities mu y_a the answer's own):
+    # no warning, and the same answer as the converged fixed point's finish
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.FixedPointWarning)
+        short = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)))
+    assert short.ok and short.info.finish == cc.Finish.FRICTION_NEWTON and len(short.info.fixed_point) == 1
     converged = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4)))
     changes = converged.info.fixed_point                                # contracting, then at the tolerance
     assert converged.ok and 2 <= len(changes) < 50 and changes[-1] <= 1e-8
+    scale = np.abs(converged.u[0]).max()
+    assert np.abs(short.u[0] - converged.u[0]).max() < 1e-10 * scale           # measured 9.5e-16
 
 
 def test_the_law_refuses_bad_parameters_and_scene_files_name_it():

@@ -28,7 +28,7 @@ def test_a_block_that_sticks_is_the_block_tied_tangentially():
     tied = cc.solve(sheared(q, None, tied=True))
     sol = cc.solve(sheared(q, 1e7))      # the tied answer's largest |sigma_t|: 9.46e6 Pa (corner) < g
     assert tied.ok and sol.ok
-    assert sol.path == cc.Route.INTERIOR_POINT_FRICTION and not sol.polished
+    assert sol.path == cc.Route.INTERIOR_POINT_FINISHED and sol.info.finish == cc.Finish.FRICTION_NEWTON
     scale = np.abs(tied.u[0]).max()
     assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-10 * scale               # measured 2.0e-13
     c = sol.contact

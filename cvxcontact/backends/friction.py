@@ -113,16 +113,16 @@ def full(problem, cache, settings, timings) -> RawResult:
                 np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
                 [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
 
-    fixed_point = problem.rows.fixed_point
+    fixed_point, unsettled = problem.rows.fixed_point, None
     if fixed_point is None:                                       # Tresca: the thresholds are given
         capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
         status = program.status
     else:
         stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
-        iterations, (best, status), changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer,
-                                                           fixed_point,
-                                                           lambda p: timed_program(p, settings, timings, options))
+        iterations, (best, status), changes, unsettled = _fixed_point(
+            problem, model, stuck, program, capacity, rows, answer, fixed_point,
+            lambda p: timed_program(p, settings, timings, options))
     u, phi, y, mu, taus, posed = best
     raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
                     route=Route.INTERIOR_POINT_FRICTION, status=status)
@@ -135,6 +135,8 @@ def full(problem, cache, settings, timings) -> RawResult:
     raw.fixed_point = changes
     if settings.polish:
         exact_finish(problem, raw, timings)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
     return raw
 
 
@@ -211,7 +213,8 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
     ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
     iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
-    iterate), the relative changes)."""
+    iterate), the relative changes, the words of a :class:`~cvxcontact.errors.FixedPointWarning` if it did not
+    converge, else None: :func:`full` warns if the exact finish does not reach Coulomb's law either)."""
     tol, most = fixed_point
     iterations = solve(stuck)
     solved = stuck                                         # the program whose solution the variables hold
@@ -238,10 +241,10 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
         capacity.value = c
         iterations += solve(program)
         solved, previous = program, c
-    if not converged:
-        warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
-                      f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
-                      f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
-                      f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
-                      f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=4)
-    return iterations, best, tuple(changes)
+    unsettled = None if converged else (
+        f"Coulomb friction: the fixed point on the slip thresholds changed them by {changes[-1]:.3g} (relative) at "
+        f"its last iteration ({len(changes)}), above the tolerance {tol:.3g}, and the exact finish from it was "
+        f"declined: the answer is its iterate of smallest change ({min(changes):.3g}; its checks say how far from "
+        f"Coulomb's law): raise Coulomb(max_iterations=...), or lower the coefficient (the fixed point contracts "
+        f"for small mu only)")
+    return iterations, best, tuple(changes), unsettled

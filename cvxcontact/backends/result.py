@@ -41,8 +41,8 @@ class Route(StrEnum):
     systems solved)."""
     INTERIOR_POINT_FRICTION = "interior point (no exact finish: friction)"
     """A friction law (:mod:`cvxcontact.backends.friction`): the full program's interior-point answer at the
-    conic tolerances, checked (the friction cone, stick/slip complementarity, slip direction); no exact finish
-    yet."""
+    conic tolerances, checked (the friction cone, stick/slip complementarity, slip direction), where its exact
+    finish (:attr:`Finish.FRICTION_NEWTON`) did not run (``polish=False``) or was declined."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     INTERIOR_POINT_NONLINEAR_ENERGY = "interior point (no exact finish: a non-quadratic bulk energy)"

@@ -138,7 +138,7 @@ class _System:
         return -np.concatenate([mom, normal, tang.ravel()])
 
 
-def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int = MAX_STEPS):
+def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None):
     """The exact finish of the module docstring from (x0, y0, mu0) (the interior point's answer, scaled).
 
     ``T``, ``b``: the mixed system's matrix and loads (:meth:`~cvxcontact.backends.mixed.MixedEnergy.linearised`);
@@ -148,7 +148,9 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
 
     Returns ``(x, y, mu, closed, steps)`` with ``mu`` (r, c), or a :class:`Declined`: a singular step, steps that
     did not settle, or an answer whose signs break at ``SIGN_TOL`` of the scales (a tension on a closed row, a
-    penetration of an open one, a force outside the cone, a slip not along its force)."""
+    penetration of an open one, a force outside the cone, a slip not along its force). ``max_steps``: default
+    :data:`MAX_STEPS`."""
+    max_steps = MAX_STEPS if max_steps is None else max_steps
     system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales)
     w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
     state = system.state(w)
@@ -177,8 +179,8 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
         same = (state[0].tobytes(), state[1].tobytes()) == key
-        if same and (merit <= 1e-13 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
-            settled = True                                # the set repeats and the steps are at rounding
+        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
+            settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
             break
         seen.add(key)
         if not same and fr.nc == 1 and (state[0].tobytes(), state[1].tobytes()) in seen:

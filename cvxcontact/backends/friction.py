@@ -24,8 +24,10 @@ iterate of smallest change (at the interior point's resolution the change wander
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
-No exact finish: the answer is the interior point's (Clarabel at the conic tolerances,
-:data:`~cvxcontact.backends.program.CLARABEL_CONIC`), checked (:mod:`cvxcontact.solution.friction`).
+The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
+is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
+law, the capacities those of the finished forces), or kept where the finish is declined; checked
+(:mod:`cvxcontact.solution.friction`).
 """
 
 from __future__ import annotations
@@ -93,8 +95,8 @@ def _moved_slip(problem, rows) -> np.ndarray:
 def full(problem, cache, settings, timings) -> RawResult:
     """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
-    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
-    finish."""
+    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
+    (``polish``) the exact finish, :func:`exact_finish`."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
     model = ContactModel(blocks, E, g, translations=tr)

@@ -32,6 +32,7 @@ law, the capacities those of the finished forces), or kept where the finish is d
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 
@@ -49,6 +50,8 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 
 __all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
+
+log = logging.getLogger(__name__)
 
 RESOLUTION = 1e-8
 """Below this relative change of the capacities, a fixed point whose change no longer decreases by 10 % per
@@ -186,6 +189,8 @@ def exact_finish(problem, raw, timings) -> RawResult:
 
     c = fr.capacity(y)
     before, after = objective(x0, c), objective(x, c)
+    log.info("friction finish: %d steps, objective %.17g (the interior point's %.17g, relative change %.1e)", steps,
+             after, before, (after - before) / max(abs(before), C * U))
     if after > before + ENERGY_SLACK * max(abs(before), C * U):
         raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
         return raw

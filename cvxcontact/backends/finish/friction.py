@@ -35,6 +35,9 @@ __all__ = ["FrictionRows", "solve_friction"]
 MAX_STEPS = 50
 """Newton steps at most."""
 
+STALLS = 3
+"""Full steps taken where no damping decreased the residual, at most (then declined: each step is a sparse LU)."""
+
 
 class FrictionRows:
     """The friction rows of the finish (module docstring): ``S`` (r c, n) the slip rows on x (row-major: row a,
@@ -155,7 +158,7 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
     state = system.state(w)
     merit = np.linalg.norm(system.residual(w, state))
-    seen, settled = set(), False
+    seen, settled, stalled = set(), False, 0
     for steps in range(1, max_steps + 1):
         J = system.jacobian(state)
         try:
@@ -175,6 +178,9 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
                 break
             alpha /= 2
         else:
+            stalled += 1
+            if stalled > STALLS:
+                return Declined(Stop.MAX_ITER, "the damped Newton steps stopped decreasing the residual")
             trial, new = w + dw, np.linalg.norm(system.residual(w + dw))   # no decrease: the full step
         w, merit_old, merit = trial, merit, new
         state = system.state(w)

@@ -38,7 +38,7 @@ def test_a_block_that_sticks_is_the_block_tied_tangentially():
     ratio = (np.abs(cb.shear[on]) / cb.pressure[on]).max()                           # measured 0.724
     assert np.abs(cb.shear[~on]).max(initial=0.0) < 1e-6 * P                          # no force off contact
     sol = cc.solve(sheared(q, cc.Coulomb(1.01 * ratio)))
-    assert sol.ok and sol.path == cc.Route.INTERIOR_POINT_FRICTION and not sol.polished
+    assert sol.ok and sol.path == cc.Route.INTERIOR_POINT_FINISHED and sol.info.finish == cc.Finish.FRICTION_NEWTON
     scale = np.abs(tied.u[0]).max()
     assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-9 * scale                         # measured 3.7e-12
     assert sol.contact.shear_force.sum() == pytest.approx(-q * L, rel=1e-12)         # the load; measured 2.9e-15
@@ -68,7 +68,7 @@ def test_zero_coefficient_is_frictionless_and_a_small_one_slides_with_mu_times_t
         assert sol.ok
         c = sol.contact
         assert (c.slip > 0.5e-4).all()                                                # every node slides forward
-        assert c.shear_force.sum() == pytest.approx(-mu * P * L, rel=5e-6)            # measured 1.6e-8, 1.2e-9
+        assert c.shear_force.sum() == pytest.approx(-mu * P * L, rel=1e-12)           # measured 4.3e-15, 3.0e-15
         on = c.pressure > 0                                                           # |sigma_t| = mu p everywhere
         assert np.abs(np.abs(c.shear[on]) - mu * c.pressure[on]).max() < 1e-5 * mu * P    # measured 5.5e-8
         errors.append(np.abs(sol.u[0] - exact).max())
@@ -122,8 +122,8 @@ def test_a_sheared_layer_in_partial_slip_matches_a_gauss_seidel_reference():
 
     s, d, mu = 3e-6, 1e-5, 0.3
     m, scene = layer(s, d, cc.Coulomb(mu))
-    sol = cc.solve(scene, tol=1e-5)     # stick-slip 6.1e-7: the interior point's own (not the fixed point's)
-    assert sol.ok
+    sol = cc.solve(scene)               # the exact finish: stick-slip 3.3e-9 (the square root of a product at rounding)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
     body = scene.bodies[0]
     system = P1().assemble_loads(body, P1().assemble_matrices(body))        # SI, the prescribed top lifted
     Tu, u_fixed = system.Tu, system.u_fixed
@@ -141,10 +141,11 @@ def test_a_sheared_layer_in_partial_slip_matches_a_gauss_seidel_reference():
     ref = u_ref.reshape(-1, 2)
     slips = np.abs(ref[bottom, 0]) > 1e-3 * np.abs(ref[bottom, 0]).max()
     assert 2 <= slips.sum() <= len(bottom) - 2                               # partial slip: 3 of 7 nodes slip
-    assert np.abs(sol.u[0] - ref).max() < 1e-9 * np.abs(ref).max()          # measured 6.6e-12
+    # the finish and the reference meet at rounding (the interior point alone: 6.6e-12, 1.2e-11, 2.6e-12)
+    assert np.abs(sol.u[0] - ref).max() < 1e-13 * np.abs(ref).max()         # measured 6.5e-16 (Prescott 4.7e-16)
     c = sol.contact                                       # the tangential and normal nodal forces on the layer
-    assert np.abs(c.shear_force - R[0::2]).max() < 2e-9 * np.abs(R).max()   # measured 1.2e-11
-    assert np.abs(c.pressure * c.measure - R[1::2]).max() < 1e-9 * np.abs(R).max()   # measured 2.6e-12
+    assert np.abs(c.shear_force - R[0::2]).max() < 2e-13 * np.abs(R).max()  # measured 1.1e-15 (Prescott 1.3e-15)
+    assert np.abs(c.pressure * c.measure - R[1::2]).max() < 2e-13 * np.abs(R).max()  # measured 1.1e-15 (both)
 
 
 @pytest.mark.numerics
@@ -165,14 +166,22 @@ def test_a_pair_on_a_much_stiffer_block_sticks_like_the_block_on_the_rigid_plane
 def test_the_fixed_point_warns_at_its_iteration_limit_and_its_checks_say_how_far():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sol = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)))
+        sol = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)), polish=False)
     fixed = [w for w in caught if issubclass(w.category, cc.FixedPointWarning)]
     assert len(fixed) == 1 and "max_iterations" in str(fixed[0].message)
     assert not sol.ok and sol.residuals()["stick-slip"] > 1e-4        # one iterate from the stuck start: 1.3e-3
     assert len(sol.info.fixed_point) == 1
+    # the exact finish from that iterate reaches Coulomb's law itself (its capacities mu y_a the answer's own):
+    # no warning, and the same answer as the converged fixed point's finish
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.FixedPointWarning)
+        short = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1)))
+    assert short.ok and short.info.finish == cc.Finish.FRICTION_NEWTON and len(short.info.fixed_point) == 1
     converged = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4)))
     changes = converged.info.fixed_point                                # contracting, then at the tolerance
     assert converged.ok and 2 <= len(changes) < 50 and changes[-1] <= 1e-8
+    scale = np.abs(converged.u[0]).max()
+    assert np.abs(short.u[0] - converged.u[0]).max() < 1e-10 * scale           # measured 9.5e-16
 
 
 def test_the_law_refuses_bad_parameters_and_scene_files_name_it():

@@ -131,18 +131,19 @@ def pair(law, stiffer, q):
 @pytest.mark.numerics
 def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
     """The pair's departure from the rigid plane is the partner's compliance: linear in it (stiffer by 1e3 and
-    1e4), for Tresca and Coulomb. Interior-point answers (no exact finish for friction): their friction checks
-    sit at its resolution, stick-slip measured 6.7e-7 ... 1.1e-5 for the Coulomb answers across builds and
-    kernel sets, so they are judged at ``tol=1e-3``; the shear balances the load to rounding regardless."""
+    1e4), for Tresca and Coulomb. Exact finishes, judged at the default tolerance: the interior point's own
+    stick-slip was 6.7e-7 ... 1.1e-5 for the Coulomb answers; after the finish the largest checks of these six
+    solves are stick-slip 2.2e-9 (the square root of a product at rounding), slip direction 1.4e-9, equilibrium
+    2.0e-15 (Haswell and Prescott kernels): 450x below the default tolerance."""
     q = 0.2 * P * DIAGONAL
     departures = {}
     for law in (cc.Tresca(0.3 * P), cc.Coulomb(0.4)):
-        rigid = cc.solve(sheared(q, law), tol=1e-3)
-        assert rigid.ok
+        rigid = cc.solve(sheared(q, law))
+        assert rigid.ok and rigid.info.finish == cc.Finish.FRICTION_NEWTON
         for stiffer in (1e3, 1e4):
-            sol = cc.solve(pair(law, stiffer, q), tol=1e-3)
-            assert sol.ok
-            assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-9)  # measured 6e-13, 3e-11
+            sol = cc.solve(pair(law, stiffer, q))
+            assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+            assert np.allclose(sol.contact.shear_force.sum(axis=0), -q, rtol=1e-12)  # measured 5.3e-16 ... 5.0e-15
             departures[stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
         # measured 2.2e-3 / 2.2e-4 (Tresca), 2.4e-3 / 2.4e-4 (Coulomb); ratios 9.99992, 9.99984
         assert departures[1e3] / departures[1e4] == pytest.approx(10.0, rel=1e-2)

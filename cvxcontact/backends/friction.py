@@ -24,31 +24,45 @@ iterate of smallest change (at the interior point's resolution the change wander
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
-No exact finish: the answer is the interior point's (Clarabel at the conic tolerances,
-:data:`~cvxcontact.backends.program.CLARABEL_CONIC`), checked (:mod:`cvxcontact.solution.friction`).
+The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
+is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
+law, the capacities those of the finished forces), or kept where the finish is declined; checked
+(:mod:`cvxcontact.solution.friction`).
 """
 
 from __future__ import annotations
 
+import logging
 import time
 import warnings
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
-from .finish import force_displacements, ipm_active, reach_forces
+from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
+from .finish.friction import FrictionRows, solve_friction
 from .full import ContactModel
+from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
-from .result import RawResult, Route
+from .result import Finish, RawResult, Route
 
-__all__ = ["RESOLUTION", "friction_program", "full"]
+__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
+
+log = logging.getLogger(__name__)
 
 RESOLUTION = 1e-8
 """Below this relative change of the capacities, a fixed point whose change no longer decreases by 10 % per
 iteration has reached the interior point's resolution and stops as converged (on the sheared layers of
 tests/test_coulomb.py the change wanders at ~1e-11 there; a true contraction of 0.52 is not mistaken for it)."""
+
+
+ENERGY_SLACK = 1e-9
+"""The finish is declined if its objective exceeds the interior point's by more than this, relative to the
+larger of |objective| and C U: the interior point's own answer may sit below the true minimum by its
+infeasibility (its rows at the conic tolerances)."""
 
 
 def friction_program(problem, model: ContactModel):
@@ -84,8 +98,8 @@ def _moved_slip(problem, rows) -> np.ndarray:
 def full(problem, cache, settings, timings) -> RawResult:
     """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
-    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; no exact
-    finish."""
+    of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
+    (``polish``) the exact finish, :func:`exact_finish`."""
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
     model = problem.term.program(problem)              # the normal rows (full.signorini_program)
@@ -104,16 +118,16 @@ def full(problem, cache, settings, timings) -> RawResult:
                 np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
                 [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
 
-    fixed_point = problem.rows.fixed_point
+    fixed_point, unsettled = problem.rows.fixed_point, None
     if fixed_point is None:                                       # Tresca: the thresholds are given
         capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
         status = program.status
     else:
         stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
-        iterations, (best, status), changes = _fixed_point(problem, model, stuck, program, capacity, rows, answer,
-                                                           fixed_point,
-                                                           lambda p: timed_program(p, settings, timings, options))
+        iterations, (best, status), changes, unsettled = _fixed_point(
+            problem, model, stuck, program, capacity, rows, answer, fixed_point,
+            lambda p: timed_program(p, settings, timings, options))
     u, phi, y, mu, taus, posed = best
     raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
                     route=Route.INTERIOR_POINT_FRICTION, status=status)
@@ -124,6 +138,71 @@ def full(problem, cache, settings, timings) -> RawResult:
     raw.capacity = np.zeros(E.shape[0])
     raw.capacity[rows] = posed
     raw.fixed_point = changes
+    if settings.polish:
+        exact_finish(problem, raw, timings)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    return raw
+
+
+def exact_finish(problem, raw, timings) -> RawResult:
+    """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
+    Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
+    from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
+    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept): rows
+    that may be linearly dependent, a non-quadratic energy, a singular step, steps that do not settle, broken
+    signs, or an energy above the interior point's (beyond :data:`ENERGY_SLACK`)."""
+    if not problem.quadratic:
+        raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
+        return raw
+    t0 = time.perf_counter()
+    E, g, blocks = problem.E, problem.g, problem.blocks
+    op, G, widths = mixed_system(problem)
+    x0 = stacked(raw.u, raw.phi, raw.taus)
+    T, b = op.linearised(x0)
+    R, n_c = E.shape[0], problem.slip_components
+    rows = np.flatnonzero(problem.rows.frictional)
+    order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
+    Es = problem.slip_rows[order]
+    S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
+                   for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    c0 = problem.capacities(np.zeros(R))
+    fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
+                      _moved_slip(problem, rows))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
+    C = max(float(np.max(raw.capacity, initial=0.0)), float(np.max(raw.y, initial=0.0)))
+    if not (U > 0 and C > 0):
+        raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
+        return raw
+    out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
+                         (C, U))
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, Declined):
+        raw.declined = out
+        return raw
+    x, y, mu, closed, steps = out
+
+    def objective(x_, capacity):
+        """The program's objective at x_ (the energy of (26) and the friction energy at ``capacity``)."""
+        return op.value(x_) + float(capacity @ np.linalg.norm(fr.slip(x_), axis=1))
+
+    c = fr.capacity(y)
+    before, after = objective(x0, c), objective(x, c)
+    log.info("friction finish: %d steps, objective %.17g (the interior point's %.17g, relative change %.1e)", steps,
+             after, before, (after - before) / max(abs(before), C * U))
+    if after > before + ENERGY_SLACK * max(abs(before), C * U):
+        raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
+        return raw
+    raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
+    raw.y, raw.active = y, closed
+    raw.tangential = np.zeros((n_c, R))
+    raw.tangential[:, rows] = mu.T
+    raw.tangential = raw.tangential.ravel()
+    raw.capacity = np.zeros(R)
+    raw.capacity[rows] = c
+    raw.polished, raw.finish, raw.route = True, Finish.FRICTION_NEWTON, Route.INTERIOR_POINT_FINISHED
+    raw.iterations += steps
     return raw
 
 
@@ -141,7 +220,8 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
     ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
     iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
-    iterate), the relative changes)."""
+    iterate), the relative changes, the words of a :class:`~cvxcontact.errors.FixedPointWarning` if it did not
+    converge, else None: :func:`full` warns if the exact finish does not reach Coulomb's law either)."""
     tol, most = fixed_point
     iterations = solve(stuck)
     solved = stuck                                         # the program whose solution the variables hold
@@ -168,10 +248,10 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
         capacity.value = c
         iterations += solve(program)
         solved, previous = program, c
-    if not converged:
-        warnings.warn(f"Coulomb friction: the fixed point on the slip thresholds changed them by "
-                      f"{changes[-1]:.3g} (relative) at its last iteration ({len(changes)}), above the tolerance "
-                      f"{tol:.3g}: the answer is its iterate of smallest change ({min(changes):.3g}; its checks "
-                      f"say how far from Coulomb's law): raise Coulomb(max_iterations=...), or lower the "
-                      f"coefficient (the fixed point contracts for small mu only)", FixedPointWarning, stacklevel=4)
-    return iterations, best, tuple(changes)
+    unsettled = None if converged else (
+        f"Coulomb friction: the fixed point on the slip thresholds changed them by {changes[-1]:.3g} (relative) at "
+        f"its last iteration ({len(changes)}), above the tolerance {tol:.3g}, and the exact finish from it was "
+        f"declined: the answer is its iterate of smallest change ({min(changes):.3g}; its checks say how far from "
+        f"Coulomb's law): raise Coulomb(max_iterations=...), or lower the coefficient (the fixed point contracts "
+        f"for small mu only)")
+    return iterations, best, tuple(changes), unsettled

@@ -41,8 +41,8 @@ class Route(StrEnum):
     systems solved)."""
     INTERIOR_POINT_FRICTION = "interior point (no exact finish: friction)"
     """A friction law (:mod:`cvxcontact.backends.friction`): the full program's interior-point answer at the
-    conic tolerances, checked (the friction cone, stick/slip complementarity, slip direction); no exact finish
-    yet."""
+    conic tolerances, checked (the friction cone, stick/slip complementarity, slip direction), where its exact
+    finish (:attr:`Finish.FRICTION_NEWTON`) did not run (``polish=False``) or was declined."""
     INTERIOR_POINT_NONLINEAR = "interior point (no exact finish: non-linear user terms)"
     """A :class:`~cvxcontact.Model` with non-linear user terms: the interior-point answer, checked."""
     INTERIOR_POINT_NONLINEAR_ENERGY = "interior point (no exact finish: a non-quadratic bulk energy)"
@@ -91,6 +91,10 @@ class Finish(StrEnum):
     steps on (26) with the energy's tangent, damped on the energy, inside primal-dual active-set steps on the
     contact rows, from the interior point's answer
     (:func:`cvxcontact.backends.finish.solve_sparse_compliance`)."""
+    FRICTION_NEWTON = "semismooth Newton on the friction rows' active set"
+    """A friction law (Tresca, Coulomb): semismooth Newton on (26)-(27) with the friction rows in the
+    Alart-Curnier form, from the interior point's answer (:func:`cvxcontact.backends.finish.friction.
+    solve_friction`; docs/howto/friction.md, "The exact finish")."""
     NEWTON_INDEPENDENT = "semismooth Newton on independent active sets"
     """Linearly dependent rows with a condition r <= l next to a compliance law (3D "gamma3"): Newton steps on
     the law, each an independent active set of the linearised mixed system

@@ -227,7 +227,8 @@ class ConesBesideCompliance(_Term):
 class TrescaFriction(_Term):
     """Signorini rows and a friction law's cone per row on the slip (docs/howto/friction.md; Tresca, and Coulomb
     by a fixed point on the thresholds; 2D and 3D P1, 2D P2 under the nodal conditions): the full program only,
-    no exact finish, no error estimate, no user terms yet."""
+    then its exact finish (:func:`cvxcontact.backends.friction.exact_finish`; a decline keeps the interior
+    point's answer without a warning, as before the finish existed); no error estimate, no user terms yet."""
 
     kind: ClassVar[str] = "friction"
     tangential: ClassVar[bool] = True

@@ -8,6 +8,7 @@ answer of the discrete problem, one module per algorithm.
 - :mod:`.forces`: nodal forces, row reaches and scales, the interior point's active set;
 - :mod:`.rows`: the rows carrying the forces kept independent and factored, updated a row at a time;
 - :mod:`.dependent`: the finish on rows that may be linearly dependent (independent active sets, Lawson-Hanson);
+- :mod:`.friction`: semismooth Newton on the mixed system with a friction law's rows (Tresca, Coulomb);
 - :mod:`.declined`: why a finish stopped without an answer (:class:`Declined`, a typed result).
 """
 

@@ -14,6 +14,10 @@ class Stop(enum.Enum):
     CYCLE = "the active-set steps cycle"
     MAX_ITER = "the active-set steps did not settle"
     SINGULAR_FORCES = "the mixed system on the rows carrying the forces is singular"
+    SIGNS = ("the answer on the settled active set breaks a sign, the friction cone or the slip direction, or its "
+             "residual is above rounding")
+    WORSE = "the answer's energy is above the interior point's"
+    NOT_POSED = "the finish does not apply to this problem"
 
 
 class Declined(str):

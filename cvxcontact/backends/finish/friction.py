@@ -1,0 +1,209 @@
+"""The exact finish of a friction law (Tresca, Coulomb; docs/howto/friction.md, "The exact finish"): semismooth
+Newton on the mixed system (26)-(27) with the friction rows, in the Alart-Curnier (projection) form, from the
+interior point's answer.
+
+Unknowns w = (x, y, mu): x the stacked unknowns of :func:`~cvxcontact.backends.mixed.mixed_system`, y the normal
+row forces, mu_a (c components, c = 1 in 2D, 2 in 3D) the tangential force of frictional row a, s_a = S_a x + s0_a
+its slip and c_a = c0_a + D_a y_a its capacity (Tresca: D = 0; Coulomb: c0 = 0, D = mu). With r_n, r_t > 0 (force
+per displacement) the conditions are
+
+    T x - b + G^T y + S^T mu = 0                                  (momentum and Gauss rows of (26))
+    y_a - max(0, y_a + r_n (G x - g)_a) = 0                        (Signorini, (27))
+    mu_a - proj_{B(c_a)}(mu_a + r_t s_a) = 0                       (|mu_a| <= c_a, mu_a = c_a s_a/|s_a| on slip)
+
+whose generalised Jacobian at the point's own active set is: a closed row G_a x = g_a, an open row y_a = 0; a
+stuck row (|z_a| <= c_a, z_a = mu_a + r_t s_a) S_a x + s0_a = 0; a slipping row mu_a - c_a t_a = 0 with
+t_a = z_a / |z_a|, linearised with P_a = I - t_a t_a^T, k_a = c_a / |z_a| as
+(I - k_a P_a) dmu_a - k_a r_t P_a S_a dx - D_a t_a dy_a. In 2D P_a = 0: a slipping row's force is c_a sign(z_a),
+a linear condition, and the steps end once the active set is right; in 3D the direction is nonlinear and the
+steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .declined import Declined, Stop
+from .lcp import SIGN_TOL
+
+__all__ = ["FrictionRows", "solve_friction"]
+
+MAX_STEPS = 50
+"""Newton steps at most."""
+
+STALLS = 3
+"""Full steps taken where no damping decreased the residual, at most (then declined: each step is a sparse LU)."""
+
+
+class FrictionRows:
+    """The friction rows of the finish (module docstring): ``S`` (r c, n) the slip rows on x (row-major: row a,
+    component j at a c + j), ``s0`` their prescribed part, ``rows`` the normal rows they sit on, ``c0``, ``D`` the
+    capacity c_a = c0_a + D_a y_a (scaled), ``moved`` the rows whose slip some unknown moves. A row no unknown
+    moves slips by its prescribed s0_a: its force is c_a s0_a / |s0_a| (the law), or 0 where s0_a = 0 (then (26)
+    does not determine it: its least value, like the held rows' normal forces)."""
+
+    def __init__(self, S, s0, rows, c0, D, components, moved):
+        self.S, self.s0, self.rows = sp.csr_matrix(S), np.asarray(s0, dtype=float), np.asarray(rows)
+        self.c0, self.D, self.nc = np.asarray(c0, dtype=float), np.asarray(D, dtype=float), int(components)
+        self.moved = np.asarray(moved, dtype=bool)
+        held = self.s0.reshape(-1, self.nc)
+        size = np.linalg.norm(held, axis=1)
+        self.held = np.where(self.moved[:, None] | (size[:, None] == 0), 0.0,
+                             held / np.maximum(size, np.finfo(float).tiny)[:, None])
+        """(r, c) the slip direction of the rows no unknown moves (0 where none is prescribed, or moved)."""
+
+    def slip(self, x) -> np.ndarray:
+        """(r, c) the slip of every row at x."""
+        return (self.S @ x + self.s0).reshape(-1, self.nc)
+
+    def capacity(self, y) -> np.ndarray:
+        """(r,) the capacities at the normal forces y (a tension counts as 0)."""
+        return self.c0 + self.D * np.maximum(y[self.rows], 0.0)
+
+
+def _blocks(B) -> sp.csr_matrix:
+    """Block diagonal of the (r, c, c) blocks B."""
+    r, c, _ = B.shape
+    return sp.bsr_matrix((B, np.arange(r), np.arange(r + 1)), shape=(r * c, r * c)).tocsr()
+
+
+class _System:
+    """The residual and Jacobian of the module docstring at one point, with its active set."""
+
+    def __init__(self, T, b, G, g, fr: FrictionRows, free, scales):
+        self.T, self.b, self.G, self.g, self.fr, self.free = T, b, G, g, fr, free
+        self.C, self.U = scales
+        self.r = self.C / self.U
+        self.absT, self.absG, self.absS = abs(T), abs(G), abs(fr.S)
+
+    def split(self, w):
+        n, R = self.T.shape[0], self.G.shape[0]
+        return w[:n], w[n:n + R], w[n + R:].reshape(-1, self.fr.nc)
+
+    def state(self, w):
+        """(closed, stuck, z, c): the point's active set (closed normal rows, stuck friction rows), z = mu + r_t s
+        and the capacities."""
+        x, y, mu = self.split(w)
+        closed = self.free & (y + self.r * (self.G @ x - self.g) > 0)
+        c = self.fr.capacity(y)
+        z = mu + self.r * self.fr.slip(x)
+        stuck = self.fr.moved & (np.linalg.norm(z, axis=1) <= c)
+        return closed, stuck, z, c
+
+    def residual(self, w, state=None):
+        """The scaled residual (momentum rows over the sizes of their terms, normal and friction rows over C)."""
+        x, y, mu = self.split(w)
+        closed, stuck, z, c = self.state(w) if state is None else state
+        flat = mu.ravel()
+        mom = self.T @ x - self.b + self.G.T @ y + self.fr.S.T @ flat
+        size = self.absT @ np.abs(x) + np.abs(self.b) + self.absG.T @ np.abs(y) + self.absS.T @ np.abs(flat)
+        mom = mom / np.maximum(size, np.finfo(float).tiny + 1e-300 * size.max(initial=0.0))
+        normal = np.where(closed, self.r * (self.G @ x - self.g), y) / self.C
+        norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
+        proj = np.where(stuck[:, None], z, c[:, None] * z / norm_z[:, None])
+        tang = np.where(self.fr.moved[:, None], mu - proj, mu - c[:, None] * self.fr.held) / self.C
+        return np.concatenate([mom, normal, tang.ravel()])
+
+    def jacobian(self, state):
+        closed, stuck, z, c = state
+        fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
+        norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
+        t = np.where(fr.moved[:, None], z / norm_z[:, None], fr.held)
+        k = np.where(fr.moved, c / norm_z, 0.0)
+        eye = np.broadcast_to(np.eye(nc), (len(c), nc, nc))
+        P = eye - t[:, :, None] * t[:, None, :]
+        slip = fr.moved & ~stuck
+        on_x = np.where(stuck[:, None, None], eye, np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
+        on_mu = np.where(stuck[:, None, None], 0.0, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
+        r_idx = np.repeat(np.arange(len(c)) * nc, nc) + np.tile(np.arange(nc), len(c))
+        dy = np.where(stuck[:, None], 0.0, -fr.D[:, None] * t).ravel()
+        on_y = sp.csr_matrix((dy, (r_idx, np.repeat(fr.rows, nc))), shape=(len(c) * nc, R))
+        Gc = sp.diags(closed.astype(float)) @ self.G
+        open_ = sp.diags((~closed).astype(float))
+        return sp.bmat([[self.T, self.G.T, fr.S.T],
+                        [Gc, open_, None],
+                        [_blocks(on_x) @ fr.S, on_y, _blocks(on_mu)]], format="csc")
+
+    def step_rhs(self, w, state):
+        """-F unscaled (the Newton right-hand side in the Jacobian's own units)."""
+        x, y, mu = self.split(w)
+        closed, stuck, z, c = state
+        mom = self.T @ x - self.b + self.G.T @ y + self.fr.S.T @ mu.ravel()
+        normal = np.where(closed, self.G @ x - self.g, y)
+        norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
+        s = self.fr.slip(x)
+        tang = np.where(stuck[:, None], s, mu - c[:, None] * z / norm_z[:, None])
+        tang = np.where(self.fr.moved[:, None], tang, mu - c[:, None] * self.fr.held)
+        return -np.concatenate([mom, normal, tang.ravel()])
+
+
+def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None):
+    """The exact finish of the module docstring from (x0, y0, mu0) (the interior point's answer, scaled).
+
+    ``T``, ``b``: the mixed system's matrix and loads (:meth:`~cvxcontact.backends.mixed.MixedEnergy.linearised`);
+    ``G``, ``g``: the normal rows G x <= g; ``fr``: the :class:`FrictionRows`; ``free``: the normal rows some
+    unknown moves (the others keep y = 0); ``scales``: (C, U) the force and displacement scales (the largest
+    capacity or normal row force; the largest displacement).
+
+    Returns ``(x, y, mu, closed, steps)`` with ``mu`` (r, c), or a :class:`Declined`: a singular step, steps that
+    did not settle, or an answer whose signs break at ``SIGN_TOL`` of the scales (a tension on a closed row, a
+    penetration of an open one, a force outside the cone, a slip not along its force). ``max_steps``: default
+    :data:`MAX_STEPS`."""
+    max_steps = MAX_STEPS if max_steps is None else max_steps
+    system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales)
+    w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
+    state = system.state(w)
+    merit = np.linalg.norm(system.residual(w, state))
+    seen, settled, stalled = set(), False, 0
+    for steps in range(1, max_steps + 1):
+        J = system.jacobian(state)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", spla.MatrixRankWarning)
+                dw = spla.splu(J).solve(system.step_rhs(w, state))
+        except (RuntimeError, spla.MatrixRankWarning):
+            return Declined(Stop.SINGULAR)
+        if not np.isfinite(dw).all():
+            return Declined(Stop.SINGULAR)
+        key = (state[0].tobytes(), state[1].tobytes())
+        alpha, trial = 1.0, None
+        while alpha >= 2.0 ** -10:                        # damping: halve until the scaled residual decreases
+            trial = w + alpha * dw
+            new = np.linalg.norm(system.residual(trial))
+            if new < (1.0 - 1e-4 * alpha) * merit:
+                break
+            alpha /= 2
+        else:
+            stalled += 1
+            if stalled > STALLS:
+                return Declined(Stop.MAX_ITER, "the damped Newton steps stopped decreasing the residual")
+            trial, new = w + dw, np.linalg.norm(system.residual(w + dw))   # no decrease: the full step
+        w, merit_old, merit = trial, merit, new
+        state = system.state(w)
+        same = (state[0].tobytes(), state[1].tobytes()) == key
+        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
+            settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
+            break
+        seen.add(key)
+        if not same and fr.nc == 1 and (state[0].tobytes(), state[1].tobytes()) in seen:
+            return Declined(Stop.CYCLE)                   # 2D: a set already solved exactly comes back
+    if not settled:
+        return Declined(Stop.MAX_ITER)
+    x, y, mu = system.split(w)
+    closed, _, _, c = state
+    C, U = scales
+    s = fr.slip(x)
+    a, norm_s = np.linalg.norm(mu, axis=1), np.linalg.norm(s, axis=1)
+    gap = G @ x - g
+    turned = a * norm_s - np.einsum("ij,ij->i", mu, s)
+    bad = (merit > SIGN_TOL or (y[closed] < -SIGN_TOL * C).any() or (gap[free & ~closed] > SIGN_TOL * U).any()
+           or (a[fr.moved] > c[fr.moved] + SIGN_TOL * C).any()
+           or (np.abs(c - a)[fr.moved] * norm_s[fr.moved] > SIGN_TOL * C * U).any()
+           or (turned[fr.moved] > SIGN_TOL * C * U).any())
+    if bad:
+        return Declined(Stop.SIGNS)
+    return x, y, mu, closed, steps

@@ -1,0 +1,103 @@
+"""The exact finish of a friction law (cvxcontact.backends.finish.friction, docs/howto/friction.md "The exact
+finish") on its own: independent nodes, each a point on springs pressed on a plane and pulled along it, whose
+answers are closed forms (2D) or the root of one scalar equation (3D, anisotropic tangential springs: the slip
+is not along the pull, the direction condition is genuinely nonlinear); and the decline that keeps the interior
+point's answer."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.optimize import brentq
+
+import cvxcontact as cc
+from cvxcontact.backends.finish import Declined, Stop
+from cvxcontact.backends.finish.friction import FrictionRows, solve_friction
+
+
+def nodes(nc, seed=0, n=12):
+    """n independent nodes, nc tangential components each: springs k_t (nc,) and k_n, a pull f (nc,) along the
+    plane and a push p into it; half Tresca (capacity c0), half Coulomb (capacity mu y); (the system, the
+    reference x, y, mu). Node i: unknowns (t_1..t_nc, n) at i (nc + 1); the row G x <= 0 is -u_n <= 0."""
+    rng = np.random.default_rng(seed)
+    kt = rng.uniform(0.5, 2.0, (n, nc))
+    kn = rng.uniform(0.5, 2.0, n)
+    p = rng.uniform(0.5, 2.0, n)
+    f = rng.normal(size=(n, nc))
+    coulomb = np.arange(n) % 2 == 1
+    c0 = np.where(coulomb, 0.0, rng.uniform(0.2, 1.5, n))
+    D = np.where(coulomb, rng.uniform(0.2, 1.0, n), 0.0)
+    m = nc + 1
+    T = sp.diags(np.column_stack([kt, kn]).ravel()).tocsr()
+    b = np.column_stack([f, -p]).ravel()
+    G = sp.csr_matrix((-np.ones(n), (np.arange(n), m * np.arange(n) + nc)), shape=(n, m * n))
+    S = sp.csr_matrix((np.ones(n * nc), (np.arange(n * nc), (m * np.arange(n)[:, None] + np.arange(nc)).ravel())),
+                      shape=(n * nc, m * n))
+    fr = FrictionRows(S, np.zeros(n * nc), np.arange(n), c0, D, nc, np.ones(n, dtype=bool))
+    # the reference: closed, y = p; stuck where |f| <= c, else x_t = (K_t + c / r)^-1 f with r = |x_t|
+    y = p.copy()
+    c = c0 + D * y
+    xt, mu = np.zeros((n, nc)), f.copy()
+    for i in np.flatnonzero(np.linalg.norm(f, axis=1) > c):
+        def gap(r, i=i):
+            return np.linalg.norm(f[i] / (kt[i] + c[i] / r)) - r
+        top = np.linalg.norm(f[i]) / kt[i].min()                 # gap > 0 near 0 (|f| > c), <= 0 at top
+        r = brentq(gap, 1e-12 * top, top, xtol=1e-300, rtol=4 * np.finfo(float).eps)
+        xt[i] = f[i] / (kt[i] + c[i] / r)
+        mu[i] = f[i] - kt[i] * xt[i]
+    x = np.column_stack([xt, np.zeros(n)]).ravel()
+    return (T, b, G, np.zeros(n), fr), (x, y, mu), (c, np.linalg.norm(f, axis=1))
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("nc", [1, 2])
+def test_the_finish_of_independent_nodes_is_their_closed_form(nc):
+    system, (x, y, mu), (c, pull) = nodes(nc)
+    slips = pull > c
+    assert 3 <= slips.sum() <= len(c) - 3                       # both kinds: stuck and slipping nodes
+    n = len(c)
+    # from a rough start (nothing moved, no force) and from the answer itself, 1e-3 off
+    for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(n), np.zeros((n, nc))),
+                        (x * (1 + 1e-3), y * (1 - 1e-3), mu * (1 + 1e-3))):
+        out = solve_friction(*system, np.ones(n, dtype=bool), x0, y0, mu0, (float(y.max()), float(np.abs(x).max())))
+        assert not isinstance(out, Declined), out
+        xf, yf, muf, closed, steps = out
+        assert closed.all()
+        # measured at most 2.2e-16 (x), 0 (y), 3.5e-16 (mu) for nc = 1 and 2, both starts (Haswell, Prescott)
+        assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
+        assert np.abs(yf - y).max() < 1e-12 * y.max()
+        assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
+        if nc == 1:
+            assert steps <= 4                                   # linear once the set is right: measured 3
+        if nc == 2:                                             # the slip is not along the pull (anisotropic)
+            f = system[1].reshape(n, nc + 1)[:, :nc]
+            turn = 1 - np.einsum("ij,ij->i", xf.reshape(n, 3)[:, :2], f) / (
+                np.linalg.norm(xf.reshape(n, 3)[:, :2], axis=1) * np.linalg.norm(f, axis=1) + 1e-300)
+            assert turn[slips].max() > 1e-3                        # measured 2.2e-2
+
+
+def test_steps_that_do_not_settle_are_declined_with_their_reason():
+    system, (x, y, _), _ = nodes(2)
+    n = len(y)
+    out = solve_friction(*system, np.ones(n, dtype=bool), np.zeros_like(x), np.zeros(n), np.zeros((n, 2)),
+                         (float(y.max()), float(np.abs(x).max())), max_steps=1)
+    assert isinstance(out, Declined) and out.stop == Stop.MAX_ITER
+
+
+def test_a_declined_finish_keeps_the_interior_point_answer(monkeypatch):
+    from friction_scenes import sheared
+
+    import cvxcontact.backends.finish.friction as finish
+
+    scene = sheared(0.9e6, cc.Tresca(1e6))
+    monkeypatch.setattr(finish, "MAX_STEPS", 0)                  # no step: the finish cannot settle
+    kept = cc.solve(scene)
+    assert kept.path == cc.Route.INTERIOR_POINT_FRICTION and not kept.polished and kept.info.finish is None
+    assert kept.ok                                              # the interior point at its accuracy, as before
+    assert kept.residuals()["stick-slip"] > 1e-9                # measured 9.5e-8: not the finish's rounding
+    monkeypatch.undo()
+    done = cc.solve(scene)
+    assert done.polished and done.info.finish == cc.Finish.FRICTION_NEWTON
+    plain = cc.solve(scene, polish=False)
+    assert plain.path == cc.Route.INTERIOR_POINT_FRICTION and not plain.polished
+    scale = np.abs(done.u[0]).max()
+    assert np.abs(plain.u[0] - done.u[0]).max() < 1e-8 * scale   # the same answer, at the IPM's accuracy: 5.4e-13

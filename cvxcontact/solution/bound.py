@@ -20,10 +20,17 @@ barycentre; the Johnson-Mercier space), H(div)-conforming. Its nodal values solv
 
 A the normal-traction continuity across every sub-triangle edge, div tau = -f on every sub-triangle (f
 constant) and the boundary conditions above at the two ends of each boundary edge (tau n is linear there, so
-the conditions hold everywhere on it). p: the solution's lumped contact pressure (the nodal forces over the
-lumped lengths: >= 0, the same resultant). The equality-constrained minimum is one sparse solve with the
+the conditions hold everywhere on it). The equality-constrained minimum is one sparse solve with the
 Schur complement A M^-1 A^T (M the compliance mass matrix, block diagonal), regularised and refined to
 rounding; the residual of A tau = b is checked.
+
+p: (PS) holds for any p >= 0 (P1 on the contact nodes, the merged nodes of a pair) and any admissible tau that
+carries it, so p minimises the right-hand side of (PS) jointly with tau. b = b0 + B p is linear in p, so
+each body's stress term, y^T S y with S y = b0 + B p - A tau0, is quadratic in p and the complementarity is
+c . p (c_j = 2 int phi_j (g - d . v) >= 0): one small non-negative least-squares problem (exact active set)
+over the p at the nodes of the solution's lumped pressure's support widened by two nodes each side (0
+elsewhere), then tau solved for that p as above. The lumped pressure (the row forces over the lumped
+lengths: oscillating between neighbours where the contact ends at a corner) is kept if it reads lower.
 
 v in K: u_h satisfies the rows at the nodes only; a curved obstacle (``distance="ray"``: g convex along the
 part) is violated between them. v = u_h - w with w = a_i d at the contact nodes (0 elsewhere), a_i the
@@ -45,9 +52,9 @@ tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field
 || kappa^{-1/2} . ||: one global sparse solve over the edge fluxes.
 
 Pairs of deformable bodies (docs/accuracy.md, "Pairs of deformable bodies"): K = {v : [v . nu] <= g on
-Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (the
-pair's lumped pressure, P1 on the merged mesh), so tau^1 n^1 = -tau^2 n^2, and (PS) holds with the sum of the
-bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's reconstruction mesh: the cells
+Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (P1
+on the merged mesh, minimising the bound over both bodies' stresses at once), so tau^1 n^1 = -tau^2 n^2, and
+(PS) holds with the sum of the bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's reconstruction mesh: the cells
 along Gamma_3 divided at the other body's nodes (a fan from the opposite vertex), so that p is linear on each
 of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
 traces, shared theta : 1 - theta at least energy. A rigid obstacle is the one-sided case (no division).
@@ -80,6 +87,7 @@ COVERED = ("2D P1, elastic or piezoelectric bodies against fixed rigid obstacles
 
 _GAUSS5 = np.polynomial.legendre.leggauss(5)
 _K3_INV = np.array([[3.0, -1.0, -1.0], [-1.0, 3.0, -1.0], [-1.0, -1.0, 3.0]])   # area/12 [[2,1,1],..]^-1 * area/3
+_ZONE_MARGIN = 2               # merged nodes beyond the lumped pressure's support where the optimised p may be > 0
 _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the stresses (Pa / Pa)
 
 
@@ -305,28 +313,31 @@ def _construct(sol) -> dict:
         loads = [side for cd in contacts for side in cd["sides"] if side["body"] == k]
         systems.append(_body_system(sol, body, v[k], phi_h, loads, n_p))
     c = np.concatenate([np.zeros(0), *(cd["weights"](v) for cd in contacts)])
-    p = _pressure(systems, c, np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)]))
+    p = _pressure(systems, c, np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)]),
+                  np.concatenate([np.zeros(0, dtype=bool), *(cd["zone"] for cd in contacts)]))
     for cd in contacts:
         cd["p"] = p[cd["offset"]:cd["offset"] + len(cd["x"])]
     bodies = [_body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
     residual = max((part["residual"] for part in bodies), default=0.0)
-    return dict(bodies=bodies, contacts=contacts, w=w, v=v, u_h=u_h, residual=residual)
+    return {"bodies": bodies, "contacts": contacts, "w": w, "v": v, "u_h": u_h, "residual": residual}
 
 
-def _pressure(systems, c, lumped):
+def _pressure(systems, c, lumped, zone):
     """The contact pressures p >= 0 (n_p,) that minimise the bound's square (PS) over (tau, p) jointly
     (docs/accuracy.md, "Which interface traction"): each body's tau is the M-closest to C eps(v) with
     A tau = b + B p, so its stress term is y^T S y with S y = b + B p - A tau0, quadratic in p; the
     complementarity is c . p (``c``: each hat function's 2 int (g - [v . nu]) >= 0). One small dense
-    non-negative least-squares problem (exact active set) over the pressures; ``lumped`` (the solution's lumped
-    pressures, >= 0) if it reads no lower. Any p >= 0 keeps (PS) a bound: the choice only sharpens it."""
+    non-negative least-squares problem (exact active set) over the pressures where ``zone`` (n_p,) is True (0
+    elsewhere); ``lumped`` (the solution's lumped pressures, >= 0, inside the zone) if it reads lower. Any
+    p >= 0 keeps (PS) a bound: the choice only sharpens it."""
     n_p = len(c)
-    if not n_p:
-        return c
+    free = np.flatnonzero(zone)
+    if not len(free):
+        return lumped
     H, q = np.zeros((n_p, n_p)), 0.5 * c
     for system in systems:
         B = system["B"].tocsc()
-        cols = np.flatnonzero(np.diff(B.indptr))
+        cols = np.intersect1d(np.flatnonzero(np.diff(B.indptr)), free)
         if not len(cols):
             continue
         r0 = system["rhs"] - system["A"] @ system["tau0"]
@@ -339,7 +350,7 @@ def _pressure(systems, c, lumped):
         return p @ H @ p + 2.0 * q @ p
 
     scale = np.sqrt(np.maximum(np.diag(H), 0.0))
-    on = scale > 1e-300
+    on = (scale > 1e-300) & zone
     p = np.zeros(n_p)
     if on.any():
         Hs = H[np.ix_(on, on)] / np.outer(scale[on], scale[on])
@@ -416,8 +427,8 @@ def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
     Minv = sp.block_diag(list(blocks), format="csr")
     S = (A @ Minv @ A.T).tocsc()                     # regularised: singular where rows are redundant
     lu = spla.splu((S + 1e-10 * S.diagonal().max() * sp.identity(S.shape[0], format="csc")).tocsc())
-    return dict(mesh=mesh, parent=parent, m=m0, area=area, tau0=tau0, v=lift @ v, phi_h=phi_h, D_v=D_v,
-                sigma_v=sigma_v, A=A, rhs=rhs, B=B, Minv=Minv, S=S, lu=lu)
+    return {"mesh": mesh, "parent": parent, "m": m0, "area": area, "tau0": tau0, "v": lift @ v, "phi_h": phi_h,
+            "D_v": D_v, "sigma_v": sigma_v, "A": A, "rhs": rhs, "B": B, "Minv": Minv, "S": S, "lu": lu}
 
 
 def _body_stress(sol, body, system, p) -> dict:
@@ -678,8 +689,13 @@ def _contact_data(sol, i, u_h):
         q = slack(v)
         return np.bincount(np.arange(len(x) - 1), q @ (1 - tq), len(x)) + np.concatenate([[0.0], q @ tq])
 
-    return dict(sides=sides, w=w, cells=owner, owner_body=members[0], term=term, weights=weights, x=x,
-                lumped=p_merged)
+    # where p may be positive: the lumped pressure's support widened by _ZONE_MARGIN merged nodes each side
+    zone = np.zeros(len(x), dtype=bool)
+    loaded = np.flatnonzero(p_merged > 0)
+    if len(loaded):
+        zone[max(loaded[0] - _ZONE_MARGIN, 0):loaded[-1] + _ZONE_MARGIN + 1] = True
+    return {"sides": sides, "w": w, "cells": owner, "owner_body": members[0], "term": term, "weights": weights,
+            "x": x, "lumped": p_merged, "zone": zone}
 
 
 def _correction(sol, i, sides, worst, u_h):

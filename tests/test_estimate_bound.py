@@ -150,7 +150,7 @@ def test_the_piezoelectric_bound_of_an_exact_solution_is_rounding(electric):
     assert est.relative < 1e-6
     # measured 1.2e-27, 2.4e-28, 1.1e-28 J/m against |||(u_h, phi_h)|||^2 = 1.4e4, 2.3e3, 2.2e3
     assert est.parts["electric"] <= 1e-20 * est.norm ** 2
-    assert est.parts["stress"] <= 1e-20 * est.norm ** 2
+    assert est.parts["stress"] <= 1e-20 * est.norm ** 2        # measured 5.2e-24, 2.7e-25, 2.8e-28 J/m
 
 
 def test_the_electric_displacement_is_equilibrated_where_the_construction_did_not_look():

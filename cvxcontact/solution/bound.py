@@ -30,7 +30,8 @@ each body's stress term, y^T S y with S y = b0 + B p - A tau0, is quadratic in p
 c . p (c_j = 2 int phi_j (g - d . v) >= 0): one small non-negative least-squares problem (exact active set)
 over the p at the nodes of the solution's lumped pressure's support widened by two nodes each side (0
 elsewhere), then tau solved for that p as above. The lumped pressure (the row forces over the lumped
-lengths: oscillating between neighbours where the contact ends at a corner) is kept if it reads lower.
+lengths: oscillating between neighbours where the contact ends at a corner) is kept if it reads lower or the
+active set does not settle.
 
 v in K: u_h satisfies the rows at the nodes only; a curved obstacle (``distance="ray"``: g convex along the
 part) is violated between them. v = u_h - w with w = a_i d at the contact nodes (0 elsewhere), a_i the
@@ -54,9 +55,9 @@ tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field
 Pairs of deformable bodies (docs/accuracy.md, "Pairs of deformable bodies"): K = {v : [v . nu] <= g on
 Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (P1
 on the merged mesh, minimising the bound over both bodies' stresses at once), so tau^1 n^1 = -tau^2 n^2, and
-(PS) holds with the sum of the bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's reconstruction mesh: the cells
-along Gamma_3 divided at the other body's nodes (a fan from the opposite vertex), so that p is linear on each
-of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
+(PS) holds with the sum of the bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's
+reconstruction mesh: the cells along Gamma_3 divided at the other body's nodes (a fan from the opposite
+vertex), so that p is linear on each of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
 traces, shared theta : 1 - theta at least energy. A rigid obstacle is the one-sided case (no division).
 
 Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
@@ -324,12 +325,12 @@ def _construct(sol) -> dict:
 
 def _pressure(systems, c, lumped, zone):
     """The contact pressures p >= 0 (n_p,) that minimise the bound's square (PS) over (tau, p) jointly
-    (docs/accuracy.md, "Which interface traction"): each body's tau is the M-closest to C eps(v) with
+    (docs/accuracy.md, "A guaranteed bound"): each body's tau is the M-closest to C eps(v) with
     A tau = b + B p, so its stress term is y^T S y with S y = b + B p - A tau0, quadratic in p; the
     complementarity is c . p (``c``: each hat function's 2 int (g - [v . nu]) >= 0). One small dense
     non-negative least-squares problem (exact active set) over the pressures where ``zone`` (n_p,) is True (0
-    elsewhere); ``lumped`` (the solution's lumped pressures, >= 0, inside the zone) if it reads lower. Any
-    p >= 0 keeps (PS) a bound: the choice only sharpens it."""
+    elsewhere); ``lumped`` (the solution's lumped pressures, >= 0, inside the zone) if it reads lower or the
+    active set does not settle. Any p >= 0 keeps (PS) a bound: the choice only sharpens it."""
     n_p = len(c)
     free = np.flatnonzero(zone)
     if not len(free):
@@ -357,7 +358,11 @@ def _pressure(systems, c, lumped, zone):
         lam, V = np.linalg.eigh(Hs)
         keep = lam > 1e-13 * lam.max()
         root = np.sqrt(lam[keep])
-        z, _ = nnls(root[:, None] * V[:, keep].T, -(V[:, keep].T @ (q[on] / scale[on])) / root, maxiter=50 * n_p)
+        try:
+            z, _ = nnls(root[:, None] * V[:, keep].T, -(V[:, keep].T @ (q[on] / scale[on])) / root,
+                        maxiter=50 * n_p)
+        except RuntimeError:                         # the active set did not settle: the lumped pressure
+            return lumped
         p[on] = z / scale[on]
     return p if f(p) <= f(lumped) else lumped
 

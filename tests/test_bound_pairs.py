@@ -23,9 +23,14 @@ PAIRS = ["punch, partial overlap (pair), P1", "Hertz cylinder (pair), P1", "stac
          "two blocks (piezo pair), P1", "PZT layer, floating electrode, punch (pair), P1"]
 
 # measured effectivity (bound / true error) at levels 0, 1, 2 against a reference at level 3: (smallest, largest)
-MEASURED = {"punch, partial overlap (pair), P1": (2.45, 3.45), "Hertz cylinder (pair), P1": (1.85, 2.78),
-            "stack of three (two pairs), P1": (1.55, 1.81), "two blocks (piezo pair), P1": (1.58, 2.29),
-            "PZT layer, floating electrode, punch (pair), P1": (1.40, 1.61)}
+# (with the lumped pressure p, before p minimised the bound: punch 2.45-3.45, Hertz 1.85-2.78, stack 1.55-1.81,
+# two blocks 1.58-2.29, PZT layer 1.40-1.61)
+MEASURED = {"punch, partial overlap (pair), P1": (1.25, 1.75), "Hertz cylinder (pair), P1": (1.81, 2.38),
+            "stack of three (two pairs), P1": (1.30, 1.41), "two blocks (piezo pair), P1": (1.31, 1.58),
+            "PZT layer, floating electrode, punch (pair), P1": (1.27, 1.56)}
+# issue 30's claim for 2D P1: effectivity in [1, 3]; the punch (where the lumped pressure read 3.35-3.45) is held
+# to it (measured at most 1.75); the others to 3 times their measured largest
+CLAIM = {"punch, partial overlap (pair), P1": 3.0}
 
 
 def squeezed(nx_lower: int, piezo: bool = False):
@@ -55,7 +60,9 @@ def test_the_bound_of_an_exact_pair_solution_is_rounding(nx_lower, piezo):
     # measured: relative 2.0e-8, 1.7e-8 (elastic matching, non-matching), 1.7e-8, 1.7e-8 (piezo): the
     # unsquared complementarity's rounding (|||u_h||| = 37 and 34)
     assert est.relative < 1e-6
-    assert est.parts["stress"] <= 1e-20 * est.norm ** 2            # measured 6e-28 .. 1.7e-25 J/m
+    # measured 1.3e-25 .. 3.6e-24 J/m (the pressure found by least squares: rounding of a squared system; with
+    # the lumped pressure 6e-28 .. 1.5e-25) against |||u_h|||^2 = 1.1e3 .. 1.4e3
+    assert est.parts["stress"] <= 1e-20 * est.norm ** 2
     assert est.parts["electric"] <= 1e-20 * est.norm ** 2          # measured 1.4e-28 J/m
     assert est.parts["correction"] <= 1e-12 * est.norm              # measured 7e-15 .. 1.8e-14 sqrt(J/m)
 
@@ -82,9 +89,40 @@ def test_the_pair_bound_is_above_the_true_error(name):
     for r in rows:
         assert r["ok"]
         assert r["effectivity"] >= 1.0, r
-        assert r["effectivity"] <= MEASURED[name][1] * 3, r
+        assert r["effectivity"] <= CLAIM.get(name, MEASURED[name][1] * 3), r
         assert r["equilibrium"] <= 1e-9                              # measured <= 1.1e-13
     assert rows[2]["bound"] < rows[0]["bound"]
+
+
+def test_the_pressure_minimises_the_bound(monkeypatch):
+    """The punch at level 0: the bound at the pressure the construction chose is no larger than at the solution's
+    lumped pressure (the earlier choice) nor at 12 random admissible perturbations of it (p + delta >= 0 on the
+    merged nodes, steps of 1 % and 10 % of its largest value), each with its stresses equilibrated anew: a
+    sampled check of the joint minimum over (tau, p), independent of the least-squares solver that found it."""
+    scene = study.SCENES["punch, partial overlap (pair), P1"][0]()
+    sol = cc.solve(scene, condition="gamma3", estimate=False)
+    chosen = {}
+    find = bound._pressure
+
+    def record(systems, c, lumped, zone):
+        chosen.update(p=find(systems, c, lumped, zone), lumped=lumped)
+        return chosen["p"]
+
+    monkeypatch.setattr(bound, "_pressure", record)
+    best = bound.error_bound(sol).absolute
+    p, lumped = chosen["p"], chosen["lumped"]
+    assert (p >= 0).all() and p.max() > 0
+
+    def at(q):
+        monkeypatch.setattr(bound, "_pressure", lambda *args: q)
+        return bound.error_bound(sol).absolute
+
+    assert at(lumped) > 2.0 * best                               # measured 24.23 against 8.751
+    rng = np.random.default_rng(30)
+    for k in range(12):                                          # steps of 1 % and 10 % of the largest p
+        trial = np.maximum(p + (0.1 if k % 2 else 0.01) * p.max() * rng.standard_normal(len(p)), 0.0)
+        # measured: 1.1e-4 .. 8.6e-4 relative above (1 % steps), 1.3e-2 .. 0.14 (10 %); rounding 1e-14
+        assert at(trial) >= best * (1 - 1e-9)
 
 
 def _traction(mesh, tau, point, normal):

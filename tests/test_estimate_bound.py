@@ -18,9 +18,10 @@ from cvxcontact.solution import bound
 pytestmark = pytest.mark.numerics   # equilibrated fluxes, sparse saddle-point solves (every kernel set)
 
 # measured effectivity (bound / true error), levels 0, 1 and 2, reference at level 3
-MEASURED = {"circle (ray), P1": (1.57, 2.27), "crowned block on a plane, P1": (1.34, 1.49),
-            "PZT layer, floating electrode, rigid circle, P1": (2.18, 2.62),
-            "PZT block, charges, crowned on a plane, P1": (1.67, 1.88)}
+# (the pressure minimising the bound; with the lumped pressure: 1.57-2.27, 1.34-1.49, 2.18-2.62, 1.67-1.88)
+MEASURED = {"circle (ray), P1": (1.53, 2.21), "crowned block on a plane, P1": (1.34, 1.48),
+            "PZT layer, floating electrode, rigid circle, P1": (2.18, 2.58),
+            "PZT block, charges, crowned on a plane, P1": (1.67, 1.87)}
 
 
 def uniaxial(approach=1e-4, nx=4, ny=2):
@@ -149,7 +150,7 @@ def test_the_piezoelectric_bound_of_an_exact_solution_is_rounding(electric):
     assert est.relative < 1e-6
     # measured 1.2e-27, 2.4e-28, 1.1e-28 J/m against |||(u_h, phi_h)|||^2 = 1.4e4, 2.3e3, 2.2e3
     assert est.parts["electric"] <= 1e-20 * est.norm ** 2
-    assert est.parts["stress"] <= 1e-20 * est.norm ** 2
+    assert est.parts["stress"] <= 1e-20 * est.norm ** 2        # measured 5.2e-24, 2.7e-25, 2.8e-28 J/m
 
 
 def test_the_electric_displacement_is_equilibrated_where_the_construction_did_not_look():

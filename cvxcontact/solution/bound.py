@@ -20,10 +20,18 @@ barycentre; the Johnson-Mercier space), H(div)-conforming. Its nodal values solv
 
 A the normal-traction continuity across every sub-triangle edge, div tau = -f on every sub-triangle (f
 constant) and the boundary conditions above at the two ends of each boundary edge (tau n is linear there, so
-the conditions hold everywhere on it). p: the solution's lumped contact pressure (the nodal forces over the
-lumped lengths: >= 0, the same resultant). The equality-constrained minimum is one sparse solve with the
+the conditions hold everywhere on it). The equality-constrained minimum is one sparse solve with the
 Schur complement A M^-1 A^T (M the compliance mass matrix, block diagonal), regularised and refined to
 rounding; the residual of A tau = b is checked.
+
+p: (PS) holds for any p >= 0 (P1 on the contact nodes, the merged nodes of a pair) and any admissible tau that
+carries it, so p minimises the right-hand side of (PS) jointly with tau. b = b0 + B p is linear in p, so
+each body's stress term, y^T S y with S y = b0 + B p - A tau0, is quadratic in p and the complementarity is
+c . p (c_j = 2 int phi_j (g - d . v) >= 0): one small non-negative least-squares problem (exact active set)
+over the p at the nodes of the solution's lumped pressure's support widened by two nodes each side (0
+elsewhere), then tau solved for that p as above. The lumped pressure (the row forces over the lumped
+lengths: oscillating between neighbours where the contact ends at a corner) is kept if it reads lower or the
+active set does not settle.
 
 v in K: u_h satisfies the rows at the nodes only; a curved obstacle (``distance="ray"``: g convex along the
 part) is violated between them. v = u_h - w with w = a_i d at the contact nodes (0 elsewhere), a_i the
@@ -45,11 +53,11 @@ tau is built as above from sigma(v, phi_h); D~ is the Raviart-Thomas (RT0) field
 || kappa^{-1/2} . ||: one global sparse solve over the edge fluxes.
 
 Pairs of deformable bodies (docs/accuracy.md, "Pairs of deformable bodies"): K = {v : [v . nu] <= g on
-Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (the
-pair's lumped pressure, P1 on the merged mesh), so tau^1 n^1 = -tau^2 n^2, and (PS) holds with the sum of the
-bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's reconstruction mesh: the cells
-along Gamma_3 divided at the other body's nodes (a fan from the opposite vertex), so that p is linear on each
-of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
+Gamma_3}, [v . nu] = v^1 . nu^1 + v^2 . nu^2; each body's tau carries -p nu^k on Gamma_3 with one p >= 0 (P1
+on the merged mesh, minimising the bound over both bodies' stresses at once), so tau^1 n^1 = -tau^2 n^2, and
+(PS) holds with the sum of the bodies' stress terms and 2 int p (g - [v . nu]). tau^k is built on the body's
+reconstruction mesh: the cells along Gamma_3 divided at the other body's nodes (a fan from the opposite
+vertex), so that p is linear on each of its contact edges. The correction w covers the largest violation of each merged segment on both sides'
 traces, shared theta : 1 - theta at least energy. A rigid obstacle is the one-sided case (no division).
 
 Covered (:data:`COVERED`); others raise :class:`~cvxcontact.errors.UnsupportedError` naming what is.
@@ -60,6 +68,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.optimize import nnls
 
 from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SceneError, SolverError, UnsupportedError
@@ -79,6 +88,7 @@ COVERED = ("2D P1, elastic or piezoelectric bodies against fixed rigid obstacles
 
 _GAUSS5 = np.polynomial.legendre.leggauss(5)
 _K3_INV = np.array([[3.0, -1.0, -1.0], [-1.0, 3.0, -1.0], [-1.0, -1.0, 3.0]])   # area/12 [[2,1,1],..]^-1 * area/3
+_ZONE_MARGIN = 2               # merged nodes beyond the lumped pressure's support where the optimised p may be > 0
 _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the stresses (Pa / Pa)
 
 
@@ -156,16 +166,20 @@ class _Rows:
 
     def __init__(self):
         self.r, self.c, self.v, self.b = [], [], [], []
+        self.loads = []                                    # (rows, sparse (k, n_p)): rhs + load @ p
         self.count = 0
 
-    def add(self, terms, rhs):
-        """One row per entry of ``rhs`` (k,): ``terms`` a list of (columns (k,), coefficients (k,))."""
+    def add(self, terms, rhs, load=None):
+        """One row per entry of ``rhs`` (k,): ``terms`` a list of (columns (k,), coefficients (k,)); ``load``
+        (k, n_p) sparse or None: the rows' right-hand sides are rhs + load @ p for the contact pressures p."""
         rows = self.count + np.arange(len(rhs))
         for cols, coef in terms:
             self.r.append(rows)
             self.c.append(np.asarray(cols))
             self.v.append(np.broadcast_to(np.asarray(coef, dtype=float), rows.shape))
         self.b.append(np.asarray(rhs, dtype=float))
+        if load is not None:
+            self.loads.append((rows, sp.coo_matrix(load)))
         self.count += len(rhs)
 
     def traction(self, sub, vertex, n, sign=1.0):
@@ -174,10 +188,17 @@ class _Rows:
         return ([[(xx, sign * n[:, 0]), (xy, sign * n[:, 1])],
                  [(xy, sign * n[:, 0]), (yy, sign * n[:, 1])]])
 
-    def matrix(self, size):
+    def matrix(self, size, n_p):
+        """(A, b, B): A tau = b + B p, B (rows, n_p) sparse."""
         A = sp.csr_matrix((np.concatenate(self.v), (np.concatenate(self.r), np.concatenate(self.c))),
                           shape=(self.count, size))
-        return A, np.concatenate(self.b)
+        r = [rows[load.row] for rows, load in self.loads]
+        c = [load.col for _, load in self.loads]
+        v = [load.data for _, load in self.loads]
+        B = sp.csr_matrix((np.concatenate([np.zeros(0), *v]), (np.concatenate([np.zeros(0, int), *r]),
+                                                                np.concatenate([np.zeros(0, int), *c]))),
+                          shape=(self.count, n_p))
+        return A, np.concatenate(self.b), B
 
 
 def _continuity(rows, sub_a, va, sub_b, vb, n):
@@ -254,7 +275,7 @@ def error_bound(sol) -> ErrorEstimate:
         norm2 += float(cell_energies(body, b["u_h"][k], part["phi_h"], 1).sum())
     comp = 0.0
     for cd in b["contacts"]:
-        term = cd["term"](b["v"])
+        term = cd["term"](b["v"], cd["p"])
         comp += float(term.sum())
         np.add.at(eta2[cd["owner_body"]], cd["cells"], term)
     correction = float(np.sqrt(max(correction2, 0.0)))
@@ -276,25 +297,81 @@ def _construct(sol) -> dict:
             _refuse("normal compliance")
     u_h = [np.asarray(u, dtype=float) for u in sol.u]
     contacts = [_contact_data(sol, i, u_h) for i in range(len(scene.contacts))]
+    n_p = 0                                         # the pairs' pressures, one vector: pair i at offset + ...
+    for cd in contacts:
+        cd["offset"] = n_p
+        for side in cd["sides"]:
+            side["offset"] = n_p
+        n_p += len(cd["x"])
     w = [np.zeros_like(u) for u in u_h]
     for cd in contacts:
         for k, wk in cd["w"]:
             w[k] += wk
     v = [u - wk for u, wk in zip(u_h, w)]
-    bodies, residual = [], 0.0
+    systems = []
     for k, body in enumerate(scene.bodies):
         phi_h = None if sol.phi[k] is None else np.asarray(sol.phi[k], dtype=float)
         loads = [side for cd in contacts for side in cd["sides"] if side["body"] == k]
-        part = _body_stress(sol, body, v[k], phi_h, loads)
-        residual = max(residual, part["residual"])
-        bodies.append(part)
-    return dict(bodies=bodies, contacts=contacts, w=w, v=v, u_h=u_h, residual=residual)
+        systems.append(_body_system(sol, body, v[k], phi_h, loads, n_p))
+    c = np.concatenate([np.zeros(0), *(cd["weights"](v) for cd in contacts)])
+    p = _pressure(systems, c, np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)]),
+                  np.concatenate([np.zeros(0, dtype=bool), *(cd["zone"] for cd in contacts)]))
+    for cd in contacts:
+        cd["p"] = p[cd["offset"]:cd["offset"] + len(cd["x"])]
+    bodies = [_body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
+    residual = max((part["residual"] for part in bodies), default=0.0)
+    return {"bodies": bodies, "contacts": contacts, "w": w, "v": v, "u_h": u_h, "residual": residual}
 
 
-def _body_stress(sol, body, v, phi_h, loads) -> dict:
-    """The equilibrated stress of one body (module docstring) on its reconstruction mesh (the contact edges of
-    its pairs divided at the breakpoints in ``loads``), for the admissible displacement ``v`` (n, 2) and the
-    potential ``phi_h`` (n,) or None; ``loads``: per contact side, dict(breaks, pressure(s), d, part, lo, hi)."""
+def _pressure(systems, c, lumped, zone):
+    """The contact pressures p >= 0 (n_p,) that minimise the bound's square (PS) over (tau, p) jointly
+    (docs/accuracy.md, "A guaranteed bound"): each body's tau is the M-closest to C eps(v) with
+    A tau = b + B p, so its stress term is y^T S y with S y = b + B p - A tau0, quadratic in p; the
+    complementarity is c . p (``c``: each hat function's 2 int (g - [v . nu]) >= 0). One small dense
+    non-negative least-squares problem (exact active set) over the pressures where ``zone`` (n_p,) is True (0
+    elsewhere); ``lumped`` (the solution's lumped pressures, >= 0, inside the zone) if it reads lower or the
+    active set does not settle. Any p >= 0 keeps (PS) a bound: the choice only sharpens it."""
+    n_p = len(c)
+    free = np.flatnonzero(zone)
+    if not len(free):
+        return lumped
+    H, q = np.zeros((n_p, n_p)), 0.5 * c
+    for system in systems:
+        B = system["B"].tocsc()
+        cols = np.intersect1d(np.flatnonzero(np.diff(B.indptr)), free)
+        if not len(cols):
+            continue
+        r0 = system["rhs"] - system["A"] @ system["tau0"]
+        Z = system["lu"].solve(np.column_stack([r0, B[:, cols].toarray()]))
+        G = Z.T @ (system["S"] @ Z)
+        H[np.ix_(cols, cols)] += 0.5 * (G[1:, 1:] + G[1:, 1:].T)
+        q[cols] += G[1:, 0]
+
+    def f(p):                                        # the bound's square up to a constant
+        return p @ H @ p + 2.0 * q @ p
+
+    scale = np.sqrt(np.maximum(np.diag(H), 0.0))
+    on = (scale > 1e-300) & zone
+    p = np.zeros(n_p)
+    if on.any():
+        Hs = H[np.ix_(on, on)] / np.outer(scale[on], scale[on])
+        lam, V = np.linalg.eigh(Hs)
+        keep = lam > 1e-13 * lam.max()
+        root = np.sqrt(lam[keep])
+        try:
+            z, _ = nnls(root[:, None] * V[:, keep].T, -(V[:, keep].T @ (q[on] / scale[on])) / root,
+                        maxiter=50 * n_p)
+        except RuntimeError:                         # the active set did not settle: the lumped pressure
+            return lumped
+        p[on] = z / scale[on]
+    return p if f(p) <= f(lumped) else lumped
+
+
+def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
+    """The conditions on the equilibrated stress of one body (module docstring) on its reconstruction mesh (the
+    contact edges of its pairs divided at the breakpoints in ``loads``), for the admissible displacement ``v``
+    (n, 2) and the potential ``phi_h`` (n,) or None; ``loads``: per contact side, dict(breaks, d, part, x, tol,
+    offset): A tau = b + B p for the pressures p (n_p,), its Schur complement S = A M^-1 A^T factorised."""
     mesh0 = body.mesh
     tri0 = mesh0.triangles
     m0 = len(tri0)
@@ -337,7 +414,7 @@ def _body_stress(sol, body, v, phi_h, loads) -> dict:
     sub0, sub1 = 3 * c0[inner] + l0[inner], 3 * c1 + l1
     _continuity(rows, sub0, 0, sub1, np.where(same, 0, 1), n_out[inner])
     _continuity(rows, sub0, 1, sub1, np.where(same, 1, 0), n_out[inner])
-    _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads)
+    _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads, n_p)
     # div tau = -f on every sub-triangle
     f = np.asarray(body.body_force.value, dtype=float)
     g = grad                                                                          # (3m, 2, 3)
@@ -345,25 +422,35 @@ def _body_stress(sol, body, v, phi_h, loads) -> dict:
              np.full(3 * m, -f[0]))
     rows.add([(_index(subs, k, 2), g[:, 0, k]) for k in range(3)] + [(_index(subs, k, 1), g[:, 1, k]) for k in range(3)],
              np.full(3 * m, -f[1]))
-    A, rhs = rows.matrix(size)
+    A, rhs, B = rows.matrix(size, n_p)
     scale = 1.0 / np.sqrt(np.asarray(A.multiply(A).sum(axis=1)).ravel())
-    A = sp.diags(scale) @ A
+    A, B = sp.diags(scale) @ A, sp.diags(scale) @ B
     rhs = rhs * scale
 
     # M^-1: per sub-triangle (3 / area) K3_INV kron C (the inverse of (area / 12) [[2,1,1],..] kron C^-1)
     blocks = (3.0 / area)[:, None, None] * np.kron(_K3_INV, c_mat)[None]
     Minv = sp.block_diag(list(blocks), format="csr")
-    tau = _equilibrate(A, rhs, Minv, tau0)
+    S = (A @ Minv @ A.T).tocsc()                     # regularised: singular where rows are redundant
+    lu = spla.splu((S + 1e-10 * S.diagonal().max() * sp.identity(S.shape[0], format="csc")).tocsc())
+    return {"mesh": mesh, "parent": parent, "m": m0, "area": area, "tau0": tau0, "v": lift @ v, "phi_h": phi_h,
+            "D_v": D_v, "sigma_v": sigma_v, "A": A, "rhs": rhs, "B": B, "Minv": Minv, "S": S, "lu": lu}
+
+
+def _body_stress(sol, body, system, p) -> dict:
+    """The equilibrated stress of one body (``system``: :func:`_body_system`) for the contact pressures p, its
+    conditions' residual checked, and the equilibrated electric displacement of a piezoelectric body."""
+    A, rhs = system["A"], system["rhs"] + system["B"] @ p
+    tau = _equilibrate(system["S"], system["lu"], A, rhs, system["Minv"], system["tau0"])
     residual = np.abs(A @ tau - rhs).max()
-    stress_scale = max(np.abs(tau).max(), np.abs(sigma_v).max(), np.finfo(float).tiny)
+    stress_scale = max(np.abs(tau).max(), np.abs(system["sigma_v"]).max(), np.finfo(float).tiny)
     if not residual <= _EQUILIBRIUM_TOL * stress_scale:
         raise SolverError(f"{body.name}: the equilibrated stress satisfies its conditions only to "
                           f"{residual / stress_scale:.3g} (relative; needed {_EQUILIBRIUM_TOL:g}): the error bound is "
                           "not available for this mesh")
-    part = dict(mesh=mesh, parent=parent, m=m0, area=area, tau=tau, tau0=tau0, v=lift @ v, phi_h=phi_h,
-                residual=float(residual / stress_scale), electric=np.zeros(m0))
+    part = {k: system[k] for k in ("mesh", "parent", "m", "area", "tau0", "v", "phi_h")}
+    part.update(tau=tau, residual=float(residual / stress_scale), electric=np.zeros(system["m"]))
     if body.piezoelectric:
-        D_vertices, electric, residual_e = _equilibrated_flux(sol, body, D_v)
+        D_vertices, electric, residual_e = _equilibrated_flux(sol, body, system["D_v"])
         part.update(D=D_vertices, electric=electric, residual=max(part["residual"], residual_e))
     return part
 
@@ -434,13 +521,10 @@ def _divided(mesh, cuts):
     return Mesh(points, triangles, boundaries), np.concatenate(parent), lift
 
 
-def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
+def _equilibrate(S, lu, A, rhs, Minv, tau0, steps: int = 30):
     """argmin (tau - tau0)^T M (tau - tau0) subject to A tau = rhs: tau = tau0 + M^-1 A^T y with
-    (A M^-1 A^T) y = rhs - A tau0, the Schur complement regularised (it is singular where rows are redundant)
-    and refined until the residual stops falling."""
-    S = (A @ Minv @ A.T).tocsc()
-    delta = 1e-10 * S.diagonal().max()
-    lu = spla.splu((S + delta * sp.identity(S.shape[0], format="csc")).tocsc())
+    S y = rhs - A tau0, S = A M^-1 A^T, ``lu`` the factors of S regularised (it is singular where rows are
+    redundant), refined until the residual stops falling."""
     r0 = rhs - A @ tau0
     y = np.zeros_like(r0)
     best, best_y = np.inf, y
@@ -455,11 +539,12 @@ def _equilibrate(A, rhs, Minv, tau0, steps: int = 30):
     return tau0 + Minv @ (A.T @ best_y)
 
 
-def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
+def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads, n_p):
     """tau n on the boundary edges of ``mesh`` (``body``'s reconstruction mesh; module docstring): traction t,
-    0 on free parts, -p d on the contact parts (``loads``: the edges inside a pair's overlap; 0 on the others),
-    tangential 0 on rollers, the free components 0 on parts with prescribed components, nothing on clamped
-    parts."""
+    0 on free parts, -p d on the contact parts (``loads``: the edges inside a pair's overlap, p the pair's
+    entries ``offset`` + (0 .. len(x) - 1) of the pressures (n_p,): right-hand sides linear in p; 0 on the
+    others), tangential 0 on rollers, the free components 0 on parts with prescribed components, nothing on
+    clamped parts."""
     p = mesh.points
     bnd = np.flatnonzero(cells[:, 1] < 0)
     key = pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1]
@@ -473,7 +558,8 @@ def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
     tri = mesh.triangles
     c0, l0 = cells[:, 0], local[:, 0]
     ends = np.column_stack([tri[c0, l0], tri[c0, (l0 + 1) % 3]])      # node of local vertex 0, 1 of the sub
-    pressure = np.zeros((len(key), 2, 2))                            # -p d at the two ends of contact edges
+    # -p d at the two ends j of the contact edges, component comp: pressure[j][comp] @ p (len(key), n_p)
+    pressure = [[sp.csr_matrix((len(key), n_p)) for _ in range(2)] for _ in range(2)]
     for load in loads:
         e = mesh.boundary(load["part"])
         idx = np.searchsorted(key, np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1]))
@@ -481,8 +567,13 @@ def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
         x, tol = load["x"], load["tol"]
         inside = ((s >= x[0] - tol) & (s <= x[-1] + tol)).all(axis=1)
         idx, s = idx[inside], s[inside]
+        pick = sp.csr_matrix((np.ones(len(idx)), (idx, np.arange(len(idx)))), shape=(len(key), len(idx)))
+        place = sp.csr_matrix((np.ones(len(x)), (load["offset"] + np.arange(len(x)), np.arange(len(x)))),
+                              shape=(n_p, len(x)))
         for j in range(2):
-            pressure[idx, j] = -np.interp(s[:, j], x, load["p"])[:, None] * load["d"][None]
+            hat = pick @ _hat(s[:, j], x) @ place.T
+            for comp in range(2):
+                pressure[j][comp] = pressure[j][comp] - load["d"][comp] * hat
     for j in range(2):
         for r in ("free", "traction", "contact"):
             idx = bnd[role[bnd] == r]
@@ -491,10 +582,8 @@ def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
             t = np.zeros((len(idx), 2))
             if r == "traction":
                 t = np.array([body.traction[tag_of[i]].value for i in idx], dtype=float)
-            elif r == "contact":
-                t = pressure[idx, j]
             for comp, terms in enumerate(rows.traction(3 * c0[idx] + l0[idx], j, n_out[idx])):
-                rows.add(terms, t[:, comp])
+                rows.add(terms, t[:, comp], pressure[j][comp][idx] if r == "contact" else None)
         idx = bnd[role[bnd] == "roller"]
         if len(idx):
             n = n_out[idx]
@@ -508,6 +597,17 @@ def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads):
             terms = rows.traction(np.array([3 * c0[i] + l0[i]]), j, n_out[[i]])
             for k in free:
                 rows.add(terms[k], np.zeros(1))
+
+
+def _hat(s, x):
+    """The P1 hat functions of the ascending nodes x at the points s (clamped to [x_0, x_-1]): (len(s),
+    len(x)) sparse, ``_hat(s, x) @ p == np.interp(s, x, p)``."""
+    s = np.clip(s, x[0], x[-1])
+    k = np.clip(np.searchsorted(x, s, side="right") - 1, 0, len(x) - 2)
+    t = (s - x[k]) / (x[k + 1] - x[k])
+    r = np.arange(len(s))
+    return sp.csr_matrix((np.concatenate([1.0 - t, t]), (np.concatenate([r, r]), np.concatenate([k, k + 1]))),
+                         shape=(len(s), len(x)))
 
 
 def _contact_data(sol, i, u_h):
@@ -534,7 +634,7 @@ def _contact_data(sol, i, u_h):
         jump_h += itf.interpolation(k) @ (u_h[body][trace.nodes] @ d)
         mine = np.zeros(len(x), dtype=bool)
         mine[itf.sigma[k]] = True
-        sides.append(dict(body=body, part=trace.part, d=d, trace=trace, x=x, p=p_merged, tol=tol,
+        sides.append(dict(body=body, part=trace.part, d=d, trace=trace, x=x, tol=tol,
                           tangent=np.asarray(itf.tangent, dtype=float),
                           breaks=(np.asarray(itf.tangent, dtype=float), x[~mine])))
 
@@ -578,14 +678,29 @@ def _contact_data(sol, i, u_h):
     tq, wq = 0.5 * (_GAUSS5[0] + 1.0), 0.5 * _GAUSS5[1]
     g_q = gap(s0[:, None] + tq[None] * (s1 - s0)[:, None])                     # (k, 5)
     length = s1 - s0
-    pq = (1 - tq)[None] * p_merged[:-1, None] + tq[None] * p_merged[1:, None]
 
-    def term(v):
+    def slack(v):
+        """2 |segment| (g - [v . nu]) at the Gauss points times their weights (k, 5)."""
         jump = sum(itf.interpolation(k) @ (v[sd["body"]][sd["trace"].nodes] @ sd["d"]) for k, sd in enumerate(sides))
         jq = (1 - tq)[None] * jump[:-1, None] + tq[None] * jump[1:, None]
-        return 2.0 * length * ((pq * (g_q - jq)) @ wq)
+        return 2.0 * length[:, None] * (g_q - jq) * wq[None]
 
-    return dict(sides=sides, w=w, cells=owner, owner_body=members[0], term=term)
+    def term(v, p):
+        """2 int p (g - [v . nu]) on each merged segment, for the pressure p (len(x),) P1 on the merged mesh."""
+        return (((1 - tq)[None] * p[:-1, None] + tq[None] * p[1:, None]) * slack(v)).sum(axis=1)
+
+    def weights(v):
+        """c (len(x),): 2 int p (g - [v . nu]) = c . p (the hat functions' integrals against the slack)."""
+        q = slack(v)
+        return np.bincount(np.arange(len(x) - 1), q @ (1 - tq), len(x)) + np.concatenate([[0.0], q @ tq])
+
+    # where p may be positive: the lumped pressure's support widened by _ZONE_MARGIN merged nodes each side
+    zone = np.zeros(len(x), dtype=bool)
+    loaded = np.flatnonzero(p_merged > 0)
+    if len(loaded):
+        zone[max(loaded[0] - _ZONE_MARGIN, 0):loaded[-1] + _ZONE_MARGIN + 1] = True
+    return {"sides": sides, "w": w, "cells": owner, "owner_body": members[0], "term": term, "weights": weights,
+            "x": x, "lumped": p_merged, "zone": zone}
 
 
 def _correction(sol, i, sides, worst, u_h):

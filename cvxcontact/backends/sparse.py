@@ -154,7 +154,8 @@ class SparseContact:
     ``E``, for every active set (module docstring). Built once per geometry; :meth:`solve` per load case.
 
     ``cap``: the largest number of rows changed from the base active set solved by the capacitance form
-    before refactorising (None: the measured cost of one factorisation in column solves, at least 16).
+    before refactorising (None: the measured cost of one factorisation in column solves, the columns solved in
+    blocks as the capacitance form solves them; at least 16, at most 500).
     """
 
     def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):

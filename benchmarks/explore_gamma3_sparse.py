@@ -40,6 +40,8 @@ VARIANTS = {                            # name -> (start, levels, cap of the cap
     "no-row-start": ("none", SHIPPED, None),
     "nodal-start": ("nodal", SHIPPED, None),
     "levels-1e-4,1e-6": ("bonded", ((1e-4, 1), (1e-6, 1)), None),
+    "levels-1e-2..1e-6-by-10": ("bonded", ((1e-2, 1), (1e-3, 1), (1e-4, 1), (1e-5, 1), (1e-6, 1)), None),
+    "levels-1e-1..1e-6-by-10": ("bonded", ((1e-1, 1), (1e-2, 1), (1e-3, 1), (1e-4, 1), (1e-5, 1), (1e-6, 1)), None),
     "levels-1e-2,1e-6": ("bonded", ((1e-2, 1), (1e-6, 1)), None),
     "level-1e-6": ("bonded", ((1e-6, 1),), None),
     "level-1e-2": ("bonded", ((1e-2, 1),), None),

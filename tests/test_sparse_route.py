@@ -75,6 +75,25 @@ def test_capacitance_steps_match_refactorised_steps(layer):
     assert rel(np.concatenate(a[0]), np.concatenate(b[0])) < 1e-10 and rel(a[2], b[2]) < 1e-10
 
 
+@pytest.mark.parametrize(("delta", "bound"), [(1e-2, 1e-10), (1e-4, 1e-8)])   # measured 6.6e-13, 6.7e-11
+def test_capacitance_steps_with_compliant_rows_match_refactorised_steps(delta, bound):
+    """The regularised stage of the "gamma3" route (dependent overlay rows between two 3D boxes, each closed row
+    compliant by delta times its own compliance): the capacitance form on one base factor (the compliant rows'
+    diagonal in its bordered system) takes the same Newton steps as a refactorisation at every step."""
+    from scenes3d import two_boxes
+
+    problem = cc.ContactSolver(two_boxes(6, "gamma3", elastic=True), "gamma3", method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    soft = delta * SparseContact(blocks, E).w
+    every, reuse = SparseContact(blocks, E, cap=0, soft=soft), SparseContact(blocks, E, cap=10**6, soft=soft)
+    bonded = np.ones(E.shape[0], dtype=bool)
+    a, b = every.regularised(F, g, bonded), reuse.regularised(F, g, bonded)
+    assert reuse.factorizations == 1 and every.factorizations == a[2] > 1 and reuse.column_solves > 0
+    assert np.array_equal(a[1], b[1]) and a[2] == b[2]
+    assert rel(b[0], a[0]) < bound
+
+
 def test_auto_takes_the_sparse_route_above_the_threshold(monkeypatch, layer):
     assert cc.ContactSolver(layer).method == "condensed"             # 69 rows: below SPARSE_ROWS
     monkeypatch.setattr(backends, "SPARSE_ROWS", 50)

@@ -106,19 +106,47 @@ class StrainEnergy:
         sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
-    def _blocks(self, C):
-        """The block diagonal (q s, q s) CSR of the (q, s, s) moduli C (every entry stored)."""
-        q, s = C.shape[0], self.s
-        cols = (np.arange(q)[:, None, None] * s + np.arange(s)[None, None, :]).repeat(s, axis=1)
-        return sp.csr_matrix((C.ravel(), cols.ravel(), np.arange(0, q * s * s + 1, s)), shape=(q * s, q * s))
+    def _local(self):
+        """The strain rows of each quadrature point as a dense (q, s, k) block B and its k columns (q, k) (-1:
+        padding; k the most columns one point touches), and where each local pair (k, k) falls in the CSR data of
+        :meth:`pattern`: the tangent's assembly is then H = sum_q B_q^T C_q B_q w_q scattered by one bincount
+        onto a fixed sparsity (no sparse products per Newton step). Built once."""
+        if getattr(self, "_scatter", None) is None:
+            A = sp.coo_matrix(self.A)
+            keep = A.data != 0.0                                    # a stored zero couples nothing
+            point, comp, col, val = A.row[keep] // self.s, A.row[keep] % self.s, A.col[keep], A.data[keep]
+            q, n = len(self.w), self.A.shape[1]
+            pairs, slot = np.unique(point.astype(np.int64) * n + col, return_inverse=True)   # (point, column)
+            owner = pairs // n
+            first = np.searchsorted(owner, np.arange(q))
+            local = np.arange(len(pairs)) - first[owner]             # the column's place among its point's
+            k = int(local.max(initial=-1)) + 1
+            B = np.zeros((q, self.s, k))
+            np.add.at(B, (point, comp, local[slot]), val)
+            cols = np.full((q, k), -1, dtype=np.int64)
+            cols[owner, local] = pairs % n
+            i, j = np.broadcast_to(cols[:, :, None], (q, k, k)), np.broadcast_to(cols[:, None, :], (q, k, k))
+            valid = ((i >= 0) & (j >= 0)).ravel()
+            key = (i.ravel() * n + j.ravel())[valid]
+            unique = np.unique(key)
+            indptr = np.searchsorted(unique // n, np.arange(n + 1))
+            self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, indptr), shape=(n, n))
+            self._scatter = (B, np.flatnonzero(valid), np.searchsorted(unique, key))
+        return self._scatter
 
     def pattern(self):
-        absA = abs(self.A)
-        return (absA.T @ self._blocks(np.ones((len(self.w), self.s, self.s))) @ absA > 0).astype(float)
+        self._local()
+        return self._shape.copy()
 
     def hessian(self, z):
+        """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
+        strains), assembled point by point (:meth:`_local`)."""
+        B, valid, where = self._local()
         C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        return (self.A.T @ self._blocks(C) @ self.A).tocsr()
+        local = np.matmul(np.matmul(B.transpose(0, 2, 1), C), B)    # (q, k, k): B_q^T C_q B_q
+        H = self._shape.copy()
+        H.data = np.bincount(where, weights=local.ravel()[valid], minlength=H.nnz)
+        return H
 
     def magnitude(self, z):
         sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]

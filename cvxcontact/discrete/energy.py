@@ -107,31 +107,36 @@ class StrainEnergy:
         return self.A.T @ sigma.ravel() / self.load - self.d
 
     def _local(self):
-        """The strain rows of each quadrature point as a dense (q, s, k) block B and its k columns (q, k) (-1:
-        padding; k the most columns one point touches), and where each local pair (k, k) falls in the CSR data of
-        :meth:`pattern`: the tangent's assembly is then H = sum_q B_q^T C_q B_q w_q scattered by one bincount
-        onto a fixed sparsity (no sparse products per Newton step). Built once."""
+        """The strain rows of each quadrature point as a dense (q, s, k) block B, its k columns (q, k) (padding:
+        a column of zeros; k the most columns one point touches) and where each local pair (k, k) falls in the CSR
+        data of :meth:`pattern` (padding: one place past the end): the tangent's assembly is then
+        H = sum_q B_q^T (w_q C_q) B_q scattered by one bincount onto a fixed sparsity. Built once."""
         if getattr(self, "_scatter", None) is None:
             A = sp.coo_matrix(self.A)
             keep = A.data != 0.0                                    # a stored zero couples nothing
             point, comp, col, val = A.row[keep] // self.s, A.row[keep] % self.s, A.col[keep], A.data[keep]
             q, n = len(self.w), self.A.shape[1]
-            pairs, slot = np.unique(point.astype(np.int64) * n + col, return_inverse=True)   # (point, column)
-            owner = pairs // n
-            first = np.searchsorted(owner, np.arange(q))
-            local = np.arange(len(pairs)) - first[owner]             # the column's place among its point's
-            k = int(local.max(initial=-1)) + 1
-            B = np.zeros((q, self.s, k))
-            np.add.at(B, (point, comp, local[slot]), val)
+            touched = sp.csr_matrix((np.ones(len(col)), (point, col)), shape=(q, n))     # points x columns
+            touched.sum_duplicates()
+            counts = np.diff(touched.indptr)
+            k = int(counts.max(initial=0))
             cols = np.full((q, k), -1, dtype=np.int64)
-            cols[owner, local] = pairs % n
-            i, j = np.broadcast_to(cols[:, :, None], (q, k, k)), np.broadcast_to(cols[:, None, :], (q, k, k))
-            valid = ((i >= 0) & (j >= 0)).ravel()
-            key = (i.ravel() * n + j.ravel())[valid]
-            unique = np.unique(key)
-            indptr = np.searchsorted(unique // n, np.arange(n + 1))
-            self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, indptr), shape=(n, n))
-            self._scatter = (B, np.flatnonzero(valid), np.searchsorted(unique, key))
+            owner = np.repeat(np.arange(q), counts)
+            cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
+            B = np.zeros((q, self.s, k))
+            np.add.at(B, (point, comp, (cols[point] == col[:, None]).argmax(axis=1)), val)
+            i, j = np.broadcast_to(cols[:, :, None], (q, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (q, k, k)).ravel()
+            valid = (i >= 0) & (j >= 0)
+            key = np.where(valid, i * n + j, n * n)                 # padding sorts last
+            order = np.argsort(key, kind="stable")
+            new = np.concatenate([[True], key[order][1:] != key[order][:-1]])
+            place = np.empty(len(key), dtype=np.int64)
+            place[order] = np.cumsum(new) - 1                      # the pair's place among the distinct pairs
+            unique = key[order][new]
+            unique = unique[unique < n * n]
+            self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, np.searchsorted(unique // n, np.arange(
+                n + 1))), shape=(n, n))
+            self._scatter = (B, place)
         return self._scatter
 
     def pattern(self):
@@ -141,11 +146,11 @@ class StrainEnergy:
     def hessian(self, z):
         """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
         strains), assembled point by point (:meth:`_local`)."""
-        B, valid, where = self._local()
+        B, place = self._local()
         C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        local = np.matmul(np.matmul(B.transpose(0, 2, 1), C), B)    # (q, k, k): B_q^T C_q B_q
+        local = np.einsum("qak,qab,qbl->qkl", B, C, B, optimize=True)                # (q, k, k): B_q^T C_q B_q
         H = self._shape.copy()
-        H.data = np.bincount(where, weights=local.ravel()[valid], minlength=H.nnz)
+        H.data = np.bincount(place, weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
         return H
 
     def magnitude(self, z):

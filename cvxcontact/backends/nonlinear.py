@@ -73,16 +73,17 @@ rounding, never less than the exact step would beyond that (the steps' stopping 
 (26) itself, is unchanged); the final steps, where that residual is near rounding, are solved to rounding."""
 
 NEAR = 1e-3
-"""The relative residual |b - A z_0| / |b| of the last step's answer z_0 in a Newton step's system below which
-:class:`TangentSolver` tries GMRES preconditioned by the last factorisation before factorising: near the answer
-the tangent changes only at the few points that yield or unload and the active set little, and the last factor is
-a good preconditioner; farther, GMRES took more iterations than a factorisation costs (measured, below)."""
+"""After a step whose GMRES did not converge, :class:`TangentSolver` factorises the next steps' systems directly
+until the last step's answer z_0 nearly solves one, |b - A z_0| <= NEAR |b|: far from the answer the tangent
+changes at many points between steps (the plastic zone grows) and GMRES on the last factor took more iterations
+than a factorisation costs (2D P1, 26k unknowns: 14-24 iterations to 1e-4 there, 2-5 near the answer)."""
 
-KRYLOV = 6
-"""The most GMRES iterations of :class:`TangentSolver` before a step's system is factorised itself (and
-preconditions the next ones). One iteration costs one pair of triangular sweeps and one product with the matrix,
-a factorisation about ten (PARDISO, one thread, 2D P1 at 1e5 unknowns: 0.07 s against 0.7 s). 0: a factorisation
-every step."""
+KRYLOV = 15
+"""The most GMRES iterations of :class:`TangentSolver` on one step's system before it is factorised itself (and
+preconditions the next ones). Below it, the budget is half the iterations a factorisation is worth: PARDISO's
+analysis reports a factorisation's flops F and the factor's nonzeros L; one iteration (two triangular sweeps and a
+product) was measured at F / (4 L) / 5 times less than a factorisation (one thread: 2D P1 8.5 and 8.7 at 26k and
+1e5 unknowns, 3D P1 29 at 24k; SuperLU: 6 iterations). 0: a factorisation every step."""
 
 
 class TangentSolver:
@@ -100,8 +101,10 @@ class TangentSolver:
     else SuperLU without pivoting in the quasi-definite order :func:`~cvxcontact.backends.sparse.ordering`.
 
     Each system is first solved by GMRES preconditioned by the last numeric factorisation (of an earlier step's
-    matrix; at most ``krylov`` iterations, :data:`KRYLOV`), else factorised itself and solved, then refined (up to
-    three steps against the matrix itself). Either way the answer is accepted only once every row's residual is
+    matrix), from the last step's answer, inexact by :data:`FORCING` (a budget of iterations: ``krylov`` if given,
+    else half what a factorisation is worth, at most :data:`KRYLOV`; after a step whose GMRES did not converge only
+    near the answer, :data:`NEAR`), else factorised itself and solved, then refined (up to three steps against the
+    matrix itself). Either way the answer is accepted only once every row's residual is
     within 1e-14 of its terms (|A| |z| + |b|; the direct solve: or after three refinements), the direct solves'
     accuracy, so the Newton steps are the same to rounding.
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
@@ -114,7 +117,7 @@ class TangentSolver:
         P, Gc = sp.coo_matrix(pattern), sp.coo_matrix(G)
         self.n, self.m = n, m = P.shape[0], G.shape[0]
         self.kind, self.residual = resolve(factorization), residual
-        self.krylov = KRYLOV if krylov is None else krylov
+        self.krylov, self._fixed = (KRYLOV, False) if krylov is None else (krylov, True)
         N = n + m
         rows = np.concatenate([P.row, np.arange(n), n + Gc.row, Gc.col, n + np.arange(m)])
         cols = np.concatenate([P.col, np.arange(n), Gc.col, n + Gc.row, n + np.arange(m)])
@@ -131,6 +134,7 @@ class TangentSolver:
                                     shape=(n, n))
         self._places = at(np.repeat(np.arange(n), np.diff(inner.indptr)), inner.indices)
         self._perm = self._pardiso = self._last = self._z = None
+        self._budget, self._failed = None, False
         self.factorizations = self.analyses = self.refinements = self.solves = self.iterations = 0
 
     def _at(self, rows, cols):
@@ -193,15 +197,18 @@ class TangentSolver:
                                                                                tiny)).all()
 
         z = None
-        if self._last is not None and self._z is not None and self.krylov:
+        if self._last is not None and self._z is not None and self._budget:
             z0 = self._z.copy()                                  # the last step's answer, its open rows' y 0
             z0[n + np.flatnonzero(~at)] = 0.0
-            if np.linalg.norm(bb - A @ z0) <= NEAR * np.linalg.norm(bb):
+            if not self._failed or np.linalg.norm(bb - A @ z0) <= NEAR * np.linalg.norm(bb):
                 z = self._gmres(A, bb, at, settled, z0)
+                self._failed = z is None
         if z is None:
             factor = self._last = self._factor(A)
             if factor is None:
                 return None
+            if self._budget is None:
+                self._budget = self._worth()
             z = factor.solve(bb)
             for _ in range(3):         # refined while a row's residual exceeds 1e-14 of its own terms
                 r = bb - A @ z
@@ -218,6 +225,15 @@ class TangentSolver:
         self._z = z
         return np.concatenate([z[:n], z[n:][at]])
 
+    def _worth(self) -> int:
+        """The GMRES budget of a step (:data:`KRYLOV`): half the iterations a factorisation is worth."""
+        cost = None if self._pardiso is None else self._pardiso.cost
+        if self._fixed:
+            return self.krylov
+        if cost is None or cost[1] <= 0:
+            return min(self.krylov, 6)
+        return int(np.clip(cost[0] * 1e6 / (4.0 * cost[1]) / 5.0 / 2.0, 2, self.krylov)) if self.krylov else 0
+
     def _gmres(self, A, b, at, settled, z):
         """GMRES on A z = b from ``z`` (the last step's answer), right-preconditioned by the last factorisation and
         restarted from the true residual r, until :meth:`__call__`'s ``settled`` or |r| <= :data:`FORCING` |r_0|
@@ -228,7 +244,7 @@ class TangentSolver:
         open_rows = self.n + np.flatnonzero(~at)
         precondition = self._last.solve
         r = b - A @ z
-        goal, budget = FORCING * np.linalg.norm(r), self.krylov
+        goal, budget = FORCING * np.linalg.norm(r), self._budget
         while True:
             beta = np.linalg.norm(r)
             if beta <= goal or settled(z, r):

@@ -123,8 +123,8 @@ class StrainEnergy:
             cols = np.full((q, k), -1, dtype=np.int64)
             owner = np.repeat(np.arange(q), counts)
             cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
-            B = np.zeros((q, self.s, k))
-            np.add.at(B, (point, comp, (cols[point] == col[:, None]).argmax(axis=1)), val)
+            slot = (point * self.s + comp) * k + (cols[point] == col[:, None]).argmax(axis=1)
+            B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
             i, j = np.broadcast_to(cols[:, :, None], (q, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (q, k, k)).ravel()
             valid = (i >= 0) & (j >= 0)
             key = np.where(valid, i * n + j, n * n)                 # padding sorts last

@@ -238,6 +238,7 @@ def sphere_pressed(material):
     return cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0.5, 0.5, 2.5 - 1e-3), 2.0))])
 
 
+@pytest.mark.numerics
 @pytest.mark.parametrize("case", ["P1", "P2", "3D P1"])
 def test_the_tangent_is_the_product_of_the_strain_map_and_the_moduli(case):
     """StrainEnergy.hessian (assembled point by point onto its fixed pattern) equals A^T diag(w C) A formed here by

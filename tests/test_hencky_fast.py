@@ -9,6 +9,8 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from conftest import rel, two_blocks
 from test_bulk_energy import (
     EXACT,
@@ -24,6 +26,7 @@ from test_bulk_energy import (
 
 import cvxcontact as cc
 from cvxcontact.backends import choose, describe, nonlinear
+from cvxcontact.backends.mixed import mixed_system
 from cvxcontact.backends.result import Finish
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
@@ -234,11 +237,6 @@ def test_gmres_on_an_earlier_factor_is_the_direct_solve(monkeypatch):
     """TangentSolver: a system whose tangent (yielded points) and closed rows (one opened, one closed) differ from
     the factorised one is solved by GMRES on that factor to the direct solve's rounding (forcing 0), without a new
     factorisation; checked against SuperLU on the system with only the closed rows (formed here)."""
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
-
-    from cvxcontact.backends.mixed import mixed_system
-
     monkeypatch.setattr(nonlinear, "FORCING", 0.0)
     scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
     solver = cc.ContactSolver(scene, estimate=False)

@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import cvxcontact as cc
 from conftest import rel, two_blocks
@@ -229,3 +230,35 @@ def test_a_user_model_of_a_hencky_body_is_not_finished_as_a_linear_one():
     # measured (Haswell, Nehalem): equilibrium 1.7e-7, complementarity 1.7e-5 (user row 4.8e-6), u 3.9e-6 apart
     assert max(sol.residuals().values()) < 2e-3, sol.residuals()
     assert rel(sol.u[0], ref.u[0]) < 1e-3
+
+
+def sphere_pressed(material):
+    """A block (0, 1)^2 x (0, 0.5) m (3 x 3 x 2 cells) clamped at its bottom, a rigid sphere pressed into its top."""
+    body = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=3, ny=3, nz=2), material, clamped=["bottom"])
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere((0.5, 0.5, 2.5 - 1e-3), 2.0))])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("case", ["P1", "P2", "3D P1"])
+def test_the_tangent_is_the_product_of_the_strain_map_and_the_moduli(case):
+    """StrainEnergy.hessian (assembled point by point onto its fixed pattern) equals A^T diag(w C) A formed here by
+    sparse products from the strain map A and the material's tangent C at a strained state where some points yield
+    and some do not; its pattern is that of |A|^T |A| (the points' couplings)."""
+    scene = {"P1": lambda: indented(cc.materials.hencky(E, NU, SIGMA_Y, H), nx=10, ny=4),
+             "P2": lambda: indented(cc.materials.hencky(E, NU, SIGMA_Y, H), nx=6, ny=2),
+             "3D P1": lambda: sphere_pressed(cc.materials.hencky(E, NU, SIGMA_Y, H))}[case]()
+    fem = space(2) if case == "P2" else space(1, "tetra") if case == "3D P1" else space(1)
+    problem = build_problem(scene, fem, "sigma1" if case == "P2" else "gamma3", cc.Signorini())
+    bulk = problem.blocks[0].bulk
+    z = np.random.default_rng(5).normal(size=bulk.A.shape[1])
+    z *= 1e-2 / np.abs(bulk.strains(z)).max()                            # strains up to 1e-2 (s_y = 3e-3)
+    s = np.linalg.norm(bulk.strains(z) @ deviator(bulk.dim)[0].T, axis=1)
+    assert (s > bulk.material.s_y).any() and (s < bulk.material.s_y).any()
+    C = bulk.material.tangent(bulk.strains(z), bulk.dim) * bulk.w[:, None, None]
+    D = sp.block_diag(list(C), format="csr")
+    expected = (bulk.A.T @ D @ bulk.A).toarray()
+    H_ = bulk.hessian(z)
+    assert rel(H_.toarray(), expected) < 1e-13                           # measured <= 5.3e-16
+    coupled = (abs(bulk.A).T @ sp.block_diag([np.ones_like(c) for c in C]) @ abs(bulk.A)).toarray() > 0
+    assert np.array_equal(bulk.pattern().toarray() > 0, coupled)
+    assert np.array_equal(H_.indptr, bulk.pattern().indptr) and np.array_equal(H_.indices, bulk.pattern().indices)

@@ -9,6 +9,8 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from conftest import rel, two_blocks
 from test_bulk_energy import (
     EXACT,
@@ -24,6 +26,7 @@ from test_bulk_energy import (
 
 import cvxcontact as cc
 from cvxcontact.backends import choose, describe, nonlinear
+from cvxcontact.backends.mixed import mixed_system
 from cvxcontact.backends.result import Finish
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
@@ -161,18 +164,23 @@ def test_a_contact_solver_re_solves_a_new_load():
 def dense_compliance(bulk, f, G, g, w, law):
     """An independent solution of one body with the energy ``bulk`` and a normal-compliance law on the rows G z - g
     (no limit): min bulk(z) - f z + sum_a w_a Phi_a(G z - g) by damped Newton on dense matrices, until the step is
-    at rounding."""
+    at rounding. Near the answer the energy's decrease drowns in its rounding, so a step that reduces the gradient
+    is taken too (else the halving can stop the steps at a step of rounding size short of the answer: 2.6e-12 seen)."""
     z = np.zeros(G.shape[1])
 
     def energy(v):
         return bulk.value(v) - f @ v + float(w @ law.energy(G @ v - g))
 
+    def gradient(v):
+        return bulk.gradient(v) - f + G.T @ (w * law.pressure(G @ v - g))
+
     for _ in range(100):
         r = G @ z - g
-        grad = bulk.gradient(z) - f + G.T @ (w * law.pressure(r))
+        grad = gradient(z)
         hess = bulk.hessian(z).toarray() + G.T @ ((w * law.derivative(r))[:, None] * G)
         dz, t = np.linalg.solve(hess, -grad), 1.0
-        while t > 1e-10 and energy(z + t * dz) > energy(z):
+        while (t > 1e-10 and energy(z + t * dz) > energy(z)
+               and np.linalg.norm(gradient(z + t * dz)) >= np.linalg.norm(grad)):
             t /= 2
         z = z + t * dz
         if np.abs(t * dz).max() <= 1e-15 * np.abs(z).max():
@@ -202,3 +210,61 @@ def test_a_compliance_law_beside_a_hencky_body_is_the_dense_newton_answer(law):
     assert (G @ z - problem.g > 0).sum() >= 3                    # rows pressed into the circle: 3
     s = np.linalg.norm(bulk.strains(z) @ deviator(2)[0].T, axis=1)
     assert (s > HENCKY.s_y).sum() >= 10
+
+
+@pytest.mark.parametrize("cheap", [False, True], ids=["near the answer", "every step"])
+def test_steps_solved_by_krylov_on_the_last_factor_give_the_answer_of_a_factorisation_each(monkeypatch, cheap):
+    """The Newton steps' systems solved by GMRES on the last factorisation give the answer of one factorisation per
+    step (KRYLOV = 0), with fewer factorisations: as in 2D (GMRES near the answer, inexact by FORCING far from it)
+    and as where GMRES is cheap (3D: tried at every step, inexact by LOOSE; forced here by CHEAP = 0)."""
+    scene = indented(HENCKY, nx=40, ny=12, depth=5e-3)
+    answers = []
+    for krylov in (nonlinear.KRYLOV, 0):
+        monkeypatch.setattr(nonlinear, "KRYLOV", krylov)
+        monkeypatch.setattr(nonlinear, "CHEAP", 0 if cheap else nonlinear.CHEAP)
+        solver = cc.ContactSolver(scene, estimate=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", cc.ResolutionWarning)
+            sol = solver.solve()
+        tangent = solver.cache.own["newton"]
+        assert sol.ok and sol.info.route == cc.Route.NEWTON_DIRECT
+        answers.append((sol, tangent.factorizations, tangent.iterations))
+    (fast, factored, iterations), (reference, every, none) = answers
+    # measured: 8 steps and 8 factorisations with KRYLOV = 0; near the answer 8 steps, 5 factorisations and 8 GMRES
+    # iterations; every step (a budget of 2 here) 9 steps, 5 factorisations and 11 iterations
+    assert iterations > 0 and factored < fast.info.iterations and none == 0 and every == reference.info.iterations
+    same(fast, reference)                                       # measured <= 6.1e-15 (u), 6.7e-15 (forces)
+
+
+def test_gmres_on_an_earlier_factor_is_the_direct_solve(monkeypatch):
+    """TangentSolver: a system whose tangent (yielded points) and closed rows (one opened, one closed) differ from
+    the factorised one is solved by GMRES on that factor to the direct solve's rounding (forcing 0), without a new
+    factorisation; checked against SuperLU on the system with only the closed rows (formed here)."""
+    monkeypatch.setattr(nonlinear, "FORCING", 0.0)
+    monkeypatch.setattr(nonlinear, "LOOSE", 0.0)
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    solver = cc.ContactSolver(scene, estimate=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        solver.solve()
+    x, closed = solver.cache.own["newton_answer"]
+    problem = solver.problem
+    op, G, _ = mixed_system(problem)
+    tangent = nonlinear.TangentSolver(op.pattern(), G, krylov=80)          # a budget of 80 iterations
+    g = np.asarray(problem.g)
+
+    def system(state, at):
+        K, load = op.linearised(state)
+        return K, np.concatenate([load, g[at]])
+
+    first = closed.copy()
+    tangent(*system(np.zeros_like(x), first), first)            # the elastic tangent: factorised
+    at = closed.copy()
+    at[np.flatnonzero(closed)[0]] = False                       # a row opened and one closed since
+    at[np.flatnonzero(~closed)[0]] = True
+    K, b = system(x, at)
+    s = tangent(K, b, at)
+    assert tangent.factorizations == 1 and tangent.iterations > 0
+    GL = G[at]
+    reference = spla.spsolve(sp.bmat([[K, GL.T], [GL, None]], format="csc"), b)
+    assert rel(s, reference) < 1e-12                            # measured 1.4e-15, 1.5e-15 (39 iterations)

@@ -365,6 +365,7 @@ class PardisoSymmetric:
     route's mixed system, :mod:`cvxcontact.backends.sparse`): the analysis (its own nested-dissection order,
     scaling and weighted matching for the zero diagonal of closed contact rows) is done once, each
     :meth:`factor` is a numeric factorisation of new values, :meth:`solve` a solve (vector or columns).
+    ``cost``: (Mflop of a factorisation, nonzeros of the factor) as PARDISO's analysis reports them (None before).
 
     ``K``: CSC with sorted indices, symmetric, every diagonal entry stored (zeros included). Pivots
     PARDISO perturbs (``perturbed``) make the factor that of a nearby matrix; the caller refines against
@@ -395,9 +396,11 @@ class PardisoSymmetric:
         ip[9] = 8                  # pivot perturbation 1e-8 (counted in ``perturbed``)
         ip[10] = 1                 # symmetric scaling and weighted matching: saddle-point rows
         ip[12] = 1
-        ip[17] = 0
+        ip[17] = -1                # report the factor's nonzeros and its factorisation's Mflop (``cost``)
+        ip[18] = -1
         ip[26] = 0
         ip[34] = 1                 # 0-based indices
+        self.cost = None
 
     _call = PardisoFactorization._call
 
@@ -408,6 +411,8 @@ class PardisoSymmetric:
             raise SolverError("PardisoSymmetric.factor: K's pattern differs from the analysed one")
         self._a[:] = data[self._upper]
         self._call(22 if self._analysed else 12, None, None)
+        if not self._analysed:     # (factor Mflop, factor nonzeros) of the analysis
+            self.cost = (float(self._iparm[18]), float(self._iparm[17]))
         self._analysed = True
         self.perturbed = int(self._iparm[13])
         return self

@@ -112,6 +112,8 @@ class MixedEnergy:
             for b, u, p in self._split(x):
                 H = b.bulk.hessian(u)
                 mats.append(H if p is None else sp.bmat([[H, b.Kup], [b.Kup.T, -b.Kpp]]))
+            if len(mats) == 1 and not self.width:               # one body: its block itself (no copy)
+                return sp.csr_matrix(mats[0])
         return sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width), format="csr")
 
 

@@ -106,19 +106,52 @@ class StrainEnergy:
         sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
-    def _blocks(self, C):
-        """The block diagonal (q s, q s) CSR of the (q, s, s) moduli C (every entry stored)."""
-        q, s = C.shape[0], self.s
-        cols = (np.arange(q)[:, None, None] * s + np.arange(s)[None, None, :]).repeat(s, axis=1)
-        return sp.csr_matrix((C.ravel(), cols.ravel(), np.arange(0, q * s * s + 1, s)), shape=(q * s, q * s))
+    def _local(self):
+        """The strain rows of each quadrature point as a dense (q, s, k) block B, its k columns (q, k) (padding:
+        a column of zeros; k the most columns one point touches) and where each local pair (k, k) falls in the CSR
+        data of :meth:`pattern` (padding: one place past the end): the tangent's assembly is then
+        H = sum_q B_q^T (w_q C_q) B_q scattered by one bincount onto a fixed sparsity. Built once."""
+        if getattr(self, "_scatter", None) is None:
+            A = sp.coo_matrix(self.A)
+            keep = A.data != 0.0                                    # a stored zero couples nothing
+            point, comp, col, val = A.row[keep] // self.s, A.row[keep] % self.s, A.col[keep], A.data[keep]
+            q, n = len(self.w), self.A.shape[1]
+            touched = sp.csr_matrix((np.ones(len(col)), (point, col)), shape=(q, n))     # points x columns
+            touched.sum_duplicates()
+            counts = np.diff(touched.indptr)
+            k = int(counts.max(initial=0))
+            cols = np.full((q, k), -1, dtype=np.int64)
+            owner = np.repeat(np.arange(q), counts)
+            cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
+            slot = (point * self.s + comp) * k + (cols[point] == col[:, None]).argmax(axis=1)
+            B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
+            i, j = np.broadcast_to(cols[:, :, None], (q, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (q, k, k)).ravel()
+            valid = (i >= 0) & (j >= 0)
+            key = np.where(valid, i * n + j, n * n)                 # padding sorts last
+            order, ordered = _sorted(key, n * n)
+            new = np.concatenate([[True], ordered[1:] != ordered[:-1]])
+            place = np.empty(len(key), dtype=np.int64)
+            place[order] = np.cumsum(new) - 1                      # the pair's place among the distinct pairs
+            unique = ordered[new]
+            unique = unique[unique < n * n]
+            self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, np.searchsorted(unique // n, np.arange(
+                n + 1))), shape=(n, n))
+            self._scatter = (B, place)
+        return self._scatter
 
     def pattern(self):
-        absA = abs(self.A)
-        return (absA.T @ self._blocks(np.ones((len(self.w), self.s, self.s))) @ absA > 0).astype(float)
+        self._local()
+        return self._shape.copy()
 
     def hessian(self, z):
+        """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
+        strains), assembled point by point (:meth:`_local`)."""
+        B, place = self._local()
         C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        return (self.A.T @ self._blocks(C) @ self.A).tocsr()
+        local = np.einsum("qak,qab,qbl->qkl", B, C, B, optimize=True)                # (q, k, k): B_q^T C_q B_q
+        H = self._shape.copy()
+        H.data = np.bincount(place, weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
+        return H
 
     def magnitude(self, z):
         sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]
@@ -143,6 +176,17 @@ class StrainEnergy:
             norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
             energy = energy + m.mu * (1.0 - m.h) * (self.w @ cp.huber(norms, s_y))
         return energy - self.d @ z
+
+
+def _sorted(key: np.ndarray, largest: int) -> tuple[np.ndarray, np.ndarray]:
+    """(order, key[order]) of non-negative integer keys up to ``largest``: one sort of the key and its index packed
+    in one int64 where they fit (a plain sort is several times faster than an argsort), else an argsort."""
+    bits = max(int(len(key) - 1).bit_length(), 1)
+    if int(largest).bit_length() + bits <= 62:
+        packed = np.sort((key.astype(np.int64) << bits) | np.arange(len(key), dtype=np.int64))
+        return packed & ((1 << bits) - 1), packed >> bits
+    order = np.argsort(key, kind="stable")
+    return order, key[order]
 
 
 def bulk_energy(system, un, Kuu) -> BulkEnergy:

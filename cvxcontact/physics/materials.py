@@ -293,10 +293,9 @@ class Hencky(Elastic):
         safe = np.where(s > 0, s, 1.0)
         ratio = np.where(s > 0, self.psi(s)[1] / safe, 2.0)
         second = 2 * self.h + 2 * (1 - self.h) * (s <= self.s_y)
-        n = d / safe[..., None]
-        inner = ratio[..., None, None] * (np.eye(len(P)) - n[..., :, None] * n[..., None, :]) \
-            + second[..., None, None] * n[..., :, None] * n[..., None, :]
-        return self.K * np.outer(t, t) + self.mu * P.T @ inner @ P
+        m = (d / safe[..., None]) @ P                       # P^T n: P^T (I - n n^T) P = P^T P - m m^T
+        return (self.K * np.outer(t, t) + (self.mu * ratio)[..., None, None] * (P.T @ P)
+                + (self.mu * (second - ratio))[..., None, None] * m[..., :, None] * m[..., None, :])
 
     def rotated(self, rotation):
         """The material itself: it is isotropic."""

@@ -60,7 +60,9 @@ def test_adapt_from_a_uniform_8_by_8_half_block_reaches_hertz():
     """The issue's call with the issue's budget; the defaults (cvxcontact.adapt.LOOPS, 2D P2: theta 0.9, rate 1,
     the last mesh finished exactly) and max_steps = 10 stop it first. Measured (2026-12-04): 11 solves, 23,980
     unknowns, peak pressure -3.0e-5 and half-width +2.5e-2 off Hertz, the relative estimate 0.11 (tol 0.005
-    would need about 20x the unknowns at P2's N^-1: the warning says so)."""
+    would need about 20x the unknowns at P2's N^-1: the warning says so); about 60 s CPU, single-threaded. The old
+    defaults (theta 0.5, one bisection, every step exact) stopped after 10 steps at 730 unknowns, -96 % and
+    +2644 %."""
     with pytest.warns(cc.ResolutionWarning, match=r"above tol = 0.005: stopped by max_steps"):
         result = cc.adapt(punch_scene(punch_block()), tol=0.005, condition="gamma3", degree=2, max_unknowns=50_000)
     sol, (a, p0) = result.solution, hertz()
@@ -80,8 +82,12 @@ def _resolution_warnings(mesh):
 
 
 def test_the_issues_402_percent_mesh_warns_and_its_half_percent_mesh_does_not():
+    """The issue's "+402 %" mesh (cells 0.37 x 408 um at the contact): a ResolutionWarning (measured today: aspect
+    ratio up to 630 on the zone's cells, the peak pressure +167 % off Hertz, the issue's +402 % was measured before
+    the solver's later fixes); its "+0.5 %" mesh (2.8 x 7.4 um): none, and the peak within 3 % (measured +0.46 %)."""
     sol, messages = _resolution_warnings(punch_block(40, 40, beta=12, gamma=3))
-    assert messages and all("block/top" in m for m in messages), messages
+    assert sol.ok and messages and all("block/top" in m for m in messages), messages
+    assert peak_and_half_width(sol)[0] / hertz()[1] - 1 > 0.5            # the warning is due: measured +1.67
     sol, messages = _resolution_warnings(punch_block(80, 40, beta=9, gamma=8))
-    assert messages == []
-    assert abs(peak_and_half_width(sol)[0] / hertz()[1] - 1) <= 0.03      # the issue measured +0.5 %
+    assert sol.ok and messages == []
+    assert abs(peak_and_half_width(sol)[0] / hertz()[1] - 1) <= 0.03      # measured +4.6e-3

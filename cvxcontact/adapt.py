@@ -45,7 +45,8 @@ from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["LOOPS", "TARGETS", "AdaptStep", "Adapted", "Loop", "adapt", "mark_bisections", "mark_bulk", "unknowns"]
+__all__ = ["LOOPS", "TARGETS", "AdaptStep", "Adapted", "Loop", "adapt", "mark_bisections", "mark_bulk", "peak_pressure",
+           "unknowns"]
 
 
 def _force_target(sol):
@@ -89,6 +90,12 @@ bisection, every step exact (a P1 step is a warm-started active set; the P2 choi
 scanned)."""
 
 
+def peak_pressure(sol: Solution) -> float:
+    """The largest contact pressure of ``sol`` (Pa): the maximum of ``sol.traction(0, pair)`` (the pressure felt by
+    the first body of each pair, at its trace nodes) over the pairs; 0 without contact."""
+    return max((float(np.max(sol.traction(0, i)[1], initial=0.0)) for i in range(len(sol.contacts))), default=0.0)
+
+
 def unknowns(bodies: Sequence, degree: int) -> int:
     """The nodal unknowns of ``bodies`` (:class:`~cvxcontact.physics.scene.Body`, or anything with ``mesh`` and
     ``piezoelectric``) at ``degree``: u (dim per node) and phi (one per node of a piezoelectric body) on the
@@ -109,7 +116,10 @@ class AdaptStep:
     (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
     the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
     bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
-    with other work, wall time measures the neighbours); ``ok``: the solution's checks.
+    with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
+    largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its relative change from the
+    step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak pressure's error, not a
+    bound (docs/accuracy.md, "The peak pressure between steps").
     """
 
     step: int
@@ -122,6 +132,8 @@ class AdaptStep:
     refine_s: float
     ok: bool
     cpu_s: float = float("nan")
+    peak: float = float("nan")
+    peak_change: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -338,10 +350,13 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
             if stopped or not issubclass(w.category, dropped):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        peak = peak_pressure(sol)
+        before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),
                         estimate=est.absolute, relative=est.relative, marked=int(sum(m.sum() for m in marked)),
-                        solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s)
+                        solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s, peak=peak,
+                        peak_change=abs(peak - before) / peak if peak > 0 else float("nan"))
         history.append(row)
         if keep:
             kept.append(sol)

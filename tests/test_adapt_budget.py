@@ -94,3 +94,15 @@ def test_the_defaults_are_the_table_of_the_dimension_and_degree():
             [(s.cells, s.unknowns, s.marked) for s in given.history]
     p2_old = quietly(indented_block(), degree=2, max_steps=2, theta=0.9, rate=np.inf, exact_steps=False)
     assert [s.cells for s in p2_old.history] != [s.cells for s in default.history]   # rate 1 bisects more
+
+
+def test_the_history_reads_the_peak_pressure_and_its_change():
+    """AdaptStep.peak is the largest pressure of the step's solution (sol.traction), peak_change the relative change
+    from the step before (NaN on step 0); on the indented block the peak moves as nodes enter the zone (measured:
+    changes of 1e-2 to 4e-1 over the first steps)."""
+    result = quietly(indented_block(), max_steps=3, keep=True)
+    peaks = [float(sol.traction(0)[1].max()) for sol in result.solutions]
+    assert [s.peak for s in result.history] == peaks and min(peaks) > 0
+    assert np.isnan(result.history[0].peak_change)
+    for before, now, step in zip(peaks, peaks[1:], result.history[1:]):
+        assert step.peak_change == pytest.approx(abs(now - before) / now, rel=1e-12)

@@ -45,7 +45,8 @@ from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
 
-__all__ = ["TARGETS", "AdaptStep", "Adapted", "adapt", "mark_bisections", "mark_bulk"]
+__all__ = ["LOOPS", "TARGETS", "AdaptStep", "Adapted", "Loop", "adapt", "mark_bisections", "mark_bulk", "peak_pressure",
+           "unknowns"]
 
 
 def _force_target(sol):
@@ -63,6 +64,51 @@ first pair's total contact force (:func:`cvxcontact.goal.force_estimate`: one mo
 
 
 @dataclass(frozen=True)
+class Loop:
+    """How :func:`adapt` marks and solves by default: Dorfler's ``theta``, the bisections' ``rate``
+    (:func:`mark_bisections`; ``math.inf``: each marked cell once) and ``exact_steps``."""
+
+    theta: float
+    rate: float
+    exact_steps: bool
+
+
+LOOPS: dict[tuple[int, int], Loop] = {
+    (2, 1): Loop(theta=0.5, rate=float("inf"), exact_steps=True),
+    (2, 2): Loop(theta=0.9, rate=1.0, exact_steps=False),
+    (3, 1): Loop(theta=0.5, rate=float("inf"), exact_steps=True),
+    (3, 2): Loop(theta=0.5, rate=float("inf"), exact_steps=True),
+}
+"""(dimension, degree) -> the :class:`Loop` whose values :func:`adapt` takes for ``theta``, ``rate`` and
+``exact_steps`` left None. 2D P2: theta 0.9, rate 1, the steps before the last left at the interior point's
+answer (its exact finish, the cuts, costs more than the interior point): on the adapt study's Hertz cylinder and on
+issue 30's rigid cylinder the old loop (theta 0.5, one bisection, every step exact) stops after its 10 steps
+at 1,402 and 730 unknowns, the peak pressure -0.58 % and -96 % off Hertz, this one reaches both within 3 % and the
+half-width within 5 % under 5e4 unknowns (docs/accuracy.md, "Defaults per degree"). P1 keeps theta 0.5, one
+bisection, every step exact (a P1 step is a warm-started active set; the P2 choice leaves P1's peak pressure at
++1.1 % at 42,624 unknowns where this one is within 1 % from 24,074); 3D is as measured in 2D P1 (not
+scanned)."""
+
+
+def peak_pressure(sol: Solution) -> float:
+    """The largest contact pressure of ``sol`` (Pa): the maximum of ``sol.traction(0, pair)`` (the pressure felt by
+    the first body of each pair, at its trace nodes) over the pairs; 0 without contact."""
+    return max((float(np.max(sol.traction(0, i)[1], initial=0.0)) for i in range(len(sol.contacts))), default=0.0)
+
+
+def unknowns(bodies: Sequence, degree: int) -> int:
+    """The nodal unknowns of ``bodies`` (:class:`~cvxcontact.physics.scene.Body`, or anything with ``mesh`` and
+    ``piezoelectric``) at ``degree``: u (dim per node) and phi (one per node of a piezoelectric body) on the
+    nodes of the degree's space (:meth:`~cvxcontact.fem.space.Space.node_set`), as ``AdaptStep.unknowns``
+    counts them after the solve."""
+    total = 0
+    for b in bodies:
+        nodes = len(space(degree, b.mesh.cell).node_set(b.mesh).points)
+        total += nodes * (b.mesh.points.shape[1] + int(b.piezoelectric))
+    return int(total)
+
+
+@dataclass(frozen=True)
 class AdaptStep:
     """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
 
@@ -70,7 +116,10 @@ class AdaptStep:
     (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
     the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
     bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
-    with other work, wall time measures the neighbours); ``ok``: the solution's checks.
+    with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
+    largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its relative change from the
+    step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak pressure's error, not a
+    bound (docs/accuracy.md, "The peak pressure between steps").
     """
 
     step: int
@@ -83,12 +132,14 @@ class AdaptStep:
     refine_s: float
     ok: bool
     cpu_s: float = float("nan")
+    peak: float = float("nan")
+    peak_change: float = float("nan")
 
 
 @dataclass(frozen=True)
 class Adapted:
     """What :func:`adapt` returns: the last ``solution`` and its ``scene``, the ``history`` (one
-    :class:`AdaptStep` per solve), why it ``stopped`` ("tol", "max_steps" or "max_cells") and, with
+    :class:`AdaptStep` per solve), why it ``stopped`` ("tol", "max_steps", "max_cells" or "max_unknowns") and, with
     ``keep=True``, every step's solution in ``solutions``."""
 
     solution: Solution
@@ -141,11 +192,11 @@ def mark_bisections(indicators: Sequence[ArrayLike], theta: float, rate: float, 
     return out
 
 
-def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_steps: int = 10,
-          max_cells: int | None = None, tol: float | None = None,
+def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None, max_steps: int = 10,
+          max_cells: int | None = None, tol: float | None = None, max_unknowns: int | None = None,
           curves: Mapping[str | int, Mapping[str, Curve]] | None = None,
           progress: Callable[[str], None] | None = None, keep: bool = False, target: str = "energy",
-          rate: float | None = None, most: int = 8, exact_steps: bool = True, **options) -> Adapted:
+          rate: float | None = None, most: int = 8, exact_steps: bool | None = None, **options) -> Adapted:
     """Refine ``scene``'s meshes where the error estimate sits, solving on each.
 
     The loop is the module's docstring; how to use it, and what it measured: docs/accuracy.md,
@@ -159,15 +210,19 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         3D: a tetrahedron's refinement edge is its longest, :func:`~cvxcontact.geometry.refine.bisect_tets`).
     condition : str
         The contact condition of every solve, as in :func:`cvxcontact.solve`.
-    theta : float
+    theta : float, optional
         Dorfler's bulk fraction, 0 < theta <= 1 (0.3-0.6 is usual; 1 refines every cell with a
-        non-zero indicator).
+        non-zero indicator). None: the scene's dimension and degree's (:data:`LOOPS`: 0.9 in 2D P2, else 0.5).
     max_steps : int
         Refinements at most (``max_steps + 1`` solves).
     max_cells : int, optional
         Stop before solving a mesh with more cells than this (all bodies).
     tol : float, optional
-        Stop when the target's relative estimate <= tol (``sol.estimate.relative`` for "energy").
+        Stop when the target's relative estimate <= tol (``sol.estimate.relative`` for "energy"). A loop that
+        stops otherwise warns (:class:`~cvxcontact.errors.ResolutionWarning`, the best estimate reached).
+    max_unknowns : int, optional
+        Stop before solving a mesh with more nodal unknowns than this (u and phi, all bodies: ``AdaptStep.
+        unknowns``; the refined mesh's are counted before its solve, :func:`unknowns`).
     curves : dict, optional
         Body (its name or index in ``scene.bodies``) -> {tag: closest-point map} of its curved boundary
         parts (:func:`~cvxcontact.geometry.refine.refine_marked`); without, new boundary nodes are the
@@ -181,14 +236,16 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         (the first pair's total contact force, goal-oriented).
     rate : float, optional
         Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`: eta_T ~ h_T^rate, down to
-        the largest unmarked indicator, at most ``most`` times in a step) instead of once: fewer steps to grade
-        the mesh. None (default): each marked cell once.
+        the largest unmarked indicator, at most ``most`` times in a step): fewer steps to grade the mesh;
+        ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D P2, else
+        inf).
     most : int
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
-    exact_steps : bool
-        True (default): every step's answer is the exact finish's. False: the steps before the last keep the
+    exact_steps : bool, optional
+        True: every step's answer is the exact finish's. False: the steps before the last keep the
         interior point's answer (not exact; no contact state handed on), the mesh the loop stops on is solved
-        exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt": ``exact_steps=False``).
+        exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt": ``exact_steps=False``). None: the dimension
+        and degree's (:data:`LOOPS`: False in 2D P2, else True).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes
@@ -207,6 +264,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
 
     Notes
     -----
+    With ``tol`` given and not reached (a stop by ``max_steps``, ``max_cells`` or ``max_unknowns``) a
+    :class:`~cvxcontact.errors.ResolutionWarning` says so, with the estimate reached and what to do; the answer
+    returned is the last (the finest) mesh's.
     A :class:`~cvxcontact.errors.ResolutionWarning` of an intermediate step is dropped (the loop refines
     what it names), and with ``exact_steps=False`` its :class:`~cvxcontact.errors.ResidualWarning` (an interior
     point's answer, not exact by design: ``AdaptStep.ok`` records its checks); the last step's are raised.
@@ -227,14 +287,25 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         raise SceneError("adapt needs the error estimate of every solve: remove estimate=False")
     if "start" in options:
         raise SceneError("adapt starts each solve from the previous step's solution itself: remove start=")
+    degree = options.get("degree", 1)
+    space(degree, scene.cell)                                   # a bad degree: the solver's typed error, here
+    loop = LOOPS[scene.dim, degree]
+    theta = loop.theta if theta is None else theta
+    rate = loop.rate if rate is None else rate
+    exact_steps = loop.exact_steps if exact_steps is None else exact_steps
     if not isinstance(exact_steps, bool):
-        raise SceneError(f"adapt: exact_steps must be True or False, got {exact_steps!r}")
+        raise SceneError(f"adapt: exact_steps must be True, False or None (the default of the degree), got "
+                         f"{exact_steps!r}")
     if target not in TARGETS:
         raise SceneError(f"adapt: target must be one of {sorted(TARGETS)}, got {target!r}")
     theta = _fraction(theta)
-    rate, most = None if rate is None else _rate(rate), _count(most, "most", 1)
+    rate, most = _rate(rate), _count(most, "most", 1)
     max_steps = _count(max_steps, "max_steps", 0)
     max_cells = None if max_cells is None else _count(max_cells, "max_cells", 1)
+    max_unknowns = None if max_unknowns is None else _count(max_unknowns, "max_unknowns", 1)
+    if max_unknowns is not None and unknowns(scene.bodies, degree) > max_unknowns:
+        raise SceneError(f"adapt: the first mesh already has {unknowns(scene.bodies, degree)} unknowns, more than "
+                         f"max_unknowns = {max_unknowns}: raise max_unknowns or start from a coarser mesh")
     if tol is not None and not (isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0):
         raise SceneError(f"adapt: tol must be a positive number (the relative estimate to reach), got {tol!r}")
     say = progress or (lambda line: None)
@@ -257,14 +328,17 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         clock = time.perf_counter()
         marked, refined = [], None
         if not stopped:
-            marked = (mark_bulk(indicators, theta) if rate is None
+            marked = (mark_bulk(indicators, theta) if np.isinf(rate)
                       else mark_bisections(indicators, theta, rate, scene.dim, most))
             meshes = [refine_times(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
+            bodies = [b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:
                 stopped, marked = "max_cells", []
+            elif max_unknowns is not None and unknowns(bodies, degree) > max_unknowns:
+                stopped, marked = "max_unknowns", []
             else:
-                refined = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)))
+                refined = scene.with_bodies(*bodies)
         refine_s = time.perf_counter() - clock
         if stopped and exact and not finished:             # the mesh it stops on, solved exactly
             clock = time.perf_counter()
@@ -276,16 +350,27 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float = 0.5, max_st
         for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
             if stopped or not issubclass(w.category, dropped):
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        peak = peak_pressure(sol)
+        before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),
                         estimate=est.absolute, relative=est.relative, marked=int(sum(m.sum() for m in marked)),
-                        solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s)
+                        solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s, peak=peak,
+                        peak_change=abs(peak - before) / peak if peak > 0 else float("nan"))
         history.append(row)
         if keep:
             kept.append(sol)
         say(f"adapt step {step}: {cells} cells, {row.unknowns} unknowns, estimate {est.absolute:.4g} "
             f"({100 * est.relative:.3g} %), {row.marked} marked ({solve_s:.2f} s)")
         if stopped:
+            if tol is not None and stopped != "tol":
+                best = min(history, key=lambda r: r.relative)
+                warnings.warn(f"adapt: the relative estimate {row.relative:.3g} of the last mesh ({row.unknowns} "
+                              f"unknowns) is above tol = {tol:g}: stopped by {stopped}; the lowest of the loop "
+                              f"{best.relative:.3g} at step {best.step} ({best.unknowns} unknowns). The answer "
+                              f"returned is the last mesh's; to reach tol raise {stopped} (the estimate falls "
+                              "about as N^(-p/2) in the unknowns N, P1 p = 1, P2 p = 2, in 2D) or ask a larger tol",
+                              ResolutionWarning, stacklevel=2)
             return Adapted(solution=sol, scene=scene, history=tuple(history), stopped=stopped, solutions=tuple(kept))
         scene, step = refined, step + 1
 

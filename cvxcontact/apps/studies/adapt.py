@@ -23,30 +23,34 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
+from ...adapt import LOOPS
 from ...adapt import adapt as adapt_loop
 from ...errors import ResidualWarning, ResolutionWarning
 from ...fem.space import space
 from ...geometry.generators import graded_block
+from ...geometry.mesh import Mesh, rectangle
 from ...geometry.refine import refine_uniform
 from ...physics import materials
+from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
 from .common import DEGREES, Timer, markdown_table, pyplot, save_figure, slope, solve_quietly, write_csv, write_text
 from .hertz import ALU, DELTA, HEIGHT, R, STEEL, WIDTH, e_star, half_width, hertz
 
 N0 = 8
-LOOP = {1: {"theta": 0.5, "rate": None, "exact_steps": True},
-        2: {"theta": 0.9, "rate": 1.0, "exact_steps": False}}
-"""Per degree, the options of :func:`cvxcontact.adapt`. P2: Dorfler's theta = 0.9, each marked cell bisected as
-often as eta_T ~ h_T^1 predicts (:func:`cvxcontact.adapt.mark_bisections`), the steps before the last left at the
-interior point's answer (its exact finish, the cuts, costs more than the interior point it starts from). Chosen
-from a scan of theta in (0.7, 0.8, 0.9, 0.95) and rate in (1, 1.5, 2) for the time to 1 % peak pressure
-(docs/accuracy.md). P1: theta = 0.5, one bisection per marked cell, every step exact (a P1 step is a warm-started
-active set, cheaper than an interior point); the P2 choice leaves P1's peak pressure at +1.1 % at 42,624 unknowns
-where this one is within 1 % from 24,074."""
+LOOP = {degree: asdict(LOOPS[2, degree]) for degree in (1, 2)}
+"""Per degree, the options of :func:`cvxcontact.adapt`: its 2D defaults (:data:`cvxcontact.adapt.LOOPS`), passed
+explicitly. P2: Dorfler's theta = 0.9, each marked cell bisected as often as eta_T ~ h_T^1 predicts
+(:func:`cvxcontact.adapt.mark_bisections`), the steps before the last left at the interior point's answer (its exact
+finish, the cuts, costs more than the interior point it starts from). Chosen from a scan of theta in
+(0.7, 0.8, 0.9, 0.95) and rate in (1, 1.5, 2) for the time to 1 % peak pressure (docs/accuracy.md). P1: theta = 0.5,
+one bisection per marked cell (rate = inf), every step exact (a P1 step is a warm-started active set, cheaper than
+an interior point); the P2 choice leaves P1's peak pressure at +1.1 % at 42,624 unknowns where this one is within
+1 % from 24,074."""
 OPTIONS = dict(condition="gamma3", method="condensed")
 
 
@@ -71,6 +75,52 @@ def measures(sol) -> dict:
                 estimate=sol.estimate.absolute, relative=sol.estimate.relative,
                 unknowns=int(sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi))),
                 cells=sum(len(b.mesh.triangles) for b in sol.scene.bodies), ok=bool(sol.ok))
+
+
+PUNCH = {"radius": 0.05, "force": 1e3, "E": 70e9, "nu": 0.33, "width": 0.1, "height": 0.1}
+"""Issue 30's scene: a rigid cylinder (``radius``, m) pressed with ``force`` (N/m, the whole cylinder's) into an
+aluminium block 2 ``width`` x ``height`` (m), plane strain, as a half model (:func:`punch_scene`)."""
+
+
+def punch_block(nx: int = 8, ny: int = 8, beta: float = 0.0, gamma: float = 0.0) -> Mesh:
+    """The half block [0, width] x [-height, 0] of :data:`PUNCH`, ``nx`` x ``ny`` cells, graded as issue 30's
+    hand-made meshes: towards x = 0 by x = width sinh(beta xi) / sinh(beta), towards the top by the depth
+    height (exp(gamma eta) - 1) / (exp(gamma) - 1) (beta = gamma = 0: uniform)."""
+    base = rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=ny)
+    xi, depth = base.points[:, 0], 1 - base.points[:, 1]
+    x = PUNCH["width"] * (np.sinh(beta * xi) / np.sinh(beta) if beta > 0 else xi)
+    d = PUNCH["height"] * ((np.exp(gamma * depth) - 1) / (np.exp(gamma) - 1) if gamma > 0 else depth)
+    return type(base)(np.column_stack([x, -d]), base.cells, {t: base.boundary(t) for t in base.tags})
+
+
+def punch_scene(mesh: Mesh | None = None) -> Scene:
+    """Issue 30's punch on ``mesh`` (default :func:`punch_block`, uniform 8 x 8): the block clamped at its bottom,
+    on a roller at x = 0 (the symmetry line), the cylinder force-controlled with half the force, guided along y."""
+    body = Body(punch_block() if mesh is None else mesh, materials.isotropic(E=PUNCH["E"], nu=PUNCH["nu"]),
+                name="block", clamped=["bottom"], roller=["left"], contact="top")
+    r = PUNCH["radius"]
+    cylinder = Rigid.circle((0.0, r), r, force=(0.0, -PUNCH["force"] / 2), guided=(0.0, 1.0))
+    return Scene(body, contacts=[Contact(body, "top", cylinder)])
+
+
+def punch_measures(sol) -> dict:
+    """The peak pressure p0_h (Pa, the largest of ``sol.traction(0)``) and the half-width a_h (m) of a
+    :func:`punch_scene` solution against Hertz's rigid cylinder on an elastic half-plane (E* = E / (1 - nu^2)),
+    a_h read as :func:`.hertz.half_width` reads it (the mid-point between the outermost closed node and the next
+    open one; a P2 "gamma3" node closed where the jump reaches the gap within 1e-3 of the approach, P1 where it
+    carries force); the zone starts on the symmetry line, so a_h is that mid-point's x."""
+    c = sol.contact
+    approach = -float(sol.obstacles[0].translation[1])
+    closed = (c.jump - c.gap) >= -1e-3 * approach if c.trace.gamma3_cones else c.active
+    order = np.argsort(c.x)
+    x, closed = c.x[order], closed[order]
+    last = np.flatnonzero(closed)[-1]
+    a_h = 0.5 * (x[last] + x[min(last + 1, len(x) - 1)])
+    p0_h = float(sol.traction(0)[1].max())
+    a, p0 = hertz(PUNCH["force"], PUNCH["radius"], PUNCH["E"] / (1 - PUNCH["nu"] ** 2))
+    return {"p0": p0_h, "a": a_h, "p0_rel_error": p0_h / p0 - 1, "a_rel_error": a_h / a - 1,
+            "unknowns": int(sum(u.size + (0 if p is None else p.size) for u, p in zip(sol.u, sol.phi))),
+            "relative": sol.estimate.relative, "ok": bool(sol.ok)}
 
 
 def uniform(degree: int, levels: int, progress) -> list[dict]:

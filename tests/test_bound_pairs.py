@@ -228,3 +228,27 @@ def test_a_body_index_outside_the_scene_is_refused_by_name():
             with pytest.raises(cc.SceneError, match="integer 0 to 1"):
                 call(sol, wrong)
     assert len(bound.reconstruction_mesh(sol, 1)[1]) >= len(sol.scene.bodies[1].mesh.triangles)
+
+
+def test_a_body_held_by_its_contacts_alone_keeps_its_bound():
+    """A body on rollers pressed onto its support by its loads carries only a pressure that balances them; the
+    minimising p (priced on the conditions' range) missed that balance and the bound raised SolverError (found
+    by review). Alone on a plane the P1 answer is exact (a uniform traction): the bound is rounding (measured
+    6.9e-16 relative); as the upper block of a pair it is a finite bound."""
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4)
+    block = cc.Body(m, cc.materials.isotropic(E=70e9, nu=0.3), roller=["left", "right"],
+                    traction={"top": (0.0, -1e7)}, contact="bottom", name="block")
+    plane = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+    sol = cc.solve(cc.Scene(block, contacts=[cc.Contact(block, "bottom", plane)]), estimate="equilibrated")
+    assert sol.ok and sol.estimate.guaranteed
+    assert sol.estimate.relative <= 1e-12                      # measured 6.9e-16 (1.6e-14 against 23)
+    upper = cc.Body(cc.rectangle(x=(0.3, 0.7), y=(0.0, 0.5), nx=4, ny=3), cc.materials.isotropic(E=200e9, nu=0.25),
+                    roller=["left", "right"], traction={"top": (0.0, -1e7)}, body_force=(0.0, -5e7),
+                    contact="bottom", name="upper")
+    lower = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=5, ny=3), cc.materials.isotropic(E=70e9, nu=0.3),
+                    roller=["left", "right", "bottom"], contact="top", name="lower")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        pair = cc.solve(cc.Scene(upper, lower), "gamma3", estimate="equilibrated")
+    assert pair.ok and pair.estimate.guaranteed and np.isfinite(pair.estimate.absolute)
+    assert pair.estimate.parts["equilibrium residual"] <= 1e-12        # measured 6.4e-15

@@ -116,7 +116,8 @@ class TangentSolver:
     near the answer, :data:`NEAR`), else factorised itself and solved, then refined (up to three steps against the
     matrix itself). Either way the answer is accepted only once every row's residual is
     within 1e-14 of its terms (|A| |z| + |b|; the direct solve: or after three refinements), the direct solves'
-    accuracy, so the Newton steps are the same to rounding.
+    accuracy, so the answers are the same to rounding (the steps far from it are inexact by
+    :data:`FORCING`/:data:`LOOSE`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
     ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations."""

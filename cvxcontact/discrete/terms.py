@@ -314,4 +314,12 @@ def unregister_term(term: type) -> type:
 def contact_term(lines, dim: int) -> ContactTerm:
     """The :class:`ContactTerm` of the contact lines ``lines`` (:class:`~cvxcontact.fem.space.ContactLines`) in
     a space of ``dim`` displacement components: the first of :data:`TERMS` that poses them."""
-    return next(term for term in TERMS if term.poses(lines))(dim)
+    for term in TERMS:
+        try:
+            poses = term.poses(lines)
+        except Exception as exc:                     # a term from outside (register_term) that cannot answer
+            raise SolverError(f"contact term {term.__name__}: poses(lines) raised {type(exc).__name__}: {exc}; "
+                              "fix it or unregister_term it") from exc
+        if poses:
+            return term(dim)
+    raise SolverError(f"no registered contact term poses these contact lines (terms {tuple(TERMS)})")

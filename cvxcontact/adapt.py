@@ -235,17 +235,15 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         What the marking aims at, a key of :data:`TARGETS`: "energy" (the energy-norm estimate) or "force"
         (the first pair's total contact force, goal-oriented).
     rate : float, optional
-        Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`: eta_T ~ h_T^rate, down to
-        the largest unmarked indicator, at most ``most`` times in a step): fewer steps to grade the mesh;
-        ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D P2, else
-        inf).
+        Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`, at most ``most`` times in
+        a step); ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D
+        P2, else inf).
     most : int
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool, optional
-        True: every step's answer is the exact finish's. False: the steps before the last keep the
-        interior point's answer (not exact; no contact state handed on), the mesh the loop stops on is solved
-        exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt": ``exact_steps=False``). None: the dimension
-        and degree's (:data:`LOOPS`: False in 2D P2, else True).
+        True: every step's answer is the exact finish's. False: the steps before the last keep the interior
+        point's answer, the mesh the loop stops on is solved exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt").
+        None: the dimension and degree's (:data:`LOOPS`: False in 2D P2, else True).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,
         ...); ``estimate=False`` is refused (the loop needs the estimate), and so is ``start`` (the loop passes

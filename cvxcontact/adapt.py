@@ -242,7 +242,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool, optional
         True: every step's answer is the exact finish's. False: the steps before the last keep the interior
-        point's answer, the mesh the loop stops on is solved exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt").
+        point's answer, the last mesh is solved exactly (docs/accuracy.md, "Adaptive refinement: cc.adapt").
         None: the dimension and degree's (:data:`LOOPS`: False in 2D P2, else True).
     **options : dict, optional
         Passed to :class:`~cvxcontact.solve.ContactSolver` (``method``, ``degree``, ``tol``, ``warm_start``,

@@ -294,7 +294,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         return operator.value(x) + float(w @ law.energy(G @ x - g))
 
     def step(x, at):
-        """The Newton step (dx, z) and the residual its solve leaves in the rows of x (the floor, below)."""
+        """The Newton step (dx, z), its matrix K and the residual its solve left in the rows of x (the floor)."""
         r = G @ x - g
         D = w * law.derivative(r)
         T = operator.tangent(x)
@@ -332,9 +332,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
             ratio = float((np.abs(res) / S).max(initial=0.0))
             history.append(ratio)
-            floor = rounding_floor(K, x, unsolved)
             # converged: each row's residual at the rounding of its own terms, or at the floor of the step solved
-            if t == 1.0 and (np.abs(res) <= 1e-3 * SIGN_TOL * S + floor).all():
+            if t == 1.0 and (np.abs(res) <= 1e-3 * SIGN_TOL * S + rounding_floor(K, x, unsolved)).all():
                 break
             if early is not None and t == 1.0 and ratio <= early and _rejected(G, g, x, y, z, at, limited, ell):
                 hasty = True                            # this set is wrong: leave it now (the outer check below)

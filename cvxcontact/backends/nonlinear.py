@@ -33,7 +33,7 @@ import scipy.sparse as sp
 
 from ..contact.laws import RowLaws, Signorini
 from ..errors import SolverError
-from .finish import solve_sparse_compliance
+from .finish import Declined, solve_sparse_compliance
 from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
@@ -207,7 +207,7 @@ def _steps(problem, cache, settings, timings, law, weights, start):
     out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
                                   solve=solver, early=EARLY, armijo=ARMIJO)
     timings["newton"] = time.perf_counter() - t0
-    if out is None:
+    if isinstance(out, Declined):
         cache.own.pop("newton_answer", None)
         return None
     x, y, z, active, steps, history = out

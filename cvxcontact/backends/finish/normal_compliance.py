@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
+from .declined import CYCLE, MAX_ITER, STALL, Declined, Stop
 from .lcp import SIGN_TOL, row_scales, solve_lcp
 
 
@@ -266,8 +267,12 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (after a full step,
     each row's residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y| or within the step's
     :func:`rounding_floor`, which grows with the tangent's conditioning: no caller sets a floor) and the signs to
-    ``SIGN_TOL``; ``history`` the largest relative residual after each step (the convergence to read). None if a system is singular (e.g. a held body whose rows all
-    left the contact) or the steps do not settle.
+    ``SIGN_TOL``; ``history`` the largest relative residual after each step (the convergence to read). A full step
+    that reaches that floor is taken whole (the energy's change drowns in its rounding there). Otherwise a
+    :class:`~cvxcontact.backends.finish.declined.Declined`: ``SINGULAR_FORCES`` if a step's system is singular
+    (``solve`` returned None: its factorisation's pivots or its backward error), its ``rows`` the closed rows
+    and those whose law's stiffness enters K (e.g. a body held by the contact whose rows all left it: the
+    caller's well-posedness check names it), ``CYCLE``, ``STALL`` or ``MAX_ITER`` if the steps do not settle.
     """
     import scipy.sparse as sps
 
@@ -302,11 +307,17 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
         b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
         s = solve(K, b, at)
-        if s is None:
-            return None
+        if s is None:                 # singular (the solve's pivots or its backward error): the rows carrying
+            return Declined(Stop.SINGULAR_FORCES, rows=at | (D > 0))   # forces leave a motion free
         dx, zL = s[:len(x)], np.zeros(m)
         zL[at] = s[len(x):]
         return dx, zL, K, np.abs(K @ dx + G.T @ zL - b[:len(x)])
+
+    def residual(x, z):
+        """The residual of (26) at x with the reactions z, its rows' scales and the contact forces y."""
+        y = w * law.pressure(G @ x - g) + z
+        S = operator.magnitude(x) + absG.T @ np.abs(y)
+        return operator.gradient(x) + G.T @ y, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny)), y
 
     steps, seen, left, history = 0, set(), set(), []
     for _ in range(max_iter):
@@ -314,34 +325,37 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         for _ in range(max_iter):                       # damped Newton with the limit rows L closed
             out = step(x, at)
             steps += 1
-            if out is None:
-                return None
+            if isinstance(out, Declined):
+                return out
             dx, z, K, unsolved = out
-            t, f0 = 1.0, energy(x)
-            if not first:
+            # converged: after a full step each row's residual at the rounding of its own terms, or at the floor
+            # of the step solved; such a step is taken whole (L's change drowns in its rounding there)
+            trial = x + dx
+            res, S, y = residual(trial, z)
+            settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + rounding_floor(K, trial, unsolved)).all())
+            t = 1.0
+            if not first and not settled:
+                f0 = energy(x)
                 slope = 0.0 if not armijo else min(float((operator.gradient(x) + G.T @ (
                     w * law.pressure(G @ x - g))) @ dx), 0.0)
                 while t > 1e-12 and energy(x + t * dx) > f0 + armijo * t * slope + 1e-14 * max(abs(f0), tiny):
                     t *= 0.5
+                if t < 1.0:
+                    trial = x + t * dx
+                    res, S, y = residual(trial, z)
             first = False
-            x = x + t * dx
-            r = G @ x - g
-            y = w * law.pressure(r) + z
-            res = operator.gradient(x) + G.T @ y
-            S = operator.magnitude(x) + absG.T @ np.abs(y)
-            S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+            x = trial
             ratio = float((np.abs(res) / S).max(initial=0.0))
             history.append(ratio)
-            # converged: each row's residual at the rounding of its own terms, or at the floor of the step solved
-            if t == 1.0 and (np.abs(res) <= 1e-3 * SIGN_TOL * S + rounding_floor(K, x, unsolved)).all():
+            if settled:
                 break
             if early is not None and t == 1.0 and ratio <= early and _rejected(G, g, x, y, z, at, limited, ell):
                 hasty = True                            # this set is wrong: leave it now (the outer check below)
                 break
             if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
-                return None                             # stalled above rounding
+                return STALL
         else:
-            return None
+            return MAX_ITER
         r = G @ x - g
         y = w * law.pressure(r) + z
         neg, over = _signs(G, g, x, y, z, at, limited, ell)
@@ -357,8 +371,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             continue
         at = _next_limit_set(at, neg, over, seen)
         if at is None:
-            return None
-    return None
+            return CYCLE
+    return MAX_ITER
 
 
 def _signs(G, g, x, y, z, at, limited, ell):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from cvxcontact.backends.finish import solve_sparse_compliance
+from cvxcontact.backends.finish import Declined, Stop, solve_sparse_compliance
 from cvxcontact.contact.laws import RowLaws, Signorini
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
@@ -56,7 +56,7 @@ def test_a_stiff_chain_on_a_soft_spring_settles_at_its_rounding_floor(contrast):
     G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
     out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1),
                                   np.zeros(n), np.array([True]))
-    assert out is not None
+    assert not isinstance(out, Declined), out
     x, y, steps, history = out[0], out[1], out[4], out[5]
     print(f"contrast {contrast:.0e}: {steps} steps, relative residuals {history}, reaction error "
           f"{abs(y[0] - force) / force:.1e}, displacement error {np.abs(x - force * np.cumsum(1 / k)).max() / g:.1e}")
@@ -96,7 +96,7 @@ def test_the_steps_run_to_the_floor_when_it_is_low():
     G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
     out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1),
                                   np.zeros(n), np.array([True]))
-    assert out is not None
+    assert not isinstance(out, Declined), out
     x, y, history = out[0], out[1], out[5]
     # closed form: every spring stretched by g / n, its force s (1 + s^2) with s = g / n; the reaction P minus it
     s = g / n
@@ -106,3 +106,23 @@ def test_the_steps_run_to_the_floor_when_it_is_low():
     assert np.abs(x - s * np.arange(1, n + 1)).max() <= 1e-13 * g
     assert abs(y[0] - (P - s * (1 + s ** 2))) <= 1e-13 * P
     assert history[-1] <= 1e-13
+
+
+@pytest.mark.parametrize("rest", [0.0, 1e-13])
+def test_a_free_chain_in_an_open_gap_is_a_singular_step_naming_no_row(rest):
+    """The chain without its clamp (k_0 = 0: the translation free), load-free, its end short of the gap: every
+    step's system is singular (the translation is held by no row carrying a force), which the finish reports as
+    such, typed, with the rows that carried forces in it (none): the caller's well-posedness check names the
+    free motion from them (tests/test_wellposed.py, the open-gap layer). ``rest``: the start at equilibrium (a
+    zero right side) or off it by rounding (as the interior point's: where a singular LU's answer is garbage)."""
+    n, g = 6, 1.0
+    k = np.ones(n)
+    k[0] = 0.0
+    chain = Chain(k, 0.0)
+    G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
+    x0 = 0.5 * np.ones(n) + rest * np.arange(n)
+    out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1), x0,
+                                  np.array([False]))
+    assert isinstance(out, Declined) and out.stop is Stop.SINGULAR_FORCES, out
+    assert out.rows is not None and not out.rows.any()
+

@@ -192,8 +192,9 @@ def sparse(problem, settings, timings) -> RawResult:
             op, G, widths = mixed_system(problem)
             out = solve_sparse_compliance(op, G, g, w, law, stacked(u, phi, taus), _limit_start(law, y, z, r, g))
             timings["polish"] = time.perf_counter() - t0
-            if out is None:
-                raw.declined = "the Newton steps on the sparse mixed system with the law's rows did not settle"
+            if isinstance(out, Declined):
+                raw.declined = Declined(out.stop, "the Newton steps on the sparse mixed system with the law's rows "
+                                        f"did not settle: {out}", out.rows)   # a singular step's rows: run's check
             else:
                 raw.polished, raw.finish = True, Finish.SEMISMOOTH_NEWTON
                 raw.u, raw.phi, raw.taus = unstacked(problem, out[0], widths)

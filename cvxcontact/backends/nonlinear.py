@@ -11,7 +11,8 @@ Newton on the nonlinear mixed system (26) with the contact active set, no interi
    solve_sparse_compliance` on :class:`~cvxcontact.backends.mixed.MixedEnergy`, every row a Signorini row, or the
    rows' normal-compliance law, :func:`compliance`): damped on the energy with a sufficient decrease
    (:data:`ARMIJO`), the contact rows' signs checked after every full step (the primal-dual active-set update,
-   :data:`EARLY`), rounding recognised below :data:`SETTLED`, each step one numeric factorisation on one
+   :data:`EARLY`), rounding recognised by the step's own floor
+   (:func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`), each step one numeric factorisation on one
    sparsity (:class:`TangentSolver`);
 3. if those steps do not settle (the active-set steps revisit a set, a singular step, or a stall above
    rounding), the full route (:func:`~cvxcontact.backends.signorini.full`: the interior point, then the same
@@ -32,7 +33,7 @@ import scipy.sparse as sp
 
 from ..contact.laws import RowLaws, Signorini
 from ..errors import SolverError
-from .finish import solve_sparse_compliance
+from .finish import Declined, solve_sparse_compliance
 from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
@@ -55,14 +56,6 @@ ARMIJO = 1e-4
 solve_sparse_compliance`'s ``armijo``), the condition under which damped Newton on a convex energy with a Lipschitz
 gradient converges from any start (the full route's finish starts near the answer and only asks no increase). On
 the measured scenes it changes nothing (58k unknowns: the same 18 steps with 0)."""
-
-
-SETTLED = 1e-8
-"""The relative residual of (26) below which a full Newton step that no longer halves it is rounding
-(:func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s ``settled``): the rounding of the residual grows with
-the tangent's conditioning (measured on the circle pressed into a block: 3e-11 at 26k unknowns, 1.0e-10 to 2.3e-10
-at 58k, above the default SIGN_TOL = 1e-10, where the steps went on at rounding until the iteration limit). The
-answer is then checked by the read-back like every other ((26)-(27) at ``tol``)."""
 
 
 FORCING = 1e-4
@@ -349,10 +342,9 @@ def _steps(problem, cache, settings, timings, law, weights, start):
     else:                                                    # the elastic predictor: the rest state
         x0 = np.zeros(G.shape[1])
     out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
-                                  solve=solver, early=EARLY, armijo=ARMIJO,
-                                  settled=SETTLED)
+                                  solve=solver, early=EARLY, armijo=ARMIJO)
     timings["newton"] = time.perf_counter() - t0
-    if out is None:
+    if isinstance(out, Declined):
         cache.own.pop("newton_answer", None)
         return None
     x, y, z, active, steps, history = out

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..fem.kernel import check_determined
-from .finish import SINGULAR_FORCES
+from .finish import Stop
 from . import backend
 from .result import RawResult
 from .start import start_active
@@ -52,7 +52,9 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     filling ``cache``; the forces of rows no unknown moves at their least admissible value (docs/formulation.md
     §8, "Held nodes": (26)-(27) do not determine them). After an exact finish, a kernel motion that only rows
     open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
-    rows, or with a compliance law the rows that carry a force)."""
+    rows, or with a compliance law the rows that carry a force); so is one that the rows carrying the forces
+    leave free where a finish found its system singular (``Stop.SINGULAR_FORCES``; the finish's rows if it
+    names them, :attr:`~cvxcontact.backends.finish.declined.Declined.rows`)."""
     term = problem.term
     solver = route(method, term.kind)
     cache = cache.matching(problem.lines.key())
@@ -65,10 +67,13 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
              f", finish {raw.finish}" if raw.finish else "", raw.iterations,
              f"; exact finish declined: {raw.declined}" if raw.declined else "")
     active = raw.active
-    if active is None and term.active_from_forces and raw.y is not None:   # the rows that carry a force
+    singular = getattr(raw.declined, "stop", None) is Stop.SINGULAR_FORCES
+    if singular and raw.declined.rows is not None:
+        active = raw.declined.rows          # the rows carrying the forces in the finish's singular system
+    elif active is None and term.active_from_forces and raw.y is not None:   # the rows that carry a force
         y = np.asarray(raw.y, dtype=float)
         active = y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
-    if active is not None and (raw.polished or raw.declined == SINGULAR_FORCES):
+    if active is not None and (raw.polished or singular):
         check_determined(problem.kernel, active)    # a motion only rows open at the solution would hold (a
         # finish whose rows carrying forces cannot hold a body: is it the problem that leaves the body free?)
     if term.zeroes_held_forces:

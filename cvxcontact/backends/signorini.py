@@ -87,8 +87,9 @@ def newton_finish(problem, raw, timings):
     out = solve_sparse_compliance(op, G, g, np.zeros(len(g)), RowLaws.uniform(Signorini(), len(g)),
                                   stacked(raw.u, raw.phi, raw.taus), start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if out is None:
-        raw.declined = "the Newton steps on the nonlinear mixed system did not settle (a singular step or a cycle)"
+    if isinstance(out, Declined):
+        raw.declined = Declined(out.stop, f"the Newton steps on the nonlinear mixed system did not settle: {out}",
+                                out.rows)     # a singular step's rows go to the well-posedness check (run)
         return raw
     x, raw.y, _, raw.active, steps, history = out
     log.info("Newton finish of the bulk energy: %d steps, relative residuals %s", steps,

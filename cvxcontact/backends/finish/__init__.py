@@ -12,7 +12,7 @@ answer of the discrete problem, one module per algorithm.
 - :mod:`.declined`: why a finish stopped without an answer (:class:`Declined`, a typed result).
 """
 
-from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, Declined, Stop
+from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, STALL, Declined, Stop
 from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson
 from .forces import (FORCE_FLOOR, force_displacements, force_scale, ipm_active, node_scales, reach_displacements,
                      reach_forces, row_compliance)
@@ -26,5 +26,5 @@ __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displace
            "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set",
            "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",
            "FactoredRows", "UpdatedSystem", "CompliantRows", "factored_rows", "refined_solve", "row_reach",
-           "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES",
+           "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL",
            "_independent", "_purified", "_row_scale"]

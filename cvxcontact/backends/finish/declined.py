@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import enum
 
-__all__ = ["Stop", "Declined", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES"]
+import numpy as np
+
+__all__ = ["Stop", "Declined", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL"]
 
 
 class Stop(enum.Enum):
@@ -18,18 +20,24 @@ class Stop(enum.Enum):
              "residual is above rounding")
     WORSE = "the answer's energy is above the interior point's"
     NOT_POSED = "the finish does not apply to this problem"
+    STALL = "the Newton steps stalled above rounding"
 
 
 class Declined(str):
     """A finish's refusal: its :class:`Stop` (``.stop``) and, as the string itself, the words the solution's
     ``info.declined`` reports (a ``str`` so that the backends compose their messages from it). Test for it with
-    ``isinstance(out, Declined)``; an answer is a tuple."""
+    ``isinstance(out, Declined)``; an answer is a tuple. ``rows`` (bool per contact row, optional; with
+    :attr:`Stop.SINGULAR_FORCES`): the rows carrying the forces in the system found singular, which the
+    well-posedness check after the solve reads in place of the interior point's
+    (:func:`~cvxcontact.fem.kernel.check_determined`: a body those rows leave free, the load doing no work along
+    it, is refused by name)."""
 
     stop: Stop
+    rows: np.ndarray | None
 
-    def __new__(cls, stop: Stop, words: str | None = None) -> "Declined":
+    def __new__(cls, stop: Stop, words: str | None = None, rows: np.ndarray | None = None) -> "Declined":
         self = super().__new__(cls, stop.value if words is None else words)
-        self.stop = stop
+        self.stop, self.rows = stop, rows
         return self
 
     def __repr__(self) -> str:
@@ -40,3 +48,4 @@ SINGULAR = Declined(Stop.SINGULAR)
 CYCLE = Declined(Stop.CYCLE)
 MAX_ITER = Declined(Stop.MAX_ITER)
 SINGULAR_FORCES = Declined(Stop.SINGULAR_FORCES)
+STALL = Declined(Stop.STALL)

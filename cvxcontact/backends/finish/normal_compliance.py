@@ -8,7 +8,26 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
+from .declined import CYCLE, MAX_ITER, STALL, Declined, Stop
 from .lcp import SIGN_TOL, row_scales, solve_lcp
+
+
+def rounding_floor(K, x, unsolved):
+    """The residual of a Newton step's system below which no step can bring it, row by row (scaled units):
+
+        floor_i = n_i eps (|K| |x|)_i + |unsolved_i|
+
+    with K the step's matrix (the tangent), n_i the non-zeros of its row i, eps the unit round-off of doubles and
+    ``unsolved`` the residual the step's own solve left in that row. The first term bounds the rounding of a
+    row's residual evaluated at x (a sum of n_i terms of size (|K| |x|)_i, each at least as large as the row's
+    stress terms; x itself is known to eps |x| only), which grows with the tangent's conditioning through |K| |x|
+    (measured, circle into a Hencky block: max_i eps (|K| |x|)_i / S_i = 9.4e-11 at 26k unknowns, 3.4e-10 at 58k,
+    6.5e-10 at 103k, S the row's scale; the steps stop at 1.6 to 7.8 eps (|K| |x|)_i, n_i ~ 18); docs/formulation.md
+    §19, "Where the Newton steps stop"."""
+    import scipy.sparse as sps
+
+    K = sps.csr_matrix(K)
+    return np.diff(K.indptr) * np.finfo(float).eps * (abs(K) @ np.abs(x)) + unsolved
 
 
 def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
@@ -205,7 +224,7 @@ def solve_linear_compliance(W, d, weights, law):
 
 
 def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50, solve=None, early=None,
-                            armijo=0.0, settled=None):
+                            armijo=0.0):
     """Exact finish of the contact rows' law on the sparse mixed system (26), for scenes that cannot be
     condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
     §10-§12) and for a non-quadratic bulk energy (the paper's nonlinear A, docs/materials.md "Hencky"), whose
@@ -226,7 +245,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     with T the tangent at x^k, D = diag(w p'(r^k)) and L the rows held at their limit, each step solves the
     sparse system (the sparsity of the linear one)
 
-        [[T + G^T D G, G_L^T], [G_L, 0]] [x^k + dx; z_L] = [T x^k - grad L(x^k) - G^T (w p(r^k) - D (g + r^k)); g_L + l_L]
+        [[T + G^T D G, G_L^T], [G_L, 0]] [dx; z_L] = [-grad L(x^k) - G^T w p(r^k); l_L - r^k_L]
 
     (a semismooth Newton step: p' and a Hencky tangent jump where a row opens or a point yields; exact in one
     step for a linear material and m = 1 once the penetrating rows are right), damped by backtracking on the
@@ -235,23 +254,25 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
     r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
     m) the starting L (default r(x0) >= l on the limited rows). ``solve(K, b, at)``: the sparse solve of each step's
-    system, given by its block K = T + G^T D G and the closed rows ``at`` (L) of G, [x; z_L] or None if it is
+    system, given by its block K = T + G^T D G and the closed rows ``at`` (L) of G, [dx; z_L] or None if it is
     singular (default: :func:`~cvxcontact.backends.full.solve_mixed` on the matrix above). ``early``: once a full
     step brings the relative residual below it, the signs of the limit rows are checked and a set they reject is
     left at once, without converging on it (None: only a converged set is checked; the last set is always
     converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
     turns it off (signs read before convergence can alternate between two sets). ``armijo``: the sufficient
     decrease c of the backtracking, L(x + t dx) <= L(x) + c t grad . dx (beside the rounding of L); 0: no
-    increase only (enough from an interior point, near the answer). ``settled``: the
-    relative residual below which a full step that no longer halves it is taken as rounding (default
-    ``SIGN_TOL``; that rounding grows with the conditioning of the tangent: measured 3e-11 at 26k unknowns,
-    1.0e-10 to 2.3e-10 at 58k, where the default never stopped).
+    increase only (enough from an interior point, near the answer). Each step solves for the correction dx (its
+    right side the residual of (26) itself), so that the solve's error scales with the step, not with x.
 
-    Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (each row's
-    residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y|, or within ``SIGN_TOL`` once a
-    full step no longer halves it) and the signs to ``SIGN_TOL``; ``history`` the largest relative residual
-    after each step (the convergence to read). None if a system is singular (e.g. a held body whose rows all
-    left the contact) or the steps do not settle.
+    Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (after a full step,
+    each row's residual within 1e-3 ``SIGN_TOL`` of its scale ``magnitude(x)`` + |G^T| |y| or within the step's
+    :func:`rounding_floor`, which grows with the tangent's conditioning: no caller sets a floor) and the signs to
+    ``SIGN_TOL``; ``history`` the largest relative residual after each step (the convergence to read). A full step
+    that reaches that floor is taken whole (the energy's change drowns in its rounding there). Otherwise a
+    :class:`~cvxcontact.backends.finish.declined.Declined`: ``SINGULAR_FORCES`` if a step's system is singular
+    (``solve`` returned None: its factorisation's pivots or its backward error), its ``rows`` the closed rows
+    and those whose law's stiffness enters K (e.g. a body held by the contact whose rows all left it: the
+    caller's well-posedness check names it), ``CYCLE``, ``STALL`` or ``MAX_ITER`` if the steps do not settle.
     """
     import scipy.sparse as sps
 
@@ -278,55 +299,63 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         return operator.value(x) + float(w @ law.energy(G @ x - g))
 
     def step(x, at):
+        """The Newton step (dx, z), its matrix K and the residual its solve left in the rows of x (the floor)."""
         r = G @ x - g
         D = w * law.derivative(r)
-        T, load = operator.linearised(x)          # gradient(x') ~ T x' - load near x
+        T = operator.tangent(x)
         K = T + G.T @ sps.diags(D) @ G
-        b = load - G.T @ (w * law.pressure(r) - D * (g + r))
-        b = np.concatenate([b, (g + ell)[at]]) if at.any() else b
+        b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
+        b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
         s = solve(K, b, at)
-        if s is None:
-            return None
-        zL = np.zeros(m)
+        if s is None:                 # singular (the solve's pivots or its backward error): the rows carrying
+            return Declined(Stop.SINGULAR_FORCES, rows=at | (D > 0))   # forces leave a motion free
+        dx, zL = s[:len(x)], np.zeros(m)
         zL[at] = s[len(x):]
-        return s[:len(x)] - x, zL
+        return dx, zL, K, np.abs(K @ dx + G.T @ zL - b[:len(x)])
 
-    floor = SIGN_TOL if settled is None else settled
+    def residual(x, z):
+        """The residual of (26) at x with the reactions z, its rows' scales and the contact forces y."""
+        y = w * law.pressure(G @ x - g) + z
+        S = operator.magnitude(x) + absG.T @ np.abs(y)
+        return operator.gradient(x) + G.T @ y, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny)), y
+
     steps, seen, left, history = 0, set(), set(), []
     for _ in range(max_iter):
-        z, last, first, hasty = np.zeros(m), np.inf, True, False
+        z, first, hasty = np.zeros(m), True, False
         for _ in range(max_iter):                       # damped Newton with the limit rows L closed
             out = step(x, at)
             steps += 1
-            if out is None:
-                return None
-            dx, z = out
-            t, f0 = 1.0, energy(x)
-            if not first:
+            if isinstance(out, Declined):
+                return out
+            dx, z, K, unsolved = out
+            # converged: after a full step each row's residual at the rounding of its own terms, or at the floor
+            # of the step solved; such a step is taken whole (L's change drowns in its rounding there)
+            trial = x + dx
+            res, S, y = residual(trial, z)
+            settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + rounding_floor(K, trial, unsolved)).all())
+            t = 1.0
+            if not first and not settled:
+                f0 = energy(x)
                 slope = 0.0 if not armijo else min(float((operator.gradient(x) + G.T @ (
                     w * law.pressure(G @ x - g))) @ dx), 0.0)
                 while t > 1e-12 and energy(x + t * dx) > f0 + armijo * t * slope + 1e-14 * max(abs(f0), tiny):
                     t *= 0.5
+                if t < 1.0:
+                    trial = x + t * dx
+                    res, S, y = residual(trial, z)
             first = False
-            x = x + t * dx
-            r = G @ x - g
-            y = w * law.pressure(r) + z
-            res = operator.gradient(x) + G.T @ y
-            S = operator.magnitude(x) + absG.T @ np.abs(y)
-            S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
+            x = trial
             ratio = float((np.abs(res) / S).max(initial=0.0))
             history.append(ratio)
-            # converged: at rounding, or within SIGN_TOL and no longer improving (rounding of the steps)
-            if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= floor and ratio >= 0.5 * last)):
+            if settled:
                 break
             if early is not None and t == 1.0 and ratio <= early and _rejected(G, g, x, y, z, at, limited, ell):
                 hasty = True                            # this set is wrong: leave it now (the outer check below)
                 break
-            last = ratio
             if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
-                return None                             # stalled above rounding
+                return STALL
         else:
-            return None
+            return MAX_ITER
         r = G @ x - g
         y = w * law.pressure(r) + z
         neg, over = _signs(G, g, x, y, z, at, limited, ell)
@@ -342,8 +371,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             continue
         at = _next_limit_set(at, neg, over, seen)
         if at is None:
-            return None
-    return None
+            return CYCLE
+    return MAX_ITER
 
 
 def _signs(G, g, x, y, z, at, limited, ell):

@@ -1,0 +1,128 @@
+"""Where the Newton steps on the mixed system (26) stop (cvxcontact.backends.finish.solve_sparse_compliance): at the
+rounding floor of the system solved, which grows with the tangent's conditioning (docs/formulation.md §19, "Where
+the Newton steps stop"), checked on a chain of springs whose floor a stiffness contrast raises, against its closed
+form."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from cvxcontact.backends.finish import Declined, Stop, solve_sparse_compliance
+from cvxcontact.contact.laws import RowLaws, Signorini
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
+EPS = np.finfo(float).eps
+
+
+class Chain:
+    """n springs in series (stiffness k_i) from a clamp to n free nodes, the load P at the last one: the energy
+    1/2 sum k_i (x_i - x_{i-1})^2 - P x_n (x_0 = 0), each row's scale from the springs' forces |B^T| |k B x| + |f|
+    (as a Hencky body's, from its stresses: not |K| |x|, which a stiff spring carried far by a soft one makes
+    much larger)."""
+
+    def __init__(self, k, P):
+        n = len(k)
+        self.k = np.asarray(k, dtype=float)
+        self.B = sp.diags([np.ones(n), -np.ones(n - 1)], [0, -1], format="csr")      # the springs' elongations
+        self.f = np.zeros(n)
+        self.f[-1] = P
+        self.K = (self.B.T @ sp.diags(self.k) @ self.B).tocsr()
+
+    def value(self, x):
+        return 0.5 * float(self.k @ (self.B @ x) ** 2) - float(self.f @ x)
+
+    def gradient(self, x):
+        return self.B.T @ (self.k * (self.B @ x)) - self.f
+
+    def tangent(self, x):
+        return self.K
+
+    def magnitude(self, x):
+        return abs(self.B).T @ np.abs(self.k * (self.B @ x)) + np.abs(self.f)
+
+
+@pytest.mark.parametrize("contrast", [1.0, 1e6, 1e7])
+def test_a_stiff_chain_on_a_soft_spring_settles_at_its_rounding_floor(contrast):
+    """One soft spring at the clamp, n - 1 springs ``contrast`` times stiffer, the end pushed twice as far as the
+    gap g of its Signorini row: the steps settle (before the floor of each step's own rounding, the contrast 1e7
+    never settled: residuals 1.7e-9, above the fixed 1e-10) on the closed form, the end at the gap and one
+    force g / sum(1/k) in every spring, the reaction to the rounding those residuals allow."""
+    n, g = 20, 1.0
+    k = np.full(n, contrast)
+    k[0] = 1.0
+    force = g / (1 / k).sum()
+    chain = Chain(k, 2 * force)
+    G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
+    out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1),
+                                  np.zeros(n), np.array([True]))
+    assert not isinstance(out, Declined), out
+    x, y, steps, history = out[0], out[1], out[4], out[5]
+    print(f"contrast {contrast:.0e}: {steps} steps, relative residuals {history}, reaction error "
+          f"{abs(y[0] - force) / force:.1e}, displacement error {np.abs(x - force * np.cumsum(1 / k)).max() / g:.1e}")
+    # measured (relative residual, reaction error, displacement error), one step each: 1: 1.1e-15, 6.9e-16,
+    # 2.2e-16; 1e6: 5.6e-11, 4.0e-11, 1.1e-15; 1e7: 1.7e-9, 9.8e-11, 8.9e-16 (the bound below: 2.7e-8 at 1e7)
+    assert np.abs(x - force * np.cumsum(1 / k)).max() <= 1e-12 * g
+    # the reaction balances the sum of the rows' residuals, each below the rounding of its 3 terms of size
+    # (|K| |x|)_i (a bound, not the code's floor: 3 eps sum_i (|K| |x|)_i ~ 6 n contrast eps force)
+    assert abs(y[0] - force) <= 3 * EPS * (abs(chain.K) @ np.abs(x)).sum() + 1e-13 * force
+    assert history[-1] > 1e-10 or contrast < 1e7       # the case is the one the fixed 1e-10 declined
+
+
+def test_the_steps_run_to_the_floor_when_it_is_low():
+    """Without the contrast the floor is eps-level and the steps do not stop above it: a nonlinear chain (springs
+    with a cubic term) ends with a relative residual at rounding (below 1e-13, the bound a well-conditioned
+    system allows)."""
+
+    class Cubic(Chain):
+        def value(self, x):
+            e = self.B @ x
+            return float(self.k @ (0.5 * e ** 2 + 0.25 * e ** 4)) - float(self.f @ x)
+
+        def gradient(self, x):
+            e = self.B @ x
+            return self.B.T @ (self.k * (e + e ** 3)) - self.f
+
+        def tangent(self, x):
+            e = self.B @ x
+            return (self.B.T @ sp.diags(self.k * (1 + 3 * e ** 2)) @ self.B).tocsr()
+
+        def magnitude(self, x):
+            e = self.B @ x
+            return abs(self.B).T @ (self.k * (np.abs(e) + np.abs(e) ** 3)) + np.abs(self.f)
+
+    n, g, P = 10, 2.0, 3.0
+    chain = Cubic(np.ones(n), P)
+    G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
+    out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1),
+                                  np.zeros(n), np.array([True]))
+    assert not isinstance(out, Declined), out
+    x, y, history = out[0], out[1], out[5]
+    # closed form: every spring stretched by g / n, its force s (1 + s^2) with s = g / n; the reaction P minus it
+    s = g / n
+    print("relative residuals", history, np.abs(x - s * np.arange(1, n + 1)).max() / g,
+          abs(y[0] - (P - s * (1 + s ** 2))) / P)
+    # measured: residuals 1.3e-3, 5.3e-16; displacement error 1.1e-16, reaction error 0
+    assert np.abs(x - s * np.arange(1, n + 1)).max() <= 1e-13 * g
+    assert abs(y[0] - (P - s * (1 + s ** 2))) <= 1e-13 * P
+    assert history[-1] <= 1e-13
+
+
+@pytest.mark.parametrize("rest", [0.0, 1e-13])
+def test_a_free_chain_in_an_open_gap_is_a_singular_step_naming_no_row(rest):
+    """The chain without its clamp (k_0 = 0: the translation free), load-free, its end short of the gap: every
+    step's system is singular (the translation is held by no row carrying a force), which the finish reports as
+    such, typed, with the rows that carried forces in it (none): the caller's well-posedness check names the
+    free motion from them (tests/test_wellposed.py, the open-gap layer). ``rest``: the start at equilibrium (a
+    zero right side) or off it by rounding (as the interior point's: where a singular LU's answer is garbage)."""
+    n, g = 6, 1.0
+    k = np.ones(n)
+    k[0] = 0.0
+    chain = Chain(k, 0.0)
+    G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
+    x0 = 0.5 * np.ones(n) + rest * np.arange(n)
+    out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1), x0,
+                                  np.array([False]))
+    assert isinstance(out, Declined) and out.stop is Stop.SINGULAR_FORCES, out
+    assert out.rows is not None and not out.rows.any()
+

@@ -113,7 +113,9 @@ class TangentSolver:
     :data:`FORCING`/:data:`LOOSE`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
-    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations."""
+    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations; ``exact``: the last
+    system was solved to rounding (False: GMRES stopped at its forcing term, so its residual is no rounding
+    floor for :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`)."""
 
     def __init__(self, pattern, G, factorization: str = "auto", residual: float = 1e-8, krylov: int | None = None):
         from .factor import resolve
@@ -200,7 +202,7 @@ class TangentSolver:
             return np.isfinite(r).all() and (np.abs(r) <= 1e-14 * np.maximum(absA @ np.abs(z) + np.abs(bb),
                                                                                tiny)).all()
 
-        z = None
+        z, self.exact = None, True
         if self._last is not None and self._z is not None and self._budget:
             z0 = self._z.copy()                                  # the last step's answer, its open rows' y 0
             z0[n + np.flatnonzero(~at)] = 0.0
@@ -209,6 +211,7 @@ class TangentSolver:
                 z = self._gmres(A, bb, at, settled, z0)
                 self._failed = z is None
         if z is None:
+            self.exact = True
             factor = self._last = self._factor(A)
             if factor is None:
                 return None
@@ -253,6 +256,7 @@ class TangentSolver:
         while True:
             beta = np.linalg.norm(r)
             if beta <= goal or settled(z, r):
+                self.exact = bool(settled(z, r))
                 return z
             if budget <= 0:
                 return None

@@ -342,6 +342,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
             clock = time.perf_counter()
             sol, caught = _solve(scene, condition, sol, options, True)
             solve_s += time.perf_counter() - clock
+            if stopped == "tol":                           # the stop read the interior point's estimate
+                relative = TARGETS[target](sol)[1]
         cpu_s = time.process_time() - cpu
         est = sol.estimate
         dropped = (ResolutionWarning, ResidualWarning) if exact and not finished else ResolutionWarning
@@ -361,6 +363,10 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         say(f"adapt step {step}: {cells} cells, {row.unknowns} unknowns, estimate {est.absolute:.4g} "
             f"({100 * est.relative:.3g} %), {row.marked} marked ({solve_s:.2f} s)")
         if stopped:
+            if stopped == "tol" and relative > tol:
+                warnings.warn(f"adapt: the interior point's relative estimate reached tol = {tol:g} on the last mesh "
+                              f"({row.unknowns} unknowns), its exact answer's reads {relative:.3g}: call again with "
+                              "exact_steps=True or a slightly smaller tol", ResolutionWarning, stacklevel=2)
             if tol is not None and stopped != "tol":
                 best = min(history, key=lambda r: r.relative)
                 warnings.warn(f"adapt: the relative estimate {row.relative:.3g} of the last mesh ({row.unknowns} "

@@ -106,3 +106,30 @@ def test_the_history_reads_the_peak_pressure_and_its_change():
     assert np.isnan(result.history[0].peak_change)
     for before, now, step in zip(peaks, peaks[1:], result.history[1:]):
         assert step.peak_change == pytest.approx(abs(now - before) / now, rel=1e-12)
+
+
+def test_a_tol_reached_by_the_interior_point_alone_warns(monkeypatch):
+    """With exact_steps=False the stop reads the interior point's estimate; the mesh it stops on is then solved
+    exactly, and if that answer's estimate is above tol the loop says so (found by review). A target that reads
+    the interior point's answers below tol and the exact one above it (a planted target: the two estimates differ
+    at solver accuracy on real scenes) makes the case; a target below tol on both raises no such warning."""
+    import importlib
+
+    adapt_module = importlib.import_module("cvxcontact.adapt")      # the module (cc.adapt is the function)
+
+    energy = adapt_module.TARGETS["energy"]
+
+    def planted(sol):
+        indicators = energy(sol)[0]
+        return indicators, (0.5 if sol.polished else 1e-3)
+
+    monkeypatch.setitem(adapt_module.TARGETS, "energy", planted)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        warnings.filterwarnings("error", message="adapt: the interior point", category=cc.ResolutionWarning)
+        with pytest.raises(cc.ResolutionWarning, match="its exact answer's reads 0.5"):
+            cc.adapt(indented_block(), degree=2, tol=0.01, exact_steps=False)
+        monkeypatch.setitem(adapt_module.TARGETS, "energy", lambda sol: (energy(sol)[0], 1e-3))
+        result = cc.adapt(indented_block(), degree=2, tol=0.01, exact_steps=False)
+    assert result.stopped == "tol" and result.solution.polished

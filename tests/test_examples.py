@@ -96,7 +96,7 @@ def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
 def test_punch_sensor_example_reads_force_linearly(capsys):
     rows = load("punch_sensor.py")["main"](10, (1e-6, 3e-6))
     draws("punch_sensor.py", rows)
-    (d0, f0, v0, q0, g0), (d1, f1, v1, q1, g1) = rows
+    (_d0, f0, v0, q0, g0), (_d1, f1, v1, q1, g1) = rows
     assert f0 > 0 and v0 != 0 and q0 != 0
     # positively homogeneous: 3x the displacement gives 3x force, potential, charge (same active set)
     for a, b in ((f0, f1), (v0, v1), (q0, q1), (g0, g1)):
@@ -138,3 +138,28 @@ def test_pzt_disc_sphere_example_reads_the_force_by_reciprocity(capsys):
     s0, s1 = (r["V"] / r["F"] for r in rows)
     assert 0 < 1 - s1 / s0 < 0.01                                     # measured 0.0021
     assert "reciprocity" in capsys.readouterr().out
+
+
+def test_friction_block_example_between_sliding_and_tied(capsys):
+    results = load("friction_block.py")["main"](8)
+    draws("friction_block.py", results)
+    S, P = 1e-5, 1e7
+    tied = results["tied"]
+    assert tied.ok and tied.contact.slip is None                       # the tied block: no friction law at all
+    slipping = {}
+    for (name, g), sol in ((k, v) for k, v in results.items() if k != "tied"):
+        c = sol.contact
+        assert sol.ok and sol.polished and sol.info.finish is not None
+        # |sigma_t| <= g sampled at the nodes (Coulomb: mu times the pressure), relative to the threshold
+        cap = g if name == "tresca" else (g / P) * c.pressure
+        assert (np.abs(c.shear) <= cap * (1 + 1e-9) + 1e-9 * g).all()   # measured max |sigma_t| / cap - 1: 2e-16
+        slipping[name, g] = int((np.abs(c.slip) > 1e-9 * S).sum())
+        if g == 0.5e6:      # every node slides: the full capacity, -g L (Tresca) or -mu times the normal force
+            capacity = -g * 1.0 if name == "tresca" else -(g / P) * c.force.sum()
+            assert slipping[name, g] == len(c.x)
+            assert abs(c.shear_force.sum() / capacity - 1) < 1e-9      # measured 0 and 2.2e-16
+        if g == 24e6:       # stuck: the tied block, computed without friction
+            assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-12 * S      # measured 2.0e-15 S
+    for name in ("tresca", "coulomb"):      # the slip zone shrinks as the threshold grows (to the pushed corner)
+        assert slipping[name, 0.5e6] > slipping[name, 3e6] > slipping[name, 24e6] == 1
+    assert "friction / capacity" in capsys.readouterr().out

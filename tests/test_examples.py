@@ -163,3 +163,25 @@ def test_friction_block_example_between_sliding_and_tied(capsys):
     for name in ("tresca", "coulomb"):      # the slip zone shrinks as the threshold grows (to the pushed corner)
         assert slipping[name, 0.5e6] > slipping[name, 3e6] > slipping[name, 24e6] == 1
     assert "friction / capacity" in capsys.readouterr().out
+
+
+def test_hencky_indent_example_is_linear_below_yield_and_softer_above(capsys):
+    ns = load("hencky_indent.py")
+    rows = ns["main"](12)
+    draws("hencky_indent.py", rows)
+    for depth, F, F_lin, plastic, sol in rows:
+        assert sol.ok and sol.polished and F > 0
+        if plastic == 0:        # no cell past yield: psi(s) = s^2 everywhere, the linear material's answer
+            assert abs(F / F_lin - 1) < 1e-9                              # measured 1e-15
+        else:                   # a plastic zone: the softened shear stiffness carries less force at the same depth
+            assert F < F_lin
+    plastic = [r[3] for r in rows]
+    assert plastic[0] == 0 and plastic[-1] > 0 and plastic == sorted(plastic)
+    # the plastic zone lies under the circle: its cells' centres within 0.4 m of the indent point (0.5, 0.5) (the
+    # block is 1 m x 0.5 m), centred on x = 0.5 (the graded mesh mirrors about it); measured 0.30 m and 1e-16
+    sol = rows[-1][-1]
+    mesh = sol.scene.bodies[0].mesh
+    centres = mesh.points[mesh.triangles].mean(axis=1)
+    yielded = centres[ns["deviatoric_strain"](sol) > ns["S_Y"]]
+    assert np.hypot(yielded[:, 0] - 0.5, yielded[:, 1] - 0.5).max() < 0.4 and abs(yielded[:, 0].mean() - 0.5) < 1e-3
+    assert "plastic cells" in capsys.readouterr().out

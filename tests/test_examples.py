@@ -185,3 +185,16 @@ def test_hencky_indent_example_is_linear_below_yield_and_softer_above(capsys):
     yielded = centres[ns["deviatoric_strain"](sol) > ns["S_Y"]]
     assert np.hypot(yielded[:, 0] - 0.5, yielded[:, 1] - 0.5).max() < 0.4 and abs(yielded[:, 0].mean() - 0.5) < 1e-3
     assert "plastic cells" in capsys.readouterr().out
+
+
+def test_quad_elements_example_agrees_on_the_contact_force(capsys):
+    results = load("quad_elements.py")["main"]((16, 32), 48)
+    draws("quad_elements.py", results)
+    F_ref = results["reference"]
+    finest = {element: rows[-1] for element, rows in results.items() if element != "reference"}
+    assert finest["P1"][1] == finest["Q1"][1] and finest["P2"][1] == finest["Q2"][1]   # the same grid's nodes
+    for element, (n, dofs, F) in finest.items():
+        assert n == 32 and abs(F - F_ref) < 0.05 * F_ref, element          # measured <= 4.5e-3 F_ref (P1)
+    # P2 and Q2 agree well inside the discretisation difference (P2 from n = 16 to 32: measured 1.7e-2 F_ref)
+    assert abs(finest["P2"][2] - finest["Q2"][2]) < 0.015 * F_ref              # measured 1.3e-3 F_ref
+    assert "|F - F_ref| / F_ref" in capsys.readouterr().out

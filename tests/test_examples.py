@@ -140,6 +140,7 @@ def test_pzt_disc_sphere_example_reads_the_force_by_reciprocity(capsys):
     assert "reciprocity" in capsys.readouterr().out
 
 
+@pytest.mark.numerics
 def test_friction_block_example_between_sliding_and_tied(capsys):
     results = load("friction_block.py")["main"](8)
     draws("friction_block.py", results)
@@ -165,6 +166,7 @@ def test_friction_block_example_between_sliding_and_tied(capsys):
     assert "friction / capacity" in capsys.readouterr().out
 
 
+@pytest.mark.numerics
 def test_hencky_indent_example_is_linear_below_yield_and_softer_above(capsys):
     ns = load("hencky_indent.py")
     rows = ns["main"](12)
@@ -187,6 +189,7 @@ def test_hencky_indent_example_is_linear_below_yield_and_softer_above(capsys):
     assert "plastic cells" in capsys.readouterr().out
 
 
+@pytest.mark.numerics
 def test_quad_elements_example_agrees_on_the_contact_force(capsys):
     results = load("quad_elements.py")["main"]((16, 32), 48)
     draws("quad_elements.py", results)

@@ -96,7 +96,7 @@ def test_wall_actuator_example_matches_uniaxial_closed_form(capsys):
 def test_punch_sensor_example_reads_force_linearly(capsys):
     rows = load("punch_sensor.py")["main"](10, (1e-6, 3e-6))
     draws("punch_sensor.py", rows)
-    (d0, f0, v0, q0, g0), (d1, f1, v1, q1, g1) = rows
+    (_d0, f0, v0, q0, g0), (_d1, f1, v1, q1, g1) = rows
     assert f0 > 0 and v0 != 0 and q0 != 0
     # positively homogeneous: 3x the displacement gives 3x force, potential, charge (same active set)
     for a, b in ((f0, f1), (v0, v1), (q0, q1), (g0, g1)):
@@ -138,3 +138,66 @@ def test_pzt_disc_sphere_example_reads_the_force_by_reciprocity(capsys):
     s0, s1 = (r["V"] / r["F"] for r in rows)
     assert 0 < 1 - s1 / s0 < 0.01                                     # measured 0.0021
     assert "reciprocity" in capsys.readouterr().out
+
+
+@pytest.mark.numerics
+def test_friction_block_example_between_sliding_and_tied(capsys):
+    results = load("friction_block.py")["main"](8)
+    draws("friction_block.py", results)
+    S, P = 1e-5, 1e7
+    tied = results["tied"]
+    assert tied.ok and tied.contact.slip is None                       # the tied block: no friction law at all
+    slipping = {}
+    for (name, g), sol in ((k, v) for k, v in results.items() if k != "tied"):
+        c = sol.contact
+        assert sol.ok and sol.polished and sol.info.finish is not None
+        # |sigma_t| <= g sampled at the nodes (Coulomb: mu times the pressure), relative to the threshold
+        cap = g if name == "tresca" else (g / P) * c.pressure
+        assert (np.abs(c.shear) <= cap * (1 + 1e-9) + 1e-9 * g).all()   # measured max |sigma_t| / cap - 1: 2e-16
+        slipping[name, g] = int((np.abs(c.slip) > 1e-9 * S).sum())
+        if g == 0.5e6:      # every node slides: the full capacity, -g L (Tresca) or -mu times the normal force
+            capacity = -g * 1.0 if name == "tresca" else -(g / P) * c.force.sum()
+            assert slipping[name, g] == len(c.x)
+            assert abs(c.shear_force.sum() / capacity - 1) < 1e-9      # measured 0 and 2.2e-16
+        if g == 24e6:       # stuck: the tied block, computed without friction
+            assert np.abs(sol.u[0] - tied.u[0]).max() < 1e-12 * S      # measured 2.0e-15 S
+    for name in ("tresca", "coulomb"):      # the slip zone shrinks as the threshold grows (to the pushed corner)
+        assert slipping[name, 0.5e6] > slipping[name, 3e6] > slipping[name, 24e6] == 1
+    assert "friction / capacity" in capsys.readouterr().out
+
+
+@pytest.mark.numerics
+def test_hencky_indent_example_is_linear_below_yield_and_softer_above(capsys):
+    ns = load("hencky_indent.py")
+    rows = ns["main"](12)
+    draws("hencky_indent.py", rows)
+    for depth, F, F_lin, plastic, sol in rows:
+        assert sol.ok and sol.polished and F > 0
+        if plastic == 0:        # no cell past yield: psi(s) = s^2 everywhere, the linear material's answer
+            assert abs(F / F_lin - 1) < 1e-9                              # measured 1e-15
+        else:                   # a plastic zone: the softened shear stiffness carries less force at the same depth
+            assert F < F_lin
+    plastic = [r[3] for r in rows]
+    assert plastic[0] == 0 and plastic[-1] > 0 and plastic == sorted(plastic)
+    # the plastic zone lies under the circle: its cells' centres within 0.4 m of the indent point (0.5, 0.5) (the
+    # block is 1 m x 0.5 m), centred on x = 0.5 (the graded mesh mirrors about it); measured 0.30 m and 1e-16
+    sol = rows[-1][-1]
+    mesh = sol.scene.bodies[0].mesh
+    centres = mesh.points[mesh.triangles].mean(axis=1)
+    yielded = centres[ns["deviatoric_strain"](sol) > ns["S_Y"]]
+    assert np.hypot(yielded[:, 0] - 0.5, yielded[:, 1] - 0.5).max() < 0.4 and abs(yielded[:, 0].mean() - 0.5) < 1e-3
+    assert "plastic cells" in capsys.readouterr().out
+
+
+@pytest.mark.numerics
+def test_quad_elements_example_agrees_on_the_contact_force(capsys):
+    results = load("quad_elements.py")["main"]((16, 32), 48)
+    draws("quad_elements.py", results)
+    F_ref = results["reference"]
+    finest = {element: rows[-1] for element, rows in results.items() if element != "reference"}
+    assert finest["P1"][1] == finest["Q1"][1] and finest["P2"][1] == finest["Q2"][1]   # the same grid's nodes
+    for element, (n, dofs, F) in finest.items():
+        assert n == 32 and abs(F - F_ref) < 0.05 * F_ref, element          # measured <= 4.5e-3 F_ref (P1)
+    # P2 and Q2 agree well inside the discretisation difference (P2 from n = 16 to 32: measured 1.7e-2 F_ref)
+    assert abs(finest["P2"][2] - finest["Q2"][2]) < 0.015 * F_ref              # measured 1.3e-3 F_ref
+    assert "|F - F_ref| / F_ref" in capsys.readouterr().out

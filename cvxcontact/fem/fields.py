@@ -50,6 +50,12 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     if body.dim == 3:
         return _solid_fields(body, u, phi, el, grad)
     eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))  # (exx, eyy, 2exy)
+    if not getattr(mat, "quadratic", True):     # a convex strain energy (Hencky): sigma = A(eps), not its c eps
+        plane = np.zeros((len(eps), 6))         # plane strain: (exx, eyy, 0, 0, 0, 2exy); isotropic, so szz too
+        plane[:, [0, 1, 5]] = eps
+        s = mat.stress(plane, 3)[:, [0, 1, 2, 5]]
+        strain = np.column_stack([eps[:, 0], eps[:, 1], 0.5 * eps[:, 2]])
+        return BodyFields(strain=strain, stress=s, von_mises=_von_mises(s[:, :3], s[:, 3:]))
     stress = eps @ mat.c.T
     if mat.piezoelectric:
         field = -np.einsum("mij,mj->mi", grad, phi[el])
@@ -67,8 +73,7 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
                               or (mat.c12 if mat.piezoelectric else mat.E) is None):   # rotated or general: its row
         szz = eps @ out[0] - (field @ out[2] if field is not None else 0.0)
     s = np.column_stack([stress[:, 0], stress[:, 1], szz, stress[:, 2]])
-    vm = np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)
-                 + 3.0 * s[:, 3] ** 2)
+    vm = _von_mises(s[:, :3], s[:, 3:])
     strain = np.column_stack([eps[:, 0], eps[:, 1], 0.5 * eps[:, 2]])
     return BodyFields(strain=strain, stress=s, von_mises=vm, electric_field=field, electric_displacement=disp)
 
@@ -78,14 +83,19 @@ def _solid_fields(body, u, phi, el, grad):
     gradients ``grad`` there)."""
     c, e, kappa = body.material.tensors(3)
     eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))
-    stress = eps @ c.T
+    stress = eps @ c.T if getattr(body.material, "quadratic", True) else body.material.stress(eps, 3)
     field = disp = None
     if e is not None:
         field = -np.einsum("mij,mj->mi", grad, np.asarray(phi)[el])
         stress -= field @ e
         disp = eps @ e.T + field @ kappa.T
-    s = stress
-    vm = np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)
-                 + 3.0 * (s[:, 3:] ** 2).sum(axis=1))
+    vm = _von_mises(stress[:, :3], stress[:, 3:])
     strain = np.column_stack([eps[:, :3], 0.5 * eps[:, 3:]])
     return BodyFields(strain=strain, stress=stress, von_mises=vm, electric_field=field, electric_displacement=disp)
+
+
+def _von_mises(normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+    """The von Mises stress (Pa) of the normal stresses (m, 3) and the shear stresses (m, k), per cell."""
+    s = normal
+    return np.sqrt(0.5 * ((s[:, 0] - s[:, 1]) ** 2 + (s[:, 1] - s[:, 2]) ** 2 + (s[:, 2] - s[:, 0]) ** 2)
+                   + 3.0 * (shear ** 2).sum(axis=1))

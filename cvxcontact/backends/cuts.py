@@ -323,6 +323,17 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
             continue
         cand = cand[np.argsort(-(w[cand] / S[cand]), kind="stable")]      # the largest w_j / S_j first
         first = _first_independent(Q[:, p:], A, cand)
+        if first and has_c and w[cand[0]] > EXCHANGE_TOL * S[cand[0]]:
+            # the best column lies in the passive span but its slack is no rounding: its constant differs from
+            # the passive ones' combination (a true gap's departure), so it replaces one of them (an exchange)
+            y = _exchange(Q, R, A, passive, y, int(cand[0]))
+            if y is None:
+                return None
+            Q, R = sla.qr(A[:, passive])
+            y = settle(y)
+            if y is None:
+                return None
+            continue
         dependent[cand[:first]] = True                # in the span of the passive columns: rounding made w_j > 0
         if first == len(cand):
             continue
@@ -344,6 +355,36 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
 DEPENDENT_TOL = 1e-12
 """A column whose part orthogonal to the passive columns is below this fraction of its norm lies in their span
 (:func:`nnls_warm`)."""
+
+
+EXCHANGE_TOL = 1e-2 * STALL_TOL
+"""A column in the span of the passive ones whose slack exceeds this fraction of its scale is no rounding: it is
+exchanged for a passive column (:func:`nnls_warm`, with a constant ``c``)."""
+
+
+def _exchange(Q, R, A, passive: list, y, j: int):
+    """One exchange step of :func:`nnls_warm` for column ``j`` of ``A`` in the span of the passive columns
+    (``A_P z = A_j``, ``Q R`` their factors): along ``y_j += theta``, ``y_P -= theta z`` the residual A y does not
+    change and the objective falls by ``theta w_j``; ``theta`` is the largest step keeping ``y >= 0``, and the
+    passive column that reaches 0 leaves (``passive`` updated in place; ``j`` appended). None if no passive force
+    falls (the point rows have no solution)."""
+    p = len(passive)
+    z = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ A[:, j])
+    yp = y[passive]
+    falls = z > 0
+    if not falls.any():
+        return None
+    ratio = np.full(p, np.inf)
+    ratio[falls] = yp[falls] / z[falls]
+    leave = int(np.argmin(ratio))
+    theta = ratio[leave]
+    y = y.copy()
+    y[passive] = np.maximum(yp - theta * z, 0.0)
+    y[passive[leave]] = 0.0
+    y[j] = theta
+    del passive[leave]
+    passive.append(j)
+    return y
 
 
 def _first_independent(Q_out, A, cand) -> int:

@@ -286,6 +286,42 @@ def test_a_circle_touching_just_beside_a_vertex_is_a_tangency():
     assert abs(x - cx) < 2 / 24 / 4000                                      # at the circle's foot, 1e-3 h from the vertex
 
 
+@pytest.mark.numerics
+@pytest.mark.parametrize("n", [24, 32])
+def test_a_large_circle_pressed_into_p2_triangles_is_finished(n):
+    """A steel block 1 x 0.5 m, clamped below, pressed 1 mm by a fixed circle of R = 10 m (examples/quad_elements.py
+    under "gamma3"). Before: three points next to a seed on one segment carried forces, so the segment's cut
+    (its row in their span, its true gap's constant not) was skipped by the NNLS as rounding and added again
+    for 40 rounds: declined at n = 24 (violation 1.9e-8), and at n = 32 ok False (complementarity 1.4e-6).
+    Checked by sampling the true slack at 4001 points of every segment against the circle in closed form."""
+    R, depth = 10.0, 1e-3
+    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=n, ny=n // 2), cc.materials.isotropic(E=2e11, nu=0.3),
+                    clamped="bottom", contact="top")
+    center = (0.5, 0.5 + R - depth)
+    sol = _finished(cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle(center, R))]))
+    assert sol.ok and sol.polished and sol.info.finish is not None   # n = 24 "accumulated cuts", 32 "tangency Newton"
+    q, _ = _sampled_q(sol, 4000, center, R)
+    # touching: -(half the spacing)^2 / (2 R) <= max q <= 100 eps R (the rounding of the circle's distance)
+    assert -(0.5 / n / 4000) ** 2 / (2 * R) <= q <= 100 * np.finfo(float).eps * R, q   # measured 5.4e-19, 2.1e-15 m
+    r = sol.residuals()
+    assert r["complementarity"] < 1e-6                  # measured 4.2e-8, 1.4e-8 (the default tol's check: 1e-6)
+
+
+def test_nnls_exchanges_a_dependent_column_whose_slack_is_no_rounding():
+    """min 1/2 |A y - b|^2 - c.y over y >= 0 with column 2 = column 0 + column 1 and c_2 > c_0 + c_1: from the
+    passive set {0, 1} column 2 lies in their span but its slack w_2 = 0.5 is no rounding. Before, it was skipped
+    as dependent and (1, 1, 0) returned; the answer is the QP's (CVXPY, Clarabel)."""
+    from cvxcontact.backends.cuts import nnls_warm
+
+    A, b, c = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]), np.array([1.0, 1.0]), np.array([0.0, 0.0, 0.5])
+    y, _ = nnls_warm(A, b, np.array([1.0, 1.0, 0.0]), lambda y: np.ones(3), c)
+    x = cp.Variable(3, nonneg=True)
+    cp.Problem(cp.Minimize(0.5 * cp.sum_squares(A @ x - b) - c @ x)).solve(solver="CLARABEL")
+    assert np.abs(y - x.value).max() < 1e-6, (y, x.value)          # the QP's own accuracy (~1e-8)
+    w = A.T @ (b - A @ y) + c                                      # KKT: w <= 0, w = 0 where y > 0
+    assert w.max() < 1e-14 and np.abs(w[y > 0]).max() < 1e-14
+
+
 def test_a_cone_that_carries_nothing_next_to_a_compliance_law_is_finished():
     """A layer held by the contact through compliance (m = 2) with a P2 conic limit at 3x the free
     penetration (the limit does not bind, non-matching 3 : 4 meshes): the cones' Bernstein duals are the

@@ -318,11 +318,9 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         if not len(cand):
             return done(y)
         p = len(passive)
-        if p >= n:                                    # no room: every candidate lies in the passive span
-            dependent[cand] = True
-            continue
         cand = cand[np.argsort(-(w[cand] / S[cand]), kind="stable")]      # the largest w_j / S_j first
-        first = _first_independent(Q[:, p:], A, cand)
+        # no room (p >= n): every candidate lies in the passive span
+        first = len(cand) if p >= n else _first_independent(Q[:, p:], A, cand)
         if first and has_c and w[cand[0]] > EXCHANGE_TOL * S[cand[0]]:
             # the best column lies in the passive span but its slack is no rounding: its constant differs from
             # the passive ones' combination (a true gap's departure), so it replaces one of them (an exchange)

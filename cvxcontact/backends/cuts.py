@@ -233,8 +233,9 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     (:func:`interface_cuts`); it stops when w_j <= ``tol`` * ``scale(y)``_j on every column outside the passive
     set. The least squares on the passive set P closes its rows, A_P^T A_P z = A_P^T b + c_P, i.e.
     R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
-    one that rounding or its constant alone made positive while it lies in their span, a vanishing new
-    pivot of R, is left out), which is what the point rows need: more points than nodes, the forces not
+    one that rounding alone made positive while it lies in their span, a vanishing new pivot of R, is left
+    out; one in their span whose w_j exceeds :data:`EXCHANGE_TOL` of its scale, a constant no combination of
+    theirs gives, replaces one of them, :func:`_exchange`), which is what the point rows need: more points than nodes, the forces not
     unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
     ``carry`` (a dict): the passive columns and their QR factors at the return, kept there; a later call whose
     ``A`` has the same first columns (more columns appended: the next round of cuts) and whose warm start is

@@ -180,7 +180,7 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     offsets = (lambda e, p: np.zeros(len(e))) if departure is None else departure.at
     B = sp.csr_matrix(B)
     segment, t = np.asarray(segment, dtype=int), np.asarray(t, dtype=float)
-    last, stalled, good = np.inf, 0, None
+    last, stalled, good, good_rel = np.inf, 0, None, None    # good_rel: the last good round's violations
     built = {"segment": segment[:0], "t": t[:0], "P": point_rows(B, segment[:0], t[:0])}
 
     def rows(segment, t):
@@ -235,8 +235,8 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
     one that rounding alone made positive while it lies in their span, a vanishing new pivot of R, is left
     out; one in their span whose w_j exceeds :data:`EXCHANGE_TOL` of its scale, a constant no combination of
-    theirs gives, replaces one of them, :func:`_exchange`), which is what the point rows need: more points than nodes, the forces not
-    unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
+    theirs gives, replaces one of them, :func:`_exchange`), which is what the point rows need: more points than
+    nodes, the forces not unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
     ``carry`` (a dict): the passive columns and their QR factors at the return, kept there; a later call whose
     ``A`` has the same first columns (more columns appended: the next round of cuts) and whose warm start is
     this answer starts from them instead of factoring its passive columns again.

@@ -42,7 +42,7 @@ from .common import DEGREES, Timer, markdown_table, pyplot, save_figure, slope, 
 from .hertz import ALU, DELTA, HEIGHT, R, STEEL, WIDTH, e_star, half_width, hertz
 
 N0 = 8
-LOOP = {degree: asdict(LOOPS[2, degree]) for degree in (1, 2)}
+LOOP = {order: asdict(LOOPS[2, order]) for order in (1, 2)}     # P1, P2
 """Per degree, the options of :func:`cvxcontact.adapt`: its 2D defaults (:data:`cvxcontact.adapt.LOOPS`), passed
 explicitly. P2: Dorfler's theta = 0.9, each marked cell bisected as often as eta_T ~ h_T^1 predicts
 (:func:`cvxcontact.adapt.mark_bisections`), the steps before the last left at the interior point's answer (its exact

@@ -1,5 +1,5 @@
 """Friction: a block pressed on a rigid floor and pushed sideways, Tresca against Coulomb.
-======================================================================================
+=======================================================================================
 
 A steel block 1 m x 0.5 m (Poisson's ratio 0) is pressed on a rigid plane by p = 10 MPa on its top and
 pushed by a prescribed u_x = s = 10 um on its left face; the floor resists slip with Tresca friction

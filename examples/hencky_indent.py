@@ -1,5 +1,5 @@
 """Hencky plasticity: a rigid cylinder pressed into a yielding block.
-=================================================================
+==================================================================
 
 A block 1 m x 0.5 m, clamped at its bottom, is indented by a rigid circle of radius 2 m pressed a depth d
 into its top (displacement control). The block is an aluminium-like alloy,
@@ -8,7 +8,7 @@ Mises stress reaches sigma_y, then its shear stiffness scaled by h (docs/tutoria
 docs/materials.md). The same scene is solved with the linear material for comparison.
 
 Look at: at the smallest depth no cell yields and the force is the linear material's; deeper, a plastic zone
-grows under the circle (the cells whose deviatoric strain |dev eps| passes s_y = sigma_y / (sqrt(6) mu), where the
+grows under the circle (the cells whose deviatoric strain ``|dev eps|`` passes s_y = sigma_y / (sqrt(6) mu), where the
 von Mises stress reaches sigma_y) and the force falls below the linear one. ``cc.solve`` takes Newton on the
 nonlinear mixed system with the contact active set (``sol.info.finish``).
 

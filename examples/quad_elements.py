@@ -1,5 +1,5 @@
 """Quadrilaterals: Q1 and Q2 against P1 and P2 on one contact scene.
-================================================================
+=================================================================
 
 A steel block 1 m x 0.5 m, clamped at its bottom, is indented by a rigid circle of radius 10 m pressed 1 mm into
 its top. The block is meshed with triangles (``cc.rectangle(...)``) and with quadrilaterals

@@ -211,7 +211,6 @@ class TangentSolver:
                 z = self._gmres(A, bb, at, settled, z0)
                 self._failed = z is None
         if z is None:
-            self.exact = True
             factor = self._last = self._factor(A)
             if factor is None:
                 return None

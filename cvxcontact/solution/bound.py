@@ -314,9 +314,8 @@ def _construct(sol) -> dict:
         loads = [side for cd in contacts for side in cd["sides"] if side["body"] == k]
         systems.append(_body_system(sol, body, v[k], phi_h, loads, n_p))
     c = np.concatenate([np.zeros(0), *(cd["weights"](v) for cd in contacts)])
-    p = _pressure(systems, c, np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)]),
-                  np.concatenate([np.zeros(0, dtype=bool), *(cd["zone"] for cd in contacts)]))
     lumped = np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)])
+    p = _pressure(systems, c, lumped, np.concatenate([np.zeros(0, dtype=bool), *(cd["zone"] for cd in contacts)]))
     try:
         bodies = [_body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
     except SolverError:

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel
-from .finish import (SIGN_TOL, Declined, independent_active_set, solve_compliance, solve_linear_compliance,
+from .finish import (SIGN_TOL, Declined, Stop, independent_active_set, solve_compliance, solve_linear_compliance,
                      solve_sparse_compliance)
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
@@ -139,7 +139,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
                 out = newton(compliance.W, d, w, law, r, start)
                 timings["polish"] = time.perf_counter() - t0
                 if out is None:
-                    raw.declined = "the semismooth Newton steps on the interface did not settle"
+                    raw.declined = Declined(Stop.MAX_ITER, "the semismooth Newton steps on the interface did not settle")
                 else:
                     raw.finish = out[3]
     if out is not None:
@@ -229,7 +229,7 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
     start = _limit_start(law, problem.weights * law.pressure(r0) + z0, z0, r0, g) & free
     out = dependent_newton(A, F, G, g, problem.weights, law, x0, z0, start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         raw.declined = out
         return raw
     x, raw.y, raw.z = out[:3]
@@ -292,7 +292,8 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
     z closed) are the inner finish's.
 
     ``x0``, ``z0``, ``start``: the start (e.g. the interior point's unknowns, limit reactions and rows at their
-    limit). Returns ``(x, y, z, at_limit, newton_steps, active_set_steps)`` or the reason it stopped (str).
+    limit). Returns ``(x, y, z, at_limit, newton_steps, active_set_steps)`` or the reason it stopped (a
+    :class:`~cvxcontact.backends.finish.declined.Declined`).
     """
     A, G = sp.csr_matrix(A), sp.csr_matrix(G)
     F, g, w = (np.asarray(a, dtype=float) for a in (F, g, weights))
@@ -338,5 +339,5 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
             return x, y, z, at, newton_steps, inner
         last = ratio
         if np.abs(t * dx).max(initial=0.0) <= 1e-15 * max(np.abs(x).max(initial=0.0), tiny):
-            return "the Newton steps on the law stalled above rounding"
-    return "the Newton steps on the law did not settle"
+            return Declined(Stop.STALL, "the Newton steps on the law stalled above rounding")
+    return Declined(Stop.MAX_ITER, "the Newton steps on the law did not settle")

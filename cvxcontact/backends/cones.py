@@ -18,7 +18,7 @@ from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
-from .finish import Declined, independent_active_set, row_reach
+from .finish import Declined, Stop, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
@@ -188,7 +188,7 @@ def finish_cuts(problem, cache, settings, timings, raw, seeds=None) -> None:
         segment, t, y0 = seeds
     out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=y0,
                          width=_width(problem), factors=reduction.psd_factors, departure=problem.departure)
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         raw.declined = out
         return
     r = out["state"]
@@ -196,7 +196,7 @@ def finish_cuts(problem, cache, settings, timings, raw, seeds=None) -> None:
     _, active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.y, raw.beta, raw.active, raw.pairing = r, out["beta"], active, out["pairing"]
     raw.points = (out["segment"], out["t"], out["y"])
-    raw.polished, raw.finish, raw.declined = True, Finish.ACCUMULATED_CUTS, ""
+    raw.polished, raw.finish, raw.declined = True, Finish.ACCUMULATED_CUTS, None
     _tangency_on_compliance(problem, reduction, d, timings, raw, B, out)
 
 
@@ -228,7 +228,7 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
                           tol=MIXED_CUT_TOL, departure=problem.departure,
                           points=(cuts["segment"], cuts["t"], cuts["y"]), max_rounds=NEWTON_ROUNDS)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         return
     x = out["x"]
     A, G, F = system.matrix, system.rows, system.rhs
@@ -342,7 +342,7 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
         if isinstance(out, Declined) and FACTORED:         # the factored steps declined: one sparse LU a step
             prev["declined"] = prev.get("declined", 0) + 1
             out = independent_active_set(kkt, gp, y0, y0 > 0, factored=False, purify=False)
-        if isinstance(out, str):
+        if isinstance(out, Declined):
             prev["why"] = out
             return None
         x, active = out[0], out[1]
@@ -360,10 +360,11 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     departure = problem.departure
     out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL, departure=departure)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, str):
-        why = out + (f" ({prev['why']})" if "why" in prev else "")
+    if isinstance(out, Declined):
+        why = f"{out} ({prev['why']})" if "why" in prev else str(out)
         if not _finish_tangency(problem, timings, raw):
-            raw.declined = why + f"; Newton at the tangency points: {raw.declined}"
+            raw.declined = Declined(out.stop, f"{why}; Newton at the tangency points: {raw.declined}",
+                                    raw.declined.rows)
         return
     x, taus = out["state"]
     raw.u, raw.phi = x[0], x[1]
@@ -379,14 +380,14 @@ def _newton_finish(problem, timings, raw, B, **kw):
     """:func:`~cvxcontact.backends.tangency.tangency_newton` on the problem's sparse mixed system (26) from
     ``raw`` (the interior point's fields, translations and Bernstein duals ``raw.beta`` on the rows of ``B``);
     writes the fields, translations, beta and active rows back and marks ``raw`` finished. Returns its dict,
-    or its reason (str) leaving ``raw`` as it was."""
+    or its reason (a :class:`~cvxcontact.backends.finish.declined.Declined`) leaving ``raw`` as it was."""
     t0 = time.perf_counter()
     tr = list(problem.translations)
     kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
     x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
     out = tangency_newton(kkt, B, problem.g, raw.beta, x0, held=problem.held_rows, tol=MIXED_CUT_TOL, **kw)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         return out
     (u, phi, _, *taus), *_ = kkt.fields(np.zeros(len(problem.g), dtype=bool), out["x"])
     raw.u, raw.phi = u, phi
@@ -406,7 +407,7 @@ def _tangency_after_cuts(problem, timings, raw, B, cuts) -> None:
     what the checks report). Updates ``raw`` (fields, beta, active, pairing, y: the nodal force, finish)."""
     out = _newton_finish(problem, timings, raw, B, departure=problem.departure,
                          points=(cuts["segment"], cuts["t"], cuts["y"]))
-    if not isinstance(out, str):
+    if not isinstance(out, Declined):
         raw.y = out["nodal"]
 
 
@@ -415,7 +416,7 @@ def _finish_tangency(problem, timings, raw) -> bool:
     inside an element), Newton at the tangency points from the interior point's answer (:func:`_newton_finish`).
     Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
     out = _newton_finish(problem, timings, raw, problem.lines.cone[0], departure=problem.departure)
-    if isinstance(out, str):
+    if isinstance(out, Declined):
         raw.declined = out
         return False
     raw.y = out["nodal"]
@@ -521,8 +522,8 @@ def _finish_mixed(problem, timings, raw, B) -> bool:
     start = raw.z - B.T @ raw.beta.ravel() > 1e-6 * max(scale, np.finfo(float).tiny)    # limit rows carrying force
     out = _newton_finish(problem, timings, raw, B, cone_gap=g + law.cone_shift, law=law, weights=problem.weights,
                          limit=law.penetration_limit, limit_start=start, force_scale=scale)
-    if isinstance(out, str):
-        raw.declined = f"Newton at the contact structure: {out}"
+    if isinstance(out, Declined):
+        raw.declined = out.within("Newton at the contact structure")
         return False
     raw.z = out["nodal"] + out["z"]
     raw.y = out["pressure"] + raw.z
@@ -555,7 +556,7 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
     out = newton(W[np.ix_(R, R)], d[R] - W[np.ix_(R, C)] @ y[C], w[R], rows, r[R], start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if out is None:
-        raw.declined = "the semismooth Newton steps on the nodal rows did not settle"
+        raw.declined = Declined(Stop.MAX_ITER, "the semismooth Newton steps on the nodal rows did not settle")
         return
     raw.finish = out[3]
     new_y, new_z = y.copy(), z.copy()

@@ -31,6 +31,7 @@ import scipy.linalg.blas as blas
 import scipy.sparse as sp
 
 from ..contact.bernstein import bernstein_argmax, bernstein_basis, element, point_rows
+from .finish.declined import Declined, Stop
 
 __all__ = ["CUT_TOL", "SEED_SPREAD", "nnls_warm", "seed_forces", "seed_points", "point_duals", "point_read_back",
            "accumulate_cuts", "interface_cuts", "segment_scales"]
@@ -174,7 +175,8 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     scale, anything the caller keeps, the rows that carry the forces) or None.
     The new cut on an element is the maximiser of its true slack q_h - delta (``departure.argmax``; the
     quadratic's exact one without a departure). Returns a dict (state, y, segment, t, beta, pairing: the
-    point forces' sum y_p delta_p per element, rounds, violation, active) or the reason it stopped (str)."""
+    point forces' sum y_p delta_p per element, rounds, violation, active) or the reason it stopped (a
+    :class:`~cvxcontact.backends.finish.declined.Declined`)."""
     S = B.shape[0] // width
     maximum = bernstein_argmax if departure is None else departure.argmax
     offsets = (lambda e, p: np.zeros(len(e))) if departure is None else departure.at
@@ -205,7 +207,7 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         if out is None:
             if good is not None and good["violation"] <= LAST_GOOD_TOL:
                 return good                  # nearly parallel new rows made the round singular
-            return "the nodal problem at the cut points has no exact solution"
+            return Declined(Stop.NO_SOLUTION, "the nodal problem at the cut points has no exact solution")
         y, slack, scale, state, active = out
         qmax, tmax = maximum((B @ slack).reshape(-1, width))
         Us = segment_scales(B, scale, width)
@@ -221,7 +223,7 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
-    return f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})"
+    return Declined(Stop.MAX_ITER, f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})")
 
 
 def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None = None, dual=None,

@@ -13,6 +13,8 @@ from enum import StrEnum
 
 import numpy as np
 
+from .finish.declined import Declined
+
 __all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache"]
 
 
@@ -125,7 +127,7 @@ class RawResult:
     limit); ``beta``: the Bernstein duals (S, 3) of the cones or None; ``taus``: the translations of the
     force-controlled obstacles; ``polished``: the arrays are an exact finish; ``program``: the CVXPY problem
     solved (None: no program); ``route``, ``finish``, ``iterations``, ``declined`` (why a finish was
-    declined), ``method`` (the backend that ran), ``factorization``: as reported in SolveInfo; ``certificate``: the conic condition's
+    declined: a :class:`~cvxcontact.backends.finish.declined.Declined`, None if none was), ``method`` (the backend that ran), ``factorization``: as reported in SolveInfo; ``certificate``: the conic condition's
     energy-norm error bound (below)."""
 
     u: list
@@ -140,7 +142,7 @@ class RawResult:
     route: str = Route.INTERIOR_POINT
     finish: str | None = None
     iterations: int = 0
-    declined: str = ""
+    declined: Declined | None = None
     method: str = ""
     factorization: str = ""
     tangential: np.ndarray | None = None

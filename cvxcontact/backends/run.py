@@ -2,9 +2,11 @@
 problem poses and returns one :class:`~cvxcontact.backends.result.RawResult`.
 
 The kinds (``problem.term.kind``, :mod:`cvxcontact.discrete.terms`; :func:`kind`): ``"signorini"`` (nodal
-rows, P1 or P2), ``"compliance"`` (a normal-compliance law on some pair, nodal rows), ``"conic"`` (the P2 "everywhere" cones, §8), ``"mixed"`` (cones next to a compliance
-law, §10 "P2") and ``"friction"`` (Signorini rows and a friction law's cones on the slip, docs/howto/friction.md). Each backend of :data:`cvxcontact.backends.BACKENDS` names the function that solves each kind
-(``Backend.routes``: :data:`cvxcontact.backends.KINDS`); :func:`route` finds it.
+rows, P1 or P2), ``"compliance"`` (a normal-compliance law on some pair, nodal rows), ``"conic"`` (the P2
+"everywhere" cones, §8), ``"mixed"`` (cones next to a compliance law, §10 "P2") and ``"friction"`` (Signorini rows
+and a friction law's cones on the slip, docs/howto/friction.md). Each backend of
+:data:`cvxcontact.backends.BACKENDS` names the function that solves each kind (``Backend.routes``:
+:data:`cvxcontact.backends.KINDS`); :func:`route` finds it.
 """
 
 from __future__ import annotations
@@ -12,14 +14,11 @@ from __future__ import annotations
 import importlib
 import logging
 
-import numpy as np
-
 from ..errors import SolverError
 from ..fem.kernel import check_determined
-from .finish import Stop
 from . import backend
+from .finish.declined import Declined, rows_to_check
 from .result import RawResult
-from .start import start_active
 
 __all__ = ["route", "kind", "run"]
 
@@ -49,35 +48,31 @@ def kind(problem) -> str:
 
 def run(method: str, problem, cache, settings, timings) -> RawResult:
     """Solve ``problem`` with the backend ``method`` (a name of :data:`cvxcontact.backends.BACKENDS`), reusing and
-    filling ``cache``; the forces of rows no unknown moves at their least admissible value (docs/formulation.md
-    §8, "Held nodes": (26)-(27) do not determine them). After an exact finish, a kernel motion that only rows
-    open at the solution would hold is refused (:func:`~cvxcontact.fem.kernel.check_determined`; the active
-    rows, or with a compliance law the rows that carry a force); so is one that the rows carrying the forces
-    leave free where a finish found its system singular (``Stop.SINGULAR_FORCES``; the finish's rows if it
-    names them, :attr:`~cvxcontact.backends.finish.declined.Declined.rows`)."""
+    filling ``cache``. Each decision is its owner's: the term's first active-set guess from another mesh's state
+    (``term.start``), the rows whose hold on the bodies is checked (``term.determining_rows``, and what a
+    finish's :class:`~cvxcontact.backends.finish.declined.Declined` says of them:
+    :func:`~cvxcontact.backends.finish.declined.rows_to_check`) and the forces it reports (``term.held_forces``:
+    Signorini rows no unknown moves at their least admissible value, docs/formulation.md §8, "Held nodes").
+    After an exact finish, a kernel motion that only rows open at the solution would hold is refused
+    (:func:`~cvxcontact.fem.kernel.check_determined`); so is one that the rows carrying the forces leave free
+    where a finish found its system singular (``Stop.SINGULAR_FORCES``). A registered backend's plain-string
+    reason for a decline becomes a typed one (:meth:`Declined.of`)."""
     term = problem.term
     solver = route(method, term.kind)
     cache = cache.matching(problem.lines.key())
-    if cache.start is not None and cache.active is None and term.takes_active_start:
-        cache.active = start_active(problem, cache.start)     # a state from another mesh: the first guess
+    term.start(problem, cache)
     raw = solver(problem, cache, settings, timings)
-    log.info("%s problem (%s): backend %r, %s.%s: route %s%s, %d iterations%s", term.kind, problem.condition,
+    raw.declined = Declined.of(raw.declined)
+    log.info("%s (%s): backend %r, %s.%s: route %s%s, %d iterations%s", type(term).__name__, problem.condition,
              method, (getattr(solver, "__module__", None) or "").rsplit(".", 1)[-1],
              getattr(solver, "__name__", type(solver).__name__), raw.route,
              f", finish {raw.finish}" if raw.finish else "", raw.iterations,
              f"; exact finish declined: {raw.declined}" if raw.declined else "")
-    active = raw.active
-    singular = getattr(raw.declined, "stop", None) is Stop.SINGULAR_FORCES
-    if singular and raw.declined.rows is not None:
-        active = raw.declined.rows          # the rows carrying the forces in the finish's singular system
-    elif active is None and term.active_from_forces and raw.y is not None:   # the rows that carry a force
-        y = np.asarray(raw.y, dtype=float)
-        active = y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
-    if active is not None and (raw.polished or singular):
-        check_determined(problem.kernel, active)    # a motion only rows open at the solution would hold (a
-        # finish whose rows carrying forces cannot hold a body: is it the problem that leaves the body free?)
-    if term.zeroes_held_forces:
-        raw.y = np.where(problem.held_rows, 0.0, raw.y)
+    rows = rows_to_check(raw.declined, term.determining_rows(problem, raw), raw.polished)
+    if rows is not None:
+        check_determined(problem.kernel, rows)   # a motion only rows open at the solution would hold (a finish
+        # whose rows carrying forces cannot hold a body: is it the problem that leaves the body free?)
+    raw.y = term.held_forces(problem, raw.y)
     if not raw.factorization and cache.condensation is not None:
         raw.factorization = cache.condensation.factorization
     return raw

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
 from ..contact.laws import RowLaws, Signorini
-from .finish import (Declined, force_displacements, independent_active_set, independent_interface, ipm_active,
+from .finish import (Declined, Stop, force_displacements, independent_active_set, independent_interface, ipm_active,
                      lcp_start, reach_forces, row_scales, signs_hold, solve_lcp, solve_sparse_compliance)
 from .full import mixed_kkt
 from .interface import condensation
@@ -74,8 +74,9 @@ def newton_finish(problem, raw, timings):
     dependent (:func:`dependent_rows`) are declined: the steps close the active rows as they are, which
     dependent rows make singular."""
     if dependent_rows(problem):
-        raw.declined = ("the contact rows may be linearly dependent (3D 'gamma3' between bodies); the Newton finish "
-                        "of a non-quadratic energy closes the active rows as they are")
+        raw.declined = Declined(Stop.DEPENDENT_ROWS, "the contact rows may be linearly dependent (3D 'gamma3' "
+                                "between bodies); the Newton finish of a non-quadratic energy closes the active rows "
+                                "as they are")
         return raw
     t0 = time.perf_counter()
     E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
@@ -88,8 +89,8 @@ def newton_finish(problem, raw, timings):
                                   stacked(raw.u, raw.phi, raw.taus), start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
-        raw.declined = Declined(out.stop, f"the Newton steps on the nonlinear mixed system did not settle: {out}",
-                                out.rows)     # a singular step's rows go to the well-posedness check (run)
+        raw.declined = out.within("the Newton steps on the nonlinear mixed system did not settle")
+        # (a singular step's rows go to the well-posedness check, backends/run.py)
         return raw
     x, raw.y, _, raw.active, steps, history = out
     log.info("Newton finish of the bulk energy: %d steps, relative residuals %s", steps,
@@ -146,7 +147,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     W = reduction.W
     out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
     if out is None:
-        raw.declined = "no active set satisfies the signs of the contact problem"
+        raw.declined = Declined(Stop.SIGNS, "no active set satisfies the signs of the contact problem")
         return raw
     t0 = time.perf_counter()
     exact = mixed_kkt(blocks, E, g)(out[1])      # the full model's own sparse solve
@@ -155,7 +156,8 @@ def full(problem, cache, settings, timings) -> RawResult:
     if exact is not None and signs_hold(exact[1], exact[2], out[1], w, S):
         (raw.u, raw.phi, raw.y), raw.active, raw.polished, raw.finish = exact[0], out[1], True, out[2]
     else:
-        raw.declined = "the sparse mixed system on the finished active set is singular or breaks the signs"
+        raw.declined = Declined(Stop.SIGNS, "the sparse mixed system on the finished active set is singular or breaks "
+                                "the signs")
     return raw
 
 
@@ -189,7 +191,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         if settings.polish:
             out = finish(raw.active if dependent else lcp_start(compliance.W, d, raw.y, slack), raw.y)
             if out is None:
-                raw.declined = "no active set satisfies the signs of the contact problem"
+                raw.declined = Declined(Stop.SIGNS, "no active set satisfies the signs of the contact problem")
             else:
                 raw.y, raw.active, raw.polished, raw.finish = out[0], out[1], True, out[2]
     if raw.polished:
@@ -279,7 +281,7 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     if sc.factor_time + soft.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time + soft.factor_time - f0
     timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time + soft.factor_time - f0)
-    if isinstance(exact, str):
+    if isinstance(exact, Declined):
         raise SolverError(f"the exact finish on the sparse mixed system stopped ({exact}); use method='condensed' "
                           "or 'full'")
     u, phi, y, active, lh_steps = exact

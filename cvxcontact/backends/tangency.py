@@ -34,6 +34,7 @@ import scipy.sparse.linalg as spla
 
 from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, segment_scales
+from .finish.declined import Declined, Stop
 
 __all__ = ["tangency_newton"]
 
@@ -189,7 +190,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
 
     Returns a dict (x, segment, t, y: the cones' point forces, beta, z: the limit rows' multipliers (N,),
     active: rows carrying force, rounds, violation, nodal: the cones' force B^T beta on the rows) or the
-    reason it stopped (str). An element carries a force at the start where its Bernstein duals exceed
+    reason it stopped (a :class:`~cvxcontact.backends.finish.declined.Declined`). An element carries a force at the start where its Bernstein duals exceed
     ``force_floor`` of the largest force (theirs, or ``force_scale``: the largest of the rest).
 
     ``departure``: a curved obstacle's true gap on the cones' elements
@@ -340,10 +341,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             try:
                 dz = spla.splu(K).solve(-np.r_[r1, r2])
             except RuntimeError:
-                why = "the Newton system is singular"
+                why = Declined(Stop.SINGULAR, "the Newton system is singular")
                 break
             if not np.all(np.isfinite(dz)):
-                why = "the Newton system is singular"
+                why = Declined(Stop.SINGULAR, "the Newton system is singular")
                 break
             # the residual before the step, relative to its terms' sizes
             res = max(np.abs(r1).max(initial=0.0) / max(np.abs(A @ x).max(initial=0.0), np.abs(F).max(initial=0.0),
@@ -363,7 +364,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 break
             pen = on
         else:
-            why = f"Newton did not converge in {max_steps} steps"
+            why = Declined(Stop.MAX_ITER, f"Newton did not converge in {max_steps} steps")
         if why:
             return why
         if flat:
@@ -412,7 +413,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         if not changed:
             break
     else:
-        return f"the tangency structure did not settle in {max_rounds} rounds"
+        return Declined(Stop.MAX_ITER, f"the tangency structure did not settle in {max_rounds} rounds")
     # the answer as point forces (the read-back of the cuts): a node's row at that node of an element holding it
     first = {}
     for s in range(S):

@@ -52,6 +52,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Protocol, runtime_checkable
 
+import numpy as np
+
 from ..errors import SolverError
 
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
@@ -99,6 +101,12 @@ class ContactTerm(Protocol):
 
     def finish_declined(self, problem, raw, polish: bool) -> bool: ...
 
+    def start(self, problem, cache) -> None: ...
+
+    def determining_rows(self, problem, raw): ...
+
+    def held_forces(self, problem, y): ...
+
 
 @dataclass(frozen=True)
 class _Term:
@@ -124,6 +132,8 @@ class _Term:
     """``(problem, model, u, taus) -> (y, z, beta)``: its forces from the solved program's duals (scaled)."""
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_nodal"
     """``(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law."""
+    starts: ClassVar[str | Callable] = "cvxcontact.backends.start:start_active"
+    """``(problem, state) -> bool per row``: the first active-set guess from a state on another mesh."""
 
     def program(self, problem):
         """The full convex program of ``problem`` with this term's rows or cones (:attr:`programs`)."""
@@ -144,6 +154,23 @@ class _Term:
         declined by the route, or not run where it always runs (a quadratic energy)."""
         return bool(polish and not raw.polished and self.finishes
                     and (raw.declined or (problem.quadratic and self.always_finished)))
+
+    def start(self, problem, cache) -> None:
+        """Before a route runs: a state from another mesh in ``cache`` (``cache.start``) and no active set gives
+        ``cache.active``, the first active-set guess of the rows (:attr:`starts`), where this term takes one
+        (:attr:`takes_active_start`)."""
+        if cache.start is not None and cache.active is None and self.takes_active_start:
+            cache.active = named(type(self).starts)(problem, cache.start)
+
+    def determining_rows(self, problem, raw):
+        """The rows whose hold on the bodies the check after the solve reads for ``raw`` (bool per row, or None):
+        the route's active set (:func:`~cvxcontact.fem.kernel.check_determined`; a finish's decline may name
+        others, :func:`~cvxcontact.backends.finish.declined.rows_to_check`)."""
+        return raw.active
+
+    def held_forces(self, problem, y):
+        """The forces ``y`` of every row as the answer reports them (scaled): as they are."""
+        return y
 
     @property
     def takes_active_start(self) -> bool:
@@ -169,6 +196,11 @@ class SignoriniRows(_Term):
     def poses(lines) -> bool:
         return True
 
+    def held_forces(self, problem, y):
+        """The forces ``y`` of the rows no unknown moves at 0, their least admissible value (docs/formulation.md
+        §8, "Held nodes": (26)-(27) do not determine them); the others as they are."""
+        return np.where(problem.held_rows, 0.0, y)
+
 
 @dataclass(frozen=True)
 class ComplianceRows(_Term):
@@ -184,6 +216,14 @@ class ComplianceRows(_Term):
     @staticmethod
     def poses(lines) -> bool:
         return lines.rows.compliant
+
+    def determining_rows(self, problem, raw):
+        """The route's active set, or without one the rows that carry a force (a law's force holds a body where
+        it presses, whatever the route calls active)."""
+        if raw.active is not None or raw.y is None:
+            return raw.active
+        y = np.asarray(raw.y, dtype=float)
+        return y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
 
 
 @dataclass(frozen=True)
@@ -246,7 +286,7 @@ class TrescaFriction(_Term):
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "takes_active_start", "program", "program_forces", "read_back",
-            "finish_declined")
+            "finish_declined", "start", "determining_rows", "held_forces")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]

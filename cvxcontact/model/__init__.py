@@ -43,6 +43,7 @@ import cvxpy as cp
 import numpy as np
 
 from ..backends.cones import mixed_bernstein_rows
+from ..backends.finish import Declined
 from ..backends.program import conic_options, run_program
 from ..backends.result import Cache, RawResult, Settings
 from ..backends.run import run
@@ -388,12 +389,12 @@ class Model:
         moved = self.problem.moved_gap(taus)
         active = ipm_active([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], E @ moved, y,
                             force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi)) & ~held     # a held row would make the KKT singular
-        polished, declined = False, ""
+        polished, declined = False, None
         if self.polish and finishable:
             t0 = time.perf_counter()
             out = finish(self.problem, u, phi, y, rows, grad if objective is not None else None, active, x)
             timings["polish"] = time.perf_counter() - t0
-            if isinstance(out, str):
+            if isinstance(out, Declined):
                 declined = out
             else:
                 u, phi, y, zs, active, taus = out
@@ -404,7 +405,7 @@ class Model:
         t0 = time.perf_counter()
         keep_z = self._law is not None and (self._limit is not None or self._law.limited.any())
         raw = RawResult(u=u, phi=phi, y=y, active=active, z=z if keep_z else None, beta=beta, taus=taus,
-                        polished=polished, program=problem, method="full")
+                        polished=polished, program=problem, method="full", declined=declined)
         sol = read_back(self.problem, raw, self.tol, timings, "full")
         sol._checks = checks(self.problem, sol._checks, u, phi, y, x, rows, grad)
         if self._forced and rows:        # user rows on a translation carry part of its prescribed force
@@ -418,7 +419,7 @@ class Model:
         self._warn(sol, finishable, declined, stacklevel=3)
         return sol
 
-    def _warn(self, sol, finishable: bool, declined: str, stacklevel: int) -> None:
+    def _warn(self, sol, finishable: bool, declined: Declined | None, stacklevel: int) -> None:
         """A ResidualWarning when an exact finish that applies was declined, or when the checks fail."""
         if self.polish and finishable and not sol.polished:
             warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from types import MappingProxyType
 
+from ..backends.finish.declined import Declined
 from ..backends.result import Finish, Route, Status
 from ..errors import SolverError
 
@@ -69,6 +70,11 @@ class SolveInfo:
     fixed_point : tuple of float
         Coulomb friction: the relative change of the friction capacities at each iteration of the fixed point
         (docs/howto/friction.md, "Coulomb"; its length is the number of iterations); () otherwise.
+    declined : Declined or None
+        Why the exact finish was declined, where the answer is the interior point's because of it: a
+        :class:`~cvxcontact.backends.finish.declined.Declined` (a string, its full words; ``.stop`` what stopped
+        it, ``.phrase`` the short phrase :meth:`~cvxcontact.solution.Solution.report` shows); None if the arrays
+        are an exact finish or none was declined. A plain string becomes a ``Declined`` of ``Stop.GIVEN``.
     """
 
     status: Status
@@ -81,6 +87,7 @@ class SolveInfo:
     requested: str = ""
     factorization: str = ""
     fixed_point: tuple = ()
+    declined: Declined | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
@@ -91,6 +98,10 @@ class SolveInfo:
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
         object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
+        try:
+            object.__setattr__(self, "declined", Declined.of(self.declined))
+        except TypeError as exc:
+            raise SolverError(f"{exc}; give the Declined a finish returned, its words, or None") from None
         if not self.requested:
             object.__setattr__(self, "requested", self.method)
 

@@ -6,7 +6,7 @@ import enum
 
 import numpy as np
 
-__all__ = ["Stop", "Declined", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL"]
+__all__ = ["Stop", "Declined", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL", "rows_to_check"]
 
 
 class Stop(enum.Enum):
@@ -21,6 +21,10 @@ class Stop(enum.Enum):
     WORSE = "the answer's energy is above the interior point's"
     NOT_POSED = "the finish does not apply to this problem"
     STALL = "the Newton steps stalled above rounding"
+    NO_SOLUTION = "the system at the finish's rows has no exact solution"
+    DEPENDENT_ROWS = "the contact rows may be linearly dependent"
+    GIVEN = "a registered backend's own reason"
+    """A reason a registered backend gave as a plain string (:meth:`Declined.of`)."""
 
 
 class Declined(str):
@@ -43,9 +47,48 @@ class Declined(str):
     def __repr__(self) -> str:
         return f"Declined({self.stop.name})"
 
+    @property
+    def phrase(self) -> str:
+        """A short phrase for a report: the :class:`Stop`'s words (a registered backend's own reason: the words
+        it gave)."""
+        return str(self) if self.stop is Stop.GIVEN else self.stop.value
+
+    def within(self, context: str) -> Declined:
+        """The same decline (its stop and rows) with its words set in ``context`` ("<context>: <words>")."""
+        return Declined(self.stop, f"{context}: {self}", self.rows)
+
+    def checked_rows(self, rows: np.ndarray | None, polished: bool) -> np.ndarray | None:
+        """The rows the well-posedness check after the solve reads (:func:`rows_to_check`) when this decline
+        stands next to ``rows`` (the route's own: its active set, or the rows carrying a force) and the answer is
+        ``polished`` or not: :attr:`Stop.SINGULAR_FORCES` the rows of its singular system (``rows`` if it does not
+        name them), whatever the answer; every other stop, ``rows`` of a finished answer only."""
+        if self.stop is Stop.SINGULAR_FORCES:
+            return rows if self.rows is None else self.rows
+        return rows if polished else None
+
+    @classmethod
+    def of(cls, reason) -> Declined | None:
+        """``reason`` as a typed decline: None for no reason (None, ""), a :class:`Declined` itself, a plain
+        string (a registered backend's) as :attr:`Stop.GIVEN` with its words."""
+        if isinstance(reason, Declined) or reason is None:
+            return reason
+        if isinstance(reason, str):
+            return cls(Stop.GIVEN, reason) if reason else None
+        raise TypeError(f"a declined finish's reason must be a Declined or a string, got {type(reason).__name__}")
+
 
 SINGULAR = Declined(Stop.SINGULAR)
 CYCLE = Declined(Stop.CYCLE)
 MAX_ITER = Declined(Stop.MAX_ITER)
 SINGULAR_FORCES = Declined(Stop.SINGULAR_FORCES)
 STALL = Declined(Stop.STALL)
+
+
+def rows_to_check(declined: Declined | None, rows: np.ndarray | None, polished: bool) -> np.ndarray | None:
+    """The contact rows whose hold on the bodies the check after a solve reads
+    (:func:`~cvxcontact.fem.kernel.check_determined`), or None for no check: with no decline, ``rows`` (the
+    route's: its active set or the rows carrying a force) of a finished answer; with one, what it says
+    (:meth:`Declined.checked_rows`)."""
+    if declined is None:
+        return rows if polished else None
+    return declined.checked_rows(rows, polished)

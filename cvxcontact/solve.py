@@ -227,8 +227,9 @@ class ContactSolver:
         if fallback is not None:
             sol = self._fallback(fallback, problem, sol, timings)
         timings["read_back"] = time.perf_counter() - t0 - timings.get("fallback", 0.0)
-        if self.estimate and not problem.term.estimated:
-            sol.estimate_reason = "not computed: the estimates do not count a friction law's tangential traction yet"
+        unestimated = problem.term.unestimated if self.estimate else ""     # the term's reason, if any
+        if unestimated:
+            sol.estimate_reason = f"not computed: {unestimated}"
         elif self.estimate:
             t0 = time.perf_counter()
             sol.estimate, sol.estimate_reason = self.estimate(sol)
@@ -241,7 +242,7 @@ class ContactSolver:
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
-        if self.estimate and problem.term.estimated:
+        if self.estimate and not unestimated:
             for message in unresolved(sol):
                 warnings.warn(message, ResolutionWarning, stacklevel=3)
         return sol
@@ -287,12 +288,7 @@ class ContactSolver:
                           f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
                           ResidualWarning, stacklevel=4)
         elif not sol.ok:
-            hint = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, cones "
-                    "next to a compliance law, or a declined finish), which "
-                    "stops where it stops (complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies "
-                    "or stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept that answer, "
-                    "or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly)."
-                    if term.cones and not raw.polished else "")
+            hint = "" if raw.polished else term.unfinished_hint      # the term's words on its unfinished answer
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
                           f"{sol.report()}{hint}", ResidualWarning, stacklevel=4)
 

@@ -29,9 +29,10 @@ __all__ = ["solve", "full", "condensed", "newton", "dependent_newton", "complian
 
 def newton(W, d, w, law, r0=None, active=None):
     """:func:`solve_compliance` from (r0, active); if it does not settle and the compliant rows are all
-    linear without a limit, the finite LCP of :func:`solve_linear_compliance`. None if neither does."""
+    linear without a limit, the finite LCP of :func:`solve_linear_compliance`. ``(y, z, at_limit, route)``, or
+    the :class:`~cvxcontact.backends.finish.declined.Declined` of the last that ran."""
     out = solve_compliance(W, d, w, law, r0=r0, active=active)
-    if out is None and law.linear:
+    if isinstance(out, Declined) and law.linear:
         out = solve_linear_compliance(W, d, w, law)
     return out
 
@@ -98,7 +99,9 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
         t0 = time.perf_counter()
         out = newton(compliance.W, d, w, law, *cache.active)
         timings["polish"] = time.perf_counter() - t0
-        if out is not None:
+        if isinstance(out, Declined):
+            out = None                                     # the program instead, from the start
+        else:
             raw.route, raw.finish = Route.WARM_START, out[3]
     model = None
     if out is None:
@@ -118,9 +121,9 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
             t0 = time.perf_counter()
             out = newton(compliance.W, d, w, law)
             timings["polish"] = time.perf_counter() - t0
-            if out is None:
+            if isinstance(out, Declined):
                 raise SolverError(f"{settings.solver} failed on the normal-compliance program and the semismooth "
-                                  "Newton finish did not settle")
+                                  f"Newton finish did not settle ({out})")
             raw.route, raw.finish = Route.NEWTON_ONLY, out[3]
         else:
             raw.program = model.problem
@@ -138,8 +141,8 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
                     start = law.limited & (raw.z * np.diag(compliance.W) + (r - law.penetration_limit) > 0)
                 out = newton(compliance.W, d, w, law, r, start)
                 timings["polish"] = time.perf_counter() - t0
-                if out is None:
-                    raw.declined = Declined(Stop.MAX_ITER, "the semismooth Newton steps on the interface did not settle")
+                if isinstance(out, Declined):
+                    raw.declined, out = out, None
                 else:
                     raw.finish = out[3]
     if out is not None:

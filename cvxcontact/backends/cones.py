@@ -18,7 +18,7 @@ from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
-from .finish import Declined, Stop, independent_active_set, row_reach
+from .finish import Declined, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
@@ -555,8 +555,8 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
         start = rows.limited & (z[R] * np.diag(W)[R] + (r[R] - rows.penetration_limit) > 0)
     out = newton(W[np.ix_(R, R)], d[R] - W[np.ix_(R, C)] @ y[C], w[R], rows, r[R], start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if out is None:
-        raw.declined = Declined(Stop.MAX_ITER, "the semismooth Newton steps on the nodal rows did not settle")
+    if isinstance(out, Declined):
+        raw.declined = out.within("the semismooth Newton steps on the nodal rows")
         return
     raw.finish = out[3]
     new_y, new_z = y.copy(), z.copy()

@@ -101,7 +101,8 @@ def newton_finish(problem, raw, timings):
 
 
 def interface_finish(compliance, d, start, timings, dependent=None):
-    """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or None.
+    """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or why it declined
+    (a :class:`~cvxcontact.backends.finish.declined.Declined`).
     ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
     the finish of :func:`~cvxcontact.backends.finish.independent_interface` from the forces y0 instead."""
     t0 = time.perf_counter()
@@ -110,7 +111,7 @@ def interface_finish(compliance, d, start, timings, dependent=None):
     else:
         v0, g, y0 = dependent
         res = independent_interface(compliance, v0, g, y0, start)
-        out = None if isinstance(res, Declined) else (res[0], res[1], "independent active set")
+        out = res if isinstance(res, Declined) else (res[0], res[1], "independent active set")
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     return out
 
@@ -146,8 +147,8 @@ def full(problem, cache, settings, timings) -> RawResult:
     _, _, d = reduction.apply(problem, timings)
     W = reduction.W
     out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
-    if out is None:
-        raw.declined = Declined(Stop.SIGNS, "no active set satisfies the signs of the contact problem")
+    if isinstance(out, Declined):
+        raw.declined = out
         return raw
     t0 = time.perf_counter()
     exact = mixed_kkt(blocks, E, g)(out[1])      # the full model's own sparse solve
@@ -176,7 +177,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
 
     out = finish(cache.active, cache.active.astype(float)) if warm else None
     raw = RawResult(u=[], phi=[], y=np.zeros(len(d)), method="condensed")
-    if out is not None:                                    # re-solve: the previous active set, corrected
+    if out is not None and not isinstance(out, Declined):  # re-solve: the previous active set, corrected
         raw.y, raw.active, raw.polished, raw.route, raw.finish = out[0], out[1], True, Route.WARM_START, out[2]
     else:
         t0 = time.perf_counter()
@@ -190,8 +191,8 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         raw.program = model.problem
         if settings.polish:
             out = finish(raw.active if dependent else lcp_start(compliance.W, d, raw.y, slack), raw.y)
-            if out is None:
-                raw.declined = Declined(Stop.SIGNS, "no active set satisfies the signs of the contact problem")
+            if isinstance(out, Declined):
+                raw.declined = out
             else:
                 raw.y, raw.active, raw.polished, raw.finish = out[0], out[1], True, out[2]
     if raw.polished:

@@ -21,7 +21,7 @@ so a term names its functions as "module:function" (or gives the function itself
 package), resolved on first call (:func:`named`, the pattern of a backend's ``routes``,
 :func:`cvxcontact.backends.run.route`): the import order stays one way, and each law's program, forces and
 read-back stay beside the code of their layer (backends/full.py, backends/cones.py, solution/solution.py,
-solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
+solution/nodal.py, solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
 :data:`TERMS` (:func:`register_term` from outside), its functions, and a route for its kind in each backend that
 solves it; nothing else branches on it.
 
@@ -41,8 +41,10 @@ tells a backend, and the solve's bookkeeping):
   with a quadratic energy (the cones' cuts only on problems they can condense);
 - ``rows_may_depend``: its evaluation rows are rows whose linear dependence a route must handle (the cones'
   E is the identity on X_h);
-- ``estimated``: the a posteriori error estimates count its forces; ``takes_user_terms``: ``cc.Model`` poses
-  user terms beside it.
+- ``estimated``: the a posteriori error estimates count its forces (else ``unestimated`` says why, in the
+  solution's ``estimate_reason``); ``takes_user_terms``: ``cc.Model`` poses user terms beside it (else
+  ``refuses_user_terms`` is the refusal's message); ``unfinished_hint``: what the solve's warning adds where its
+  interior-point answer fails the checks (the cones: how far an interior point stops).
 """
 
 from __future__ import annotations
@@ -87,8 +89,15 @@ class ContactTerm(Protocol):
     finishes: bool
     always_finished: bool
     rows_may_depend: bool
-    estimated: bool
-    takes_user_terms: bool
+    unestimated: str
+    refuses_user_terms: str
+    unfinished_hint: str
+
+    @property
+    def estimated(self) -> bool: ...
+
+    @property
+    def takes_user_terms(self) -> bool: ...
 
     @property
     def takes_active_start(self) -> bool: ...
@@ -122,15 +131,19 @@ class _Term:
     finishes: ClassVar[bool] = True
     always_finished: ClassVar[bool] = True
     rows_may_depend: ClassVar[bool] = True
-    estimated: ClassVar[bool] = True
-    takes_user_terms: ClassVar[bool] = True
+    unestimated: ClassVar[str] = ""
+    """Why the a posteriori error estimates do not cover this term ("" where they do)."""
+    refuses_user_terms: ClassVar[str] = ""
+    """The message refusing ``cc.Model`` user terms beside this term ("" where it takes them)."""
+    unfinished_hint: ClassVar[str] = ""
+    """Added to the solve's warning where its interior-point answer (no exact finish) fails the checks."""
     _starts: ClassVar[tuple[int, ...]] = ()   # dims where another mesh's state gives its first active-set guess
     _states: ClassVar[tuple[int, ...]] = ()   # dims where its exact finish's forces are point loads on the pairs
     programs: ClassVar[str | Callable] = "cvxcontact.backends.full:signorini_program"
     """``(problem) -> ContactModel``: its rows or cones in the full convex program (scaled)."""
     forces: ClassVar[str | Callable] = "cvxcontact.backends.full:signorini_forces"
     """``(problem, model, u, taus) -> (y, z, beta)``: its forces from the solved program's duals (scaled)."""
-    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_nodal"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_nodal"
     """``(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law."""
     starts: ClassVar[str | Callable] = "cvxcontact.backends.start:start_active"
     """``(problem, state) -> bool per row``: the first active-set guess from a state on another mesh."""
@@ -173,6 +186,16 @@ class _Term:
         return y
 
     @property
+    def estimated(self) -> bool:
+        """The a posteriori error estimates count its forces (:attr:`unestimated` is empty)."""
+        return not self.unestimated
+
+    @property
+    def takes_user_terms(self) -> bool:
+        """``cc.Model`` poses user terms beside it (:attr:`refuses_user_terms` is empty)."""
+        return not self.refuses_user_terms
+
+    @property
     def takes_active_start(self) -> bool:
         """A state from another mesh gives the first active-set guess (the rows' positions on the pairs)."""
         return self.dim in self._starts
@@ -211,7 +234,7 @@ class ComplianceRows(_Term):
     active_from_forces: ClassVar[bool] = True
     programs: ClassVar[str | Callable] = "cvxcontact.backends.compliance:compliance_program"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.compliance:compliance_forces"
-    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_compliance"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_compliance"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -233,11 +256,17 @@ class EverywhereCones(_Term):
 
     kind: ClassVar[str] = "conic"
     cones: ClassVar[bool] = True
+    unfinished_hint: ClassVar[str] = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, cones "
+                                   "next to a compliance law, or a declined finish), which stops where it stops "
+                                   "(complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or "
+                                   "stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept "
+                                   "that answer, or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly).")
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
     _states: ClassVar[tuple[int, ...]] = (2,)     # the cuts' point loads along s (backends.start.cone_seeds)
     programs: ClassVar[str | Callable] = "cvxcontact.backends.cones:cone_program"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:cone_forces"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_cones"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -252,11 +281,12 @@ class ConesBesideCompliance(_Term):
     kind: ClassVar[str] = "mixed"
     compliant: ClassVar[bool] = True
     cones: ClassVar[bool] = True
+    unfinished_hint: ClassVar[str] = EverywhereCones.unfinished_hint
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
     programs: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_program"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_forces"
-    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.solution:read_back_conic_mix"
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_conic_mix"
 
     @staticmethod
     def poses(lines) -> bool:
@@ -274,8 +304,9 @@ class TrescaFriction(_Term):
     tangential: ClassVar[bool] = True
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
-    estimated: ClassVar[bool] = False
-    takes_user_terms: ClassVar[bool] = False
+    unestimated: ClassVar[str] = "the estimates do not count a friction law's tangential traction yet"
+    refuses_user_terms: ClassVar[str] = ("user terms next to a friction law are not available yet: solve the model "
+                                         "without them, or use a frictionless law")
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
     # its program: the Signorini rows, to which the friction route adds the slip's cones
     # (:func:`cvxcontact.backends.friction.friction_program`)
@@ -285,7 +316,7 @@ class TrescaFriction(_Term):
         return lines.rows.friction
 
 
-_ANSWERS = (*ContactTerm.__annotations__, "takes_active_start", "program", "program_forces", "read_back",
+_ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program", "program_forces", "read_back",
             "finish_declined", "start", "determining_rows", "held_forces")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 

@@ -349,9 +349,8 @@ class Model:
         """
         if not self.constraints and not self._objective:
             return self._solve_plain()
-        if not self.problem.term.takes_user_terms:
-            raise UnsupportedError("user terms next to a friction law are not available yet: solve the model "
-                                   "without them, or use a frictionless law")
+        if refusal := self.problem.term.refuses_user_terms:
+            raise UnsupportedError(refusal)
         timings = dict(self._setup)
         self._setup = {}
         t0 = time.perf_counter()

@@ -10,13 +10,14 @@ from dataclasses import replace
 from ..discrete.terms import TERMS, named
 from .friction import read_back_friction
 from .info import Route
-from .solution import Solution, obstacle_results, read_back_nodal
+from .nodal import read_back_nodal
+from .solution import Solution, obstacle_results
 
 __all__ = ["read_back", "read_back_tresca", "READ_BACKS"]
 
 
 def read_back_tresca(problem, raw, tol: float, timings) -> Solution:
-    """Nodal Signorini rows (:func:`~cvxcontact.solution.solution.read_back_nodal`) completed with the friction
+    """Nodal Signorini rows (:func:`~cvxcontact.solution.nodal.read_back_nodal`) completed with the friction
     law's slip, shear force and checks (:func:`~cvxcontact.solution.friction.read_back_friction`)."""
     sol = read_back_nodal(problem, raw, tol, timings)
     read_back_friction(problem, raw, sol)

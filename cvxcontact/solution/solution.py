@@ -10,22 +10,18 @@ docs/checks.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import cvxpy as cp
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ..fem.trace import TRACES, LinearTrace
 from ..errors import SceneError
 from ..physics.scene import Scene
-from .checks import (CERTIFIED, ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, obstacle_balance,
-                     rigid_balance)
-from .info import Route, SolveInfo, Status
+from .checks import CERTIFIED, ENERGY_ERROR, obstacle_balance
+from .info import SolveInfo, Status
 
-__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "read_back_nodal", "read_back_compliance", "pair_label", "force_unit",
-           "read_back_conic_mix",
-           "obstacle_results"]
+__all__ = ["Solution", "ContactResult", "Electrode", "ObstacleResult", "pair_label", "force_unit", "obstacle_results"]
 
 
 @dataclass
@@ -487,217 +483,6 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     sol.obstacles = out
     if any(o.force is not None for o in sol.scene.obstacles):
         sol._checks["obstacle balance"] = worst
-
-
-def _fields(problem, raw):
-    """The names the read-backs share, from a problem and a raw result (scaled)."""
-    return (problem.scene, problem.condition, problem.blocks, problem.systems, problem.units, problem.E,
-            problem.moved_gap(raw.taus), raw.u, raw.phi)
-
-
-def read_back_nodal(problem, raw, tol: float, timings) -> "Solution":
-    """Scaled (u, phi, y) of ``raw`` -> a Solution in SI with lambda_h and the checks of (26)-(27) (nodal rows,
-    ``raw.active`` the closed ones; the gap that force-controlled obstacles moved to).
-
-    P2: with the conic condition, ``raw.beta`` (S, 3) are the Bernstein duals of each merged segment, ``raw.y``
-    is the nodal force r = B^T beta on X_h and M lambda_h = r (docs/formulation.md §8); the cone's rows (B,
-    segments) are ``problem.lines.cone`` and the constrained nodes the nodes B reads.
-    """
-    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
-    y, active, polished, problem_, beta, nodes = raw.y, raw.active, raw.polished, raw.program, raw.beta, problem.meshes
-    trace = problem.space.trace
-    itf = problem.interface
-    interface = trace.kept(itf)
-    g = E @ gap
-    Ety = E.T @ y
-    lam = itf.multiplier(Ety)              # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
-    shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
-    jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
-    sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
-    if beta is not None:
-        B, segments = problem.lines.cone
-        checks_ = conic_checks(blocks, u, phi, Ety, B, gap, beta, departure=problem.departure, pairing=raw.pairing)
-        if raw.certificate is not None:
-            checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
-        S = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
-        active = np.zeros(itf.size, dtype=bool)
-        active[S.ravel()] = True              # the nodes of segments that carry a force
-    else:
-        checks_ = checks(blocks, u, phi, Ety, E, g, y,     # the row forces (3D: M lam = E^T y only on the traces)
-                         abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None)
-    for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
-        modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
-        if len(modes):
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
-            checks_["equilibrium"] = max(checks_["equilibrium"], balance)
-    energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
-    u_si, phi_si = [], []
-    for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
-        full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
-        u_si.append(full.reshape(-1, problem.dim))
-        if pk is None:
-            phi_si.append(None)
-            continue
-        phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
-    constrained = np.zeros(itf.size, dtype=bool)
-    on = np.zeros(itf.size, dtype=bool)
-    # the merged nodes in the support of the constrained rows (conic: of the cone's rows; P1: the rows' nodes)
-    support = np.flatnonzero(np.asarray(abs(E if beta is None else B).sum(axis=0)).ravel() > 0)
-    constrained[support] = True
-    if beta is not None:
-        on = active
-    else:
-        on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(active)]).sum(axis=0)).ravel() > 0)] = True
-    contacts = []
-    pairs, offsets = _pairs(scene, interface)
-    for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
-        part = slice(offsets[i], offsets[i + 1])
-        cond = condition if scene.conditions[i] is None else scene.conditions[i]
-        measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
-        contacts.append(ContactResult(
-            x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
-            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
-            gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
-            degree=trace.degree, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure))
-    for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
-              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal", "measure")
-              if getattr(c, f) is not None)]:
-        a.setflags(write=False)                 # results are data: read-only, never silently edited
-    contact = contacts[0]
-    # a verified exact finish is the answer whatever the interior point that started it reported
-    status = (raw.status or problem_.status) if problem_ is not None and not polished else Status.OPTIMAL
-    info = SolveInfo(status=status, method="",
-                     route=Route.INTERIOR_POINT_FINISHED if polished else Route.INTERIOR_POINT,
-                     polished=polished, timings=timings)              # provisional: the caller completes it
-    pts = [n.points for n in nodes]
-    return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
-                    tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
-                    degree=trace.degree, interface=interface,
-                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
-
-
-def read_back_compliance(problem, raw, tol: float, timings, polished: bool | None = None) -> "Solution":
-    """Like :func:`read_back_nodal` for a normal-compliance law (SI; docs/formulation.md §10). ``polished``:
-    whether to report the arrays as an exact finish (default ``raw.polished``).
-
-    ``law`` is one :class:`~cvxcontact.contact.laws.NormalCompliance` on every row, or the per-row
-    :class:`~cvxcontact.contact.laws.RowLaws` of the pairs (Signorini and compliance pairs mixed).
-    ``force`` are the row forces the backend applied (scaled), ``z`` the limit reactions (the
-    multipliers of r <= l; on Signorini rows l = 0; None if no row has a limit), ``weights`` the lumped
-    lengths of the constrained nodes (scaled). Per pair: on a compliance pair lambda = p(r) + z / w at its
-    constrained nodes (r = [u_nu] - g from the returned u), extended to its merged mesh as the P1 function
-    of those nodes (:meth:`~cvxcontact.contact.interface.Interface.extend`), and ``force`` = E^T (w
-    lambda), the force the checks put into (26); on a Signorini pair lambda_h is the multiplier
-    M lambda_h = E^T z of :func:`read_back_nodal`. ``contacts[i].law`` is pair i's law; ``sol.law`` is
-    ``given`` (the law given to ``solve``), or ``law`` itself when it is one law. ``energy`` includes
-    sum_a w_a Phi_a(r_a). P2 (``interface`` the pair's
-    :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, ``nodes`` the bodies' P2 nodes): the rows
-    are the P2 contact nodes of the condition, ``weights`` their Simpson weights, and lambda is extended to
-    X_h as the P2 function of those nodes (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.extend`).
-    P2 tetrahedra: the rows of a compliance pair are the law's quadrature points on its P2 faces, and lambda at
-    the condition's nodes is the Riesz representer of the row forces w p(r) + z in the P2 functions of those
-    faces (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`), extended likewise.
-    (P2 with a conic penetration limit: :func:`read_back_conic_mix`.)
-    """
-    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
-    polished = raw.polished if polished is None else polished
-    law = rows = problem.rows
-    weights, z, nodes, given = problem.weights, raw.z, problem.meshes, problem.law
-    interface = problem.space.trace.kept(problem.interface)
-    scaled = rows.scaled(un.stress * un.load, un.displacement)
-    force = np.asarray(raw.y, dtype=float)
-    sol = read_back_nodal(problem, replace(raw, y=force, active=force > 0, beta=None, polished=polished), tol, timings)
-    g = E @ gap
-    checks_, lam = compliance_checks(blocks, u, phi, E, g, weights, scaled, force, z)
-    r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - g
-    unit = un.stress * un.load
-    # the law's pressure as the backend applied it, (y - z) / w (p(r) on a row of weight 0): after an exact
-    # finish a stiff law's p(r) reads r to rounding times k, the finish's force does not (the checks' law)
-    p = np.divide(force - (0.0 if z is None else z), weights, out=scaled.pressure(r) + 0.0, where=weights > 0)
-    nodal = E.T @ force                                     # = E^T (w lambda), stacked merged nodes, scaled
-    for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
-        modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
-        if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal)
-            checks_["equilibrium"] = max(checks_["equilibrium"], balance)
-    offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
-    contacts = []
-    pairs, merged_at = _pairs(scene, interface)
-    for i, (itf, c, pair_law) in enumerate(zip(pairs, sol.contacts, rows.laws)):
-        if pair_law.compliant:
-            cond = condition if scene.conditions[i] is None else scene.conditions[i]
-            merged = slice(merged_at[i], merged_at[i + 1])
-            rows_i = slice(offsets[i], offsets[i + 1])
-            lam_i = lam[rows_i]
-            if hasattr(itf, "law_pressure"):     # P2 faces: rows at the law's quadrature points, lambda the Riesz
-                lam_i = itf.law_pressure(cond, force[rows_i]) * un.length            # representer of w p + z
-            elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
-                # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
-                # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)
-                lam_i = p[rows_i] + itf.multiplier((E.T @ z)[merged]) * un.force / unit
-            c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
-            for a in (c.lam, c.force):
-                a.setflags(write=False)
-        contacts.append(replace(c, law=pair_law))
-    sol.contacts, sol.contact, sol._checks = contacts, contacts[0], checks_
-    sol.law = law if given is None else given
-    if polished:     # the finish solved the interface equation to rounding (checked); the IPM gave its start
-        sol.info = replace(sol.info, status=Status.OPTIMAL)
-    sol.energy += float(weights @ scaled.energy(r)) * un.force * un.displacement
-    return sol
-
-
-def read_back_conic_mix(problem, raw, tol: float, timings) -> "Solution":
-    """:func:`read_back_compliance` for a P2 scene whose "everywhere" cones (docs/formulation.md §8) sit next to
-    a normal-compliance law (§10, "P2"). ``law`` is the :class:`~cvxcontact.contact.quadratic.ConeRowLaws` of
-    the rows of ``E`` (``law.cone``: the rows of the cone pairs, E the identity on their nodes of X_h),
-    ``cone`` = (B, segments) of the cones on the stacked nodes of X_h
-    (:meth:`~cvxcontact.contact.quadratic.QuadraticStack.bernstein_of`), ``beta`` (S, 3) their Bernstein
-    duals, ``z`` the reactions (the cone's nodal force B^T beta plus the multipliers of the nodal limit rows),
-    ``force`` = w p(r) + z the row forces (scaled). Per pair: a nodal pair as in :func:`read_back_compliance`;
-    a Signorini "gamma3" pair lambda_h = M^-1 B^T beta (as :func:`read_back`); a compliant "gamma3" pair with
-    a limit lambda = p(r) + M^-1 B^T beta. Checks: the residual of (26) and the law as in
-    :func:`~cvxcontact.solution.checks.compliance_checks` (with the nodal limit rows' feasibility,
-    complementarity and cone), and feasibility, complementarity and cone of the cones
-    (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
-    ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
-    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
-    law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
-    sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
-    scaled = law.scaled(un.stress * un.load, un.displacement)
-    B, segments = cone
-    force = np.asarray(force, dtype=float)
-    cone_checks = conic_checks(blocks, u, phi, E.T @ force, B, gap + E.T @ scaled.cone_shift, beta,
-                               force_scale=float(np.abs(force).max(initial=0.0)))
-    checks_ = dict(sol._checks)
-    for key in ("feasibility", "complementarity", "cone"):
-        checks_[key] = max(checks_.get(key, 0.0), cone_checks[key])
-    r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - E @ gap
-    p = scaled.pressure(r)
-    zc = B.T @ beta.ravel()                                                    # the cones' force on X_h, scaled
-    carries = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
-    on = np.zeros(len(gap), dtype=bool)
-    on[carries.ravel()] = True
-    pairs, offsets = _pairs(scene, interface)
-    rows_at = np.concatenate([[0], np.cumsum(law.counts)]).astype(int)
-    contacts = []
-    for i, (itf, c) in enumerate(zip(pairs, sol.contacts)):
-        a, b = rows_at[i], rows_at[i + 1]
-        if b == a or not law.cone[a]:
-            contacts.append(c)
-            continue
-        nodes_i = slice(offsets[i], offsets[i + 1])                            # = rows a:b (E = I there)
-        active = on[nodes_i] | (p[a:b] > 0)
-        changes = {"active": active}
-        if c.law is not None and c.law.compliant:
-            lam = p[a:b] + spla.spsolve((itf.mass / un.length).tocsc(), zc[nodes_i])    # M scaled like w
-            changes["lam"] = lam * (un.stress * un.load)
-        c = replace(c, **changes)
-        for arr in changes.values():
-            arr.setflags(write=False)
-        contacts.append(c)
-    sol.contacts, sol.contact, sol._checks = contacts, contacts[0], checks_
-    return sol
 
 
 def _pairs(scene, interface):

@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls
 
-from .declined import CYCLE, MAX_ITER, SINGULAR, Declined
+from .declined import CYCLE, MAX_ITER, SINGULAR, Declined, Stop
 
 SIGN_TOL = 1e-10
 """Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
@@ -146,9 +146,10 @@ def solve_lcp(W, d, active=None, max_iter=30):
 
     Returns
     -------
-    (y, active, route) with route "active set" or "active set after NNLS", or None if
-    no set satisfying the signs was found (W singular on the contact rows in a way
-    that leaves the forces undetermined and the NNLS support too).
+    (y, active, route) with route "active set" or "active set after NNLS", or a :class:`Declined`:
+    ``Stop.SIGNS`` if no set satisfying the signs was found (W singular on the contact rows in a way that leaves
+    the forces undetermined and the NNLS support too), ``Stop.NO_SOLUTION`` if a row no unknown moves
+    penetrates.
     """
     W = np.asarray(W, dtype=float)
     d = np.asarray(d, dtype=float)
@@ -157,12 +158,12 @@ def solve_lcp(W, d, active=None, max_iter=30):
     held = np.diag(W) <= 0.0           # rows no unknown moves (W PSD: a zero diagonal is a zero row): y_a = 0
     if held.any():                     # if their constant slack d_a holds; (26) does not determine their force
         if (d[held] > 0).any():
-            return None
+            return Declined(Stop.NO_SOLUTION, "a row no unknown moves penetrates: no force can close it")
         keep = ~held
         out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
                         max_iter)
-        if out is None:
-            return None
+        if isinstance(out, Declined):
+            return out
         y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
         y[keep], act[keep] = out[0], out[1]
         return y, act, out[2]
@@ -170,7 +171,7 @@ def solve_lcp(W, d, active=None, max_iter=30):
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
     out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter)
-    return None if out is None else (D * out[0], out[1], out[2])
+    return out if isinstance(out, Declined) else (D * out[0], out[1], out[2])
 
 
 def _solve_equilibrated(W, d, active, max_iter):
@@ -187,4 +188,4 @@ def _solve_equilibrated(W, d, active, max_iter):
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):
         return y, support, "NNLS"
-    return None
+    return Declined(Stop.SIGNS, "no active set satisfies the signs of the contact problem")

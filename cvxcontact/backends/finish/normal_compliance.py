@@ -52,8 +52,10 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
     :func:`solve_lcp`, here in the active-set form of the limit rows), and mixed rows are solved together.
     ``active`` (bool, optional) is the starting set of rows at their limit (default: r0 >= l).
 
-    Returns ``(y, z, at_limit, route)`` or None if W is singular on the rows or the steps do not settle
-    with the signs holding to ``SIGN_TOL`` of each row's scale (:func:`row_scales`).
+    Returns ``(y, z, at_limit, route)`` or a :class:`~cvxcontact.backends.finish.declined.Declined`: W singular
+    on the rows (``Stop.SINGULAR``), a held row beyond its limit (``Stop.NO_SOLUTION``), or steps that do not
+    settle with the signs holding to ``SIGN_TOL`` of each row's scale (:func:`row_scales`; ``Stop.CYCLE``,
+    ``Stop.MAX_ITER``).
     """
     W = np.asarray(W, dtype=float)
     d = np.asarray(d, dtype=float)
@@ -67,7 +69,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
     # their law force is w_a p(d_a) and their limit reaction, which (26) would not determine, is 0
     held = np.diag(W) <= 0.0
     if (d[held] > ell[held]).any():
-        return None
+        return Declined(Stop.NO_SOLUTION, "a row no unknown moves is beyond its limit: no force can close it")
     if (d <= ell).all() and not np.any(w * law.pressure(d)):
         # nothing is pressed at zero force (e.g. no load): y = z = 0 is the solution, exactly; Newton steps
         # from an interior point would stop at rounding around it (1e-36), which no force scale can judge
@@ -79,7 +81,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
             warnings.simplefilter("error", sla.LinAlgWarning)
             H[np.ix_(keep, keep)] = sla.cho_solve(sla.cho_factor(W[np.ix_(keep, keep)]), np.eye(int(keep.sum())))
     except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
-        return None
+        return Declined(Stop.SINGULAR, "the interface compliance is singular on the rows")
     H = 0.5 * (H + H.T)
     r = np.minimum(d if r0 is None else np.asarray(r0, dtype=float), ell)
     at = (r >= ell) & keep
@@ -108,7 +110,7 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
             try:
                 step = sla.solve(K, -g[free], assume_a="pos")
             except (np.linalg.LinAlgError, ValueError):
-                return None
+                return Declined(Stop.SINGULAR, "a Newton step's system on the free rows is singular")
             t, f0, slope, n0 = 1.0, psi(r), float(g[free] @ step), np.linalg.norm(g[free])
             while True:
                 trial = r.copy()
@@ -142,8 +144,8 @@ def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
             return y, z, at, "semismooth Newton"
         at = _next_limit_set(at, neg, over, seen)
         if at is None:
-            return None
-    return None
+            return Declined(Stop.CYCLE, "the limit rows' active sets cycle")
+    return Declined(Stop.MAX_ITER, "the semismooth Newton steps on the interface did not settle")
 
 
 def _refined(W, d, w, law, r, free, at, steps=3):
@@ -206,7 +208,8 @@ def solve_linear_compliance(W, d, weights, law):
     :func:`solve_lcp` with W + diag(1 / (w_a k_a)) on those rows; Signorini rows keep W; a compliance row of
     weight 0 carries no force and leaves the LCP. Finite (NNLS
     fallback) where the Newton steps of :func:`solve_compliance` might cycle. ``law`` a
-    :class:`~cvxcontact.contact.laws.RowLaws` (scaled). Returns ``(y, z, at_limit, route)`` or None."""
+    :class:`~cvxcontact.contact.laws.RowLaws` (scaled). Returns ``(y, z, at_limit, route)`` or
+    :func:`solve_lcp`'s :class:`~cvxcontact.backends.finish.declined.Declined`."""
     W = np.asarray(W, dtype=float)
     k = np.broadcast_to(np.asarray(law.stiffness, dtype=float), (len(d),))
     w = np.asarray(weights, dtype=float)
@@ -215,8 +218,8 @@ def solve_linear_compliance(W, d, weights, law):
     soft = np.zeros(len(d))
     soft[on & keep] = 1.0 / (w[on & keep] * k[on & keep])
     out = solve_lcp((W + np.diag(soft))[np.ix_(keep, keep)], d[keep])
-    if out is None:
-        return None
+    if isinstance(out, Declined):
+        return out
     y, active, route = np.zeros(len(d)), np.zeros(len(d), dtype=bool), out[2]
     y[keep], active[keep] = out[0], out[1]
     z = np.where(on, 0.0, y)

@@ -155,6 +155,38 @@ def test_layer_in_an_open_gap_through_a_compliance_law_is_refused_after_the_solv
             solve()
 
 
+@pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (2, "sigma1")])
+def test_a_hencky_layer_in_an_open_gap_with_signorini_rows_is_refused_after_the_solve(degree, condition):
+    """The load-free layer between a floor and a plane DELTA above it, Signorini rows on both, a Hencky material
+    (the Newton finish of a non-quadratic energy): any height in the gap is a solution. Refused after the
+    finish, naming the translation, as the linear layer is; before, the Newton steps stalled (their rounding
+    floor from the assembled |K| missed the rounding of the translation's strains, which cancel within each
+    point) and the interior point's answer came back with a warning (equilibrium 1.0, FAILED, P1 and P2)."""
+    hencky = cc.materials.hencky(200e9, 0.3, 2e8, 0.5)
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H1), nx=3, ny=2), hencky, roller=["left", "right"], name="layer")
+    above = cc.Rigid.plane((0.0, H1 + DELTA), (0.0, -1.0))
+    scene = cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", floor()), cc.Contact(layer, "top", above)])
+    with pytest.raises(cc.SceneError, match=r"the solution does not determine the translation y of body "
+                                            r"'layer'.*open at the solution"):
+        cc.solve(scene, condition, degree=degree)
+
+
+def test_a_hencky_layer_squeezed_in_a_closed_gap_is_solved_exactly():
+    """The same layer squeezed (the plane DELTA below its top): below yield, the uniaxial strain of the linear
+    material, -DELTA / H1, finished exactly (the refusal above is the open gap's, not the Hencky finish's)."""
+    hencky = cc.materials.hencky(200e9, 0.3, 1e12, 0.5)        # a yield stress no strain here reaches
+    layer = cc.Body(cc.rectangle(x=(0, 1), y=(0, H1), nx=3, ny=2), hencky, roller=["left", "right"], name="layer")
+    below = cc.Rigid.plane((0.0, H1 - DELTA), (0.0, -1.0))
+    scene = cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", floor()), cc.Contact(layer, "top", below)])
+    sol = cc.solve(scene, "gamma3")
+    assert sol.polished and sol.ok and sol.info.declined is None
+    u = sol.u[0]
+    y = layer.mesh.points[:, 1]
+    assert np.abs(u[:, 1] - (-DELTA * y / H1)).max() <= 1e-9 * DELTA         # measured 1.1e-13 DELTA
+    stress = M_STEEL * DELTA / H1                     # oedometric: (lambda + 2 mu) eps, on a floor 1 m wide (N/m)
+    assert abs(sol.contacts[0].force.sum() - stress) <= 1e-9 * stress       # measured 1.1e-13
+
+
 def corner_scene(held, tag="bottom"):
     """A block with no support at all, pushed by its weight and a sideways body force into a corner (a floor
     and a wall, pairs given by contacts=), its contact= tag ``tag`` (the bottom only, or None: no tag);

@@ -34,7 +34,9 @@ class MixedEnergy:
 
     ``value(x)`` L(x), ``gradient(x)`` [r_u; r_phi; ...; -F] (the residual of (26) without the contact forces),
     ``tangent(x)`` its derivative (sparse, symmetric), ``magnitude(x)`` the sizes of the terms each row of the
-    gradient balances (for the relative residuals); ``linear``: every body's energy is quadratic (then the
+    gradient balances (for the relative residuals), ``rounding(x)`` the sizes of the terms whose rounding the
+    computed gradient of the bodies' energies carries (:meth:`BulkEnergy.rounding`; the rest of each row is the
+    tangent's own, :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`); ``linear``: every body's energy is quadratic (then the
     tangent is one constant matrix)."""
 
     def __init__(self, blocks, translations=()):
@@ -78,6 +80,12 @@ class MixedEnergy:
             else:
                 parts += [mu + abs(b.Kup) @ np.abs(p), abs(b.Kup).T @ np.abs(u) + abs(b.Kpp) @ np.abs(p) + np.abs(b.q)]
         return np.concatenate(parts + [np.abs(F) for F in self.forces])
+
+    def rounding(self, x) -> np.ndarray:
+        parts = []
+        for b, u, p in self._split(x):
+            parts += [b.bulk.rounding(u)] + ([] if p is None else [np.zeros(len(p))])
+        return np.concatenate(parts + [np.zeros(self.width)])
 
     def tangent(self, x) -> sp.csr_matrix:
         return self._tangent if self.linear else self._assemble(x)

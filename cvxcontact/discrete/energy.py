@@ -9,7 +9,9 @@ at the quadrature points q of the body (eps_q(z) = S_q (T_u z U + u_D), S the st
 points' measures), d = T_u^T Kuu u_D / F the linear lifting that :attr:`Block.f` already holds (so that Block.f
 stays the same for every energy). The coupling (Kup) and the permittivity (Kpp) stay linear. Every energy
 answers the :class:`BulkEnergy` protocol: its ``value``, ``gradient`` (the internal forces of (26)), ``hessian``,
-``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals), ``pattern`` (where a
+``magnitude`` (the sizes of the terms the gradient balances, for the relative residuals), ``rounding`` (the
+sizes of the terms whose rounding the computed gradient carries, point by point: the Newton steps' floor),
+``pattern`` (where a
 Hessian may be non-zero: one sparsity for every Newton step) and ``expression`` (the CVXPY term of the full
 program). :class:`Quadratic` is today's 1/2 z^T Kuu z; :class:`StrainEnergy` a material with a non-quadratic
 density (``material.quadratic`` False). A non-quadratic energy is solved by Newton on (26), from the elastic
@@ -41,6 +43,12 @@ class BulkEnergy(Protocol):
 
     def magnitude(self, z: np.ndarray) -> np.ndarray: ...
 
+    def rounding(self, z: np.ndarray) -> np.ndarray:
+        """Per unknown, the sum of the sizes of the terms the computed gradient adds up (before any cancels),
+        so that eps times it bounds the gradient's rounding at ``z`` (docs/formulation.md §19, "Where the Newton
+        steps stop"); at least ``|hessian| |z|``."""
+        ...
+
     def pattern(self) -> sp.spmatrix:
         """Ones wherever a Hessian may be non-zero, at every z (a fixed sparsity for the Newton steps' factors)."""
         ...
@@ -66,6 +74,10 @@ class Quadratic:
         return self.K
 
     def magnitude(self, z):
+        return abs(self.K) @ np.abs(z)
+
+    def rounding(self, z):
+        """|K| |z|: the gradient K z is computed from the assembled entries."""
         return abs(self.K) @ np.abs(z)
 
     def pattern(self):
@@ -156,6 +168,17 @@ class StrainEnergy:
     def magnitude(self, z):
         sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]
         return abs(self.A).T @ sigma.ravel() / self.load + np.abs(self.d)
+
+    def rounding(self, z):
+        """|A|^T (w |C| (|A| |z| + |e0|)) + |d|, point by point (C the material's tangent at the points' strains):
+        the gradient sums its terms at each quadrature point before any cancels. A large rigid translation's
+        strains A z cancel to rounding within each point's row of A, and the stresses carry that rounding; the
+        assembled |H| |z| (H = A^T w C A) misses it wherever the points' contributions to an entry of H cancel."""
+        if getattr(self, "_abs_A", None) is None:
+            self._abs_A = abs(self.A).tocsr()
+        C = np.abs(self.material.tangent(self.strains(z), self.dim)) * self.w[:, None, None]
+        e = (self._abs_A @ np.abs(z) + np.abs(self.e0)).reshape(-1, self.s)
+        return self._abs_A.T @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
 
     def expression(self, z):
         """K/2 (tr eps)^2 + mu (h |dev eps|^2 + (1 - h) huber(|dev eps|, s_y)) summed with the weights: second-order

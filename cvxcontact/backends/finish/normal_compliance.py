@@ -12,10 +12,10 @@ from .declined import CYCLE, MAX_ITER, STALL, Declined, Stop
 from .lcp import SIGN_TOL, row_scales, solve_lcp
 
 
-def rounding_floor(K, x, unsolved):
+def rounding_floor(K, x, unsolved, sizes=None):
     """The residual of a Newton step's system below which no step can bring it, row by row (scaled units):
 
-        floor_i = n_i eps (|K| |x|)_i + |unsolved_i|
+        floor_i = n_i eps max((|K| |x|)_i, sizes_i) + |unsolved_i|
 
     with K the step's matrix (the tangent), n_i the non-zeros of its row i, eps the unit round-off of doubles and
     ``unsolved`` the residual the step's own solve left in that row. The first term bounds the rounding of a
@@ -23,11 +23,17 @@ def rounding_floor(K, x, unsolved):
     stress terms; x itself is known to eps |x| only), which grows with the tangent's conditioning through |K| |x|
     (measured, circle into a Hencky block: max_i eps (|K| |x|)_i / S_i = 9.4e-11 at 26k unknowns, 3.4e-10 at 58k,
     6.5e-10 at 103k, S the row's scale; the steps stop at 1.6 to 7.8 eps (|K| |x|)_i, n_i ~ 18); docs/formulation.md
-    §19, "Where the Newton steps stop"."""
+    §19, "Where the Newton steps stop"). ``sizes`` (optional, per row): the sizes of the terms the computed
+    residual adds up where they are not the assembled |K| |x| (a non-quadratic energy sums its terms point by
+    point, :meth:`~cvxcontact.discrete.energy.BulkEnergy.rounding`: a large rigid translation's strains cancel
+    within each point, which the assembled entries of K do not show)."""
     import scipy.sparse as sps
 
     K = sps.csr_matrix(K)
-    return np.diff(K.indptr) * np.finfo(float).eps * (abs(K) @ np.abs(x)) + unsolved
+    size = abs(K) @ np.abs(x)
+    if sizes is not None:
+        size = np.maximum(size, sizes)
+    return np.diff(K.indptr) * np.finfo(float).eps * size + unsolved
 
 
 def solve_compliance(W, d, weights, law, r0=None, max_iter=50, active=None):
@@ -297,6 +303,7 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     at = limited & ((G @ x - g) >= ell) if active is None else np.asarray(active, dtype=bool) & limited
     absG = abs(G)
     tiny = np.finfo(float).tiny
+    rounding = getattr(operator, "rounding", lambda x: None)     # an operator's own sizes (optional)
 
     def energy(x):
         return operator.value(x) + float(w @ law.energy(G @ x - g))
@@ -338,7 +345,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             # of the step solved; such a step is taken whole (L's change drowns in its rounding there)
             trial = x + dx
             res, S, y = residual(trial, z)
-            settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + rounding_floor(K, trial, unsolved)).all())
+            floor = rounding_floor(K, trial, unsolved, rounding(trial))
+            settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + floor).all())
             t = 1.0
             if not first and not settled:
                 f0 = energy(x)

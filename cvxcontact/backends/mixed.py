@@ -36,8 +36,8 @@ class MixedEnergy:
     ``tangent(x)`` its derivative (sparse, symmetric), ``magnitude(x)`` the sizes of the terms each row of the
     gradient balances (for the relative residuals), ``rounding(x)`` the sizes of the terms whose rounding the
     computed gradient of the bodies' energies carries (:meth:`BulkEnergy.rounding`; the rest of each row is the
-    tangent's own, :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`); ``linear``: every body's energy is quadratic (then the
-    tangent is one constant matrix)."""
+    tangent's own, :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`); ``linear``: every
+    body's energy is quadratic (then the tangent is one constant matrix)."""
 
     def __init__(self, blocks, translations=()):
         self.blocks = list(blocks)

@@ -14,14 +14,19 @@ and ``cc.Model`` call its methods instead of branching on its kind:
 - ``term.finish_declined(problem, raw, polish) -> bool``: an exact finish of its law applies and did not run (a
   :class:`~cvxcontact.errors.ResidualWarning`). Which finish runs is the backend's route for the term's ``kind``
   (each backend declares the kinds it solves in ``routes``, :data:`cvxcontact.backends.KINDS`; one that has no
-  route for the kind refuses the problem with a SolverError), since a finish works on that backend's matrices.
+  route for the kind refuses the problem with a SolverError), since a finish works on that backend's matrices;
+- around a route (:func:`cvxcontact.backends.run.run`): ``term.start(problem, cache)`` sets the first active-set
+  guess from another mesh's state (``takes_active_start``); ``term.determining_rows(problem, raw)`` the rows the
+  well-posedness check after the solve reads (the route's active set; a compliance law's, the rows that carry a
+  force where the route gives none); ``term.held_forces(problem, y)`` the forces the answer reports (Signorini
+  rows no unknown moves at 0, their least admissible value: docs/formulation.md §8, "Held nodes").
 
 Where the methods' work lives: discrete/ sits below backends/ and solution/ in the layers (tests/test_layers.py),
 so a term names its functions as "module:function" (or gives the function itself, for a term from outside the
 package), resolved on first call (:func:`named`, the pattern of a backend's ``routes``,
 :func:`cvxcontact.backends.run.route`): the import order stays one way, and each law's program, forces and
-read-back stay beside the code of their layer (backends/full.py, backends/cones.py, solution/solution.py,
-solution/nodal.py, solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
+read-back stay beside the code of their layer (backends/full.py, backends/cones.py, solution/nodal.py,
+solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
 :data:`TERMS` (:func:`register_term` from outside), its functions, and a route for its kind in each backend that
 solves it; nothing else branches on it.
 
@@ -32,11 +37,10 @@ tells a backend, and the solve's bookkeeping):
 - ``compliant``, ``cones``, ``tangential``: a normal-compliance law on some rows; the P2 "everywhere" cones in
   its program (docs/formulation.md §8, §10); a friction law's tangential part;
 - ``takes_active_start``: a state from another mesh gives the first active-set guess
-  (:func:`~cvxcontact.backends.start.start_active`); ``hands_on_state``: its exact finish's forces can start a
-  solve on another mesh (:func:`~cvxcontact.backends.start.contact_state`);
-- ``zeroes_held_forces``: the forces of the rows no unknown moves are set to 0, their least admissible value
-  (docs/formulation.md §8, "Held nodes"); ``active_from_forces``: without an active set from the finish, the rows
-  that carry a force count as active for the determinacy check (:func:`~cvxcontact.fem.kernel.check_determined`);
+  (:func:`~cvxcontact.backends.start.start_active`, ``term.start``); ``hands_on_state``: its exact finish's forces
+  can start a solve on another mesh (:func:`~cvxcontact.backends.start.contact_state`);
+- ``zeroes_held_forces``, ``active_from_forces``: what ``term.held_forces`` and ``term.determining_rows`` do
+  (read by no one outside this module: the methods decide);
 - ``finishes``: an exact finish exists whose decline is reported; ``always_finished``: it runs on every problem
   with a quadratic energy (the cones' cuts only on problems they can condense);
 - ``rows_may_depend``: its evaluation rows are rows whose linear dependence a route must handle (the cones'
@@ -256,11 +260,11 @@ class EverywhereCones(_Term):
 
     kind: ClassVar[str] = "conic"
     cones: ClassVar[bool] = True
-    unfinished_hint: ClassVar[str] = ("\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, cones "
-                                   "next to a compliance law, or a declined finish), which stops where it stops "
-                                   "(complementarity 1e-7 to 1e-6 on simple scenes, up to 1e-4 with held bodies or "
-                                   "stacks; docs/formulation.md §8). Pass a tol above what the report shows to accept "
-                                   "that answer, or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly).")
+    unfinished_hint: ClassVar[str] = (
+        "\nThis conic P2 'gamma3' answer is the interior point's (no exact finish: polish=False, cones next to a "
+        "compliance law, or a declined finish), which stops where it stops (complementarity 1e-7 to 1e-6 on simple "
+        "scenes, up to 1e-4 with held bodies or stacks; docs/formulation.md §8). Pass a tol above what the report "
+        "shows to accept that answer, or use 'sigma1'/'sigma2' (nodal P2 conditions, finished exactly).")
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
     _states: ClassVar[tuple[int, ...]] = (2,)     # the cuts' point loads along s (backends.start.cone_seeds)
@@ -316,8 +320,8 @@ class TrescaFriction(_Term):
         return lines.rows.friction
 
 
-_ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program", "program_forces", "read_back",
-            "finish_declined", "start", "determining_rows", "held_forces")
+_ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
+            "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]

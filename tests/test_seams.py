@@ -19,7 +19,7 @@ DEGREE = re.compile(r"degree *(==|!=|>=|<=|>|<) *[0-9]|[0-9] *(==|!=) *degree|de
 DEGREE_SITES = {
     "backends/__init__.py": 1,         # the registry: the condensed backend's sparse fallback, P1 only (its entry)
     "apps/studies/stability.py": 1,    # the inf-sup study's own P1 and P2 multiplier machinery
-    "apps/studies/hertz3d.py": 2,      # the 3D Hertz study's P1 (force over lumped area) and P2 (Riesz) readings
+    "apps/studies/hertz3d.py": 1,      # the 3D Hertz study's P1 (force over lumped area) and P2 (Riesz) readings
 }
 """The degree comparisons left outside fem/, geometry/ and discrete/ (path: count), docs/architecture.md."""
 

@@ -374,7 +374,8 @@ def measure(sol, delta, closed_form=None):
     trace, reach = itf.traces[0], block_nodes(sol)
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     axis = int(np.argmin(r))
-    if sol.degree == 1:
+    lumped = sol.degree == 1        # P1: force over lumped area; P2: the Riesz pressure and the shape functions
+    if lumped:
         p0_h = float(c.pressure[axis])                                  # force over lumped area
     else:                                                               # the Riesz pressure on the P2 faces
         p0_h = float(sol.traction(0)[1][reach[axis]])
@@ -386,7 +387,7 @@ def measure(sol, delta, closed_form=None):
     cell = (c.points[:, 0] <= lines[1] * (1 + 1e-9)) & (c.points[:, 1] <= lines[1] * (1 + 1e-9))
     hertz_y = hat_loads(trace, lambda x, y: p0 * np.sqrt(np.maximum(1 - (x * x + y * y) / a ** 2, 0)))
     y_h, y_hertz = float(c.force[cell].sum()), float(hertz_y[reach][cell].sum())
-    if sol.degree == 1:
+    if lumped:
         area = float(c.measure[cell].sum())
     else:
         area = float(hat_loads(trace, lambda x, y: np.ones_like(x))[reach][cell].sum())

@@ -3,6 +3,8 @@ finish declines with a ``Declined`` (never a reason string or None), the well-po
 the rows a decline names (``rows_to_check``), and the reason reaches the user in ``sol.info.declined`` and the first
 line of ``sol.report()``."""
 
+import copy
+import pickle
 import warnings
 from dataclasses import replace
 
@@ -34,6 +36,8 @@ def test_a_reason_becomes_a_typed_decline():
     assert outer.rows is rows
     with pytest.raises(TypeError, match="must be a Declined or a string"):
         Declined.of(3)
+    for copied in (pickle.loads(pickle.dumps(outer)), copy.deepcopy(outer)):      # its stop and rows too
+        assert copied == outer and copied.stop is Stop.SINGULAR_FORCES and np.array_equal(copied.rows, rows)
 
 
 def test_the_rows_the_check_reads_after_a_decline():

@@ -47,6 +47,11 @@ class Declined(str):
     def __repr__(self) -> str:
         return f"Declined({self.stop.name})"
 
+    def __reduce__(self):
+        """Pickled and copied with its stop, words and rows (a ``str`` subclass would be rebuilt from its words
+        alone)."""
+        return Declined, (self.stop, str(self), self.rows)
+
     @property
     def phrase(self) -> str:
         """A short phrase for a report: the :class:`Stop`'s words (a registered backend's own reason: the words

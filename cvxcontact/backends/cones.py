@@ -556,7 +556,7 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
     out = newton(W[np.ix_(R, R)], d[R] - W[np.ix_(R, C)] @ y[C], w[R], rows, r[R], start)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
-        raw.declined = out.within("the semismooth Newton steps on the nodal rows")
+        raw.declined = out.within("the nodal rows beside the cones")
         return
     raw.finish = out[3]
     new_y, new_z = y.copy(), z.copy()

@@ -85,7 +85,7 @@ def test_the_finishes_that_declined_with_none_or_a_string_decline_typed():
 def test_a_declined_finish_reaches_info_and_report(monkeypatch):
     """The condensed route's LCP finish made to decline (its steps said to cycle): the solve warns, keeps the
     interior point's answer and says why in ``sol.info.declined`` and the report's first line."""
-    import cvxcontact.backends.signorini as signorini
+    from cvxcontact.backends import signorini
 
     scene = two_blocks()
     monkeypatch.setattr(signorini, "solve_lcp", lambda W, d, start=None: Declined(Stop.CYCLE, "cycled (a test)"))

@@ -211,7 +211,7 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     complementarity and cone), and feasibility, complementarity and cone of the cones
     (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
     ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
-    scene, condition, blocks, systems, un, E, gap, u, phi = _fields(problem, raw)
+    scene, _, blocks, _, un, E, gap, u, phi = _fields(problem, raw)
     law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
     sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
     scaled = law.scaled(un.stress * un.load, un.displacement)

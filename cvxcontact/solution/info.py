@@ -69,6 +69,10 @@ class SolveInfo:
     fixed_point : tuple of float
         Coulomb friction: the relative change of the friction capacities at each iteration of the fixed point
         (docs/howto/friction.md, "Coulomb"; its length is the number of iterations); () otherwise.
+    declined : str
+        Why the exact finish was declined and the interior point's answer kept (a short phrase, e.g. "the mixed
+        system on the active set is singular"; :class:`~cvxcontact.backends.finish.Stop`); "" if the finish ran
+        to its answer, was not asked for (``polish=False``) or the route has none.
     """
 
     status: Status
@@ -81,6 +85,7 @@ class SolveInfo:
     requested: str = ""
     factorization: str = ""
     fixed_point: tuple = ()
+    declined: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
@@ -91,6 +96,7 @@ class SolveInfo:
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
         object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
+        object.__setattr__(self, "declined", "" if self.polished else str(self.declined or ""))
         if not self.requested:
             object.__setattr__(self, "requested", self.method)
 

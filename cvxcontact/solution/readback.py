@@ -57,5 +57,6 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
     sol.info = replace(sol.info, method=raw.method, requested=requested or raw.method, route=route,
                        iterations=raw.iterations, timings=timings,
                        finish=raw.finish if raw.polished and raw.finish else None,
-                       factorization=raw.factorization, fixed_point=raw.fixed_point or ())
+                       factorization=raw.factorization, fixed_point=raw.fixed_point or (),
+                       declined=str(raw.declined or ""))
     return sol

@@ -397,12 +397,15 @@ class Solution:
         Returns
         -------
         str
-            The condition, the status, the exact finish or not, each check of (26)-(27) against ``tol``; per
-            pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode its potential
-            (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; the error :attr:`estimate`.
+            The condition, the status, the exact finish or not (and why it was declined: ``info.declined``), each
+            check of (26)-(27) against ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and
+            active nodes; per electrode its potential (V) and charge (C/m; C in 3D); per obstacle its translation
+            (m) and force; the error :attr:`estimate`.
         """
         finish = "exact finish" if self.polished else "interior-point answer"
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
+        if self.info.declined:
+            lines.append(f"  (exact finish declined: {self.info.declined})")
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
                   for k, v in self._checks.items()]
         unit, charge = force_unit(self), "C" if self.scene.dim == 3 else "C/m"

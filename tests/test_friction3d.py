@@ -11,6 +11,9 @@ A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10
 - a load beyond the capacity along the diagonal (each component below it, the norm above) is refused naming the
   diagonal translation;
 - a pair on a much stiffer box matches the rigid plane;
+- a box whose left side is held along x (the support fixes one tangential direction at the nodes where it meets
+  the contact): stuck, the box tied tangentially; pushed along y (nu = 0), every node slides and its friction
+  force is g w_a along the slip, the held nodes' x component 0; in partial slip the interior point's answer;
 - a layer (its top moved by (s cos t, s sin t, -d)) in partial slip against an independent reference written
   here: the same nodal Tresca law as its dual, min 1/2 R^T W R + q^T R over R_n >= 0, |R_t| <= g w_a (W the
   condensed contact compliance, w_a the nodes' lumped areas computed here from the faces), solved by an
@@ -147,6 +150,50 @@ def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
             departures[stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
         # measured 2.2e-3 / 2.2e-4 (Tresca), 2.4e-3 / 2.4e-4 (Coulomb); ratios 9.99992, 9.99984
         assert departures[1e3] / departures[1e4] == pytest.approx(10.0, rel=1e-2)
+
+
+def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False):
+    """The box pressed on the plane, its left side held along x, sheared by (0, q) on its top; ``push``: its
+    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
+    mesh, held = BOX, {"left": (0.0, None, None)}
+    if tied:
+        mesh = cc.TetMesh(BOX.points, BOX.tets, {**{t: BOX.boundary(t) for t in BOX.tags}, "base": BOX.boundary("bottom")})
+        held["base"] = (0.0, 0.0, None)
+    if push is not None:
+        held["front"] = (None, push, None)
+    b = cc.Body(mesh, steel(nu=nu), contact="bottom", traction={"top": (0.0, q, -P)}, displacement=held)
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])
+
+
+@pytest.mark.numerics
+def test_a_side_held_along_one_tangent_is_finished_stuck_sliding_and_in_partial_slip():
+    """The rows where the held side meets the contact have one slip component no unknown moves; before the finish
+    took them the stuck ones made its system singular (declined: the interior point's answer was kept)."""
+    tied = cc.solve(held_side(None, tied=True), estimate=False)
+    big = cc.solve(held_side(cc.Tresca(1e9)))                # stuck everywhere: the tied answer
+    assert tied.ok and big.ok and big.info.finish == cc.Finish.FRICTION_NEWTON and big.info.declined == ""
+    scale = np.abs(tied.u[0]).max()
+    assert np.abs(big.u[0] - tied.u[0]).max() < 1e-9 * scale                       # measured 9.2e-16
+    edge = np.abs(big.contact.points[:, 0]) < 1e-12                                  # where the held side meets it
+    assert edge.sum() == 4 and (big.contact.shear_force[edge, 0] == 0).all()        # acting on nothing: 0
+    for g in (1e2, 1e3):                                     # pushed along y: every node slides
+        sol = cc.solve(held_side(cc.Tresca(g), q=0.0, nu=0.0, push=1e-4))
+        assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+        c = sol.contact
+        slip = np.linalg.norm(c.slip, axis=1)
+        assert slip.min() > 0.5 * slip.max()                                         # measured 0.99999
+        assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)   # measured 0
+        assert (c.shear_force[edge, 0] == 0).all() and (c.shear_force[:, 1] < 0).all()
+    largest = np.linalg.norm(big.contact.shear, axis=1).max()
+    scene = held_side(cc.Tresca(0.8 * largest))
+    sol, ipm = cc.solve(scene), cc.solve(scene, polish=False)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    slip = np.linalg.norm(sol.contact.slip, axis=1)
+    assert 1 <= (slip > 1e-3 * slip.max()).sum() <= len(slip) - 2                   # partial slip: 2 of 16
+    assert np.abs(ipm.u[0] - sol.u[0]).max() < 1e-6 * np.abs(sol.u[0]).max()        # measured 5.4e-9
+    shear = np.abs(sol.contact.shear_force).max()
+    assert np.abs(ipm.contact.shear_force - sol.contact.shear_force).max() < 5e-6 * shear   # measured 3.4e-8
+    assert max(sol.residuals()[k] for k in ("stick-slip", "slip direction")) < 1e-7     # measured 1.5e-9
 
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):

@@ -87,12 +87,18 @@ def friction_program(problem, model: ContactModel):
     return program, constraint, rows, capacity, s, energy
 
 
-def _moved_slip(problem, rows) -> np.ndarray:
-    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+def _moved_components(problem, rows) -> np.ndarray:
+    """(len(rows), c) mask of the slip components of the frictional ``rows`` that some unknown moves (a support
+    that fixes one direction at a row's nodes leaves the other moved)."""
     n_c, R = problem.slip_components, problem.E.shape[0]
     Es = problem.slip_rows
     reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
-    return reach.reshape(n_c, R).max(axis=0)[rows] > 0
+    return reach.reshape(n_c, R)[:, rows].T > 0
+
+
+def _moved_slip(problem, rows) -> np.ndarray:
+    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+    return _moved_components(problem, rows).any(axis=1)
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -169,7 +175,7 @@ def exact_finish(problem, raw, timings) -> RawResult:
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     c0 = problem.capacities(np.zeros(R))
     fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
-                      _moved_slip(problem, rows))
+                      _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
     C = max(float(np.max(raw.capacity, initial=0.0)), float(np.max(raw.y, initial=0.0)))
     if not (U > 0 and C > 0):

@@ -17,6 +17,13 @@ t_a = z_a / |z_a|, linearised with P_a = I - t_a t_a^T, k_a = c_a / |z_a| as
 (I - k_a P_a) dmu_a - k_a r_t P_a S_a dx - D_a t_a dy_a. In 2D P_a = 0: a slipping row's force is c_a sign(z_a),
 a linear condition, and the steps end once the active set is right; in 3D the direction is nonlinear and the
 steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm.
+
+A row whose slip some unknown moves in one tangential component but not in the other (a support on a side that
+meets the contact fixes one direction at its nodes, docs/howto/friction.md) has a component j with S_a,j = 0: its
+force mu_a,j acts on no unknown. Stuck, its slip s_a,j = s0_a,j is then no condition on x, and (26) does not
+determine mu_a,j: it takes its least value, mu_a,j = 0 (the value a slipping row's law gives it too, s_a,j = 0
+there), the row's stuck condition the slip of its moved component alone. Where the fixed component's prescribed
+slip s0_a,j is not 0 the row cannot stick: its law is mu_a = c_a t_a at every point.
 """
 
 from __future__ import annotations
@@ -42,15 +49,23 @@ STALLS = 3
 class FrictionRows:
     """The friction rows of the finish (module docstring): ``S`` (r c, n) the slip rows on x (row-major: row a,
     component j at a c + j), ``s0`` their prescribed part, ``rows`` the normal rows they sit on, ``c0``, ``D`` the
-    capacity c_a = c0_a + D_a y_a (scaled), ``moved`` the rows whose slip some unknown moves. A row no unknown
-    moves slips by its prescribed s0_a: its force is c_a s0_a / |s0_a| (the law), or 0 where s0_a = 0 (then (26)
-    does not determine it: its least value, like the held rows' normal forces)."""
+    capacity c_a = c0_a + D_a y_a (scaled), ``moved`` the rows whose slip some unknown moves ((r,), or (r, c) per
+    component). A row no unknown moves slips by its prescribed s0_a: its force is c_a s0_a / |s0_a| (the law), or
+    0 where s0_a = 0 (then (26) does not determine it: its least value, like the held rows' normal forces). A
+    moved row's component no unknown moves (``fixed``) is the module docstring's: force 0 while stuck, and a row
+    whose fixed component has a prescribed slip cannot stick (``sticks``: the rows that can)."""
 
     def __init__(self, S, s0, rows, c0, D, components, moved):
         self.S, self.s0, self.rows = sp.csr_matrix(S), np.asarray(s0, dtype=float), np.asarray(rows)
         self.c0, self.D, self.nc = np.asarray(c0, dtype=float), np.asarray(D, dtype=float), int(components)
-        self.moved = np.asarray(moved, dtype=bool)
+        moved = np.asarray(moved, dtype=bool)
+        each = np.broadcast_to(moved.reshape(len(moved), -1), (len(moved), self.nc))
+        self.moved = each.any(axis=1)
         held = self.s0.reshape(-1, self.nc)
+        self.fixed = self.moved[:, None] & ~each
+        """(r, c) the components of a moved row that no unknown moves."""
+        self.sticks = self.moved & ~(self.fixed & (held != 0)).any(axis=1)
+        """(r,) the moved rows that can stick (no fixed component with a prescribed slip)."""
         size = np.linalg.norm(held, axis=1)
         self.held = np.where(self.moved[:, None] | (size[:, None] == 0), 0.0,
                              held / np.maximum(size, np.finfo(float).tiny)[:, None])
@@ -91,7 +106,7 @@ class _System:
         closed = self.free & (y + self.r * (self.G @ x - self.g) > 0)
         c = self.fr.capacity(y)
         z = mu + self.r * self.fr.slip(x)
-        stuck = self.fr.moved & (np.linalg.norm(z, axis=1) <= c)
+        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c)
         return closed, stuck, z, c
 
     def residual(self, w, state=None):
@@ -104,7 +119,7 @@ class _System:
         mom = mom / np.maximum(size, np.finfo(float).tiny + 1e-300 * size.max(initial=0.0))
         normal = np.where(closed, self.r * (self.G @ x - self.g), y) / self.C
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
-        proj = np.where(stuck[:, None], z, c[:, None] * z / norm_z[:, None])
+        proj = np.where(stuck[:, None], np.where(self.fr.fixed, 0.0, z), c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], mu - proj, mu - c[:, None] * self.fr.held) / self.C
         return np.concatenate([mom, normal, tang.ravel()])
 
@@ -117,8 +132,10 @@ class _System:
         eye = np.broadcast_to(np.eye(nc), (len(c), nc, nc))
         P = eye - t[:, :, None] * t[:, None, :]
         slip = fr.moved & ~stuck
-        on_x = np.where(stuck[:, None, None], eye, np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
-        on_mu = np.where(stuck[:, None, None], 0.0, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
+        loose = np.where(fr.fixed[:, :, None], eye, 0.0)         # a stuck row's fixed components: mu_a,j = 0
+        on_x = np.where(stuck[:, None, None], eye - loose,
+                        np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
+        on_mu = np.where(stuck[:, None, None], loose, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
         r_idx = np.repeat(np.arange(len(c)) * nc, nc) + np.tile(np.arange(nc), len(c))
         dy = np.where(stuck[:, None], 0.0, -fr.D[:, None] * t).ravel()
         on_y = sp.csr_matrix((dy, (r_idx, np.repeat(fr.rows, nc))), shape=(len(c) * nc, R))
@@ -136,7 +153,7 @@ class _System:
         normal = np.where(closed, self.G @ x - self.g, y)
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         s = self.fr.slip(x)
-        tang = np.where(stuck[:, None], s, mu - c[:, None] * z / norm_z[:, None])
+        tang = np.where(stuck[:, None], np.where(self.fr.fixed, mu, s), mu - c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], tang, mu - c[:, None] * self.fr.held)
         return -np.concatenate([mom, normal, tang.ravel()])
 

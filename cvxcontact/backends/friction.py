@@ -48,6 +48,7 @@ from .full import ContactModel
 from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
+from .signorini import dependent_rows
 
 __all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
 
@@ -155,8 +156,9 @@ def exact_finish(problem, raw, timings) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
-    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept): rows
-    that may be linearly dependent, a non-quadratic energy, a singular step, steps that do not settle, broken
+    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept; rows
+    that may be linearly dependent, :func:`~cvxcontact.backends.signorini.dependent_rows`, are finished on an
+    independent subset per step): a non-quadratic energy, a singular step, steps that do not settle, broken
     signs, or an energy above the interior point's (beyond :data:`ENERGY_SLACK`)."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
@@ -182,7 +184,7 @@ def exact_finish(problem, raw, timings) -> RawResult:
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw
     out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
-                         (C, U))
+                         (C, U), dependent=dependent_rows(problem))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out

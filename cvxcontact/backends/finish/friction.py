@@ -122,7 +122,7 @@ class _System:
         closes, chosen by a column-pivoted QR of the unit rows weighted by their forces (normal rows) and their
         slack to the cone, c_a - |mu_a| (stuck rows); none if the rows are independent by construction."""
         fr = self.fr
-        x, y, mu = self.split(w)
+        _, y, mu = self.split(w)
         closed, stuck, _, c = state
         normal = np.zeros(len(closed), dtype=bool)
         tangential = np.zeros((len(c), fr.nc), dtype=bool)

@@ -246,7 +246,8 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
         slip = np.linalg.norm(sol.contact.slip, axis=1)
         assert slip.min() > 0.5 * slip.max()                                         # measured 0.99987
         assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)  # 1.1e-16
-    ipm = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3", polish=False, tol=1.0)
+    with pytest.warns(cc.FixedPointWarning):            # the forces on dependent rows wander: no fixed point
+        ipm = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3", polish=False, tol=1.0)
     sol = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3")
     assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
     assert ipm.residuals()["stick-slip"] > 1e-7            # the fixed point's iterate off its law: 3.9e-5, 7.2e-5

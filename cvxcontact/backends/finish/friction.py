@@ -35,7 +35,10 @@ interior point's share and the independent rows carry the correction. The steps 
 (a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and the
 residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
 row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities
-mu y_a are those of the forces found, one of the distributions (26) allows.
+mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
+change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
+a small force): the full step to a new active set is then taken even where it raises the residual (the
+semismooth active-set move of the 2D steps), and a set that comes back is declined (a cycle).
 """
 
 from __future__ import annotations
@@ -101,8 +104,7 @@ def _blocks(B) -> sp.csr_matrix:
 
 WEIGHT_FLOOR = 1e-3
 """Dependent rows: the weights of the basis's pivots (each row's force or slack to the cone over the largest) are
-floored here, so that a row independent of the others is kept whatever its force (its pivot stays above
-:data:`~cvxcontact.backends.finish.rows.DEPENDENT_PIVOT` times this)."""
+floored here, so that the rows without force are ordered among themselves by their own pivots."""
 
 
 class _System:
@@ -115,12 +117,20 @@ class _System:
         self.r = self.C / self.U
         self.absT, self.absG, self.absS = abs(T), abs(G), abs(fr.S)
         self.dependent = bool(dependent)
+        self._frozen = {}
 
     def frozen(self, w, state):
         """((R,), (r, c)) the closed normal rows and the stuck rows' moved components whose forces a step keeps
         (module docstring, "Dependent rows"): those outside a maximal independent set of the rows the state
         closes, chosen by a column-pivoted QR of the unit rows weighted by their forces (normal rows) and their
-        slack to the cone, c_a - |mu_a| (stuck rows); none if the rows are independent by construction."""
+        slack to the cone, c_a - |mu_a| (stuck rows); none if the rows are independent by construction. Chosen
+        once per active set (a dense QR of the rows: the steps that only refine the slip directions reuse it)."""
+        key = _key(state)
+        if key not in self._frozen:
+            self._frozen[key] = self._choose(w, state)
+        return self._frozen[key]
+
+    def _choose(self, w, state):
         fr = self.fr
         _, y, mu = self.split(w)
         closed, stuck, _, c = state
@@ -135,8 +145,14 @@ class _System:
         norms = np.linalg.norm(M, axis=1)
         slack = np.concatenate([y[cn], (c - np.linalg.norm(mu, axis=1))[ta]])
         weight = np.maximum(slack / max(float(slack.max(initial=0.0)), np.finfo(float).tiny), WEIGHT_FLOOR)
+        unit = (M / np.where(norms > 0, norms, 1.0)[:, None]).T
         keep = np.zeros(len(norms), dtype=bool)
-        keep[_independent((M / np.where(norms > 0, norms, 1.0)[:, None]).T * weight)] = True
+        keep[_independent(unit * weight)] = True
+        rest = np.flatnonzero(~keep)        # the weights order the pivots; dependence is the unit rows' own: a
+        if len(rest):                       # row left out whose part outside the kept rows' span is above
+            Q = np.linalg.qr(unit[:, keep])[0]                      # DEPENDENT_PIVOT joins them
+            perp = unit[:, rest] - Q @ (Q.T @ unit[:, rest])
+            keep[rest[_independent(perp)]] = True
         normal[cn[~keep[:len(cn)]]] = True
         tangential[ta[~keep[len(cn):]], tj[~keep[len(cn):]]] = True
         return normal, tangential
@@ -207,6 +223,11 @@ class _System:
         return -np.concatenate([mom, normal, tang.ravel()])
 
 
+def _key(state) -> tuple:
+    """The active set of a state (closed normal rows, stuck friction rows) as a hashable key."""
+    return state[0].tobytes(), state[1].tobytes()
+
+
 def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None,
                    dependent: bool = False):
     """The exact finish of the module docstring from (x0, y0, mu0) (the interior point's answer, scaled).
@@ -237,13 +258,15 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             return Declined(Stop.SINGULAR)
         if not np.isfinite(dw).all():
             return Declined(Stop.SINGULAR)
-        key = (state[0].tobytes(), state[1].tobytes())
+        key = _key(state)
         alpha, trial = 1.0, None
         while alpha >= 2.0 ** -10:                        # damping: halve until the scaled residual decreases
             trial = w + alpha * dw
             new = np.linalg.norm(system.residual(trial))
             if new < (1.0 - 1e-4 * alpha) * merit:
                 break
+            if alpha == 1.0 and system.dependent and _key(system.state(trial)) not in seen | {key}:
+                break              # dependent rows: the full step to a new active set (module docstring)
             alpha /= 2
         else:
             stalled += 1
@@ -252,12 +275,12 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             trial, new = w + dw, np.linalg.norm(system.residual(w + dw))   # no decrease: the full step
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
-        same = (state[0].tobytes(), state[1].tobytes()) == key
+        same = _key(state) == key
         if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
             settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
             break
         seen.add(key)
-        if not same and fr.nc == 1 and (state[0].tobytes(), state[1].tobytes()) in seen:
+        if not same and (fr.nc == 1 or system.dependent) and _key(state) in seen:
             return Declined(Stop.CYCLE)                   # 2D: a set already solved exactly comes back
     if not settled:
         return Declined(Stop.MAX_ITER)

@@ -154,3 +154,31 @@ def test_a_row_with_one_tangential_component_fixed_is_finished_to_its_closed_for
             assert np.abs(yf - y).max() < 1e-12 * y.max()
             assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
             assert (muf[sticks, 0] == 0).all()                      # the force acting on nothing: its least value
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("nc", [1, 2])
+def test_rows_each_posed_twice_are_finished_to_the_closed_form(nc):
+    """``nodes`` with every normal and friction row posed twice (exactly dependent rows, as on a 3D "gamma3"
+    overlay; Tresca's capacity shared between the copies, Coulomb's mu y_a on each): the same displacements, and
+    forces whose copies add up to the closed form's; without ``dependent`` the step is singular."""
+    (T, b, G, _, fr), (x, y, mu), _ = nodes(nc)
+    n = len(y)
+    twice = FrictionRows(sp.vstack([fr.S, fr.S]), np.zeros(2 * n * nc), np.arange(2 * n), np.tile(fr.c0 / 2, 2),
+                         np.tile(fr.D, 2), nc, np.ones(2 * n, dtype=bool))
+    system = (T, b, sp.vstack([G, G]).tocsr(), np.zeros(2 * n), twice)
+    free, scales = np.ones(2 * n, dtype=bool), (float(y.max()), float(np.abs(x).max()))
+    for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(2 * n), np.zeros((2 * n, nc))),
+                        (x * (1 + 1e-3), np.tile(y, 2) * (1 - 1e-3) / 2, np.tile(mu, (2, 1)) * (1 + 1e-3) / 2),
+                        (x * (1 + 1e-3), np.concatenate([0.2 * y, 0.8 * y]), np.tile(mu, (2, 1)) / 2)):
+        assert solve_friction(*system, free, x0, y0, mu0, scales).stop == Stop.SINGULAR
+        out = solve_friction(*system, free, x0, y0, mu0, scales, dependent=True)
+        assert not isinstance(out, Declined), out
+        xf, yf, muf, closed, _ = out
+        assert (closed[:n] | closed[n:]).all()                     # each node closed by one of its copies
+        # measured at most 2.2e-16 (x), 1.2e-16 (y), 3.5e-16 (mu), nc = 1 and 2, the three starts (three kernels)
+        assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
+        assert np.abs(yf[:n] + yf[n:] - y).max() < 1e-12 * y.max()
+        assert np.abs(muf[:n] + muf[n:] - mu).max() < 1e-12 * np.abs(mu).max()
+        cap = twice.capacity(yf)                                     # each copy within its own cone
+        assert (np.linalg.norm(muf, axis=1) <= cap * (1 + 1e-12) + 1e-15).all() and (yf >= 0).all()

@@ -38,7 +38,7 @@ row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck row
 mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
 change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
 a small force): the full step to a new active set is then taken even where it raises the residual (the
-semismooth active-set move of the 2D steps), and a set that comes back is declined (a cycle).
+semismooth active-set move of the 2D steps) if that set was not met before; otherwise the step is damped.
 """
 
 from __future__ import annotations
@@ -280,7 +280,7 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
             break
         seen.add(key)
-        if not same and (fr.nc == 1 or system.dependent) and _key(state) in seen:
+        if not same and fr.nc == 1 and _key(state) in seen:
             return Declined(Stop.CYCLE)                   # 2D: a set already solved exactly comes back
     if not settled:
         return Declined(Stop.MAX_ITER)

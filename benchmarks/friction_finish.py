@@ -7,7 +7,8 @@ whose faces do not match (nodal "sigma1" and dependent overlay "gamma3" rows):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 OPENBLAS_CORETYPE=Haswell \
         PYTHONPATH=.:tests python benchmarks/friction_finish.py
 
-(and ``OPENBLAS_CORETYPE=Prescott``). Columns: equilibrium, complementarity, friction cone, stick-slip, slip
+(and ``OPENBLAS_CORETYPE=Prescott``); ``--large`` adds the "gamma3" pair on finer meshes (n x n on m x m cells:
+its rows, the finish's steps and the wall seconds of the interior point and of the finish). Columns: equilibrium, complementarity, friction cone, stick-slip, slip
 direction; then whether the finish was accepted (else why it was declined, ``info.declined``) and its relative
 distance to the interior point's answer.
 """
@@ -88,5 +89,24 @@ def main() -> None:
     row("3D non-matching C gamma3", t3.non_matching(cc.Coulomb(0.3)), condition="gamma3")
 
 
+def large() -> None:
+    """The "gamma3" Tresca pair of tests/test_friction3d.py on finer meshes: rows, checks, seconds."""
+    P, D = t3.P, t3.DIAGONAL
+    for n, m in ((6, 8), (10, 13), (16, 21)):
+        top, lower = cc.box(nx=n, ny=n, nz=2), cc.box(nx=m, ny=m, nz=2)
+        a = cc.Body(top, t3.steel(), contact="bottom", traction={"top": (0.2 * P * D[0], 0.2 * P * D[1], -P)})
+        b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), t3.steel(), contact="top", clamped="bottom")
+        scene = cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(0.25 * P))])
+        sol = cc.solve(scene, condition="gamma3", estimate=False)
+        worst = max(sol.residuals()[k] for k in KEYS)
+        print(f"gamma3 {n}x{n} on {m}x{m}: {len(sol.contact.points)} rows, finish {sol.info.finish is not None}"
+              f" {sol.info.declined}, worst check {worst:.1e}, interior point {sol.timings['solve']:.2f} s,"
+              f" finish {sol.timings.get('polish', 0.0):.2f} s (wall)", flush=True)
+
+
 if __name__ == "__main__":
+    import sys
+
     main()
+    if "--large" in sys.argv:
+        large()

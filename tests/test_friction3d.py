@@ -11,6 +11,12 @@ A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10
 - a load beyond the capacity along the diagonal (each component below it, the norm above) is refused naming the
   diagonal translation;
 - a pair on a much stiffer box matches the rigid plane;
+- a box whose left side is held along x (the support fixes one tangential direction at the nodes where it meets
+  the contact): stuck, the box tied tangentially; pushed along y (nu = 0), every node slides and its friction
+  force is g w_a along the slip, the held nodes' x component 0; in partial slip the interior point's answer;
+- a pair whose faces do not match (3 x 3 cells on 4 x 4), nodal rows ("sigma1") and overlay rows ("gamma3",
+  linearly dependent): the same answer posed from either side (sigma1 and sigma2 swapped; "gamma3" stuck), the
+  interior point's answer, a pushed box sliding with its whole capacity g A, Coulomb finished to its own law;
 - a layer (its top moved by (s cos t, s sin t, -d)) in partial slip against an independent reference written
   here: the same nodal Tresca law as its dual, min 1/2 R^T W R + q^T R over R_n >= 0, |R_t| <= g w_a (W the
   condensed contact compliance, w_a the nodes' lumped areas computed here from the faces), solved by an
@@ -147,6 +153,107 @@ def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
             departures[stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
         # measured 2.2e-3 / 2.2e-4 (Tresca), 2.4e-3 / 2.4e-4 (Coulomb); ratios 9.99992, 9.99984
         assert departures[1e3] / departures[1e4] == pytest.approx(10.0, rel=1e-2)
+
+
+def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False):
+    """The box pressed on the plane, its left side held along x, sheared by (0, q) on its top; ``push``: its
+    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
+    mesh, held = BOX, {"left": (0.0, None, None)}
+    if tied:
+        mesh = cc.TetMesh(BOX.points, BOX.tets, {**{t: BOX.boundary(t) for t in BOX.tags}, "base": BOX.boundary("bottom")})
+        held["base"] = (0.0, 0.0, None)
+    if push is not None:
+        held["front"] = (None, push, None)
+    b = cc.Body(mesh, steel(nu=nu), contact="bottom", traction={"top": (0.0, q, -P)}, displacement=held)
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])
+
+
+@pytest.mark.numerics
+def test_a_side_held_along_one_tangent_is_finished_stuck_sliding_and_in_partial_slip():
+    """The rows where the held side meets the contact have one slip component no unknown moves; before the finish
+    took them the stuck ones made its system singular (declined: the interior point's answer was kept)."""
+    tied = cc.solve(held_side(None, tied=True), estimate=False)
+    big = cc.solve(held_side(cc.Tresca(1e9)))                # stuck everywhere: the tied answer
+    assert tied.ok and big.ok and big.info.finish == cc.Finish.FRICTION_NEWTON and big.info.declined is None
+    scale = np.abs(tied.u[0]).max()
+    assert np.abs(big.u[0] - tied.u[0]).max() < 1e-9 * scale                       # measured 9.2e-16
+    edge = np.abs(big.contact.points[:, 0]) < 1e-12                                  # where the held side meets it
+    assert edge.sum() == 4 and (big.contact.shear_force[edge, 0] == 0).all()        # acting on nothing: 0
+    for g in (1e2, 1e3):                                     # pushed along y: every node slides
+        sol = cc.solve(held_side(cc.Tresca(g), q=0.0, nu=0.0, push=1e-4))
+        assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+        c = sol.contact
+        slip = np.linalg.norm(c.slip, axis=1)
+        assert slip.min() > 0.5 * slip.max()                                         # measured 0.99999
+        assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)   # measured 0
+        assert (c.shear_force[edge, 0] == 0).all() and (c.shear_force[:, 1] < 0).all()
+    largest = np.linalg.norm(big.contact.shear, axis=1).max()
+    scene = held_side(cc.Tresca(0.8 * largest))
+    sol, ipm = cc.solve(scene), cc.solve(scene, polish=False)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    slip = np.linalg.norm(sol.contact.slip, axis=1)
+    assert 1 <= (slip > 1e-3 * slip.max()).sum() <= len(slip) - 2                   # partial slip: 2 of 16
+    assert np.abs(ipm.u[0] - sol.u[0]).max() < 1e-6 * np.abs(sol.u[0]).max()        # measured 5.4e-9
+    shear = np.abs(sol.contact.shear_force).max()
+    assert np.abs(ipm.contact.shear_force - sol.contact.shear_force).max() < 5e-6 * shear   # measured 3.4e-8
+    assert max(sol.residuals()[k] for k in ("stick-slip", "slip direction")) < 1e-7     # measured 1.5e-9
+
+
+def non_matching(law, q=0.2 * P * DIAGONAL, swap=False, nu=0.3, push=None):
+    """The box (3 x 3 x 2 cells) on a clamped box of 4 x 4 x 2 cells under (q_x, q_y, -p), the pair posed from
+    the top box (``swap``: from the lower one); ``push``: the top box's left side moved by push (cos t, sin t)."""
+    lower = cc.box(nx=4, ny=4, nz=2)
+    a = cc.Body(BOX, steel(nu=nu), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top",
+                displacement={} if push is None else {"left": (push * DIAGONAL[0], push * DIAGONAL[1], None)})
+    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(nu=nu), contact="top", clamped="bottom",
+                name="below")
+    pair = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
+    return cc.Scene(a, b, contacts=[pair])
+
+
+def _apart(one, other):
+    """The largest difference of two solutions' displacements over the largest displacement."""
+    scale = max(np.abs(u).max() for u in one.u)
+    return max(np.abs(u - v).max() for u, v in zip(one.u, other.u)) / scale
+
+
+@pytest.mark.numerics
+def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
+    """Nodal rows are independent; the overlay rows ("gamma3", one per overlay vertex: 75 rows on 2 x 25 jump
+    nodes) are not, and their forces not unique: the finish keeps an independent subset per step (before it,
+    its step was singular and the interior point's answer was kept). Posed from the other side, "sigma1" is
+    "sigma2" and "gamma3" the same overlay in another order (another subset): the same answer at rounding. (The
+    Tresca "gamma3" capacities g w_a in partial slip are not compared so: w_a, the lumped mass of the overlay's
+    triangles, depends on how the overlay's polygons are cut, which differs with the side: 2.7e-4 apart, the
+    interior points as much.)"""
+    tresca = cc.Tresca(0.25 * P)
+    for condition, other in (("sigma1", "sigma2"), ("gamma3", "gamma3")):
+        sol = cc.solve(non_matching(tresca), condition=condition)
+        assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON and sol.info.declined is None
+        slip = np.linalg.norm(sol.contact.slip, axis=1)
+        assert 1 <= (slip < 1e-3 * slip.max()).sum() <= len(slip) - 2               # partial slip: 8, 5 of 75
+        assert np.allclose(sol.contact.shear_force.sum(axis=0), -0.2 * P * DIAGONAL, rtol=1e-12)   # 1.9e-14
+        # the interior point's answer: measured 7.4e-10 (sigma1), 3.0e-10 (gamma3)
+        assert _apart(sol, cc.solve(non_matching(tresca), condition=condition, polish=False)) < 1e-6
+        stuck = cc.Tresca(1e9) if condition == "gamma3" else tresca
+        here = sol if condition == "sigma1" else cc.solve(non_matching(stuck), condition=condition)
+        there = cc.solve(non_matching(stuck, swap=True), condition=other)
+        assert here.info.finish == there.info.finish == cc.Finish.FRICTION_NEWTON
+        assert _apart(here, there) < 1e-12                  # measured 6.3e-15 (sigma1), 9.2e-15 (gamma3, stuck)
+    for g in (1e2, 1e3):                                     # pushed: every overlay vertex slides, force g w_a
+        sol = cc.solve(non_matching(cc.Tresca(g), q=(0.0, 0.0), nu=0.0, push=1e-4), condition="gamma3")
+        assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+        slip = np.linalg.norm(sol.contact.slip, axis=1)
+        assert slip.min() > 0.5 * slip.max()                                         # measured 0.99987
+        assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)  # 1.1e-16
+    with pytest.warns(cc.FixedPointWarning):            # the forces on dependent rows wander: no fixed point
+        ipm = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3", polish=False, tol=1.0)
+    sol = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3")
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    assert ipm.residuals()["stick-slip"] > 1e-7            # the fixed point's iterate off its law: 3.9e-5, 7.2e-5
+    # after the finish: measured at most 4.0e-9 (stick-slip; Haswell, Prescott), the default tolerance 1e-6
+    assert max(sol.residuals()[k] for k in ("friction cone", "stick-slip", "slip direction")) < 1e-6
+    assert _apart(sol, ipm) < 1e-6                                                   # measured 3.8e-9
 
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):

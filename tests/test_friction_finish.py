@@ -94,10 +94,91 @@ def test_a_declined_finish_keeps_the_interior_point_answer(monkeypatch):
     assert kept.path == cc.Route.INTERIOR_POINT_FRICTION and not kept.polished and kept.info.finish is None
     assert kept.ok                                              # the interior point at its accuracy, as before
     assert kept.residuals()["stick-slip"] > 1e-9                # measured 9.5e-8: not the finish's rounding
+    assert kept.info.declined.stop is Stop.MAX_ITER              # the reason, on the solution and its report
+    assert f"exact finish declined: {Stop.MAX_ITER.value}" in kept.report()
     monkeypatch.undo()
     done = cc.solve(scene)
     assert done.polished and done.info.finish == cc.Finish.FRICTION_NEWTON
+    assert done.info.declined is None and "declined" not in done.report()
     plain = cc.solve(scene, polish=False)
-    assert plain.path == cc.Route.INTERIOR_POINT_FRICTION and not plain.polished
+    assert plain.path == cc.Route.INTERIOR_POINT_FRICTION and not plain.polished and plain.info.declined is None
     scale = np.abs(done.u[0]).max()
     assert np.abs(plain.u[0] - done.u[0]).max() < 1e-8 * scale   # the same answer, at the IPM's accuracy: 5.4e-13
+
+
+def one_component(s0, n=10, seed=1):
+    """n independent 3D nodes (``nodes``' springs, Tresca) whose first tangential component no unknown moves (a
+    support fixing that direction: S_a,1 = 0), its slip prescribed ``s0`` (n,); the second free. The answer by
+    hand: the first unknown is a spring alone, x_1 = f_1 / k_1; where s0 = 0 the row is the 2D law on the second
+    component (stuck if |f_2| <= c: x_2 = 0, mu = (0, f_2); else mu_2 = c sign f_2), where s0 != 0 it cannot
+    stick: mu = c s / |s|, s = (s0, x_2), k_2 x_2 + c x_2 / |s| = f_2 (one scalar root)."""
+    rng = np.random.default_rng(seed)
+    kt, kn, p = rng.uniform(0.5, 2.0, (n, 2)), rng.uniform(0.5, 2.0, n), rng.uniform(0.5, 2.0, n)
+    f, c = rng.normal(size=(n, 2)), rng.uniform(0.2, 1.5, n)
+    T = sp.diags(np.column_stack([kt, kn]).ravel()).tocsr()
+    b = np.column_stack([f, -p]).ravel()
+    G = sp.csr_matrix((-np.ones(n), (np.arange(n), 3 * np.arange(n) + 2)), shape=(n, 3 * n))
+    S = sp.csr_matrix((np.ones(n), (2 * np.arange(n) + 1, 3 * np.arange(n) + 1)), shape=(2 * n, 3 * n))
+    moved = np.column_stack([np.zeros(n, dtype=bool), np.ones(n, dtype=bool)])
+    fr = FrictionRows(S, np.column_stack([s0, np.zeros(n)]).ravel(), np.arange(n), c, np.zeros(n), 2, moved)
+    x2, mu = np.zeros(n), np.zeros((n, 2))
+    for i in range(n):
+        if s0[i] == 0:
+            mu[i, 1] = np.clip(f[i, 1], -c[i], c[i])
+            x2[i] = (f[i, 1] - mu[i, 1]) / kt[i, 1]
+            continue
+        def force(v, i=i):
+            return kt[i, 1] * v + c[i] * v / np.hypot(s0[i], v) - f[i, 1]
+        top = abs(f[i, 1]) / kt[i, 1] + 1.0
+        x2[i] = brentq(force, -top, top, xtol=1e-300, rtol=4 * np.finfo(float).eps)
+        mu[i] = c[i] * np.array([s0[i], x2[i]]) / np.hypot(s0[i], x2[i])
+    x = np.column_stack([f[:, 0] / kt[:, 0], x2, np.zeros(n)]).ravel()
+    return (T, b, G, np.zeros(n), fr), (x, p, mu), (c, f)
+
+
+@pytest.mark.numerics
+def test_a_row_with_one_tangential_component_fixed_is_finished_to_its_closed_form():
+    n = 10
+    for s0 in (np.zeros(n), np.where(np.arange(n) % 2 == 0, 0.0, np.linspace(-0.5, 0.5, n))):
+        system, (x, y, mu), (c, f) = one_component(s0, n)
+        sticks = (s0 == 0) & (np.abs(f[:, 1]) <= c)
+        assert 2 <= sticks.sum() <= n - 2                            # stuck rows with a fixed component, and not
+        for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(n), np.zeros((n, 2))),
+                            (x * (1 + 1e-3), y * (1 - 1e-3), mu + 0.1)):     # mu0 off in the fixed component too
+            out = solve_friction(*system, np.ones(n, dtype=bool), x0, y0, mu0, (float(y.max()), float(np.abs(x).max())))
+            assert not isinstance(out, Declined), out
+            xf, yf, muf, closed, _ = out
+            assert closed.all()
+            # measured at most 4.4e-16 (x), 0 (y), 2.2e-16 (mu), Haswell and Prescott
+            assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
+            assert np.abs(yf - y).max() < 1e-12 * y.max()
+            assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
+            assert (muf[sticks, 0] == 0).all()                      # the force acting on nothing: its least value
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("nc", [1, 2])
+def test_rows_each_posed_twice_are_finished_to_the_closed_form(nc):
+    """``nodes`` with every normal and friction row posed twice (exactly dependent rows, as on a 3D "gamma3"
+    overlay; Tresca's capacity shared between the copies, Coulomb's mu y_a on each): the same displacements, and
+    forces whose copies add up to the closed form's; without ``dependent`` the step is singular."""
+    (T, b, G, _, fr), (x, y, mu), _ = nodes(nc)
+    n = len(y)
+    twice = FrictionRows(sp.vstack([fr.S, fr.S]), np.zeros(2 * n * nc), np.arange(2 * n), np.tile(fr.c0 / 2, 2),
+                         np.tile(fr.D, 2), nc, np.ones(2 * n, dtype=bool))
+    system = (T, b, sp.vstack([G, G]).tocsr(), np.zeros(2 * n), twice)
+    free, scales = np.ones(2 * n, dtype=bool), (float(y.max()), float(np.abs(x).max()))
+    for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(2 * n), np.zeros((2 * n, nc))),
+                        (x * (1 + 1e-3), np.tile(y, 2) * (1 - 1e-3) / 2, np.tile(mu, (2, 1)) * (1 + 1e-3) / 2),
+                        (x * (1 + 1e-3), np.concatenate([0.2 * y, 0.8 * y]), np.tile(mu, (2, 1)) / 2)):
+        assert solve_friction(*system, free, x0, y0, mu0, scales).stop == Stop.SINGULAR
+        out = solve_friction(*system, free, x0, y0, mu0, scales, dependent=True)
+        assert not isinstance(out, Declined), out
+        xf, yf, muf, closed, _ = out
+        assert (closed[:n] | closed[n:]).all()                     # each node closed by one of its copies
+        # measured at most 2.2e-16 (x), 1.2e-16 (y), 3.5e-16 (mu), nc = 1 and 2, the three starts (three kernels)
+        assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
+        assert np.abs(yf[:n] + yf[n:] - y).max() < 1e-12 * y.max()
+        assert np.abs(muf[:n] + muf[n:] - mu).max() < 1e-12 * np.abs(mu).max()
+        cap = twice.capacity(yf)                                     # each copy within its own cone
+        assert (np.linalg.norm(muf, axis=1) <= cap * (1 + 1e-12) + 1e-15).all() and (yf >= 0).all()

@@ -48,6 +48,7 @@ from .full import ContactModel
 from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
+from .signorini import dependent_rows
 
 __all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
 
@@ -87,12 +88,18 @@ def friction_program(problem, model: ContactModel):
     return program, constraint, rows, capacity, s, energy
 
 
-def _moved_slip(problem, rows) -> np.ndarray:
-    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+def _moved_components(problem, rows) -> np.ndarray:
+    """(len(rows), c) mask of the slip components of the frictional ``rows`` that some unknown moves (a support
+    that fixes one direction at a row's nodes leaves the other moved)."""
     n_c, R = problem.slip_components, problem.E.shape[0]
     Es = problem.slip_rows
     reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
-    return reach.reshape(n_c, R).max(axis=0)[rows] > 0
+    return reach.reshape(n_c, R)[:, rows].T > 0
+
+
+def _moved_slip(problem, rows) -> np.ndarray:
+    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
+    return _moved_components(problem, rows).any(axis=1)
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -149,8 +156,9 @@ def exact_finish(problem, raw, timings) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
-    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept): rows
-    that may be linearly dependent, a non-quadratic energy, a singular step, steps that do not settle, broken
+    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept; rows
+    that may be linearly dependent, :func:`~cvxcontact.backends.signorini.dependent_rows`, are finished on an
+    independent subset per step): a non-quadratic energy, a singular step, steps that do not settle, broken
     signs, or an energy above the interior point's (beyond :data:`ENERGY_SLACK`)."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
@@ -169,14 +177,14 @@ def exact_finish(problem, raw, timings) -> RawResult:
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     c0 = problem.capacities(np.zeros(R))
     fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
-                      _moved_slip(problem, rows))
+                      _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
     C = max(float(np.max(raw.capacity, initial=0.0)), float(np.max(raw.y, initial=0.0)))
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw
     out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
-                         (C, U))
+                         (C, U), dependent=dependent_rows(problem))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out

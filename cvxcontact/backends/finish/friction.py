@@ -17,6 +17,28 @@ t_a = z_a / |z_a|, linearised with P_a = I - t_a t_a^T, k_a = c_a / |z_a| as
 (I - k_a P_a) dmu_a - k_a r_t P_a S_a dx - D_a t_a dy_a. In 2D P_a = 0: a slipping row's force is c_a sign(z_a),
 a linear condition, and the steps end once the active set is right; in 3D the direction is nonlinear and the
 steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm.
+
+A row whose slip some unknown moves in one tangential component but not in the other (a support on a side that
+meets the contact fixes one direction at its nodes, docs/howto/friction.md) has a component j with S_a,j = 0: its
+force mu_a,j acts on no unknown. Stuck, its slip s_a,j = s0_a,j is then no condition on x, and (26) does not
+determine mu_a,j: it takes its least value, mu_a,j = 0 (the value a slipping row's law gives it too, s_a,j = 0
+there), the row's stuck condition the slip of its moved component alone. Where the fixed component's prescribed
+slip s0_a,j is not 0 the row cannot stick: its law is mu_a = c_a t_a at every point.
+
+Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows
+than the jump's degrees of freedom, docs/formulation.md §13): the closed normal rows and the stuck rows' slip
+rows may be linearly dependent, and the forces on them are then not unique ((26) fixes only their resultant).
+Each step keeps a maximal independent subset of them, the rows with the largest forces (normal rows) and the
+largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the unit rows so
+weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that they keep the
+interior point's share and the independent rows carry the correction. The steps move x onto the same affine set
+(a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and the
+residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
+row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities
+mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
+change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
+a small force): the full step to a new active set is then taken even where it raises the residual (the
+semismooth active-set move of the 2D steps) if that set was not met before; otherwise the step is damped.
 """
 
 from __future__ import annotations
@@ -29,6 +51,7 @@ import scipy.sparse.linalg as spla
 
 from .declined import Declined, Stop
 from .lcp import SIGN_TOL
+from .rows import _independent
 
 __all__ = ["FrictionRows", "solve_friction"]
 
@@ -42,15 +65,23 @@ STALLS = 3
 class FrictionRows:
     """The friction rows of the finish (module docstring): ``S`` (r c, n) the slip rows on x (row-major: row a,
     component j at a c + j), ``s0`` their prescribed part, ``rows`` the normal rows they sit on, ``c0``, ``D`` the
-    capacity c_a = c0_a + D_a y_a (scaled), ``moved`` the rows whose slip some unknown moves. A row no unknown
-    moves slips by its prescribed s0_a: its force is c_a s0_a / |s0_a| (the law), or 0 where s0_a = 0 (then (26)
-    does not determine it: its least value, like the held rows' normal forces)."""
+    capacity c_a = c0_a + D_a y_a (scaled), ``moved`` the rows whose slip some unknown moves ((r,), or (r, c) per
+    component). A row no unknown moves slips by its prescribed s0_a: its force is c_a s0_a / |s0_a| (the law), or
+    0 where s0_a = 0 (then (26) does not determine it: its least value, like the held rows' normal forces). A
+    moved row's component no unknown moves (``fixed``) is the module docstring's: force 0 while stuck, and a row
+    whose fixed component has a prescribed slip cannot stick (``sticks``: the rows that can)."""
 
     def __init__(self, S, s0, rows, c0, D, components, moved):
         self.S, self.s0, self.rows = sp.csr_matrix(S), np.asarray(s0, dtype=float), np.asarray(rows)
         self.c0, self.D, self.nc = np.asarray(c0, dtype=float), np.asarray(D, dtype=float), int(components)
-        self.moved = np.asarray(moved, dtype=bool)
+        moved = np.asarray(moved, dtype=bool)
+        each = np.broadcast_to(moved.reshape(len(moved), -1), (len(moved), self.nc))
+        self.moved = each.any(axis=1)
         held = self.s0.reshape(-1, self.nc)
+        self.fixed = self.moved[:, None] & ~each
+        """(r, c) the components of a moved row that no unknown moves."""
+        self.sticks = self.moved & ~(self.fixed & (held != 0)).any(axis=1)
+        """(r,) the moved rows that can stick (no fixed component with a prescribed slip)."""
         size = np.linalg.norm(held, axis=1)
         self.held = np.where(self.moved[:, None] | (size[:, None] == 0), 0.0,
                              held / np.maximum(size, np.finfo(float).tiny)[:, None])
@@ -71,14 +102,60 @@ def _blocks(B) -> sp.csr_matrix:
     return sp.bsr_matrix((B, np.arange(r), np.arange(r + 1)), shape=(r * c, r * c)).tocsr()
 
 
-class _System:
-    """The residual and Jacobian of the module docstring at one point, with its active set."""
+WEIGHT_FLOOR = 1e-3
+"""Dependent rows: the weights of the basis's pivots (each row's force or slack to the cone over the largest) are
+floored here, so that the rows without force are ordered among themselves by their own pivots."""
 
-    def __init__(self, T, b, G, g, fr: FrictionRows, free, scales):
+
+class _System:
+    """The residual and Jacobian of the module docstring at one point, with its active set; ``dependent``: the
+    rows may be linearly dependent (module docstring, "Dependent rows")."""
+
+    def __init__(self, T, b, G, g, fr: FrictionRows, free, scales, dependent=False):
         self.T, self.b, self.G, self.g, self.fr, self.free = T, b, G, g, fr, free
         self.C, self.U = scales
         self.r = self.C / self.U
         self.absT, self.absG, self.absS = abs(T), abs(G), abs(fr.S)
+        self.dependent = bool(dependent)
+        self._frozen = {}
+
+    def frozen(self, w, state):
+        """((R,), (r, c)) the closed normal rows and the stuck rows' moved components whose forces a step keeps
+        (module docstring, "Dependent rows"): those outside a maximal independent set of the rows the state
+        closes, chosen by a column-pivoted QR of the unit rows weighted by their forces (normal rows) and their
+        slack to the cone, c_a - |mu_a| (stuck rows); none if the rows are independent by construction. Chosen
+        once per active set (a dense QR of the rows: the steps that only refine the slip directions reuse it)."""
+        key = _key(state)
+        if key not in self._frozen:
+            self._frozen[key] = self._choose(w, state)
+        return self._frozen[key]
+
+    def _choose(self, w, state):
+        fr = self.fr
+        _, y, mu = self.split(w)
+        closed, stuck, _, c = state
+        normal = np.zeros(len(closed), dtype=bool)
+        tangential = np.zeros((len(c), fr.nc), dtype=bool)
+        held = stuck[:, None] & ~fr.fixed
+        cn, (ta, tj) = np.flatnonzero(closed), np.nonzero(held)
+        if not self.dependent or len(cn) + len(ta) == 0:
+            return normal, tangential
+        M = sp.vstack([self.G[cn], fr.S[ta * fr.nc + tj]]).tocsc()
+        M = M[:, np.flatnonzero(np.diff(M.indptr))].toarray()
+        norms = np.linalg.norm(M, axis=1)
+        slack = np.concatenate([y[cn], (c - np.linalg.norm(mu, axis=1))[ta]])
+        weight = np.maximum(slack / max(float(slack.max(initial=0.0)), np.finfo(float).tiny), WEIGHT_FLOOR)
+        unit = (M / np.where(norms > 0, norms, 1.0)[:, None]).T
+        keep = np.zeros(len(norms), dtype=bool)
+        keep[_independent(unit * weight)] = True
+        rest = np.flatnonzero(~keep)        # the weights order the pivots; dependence is the unit rows' own: a
+        if len(rest):                       # row left out whose part outside the kept rows' span is above
+            Q = np.linalg.qr(unit[:, keep])[0]                      # DEPENDENT_PIVOT joins them
+            perp = unit[:, rest] - Q @ (Q.T @ unit[:, rest])
+            keep[rest[_independent(perp)]] = True
+        normal[cn[~keep[:len(cn)]]] = True
+        tangential[ta[~keep[len(cn):]], tj[~keep[len(cn):]]] = True
+        return normal, tangential
 
     def split(self, w):
         n, R = self.T.shape[0], self.G.shape[0]
@@ -91,7 +168,7 @@ class _System:
         closed = self.free & (y + self.r * (self.G @ x - self.g) > 0)
         c = self.fr.capacity(y)
         z = mu + self.r * self.fr.slip(x)
-        stuck = self.fr.moved & (np.linalg.norm(z, axis=1) <= c)
+        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c)
         return closed, stuck, z, c
 
     def residual(self, w, state=None):
@@ -104,12 +181,13 @@ class _System:
         mom = mom / np.maximum(size, np.finfo(float).tiny + 1e-300 * size.max(initial=0.0))
         normal = np.where(closed, self.r * (self.G @ x - self.g), y) / self.C
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
-        proj = np.where(stuck[:, None], z, c[:, None] * z / norm_z[:, None])
+        proj = np.where(stuck[:, None], np.where(self.fr.fixed, 0.0, z), c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], mu - proj, mu - c[:, None] * self.fr.held) / self.C
         return np.concatenate([mom, normal, tang.ravel()])
 
-    def jacobian(self, state):
+    def jacobian(self, state, frozen):
         closed, stuck, z, c = state
+        nf, tf = frozen
         fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         t = np.where(fr.moved[:, None], z / norm_z[:, None], fr.held)
@@ -117,31 +195,41 @@ class _System:
         eye = np.broadcast_to(np.eye(nc), (len(c), nc, nc))
         P = eye - t[:, :, None] * t[:, None, :]
         slip = fr.moved & ~stuck
-        on_x = np.where(stuck[:, None, None], eye, np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
-        on_mu = np.where(stuck[:, None, None], 0.0, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
+        loose = np.where((fr.fixed | tf)[:, :, None], eye, 0.0)  # a stuck row's fixed components: mu_a,j = 0
+        on_x = np.where(stuck[:, None, None], eye - loose,
+                        np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
+        on_mu = np.where(stuck[:, None, None], loose, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
         r_idx = np.repeat(np.arange(len(c)) * nc, nc) + np.tile(np.arange(nc), len(c))
         dy = np.where(stuck[:, None], 0.0, -fr.D[:, None] * t).ravel()
         on_y = sp.csr_matrix((dy, (r_idx, np.repeat(fr.rows, nc))), shape=(len(c) * nc, R))
-        Gc = sp.diags(closed.astype(float)) @ self.G
-        open_ = sp.diags((~closed).astype(float))
+        Gc = sp.diags((closed & ~nf).astype(float)) @ self.G
+        open_ = sp.diags((~closed | nf).astype(float))
         return sp.bmat([[self.T, self.G.T, fr.S.T],
                         [Gc, open_, None],
                         [_blocks(on_x) @ fr.S, on_y, _blocks(on_mu)]], format="csc")
 
-    def step_rhs(self, w, state):
-        """-F unscaled (the Newton right-hand side in the Jacobian's own units)."""
+    def step_rhs(self, w, state, frozen):
+        """-F unscaled (the Newton right-hand side in the Jacobian's own units; 0 on the ``frozen`` rows)."""
         x, y, mu = self.split(w)
         closed, stuck, z, c = state
+        nf, tf = frozen
         mom = self.T @ x - self.b + self.G.T @ y + self.fr.S.T @ mu.ravel()
-        normal = np.where(closed, self.G @ x - self.g, y)
+        normal = np.where(nf, 0.0, np.where(closed, self.G @ x - self.g, y))
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         s = self.fr.slip(x)
-        tang = np.where(stuck[:, None], s, mu - c[:, None] * z / norm_z[:, None])
+        tang = np.where(stuck[:, None], np.where(self.fr.fixed, mu, np.where(tf, 0.0, s)),
+                        mu - c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], tang, mu - c[:, None] * self.fr.held)
         return -np.concatenate([mom, normal, tang.ravel()])
 
 
-def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None):
+def _key(state) -> tuple:
+    """The active set of a state (closed normal rows, stuck friction rows) as a hashable key."""
+    return state[0].tobytes(), state[1].tobytes()
+
+
+def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None,
+                   dependent: bool = False):
     """The exact finish of the module docstring from (x0, y0, mu0) (the interior point's answer, scaled).
 
     ``T``, ``b``: the mixed system's matrix and loads (:meth:`~cvxcontact.backends.mixed.MixedEnergy.linearised`);
@@ -152,30 +240,33 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     Returns ``(x, y, mu, closed, steps)`` with ``mu`` (r, c), or a :class:`Declined`: a singular step, steps that
     did not settle, or an answer whose signs break at ``SIGN_TOL`` of the scales (a tension on a closed row, a
     penetration of an open one, a force outside the cone, a slip not along its force). ``max_steps``: default
-    :data:`MAX_STEPS`."""
+    :data:`MAX_STEPS`; ``dependent``: the rows may be linearly dependent (3D "gamma3" pairs; module docstring)."""
     max_steps = MAX_STEPS if max_steps is None else max_steps
-    system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales)
+    system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales, dependent)
     w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
     state = system.state(w)
     merit = np.linalg.norm(system.residual(w, state))
     seen, settled, stalled = set(), False, 0
     for steps in range(1, max_steps + 1):
-        J = system.jacobian(state)
+        frozen = system.frozen(w, state)
+        J = system.jacobian(state, frozen)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", spla.MatrixRankWarning)
-                dw = spla.splu(J).solve(system.step_rhs(w, state))
+                dw = spla.splu(J).solve(system.step_rhs(w, state, frozen))
         except (RuntimeError, spla.MatrixRankWarning):
             return Declined(Stop.SINGULAR)
         if not np.isfinite(dw).all():
             return Declined(Stop.SINGULAR)
-        key = (state[0].tobytes(), state[1].tobytes())
+        key = _key(state)
         alpha, trial = 1.0, None
         while alpha >= 2.0 ** -10:                        # damping: halve until the scaled residual decreases
             trial = w + alpha * dw
             new = np.linalg.norm(system.residual(trial))
             if new < (1.0 - 1e-4 * alpha) * merit:
                 break
+            if alpha == 1.0 and system.dependent and _key(system.state(trial)) not in seen | {key}:
+                break              # dependent rows: the full step to a new active set (module docstring)
             alpha /= 2
         else:
             stalled += 1
@@ -184,12 +275,12 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             trial, new = w + dw, np.linalg.norm(system.residual(w + dw))   # no decrease: the full step
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
-        same = (state[0].tobytes(), state[1].tobytes()) == key
+        same = _key(state) == key
         if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
             settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
             break
         seen.add(key)
-        if not same and fr.nc == 1 and (state[0].tobytes(), state[1].tobytes()) in seen:
+        if not same and fr.nc == 1 and _key(state) in seen:
             return Declined(Stop.CYCLE)                   # 2D: a set already solved exactly comes back
     if not settled:
         return Declined(Stop.MAX_ITER)

@@ -156,10 +156,11 @@ def exact_finish(problem, raw, timings) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
-    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`; the interior point's answer is kept; rows
-    that may be linearly dependent, :func:`~cvxcontact.backends.signorini.dependent_rows`, are finished on an
-    independent subset per step): a non-quadratic energy, a singular step, steps that do not settle, broken
-    signs, or an energy above the interior point's (beyond :data:`ENERGY_SLACK`)."""
+    its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`, the interior point's answer kept): a
+    non-quadratic energy, a singular step, steps that do not settle, broken signs, or an energy above the
+    interior point's (beyond :data:`ENERGY_SLACK`). Rows that may be linearly dependent
+    (:func:`~cvxcontact.backends.signorini.dependent_rows`: 3D "gamma3" pairs) are finished on an independent
+    subset of them per step."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
         return raw

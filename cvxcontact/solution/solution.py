@@ -393,10 +393,9 @@ class Solution:
         Returns
         -------
         str
-            The condition, the status, the exact finish or not (and why it was declined: ``info.declined``), each
-            check of (26)-(27) against ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and
-            active nodes; per electrode its potential (V) and charge (C/m; C in 3D); per obstacle its translation
-            (m) and force; the error :attr:`estimate`.
+            The condition, the status, the exact finish or why it was declined, each check of (26)-(27) against
+            ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode
+            its potential (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; :attr:`estimate`.
         """
         declined = self.info.declined
         finish = ("exact finish" if self.polished else "interior-point answer"

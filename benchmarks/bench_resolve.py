@@ -140,7 +140,8 @@ def compare(args) -> int:
                          + [f"{med[s]['first_s']:.2f} / {med[s]['first_cpu']:.2f}" for s in ("before", "after")]
                          + [f"{med[s]['resolve_s']:.3f} / {med[s]['resolve_cpu']:.3f}" for s in ("before", "after")]
                          + [(f"**{100 * med['before']['share_cpu']:.1f} % -> "
-                             f"{100 * med['after']['share_cpu']:.1f} %** (wall {100 * med['before']['share']:.1f} % -> {100 * med['after']['share']:.1f} %)"),
+                             f"{100 * med['after']['share_cpu']:.1f} %** (wall {100 * med['before']['share']:.1f} % "
+                             f"-> {100 * med['after']['share']:.1f} %)"),
                             f"{cpu['ratio']:.3f} [{cpu['lo']:.3f}, {cpu['hi']:.3f}]",
                             f"u {sides['u']:.1e}, phi {sides['phi']:.1e}, force {sides['force']:.1e}",
                             f"{direct:.1e}", str(all(r["ok"] for r in runs["before"] + runs["after"]))])
@@ -155,8 +156,8 @@ def compare(args) -> int:
     lines.append(f"- load average at end {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}; "
                  f"whole run {minutes:.1f} min")
     lines += ["", markdown_table(
-        ["case", "unknowns", "pairs", "first solve before: wall / CPU [s]", "after", "re-solve before: wall / CPU [s]",
-         "after", "**re-solve / first solve** (CPU; wall)", "re-solve CPU after/before [interval]",
+        ["case", "unknowns", "pairs", "first solve before: wall / CPU [s]", "after",
+         "re-solve before: wall / CPU [s]", "after", "**re-solve / first solve** (CPU; wall)", "re-solve CPU after/before [interval]",
          "after vs before answers", "re-solve vs from-scratch (both sides)", "ok"], table), "",
         "Re-solve stages (medians, s): " + "; ".join(", ".join(r) for r in stages), "", NOTES]
     print("\n".join(lines[-4:]))

@@ -158,7 +158,8 @@ def compare(args) -> int:
     lines += ["", markdown_table(
         ["case", "unknowns", "pairs", "first solve before: wall / CPU [s]", "after",
          "re-solve before: wall / CPU [s]", "after", "**re-solve / first solve** (CPU; wall)",
-         "re-solve CPU after/before [interval]", "after vs before answers", "re-solve vs from-scratch (both sides)", "ok"], table), "",
+         "re-solve CPU after/before [interval]", "after vs before answers",
+         "re-solve vs from-scratch (both sides)", "ok"], table), "",
         "Re-solve stages (medians, s): " + "; ".join(", ".join(r) for r in stages), "", NOTES]
     print("\n".join(lines[-4:]))
     if args.report:

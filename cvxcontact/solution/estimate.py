@@ -142,13 +142,20 @@ def energy_density(body, eps, gphi):
 
 def _cell_energies(body, fields) -> np.ndarray:
     """int_T of the energy density of affine fields with vertex values eps, gphi: the mass matrix of P1 on a
-    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact). The fields may hold
-    q = 1 value per cell (constant: each of the k = d + 1 vertices has it, r = k / q copies)."""
-    eps, gphi, _, _, gradL, measure = fields
+    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact). The density is read
+    as eps . sigma - grad phi . D (= c eps : eps + kappa grad phi . grad phi: the coupling e cancels), bilinear in
+    the vertex values. The fields may hold q = 1 value per cell (constant: each of the k = d + 1 vertices has it,
+    r = k / q copies)."""
+    eps, gphi, sigma, D, gradL, measure = fields
     k, q = gradL.shape[2], eps.shape[1]
     r = k // q
-    total = r * energy_density(body, eps, gphi).sum(axis=1)
-    total = total + energy_density(body, r * eps.sum(axis=1), None if gphi is None else r * gphi.sum(axis=1))
+
+    def density(a, b, c=None, d=None):                    # a . b - c . d over the last axis
+        w = (a * b).sum(axis=-1)
+        return w if c is None else w - (c * d).sum(axis=-1)
+
+    sums = [None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)]
+    total = r * density(eps, sigma, gphi, D).sum(axis=1) + r * r * density(*sums)
     return total * measure / (k * (k + 1))
 
 
@@ -204,10 +211,12 @@ class Geometry:
         ii = np.flatnonzero(inner)
         c1 = owners[ii, 1]
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
-        return _Faces(c0=c0, c1=c1, inner=inner, ii=ii, normal=-grad / size[:, None],
-                      area=dim * self.measure[c0] * size, hF=_diameters(mesh.points, vertices),
-                      pos0=(_facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
-                      pos1=(_facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)])
+        area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
+        hF = _diameters(mesh.points, vertices)
+        return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
+                      hF=hF, pos0=(_facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
+                      pos1=(_facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)],
+                      scale=np.where(inner, 0.5, 1.0) * hF * area)
 
     def part(self, tag) -> np.ndarray:
         """The indices in the facet table of the facets of boundary part ``tag``."""
@@ -227,9 +236,11 @@ class Geometry:
 @dataclass(frozen=True)
 class _Faces:
     """The facets of a :class:`Geometry`: ``c0`` (f,) the first cell of each (its normal points out of it),
-    ``c1`` the second cell of the interior ones ``ii`` (``inner`` (f,) bool), ``normal`` (f, d) unit, ``area``
-    (f,) m (2D) or m^2, ``hF`` (f,) m its longest edge, ``pos0`` / ``pos1`` (f, v) the index among its first /
-    second cell's distinct corner values of each of its vertices (v = d, or 1 for fields constant on a cell)."""
+    ``c1`` the second cell of the interior ones ``ii`` (``inner`` (f,) 1.0 for those, else 0.0), ``normal``
+    (f, d) unit, ``area`` (f,) m (2D) or m^2, ``hF`` (f,) m its longest edge, ``pos0`` / ``pos1`` (f, v) the
+    index among its first / second cell's distinct corner values of each of its vertices (v = d, or 1 for
+    fields constant on a cell), ``scale`` (f,) the weight h_F |F| of its residual, halved on an interior
+    facet (shared by its two cells)."""
 
     c0: np.ndarray
     c1: np.ndarray
@@ -240,6 +251,7 @@ class _Faces:
     hF: np.ndarray
     pos0: np.ndarray
     pos1: np.ndarray
+    scale: np.ndarray
 
 
 def _geometry(body, degree: int, cache) -> Geometry:
@@ -344,11 +356,13 @@ def _element_terms(body, fields, geometry, eta2, parts):
     hT, cT, kT = geometry.hT, geometry.cT, geometry.kT
     dim = gradL.shape[1]
     # sigma is affine: d sigma / d x_j = sum_i sigma(vertex i) d L_i / d x_j;  (div sigma)_i = sum_j d sigma_ij / d x_j
-    grad = _onto(gradL, sigma.shape[1])                    # onto the fields' distinct values (q = 1: sum ~ 0)
-    dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, grad))                       # (m, j, i, i')
-    div = np.einsum("mjij->mi", dsig)
     f0, q0 = body.body_force, body.volume_charge
-    rd = np.einsum("mvd,mdv->m", D, grad) if D is not None else None            # div D (constant)
+    if sigma.shape[1] == 1:                                # fields constant on each cell: no divergence, exactly
+        div, rd = np.zeros((len(sigma), dim)), (None if D is None else np.zeros(len(D)))
+    else:
+        dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))                  # (m, j, i, i')
+        div = np.einsum("mjij->mi", dsig)
+        rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None       # div D (constant)
     mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
     elec = None if D is None else rd ** 2
     if f0.nonzero or (D is not None and q0.nonzero):
@@ -441,13 +455,13 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     vertices, key = g.facets[2], g.facets[3]
     p = body.mesh.points
     f = g.faces
-    cT, kT, n, area, hF, inner, ii = g.cT, g.kT, f.normal, f.area, f.hF, f.inner, f.ii
-    c0, c1, pos0, pos1 = f.c0, f.c1, f.pos0, f.pos1
-    Rv = _voigt_traction(_facet_values(sigma[c0], None, None, pos0), n)                            # (k, d, d)
-    Rv[ii] -= _voigt_traction(_facet_values(sigma[c1], None, None, pos1), n[ii])
+    n, ii = f.normal, f.ii
+    c0, c1 = f.c0[:, None], f.c1[:, None]
+    Rv = _voigt_traction(sigma[c0, f.pos0], n)                                                     # (k, v, d)
+    Rv[ii] -= _voigt_traction(sigma[c1, f.pos1], n[ii])
     if D is not None:
-        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], None, None, pos0), n)                    # (k, d)
-        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], None, None, pos1), n[ii])
+        rv = np.einsum("kvd,kd->kv", D[c0, f.pos0], n)                                             # (k, v)
+        rv[ii] -= np.einsum("kvd,kd->kv", D[c1, f.pos1], n[ii])
     mech_role, elec_role = _boundary_roles(body, sol)
     code = {role: c for c, role in enumerate(("free", "dirichlet", "contact", "roller", "partial", "traction",
                                                "charge"))}      # each facet's role as a small integer
@@ -461,21 +475,32 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
             out[index[tag]] = code[role]
             if role == kind:
                 loads[tag] = index[tag]
-    keep = np.ones((len(key), dim))                        # the components of R that count
-    keep[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
-    for tag, v in body.displacement.items():
-        if mech_role.get(tag) == "partial":
-            keep[np.ix_(index[tag], [comp for comp, val in enumerate(v) if val is not None])] = 0.0
+    partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
+               if mech_role.get(tag) == "partial"}
+
+    def keep(at):                                          # (len(at), d): the components of R that count there
+        out = np.ones((len(at), dim))
+        out[(role_m[at] == code["dirichlet"]) | (role_m[at] == code["contact"])] = 0.0
+        for tag, comps in partial.items():
+            out[np.ix_(np.isin(at, index[tag]), comps)] = 0.0
+        return out
+
     roller = np.flatnonzero(role_m == code["roller"])
-    keep_e = (role_e != code["dirichlet"]).astype(float)
-    weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells
     # without a load R is affine on the facet: the mean of |R|^2 from its vertex values, exactly (the rule of
-    # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function)
+    # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function).
+    # Only the boundary facets have a role: R is zeroed where a component does not count, in place.
     Re = Rv.copy()
     Re[roller] -= (Re[roller] * n[roller, None, :]).sum(axis=2)[..., None] * n[roller, None, :]
-    Re *= keep[:, None, :]
-    mech = weight * _affine_mean_square(Re)
-    elec = None if D is None else weight * _affine_mean_square((rv * keep_e[:, None])[..., None])
+    Re[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
+    for tag, comps in partial.items():
+        sub = Re[index[tag]]
+        sub[..., comps] = 0.0
+        Re[index[tag]] = sub
+    mech = _affine_mean_square(Re)
+    if D is not None:
+        re = rv.copy()
+        re[role_e == code["dirichlet"]] = 0.0
+        elec = _affine_mean_square(re[..., None])
     loaded = np.unique(np.concatenate([np.zeros(0, dtype=int), *load_m.values(), *load_e.values()]))
     if len(loaded):
         mech[loaded] = 0.0
@@ -484,28 +509,32 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
         at = np.full(len(key), -1)
         at[loaded] = np.arange(len(loaded))
         roller_l = at[roller][at[roller] >= 0]
+        keep_l, keep_e = keep(loaded), (role_e[loaded] != code["dirichlet"]).astype(float)
         for Lf, w in zip(*simplex_rule(dim - 1, 3)):
             R = np.tensordot(_onto(Lf, Rv.shape[1]), Rv[loaded], axes=(0, 1))
             x = np.tensordot(Lf, p[vertices[loaded]], axes=(0, 1))
             for tag, idx in load_m.items():
                 R[at[idx]] -= np.asarray(body.traction[tag](*x[at[idx]].T), dtype=float).reshape(len(idx), dim)
             R[roller_l] -= (R[roller_l] * n[loaded][roller_l]).sum(axis=1)[:, None] * n[loaded][roller_l]
-            R *= keep[loaded]
-            mech[loaded] += w * weight[loaded] * (R ** 2).sum(axis=1)
+            R *= keep_l
+            mech[loaded] += w * (R ** 2).sum(axis=1)
             if D is not None:
                 r = rv[loaded] @ _onto(Lf, rv.shape[1])
                 for tag, idx in load_e.items():
                     r[at[idx]] -= np.asarray(body.surface_charge[tag](*x[at[idx]].T), dtype=float).reshape(len(idx))
-                elec[loaded] += w * weight[loaded] * (r * keep_e[loaded]) ** 2
-    term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
-    parts["jump"] += float(term_m[inner].sum()) * 2
-    parts["boundary"] += float(term_m[~inner].sum())
-    eta2 += np.bincount(c0, term_m, len(eta2)) + np.bincount(c1, term_m[ii], len(eta2))
+                elec[loaded] += w * (r * keep_e) ** 2
+    # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2, an interior jump shared by its two cells (f.scale: the weight h_F |F|)
+    term = f.scale * mech / g.cT
+    jump = float(term @ f.inner)
+    parts["jump"] += 2 * jump
+    parts["boundary"] += float(term.sum()) - jump
     if D is not None:
-        term_e = hF * area * elec / kT
-        parts["electric jump"] += float(term_e[inner].sum()) * 2
-        parts["electric boundary"] += float(term_e[~inner].sum())
-        eta2 += np.bincount(c0, term_e, len(eta2)) + np.bincount(c1, term_e[ii], len(eta2))
+        term_e = f.scale * elec / g.kT
+        jump = float(term_e @ f.inner)
+        parts["electric jump"] += 2 * jump
+        parts["electric boundary"] += float(term_e.sum()) - jump
+        term = term + term_e
+    eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[ii], len(eta2))
 
 
 def _contact_cells(mesh, part, facets):

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
-ESTIMATES = {"residual": estimate_error, "equilibrated": lambda sol: (error_bound(sol), "")}
+ESTIMATES = {"residual": estimate_error, "equilibrated": lambda sol, cache=None: (error_bound(sol), "")}
 """The error estimates ``solve(..., estimate=...)`` computes, by name: (the estimate, why there is none) of a
 solution; ``True`` is "residual"."""
 
@@ -202,6 +202,7 @@ class ContactSolver:
                  len(self.problem.scene.bodies), self.problem.condition)
         self._cache = Cache()
         self._cache.start = _start_state(start, scene)
+        self._geometry: dict = {}           # what the estimate reads from each body's geometry (its load cases reuse it)
 
     # the prepared problem, as attributes of the solver (read-only views)
     scene = property(lambda self: self.problem.scene, doc="The scene of the last solve.")
@@ -232,7 +233,7 @@ class ContactSolver:
             sol.estimate_reason = f"not computed: {unestimated}"
         elif self.estimate:
             t0 = time.perf_counter()
-            sol.estimate, sol.estimate_reason = self.estimate(sol)
+            sol.estimate, sol.estimate_reason = self.estimate(sol, cache=self._geometry)
             timings["estimate"] = time.perf_counter() - t0
         elif self._unestimated:
             sol.estimate_reason = (f"not computed: the error estimates do not cover {problem.scene.cell} cells yet "

@@ -40,17 +40,20 @@ penetration). A curved part against a planar one (3D) reads lambda_h on the curv
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions
-from ..fem.space import space
 from ..fem.simplex import simplex_rule
-from ..geometry.facets import facet_keys, facets as facet_table
+from ..fem.space import space
+from ..geometry.facets import facet_keys
+from ..geometry.facets import facets as facet_table
+from ..physics.fingerprint import geometry_fingerprint
 
-__all__ = ["ErrorEstimate", "estimate", "energy_density", "cell_energies", "vertex_fields"]
+__all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
 
@@ -97,43 +100,62 @@ def vertex_fields(body, u, phi, degree: int):
     (m, d + 1, d) V/m or None, sigma (m, d + 1, s) Pa Voigt = c eps + e^T grad phi, D (m, d + 1, d) C/m^2 =
     e eps - kappa grad phi or None; and the barycentric gradients (m, d, d + 1), measures (m,) (areas or
     volumes)."""
-    mesh = body.mesh
-    dim = mesh.points.shape[1]
-    c, e, kappa = body.material.tensors(dim)
-    measure, gradL = gradients(mesh.points, mesh.cells)
+    eps, gphi, sigma, D, gradL, measure = _fields(Geometry(body, degree), u, phi)
+    copies = gradL.shape[2] // eps.shape[1]                          # constant on a cell: the same at each vertex
+    eps, gphi, sigma, D = (None if a is None else np.repeat(a, copies, axis=1) for a in (eps, gphi, sigma, D))
+    return eps, gphi, sigma, D, gradL, measure
+
+
+def _fields(g, u, phi):
+    """:func:`vertex_fields` from the body's :class:`Geometry` ``g``, each field at its q distinct corner values:
+    (m, q, ...) with q = d + 1, or q = 1 where the fields are constant on a cell (then every vertex has it)."""
+    c, e, kappa = g.tensors
     u = np.asarray(u, dtype=float)
-    el, G = space(degree, mesh.cell).corner_gradients(body)               # G (m, q, d, k): q = d + 1 or 1
-    m = len(el)
-    ue = u[el].reshape(m, -1)
-    eps = np.stack([np.einsum("mij,mj->mi", strain_matrix(G[:, i]), ue) for i in range(G.shape[1])], axis=1)
+    m = len(g.el)
+    ue = u[g.el].reshape(m, -1)
+    eps = np.stack([np.einsum("mij,mj->mi", B, ue) for B in g.strain], axis=1)
     sigma = eps @ c.T
     gphi = D = None
     if e is not None:
-        pe = np.asarray(phi, dtype=float)[el]
-        gphi = np.einsum("mvdj,mj->mvd", G, pe)
+        pe = np.asarray(phi, dtype=float)[g.el]
+        gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
-    copies = (dim + 1) // G.shape[1]                                   # constant on a cell: the same at each vertex
-    eps, gphi, sigma, D = (None if a is None else np.repeat(a, copies, axis=1) for a in (eps, gphi, sigma, D))
-    return eps, gphi, sigma, D, gradL, measure
+    return eps, gphi, sigma, D, g.gradL, g.measure
+
+
+def _onto(L, q):
+    """Barycentric weights ``L`` (..., d + 1) summed onto q distinct corner values (q = d + 1: ``L`` itself; q = 1:
+    their sum, 1, for a field constant on the cell)."""
+    L = np.asarray(L, dtype=float)
+    return L.reshape(L.shape[:-1] + (q, -1)).sum(axis=-1)
 
 
 def energy_density(body, eps, gphi):
     """c eps : eps + kappa grad phi . grad phi (J/m^3) of Voigt strains ``eps`` (..., s) and ``gphi`` (..., d)."""
     c, _, kappa = body.material.tensors(3 if eps.shape[-1] == 6 else 2)
-    w = np.einsum("...i,ij,...j->...", eps, c, eps)
+    w = ((eps @ c) * eps).sum(axis=-1)
     if gphi is not None:
-        w = w + np.einsum("...i,ij,...j->...", gphi, kappa, gphi)
+        w = w + ((gphi @ kappa) * gphi).sum(axis=-1)
     return w
 
 
 def _cell_energies(body, fields) -> np.ndarray:
     """int_T of the energy density of affine fields with vertex values eps, gphi: the mass matrix of P1 on a
-    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact)."""
-    eps, gphi, _, _, gradL, measure = fields
-    k = gradL.shape[2]
-    total = sum(energy_density(body, eps[:, v], None if gphi is None else gphi[:, v]) for v in range(k))
-    total = total + energy_density(body, eps.sum(axis=1), None if gphi is None else gphi.sum(axis=1))
+    d-simplex, |T| (delta_ij + 1) / ((d + 1)(d + 2)), applied to the quadratic form (exact). The density is read
+    as eps . sigma - grad phi . D (= c eps : eps + kappa grad phi . grad phi: the coupling e cancels), bilinear in
+    the vertex values. The fields may hold q = 1 value per cell (constant: each of the k = d + 1 vertices has it,
+    r = k / q copies)."""
+    eps, gphi, sigma, D, gradL, measure = fields
+    k, q = gradL.shape[2], eps.shape[1]
+    r = k // q
+
+    def density(a, b, c=None, d=None):                    # a . b - c . d over the last axis
+        w = (a * b).sum(axis=-1)
+        return w if c is None else w - (c * d).sum(axis=-1)
+
+    sums = [None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)]
+    total = r * density(eps, sigma, gphi, D).sum(axis=1) + r * r * density(*sums)
     return total * measure / (k * (k + 1))
 
 
@@ -141,6 +163,106 @@ def cell_energies(body, u, phi, degree: int) -> np.ndarray:
     """(m,) int_T c eps(u) : eps(u) + kappa grad phi . grad phi of each cell (J/m in 2D, J in 3D): the squared
     energy norm of (u, phi) cell by cell (exact: the integrand is at most quadratic, the rule of degree 2)."""
     return _cell_energies(body, vertex_fields(body, u, phi, degree))
+
+
+class Geometry:
+    """What the estimate of one body reads from its mesh and material alone, in one element degree: the
+    material tensors and their smallest eigenvalues c_T (Pa), kappa_T (F/m); the cells' measures (m^2 or m^3),
+    barycentric gradients (1/m), element nodes and strain matrices at the corners; the facet table with each
+    facet's cells, outward normal, measure and diameter h_F (m), and where its vertices sit among the
+    distinct corner values of its cells (:func:`_fields`); h_T (m); and, built when first asked, the
+    facets of each boundary part and the quadrature points of each rule. A load case of the same geometry
+    reuses it: :func:`estimate` keeps it in a ``cache`` under the body's
+    :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the loads are not in the
+    key: they are read from the body on every call)."""
+
+    def __init__(self, body, degree: int):
+        mesh = self._mesh = body.mesh
+        self.dim = mesh.points.shape[1]
+        self.tensors = c, _, kappa = body.material.tensors(self.dim)
+        self.cT = _smallest(c, True)
+        self.kT = _smallest(kappa, False) if kappa is not None else None
+        self.measure, self.gradL = gradients(mesh.points, mesh.cells)
+        self.el, self.G = space(degree, mesh.cell).corner_gradients(body)        # G (m, q, d, k): q = d + 1 or 1
+        self.strain = [strain_matrix(self.G[:, i]) for i in range(self.G.shape[1])]
+        self._parts: dict = {}
+        self._points: dict = {}
+
+    @cached_property
+    def facets(self):
+        """The facet table (:func:`~cvxcontact.geometry.facets.facets`: owners, local indices, vertices, keys)."""
+        return facet_table(self._mesh.cells, len(self._mesh.points))
+
+    @cached_property
+    def hT(self) -> np.ndarray:
+        """(m,) m: the longest edge of each cell."""
+        return _diameters(self._mesh.points, self._mesh.cells)
+
+    @cached_property
+    def faces(self) -> _Faces:
+        """Each facet's cells, outward normal, measure and diameter, and where its vertices sit among the
+        distinct corner values of its cells (:class:`_Faces`)."""
+        mesh, dim = self._mesh, self.dim
+        owners, local, vertices, _ = self.facets
+        c0 = owners[:, 0]
+        grad = self.gradL[c0, :, local[:, 0]]                 # grad of the opposite vertex's coordinate: inward
+        size = np.linalg.norm(grad, axis=1)
+        inner = owners[:, 1] >= 0
+        ii = np.flatnonzero(inner)
+        c1 = owners[ii, 1]
+        q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
+        area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
+        hF = _diameters(mesh.points, vertices)
+        return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
+                      hF=hF, pos0=(_facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
+                      pos1=(_facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)],
+                      scale=np.where(inner, 0.5, 1.0) * hF * area)
+
+    def part(self, tag) -> np.ndarray:
+        """The indices in the facet table of the facets of boundary part ``tag``."""
+        if tag not in self._parts:
+            mesh, key = self._mesh, self.facets[3]
+            self._parts[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(mesh.points)))
+        return self._parts[tag]
+
+    def points(self, L) -> np.ndarray:
+        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell."""
+        key = tuple(np.asarray(L, dtype=float).tolist())
+        if key not in self._points:
+            self._points[key] = _at(self._mesh.points, self._mesh.cells, L)
+        return self._points[key]
+
+
+@dataclass(frozen=True)
+class _Faces:
+    """The facets of a :class:`Geometry`: ``c0`` (f,) the first cell of each (its normal points out of it),
+    ``c1`` the second cell of the interior ones ``ii`` (``inner`` (f,) 1.0 for those, else 0.0), ``normal``
+    (f, d) unit, ``area`` (f,) m (2D) or m^2, ``hF`` (f,) m its longest edge, ``pos0`` / ``pos1`` (f, v) the
+    index among its first / second cell's distinct corner values of each of its vertices (v = d, or 1 for
+    fields constant on a cell), ``scale`` (f,) the weight h_F |F| of its residual, halved on an interior
+    facet (shared by its two cells)."""
+
+    c0: np.ndarray
+    c1: np.ndarray
+    inner: np.ndarray
+    ii: np.ndarray
+    normal: np.ndarray
+    area: np.ndarray
+    hF: np.ndarray
+    pos0: np.ndarray
+    pos1: np.ndarray
+    scale: np.ndarray
+
+
+def _geometry(body, degree: int, cache) -> Geometry:
+    """The :class:`Geometry` of ``body`` in ``degree``: from ``cache`` (a dict, or None: built afresh) under the
+    body's geometry fingerprint and the degree, else built (and kept there)."""
+    if cache is None:
+        return Geometry(body, degree)
+    key = (geometry_fingerprint(body), degree)
+    if key not in cache:
+        cache[key] = Geometry(body, degree)
+    return cache[key]
 
 
 def _smallest(matrix, voigt: bool) -> float:
@@ -178,30 +300,30 @@ def _tensor(sv):
 # ---------------------------------------------------------------------------------------------- the estimator
 
 
-def estimate(sol, signorini: bool = True) -> tuple[ErrorEstimate | None, str]:
+def estimate(sol, signorini: bool = True, cache: dict | None = None) -> tuple[ErrorEstimate | None, str]:
     """(the :class:`ErrorEstimate` of ``sol``, "") (module docstring); the tuple's second entry says why the
     estimate is None for a case not covered (none at present). ``signorini=False`` leaves out the
     complementarity and penetration terms (a problem whose contact rows are equalities: the dual problem of
-    :mod:`cvxcontact.goal`)."""
+    :mod:`cvxcontact.goal`). ``cache``: a dict that keeps each body's :class:`Geometry` between calls (a
+    ContactSolver's, for its load cases; None: built afresh); the answer is the same with or without it."""
     scene = sol.scene
     bodies = scene.bodies
     eta2 = [np.zeros(len(b.mesh.cells)) for b in bodies]
     parts = dict.fromkeys(("element", "jump", "boundary", "contact traction", "electric element", "electric jump",
                            "electric boundary", "complementarity", "penetration"), 0.0)
     norm2 = 0.0
-    data, cache = [], []
+    data, held = [], []
     for k, b in enumerate(bodies):
-        fields = vertex_fields(b, sol.u[k], sol.phi[k], sol.degree)
-        facets = facet_table(b.mesh.cells, len(b.mesh.points))
-        cache.append((fields, facets))
+        g = _geometry(b, sol.degree, cache)
+        fields = _fields(g, sol.u[k], sol.phi[k])
+        sigma = fields[2]
+        corners = np.broadcast_to(sigma, (len(sigma), g.gradL.shape[2], sigma.shape[2]))   # a view: no copies
+        held.append(((None, None, corners, None, g.gradL, g.measure), g.facets))
         norm2 += float(_cell_energies(b, fields).sum())
-        c, _, kappa = b.material.tensors(b.mesh.points.shape[1])
-        cT = _smallest(c, True)
-        kT = _smallest(kappa, False) if kappa is not None else None
-        data.append((cT, kT))
-        _element_terms(b, fields, _diameters(b.mesh.points, b.mesh.cells), cT, kT, eta2[k], parts)
-        _facet_terms(b, fields, facets, cT, kT, eta2[k], parts, sol)
-    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, cache, eta2, parts, signorini)
+        data.append((g.cT, g.kT))
+        _element_terms(b, fields, g, eta2[k], parts)
+        _facet_terms(b, fields, g, eta2[k], parts, sol)
+    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, held, eta2, parts, signorini)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
@@ -228,22 +350,25 @@ def _at(points, cells, L):
     return np.einsum("...k,mkd->md", L, points[cells])
 
 
-def _element_terms(body, fields, hT, cT, kT, eta2, parts):
+def _element_terms(body, fields, geometry, eta2, parts):
     """h_T^2 ||f0 + div sigma_h||^2 / c_T and h_T^2 ||div D_h - q0||^2 / kappa_T (a rule of degree 2)."""
-    eps, gphi, sigma, D, gradL, measure = fields
-    mesh = body.mesh
+    _, _, sigma, D, gradL, measure = fields
+    hT, cT, kT = geometry.hT, geometry.cT, geometry.kT
     dim = gradL.shape[1]
     # sigma is affine: d sigma / d x_j = sum_i sigma(vertex i) d L_i / d x_j;  (div sigma)_i = sum_j d sigma_ij / d x_j
-    dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))                      # (m, j, i, i')
-    div = np.einsum("mjij->mi", dsig)
     f0, q0 = body.body_force, body.volume_charge
-    rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None           # div D (constant)
+    if sigma.shape[1] == 1:                                # fields constant on each cell: no divergence, exactly
+        div, rd = np.zeros((len(sigma), dim)), (None if D is None else np.zeros(len(D)))
+    else:
+        dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))                  # (m, j, i, i')
+        div = np.einsum("mjij->mi", dsig)
+        rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None       # div D (constant)
     mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
     elec = None if D is None else rd ** 2
     if f0.nonzero or (D is not None and q0.nonzero):
         mech, elec = 0.0, (None if D is None else 0.0)
         for L, w in zip(*simplex_rule(dim, 2)):
-            x = _at(mesh.points, mesh.cells, L)
+            x = geometry.points(L)
             r = div + np.asarray(f0(*x.T), dtype=float).reshape(len(div), dim) if f0.nonzero else div
             mech = mech + w * (r ** 2).sum(axis=1)
             if D is not None:
@@ -319,33 +444,24 @@ def _facet_values(values, cell_vertices, facet_vertices, pos=None):
     return values[np.arange(len(values))[:, None], pos]
 
 
-def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
+def _facet_terms(body, fields, geometry, eta2, parts, sol):
     """The interior jumps and the boundary residuals of ``body`` (module docstring; ``facets`` its
     :func:`~cvxcontact.geometry.facets.facets`); contact parts are left to the contact terms.
     sigma_h and D_h are affine on each facet:
     their normal components are formed at its vertices and interpolated to the quadrature points."""
-    eps, gphi, sigma, D, gradL, measure = fields
-    mesh = body.mesh
-    dim = gradL.shape[1]
-    owners, local, vertices, key = facets
-    p = mesh.points
-    cells = mesh.cells
-    c0, l0 = owners[:, 0], local[:, 0]
-    g = gradL[c0, :, l0]                                   # grad of the opposite vertex's coordinate: inward
-    size = np.linalg.norm(g, axis=1)
-    n = -g / size[:, None]                                 # outward of the first cell
-    area = dim * measure[c0] * size                        # |F| = d |T| |grad L_i|
-    hF = _diameters(p, vertices)
-    inner = owners[:, 1] >= 0
-    ii = np.flatnonzero(inner)
-    c1 = owners[ii, 1]
-    pos0 = _facet_positions(cells[c0], vertices)
-    pos1 = _facet_positions(cells[c1], vertices[ii])
-    Rv = _voigt_traction(_facet_values(sigma[c0], None, None, pos0), n)                            # (k, d, d)
-    Rv[ii] -= _voigt_traction(_facet_values(sigma[c1], None, None, pos1), n[ii])
+    sigma, D = fields[2], fields[3]
+    g = geometry
+    dim = g.dim
+    vertices, key = g.facets[2], g.facets[3]
+    p = body.mesh.points
+    f = g.faces
+    n, ii = f.normal, f.ii
+    c0, c1 = f.c0[:, None], f.c1[:, None]
+    Rv = _voigt_traction(sigma[c0, f.pos0], n)                                                     # (k, v, d)
+    Rv[ii] -= _voigt_traction(sigma[c1, f.pos1], n[ii])
     if D is not None:
-        rv = np.einsum("kvd,kd->kv", _facet_values(D[c0], None, None, pos0), n)                    # (k, d)
-        rv[ii] -= np.einsum("kvd,kd->kv", _facet_values(D[c1], None, None, pos1), n[ii])
+        rv = np.einsum("kvd,kd->kv", D[c0, f.pos0], n)                                             # (k, v)
+        rv[ii] -= np.einsum("kvd,kd->kv", D[c1, f.pos1], n[ii])
     mech_role, elec_role = _boundary_roles(body, sol)
     code = {role: c for c, role in enumerate(("free", "dirichlet", "contact", "roller", "partial", "traction",
                                                "charge"))}      # each facet's role as a small integer
@@ -355,25 +471,36 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
     for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
         for tag, role in roles.items():
             if tag not in index:
-                index[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(p)))
+                index[tag] = g.part(tag)
             out[index[tag]] = code[role]
             if role == kind:
                 loads[tag] = index[tag]
-    keep = np.ones((len(key), dim))                        # the components of R that count
-    keep[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
-    for tag, v in body.displacement.items():
-        if mech_role.get(tag) == "partial":
-            keep[np.ix_(index[tag], [comp for comp, val in enumerate(v) if val is not None])] = 0.0
+    partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
+               if mech_role.get(tag) == "partial"}
+
+    def keep(at):                                          # (len(at), d): the components of R that count there
+        out = np.ones((len(at), dim))
+        out[(role_m[at] == code["dirichlet"]) | (role_m[at] == code["contact"])] = 0.0
+        for tag, comps in partial.items():
+            out[np.ix_(np.isin(at, index[tag]), comps)] = 0.0
+        return out
+
     roller = np.flatnonzero(role_m == code["roller"])
-    keep_e = (role_e != code["dirichlet"]).astype(float)
-    weight = np.where(inner, 0.5, 1.0)                     # an interior jump is shared by its two cells
     # without a load R is affine on the facet: the mean of |R|^2 from its vertex values, exactly (the rule of
-    # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function)
+    # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function).
+    # Only the boundary facets have a role: R is zeroed where a component does not count, in place.
     Re = Rv.copy()
     Re[roller] -= (Re[roller] * n[roller, None, :]).sum(axis=2)[..., None] * n[roller, None, :]
-    Re *= keep[:, None, :]
-    mech = weight * _affine_mean_square(Re)
-    elec = None if D is None else weight * _affine_mean_square((rv * keep_e[:, None])[..., None])
+    Re[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
+    for tag, comps in partial.items():
+        sub = Re[index[tag]]
+        sub[..., comps] = 0.0
+        Re[index[tag]] = sub
+    mech = _affine_mean_square(Re)
+    if D is not None:
+        re = rv.copy()
+        re[role_e == code["dirichlet"]] = 0.0
+        elec = _affine_mean_square(re[..., None])
     loaded = np.unique(np.concatenate([np.zeros(0, dtype=int), *load_m.values(), *load_e.values()]))
     if len(loaded):
         mech[loaded] = 0.0
@@ -382,28 +509,32 @@ def _facet_terms(body, fields, facets, cT, kT, eta2, parts, sol):
         at = np.full(len(key), -1)
         at[loaded] = np.arange(len(loaded))
         roller_l = at[roller][at[roller] >= 0]
+        keep_l, keep_e = keep(loaded), (role_e[loaded] != code["dirichlet"]).astype(float)
         for Lf, w in zip(*simplex_rule(dim - 1, 3)):
-            R = np.tensordot(Lf, Rv[loaded], axes=(0, 1))
+            R = np.tensordot(_onto(Lf, Rv.shape[1]), Rv[loaded], axes=(0, 1))
             x = np.tensordot(Lf, p[vertices[loaded]], axes=(0, 1))
             for tag, idx in load_m.items():
                 R[at[idx]] -= np.asarray(body.traction[tag](*x[at[idx]].T), dtype=float).reshape(len(idx), dim)
             R[roller_l] -= (R[roller_l] * n[loaded][roller_l]).sum(axis=1)[:, None] * n[loaded][roller_l]
-            R *= keep[loaded]
-            mech[loaded] += w * weight[loaded] * (R ** 2).sum(axis=1)
+            R *= keep_l
+            mech[loaded] += w * (R ** 2).sum(axis=1)
             if D is not None:
-                r = rv[loaded] @ Lf
+                r = rv[loaded] @ _onto(Lf, rv.shape[1])
                 for tag, idx in load_e.items():
                     r[at[idx]] -= np.asarray(body.surface_charge[tag](*x[at[idx]].T), dtype=float).reshape(len(idx))
-                elec[loaded] += w * weight[loaded] * (r * keep_e[loaded]) ** 2
-    term_m = hF * area * mech / cT                         # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2
-    parts["jump"] += float(term_m[inner].sum()) * 2
-    parts["boundary"] += float(term_m[~inner].sum())
-    eta2 += np.bincount(c0, term_m, len(eta2)) + np.bincount(c1, term_m[ii], len(eta2))
+                elec[loaded] += w * (r * keep_e) ** 2
+    # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2, an interior jump shared by its two cells (f.scale: the weight h_F |F|)
+    term = f.scale * mech / g.cT
+    jump = float(term @ f.inner)
+    parts["jump"] += 2 * jump
+    parts["boundary"] += float(term.sum()) - jump
     if D is not None:
-        term_e = hF * area * elec / kT
-        parts["electric jump"] += float(term_e[inner].sum()) * 2
-        parts["electric boundary"] += float(term_e[~inner].sum())
-        eta2 += np.bincount(c0, term_e, len(eta2)) + np.bincount(c1, term_e[ii], len(eta2))
+        term_e = f.scale * elec / g.kT
+        jump = float(term_e @ f.inner)
+        parts["electric jump"] += 2 * jump
+        parts["electric boundary"] += float(term_e.sum()) - jump
+        term = term + term_e
+    eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[ii], len(eta2))
 
 
 def _contact_cells(mesh, part, facets):

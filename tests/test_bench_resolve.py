@@ -1,0 +1,23 @@
+"""The re-solve benchmark's part (benchmarks/bench_resolve.py): plumbing and the answer check only.
+
+No timing is asserted here: the times of a shared machine are not a pass/fail criterion.
+"""
+
+from pathlib import Path
+
+import numpy as np
+from conftest import benchmark
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_a_resolve_part_checks_its_answer_against_a_from_scratch_solve(tmp_path):
+    """One part at nx = 6: the re-solve's answer saved, its agreement with cc.solve of the new scene reported
+    (measured 0.0), the package imported from the tree asked for."""
+    out = tmp_path / "after.npz"
+    r = benchmark("bench_resolve").resolve_part(str(REPO), 6, str(out))
+    assert r["ok"] and Path(r["package"]) == REPO / "cvxcontact"
+    assert set(r["direct"]) == {"u", "phi", "force"} and max(r["direct"].values()) < 1e-9
+    saved = np.load(out)
+    assert saved["u"].size + saved["phi"].size == r["dofs"] and np.abs(saved["force"]).max() > 0
+    assert r["resolve_cpu"] > 0 and r["first_cpu"] > 0 and "estimate" in r["timings"]

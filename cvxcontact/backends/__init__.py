@@ -153,13 +153,22 @@ class Backend:
         return problem.kind in self.routes and self.accepts(problem)
 
 
-def _condensed_accepts(p: ProblemDescription) -> bool:
+FORCED_KINDS = ("signorini", "conic")
+"""The kinds the condensed backend solves with force-controlled obstacles (their translations bordering the
+condensed system, :mod:`cvxcontact.backends.forced`)."""
+
+
+def _condensable(p: ProblemDescription) -> bool:
     return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
-        and not p.force_control and not p.friction
+        and not p.friction
+
+
+def _condensed_accepts(p: ProblemDescription) -> bool:
+    return _condensable(p) and (not p.force_control or p.kind in FORCED_KINDS)
 
 
 def _amg_accepts(p: ProblemDescription) -> bool:
-    return _condensed_accepts(p) and not p.compliant and not p.conic and not p.dependent_rows
+    return _sparse_accepts(p) and not p.dependent_rows
 
 
 def _full_accepts(p: ProblemDescription) -> bool:
@@ -168,7 +177,7 @@ def _full_accepts(p: ProblemDescription) -> bool:
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
-    return _condensed_accepts(p) and not p.compliant and not p.conic
+    return _condensable(p) and not p.force_control and not p.compliant and not p.conic
 
 
 def _newton_accepts(p: ProblemDescription) -> bool:

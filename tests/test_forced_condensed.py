@@ -9,6 +9,9 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import rel
+from scenes import SCENES
+from scenes3d import sphere_on_block
 
 import cvxcontact as cc
 from cvxcontact import backends
@@ -18,10 +21,6 @@ from cvxcontact.backends.cones import MIXED_CUT_TOL
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
 
-from conftest import rel
-from scenes import SCENES
-from scenes3d import sphere_on_block
-
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
 TIGHT = 1e-11
@@ -29,17 +28,17 @@ TIGHT = 1e-11
 u, lambda and the translation 1e-15 ... 3e-14 on every case below, 2026-12-05)."""
 
 CASES = {
-    "punch, P1": (SCENES["force-controlled punch"][0], dict(condition="gamma3")),
-    "punch, P2 sigma1": (SCENES["force-controlled punch"][0], dict(condition="sigma1", degree=2)),
-    "punch, P2 cones": (SCENES["force-controlled punch"][0], dict(condition="gamma3", degree=2)),
-    "circle, P1": (SCENES["force-controlled circle"][0], dict(condition="gamma3")),
-    "circle, P2 sigma1": (SCENES["force-controlled circle"][0], dict(condition="sigma1", degree=2)),
-    "circle, P2 cones": (SCENES["force-controlled circle"][0], dict(condition="gamma3", degree=2)),
-    "issue-30 punch, P1": (lambda: issue_punch(punch_block(16, 8, 9, 8)), dict(condition="gamma3")),
-    "issue-30 punch, P2 cones": (lambda: issue_punch(punch_block(16, 8, 9, 8)), dict(condition="gamma3", degree=2)),
-    "sphere, 3D P1": (lambda: sphere_on_block(), dict(condition="gamma3")),
-    "sphere, 3D P2 sigma1": (lambda: sphere_on_block(n=(4, 4, 2)), dict(condition="sigma1", degree=2)),
-    "sphere, 3D P2 cones": (lambda: sphere_on_block(n=(4, 4, 2)), dict(condition="gamma3", degree=2)),
+    "punch, P1": (SCENES["force-controlled punch"][0], {"condition": "gamma3"}),
+    "punch, P2 sigma1": (SCENES["force-controlled punch"][0], {"condition": "sigma1", "degree": 2}),
+    "punch, P2 cones": (SCENES["force-controlled punch"][0], {"condition": "gamma3", "degree": 2}),
+    "circle, P1": (SCENES["force-controlled circle"][0], {"condition": "gamma3"}),
+    "circle, P2 sigma1": (SCENES["force-controlled circle"][0], {"condition": "sigma1", "degree": 2}),
+    "circle, P2 cones": (SCENES["force-controlled circle"][0], {"condition": "gamma3", "degree": 2}),
+    "issue-30 punch, P1": (lambda: issue_punch(punch_block(16, 8, 9, 8)), {"condition": "gamma3"}),
+    "issue-30 punch, P2 cones": (lambda: issue_punch(punch_block(16, 8, 9, 8)), {"condition": "gamma3", "degree": 2}),
+    "sphere, 3D P1": (lambda: sphere_on_block(), {"condition": "gamma3"}),
+    "sphere, 3D P2 sigma1": (lambda: sphere_on_block(n=(4, 4, 2)), {"condition": "sigma1", "degree": 2}),
+    "sphere, 3D P2 cones": (lambda: sphere_on_block(n=(4, 4, 2)), {"condition": "gamma3", "degree": 2}),
 }
 
 LAMBDA = {"issue-30 punch, P2 cones": 1e-7, "sphere, 3D P2 cones": 1e-9}
@@ -75,7 +74,7 @@ def test_auto_chooses_the_condensed_route_for_force_control_and_the_full_one_for
     """The registry decides (backends/__init__.py, FORCED_KINDS): Signorini rows and the P2 cones under force
     control go to "condensed"; a compliance law under force control stays with "full"; "sparse" refuses both."""
     scene = SCENES["force-controlled punch"][0]()
-    for kw in (dict(condition="gamma3"), dict(condition="gamma3", degree=2)):
+    for kw in ({"condition": "gamma3"}, {"condition": "gamma3", "degree": 2}):
         problem = build_problem(scene, space(kw.get("degree", 1), "triangle"), kw["condition"], cc.Signorini())
         description = backends.describe(problem)
         assert description.force_control and backends.choose("auto", description) == "condensed"

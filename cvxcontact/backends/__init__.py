@@ -68,7 +68,8 @@ class ProblemDescription:
     ``held_by_contact``: some body has a rigid motion that only the contact holds (its stiffness
     is singular, so it cannot be condensed on its own).
     ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
-    stiffness, coupled to every body it touches; docs/formulation.md §12).
+    stiffness, coupled to every body it touches; docs/formulation.md §12); the condensed backend takes it for
+    the kinds of :data:`FORCED_KINDS` (the translations bordering the condensed system), sparse and AMG do not.
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
     ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3. ``degree``:
     the element degree (1: P1, 2: P2).
@@ -154,17 +155,23 @@ class Backend:
 
 
 FORCED_KINDS = ("signorini", "conic")
-"""The kinds the condensed backend solves with force-controlled obstacles (their translations bordering the
+"""The kinds the condensed backend solves with force-controlled obstacles (the translations bordering the
 condensed system, :mod:`cvxcontact.backends.forced`)."""
+
+HELD_KINDS = ("signorini",)
+"""The kinds the condensed backend solves with bodies held by the contact only (their rigid motions kept in the
+condensed system, :mod:`cvxcontact.backends.forced`). Not yet the P2 cones: on a layer held by the contact under
+a uniform pressure (tests/test_p2_supports.py) Newton at the tangency points stops on the condensed system with
+its forces off balance by 1e-3 of the load (the cuts before it balance to rounding); "full" takes them."""
 
 
 def _condensable(p: ProblemDescription) -> bool:
-    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
-        and not p.friction
+    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.friction
 
 
 def _condensed_accepts(p: ProblemDescription) -> bool:
-    return _condensable(p) and (not p.force_control or p.kind in FORCED_KINDS)
+    return _condensable(p) and (not p.force_control or p.kind in FORCED_KINDS) \
+        and (not p.held_by_contact or p.kind in HELD_KINDS)
 
 
 def _amg_accepts(p: ProblemDescription) -> bool:
@@ -177,7 +184,7 @@ def _full_accepts(p: ProblemDescription) -> bool:
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
-    return _condensable(p) and not p.force_control and not p.compliant and not p.conic
+    return _condensable(p) and not p.force_control and not p.held_by_contact and not p.compliant and not p.conic
 
 
 def _newton_accepts(p: ProblemDescription) -> bool:

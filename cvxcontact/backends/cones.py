@@ -108,7 +108,7 @@ def condensable(problem) -> bool:
 
 def condensed(problem, cache, settings, timings) -> RawResult:
     """The condensed interface SOCP with the conic condition, then one back-substitution per body. Force-controlled
-    obstacles: :func:`~cvxcontact.backends.forced.cones` (their translations bordering the condensed system)."""
+    obstacles: :func:`~cvxcontact.backends.forced.cones` (bodies held by their supports)."""
     if problem.translations:
         from .forced import cones as forced
 

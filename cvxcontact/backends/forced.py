@@ -1,6 +1,6 @@
-"""Force-controlled rigid obstacles on the condensed route (docs/formulation.md §7, §12): the mixed system (26)
-condensed exactly onto each body's contact (Gamma) dofs, the obstacles' translations kept as unknowns of that
-small system.
+"""Force-controlled rigid obstacles and bodies held by the contact only on the condensed route (docs/formulation.md
+§7, §11, §12): the mixed system (26) condensed exactly onto each body's contact (Gamma) dofs, the obstacles'
+translations kept as unknowns of that small system, a held body's rigid motions in its singular Sigma.
 
 With every body held by its supports, each body's quasi-definite S is factorised once per geometry with its
 Gamma dofs as a Schur block (:class:`~cvxcontact.backends.interface.Condensation`, PARDISO or SuperLU through
@@ -18,6 +18,12 @@ backward sweep each. :func:`gamma_blocks` writes the condensed bodies as :class:
 system (:func:`~cvxcontact.backends.full.mixed_kkt`: the independent active set, the accumulated cuts and
 Newton at the tangency points) run unchanged on the interface: a sparse LU of (26) there costs a dense
 factorisation of the interface's size instead of one of every body.
+
+A body held by the contact only (its S singular along the rigid motions the contact rows see) is factorised as
+S + D, D a positive diagonal on its Gamma dofs (:func:`~cvxcontact.backends.condensed.condense`, ``held``): the
+sweeps are S's, its Sigma = Schur(S + D) - D is singular along those motions, and the mixed system (26) on the
+interface holds them by its closed rows as the full one does (Signorini rows only: the registry's
+``HELD_KINDS``).
 """
 
 from __future__ import annotations
@@ -56,6 +62,13 @@ def _program(problem, blocks, settings, timings, **kw):
     return model
 
 
+def _loads(problem, reduction, timings) -> list:
+    """Each body's condensed load r = F_G - S_GI S_II^-1 F_I (the forward sweep's reduced load: Sigma v0 where
+    Sigma is regular; a body held by the contact only has no v0)."""
+    reduction.apply(problem, timings)
+    return [f.reduced for f in reduction.sweeps]
+
+
 def _fields(problem, reduction, raw, timings) -> RawResult:
     """``raw`` with its Gamma values (``raw.u``) turned into every body's fields (one backward sweep each)."""
     raw.u, raw.phi = reduction.invert_gamma(problem, [np.asarray(v, dtype=float) for v in raw.u], timings)
@@ -64,16 +77,15 @@ def _fields(problem, reduction, raw, timings) -> RawResult:
 
 
 def signorini(problem, cache, settings, timings) -> RawResult:
-    """Signorini rows with force-controlled obstacles, condensed: the program on the interface with the
-    translations, then the exact finish of the full route on the condensed mixed system
+    """Signorini rows with force-controlled obstacles or bodies held by the contact only, condensed: the program on
+    the interface with the translations, then the exact finish of the full route on the condensed mixed system
     (:func:`~cvxcontact.backends.signorini.mixed_finish`, the interior point's translations holding the
     components no active row sees), the fields by back-substitution."""
     from .finish import force_displacements, ipm_active, reach_forces
     from .signorini import mixed_finish
 
     reduction = condensation(problem, cache, settings, timings)
-    _, loads, _ = reduction.apply(problem, timings)
-    blocks = gamma_blocks(reduction, loads)
+    blocks = gamma_blocks(reduction, _loads(problem, reduction, timings))
     model = _program(problem, blocks, settings, timings)
     iterations = timed_program(model.problem, settings, timings)
     E, g, tr = problem.E, problem.g, list(problem.translations)
@@ -98,8 +110,7 @@ def cones(problem, cache, settings, timings) -> RawResult:
     from .conic import bernstein_duals
 
     reduction = condensation(problem, cache, settings, timings)
-    _, loads, _ = reduction.apply(problem, timings)
-    blocks = gamma_blocks(reduction, loads)
+    blocks = gamma_blocks(reduction, _loads(problem, reduction, timings))
     w = _width(problem)
     model = _program(problem, blocks, settings, timings, bernstein=problem.lines.cone[0], width=w)
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))

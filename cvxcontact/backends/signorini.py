@@ -162,9 +162,9 @@ def full(problem, cache, settings, timings) -> RawResult:
 
 def condensed(problem, cache, settings, timings) -> RawResult:
     """Each body condensed onto its contact dofs, the interface QP, the exact LCP finish, one back-substitution
-    per body; a re-solve starts from the previous exact active set (no program). Force-controlled obstacles:
-    :func:`~cvxcontact.backends.forced.signorini` (their translations bordering the condensed system)."""
-    if problem.translations:
+    per body; a re-solve starts from the previous exact active set (no program). Force-controlled obstacles,
+    bodies held by the contact only: :func:`~cvxcontact.backends.forced.signorini`."""
+    if problem.translations or problem.held:
         from .forced import signorini as forced
 
         return forced(problem, cache, settings, timings)

@@ -165,6 +165,21 @@ a uniform pressure (tests/test_p2_supports.py) Newton at the tangency points sto
 its forces off balance by 1e-3 of the load (the cuts before it balance to rounding); "full" takes them."""
 
 
+FORCED_SLENDER = 2.0
+"""``method="auto"`` takes a force-controlled obstacle or a body held by the contact to the condensed route only
+while the contact rows m are at most this many times sqrt(N) (N the unknowns); beyond, to "full". Its finishes
+solve the mixed system on the interface, whose Sigma blocks are dense (m^3 work a factorisation, by SuperLU):
+issue 30's punch on the hand-graded 100 x 50 mesh (m / sqrt(N) = 1.0, 40,602 unknowns) 0.8 s CPU against 10 s
+on "full"; on cc.adapt's mesh refined along the contact (529 rows, 13,366 unknowns, m / sqrt(N) = 4.6) 9.9 s against 11.2 s,
+and about 3x slower than "full" at 23,980 unknowns (benchmarks/results/forced_finish.md). N = 0 (not known):
+condensed."""
+
+
+def _condensed_prefers(p: ProblemDescription) -> bool:
+    return not (p.force_control or p.held_by_contact) or p.unknowns == 0 \
+        or p.contact_rows <= FORCED_SLENDER * p.unknowns ** 0.5
+
+
 def _condensable(p: ProblemDescription) -> bool:
     return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.friction
 
@@ -213,6 +228,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             routes=MappingProxyType({"signorini": ".signorini:sparse"})),
     Backend("condensed", _condensed_accepts,
             "exact condensation onto the contact dofs + interface QP + exact finish (fast)",
+            prefers=_condensed_prefers,
             routes=MappingProxyType({"signorini": ".signorini:condensed", "compliance": ".compliance:condensed",
                                      "conic": ".cones:condensed", "mixed": ".cones:mixed_condensed"}),
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself

@@ -46,10 +46,12 @@ CASES = {
 HELD = {name for name in CASES if name.startswith("held")}
 """Bodies held by the contact only (no obstacle): the layer's rigid motion in its singular Sigma."""
 
-LAMBDA = {"issue-30 punch, P2 cones": 1e-7, "sphere, 3D P2 cones": 1e-9}
-"""lambda_h's bound where Newton at the tangency points sets the split of the force between nearly coincident
-points only to the system's conditioning (backends/tangency.py, RESIDUAL_STALL_TOL): measured 2.2e-10 (the
-issue-30 punch) and 8.3e-13 (the sphere); u and the translation stay at TIGHT there (measured 2.9e-13, 1.2e-14)."""
+SPLIT = {"issue-30 punch, P2 cones": (2e-9, 1e-6), "sphere, 3D P2 cones": (TIGHT, 1e-9)}
+"""(u and translation, lambda_h) bounds where Newton at the tangency points sets the split of the force between
+nearly coincident points only to the system's conditioning (backends/tangency.py, RESIDUAL_STALL_TOL), so the
+last digits follow the BLAS kernels. Measured (Haswell / Prescott / Sandybridge kernels): the issue-30 punch u
+2.9e-13 / 2.1e-12 / 2.2e-13, translation 3.8e-13 / 1.9e-11 / 5.8e-13, lambda 2.2e-10 / 6.7e-9 / 1.9e-10; the sphere
+u 1.2e-14 / 1.0e-14 / 1.5e-14, lambda 8.3e-13 / 5.3e-12 / 8.5e-12."""
 
 
 def _solve(scene, **kw):
@@ -67,11 +69,12 @@ def test_condensed_equals_full_on_force_controlled_scenes(name):
     assert fast.info.method == "condensed" and fast.info.factorization        # one factorisation per body, kept
     assert fast.info.route == ref.info.route == cc.backends.result.Route.INTERIOR_POINT_FINISHED
     assert fast.info.finish == ref.info.finish
-    assert max(rel(a, b) for a, b in zip(fast.u, ref.u)) < TIGHT
-    assert rel(fast.contact.lam, ref.contact.lam) < LAMBDA.get(name, TIGHT)
+    fields, lam = SPLIT.get(name, (TIGHT, TIGHT))
+    assert max(rel(a, b) for a, b in zip(fast.u, ref.u)) < fields
+    assert rel(fast.contact.lam, ref.contact.lam) < lam
     if name in HELD:
         return
-    assert rel(fast.obstacles[0].translation, ref.obstacles[0].translation) < TIGHT
+    assert rel(fast.obstacles[0].translation, ref.obstacles[0].translation) < fields
     # the obstacle's balance, independently of the check: the prescribed force against the contact resultant
     F = np.asarray(fast.obstacles[0].prescribed, dtype=float)
     assert rel(fast.obstacles[0].force, F) < 1e-9                               # measured <= 3e-14

@@ -170,8 +170,8 @@ FORCED_SLENDER = 2.0
 while the contact rows m are at most this many times sqrt(N) (N the unknowns); beyond, to "full". Its finishes
 solve the mixed system on the interface, whose Sigma blocks are dense (m^3 work a factorisation, by SuperLU):
 issue 30's punch on the hand-graded 100 x 50 mesh (m / sqrt(N) = 1.0, 40,602 unknowns) 0.8 s CPU against 10 s
-on "full"; on cc.adapt's mesh refined along the contact (529 rows, 13,366 unknowns, m / sqrt(N) = 4.6) 9.9 s against 11.2 s,
-and about 3x slower than "full" at 23,980 unknowns (benchmarks/results/forced_finish.md). N = 0 (not known):
+on "full"; on cc.adapt's mesh refined along the contact (529 rows, 13,366 unknowns, m / sqrt(N) = 4.6) 8.2 s against 11.2 s,
+at its next step (23,980 unknowns) 48 s against 34 s (benchmarks/results/forced_finish.md). N = 0 (not known):
 condensed."""
 
 

@@ -130,3 +130,28 @@ def test_the_issue_30_punch_at_the_cuts_accuracy():
     assert rel(fast.obstacles[0].translation, ref.obstacles[0].translation) < 10 * floor
     assert rel(fast.contact.lam, ref.contact.lam) < 3e-3                         # 100x the measured 2.2e-5
     assert 2 * fast.contact.force.sum() == pytest.approx(1e3, rel=1e-6)         # the load carried (half model)
+
+
+def test_dense_lu_solves_as_superlu_and_refuses_a_singular_matrix():
+    """backends.factor.lu: a nearly dense matrix goes to LAPACK (DenseLU), a sparse one to SuperLU; both solve a
+    random nonsingular system to rounding (checked by its residual), an exactly singular one raises RuntimeError
+    as SuperLU does (the callers' "singular" branch)."""
+    import scipy.sparse as sp
+
+    from cvxcontact.backends.factor import DENSE_FILL, DenseLU, lu
+
+    rng = np.random.default_rng(3)
+    n = 60
+    dense = sp.csc_matrix(rng.standard_normal((n, n)) + n * np.eye(n))
+    sparse = sp.csc_matrix(sp.diags([rng.uniform(1, 2, n), np.full(n - 1, 0.3), np.full(n - 1, 0.3)], [0, 1, -1]))
+    assert dense.nnz > DENSE_FILL * n * n > sparse.nnz
+    b = rng.standard_normal(n)
+    for K, kind in ((dense, DenseLU), (sparse, type(lu(sparse)))):
+        f = lu(K)
+        assert isinstance(f, kind) and not isinstance(lu(sparse), DenseLU)
+        x = f.solve(b)
+        assert np.abs(K @ x - b).max() <= 1e-12 * (abs(K) @ np.abs(x) + np.abs(b)).max()
+    singular = dense.toarray()
+    singular[:, 0] = 0.0
+    with pytest.raises(RuntimeError):
+        lu(sp.csc_matrix(singular))

@@ -503,14 +503,16 @@ def test_a_held_node_starting_in_penetration_is_refused_naming_the_pair_and_the_
 
 
 def test_a_backend_that_cannot_take_the_problem_is_refused_and_auto_takes_it():
-    """Row 25 (c): method='condensed' cannot condense a body held by the contact only (its stiffness is
-    singular) nor a force-controlled obstacle; the error names the flag, 'auto' solves the scene."""
-    for scene, flag in ((_resting(2e7), "held_by_contact=True"),
-                        (pressed_block(P * W), "force_control=True")):
+    """Row 25 (c): method='condensed' cannot take a body held by the contact only (its stiffness is singular)
+    nor a force-controlled obstacle under a compliance law (it takes both with Signorini rows or the P2 cones:
+    backends/forced.py); the error names the flag, 'auto' solves the scene."""
+    law = cc.NormalCompliance(stiffness=1e12)
+    for scene, flag in ((_resting(2e7), "held_by_contact=True"), (pressed_block(P * W), "force_control=True")):
         with pytest.raises(cc.SolverError) as info:
-            cc.solve(scene, method="condensed")
+            cc.solve(scene, method="condensed", law=law)
         assert "'condensed'" in _message(info) and flag in _message(info) and "'auto'" in _message(info)
-        assert cc.solve(scene).ok
+        assert cc.solve(scene, law=law).ok
+        assert cc.solve(scene, method="condensed").ok
 
 
 # ================================================================ the untyped error: held contact dofs

@@ -155,7 +155,10 @@ def test_registry_prefers_sparse_for_long_interfaces_only():
     assert choose("auto", ProblemDescription(contact_rows=long)) == "sparse"
     assert choose("auto", ProblemDescription(contact_rows=long, compliant=True)) == "condensed"
     assert choose("auto", ProblemDescription(contact_rows=long, conic=True)) == "condensed"
-    assert choose("auto", ProblemDescription(contact_rows=long, held_by_contact=True)) == "full"
+    # a body held by the contact only: the condensed route (backends/forced.py), never the sparse one
+    assert choose("auto", ProblemDescription(contact_rows=long, held_by_contact=True)) == "condensed"
+    assert choose("auto", ProblemDescription(contact_rows=long, held_by_contact=True, compliant=True,
+                                             kind="compliance")) == "full"
     assert choose("sparse", ProblemDescription(contact_rows=3)) == "sparse"        # named: any size
 
 

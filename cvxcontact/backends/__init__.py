@@ -68,7 +68,8 @@ class ProblemDescription:
     ``held_by_contact``: some body has a rigid motion that only the contact holds (its stiffness
     is singular, so it cannot be condensed on its own).
     ``force_control``: some rigid obstacle is force controlled (its translation is an unknown with no
-    stiffness, coupled to every body it touches; docs/formulation.md §12).
+    stiffness, coupled to every body it touches; docs/formulation.md §12); the condensed backend takes it for
+    the kinds of :data:`FORCED_KINDS` (the translations bordering the condensed system), sparse and AMG do not.
     ``contact_rows``, ``unknowns``: the contact rows m and the unknowns N (0: not known), for ``prefers``.
     ``compliant``, ``conic``: a normal-compliance law; the P2 conic condition. ``dim``: 2 or 3. ``degree``:
     the element degree (1: P1, 2: P2).
@@ -153,13 +154,43 @@ class Backend:
         return problem.kind in self.routes and self.accepts(problem)
 
 
+FORCED_KINDS = ("signorini", "conic")
+"""The kinds the condensed backend solves with force-controlled obstacles (the translations bordering the
+condensed system, :mod:`cvxcontact.backends.forced`)."""
+
+HELD_KINDS = ("signorini",)
+"""The kinds the condensed backend solves with bodies held by the contact only (their rigid motions kept in the
+condensed system, :mod:`cvxcontact.backends.forced`). Not yet the P2 cones: on a layer held by the contact under
+a uniform pressure (tests/test_p2_supports.py) Newton at the tangency points stops on the condensed system with
+its forces off balance by 1e-3 of the load (the cuts before it balance to rounding); "full" takes them."""
+
+
+FORCED_SLENDER = 2.0
+"""``method="auto"`` takes a force-controlled obstacle or a body held by the contact to the condensed route only
+while the contact rows m are at most this many times sqrt(N) (N the unknowns); beyond, to "full". Its finishes
+solve the mixed system on the interface, whose Sigma blocks are dense (m^3 work a factorisation, by SuperLU):
+issue 30's punch on the hand-graded 100 x 50 mesh (m / sqrt(N) = 1.0, 40,602 unknowns) 0.8 s CPU against 10 s
+on "full"; on cc.adapt's mesh refined along the contact (529 rows, 13,366 unknowns, m / sqrt(N) = 4.6) 8.2 s against 11.2 s,
+at its next step (23,980 unknowns) 48 s against 34 s (benchmarks/results/forced_finish.md). N = 0 (not known):
+condensed."""
+
+
+def _condensed_prefers(p: ProblemDescription) -> bool:
+    return not (p.force_control or p.held_by_contact) or p.unknowns == 0 \
+        or p.contact_rows <= FORCED_SLENDER * p.unknowns ** 0.5
+
+
+def _condensable(p: ProblemDescription) -> bool:
+    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.friction
+
+
 def _condensed_accepts(p: ProblemDescription) -> bool:
-    return p.quadratic_energy and p.linear_contact and p.user_terms == 0 and not p.held_by_contact \
-        and not p.force_control and not p.friction
+    return _condensable(p) and (not p.force_control or p.kind in FORCED_KINDS) \
+        and (not p.held_by_contact or p.kind in HELD_KINDS)
 
 
 def _amg_accepts(p: ProblemDescription) -> bool:
-    return _condensed_accepts(p) and not p.compliant and not p.conic and not p.dependent_rows
+    return _sparse_accepts(p) and not p.dependent_rows
 
 
 def _full_accepts(p: ProblemDescription) -> bool:
@@ -168,7 +199,7 @@ def _full_accepts(p: ProblemDescription) -> bool:
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
-    return _condensed_accepts(p) and not p.compliant and not p.conic
+    return _condensable(p) and not p.force_control and not p.held_by_contact and not p.compliant and not p.conic
 
 
 def _newton_accepts(p: ProblemDescription) -> bool:
@@ -197,6 +228,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             routes=MappingProxyType({"signorini": ".signorini:sparse"})),
     Backend("condensed", _condensed_accepts,
             "exact condensation onto the contact dofs + interface QP + exact finish (fast)",
+            prefers=_condensed_prefers,
             routes=MappingProxyType({"signorini": ".signorini:condensed", "compliance": ".compliance:condensed",
                                      "conic": ".cones:condensed", "mixed": ".cones:mixed_condensed"}),
             # an ill-conditioned interface (a slender layer) loses digits in W: the sparse route solves (26) itself

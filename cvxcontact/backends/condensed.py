@@ -120,17 +120,29 @@ def quasi_definite_rhs(block):
     return block.f if block.Kpp is None else np.concatenate([block.f, -block.q])
 
 
-def condense(block, system, mesh, factorization: str = "auto", threads: int | None = None) -> CondensedBody:
+def condense(block, system, mesh, factorization: str = "auto", threads: int | None = None,
+             held: bool = False) -> CondensedBody:
     """Factorise one body with its Gamma dofs as the Schur block and extract Sigma (module docstring).
 
     ``factorization``: one of :data:`~cvxcontact.backends.factor.FACTORIZATIONS` ("auto": PARDISO if Intel
     oneMKL loads, else SuperLU); ``threads``: MKL threads for PARDISO (default: the environment's, else all
     cores). With "auto", a PARDISO factorisation that perturbs pivots or fails falls back to SuperLU with a
     warning; an explicit "pardiso" raises :class:`SolverError` instead.
+
+    ``held``: the body has rigid motions only the contact holds (S singular; the contact rows see them, so
+    S_II, the Gamma dofs fixed, is not). S + D is factorised instead, D = diag(|S_jj|) on the Gamma dofs: its
+    II and IG blocks are S's, so the forward sweep's reduced load r = F_G - S_GI S_II^-1 F_I and the backward
+    sweep x_I = S_II^-1 (F_I - S_IG v) are S's, and ``stiffness`` is Sigma = Schur(S + D) - D, singular along the
+    rigid motions (only :mod:`cvxcontact.backends.forced` reads such a body: ``unconstrained`` and
+    ``back_substitute`` solve with S + D).
     """
     S, _ = quasi_definite(block)
     n_u = block.Kuu.shape[0]
     gamma = np.flatnonzero(np.diff(block.jump.tocsc().indptr))              # columns touching [u_nu]
+    shift = np.zeros(len(gamma))
+    if held:
+        shift = np.abs(S.diagonal()[gamma])
+        S = (S + sp.csc_matrix((shift, (gamma, gamma)), shape=S.shape)).tocsc()
     kind = resolve(factorization)
     factor = None
     if kind == "pardiso" and 0 < len(gamma) < S.shape[0]:
@@ -142,7 +154,7 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
             warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
-    return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=factor.schur,
+    return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=factor.schur - np.diag(shift),
                          jump=block.jump[:, gamma].toarray())
 
 

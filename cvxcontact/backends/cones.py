@@ -107,7 +107,12 @@ def condensable(problem) -> bool:
 
 
 def condensed(problem, cache, settings, timings) -> RawResult:
-    """The condensed interface SOCP with the conic condition, then one back-substitution per body."""
+    """The condensed interface SOCP with the conic condition, then one back-substitution per body. Force-controlled
+    obstacles: :func:`~cvxcontact.backends.forced.cones` (bodies held by their supports)."""
+    if problem.translations:
+        from .forced import cones as forced
+
+        return forced(problem, cache, settings, timings)
     cond = condensation(problem, cache, settings, timings).bodies
     t0 = time.perf_counter()
     rhs = [quasi_definite_rhs(b) for b in problem.blocks]
@@ -310,7 +315,7 @@ solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls a
 points at the same places)."""
 
 
-def finish_cuts_mixed(problem, timings, raw) -> None:
+def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     """The exact finish of the cones by accumulated cuts where the interface compliance does not exist (a body
     held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
     solved on the sparse mixed system (26) with the obstacles' translations
@@ -320,10 +325,12 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     where they decline: :data:`FACTORED`). A node's scale counts its neighbours' displacements
     (:func:`~cvxcontact.backends.finish.row_reach`), as the steps' rows do.
     Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
-    needs the compliance; the checks state what holds."""
+    needs the compliance; the checks state what holds. ``blocks``: the bodies' blocks (default the problem's;
+    :func:`~cvxcontact.backends.forced.gamma_blocks`: condensed onto their Gamma dofs, ``raw.u`` then their
+    Gamma values)."""
     B, cells = problem.lines.cone
     width = cells.shape[1]
-    blocks, E, g = problem.blocks, problem.E, problem.g
+    blocks, E, g = problem.blocks if blocks is None else blocks, problem.E, problem.g
     tr = list(problem.translations)
     jumps = [E @ b.jump for b in blocks]
     held = problem.held_rows
@@ -362,7 +369,7 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         why = f"{out} ({prev['why']})" if "why" in prev else str(out)
-        if not _finish_tangency(problem, timings, raw):
+        if not _finish_tangency(problem, timings, raw, blocks):
             raw.declined = Declined(out.stop, f"{why}; Newton at the tangency points: {raw.declined}",
                                     raw.declined.rows)
         return
@@ -373,17 +380,18 @@ def finish_cuts_mixed(problem, timings, raw) -> None:
     raw.y, raw.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.beta, raw.polished, raw.finish = out["beta"], True, Finish.ACCUMULATED_CUTS
     raw.pairing = out["pairing"]
-    _tangency_after_cuts(problem, timings, raw, B, out)
+    _tangency_after_cuts(problem, timings, raw, B, out, blocks)
 
 
-def _newton_finish(problem, timings, raw, B, **kw):
+def _newton_finish(problem, timings, raw, B, blocks=None, **kw):
     """:func:`~cvxcontact.backends.tangency.tangency_newton` on the problem's sparse mixed system (26) from
     ``raw`` (the interior point's fields, translations and Bernstein duals ``raw.beta`` on the rows of ``B``);
     writes the fields, translations, beta and active rows back and marks ``raw`` finished. Returns its dict,
-    or its reason (a :class:`~cvxcontact.backends.finish.declined.Declined`) leaving ``raw`` as it was."""
+    or its reason (a :class:`~cvxcontact.backends.finish.declined.Declined`) leaving ``raw`` as it was. ``blocks``: as
+    in :func:`finish_cuts_mixed`."""
     t0 = time.perf_counter()
     tr = list(problem.translations)
-    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr)
+    kkt = mixed_kkt(problem.blocks if blocks is None else blocks, problem.E, problem.g, translations=tr)
     x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
     out = tangency_newton(kkt, B, problem.g, raw.beta, x0, held=problem.held_rows, tol=MIXED_CUT_TOL, **kw)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
@@ -398,24 +406,24 @@ def _newton_finish(problem, timings, raw, B, **kw):
     return out
 
 
-def _tangency_after_cuts(problem, timings, raw, B, cuts) -> None:
+def _tangency_after_cuts(problem, timings, raw, B, cuts, blocks=None) -> None:
     """Newton at the tangency points (:func:`_newton_finish`) from the accumulated cuts' answer ``cuts`` (its
     point forces the structure, its fields the start): the cuts close in on a tangency point only linearly
     (the violation shrinks ~4x a round, the fields' error as its square root: measured 1e-6 of the energy norm
     at a violation of 1e-11, a sphere pressed into P2 triangles, the answer then depending on the BLAS kernels),
     Newton reaches rounding in two or three steps. Where it declines, the cuts' answer stays (its violation is
     what the checks report). Updates ``raw`` (fields, beta, active, pairing, y: the nodal force, finish)."""
-    out = _newton_finish(problem, timings, raw, B, departure=problem.departure,
+    out = _newton_finish(problem, timings, raw, B, blocks, departure=problem.departure,
                          points=(cuts["segment"], cuts["t"], cuts["y"]))
     if not isinstance(out, Declined):
         raw.y = out["nodal"]
 
 
-def _finish_tangency(problem, timings, raw) -> bool:
+def _finish_tangency(problem, timings, raw, blocks=None) -> bool:
     """Where the cuts decline (a round's mixed system singular: a force-controlled curved obstacle touching
     inside an element), Newton at the tangency points from the interior point's answer (:func:`_newton_finish`).
     Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
-    out = _newton_finish(problem, timings, raw, problem.lines.cone[0], departure=problem.departure)
+    out = _newton_finish(problem, timings, raw, problem.lines.cone[0], blocks, departure=problem.departure)
     if isinstance(out, Declined):
         raw.declined = out
         return False

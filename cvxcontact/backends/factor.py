@@ -51,7 +51,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
-           "SUPERLU_OPTIONS"]
+           "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -59,6 +59,41 @@ FACTORIZATIONS = ("auto", "superlu", "pardiso")
 SUPERLU_OPTIONS = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 PARDISO_INSTALL = 'pip install "cvxcontact[pardiso]"'
+
+
+DENSE_FILL = 0.1
+"""A square sparse matrix storing more than this fraction of its n^2 entries (and n <= :data:`DENSE_MAX`) is
+factorised by LAPACK's dense LU in :func:`lu` instead of SuperLU, which is slow on dense blocks: the mixed
+system (26) condensed onto the interface (:mod:`cvxcontact.backends.forced`), whose Sigma blocks are dense
+(measured: a saddle matrix of 1,057 Gamma dofs, 0.45 s a SuperLU factorisation)."""
+
+DENSE_MAX = 8000
+"""The largest order :func:`lu` factorises densely (512 MB)."""
+
+
+class DenseLU:
+    """LAPACK's LU with partial pivoting of a (sparse, nearly dense) matrix, with SuperLU's ``solve``; an exactly
+    singular matrix raises RuntimeError, as SuperLU does."""
+
+    def __init__(self, K):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", sla.LinAlgWarning)
+            try:
+                self.factors = sla.lu_factor(K.toarray(), check_finite=True)
+            except (sla.LinAlgWarning, ValueError, np.linalg.LinAlgError) as exc:
+                raise RuntimeError(f"singular or not finite: {exc}") from exc
+
+    def solve(self, b):
+        return sla.lu_solve(self.factors, b, check_finite=False)
+
+
+def lu(K, **options):
+    """A factorisation of the square sparse ``K`` with ``solve(b)``: SuperLU (``scipy.sparse.linalg.splu`` with
+    ``options``), or :class:`DenseLU` where K is nearly dense (:data:`DENSE_FILL`). RuntimeError if singular."""
+    n = K.shape[0]
+    if 0 < n <= DENSE_MAX and K.nnz > DENSE_FILL * n * n:
+        return DenseLU(K)
+    return spla.splu(K, **options)
 
 
 class Forward:

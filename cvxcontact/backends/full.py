@@ -19,6 +19,7 @@ from scipy.linalg import null_space
 from scipy.sparse.csgraph import structural_rank
 
 from .condensed import quasi_definite
+from .factor import lu as dense_or_sparse_lu
 
 __all__ = ["ContactModel", "mixed_kkt", "compliance_energy", "law_rows", "limit_reaction", "solve_mixed",
            "signorini_program", "signorini_forces"]
@@ -36,7 +37,7 @@ def solve_mixed(K, b, residual: float | None = 1e-8):
     if structural_rank(sp.csr_matrix(K)) < K.shape[0]:
         return None
     try:
-        lu = spla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A")
+        lu = dense_or_sparse_lu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A")   # dense: the condensed (26)
     except RuntimeError:
         return None
     x = lu.solve(b)

@@ -28,9 +28,11 @@ class Condensation:
 
     def __init__(self, problem, settings, timings):
         t0 = time.perf_counter()
-        self.bodies = [condense(b, s, m, settings.factorization)
-                       for b, s, m in zip(problem.blocks, problem.matrices, problem.meshes)]
-        self.compliance = Compliance(self.bodies, problem.E)
+        held = [bool(getattr(b, "held_by_contact", None)) for b in problem.scene.bodies]
+        self.bodies = [condense(b, s, m, settings.factorization, held=h)       # held: backends/forced.py only
+                       for b, s, m, h in zip(problem.blocks, problem.matrices, problem.meshes, held)]
+        # a body held by the contact only has a singular Sigma: no compliance (backends/forced.py does without)
+        self.compliance = None if any(held) else Compliance(self.bodies, problem.E)
         self.sweeps = None
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
@@ -51,7 +53,7 @@ class Condensation:
         rhs = [quasi_definite_rhs(b) for b in problem.blocks]
         self.sweeps = [c.forward(F) for c, F in zip(self.bodies, rhs)]
         v0 = [c.unconstrained(f) for c, f in zip(self.bodies, self.sweeps)]
-        d = self.compliance.free_slack(v0, problem.g)
+        d = None if self.compliance is None else self.compliance.free_slack(v0, problem.g)
         timings["interface_load"] = time.perf_counter() - t0
         return v0, [c.stiffness @ v for c, v in zip(self.bodies, v0)], d
 

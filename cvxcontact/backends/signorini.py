@@ -40,16 +40,17 @@ def dependent_rows(problem) -> bool:
     return any(c == "gamma3" and not getattr(i, "rigid", True) for i, c in zip(interfaces, conditions))
 
 
-def mixed_finish(problem, raw, timings, hold=None):
+def mixed_finish(problem, raw, timings, hold=None, blocks=None):
     """The exact finish on the sparse mixed system (26) (:func:`~cvxcontact.backends.finish.independent_active_set`,
     Lawson-Hanson on the dual: finite, its passive rows independent, its signs measured on each row's own
     displacement scale), from the interior point's forces and active set in ``raw``; fills ``raw``. The one
     finish of the mixed system: rows that may be dependent (3D "gamma3" overlays), bodies held by the contact
     only, force-controlled obstacles (``hold``: the interior point's translations, for the components no
-    active row sees, see :func:`~cvxcontact.backends.full.mixed_kkt`)."""
+    active row sees, see :func:`~cvxcontact.backends.full.mixed_kkt`). ``blocks``: the bodies' blocks (default
+    the problem's; :func:`~cvxcontact.backends.forced.gamma_blocks`: condensed onto their Gamma dofs)."""
     t0 = time.perf_counter()
     tr = list(problem.translations)
-    kkt = mixed_kkt(problem.blocks, problem.E, problem.g, translations=tr, hold=hold)
+    kkt = mixed_kkt(problem.blocks if blocks is None else blocks, problem.E, problem.g, translations=tr, hold=hold)
     free = ~problem.held_rows
     out = independent_active_set(kkt, problem.g, np.where(free, raw.y, 0.0), raw.active & free)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
@@ -164,7 +165,12 @@ def full(problem, cache, settings, timings) -> RawResult:
 
 def condensed(problem, cache, settings, timings) -> RawResult:
     """Each body condensed onto its contact dofs, the interface QP, the exact LCP finish, one back-substitution
-    per body; a re-solve starts from the previous exact active set (no program)."""
+    per body; a re-solve starts from the previous exact active set (no program). Force-controlled obstacles,
+    bodies held by the contact only: :func:`~cvxcontact.backends.forced.signorini`."""
+    if problem.translations or problem.held:
+        from .forced import signorini as forced
+
+        return forced(problem, cache, settings, timings)
     E, g = problem.E, problem.g
     reduction = condensation(problem, cache, settings, timings)
     cond, compliance = reduction.bodies, reduction.compliance

@@ -34,6 +34,7 @@ import scipy.sparse.linalg as spla
 
 from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, segment_scales
+from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
 
 __all__ = ["tangency_newton"]
@@ -339,7 +340,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             K = sp.bmat([[A + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
                 else (A + hess + G.T @ sp.diags(stiff) @ G).tocsc()
             try:
-                dz = spla.splu(K).solve(-np.r_[r1, r2])
+                dz = dense_or_sparse_lu(K).solve(-np.r_[r1, r2])
             except RuntimeError:
                 why = Declined(Stop.SINGULAR, "the Newton system is singular")
                 break

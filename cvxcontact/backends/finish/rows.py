@@ -10,6 +10,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..factor import lu as dense_or_sparse_lu
 from .forces import _inverse_diagonal
 
 DEPENDENT_PIVOT = 1e-10
@@ -272,8 +273,8 @@ def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", spla.MatrixRankWarning)
-            lu = spla.splu(K0, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options=dict(SymmetricMode=True))
+            lu = dense_or_sparse_lu(K0, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                    options=dict(SymmetricMode=True))
     except RuntimeError:
         return None
     v = np.cos(np.arange(n) * 0.7548776662466927) + 1.5          # fixed, no zero entry

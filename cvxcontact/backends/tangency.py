@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, segment_scales

@@ -99,11 +99,24 @@ class StrainEnergy:
         """The SI Voigt strains (q, s) at the quadrature points."""
         return (self.load * (self.A @ z + self.e0)).reshape(-1, self.s)
 
+    def _state(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """(strains, stresses) at ``z``, those of the last ``z`` asked kept: the Newton steps ask the gradient, the
+        magnitude, the energy and the tangent at the same point (up to four evaluations of the material per step;
+        the same numbers, computed once)."""
+        z = np.asarray(z, dtype=float)
+        last = getattr(self, "_last", None)
+        if last is not None and last[0].shape == z.shape and np.array_equal(last[0], z):
+            return last[1], last[2]
+        eps = self.strains(z)
+        sigma = self.material.stress(eps, self.dim)
+        self._last = (z.copy(), eps, sigma)
+        return eps, sigma
+
     def value(self, z):
-        return float(self.w @ self.material.density(self.strains(z), self.dim)) / self.load ** 2 - float(self.d @ z)
+        return float(self.w @ self.material.density(self._state(z)[0], self.dim)) / self.load ** 2 - float(self.d @ z)
 
     def gradient(self, z):
-        sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
+        sigma = self._state(z)[1] * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
     def _local(self):
@@ -145,16 +158,37 @@ class StrainEnergy:
 
     def hessian(self, z):
         """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
-        strains), assembled point by point (:meth:`_local`)."""
+        strains), assembled point by point (:meth:`_local`): the Hessian at zero strain (the initial tangent C_0 at
+        every point, assembled once) plus B_q^T w_q (C_q - C_0) B_q at the points whose tangent differs from C_0 by
+        more than 1e-13 of |C_0| (e.g. Hencky: the yielded points; elsewhere C_q is C_0 to the rounding of psi'/s,
+        which the tangent may carry or not: the residual of (26), the gradient, is exact either way)."""
         B, place = self._local()
-        C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        local = np.einsum("qak,qab,qbl->qkl", B, C, B, optimize=True)                # (q, k, k): B_q^T C_q B_q
-        H = self._shape.copy()
-        H.data = np.bincount(place, weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
+        H0, C0 = self._initial()
+        eps = self._state(z)[0]
+        C = self.material.tangent(eps, self.dim)
+        changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
+        H = H0.copy()
+        if len(changed):
+            Bc, k = B[changed], B.shape[2]
+            local = np.einsum("qak,qab,qbl->qkl", Bc, (C[changed] - C0) * self.w[changed, None, None], Bc,
+                              optimize=True)
+            H.data = H.data + np.bincount(place.reshape(len(self.w), k * k)[changed].ravel(), weights=local.ravel(),
+                                          minlength=H.nnz + 1)[:H.nnz]
         return H
 
+    def _initial(self):
+        """(H_0, C_0): the Hessian with the tangent at zero strain C_0 at every point, on :meth:`pattern`, and C_0."""
+        if getattr(self, "_zero", None) is None:
+            B, place = self._local()
+            C0 = self.material.tangent(np.zeros((1, self.s)), self.dim)[0]
+            local = np.einsum("qak,ab,qbl->qkl", B, C0, B, optimize=True) * self.w[:, None, None]
+            H = self._shape.copy()
+            H.data = np.bincount(place, weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
+            self._zero = (H, C0)
+        return self._zero
+
     def magnitude(self, z):
-        sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]
+        sigma = np.abs(self._state(z)[1]) * self.w[:, None]
         return abs(self.A).T @ sigma.ravel() / self.load + np.abs(self.d)
 
     def expression(self, z):

@@ -37,7 +37,10 @@ class BulkEnergy(Protocol):
 
     def gradient(self, z: np.ndarray) -> np.ndarray: ...
 
-    def hessian(self, z: np.ndarray) -> sp.spmatrix: ...
+    def hessian(self, z: np.ndarray, secant: bool = False) -> sp.spmatrix:
+        """The Hessian at ``z``; ``secant``: the secant stiffness of the material instead (positive definite, at
+        least the Hessian; a quadratic energy's Hessian itself), the Newton steps' start."""
+        ...
 
     def magnitude(self, z: np.ndarray) -> np.ndarray: ...
 
@@ -62,7 +65,7 @@ class Quadratic:
     def gradient(self, z):
         return self.K @ z
 
-    def hessian(self, z):
+    def hessian(self, z, secant=False):
         return self.K
 
     def magnitude(self, z):
@@ -156,16 +159,17 @@ class StrainEnergy:
         self._local()
         return self._shape.copy()
 
-    def hessian(self, z):
+    def hessian(self, z, secant=False):
         """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
         strains), assembled point by point (:meth:`_local`): the Hessian at zero strain (the initial tangent C_0 at
         every point, assembled once) plus B_q^T w_q (C_q - C_0) B_q at the points whose tangent differs from C_0 by
         more than 1e-13 of |C_0| (e.g. Hencky: the yielded points; elsewhere C_q is C_0 to the rounding of psi'/s,
-        which the tangent may carry or not: the residual of (26), the gradient, is exact either way)."""
+        which the tangent may carry or not: the residual of (26), the gradient, is exact either way). ``secant``:
+        the material's secant stiffness for C (``material.tangent(eps, dim, secant=True)``)."""
         B, place = self._local()
         H0, C0 = self._initial()
         eps = self._state(z)[0]
-        C = self.material.tangent(eps, self.dim)
+        C = self.material.tangent(eps, self.dim, secant=secant)
         changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
         H = H0.copy()
         if len(changed):

@@ -154,7 +154,7 @@ class TangentSolver:
         self._inner = sp.csr_matrix((np.arange(1, inner.nnz + 1, dtype=float), inner.indices, inner.indptr),
                                     shape=(n, n))
         self._places = at(np.repeat(np.arange(n), np.diff(inner.indptr)), inner.indices)
-        self._perm = self._pardiso = self._last = self._z = None
+        self._perm = self._pardiso = self._last = self._z = self._found = None
         self._budget, self._failed = None, False
         self.factorizations = self.analyses = self.refinements = self.solves = self.iterations = 0
 
@@ -167,13 +167,18 @@ class TangentSolver:
         K = sp.csr_matrix(K)
         K.sum_duplicates()
         K.sort_indices()
-        mask = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
-        found = self._inner.multiply(mask).tocsr()              # K's entries' places in the pattern (a merge)
-        found.sort_indices()
-        if found.nnz == K.nnz:
-            places = self._places[found.data.astype(np.int64) - 1]
-        else:                                                    # an entry off the pattern (not by construction)
-            places = self._at(np.repeat(np.arange(self.n), np.diff(K.indptr)), K.indices)
+        last = self._found
+        if last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
+            places = last[2]                                     # the last step's sparsity (the tangent's own)
+        else:
+            mask = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
+            found = self._inner.multiply(mask).tocsr()          # K's entries' places in the pattern (a merge)
+            found.sort_indices()
+            if found.nnz == K.nnz:
+                places = self._places[found.data.astype(np.int64) - 1]
+            else:                                                # an entry off the pattern (not by construction)
+                places = self._at(np.repeat(np.arange(self.n), np.diff(K.indptr)), K.indices)
+            self._found = (K.indptr.copy(), K.indices.copy(), places)
         gr, gv, lower, upper, diagonal = self._G
         on = np.asarray(at, dtype=bool)
         data = np.zeros(len(self._keys))

@@ -174,7 +174,8 @@ class StrainEnergy:
         B, place, _, of = self._local()
         H0, C0 = self._initial()
         eps = self._state(z)[0]
-        C = self.material.tangent(eps, self.dim, secant=secant)
+        # (a material without a secant, whose tangent takes no ``secant``, is asked for its tangent only)
+        C = self.material.tangent(eps, self.dim, secant=True) if secant else self.material.tangent(eps, self.dim)
         changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
         H = H0.copy()
         if len(changed):

@@ -87,8 +87,10 @@ class MixedEnergy:
             parts += [b.bulk.rounding(u)] + ([] if p is None else [np.zeros(len(p))])
         return np.concatenate(parts + [np.zeros(self.width)])
 
-    def tangent(self, x) -> sp.csr_matrix:
-        return self._tangent if self.linear else self._assemble(x)
+    def tangent(self, x, secant: bool = False) -> sp.csr_matrix:
+        """The derivative of :meth:`gradient` at ``x``; ``secant``: with the bodies' secant stiffness instead
+        (:meth:`~cvxcontact.discrete.energy.BulkEnergy.hessian`; the same for a linear material)."""
+        return self._tangent if self.linear else self._assemble(x, secant)
 
     def linearised(self, x):
         """(T, b): the tangent T at ``x`` and b = T x - gradient(x), so that gradient(x') ~ T x' - b near ``x``
@@ -112,13 +114,13 @@ class MixedEnergy:
         return stored(sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width),
                                     format="coo"))
 
-    def _assemble(self, x):
+    def _assemble(self, x, secant=False):
         if x is None:
             mats = [quasi_definite(b)[0] for b in self.blocks]
         else:
             mats = []
             for b, u, p in self._split(x):
-                H = b.bulk.hessian(u)
+                H = b.bulk.hessian(u, secant=secant)
                 mats.append(H if p is None else sp.bmat([[H, b.Kup], [b.Kup.T, -b.Kpp]]))
             if len(mats) == 1 and not self.width:               # one body: its block itself (no copy)
                 return sp.csr_matrix(mats[0])

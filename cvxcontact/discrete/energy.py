@@ -39,7 +39,10 @@ class BulkEnergy(Protocol):
 
     def gradient(self, z: np.ndarray) -> np.ndarray: ...
 
-    def hessian(self, z: np.ndarray) -> sp.spmatrix: ...
+    def hessian(self, z: np.ndarray, secant: bool = False) -> sp.spmatrix:
+        """The Hessian at ``z``; ``secant``: the secant stiffness of the material instead (positive definite, at
+        least the Hessian; a quadratic energy's Hessian itself), the Newton steps' start."""
+        ...
 
     def magnitude(self, z: np.ndarray) -> np.ndarray: ...
 
@@ -70,7 +73,7 @@ class Quadratic:
     def gradient(self, z):
         return self.K @ z
 
-    def hessian(self, z):
+    def hessian(self, z, secant=False):
         return self.K
 
     def magnitude(self, z):
@@ -111,18 +114,33 @@ class StrainEnergy:
         """The SI Voigt strains (q, s) at the quadrature points."""
         return (self.load * (self.A @ z + self.e0)).reshape(-1, self.s)
 
+    def _state(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """(strains, stresses) at ``z``, those of the last ``z`` asked kept: the Newton steps ask the gradient, the
+        magnitude, the energy and the tangent at the same point (up to four evaluations of the material per step;
+        the same numbers, computed once)."""
+        z = np.asarray(z, dtype=float)
+        last = getattr(self, "_last", None)
+        if last is not None and last[0].shape == z.shape and np.array_equal(last[0], z):
+            return last[1], last[2]
+        eps = self.strains(z)
+        sigma = self.material.stress(eps, self.dim)
+        self._last = (z.copy(), eps, sigma)
+        return eps, sigma
+
     def value(self, z):
-        return float(self.w @ self.material.density(self.strains(z), self.dim)) / self.load ** 2 - float(self.d @ z)
+        return float(self.w @ self.material.density(self._state(z)[0], self.dim)) / self.load ** 2 - float(self.d @ z)
 
     def gradient(self, z):
-        sigma = self.material.stress(self.strains(z), self.dim) * self.w[:, None]
+        sigma = self._state(z)[1] * self.w[:, None]
         return self.A.T @ sigma.ravel() / self.load - self.d
 
     def _local(self):
         """The strain rows of each quadrature point as a dense (q, s, k) block B, its k columns (q, k) (padding:
-        a column of zeros; k the most columns one point touches) and where each local pair (k, k) falls in the CSR
-        data of :meth:`pattern` (padding: one place past the end): the tangent's assembly is then
-        H = sum_q B_q^T (w_q C_q) B_q scattered by one bincount onto a fixed sparsity. Built once."""
+        a column of zeros; k the most columns one point touches), the groups of points with the same columns (the
+        points of one cell: a point of each group, the group ``of`` each point) and where each group's local pair
+        (k, k) falls in the CSR data of :meth:`pattern` (padding: one place past the end): the tangent's assembly
+        is then H = sum_q B_q^T (w_q C_q) B_q summed over each group and scattered by one bincount onto a fixed
+        sparsity (a P2 triangle's points: several times fewer pairs to sort and scatter). Built once."""
         if getattr(self, "_scatter", None) is None:
             A = sp.coo_matrix(self.A)
             keep = A.data != 0.0                                    # a stored zero couples nothing
@@ -137,7 +155,10 @@ class StrainEnergy:
             cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
             slot = (point * self.s + comp) * k + (cols[point] == col[:, None]).argmax(axis=1)
             B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
-            i, j = np.broadcast_to(cols[:, :, None], (q, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (q, k, k)).ravel()
+            _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
+            of = of.ravel()
+            cols, r = cols[first], len(first)
+            i, j = np.broadcast_to(cols[:, :, None], (r, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (r, k, k)).ravel()
             valid = (i >= 0) & (j >= 0)
             key = np.where(valid, i * n + j, n * n)                 # padding sorts last
             order, ordered = _sorted(key, n * n)
@@ -148,25 +169,54 @@ class StrainEnergy:
             unique = unique[unique < n * n]
             self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, np.searchsorted(unique // n, np.arange(
                 n + 1))), shape=(n, n))
-            self._scatter = (B, place)
+            self._scatter = (B, place.reshape(r, k * k), first, of)
         return self._scatter
 
     def pattern(self):
         self._local()
         return self._shape.copy()
 
-    def hessian(self, z):
+    def hessian(self, z, secant=False):
         """A^T diag(w C(eps)) A on the fixed sparsity of :meth:`pattern` (C the material's tangent at the points'
-        strains), assembled point by point (:meth:`_local`)."""
-        B, place = self._local()
-        C = self.material.tangent(self.strains(z), self.dim) * self.w[:, None, None]
-        local = np.einsum("qak,qab,qbl->qkl", B, C, B, optimize=True)                # (q, k, k): B_q^T C_q B_q
-        H = self._shape.copy()
-        H.data = np.bincount(place, weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
+        strains), assembled point by point (:meth:`_local`): the Hessian at zero strain (the initial tangent C_0 at
+        every point, assembled once) plus B_q^T w_q (C_q - C_0) B_q at the points whose tangent differs from C_0 by
+        more than 1e-13 of |C_0| (e.g. Hencky: the yielded points; elsewhere C_q is C_0 to the rounding of psi'/s,
+        which the tangent may carry or not: the residual of (26), the gradient, is exact either way). ``secant``:
+        the material's secant stiffness for C (``material.tangent(eps, dim, secant=True)``)."""
+        B, place, _, of = self._local()
+        H0, C0 = self._initial()
+        eps = self._state(z)[0]
+        # (a material without a secant, whose tangent takes no ``secant``, is asked for its tangent only)
+        C = self.material.tangent(eps, self.dim, secant=True) if secant else self.material.tangent(eps, self.dim)
+        changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
+        H = H0.copy()
+        if len(changed):
+            changed = changed[np.argsort(of[changed], kind="stable")]            # each group's points together
+            Bc, runs = B[changed], of[changed]
+            local = np.einsum("qak,qab,qbl->qkl", Bc, (C[changed] - C0) * self.w[changed, None, None], Bc,
+                              optimize=True)
+            starts = np.flatnonzero(np.concatenate([[True], runs[1:] != runs[:-1]]))
+            local = np.add.reduceat(local, starts, axis=0)                             # summed over each run
+            H.data = H.data + np.bincount(place[runs[starts]].ravel(), weights=local.ravel(),
+                                          minlength=H.nnz + 1)[:H.nnz]
         return H
 
+    def _initial(self):
+        """(H_0, C_0): the Hessian with the tangent at zero strain C_0 at every point, on :meth:`pattern`, and C_0."""
+        if getattr(self, "_zero", None) is None:
+            B, place, _, of = self._local()
+            C0 = self.material.tangent(np.zeros((1, self.s)), self.dim)[0]
+            order = np.argsort(of, kind="stable")                                   # each group's points together
+            local = np.einsum("qak,ab,qbl->qkl", B[order], C0, B[order], optimize=True) * self.w[order, None, None]
+            starts = np.flatnonzero(np.concatenate([[True], of[order][1:] != of[order][:-1]]))
+            local = np.add.reduceat(local, starts, axis=0) if len(order) else local[:0]
+            H = self._shape.copy()
+            H.data = np.bincount(place.ravel(), weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
+            self._zero = (H, C0)
+        return self._zero
+
     def magnitude(self, z):
-        sigma = np.abs(self.material.stress(self.strains(z), self.dim)) * self.w[:, None]
+        sigma = np.abs(self._state(z)[1]) * self.w[:, None]
         return abs(self.A).T @ sigma.ravel() / self.load + np.abs(self.d)
 
     def rounding(self, z):

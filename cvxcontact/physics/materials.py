@@ -284,15 +284,17 @@ class Hencky(Elastic):
         ratio = np.where(s > 0, self.psi(s)[1] / np.where(s > 0, s, 1.0), 2.0)     # psi'(s)/s -> 2 at s = 0
         return self.K * (eps @ t)[..., None] * t + self.mu * (ratio[..., None] * d) @ P
 
-    def tangent(self, eps: np.ndarray, dim: int) -> np.ndarray:
+    def tangent(self, eps: np.ndarray, dim: int, secant: bool = False) -> np.ndarray:
         """d sigma / d eps (..., s, s) at the Voigt strains ``eps``, Pa: K t t^T + mu P^T [psi'/s (I - n n^T) +
-        psi'' n n^T] P, n = P eps / s (psi'/s and psi'' in [2 h, 2])."""
+        psi'' n n^T] P, n = P eps / s (psi'/s and psi'' in [2 h, 2]). ``secant``: the secant stiffness instead,
+        psi'' replaced by psi'/s, K t t^T + mu psi'/s P^T P (sigma = S(eps) eps; positive definite, at least the
+        tangent; the Newton steps' start, :data:`~cvxcontact.backends.nonlinear.SECANT`)."""
         P, t = deviator(dim)
         d = eps @ P.T
         s = np.linalg.norm(d, axis=-1)
         safe = np.where(s > 0, s, 1.0)
         ratio = np.where(s > 0, self.psi(s)[1] / safe, 2.0)
-        second = 2 * self.h + 2 * (1 - self.h) * (s <= self.s_y)
+        second = ratio if secant else 2 * self.h + 2 * (1 - self.h) * (s <= self.s_y)
         m = (d / safe[..., None]) @ P                       # P^T n: P^T (I - n n^T) P = P^T P - m m^T
         return (self.K * np.outer(t, t) + (self.mu * ratio)[..., None, None] * (P.T @ P)
                 + (self.mu * (second - ratio))[..., None, None] * m[..., :, None] * m[..., None, :])

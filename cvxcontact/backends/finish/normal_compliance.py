@@ -233,7 +233,7 @@ def solve_linear_compliance(W, d, weights, law):
 
 
 def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_iter=50, solve=None, early=None,
-                            armijo=0.0):
+                            armijo=0.0, line=0, secant=0):
     """Exact finish of the contact rows' law on the sparse mixed system (26), for scenes that cannot be
     condensed body by body (a body held by the contact only, force-controlled obstacles; docs/formulation.md
     §10-§12) and for a non-quadratic bulk energy (the paper's nonlinear A, docs/materials.md "Hencky"), whose
@@ -270,7 +270,15 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
     turns it off (signs read before convergence can alternate between two sets). ``armijo``: the sufficient
     decrease c of the backtracking, L(x + t dx) <= L(x) + c t grad . dx (beside the rounding of L); 0: no
-    increase only (enough from an interior point, near the answer). Each step solves for the correction dx (its
+    increase only (enough from an interior point, near the answer). ``line``: the most regula falsi steps on the
+    energy's slope along the step, phi'(t) = (grad L + G^T w p)(x + t dx) . dx, before the backtracking: where the
+    full step overshoots the energy's minimum on its line (phi'(1) > :data:`LINE_SLOPE` |phi'(0)|; phi is convex,
+    phi' increasing) t is moved to where |phi'(t)| <= LINE_SLOPE |phi'(0)|, the backtracking then starting from
+    that t (0: from t = 1, halving only). ``secant``: the steps 2 to ``secant`` + 1 (after the start's) take the
+    secant stiffness for T (``operator.tangent(x, secant=True)``; positive definite, so still a descent direction
+    of the energy, which the backtracking globalises): from the elastic predictor, where the points that yield have
+    their elastic strains, a Kacanov step spreads the plastic zone in one step where the tangent's overshoot is
+    undone over several (0: Newton's tangent at every step). Each step solves for the correction dx (its
     right side the residual of (26) itself), so that the solve's error scales with the step, not with x.
 
     Returns ``(x, y, z, at_limit, steps, history)`` with the stationarity residual at rounding (after a full step,
@@ -308,11 +316,15 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     def energy(x):
         return operator.value(x) + float(w @ law.energy(G @ x - g))
 
+    def force(x):
+        """The gradient of :func:`energy` (the residual of (26) without the limit reactions)."""
+        return operator.gradient(x) + G.T @ (w * law.pressure(G @ x - g))
+
     def step(x, at):
         """The Newton step (dx, z), its matrix K and the residual its solve left in the rows of x (the floor)."""
         r = G @ x - g
         D = w * law.derivative(r)
-        T = operator.tangent(x)
+        T = operator.tangent(x, secant=True) if 0 < steps <= secant else operator.tangent(x)
         K = T + G.T @ sps.diags(D) @ G
         b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
         b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
@@ -350,8 +362,10 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             t = 1.0
             if not first and not settled:
                 f0 = energy(x)
-                slope = 0.0 if not armijo else min(float((operator.gradient(x) + G.T @ (
-                    w * law.pressure(G @ x - g))) @ dx), 0.0)
+                slope = 0.0 if not (armijo or line) else min(float(force(x) @ dx), 0.0)
+                if line and slope < 0.0:
+                    t = _line_minimum(lambda t, x=x, dx=dx: float(force(x + t * dx) @ dx), slope, line)
+                slope = slope if armijo else 0.0
                 while t > 1e-12 and energy(x + t * dx) > f0 + armijo * t * slope + 1e-14 * max(abs(f0), tiny):
                     t *= 0.5
                 if t < 1.0:
@@ -387,6 +401,40 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         if at is None:
             return CYCLE
     return MAX_ITER
+
+
+LINE_SLOPE = 0.1
+"""The slope along a Newton step, relative to its start's, at which :func:`solve_sparse_compliance`'s ``line``
+search stops: |phi'(t)| <= LINE_SLOPE |phi'(0)| (a full step within it is kept whole: near the answer, where
+Newton's steps are full, phi'(1) is of the order of the step's square)."""
+
+
+def _line_minimum(slope, start, steps) -> float:
+    """The step length t in (0, 1] along a Newton step: 1 if the slope of the convex phi there, ``slope(1)``, is
+    at most :data:`LINE_SLOPE` |phi'(0)| (``start`` < 0), else the regula falsi (Illinois) estimate of phi's minimum
+    in (0, 1) after at most ``steps`` slopes, stopped once |phi'(t)| <= LINE_SLOPE |phi'(0)|."""
+    lo, hi, dlo, dhi = 0.0, 1.0, start, slope(1.0)
+    if not np.isfinite(dhi):
+        return 1.0                      # (the backtracking halves from there)
+    if dhi <= LINE_SLOPE * abs(start):
+        return 1.0
+    t, side = 1.0, 0
+    for _ in range(steps):
+        t = lo - dlo * (hi - lo) / (dhi - dlo)
+        dt = slope(t)
+        if not np.isfinite(dt) or abs(dt) <= LINE_SLOPE * abs(start):
+            break
+        if dt < 0.0:
+            lo, dlo = t, dt
+            if side < 0:
+                dhi *= 0.5              # Illinois: the end kept twice counts half
+            side = -1
+        else:
+            hi, dhi = t, dt
+            if side > 0:
+                dlo *= 0.5
+            side = 1
+    return t
 
 
 def _signs(G, g, x, y, z, at, limited, ell):

@@ -384,6 +384,7 @@ class SparseContact:
 
         active = np.asarray(active, dtype=bool).copy()
         x = newton_point(active)
+        full = False                                # the last step was a full Newton step (set below)
         for steps in range(1, max_iter + 1):
             if x is None:
                 return None

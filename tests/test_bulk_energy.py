@@ -263,3 +263,24 @@ def test_the_tangent_is_the_product_of_the_strain_map_and_the_moduli(case):
     coupled = (abs(bulk.A).T @ sp.block_diag([np.ones_like(c) for c in C]) @ abs(bulk.A)).toarray() > 0
     assert np.array_equal(bulk.pattern().toarray() > 0, coupled)
     assert np.array_equal(H_.indptr, bulk.pattern().indptr) and np.array_equal(H_.indices, bulk.pattern().indices)
+
+
+def test_a_prepared_solver_refuses_a_hencky_material_with_other_constants():
+    """The yield stress and the hardening ratio are geometry, not loads: a ContactSolver prepared for one Hencky
+    material refuses a scene whose body has the same tangent c but another sigma_y or h (it was accepted and
+    solved with the prepared material's energy: u 25 % away from a direct solve of the new scene, measured), and
+    accepts an equal material built afresh."""
+    from cvxcontact.physics.fingerprint import geometry_fingerprint
+
+    base = indented(cc.materials.hencky(E, NU, SIGMA_Y, H), nx=4, ny=2)
+    solver = cc.ContactSolver(base, method="full", estimate=False)
+    for other in (cc.materials.hencky(E, NU, 5 * SIGMA_Y, H), cc.materials.hencky(E, NU, SIGMA_Y, 0.5)):
+        scene = indented(other, nx=4, ny=2)
+        assert geometry_fingerprint(scene.bodies[0]) != geometry_fingerprint(base.bodies[0])
+        with pytest.raises(cc.SceneError, match="material"):
+            solver.solve(scene)
+    twin = indented(cc.materials.hencky(E, NU, SIGMA_Y, H), nx=4, ny=2)
+    assert geometry_fingerprint(twin.bodies[0]) == geometry_fingerprint(base.bodies[0])
+    # a linear material's fingerprint reads c, e, kappa only, as before: the same c gives the same print
+    lin = cc.Body(base.bodies[0].mesh, cc.materials.isotropic(E, NU), clamped="bottom", contact="top")
+    assert geometry_fingerprint(lin) == geometry_fingerprint(lin.with_changes(material=cc.materials.isotropic(E, NU)))

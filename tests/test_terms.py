@@ -273,3 +273,35 @@ def test_the_term_is_asked_for_flags_only_where_counted():
     assert _asks(KIND_TABLES, files) == []
     planted = {"solution/x.py": "sol = READ_BACKS[problem.term.kind](problem)\n", "discrete/y.py": "term.kind\n"}
     assert _asks(KIND_TABLES, planted) == ["solution/x.py:1"] and _asks(FLAG_ASKS, planted) == ["solution/x.py:1"]
+
+
+def test_a_term_s_old_flags_without_their_reasons_are_refused_at_registration():
+    """``estimated`` and ``takes_user_terms`` follow from the reasons ``unestimated`` and ``refuses_user_terms``
+    (the solve and cc.Model read the reasons): a term from outside that sets a flag False as the protocol had it
+    (a boolean), without the reason, would get an estimate that does not count its forces, or user rows beside
+    it, silently. register_term refuses it, naming the reason to give; with the reason it is accepted."""
+    @dataclass(frozen=True)
+    class Unestimated(ToyRows):
+        kind: ClassVar[str] = "unestimated_toy"
+        estimated: ClassVar[bool] = False
+
+    @dataclass(frozen=True)
+    class NoUserRows(ToyRows):
+        kind: ClassVar[str] = "no_user_rows_toy"
+        takes_user_terms: ClassVar[bool] = False
+
+    for term, reason in ((Unestimated, "unestimated"), (NoUserRows, "refuses_user_terms")):
+        with pytest.raises(SolverError, match=reason):
+            register_term(term)
+        assert term not in TERMS
+
+    @dataclass(frozen=True)
+    class Said(ToyRows):
+        kind: ClassVar[str] = "said_toy"
+        unestimated: ClassVar[str] = "the estimates do not count this toy's forces"
+
+    register_term(Said)
+    try:
+        assert not Said(2).estimated
+    finally:
+        unregister_term(Said)

@@ -68,7 +68,7 @@ system (26) condensed onto the interface (:mod:`cvxcontact.backends.forced`), wh
 (measured: a saddle matrix of 1,057 Gamma dofs, 0.45 s a SuperLU factorisation)."""
 
 DENSE_MAX = 8000
-"""The largest order :func:`lu` factorises densely (512 MB)."""
+"""The largest order :func:`lu` factorises densely (512 MB: the dense copy, factorised in place)."""
 
 
 class DenseLU:
@@ -79,7 +79,7 @@ class DenseLU:
         with warnings.catch_warnings():
             warnings.simplefilter("error", sla.LinAlgWarning)
             try:
-                self.factors = sla.lu_factor(K.toarray(), check_finite=True)
+                self.factors = sla.lu_factor(K.toarray(), overwrite_a=True, check_finite=True)   # one n^2 copy
             except (sla.LinAlgWarning, ValueError, np.linalg.LinAlgError) as exc:
                 raise RuntimeError(f"singular or not finite: {exc}") from exc
 

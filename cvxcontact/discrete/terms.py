@@ -369,6 +369,11 @@ def register_term(term: type, *, before: type | None = None) -> type:
     if missing or not isinstance(instance, ContactTerm):
         raise SolverError(f"contact term {term.__name__} does not answer what a term answers: missing {missing} "
                           "(derive it from one of cvxcontact.discrete.terms' classes)")
+    for flag, reason in (("estimated", "unestimated"), ("takes_user_terms", "refuses_user_terms")):
+        if bool(getattr(instance, flag)) == bool(getattr(instance, reason)):     # the flag follows from the reason
+            raise SolverError(f"contact term {term.__name__}: {flag}={getattr(instance, flag)!r} disagrees with "
+                              f"{reason}={getattr(instance, reason)!r}; the package reads {reason}: set it (why, in "
+                              f"words; empty for none) and leave {flag} to follow from it")
     if term in _REGISTRY:
         raise SolverError(f"contact term {term.__name__} is already registered")
     if before is not None and before not in _REGISTRY:

@@ -2,7 +2,7 @@
 
 ``geometry_fingerprint(body)`` hashes (blake2b) the mesh points (m) and triangles, every
 tagged boundary part with its edges, the material constants c (Pa), e (C/m^2) and
-kappa (F/m), and the names of the clamped, grounded, driven (potential) and contact
+kappa (F/m) (and a nonlinear energy's ``energy_constants``: Hencky's sigma_y (Pa) and h), and the names of the clamped, grounded, driven (potential) and contact
 parts: the :data:`~cvxcontact.physics.loads.GEOMETRY_FIELDS` and the potential tags. The
 loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`: forces, tractions, charges, potential
 *values*) are left out: they may change between solves of one ContactSolver. (The scene's
@@ -50,6 +50,8 @@ def geometry_fingerprint(body) -> str:
     text(type(mat).__name__)
     for key in ("c", "e", "kappa") + (("c3", "e3", "kappa3") if getattr(mesh, "dim", 2) == 3 else ()):
         array(key, getattr(mat, key, None), np.float64)
+    for key in getattr(mat, "energy_constants", ()):   # a nonlinear energy's own constants (Hencky: sigma_y, h)
+        array(key, getattr(mat, key), np.float64)
     # GEOMETRY_FIELDS beyond mesh and material, and the tags (not the values) of the driven electrodes
     for role, parts in (("clamped", body.clamped), ("grounded", body.grounded),
                         ("potential", list(body.potential)), ("contact", [] if body.contact is None else [body.contact]),

@@ -245,6 +245,9 @@ class Hencky(Elastic):
     ``isotropic(E, nu)``). Plane strain only in 2D (no plane-stress reduction)."""
 
     quadratic = False
+    energy_constants = ("sigma_y", "h")
+    """The constants of the energy beyond the tangent ``c``, which the geometry fingerprint reads
+    (:mod:`cvxcontact.physics.fingerprint`): a prepared solver refuses a Hencky material with others."""
 
     def __init__(self, E: float, nu: float, sigma_y: float, h: float, name: str | None = None) -> None:
         lin = isotropic(E, nu)

@@ -305,3 +305,24 @@ def test_a_term_s_old_flags_without_their_reasons_are_refused_at_registration():
         assert not Said(2).estimated
     finally:
         unregister_term(Said)
+
+
+def test_the_flags_say_what_held_forces_and_determining_rows_do():
+    """``zeroes_held_forces`` and ``active_from_forces`` are what the two methods read: a subclass that turns one
+    off is not overridden by a method of its parent (a flag set beside a method that ignored it was silent)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from cvxcontact.discrete.terms import ComplianceRows, SignoriniRows
+
+    problem = SimpleNamespace(held_rows=np.array([True, False, False]))
+    y = np.array([2.0, 3.0, 0.0])
+    assert np.array_equal(SignoriniRows(2).held_forces(problem, y), [0.0, 3.0, 0.0])
+    keeps = dataclasses.make_dataclass("Keeps", [], bases=(SignoriniRows,), frozen=True)
+    keeps.zeroes_held_forces = False
+    assert np.array_equal(keeps(2).held_forces(problem, y), y)
+    raw = SimpleNamespace(active=None, y=y)
+    assert np.array_equal(ComplianceRows(2).determining_rows(problem, raw), [True, True, False])
+    plain = dataclasses.make_dataclass("Plain", [], bases=(ComplianceRows,), frozen=True)
+    plain.active_from_forces = False
+    assert plain(2).determining_rows(problem, raw) is None

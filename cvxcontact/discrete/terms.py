@@ -182,12 +182,19 @@ class _Term:
     def determining_rows(self, problem, raw):
         """The rows whose hold on the bodies the check after the solve reads for ``raw`` (bool per row, or None):
         the route's active set (:func:`~cvxcontact.fem.kernel.check_determined`; a finish's decline may name
-        others, :func:`~cvxcontact.backends.finish.declined.rows_to_check`)."""
-        return raw.active
+        others, :func:`~cvxcontact.backends.finish.declined.rows_to_check`); with :attr:`active_from_forces`, where
+        the route has none, the rows that carry a force (a law's force holds a body where it presses, whatever the
+        route calls active)."""
+        if not self.active_from_forces or raw.active is not None or raw.y is None:
+            return raw.active
+        y = np.asarray(raw.y, dtype=float)
+        return y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
 
     def held_forces(self, problem, y):
-        """The forces ``y`` of every row as the answer reports them (scaled): as they are."""
-        return y
+        """The forces ``y`` of every row as the answer reports them (scaled); with :attr:`zeroes_held_forces`, the
+        rows no unknown moves at 0, their least admissible value (docs/formulation.md §8, "Held nodes": (26)-(27)
+        do not determine them)."""
+        return np.where(problem.held_rows, 0.0, y) if self.zeroes_held_forces else y
 
     @property
     def estimated(self) -> bool:
@@ -223,11 +230,6 @@ class SignoriniRows(_Term):
     def poses(lines) -> bool:
         return True
 
-    def held_forces(self, problem, y):
-        """The forces ``y`` of the rows no unknown moves at 0, their least admissible value (docs/formulation.md
-        §8, "Held nodes": (26)-(27) do not determine them); the others as they are."""
-        return np.where(problem.held_rows, 0.0, y)
-
 
 @dataclass(frozen=True)
 class ComplianceRows(_Term):
@@ -243,14 +245,6 @@ class ComplianceRows(_Term):
     @staticmethod
     def poses(lines) -> bool:
         return lines.rows.compliant
-
-    def determining_rows(self, problem, raw):
-        """The route's active set, or without one the rows that carry a force (a law's force holds a body where
-        it presses, whatever the route calls active)."""
-        if raw.active is not None or raw.y is None:
-            return raw.active
-        y = np.asarray(raw.y, dtype=float)
-        return y > 1e-12 * max(float(np.abs(y).max(initial=0.0)), np.finfo(float).tiny)
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,26 @@ def test_a_reason_becomes_a_typed_decline():
         assert copied == outer and copied.stop is Stop.SINGULAR_FORCES and np.array_equal(copied.rows, rows)
 
 
+def test_declines_with_the_same_words_and_different_stops_differ():
+    """Equality reads the stop (and the rows) as well as the words; a plain string compares by the words (messages
+    and ``info.declined == "..."``); ``in`` reads the words; equal objects hash alike, and a set keeps two declines
+    that differ in their stop alone."""
+    words = "the finish stopped"
+    a, b = Declined(Stop.CYCLE, words), Declined(Stop.MAX_ITER, words)
+    assert a != b and not (a == b) and b != a
+    assert a == Declined(Stop.CYCLE, words) and not (a != Declined(Stop.CYCLE, words))
+    assert a == words and words == a and not (a != words) and b == words            # str behaviour
+    assert "stopped" in a and str(a) == words and f"{a}" == words
+    assert a != Declined(Stop.CYCLE, "other words") and a != 3
+    rows = np.array([True, False])
+    r1, r2 = Declined(Stop.SINGULAR_FORCES, rows=rows), Declined(Stop.SINGULAR_FORCES, rows=~rows)
+    assert r1 != r2 and r1 == Declined(Stop.SINGULAR_FORCES, rows=rows.copy())
+    assert r1 != Declined(Stop.SINGULAR_FORCES)                                     # rows named or not
+    assert hash(a) == hash(Declined(Stop.CYCLE, words)) == hash(words)
+    assert len({a, b, Declined(Stop.CYCLE, words)}) == 2
+    assert a.within("here") != b.within("here") and a.within("here") == "here: " + words
+
+
 def test_the_rows_the_check_reads_after_a_decline():
     """A finished answer: the route's rows; an unfinished one: none, unless its finish found the system of the
     rows carrying the forces singular (then the rows it names, else the route's)."""

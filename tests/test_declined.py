@@ -46,9 +46,9 @@ def test_declines_with_the_same_words_and_different_stops_differ():
     that differ in their stop alone."""
     words = "the finish stopped"
     a, b = Declined(Stop.CYCLE, words), Declined(Stop.MAX_ITER, words)
-    assert a != b and not (a == b) and b != a
-    assert a == Declined(Stop.CYCLE, words) and not (a != Declined(Stop.CYCLE, words))
-    assert a == words and words == a and not (a != words) and b == words            # str behaviour
+    assert a != b and (a == b) is False and b != a
+    assert a == Declined(Stop.CYCLE, words) and (a != Declined(Stop.CYCLE, words)) is False
+    assert a == words and words == a and (a != words) is False and b == words       # str behaviour
     assert "stopped" in a and str(a) == words and f"{a}" == words
     assert a != Declined(Stop.CYCLE, "other words") and a != 3
     rows = np.array([True, False])

@@ -120,6 +120,27 @@ def test_a_declined_finish_reaches_info_and_report(monkeypatch):
     assert exact.polished and exact.info.declined is None and "declined" not in exact.report()
 
 
+@pytest.mark.numerics
+def test_the_cones_mixed_finish_reports_one_decline(monkeypatch):
+    """Where the cuts on the mixed system (26) decline and Newton at the tangency points declines after them
+    (``cones.finish_cuts_mixed``, a layer held by the contact only, P2 "gamma3"), the decline that stands is the
+    tangency step's whole (its stop and its rows, one decline: they were the cuts' stop beside the tangency's
+    rows), in words naming the cuts' reason first."""
+    from test_compliance_scenes import held_layer
+
+    from cvxcontact.backends import cones
+
+    marker = np.zeros(1, dtype=bool)                      # rows no check reads (the stop is not SINGULAR_FORCES)
+    monkeypatch.setattr(cones, "accumulate_cuts", lambda *a, **k: Declined(Stop.NO_SOLUTION, "cuts (a test)"))
+    monkeypatch.setattr(cones, "tangency_newton", lambda *a, **k: Declined(Stop.SINGULAR, "Newton (a test)", marker))
+    with pytest.warns(cc.ResidualWarning, match="declined"):
+        sol = cc.solve(held_layer(None), "gamma3", degree=2, method="full", estimate=False)
+    declined = sol.info.declined
+    assert not sol.polished and declined.stop is Stop.SINGULAR and declined.rows is marker
+    assert declined == "cuts (a test); Newton at the tangency points: Newton (a test)"
+    assert sol.report().splitlines()[0].endswith(f"(exact finish declined: {Stop.SINGULAR.value})")
+
+
 def test_a_registered_backend_s_plain_reason_is_typed(registry_cleanup):
     """A backend from outside that declines in its own words (a plain string): typed as ``Stop.GIVEN``, its words
     the phrase the report shows."""

@@ -40,6 +40,26 @@ def test_a_reason_becomes_a_typed_decline():
         assert copied == outer and copied.stop is Stop.SINGULAR_FORCES and np.array_equal(copied.rows, rows)
 
 
+def test_declines_with_the_same_words_and_different_stops_differ():
+    """Equality reads the stop (and the rows) as well as the words; a plain string compares by the words (messages
+    and ``info.declined == "..."``); ``in`` reads the words; equal objects hash alike, and a set keeps two declines
+    that differ in their stop alone."""
+    words = "the finish stopped"
+    a, b = Declined(Stop.CYCLE, words), Declined(Stop.MAX_ITER, words)
+    assert a != b and (a == b) is False and b != a
+    assert a == Declined(Stop.CYCLE, words) and (a != Declined(Stop.CYCLE, words)) is False
+    assert a == words and words == a and (a != words) is False and b == words       # str behaviour
+    assert "stopped" in a and str(a) == words and f"{a}" == words
+    assert a != Declined(Stop.CYCLE, "other words") and a != 3
+    rows = np.array([True, False])
+    r1, r2 = Declined(Stop.SINGULAR_FORCES, rows=rows), Declined(Stop.SINGULAR_FORCES, rows=~rows)
+    assert r1 != r2 and r1 == Declined(Stop.SINGULAR_FORCES, rows=rows.copy())
+    assert r1 != Declined(Stop.SINGULAR_FORCES)                                     # rows named or not
+    assert hash(a) == hash(Declined(Stop.CYCLE, words)) == hash(words)
+    assert len({a, b, Declined(Stop.CYCLE, words)}) == 2
+    assert a.within("here") != b.within("here") and a.within("here") == "here: " + words
+
+
 def test_the_rows_the_check_reads_after_a_decline():
     """A finished answer: the route's rows; an unfinished one: none, unless its finish found the system of the
     rows carrying the forces singular (then the rows it names, else the route's)."""
@@ -98,6 +118,27 @@ def test_a_declined_finish_reaches_info_and_report(monkeypatch):
     monkeypatch.undo()
     exact = cc.solve(scene, method="condensed")
     assert exact.polished and exact.info.declined is None and "declined" not in exact.report()
+
+
+@pytest.mark.numerics
+def test_the_cones_mixed_finish_reports_one_decline(monkeypatch):
+    """Where the cuts on the mixed system (26) decline and Newton at the tangency points declines after them
+    (``cones.finish_cuts_mixed``, a layer held by the contact only, P2 "gamma3"), the decline that stands is the
+    tangency step's whole (its stop and its rows, one decline: they were the cuts' stop beside the tangency's
+    rows), in words naming the cuts' reason first."""
+    from test_compliance_scenes import held_layer
+
+    from cvxcontact.backends import cones
+
+    marker = np.zeros(1, dtype=bool)                      # rows no check reads (the stop is not SINGULAR_FORCES)
+    monkeypatch.setattr(cones, "accumulate_cuts", lambda *a, **k: Declined(Stop.NO_SOLUTION, "cuts (a test)"))
+    monkeypatch.setattr(cones, "tangency_newton", lambda *a, **k: Declined(Stop.SINGULAR, "Newton (a test)", marker))
+    with pytest.warns(cc.ResidualWarning, match="declined"):
+        sol = cc.solve(held_layer(None), "gamma3", degree=2, method="full", estimate=False)
+    declined = sol.info.declined
+    assert not sol.polished and declined.stop is Stop.SINGULAR and declined.rows is marker
+    assert declined == "cuts (a test); Newton at the tangency points: Newton (a test)"
+    assert sol.report().splitlines()[0].endswith(f"(exact finish declined: {Stop.SINGULAR.value})")
 
 
 def test_a_registered_backend_s_plain_reason_is_typed(registry_cleanup):

@@ -370,8 +370,9 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     if isinstance(out, Declined):
         why = f"{out} ({prev['why']})" if "why" in prev else str(out)
         if not _finish_tangency(problem, timings, raw, blocks):
-            raw.declined = Declined(out.stop, f"{why}; Newton at the tangency points: {raw.declined}",
-                                    raw.declined.rows)
+            # the decline that stands is the tangency step's (its stop and its rows, on the contact rows; the
+            # cuts' rounds' systems are on the cut points), in words that name the cuts' reason first
+            raw.declined = raw.declined.within(f"{why}; Newton at the tangency points")
         return
     x, taus = out["state"]
     raw.u, raw.phi = x[0], x[1]

@@ -17,7 +17,7 @@ What a new solve takes from it, only as a start (the answer is the finish's, ver
   at rounding whatever their start (docs/formulation.md §8).
 
 Not used: normal-compliance and mixed laws, friction (:func:`contact_state` returns None there: the contact
-term's ``hands_on_state``, :mod:`cvxcontact.discrete.terms`); the cones' seeds are 2D only (3D P2 conditions are
+term's ``hands_on(raw)``, :mod:`cvxcontact.discrete.terms`); the cones' seeds are 2D only (3D P2 conditions are
 nodal rows). A solve computes its state only when it is read
 (``Solution.state``, :func:`deferred_state`): most solutions never start another.
 """
@@ -67,16 +67,10 @@ def _positions(lines) -> np.ndarray | None:
     return None if x is None or np.ndim(x) not in (1, 2) else np.asarray(x, dtype=float)
 
 
-def _hands_on(problem, raw) -> bool:
-    """Whether ``raw`` on ``problem`` has a state: an exact finish of a term that hands one on (Signorini rows,
-    2D cones)."""
-    return problem.term.hands_on_state and raw.polished and raw.y is not None
-
-
 def contact_state(problem, raw) -> ContactState | None:
     """The :class:`ContactState` of an exact finish ``raw`` (scaled) on ``problem``; None where a start does not
     apply (module docstring) or the answer is not an exact finish."""
-    if not _hands_on(problem, raw):
+    if not problem.term.hands_on(raw):
         return None
     return point_loads(problem.lines, problem.units, raw.y, raw.points)
 
@@ -105,7 +99,7 @@ def deferred_state(problem, raw) -> Callable[[], ContactState | None] | None:
     (``Solution.state``): :func:`point_loads` on the contact lines, the units and copies of the forces (not the
     bodies' matrices, which a solution kept for a later start would otherwise hold); None where no state applies
     (the same cases as :func:`contact_state`)."""
-    if not _hands_on(problem, raw):
+    if not problem.term.hands_on(raw):
         return None
     points = None if raw.points is None else tuple(np.array(a) for a in raw.points)
     return partial(point_loads, problem.lines, problem.units, np.array(raw.y, dtype=float), points)

@@ -19,7 +19,9 @@ and ``cc.Model`` call its methods instead of branching on its kind:
   guess from another mesh's state (``takes_active_start``); ``term.determining_rows(problem, raw)`` the rows the
   well-posedness check after the solve reads (the route's active set; a compliance law's, the rows that carry a
   force where the route gives none); ``term.held_forces(problem, y)`` the forces the answer reports (Signorini
-  rows no unknown moves at 0, their least admissible value: docs/formulation.md §8, "Held nodes").
+  rows no unknown moves at 0, their least admissible value: docs/formulation.md §8, "Held nodes");
+- after it: ``term.hands_on(raw)``, whether the answer hands a state on to a solve on another mesh
+  (:func:`~cvxcontact.backends.start.contact_state`; an exact finish of a term with ``hands_on_state``).
 
 Where the methods' work lives: discrete/ sits below backends/ and solution/ in the layers (tests/test_layers.py),
 so a term names its functions as "module:function" (or gives the function itself, for a term from outside the
@@ -120,6 +122,8 @@ class ContactTerm(Protocol):
 
     def held_forces(self, problem, y): ...
 
+    def hands_on(self, raw) -> bool: ...
+
 
 @dataclass(frozen=True)
 class _Term:
@@ -195,6 +199,13 @@ class _Term:
         rows no unknown moves at 0, their least admissible value (docs/formulation.md §8, "Held nodes": (26)-(27)
         do not determine them)."""
         return np.where(problem.held_rows, 0.0, y) if self.zeroes_held_forces else y
+
+    def hands_on(self, raw) -> bool:
+        """Whether the answer ``raw`` hands on a state to a solve on another mesh
+        (:func:`~cvxcontact.backends.start.contact_state`): an exact finish (``raw.polished``, with its forces
+        ``raw.y``) of a term whose finish's forces are point loads on the pairs (:attr:`hands_on_state`: Signorini
+        rows, the 2D cones)."""
+        return bool(self.hands_on_state and raw.polished and raw.y is not None)
 
     @property
     def estimated(self) -> bool:
@@ -315,7 +326,8 @@ class TrescaFriction(_Term):
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
-            "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces")
+            "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces",
+            "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]

@@ -450,5 +450,7 @@ class Model:
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
         self._set_values(raw.u, raw.phi, raw.taus)
+        # a finish that always runs (not term.finish_declined: cc.Model does not warn of the cones' declined cuts,
+        # which cc.solve reports; tests/test_terms.py::test_model_warns_where_a_finish_that_always_runs_did_not)
         self._warn(sol, self.problem.term.always_finished, raw.declined, stacklevel=4)
         return sol

@@ -47,6 +47,27 @@ class Declined(str):
     def __repr__(self) -> str:
         return f"Declined({self.stop.name})"
 
+    def __eq__(self, other) -> bool:
+        """Two declines are equal when their stops, words and rows are (the same words from different stops are
+        different declines); a decline and a plain ``str`` compare by the words alone, as strings do (a message
+        or a test reading ``info.declined == "..."``). Not transitive across the two: a plain string may equal
+        two declines that differ in their stops."""
+        if isinstance(other, Declined):
+            return (self.stop is other.stop and str.__eq__(self, other)
+                    and _same_rows(self.rows, other.rows))
+        return str.__eq__(self, other)
+
+    def __ne__(self, other) -> bool:
+        out = self.__eq__(other)
+        return out if out is NotImplemented else not out
+
+    def __hash__(self) -> int:
+        """The hash of the words, as a ``str``'s: equal objects (two declines, or a decline and a plain string,
+        :meth:`__eq__`) hash alike, and declines that differ in their stop alone only collide (a set or a dict
+        keeps both: they compare unequal). A hash of the stop too would break that rule for a decline and the
+        plain string of its words."""
+        return str.__hash__(self)
+
     def __reduce__(self):
         """Pickled and copied with its stop, words and rows (a ``str`` subclass would be rebuilt from its words
         alone)."""
@@ -80,6 +101,13 @@ class Declined(str):
         if isinstance(reason, str):
             return cls(Stop.GIVEN, reason) if reason else None
         raise TypeError(f"a declined finish's reason must be a Declined or a string, got {type(reason).__name__}")
+
+
+def _same_rows(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two declines' ``rows`` are the same (both None, or equal arrays)."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b))
 
 
 SINGULAR = Declined(Stop.SINGULAR)

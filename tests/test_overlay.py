@@ -263,7 +263,7 @@ def test_lumped_areas_are_positive_sum_to_the_area_and_integrate_each_hat(case):
     """The vertices' lumped areas (a contact law's quadrature: friction capacities g w_a) are positive, sum to the
     overlap's area and integrate every hat of either mesh exactly (the hats are affine on each cell): against the
     brute force's integrals (the row sums of its exact products, the hats summing to 1 on the overlap)."""
-    name, ma, mb, ov, (area, Cab, Caa, Cbb) = case
+    _, _, _, ov, (_, _, Caa, Cbb) = case
     w = np.asarray(ov.lumped)
     assert w.shape == (ov.size,) and (w > 0).all()
     assert abs(w.sum() - ov.area) <= 1e-14 * ov.area               # measured <= 2.8e-16 relative
@@ -276,7 +276,7 @@ def test_lumped_areas_do_not_depend_on_the_order_of_the_two_triangulations(case)
     """The overlay of b on a has the same vertices (in another order) and the same lumped area at each, to
     rounding: the areas are shares of the cells, not of a fan from whichever vertex the clipping listed first."""
     from scipy.spatial import cKDTree
-    name, ma, mb, ov, _ = case
+    _, ma, mb, ov, _ = case
     other = overlay(*mb, *ma)
     assert other.size == ov.size
     dist, at = cKDTree(other.vertices).query(ov.vertices)

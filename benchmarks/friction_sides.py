@@ -18,7 +18,7 @@ import test_friction3d as t3
 import cvxcontact as cc
 
 CASES = (("Tresca 0.25 p, partial slip", lambda: cc.Tresca(0.25 * t3.P), {}),
-         ("Tresca 1e3 Pa, pushed: sliding", lambda: cc.Tresca(1e3), dict(q=(0.0, 0.0), nu=0.0, push=1e-4)),
+         ("Tresca 1e3 Pa, pushed: sliding", lambda: cc.Tresca(1e3), {"q": (0.0, 0.0), "nu": 0.0, "push": 1e-4}),
          ("Coulomb 0.3", lambda: cc.Coulomb(0.3), {}))
 
 

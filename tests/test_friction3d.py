@@ -222,10 +222,10 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
     """Nodal rows are independent; the overlay rows ("gamma3", one per overlay vertex: 75 rows on 2 x 25 jump
     nodes) are not, and their forces not unique: the finish keeps an independent subset per step (before it,
     its step was singular and the interior point's answer was kept). Posed from the other side, "sigma1" is
-    "sigma2" and "gamma3" the same overlay in another order (another subset): the same answer at rounding. (The
-    Tresca "gamma3" capacities g w_a in partial slip are not compared so: w_a, the lumped mass of the overlay's
-    triangles, depends on how the overlay's polygons are cut, which differs with the side: 2.7e-4 apart, the
-    interior points as much.)"""
+    "sigma2" and "gamma3" the same overlay in another order (another subset): the same answer at rounding, in
+    partial slip too (the "gamma3" capacities g w_a are the overlay's lumped areas, shares of its cells; when they
+    were the row sums of a fan's mass matrix, which depends on the vertex the clipping lists first, the two sides
+    were 2.7e-4 apart)."""
     tresca = cc.Tresca(0.25 * P)
     for condition, other in (("sigma1", "sigma2"), ("gamma3", "gamma3")):
         sol = cc.solve(non_matching(tresca), condition=condition)
@@ -235,17 +235,20 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
         assert np.allclose(sol.contact.shear_force.sum(axis=0), -0.2 * P * DIAGONAL, rtol=1e-12)   # 1.9e-14
         # the interior point's answer: measured 7.4e-10 (sigma1), 3.0e-10 (gamma3)
         assert _apart(sol, cc.solve(non_matching(tresca), condition=condition, polish=False)) < 1e-6
-        stuck = cc.Tresca(1e9) if condition == "gamma3" else tresca
-        here = sol if condition == "sigma1" else cc.solve(non_matching(stuck), condition=condition)
-        there = cc.solve(non_matching(stuck, swap=True), condition=other)
-        assert here.info.finish == there.info.finish == cc.Finish.FRICTION_NEWTON
-        assert _apart(here, there) < 1e-12                  # measured 6.3e-15 (sigma1), 9.2e-15 (gamma3, stuck)
+        for stuck in (tresca, cc.Tresca(1e9)):
+            here = sol if stuck is tresca else cc.solve(non_matching(stuck), condition=condition)
+            there = cc.solve(non_matching(stuck, swap=True), condition=other)
+            assert here.info.finish == there.info.finish == cc.Finish.FRICTION_NEWTON
+            # measured 6.3e-15 (sigma1), 6.7e-15 (gamma3, partial slip), 9.2e-15 (gamma3, stuck)
+            assert _apart(here, there) < 1e-12
     for g in (1e2, 1e3):                                     # pushed: every overlay vertex slides, force g w_a
         sol = cc.solve(non_matching(cc.Tresca(g), q=(0.0, 0.0), nu=0.0, push=1e-4), condition="gamma3")
         assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
         slip = np.linalg.norm(sol.contact.slip, axis=1)
         assert slip.min() > 0.5 * slip.max()                                         # measured 0.99987
         assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)  # 1.1e-16
+        there = cc.solve(non_matching(cc.Tresca(g), q=(0.0, 0.0), nu=0.0, push=1e-4, swap=True), condition="gamma3")
+        assert _apart(sol, there) < 1e-12                                            # measured 1.4e-15 (g = 1e3)
     with pytest.warns(cc.FixedPointWarning):            # the forces on dependent rows wander: no fixed point
         ipm = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3", polish=False, tol=1.0)
     sol = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3")
@@ -254,6 +257,26 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
     # after the finish: measured at most 4.0e-9 (stick-slip; Haswell, Prescott), the default tolerance 1e-6
     assert max(sol.residuals()[k] for k in ("friction cone", "stick-slip", "slip direction")) < 1e-6
     assert _apart(sol, ipm) < 1e-6                                                   # measured 3.8e-9
+    # posed from the other side: its own law's answer too; not at rounding (the finish stops at its law's
+    # residual, 4e-9, and the forces of the dependent rows, hence the capacities mu y_a, are not unique)
+    there = cc.solve(non_matching(cc.Coulomb(0.3), swap=True), condition="gamma3")
+    assert there.ok and there.info.finish == cc.Finish.FRICTION_NEWTON
+    assert _apart(sol, there) < 1e-6                                                 # measured 2.6e-9
+
+
+@pytest.mark.numerics
+def test_the_overlay_rows_weights_do_not_depend_on_the_side_the_pair_is_posed_from():
+    """The "gamma3" weights w_a (the Tresca capacities g w_a) of the non-matching pair: positive, summing to the
+    overlap's area (1 m^2, the lower box's top covering the upper's bottom), the same at each overlay vertex
+    from either side (matched by position)."""
+    from scipy.spatial import cKDTree
+    one, other = (non_matching(cc.Tresca(1.0), swap=swap).interfaces[0] for swap in (False, True))
+    w, v = one.weights("gamma3"), other.weights("gamma3")
+    assert (w > 0).all() and len(w) == len(v) == 75
+    assert abs(w.sum() - 1.0) <= 1e-14 and abs(w.sum() - one.area) <= 1e-14            # measured 0, 0
+    dist, at = cKDTree(other.points).query(one.points)
+    assert dist.max() <= 1e-12 and len(np.unique(at)) == len(w)
+    assert np.abs(v[at] - w).max() <= 1e-12 * w.max()                                  # measured 1.9e-16 relative
 
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):

@@ -10,6 +10,11 @@ centroids (never all pairs), each pair's convex intersection by Sutherland-Hodgm
 ``eps`` of a clipping line counts as on it: no crossing is made there), vertices merged within ``eps`` (so a
 node shared by both meshes, or lying on the other mesh's edge, is one vertex), each cell fanned into
 triangles, slivers below ``tol h^2`` dropped. ``eps = tol h`` with h the shortest edge of the two meshes.
+
+The lumped area of each vertex (the quadrature of a contact law on the vertices: friction capacities, compliance)
+is not the row sum of the fan's mass matrix: the fan starts at whichever vertex the clipping listed first, which
+depends on the mesh clipped and so on the side a pair is posed from. It is :func:`_centroid_shares`, which depends
+on the cells alone (their vertex sets), is positive, sums to each cell's area and is exact for affine functions.
 """
 
 from __future__ import annotations
@@ -39,7 +44,10 @@ class Overlay:
     the P1 hats of each mesh at the vertices (a unit row at a mesh's own node, barycentric weights in the
     containing triangle elsewhere); ``node_a`` (na,), ``node_b`` (nb,): each node's vertex (-1 outside the
     overlap); ``mass`` (v, v): the P1 mass matrix of ``triangles`` (m^2, exact for products of functions
-    affine on each triangle); ``area`` (m^2); ``h`` the shortest edge (m); ``eps`` = tol h (m).
+    affine on each triangle); ``lumped`` (v,): the area attributed to each vertex (m^2; :func:`_centroid_shares`
+    of the cells: positive, independent of the order of the two triangulations, exact for functions affine on
+    each cell); ``area`` (m^2): the cells' area, the sum of ``lumped``; ``h`` the shortest edge (m);
+    ``eps`` = tol h (m).
     """
 
     vertices: np.ndarray
@@ -51,6 +59,7 @@ class Overlay:
     node_a: np.ndarray
     node_b: np.ndarray
     mass: sp.csr_matrix
+    lumped: np.ndarray
     area: float
     h: float
     eps: float
@@ -59,11 +68,6 @@ class Overlay:
     def size(self) -> int:
         """Number of vertices."""
         return len(self.vertices)
-
-    @property
-    def lumped(self) -> np.ndarray:
-        """The area (m^2) of the overlay attributed to each vertex: the row sums of ``mass``."""
-        return np.asarray(self.mass.sum(axis=1)).ravel()
 
 
 def overlay(uv_a, tri_a, uv_b, tri_b, tol: float = OVERLAY_TOL) -> Overlay:
@@ -95,18 +99,20 @@ def overlay(uv_a, tri_a, uv_b, tri_b, tol: float = OVERLAY_TOL) -> Overlay:
     ids = np.full(poly.shape[:2], -1)
     ids[valid] = label[na + nb:]
     ids, count = _drop_repeats(ids, count)
-    ok = count >= 3
-    ids, count, pa, pb = ids[ok], count[ok], pa[ok], pb[ok]
-
     rep = np.full(label.max() + 1, len(cloud))                     # each cluster's first point
     np.minimum.at(rep, label, np.arange(len(cloud)))
     coords = cloud[rep]
+    share, cell_area = _centroid_shares(coords, ids, count)
+    ok = (count >= 3) & (cell_area > small)
+    ids, count, pa, pb, share, cell_area = ids[ok], count[ok], pa[ok], pb[ok], share[ok], cell_area[ok]
+
     tri, cell = _fan(ids, count)
     area = _triangle_area(coords[tri]) if len(tri) else np.zeros(0)
     good = area > small
     tri, cell, area = tri[good], cell[good], area[good]
 
-    used = np.unique(tri)
+    member = ids >= 0                                              # every cell's vertices, fan or not
+    used = np.unique(ids[member])
     used = used[np.argsort(rep[used], kind="stable")]              # the vertices, in the cloud's order
     vid = np.full(len(rep), -1)
     vid[used] = np.arange(len(used))
@@ -114,12 +120,15 @@ def overlay(uv_a, tri_a, uv_b, tri_b, tol: float = OVERLAY_TOL) -> Overlay:
     vertices = coords[used]
     node_a, node_b = vid[label[:na]], vid[label[na:na + nb]]
     cell_a, cell_b = pa[cell], pb[cell]
-    Ia = _hats(vertices, triangles, cell_a, node_a, uv_a, tri_a)
-    Ib = _hats(vertices, triangles, cell_b, node_b, uv_b, tri_b)
+    at, of = vid[ids[member]], np.nonzero(member)[0]              # each cell vertex and its cell
+    Ia = _hats(vertices, at, pa[of], node_a, uv_a, tri_a)
+    Ib = _hats(vertices, at, pb[of], node_b, uv_b, tri_b)
     mass = _mass(triangles, area, len(vertices))
+    lumped = np.zeros(len(vertices))
+    np.add.at(lumped, at, share[member])
     return Overlay(vertices=_ro(vertices), triangles=_ro(triangles), cell_a=_ro(cell_a), cell_b=_ro(cell_b),
-                   Ia=Ia, Ib=Ib, node_a=_ro(node_a), node_b=_ro(node_b), mass=mass, area=float(area.sum()),
-                   h=float(h), eps=float(eps))
+                   Ia=Ia, Ib=Ib, node_a=_ro(node_a), node_b=_ro(node_b), mass=mass, lumped=_ro(lumped),
+                   area=float(cell_area.sum()), h=float(h), eps=float(eps))
 
 
 def _ro(a) -> np.ndarray:
@@ -248,15 +257,39 @@ def _fan(ids, count):
     return np.concatenate(tris), np.concatenate(cells)
 
 
-def _hats(vertices, triangles, cell, node, uv, tri):
+def _centroid_shares(coords, ids, count):
+    """The area of each convex cell (ids (P, K) of ``coords``, padded -1; counter-clockwise) attributed to its
+    vertices, and the cells' areas (P,) (m^2). Cell i is cut into the triangles (c, v_k, v_k+1) about its vertex
+    centroid c (areas A_k, each clipped at 0: a convex cell has none negative but for rounding); each triangle's
+    area goes a third to each corner, c's third shared equally by the n vertices (the value at c of a function
+    affine on the cell is their mean): w_k = (A_k-1 + A_k) / 3 + A / (3 n), A = sum A_k. The shares are positive,
+    sum to A, integrate functions affine on the cell exactly, and depend on the vertex set alone (not on which
+    vertex is listed first), unlike a fan from the first vertex."""
+    K = ids.shape[1]
+    idx = np.arange(K)[None, :]
+    valid = idx < count[:, None]
+    n = np.maximum(count, 1)[:, None]
+    X = np.where(valid[..., None], coords[np.maximum(ids, 0)], 0.0)
+    c = X.sum(axis=1) / n
+    D = np.where(valid[..., None], X - c[:, None], 0.0)
+    Dn = np.take_along_axis(D, ((idx + 1) % n)[..., None], axis=1)
+    tri = np.where(valid, np.maximum(0.5 * (D[..., 0] * Dn[..., 1] - D[..., 1] * Dn[..., 0]), 0.0), 0.0)
+    area = tri.sum(axis=1)
+    prev = np.take_along_axis(tri, (idx - 1) % n, axis=1)
+    share = np.where(valid, (prev + tri) / 3.0 + (area / (3.0 * n[:, 0]))[:, None], 0.0)
+    return share, area
+
+
+def _hats(vertices, at_vertex, cell, node, uv, tri):
     """(v, n) P1 hats of a mesh at the vertices: unit rows at its own nodes, else the barycentric weights
-    of the vertex in the mesh's triangle containing one overlay triangle at that vertex."""
+    of the vertex in the mesh's triangle ``cell`` containing one overlay cell at that vertex (``at_vertex``,
+    ``cell``: each cell vertex and the mesh triangle of its cell)."""
     v, n = len(vertices), len(uv)
     own = node >= 0
     at = np.full(v, -1)
     at[node[own]] = np.flatnonzero(own)
     host = np.full(v, -1)
-    host[triangles.ravel()] = np.repeat(cell, 3)                   # any containing mesh triangle will do
+    host[at_vertex] = cell                                         # any containing mesh triangle will do
     other = np.flatnonzero(at < 0)
     P = uv[tri[host[other]]]                                       # (o, 3, 2)
     T = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)   # (o, 2, 2)

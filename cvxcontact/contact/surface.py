@@ -258,14 +258,18 @@ class SurfaceInterface:
 
     def weights(self, condition) -> np.ndarray:
         """The areas (m^2) attributed to the rows of :meth:`evaluation`, a quadrature of the overlap for a
-        compliance law: "gamma3" (and an obstacle) the row sums of ``mass``; "sigma_l" the integral over the
-        overlap of body l's hat at each of its nodes there (they sum to the area its hats cover)."""
+        compliance law (and the friction capacities g w_a): "gamma3" the overlay's ``lumped`` areas (shares of
+        its cells, independent of the side the pair is posed from); with an obstacle the row sums of ``mass``;
+        "sigma_l" the integral over the overlap of body l's hat at each of its nodes there (they sum to the area
+        its hats cover)."""
         rows = self._rows(condition)
-        if condition == "gamma3" or self.rigid:
+        if self.rigid:
             return np.asarray(self.mass.sum(axis=1)).ravel()[rows]
+        if condition == "gamma3":
+            return np.array(self.overlay.lumped)[rows]
         l = int(condition[-1]) - 1
         P = self._interp[l]
-        integral = P.T @ (self.mass @ np.ones(self.size))                   # int over the overlap of each hat
+        integral = P.T @ self.overlay.lumped          # int over the overlap of each hat (exact: affine on each cell)
         node = self.overlay.node_a if l == 0 else self.overlay.node_b
         own = np.flatnonzero(node >= 0)
         out = np.empty(self.size)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla  # noqa: F401  (tests reach scipy.sparse.linalg as full.spla)
 from scipy.linalg import null_space
 from scipy.sparse.csgraph import structural_rank
 

@@ -27,6 +27,7 @@ def _append_column(Q, R, col):
     n, p = Q.shape[0], R.shape[1]
     if p >= n:                                          # (square Q: no room for another independent column)
         return sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
+    Q, R = Q[:, :p], R[:p, :p]          # economic (a square Q left by a delete: R's rows below p are zero)
     r = Q.T @ col
     v = col - Q @ r
     r2 = Q.T @ v

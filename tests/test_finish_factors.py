@@ -66,10 +66,11 @@ def saddle(n=300, m=40, seed=0, dependent_rows=False):
 
 
 @needs_pardiso
-def test_the_mixed_system_by_pardiso_matches_a_dense_solve_and_superlu():
+def test_the_mixed_system_by_pardiso_matches_a_dense_solve_and_superlu(monkeypatch):
+    monkeypatch.setattr(full, "PARDISO_MIN", 0)
     K, b = saddle()
     x_dense = np.linalg.solve(K.toarray(), b)
-    x_auto = full.solve_mixed(K, b, factorization="auto")
+    x_auto = full.solve_mixed(K, b, factorization="auto")                 # (SuperLU below PARDISO_MIN: the same)
     x_superlu = full.solve_mixed(K, b)
     assert rel(x_auto, x_dense) <= 1e-11 and rel(x_superlu, x_dense) <= 1e-11      # measured 6e-16, 5e-16
     lu = factor.symmetric_lu(K)
@@ -79,9 +80,10 @@ def test_the_mixed_system_by_pardiso_matches_a_dense_solve_and_superlu():
 
 
 @needs_pardiso
-def test_pardiso_declines_what_superlu_must_decide():
+def test_pardiso_declines_what_superlu_must_decide(monkeypatch):
     """Not symmetric, nearly dense, or singular (a repeated row: multipliers free, or an inconsistent right-hand
     side): symmetric_lu gives None or solve_mixed falls back, and "auto" answers as SuperLU does."""
+    monkeypatch.setattr(full, "PARDISO_MIN", 0)
     K, _ = saddle()
     N = K.tolil()
     N[0, 1] += 1.0
@@ -109,6 +111,7 @@ def test_the_force_controlled_punch_is_the_same_with_or_without_pardiso(monkeypa
     answer is the same bit for bit: benchmarks/results/adapt_punch_finish.md.)"""
     scene = punch_scene(punch_block(30, 15, 9.0, 8.0))
     monkeypatch.setattr(cones, "FACTORED", False)
+    monkeypatch.setattr(full, "PARDISO_MIN", 0)                # (its systems, 3,800 rows, are below the default)
     took = []
     monkeypatch.setattr(full, "symmetric_lu", lambda K: took.append(factor.symmetric_lu(K)) or took[-1])
     with warnings.catch_warnings():

@@ -35,6 +35,13 @@ __all__ = [
 
 
 
+PARDISO_MIN = 5000
+"""The smallest mixed system :func:`solve_mixed` (``factorization="auto"``) gives to PARDISO: below it SuperLU is
+fast and the answers stay those of the one factorisation they always had (both are backward stable, 2e-16 after
+refinement, but on an ill-conditioned small system they differ by up to 1e-13, measured on the 2D layer held by
+the contact, which its finish's checks can see)."""
+
+
 def solve_mixed(K, b, residual: float | None = 1e-8, factorization: str = "superlu"):
     """x with K x = b for a sparse mixed (KKT) matrix K: SuperLU (minimum degree on K^T + K) and two steps of
     iterative refinement (bodies of very different stiffness share one LU). None if K is singular, x is not
@@ -44,13 +51,13 @@ def solve_mixed(K, b, residual: float | None = 1e-8, factorization: str = "super
     before any factorisation: SuperLU 1.17's panel updates call BLAS with illegal sizes on such matrices and
     can corrupt memory (measured: segmentation faults in later factorisations).
 
-    ``factorization="auto"`` (with ``residual`` set): PARDISO first where it applies
-    (:func:`~cvxcontact.backends.factor.symmetric_lu`: a symmetric K, no perturbed pivot), refined the same
-    way; an answer that misses the residual falls back to SuperLU, which then decides (measured on issue 30's
-    punch, 24,000 unknowns: 0.1 s a factorisation instead of SuperLU's 1 s)."""
+    ``factorization="auto"`` (with ``residual`` set, K of order :data:`PARDISO_MIN` or more): PARDISO first where
+    it applies (:func:`~cvxcontact.backends.factor.symmetric_lu`: a symmetric K, no perturbed pivot), refined the
+    same way; an answer that misses the residual falls back to SuperLU, which then decides (measured on issue
+    30's punch, 23,938 rows: 0.13 s a factorisation instead of SuperLU's 1 s)."""
     if structural_rank(sp.csr_matrix(K)) < K.shape[0]:
         return None
-    if factorization == "auto" and residual is not None:
+    if factorization == "auto" and residual is not None and K.shape[0] >= PARDISO_MIN:
         x = _refined(symmetric_lu(K), K, b, residual)
         if x is not None:
             return x

@@ -51,7 +51,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
-           "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu"]
+           "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "symmetric_lu"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -94,6 +94,36 @@ def lu(K, **options):
     if 0 < n <= DENSE_MAX and K.nnz > DENSE_FILL * n * n:
         return DenseLU(K)
     return spla.splu(K, **options)
+
+
+def symmetric_lu(K):
+    """PARDISO's factorisation of the square sparse symmetric ``K`` (a mixed system (26): real symmetric
+    indefinite, its own nested-dissection order, scaling and weighted matching, :class:`PardisoSymmetric`),
+    with ``solve(b)`` and ``release()``; None where it does not apply and the caller's SuperLU (:func:`lu`)
+    decides: PARDISO not installed, K nearly dense (:data:`DENSE_FILL`) or not symmetric (to 1e-12 of its largest
+    entry: K's upper triangle is factorised), or a pivot PARDISO
+    perturbed (K singular or nearly so; the answer would be that of a nearby matrix). The caller refines
+    against K and checks the residual."""
+    n = K.shape[0]
+    if n == 0 or K.nnz > DENSE_FILL * n * n or not pardiso_available():
+        return None
+    K = sp.csc_matrix(K)
+    if abs(K - K.T).max() > 1e-12 * abs(K).max():        # symmetric to rounding: PARDISO reads the upper part
+        return None
+    coo = K.tocoo()
+    diag = np.arange(n)                                  # every diagonal entry stored (zeros included)
+    Kd = sp.csc_matrix((np.concatenate([coo.data, np.zeros(n)]), (np.concatenate([coo.row, diag]),
+                                                                   np.concatenate([coo.col, diag]))), shape=(n, n))
+    Kd.sum_duplicates()
+    Kd.sort_indices()
+    try:
+        factor = PardisoSymmetric(Kd).factor(Kd)
+    except SolverError:
+        return None
+    if factor.perturbed:
+        factor.release()
+        return None
+    return factor
 
 
 class Forward:

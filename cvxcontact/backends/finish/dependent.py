@@ -18,6 +18,34 @@ from .rows import (
 )
 
 
+def _append_column(Q, R, col):
+    """The economic QR factors (Q: n x (p+1), R: (p+1) x (p+1)) of [Q R, col] from those of Q R (n x p): only
+    the columns held are stored and updated, O(n p) a column (not O(n^2) as with the full n x n Q). Classical
+    Gram-Schmidt with one reorthogonalisation; R's new diagonal entry is the norm of col's component outside
+    span(Q) (its test against DEPENDENT_PIVOT; a column in the span gives a rounding-sized entry and a
+    meaningless last column of Q, which the caller deletes)."""
+    n, p = Q.shape[0], R.shape[1]
+    if p >= n:                                          # (square Q: no room for another independent column)
+        return sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
+    Q, R = Q[:, :p], R[:p, :p]          # economic (a square Q left by a delete: R's rows below p are zero)
+    r = Q.T @ col
+    v = col - Q @ r
+    r2 = Q.T @ v
+    v -= Q @ r2
+    r += r2
+    rho = float(np.linalg.norm(v))
+    Rn = np.zeros((p + 1, p + 1))
+    Rn[:p, :p], Rn[:p, p], Rn[p, p] = R[:p, :p], r, rho
+    return np.column_stack([Q, v / rho if rho > 0 else v]), Rn
+
+
+def _delete_column(Q, R, i):
+    """The economic QR factors of Q R without its column ``i``."""
+    if R.shape[1] == 1:
+        return Q[:, :0], R[:0, :0]
+    return sla.qr_delete(Q, R, i, which="col", check_finite=False)
+
+
 def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int | None = None,
                            factored: bool = True, purify: bool = True):
     """Exact finish on the sparse mixed system (26) for contact rows that are linearly dependent (3D overlay
@@ -114,7 +142,7 @@ def _purified(U, norms, y0, cand, chosen):
     if not len(chosen):
         return [], np.zeros(m)
     basis = list(chosen)                                 # positions in cand
-    Q, R = sla.qr(U[basis].T)
+    Q, R = sla.qr(U[basis].T, mode="economic")          # economic: the held columns only
     p = len(basis)
     for k in np.setdiff1d(np.arange(len(cand)), chosen):
         j = cand[k]
@@ -133,9 +161,9 @@ def _purified(U, norms, y0, cand, chosen):
         y[rows] = np.maximum(yP + t * c, 0.0)
         y[j] -= t
         y[rows[i]] = 0.0
-        Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+        Q, R = _delete_column(Q, R, i)
         del basis[i]
-        Q, R = sla.qr_insert(Q, R, U[k], p - 1, which="col", check_finite=False)
+        Q, R = _append_column(Q, R, U[k])
         basis.append(int(k))
     passive = [int(r) for r in cand[basis]]
     out = np.zeros(m)
@@ -170,7 +198,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     step = steps_from(np.asarray(passive, dtype=int))
     if step is None:
         return SINGULAR_FORCES
-    Q, R = sla.qr(unit[passive].toarray().T) if passive else (np.eye(len(touched)), np.zeros((len(touched), 0)))
+    Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive      # economic: P's columns only
+            else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
     max_iter = 3 * m + 20 if max_iter is None else max_iter
     dependent = set()                                   # rows found infeasible: passed over from then on
     settled = set()                                     # dependent rows whose slack is rounding, while P grows
@@ -189,10 +218,10 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         for j in np.flatnonzero(worst > tol)[np.argsort(-worst[worst > tol])]:
             col = unit[j].toarray().ravel()
             if p < len(touched):
-                Q, R = sla.qr_insert(Q, R, col, p, which="col", check_finite=False)
+                Q, R = _append_column(Q, R, col)
                 if abs(R[p, p]) > DEPENDENT_PIVOT:
                     return "add", int(j), col
-                Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+                Q, R = _delete_column(Q, R, p)
             c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
             if g is not None:
                 constant = float(c @ g[passive] - g[j])
@@ -212,7 +241,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         give way."""
         nonlocal Q, R
         p = len(passive) - 1
-        Q, R = sla.qr_delete(Q, R, p, which="col", check_finite=False)
+        Q, R = _delete_column(Q, R, p)
         del passive[p]
         col = unit[j].toarray().ravel()
         c = sla.solve_triangular(R[:p, :p], (Q[:, :p].T @ col), check_finite=False) * norms[j] / norms[passive]
@@ -245,7 +274,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         entered = None
         if move[0] == "back":
             continue
-        state, z, slack, _ = res
+        state, z, _, _ = res
         zp = z[passive]
         if move[0] == "inner":                          # 1. the inner loop
             yp = y[passive]
@@ -256,7 +285,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             drop = [i for i, row in enumerate(passive) if y[row] <= 0] or \
                    [int(np.flatnonzero(neg)[np.argmin(ratio)])]
             for i in sorted(set(drop), reverse=True):
-                Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+                Q, R = _delete_column(Q, R, i)
                 y[passive[i]] = 0.0
                 del passive[i]
             settled.clear()
@@ -276,9 +305,9 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         y[passive] = y[passive] - t.min() * c
         y[j] = t.min()
         y[passive[i]] = 0.0
-        Q, R = sla.qr_delete(Q, R, i, which="col", check_finite=False)
+        Q, R = _delete_column(Q, R, i)
         del passive[i]
-        Q, R = sla.qr_insert(Q, R, col, len(passive), which="col", check_finite=False)
+        Q, R = _append_column(Q, R, col)
         passive.append(j)
         settled.clear()
     return MAX_ITER

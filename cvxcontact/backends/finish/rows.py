@@ -65,9 +65,9 @@ class FactoredRows:
          [H_Q'P, H_Q'Q' - D^{-1}]]  [tau ]] =  [h_Q']],     x = K0^{-1} (f~ - G_R^T [y_P; tau])
 
     (block elimination of the mixed matrix with the factored K0). A column of H costs one solve with K0's
-    factors, computed when its row first enters R and kept (m doubles a row); the system on R is solved by
-    :class:`UpdatedSystem` (O(|R|^2) a changed row); a step costs that and one solve with K0 for x (the rows'
-    scales). :meth:`exact` solves (26) on P to rounding (iterative refinement on (26) itself).
+    factors, computed when its row first enters R and kept with K0^{-1} G_r^T (m + n doubles a row); the system
+    on R is solved by :class:`UpdatedSystem` (O(|R|^2) a changed row); a step costs that and x from the kept
+    columns, O(n |R|) (the rows' scales). :meth:`exact` solves (26) on P to rounding (iterative refinement on (26) itself).
     """
 
     def __init__(self, A, F, G, g, anchor, lu, K0, rho):
@@ -77,10 +77,12 @@ class FactoredRows:
         self.rho = np.zeros(G.shape[0])
         self.rho[anchor] = rho
         self.Ft = F + G[anchor].T @ (rho * g[anchor])
-        self.h = G @ self.solve(self.Ft) - g
+        self.xF = self.solve(self.Ft)                       # K0^{-1} f~
+        self.h = G @ self.xF - g
         m = G.shape[0]
         self.where = np.full(m, -1)
         self.cols = np.zeros((m, min(m, max(16, 2 * len(anchor)))))
+        self.Z = np.zeros((A.shape[0], self.cols.shape[1]))   # K0^{-1} G_r^T of the rows with a column
         self.count = 0
         self.system = UpdatedSystem(self.entries)
         self.sizes = []                                   # (|P|, |Q'|) of each step
@@ -99,8 +101,12 @@ class FactoredRows:
             grown = np.zeros((self.cols.shape[0], max(2 * self.cols.shape[1], self.count + len(new))))
             grown[:, :self.count] = self.cols[:, :self.count]
             self.cols = grown
+            Z = np.zeros((self.Z.shape[0], grown.shape[1]))
+            Z[:, :self.count] = self.Z[:, :self.count]
+            self.Z = Z
         Z = self.lu.solve(self.G[new].T.toarray())     # (no refinement: the answers are refined on (26))
         self.cols[:, self.count:self.count + len(new)] = self.G @ Z
+        self.Z[:, self.count:self.count + len(new)] = Z
         self.where[new] = self.count + np.arange(len(new))
         self.count += len(new)
 
@@ -140,7 +146,9 @@ class FactoredRows:
         if out is None:
             return None
         w, Cw = out
-        x = self.lu.solve(self.Ft - self.G[rows].T @ w)      # for the rows' scales only: no refinement
+        spread = np.zeros(self.count)
+        spread[self.where[rows]] = w
+        x = self.xF - self.Z[:, :self.count] @ spread       # K0^{-1} (f~ - G_R^T w), for the rows' scales only
         z = np.zeros(self.G.shape[0])
         z[passive] = w[:len(passive)]
         self.sizes.append((len(passive), len(rows) - len(passive)))

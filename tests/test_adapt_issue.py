@@ -62,7 +62,7 @@ def test_adapt_from_a_uniform_8_by_8_half_block_reaches_hertz():
     """The issue's call with the issue's budget; the defaults (cvxcontact.adapt.LOOPS, 2D P2: theta 0.9, rate 1,
     the last mesh finished exactly) and max_steps = 10 stop it first. Measured (2026-12-04): 11 solves, 23,980
     unknowns, peak pressure -3.0e-5 and half-width +2.5e-2 off Hertz, the relative estimate 0.11 (tol 0.005
-    would need about 20x the unknowns at P2's N^-1: the warning says so); about 60 s CPU, single-threaded. The old
+    would need about 20x the unknowns at P2's N^-1: the warning says so); about 25 s CPU, single-threaded. The old
     defaults (theta 0.5, one bisection, every step exact) stopped after 10 steps at 730 unknowns, -96 % and
     +2644 %."""
     with pytest.warns(cc.ResolutionWarning, match=r"above tol = 0.005: stopped by max_steps"):

@@ -48,6 +48,20 @@ def nodes(nc, seed=0, n=12):
     return (T, b, G, np.zeros(n), fr), (x, y, mu), (c, np.linalg.norm(f, axis=1))
 
 
+def finished_at(system, start, answer):
+    """:func:`solve_friction` on ``system`` from ``start`` (x0, y0, mu0), every row free: not declined, every row
+    closed, and (x, y, mu) the closed form ``answer`` to 1e-12 of their sizes. Returns its x, mu and steps."""
+    x, y, mu = answer
+    out = solve_friction(*system, np.ones(len(y), dtype=bool), *start, (float(y.max()), float(np.abs(x).max())))
+    assert not isinstance(out, Declined), out
+    xf, yf, muf, closed, steps = out
+    assert closed.all()
+    assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
+    assert np.abs(yf - y).max() < 1e-12 * y.max()
+    assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
+    return xf, muf, steps
+
+
 @pytest.mark.numerics
 @pytest.mark.parametrize("nc", [1, 2])
 def test_the_finish_of_independent_nodes_is_their_closed_form(nc):
@@ -56,16 +70,10 @@ def test_the_finish_of_independent_nodes_is_their_closed_form(nc):
     assert 3 <= slips.sum() <= len(c) - 3                       # both kinds: stuck and slipping nodes
     n = len(c)
     # from a rough start (nothing moved, no force) and from the answer itself, 1e-3 off
-    for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(n), np.zeros((n, nc))),
-                        (x * (1 + 1e-3), y * (1 - 1e-3), mu * (1 + 1e-3))):
-        out = solve_friction(*system, np.ones(n, dtype=bool), x0, y0, mu0, (float(y.max()), float(np.abs(x).max())))
-        assert not isinstance(out, Declined), out
-        xf, yf, muf, closed, steps = out
-        assert closed.all()
+    for start in ((np.zeros_like(x), np.zeros(n), np.zeros((n, nc))),
+                  (x * (1 + 1e-3), y * (1 - 1e-3), mu * (1 + 1e-3))):
         # measured at most 2.2e-16 (x), 0 (y), 3.5e-16 (mu) for nc = 1 and 2, both starts (Haswell, Prescott)
-        assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
-        assert np.abs(yf - y).max() < 1e-12 * y.max()
-        assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
+        xf, _, steps = finished_at(system, start, (x, y, mu))
         if nc == 1:
             assert steps <= 4                                   # linear once the set is right: measured 3
         if nc == 2:                                             # the slip is not along the pull (anisotropic)
@@ -145,14 +153,8 @@ def test_a_row_with_one_tangential_component_fixed_is_finished_to_its_closed_for
         assert 2 <= sticks.sum() <= n - 2                            # stuck rows with a fixed component, and not
         for x0, y0, mu0 in ((np.zeros_like(x), np.zeros(n), np.zeros((n, 2))),
                             (x * (1 + 1e-3), y * (1 - 1e-3), mu + 0.1)):     # mu0 off in the fixed component too
-            out = solve_friction(*system, np.ones(n, dtype=bool), x0, y0, mu0, (float(y.max()), float(np.abs(x).max())))
-            assert not isinstance(out, Declined), out
-            xf, yf, muf, closed, _ = out
-            assert closed.all()
             # measured at most 4.4e-16 (x), 0 (y), 2.2e-16 (mu), Haswell and Prescott
-            assert np.abs(xf - x).max() < 1e-12 * np.abs(x).max()
-            assert np.abs(yf - y).max() < 1e-12 * y.max()
-            assert np.abs(muf - mu).max() < 1e-12 * np.abs(mu).max()
+            _, muf, _ = finished_at(system, (x0, y0, mu0), (x, y, mu))
             assert (muf[sticks, 0] == 0).all()                      # the force acting on nothing: its least value
 
 

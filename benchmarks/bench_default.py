@@ -87,7 +87,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this che
 sys.path.insert(0, str(Path(__file__).resolve().parent))              # harness
 
 from harness import (bonded_kkt, growth, markdown_table, median_row, peak_gb, pypardiso_solve, rel,  # noqa: E402
-                     residual, run_part, superlu_solve, unknowns, write_csv)
+                     residual, run_part, superlu_solve, unknowns, write_csv, write_report)
 
 
 def make_scene(name, n, scale=1.0):
@@ -391,9 +391,7 @@ def compare(args) -> int:
     print(lines[-1].removeprefix("- "))
     lines += ["", _markdown(table), "", NOTES]
     if args.report:
-        Path(args.report).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.report).write_text("\n".join(lines) + "\n")
-        print("wrote", args.report)
+        write_report(args.report, lines)
     if bad:
         print(f"DIFFERENT answers (above --agree {args.agree:g}): a time ratio compares different solutions")
     return 1 if bad else 0

@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this che
 sys.path.insert(0, str(Path(__file__).resolve().parent))              # harness, bench_default
 
 from bench_default import THREAD_VARS, _describe, _git, _ratio_stats, materialise
-from harness import markdown_table, peak_gb, rel, run_part
+from harness import markdown_table, peak_gb, rel, run_part, write_report
 
 SCALE = 0.37
 """The further load case: the upper block's loads times this."""
@@ -163,9 +163,7 @@ def compare(args) -> int:
         "Re-solve stages (medians, s): " + "; ".join(", ".join(r) for r in stages), "", NOTES]
     print("\n".join(lines[-4:]))
     if args.report:
-        Path(args.report).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.report).write_text("\n".join(lines) + "\n")
-        print("wrote", args.report)
+        write_report(args.report, lines)
     if bad:
         print(f"DIFFERENT answers (above --agree {args.agree:g})")
     return 1 if bad else 0

@@ -119,6 +119,15 @@ def write_csv(path, rows: list[dict], append: bool = False) -> Path:
     return path
 
 
+def write_report(path, lines: list[str]) -> Path:
+    """The Markdown report ``lines`` written to ``path`` (its folder made), one line each; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    print("wrote", path)
+    return path
+
+
 def cell(row: dict, key: str, fmt: str = "{:.2f}") -> str:
     """``row[key]`` formatted, or "-" where the row lacks it or it is NaN."""
     value = row.get(key)

@@ -110,12 +110,7 @@ def symmetric_lu(K):
     K = sp.csc_matrix(K)
     if abs(K - K.T).max() > 1e-12 * abs(K).max():        # symmetric to rounding: PARDISO reads the upper part
         return None
-    coo = K.tocoo()
-    diag = np.arange(n)                                  # every diagonal entry stored (zeros included)
-    Kd = sp.csc_matrix((np.concatenate([coo.data, np.zeros(n)]), (np.concatenate([coo.row, diag]),
-                                                                   np.concatenate([coo.col, diag]))), shape=(n, n))
-    Kd.sum_duplicates()
-    Kd.sort_indices()
+    Kd = _diagonal_stored(K.tocoo(), sp.csc_matrix)
     try:
         factor = PardisoSymmetric(Kd).factor(Kd)
     except SolverError:
@@ -124,6 +119,18 @@ def symmetric_lu(K):
         factor.release()
         return None
     return factor
+
+
+def _diagonal_stored(coo, fmt):
+    """The square ``coo`` matrix in the format ``fmt`` (sp.csr_matrix, sp.csc_matrix) with every diagonal entry
+    stored, zeros included (PARDISO requires it), duplicates summed and indices sorted."""
+    n = coo.shape[0]
+    d = np.arange(n)
+    M = fmt((np.concatenate([coo.data, np.zeros(n)]), (np.concatenate([coo.row, d]), np.concatenate([coo.col, d]))),
+            shape=(n, n))
+    M.sum_duplicates()
+    M.sort_indices()
+    return M
 
 
 class Forward:
@@ -354,12 +361,7 @@ class PardisoFactorization(Factorization):
         n, m = S.shape[0], len(gamma)
         if m == 0 or m == n:
             raise SolverError("the pardiso adapter needs at least one interior and one contact dof")
-        U = sp.triu(sp.csr_matrix(S), format="coo")
-        d = np.arange(n)                                     # every diagonal stored (PARDISO requires it)
-        U = sp.csr_matrix((np.concatenate([U.data, np.zeros(n)]), (np.concatenate([U.row, d]),
-                                                                    np.concatenate([U.col, d]))), shape=(n, n))
-        U.sum_duplicates()
-        U.sort_indices()
+        U = _diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
         self._a = np.ascontiguousarray(U.data, dtype=np.float64)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)

@@ -21,14 +21,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this checkout
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench3d import cells, make  # noqa: E402
-from harness import bonded_system, residual, unknowns  # noqa: E402
+from bench3d import cells, make
+from harness import bonded_system, residual, unknowns, write_report
 
 
 def superlu_bonded(problem):
     """SuperLU as the package's sparse route uses it (its fill-reducing quasi-definite order, no pivoting:
     ``cvxcontact.backends.sparse.ordering``), order + factorisation + solve of the bonded system."""
     import scipy.sparse.linalg as spla
+
     from cvxcontact.backends.sparse import _SUPERLU, ordering
 
     K, rhs, A, _, _ = bonded_system(problem)
@@ -42,8 +43,9 @@ def superlu_bonded(problem):
 
 
 def main(argv=None):
-    import cvxcontact as cc
     from importlib.util import find_spec
+
+    import cvxcontact as cc
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", nargs="+", type=float, default=[2e4, 5e4])
@@ -73,7 +75,7 @@ def main(argv=None):
             lines.append(line)
             del solver, sol
     if args.md:
-        args.md.write_text("\n".join(lines) + "\n")
+        write_report(args.md, lines)
 
 
 if __name__ == "__main__":

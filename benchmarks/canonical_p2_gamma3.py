@@ -17,8 +17,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))                      # this checkout
 sys.path.insert(0, str(ROOT / "tests"))            # the canonical scenes
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # harness
 
-import cvxcontact as cc  # noqa: E402
+from harness import write_report
+
+import cvxcontact as cc
 
 
 def rows(scenes, dim):
@@ -52,14 +55,13 @@ def main(argv=None):
         from scenes3d import SCENES3D
         out += list(rows(SCENES3D, 3))
     if args.out:
-        f = lambda v: "—" if v is None else f"{v:.1e}"  # noqa: E731
+        f = lambda v: "—" if v is None else f"{v:.1e}"
         lines = ["| dim | scene | ok | finish | equilibrium | feasibility | complementarity | energy error | s |",
                  "|---|---|---|---|---|---|---|---|---|"]
         lines += [f"| {r['dim']}D | {r['scene']} | {r['ok']} | {r['finish']} | {f(r['equilibrium'])} | "
                   f"{f(r['feasibility'])} | {f(r['complementarity'])} | {f(r['energy error'])} | {r['seconds']:.1f} |"
                   for r in out]
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text("\n".join(lines) + "\n")
+        write_report(args.out, lines)
     return 0 if all(r["ok"] for r in out) else 1
 
 

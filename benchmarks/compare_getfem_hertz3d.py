@@ -31,6 +31,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # harness
+
+from harness import write_report
 
 import cvxcontact as cc
 from cvxcontact.apps.studies import hertz3d
@@ -218,7 +221,7 @@ def write(rows, fd, levels, ratios, out_path):
         "|---|---|---|---|---|",
     ]
     lines += [f"| {r['ratio']:g} | {r['n']} | {r['normal']:.2e} | {r['df']:.1e} | {r['du']:.1e} |" for r in fd]
-    Path(out_path).write_text("\n".join(lines) + "\n")
+    write_report(out_path, lines)
 
 
 def main(argv=None):

@@ -28,3 +28,17 @@ def pushed(law, s=1e-4):
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
     b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
     return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def patch(law, tied=False, nx=8, ny=4):
+    """The block with its left face above y = H / 4 held along x (u_x = 0: not the corner, whose row would then
+    carry an undetermined force), pressed by p on [0.25, 0.625] of its top: held without
+    friction too (``law`` None or cc.Signorini()), its base slides outwards under Poisson's expansion.
+    ``tied``: frictionless contact with u_x = 0 on the contact edges (the same edges under a second tag "base")."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny, segments={"load": ("top", 0.25, 0.625), "side": ("left", H / 4, H)})
+    held = {"side": (0.0, None)}
+    if tied:
+        m = cc.Mesh(m.points, m.triangles, {**{t: m.boundary(t) for t in m.tags}, "base": m.boundary("bottom")})
+        held["base"] = (0.0, None)
+    b = cc.Body(m, steel(), contact="bottom", traction={"load": (0.0, -P)}, displacement=held)
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])

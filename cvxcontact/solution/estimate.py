@@ -44,6 +44,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..contact.interface import row_frames
 from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions
@@ -52,6 +53,7 @@ from ..fem.space import space
 from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
+from .slipestimate import friction_elements, friction_segments, shear_traction, tangential_vectors
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
@@ -546,11 +548,11 @@ def _contact_cells(mesh, part, facets):
     return owners[at, 0], f
 
 
-def _lambda_at(c, s):
-    """lambda_h (Pa) of 2D contact result ``c`` at tangential coordinates ``s`` (m): its P1 (P2: piecewise
-    quadratic) function on the merged mesh, 0 beyond it."""
-    x, lam = np.asarray(c.x, dtype=float), np.asarray(c.lam, dtype=float)
-    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, lam))
+def _lambda_at(c, s, values=None):
+    """lambda_h (Pa; or the function of nodal ``values``) of 2D contact result ``c`` at tangential coordinates
+    ``s`` (m): its P1 (P2: piecewise quadratic) function on the merged mesh, 0 beyond it."""
+    x = np.asarray(c.x, dtype=float)
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, c.lam if values is None else values))
 
 
 def _merged_values(c, s, values):
@@ -567,8 +569,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
         t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located = []
-        for body, part in sides:
+        located, shear = [], shear_traction(c)                       # t_h: a friction law's, else None
+        for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
             fields, facets = cache[k]
@@ -581,6 +583,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
                 L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
                 R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
+                if shear is not None:                                   # the first body's t_h t, the other's -t_h t
+                    R -= (1 - 2 * side) * _lambda_at(c, x @ t, shear)[:, None] * t
                 acc += w * (R ** 2).sum(axis=1)
             term = h ** 2 * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
@@ -619,20 +623,24 @@ def _signorini_terms(c, located, data, eta2, parts):
         order = np.argsort(s_lo)
         j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
         owners.append((k, cell[order[j]]))
-    _share(owners, comp, pen / hS, data, eta2, parts)
+    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+    if c.shear is not None:                                            # a friction law (:mod:`.slipestimate`)
+        cone, slip = friction_segments(c, a, b, _GAUSS3)
+        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slip, 0)})
+    _share(owners, terms, data, eta2, parts)
 
 
-def _share(owners, comp, pen, data, eta2, parts):
-    """Add the complementarity ``comp`` and the penetration ``pen`` (times c_T) of each contact cell S, split
-    evenly between the sides' ``owners`` [(body k, cell of k holding S or -1)]."""
+def _share(owners, terms, data, eta2, parts):
+    """Add the terms {name: (values (S,), p)} of each contact cell S, each times c_T^p (the complementarity, the
+    penetration times c_T, a friction law's terms), split evenly between the sides' ``owners`` [(body k, cell of
+    k holding S or -1)]."""
     share = 1.0 / len(owners)
     for k, owner in owners:
         ok = owner >= 0
-        term_c = share * comp[ok]
-        term_p = share * data[k][0] * pen[ok]
-        np.add.at(eta2[k], owner[ok], term_c + term_p)
-        parts["complementarity"] += float(term_c.sum())
-        parts["penetration"] += float(term_p.sum())
+        for name, (values, p) in terms.items():
+            term = share * data[k][0] ** p * values[ok]
+            np.add.at(eta2[k], owner[ok], term)
+            parts[name] = parts.get(name, 0.0) + float(term.sum())
 
 
 def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
@@ -649,7 +657,12 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
+        tan = tangential_vectors(c, row_frames(itf))                   # t_h (n, 3): a friction law's, else None
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
+        if tan is not None:
+            live |= (np.append(np.abs(tan).sum(axis=1), 0.0)[elements] != 0).any(axis=1)
+            tan = np.einsum("qk,ekd->eqd", Lq if elements.shape[1] == 3 else shape_functions(Lq),
+                            np.concatenate([tan, np.zeros((1, 3))])[elements[live]]).reshape(-1, 3)
         elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
         hosts = [None if h is None else h[live] for h in hosts]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
@@ -659,7 +672,7 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
         wts = (areaS[:, None] * wq[None, :]).ravel()
         owners = []
-        for trace, host in zip(itf.traces, hosts):
+        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
             linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
             k = next(j for j, b in enumerate(bodies) if b is linear.body)
             mesh = linear.body.mesh
@@ -683,7 +696,11 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             fq = face[ok]
             s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
             lq = lam.ravel()[ok]
-            np.add.at(acc, fq, wts[ok] * (2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2))
+            R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
+            if tan is not None:                                     # the first body's t_h, the other's -t_h
+                tq = (1 - 2 * side) * tan[ok]
+                R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
+            np.add.at(acc, fq, wts[ok] * R2)
             term = _diameters(mesh.points, f) * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
             parts["contact traction"] += float(term.sum())
@@ -693,4 +710,8 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
         pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
-        _share(owners, comp, pen / hS, data, eta2, parts)
+        terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+        if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
+            cone, slip = friction_elements(c, elements, N, areaS[:, None] * wq[None, :])
+            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slip, 0)})
+        _share(owners, terms, data, eta2, parts)

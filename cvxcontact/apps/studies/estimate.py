@@ -29,6 +29,7 @@ from ...fem.space import space
 from ...geometry.mesh import rectangle
 from ...geometry.generators3d import box
 from ...geometry.refine import refine_uniform
+from ...contact.laws import Coulomb, Tresca
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
@@ -124,6 +125,23 @@ def boxes_scene():
                   materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"], contact="top", name="base")
     return Scene(top, bottom)
 
+
+def sheared_scene(law):
+    """A steel block 1 m x 0.5 m (8 x 4 cells) on a rigid floor under the traction (2, -10) MPa on its top, held
+    by the friction ``law`` alone (tests/friction_scenes.py's ``sheared``): Tresca with g = 3 MPa or Coulomb
+    with mu = 0.3 stick on the left of the base and slip on the right, the stick-slip transition inside it."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4), steel, contact="bottom",
+                 traction={"top": (2e6, -1e7)}, name="block")
+    return Scene(block, contacts=[Contact(block, "bottom", Rigid.plane((0.0, 0.0), (0.0, 1.0)), law=law)])
+
+
+FRICTION_SCENES = {
+    "sheared block, Tresca, P1": (lambda: sheared_scene(Tresca(3e6)), dict(condition="gamma3")),
+    "sheared block, Tresca, P2": (lambda: sheared_scene(Tresca(3e6)), dict(condition="sigma1", degree=2)),
+    "sheared block, Coulomb, P1": (lambda: sheared_scene(Coulomb(0.3)), dict(condition="gamma3")),
+}
+"""name -> (scene builder, solve keywords) of the friction laws' effectivity (benchmarks/friction_estimate.py)."""
 
 SCENES3D = {
     "sphere (3D), P1": (sphere_scene, dict(condition="gamma3")),

@@ -13,7 +13,11 @@ from __future__ import annotations
 import sys
 import time
 
-from cvxcontact.apps.studies.estimate import FRICTION_SCENES, against_reference, measure_estimate
+from cvxcontact.apps.studies.estimate import (
+    FRICTION_SCENES,
+    against_reference,
+    measure_estimate,
+)
 
 LEVELS, REFERENCE = (0, 1, 2), 4
 

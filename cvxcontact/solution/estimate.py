@@ -53,7 +53,7 @@ from ..fem.space import space
 from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
-from .slipestimate import friction_elements, friction_segments, shear_traction, tangential_vectors
+from . import slipestimate as slip
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
@@ -569,7 +569,7 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
         t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located, shear = [], shear_traction(c)                       # t_h: a friction law's, else None
+        located, shear = [], slip.shear_traction(c)                       # t_h: a friction law's, else None
         for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
@@ -625,8 +625,8 @@ def _signorini_terms(c, located, data, eta2, parts):
         owners.append((k, cell[order[j]]))
     terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
     if c.shear is not None:                                            # a friction law (:mod:`.slipestimate`)
-        cone, slip = friction_segments(c, a, b, _GAUSS3)
-        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slip, 0)})
+        cone, slides = slip.friction_segments(c, a, b, _GAUSS3)
+        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
     _share(owners, terms, data, eta2, parts)
 
 
@@ -657,7 +657,7 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
-        tan = tangential_vectors(c, row_frames(itf))                   # t_h (n, 3): a friction law's, else None
+        tan = slip.tangential_vectors(c, row_frames(itf))                   # t_h (n, 3): a friction law's, else None
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
             live |= (np.append(np.abs(tan).sum(axis=1), 0.0)[elements] != 0).any(axis=1)
@@ -712,6 +712,6 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
-            cone, slip = friction_elements(c, elements, N, areaS[:, None] * wq[None, :])
-            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slip, 0)})
+            cone, slides = slip.friction_elements(c, elements, N, areaS[:, None] * wq[None, :])
+            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["shear_traction", "friction_segments"]
+__all__ = ["friction_elements", "friction_segments", "shear_traction", "tangential_vectors"]
 
 
 def shear_traction(contact) -> np.ndarray | None:

@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ...fem.space import space
-from ...geometry.mesh import rectangle
-from ...geometry.generators3d import box
-from ...geometry.refine import refine_uniform
 from ...contact.laws import Coulomb, Tresca
+from ...fem.space import space
+from ...geometry.generators3d import box
+from ...geometry.mesh import rectangle
+from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
 from ...physics.scene import Body, Scene
@@ -137,9 +137,9 @@ def sheared_scene(law):
 
 
 FRICTION_SCENES = {
-    "sheared block, Tresca, P1": (lambda: sheared_scene(Tresca(3e6)), dict(condition="gamma3")),
-    "sheared block, Tresca, P2": (lambda: sheared_scene(Tresca(3e6)), dict(condition="sigma1", degree=2)),
-    "sheared block, Coulomb, P1": (lambda: sheared_scene(Coulomb(0.3)), dict(condition="gamma3")),
+    "sheared block, Tresca, P1": (lambda: sheared_scene(Tresca(3e6)), {"condition": "gamma3"}),
+    "sheared block, Tresca, P2": (lambda: sheared_scene(Tresca(3e6)), {"condition": "sigma1", "degree": 2}),
+    "sheared block, Coulomb, P1": (lambda: sheared_scene(Coulomb(0.3)), {"condition": "gamma3"}),
 }
 """name -> (scene builder, solve keywords) of the friction laws' effectivity (benchmarks/friction_estimate.py)."""
 

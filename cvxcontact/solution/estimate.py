@@ -34,7 +34,8 @@ its effectivity (estimate / true error) is measured against nested fine-mesh ref
 
 Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
-penetration). A curved part against a planar one (3D) reads lambda_h on the curved side's faces.
+penetration). A friction law (Tresca, Coulomb) subtracts its tangential traction t_h from R_F on the contact
+parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part against a planar one (3D) reads lambda_h on the curved side's faces.
 """
 
 from __future__ import annotations
@@ -67,7 +68,8 @@ class ErrorEstimate:
     ``absolute``: eta = (sum_T eta_T^2)^(1/2), sqrt(J/m) in 2D (per unit thickness), sqrt(J) in 3D;
     ``norm``: the solution's own energy norm |||(u_h, phi_h)|||, same unit; ``relative`` = absolute / norm.
     ``indicators[k]`` (m_k,): eta_T of each cell of body k (``scene.bodies[k].mesh.cells``: triangles or
-    tetrahedra). ``parts``: eta^2 split by term (J/m, J). ``guaranteed``: whether ``absolute`` is a proven upper
+    tetrahedra). ``parts``: eta^2 split by term (J/m, J; a friction law adds "friction cone" and "slip
+    complementarity"). ``guaranteed``: whether ``absolute`` is a proven upper
     bound of the true error (False: a residual estimator's constants are unknown; its effectivity is
     measured, docs/accuracy.md). ``kind``: "residual". ``unit``: "sqrt(J/m)" (2D) or "sqrt(J)" (3D).
     """
@@ -561,9 +563,9 @@ def _merged_values(c, s, values):
 
 
 def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
-    Signorini pair the complementarity and the penetration, shared by the cells of the sides (module
-    docstring)."""
+    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
+    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
+    the cells of the sides (module docstring)."""
     scene = sol.scene
     bodies = list(scene.bodies)
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
@@ -647,8 +649,10 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
     int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
     P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
-    :func:`~cvxcontact.contact.overlay.locate` in the plane); on each S of a Signorini pair the complementarity
-    and the penetration, shared by the cells of the sides that hold its centroid."""
+    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
+    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
+    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
+    centroid."""
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
     for i, c in enumerate(sol.contacts):
@@ -657,15 +661,14 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
-        tan = slip.tangential_vectors(c, row_frames(itf))                   # t_h (n, 3): a friction law's, else None
+        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
+        tan = slip.tangential_vectors(c, row_frames(itf), elements, N)     # a friction law's t_h, else None
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
-            live |= (np.append(np.abs(tan).sum(axis=1), 0.0)[elements] != 0).any(axis=1)
-            tan = np.einsum("qk,ekd->eqd", Lq if elements.shape[1] == 3 else shape_functions(Lq),
-                            np.concatenate([tan, np.zeros((1, 3))])[elements[live]]).reshape(-1, 3)
+            live |= tan[0]
+            tan = tan[1][live].reshape(-1, 3)                          # (e q, 3) at the rule's points
         elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
         hosts = [None if h is None else h[live] for h in hosts]
-        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
         lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
         d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
         areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])

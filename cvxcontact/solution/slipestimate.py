@@ -54,15 +54,17 @@ def friction_segments(contact, a, b, rule) -> tuple[np.ndarray, np.ndarray]:
     return cone * h, slip * h
 
 
-def tangential_vectors(contact, frames) -> np.ndarray | None:
-    """3D: t_h as vectors (n, 3) (Pa) at the nodes of X_h, t_h1 t_1 + t_h2 t_2 with the rows' ``frames``
-    (:func:`~cvxcontact.contact.interface.row_frames`: (2, 3), or (2, n, 3) turned per row); None without a
-    friction law."""
+def tangential_vectors(contact, frames, elements, N) -> tuple[np.ndarray, np.ndarray] | None:
+    """3D: t_h as vectors t_h1 t_1 + t_h2 t_2 (Pa) with the rows' ``frames``
+    (:func:`~cvxcontact.contact.interface.row_frames`: (2, 3), or (2, n, 3) turned per row) on the elements of X_h
+    (``elements`` (e, 3 | 6), -1 outside X_h): (where t_h is not 0 on an element (e,) bool, its values (e, q, 3)
+    at the rule's points of shape values ``N`` (q, 3 | 6)); None without a friction law."""
     t = shear_traction(contact)
     if t is None:
         return None
     f = np.asarray(frames, dtype=float)
-    return t[:, :1] * f[0] + t[:, 1:] * f[1]
+    nodal = np.concatenate([t[:, :1] * f[0] + t[:, 1:] * f[1], np.zeros((1, 3))])[elements]     # (e, k, 3)
+    return (nodal != 0).any(axis=(1, 2)), np.einsum("qk,ekd->eqd", N, nodal)
 
 
 def friction_elements(contact, elements, N, weights) -> tuple[np.ndarray, np.ndarray]:

@@ -212,3 +212,10 @@ def test_3d_the_friction_terms_sit_where_the_slip_starts(law, at_transition):
     top = np.argmax(slip)
     assert (stuck[top].any() and not stuck[top].all()) or not at_transition
     assert sol.estimate.parts["slip complementarity"] > 0
+
+
+def test_the_force_estimate_refuses_a_friction_law():
+    """cc.force_estimate poses a frictionless dual: a friction solution is refused naming the energy estimate."""
+    sol = cc.solve(sheared(0.2 * P, cc.Tresca(0.3 * P)))
+    with pytest.raises(cc.errors.UnsupportedError, match="friction law.*sol.estimate"):
+        cc.force_estimate(sol)

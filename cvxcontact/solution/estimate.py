@@ -35,7 +35,8 @@ its effectivity (estimate / true error) is measured against nested fine-mesh ref
 Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
 penetration). A friction law (Tresca, Coulomb) subtracts its tangential traction t_h from R_F on the contact
-parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part against a planar one (3D) reads lambda_h on the curved side's faces.
+parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part
+against a planar one (3D) reads lambda_h on the curved side's faces.
 """
 
 from __future__ import annotations
@@ -571,7 +572,7 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
         t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located, shear = [], slip.shear_traction(c)                       # t_h: a friction law's, else None
+        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
         for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
@@ -585,8 +586,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
                 L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
                 R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
-                if shear is not None:                                   # the first body's t_h t, the other's -t_h t
-                    R -= (1 - 2 * side) * _lambda_at(c, x @ t, shear)[:, None] * t
+                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
+                    R -= (1 - 2 * side) * _lambda_at(c, x @ t, fr.t)[:, None] * t
                 acc += w * (R ** 2).sum(axis=1)
             term = h ** 2 * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
@@ -595,10 +596,10 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts)
+        _signorini_terms(c, located, data, eta2, parts, fr)
 
 
-def _signorini_terms(c, located, data, eta2, parts):
+def _signorini_terms(c, located, data, eta2, parts, fr=None):
     """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
     split evenly between the sides' cells that hold its midpoint."""
     x = np.asarray(c.x, dtype=float)
@@ -626,8 +627,8 @@ def _signorini_terms(c, located, data, eta2, parts):
         j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
         owners.append((k, cell[order[j]]))
     terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
-    if c.shear is not None:                                            # a friction law (:mod:`.slipestimate`)
-        cone, slides = slip.friction_segments(c, a, b, _GAUSS3)
+    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
+        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
         terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
     _share(owners, terms, data, eta2, parts)
 
@@ -662,7 +663,8 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
-        tan = slip.tangential_vectors(c, row_frames(itf), elements, N)     # a friction law's t_h, else None
+        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
+        tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
             live |= tan[0]
@@ -715,6 +717,6 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
-            cone, slides = slip.friction_elements(c, elements, N, areaS[:, None] * wq[None, :])
+            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
             terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)

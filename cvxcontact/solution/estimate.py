@@ -46,7 +46,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..contact.interface import row_frames
+from ..contact.interface import row_frames, row_tangents
 from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions
@@ -573,6 +573,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
         t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
         located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
+        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
+            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
         for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
@@ -587,7 +589,7 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
                 R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
                 if fr is not None:                                      # the first body's t_h t, the other's -t_h t
-                    R -= (1 - 2 * side) * _lambda_at(c, x @ t, fr.t)[:, None] * t
+                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
                 acc += w * (R ** 2).sum(axis=1)
             term = h ** 2 * acc / data[k][0]
             np.add.at(eta2[k], cell, term)

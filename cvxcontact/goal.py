@@ -100,7 +100,7 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
     Raises
     ------
     UnsupportedError
-        For a 3D scene, a force-controlled obstacle or a compliance law in the scene.
+        For a 3D scene, a force-controlled obstacle, a compliance law or a friction law in the scene.
     SceneError
         For a ``pair`` that is not an index into ``sol.scene.contacts``.
     """
@@ -116,6 +116,9 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
         raise UnsupportedError(f"force_estimate: {forced[0]} is pressed by a prescribed force, which is then the "
                                "pair's force (no discretisation error); fix the obstacle (Rigid.with_force(None)) "
                                "to estimate the force of a prescribed position")
+    if any(c.shear_force is not None for c in sol.contacts):
+        raise UnsupportedError("force_estimate covers frictionless contact; with a friction law the dual problem "
+                               "is not posed yet: read sol.estimate (energy norm), which counts the friction law")
     if any(c.law is not None and getattr(c.law, "compliant", False) for c in sol.contacts):
         raise UnsupportedError("force_estimate covers Signorini conditions; under normal compliance the force "
                                "is the law's, not the multiplier of an equality: read sol.estimate")

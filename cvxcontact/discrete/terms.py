@@ -313,7 +313,7 @@ class TrescaFriction(_Term):
     tangential: ClassVar[bool] = True
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
-    unestimated: ClassVar[str] = "the estimates do not count a friction law's tangential traction yet"
+    unestimated: ClassVar[str] = ""
     refuses_user_terms: ClassVar[str] = ("user terms next to a friction law are not available yet: solve the model "
                                          "without them, or use a frictionless law")
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"

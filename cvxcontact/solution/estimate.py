@@ -34,7 +34,9 @@ its effectivity (estimate / true error) is measured against nested fine-mesh ref
 
 Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
-penetration). A curved part against a planar one (3D) reads lambda_h on the curved side's faces.
+penetration). A friction law (Tresca, Coulomb) subtracts its tangential traction t_h from R_F on the contact
+parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part
+against a planar one (3D) reads lambda_h on the curved side's faces.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..contact.interface import row_frames, row_tangents
 from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
 from ..fem.p2 import shape_functions
@@ -52,6 +55,7 @@ from ..fem.space import space
 from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
+from . import slipestimate as slip
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
@@ -65,7 +69,8 @@ class ErrorEstimate:
     ``absolute``: eta = (sum_T eta_T^2)^(1/2), sqrt(J/m) in 2D (per unit thickness), sqrt(J) in 3D;
     ``norm``: the solution's own energy norm |||(u_h, phi_h)|||, same unit; ``relative`` = absolute / norm.
     ``indicators[k]`` (m_k,): eta_T of each cell of body k (``scene.bodies[k].mesh.cells``: triangles or
-    tetrahedra). ``parts``: eta^2 split by term (J/m, J). ``guaranteed``: whether ``absolute`` is a proven upper
+    tetrahedra). ``parts``: eta^2 split by term (J/m, J; a friction law adds "friction cone" and "slip
+    complementarity"). ``guaranteed``: whether ``absolute`` is a proven upper
     bound of the true error (False: a residual estimator's constants are unknown; its effectivity is
     measured, docs/accuracy.md). ``kind``: "residual". ``unit``: "sqrt(J/m)" (2D) or "sqrt(J)" (3D).
     """
@@ -546,11 +551,11 @@ def _contact_cells(mesh, part, facets):
     return owners[at, 0], f
 
 
-def _lambda_at(c, s):
-    """lambda_h (Pa) of 2D contact result ``c`` at tangential coordinates ``s`` (m): its P1 (P2: piecewise
-    quadratic) function on the merged mesh, 0 beyond it."""
-    x, lam = np.asarray(c.x, dtype=float), np.asarray(c.lam, dtype=float)
-    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, lam))
+def _lambda_at(c, s, values=None):
+    """lambda_h (Pa; or the function of nodal ``values``) of 2D contact result ``c`` at tangential coordinates
+    ``s`` (m): its P1 (P2: piecewise quadratic) function on the merged mesh, 0 beyond it."""
+    x = np.asarray(c.x, dtype=float)
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, c.lam if values is None else values))
 
 
 def _merged_values(c, s, values):
@@ -559,16 +564,18 @@ def _merged_values(c, s, values):
 
 
 def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n||^2 / c_T; on each merged segment of a
-    Signorini pair the complementarity and the penetration, shared by the cells of the sides (module
-    docstring)."""
+    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
+    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
+    the cells of the sides (module docstring)."""
     scene = sol.scene
     bodies = list(scene.bodies)
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
         t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located = []
-        for body, part in sides:
+        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
+        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
+            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
+        for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
             fields, facets = cache[k]
@@ -581,6 +588,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
                 L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
                 R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
+                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
+                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
                 acc += w * (R ** 2).sum(axis=1)
             term = h ** 2 * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
@@ -589,10 +598,10 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts)
+        _signorini_terms(c, located, data, eta2, parts, fr)
 
 
-def _signorini_terms(c, located, data, eta2, parts):
+def _signorini_terms(c, located, data, eta2, parts, fr=None):
     """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
     split evenly between the sides' cells that hold its midpoint."""
     x = np.asarray(c.x, dtype=float)
@@ -619,28 +628,34 @@ def _signorini_terms(c, located, data, eta2, parts):
         order = np.argsort(s_lo)
         j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
         owners.append((k, cell[order[j]]))
-    _share(owners, comp, pen / hS, data, eta2, parts)
+    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
+        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
+        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
+    _share(owners, terms, data, eta2, parts)
 
 
-def _share(owners, comp, pen, data, eta2, parts):
-    """Add the complementarity ``comp`` and the penetration ``pen`` (times c_T) of each contact cell S, split
-    evenly between the sides' ``owners`` [(body k, cell of k holding S or -1)]."""
+def _share(owners, terms, data, eta2, parts):
+    """Add the terms {name: (values (S,), p)} of each contact cell S, each times c_T^p (the complementarity, the
+    penetration times c_T, a friction law's terms), split evenly between the sides' ``owners`` [(body k, cell of
+    k holding S or -1)]."""
     share = 1.0 / len(owners)
     for k, owner in owners:
         ok = owner >= 0
-        term_c = share * comp[ok]
-        term_p = share * data[k][0] * pen[ok]
-        np.add.at(eta2[k], owner[ok], term_c + term_p)
-        parts["complementarity"] += float(term_c.sum())
-        parts["penetration"] += float(term_p.sum())
+        for name, (values, p) in terms.items():
+            term = share * data[k][0] ** p * values[ok]
+            np.add.at(eta2[k], owner[ok], term)
+            parts[name] = parts.get(name, 0.0) + float(term.sum())
 
 
 def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
     int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
     P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
-    :func:`~cvxcontact.contact.overlay.locate` in the plane); on each S of a Signorini pair the complementarity
-    and the penetration, shared by the cells of the sides that hold its centroid."""
+    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
+    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
+    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
+    centroid."""
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
     for i, c in enumerate(sol.contacts):
@@ -649,17 +664,22 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
+        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
+        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
+        tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
+        if tan is not None:
+            live |= tan[0]
+            tan = tan[1][live].reshape(-1, 3)                          # (e q, 3) at the rule's points
         elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
         hosts = [None if h is None else h[live] for h in hosts]
-        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
         lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
         d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
         areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
         xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
         wts = (areaS[:, None] * wq[None, :]).ravel()
         owners = []
-        for trace, host in zip(itf.traces, hosts):
+        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
             linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
             k = next(j for j, b in enumerate(bodies) if b is linear.body)
             mesh = linear.body.mesh
@@ -683,7 +703,11 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             fq = face[ok]
             s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
             lq = lam.ravel()[ok]
-            np.add.at(acc, fq, wts[ok] * (2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2))
+            R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
+            if tan is not None:                                     # the first body's t_h, the other's -t_h
+                tq = (1 - 2 * side) * tan[ok]
+                R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
+            np.add.at(acc, fq, wts[ok] * R2)
             term = _diameters(mesh.points, f) * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
             parts["contact traction"] += float(term.sum())
@@ -693,4 +717,8 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
         pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
-        _share(owners, comp, pen / hS, data, eta2, parts)
+        terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+        if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
+            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
+        _share(owners, terms, data, eta2, parts)

@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...contact.laws import Coulomb, Tresca
 from ...fem.space import space
-from ...geometry.mesh import rectangle
 from ...geometry.generators3d import box
+from ...geometry.mesh import rectangle
 from ...geometry.refine import refine_uniform
 from ...physics import materials
 from ...physics.pairs import Contact, Rigid
@@ -124,6 +125,33 @@ def boxes_scene():
                   materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"], contact="top", name="base")
     return Scene(top, bottom)
 
+
+def sheared_scene(law):
+    """A steel block 1 m x 0.5 m (8 x 4 cells) on a rigid floor under the traction (2, -10) MPa on its top, held
+    by the friction ``law`` alone (tests/friction_scenes.py's ``sheared``): Tresca with g = 3 MPa or Coulomb
+    with mu = 0.3 stick on the left of the base and slip on the right, the stick-slip transition inside it."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    block = Body(rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4), steel, contact="bottom",
+                 traction={"top": (2e6, -1e7)}, name="block")
+    return Scene(block, contacts=[Contact(block, "bottom", Rigid.plane((0.0, 0.0), (0.0, 1.0)), law=law)])
+
+
+def sheared_box_scene(law):
+    """A steel 1 m cube (3 x 3 x 2 cubes of six tetrahedra) on a rigid floor under the traction (1, 0.5, -10) MPa
+    on its top, held by the friction ``law`` alone (tests/friction_scenes.py's ``box``): with Tresca's g = 5 MPa
+    about a quarter of its base sticks."""
+    steel = materials.isotropic(E=200e9, nu=0.3, name="steel")
+    block = Body(box(nx=3, ny=3, nz=2), steel, contact="bottom", traction={"top": (1e6, 5e5, -1e7)}, name="box")
+    return Scene(block, contacts=[Contact(block, "bottom", Rigid.plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), law=law)])
+
+
+FRICTION_SCENES = {
+    "sheared block, Tresca, P1": (lambda: sheared_scene(Tresca(3e6)), {"condition": "gamma3"}),
+    "sheared block, Tresca, P2": (lambda: sheared_scene(Tresca(3e6)), {"condition": "sigma1", "degree": 2}),
+    "sheared block, Coulomb, P1": (lambda: sheared_scene(Coulomb(0.3)), {"condition": "gamma3"}),
+    "sheared box (3D), Tresca, P1": (lambda: sheared_box_scene(Tresca(5e6)), {"condition": "gamma3"}),
+}
+"""name -> (scene builder, solve keywords) of the friction laws' effectivity (benchmarks/friction_estimate.py)."""
 
 SCENES3D = {
     "sphere (3D), P1": (sphere_scene, dict(condition="gamma3")),

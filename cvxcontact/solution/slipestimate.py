@@ -1,0 +1,105 @@
+"""The friction terms of the residual error estimate (docs/accuracy.md, "Friction"; Tresca and Coulomb).
+
+A friction law adds the tangential traction t to the contact traction of eq. (8): on the first body of a pair
+sigma n = -lambda nu + t tau (tau the pair's tangent in 2D, t (., 2) along its frame (t_1, t_2) in 3D), on the
+second body the opposite, with |t| <= g and t anti-parallel to the slip [u_t] where [u_t] != 0
+(g |[u_t]| + t . [u_t] = 0). The estimate reads t_h, the discrete tangential traction, from the row forces:
+each row's tangential force over the length (area) it holds (``ContactResult.shear``, Pa), the function of the
+rows' nodes in X_h (``Interface.extend``: under "sigma1"/"sigma2" the merged nodes without a row take the value of
+the constrained side's function, not 0; P1 or P2 on the merged mesh in 2D, on the elements of X_h in 3D); the
+threshold g_h likewise (Tresca: g; Coulomb: mu p at each row). The lumped read-back, not the Riesz
+representer of the forces (as lambda_h is): the representer of nodal forces oscillates where the slip starts
+(up to twice the threshold on the meshes of tests/test_friction_estimate.py), which would charge the cone term
+with an artefact of the read-back rather than with the discretisation; the lumped one meets |t_h| <= g at every
+row, as the law's rows ask.
+
+On each cell S of the contact mesh (2D: the merged segments) two terms, in the estimator's units (J/m in 2D):
+
+    friction cone      h_S / c_T ||(|t_h| - g_h)^+||_S^2
+    slip complement    int_S (g_h |[u_ht]| + t_h . [u_ht])^+
+
+g_h the threshold the solution reports (Tresca: g; Coulomb: mu p at each node, interpolated). Both vanish for
+the exact solution; at a finished discrete solution they are not zero where a segment holds both a stuck and a
+slipping node (the stick-slip transition, where the law holds at the rows but not between them): there they
+localise. The traction mismatch h_E ||sigma_h n + lambda_h nu - t_h tau||^2 replaces the frictionless
+h_E ||sigma_h n + lambda_h nu||^2 in the contact traction term (:mod:`cvxcontact.solution.estimate`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Friction", "friction_elements", "friction_of", "friction_segments", "tangential_vectors"]
+
+
+@dataclass(frozen=True)
+class Friction:
+    """A pair's friction law as the estimate reads it, at every node of X_h: ``t`` t_h (Pa; on the first body, along
+    the pair's tangent, 3D (n, 2) along its frame), ``g`` g_h (n,) (Pa), ``s`` the slip [u_t] (m; like ``t``)."""
+
+    t: np.ndarray
+    g: np.ndarray
+    s: np.ndarray
+
+
+def friction_of(sol, i: int) -> Friction | None:
+    """The :class:`Friction` of pair ``i`` of ``sol`` (module docstring); None without a friction law."""
+    c = sol.contacts[i]
+    if c.shear_force is None:
+        return None
+    itf = sol._pair_line(i)
+    condition = sol.scene.conditions[i] or sol.condition
+    E = itf.evaluation(condition)
+
+    def extend(values):                            # the function of the rows' values, at every node of X_h
+        v = np.asarray(values, dtype=float)
+        cols = [itf.extend(condition, E @ col) for col in v.reshape(len(v), -1).T]
+        return np.column_stack(cols).reshape(v.shape)
+
+    slip = np.asarray(c.slip, dtype=float)
+    return Friction(t=extend(c.shear), g=extend(np.broadcast_to(np.asarray(c.threshold, dtype=float), len(slip))),
+                    s=slip)
+
+
+def friction_segments(f: Friction, contact, a, b, rule) -> tuple[np.ndarray, np.ndarray]:
+    """2D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m), int_S (g_h |[u_ht]| + t_h [u_ht])^+ (J/m)) on each merged
+    segment S = [a, b] (m, tangential coordinates) of a pair's :class:`ContactResult` ``contact`` and
+    :class:`Friction` ``f`` (module docstring), by the 1D Gauss ``rule`` (points on [0, 1], weights summing to 1)."""
+    x = np.asarray(contact.x, dtype=float)
+    h = b - a
+    cone, slip = np.zeros(len(a)), np.zeros(len(a))
+    for tq, w in zip(*rule):
+        at = a + tq * h
+        tv, gv, sv = (contact.trace.values(x, v, at) for v in (f.t, f.g, f.s))
+        cone += w * np.maximum(np.abs(tv) - gv, 0.0) ** 2
+        slip += w * np.maximum(gv * np.abs(sv) + tv * sv, 0.0)
+    return cone * h, slip * h
+
+
+def tangential_vectors(f: Friction | None, frames, elements, N) -> tuple[np.ndarray, np.ndarray] | None:
+    """3D: t_h as vectors t_h1 t_1 + t_h2 t_2 (Pa) with the rows' ``frames``
+    (:func:`~cvxcontact.contact.interface.row_frames`: (2, 3), or (2, n, 3) turned per row) on the elements of X_h
+    (``elements`` (e, 3 | 6), -1 outside X_h): (where t_h is not 0 on an element (e,) bool, its values (e, q, 3)
+    at the rule's points of shape values ``N`` (q, 3 | 6)); None without a friction law (``f`` None)."""
+    if f is None:
+        return None
+    fr = np.asarray(frames, dtype=float)
+    nodal = np.concatenate([f.t[:, :1] * fr[0] + f.t[:, 1:] * fr[1], np.zeros((1, 3))])[elements]     # (e, k, 3)
+    return (nodal != 0).any(axis=(1, 2)), np.einsum("qk,ek...->eq...", N, nodal)
+
+
+def friction_elements(f: Friction, elements, N, weights) -> tuple[np.ndarray, np.ndarray]:
+    """3D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m^2), int_S (g_h |[u_ht]| + t_h . [u_ht])^+ (J)) on each element S of
+    X_h (``elements`` (e, 3 | 6): its nodes, -1 outside X_h) of the :class:`Friction` ``f``, by the rule of shape
+    values ``N`` (q, 3 | 6) and weights ``weights`` (e, q) (the element's area times the rule's weights)."""
+
+    def at(values):                                               # (e, q, ...) at the rule's points
+        v = np.concatenate([values, np.zeros((1,) + values.shape[1:])])[elements]
+        return np.einsum("qk,ek...->eq...", N, v)
+
+    tq, gq, sq = at(f.t), at(f.g), at(f.s)
+    cone = np.maximum(np.linalg.norm(tq, axis=2) - gq, 0.0) ** 2
+    slip = np.maximum(gq * np.linalg.norm(sq, axis=2) + (tq * sq).sum(axis=2), 0.0)
+    return (weights * cone).sum(axis=1), (weights * slip).sum(axis=1)

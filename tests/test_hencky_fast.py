@@ -26,6 +26,7 @@ from test_bulk_energy import (
 
 import cvxcontact as cc
 from cvxcontact.backends import choose, describe, nonlinear
+from cvxcontact.backends.factor import pardiso_available
 from cvxcontact.backends.mixed import mixed_system
 from cvxcontact.backends.result import Finish
 from cvxcontact.discrete import build_problem
@@ -315,9 +316,9 @@ def test_the_line_search_and_secant_start_give_the_answer_of_plain_newton(monkey
     24 x 8 cells 8 steps and 6 factorisations against 11 and 8; 64 x 24 13 steps and 8 factorisations against 12
     and 10: the secant step once leaves the final contact set and comes back)."""
     scene = indented(HENCKY, nx=size[0], ny=size[1], depth=5e-3)
-    assert nonlinear.LINE > 0                                   # the secant start is opt-in (nonlinear.SECANT)
+    assert nonlinear.LINE > 0 and nonlinear.SECANT > 0
     runs = []
-    for line, secant in ((nonlinear.LINE, 1), (0, 0)):
+    for line, secant in ((nonlinear.LINE, nonlinear.SECANT), (0, 0)):
         monkeypatch.setattr(nonlinear, "LINE", line)
         monkeypatch.setattr(nonlinear, "SECANT", secant)
         solver = cc.ContactSolver(scene, estimate=False)
@@ -333,3 +334,63 @@ def test_the_line_search_and_secant_start_give_the_answer_of_plain_newton(monkey
         full = cc.solve(scene, estimate=False, method="full")
     same(new, full)                                             # measured <= 2e-15 (u)
     assert factored <= plain_factored and new.info.iterations <= 2 * 13     # measured above
+
+
+class Recorded(nonlinear.TangentSolver):
+    """The route's TangentSolver, recording each step's system (K, b, closed rows) and answer."""
+
+    def __call__(self, K, b, at):
+        out = super().__call__(K, b, at)
+        self.steps = getattr(self, "steps", []) + [(K.copy(), b.copy(), at.copy(), out)]
+        return out
+
+
+def test_the_secant_step_is_the_kacanov_step(monkeypatch):
+    """The route's second step (nonlinear.SECANT, the default) takes the secant stiffness at the elastic predictor
+    x_1: S(x_1) x_1 is the internal force there, so the step's K x_1 + b is the load f = -gradient(0) on every
+    unknown (the Kacanov step: the load on the stiffness frozen at x_1; Signorini rows add nothing to K); the
+    tangent at x_1 is not (the block yields there), and the answer is the full route's."""
+    monkeypatch.setattr(nonlinear, "TangentSolver", Recorded)
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    solver = cc.ContactSolver(scene, estimate=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        sol = solver.solve()
+        full = cc.solve(scene, estimate=False, method="full")
+    assert sol.ok and sol.info.route == cc.Route.NEWTON_DIRECT and nonlinear.SECANT >= 1
+    same(sol, full)                                             # measured <= 2.3e-16 (u), 8.8e-16 (forces)
+    op, G, _ = mixed_system(solver.problem)
+    steps = solver.cache.own["newton"].steps
+    n = G.shape[1]
+    x1 = steps[0][3][:n]                                        # the start's step from x_0 = 0, taken whole
+    f = -op.gradient(np.zeros(n))                               # the loads (0 here: the circle presses)
+    K2, b2 = steps[1][0], steps[1][1][:n]                       # b2 = f - F(x_1), F the internal forces
+    scale = np.linalg.norm(K2 @ x1)
+    assert np.linalg.norm(K2 @ x1 + b2 - f) < 1e-12 * scale     # measured 2.6e-15
+    assert np.linalg.norm(op.tangent(x1) @ x1 + b2 - f) > 1e-2 * scale      # measured 0.30 (the tangent's softer)
+    s = np.linalg.norm(solver.problem.blocks[0].bulk.strains(x1) @ deviator(2)[0].T, axis=1)
+    assert (s > HENCKY.s_y).sum() >= 10                         # measured: 124 points past yield at x_1
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_krylov_steps_on_any_factorisation_settle_from_the_secant_start(monkeypatch, factorization):
+    """GMRES at every step (CHEAP = 0, as in 3D) on SuperLU's or PARDISO's factors from the secant start settles
+    without the interior point on a 40 x 12 indented block, at the full route's answer. Before the steps' merit was
+    the closed rows' Lagrangian (solve_sparse_compliance) it did not: a Krylov step left r_L = l_L to 1e-10, the
+    step restoring it raised the energy against the reactions, and the backtracking on the energy alone cut every
+    step to t ~ 1e-5 until the step limit (route NEWTON_FELL_BACK)."""
+    if factorization == "pardiso" and not pardiso_available():
+        pytest.skip("PARDISO (oneMKL) is not installed")
+    monkeypatch.setattr(nonlinear, "CHEAP", 0)
+    scene = indented(HENCKY, nx=40, ny=12, depth=5e-3)
+    solver = cc.ContactSolver(scene, estimate=False, factorization=factorization)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        sol = solver.solve()
+        full = cc.solve(scene, estimate=False, method="full")
+    tangent = solver.cache.own["newton"]
+    assert tangent.kind == factorization and tangent.iterations > 0 and nonlinear.SECANT >= 1
+    assert sol.ok and sol.info.route == cc.Route.NEWTON_DIRECT, sol.info.route
+    # measured: SuperLU 13 steps, 3 factorisations, 41 GMRES iterations; PARDISO 11 steps, 5 and 16
+    assert tangent.factorizations < sol.info.iterations
+    same(sol, full)                                             # measured <= 2.4e-15 (u), 1.8e-15 (forces)

@@ -66,14 +66,14 @@ instead of halved until the energy decreases. Measured (CPU, one thread, circle 
 unknowns 16 -> 11 steps (14 -> 8 factorisations), P1 at 103,362 13 -> 11 and at 26,082 11 -> 10; 0: halving
 only."""
 
-SECANT = 0
+SECANT = 1
 """The Newton steps after the start's (the elastic predictor's) that take the bodies' secant stiffness instead of
 the tangent (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`'s ``secant``; a re-solve from the
 previous answer: none). Measured with :data:`LINE` (CPU, one thread, circle into a block): 103,362 unknowns P1 11
 -> 9 steps (9 -> 7 factorisations), P2 11 -> 10; 26,082 P1 10 -> 13 steps but 7 -> 8 factorisations (the contact
-set left and taken back once). 0 by default (opt in with 1): with GMRES tried at every step on SuperLU's factors (the
-default install), Newton from the secant start did not settle without the interior point on a 40 x 12 indented
-block (tests/test_hencky_fast.py, CHEAP = 0), where it settles from the tangent."""
+set left and taken back once). 0: Newton's tangent at every step. (Once opt-in: on SuperLU's factors with GMRES at
+every step a 40 x 12 indented block did not settle from it, the backtracking then being on the energy alone, which
+an inexact step's closed rows made no merit function; it is on the closed rows' Lagrangian since.)"""
 
 FORCING = 1e-4
 """The forcing term of the inexact Newton steps (:class:`TangentSolver`'s GMRES): a step's system is solved until

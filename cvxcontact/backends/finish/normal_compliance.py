@@ -259,7 +259,9 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     (a semismooth Newton step: p' and a Hencky tangent jump where a row opens or a point yields; exact in one
     step for a linear material and m = 1 once the penetrating rows are right), damped by backtracking on the
     energy L(x) + sum_a w_a Phi_a(r_a) (strongly convex with a Lipschitz gradient on the rows L closed, which
-    every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole),
+    every step after the first of a set L keeps, as it keeps the Gauss rows: that first step is taken whole) plus
+    the closed rows' term z_L . (r_L - l_L) with the step's reactions (the Lagrangian, of slope -dx . K dx along
+    the step: a descent direction also where an inexact solve left r_L = l_L unmet, as a Krylov step does),
     inside primal-dual active-set steps on the limited rows (a row joins L where z_a > 0 is needed or
     r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
     m) the starting L (default r(x0) >= l on the limited rows). ``solve(K, b, at)``: the sparse solve of each step's
@@ -361,12 +363,19 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
             settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + floor).all())
             t = 1.0
             if not first and not settled:
-                f0 = energy(x)
-                slope = 0.0 if not (armijo or line) else min(float(force(x) @ dx), 0.0)
+                # the merit: the Lagrangian with the step's reactions (the docstring); on the energy alone a step
+                # restoring r_L = l_L after an inexact solve can rise against the reactions: the backtracking then
+                # stalled (t ~ 1e-5 at every step, 40 x 12 indented block, GMRES on SuperLU's factors). Where
+                # r_L = l_L holds the added term is rounding: the energy's test.
+                GL, zL = G[at], z[at]
+                c0, cz = float(zL @ (GL @ x - g[at] - ell[at])), float(zL @ (GL @ dx))    # the term, its slope
+                f0 = energy(x) + c0
+                slope = 0.0 if not (armijo or line) else min(float(force(x) @ dx) + cz, 0.0)
                 if line and slope < 0.0:
-                    t = _line_minimum(lambda t, x=x, dx=dx: float(force(x + t * dx) @ dx), slope, line)
+                    t = _line_minimum(lambda t, x=x, dx=dx, cz=cz: float(force(x + t * dx) @ dx) + cz, slope, line)
                 slope = slope if armijo else 0.0
-                while t > 1e-12 and energy(x + t * dx) > f0 + armijo * t * slope + 1e-14 * max(abs(f0), tiny):
+                while t > 1e-12 and (energy(x + t * dx) + c0 + t * cz
+                                     > f0 + armijo * t * slope + 1e-14 * max(abs(f0), tiny)):
                     t *= 0.5
                 if t < 1.0:
                     trial = x + t * dx

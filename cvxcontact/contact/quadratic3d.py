@@ -34,13 +34,13 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
-from .interface import CONDITIONS, normal_jump, read_only, row_directions
+from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
 from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 from .surface import reached_faces
 
-__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "p2_shape", "p2_triangle_nodes", "p2_weights",
-           "locate"]
+__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "RED_SUBTRIANGLES", "p2_shape", "p2_triangle_nodes",
+           "p2_weights", "red_mass", "red_weights", "locate"]
 
 P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [-1, 6, -1, 0, 0, -4],
@@ -68,6 +68,10 @@ Tabulated to 15 decimals (their closed forms a, b = (8 - sqrt 10 +- sqrt(38 - 44
 w = (620 +- sqrt(213125 - 53320 sqrt 10)) / 3720); the P2 volume loads of fem/p2.py take the same rule."""
 
 
+_COMPLIANCE = ("a normal-compliance law", "'gamma3' or the other sigma condition")
+_FRICTION = ("a friction law", "the other sigma condition")
+"""What a law whose rows form no P2 triangles is, and what to use instead (:meth:`QuadraticSurface.weights`)."""
+
 
 def p2_shape(L) -> np.ndarray:
     """(k, 6): the triangle6 shape functions (v0, v1, v2, m01, m12, m20) at barycentric coordinates L (k, 3):
@@ -93,6 +97,28 @@ def p2_weights(cells, area, n) -> np.ndarray:
     :data:`P2_TRIANGLE_MASS`). The quadrature on the nodes exact for quadratics (the only one: the integrals of
     the interpolant), with non-negative weights; the vertices carry none."""
     return np.bincount(np.asarray(cells)[:, 3:].ravel(), weights=np.repeat(np.asarray(area) / 3.0, 3), minlength=n)
+
+
+RED_SUBTRIANGLES = np.array([[0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]])
+"""The red refinement of a triangle6 (v0, v1, v2, m01, m12, m20): its four triangles of a quarter of its area."""
+
+
+def red_mass(cells, area, n) -> sp.csr_matrix:
+    """(n, n): the P1 mass matrix (m^2) of the red refinement of the triangles ``cells`` (c, 6) of ``area`` (c,)
+    m^2 (:data:`RED_SUBTRIANGLES`, each of area A/4): its row sums are :func:`red_weights`, positive."""
+    sub = np.asarray(cells)[:, RED_SUBTRIANGLES].reshape(-1, 3)
+    local = (np.ones((3, 3)) + np.eye(3)) / 12.0
+    vals = (np.repeat(np.asarray(area, dtype=float) / 4.0, 4)[:, None, None] * local).ravel()
+    return sp.csr_matrix((vals, (np.repeat(sub, 3, axis=1).ravel(), np.tile(sub, (1, 3)).ravel())), shape=(n, n))
+
+
+def red_weights(cells, area, n) -> np.ndarray:
+    """(n,): the lumped P1 mass (m^2) of the red refinement of the triangles ``cells`` (c, 6) of ``area`` (c,) m^2:
+    A/12 at each vertex of a triangle, A/4 at each edge midpoint (three sub-triangles), summing to A. A positive
+    nodal rule exact for linear functions (the trapezoidal rule on the sub-triangles); the only nodal rule exact
+    for quadratics, :func:`p2_weights`, gives the vertices 0."""
+    share = np.tile([1.0 / 12] * 3 + [1.0 / 4] * 3, len(cells)) * np.repeat(np.asarray(area, dtype=float), 6)
+    return np.bincount(np.asarray(cells).ravel(), weights=share, minlength=n)
 
 
 def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:
@@ -254,6 +280,23 @@ class QuadraticSurface:
         t = self.traces[self.members.index(k)]
         return normal_jump(self._interp[t.k], np.asarray(t.nodes), row_directions(self, t.unit_normal), 3 * n_nodes)
 
+    slip_components = 2
+    """Components of the slip per node of X_h: along the pair's ``frame`` (t_1, t_2)."""
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(2 size, 3 n_nodes): the scene's body ``k``'s part of the slip [u_t]_j = (u^a - u^b) . t_j at the nodes of
+        X_h from its P2 nodal displacements, component-major (rows j size + a), (t_1, t_2) the pair's ``frame``
+        (:func:`~cvxcontact.contact.interface.row_frames`: against a curved obstacle turned into each row's
+        tangent plane) for the first body, their opposites for the second (as
+        :meth:`~cvxcontact.contact.surface.SurfaceInterface.tangential_jump`); zero if k is not a member."""
+        if k not in self.members:
+            return sp.csr_matrix((2 * self.size, 3 * n_nodes))
+        side = self.members.index(k)
+        t = self.traces[side]
+        sign = 1.0 if side == 0 else -1.0
+        return sp.vstack([normal_jump(self._interp[t.k], np.asarray(t.nodes), sign * tj, 3 * n_nodes)
+                          for tj in row_frames(self)], format="csr")
+
     def sigma_rows(self, l) -> np.ndarray:
         """The P2 nodes of body l's trace (indices into ``traces[l].nodes``) inside the overlap, in the order
         of the rows of ``evaluation("sigma<l+1>")``."""
@@ -269,7 +312,7 @@ class QuadraticSurface:
             return sp.identity(self.size, format="csr")
         return self._sigma[int(condition[-1]) - 1][1]
 
-    def _law_triangles(self, condition) -> tuple[np.ndarray, np.ndarray]:
+    def _law_triangles(self, condition, refusal=_COMPLIANCE) -> tuple[np.ndarray, np.ndarray]:
         """(cells (c, 6), area (c,) m^2): the P2 triangles a normal-compliance law integrates over under
         ``condition``, their node indices the rows of :meth:`evaluation`. "gamma3" (and an obstacle) the triangles of
         X_h (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
@@ -282,7 +325,7 @@ class QuadraticSurface:
             return cells, _area(self.x[cells[:, :3]])
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
-        faces = self._sigma_faces(condition)
+        faces = self._sigma_faces(condition, refusal)
         at = np.full(len(t.nodes), -1)
         at[inside] = np.arange(len(inside))
         return at[faces], _area(t.x[faces[:, :3]])
@@ -296,21 +339,32 @@ class QuadraticSurface:
         :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
         triangle, the rule's order within each), w = rule weight x area > 0. The law's rows are Q E: the energy
         sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in contact), the nodal forces
-        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the :meth:`weights`."""
+        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the integrals of the P2 functions
+        (:func:`p2_weights`, the row sums of :meth:`row_mass`)."""
         cells, area = self._law_triangles(condition)
         L, w = P2_FACE_RULE
         Q = _p2_rows(np.tile(L, (len(cells), 1)), np.repeat(cells, len(w), axis=0), self._rows(condition))
         return Q, np.outer(area, w).ravel()
 
     def weights(self, condition) -> np.ndarray:
-        """The integrals (m^2) of the P2 functions of the rows of :meth:`evaluation` over the triangles of
-        :meth:`quadrature` (:func:`p2_weights`: 0 at their vertices, A/3 per triangle at each edge midpoint)."""
-        cells, area = self._law_triangles(condition)
-        return p2_weights(cells, area, self._rows(condition))
+        """The areas (m^2) attributed to the rows of :meth:`evaluation`, all positive: the friction capacities
+        g w_a (docs/howto/friction.md, "P2 tetrahedra"). The lumped P1 mass of the red refinement of each P2 triangle
+        (its six nodes the vertices of four triangles of a quarter of its area: A/12 at each vertex, A/4 at each edge
+        midpoint, :func:`red_weights`; exact for linear functions), on the triangles of :meth:`quadrature`; against an
+        obstacle the row sums of that mass restricted to the nodes that reach it (as P1's). Not the integrals of
+        the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): those are 0 at the vertices, where
+        a vertex would then slip for free. Refuses "sigma1"/"sigma2" rows that form no P2 triangles
+        (UnsupportedError, as :meth:`quadrature`)."""
+        if self.rigid:
+            t = self.traces[0]
+            M = red_mass(t.faces, _area(t.x[t.faces[:, :3]]), len(t.nodes))
+            return np.asarray(M[self.reach][:, self.reach].sum(axis=1)).ravel()
+        cells, area = self._law_triangles(condition, _FRICTION)
+        return red_weights(cells, area, self._rows(condition))
 
     def row_mass(self, condition) -> sp.csr_matrix:
         """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of
-        :meth:`evaluation` (its row sums are the :meth:`weights`; zero rows at nodes no such triangle has)."""
+        :meth:`evaluation` (its row sums are :func:`p2_weights`; zero rows at nodes no such triangle has)."""
         cells, area = self._law_triangles(condition)
         return _p2_mass(cells, area, self._rows(condition)).tocsr()
 
@@ -327,7 +381,7 @@ class QuadraticSurface:
             out[on] = spla.spsolve(M[on][:, on].tocsc(), (Q.T @ np.asarray(force, dtype=float))[on])
         return out
 
-    def _sigma_faces(self, condition) -> np.ndarray:
+    def _sigma_faces(self, condition, refusal=_COMPLIANCE) -> np.ndarray:
         """The faces (k, 6) of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the overlap; refuses
         (UnsupportedError, :meth:`quadrature`) when its nodes in the overlap are not exactly their nodes."""
         l = int(condition[-1]) - 1
@@ -336,10 +390,11 @@ class QuadraticSurface:
         mark[inside] = True
         faces = np.asarray(t.faces)[mark[t.faces].all(axis=1)]
         if len(faces) == 0 or len(np.unique(faces)) != len(inside):
-            raise UnsupportedError(f"a normal-compliance law with P2 (10-node) tetrahedra under {condition!r}: the "
+            what, other = refusal
+            raise UnsupportedError(f"{what} with P2 (10-node) tetrahedra under {condition!r}: the "
                                    f"overlap of the pair cuts faces of body {l + 1}'s contact part, so its nodes "
-                                   "in the overlap form no P2 triangles for the law's quadrature; use 'gamma3' "
-                                   "or the other sigma condition")
+                                   f"in the overlap form no P2 triangles for the law's quadrature; use {other} "
+                                   "(the finer side's nodes, on faces the overlap covers)")
         return faces
 
     def extend(self, condition, values) -> np.ndarray:

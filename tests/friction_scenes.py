@@ -1,5 +1,9 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
-on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other)."""
+on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
+the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py, tests/test_friction3d_p2.py).
+"""
+
+import numpy as np
 
 import cvxcontact as cc
 
@@ -28,3 +32,35 @@ def pushed(law, s=1e-4):
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
     b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
     return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def projected_gradient_tresca(W, q, capacity, iterations=20000):
+    """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
+    n = len(q) // 3
+
+    def project(V):
+        V = V.reshape(n, 3).copy()
+        norm = np.linalg.norm(V[:, :2], axis=1)
+        V[:, :2] *= np.minimum(1.0, capacity / np.maximum(norm, np.finfo(float).tiny))[:, None]
+        V[:, 2] = np.maximum(V[:, 2], 0.0)
+        return V.ravel()
+
+    def energy(X):
+        return 0.5 * X @ W @ X + q @ X
+
+    step = 1.0 / np.linalg.eigvalsh(W).max()
+    R = Y = np.zeros(3 * n)
+    t, restarted = 1.0, False
+    for _ in range(iterations):
+        new = project(Y - step * (W @ Y + q))
+        if np.abs(new - R).max() <= 1e-15 * np.abs(new).max():
+            return new
+        if energy(new) > energy(R):                        # restart the momentum; twice in a row: at rounding
+            if restarted:
+                return R
+            Y, t, restarted = R, 1.0, True
+            continue
+        restarted = False
+        t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
+        Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
+    return R

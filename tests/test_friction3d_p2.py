@@ -13,6 +13,7 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
 - The same box in partial slip against an independent reference written here: the nodal Tresca law's dual QP over
   the condensed P2 compliance, the red-refinement weights computed here from the 6-node faces (FISTA,
   tests/friction_scenes.py); the friction cone's complementarity read off the answer at every row.
+- Q2 hexahedra (their faces' 6-node triangles): the stuck layer from g = 16/9 tau, the pushed box sliding.
 - P1 on finer boxes tends to the P2 answer.
 - A pair of boxes (matching faces; and 2 x 2 on 4 x 4 with the finer side's nodes) gives the same answer posed from
   either side (sigma1 and sigma2 swapped); Coulomb finished to its own law.
@@ -36,19 +37,19 @@ def steel(nu=0.3, scale=1.0):
     return cc.materials.isotropic(E=E * scale, nu=nu)
 
 
-def layer(tau, g, n=2):
+def layer(tau, g, n=2, cell="tetra"):
     """The nu = 0 box under (tau_x, tau_y, -p) on its top and the complementary shear on its sides (a uniform state:
     sigma_zz = -p, sigma_xz = tau_x, sigma_yz = tau_y), Tresca ``g`` against the floor."""
     q = tau * DIAGONAL
-    body = cc.Body(cc.box(nx=n, ny=n, nz=1), steel(nu=0.0), contact="bottom",
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
                    traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
                              "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=cc.Tresca(g))])
 
 
-def pushed(law, s=1e-4, n=2):
+def pushed(law, s=1e-4, n=2, cell="tetra"):
     """The nu = 0 box pushed by (s cos t, s sin t) on its left face, pressed by p."""
-    body = cc.Body(cc.box(nx=n, ny=n, nz=1), steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
                    displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)})
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=law)])
 
@@ -131,6 +132,28 @@ def test_pushed_with_a_small_threshold_every_node_slides_with_its_whole_capacity
     sol = cc.solve(pushed(cc.Coulomb(mu), n=n), **P2)
     assert sol.ok
     assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(mu * P, rel=1e-12)  # 2.2e-16
+
+
+@pytest.mark.numerics
+def test_q2_hexahedra_stick_exactly_from_sixteen_ninths_of_the_shear_and_slide_with_their_capacity():
+    """Q2 (27-node) hexahedra pose P2Tet's rows on their faces' 6-node triangles (two per face, cut along a
+    diagonal), so the weights are those triangles' red lumping: A/8 at an edge midpoint, A/4 at the centre, A/12 or
+    A/24 at a corner (on the cut or not). A uniform shear's consistent forces on a 9-node face are tau A/36, A/9,
+    4 A/9 (corner, edge, centre): the centre sticks up to g = 16/9 tau."""
+    tau = 0.2 * P
+    sol = cc.solve(layer(tau, 1.01 * 16 / 9 * tau, cell="hex"), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    scale = np.abs(exact).max()
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * scale                           # measured 4.8e-15
+    below = cc.solve(layer(tau, 0.99 * 16 / 9 * tau, cell="hex"), **P2)
+    assert below.ok and np.linalg.norm(below.contact.slip, axis=1).max() > 1e-5 * scale   # measured 4.3e-4
+    g = 1e2
+    sol = cc.solve(pushed(cc.Tresca(g), cell="hex"), **P2)
+    assert sol.ok and (np.linalg.norm(sol.contact.slip, axis=1) > 0.5e-4).all()      # every node slides
+    assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)   # 2.2e-16
+    assert np.abs(np.linalg.norm(sol.contact.shear, axis=1) - g).max() < 1e-12 * g   # measured 4.3e-16
 
 
 @pytest.mark.numerics

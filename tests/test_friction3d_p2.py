@@ -258,3 +258,10 @@ def test_a_cut_face_is_refused_naming_the_other_sigma_condition():
     scene = cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(1e6))])
     with pytest.raises(cc.UnsupportedError, match=r"friction law with P2 .*'sigma1'.*cuts faces.*other sigma"):
         cc.solve(scene, degree=2, condition="sigma1")
+
+
+def test_friction_under_the_conic_condition_is_refused_naming_the_nodal_rows_and_p1():
+    scene = sheared(0.2 * P * DIAGONAL, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
+    with pytest.raises(cc.UnsupportedError, match=r"'gamma3'.*condition='sigma1' or 'sigma2'.*degree=1 with 'gamma3'"):
+        cc.solve(scene, degree=2, condition="gamma3")
+    assert cc.solve(scene, degree=1, condition="gamma3").ok                  # the alternative it names

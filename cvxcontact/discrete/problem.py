@@ -348,9 +348,12 @@ def _capacity(scene, condition, lines):
     if not rows.friction:
         return None
     if lines.conic or lines.mixed:
-        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition) is not "
-                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes; "
-                               "against a rigid obstacle every P2 node)")
+        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition: cones on "
+                               "every element of X_h, whose forces no nodal friction row can follow) is not "
+                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of "
+                               "that body's faces, in 3D the finer side's on nested faces; against a rigid "
+                               "obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere "
+                               "is its nodal rows)")
     E = lines.E
     weights = row_weights(lines.interface, condition, scene.conditions)
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)

@@ -6,7 +6,7 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
   that the state is uniform, on a rigid plane: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) (a closed form, in P2).
   Stuck, the rows carry the consistent forces of the uniform shear, 0 at a vertex and tau A/3 per face at an edge
   midpoint, against the capacity g A/4 there: the nodal law sticks exactly for g >= 4/3 tau (1 % above: the closed
-  form to rounding; 1 % below: the midpoints slip).
+  form to rounding; 1 % below: the midpoints slip). Coulomb (capacities mu y_a) sticks from mu p = tau.
 - A box (nu = 0) pushed along a diagonal on its left face, pressed by p, with a small threshold: every P2 node
   slides, each row's force is its capacity (|sigma_t| = g at every node), the forces sum to g A in norm, and the
   departure from the frictionless rigid translation is linear in g. Coulomb: the forces sum to mu p A.
@@ -37,14 +37,14 @@ def steel(nu=0.3, scale=1.0):
     return cc.materials.isotropic(E=E * scale, nu=nu)
 
 
-def layer(tau, g, n=2, cell="tetra"):
+def layer(tau, g, n=2, cell="tetra", law=None):
     """The nu = 0 box under (tau_x, tau_y, -p) on its top and the complementary shear on its sides (a uniform state:
-    sigma_zz = -p, sigma_xz = tau_x, sigma_yz = tau_y), Tresca ``g`` against the floor."""
+    sigma_zz = -p, sigma_xz = tau_x, sigma_yz = tau_y), Tresca ``g`` (or ``law``) against the floor."""
     q = tau * DIAGONAL
     body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
                    traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
                              "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=cc.Tresca(g))])
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=law or cc.Tresca(g))])
 
 
 def pushed(law, s=1e-4, n=2, cell="tetra"):
@@ -107,6 +107,19 @@ def test_a_uniform_sheared_layer_sticks_exactly_from_four_thirds_of_the_shear():
     assert below.ok
     assert np.linalg.norm(below.contact.slip, axis=1).max() > 1e-5 * scale          # measured 7.3e-4
     assert np.abs(below.u[0] - exact).max() > 1e-5 * scale                          # measured 6.4e-4
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("cell", ["tetra", "hex"])
+def test_coulomb_sticks_the_uniform_layer_from_the_shear_over_the_pressure(cell):
+    """Coulomb's capacities mu y_a are the consistent normal forces themselves: the lumping does not enter, and the
+    layer sticks as soon as mu p >= tau (P2 tetrahedra and Q2 hexahedra alike)."""
+    tau = 0.2 * P
+    sol = cc.solve(layer(tau, None, cell=cell, law=cc.Coulomb(1.01 * tau / P)), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * np.abs(exact).max()             # measured 3.4e-15, 2.8e-15
 
 
 @pytest.mark.numerics

@@ -1,6 +1,7 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
 on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
-the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py, tests/test_friction3d_p2.py).
+a uniformly sheared 3D layer and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
+tests/test_friction3d_p2.py, tests/test_refusals.py).
 """
 
 import numpy as np
@@ -33,6 +34,21 @@ def pushed(law, s=1e-4):
     b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
     return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 
+
+DIAGONAL3 = np.array([np.cos(0.5), np.sin(0.5)])
+"""The in-plane direction of the 3D scenes' shear (a diagonal of the frame (x, y))."""
+FLOOR3 = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+
+
+def uniform_layer3d(tau, law, n=2, cell="tetra"):
+    """A unit box (n x n x 1 cells, nu = 0) under (tau_x, tau_y, -p) on its top along :data:`DIAGONAL3` and the
+    complementary shear on its sides, so that the state is uniform (sigma_zz = -p, sigma_xz = tau_x, sigma_yz =
+    tau_y), ``law`` against the rigid plane z = 0. Stuck: u = (tau_x z / G, tau_y z / G, -p z / E), G = E / 2."""
+    q = tau * DIAGONAL3
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
+                   traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
+                             "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3, law=law)])
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):
     """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""

@@ -22,14 +22,14 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from friction_scenes import projected_gradient_tresca
+from friction_scenes import DIAGONAL3, projected_gradient_tresca, uniform_layer3d
 
 import cvxcontact as cc
 
 P, E = 1e7, 200e9
 G0 = E / 2                                  # the shear modulus at nu = 0
 FLOOR = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-DIAGONAL = np.array([np.cos(0.5), np.sin(0.5)])
+DIAGONAL = DIAGONAL3
 P2 = {"degree": 2, "condition": "sigma1"}
 
 
@@ -38,13 +38,8 @@ def steel(nu=0.3, scale=1.0):
 
 
 def layer(tau, g, n=2, cell="tetra", law=None):
-    """The nu = 0 box under (tau_x, tau_y, -p) on its top and the complementary shear on its sides (a uniform state:
-    sigma_zz = -p, sigma_xz = tau_x, sigma_yz = tau_y), Tresca ``g`` (or ``law``) against the floor."""
-    q = tau * DIAGONAL
-    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
-                   traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
-                             "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=law or cc.Tresca(g))])
+    """:func:`friction_scenes.uniform_layer3d` with Tresca ``g`` (or ``law``)."""
+    return uniform_layer3d(tau, law or cc.Tresca(g), n=n, cell=cell)
 
 
 def pushed(law, s=1e-4, n=2, cell="tetra"):

@@ -35,7 +35,7 @@ from scipy.spatial import cKDTree
 from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
-from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
+from .overlay import barycentric, locate, overlay  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 from .surface import reached_faces
 
@@ -67,10 +67,6 @@ the energy k/2 r^2 of a linear law and the forces p(r) N_i of a quadratic penetr
 Tabulated to 15 decimals (their closed forms a, b = (8 - sqrt 10 +- sqrt(38 - 44 sqrt(2/5))) / 18,
 w = (620 +- sqrt(213125 - 53320 sqrt 10)) / 3720); the P2 volume loads of fem/p2.py take the same rule."""
 
-
-_COMPLIANCE = ("a normal-compliance law", "'gamma3' or the other sigma condition")
-_FRICTION = ("a friction law", "the other sigma condition")
-"""What a law whose rows form no P2 triangles is, and what to use instead (:meth:`QuadraticSurface.weights`)."""
 
 
 def p2_shape(L) -> np.ndarray:
@@ -312,7 +308,7 @@ class QuadraticSurface:
             return sp.identity(self.size, format="csr")
         return self._sigma[int(condition[-1]) - 1][1]
 
-    def _law_triangles(self, condition, refusal=_COMPLIANCE) -> tuple[np.ndarray, np.ndarray]:
+    def _law_triangles(self, condition) -> tuple[np.ndarray, np.ndarray]:
         """(cells (c, 6), area (c,) m^2): the P2 triangles a normal-compliance law integrates over under
         ``condition``, their node indices the rows of :meth:`evaluation`. "gamma3" (and an obstacle) the triangles of
         X_h (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
@@ -325,7 +321,7 @@ class QuadraticSurface:
             return cells, _area(self.x[cells[:, :3]])
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
-        faces = self._sigma_faces(condition, refusal)
+        faces = self._sigma_faces(condition)
         at = np.full(len(t.nodes), -1)
         at[inside] = np.arange(len(inside))
         return at[faces], _area(t.x[faces[:, :3]])
@@ -347,20 +343,28 @@ class QuadraticSurface:
         return Q, np.outer(area, w).ravel()
 
     def weights(self, condition) -> np.ndarray:
-        """The areas (m^2) attributed to the rows of :meth:`evaluation`, all positive: the friction capacities
-        g w_a (docs/howto/friction.md, "P2 tetrahedra"). The lumped P1 mass of the red refinement of each P2 triangle
-        (its six nodes the vertices of four triangles of a quarter of its area: A/12 at each vertex, A/4 at each edge
-        midpoint, :func:`red_weights`; exact for linear functions), on the triangles of :meth:`quadrature`; against an
-        obstacle the row sums of that mass restricted to the nodes that reach it (as P1's). Not the integrals of
-        the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): those are 0 at the vertices, where
-        a vertex would then slip for free. Refuses "sigma1"/"sigma2" rows that form no P2 triangles
-        (UnsupportedError, as :meth:`quadrature`)."""
+        """The areas (m^2) attributed to the rows of :meth:`evaluation`, positive: the friction capacities g w_a
+        (docs/howto/friction.md). Each P2 triangle's red refinement (its six nodes the vertices of four triangles of
+        a quarter of its area, :data:`RED_SUBTRIANGLES`) carries the P1 hats phi_i of those nodes, and w_i is their
+        integral: "sigma1"/"sigma2" over the overlap (body l's hats at its nodes in the overlap, exact by the overlay
+        of the refined faces with the other body's, whose cells the hats are affine on: on faces the overlap covers,
+        A/12 at a vertex and A/4 at an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its
+        hats; they sum to the area those hats cover); "gamma3" over the triangles of X_h; against an obstacle the
+        row sums of that mass restricted to the nodes that reach it (as P1's). Exact for linear functions. Not the
+        integrals of the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where
+        a vertex would then slip for free."""
         if self.rigid:
             t = self.traces[0]
             M = red_mass(t.faces, _area(t.x[t.faces[:, :3]]), len(t.nodes))
             return np.asarray(M[self.reach][:, self.reach].sum(axis=1)).ravel()
-        cells, area = self._law_triangles(condition, _FRICTION)
-        return red_weights(cells, area, self._rows(condition))
+        if condition == "gamma3":
+            cells, area = self._law_triangles(condition)
+            return red_weights(cells, area, self.size)
+        l = int(condition[-1]) - 1
+        t, other = self.traces[l], self.linear.traces[1 - l]
+        cover = overlay(t.x, np.asarray(t.faces)[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
+        hats = cover.Ia.T @ np.asarray(cover.lumped)    # int over the overlap of each hat (affine on each cell)
+        return hats[self.sigma_rows(l)]
 
     def row_mass(self, condition) -> sp.csr_matrix:
         """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of
@@ -381,7 +385,7 @@ class QuadraticSurface:
             out[on] = spla.spsolve(M[on][:, on].tocsc(), (Q.T @ np.asarray(force, dtype=float))[on])
         return out
 
-    def _sigma_faces(self, condition, refusal=_COMPLIANCE) -> np.ndarray:
+    def _sigma_faces(self, condition) -> np.ndarray:
         """The faces (k, 6) of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the overlap; refuses
         (UnsupportedError, :meth:`quadrature`) when its nodes in the overlap are not exactly their nodes."""
         l = int(condition[-1]) - 1
@@ -390,11 +394,10 @@ class QuadraticSurface:
         mark[inside] = True
         faces = np.asarray(t.faces)[mark[t.faces].all(axis=1)]
         if len(faces) == 0 or len(np.unique(faces)) != len(inside):
-            what, other = refusal
-            raise UnsupportedError(f"{what} with P2 (10-node) tetrahedra under {condition!r}: the "
+            raise UnsupportedError(f"a normal-compliance law with P2 (10-node) tetrahedra under {condition!r}: the "
                                    f"overlap of the pair cuts faces of body {l + 1}'s contact part, so its nodes "
-                                   f"in the overlap form no P2 triangles for the law's quadrature; use {other} "
-                                   "(the finer side's nodes, on faces the overlap covers)")
+                                   "in the overlap form no P2 triangles for the law's quadrature; use 'gamma3' "
+                                   "or the other sigma condition")
         return faces
 
     def extend(self, condition, values) -> np.ndarray:

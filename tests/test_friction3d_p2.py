@@ -122,7 +122,6 @@ def test_coulomb_sticks_the_uniform_layer_from_the_shear_over_the_pressure(cell)
 @pytest.mark.numerics
 def test_pushed_with_a_small_threshold_every_node_slides_with_its_whole_capacity():
     n = 2
-    points = None
     errors = []
     for g in (1e2, 1e3):
         sol = cc.solve(pushed(cc.Tresca(g), n=n), **P2)

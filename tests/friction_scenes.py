@@ -1,5 +1,10 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
-on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other)."""
+on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
+a uniformly sheared 3D layer and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
+tests/test_friction3d_p2.py, tests/test_refusals.py).
+"""
+
+import numpy as np
 
 import cvxcontact as cc
 
@@ -59,3 +64,49 @@ def box(q, law, tied=False, nu=0.3, push=None, n=3):
         held["base"] = (0.0, 0.0, None)
     b = cc.Body(mesh, steel(nu=nu), contact="bottom", traction={"top": (q[0], q[1], -P)}, displacement=held)
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=None if tied else law)])
+
+
+DIAGONAL3 = np.array([np.cos(0.5), np.sin(0.5)])
+"""The in-plane direction of the 3D scenes' shear (a diagonal of the frame (x, y))."""
+
+
+def uniform_layer3d(tau, law, n=2, cell="tetra"):
+    """A unit box (n x n x 1 cells, nu = 0) under (tau_x, tau_y, -p) on its top along :data:`DIAGONAL3` and the
+    complementary shear on its sides, so that the state is uniform (sigma_zz = -p, sigma_xz = tau_x, sigma_yz =
+    tau_y), ``law`` against the rigid plane z = 0. Stuck: u = (tau_x z / G, tau_y z / G, -p z / E), G = E / 2."""
+    q = tau * DIAGONAL3
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
+                   traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
+                             "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=law)])
+
+def projected_gradient_tresca(W, q, capacity, iterations=20000):
+    """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
+    n = len(q) // 3
+
+    def project(V):
+        V = V.reshape(n, 3).copy()
+        norm = np.linalg.norm(V[:, :2], axis=1)
+        V[:, :2] *= np.minimum(1.0, capacity / np.maximum(norm, np.finfo(float).tiny))[:, None]
+        V[:, 2] = np.maximum(V[:, 2], 0.0)
+        return V.ravel()
+
+    def energy(X):
+        return 0.5 * X @ W @ X + q @ X
+
+    step = 1.0 / np.linalg.eigvalsh(W).max()
+    R = Y = np.zeros(3 * n)
+    t, restarted = 1.0, False
+    for _ in range(iterations):
+        new = project(Y - step * (W @ Y + q))
+        if np.abs(new - R).max() <= 1e-15 * np.abs(new).max():
+            return new
+        if energy(new) > energy(R):                        # restart the momentum; twice in a row: at rounding
+            if restarted:
+                return R
+            Y, t, restarted = R, 1.0, True
+            continue
+        restarted = False
+        t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
+        Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
+    return R

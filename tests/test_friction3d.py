@@ -26,6 +26,7 @@ A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from friction_scenes import projected_gradient_tresca
 
 import cvxcontact as cc
 
@@ -277,38 +278,6 @@ def test_the_overlay_rows_weights_do_not_depend_on_the_side_the_pair_is_posed_fr
     dist, at = cKDTree(other.points).query(one.points)
     assert dist.max() <= 1e-12 and len(np.unique(at)) == len(w)
     assert np.abs(v[at] - w).max() <= 1e-12 * w.max()                                  # measured 1.9e-16 relative
-
-
-def projected_gradient_tresca(W, q, capacity, iterations=20000):
-    """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
-    n = len(q) // 3
-
-    def project(V):
-        V = V.reshape(n, 3).copy()
-        norm = np.linalg.norm(V[:, :2], axis=1)
-        V[:, :2] *= np.minimum(1.0, capacity / np.maximum(norm, np.finfo(float).tiny))[:, None]
-        V[:, 2] = np.maximum(V[:, 2], 0.0)
-        return V.ravel()
-
-    def energy(X):
-        return 0.5 * X @ W @ X + q @ X
-
-    step = 1.0 / np.linalg.eigvalsh(W).max()
-    R = Y = np.zeros(3 * n)
-    t, restarted = 1.0, False
-    for _ in range(iterations):
-        new = project(Y - step * (W @ Y + q))
-        if np.abs(new - R).max() <= 1e-15 * np.abs(new).max():
-            return new
-        if energy(new) > energy(R):                        # restart the momentum; twice in a row: at rounding
-            if restarted:
-                return R
-            Y, t, restarted = R, 1.0, True
-            continue
-        restarted = False
-        t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
-        Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
-    return R
 
 
 @pytest.mark.numerics

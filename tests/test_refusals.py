@@ -238,6 +238,40 @@ def test_p2_tetrahedra_compliance_under_sigma1_on_cut_faces_sums_to_the_overlap(
     assert sol.ok and abs(sol.contact.force.sum() / (k * DELTA3 * 0.5) - 1) <= 1e-4
 
 
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a friction law with P2 elements under gamma3 "
+                   "(friction rows next to the copositive cones)")
+def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
+    """Row 32 (b). The uniform sheared layer on a rigid plane (tests/friction_scenes.py) with Tresca far above its
+    shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
+    tests/test_friction3d_p2.py)."""
+    from friction_scenes import DIAGONAL3, uniform_layer3d
+    from friction_scenes import E as E3
+    from friction_scenes import P as P3
+
+    tau = 0.2 * P3
+    sol = cc.solve(uniform_layer3d(tau, cc.Tresca(10 * tau)), "gamma3", degree=2)
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([2 * tau * DIAGONAL3[0] * z / E3, 2 * tau * DIAGONAL3[1] * z / E3, -P3 * z / E3])
+    assert sol.ok and rel(sol.u[0], exact) <= 1e-9
+
+
+def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity():
+    """Row 33 (b), supported. A half-width block (2 x 2 cells) pushed along x by 1 mm on a clamped block (3 x 3 cells: the
+    overlap's edge x = 0.5 cuts its faces), nu = 0, under "sigma1", the lower block's nodes, with a tiny threshold
+    g: every row slides along x, and the tangential forces sum to g times the overlap's area, 0.5 m^2, along x
+    (measured 5.3e-10; the upper block's nodes, "sigma2": 2.7e-10; P1: 3.1e-9)."""
+    steel0 = cc.materials.isotropic(E=200e9, nu=0.0)
+    low = cc.box(x=(0, 1), y=(0, 1), z=(-0.5, 0), nx=3, ny=3, nz=1)
+    up = cc.box(x=(0, .5), y=(0, 1), z=(0, 0.5), nx=2, ny=2, nz=1)
+    lower = cc.Body(low, steel0, clamped="bottom", contact="top", name="lower")
+    upper = cc.Body(up, steel0, contact="bottom", traction={"top": (0.0, 0.0, -1e6)},
+                    displacement={"left": (1e-3, 0.0, None)}, name="upper")
+    g = 10.0
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom", law=cc.Tresca(g))])
+    sol = cc.solve(scene, "sigma1", degree=2)
+    assert sol.ok and abs(sol.contact.shear_force[:, 0].sum() / (0.5 * g) - 1) <= 1e-6
+
 # ================================================================ held rows, supports on a contact part
 
 def _clamped_foundation(where):

@@ -108,7 +108,7 @@ def test_friction_is_refused_where_it_is_not_posed():
     box = cc.box(nx=2, ny=2, nz=2)
     body = cc.Body(box, steel(), contact="bottom", traction={"top": (0.0, 0.0, -P)})
     floor = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-    with pytest.raises(cc.UnsupportedError, match="P2"):            # 3D P1 is posed (test_friction3d.py)
+    with pytest.raises(cc.UnsupportedError, match="P2"):       # "gamma3"; the nodal rows: test_friction3d_p2.py
         cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]), degree=2)
 
 

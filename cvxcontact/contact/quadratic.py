@@ -286,10 +286,19 @@ class QuadraticStack:
         k is not a member)."""
         return sp.vstack([itf.jump(k, n_nodes) for itf in self.interfaces], format="csr")
 
+    @property
+    def slip_components(self) -> int:
+        """Components of the slip per node: 1 on 2D lines (along t), 2 on 3D surfaces (along the pairs' frames)."""
+        return getattr(self.interfaces[0], "slip_components", 1)
+
     def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
-        """(size, 2 n_nodes): the scene's body k's part of the slip [u_t] at every pair's P2 nodes
-        (:meth:`QuadraticInterface.tangential_jump`)."""
-        return sp.vstack([itf.tangential_jump(k, n_nodes) for itf in self.interfaces], format="csr")
+        """(c size, d n_nodes): the scene's body k's part of the slip [u_t] at every pair's P2 nodes
+        (:meth:`QuadraticInterface.tangential_jump`,
+        :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.tangential_jump`), c = :attr:`slip_components`,
+        component-major (rows j size + a: component j at stacked node a)."""
+        c = self.slip_components
+        parts = [(itf.tangential_jump(k, n_nodes), itf.size) for itf in self.interfaces]
+        return sp.vstack([T[j * n:(j + 1) * n] for j in range(c) for T, n in parts], format="csr")
 
     def _each(self, condition, conditions):
         conditions = conditions or [None] * len(self.interfaces)

@@ -34,13 +34,13 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError, UnsupportedError
 from .bernstein import bernstein_map
-from .interface import CONDITIONS, normal_jump, read_only, row_directions
-from .overlay import barycentric, locate  # noqa: F401  (locate: re-exported)
+from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
+from .overlay import barycentric, locate, overlay  # noqa: F401  (locate: re-exported)
 from .riesz import TraceRiesz
 from .surface import reached_faces
 
-__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "p2_shape", "p2_triangle_nodes", "p2_weights",
-           "locate"]
+__all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "RED_SUBTRIANGLES", "p2_shape", "p2_triangle_nodes",
+           "p2_weights", "red_mass", "red_weights", "locate"]
 
 P2_TRIANGLE_MASS = np.array([[6, -1, -1, 0, -4, 0],
                              [-1, 6, -1, 0, 0, -4],
@@ -93,6 +93,28 @@ def p2_weights(cells, area, n) -> np.ndarray:
     :data:`P2_TRIANGLE_MASS`). The quadrature on the nodes exact for quadratics (the only one: the integrals of
     the interpolant), with non-negative weights; the vertices carry none."""
     return np.bincount(np.asarray(cells)[:, 3:].ravel(), weights=np.repeat(np.asarray(area) / 3.0, 3), minlength=n)
+
+
+RED_SUBTRIANGLES = np.array([[0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]])
+"""The red refinement of a triangle6 (v0, v1, v2, m01, m12, m20): its four triangles of a quarter of its area."""
+
+
+def red_mass(cells, area, n) -> sp.csr_matrix:
+    """(n, n): the P1 mass matrix (m^2) of the red refinement of the triangles ``cells`` (c, 6) of ``area`` (c,)
+    m^2 (:data:`RED_SUBTRIANGLES`, each of area A/4): its row sums are :func:`red_weights`, positive."""
+    sub = np.asarray(cells)[:, RED_SUBTRIANGLES].reshape(-1, 3)
+    local = (np.ones((3, 3)) + np.eye(3)) / 12.0
+    vals = (np.repeat(np.asarray(area, dtype=float) / 4.0, 4)[:, None, None] * local).ravel()
+    return sp.csr_matrix((vals, (np.repeat(sub, 3, axis=1).ravel(), np.tile(sub, (1, 3)).ravel())), shape=(n, n))
+
+
+def red_weights(cells, area, n) -> np.ndarray:
+    """(n,): the lumped P1 mass (m^2) of the red refinement of the triangles ``cells`` (c, 6) of ``area`` (c,) m^2:
+    A/12 at each vertex of a triangle, A/4 at each edge midpoint (three sub-triangles), summing to A. A positive
+    nodal rule exact for linear functions (the trapezoidal rule on the sub-triangles); the only nodal rule exact
+    for quadratics, :func:`p2_weights`, gives the vertices 0."""
+    share = np.tile([1.0 / 12] * 3 + [1.0 / 4] * 3, len(cells)) * np.repeat(np.asarray(area, dtype=float), 6)
+    return np.bincount(np.asarray(cells).ravel(), weights=share, minlength=n)
 
 
 def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:
@@ -254,6 +276,23 @@ class QuadraticSurface:
         t = self.traces[self.members.index(k)]
         return normal_jump(self._interp[t.k], np.asarray(t.nodes), row_directions(self, t.unit_normal), 3 * n_nodes)
 
+    slip_components = 2
+    """Components of the slip per node of X_h: along the pair's ``frame`` (t_1, t_2)."""
+
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(2 size, 3 n_nodes): the scene's body ``k``'s part of the slip [u_t]_j = (u^a - u^b) . t_j at the nodes of
+        X_h from its P2 nodal displacements, component-major (rows j size + a), (t_1, t_2) the pair's ``frame``
+        (:func:`~cvxcontact.contact.interface.row_frames`: against a curved obstacle turned into each row's
+        tangent plane) for the first body, their opposites for the second (as
+        :meth:`~cvxcontact.contact.surface.SurfaceInterface.tangential_jump`); zero if k is not a member."""
+        if k not in self.members:
+            return sp.csr_matrix((2 * self.size, 3 * n_nodes))
+        side = self.members.index(k)
+        t = self.traces[side]
+        sign = 1.0 if side == 0 else -1.0
+        return sp.vstack([normal_jump(self._interp[t.k], np.asarray(t.nodes), sign * tj, 3 * n_nodes)
+                          for tj in row_frames(self)], format="csr")
+
     def sigma_rows(self, l) -> np.ndarray:
         """The P2 nodes of body l's trace (indices into ``traces[l].nodes``) inside the overlap, in the order
         of the rows of ``evaluation("sigma<l+1>")``."""
@@ -296,21 +335,40 @@ class QuadraticSurface:
         :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
         triangle, the rule's order within each), w = rule weight x area > 0. The law's rows are Q E: the energy
         sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in contact), the nodal forces
-        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the :meth:`weights`."""
+        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the integrals of the P2 functions
+        (:func:`p2_weights`, the row sums of :meth:`row_mass`)."""
         cells, area = self._law_triangles(condition)
         L, w = P2_FACE_RULE
         Q = _p2_rows(np.tile(L, (len(cells), 1)), np.repeat(cells, len(w), axis=0), self._rows(condition))
         return Q, np.outer(area, w).ravel()
 
     def weights(self, condition) -> np.ndarray:
-        """The integrals (m^2) of the P2 functions of the rows of :meth:`evaluation` over the triangles of
-        :meth:`quadrature` (:func:`p2_weights`: 0 at their vertices, A/3 per triangle at each edge midpoint)."""
-        cells, area = self._law_triangles(condition)
-        return p2_weights(cells, area, self._rows(condition))
+        """The areas (m^2) attributed to the rows of :meth:`evaluation`, positive: the friction capacities g w_a
+        (docs/howto/friction.md). Each P2 triangle's red refinement (its six nodes the vertices of four triangles of
+        a quarter of its area, :data:`RED_SUBTRIANGLES`) carries the P1 hats phi_i of those nodes, and w_i is their
+        integral: "sigma1"/"sigma2" over the overlap (body l's hats at its nodes in the overlap, exact by the overlay
+        of the refined faces with the other body's, whose cells the hats are affine on: on faces the overlap covers,
+        A/12 at a vertex and A/4 at an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its
+        hats; they sum to the area those hats cover); "gamma3" over the triangles of X_h; against an obstacle the
+        row sums of that mass restricted to the nodes that reach it (as P1's). Exact for linear functions. Not the
+        integrals of the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where
+        a vertex would then slip for free."""
+        if self.rigid:
+            t = self.traces[0]
+            M = red_mass(t.faces, _area(t.x[t.faces[:, :3]]), len(t.nodes))
+            return np.asarray(M[self.reach][:, self.reach].sum(axis=1)).ravel()
+        if condition == "gamma3":
+            cells, area = self._law_triangles(condition)
+            return red_weights(cells, area, self.size)
+        l = int(condition[-1]) - 1
+        t, other = self.traces[l], self.linear.traces[1 - l]
+        cover = overlay(t.x, np.asarray(t.faces)[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
+        hats = cover.Ia.T @ np.asarray(cover.lumped)    # int over the overlap of each hat (affine on each cell)
+        return hats[self.sigma_rows(l)]
 
     def row_mass(self, condition) -> sp.csr_matrix:
         """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of
-        :meth:`evaluation` (its row sums are the :meth:`weights`; zero rows at nodes no such triangle has)."""
+        :meth:`evaluation` (its row sums are :func:`p2_weights`; zero rows at nodes no such triangle has)."""
         cells, area = self._law_triangles(condition)
         return _p2_mass(cells, area, self._rows(condition)).tocsr()
 

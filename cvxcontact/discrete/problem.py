@@ -335,17 +335,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
 
 
 def _slip(interface, k, n_nodes):
-    """Body k's part of the slip [u_t] at the nodes of X_h (:func:`_tangential`)."""
-    return _tangential(interface).tangential_jump(k, n_nodes)
-
-
-def _tangential(interface):
-    """``interface``, or UnsupportedError where the contact line poses no tangential part (only the P1 lines
-    and planar 3D surfaces do so far)."""
-    if not hasattr(interface, "tangential_jump"):
-        raise UnsupportedError(f"a friction law on {type(interface).__name__} contact lines (3D P2 elements) is not "
-                               "available yet: use degree=1")
-    return interface
+    """Body k's part of the slip [u_t] at the nodes of X_h."""
+    return interface.tangential_jump(k, n_nodes)
 
 
 def _capacity(scene, condition, lines):
@@ -357,11 +348,14 @@ def _capacity(scene, condition, lines):
     if not rows.friction:
         return None
     if lines.conic or lines.mixed:
-        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition) is not "
-                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes; "
-                               "against a rigid obstacle every P2 node)")
+        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition: cones on "
+                               "every element of X_h, whose forces no nodal friction row can follow) is not "
+                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of "
+                               "that body's faces, in 3D the finer side's on nested faces; against a rigid "
+                               "obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere "
+                               "is its nodal rows)")
     E = lines.E
-    weights = row_weights(_tangential(lines.interface), condition, scene.conditions)
+    weights = row_weights(lines.interface, condition, scene.conditions)
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity

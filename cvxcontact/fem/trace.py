@@ -194,8 +194,16 @@ class QuadraticTrace(LinearTrace):
         return contact.force / quadratic_lumped(contact.x)
 
     def per_length(self, contact, force) -> np.ndarray:
-        """As the pressure: the forces over the row sums of the P2 mass matrix of X_h (a 2D line)."""
-        return force / quadratic_lumped(contact.x)
+        """As the pressure: the forces over the row sums of the P2 mass matrix of X_h (a 2D line); on a 3D surface,
+        where those vanish at the vertices, over the areas the friction law's rows give the nodes
+        (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
+        if np.ndim(contact.x) == 1:
+            return force / quadratic_lumped(contact.x)
+        w = np.asarray(contact.slip_measure, dtype=float)
+        out = np.zeros(np.shape(force))
+        on = w > 0
+        out[on] = force[on] / w[on].reshape((-1,) + (1,) * (out.ndim - 1))
+        return out
 
     def felt(self, itf, k: int, force) -> np.ndarray:
         """2D: the forces moved to side ``k``'s P2 nodes over their P2 lumped lengths; 3D: the Riesz pressure

@@ -91,11 +91,12 @@ def read_back_friction(problem, raw, sol) -> None:
         return f.thresholds(contact.pressure) if f.pressure_dependent else f.threshold
 
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
+    measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=threshold(problem.rows.laws[i], c))
+                            threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b])
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
-        for f in ("slip", "shear_force", "threshold"):
+        for f in ("slip", "shear_force", "threshold", "slip_measure"):
             if isinstance(getattr(c, f), np.ndarray):
                 getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]

@@ -72,6 +72,10 @@ class ContactResult:
     threshold: float | np.ndarray | None = None
     """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa); None without
     friction."""
+    slip_measure: np.ndarray | None = None
+    """A friction law: the area (3D, m^2) or length (2D, m) the law's rows give each node of X_h, E^T w (w the
+    rows' lumped areas or lengths, the friction capacities' weights), what :attr:`shear` divides by on a 3D P2
+    surface; None without friction."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""

@@ -16,7 +16,11 @@ stuck row (|z_a| <= c_a, z_a = mu_a + r_t s_a) S_a x + s0_a = 0; a slipping row 
 t_a = z_a / |z_a|, linearised with P_a = I - t_a t_a^T, k_a = c_a / |z_a| as
 (I - k_a P_a) dmu_a - k_a r_t P_a S_a dx - D_a t_a dy_a. In 2D P_a = 0: a slipping row's force is c_a sign(z_a),
 a linear condition, and the steps end once the active set is right; in 3D the direction is nonlinear and the
-steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm.
+steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm,
+except that the full step to an active set not met before is taken even where it raises the residual (the
+semismooth active-set move): with P2 tetrahedra's nodal rows a face vertex whose consistent force would be a
+tension (a pressure that varies across the face) opens, and the damped steps towards it only halved the residual
+at every step (a box pushed across a rigid plane: 3e-7, 1.5e-7, ... and declined).
 
 A row whose slip some unknown moves in one tangential component but not in the other (a support on a side that
 meets the contact fixes one direction at its nodes, docs/howto/friction.md) has a component j with S_a,j = 0: its
@@ -37,8 +41,7 @@ residual and signs are then checked on every row, the held ones included, as for
 row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities
 mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
 change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
-a small force): the full step to a new active set is then taken even where it raises the residual (the
-semismooth active-set move of the 2D steps) if that set was not met before; otherwise the step is damped.
+a small force): the full step to a new active set is taken (above) if that set was not met before.
 """
 
 from __future__ import annotations
@@ -265,8 +268,8 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             new = np.linalg.norm(system.residual(trial))
             if new < (1.0 - 1e-4 * alpha) * merit:
                 break
-            if alpha == 1.0 and system.dependent and _key(system.state(trial)) not in seen | {key}:
-                break              # dependent rows: the full step to a new active set (module docstring)
+            if alpha == 1.0 and _key(system.state(trial)) not in seen | {key}:
+                break              # the full step to a new active set (module docstring)
             alpha /= 2
         else:
             stalled += 1

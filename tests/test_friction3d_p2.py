@@ -1,0 +1,315 @@
+"""Tresca and Coulomb friction with P2 (10-node) tetrahedra: the nodal rows ("sigma1"/"sigma2"; against a rigid
+obstacle every P2 face node), one second-order cone ||[u_t]_a||_2 per row, the capacities g w_a with w_a the lumped
+P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint: QuadraticSurface.weights).
+
+- A layer (nu = 0) pressed by p and sheared by tau along a diagonal, its sides loaded by the complementary shear so
+  that the state is uniform, on a rigid plane: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) (a closed form, in P2).
+  Stuck, the rows carry the consistent forces of the uniform shear, 0 at a vertex and tau A/3 per face at an edge
+  midpoint, against the capacity g A/4 there: the nodal law sticks exactly for g >= 4/3 tau (1 % above: the closed
+  form to rounding; 1 % below: the midpoints slip). Coulomb (capacities mu y_a) sticks from mu p = tau.
+- A box (nu = 0) pushed along a diagonal on its left face, pressed by p, with a small threshold: every P2 node
+  slides, each row's force is its capacity (|sigma_t| = g at every node), the forces sum to g A in norm, and the
+  departure from the frictionless rigid translation is linear in g. Coulomb: the forces sum to mu p A.
+- The same box in partial slip against an independent reference written here: the nodal Tresca law's dual QP over
+  the condensed P2 compliance, the red-refinement weights computed here from the 6-node faces (FISTA,
+  tests/friction_scenes.py); the friction cone's complementarity read off the answer at every row.
+- Q2 hexahedra (their faces' 6-node triangles): the stuck layer from g = 16/9 tau, the pushed box sliding.
+- P1 on finer boxes tends to the P2 answer.
+- A pair of boxes (matching faces; and 2 x 2 on 4 x 4 with the finer side's nodes) gives the same answer posed from
+  either side (sigma1 and sigma2 swapped); Coulomb finished to its own law.
+- On faces the overlap cuts (2 x 2 on a shifted 4 x 4, the coarser side's nodes) the weights are the red hats
+  integrated over the overlap (checked against a midpoint rule), and the pair from either side agrees.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from friction_scenes import DIAGONAL3, projected_gradient_tresca, uniform_layer3d
+
+import cvxcontact as cc
+
+P, E = 1e7, 200e9
+G0 = E / 2                                  # the shear modulus at nu = 0
+FLOOR = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+DIAGONAL = DIAGONAL3
+P2 = {"degree": 2, "condition": "sigma1"}
+
+
+def steel(nu=0.3, scale=1.0):
+    return cc.materials.isotropic(E=E * scale, nu=nu)
+
+
+def layer(tau, g, n=2, cell="tetra", law=None):
+    """:func:`friction_scenes.uniform_layer3d` with Tresca ``g`` (or ``law``)."""
+    return uniform_layer3d(tau, law or cc.Tresca(g), n=n, cell=cell)
+
+
+def pushed(law, s=1e-4, n=2, cell="tetra"):
+    """The nu = 0 box pushed by (s cos t, s sin t) on its left face, pressed by p."""
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
+                   displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=law)])
+
+
+def sheared(q, law, mesh):
+    """A box under (q_x, q_y, -p) on its top (nu = 0.3), ``law`` against the floor."""
+    body = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=law)])
+
+
+def cone_complementarity(c, g, scale):
+    """The friction cone and its complementarity read at every row of a pair against a rigid plane (every node of
+    X_h a row): (largest |sigma_t| / g - 1, largest departure of a slipping row's force from -g w s/|s| over g w,
+    largest slip of a row below its capacity over ``scale``)."""
+    w = np.asarray(c.slip_measure)
+    force = np.linalg.norm(c.shear_force, axis=1)
+    slip = np.linalg.norm(c.slip, axis=1)
+    slipping = slip > 1e-6 * max(slip.max(), scale)
+    direction = c.slip[slipping] / slip[slipping, None]
+    along = np.abs(c.shear_force[slipping] + g * w[slipping, None] * direction).max(initial=0.0) / (g * w.max())
+    below = force < g * w * (1 - 1e-6)
+    return float((force / (g * w)).max() - 1), float(along), float(slip[below].max(initial=0.0) / scale)
+
+
+def test_the_red_refinement_weights_are_positive_exact_for_linears_and_sum_to_the_area():
+    from cvxcontact.contact.quadratic3d import red_mass, red_weights
+
+    cells = np.arange(6)[None]
+    A = 0.37
+    w = red_weights(cells, np.array([A]), 6)
+    assert np.allclose(w, [A / 12] * 3 + [A / 4] * 3, rtol=1e-15, atol=0.0)
+    x = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])   # area 1/2
+    w = red_weights(cells, np.array([0.5]), 6)
+    for f, integral in ((np.ones(6), 0.5), (x[:, 0], 1 / 6), (x[:, 1], 1 / 6), (1 - 2 * x[:, 0] + 3 * x[:, 1], 2 / 3)):
+        assert w @ f == pytest.approx(integral, rel=1e-14)            # the integrals of 1, x, y and a linear f
+    M = red_mass(cells, np.array([0.5]), 6)
+    assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), w, rtol=1e-15, atol=0.0)
+    assert np.all(np.linalg.eigvalsh(M.toarray()) > 0)                 # a mass matrix: positive definite
+
+
+@pytest.mark.numerics
+def test_a_uniform_sheared_layer_sticks_exactly_from_four_thirds_of_the_shear():
+    tau = 0.2 * P
+    sol = cc.solve(layer(tau, 1.01 * 4 / 3 * tau), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    scale = np.abs(exact).max()
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * scale                           # measured 3.8e-15
+    c = sol.contact
+    assert np.allclose(c.shear_force.sum(axis=0), -tau * DIAGONAL, rtol=1e-12, atol=0.0)   # A = 1 m^2
+    vertex = np.isclose(c.slip_measure, c.slip_measure.min())                       # A/12 per face: the vertices
+    assert np.abs(c.shear_force[vertex]).max() < 1e-12 * tau                        # 0 (consistent): 1.2e-16
+    below = cc.solve(layer(tau, 0.99 * 4 / 3 * tau), **P2)
+    assert below.ok
+    assert np.linalg.norm(below.contact.slip, axis=1).max() > 1e-5 * scale          # measured 7.3e-4
+    assert np.abs(below.u[0] - exact).max() > 1e-5 * scale                          # measured 6.4e-4
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("cell", ["tetra", "hex"])
+def test_coulomb_sticks_the_uniform_layer_from_the_shear_over_the_pressure(cell):
+    """Coulomb's capacities mu y_a are the consistent normal forces themselves: the lumping does not enter, and the
+    layer sticks as soon as mu p >= tau (P2 tetrahedra and Q2 hexahedra alike)."""
+    tau = 0.2 * P
+    sol = cc.solve(layer(tau, None, cell=cell, law=cc.Coulomb(1.01 * tau / P)), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * np.abs(exact).max()             # measured 3.4e-15, 2.8e-15
+
+
+@pytest.mark.numerics
+def test_pushed_with_a_small_threshold_every_node_slides_with_its_whole_capacity():
+    n = 2
+    errors = []
+    for g in (1e2, 1e3):
+        sol = cc.solve(pushed(cc.Tresca(g), n=n), **P2)
+        assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+        c = sol.contact
+        slip = np.linalg.norm(c.slip, axis=1)
+        assert (slip > 0.5e-4).all()                                                # every P2 node slides
+        assert np.abs(np.linalg.norm(c.shear, axis=1) - g).max() < 1e-12 * g        # measured 4.3e-16
+        assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)  # g A (A = 1): 2.2e-16
+        assert np.abs(c.shear_force.sum(axis=0) / g + DIAGONAL).max() < 3e-3        # along -t: 2.1e-6, 2.1e-5
+        points = sol.points[0]
+        exact = np.column_stack([np.full(len(points), 1e-4 * DIAGONAL[0]),
+                                 np.full(len(points), 1e-4 * DIAGONAL[1]), -P * points[:, 2] / E])
+        errors.append(np.abs(sol.u[0] - exact).max())
+    assert errors[1] / errors[0] == pytest.approx(10.0, rel=1e-2)                  # linear in g: 9.9994
+    mu = 1e-5
+    sol = cc.solve(pushed(cc.Coulomb(mu), n=n), **P2)
+    assert sol.ok
+    assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(mu * P, rel=1e-12)  # 2.2e-16
+
+
+@pytest.mark.numerics
+def test_q2_hexahedra_stick_exactly_from_sixteen_ninths_of_the_shear_and_slide_with_their_capacity():
+    """Q2 (27-node) hexahedra pose P2Tet's rows on their faces' 6-node triangles (two per face, cut along a
+    diagonal), so the weights are those triangles' red lumping: A/8 at an edge midpoint, A/4 at the centre, A/12 or
+    A/24 at a corner (on the cut or not). A uniform shear's consistent forces on a 9-node face are tau A/36, A/9,
+    4 A/9 (corner, edge, centre): the centre sticks up to g = 16/9 tau."""
+    tau = 0.2 * P
+    sol = cc.solve(layer(tau, 1.01 * 16 / 9 * tau, cell="hex"), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    scale = np.abs(exact).max()
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * scale                           # measured 4.8e-15
+    below = cc.solve(layer(tau, 0.99 * 16 / 9 * tau, cell="hex"), **P2)
+    assert below.ok and np.linalg.norm(below.contact.slip, axis=1).max() > 1e-5 * scale   # measured 4.3e-4
+    g = 1e2
+    sol = cc.solve(pushed(cc.Tresca(g), cell="hex"), **P2)
+    assert sol.ok and (np.linalg.norm(sol.contact.slip, axis=1) > 0.5e-4).all()      # every node slides
+    assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)   # 2.2e-16
+    assert np.abs(np.linalg.norm(sol.contact.shear, axis=1) - g).max() < 1e-12 * g   # measured 4.3e-16
+
+
+@pytest.mark.numerics
+def test_partial_slip_matches_a_projected_gradient_reference_and_the_cone_holds_at_every_row():
+    from cvxcontact.fem.space import P2Tet
+
+    s, d, g = 4e-6, 1e-5, 0.1 * P
+    mesh = cc.box(nx=2, ny=2, nz=1)
+    body = cc.Body(mesh, steel(), contact="bottom", displacement={"top": (s * DIAGONAL[0], s * DIAGONAL[1], -d)})
+    sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR, law=cc.Tresca(g))]), **P2)
+    assert sol.ok
+    space = P2Tet()
+    nodes = space.nodes(body)
+    system = space.assemble_loads(body, space.assemble_matrices(body, nodes), nodes)
+    Tu, u_fixed = system.Tu, system.u_fixed
+    Kzz = (Tu.T @ system.Kuu @ Tu).toarray()
+    fz = Tu.T @ system.f
+    points = np.asarray(nodes.points)
+    faces = np.asarray(nodes.boundary("bottom"))                                   # (k, 6): v0 v1 v2 m01 m12 m20
+    areas = 0.5 * np.linalg.norm(np.cross(points[faces[:, 1]] - points[faces[:, 0]],
+                                          points[faces[:, 2]] - points[faces[:, 0]]), axis=1)
+    lumped = np.zeros(len(points))                # the red refinement: four triangles of A/4, a third at each corner
+    for sub in ([0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]):
+        np.add.at(lumped, faces[:, sub].ravel(), np.repeat(areas / 12, 3))
+    bottom = np.unique(faces)
+    dofs = np.ravel(np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]))
+    Pc = sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(Kzz, PT.T)
+    q = PT @ np.linalg.solve(Kzz, fz) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, g * lumped[bottom])
+    ref = (Tu @ np.linalg.solve(Kzz, fz + PT.T @ R) + u_fixed).reshape(-1, 3)
+    slip = np.linalg.norm(ref[bottom, :2], axis=1)
+    assert 2 <= (slip > 1e-3 * slip.max()).sum() <= len(bottom) - 2             # partial slip: 17 of 25 nodes
+    assert np.abs(sol.u[0] - ref).max() < 1e-5 * np.abs(ref).max()             # measured 4.1e-8
+    c = sol.contact
+    at = [int(np.argmin(np.linalg.norm(c.points - points[b], axis=1))) for b in bottom]
+    R = R.reshape(-1, 3)
+    assert np.abs(c.shear_force[at] - R[:, :2]).max() < 5e-5 * np.abs(R).max()  # measured 3.5e-7 (FISTA's)
+    over, along, stuck = cone_complementarity(c, g, np.abs(sol.u[0]).max())
+    assert over < 1e-12 and along < 1e-12 and stuck < 1e-12                       # measured 2.2e-16, 7.0e-16, 0
+
+
+@pytest.mark.numerics
+def test_p1_on_finer_boxes_tends_to_the_p2_answer():
+    q, law = 0.2 * P * DIAGONAL, cc.Tresca(0.3 * P)
+    p2 = cc.solve(sheared(q, law, cc.box(nx=4, ny=4, nz=2)), **P2)
+    assert p2.ok
+    corners = np.array([[x, y, 1.0] for x in (0.0, 1.0) for y in (0.0, 1.0)])
+
+    def at_corners(sol):
+        pts = sol.points[0]
+        return sol.u[0][[int(np.argmin(np.linalg.norm(pts - c, axis=1))) for c in corners]]
+
+    ref, scale = at_corners(p2), np.abs(p2.u[0]).max()
+    gaps = []
+    for n in (2, 4, 8):
+        p1 = cc.solve(sheared(q, law, cc.box(nx=n, ny=n, nz=n // 2)))
+        assert p1.ok
+        gaps.append(np.abs(at_corners(p1) - ref).max() / scale)
+    assert gaps[1] < 0.7 * gaps[0] and gaps[2] < 0.7 * gaps[1]                     # 0.33, 0.13, 0.044
+
+
+def pair(law, swap=False, below=3, above=3, q=(0.2 * P * DIAGONAL)):
+    """A box (``above`` cells a side) pressed and sheared on a box (``below``) clamped at its bottom; ``swap``:
+    the pair posed from the lower box."""
+    a = cc.Body(cc.box(nx=above, ny=above, nz=1), steel(), contact="bottom", traction={"top": (q[0], q[1], -P)},
+                name="top")
+    lower = cc.box(nx=below, ny=below, nz=1)
+    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(), contact="top", clamped="bottom",
+                name="below")
+    contact = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
+    return cc.Scene(a, b, contacts=[contact])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("below, above", [(3, 3), (4, 2)])
+def test_a_pair_gives_the_same_answer_posed_from_either_side(below, above):
+    """The finer side's nodes (the lower box's: "sigma2" posed from the upper box, "sigma1" from the lower);
+    Tresca in partial slip and Coulomb."""
+    for law in (cc.Tresca(0.25 * P), cc.Coulomb(0.3)):
+        here = cc.solve(pair(law, below=below, above=above), degree=2, condition="sigma2")
+        there = cc.solve(pair(law, swap=True, below=below, above=above), degree=2, condition="sigma1")
+        assert here.ok and there.ok
+        assert here.info.finish == there.info.finish == cc.Finish.FRICTION_NEWTON
+        scale = np.abs(here.u[0]).max()
+        for k in (0, 1):
+            assert np.abs(here.u[k] - there.u[k]).max() < 1e-11 * scale             # measured 6.4e-14, 0
+        slip = np.linalg.norm(here.contact.slip, axis=1)
+        assert 0 < (slip > 1e-3 * slip.max()).sum() < len(slip)                    # partial slip: 35 to 70 of 49, 81
+        total = here.contact.shear_force.sum(axis=0)
+        assert np.allclose(total, -there.contact.shear_force.sum(axis=0), rtol=1e-11, atol=0.0)  # 4.2e-14 of q
+        assert np.allclose(total, -0.2 * P * DIAGONAL, rtol=1e-11, atol=0.0)     # the whole shear: 1.5e-13
+
+
+def shifted_pair(law, swap=False):
+    """A box (2 x 2 cells) pressed and sheared on a box (4 x 4) shifted by (1/8, 1/8) m and clamped at its bottom:
+    the overlap, [1/8, 1]^2, cuts the upper box's faces; ``swap``: the pair posed from the lower box."""
+    q = 0.2 * P * DIAGONAL
+    a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top")
+    lower = cc.box(nx=4, ny=4, nz=1)
+    b = cc.Body(lower.with_points(lower.points + [0.125, 0.125, -1.0]), steel(), contact="top", clamped="bottom",
+                name="below")
+    contact = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
+    return cc.Scene(a, b, contacts=[contact])
+
+
+@pytest.mark.numerics
+def test_on_cut_faces_the_weights_are_the_red_hats_integrated_over_the_overlap():
+    """"sigma1", the upper box's nodes, whose faces the overlap cuts: each row's weight is the integral over the
+    overlap of the P1 hat of its node on the red refinement of the upper box's faces, computed here by the midpoint
+    rule on a 400 x 400 grid of the overlap (the hats located in the sub-triangles by barycentric coordinates).
+    The same pair posed from the lower box ("sigma2") gives the same answer."""
+    from cvxcontact.fem.space import P2Tet
+
+    scene = shifted_pair(cc.Tresca(0.4 * P))
+    itf = P2Tet().contact(scene, "sigma1", None).interface
+    w = itf.weights("sigma1")
+    t = itf.traces[0]
+    n = 400
+    h = 0.875 / n
+    grid = 0.125 + h * (np.arange(n) + 0.5)
+    pts = np.column_stack([np.repeat(grid, n), np.tile(grid, n)])
+    faces = np.asarray(t.faces)
+    sub = np.concatenate([faces[:, [0, 3, 5]], faces[:, [1, 4, 3]], faces[:, [2, 5, 4]], faces[:, [3, 4, 5]]])
+    integral = np.zeros(len(t.nodes))
+    done = np.zeros(len(pts), dtype=bool)
+    for tri in sub:
+        x0, x1, x2 = t.x[tri]
+        T = np.column_stack([x1 - x0, x2 - x0])
+        l12 = np.linalg.solve(T, (pts - x0).T).T
+        L = np.column_stack([1 - l12.sum(axis=1), l12])
+        inside = (L >= -1e-12).all(axis=1) & ~done
+        done |= inside
+        np.add.at(integral, tri, (L[inside] * h * h).sum(axis=0))
+    assert done.all()
+    rows = itf.sigma_rows(0)
+    assert (w > 0).all() and len(w) == len(rows)
+    assert np.abs(w - integral[rows]).max() < 2e-3 * w.max()        # measured 2.0e-5 (the midpoint rule's error)
+    here = cc.solve(scene, degree=2, condition="sigma1")
+    there = cc.solve(shifted_pair(cc.Tresca(0.4 * P), swap=True), degree=2, condition="sigma2")
+    assert here.ok and there.ok
+    for k in (0, 1):
+        assert np.abs(here.u[k] - there.u[k]).max() < 1e-11 * np.abs(here.u[0]).max()   # measured 0
+
+def test_friction_under_the_conic_condition_is_refused_naming_the_nodal_rows_and_p1():
+    scene = sheared(0.2 * P * DIAGONAL, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
+    with pytest.raises(cc.UnsupportedError, match=r"'gamma3'.*condition='sigma1' or 'sigma2'.*degree=1 with 'gamma3'"):
+        cc.solve(scene, degree=2, condition="gamma3")
+    assert cc.solve(scene, degree=1, condition="gamma3").ok                  # the alternative it names

@@ -154,7 +154,7 @@ class Backend:
         return problem.kind in self.routes and self.accepts(problem)
 
 
-FORCED_KINDS = ("signorini",)
+FORCED_KINDS = ("signorini", "conic")
 """The kinds the condensed backend solves with force-controlled obstacles (the translations bordering the
 condensed system, :mod:`cvxcontact.backends.forced`). Not the P2 cones: Newton at the tangency points on the
 condensed system can stop off balance under other BLAS kernels (the force-controlled punch of tests/scenes.py,

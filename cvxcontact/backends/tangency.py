@@ -49,7 +49,7 @@ points that nearly coincide (a curved obstacle touching on both sides of a verte
 have nearly parallel rows, and the direction that splits their forces (and the obstacle's sideways position with
 it) is then set only to the system's conditioning (measured: the steps stall at 7.7e-7 of the largest unknown,
 the residual at 1e-13, the circle beside a vertex of tests/test_tangency.py)."""
-ACCEPT_TOL = 1e-10
+ACCEPT_TOL = 1e-8
 """The largest relative KKT residual at which a step that stopped (:data:`NEWTON_TOL`, :data:`STALL_TOL`,
 :data:`RESIDUAL_STALL_TOL`) is taken for convergence, each block over the sizes of the terms it adds up
 (:func:`_residual`); above it the Newton declines (:attr:`~cvxcontact.backends.finish.declined.Stop.STALL`). A step

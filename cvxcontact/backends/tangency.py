@@ -49,6 +49,7 @@ points that nearly coincide (a curved obstacle touching on both sides of a verte
 have nearly parallel rows, and the direction that splits their forces (and the obstacle's sideways position with
 it) is then set only to the system's conditioning (measured: the steps stall at 7.7e-7 of the largest unknown,
 the residual at 1e-13, the circle beside a vertex of tests/test_tangency.py)."""
+
 ACCEPT_TOL = 1e-7
 """The largest relative KKT residual at which a step that stopped (:data:`NEWTON_TOL`, :data:`STALL_TOL`,
 :data:`RESIDUAL_STALL_TOL`) is taken for convergence, each block over the sizes of the terms it adds up
@@ -57,8 +58,8 @@ at rounding says nothing by itself: on a Newton system singular to rounding the 
 the multipliers' step, and the residual, are O(1) (measured: the force-controlled P2 punch on the condensed
 system, 10 unknowns, a tangency row of curvature 1/rounding: residual 0.11 of the load at a step of 5.5e-16 under
 the Sandybridge kernels). The answers taken measure at most 3.8e-10 (a large circle pressed into P2 triangles,
-where the steps stall at the system's conditioning; 1e-15 elsewhere) under the SkylakeX, Haswell, Prescott,
-Sandybridge and Nehalem kernels of tests/test_tangency.py, test_forced_condensed.py, test_mixed_cuts_factored.py."""
+where the steps stall at the system's conditioning) in tests/test_tangency.py, test_forced_condensed.py and
+test_mixed_cuts_factored.py under the SkylakeX, Haswell, Prescott, Sandybridge and Nehalem kernels."""
 
 
 DEPENDENT_TOL = 1e-6

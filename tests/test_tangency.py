@@ -7,6 +7,7 @@ an interior point (CVXPY, Clarabel), converging to the finished answer as M grow
 of the conic program itself."""
 
 import warnings
+from types import SimpleNamespace
 
 import cvxpy as cp
 import numpy as np
@@ -14,9 +15,10 @@ import scipy.sparse as sp
 import pytest
 
 import cvxcontact as cc
-from cvxcontact.backends import cones
+from cvxcontact.backends import cones, tangency
 from cvxcontact.backends.full import mixed_kkt
 from cvxcontact.backends.result import Cache, Settings
+from cvxcontact.backends.finish.declined import Declined, Stop
 from cvxcontact.backends.tangency import _maximum
 from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, point_rows
 
@@ -375,3 +377,47 @@ def test_a_segment_flat_to_rounding_has_no_maximum_rather_than_a_singular_system
     assert m == pytest.approx(0.5, abs=1e-15) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
     monkeypatch.setattr(np.linalg, "solve", singular)
     assert _maximum(SEGMENT, concave, (0, 1)) is None
+
+
+def _one_segment():
+    """Three springs A = diag(2, 3, 4) N/m under F = (3, 1, 1) N, each moving one node of one P2 segment (rows
+    G = I, gaps g = (0.5, 1, 1) m, its Bernstein map the segment's own): by hand, node 0 closes (x_0 = 0.5,
+    force y = F_0 - 2 x_0 = 2), the others stay open (x = F / A: 1/3, 1/4, Bernstein coefficients of x - g
+    0, -23/24, -3/4, all <= 0)."""
+    kkt = SimpleNamespace(rows=sp.identity(3, format="csr"), matrix=sp.diags([2.0, 3.0, 4.0]).tocsr(),
+                          rhs=np.array([3.0, 1.0, 1.0]))
+    return kkt, sp.csr_matrix(SEGMENT.to_bernstein), np.array([0.5, 1.0, 1.0]), np.array([[2.0, 0.0, 0.0]])
+
+
+def test_newton_takes_no_rounding_step_for_convergence_off_balance(monkeypatch):
+    """The acceptance reads the residual (tangency.ACCEPT_TOL), not the step. With the true solves Newton ends at
+    the answer by hand; with a Newton system whose solve gives a step at rounding (as a system singular to
+    rounding did: the force-controlled P2 punch condensed, under the Sandybridge kernels) from a start off
+    balance (residual 1 N of the 3 N load), it declines (Stop.STALL) where it took that step for convergence."""
+    kkt, B, g, beta = _one_segment()
+    out = tangency.tangency_newton(kkt, B, g, beta, np.array([0.4, 0.3, 0.2]))
+    assert not isinstance(out, Declined)
+    assert np.abs(out["x"] - [0.5, 1 / 3, 1 / 4]).max() < 1e-15 and out["y"] == pytest.approx([2.0], rel=1e-15)
+
+    class Rounding:
+        def __init__(self, K):
+            self.n = K.shape[0]
+
+        def solve(self, b):
+            return np.full(self.n, 1e-17)
+
+    monkeypatch.setattr(tangency, "dense_or_sparse_lu", Rounding)
+    out = tangency.tangency_newton(kkt, B, g, beta, np.array([0.5, 0.5, 0.5]))
+    assert isinstance(out, Declined) and out.stop is Stop.STALL, out
+
+
+def test_a_segment_flat_to_the_finish_tolerance_is_a_whole_contact():
+    """Coefficients at rounding of their terms (5.6e-17 against terms of 3.9: the force-controlled P2 punch
+    condensed, under the Sandybridge kernels) give no maximum at the finish's tolerance of those terms, so the
+    segment is in contact as a whole (vertex rows), not a tangency whose curvature 1/rounding makes the Newton
+    system singular to rounding; a true curvature well above it still has its maximum."""
+    rounding = np.array([0.0, 5.55111512e-17, 0.0])
+    assert _maximum(SEGMENT, rounding, (0, 1)) is not None                 # negative definite by its signs alone
+    assert _maximum(SEGMENT, rounding, (0, 1), flat=1e-11 * 3.9) is None
+    m, L, _ = _maximum(SEGMENT, np.array([0.0, 1e-9, 0.0]), (0, 1), flat=1e-11 * 3.9)
+    assert m == pytest.approx(5e-10, rel=1e-12) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)

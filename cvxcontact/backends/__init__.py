@@ -154,13 +154,13 @@ class Backend:
         return problem.kind in self.routes and self.accepts(problem)
 
 
-FORCED_KINDS = ("signorini",)
+FORCED_KINDS = ("signorini", "conic")
 """The kinds the condensed backend solves with force-controlled obstacles (the translations bordering the
-condensed system, :mod:`cvxcontact.backends.forced`). Not the P2 cones: Newton at the tangency points on the
-condensed system can stop off balance under other BLAS kernels (the force-controlled punch of tests/scenes.py,
-P2 "gamma3": equilibrium 1.1e-5 under OPENBLAS_CORETYPE=Prescott, 2.2e-5 under Sandybridge without the factored
-steps, 7e-17 under Haswell; its step at rounding was taken for convergence with the residual off balance), so
-"full" takes them; forced.py's cone path waits for that Newton's acceptance to read the residual."""
+condensed system, :mod:`cvxcontact.backends.forced`): Signorini rows and the P2 cones. The cones' finish there,
+Newton at the tangency points on a system of the interface's size, takes a step for convergence only with its
+residual at rounding (:data:`~cvxcontact.backends.tangency.ACCEPT_TOL`; before, a step at rounding was taken with
+the residual off balance: equilibrium 1.1e-5 under OPENBLAS_CORETYPE=Prescott on tests/scenes.py's
+force-controlled punch, which stayed with "full" until then)."""
 
 HELD_KINDS = ("signorini",)
 """The kinds the condensed backend solves with bodies held by the contact only (their rigid motions kept in the

@@ -35,6 +35,7 @@ from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, segment_scales
 from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
+from .finish.rows import _row_scale
 
 __all__ = ["tangency_newton"]
 
@@ -48,6 +49,17 @@ points that nearly coincide (a curved obstacle touching on both sides of a verte
 have nearly parallel rows, and the direction that splits their forces (and the obstacle's sideways position with
 it) is then set only to the system's conditioning (measured: the steps stall at 7.7e-7 of the largest unknown,
 the residual at 1e-13, the circle beside a vertex of tests/test_tangency.py)."""
+
+ACCEPT_TOL = 1e-7
+"""The largest relative KKT residual at which a step that stopped (:data:`NEWTON_TOL`, :data:`STALL_TOL`,
+:data:`RESIDUAL_STALL_TOL`) is taken for convergence, each block over the sizes of the terms it adds up
+(:func:`_residual`); above it the Newton declines (:attr:`~cvxcontact.backends.finish.declined.Stop.STALL`). A step
+at rounding says nothing by itself: on a Newton system singular to rounding the unknowns' step is rounding while
+the multipliers' step, and the residual, are O(1) (measured: the force-controlled P2 punch on the condensed
+system, 10 unknowns, a tangency row of curvature 1/rounding: residual 0.11 of the load at a step of 5.5e-16 under
+the Sandybridge kernels). The answers taken measure at most 3.8e-10 (a large circle pressed into P2 triangles,
+where the steps stall at the system's conditioning) in tests/test_tangency.py, test_forced_condensed.py and
+test_mixed_cuts_factored.py under the SkylakeX, Haswell, Prescott, Sandybridge and Nehalem kernels."""
 
 
 DEPENDENT_TOL = 1e-6
@@ -89,14 +101,35 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _maximum(shape, b, I, delta=None, start=None):
+def _residual(A, F, G, force, C, lam, x, r1, r2, c0) -> float:
+    """The relative KKT residual of the Newton system: the balance r1 = A x + G^T ``force`` + C^T ``lam`` - F over
+    the sizes of its terms, |A| |x| + |G^T| |force| + |C^T| |lam| + |F|, and the rows' residual r2 = C x - c0 over
+    |C| |x| + |c0| (:func:`~cvxcontact.backends.finish.rows._row_scale`), each block's largest over its largest
+    scale (normwise: a row whose own terms are small still carries the rounding of the unknowns it reads).
+    Scales that add the terms up do not vanish where their sum cancels (closed rows whose nodes move with the
+    obstacle: |C x| and |c0| are then 0 to rounding, and the residual over them read 1.0 at rounding)."""
+    tiny = np.finfo(float).tiny
+    s1 = _row_scale(abs(sp.hstack([A, G.T, C.T]).tocsr()), np.r_[x, force, lam], F)
+    s2 = _row_scale(abs(C), x, c0) if C.shape[0] else np.ones(1)
+    return max(float(np.abs(r1).max(initial=0.0)) / max(float(s1.max(initial=0.0)), tiny),
+               float(np.abs(r2).max(initial=0.0)) / max(float(s2.max(initial=0.0)), tiny))
+
+
+def _maximum(shape, b, I, delta=None, start=None, flat: float = 0.0):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
     docstring); None where Q_II is not negative definite on the tangent plane, or is so by the signs of
     eigenvalues at rounding only (coefficients that are 0 to rounding along a whole segment: the systems below
-    are then singular or not finite under some BLAS kernels, found under OpenBLAS's Prescott ones)."""
+    are then singular or not finite under some BLAS kernels, found under OpenBLAS's Prescott ones).
+
+    ``flat``: the size below which a curvature is rounding (the element's coefficients' terms times the
+    finish's tolerance): q's Hessian on the tangent plane must be negative definite by more than that. A
+    segment whose coefficients are rounding (a flat face pressed by a plane) is then flat, a contact of the
+    whole sub-simplex, not a tangency whose curvature 1/rounding would make the Newton system singular to
+    rounding (measured: coefficients 5.6e-17 against terms of 3.9, the force-controlled P2 punch condensed,
+    under the Sandybridge kernels)."""
     try:
-        out = _stationary(shape, b, I, delta, start)
+        out = _stationary(shape, b, I, delta, start, flat)
     except np.linalg.LinAlgError:
         return None
     if out is not None and not (np.isfinite(out[0]) and np.isfinite(out[1]).all() and np.isfinite(out[2]).all()):
@@ -104,7 +137,7 @@ def _maximum(shape, b, I, delta=None, start=None):
     return out
 
 
-def _stationary(shape, b, I, delta=None, start=None):
+def _stationary(shape, b, I, delta=None, start=None, flat: float = 0.0):
     """:func:`_maximum` without its guard against singular systems.
 
     ``delta(L)`` (L (k,) a full barycentric point): a curved obstacle's departure of its gap from the P2
@@ -121,7 +154,7 @@ def _stationary(shape, b, I, delta=None, start=None):
     T = _sub_basis(len(I))
     H = T.T @ QI @ T
     m = len(I)
-    concave = not np.any(np.linalg.eigvalsh(H) >= 0)
+    concave = not np.any(np.linalg.eigvalsh(H) >= -flat)
     if delta is None and not concave:
         return None
     L = np.zeros(k)
@@ -141,7 +174,7 @@ def _stationary(shape, b, I, delta=None, start=None):
     for _ in range(30):
         _, gd, hd = delta(L)                                       # in L; along the tangent coordinates z:
         Hs = H - 0.5 * (TT.T @ hd @ TT)                            # half the Hessian of q on the plane
-        if np.any(np.linalg.eigvalsh(Hs) >= 0):
+        if np.any(np.linalg.eigvalsh(Hs) >= -flat):
             return None
         grad = T.T @ (2 * QI @ L[I]) - TT.T @ gd                   # of q = L^T Q L - delta along T
         step = -np.linalg.solve(2 * Hs, grad)
@@ -152,7 +185,7 @@ def _stationary(shape, b, I, delta=None, start=None):
         last = size
     _, gd, hd = delta(L)
     Hs = H - 0.5 * (TT.T @ hd @ TT)
-    if np.any(np.linalg.eigvalsh(Hs) >= 0):
+    if np.any(np.linalg.eigvalsh(Hs) >= -flat):
         return None
     q = float(L @ Q @ L - delta(L)[0])
     return q, L, T @ np.linalg.solve(Hs, T.T)
@@ -303,12 +336,13 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         for step_no in range(max_steps):
             rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
+            flats = tol * segment_scales(B, abs(G) @ np.abs(x) + np.abs(g) + np.abs(cone_gap), w) if tkeys else None
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
                 el = elem(s)
                 out = _maximum(shape, el.coefficients(x), I,
                                None if departure is None else (lambda L, s=s: departure.curvature(s, L)),
-                               start=where.get(c))
+                               start=where.get(c), flat=flats[s])
                 if out is None:              # q flat or convex along I: the contact covers I (next round)
                     flat = (c, s, I)
                     break
@@ -347,10 +381,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 why = Declined(Stop.SINGULAR, "the Newton system is singular")
                 break
             # the residual before the step, relative to its terms' sizes
-            res = max(np.abs(r1).max(initial=0.0) / max(np.abs(A @ x).max(initial=0.0), np.abs(F).max(initial=0.0),
-                                                         np.finfo(float).tiny),
-                      np.abs(r2).max(initial=0.0) / max(np.abs(G @ x).max(initial=0.0), np.abs(g).max(initial=0.0),
-                                                         np.finfo(float).tiny))
+            res = _residual(A, F, G, force, C, lam, x, r1, r2, np.r_[gv, gl, (C[C.shape[0] - len(rows):] @ x
+                                                                             - np.array(vals, dtype=float))])
             x, lam = x + dz[:n], lam + dz[n:]
             lam_lin, mu = lam[:len(lam_lin)], lam[len(lam_lin):]
             step = np.abs(dz[:n]).max(initial=0.0) / max(np.abs(x).max(initial=0.0), 1e-300)
@@ -361,6 +393,9 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 (res <= RESIDUAL_STALL_TOL and res > 0.25 * last_res)
             last, last_res = step, res
             if small and pen is not None and np.array_equal(on, pen):
+                if res > ACCEPT_TOL:
+                    why = Declined(Stop.STALL, f"Newton at the tangency points stopped on a step of {step:.1e} "
+                                               f"with its residual at {res:.1e} (above {ACCEPT_TOL:.0e})")
                 break
             pen = on
         else:

@@ -71,8 +71,8 @@ def one(root: str, n: int, repeats: int, out: str) -> dict:
         sc = SparseContact(blocks, E, factorization="auto")
         u, phi, y, active, steps = sc.solve(F, g)
         route.append(time.process_time() - t0)
-        counts = dict(systems=steps, factorizations=sc.factorizations, column_solves=sc.column_solves,
-                      closed=int(active.sum()), rows=int(len(active)), factorization=sc.factorization)
+        counts = {"systems": steps, "factorizations": sc.factorizations, "column_solves": sc.column_solves,
+                  "closed": int(active.sum()), "rows": len(active), "factorization": sc.factorization}
     np.savez(out, x=np.concatenate(u + [q for q in phi if q is not None]), y=y)
     whole, ok = [], True
     for _ in range(repeats):
@@ -102,7 +102,7 @@ def one(root: str, n: int, repeats: int, out: str) -> dict:
 def side(root: str, n: int, repeats: int, out: str, threads: int) -> dict:
     env = dict(os.environ, OMP_NUM_THREADS=str(threads), MKL_NUM_THREADS=str(threads),
                OPENBLAS_NUM_THREADS=str(threads))
-    arg = json.dumps(dict(root=root, n=n, repeats=repeats, out=out))
+    arg = json.dumps({"root": root, "n": n, "repeats": repeats, "out": out})
     res = subprocess.run([sys.executable, __file__, "--one", arg], env=env, capture_output=True, text=True,
                          check=True)
     return json.loads(res.stdout.strip().splitlines()[-1])
@@ -131,7 +131,8 @@ def main():
         if args.baseline:
             data = subprocess.run(["git", "-C", str(repo), "archive", args.baseline, "cvxcontact"],
                                   capture_output=True, check=True).stdout
-            tarfile.open(fileobj=io.BytesIO(data)).extractall(Path(tmp) / "before", filter="data")
+            with tarfile.open(fileobj=io.BytesIO(data)) as tar:
+                tar.extractall(Path(tmp) / "before", filter="data")
             sides.insert(0, ("before", str(Path(tmp) / "before")))
         rows = []
         for n in args.sizes:

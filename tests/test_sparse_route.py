@@ -90,7 +90,7 @@ def test_long_interface_steps_settle_on_the_base_columns_and_reach_the_full_answ
     blocks, E = list(solver.problem.blocks), solver.problem.E
     F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
     plain = SparseContact(blocks, E, cap=0, factorization=sol.info.factorization)
-    u, _, y, active, steps = plain.solve(F, np.asarray(sc._g))
+    u, _, y, active, _ = plain.solve(F, np.asarray(sc._g))
     settled = SparseContact(blocks, E, factorization=sol.info.factorization)
     u2, _, y2, active2, steps2 = settled.solve(F, np.asarray(sc._g))
     assert np.array_equal(active, sol.contact.active) and np.array_equal(active2, active)

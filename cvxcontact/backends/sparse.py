@@ -331,16 +331,16 @@ class SparseContact:
         if self.base is None:
             return active
         n, (A_b, factor) = self.n, self.base
-        if self._base_state is None:                  # the base set's own solution, once per base and load
-            zb = factor.solve(np.concatenate([self.F, np.where(A_b, self._g, 0.0)]))
-            self._base_state = (self.G @ zb[:n], zb[n:])
-        Gxb, yb = self._base_state
         seen = set(visited)
         for _ in range(max_iter):
             drop = np.flatnonzero(A_b & ~active)
             add = np.flatnonzero(active & ~A_b)
             if len(drop) + len(add) > self.cap or active.tobytes() in seen:
                 return active
+            if self._base_state is None:              # the base set's own solution, once per base and load
+                zb = factor.solve(np.concatenate([self.F, np.where(A_b, self._g, 0.0)]))
+                self._base_state = (self.G @ zb[:n], zb[n:])
+            Gxb, yb = self._base_state
             seen.add(active.tobytes())
             GZ, YZ = self._capacitance_columns(drop, add)
             g_drop = self._g[drop]                      # the base's right-hand side without the dropped rows' gaps
@@ -376,6 +376,8 @@ class SparseContact:
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
                 scale[self.n:] += self.w * np.abs(z[self.n:])
                 if float((np.abs(r) / np.maximum(scale, np.finfo(float).tiny)).max(initial=0.0)) <= 1e-12:
+                    if np.array_equal(active, self.base[0]):     # the base set's own solution (_settle)
+                        self._base_state = (self.G @ z[:self.n], z[self.n:])
                     return z
                 dz = self._solve_on(active, r)
                 if dz is None or not np.isfinite(dz).all():

@@ -163,8 +163,9 @@ class SparseContact:
     ``E``, for every active set (module docstring). Built once per geometry; :meth:`solve` per load case.
 
     ``cap``: the largest number of rows changed from the base active set solved by the capacitance form
-    before refactorising (None: the measured cost of one factorisation in column solves, the columns solved in
-    blocks as the capacitance form solves them; at least 16, at most 500).
+    before refactorising, and taken by the steps on the columns alone (:meth:`_settle`) (None: the measured cost
+    of one factorisation in column solves, the columns solved in blocks as the capacitance form solves them; at
+    least 16, at most 500). The count of systems :meth:`solve` reports follows it (its answer does not).
     """
 
     def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
@@ -326,8 +327,9 @@ class SparseContact:
         but one per row that joins the difference. The same steps as :meth:`solve`'s with the row scales ``S``
         of the last exact state; returns the set where they stop (the signs hold, or a set seen before, or too
         far from the base), which :meth:`solve` then solves exactly and checks. Near the answer the steps flip
-        a few rows at a time whose forces and gaps are rounding-small beside their scales: this settles them
-        without a system of the full size per step."""
+        a few rows at a time whose forces and gaps are small beside their scales (1e-7 to 1e-4 of them on
+        thin_layer(3000)): this settles them without a system of the full size per step. The result depends on
+        the columns' rounding only through which set is tried next: the answer is the exact check's."""
         if self.base is None:
             return active
         n, (A_b, factor) = self.n, self.base
@@ -391,7 +393,8 @@ class SparseContact:
 
         Returns ``(u, phi, y, active, steps)`` (per-body lists as in
         :func:`~cvxcontact.backends.full.mixed_kkt`, y the row forces, ``steps`` the number of systems
-        solved) or None if the steps cycle, stall or meet a singular system."""
+        solved exactly; the steps taken on the capacitance columns alone, :meth:`_settle`, are not counted) or None
+        if the steps cycle, stall or meet a singular system."""
         self.F = np.asarray(F, dtype=float)
         self._g = np.asarray(g, dtype=float)
         self._base_state = None

@@ -71,8 +71,32 @@ def test_capacitance_steps_match_refactorised_steps(layer):
     every, reuse = SparseContact(blocks, E, cap=0), SparseContact(blocks, E, cap=10**6)
     a, b = every.solve(F, g), reuse.solve(F, g)
     assert reuse.factorizations == 1 and every.factorizations == a[4] > 1 and reuse.column_solves > 0
-    assert np.array_equal(a[3], b[3]) and a[4] == b[4]
+    assert np.array_equal(a[3], b[3]) and b[4] <= a[4]      # (near one factor the steps settle on its columns)
     assert rel(np.concatenate(a[0]), np.concatenate(b[0])) < 1e-10 and rel(a[2], b[2]) < 1e-10
+
+
+def test_long_interface_steps_settle_on_the_base_columns_and_reach_the_full_answer():
+    """thin_layer(200) (348 merged nodes, non-matching traces: a saw-tooth of open rows inside the contact zone,
+    rows flipping a few at a time near the answer): the steps near a base factor settle on its capacitance
+    columns (SparseContact._settle), then one exact solve checks the set. The same active set and answer as
+    the full CVXPY model and as the plain steps (a refactorisation and an exact solve every step, cap=0)."""
+    scene = thin_layer(200)
+    solver = cc.ContactSolver(scene, method="sparse")
+    sol = solver.solve()
+    assert sol.ok and sol.info.route == Route.SPARSE_ACTIVE_SET
+    # measured u 3.8e-14 / 4.0e-13, phi 5.7e-14, the force 3.3e-11 (its conditioning, as above): >= 250x, 600x
+    fields_agree(sol, cc.solve(scene, method="full"), 1e-10, force_tol=2e-8)
+    sc = solver.cache.sparse
+    blocks, E = list(solver.problem.blocks), solver.problem.E
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    plain = SparseContact(blocks, E, cap=0, factorization=sol.info.factorization)
+    u, _, y, active, _ = plain.solve(F, np.asarray(sc._g))
+    settled = SparseContact(blocks, E, factorization=sol.info.factorization)
+    u2, _, y2, active2, steps2 = settled.solve(F, np.asarray(sc._g))
+    assert np.array_equal(active, sol.contact.active) and np.array_equal(active2, active)
+    assert rel(np.concatenate(u), np.concatenate(u2)) < 1e-10 and rel(y, y2) < 2e-8
+    # systems solved: measured 6-9 (they follow the measured cap) against 14 plain steps; factorisations 5-7
+    assert max(steps2, sol.info.iterations) <= 16 and max(settled.factorizations, sc.factorizations) <= 14
 
 
 @pytest.mark.parametrize(("delta", "bound"), [(1e-2, 1e-10), (1e-4, 1e-8)])   # measured 6.6e-13, 6.7e-11
@@ -219,7 +243,7 @@ def test_sparse_route_with_pardiso_matches_superlu_and_the_full_model():
     sol = a.solve()
     ref = cc.solve(scene, method="sparse", factorization="superlu")
     assert sol.ok and sol.info.factorization == "pardiso" and ref.info.factorization == "superlu"
-    assert sol.info.iterations == ref.info.iterations
+    assert np.array_equal(sol.contact.active, ref.contact.active)     # (the step counts follow each one's cap)
     fields_agree(sol, ref, 1e-10)
     fields_agree(sol, cc.solve(scene, method="full"), 1e-9)
     again = a.solve(thin_layer(60, pressure=0.6e6))

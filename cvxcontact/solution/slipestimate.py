@@ -49,18 +49,8 @@ def friction_of(sol, i: int) -> Friction | None:
     c = sol.contacts[i]
     if c.shear_force is None:
         return None
-    itf = sol._pair_line(i)
-    condition = sol.scene.conditions[i] or sol.condition
-    E = itf.evaluation(condition)
-
-    def extend(values):                            # the function of the rows' values, at every node of X_h
-        v = np.asarray(values, dtype=float)
-        cols = [itf.extend(condition, E @ col) for col in v.reshape(len(v), -1).T]
-        return np.column_stack(cols).reshape(v.shape)
-
-    slip = np.asarray(c.slip, dtype=float)
-    return Friction(t=extend(c.shear), g=extend(np.broadcast_to(np.asarray(c.threshold, dtype=float), len(slip))),
-                    s=slip)
+    t, g = c.trace.friction_fields(sol._pair_line(i), sol.scene.conditions[i] or sol.condition, c)
+    return Friction(t=t, g=g, s=np.asarray(c.slip, dtype=float))
 
 
 def friction_segments(f: Friction, contact, a, b, rule) -> tuple[np.ndarray, np.ndarray]:

@@ -1,13 +1,23 @@
 """The error estimate with a friction law (docs/accuracy.md, "Friction"): its limits (a vanishing threshold is the
 frictionless estimate, one above every shear the tied estimate with the tied reaction as the tangential traction),
-its effectivity under refinement, and where its friction terms sit (the stick-slip transition)."""
+its effectivity under refinement, and where its friction terms sit (the stick-slip transition); on a uniform state,
+exactly representable, every part vanishes (3D P1 and P2: t_h the representer of the row forces on P2 faces)."""
 
 import itertools
 import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import E, P, box, patch, sheared
+from friction_scenes import (
+    E,
+    P,
+    box,
+    patch,
+    sheared,
+    sliding_layer3d,
+    uniform_layer3d,
+    uniform_pair3d,
+)
 
 import cvxcontact as cc
 from cvxcontact.apps.studies import estimate as study
@@ -268,3 +278,61 @@ def test_a_pair_posed_from_either_body_has_the_same_estimate(law):
     assert one.parts["slip complementarity"] > 0
     for k, v in one.parts.items():
         assert abs(other.parts[k] - v) <= 1e-9 * one.absolute ** 2, k                 # measured 2e-15 relative
+
+
+def _largest_part(est):
+    """The largest |part| of an estimate over its norm squared (dimensionless)."""
+    return max(abs(v) for v in est.parts.values()) / est.norm ** 2
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("tau", [0.1, 0.2])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_3d_a_uniform_stuck_layer_has_a_zero_estimate(degree, tau):
+    """The uniformly sheared layer stuck on the floor (g = 0.3 p >= 4/3 tau: every P2 row sticks) is the exact
+    solution (P1 and P2 represent it): every part of its estimate vanishes. On P2 faces the rows carry the
+    consistent loads of tau (0 at a vertex, tau A/3 per face at an edge midpoint): t_h, their representer, is tau
+    at every node, where forces over the rows' areas (A/12, A/4) read 0 and 4/3 tau (measured before: relative
+    0.040 and 0.080, a cone part of 0.19 of the norm squared at tau = 0.2 p)."""
+    sol = cc.solve(uniform_layer3d(tau * P, cc.Tresca(0.3 * P)), degree=degree, condition="sigma1")
+    assert sol.ok
+    t = slip.friction_of(sol, 0).t
+    assert np.abs(np.linalg.norm(t, axis=1) / (tau * P) - 1).max() < 1e-10            # measured 1.7e-14 (P2)
+    assert _largest_part(sol.estimate) <= 1e-10                                        # measured 1.1e-16 (P2)
+
+
+@pytest.mark.numerics
+def test_3d_a_uniformly_sliding_layer_p1_zero_p2_friction_terms_follow_the_rows():
+    """The layer sliding on the floor under Tresca's g (its top moved by 1e-4 m, the slip 9e-5 m). P1: the
+    exact solution, every part vanishes. P2: the rows' capacities g w_a (A/12, A/4) are not the consistent
+    loads of g (0, A/3), so the discrete solution is not the uniform state and the estimate says so (element
+    part 0.041 of the norm squared at 2 x 2, 0.032 at 4 x 4); its friction terms stay small and fall with h: the
+    slip complementarity reads the traction the sliding rows prescribe (g: measured 2.6e-8, 1.7e-9), the cone the
+    representer's oscillation about g (measured 3.8e-3, 1.9e-3: halving with h)."""
+    p1 = cc.solve(sliding_layer3d(0.1 * P), degree=1, condition="sigma1")
+    assert p1.ok and np.linalg.norm(p1.contact.slip, axis=1).min() > 0.8e-4         # all slide: measured 9e-5
+    assert _largest_part(p1.estimate) <= 1e-10                                         # measured 3.3e-17
+    cones = []
+    for n in (2, 4):
+        est = cc.solve(sliding_layer3d(0.1 * P, n=n), degree=2, condition="sigma1").estimate
+        assert est.parts["element"] > 1e-3 * est.norm ** 2                            # measured 0.041, 0.032
+        assert est.parts["slip complementarity"] <= 1e-5 * est.norm ** 2              # measured 2.6e-8, 1.7e-9
+        cones.append(est.parts["friction cone"] / est.norm ** 2)
+    assert cones[1] < 0.7 * cones[0]                                                   # measured 0.50
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree", [1, 2])
+def test_3d_a_uniform_stuck_pair_has_a_zero_estimate_from_either_side(degree):
+    """Two layers in the uniform stuck state (matching faces, Tresca g = 0.3 p, tau = 0.1 p), posed from the
+    upper ("sigma1") or the lower body ("sigma2"): the same rows, every part of either estimate vanishes
+    (t_h between two bodies: the representer in the jumps of the two traces, as lambda_h), and the two agree."""
+    one, other = (cc.solve(uniform_pair3d(0.1 * P, cc.Tresca(0.3 * P), swap=swap), degree=degree,
+                           condition=condition) for swap, condition in ((False, "sigma1"), (True, "sigma2")))
+    assert one.ok and other.ok
+    t = slip.friction_of(one, 0).t
+    assert np.abs(np.linalg.norm(t, axis=1) / (0.1 * P) - 1).max() < 1e-10             # measured 4.5e-14 (P2)
+    for est in (one.estimate, other.estimate):
+        assert _largest_part(est) <= 1e-10                                             # measured 6.5e-17, 3.4e-17
+    for k, v in one.estimate.parts.items():
+        assert abs(other.estimate.parts[k] - v) <= 1e-10 * one.estimate.norm ** 2, k   # measured 7e-17

@@ -6,7 +6,8 @@ line or the overlay) and :class:`QuadraticTrace` (P2, Q2, P2 tetrahedra, Q2 hexa
 quadratic; on a 2D line the nodes interleave vertices and segment midpoints, vertex first) answer the
 vertices of a line's nodes, its lumped lengths, the values of a nodal function between the nodes, its VTK
 line cells, a sampled curve for figures, the pressure a :class:`~cvxcontact.solution.solution.ContactResult`
-reports and the pressure a body feels on its own trace. :data:`TRACES` holds them by degree; a space names
+reports, the pressure a body feels on its own trace and
+the tangential traction a friction law's estimate reads (``friction_fields``). :data:`TRACES` holds them by degree; a space names
 its own (``Space.trace``).
 """
 
@@ -130,16 +131,17 @@ class LinearTrace:
         return itf.pressure(k, force)
 
     def friction_fields(self, itf, condition: str, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(t_h, t_r, g_h) at every node of X_h of the pair ``itf``: the tangential traction t_h (Pa, on the first
-        body; (n,) along the pair's tangent in 2D, (n, 2) along its frame in 3D), the traction the law's rows
-        prescribe t_r (like t_h: here t_h itself) and the slip threshold (Pa, (n,)) the error estimate reads from the friction law of the
-        :class:`~cvxcontact.solution.solution.ContactResult` ``contact`` solved under ``condition``
-        (docs/accuracy.md, "Friction"). The lumped read-back: each row's force over the length (area) it holds
+        """(t_h, t_r, g_h) at every node of X_h of the pair ``itf``: the tangential traction t_h (Pa, on the
+        first body; (n,) along the pair's tangent in 2D, (n, 2) along its frame in 3D), the traction the
+        law's rows prescribe t_r (like t_h: here t_h itself) and the slip threshold (Pa, (n,)) the error
+        estimate reads from the friction law of the :class:`~cvxcontact.solution.solution.ContactResult`
+        ``contact`` solved under ``condition`` (docs/accuracy.md, "Friction"). The lumped read-back: each
+        row's force over the length (area) it holds
         (:attr:`~cvxcontact.solution.solution.ContactResult.shear`), the function of the rows' values
-        (``itf.extend``: under "sigma1"/"sigma2" the nodes without a row take the constrained side's function);
-        the threshold likewise. Exact for a uniform traction, whose consistent nodal loads are the lumped
-        weights times it (P1; Simpson's h/6, 2h/3 on a 2D P2 line), and the traction the rows prescribe (a
-        sliding row's force is g w_a: t_h = g there)."""
+        (``itf.extend``: under "sigma1"/"sigma2" the nodes without a row take the constrained side's
+        function); the threshold likewise. Exact for a uniform traction, whose consistent nodal loads are
+        the lumped weights times it (P1; Simpson's h/6, 2h/3 on a 2D P2 line), and the traction the rows
+        prescribe (a sliding row's force is g w_a: t_h = g there)."""
         E = itf.evaluation(condition)
 
         def extend(values):                        # the function of the rows' values, at every node of X_h

@@ -6,9 +6,8 @@ line or the overlay) and :class:`QuadraticTrace` (P2, Q2, P2 tetrahedra, Q2 hexa
 quadratic; on a 2D line the nodes interleave vertices and segment midpoints, vertex first) answer the
 vertices of a line's nodes, its lumped lengths, the values of a nodal function between the nodes, its VTK
 line cells, a sampled curve for figures, the pressure a :class:`~cvxcontact.solution.solution.ContactResult`
-reports, the pressure a body feels on its own trace and
-the tangential traction a friction law's estimate reads (``friction_fields``). :data:`TRACES` holds them by degree; a space names
-its own (``Space.trace``).
+reports, the pressure a body feels on its own trace and the tangential traction a friction law's error estimate
+reads (``friction_fields``). :data:`TRACES` holds them by degree; a space names its own (``Space.trace``).
 """
 
 from __future__ import annotations

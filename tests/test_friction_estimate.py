@@ -343,3 +343,16 @@ def test_3d_a_uniform_stuck_pair_has_a_zero_estimate_from_either_side(degree):
     for k, v in one.estimate.parts.items():
         bound = (1e-10 if exact else 1e-8) * one.estimate.norm ** 2
         assert abs(other.estimate.parts[k] - v) <= bound, k                # measured 7e-17; 9.2e-11 unfinished
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("options", [{}, P2], ids=["P1", "P2"])
+def test_2d_a_uniform_stuck_layer_has_a_zero_estimate(options):
+    """2D keeps the lumped read-back: on a line the lumped weights are the consistent loads of a constant (P1's
+    hats, Simpson's h/6, 2h/3 on P2), so the uniformly sheared block stuck on the floor (the exact solution) reads
+    |t_h| = tau at every node and every part of its estimate vanishes."""
+    tau = 0.2 * P
+    sol = cc.solve(uniform_layer(tau, cc.Tresca(0.3 * P)), **options)
+    assert sol.ok
+    assert np.abs(np.abs(slip.friction_of(sol, 0).t) / tau - 1).max() < 1e-10          # measured 1e-14
+    assert _largest_part(sol.estimate) <= 1e-10                                        # measured 1.9e-29

@@ -303,6 +303,24 @@ def test_3d_a_uniform_stuck_layer_has_a_zero_estimate(degree, tau):
 
 
 @pytest.mark.numerics
+@pytest.mark.parametrize("tau", [0.1, 0.2])
+def test_3d_p2_a_uniform_layer_stuck_by_coulomb_has_a_zero_estimate(tau):
+    """The stuck layer under Coulomb (mu = 0.3: mu p >= 4/3 tau): t_h = tau and g_h = mu p, p the representer
+    lambda_h, at every node; every part vanishes. Finished exactly (``info.finish``) to rounding; the fixed point
+    on the thresholds may end unfinished (tau = 0.2 p; every case under OPENBLAS_CORETYPE=Prescott), its answer
+    1e-6 off: t_h 7.2e-7, g_h 4.5e-6 relative, the largest part 6e-9 of the norm squared: the bounds follow."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.errors.FixedPointWarning)
+        sol = cc.solve(uniform_layer3d(tau * P, cc.Coulomb(0.3)), degree=2, condition="sigma1")
+    assert sol.ok
+    exact = sol.info.finish is not None
+    f = slip.friction_of(sol, 0)
+    assert np.abs(np.linalg.norm(f.t, axis=1) / (tau * P) - 1).max() < (1e-10 if exact else 1e-4)  # 1.1e-14; 7.2e-7
+    assert np.abs(f.g / (0.3 * P) - 1).max() < (1e-10 if exact else 1e-3)                        # 6.1e-15; 4.5e-6
+    assert _largest_part(sol.estimate) <= (1e-10 if exact else 1e-6)                              # 8.5e-18; 6e-9
+
+
+@pytest.mark.numerics
 def test_3d_a_uniformly_sliding_layer_p1_zero_p2_friction_terms_follow_the_rows():
     """The layer sliding on the floor under Tresca's g (its top moved by 1e-4 m, the slip 9e-5 m). P1: the
     exact solution, every part vanishes. P2: the rows' capacities g w_a (A/12, A/4) are not the consistent

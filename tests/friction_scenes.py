@@ -1,6 +1,6 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
 on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
-a uniformly sheared 3D layer and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
+a uniformly sheared 3D layer (stuck, sliding, and on a second layer) and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
 tests/test_friction3d_p2.py, tests/test_refusals.py).
 """
 
@@ -25,6 +25,16 @@ def sheared(q, law, tied=False, nx=8, ny=4):
         b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)}, displacement={"base": (0.0, None)})
         return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
     b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def uniform_layer(tau, law, nx=4, ny=2):
+    """The block (nu = 0) under (tau, -p) on its top and the complementary shear (0, -+tau) on its left and right
+    faces: a uniform state (sigma_yy = -p, sigma_xy = tau), ``law`` against the floor. Stuck: u = (tau y / G,
+    -p y / E), G = E / 2 (plane strain, nu = 0)."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
+    b = cc.Body(m, steel(nu=0.0), contact="bottom",
+                traction={"top": (tau, -P), "left": (0.0, -tau), "right": (0.0, tau)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 
 
@@ -79,6 +89,39 @@ def uniform_layer3d(tau, law, n=2, cell="tetra"):
                    traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
                              "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=law)])
+
+
+def _side_shear(q):
+    """The complementary shear (tractions, Pa) on the sides of a unit box under the shear ``q`` (q_x, q_y)."""
+    return {"left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]), "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])}
+
+
+def sliding_layer3d(g, s=1e-4, n=2):
+    """The layer of :func:`uniform_layer3d` (tetrahedra) with its top moved by s along :data:`DIAGONAL3` (pressed by
+    p there: a second tag "lid" on the top faces) and the complementary shear of g on its sides, against the
+    rigid plane z = 0 with Tresca's ``g``: for s > g / G it slides, sigma_xz, sigma_yz = g along the diagonal, the
+    slip s - g / G (G = E / 2)."""
+    mesh = cc.box(nx=n, ny=n, nz=1)
+    mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags}, "lid": mesh.boundary("top")})
+    d = s * DIAGONAL3
+    body = cc.Body(mesh, steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P), **_side_shear(g * DIAGONAL3)},
+                   displacement={"lid": (d[0], d[1], None)})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Tresca(g))])
+
+
+def uniform_pair3d(tau, law, swap=False, n=2):
+    """Two unit layers (n x n x 1 tetrahedra each, matching faces, nu = 0) in the uniform state of
+    :func:`uniform_layer3d`, the upper one on the lower one clamped at z = -1, ``law`` between them; ``swap``: the
+    pair posed from the lower layer. Stuck: u = (tau_x (z + 1) / G, tau_y (z + 1) / G, -p (z + 1) / E)."""
+    q = tau * DIAGONAL3
+    a = cc.Body(cc.box(nx=n, ny=n, nz=1), steel(nu=0.0), contact="bottom",
+                traction={"top": (q[0], q[1], -P), **_side_shear(q)}, name="upper")
+    lower = cc.box(nx=n, ny=n, nz=1)
+    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(nu=0.0), contact="top", clamped="bottom",
+                traction=_side_shear(q), name="lower")
+    pair = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
+    return cc.Scene(a, b, contacts=[pair])
+
 
 def projected_gradient_tresca(W, q, capacity, iterations=20000):
     """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""

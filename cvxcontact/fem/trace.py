@@ -6,8 +6,8 @@ line or the overlay) and :class:`QuadraticTrace` (P2, Q2, P2 tetrahedra, Q2 hexa
 quadratic; on a 2D line the nodes interleave vertices and segment midpoints, vertex first) answer the
 vertices of a line's nodes, its lumped lengths, the values of a nodal function between the nodes, its VTK
 line cells, a sampled curve for figures, the pressure a :class:`~cvxcontact.solution.solution.ContactResult`
-reports and the pressure a body feels on its own trace. :data:`TRACES` holds them by degree; a space names
-its own (``Space.trace``).
+reports, the pressure a body feels on its own trace and the tangential traction a friction law's error estimate
+reads (``friction_fields``). :data:`TRACES` holds them by degree; a space names its own (``Space.trace``).
 """
 
 from __future__ import annotations
@@ -129,6 +129,28 @@ class LinearTrace:
         forces ``force`` on the nodes of X_h."""
         return itf.pressure(k, force)
 
+    def friction_fields(self, itf, condition: str, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t_h, t_r, g_h) at every node of X_h of the pair ``itf``: the tangential traction t_h (Pa, on the
+        first body; (n,) along the pair's tangent in 2D, (n, 2) along its frame in 3D), the traction the
+        law's rows prescribe t_r (like t_h: here t_h itself) and the slip threshold (Pa, (n,)) the error
+        estimate reads from the friction law of the :class:`~cvxcontact.solution.solution.ContactResult`
+        ``contact`` solved under ``condition`` (docs/accuracy.md, "Friction"). The lumped read-back: each
+        row's force over the length (area) it holds
+        (:attr:`~cvxcontact.solution.solution.ContactResult.shear`), the function of the rows' values
+        (``itf.extend``: under "sigma1"/"sigma2" the nodes without a row take the constrained side's
+        function); the threshold likewise. Exact for a uniform traction, whose consistent nodal loads are
+        the lumped weights times it (P1; Simpson's h/6, 2h/3 on a 2D P2 line), and the traction the rows
+        prescribe (a sliding row's force is g w_a: t_h = g there)."""
+        E = itf.evaluation(condition)
+
+        def extend(values):                        # the function of the rows' values, at every node of X_h
+            v = np.asarray(values, dtype=float)
+            cols = [itf.extend(condition, E @ col) for col in v.reshape(len(v), -1).T]
+            return np.column_stack(cols).reshape(v.shape)
+
+        t = extend(contact.shear)
+        return t, t, extend(np.broadcast_to(np.asarray(contact.threshold, dtype=float), len(contact.slip)))
+
 
 class QuadraticTrace(LinearTrace):
     """X_h continuous piecewise quadratic: a 2D line's nodes interleave vertices and midpoints (module
@@ -211,6 +233,23 @@ class QuadraticTrace(LinearTrace):
         if getattr(itf, "dim", 2) == 3:
             return itf.pressure(k, force)
         return (itf.interpolation(k).T @ force) / quadratic_lumped(itf.traces[k].x)
+
+    def friction_fields(self, itf, condition: str, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """2D: the lumped read-back (:meth:`LinearTrace.friction_fields`; Simpson's weights are the consistent
+        loads of a constant). 3D: t_h the Riesz representer of the row forces in X_h, per tangential component,
+        M t_h = f as lambda_h (``itf.multiplier``; f = ``contact.shear_force``, N): the nodal loads of a uniform
+        traction on 6-node triangles are 0 at the vertices and A/3 at the midpoints, so the force over the rows'
+        areas (A/12, A/4: :attr:`~cvxcontact.solution.solution.ContactResult.shear`) would read a uniform tau as
+        0 and 4/3 tau, whose interpolant reaches 16/9 tau inside. t_r the lumped read-back (the rows' law: a
+        sliding row's force g w_a is t_r = g, whose representer oscillates about g by a pattern the size of g
+        at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb mu p, p the
+        Riesz lambda_h)."""
+        if np.ndim(contact.x) == 1:
+            return super().friction_fields(itf, condition, contact)
+        f = np.asarray(contact.shear_force, dtype=float)
+        t = np.column_stack([itf.multiplier(col) for col in f.reshape(len(f), -1).T]).reshape(f.shape)
+        rows = super().friction_fields(itf, condition, contact)[1]
+        return t, rows, np.broadcast_to(np.asarray(contact.threshold, dtype=float), (len(f),)).copy()
 
 
 TRACES = {1: LinearTrace(), 2: QuadraticTrace()}

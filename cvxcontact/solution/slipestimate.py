@@ -3,20 +3,31 @@
 A friction law adds the tangential traction t to the contact traction of eq. (8): on the first body of a pair
 sigma n = -lambda nu + t tau (tau the pair's tangent in 2D, t (., 2) along its frame (t_1, t_2) in 3D), on the
 second body the opposite, with |t| <= g and t anti-parallel to the slip [u_t] where [u_t] != 0
-(g |[u_t]| + t . [u_t] = 0). The estimate reads t_h, the discrete tangential traction, from the row forces:
-each row's tangential force over the length (area) it holds (``ContactResult.shear``, Pa), the function of the
-rows' nodes in X_h (``Interface.extend``: under "sigma1"/"sigma2" the merged nodes without a row take the value of
-the constrained side's function, not 0; P1 or P2 on the merged mesh in 2D, on the elements of X_h in 3D); the
-threshold g_h likewise (Tresca: g; Coulomb: mu p at each row). The lumped read-back, not the Riesz
-representer of the forces (as lambda_h is): the representer of nodal forces oscillates where the slip starts
-(up to twice the threshold on the meshes of tests/test_friction_estimate.py), which would charge the cone term
-with an artefact of the read-back rather than with the discretisation; the lumped one meets |t_h| <= g at every
-row, as the law's rows ask.
+(g |[u_t]| + t . [u_t] = 0). The estimate reads t_h, the discrete tangential traction, from the row forces as the
+trace of the space decides (``ContactResult.trace.friction_fields``, :mod:`cvxcontact.fem.trace`):
+
+- 2D (P1, P2) and 3D P1: the lumped read-back, each row's tangential force over the length (area) it holds
+  (``ContactResult.shear``, Pa), the function of the rows' nodes in X_h (``Interface.extend``: under
+  "sigma1"/"sigma2" the merged nodes without a row take the value of the constrained side's function, not 0);
+  the threshold g_h likewise (Tresca: g; Coulomb: mu p at each row). There the lumped weights are the
+  consistent loads of a constant (P1's hats, Simpson's h/6, 2h/3 on a P2 line), so a uniform traction reads
+  exactly, and t_h meets |t_h| <= g at every row, as the law's rows ask; the Riesz representer of nodal forces
+  would oscillate where the slip starts (up to twice the threshold on the meshes of
+  tests/test_friction_estimate.py) and charge the cone term with an artefact of the read-back.
+- 3D P2 (the trace of Q2's 6-node face triangles too, which the estimates do not cover yet): the consistent loads
+  of a uniform traction tau are 0 at a face's vertices and tau A/3 at its edge midpoints, while the rows hold A/12
+  and A/4 (the red refinement's lumping, ``ContactResult.slip_measure``): the lumped read-back would read tau as 0
+  and 4/3 tau, whose interpolant reaches 16/9 tau inside a face, and charge an exact uniform state. t_h is the
+  Riesz representer of the row forces in X_h, M t_h = f per tangential component, as lambda_h is (exact for a
+  uniform traction); g_h the threshold the solution reports at every node (Tresca g; Coulomb mu p with p the
+  representer lambda_h). The slip complementarity reads the traction the rows prescribe instead (``Friction.r``,
+  the lumped read-back): a sliding row's force is g w_a, whose representer oscillates about g by a pattern the
+  size of g at every mesh size and would charge every sliding face by a fixed fraction of g |[u_t]| whatever h.
 
 On each cell S of the contact mesh (2D: the merged segments) two terms, in the estimator's units (J/m in 2D):
 
     friction cone      h_S / c_T ||(|t_h| - g_h)^+||_S^2
-    slip complement    int_S (g_h |[u_ht]| + t_h . [u_ht])^+
+    slip complement    int_S (g_h |[u_ht]| + t_r . [u_ht])^+          (t_r = t_h but on 3D P2 faces)
 
 g_h the threshold the solution reports (Tresca: g; Coulomb: mu p at each node, interpolated). Both vanish for
 the exact solution; at a finished discrete solution they are not zero where a segment holds both a stuck and a
@@ -37,11 +48,14 @@ __all__ = ["Friction", "friction_elements", "friction_of", "friction_segments", 
 @dataclass(frozen=True)
 class Friction:
     """A pair's friction law as the estimate reads it, at every node of X_h: ``t`` t_h (Pa; on the first body, along
-    the pair's tangent, 3D (n, 2) along its frame), ``g`` g_h (n,) (Pa), ``s`` the slip [u_t] (m; like ``t``)."""
+    the pair's tangent, 3D (n, 2) along its frame), ``g`` g_h (n,) (Pa), ``s`` the slip [u_t] (m; like ``t``),
+    ``r`` the traction the law's rows prescribe (Pa, like ``t``: ``t`` itself but on 3D P2 faces; module
+    docstring)."""
 
     t: np.ndarray
     g: np.ndarray
     s: np.ndarray
+    r: np.ndarray
 
 
 def friction_of(sol, i: int) -> Friction | None:
@@ -49,22 +63,12 @@ def friction_of(sol, i: int) -> Friction | None:
     c = sol.contacts[i]
     if c.shear_force is None:
         return None
-    itf = sol._pair_line(i)
-    condition = sol.scene.conditions[i] or sol.condition
-    E = itf.evaluation(condition)
-
-    def extend(values):                            # the function of the rows' values, at every node of X_h
-        v = np.asarray(values, dtype=float)
-        cols = [itf.extend(condition, E @ col) for col in v.reshape(len(v), -1).T]
-        return np.column_stack(cols).reshape(v.shape)
-
-    slip = np.asarray(c.slip, dtype=float)
-    return Friction(t=extend(c.shear), g=extend(np.broadcast_to(np.asarray(c.threshold, dtype=float), len(slip))),
-                    s=slip)
+    t, r, g = c.trace.friction_fields(sol._pair_line(i), sol.scene.conditions[i] or sol.condition, c)
+    return Friction(t=t, g=g, s=np.asarray(c.slip, dtype=float), r=r)
 
 
 def friction_segments(f: Friction, contact, a, b, rule) -> tuple[np.ndarray, np.ndarray]:
-    """2D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m), int_S (g_h |[u_ht]| + t_h [u_ht])^+ (J/m)) on each merged
+    """2D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m), int_S (g_h |[u_ht]| + t_r [u_ht])^+ (J/m)) on each merged
     segment S = [a, b] (m, tangential coordinates) of a pair's :class:`ContactResult` ``contact`` and
     :class:`Friction` ``f`` (module docstring), by the 1D Gauss ``rule`` (points on [0, 1], weights summing to 1)."""
     x = np.asarray(contact.x, dtype=float)
@@ -72,9 +76,9 @@ def friction_segments(f: Friction, contact, a, b, rule) -> tuple[np.ndarray, np.
     cone, slip = np.zeros(len(a)), np.zeros(len(a))
     for tq, w in zip(*rule):
         at = a + tq * h
-        tv, gv, sv = (contact.trace.values(x, v, at) for v in (f.t, f.g, f.s))
+        tv, rv, gv, sv = (contact.trace.values(x, v, at) for v in (f.t, f.r, f.g, f.s))
         cone += w * np.maximum(np.abs(tv) - gv, 0.0) ** 2
-        slip += w * np.maximum(gv * np.abs(sv) + tv * sv, 0.0)
+        slip += w * np.maximum(gv * np.abs(sv) + rv * sv, 0.0)
     return cone * h, slip * h
 
 
@@ -91,7 +95,7 @@ def tangential_vectors(f: Friction | None, frames, elements, N) -> tuple[np.ndar
 
 
 def friction_elements(f: Friction, elements, N, weights) -> tuple[np.ndarray, np.ndarray]:
-    """3D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m^2), int_S (g_h |[u_ht]| + t_h . [u_ht])^+ (J)) on each element S of
+    """3D: (int_S ((|t_h| - g_h)^+)^2 (Pa^2 m^2), int_S (g_h |[u_ht]| + t_r . [u_ht])^+ (J)) on each element S of
     X_h (``elements`` (e, 3 | 6): its nodes, -1 outside X_h) of the :class:`Friction` ``f``, by the rule of shape
     values ``N`` (q, 3 | 6) and weights ``weights`` (e, q) (the element's area times the rule's weights)."""
 
@@ -99,7 +103,7 @@ def friction_elements(f: Friction, elements, N, weights) -> tuple[np.ndarray, np
         v = np.concatenate([values, np.zeros((1,) + values.shape[1:])])[elements]
         return np.einsum("qk,ek...->eq...", N, v)
 
-    tq, gq, sq = at(f.t), at(f.g), at(f.s)
+    tq, rq, gq, sq = at(f.t), at(f.r), at(f.g), at(f.s)
     cone = np.maximum(np.linalg.norm(tq, axis=2) - gq, 0.0) ** 2
-    slip = np.maximum(gq * np.linalg.norm(sq, axis=2) + (tq * sq).sum(axis=2), 0.0)
+    slip = np.maximum(gq * np.linalg.norm(sq, axis=2) + (rq * sq).sum(axis=2), 0.0)
     return (weights * cone).sum(axis=1), (weights * slip).sum(axis=1)

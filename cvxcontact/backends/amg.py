@@ -293,7 +293,7 @@ class KrylovContact:
                 return z
         else:
             Pp = self.ml_p.aspreconditioner(cycle="V")
-            Kup = K[self.u_idx][:, self.p_idx].tocsr()
+            Kup = K[:, self.p_idx][self.u_idx].tocsr()              # the columns first: no copy of K's u rows
 
             def apply(r):
                 z = np.empty_like(r)
@@ -310,6 +310,7 @@ class KrylovContact:
         key = (rows.tobytes(), F.tobytes(), g.tobytes())
         if self._reduction is not None and self._reduction[0] == key:
             return self._reduction[1]
+        self._reduction = None                   # the last set's K freed before this one's is formed (peak memory)
         n = self.n
         slaves, piv = self.dof[rows], self.coef[rows]
         Gc = self.G[rows].tocoo()

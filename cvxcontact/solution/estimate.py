@@ -186,7 +186,7 @@ class Geometry:
     barycentric gradients (1/m), element nodes and shape gradients at the corners; the facet table with each
     facet's cells, outward normal, measure and diameter h_F (m), and where its vertices sit among the
     distinct corner values of its cells (:func:`_fields`); h_T (m); and, built when first asked, the
-    facets of each boundary part and the quadrature points of each rule. A load case of the same geometry
+    facets of each boundary part (the quadrature points of a rule are formed when asked, not kept). A load case of the same geometry
     reuses it: :func:`estimate` keeps it in a ``cache`` under the body's
     :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the loads are not in the
     key: they are read from the body on every call)."""
@@ -200,7 +200,6 @@ class Geometry:
         self.measure, self.gradL = gradients(mesh.points, mesh.cells)
         self.el, self.G = space(degree, mesh.cell).corner_gradients(body)        # G (m, q, d, k): q = d + 1 or 1
         self._parts: dict = {}
-        self._points: dict = {}
 
     @cached_property
     def facets(self):
@@ -240,11 +239,9 @@ class Geometry:
         return self._parts[tag]
 
     def points(self, L) -> np.ndarray:
-        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell."""
-        key = tuple(np.asarray(L, dtype=float).tolist())
-        if key not in self._points:
-            self._points[key] = _at(self._mesh.points, self._mesh.cells, L)
-        return self._points[key]
+        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed on each call, not
+        kept: 24 bytes per cell and point of the rule, a third of the Geometry of a P1 tetrahedral mesh)."""
+        return _at(self._mesh.points, self._mesh.cells, L)
 
 
 @dataclass(frozen=True)

@@ -7,12 +7,12 @@ columns first (`backends/amg.py` `_precondition`). The references are computed h
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from scenes3d import two_boxes
 
 import cvxcontact as cc
 from cvxcontact.fem.assembly import strain_matrix
 from cvxcontact.physics import supports
 from cvxcontact.solution import estimate as est
-from scenes3d import two_boxes
 
 ALU = cc.materials.isotropic(E=70e9, nu=0.3)
 
@@ -22,9 +22,9 @@ def _projector(V):
     return V.T @ V if len(V) else np.zeros((6, 6))
 
 
-@pytest.mark.parametrize("kw, free", [(dict(contact="bottom"), 3),                  # the normal holds tz, wx, wy
-                                      (dict(roller=["left"], contact="bottom"), 1),  # the roller tx, wy, wz: ty left
-                                      (dict(clamped=["bottom"]), 0)])
+@pytest.mark.parametrize("kw, free", [({"contact": "bottom"}, 3),                     # the normal holds tz, wx, wy
+                                      ({"roller": ["left"], "contact": "bottom"}, 1),  # the roller tx, wy, wz
+                                      ({"clamped": ["bottom"]}, 0)])
 def test_free_basis_without_the_left_factor_matches_the_full_svd(monkeypatch, kw, free):
     """free_basis with ``full_matrices=False`` spans the same free motions as the full SVD (whose U is a
     square of the support rows), to 1e-14 in the projector; their number is the one the supports leave."""

@@ -128,9 +128,8 @@ def _fields(g, u, phi):
 
 
 def _strains(G, ue) -> np.ndarray:
-    """(m, q, s) the Voigt strains B(G[:, i]) ue at the q corner values of each cell, ``G`` (m, q, d, k) the shape
-    gradients, ``ue`` (m, d k) the element displacements; the strain matrices B (:func:`strain_matrix`) formed by
-    blocks of CELLS cells and dropped (kept, they would be 576 bytes per P1 tetrahedron)."""
+    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values, G (m, q, d, k) the shape gradients, ue (m, d k)
+    the element displacements; B (:func:`strain_matrix`, 576 bytes per P1 tetrahedron) by blocks of CELLS cells."""
     m, q, dim, _ = G.shape
     eps = np.empty((m, q, len(VOIGT[dim])))
     for s in range(0, m, CELLS):
@@ -186,10 +185,9 @@ class Geometry:
     barycentric gradients (1/m), element nodes and shape gradients at the corners; the facet table with each
     facet's cells, outward normal, measure and diameter h_F (m), and where its vertices sit among the
     distinct corner values of its cells (:func:`_fields`); h_T (m); and, built when first asked, the
-    facets of each boundary part (the quadrature points of a rule are formed when asked, not kept). A load case of the same geometry
-    reuses it: :func:`estimate` keeps it in a ``cache`` under the body's
-    :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the loads are not in the
-    key: they are read from the body on every call)."""
+    facets of each boundary part. A load case of the same geometry reuses it: :func:`estimate` keeps it in a
+    ``cache`` under the body's :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the
+    loads are not in the key: they are read from the body on every call)."""
 
     def __init__(self, body, degree: int):
         mesh = self._mesh = body.mesh
@@ -239,8 +237,7 @@ class Geometry:
         return self._parts[tag]
 
     def points(self, L) -> np.ndarray:
-        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed on each call, not
-        kept: 24 bytes per cell and point of the rule, a third of the Geometry of a P1 tetrahedral mesh)."""
+        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""
         return _at(self._mesh.points, self._mesh.cells, L)
 
 
@@ -353,8 +350,7 @@ def _diameters(points, simplices) -> np.ndarray:
     i, j = np.triu_indices(simplices.shape[1], 1)
     out = np.empty(len(simplices))
     for s in range(0, len(simplices), CELLS):
-        p = points[simplices[s:s + CELLS]]
-        edge = p[:, i] - p[:, j]                                                # (block, edges, dim)
+        edge = points[simplices[s:s + CELLS, i]] - points[simplices[s:s + CELLS, j]]   # (block, edges, dim)
         out[s:s + CELLS] = np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
     return out
 

@@ -100,3 +100,18 @@ def test_amg_route_rebuilds_its_stacked_blocks_after_a_solve_as_first_built():
     assert kc.solve(np.zeros(n), np.zeros(m), np.zeros(m, dtype=bool)) is not None
     assert all(np.array_equal(a, b) for a, b in ((kc.S.indptr, fresh.indptr), (kc.S.indices, fresh.indices),
                                                  (kc.S.data, fresh.data)))
+
+
+def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
+    """|K| |z| by blocks of 7 rows (a ragged last block) is abs(K) @ |z| exactly, on a canonical CSR matrix; a
+    non-canonical one (duplicate entries) and a CSC one take abs(K) itself."""
+    from cvxcontact.discrete import energy
+
+    monkeypatch.setattr(energy, "ROWS", 7)
+    K = sp.random(60, 45, density=0.2, random_state=2, format="csr") - 0.5 * sp.random(60, 45, density=0.2,
+                                                                                       random_state=3, format="csr")
+    z = np.random.default_rng(4).standard_normal(45)
+    assert K.has_canonical_format and np.array_equal(energy.abs_product(K, z), abs(K) @ np.abs(z))
+    dup = sp.csr_matrix((np.array([1.0, -2.0, 3.0]), np.array([1, 1, 0]), np.array([0, 2, 3])), shape=(2, 2))
+    assert np.array_equal(energy.abs_product(dup, [1.0, 1.0]), abs(dup) @ np.ones(2))      # |1 - 2| = 1, not 3
+    assert np.array_equal(energy.abs_product(K.tocsc(), z), abs(K.tocsc()) @ np.abs(z))

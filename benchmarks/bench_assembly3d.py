@@ -7,7 +7,8 @@ interpreter's), on the scenes of benchmarks/bench3d.py (sizes as there: a count 
 
 ``--checkout``: import cvxcontact from another checkout (the before of a before/after comparison; the scenes
 and this script stay this checkout's). Prints one JSON line per size: seconds of the build and of
-``assemble_matrices`` of every body again (the matrices alone), peak GB and KB per unknown.
+``assemble_matrices`` of every body again (the matrices alone), each also in CPU seconds (``_cpu_s``: the
+figure to compare on a loaded machine), peak GB and KB per unknown.
 """
 
 from __future__ import annotations
@@ -36,17 +37,19 @@ def one(scene: str, size: float, elastic: bool, checkout: str) -> dict:
     n = cells(scene, size, elastic)
     cc.solve(make(scene, 4, "sigma1", elastic))                      # imports, first-call set-up
     sc = make(scene, n, "sigma1", elastic)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     solver = cc.ContactSolver(sc)
-    build = time.perf_counter() - t0
+    build, build_cpu = time.perf_counter() - t0, time.process_time() - c0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss       # KB on Linux
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for body in sc.bodies:
         assemble_matrices(body)
-    matrices = time.perf_counter() - t0
+    matrices, matrices_cpu = time.perf_counter() - t0, time.process_time() - c0
     N = unknowns(solver.problem)
     return {"checkout": cc.__file__, "scene": scene, "n": n, "unknowns": N, "build_s": round(build, 2),
-            "matrices_s": round(matrices, 2), "peak_gb": round(peak / 1e6, 3), "kb_per_unknown": round(peak / N, 2)}
+            "build_cpu_s": round(build_cpu, 2), "matrices_s": round(matrices, 2),
+            "matrices_cpu_s": round(matrices_cpu, 2), "peak_gb": round(peak / 1e6, 3),
+            "kb_per_unknown": round(peak / N, 2)}
 
 
 def main():

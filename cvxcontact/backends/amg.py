@@ -58,7 +58,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
-from .condensed import quasi_definite
+from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
@@ -197,9 +197,9 @@ class KrylovContact:
             import pyamg
         except ImportError as exc:
             raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
-        blocks = list(problem.blocks)
+        blocks = self._blocks = list(problem.blocks)
         parts = [quasi_definite(b) for b in blocks]
-        self.S = sp.block_diag([S for S, _ in parts], format="csr")
+        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:func:`signorini`)
         self._diag = np.abs(self.S.diagonal())
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
         self.n = n = self.S.shape[0]
@@ -293,7 +293,7 @@ class KrylovContact:
                 return z
         else:
             Pp = self.ml_p.aspreconditioner(cycle="V")
-            Kup = K[self.u_idx][:, self.p_idx].tocsr()
+            Kup = K[:, self.p_idx][self.u_idx].tocsr()              # the columns first: no copy of K's u rows
 
             def apply(r):
                 z = np.empty_like(r)
@@ -310,6 +310,7 @@ class KrylovContact:
         key = (rows.tobytes(), F.tobytes(), g.tobytes())
         if self._reduction is not None and self._reduction[0] == key:
             return self._reduction[1]
+        self._reduction = None                   # the last set's K freed before this one's is formed (peak memory)
         n = self.n
         slaves, piv = self.dof[rows], self.coef[rows]
         Gc = self.G[rows].tocoo()
@@ -365,6 +366,8 @@ class KrylovContact:
         if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
         solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
+        if self.S is None:                       # dropped after the last solve: the same blocks stacked again
+            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
         movable = self.dof >= 0
         last = [np.asarray(active, dtype=bool) & movable]
         count = [0]
@@ -419,7 +422,7 @@ def signorini(problem, cache, settings, timings):
             return sparse(problem, cache, settings, timings)
     kc = cache.amg
     setup = kc.setup_time
-    rhs = np.concatenate([F for _, F in (quasi_definite(b) for b in problem.blocks)])
+    rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows
     warm = settings.warm_start and cache.active is not None
     out = kc.solve(rhs, problem.g, cache.active & free) if warm else None
@@ -427,6 +430,7 @@ def signorini(problem, cache, settings, timings):
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False
+    kc.S = None          # S (a copy of the blocks) is not kept through the read-back and estimate: rebuilt per solve
     timings["amg_setup"] = kc.setup_time - setup
     timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
     if out is None:

@@ -16,8 +16,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import SceneError
 
-__all__ = ["supports", "node_supports", "free_motions", "motion_name", "component_label", "component_description",
-           "held_modes", "rigid_field", "node_set", "free_basis", "motion_label", "node_normals"]
+__all__ = ["component_description", "component_label", "free_basis", "free_motions", "held_modes", "motion_label",
+           "motion_name", "node_normals", "node_set", "node_supports", "rigid_field", "supports"]
 
 
 def supports(body, nodes=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -205,7 +205,7 @@ def free_basis(body, contact=False):
         else:
             A = np.column_stack([d, np.cross(x, d)])                   # u . d = t . d + w . (x x d)
         k = A.shape[1]
-        _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((k, k))]))
+        _, sv, Vt = np.linalg.svd(np.vstack([A, np.zeros((k, k))]), full_matrices=False)   # Vt (k, k); no U
         free = Vt[sv <= 1e-9 * max(sv.max(initial=0.0), 1.0)]
         if len(free):
             out.append((c, free, centre, size))

@@ -59,6 +59,9 @@ from . import slipestimate as slip
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
+CELLS = 1 << 15
+"""Cells per block of the strain matrices and edge vectors formed on the fly (bounds their temporaries)."""
+
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
 
 
@@ -118,7 +121,7 @@ def _fields(g, u, phi):
     u = np.asarray(u, dtype=float)
     m = len(g.el)
     ue = u[g.el].reshape(m, -1)
-    eps = np.stack([np.einsum("mij,mj->mi", B, ue) for B in g.strain], axis=1)
+    eps = _strains(g.G, ue)
     sigma = eps @ c.T
     gphi = D = None
     if e is not None:
@@ -127,6 +130,17 @@ def _fields(g, u, phi):
         sigma = sigma + gphi @ e
         D = eps @ e.T - gphi @ kappa.T
     return eps, gphi, sigma, D, g.gradL, g.measure
+
+
+def _strains(G, ue) -> np.ndarray:
+    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values, G (m, q, d, k) the shape gradients, ue (m, d k)
+    the element displacements; B (:func:`strain_matrix`, 576 bytes per P1 tetrahedron) by blocks of CELLS cells."""
+    m, q, dim, _ = G.shape
+    eps = np.empty((m, q, len(VOIGT[dim])))
+    for s in range(0, m, CELLS):
+        for i in range(q):
+            eps[s:s + CELLS, i] = np.einsum("mij,mj->mi", strain_matrix(G[s:s + CELLS, i]), ue[s:s + CELLS])
+    return eps
 
 
 def _onto(L, q):
@@ -173,13 +187,12 @@ def cell_energies(body, u, phi, degree: int) -> np.ndarray:
 class Geometry:
     """What the estimate of one body reads from its mesh and material alone, in one element degree: the
     material tensors and their smallest eigenvalues c_T (Pa), kappa_T (F/m); the cells' measures (m^2 or m^3),
-    barycentric gradients (1/m), element nodes and strain matrices at the corners; the facet table with each
+    barycentric gradients (1/m), element nodes and shape gradients at the corners; the facet table with each
     facet's cells, outward normal, measure and diameter h_F (m), and where its vertices sit among the
     distinct corner values of its cells (:func:`_fields`); h_T (m); and, built when first asked, the
-    facets of each boundary part and the quadrature points of each rule. A load case of the same geometry
-    reuses it: :func:`estimate` keeps it in a ``cache`` under the body's
-    :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the loads are not in the
-    key: they are read from the body on every call)."""
+    facets of each boundary part. A load case of the same geometry reuses it: :func:`estimate` keeps it in a
+    ``cache`` under the body's :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint` and the degree (the
+    loads are not in the key: they are read from the body on every call)."""
 
     def __init__(self, body, degree: int):
         mesh = self._mesh = body.mesh
@@ -189,9 +202,7 @@ class Geometry:
         self.kT = _smallest(kappa, False) if kappa is not None else None
         self.measure, self.gradL = gradients(mesh.points, mesh.cells)
         self.el, self.G = space(degree, mesh.cell).corner_gradients(body)        # G (m, q, d, k): q = d + 1 or 1
-        self.strain = [strain_matrix(self.G[:, i]) for i in range(self.G.shape[1])]
         self._parts: dict = {}
-        self._points: dict = {}
 
     @cached_property
     def facets(self):
@@ -231,11 +242,8 @@ class Geometry:
         return self._parts[tag]
 
     def points(self, L) -> np.ndarray:
-        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell."""
-        key = tuple(np.asarray(L, dtype=float).tolist())
-        if key not in self._points:
-            self._points[key] = _at(self._mesh.points, self._mesh.cells, L)
-        return self._points[key]
+        """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""
+        return _at(self._mesh.points, self._mesh.cells, L)
 
 
 @dataclass(frozen=True)
@@ -343,11 +351,13 @@ def _read_only(a):
 
 
 def _diameters(points, simplices) -> np.ndarray:
-    """(m,) the longest edge of each simplex (m, k) of ``points``."""
-    p = points[simplices]
+    """(m,) the longest edge of each simplex (m, k) of ``points`` (by blocks of CELLS simplices)."""
     i, j = np.triu_indices(simplices.shape[1], 1)
-    edge = p[:, i] - p[:, j]                                                    # (m, edges, dim)
-    return np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
+    out = np.empty(len(simplices))
+    for s in range(0, len(simplices), CELLS):
+        edge = points[simplices[s:s + CELLS, i]] - points[simplices[s:s + CELLS, j]]   # (block, edges, dim)
+        out[s:s + CELLS] = np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
+    return out
 
 
 def _at(points, cells, L):

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...discrete.energy import abs_product
+
 
 def node_scales(parts, g, extra=None):
     """Slack E [u_nu] - g of the constrained rows, from each body's part E J_l u_l, and each row's
@@ -42,7 +44,7 @@ def _inverse_diagonal(K) -> np.ndarray:
 def _elastic_forces(blocks, u, phi):
     """Per body (block, |Kuu| |u| + |Kup| |phi|): the sizes of the elastic forces at its unknowns (scaled)."""
     for k, (b, uk) in enumerate(zip(blocks, u)):
-        f = abs(b.Kuu) @ np.abs(uk)
+        f = abs_product(b.Kuu, uk)
         pk = None if phi is None else phi[k]
         if pk is not None and getattr(b, "Kup", None) is not None:
             f = f + abs(b.Kup) @ np.abs(pk)

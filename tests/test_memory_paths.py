@@ -1,0 +1,117 @@
+"""The memory-saving code paths of the 3D pipeline give what the straightforward construction gives, on small
+meshes: the free rigid motions from an SVD without its left factor (`physics/supports.py` `free_basis`), the
+estimate's strain fields and diameters formed by blocks of cells instead of from stored per-cell matrices
+(`solution/estimate.py` `_strains`, `_diameters`, blocks of `CELLS`), and the AMG route's coupling block taken
+columns first (`backends/amg.py` `_precondition`). The references are computed here the plain way."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scenes3d import two_boxes
+
+import cvxcontact as cc
+from cvxcontact.fem.assembly import strain_matrix
+from cvxcontact.physics import supports
+from cvxcontact.solution import estimate as est
+
+ALU = cc.materials.isotropic(E=70e9, nu=0.3)
+
+
+def _projector(V):
+    """The orthogonal projector onto the row space of V (k, 6): independent of the basis chosen."""
+    return V.T @ V if len(V) else np.zeros((6, 6))
+
+
+@pytest.mark.parametrize("kw, free", [({"contact": "bottom"}, 3),                     # the normal holds tz, wx, wy
+                                      ({"roller": ["left"], "contact": "bottom"}, 1),  # the roller tx, wy, wz
+                                      ({"clamped": ["bottom"]}, 0)])
+def test_free_basis_without_the_left_factor_matches_the_full_svd(monkeypatch, kw, free):
+    """free_basis with ``full_matrices=False`` spans the same free motions as the full SVD (whose U is a
+    square of the support rows), to 1e-14 in the projector; their number is the one the supports leave."""
+    body = cc.Body(cc.box(nx=3, ny=2, nz=2), ALU, name="block", **kw)
+    saving = supports.free_basis(body, True)
+    plain_svd = np.linalg.svd
+    monkeypatch.setattr(np.linalg, "svd", lambda a, full_matrices=True, **k: plain_svd(a, full_matrices=True, **k))
+    plain = supports.free_basis(body, True)
+    assert [c for c, *_ in saving] == [c for c, *_ in plain]
+    assert sum(len(V) for _, V, _, _ in saving) == free
+    for (_, V, centre, size), (_, W, c2, s2) in zip(saving, plain):
+        assert np.array_equal(centre, c2) and size == s2
+        assert np.abs(_projector(V) - _projector(W)).max() <= 1e-14
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree", [1, 2])
+def test_estimate_strains_by_blocks_equal_the_stored_strain_matrices(monkeypatch, degree):
+    """Blocks of 7 cells (a ragged last block) give the strains of the strain matrices of every cell at once,
+    exactly; the diameters too; and the estimate is the same with blocks of 7 cells as with one block."""
+    monkeypatch.setattr(est, "CELLS", 7)
+    scene = two_boxes(3)                                       # a loaded PZT-5A box on an aluminium box
+    body = scene.bodies[0]
+    m = body.mesh
+    g = est.Geometry(body, degree)
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal(int(g.el.max() + 1) * 3)
+    ue = u.reshape(-1, 3)[g.el].reshape(len(g.el), -1)
+    plain = np.stack([np.einsum("mij,mj->mi", strain_matrix(g.G[:, i]), ue) for i in range(g.G.shape[1])], axis=1)
+    assert len(g.el) % 7 and np.array_equal(est._strains(g.G, ue), plain)
+    p = m.points[m.cells]
+    i, j = np.triu_indices(4, 1)
+    edge = p[:, i] - p[:, j]                                   # every cell at once
+    assert np.array_equal(est._diameters(m.points, m.cells), np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1)))
+    sol = cc.solve(scene, "sigma1", degree=degree)
+    small = sol.estimate
+    monkeypatch.setattr(est, "CELLS", 1 << 15)
+    whole = est.estimate(sol)[0]
+    assert abs(small.absolute - whole.absolute) <= 1e-14 * whole.absolute
+    assert all(np.abs(a - b).max() <= 1e-14 * b.max() for a, b in zip(small.indicators, whole.indicators))
+
+
+def test_coupling_block_columns_first_equals_rows_first():
+    """K[:, p][u] (the AMG preconditioner's K_up, no copy of K's u rows) holds the same CSR arrays as K[u][:, p]."""
+    rng = np.random.default_rng(0)
+    K = sp.random(400, 400, density=0.05, random_state=1, format="csr")
+    K = (K + K.T).tocsr()
+    u = np.sort(rng.choice(400, 300, replace=False))
+    p = np.setdiff1d(np.arange(400), u)
+    a, b = K[u][:, p].tocsr(), K[:, p][u].tocsr()
+    assert all(np.array_equal(x, y) for x, y in ((a.indptr, b.indptr), (a.indices, b.indices), (a.data, b.data)))
+
+
+@pytest.mark.numerics
+def test_amg_route_rebuilds_its_stacked_blocks_after_a_solve_as_first_built():
+    """The AMG route drops S (the bodies' quasi-definite blocks stacked, a copy of the stiffness) after a solve and
+    stacks it again on the next: the same CSR arrays as a fresh KrylovContact's; a re-solve (warm, from the first
+    one's active set) agrees with the first solve to the Krylov tolerance."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends.amg import KrylovContact
+
+    solver = cc.ContactSolver(two_boxes(4), method="amg")
+    np.random.seed(5)
+    first = solver.solve()
+    np.random.seed(5)
+    again = solver.solve()                                                   # S stacked again, warm start
+    assert first.ok and again.ok and first.info.route != again.info.route
+    assert np.abs(again.u[0] - first.u[0]).max() <= 1e-9 * np.abs(first.u[0]).max()   # measured 0.0
+    kc = solver.cache.amg
+    assert kc is not None and kc.S is None                                   # dropped after the solve
+    fresh = KrylovContact(solver.problem).S
+    n, m = kc.n, kc.m
+    assert kc.solve(np.zeros(n), np.zeros(m), np.zeros(m, dtype=bool)) is not None
+    assert all(np.array_equal(a, b) for a, b in ((kc.S.indptr, fresh.indptr), (kc.S.indices, fresh.indices),
+                                                 (kc.S.data, fresh.data)))
+
+
+def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
+    """|K| |z| by blocks of 7 rows (a ragged last block) is abs(K) @ |z| exactly, on a canonical CSR matrix; a
+    non-canonical one (duplicate entries) and a CSC one take abs(K) itself."""
+    from cvxcontact.discrete import energy
+
+    monkeypatch.setattr(energy, "ROWS", 7)
+    K = sp.random(60, 45, density=0.2, random_state=2, format="csr") - 0.5 * sp.random(60, 45, density=0.2,
+                                                                                       random_state=3, format="csr")
+    z = np.random.default_rng(4).standard_normal(45)
+    assert K.has_canonical_format and np.array_equal(energy.abs_product(K, z), abs(K) @ np.abs(z))
+    dup = sp.csr_matrix((np.array([1.0, -2.0, 3.0]), np.array([1, 1, 0]), np.array([0, 2, 3])), shape=(2, 2))
+    assert np.array_equal(energy.abs_product(dup, [1.0, 1.0]), abs(dup) @ np.ones(2))      # |1 - 2| = 1, not 3
+    assert np.array_equal(energy.abs_product(K.tocsc(), z), abs(K.tocsc()) @ np.abs(z))

@@ -105,6 +105,10 @@ def _blocks(B) -> sp.csr_matrix:
     return sp.bsr_matrix((B, np.arange(r), np.arange(r + 1)), shape=(r * c, r * c)).tocsr()
 
 
+TIE = 1e-12
+"""Degenerate rows: a row whose force and gap (slip and slack to the cone) are both at rounding counts as closed
+(stuck) while its indicator y_a + r_n (G x - g)_a (c_a - |z_a|) is above -TIE C (module docstring)."""
+
 WEIGHT_FLOOR = 1e-3
 """Dependent rows: the weights of the basis's pivots (each row's force or slack to the cone over the largest) are
 floored here, so that the rows without force are ordered among themselves by their own pivots."""
@@ -168,10 +172,10 @@ class _System:
         """(closed, stuck, z, c): the point's active set (closed normal rows, stuck friction rows), z = mu + r_t s
         and the capacities."""
         x, y, mu = self.split(w)
-        closed = self.free & (y + self.r * (self.G @ x - self.g) > 0)
+        closed = self.free & (y + self.r * (self.G @ x - self.g) > -TIE * self.C)
         c = self.fr.capacity(y)
         z = mu + self.r * self.fr.slip(x)
-        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c)
+        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c + TIE * self.C)
         return closed, stuck, z, c
 
     def residual(self, w, state=None):

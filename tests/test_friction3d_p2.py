@@ -119,6 +119,35 @@ def test_coulomb_sticks_the_uniform_layer_from_the_shear_over_the_pressure(cell)
     assert np.abs(sol.u[0] - exact).max() < 1e-12 * np.abs(exact).max()             # measured 3.4e-15, 2.8e-15
 
 
+DEGENERATE = [("coulomb", 0.3, 0.1, 3), ("coulomb", 0.5, 0.1, 2), ("coulomb", 0.5, 0.1, 3), ("coulomb", 0.3, 0.2, 2),
+              ("coulomb", 0.3, 0.2, 3), ("coulomb", 0.5, 0.2, 2), ("coulomb", 0.5, 0.2, 3), ("tresca", 0.3, 0.2, 3),
+              ("tresca", 0.3, 0.1, 2)]
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("kind, coefficient, shear, n", DEGENERATE)
+def test_the_finish_settles_on_the_vertex_rows_that_carry_no_force(kind, coefficient, shear, n):
+    """The uniform layer stuck (Coulomb mu p > tau; Tresca g > 4/3 tau): the consistent forces vanish at the face
+    vertices, whose rows then hold no force at no gap and no slip (Coulomb's capacity mu y_a = 0 too), either
+    branch of their law holds, and the active set flipped on rounding among them: declined on most of these cases,
+    which ones depending on the BLAS kernels. Ties go to closed and stuck (finish.friction.TIE): finished, the
+    closed form to rounding, under every kernel set."""
+    tau = shear * P
+    law = cc.Coulomb(coefficient) if kind == "coulomb" else cc.Tresca(coefficient * P)
+    sol = cc.solve(uniform_layer3d(tau, law, n=n), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON and sol.info.declined is None
+    z = sol.points[0][:, 2]
+    exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * np.abs(exact).max()            # measured <= 8.5e-15
+    c = sol.contact
+    grid = c.points[:, :2] * n
+    vertex = np.all(np.abs(grid - np.round(grid)) < 1e-9, axis=1)                   # the mesh's vertices on z = 0
+    assert vertex.sum() == (n + 1) ** 2 and len(vertex) == (2 * n + 1) ** 2
+    assert np.abs(c.force[vertex]).max() < 1e-12 * P / n ** 2        # no normal force at a vertex: <= 5.1e-16
+    assert np.abs(c.shear_force[vertex]).max() < 1e-12 * tau / n ** 2    # nor a tangential one: <= 2.2e-15
+    assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(tau, rel=1e-12)   # tau A: <= 4.7e-15
+
+
 @pytest.mark.numerics
 def test_pushed_with_a_small_threshold_every_node_slides_with_its_whole_capacity():
     n = 2

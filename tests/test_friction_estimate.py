@@ -306,18 +306,17 @@ def test_3d_a_uniform_stuck_layer_has_a_zero_estimate(degree, tau):
 @pytest.mark.parametrize("tau", [0.1, 0.2])
 def test_3d_p2_a_uniform_layer_stuck_by_coulomb_has_a_zero_estimate(tau):
     """The stuck layer under Coulomb (mu = 0.3: mu p >= 4/3 tau): t_h = tau and g_h = mu p, p the representer
-    lambda_h, at every node; every part vanishes. Finished exactly (``info.finish``) to rounding; the fixed point
-    on the thresholds may end unfinished (tau = 0.2 p; every case under OPENBLAS_CORETYPE=Prescott), its answer
-    1e-6 off: t_h 7.2e-7, g_h 4.5e-6 relative, the largest part 6e-9 of the norm squared: the bounds follow."""
+    lambda_h, at every node; every part vanishes. Finished exactly (``info.finish``) to rounding under every BLAS
+    kernel set (the face vertices' rows carry no force at no gap and no slip, Coulomb's capacity 0 there: they tie
+    closed and stuck, backends/finish/friction.py "Degenerate rows"), the fixed point's warning with it."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", cc.errors.FixedPointWarning)
+        warnings.simplefilter("error", cc.errors.FixedPointWarning)
         sol = cc.solve(uniform_layer3d(tau * P, cc.Coulomb(0.3)), degree=2, condition="sigma1")
-    assert sol.ok
-    exact = sol.info.finish is not None
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
     f = slip.friction_of(sol, 0)
-    assert np.abs(np.linalg.norm(f.t, axis=1) / (tau * P) - 1).max() < (1e-10 if exact else 1e-4)  # 1.1e-14; 7.2e-7
-    assert np.abs(f.g / (0.3 * P) - 1).max() < (1e-10 if exact else 1e-3)                        # 6.1e-15; 4.5e-6
-    assert _largest_part(sol.estimate) <= (1e-10 if exact else 1e-6)                              # 8.5e-18; 6e-9
+    assert np.abs(np.linalg.norm(f.t, axis=1) / (tau * P) - 1).max() < 1e-10           # measured 1.1e-14
+    assert np.abs(f.g / (0.3 * P) - 1).max() < 1e-10                                  # measured 6.1e-15
+    assert _largest_part(sol.estimate) <= 1e-10                                        # measured 8.5e-18
 
 
 @pytest.mark.numerics
@@ -346,21 +345,18 @@ def test_3d_a_uniform_stuck_pair_has_a_zero_estimate_from_either_side(degree):
     """Two layers in the uniform stuck state (matching faces, Tresca g = 0.3 p, tau = 0.1 p), posed from the
     upper ("sigma1") or the lower body ("sigma2"): the same rows, every part of either estimate vanishes
     (t_h between two bodies: the representer in the jumps of the two traces, as lambda_h), and the two agree.
-    Finished exactly (``info.finish``) to rounding; under some BLAS kernels (OPENBLAS_CORETYPE=Prescott,
-    Sandybridge) the P2 pair ends at the interior point's answer, unfinished, whose lambda_h and t_h are off by
-    1.3e-6 and 7.5e-7 relative (the complementarity part 2.3e-9 of the norm squared): the bounds follow."""
+    Finished exactly (``info.finish``) to rounding under every BLAS kernel set: the P2 face vertices' rows carry
+    no force at no gap and no slip, and tie closed and stuck (backends/finish/friction.py, "Degenerate rows")."""
     one, other = (cc.solve(uniform_pair3d(0.1 * P, cc.Tresca(0.3 * P), swap=swap), degree=degree,
                            condition=condition) for swap, condition in ((False, "sigma1"), (True, "sigma2")))
     assert one.ok and other.ok
-    exact = one.info.finish is not None and other.info.finish is not None
+    assert one.info.finish == other.info.finish == cc.Finish.FRICTION_NEWTON
     t = slip.friction_of(one, 0).t
-    gap = np.abs(np.linalg.norm(t, axis=1) / (0.1 * P) - 1).max()
-    assert gap < (1e-10 if exact else 1e-4)                              # measured 4.5e-14 (P2); 7.5e-7 unfinished
+    assert np.abs(np.linalg.norm(t, axis=1) / (0.1 * P) - 1).max() < 1e-10            # measured 4.5e-14 (P2)
     for est in (one.estimate, other.estimate):
-        assert _largest_part(est) <= (1e-10 if exact else 1e-6)         # measured 6.5e-17, 3.4e-17; 2.3e-9
+        assert _largest_part(est) <= 1e-10                                   # measured 6.5e-17, 3.4e-17
     for k, v in one.estimate.parts.items():
-        bound = (1e-10 if exact else 1e-8) * one.estimate.norm ** 2
-        assert abs(other.estimate.parts[k] - v) <= bound, k                # measured 7e-17; 9.2e-11 unfinished
+        assert abs(other.estimate.parts[k] - v) <= 1e-10 * one.estimate.norm ** 2, k   # measured 7e-17
 
 
 @pytest.mark.numerics

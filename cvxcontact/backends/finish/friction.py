@@ -22,6 +22,17 @@ semismooth active-set move): with P2 tetrahedra's nodal rows a face vertex whose
 tension (a pressure that varies across the face) opens, and the damped steps towards it only halved the residual
 at every step (a box pushed across a rigid plane: 3e-7, 1.5e-7, ... and declined).
 
+Degenerate rows: a row may carry no force at no gap and no slip in the answer itself (strict complementarity
+fails). With P2 tetrahedra's nodal rows under a uniform pressure and shear the consistent forces vanish at the
+face vertices (0 there, A/3 per face at an edge midpoint): y_a = 0, G_a x = g_a, mu_a = 0, s_a = 0, and Coulomb's
+capacity mu y_a = 0 too. Either branch of each row's law holds there, the steps reach rounding, and the signs of
+y_a + r_n (G x - g)_a and c_a - |z_a| are those of the rounding: the set flips on every step among such rows,
+never repeats, and the steps were declined ("did not settle", on some BLAS kernels and not others). Ties go one
+way: a row counts as closed while y_a + r_n (G x - g)_a > -TIE C and as stuck while |z_a| <= c_a + TIE C, a
+threshold a thousand times rounding (an open row's gap or a slipping row's slip below TIE U is rounding of the
+displacements). A degenerate row is then closed and stuck at every step (its gap and slip held at 0, its forces
+those (26) gives, rounding), the set repeats and the steps settle; the acceptance checks are unchanged.
+
 A row whose slip some unknown moves in one tangential component but not in the other (a support on a side that
 meets the contact fixes one direction at its nodes, docs/howto/friction.md) has a component j with S_a,j = 0: its
 force mu_a,j acts on no unknown. Stuck, its slip s_a,j = s0_a,j is then no condition on x, and (26) does not
@@ -105,6 +116,10 @@ def _blocks(B) -> sp.csr_matrix:
     return sp.bsr_matrix((B, np.arange(r), np.arange(r + 1)), shape=(r * c, r * c)).tocsr()
 
 
+TIE = 1e-12
+"""Degenerate rows (module docstring): a row counts as closed while y_a + r_n (G x - g)_a > -TIE C, as stuck while
+|z_a| <= c_a + TIE C (C the force scale), so that rows whose force and gap (slip) are both rounding tie one way."""
+
 WEIGHT_FLOOR = 1e-3
 """Dependent rows: the weights of the basis's pivots (each row's force or slack to the cone over the largest) are
 floored here, so that the rows without force are ordered among themselves by their own pivots."""
@@ -165,13 +180,13 @@ class _System:
         return w[:n], w[n:n + R], w[n + R:].reshape(-1, self.fr.nc)
 
     def state(self, w):
-        """(closed, stuck, z, c): the point's active set (closed normal rows, stuck friction rows), z = mu + r_t s
-        and the capacities."""
+        """(closed, stuck, z, c): the point's active set (closed normal rows, stuck friction rows; ties within
+        :data:`TIE` of the force scale closed and stuck), z = mu + r_t s and the capacities."""
         x, y, mu = self.split(w)
-        closed = self.free & (y + self.r * (self.G @ x - self.g) > 0)
+        closed = self.free & (y + self.r * (self.G @ x - self.g) > -TIE * self.C)
         c = self.fr.capacity(y)
         z = mu + self.r * self.fr.slip(x)
-        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c)
+        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c + TIE * self.C)
         return closed, stuck, z, c
 
     def residual(self, w, state=None):

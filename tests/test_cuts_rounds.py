@@ -103,4 +103,8 @@ def test_seeds_near_the_tangency_points_save_rounds_not_accuracy(monkeypatch, n)
         assert r["energy error"] < 1e-7 and r["feasibility"] < 1e-14   # measured 4.4e-8 ... 5.9e-8, 1.7e-15 ... 2.5e-15
     u1, u2 = (np.concatenate([np.ravel(x) for x in s.u]) for s in sols)
     assert np.abs(u1 - u2).max() < 1e-8 * np.abs(u2).max()               # measured 7.2e-11, 4.6e-11
-    assert rounds[0] < rounds[1], rounds                                  # measured 6 vs 9, 10 vs 13 (9 vs 11 at n = 140)
+    # the rounds saved, measured under SkylakeX, Haswell, Sandybridge, Nehalem, Prescott on 1 and 2 threads:
+    # n = 10: 4-6 with the seeds' points against 9-11 without; n = 70: 9-12 against 11-13 (11 vs 11 once, Prescott
+    # on one thread): there the saving is inside the spread of the kernels, so it is asserted at n = 10 only
+    if n == 10:
+        assert rounds[0] < rounds[1], rounds

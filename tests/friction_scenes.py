@@ -153,3 +153,14 @@ def projected_gradient_tresca(W, q, capacity, iterations=20000):
         t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
         Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
     return R
+
+
+def walled(law, wall_law=None):
+    """The block of :func:`sheared` (no shear on its top) pushed by 0.3 p on its left face against a rigid wall at
+    x = L, ``law`` on the floor, ``wall_law`` (None: frictionless) on the upper half of its right face against the
+    wall (not the corner: its floor row's slip and its wall row would be one direction): a scene with two pairs,
+    friction on one of them."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4, segments={"side": ("right", H / 2, H)})
+    b = cc.Body(m, steel(), contact="bottom", traction={"top": (0.0, -P), "left": (0.3 * P, 0.0)})
+    wall = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "side", wall, law=wall_law)])

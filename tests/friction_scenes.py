@@ -164,3 +164,11 @@ def walled(law, wall_law=None):
     b = cc.Body(m, steel(), contact="bottom", traction={"top": (0.0, -P), "left": (0.3 * P, 0.0)})
     wall = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "side", wall, law=wall_law)])
+
+
+def pair2d(law, q=0.02 * P, condition="sigma1"):
+    """The block (1 m x 0.5 m, 7 x 3 cells) under (q, -p) on its top on a wider clamped block (1.4 m x 0.5 m, 9 x 3
+    cells: non-matching lines), ``law`` between them under ``condition``."""
+    a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=7, ny=3), steel(), contact="bottom", traction={"top": (q, -P)})
+    b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top", clamped="bottom")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition=condition)])

@@ -11,11 +11,10 @@ A block (1 m x 0.5 m, steel) pressed on a rigid plane by p = 10 MPa on its top:
 
 import numpy as np
 import pytest
+from friction_scenes import E, H, L, P, pair2d, pushed, steel
+from friction_scenes import sheared as _sheared
 
 import cvxcontact as cc
-
-from friction_scenes import E, H, L, P, pushed, steel  # noqa: E402
-from friction_scenes import sheared as _sheared  # noqa: E402
 
 
 def sheared(q, g, **options):
@@ -184,3 +183,17 @@ def test_p2_a_pair_tends_to_the_rigid_plane_linearly_in_the_partners_compliance(
 def test_p2_friction_under_the_conic_condition_is_refused_naming_the_nodal_conditions():
     with pytest.raises(cc.UnsupportedError, match=r"gamma3.*condition='sigma1' or 'sigma2'"):
         cc.solve(sheared(0.2 * P, 1e7), degree=2)
+
+
+@pytest.mark.numerics
+def test_a_p2_pair_under_sigma1_in_partial_slip_is_finished():
+    """A 2D P2 pair under "sigma1" (non-matching lines), sheared to partial slip: the friction finish settles (its
+    damped steps; the full step to each new set, as 3D takes it, made the steps cycle: declined, the interior
+    point's answer kept). Its tangential forces balance the top's shear q L (the upper block has no other support
+    along x) to rounding, and the law's checks hold at rounding."""
+    q = 0.02 * P
+    sol = cc.solve(pair2d(cc.Tresca(0.03 * P), q), degree=2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    assert abs(sol.contact.shear_force.sum() + q * L) < 1e-10 * q * L                   # measured 3.8e-14
+    r = sol.residuals()
+    assert r["friction cone"] < 1e-12 and r["slip direction"] < 1e-12                    # measured 2.3e-16, 0

@@ -389,3 +389,11 @@ def test_a_frictionless_pair_beside_a_friction_law_adds_no_friction_terms(law, w
     scale = free.estimate.absolute ** 2
     for k, v in free.estimate.parts.items():
         assert np.isfinite(v) and abs(v - near.estimate.parts[k]) < 1e-4 * scale, k   # measured 7.1e-7, 1.2e-7
+
+
+def test_q2_hexahedra_with_friction_are_solved_and_say_why_there_is_no_estimate():
+    """Q2 hexahedra take friction (their faces' 6-node triangles) but the estimates cover simplices only: the solve
+    is finished and the estimate None, its reason naming the cells and the simplices to use (tetrahedra in 3D)."""
+    sol = cc.solve(uniform_layer3d(0.1 * P, cc.Tresca(0.3 * P), cell="hex"), degree=2, condition="sigma1")
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    assert sol.estimate is None and "hex" in sol.estimate_reason and "tetrahedra" in sol.estimate_reason

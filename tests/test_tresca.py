@@ -197,3 +197,16 @@ def test_a_p2_pair_under_sigma1_in_partial_slip_is_finished():
     assert abs(sol.contact.shear_force.sum() + q * L) < 1e-10 * q * L                   # measured 3.8e-14
     r = sol.residuals()
     assert r["friction cone"] < 1e-12 and r["slip direction"] < 1e-12                    # measured 2.3e-16, 0
+
+
+def test_p2_friction_on_rows_forming_no_p2_mesh_is_refused_naming_friction():
+    """Under "sigma1" the upper block's first P2 node in the overlap is a midpoint: its rows form no P2 mesh for the
+    law's weights. The refusal names friction among the laws concerned and the other sigma condition; 'gamma3' only
+    for normal compliance (friction under 'gamma3' with P2 is refused too)."""
+    mat = cc.materials.isotropic(E=E, nu=0.0)
+    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, clamped=["top"], contact="bottom")
+    lower = cc.Body(cc.rectangle(x=(0.1, 1.0), y=(-0.5, 0), nx=3, ny=2), mat, clamped=["bottom"], contact="top")
+    scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=-1e-5)])
+    with pytest.raises(cc.UnsupportedError, match="friction") as info:
+        cc.solve(scene, "sigma1", degree=2, law=cc.Tresca(1e6))
+    assert "the other sigma condition" in str(info.value) and "for normal compliance, 'gamma3'" in str(info.value)

@@ -391,6 +391,7 @@ def test_a_frictionless_pair_beside_a_friction_law_adds_no_friction_terms(law, w
         assert np.isfinite(v) and abs(v - near.estimate.parts[k]) < 1e-4 * scale, k   # measured 7.1e-7, 1.2e-7
 
 
+@pytest.mark.numerics
 def test_q2_hexahedra_with_friction_are_solved_and_say_why_there_is_no_estimate():
     """Q2 hexahedra take friction (their faces' 6-node triangles) but the estimates cover simplices only: the solve
     is finished and the estimate None, its reason naming the cells and the simplices to use (tetrahedra in 3D)."""

@@ -237,7 +237,7 @@ class ContactSolver:
             timings["estimate"] = time.perf_counter() - t0
         elif self._unestimated:
             sol.estimate_reason = (f"not computed: the error estimates do not cover {problem.scene.cell} cells yet "
-                                   "(use triangles for an estimate)")
+                                   "(use triangles or tetrahedra for an estimate)")
         else:
             sol.estimate_reason = "not computed (estimate=False)"
         sol.info = replace(sol.info, timings=timings)

@@ -153,3 +153,22 @@ def projected_gradient_tresca(W, q, capacity, iterations=20000):
         t_new = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * t * t))
         Y, R, t = new + (t - 1.0) / t_new * (new - R), new, t_new
     return R
+
+
+def walled(law, wall_law=None):
+    """The block of :func:`sheared` (no shear on its top) pushed by 0.3 p on its left face against a rigid wall at
+    x = L, ``law`` on the floor, ``wall_law`` (None: frictionless) on the upper half of its right face against the
+    wall (not the corner: its floor row's slip and its wall row would be one direction): a scene with two pairs,
+    friction on one of them."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4, segments={"side": ("right", H / 2, H)})
+    b = cc.Body(m, steel(), contact="bottom", traction={"top": (0.0, -P), "left": (0.3 * P, 0.0)})
+    wall = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "side", wall, law=wall_law)])
+
+
+def pair2d(law, q=0.02 * P, condition="sigma1"):
+    """The block (1 m x 0.5 m, 7 x 3 cells) under (q, -p) on its top on a wider clamped block (1.4 m x 0.5 m, 9 x 3
+    cells: non-matching lines), ``law`` between them under ``condition``."""
+    a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=7, ny=3), steel(), contact="bottom", traction={"top": (q, -P)})
+    b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top", clamped="bottom")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition=condition)])

@@ -18,6 +18,7 @@ from friction_scenes import (
     uniform_layer,
     uniform_layer3d,
     uniform_pair3d,
+    walled,
 )
 
 import cvxcontact as cc
@@ -370,3 +371,30 @@ def test_2d_a_uniform_stuck_layer_has_a_zero_estimate(options):
     assert sol.ok
     assert np.abs(np.abs(slip.friction_of(sol, 0).t) / tau - 1).max() < 1e-10          # measured 1e-14
     assert _largest_part(sol.estimate) <= 1e-10                                        # measured 1.9e-29
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, wall", [(cc.Tresca(0.1 * P), cc.Tresca(1e-6 * P)), (cc.Coulomb(0.2), cc.Coulomb(1e-6))],
+                         ids=["Tresca", "Coulomb"])
+def test_a_frictionless_pair_beside_a_friction_law_adds_no_friction_terms(law, wall):
+    """Two pairs, friction on the floor and none on the wall: the wall's rows read back a zero shear and no
+    threshold, so its pair has no friction terms (before: its threshold None read as NaN, and the friction parts
+    and the estimate were NaN). Cross-checked against the scene whose wall carries a vanishing threshold (every
+    pair through the friction terms): the estimate is that one's limit, linear in the threshold."""
+    free = cc.solve(walled(law))
+    assert free.ok and free.estimate is not None and np.isfinite(free.estimate.absolute)
+    assert free.contacts[1].threshold is None
+    near = cc.solve(walled(law, wall))
+    assert near.ok
+    scale = free.estimate.absolute ** 2
+    for k, v in free.estimate.parts.items():
+        assert np.isfinite(v) and abs(v - near.estimate.parts[k]) < 1e-4 * scale, k   # measured 7.1e-7, 1.2e-7
+
+
+@pytest.mark.numerics
+def test_q2_hexahedra_with_friction_are_solved_and_say_why_there_is_no_estimate():
+    """Q2 hexahedra take friction (their faces' 6-node triangles) but the estimates cover simplices only: the solve
+    is finished and the estimate None, its reason naming the cells and the simplices to use (tetrahedra in 3D)."""
+    sol = cc.solve(uniform_layer3d(0.1 * P, cc.Tresca(0.3 * P), cell="hex"), degree=2, condition="sigma1")
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    assert sol.estimate is None and "hex" in sol.estimate_reason and "tetrahedra" in sol.estimate_reason

@@ -11,11 +11,10 @@ A block (1 m x 0.5 m, steel) pressed on a rigid plane by p = 10 MPa on its top:
 
 import numpy as np
 import pytest
+from friction_scenes import E, H, L, P, pair2d, pushed, steel
+from friction_scenes import sheared as _sheared
 
 import cvxcontact as cc
-
-from friction_scenes import E, H, L, P, pushed, steel  # noqa: E402
-from friction_scenes import sheared as _sheared  # noqa: E402
 
 
 def sheared(q, g, **options):
@@ -184,3 +183,30 @@ def test_p2_a_pair_tends_to_the_rigid_plane_linearly_in_the_partners_compliance(
 def test_p2_friction_under_the_conic_condition_is_refused_naming_the_nodal_conditions():
     with pytest.raises(cc.UnsupportedError, match=r"gamma3.*condition='sigma1' or 'sigma2'"):
         cc.solve(sheared(0.2 * P, 1e7), degree=2)
+
+
+@pytest.mark.numerics
+def test_a_p2_pair_under_sigma1_in_partial_slip_is_finished():
+    """A 2D P2 pair under "sigma1" (non-matching lines), sheared to partial slip: the friction finish settles (its
+    damped steps; the full step to each new set, as 3D takes it, made the steps cycle: declined, the interior
+    point's answer kept). Its tangential forces balance the top's shear q L (the upper block has no other support
+    along x) to rounding, and the law's checks hold at rounding."""
+    q = 0.02 * P
+    sol = cc.solve(pair2d(cc.Tresca(0.03 * P), q), degree=2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    assert abs(sol.contact.shear_force.sum() + q * L) < 1e-10 * q * L                   # measured 3.8e-14
+    r = sol.residuals()
+    assert r["friction cone"] < 1e-12 and r["slip direction"] < 1e-12                    # measured 2.3e-16, 0
+
+
+def test_p2_friction_on_rows_forming_no_p2_mesh_is_refused_naming_friction():
+    """Under "sigma1" the upper block's first P2 node in the overlap is a midpoint: its rows form no P2 mesh for the
+    law's weights. The refusal names friction among the laws concerned and the other sigma condition; 'gamma3' only
+    for normal compliance (friction under 'gamma3' with P2 is refused too)."""
+    mat = cc.materials.isotropic(E=E, nu=0.0)
+    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, clamped=["top"], contact="bottom")
+    lower = cc.Body(cc.rectangle(x=(0.1, 1.0), y=(-0.5, 0), nx=3, ny=2), mat, clamped=["bottom"], contact="top")
+    scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=-1e-5)])
+    with pytest.raises(cc.UnsupportedError, match="friction") as info:
+        cc.solve(scene, "sigma1", degree=2, law=cc.Tresca(1e6))
+    assert "the other sigma condition" in str(info.value) and "for normal compliance, 'gamma3'" in str(info.value)

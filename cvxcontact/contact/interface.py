@@ -278,14 +278,14 @@ class Stack:
         """(c size, d n_nodes): body k's part of the slip [u_t] at every pair's merged nodes
         (:meth:`Interface.tangential_jump`, :meth:`~cvxcontact.contact.surface.SurfaceInterface.tangential_jump`),
         c = :attr:`slip_components`, component-major (rows j size + a: component j at stacked node a). An
-        interface without a tangential part (P2, a curved 3D part): UnsupportedError."""
+        interface without a tangential part (a curved 3D part against a planar one): UnsupportedError."""
         from ..errors import UnsupportedError
 
         c = self.slip_components
         for itf in self.interfaces:
             if not hasattr(itf, "tangential_jump"):
                 raise UnsupportedError(f"a friction law on {type(itf).__name__} contact lines is not available "
-                                       "yet: use planar contact parts (or a rigid obstacle) and degree=1")
+                                       "yet: use planar contact parts (or a rigid obstacle)")
         parts = []
         for itf, (a, b) in zip(self.interfaces, self.members):
             side = 0 if k == a else 1 if k == b else None

@@ -174,10 +174,11 @@ class QuadraticInterface:
         t, xc = self.traces[k], self.sigma_x[k]
         first = int(np.argmin(np.abs(t.x - xc[0]))) if len(xc) else 0      # its index in the interleaved trace
         if len(xc) < 3 or first % 2 or len(xc) % 2 == 0:
-            raise UnsupportedError(f"a normal-compliance law with P2 elements (degree=2) under {condition!r}: the "
-                                   f"overlap of the pair ends inside a segment of body {k + 1}'s trace (at or before its "
-                                   "midpoint), so its constrained nodes form no P2 mesh for the law's quadrature; "
-                                   "use 'gamma3' or the other sigma condition")
+            raise UnsupportedError(f"a law weighted on the rows (normal compliance, friction) with P2 elements "
+                                   f"(degree=2) under {condition!r}: the overlap of the pair ends inside a "
+                                   f"segment of body {k + 1}'s trace (at or before its midpoint), so its "
+                                   "constrained nodes form no P2 mesh for the law's quadrature; use the other "
+                                   "sigma condition (or, for normal compliance, 'gamma3')")
         return xc
 
     def bernstein(self) -> sp.csr_matrix:

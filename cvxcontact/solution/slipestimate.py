@@ -59,9 +59,10 @@ class Friction:
 
 
 def friction_of(sol, i: int) -> Friction | None:
-    """The :class:`Friction` of pair ``i`` of ``sol`` (module docstring); None without a friction law."""
+    """The :class:`Friction` of pair ``i`` of ``sol`` (module docstring); None without a friction law on that pair
+    (a frictionless pair beside a friction law's reads back a zero shear and no threshold: no friction terms)."""
     c = sol.contacts[i]
-    if c.shear_force is None:
+    if c.shear_force is None or c.threshold is None:
         return None
     t, r, g = c.trace.friction_fields(sol._pair_line(i), sol.scene.conditions[i] or sol.condition, c)
     return Friction(t=t, g=g, s=np.asarray(c.slip, dtype=float), r=r)

@@ -17,10 +17,12 @@ t_a = z_a / |z_a|, linearised with P_a = I - t_a t_a^T, k_a = c_a / |z_a| as
 (I - k_a P_a) dmu_a - k_a r_t P_a S_a dx - D_a t_a dy_a. In 2D P_a = 0: a slipping row's force is c_a sign(z_a),
 a linear condition, and the steps end once the active set is right; in 3D the direction is nonlinear and the
 steps converge quadratically near the answer. Each step is damped by halving on the scaled residual's norm,
-except that the full step to an active set not met before is taken even where it raises the residual (the
-semismooth active-set move): with P2 tetrahedra's nodal rows a face vertex whose consistent force would be a
-tension (a pressure that varies across the face) opens, and the damped steps towards it only halved the residual
-at every step (a box pushed across a rigid plane: 3e-7, 1.5e-7, ... and declined).
+except that in 3D (and on dependent rows) the full step to an active set not met before is taken even where it
+raises the residual (the semismooth active-set move): with P2 tetrahedra's nodal rows a face vertex whose
+consistent force would be a tension (a pressure that varies across the face) opens, and the damped steps towards
+it only halved the residual at every step (a box pushed across a rigid plane: 3e-7, 1.5e-7, ... and declined).
+Not in 2D, where a set already solved that comes back ends the steps as a cycle: there the full steps to new sets
+cycled where the damped ones settle (a 2D P2 pair under "sigma1" with Tresca friction, tests/test_tresca.py).
 
 Degenerate rows: a row may carry no force at no gap and no slip in the answer itself (strict complementarity
 fails). With P2 tetrahedra's nodal rows under a uniform pressure and shear the consistent forces vanish at the
@@ -283,8 +285,8 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             new = np.linalg.norm(system.residual(trial))
             if new < (1.0 - 1e-4 * alpha) * merit:
                 break
-            if alpha == 1.0 and _key(system.state(trial)) not in seen | {key}:
-                break              # the full step to a new active set (module docstring)
+            if alpha == 1.0 and (fr.nc > 1 or system.dependent) and _key(system.state(trial)) not in seen | {key}:
+                break              # 3D: the full step to a new active set (module docstring)
             alpha /= 2
         else:
             stalled += 1

@@ -123,6 +123,22 @@ def uniform_pair3d(tau, law, swap=False, n=2):
     return cc.Scene(a, b, contacts=[pair])
 
 
+def tresca_reference(Tu, Kzz, fz, u_fixed, bottom, capacity):
+    """(u (n, 3), R (m, 3)): the nodal Tresca law on the nodes ``bottom`` of a body against the plane z = 0 solved
+    independently of the package: the body condensed onto those nodes' dofs (``Tu`` the free-dof basis, ``Kzz``
+    and ``fz`` the reduced stiffness and load, ``u_fixed`` the prescribed part), its dual QP by
+    :func:`projected_gradient_tresca` with the rows' ``capacity`` (N), the displacements back from the forces R."""
+    import scipy.sparse as sp
+
+    dofs = np.ravel(np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]))
+    Pc = sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(Kzz, PT.T)                                        # m per N
+    q = PT @ np.linalg.solve(Kzz, fz) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, capacity)
+    return (Tu @ np.linalg.solve(Kzz, fz + PT.T @ R) + u_fixed).reshape(-1, 3), R.reshape(-1, 3)
+
+
 def projected_gradient_tresca(W, q, capacity, iterations=20000):
     """The nodal Tresca law's dual QP (module docstring) by FISTA with adaptive restart: R (t1, t2, n per node)."""
     n = len(q) // 3

@@ -23,8 +23,7 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
-from friction_scenes import DIAGONAL3, projected_gradient_tresca, uniform_layer3d
+from friction_scenes import DIAGONAL3, tresca_reference, uniform_layer3d
 
 import cvxcontact as cc
 
@@ -217,19 +216,12 @@ def test_partial_slip_matches_a_projected_gradient_reference_and_the_cone_holds_
     for sub in ([0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]):
         np.add.at(lumped, faces[:, sub].ravel(), np.repeat(areas / 12, 3))
     bottom = np.unique(faces)
-    dofs = np.ravel(np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]))
-    Pc = sp.csr_matrix((np.ones(len(dofs)), (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
-    PT = (Pc @ Tu).toarray()
-    W = PT @ np.linalg.solve(Kzz, PT.T)
-    q = PT @ np.linalg.solve(Kzz, fz) + Pc @ u_fixed
-    R = projected_gradient_tresca(W, q, g * lumped[bottom])
-    ref = (Tu @ np.linalg.solve(Kzz, fz + PT.T @ R) + u_fixed).reshape(-1, 3)
+    ref, R = tresca_reference(Tu, Kzz, fz, u_fixed, bottom, g * lumped[bottom])
     slip = np.linalg.norm(ref[bottom, :2], axis=1)
     assert 2 <= (slip > 1e-3 * slip.max()).sum() <= len(bottom) - 2             # partial slip: 17 of 25 nodes
     assert np.abs(sol.u[0] - ref).max() < 1e-5 * np.abs(ref).max()             # measured 4.1e-8
     c = sol.contact
     at = [int(np.argmin(np.linalg.norm(c.points - points[b], axis=1))) for b in bottom]
-    R = R.reshape(-1, 3)
     assert np.abs(c.shear_force[at] - R[:, :2]).max() < 5e-5 * np.abs(R).max()  # measured 3.5e-7 (FISTA's)
     over, along, stuck = cone_complementarity(c, g, np.abs(sol.u[0]).max())
     assert over < 1e-12 and along < 1e-12 and stuck < 1e-12                       # measured 2.2e-16, 7.0e-16, 0

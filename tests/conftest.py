@@ -58,6 +58,25 @@ def fields_agree(a, b, tol, force_tol=None):
     assert rel(a.contact.force, b.contact.force) < (tol if force_tol is None else force_tol)
 
 
+def effectivity_falls_within(build, options, measured):
+    """The estimate's effectivity on nested meshes (levels 0, 1 against level 3,
+    :func:`cvxcontact.apps.studies.estimate.effectivity`) within the ``measured`` range (lo, hi) widened by 3 either
+    way, every solve ``ok``, and estimate and true error both falling from level 0 to 1."""
+    import warnings
+
+    from cvxcontact.apps.studies import estimate as study
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)        # a level 0 may be under-resolved
+        rows = study.effectivity(build, options, levels=(0, 1), reference=3)
+    lo, hi = measured
+    for r in rows:
+        assert r["ok"]
+        assert lo / 3 <= r["effectivity"] <= hi * 3, r
+    assert rows[1]["estimate"] < rows[0]["estimate"]
+    assert rows[1]["true_error"] < rows[0]["true_error"]
+
+
 def benchmark(name):
     """The module benchmarks/<name>.py (the benchmark scripts are no package), loaded from its file."""
     import importlib.util

@@ -92,6 +92,98 @@ def _traction(sigma_v, L, n):
     return np.einsum("kij,kj->ki", _tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
 
 
+class SimplexSides:
+    """What the contact terms read of one body of simplices (:class:`~.estimate.Geometry`): the vertex values of
+    sigma_h ``sigma`` (m, d + 1, s) Voigt, Pa, on its cells and its facet table ``facets``; :meth:`side` one
+    boundary part. The same questions of a body of quadrilaterals or hexahedra:
+    :class:`~.tensorestimate.TensorSides`."""
+
+    def __init__(self, mesh, sigma, facets):
+        self._mesh, self._sigma, self._facets = mesh, sigma, facets
+
+    def side(self, part) -> SimplexSide:
+        """The :class:`SimplexSide` of boundary part ``part``."""
+        return SimplexSide(self._mesh, self._sigma, self._facets, part)
+
+    def multiplier(self, c, part) -> np.ndarray:
+        """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` (on this body's part ``part``): the
+        read-back's, ``c.lam`` (the Riesz representer of the forces on the faces' triangles, this body's
+        trace)."""
+        return np.asarray(c.lam, dtype=float)
+
+
+class SimplexSide:
+    """One boundary part of a body of simplices, as the contact terms read it: its faces ``f`` (k, d) (the
+    mesh's ``boundary(part)``: the trace's segments in 2D, its triangles in 3D), the cell ``cell`` (k,) holding
+    each, unit outward ``normals`` (k, d), diameters ``hF`` (k,) m; sigma_h n (:meth:`traction`) at points of
+    the trace's elements, the face of each element (:meth:`face_of`: itself) and int_F |sigma_h n|^2
+    (:meth:`squares`)."""
+
+    def __init__(self, mesh, sigma, facets, part):
+        self._mesh, self._sigma, self._part = mesh, sigma, part
+        self.cell, self.f = _contact_cells(mesh, part, facets)
+        self.normals = mesh.outward_normals(part)
+
+    @property
+    def hF(self) -> np.ndarray:
+        return _diameters(self._mesh.points, self.f)
+
+    def face_of(self, element):
+        """The faces of the trace's elements ``element``: the same indices."""
+        return element
+
+    def traction(self, element, L) -> np.ndarray:
+        """(k, d) sigma_h n (Pa) at the points of barycentric coordinates ``L`` (d,) or (k, d) on the trace's
+        elements ``element`` (indices or a slice into ``f``)."""
+        cell = self.cell[element]
+        return _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[element], L), self.normals[element])
+
+    def squares(self) -> np.ndarray:
+        """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
+        mesh, cell, f = self._mesh, self.cell, self.f
+        tv = _voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
+        acc = np.zeros(len(f))
+        for Lf, w in zip(*simplex_rule(2, 2)):
+            acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
+        return acc * mesh.face_areas(self._part)
+
+
+def _smallest(matrix, voigt: bool) -> float:
+    """The smallest eigenvalue of a stiffness (Voigt, engineering shear: on tensor-orthonormal strains) or
+    permittivity matrix."""
+    a = np.asarray(matrix, dtype=float)
+    if voigt:
+        dim = 3 if len(a) == 6 else 2
+        s = np.array([1.0] * dim + [np.sqrt(2.0)] * (len(a) - dim))
+        a = s[:, None] * a * s[None, :]
+    return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
+
+
+def _boundary_roles(body, sol):
+    """Per boundary part of ``body``: its mechanical role ("dirichlet", "roller", "partial", "traction",
+    "contact") and electric role ("dirichlet", "charge")."""
+    mech, elec = {}, {}
+    for t in body.clamped:
+        mech[t] = "dirichlet"
+    for t, v in body.displacement.items():
+        mech[t] = "dirichlet" if all(x is not None for x in v) else "partial"
+    for t in body.roller:
+        mech[t] = "roller"
+    for t in body.traction:
+        mech[t] = "traction"
+    for c in sol.scene.contacts:
+        if c.body_a is body:
+            mech[c.part_a] = "contact"
+        if not c.rigid and c.other is body:
+            mech[c.part_b] = "contact"
+    if body.piezoelectric:
+        for t in [*body.grounded, *body.potential, *body.floating]:
+            elec[t] = "dirichlet"
+        for t in body.surface_charge:
+            elec[t] = "charge"
+    return mech, elec
+
+
 def _contact_cells(mesh, part, facets):
     """(cells (k,), the facets' vertices (k, d) in the part's order) of the faces of boundary part ``part``:
     the cell that holds each."""
@@ -128,16 +220,14 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
         for side, (body, part) in enumerate(sides):
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
-            fields, facets = cache[k]
-            cell, e = _contact_cells(mesh, part, facets)                # e oriented: domain on the left
+            on = cache[k].side(part)
+            cell, e, n = on.cell, on.f, on.normals                      # e oriented: domain on the left
             p = mesh.points
-            n = mesh.outward_normals(part)
             h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
             acc = np.zeros(len(e))
             for tq, w in zip(*_GAUSS3):
                 x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
-                L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
-                R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
+                R = on.traction(slice(None), np.array([1 - tq, tq])) + _lambda_at(c, x @ t)[:, None] * n
                 if fr is not None:                                      # the first body's t_h t, the other's -t_h t
                     R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
                 acc += w * (R ** 2).sum(axis=1)
@@ -213,7 +303,9 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
         gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
-        lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
+        first = getattr(itf.traces[0], "linear", itf.traces[0])          # P2: its P1 trace (the same faces)
+        k0 = next(j for j, b in enumerate(bodies) if b is first.body)
+        lam = np.append(cache[k0].multiplier(c, first.part), 0.0)[elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
         fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
         tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
@@ -232,16 +324,9 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
             linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
             k = next(j for j, b in enumerate(bodies) if b is linear.body)
-            mesh = linear.body.mesh
-            fields, facets = cache[k]
-            sigma = fields[2]
-            cell, f = _contact_cells(mesh, linear.part, facets)
-            normals = mesh.outward_normals(linear.part)
-            tv = _voigt_traction(_facet_values(sigma[cell], mesh.cells[cell], f), normals)
-            acc = np.zeros(len(f))
-            for Lf, w in zip(*simplex_rule(2, 2)):
-                acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
-            acc *= mesh.face_areas(linear.part)
+            on = cache[k].side(linear.part)
+            cell, normals = on.cell, on.normals
+            acc = on.squares()                                          # int_F |sigma_h n|^2 of each face
             if host is None:                                            # S not matched to the faces: find them
                 face, Lf = locate(xq, linear.x, linear.faces)
                 fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
@@ -250,18 +335,18 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 Lf = barycentric(xq, np.asarray(linear.x)[np.asarray(linear.faces)[face]])
                 fc = host
             ok = np.flatnonzero(face >= 0)
-            fq = face[ok]
-            s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
+            s = on.traction(face[ok], Lf[ok])                           # at the points of the trace's triangles
+            fq = on.face_of(face[ok])
             lq = lam.ravel()[ok]
             R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
             if tan is not None:                                     # the first body's t_h, the other's -t_h
                 tq = (1 - 2 * side) * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
             np.add.at(acc, fq, wts[ok] * R2)
-            term = _diameters(mesh.points, f) * acc / data[k][0]
+            term = on.hF * acc / data[k][0]
             np.add.at(eta2[k], cell, term)
             parts["contact traction"] += float(term.sum())
-            owners.append((k, np.where(fc >= 0, cell[np.maximum(fc, 0)], -1)))
+            owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)

@@ -54,7 +54,8 @@ from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
 from . import contactestimate as contact
-from .contactestimate import CELLS, _diameters
+from .contactestimate import CELLS, _boundary_roles, _diameters, _smallest
+from .tensorestimate import TensorGeometry
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
 
@@ -235,6 +236,16 @@ class Geometry:
             self._parts[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(mesh.points)))
         return self._parts[tag]
 
+    def terms(self, body, u, phi, eta2, parts, sol) -> tuple[float, contact.SimplexSides]:
+        """Add the element and facet terms of ``body``'s fields (displacements ``u``, potentials ``phi``) to its
+        ``eta2`` (m,) and ``parts``; (its squared energy norm, what the contact terms read of it)."""
+        fields = _fields(self, u, phi)
+        sigma = fields[2]
+        corners = np.broadcast_to(sigma, (len(sigma), self.gradL.shape[2], sigma.shape[2]))   # a view: no copies
+        _element_terms(body, fields, self, eta2, parts)
+        _facet_terms(body, fields, self, eta2, parts, sol)
+        return float(_cell_energies(body, fields).sum()), contact.SimplexSides(body.mesh, corners, self.facets)
+
     def points(self, L) -> np.ndarray:
         """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""
         return _at(self._mesh.points, self._mesh.cells, L)
@@ -264,23 +275,19 @@ class _Faces:
 def _geometry(body, degree: int, cache) -> Geometry:
     """The :class:`Geometry` of ``body`` in ``degree``: from ``cache`` (a dict, or None: built afresh) under the
     body's geometry fingerprint and the degree, else built (and kept there)."""
+    build = GEOMETRIES[body.mesh.cell]
     if cache is None:
-        return Geometry(body, degree)
+        return build(body, degree)
     key = (geometry_fingerprint(body), degree)
     if key not in cache:
-        cache[key] = Geometry(body, degree)
+        cache[key] = build(body, degree)
     return cache[key]
 
 
-def _smallest(matrix, voigt: bool) -> float:
-    """The smallest eigenvalue of a stiffness (Voigt, engineering shear: on tensor-orthonormal strains) or
-    permittivity matrix."""
-    a = np.asarray(matrix, dtype=float)
-    if voigt:
-        dim = 3 if len(a) == 6 else 2
-        s = np.array([1.0] * dim + [np.sqrt(2.0)] * (len(a) - dim))
-        a = s[:, None] * a * s[None, :]
-    return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
+GEOMETRIES = {"triangle": Geometry, "tetra": Geometry, "quad": TensorGeometry, "hex": TensorGeometry}
+"""The estimate's geometry of a body by its cells (``mesh.cell``): :class:`Geometry` for simplices (fields
+affine on a cell), :class:`~cvxcontact.solution.tensorestimate.TensorGeometry` for quadrilaterals and
+hexahedra (fields at quadrature points)."""
 
 
 # ---------------------------------------------------------------------------------------------- the estimator
@@ -301,14 +308,10 @@ def estimate(sol, signorini: bool = True, cache: dict | None = None) -> tuple[Er
     data, held = [], []
     for k, b in enumerate(bodies):
         g = _geometry(b, sol.degree, cache)
-        fields = _fields(g, sol.u[k], sol.phi[k])
-        sigma = fields[2]
-        corners = np.broadcast_to(sigma, (len(sigma), g.gradL.shape[2], sigma.shape[2]))   # a view: no copies
-        held.append(((None, None, corners, None, g.gradL, g.measure), g.facets))
-        norm2 += float(_cell_energies(b, fields).sum())
+        energy, sides = g.terms(b, sol.u[k], sol.phi[k], eta2[k], parts, sol)
+        norm2 += energy
+        held.append(sides)
         data.append((g.cT, g.kT))
-        _element_terms(b, fields, g, eta2[k], parts)
-        _facet_terms(b, fields, g, eta2[k], parts, sol)
     terms = contact._contact_terms if scene.dim == 2 else contact._surface_contact_terms
     terms(sol, data, held, eta2, parts, signorini)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
@@ -360,31 +363,6 @@ def _element_terms(body, fields, geometry, eta2, parts):
         term = hT ** 2 * elec * measure / kT
         eta2 += term
         parts["electric element"] += float(term.sum())
-
-
-def _boundary_roles(body, sol):
-    """Per boundary part of ``body``: its mechanical role ("dirichlet", "roller", "partial", "traction",
-    "contact") and electric role ("dirichlet", "charge")."""
-    mech, elec = {}, {}
-    for t in body.clamped:
-        mech[t] = "dirichlet"
-    for t, v in body.displacement.items():
-        mech[t] = "dirichlet" if all(x is not None for x in v) else "partial"
-    for t in body.roller:
-        mech[t] = "roller"
-    for t in body.traction:
-        mech[t] = "traction"
-    for c in sol.scene.contacts:
-        if c.body_a is body:
-            mech[c.part_a] = "contact"
-        if not c.rigid and c.other is body:
-            mech[c.part_b] = "contact"
-    if body.piezoelectric:
-        for t in [*body.grounded, *body.potential, *body.floating]:
-            elec[t] = "dirichlet"
-        for t in body.surface_charge:
-            elec[t] = "charge"
-    return mech, elec
 
 
 def _affine_mean_square(values) -> np.ndarray:

@@ -111,6 +111,11 @@ class SimplexSides:
         trace)."""
         return np.asarray(c.lam, dtype=float)
 
+    def friction(self, fr, c, part):
+        """A friction law's :class:`~cvxcontact.solution.slipestimate.Friction` ``fr`` of the 3D contact result
+        ``c`` as this body's trace reads it: ``fr`` itself."""
+        return fr
+
 
 class SimplexSide:
     """One boundary part of a body of simplices, as the contact terms read it: its faces ``f`` (k, d) (the
@@ -308,6 +313,8 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         lam = np.append(cache[k0].multiplier(c, first.part), 0.0)[elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
         fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
+        if fr is not None:
+            fr = cache[k0].friction(fr, c, first.part)
         tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:

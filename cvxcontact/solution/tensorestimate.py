@@ -24,6 +24,7 @@ parallelepipeds, where it equals u^T K u).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
@@ -248,6 +249,19 @@ class TensorSides:
         rows' quadrature of the forces, positive on parallelograms), the lumped pressure, exact for a uniform
         pressure; ``c.lam``, the representer on the faces' triangles, is not (the triangles' hats integrate
         otherwise). ``c.lam`` itself where a node of X_h is not a node of the faces (faces that do not match)."""
+        lumped = self._lumped(c, part, c.force)
+        return np.asarray(c.lam, dtype=float) if lumped is None else lumped
+
+    def friction(self, fr, c, part):
+        """The :class:`~cvxcontact.solution.slipestimate.Friction` ``fr`` of the 3D contact result ``c`` with
+        t_h read as :meth:`multiplier` reads lambda_h: the rows' tangential forces over the hats' integrals
+        (exact for a uniform traction); ``fr`` itself where the faces do not match."""
+        lumped = self._lumped(c, part, c.shear_force)
+        return fr if lumped is None else replace(fr, t=lumped)
+
+    def _lumped(self, c, part, forces):
+        """``forces`` (n, ...) at the nodes of X_h over the integrals of the nodes' hats on this body's faces of
+        part ``part``; None if a node of X_h is not a node of the faces."""
         g = self._g
         nodes = g.space.node_set(g._mesh)
         faces = np.asarray(nodes.boundary(part))
@@ -258,8 +272,9 @@ class TensorSides:
         on = np.unique(faces)
         distance, at = cKDTree(points[on]).query(np.asarray(c.points, dtype=float))
         if len(on) == 0 or distance.max(initial=0.0) > 1e-9 * g._mesh.size:
-            return np.asarray(c.lam, dtype=float)
-        return np.asarray(c.force, dtype=float) / hats[on[at]]
+            return None
+        forces = np.asarray(forces, dtype=float)
+        return forces / hats[on[at]].reshape((-1,) + (1,) * (forces.ndim - 1))
 
 
 class TensorSide:

@@ -102,7 +102,7 @@ class TensorGeometry:
         c, e, kappa = self.tensors
         x, G, det, inv_T, H = self.element.at_points(self.corners[cells], xi, second)
         k = len(x)
-        ue = np.asarray(u, dtype=float)[self.el[cells]].reshape(k, -1)
+        ue = np.asarray(u, dtype=float)[self.el[cells]].reshape(k, self.el.shape[1] * self.dim)
         eps = np.einsum("mij,mj->mi", strain_matrix(G), ue)
         sigma = eps @ c.T
         gphi = D = div = divD = pe = None

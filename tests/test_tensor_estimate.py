@@ -242,6 +242,8 @@ def test_effectivity_under_uniform_refinement_against_a_fine_q2_reference(cell, 
     levels, reference = LEVELS[cell]
     rows = _effectivities(cell, degree, levels, reference)
     eff = [e / t for e, t in rows]
+    print(f"\n{cell} {space(degree, cell).label}: " + ", ".join(   # the table of docs/accuracy.md (pytest -s)
+        f"n={n}: estimate {e:.4g}, true error {t:.4g}, effectivity {e / t:.3g}" for n, (e, t) in zip(levels, rows)))
     lo, hi = MEASURED[cell, degree]
     assert all(lo / 3 <= v <= hi * 3 for v in eff), eff
     assert rows[1][0] < rows[0][0] and rows[1][1] < rows[0][1]

@@ -33,7 +33,8 @@ The constants of reliability are unknown: the estimate is not a guaranteed bound
 its effectivity (estimate / true error) is measured against nested fine-mesh references
 (:mod:`cvxcontact.apps.studies.estimate`, docs/accuracy.md).
 
-Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
+Covered: 2D and 3D, P1 and P2 simplices (here) and Q1 and Q2 quadrilaterals and hexahedra
+(:mod:`.tensorestimate`, chosen by :data:`GEOMETRIES`), elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
 penetration). A friction law (Tresca, Coulomb) subtracts its tangential traction t_h from R_F on the contact
 parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part

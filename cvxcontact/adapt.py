@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import Curve, label_longest, refine_times
+from .geometry.refine import BISECTED, Curve, label_longest, refine_times
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
@@ -272,7 +272,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
-    if not space(1, scene.cell).estimates:
+    if scene.cell not in BISECTED:
         raise UnsupportedError(f"adapt covers triangle and tetrahedron meshes only, got {scene.cell} cells: the "
                                "error estimate and the bisections are those of simplices; mesh the bodies with "
                                "triangles (cc.rectangle(..., cell='triangle')) or refine the quadrilaterals "

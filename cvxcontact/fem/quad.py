@@ -29,7 +29,7 @@ import numpy as np
 
 from .assembly import BodySystem, accumulate, lifted
 
-__all__ = ["TensorElement", "QuadElement", "Q1_ELEMENT", "Q2_ELEMENT", "gauss_square", "gauss_cube"]
+__all__ = ["Q1_ELEMENT", "Q2_ELEMENT", "QuadElement", "TensorElement", "gauss_cube", "gauss_square"]
 
 
 def _lagrange_1d(nodes, t):
@@ -47,6 +47,23 @@ def _lagrange_1d(nodes, t):
         slope[..., i] = sum(np.prod([f for m, f in enumerate(factors) if m != k], axis=0)
                             for k in range(len(others))) / den
     return value, slope
+
+
+def _lagrange_curvature(nodes, t):
+    """(..., p): the second derivatives of the 1D Lagrange polynomials on ``nodes`` (p,) at ``t`` (...): the sum
+    over ordered pairs a != b of the products of the other factors (0 for p = 2, constant for p = 3)."""
+    t = np.asarray(t, dtype=float)
+    nodes = np.asarray(nodes, dtype=float)
+    p = len(nodes)
+    out = np.zeros(t.shape + (p,))
+    for i in range(p):
+        others = [j for j in range(p) if j != i]
+        den = np.prod([nodes[i] - nodes[j] for j in others])
+        for a in others:
+            for b in others:
+                if a != b:
+                    out[..., i] += np.prod([t - nodes[c] for c in others if c not in (a, b)], axis=0) / den
+    return out
 
 
 def gauss_square(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -123,6 +140,75 @@ class TensorElement:
         dN = np.stack([np.prod([g[a] if b == a else f[b] for b in range(self.dim)], axis=0)
                        for a in range(self.dim)], axis=-2)
         return N, dN
+
+    @property
+    def corners(self) -> np.ndarray:
+        """(2^dim, dim) the reference corners, in element order."""
+        return self._subsets[1]
+
+    @cached_property
+    def faces(self) -> np.ndarray:
+        """(2 dim, 2^(dim - 1)) the local corners of each face of the cell, in order around it (2D: the sides
+        (0, 1), (1, 2), (2, 3), (3, 0); 3D: :data:`~cvxcontact.geometry.hexmesh.HEX_FACES`)."""
+        if self.dim == 2:
+            return np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+        from ..geometry.hexmesh import HEX_FACES
+        return HEX_FACES
+
+    def face_rule(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """(W (q, 2^(dim - 1)), w (q,)): the n^(dim - 1) Gauss rule on the reference face [-1, 1]^(dim - 1), each
+        point as the weights of the face's corners (in the order of :attr:`faces`) whose combination it is: a
+        point of a cell's face is the same combination of the corners' reference coordinates."""
+        t, w = np.polynomial.legendre.leggauss(n)
+        if self.dim == 2:
+            return np.column_stack([(1 - t) / 2, (1 + t) / 2]), w
+        xi, w2 = gauss_square(n)
+        return TensorElement(1, 2).shape(xi), w2
+
+    def second_derivatives(self, xi) -> np.ndarray:
+        """(..., dim, dim, k) the second derivatives d^2 N / dxi_a dxi_b at reference points ``xi`` (..., dim)."""
+        xi = np.asarray(xi, dtype=float)
+        line = np.linspace(-1.0, 1.0, self.degree + 1)
+        v, d = zip(*(_lagrange_1d(line, xi[..., a]) for a in range(self.dim)))
+        f = [v[a][..., self._index[:, a]] for a in range(self.dim)]
+        g = [d[a][..., self._index[:, a]] for a in range(self.dim)]
+        c = [_lagrange_curvature(line, xi[..., a])[..., self._index[:, a]] for a in range(self.dim)]
+        out = np.empty(xi.shape[:-1] + (self.dim, self.dim, len(self._index)))
+        for a in range(self.dim):
+            for b in range(self.dim):
+                out[..., a, b, :] = np.prod([(c[e] if a == b else g[e]) if e in (a, b) else f[e]
+                                             for e in range(self.dim)], axis=0)
+        return out
+
+    def at_points(self, corners, xi, second: bool = False):
+        """(x (m, dim) m, G (m, dim, k) 1/m, det J (m,), J^-T (m, dim, dim), H (m, dim, dim, k) 1/m^2 or None) at
+        one reference point per cell, ``xi`` (m, dim), of the cells with corner coordinates ``corners``
+        (m, 2^dim, dim): as :meth:`at`, and with ``second`` the physical second derivatives of the shape functions
+        d^2 N / dx_p dx_q = J^-T (d^2 N / dxi^2 - sum_c dN / dx_c d^2 x_c / dxi^2) J^-1 (the map's own curvature
+        taken out)."""
+        N1, dN1 = self.linear.shape_derivatives(xi)                          # (m, 2^dim), (m, dim, 2^dim)
+        J = np.einsum("mid,mai->mda", corners, dN1)
+        inv_T = np.linalg.inv(J).transpose(0, 2, 1)
+        _, dN = self.shape_derivatives(xi)
+        G = inv_T @ dN
+        H = None
+        if second:
+            curv = np.einsum("mabi,mic->mabc", self.linear.second_derivatives(xi), corners)
+            T = self.second_derivatives(xi) - np.einsum("mabc,mck->mabk", curv, G)
+            H = np.einsum("mpa,mabk,mqb->mpqk", inv_T, T, inv_T)
+        return np.einsum("mi,mid->md", N1, corners), G, np.linalg.det(J), inv_T, H
+
+    def locate(self, corners, x, xi) -> np.ndarray:
+        """(m, dim) the reference coordinates of the points ``x`` (m, dim) m in the cells of corners ``corners``
+        (m, 2^dim, dim), by Newton's method on the multilinear map from ``xi`` (m, dim) (a point of the cell
+        near the answer; exact at once where the map is affine). Eight steps: quadratic convergence from a
+        point of the cell on a convex cell, far more than enough."""
+        xi = np.array(xi, dtype=float)
+        for _ in range(8):
+            N1, dN1 = self.linear.shape_derivatives(xi)
+            J = np.einsum("mid,mai->mda", corners, dN1)
+            xi = xi + np.linalg.solve(J, (x - np.einsum("mi,mid->md", N1, corners))[..., None])[..., 0]
+        return xi
 
     def at(self, corners, xi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x (m, dim) m, G (m, dim, k) 1/m, det J (m,)) at the reference point ``xi`` (dim,) of the cells with

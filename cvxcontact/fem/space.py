@@ -379,7 +379,7 @@ class Q1(P1):
     """Q1 (4-node, bilinear) quadrilaterals (:mod:`cvxcontact.fem.quad`, 2 x 2 Gauss): the mesh's vertices;
     the traces on the contact lines are P1's segments, so the contact rows are P1's."""
 
-    cell, degree, dim, estimates = "quad", 1, 2, False
+    cell, degree, dim, estimates = "quad", 1, 2, True
     label, bounded = "Q1", False
     vtk = "quad"
     element = Q1_ELEMENT
@@ -411,7 +411,7 @@ class Q2(P2):
     8-node serendipity: :mod:`cvxcontact.fem.quad`); the traces on the contact lines are P2's 3-node segments,
     so the contact rows (nodal and the "gamma3" cones) are P2's."""
 
-    cell, degree, dim, estimates = "quad", 2, 2, False
+    cell, degree, dim, estimates = "quad", 2, 2, True
     label = "Q2"
     vtk = "quad9"
     element = Q2_ELEMENT
@@ -523,7 +523,7 @@ class Q1Hex(P1Tet):
     integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
     (:func:`_hex_contact`)."""
 
-    cell, degree, dim, estimates = "hex", 1, 3, False
+    cell, degree, dim, estimates = "hex", 1, 3, True
     label = "Q1"
     vtk = "hexahedron"
     element = HEX1_ELEMENT
@@ -574,7 +574,7 @@ class Q2Hex(P2Tet):
     every row's point is a node of both traces (a rigid obstacle, matching faces). "gamma3" and a compliance law
     would evaluate the trace between the nodes: refused by name (:func:`_hex_contact`)."""
 
-    cell, degree, dim, estimates = "hex", 2, 3, False
+    cell, degree, dim, estimates = "hex", 2, 3, True
     label = "Q2"
     vtk = "hexahedron27"
     element = HEX2_ELEMENT

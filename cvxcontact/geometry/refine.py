@@ -33,6 +33,9 @@ from .tetmesh import TetMesh
 __all__ = ["bisect_tets", "circle", "label_longest", "refine_marked", "refine_times", "refine_uniform"]
 
 
+BISECTED = frozenset({"triangle", "tetra"})
+"""The cells (``mesh.cell``) :func:`refine_marked` bisects: what an adaptive loop can refine."""
+
 def refine_uniform(mesh: Mesh | TetMesh, times: int = 1) -> tuple[Mesh | TetMesh, np.ndarray]:
     """(fine mesh, parent): ``mesh`` refined ``times`` times (module docstring); ``parent`` (m_fine,) the
     index of the coarse cell that contains each fine one (the children of cell j are c^times consecutive

@@ -109,10 +109,10 @@ def _refuse(what: str):
 def check_covered(scene, degree: int = 1, law=None, condition: str = "gamma3") -> None:
     """Raise :class:`UnsupportedError` naming what is not covered (:data:`COVERED`) by the bound of a
     solve of ``scene`` with ``degree``, the default contact ``law`` and ``condition``; None if covered."""
-    if not space(degree, scene.cell).estimates:
+    if scene.dim == 2 and not space(1, scene.cell).bounded:         # the cells themselves (quadrilaterals)
         _refuse(f"{scene.cell} cells")
     if scene.dim != 2:
-        _refuse("3D (tetrahedra)")
+        _refuse(f"3D ({scene.cell} cells)")
     if not space(degree, scene.cell).bounded:
         _refuse("P2 elements (degree=2)")
     for i, c in enumerate(scene.contacts):

@@ -25,14 +25,16 @@ strains (2 mu for an isotropic material), kappa_T (F/m) the smallest of its perm
 term is an energy. h_T is the longest edge of T, h_F the longest edge of F, h_S that of S.
 
 One dimension-blind core (:func:`vertex_fields`, the element and facet residuals on the simplices, with the
-quadrature of :func:`cvxcontact.fem.simplex.simplex_rule`); the contact terms read lambda_h where it lives,
-on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the pair's surface).
+quadrature of :func:`cvxcontact.fem.simplex.simplex_rule`); the contact terms (:mod:`.contactestimate`) read
+lambda_h where it lives, on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the pair's
+surface).
 
 The constants of reliability are unknown: the estimate is not a guaranteed bound (``guaranteed`` False);
 its effectivity (estimate / true error) is measured against nested fine-mesh references
 (:mod:`cvxcontact.apps.studies.estimate`, docs/accuracy.md).
 
-Covered: 2D and 3D, P1 and P2, elastic and piezoelectric bodies, pairs and rigid obstacles, the three
+Covered: 2D and 3D, P1 and P2 simplices (here) and Q1 and Q2 quadrilaterals and hexahedra
+(:mod:`.tensorestimate`, chosen by :data:`GEOMETRIES`), elastic and piezoelectric bodies, pairs and rigid obstacles, the three
 Signorini conditions and normal compliance (then the traction mismatch only: the law allows the
 penetration). A friction law (Tresca, Coulomb) subtracts its tangential traction t_h from R_F on the contact
 parts and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`). A curved part
@@ -46,23 +48,17 @@ from functools import cached_property
 
 import numpy as np
 
-from ..contact.interface import row_frames, row_tangents
-from ..contact.overlay import barycentric, locate
 from ..fem.assembly import VOIGT, gradients, strain_matrix
-from ..fem.p2 import shape_functions
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
-from . import slipestimate as slip
+from . import contactestimate as contact
+from .contactestimate import CELLS, _boundary_roles, _diameters, _smallest
+from .tensorestimate import TensorGeometry
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
-
-CELLS = 1 << 15
-"""Cells per block of the strain matrices and edge vectors formed on the fly (bounds their temporaries)."""
-
-_GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
 
 
 @dataclass(frozen=True)
@@ -230,8 +226,8 @@ class Geometry:
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
         hF = _diameters(mesh.points, vertices)
         return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
-                      hF=hF, pos0=(_facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
-                      pos1=(_facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)],
+                      hF=hF, pos0=(contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
+                      pos1=(contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)],
                       scale=np.where(inner, 0.5, 1.0) * hF * area)
 
     def part(self, tag) -> np.ndarray:
@@ -240,6 +236,16 @@ class Geometry:
             mesh, key = self._mesh, self.facets[3]
             self._parts[tag] = np.searchsorted(key, facet_keys(np.sort(mesh.boundary(tag), axis=1), len(mesh.points)))
         return self._parts[tag]
+
+    def terms(self, body, u, phi, eta2, parts, sol) -> tuple[float, contact.SimplexSides]:
+        """Add the element and facet terms of ``body``'s fields (displacements ``u``, potentials ``phi``) to its
+        ``eta2`` (m,) and ``parts``; (its squared energy norm, what the contact terms read of it)."""
+        fields = _fields(self, u, phi)
+        sigma = fields[2]
+        corners = np.broadcast_to(sigma, (len(sigma), self.gradL.shape[2], sigma.shape[2]))   # a view: no copies
+        _element_terms(body, fields, self, eta2, parts)
+        _facet_terms(body, fields, self, eta2, parts, sol)
+        return float(_cell_energies(body, fields).sum()), contact.SimplexSides(body.mesh, corners, self.facets)
 
     def points(self, L) -> np.ndarray:
         """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""
@@ -270,44 +276,19 @@ class _Faces:
 def _geometry(body, degree: int, cache) -> Geometry:
     """The :class:`Geometry` of ``body`` in ``degree``: from ``cache`` (a dict, or None: built afresh) under the
     body's geometry fingerprint and the degree, else built (and kept there)."""
+    build = GEOMETRIES[body.mesh.cell]
     if cache is None:
-        return Geometry(body, degree)
+        return build(body, degree)
     key = (geometry_fingerprint(body), degree)
     if key not in cache:
-        cache[key] = Geometry(body, degree)
+        cache[key] = build(body, degree)
     return cache[key]
 
 
-def _smallest(matrix, voigt: bool) -> float:
-    """The smallest eigenvalue of a stiffness (Voigt, engineering shear: on tensor-orthonormal strains) or
-    permittivity matrix."""
-    a = np.asarray(matrix, dtype=float)
-    if voigt:
-        dim = 3 if len(a) == 6 else 2
-        s = np.array([1.0] * dim + [np.sqrt(2.0)] * (len(a) - dim))
-        a = s[:, None] * a * s[None, :]
-    return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
-
-
-def _voigt_traction(sv, n) -> np.ndarray:
-    """(k, v, d): sigma n of Voigt vectors ``sv`` (k, v, s) on the unit normals ``n`` (k, d), component by
-    component (t_i += sigma_ij n_j over the Voigt pairs), without forming the tensors."""
-    dim = n.shape[1]
-    t = np.zeros(sv.shape[:2] + (dim,))
-    for row, (i, j) in enumerate(VOIGT[dim]):
-        t[..., i] += sv[..., row] * n[:, None, j]
-        if i != j:
-            t[..., j] += sv[..., row] * n[:, None, i]
-    return t
-
-
-def _tensor(sv):
-    """(..., d, d) symmetric tensors from Voigt vectors (..., s) (xx, yy, xy in 2D; xx, yy, zz, yz, xz, xy in 3D)."""
-    dim = 3 if sv.shape[-1] == 6 else 2
-    out = np.empty(sv.shape[:-1] + (dim, dim))
-    for row, (i, j) in enumerate(VOIGT[dim]):
-        out[..., i, j] = out[..., j, i] = sv[..., row]
-    return out
+GEOMETRIES = {"triangle": Geometry, "tetra": Geometry, "quad": TensorGeometry, "hex": TensorGeometry}
+"""The estimate's geometry of a body by its cells (``mesh.cell``): :class:`Geometry` for simplices (fields
+affine on a cell), :class:`~cvxcontact.solution.tensorestimate.TensorGeometry` for quadrilaterals and
+hexahedra (fields at quadrature points)."""
 
 
 # ---------------------------------------------------------------------------------------------- the estimator
@@ -328,15 +309,12 @@ def estimate(sol, signorini: bool = True, cache: dict | None = None) -> tuple[Er
     data, held = [], []
     for k, b in enumerate(bodies):
         g = _geometry(b, sol.degree, cache)
-        fields = _fields(g, sol.u[k], sol.phi[k])
-        sigma = fields[2]
-        corners = np.broadcast_to(sigma, (len(sigma), g.gradL.shape[2], sigma.shape[2]))   # a view: no copies
-        held.append(((None, None, corners, None, g.gradL, g.measure), g.facets))
-        norm2 += float(_cell_energies(b, fields).sum())
+        energy, sides = g.terms(b, sol.u[k], sol.phi[k], eta2[k], parts, sol)
+        norm2 += energy
+        held.append(sides)
         data.append((g.cT, g.kT))
-        _element_terms(b, fields, g, eta2[k], parts)
-        _facet_terms(b, fields, g, eta2[k], parts, sol)
-    (_contact_terms if scene.dim == 2 else _surface_contact_terms)(sol, data, held, eta2, parts, signorini)
+    terms = contact._contact_terms if scene.dim == 2 else contact._surface_contact_terms
+    terms(sol, data, held, eta2, parts, signorini)
     indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
@@ -348,16 +326,6 @@ def _read_only(a):
     a = np.asarray(a, dtype=float)
     a.setflags(write=False)
     return a
-
-
-def _diameters(points, simplices) -> np.ndarray:
-    """(m,) the longest edge of each simplex (m, k) of ``points`` (by blocks of CELLS simplices)."""
-    i, j = np.triu_indices(simplices.shape[1], 1)
-    out = np.empty(len(simplices))
-    for s in range(0, len(simplices), CELLS):
-        edge = points[simplices[s:s + CELLS, i]] - points[simplices[s:s + CELLS, j]]   # (block, edges, dim)
-        out[s:s + CELLS] = np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
-    return out
 
 
 def _at(points, cells, L):
@@ -375,7 +343,7 @@ def _element_terms(body, fields, geometry, eta2, parts):
     if sigma.shape[1] == 1:                                # fields constant on each cell: no divergence, exactly
         div, rd = np.zeros((len(sigma), dim)), (None if D is None else np.zeros(len(D)))
     else:
-        dsig = _tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))                  # (m, j, i, i')
+        dsig = contact._tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))          # (m, j, i, i')
         div = np.einsum("mjij->mi", dsig)
         rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None       # div D (constant)
     mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
@@ -398,65 +366,11 @@ def _element_terms(body, fields, geometry, eta2, parts):
         parts["electric element"] += float(term.sum())
 
 
-def _bary(cell_vertices, facet_vertices, Lf):
-    """(k, d + 1) the barycentric coordinates in cells with vertices ``cell_vertices`` (k, d + 1) of the points of
-    barycentric coordinates ``Lf`` (d,) or (k, d) on their facets with vertices ``facet_vertices`` (k, d)."""
-    k = len(cell_vertices)
-    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)     # (k, d)
-    L = np.zeros(cell_vertices.shape)
-    np.put_along_axis(L, pos, np.broadcast_to(Lf, (k, pos.shape[1])), axis=1)
-    return L
-
-
-def _traction(sigma_v, L, n):
-    """sigma n (k, d) at barycentric L (k, d + 1) of Voigt vertex values (k, d + 1, s), unit normals n (k, d)."""
-    return np.einsum("kij,kj->ki", _tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
-
-
-def _boundary_roles(body, sol):
-    """Per boundary part of ``body``: its mechanical role ("dirichlet", "roller", "partial", "traction",
-    "contact") and electric role ("dirichlet", "charge")."""
-    mech, elec = {}, {}
-    for t in body.clamped:
-        mech[t] = "dirichlet"
-    for t, v in body.displacement.items():
-        mech[t] = "dirichlet" if all(x is not None for x in v) else "partial"
-    for t in body.roller:
-        mech[t] = "roller"
-    for t in body.traction:
-        mech[t] = "traction"
-    for c in sol.scene.contacts:
-        if c.body_a is body:
-            mech[c.part_a] = "contact"
-        if not c.rigid and c.other is body:
-            mech[c.part_b] = "contact"
-    if body.piezoelectric:
-        for t in [*body.grounded, *body.potential, *body.floating]:
-            elec[t] = "dirichlet"
-        for t in body.surface_charge:
-            elec[t] = "charge"
-    return mech, elec
-
-
 def _affine_mean_square(values) -> np.ndarray:
     """(k,): the mean over each simplex of |f|^2 for the affine f of vertex values ``values`` (k, v, c) (v
     vertices): (sum_i |f_i|^2 + |sum_i f_i|^2) / (v (v + 1))."""
     v = values.shape[1]
     return ((values ** 2).sum(axis=(1, 2)) + (values.sum(axis=1) ** 2).sum(axis=1)) / (v * (v + 1))
-
-
-def _facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
-    """(k, d): the local index in each cell (vertices ``cell_vertices`` (k, d + 1)) of each vertex of its facet
-    ``facet_vertices`` (k, d)."""
-    return np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
-
-
-def _facet_values(values, cell_vertices, facet_vertices, pos=None):
-    """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
-    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each (``pos``: their
-    :func:`_facet_positions`, if known)."""
-    pos = _facet_positions(cell_vertices, facet_vertices) if pos is None else pos
-    return values[np.arange(len(values))[:, None], pos]
 
 
 def _facet_terms(body, fields, geometry, eta2, parts, sol):
@@ -472,8 +386,8 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     f = g.faces
     n, ii = f.normal, f.ii
     c0, c1 = f.c0[:, None], f.c1[:, None]
-    Rv = _voigt_traction(sigma[c0, f.pos0], n)                                                     # (k, v, d)
-    Rv[ii] -= _voigt_traction(sigma[c1, f.pos1], n[ii])
+    Rv = contact._voigt_traction(sigma[c0, f.pos0], n)                                             # (k, v, d)
+    Rv[ii] -= contact._voigt_traction(sigma[c1, f.pos1], n[ii])
     if D is not None:
         rv = np.einsum("kvd,kd->kv", D[c0, f.pos0], n)                                             # (k, v)
         rv[ii] -= np.einsum("kvd,kd->kv", D[c1, f.pos1], n[ii])
@@ -551,184 +465,3 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
         term = term + term_e
     eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[ii], len(eta2))
 
-
-def _contact_cells(mesh, part, facets):
-    """(cells (k,), the facets' vertices (k, d) in the part's order) of the faces of boundary part ``part``:
-    the cell that holds each."""
-    owners, _, _, key = facets
-    f = np.asarray(mesh.boundary(part))
-    at = np.searchsorted(key, facet_keys(np.sort(f, axis=1), len(mesh.points)))
-    return owners[at, 0], f
-
-
-def _lambda_at(c, s, values=None):
-    """lambda_h (Pa; or the function of nodal ``values``) of 2D contact result ``c`` at tangential coordinates
-    ``s`` (m): its P1 (P2: piecewise quadratic) function on the merged mesh, 0 beyond it."""
-    x = np.asarray(c.x, dtype=float)
-    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, c.lam if values is None else values))
-
-
-def _merged_values(c, s, values):
-    """A P1 (P2) function on the merged mesh of ``c`` (2D) with nodal ``values``, at ``s`` inside it."""
-    return c.trace.values(np.asarray(c.x, dtype=float), values, s)
-
-
-def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
-    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
-    the cells of the sides (module docstring)."""
-    scene = sol.scene
-    bodies = list(scene.bodies)
-    for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
-        t = np.asarray(scene.interfaces[i].tangent, dtype=float)
-        sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
-        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
-            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
-        for side, (body, part) in enumerate(sides):
-            k = next(j for j, b in enumerate(bodies) if b is body)
-            mesh = body.mesh
-            fields, facets = cache[k]
-            cell, e = _contact_cells(mesh, part, facets)                # e oriented: domain on the left
-            p = mesh.points
-            n = mesh.outward_normals(part)
-            h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
-            acc = np.zeros(len(e))
-            for tq, w in zip(*_GAUSS3):
-                x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
-                L = _bary(mesh.cells[cell], e, np.array([1 - tq, tq]))
-                R = _traction(fields[2][cell], L, n) + _lambda_at(c, x @ t)[:, None] * n
-                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
-                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
-                acc += w * (R ** 2).sum(axis=1)
-            term = h ** 2 * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
-            s_lo, s_hi = np.minimum(p[e[:, 0]] @ t, p[e[:, 1]] @ t), np.maximum(p[e[:, 0]] @ t, p[e[:, 1]] @ t)
-            located.append((k, cell, s_lo, s_hi))
-        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
-            continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts, fr)
-
-
-def _signorini_terms(c, located, data, eta2, parts, fr=None):
-    """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
-    split evenly between the sides' cells that hold its midpoint."""
-    x = np.asarray(c.x, dtype=float)
-    xv = c.trace.vertices(x)
-    if len(xv) < 2:
-        return
-    gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)
-    open_ = gap - np.asarray(c.jump, dtype=float)                          # g - [u_nu] at the merged nodes
-    a, b = xv[:-1], xv[1:]
-    hS = b - a
-    comp = np.zeros(len(a))
-    pen = np.zeros(len(a))
-    for tq, w in zip(*_GAUSS3):
-        s = a + tq * hS
-        lam = _lambda_at(c, s)
-        g = _merged_values(c, s, open_)
-        comp += w * np.maximum(lam, 0.0) * np.maximum(g, 0.0)
-        pen += w * np.maximum(-g, 0.0) ** 2
-    comp *= hS
-    pen *= hS
-    mid = 0.5 * (a + b)
-    owners = []
-    for k, cell, s_lo, s_hi in located:
-        order = np.argsort(s_lo)
-        j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
-        owners.append((k, cell[order[j]]))
-    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
-    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
-        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
-        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
-    _share(owners, terms, data, eta2, parts)
-
-
-def _share(owners, terms, data, eta2, parts):
-    """Add the terms {name: (values (S,), p)} of each contact cell S, each times c_T^p (the complementarity, the
-    penetration times c_T, a friction law's terms), split evenly between the sides' ``owners`` [(body k, cell of
-    k holding S or -1)]."""
-    share = 1.0 / len(owners)
-    for k, owner in owners:
-        ok = owner >= 0
-        for name, (values, p) in terms.items():
-            term = share * data[k][0] ** p * values[ok]
-            np.add.at(eta2[k], owner[ok], term)
-            parts[name] = parts.get(name, 0.0) + float(term.sum())
-
-
-def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
-    int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
-    P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
-    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
-    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
-    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
-    centroid."""
-    bodies = list(sol.scene.bodies)
-    Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
-    for i, c in enumerate(sol.contacts):
-        itf = sol._pair_line(i)
-        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
-        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
-        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
-        lam = np.append(np.asarray(c.lam, dtype=float), 0.0)[elements]
-        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
-        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
-        tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
-        live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
-        if tan is not None:
-            live |= tan[0]
-            tan = tan[1][live].reshape(-1, 3)                          # (e q, 3) at the rule's points
-        elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
-        hosts = [None if h is None else h[live] for h in hosts]
-        lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
-        d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-        areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-        xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
-        wts = (areaS[:, None] * wq[None, :]).ravel()
-        owners = []
-        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
-            linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
-            k = next(j for j, b in enumerate(bodies) if b is linear.body)
-            mesh = linear.body.mesh
-            fields, facets = cache[k]
-            sigma = fields[2]
-            cell, f = _contact_cells(mesh, linear.part, facets)
-            normals = mesh.outward_normals(linear.part)
-            tv = _voigt_traction(_facet_values(sigma[cell], mesh.cells[cell], f), normals)
-            acc = np.zeros(len(f))
-            for Lf, w in zip(*simplex_rule(2, 2)):
-                acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
-            acc *= mesh.face_areas(linear.part)
-            if host is None:                                            # S not matched to the faces: find them
-                face, Lf = locate(xq, linear.x, linear.faces)
-                fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
-            else:
-                face = np.repeat(host, len(wq))
-                Lf = barycentric(xq, np.asarray(linear.x)[np.asarray(linear.faces)[face]])
-                fc = host
-            ok = np.flatnonzero(face >= 0)
-            fq = face[ok]
-            s = _traction(sigma[cell[fq]], _bary(mesh.cells[cell[fq]], f[fq], Lf[ok]), normals[fq])
-            lq = lam.ravel()[ok]
-            R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
-            if tan is not None:                                     # the first body's t_h, the other's -t_h
-                tq = (1 - 2 * side) * tan[ok]
-                R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
-            np.add.at(acc, fq, wts[ok] * R2)
-            term = _diameters(mesh.points, f) * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
-            owners.append((k, np.where(fc >= 0, cell[np.maximum(fc, 0)], -1)))
-        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
-            continue                                                   # compliance: penetration is the law
-        comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
-        pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
-        hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
-        terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
-        if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
-            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
-            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
-        _share(owners, terms, data, eta2, parts)

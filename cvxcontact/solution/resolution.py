@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .solution import pair_label
 
-__all__ = ["unresolved", "zone_cells", "aspect_ratios", "MIN_CELLS", "MAX_ASPECT"]
+__all__ = ["MAX_ASPECT", "MIN_CELLS", "aspect_ratios", "unresolved", "zone_cells"]
 
 MIN_CELLS = 4
 """The fewest cells of a body (2D: contact faces, 3D: face sizes across the zone) that must span a contact
@@ -216,8 +216,9 @@ def unresolved(sol) -> list[str]:
             for z in zones_of(sol, itf, k, np.asarray(p, dtype=float), merged, trace):
                 if z.across < MIN_CELLS and not z.whole:
                     out.append(_too_few(head, z, body.name, part, dim, trace))
-                cells = _owners(body.mesh.cells, z.facets)
-                ratio = aspect_ratios(body.mesh.points, body.mesh.cells[cells])
+                simplices = getattr(body.mesh, "split", body.mesh)     # quadrilaterals, hexahedra: their simplices
+                cells = _owners(simplices.cells, z.facets)
+                ratio = aspect_ratios(simplices.points, simplices.cells[cells])
                 if ratio.max() > MAX_ASPECT:
                     worst = cells[int(np.argmax(ratio))]
                     out.append(f"{head} ({z.where}) lies on {len(cells)} cell{'s' if len(cells) != 1 else ''} of "

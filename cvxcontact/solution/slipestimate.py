@@ -14,7 +14,8 @@ trace of the space decides (``ContactResult.trace.friction_fields``, :mod:`cvxco
   exactly, and t_h meets |t_h| <= g at every row, as the law's rows ask; the Riesz representer of nodal forces
   would oscillate where the slip starts (up to twice the threshold on the meshes of
   tests/test_friction_estimate.py) and charge the cone term with an artefact of the read-back.
-- 3D P2 (the trace of Q2's 6-node face triangles too, which the estimates do not cover yet): the consistent loads
+- 3D P2 (the trace of Q2's 6-node face triangles too; hexahedra read t_h over their faces' Q1/Q2 hats instead,
+  :mod:`.tensorestimate`): the consistent loads
   of a uniform traction tau are 0 at a face's vertices and tau A/3 at its edge midpoints, while the rows hold A/12
   and A/4 (the red refinement's lumping, ``ContactResult.slip_measure``): the lumped read-back would read tau as 0
   and 4/3 tau, whose interpolant reaches 16/9 tau inside a face, and charge an exact uniform state. t_h is the

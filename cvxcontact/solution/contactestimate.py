@@ -1,0 +1,366 @@
+"""The contact terms of the residual estimate (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), and the
+pointwise primitives on simplices they share with it (stress tensors and tractions from Voigt vectors, points
+of a facet in its cell, the cells' diameters).
+
+On the contact part of each side, R_F = sigma_h n + lambda_h n (eq. (8): sigma_nu = -lambda, sigma_tau = 0;
+lambda_h the solution's multiplier, 0 beyond its support), h_F ||R_F||_F^2 / c_T; on each cell S of the contact
+mesh of a Signorini pair (2D: the merged segments; 3D: the elements of X_h, the overlay triangles or the faces
+against an obstacle) the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
+c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the cells of both sides. A friction law subtracts its tangential
+traction t_h from R_F and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`).
+lambda_h is read where it lives: on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the
+pair's surface).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..contact.interface import row_frames, row_tangents
+from ..contact.overlay import barycentric, locate
+from ..fem.assembly import VOIGT
+from ..fem.p2 import shape_functions
+from ..fem.simplex import simplex_rule
+from ..geometry.facets import facet_keys
+from . import slipestimate as slip
+
+__all__: list[str] = []
+
+CELLS = 1 << 15
+"""Cells per block of the strain matrices and edge vectors formed on the fly (bounds their temporaries)."""
+
+_GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
+
+
+def _voigt_traction(sv, n) -> np.ndarray:
+    """(k, v, d): sigma n of Voigt vectors ``sv`` (k, v, s) on the unit normals ``n`` (k, d), component by
+    component (t_i += sigma_ij n_j over the Voigt pairs), without forming the tensors."""
+    dim = n.shape[1]
+    t = np.zeros(sv.shape[:2] + (dim,))
+    for row, (i, j) in enumerate(VOIGT[dim]):
+        t[..., i] += sv[..., row] * n[:, None, j]
+        if i != j:
+            t[..., j] += sv[..., row] * n[:, None, i]
+    return t
+
+
+def _tensor(sv):
+    """(..., d, d) symmetric tensors from Voigt vectors (..., s) (xx, yy, xy in 2D; xx, yy, zz, yz, xz, xy in 3D)."""
+    dim = 3 if sv.shape[-1] == 6 else 2
+    out = np.empty(sv.shape[:-1] + (dim, dim))
+    for row, (i, j) in enumerate(VOIGT[dim]):
+        out[..., i, j] = out[..., j, i] = sv[..., row]
+    return out
+
+
+def _diameters(points, simplices) -> np.ndarray:
+    """(m,) the longest edge of each simplex (m, k) of ``points`` (by blocks of CELLS simplices)."""
+    i, j = np.triu_indices(simplices.shape[1], 1)
+    out = np.empty(len(simplices))
+    for s in range(0, len(simplices), CELLS):
+        edge = points[simplices[s:s + CELLS, i]] - points[simplices[s:s + CELLS, j]]   # (block, edges, dim)
+        out[s:s + CELLS] = np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1))
+    return out
+
+
+def _facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
+    """(k, d): the local index in each cell (vertices ``cell_vertices`` (k, d + 1)) of each vertex of its facet
+    ``facet_vertices`` (k, d)."""
+    return np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
+
+
+def _facet_values(values, cell_vertices, facet_vertices, pos=None):
+    """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
+    (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each (``pos``: their
+    :func:`_facet_positions`, if known)."""
+    pos = _facet_positions(cell_vertices, facet_vertices) if pos is None else pos
+    return values[np.arange(len(values))[:, None], pos]
+
+
+def _bary(cell_vertices, facet_vertices, Lf):
+    """(k, d + 1) the barycentric coordinates in cells with vertices ``cell_vertices`` (k, d + 1) of the points of
+    barycentric coordinates ``Lf`` (d,) or (k, d) on their facets with vertices ``facet_vertices`` (k, d)."""
+    k = len(cell_vertices)
+    pos = np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)     # (k, d)
+    L = np.zeros(cell_vertices.shape)
+    np.put_along_axis(L, pos, np.broadcast_to(Lf, (k, pos.shape[1])), axis=1)
+    return L
+
+
+def _traction(sigma_v, L, n):
+    """sigma n (k, d) at barycentric L (k, d + 1) of Voigt vertex values (k, d + 1, s), unit normals n (k, d)."""
+    return np.einsum("kij,kj->ki", _tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
+
+
+class SimplexSides:
+    """What the contact terms read of one body of simplices (:class:`~.estimate.Geometry`): the vertex values of
+    sigma_h ``sigma`` (m, d + 1, s) Voigt, Pa, on its cells and its facet table ``facets``; :meth:`side` one
+    boundary part. The same questions of a body of quadrilaterals or hexahedra:
+    :class:`~.tensorestimate.TensorSides`."""
+
+    def __init__(self, mesh, sigma, facets):
+        self._mesh, self._sigma, self._facets = mesh, sigma, facets
+
+    def side(self, part) -> SimplexSide:
+        """The :class:`SimplexSide` of boundary part ``part``."""
+        return SimplexSide(self._mesh, self._sigma, self._facets, part)
+
+    def multiplier(self, c, part) -> np.ndarray:
+        """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` (on this body's part ``part``): the
+        read-back's, ``c.lam`` (the Riesz representer of the forces on the faces' triangles, this body's
+        trace)."""
+        return np.asarray(c.lam, dtype=float)
+
+    def friction(self, fr, c, part):
+        """A friction law's :class:`~cvxcontact.solution.slipestimate.Friction` ``fr`` of the 3D contact result
+        ``c`` as this body's trace reads it: ``fr`` itself."""
+        return fr
+
+
+class SimplexSide:
+    """One boundary part of a body of simplices, as the contact terms read it: its faces ``f`` (k, d) (the
+    mesh's ``boundary(part)``: the trace's segments in 2D, its triangles in 3D), the cell ``cell`` (k,) holding
+    each, unit outward ``normals`` (k, d), diameters ``hF`` (k,) m; sigma_h n (:meth:`traction`) at points of
+    the trace's elements, the face of each element (:meth:`face_of`: itself) and int_F |sigma_h n|^2
+    (:meth:`squares`)."""
+
+    def __init__(self, mesh, sigma, facets, part):
+        self._mesh, self._sigma, self._part = mesh, sigma, part
+        self.cell, self.f = _contact_cells(mesh, part, facets)
+        self.normals = mesh.outward_normals(part)
+
+    @property
+    def hF(self) -> np.ndarray:
+        return _diameters(self._mesh.points, self.f)
+
+    def face_of(self, element):
+        """The faces of the trace's elements ``element``: the same indices."""
+        return element
+
+    def traction(self, element, L) -> np.ndarray:
+        """(k, d) sigma_h n (Pa) at the points of barycentric coordinates ``L`` (d,) or (k, d) on the trace's
+        elements ``element`` (indices or a slice into ``f``)."""
+        cell = self.cell[element]
+        return _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[element], L), self.normals[element])
+
+    def squares(self) -> np.ndarray:
+        """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
+        mesh, cell, f = self._mesh, self.cell, self.f
+        tv = _voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
+        acc = np.zeros(len(f))
+        for Lf, w in zip(*simplex_rule(2, 2)):
+            acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
+        return acc * mesh.face_areas(self._part)
+
+
+def _smallest(matrix, voigt: bool) -> float:
+    """The smallest eigenvalue of a stiffness (Voigt, engineering shear: on tensor-orthonormal strains) or
+    permittivity matrix."""
+    a = np.asarray(matrix, dtype=float)
+    if voigt:
+        dim = 3 if len(a) == 6 else 2
+        s = np.array([1.0] * dim + [np.sqrt(2.0)] * (len(a) - dim))
+        a = s[:, None] * a * s[None, :]
+    return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
+
+
+def _boundary_roles(body, sol):
+    """Per boundary part of ``body``: its mechanical role ("dirichlet", "roller", "partial", "traction",
+    "contact") and electric role ("dirichlet", "charge")."""
+    mech, elec = {}, {}
+    for t in body.clamped:
+        mech[t] = "dirichlet"
+    for t, v in body.displacement.items():
+        mech[t] = "dirichlet" if all(x is not None for x in v) else "partial"
+    for t in body.roller:
+        mech[t] = "roller"
+    for t in body.traction:
+        mech[t] = "traction"
+    for c in sol.scene.contacts:
+        if c.body_a is body:
+            mech[c.part_a] = "contact"
+        if not c.rigid and c.other is body:
+            mech[c.part_b] = "contact"
+    if body.piezoelectric:
+        for t in [*body.grounded, *body.potential, *body.floating]:
+            elec[t] = "dirichlet"
+        for t in body.surface_charge:
+            elec[t] = "charge"
+    return mech, elec
+
+
+def _contact_cells(mesh, part, facets):
+    """(cells (k,), the facets' vertices (k, d) in the part's order) of the faces of boundary part ``part``:
+    the cell that holds each."""
+    owners, _, _, key = facets
+    f = np.asarray(mesh.boundary(part))
+    at = np.searchsorted(key, facet_keys(np.sort(f, axis=1), len(mesh.points)))
+    return owners[at, 0], f
+
+
+def _lambda_at(c, s, values=None):
+    """lambda_h (Pa; or the function of nodal ``values``) of 2D contact result ``c`` at tangential coordinates
+    ``s`` (m): its P1 (P2: piecewise quadratic) function on the merged mesh, 0 beyond it."""
+    x = np.asarray(c.x, dtype=float)
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, _merged_values(c, s, c.lam if values is None else values))
+
+
+def _merged_values(c, s, values):
+    """A P1 (P2) function on the merged mesh of ``c`` (2D) with nodal ``values``, at ``s`` inside it."""
+    return c.trace.values(np.asarray(c.x, dtype=float), values, s)
+
+
+def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
+    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
+    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
+    the cells of the sides (module docstring)."""
+    scene = sol.scene
+    bodies = list(scene.bodies)
+    for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
+        t = np.asarray(scene.interfaces[i].tangent, dtype=float)
+        sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
+        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
+        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
+            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
+        for side, (body, part) in enumerate(sides):
+            k = next(j for j, b in enumerate(bodies) if b is body)
+            mesh = body.mesh
+            on = cache[k].side(part)
+            cell, e, n = on.cell, on.f, on.normals                      # e oriented: domain on the left
+            p = mesh.points
+            h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
+            acc = np.zeros(len(e))
+            for tq, w in zip(*_GAUSS3):
+                x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
+                R = on.traction(slice(None), np.array([1 - tq, tq])) + _lambda_at(c, x @ t)[:, None] * n
+                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
+                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
+                acc += w * (R ** 2).sum(axis=1)
+            term = h ** 2 * acc / data[k][0]
+            np.add.at(eta2[k], cell, term)
+            parts["contact traction"] += float(term.sum())
+            s_lo, s_hi = np.minimum(p[e[:, 0]] @ t, p[e[:, 1]] @ t), np.maximum(p[e[:, 0]] @ t, p[e[:, 1]] @ t)
+            located.append((k, cell, s_lo, s_hi))
+        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
+            continue                                                   # compliance: penetration is the law
+        _signorini_terms(c, located, data, eta2, parts, fr)
+
+
+def _signorini_terms(c, located, data, eta2, parts, fr=None):
+    """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
+    split evenly between the sides' cells that hold its midpoint."""
+    x = np.asarray(c.x, dtype=float)
+    xv = c.trace.vertices(x)
+    if len(xv) < 2:
+        return
+    gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)
+    open_ = gap - np.asarray(c.jump, dtype=float)                          # g - [u_nu] at the merged nodes
+    a, b = xv[:-1], xv[1:]
+    hS = b - a
+    comp = np.zeros(len(a))
+    pen = np.zeros(len(a))
+    for tq, w in zip(*_GAUSS3):
+        s = a + tq * hS
+        lam = _lambda_at(c, s)
+        g = _merged_values(c, s, open_)
+        comp += w * np.maximum(lam, 0.0) * np.maximum(g, 0.0)
+        pen += w * np.maximum(-g, 0.0) ** 2
+    comp *= hS
+    pen *= hS
+    mid = 0.5 * (a + b)
+    owners = []
+    for k, cell, s_lo, s_hi in located:
+        order = np.argsort(s_lo)
+        j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
+        owners.append((k, cell[order[j]]))
+    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
+        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
+        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
+    _share(owners, terms, data, eta2, parts)
+
+
+def _share(owners, terms, data, eta2, parts):
+    """Add the terms {name: (values (S,), p)} of each contact cell S, each times c_T^p (the complementarity, the
+    penetration times c_T, a friction law's terms), split evenly between the sides' ``owners`` [(body k, cell of
+    k holding S or -1)]."""
+    share = 1.0 / len(owners)
+    for k, owner in owners:
+        ok = owner >= 0
+        for name, (values, p) in terms.items():
+            term = share * data[k][0] ** p * values[ok]
+            np.add.at(eta2[k], owner[ok], term)
+            parts[name] = parts.get(name, 0.0) + float(term.sum())
+
+
+def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
+    """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
+    int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
+    P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
+    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
+    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
+    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
+    centroid."""
+    bodies = list(sol.scene.bodies)
+    Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
+    for i, c in enumerate(sol.contacts):
+        itf = sol._pair_line(i)
+        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
+        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
+        first = getattr(itf.traces[0], "linear", itf.traces[0])          # P2: its P1 trace (the same faces)
+        k0 = next(j for j, b in enumerate(bodies) if b is first.body)
+        lam = np.append(cache[k0].multiplier(c, first.part), 0.0)[elements]
+        N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
+        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
+        if fr is not None:
+            fr = cache[k0].friction(fr, c, first.part)
+        tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
+        live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
+        if tan is not None:
+            live |= tan[0]
+            tan = tan[1][live].reshape(-1, 3)                          # (e q, 3) at the rule's points
+        elements, corners, lam, open_ = elements[live], corners[live], lam[live], open_[live]
+        hosts = [None if h is None else h[live] for h in hosts]
+        lam, open_ = lam @ N.T, open_ @ N.T                                                 # (e, q)
+        d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+        areaS = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+        xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
+        wts = (areaS[:, None] * wq[None, :]).ravel()
+        owners = []
+        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
+            linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
+            k = next(j for j, b in enumerate(bodies) if b is linear.body)
+            on = cache[k].side(linear.part)
+            cell, normals = on.cell, on.normals
+            acc = on.squares()                                          # int_F |sigma_h n|^2 of each face
+            if host is None:                                            # S not matched to the faces: find them
+                face, Lf = locate(xq, linear.x, linear.faces)
+                fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
+            else:
+                face = np.repeat(host, len(wq))
+                Lf = barycentric(xq, np.asarray(linear.x)[np.asarray(linear.faces)[face]])
+                fc = host
+            ok = np.flatnonzero(face >= 0)
+            s = on.traction(face[ok], Lf[ok])                           # at the points of the trace's triangles
+            fq = on.face_of(face[ok])
+            lq = lam.ravel()[ok]
+            R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
+            if tan is not None:                                     # the first body's t_h, the other's -t_h
+                tq = (1 - 2 * side) * tan[ok]
+                R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
+            np.add.at(acc, fq, wts[ok] * R2)
+            term = on.hF * acc / data[k][0]
+            np.add.at(eta2[k], cell, term)
+            parts["contact traction"] += float(term.sum())
+            owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
+        if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
+            continue                                                   # compliance: penetration is the law
+        comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)
+        pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
+        hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
+        terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+        if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
+            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
+        _share(owners, terms, data, eta2, parts)

@@ -59,18 +59,25 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     }
 
 
-def equilibrium_with(blocks, u, phi, Mlam, forces):
+def equilibrium_with(blocks, u, phi, Mlam, forces, at_rest: bool = False):
     """The equilibrium check of :func:`checks` with extra generalised forces on the momentum rows.
 
     ``forces[k]`` is (t_u, m_u) for body k: the extra term of its momentum rows of (26) (e.g. user
     constraints' multipliers times their rows, scaled) and its size |C_u^T| |z| + ..., added to the
-    residual and to the row scales respectively.
+    residual and to the row scales respectively. ``at_rest``: each momentum row's scale is at least the sizes of
+    its terms had every displacement been the largest of all bodies' (``bulk.rounding`` at that value): a body at
+    rest beside one that moves (clamped, unloaded, its contact open or carrying rounding) has an answer of the
+    rounding of the coupled solve, and its rows' own sizes are that rounding (a friction finish: the Newton
+    steps solve both bodies together; docs/howto/friction.md, "What is checked").
     """
     tiny = np.finfo(float).tiny
     out = 0.0
+    X = max(float(np.abs(uk).max(initial=0.0)) for uk in u) if at_rest and len(u) else 0.0
     for b, uk, pk, (t, m_extra) in zip(blocks, u, phi, forces):
         ru, rp = b.residual(uk, pk, Mlam)
         mu, mp = b.magnitude(uk, pk, Mlam)
+        if X > 0 and uk.size:
+            mu = np.maximum(mu, b.bulk.rounding(np.full(uk.shape, X)))
         r = np.concatenate([ru + t, rp])
         m = np.concatenate([mu + m_extra, mp])
         out = max(out, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))

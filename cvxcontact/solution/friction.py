@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with
 
 __all__ = ["friction_checks", "read_back_friction"]
@@ -66,7 +67,7 @@ def read_back_friction(problem, raw, sol) -> None:
     Ety, Tmu = E.T @ raw.y, Es.T @ mu
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
-    equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
+    equilibrium = equilibrium_with(blocks, u, phi, Ety, forces, at_rest=True)
     for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
         modes = body.held_modes(problem.meshes[k])
         if len(modes):
@@ -79,7 +80,7 @@ def read_back_friction(problem, raw, sol) -> None:
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
-                                  float(np.max(raw.y, initial=0.0))))
+                                  friction_scale(blocks, E, Es, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
     def threshold(law, contact):

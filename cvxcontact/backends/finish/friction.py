@@ -136,6 +136,8 @@ class _System:
         self.C, self.U = scales
         self.r = self.C / self.U
         self.absT, self.absG, self.absS = abs(T), abs(G), abs(fr.S)
+        self.reach = np.asarray(self.absT.sum(axis=1)).ravel()
+        """|T_i| 1: a momentum row's terms were every unknown at the largest (:meth:`residual`)."""
         self.dependent = bool(dependent)
         self._frozen = {}
 
@@ -198,6 +200,7 @@ class _System:
         flat = mu.ravel()
         mom = self.T @ x - self.b + self.G.T @ y + self.fr.S.T @ flat
         size = self.absT @ np.abs(x) + np.abs(self.b) + self.absG.T @ np.abs(y) + self.absS.T @ np.abs(flat)
+        size = np.maximum(size, self.reach * float(np.abs(x).max(initial=0.0)))   # a row whose unknowns rest
         mom = mom / np.maximum(size, np.finfo(float).tiny + 1e-300 * size.max(initial=0.0))
         normal = np.where(closed, self.r * (self.G @ x - self.g), y) / self.C
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
@@ -241,6 +244,21 @@ class _System:
                         mu - c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], tang, mu - c[:, None] * self.fr.held)
         return -np.concatenate([mom, normal, tang.ravel()])
+
+
+def _broken(merit, closed_forces, open_gaps, over, stick_slip, turned) -> str:
+    """The first of the finish's acceptance conditions (:func:`solve_friction`) that the answer breaks at
+    :data:`~cvxcontact.backends.finish.lcp.SIGN_TOL`, in words with its size ('' if none): the scaled residual,
+    a tension on a closed row, a penetration of an open one (both over the scales), a force outside the cone, a
+    stick-slip or slip-direction product (over C U)."""
+    tests = [("the scaled residual", np.array([merit])), ("a tension on a closed row", -closed_forces),
+             ("a penetration of an open row", open_gaps), ("a force outside the friction cone", over),
+             ("a row that slips below its capacity", stick_slip), ("a force not against the slip", turned)]
+    for words, v in tests:
+        worst = float(np.max(v, initial=-np.inf))
+        if worst > SIGN_TOL:
+            return f"{words}, {worst:.2g} of the scales"
+    return ""
 
 
 def _key(state) -> tuple:
@@ -296,7 +314,7 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
         same = _key(state) == key
-        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
+        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or (merit >= 0.5 * merit_old and merit <= SIGN_TOL)):
             settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
             break
         seen.add(key)
@@ -311,10 +329,8 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     a, norm_s = np.linalg.norm(mu, axis=1), np.linalg.norm(s, axis=1)
     gap = G @ x - g
     turned = a * norm_s - np.einsum("ij,ij->i", mu, s)
-    bad = (merit > SIGN_TOL or (y[closed] < -SIGN_TOL * C).any() or (gap[free & ~closed] > SIGN_TOL * U).any()
-           or (a[fr.moved] > c[fr.moved] + SIGN_TOL * C).any()
-           or (np.abs(c - a)[fr.moved] * norm_s[fr.moved] > SIGN_TOL * C * U).any()
-           or (turned[fr.moved] > SIGN_TOL * C * U).any())
-    if bad:
-        return Declined(Stop.SIGNS)
+    broken = _broken(merit, y[closed] / C, gap[free & ~closed] / U, ((a - c) / C)[fr.moved],
+                     (np.abs(c - a) * norm_s / (C * U))[fr.moved], (turned / (C * U))[fr.moved])
+    if broken:
+        return Declined(Stop.SIGNS, f"{Stop.SIGNS.value}: {broken}")
     return x, y, mu, closed, steps

@@ -1,0 +1,157 @@
+"""Friction on the awkward scenes (tests/friction_scenes.py): a contact that never closes, a pair whose rows all
+open, and a floor and a wall that share a corner node.
+
+- Open contact: Coulomb's capacities mu y_a are 0 on open rows (and Tresca's with g = 0), so the friction term is
+  inactive and the answer is the frictionless one; the checks measure the tangential forces' rounding against the
+  elastic forces at the rows (docs/howto/friction.md, "What is checked"), not against a capacity of 0.
+- Shared corner: the floor row's slip and the wall row move the same displacement, so only the sum of their forces
+  is determined; the finish keeps an independent subset of the rows (docs/howto/friction.md, "Rows that share a
+  node") and the answer matches an exact dense reference (bounded-variable least squares on the dual).
+- A wrong answer through the same checks still reads ok False.
+"""
+
+import dataclasses
+import importlib
+
+import numpy as np
+import pytest
+from friction_scenes import P, cornered, cornered_reference, opened, opened_pair
+
+import cvxcontact as cc
+from cvxcontact.contact.interface import lumped_lengths
+from cvxcontact.solution.readback import read_back
+
+pytestmark = pytest.mark.numerics
+
+FRICTION_CHECKS = ("friction cone", "stick-slip", "slip direction")
+
+
+def _finished(sol):
+    assert sol.ok
+    assert sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    assert sol.info.declined is None
+
+
+CASES = [pytest.param(2, 1, id="2D-P1"), pytest.param(3, 1, id="3D-P1"), pytest.param(3, 2, id="3D-P2")]
+OPEN_LAWS = [pytest.param(cc.Coulomb(0.3), id="coulomb"), pytest.param(cc.Tresca(0.0), id="tresca0")]
+
+
+@pytest.mark.parametrize("law", OPEN_LAWS)
+@pytest.mark.parametrize("dim,degree", CASES)
+def test_a_floor_that_never_touches_is_the_frictionless_answer(dim, degree, law):
+    ref = cc.solve(opened(None, dim), degree=degree)
+    sol = cc.solve(opened(law, dim), degree=degree)
+    _finished(sol)
+    assert ref.ok and np.abs(ref.contact.force).max() == 0.0                  # the floor never touches
+    scale = np.abs(ref.u[0]).max()
+    assert np.abs(sol.u[0] - ref.u[0]).max() < 1e-11 * scale                 # measured <= 3e-15 (2D, 3D P1, P2)
+    assert np.abs(sol.contact.shear_force).max() < 1e-12 * P                 # measured <= 1e-26 P (N/m, N)
+    checks = sol.residuals()
+    assert checks["equilibrium"] < 1e-13                                     # measured <= 2e-17
+    for key in FRICTION_CHECKS:
+        assert checks[key] < 1e-10, key                                      # measured <= 8e-14 (were 1e274)
+
+
+@pytest.mark.parametrize("law", OPEN_LAWS)
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_pair_whose_rows_all_open_is_the_frictionless_answer(dim, law):
+    ref = cc.solve(opened_pair(None, dim))
+    sol = cc.solve(opened_pair(law, dim))
+    _finished(sol)                                                           # was: declined, ok False
+    assert ref.ok and np.abs(ref.contact.force).max() == 0.0
+    for k in range(2):
+        scale = np.abs(ref.u[0]).max()
+        assert np.abs(sol.u[k] - ref.u[k]).max() < 1e-11 * scale             # measured <= 2e-15
+    checks = sol.residuals()
+    assert checks["equilibrium"] < 1e-13                                     # measured <= 2e-17
+    assert checks["complementarity"] < 1e-10                                 # measured 0
+    for key in FRICTION_CHECKS:
+        assert checks[key] < 1e-10, key                                      # measured <= 1e-10 ... 0
+
+
+def _corner_reference(body, capacity):
+    pts = body.mesh.points
+    bottom = np.sort(pts[np.isclose(pts[:, 1], 0.0), 0])
+    return cornered_reference(body, capacity(lumped_lengths(bottom)))
+
+
+def test_a_floor_and_a_wall_sharing_a_corner_finish_to_the_exact_reference():
+    g = 0.3 * P
+    body, scene = cornered(cc.Tresca(g))
+    sol = cc.solve(scene)
+    _finished(sol)                                                           # was: a singular step, declined
+    u, (normal, tangential), wall = _corner_reference(body, lambda w: g * w)
+    assert np.abs(sol.u[0] - u).max() < 1e-12 * np.abs(u).max()             # measured 3.3e-15
+    floor = sol.contacts[0]
+    slipping = np.abs(floor.slip) > 1e-3 * np.abs(floor.slip).max()
+    assert 3 <= slipping.sum() <= 7                                          # partial slip: 6 of 9 nodes
+    # the corner's floor friction and wall force act on one displacement: only their sum is determined; the
+    # first node's slip is prescribed (u_x = s on the left face): no unknown moves it, the force there is the law's
+    inner = slice(1, -1)
+    assert np.abs(-floor.shear_force[inner] - tangential[inner]).max() < 1e-10 * g   # measured 1e-9 g, x 1e-6 m
+    assert np.abs(floor.force - normal).max() < 1e-10 * P                   # measured ~1e-9 P x 1e-6 m
+    corner = -floor.shear_force[-1] + sol.contacts[1].force[np.argmin(np.abs(sol.contacts[1].x))]
+    assert corner == pytest.approx(tangential[-1] + wall[np.argmin(body.mesh.points[
+        np.isclose(body.mesh.points[:, 0], 1.0), 1])], rel=1e-10)
+    checks = sol.residuals()
+    assert checks["complementarity"] < 1e-10                                 # measured 3.4e-15 (was 2.5e-8)
+    assert checks["friction cone"] < 1e-13                                   # measured 0
+    assert checks["stick-slip"] < 1e-7 and checks["slip direction"] < 1e-7  # square roots: measured <= 3e-9
+
+
+def test_coulomb_on_the_shared_corner_is_its_own_tresca_reference():
+    """The finished Coulomb answer is the Tresca answer of its own capacities mu y_a: the reference solved with
+    the package's normal forces gives the package's displacements."""
+    mu = 0.3
+    body, scene = cornered(cc.Coulomb(mu))
+    sol = cc.solve(scene)
+    _finished(sol)
+    pts = body.mesh.points
+    bottom = np.sort(pts[np.isclose(pts[:, 1], 0.0), 0])
+    force = sol.contacts[0].force                                            # N/m at the floor's nodes, by x
+    assert np.all(np.diff(sol.contacts[0].x) > 0) and len(force) == len(bottom)
+    u, _, _ = cornered_reference(body, mu * force)
+    assert np.abs(sol.u[0] - u).max() < 1e-12 * np.abs(u).max()             # measured 2e-15
+    assert np.abs(sol.contacts[0].slip).max() > 0                           # it slides somewhere
+
+
+def _captured(monkeypatch, scene, **options):
+    """(the solution, the problem and the raw result its read-back was given)."""
+    seen = {}
+
+    def spy(problem, raw, *args, **kwargs):
+        seen.update(problem=problem, raw=dataclasses.replace(raw))
+        return read_back(problem, raw, *args, **kwargs)
+
+    monkeypatch.setattr(importlib.import_module("cvxcontact.solve"), "read_back", spy)
+    sol = cc.solve(scene, **options)
+    return sol, seen["problem"], seen["raw"]
+
+
+def test_a_wrong_tangential_force_on_an_open_floor_still_reads_not_ok(monkeypatch):
+    """The floor of the checks' force scale (the elastic forces at the rows) does not hide a real violation: a
+    shear force of 1e-6 of the load on one open row (capacity 0) breaks the friction cone."""
+    sol, problem, raw = _captured(monkeypatch, opened(cc.Coulomb(0.3)))
+    assert sol.ok
+    mu = np.array(raw.tangential, dtype=float)
+    R = problem.E.shape[0]
+    mu[R // 2] += 1e-6 * P * 0.5 / problem.units.force                       # 1e-6 of the load p H (scaled)
+    bad = read_back(problem, dataclasses.replace(raw, tangential=mu), sol.tol, {})
+    assert not bad.ok
+    checks = bad.residuals()
+    assert checks["friction cone"] > 1e3 * sol.tol                           # measured 0.18 (tol 1e-6)
+    assert checks["stick-slip"] > 1e3 * sol.tol                              # measured 0.30
+
+
+def test_a_wrong_displacement_at_the_shared_corner_still_reads_not_ok(monkeypatch):
+    """Displacements 1e-5 of the largest added at every seventh unknown read not ok (the right answer reads ok):
+    the floor of the momentum rows' scales at the largest displacement (a body at rest) hides nothing here."""
+    sol, problem, raw = _captured(monkeypatch, cornered(cc.Tresca(0.3 * P))[1])
+    assert sol.ok
+    u = [np.array(v, dtype=float) for v in raw.u]
+    u[0] = u[0] + 1e-5 * np.abs(u[0]).max() * (np.arange(len(u[0])) % 7 == 3)
+    bad = read_back(problem, dataclasses.replace(raw, u=u), sol.tol, {})
+    assert not bad.ok
+    checks = bad.residuals()
+    assert checks["equilibrium"] > sol.tol                                   # measured 2.1e-6 (tol 1e-6)
+    assert max(checks.values()) > 1e3 * sol.tol                              # complementarity: measured 4.2e-3

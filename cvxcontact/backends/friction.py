@@ -98,11 +98,6 @@ def _moved_components(problem, rows) -> np.ndarray:
     return reach.reshape(n_c, R)[:, rows].T > 0
 
 
-def _moved_slip(problem, rows) -> np.ndarray:
-    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
-    return _moved_components(problem, rows).any(axis=1)
-
-
 def full(problem, cache, settings, timings) -> RawResult:
     """The full program with the friction energy (module docstring), Coulomb's by the fixed point; the normal
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
@@ -235,12 +230,19 @@ def _shared(problem, G, S, rows) -> bool:
 
 
 def _stuck(problem, model, constraint, rows, capacity, s, friction):
-    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that some
-    unknown moves held at 0, the other rows at their given thresholds (``capacity`` set here)."""
-    E = problem.E
-    dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
-    capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
-    held = [s[np.flatnonzero(dependent)] == 0] if dependent.any() else []
+    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
+    held at 0 (some unknown moves their slip, and no component that no unknown moves has a prescribed slip: a
+    support on a side that meets the contact moving it along one tangent, docs/howto/friction.md), the other
+    rows at their given thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
+    E, n_c = problem.E, problem.slip_components
+    moved = _moved_components(problem, rows)
+    Es = problem.slip_rows[np.concatenate([rows + j * E.shape[0] for j in range(n_c)])]
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    prescribed = (Es @ shift).reshape(n_c, len(rows)).T != 0
+    pressure = problem.rows.pressure_dependent[rows]
+    sticks = pressure & moved.any(axis=1) & ~(prescribed & ~moved).any(axis=1)
+    capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+    held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
     return model.with_terms([constraint, *held], objective=friction)
 
 

@@ -268,3 +268,48 @@ def cornered_reference(body, capacity):
     u = (Tu @ np.linalg.solve(K, f - PT.T @ R) + u_fixed).reshape(-1, 2)
     n = len(bottom)
     return u, (R[:n], R[n + len(right):]), R[n:n + len(right)]
+
+
+WALL3D = cc.Rigid.plane(point=(1.0, 0.0, 0.0), normal=(-1.0, 0.0, 0.0))
+
+
+def cornered3d(law, s=2e-5, d=2e-5, n=3):
+    """The 3D twin of :func:`cornered`: the unit cube (n x n x 2 cells) moved by u_x = s on its left face and u_z =
+    -d on its top, held along y on its front face, on the rigid floor z = 0 (``law``) and against the rigid wall x =
+    1 (frictionless) along its whole right face, both under "sigma1": the floor's and the wall's rows share the
+    nodes of the edge x = 1, z = 0 (the floor rows' slip along x and the wall rows move the same displacements; the
+    left face's bottom edge has a prescribed slip along x, its y component moved). Returns (the body, the
+    scene)."""
+    b = cc.Body(cc.box(nx=n, ny=n, nz=2), steel(), contact="bottom",
+                displacement={"left": (s, None, None), "front": (None, 0.0, None), "top": (None, None, -d)})
+    return b, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=law, condition="sigma1"),
+                                    cc.Contact(b, "right", WALL3D, condition="sigma1")])
+
+
+def cornered3d_reference(body, capacity):
+    """(u (n, 3), floor forces (m, 3): t_x, t_y, n per bottom node): :func:`cornered3d` with P1 tetrahedra and the
+    nodal Tresca law (``capacity`` N per bottom node) solved independently of the package's contact code: the body
+    condensed onto its bottom and right nodes, the dual QP of the floor's cones and the wall's Signorini rows (a
+    wall node's group: its normal -u_x, tangential components of capacity 0) by :func:`projected_gradient_tresca`."""
+    import scipy.sparse as sp
+
+    from cvxcontact.fem.space import P1Tet
+
+    system = P1Tet().assemble_loads(body, P1Tet().assemble_matrices(body))
+    Tu, u_fixed = system.Tu, system.u_fixed
+    K = (Tu.T @ system.Kuu @ Tu).toarray()
+    f = Tu.T @ system.f
+    pts = body.mesh.points
+    bottom = np.flatnonzero(np.isclose(pts[:, 2], 0.0))
+    right = np.flatnonzero(np.isclose(pts[:, 0], 1.0))
+    # groups (t1, t2, n) of rows Pc: the reaction R enters as +Pc^T R, the normal component >= 0 (tresca_reference)
+    dofs = np.concatenate([np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]),
+                           np.column_stack([3 * right + 1, 3 * right + 2, 3 * right])]).ravel()
+    signs = np.concatenate([np.ones(3 * len(bottom)), np.tile([1.0, 1.0, -1.0], len(right))])
+    Pc = sp.csr_matrix((signs, (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(K, PT.T)
+    q = PT @ np.linalg.solve(K, f) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, np.concatenate([capacity, np.zeros(len(right))]), iterations=40000)
+    u = (Tu @ np.linalg.solve(K, f + PT.T @ R) + u_fixed).reshape(-1, 3)
+    return u, R.reshape(-1, 3)[:len(bottom)]

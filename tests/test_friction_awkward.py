@@ -12,10 +12,19 @@ open, and a floor and a wall that share a corner node.
 
 import dataclasses
 import importlib
+import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import P, cornered, cornered_reference, opened, opened_pair
+from friction_scenes import (
+    P,
+    cornered,
+    cornered3d,
+    cornered3d_reference,
+    cornered_reference,
+    opened,
+    opened_pair,
+)
 
 import cvxcontact as cc
 from cvxcontact.contact.interface import lumped_lengths
@@ -113,6 +122,64 @@ def test_coulomb_on_the_shared_corner_is_its_own_tresca_reference():
     u, _, _ = cornered_reference(body, mu * force)
     assert np.abs(sol.u[0] - u).max() < 1e-12 * np.abs(u).max()             # measured 2e-15
     assert np.abs(sol.contacts[0].slip).max() > 0                           # it slides somewhere
+
+
+def _floor3d(body):
+    """(the bottom nodes as :func:`friction_scenes.cornered3d_reference` orders them, their lumped areas, m^2)."""
+    pts, faces = body.mesh.points, np.asarray(body.mesh.boundary("bottom"))
+    areas = 0.5 * np.linalg.norm(np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]),
+                                 axis=1)
+    lumped = np.zeros(len(pts))
+    np.add.at(lumped, faces.ravel(), np.repeat(areas / 3, 3))
+    bottom = np.flatnonzero(np.isclose(pts[:, 2], 0.0))
+    return bottom, lumped[bottom]
+
+
+def test_a_3d_floor_and_wall_sharing_an_edge_finish_to_a_projected_gradient_reference():
+    g = 0.3 * P
+    body, scene = cornered3d(cc.Tresca(g))
+    sol = cc.solve(scene)
+    _finished(sol)                                                           # was: a singular step, declined
+    bottom, lumped = _floor3d(body)
+    u, R = cornered3d_reference(body, g * lumped)
+    assert np.abs(sol.u[0] - u).max() < 1e-6 * np.abs(u).max()              # measured 3.0e-8 (FISTA's own)
+    at = [int(np.argmin(np.linalg.norm(sol.contacts[0].points - body.mesh.points[b], axis=1))) for b in bottom]
+    assert np.abs(sol.contacts[0].force[at] - R[:, 2]).max() < 1e-5 * np.abs(R).max()   # measured ~1e-7
+    stuck = np.linalg.norm(R[:, :2], axis=1) < (1 - 1e-6) * g * lumped
+    assert 1 <= stuck.sum() < len(bottom)                                    # partial slip: 2 of 16 stick
+    checks = sol.residuals()
+    assert checks["complementarity"] < 1e-10                                 # measured 0 (was 1.4e-7)
+    assert checks["friction cone"] < 1e-13                                   # measured 0
+    assert checks["stick-slip"] < 1e-7 and checks["slip direction"] < 1e-7  # square roots: measured <= 3.7e-9
+
+
+def test_coulomb_on_a_3d_shared_edge_is_its_own_projected_gradient_reference():
+    """Coulomb's stuck start was infeasible here (the left face's bottom edge slips along x by the support, its y
+    component moved); finished, the answer is the Tresca answer of its own capacities mu y_a."""
+    mu = 0.3
+    body, scene = cornered3d(cc.Coulomb(mu))
+    sol = cc.solve(scene)
+    _finished(sol)
+    bottom, _ = _floor3d(body)
+    at = [int(np.argmin(np.linalg.norm(sol.contacts[0].points - body.mesh.points[b], axis=1))) for b in bottom]
+    u, _ = cornered3d_reference(body, mu * sol.contacts[0].force[at])
+    assert np.abs(sol.u[0] - u).max() < 1e-6 * np.abs(u).max()              # measured ~3e-8
+
+
+@pytest.mark.parametrize("law", [pytest.param(cc.Tresca(0.3 * P), id="tresca"),
+                                 pytest.param(cc.Coulomb(0.3), id="coulomb")])
+def test_a_p2_floor_and_wall_sharing_an_edge_finish(law):
+    _, scene = cornered3d(law)
+    sol = cc.solve(scene, degree=2)
+    _finished(sol)                                                           # P1's rows and the same decline
+    with warnings.catch_warnings():                      # the interior point alone may miss its checks (1e-6)
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        ipm = cc.solve(scene, degree=2, polish=False)
+    assert np.abs(sol.u[0] - ipm.u[0]).max() < 1e-5 * np.abs(sol.u[0]).max()   # the interior point: 4e-7
+    checks = sol.residuals()
+    assert checks["equilibrium"] < 1e-13 and checks["complementarity"] < 1e-10   # measured 2e-17 ... 5e-17, 0
+    assert checks["friction cone"] < 1e-13                                   # measured <= 6e-17
+    assert checks["stick-slip"] < 1e-7 and checks["slip direction"] < 1e-7  # measured <= 6e-9
 
 
 def _captured(monkeypatch, scene, **options):

@@ -1,5 +1,7 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
-on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
+on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); the
+awkward scenes of tests/test_friction_awkward.py (a contact that never closes, a pair whose rows all open, a
+floor and a wall sharing a corner node, 2D and 3D) with exact and projected-gradient references; and
 a uniformly sheared 3D layer (stuck, sliding, and on a second layer) and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
 tests/test_friction3d_p2.py, tests/test_refusals.py).
 """
@@ -198,7 +200,8 @@ def opened(law, dim=2):
         b = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4), steel(), contact="bottom", clamped="left",
                     traction={"right": (P, 0.0)})
         return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
-    b = cc.Body(cc.box(nx=3, ny=3, nz=2), steel(), contact="bottom", clamped="left", traction={"right": (P, 0.0, 0.0)})
+    b = cc.Body(cc.box(nx=3, ny=3, nz=2), steel(), contact="bottom", clamped="left",
+                traction={"right": (P, 0.0, 0.0)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=law, condition="sigma1")])
 
 
@@ -213,7 +216,8 @@ def opened_pair(law, dim=2):
         b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top",
                     clamped="bottom")
     else:
-        a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(), contact="bottom", clamped="left", traction={"top": (0.0, 0.0, P)})
+        a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(), contact="bottom", clamped="left",
+                    traction={"top": (0.0, 0.0, P)})
         lower = cc.box(nx=3, ny=3, nz=1)
         b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(), contact="top", clamped="bottom")
     return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition="sigma1", gap=1e-4)])

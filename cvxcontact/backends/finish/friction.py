@@ -24,6 +24,13 @@ it only halved the residual at every step (a box pushed across a rigid plane: 3e
 Not in 2D, where a set already solved that comes back ends the steps as a cycle: there the full steps to new sets
 cycled where the damped ones settle (a 2D P2 pair under "sigma1" with Tresca friction, tests/test_tresca.py).
 
+The residual is scaled: the momentum rows over the sizes of their terms, at least those had every unknown been
+the largest (|T_i| max|x|: a body at rest beside one that moves, e.g. the clamped lower block of a pair that
+opens, has rows whose own terms are the rounding of the coupled solve), the normal and friction rows over the force
+scale C (:func:`~cvxcontact.backends.finish.forces.friction_scale`: floored at the elastic forces at the rows, so an
+open contact whose Coulomb capacities are 0 has a scale). A repeated active set ends the steps where the step
+solved it (2D), or where the residual is at rounding (SIGN_TOL) and no longer halves.
+
 Degenerate rows: a row may carry no force at no gap and no slip in the answer itself (strict complementarity
 fails). With P2 tetrahedra's nodal rows under a uniform pressure and shear the consistent forces vanish at the
 face vertices (0 there, A/3 per face at an edge midpoint): y_a = 0, G_a x = g_a, mu_a = 0, s_a = 0, and Coulomb's
@@ -43,7 +50,9 @@ there), the row's stuck condition the slip of its moved component alone. Where t
 slip s0_a,j is not 0 the row cannot stick: its law is mu_a = c_a t_a at every point.
 
 Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows
-than the jump's degrees of freedom, docs/formulation.md §13): the closed normal rows and the stuck rows' slip
+than the jump's degrees of freedom, docs/formulation.md §13; or rows of two pairs acting on one unknown, a floor
+and a wall sharing a corner node, whose floor row's slip and wall row move the same displacement): the closed normal
+rows and the stuck rows' slip
 rows may be linearly dependent, and the forces on them are then not unique ((26) fixes only their resultant).
 Each step keeps a maximal independent subset of them, the rows with the largest forces (normal rows) and the
 largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the unit rows so

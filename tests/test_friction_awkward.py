@@ -213,7 +213,7 @@ def test_a_wrong_tangential_force_on_an_open_floor_still_reads_not_ok(monkeypatc
 
 def test_a_wrong_displacement_at_the_shared_corner_still_reads_not_ok(monkeypatch):
     """Displacements 1e-5 of the largest added at every seventh unknown read not ok (the right answer reads ok):
-    the floor of the momentum rows' scales at the largest displacement (a body at rest) hides nothing here."""
+    the floor of the momentum rows' scales (a body at rest) hides nothing here."""
     sol, problem, raw = _captured(monkeypatch, cornered(cc.Tresca(0.3 * P))[1])
     assert sol.ok
     u = [np.array(v, dtype=float) for v in raw.u]

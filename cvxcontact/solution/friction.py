@@ -11,7 +11,7 @@ Coulomb capacities are 0, the elastic forces' there) and U the largest nodal dis
 
     equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
                      balance of the rigid motions only the contact holds); each momentum row's scale at
-                     least its terms' sizes at the largest displacement (``equilibrium_with(at_rest=True)``:
+                     least FORCE_FLOOR of the largest of all bodies (``equilibrium_with(at_rest=True)``:
                      a body at rest beside one that moves)
     friction cone    max over a of (|mu_a| - c_a)^+ / C                |sigma_t| <= g
     stick-slip       max over a of sqrt( |c_a - |mu_a|| |s_a| / (C U) )  (g - |sigma_t|) |[u_t]| = 0

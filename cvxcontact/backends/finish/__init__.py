@@ -22,7 +22,8 @@ from .rows import (DEPENDENT_PIVOT, CompliantRows, FactoredRows, UpdatedSystem, 
                    factored_rows, refined_solve, row_reach)
 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
-           "row_compliance", "force_scale", "friction_scale", "slip_reach", "FORCE_FLOOR", "solve_compliance", "solve_linear_compliance",
+           "row_compliance", "force_scale", "friction_scale", "slip_reach", "FORCE_FLOOR", "solve_compliance",
+           "solve_linear_compliance",
            "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set",
            "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",
            "FactoredRows", "UpdatedSystem", "CompliantRows", "factored_rows", "refined_solve", "row_reach",

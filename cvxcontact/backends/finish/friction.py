@@ -49,21 +49,20 @@ determine mu_a,j: it takes its least value, mu_a,j = 0 (the value a slipping row
 there), the row's stuck condition the slip of its moved component alone. Where the fixed component's prescribed
 slip s0_a,j is not 0 the row cannot stick: its law is mu_a = c_a t_a at every point.
 
-Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows
-than the jump's degrees of freedom, docs/formulation.md §13; or rows of two pairs acting on one unknown, a floor
-and a wall sharing a corner node, whose floor row's slip and wall row move the same displacement): the closed normal
-rows and the stuck rows' slip
-rows may be linearly dependent, and the forces on them are then not unique ((26) fixes only their resultant).
-Each step keeps a maximal independent subset of them, the rows with the largest forces (normal rows) and the
-largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the unit rows so
-weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that they keep the
-interior point's share and the independent rows carry the correction. The steps move x onto the same affine set
-(a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and the
-residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
-row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities
-mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
-change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
-a small force): the full step to a new active set is taken (above) if that set was not met before.
+Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows than
+the jump's degrees of freedom, docs/formulation.md §13; or rows of two pairs acting on one unknown, a floor and a
+wall sharing a corner node, whose floor row's slip and wall row move the same displacement): the closed normal rows
+and the stuck rows' slip rows may be linearly dependent, and the forces on them are then not unique ((26) fixes
+only their resultant). Each step keeps a maximal independent subset of them, the rows with the largest forces
+(normal rows) and the largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the
+unit rows so weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that
+they keep the interior point's share and the independent rows carry the correction. The steps move x onto the same
+affine set (a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and
+the residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
+row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities mu
+y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to change
+sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying a small
+force): the full step to a new active set is taken (above) if that set was not met before.
 """
 
 from __future__ import annotations
@@ -323,8 +322,10 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
         same = _key(state) == key
-        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or (merit >= 0.5 * merit_old and merit <= SIGN_TOL)):
-            settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
+        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0)
+                     or (merit >= 0.5 * merit_old and merit <= SIGN_TOL)):
+            settled = True         # the set repeats, and the step solved it (2D) or no longer halves a residual
+            #                        at rounding
             break
         seen.add(key)
         if not same and fr.nc == 1 and _key(state) in seen:

@@ -205,6 +205,11 @@ def opened(law, dim=2):
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=law, condition="sigma1")])
 
 
+def unloaded(law, dim=2):
+    """The block of :func:`opened` with no load at all: the answer is 0."""
+    return opened(law, dim).with_loads(0, traction={})
+
+
 def opened_pair(law, dim=2):
     """A block clamped on its left face and lifted by p on its top, over a wider block clamped on its bottom
     (2D: 1 m x 0.5 m, 7 x 3 cells on 1.4 m x 0.5 m, 9 x 3 cells; 3D: a unit box, 2 x 2 x 1 cells, on another of 3 x

@@ -7,6 +7,7 @@ open, and a floor and a wall that share a corner node.
 - Shared corner: the floor row's slip and the wall row move the same displacement, so only the sum of their forces
   is determined; the finish keeps an independent subset of the rows (docs/howto/friction.md, "Rows that share a
   node") and the answer matches an exact dense reference (bounded-variable least squares on the dual).
+- No load at all: the answer is 0, and the finish gives it (the interior point's noise read ok False).
 - A wrong answer through the same checks still reads ok False.
 """
 
@@ -24,6 +25,7 @@ from friction_scenes import (
     cornered_reference,
     opened,
     opened_pair,
+    unloaded,
 )
 
 import cvxcontact as cc
@@ -59,6 +61,18 @@ def test_a_floor_that_never_touches_is_the_frictionless_answer(dim, degree, law)
     assert checks["equilibrium"] < 1e-13                                     # measured <= 2.6e-17
     for key in FRICTION_CHECKS:
         assert checks[key] < 1e-10, key      # measured <= 6.2e-13 (were: the cone 5e274 2D, 1e278 P2; Tresca(0) 5e-3)
+
+
+@pytest.mark.parametrize("law", [pytest.param(cc.Coulomb(0.3), id="coulomb"),
+                                 pytest.param(cc.Tresca(0.1 * P), id="tresca")])
+@pytest.mark.parametrize("dim,degree", CASES)
+def test_no_load_at_all_is_the_zero_answer(dim, degree, law):
+    """The interior point answers its noise (|u| 1.5e-7 ... 3.8e-7 m; the finish then declined and ok False, checks
+    up to 9.5e-5): the finish answers 0, the solution of every condition when nothing loads the body."""
+    sol = cc.solve(unloaded(law, dim), degree=degree)
+    _finished(sol)
+    assert not np.any(sol.u[0]) and not np.any(sol.contact.force) and not np.any(sol.contact.shear_force)
+    assert max(sol.residuals().values()) == 0.0
 
 
 @pytest.mark.parametrize("law", OPEN_LAWS)

@@ -31,6 +31,11 @@ scale C (:func:`~cvxcontact.backends.finish.forces.friction_scale`: floored at t
 open contact whose Coulomb capacities are 0 has a scale). A repeated active set ends the steps where the step
 solved it (2D), or where the residual is at rounding (SIGN_TOL) and no longer halves.
 
+No data: with no load (b = 0), no prescribed slip (s0 = 0) and no interference (g >= 0 on the rows some unknown
+moves), x = 0, y = 0, mu = 0 satisfies every condition, and is the answer (the interior point's is its noise). The
+scaled residual is relative, so the steps could not tell that noise from the answer: the finish answers 0 at once,
+its rows at zero gap closed with no force.
+
 Degenerate rows: a row may carry no force at no gap and no slip in the answer itself (strict complementarity
 fails). With P2 tetrahedra's nodal rows under a uniform pressure and shear the consistent forces vanish at the
 face vertices (0 there, A/3 per face at an edge midpoint): y_a = 0, G_a x = g_a, mu_a = 0, s_a = 0, and Coulomb's
@@ -288,7 +293,12 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     penetration of an open one, a force outside the cone, a slip not along its force). ``max_steps``: default
     :data:`MAX_STEPS`; ``dependent``: the rows may be linearly dependent (3D "gamma3" pairs; module docstring)."""
     max_steps = MAX_STEPS if max_steps is None else max_steps
-    system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales, dependent)
+    free = np.asarray(free, dtype=bool)
+    if not np.any(b) and not np.any(fr.s0) and (g[free] >= 0).all():
+        # no load, no prescribed slip, no interference: x = 0, y = 0, mu = 0 satisfies every condition (module
+        # docstring, "No data"); the scaled residual has no scale there (the interior point's noise)
+        return np.zeros(T.shape[0]), np.zeros(G.shape[0]), np.zeros((len(fr.rows), fr.nc)), free & (g == 0), 0
+    system = _System(T, b, G, g, fr, free, scales, dependent)
     w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
     state = system.state(w)
     merit = np.linalg.norm(system.residual(w, state))

@@ -1,5 +1,7 @@
 """The 2D friction scenes shared by tests/test_tresca.py and tests/test_coulomb.py: a steel block 1 m x 0.5 m
-on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); and
+on a rigid floor, pressed by p on its top (a fixtures module: the test modules do not import each other); the
+awkward scenes of tests/test_friction_awkward.py (a contact that never closes, a pair whose rows all open, a
+floor and a wall sharing a corner node, 2D and 3D) with exact and projected-gradient references; and
 a uniformly sheared 3D layer (stuck, sliding, and on a second layer) and the independent reference of the 3D nodal Tresca law (tests/test_friction3d.py,
 tests/test_friction3d_p2.py, tests/test_refusals.py).
 """
@@ -188,3 +190,135 @@ def pair2d(law, q=0.02 * P, condition="sigma1"):
     a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=7, ny=3), steel(), contact="bottom", traction={"top": (q, -P)})
     b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top", clamped="bottom")
     return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition=condition)])
+
+
+def opened(law, dim=2):
+    """The block (2D: 1 m x 0.5 m, 8 x 4 cells; 3D: the unit cube, 3 x 3 x 2 cells) clamped on its left face and
+    pulled by p along x on its right face, on a rigid floor at its base (gap 0), ``law`` there: Poisson's
+    contraction lifts the base, so the floor never touches (every row open)."""
+    if dim == 2:
+        b = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4), steel(), contact="bottom", clamped="left",
+                    traction={"right": (P, 0.0)})
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+    b = cc.Body(cc.box(nx=3, ny=3, nz=2), steel(), contact="bottom", clamped="left",
+                traction={"right": (P, 0.0, 0.0)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=law, condition="sigma1")])
+
+
+def unloaded(law, dim=2):
+    """The block of :func:`opened` with no load at all: the answer is 0."""
+    return opened(law, dim).with_loads(0, traction={})
+
+
+def opened_pair(law, dim=2):
+    """A block clamped on its left face and lifted by p on its top, over a wider block clamped on its bottom
+    (2D: 1 m x 0.5 m, 7 x 3 cells on 1.4 m x 0.5 m, 9 x 3 cells; 3D: a unit box, 2 x 2 x 1 cells, on another of 3 x
+    3 x 1 cells: non-matching faces) across a gap of 0.1 mm, ``law`` between them under "sigma1" (nodal rows at the
+    upper block's nodes): the pair opens further, every row open."""
+    if dim == 2:
+        a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=7, ny=3), steel(), contact="bottom", clamped="left",
+                    traction={"top": (0.0, P)})
+        b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top",
+                    clamped="bottom")
+    else:
+        a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(), contact="bottom", clamped="left",
+                    traction={"top": (0.0, 0.0, P)})
+        lower = cc.box(nx=3, ny=3, nz=1)
+        b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(), contact="top", clamped="bottom")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition="sigma1", gap=1e-4)])
+
+
+WALL = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
+
+
+def cornered(law, s=2e-5, d=2e-5, nx=8, ny=4):
+    """The block (nu = 0.3) moved by u_x = s on its left face and u_y = -d on its top, on the rigid floor y = 0
+    (``law``) and against the rigid wall x = L (frictionless) along its whole right face: the floor's and the
+    wall's rows share the corner node (L, 0), where the floor row's slip and the wall row move the same
+    displacement. Returns (the body, the scene)."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
+    b = cc.Body(m, steel(), contact="bottom", displacement={"left": (s, None), "top": (None, -d)})
+    return b, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "right", WALL)])
+
+
+def cornered_reference(body, capacity):
+    """(u (n, 2), floor forces (normal, tangential) per bottom node, wall forces per right node) of
+    :func:`cornered` solved independently of the package's contact code: the body's stiffness condensed onto its
+    bottom and right nodes, the dual of the nodal Tresca law (``capacity`` N/m per bottom node, sorted by x) and
+    the wall's Signorini rows a bound-constrained QP, solved exactly by bounded-variable least squares (an active
+    set method: finite, its answer a least-squares solve on the free set)."""
+    import scipy.sparse as sp
+    from scipy.optimize import lsq_linear
+
+    from cvxcontact.fem.space import P1
+
+    system = P1().assemble_loads(body, P1().assemble_matrices(body))   # SI, the prescribed faces lifted
+    Tu, u_fixed = system.Tu, system.u_fixed
+    K = (Tu.T @ system.Kuu @ Tu).toarray()
+    f = Tu.T @ system.f
+    pts = body.mesh.points
+    bottom = np.flatnonzero(np.isclose(pts[:, 1], 0.0))
+    bottom = bottom[np.argsort(pts[bottom, 0])]
+    right = np.flatnonzero(np.isclose(pts[:, 0], L))
+    # rows r . u <= gap: the floor's -u_y <= 0 and the wall's u_x <= 0; the friction rows u_x (|R| <= capacity)
+    dofs = np.concatenate([2 * bottom + 1, 2 * right, 2 * bottom])
+    signs = np.concatenate([-np.ones(len(bottom)), np.ones(len(right)), np.ones(len(bottom))])
+    rows = sp.csr_matrix((signs, (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (rows @ Tu).toarray()
+    W = PT @ np.linalg.solve(K, PT.T)
+    q = -(PT @ np.linalg.solve(K, f) + rows @ u_fixed)             # min 1/2 R^T W R + q^T R over the bounds
+    lower = np.concatenate([np.zeros(len(bottom) + len(right)), -capacity])
+    upper = np.concatenate([np.full(len(bottom) + len(right), np.inf), capacity])
+    e, V = np.linalg.eigh(W)
+    keep = e > 1e-12 * e.max()                                     # W is singular where two rows share a dof
+    A = np.sqrt(e[keep])[:, None] * V[:, keep].T                    # W = A^T A, and A^T b = -q
+    b = -(V[:, keep].T @ q) / np.sqrt(e[keep])
+    R = lsq_linear(A, b, bounds=(lower, upper), method="bvls", tol=1e-15).x
+    u = (Tu @ np.linalg.solve(K, f - PT.T @ R) + u_fixed).reshape(-1, 2)
+    n = len(bottom)
+    return u, (R[:n], R[n + len(right):]), R[n:n + len(right)]
+
+
+WALL3D = cc.Rigid.plane(point=(1.0, 0.0, 0.0), normal=(-1.0, 0.0, 0.0))
+
+
+def cornered3d(law, s=2e-5, d=2e-5, n=3):
+    """The 3D twin of :func:`cornered`: the unit cube (n x n x 2 cells) moved by u_x = s on its left face and u_z =
+    -d on its top, held along y on its front face, on the rigid floor z = 0 (``law``) and against the rigid wall x =
+    1 (frictionless) along its whole right face, both under "sigma1": the floor's and the wall's rows share the
+    nodes of the edge x = 1, z = 0 (the floor rows' slip along x and the wall rows move the same displacements; the
+    left face's bottom edge has a prescribed slip along x, its y component moved). Returns (the body, the
+    scene)."""
+    b = cc.Body(cc.box(nx=n, ny=n, nz=2), steel(), contact="bottom",
+                displacement={"left": (s, None, None), "front": (None, 0.0, None), "top": (None, None, -d)})
+    return b, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=law, condition="sigma1"),
+                                    cc.Contact(b, "right", WALL3D, condition="sigma1")])
+
+
+def cornered3d_reference(body, capacity):
+    """(u (n, 3), floor forces (m, 3): t_x, t_y, n per bottom node): :func:`cornered3d` with P1 tetrahedra and the
+    nodal Tresca law (``capacity`` N per bottom node) solved independently of the package's contact code: the body
+    condensed onto its bottom and right nodes, the dual QP of the floor's cones and the wall's Signorini rows (a
+    wall node's group: its normal -u_x, tangential components of capacity 0) by :func:`projected_gradient_tresca`."""
+    import scipy.sparse as sp
+
+    from cvxcontact.fem.space import P1Tet
+
+    system = P1Tet().assemble_loads(body, P1Tet().assemble_matrices(body))
+    Tu, u_fixed = system.Tu, system.u_fixed
+    K = (Tu.T @ system.Kuu @ Tu).toarray()
+    f = Tu.T @ system.f
+    pts = body.mesh.points
+    bottom = np.flatnonzero(np.isclose(pts[:, 2], 0.0))
+    right = np.flatnonzero(np.isclose(pts[:, 0], 1.0))
+    # groups (t1, t2, n) of rows Pc: the reaction R enters as +Pc^T R, the normal component >= 0 (tresca_reference)
+    dofs = np.concatenate([np.column_stack([3 * bottom, 3 * bottom + 1, 3 * bottom + 2]),
+                           np.column_stack([3 * right + 1, 3 * right + 2, 3 * right])]).ravel()
+    signs = np.concatenate([np.ones(3 * len(bottom)), np.tile([1.0, 1.0, -1.0], len(right))])
+    Pc = sp.csr_matrix((signs, (np.arange(len(dofs)), dofs)), shape=(len(dofs), Tu.shape[0]))
+    PT = (Pc @ Tu).toarray()
+    W = PT @ np.linalg.solve(K, PT.T)
+    q = PT @ np.linalg.solve(K, f) + Pc @ u_fixed
+    R = projected_gradient_tresca(W, q, np.concatenate([capacity, np.zeros(len(right))]), iterations=40000)
+    u = (Tu @ np.linalg.solve(K, f + PT.T @ R) + u_fixed).reshape(-1, 3)
+    return u, R.reshape(-1, 3)[:len(bottom)]

@@ -43,6 +43,7 @@ import scipy.sparse as sp
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
+from .finish.forces import friction_scale
 from .finish.friction import FrictionRows, solve_friction
 from .full import ContactModel
 from .mixed import mixed_system, stacked, unstacked
@@ -95,11 +96,6 @@ def _moved_components(problem, rows) -> np.ndarray:
     Es = problem.slip_rows
     reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
     return reach.reshape(n_c, R)[:, rows].T > 0
-
-
-def _moved_slip(problem, rows) -> np.ndarray:
-    """Mask of the frictional ``rows`` whose slip some unknown moves (a stuck start holds those at 0 only)."""
-    return _moved_components(problem, rows).any(axis=1)
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -180,12 +176,12 @@ def exact_finish(problem, raw, timings) -> RawResult:
     fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
-    C = max(float(np.max(raw.capacity, initial=0.0)), float(np.max(raw.y, initial=0.0)))
+    C = friction_scale(blocks, E, problem.slip_rows, raw.u, raw.phi, raw.y, raw.capacity)
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw
     out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
-                         (C, U), dependent=dependent_rows(problem))
+                         (C, U), dependent=dependent_rows(problem) or _shared(problem, G, S, rows))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out
@@ -215,13 +211,38 @@ def exact_finish(problem, raw, timings) -> RawResult:
     return raw
 
 
+def _shared(problem, G, S, rows) -> bool:
+    """Whether the rows of two pairs act on a common unknown (normal rows ``G``, slip rows ``S`` of the frictional
+    ``rows``, row a component j at a c + j): a floor and a wall sharing a corner node, whose floor slip row and
+    wall row move the same displacement. Closed and stuck there, the rows are linearly dependent and only the
+    sum of their forces is determined (docs/howto/friction.md, "Rows that share a node"): the finish then keeps
+    an independent subset of them per step, as on dependent rows."""
+    counts = problem.rows.counts
+    if len(counts) < 2:
+        return False
+    pair = np.repeat(np.arange(len(counts)), counts)
+    n_c = problem.slip_components
+    on = [sp.csr_matrix((np.ones(len(pair)), (pair, np.arange(len(pair)))), shape=(len(counts), len(pair))) @ abs(G),
+          sp.csr_matrix((np.ones(S.shape[0]), (np.repeat(pair[rows], n_c), np.arange(S.shape[0]))),
+                        shape=(len(counts), S.shape[0])) @ abs(S)]
+    touched = (sum(on) != 0).astype(int)                 # (pairs, unknowns): the pairs whose rows move each unknown
+    return bool((np.asarray(touched.sum(axis=0)).ravel() > 1).any())
+
+
 def _stuck(problem, model, constraint, rows, capacity, s, friction):
-    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that some
-    unknown moves held at 0, the other rows at their given thresholds (``capacity`` set here)."""
-    E = problem.E
-    dependent = problem.rows.pressure_dependent[rows] & _moved_slip(problem, rows)
-    capacity.value = np.where(dependent, 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
-    held = [s[np.flatnonzero(dependent)] == 0] if dependent.any() else []
+    """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
+    held at 0 (some unknown moves their slip, and no component that no unknown moves has a prescribed slip: a
+    support on a side that meets the contact moving it along one tangent, docs/howto/friction.md), the other
+    rows at their given thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
+    E, n_c = problem.E, problem.slip_components
+    moved = _moved_components(problem, rows)
+    Es = problem.slip_rows[np.concatenate([rows + j * E.shape[0] for j in range(n_c)])]
+    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
+    prescribed = (Es @ shift).reshape(n_c, len(rows)).T != 0
+    pressure = problem.rows.pressure_dependent[rows]
+    sticks = pressure & moved.any(axis=1) & ~(prescribed & ~moved).any(axis=1)
+    capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+    held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
     return model.with_terms([constraint, *held], objective=friction)
 
 

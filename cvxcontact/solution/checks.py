@@ -21,8 +21,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..backends.cuts import segment_scales
-from ..backends.finish import (force_displacements, force_scale, ipm_active, node_scales,  # noqa: F401
-                               reach_displacements, reach_forces)
+from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ipm_active,  # noqa: F401
+                               node_scales, reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
 __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
@@ -59,20 +59,26 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     }
 
 
-def equilibrium_with(blocks, u, phi, Mlam, forces):
+def equilibrium_with(blocks, u, phi, Mlam, forces, at_rest: bool = False):
     """The equilibrium check of :func:`checks` with extra generalised forces on the momentum rows.
 
     ``forces[k]`` is (t_u, m_u) for body k: the extra term of its momentum rows of (26) (e.g. user
     constraints' multipliers times their rows, scaled) and its size |C_u^T| |z| + ..., added to the
-    residual and to the row scales respectively.
+    residual and to the row scales respectively. ``at_rest``: each momentum row's scale is at least
+    FORCE_FLOOR of the largest momentum row scale of all bodies (:func:`force_scale`'s floor): a body at rest beside
+    one that moves (clamped, unloaded, its contact open or carrying forces of rounding) has an answer of the rounding
+    of a coupled solve, and its rows' own sizes are that rounding (a friction finish: the Newton steps solve the
+    bodies together; docs/howto/friction.md, "What is checked"). A body that carries a force has its own scale.
     """
     tiny = np.finfo(float).tiny
+    rows = [(b.residual(uk, pk, Mlam), b.magnitude(uk, pk, Mlam), t, m_extra)
+            for b, uk, pk, (t, m_extra) in zip(blocks, u, phi, forces)]
+    floor = FORCE_FLOOR * max((float(np.max(mu + m_extra, initial=0.0)) for _, (mu, _), _, m_extra in rows),
+                              default=0.0) if at_rest else 0.0
     out = 0.0
-    for b, uk, pk, (t, m_extra) in zip(blocks, u, phi, forces):
-        ru, rp = b.residual(uk, pk, Mlam)
-        mu, mp = b.magnitude(uk, pk, Mlam)
+    for (ru, rp), (mu, mp), t, m_extra in rows:
         r = np.concatenate([ru + t, rp])
-        m = np.concatenate([mu + m_extra, mp])
+        m = np.concatenate([np.maximum(mu + m_extra, floor), mp])
         out = max(out, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
     return out
 

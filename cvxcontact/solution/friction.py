@@ -2,13 +2,17 @@
 
 With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.friction`), s_a its slip
 E [u_t], c_a = g_a w_a its friction capacity at the answer's own pressures (Coulomb: c_a = mu y_a, so the
-checks are Coulomb's cone and complementarity, not the last Tresca iterate's), C = max(max c_a, max y_a) (the largest capacity or normal row
-force: tangential forces are measured against the contact forces, and a threshold far below the pressure, or
-zero, leaves the normal forces' scale) and U the largest nodal displacement of the bodies
+checks are Coulomb's cone and complementarity, not the last Tresca iterate's), C =
+:func:`~cvxcontact.backends.finish.forces.friction_scale` (the largest capacity or normal row force, floored at
+FORCE_FLOOR of the largest elastic force at the rows' unknowns: tangential forces are measured against the contact
+forces, a threshold far below the pressure, or zero, leaves the normal forces' scale, and an open contact, whose
+Coulomb capacities are 0, the elastic forces' there) and U the largest nodal displacement of the bodies
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
 
     equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
-                     balance of the rigid motions only the contact holds)
+                     balance of the rigid motions only the contact holds); each momentum row's scale at
+                     least FORCE_FLOOR of the largest of all bodies (``equilibrium_with(at_rest=True)``:
+                     a body at rest beside one that moves)
     friction cone    max over a of (|mu_a| - c_a)^+ / C                |sigma_t| <= g
     stick-slip       max over a of sqrt( |c_a - |mu_a|| |s_a| / (C U) )  (g - |sigma_t|) |[u_t]| = 0
     slip direction   max over a of sqrt( (-mu_a s_a)^+ / (C U) )        sigma_t anti-parallel to the slip
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with
 
 __all__ = ["friction_checks", "read_back_friction"]
@@ -27,8 +32,8 @@ def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
     """The friction cone, stick-slip and slip-direction checks (module docstring) of row forces ``mu``, slips
     ``slip`` ((r,) in 2D, (r, 2) in 3D: |.| the Euclidean norm of a row, the slip direction
     (|mu_a| |s_a| - mu_a . s_a) / 2, which is (-mu_a s_a)^+ in 2D and vanishes only where mu_a is parallel to s_a)
-    and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the largest normal row force
-    (scaled)."""
+    and capacities ``capacity`` (scaled), ``U`` the displacement scale and ``Y`` the normal rows' force scale
+    (scaled; :func:`~cvxcontact.backends.finish.forces.friction_scale`)."""
     tiny = np.finfo(float).tiny
     C = max(float(np.max(capacity, initial=0.0)), float(Y), tiny)
     CU = max(C * U, tiny)
@@ -66,7 +71,7 @@ def read_back_friction(problem, raw, sol) -> None:
     Ety, Tmu = E.T @ raw.y, Es.T @ mu
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
-    equilibrium = equilibrium_with(blocks, u, phi, Ety, forces)
+    equilibrium = equilibrium_with(blocks, u, phi, Ety, forces, at_rest=True)
     for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
         modes = body.held_modes(problem.meshes[k])
         if len(modes):
@@ -79,7 +84,7 @@ def read_back_friction(problem, raw, sol) -> None:
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
-                                  float(np.max(raw.y, initial=0.0))))
+                                  friction_scale(blocks, E, Es, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
     def threshold(law, contact):

@@ -68,6 +68,24 @@ def reach_forces(blocks, E, u, phi=None):
     return sum((abs(E @ b.jump) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(E.shape[0]))
 
 
+def slip_reach(blocks, Es, u, phi=None):
+    """The size of the elastic forces at each slip row's unknowns, sum_l |Es T_l| (|Kuu_l| |u_l| + |Kup_l|
+    |phi_l|) (scaled forces; ``Es`` the slip rows, T_l body l's tangential jump ``slip``): :func:`reach_forces`
+    for the tangential rows of a friction law."""
+    return sum((abs(Es @ b.slip) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(Es.shape[0]))
+
+
+def friction_scale(blocks, E, Es, u, phi, y, capacity) -> float:
+    """C = max(max c_a, :func:`force_scale`): the force scale of a friction law's rows (the finish's and the
+    checks'), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR` of the
+    largest elastic force at the unknowns of the normal rows ``E`` (:func:`reach_forces`) and of the slip rows
+    ``Es`` (:func:`slip_reach`). With the contact open and capacities mu y_a (Coulomb) or g = 0 the capacities and
+    forces are 0 or rounding: the tangential forces' rounding is then measured against the elastic forces there,
+    not against nothing (docs/howto/friction.md, "What is checked")."""
+    reach = np.concatenate([reach_forces(blocks, E, u, phi), slip_reach(blocks, Es, u, phi)])
+    return max(float(np.max(capacity, initial=0.0)), force_scale(y, reach))
+
+
 FORCE_FLOOR = 1e-6
 """The largest contact force Y is floored at this fraction of the largest elastic force at the contact rows
 (:func:`reach_forces`) where it normalises the forces (the active rows of an interior point, the

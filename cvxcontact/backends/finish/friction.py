@@ -24,6 +24,18 @@ it only halved the residual at every step (a box pushed across a rigid plane: 3e
 Not in 2D, where a set already solved that comes back ends the steps as a cycle: there the full steps to new sets
 cycled where the damped ones settle (a 2D P2 pair under "sigma1" with Tresca friction, tests/test_tresca.py).
 
+The residual is scaled: the momentum rows over the sizes of their terms, at least those had every unknown been
+the largest (|T_i| max|x|: a body at rest beside one that moves, e.g. the clamped lower block of a pair that
+opens, has rows whose own terms are the rounding of the coupled solve), the normal and friction rows over the force
+scale C (:func:`~cvxcontact.backends.finish.forces.friction_scale`: floored at the elastic forces at the rows, so an
+open contact whose Coulomb capacities are 0 has a scale). A repeated active set ends the steps where the step
+solved it (2D), or where the residual is at rounding (SIGN_TOL) and no longer halves.
+
+No data: with no load (b = 0), no prescribed slip (s0 = 0) and no interference (g >= 0 on the rows some unknown
+moves), x = 0, y = 0, mu = 0 satisfies every condition, and is the answer (the interior point's is its noise). The
+scaled residual is relative, so the steps could not tell that noise from the answer: the finish answers 0 at once,
+its rows at zero gap closed with no force.
+
 Degenerate rows: a row may carry no force at no gap and no slip in the answer itself (strict complementarity
 fails). With P2 tetrahedra's nodal rows under a uniform pressure and shear the consistent forces vanish at the
 face vertices (0 there, A/3 per face at an edge midpoint): y_a = 0, G_a x = g_a, mu_a = 0, s_a = 0, and Coulomb's
@@ -42,19 +54,20 @@ determine mu_a,j: it takes its least value, mu_a,j = 0 (the value a slipping row
 there), the row's stuck condition the slip of its moved component alone. Where the fixed component's prescribed
 slip s0_a,j is not 0 the row cannot stick: its law is mu_a = c_a t_a at every point.
 
-Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows
-than the jump's degrees of freedom, docs/formulation.md §13): the closed normal rows and the stuck rows' slip
-rows may be linearly dependent, and the forces on them are then not unique ((26) fixes only their resultant).
-Each step keeps a maximal independent subset of them, the rows with the largest forces (normal rows) and the
-largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the unit rows so
-weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that they keep the
-interior point's share and the independent rows carry the correction. The steps move x onto the same affine set
-(a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and the
-residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
-row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities
-mu y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to
-change sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying
-a small force): the full step to a new active set is taken (above) if that set was not met before.
+Dependent rows (3D "gamma3" between two bodies whose faces do not match: one row per overlay vertex, more rows than
+the jump's degrees of freedom, docs/formulation.md §13; or rows of two pairs acting on one unknown, a floor and a
+wall sharing a corner node, whose floor row's slip and wall row move the same displacement): the closed normal rows
+and the stuck rows' slip rows may be linearly dependent, and the forces on them are then not unique ((26) fixes
+only their resultant). Each step keeps a maximal independent subset of them, the rows with the largest forces
+(normal rows) and the largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the
+unit rows so weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that
+they keep the interior point's share and the independent rows carry the correction. The steps move x onto the same
+affine set (a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and
+the residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
+row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities mu
+y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to change
+sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying a small
+force): the full step to a new active set is taken (above) if that set was not met before.
 """
 
 from __future__ import annotations
@@ -136,6 +149,8 @@ class _System:
         self.C, self.U = scales
         self.r = self.C / self.U
         self.absT, self.absG, self.absS = abs(T), abs(G), abs(fr.S)
+        self.reach = np.asarray(self.absT.sum(axis=1)).ravel()
+        """|T_i| 1: a momentum row's terms were every unknown at the largest (:meth:`residual`)."""
         self.dependent = bool(dependent)
         self._frozen = {}
 
@@ -198,6 +213,7 @@ class _System:
         flat = mu.ravel()
         mom = self.T @ x - self.b + self.G.T @ y + self.fr.S.T @ flat
         size = self.absT @ np.abs(x) + np.abs(self.b) + self.absG.T @ np.abs(y) + self.absS.T @ np.abs(flat)
+        size = np.maximum(size, self.reach * float(np.abs(x).max(initial=0.0)))   # a row whose unknowns rest
         mom = mom / np.maximum(size, np.finfo(float).tiny + 1e-300 * size.max(initial=0.0))
         normal = np.where(closed, self.r * (self.G @ x - self.g), y) / self.C
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
@@ -243,6 +259,21 @@ class _System:
         return -np.concatenate([mom, normal, tang.ravel()])
 
 
+def _broken(merit, closed_forces, open_gaps, over, stick_slip, turned) -> str:
+    """The first of the finish's acceptance conditions (:func:`solve_friction`) that the answer breaks at
+    :data:`~cvxcontact.backends.finish.lcp.SIGN_TOL`, in words with its size ('' if none): the scaled residual,
+    a tension on a closed row, a penetration of an open one (both over the scales), a force outside the cone, a
+    stick-slip or slip-direction product (over C U)."""
+    tests = [("the scaled residual", np.array([merit])), ("a tension on a closed row", -closed_forces),
+             ("a penetration of an open row", open_gaps), ("a force outside the friction cone", over),
+             ("a row that slips below its capacity", stick_slip), ("a force not against the slip", turned)]
+    for words, v in tests:
+        worst = float(np.max(v, initial=-np.inf))
+        if worst > SIGN_TOL:
+            return f"{words}, {worst:.2g} of the scales"
+    return ""
+
+
 def _key(state) -> tuple:
     """The active set of a state (closed normal rows, stuck friction rows) as a hashable key."""
     return state[0].tobytes(), state[1].tobytes()
@@ -262,7 +293,12 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     penetration of an open one, a force outside the cone, a slip not along its force). ``max_steps``: default
     :data:`MAX_STEPS`; ``dependent``: the rows may be linearly dependent (3D "gamma3" pairs; module docstring)."""
     max_steps = MAX_STEPS if max_steps is None else max_steps
-    system = _System(T, b, G, g, fr, np.asarray(free, dtype=bool), scales, dependent)
+    free = np.asarray(free, dtype=bool)
+    if not np.any(b) and not np.any(fr.s0) and (g[free] >= 0).all():
+        # no load, no prescribed slip, no interference: x = 0, y = 0, mu = 0 satisfies every condition (module
+        # docstring, "No data"); the scaled residual has no scale there (the interior point's noise)
+        return np.zeros(T.shape[0]), np.zeros(G.shape[0]), np.zeros((len(fr.rows), fr.nc)), free & (g == 0), 0
+    system = _System(T, b, G, g, fr, free, scales, dependent)
     w = np.concatenate([x0, np.where(free, y0, 0.0), np.asarray(mu0, dtype=float).ravel()])
     state = system.state(w)
     merit = np.linalg.norm(system.residual(w, state))
@@ -296,8 +332,10 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         w, merit_old, merit = trial, merit, new
         state = system.state(w)
         same = _key(state) == key
-        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0) or merit >= 0.5 * merit_old):
-            settled = True         # the set repeats, and the step solved it (2D) or no longer halves the residual
+        if same and (merit == 0.0 or (fr.nc == 1 and alpha == 1.0)
+                     or (merit >= 0.5 * merit_old and merit <= SIGN_TOL)):
+            settled = True         # the set repeats, and the step solved it (2D) or no longer halves a residual
+            #                        at rounding
             break
         seen.add(key)
         if not same and fr.nc == 1 and _key(state) in seen:
@@ -311,10 +349,8 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
     a, norm_s = np.linalg.norm(mu, axis=1), np.linalg.norm(s, axis=1)
     gap = G @ x - g
     turned = a * norm_s - np.einsum("ij,ij->i", mu, s)
-    bad = (merit > SIGN_TOL or (y[closed] < -SIGN_TOL * C).any() or (gap[free & ~closed] > SIGN_TOL * U).any()
-           or (a[fr.moved] > c[fr.moved] + SIGN_TOL * C).any()
-           or (np.abs(c - a)[fr.moved] * norm_s[fr.moved] > SIGN_TOL * C * U).any()
-           or (turned[fr.moved] > SIGN_TOL * C * U).any())
-    if bad:
-        return Declined(Stop.SIGNS)
+    broken = _broken(merit, y[closed] / C, gap[free & ~closed] / U, ((a - c) / C)[fr.moved],
+                     (np.abs(c - a) * norm_s / (C * U))[fr.moved], (turned / (C * U))[fr.moved])
+    if broken:
+        return Declined(Stop.SIGNS, f"{Stop.SIGNS.value}: {broken}")
     return x, y, mu, closed, steps

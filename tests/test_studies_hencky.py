@@ -78,7 +78,7 @@ def test_the_reference_measures_in_the_linear_energy_norm():
     linear = convergence.Reference("smooth", 8, 2, "sigma1", "auto")
     for a, b in zip(hencky.mats, linear.mats):
         assert abs(a.Kuu - b.Kuu).max() <= 1e-14 * abs(b.Kuu).max()
-    assert linear.errors(hencky.sol)["energy"] > 1e-2         # measured 0.16: the yielding is seen
+    assert linear.errors(hencky.sol)["energy"] > 1e-2         # measured 0.094: the yielding is seen
 
 
 @pytest.mark.numerics

@@ -70,6 +70,25 @@ def test_convergence_rows(stem, kind):
                 agree(old, fresh, rel=1e-6, where=f"{kind} P{degree} {condition} n={n}")
 
 
+@pytest.mark.numerics
+def test_convergence_hencky_rows():
+    """The Hencky lower block (study convergence_hencky): P1 n = 8, 16 and P2 n = 4, 8 of every measured case: dofs,
+    active nodes, ``ok``, the route, the plastic zone (counts exact, its area share to 1e-6) and the largest
+    penetration (<= 1e-12 apart), as :func:`test_convergence_rows`."""
+    from cvxcontact.apps.studies import convergence_hencky as study
+    from cvxcontact.apps.studies.convergence import level
+
+    rows = committed("convergence_hencky")
+    for degree, condition in study.CASES:
+        for n in {1: (8, 16), 2: (4, 8)}[degree]:
+            fresh, sol = level(study.SCENE, degree, condition, n, study.METHOD, study.HENCKY)
+            fresh.update(study._columns(sol))
+            old = find(rows, scene=study.SCENE, degree=degree, condition=condition, n1=n)
+            checks = fresh.pop("checks_max")
+            assert float(old["checks_max"]) < 1e-6 and checks < 1e-6
+            agree(old, fresh, rel=1e-6, where=f"hencky P{degree} {condition} n={n}")
+
+
 def test_stability_inf_sup_rows():
     """The discrete inf-sup constants of the coarse rows (P1 n1 = 8 at 1:1 ... 1:5, the nearly coincident
     nodes, P2 8:8 and 8:17). beta = sqrt of the smallest generalised eigenvalue, which is known to rounding

@@ -74,8 +74,8 @@ def _parser():
     sweep.add_argument("--export-problem", action="store_true",
                        help="also write each case's conic problem data (P, q, A, b, cones) to cases/<id>.problem.npz")
     study = sub.add_parser("study", help="verification studies: CSV, PNG and a Markdown summary")
-    study.add_argument("name", choices=("convergence", "speed", "stability", "hertz", "hertz3d", "hertz3d_elastic",
-                                         "estimate", "adapt", "bound", "all"))
+    study.add_argument("name", choices=("convergence", "convergence_hencky", "speed", "stability", "hertz", "hertz3d",
+                                         "hertz3d_elastic", "estimate", "adapt", "bound", "all"))
     study.add_argument("--out", required=True, help="output folder")
     study.add_argument("--quick", action="store_true", help="reduced version (about a minute on 2 cores)")
     study.add_argument("--profile", action="store_true",

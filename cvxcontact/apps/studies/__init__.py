@@ -6,4 +6,5 @@ PNG figure(s) and a Markdown summary into ``out``; ``cvxcontact study NAME`` cal
 ``quick=True`` is a reduced version (about a minute on 2 cores) that the test suite runs.
 """
 
-STUDIES = ("hertz", "convergence", "speed", "stability", "hertz3d", "hertz3d_elastic", "estimate", "adapt", "bound")
+STUDIES = ("hertz", "convergence", "convergence_hencky", "speed", "stability", "hertz3d", "hertz3d_elastic", "estimate",
+           "adapt", "bound")

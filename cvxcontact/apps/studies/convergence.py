@@ -46,23 +46,42 @@ from pathlib import Path
 
 import numpy as np
 
+from ...contact.interface import CONDITIONS
 from ...errors import SceneError
-from ...physics import materials
 from ...fem.space import space
 from ...fem.trace import TRACES
-from ...contact.interface import CONDITIONS
 from ...geometry.mesh import rectangle
+from ...physics import materials
+from ...physics.materials import Elastic
 from ...physics.scene import Body, Scene
-from .common import DEGREES, Timer, markdown_table, solve_quietly, pyplot, save_figure, slope, write_csv, write_text
+from .common import (
+    DEGREES,
+    Timer,
+    markdown_table,
+    pyplot,
+    save_figure,
+    slope,
+    solve_quietly,
+    write_csv,
+    write_text,
+)
 
 THEOREM = {"gamma3": ("Th. 1", 1.0), "sigma1": ("Th. 2", 0.75), "sigma2": ("Th. 2", 0.75)}
 
+ALUMINIUM = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+"""The lower block's material (E = 70 GPa, nu = 0.3)."""
 
-def scene(kind: str, n1: int, n2: int) -> Scene:
+CASES = tuple((degree, condition) for degree in DEGREES for condition in CONDITIONS)
+"""The (degree, condition) pairs the study solves at every level: both degrees, the three conditions."""
+
+
+def scene(kind: str, n1: int, n2: int, material: Elastic = ALUMINIUM) -> Scene:
     """The study's scene ``kind`` with ``n1`` cells on the upper body's contact side, ``n2`` on the lower's.
 
     Both blocks are 1 m x 0.5 m (upper PZT-5A, poled along y, clamped and grounded on top; lower
-    aluminium, clamped at the bottom), Gamma_3 = [0, 1] x {0}.
+    ``material``, aluminium by default, clamped at the bottom), Gamma_3 = [0, 1] x {0}. ``material`` may be a
+    nonlinear material (:func:`~cvxcontact.physics.materials.hencky`: the paper's nonlinear A; the study
+    ``convergence_hencky``).
 
     * ``"hertzian"``: the parabolic gap g(x) = (x - 1/2)^2 / 2 - 0.05 m (an interference of 0.05 m
       at x = 1/2) closes on an interior zone; lateral sides free.
@@ -90,7 +109,7 @@ def scene(kind: str, n1: int, n2: int) -> Scene:
     """
     upper = rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=n1, ny=max(2, n1 // 2))
     lower = rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=n2, ny=max(2, n2 // 2))
-    alu = materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    alu = material
     if kind == "hertzian":
         b1 = Body(upper, materials.PZT5A, clamped=["top"], grounded=["top"], contact="bottom")
         b2 = Body(lower, alu, clamped=["bottom"], contact="top")
@@ -174,13 +193,15 @@ class Reference:
     multiplier space but the conic one is the conforming one (K_h(Gamma_3) is inside K when the
     gap is piecewise quadratic: g = 0 or a parabola here), and P2 is a higher order than either
     degree it is compared with. Errors of P1 and P2 solutions are measured on the reference's P2
-    nodes with its P2 matrices.
+    nodes with its P2 matrices (for a nonlinear lower ``material``, its tangent at zero strain).
+    ``condition``, ``method``: another condition and route (a nonlinear material: "sigma1" by the
+    Newton route, where the conic condition is refused); ``material``: the lower block's.
     """
 
-    def __init__(self, kind, n, degree=2):
-        self.degree = degree
-        self.scene = scene(kind, n, n)
-        self.sol = solve_quietly(self.scene, "gamma3", method="condensed", degree=degree)
+    def __init__(self, kind, n, degree=2, condition="gamma3", method="condensed", material=ALUMINIUM):
+        self.degree, self.condition = degree, condition
+        self.scene = scene(kind, n, n, material)
+        self.sol = solve_quietly(self.scene, condition, method=method, degree=degree)
         element = space(degree, self.scene.cell)
         self.mats = [element.assemble_matrices(b, element.nodes(b)) for b in self.scene.bodies]
         self.points = [element.node_set(b.mesh).points for b in self.scene.bodies]
@@ -276,12 +297,14 @@ def run(out, quick=False, progress=None, scenes=SCENES):
     return result
 
 
-def level(kind: str, degree: int, condition: str, n: int) -> tuple[dict, object]:
+def level(kind: str, degree: int, condition: str, n: int, method: str = "condensed",
+          material: Elastic = ALUMINIUM) -> tuple[dict, object]:
     """One level of the study without the reference: the row's columns that need no reference (``scene`` ...
-    ``h``, ``dofs``, ``penetration``, ``active``, ``ok``, ``checks_max``, ``seconds``) and the solution."""
+    ``h``, ``dofs``, ``penetration``, ``active``, ``ok``, ``checks_max``, ``seconds``) and the solution
+    (solved by ``method``, the lower block of ``material``)."""
     n2 = 3 * n // 4 + 1
     clock = Timer()
-    sol = solve_quietly(scene(kind, n, n2), condition, method="condensed", degree=degree)
+    sol = solve_quietly(scene(kind, n, n2, material), condition, method=method, degree=degree)
     seconds = clock()
     dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
     return dict(scene=kind, degree=degree, condition=condition, n1=n, n2=n2, h=1.0 / n, dofs=dofs,
@@ -289,38 +312,48 @@ def level(kind: str, degree: int, condition: str, n: int) -> tuple[dict, object]
                 checks_max=max(sol.residuals().values()), seconds=seconds), sol
 
 
-def _measure(kinds, levels, n_ref, say, check_reference=False):
+def _no_columns(sol) -> dict:
+    return {}
+
+
+def _measure(kinds, levels, n_ref, say, check_reference=False, cases=CASES, reference=None, method="condensed",
+             material=ALUMINIUM, extra=_no_columns):
     """Errors and rates of every (scene, degree, condition, level) against the scene's reference; with
-    ``check_reference``, also the errors of the reference at n_ref / 2 against the one at n_ref."""
+    ``check_reference``, also the errors of the reference at n_ref / 2 against the one at n_ref.
+    ``cases``: the (degree, condition) pairs solved; ``reference``: the reference's (degree, condition)
+    (default P2 "gamma3"); ``method``, ``material``: the levels' and the reference's route and lower material;
+    ``extra(sol)``: more columns of a level's row (and of the reference check's, for the reference)."""
     rows, rates, checks = [], [], []
+    rdeg, rcond = reference or (2, "gamma3")
+    tag = f"P{rdeg} {rcond}"
     for kind in kinds:
         clock = Timer()
-        ref = Reference(kind, n_ref)
-        say(f"convergence {kind}: reference P2 gamma3 n = {n_ref} ({clock():.1f} s)")
+        ref = Reference(kind, n_ref, rdeg, rcond, method, material)
+        say(f"convergence {kind}: reference {tag} n = {n_ref} ({clock():.1f} s)")
         if check_reference:
-            half = Reference(kind, n_ref // 2)
+            half = Reference(kind, n_ref // 2, rdeg, rcond, method, material)
             checks.append(dict(scene=kind, n_ref=n_ref, n_check=n_ref // 2, **ref.errors(half.sol),
-                               checks_max=max(ref.sol.residuals().values()), ok=ref.sol.ok))
-            say(f"  reference check: P2 gamma3 n = {n_ref // 2} against n = {n_ref}: energy "
+                               checks_max=max(ref.sol.residuals().values()), ok=ref.sol.ok,
+                               **{f"{k}_ref": v for k, v in extra(ref.sol).items()}))
+            say(f"  reference check: {tag} n = {n_ref // 2} against n = {n_ref}: energy "
                 f"{checks[-1]['energy']:.2e}")
             del half
-        for degree in DEGREES:
-            for condition in CONDITIONS:
-                for n in levels[degree]:
-                    row, sol = level(kind, degree, condition, n)
-                    head = {k: row[k] for k in ("scene", "degree", "condition", "n1", "n2", "h", "dofs")}
-                    tail = {k: row[k] for k in ("penetration", "active", "ok", "checks_max", "seconds")}
-                    rows.append(dict(head, **ref.errors(sol), **tail))
-                sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition and r["degree"] == degree]
-                keys = ("energy", "lam_l2", "lam_h12", "traction_l2")
-                rate = {k: slope([r["h"] for r in sub], [r[k] for r in sub]) for k in keys}
-                last = {k: slope([r["h"] for r in sub[-2:]], [r[k] for r in sub[-2:]]) for k in keys}
-                theorem, bound = theorem_rates(condition, degree)
-                rates.append(dict(scene=kind, degree=degree, condition=condition, theorem=theorem, theorem_rate=bound,
-                                  **{f"rate_{k}": v for k, v in rate.items()},
-                                  **{f"last_{k}": v for k, v in last.items()}))
-                say(f"  P{degree} {condition}: energy rate {rate['energy']:.2f} (last pair {last['energy']:.2f}), "
-                    f"lambda H^-1/2_h rate {rate['lam_h12']:.2f}")
+        for degree, condition in cases:
+            for n in levels[degree]:
+                row, sol = level(kind, degree, condition, n, method, material)
+                head = {k: row[k] for k in ("scene", "degree", "condition", "n1", "n2", "h", "dofs")}
+                tail = {k: row[k] for k in ("penetration", "active", "ok", "checks_max", "seconds")}
+                rows.append(dict(head, **ref.errors(sol), **tail, **extra(sol)))
+            sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition and r["degree"] == degree]
+            keys = ("energy", "lam_l2", "lam_h12", "traction_l2")
+            rate = {k: slope([r["h"] for r in sub], [r[k] for r in sub]) for k in keys}
+            last = {k: slope([r["h"] for r in sub[-2:]], [r[k] for r in sub[-2:]]) for k in keys}
+            theorem, bound = theorem_rates(condition, degree)
+            rates.append(dict(scene=kind, degree=degree, condition=condition, theorem=theorem, theorem_rate=bound,
+                              **{f"rate_{k}": v for k, v in rate.items()},
+                              **{f"last_{k}": v for k, v in last.items()}))
+            say(f"  P{degree} {condition}: energy rate {rate['energy']:.2f} (last pair {last['energy']:.2f}), "
+                f"lambda H^-1/2_h rate {rate['lam_h12']:.2f}")
     return rows, rates, checks
 
 
@@ -375,6 +408,10 @@ def _write(out, stem, kinds, rows, rates, levels, n_ref, checks=()):
         write_csv(out / f"{stem}_reference.csv", list(checks))
 
 
+LINES = {1: "-", 2: "--"}
+"""The figures' line style of each degree."""
+
+
 def _figure(rows, rates, path, kinds=("hertzian", "partial")):
     plt = pyplot()
     fig, axes = plt.subplots(3, len(kinds), figsize=(6 * len(kinds), 12), layout="constrained", sharex=True,
@@ -385,14 +422,12 @@ def _figure(rows, rates, path, kinds=("hertzian", "partial")):
                                           ("lam_h12", r"$\lambda_h$ in the mesh-dependent $H^{-1/2}$ norm"),
                                           ("traction_l2", r"relative $L^2$ error, pressure on the upper body"))):
             ax = axes[j, i]
-            for degree, line in ((1, "-"), (2, "--")):
-                for condition in CONDITIONS:
-                    sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition
-                           and r["degree"] == degree]
-                    rate = next(r for r in rates if r["scene"] == kind and r["condition"] == condition
-                                and r["degree"] == degree)[f"rate_{key}"]
-                    ax.loglog([r["h"] for r in sub], [r[key] for r in sub], marks[condition] + line, ms=4,
-                              label=f"P{degree} {condition} (slope {rate:.2f})")
+            for case in (r for r in rates if r["scene"] == kind):
+                degree, condition = case["degree"], case["condition"]
+                sub = [r for r in rows if r["scene"] == kind and r["condition"] == condition
+                       and r["degree"] == degree]
+                ax.loglog([r["h"] for r in sub], [r[key] for r in sub], marks[condition] + LINES[degree], ms=4,
+                          label=f"P{degree} {condition} (slope {case[f'rate_{key}']:.2f})")
             if key == "energy":
                 h = np.array(sorted({r["h"] for r in rows}))
                 e0 = min(r[key] for r in rows if r["scene"] == kind and r["h"] == h[0])

@@ -179,15 +179,15 @@ class StrainEnergy:
             cols, r = cols[first], len(first)
             i, j = np.broadcast_to(cols[:, :, None], (r, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (r, k, k)).ravel()
             valid = (i >= 0) & (j >= 0)
-            key = np.where(valid, i * n + j, n * n)                 # padding sorts last
-            order, ordered = _sorted(key, n * n)
-            new = np.concatenate([[True], ordered[1:] != ordered[:-1]])
-            place = np.empty(len(key), dtype=np.int64)
-            place[order] = np.cumsum(new) - 1                      # the pair's place among the distinct pairs
-            unique = ordered[new]
-            unique = unique[unique < n * n]
-            self._shape = sp.csr_matrix((np.ones(len(unique)), unique % n, np.searchsorted(unique // n, np.arange(
-                n + 1))), shape=(n, n))
+            i, j = i[valid], j[valid]
+            shape = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))      # the distinct pairs, sorted
+            shape.sum_duplicates()
+            shape.data[:] = 1.0
+            index = sp.csr_array((np.arange(1, shape.nnz + 1, dtype=float), shape.indices, shape.indptr),
+                                 shape=(n, n))                      # each pair's place (+1) in the CSR data
+            place = np.full(len(valid), shape.nnz, dtype=np.int64)   # padding: one place past the end
+            place[valid] = np.asarray(index[i, j], dtype=np.int64).ravel() - 1
+            self._shape = shape
             self._scatter = (B, place.reshape(r, k * k), first, of)
         return self._scatter
 
@@ -268,17 +268,6 @@ class StrainEnergy:
             norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
             energy = energy + m.mu * (1.0 - m.h) * (self.w @ cp.huber(norms, s_y))
         return energy - self.d @ z
-
-
-def _sorted(key: np.ndarray, largest: int) -> tuple[np.ndarray, np.ndarray]:
-    """(order, key[order]) of non-negative integer keys up to ``largest``: one sort of the key and its index packed
-    in one int64 where they fit (a plain sort is several times faster than an argsort), else an argsort."""
-    bits = max(int(len(key) - 1).bit_length(), 1)
-    if int(largest).bit_length() + bits <= 62:
-        packed = np.sort((key.astype(np.int64) << bits) | np.arange(len(key), dtype=np.int64))
-        return packed & ((1 << bits) - 1), packed >> bits
-    order = np.argsort(key, kind="stable")
-    return order, key[order]
 
 
 def bulk_energy(system, un, Kuu) -> BulkEnergy:

@@ -119,8 +119,9 @@ class StrainEnergy:
 
     quadratic = False
 
-    def __init__(self, system, un):
+    def __init__(self, system, un, stiffness: sp.spmatrix | None = None):
         S = system.strain
+        self._stiffness = stiffness                                  # the scaled T_u^T Kuu T_u, if assembled
         self.material, self.load = system.material, un.load
         self.A = (S @ system.Tu).tocsr() * un.length                 # eps / s = A z + e0 (dimensionless)
         self.e0 = S @ system.u_fixed / un.load
@@ -206,7 +207,7 @@ class StrainEnergy:
         H0, C0 = self._initial()
         eps = self._state(z)[0]
         # (a material without a secant, whose tangent takes no ``secant``, is asked for its tangent only)
-        C = self.material.tangent(eps, self.dim, secant=True) if secant else self.material.tangent(eps, self.dim)
+        C = self.material.tangent(eps, self.dim, secant=True) if secant else self._tangent(z)
         changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
         H = H0.copy()
         if len(changed):
@@ -221,10 +222,16 @@ class StrainEnergy:
         return H
 
     def _initial(self):
-        """(H_0, C_0): the Hessian with the tangent at zero strain C_0 at every point, on :meth:`pattern`, and C_0."""
+        """(H_0, C_0): the Hessian with the tangent at zero strain C_0 at every point, on :meth:`pattern`, and C_0:
+        the assembled stiffness where it is given on that pattern (:meth:`_assembled`; measured, 2D P2 at 103,362
+        unknowns: 0.6 s CPU of the point-by-point sums saved), else summed point by point."""
         if getattr(self, "_zero", None) is None:
             B, place, _, of = self._local()
             C0 = self.material.tangent(np.zeros((1, self.s)), self.dim)[0]
+            H = self._assembled()
+            if H is not None:
+                self._zero = (H, C0)
+                return self._zero
             order = np.argsort(of, kind="stable")                                   # each group's points together
             local = np.einsum("qak,ab,qbl->qkl", B[order], C0, B[order], optimize=True) * self.w[order, None, None]
             starts = np.flatnonzero(np.concatenate([[True], of[order][1:] != of[order][:-1]]))
@@ -234,20 +241,53 @@ class StrainEnergy:
             self._zero = (H, C0)
         return self._zero
 
+    def _assembled(self):
+        """H_0 as the assembled stiffness (:class:`~cvxcontact.discrete.blocks.Block`'s scaled T_u^T Kuu T_u,
+        assembled with the material's tangent at zero strain ``c`` at the same quadrature points: the same sums
+        as :meth:`_initial`'s point by point, to rounding), if it is stored on exactly :meth:`pattern`; else None."""
+        if self._stiffness is None:
+            return None
+        K = sp.csr_matrix(self._stiffness, copy=True)
+        K.sum_duplicates()
+        K.sort_indices()
+        self._local()
+        shape = self._shape
+        if K.shape != shape.shape or not (np.array_equal(K.indptr, shape.indptr)
+                                          and np.array_equal(K.indices, shape.indices)):
+            return None
+        H = shape.copy()
+        H.data = np.asarray(K.data, dtype=float)
+        return H
+
     def magnitude(self, z):
         sigma = np.abs(self._state(z)[1]) * self.w[:, None]
-        return abs(self.A).T @ sigma.ravel() / self.load + np.abs(self.d)
+        return self._absolute().T @ sigma.ravel() / self.load + np.abs(self.d)
+
+    def _absolute(self):
+        """|A| (entrywise), built once."""
+        if getattr(self, "_abs_A", None) is None:
+            self._abs_A = abs(self.A).tocsr()
+        return self._abs_A
+
+    def _tangent(self, z) -> np.ndarray:
+        """The material's tangent (q, s, s) at the points' strains at ``z``, that of the last ``z`` asked kept (the
+        Newton steps ask it of the same point for the step's floor, :meth:`rounding`, and the next tangent)."""
+        eps = self._state(z)[0]
+        last = getattr(self, "_last_tangent", None)
+        if last is not None and last[0] is eps:
+            return last[1]
+        C = self.material.tangent(eps, self.dim)
+        self._last_tangent = (eps, C)
+        return C
 
     def rounding(self, z):
         """|A|^T (w |C| (|A| |z| + |e0|)) + |d|, point by point (C the material's tangent at the points' strains):
         the gradient sums its terms at each quadrature point before any cancels. A large rigid translation's
         strains A z cancel to rounding within each point's row of A, and the stresses carry that rounding; the
         assembled |H| |z| (H = A^T w C A) misses it wherever the points' contributions to an entry of H cancel."""
-        if getattr(self, "_abs_A", None) is None:
-            self._abs_A = abs(self.A).tocsr()
-        C = np.abs(self.material.tangent(self.strains(z), self.dim)) * self.w[:, None, None]
-        e = (self._abs_A @ np.abs(z) + np.abs(self.e0)).reshape(-1, self.s)
-        return self._abs_A.T @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
+        C = np.abs(self._tangent(z)) * self.w[:, None, None]
+        e = (self._absolute() @ np.abs(z) + np.abs(self.e0)).reshape(-1, self.s)
+        return self._absolute().T @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
 
     def expression(self, z):
         """K/2 (tr eps)^2 + mu (h |dev eps|^2 + (1 - h) huber(|dev eps|, s_y)) summed with the weights: second-order
@@ -274,4 +314,4 @@ def bulk_energy(system, un, Kuu) -> BulkEnergy:
     """The scaled bulk energy of a body: :class:`StrainEnergy` if its system carries quadrature points (a
     non-quadratic material, :attr:`~cvxcontact.fem.assembly.BodySystem.strain`), else :class:`Quadratic` of
     ``Kuu`` (scaled)."""
-    return Quadratic(Kuu) if system.strain is None else StrainEnergy(system, un)
+    return Quadratic(Kuu) if system.strain is None else StrainEnergy(system, un, Kuu)

@@ -153,7 +153,8 @@ class TangentSolver:
         frame = sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(N, N))   # the fixed pattern
         frame.sort_indices()
         self._indices, self._indptr = frame.indices, frame.indptr
-        self._keys = np.repeat(np.arange(N, dtype=np.int64), np.diff(frame.indptr)) * N + frame.indices
+        self._index = sp.csr_matrix((np.arange(1, frame.nnz + 1, dtype=float), frame.indices, frame.indptr),
+                                    shape=(N, N))          # the CSC frame read as CSR: (col, row) -> place + 1
         at = self._at                                            # where each coupling and row diagonal sits
         self._G = (Gc.row, Gc.data, at(n + Gc.row, Gc.col), at(Gc.col, n + Gc.row), at(n + np.arange(m),
                                                                                      n + np.arange(m)))
@@ -168,7 +169,7 @@ class TangentSolver:
 
     def _at(self, rows, cols):
         """The places of the entries (rows, cols) in the data of the fixed pattern (CSC, sorted)."""
-        return np.searchsorted(self._keys, np.asarray(cols, dtype=np.int64) * (self.n + self.m) + rows)
+        return np.asarray(self._index[np.asarray(cols), np.asarray(rows)], dtype=np.int64).ravel() - 1
 
     def matrix(self, K, at) -> sp.csc_matrix:
         """The system of every row for the tangent block ``K`` (n x n) and the closed rows ``at``, on the pattern."""
@@ -189,7 +190,7 @@ class TangentSolver:
             self._found = (K.indptr.copy(), K.indices.copy(), places)
         gr, gv, lower, upper, diagonal = self._G
         on = np.asarray(at, dtype=bool)
-        data = np.zeros(len(self._keys))
+        data = np.zeros(self._index.nnz)
         data[places] = K.data
         data[lower] = data[upper] = np.where(on[gr], gv, 0.0)
         data[diagonal] = np.where(on, 0.0, -1.0)

@@ -243,9 +243,14 @@ class StrainEnergy:
 
     def _assembled(self):
         """H_0 as the assembled stiffness (:class:`~cvxcontact.discrete.blocks.Block`'s scaled T_u^T Kuu T_u,
-        assembled with the material's tangent at zero strain ``c`` at the same quadrature points: the same sums
-        as :meth:`_initial`'s point by point, to rounding), if it is stored on exactly :meth:`pattern`; else None."""
+        assembled with the material's moduli ``c`` at the same quadrature points: the same sums as :meth:`_initial`'s
+        point by point, to rounding), if ``c`` is the tangent at zero strain (to 1e-12) and the stiffness is stored
+        on exactly :meth:`pattern`; else None."""
         if self._stiffness is None:
+            return None
+        c = np.asarray(self.material.tensors(self.dim)[0], dtype=float)
+        C0 = self.material.tangent(np.zeros((1, self.s)), self.dim)[0]
+        if c.shape != C0.shape or np.abs(c - C0).max() > 1e-12 * np.abs(C0).max():
             return None
         K = sp.csr_matrix(self._stiffness, copy=True)
         K.sum_duplicates()

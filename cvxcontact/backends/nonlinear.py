@@ -38,7 +38,8 @@ from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
 
-__all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "SECANT", "TangentSolver", "compliance", "newton"]
+__all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "SECANT", "TangentSolver", "compliance",
+           "newton"]
 
 log = logging.getLogger(__name__)
 
@@ -130,10 +131,10 @@ class TangentSolver:
     matrix), from the last step's answer, inexact by :data:`FORCING` (a budget of iterations: ``krylov`` if given,
     else half what a factorisation is worth, at most :data:`KRYLOV`; after a step whose GMRES did not converge only
     near the answer, :data:`NEAR`, else not where the last answer is a worse start than none, :data:`FAR`), else
-    factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the answer is accepted only once every row's residual is
-    within 1e-14 of its terms (|A| |z| + |b|; the direct solve: or after three refinements), the direct solves'
-    accuracy, so the answers are the same to rounding (the steps far from it are inexact by
-    :data:`FORCING`/:data:`LOOSE`).
+    factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the
+    answer is accepted only once every row's residual is within 1e-14 of its terms (|A| |z| + |b|; the direct
+    solve: or after three refinements), the direct solves' accuracy, so the answers are the same to rounding (the
+    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
     ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations; ``exact``: the last
@@ -235,8 +236,8 @@ class TangentSolver:
         if self._last is not None and self._z is not None and self._budget:
             z0 = self._z.copy()                                  # the last step's answer, its open rows' y 0
             z0[n + np.flatnonzero(~at)] = 0.0
-            near = np.linalg.norm(bb - A @ z0) / max(np.linalg.norm(bb), tiny)
-            if self._budget >= CHEAP or near <= (NEAR if self._failed else FAR):
+            near = 0.0 if self._budget >= CHEAP else np.linalg.norm(bb - A @ z0) / max(np.linalg.norm(bb), tiny)
+            if near <= (NEAR if self._failed else FAR):
                 z = self._gmres(A, bb, at, settled, z0)
                 self._failed = z is None
             elif near > FAR:                                     # as if GMRES had failed (it does there)

@@ -265,6 +265,34 @@ def test_the_tangent_is_the_product_of_the_strain_map_and_the_moduli(case):
     assert np.array_equal(H_.indptr, bulk.pattern().indptr) and np.array_equal(H_.indices, bulk.pattern().indices)
 
 
+@pytest.mark.numerics
+@pytest.mark.parametrize("case", ["P1", "P2", "3D P1", "Q2"])
+def test_the_initial_tangent_is_the_assembled_stiffness_and_the_points_sum(case):
+    """The Hessian at zero strain, taken from the assembled stiffness (the block's T_u^T Kuu T_u, summed element by
+    element by the stiffness assembly) and summed point by point (a StrainEnergy given no stiffness), both equal
+    A^T diag(w C_0) A formed here by sparse products (C_0 the material's tangent at zero strain), on the pattern."""
+    material = cc.materials.hencky(E, NU, SIGMA_Y, H)
+    quad = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=5, ny=3, cell="quad"), material, clamped="bottom")
+    scene = {"P1": lambda: indented(material, nx=10, ny=4), "P2": lambda: indented(material, nx=6, ny=2),
+             "3D P1": lambda: sphere_pressed(material),
+             "Q2": lambda: cc.Scene(quad, contacts=[cc.Contact(quad, "top", cc.Rigid.circle((0.47, 1.097), 0.6))])
+             }[case]()
+    fem = {"P1": space(1), "P2": space(2), "3D P1": space(1, "tetra"), "Q2": space(2, "quad")}[case]
+    problem = build_problem(scene, fem, "gamma3" if case in ("P1", "3D P1") else "sigma1", cc.Signorini())
+    block = problem.blocks[0]
+    bulk, system = block.bulk, problem.systems[0]
+    points = type(bulk)(system, problem.units)                            # no stiffness: summed point by point
+    assert bulk._assembled() is not None and points._assembled() is None
+    C0 = bulk.material.tangent(np.zeros((1, bulk.s)), bulk.dim)[0]
+    expected = (bulk.A.T @ sp.block_diag([C0 * w for w in bulk.w], format="csr") @ bulk.A).toarray()
+    zero = np.zeros(bulk.A.shape[1])
+    for energy in (bulk, points):
+        H0 = energy.hessian(zero)
+        assert rel(H0.toarray(), expected) < 1e-13                        # measured <= 8.5e-16 (either way)
+        assert np.array_equal(H0.indptr, energy.pattern().indptr) and np.array_equal(H0.indices,
+                                                                                    energy.pattern().indices)
+
+
 def test_a_prepared_solver_refuses_a_hencky_material_with_other_constants():
     """The yield stress and the hardening ratio are geometry, not loads: a ContactSolver prepared for one Hencky
     material refuses a scene whose body has the same tangent c but another sigma_y or h (it was accepted and

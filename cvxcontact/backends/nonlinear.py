@@ -38,7 +38,8 @@ from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
 
-__all__ = ["CHEAP", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "SECANT", "TangentSolver", "compliance", "newton"]
+__all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "SECANT", "TangentSolver", "compliance",
+           "newton"]
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +89,12 @@ until the last step's answer z_0 nearly solves one, |b - A z_0| <= NEAR |b|: far
 changes at many points between steps (the plastic zone grows) and GMRES on the last factor took more iterations
 than a factorisation costs (2D P1, 26k unknowns: 14-24 iterations to 1e-4 there, 2-5 near the answer)."""
 
+FAR = 1.0
+"""Below :data:`CHEAP`, GMRES is not tried on a step whose start, the last step's answer z_0, is a worse start than
+none, |b - A z_0| > FAR |b|: the system moved far from the last factor's (the secant step after the elastic
+predictor's: 10 to 41 there, and GMRES failed on it in every case measured, 2D P1 at 3,250 to 103,362 unknowns and
+P2 at 103,362, after 2 to 5 iterations; 1e-12 to 0.57 at the other steps tried)."""
+
 CHEAP = 10
 """A GMRES budget of at least CHEAP iterations (:data:`KRYLOV`: a factorisation worth 20 solves or more, as in 3D)
 makes GMRES the first try at every step, even after one that did not converge, inexact by :data:`LOOSE` instead
@@ -123,11 +130,11 @@ class TangentSolver:
     Each system is first solved by GMRES preconditioned by the last numeric factorisation (of an earlier step's
     matrix), from the last step's answer, inexact by :data:`FORCING` (a budget of iterations: ``krylov`` if given,
     else half what a factorisation is worth, at most :data:`KRYLOV`; after a step whose GMRES did not converge only
-    near the answer, :data:`NEAR`), else factorised itself and solved, then refined (up to three steps against the
-    matrix itself). Either way the answer is accepted only once every row's residual is
-    within 1e-14 of its terms (|A| |z| + |b|; the direct solve: or after three refinements), the direct solves'
-    accuracy, so the answers are the same to rounding (the steps far from it are inexact by
-    :data:`FORCING`/:data:`LOOSE`).
+    near the answer, :data:`NEAR`, else not where the last answer is a worse start than none, :data:`FAR`), else
+    factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the
+    answer is accepted only once every row's residual is within 1e-14 of its terms (|A| |z| + |b|; the direct
+    solve: or after three refinements), the direct solves' accuracy, so the answers are the same to rounding (the
+    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
     ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations; ``exact``: the last
@@ -147,7 +154,8 @@ class TangentSolver:
         frame = sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(N, N))   # the fixed pattern
         frame.sort_indices()
         self._indices, self._indptr = frame.indices, frame.indptr
-        self._keys = np.repeat(np.arange(N, dtype=np.int64), np.diff(frame.indptr)) * N + frame.indices
+        self._index = sp.csr_matrix((np.arange(1, frame.nnz + 1, dtype=float), frame.indices, frame.indptr),
+                                    shape=(N, N))          # the CSC frame read as CSR: (col, row) -> place + 1
         at = self._at                                            # where each coupling and row diagonal sits
         self._G = (Gc.row, Gc.data, at(n + Gc.row, Gc.col), at(Gc.col, n + Gc.row), at(n + np.arange(m),
                                                                                      n + np.arange(m)))
@@ -162,7 +170,7 @@ class TangentSolver:
 
     def _at(self, rows, cols):
         """The places of the entries (rows, cols) in the data of the fixed pattern (CSC, sorted)."""
-        return np.searchsorted(self._keys, np.asarray(cols, dtype=np.int64) * (self.n + self.m) + rows)
+        return np.asarray(self._index[np.asarray(cols), np.asarray(rows)], dtype=np.int64).ravel() - 1
 
     def matrix(self, K, at) -> sp.csc_matrix:
         """The system of every row for the tangent block ``K`` (n x n) and the closed rows ``at``, on the pattern."""
@@ -183,7 +191,7 @@ class TangentSolver:
             self._found = (K.indptr.copy(), K.indices.copy(), places)
         gr, gv, lower, upper, diagonal = self._G
         on = np.asarray(at, dtype=bool)
-        data = np.zeros(len(self._keys))
+        data = np.zeros(self._index.nnz)
         data[places] = K.data
         data[lower] = data[upper] = np.where(on[gr], gv, 0.0)
         data[diagonal] = np.where(on, 0.0, -1.0)
@@ -228,10 +236,12 @@ class TangentSolver:
         if self._last is not None and self._z is not None and self._budget:
             z0 = self._z.copy()                                  # the last step's answer, its open rows' y 0
             z0[n + np.flatnonzero(~at)] = 0.0
-            if (not self._failed or self._budget >= CHEAP
-                    or np.linalg.norm(bb - A @ z0) <= NEAR * np.linalg.norm(bb)):
+            near = 0.0 if self._budget >= CHEAP else np.linalg.norm(bb - A @ z0) / max(np.linalg.norm(bb), tiny)
+            if near <= (NEAR if self._failed else FAR):
                 z = self._gmres(A, bb, at, settled, z0)
                 self._failed = z is None
+            elif near > FAR:                                     # as if GMRES had failed (it does there)
+                self._failed = True
         if z is None:
             factor = self._last = self._factor(A)
             if factor is None:

@@ -327,7 +327,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         r = G @ x - g
         D = w * law.derivative(r)
         T = operator.tangent(x, secant=True) if 0 < steps <= secant else operator.tangent(x)
-        K = T + G.T @ sps.diags(D) @ G
+        K = T + G.T @ sps.diags(D) @ G if D.any() else T      # (T itself: its sparsity, explicit zeros kept,
+        #                                                      the same every step for the tangent solver)
         b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
         b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
         s = solve(K, b, at)

@@ -1,0 +1,256 @@
+"""The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching and
+nested faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
+docs/hexahedra.md).
+
+The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
+(``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.
+:class:`BilinearSurface` keeps the pair's overlay (its vertices are the nodes of X_h) and evaluates each trace
+there by its bilinear faces, so a row at a body's node reads the other body's Q1 trace exactly.
+
+"gamma3" (non-penetration everywhere on Gamma_3) reduces to nodal rows where the jump is bilinear on known
+quadrilaterals, whose corners then decide: matching faces (every vertex of X_h a node of both traces) and
+nested faces (:func:`nesting`): every face q of the finer side that meets the overlap lies in it and in one face
+Q of the coarser side, as the image under Q's bilinear map of a rectangle of Q's reference square with edges
+along its axes (on parallelograms: q's edges parallel to Q's; any refinement of Q by its edge midpoints and
+centre, aligned grids 2:1 in one or both directions). Then Q's map restricted to q is q's own (both bilinear,
+equal at the corners), the coarse trace on q is bilinear in q's reference coordinates, and so is the jump
+(fine trace minus coarse trace, along the plane's fixed normal): a bilinear function on a square attains its
+minimum at a corner, so the rows at the fine side's nodes (:class:`NestedSurface`: "gamma3" posed as the fine
+side's "sigma" rows, no row at the overlay's other vertices, which would be redundant and dependent) are
+non-penetration everywhere on the overlap. The gap those rows read is the pair's g at the fine nodes, so the
+condition holds everywhere for g's bilinear interpolant on the fine faces: g itself for a constant gap or any g
+affine in the plane (two flat parts, parallel or not).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact.laws import pair_laws
+from ..contact.surface import SurfaceInterface
+from ..errors import UnsupportedError
+from .hex import bilinear_rows, face_points, reference_points
+from .trace import LinearTrace
+
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "FaceTrace", "NestedSurface", "Nesting", "hex_contact",
+           "hex_pair", "matching", "nesting"]
+
+NESTED_TOL = 1e-8
+"""How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
+rectangle of :func:`nesting`, and the relative area a fine face may miss of the overlap or spill over a second
+coarse face, for the faces to count as nested."""
+
+
+def matching(itf) -> bool:
+    """True if every node of X_h of the two-body pair ``itf`` is a node of both traces (faces matching corner to
+    corner, on the overlap)."""
+    return all(len(nodes) == itf.size for nodes in itf.sigma)
+
+
+def _corners(trace) -> np.ndarray:
+    """(k, 4): the corners of the quadrilateral faces of ``trace`` (indices into ``trace.nodes``, in order around
+    each face; face q's triangles are 2 q, 2 q + 1 of ``trace.faces``)."""
+    return np.searchsorted(trace.nodes, trace.body.mesh.boundary(trace.part))
+
+
+class BilinearSurface(SurfaceInterface):
+    """The two-body :class:`~cvxcontact.contact.surface.SurfaceInterface` ``itf`` (its overlay, its nodes of X_h)
+    with each trace evaluated at the nodes of X_h by its Q1 faces' bilinear functions instead of the P1
+    functions of the faces' triangles: the nodal rows "sigma1"/"sigma2" (a body's nodes, located on the other
+    body's faces) are then the Q1 jump exactly. Each vertex is located in an overlay triangle and with it in a
+    triangle of each trace, whose face is that triangle's quadrilateral."""
+
+    def __init__(self, itf):
+        self.__dict__.update(itf.__dict__)
+        ov = self.overlay
+        triangles = np.asarray(ov.triangles)
+        host = np.empty(self.size, dtype=np.int64)
+        host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
+        rows = []
+        for trace, cell in zip(self.traces, (ov.cell_a, ov.cell_b)):
+            corners = _corners(trace)
+            rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2,
+                                      np.asarray(ov.vertices), len(trace.nodes)))
+        self._interp, self._factor = rows, None
+
+
+@dataclass(frozen=True)
+class Nesting:
+    """Whether the faces of a two-body pair are nested (:func:`nesting`): ``fine`` the finer side (0 or 1), None
+    if they are not; ``faces`` the fine side's faces on the overlap (indices into its ``mesh.boundary(part)``);
+    ``reason`` why not (per side tried), empty if nested."""
+
+    fine: int | None
+    faces: np.ndarray
+    reason: str = ""
+
+
+def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
+    """Whether the faces of the two-body pair ``itf`` are nested (module docstring): for a side l, every face of
+    l that meets the overlap (its overlay triangles of area above ``tol`` of the face's) lies in it (they cover
+    the face to ``tol`` of its area) and in one face Q of the other side, its corners at reference points of Q
+    (Newton on Q's bilinear map) such that each of its edges runs along an axis of Q's reference square (the
+    smaller of its steps in the two reference coordinates at most ``tol``). Side 0 is tried first."""
+    ov = itf.overlay
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
+    reasons = []
+    for fine in (0, 1):
+        trace, other = itf.traces[fine], itf.traces[1 - fine]
+        name = f"{trace.body.name} {trace.part!r}"
+        corners = _corners(trace)
+        X = np.asarray(trace.x)[corners]                                            # (k, 4, 2)
+        size = 0.5 * np.abs(np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))         # the faces' areas
+        q, Q = cells[fine], cells[1 - fine]
+        keep = area > tol * size[q]
+        links = np.unique(np.column_stack([q[keep], Q[keep]]), axis=0)
+        hosts = np.bincount(links[:, 0], minlength=len(X))
+        if (hosts > 1).any():
+            f = int(np.argmax(hosts))
+            reasons.append(f"face {f} of {name} lies across {hosts[f]} faces of the other side")
+            continue
+        faces = np.flatnonzero(hosts == 1)
+        covered = np.bincount(q, weights=area, minlength=len(X))[faces]
+        short = np.abs(covered - size[faces]) > tol * size[faces]
+        if short.any():
+            f = int(faces[np.argmax(short)])
+            reasons.append(f"face {f} of {name} lies partly outside the overlap")
+            continue
+        host = np.empty(len(X), dtype=np.int64)
+        host[links[:, 0]] = links[:, 1]
+        coarse = np.asarray(other.x)[_corners(other)]
+        xi = reference_points(coarse, np.repeat(host[faces], 4), X[faces].reshape(-1, 2)).reshape(-1, 4, 2)
+        steps = np.abs(np.roll(xi, -1, axis=1) - xi).min(axis=2).max(axis=1)      # each edge off the axes
+        if (steps > tol).any():
+            f = int(np.argmax(steps))
+            reasons.append(f"face {int(faces[f])} of {name} is not a rectangle of its face {int(host[faces[f]])} of "
+                           f"the other side in that face's bilinear coordinates (an edge off its axes by "
+                           f"{steps[f]:.3g} of the reference square)")
+            continue
+        return Nesting(fine, faces)
+    return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
+
+
+class NestedSurface(BilinearSurface):
+    """A :class:`BilinearSurface` on nested faces (:func:`nesting`, side ``fine`` the finer): "gamma3" is posed
+    as the fine side's nodal rows ("sigma1" for side 0, "sigma2" for side 1; the module docstring says why they
+    are the condition everywhere on the overlap), a row's quadrature weight (``weights``: the pressure
+    read-back, a friction law's capacity) the integral over the overlap of the fine side's bilinear hat."""
+
+    def __init__(self, itf, nested: Nesting):
+        super().__init__(itf)
+        self.fine, self._faces = nested.fine, nested.faces
+
+    def _nodal(self, condition) -> str:
+        return f"sigma{self.fine + 1}" if condition == "gamma3" else condition
+
+    def _rows(self, condition) -> np.ndarray:
+        return super()._rows(self._nodal(condition))
+
+    def weights(self, condition) -> np.ndarray:
+        """The fine side's Q1 hats integrated over its faces on the overlap (m^2; 2 x 2 Gauss on each face's
+        bilinear map, exact on planar faces) at the rows of "gamma3"; the rows of "sigma1"/"sigma2" as
+        :meth:`SurfaceInterface.weights <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
+        if condition != "gamma3":
+            return super().weights(condition)
+        trace = self.traces[self.fine]
+        corners = _corners(trace)[self._faces]
+        hats = np.zeros(len(trace.nodes))
+        for _, N, da in face_points(np.asarray(trace.points), corners, 1):
+            hats += np.bincount(corners.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+        at = np.asarray(self.overlay.node_a if self.fine == 0 else self.overlay.node_b)
+        out = np.zeros(self.size)
+        out[at[at >= 0]] = hats[at >= 0]
+        return out[self._rows(condition)]
+
+    def extend(self, condition, values) -> np.ndarray:
+        return super().extend(self._nodal(condition), values)
+
+
+def hex_pair(itf, condition: str):
+    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
+    itself against a rigid obstacle and on matching faces; a :class:`NestedSurface` on nested faces under
+    "gamma3"; a :class:`BilinearSurface` otherwise."""
+    if itf.rigid or matching(itf):
+        return itf
+    if condition == "gamma3":
+        nested = nesting(itf)
+        if nested.fine is not None:
+            return NestedSurface(itf, nested)
+    return BilinearSurface(itf)
+
+
+class FaceTrace(LinearTrace):
+    """The trace of Q1 hexahedra on the contact surfaces: :class:`~cvxcontact.fem.trace.LinearTrace`, keeping in a
+    :class:`~cvxcontact.solution.solution.Solution` the pairs the rows were posed on where they are not the
+    scene's own (:class:`BilinearSurface`: the read-back's pressures, measures and felt pressures are then the
+    bilinear traces')."""
+
+    def kept(self, interface):
+        pairs = getattr(interface, "interfaces", None) or (interface,)
+        return interface if any(isinstance(p, BilinearSurface) for p in pairs) else None
+
+
+FACE_TRACE = FaceTrace()
+
+
+def hex_contact(space, scene, condition, law=None):
+    """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
+    parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
+    decide), "gamma3" between faces that neither match corner to corner nor are nested (:func:`nesting`), and a
+    compliance law between faces that do not match; on Q2, "gamma3", a compliance law, faces that are not
+    parallelograms (the centre off the diagonal's midpoint) and faces that do not match."""
+    alternative = "tetrahedra (cc.box(..., cell='tetra'))"
+    laws = pair_laws(scene, law)
+    if space.degree == 2:
+        conditions = [c or condition for c in scene.conditions]
+        if "gamma3" in conditions:
+            raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
+                                   "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
+                                   f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
+        if any(getattr(lw, "compliant", False) for lw in laws):
+            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
+                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
+                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
+        for i, itf in enumerate(scene.interfaces):
+            for t in itf.traces:
+                X = t.body.mesh.points[t.body.mesh.boundary(t.part)]
+                skew = np.abs(X[:, 0] + X[:, 2] - X[:, 1] - X[:, 3]).max()
+                if skew > 1e-9 * t.body.mesh.size:
+                    raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: {t.body.name}'s contact faces "
+                                           f"are not parallelograms (off by {skew:.3g} m): contact on Q2 hexahedra "
+                                           f"needs them; use degree=1 (Q1 hexahedra) or {alternative}")
+    for i, (itf, c) in enumerate(zip(scene.interfaces, scene.conditions)):
+        c = c or condition
+        label = f"contacts[{i}] {scene.contacts[i]!r}"
+        if getattr(itf, "curved", None) is not None:
+            raise UnsupportedError(f"{label}: a curved contact part of hexahedra is not available: use {alternative}")
+        if itf.rigid:
+            if c == "gamma3" and getattr(itf.obstacle, "kind", None) != "plane":   # Q2: refused above
+                raise UnsupportedError(f"{label}: 'gamma3' on Q1 hexahedra against a curved obstacle is not exact "
+                                       "(its gap is not bilinear on a face): use condition='sigma1' (nodal rows) or "
+                                       f"{alternative}")
+            continue
+        if matching(itf):
+            continue
+        what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
+               f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
+        if space.degree == 2:
+            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
+                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
+                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
+        if c == "gamma3":
+            nested = nesting(itf)
+            if nested.fine is None:
+                raise UnsupportedError(f"{label}: {what} and are not nested ({nested.reason}): 'gamma3' on Q1 "
+                                       "hexahedra is posed on matching and nested faces only (each face of the finer "
+                                       "side inside one face of the other, a rectangle of it in its bilinear "
+                                       "coordinates: the bilinear jump is decided at the fine corners). Use "
+                                       "condition='sigma1' (nodal rows), mesh the two faces alike or nested (aligned "
+                                       f"grids, one a refinement of the other), or use {alternative}")
+        if getattr(laws[i], "compliant", False):
+            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
+                                   f"matching faces only: mesh the two faces alike or use {alternative}")

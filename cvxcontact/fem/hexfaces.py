@@ -95,7 +95,7 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
     smaller of its steps in the two reference coordinates at most ``tol``). Side 0 is tried first."""
     ov = itf.overlay
     P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
-    area = 0.5 * np.abs(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
     cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
     reasons = []
     for fine in (0, 1):
@@ -103,7 +103,7 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
         name = f"{trace.body.name} {trace.part!r}"
         corners = _corners(trace)
         X = np.asarray(trace.x)[corners]                                            # (k, 4, 2)
-        size = 0.5 * np.abs(np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))         # the faces' areas
+        size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))           # the faces' areas
         q, Q = cells[fine], cells[1 - fine]
         keep = area > tol * size[q]
         links = np.unique(np.column_stack([q[keep], Q[keep]]), axis=0)
@@ -132,6 +132,11 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
             continue
         return Nesting(fine, faces)
     return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
+
+
+def _cross(a, b) -> np.ndarray:
+    """The z component of the cross product of in-plane vectors ``a``, ``b`` (..., 2)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 class NestedSurface(BilinearSurface):

@@ -62,7 +62,7 @@ def shape(xi):
 def locate(X, points):
     """(face (k,), xi (k, 2)): a quadrilateral of corners ``X`` (f, 4, 2) holding each point (k, 2) and its
     reference point there (Newton on every face's bilinear map from its centre, 40 steps; the first face whose
-    reference point lies in [-1, 1]^2 to 1e-10)."""
+    reference point lies in [-1, 1]^2 to 1e-10; face -1 for a point in none)."""
     k, f = len(points), len(X)
     xi = np.zeros((k, f, 2))
     d = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float) / 4
@@ -75,16 +75,16 @@ def locate(X, points):
         J = np.stack([np.einsum("kfi,fid->kfd", dNa, X), np.einsum("kfi,fid->kfd", dNb, X)], axis=-1)
         xi = xi + np.linalg.solve(J, r[..., None])[..., 0]
     inside = (np.abs(xi) <= 1 + 1e-10).all(axis=2)
-    assert inside.any(axis=1).all()
-    face = np.argmax(inside, axis=1)
-    return face, xi[np.arange(k), face]
+    face = np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
+    return face, xi[np.arange(k), np.maximum(face, 0)]
 
 
 def sampled_slack(scene, sol, fine, gap=None, n=7):
     """(slack (F, n * n), scale): g - [u_nu] at n x n points of each of the contact faces (F) of side ``fine`` of
     the pair of :func:`pair` (0: the lower body), both traces by the Q1 functions of their faces (the face's own;
-    the other side's face holding the point, located by :func:`locate`), u . nu of the lower body (its top, nu = +z) minus the upper's, g the function ``gap``(x, y)
-    (None: 0); ``scale`` the largest |u_z| on the two faces."""
+    the other side's face holding the point, located by :func:`locate`; NaN at a point off the other side's
+    part), u . nu of the lower body (its top, nu = +z) minus the upper's, g the function ``gap``(x, y) (None: 0);
+    ``scale`` the largest |u_z| on the two faces."""
     bodies, parts = scene.bodies, ("top", "bottom")
     t = np.linspace(-1.0, 1.0, n)
     ref = np.stack(np.meshgrid(t, t, indexing="ij"), axis=-1).reshape(-1, 2)
@@ -97,7 +97,7 @@ def sampled_slack(scene, sol, fine, gap=None, n=7):
     coarse = bodies[1 - fine].mesh.boundary(parts[1 - fine])
     face, xi = locate(bodies[1 - fine].mesh.points[coarse][:, :, :2], points)
     uz[1 - fine] = (shape(xi) * sol.u[1 - fine][coarse[face], 2]).sum(axis=1)
-    jump = uz[0] - uz[1]
+    jump = np.where(face >= 0, uz[0] - uz[1], np.nan)
     g = np.zeros(len(points)) if gap is None else np.asarray(gap(points[:, 0], points[:, 1]), dtype=float)
     scale = max(np.abs(sol.u[k][bodies[k].mesh.boundary_nodes([parts[k]]), 2]).max() for k in (0, 1))
     return (g - jump).reshape(len(faces), -1), scale

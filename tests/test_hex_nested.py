@@ -1,5 +1,5 @@
-"""Q1 hexahedra: "gamma3" between two bodies whose contact faces are nested (issue 31, item 3;
-cvxcontact/fem/hexfaces.py).
+"""Q1 hexahedra: "gamma3" between two bodies whose contact faces are nested, or aligned grids that cross (issue
+31, item 3; cvxcontact/fem/hexfaces.py).
 
 Independent references: the jump of the answer sampled at 7 x 7 points of every fine face, both traces evaluated
 by the Q1 shape functions written in tests/hex_scenes.py (the coarse face's reference point found by its own
@@ -140,18 +140,66 @@ def test_either_side_first_gives_the_same_answer(case):
     assert abs(a.energy - b.energy) <= 1e-10 * abs(a.energy)                   # measured <= 1.6e-16 (both)
 
 
-def test_faces_neither_matching_nor_nested_are_refused_naming_why_and_the_alternatives():
-    """Typed refusals of "gamma3" between faces that neither match nor nest: crossing grids (3 on 2: a face lies
-    across several), a skewed fine grid inside one coarse face (its faces are not rectangles of the coarse face's
-    bilinear coordinates: the jump is not bilinear there), a coarse face overhanging the fine part's edge (a fine
-    face partly outside the overlap); "sigma1" is taken on each."""
-    cases = {"crossing": (block(3, (0.0, 0.5)), block(2, (0.5, 1.0)), "lies across"),
-             "skewed inside": (block(1, (0.0, 0.5)), block(2, (0.5, 1.0), skewed=True), "not a rectangle"),
-             "overhang": (cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=4, ny=4, nz=1, cell="hex"),
-                          cc.box(x=(0.1, 0.9), y=(0.0, 1.0), z=(0.5, 1.0), nx=1, ny=2, nz=1, cell="hex"),
-                          "partly outside")}
+CROSSING = {"3 on 2": ((3, 3), (2, 2)), "2 on 3": ((2, 2), (3, 3)), "3x2 on 2x5": ((3, 2), (2, 5)),
+            "5 on 3": ((5, 5), (3, 3))}
+"""Aligned grids that do not nest: the lower and upper blocks' cells (nx, ny)."""
+
+
+@pytest.mark.parametrize("case", list(CROSSING))
+def test_gamma3_on_aligned_crossing_faces_holds_everywhere(case):
+    """Rectangular faces of two grids that cross (3 on 2, 5 on 3, 3 x 2 on 2 x 5: aligned, not nested): "gamma3"
+    is posed at the corners of the pieces where faces of the two sides meet (the product of the two grids' lines;
+    fewer rows than overlay vertices), the jump sampled on every face of both sides never exceeds the affine gap,
+    the reference backend agrees; a uniform squeeze gives the closed-form force and the pressure each body feels
+    (those rows depend on each other: the row forces are not unique, their work is)."""
+    (n1, m1), (n2, m2) = CROSSING[case]
+    scene = pair(block(n1, (0.0, 0.5), m=m1), block(n2, (0.5, 1.0), m=m2), gap=TILTED, rollers=False, push=PUSH)
+    lines = space(1, "hex").contact(scene, "gamma3", None)
+    itf = lines.interface.interfaces[0]
+    lines_x = np.unique(np.r_[np.linspace(0, 1, n1 + 1), np.linspace(0, 1, n2 + 1)].round(12))
+    lines_y = np.unique(np.r_[np.linspace(0, 1, m1 + 1), np.linspace(0, 1, m2 + 1)].round(12))
+    assert lines.E.shape[0] == len(lines_x) * len(lines_y) < itf.size
+    assert abs(itf.weights("gamma3").sum() - 1.0) <= 1e-14                  # the overlap's area (m^2)
+    sol, full = cc.solve(scene, "gamma3"), cc.solve(scene, "gamma3", method="full")
+    assert sol.ok and sol.polished and full.ok
+    (lower, scale), (upper, _) = (sampled_slack(scene, sol, side, TILTED) for side in (0, 1))
+    assert min(lower.min(), upper.min()) >= -1e-12 * scale                 # measured >= -6.2e-16 scale
+    assert lower.max() >= 0.1 * scale
+    for k in (0, 1):
+        assert np.abs(full.u[k] - sol.u[k]).max() <= 1e-10 * scale          # measured <= 1.3e-15 scale
+    squeeze = cc.solve(pair(block(n1, (0.0, 0.5), m=m1), block(n2, (0.5, 1.0), m=m2)), "gamma3")
+    p = DELTA * float(STEEL.tensors(3)[0][2, 2])                          # uniaxial strain of the unit column
+    assert squeeze.ok and abs(squeeze.contacts[0].force.sum() - p) <= 1e-12 * p      # measured <= 1.8e-16 p
+    for k in (0, 1):
+        assert np.abs(squeeze.traction(k)[1] - p).max() <= 1e-12 * p         # measured <= 2.6e-15 p
+
+
+def test_a_coarse_face_overhanging_a_finer_part_is_cut_into_pieces():
+    """An upper block on [0.1, 0.9] x [0, 1] (one by two faces) on a 4 x 4 lower one: the faces of the lower block
+    that straddle x = 0.1 and x = 0.9 lie partly outside the overlap (not nested), the pieces are the overlap's
+    parts of them; the jump sampled on the upper block's faces and on the lower's inside the overlap never exceeds
+    the gap, and the rows' areas sum to the overlap's, 0.8 m^2."""
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=4, ny=4, nz=1, cell="hex")
+    upper = cc.box(x=(0.1, 0.9), y=(0.0, 1.0), z=(0.5, 1.0), nx=1, ny=2, nz=1, cell="hex")
+    scene = pair(lower, upper, gap=TILTED, rollers=False, push=PUSH)
+    itf = space(1, "hex").contact(scene, "gamma3", None).interface.interfaces[0]
+    assert type(itf).__name__ == "CrossingSurface" and abs(itf.weights("gamma3").sum() - 0.8) <= 1e-14
+    sol = cc.solve(scene, "gamma3")
+    (below, scale), (above, _) = (sampled_slack(scene, sol, side, TILTED) for side in (0, 1))
+    assert sol.ok and np.isnan(below).any() and not np.isnan(above).any()
+    assert min(np.nanmin(below), above.min()) >= -1e-12 * scale              # measured >= -5.0e-16 scale
+
+
+def test_faces_neither_matching_nor_nested_nor_aligned_are_refused_naming_why_and_the_alternatives():
+    """Typed refusals of "gamma3" between faces that neither match, nest nor run along common directions: grids
+    that cross where one is skewed (3 on a warped 2), a skewed fine grid inside one coarse face (its faces are
+    not rectangles of the coarse face's bilinear coordinates: the jump is not bilinear there); the message says
+    why for each; "sigma1" is taken on each."""
+    cases = {"skewed crossing": (block(3, (0.0, 0.5)), block(2, (0.5, 1.0), skewed=True), "lies across"),
+             "skewed inside": (block(1, (0.0, 0.5)), block(2, (0.5, 1.0), skewed=True), "not a rectangle")}
     for lower, upper, why in cases.values():
         scene = pair(lower, upper, rollers=False)
-        with pytest.raises(UnsupportedError, match=f"not nested.*{why}.*condition='sigma1'.*nested.*tetrahedra"):
+        with pytest.raises(UnsupportedError, match=f"not nested.*{why}.*not parallelograms along common directions"
+                           r".*not a parallelogram.*condition='sigma1'.*nested or aligned.*tetrahedra"):
             cc.solve(scene, "gamma3")
         assert cc.solve(scene, "sigma1").ok

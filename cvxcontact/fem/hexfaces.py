@@ -20,6 +20,14 @@ side's "sigma" rows, no row at the overlay's other vertices, which would be redu
 non-penetration everywhere on the overlap. The gap those rows read is the pair's g at the fine nodes, so the
 condition holds everywhere for g's bilinear interpolant on the fine faces: g itself for a constant gap or any g
 affine in the plane (two flat parts, parallel or not).
+
+Faces that do not nest but are all parallelograms with edges along two common directions (aligned grids of any
+ratio, 3 on 2, a coarse face overhanging a finer part: :func:`pieces`) are rectangles in the affine coordinates
+of those directions; where a face of one side meets a face of the other, the piece is a rectangle on which both
+traces, and the jump, are bilinear: :class:`CrossingSurface` poses "gamma3" at the pieces' corners (more rows
+than the jump has degrees of freedom: they may depend on each other, the exact finish takes that; their forces
+are not unique, the pressure each body feels is). General quadrilaterals that cross are refused
+(:func:`hex_contact`): the jump is not bilinear on the pieces there.
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..contact.laws import pair_laws
 from ..contact.surface import SurfaceInterface
@@ -34,8 +43,8 @@ from ..errors import UnsupportedError
 from .hex import bilinear_rows, face_points, reference_points
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "FaceTrace", "NestedSurface", "Nesting", "hex_contact",
-           "hex_pair", "matching", "nesting"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "NestedSurface", "Nesting",
+           "Pieces", "hex_contact", "hex_pair", "matching", "nesting", "pieces"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -175,16 +184,108 @@ class NestedSurface(BilinearSurface):
         return super().extend(self._nodal(condition), values)
 
 
+@dataclass(frozen=True)
+class Pieces:
+    """The pieces of a two-body pair whose faces are parallelograms with edges along two common directions
+    (:func:`pieces`): ``rows`` the nodes of X_h at the pieces' corners (None if the faces are not such
+    parallelograms), ``weights`` (m^2) a quarter of each piece's area summed at each of them, ``reason`` why not."""
+
+    rows: np.ndarray | None
+    weights: np.ndarray
+    reason: str = ""
+
+
+def pieces(itf, tol: float = NESTED_TOL) -> Pieces:
+    """Whether every face on the overlap of the two-body pair ``itf`` (both sides; the faces with an overlay
+    triangle of area above ``tol`` of theirs) is a parallelogram with edges along the two edge directions d1, d2
+    of the first such face of side 0 (in the coordinates (a, b) of x = a d1 + b d2 each edge runs along an axis to
+    ``tol`` of the face's extent): every face is then a rectangle in (a, b), each trace bilinear in (a, b) on it,
+    and where a face q of one side meets a face Q of the other the piece q n Q is a rectangle on which the jump
+    is bilinear, decided at its four corners. Those corners are vertices of the overlay (where the faces' edges
+    cross, or their corners); the rows of "gamma3" are there, not at the vertices where the triangles' diagonals
+    cross."""
+    ov = itf.overlay
+    V = np.asarray(ov.vertices)
+    P = V[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    X = [np.asarray(t.x)[_corners(t)] for t in itf.traces]                        # (k, 4, 2) per side
+    size = [0.5 * np.abs(_cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])) for x in X]
+    cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
+    keep = (area > tol * size[0][cells[0]]) & (area > tol * size[1][cells[1]])
+    links = np.unique(np.column_stack([cells[0][keep], cells[1][keep]]), axis=0)
+    first = X[0][links[0, 0]]
+    B = np.column_stack([first[1] - first[0], first[3] - first[0]])               # (d1 d2)
+    rects = []
+    for side, x in enumerate(X):
+        faces = np.unique(links[:, side])
+        ab = np.einsum("ij,kvj->kvi", np.linalg.inv(B), x[faces] - first[0])      # (f, 4, 2) in (a, b)
+        lo, hi = ab.min(axis=1), ab.max(axis=1)
+        off = np.abs(np.roll(ab, -1, axis=1) - ab).min(axis=2).max(axis=1) / (hi - lo).min(axis=1)
+        if (off > tol).any():
+            f = int(faces[np.argmax(off)])
+            t = itf.traces[side]
+            return Pieces(None, np.zeros(0), f"face {f} of {t.body.name} {t.part!r} is not a parallelogram with "
+                          f"edges along those of the other faces (off by {off.max():.3g} of its size)")
+        full_lo, full_hi = np.zeros((len(x), 2)), np.zeros((len(x), 2))
+        full_lo[faces], full_hi[faces] = lo, hi
+        rects.append((full_lo, full_hi))
+    lo = np.maximum(rects[0][0][links[:, 0]], rects[1][0][links[:, 1]])
+    hi = np.minimum(rects[0][1][links[:, 0]], rects[1][1][links[:, 1]])
+    corners = np.stack([lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi, np.column_stack([lo[:, 0], hi[:, 1]])], axis=1)
+    points = first[0] + corners.reshape(-1, 2) @ B.T
+    h = np.sqrt(min(size[0].min(), size[1].min()))
+    dist, at = cKDTree(V).query(points)
+    if dist.max() > 1e-6 * h:                  # not expected: the pieces' corners are where the faces' edges cross
+        return Pieces(None, np.zeros(0), f"a corner of the pieces is {dist.max():.3g} m from every overlay vertex")
+    quarter = np.repeat(np.prod(hi - lo, axis=1) * abs(np.linalg.det(B)) / 4, 4)
+    rows = np.unique(at)
+    return Pieces(rows, np.bincount(at, weights=quarter, minlength=len(V))[rows])
+
+
+class CrossingSurface(BilinearSurface):
+    """A :class:`BilinearSurface` whose faces are parallelograms along two common directions (:func:`pieces`):
+    "gamma3" is posed at the corners of the pieces where faces of the two sides meet (the jump is bilinear on
+    each piece), a row's weight a quarter of the area of each piece it is a corner of."""
+
+    def __init__(self, itf, cut: Pieces):
+        super().__init__(itf)
+        self._cut = cut
+
+    def _rows(self, condition) -> np.ndarray:
+        rows = super()._rows(condition)
+        return np.asarray(self._cut.rows) if condition == "gamma3" else rows
+
+    def weights(self, condition) -> np.ndarray:
+        """The rows' areas (m^2): under "gamma3" a quarter of each piece's area at each of its corners (they sum
+        to the overlap's area); under "sigma1"/"sigma2" as :meth:`SurfaceInterface.weights
+        <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
+        return np.array(self._cut.weights) if condition == "gamma3" else super().weights(condition)
+
+    def extend(self, condition, values) -> np.ndarray:
+        """``values`` at the rows of ``condition`` at every node of X_h: under "gamma3" the nodes without a row
+        (where the triangles' diagonals cross) take the value of the nearest row; otherwise as
+        :meth:`SurfaceInterface.extend <cvxcontact.contact.surface.SurfaceInterface.extend>`."""
+        if condition != "gamma3":
+            return super().extend(condition, values)
+        rows = np.asarray(self._cut.rows)
+        x = np.asarray(self.x)
+        return np.asarray(values, dtype=float)[cKDTree(x[rows]).query(x)[1]]
+
+
 def hex_pair(itf, condition: str):
     """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
-    itself against a rigid obstacle and on matching faces; a :class:`NestedSurface` on nested faces under
-    "gamma3"; a :class:`BilinearSurface` otherwise."""
+    itself against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
+    faces, else a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface`
+    otherwise."""
     if itf.rigid or matching(itf):
         return itf
     if condition == "gamma3":
         nested = nesting(itf)
         if nested.fine is not None:
             return NestedSurface(itf, nested)
+        cut = pieces(itf)
+        if cut.rows is not None:
+            return CrossingSurface(itf, cut)
     return BilinearSurface(itf)
 
 
@@ -249,13 +350,16 @@ def hex_contact(space, scene, condition, law=None):
                                    f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
         if c == "gamma3":
             nested = nesting(itf)
-            if nested.fine is None:
-                raise UnsupportedError(f"{label}: {what} and are not nested ({nested.reason}): 'gamma3' on Q1 "
-                                       "hexahedra is posed on matching and nested faces only (each face of the finer "
-                                       "side inside one face of the other, a rectangle of it in its bilinear "
-                                       "coordinates: the bilinear jump is decided at the fine corners). Use "
-                                       "condition='sigma1' (nodal rows), mesh the two faces alike or nested (aligned "
-                                       f"grids, one a refinement of the other), or use {alternative}")
+            cut = pieces(itf) if nested.fine is None else None
+            if cut is not None and cut.rows is None:
+                raise UnsupportedError(f"{label}: {what}, are not nested ({nested.reason}) and are not parallelograms "
+                                       f"along common directions ({cut.reason}): 'gamma3' on Q1 hexahedra is posed "
+                                       "where the bilinear jump is decided at known points: matching faces, nested "
+                                       "faces (each face of the finer side inside one face of the other, a rectangle "
+                                       "of it in its bilinear coordinates) and parallelogram faces along two common "
+                                       "directions (any grids aligned with each other). Use condition='sigma1' "
+                                       "(nodal rows), mesh the two faces alike, nested or aligned, or use "
+                                       f"{alternative}")
         if getattr(laws[i], "compliant", False):
             raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
                                    f"matching faces only: mesh the two faces alike or use {alternative}")

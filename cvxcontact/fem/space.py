@@ -519,8 +519,9 @@ class Q1Hex(P1Tet):
     evaluated at the nodes of X_h by its bilinear faces (:class:`~cvxcontact.fem.hexfaces.BilinearSurface`; the
     triangles' P1 functions where the faces match, the same values): nodal rows ("sigma1"/"sigma2") at a body's
     face nodes on any faces. "gamma3" is posed where it reduces to nodal rows exactly (a bilinear jump is
-    non-negative on a face if it is at its corners): matching faces, rigid planes and nested faces (the finer
-    side's nodes: :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face
+    non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
+    side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
+    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face
     integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
     (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 

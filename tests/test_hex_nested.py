@@ -73,7 +73,7 @@ def test_nested_gamma3_holds_everywhere_on_the_fine_faces(case):
     full = cc.solve(scene, "gamma3", method="full")
     assert full.ok
     for k in (0, 1):
-        assert np.abs(full.u[k] - sol.u[k]).max() <= 1e-10 * scale         # measured <= 1.6e-15 scale
+        assert np.abs(full.u[k] - sol.u[k]).max() <= 1e-10 * scale         # measured <= 1.8e-15 scale
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -91,35 +91,35 @@ def test_uniform_pressure_through_nested_faces_is_the_closed_form(case):
     for k, exact in enumerate((lambda z: -p * z / M_s, lambda z: -p * H / M_s - p * (z - H) / M_a)):
         z = sol.points[k][:, 2]
         assert np.abs(sol.u[k][:, 2] - exact(z)).max() <= 1e-12 * DELTA      # measured <= 6.8e-16 DELTA
-        assert np.abs(sol.u[k][:, :2]).max() <= 1e-12 * DELTA                # measured <= 3.3e-16 DELTA
+        assert np.abs(sol.u[k][:, :2]).max() <= 1e-12 * DELTA                # measured <= 3.6e-16 DELTA
         stress = body_fields(scene.bodies[k], sol.u[k], None).stress
         c = (STEEL, ALU)[k].tensors(3)[0]
-        assert np.abs(stress[:, 2] + p).max() <= 1e-12 * p                      # measured <= 7.8e-16 p
+        assert np.abs(stress[:, 2] + p).max() <= 1e-12 * p                      # measured <= 9.4e-16 p
         assert np.abs(stress[:, 0] + p * c[0, 2] / c[2, 2]).max() <= 1e-12 * p  # measured <= 3.9e-16 p
         assert np.abs(stress[:, 3:]).max() <= 1e-12 * p                         # measured <= 6.2e-16 p
     c = sol.contacts[0]
     assert abs(c.force.sum() - p) <= 1e-12 * p                                 # measured <= 4.7e-16 p
-    assert np.abs(c.pressure[c.constrained] - p).max() <= 1e-12 * p           # measured <= 5.0e-15 p
+    assert np.abs(c.pressure[c.constrained] - p).max() <= 1e-12 * p           # measured <= 2.8e-15 p
     for k in (0, 1):
-        assert np.abs(sol.traction(k)[1] - p).max() <= 1e-12 * p              # measured <= 5.2e-15 p
+        assert np.abs(sol.traction(k)[1] - p).max() <= 1e-12 * p              # measured <= 3.0e-15 p
 
 
 def test_nested_gamma3_is_the_fine_sides_nodal_rows_and_stricter_than_the_coarse_sides():
     """A fine upper block (4 x 4 faces) pushed onto a coarse lower one (one face): "gamma3" is the fine side's
     nodal rows ("sigma2" here: the same rows, the same answer); the coarse side's rows ("sigma1", its four
     corners) let the fine face sink into the coarse body between them (the sampled jump), "gamma3" does not, and
-    its energy is the larger (a smaller feasible set). (The two routes differ: "gamma3" between two 3D bodies is
-    finished as if its rows could depend on each other.)"""
+    its energy is the larger (a smaller feasible set). The space marks nested rows independent, so "gamma3" takes
+    the nodal rows' route (no interior point; 26x faster at 64 on 32 faces, the report's measurement)."""
     scene = pair(block(1, (0.0, 0.5)), block(4, (0.5, 1.0)), rollers=False)
     a = space(1, "hex").contact(scene, "gamma3", None)
     b = space(1, "hex").contact(scene, "sigma2", None)
-    assert (a.E != b.E).nnz == 0 and a.E.shape[0] == 25
+    assert (a.E != b.E).nnz == 0 and a.E.shape[0] == 25 and a.independent and not b.independent
     g3, s2, s1 = (cc.solve(scene, c) for c in ("gamma3", "sigma2", "sigma1"))
-    assert g3.ok and s2.ok and s1.ok
+    assert g3.ok and s2.ok and s1.ok and g3.info.finish == s2.info.finish
     slack, scale = sampled_slack(scene, g3, 1)
     for k in (0, 1):
-        assert np.abs(g3.u[k] - s2.u[k]).max() <= 1e-12 * scale               # measured <= 1.1e-15 scale
-    assert slack.min() >= -1e-12 * scale                                       # measured >= -1.6e-15 scale
+        assert np.abs(g3.u[k] - s2.u[k]).max() <= 1e-12 * scale               # measured 0 (the same program)
+    assert slack.min() >= -1e-12 * scale                                       # measured >= -1.4e-15 scale
     coarse_rows, _ = sampled_slack(scene, s1, 1)
     assert coarse_rows.min() <= -0.1 * scale                                   # measured -1.8 scale
     assert g3.energy - s1.energy >= 1e-2 * abs(s1.energy)                      # measured 0.38 |s1.energy|
@@ -135,7 +135,7 @@ def test_either_side_first_gives_the_same_answer(case):
     assert a.ok and b.ok
     scale = max(np.abs(u).max() for u in a.u)
     for k in (0, 1):
-        assert np.abs(a.u[k] - b.u[k]).max() <= 1e-10 * scale                  # measured <= 6.9e-17 scale
+        assert np.abs(a.u[k] - b.u[k]).max() <= 1e-10 * scale                  # measured <= 1.4e-16 scale
     assert abs(a.contacts[0].force.sum() - b.contacts[0].force.sum()) <= 1e-10 * abs(a.contacts[0].force.sum())
     assert abs(a.energy - b.energy) <= 1e-10 * abs(a.energy)                   # measured <= 1.6e-16 (both)
 

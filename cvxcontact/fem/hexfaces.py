@@ -44,7 +44,7 @@ from .hex import bilinear_rows, face_points, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "NestedSurface", "Nesting",
-           "Pieces", "hex_contact", "hex_pair", "matching", "nesting", "pieces"]
+           "Pieces", "hex_contact", "hex_pair", "independent_rows", "matching", "nesting", "pieces"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -287,6 +287,15 @@ def hex_pair(itf, condition: str):
         if cut.rows is not None:
             return CrossingSurface(itf, cut)
     return BilinearSurface(itf)
+
+
+def independent_rows(pairs, conditions, condition: str) -> bool:
+    """Whether the "gamma3" rows of the two-body ``pairs`` (each pair's own condition in ``conditions``, else
+    ``condition``) are known to be linearly independent: there are some, and every such pair is a
+    :class:`NestedSurface` (one row per node of the finer side, and each row the only one that reads its node)."""
+    nested = [isinstance(p, NestedSurface) for p, c in zip(pairs, conditions)
+              if (c or condition) == "gamma3" and not p.rigid]
+    return bool(nested) and all(nested)
 
 
 class FaceTrace(LinearTrace):

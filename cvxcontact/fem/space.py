@@ -34,7 +34,7 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, hex_contact, hex_pair
+from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -61,7 +61,10 @@ class ContactLines:
     on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
     nodes; the interface compliance W is singular on them, docs/formulation.md §15); ``departure``: the
     departure of the true gap from its P2 interpolant on the cone's elements that face a curved rigid obstacle
-    (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element.
+    (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element;
+    ``independent``: the "gamma3" rows between two bodies are known to be linearly independent (Q1 hexahedra on
+    nested faces: one row per node of the finer side, :func:`~cvxcontact.fem.hexfaces.independent_rows`), so no
+    route need treat them as possibly dependent.
     """
 
     interface: object
@@ -76,6 +79,7 @@ class ContactLines:
     mixed_bernstein: tuple | None = None
     dependent: bool = False
     departure: GapDeparture | None = None
+    independent: bool = False
 
     @property
     def conic(self) -> bool:
@@ -545,6 +549,7 @@ class Q1Hex(P1Tet):
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
         hex_contact(self, scene, condition, law)
         lines = super().contact(scene, condition, law, nodes)
+        lines = replace(lines, independent=independent_rows(lines.interface.interfaces, scene.conditions, condition))
         if lines.weights is None:
             return lines
         weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'

@@ -1,6 +1,6 @@
-"""The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching and
-nested faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
-docs/hexahedra.md).
+"""The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
+and aligned faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
+docs/howto/quadrilaterals.md).
 
 The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
 (``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.

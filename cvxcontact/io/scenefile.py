@@ -23,7 +23,8 @@ names the file, the key and what was expected. Format (all SI units)::
 
     [[body]]                                  # exactly two; the order defines l = 1, 2
     name = "actuator"
-    material = "PZT-5A"                       # a built-in name, or a table: {E, nu} or
+    material = "PZT-5A"                       # a built-in name, or a table: {E, nu}, Hencky plasticity
+                                              # {E, nu, yield_stress, hardening} or
                                               # {c11, c13, c33, c44, e31, e33, e15, eps11, eps33[, c12]}
     mesh = { rectangle = { x = [0.0, 1.0], y = [0.0, 0.5], nx = 16, ny = 8 } }
                                               # or mesh = { file = "lower.msh" } (relative to this file,
@@ -127,6 +128,8 @@ _OBSTACLE_KINDS = {"plane": {"point", "normal", "distance"}, "circle": {"center"
                    "cylinder": {"point", "axis", "radius", "distance"}, "height_field": {"f", "origin", "distance"}}
 _OPTIONAL = {"origin", "distance"}     # distance: the posing, "closest" or "ray" (physics.pairs.POSINGS)
 _SOLVER = {"name", "tol", "polish", "method", "options"}
+_HENCKY = {"yield_stress", "hardening"}
+"""The keys that make a material table a Hencky material (with E, nu): :func:`~cvxcontact.materials.hencky`."""
 _BODY = {"name", "material", "mesh", "clamped", "grounded", "contact", "body_force", "traction",
          "surface_charge", "potential", "volume_charge", "roller", "displacement", "floating", "rotation", "plane"}
 _PIEZO = {"c11", "c12", "c13", "c33", "c44", "e31", "e33", "e15", "eps11", "eps33"}
@@ -536,6 +539,13 @@ class _Context:
         try:
             if set(table) <= {"E", "nu", "name"} and {"E", "nu"} <= set(table):
                 return mats.isotropic(table["E"], table["nu"], name=name)
+            if set(table) & _HENCKY:
+                missing = sorted(({"E", "nu"} | _HENCKY) - set(table))
+                if missing:
+                    self.fail(key, "a Hencky material: a table {E, nu, yield_stress, hardening} (Pa, 1, Pa, 1; "
+                              f"docs/materials.md), missing {', '.join(missing)}", value)
+                self.keys(table, {"E", "nu", "name"} | _HENCKY, key)
+                return mats.hencky(table["E"], table["nu"], table["yield_stress"], table["hardening"], name=name)
             self.keys(table, _PIEZO | {"name"}, key)
             return mats.Piezoelectric(**table)
         except CvxContactError as exc:

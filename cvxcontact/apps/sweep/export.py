@@ -1,7 +1,9 @@
 """Export of a sweep's fields to XDMF + HDF5 (meshio's writer; h5py is the optional extra ``export``).
 
 One pair of files per body and per contact pair of each case (the cases have their own meshes, so they are
-not time steps of one mesh): ``<id>_body<k>.xdmf``/``.h5`` and ``<id>_contact<p>.xdmf``/``.h5``.
+not time steps of one mesh): ``<id>_body<k>.xdmf``/``.h5`` and ``<id>_contact<p>.xdmf``/``.h5``. A contact
+pair's file holds its rows: in 2D a polyline along the contact line, in 3D one vertex cell per row (the rows of a
+surface overlay or of a body's nodes have no cells of their own).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 
 from ...errors import CvxContactError
 
-__all__ = ["export_xdmf", "ExportError"]
+__all__ = ["ExportError", "export_xdmf"]
 
 
 class ExportError(CvxContactError, RuntimeError):
@@ -44,13 +46,17 @@ def _contact_meshes(arrays):
         if f"{pre}line_points" not in arrays:
             continue
         points = np.asarray(arrays[f"{pre}line_points"], dtype=float)
-        order = np.argsort(arrays[f"{pre}x"], kind="stable")
-        cells = np.column_stack([order[:-1], order[1:]])     # consecutive merged nodes along s
+        x = np.asarray(arrays[f"{pre}x"])
+        if x.ndim == 1:                                      # 2D: consecutive merged nodes along s
+            order = np.argsort(x, kind="stable")
+            cells = ("line", np.column_stack([order[:-1], order[1:]]))
+        else:                                                # 3D: the rows on the contact plane, one vertex each
+            cells = ("vertex", np.arange(len(x))[:, None])
         data = {"lambda_h [Pa]": arrays[f"{pre}lam"], "normal jump [m]": arrays[f"{pre}jump"],
                 "nodal force [N/m]": arrays[f"{pre}force"], "active": arrays[f"{pre}active"].astype(np.int32)}
         if f"{pre}gap" in arrays:
             data["gap [m]"] = arrays[f"{pre}gap"]
-        yield f"contact{p}", meshio.Mesh(points, [("line", cells)], point_data=data)
+        yield f"contact{p}", meshio.Mesh(points, [cells], point_data=data)
 
 
 def export_xdmf(results, ids, target: Path) -> list[Path]:

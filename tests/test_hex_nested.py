@@ -109,7 +109,7 @@ def test_nested_gamma3_is_the_fine_sides_nodal_rows_and_stricter_than_the_coarse
     nodal rows ("sigma2" here: the same rows, the same answer); the coarse side's rows ("sigma1", its four
     corners) let the fine face sink into the coarse body between them (the sampled jump), "gamma3" does not, and
     its energy is the larger (a smaller feasible set). The space marks nested rows independent, so "gamma3" takes
-    the nodal rows' route (no interior point; 26x faster at 64 on 32 faces, the report's measurement)."""
+    the nodal rows' route (no interior point: benchmarks/results/hex_nested_route.md)."""
     scene = pair(block(1, (0.0, 0.5)), block(4, (0.5, 1.0)), rollers=False)
     a = space(1, "hex").contact(scene, "gamma3", None)
     b = space(1, "hex").contact(scene, "sigma2", None)

@@ -272,6 +272,27 @@ def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity(
     sol = cc.solve(scene, "sigma1", degree=2)
     assert sol.ok and abs(sol.contact.shear_force[:, 0].sum() / (0.5 * g) - 1) <= 1e-6
 
+
+@pytest.mark.parametrize("skewed", [False, pytest.param(True, marks=pytest.mark.xfail(
+    strict=True, raises=cc.UnsupportedError, reason="Q1 hexahedra: gamma3 between crossing faces that are not "
+    "parallelograms along common directions (the jump is not bilinear on the pieces)"))], ids=["rectangles", "skewed"])
+def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
+    """Row 34 (b); rectangles supported. A 3 x 3 block under a 2 x 2 one (crossing grids; the upper's faces
+    general quadrilaterals if ``skewed``), an affine gap leaving part open, "gamma3": the jump sampled at 7 x 7
+    points of every face of both sides (tests/hex_scenes.py, its own Q1 functions) never exceeds the gap, and the
+    reference backend agrees. Rectangles: the rows at the pieces' corners (measured -6.2e-16 of the displacement).
+    Skewed: lifting the refusal alone (rows at every overlay vertex, the traces bilinear) fails (-5.7e-4: the
+    jump is not bilinear on the pieces there)."""
+    from hex_scenes import block, pair, sampled_slack
+
+    gap = lambda s1, s2: 1e-6 + 8e-6 * s1 + 3e-6 * s2
+    scene = pair(block(3, (0.0, 0.5)), block(2, (0.5, 1.0), skewed=skewed), gap=gap, push=6e-6, rollers=False)
+    sol = cc.solve(scene, "gamma3")
+    full = cc.solve(scene, "gamma3", method="full")
+    (lower, scale), (upper, _) = (sampled_slack(scene, sol, side, gap) for side in (0, 1))
+    assert sol.ok and min(lower.min(), upper.min()) >= -1e-12 * scale and lower.max() >= 0.1 * scale
+    assert max(rel(full.u[k], sol.u[k]) for k in (0, 1)) <= 1e-9
+
 # ================================================================ held rows, supports on a contact part
 
 def _clamped_foundation(where):

@@ -28,12 +28,14 @@ log = logging.getLogger(__name__)
 def dependent_rows(problem) -> bool:
     """Whether the contact rows can be linearly dependent: "gamma3" (the pair's own condition, else the one
     given) on a 3D pair of two bodies, one row per overlay vertex, more vertices than the jump's degrees of
-    freedom where the faces do not match (docs/formulation.md §13); or a penetration limit on rows the space
-    marks as dependent (``lines.dependent``: a compliance law's quadrature points on P2 faces, §15)."""
+    freedom where the faces do not match (docs/formulation.md §13), unless the space marks them independent
+    (``lines.independent``: Q1 hexahedra on nested faces, one row per node of the finer side); or a penetration
+    limit on rows the space marks as dependent (``lines.dependent``: a compliance law's quadrature points on P2
+    faces, §15)."""
     rows = problem.rows
     if problem.lines.dependent and (rows.limited & rows.rows).any():
         return True
-    if problem.dim != 3:
+    if problem.dim != 3 or problem.lines.independent:
         return False
     interfaces = getattr(problem.interface, "interfaces", (problem.interface,))
     conditions = [c or problem.condition for c in problem.scene.conditions]

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "bilinear_rows"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "bilinear_rows", "reference_points"]
 
 
 class HexElement(TensorElement):
@@ -77,11 +77,11 @@ def face_points(points, faces, degree):
         yield np.einsum("i,kid->kd", N1, X), face.shape(xi), w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
 
 
-def bilinear_rows(X, corners, host, points, n):
-    """(v, n) sparse: the bilinear (Q1) functions of planar quadrilaterals at ``points`` (v, 2) m, point i in face
-    ``host[i]``; the faces' corners ``X`` (k, 4, 2) m (in-plane coordinates, in order around each) and their
-    indices ``corners`` (k, 4) among the n columns. The reference point of each is found by Newton's method on
-    the bilinear map (quadratic convergence from the centre on a convex face; 30 steps, far more than enough)."""
+def reference_points(X, host, points) -> np.ndarray:
+    """(v, 2): the reference coordinates in [-1, 1]^2 of ``points`` (v, 2) m, point i in the planar quadrilateral
+    ``host[i]`` of corners ``X`` (k, 4, 2) m (in-plane, in order around each), by Newton's method on the bilinear
+    map (quadratic convergence from the centre on a convex face; 30 steps, far more than enough). Unclipped: a
+    point outside its face comes out outside [-1, 1]^2."""
     element = QuadElement(1)
     Xh = X[host]                                                                # (v, 4, 2)
     xi = np.zeros((len(points), 2))
@@ -90,7 +90,15 @@ def bilinear_rows(X, corners, host, points, n):
         residual = np.asarray(points) - np.einsum("vi,vid->vd", N, Xh)
         J = np.einsum("vai,vid->vda", dN, Xh)                                   # dx_d / dxi_a
         xi = xi + np.linalg.solve(J, residual[..., None])[..., 0]
-    N = element.shape(np.clip(xi, -1.0, 1.0))
+    return xi
+
+
+def bilinear_rows(X, corners, host, points, n):
+    """(v, n) sparse: the bilinear (Q1) functions of planar quadrilaterals at ``points`` (v, 2) m, point i in face
+    ``host[i]``; the faces' corners ``X`` (k, 4, 2) m (in-plane coordinates, in order around each) and their
+    indices ``corners`` (k, 4) among the n columns; the reference points by :func:`reference_points`."""
+    xi = reference_points(X, host, points)
+    N = QuadElement(1).shape(np.clip(xi, -1.0, 1.0))
     return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(points)), 4), corners[host].ravel())),
                          shape=(len(points), n))
 

@@ -17,7 +17,6 @@ the cells' centres (the fields of the output) and whether the error estimates co
 
 from __future__ import annotations
 
-from copy import copy
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -34,7 +33,8 @@ from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
-from .hex import HEX1_ELEMENT, HEX2_ELEMENT, bilinear_rows
+from .hex import HEX1_ELEMENT, HEX2_ELEMENT
+from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -61,7 +61,10 @@ class ContactLines:
     on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
     nodes; the interface compliance W is singular on them, docs/formulation.md §15); ``departure``: the
     departure of the true gap from its P2 interpolant on the cone's elements that face a curved rigid obstacle
-    (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element.
+    (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element;
+    ``independent``: the "gamma3" rows between two bodies are known to be linearly independent (Q1 hexahedra on
+    nested faces: one row per node of the finer side, :func:`~cvxcontact.fem.hexfaces.independent_rows`), so no
+    route need treat them as possibly dependent.
     """
 
     interface: object
@@ -76,6 +79,7 @@ class ContactLines:
     mixed_bernstein: tuple | None = None
     dependent: bool = False
     departure: GapDeparture | None = None
+    independent: bool = False
 
     @property
     def conic(self) -> bool:
@@ -191,12 +195,12 @@ class P1:
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return assemble_loads(body, matrices)
 
-    def _stack(self, scene):
+    def _stack(self, scene, condition):
         """The stacked pairs the contact rows are read from: the scene's."""
         return scene.stack
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        stack = self._stack(scene)
+        stack = self._stack(scene, condition)
         laws = pair_laws(scene, law)
         offsets = stack.row_offsets(condition, scene.conditions)
         rows = RowLaws(laws, np.diff(offsets))
@@ -516,15 +520,17 @@ class Q1Hex(P1Tet):
     """Q1 (8-node, trilinear) hexahedra (:mod:`cvxcontact.fem.hex`, 2 x 2 x 2 Gauss): the mesh's vertices. Its trace
     on a face is bilinear; the contact rows are P1Tet's on the faces' triangles (:attr:`HexMesh.triangulation
     <cvxcontact.geometry.hexmesh.HexMesh.triangulation>`), whose vertices are the faces' corners, with each trace
-    evaluated at the nodes of X_h by its bilinear faces (:func:`_bilinear_pair`; the triangles' P1 functions where
-    the faces match, the same values): nodal rows ("sigma1"/"sigma2") at a body's face nodes on any faces. "gamma3"
-    is posed where it reduces to those nodal rows exactly (a bilinear jump is non-negative on a face if it is at
-    its corners): matching faces and rigid planes; a normal-compliance law is integrated by the Q1 hats' face
+    evaluated at the nodes of X_h by its bilinear faces (:class:`~cvxcontact.fem.hexfaces.BilinearSurface`; the
+    triangles' P1 functions where the faces match, the same values): nodal rows ("sigma1"/"sigma2") at a body's
+    face nodes on any faces. "gamma3" is posed where it reduces to nodal rows exactly (a bilinear jump is
+    non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
+    side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
+    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face
     integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
-    (:func:`_hex_contact`)."""
+    (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 1, 3, True
-    label = "Q1"
+    label, trace = "Q1", FACE_TRACE
     vtk = "hexahedron"
     element = HEX1_ELEMENT
 
@@ -533,16 +539,17 @@ class Q1Hex(P1Tet):
     def assemble_loads(self, body, matrices: BodySystem, nodes=None) -> BodySystem:
         return self.element.loads(body, matrices, nodes)
 
-    def _stack(self, scene):
-        """The scene's pairs, those whose faces do not match with the bilinear traces at the nodes of X_h
-        (:func:`_bilinear_pair`)."""
-        pairs = [itf if itf.rigid or _matching(itf) else _bilinear_pair(itf) for itf in scene.interfaces]
+    def _stack(self, scene, condition):
+        """The scene's pairs, those whose faces do not match with the bilinear traces at the nodes of X_h and,
+        nested under "gamma3", its rows at the fine side's nodes (:func:`~cvxcontact.fem.hexfaces.hex_pair`)."""
+        pairs = [hex_pair(itf, c or condition) for itf, c in zip(scene.interfaces, scene.conditions)]
         return scene.stack if all(a is b for a, b in zip(pairs, scene.interfaces)) else \
             Stack(pairs, scene.stack.members)
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        _hex_contact(self, scene, condition, law)
+        hex_contact(self, scene, condition, law)
         lines = super().contact(scene, condition, law, nodes)
+        lines = replace(lines, independent=independent_rows(lines.interface.interfaces, scene.conditions, condition))
         if lines.weights is None:
             return lines
         weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'
@@ -554,7 +561,7 @@ class Q1Hex(P1Tet):
             hats = mesh.node_areas(trace.part)[trace.nodes]
             if itf.rigid:
                 node = np.asarray(itf.reach)
-            else:                # matching faces (_hex_contact): every vertex of X_h is a node of each trace
+            else:                # matching faces (hex_contact): every vertex of X_h is a node of each trace
                 at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
                 node = np.empty(itf.size, dtype=np.int64)
                 node[at[at >= 0]] = np.flatnonzero(at >= 0)
@@ -572,7 +579,7 @@ class Q2Hex(P2Tet):
     ("sigma1"/"sigma2") at a body's face nodes, posed by P2Tet's code on the faces' 6-node triangles
     (``Q2HexNodes.triangulation``: on a parallelogram face its 9 nodes are those of its two triangles), exact where
     every row's point is a node of both traces (a rigid obstacle, matching faces). "gamma3" and a compliance law
-    would evaluate the trace between the nodes: refused by name (:func:`_hex_contact`)."""
+    would evaluate the trace between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, True
     label = "Q2"
@@ -591,90 +598,9 @@ class Q2Hex(P2Tet):
         return self.element.loads(body, matrices, self.nodes(body) if nodes is None else nodes)
 
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
-        _hex_contact(self, scene, condition, law)
+        hex_contact(self, scene, condition, law)
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         return super().contact(scene, condition, law, [n.triangulation for n in nodes])
-
-
-def _hex_contact(space, scene, condition, law=None):
-    """UnsupportedError for the contact a hexahedral space does not pose exactly (the class docstrings): curved
-    parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
-    decide), and "gamma3" or a compliance law between faces that do not match corner to corner; on Q2, "gamma3",
-    a compliance law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that
-    do not match."""
-    alternative = "tetrahedra (cc.box(..., cell='tetra'))"
-    laws = pair_laws(scene, law)
-    if space.degree == 2:
-        conditions = [c or condition for c in scene.conditions]
-        if "gamma3" in conditions:
-            raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
-                                   "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
-                                   f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
-        if any(getattr(lw, "compliant", False) for lw in laws):
-            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
-                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
-                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
-        for i, itf in enumerate(scene.interfaces):
-            for t in itf.traces:
-                X = t.body.mesh.points[t.body.mesh.boundary(t.part)]
-                skew = np.abs(X[:, 0] + X[:, 2] - X[:, 1] - X[:, 3]).max()
-                if skew > 1e-9 * t.body.mesh.size:
-                    raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: {t.body.name}'s contact faces "
-                                           f"are not parallelograms (off by {skew:.3g} m): contact on Q2 hexahedra "
-                                           f"needs them; use degree=1 (Q1 hexahedra) or {alternative}")
-    for i, (itf, c) in enumerate(zip(scene.interfaces, scene.conditions)):
-        c = c or condition
-        label = f"contacts[{i}] {scene.contacts[i]!r}"
-        if getattr(itf, "curved", None) is not None:
-            raise UnsupportedError(f"{label}: a curved contact part of hexahedra is not available: use {alternative}")
-        if itf.rigid:
-            if c == "gamma3" and getattr(itf.obstacle, "kind", None) != "plane":   # Q2: refused above
-                raise UnsupportedError(f"{label}: 'gamma3' on Q1 hexahedra against a curved obstacle is not exact "
-                                       "(its gap is not bilinear on a face): use condition='sigma1' (nodal rows) or "
-                                       f"{alternative}")
-            continue
-        if _matching(itf):
-            continue
-        what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
-               f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
-        if space.degree == 2:
-            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
-                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
-                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
-        if c == "gamma3":
-            raise UnsupportedError(f"{label}: {what}: 'gamma3' on Q1 hexahedra is posed on matching faces only (the "
-                                   "bilinear jump is not decided by the overlay's vertices): use condition='sigma1' "
-                                   f"(nodal rows), mesh the two faces alike, or use {alternative}")
-        if getattr(laws[i], "compliant", False):
-            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
-                                   f"matching faces only: mesh the two faces alike or use {alternative}")
-
-
-def _matching(itf) -> bool:
-    """True if every node of X_h of the two-body pair ``itf`` is a node of both traces (faces matching corner to
-    corner, on the overlap)."""
-    return all(len(nodes) == itf.size for nodes in itf.sigma)
-
-
-def _bilinear_pair(itf):
-    """A copy of the two-body :class:`~cvxcontact.contact.surface.SurfaceInterface` ``itf`` whose traces are
-    evaluated at the nodes of X_h (the overlay's vertices) by their Q1 faces' bilinear functions instead of the
-    P1 functions of the faces' triangles: the nodal rows "sigma1"/"sigma2" (a body's nodes, located on the other
-    body's faces) are then the Q1 jump exactly. Each vertex is located in an overlay triangle and with it in a
-    triangle of each trace, whose face is that triangle's quadrilateral (the split's triangles 2 q, 2 q + 1 are
-    face q's)."""
-    ov = itf.overlay
-    triangles = np.asarray(ov.triangles)
-    host = np.empty(itf.size, dtype=np.int64)
-    host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
-    rows = []
-    for trace, cell in zip(itf.traces, (ov.cell_a, ov.cell_b)):
-        corners = np.searchsorted(trace.nodes, trace.body.mesh.boundary(trace.part))     # (k, 4) trace-local
-        rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2, np.asarray(ov.vertices),
-                                  len(trace.nodes)))
-    out = copy(itf)
-    out._interp, out._factor = rows, None
-    return out
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

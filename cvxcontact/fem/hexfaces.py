@@ -1,0 +1,374 @@
+"""The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
+and aligned faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
+docs/howto/quadrilaterals.md).
+
+The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
+(``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.
+:class:`BilinearSurface` keeps the pair's overlay (its vertices are the nodes of X_h) and evaluates each trace
+there by its bilinear faces, so a row at a body's node reads the other body's Q1 trace exactly.
+
+"gamma3" (non-penetration everywhere on Gamma_3) reduces to nodal rows where the jump is bilinear on known
+quadrilaterals, whose corners then decide: matching faces (every vertex of X_h a node of both traces) and
+nested faces (:func:`nesting`): every face q of the finer side that meets the overlap lies in it and in one face
+Q of the coarser side, as the image under Q's bilinear map of a rectangle of Q's reference square with edges
+along its axes (on parallelograms: q's edges parallel to Q's; any refinement of Q by its edge midpoints and
+centre, aligned grids 2:1 in one or both directions). Then Q's map restricted to q is q's own (both bilinear,
+equal at the corners), the coarse trace on q is bilinear in q's reference coordinates, and so is the jump
+(fine trace minus coarse trace, along the plane's fixed normal): a bilinear function on a square attains its
+minimum at a corner, so the rows at the fine side's nodes (:class:`NestedSurface`: "gamma3" posed as the fine
+side's "sigma" rows, no row at the overlay's other vertices, which would be redundant and dependent) are
+non-penetration everywhere on the overlap. The gap those rows read is the pair's g at the fine nodes, so the
+condition holds everywhere for g's bilinear interpolant on the fine faces: g itself for a constant gap or any g
+affine in the plane (two flat parts, parallel or not).
+
+Faces that do not nest but are all parallelograms with edges along two common directions (aligned grids of any
+ratio, 3 on 2, a coarse face overhanging a finer part: :func:`pieces`) are rectangles in the affine coordinates
+of those directions; where a face of one side meets a face of the other, the piece is a rectangle on which both
+traces, and the jump, are bilinear: :class:`CrossingSurface` poses "gamma3" at the pieces' corners (more rows
+than the jump has degrees of freedom: they may depend on each other, the exact finish takes that; their forces
+are not unique, the pressure each body feels is). General quadrilaterals that cross are refused
+(:func:`hex_contact`): the jump is not bilinear on the pieces there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..contact.laws import pair_laws
+from ..contact.surface import SurfaceInterface
+from ..errors import UnsupportedError
+from .hex import bilinear_rows, face_points, reference_points
+from .trace import LinearTrace
+
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "NestedSurface", "Nesting",
+           "Pieces", "hex_contact", "hex_pair", "independent_rows", "matching", "nesting", "pieces"]
+
+NESTED_TOL = 1e-8
+"""How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
+rectangle of :func:`nesting`, and the relative area a fine face may miss of the overlap or spill over a second
+coarse face, for the faces to count as nested."""
+
+
+def matching(itf) -> bool:
+    """True if every node of X_h of the two-body pair ``itf`` is a node of both traces (faces matching corner to
+    corner, on the overlap)."""
+    return all(len(nodes) == itf.size for nodes in itf.sigma)
+
+
+def _corners(trace) -> np.ndarray:
+    """(k, 4): the corners of the quadrilateral faces of ``trace`` (indices into ``trace.nodes``, in order around
+    each face; face q's triangles are 2 q, 2 q + 1 of ``trace.faces``)."""
+    return np.searchsorted(trace.nodes, trace.body.mesh.boundary(trace.part))
+
+
+class BilinearSurface(SurfaceInterface):
+    """The two-body :class:`~cvxcontact.contact.surface.SurfaceInterface` ``itf`` (its overlay, its nodes of X_h)
+    with each trace evaluated at the nodes of X_h by its Q1 faces' bilinear functions instead of the P1
+    functions of the faces' triangles: the nodal rows "sigma1"/"sigma2" (a body's nodes, located on the other
+    body's faces) are then the Q1 jump exactly. Each vertex is located in an overlay triangle and with it in a
+    triangle of each trace, whose face is that triangle's quadrilateral."""
+
+    def __init__(self, itf):
+        self.__dict__.update(itf.__dict__)
+        ov = self.overlay
+        triangles = np.asarray(ov.triangles)
+        host = np.empty(self.size, dtype=np.int64)
+        host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
+        rows = []
+        for trace, cell in zip(self.traces, (ov.cell_a, ov.cell_b)):
+            corners = _corners(trace)
+            rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2,
+                                      np.asarray(ov.vertices), len(trace.nodes)))
+        self._interp, self._factor = rows, None
+
+
+@dataclass(frozen=True)
+class Nesting:
+    """Whether the faces of a two-body pair are nested (:func:`nesting`): ``fine`` the finer side (0 or 1), None
+    if they are not; ``faces`` the fine side's faces on the overlap (indices into its ``mesh.boundary(part)``);
+    ``reason`` why not (per side tried), empty if nested."""
+
+    fine: int | None
+    faces: np.ndarray
+    reason: str = ""
+
+
+def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
+    """Whether the faces of the two-body pair ``itf`` are nested (module docstring): for a side l, every face of
+    l that meets the overlap (its overlay triangles of area above ``tol`` of the face's) lies in it (they cover
+    the face to ``tol`` of its area) and in one face Q of the other side, its corners at reference points of Q
+    (Newton on Q's bilinear map) such that each of its edges runs along an axis of Q's reference square (the
+    smaller of its steps in the two reference coordinates at most ``tol``). Side 0 is tried first."""
+    ov = itf.overlay
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
+    reasons = []
+    for fine in (0, 1):
+        trace, other = itf.traces[fine], itf.traces[1 - fine]
+        name = f"{trace.body.name} {trace.part!r}"
+        corners = _corners(trace)
+        X = np.asarray(trace.x)[corners]                                            # (k, 4, 2)
+        size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))           # the faces' areas
+        q, Q = cells[fine], cells[1 - fine]
+        keep = area > tol * size[q]
+        links = np.unique(np.column_stack([q[keep], Q[keep]]), axis=0)
+        hosts = np.bincount(links[:, 0], minlength=len(X))
+        if (hosts > 1).any():
+            f = int(np.argmax(hosts))
+            reasons.append(f"face {f} of {name} lies across {hosts[f]} faces of the other side")
+            continue
+        faces = np.flatnonzero(hosts == 1)
+        covered = np.bincount(q, weights=area, minlength=len(X))[faces]
+        short = np.abs(covered - size[faces]) > tol * size[faces]
+        if short.any():
+            f = int(faces[np.argmax(short)])
+            reasons.append(f"face {f} of {name} lies partly outside the overlap")
+            continue
+        host = np.empty(len(X), dtype=np.int64)
+        host[links[:, 0]] = links[:, 1]
+        coarse = np.asarray(other.x)[_corners(other)]
+        xi = reference_points(coarse, np.repeat(host[faces], 4), X[faces].reshape(-1, 2)).reshape(-1, 4, 2)
+        steps = np.abs(np.roll(xi, -1, axis=1) - xi).min(axis=2).max(axis=1)      # each edge off the axes
+        if (steps > tol).any():
+            f = int(np.argmax(steps))
+            reasons.append(f"face {int(faces[f])} of {name} is not a rectangle of its face {int(host[faces[f]])} of "
+                           f"the other side in that face's bilinear coordinates (an edge off its axes by "
+                           f"{steps[f]:.3g} of the reference square)")
+            continue
+        return Nesting(fine, faces)
+    return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
+
+
+def _cross(a, b) -> np.ndarray:
+    """The z component of the cross product of in-plane vectors ``a``, ``b`` (..., 2)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+class NestedSurface(BilinearSurface):
+    """A :class:`BilinearSurface` on nested faces (:func:`nesting`, side ``fine`` the finer): "gamma3" is posed
+    as the fine side's nodal rows ("sigma1" for side 0, "sigma2" for side 1; the module docstring says why they
+    are the condition everywhere on the overlap), a row's quadrature weight (``weights``: the pressure
+    read-back, a friction law's capacity) the integral over the overlap of the fine side's bilinear hat."""
+
+    def __init__(self, itf, nested: Nesting):
+        super().__init__(itf)
+        self.fine, self._faces = nested.fine, nested.faces
+
+    def _nodal(self, condition) -> str:
+        return f"sigma{self.fine + 1}" if condition == "gamma3" else condition
+
+    def _rows(self, condition) -> np.ndarray:
+        return super()._rows(self._nodal(condition))
+
+    def weights(self, condition) -> np.ndarray:
+        """The fine side's Q1 hats integrated over its faces on the overlap (m^2; 2 x 2 Gauss on each face's
+        bilinear map, exact on planar faces) at the rows of "gamma3"; the rows of "sigma1"/"sigma2" as
+        :meth:`SurfaceInterface.weights <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
+        if condition != "gamma3":
+            return super().weights(condition)
+        trace = self.traces[self.fine]
+        corners = _corners(trace)[self._faces]
+        hats = np.zeros(len(trace.nodes))
+        for _, N, da in face_points(np.asarray(trace.points), corners, 1):
+            hats += np.bincount(corners.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+        at = np.asarray(self.overlay.node_a if self.fine == 0 else self.overlay.node_b)
+        out = np.zeros(self.size)
+        out[at[at >= 0]] = hats[at >= 0]
+        return out[self._rows(condition)]
+
+    def extend(self, condition, values) -> np.ndarray:
+        return super().extend(self._nodal(condition), values)
+
+
+@dataclass(frozen=True)
+class Pieces:
+    """The pieces of a two-body pair whose faces are parallelograms with edges along two common directions
+    (:func:`pieces`): ``rows`` the nodes of X_h at the pieces' corners (None if the faces are not such
+    parallelograms), ``weights`` (m^2) a quarter of each piece's area summed at each of them, ``reason`` why not."""
+
+    rows: np.ndarray | None
+    weights: np.ndarray
+    reason: str = ""
+
+
+def pieces(itf, tol: float = NESTED_TOL) -> Pieces:
+    """Whether every face on the overlap of the two-body pair ``itf`` (both sides; the faces with an overlay
+    triangle of area above ``tol`` of theirs) is a parallelogram with edges along the two edge directions d1, d2
+    of the first such face of side 0 (in the coordinates (a, b) of x = a d1 + b d2 each edge runs along an axis to
+    ``tol`` of the face's extent): every face is then a rectangle in (a, b), each trace bilinear in (a, b) on it,
+    and where a face q of one side meets a face Q of the other the piece q n Q is a rectangle on which the jump
+    is bilinear, decided at its four corners. Those corners are vertices of the overlay (where the faces' edges
+    cross, or their corners); the rows of "gamma3" are there, not at the vertices where the triangles' diagonals
+    cross."""
+    ov = itf.overlay
+    V = np.asarray(ov.vertices)
+    P = V[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    X = [np.asarray(t.x)[_corners(t)] for t in itf.traces]                        # (k, 4, 2) per side
+    size = [0.5 * np.abs(_cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])) for x in X]
+    cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
+    keep = (area > tol * size[0][cells[0]]) & (area > tol * size[1][cells[1]])
+    links = np.unique(np.column_stack([cells[0][keep], cells[1][keep]]), axis=0)
+    first = X[0][links[0, 0]]
+    B = np.column_stack([first[1] - first[0], first[3] - first[0]])               # (d1 d2)
+    rects = []
+    for side, x in enumerate(X):
+        faces = np.unique(links[:, side])
+        ab = np.einsum("ij,kvj->kvi", np.linalg.inv(B), x[faces] - first[0])      # (f, 4, 2) in (a, b)
+        lo, hi = ab.min(axis=1), ab.max(axis=1)
+        off = np.abs(np.roll(ab, -1, axis=1) - ab).min(axis=2).max(axis=1) / (hi - lo).min(axis=1)
+        if (off > tol).any():
+            f = int(faces[np.argmax(off)])
+            t = itf.traces[side]
+            return Pieces(None, np.zeros(0), f"face {f} of {t.body.name} {t.part!r} is not a parallelogram with "
+                          f"edges along those of the other faces (off by {off.max():.3g} of its size)")
+        full_lo, full_hi = np.zeros((len(x), 2)), np.zeros((len(x), 2))
+        full_lo[faces], full_hi[faces] = lo, hi
+        rects.append((full_lo, full_hi))
+    lo = np.maximum(rects[0][0][links[:, 0]], rects[1][0][links[:, 1]])
+    hi = np.minimum(rects[0][1][links[:, 0]], rects[1][1][links[:, 1]])
+    corners = np.stack([lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi, np.column_stack([lo[:, 0], hi[:, 1]])], axis=1)
+    points = first[0] + corners.reshape(-1, 2) @ B.T
+    h = np.sqrt(min(size[0].min(), size[1].min()))
+    dist, at = cKDTree(V).query(points)
+    if dist.max() > 1e-6 * h:                  # not expected: the pieces' corners are where the faces' edges cross
+        return Pieces(None, np.zeros(0), f"a corner of the pieces is {dist.max():.3g} m from every overlay vertex")
+    quarter = np.repeat(np.prod(hi - lo, axis=1) * abs(np.linalg.det(B)) / 4, 4)
+    rows = np.unique(at)
+    return Pieces(rows, np.bincount(at, weights=quarter, minlength=len(V))[rows])
+
+
+class CrossingSurface(BilinearSurface):
+    """A :class:`BilinearSurface` whose faces are parallelograms along two common directions (:func:`pieces`):
+    "gamma3" is posed at the corners of the pieces where faces of the two sides meet (the jump is bilinear on
+    each piece), a row's weight a quarter of the area of each piece it is a corner of."""
+
+    def __init__(self, itf, cut: Pieces):
+        super().__init__(itf)
+        self._cut = cut
+
+    def _rows(self, condition) -> np.ndarray:
+        rows = super()._rows(condition)
+        return np.asarray(self._cut.rows) if condition == "gamma3" else rows
+
+    def weights(self, condition) -> np.ndarray:
+        """The rows' areas (m^2): under "gamma3" a quarter of each piece's area at each of its corners (they sum
+        to the overlap's area); under "sigma1"/"sigma2" as :meth:`SurfaceInterface.weights
+        <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
+        return np.array(self._cut.weights) if condition == "gamma3" else super().weights(condition)
+
+    def extend(self, condition, values) -> np.ndarray:
+        """``values`` at the rows of ``condition`` at every node of X_h: under "gamma3" the nodes without a row
+        (where the triangles' diagonals cross) take the value of the nearest row; otherwise as
+        :meth:`SurfaceInterface.extend <cvxcontact.contact.surface.SurfaceInterface.extend>`."""
+        if condition != "gamma3":
+            return super().extend(condition, values)
+        rows = np.asarray(self._cut.rows)
+        x = np.asarray(self.x)
+        return np.asarray(values, dtype=float)[cKDTree(x[rows]).query(x)[1]]
+
+
+def hex_pair(itf, condition: str):
+    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
+    itself against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
+    faces, else a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface`
+    otherwise."""
+    if itf.rigid or matching(itf):
+        return itf
+    if condition == "gamma3":
+        nested = nesting(itf)
+        if nested.fine is not None:
+            return NestedSurface(itf, nested)
+        cut = pieces(itf)
+        if cut.rows is not None:
+            return CrossingSurface(itf, cut)
+    return BilinearSurface(itf)
+
+
+def independent_rows(pairs, conditions, condition: str) -> bool:
+    """Whether the "gamma3" rows of the two-body ``pairs`` (each pair's own condition in ``conditions``, else
+    ``condition``) are known to be linearly independent: there are some, and every such pair is a
+    :class:`NestedSurface` (one row per node of the finer side, and each row the only one that reads its node)."""
+    nested = [isinstance(p, NestedSurface) for p, c in zip(pairs, conditions)
+              if (c or condition) == "gamma3" and not p.rigid]
+    return bool(nested) and all(nested)
+
+
+class FaceTrace(LinearTrace):
+    """The trace of Q1 hexahedra on the contact surfaces: :class:`~cvxcontact.fem.trace.LinearTrace`, keeping in a
+    :class:`~cvxcontact.solution.solution.Solution` the pairs the rows were posed on where they are not the
+    scene's own (:class:`BilinearSurface`: the read-back's pressures, measures and felt pressures are then the
+    bilinear traces')."""
+
+    def kept(self, interface):
+        pairs = getattr(interface, "interfaces", None) or (interface,)
+        return interface if any(isinstance(p, BilinearSurface) for p in pairs) else None
+
+
+FACE_TRACE = FaceTrace()
+
+
+def hex_contact(space, scene, condition, law=None):
+    """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
+    parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
+    decide), "gamma3" between faces that neither match corner to corner nor are nested (:func:`nesting`), and a
+    compliance law between faces that do not match; on Q2, "gamma3", a compliance law, faces that are not
+    parallelograms (the centre off the diagonal's midpoint) and faces that do not match."""
+    alternative = "tetrahedra (cc.box(..., cell='tetra'))"
+    laws = pair_laws(scene, law)
+    if space.degree == 2:
+        conditions = [c or condition for c in scene.conditions]
+        if "gamma3" in conditions:
+            raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
+                                   "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
+                                   f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
+        if any(getattr(lw, "compliant", False) for lw in laws):
+            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
+                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
+                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
+        for i, itf in enumerate(scene.interfaces):
+            for t in itf.traces:
+                X = t.body.mesh.points[t.body.mesh.boundary(t.part)]
+                skew = np.abs(X[:, 0] + X[:, 2] - X[:, 1] - X[:, 3]).max()
+                if skew > 1e-9 * t.body.mesh.size:
+                    raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: {t.body.name}'s contact faces "
+                                           f"are not parallelograms (off by {skew:.3g} m): contact on Q2 hexahedra "
+                                           f"needs them; use degree=1 (Q1 hexahedra) or {alternative}")
+    for i, (itf, c) in enumerate(zip(scene.interfaces, scene.conditions)):
+        c = c or condition
+        label = f"contacts[{i}] {scene.contacts[i]!r}"
+        if getattr(itf, "curved", None) is not None:
+            raise UnsupportedError(f"{label}: a curved contact part of hexahedra is not available: use {alternative}")
+        if itf.rigid:
+            if c == "gamma3" and getattr(itf.obstacle, "kind", None) != "plane":   # Q2: refused above
+                raise UnsupportedError(f"{label}: 'gamma3' on Q1 hexahedra against a curved obstacle is not exact "
+                                       "(its gap is not bilinear on a face): use condition='sigma1' (nodal rows) or "
+                                       f"{alternative}")
+            continue
+        if matching(itf):
+            continue
+        what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
+               f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
+        if space.degree == 2:
+            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
+                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
+                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
+        if c == "gamma3":
+            nested = nesting(itf)
+            cut = pieces(itf) if nested.fine is None else None
+            if cut is not None and cut.rows is None:
+                raise UnsupportedError(f"{label}: {what}, are not nested ({nested.reason}) and are not parallelograms "
+                                       f"along common directions ({cut.reason}): 'gamma3' on Q1 hexahedra is posed "
+                                       "where the bilinear jump is decided at known points: matching faces, nested "
+                                       "faces (each face of the finer side inside one face of the other, a rectangle "
+                                       "of it in its bilinear coordinates) and parallelogram faces along two common "
+                                       "directions (any grids aligned with each other). Use condition='sigma1' "
+                                       "(nodal rows), mesh the two faces alike, nested or aligned, or use "
+                                       f"{alternative}")
+        if getattr(laws[i], "compliant", False):
+            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
+                                   f"matching faces only: mesh the two faces alike or use {alternative}")

@@ -1,0 +1,103 @@
+"""Hexahedral two-body scenes and an independent sampler of their contact jump (tests/test_hex_nested.py,
+tests/test_refusals.py): boxes of Q1 hexahedra on [0, 1]^2, warped by a piecewise bilinear map so that grids
+refining each other stay nested face in reference rectangle; a lower block clamped under an upper one pushed
+down; the jump g - [u_nu] sampled on the faces of one side with both traces evaluated by the Q1 functions written
+here (no package code: the other side's face and reference point found by this module's own Newton iteration).
+"""
+
+import numpy as np
+
+import cvxcontact as cc
+
+STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
+ALU = cc.materials.isotropic(E=70e9, nu=0.33)
+SIDES = ["left", "right", "front", "back"]
+DELTA = 1e-5
+CENTRE = np.array([0.08, -0.06])     # where the centre column of a "skewed" grid moves (m)
+
+
+def warp(xy):
+    """(k, 2): the piecewise bilinear map of the unit square onto itself taking the 2 x 2 grid's centre (0.5, 0.5)
+    to (0.5, 0.5) + CENTRE, the square's boundary fixed: a coarse grid of 2 x 2 general quadrilaterals, and any
+    grid refining the regular one (points at k/2^j) mapped by it nests in it, face in reference rectangle."""
+    xy = np.asarray(xy, dtype=float)
+    i = np.minimum((xy * 2).astype(int), 1)                        # the cell of the regular 2 x 2 grid
+    s = xy * 2 - i                                                  # its local coordinates in [0, 1]^2
+    corner = lambda a, b: np.stack([(i[:, 0] + a) / 2, (i[:, 1] + b) / 2], axis=1) + \
+        CENTRE * (((i[:, 0] + a) == 1) & ((i[:, 1] + b) == 1))[:, None]
+    N = [(1 - s[:, 0]) * (1 - s[:, 1]), s[:, 0] * (1 - s[:, 1]), s[:, 0] * s[:, 1], (1 - s[:, 0]) * s[:, 1]]
+    return sum(n[:, None] * corner(a, b) for n, (a, b) in zip(N, ((0, 0), (1, 0), (1, 1), (0, 1))))
+
+
+def block(n, z, skewed=False, m=None):
+    """A box [0, 1]^2 x z of n x m x 1 hexahedra (m = n unless given), warped by :func:`warp` if ``skewed``."""
+    mesh = cc.box(z=z, nx=n, ny=n if m is None else m, nz=1, cell="hex")
+    if not skewed:
+        return mesh
+    p = mesh.points.copy()
+    p[:, :2] = warp(p[:, :2])
+    return mesh.with_points(p)
+
+
+def pair(lower_mesh, upper_mesh, gap=0.0, push=DELTA, materials=(STEEL, STEEL), swap=False, rollers=True):
+    """The lower block clamped on its bottom, the upper one pushed down by ``push`` at its top, rollers on the
+    sides (``rollers``; without them the upper's top is held in its plane), one pair between the lower's top and the upper's bottom (``swap``: written upper
+    first) with ``gap``."""
+    sides = SIDES if rollers else []
+    lower = cc.Body(lower_mesh, materials[0], roller=sides, clamped=["bottom"], contact="top", name="lower")
+    upper = cc.Body(upper_mesh, materials[1], roller=sides, contact="bottom", name="upper",
+                    displacement={"top": (None, None, -push) if rollers else (0.0, 0.0, -push)})
+    contact = cc.Contact(upper, "bottom", lower, "top", gap=gap) if swap else \
+        cc.Contact(lower, "top", upper, "bottom", gap=gap)
+    return cc.Scene(lower, upper, contacts=[contact])
+
+
+def shape(xi):
+    """(k, 4): the Q1 functions of the reference square [-1, 1]^2 at ``xi`` (k, 2), corners in the VTK order
+    (-1, -1), (1, -1), (1, 1), (-1, 1)."""
+    a, b = xi[:, 0], xi[:, 1]
+    return np.stack([(1 - a) * (1 - b), (1 + a) * (1 - b), (1 + a) * (1 + b), (1 - a) * (1 + b)], axis=1) / 4
+
+
+def locate(X, points):
+    """(face (k,), xi (k, 2)): a quadrilateral of corners ``X`` (f, 4, 2) holding each point (k, 2) and its
+    reference point there (Newton on every face's bilinear map from its centre, 40 steps; the first face whose
+    reference point lies in [-1, 1]^2 to 1e-10; face -1 for a point in none)."""
+    k, f = len(points), len(X)
+    xi = np.zeros((k, f, 2))
+    d = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float) / 4
+    for _ in range(40):
+        N = shape(xi.reshape(-1, 2)).reshape(k, f, 4)
+        a, b = xi[..., 0:1], xi[..., 1:2]
+        dNa = d[:, 0] * (1 + d[:, 1] * 4 * b)                       # d N_i / d a, d N_i / d b
+        dNb = d[:, 1] * (1 + d[:, 0] * 4 * a)
+        r = points[:, None] - np.einsum("kfi,fid->kfd", N, X)
+        J = np.stack([np.einsum("kfi,fid->kfd", dNa, X), np.einsum("kfi,fid->kfd", dNb, X)], axis=-1)
+        xi = xi + np.linalg.solve(J, r[..., None])[..., 0]
+    inside = (np.abs(xi) <= 1 + 1e-10).all(axis=2)
+    face = np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
+    return face, xi[np.arange(k), np.maximum(face, 0)]
+
+
+def sampled_slack(scene, sol, fine, gap=None, n=7):
+    """(slack (F, n * n), scale): g - [u_nu] at n x n points of each of the contact faces (F) of side ``fine`` of
+    the pair of :func:`pair` (0: the lower body), both traces by the Q1 functions of their faces (the face's own;
+    the other side's face holding the point, located by :func:`locate`; NaN at a point off the other side's
+    part), u . nu of the lower body (its top, nu = +z) minus the upper's, g the function ``gap``(x, y) (None: 0);
+    ``scale`` the largest |u_z| on the two faces."""
+    bodies, parts = scene.bodies, ("top", "bottom")
+    t = np.linspace(-1.0, 1.0, n)
+    ref = np.stack(np.meshgrid(t, t, indexing="ij"), axis=-1).reshape(-1, 2)
+    N = shape(ref)
+    faces = bodies[fine].mesh.boundary(parts[fine])
+    X = bodies[fine].mesh.points[faces][:, :, :2]
+    points = np.einsum("pi,fid->fpd", N, X).reshape(-1, 2)
+    uz = [None, None]
+    uz[fine] = np.einsum("pi,fi->fp", N, sol.u[fine][faces, 2]).ravel()
+    coarse = bodies[1 - fine].mesh.boundary(parts[1 - fine])
+    face, xi = locate(bodies[1 - fine].mesh.points[coarse][:, :, :2], points)
+    uz[1 - fine] = (shape(xi) * sol.u[1 - fine][coarse[face], 2]).sum(axis=1)
+    jump = np.where(face >= 0, uz[0] - uz[1], np.nan)
+    g = np.zeros(len(points)) if gap is None else np.asarray(gap(points[:, 0], points[:, 1]), dtype=float)
+    scale = max(np.abs(sol.u[k][bodies[k].mesh.boundary_nodes([parts[k]]), 2]).max() for k in (0, 1))
+    return (g - jump).reshape(len(faces), -1), scale

@@ -28,10 +28,19 @@ traces, and the jump, are bilinear: :class:`CrossingSurface` poses "gamma3" at t
 than the jump has degrees of freedom: they may depend on each other, the exact finish takes that; their forces
 are not unique, the pressure each body feels is). General quadrilaterals that cross are refused
 (:func:`hex_contact`): the jump is not bilinear on the pieces there.
+
+lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
+faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
+rows carry p times the bilinear hats' integrals (A/4 per face corner) while that P1 mass weighs the corners on a
+triangle diagonal A/3 and the others A/6, and it read 0.42 p to 2.2 p (a 3 x 3 face grid). Every Q1 pair
+reads lambda_h as the pressure the constrained side feels, each node's work-equivalent force over its hat's
+integral, interpolated by the bilinear faces at the nodes of X_h: exact for a uniform pressure, non-negative
+where the forces are.
 """
 
 from __future__ import annotations
 
+from copy import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,11 +49,13 @@ from scipy.spatial import cKDTree
 from ..contact.laws import pair_laws
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
+from ..geometry.quadratic import Q2HexNodes
 from .hex import bilinear_rows, face_points, reference_points
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "NestedSurface", "Nesting",
-           "Pieces", "hex_contact", "hex_pair", "independent_rows", "matching", "nesting", "pieces"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
+           "NestedSurface", "Nesting", "Pieces", "hex_contact", "hex_pair", "independent_rows", "matching", "nesting",
+           "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -272,21 +283,65 @@ class CrossingSurface(BilinearSurface):
         return np.asarray(values, dtype=float)[cKDTree(x[rows]).query(x)[1]]
 
 
+class LumpedPressure:
+    """lambda_h of a hexahedral pair (module docstring): ``solve(r)`` for the row forces ``r`` at the nodes of X_h
+    (N) is P (P^T r / w) (Pa), P (size, n) the interpolation of the constrained side's trace at the nodes of X_h
+    (its bilinear or biquadratic faces) and w (n,) its nodes' hat integrals on its faces (m^2): the pressure that
+    side feels at the nodes of X_h."""
+
+    def __init__(self, interp, weights) -> None:
+        self.interp, self.weights = interp, np.asarray(weights, dtype=float)
+
+    def solve(self, r) -> np.ndarray:
+        return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
+
+
+def quadratic_pressures(lines, conditions) -> None:
+    """Make every pair of the Q2 hexahedra's contact ``lines`` (``lines.interface``: a
+    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) read
+    lambda_h by :class:`LumpedPressure`, w the integrals of the biquadratic hats over the constrained side's faces
+    (3 x 3 Gauss on the faces' bilinear maps: A/36 at a corner, A/9 at an edge midpoint, 4A/9 at the centre of a
+    parallelogram face; the P2 mass of the faces' triangles, which the tetrahedra's read-back solves, would
+    make a uniform pressure oscillate)."""
+    pairs = getattr(lines.interface, "interfaces", None) or (lines.interface,)
+    for pair, c in zip(pairs, conditions):
+        side = 1 if c == "sigma2" and not pair.rigid else 0
+        t = pair.traces[side]
+        nodes = Q2HexNodes(t.body.mesh)
+        faces = np.asarray(nodes.boundary(t.part))
+        hats = np.zeros(len(nodes.points))
+        for _, N, da in face_points(np.asarray(nodes.points, dtype=float), faces, 2):
+            hats += np.bincount(faces.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+        pair._factors["riesz"] = LumpedPressure(pair._interp[side], hats[np.asarray(t.nodes)])
+
+
+def _side(pair, condition: str) -> int:
+    """The side whose nodes carry the rows of ``pair`` under ``condition`` (the obstacle's pairs: 0)."""
+    if isinstance(pair, NestedSurface) and condition == "gamma3":
+        return pair.fine
+    return 1 if condition == "sigma2" and not pair.rigid else 0
+
+
 def hex_pair(itf, condition: str):
-    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
-    itself against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
+    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): a copy of
+    ``itf`` against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
     faces, else a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface`
-    otherwise."""
+    otherwise. Each reads lambda_h by :class:`LumpedPressure`."""
+    pair = None
     if itf.rigid or matching(itf):
-        return itf
-    if condition == "gamma3":
+        pair = copy(itf)
+    elif condition == "gamma3":
         nested = nesting(itf)
         if nested.fine is not None:
-            return NestedSurface(itf, nested)
-        cut = pieces(itf)
-        if cut.rows is not None:
-            return CrossingSurface(itf, cut)
-    return BilinearSurface(itf)
+            pair = NestedSurface(itf, nested)
+        else:
+            cut = pieces(itf)
+            if cut.rows is not None:
+                pair = CrossingSurface(itf, cut)
+    pair = pair if pair is not None else BilinearSurface(itf)
+    side = _side(pair, condition)
+    pair._factor = LumpedPressure(pair._interp[side], pair.traces[side].lumped)
+    return pair
 
 
 def independent_rows(pairs, conditions, condition: str) -> bool:

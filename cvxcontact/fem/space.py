@@ -34,7 +34,7 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows
+from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -600,7 +600,9 @@ class Q2Hex(P2Tet):
     def contact(self, scene, condition: str, law, nodes=None) -> ContactLines:
         hex_contact(self, scene, condition, law)
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
-        return super().contact(scene, condition, law, [n.triangulation for n in nodes])
+        lines = super().contact(scene, condition, law, [n.triangulation for n in nodes])
+        quadratic_pressures(lines, [c or condition for c in scene.conditions])
+        return lines
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

@@ -247,8 +247,9 @@ class TensorSides:
         """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` as this body's faces (part ``part``)
         read it: each node's force over the integral of its hat on the faces (bilinear Q1, biquadratic Q2: the
         rows' quadrature of the forces, positive on parallelograms), the lumped pressure, exact for a uniform
-        pressure; ``c.lam``, the representer on the faces' triangles, is not (the triangles' hats integrate
-        otherwise). ``c.lam`` itself where a node of X_h is not a node of the faces (faces that do not match)."""
+        pressure (where the nodes of X_h are the faces' nodes, what ``c.lam`` reads too:
+        :class:`~cvxcontact.fem.hexfaces.LumpedPressure`). ``c.lam`` itself where a node of X_h is not a node of
+        the faces (faces that do not match)."""
         lumped = self._lumped(c, part, c.force)
         return np.asarray(c.lam, dtype=float) if lumped is None else lumped
 

@@ -67,7 +67,7 @@ def test_auto_takes_the_fast_route_for_a_non_quadratic_energy_with_signorini_row
     assert choose("auto", describe(linear)) == "condensed"
     with pytest.raises(cc.SolverError, match="method 'newton' does not accept"):     # a quadratic energy
         cc.solve(two_blocks(), method="newton")
-    with pytest.raises(cc.SolverError, match="no backend accepts"):       # the P2 cones beside Hencky
+    with pytest.raises(cc.UnsupportedError, match="P2 copositive cones"):  # the P2 cones beside Hencky, by name
         cc.solve(two_blocks(mat2=HENCKY), degree=2)
 
 

@@ -164,3 +164,57 @@ def test_a_translations_computed_forces_lie_within_the_point_by_point_floor(degr
     print("max |forces| / (n eps sizes):", (forces / (n * EPS * sizes)).max())
     assert (forces <= 4 * n * EPS * sizes).all()      # measured max 0 (P1), 0.035 (P2): below the floor n_i eps
     #                                                   sizes_i by 29x (100x margin on the bound asserted)
+
+
+def test_a_step_its_solve_left_above_rounding_is_no_floor():
+    """A step's solve that calls itself exact but returns 1.001 times the correction dx (its reactions exact: its
+    own residual 1e-3 K dx, twelve orders above rounding) is credited no more than the rounding of its own rows
+    (``solved_rounding``): the steps go on, each a correction solved as loosely, until (26) holds, and end on the
+    closed form of the chain. Before, the solve's residual was the floor and the first step, 1e-3 off, was taken as
+    converged (the fast route's wrong answers on P2 rows of non-matching meshes, whose step solved scrambled rows)."""
+    n, g = 20, 1.0
+    k = np.linspace(1.0, 3.0, n)
+    force = g / (1 / k).sum()
+    chain = Chain(k, 2 * force)
+    G = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
+    calls = []
+
+    def loose(K, b, at):
+        GL = G[at].toarray()
+        A = np.block([[K.toarray(), GL.T], [GL, np.zeros((len(GL), len(GL)))]])
+        calls.append(1)
+        s = np.linalg.solve(A, b)
+        s[:n] *= 1 + 1e-3
+        return s
+
+    out = solve_sparse_compliance(chain, G, np.array([g]), np.zeros(1), RowLaws.uniform(Signorini(), 1),
+                                  np.zeros(n), np.array([True]), solve=loose)
+    assert not isinstance(out, Declined), out
+    x, y, history = out[0], out[1], out[5]
+    print("relative residuals", history, np.abs(x - force * np.cumsum(1 / k)).max() / g, abs(y[0] - force) / force)
+    # measured: 5 steps, the residual 1e-3 times smaller at each (2.5e-4 ... 2.4e-15); u and the reaction to 6.7e-16
+    # and 1.5e-16 of g and of the force (before: one step, 1e-3 off)
+    assert len(calls) > 1
+    assert np.abs(x - force * np.cumsum(1 / k)).max() <= 1e-12 * g
+    assert abs(y[0] - force) <= 1e-12 * force
+
+
+def test_the_finish_leaves_the_callers_rows_as_given():
+    """The rows G given with unsorted column indices (as P2 rows between non-matching meshes come): the finish
+    works on its own copy, so the caller's arrays keep their order (a solver holding their entries' places, as the
+    fast route's TangentSolver does, would otherwise see them permuted under it), and the answer is the closed
+    form."""
+    n, g = 6, 1.0
+    k = np.ones(n)
+    chain = Chain(k, 2.0)
+    # two rows, each with its columns given in decreasing order: the end (Signorini) and the sum of the last two
+    G = sp.csr_matrix((np.array([1.0, 0.5, 0.5]), np.array([n - 1, n - 1, n - 2]), np.array([0, 1, 3])),
+                      shape=(2, n))
+    G.has_sorted_indices = False
+    before = (G.indices.copy(), G.data.copy())
+    out = solve_sparse_compliance(chain, G, np.array([g, 10.0]), np.zeros(2), RowLaws.uniform(Signorini(), 2),
+                                  np.zeros(n), np.array([True, False]))
+    assert not isinstance(out, Declined), out
+    assert np.array_equal(G.indices, before[0]) and np.array_equal(G.data, before[1])
+    x = out[0]
+    assert np.abs(x - g * np.arange(1, n + 1) / n).max() <= 1e-13 * g      # the end held at the gap

@@ -256,6 +256,40 @@ def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
     assert sol.ok and rel(sol.u[0], exact) <= 1e-9
 
 
+def test_p2_cones_with_a_hencky_body_are_refused_naming_what_to_use():
+    """Row 35: the refusal is typed, raised where the registry decides for ``auto`` and for every backend named,
+    and names what is not available and what to use instead."""
+    never = cc.materials.hencky(E=E, nu=NU, sigma_y=1e15, h=0.1)
+    scene = cc.Scene(_upper(), cc.Body(cc.rectangle(x=(0, 1), y=(-H, 0), nx=3, ny=2), never, clamped=["bottom"],
+                                       contact="top"), gap=GAP)
+    for method in ("auto", "newton", "full"):
+        with pytest.raises(cc.UnsupportedError) as info:
+            cc.solve(scene, "gamma3", degree=2, method=method)
+        msg = _message(info)
+        assert "P2 copositive cones" in msg and "non-quadratic bulk energy" in msg, msg
+        assert "'sigma1'" in msg and "'sigma2'" in msg and "degree=1" in msg, msg
+    assert cc.solve(scene, "sigma1", degree=2).ok and cc.solve(scene, "gamma3").ok       # what it names is taken
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="the P2 copositive cones with a non-quadratic "
+                   "bulk energy (a Hencky body)")
+def test_p2_cones_with_a_hencky_body_that_never_yields_are_the_linear_answer():
+    """Row 35 (b). A Hencky lower block whose yield stress no strain reaches has the linear material's energy:
+    P2 "gamma3" must then give the answer of the same E, nu as a linear material (the condensed route's cones)."""
+    never = cc.materials.hencky(E=E, nu=NU, sigma_y=1e15, h=0.1)
+
+    def scene(material):
+        lower = cc.Body(cc.rectangle(x=(0, 1), y=(-H, 0), nx=3, ny=2), material, clamped=["bottom"], contact="top")
+        return cc.Scene(_upper(), lower, gap=GAP)
+
+    ref = cc.solve(scene(ALU), "gamma3", degree=2)
+    assert ref.ok and ref.contact.active.any()
+    sol = cc.solve(scene(never), "gamma3", degree=2)
+    # an exact finish: the linear material's condensed and full routes agree to 3.6e-16 (u), 1.6e-14 (lambda) here
+    assert sol.ok and rel(sol.u[0], ref.u[0]) <= 1e-9 and rel(sol.contact.lam, ref.contact.lam) <= 1e-9
+
+
 def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity():
     """Row 33 (b), supported. A half-width block (2 x 2 cells) pushed along x by 1 mm on a clamped block (3 x 3 cells: the
     overlap's edge x = 0.5 cuts its faces), nu = 0, under "sigma1", the lower block's nodes, with a tiny threshold

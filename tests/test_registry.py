@@ -75,6 +75,26 @@ def test_a_registered_name_is_a_method_everywhere_and_auto_walks_it_where_placed
         check_solve_parameters("gamma3", "mine", 1e-6)
 
 
+def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it(registry):
+    """P2 cones beside a non-quadratic energy: no backend solves it, so ``choose`` raises the
+    :data:`~cvxcontact.backends.REFUSALS` entry (UnsupportedError, not the generic SolverError) for ``auto`` and for a
+    named backend; a backend registered with a route for it is then chosen, and a problem no refusal names keeps the
+    generic SolverError (docs/refusals.md row 34)."""
+    cones = backends.ProblemDescription(quadratic_energy=False, conic=True, degree=2, kind="conic")
+    for method in ("auto", "full", "newton"):
+        with pytest.raises(cc.UnsupportedError, match="P2 copositive cones.*'sigma1' or 'sigma2'"):
+            backends.choose(method, cones)
+    registry(Backend("mine", lambda p: p.conic, routes={"conic": full_route}), before="full")
+    assert backends.choose("auto", cones) == "mine"
+    with pytest.raises(cc.SolverError, match="method 'full' does not accept") as info:
+        backends.choose("full", cones)                 # another backend solves it: the named one just refuses
+    assert not isinstance(info.value, cc.UnsupportedError)
+    unregister("mine")
+    with pytest.raises(cc.SolverError, match="method 'condensed' does not accept") as info:
+        backends.choose("condensed", backends.ProblemDescription(quadratic_energy=False))
+    assert not isinstance(info.value, cc.UnsupportedError)
+
+
 def test_a_route_that_does_not_import_is_a_typed_error_at_the_solve(registry):
     registry(Backend("mine", _signorini_only, routes={"signorini": "cvxcontact.backends.nowhere:full"}))
     with pytest.raises(cc.SolverError, match="'cvxcontact.backends.nowhere:full' of backend 'mine' does not import"):

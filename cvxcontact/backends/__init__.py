@@ -25,11 +25,12 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from ..discrete.terms import TERMS
-from ..errors import SolverError
+from ..errors import SolverError, UnsupportedError
 from .result import Route
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "ProblemDescription", "Backend", "Fallback", "BACKENDS", "KINDS", "choose",
-           "describe", "register", "unregister", "backend", "SPARSE_ROWS", "SPARSE_SLENDER", "AMG_UNKNOWNS"]
+           "describe", "register", "unregister", "backend", "SPARSE_ROWS", "SPARSE_SLENDER", "AMG_UNKNOWNS",
+           "Refusal", "REFUSALS"]
 
 AMG_UNKNOWNS = 50_000
 """``method="auto"`` takes the AMG route (:mod:`cvxcontact.backends.amg`) for 3D scenes of at least this many
@@ -254,6 +255,36 @@ REFERENCE = "full"
 """The backend that accepts every problem (the reference): it cannot be replaced or unregistered."""
 
 
+@dataclass(frozen=True)
+class Refusal:
+    """A problem no registered backend solves, known by name: :func:`choose` raises
+    :class:`~cvxcontact.errors.UnsupportedError` with ``message`` (what is not available, why, what to use instead)
+    for a problem of which ``when`` holds, in place of the generic "no backend accepts"."""
+
+    when: Callable[[ProblemDescription], bool]
+    message: str
+
+
+REFUSALS: tuple[Refusal, ...] = (
+    Refusal(lambda p: p.conic and not p.quadratic_energy,
+            "the P2 copositive cones (condition='gamma3' with degree=2) with a non-quadratic bulk energy (a Hencky "
+            "material) are not available: the cones' routes and their finish solve systems of the linear "
+            "stiffness, and the Newton route of the nonlinear energy takes linear rows only; use condition='sigma1' "
+            "or 'sigma2' with degree=2 (nodal rows, the Newton route), or degree=1 with 'gamma3'"),
+)
+"""The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
+problem (a backend registered later that solves it lifts it)."""
+
+
+def _refuse(problem: ProblemDescription) -> None:
+    """Raise the :data:`REFUSALS` entry of ``problem``, if any, when no registered backend solves it."""
+    if any(b.solves(problem) for b in BACKENDS):
+        return
+    for refusal in REFUSALS:
+        if refusal.when(problem):
+            raise UnsupportedError(refusal.message)
+
+
 class _Live(Sequence):
     """A read-only, always current view of the registry (``items(registry)`` gives its entries)."""
 
@@ -363,15 +394,18 @@ def choose(method: str, problem: ProblemDescription | None = None) -> str:
     """The backend to run for ``method`` on ``problem`` (default: the package's own problem).
 
     ``"auto"`` gives the first backend of :data:`BACKENDS` that accepts and prefers ``problem``; a named
-    backend is returned if it accepts it. Raises :class:`~cvxcontact.errors.SolverError` for an
-    unknown name or a backend that does not accept the problem.
+    backend is returned if it accepts it. Raises :class:`~cvxcontact.errors.UnsupportedError` for a problem no
+    backend solves that :data:`REFUSALS` names, :class:`~cvxcontact.errors.SolverError` for an unknown name or a
+    backend that does not accept the problem.
     """
     problem = ProblemDescription() if problem is None else problem
     if method == DEFAULT_METHOD:
         for b in BACKENDS:
             if b.solves(problem) and (b.prefers is None or b.prefers(problem)):
                 return b.name
+        _refuse(problem)
         raise SolverError(f"no backend accepts {problem}; backends: {[b.name for b in BACKENDS]}")
     if not backend(method).solves(problem):
+        _refuse(problem)
         raise SolverError(f"method {method!r} does not accept {problem}; use method='auto' or 'full'")
     return method

@@ -144,7 +144,11 @@ class TangentSolver:
     def __init__(self, pattern, G, factorization: str = "auto", residual: float = 1e-8, krylov: int | None = None):
         from .factor import resolve
 
-        P, Gc = sp.coo_matrix(pattern), sp.coo_matrix(G)
+        # G's own copy, canonical: the places below index its entries in order, which a caller's in-place sort
+        # of G's arrays (scipy's abs(G) sorts an unsorted G) would otherwise permute under them
+        P, Gc = sp.coo_matrix(pattern), sp.csr_matrix(G, copy=True)
+        Gc.sum_duplicates()
+        Gc = Gc.tocoo()
         self.n, self.m = n, m = P.shape[0], G.shape[0]
         self.kind, self.residual = resolve(factorization), residual
         self.krylov, self._fixed = (KRYLOV, False) if krylov is None else (krylov, True)

@@ -79,7 +79,7 @@ def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it
     """P2 cones beside a non-quadratic energy: no backend solves it, so ``choose`` raises the
     :data:`~cvxcontact.backends.REFUSALS` entry (UnsupportedError, not the generic SolverError) for ``auto`` and for a
     named backend; a backend registered with a route for it is then chosen, and a problem no refusal names keeps the
-    generic SolverError (docs/refusals.md row 34)."""
+    generic SolverError (docs/refusals.md row 35)."""
     cones = backends.ProblemDescription(quadratic_energy=False, conic=True, degree=2, kind="conic")
     for method in ("auto", "full", "newton"):
         with pytest.raises(cc.UnsupportedError, match="P2 copositive cones.*'sigma1' or 'sigma2'"):

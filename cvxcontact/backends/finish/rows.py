@@ -17,14 +17,17 @@ DEPENDENT_PIVOT = 1e-10
 """A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
 on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
 
-def _independent(M, tol=DEPENDENT_PIVOT) -> np.ndarray:
+def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
     """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
-    column-pivoted QR, in the order of the pivots."""
+    column-pivoted QR, in the order of the pivots. ``factors``: also its R and pivots, (chosen, R, piv) with
+    M[:, piv] = Q R (Q itself is not formed)."""
     if M.shape[1] == 0:
-        return np.zeros(0, dtype=int)
-    _, R, piv = sla.qr(M, mode="economic", pivoting=True)
+        none = np.zeros(0, dtype=int)
+        return (none, np.zeros((0, 0)), none) if factors else none
+    R, piv = sla.qr(M, mode="r", pivoting=True)
     diag = np.abs(np.diag(R))
-    return piv[:int(np.sum(diag > tol))]
+    chosen = piv[:int(np.sum(diag > tol))]
+    return (chosen, R, piv) if factors else chosen
 
 
 def _row_scale(absG, x, g):

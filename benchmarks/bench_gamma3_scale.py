@@ -9,7 +9,8 @@ scene, solves it from the Scene to the checked Solution and prints: the CPU seco
 ``time.perf_counter`` by ``time.process_time`` before importing the package, so that ``sol.timings`` counts CPU:
 the machine is shared): "factorization" (the bodies' factorisations with their Schur blocks and the interface
 compliance), the interior point (the rest of the solve's CPU less every other stage: CVXPY's compilation and
-Clarabel, whose own clock is wall time) and "polish" (the exact finish); the unknowns, rows, the final active rows,
+Clarabel, whose own clock is wall time) and "polish" (the exact finish); the unknowns, rows, the final active rows, the steps (``sol.info.iterations``: the interior point's and the
+finish's),
 ``sol.ok`` and the fields. The answers of the two checkouts are compared:
 max |u_after - u_before| / max |u_before| over both bodies (the finish is exact: rounding).
 
@@ -73,7 +74,7 @@ def main() -> None:
     ap.add_argument("--before", type=Path, required=True, help="the other checkout (its cvxcontact is imported)")
     ap.add_argument("--md", type=Path, default=None, help="append the table to this file")
     args = ap.parse_args()
-    head = ("| unknowns | rows | active rows | code | solve CPU s | factorisation s | interior point s | finish s | "
+    head = ("| unknowns | rows | active rows | code | steps | solve CPU s | factorisation s | interior point s | finish s | "
             "peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     print(lines[0], flush=True)
@@ -91,7 +92,8 @@ def main() -> None:
                 t = r["timings"]
                 ratio = r["solve_cpu"] / res["before"]["solve_cpu"]
                 ipm = r["solve_cpu"] - sum(v for k, v in t.items() if k not in ("compile", "solve", "assembly"))
-                lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r['solve_cpu']:.1f} | "
+                lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r['iterations']} | "
+                             f"{r['solve_cpu']:.1f} | "
                              f"{t['factorization']:.1f} | {ipm:.1f} | {t['polish']:.1f}"
                              + f" | {r['peak_gb']:.2f} | {ratio:.2f} | {du:.1e} | {r['ok']} |")
                 print(lines[-1], flush=True)

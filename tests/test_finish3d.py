@@ -144,10 +144,13 @@ def test_a_body_held_by_the_rows_only_from_a_start_closing_every_row(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed):
+@pytest.mark.parametrize("pivoted", [False, True])
+def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed, pivoted):
     """The start of the finish: the interior point's forces y0 >= 0 on 30 rows of rank 8 (with duplicated and
     scaled rows) moved onto an independent subset with the same resultant G^T y, checked by numpy: G^T y =
-    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent."""
+    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent. ``pivoted``: the tableau from
+    the R of the weighted column-pivoted QR that chose the subset (as the finish runs it), else from a QR of
+    the subset's rows."""
     rng = np.random.default_rng(seed)
     base = rng.normal(size=(8, 12))
     C = rng.uniform(0, 1, size=(30, 8)) * (rng.uniform(size=(30, 8)) < 0.4)
@@ -159,11 +162,49 @@ def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(
     norms = np.linalg.norm(G, axis=1)
     U = G / norms[:, None]
     cand = np.flatnonzero(y0 > 0)
-    chosen = finish._independent(U[cand].T * y0[cand] / y0[cand].max())
-    passive, y = finish._purified(U[cand], norms, y0, cand, chosen)
+    scale = y0[cand] / y0[cand].max()
+    chosen, R, piv = finish._independent(U[cand].T * scale, factors=True)
+    assert (chosen == finish._independent(U[cand].T * scale)).all()
+    passive, y = finish._purified(U[cand], norms, y0, cand, chosen, (R, piv, scale) if pivoted else None)
     assert len(passive) == np.linalg.matrix_rank(G[cand]) == np.linalg.matrix_rank(G[passive])
     assert (y >= 0).all() and (y[np.setdiff1d(np.arange(30), passive)] == 0).all()
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
+
+
+def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_compliance():
+    """:class:`~cvxcontact.backends.condensed.Compliance` forms W and B on first use and
+    :class:`~cvxcontact.backends.finish.CompliantRows` only W's block on the rows that entered a passive set:
+    two random SPD "bodies" (Sigma_l) and 40 dependent rows on their 12 + 9 dofs, against numpy's dense
+    W = sum_l R_l Sigma_l^-1 R_l^T; each step's forces solve W_PP y_P = d_P and its slack is d - W y."""
+    from types import SimpleNamespace
+
+    from cvxcontact.backends.condensed import Compliance
+    from cvxcontact.backends.finish import CompliantRows
+
+    rng = np.random.default_rng(3)
+    bodies, sizes, m = [], (12, 9), 40
+    for k in sizes:
+        X = rng.normal(size=(k, k))
+        bodies.append(SimpleNamespace(stiffness=X @ X.T + k * np.eye(k), jump=rng.normal(size=(15, k))))
+    E = sp.random(m, 15, density=0.2, random_state=rng, format="csr") + sp.eye(m, 15, format="csr")
+    comp = Compliance(bodies, E)
+    R = [np.asarray(E @ b.jump) for b in bodies]
+    W = sum(Rl @ np.linalg.solve(b.stiffness, Rl.T) for Rl, b in zip(R, bodies))
+    assert comp._W is None and comp._B is None                                  # nothing formed yet
+    cols = comp.columns([3, 7, 11])
+    assert np.abs(np.hstack(R) @ cols - W[:, [3, 7, 11]]).max() < 1e-12 * np.abs(W).max()   # measured 1e-16
+    v0 = [rng.normal(size=k) for k in sizes]
+    g = rng.normal(size=m)
+    rows = CompliantRows(comp, v0, g)
+    d = np.hstack(R) @ np.concatenate(v0) - g
+    for rows_p in ([0, 5, 9], [0, 5, 9, 14, 2], [9, 14, 30, 31], list(range(0, 21, 2))):
+        y, _, slack, _ = rows(None, rows_p)
+        assert np.abs(W[np.ix_(rows_p, rows_p)] @ y[rows_p] - d[rows_p]).max() < 1e-10 * np.abs(d).max()  # 1e-15
+        assert (y[np.setdiff1d(np.arange(m), rows_p)] == 0).all()
+        assert np.abs(slack - (d - W @ y)).max() < 1e-10 * np.abs(d).max()            # measured 1e-15
+    kept = np.flatnonzero(rows.where >= 0)
+    assert set(kept) == set(range(0, 21, 2)) | {5, 9, 14, 30, 31} and comp._W is None   # W never formed whole
+    assert np.abs(comp.W - W).max() < 1e-12 * np.abs(W).max()                           # measured 1e-16
 
 
 def test_the_updated_interface_system_solves_like_a_dense_solve():

@@ -228,7 +228,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     y0 = np.where(held, 0.0, np.maximum(np.asarray(y0, dtype=float), 0.0))
     cand = np.flatnonzero(np.asarray(start, dtype=bool) & ~held)
     weight = np.maximum(y0[cand], 1e-300)                  # the pivots prefer the rows with the larger forces
-    U = unit[cand].toarray()                               # the start's unit rows, dense
+    U = unit[cand]                                         # the start's unit rows, dense on the unknowns
+    U = U[:, np.flatnonzero(np.diff(U.tocsc().indptr))].toarray()     # they touch (their span lives there)
     scale = weight / weight.max(initial=1.0)
     chosen, Rp, piv = _independent(U.T * scale, factors=True)
     first = cand[chosen]

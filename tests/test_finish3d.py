@@ -175,7 +175,8 @@ def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_co
     """:class:`~cvxcontact.backends.condensed.Compliance` forms W and B on first use and
     :class:`~cvxcontact.backends.finish.CompliantRows` only W's block on the rows that entered a passive set:
     two random SPD "bodies" (Sigma_l) and 40 dependent rows on their 12 + 9 dofs, against numpy's dense
-    W = sum_l R_l Sigma_l^-1 R_l^T; each step's forces solve W_PP y_P = d_P and its slack is d - W y."""
+    W = sum_l R_l Sigma_l^-1 R_l^T; each step's forces solve W_PP y_P = d_P and its slack is d - W y; another load
+    case reuses the kept block."""
     from types import SimpleNamespace
 
     from cvxcontact.backends.condensed import Compliance
@@ -202,8 +203,12 @@ def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_co
         assert np.abs(W[np.ix_(rows_p, rows_p)] @ y[rows_p] - d[rows_p]).max() < 1e-10 * np.abs(d).max()  # 1e-15
         assert (y[np.setdiff1d(np.arange(m), rows_p)] == 0).all()
         assert np.abs(slack - (d - W @ y)).max() < 1e-10 * np.abs(d).max()            # measured 1e-15
-    kept = np.flatnonzero(rows.where >= 0)
+    kept = np.flatnonzero(comp.where >= 0)
     assert set(kept) == set(range(0, 21, 2)) | {5, 9, 14, 30, 31} and comp._W is None   # W never formed whole
+    again = CompliantRows(comp, v0, 2 * g)                  # another load case: the kept block is reused
+    y, _, slack, _ = again(None, [0, 5, 9])
+    d2 = np.hstack(R) @ np.concatenate(v0) - 2 * g
+    assert comp.count == len(kept) and np.abs(slack - (d2 - W @ y)).max() < 1e-10 * np.abs(d2).max()
     assert np.abs(comp.W - W).max() < 1e-12 * np.abs(W).max()                           # measured 1e-16
 
 

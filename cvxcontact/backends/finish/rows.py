@@ -304,54 +304,31 @@ class CompliantRows:
     mixed system's steps do.
 
     Only the rows that have carried a force (the passive rows of some step, J) need W: their columns of B and
-    the block W_JJ are formed as the rows first enter P and kept (O(n_Gamma (|J|^2 + n_Gamma |J|)) in all,
-    |J|^2 + n_Gamma |J| doubles), never the whole m x m W of the interface (m the rows, several times |J|
-    on non-matching faces: 1.5e5 unknowns, m = 8,353)."""
+    the block W_JJ are formed as the rows first enter P and kept with the compliance
+    (:meth:`~cvxcontact.backends.condensed.Compliance.keep`: O(n_Gamma (|J|^2 + n_Gamma |J|)) flops and
+    |J|^2 + n_Gamma |J| doubles), never the whole m x m W of the interface (m the rows, several times |J| on
+    non-matching faces: 1.4e5 unknowns, m = 8,353, |J| about 2,000)."""
 
     def __init__(self, compliance, v0, g):
         self.compliance = compliance
-        self.R = np.hstack(compliance.rows)
+        self.R = compliance.stacked
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
         self.d = self.R @ self.v0 - self.g
         self.absR = np.abs(self.R)
-        m = len(self.g)
-        self.where = np.full(m, -1)                       # position of a row's kept column, -1 if none yet
-        self.count = 0
-        cap = min(m, 64)
-        self.B = np.zeros((self.R.shape[1], cap))         # Sigma^{-1} R_J^T of the kept rows J
-        self.WJ = np.zeros((cap, cap))                    # W_JJ
-        self.system = UpdatedSystem(lambda a, b: self.WJ[np.ix_(self.where[a // 2], self.where[b // 2])])
-
-    def _columns(self, rows):
-        """Keep B's and W's columns of ``rows`` (those not kept yet)."""
-        new = np.unique(rows[self.where[rows] < 0])
-        if not len(new):
-            return
-        c, k = self.count, len(new)
-        if c + k > self.B.shape[1]:
-            cap = min(len(self.g), max(2 * self.B.shape[1], c + k))
-            B, WJ = np.zeros((self.B.shape[0], cap)), np.zeros((cap, cap))
-            B[:, :c], WJ[:c, :c] = self.B[:, :c], self.WJ[:c, :c]
-            self.B, self.WJ = B, WJ
-        self.B[:, c:c + k] = self.compliance.columns(new)
-        kept = np.flatnonzero(self.where >= 0)[np.argsort(self.where[self.where >= 0])]   # rows at 0..c-1
-        self.WJ[c:c + k, :c + k] = self.R[new] @ self.B[:, :c + k]
-        self.WJ[:c, c:c + k] = self.R[kept] @ self.B[:, c:c + k]
-        self.where[new] = c + np.arange(k)
-        self.count = c + k
+        c = compliance
+        self.system = UpdatedSystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)
         y = np.zeros(len(self.g))
         cols = np.zeros(0, dtype=int)
         if len(P):
-            self._columns(P)
-            cols = self.where[P]
-            WPP = self.WJ[np.ix_(cols, cols)]
+            cols = self.compliance.keep(P)
+            WPP = self.compliance.kept_W[np.ix_(cols, cols)]
             out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WPP @ w, None))
             if out is None:
                 return None
             y[P] = out[0]
-        v = self.v0 - self.B[:, cols] @ y[P]
+        v = self.v0 - self.compliance.kept_B[:, cols] @ y[P]
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)

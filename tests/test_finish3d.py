@@ -21,7 +21,7 @@ from cvxcontact.backends import finish, full, signorini
 from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
 from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
-    three_blocks, uniaxial_modulus
+    three_blocks, two_boxes, uniaxial_modulus
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -705,3 +705,29 @@ def test_a_sparse_re_solve_of_dependent_rows_is_exact():
     again = solver.solve(squeezed_blocks(overlap=2 * overlap))
     assert again.ok and again.info.route == "active-set warm start"
     assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.6e-13
+
+
+@pytest.mark.parametrize("warm_steps", [0, None])
+def test_a_gamma3_resolve_after_a_load_change_is_the_fresh_solve(monkeypatch, warm_steps):
+    """A re-solve of "gamma3" between two boxes (dependent overlay rows, condensed route) after the body force
+    changes by 1 %, 10 % and 30 %: the same answer as a fresh ContactSolver's, and the checks hold, whether the
+    warm start from the previous forces finishes (its steps capped at WARM_STEPS) or gives way to the interface
+    program (WARM_STEPS = 0: route "interior point + exact finish")."""
+    if warm_steps is not None:
+        monkeypatch.setattr(signorini, "WARM_STEPS", warm_steps)
+    scene = two_boxes(12, "gamma3", elastic=True)
+    solver = cc.ContactSolver(scene)
+    solver.solve()
+    routes = set()
+    for f in (2.02e9, 2.2e9, 2.6e9):
+        changed = scene.with_loads(1, body_force=(0.0, 0.0, -f))
+        sol, fresh = solver.solve(changed), cc.solve(changed)
+        assert sol.ok and fresh.ok
+        routes.add(sol.info.route)
+        if warm_steps == 0:
+            assert sol.info.route == fresh.info.route
+        ref = np.concatenate([np.ravel(u) for u in fresh.u])
+        got = np.concatenate([np.ravel(u) for u in sol.u])
+        assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1e-14
+    if warm_steps is None:                    # both ways taken (measured: 2 changes past the cap, 1 warm)
+        assert routes == {fresh.info.route, cc.Route.WARM_START}

@@ -181,11 +181,11 @@ def condensed(problem, cache, settings, timings) -> RawResult:
 
         return forced(problem, cache, settings, timings)
     E, g = problem.E, problem.g
-    reduction = condensation(problem, cache, settings, timings)
+    dependent = dependent_rows(problem)
+    reduction = condensation(problem, cache, settings, timings, whole=not dependent)   # dependent: W's block
     cond, compliance = reduction.bodies, reduction.compliance
     v0, loads, d = reduction.apply(problem, timings)
     warm = settings.warm_start and settings.polish and cache.active is not None
-    dependent = dependent_rows(problem)
 
     def finish(start, y0, max_iter=None):
         return interface_finish(compliance, d, start, timings, (v0, g, y0) if dependent else None, max_iter)

@@ -238,8 +238,15 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     step = steps_from(np.asarray(passive, dtype=int))
     if step is None:
         return SINGULAR_FORCES
-    Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive      # economic: P's columns only
-            else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
+    Q = R = None              # the QR of P's unit rows, formed when a row first penetrates (often never: the
+    # crossover's P is the answer's)
+
+    def factors():
+        nonlocal Q, R
+        if Q is None:
+            Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive   # economic: P's columns only
+                    else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
+
     max_iter = 3 * m + 20 if max_iter is None else max_iter
     dependent = set()                                   # rows found infeasible: passed over from then on
     settled = set()                                     # dependent rows whose slack is rounding, while P grows
@@ -256,6 +263,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         worst[off] = -np.inf
         p = len(passive)
         for j in np.flatnonzero(worst > tol)[np.argsort(-worst[worst > tol])]:
+            factors()
             col = unit[j].toarray().ravel()
             if p < len(touched):
                 Q, R = _append_column(Q, R, col)
@@ -280,6 +288,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         parallel to some of P: G_j = sum c_i G_i + a remainder near DEPENDENT_PIVOT). None if no force of P can
         give way."""
         nonlocal Q, R
+        factors()
         p = len(passive) - 1
         Q, R = _delete_column(Q, R, p)
         del passive[p]
@@ -325,7 +334,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             drop = [i for i, row in enumerate(passive) if y[row] <= 0] or \
                    [int(np.flatnonzero(neg)[np.argmin(ratio)])]
             for i in sorted(set(drop), reverse=True):
-                Q, R = _delete_column(Q, R, i)
+                if Q is not None:
+                    Q, R = _delete_column(Q, R, i)
                 y[passive[i]] = 0.0
                 del passive[i]
             settled.clear()

@@ -21,7 +21,7 @@ from cvxcontact.backends import finish, full, signorini
 from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
 from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
-    three_blocks, uniaxial_modulus
+    three_blocks, two_boxes, uniaxial_modulus
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -144,10 +144,13 @@ def test_a_body_held_by_the_rows_only_from_a_start_closing_every_row(seed):
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed):
+@pytest.mark.parametrize("pivoted", [False, True])
+def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(seed, pivoted):
     """The start of the finish: the interior point's forces y0 >= 0 on 30 rows of rank 8 (with duplicated and
     scaled rows) moved onto an independent subset with the same resultant G^T y, checked by numpy: G^T y =
-    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent."""
+    G^T y0 to rounding, y >= 0, zero off the subset, the subset's rows independent. ``pivoted``: the tableau from
+    the R of the weighted column-pivoted QR that chose the subset (as the finish runs it), else from a QR of
+    the subset's rows."""
     rng = np.random.default_rng(seed)
     base = rng.normal(size=(8, 12))
     C = rng.uniform(0, 1, size=(30, 8)) * (rng.uniform(size=(30, 8)) < 0.4)
@@ -159,11 +162,54 @@ def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(
     norms = np.linalg.norm(G, axis=1)
     U = G / norms[:, None]
     cand = np.flatnonzero(y0 > 0)
-    chosen = finish._independent(U[cand].T * y0[cand] / y0[cand].max())
-    passive, y = finish._purified(U[cand], norms, y0, cand, chosen)
+    scale = y0[cand] / y0[cand].max()
+    chosen, R, piv = finish._independent(U[cand].T * scale, factors=True)
+    assert (chosen == finish._independent(U[cand].T * scale)).all()
+    passive, y = finish._purified(U[cand], norms, y0, cand, chosen, (R, piv, scale) if pivoted else None)
     assert len(passive) == np.linalg.matrix_rank(G[cand]) == np.linalg.matrix_rank(G[passive])
     assert (y >= 0).all() and (y[np.setdiff1d(np.arange(30), passive)] == 0).all()
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
+
+
+def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_compliance():
+    """:class:`~cvxcontact.backends.condensed.Compliance` forms W and B on first use and
+    :class:`~cvxcontact.backends.finish.CompliantRows` only W's block on the rows that entered a passive set:
+    two random SPD "bodies" (Sigma_l) and 40 dependent rows on their 12 + 9 dofs, against numpy's dense
+    W = sum_l R_l Sigma_l^-1 R_l^T; each step's forces solve W_PP y_P = d_P and its slack is d - W y; another load
+    case reuses the kept block."""
+    from types import SimpleNamespace
+
+    from cvxcontact.backends.condensed import Compliance
+    from cvxcontact.backends.finish import CompliantRows
+
+    rng = np.random.default_rng(3)
+    bodies, sizes, m = [], (12, 9), 40
+    for k in sizes:
+        X = rng.normal(size=(k, k))
+        bodies.append(SimpleNamespace(stiffness=X @ X.T + k * np.eye(k), jump=rng.normal(size=(15, k))))
+    E = sp.random(m, 15, density=0.2, random_state=rng, format="csr") + sp.eye(m, 15, format="csr")
+    comp = Compliance(bodies, E)
+    R = [np.asarray(E @ b.jump) for b in bodies]
+    W = sum(Rl @ np.linalg.solve(b.stiffness, Rl.T) for Rl, b in zip(R, bodies))
+    assert comp._W is None and comp._B is None                                  # nothing formed yet
+    cols = comp.columns([3, 7, 11])
+    assert np.abs(np.hstack(R) @ cols - W[:, [3, 7, 11]]).max() < 1e-12 * np.abs(W).max()   # measured 1e-16
+    v0 = [rng.normal(size=k) for k in sizes]
+    g = rng.normal(size=m)
+    rows = CompliantRows(comp, v0, g)
+    d = np.hstack(R) @ np.concatenate(v0) - g
+    for rows_p in ([0, 5, 9], [0, 5, 9, 14, 2], [9, 14, 30, 31], list(range(0, 21, 2))):
+        y, _, slack, _ = rows(None, rows_p)
+        assert np.abs(W[np.ix_(rows_p, rows_p)] @ y[rows_p] - d[rows_p]).max() < 1e-10 * np.abs(d).max()  # 1e-15
+        assert (y[np.setdiff1d(np.arange(m), rows_p)] == 0).all()
+        assert np.abs(slack - (d - W @ y)).max() < 1e-10 * np.abs(d).max()            # measured 1e-15
+    kept = np.flatnonzero(comp.where >= 0)
+    assert set(kept) == set(range(0, 21, 2)) | {5, 9, 14, 30, 31} and comp._W is None   # W never formed whole
+    again = CompliantRows(comp, v0, 2 * g)                  # another load case: the kept block is reused
+    y, _, slack, _ = again(None, [0, 5, 9])
+    d2 = np.hstack(R) @ np.concatenate(v0) - 2 * g
+    assert comp.count == len(kept) and np.abs(slack - (d2 - W @ y)).max() < 1e-10 * np.abs(d2).max()
+    assert np.abs(comp.W - W).max() < 1e-12 * np.abs(W).max()                           # measured 1e-16
 
 
 def test_the_updated_interface_system_solves_like_a_dense_solve():
@@ -659,3 +705,29 @@ def test_a_sparse_re_solve_of_dependent_rows_is_exact():
     again = solver.solve(squeezed_blocks(overlap=2 * overlap))
     assert again.ok and again.info.route == "active-set warm start"
     assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.6e-13
+
+
+@pytest.mark.parametrize("warm_steps", [0, None])
+def test_a_gamma3_resolve_after_a_load_change_is_the_fresh_solve(monkeypatch, warm_steps):
+    """A re-solve of "gamma3" between two boxes (dependent overlay rows, condensed route) after the body force
+    changes by 1 %, 10 % and 30 %: the same answer as a fresh ContactSolver's, and the checks hold, whether the
+    warm start from the previous forces finishes (its steps capped at WARM_STEPS) or gives way to the interface
+    program (WARM_STEPS = 0: route "interior point + exact finish")."""
+    if warm_steps is not None:
+        monkeypatch.setattr(signorini, "WARM_STEPS", warm_steps)
+    scene = two_boxes(12, "gamma3", elastic=True)
+    solver = cc.ContactSolver(scene)
+    solver.solve()
+    routes = set()
+    for f in (2.02e9, 2.2e9, 2.6e9):
+        changed = scene.with_loads(1, body_force=(0.0, 0.0, -f))
+        sol, fresh = solver.solve(changed), cc.solve(changed)
+        assert sol.ok and fresh.ok
+        routes.add(sol.info.route)
+        if warm_steps == 0:
+            assert sol.info.route == fresh.info.route
+        ref = np.concatenate([np.ravel(u) for u in fresh.u])
+        got = np.concatenate([np.ravel(u) for u in sol.u])
+        assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1e-14
+    if warm_steps is None:                    # both ways taken (measured: 2 changes past the cap, 1 warm)
+        assert routes == {fresh.info.route, cc.Route.WARM_START}

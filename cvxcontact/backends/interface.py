@@ -26,13 +26,16 @@ class Condensation:
     :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v).
     """
 
-    def __init__(self, problem, settings, timings):
+    def __init__(self, problem, settings, timings, whole: bool = True):
         t0 = time.perf_counter()
         held = [bool(getattr(b, "held_by_contact", None)) for b in problem.scene.bodies]
         self.bodies = [condense(b, s, m, settings.factorization, held=h)       # held: backends/forced.py only
                        for b, s, m, h in zip(problem.blocks, problem.matrices, problem.meshes, held)]
         # a body held by the contact only has a singular Sigma: no compliance (backends/forced.py does without)
         self.compliance = None if any(held) else Compliance(self.bodies, problem.E)
+        if whole and self.compliance is not None:
+            _ = self.compliance.W              # formed here (timed with the factorisations) for the routes reading
+            # it whole; the finish of dependent rows reads a block of it (Compliance.keep) and passes whole=False
         self.sweeps = None
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
@@ -72,10 +75,12 @@ class Condensation:
         return split(self.bodies, x, problem.blocks)
 
 
-def condensation(problem, cache, settings, timings) -> Condensation:
-    """The :class:`Condensation` of ``problem``, built once per geometry into ``cache``."""
+def condensation(problem, cache, settings, timings, whole: bool = True) -> Condensation:
+    """The :class:`Condensation` of ``problem``, built once per geometry into ``cache``; ``whole``: its interface
+    compliance W formed at once (else on first use, or a block of it: :class:`~cvxcontact.backends.condensed.
+    Compliance`)."""
     if cache.condensation is None:
-        cache.condensation = Condensation(problem, settings, timings)
+        cache.condensation = Condensation(problem, settings, timings, whole)
     return cache.condensation
 
 

@@ -129,43 +129,81 @@ def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_
                          g=np.asarray(g, dtype=float))
 
 
-def _purified(U, norms, y0, cand, chosen):
+def _purified(U, norms, y0, cand, chosen, factors=None, block: int = 64):
     """(P, y): the independent rows ``cand[chosen]`` exchanged, row by row, so that the start's forces y0 on the
     rows ``cand`` (>= 0; ``U`` their unit rows, dense) become forces y >= 0 on P alone with the same resultant
     G^T y (an LP crossover: each other row j is written G_j = sum_i c_i G_i over P and its force moved onto P,
     y_P + t c; where a force of P would turn negative first, that row leaves P and j enters). From the
     interior point's forces this starts the iteration near its end, instead of opening the rows of a basis
-    whose forces are negative one by one (stacked blocks, 685 rows: 1 step instead of 173)."""
+    whose forces are negative one by one (stacked blocks, 685 rows: 1 step instead of 173).
+
+    The coefficients c of every row with a force over the first P (a simplex tableau) come from one triangular
+    solve with many right-hand sides: on the R of the column-pivoted QR that chose P (``factors`` = (R, piv,
+    scale) of :func:`~cvxcontact.backends.finish.rows._independent` on U^T diag(scale)), or else of a QR of
+    U_P^T. An exchange changes the basis by an elementary matrix E = I - w e_i^T; their product is kept as
+    I + X S (S the rows of the exchanged positions), so that a row's tableau column is c0 + X c0[S], applied to
+    ``block`` rows at a time (each exchange also updates the rest of its block): O(p q) for the q rows instead of
+    a QR update and a solve per row."""
     m = len(norms)
     y = np.zeros(m)
     y[cand] = y0[cand]
     if not len(chosen):
         return [], np.zeros(m)
-    basis = list(chosen)                                 # positions in cand
-    Q, R = sla.qr(U[basis].T, mode="economic")          # economic: the held columns only
-    p = len(basis)
-    for k in np.setdiff1d(np.arange(len(cand)), chosen):
-        j = cand[k]
-        if y[j] <= 0:
-            continue
-        rows = cand[basis]
-        c = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ U[k], check_finite=False) * norms[j] / norms[rows]
-        yP = y[rows]
-        limit = np.where(c < 0, yP / np.where(c < 0, -c, 1.0), np.inf)
-        i = int(np.argmin(limit))
-        if limit[i] >= y[j]:                             # all of y_j moves onto P
-            y[rows] = np.maximum(yP + y[j] * c, 0.0)
-            y[j] = 0.0
-            continue
-        t = limit[i]                                     # row i of P reaches 0 first: it leaves, j enters
-        y[rows] = np.maximum(yP + t * c, 0.0)
-        y[j] -= t
-        y[rows[i]] = 0.0
-        Q, R = _delete_column(Q, R, i)
-        del basis[i]
-        Q, R = _append_column(Q, R, U[k])
-        basis.append(int(k))
-    passive = [int(r) for r in cand[basis]]
+    chosen = np.asarray(chosen, dtype=int)
+    p = len(chosen)
+    rest = np.setdiff1d(np.arange(len(cand)), chosen)
+    rest = rest[y[cand[rest]] > 0]                       # (a row with no force moves nothing)
+    if factors is None:
+        Q, R = sla.qr(U[chosen].T, mode="economic")
+        T = sla.solve_triangular(R, Q.T @ U[rest].T, check_finite=False)
+    else:
+        R, piv, scale = factors                          # U^T diag(scale) [:, piv] = Q R, piv[:p] = chosen
+        at = np.empty(len(piv), dtype=int)
+        at[piv] = np.arange(len(piv))
+        T = sla.solve_triangular(R[:p, :p], R[:p, at[rest]], check_finite=False)
+        T *= scale[chosen][:, None] / scale[rest][None, :]
+    basis = cand[chosen].copy()                          # the row at each position of the basis
+    seq = list(range(p))                                 # the positions in the order rows joined P
+    X, S = np.zeros((p, 8)), []                          # the exchanges so far: I + X[:, :len(S)] (.)[S]
+    for b0 in range(0, len(rest), block):
+        Tb = T[:, b0:b0 + block].copy()
+        if S:
+            Tb += X[:, :len(S)] @ T[S, b0:b0 + block]
+        for jj in range(Tb.shape[1]):
+            j = cand[rest[b0 + jj]]
+            a = Tb[:, jj]
+            c = a * norms[j] / norms[basis]
+            yP = y[basis]
+            neg = c < 0
+            limit = np.full(p, np.inf)
+            limit[neg] = yP[neg] / -c[neg]
+            order = np.asarray(seq)
+            i = int(order[np.argmin(limit[order])])
+            if limit[i] >= y[j]:                         # all of y_j moves onto P
+                y[basis] = np.maximum(yP + y[j] * c, 0.0)
+                y[j] = 0.0
+                continue
+            t = limit[i]                                 # row i of P reaches 0 first: it leaves, j enters
+            y[basis] = np.maximum(yP + t * c, 0.0)
+            y[j] -= t
+            y[basis[i]] = 0.0
+            w = a.copy()
+            w[i] -= 1.0
+            w /= a[i]
+            Tb[:, jj + 1:] -= np.outer(w, Tb[i, jj + 1:])
+            n = len(S)
+            X[:, :n] -= np.outer(w, X[i, :n])
+            if i in S:
+                X[:, S.index(i)] -= w
+            else:
+                if n == X.shape[1]:
+                    X = np.hstack([X, np.zeros_like(X)])
+                X[:, n] = -w
+                S.append(i)
+            basis[i] = j
+            seq.remove(i)
+            seq.append(i)
+    passive = [int(basis[i]) for i in seq]
     out = np.zeros(m)
     out[passive] = y[passive]
     return passive, out
@@ -190,16 +228,25 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     y0 = np.where(held, 0.0, np.maximum(np.asarray(y0, dtype=float), 0.0))
     cand = np.flatnonzero(np.asarray(start, dtype=bool) & ~held)
     weight = np.maximum(y0[cand], 1e-300)                  # the pivots prefer the rows with the larger forces
-    U = unit[cand].toarray()                               # the start's unit rows, dense
-    chosen = _independent(U.T * (weight / weight.max(initial=1.0))) if len(cand) else np.zeros(0, dtype=int)
+    U = unit[cand]                                         # the start's unit rows, dense on the unknowns
+    U = U[:, np.flatnonzero(np.diff(U.tocsc().indptr))].toarray()     # they touch (their span lives there)
+    scale = weight / weight.max(initial=1.0)
+    chosen, Rp, piv = _independent(U.T * scale, factors=True)
     first = cand[chosen]
-    passive, y = _purified(U, norms, y0, cand, chosen) if purify else (list(first), np.where(
+    passive, y = _purified(U, norms, y0, cand, chosen, (Rp, piv, scale)) if purify else (list(first), np.where(
         np.isin(np.arange(m), first), y0, 0.0))
     step = steps_from(np.asarray(passive, dtype=int))
     if step is None:
         return SINGULAR_FORCES
-    Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive      # economic: P's columns only
-            else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
+    Q = R = None              # the QR of P's unit rows, formed when a row first penetrates (often never: the
+    # crossover's P is the answer's)
+
+    def factors():
+        nonlocal Q, R
+        if Q is None:
+            Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive   # economic: P's columns only
+                    else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
+
     max_iter = 3 * m + 20 if max_iter is None else max_iter
     dependent = set()                                   # rows found infeasible: passed over from then on
     settled = set()                                     # dependent rows whose slack is rounding, while P grows
@@ -216,6 +263,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         worst[off] = -np.inf
         p = len(passive)
         for j in np.flatnonzero(worst > tol)[np.argsort(-worst[worst > tol])]:
+            factors()
             col = unit[j].toarray().ravel()
             if p < len(touched):
                 Q, R = _append_column(Q, R, col)
@@ -240,6 +288,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         parallel to some of P: G_j = sum c_i G_i + a remainder near DEPENDENT_PIVOT). None if no force of P can
         give way."""
         nonlocal Q, R
+        factors()
         p = len(passive) - 1
         Q, R = _delete_column(Q, R, p)
         del passive[p]
@@ -285,7 +334,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             drop = [i for i, row in enumerate(passive) if y[row] <= 0] or \
                    [int(np.flatnonzero(neg)[np.argmin(ratio)])]
             for i in sorted(set(drop), reverse=True):
-                Q, R = _delete_column(Q, R, i)
+                if Q is not None:
+                    Q, R = _delete_column(Q, R, i)
                 y[passive[i]] = 0.0
                 del passive[i]
             settled.clear()

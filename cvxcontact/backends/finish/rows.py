@@ -17,14 +17,17 @@ DEPENDENT_PIVOT = 1e-10
 """A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
 on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
 
-def _independent(M, tol=DEPENDENT_PIVOT) -> np.ndarray:
+def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
     """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
-    column-pivoted QR, in the order of the pivots."""
+    column-pivoted QR, in the order of the pivots. ``factors``: also its R and pivots, (chosen, R, piv) with
+    M[:, piv] = Q R (Q itself is not formed)."""
     if M.shape[1] == 0:
-        return np.zeros(0, dtype=int)
-    _, R, piv = sla.qr(M, mode="economic", pivoting=True)
+        none = np.zeros(0, dtype=int)
+        return (none, np.zeros((0, 0)), none) if factors else none
+    R, piv = sla.qr(M, mode="r", pivoting=True)
     diag = np.abs(np.diag(R))
-    return piv[:int(np.sum(diag > tol))]
+    chosen = piv[:int(np.sum(diag > tol))]
+    return (chosen, R, piv) if factors else chosen
 
 
 def _row_scale(absG, x, g):
@@ -298,26 +301,34 @@ class CompliantRows:
     W_PP y_P = d_P (:class:`UpdatedSystem`, O(|P|^2) a changed row), with W = sum_l R_l Sigma_l^{-1} R_l^T the
     interface compliance and d the free slack (:class:`~cvxcontact.backends.condensed.Compliance`); the Gamma
     displacements v = v0 - B y give every row's slack R v - g and its scale (|R| |v|) + |g|, as the sparse
-    mixed system's steps do."""
+    mixed system's steps do.
+
+    Only the rows that have carried a force (the passive rows of some step, J) need W: their columns of B and
+    the block W_JJ are formed as the rows first enter P and kept with the compliance
+    (:meth:`~cvxcontact.backends.condensed.Compliance.keep`: O(n_Gamma (|J|^2 + n_Gamma |J|)) flops and
+    |J|^2 + n_Gamma |J| doubles), never the whole m x m W of the interface (m the rows, several times |J| on
+    non-matching faces: 1.4e5 unknowns, m = 8,353, |J| about 2,000)."""
 
     def __init__(self, compliance, v0, g):
-        self.W = compliance.W
-        self.R = np.hstack(compliance.rows)
-        self.B = np.vstack(compliance.B)
+        self.compliance = compliance
+        self.R = compliance.stacked
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
         self.d = self.R @ self.v0 - self.g
         self.absR = np.abs(self.R)
-        self.system = UpdatedSystem(lambda a, b: self.W[np.ix_(a // 2, b // 2)])
+        c = compliance
+        self.system = UpdatedSystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)
         y = np.zeros(len(self.g))
+        cols = np.zeros(0, dtype=int)
         if len(P):
-            WP = self.W[:, P]
-            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WP[P] @ w, None))
+            cols = self.compliance.keep(P)
+            WPP = self.compliance.kept_W[np.ix_(cols, cols)]
+            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WPP @ w, None))
             if out is None:
                 return None
             y[P] = out[0]
-        v = self.v0 - self.B[:, P] @ y[P]
+        v = self.v0 - self.compliance.kept_B[:, cols] @ y[P]
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)

@@ -1,0 +1,107 @@
+"""Benchmark: the default 3D condition "gamma3" (P1, two elastic boxes with non-matching faces on z = 0,
+tests/scenes3d.py ``two_boxes(n, "gamma3", elastic=True)``) on the default route (``method="auto"``: condensed,
+interior point + exact finish of dependent rows), stage by stage, this checkout against another one (``--before``,
+e.g. an export of an earlier commit: ``git archive <commit> | tar -x -C DIR``), in one run.
+
+Each (size, checkout) is a fresh subprocess (one thread; its peak memory, ``ru_maxrss``, its own) that builds the
+scene, solves it from the Scene to the checked Solution and prints: the CPU seconds of ContactSolver construction
+(assembly) and of ``solve()`` (``time.process_time``), its stages in CPU seconds (the child replaces
+``time.perf_counter`` by ``time.process_time`` before importing the package, so that ``sol.timings`` counts CPU:
+the machine is shared): "factorization" (the bodies' factorisations with their Schur blocks and the interface
+compliance), the interior point (the rest of the solve's CPU less every other stage: CVXPY's compilation and
+Clarabel, whose own clock is wall time) and "polish" (the exact finish); the unknowns, rows, the final active rows, the steps (``sol.info.iterations``: the interior point's and the
+finish's),
+``sol.ok`` and the fields. The answers of the two checkouts are compared:
+max |u_after - u_before| / max |u_before| over both bodies (the finish is exact: rounding).
+
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gamma3_scale.py \\
+        --sizes 5e4 1.5e5 --before /tmp/before [--md FILE]
+
+A size is a count of unknowns (n from ``bench3d.cells``: N ~ 2.2 n^3) or n itself (< 1e3).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench3d import cells
+
+CHILD = """
+import json, resource, sys, time
+time.perf_counter = time.process_time          # sol.timings in this process's CPU seconds (one thread)
+sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r})
+import numpy as np
+import cvxcontact as cc
+from scenes3d import two_boxes
+cc.solve(two_boxes(4, "gamma3", True))                       # imports, first-call set-up
+scene = two_boxes({n}, "gamma3", True)
+c0 = time.process_time()
+solver = cc.ContactSolver(scene)
+c1 = time.process_time()
+sol = solver.solve()
+c2 = time.process_time()
+np.savez({out!r}, *[np.asarray(u) for u in sol.u])
+print(json.dumps(dict(code=cc.__file__, N=int(solver.problem.unknowns), m=int(solver.problem.E.shape[0]),
+                      assembly_cpu=c1 - c0, solve_cpu=c2 - c1, ok=bool(sol.ok), route=str(sol.info.route),
+                      active=int(np.sum(solver.cache.active)), iterations=int(sol.info.iterations),
+                      timings={{k: float(v) for k, v in dict(sol.timings).items()}},
+                      peak_gb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)))
+"""
+
+
+def run(root: Path, n: int, out: str) -> dict:
+    code = CHILD.format(root=str(root), tests=str(ROOT / "tests"), n=n, out=out)
+    res = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True)
+    if res.returncode:
+        raise RuntimeError(res.stderr[-3000:])
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=float, nargs="+", default=[5e4])
+    ap.add_argument("--before", type=Path, required=True, help="the other checkout (its cvxcontact is imported)")
+    ap.add_argument("--md", type=Path, default=None, help="append the table to this file")
+    args = ap.parse_args()
+    head = ("| unknowns | rows | active rows | code | steps | solve CPU s | factorisation s | interior point s | finish s | "
+            "peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    print(lines[0], flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        for size in args.sizes:
+            n = cells("two_boxes", size, True)
+            res = {}
+            for name, root in (("before", args.before), ("after", ROOT)):
+                res[name] = run(root, n, os.path.join(tmp, f"{name}{n}.npz"))
+            ub = [np.load(os.path.join(tmp, f"before{n}.npz"))[k] for k in ("arr_0", "arr_1")]
+            ua = [np.load(os.path.join(tmp, f"after{n}.npz"))[k] for k in ("arr_0", "arr_1")]
+            du = max(np.abs(a - b).max() for a, b in zip(ua, ub)) / max(np.abs(b).max() for b in ub)
+            for name in ("before", "after"):
+                r = res[name]
+                t = r["timings"]
+                ratio = r["solve_cpu"] / res["before"]["solve_cpu"]
+                ipm = r["solve_cpu"] - sum(v for k, v in t.items() if k not in ("compile", "solve", "assembly"))
+                lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r['iterations']} | "
+                             f"{r['solve_cpu']:.1f} | "
+                             f"{t['factorization']:.1f} | {ipm:.1f} | {t['polish']:.1f}"
+                             + f" | {r['peak_gb']:.2f} | {ratio:.2f} | {du:.1e} | {r['ok']} |")
+                print(lines[-1], flush=True)
+    print("load", " ".join(f"{x:.1f}" for x in os.getloadavg()))
+    if args.md:
+        with open(args.md, "a") as f:
+            f.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

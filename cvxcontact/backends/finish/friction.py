@@ -60,14 +60,16 @@ wall sharing a corner node, whose floor row's slip and wall row move the same di
 and the stuck rows' slip rows may be linearly dependent, and the forces on them are then not unique ((26) fixes
 only their resultant). Each step keeps a maximal independent subset of them, the rows with the largest forces
 (normal rows) and the largest slack to the cone, c_a - |mu_a| (stuck rows), chosen first (column-pivoted QR of the
-unit rows so weighted); the step holds the forces of the others where they are (d y_a = 0, d mu_a = 0), so that
-they keep the interior point's share and the independent rows carry the correction. The steps move x onto the same
-affine set (a dependent row closes with the rows it depends on where the gap is affine on it: planar faces), and
-the residual and signs are then checked on every row, the held ones included, as for independent rows. A slipping
-row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows alone. Coulomb's capacities mu
-y_a are those of the forces found, one of the distributions (26) allows. The subset's forces may have to change
-sign where the interior point's active set is not the answer's (a row at the edge of the contact carrying a small
-force): the full step to a new active set is taken (above) if that set was not met before.
+unit rows so weighted, group by group of rows linked by common unknowns: a floor's nodal rows are groups of one
+node's rows, not one dense QR of every row); the step holds the forces of the others where they are (d y_a = 0,
+d mu_a = 0), so that they keep the interior point's share and the independent rows carry the correction. The
+steps move x onto the same affine set (a dependent row closes with the rows it depends on where the gap is affine
+on it: planar faces), and the residual and signs are then checked on every row, the held ones included, as for
+independent rows. A slipping row's force is c_a t_a, fixed by x: the subset concerns the closed and stuck rows
+alone. Coulomb's capacities mu y_a are those of the forces found, one of the distributions (26) allows. The subset's
+forces may have to change sign where the interior point's active set is not the answer's (a row at the edge of the
+contact carrying a small force): the full step to a new active set is taken (above) if that set was not met
+before.
 """
 
 from __future__ import annotations
@@ -175,19 +177,10 @@ class _System:
         cn, (ta, tj) = np.flatnonzero(closed), np.nonzero(held)
         if not self.dependent or len(cn) + len(ta) == 0:
             return normal, tangential
-        M = sp.vstack([self.G[cn], fr.S[ta * fr.nc + tj]]).tocsc()
-        M = M[:, np.flatnonzero(np.diff(M.indptr))].toarray()
-        norms = np.linalg.norm(M, axis=1)
+        M = sp.vstack([self.G[cn], fr.S[ta * fr.nc + tj]]).tocsr()
         slack = np.concatenate([y[cn], (c - np.linalg.norm(mu, axis=1))[ta]])
         weight = np.maximum(slack / max(float(slack.max(initial=0.0)), np.finfo(float).tiny), WEIGHT_FLOOR)
-        unit = (M / np.where(norms > 0, norms, 1.0)[:, None]).T
-        keep = np.zeros(len(norms), dtype=bool)
-        keep[_independent(unit * weight)] = True
-        rest = np.flatnonzero(~keep)        # the weights order the pivots; dependence is the unit rows' own: a
-        if len(rest):                       # row left out whose part outside the kept rows' span is above
-            Q = np.linalg.qr(unit[:, keep])[0]                      # DEPENDENT_PIVOT joins them
-            perp = unit[:, rest] - Q @ (Q.T @ unit[:, rest])
-            keep[rest[_independent(perp)]] = True
+        keep = _kept(M, weight)
         normal[cn[~keep[:len(cn)]]] = True
         tangential[ta[~keep[len(cn):]], tj[~keep[len(cn):]]] = True
         return normal, tangential
@@ -257,6 +250,50 @@ class _System:
                         mu - c[:, None] * z / norm_z[:, None])
         tang = np.where(self.fr.moved[:, None], tang, mu - c[:, None] * self.fr.held)
         return -np.concatenate([mom, normal, tang.ravel()])
+
+
+def _kept(M, weight) -> np.ndarray:
+    """(k,) the rows of the sparse ``M`` (k rows) in a maximal linearly independent subset, those of the largest
+    ``weight`` first (:func:`_basis`), chosen group by group of rows linked by common unknowns (:func:`_linked`)."""
+    keep = np.asarray(abs(M).sum(axis=1)).ravel() > 0          # a row alone in its group: kept unless 0
+    for part in _linked(M):
+        if len(part) > 1:
+            keep[part] = _basis(M[part], weight[part])
+    return keep
+
+
+def _linked(M) -> list[np.ndarray]:
+    """The rows of the sparse ``M`` in groups linked by common unknowns (the connected components of the graph of
+    rows joined where they share a column). Rows of different groups are orthogonal, so a maximal
+    independent subset of M is the union of one per group, and the column-pivoted QR of each group picks the rows
+    the QR of all of M picks (its pivots within a group depend on that group's columns alone): each group's dense
+    QR instead of one of every row (the nodal rows of a floor and a wall sharing an edge: groups of one node's
+    rows, not every row of the floor). In the order of the groups' labels."""
+    from scipy.sparse.csgraph import connected_components
+
+    pattern = sp.csr_matrix(M, copy=True)
+    pattern.data = np.ones(len(pattern.data))
+    _, label = connected_components(pattern @ pattern.T, directed=False)
+    order = np.argsort(label, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(label[order])) + 1)
+
+
+def _basis(M, weight) -> np.ndarray:
+    """(k,) the rows of ``M`` (sparse, k rows) in a maximal independent subset, those of the largest ``weight``
+    first: a column-pivoted QR of the unit rows so weighted, then a row left out whose part outside the kept rows'
+    span is above DEPENDENT_PIVOT joins them (the weights order the pivots; dependence is the unit rows' own)."""
+    M = sp.csc_matrix(M)
+    M = M[:, np.flatnonzero(np.diff(M.indptr))].toarray()
+    norms = np.linalg.norm(M, axis=1)
+    unit = (M / np.where(norms > 0, norms, 1.0)[:, None]).T
+    keep = np.zeros(len(norms), dtype=bool)
+    keep[_independent(unit * weight)] = True
+    rest = np.flatnonzero(~keep)
+    if len(rest):
+        Q = np.linalg.qr(unit[:, keep])[0]
+        perp = unit[:, rest] - Q @ (Q.T @ unit[:, rest])
+        keep[rest[_independent(perp)]] = True
+    return keep
 
 
 def _broken(merit, closed_forces, open_gaps, over, stick_slip, turned) -> str:

@@ -1,8 +1,11 @@
 """The memory-saving code paths of the 3D pipeline give what the straightforward construction gives, on small
 meshes: the free rigid motions from an SVD without its left factor (`physics/supports.py` `free_basis`), the
 estimate's strain fields and diameters formed by blocks of cells instead of from stored per-cell matrices
-(`solution/estimate.py` `_strains`, `_diameters`, blocks of `CELLS`), and the AMG route's coupling block taken
-columns first (`backends/amg.py` `_precondition`). The references are computed here the plain way."""
+(`solution/estimate.py` `_strains`, `_diameters`, blocks of `CELLS`), the tetrahedra's barycentric gradients by
+blocks (`fem/assembly.py`, blocks of `TETS`) and the P1 corner gradients as a view of them (`corner_gradients`),
+the AMG route's coupling block taken columns first (`backends/amg.py` `_precondition`) and what it releases after
+a solve (`release`), and the sparse route's backward-error sizes by rows (`backends/sparse.py`). The references
+are computed here the plain way."""
 
 import numpy as np
 import pytest
@@ -104,7 +107,8 @@ def test_amg_route_rebuilds_its_stacked_blocks_after_a_solve_as_first_built():
 
 def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
     """|K| |z| by blocks of 7 rows (a ragged last block) is abs(K) @ |z| exactly, on a canonical CSR matrix; a
-    non-canonical one (duplicate entries) and a CSC one take abs(K) itself."""
+    non-canonical one (duplicate entries) takes abs(K) itself; a CSC one goes by blocks of 7 columns (the same
+    terms, all non-negative, summed in another order: within the row's term count times eps)."""
     from cvxcontact.discrete import energy
 
     monkeypatch.setattr(energy, "ROWS", 7)
@@ -114,4 +118,106 @@ def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
     assert K.has_canonical_format and np.array_equal(energy.abs_product(K, z), abs(K) @ np.abs(z))
     dup = sp.csr_matrix((np.array([1.0, -2.0, 3.0]), np.array([1, 1, 0]), np.array([0, 2, 3])), shape=(2, 2))
     assert np.array_equal(energy.abs_product(dup, [1.0, 1.0]), abs(dup) @ np.ones(2))      # |1 - 2| = 1, not 3
-    assert np.array_equal(energy.abs_product(K.tocsc(), z), abs(K.tocsc()) @ np.abs(z))
+    plain, terms = abs(K.tocsc()) @ np.abs(z), np.diff(K.indptr)
+    assert np.all(np.abs(energy.abs_product(K.tocsc(), z) - plain) <= terms * np.finfo(float).eps * plain)
+
+
+def _tet_gradients_at_once(points, tets):
+    """The barycentric gradients of every tetrahedron at once (the plain construction, no blocks)."""
+    p = points[tets]
+    e1, e2, e3 = (p[:, k] - p[:, 0] for k in (1, 2, 3))
+    c = np.stack([np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)], axis=2)
+    det = np.einsum("md,md->m", e1, c[:, :, 0])
+    g = c / det[:, None, None]
+    return det / 6.0, np.concatenate([-g.sum(axis=2, keepdims=True), g], axis=2)
+
+
+def test_tet_gradients_by_blocks_equal_every_cell_at_once(monkeypatch):
+    """Blocks of 7 tetrahedra (a ragged last block) give the volumes and gradients of every cell at once, exactly;
+    and they are the barycentric gradients: sum_i grad L_i = 0 and grad L_i . (p_j - p_0) = delta_ij - delta_i0
+    (to rounding), the volumes those of the determinant of the edge vectors."""
+    from cvxcontact.fem import assembly
+
+    mesh = cc.box(x=(0.0, 1.0), y=(0.0, 2.0), z=(0.0, 0.5), nx=3, ny=2, nz=2)
+    rng = np.random.default_rng(6)
+    points = mesh.points + 0.05 * rng.standard_normal(mesh.points.shape)     # skewed cells, still positive
+    monkeypatch.setattr(assembly, "TETS", 7)
+    vol, grad = assembly.gradients(points, mesh.cells)
+    plain_vol, plain_grad = _tet_gradients_at_once(points, mesh.cells)
+    assert len(mesh.cells) % 7 and np.array_equal(vol, plain_vol) and np.array_equal(grad, plain_grad)
+    p = points[mesh.cells]
+    edges = p[:, 1:] - p[:, :1]                                              # (m, 3, 3): rows p_j - p_0
+    assert np.allclose(vol, np.linalg.det(edges) / 6.0, rtol=1e-12, atol=0.0) and (vol > 0).all()
+    target = np.broadcast_to(np.vstack([-np.ones(3), np.eye(3)]), (len(vol), 4, 3))
+    assert np.abs(np.einsum("mdi,mjd->mij", grad, edges) - target).max() <= 1e-12
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_corner_gradients_from_given_barycentric_gradients(degree):
+    """A space's corner gradients from the mesh's barycentric gradients handed in equal those it forms itself,
+    exactly; P1's are then a view of them (the estimate's Geometry keeps one copy of the gradients)."""
+    from cvxcontact.fem.assembly import gradients
+    from cvxcontact.fem.space import space
+
+    body = two_boxes(3).bodies[0]
+    element = space(degree, body.mesh.cell)
+    gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+    cells, G = element.corner_gradients(body, gradL)
+    plain_cells, plain_G = element.corner_gradients(body)
+    assert np.array_equal(cells, plain_cells) and np.array_equal(G, plain_G)
+    assert np.shares_memory(G, gradL) == (degree == 1)
+    g = est.Geometry(body, degree)
+    assert np.array_equal(g.G, plain_G) and np.shares_memory(g.G, g.gradL) == (degree == 1)
+
+
+@pytest.mark.numerics
+def test_amg_route_releases_its_preconditioner_and_modes_and_resolves_alike():
+    """After a solve the AMG route keeps neither its last preconditioner (the contact rows' factor and a copy of
+    the coupling block) nor the rigid-body modes (used by the one set-up), only the hierarchy; a second solver
+    that keeps them (``release`` a no-op) gives the same answers, first and warm re-solve, to the Krylov
+    tolerance (measured: equal), with the same steps and Krylov iterations."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends.amg import KrylovContact
+
+    scene = two_boxes(4)
+    np.random.seed(5)
+    saving = cc.ContactSolver(scene, method="amg")
+    runs = [saving.solve(), saving.solve()]
+    kc = saving.cache.amg
+    assert kc.S is None and kc._preconditioner is None and kc.modes is None and kc.ml_u is not None
+    keep = KrylovContact.release
+    try:
+        KrylovContact.release = lambda self: None                       # the plain route: nothing dropped
+        np.random.seed(5)
+        plain = cc.ContactSolver(scene, method="amg")
+        again = [plain.solve(), plain.solve()]
+        assert plain.cache.amg._preconditioner is not None
+    finally:
+        KrylovContact.release = keep
+    for a, b in zip(runs, again):
+        assert a.ok and b.ok and a.info.route == b.info.route and a.info.iterations == b.info.iterations
+        for k in range(2):
+            assert np.abs(a.u[k] - b.u[k]).max() <= 1e-9 * np.abs(b.u[k]).max()
+    assert saving.cache.amg.iterations == plain.cache.amg.iterations
+
+
+def test_sparse_route_backward_error_sizes_without_abs_of_the_matrix(monkeypatch):
+    """The sparse route's refinement sizes |K| |z| of K(A) (CSC) by ``abs_product``: with one block of columns
+    exactly abs(K) @ |z|, by blocks of 7 columns the same non-negative terms summed in another order (each row
+    within its term count times eps, the bound of the two orders)."""
+    from cvxcontact.backends.sparse import SparseContact
+    from cvxcontact.discrete import energy
+
+    solver = cc.ContactSolver(two_boxes(3), method="sparse")
+    solver.solve()
+    sc = SparseContact(list(solver.problem.blocks), solver.problem.E)
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        K = sc.matrix(rng.random(sc.m) < 0.5)
+        z = rng.standard_normal(K.shape[0])
+        plain = abs(K) @ np.abs(z)
+        assert K.format == "csc" and np.array_equal(energy.abs_product(K, z), plain)
+        monkeypatch.setattr(energy, "ROWS", 7)
+        terms = np.diff(K.tocsr().indptr)
+        assert np.all(np.abs(energy.abs_product(K, z) - plain) <= terms * np.finfo(float).eps * plain)
+        monkeypatch.setattr(energy, "ROWS", 1 << 16)

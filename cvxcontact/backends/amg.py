@@ -213,7 +213,7 @@ class KrylovContact:
             raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
         blocks = self._blocks = list(problem.blocks)
         parts = [quasi_definite(b) for b in blocks]
-        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:func:`signorini`)
+        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:meth:`release`)
         self._diag = np.abs(self.S.diagonal())
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
         self.n = n = self.S.shape[0]
@@ -261,7 +261,7 @@ class KrylovContact:
 
         t0 = time.perf_counter()
         Kuu = K[self.u_idx][:, self.u_idx].tocsr()
-        B = self.modes.copy()
+        B, self.modes = self.modes, None             # needed by the set-up alone (one per geometry): not kept
         B[np.isin(self.u_idx, slaves)] = 0.0
         blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
         with _seeded():
@@ -375,6 +375,14 @@ class KrylovContact:
         y[rows] = (F - S @ x)[slaves] / piv
         return x, y
 
+    def release(self) -> None:
+        """Drops what a solve builds from the blocks and a re-solve builds again (peak memory): S, the stacked
+        blocks (a copy of the scaled stiffness), and the last set's preconditioner (its contact rows, their
+        factor and the coupling block Kup, a copy), so that the read-back, checks and estimate run without them.
+        Kept: the hierarchies (one set-up per geometry) and the last answer (the next solve's start)."""
+        self.S = None
+        self._preconditioner = None
+
     def solve(self, F, g, active, max_iter: int = 50):
         """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
         ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
@@ -445,7 +453,7 @@ def signorini(problem, cache, settings, timings):
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False
-    kc.S = None          # S (a copy of the blocks) is not kept through the read-back and estimate: rebuilt per solve
+    kc.release()
     timings["amg_setup"] = kc.setup_time - setup
     timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
     if out is None:

@@ -171,6 +171,32 @@ def own_dofs(G):
     return dof, coef
 
 
+ROWS = 1 << 16
+"""Rows per block of :func:`congruence`."""
+
+
+def congruence(Tt, S, T, D) -> sp.csr_matrix:
+    """Tt @ S @ T + D (CSR, Tt = T^T; all CSR) formed by blocks of :data:`ROWS` rows of Tt (each entry as the
+    whole product forms it), gathered into one matrix, each block freed as it is copied, its rows sorted (in
+    place): about one copy of the product at a time beside S, where the whole product held three (Tt S, its
+    product with T, the sum with D: the peak of the AMG route's steps on large scenes). The whole product's rows
+    come in the order of the sparse product's accumulation, which blocks change: sorted, they are the same."""
+    n = Tt.shape[0]
+    parts = [(Tt[a:a + ROWS] @ S @ T + D[a:a + ROWS]).tocsr() for a in range(0, n, ROWS)]
+    nnz = sum(p.nnz for p in parts)
+    idx = np.int32 if max(nnz, S.shape[1]) < np.iinfo(np.int32).max else np.int64
+    data, indices, indptr = np.empty(nnz, dtype=S.dtype), np.empty(nnz, dtype=idx), np.empty(n + 1, dtype=idx)
+    indptr[0], pos = 0, 0
+    for i, a in enumerate(range(0, n, ROWS)):
+        p, parts[i] = parts[i], None
+        data[pos:pos + p.nnz], indices[pos:pos + p.nnz] = p.data, p.indices
+        indptr[a + 1:a + 1 + p.shape[0]] = p.indptr[1:] + pos
+        pos += p.nnz
+    out = sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
+    out.sort_indices()
+    return out
+
+
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
     """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
     prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
@@ -264,9 +290,11 @@ class KrylovContact:
         B, self.modes = self.modes, None             # needed by the set-up alone (one per geometry): not kept
         B[np.isin(self.u_idx, slaves)] = 0.0
         blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
+        if blocked:
+            Kuu = Kuu.tobsr(blocksize=(3, 3))         # the CSR copy freed before the set-up (peak memory)
         with _seeded():
-            self.ml_u = pyamg.smoothed_aggregation_solver(Kuu.tobsr(blocksize=(3, 3)) if blocked else Kuu, B=B,
-                                                          symmetry="symmetric", max_coarse=30 if blocked else 200)
+            self.ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric",
+                                                          max_coarse=30 if blocked else 200)
             if len(self.p_idx):
                 Kpp = -K[self.p_idx][:, self.p_idx].tocsr()               # the Gauss rows were negated
                 self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
@@ -338,7 +366,7 @@ class KrylovContact:
         x_fix = np.zeros(n)
         x_fix[slaves] = g[rows] / piv
         S = self.S
-        K = (Tt @ S @ T + sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n))).tocsr()
+        K = congruence(Tt, S, T, sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n)))
         b = Tt @ (F - S @ x_fix)
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b

@@ -221,3 +221,63 @@ def test_sparse_route_backward_error_sizes_without_abs_of_the_matrix(monkeypatch
         terms = np.diff(K.tocsr().indptr)
         assert np.all(np.abs(energy.abs_product(K, z) - plain) <= terms * np.finfo(float).eps * plain)
         monkeypatch.setattr(energy, "ROWS", 1 << 16)
+
+
+def _same_csr(A, B) -> bool:
+    return all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in ((A.indptr, B.indptr),
+                                                                        (A.indices, B.indices), (A.data, B.data)))
+
+
+@pytest.mark.parametrize("rows", [1, 7, 1 << 16])
+def test_congruence_by_row_blocks_holds_the_arrays_of_the_whole_expression(monkeypatch, rows):
+    """``congruence(Tt, S, T, D)`` by blocks of ``rows`` rows holds the arrays of (Tt @ S @ T + D).tocsr(), entry
+    order included: with a product whose rows come unsorted (scipy's sum then reverses them), with a canonical
+    product (a diagonal S and T: the merged, sorted sum), and with D on a row the product fills (the whole
+    expression, the fallback)."""
+    from cvxcontact.backends import amg
+
+    monkeypatch.setattr(amg, "ROWS", rows)
+    rng = np.random.default_rng(9)
+    n = 60
+    T = (sp.identity(n, format="csr") + sp.random(n, n, density=0.05, random_state=10, format="csr")).tocsr()
+    held = np.array([3, 17, 40])                                   # T's columns there zero: Tt's rows empty
+    keep = np.setdiff1d(np.arange(n), held)
+    T = (T @ sp.diags(np.isin(np.arange(n), keep).astype(float))).tocsr()
+    T.eliminate_zeros()
+    S = sp.random(n, n, density=0.1, random_state=11, format="csr")
+    S = (S + S.T + sp.identity(n)).tocsr()
+    D = sp.csr_matrix((rng.random(len(held)) + 1.0, (held, held)), shape=(n, n))
+    Tt = T.T.tocsr()
+    for A, B, C in ((Tt, S, T), (sp.identity(n, format="csr") - sp.csr_matrix((np.ones(3), (held, held)),
+                                                                              shape=(n, n)),
+                                 sp.diags(rng.random(n) + 1.0, format="csr"), sp.identity(n, format="csr"))):
+        A.eliminate_zeros()
+        whole = (A @ B @ C + D).tocsr()
+        assert _same_csr(amg.congruence(A, B, C, D), whole)
+    full = sp.csr_matrix((np.ones(1), ([5], [5])), shape=(n, n))   # row 5 of the product is not empty
+    assert _same_csr(amg.congruence(Tt, S, T, full), (Tt @ S @ T + full).tocsr())
+
+
+@pytest.mark.numerics
+def test_amg_reduced_matrix_by_row_blocks_equals_the_whole_product(monkeypatch):
+    """Every reduced K = T^T S T + D of the AMG route's steps formed by blocks of 7 rows (``congruence``) holds the
+    arrays of the whole expression, and the answer is the one of the whole expression's K, bit for bit."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    scene = two_boxes(4)
+    blocked, same = amg.congruence, []
+
+    def checked(Tt, S, T, D):
+        K = blocked(Tt, S, T, D)
+        same.append(_same_csr(K, (Tt @ S @ T + D).tocsr()))
+        return K
+
+    monkeypatch.setattr(amg, "ROWS", 7)
+    monkeypatch.setattr(amg, "congruence", checked)
+    sol = cc.ContactSolver(scene, method="amg").solve()
+    assert sol.ok and len(same) >= 2 and all(same)
+    monkeypatch.setattr(amg, "congruence", lambda Tt, S, T, D: (Tt @ S @ T + D).tocsr())
+    plain = cc.ContactSolver(scene, method="amg").solve()
+    assert plain.ok and plain.info.iterations == sol.info.iterations
+    assert all(np.array_equal(a, b) for a, b in zip(plain.u, sol.u)) and np.array_equal(plain.phi[0], sol.phi[0])

@@ -176,25 +176,40 @@ ROWS = 1 << 16
 
 
 def congruence(Tt, S, T, D) -> sp.csr_matrix:
-    """Tt @ S @ T + D (CSR, Tt = T^T; all CSR) formed by blocks of :data:`ROWS` rows of Tt (each entry as the
-    whole product forms it), gathered into one matrix, each block freed as it is copied, its rows sorted (in
-    place): about one copy of the product at a time beside S, where the whole product held three (Tt S, its
-    product with T, the sum with D: the peak of the AMG route's steps on large scenes). The whole product's rows
-    come in the order of the sparse product's accumulation, which blocks change: sorted, they are the same."""
+    """``(Tt @ S @ T + D).tocsr()`` (Tt = T^T; all CSR; D diagonal, on rows where Tt @ S @ T has no entry: the
+    eliminated rows of :meth:`KrylovContact._reduced`), the same arrays, formed by blocks of :data:`ROWS` rows
+    and gathered into one matrix, each block freed as it is copied: about one copy of the product at a time
+    beside S, where the whole expression held three (Tt S, its product with T, the sum with D: the peak of the
+    AMG route's steps on large scenes).
+
+    A row of a sparse product comes from the rows of its factors alone, so each block's rows are the whole
+    product's; the sum with D is reproduced row by row: scipy adds two canonical CSR matrices by merging their
+    sorted rows, else it gives each row's entries in the reverse of their order in the product (D's entries,
+    alone in their rows, anywhere). Any other D: the whole expression."""
     n = Tt.shape[0]
-    parts = [(Tt[a:a + ROWS] @ S @ T + D[a:a + ROWS]).tocsr() for a in range(0, n, ROWS)]
-    nnz = sum(p.nnz for p in parts)
+    parts = [Tt[a:a + ROWS] @ S @ T for a in range(0, n, ROWS)]
+    Dr = np.diff(D.indptr)
+    if np.any(Dr > 1) or any(np.any((np.diff(p.indptr) > 0) & (Dr[a:a + ROWS] > 0))
+                             for a, p in zip(range(0, n, ROWS), parts)):
+        return (sp.vstack(parts, format="csr") + D).tocsr()
+    reverse = not (all(p.has_canonical_format for p in parts) and D.has_canonical_format)
+    nnz = sum(p.nnz for p in parts) + D.nnz
     idx = np.int32 if max(nnz, S.shape[1]) < np.iinfo(np.int32).max else np.int64
     data, indices, indptr = np.empty(nnz, dtype=S.dtype), np.empty(nnz, dtype=idx), np.empty(n + 1, dtype=idx)
     indptr[0], pos = 0, 0
     for i, a in enumerate(range(0, n, ROWS)):
         p, parts[i] = parts[i], None
-        data[pos:pos + p.nnz], indices[pos:pos + p.nnz] = p.data, p.indices
-        indptr[a + 1:a + 1 + p.shape[0]] = p.indptr[1:] + pos
-        pos += p.nnz
-    out = sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
-    out.sort_indices()
-    return out
+        rows, counts = p.shape[0], np.diff(p.indptr)
+        ptr = pos + np.concatenate([[0], np.cumsum(counts + Dr[a:a + rows])])      # the product's entries or D's
+        indptr[a + 1:a + 1 + rows] = ptr[1:]
+        start, at = np.repeat(p.indptr[:-1], counts), np.arange(p.nnz)
+        src = start + np.repeat(p.indptr[1:], counts) - 1 - at if reverse else at       # the row reversed
+        dst = np.repeat(ptr[:-1], counts) + at - start
+        data[dst], indices[dst] = p.data[src], p.indices[src]
+        d = np.flatnonzero(Dr[a:a + rows])
+        data[ptr[d]], indices[ptr[d]] = D.data[D.indptr[a + d]], D.indices[D.indptr[a + d]]
+        pos = int(ptr[-1])
+    return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
 
 
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:

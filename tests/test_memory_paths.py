@@ -101,8 +101,9 @@ def test_amg_route_rebuilds_its_stacked_blocks_after_a_solve_as_first_built():
     fresh = KrylovContact(solver.problem).S
     n, m = kc.n, kc.m
     assert kc.solve(np.zeros(n), np.zeros(m), np.zeros(m, dtype=bool)) is not None
-    assert all(np.array_equal(a, b) for a, b in ((kc.S.indptr, fresh.indptr), (kc.S.indices, fresh.indices),
-                                                 (kc.S.data, fresh.data)))
+    S = kc._stacked()                                      # (dropped again during the answer's Krylov solve)
+    assert all(np.array_equal(a, b) for a, b in ((S.indptr, fresh.indptr), (S.indices, fresh.indices),
+                                                 (S.data, fresh.data)))
 
 
 def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
@@ -281,3 +282,35 @@ def test_amg_reduced_matrix_by_row_blocks_equals_the_whole_product(monkeypatch):
     plain = cc.ContactSolver(scene, method="amg").solve()
     assert plain.ok and plain.info.iterations == sol.info.iterations
     assert all(np.array_equal(a, b) for a, b in zip(plain.u, sol.u)) and np.array_equal(plain.phi[0], sol.phi[0])
+
+
+@pytest.mark.numerics
+def test_amg_route_drops_its_stacked_blocks_during_the_answers_solve_alike(monkeypatch):
+    """The answer's Krylov solve (RTOL) runs without S (the stacked blocks; y reads S's rows at the eliminated dofs,
+    kept): the answers, first and warm re-solve, are those of a route that never drops S, bit for bit."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    scene = two_boxes(4)
+    plain_gmres, dropped = amg.gmres, []
+
+    def spy(K, b, x0, M, rtol, *args, **kw):
+        if rtol == amg.RTOL:
+            dropped.append(solver.cache.amg.S is None)
+        return plain_gmres(K, b, x0, M, rtol, *args, **kw)
+
+    monkeypatch.setattr(amg, "gmres", spy)
+    solver = cc.ContactSolver(scene, method="amg")
+    saving = [solver.solve(), solver.solve()]
+    assert dropped and all(dropped)
+    dropped.clear()
+    kept = property(lambda self: self.__dict__.get("_S"),
+                    lambda self, S: self.__dict__.__setitem__("_S", S) if S is not None else None)
+    monkeypatch.setattr(amg.KrylovContact, "S", kept, raising=False)              # S never dropped
+    solver = cc.ContactSolver(scene, method="amg")
+    plain = [solver.solve(), solver.solve()]
+    assert dropped and not any(dropped)
+    for a, b in zip(saving, plain):
+        assert a.ok and b.ok and a.info.iterations == b.info.iterations and np.array_equal(a.contact.active,
+                                                                                            b.contact.active)
+        assert all(np.array_equal(x, y) for x, y in zip(a.u, b.u)) and np.array_equal(a.phi[0], b.phi[0])

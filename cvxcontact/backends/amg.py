@@ -292,6 +292,7 @@ class KrylovContact:
         self._preconditioner = None          # (closed rows, :meth:`_precondition`) of the last set
         self.x = None                        # the last answer (the next solve's starting point)
         self._reduction = None               # :meth:`_reduced` of the last set
+        self._slave_rows = None              # (set, S's rows at its eliminated dofs): what y reads of S
 
     def _hierarchy(self, K, slaves):
         """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
@@ -380,7 +381,7 @@ class KrylovContact:
         Tt = T.T.tocsr()
         x_fix = np.zeros(n)
         x_fix[slaves] = g[rows] / piv
-        S = self.S
+        S = self._stacked()
         K = congruence(Tt, S, T, sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n)))
         b = Tt @ (F - S @ x_fix)
         self._reduction = (key, (T, x_fix, K, b))
@@ -392,10 +393,13 @@ class KrylovContact:
         rows = np.flatnonzero(active)
         slaves, piv = self.dof[rows], self.coef[rows]
         T, x_fix, K, b = self._reduced(rows, F, g)
-        S = self.S
+        key = rows.tobytes()
+        if self._slave_rows is None or self._slave_rows[0] != key:
+            self._slave_rows = (key, self._stacked()[slaves])                   # S's rows y reads
+        if rtol <= RTOL:       # the answer's solve (the longest Krylov basis): S dropped while it runs (peak
+            self.S = None      # memory), its rows at the eliminated dofs kept; stacked again if a set follows
         if self.ml_u is None:
             self._hierarchy(K, slaves)
-        key = rows.tobytes()
         if self._preconditioner is None or self._preconditioner[0] != key:
             self._preconditioner = (key, self._precondition(K))
         r0 = np.array(x_start) if x_start is not None else np.zeros(n)
@@ -415,7 +419,7 @@ class KrylovContact:
             return None
         x = T @ r + x_fix
         y = np.zeros(self.m)
-        y[rows] = (F - S @ x)[slaves] / piv
+        y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
         return x, y
 
     def release(self) -> None:
@@ -424,7 +428,13 @@ class KrylovContact:
         factor and the coupling block Kup, a copy), so that the read-back, checks and estimate run without them.
         Kept: the hierarchies (one set-up per geometry) and the last answer (the next solve's start)."""
         self.S = None
-        self._preconditioner = None
+        self._preconditioner = self._slave_rows = None
+
+    def _stacked(self) -> sp.csr_matrix:
+        """S, stacked again from the blocks if it was dropped (the same arrays)."""
+        if self.S is None:
+            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
+        return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):
         """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
@@ -432,8 +442,7 @@ class KrylovContact:
         if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
         solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
-        if self.S is None:                       # dropped after the last solve: the same blocks stacked again
-            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
+        self._stacked()                          # dropped after the last solve: the same blocks stacked again
         movable = self.dof >= 0
         last = [np.asarray(active, dtype=bool) & movable]
         count = [0]

@@ -187,29 +187,37 @@ def congruence(Tt, S, T, D) -> sp.csr_matrix:
     sorted rows, else it gives each row's entries in the reverse of their order in the product (D's entries,
     alone in their rows, anywhere). Any other D: the whole expression."""
     n = Tt.shape[0]
-    parts = [Tt[a:a + ROWS] @ S @ T for a in range(0, n, ROWS)]
     Dr = np.diff(D.indptr)
-    if np.any(Dr > 1) or any(np.any((np.diff(p.indptr) > 0) & (Dr[a:a + ROWS] > 0))
-                             for a, p in zip(range(0, n, ROWS), parts)):
-        return (sp.vstack(parts, format="csr") + D).tocsr()
-    reverse = not (all(p.has_canonical_format for p in parts) and D.has_canonical_format)
-    nnz = sum(p.nnz for p in parts) + D.nnz
-    idx = np.int32 if max(nnz, S.shape[1]) < np.iinfo(np.int32).max else np.int64
-    data, indices, indptr = np.empty(nnz, dtype=S.dtype), np.empty(nnz, dtype=idx), np.empty(n + 1, dtype=idx)
-    indptr[0], pos = 0, 0
-    for i, a in enumerate(range(0, n, ROWS)):
-        p, parts[i] = parts[i], None
+    if np.any(Dr > 1):
+        return (Tt @ S @ T + D).tocsr()
+    cap = 2 * S.nnz + D.nnz + n             # room for K (untouched pages hold no memory); grown if ever short
+    idx = np.int32 if max(cap, S.shape[1]) < np.iinfo(np.int32).max else np.int64
+    data, indices, indptr = np.empty(cap, dtype=S.dtype), np.empty(cap, dtype=idx), np.empty(n + 1, dtype=idx)
+    indptr[0], pos, canonical = 0, 0, D.has_canonical_format
+    for a in range(0, n, ROWS):
+        p = Tt[a:a + ROWS] @ S @ T                                  # the whole product's rows a, a + 1, ...
         rows, counts = p.shape[0], np.diff(p.indptr)
+        if np.any((counts > 0) & (Dr[a:a + rows] > 0)):
+            return (Tt @ S @ T + D).tocsr()
+        canonical = canonical and p.has_canonical_format
         ptr = pos + np.concatenate([[0], np.cumsum(counts + Dr[a:a + rows])])      # the product's entries or D's
+        if ptr[-1] > len(data):
+            data, indices = (np.concatenate([x, np.empty(max(len(x), int(ptr[-1])), dtype=x.dtype)])
+                             for x in (data, indices))
         indptr[a + 1:a + 1 + rows] = ptr[1:]
-        start, at = np.repeat(p.indptr[:-1], counts), np.arange(p.nnz)
-        src = start + np.repeat(p.indptr[1:], counts) - 1 - at if reverse else at       # the row reversed
-        dst = np.repeat(ptr[:-1], counts) + at - start
-        data[dst], indices[dst] = p.data[src], p.indices[src]
+        dst = np.repeat(ptr[:-1] - p.indptr[:-1], counts) + np.arange(p.nnz)
+        data[dst], indices[dst] = p.data, p.indices
         d = np.flatnonzero(Dr[a:a + rows])
         data[ptr[d]], indices[ptr[d]] = D.data[D.indptr[a + d]], D.indices[D.indptr[a + d]]
         pos = int(ptr[-1])
-    return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
+    if not canonical:                       # the sum's order: each row reversed (merged, sorted, if canonical)
+        for a in range(0, n, ROWS):
+            lo, hi = int(indptr[a]), int(indptr[min(a + ROWS, n)])
+            counts = np.diff(indptr[a:a + ROWS + 1])
+            start = np.repeat(indptr[a:a + ROWS][:len(counts)], counts)
+            src = start + np.repeat(indptr[a + 1:a + 1 + len(counts)], counts) - 1 - np.arange(lo, hi)
+            data[lo:hi], indices[lo:hi] = data[src], indices[src]
+    return sp.csr_matrix((data[:pos], indices[:pos], indptr), shape=(n, S.shape[1]))
 
 
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:

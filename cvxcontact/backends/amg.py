@@ -217,7 +217,9 @@ def congruence(Tt, S, T, D) -> sp.csr_matrix:
             start = np.repeat(indptr[a:a + ROWS][:len(counts)], counts)
             src = start + np.repeat(indptr[a + 1:a + 1 + len(counts)], counts) - 1 - np.arange(lo, hi)
             data[lo:hi], indices[lo:hi] = data[src], indices[src]
-    return sp.csr_matrix((data[:pos], indices[:pos], indptr), shape=(n, S.shape[1]))
+    data.resize(pos, refcheck=False)        # trimmed in place (realloc): a view of the reserve would make scipy
+    indices.resize(pos, refcheck=False)     # copy it (``prune``: a view of a much larger array), two copies of K
+    return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
 
 
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:

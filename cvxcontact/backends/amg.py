@@ -177,10 +177,10 @@ ROWS = 1 << 16
 
 def congruence(Tt, S, T, D) -> sp.csr_matrix:
     """``(Tt @ S @ T + D).tocsr()`` (Tt = T^T; all CSR; D diagonal, on rows where Tt @ S @ T has no entry: the
-    eliminated rows of :meth:`KrylovContact._reduced`), the same arrays, formed by blocks of :data:`ROWS` rows
-    and gathered into one matrix, each block freed as it is copied: about one copy of the product at a time
-    beside S, where the whole expression held three (Tt S, its product with T, the sum with D: the peak of the
-    AMG route's steps on large scenes).
+    eliminated rows of :meth:`KrylovContact._reduced`), the same arrays, formed by blocks of :data:`ROWS` rows,
+    each copied into K's arrays (reserved: pages are touched as they are filled) and freed before the next: about
+    one copy of K beside S, where the whole expression held three (Tt S, its product with T, the sum with D: the
+    peak of the AMG route's steps on large scenes).
 
     A row of a sparse product comes from the rows of its factors alone, so each block's rows are the whole
     product's; the sum with D is reproduced row by row: scipy adds two canonical CSR matrices by merging their

@@ -408,8 +408,7 @@ class KrylovContact:
             self._slave_rows = (key, self._stacked()[slaves])                   # S's rows y reads
         if rtol <= RTOL:       # the answer's solve (the longest Krylov basis): S dropped while it runs (peak
             self.S = None      # memory), its rows at the eliminated dofs kept; stacked again if a set follows
-        if self.ml_u is None:  # the set-up (once per geometry) runs without S (peak memory): stacked again when a
-            self.S = None      # set follows (the first solve's one extra stacking, 1.1 CPU s at 2.9e5 unknowns)
+        if self.ml_u is None:
             self._hierarchy(K, slaves)
         if self._preconditioner is None or self._preconditioner[0] != key:
             self._preconditioner = (key, self._precondition(K))

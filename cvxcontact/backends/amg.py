@@ -304,25 +304,31 @@ class KrylovContact:
         self._reduction = None               # :meth:`_reduced` of the last set
         self._slave_rows = None              # (set, S's rows at its eliminated dofs): what y reads of S
 
-    def _hierarchy(self, K, slaves):
-        """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
-        rows eliminated, so that the bodies it ties are tied in the hierarchy too; the other sets' systems
-        differ at the contact dofs only, :meth:`_corrected`): its displacement block node-blocked with the
-        bodies' rigid-body modes (zero on the eliminated dofs), its potential block."""
+    def _diagonal_blocks(self, K):
+        """(Kuu, Kpp) of ``K`` as the set-up takes them: Kuu node-blocked (3 x 3 BSR) when every body's u dofs
+        come in threes (the CSR copy freed), Kpp with the Gauss rows' sign undone (None without potentials)."""
+        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
+        if all(nu % 3 == 0 for nu, _ in self.sizes):
+            Kuu = Kuu.tobsr(blocksize=(3, 3))
+        return Kuu, (-K[self.p_idx][:, self.p_idx].tocsr() if len(self.p_idx) else None)
+
+    def _hierarchy(self, blocks, slaves):
+        """The smoothed-aggregation hierarchies, built once on the first system solved (its
+        :meth:`_diagonal_blocks` ``blocks``; the start's closed rows eliminated, so that the bodies it ties are
+        tied in the hierarchy too; the other sets' systems differ at the contact dofs only, :meth:`_corrected`):
+        its displacement block node-blocked with the bodies' rigid-body modes (zero on the eliminated dofs), its
+        potential block."""
         import pyamg
 
         t0 = time.perf_counter()
-        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
+        Kuu, Kpp = blocks
         B, self.modes = self.modes, None             # needed by the set-up alone (one per geometry): not kept
         B[np.isin(self.u_idx, slaves)] = 0.0
-        blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
-        if blocked:
-            Kuu = Kuu.tobsr(blocksize=(3, 3))         # the CSR copy freed before the set-up (peak memory)
+        blocked = Kuu.format == "bsr"
         with _seeded():
             self.ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric",
                                                           max_coarse=30 if blocked else 200)
-            if len(self.p_idx):
-                Kpp = -K[self.p_idx][:, self.p_idx].tocsr()               # the Gauss rows were negated
+            if Kpp is not None:
                 self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
         self.setups += 1
         self.setup_time += time.perf_counter() - t0
@@ -408,8 +414,12 @@ class KrylovContact:
             self._slave_rows = (key, self._stacked()[slaves])                   # S's rows y reads
         if rtol <= RTOL:       # the answer's solve (the longest Krylov basis): S dropped while it runs (peak
             self.S = None      # memory), its rows at the eliminated dofs kept; stacked again if a set follows
-        if self.ml_u is None:
-            self._hierarchy(K, slaves)
+        if self.ml_u is None:  # the set-up (once per geometry) runs without K (peak memory), formed again after it
+            blocks = self._diagonal_blocks(K)
+            K = self._reduction = None
+            self._hierarchy(blocks, slaves)
+            del blocks
+            T, x_fix, K, b = self._reduced(rows, F, g)
         if self._preconditioner is None or self._preconditioner[0] != key:
             self._preconditioner = (key, self._precondition(K))
         r0 = np.array(x_start) if x_start is not None else np.zeros(n)

@@ -1,8 +1,11 @@
 """The memory-saving code paths of the 3D pipeline give what the straightforward construction gives, on small
 meshes: the free rigid motions from an SVD without its left factor (`physics/supports.py` `free_basis`), the
 estimate's strain fields and diameters formed by blocks of cells instead of from stored per-cell matrices
-(`solution/estimate.py` `_strains`, `_diameters`, blocks of `CELLS`), and the AMG route's coupling block taken
-columns first (`backends/amg.py` `_precondition`). The references are computed here the plain way."""
+(`solution/estimate.py` `_strains`, `_diameters`, blocks of `CELLS`), the tetrahedra's barycentric gradients by
+blocks (`fem/assembly.py`, blocks of `TETS`) and the P1 corner gradients as a view of them (`corner_gradients`),
+the AMG route's coupling block taken columns first (`backends/amg.py` `_precondition`) and what it releases after
+a solve (`release`), and the sparse route's backward-error sizes by rows (`backends/sparse.py`). The references
+are computed here the plain way."""
 
 import numpy as np
 import pytest
@@ -98,13 +101,15 @@ def test_amg_route_rebuilds_its_stacked_blocks_after_a_solve_as_first_built():
     fresh = KrylovContact(solver.problem).S
     n, m = kc.n, kc.m
     assert kc.solve(np.zeros(n), np.zeros(m), np.zeros(m, dtype=bool)) is not None
-    assert all(np.array_equal(a, b) for a, b in ((kc.S.indptr, fresh.indptr), (kc.S.indices, fresh.indices),
-                                                 (kc.S.data, fresh.data)))
+    S = kc._stacked()                                      # (dropped again during the answer's Krylov solve)
+    assert all(np.array_equal(a, b) for a, b in ((S.indptr, fresh.indptr), (S.indices, fresh.indices),
+                                                 (S.data, fresh.data)))
 
 
 def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
     """|K| |z| by blocks of 7 rows (a ragged last block) is abs(K) @ |z| exactly, on a canonical CSR matrix; a
-    non-canonical one (duplicate entries) and a CSC one take abs(K) itself."""
+    non-canonical one (duplicate entries) takes abs(K) itself; a CSC one goes by blocks of 7 columns (the same
+    terms, all non-negative, summed in another order: within the row's term count times eps)."""
     from cvxcontact.discrete import energy
 
     monkeypatch.setattr(energy, "ROWS", 7)
@@ -114,4 +119,198 @@ def test_abs_product_by_row_blocks_equals_abs_of_the_matrix(monkeypatch):
     assert K.has_canonical_format and np.array_equal(energy.abs_product(K, z), abs(K) @ np.abs(z))
     dup = sp.csr_matrix((np.array([1.0, -2.0, 3.0]), np.array([1, 1, 0]), np.array([0, 2, 3])), shape=(2, 2))
     assert np.array_equal(energy.abs_product(dup, [1.0, 1.0]), abs(dup) @ np.ones(2))      # |1 - 2| = 1, not 3
-    assert np.array_equal(energy.abs_product(K.tocsc(), z), abs(K.tocsc()) @ np.abs(z))
+    plain, terms = abs(K.tocsc()) @ np.abs(z), np.diff(K.indptr)
+    assert np.all(np.abs(energy.abs_product(K.tocsc(), z) - plain) <= terms * np.finfo(float).eps * plain)
+
+
+def _tet_gradients_at_once(points, tets):
+    """The barycentric gradients of every tetrahedron at once (the plain construction, no blocks)."""
+    p = points[tets]
+    e1, e2, e3 = (p[:, k] - p[:, 0] for k in (1, 2, 3))
+    c = np.stack([np.cross(e2, e3), np.cross(e3, e1), np.cross(e1, e2)], axis=2)
+    det = np.einsum("md,md->m", e1, c[:, :, 0])
+    g = c / det[:, None, None]
+    return det / 6.0, np.concatenate([-g.sum(axis=2, keepdims=True), g], axis=2)
+
+
+def test_tet_gradients_by_blocks_equal_every_cell_at_once(monkeypatch):
+    """Blocks of 7 tetrahedra (a ragged last block) give the volumes and gradients of every cell at once, exactly;
+    and they are the barycentric gradients: sum_i grad L_i = 0 and grad L_i . (p_j - p_0) = delta_ij - delta_i0
+    (to rounding), the volumes those of the determinant of the edge vectors."""
+    from cvxcontact.fem import assembly
+
+    mesh = cc.box(x=(0.0, 1.0), y=(0.0, 2.0), z=(0.0, 0.5), nx=3, ny=2, nz=2)
+    rng = np.random.default_rng(6)
+    points = mesh.points + 0.05 * rng.standard_normal(mesh.points.shape)     # skewed cells, still positive
+    monkeypatch.setattr(assembly, "TETS", 7)
+    vol, grad = assembly.gradients(points, mesh.cells)
+    plain_vol, plain_grad = _tet_gradients_at_once(points, mesh.cells)
+    assert len(mesh.cells) % 7 and np.array_equal(vol, plain_vol) and np.array_equal(grad, plain_grad)
+    p = points[mesh.cells]
+    edges = p[:, 1:] - p[:, :1]                                              # (m, 3, 3): rows p_j - p_0
+    assert np.allclose(vol, np.linalg.det(edges) / 6.0, rtol=1e-12, atol=0.0) and (vol > 0).all()
+    target = np.broadcast_to(np.vstack([-np.ones(3), np.eye(3)]), (len(vol), 4, 3))
+    assert np.abs(np.einsum("mdi,mjd->mij", grad, edges) - target).max() <= 1e-12
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_corner_gradients_from_given_barycentric_gradients(degree):
+    """A space's corner gradients from the mesh's barycentric gradients handed in equal those it forms itself,
+    exactly; P1's are then a view of them (the estimate's Geometry keeps one copy of the gradients)."""
+    from cvxcontact.fem.assembly import gradients
+    from cvxcontact.fem.space import space
+
+    body = two_boxes(3).bodies[0]
+    element = space(degree, body.mesh.cell)
+    gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+    cells, G = element.corner_gradients(body, gradL)
+    plain_cells, plain_G = element.corner_gradients(body)
+    assert np.array_equal(cells, plain_cells) and np.array_equal(G, plain_G)
+    assert np.shares_memory(G, gradL) == (degree == 1)
+    g = est.Geometry(body, degree)
+    assert np.array_equal(g.G, plain_G) and np.shares_memory(g.G, g.gradL) == (degree == 1)
+
+
+@pytest.mark.numerics
+def test_amg_route_releases_its_preconditioner_and_modes_and_resolves_alike():
+    """After a solve the AMG route keeps neither its last preconditioner (the contact rows' factor and a copy of
+    the coupling block) nor the rigid-body modes (used by the one set-up), only the hierarchy; a second solver
+    that keeps them (``release`` a no-op) gives the same answers, first and warm re-solve, to the Krylov
+    tolerance (measured: equal), with the same steps and Krylov iterations."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends.amg import KrylovContact
+
+    scene = two_boxes(4)
+    np.random.seed(5)
+    saving = cc.ContactSolver(scene, method="amg")
+    runs = [saving.solve(), saving.solve()]
+    kc = saving.cache.amg
+    assert kc.S is None and kc._preconditioner is None and kc.modes is None and kc.ml_u is not None
+    keep = KrylovContact.release
+    try:
+        KrylovContact.release = lambda self: None                       # the plain route: nothing dropped
+        np.random.seed(5)
+        plain = cc.ContactSolver(scene, method="amg")
+        again = [plain.solve(), plain.solve()]
+        assert plain.cache.amg._preconditioner is not None
+    finally:
+        KrylovContact.release = keep
+    for a, b in zip(runs, again):
+        assert a.ok and b.ok and a.info.route == b.info.route and a.info.iterations == b.info.iterations
+        for k in range(2):
+            assert np.abs(a.u[k] - b.u[k]).max() <= 1e-9 * np.abs(b.u[k]).max()
+    assert saving.cache.amg.iterations == plain.cache.amg.iterations
+
+
+def test_sparse_route_backward_error_sizes_without_abs_of_the_matrix(monkeypatch):
+    """The sparse route's refinement sizes |K| |z| of K(A) (CSC) by ``abs_product``: with one block of columns
+    exactly abs(K) @ |z|, by blocks of 7 columns the same non-negative terms summed in another order (each row
+    within its term count times eps, the bound of the two orders)."""
+    from cvxcontact.backends.sparse import SparseContact
+    from cvxcontact.discrete import energy
+
+    solver = cc.ContactSolver(two_boxes(3), method="sparse")
+    solver.solve()
+    sc = SparseContact(list(solver.problem.blocks), solver.problem.E)
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        K = sc.matrix(rng.random(sc.m) < 0.5)
+        z = rng.standard_normal(K.shape[0])
+        plain = abs(K) @ np.abs(z)
+        assert K.format == "csc" and np.array_equal(energy.abs_product(K, z), plain)
+        monkeypatch.setattr(energy, "ROWS", 7)
+        terms = np.diff(K.tocsr().indptr)
+        assert np.all(np.abs(energy.abs_product(K, z) - plain) <= terms * np.finfo(float).eps * plain)
+        monkeypatch.setattr(energy, "ROWS", 1 << 16)
+
+
+def _same_csr(A, B) -> bool:
+    return all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in ((A.indptr, B.indptr),
+                                                                        (A.indices, B.indices), (A.data, B.data)))
+
+
+@pytest.mark.parametrize("rows", [1, 7, 1 << 16])
+def test_congruence_by_row_blocks_holds_the_arrays_of_the_whole_expression(monkeypatch, rows):
+    """``congruence(Tt, S, T, D)`` by blocks of ``rows`` rows holds the arrays of (Tt @ S @ T + D).tocsr(), entry
+    order included: with a product whose rows come unsorted (scipy's sum then reverses them), with a canonical
+    product (a diagonal S and T: the merged, sorted sum), and with D on a row the product fills (the whole
+    expression, the fallback)."""
+    from cvxcontact.backends import amg
+
+    monkeypatch.setattr(amg, "ROWS", rows)
+    rng = np.random.default_rng(9)
+    n = 60
+    T = (sp.identity(n, format="csr") + sp.random(n, n, density=0.05, random_state=10, format="csr")).tocsr()
+    held = np.array([3, 17, 40])                                   # T's columns there zero: Tt's rows empty
+    keep = np.setdiff1d(np.arange(n), held)
+    T = (T @ sp.diags(np.isin(np.arange(n), keep).astype(float))).tocsr()
+    T.eliminate_zeros()
+    S = sp.random(n, n, density=0.1, random_state=11, format="csr")
+    S = (S + S.T + sp.identity(n)).tocsr()
+    D = sp.csr_matrix((rng.random(len(held)) + 1.0, (held, held)), shape=(n, n))
+    Tt = T.T.tocsr()
+    for A, B, C in ((Tt, S, T), (sp.identity(n, format="csr") - sp.csr_matrix((np.ones(3), (held, held)),
+                                                                              shape=(n, n)),
+                                 sp.diags(rng.random(n) + 1.0, format="csr"), sp.identity(n, format="csr"))):
+        A.eliminate_zeros()
+        whole = (A @ B @ C + D).tocsr()
+        assert _same_csr(amg.congruence(A, B, C, D), whole)
+    full = sp.csr_matrix((np.ones(1), ([5], [5])), shape=(n, n))   # row 5 of the product is not empty
+    assert _same_csr(amg.congruence(Tt, S, T, full), (Tt @ S @ T + full).tocsr())
+
+
+@pytest.mark.numerics
+def test_amg_reduced_matrix_by_row_blocks_equals_the_whole_product(monkeypatch):
+    """Every reduced K = T^T S T + D of the AMG route's steps formed by blocks of 7 rows (``congruence``) holds the
+    arrays of the whole expression, and the answer is the one of the whole expression's K, bit for bit."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    scene = two_boxes(4)
+    blocked, same = amg.congruence, []
+
+    def checked(Tt, S, T, D):
+        K = blocked(Tt, S, T, D)
+        same.append(_same_csr(K, (Tt @ S @ T + D).tocsr()))
+        return K
+
+    monkeypatch.setattr(amg, "ROWS", 7)
+    monkeypatch.setattr(amg, "congruence", checked)
+    sol = cc.ContactSolver(scene, method="amg").solve()
+    assert sol.ok and len(same) >= 2 and all(same)
+    monkeypatch.setattr(amg, "congruence", lambda Tt, S, T, D: (Tt @ S @ T + D).tocsr())
+    plain = cc.ContactSolver(scene, method="amg").solve()
+    assert plain.ok and plain.info.iterations == sol.info.iterations
+    assert all(np.array_equal(a, b) for a, b in zip(plain.u, sol.u)) and np.array_equal(plain.phi[0], sol.phi[0])
+
+
+@pytest.mark.numerics
+def test_amg_route_drops_its_stacked_blocks_during_the_answers_solve_alike(monkeypatch):
+    """The answer's Krylov solve (RTOL) runs without S (the stacked blocks; y reads S's rows at the eliminated dofs,
+    kept): the answers, first and warm re-solve, are those of a route that never drops S, bit for bit."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    scene = two_boxes(4)
+    plain_gmres, dropped = amg.gmres, []
+
+    def spy(K, b, x0, M, rtol, *args, **kw):
+        if rtol == amg.RTOL:
+            dropped.append(solver.cache.amg.S is None)
+        return plain_gmres(K, b, x0, M, rtol, *args, **kw)
+
+    monkeypatch.setattr(amg, "gmres", spy)
+    solver = cc.ContactSolver(scene, method="amg")
+    saving = [solver.solve(), solver.solve()]
+    assert dropped and all(dropped)
+    dropped.clear()
+    kept = property(lambda self: self.__dict__.get("_S"),
+                    lambda self, S: self.__dict__.__setitem__("_S", S) if S is not None else None)
+    monkeypatch.setattr(amg.KrylovContact, "S", kept, raising=False)              # S never dropped
+    solver = cc.ContactSolver(scene, method="amg")
+    plain = [solver.solve(), solver.solve()]
+    assert dropped and not any(dropped)
+    for a, b in zip(saving, plain):
+        assert a.ok and b.ok and a.info.iterations == b.info.iterations and np.array_equal(a.contact.active,
+                                                                                            b.contact.active)
+        assert all(np.array_equal(x, y) for x, y in zip(a.u, b.u)) and np.array_equal(a.phi[0], b.phi[0])

@@ -171,6 +171,57 @@ def own_dofs(G):
     return dof, coef
 
 
+ROWS = 1 << 16
+"""Rows per block of :func:`congruence`."""
+
+
+def congruence(Tt, S, T, D) -> sp.csr_matrix:
+    """``(Tt @ S @ T + D).tocsr()`` (Tt = T^T; all CSR; D diagonal, on rows where Tt @ S @ T has no entry: the
+    eliminated rows of :meth:`KrylovContact._reduced`), the same arrays, formed by blocks of :data:`ROWS` rows,
+    each copied into K's arrays (reserved: pages are touched as they are filled) and freed before the next: about
+    one copy of K beside S, where the whole expression held three (Tt S, its product with T, the sum with D: the
+    peak of the AMG route's steps on large scenes).
+
+    A row of a sparse product comes from the rows of its factors alone, so each block's rows are the whole
+    product's; the sum with D is reproduced row by row: scipy adds two canonical CSR matrices by merging their
+    sorted rows, else it gives each row's entries in the reverse of their order in the product (D's entries,
+    alone in their rows, anywhere). Any other D: the whole expression."""
+    n = Tt.shape[0]
+    Dr = np.diff(D.indptr)
+    if np.any(Dr > 1):
+        return (Tt @ S @ T + D).tocsr()
+    cap = 2 * S.nnz + D.nnz + n             # room for K (untouched pages hold no memory); grown if ever short
+    idx = np.int32 if max(cap, S.shape[1]) < np.iinfo(np.int32).max else np.int64
+    data, indices, indptr = np.empty(cap, dtype=S.dtype), np.empty(cap, dtype=idx), np.empty(n + 1, dtype=idx)
+    indptr[0], pos, canonical = 0, 0, D.has_canonical_format
+    for a in range(0, n, ROWS):
+        p = Tt[a:a + ROWS] @ S @ T                                  # the whole product's rows a, a + 1, ...
+        rows, counts = p.shape[0], np.diff(p.indptr)
+        if np.any((counts > 0) & (Dr[a:a + rows] > 0)):
+            return (Tt @ S @ T + D).tocsr()
+        canonical = canonical and p.has_canonical_format
+        ptr = pos + np.concatenate([[0], np.cumsum(counts + Dr[a:a + rows])])      # the product's entries or D's
+        if ptr[-1] > len(data):
+            data, indices = (np.concatenate([x, np.empty(max(len(x), int(ptr[-1])), dtype=x.dtype)])
+                             for x in (data, indices))
+        indptr[a + 1:a + 1 + rows] = ptr[1:]
+        dst = np.repeat(ptr[:-1] - p.indptr[:-1], counts) + np.arange(p.nnz)
+        data[dst], indices[dst] = p.data, p.indices
+        d = np.flatnonzero(Dr[a:a + rows])
+        data[ptr[d]], indices[ptr[d]] = D.data[D.indptr[a + d]], D.indices[D.indptr[a + d]]
+        pos = int(ptr[-1])
+    if not canonical:                       # the sum's order: each row reversed (merged, sorted, if canonical)
+        for a in range(0, n, ROWS):
+            lo, hi = int(indptr[a]), int(indptr[min(a + ROWS, n)])
+            counts = np.diff(indptr[a:a + ROWS + 1])
+            start = np.repeat(indptr[a:a + ROWS][:len(counts)], counts)
+            src = start + np.repeat(indptr[a + 1:a + 1 + len(counts)], counts) - 1 - np.arange(lo, hi)
+            data[lo:hi], indices[lo:hi] = data[src], indices[src]
+    data.resize(pos, refcheck=False)        # trimmed in place (realloc): a view of the reserve would make scipy
+    indices.resize(pos, refcheck=False)     # copy it (``prune``: a view of a much larger array), two copies of K
+    return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
+
+
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
     """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
     prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
@@ -213,7 +264,7 @@ class KrylovContact:
             raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
         blocks = self._blocks = list(problem.blocks)
         parts = [quasi_definite(b) for b in blocks]
-        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:func:`signorini`)
+        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:meth:`release`)
         self._diag = np.abs(self.S.diagonal())
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
         self.n = n = self.S.shape[0]
@@ -251,24 +302,33 @@ class KrylovContact:
         self._preconditioner = None          # (closed rows, :meth:`_precondition`) of the last set
         self.x = None                        # the last answer (the next solve's starting point)
         self._reduction = None               # :meth:`_reduced` of the last set
+        self._slave_rows = None              # (set, S's rows at its eliminated dofs): what y reads of S
 
-    def _hierarchy(self, K, slaves):
-        """The smoothed-aggregation hierarchies, built once on the first system ``K`` solved (the start's closed
-        rows eliminated, so that the bodies it ties are tied in the hierarchy too; the other sets' systems
-        differ at the contact dofs only, :meth:`_corrected`): its displacement block node-blocked with the
-        bodies' rigid-body modes (zero on the eliminated dofs), its potential block."""
+    def _diagonal_blocks(self, K):
+        """(Kuu, Kpp) of ``K`` as the set-up takes them: Kuu node-blocked (3 x 3 BSR) when every body's u dofs
+        come in threes (the CSR copy freed), Kpp with the Gauss rows' sign undone (None without potentials)."""
+        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
+        if all(nu % 3 == 0 for nu, _ in self.sizes):
+            Kuu = Kuu.tobsr(blocksize=(3, 3))
+        return Kuu, (-K[self.p_idx][:, self.p_idx].tocsr() if len(self.p_idx) else None)
+
+    def _hierarchy(self, blocks, slaves):
+        """The smoothed-aggregation hierarchies, built once on the first system solved (its
+        :meth:`_diagonal_blocks` ``blocks``; the start's closed rows eliminated, so that the bodies it ties are
+        tied in the hierarchy too; the other sets' systems differ at the contact dofs only, :meth:`_corrected`):
+        its displacement block node-blocked with the bodies' rigid-body modes (zero on the eliminated dofs), its
+        potential block."""
         import pyamg
 
         t0 = time.perf_counter()
-        Kuu = K[self.u_idx][:, self.u_idx].tocsr()
-        B = self.modes.copy()
+        Kuu, Kpp = blocks
+        B, self.modes = self.modes, None             # needed by the set-up alone (one per geometry): not kept
         B[np.isin(self.u_idx, slaves)] = 0.0
-        blocked = all(nu % 3 == 0 for nu, _ in self.sizes)
+        blocked = Kuu.format == "bsr"
         with _seeded():
-            self.ml_u = pyamg.smoothed_aggregation_solver(Kuu.tobsr(blocksize=(3, 3)) if blocked else Kuu, B=B,
-                                                          symmetry="symmetric", max_coarse=30 if blocked else 200)
-            if len(self.p_idx):
-                Kpp = -K[self.p_idx][:, self.p_idx].tocsr()               # the Gauss rows were negated
+            self.ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric",
+                                                          max_coarse=30 if blocked else 200)
+            if Kpp is not None:
                 self.ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=200)
         self.setups += 1
         self.setup_time += time.perf_counter() - t0
@@ -337,8 +397,8 @@ class KrylovContact:
         Tt = T.T.tocsr()
         x_fix = np.zeros(n)
         x_fix[slaves] = g[rows] / piv
-        S = self.S
-        K = (Tt @ S @ T + sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n))).tocsr()
+        S = self._stacked()
+        K = congruence(Tt, S, T, sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n)))
         b = Tt @ (F - S @ x_fix)
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b
@@ -349,10 +409,17 @@ class KrylovContact:
         rows = np.flatnonzero(active)
         slaves, piv = self.dof[rows], self.coef[rows]
         T, x_fix, K, b = self._reduced(rows, F, g)
-        S = self.S
-        if self.ml_u is None:
-            self._hierarchy(K, slaves)
         key = rows.tobytes()
+        if self._slave_rows is None or self._slave_rows[0] != key:
+            self._slave_rows = (key, self._stacked()[slaves])                   # S's rows y reads
+        if rtol <= RTOL:       # the answer's solve (the longest Krylov basis): S dropped while it runs (peak
+            self.S = None      # memory), its rows at the eliminated dofs kept; stacked again if a set follows
+        if self.ml_u is None:  # the set-up (once per geometry) runs without K (peak memory), formed again after it
+            blocks = self._diagonal_blocks(K)
+            K = self._reduction = None
+            self._hierarchy(blocks, slaves)
+            del blocks
+            T, x_fix, K, b = self._reduced(rows, F, g)
         if self._preconditioner is None or self._preconditioner[0] != key:
             self._preconditioner = (key, self._precondition(K))
         r0 = np.array(x_start) if x_start is not None else np.zeros(n)
@@ -372,8 +439,22 @@ class KrylovContact:
             return None
         x = T @ r + x_fix
         y = np.zeros(self.m)
-        y[rows] = (F - S @ x)[slaves] / piv
+        y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
         return x, y
+
+    def release(self) -> None:
+        """Drops what a solve builds from the blocks and a re-solve builds again (peak memory): S, the stacked
+        blocks (a copy of the scaled stiffness), and the last set's preconditioner (its contact rows, their
+        factor and the coupling block Kup, a copy), so that the read-back, checks and estimate run without them.
+        Kept: the hierarchies (one set-up per geometry) and the last answer (the next solve's start)."""
+        self.S = None
+        self._preconditioner = self._slave_rows = None
+
+    def _stacked(self) -> sp.csr_matrix:
+        """S, stacked again from the blocks if it was dropped (the same arrays)."""
+        if self.S is None:
+            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
+        return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):
         """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
@@ -381,8 +462,7 @@ class KrylovContact:
         if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
         solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
-        if self.S is None:                       # dropped after the last solve: the same blocks stacked again
-            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
+        self._stacked()                          # dropped after the last solve: the same blocks stacked again
         movable = self.dof >= 0
         last = [np.asarray(active, dtype=bool) & movable]
         count = [0]
@@ -445,7 +525,7 @@ def signorini(problem, cache, settings, timings):
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False
-    kc.S = None          # S (a copy of the blocks) is not kept through the read-back and estimate: rebuilt per solve
+    kc.release()
     timings["amg_setup"] = kc.setup_time - setup
     timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
     if out is None:

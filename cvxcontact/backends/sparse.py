@@ -65,6 +65,7 @@ import scipy.sparse.linalg as spla
 from .condensed import quasi_definite
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
+from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
@@ -370,10 +371,10 @@ class SparseContact:
             z = self._solve_on(active, b)
             if z is None or not np.isfinite(z).all():
                 continue
-            absK = abs(K)
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
-                scale = absK @ np.abs(z) + np.abs(b)     # componentwise backward error (each row's own terms)
+                # componentwise backward error (each row's own terms; |K| |z| without a copy of K)
+                scale = abs_product(K, z) + np.abs(b)
                 # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
                 scale[self.n:] += self.w * np.abs(z[self.n:])

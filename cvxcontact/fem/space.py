@@ -144,10 +144,12 @@ class Space(Protocol):
         """(cells (m, k), G (m, dim, k) 1/m): the element nodes and the shape gradients at each cell's centre
         (where the output evaluates the fields)."""
 
-    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+    def corner_gradients(self, body, gradL: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(cells (m, k), G (m, q, d, k) 1/m): the element nodes and the shape gradients at each simplex's
         q = d + 1 vertices (the error estimates' fields, affine on a cell for P2), q = 1 where they are constant
-        on a cell (P1); spaces the estimates cover."""
+        on a cell (P1); spaces the estimates cover. ``gradL``: the mesh's barycentric gradients (m, d, d + 1)
+        if the caller has them (:func:`~cvxcontact.fem.assembly.gradients`; P1's G is then a view of them, not
+        a second copy)."""
 
     def assemble_matrices(self, body, nodes=None) -> BodySystem:
         """Kuu, Kup, Kpp and the Dirichlet prolongations of ``body`` on ``nodes`` (SI), no loads."""
@@ -177,9 +179,9 @@ class P1:
         _simplex(self)
         return np.asarray(L)
 
-    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+    def corner_gradients(self, body, gradL: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         _estimated(self)
-        gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+        gradL = gradients(body.mesh.points, body.mesh.cells)[1] if gradL is None else gradL
         return body.mesh.cells, gradL[:, None]                                  # constant on a cell: q = 1
 
     def vtk_cells(self, body, nodes=None) -> list[tuple[str, np.ndarray]]:
@@ -235,9 +237,9 @@ class P2:
         _simplex(self)
         return p2.shape_functions(L)
 
-    def corner_gradients(self, body) -> tuple[np.ndarray, np.ndarray]:
+    def corner_gradients(self, body, gradL: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         _estimated(self)
-        gradL = gradients(body.mesh.points, body.mesh.cells)[1]
+        gradL = gradients(body.mesh.points, body.mesh.cells)[1] if gradL is None else gradL
         corners = np.eye(gradL.shape[2])
         return self.nodes(body).cells, np.stack([p2.shape_gradients(gradL, c) for c in corners], axis=1)
 

@@ -197,7 +197,8 @@ class Geometry:
         self.cT = _smallest(c, True)
         self.kT = _smallest(kappa, False) if kappa is not None else None
         self.measure, self.gradL = gradients(mesh.points, mesh.cells)
-        self.el, self.G = space(degree, mesh.cell).corner_gradients(body)        # G (m, q, d, k): q = d + 1 or 1
+        # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL, one copy of the gradients)
+        self.el, self.G = space(degree, mesh.cell).corner_gradients(body, self.gradL)
         self._parts: dict = {}
 
     @cached_property

@@ -14,7 +14,7 @@ import pytest
 from cvxcontact import Route
 from cvxcontact.apps.cli import main
 from cvxcontact.apps.studies import convergence, convergence_hencky
-from cvxcontact.errors import CvxContactError
+from cvxcontact.errors import MaterialError
 from cvxcontact.fem.fields import body_fields
 from cvxcontact.physics import materials
 
@@ -67,7 +67,7 @@ def test_the_plastic_zone_is_where_the_von_mises_stress_passes_the_yield_stress(
     never = materials.hencky(E=70e9, nu=0.3, sigma_y=1e15, h=0.1)
     _, sol = convergence.level("smooth", 1, "sigma1", 8, "auto", never)
     assert convergence_hencky.plastic_zone(sol)["yielded"] == 0
-    with pytest.raises(CvxContactError, match="quadratic energy"):
+    with pytest.raises(MaterialError, match="quadratic energy"):
         convergence_hencky.plastic_zone(sol, body=0)
 
 

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import CvxContactError
+from ...errors import CvxContactError, MaterialError
 from ...fem.space import space
 from ...physics import materials
 from ...physics.materials import deviator
@@ -80,7 +80,7 @@ def plastic_zone(sol, body: int = 1) -> dict:
     element = space(sol.degree, b.mesh.cell)
     system = element.assemble_matrices(b, element.nodes(b))
     if system.strain is None:
-        raise CvxContactError(f"body {body} of the scene has a quadratic energy (material {b.material.name!r}): "
+        raise MaterialError(f"body {body} of the scene has a quadratic energy (material {b.material.name!r}): "
                               "no plastic zone to count; give it a Hencky material (materials.hencky)")
     eps = (system.strain @ np.asarray(sol.u[body]).ravel()).reshape(len(system.weights), -1)
     s = np.linalg.norm(eps @ deviator(b.mesh.dim)[0].T, axis=1)

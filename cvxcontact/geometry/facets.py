@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["facet_keys", "facets"]
+__all__ = ["facet_keys", "facets", "paired"]
 
 
 def facet_keys(sorted_vertices: np.ndarray, n: int) -> np.ndarray:
@@ -26,13 +26,19 @@ def facets(cells: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
     m, k = cells.shape
     opposite = np.array([[j for j in range(k) if j != i] for i in range(k)])
     vertices = np.sort(cells[:, opposite], axis=2).reshape(-1, k - 1)            # row k t + i: opposite vertex i
-    keys = facet_keys(vertices, n)
+    first, second, keys = paired(facet_keys(vertices, n))
+    owners = np.column_stack([first // k, np.where(second >= 0, second // k, -1)])
+    local = np.column_stack([first % k, np.where(second >= 0, second % k, -1)])
+    return owners, local, vertices[first], keys
+
+
+def paired(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The facets of a conforming mesh listed once per cell side (``keys`` (r,): one key per listed side, equal
+    for the two sides of an interior facet) taken once each: (first (k,), the row of each facet's first listing;
+    second (k,), the row of its second, -1 for a boundary facet; the facets' keys (k,), ascending)."""
     order = np.argsort(keys, kind="stable")
     ks = keys[order]
     start = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
     count = np.diff(np.r_[start, len(ks)])
-    first = order[start]
     second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
-    owners = np.column_stack([first // k, np.where(second >= 0, second // k, -1)])
-    local = np.column_stack([first % k, np.where(second >= 0, second % k, -1)])
-    return owners, local, vertices[first], ks[start]
+    return order[start], second, ks[start]

@@ -34,7 +34,7 @@ from ..fem.assembly import strain_matrix
 from ..fem.hex import face_points
 from ..fem.quad import gauss_cube
 from ..fem.space import space
-from ..geometry.facets import facet_keys
+from ..geometry.facets import facet_keys, paired
 from . import contactestimate as contact
 
 __all__ = ["TensorGeometry", "TensorSides"]
@@ -74,19 +74,13 @@ class TensorGeometry:
         cells = np.asarray(mesh.cells)
         nf, v = faces.shape
         every = cells[:, faces].reshape(-1, v)                                  # row nf c + a: face a of cell c
-        keys = _keys(every, len(mesh.points))
-        order = np.argsort(keys, kind="stable")
-        ks = keys[order]
-        start = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
-        count = np.diff(np.r_[start, len(ks)])
-        first = order[start]
-        second = np.where(count == 2, order[np.minimum(start + 1, len(order) - 1)], -1)
+        first, second, keys = paired(_keys(every, len(mesh.points)))
         owners = np.column_stack([first // nf, np.where(second >= 0, second // nf, -1)])
         vertices = every[first]
         pos1 = np.zeros_like(vertices)
         ii = second >= 0
         pos1[ii] = contact._facet_positions(cells[owners[ii, 1]], vertices[ii])
-        return owners, faces[first % nf], pos1, vertices, ks[start]
+        return owners, faces[first % nf], pos1, vertices, keys
 
     def part(self, tag) -> np.ndarray:
         """The indices in the facet table of the facets of boundary part ``tag``."""

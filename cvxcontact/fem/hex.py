@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_points", "bilinear_rows", "reference_points"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_hats", "face_points", "bilinear_rows", "reference_points"]
 
 
 class HexElement(TensorElement):
@@ -75,6 +75,17 @@ def face_points(points, faces, degree):
         N1, dN1 = face.linear.shape_derivatives(xi)
         J = np.einsum("kid,ai->kad", X, dN1)
         yield np.einsum("i,kid->kd", N1, X), face.shape(xi), w * np.linalg.norm(np.cross(J[:, 0], J[:, 1]), axis=1)
+
+
+def face_hats(points, faces, degree) -> np.ndarray:
+    """(n,) the integral over the faces ``faces`` (k, j) of each of the ``points``' (n, 3) face shape functions
+    (m^2; bilinear for degree 1, biquadratic for 2, by :func:`face_points`' rule: exact on parallelograms), zero
+    off the faces: a node's share of the faces' area, the lumped quadrature of a face load."""
+    faces = np.asarray(faces)
+    hats = np.zeros(len(points))
+    for _, N, da in face_points(np.asarray(points, dtype=float), faces, degree):
+        hats += np.bincount(faces.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+    return hats
 
 
 def reference_points(X, host, points) -> np.ndarray:

@@ -50,7 +50,7 @@ from ..contact.laws import pair_laws
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
-from .hex import bilinear_rows, face_points, reference_points
+from .hex import bilinear_rows, face_hats, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
@@ -182,10 +182,7 @@ class NestedSurface(BilinearSurface):
         if condition != "gamma3":
             return super().weights(condition)
         trace = self.traces[self.fine]
-        corners = _corners(trace)[self._faces]
-        hats = np.zeros(len(trace.nodes))
-        for _, N, da in face_points(np.asarray(trace.points), corners, 1):
-            hats += np.bincount(corners.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+        hats = face_hats(trace.points, _corners(trace)[self._faces], 1)
         at = np.asarray(self.overlay.node_a if self.fine == 0 else self.overlay.node_b)
         out = np.zeros(self.size)
         out[at[at >= 0]] = hats[at >= 0]
@@ -308,10 +305,7 @@ def quadratic_pressures(lines, conditions) -> None:
         side = 1 if c == "sigma2" and not pair.rigid else 0
         t = pair.traces[side]
         nodes = Q2HexNodes(t.body.mesh)
-        faces = np.asarray(nodes.boundary(t.part))
-        hats = np.zeros(len(nodes.points))
-        for _, N, da in face_points(np.asarray(nodes.points, dtype=float), faces, 2):
-            hats += np.bincount(faces.ravel(), weights=(da[:, None] * N[None]).ravel(), minlength=len(hats))
+        hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
         pair._factors["riesz"] = LumpedPressure(pair._interp[side], hats[np.asarray(t.nodes)])
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..fem.assembly import strain_matrix
-from ..fem.hex import face_points
+from ..fem.hex import face_hats
 from ..fem.quad import gauss_cube
 from ..fem.space import space
 from ..geometry.facets import facet_keys, paired
@@ -261,9 +261,7 @@ class TensorSides:
         nodes = g.space.node_set(g._mesh)
         faces = np.asarray(nodes.boundary(part))
         points = np.asarray(nodes.points, dtype=float)
-        hats = np.zeros(len(points))
-        for _, N, da in face_points(points, faces, g.space.degree):
-            np.add.at(hats, faces, N[None, :] * da[:, None])
+        hats = face_hats(points, faces, g.space.degree)
         on = np.unique(faces)
         distance, at = cKDTree(points[on]).query(np.asarray(c.points, dtype=float))
         if len(on) == 0 or distance.max(initial=0.0) > 1e-9 * g._mesh.size:

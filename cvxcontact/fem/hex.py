@@ -27,7 +27,8 @@ import scipy.sparse as sp
 from .assembly import BodySystem, accumulate, lifted
 from .quad import QuadElement, TensorElement
 
-__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_hats", "face_points", "bilinear_rows", "reference_points"]
+__all__ = ["HexElement", "HEX1_ELEMENT", "HEX2_ELEMENT", "face_hats", "face_points", "bilinear_rows",
+           "reference_points"]
 
 
 class HexElement(TensorElement):

@@ -54,8 +54,8 @@ from .hex import bilinear_rows, face_hats, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "hex_contact", "hex_pair", "independent_rows", "matching", "nesting",
-           "pieces", "quadratic_pressures"]
+           "NestedSurface", "Nesting", "Pieces", "constrained_side", "hex_contact", "hex_pair", "independent_rows",
+           "matching", "nesting", "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -302,14 +302,14 @@ def quadratic_pressures(lines, conditions) -> None:
     make a uniform pressure oscillate)."""
     pairs = getattr(lines.interface, "interfaces", None) or (lines.interface,)
     for pair, c in zip(pairs, conditions):
-        side = 1 if c == "sigma2" and not pair.rigid else 0
+        side = constrained_side(pair, c)
         t = pair.traces[side]
         nodes = Q2HexNodes(t.body.mesh)
         hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
         pair._factors["riesz"] = LumpedPressure(pair._interp[side], hats[np.asarray(t.nodes)])
 
 
-def _side(pair, condition: str) -> int:
+def constrained_side(pair, condition: str) -> int:
     """The side whose nodes carry the rows of ``pair`` under ``condition`` (the obstacle's pairs: 0)."""
     if isinstance(pair, NestedSurface) and condition == "gamma3":
         return pair.fine
@@ -333,7 +333,7 @@ def hex_pair(itf, condition: str):
             if cut.rows is not None:
                 pair = CrossingSurface(itf, cut)
     pair = pair if pair is not None else BilinearSurface(itf)
-    side = _side(pair, condition)
+    side = constrained_side(pair, condition)
     pair._factor = LumpedPressure(pair._interp[side], pair.traces[side].lumped)
     return pair
 

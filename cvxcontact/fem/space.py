@@ -34,7 +34,7 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows, quadratic_pressures
+from .hexfaces import FACE_TRACE, constrained_side, hex_contact, hex_pair, independent_rows, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -557,7 +557,7 @@ class Q1Hex(P1Tet):
         weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'
         for itf, c in zip(scene.interfaces, scene.conditions):
             c = c or condition
-            side = 1 if c == "sigma2" and not itf.rigid else 0
+            side = constrained_side(itf, c)
             trace = itf.traces[side]
             mesh = trace.body.mesh
             hats = mesh.node_areas(trace.part)[trace.nodes]

@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 
 from scipy.spatial import cKDTree
 
-from ..errors import SceneError, UnsupportedError
+from ..errors import SceneError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
 from .overlay import barycentric, locate, overlay  # noqa: F401  (locate: re-exported)
@@ -309,11 +309,10 @@ class QuadraticSurface:
         return self._sigma[int(condition[-1]) - 1][1]
 
     def _law_triangles(self, condition) -> tuple[np.ndarray, np.ndarray]:
-        """(cells (c, 6), area (c,) m^2): the P2 triangles a normal-compliance law integrates over under
-        ``condition``, their node indices the rows of :meth:`evaluation`. "gamma3" (and an obstacle) the triangles of
-        X_h (``cells``); "sigma1"/"sigma2" that body's faces inside the overlap, whose P2 nodes must be exactly that
-        body's nodes in the overlap (else UnsupportedError: the overlap's edge cuts one of its faces, and its nodes
-        there form no P2 triangles for the law's quadrature)."""
+        """(cells (c, 6), area (c,) m^2): the P2 triangles a normal-compliance law integrates over by
+        :data:`P2_FACE_RULE` under ``condition``, their node indices the rows of :meth:`evaluation`. "gamma3" (and
+        an obstacle) the triangles of X_h (``cells``); "sigma1"/"sigma2" that body's faces all of whose P2 nodes lie
+        in the overlap (the faces the overlap's edge cuts: :meth:`_cut_weights`)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if self.rigid or condition == "gamma3":
@@ -321,26 +320,60 @@ class QuadraticSurface:
             return cells, _area(self.x[cells[:, :3]])
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
-        faces = self._sigma_faces(condition)
+        faces, _ = self._sigma_faces(condition)
         at = np.full(len(t.nodes), -1)
         at[inside] = np.arange(len(inside))
         return at[faces], _area(t.x[faces[:, :3]])
+
+    def _cut_weights(self, condition) -> np.ndarray:
+        """(rows,) m^2: the nodal part of a normal-compliance law's quadrature under "sigma1"/"sigma2" on the faces
+        of body l the overlap's edge cuts (some of their P2 nodes in the overlap, not all): the integrals over the
+        overlap's part of those faces of the red refinement's P1 hats (as :meth:`weights`; exact by the overlay of
+        the refined faces with the other body's faces), a node outside the overlap giving its share to the nearest
+        node inside (the value :meth:`extend` gives it). Non-negative; with the whole faces' rule they integrate a
+        constant exactly over the overlap (the weights sum to its area) and, where the overlap's edge follows edges
+        of the refined faces (the hats of the nodes outside are 0 on it), a linear function too. Zero under
+        "gamma3", against an obstacle and where no face is cut."""
+        if condition not in CONDITIONS:
+            raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
+        if self.rigid or condition == "gamma3":
+            return np.zeros(self.size)
+        l = int(condition[-1]) - 1
+        t, other, inside = self.traces[l], self.linear.traces[1 - l], self.sigma_rows(l)
+        _, cut = self._sigma_faces(condition)
+        if len(cut) == 0 or len(inside) == 0:
+            return np.zeros(len(inside))
+        cover = overlay(t.x, cut[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
+        if len(cover.vertices) == 0:
+            return np.zeros(len(inside))
+        hats = np.asarray(cover.Ia.T @ np.asarray(cover.lumped))   # int over the overlap of each hat (affine per cell)
+        out = np.setdiff1d(np.flatnonzero(hats > 0), inside)
+        nearest = cKDTree(t.x[inside]).query(t.x[out])[1]
+        return hats[inside] + np.bincount(nearest, weights=hats[out], minlength=len(inside))
 
     def _rows(self, condition) -> int:
         return self.size if self.rigid or condition == "gamma3" else len(self.sigma_rows(int(condition[-1]) - 1))
 
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
-        """(Q (6 c, rows), w (6 c,) m^2): the quadrature of a normal-compliance energy under ``condition``
+        """(Q (k, rows), w (k,) m^2): the quadrature of a normal-compliance energy under ``condition``
         (docs/formulation.md §15, "Normal compliance"): :data:`P2_FACE_RULE` on each triangle of
         :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
-        triangle, the rule's order within each), w = rule weight x area > 0. The law's rows are Q E: the energy
-        sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in contact), the nodal forces
-        E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the integrals of the P2 functions
-        (:func:`p2_weights`, the row sums of :meth:`row_mass`)."""
+        triangle, the rule's order within each), w = rule weight x area > 0; then, where the overlap's edge cuts
+        faces of body l under "sigma<l+1>", the rows themselves (Q the identity there) with the red hats' integrals
+        over the overlap's part of those faces (:meth:`_cut_weights`), at the rows where they are positive. The
+        law's rows are Q E: the energy sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in
+        contact), the nodal forces E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the row sums
+        of :meth:`row_mass` (on whole faces the integrals of the P2 functions, :func:`p2_weights`)."""
         cells, area = self._law_triangles(condition)
         L, w = P2_FACE_RULE
-        Q = _p2_rows(np.tile(L, (len(cells), 1)), np.repeat(cells, len(w), axis=0), self._rows(condition))
-        return Q, np.outer(area, w).ravel()
+        n = self._rows(condition)
+        Q = _p2_rows(np.tile(L, (len(cells), 1)), np.repeat(cells, len(w), axis=0), n)
+        cut = self._cut_weights(condition)
+        on = np.flatnonzero(cut > 0)
+        if len(on) == 0:
+            return Q, np.outer(area, w).ravel()
+        nodal = sp.csr_matrix((np.ones(len(on)), (np.arange(len(on)), on)), shape=(len(on), n))
+        return sp.vstack([Q, nodal], format="csr"), np.concatenate([np.outer(area, w).ravel(), cut[on]])
 
     def weights(self, condition) -> np.ndarray:
         """The areas (m^2) attributed to the rows of :meth:`evaluation`, positive: the friction capacities g w_a
@@ -368,9 +401,11 @@ class QuadraticSurface:
 
     def row_mass(self, condition) -> sp.csr_matrix:
         """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of
-        :meth:`evaluation` (its row sums are :func:`p2_weights`; zero rows at nodes no such triangle has)."""
+        :meth:`evaluation` (its row sums are :func:`p2_weights`; zero rows at nodes no such triangle has), plus the
+        diagonal of the nodal weights on cut faces (:meth:`_cut_weights`): its row sums are Q^T w."""
         cells, area = self._law_triangles(condition)
-        return _p2_mass(cells, area, self._rows(condition)).tocsr()
+        n = self._rows(condition)
+        return (_p2_mass(cells, area, n) + sp.diags(self._cut_weights(condition))).tocsr()
 
     def law_pressure(self, condition, force) -> np.ndarray:
         """The pressure at the rows of :meth:`evaluation` (Pa for ``force`` in N at the points of
@@ -385,20 +420,16 @@ class QuadraticSurface:
             out[on] = spla.spsolve(M[on][:, on].tocsc(), (Q.T @ np.asarray(force, dtype=float))[on])
         return out
 
-    def _sigma_faces(self, condition) -> np.ndarray:
-        """The faces (k, 6) of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the overlap; refuses
-        (UnsupportedError, :meth:`quadrature`) when its nodes in the overlap are not exactly their nodes."""
+    def _sigma_faces(self, condition) -> tuple[np.ndarray, np.ndarray]:
+        """(whole (k, 6), cut (j, 6)): the faces of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the
+        overlap, and those with some but not all of them there (the overlap's edge cuts them)."""
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
         mark = np.zeros(len(t.nodes), dtype=bool)
         mark[inside] = True
-        faces = np.asarray(t.faces)[mark[t.faces].all(axis=1)]
-        if len(faces) == 0 or len(np.unique(faces)) != len(inside):
-            raise UnsupportedError(f"a normal-compliance law with P2 (10-node) tetrahedra under {condition!r}: the "
-                                   f"overlap of the pair cuts faces of body {l + 1}'s contact part, so its nodes "
-                                   "in the overlap form no P2 triangles for the law's quadrature; use 'gamma3' "
-                                   "or the other sigma condition")
-        return faces
+        faces = np.asarray(t.faces)
+        count = mark[faces].sum(axis=1)
+        return faces[count == 6], faces[(count > 0) & (count < 6)]
 
     def extend(self, condition, values) -> np.ndarray:
         """The P2 function of the constrained nodes under ``condition`` with nodal ``values`` there (the rows of

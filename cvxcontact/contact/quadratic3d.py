@@ -21,7 +21,9 @@ A normal-compliance law is integrated by a quadrature of positive weights on the
 (:meth:`QuadraticSurface.quadrature`: the 6-point rule of degree 4, :data:`P2_FACE_RULE`, at whose points the
 law's rows evaluate [u_nu]); the integrals of the P2 basis functions (:meth:`QuadraticSurface.weights`) are 0 at
 the vertices and A/3 at the edge midpoints, so a nodal quadrature would let a vertex penetrate for free
-(docs/formulation.md §15, "Normal compliance").
+(docs/formulation.md §15, "Normal compliance"). Under "sigma1"/"sigma2" on a face the overlap's edge cuts, the
+law sits on the rows themselves, weighted by the red refinement's hats integrated over the overlap
+(:meth:`QuadraticSurface._cut_weights`, positive).
 """
 
 from __future__ import annotations

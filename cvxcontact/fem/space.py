@@ -451,8 +451,8 @@ class P2Tet(P2):
     "gamma3" the copositive "everywhere" condition on every triangle of X_h (§16). A normal-compliance law sits on
     the quadrature points of the triangles the condition's nodes form ("gamma3": the triangles of X_h, no cone):
     its rows evaluate [u_nu] there (the P2 interpolant of the condition's nodal rows, a positive-weight rule of
-    degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15); the copositive cones
-    next to it are refused."""
+    degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15; on faces the overlap's
+    edge cuts, the nodal rows with positive weights); the copositive cones next to it are refused."""
 
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"

@@ -18,10 +18,11 @@ from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
-from .finish import Declined, independent_active_set, row_reach
+from .finish import Declined, Stop, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
+from .mixedcuts import finish_cuts_compliance
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
@@ -34,6 +35,11 @@ __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic
 def _width(problem) -> int:
     """Bernstein coefficients per element of the problem's cones: 3 (segments, 2D), 6 (triangles, 3D)."""
     return problem.lines.cone[1].shape[1]
+
+
+def _mixed_width(problem) -> int:
+    """Bernstein coefficients per element of the cones beside a compliance law: 3 (2D), 6 (3D)."""
+    return problem.lines.mixed_bernstein[1].shape[1]
 
 
 def _cone_force(problem, beta):
@@ -65,7 +71,8 @@ def mixed_program(problem):
     """The full program of cones beside a normal-compliance law (the term
     :class:`~cvxcontact.discrete.terms.ConesBesideCompliance`; :func:`conic_mix_model`)."""
     return conic_mix_model(list(problem.blocks), problem.E, problem.g, problem.scaled_law, problem.weights,
-                           mixed_bernstein_rows(problem), translations=list(problem.translations))
+                           mixed_bernstein_rows(problem), translations=list(problem.translations),
+                           width=_mixed_width(problem))
 
 
 def mixed_forces(problem, model, u, taus) -> tuple:
@@ -75,7 +82,8 @@ def mixed_forces(problem, model, u, taus) -> tuple:
     law, g, held = problem.scaled_law, problem.g, problem.held_rows
     B = mixed_bernstein_rows(problem)
     z = release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
-    beta = held_cone(bernstein_duals(model.cone, model.row), B, held, g + law.cone_shift)
+    w = _mixed_width(problem)
+    beta = held_cone(bernstein_duals(model.cone, model.row, w), B, held, g + law.cone_shift, w)
     z = z + B.T @ beta.ravel()
     return problem.weights * law.pressure(program_penetration(problem, u, taus)) + z, z, beta
 
@@ -432,7 +440,7 @@ def _finish_tangency(problem, timings, raw, blocks=None) -> bool:
     return True
 
 
-def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None):
+def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, translations=None, width: int = 3):
     """The program of a P2 scene mixing cones and a normal-compliance law (scaled; docs/formulation.md §10,
     "P2"): the energy of every body (full model, or with ``condensed`` bodies and their ``loads`` the
     condensed interface model) plus sum_a w_a Phi_a(r_a) over the compliant rows, the linear rows
@@ -441,14 +449,16 @@ def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, t
     :class:`~cvxcontact.contact.quadratic.ConeRowLaws`, ``B`` (3 S, rows) the cone pairs' Bernstein map on
     the rows of ``E``). The model's ``contact``/``limit_rows`` are the linear rows (or None), ``cone`` and
     ``row`` the cone's constraints (their duals the Bernstein duals beta). ``translations``: as in
-    :class:`~cvxcontact.backends.full.ContactModel` (full model only): the rows and the cones see R t."""
+    :class:`~cvxcontact.backends.full.ContactModel` (full model only): the rows and the cones see R t.
+    ``width``: Bernstein coefficients per element, 3 (segments, 2D) or 6 (triangles, 3D: the copositive condition
+    of §16 per triangle, B then (6 S, rows))."""
     if condensed is None:
         model = ContactModel(blocks, E, g, law=law, weights=weights, translations=translations)
         jump = model.jump
     else:
         model = InterfaceModel(condensed, loads, E, g, law=law, weights=weights)
         jump = sum((E @ c.jump) @ v for c, v in zip(condensed, model.v))
-    model.cone, model.row, _ = bernstein_constraints(jump, B, g + law.cone_shift)
+    model.cone, model.row, _ = bernstein_constraints(jump, B, g + law.cone_shift, width)
     if hasattr(model, "constraints"):
         model.constraints = model.constraints + [model.cone, model.row]
     model.problem = cp.Problem(model.problem.objective, list(model.problem.constraints) + [model.cone, model.row])
@@ -491,13 +501,15 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
         reduction = condensation(problem, cache, settings, timings)
         cond = reduction.bodies
         _, loads, _ = reduction.apply(problem, timings)
-        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, condensed=cond, loads=loads)
+        model = conic_mix_model(list(problem.blocks), E, g, law, w, B, condensed=cond, loads=loads,
+                                width=_mixed_width(problem))
     timings["model"] = time.perf_counter() - t0
     pairs = len(problem.lines.offsets) - 1
     iterations = timed_program(model.problem, settings, timings,
                                conic_options(settings.solver, settings.options, pairs=pairs))
     held = problem.held_rows
-    beta = held_cone(bernstein_duals(model.cone, model.row), B, held, g + law.cone_shift)  # held: least force
+    width = _mixed_width(problem)
+    beta = held_cone(bernstein_duals(model.cone, model.row, width), B, held, g + law.cone_shift, width)  # least
     z = B.T @ beta.ravel() + release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
     u, phi, r = program_fields(model, problem, cond)
     taus = [np.asarray(t.value, dtype=float).ravel() for t in getattr(model, "t", [])]
@@ -512,6 +524,11 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
                     method=method)
     if settings.polish and not _finish_mixed(problem, timings, raw, B):
         why = raw.declined
+        raw.declined = None
+        if finish_cuts_compliance(problem, timings, raw, B):     # a singular tangency step: the cuts (3D)
+            return raw
+        if why and raw.declined and raw.declined.stop is not Stop.NOT_POSED:
+            why = Declined(why.stop, f"{why}; the accumulated cuts: {raw.declined}", why.rows)
         raw.declined = None
         if (not problem.held and not problem.translations and not law.cone.all()
                 and not (law.cone & law.rows).any()):

@@ -335,8 +335,10 @@ class QuadraticStack:
             raise SceneError(f"bernstein_of: {len(pairs)} flags for {len(self.interfaces)} pairs")
         blocks = [itf.bernstein() if on else sp.csr_matrix((0, itf.size))
                   for itf, on in zip(self.interfaces, pairs)]
-        segs = [np.asarray(itf.segments) + o for itf, o, on in zip(self.interfaces, self.offsets, pairs) if on]
-        segments = np.concatenate(segs) if segs else np.zeros((0, 3), dtype=int)
+        segs = [np.asarray(getattr(itf, "cone_cells", itf.segments)) + o             # 3D: with its nodal cells
+                for itf, o, on in zip(self.interfaces, self.offsets, pairs) if on]
+        width = np.asarray(self.interfaces[0].segments).shape[1]
+        segments = np.concatenate(segs) if segs else np.zeros((0, width), dtype=int)
         return sp.block_diag(blocks, format="csr"), read_only(segments)
 
     def split(self, values):

@@ -471,6 +471,7 @@ class P2Tet(P2):
         compliant = any(lw.compliant for lw in laws)
         if compliant:
             _refuse_cones_next_to_compliance(scene, conditions, laws)
+        cone_pairs = [c == "gamma3" and not lw.compliant for c, lw in zip(conditions, laws)]     # beside the law
         for i, itf in enumerate(scene.interfaces):
             if getattr(itf, "curved", None) is not None:
                 raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
@@ -492,13 +493,17 @@ class P2Tet(P2):
             E = (sp.block_diag([Q for Q, _ in rules], format="csr") @ E).tocsr()
             weights = np.concatenate([w for _, w in rules])
             counts = np.array([len(w) for _, w in rules])
-        rows = RowLaws(laws, counts)
+        rows, mixed = RowLaws(laws, counts), None
+        if compliant and any(cone_pairs):   # a Signorini gamma3 pair's rows: its nodes of X_h, held by the cone (§16)
+            rows = ConeRowLaws(laws, counts, np.repeat(cone_pairs, counts))
+            mixed = stack.bernstein_of(cone_pairs)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
-                            E=E, cone=cone, rows=rows, weights=weights, cone_pairs=None, gap=gap,
+                            E=E, cone=cone, rows=rows, weights=weights, gap=gap,
+                            cone_pairs=tuple(cone_pairs) if compliant else None,
                             obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant,
-                            departure=departure)
+                            departure=departure, mixed_bernstein=mixed)
 
 
 def _refuse_cones_next_to_compliance(scene, conditions, laws):
@@ -506,12 +511,8 @@ def _refuse_cones_next_to_compliance(scene, conditions, laws):
     "gamma3" (§16) next to it, i.e. a Signorini "gamma3" pair in the scene or a compliant "gamma3" pair with a
     penetration limit (the cone at g + l)."""
     for i, (c, lw) in enumerate(zip(conditions, laws)):
-        if c != "gamma3":
+        if c != "gamma3" or not lw.compliant:
             continue
-        if not lw.compliant:
-            raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: the copositive 'gamma3' condition next to "
-                                   "a normal-compliance law with P2 (10-node) tetrahedra is not available: use "
-                                   "'sigma1'/'sigma2' on that pair, the Signorini law on every pair, or degree=1")
         if lw.penetration_limit is not None:
             raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: a penetration limit under 'gamma3' with P2 "
                                    "(10-node) tetrahedra (the copositive condition at g + l) is not available: use "

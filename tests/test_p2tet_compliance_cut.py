@@ -175,3 +175,5 @@ def test_signorini_cones_beside_a_compliance_pair_hold_everywhere_and_are_finish
     forces = [c.force.sum() for c in sol.contacts]
     assert abs(forces[0] / forces[1] - 1) < 1e-12
     assert 0 < sol.contacts[0].active.sum() < sol.contacts[0].active.size
+    model = cc.Model(scene, degree=2).solve()                 # the Model poses the same program (measured 0)
+    assert model.ok and max(np.abs(a - b).max() for a, b in zip(model.u, sol.u)) <= 1e-12 * DELTA

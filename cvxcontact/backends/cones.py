@@ -489,7 +489,9 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     the cone per merged segment of every cone pair (a Signorini "gamma3" pair at g, a limited compliant
     "gamma3" pair at g + l) and the linear rows r <= l of the nodal pairs with a limit (Signorini sigma
     pairs: l = 0) (:func:`conic_mix_model`), full or condensed; interior point with the conic tolerances,
-    finished by Newton at the contact structure (:func:`_finish_mixed`, §18). ``raw.y`` = w p(r) + z,
+    finished by Newton at the contact structure (:func:`_finish_mixed`, §18), where that is singular (3D: P2
+    tetrahedra's triangles, 6 coefficients each, a face in full contact) by accumulated cuts with the law's rows
+    (:func:`~cvxcontact.backends.mixedcuts.finish_cuts_compliance`). ``raw.y`` = w p(r) + z,
     ``raw.z`` = (cone force B^T beta) + (multipliers of the linear rows), ``raw.beta`` the Bernstein duals."""
     law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
     B = mixed_bernstein_rows(problem)

@@ -452,7 +452,8 @@ class P2Tet(P2):
     the quadrature points of the triangles the condition's nodes form ("gamma3": the triangles of X_h, no cone):
     its rows evaluate [u_nu] there (the P2 interpolant of the condition's nodal rows, a positive-weight rule of
     degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15; on faces the overlap's
-    edge cuts, the nodal rows with positive weights); the copositive cones next to it are refused."""
+    edge cuts, the nodal rows with positive weights); a Signorini "gamma3" pair's copositive cones sit beside it in
+    one program (``mixed_bernstein``), a limit under "gamma3" is refused."""
 
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
@@ -507,9 +508,8 @@ class P2Tet(P2):
 
 
 def _refuse_cones_next_to_compliance(scene, conditions, laws):
-    """UnsupportedError for what a normal-compliance law with P2 tetrahedra does not pose: the copositive cones of
-    "gamma3" (§16) next to it, i.e. a Signorini "gamma3" pair in the scene or a compliant "gamma3" pair with a
-    penetration limit (the cone at g + l)."""
+    """UnsupportedError for what a normal-compliance law with P2 tetrahedra does not pose: a compliant "gamma3" pair
+    with a penetration limit (the copositive cone of §16 at g + l)."""
     for i, (c, lw) in enumerate(zip(conditions, laws)):
         if c != "gamma3" or not lw.compliant:
             continue

@@ -34,11 +34,15 @@ MIXED_CUT_TOL = 1e-11
 def finish_cuts_compliance(problem, timings, raw, B) -> bool:
     """The finish of the module docstring on a solved cone/compliance program ``raw`` (scaled: its fields, the
     Bernstein duals ``raw.beta`` (S, w) of the cones ``B`` (w S, N) on the rows of E, the row forces y = w p(r) + z
-    and z). Bodies held by their supports only (no held rows, no force-controlled obstacle: else declined). Updates
+    and z). Bodies held by their supports only (no held rows, no force-controlled obstacle) and cones of Signorini
+    pairs only (a compliant pair's cone at g + l, a penetration limit under "gamma3": declined). Updates
     ``raw`` (u, phi, y, z, beta, active, finish) and returns True, or sets ``raw.declined`` and returns False."""
     law, g, w = problem.scaled_law, np.asarray(problem.g, dtype=float), np.asarray(problem.weights, dtype=float)
     if list(problem.translations) or np.any(problem.held_rows):
         raw.declined = Declined(Stop.NOT_POSED, "the cuts beside a compliance law take bodies held by their supports")
+        return False
+    if np.any((w > 0) & np.asarray(law.cone)):          # a compliant cone pair: the cone at g + l on the law's rows
+        raw.declined = Declined(Stop.NOT_POSED, "the cuts beside a compliance law take Signorini cone pairs only")
         return False
     t0 = time.perf_counter()
     width = int(np.shape(raw.beta)[1])

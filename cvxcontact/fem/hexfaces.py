@@ -55,6 +55,7 @@ from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
            "NestedSurface", "Nesting", "Pieces", "constrained_side", "hex_contact", "hex_pair", "independent_rows",
+           "law_weights",
            "matching", "nesting", "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
@@ -154,6 +155,19 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
     return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
 
 
+def _fine_hats(itf, fine, faces) -> np.ndarray:
+    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``fine``, the integral
+    of that node's Q1 hat over the side's faces ``faces`` (indices into its ``mesh.boundary(part)``: the faces on
+    the overlap, :attr:`Nesting.faces`; 2 x 2 Gauss on each face's bilinear map, exact on planar faces); 0 at
+    the other nodes."""
+    trace = itf.traces[fine]
+    hats = face_hats(trace.points, _corners(trace)[faces], 1)
+    at = np.asarray(itf.overlay.node_a if fine == 0 else itf.overlay.node_b)
+    out = np.zeros(itf.size)
+    out[at[at >= 0]] = hats[at >= 0]
+    return out
+
+
 def _cross(a, b) -> np.ndarray:
     """The z component of the cross product of in-plane vectors ``a``, ``b`` (..., 2)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -181,12 +195,7 @@ class NestedSurface(BilinearSurface):
         :meth:`SurfaceInterface.weights <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
         if condition != "gamma3":
             return super().weights(condition)
-        trace = self.traces[self.fine]
-        hats = face_hats(trace.points, _corners(trace)[self._faces], 1)
-        at = np.asarray(self.overlay.node_a if self.fine == 0 else self.overlay.node_b)
-        out = np.zeros(self.size)
-        out[at[at >= 0]] = hats[at >= 0]
-        return out[self._rows(condition)]
+        return _fine_hats(self, self.fine, self._faces)[self._rows(condition)]
 
     def extend(self, condition, values) -> np.ndarray:
         return super().extend(self._nodal(condition), values)
@@ -338,6 +347,37 @@ def hex_pair(itf, condition: str):
     return pair
 
 
+def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
+    """The quadrature weights (m^2) of a normal-compliance law (docs/formulation.md §10) at the rows of the Q1
+    pair ``pair`` (:func:`hex_pair`) under ``condition``: positive, the law integrated where the jump is bilinear
+    on known faces. A rigid obstacle, matching faces: the integrals of the constrained side's Q1 hats over its
+    faces (``mesh.node_areas``); nested faces under "gamma3" or the finer side's own nodal condition (the same
+    rows): the integrals of its hats over its faces on the overlap, each inside one face of the other side
+    (:func:`nesting`), so that the sum is the lumped (corner) rule of int psi([u_nu] - g) on every fine face;
+    aligned parallelograms under "gamma3": a quarter of each piece's area at each of its corners
+    (:attr:`Pieces.weights`, the same rule on each piece). ``compliant`` False (a Signorini pair beside
+    compliant ones: no law reads its weights): the constrained side's hats at its rows, without the nesting test.
+    """
+    if condition == "gamma3" and isinstance(pair, (NestedSurface, CrossingSurface)):
+        return pair.weights(condition)
+    side = constrained_side(pair, condition)
+    rows = pair.evaluation(condition).indices
+    if compliant and not (pair.rigid or matching(pair)):
+        nested = nesting(pair)
+        if nested.fine != side:          # hex_contact refuses it first
+            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that are not nested with "
+                                   f"side {side} the finer: {nested.reason}")
+        return _fine_hats(pair, side, nested.faces)[rows]
+    hats = np.asarray(pair.traces[side].lumped)               # mesh.node_areas: the Q1 hats' face integrals
+    if pair.rigid:
+        node = np.asarray(pair.reach)
+    else:                                 # every row's node of X_h is a node of the constrained side
+        at = np.asarray(pair.overlay.node_a if side == 0 else pair.overlay.node_b)
+        node = np.empty(pair.size, dtype=np.int64)
+        node[at[at >= 0]] = np.flatnonzero(at >= 0)
+    return hats[node[rows]]
+
+
 def independent_rows(pairs, conditions, condition: str) -> bool:
     """Whether the "gamma3" rows of the two-body ``pairs`` (each pair's own condition in ``conditions``, else
     ``condition``) are known to be linearly independent: there are some, and every such pair is a
@@ -418,6 +458,15 @@ def hex_contact(space, scene, condition, law=None):
                                        "directions (any grids aligned with each other). Use condition='sigma1' "
                                        "(nodal rows), mesh the two faces alike, nested or aligned, or use "
                                        f"{alternative}")
-        if getattr(laws[i], "compliant", False):
-            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
-                                   f"matching faces only: mesh the two faces alike or use {alternative}")
+        if getattr(laws[i], "compliant", False) and c != "gamma3":
+            nested = nesting(itf)
+            if nested.fine is None or c != f"sigma{nested.fine + 1}":
+                why = nested.reason if nested.fine is None else \
+                    f"nested, but {c!r} puts the rows on the coarser side, whose faces the jump is not bilinear on"
+                finer = "" if nested.fine is None else f", condition='sigma{nested.fine + 1}' (the finer side's rows)"
+                raise UnsupportedError(f"{label}: {what} ({why}): a normal-compliance law on Q1 hexahedra is "
+                                       "integrated where the jump is bilinear on the constrained side's faces: "
+                                       "matching faces, nested faces under 'gamma3' or the finer side's nodal "
+                                       "condition, and parallelogram faces along common directions under 'gamma3'. "
+                                       f"Use condition='gamma3' (nested or aligned faces){finer}, mesh the two faces "
+                                       f"alike, or use {alternative}")

@@ -34,7 +34,7 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, constrained_side, hex_contact, hex_pair, independent_rows, quadratic_pressures
+from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows, law_weights, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -554,21 +554,9 @@ class Q1Hex(P1Tet):
         lines = replace(lines, independent=independent_rows(lines.interface.interfaces, scene.conditions, condition))
         if lines.weights is None:
             return lines
-        weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'
-        for itf, c in zip(scene.interfaces, scene.conditions):
-            c = c or condition
-            side = constrained_side(itf, c)
-            trace = itf.traces[side]
-            mesh = trace.body.mesh
-            hats = mesh.node_areas(trace.part)[trace.nodes]
-            if itf.rigid:
-                node = np.asarray(itf.reach)
-            else:                # matching faces (hex_contact): every vertex of X_h is a node of each trace
-                at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
-                node = np.empty(itf.size, dtype=np.int64)
-                node[at[at >= 0]] = np.flatnonzero(at >= 0)
-            weights.append(hats[node[itf.evaluation(c).indices]])
-        weights = np.concatenate(weights)
+        conditions = [c or condition for c in scene.conditions]
+        weights = np.concatenate([law_weights(p, c, lw.compliant) for p, c, lw in     # the Q1 hats' face integrals,
+                                  zip(lines.interface.interfaces, conditions, lines.rows.laws)])    # not the triangles'
         if weights.shape != lines.weights.shape:
             raise SolverError(f"Q1 hexahedra: {len(weights)} quadrature weights for {len(lines.weights)} contact rows")
         return replace(lines, weights=weights)

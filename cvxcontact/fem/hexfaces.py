@@ -54,8 +54,8 @@ from .hex import bilinear_rows, face_hats, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "constrained_side", "hex_contact", "hex_pair", "independent_rows",
-           "law_weights",
+           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
+           "independent_rows", "law_weights",
            "matching", "nesting", "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
@@ -376,6 +376,15 @@ def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
         node = np.empty(pair.size, dtype=np.int64)
         node[at[at >= 0]] = np.flatnonzero(at >= 0)
     return hats[node[rows]]
+
+
+def dependent_law_rows(pairs, conditions, laws) -> bool:
+    """Whether a normal-compliance law of ``laws`` sits on rows of the Q1 ``pairs`` (each under its condition in
+    ``conditions``) that may depend on each other: the "gamma3" rows of a :class:`CrossingSurface`, at the
+    pieces' corners (more than the jump's degrees of freedom: the interface compliance W is singular on them,
+    :attr:`~cvxcontact.fem.space.ContactLines.dependent`)."""
+    return any(isinstance(p, CrossingSurface) and c == "gamma3" and lw.compliant
+               for p, c, lw in zip(pairs, conditions, laws))
 
 
 def independent_rows(pairs, conditions, condition: str) -> bool:

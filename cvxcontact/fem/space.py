@@ -34,7 +34,8 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, hex_contact, hex_pair, independent_rows, law_weights, quadratic_pressures
+from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights, \
+    quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -554,12 +555,12 @@ class Q1Hex(P1Tet):
         lines = replace(lines, independent=independent_rows(lines.interface.interfaces, scene.conditions, condition))
         if lines.weights is None:
             return lines
-        conditions = [c or condition for c in scene.conditions]
+        pairs, conditions = lines.interface.interfaces, [c or condition for c in scene.conditions]
         weights = np.concatenate([law_weights(p, c, lw.compliant) for p, c, lw in     # the Q1 hats' face integrals,
-                                  zip(lines.interface.interfaces, conditions, lines.rows.laws)])    # not the triangles'
+                                  zip(pairs, conditions, lines.rows.laws)])           # not the triangles'
         if weights.shape != lines.weights.shape:
             raise SolverError(f"Q1 hexahedra: {len(weights)} quadrature weights for {len(lines.weights)} contact rows")
-        return replace(lines, weights=weights)
+        return replace(lines, weights=weights, dependent=dependent_law_rows(pairs, conditions, lines.rows.laws))
 
 
 class Q2Hex(P2Tet):

@@ -40,13 +40,13 @@ where the forces are.
 
 from __future__ import annotations
 
-from copy import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..contact.laws import pair_laws
+from ..contact.quadratic import QuadraticStack
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
@@ -84,17 +84,16 @@ class BilinearSurface(SurfaceInterface):
     triangle of each trace, whose face is that triangle's quadrilateral."""
 
     def __init__(self, itf):
-        self.__dict__.update(itf.__dict__)
-        ov = self.overlay
+        ov = itf.overlay
         triangles = np.asarray(ov.triangles)
-        host = np.empty(self.size, dtype=np.int64)
+        host = np.empty(itf.size, dtype=np.int64)
         host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
         rows = []
-        for trace, cell in zip(self.traces, (ov.cell_a, ov.cell_b)):
+        for trace, cell in zip(itf.traces, (ov.cell_a, ov.cell_b)):
             corners = _corners(trace)
             rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2,
                                       np.asarray(ov.vertices), len(trace.nodes)))
-        self._interp, self._factor = rows, None
+        self.__dict__.update(vars(itf.with_interpolation(rows)))
 
 
 @dataclass(frozen=True)
@@ -302,20 +301,23 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
-def quadratic_pressures(lines, conditions) -> None:
-    """Make every pair of the Q2 hexahedra's contact ``lines`` (``lines.interface``: a
-    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) read
-    lambda_h by :class:`LumpedPressure`, w the integrals of the biquadratic hats over the constrained side's faces
+def quadratic_pressures(lines, conditions):
+    """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
+    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
+    every pair reading lambda_h by :class:`LumpedPressure` (``with_representer``: copies, the given pairs
+    unchanged), w the integrals of the biquadratic hats over the constrained side's faces
     (3 x 3 Gauss on the faces' bilinear maps: A/36 at a corner, A/9 at an edge midpoint, 4A/9 at the centre of a
     parallelogram face; the P2 mass of the faces' triangles, which the tetrahedra's read-back solves, would
     make a uniform pressure oscillate)."""
-    pairs = getattr(lines.interface, "interfaces", None) or (lines.interface,)
-    for pair, c in zip(pairs, conditions):
+    stack = getattr(lines.interface, "interfaces", None)
+    pairs = []
+    for pair, c in zip(stack or (lines.interface,), conditions):
         side = constrained_side(pair, c)
         t = pair.traces[side]
         nodes = Q2HexNodes(t.body.mesh)
         hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
-        pair._factors["riesz"] = LumpedPressure(pair._interp[side], hats[np.asarray(t.nodes)])
+        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), hats[np.asarray(t.nodes)])))
+    return replace(lines, interface=pairs[0] if stack is None else QuadraticStack(pairs, lines.interface.members))
 
 
 def constrained_side(pair, condition: str) -> int:
@@ -326,13 +328,13 @@ def constrained_side(pair, condition: str) -> int:
 
 
 def hex_pair(itf, condition: str):
-    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): a copy of
-    ``itf`` against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
-    faces, else a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface`
-    otherwise. Each reads lambda_h by :class:`LumpedPressure`."""
+    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
+    against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested faces, else
+    a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface` otherwise.
+    Each as the copy that reads lambda_h by :class:`LumpedPressure` (``with_representer``; ``itf`` unchanged)."""
     pair = None
     if itf.rigid or matching(itf):
-        pair = copy(itf)
+        pair = itf
     elif condition == "gamma3":
         nested = nesting(itf)
         if nested.fine is not None:
@@ -343,8 +345,7 @@ def hex_pair(itf, condition: str):
                 pair = CrossingSurface(itf, cut)
     pair = pair if pair is not None else BilinearSurface(itf)
     side = constrained_side(pair, condition)
-    pair._factor = LumpedPressure(pair._interp[side], pair.traces[side].lumped)
-    return pair
+    return pair.with_representer(LumpedPressure(pair.interpolation(side), pair.traces[side].lumped))
 
 
 def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:

@@ -592,8 +592,7 @@ class Q2Hex(P2Tet):
         hex_contact(self, scene, condition, law)
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         lines = super().contact(scene, condition, law, [n.triangulation for n in nodes])
-        quadratic_pressures(lines, [c or condition for c in scene.conditions])
-        return lines
+        return quadratic_pressures(lines, [c or condition for c in scene.conditions])
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

@@ -17,6 +17,7 @@ from hex_scenes import (
     DELTA,
     NESTED,
     PUSH,
+    SIDES,
     STEEL,
     TILTED,
     block,
@@ -79,6 +80,27 @@ def test_a_column_squeezed_through_the_law_is_the_series_closed_form(case, condi
     assert np.abs(c.lam - p).max() <= 1e-12 * p                                # measured <= 1.8e-15 p
     for k in (0, 1):
         assert np.abs(sol.traction(k)[1] - p).max() <= 1e-12 * p              # measured <= 2.0e-15 p
+
+
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_the_law_on_a_partial_overlap_is_integrated_over_the_overlap_only(condition):
+    """An aluminium column on [0, 0.5] x [0, 1] (1 x 2 faces) pushed by DELTA onto the held top of a block of
+    4 x 4 faces (the finer side, nested; its faces beyond x = 0.5 off the overlap): the penetration is uniform,
+    r = DELTA / (1 + k H / M_alu), so the total force is k r times the overlap's area, 0.5 m^2 (the rows at
+    x = 0.5 weigh half their hats: the whole hats would give 0.625 m^2), and the column is in uniaxial strain."""
+    lower = cc.Body(cc.box(z=(0.0, H), nx=4, ny=4, nz=1, cell="hex"), STEEL, clamped=["bottom", "top"],
+                    contact="left", name="lower")
+    upper = cc.Body(cc.box(x=(0.0, 0.5), z=(H, 2 * H), nx=1, ny=2, nz=1, cell="hex"), ALU, roller=SIDES,
+                    contact="bottom", name="upper", displacement={"top": (None, None, -DELTA)})
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom")])
+    k = SOFT[1]
+    r = DELTA / (1.0 + k * H / M_A)
+    sol = cc.solve(scene, condition, law=cc.NormalCompliance(k))
+    assert sol.ok and sol.polished
+    assert abs(sol.contacts[0].force.sum() - k * r * 0.5) <= 1e-12 * k * r           # measured 1.1e-16 k r
+    z = sol.points[1][:, 2]
+    assert np.abs(sol.u[1][:, 2] + r + k * r * (z - H) / M_A).max() <= 1e-12 * DELTA  # measured 4.2e-16 DELTA
+    assert np.abs(sol.traction(1)[1] - k * r).max() <= 1e-12 * k * r                  # measured 3.4e-16 k r
 
 
 @pytest.mark.parametrize("case", ["4 on 2", "skewed 2 on 4", "3 on 2"])

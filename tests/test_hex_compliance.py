@@ -83,15 +83,18 @@ def test_a_column_squeezed_through_the_law_is_the_series_closed_form(case, condi
 
 
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
-def test_the_law_on_a_partial_overlap_is_integrated_over_the_overlap_only(condition):
-    """An aluminium column on [0, 0.5] x [0, 1] (1 x 2 faces) pushed by DELTA onto the held top of a block of
-    4 x 4 faces (the finer side, nested; its faces beyond x = 0.5 off the overlap): the penetration is uniform,
-    r = DELTA / (1 + k H / M_alu), so the total force is k r times the overlap's area, 0.5 m^2 (the rows at
-    x = 0.5 weigh half their hats: the whole hats would give 0.625 m^2), and the column is in uniaxial strain."""
+@pytest.mark.parametrize("faces", [(1, 2), (2, 4)], ids=["nested", "matching"])
+def test_the_law_on_a_partial_overlap_is_integrated_over_the_overlap_only(faces, condition):
+    """An aluminium column on [0, 0.5] x [0, 1] (1 x 2 faces: nested; 2 x 4: matching) pushed by DELTA onto the
+    held top of a block of 4 x 4 faces (the constrained side; its faces beyond x = 0.5 off the overlap): the
+    penetration is uniform, r = DELTA / (1 + k H / M_alu), so the total force is k r times the overlap's area,
+    0.5 m^2 (the rows at x = 0.5 weigh half their hats: the whole hats, which matching faces took before, gave
+    0.625 m^2, the force 8.8 % high and the pressure the column felt 39 %), and the column is in uniaxial
+    strain."""
     lower = cc.Body(cc.box(z=(0.0, H), nx=4, ny=4, nz=1, cell="hex"), STEEL, clamped=["bottom", "top"],
                     contact="left", name="lower")
-    upper = cc.Body(cc.box(x=(0.0, 0.5), z=(H, 2 * H), nx=1, ny=2, nz=1, cell="hex"), ALU, roller=SIDES,
-                    contact="bottom", name="upper", displacement={"top": (None, None, -DELTA)})
+    upper = cc.Body(cc.box(x=(0.0, 0.5), z=(H, 2 * H), nx=faces[0], ny=faces[1], nz=1, cell="hex"), ALU,
+                    roller=SIDES, contact="bottom", name="upper", displacement={"top": (None, None, -DELTA)})
     scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom")])
     k = SOFT[1]
     r = DELTA / (1.0 + k * H / M_A)

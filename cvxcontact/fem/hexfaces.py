@@ -154,17 +154,28 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
     return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
 
 
-def _fine_hats(itf, fine, faces) -> np.ndarray:
-    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``fine``, the integral
-    of that node's Q1 hat over the side's faces ``faces`` (indices into its ``mesh.boundary(part)``: the faces on
-    the overlap, :attr:`Nesting.faces`; 2 x 2 Gauss on each face's bilinear map, exact on planar faces); 0 at
-    the other nodes."""
-    trace = itf.traces[fine]
+def _side_hats(itf, side, faces) -> np.ndarray:
+    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``side``, the integral
+    of that node's Q1 hat over the side's faces ``faces`` (indices into its ``mesh.boundary(part)``: its faces on
+    the overlap; 2 x 2 Gauss on each face's bilinear map, exact on planar faces); 0 at the other nodes."""
+    trace = itf.traces[side]
     hats = face_hats(trace.points, _corners(trace)[faces], 1)
-    at = np.asarray(itf.overlay.node_a if fine == 0 else itf.overlay.node_b)
+    at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
     out = np.zeros(itf.size)
     out[at[at >= 0]] = hats[at >= 0]
     return out
+
+
+def _faces_on_overlap(itf, side, tol: float = NESTED_TOL) -> np.ndarray:
+    """The faces of side ``side`` of the two-body pair ``itf`` (indices into its ``mesh.boundary(part)``) that
+    meet its overlap: an overlay triangle of area above ``tol`` of the face's."""
+    ov = itf.overlay
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    X = np.asarray(itf.traces[side].x)[_corners(itf.traces[side])]
+    size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))
+    q = np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2
+    return np.unique(q[area > tol * size[q]])
 
 
 def _cross(a, b) -> np.ndarray:
@@ -194,7 +205,7 @@ class NestedSurface(BilinearSurface):
         :meth:`SurfaceInterface.weights <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
         if condition != "gamma3":
             return super().weights(condition)
-        return _fine_hats(self, self.fine, self._faces)[self._rows(condition)]
+        return _side_hats(self, self.fine, self._faces)[self._rows(condition)]
 
     def extend(self, condition, values) -> np.ndarray:
         return super().extend(self._nodal(condition), values)
@@ -351,24 +362,23 @@ def hex_pair(itf, condition: str):
 def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
     """The quadrature weights (m^2) of a normal-compliance law (docs/formulation.md §10) at the rows of the Q1
     pair ``pair`` (:func:`hex_pair`) under ``condition``: positive, the law integrated where the jump is bilinear
-    on known faces. A rigid obstacle, matching faces: the integrals of the constrained side's Q1 hats over its
-    faces (``mesh.node_areas``); nested faces under "gamma3" or the finer side's own nodal condition (the same
-    rows): the integrals of its hats over its faces on the overlap, each inside one face of the other side
-    (:func:`nesting`), so that the sum is the lumped (corner) rule of int psi([u_nu] - g) on every fine face;
-    aligned parallelograms under "gamma3": a quarter of each piece's area at each of its corners
-    (:attr:`Pieces.weights`, the same rule on each piece). ``compliant`` False (a Signorini pair beside
-    compliant ones: no law reads its weights): the constrained side's hats at its rows, without the nesting test.
-    """
+    on known faces. Two bodies, matching faces and nested faces under "gamma3" or the finer side's own nodal
+    condition (the same rows): the integrals of the constrained side's Q1 hats over its faces on the overlap
+    (on nested faces each inside one face of the other side, :func:`nesting`), so that the sum is the lumped
+    (corner) rule of int psi([u_nu] - g) on every such face, and the weights sum to the overlap's area; aligned
+    parallelograms under "gamma3": a quarter of each piece's area at each of its corners (:attr:`Pieces.weights`,
+    the same rule on each piece); a rigid obstacle: the body's hats over its part (``mesh.node_areas``).
+    ``compliant`` False (a Signorini pair beside compliant ones: no law reads its weights): the constrained
+    side's hats over its part at its rows."""
     if condition == "gamma3" and isinstance(pair, (NestedSurface, CrossingSurface)):
         return pair.weights(condition)
     side = constrained_side(pair, condition)
     rows = pair.evaluation(condition).indices
-    if compliant and not (pair.rigid or matching(pair)):
-        nested = nesting(pair)
-        if nested.fine != side:          # hex_contact refuses it first
-            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that are not nested with "
-                                   f"side {side} the finer: {nested.reason}")
-        return _fine_hats(pair, side, nested.faces)[rows]
+    if compliant and not pair.rigid:
+        if not matching(pair) and nesting(pair).fine != side:          # hex_contact refuses it first
+            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that neither match nor "
+                                   f"are nested with side {side} the finer: {nesting(pair).reason}")
+        return _side_hats(pair, side, _faces_on_overlap(pair, side))[rows]
     hats = np.asarray(pair.traces[side].lumped)               # mesh.node_areas: the Q1 hats' face integrals
     if pair.rigid:
         node = np.asarray(pair.reach)

@@ -29,13 +29,21 @@ than the jump has degrees of freedom: they may depend on each other, the exact f
 are not unique, the pressure each body feels is). General quadrilaterals that cross are refused
 (:func:`hex_contact`): the jump is not bilinear on the pieces there.
 
+A normal-compliance law (:func:`law_weights`) sits on the same rows, integrated by the lumped (corner) rule
+where the jump is bilinear: the constrained side's hats over its faces on the overlap on matching and nested
+faces (the finer side's rows, under "gamma3" or its own nodal condition), a quarter of each piece's area at its
+corners on aligned parallelograms ("gamma3"; those rows may depend on each other, :func:`dependent_law_rows`).
+The coarser side's rows on nested faces and nodal rows on crossing faces would integrate a jump that is not
+bilinear on the constrained faces: refused (:func:`hex_contact`).
+
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
 rows carry p times the bilinear hats' integrals (A/4 per face corner) while that P1 mass weighs the corners on a
 triangle diagonal A/3 and the others A/6, and it read 0.42 p to 2.2 p (a 3 x 3 face grid). Every Q1 pair
 reads lambda_h as the pressure the constrained side feels, each node's work-equivalent force over its hat's
 integral, interpolated by the bilinear faces at the nodes of X_h: exact for a uniform pressure, non-negative
-where the forces are.
+where the forces are. The pairs take it through their public hook
+(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`).
 """
 
 from __future__ import annotations
@@ -424,8 +432,9 @@ FACE_TRACE = FaceTrace()
 def hex_contact(space, scene, condition, law=None):
     """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
-    decide), "gamma3" between faces that neither match corner to corner nor are nested (:func:`nesting`), and a
-    compliance law between faces that do not match; on Q2, "gamma3", a compliance law, faces that are not
+    decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
+    parallelograms along common directions (:func:`pieces`), and a compliance law under a nodal condition
+    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance law, faces that are not
     parallelograms (the centre off the diagonal's midpoint) and faces that do not match."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
     laws = pair_laws(scene, law)

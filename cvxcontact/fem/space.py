@@ -528,8 +528,9 @@ class Q1Hex(P1Tet):
     face nodes on any faces. "gamma3" is posed where it reduces to nodal rows exactly (a bilinear jump is
     non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
     side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
-    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face
-    integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
+    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face integrals on
+    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms
+    (:func:`~cvxcontact.fem.hexfaces.law_weights`); the rest is refused by name
     (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 1, 3, True

@@ -106,6 +106,30 @@ def test_the_law_on_a_partial_overlap_is_integrated_over_the_overlap_only(faces,
     assert np.abs(sol.traction(1)[1] - k * r).max() <= 1e-12 * k * r                  # measured 3.4e-16 k r
 
 
+@pytest.mark.parametrize("case", ["skewed 2 on 4", "3 on 2"])
+def test_a_penetration_limit_holds_the_column_at_the_limit(case):
+    """The column of :func:`series` with a penetration limit l at half the free penetration (nested faces whose
+    overlay has more vertices than the finer side's nodes; aligned crossings): the rows stop at r = l, so the
+    pressure is the elastic column's, p = (DELTA - l) / (H / M_steel + H / M_alu), the total force p times 1 m^2
+    and lambda_h = p at every node of X_h (the limit reactions read at the rows, then extended)."""
+    k = SOFT[1]
+    c = H / M_S + H / M_A
+    limit = 0.5 * series(k, 1)[1]
+    p = (DELTA - limit) / c
+    if case in NESTED:
+        scene, _ = nested(case, materials=(STEEL, ALU))
+    else:
+        (n1, m1), (n2, m2) = CROSSING[case]
+        scene = pair(block(n1, (0.0, H), m=m1), block(n2, (H, 2 * H), m=m2), materials=(STEEL, ALU))
+    sol = cc.solve(scene, "gamma3", law=cc.NormalCompliance(k, penetration_limit=limit))
+    assert sol.ok and sol.polished
+    cr = sol.contacts[0]
+    assert abs(cr.force.sum() - p) <= 1e-12 * p                                 # measured <= 2.0e-16 p
+    assert np.abs(cr.lam - p).max() <= 1e-12 * p                                # measured <= 2.0e-15 p
+    z = sol.points[1][:, 2]
+    assert np.abs(sol.u[1][:, 2] + p * H / M_S + limit + p * (z - H) / M_A).max() <= 1e-12 * DELTA  # 4.7e-16
+
+
 @pytest.mark.parametrize("case", ["4 on 2", "skewed 2 on 4", "3 on 2"])
 def test_a_stiff_law_tends_to_the_signorini_answer_at_the_rate_one_over_k(case):
     """Under the tilted gap (part of the faces open), the law's answer departs from Signorini's "gamma3" (the

@@ -434,8 +434,9 @@ def hex_contact(space, scene, condition, law=None):
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
     decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
     parallelograms along common directions (:func:`pieces`), and a compliance law under a nodal condition
-    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance law, faces that are not
-    parallelograms (the centre off the diagonal's midpoint) and faces that do not match."""
+    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance
+    law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that do not
+    match."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
     laws = pair_laws(scene, law)
     if space.degree == 2:

@@ -116,3 +116,20 @@ def test_lambda_on_matching_and_rigid_hexahedral_pairs_is_each_nodes_force_over_
     assert force.max() > 0 and (force <= 1e-9 * force.max()).any()          # loaded, partly open
     assert np.ptp(lam) >= 0.1 * lam.max()                                   # not uniform
     assert np.abs(lam - force / w).max() <= 1e-12 * lam.max()               # measured <= 9.3e-16 max lam
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_the_hexahedral_spaces_set_lambda_h_through_the_pairs_public_hook(degree):
+    """The Q1/Q2 spaces give their pairs the lumped pressure through ``with_representer`` (contact/riesz.py): the
+    pairs they pose read lambda_h by it, the scene's own pairs are left as they were (no representer: the Riesz
+    representer in X_h), and a pair's multiplier is its representer's solve."""
+    from cvxcontact.fem.hexfaces import LumpedPressure
+    from cvxcontact.fem.space import space
+
+    scene = pair(block(2, (0.0, H)), block(2, (H, 2 * H)))
+    lines = space(degree, "hex").contact(scene, "sigma1", cc.Signorini())
+    posed = getattr(lines.interface, "interfaces", (lines.interface,))[0]
+    own = scene.interfaces[0]
+    assert isinstance(posed.representer, LumpedPressure) and own.representer is None and posed is not own
+    r = np.linspace(1.0, 2.0, posed.size)
+    assert np.array_equal(posed.multiplier(r), posed.representer.solve(r))

@@ -2,7 +2,9 @@
 tests/test_refusals.py): boxes of Q1 hexahedra on [0, 1]^2, warped by a piecewise bilinear map so that grids
 refining each other stay nested face in reference rectangle; a lower block clamped under an upper one pushed
 down; the jump g - [u_nu] sampled on the faces of one side with both traces evaluated by the Q1 functions written
-here (no package code: the other side's face and reference point found by this module's own Newton iteration).
+here (no package code: the other side's face and reference point found by this module's own Newton iteration);
+the nested and aligned crossing grids (:data:`NESTED`, :data:`CROSSING`) and an affine gap leaving part of the
+faces open (:data:`TILTED`, :data:`PUSH`) that tests/test_hex_nested.py and tests/test_hex_compliance.py share.
 """
 
 import numpy as np
@@ -101,3 +103,24 @@ def sampled_slack(scene, sol, fine, gap=None, n=7):
     g = np.zeros(len(points)) if gap is None else np.asarray(gap(points[:, 0], points[:, 1]), dtype=float)
     scale = max(np.abs(sol.u[k][bodies[k].mesh.boundary_nodes([parts[k]]), 2]).max() for k in (0, 1))
     return (g - jump).reshape(len(faces), -1), scale
+
+
+NESTED = {"4 on 2": ((4, 4), (2, 2), False), "2 on 4": ((2, 2), (4, 4), False), "4x2 on 2x2": ((4, 2), (2, 2), False),
+          "2x2 on 2x4": ((2, 2), (2, 4), False), "8 on 2": ((8, 8), (2, 2), False),
+          "skewed 4 on 2": ((4, 4), (2, 2), True), "skewed 2 on 4": ((2, 2), (4, 4), True)}
+"""Nested pairs: the lower and upper blocks' cells (nx, ny), and whether the grids are warped (:func:`block`)."""
+
+
+def nested(case, **kw):
+    """(the pair of :data:`NESTED` ``case``, its finer side: 0 the lower block, 1 the upper)."""
+    (n1, m1), (n2, m2), skewed = NESTED[case]
+    return pair(block(n1, (0.0, 0.5), skewed, m1), block(n2, (0.5, 1.0), skewed, m2), **kw), int(n2 * m2 > n1 * m1)
+
+
+TILTED = lambda s1, s2: 1e-6 + 8e-6 * s1 + 3e-6 * s2        # an affine gap (m): partial contact
+PUSH = 6e-6                                                  # m, against TILTED from 1e-6 to 1.2e-5
+
+
+CROSSING = {"3 on 2": ((3, 3), (2, 2)), "2 on 3": ((2, 2), (3, 3)), "3x2 on 2x5": ((3, 2), (2, 5)),
+            "5 on 3": ((5, 5), (3, 3))}
+"""Aligned grids that do not nest: the lower and upper blocks' cells (nx, ny)."""

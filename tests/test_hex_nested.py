@@ -11,7 +11,19 @@ the other way round; the fine side's nodal rows ("sigma1"/"sigma2", the same con
 
 import numpy as np
 import pytest
-from hex_scenes import ALU, DELTA, STEEL, block, pair, sampled_slack
+from hex_scenes import (
+    ALU,
+    CROSSING,
+    DELTA,
+    NESTED,
+    PUSH,
+    STEEL,
+    TILTED,
+    block,
+    nested,
+    pair,
+    sampled_slack,
+)
 
 import cvxcontact as cc
 from cvxcontact.errors import UnsupportedError
@@ -21,23 +33,7 @@ from cvxcontact.fem.space import space
 pytestmark = pytest.mark.numerics
 
 
-CASES = {"4 on 2": ((4, 4), (2, 2), False), "2 on 4": ((2, 2), (4, 4), False), "4x2 on 2x2": ((4, 2), (2, 2), False),
-         "2x2 on 2x4": ((2, 2), (2, 4), False), "8 on 2": ((8, 8), (2, 2), False),
-         "skewed 4 on 2": ((4, 4), (2, 2), True), "skewed 2 on 4": ((2, 2), (4, 4), True)}
-"""Nested pairs: the lower and upper blocks' cells (nx, ny), and whether the grids are warped (tests/hex_scenes.py)."""
-
-
-def nested(case, **kw):
-    """(the pair of :data:`CASES` ``case``, its finer side: 0 the lower block, 1 the upper)."""
-    (n1, m1), (n2, m2), skewed = CASES[case]
-    return pair(block(n1, (0.0, 0.5), skewed, m1), block(n2, (0.5, 1.0), skewed, m2), **kw), int(n2 * m2 > n1 * m1)
-
-
-TILTED = lambda s1, s2: 1e-6 + 8e-6 * s1 + 3e-6 * s2        # an affine gap (m): partial contact
-PUSH = 6e-6                                                  # m, against TILTED from 1e-6 to 1.2e-5
-
-
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", list(NESTED))
 def test_nested_gamma3_holds_everywhere_on_the_fine_faces(case):
     """Under an affine gap that leaves part of the faces open, "gamma3" on nested faces (aligned grids 2:1 in
     both directions or one, 4:1, the finer side below or above; general quadrilaterals refined in their bilinear
@@ -76,7 +72,7 @@ def test_nested_gamma3_holds_everywhere_on_the_fine_faces(case):
         assert np.abs(full.u[k] - sol.u[k]).max() <= 1e-10 * scale         # measured <= 1.8e-15 scale
 
 
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", list(NESTED))
 def test_uniform_pressure_through_nested_faces_is_the_closed_form(case):
     """A steel block under an aluminium one, rollers on the sides, pushed by DELTA through nested faces: uniaxial
     strain, sigma_zz = -p, p = DELTA / (H/M_steel + H/M_alu), u_z piecewise linear, u_x = u_y = 0, the force p A
@@ -138,11 +134,6 @@ def test_either_side_first_gives_the_same_answer(case):
         assert np.abs(a.u[k] - b.u[k]).max() <= 1e-10 * scale                  # measured <= 1.4e-16 scale
     assert abs(a.contacts[0].force.sum() - b.contacts[0].force.sum()) <= 1e-10 * abs(a.contacts[0].force.sum())
     assert abs(a.energy - b.energy) <= 1e-10 * abs(a.energy)                   # measured <= 1.6e-16 (both)
-
-
-CROSSING = {"3 on 2": ((3, 3), (2, 2)), "2 on 3": ((2, 2), (3, 3)), "3x2 on 2x5": ((3, 2), (2, 5)),
-            "5 on 3": ((5, 5), (3, 3))}
-"""Aligned grids that do not nest: the lower and upper blocks' cells (nx, ny)."""
 
 
 @pytest.mark.parametrize("case", list(CROSSING))

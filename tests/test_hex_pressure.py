@@ -1,7 +1,9 @@
 """lambda_h on hexahedral faces (fem/hexfaces.LumpedPressure): a uniform pressure reads uniform at every node of
 X_h, Q1 and Q2, against a rigid plane and between two bodies (matching and nested faces). Before, the read-back
 solved the representer in the P1/P2 functions of the faces' triangles, whose mass does not weigh the Q1/Q2
-rows' forces alike: a uniform 14 MPa read 5.9-30 MPa (Q1) and 1.3-63 MPa (Q2)."""
+rows' forces alike: a uniform 14 MPa read 5.9-30 MPa (Q1) and 1.3-63 MPa (Q2). Under a varying pressure on
+matching faces and against a plane, lambda_h is each node's force over its hat's integral, the read the
+residual estimate now takes from ``c.lam``."""
 
 import numpy as np
 import pytest
@@ -53,3 +55,81 @@ def test_a_uniform_pressure_reads_uniform_on_hexahedral_faces(case):
     assert abs(c.force.sum() - p) <= 1e-10 * p                    # the closed form's total (A = 1 m^2)
     assert np.abs(c.lam - p).max() <= 1e-10 * p                   # measured <= 1e-14 p; before: 0.42 p .. 4.5 p
     assert (c.lam >= 0).all()
+
+
+def _hats(mesh, part, degree):
+    """{rounded (x, y, z): the integral of that node's face shape function over the faces of ``part``} of a box's
+    rectangular faces, written here: a quarter of each face's area at its corners (Q1); A/36 at a corner, A/9 at
+    an edge midpoint, 4A/9 at the centre (Q2, the 1D Simpson weights 1/6, 2/3, 1/6 squared)."""
+    out = {}
+    for X in mesh.points[mesh.boundary(part)]:                   # (4, 3) corners in order around the face
+        area = np.linalg.norm(np.cross(X[1] - X[0], X[3] - X[0]))
+        points = [(x, area / 4) for x in X] if degree == 1 else \
+            [(x, area / 36) for x in X] + [(0.5 * (X[i] + X[(i + 1) % 4]), area / 9) for i in range(4)] + \
+            [(X.mean(axis=0), 4 * area / 9)]
+        for x, w in points:
+            key = tuple(np.round(x, 9))
+            out[key] = out.get(key, 0.0) + w
+    return out
+
+
+def _tilted_blocks(degree, condition):
+    """Two steel blocks of 3 x 3 matching faces, the upper pushed 6 um down against an affine gap (1 to 12 um):
+    the pressure varies and part of the faces stays open; the constrained side's faces."""
+    scene = pair(block(3, (0.0, H)), block(3, (H, 2 * H)), gap=lambda s1, s2: 1e-6 + 8e-6 * s1 + 3e-6 * s2,
+                 push=6e-6, rollers=False)
+    side = 1 if condition == "sigma2" else 0
+    return cc.solve(scene, condition, degree=degree), scene.bodies[side].mesh, ("top", "bottom")[side]
+
+
+def _tilted_plane(degree, condition):
+    """A steel block pushed 10 um down onto a plane tilted by 2e-5 rad about y: the pressure varies along x."""
+    body = cc.Body(cc.box(nx=3, ny=3, nz=2, cell="hex"), STEEL, roller=["front"],
+                   displacement={"top": (0.0, 0.0, -1e-5)}, contact="bottom")
+    plane = cc.Rigid.plane((0.0, 0.0, 0.0), (2e-5, 0.0, 1.0))
+    return cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", plane)]), condition, degree=degree), \
+        body.mesh, "bottom"
+
+
+VARYING = {"Q1 matching gamma3": lambda: _tilted_blocks(1, "gamma3"),
+           "Q1 matching sigma1": lambda: _tilted_blocks(1, "sigma1"),
+           "Q1 matching sigma2": lambda: _tilted_blocks(1, "sigma2"),
+           "Q2 matching sigma1": lambda: _tilted_blocks(2, "sigma1"),
+           "Q2 matching sigma2": lambda: _tilted_blocks(2, "sigma2"),
+           "Q1 plane gamma3": lambda: _tilted_plane(1, "gamma3"),
+           "Q1 plane sigma1": lambda: _tilted_plane(1, "sigma1"),
+           "Q2 plane sigma1": lambda: _tilted_plane(2, "sigma1")}
+
+
+@pytest.mark.parametrize("case", list(VARYING))
+def test_lambda_on_matching_and_rigid_hexahedral_pairs_is_each_nodes_force_over_its_hats_integral(case):
+    """On matching faces and against a rigid plane every node of X_h is a node of the faces, and lambda_h
+    (``c.lam``) is each node's force over the integral of its Q1/Q2 hat on the constrained side's faces (the
+    integrals written here): the lumped pressure the residual estimate read on its own before
+    (solution/tensorestimate.py reads ``c.lam``), under a varying pressure with part of the faces open."""
+    sol, mesh, part = VARYING[case]()
+    assert sol.ok
+    c = sol.contacts[0]
+    hats = _hats(mesh, part, 2 if case.startswith("Q2") else 1)
+    w = np.array([hats[tuple(np.round(x, 9))] for x in np.asarray(c.points)])
+    force, lam = np.asarray(c.force), np.asarray(c.lam)
+    assert force.max() > 0 and (force <= 1e-9 * force.max()).any()          # loaded, partly open
+    assert np.ptp(lam) >= 0.1 * lam.max()                                   # not uniform
+    assert np.abs(lam - force / w).max() <= 1e-12 * lam.max()               # measured <= 9.3e-16 max lam
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_the_hexahedral_spaces_set_lambda_h_through_the_pairs_public_hook(degree):
+    """The Q1/Q2 spaces give their pairs the lumped pressure through ``with_representer`` (contact/riesz.py): the
+    pairs they pose read lambda_h by it, the scene's own pairs are left as they were (no representer: the Riesz
+    representer in X_h), and a pair's multiplier is its representer's solve."""
+    from cvxcontact.fem.hexfaces import LumpedPressure
+    from cvxcontact.fem.space import space
+
+    scene = pair(block(2, (0.0, H)), block(2, (H, 2 * H)))
+    lines = space(degree, "hex").contact(scene, "sigma1", cc.Signorini())
+    posed = getattr(lines.interface, "interfaces", (lines.interface,))[0]
+    own = scene.interfaces[0]
+    assert isinstance(posed.representer, LumpedPressure) and own.representer is None and posed is not own
+    r = np.linspace(1.0, 2.0, posed.size)
+    assert np.array_equal(posed.multiplier(r), posed.representer.solve(r))

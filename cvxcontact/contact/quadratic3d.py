@@ -38,7 +38,7 @@ from ..errors import SceneError
 from .bernstein import bernstein_map
 from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
 from .overlay import barycentric, locate, overlay  # noqa: F401  (locate: re-exported)
-from .riesz import TraceRiesz
+from .riesz import Represented, TraceRiesz
 from .surface import reached_faces
 
 __all__ = ["QuadraticSurface", "P2_TRIANGLE_MASS", "P2_FACE_RULE", "RED_SUBTRIANGLES", "p2_shape", "p2_triangle_nodes",
@@ -162,7 +162,7 @@ class _Trace6:
         self.mass = _p2_mass(self.faces, _area(self.x[self.faces[:, :3]]), len(own)).tocsr()
 
 
-class QuadraticSurface:
+class QuadraticSurface(Represented):
     """One contact pair of planar surfaces with P2 traces (module docstring): the 3D counterpart of
     :class:`~cvxcontact.contact.quadratic.QuadraticInterface`, with the same protocol (``size``, ``x``,
     ``points``, ``normal``, ``frame``, ``offset``, ``traces``, ``mass``, ``jump(k, n)`` by the scene's body
@@ -469,7 +469,10 @@ class QuadraticSurface:
         """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: between two bodies the Riesz representer
         in the jumps of the two P2 traces, T1 + T2 (:class:`~cvxcontact.contact.riesz.TraceRiesz`: unique where
         the forces at the overlay's nodes are not, e.g. under the copositive condition); with an obstacle
-        M lambda_h = r."""
+        M lambda_h = r. A pair given a ``representer`` (``with_representer``, a space's pressure basis: the
+        hook of :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
+        if self.representer is not None:
+            return self.representer.solve(np.asarray(r, dtype=float))
         key = "riesz"
         if key not in self._factors:
             self._factors[key] = (spla.splu(self.mass.tocsc()) if self.rigid

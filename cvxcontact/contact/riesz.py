@@ -10,11 +10,38 @@ and consistent), lambda_h = G c the same for every solution.
 
 from __future__ import annotations
 
+from copy import copy
+from typing import Protocol
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["TraceRiesz"]
+__all__ = ["Represented", "Representer", "TraceRiesz"]
+
+
+class Representer(Protocol):
+    """What reads lambda_h of a contact pair from its row forces: ``solve(r)``, lambda_h (Pa) at the nodes of X_h
+    for the forces ``r`` (N) at those nodes (:class:`TraceRiesz`; a space's own pressure basis, e.g. the lumped
+    pressure of hexahedral faces, :class:`~cvxcontact.fem.hexfaces.LumpedPressure`)."""
+
+    def solve(self, r) -> np.ndarray:
+        ...
+
+
+class Represented:
+    """The hook by which a space sets how a 3D contact pair reads lambda_h (the pairs'
+    :meth:`multiplier`): ``representer`` None (the pair's own Riesz representer in X_h) or a
+    :class:`Representer`; :meth:`with_representer` a copy of the pair reading lambda_h by another."""
+
+    representer: Representer | None = None
+
+    def with_representer(self, representer: Representer):
+        """A shallow copy of this pair whose :meth:`multiplier` is ``representer.solve`` (the pair itself is
+        unchanged)."""
+        out = copy(self)
+        out.representer = representer
+        return out
 
 _SHIFT = 1e-12    # relative diagonal shift of the singular Gram matrix (iterated)
 _STEPS = 50

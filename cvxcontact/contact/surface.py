@@ -11,6 +11,8 @@ on each overlay cell, so non-penetration at those vertices is non-penetration ev
 
 from __future__ import annotations
 
+from copy import copy
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -19,7 +21,7 @@ from scipy.spatial import cKDTree
 from ..errors import SceneError, UnsupportedError
 from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
 from .overlay import OVERLAY_TOL, locate, overlay
-from .riesz import TraceRiesz
+from .riesz import Represented, TraceRiesz
 
 __all__ = ["SurfaceTrace", "SurfaceInterface", "CurvedTrace", "CurvedSurfaceInterface", "canonical_frame", "is_planar"]
 
@@ -122,7 +124,7 @@ def is_planar(body, part, tol: float | None = None) -> bool:
     return len(faces) == 0 or (n is not None and deviation <= tol and turn <= _ANGLE_TOL)
 
 
-class SurfaceInterface:
+class SurfaceInterface(Represented):
     """Geometry and operators of one contact pair of planar surfaces (docs/formulation.md, "Contact surfaces
     in 3D"): ``SurfaceInterface(bodies)`` (each body's ``contact`` part), ``SurfaceInterface(bodies, parts)``,
     or ``SurfaceInterface((body,), (part,), obstacle=rigid)`` (anything with ``distance(points, normal)``,
@@ -306,8 +308,12 @@ class SurfaceInterface:
         most 50, stopping when the residual is below 1e-14 of G^T r or has not decreased for three steps.
         Measured max |G^T (M lambda - r)| / max |G^T r|: 1e-15 on the test faces, 2e-13 at 2.9e4 vertices; on
         faces whose nodes nearly coincide without being merged the hats are nearly dependent (nodes 8e-6 h
-        apart: 9e-11; 8e-9 h apart: 3e-9). With an obstacle: M lambda_h = r."""
+        apart: 9e-11; 8e-9 h apart: 3e-9). With an obstacle: M lambda_h = r. A pair given a ``representer``
+        (``with_representer``, a space's pressure basis: the hook of
+        :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
         r = np.asarray(r, dtype=float)
+        if self.representer is not None:
+            return self.representer.solve(r)
         if self.rigid:
             if self._factor is None:
                 self._factor = spla.splu(self.mass.tocsc())
@@ -320,6 +326,15 @@ class SurfaceInterface:
         """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces
         interpolation(k)^T r (N; exact work equivalence) over its lumped areas ``traces[k].lumped``."""
         return (self._interp[k].T @ np.asarray(r, dtype=float)) / self.traces[k].lumped
+
+    def with_interpolation(self, interpolation) -> SurfaceInterface:
+        """A copy of this two-body pair whose traces are evaluated at the nodes of X_h by ``interpolation``
+        (per side a (size, n_k) matrix, columns ``traces[k].nodes``; e.g. the bilinear functions of hexahedral
+        faces, :class:`~cvxcontact.fem.hexfaces.BilinearSurface`) instead of the P1 functions of the faces'
+        triangles: its jump rows, the weights and extension of "sigma1"/"sigma2" and lambda_h follow them."""
+        out = copy(self)
+        out._interp, out._factor = list(interpolation), None
+        return out
 
     def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
         """The triangles on which a function of X_h (lambda_h, the jump) is affine: (nodes (e, 3) of X_h, -1 for

@@ -29,24 +29,32 @@ than the jump has degrees of freedom: they may depend on each other, the exact f
 are not unique, the pressure each body feels is). General quadrilaterals that cross are refused
 (:func:`hex_contact`): the jump is not bilinear on the pieces there.
 
+A normal-compliance law (:func:`law_weights`) sits on the same rows, integrated by the lumped (corner) rule
+where the jump is bilinear: the constrained side's hats over its faces on the overlap on matching and nested
+faces (the finer side's rows, under "gamma3" or its own nodal condition), a quarter of each piece's area at its
+corners on aligned parallelograms ("gamma3"; those rows may depend on each other, :func:`dependent_law_rows`).
+The coarser side's rows on nested faces and nodal rows on crossing faces would integrate a jump that is not
+bilinear on the constrained faces: refused (:func:`hex_contact`).
+
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
 rows carry p times the bilinear hats' integrals (A/4 per face corner) while that P1 mass weighs the corners on a
 triangle diagonal A/3 and the others A/6, and it read 0.42 p to 2.2 p (a 3 x 3 face grid). Every Q1 pair
 reads lambda_h as the pressure the constrained side feels, each node's work-equivalent force over its hat's
 integral, interpolated by the bilinear faces at the nodes of X_h: exact for a uniform pressure, non-negative
-where the forces are.
+where the forces are. The pairs take it through their public hook
+(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`).
 """
 
 from __future__ import annotations
 
-from copy import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..contact.laws import pair_laws
+from ..contact.quadratic import QuadraticStack
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
@@ -54,7 +62,8 @@ from .hex import bilinear_rows, face_hats, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "constrained_side", "hex_contact", "hex_pair", "independent_rows",
+           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
+           "independent_rows", "law_weights",
            "matching", "nesting", "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
@@ -83,17 +92,16 @@ class BilinearSurface(SurfaceInterface):
     triangle of each trace, whose face is that triangle's quadrilateral."""
 
     def __init__(self, itf):
-        self.__dict__.update(itf.__dict__)
-        ov = self.overlay
+        ov = itf.overlay
         triangles = np.asarray(ov.triangles)
-        host = np.empty(self.size, dtype=np.int64)
+        host = np.empty(itf.size, dtype=np.int64)
         host[triangles.ravel()] = np.repeat(np.arange(len(triangles)), 3)
         rows = []
-        for trace, cell in zip(self.traces, (ov.cell_a, ov.cell_b)):
+        for trace, cell in zip(itf.traces, (ov.cell_a, ov.cell_b)):
             corners = _corners(trace)
             rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2,
                                       np.asarray(ov.vertices), len(trace.nodes)))
-        self._interp, self._factor = rows, None
+        self.__dict__.update(vars(itf.with_interpolation(rows)))
 
 
 @dataclass(frozen=True)
@@ -154,6 +162,30 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
     return Nesting(None, np.zeros(0, dtype=np.int64), "; ".join(reasons))
 
 
+def _side_hats(itf, side, faces) -> np.ndarray:
+    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``side``, the integral
+    of that node's Q1 hat over the side's faces ``faces`` (indices into its ``mesh.boundary(part)``: its faces on
+    the overlap; 2 x 2 Gauss on each face's bilinear map, exact on planar faces); 0 at the other nodes."""
+    trace = itf.traces[side]
+    hats = face_hats(trace.points, _corners(trace)[faces], 1)
+    at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
+    out = np.zeros(itf.size)
+    out[at[at >= 0]] = hats[at >= 0]
+    return out
+
+
+def _faces_on_overlap(itf, side, tol: float = NESTED_TOL) -> np.ndarray:
+    """The faces of side ``side`` of the two-body pair ``itf`` (indices into its ``mesh.boundary(part)``) that
+    meet its overlap: an overlay triangle of area above ``tol`` of the face's."""
+    ov = itf.overlay
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    X = np.asarray(itf.traces[side].x)[_corners(itf.traces[side])]
+    size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))
+    q = np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2
+    return np.unique(q[area > tol * size[q]])
+
+
 def _cross(a, b) -> np.ndarray:
     """The z component of the cross product of in-plane vectors ``a``, ``b`` (..., 2)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -181,12 +213,7 @@ class NestedSurface(BilinearSurface):
         :meth:`SurfaceInterface.weights <cvxcontact.contact.surface.SurfaceInterface.weights>`."""
         if condition != "gamma3":
             return super().weights(condition)
-        trace = self.traces[self.fine]
-        hats = face_hats(trace.points, _corners(trace)[self._faces], 1)
-        at = np.asarray(self.overlay.node_a if self.fine == 0 else self.overlay.node_b)
-        out = np.zeros(self.size)
-        out[at[at >= 0]] = hats[at >= 0]
-        return out[self._rows(condition)]
+        return _side_hats(self, self.fine, self._faces)[self._rows(condition)]
 
     def extend(self, condition, values) -> np.ndarray:
         return super().extend(self._nodal(condition), values)
@@ -293,20 +320,23 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
-def quadratic_pressures(lines, conditions) -> None:
-    """Make every pair of the Q2 hexahedra's contact ``lines`` (``lines.interface``: a
-    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) read
-    lambda_h by :class:`LumpedPressure`, w the integrals of the biquadratic hats over the constrained side's faces
+def quadratic_pressures(lines, conditions):
+    """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
+    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
+    every pair reading lambda_h by :class:`LumpedPressure` (``with_representer``: copies, the given pairs
+    unchanged), w the integrals of the biquadratic hats over the constrained side's faces
     (3 x 3 Gauss on the faces' bilinear maps: A/36 at a corner, A/9 at an edge midpoint, 4A/9 at the centre of a
     parallelogram face; the P2 mass of the faces' triangles, which the tetrahedra's read-back solves, would
     make a uniform pressure oscillate)."""
-    pairs = getattr(lines.interface, "interfaces", None) or (lines.interface,)
-    for pair, c in zip(pairs, conditions):
+    stack = getattr(lines.interface, "interfaces", None)
+    pairs = []
+    for pair, c in zip(stack or (lines.interface,), conditions):
         side = constrained_side(pair, c)
         t = pair.traces[side]
         nodes = Q2HexNodes(t.body.mesh)
         hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
-        pair._factors["riesz"] = LumpedPressure(pair._interp[side], hats[np.asarray(t.nodes)])
+        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), hats[np.asarray(t.nodes)])))
+    return replace(lines, interface=pairs[0] if stack is None else QuadraticStack(pairs, lines.interface.members))
 
 
 def constrained_side(pair, condition: str) -> int:
@@ -317,13 +347,13 @@ def constrained_side(pair, condition: str) -> int:
 
 
 def hex_pair(itf, condition: str):
-    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): a copy of
-    ``itf`` against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested
-    faces, else a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface`
-    otherwise. Each reads lambda_h by :class:`LumpedPressure`."""
+    """The pair of ``itf`` whose rows a Q1 hexahedral space poses under ``condition`` (the pair's own): ``itf``
+    against a rigid obstacle and on matching faces; under "gamma3" a :class:`NestedSurface` on nested faces, else
+    a :class:`CrossingSurface` on parallelograms along common directions; a :class:`BilinearSurface` otherwise.
+    Each as the copy that reads lambda_h by :class:`LumpedPressure` (``with_representer``; ``itf`` unchanged)."""
     pair = None
     if itf.rigid or matching(itf):
-        pair = copy(itf)
+        pair = itf
     elif condition == "gamma3":
         nested = nesting(itf)
         if nested.fine is not None:
@@ -334,8 +364,46 @@ def hex_pair(itf, condition: str):
                 pair = CrossingSurface(itf, cut)
     pair = pair if pair is not None else BilinearSurface(itf)
     side = constrained_side(pair, condition)
-    pair._factor = LumpedPressure(pair._interp[side], pair.traces[side].lumped)
-    return pair
+    return pair.with_representer(LumpedPressure(pair.interpolation(side), pair.traces[side].lumped))
+
+
+def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
+    """The quadrature weights (m^2) of a normal-compliance law (docs/formulation.md §10) at the rows of the Q1
+    pair ``pair`` (:func:`hex_pair`) under ``condition``: positive, the law integrated where the jump is bilinear
+    on known faces. Two bodies, matching faces and nested faces under "gamma3" or the finer side's own nodal
+    condition (the same rows): the integrals of the constrained side's Q1 hats over its faces on the overlap
+    (on nested faces each inside one face of the other side, :func:`nesting`), so that the sum is the lumped
+    (corner) rule of int psi([u_nu] - g) on every such face, and the weights sum to the overlap's area; aligned
+    parallelograms under "gamma3": a quarter of each piece's area at each of its corners (:attr:`Pieces.weights`,
+    the same rule on each piece); a rigid obstacle: the body's hats over its part (``mesh.node_areas``).
+    ``compliant`` False (a Signorini pair beside compliant ones: no law reads its weights): the constrained
+    side's hats over its part at its rows."""
+    if condition == "gamma3" and isinstance(pair, (NestedSurface, CrossingSurface)):
+        return pair.weights(condition)
+    side = constrained_side(pair, condition)
+    rows = pair.evaluation(condition).indices
+    if compliant and not pair.rigid:
+        if not matching(pair) and nesting(pair).fine != side:          # hex_contact refuses it first
+            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that neither match nor "
+                                   f"are nested with side {side} the finer: {nesting(pair).reason}")
+        return _side_hats(pair, side, _faces_on_overlap(pair, side))[rows]
+    hats = np.asarray(pair.traces[side].lumped)               # mesh.node_areas: the Q1 hats' face integrals
+    if pair.rigid:
+        node = np.asarray(pair.reach)
+    else:                                 # every row's node of X_h is a node of the constrained side
+        at = np.asarray(pair.overlay.node_a if side == 0 else pair.overlay.node_b)
+        node = np.empty(pair.size, dtype=np.int64)
+        node[at[at >= 0]] = np.flatnonzero(at >= 0)
+    return hats[node[rows]]
+
+
+def dependent_law_rows(pairs, conditions, laws) -> bool:
+    """Whether a normal-compliance law of ``laws`` sits on rows of the Q1 ``pairs`` (each under its condition in
+    ``conditions``) that may depend on each other: the "gamma3" rows of a :class:`CrossingSurface`, at the
+    pieces' corners (more than the jump's degrees of freedom: the interface compliance W is singular on them,
+    :attr:`~cvxcontact.fem.space.ContactLines.dependent`)."""
+    return any(isinstance(p, CrossingSurface) and c == "gamma3" and lw.compliant
+               for p, c, lw in zip(pairs, conditions, laws))
 
 
 def independent_rows(pairs, conditions, condition: str) -> bool:
@@ -364,9 +432,11 @@ FACE_TRACE = FaceTrace()
 def hex_contact(space, scene, condition, law=None):
     """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
-    decide), "gamma3" between faces that neither match corner to corner nor are nested (:func:`nesting`), and a
-    compliance law between faces that do not match; on Q2, "gamma3", a compliance law, faces that are not
-    parallelograms (the centre off the diagonal's midpoint) and faces that do not match."""
+    decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
+    parallelograms along common directions (:func:`pieces`), and a compliance law under a nodal condition
+    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance
+    law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that do not
+    match."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
     laws = pair_laws(scene, law)
     if space.degree == 2:
@@ -418,6 +488,15 @@ def hex_contact(space, scene, condition, law=None):
                                        "directions (any grids aligned with each other). Use condition='sigma1' "
                                        "(nodal rows), mesh the two faces alike, nested or aligned, or use "
                                        f"{alternative}")
-        if getattr(laws[i], "compliant", False):
-            raise UnsupportedError(f"{label}: {what}: a normal-compliance law on Q1 hexahedra is integrated on "
-                                   f"matching faces only: mesh the two faces alike or use {alternative}")
+        if getattr(laws[i], "compliant", False) and c != "gamma3":
+            nested = nesting(itf)
+            if nested.fine is None or c != f"sigma{nested.fine + 1}":
+                why = nested.reason if nested.fine is None else \
+                    f"nested, but {c!r} puts the rows on the coarser side, whose faces the jump is not bilinear on"
+                finer = "" if nested.fine is None else f", condition='sigma{nested.fine + 1}' (the finer side's rows)"
+                raise UnsupportedError(f"{label}: {what} ({why}): a normal-compliance law on Q1 hexahedra is "
+                                       "integrated where the jump is bilinear on the constrained side's faces: "
+                                       "matching faces, nested faces under 'gamma3' or the finer side's nodal "
+                                       "condition, and parallelogram faces along common directions under 'gamma3'. "
+                                       f"Use condition='gamma3' (nested or aligned faces){finer}, mesh the two faces "
+                                       f"alike, or use {alternative}")

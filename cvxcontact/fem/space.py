@@ -34,7 +34,8 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, constrained_side, hex_contact, hex_pair, independent_rows, quadratic_pressures
+from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights, \
+    quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -528,8 +529,9 @@ class Q1Hex(P1Tet):
     face nodes on any faces. "gamma3" is posed where it reduces to nodal rows exactly (a bilinear jump is
     non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
     side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
-    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face
-    integrals (``mesh.node_areas``) on matching faces and against obstacles; the rest is refused by name
+    :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face integrals on
+    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms
+    (:func:`~cvxcontact.fem.hexfaces.law_weights`); the rest is refused by name
     (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 1, 3, True
@@ -555,24 +557,12 @@ class Q1Hex(P1Tet):
         lines = replace(lines, independent=independent_rows(lines.interface.interfaces, scene.conditions, condition))
         if lines.weights is None:
             return lines
-        weights = []             # a compliance law's quadrature: the Q1 hats' face integrals, not the triangles'
-        for itf, c in zip(scene.interfaces, scene.conditions):
-            c = c or condition
-            side = constrained_side(itf, c)
-            trace = itf.traces[side]
-            mesh = trace.body.mesh
-            hats = mesh.node_areas(trace.part)[trace.nodes]
-            if itf.rigid:
-                node = np.asarray(itf.reach)
-            else:                # matching faces (hex_contact): every vertex of X_h is a node of each trace
-                at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
-                node = np.empty(itf.size, dtype=np.int64)
-                node[at[at >= 0]] = np.flatnonzero(at >= 0)
-            weights.append(hats[node[itf.evaluation(c).indices]])
-        weights = np.concatenate(weights)
+        pairs, conditions = lines.interface.interfaces, [c or condition for c in scene.conditions]
+        weights = np.concatenate([law_weights(p, c, lw.compliant) for p, c, lw in     # the Q1 hats' face integrals,
+                                  zip(pairs, conditions, lines.rows.laws)])           # not the triangles'
         if weights.shape != lines.weights.shape:
             raise SolverError(f"Q1 hexahedra: {len(weights)} quadrature weights for {len(lines.weights)} contact rows")
-        return replace(lines, weights=weights)
+        return replace(lines, weights=weights, dependent=dependent_law_rows(pairs, conditions, lines.rows.laws))
 
 
 class Q2Hex(P2Tet):
@@ -604,8 +594,7 @@ class Q2Hex(P2Tet):
         hex_contact(self, scene, condition, law)
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         lines = super().contact(scene, condition, law, [n.triangulation for n in nodes])
-        quadratic_pressures(lines, [c or condition for c in scene.conditions])
-        return lines
+        return quadratic_pressures(lines, [c or condition for c in scene.conditions])
 
 
 SPACES = {("triangle", 1): P1, ("triangle", 2): P2, ("tetra", 1): P1Tet, ("tetra", 2): P2Tet, ("quad", 1): Q1,

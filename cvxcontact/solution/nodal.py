@@ -183,8 +183,9 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
                 lam_i = itf.law_pressure(cond, force[rows_i]) * un.length            # representer of w p + z
             elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
                 # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
-                # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13)
-                lam_i = p[rows_i] + itf.multiplier((E.T @ z)[merged]) * un.force / unit
+                # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13),
+                # read at the rows (every node of X_h but on Q1 hexahedra's nested and crossing faces)
+                lam_i = p[rows_i] + itf.evaluation(cond) @ itf.multiplier((E.T @ z)[merged]) * un.force / unit
             c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
             for a in (c.lam, c.force):
                 a.setflags(write=False)

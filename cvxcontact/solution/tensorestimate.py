@@ -238,19 +238,18 @@ class TensorSides:
         return TensorSide(self._g, self._u, self._phi, part)
 
     def multiplier(self, c, part) -> np.ndarray:
-        """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` as this body's faces (part ``part``)
-        read it: each node's force over the integral of its hat on the faces (bilinear Q1, biquadratic Q2: the
-        rows' quadrature of the forces, positive on parallelograms), the lumped pressure, exact for a uniform
-        pressure (where the nodes of X_h are the faces' nodes, what ``c.lam`` reads too:
-        :class:`~cvxcontact.fem.hexfaces.LumpedPressure`). ``c.lam`` itself where a node of X_h is not a node of
-        the faces (faces that do not match)."""
-        lumped = self._lumped(c, part, c.force)
-        return np.asarray(c.lam, dtype=float) if lumped is None else lumped
+        """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c``: the read-back's ``c.lam``, on
+        hexahedral faces the pressure the constrained side feels (:class:`~cvxcontact.fem.hexfaces.LumpedPressure`:
+        each node's force over the integral of its hat on the faces, bilinear Q1 or biquadratic Q2, interpolated
+        by the faces at the nodes of X_h; exact for a uniform pressure). ``part`` is not read (the protocol of
+        :class:`~cvxcontact.solution.contactestimate.SimplexSides`)."""
+        return np.asarray(c.lam, dtype=float)
 
     def friction(self, fr, c, part):
         """The :class:`~cvxcontact.solution.slipestimate.Friction` ``fr`` of the 3D contact result ``c`` with
-        t_h read as :meth:`multiplier` reads lambda_h: the rows' tangential forces over the hats' integrals
-        (exact for a uniform traction); ``fr`` itself where the faces do not match."""
+        t_h read as lambda_h is (:meth:`multiplier`) where the nodes of X_h are nodes of this body's faces: the
+        rows' tangential forces over the hats' integrals (exact for a uniform traction; the read-back keeps no
+        such representer of the tangential forces); ``fr`` itself where they are not."""
         lumped = self._lumped(c, part, c.shear_force)
         return fr if lumped is None else replace(fr, t=lumped)
 

@@ -84,7 +84,7 @@ def read_back_friction(problem, raw, sol) -> None:
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
-                                  friction_scale(blocks, E, Es, u, phi, raw.y, capacity[rows])))
+                                  friction_scale(problem, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
     def threshold(law, contact):

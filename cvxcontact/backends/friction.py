@@ -51,7 +51,7 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 
-__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full"]
+__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full", "prescribed_row_slip"]
 
 log = logging.getLogger(__name__)
 
@@ -75,9 +75,9 @@ def friction_program(problem, model: ContactModel):
     second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major)."""
     rows = np.flatnonzero(problem.rows.frictional)
     n_c = problem.slip_components
-    Es = problem.slip_rows[np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])]
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
-    slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + Es @ shift
+    at = np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])
+    Es = problem.slip_rows[at]
+    slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + prescribed_row_slip(problem)[at]
     capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
     if n_c == 1:
         s = cp.Variable(len(rows), name="slip")
@@ -87,6 +87,14 @@ def friction_program(problem, model: ContactModel):
         constraint, energy = cp.vec(s, order="F") == slip, capacity @ cp.norm(s, 2, axis=1)
     program = model.with_terms([constraint], objective=energy)
     return program, constraint, rows, capacity, s, energy
+
+
+def prescribed_row_slip(problem) -> np.ndarray:
+    """E [u_D t]: the slip prescribed displacements of contact nodes fix at every slip row ((c R,), component-major
+    like ``problem.slip_rows``, scaled): the constant part of the slip s = E [u_t] + E [u_D t] (module docstring);
+    a selection of its rows is the same selection of ``slip_rows`` applied to ``problem.prescribed_slip``."""
+    Es = problem.slip_rows
+    return Es @ np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
 
 
 def _moved_components(problem, rows) -> np.ndarray:
@@ -171,12 +179,12 @@ def exact_finish(problem, raw, timings) -> RawResult:
     Es = problem.slip_rows[order]
     S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
                    for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     c0 = problem.capacities(np.zeros(R))
-    fr = FrictionRows(S, Es @ shift, rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
+    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
                       _moved_components(problem, rows))
-    U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u] + [float(np.abs(shift).max(initial=0.0))])
-    C = friction_scale(blocks, E, problem.slip_rows, raw.u, raw.phi, raw.y, raw.capacity)
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
+            + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
+    C = friction_scale(problem, raw.u, raw.phi, raw.y, raw.capacity)
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw
@@ -236,9 +244,8 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     rows at their given thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
     E, n_c = problem.E, problem.slip_components
     moved = _moved_components(problem, rows)
-    Es = problem.slip_rows[np.concatenate([rows + j * E.shape[0] for j in range(n_c)])]
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
-    prescribed = (Es @ shift).reshape(n_c, len(rows)).T != 0
+    at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
+    prescribed = prescribed_row_slip(problem)[at].reshape(n_c, len(rows)).T != 0
     pressure = problem.rows.pressure_dependent[rows]
     sticks = pressure & moved.any(axis=1) & ~(prescribed & ~moved).any(axis=1)
     capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])

@@ -21,12 +21,14 @@ whose bodies or pairs differ.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SceneError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
+from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
@@ -202,6 +204,12 @@ class DiscreteProblem:
         live (points, cells, boundary nodes; the factorisations' orderings, the read-back)."""
         return list(self.nodes) if self.nodes is not None else [b.mesh for b in self.scene.bodies]
 
+    @cached_property
+    def rigid_fits(self) -> tuple[RigidFit, ...]:
+        """Each body's rigid motions on its free unknowns (:class:`~cvxcontact.fem.rigidfit.RigidFit`, per mesh
+        component of its node set): its deformation, free of how far it slid or turned (built on first use)."""
+        return tuple(rigid_fit(m.points, m.node_components, s.Tu) for m, s in zip(self.meshes, self.systems))
+
     @property
     def unknowns(self) -> int:
         """Number of nodal unknowns (u and phi, before the supports)."""
@@ -228,7 +236,7 @@ class DiscreteProblem:
         (an obstacle that travels far before touching)."""
         return sum((np.abs(o.reduced_rows @ t) for o, t in zip(self.forced, taus)), np.zeros(len(self.gap)))
 
-    def with_rows(self, E, rows=None, weights=None) -> "DiscreteProblem":
+    def with_rows(self, E, rows=None, weights=None) -> DiscreteProblem:
         """The same problem with the condition posed by other evaluation rows ``E`` (nodes of X_h -> rows), e.g.
         the nodal condition sampled at chosen points of every merged segment (a linear relaxation of the conic
         condition, docs/formulation.md §8); ``rows``: the laws of those rows (default: each pair's law is
@@ -262,7 +270,7 @@ class DiscreteProblem:
             return False
         return True
 
-    def with_loads(self, scene: Scene) -> "DiscreteProblem":
+    def with_loads(self, scene: Scene) -> DiscreteProblem:
         """The problem of ``scene``, a scene that differs from this one in its loads only (see the module
         docstring). SceneError, naming what differs, for another geometry, material, supports or pairs."""
         _same_geometry(self, scene)                 # (also for the same scene: an edit in place is refused)

@@ -4,9 +4,9 @@ With mu_a the tangential force of row a (scaled, :mod:`cvxcontact.backends.frict
 E [u_t], c_a = g_a w_a its friction capacity at the answer's own pressures (Coulomb: c_a = mu y_a, so the
 checks are Coulomb's cone and complementarity, not the last Tresca iterate's), C =
 :func:`~cvxcontact.backends.finish.forces.friction_scale` (the largest capacity or normal row force, floored at
-FORCE_FLOOR of the largest elastic force at the rows' unknowns: tangential forces are measured against the contact
-forces, a threshold far below the pressure, or zero, leaves the normal forces' scale, and an open contact, whose
-Coulomb capacities are 0, the elastic forces' there) and U the largest nodal displacement of the bodies
+FORCE_FLOOR of the largest elastic force of the bodies' deformation at the rows' unknowns, free of rigid motions:
+tangential forces are measured against the contact forces, a threshold far below the pressure, or zero, leaves the
+normal forces' scale, and an open contact, whose Coulomb capacities are 0, the elastic forces' there) and U the largest nodal displacement of the bodies
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
 
     equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
@@ -84,7 +84,7 @@ def read_back_friction(problem, raw, sol) -> None:
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
-                                  friction_scale(blocks, E, Es, u, phi, raw.y, capacity[rows])))
+                                  friction_scale(problem, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
     def threshold(law, contact):

@@ -75,14 +75,27 @@ def slip_reach(blocks, Es, u, phi=None):
     return sum((abs(Es @ b.slip) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(Es.shape[0]))
 
 
-def friction_scale(blocks, E, Es, u, phi, y, capacity) -> float:
-    """C = max(max c_a, :func:`force_scale`): the force scale of a friction law's rows (the finish's and the
-    checks'), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR` of the
-    largest elastic force at the unknowns of the normal rows ``E`` (:func:`reach_forces`) and of the slip rows
-    ``Es`` (:func:`slip_reach`). With the contact open and capacities mu y_a (Coulomb) or g = 0 the capacities and
-    forces are 0 or rounding: the tangential forces' rounding is then measured against the elastic forces there,
-    not against nothing (docs/howto/friction.md, "What is checked")."""
-    reach = np.concatenate([reach_forces(blocks, E, u, phi), slip_reach(blocks, Es, u, phi)])
+def friction_scale(problem, u, phi, y, capacity) -> float:
+    """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the finish's
+    and the checks'), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
+    of the largest elastic force of the bodies' deformation at the unknowns of the normal rows ``problem.E``
+    (:func:`reach_forces`) and of the slip rows ``problem.slip_rows`` (:func:`slip_reach`). With the contact open
+    and capacities mu y_a (Coulomb) or g = 0 the capacities and forces are 0 or rounding: the tangential forces'
+    rounding is then measured against the elastic forces there, not against nothing (docs/howto/friction.md, "What
+    is checked").
+
+    The floor reads each body's displacement ``u`` with its least-squares rigid fit taken out, per piece
+    (``problem.rigid_fits``, :class:`~cvxcontact.fem.rigidfit.RigidFit`): |Kuu| (u - Q Q^T u) + |Kup| |phi|. The
+    free unknowns' Kuu has no rigid kernel where a support prescribes a displacement (Kuu r = -K_fD r_D), so
+    |Kuu| |u| grows with a rigid slide: after a slide of 0.1 m the floor outgrew the contact forces and the cone
+    check read a violation 450x smaller than after 0.1 mm. With the fit taken out, adding a rigid motion of a body
+    to ``u`` leaves C unchanged (to rounding); a deformed body keeps a non-zero floor (the awkward scenes: an open
+    contact, whose Coulomb capacities are 0). Neither the loads (the lifted prescribed displacements: they move
+    with a slide) nor element matrices (the assembly does not keep them) are needed: one pass over the free
+    unknowns with m = 3 (2D) or 6 (3D) rigid motions per piece, after one orthonormalisation per problem."""
+    d = [fit.deformation(uk) for fit, uk in zip(problem.rigid_fits, u)]
+    blocks = problem.blocks
+    reach = np.concatenate([reach_forces(blocks, problem.E, d, phi), slip_reach(blocks, problem.slip_rows, d, phi)])
     return max(float(np.max(capacity, initial=0.0)), force_scale(y, reach))
 
 

@@ -29,8 +29,8 @@ each step: with the factor of a base K(A_b), K(A) z = b is solved exactly by the
 form on the c rows where A and A_b differ: a row dropped from A_b gets a free gap correction t_a with
 the condition y_a = 0, a row added gets a force s_a on x with the condition G_a x = b_a; the c x c
 dense system for (t, s) needs one base solve per changed row (cached across steps, stored as two
-m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: half what a refactorisation costs in
-column solves, at least 16, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
+m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
+column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
 answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
 refinement steps) and refactorised if the check fails.
 
@@ -164,9 +164,9 @@ class SparseContact:
     ``E``, for every active set (module docstring). Built once per geometry; :meth:`solve` per load case.
 
     ``cap``: the largest number of rows changed from the base active set solved by the capacitance form
-    before refactorising, and taken by the steps on the columns alone (:meth:`_settle`) (None: half the cost of
-    one factorisation in column solves, from PARDISO's flop counts, or measured with SuperLU; at least 16, at
-    most 500, :meth:`_default_cap`). The count of systems :meth:`solve` reports follows it (its answer does not).
+    before refactorising, and taken by the steps on the columns alone (:meth:`_settle`) (None: the measured cost
+    of one factorisation in column solves, the columns solved in blocks as the capacitance form solves them; at
+    least 16, at most 500). The count of systems :meth:`solve` reports follows it (its answer does not).
     """
 
     def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
@@ -250,29 +250,12 @@ class SparseContact:
         self.factor_time += time.perf_counter() - t0
         self.base = (active.copy(), factor)
         self._columns, self._base_state = {}, None
-        if self.cap is None:
-            self.cap = self._default_cap(factor, K.shape[0], t_fact)
+        if self.cap is None:   # a refactorisation costs about this many column solves, solved in blocks as
+            t1 = time.perf_counter()        # _solve_on does (one at a time a column costs 2.5-6 times more, measured
+            factor.solve(np.ones((K.shape[0], 16)))     # on two elastic boxes of 1.1e4 and 2.0e4 unknowns)
+            t_col = max((time.perf_counter() - t1) / 16, 1e-7)
+            self.cap = int(min(max(16, t_fact / t_col / 2), 500))
         return True
-
-    def _default_cap(self, factor, N: int, t_fact: float) -> int:
-        """Half of what one refactorisation costs in capacitance column solves, at least 16 and at most 500.
-
-        With PARDISO, from the flop counts its analysis reports (deterministic: the steps taken do not depend on
-        the load of the machine): a numeric factorisation of ``Mflop`` against 4 nnz(L) flop for one column (a
-        forward and a backward sweep); thin_layer(3000): 275-292 Mflop, 3.8e6 entries, 18 columns (measured
-        in time, one thread: 0.080 s against 0.0059 s a column in blocks of 16, 14 columns), cap 16. The
-        timing rule it replaces timed PARDISO's first call, analysis included (0.33 s), and gave 20-40 from
-        run to run. With SuperLU, measured: the factorisation's time against a block of 16 columns solved as
-        :meth:`_solve_on` solves them (one at a time a column costs 2.5-6 times more, measured on two elastic
-        boxes of 1.1e4 and 2.0e4 unknowns)."""
-        cost = getattr(self._pardiso, "cost", None) if self.factorization == "pardiso" else None
-        if cost is not None and cost[0] > 0 and cost[1] > 0:
-            columns = cost[0] * 1e6 / (4.0 * cost[1])
-        else:
-            t1 = time.perf_counter()
-            factor.solve(np.ones((N, 16)))
-            columns = t_fact / max((time.perf_counter() - t1) / 16, 1e-7)
-        return int(min(max(16, columns / 2), 500))
 
     def _solve_on(self, active, b):
         """z with K(active) z = b through the base factor and the capacitance form; None if singular."""

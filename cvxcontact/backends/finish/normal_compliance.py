@@ -356,6 +356,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         #                                                      the same every step for the tangent solver)
         b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
         b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
+        if hasattr(solve, "distance"):          # how far from the answer: the last step's relative residual
+            solve.distance = history[-1] if history else 0.0
         s = solve(K, b, at)
         if s is None:                 # singular (the solve's pivots or its backward error): the rows carrying
             return Declined(Stop.SINGULAR_FORCES, rows=at | (D > 0))   # forces leave a motion free

@@ -142,10 +142,13 @@ class TangentSolver:
     factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the
     answer is accepted only once every row's residual is within 1e-14 of its terms (|A| |z| + |b|; the direct
     solve: or after three refinements), the direct solves' accuracy, so the answers are the same to rounding (the
-    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`).
+    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`; a direct solve there within FORCING of its
+    right side is not refined, :data:`ROUGH`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
-    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations; ``exact``: the last
+    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations, ``unrefined`` the
+    factorised systems taken unrefined far from the answer (:data:`ROUGH`; ``distance``: the relative residual of
+    (26) before the step, which the steps set); ``exact``: the last
     system was solved to rounding (False: GMRES stopped at its forcing term, so its residual is no rounding
     floor for :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`)."""
 
@@ -179,6 +182,7 @@ class TangentSolver:
         self._perm = self._pardiso = self._last = self._z = self._found = None
         self._budget, self._failed, self.distance = None, False, 0.0
         self.factorizations = self.analyses = self.refinements = self.solves = self.iterations = 0
+        self.unrefined = 0
 
     def _at(self, rows, cols):
         """The places of the entries (rows, cols) in the data of the fixed pattern (CSC, sorted)."""
@@ -273,6 +277,7 @@ class TangentSolver:
                     break
                 if rough and np.linalg.norm(r) <= FORCING * size:
                     self.exact = False                           # an inexact Newton step, as GMRES's
+                    self.unrefined += 1
                     break
                 z = z + factor.solve(r)
             scale = max(np.abs(bb).max(initial=0.0), tiny)

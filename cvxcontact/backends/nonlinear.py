@@ -38,7 +38,7 @@ from .interface import release_held
 from .mixed import mixed_system, unstacked
 from .result import Finish, RawResult, Route
 
-__all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "SECANT", "TangentSolver", "compliance",
+__all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "ROUGH", "SECANT", "TangentSolver", "compliance",
            "newton"]
 
 log = logging.getLogger(__name__)
@@ -82,6 +82,14 @@ its residual is FORCING times that of the last step's answer, the Newton residua
 direct solve's rounding, whichever comes first; so a step reduces the residual of (26) by about 1e4 or to
 rounding, never less than the exact step would beyond that (the steps' stopping test, which reads the residual of
 (26) itself, is unchanged); the final steps, where that residual is near rounding, are solved to rounding."""
+
+ROUGH = 1e-4
+"""A factorised step's answer is refined to rounding (up to three steps against the matrix itself) only where the
+relative residual of (26) before the step (:class:`TangentSolver`'s ``distance``, set by the steps: the last
+one's, 0 at the first step) is at most ROUGH: near the answer, where a step's own solve error is credited in the
+stopping test's floor. Above it a direct solve within :data:`FORCING` of its right side is taken unrefined, an
+inexact Newton step as GMRES's (and like it no floor: ``exact`` False); a step from there does not reach
+rounding (the steps' residuals, circle into a block: ... 7e-1, 5e-2, 8e-6, 6e-9, 1e-10)."""
 
 NEAR = 1e-3
 """After a step whose GMRES did not converge, :class:`TangentSolver` factorises the next steps' systems directly
@@ -134,10 +142,13 @@ class TangentSolver:
     factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the
     answer is accepted only once every row's residual is within 1e-14 of its terms (|A| |z| + |b|; the direct
     solve: or after three refinements), the direct solves' accuracy, so the answers are the same to rounding (the
-    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`).
+    steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`; a direct solve there within FORCING of its
+    right side is not refined, :data:`ROUGH`).
     None if it is singular, x not finite or the residual above ``residual`` max|b| (as
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
-    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations; ``exact``: the last
+    ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations, ``unrefined`` the
+    factorised systems taken unrefined far from the answer (:data:`ROUGH`; ``distance``: the relative residual of
+    (26) before the step, which the steps set); ``exact``: the last
     system was solved to rounding (False: GMRES stopped at its forcing term, so its residual is no rounding
     floor for :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`)."""
 
@@ -169,8 +180,9 @@ class TangentSolver:
                                     shape=(n, n))
         self._places = at(np.repeat(np.arange(n), np.diff(inner.indptr)), inner.indices)
         self._perm = self._pardiso = self._last = self._z = self._found = None
-        self._budget, self._failed = None, False
+        self._budget, self._failed, self.distance = None, False, 0.0
         self.factorizations = self.analyses = self.refinements = self.solves = self.iterations = 0
+        self.unrefined = 0
 
     def _at(self, rows, cols):
         """The places of the entries (rows, cols) in the data of the fixed pattern (CSC, sorted)."""
@@ -182,8 +194,12 @@ class TangentSolver:
         K.sum_duplicates()
         K.sort_indices()
         last = self._found
+        inner = self._inner
         if last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
             places = last[2]                                     # the last step's sparsity (the tangent's own)
+        elif np.array_equal(inner.indptr, K.indptr) and np.array_equal(inner.indices, K.indices):
+            places = self._places                                # the pattern's own sparsity (no merge)
+            self._found = (K.indptr.copy(), K.indices.copy(), places)
         else:
             mask = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
             found = self._inner.multiply(mask).tocsr()          # K's entries' places in the pattern (a merge)
@@ -253,10 +269,15 @@ class TangentSolver:
             if self._budget is None:
                 self._budget = self._worth()
             z = factor.solve(bb)
+            size, rough = np.linalg.norm(bb), self.distance > ROUGH         # far from the answer (:data:`ROUGH`)
             for _ in range(3):         # refined while a row's residual exceeds 1e-14 of its own terms
                 r = bb - A @ z
                 self.refinements += 1
                 if settled(z, r) or not np.isfinite(r).all():
+                    break
+                if rough and np.linalg.norm(r) <= FORCING * size:
+                    self.exact = False                           # an inexact Newton step, as GMRES's
+                    self.unrefined += 1
                     break
                 z = z + factor.solve(r)
             scale = max(np.abs(bb).max(initial=0.0), tiny)

@@ -180,12 +180,17 @@ class StrainEnergy:
             q, n = len(self.w), self.A.shape[1]
             touched = sp.csr_matrix((np.ones(len(col)), (point, col)), shape=(q, n))     # points x columns
             touched.sum_duplicates()
+            touched.sort_indices()
             counts = np.diff(touched.indptr)
             k = int(counts.max(initial=0))
             cols = np.full((q, k), -1, dtype=np.int64)
             owner = np.repeat(np.arange(q), counts)
             cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
-            slot = (point * self.s + comp) * k + (cols[point] == col[:, None]).argmax(axis=1)
+            # each entry's place among its point's columns: the rank of (point, col) in touched's sorted keys
+            # (canonical CSR: rows in order, columns sorted within each), less the point's first place
+            keys = owner * np.int64(n) + touched.indices
+            rank = np.searchsorted(keys, point * np.int64(n) + col) - touched.indptr[point]
+            slot = (point * self.s + comp) * k + rank
             B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
             _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
             of = of.ravel()

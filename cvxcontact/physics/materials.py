@@ -291,16 +291,24 @@ class Hencky(Elastic):
         """d sigma / d eps (..., s, s) at the Voigt strains ``eps``, Pa: K t t^T + mu P^T [psi'/s (I - n n^T) +
         psi'' n n^T] P, n = P eps / s (psi'/s and psi'' in [2 h, 2]). ``secant``: the secant stiffness instead,
         psi'' replaced by psi'/s, K t t^T + mu psi'/s P^T P (sigma = S(eps) eps; positive definite, at least the
-        tangent; the Newton steps' start, :data:`~cvxcontact.backends.nonlinear.SECANT`)."""
+        tangent; the Newton steps' start, :data:`~cvxcontact.backends.nonlinear.SECANT`). Below yield (s <= s_y,
+        psi'/s = psi'' = 2) both are the tangent at zero strain K t t^T + 2 mu P^T P, written there as it is (the
+        expression of the yielded points evaluated only at them)."""
         P, t = deviator(dim)
+        eps = np.asarray(eps, dtype=float)
         d = eps @ P.T
         s = np.linalg.norm(d, axis=-1)
-        safe = np.where(s > 0, s, 1.0)
-        ratio = np.where(s > 0, self.psi(s)[1] / safe, 2.0)
-        second = ratio if secant else 2 * self.h + 2 * (1 - self.h) * (s <= self.s_y)
-        m = (d / safe[..., None]) @ P                       # P^T n: P^T (I - n n^T) P = P^T P - m m^T
-        return (self.K * np.outer(t, t) + (self.mu * ratio)[..., None, None] * (P.T @ P)
-                + (self.mu * (second - ratio))[..., None, None] * m[..., :, None] * m[..., None, :])
+        C = np.empty(s.shape + (len(t), len(t)))
+        C[...] = self.K * np.outer(t, t) + 2.0 * self.mu * (P.T @ P)
+        yielded = s > self.s_y
+        if yielded.any():
+            d, s = d[yielded], s[yielded]
+            ratio = self.psi(s)[1] / s
+            second = ratio if secant else np.full_like(s, 2 * self.h)
+            m = (d / s[:, None]) @ P                        # P^T n: P^T (I - n n^T) P = P^T P - m m^T
+            C[yielded] = (self.K * np.outer(t, t) + (self.mu * ratio)[:, None, None] * (P.T @ P)
+                          + (self.mu * (second - ratio))[:, None, None] * m[:, :, None] * m[:, None, :])
+        return C
 
     def rotated(self, rotation):
         """The material itself: it is isotropic."""

@@ -290,7 +290,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
     r_a > l_a, leaves it where z_a < 0). ``x0`` the start (e.g. the interior point's answer), ``active`` (bool,
     m) the starting L (default r(x0) >= l on the limited rows). ``solve(K, b, at)``: the sparse solve of each step's
     system, given by its block K = T + G^T D G and the closed rows ``at`` (L) of G, [dx; z_L] or None if it is
-    singular (default: :func:`~cvxcontact.backends.full.solve_mixed` on the matrix above). ``early``: once a full
+    singular (default: :func:`~cvxcontact.backends.full.solve_mixed` on the matrix above; a ``solve`` with an
+    attribute ``distance`` is told there the relative residual before the step, 0 at the first). ``early``: once a full
     step brings the relative residual below it, the signs of the limit rows are checked and a set they reject is
     left at once, without converging on it (None: only a converged set is checked; the last set is always
     converged, so the answer is the same, in fewer steps when the start's set is wrong); a set so reached twice
@@ -356,6 +357,8 @@ def solve_sparse_compliance(operator, G, g, weights, law, x0, active=None, max_i
         #                                                      the same every step for the tangent solver)
         b = -(operator.gradient(x) + G.T @ (w * law.pressure(r)))     # the residual itself: a correction
         b = np.concatenate([b, (ell - r)[at]]) if at.any() else b
+        if hasattr(solve, "distance"):          # how far from the answer: the last step's relative residual
+            solve.distance = history[-1] if history else 0.0
         s = solve(K, b, at)
         if s is None:                 # singular (the solve's pivots or its backward error): the rows carrying
             return Declined(Stop.SINGULAR_FORCES, rows=at | (D > 0))   # forces leave a motion free

@@ -252,19 +252,24 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     return out, lam
 
 
-def rigid_balance(block, modes, u, phi, Mlam):
+def rigid_balance(block, modes, u, phi, Mlam, extra=None):
     """Balance of the rigid motions only the contact holds (scaled units; docs/checks.md).
 
     ``modes`` (k, n_free) are those motions in the body's reduced coordinates (T_u^T r): the stiffness
     does not see them (modes K_uu = 0, modes K_up = 0 exactly), so modes . r_k = modes . (J^T c - f)
     whatever u is, and it is normalised by |modes| (|f| + |J^T| |c|), the loads and contact forces
     on those motions alone. The equilibrium check's row scales |A| |x| cannot bound this: a large
-    spurious rigid displacement x inflates them. Returns 0.0 without modes.
+    spurious rigid displacement x inflates them. ``u`` may equally be the body's deformation (its rigid fit
+    taken out, :meth:`~cvxcontact.fem.rigidfit.RigidFit.deformation`): modes K_uu u does not change, and its
+    rounding is then that of the deformation's elastic forces, not of how far the body moved. ``extra``
+    (force, size): further forces on the momentum rows and the sizes of their terms (e.g. a friction law's
+    T^T mu and |T^T| |mu|). Returns 0.0 without modes.
     """
     if modes is None or len(modes) == 0:
         return 0.0
-    r_u = block.residual(u, phi, Mlam)[0]
-    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f)
+    force, scale = (0.0, 0.0) if extra is None else extra
+    r_u = block.residual(u, phi, Mlam)[0] + force
+    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f) + scale
     return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
 
 

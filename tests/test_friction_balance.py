@@ -53,3 +53,23 @@ def test_a_slid_cube_reads_balanced_at_any_slide_and_a_wrong_answer_does_not(mon
     moved = [uk + problem.systems[0].Tu.T @ np.tile([0.0, 1e-3 * np.abs(uk).max(), 0.0], npts) for uk in raw.u]
     bad = read_back(problem, dataclasses.replace(raw, u=moved), sol.tol, {})
     assert not bad.ok and bad.residuals()["slip direction"] > 10 * sol.tol  # measured 1.6e-4 both
+
+
+def test_a_q2_hexahedral_cube_slid_along_x_reads_balanced_and_agrees_with_the_unfinished_reference(monkeypatch):
+    """Q2 hexahedra (2 x 2 x 2, "sigma1"), pressed by 10 MPa and pushed 0.1 mm along x, Tresca 100 Pa: read 1.1e-5
+    (nz = 1) and 8.3e-4 (nz = 2) in equilibrium before, from the same balance across the slide (the translation
+    along y). The answer was right: it agrees with the interior point's own answer of the `full` backend, not
+    finished, and its friction forces sum to g A."""
+    scene = slid_cube(1e-4, p=1e7, n=2, cell="hex")
+    sol, problem, raw = _captured(monkeypatch, scene, degree=2, condition="sigma1")
+    assert sol.ok
+    assert sol.residuals()["equilibrium"] < 0.01 * sol.tol                   # measured 6.3e-11 (was 8.3e-4)
+    assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(1e2, rel=1e-12)  # 2.2e-16
+    ref = cc.solve(scene, degree=2, condition="sigma1", method="full", polish=False)
+    assert ref.ok and not ref.polished
+    assert np.abs(sol.u[0] - ref.u[0]).max() < 1e-5 * np.abs(sol.u[0]).max()  # measured 8.8e-8
+    rows = problem.slip_rows.shape[0] // 2
+    mu = np.array(raw.tangential, dtype=float)
+    mu[rows + rows // 2] += 1e-6 * float(np.sum(raw.y))
+    bad = read_back(problem, dataclasses.replace(raw, tangential=mu), sol.tol, {})
+    assert not bad.ok and bad.residuals()["equilibrium"] > sol.tol          # measured 9.5e-2

@@ -30,7 +30,7 @@ __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance
            "obstacle_balance"]
 
 
-def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
+def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None):
     """The relative residuals of the mixed formulation, in scaled units (module docstring).
 
     Each is normalised where nothing can hide: equilibrium per body by that body's own
@@ -39,6 +39,7 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     bodies' normal displacements there and of the gap) and by the largest contact
     force, never by the total load. ``moved`` (per row, optional): the size of the obstacles' translation
     terms in the gap ``g`` (:meth:`~cvxcontact.discrete.DiscreteProblem.translation_sizes`), added to U_a.
+    ``fits`` (per body, ``problem.rigid_fits``): the floor of Y reads each body's deformation (:func:`reach_forces`).
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -49,7 +50,7 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g,
                            force_displacements(blocks, E, y) + reach_displacements(blocks, E, u, phi)
                            + (0.0 if moved is None else np.abs(moved)))
-    Y = force_scale(y, reach_forces(blocks, E, u, phi))
+    Y = force_scale(y, reach_forces(blocks, E, u, phi, fits))
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),

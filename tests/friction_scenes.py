@@ -78,6 +78,17 @@ def box(q, law, tied=False, nu=0.3, push=None, n=3):
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=None if tied else law)])
 
 
+def slid_cube(s, p=1e3, g=1e2, n=3, cell="tetra"):
+    """The 1 m cube (n x n x 2 cells ``cell``, nu = 0) pressed by p on its top and moved by u_x = s on its left
+    face across the rigid plane z = 0, Tresca's ``g`` (g < p): past the onset every row slides along x, its
+    friction forces summing to g (N: the area is 1 m^2), and a larger s carries the same deformation a rigid
+    distance further; translation along y and rotation about x are held by the contact alone."""
+    body = cc.Body(cc.box(nx=n, ny=n, nz=2, cell=cell), steel(nu=0.0), contact="bottom",
+                   traction={"top": (0.0, 0.0, -p)},
+                   displacement={"left": (s, None, None)})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Tresca(g))])
+
+
 DIAGONAL3 = np.array([np.cos(0.5), np.sin(0.5)])
 """The in-plane direction of the 3D scenes' shear (a diagonal of the frame (x, y))."""
 

@@ -329,3 +329,21 @@ def test_bad_inputs_raise_typed_errors(reference):
     with pytest.raises(cc.SolverError):
         cc.Model(scene, solver_options={"max_itr": 3})
     assert model.constraints == []                   # nothing half-added
+
+
+def test_a_user_model_whose_finish_does_not_settle_keeps_the_interior_point_and_says_why(monkeypatch):
+    """The finish of a model with user rows declines with a typed reason (cvxcontact.backends.finish.Declined)
+    when its active-set steps do not settle: the interior point's answer is kept, with a ResidualWarning naming
+    the steps. It returned a plain string, which the model unpacked as an answer (ValueError)."""
+    from cvxcontact.backends.finish import MAX_ITER, Stop
+    from cvxcontact.model import terms
+
+    monkeypatch.setattr(terms, "active_set_steps", lambda *args, **kwargs: MAX_ITER)
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=2), cc.materials.isotropic(E=200e9, nu=0.3),
+                   contact="bottom", traction={"top": (0.0, -1e7)}, displacement={"left": (0.0, None)})
+    model = cc.Model(cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)))]),
+                     "sigma1")
+    model.add(model.u(0)[:, 1] >= -1.0)                                   # a user row that never binds
+    with pytest.warns(cc.ResidualWarning, match=f"did not settle in {terms.MAX_STEPS} steps"):
+        sol = model.solve()
+    assert not sol.polished and sol.info.declined.stop is Stop.MAX_ITER

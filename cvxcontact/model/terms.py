@@ -108,7 +108,7 @@ def finish(problem, u, phi, y, rows, load, active, x):
 
     out = active_set_steps(step, (active.copy(), ar), MAX_STEPS, key=lambda s: s[0].tobytes() + s[1].tobytes())
     if isinstance(out, Declined):
-        return str(out) + (f" in {MAX_STEPS} steps" if out is MAX_ITER else "")
+        return Declined(out.stop, str(out) + (f" in {MAX_STEPS} steps" if out is MAX_ITER else ""), out.rows)
     (uk, pk, yk, zk, tk), (ac, _), _ = out
     off = np.cumsum([0] + m)
     return uk, pk, yk, [zk[a:b] for a, b in zip(off[:-1], off[1:])], ac, list(tk)

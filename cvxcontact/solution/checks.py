@@ -30,7 +30,7 @@ __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance
            "obstacle_balance"]
 
 
-def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
+def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None):
     """The relative residuals of the mixed formulation, in scaled units (module docstring).
 
     Each is normalised where nothing can hide: equilibrium per body by that body's own
@@ -39,6 +39,7 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     bodies' normal displacements there and of the gap) and by the largest contact
     force, never by the total load. ``moved`` (per row, optional): the size of the obstacles' translation
     terms in the gap ``g`` (:meth:`~cvxcontact.discrete.DiscreteProblem.translation_sizes`), added to U_a.
+    ``fits`` (per body, ``problem.rigid_fits``): the floor of Y reads each body's deformation (:func:`reach_forces`).
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -49,7 +50,7 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None):
     slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g,
                            force_displacements(blocks, E, y) + reach_displacements(blocks, E, u, phi)
                            + (0.0 if moved is None else np.abs(moved)))
-    Y = force_scale(y, reach_forces(blocks, E, u, phi))
+    Y = force_scale(y, reach_forces(blocks, E, u, phi, fits))
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),
@@ -252,19 +253,24 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     return out, lam
 
 
-def rigid_balance(block, modes, u, phi, Mlam):
+def rigid_balance(block, modes, u, phi, Mlam, extra=None):
     """Balance of the rigid motions only the contact holds (scaled units; docs/checks.md).
 
     ``modes`` (k, n_free) are those motions in the body's reduced coordinates (T_u^T r): the stiffness
     does not see them (modes K_uu = 0, modes K_up = 0 exactly), so modes . r_k = modes . (J^T c - f)
     whatever u is, and it is normalised by |modes| (|f| + |J^T| |c|), the loads and contact forces
     on those motions alone. The equilibrium check's row scales |A| |x| cannot bound this: a large
-    spurious rigid displacement x inflates them. Returns 0.0 without modes.
+    spurious rigid displacement x inflates them. ``u`` may equally be the body's deformation (its rigid fit
+    taken out, :meth:`~cvxcontact.fem.rigidfit.RigidFit.deformation`): modes K_uu u does not change, and its
+    rounding is then that of the deformation's elastic forces, not of how far the body moved. ``extra``
+    (force, size): further forces on the momentum rows and the sizes of their terms (e.g. a friction law's
+    T^T mu and |T^T| |mu|). Returns 0.0 without modes.
     """
     if modes is None or len(modes) == 0:
         return 0.0
-    r_u = block.residual(u, phi, Mlam)[0]
-    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f)
+    force, scale = (0.0, 0.0) if extra is None else extra
+    r_u = block.residual(u, phi, Mlam)[0] + force
+    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f) + scale
     return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
 
 

@@ -10,7 +10,11 @@ normal forces' scale, and an open contact, whose Coulomb capacities are 0, the e
 (one scale for all rows: a stuck row's own displacement is rounding; dimensionless):
 
     equilibrium      (26) with the tangential forces T^T mu added to the momentum rows (and to the
-                     balance of the rigid motions only the contact holds); each momentum row's scale at
+                     balance of the rigid motions only the contact holds, read from each body's
+                     deformation, u less its rigid fit, so its rounding does not grow with a slide, and
+                     measured against the rows' friction force |mu_a| on each tangential component: the
+                     direction of a sliding row's force is known to the slip's rounding, so a motion across
+                     the slide sees that rounding of the whole force); each momentum row's scale at
                      least FORCE_FLOOR of the largest of all bodies (``equilibrium_with(at_rest=True)``:
                      a body at rest beside one that moves)
     friction cone    max over a of (|mu_a| - c_a)^+ / C                |sigma_t| <= g
@@ -23,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..backends.finish.forces import friction_scale
-from .checks import equilibrium_with
+from .checks import equilibrium_with, rigid_balance
 
 __all__ = ["friction_checks", "read_back_friction"]
 
@@ -48,16 +52,6 @@ def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
             "slip direction": float(np.sqrt((turned / CU).max(initial=0.0)))}
 
 
-def _rigid_balance(block, modes, u, phi, Mlam, Tmu):
-    """The balance of the rigid motions only the contact holds (:func:`~cvxcontact.solution.checks.rigid_balance`)
-    with the tangential forces T^T mu on the momentum rows."""
-    if modes is None or len(modes) == 0:
-        return 0.0
-    r_u = block.residual(u, phi, Mlam)[0] + block.slip.T @ Tmu
-    size = abs(block.jump).T @ np.abs(Mlam) + abs(block.slip).T @ np.abs(Tmu) + np.abs(block.f)
-    return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
-
-
 def read_back_friction(problem, raw, sol) -> None:
     """Complete ``sol`` (read back as nodal Signorini rows) with the friction law: every pair's ``slip`` (m),
     ``shear_force`` (N/m, on the first body along the pair's tangent; 3D: (n, 2) along the pair's frame
@@ -72,10 +66,14 @@ def read_back_friction(problem, raw, sol) -> None:
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces, at_rest=True)
-    for k, (body, s, blk, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks, u, phi)):
+    sizes = Es.T @ np.tile(np.linalg.norm(mu.reshape(n_c, -1), axis=0), n_c)     # |mu_a| on each component
+    for k, (body, s, blk, fit, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks,
+                                                         problem.rigid_fits, u, phi)):
         modes = body.held_modes(problem.meshes[k])
         if len(modes):
-            equilibrium = max(equilibrium, _rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, Tmu))
+            extra = (blk.slip.T @ Tmu, abs(blk.slip).T @ sizes)
+            equilibrium = max(equilibrium, rigid_balance(blk, (s.Tu.T @ modes.T).T, fit.deformation(uk), pk, Ety,
+                                                         extra))
     checks["equilibrium"] = equilibrium
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)

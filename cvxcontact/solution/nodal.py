@@ -42,7 +42,7 @@ def read_back_nodal(problem, raw, tol: float, timings) -> Solution:
     blocks, E, gap, u, phi = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi
     y = raw.y
     checks_ = checks(blocks, u, phi, E.T @ y, E, E @ gap, y,   # the row forces (3D: M lam = E^T y on the traces)
-                     abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None)
+                     abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None, problem.rigid_fits)
     on = np.zeros(problem.interface.size, dtype=bool)
     on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(raw.active)]).sum(axis=0)).ravel() > 0)] = True
     return _assembled(problem, raw, tol, timings, checks_, E, on)

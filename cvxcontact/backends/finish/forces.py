@@ -61,11 +61,20 @@ def reach_displacements(blocks, E, u, phi=None):
                np.zeros(E.shape[0]))
 
 
-def reach_forces(blocks, E, u, phi=None):
+def reach_forces(blocks, E, u, phi=None, fits=None):
     """The size of the elastic forces at each row's unknowns, sum_l |E J_l| (|Kuu_l| |u_l| + |Kup_l| |phi_l|)
     (scaled forces): the force scale of a contact row that carries no force (an open contact, or forces of
-    interior-point noise), below which a contact force is not read as a force (:data:`FORCE_FLOOR`)."""
-    return sum((abs(E @ b.jump) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(E.shape[0]))
+    interior-point noise), below which a contact force is not read as a force (:data:`FORCE_FLOOR`). ``fits``
+    (per body, :class:`~cvxcontact.fem.rigidfit.RigidFit`, e.g. ``problem.rigid_fits``): u_l read as its
+    deformation, its rigid fit taken out (:func:`deformations`), so the scale does not grow with a slide."""
+    return sum((abs(E @ b.jump) @ f for b, f in _elastic_forces(blocks, deformations(fits, u), phi)),
+               np.zeros(E.shape[0]))
+
+
+def deformations(fits, u):
+    """Each body's free unknowns ``u`` (scaled) with its least-squares rigid fit per piece taken out
+    (``fits``: per body, :class:`~cvxcontact.fem.rigidfit.RigidFit`); ``u`` itself when ``fits`` is None."""
+    return u if fits is None else [fit.deformation(uk) for fit, uk in zip(fits, u)]
 
 
 def slip_reach(blocks, Es, u, phi=None):
@@ -93,7 +102,7 @@ def friction_scale(problem, u, phi, y, capacity) -> float:
     contact, whose Coulomb capacities are 0). Neither the loads (the lifted prescribed displacements: they move
     with a slide) nor element matrices (the assembly does not keep them) are needed: one pass over the free
     unknowns with m = 3 (2D) or 6 (3D) rigid motions per piece, after one orthonormalisation per problem."""
-    d = [fit.deformation(uk) for fit, uk in zip(problem.rigid_fits, u)]
+    d = deformations(problem.rigid_fits, u)
     blocks = problem.blocks
     reach = np.concatenate([reach_forces(blocks, problem.E, d, phi), slip_reach(blocks, problem.slip_rows, d, phi)])
     return max(float(np.max(capacity, initial=0.0)), force_scale(y, reach))

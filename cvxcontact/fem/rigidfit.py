@@ -8,9 +8,12 @@ rigid fit taken out. The fit is a linear projection that reproduces rigid motion
 
     deformation(z_u + Tu^T r) = deformation(z_u)     (to rounding, eps |r|)
 
-for every rigid motion r of a piece the supports let move: a body that slid or turned further has the same
-deformation. A rigid motion the supports forbid has no component there to begin with. Used for the force scale of
-the friction checks (:func:`~cvxcontact.backends.finish.forces.friction_scale`), which must not grow with how far a
+for every rigid motion r of a piece: a body that slid or turned further has the same deformation, whether the
+slide is free or prescribed (a pushed face). The fit is taken on the free unknowns whatever the supports hold: on a
+clamped body it takes out the free nodes' best rigid fit too (a motion the supports forbid is dropped only where it
+moves no free unknown, :data:`RANK`), so ``deformation`` is a size of the strain, never larger than z_u itself, not a
+decomposition into the body's admissible motions. Used for the force scales of the checks
+(:func:`~cvxcontact.backends.finish.forces.friction_scale`, ``reach_forces``), which must not grow with how far a
 body slid.
 """
 
@@ -26,7 +29,7 @@ __all__ = ["RANK", "RigidFit", "rigid_fit"]
 
 RANK = 1e-10
 """A rigid motion whose part on the free unknowns is below this fraction of the piece's largest (singular values of
-the unit motions restricted there) is held by the supports: it is not fitted."""
+the unit motions restricted there) moves no free unknown (the supports hold it at every node): it is not fitted."""
 
 
 @dataclass(frozen=True)

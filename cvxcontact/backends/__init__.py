@@ -199,8 +199,9 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 
 
 def _full_accepts(p: ProblemDescription) -> bool:
-    # a non-quadratic bulk energy: the Signorini kind only (the compliance and conic routes finish on Kuu)
-    return p.quadratic_energy or not (p.compliant or p.conic)
+    # a non-quadratic bulk energy: Signorini rows, and the P2 cones alone (their finish: Newton at the tangency
+    # points on the nonlinear (26)); not a compliance law (its routes finish on Kuu)
+    return p.quadratic_energy or not p.compliant
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:

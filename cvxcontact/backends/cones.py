@@ -22,6 +22,7 @@ from .finish import Declined, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
+from .mixed import mixed_system
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
@@ -85,12 +86,22 @@ def full(problem, cache, settings, timings) -> RawResult:
     t0 = time.perf_counter()
     model = problem.term.program(problem)
     timings["model"] = time.perf_counter() - t0
-    iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
+    # a non-quadratic energy: the package's tolerances, as for its Signorini rows (its cones' Newton finish starts
+    # from there); the conic ones, unequilibrated, ended "inaccurate" after 400 iterations (PLACEHOLDER)
+    options = conic_options(settings.solver, settings.options) if problem.quadratic else None
+    iterations = timed_program(model.problem, settings, timings, options)
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
-    if condensable(problem):
+    if not problem.quadratic:
+        # a non-quadratic bulk energy (Hencky): the cuts and the certificate solve systems of Kuu; Newton at the
+        # tangency points on the nonlinear (26) from the interior point's structure instead (§18, §19)
+        if settings.polish:
+            _finish_tangency(problem, timings, raw)
+        if not raw.polished:
+            raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    elif condensable(problem):
         if settings.polish:
             finish_cuts(problem, cache, settings, timings, raw)
         certify(problem, cache, settings, timings, raw)
@@ -394,6 +405,8 @@ def _newton_finish(problem, timings, raw, B, blocks=None, **kw):
     tr = list(problem.translations)
     kkt = mixed_kkt(problem.blocks if blocks is None else blocks, problem.E, problem.g, translations=tr)
     x0 = kkt.stack((raw.u, raw.phi, None, raw.taus if tr else ()))
+    if not problem.quadratic:          # a non-quadratic bulk energy: Newton on the nonlinear (26) (§19)
+        kw["energy"] = mixed_system(problem)[0]
     out = tangency_newton(kkt, B, problem.g, raw.beta, x0, held=problem.held_rows, tol=MIXED_CUT_TOL, **kw)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):

@@ -86,10 +86,8 @@ def full(problem, cache, settings, timings) -> RawResult:
     t0 = time.perf_counter()
     model = problem.term.program(problem)
     timings["model"] = time.perf_counter() - t0
-    # a non-quadratic energy: the package's tolerances, as for its Signorini rows (its cones' Newton finish starts
-    # from there); the conic ones, unequilibrated, ended "inaccurate" after 400 iterations (PLACEHOLDER)
-    options = conic_options(settings.solver, settings.options) if problem.quadratic else None
-    iterations = timed_program(model.problem, settings, timings, options)
+    iterations = timed_program(model.problem, settings, timings,
+                               conic_options(settings.solver, settings.options, quadratic=problem.quadratic))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,

@@ -18,11 +18,11 @@ from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
-from .finish import Declined, independent_active_set, row_reach
+from .finish import Declined, Stop, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
-from .mixed import mixed_system
+from .mixed import mixed_system, tangent_blocks
 from .interface import condensation, held_cone, program_fields, release_held, split
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
@@ -93,10 +93,8 @@ def full(problem, cache, settings, timings) -> RawResult:
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
     if not problem.quadratic:
-        # a non-quadratic bulk energy (Hencky): the cuts and the certificate solve systems of Kuu; Newton at the
-        # tangency points on the nonlinear (26) from the interior point's structure instead (§18, §19)
         if settings.polish:
-            _finish_tangency(problem, timings, raw)
+            finish_bulk(problem, timings, raw)
         if not raw.polished:
             raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
     elif condensable(problem):
@@ -391,6 +389,27 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     raw.beta, raw.polished, raw.finish = out["beta"], True, Finish.ACCUMULATED_CUTS
     raw.pairing = out["pairing"]
     _tangency_after_cuts(problem, timings, raw, B, out, blocks)
+
+
+def finish_bulk(problem, timings, raw) -> None:
+    """The exact finish of the cones beside a non-quadratic bulk energy (a Hencky body; docs/formulation.md §19):
+    the accumulated cuts (:func:`finish_cuts_mixed`) on the Newton model of the energy at the interior point's
+    answer (:func:`~cvxcontact.backends.mixed.tangent_blocks`: the cuts solve linear systems), whose point forces
+    give the contact structure, then Newton at the tangency points on the nonlinear (26) itself
+    (:func:`_newton_finish` with the bodies' :class:`~cvxcontact.backends.mixed.MixedEnergy`): its steps linearise
+    the energy at every step, so its answer is the nonlinear problem's to rounding. Where the cuts decline, Newton
+    from the interior point's structure (:func:`_finish_tangency`). Only Newton's answer is taken: where it declines,
+    ``raw`` keeps the interior point's answer and the reason (the cuts' answer is the model's, not the problem's).
+    Updates ``raw``."""
+    kept = {k: getattr(raw, k) for k in ("u", "phi", "y", "beta", "active", "taus", "pairing", "points", "polished",
+                                         "finish", "declined")}
+    finish_cuts_mixed(problem, timings, raw, blocks=tangent_blocks(problem.blocks, raw.u))
+    if raw.finish == Finish.TANGENCY_NEWTON and raw.declined is None:
+        return
+    why = raw.declined or Declined(Stop.STALL, "Newton at the tangency points after the cuts did not converge")
+    for k, v in kept.items():
+        setattr(raw, k, v)
+    raw.declined = why
 
 
 def _newton_finish(problem, timings, raw, B, blocks=None, **kw):

@@ -25,7 +25,7 @@ E, NU = 70e9, 0.3
 H = 0.5                                               # block heights (m)
 ALU = cc.materials.isotropic(E=E, nu=NU)
 HENCKY = cc.materials.hencky(E=E, nu=NU, sigma_y=2e6, h=0.1)    # yields under the contact zone
-GAP = lambda s: -2e-6 + 2e-3 * (s - 0.4) ** 2         # noqa: E731  a parabolic gap: contact on an interior zone
+GAP = lambda s: -2e-6 + 2e-3 * (s - 0.4) ** 2         # a parabolic gap: contact on an interior zone
 XS = np.linspace(0.0, 1.0, 4001)                      # the sampled abscissae of the contact line
 
 

@@ -21,7 +21,7 @@ tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends 
 equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
 complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
-CLARABEL_BULK_CONES = dict(tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-11, tol_ktratio=1e-10, max_iter=400)
+CLARABEL_BULK_CONES = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-11, "tol_ktratio": 1e-10, "max_iter": 400}
 """Clarabel settings of the P2 cones beside a non-quadratic bulk energy (a Hencky body; docs/formulation.md §19),
 whose exact finish, Newton at the tangency points on the nonlinear (26), takes its contact structure from the
 interior point's Bernstein duals. Measured on tests/test_p2_cones_hencky.py's pressed blocks (P2, 3 to 12 cells

@@ -21,15 +21,16 @@ tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends 
 equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
 complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
 
-CLARABEL_BULK_CONES = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-11, "tol_ktratio": 1e-10, "max_iter": 400}
+CLARABEL_BULK_CONES = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-11, "tol_ktratio": 1e-10,
+                       "max_iter": 400}
 """Clarabel settings of the P2 cones beside a non-quadratic bulk energy (a Hencky body; docs/formulation.md §19),
-whose exact finish, Newton at the tangency points on the nonlinear (26), takes its contact structure from the
-interior point's Bernstein duals. Measured on tests/test_p2_cones_hencky.py's pressed blocks (P2, 3 to 12 cells
-across, sigma_y 2e5 Pa to never reached: 24 scenes): with :data:`CLARABEL` the finish converged on 16 (from
-residuals of 6e-3 elsewhere, halving each step: the duals' structure not yet the answer's); with these, on 24,
-in 2 or 3 steps from 1e-8; with :data:`CLARABEL_CONIC` (unequilibrated) the program ended "inaccurate" after 400
-iterations (equilibrium 1e-2 of the Hencky terms, the finish declined); tighter (1e-13, 1e-12) one of 24 ended
-"inaccurate"."""
+whose exact finish (:func:`~cvxcontact.backends.cones.finish_bulk`) starts from the interior point's answer.
+Measured on 48 scenes (tests/test_p2_cones_hencky.py's pressed block, 3 to 12 cells across, sigma_y 2e5 Pa to
+never reached; two Hencky blocks, 4 to 16 cells, two loads): the finish settles on the same 42 with these as with
+:data:`CLARABEL`; on the 6 where it declines (the heavier load, the whole line in contact) the interior point's
+answer stands, and passes the checks at the default tol on 5 of them with these, on 1 with :data:`CLARABEL`. With
+:data:`CLARABEL_CONIC` (unequilibrated) the program ended "inaccurate" after 400 iterations (equilibrium 1e-2 of
+the Hencky terms); tighter than these (1e-13, 1e-12), 1 of 24 ended "inaccurate"."""
 
 CLARABEL_CONIC_PAIRS = dict(max_step_fraction=0.95)
 """Added to :data:`CLARABEL_CONIC` for the program of P2 cones with a normal-compliance law on several

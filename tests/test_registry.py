@@ -2,6 +2,7 @@
 name is read; the fallback policy is the entry's; a backend's own route and finish labels reach SolveInfo."""
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -79,10 +80,11 @@ def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it
     """P2 cones beside a non-quadratic energy: no backend solves it, so ``choose`` raises the
     :data:`~cvxcontact.backends.REFUSALS` entry (UnsupportedError, not the generic SolverError) for ``auto`` and for a
     named backend; a backend registered with a route for it is then chosen, and a problem no refusal names keeps the
-    generic SolverError (docs/refusals.md row 35)."""
-    cones = backends.ProblemDescription(quadratic_energy=False, conic=True, degree=2, kind="conic")
+    generic SolverError (docs/refusals.md row 35: 3D; the 2D cones beside such an energy are the full route's)."""
+    cones = backends.ProblemDescription(quadratic_energy=False, conic=True, dim=3, degree=2, kind="conic")
+    assert backends.choose("auto", replace(cones, dim=2)) == "full"
     for method in ("auto", "full", "newton"):
-        with pytest.raises(cc.UnsupportedError, match="P2 copositive cones.*'sigma1' or 'sigma2'"):
+        with pytest.raises(cc.UnsupportedError, match="3D P2 copositive cones.*'sigma1' or 'sigma2'"):
             backends.choose(method, cones)
     registry(Backend("mine", lambda p: p.conic, routes={"conic": full_route}), before="full")
     assert backends.choose("auto", cones) == "mine"

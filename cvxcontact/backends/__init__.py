@@ -15,7 +15,8 @@ an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed"; "newton" for a
 non-quadratic bulk energy with Signorini rows or a compliance law (:mod:`cvxcontact.backends.nonlinear`), "full"
-for what none accepts. A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
+for what none accepts (e.g. the 2D P2 cones beside a non-quadratic energy, :func:`~cvxcontact.backends.cones.
+finish_bulk`). A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
 """
 
 from __future__ import annotations
@@ -199,8 +200,10 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 
 
 def _full_accepts(p: ProblemDescription) -> bool:
-    # a non-quadratic bulk energy: the Signorini kind only (the compliance and conic routes finish on Kuu)
-    return p.quadratic_energy or not (p.compliant or p.conic)
+    # a non-quadratic bulk energy: Signorini rows, and the 2D P2 cones alone (their finish: Newton at the tangency
+    # points on the nonlinear (26), cones.finish_bulk); not a compliance law (its routes finish on Kuu), nor the 3D
+    # copositive cones (REFUSALS)
+    return p.quadratic_energy or not (p.compliant or (p.conic and p.dim == 3))
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
@@ -244,7 +247,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             "full route if it does not settle)",
             routes=MappingProxyType({"signorini": ".nonlinear:newton", "compliance": ".nonlinear:compliance"})),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
-            "quadratic energy, a non-quadratic one with the Signorini law: Newton finish)",
+            "quadratic energy, a non-quadratic one with the Signorini law or the 2D P2 cones: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full",
                                      "friction": ".friction:full"})),
@@ -266,11 +269,11 @@ class Refusal:
 
 
 REFUSALS: tuple[Refusal, ...] = (
-    Refusal(lambda p: p.conic and not p.quadratic_energy,
-            "the P2 copositive cones (condition='gamma3' with degree=2) with a non-quadratic bulk energy (a Hencky "
-            "material) are not available: the cones' routes and their finish solve systems of the linear "
-            "stiffness, and the Newton route of the nonlinear energy takes linear rows only; use condition='sigma1' "
-            "or 'sigma2' with degree=2 (nodal rows, the Newton route), or degree=1 with 'gamma3'"),
+    Refusal(lambda p: p.conic and not p.quadratic_energy and p.dim == 3,
+            "the 3D P2 copositive cones (condition='gamma3' with degree=2 on tetrahedra) with a non-quadratic bulk "
+            "energy (a Hencky material) are not available: their exact finish, Newton at the tangency points on "
+            "the nonlinear (26), does not settle on the triangles' cones (2D P2 'gamma3' is supported); use "
+            "condition='sigma1' or 'sigma2' with degree=2 (nodal rows, the Newton route), or degree=1 with 'gamma3'"),
 )
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
 problem (a backend registered later that solves it lifts it)."""

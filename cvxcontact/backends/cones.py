@@ -24,6 +24,7 @@ from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
 from .mixedcuts import finish_cuts_compliance
 from .interface import condensation, held_cone, program_fields, release_held, split
+from .mixed import mixed_system, tangent_blocks
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .start import cone_seeds
@@ -93,12 +94,18 @@ def full(problem, cache, settings, timings) -> RawResult:
     t0 = time.perf_counter()
     model = problem.term.program(problem)
     timings["model"] = time.perf_counter() - t0
-    iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
+    iterations = timed_program(model.problem, settings, timings,
+                               conic_options(settings.solver, settings.options, quadratic=problem.quadratic))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
                     y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
-    if condensable(problem):
+    if not problem.quadratic:
+        if settings.polish:
+            finish_bulk(problem, timings, raw)
+        if not raw.polished:
+            raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    elif condensable(problem):
         if settings.polish:
             finish_cuts(problem, cache, settings, timings, raw)
         certify(problem, cache, settings, timings, raw)
@@ -323,7 +330,7 @@ solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls a
 points at the same places)."""
 
 
-def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
+def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None) -> None:
     """The exact finish of the cones by accumulated cuts where the interface compliance does not exist (a body
     held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
     solved on the sparse mixed system (26) with the obstacles' translations
@@ -335,7 +342,9 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     Updates ``raw`` (u, phi, y, beta, taus, active, finish) or sets ``raw.declined``. No certificate: the bound
     needs the compliance; the checks state what holds. ``blocks``: the bodies' blocks (default the problem's;
     :func:`~cvxcontact.backends.forced.gamma_blocks`: condensed onto their Gamma dofs, ``raw.u`` then their
-    Gamma values)."""
+    Gamma values; :func:`~cvxcontact.backends.mixed.tangent_blocks`: a non-quadratic energy's Newton model).
+    ``energy``: the Newton at the tangency points after the cuts on the nonlinear (26) of this
+    :class:`~cvxcontact.backends.mixed.MixedEnergy` (:func:`finish_bulk`)."""
     B, cells = problem.lines.cone
     width = cells.shape[1]
     blocks, E, g = problem.blocks if blocks is None else blocks, problem.E, problem.g
@@ -377,7 +386,7 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         why = f"{out} ({prev['why']})" if "why" in prev else str(out)
-        if not _finish_tangency(problem, timings, raw, blocks):
+        if not _finish_tangency(problem, timings, raw, blocks, energy):
             # the decline that stands is the tangency step's (its stop and its rows, on the contact rows; the
             # cuts' rounds' systems are on the cut points), in words that name the cuts' reason first
             raw.declined = raw.declined.within(f"{why}; Newton at the tangency points")
@@ -389,7 +398,34 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None) -> None:
     raw.y, raw.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     raw.beta, raw.polished, raw.finish = out["beta"], True, Finish.ACCUMULATED_CUTS
     raw.pairing = out["pairing"]
-    _tangency_after_cuts(problem, timings, raw, B, out, blocks)
+    _tangency_after_cuts(problem, timings, raw, B, out, blocks, energy)
+
+
+_FIELDS = ("u", "phi", "y", "beta", "active", "taus", "pairing", "points", "polished", "finish", "declined")
+"""What :func:`finish_bulk` puts back where its finish declines (the interior point's answer)."""
+
+
+def finish_bulk(problem, timings, raw) -> None:
+    """The exact finish of the cones beside a non-quadratic bulk energy (a Hencky body; docs/formulation.md §19),
+    from the interior point's answer in ``raw``. The cuts and the tangency Newton of a linear material solve
+    systems of Kuu; here the energy's tangent takes its place: the accumulated cuts (:func:`finish_cuts_mixed`) on
+    the Newton model of the energy at the interior point (:func:`~cvxcontact.backends.mixed.tangent_blocks`),
+    whose point forces give the contact structure, then Newton at the tangency points on the nonlinear (26) itself
+    (:func:`_newton_finish` with the bodies' :class:`~cvxcontact.backends.mixed.MixedEnergy`: the energy's gradient
+    and its tangent at every step, the cones' structure fixed within a round and corrected between rounds), whose
+    answer is the nonlinear problem's to rounding. Where the cuts decline, Newton from the interior point's
+    structure (:func:`_finish_tangency`). Only Newton's answer is taken: where it declines, ``raw`` keeps the
+    interior point's answer with the reason (the cuts' answer is the model's, not the problem's). Updates ``raw``."""
+    kept = {k: getattr(raw, k) for k in _FIELDS}
+    energy = mixed_system(problem)[0]
+    finish_cuts_mixed(problem, timings, raw, blocks=tangent_blocks(problem.blocks, raw.u), energy=energy)
+    if raw.finish == Finish.TANGENCY_NEWTON and raw.declined is None:
+        return
+    why = raw.declined or Declined(Stop.STALL, "Newton at the tangency points on the nonlinear (26) after the cuts "
+                                   "on the energy's tangent did not settle")
+    for k, v in kept.items():
+        setattr(raw, k, v)
+    raw.declined = why
 
 
 def _newton_finish(problem, timings, raw, B, blocks=None, **kw):
@@ -415,7 +451,7 @@ def _newton_finish(problem, timings, raw, B, blocks=None, **kw):
     return out
 
 
-def _tangency_after_cuts(problem, timings, raw, B, cuts, blocks=None) -> None:
+def _tangency_after_cuts(problem, timings, raw, B, cuts, blocks=None, energy=None) -> None:
     """Newton at the tangency points (:func:`_newton_finish`) from the accumulated cuts' answer ``cuts`` (its
     point forces the structure, its fields the start): the cuts close in on a tangency point only linearly
     (the violation shrinks ~4x a round, the fields' error as its square root: measured 1e-6 of the energy norm
@@ -423,16 +459,17 @@ def _tangency_after_cuts(problem, timings, raw, B, cuts, blocks=None) -> None:
     Newton reaches rounding in two or three steps. Where it declines, the cuts' answer stays (its violation is
     what the checks report). Updates ``raw`` (fields, beta, active, pairing, y: the nodal force, finish)."""
     out = _newton_finish(problem, timings, raw, B, blocks, departure=problem.departure,
-                         points=(cuts["segment"], cuts["t"], cuts["y"]))
+                         points=(cuts["segment"], cuts["t"], cuts["y"]), energy=energy)
     if not isinstance(out, Declined):
         raw.y = out["nodal"]
 
 
-def _finish_tangency(problem, timings, raw, blocks=None) -> bool:
+def _finish_tangency(problem, timings, raw, blocks=None, energy=None) -> bool:
     """Where the cuts decline (a round's mixed system singular: a force-controlled curved obstacle touching
     inside an element), Newton at the tangency points from the interior point's answer (:func:`_newton_finish`).
     Updates ``raw`` and returns True, or sets ``raw.declined`` to its reason."""
-    out = _newton_finish(problem, timings, raw, problem.lines.cone[0], blocks, departure=problem.departure)
+    out = _newton_finish(problem, timings, raw, problem.lines.cone[0], blocks, departure=problem.departure,
+                         energy=energy)
     if isinstance(out, Declined):
         raw.declined = out
         return False

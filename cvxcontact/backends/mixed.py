@@ -20,12 +20,15 @@ system's matrix.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.sparse as sp
 
+from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["MixedEnergy", "mixed_system", "stacked", "unstacked"]
+__all__ = ["MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
 
 
 class MixedEnergy:
@@ -154,3 +157,20 @@ def unstacked(problem, x, widths):
         pos += nu + npf
     taus = list(np.split(x[pos:], np.cumsum(widths)[:-1])) if widths else []
     return u, phi, taus
+
+
+def tangent_blocks(blocks, u) -> list:
+    """The bodies' scaled ``blocks`` linearised at their displacements ``u``: each body's bulk energy replaced by its
+    second-order model there, Kuu = H = Hess Pi(u) and f = f - grad Pi(u) + H u (so that Kuu u' - f = grad Pi(u) - f
+    + H (u' - u)); the coupling, the permittivity and the rows unchanged. The linear problem of these blocks is the
+    Newton (sequential quadratic) model of the nonlinear one at ``u``: the routes that solve linear systems of Kuu
+    (the cones' cuts) solve it, and its contact structure is the nonlinear answer's near ``u``. A quadratic energy's
+    block is returned as it is."""
+    out = []
+    for b, uk in zip(blocks, u):
+        if b.bulk.quadratic:
+            out.append(b)
+            continue
+        H = sp.csr_matrix(b.bulk.hessian(uk))
+        out.append(replace(b, Kuu=H, f=b.f - b.bulk.gradient(uk) + H @ uk, bulk=Quadratic(H)))
+    return out

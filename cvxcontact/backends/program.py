@@ -9,7 +9,7 @@ import cvxpy as cp
 
 from ..errors import SolverError
 
-__all__ = ["CLARABEL", "CLARABEL_CONIC", "CLARABEL_CONIC_PAIRS", "conic_options", "run_program", "timed_program"]
+__all__ = ["CLARABEL", "CLARABEL_BULK_CONES", "CLARABEL_CONIC", "CLARABEL_CONIC_PAIRS", "conic_options", "run_program", "timed_program"]
 
 CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
 """Clarabel's tolerances for the package's programs (their answers are finished exactly where a finish applies)."""
@@ -20,6 +20,17 @@ CLARABEL_CONIC = dict(tol_gap_abs=1e-14, tol_gap_rel=1e-14, tol_feas=1e-10, tol_
 tight gap tolerances; feasibility 1e-10 (tighter stalls at about 1e-11 and ends "inaccurate"); no
 equilibration, since the data are already non-dimensionalised (measured: it halves to eightfolds the
 complementarity reached by the condensed SOCP on two_blocks 16x8 and 32x16)."""
+
+CLARABEL_BULK_CONES = {"tol_gap_abs": 1e-12, "tol_gap_rel": 1e-12, "tol_feas": 1e-11, "tol_ktratio": 1e-10,
+                       "max_iter": 400}
+"""Clarabel settings of the P2 cones beside a non-quadratic bulk energy (a Hencky body; docs/formulation.md §19),
+whose exact finish (:func:`~cvxcontact.backends.cones.finish_bulk`) starts from the interior point's answer.
+Measured on 48 scenes (tests/test_p2_cones_hencky.py's pressed block, 3 to 12 cells across, sigma_y 2e5 Pa to
+never reached; two Hencky blocks, 4 to 16 cells, two loads): the finish settles on the same 42 with these as with
+:data:`CLARABEL`; on the 6 where it declines (the heavier load, the whole line in contact) the interior point's
+answer stands, and passes the checks at the default tol on 5 of them with these, on 1 with :data:`CLARABEL`. With
+:data:`CLARABEL_CONIC` (unequilibrated) the program ended "inaccurate" after 400 iterations (equilibrium 1e-2 of
+the Hencky terms); tighter than these (1e-13, 1e-12), 1 of 24 ended "inaccurate"."""
 
 CLARABEL_CONIC_PAIRS = dict(max_step_fraction=0.95)
 """Added to :data:`CLARABEL_CONIC` for the program of P2 cones with a normal-compliance law on several
@@ -32,12 +43,15 @@ end "optimal" with complementarity <= 1e-5. With exponent 2 (a power cone) the p
 "inaccurate" there (complementarity ~5e-6)."""
 
 
-def conic_options(solver: str, options: Mapping[str, object], pairs: int = 1) -> dict:
+def conic_options(solver: str, options: Mapping[str, object], pairs: int = 1, quadratic: bool = True) -> dict:
     """Solver options of the conic condition: no exact finish applies, so Clarabel is run to tighter
     tolerances on the scaled data (:data:`CLARABEL_CONIC`, with :data:`CLARABEL_CONIC_PAIRS` for a program of
-    cones and compliance on several ``pairs``); the user's ``options`` still win."""
+    cones and compliance on several ``pairs``; :data:`CLARABEL_BULK_CONES` beside a non-quadratic bulk energy,
+    ``quadratic`` False); the user's ``options`` still win."""
     if solver != "CLARABEL":
         return dict(options)
+    if not quadratic:
+        return {**CLARABEL_BULK_CONES, **options}
     return {**CLARABEL_CONIC, **(CLARABEL_CONIC_PAIRS if pairs > 1 else {}), **options}
 
 

@@ -101,15 +101,17 @@ class _Element:
         return self.D @ x - self.d
 
 
-def _residual(A, F, G, force, C, lam, x, r1, r2, c0) -> float:
+def _residual(terms, G, force, C, lam, x, r1, r2, c0) -> float:
     """The relative KKT residual of the Newton system: the balance r1 = A x + G^T ``force`` + C^T ``lam`` - F over
-    the sizes of its terms, |A| |x| + |G^T| |force| + |C^T| |lam| + |F|, and the rows' residual r2 = C x - c0 over
+    the sizes of its terms, ``terms`` + |G^T| |force| + |C^T| |lam| (``terms``: |A| |x| + |F|, or the sizes of the
+    terms of a non-quadratic energy's gradient, :meth:`~cvxcontact.backends.mixed.MixedEnergy.magnitude`, in place
+    of A x - F), and the rows' residual r2 = C x - c0 over
     |C| |x| + |c0| (:func:`~cvxcontact.backends.finish.rows._row_scale`), each block's largest over its largest
     scale (normwise: a row whose own terms are small still carries the rounding of the unknowns it reads).
     Scales that add the terms up do not vanish where their sum cancels (closed rows whose nodes move with the
     obstacle: |C x| and |c0| are then 0 to rounding, and the residual over them read 1.0 at rounding)."""
     tiny = np.finfo(float).tiny
-    s1 = _row_scale(abs(sp.hstack([A, G.T, C.T]).tocsr()), np.r_[x, force, lam], F)
+    s1 = _row_scale(abs(sp.hstack([G.T, C.T]).tocsr()), np.r_[force, lam], terms)
     s2 = _row_scale(abs(C), x, c0) if C.shape[0] else np.ones(1)
     return max(float(np.abs(r1).max(initial=0.0)) / max(float(s1.max(initial=0.0)), tiny),
                float(np.abs(r2).max(initial=0.0)) / max(float(s2.max(initial=0.0)), tiny))
@@ -208,7 +210,7 @@ def _cells(B, w: int) -> np.ndarray:
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
-                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None):
+                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None, energy=None):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -235,9 +237,14 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     accumulated cuts' answer, :mod:`cvxcontact.backends.cuts`): every point carrying a force is a tangency on
     the sub-simplex of its nonzero coordinates (a vertex row at a vertex); the points of one sub-simplex are
     one tangency (the cuts close in on a tangency from both sides). Where one element holds several points
-    (an interior and an edge tangency) its Bernstein duals read as a spread force; the points do not."""
+    (an interior and an edge tangency) its Bernstein duals read as a spread force; the points do not.
+
+    ``energy``: a non-quadratic bulk energy (the paper's nonlinear A, e.g. Hencky; docs/formulation.md §19): the
+    :class:`~cvxcontact.backends.mixed.MixedEnergy` of the bodies on the unknowns of ``kkt``, whose gradient
+    replaces A x - F and whose tangent (its Hessian at the step's x) replaces A, so that the steps are Newton's on
+    the nonlinear (26) with the cones' structure fixed (``kkt``'s matrix and loads are then not read)."""
     G = sp.csr_matrix(kkt.rows)
-    A, F = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float)
+    A, F = (None, None) if energy is not None else (sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float))
     B = sp.csr_matrix(B)
     N, n = G.shape
     g = np.asarray(g, dtype=float)
@@ -368,10 +375,15 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             C = sp.vstack([Gv, Gl] + rows).tocsr() if len(vnodes) + len(lrows) + len(rows) else \
                 sp.csr_matrix((0, n))
             lam = np.r_[lam_lin, mu]
-            r1 = A @ x + G.T @ force + C.T @ lam - F
+            if energy is None:
+                At, terms = A, abs(A) @ np.abs(x) + np.abs(F)
+                r1 = A @ x + G.T @ force + C.T @ lam - F
+            else:                                # Newton on the nonlinear (26): its gradient and tangent at x
+                At, terms = energy.tangent(x), energy.magnitude(x)
+                r1 = energy.gradient(x) + G.T @ force + C.T @ lam
             r2 = np.r_[Gv @ x - gv, Gl @ x - gl, np.array(vals)]
-            K = sp.bmat([[A + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
-                else (A + hess + G.T @ sp.diags(stiff) @ G).tocsc()
+            K = sp.bmat([[At + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
+                else (At + hess + G.T @ sp.diags(stiff) @ G).tocsc()
             try:
                 dz = dense_or_sparse_lu(K).solve(-np.r_[r1, r2])
             except RuntimeError:
@@ -381,7 +393,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                 why = Declined(Stop.SINGULAR, "the Newton system is singular")
                 break
             # the residual before the step, relative to its terms' sizes
-            res = _residual(A, F, G, force, C, lam, x, r1, r2, np.r_[gv, gl, (C[C.shape[0] - len(rows):] @ x
+            res = _residual(terms, G, force, C, lam, x, r1, r2, np.r_[gv, gl, (C[C.shape[0] - len(rows):] @ x
                                                                              - np.array(vals, dtype=float))])
             x, lam = x + dz[:n], lam + dz[n:]
             lam_lin, mu = lam[:len(lam_lin)], lam[len(lam_lin):]

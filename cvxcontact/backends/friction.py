@@ -184,7 +184,7 @@ def exact_finish(problem, raw, timings) -> RawResult:
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
-    C = friction_scale(problem, raw.u, raw.phi, raw.y, raw.capacity)
+    C = friction_scale(problem, raw.u, raw.phi, raw.y, raw.capacity, whole=True)     # the interior point's noise
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw

@@ -85,8 +85,8 @@ def slip_reach(blocks, Es, u, phi=None):
 
 
 def friction_scale(problem, u, phi, y, capacity, whole: bool = False) -> float:
-    """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the finish's
-    and the checks'), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
+    """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the checks';
+    the finish's with ``whole``), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
     of the largest elastic force of the bodies' deformation at the unknowns of the normal rows ``problem.E``
     (:func:`reach_forces`) and of the slip rows ``problem.slip_rows`` (:func:`slip_reach`). With the contact open
     and capacities mu y_a (Coulomb) or g = 0 the capacities and forces are 0 or rounding: the tangential forces'

@@ -84,9 +84,9 @@ def slip_reach(blocks, Es, u, phi=None):
     return sum((abs(Es @ b.slip) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(Es.shape[0]))
 
 
-def friction_scale(problem, u, phi, y, capacity) -> float:
-    """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the finish's
-    and the checks'), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
+def friction_scale(problem, u, phi, y, capacity, whole: bool = False) -> float:
+    """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the checks';
+    the finish's with ``whole``), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
     of the largest elastic force of the bodies' deformation at the unknowns of the normal rows ``problem.E``
     (:func:`reach_forces`) and of the slip rows ``problem.slip_rows`` (:func:`slip_reach`). With the contact open
     and capacities mu y_a (Coulomb) or g = 0 the capacities and forces are 0 or rounding: the tangential forces'
@@ -101,8 +101,13 @@ def friction_scale(problem, u, phi, y, capacity) -> float:
     to ``u`` leaves C unchanged (to rounding); a deformed body keeps a non-zero floor (the awkward scenes: an open
     contact, whose Coulomb capacities are 0). Neither the loads (the lifted prescribed displacements: they move
     with a slide) nor element matrices (the assembly does not keep them) are needed: one pass over the free
-    unknowns with m = 3 (2D) or 6 (3D) rigid motions per piece, after one orthonormalisation per problem."""
-    d = deformations(problem.rigid_fits, u)
+    unknowns with m = 3 (2D) or 6 (3D) rigid motions per piece, after one orthonormalisation per problem.
+
+    ``whole``: the floor reads the whole ``u`` instead, as :func:`ipm_active` does: the finish's scale on an
+    interior point's answer, whose noise is relative to the whole displacement, the rigid part included (a
+    strain-free block lifted off a Coulomb floor by its supports: the floor of its deformation, rounding, made
+    the noise of its open rows the scale and the finish declined, tests/test_check_floor.py)."""
+    d = deformations(None if whole else problem.rigid_fits, u)
     blocks = problem.blocks
     reach = np.concatenate([reach_forces(blocks, problem.E, d, phi), slip_reach(blocks, problem.slip_rows, d, phi)])
     return max(float(np.max(capacity, initial=0.0)), force_scale(y, reach))

@@ -27,9 +27,9 @@ cycled where the damped ones settle (a 2D P2 pair under "sigma1" with Tresca fri
 The residual is scaled: the momentum rows over the sizes of their terms, at least those had every unknown been
 the largest (|T_i| max|x|: a body at rest beside one that moves, e.g. the clamped lower block of a pair that
 opens, has rows whose own terms are the rounding of the coupled solve), the normal and friction rows over the force
-scale C (:func:`~cvxcontact.backends.finish.forces.friction_scale`: floored at the elastic forces of the bodies'
-deformation at the rows, so an open contact whose Coulomb capacities are 0 has a scale, and a body that slid far
-the same as one that slid a little). A repeated active set ends the steps where the step
+scale C (:func:`~cvxcontact.backends.finish.forces.friction_scale` with ``whole``: floored at the elastic forces
+at the rows, so an open contact whose Coulomb capacities are 0 has a scale; the whole displacement's, as the
+interior point's noise, where the checks read the bodies' deformation). A repeated active set ends the steps where the step
 solved it (2D), or where the residual is at rounding (SIGN_TOL) and no longer halves.
 
 No data: with no load (b = 0), no prescribed slip (s0 = 0) and no interference (g >= 0 on the rows some unknown

@@ -66,7 +66,7 @@ def read_back_friction(problem, raw, sol) -> None:
     forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces, at_rest=True)
-    sizes = Es.T @ np.tile(np.linalg.norm(mu.reshape(n_c, -1), axis=0), n_c)     # |mu_a| on each component
+    sizes = abs(Es).T @ np.tile(np.linalg.norm(mu.reshape(n_c, -1), axis=0), n_c)  # |mu_a| on each component
     for k, (body, s, blk, fit, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks,
                                                          problem.rigid_fits, u, phi)):
         modes = body.held_modes(problem.meshes[k])

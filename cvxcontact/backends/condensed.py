@@ -217,7 +217,7 @@ class Compliance:
     def __init__(self, bodies, E):
         self.rows = [np.asarray(E @ b.jump) for b in bodies]
         self._factors = [sla.cho_factor(b.stiffness) for b in bodies]
-        self._B = self._W = self._stacked = None
+        self._B = self._W = self._stacked = self._sparse = None
         m = E.shape[0]
         self.where = np.full(m, -1)          # each row's position in the kept block, -1 if not kept (:meth:`keep`)
         self.count = 0
@@ -245,6 +245,14 @@ class Compliance:
             self._stacked = np.hstack(self.rows)
         return self._stacked
 
+    @property
+    def sparse(self) -> sp.csr_matrix:
+        """R = [R_1, R_2, ...] as a sparse matrix (a row touches the few Gamma dofs of its overlay vertex's
+        triangles: products with it cost O(nnz), not O(m n_Gamma)), formed on first use."""
+        if self._sparse is None:
+            self._sparse = sp.csr_matrix(self.stacked)
+        return self._sparse
+
     def columns(self, rows) -> np.ndarray:
         """The columns ``rows`` of every body's B_l, stacked: Sigma^{-1} R_rows^T over all Gamma dofs (the
         bodies in order), so that W[a, rows] = R_a @ columns(rows) with R = :attr:`stacked`."""
@@ -266,7 +274,7 @@ class Compliance:
                 B, W = np.zeros((self.kept_B.shape[0], cap)), np.zeros((cap, cap))
                 B[:, :c], W[:c, :c] = self.kept_B[:, :c], self.kept_W[:c, :c]
                 self.kept_B, self.kept_W = B, W
-            R = self.stacked
+            R = self.sparse
             self.kept_B[:, c:c + k] = self.columns(new)
             old = np.flatnonzero(self.where >= 0)
             old = old[np.argsort(self.where[old])]                       # the kept rows, at positions 0..c-1

@@ -311,24 +311,33 @@ class CompliantRows:
 
     def __init__(self, compliance, v0, g):
         self.compliance = compliance
-        self.R = compliance.stacked
+        self.R = compliance.sparse
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
         self.d = self.R @ self.v0 - self.g
-        self.absR = np.abs(self.R)
+        self.absR = abs(self.R)
         c = compliance
         self.system = UpdatedSystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)
         y = np.zeros(len(self.g))
-        cols = np.zeros(0, dtype=int)
+        c = self.compliance
+        spread = np.zeros(c.count)
         if len(P):
-            cols = self.compliance.keep(P)
-            WPP = self.compliance.kept_W[np.ix_(cols, cols)]
-            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WPP @ w, None))
+            cols = c.keep(P)
+            spread = np.zeros(c.count)
+
+            def product(w):                     # W_PP w from the kept block in place (no |P| x |P| copy)
+                spread[:] = 0.0
+                spread[cols] = w
+                return (c.kept_W[:c.count, :c.count] @ spread)[cols], None
+
+            out = refined_solve(self.system, 2 * P, self.d[P], product)
             if out is None:
                 return None
             y[P] = out[0]
-        v = self.v0 - self.compliance.kept_B[:, cols] @ y[P]
+            spread[:] = 0.0
+            spread[cols] = y[P]
+        v = self.v0 - c.kept_B[:, :c.count] @ spread        # (no n_Gamma x |P| copy of B's columns)
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)

@@ -311,7 +311,7 @@ class CompliantRows:
 
     def __init__(self, compliance, v0, g):
         self.compliance = compliance
-        self.R = compliance.sparse
+        self.R = compliance.stacked
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
         self.d = self.R @ self.v0 - self.g

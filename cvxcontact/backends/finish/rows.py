@@ -20,11 +20,11 @@ on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance
 def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
     """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
     column-pivoted QR, in the order of the pivots. ``factors``: also its R and pivots, (chosen, R, piv) with
-    M[:, piv] = Q R (Q itself is not formed)."""
+    M[:, piv] = Q R (Q itself is not formed). ``M`` is overwritten (LAPACK works in it: no copy of it)."""
     if M.shape[1] == 0:
         none = np.zeros(0, dtype=int)
         return (none, np.zeros((0, 0)), none) if factors else none
-    R, piv = sla.qr(M, mode="r", pivoting=True)
+    R, piv = sla.qr(np.asfortranarray(M), mode="r", pivoting=True, overwrite_a=True, check_finite=False)
     diag = np.abs(np.diag(R))
     chosen = piv[:int(np.sum(diag > tol))]
     return (chosen, R, piv) if factors else chosen

@@ -171,8 +171,10 @@ def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
 
 
-def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_compliance():
-    """:class:`~cvxcontact.backends.condensed.Compliance` forms W and B on first use and
+@pytest.mark.parametrize("form", [np.asarray, sp.csr_matrix])
+def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_compliance(form):
+    """``form``: the bodies' jump maps dense or sparse (CSR, as :func:`~cvxcontact.backends.condensed.condense`
+    keeps them). :class:`~cvxcontact.backends.condensed.Compliance` forms W and B on first use and
     :class:`~cvxcontact.backends.finish.CompliantRows` only W's block on the rows that entered a passive set:
     two random SPD "bodies" (Sigma_l) and 40 dependent rows on their 12 + 9 dofs, against numpy's dense
     W = sum_l R_l Sigma_l^-1 R_l^T; each step's forces solve W_PP y_P = d_P and its slack is d - W y; another load
@@ -186,10 +188,12 @@ def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_co
     bodies, sizes, m = [], (12, 9), 40
     for k in sizes:
         X = rng.normal(size=(k, k))
-        bodies.append(SimpleNamespace(stiffness=X @ X.T + k * np.eye(k), jump=rng.normal(size=(15, k))))
+        J = rng.normal(size=(15, k))
+        J[rng.random(J.shape) < 0.5] = 0.0                                        # sparse rows
+        bodies.append(SimpleNamespace(stiffness=X @ X.T + k * np.eye(k), jump=form(J)))
     E = sp.random(m, 15, density=0.2, random_state=rng, format="csr") + sp.eye(m, 15, format="csr")
     comp = Compliance(bodies, E)
-    R = [np.asarray(E @ b.jump) for b in bodies]
+    R = [np.asarray((E @ b.jump).toarray() if sp.issparse(b.jump) else E @ b.jump) for b in bodies]
     W = sum(Rl @ np.linalg.solve(b.stiffness, Rl.T) for Rl, b in zip(R, bodies))
     assert comp._W is None and comp._B is None                                  # nothing formed yet
     cols = comp.columns([3, 7, 11])

@@ -58,7 +58,8 @@ class CondensedBody:
 
     ``factor`` is the :class:`~cvxcontact.backends.factor.Factorization` of S (``factor.name``: "superlu" or
     "pardiso"); ``gamma`` indexes the Gamma dofs in the body's free-dof vector x = [u; phi];
-    ``stiffness`` is Sigma, ``jump`` the (n_merged, m) map from v to [u_nu].
+    ``stiffness`` is Sigma, ``jump`` the (n_merged, m) map from v to [u_nu] (sparse CSR: a merged node reads the
+    few Gamma dofs of its faces, so that the interface rows E J are O(rows) numbers, not rows x Gamma dofs).
     """
 
     factor: Factorization
@@ -155,7 +156,7 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
     return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=factor.schur - np.diag(shift),
-                         jump=block.jump[:, gamma].toarray())
+                         jump=sp.csr_matrix(block.jump[:, gamma]))
 
 
 def _superlu_order(S, gamma, n_u, system, mesh):
@@ -203,7 +204,9 @@ class InterfaceModel:
 class Compliance:
     """Interface compliance of condensed bodies seen by the contact rows E (scaled units):
 
-        R_l = E C_l,   B_l = Sigma_l^{-1} R_l^T,   W = sum_l R_l B_l   (SPD on the rows).
+        R_l = E C_l,   B_l = Sigma_l^{-1} R_l^T,   W = sum_l R_l B_l   (SPD on the rows),
+
+    R_l sparse (``rows``; a row touches the few Gamma dofs of its overlay vertex's faces), B_l and W dense.
 
     With v0_l the unconstrained Gamma displacements and d = sum_l R_l v0_l - E g the
     slack at y = 0, a contact force y gives v_l = v0_l - B_l y and slack d - W y.
@@ -215,7 +218,7 @@ class Compliance:
     """
 
     def __init__(self, bodies, E):
-        self.rows = [np.asarray(E @ b.jump) for b in bodies]
+        self.rows = [sp.csr_matrix(E @ b.jump) for b in bodies]
         self._factors = [sla.cho_factor(b.stiffness) for b in bodies]
         self._B = self._W = self._stacked = None
         m = E.shape[0]
@@ -228,21 +231,21 @@ class Compliance:
     def B(self) -> list:
         """Per body, Sigma_l^{-1} R_l^T (n_Gamma,l x m), formed on first use."""
         if self._B is None:
-            self._B = [sla.cho_solve(f, R.T) for f, R in zip(self._factors, self.rows)]
+            self._B = [sla.cho_solve(f, R.T.toarray()) for f, R in zip(self._factors, self.rows)]
         return self._B
 
     @property
     def W(self) -> np.ndarray:
         """W = sum_l R_l B_l (m x m), formed on first use."""
         if self._W is None:
-            self._W = sum(R @ B for R, B in zip(self.rows, self.B))
+            self._W = sum(np.asarray(R @ B) for R, B in zip(self.rows, self.B))
         return self._W
 
     @property
-    def stacked(self) -> np.ndarray:
-        """R = [R_1, R_2, ...] (m x n_Gamma, every body's Gamma dofs in order), formed on first use."""
+    def stacked(self) -> sp.csr_matrix:
+        """R = [R_1, R_2, ...] (m x n_Gamma, every body's Gamma dofs in order; sparse), formed on first use."""
         if self._stacked is None:
-            self._stacked = np.hstack(self.rows)
+            self._stacked = sp.hstack(self.rows, format="csr")
         return self._stacked
 
     def columns(self, rows) -> np.ndarray:
@@ -251,7 +254,7 @@ class Compliance:
         rows = np.asarray(rows, dtype=int)
         if self._B is not None:
             return np.vstack([B[:, rows] for B in self._B])
-        return np.vstack([sla.cho_solve(f, R[rows].T) for f, R in zip(self._factors, self.rows)])
+        return np.vstack([sla.cho_solve(f, R[rows].T.toarray()) for f, R in zip(self._factors, self.rows)])
 
     def keep(self, rows) -> np.ndarray:
         """The positions of ``rows`` in the kept block: ``kept_B[:, pos]`` are their columns of B (stacked) and
@@ -292,7 +295,7 @@ class InterfaceSystem:
         self.sizes = [len(b.gamma) for b in bodies]
         self.matrix = sp.block_diag([sp.csr_matrix(b.stiffness) for b in bodies], format="csr")
         self.rhs = np.concatenate([np.asarray(f, dtype=float) for f in loads])
-        self.rows = sp.csr_matrix(np.hstack([np.asarray(E @ b.jump) for b in bodies]))
+        self.rows = sp.hstack([sp.csr_matrix(E @ b.jump) for b in bodies], format="csr")
 
     def stack(self, v) -> np.ndarray:
         """x from each body's Gamma values ``v``."""

@@ -124,9 +124,8 @@ def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_
     """:func:`independent_active_set` on a condensed interface (:class:`CompliantRows`; ``v0`` the bodies'
     unconstrained Gamma displacements, ``g`` the rows' gaps). Returns (y, active, steps) or the reason it
     stopped."""
-    rows = sp.csr_matrix(np.hstack(compliance.rows))
-    return lawson_hanson(rows, y0, start, lambda first: CompliantRows(compliance, v0, g), None, tol, max_iter,
-                         g=np.asarray(g, dtype=float))
+    return lawson_hanson(compliance.stacked, y0, start, lambda first: CompliantRows(compliance, v0, g), None, tol,
+                         max_iter, g=np.asarray(g, dtype=float))
 
 
 def _purified(U, norms, y0, cand, chosen, factors=None, block: int = 64):

@@ -20,11 +20,11 @@ on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance
 def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
     """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
     column-pivoted QR, in the order of the pivots. ``factors``: also its R and pivots, (chosen, R, piv) with
-    M[:, piv] = Q R (Q itself is not formed)."""
+    M[:, piv] = Q R (Q itself is not formed). ``M`` is overwritten (LAPACK works in it: no copy of it)."""
     if M.shape[1] == 0:
         none = np.zeros(0, dtype=int)
         return (none, np.zeros((0, 0)), none) if factors else none
-    R, piv = sla.qr(M, mode="r", pivoting=True)
+    R, piv = sla.qr(np.asfortranarray(M), mode="r", pivoting=True, overwrite_a=True, check_finite=False)
     diag = np.abs(np.diag(R))
     chosen = piv[:int(np.sum(diag > tol))]
     return (chosen, R, piv) if factors else chosen
@@ -315,20 +315,29 @@ class CompliantRows:
         self.v0 = np.concatenate(v0)
         self.g = np.asarray(g, dtype=float)
         self.d = self.R @ self.v0 - self.g
-        self.absR = np.abs(self.R)
+        self.absR = abs(self.R)
         c = compliance
         self.system = UpdatedSystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)
         y = np.zeros(len(self.g))
-        cols = np.zeros(0, dtype=int)
+        c = self.compliance
+        spread = np.zeros(c.count)
         if len(P):
-            cols = self.compliance.keep(P)
-            WPP = self.compliance.kept_W[np.ix_(cols, cols)]
-            out = refined_solve(self.system, 2 * P, self.d[P], lambda w: (WPP @ w, None))
+            cols = c.keep(P)
+            spread = np.zeros(c.count)
+
+            def product(w):                     # W_PP w from the kept block in place (no |P| x |P| copy)
+                spread[:] = 0.0
+                spread[cols] = w
+                return (c.kept_W[:c.count, :c.count] @ spread)[cols], None
+
+            out = refined_solve(self.system, 2 * P, self.d[P], product)
             if out is None:
                 return None
             y[P] = out[0]
-        v = self.v0 - self.compliance.kept_B[:, cols] @ y[P]
+            spread[:] = 0.0
+            spread[cols] = y[P]
+        v = self.v0 - c.kept_B[:, :c.count] @ spread        # (no n_Gamma x |P| copy of B's columns)
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)

@@ -1,5 +1,7 @@
 """Shared scene builders for the test suite (small sizes: the whole suite runs in seconds)."""
 
+import dataclasses
+import importlib
 from pathlib import Path
 
 import numpy as np
@@ -86,3 +88,39 @@ def benchmark(name):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def captured(monkeypatch, scene, **options):
+    """``cc.solve(scene, **options)`` with the problem and a copy of the raw result its read-back was given:
+    (the solution, the problem, the raw result), for tests that perturb an answer and read it back again."""
+    from cvxcontact.solution.readback import read_back
+
+    seen = {}
+
+    def spy(problem, raw, *args, **kwargs):
+        seen.update(problem=problem, raw=dataclasses.replace(raw))
+        return read_back(problem, raw, *args, **kwargs)
+
+    monkeypatch.setattr(importlib.import_module("cvxcontact.solve"), "read_back", spy)
+    sol = cc.solve(scene, **options)
+    return sol, seen["problem"], seen["raw"]
+
+
+def p2_trace_jump(sol, xs):
+    """[u_nu] at the abscissae ``xs`` of a horizontal contact line from each body's own P2 trace (its boundary
+    edges, quadratic Lagrange on (start, end, mid)), body 1 above the line and body 2 below: independent of the
+    merged mesh and of what the contact rows or cones hold (m)."""
+    from cvxcontact.geometry.quadratic import P2Nodes
+
+    out = np.zeros_like(xs)
+    for k, body in enumerate(sol.scene.bodies):
+        nodes = P2Nodes(body.mesh)
+        e = nodes.boundary(body.contact)
+        xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
+        lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
+        j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
+        t = (xs - xa[j]) / (xb[j] - xa[j])
+        uy = sol.u[k][:, 1]
+        val = uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)
+        out += (-1.0 if k == 0 else 1.0) * val
+    return out

@@ -6,10 +6,10 @@ the slide (55 N and 2.7e4 N, measured) and the same wrong force read 1e-3 and 8.
 """
 
 import dataclasses
-import importlib
 
 import numpy as np
 import pytest
+from conftest import captured
 
 import cvxcontact as cc
 from cvxcontact.backends.finish.forces import FORCE_FLOOR, reach_forces
@@ -27,23 +27,12 @@ def _held_open(s, p=1e6):
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0.0, -1e-3), (0.0, 1.0)))])
 
 
-def _captured(monkeypatch, scene, **options):
-    """(the solution, the problem and the raw result its read-back was given)."""
-    seen = {}
-
-    def spy(problem, raw, *args, **kwargs):
-        seen.update(problem=problem, raw=dataclasses.replace(raw))
-        return read_back(problem, raw, *args, **kwargs)
-
-    monkeypatch.setattr(importlib.import_module("cvxcontact.solve"), "read_back", spy)
-    sol = cc.solve(scene, **options)
-    return sol, seen["problem"], seen["raw"]
 
 
 def test_the_check_floor_does_not_grow_with_a_slide_and_a_wrong_force_reads_the_same(monkeypatch):
     floors, cones, force = [], [], None
     for s in (1e-4, 1e-1):
-        sol, problem, raw = _captured(monkeypatch, _held_open(s))
+        sol, problem, raw = captured(monkeypatch, _held_open(s))
         assert sol.ok and sol.polished and not np.any(raw.y)                  # open: exactly no force
         f = problem.units.force
         floors.append(FORCE_FLOOR * f * reach_forces(problem.blocks, problem.E, raw.u, raw.phi,

@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import captured
 from friction_scenes import (
     P,
     cornered,
@@ -205,23 +206,12 @@ def test_a_p2_floor_and_wall_sharing_an_edge_finish(law):
     assert checks["stick-slip"] ** 2 < 1e-14 and checks["slip direction"] ** 2 < 1e-14   # products <= 4.6e-17
 
 
-def _captured(monkeypatch, scene, **options):
-    """(the solution, the problem and the raw result its read-back was given)."""
-    seen = {}
-
-    def spy(problem, raw, *args, **kwargs):
-        seen.update(problem=problem, raw=dataclasses.replace(raw))
-        return read_back(problem, raw, *args, **kwargs)
-
-    monkeypatch.setattr(importlib.import_module("cvxcontact.solve"), "read_back", spy)
-    sol = cc.solve(scene, **options)
-    return sol, seen["problem"], seen["raw"]
 
 
 def test_a_wrong_tangential_force_on_an_open_floor_still_reads_not_ok(monkeypatch):
     """The floor of the checks' force scale (the elastic forces at the rows) does not hide a real violation: a
     shear force of 1e-6 of the load on one open row (capacity 0) breaks the friction cone."""
-    sol, problem, raw = _captured(monkeypatch, opened(cc.Coulomb(0.3)))
+    sol, problem, raw = captured(monkeypatch, opened(cc.Coulomb(0.3)))
     assert sol.ok
     mu = np.array(raw.tangential, dtype=float)
     R = problem.E.shape[0]
@@ -236,7 +226,7 @@ def test_a_wrong_tangential_force_on_an_open_floor_still_reads_not_ok(monkeypatc
 def test_a_wrong_displacement_at_the_shared_corner_still_reads_not_ok(monkeypatch):
     """Displacements 1e-5 of the largest added at every seventh unknown read not ok (the right answer reads ok):
     the floor of the momentum rows' scales (a body at rest) hides nothing here."""
-    sol, problem, raw = _captured(monkeypatch, cornered(cc.Tresca(0.3 * P))[1])
+    sol, problem, raw = captured(monkeypatch, cornered(cc.Tresca(0.3 * P))[1])
     assert sol.ok
     u = [np.array(v, dtype=float) for v in raw.u]
     u[0] = u[0] + 1e-5 * np.abs(u[0]).max() * (np.arange(len(u[0])) % 7 == 3)
@@ -308,7 +298,7 @@ def test_the_friction_cone_check_does_not_depend_on_how_far_the_body_slid(monkey
     the rigid fit was taken out) 9.4e-4 and 2.1e-6 (tol 1e-6)."""
     cones = []
     for s in (1e-4, 1e-1):
-        sol, problem, raw = _captured(monkeypatch, _slid(s))
+        sol, problem, raw = captured(monkeypatch, _slid(s))
         assert sol.ok
         mu, cap = np.array(raw.tangential, dtype=float), np.asarray(raw.capacity)
         a = problem.E.shape[0] // 2
@@ -347,7 +337,7 @@ def test_the_friction_scale_is_the_same_after_a_rigid_motion_of_each_body(monkey
     rounding: the rigid part cancels in u - Q Q^T u up to eps |u|, which |K| carries to eps times the floor of
     |K| |u| (old[1]); and it is positive. The floor of |K| |u| it replaced grows with the motion (1e3-fold here: the
     comparison can fail)."""
-    sol, problem, raw = _captured(monkeypatch, scene(), **options)
+    sol, problem, raw = captured(monkeypatch, scene(), **options)
     assert sol.ok
     zero = np.zeros(problem.E.shape[0])
     size = 1e3 * max(float(np.abs(uk).max()) for uk in raw.u)

@@ -9,10 +9,10 @@ across the slide sees only the rounding of the friction forces' direction): equi
 """
 
 import dataclasses
-import importlib
 
 import numpy as np
 import pytest
+from conftest import captured
 from friction_scenes import slid_cube
 
 import cvxcontact as cc
@@ -21,22 +21,11 @@ from cvxcontact.solution.readback import read_back
 pytestmark = pytest.mark.numerics
 
 
-def _captured(monkeypatch, scene, **options):
-    """(the solution, the problem and the raw result its read-back was given)."""
-    seen = {}
-
-    def spy(problem, raw, *args, **kwargs):
-        seen.update(problem=problem, raw=dataclasses.replace(raw))
-        return read_back(problem, raw, *args, **kwargs)
-
-    monkeypatch.setattr(importlib.import_module("cvxcontact.solve"), "read_back", spy)
-    sol = cc.solve(scene, **options)
-    return sol, seen["problem"], seen["raw"]
 
 
 @pytest.mark.parametrize("s", [1e-4, 1e-1])
 def test_a_slid_cube_reads_balanced_at_any_slide_and_a_wrong_answer_does_not(monkeypatch, s):
-    sol, problem, raw = _captured(monkeypatch, slid_cube(s))
+    sol, problem, raw = captured(monkeypatch, slid_cube(s))
     assert len(sol.scene.bodies[0].held_by_contact) == 3                    # y, z and a rotation: the contact holds them
     slip = np.asarray(sol.contact.slip)
     assert (slip[:, 0] > 0.5 * s).all()                                    # every node slides along x
@@ -61,7 +50,7 @@ def test_a_q2_hexahedral_cube_slid_along_x_reads_balanced_and_agrees_with_the_un
     along y). The answer was right: it agrees with the interior point's own answer of the `full` backend, not
     finished, and its friction forces sum to g A."""
     scene = slid_cube(1e-4, p=1e7, n=2, cell="hex")
-    sol, problem, raw = _captured(monkeypatch, scene, degree=2, condition="sigma1")
+    sol, problem, raw = captured(monkeypatch, scene, degree=2, condition="sigma1")
     assert sol.ok
     assert sol.residuals()["equilibrium"] < 0.01 * sol.tol                   # measured 6.3e-11 (was 8.3e-4)
     assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(1e2, rel=1e-12)  # 2.2e-16

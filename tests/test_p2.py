@@ -4,13 +4,12 @@
 
 import numpy as np
 import pytest
+from conftest import p2_trace_jump, rel, two_blocks
 
 import cvxcontact as cc
 from cvxcontact.errors import SolverError
 from cvxcontact.fem import p2
 from cvxcontact.geometry.quadratic import P2Nodes
-
-from conftest import rel, two_blocks
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -64,7 +63,7 @@ def test_p2_stiffness_rigid_kernel_and_quadratic_energy():
 def test_p2_loads_against_closed_forms():
     """Sums and first moments of consistent loads: the work on u = (1, 0), (x, 0), (0, y) is the exact
     integral of the density times that field (a linear field lies in P2)."""
-    trac = lambda x, y: (2.0 + x * 0, 3.0 * y)                                     # noqa: E731
+    trac = lambda x, y: (2.0 + x * 0, 3.0 * y)
     body, nodes, s = _square(body_force=lambda x, y: (x * y, -3.0 + x * 0), traction={"right": trac})
     f = s.f.reshape(-1, 2)
     x, y = nodes.points[:, 0], nodes.points[:, 1]
@@ -127,22 +126,6 @@ def test_p1_and_p2_nodal_are_not_exact_on_the_patch(patch):
 
 # ---------------------------------------------------------------- "everywhere" by dense sampling
 
-def _sample_jump(sol, xs):
-    """[u_nu] at the abscissae xs from each body's own P2 trace (its boundary edges, quadratic Lagrange on
-    (start, mid, end)): independent of the merged mesh."""
-    out = np.zeros_like(xs)
-    for k, body in enumerate(sol.scene.bodies):
-        nodes = P2Nodes(body.mesh)
-        e = nodes.boundary(body.contact)
-        xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
-        lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
-        j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
-        t = (xs - xa[j]) / (xb[j] - xa[j])
-        uy = sol.u[k][:, 1]
-        val = uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)
-        normal = -1.0 if k == 0 else 1.0            # body 1 above the line, body 2 below
-        out += normal * val
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -162,7 +145,7 @@ def test_everywhere_holds_between_nodes_nodal_may_not(small):
     for cond in ("gamma3", "sigma1", "sigma2"):
         sol = cc.solve(small, cond, degree=2, tol=CONIC_TOL if cond == "gamma3" else 1e-6)
         assert sol.ok
-        jump = _sample_jump(sol, xs)
+        jump = p2_trace_jump(sol, xs)
         scale = np.abs(jump).max()
         results[cond] = (jump - small.gap(xs, 0 * xs)).max() / scale
         assert np.abs(jump).max() > 0 and results[cond] > -1.0
@@ -272,7 +255,7 @@ def test_p2_model_with_the_conic_condition(small):
     assert "user[0] feasibility" in capped.residuals()
     assert rel(capped.u[0], sol.u[0]) > 1e-4                       # the row changed the answer
     for s in (sol, capped):
-        assert _sample_jump(s, xs).max() < 1e-9 * scale           # gap 0: [u_nu] <= 0 everywhere
+        assert p2_trace_jump(s, xs).max() < 1e-9 * scale           # gap 0: [u_nu] <= 0 everywhere
 
 
 def test_p2_pressure_and_traction_of_the_patch(patch):

@@ -11,13 +11,12 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import rel
+from conftest import p2_trace_jump, rel
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
 from cvxcontact.backends.result import Finish, Route
 from cvxcontact.errors import ResidualWarning
-from cvxcontact.geometry.quadratic import P2Nodes
 
 pytestmark = pytest.mark.numerics
 
@@ -40,21 +39,11 @@ def pressed(material, nx=6):
     return cc.Scene(upper, lower, gap=GAP)
 
 
+
+
 def sampled_jump(sol, xs=XS):
-    """[u_nu] at the abscissae ``xs`` from each body's own P2 trace (its boundary edges, quadratic Lagrange on
-    (start, end, mid)): independent of the merged mesh and of the Bernstein coefficients the cones hold."""
-    out = np.zeros_like(xs)
-    for k, body in enumerate(sol.scene.bodies):
-        nodes = P2Nodes(body.mesh)
-        e = nodes.boundary(body.contact)
-        xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
-        lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
-        j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
-        t = (xs - xa[j]) / (xb[j] - xa[j])
-        uy = sol.u[k][:, 1]
-        val = uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)
-        out += (-1.0 if k == 0 else 1.0) * val     # the upper body above the line, the lower below
-    return out
+    """[u_nu] at ``xs`` from each body's own P2 trace (:func:`conftest.p2_trace_jump`)."""
+    return p2_trace_jump(sol, xs)
 
 
 def excess(sol):

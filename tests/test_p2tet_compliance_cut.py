@@ -201,7 +201,7 @@ def test_a_penetration_limit_under_gamma3_holds_everywhere_and_touches():
     much); the full program gives the same answer (measured 3.4e-16 DELTA), and so do the accumulated cuts when
     the tangency steps are declined (the cuts' point rows at g + l; measured 5.2e-11 DELTA and, at l = DELTA / 50,
     2.6e-8 DELTA)."""
-    import cvxcontact.backends.cones as cones
+    from cvxcontact.backends import cones
     from cvxcontact.backends.finish import Declined, Stop
 
     for ell in (0.1 * DELTA, 0.02 * DELTA):

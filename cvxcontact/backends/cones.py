@@ -12,7 +12,6 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs

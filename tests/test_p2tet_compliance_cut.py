@@ -198,9 +198,9 @@ def limited_pair(ell, k=1e12):
 def test_a_penetration_limit_under_gamma3_holds_everywhere_and_touches():
     """The jump sampled on 91 points of every overlay triangle never exceeds g + l and comes within 1e-2 l of it
     (max of [u_nu] - g - l measured -5.5e-6 DELTA, l = DELTA / 10: the sample misses the touching point by that
-    much); the full program gives the same answer (measured 3.4e-16 DELTA), and so do the accumulated cuts when
-    the tangency steps are declined (the cuts' point rows at g + l; measured 5.2e-11 DELTA and, at l = DELTA / 50,
-    2.6e-8 DELTA)."""
+    much); the full program and cc.Model give the same answer (measured 3.4e-16 DELTA), and so do the accumulated
+    cuts when the tangency steps are declined (the cuts' point rows at g + l; measured 5.2e-11 DELTA and, at
+    l = DELTA / 50, 2.6e-8 DELTA)."""
     from cvxcontact.backends import cones
     from cvxcontact.backends.finish import Declined, Stop
 
@@ -216,6 +216,8 @@ def test_a_penetration_limit_under_gamma3_holds_everywhere_and_touches():
         if ell == 0.1 * DELTA:
             full = cc.solve(scene, degree=2, method="full")
             assert full.ok and max(np.abs(a - b).max() for a, b in zip(sol.u, full.u)) < 1e-10 * DELTA
+            model = cc.Model(scene, degree=2).solve()                            # the same program (3.4e-16 DELTA)
+            assert model.ok and max(np.abs(a - b).max() for a, b in zip(sol.u, model.u)) < 1e-10 * DELTA
 
         def declined(problem, timings, raw, B):
             raw.declined = Declined(Stop.NOT_POSED, "declined here: the cuts' turn")

@@ -472,7 +472,8 @@ class P2Tet(P2):
         laws = pair_laws(scene, law)
         conditions = [c or condition for c in scene.conditions]
         compliant = any(lw.compliant for lw in laws)
-        limited = [c == "gamma3" and lw.compliant and lw.penetration_limit is not None for c, lw in zip(conditions, laws)]
+        limited = [c == "gamma3" and lw.compliant and lw.penetration_limit is not None
+                   for c, lw in zip(conditions, laws)]
         cone_pairs = [c == "gamma3" and (not lw.compliant or lim) for c, lw, lim in zip(conditions, laws, limited)]
         for i, itf in enumerate(scene.interfaces):
             if getattr(itf, "curved", None) is not None:
@@ -491,7 +492,8 @@ class P2Tet(P2):
         counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
         on_cone = None
         if compliant:                    # a compliant pair's rows: the law's quadrature points on its triangles (§15)
-            rules = [_law_rows(itf, c, lw, n, lim) for itf, c, lw, n, lim in zip(pairs, conditions, laws, counts, limited)]
+            rules = [_law_rows(itf, c, lw, n, lim)
+                     for itf, c, lw, n, lim in zip(pairs, conditions, laws, counts, limited)]
             E = (sp.block_diag([Q for Q, _, _ in rules], format="csr") @ E).tocsr()
             weights = np.concatenate([w for _, w, _ in rules])
             counts = np.array([len(w) for _, w, _ in rules])

@@ -18,7 +18,9 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
 - A pair of boxes (matching faces; and 2 x 2 on 4 x 4 with the finer side's nodes) gives the same answer posed from
   either side (sigma1 and sigma2 swapped); Coulomb finished to its own law.
 - On faces the overlap cuts (2 x 2 on a shifted 4 x 4, the coarser side's nodes) the weights are the red hats
-  integrated over the overlap (checked against a midpoint rule), and the pair from either side agrees.
+  integrated over the overlap, a node outside giving its share to the nearest node inside (checked against a midpoint
+  rule), and the pair from either side agrees. A block pushed over a face whose edge crosses its sub-triangles
+  slides with the capacity g times the overlap's area.
 """
 
 import numpy as np
@@ -321,8 +323,15 @@ def test_on_cut_faces_the_weights_are_the_red_hats_integrated_over_the_overlap()
         np.add.at(integral, tri, (L[inside] * h * h).sum(axis=0))
     assert done.all()
     rows = itf.sigma_rows(0)
+    outside = np.setdiff1d(np.flatnonzero(integral > 0), rows)
+    assert len(outside) > 0                                         # the overlap's edge cuts sub-triangles
+    for a in outside:                                               # its share to the nearest node inside (unique)
+        d = np.linalg.norm(t.x[rows] - t.x[a], axis=1)
+        assert np.sort(d)[1] > np.sort(d)[0] + 1e-9
+        integral[rows[np.argmin(d)]] += integral[a]
     assert (w > 0).all() and len(w) == len(rows)
     assert np.abs(w - integral[rows]).max() < 2e-3 * w.max()        # measured 2.0e-5 (the midpoint rule's error)
+    assert w.sum() == pytest.approx(0.875**2, rel=1e-12)            # the overlap's area: 0 (was 6.8 % short)
     here = cc.solve(scene, degree=2, condition="sigma1")
     there = cc.solve(shifted_pair(cc.Tresca(0.4 * P), swap=True), degree=2, condition="sigma2")
     assert here.ok and there.ok
@@ -334,3 +343,33 @@ def test_friction_under_the_conic_condition_is_refused_naming_the_nodal_rows_and
     with pytest.raises(cc.UnsupportedError, match=r"'gamma3'.*condition='sigma1' or 'sigma2'.*degree=1 with 'gamma3'"):
         cc.solve(scene, degree=2, condition="gamma3")
     assert cc.solve(scene, degree=1, condition="gamma3").ok                  # the alternative it names
+
+
+def overhanging_push(g, edge, s=1e-2):
+    """A box (2 x 2 cells, nu = 0) pressed by p and pushed by s (cos t, s sin t) on its left face over a box (4 x 4)
+    shifted by ``edge`` along x and clamped at its bottom: the overlap, [edge, 1] x [0, 1], cuts the upper box's
+    faces (its sub-triangles, of sides 1/4, cross x = edge when edge is not a multiple of 1/4). s is large against the
+    overhang's bending (~ p / E), so every row slides nearly along -t."""
+    a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
+                displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)}, name="top")
+    lower = cc.box(nx=4, ny=4, nz=1)
+    b = cc.Body(lower.with_points(lower.points + [edge, 0.0, -1.0]), steel(nu=0.0), contact="top", clamped="bottom",
+                name="below")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(g))])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("edge", [0.45, 0.3])
+def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity(edge):
+    """Row 33. Every row slides, so each row's force is its capacity g w_a along its slip, and the slips are parallel
+    up to the overhang's bending: the total shear force is g times the sum of the weights, which is the overlap's
+    area (1 - edge) m^2 once the nodes outside it give their share to the nearest node inside (the rule of the
+    law's cut-face weights). Dropping those shares left it short by 0.91 % at edge 0.45 and 11.4 % at 0.3."""
+    g = 1e-3 * P
+    sol = cc.solve(overhanging_push(g, edge), degree=2, condition="sigma1")
+    assert sol.ok
+    c = sol.contact
+    assert (np.linalg.norm(c.slip, axis=1) > 0.5e-2).all()                      # every node of X_h slides: >= 1.0e-2
+    assert c.slip_measure.sum() == pytest.approx(1 - edge, rel=1e-12)           # 2e-16
+    total = np.linalg.norm(c.shear_force.sum(axis=0))
+    assert total == pytest.approx(g * (1 - edge), rel=1e-5)                     # measured 1.2e-8, 2.3e-8

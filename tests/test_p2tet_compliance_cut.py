@@ -144,7 +144,8 @@ def sampled_penetration(scene, sol, pair=0, n=12):
     itself (a quadratic: its P2 interpolant on a triangle is itself)."""
     from cvxcontact.contact.quadratic3d import locate, p2_shape
 
-    itf = P2Tet().contact(scene, "gamma3", cc.Signorini()).interface.interfaces[pair]
+    lines = P2Tet().contact(scene, "gamma3", cc.Signorini()).interface
+    itf = getattr(lines, "interfaces", (lines,))[pair]
     ov = itf.linear.overlay
     V = np.asarray(ov.vertices)
     x = np.einsum("pk,tkd->tpd", simplex_grid(n), V[np.asarray(ov.triangles)]).reshape(-1, 2)
@@ -177,3 +178,68 @@ def test_signorini_cones_beside_a_compliance_pair_hold_everywhere_and_are_finish
     assert 0 < sol.contacts[0].active.sum() < sol.contacts[0].active.size
     model = cc.Model(scene, degree=2).solve()                 # the Model poses the same program (measured 0)
     assert model.ok and max(np.abs(a - b).max() for a, b in zip(model.u, sol.u)) <= 1e-12 * DELTA
+
+
+# ---------------------------------------------------------------------------------------------------------
+# a penetration limit under "gamma3": the copositive cone at g + l beside the law's quadrature rows (row 30)
+
+def limited_pair(ell, k=1e12):
+    """A block of 2 x 2 cells on one of 3 x 3 (non-matching faces, rollers on the sides, the lower block's base and
+    the upper's top), their gap the bump (-DELTA at the centre, +DELTA at the corners: partial contact), through the
+    law p = k r with the limit r <= ``ell`` under "gamma3"."""
+    low = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=3, ny=3, nz=1), STEEL, roller=SIDES + ["bottom"],
+                  name="below")
+    up = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1), nx=2, ny=2, nz=1), STEEL, roller=SIDES + ["top"],
+                 name="above")
+    law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
+    return cc.Scene(low, up, contacts=[cc.Contact(low, "top", up, "bottom", condition="gamma3", gap=bump, law=law)])
+
+
+def test_a_penetration_limit_under_gamma3_holds_everywhere_and_touches():
+    """The jump sampled on 91 points of every overlay triangle never exceeds g + l and comes within 1e-2 l of it
+    (max of [u_nu] - g - l measured -5.5e-6 DELTA, l = DELTA / 10: the sample misses the touching point by that
+    much); the full program and cc.Model give the same answer (measured 3.4e-16 DELTA), and so do the accumulated
+    cuts when the tangency steps are declined (the cuts' point rows at g + l; measured 5.2e-11 DELTA and, at
+    l = DELTA / 50, 2.6e-8 DELTA)."""
+    from cvxcontact.backends import cones
+    from cvxcontact.backends.finish import Declined, Stop
+
+    for ell in (0.1 * DELTA, 0.02 * DELTA):
+        scene = limited_pair(ell)
+        sol = cc.solve(scene, degree=2)
+        assert sol.ok and sol.polished
+        r = sol.residuals()
+        assert r["equilibrium"] < 1e-12 and r["cone"] < 1e-12 and r["feasibility"] < 1e-10   # <= 2.3e-16, 4.8e-13
+        over = sampled_penetration(scene, sol) - ell
+        assert -1e-2 * ell < over < 1e-9 * DELTA                 # -5.5e-6 DELTA (5.5e-5 l), -3.6e-5 DELTA (1.8e-3 l)
+        assert 0 < sol.contact.active.sum() < sol.contact.active.size            # partial contact: 83 of 105
+        if ell == 0.1 * DELTA:
+            full = cc.solve(scene, degree=2, method="full")
+            assert full.ok and max(np.abs(a - b).max() for a, b in zip(sol.u, full.u)) < 1e-10 * DELTA
+            model = cc.Model(scene, degree=2).solve()                            # the same program (3.4e-16 DELTA)
+            assert model.ok and max(np.abs(a - b).max() for a, b in zip(sol.u, model.u)) < 1e-10 * DELTA
+
+        def declined(problem, timings, raw, B):
+            raw.declined = Declined(Stop.NOT_POSED, "declined here: the cuts' turn")
+            return False
+
+        finish, cones._finish_mixed = cones._finish_mixed, declined
+        try:
+            cuts = cc.solve(scene, degree=2)
+        finally:
+            cones._finish_mixed = finish
+        assert cuts.ok and cuts.info.finish == "accumulated cuts"
+        assert max(np.abs(a - b).max() for a, b in zip(sol.u, cuts.u)) < 1e-5 * DELTA   # 5.2e-11, 2.6e-8 DELTA
+
+
+def test_a_penetration_limit_under_gamma3_far_away_is_no_limit():
+    """With l above the largest penetration of the law alone (0.11 DELTA at l = 0.3 DELTA) the answer is the law's
+    without a limit (measured 4.7e-16 DELTA; lambda 3.5e-15)."""
+    scene = limited_pair(0.3 * DELTA)
+    free = cc.Scene(*scene.bodies, contacts=[cc.Contact(scene.bodies[0], "top", scene.bodies[1], "bottom",
+                                                        condition="gamma3", gap=bump,
+                                                        law=cc.NormalCompliance(stiffness=1e12))])
+    a, b = cc.solve(scene, degree=2), cc.solve(free, degree=2)
+    assert a.ok and b.ok
+    assert max(np.abs(x - y).max() for x, y in zip(a.u, b.u)) < 1e-10 * DELTA
+    assert np.abs(a.contact.lam - b.contact.lam).max() < 1e-8 * np.abs(b.contact.lam).max()

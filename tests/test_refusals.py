@@ -208,8 +208,7 @@ def test_p2_tetrahedra_gamma3_next_to_a_compliance_pair_closed_form():
         assert np.abs(c.lam / p - 1).max() <= 1e-6
 
 
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a penetration limit under gamma3 with P2 "
-                   "tetrahedra (the copositive condition at g + l)")
+@pytest.mark.numerics
 def test_p2_tetrahedra_gamma3_with_a_penetration_limit_closed_form():
     """Row 30 (b). The layer on a rigid plane pressed by p through p = k r with a limit l = p / (2 k): it stops at
     r = l, u_z = -l - p z / c33, lambda = p (the nodal limit under sigma1 gives this to 8e-16,

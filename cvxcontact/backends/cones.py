@@ -12,7 +12,6 @@ import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.laws import RowLaws
 from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
@@ -503,11 +502,13 @@ def conic_mix_model(blocks, E, g, law, weights, B, condensed=None, loads=None, t
 
 
 def mixed_bernstein_rows(problem):
-    """The cone pairs' Bernstein map on the rows of E (E is the identity on a cone pair's nodes); None where no
-    cones sit beside a compliance law."""
+    """The cone pairs' Bernstein map on the rows of E: on the cone rows (``rows.cone``, where E is the identity on
+    a cone pair's nodes; a limited compliant pair of P2 tetrahedra also has its law's quadrature rows, off the
+    cone); None where no cones sit beside a compliance law."""
     if problem.lines.mixed_bernstein is None:
         return None
-    return (problem.lines.mixed_bernstein[0] @ problem.E.T).tocsr()
+    on = sp.diags(np.asarray(problem.rows.cone, dtype=float))
+    return (problem.lines.mixed_bernstein[0] @ problem.E.T @ on).tocsr()
 
 
 def mixed_full(problem, cache, settings, timings) -> RawResult:
@@ -612,8 +613,7 @@ def _finish_nodal_rows(problem, cache, settings, timings, raw, r):
     t0 = time.perf_counter()
     y, z = raw.y, raw.z
     R, C = np.flatnonzero(~law.cone), np.flatnonzero(law.cone)
-    nodal = [not c for c in problem.lines.cone_pairs]
-    rows = RowLaws([lw for lw, on in zip(law.laws, nodal) if on], [n for n, on in zip(law.counts, nodal) if on])
+    rows = law.off_cone()
     W = compliance.W
     start = None
     if (rows.limited & ~rows.rows).any():             # Signorini rows: start from the IPM's active set

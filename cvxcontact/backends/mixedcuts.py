@@ -34,23 +34,26 @@ MIXED_CUT_TOL = 1e-11
 def finish_cuts_compliance(problem, timings, raw, B) -> bool:
     """The finish of the module docstring on a solved cone/compliance program ``raw`` (scaled: its fields, the
     Bernstein duals ``raw.beta`` (S, w) of the cones ``B`` (w S, N) on the rows of E, the row forces y = w p(r) + z
-    and z). Bodies held by their supports only (no held rows, no force-controlled obstacle) and cones of Signorini
-    pairs only (a compliant pair's cone at g + l, a penetration limit under "gamma3": declined). Updates
+    and z). Bodies held by their supports only (no held rows, no force-controlled obstacle) and cones on rows the
+    law does not weigh: a Signorini pair's, and a limited compliant pair's nodes of X_h beside its quadrature rows
+    (3D: the cone at g + l, the point rows r(x_p) <= l); a cone on the law's own rows (2D P2: its nodes) is
+    declined. Updates
     ``raw`` (u, phi, y, z, beta, active, finish) and returns True, or sets ``raw.declined`` and returns False."""
     law, g, w = problem.scaled_law, np.asarray(problem.g, dtype=float), np.asarray(problem.weights, dtype=float)
     if list(problem.translations) or np.any(problem.held_rows):
         raw.declined = Declined(Stop.NOT_POSED, "the cuts beside a compliance law take bodies held by their supports")
         return False
-    if np.any((w > 0) & np.asarray(law.cone)):          # a compliant cone pair: the cone at g + l on the law's rows
-        raw.declined = Declined(Stop.NOT_POSED, "the cuts beside a compliance law take Signorini cone pairs only")
+    if np.any((w > 0) & np.asarray(law.cone)):          # 2D P2: the cone at g + l on the law's own rows
+        raw.declined = Declined(Stop.NOT_POSED, "the cuts beside a compliance law take cones off the law's rows")
         return False
     t0 = time.perf_counter()
     width = int(np.shape(raw.beta)[1])
     B = sp.csr_matrix(B)
     A, F, G, widths = _mixed_system(problem)
     rows = np.flatnonzero(~np.asarray(law.cone))             # the law's rows and the nodal pairs' rows
-    nodal = [i for i, c in enumerate(problem.lines.cone_pairs) if not c]
-    laws, counts = [law.laws[i] for i in nodal] + [Signorini()], [law.counts[i] for i in nodal]
+    off = law.off_cone()                                     # the law's rows (a cone pair's without its limit)
+    laws, counts = list(off.laws) + [Signorini()], list(off.counts)
+    shift = np.asarray(law.cone_shift, dtype=float)          # the cone at g + l of a limited compliant pair
     z_start = np.maximum(np.asarray(raw.z, dtype=float), 0.0)[rows] if raw.z is not None else np.zeros(len(rows))
     state = {"x": stacked(raw.u, raw.phi, raw.taus or ()), "z": z_start}
     segment, t = seed_points(B, raw.beta, width=width)
@@ -60,7 +63,7 @@ def finish_cuts_compliance(problem, timings, raw, B) -> bool:
     def solve(P, delta):
         k = P.shape[0]
         Gr = sp.vstack([G[rows], P @ G], format="csr")
-        gr = np.concatenate([g[rows], P @ g + delta])
+        gr = np.concatenate([g[rows], P @ (g + shift) + delta])
         wr = np.concatenate([w[rows], np.zeros(k)])
         y0 = np.zeros(k)
         y0[:min(k, len(state["y"]))] = state["y"][:k]
@@ -71,7 +74,7 @@ def finish_cuts_compliance(problem, timings, raw, B) -> bool:
             return None
         x, _, z = out[:3]
         state.update(x=x, z=z[:len(rows)], y=z[len(rows):])
-        slack = G @ x - g
+        slack = G @ x - g - shift
         scale = absG @ np.abs(x) + np.abs(g)
         scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
         return state["y"], slack, scale, (x, z), state["y"] > 0

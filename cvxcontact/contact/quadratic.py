@@ -391,11 +391,28 @@ class ConeRowLaws(RowLaws):
         if cone.shape != (self.size,):
             raise SceneError(f"ConeRowLaws: {cone.shape} cone flags for {self.size} rows")
         limit = np.asarray(self.penetration_limit)
+        pair = np.repeat(np.arange(len(self.counts)), self.counts)
+        on_pair = (np.bincount(pair, weights=cone, minlength=len(self.counts)) > 0)[pair]
         self.cone = cone
         self.cone_shift = np.where(cone & np.isfinite(limit), limit, 0.0)
-        self.penetration_limit = np.where(cone, np.inf, limit)
+        self.penetration_limit = np.where(on_pair, np.inf, limit)    # the cone holds a cone pair's limit
         for a in (self.cone, self.cone_shift, self.penetration_limit):
             a.setflags(write=False)
+
+    def off_cone(self) -> RowLaws:
+        """The :class:`RowLaws` of the rows off the cone (``~cone``, in order): per pair its rows off the cone, a
+        cone pair's law without its penetration limit (the cone holds it: 3D P2, a limited compliant "gamma3"
+        pair's quadrature rows)."""
+        from dataclasses import replace
+
+        at = np.concatenate([[0], np.cumsum(self.counts)]).astype(int)
+        laws, counts = [], []
+        for lw, a, b in zip(self.laws, at[:-1], at[1:]):
+            n = int((~self.cone[a:b]).sum())
+            if n:
+                laws.append(replace(lw, penetration_limit=None) if lw.compliant and self.cone[a:b].any() else lw)
+                counts.append(n)
+        return RowLaws(laws, counts)
 
     def scaled(self, pressure: float, displacement: float) -> "ConeRowLaws":
         """The same rows in units of ``pressure`` (Pa) and ``displacement`` (m), cone flags kept."""

@@ -340,16 +340,27 @@ class QuadraticSurface(Represented):
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if self.rigid or condition == "gamma3":
             return np.zeros(self.size)
-        l = int(condition[-1]) - 1
-        t, other, inside = self.traces[l], self.linear.traces[1 - l], self.sigma_rows(l)
         _, cut = self._sigma_faces(condition)
-        if len(cut) == 0 or len(inside) == 0:
+        return self._overlap_hats(int(condition[-1]) - 1, cut)
+
+    def _overlap_hats(self, l, faces) -> np.ndarray:
+        """(rows of "sigma<l+1>",) m^2: the integrals over the overlap of the P1 hats of the red refinement
+        (:data:`RED_SUBTRIANGLES`) of body l's ``faces`` (k, 6) (exact: the overlay of the refined faces with the other
+        body's faces, on whose cells the hats are affine), a node of those faces outside the overlap giving its share
+        to the nearest node inside (the value :meth:`extend` gives it there). Non-negative; they sum to the area of
+        the overlap the faces cover, so a constant is integrated exactly. The one rule of the nodal weights on faces
+        the overlap's edge cuts: the law's (:meth:`_cut_weights`) and friction's (:meth:`weights`)."""
+        t, other, inside = self.traces[l], self.linear.traces[1 - l], self.sigma_rows(l)
+        faces = np.asarray(faces).reshape(-1, 6)
+        if len(faces) == 0 or len(inside) == 0:
             return np.zeros(len(inside))
-        cover = overlay(t.x, cut[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
+        cover = overlay(t.x, faces[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
         if len(cover.vertices) == 0:
             return np.zeros(len(inside))
-        hats = np.asarray(cover.Ia.T @ np.asarray(cover.lumped))   # int over the overlap of each hat (affine per cell)
+        hats = np.asarray(cover.Ia.T @ np.asarray(cover.lumped)).ravel()   # int over the overlap of each hat
         out = np.setdiff1d(np.flatnonzero(hats > 0), inside)
+        if len(out) == 0:
+            return hats[inside]
         nearest = cKDTree(t.x[inside]).query(t.x[out])[1]
         return hats[inside] + np.bincount(nearest, weights=hats[out], minlength=len(inside))
 
@@ -381,11 +392,14 @@ class QuadraticSurface(Represented):
         """The areas (m^2) attributed to the rows of :meth:`evaluation`, positive: the friction capacities g w_a
         (docs/howto/friction.md). Each P2 triangle's red refinement (its six nodes the vertices of four triangles of
         a quarter of its area, :data:`RED_SUBTRIANGLES`) carries the P1 hats phi_i of those nodes, and w_i is their
-        integral: "sigma1"/"sigma2" over the overlap (body l's hats at its nodes in the overlap, exact by the overlay
-        of the refined faces with the other body's, whose cells the hats are affine on: on faces the overlap covers,
-        A/12 at a vertex and A/4 at an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its
-        hats; they sum to the area those hats cover); "gamma3" over the triangles of X_h; against an obstacle the
-        row sums of that mass restricted to the nodes that reach it (as P1's). Exact for linear functions. Not the
+        integral: "sigma1"/"sigma2" over the overlap (body l's hats, exact by the overlay of the refined faces with
+        the other body's, whose cells the hats are affine on: on faces the overlap covers, A/12 at a vertex and A/4 at
+        an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its hats; on faces the overlap's
+        edge cuts, a node outside the overlap gives its share to the nearest node inside, the rule of the law's
+        :meth:`_cut_weights`, :meth:`_overlap_hats`: they sum to the overlap's area, so the capacities sum to g
+        times it); "gamma3" over the triangles of X_h; against an obstacle the row sums of that mass restricted to
+        the nodes that reach it (as P1's). Exact for constants, and for linear functions where the overlap's edge
+        follows edges of the refined faces. Not the
         integrals of the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where
         a vertex would then slip for free."""
         if self.rigid:
@@ -396,10 +410,7 @@ class QuadraticSurface(Represented):
             cells, area = self._law_triangles(condition)
             return red_weights(cells, area, self.size)
         l = int(condition[-1]) - 1
-        t, other = self.traces[l], self.linear.traces[1 - l]
-        cover = overlay(t.x, np.asarray(t.faces)[:, RED_SUBTRIANGLES].reshape(-1, 3), other.x, other.faces)
-        hats = cover.Ia.T @ np.asarray(cover.lumped)    # int over the overlap of each hat (affine on each cell)
-        return hats[self.sigma_rows(l)]
+        return self._overlap_hats(l, self.traces[l].faces)
 
     def row_mass(self, condition) -> sp.csr_matrix:
         """(rows, rows): the P2 mass matrix (m^2) of the triangles of :meth:`quadrature` on the rows of

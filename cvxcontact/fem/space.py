@@ -454,7 +454,8 @@ class P2Tet(P2):
     its rows evaluate [u_nu] there (the P2 interpolant of the condition's nodal rows, a positive-weight rule of
     degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15; on faces the overlap's
     edge cuts, the nodal rows with positive weights); a Signorini "gamma3" pair's copositive cones sit beside it in
-    one program (``mixed_bernstein``), a limit under "gamma3" is refused."""
+    one program (``mixed_bernstein``), as do a limited compliant "gamma3" pair's (at g + l, on its nodes of X_h
+    beside the law's quadrature rows)."""
 
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
@@ -471,9 +472,9 @@ class P2Tet(P2):
         laws = pair_laws(scene, law)
         conditions = [c or condition for c in scene.conditions]
         compliant = any(lw.compliant for lw in laws)
-        if compliant:
-            _refuse_cones_next_to_compliance(scene, conditions, laws)
-        cone_pairs = [c == "gamma3" and not lw.compliant for c, lw in zip(conditions, laws)]     # beside the law
+        limited = [c == "gamma3" and lw.compliant and lw.penetration_limit is not None
+                   for c, lw in zip(conditions, laws)]
+        cone_pairs = [c == "gamma3" and (not lw.compliant or lim) for c, lw, lim in zip(conditions, laws, limited)]
         for i, itf in enumerate(scene.interfaces):
             if getattr(itf, "curved", None) is not None:
                 raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
@@ -489,15 +490,17 @@ class P2Tet(P2):
         else:                            # nodal rows; a compliant gamma3 pair's: every node of X_h (§15)
             E = stack.evaluation(condition, conditions)
         counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
+        on_cone = None
         if compliant:                    # a compliant pair's rows: the law's quadrature points on its triangles (§15)
-            rules = [itf.quadrature(c) if lw.compliant else (sp.identity(n, format="csr"), np.zeros(n))
-                     for itf, c, lw, n in zip(pairs, conditions, laws, counts)]
-            E = (sp.block_diag([Q for Q, _ in rules], format="csr") @ E).tocsr()
-            weights = np.concatenate([w for _, w in rules])
-            counts = np.array([len(w) for _, w in rules])
+            rules = [_law_rows(itf, c, lw, n, lim)
+                     for itf, c, lw, n, lim in zip(pairs, conditions, laws, counts, limited)]
+            E = (sp.block_diag([Q for Q, _, _ in rules], format="csr") @ E).tocsr()
+            weights = np.concatenate([w for _, w, _ in rules])
+            counts = np.array([len(w) for _, w, _ in rules])
+            on_cone = np.concatenate([c for _, _, c in rules])
         rows, mixed = RowLaws(laws, counts), None
-        if compliant and any(cone_pairs):   # a Signorini gamma3 pair's rows: its nodes of X_h, held by the cone (§16)
-            rows = ConeRowLaws(laws, counts, np.repeat(cone_pairs, counts))
+        if compliant and any(cone_pairs):   # a cone pair's rows: its nodes of X_h, held by the cone (§16)
+            rows = ConeRowLaws(laws, counts, on_cone)
             mixed = stack.bernstein_of(cone_pairs)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
         departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
@@ -508,16 +511,20 @@ class P2Tet(P2):
                             departure=departure, mixed_bernstein=mixed)
 
 
-def _refuse_cones_next_to_compliance(scene, conditions, laws):
-    """UnsupportedError for what a normal-compliance law with P2 tetrahedra does not pose: a compliant "gamma3" pair
-    with a penetration limit (the copositive cone of §16 at g + l)."""
-    for i, (c, lw) in enumerate(zip(conditions, laws)):
-        if c != "gamma3" or not lw.compliant:
-            continue
-        if lw.penetration_limit is not None:
-            raise UnsupportedError(f"contacts[{i}] {scene.contacts[i]!r}: a penetration limit under 'gamma3' with P2 "
-                                   "(10-node) tetrahedra (the copositive condition at g + l) is not available: use "
-                                   "'sigma1'/'sigma2' (a nodal limit), no limit, or degree=1")
+def _law_rows(itf, condition, law, n, limited) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """(Q (k, n), w (k,) m^2, cone (k,) bool): the rows of one P2 tetrahedral pair on its ``n`` condition nodes.
+    A compliant pair: the law's quadrature (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`);
+    with a penetration limit under "gamma3" also its nodes of X_h (weight 0), on which the copositive cone at
+    g + l holds (docs/formulation.md §16): rows [Q; I]. A Signorini pair: its nodes (weight 0), on the cone if
+    ``condition`` is "gamma3"."""
+    eye = sp.identity(n, format="csr")
+    if not law.compliant:
+        return eye, np.zeros(n), np.full(n, condition == "gamma3")
+    Q, w = itf.quadrature(condition)
+    if not limited:
+        return Q, w, np.zeros(len(w), dtype=bool)
+    return (sp.vstack([Q, eye], format="csr"), np.concatenate([w, np.zeros(n)]),
+            np.concatenate([np.zeros(len(w), dtype=bool), np.ones(n, dtype=bool)]))
 
 
 class Q1Hex(P1Tet):

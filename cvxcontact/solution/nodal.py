@@ -180,7 +180,8 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             rows_i = slice(offsets[i], offsets[i + 1])
             lam_i = lam[rows_i]
             if hasattr(itf, "law_pressure"):     # P2 faces: rows at the law's quadrature points, lambda the Riesz
-                lam_i = itf.law_pressure(cond, force[rows_i]) * un.length            # representer of w p + z
+                law_i = ~np.asarray(getattr(rows, "cone", np.zeros(len(force), dtype=bool)))[rows_i]   # of w p + z
+                lam_i = itf.law_pressure(cond, force[rows_i][law_i]) * un.length     # (not the cone's nodal rows)
             elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
                 # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
                 # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13),
@@ -234,15 +235,21 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     contacts = []
     for i, (itf, c) in enumerate(zip(pairs, sol.contacts)):
         a, b = rows_at[i], rows_at[i + 1]
-        if b == a or not law.cone[a]:
+        cone_i = np.asarray(law.cone[a:b])
+        if b == a or not cone_i.any():
             contacts.append(c)
             continue
-        nodes_i = slice(offsets[i], offsets[i + 1])                            # = rows a:b (E = I there)
-        active = on[nodes_i] | (p[a:b] > 0)
-        changes = {"active": active}
+        nodes_i = slice(offsets[i], offsets[i + 1])                  # = the cone rows of a:b (E = I there)
+        if cone_i.all():                                             # 2D: the law on the cone's rows
+            law_p = p[a:b]
+            riesz = spla.spsolve((itf.mass / un.length).tocsc(), zc[nodes_i])         # M scaled like w
+        else:       # P2 tetrahedra: the law's quadrature rows, then the cone's nodes of X_h (weight 0)
+            cond = scene.conditions[i] or problem.condition
+            law_p = itf.law_pressure(cond, force[a:b][~cone_i]) * un.length
+            riesz = itf.multiplier(zc[nodes_i]) * un.length
+        changes = {"active": on[nodes_i] | (law_p > 0)}
         if c.law is not None and c.law.compliant:
-            lam = p[a:b] + spla.spsolve((itf.mass / un.length).tocsc(), zc[nodes_i])    # M scaled like w
-            changes["lam"] = lam * (un.stress * un.load)
+            changes["lam"] = (law_p + riesz) * (un.stress * un.load)
         c = replace(c, **changes)
         for arr in changes.values():
             arr.setflags(write=False)

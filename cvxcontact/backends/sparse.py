@@ -434,22 +434,23 @@ class SparseContact:
 
     def _attempts(self):
         """The (settle, fresh) of :meth:`solve`'s attempts, each from the same start set: the steps near the base
-        on its columns (:meth:`_settle`) on the base a previous solve left, and if they stop (a cycle, a singular
-        system, ``max_iter``) the same from a fresh factorisation (:meth:`forget`), then the plain steps (no
-        settling) from a fresh factorisation. Why fresh: the steps' path depends on the base through the sets
-        the capacitance form takes and the rounding of rows whose force and gap are both tiny; on
-        thin_layer(1000) the steps from the bonded start cycled on a base left by an earlier solve (and its plain
-        steps too) where on a fresh object they settle in 11 systems. From a fresh factorisation the path is a
-        fresh object's (with the same ``cap``), whatever this object solved before."""
+        on its columns (:meth:`_settle`) on the base a previous solve left, and if they stop (a cycle, a system
+        that fails its check, ``max_iter``) the same from a fresh factorisation and analysis (:meth:`forget`),
+        then the plain steps (no settling) from a fresh one again. Why fresh: what a solve leaves decides the next
+        one's path, the base through the sets the capacitance form takes, and PARDISO's analysis through its
+        scaling and weighted matching, computed from the values of the first matrix it factorised and kept for
+        every later factor. Measured on thin_layer(1000), analysed on a coarse subset of rows closed: 124-1,237
+        perturbed pivots, every later solve from the bonded start on that object stopped on a system that failed
+        its check (the fresh object: 10 systems, none perturbed). From a fresh factorisation and analysis the
+        path is a fresh object's (with the same ``cap``), whatever this object solved before."""
         first = [(True, False)] if self.base is not None else []
         return first + [(True, True), (False, True)]
 
     def forget(self, analysis: bool = False):
-        """Drop the base factor and its capacitance columns (SuperLU's ordering and ``cap`` are kept): the next
-        system is factorised afresh on its own set. ``analysis``: drop PARDISO's analysis too, whose scaling and
-        weighted matching are computed from the values of the first matrix it factorises (the set the first
-        solve started from), so that every later factor, and the steps' path, depends on that set; the next
-        system then pays a new analysis (0.31-0.33 s on thin_layer(3000), about four factorisations)."""
+        """Drop the base factor and its capacitance columns (SuperLU's ordering, which depends on the pattern
+        alone, and ``cap`` are kept): the next system is factorised afresh on its own set. ``analysis``: drop
+        PARDISO's analysis too (:meth:`_attempts`); the next system pays a new one (0.31-0.33 s on
+        thin_layer(3000), about four numeric factorisations)."""
         self.base, self._columns, self._base_state = None, {}, None
         if analysis and self._pardiso is not None:
             self._pardiso.release()

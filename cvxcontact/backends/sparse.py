@@ -32,7 +32,9 @@ dense system for (t, s) needs one base solve per changed row (cached across step
 m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
 column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
 answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
-refinement steps) and refactorised if the check fails.
+refinement steps) and refactorised if the check fails. Steps that stop (a cycle, a system failing its check) on the
+state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
+the path of a new object (:meth:`SparseContact._attempts`).
 
 Near the answer the steps flip a few rows at a time (on a long interface between non-matching meshes, rows whose
 force and gap are both tiny beside their scales: thin_layer(3000) took 7 steps of 1-19 rows after its last

@@ -32,7 +32,9 @@ dense system for (t, s) needs one base solve per changed row (cached across step
 m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
 column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
 answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
-refinement steps) and refactorised if the check fails.
+refinement steps) and refactorised if the check fails. Steps that stop (a cycle, a system failing its check) on the
+state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
+the path of a new object (:meth:`SparseContact._attempts`).
 
 Near the answer the steps flip a few rows at a time (on a long interface between non-matching meshes, rows whose
 force and gap are both tiny beside their scales: thin_layer(3000) took 7 steps of 1-19 rows after its last
@@ -419,15 +421,42 @@ class SparseContact:
             settled = self._settle(new, S, visited) if settle else new    # the steps near the base on its columns
             return (x, y), (new if settled.tobytes() in visited else settled)
 
-        settle = True
-        out = active_set_steps(step, active, max_iter)
-        if isinstance(out, Declined):       # (not met) the plain steps, as before the columns settled any
-            settle, visited = False, set()
-            out = active_set_steps(step, active, max_iter)
+        out, start = None, active
+        for settle, fresh in self._attempts():
+            if fresh:
+                self.forget(analysis=True)
+            visited = set()
+            out = active_set_steps(step, start, max_iter)
+            if not isinstance(out, Declined):
+                break
         if isinstance(out, Declined):
             return None
         (x, y), active, steps = out
         return self._split(x) + (np.where(active, y, 0.0), active, steps)
+
+    def _attempts(self):
+        """The (settle, fresh) of :meth:`solve`'s attempts, each from the same start set: the steps near the base
+        on its columns (:meth:`_settle`) on the base a previous solve left, and if they stop (a cycle, a system
+        that fails its check, ``max_iter``) the same from a fresh factorisation and analysis (:meth:`forget`),
+        then the plain steps (no settling) from a fresh one again. Why fresh: what a solve leaves decides the next
+        one's path, the base through the sets the capacitance form takes, and PARDISO's analysis through its
+        scaling and weighted matching, computed from the values of the first matrix it factorised and kept for
+        every later factor. Measured on thin_layer(1000), analysed on a coarse subset of rows closed: 124-1,237
+        perturbed pivots, every later solve from the bonded start on that object stopped on a system that failed
+        its check (the fresh object: 10 systems, none perturbed). From a fresh factorisation and analysis the
+        path is a fresh object's (with the same ``cap``), whatever this object solved before."""
+        first = [(True, False)] if self.base is not None else []
+        return first + [(True, True), (False, True)]
+
+    def forget(self, analysis: bool = False):
+        """Drop the base factor and its capacitance columns (SuperLU's ordering, which depends on the pattern
+        alone, and ``cap`` are kept): the next system is factorised afresh on its own set. ``analysis``: drop
+        PARDISO's analysis too (:meth:`_attempts`); the next system pays a new one (0.31-0.33 s on
+        thin_layer(3000), about four numeric factorisations)."""
+        self.base, self._columns, self._base_state = None, {}, None
+        if analysis and self._pardiso is not None:
+            self._pardiso.release()
+            self._pardiso = None
 
     def _state(self, active):
         """(x, y, slack G x - g, S each row's displacement scale) of K(active) z = [F; P g], or None if singular."""
@@ -441,7 +470,7 @@ class SparseContact:
     def set_soft(self, soft):
         """New compliances of the closed rows (the base factor no longer holds)."""
         self.soft = np.broadcast_to(np.asarray(soft, dtype=float), (self.m,)).copy()
-        self.base, self._columns, self._base_state = None, {}, None
+        self.forget()
 
     def regularised(self, F, g, active, max_iter: int = 100):
         """The regularised problem of the rows' compliances ``soft`` (> 0): min Phi(x) = 1/2 x^T A x - F^T x +

@@ -97,7 +97,7 @@ def peak_pressure(sol: Solution) -> float:
 
 
 def unknowns(bodies: Sequence, degree: int) -> int:
-    """The nodal unknowns of ``bodies`` (:class:`~cvxcontact.physics.scene.Body`, or anything with ``mesh`` and
+    """The nodal unknowns of ``bodies`` (:class:`~cvxcontact.physics.body.Body`, or anything with ``mesh`` and
     ``piezoelectric``) at ``degree``: u (dim per node) and phi (one per node of a piezoelectric body) on the
     nodes of the degree's space (:meth:`~cvxcontact.fem.space.Space.node_set`), as ``AdaptStep.unknowns``
     counts them after the solve."""

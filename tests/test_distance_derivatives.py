@@ -1,6 +1,6 @@
 """The gradient and Hessian of a rigid obstacle's posed distance along the contact part
-(:meth:`cvxcontact.Rigid.distance_derivatives`, closed forms of :class:`~cvxcontact.physics.pairs.ClosestPoint`
-and :class:`~cvxcontact.physics.pairs.Ray`), which the tangency Newton of P2 "gamma3" uses to find where the true
+(:meth:`cvxcontact.Rigid.distance_derivatives`, closed forms of :class:`~cvxcontact.physics.posings.ClosestPoint`
+and :class:`~cvxcontact.physics.posings.Ray`), which the tangency Newton of P2 "gamma3" uses to find where the true
 slack touches zero (docs/formulation.md §18). Independent reference: central differences (step 1e-5 m) of the
 distance (the gradient) and of the gradient (the Hessian) along an orthonormal basis of the part's plane; the
 Hessian's symmetry; the gradient's zero component along the part's normal."""

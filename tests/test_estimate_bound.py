@@ -13,7 +13,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.apps.studies import bound as study
-from cvxcontact.solution import bound
+from cvxcontact.solution import bound, equilibration
 
 pytestmark = pytest.mark.numerics   # equilibrated fluxes, sparse saddle-point solves (every kernel set)
 
@@ -75,7 +75,7 @@ def test_the_stress_is_equilibrated_where_the_construction_did_not_look():
     scene = study.crowned_scene()
     sol = cc.solve(scene, estimate=False)
     tau, v = bound.equilibrated_stress(sol)
-    _, _, verts = bound._split(scene.bodies[0].mesh)
+    _, _, verts = equilibration._split(scene.bodies[0].mesh)
     scale = np.abs(tau).max()
     f = np.array([0.0, -1e8])
     # the divergence: tau linear, so div = sum_k tau_k . grad L_k with grad L from the vertex coordinates

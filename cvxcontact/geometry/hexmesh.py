@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh, cell_corners
-from .mesh import _frozen, _renumbering
+from .meshchecks import _frozen, _renumbering
 from .tetmesh import TetMesh
 from .tetmesh import _as_points as _as_points3
 

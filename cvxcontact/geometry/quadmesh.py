@@ -18,7 +18,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import MeshError
 from .base import CellMesh, cell_corners
-from .mesh import Mesh, _as_points, _frozen, _renumbering
+from .mesh import Mesh
+from .meshchecks import _as_points, _frozen, _renumbering
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
 

@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh
 from .facets import facet_keys
-from .mesh import _check_nodes, _frozen, _renumbering
+from .meshchecks import _check_nodes, _frozen, _renumbering
 
 __all__ = ["TetMesh"]
 

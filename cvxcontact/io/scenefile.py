@@ -126,7 +126,7 @@ _OBSTACLE = {"name", "plane", "circle", "profile", "sphere", "cylinder", "height
 _OBSTACLE_KINDS = {"plane": {"point", "normal", "distance"}, "circle": {"center", "radius", "distance"},
                    "profile": {"f", "origin", "distance"}, "sphere": {"center", "radius", "distance"},
                    "cylinder": {"point", "axis", "radius", "distance"}, "height_field": {"f", "origin", "distance"}}
-_OPTIONAL = {"origin", "distance"}     # distance: the posing, "closest" or "ray" (physics.pairs.POSINGS)
+_OPTIONAL = {"origin", "distance"}     # distance: the posing, "closest" or "ray" (physics.posings.POSINGS)
 _SOLVER = {"name", "tol", "polish", "method", "options"}
 _HENCKY = {"yield_stress", "hardening"}
 """The keys that make a material table a Hencky material (with E, nu): :func:`~cvxcontact.materials.hencky`."""

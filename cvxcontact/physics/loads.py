@@ -6,7 +6,7 @@ only in the fields below. This is the one definition of that split: the geometry
 (:mod:`cvxcontact.physics.fingerprint`) leaves out exactly these, and the sweep
 (:mod:`cvxcontact.apps.sweep`) groups cases by everything else.
 
-``LOAD_FIELDS``: attributes of a :class:`~cvxcontact.physics.scene.Body` that are loads:
+``LOAD_FIELDS``: attributes of a :class:`~cvxcontact.physics.body.Body` that are loads:
 body force (N/m^3), tractions (N/m^2), surface charges (C/m^2), volume charge (C/m^3) and
 the *values* of the driven electrode potentials (V) and of the floating electrodes' charges
 (C/m). The *tags* of the driven and floating electrodes are geometry: they decide which

@@ -1,6 +1,6 @@
 """The supports of a body and the rigid motions they leave free (docs/formulation.md §11).
 
-Functions of a :class:`~cvxcontact.physics.scene.Body` (its mesh, clamped, roller and displacement parts),
+Functions of a :class:`~cvxcontact.physics.body.Body` (its mesh, clamped, roller and displacement parts),
 which the Body's methods of the same names call: the kinematic rows of the supports and their node-by-node
 reduction (the prolongation's input), the rigid motions no support holds (a basis per mesh component, their
 readable names, their nodal fields on a node set). Whether the contact holds those motions is decided on the

@@ -450,6 +450,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             r2 = np.r_[Gv @ x - gv, Gl @ x - gl, np.array(vals)]
             K = sp.bmat([[At + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
                 else (At + hess + G.T @ sp.diags(stiff) @ G).tocsc()
+            if C.shape[0] > n:   # a whole merged line in contact: K structurally singular (SuperLU crashed on it)
+                why = Declined(Stop.SINGULAR, f"the Newton system is singular: {C.shape[0]} contact rows on {n} "
+                                              "unknowns")
+                break
             try:
                 dz = dense_or_sparse_lu(K).solve(-np.r_[r1, r2])
             except RuntimeError:

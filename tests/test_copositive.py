@@ -13,6 +13,7 @@ import warnings
 import cvxpy as cp
 import numpy as np
 import pytest
+from scenes3d import SIDES, STEEL, bumped_gap, uniaxial_modulus
 
 import cvxcontact as cc
 from cvxcontact.backends.conic import copositive_constraints
@@ -20,7 +21,6 @@ from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, bernstein_argmax
 from cvxcontact.contact.quadratic3d import locate, p2_shape
 from cvxcontact.fem.space import space
 from cvxcontact.geometry.quadratic import P2TetNodes
-from scenes3d import SIDES, STEEL, bumped_gap, uniaxial_modulus
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 

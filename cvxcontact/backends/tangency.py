@@ -24,6 +24,11 @@ tangential translation lacks. The active structure comes from the interior point
 corrected in an outer loop (a negative multiplier leaves, a violated element enters, a maximiser leaving its
 sub-simplex moves to the sub-face). Quadratic convergence: from the interior point's answer (~1e-8) two to
 four steps reach rounding.
+
+A run of P2 segments in contact along their whole length (a body that conforms to the other, a whole line in
+contact) carries its force as a measure on each segment: its nodal forces are read through the dual cone, a shared
+vertex's force split between its segments (:func:`_conforming`), not by their signs (a vertex of such a run may carry
+a negative nodal force: read as a sign test, the structure dropped and re-added it round after round).
 """
 
 from __future__ import annotations
@@ -557,7 +562,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     z[lrows] = np.maximum(zl, 0.0)
     nodal, active = point_read_back(B, seg, t, yk, yk > 0)
     active |= (z > 0) | (force > 0)
-    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force,
-                pairing=None if departure is None else departure.pairing(S, seg, t, yk))
+    return {"x": x, "segment": seg, "t": t, "y": yk, "beta": point_duals(S, seg, t, yk), "z": z, "active": active,
+            "rounds": rounds, "violation": float(rel.max(initial=0.0)), "nodal": nodal, "pressure": force,
+            "pairing": None if departure is None else departure.pairing(S, seg, t, yk)}
 

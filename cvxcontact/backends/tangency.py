@@ -221,7 +221,7 @@ def _conforming(cells, force: dict, tol: float):
     Bernstein duals beta = T^-T f of the nodal forces f = (f0, f_mid, f1) (T ``to_bernstein``: beta0 = f0 +
     f_mid / 4, beta1 = f_mid / 2, beta2 = f1 + f_mid / 4) must lie in the dual cone beta0, beta2 >= 0,
     beta1 >= 0, beta1^2 <= 4 beta0 beta2 (docs/formulation.md §8), and a vertex's force may be negative (a point
-    force at t in (1/2, 1) reads -t (1 - t)... at the far vertex: a body that conforms along whole segments
+    force at t in (1/2, 1) reads (1 - t) (1 - 2 t) < 0 at the start vertex: a body that conforms along segments
     carries such forces, and a sign test on the vertex rows drops and re-adds them in turn). A vertex shared by
     two segments of a run splits its force between them: along the run, each segment takes at its far vertex the
     least force its cone asks for (f1 >= f_mid^2 / (16 beta0) - f_mid / 4, smaller as beta0 grows), the next
@@ -398,11 +398,16 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # leaves its sub-simplex and moves to the vertex in the outer loop
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
     x = np.asarray(x0, dtype=float).copy()
+    seen: set[tuple] = set()
     for rounds in range(1, max_rounds + 1):
         while touching := [c for c in tangencies if any(v in vertices for v in c)]:
             for c in touching:                    # a vertex row added beside a tangency: the contact covers I
                 s, I, _ = tangencies.pop(c)       # (a concave q touching 0 inside I and at its vertex: add())
                 whole(s, I)
+        key = (frozenset(vertices), frozenset(tangencies), frozenset(limits))
+        if key in seen:                           # a structure met before: the outer loop cycles
+            return Declined(Stop.STALL, f"the tangency structure cycles (round {rounds} repeats an earlier one)")
+        seen.add(key)
         vnodes = np.array(sorted(vertices), dtype=int)
         lrows = np.array(sorted(limits), dtype=int)
         tkeys = list(tangencies)

@@ -398,16 +398,11 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # leaves its sub-simplex and moves to the vertex in the outer loop
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
     x = np.asarray(x0, dtype=float).copy()
-    seen: set[tuple] = set()
     for rounds in range(1, max_rounds + 1):
         while touching := [c for c in tangencies if any(v in vertices for v in c)]:
             for c in touching:                    # a vertex row added beside a tangency: the contact covers I
                 s, I, _ = tangencies.pop(c)       # (a concave q touching 0 inside I and at its vertex: add())
                 whole(s, I)
-        key = (frozenset(vertices), frozenset(tangencies), frozenset(limits))
-        if key in seen:                           # a structure met before: the outer loop cycles
-            return Declined(Stop.STALL, f"the tangency structure cycles (round {rounds} repeats an earlier one)")
-        seen.add(key)
         vnodes = np.array(sorted(vertices), dtype=int)
         lrows = np.array(sorted(limits), dtype=int)
         tkeys = list(tangencies)

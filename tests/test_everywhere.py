@@ -15,8 +15,7 @@ from cvxcontact.backends.interface import condensation
 from cvxcontact.backends.result import Cache, Settings
 from cvxcontact.contact.quadratic import bernstein_argmax, point_rows
 
-from conftest import two_blocks
-from test_p2 import _sample_jump
+from conftest import p2_trace_jump, two_blocks
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -81,7 +80,7 @@ def test_finished_jump_holds_everywhere_by_dense_sampling(method):
     sol = cc.solve(scene, "gamma3", degree=2, method=method)
     assert sol.ok and sol.polished
     xs = np.linspace(0.0, 1.0, 20001)
-    jump = _sample_jump(sol, xs)
+    jump = p2_trace_jump(sol, xs)
     scale = max(np.abs(u).max() for u in sol.u)
     assert jump.max() < 1e-13 * scale                 # measured 1.2e-16 scale (g = 0)
     other = cc.solve(scene, "gamma3", degree=2, method="condensed" if method == "full" else "full")

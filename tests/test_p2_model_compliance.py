@@ -12,9 +12,8 @@ import pytest
 
 import cvxcontact as cc
 
-from conftest import rel, two_blocks
+from conftest import p2_trace_jump, rel, two_blocks
 from reference_problems import closed_form, pressed
-from test_p2 import _sample_jump
 from test_p2_compliance import field_error
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
@@ -154,13 +153,13 @@ def test_p2_conic_limit_holds_everywhere(small, method):
     # 0.11.1, with and without oneMKL, 1 or 2 threads), so a tol of 1e-5 (docs/formulation.md §8)
     sol = cc.solve(small, "gamma3", degree=2, law=law, method=method, tol=1e-5)
     assert sol.ok
-    excess = (_sample_jump(sol, XS) - small.gap(XS, 0 * XS)).max() / limit - 1
+    excess = (p2_trace_jump(sol, XS) - small.gap(XS, 0 * XS)).max() / limit - 1
     assert -1e-6 < excess < 1e-9                                                       # measured -1.7e-12
     assert (sol.contact.lam > 0).any() and np.isfinite(sol.contact.lam).all()
     for condition in ("sigma1", "sigma2"):
         nodal = cc.solve(small, condition, degree=2, law=law)
         assert nodal.ok
-        assert (_sample_jump(nodal, XS) - small.gap(XS, 0 * XS)).max() / limit - 1 > 1e-2
+        assert (p2_trace_jump(nodal, XS) - small.gap(XS, 0 * XS)).max() / limit - 1 > 1e-2
 
 
 def test_p2_conic_limit_tends_to_shifted_signorini(small):
@@ -210,5 +209,5 @@ def test_model_p2_conic_limit_with_a_user_row(small):
     assert base.ok and sol.ok and {"cone", "user[0] complementarity"} <= set(sol.residuals())
     assert abs(sol.u[0][tip, 1] / bound - 1) < 1e-9                                    # measured <= 3.5e-13
     for s in (base, sol):
-        excess = (_sample_jump(s, XS) - small.gap(XS, 0 * XS)).max() / limit - 1
+        excess = (p2_trace_jump(s, XS) - small.gap(XS, 0 * XS)).max() / limit - 1
         assert -1e-6 < excess < 1e-9                                    # measured -2.8e-13 .. 1.1e-14

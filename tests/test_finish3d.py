@@ -769,3 +769,29 @@ def test_a_gamma3_resolve_after_a_load_change_is_the_fresh_solve(monkeypatch, wa
         assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1e-14
     if warm_steps is None:                    # both ways taken (measured: 2 changes past the cap, 1 warm)
         assert routes == {fresh.info.route, cc.Route.WARM_START}
+
+
+def test_the_gamma3_finish_from_the_start_chosen_by_groups_is_the_one_from_all_rows_at_once(monkeypatch):
+    """"gamma3" between two elastic boxes (dependent overlay rows, condensed route): the finish's independent
+    start chosen by groups of 16 neighbouring rows (:func:`~cvxcontact.backends.finish.rows._independent_rows`,
+    the path of large interfaces) and by one pivoted QR of all the start's rows (groups larger than the rows)
+    give the same answer to rounding, both checked; the grouped path ran and dropped rows."""
+    from cvxcontact.backends.finish import rows as rows_module
+
+    scene = two_boxes(12, "gamma3", elastic=True)
+    monkeypatch.setattr(rows_module, "GROUP_ROWS", 10**9)
+    whole = cc.solve(scene)
+    seen, chosen_by = [], rows_module._independent
+
+    def spy(M, *args, **kwargs):
+        seen.append(M.shape[1])
+        return chosen_by(M, *args, **kwargs)
+
+    monkeypatch.setattr(rows_module, "GROUP_ROWS", 16)
+    monkeypatch.setattr(rows_module, "_independent", spy)
+    grouped = cc.solve(scene)
+    assert whole.ok and grouped.ok
+    assert len(seen) > 3 and seen[-1] < sum(seen[:-1])  # groups, then the global QR on the rows kept (264 of 287)
+    ref = np.concatenate([np.ravel(u) for u in whole.u])
+    got = np.concatenate([np.ravel(u) for u in grouped.u])
+    assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()              # measured 5.0e-15

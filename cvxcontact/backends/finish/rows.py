@@ -35,11 +35,12 @@ GROUP_ROWS = 256
 """Rows in a group of :func:`_independent_rows` (a group's rows are neighbours: they share unknowns)."""
 
 
-def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int = GROUP_ROWS):
+def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
     """(chosen, R, piv) of :func:`_independent` on ``U``^T for the sparse rows ``U`` (k x n, each scaled by its
     weight), choosing among fewer columns: the rows are cut into groups of about ``group`` neighbours (reverse
-    Cuthill-McKee on the rows sharing unknowns), each group's dense block (its rows on the unknowns they touch)
-    keeps its own independent rows by a column-pivoted QR, and the global QR runs on the rows kept. A row a
+    Cuthill-McKee on the rows sharing unknowns; None: :data:`GROUP_ROWS`), each group's dense block (its rows on
+    the unknowns they touch) keeps its own independent rows by a column-pivoted QR, and the global QR runs on the
+    rows kept. A row a
     group drops is a combination of rows the group keeps (U_j = U_K c), so the span is the same and the kept
     rows' maximal independent subset is one of all rows. The overlay rows of "gamma3" are about twice the
     unknowns they touch, most of the dependent ones a few faces apart: the global QR, O(n^2 k) for k rows on n
@@ -47,6 +48,7 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int = GROUP_ROWS):
     a dropped row's column is R's on the group's kept rows times its c."""
     U = sp.csr_matrix(U)
     k = U.shape[0]
+    group = GROUP_ROWS if group is None else group
     if k <= 2 * group:
         return _independent(U.T.toarray(), tol, factors=True)
     pattern = abs(U) @ abs(U).T

@@ -42,9 +42,10 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
     the unknowns they touch) keeps its own independent rows by a column-pivoted QR, and the global QR runs on the
     rows kept. A row a
     group drops is a combination of rows the group keeps (U_j = U_K c), so the span is the same and the kept
-    rows' maximal independent subset is one of all rows. The overlay rows of "gamma3" are about twice the
-    unknowns they touch, most of the dependent ones a few faces apart: the global QR, O(n^2 k) for k rows on n
-    unknowns, runs on about half the rows. R is p x k (p = |chosen|), R = Q^T U^T[:, piv] as the QR's would be:
+    rows' maximal independent subset is one of all rows. The overlay rows of "gamma3" that carry force are
+    about 1.8 times the unknowns they touch, most of the dependent ones a few faces apart: the global QR,
+    O(n^2 k) for k rows on n unknowns, runs on about 0.65 of them (two boxes, n = 40: 2,481 of 3,836 rows
+    kept on 2,168 unknowns, rank 2,042; CPU 1.7 s against 3.9 s for all rows at once). R is p x k (p = |chosen|), R = Q^T U^T[:, piv] as the QR's would be:
     a dropped row's column is R's on the group's kept rows times its c."""
     U = sp.csr_matrix(U)
     k = U.shape[0]

@@ -171,6 +171,40 @@ def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_the_start_chosen_group_by_group_spans_every_row_and_keeps_the_resultant(seed):
+    """The independent start chosen by groups of neighbouring rows (8 a group: 60 groups) then one pivoted QR on
+    the rows they keep: 480 local rows (each on 3 consecutive of 200 unknowns, a 1D chain; parallel copies and
+    sums of neighbours, in random order, forces 0.01 to 1) against numpy: the chosen rows independent and as
+    many as G's rank; every row the combination of the chosen ones that R gives (R[:p, :p]^-1 R[:p, j]), so
+    the crossover on them keeps G^T y with y >= 0 off nothing but the chosen rows' successors."""
+    rng = np.random.default_rng(seed)
+    n = 200
+    base = np.zeros((n - 2, n))
+    for i in range(n - 2):
+        base[i, i:i + 3] = rng.normal(size=3)
+    G = np.vstack([base, base[rng.integers(0, n - 2, 150)] * rng.uniform(0.5, 2.0, size=(150, 1)),
+                   base[:133] + base[1:134]])
+    G = G[rng.permutation(len(G))]
+    norms = np.linalg.norm(G, axis=1)
+    U = G / norms[:, None]
+    y0 = rng.uniform(0.01, 1, size=len(G))
+    scale = y0 / y0.max()
+    chosen, R, piv = finish._independent_rows(sp.csr_matrix(U * scale[:, None]), group=8)
+    p = len(chosen)
+    assert p == np.linalg.matrix_rank(G) == np.linalg.matrix_rank(G[chosen]) == n - 2
+    assert p == len(finish._independent(U.T * scale))                      # as many as all rows at once
+    assert (piv[:p] == chosen).all() and sorted(piv) == list(range(len(G)))
+    M = U.T * scale
+    coef = np.linalg.solve(np.triu(R[:, :p]), R[:, p:])
+    assert np.abs(M[:, chosen] @ coef - M[:, piv[p:]]).max() < 1e-10         # measured <= 5.4e-16
+    cand = np.arange(len(G))
+    passive, y = finish._purified(U, norms, y0, cand, chosen, (R, piv, scale))
+    assert np.linalg.matrix_rank(G[passive]) == len(passive) == p
+    assert (y >= 0).all() and (y[np.setdiff1d(cand, passive)] == 0).all()
+    assert np.abs(G.T @ y - G.T @ y0).max() < 1e-12 * np.abs(G).T.dot(y0).max()   # measured <= 3.9e-16
+
+
 @pytest.mark.parametrize("form", [np.asarray, sp.csr_matrix])
 def test_the_compliant_rows_form_w_on_the_rows_that_carry_forces_as_the_dense_compliance(form):
     """``form``: the bodies' jump maps dense or sparse (CSR, as :func:`~cvxcontact.backends.condensed.condense`
@@ -735,3 +769,29 @@ def test_a_gamma3_resolve_after_a_load_change_is_the_fresh_solve(monkeypatch, wa
         assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()          # measured <= 1e-14
     if warm_steps is None:                    # both ways taken (measured: 2 changes past the cap, 1 warm)
         assert routes == {fresh.info.route, cc.Route.WARM_START}
+
+
+def test_the_gamma3_finish_from_the_start_chosen_by_groups_is_the_one_from_all_rows_at_once(monkeypatch):
+    """"gamma3" between two elastic boxes (dependent overlay rows, condensed route): the finish's independent
+    start chosen by groups of 16 neighbouring rows (:func:`~cvxcontact.backends.finish.rows._independent_rows`,
+    the path of large interfaces) and by one pivoted QR of all the start's rows (groups larger than the rows)
+    give the same answer to rounding, both checked; the grouped path ran and dropped rows."""
+    from cvxcontact.backends.finish import rows as rows_module
+
+    scene = two_boxes(12, "gamma3", elastic=True)
+    monkeypatch.setattr(rows_module, "GROUP_ROWS", 10**9)
+    whole = cc.solve(scene)
+    seen, chosen_by = [], rows_module._independent
+
+    def spy(M, *args, **kwargs):
+        seen.append(M.shape[1])
+        return chosen_by(M, *args, **kwargs)
+
+    monkeypatch.setattr(rows_module, "GROUP_ROWS", 16)
+    monkeypatch.setattr(rows_module, "_independent", spy)
+    grouped = cc.solve(scene)
+    assert whole.ok and grouped.ok
+    assert len(seen) > 3 and seen[-1] < sum(seen[:-1])  # groups, then the global QR on the rows kept (264 of 287)
+    ref = np.concatenate([np.ravel(u) for u in whole.u])
+    got = np.concatenate([np.ravel(u) for u in grouped.u])
+    assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()              # measured 5.0e-15

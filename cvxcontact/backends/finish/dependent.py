@@ -11,7 +11,7 @@ from .declined import MAX_ITER, SINGULAR_FORCES
 from .rows import (
     DEPENDENT_PIVOT,
     CompliantRows,
-    _independent,
+    _independent_rows,
     _row_scale,
     factored_rows,
     row_reach,
@@ -227,10 +227,10 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     y0 = np.where(held, 0.0, np.maximum(np.asarray(y0, dtype=float), 0.0))
     cand = np.flatnonzero(np.asarray(start, dtype=bool) & ~held)
     weight = np.maximum(y0[cand], 1e-300)                  # the pivots prefer the rows with the larger forces
-    U = unit[cand]                                         # the start's unit rows, dense on the unknowns
-    U = U[:, np.flatnonzero(np.diff(U.tocsc().indptr))].toarray()     # they touch (their span lives there)
+    U = unit[cand]                                         # the start's unit rows on the unknowns they touch
+    U = U[:, np.flatnonzero(np.diff(U.tocsc().indptr))]    # (their span lives there)
     scale = weight / weight.max(initial=1.0)
-    chosen, Rp, piv = _independent(U.T * scale, factors=True)
+    chosen, Rp, piv = _independent_rows(sp.diags(scale) @ U)
     first = cand[chosen]
     passive, y = _purified(U, norms, y0, cand, chosen, (Rp, piv, scale)) if purify else (list(first), np.where(
         np.isin(np.arange(m), first), y0, 0.0))

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh, cell_corners
-from .meshchecks import _frozen, _renumbering
+from .meshchecks import _frozen, _renumbering, one_orientation
 from .tetmesh import TetMesh
 from .tetmesh import _as_points as _as_points3
 
@@ -243,14 +243,7 @@ def _orient(points, hexes):
         raise MeshError(f"hexahedron {k} (nodes {hexes[k].tolist()}) is inverted at some corners (its trilinear "
                         "map folds over; or its corners are not in the VTK order: bottom face 0-1-2-3 around it, "
                         "then the top face 4-5-6-7 above it)")
-    right = positive.all(axis=1)
-    if not right.any():
-        return hexes[:, [4, 5, 6, 7, 0, 1, 2, 3]].copy()
-    if not right.all():
-        k = int(np.argmin(right) if right.sum() > len(right) / 2 else np.argmax(right))
-        raise MeshError(f"inverted hexahedra: {int(min(right.sum(), (~right).sum()))} cell(s) are oriented "
-                        f"against the rest (the mesh folds over), e.g. cell {k}: nodes {hexes[k].tolist()}")
-    return hexes
+    return one_orientation(hexes, positive.all(axis=1), [4, 5, 6, 7, 0, 1, 2, 3], ("hexahedra", "cell(s)", "cell"))
 
 
 def _diagonal_cut(faces, rank):

@@ -96,15 +96,23 @@ def _orient(points, triangles):
     if tiny.any():
         raise MeshError(f"{int(tiny.sum())} degenerate (zero-area) triangle(s), e.g. triangle "
                         f"{int(np.argmax(tiny))}: nodes {triangles[np.argmax(tiny)].tolist()}")
-    negative = area < 0
-    if negative.all():
-        return triangles[:, [0, 2, 1]]
-    if negative.any():
-        k = int(np.argmax(negative) if negative.sum() <= len(area) / 2 else np.argmin(negative))
-        raise MeshError(f"inverted triangles: {int(min(negative.sum(), (~negative).sum()))} triangle(s) are "
-                        f"oriented against the rest (the mesh folds over), e.g. triangle {k}: "
-                        f"nodes {triangles[k].tolist()}")
-    return triangles
+    return one_orientation(triangles, area > 0, [0, 2, 1], ("triangles", "triangle(s)", "triangle"))
+
+
+def one_orientation(cells, positive, flip, names):
+    """``cells`` (m, k) oriented alike: as they are where every cell is ``positive`` (m,) bool, reordered by the
+    columns ``flip`` where none is (a mesh reversed throughout); MeshError naming a cell of the smaller group (a
+    reversed one at a tie) where both occur (the mesh folds over). ``names``: (the cells, their count's noun, one
+    cell), e.g. ("triangles", "triangle(s)", "triangle")."""
+    if positive.all():
+        return cells
+    if not positive.any():
+        return cells[:, flip].copy()
+    negative = ~positive
+    kind, counted, one = names
+    k = int(np.argmax(negative) if negative.sum() <= len(positive) / 2 else np.argmin(negative))
+    raise MeshError(f"inverted {kind}: {int(min(negative.sum(), positive.sum()))} {counted} are oriented against "
+                    f"the rest (the mesh folds over), e.g. {one} {k}: nodes {cells[k].tolist()}")
 
 
 def _edge_table(triangles, n):

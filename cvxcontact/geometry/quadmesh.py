@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from ..errors import MeshError
 from .base import CellMesh, cell_corners
 from .mesh import Mesh
-from .meshchecks import _as_points, _frozen, _renumbering
+from .meshchecks import _as_points, _frozen, _renumbering, one_orientation
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
 
@@ -151,11 +151,4 @@ def _orient(points, quads):
         k = int(np.argmax(mixed))
         raise MeshError(f"quadrilateral {k} (nodes {quads[k].tolist()}) is not convex or its corners are not in "
                         "order around it; expected strictly convex cells with corners listed around the cell")
-    ccw = positive.all(axis=1)
-    if not ccw.any():
-        return quads[:, ::-1].copy()
-    if not ccw.all():
-        k = int(np.argmin(ccw) if ccw.sum() > len(ccw) / 2 else np.argmax(ccw))
-        raise MeshError(f"inverted quadrilaterals: {int(min(ccw.sum(), (~ccw).sum()))} cell(s) are oriented "
-                        f"against the rest (the mesh folds over), e.g. cell {k}: nodes {quads[k].tolist()}")
-    return quads
+    return one_orientation(quads, positive.all(axis=1), [3, 2, 1, 0], ("quadrilaterals", "cell(s)", "cell"))

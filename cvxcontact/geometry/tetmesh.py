@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh
 from .facets import facet_keys
-from .meshchecks import _check_nodes, _frozen, _renumbering
+from .meshchecks import _check_nodes, _frozen, _renumbering, one_orientation
 
 __all__ = ["TetMesh"]
 
@@ -284,15 +284,7 @@ def _orient(points, tets):
         k = int(np.argmax(tiny))
         raise MeshError(f"{int(tiny.sum())} degenerate (flat) tetrahedra, e.g. tetrahedron {k}: nodes "
                         f"{tets[k].tolist()}, volume {vol[k]:.3g} m^3 for a longest edge of {longest[k]:.3g} m")
-    negative = vol < 0
-    if negative.all():
-        return tets[:, [0, 2, 1, 3]]
-    if negative.any():
-        k = int(np.argmax(negative) if negative.sum() <= len(vol) / 2 else np.argmin(negative))
-        raise MeshError(f"inverted tetrahedra: {int(min(negative.sum(), (~negative).sum()))} tetrahedra are "
-                        f"oriented against the rest (the mesh folds over), e.g. tetrahedron {k}: "
-                        f"nodes {tets[k].tolist()}")
-    return tets
+    return one_orientation(tets, vol > 0, [0, 2, 1, 3], ("tetrahedra", "tetrahedra", "tetrahedron"))
 
 
 def _face_cross(points, faces):

@@ -126,7 +126,7 @@ def test_the_cones_mixed_finish_reports_one_decline(monkeypatch):
     (``cones.finish_cuts_mixed``, a layer held by the contact only, P2 "gamma3"), the decline that stands is the
     tangency step's whole (its stop and its rows, one decline: they were the cuts' stop beside the tangency's
     rows), in words naming the cuts' reason first."""
-    from test_compliance_scenes import held_layer
+    from compliance_scenes import held_layer
 
     from cvxcontact.backends import cones
 

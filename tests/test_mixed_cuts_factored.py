@@ -21,7 +21,7 @@ from cvxcontact.apps.studies import hertz3d
 from cvxcontact.backends import cones, finish
 
 from scenes3d import layer_on_plane
-from test_compliance_scenes import held_layer
+from compliance_scenes import held_layer
 from test_finish3d import dense_kkt, enumerated
 from test_force_control import punch_scene
 

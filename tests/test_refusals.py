@@ -16,10 +16,10 @@ import pytest
 import cvxcontact as cc
 
 from conftest import rel
-from test_compliance_scenes import H as H_BLOCK
-from test_compliance_scenes import M as M_ALU33
-from test_compliance_scenes import P, W, held_layer, pressed_block
-from test_compliance_scenes import H1 as H_BASE
+from compliance_scenes import H as H_BLOCK
+from compliance_scenes import M as M_ALU33
+from compliance_scenes import P, W, held_layer, pressed_block
+from compliance_scenes import H1 as H_BASE
 from test_p2_stack import three_blocks
 
 E, NU = 70e9, 0.3

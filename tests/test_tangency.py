@@ -330,7 +330,7 @@ def test_a_cone_that_carries_nothing_next_to_a_compliance_law_is_finished():
     interior point's noise (5e-16). Read relative to themselves they made every segment a contact (rows at
     every node), and Newton did not converge in 40 steps (ok False: "optimal_inaccurate"). Against the closed
     form: uniform stress -p, the law's penetration r = (p / k)^(1/m)."""
-    from test_compliance_scenes import P, held_layer
+    from compliance_scenes import P, held_layer
 
     k, m = 1e16, 2.0
     r = (P / k) ** (1 / m)

@@ -5,19 +5,12 @@ import warnings
 
 import numpy as np
 import pytest
+from obstacle_scenes import indented_block
 
 import cvxcontact as cc
 from cvxcontact.adapt import mark_bulk
 from cvxcontact.apps.studies.adapt import coarse_scene, measures
 from cvxcontact.geometry.refine import refine_uniform
-
-
-def indented_block(nx=8, ny=2):
-    """A rigid circle (R = 0.6 m) pressed 3 mm into an aluminium block 1 m x 0.5 m (the estimate study's circle,
-    on a coarser grid)."""
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny), cc.materials.isotropic(E=70e9, nu=0.33),
-                    clamped="bottom", contact="top", name="block")
-    return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((0.47, 0.5 + 0.6 - 3e-3), 0.6))])
 
 
 def uniformly(scene, times):

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
-from test_adapt import indented_block
+from obstacle_scenes import indented_block
 
 import cvxcontact as cc
 from cvxcontact.adapt import LOOPS, unknowns

@@ -8,32 +8,16 @@ balance against the nodal contact forces, and the refusals before any solve.
 
 import numpy as np
 import pytest
+from obstacle_scenes import ALU, indenter_scene, punch_scene
 
 import cvxcontact as cc
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
-ALU = cc.materials.isotropic(E=70e9, nu=0.33)
-
 
 def rel(a, b):
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
-
-
-def punch_scene(top, nx=10, ny=4):
-    """A block 1 m x 0.5 m clamped at its bottom, a rigid flat punch (a plane) on its footprint
-    [0.3, 0.7] of the top: the plane's face is at y = top (m)."""
-    mesh = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny, segments={"footprint": ("top", 0.3, 0.7)})
-    block = cc.Body(mesh, ALU, clamped="bottom", contact="footprint", name="block")
-    return lambda **kw: cc.Scene(block, contacts=[cc.Contact(block, "footprint",
-                                                             cc.Rigid.plane((0.0, top), (0.0, -1.0), **kw))])
-
-
-def indenter_scene(center_y, radius=0.6, **kw):
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=24, ny=6), ALU, clamped="bottom", contact="top",
-                    name="block")
-    return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((0.47, center_y), radius, **kw))])
 
 
 def test_force_controlled_flat_punch_equals_the_displacement_controlled_one():

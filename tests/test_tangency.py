@@ -22,7 +22,7 @@ from cvxcontact.backends.finish.declined import Declined, Stop
 from cvxcontact.backends.tangency import _maximum
 from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, point_rows
 
-from test_force_control import indenter_scene
+from obstacle_scenes import circle
 
 STEEL = cc.materials.isotropic(E=2.1e11, nu=0.3)
 
@@ -74,10 +74,6 @@ def _finished(scene):
         warnings.simplefilter("error")
         warnings.simplefilter("ignore", cc.ResolutionWarning)   # point contacts on coarse meshes, on purpose
         return cc.solve(scene, "gamma3", degree=2)
-
-
-def circle(distance="closest"):
-    return indenter_scene(0.5 + 0.6 - 1e-3, force=(0.0, -2e6), distance=distance)
 
 
 def test_a_force_controlled_circle_touching_inside_a_segment_is_finished():

@@ -11,7 +11,7 @@ import pytest
 import cvxcontact as cc
 from cvxcontact.contact.truegap import simplex_grid
 
-from test_tangency import circle
+from obstacle_scenes import circle
 
 ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 

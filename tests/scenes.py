@@ -12,7 +12,7 @@ from conftest import two_blocks
 from reference_problems import pressed
 from compliance_scenes import held_layer, pressed_block
 from obstacle_scenes import indenter_scene, punch_scene
-from test_p2_stack import three_blocks
+from stack_scenes import three_blocks
 from test_refusals import _clamped_foundation, _moved_foundation
 
 

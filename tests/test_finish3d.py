@@ -439,14 +439,14 @@ def test_dependent_rows_next_to_a_compliance_pair_are_finished():
     the law in series, 2 delta = 3 p (1/3 m) / c33 + p / k, lambda = p on both pairs. Finished by Newton on
     the law around the finish of dependent rows (the interior point alone: lambda to 9.7e-10, complementarity
     1.08e-6, not ok at the default tol)."""
-    from test_refusals import DELTA3, _three_blocks_3d
+    from stack_scenes import DELTA3, three_blocks_3d
 
     k = 1e12
     p = 2 * DELTA3 / (1 / uniaxial_modulus() + 1 / k)
     c33 = uniaxial_modulus()
     law = cc.NormalCompliance(stiffness=k)
     for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
-        scene = _three_blocks_3d(("gamma3", "gamma3"), laws)
+        scene = three_blocks_3d(("gamma3", "gamma3"), laws)
         with warnings.catch_warnings():
             warnings.simplefilter("error", cc.ResidualWarning)
             sol = cc.solve(scene)
@@ -549,10 +549,10 @@ def test_dependent_rows_next_to_a_quadratic_law_satisfy_the_optimality_system(se
 
 
 def _three_block_u_error(sol, p, jumps):
-    """max |u_z - exact| / DELTA3 over the three blocks of :func:`test_refusals._three_blocks_3d`: -p z / c33
+    """max |u_z - exact| / DELTA3 over the three blocks of :func:`stack_scenes.three_blocks_3d`: -p z / c33
     in the lowest, each block above shifted by the interference DELTA3 less the penetrations ``jumps`` of the
     pairs below it."""
-    from test_refusals import DELTA3
+    from stack_scenes import DELTA3
 
     c33 = uniaxial_modulus()
     return max(np.abs(sol.u[b][:, 2] - (-p * sol.points[b][:, 2] / c33 + DELTA3 * b - sum(jumps[:b]))).max()
@@ -565,13 +565,13 @@ def test_dependent_rows_next_to_a_quadratic_compliance_pair_are_finished():
     package); lambda = p on both pairs, the fields to rounding, the checks at rounding."""
     from scipy.optimize import brentq
 
-    from test_refusals import DELTA3, _three_blocks_3d
+    from stack_scenes import DELTA3, three_blocks_3d
 
     k, c33 = 1e16, uniaxial_modulus()
     p = brentq(lambda p: p / c33 + np.sqrt(p / k) - 2 * DELTA3, 0.0, 2 * DELTA3 * c33, xtol=1e-14, rtol=1e-15)
     law = cc.NormalCompliance(stiffness=k, exponent=2)
     for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
-        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        sol = cc.solve(three_blocks_3d(("gamma3", "gamma3"), laws))
         assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
         assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < 1e-9             # measured <= 5.1e-14
         jumps = [np.sqrt(p / k) if lw.compliant else 0.0 for lw in laws]
@@ -586,13 +586,13 @@ def test_dependent_limit_rows_of_a_compliance_pair_are_finished():
     p = c33 (2 delta - l) / (1 m); on both pairs, p = c33 (2 delta - 2 l) / (1 m). lambda = p(r) + z as a
     pressure (the Riesz representer of the limit reactions in X_h: unique though they are not; z / w was
     off by 3.2 on the squeezed blocks below) on every pair, the fields to rounding."""
-    from test_refusals import DELTA3, _three_blocks_3d
+    from stack_scenes import DELTA3, three_blocks_3d
 
     k, c33 = 1e12, uniaxial_modulus()
     ell = 0.5 * 2 * DELTA3 / (1 / c33 + 1 / k) / k
     law = cc.NormalCompliance(stiffness=k, penetration_limit=ell)
     for laws in ((cc.Signorini(), law), (law, law)):
-        sol = cc.solve(_three_blocks_3d(("gamma3", "gamma3"), laws))
+        sol = cc.solve(three_blocks_3d(("gamma3", "gamma3"), laws))
         jumps = [ell if lw.compliant else 0.0 for lw in laws]
         p = c33 * (2 * DELTA3 - sum(jumps))
         assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"

@@ -19,7 +19,7 @@ import cvxcontact as cc
 from conftest import rel
 from reference_problems import active_set_solve
 from obstacle_scenes import indenter_scene, punch_scene
-from test_p2_stack import MAT, YOUNG, dense_stack, three_blocks
+from stack_scenes import MAT, YOUNG, dense_stack, three_blocks
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 

@@ -20,7 +20,8 @@ from compliance_scenes import H as H_BLOCK
 from compliance_scenes import M as M_ALU33
 from compliance_scenes import P, W, held_layer, pressed_block
 from compliance_scenes import H1 as H_BASE
-from test_p2_stack import three_blocks
+from stack_scenes import DELTA3, three_blocks
+from stack_scenes import three_blocks_3d as _three_blocks_3d
 
 E, NU = 70e9, 0.3
 ALU = cc.materials.isotropic(E=E, nu=NU)
@@ -164,24 +165,6 @@ def test_p2_one_pair_helper_refuses_several_pairs_which_the_public_route_takes()
 
 
 # ---------------------------------------------------------------- P2 tetrahedra with a compliance law
-
-def _three_blocks_3d(conditions, laws):
-    """Three blocks of height 1/3 m on (0, 1)^2 (rollers on their sides, the lowest on its base, the top one on
-    its top: every body held by its supports), non-matching faces, pressed together by an interference
-    ``DELTA3`` at each pair: uniaxial strain."""
-    from scenes3d import SIDES, STEEL
-
-    zs = (0.0, 1 / 3, 2 / 3, 1.0)
-    counts = ((2, 2), (3, 3), (2, 3))
-    extra = (["bottom"], [], ["top"])
-    bodies = [cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(zs[k], zs[k + 1]), nx=c[0], ny=c[1], nz=1), STEEL,
-                      roller=SIDES + e, name=f"block {k}") for k, (c, e) in enumerate(zip(counts, extra))]
-    pairs = [cc.Contact(bodies[k], "top", bodies[k + 1], "bottom", condition=c, law=lw, gap=-DELTA3)
-             for k, (c, lw) in enumerate(zip(conditions, laws))]
-    return cc.Scene(*bodies, contacts=pairs)
-
-
-DELTA3 = 1e-5       # m
 
 
 @pytest.mark.numerics

@@ -1,19 +1,20 @@
 """The canonical scenes of the test suite, in one place: name -> (scene builder, solve keywords).
 
 Each entry is a scene the package must solve and the keywords to solve it with (condition, degree, law,
-tol). They reuse the builders of the test modules that check each scene against its own independent
-reference (closed forms, dense solves of (26), invariances); here they are the common set on which every
-way of solving must agree (tests/test_model_agrees.py: cc.Model and cc.solve).
+tol). They reuse the builders of the fixtures modules (compliance_scenes, obstacle_scenes, stack_scenes,
+foundation_scenes, reference_problems), with which the test modules check each scene against its own
+independent reference (closed forms, dense solves of (26), invariances); here they are the common set on which
+every way of solving must agree (tests/test_model_agrees.py: cc.Model and cc.solve).
 """
 
 import cvxcontact as cc
 
-from conftest import two_blocks
-from reference_problems import pressed
 from compliance_scenes import held_layer, pressed_block
+from conftest import two_blocks
+from foundation_scenes import clamped_foundation, moved_foundation
 from obstacle_scenes import indenter_scene, punch_scene
+from reference_problems import pressed
 from stack_scenes import three_blocks
-from test_refusals import _clamped_foundation, _moved_foundation
 
 
 def _stack(conditions, law0=None):
@@ -46,7 +47,7 @@ SCENES = {
     "layer held by the contact": (lambda: held_layer(None), dict(condition="gamma3")),
     "layer held through compliance, P2": (lambda: held_layer(K), dict(condition="sigma1", degree=2)),
     "layer held, P2 conic limit": (lambda: held_layer(LIMITED), dict(condition="gamma3", degree=2, tol=2e-5)),
-    "clamped foundation": (lambda: _clamped_foundation("pair")[1], dict(condition="sigma1")),
-    "moved foundation, P2": (lambda: _moved_foundation("body", 5e-5)[1], dict(condition="sigma1", degree=2)),
+    "clamped foundation": (lambda: clamped_foundation("pair")[1], dict(condition="sigma1")),
+    "moved foundation, P2": (lambda: moved_foundation("body", 5e-5)[1], dict(condition="sigma1", degree=2)),
 }
 """name -> (builder, keywords of cc.solve / cc.Model)."""

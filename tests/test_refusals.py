@@ -16,6 +16,10 @@ import pytest
 import cvxcontact as cc
 
 from conftest import rel
+from foundation_scenes import ALU, GAP, H, E, NU
+from foundation_scenes import clamped_foundation as _clamped_foundation
+from foundation_scenes import moved_foundation as _moved_foundation
+from foundation_scenes import upper_block as _upper
 from compliance_scenes import H as H_BLOCK
 from compliance_scenes import M as M_ALU33
 from compliance_scenes import P, W, held_layer, pressed_block
@@ -23,23 +27,13 @@ from compliance_scenes import H1 as H_BASE
 from stack_scenes import DELTA3, three_blocks
 from stack_scenes import three_blocks_3d as _three_blocks_3d
 
-E, NU = 70e9, 0.3
-ALU = cc.materials.isotropic(E=E, nu=NU)
 M = ALU.c[1, 1]                  # oedometric modulus E (1 - nu) / ((1 + nu) (1 - 2 nu)), Pa
-H = 0.5                          # block heights (m)
 FLOOR = cc.Rigid.plane((0.0, 0.0), (0.0, 1.0))          # a rigid half-space below y = 0
-GAP = lambda s: -2e-6 + 2e-3 * (s - 0.4) ** 2            # noqa: E731  partial contact (2 of 5 P1 rows active)
 NOT_RAISED = pytest.fail.Exception     # pytest.raises without the error: a missing refusal, however it is missed
 
 
 def _message(info):
     return str(info.value)
-
-
-def _upper(load=-1e8, nx=4):
-    """A block [0, 1] x [0, H] clamped at its top, pressed down by its weight ``load`` (N/m^3)."""
-    return cc.Body(cc.rectangle(x=(0, 1), y=(0, H), nx=nx, ny=2), ALU, clamped=["top"], contact="bottom",
-                   body_force=(0.0, load), name="upper")
 
 
 def _on_plane(upper, height=0.0):
@@ -321,17 +315,6 @@ def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
 
 # ================================================================ held rows, supports on a contact part
 
-def _clamped_foundation(where):
-    """A lower block [0, 1] x [-0.4, 0] whose top is clamped and is the contact part: given as its contact=
-    tag ("body": a segment tag 'pad' covering the clamped top) or as the pair's part ("pair")."""
-    mesh = cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=4, ny=2, segments={"pad": ("top", 0.0, 1.0)})
-    upper = _upper()
-    if where == "body":
-        lower = cc.Body(mesh, ALU, clamped=["top", "bottom"], contact="pad", name="lower")
-        return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "pad", gap=GAP)])
-    lower = cc.Body(mesh, ALU, clamped=["top", "bottom"], contact="left", name="lower")
-    return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=GAP)])
-
 
 @pytest.mark.parametrize("where", ["body", "pair"])
 @pytest.mark.parametrize("degree", [1, 2])
@@ -356,19 +339,6 @@ def test_a_traction_on_a_contact_part_is_refused_naming_the_part_and_the_reason(
     msg = _message(info)
     assert "'bottom'" in msg and "block" in msg and "traction" in msg and "over-determines" in msg
     assert "load another part" in msg
-
-
-def _moved_foundation(where, lift):
-    """A lower block between side rollers whose top (the contact part) is moved up by ``lift`` (m): as the
-    body's contact= part ("body": a segment tag 'pad' on the moved top) or as the pair's part ("pair")."""
-    mesh = cc.rectangle(x=(0, 1), y=(-0.4, 0), nx=4, ny=2, segments={"pad": ("top", 0.0, 1.0)})
-    upper = _upper()
-    supports = dict(roller=["left", "right"], displacement={"top": (None, lift)}, name="lower")
-    if where == "body":
-        lower = cc.Body(mesh, ALU, contact="pad", **supports)
-        return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "pad", gap=GAP)])
-    lower = cc.Body(mesh, ALU, contact="bottom", **supports)
-    return upper, cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=GAP)])
 
 
 @pytest.mark.parametrize("where", ["body", "pair"])

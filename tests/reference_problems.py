@@ -3,10 +3,13 @@
 * Two elastic blocks with nu = 0, clamped at their far ends and pressed together by an interference
   DELTA (gap g = -DELTA): two 1D springs in series (heights H_l, moduli E_l; plane strain with nu = 0
   gives c22 = E). The contact pressure is uniform, lambda = (DELTA - r) / C with C = H1/E1 + H2/E2, and a
-  normal-compliance law lambda = k r^m gives the scalar equation r + C k r^m = DELTA (:func:`closed_form`).
+  normal-compliance law lambda = k r^m gives the scalar equation r + C k r^m = DELTA (:func:`closed_form`); :func:`field_error` measures a
+  solution's u against the springs' fields.
 * Dense contact rows of two horizontal contact parts, test-built from each body's own trace nodes
   (:func:`merged_rows`), and a dense primal-dual active-set solve of the mixed system (26) with them
   (:func:`active_set_solve`), which asserts that its answer satisfies (27).
+* A piezoelectric layer bonded in uniaxial strain to a steel layer, driven by a surface charge or a
+  voltage, with its closed form (:func:`bonded_patch`: u and phi linear in y, lambda uniform).
 """
 
 import numpy as np
@@ -33,6 +36,16 @@ def closed_form(k, m, limit=None):
     if limit is not None and r > limit:
         r = limit
     return r, (DELTA - r) / C
+
+
+def field_error(sol, lam):
+    """Largest error of u at every P2 node of both bodies against the springs' fields, over DELTA."""
+    err = 0.0
+    for k, pts in enumerate(sol.points):
+        y = pts[:, 1]
+        uy = (lam * H1 / E1) * (1 - y / H1) if k == 0 else -(lam * H2 / E2) * (1 + y / H2)
+        err = max(err, np.abs(sol.u[k][:, 1] - uy).max() / DELTA, np.abs(sol.u[k][:, 0]).max() / DELTA)
+    return err
 
 
 def hat(xm, xt):
@@ -133,3 +146,34 @@ def per_body(systems, bodies, off, u):
         full[s.u_free] = u[a:e]
         out.append(full.reshape(-1, 2))
     return out
+
+
+def bonded_patch(n1, n2, q2=-0.08, voltage=None):
+    """Uniaxial-strain patch: exact u, phi linear in y, uniform lambda (closed form below).
+
+    The piezo layer (y in [0, 1]) is driven by a surface charge q2 on its contact face
+    (grounded on top) or, with ``voltage``, by phi = V on top (grounded on the contact face).
+    """
+    pzt, steel = cc.materials.PZT5H, cc.materials.isotropic(E=200e9, nu=0.3)
+    c13, c33 = pzt.c[0, 1], pzt.c[1, 1]
+    e31, e33, k33 = pzt.e[1, 0], pzt.e[1, 1], pzt.kappa[1, 1]
+    M2, lame = steel.c[1, 1], steel.c[0, 1]
+    if voltage is None:
+        alpha = -q2 / (e33 + k33 * (c33 + M2) / e33)   # strain of the piezo layer
+        d = -(c33 + M2) * alpha / e33                  # d phi / dy
+        phi0 = -d                                      # phi(y) = d (y - 1)
+        electric = dict(grounded="top", surface_charge={"bottom": q2})
+    else:
+        d, phi0 = voltage, 0.0                         # phi(y) = V y
+        alpha = -e33 * voltage / (c33 + M2)
+        electric = dict(grounded="bottom", potential={"top": voltage})
+    sxx1, sxx2 = c13 * alpha + e31 * d, lame * (-alpha)
+    m1 = cc.rectangle(x=(0, 1), y=(0, 1), nx=n1, ny=3)
+    m2 = cc.rectangle(x=(0, 1), y=(-1, 0), nx=n2, ny=3)
+    b1 = cc.Body(m1, pzt, clamped="top", contact="bottom", traction={"left": (-sxx1, 0.0), "right": (sxx1, 0.0)},
+                 **electric)
+    b2 = cc.Body(m2, steel, clamped="bottom", contact="top", traction={"left": (-sxx2, 0.0), "right": (sxx2, 0.0)})
+    exact = dict(u1=lambda p: np.column_stack([0 * p[:, 0], alpha * (p[:, 1] - 1)]),
+                 u2=lambda p: np.column_stack([0 * p[:, 0], -alpha * (p[:, 1] + 1)]),
+                 phi1=lambda p: phi0 + d * p[:, 1], lam=M2 * alpha)
+    return cc.Scene(b1, b2), exact

@@ -20,6 +20,7 @@ from cvxcontact.contact.laws import RowLaws, Signorini
 from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
 from cvxcontact.physics.materials import deviator
+from references import dense_newton
 
 E, NU, SIGMA_Y, H = 70e9, 0.3, 200e6, 0.1
 MU, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
@@ -71,36 +72,6 @@ def indented(material, nx=16, ny=6, depth=3e-3, radius=0.6):
     """A rigid circle pressed ``depth`` into a block 1 m x 0.5 m clamped at its bottom (yields under the circle)."""
     b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=nx, ny=ny), material, clamped="bottom", contact="top")
     return cc.Scene(b, contacts=[cc.Contact(b, "top", cc.Rigid.circle((0.47, 0.5 + radius - depth), radius))])
-
-
-def dense_newton(bulk, f, G, g):
-    """An independent solution of the Signorini problem of one elastic body with the energy ``bulk`` (its value,
-    gradient and Hessian, checked against differences below), the loads ``f`` and the rows G z <= g (dense):
-    primal-dual active-set steps from the rows penetrating at z = 0, each with Newton steps on the equality
-    constrained problem (dense solves; the first step of a set whole, then halved until the energy does not
-    increase) until the step is at rounding. Returns (z, y, active)."""
-    z, active = np.zeros(G.shape[1]), g < 0
-    for _ in range(30):
-        for k in range(50):
-            H, r = bulk.hessian(z).toarray(), bulk.gradient(z) - f
-            GA = G[active]
-            M = np.block([[H, GA.T], [GA, np.zeros((len(GA), len(GA)))]])
-            sol = np.linalg.solve(M, np.concatenate([-r, g[active] - GA @ z]))
-            dz, t = sol[:len(z)], 1.0
-            energy = lambda v: bulk.value(v) - f @ v                                     # noqa: E731
-            while k and t > 1e-10 and energy(z + t * dz) > energy(z):
-                t /= 2
-            z = z + t * dz
-            y = np.zeros(len(g))
-            y[active] = sol[len(z):]
-            if np.abs(t * dz).max() <= 1e-15 * np.abs(z).max():
-                break
-        slack = G @ z - g
-        new = (active & (y >= 0)) | (slack > 1e-14 * np.abs(g).max())
-        if (new == active).all():
-            return z, y, active
-        active = new
-    raise AssertionError("the dense active-set steps did not settle")
 
 
 def test_the_deviator_and_the_stress_are_those_of_the_tensors():

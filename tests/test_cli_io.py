@@ -51,7 +51,7 @@ def test_vtu_round_trip_holds_the_solution_with_units(tmp_path):
 
 def test_fields_of_the_exact_patch_solution():
     """Uniform stress state: every element carries the closed-form stress and field."""
-    from test_solve import bonded_patch
+    from reference_problems import bonded_patch
 
     from cvxcontact.fem.fields import body_fields
 

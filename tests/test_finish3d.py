@@ -20,54 +20,11 @@ import cvxcontact as cc
 from cvxcontact.backends import finish, full, signorini
 from cvxcontact.backends.finish import UpdatedSystem, independent_active_set
 
+from references import dense_kkt, enumerated
 from scenes3d import P, SIDES, STEEL, bumped_blocks, bumped_gap, piezo_pair, punch_on_pad, rotation, stacked_blocks, \
     three_blocks, two_boxes, uniaxial_modulus
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
-
-
-def dense_kkt(A, F, G, g):
-    """A mixed-system callable of the form :func:`cvxcontact.backends.full.mixed_kkt` returns, dense: one body
-    with stiffness A (SPD), load F and contact rows G x <= g."""
-    n = len(F)
-
-    def kkt(active):
-        Ga = G[active]
-        K = np.block([[A, Ga.T], [Ga, np.zeros((len(Ga), len(Ga)))]])
-        z = np.linalg.solve(K, np.concatenate([F, g[active]]))
-        y = np.zeros(len(g))
-        y[active] = z[n:]
-        return ([z[:n]], [None], y), y, G @ z[:n] - g, np.abs(z[:n]).max()
-
-    def fields(active, z):
-        y = np.zeros(len(g))
-        y[active] = z[n:]
-        return ([z[:n]], [None], y), y, G @ z[:n] - g, np.abs(z[:n]).max()
-
-    kkt.rows = sp.csr_matrix(G)
-    kkt.stack = lambda x: x[0][0]
-    kkt.matrix, kkt.rhs, kkt.fields = sp.csr_matrix(A), F, fields     # for the factored steps
-    return kkt
-
-
-def enumerated(A, F, G, g):
-    """The minimiser of 1/2 x^T A x - F^T x subject to G x <= g by trying every set of closed rows whose rows
-    are independent: the one whose forces are >= 0 and every row feasible (independent of the finish; sets
-    whose mixed matrix is singular, rows not holding A's kernel, are skipped)."""
-    m = len(g)
-    for k in range(m + 1):
-        for rows in itertools.combinations(range(m), k):
-            Ga = G[list(rows)]
-            if k and np.linalg.matrix_rank(Ga) < k:
-                continue
-            K = np.block([[A, Ga.T], [Ga, np.zeros((k, k))]])
-            if np.linalg.matrix_rank(K) < len(K):
-                continue
-            z = np.linalg.solve(K, np.concatenate([F, g[list(rows)]]))
-            x, y = z[:len(F)], z[len(F):]
-            if (y >= -1e-12).all() and (G @ x - g <= 1e-12).all():
-                return x
-    raise AssertionError("no active set solves the problem")
 
 
 def _dependent_rows(rng, dependent, n=6):

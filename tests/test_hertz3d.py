@@ -306,12 +306,12 @@ def test_p2_gamma3_maxima_of_the_true_slack_converge(gamma3_closest_level):
     # search converged from every start (a pattern search capped at 400 steps stopped on the faces' long flat
     # ridges, the maxima low by up to 1.4e-11 of the slack's scale here, 5e-7 in the cuts' rounds), and agrees
     # with dense sampling and a local zoom (tests/test_truegap_argmax.py)
-    from test_truegap_argmax import check
+    from references import check_argmax
     from cvxcontact.contact.bernstein import TRIANGLE
     _, sol = gamma3_closest_level
     c = sol.contact
     b = (np.asarray(c.jump) - np.asarray(c.gap))[np.asarray(sol.interface.cells)] @ TRIANGLE.to_bernstein.T
-    check(h.true_departure(sol), b, 48, 5e-11)          # measured 4.7e-13 (the zoom below Newton on the ridges)
+    check_argmax(h.true_departure(sol), b, 48, 5e-11)          # measured 4.7e-13 (the zoom below Newton on the ridges)
 
 
 def test_p2_gamma3_hertz_quantities_at_the_coarsest_level(gamma3_level, p2_levels):

@@ -17,7 +17,7 @@ from cvxcontact.io.scenefile import load_scene
 from cvxcontact.physics.fingerprint import geometry_fingerprint
 from cvxcontact.physics.loads import GEOMETRY_FIELDS, LOAD_FIELDS, SCENE_LOAD_FIELDS
 from cvxcontact.solution.info import Finish, Route, SolveInfo, Status
-from test_solve import direct_mixed_solve
+from references import direct_mixed_solve
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -47,7 +47,7 @@ def test_defaults_are_auto_everywhere():
 
 
 def test_default_solve_is_condensed_and_matches_an_independent_dense_solve(scene):
-    """The default answer against a dense LU of (26) on its active set (test_solve.direct_mixed_solve)."""
+    """The default answer against a dense LU of (26) on its active set (references.direct_mixed_solve)."""
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sol = cc.solve(scene)

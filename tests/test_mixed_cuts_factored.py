@@ -22,7 +22,7 @@ from cvxcontact.backends import cones, finish
 
 from scenes3d import layer_on_plane
 from compliance_scenes import held_layer
-from test_finish3d import dense_kkt, enumerated
+from references import dense_kkt, enumerated
 from obstacle_scenes import punch_scene
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run

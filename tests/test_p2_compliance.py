@@ -16,18 +16,9 @@ import pytest
 import cvxcontact as cc
 
 from conftest import rel, two_blocks
-from reference_problems import C, DELTA, E1, E2, H1, H2, closed_form, pressed
+from reference_problems import C, DELTA, E1, E2, H1, H2, closed_form, field_error, pressed
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
-
-def field_error(sol, lam):
-    """Largest error of u at every P2 node of both bodies against the springs' fields, over DELTA."""
-    err = 0.0
-    for k, pts in enumerate(sol.points):
-        y = pts[:, 1]
-        uy = (lam * H1 / E1) * (1 - y / H1) if k == 0 else -(lam * H2 / E2) * (1 + y / H2)
-        err = max(err, np.abs(sol.u[k][:, 1] - uy).max() / DELTA, np.abs(sol.u[k][:, 0]).max() / DELTA)
-    return err
 
 
 @pytest.fixture(scope="module")

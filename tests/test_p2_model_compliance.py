@@ -13,8 +13,7 @@ import pytest
 import cvxcontact as cc
 
 from conftest import p2_trace_jump, rel, two_blocks
-from reference_problems import closed_form, pressed
-from test_p2_compliance import field_error
+from reference_problems import closed_form, field_error, pressed
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 

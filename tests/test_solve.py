@@ -4,71 +4,13 @@ import warnings
 
 import numpy as np
 import pytest
-import scipy.linalg as sla
 
 import cvxcontact as cc
-from cvxcontact.fem.assembly import assemble
 from conftest import rel, two_blocks
+from reference_problems import bonded_patch
+from references import direct_mixed_solve
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
-
-
-def direct_mixed_solve(scene, sol):
-    """Solve the nonsymmetric mixed system (26) with the contact held closed on the active set.
-
-    Independent of the convex model: dense LU of the SI system (rows and columns
-    equilibrated by the material constants), unknowns (u_free, phi_free, y_active).
-    Returns nodal u (per body), phi (per body), lambda on the merged mesh.
-    """
-    itf = scene.interface
-    blocks, rhs, jumps, slices, pos = [], [], [], [], 0
-    for k, body in enumerate(scene.bodies):
-        s = assemble(body)
-        uf = s.u_free
-        J = itf.jump(k, len(body.mesh.points)).toarray()[:, uf]
-        c0 = np.abs(body.material.c).max()
-        if s.piezoelectric:
-            pf = s.phi_free
-            e0 = np.abs(s.Kpp.diagonal()).max()
-            Kuu, Kup, Kpp = (s.Kuu[uf][:, uf].toarray(), s.Kup[uf][:, pf].toarray(), s.Kpp[pf][:, pf].toarray())
-            A = np.block([[Kuu, Kup], [-Kup.T, Kpp]])
-            d = np.concatenate([np.full(len(uf), 1 / np.sqrt(c0)), np.full(len(pf), 1 / np.sqrt(e0))])
-            b = np.concatenate([s.f[uf], s.q[pf]])
-            J = np.hstack([J, np.zeros((len(J), len(pf)))])
-        else:
-            A = s.Kuu[uf][:, uf].toarray()
-            d = np.full(len(uf), 1 / np.sqrt(c0))
-            b = s.f[uf]
-        blocks.append((A, d))
-        rhs.append(b)
-        jumps.append(J)
-        slices.append((s, slice(pos, pos + len(b))))
-        pos += len(b)
-    A = sla.block_diag(*[a for a, _ in blocks])
-    D = np.concatenate([d for _, d in blocks])
-    J = np.hstack(jumps)
-    act = np.flatnonzero(sol.contact.active)
-    G = J[act]
-    n, m = A.shape[0], len(act)
-    K = np.block([[D[:, None] * A * D[None, :], (D[:, None] * G.T)], [G * D[None, :], np.zeros((m, m))]])
-    z = np.linalg.solve(K, np.concatenate([D * np.concatenate(rhs), np.zeros(m)]))
-    x, y = D * z[:n], z[n:]
-    us, phis = [], []
-    for body, (s, sl) in zip(scene.bodies, slices):
-        xb = x[sl]
-        u = np.zeros(2 * len(body.mesh.points))
-        u[s.u_free] = xb[: len(s.u_free)]
-        us.append(u.reshape(-1, 2))
-        if s.piezoelectric:
-            p = np.zeros(len(body.mesh.points))
-            p[s.phi_free] = xb[len(s.u_free):]
-            phis.append(p)
-        else:
-            phis.append(None)
-    force = np.zeros(itf.size)
-    force[act] = y
-    lam = np.linalg.solve(itf.mass.toarray(), force)
-    return us, phis, lam, force, J @ x
 
 
 # polish=False (the interior point, the same on clarabel 0.10.0 and 0.11.1, cvxpy 1.7.5 and 1.9.3, with and without
@@ -247,37 +189,6 @@ def _mirror_index(p):
     out[j] = i
     assert np.allclose(p[out], q, atol=1e-12)
     return out
-
-
-def bonded_patch(n1, n2, q2=-0.08, voltage=None):
-    """Uniaxial-strain patch: exact u, phi linear in y, uniform lambda (closed form below).
-
-    The piezo layer (y in [0, 1]) is driven by a surface charge q2 on its contact face
-    (grounded on top) or, with ``voltage``, by phi = V on top (grounded on the contact face).
-    """
-    pzt, steel = cc.materials.PZT5H, cc.materials.isotropic(E=200e9, nu=0.3)
-    c13, c33 = pzt.c[0, 1], pzt.c[1, 1]
-    e31, e33, k33 = pzt.e[1, 0], pzt.e[1, 1], pzt.kappa[1, 1]
-    M2, lame = steel.c[1, 1], steel.c[0, 1]
-    if voltage is None:
-        alpha = -q2 / (e33 + k33 * (c33 + M2) / e33)   # strain of the piezo layer
-        d = -(c33 + M2) * alpha / e33                  # d phi / dy
-        phi0 = -d                                      # phi(y) = d (y - 1)
-        electric = dict(grounded="top", surface_charge={"bottom": q2})
-    else:
-        d, phi0 = voltage, 0.0                         # phi(y) = V y
-        alpha = -e33 * voltage / (c33 + M2)
-        electric = dict(grounded="bottom", potential={"top": voltage})
-    sxx1, sxx2 = c13 * alpha + e31 * d, lame * (-alpha)
-    m1 = cc.rectangle(x=(0, 1), y=(0, 1), nx=n1, ny=3)
-    m2 = cc.rectangle(x=(0, 1), y=(-1, 0), nx=n2, ny=3)
-    b1 = cc.Body(m1, pzt, clamped="top", contact="bottom", traction={"left": (-sxx1, 0.0), "right": (sxx1, 0.0)},
-                 **electric)
-    b2 = cc.Body(m2, steel, clamped="bottom", contact="top", traction={"left": (-sxx2, 0.0), "right": (sxx2, 0.0)})
-    exact = dict(u1=lambda p: np.column_stack([0 * p[:, 0], alpha * (p[:, 1] - 1)]),
-                 u2=lambda p: np.column_stack([0 * p[:, 0], -alpha * (p[:, 1] + 1)]),
-                 phi1=lambda p: phi0 + d * p[:, 1], lam=M2 * alpha)
-    return cc.Scene(b1, b2), exact
 
 
 @pytest.mark.parametrize("voltage", [None, -2e4])

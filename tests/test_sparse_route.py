@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import fields_agree, rel
-from test_solve import direct_mixed_solve
+from references import direct_mixed_solve
 
 import cvxcontact as cc
 import cvxcontact.backends as backends

@@ -2,7 +2,7 @@
 the same mesh and against the full route (interior point + Newton finish), as ratios within one run.
 
 Scene: a rigid circle (radius 0.6 m) pressed 5 mm into a block 1 m x 0.5 m clamped at its bottom
-(tests/test_bulk_energy.py ``indented``), Hencky E = 70 GPa, nu = 0.3, sigma_y = 200 MPa, h = 0.1 (yields under
+(tests/hencky_scenes.py ``indented``), Hencky E = 70 GPa, nu = 0.3, sigma_y = 200 MPa, h = 0.1 (yields under
 the circle); the linear solve: the same scene with the isotropic material of the same E, nu (the Hencky body's
 initial tangent), by ``auto`` (the condensed route) and by the sparse route; P2 with the nodal condition "sigma1".
 
@@ -26,7 +26,7 @@ import cvxcontact as cc
 from cvxcontact.backends import nonlinear
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from test_bulk_energy import NU, SIGMA_Y, E, H, indented
+from hencky_scenes import NU, SIGMA_Y, E, H, indented
 
 HENCKY = cc.materials.hencky(E, NU, SIGMA_Y, H)
 LINEAR = cc.materials.isotropic(E, NU)

@@ -1,5 +1,5 @@
 """Where the Newton steps on the mixed system stop (docs/formulation.md §19): one solve of the circle pressed 5 mm
-into a Hencky block (tests/test_bulk_energy.py ``indented``), nx x ny cells, by ``method`` ("newton": the fast
+into a Hencky block (tests/hencky_scenes.py ``indented``), nx x ny cells, by ``method`` ("newton": the fast
 route; "full": the interior point and the Newton finish), with the finish's steps, relative residuals, the largest
 eps (|K||x|)_i / S_i at the answer ("floor") and the final residual in units of eps (|K||x|)_i; u and the contact
 forces saved to ``out.npz`` to compare checkouts (run it with each checkout's root, one thread):
@@ -18,7 +18,7 @@ import cvxcontact as cc
 
 assert cc.__file__.startswith(root), cc.__file__
 import scipy.sparse as sps
-from test_bulk_energy import NU, SIGMA_Y, E, H, indented
+from hencky_scenes import NU, SIGMA_Y, E, H, indented
 
 from cvxcontact.backends import nonlinear, signorini
 

@@ -1,7 +1,7 @@
 """The bulk energy as a term (issue 31): the Hencky material (docs/materials.md), posed by the full backend only and
 finished exactly by Newton on the nonlinear mixed system (26) with the contact active set
 (:func:`cvxcontact.backends.signorini.newton_finish`), checked against the closed form of uniaxial strain, the linear
-material in its limits, the interior point, a dense Newton written here, and the equilibrium of (26) with the
+material in its limits, the interior point, a dense Newton (tests/references.py), and the equilibrium of (26) with the
 nonlinear internal forces. Tolerances are 100x the measured values (or the finish's rounding)."""
 
 import warnings
@@ -12,6 +12,7 @@ import scipy.sparse as sp
 
 import cvxcontact as cc
 from conftest import rel, two_blocks
+from hencky_scenes import EXACT, NU, SIGMA_Y, E, H, indented, pressed_block, uniaxial_stress
 from cvxcontact.backends import choose, describe
 from cvxcontact.backends.finish import Declined, solve_sparse_compliance
 from cvxcontact.backends.mixed import mixed_system
@@ -22,11 +23,7 @@ from cvxcontact.fem.space import space
 from cvxcontact.physics.materials import deviator
 from references import dense_newton
 
-E, NU, SIGMA_Y, H = 70e9, 0.3, 200e6, 0.1
-MU, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
 TOL = 1e-3          # the checks of an unfinished interior point: measured <= 5e-6 (complementarity), 1.4e-6 (equilibrium)
-EXACT = 1e-12       # the Newton finish: equilibrium measured <= 3e-16, complementarity 0 (planes), 6e-9 (circles:
-#                     the check's own, the linear material's is 1.1e-8 on the same scene)
 
 
 def checked(scene, **kw):
@@ -53,25 +50,6 @@ def interior_point(scene):
     assert sol.info.route == cc.Route.INTERIOR_POINT_NONLINEAR_ENERGY and not sol.polished
     assert max(sol.residuals().values()) < TOL, sol.residuals()
     return sol
-
-
-def uniaxial_stress(strain, sigma_y=SIGMA_Y, h=H):
-    """model.md's closed form: sigma_axis = K eps + mu psi'(s) (2/sqrt(6)) sign(eps), s = sqrt(6)/3 |eps|."""
-    s, s_y = np.sqrt(6) / 3 * abs(strain), sigma_y / (np.sqrt(6) * MU)
-    return K * strain + MU * (2 * h * s + 2 * (1 - h) * min(s, s_y)) * 2 / np.sqrt(6) * np.sign(strain)
-
-
-def pressed_block(material, strain):
-    """A block on a rigid plane, rollers on its sides, its top moved down: uniaxial strain ``strain`` along y."""
-    m = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2)
-    b = cc.Body(m, material, roller=["left", "right"], displacement={"top": (None, strain * 0.5)}, contact="bottom")
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0, 0), (0, 1)))])
-
-
-def indented(material, nx=16, ny=6, depth=3e-3, radius=0.6):
-    """A rigid circle pressed ``depth`` into a block 1 m x 0.5 m clamped at its bottom (yields under the circle)."""
-    b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=nx, ny=ny), material, clamped="bottom", contact="top")
-    return cc.Scene(b, contacts=[cc.Contact(b, "top", cc.Rigid.circle((0.47, 0.5 + radius - depth), radius))])
 
 
 def test_the_deviator_and_the_stress_are_those_of_the_tensors():

@@ -1,7 +1,7 @@
 """The fast route of a non-quadratic bulk energy (issue 31 item 2, :mod:`cvxcontact.backends.nonlinear`, method
 "newton"): Newton on the nonlinear mixed system (26) with the contact active set from the elastic predictor, no
 interior point. Checked against the full route (the interior point + its Newton finish, the
-reference) to rounding, the closed form of uniaxial strain, a dense Newton written in tests/test_bulk_energy.py,
+reference) to rounding, the closed form of uniaxial strain, a dense Newton (tests/references.py),
 and (26)-(27) by the read-back; its fallback to the full route when the steps do not settle. Tolerances: the
 finish's rounding or 100x the measured values (beside them)."""
 
@@ -12,17 +12,17 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from conftest import rel, two_blocks
-from test_bulk_energy import (
+from hencky_scenes import (
     EXACT,
     NU,
     SIGMA_Y,
     E,
     H,
-    dense_newton,
     indented,
     pressed_block,
     uniaxial_stress,
 )
+from references import dense_newton
 
 import cvxcontact as cc
 from cvxcontact.backends import choose, describe, nonlinear

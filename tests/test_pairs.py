@@ -9,10 +9,8 @@ import pytest
 import cvxcontact as cc
 
 from conftest import rel, two_blocks
+from pair_scenes import ALU, STEEL, block_on, elastic_punch
 from reference_problems import active_set_solve, merged_rows, per_body, stiffness
-
-STEEL = cc.materials.isotropic(E=200e9, nu=0.3)
-ALU = cc.materials.isotropic(E=70e9, nu=0.33)
 
 
 def rotation(theta):
@@ -80,19 +78,9 @@ def dense_reference(bodies, pairs, condition, gaps):
     return per_body(systems, bodies, off, u), forces
 
 
-def punch_scene(condition=None, width=(0.3, 0.7)):
-    """An elastic punch narrower than its elastic substrate, pressed by a prescribed approach."""
-    punch = cc.Body(cc.rectangle(x=width, y=(0.0, 0.2), nx=5, ny=2), STEEL, clamped="top", contact="bottom",
-                    body_force=(0.0, -1e9), name="punch")
-    base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), ALU, clamped="bottom", contact="top",
-                   name="substrate")
-    gap = lambda s: -2e-4 + 5e-3 * (s - 0.52) ** 2                       # noqa: E731
-    return cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top", gap=gap, condition=condition)]), gap
-
-
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1", "sigma2"])
 def test_partial_overlap_against_a_dense_solve_of_the_mixed_system(condition):
-    scene, gap = punch_scene()
+    scene, gap = elastic_punch()
     us, forces = dense_reference(scene.bodies, [(0, "bottom", 1, "top")], condition, [gap])
     xs, fr = forces[0]
     for method in ("full", "condensed"):
@@ -107,7 +95,7 @@ def test_partial_overlap_against_a_dense_solve_of_the_mixed_system(condition):
         assert c.active.any()                                       # a real contact zone ...
         assert condition == "sigma2" or not c.active[c.constrained].all()    # ... with open edges (3 nodes in sigma2)
     # the per-pair condition overrides the solve's
-    assert rel(cc.solve(punch_scene(condition)[0], condition="gamma3").contact.force, fr) < 1e-8
+    assert rel(cc.solve(elastic_punch(condition)[0], condition="gamma3").contact.force, fr) < 1e-8
 
 
 def test_three_body_stack_against_a_dense_solve():
@@ -133,7 +121,7 @@ def test_three_body_stack_against_a_dense_solve():
 
 
 def test_model_takes_pairs():
-    scene, gap = punch_scene()
+    scene, gap = elastic_punch()
     model = cc.Model(scene)
     sol = model.solve()
     ref = cc.solve(scene, method="full")
@@ -142,15 +130,6 @@ def test_model_takes_pairs():
 
 
 # ---- rigid obstacles --------------------------------------------------------------------------------
-
-def block_on(obstacle_or_body, E_found=None):
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.4), nx=6, ny=3), ALU, clamped="top", contact="bottom",
-                    body_force=(0.0, -3e9), traction={"right": (2e8, 0.0)}, name="block")
-    if E_found is None:
-        return cc.Scene(block, contacts=[cc.Contact(block, "bottom", obstacle_or_body, gap=-1e-4)])
-    found = cc.Body(cc.rectangle(x=(-0.2, 1.2), y=(-0.3, 0.0), nx=7, ny=2), cc.materials.isotropic(E=E_found, nu=0.3),
-                    clamped="bottom", contact="top", name="foundation")
-    return cc.Scene(block, found, contacts=[cc.Contact(block, "bottom", found, "top", gap=-1e-4)])
 
 
 def test_rigid_plane_is_the_limit_of_a_stiff_clamped_foundation():
@@ -326,7 +305,7 @@ def test_scene_files_with_contact_and_obstacle_tables(tmp_path):
     (tmp_path / "punch.toml").write_text(PUNCH_FILE)
     (tmp_path / "rigid.toml").write_text(RIGID_FILE)
     punch = load_scene(tmp_path / "punch.toml").solve()
-    api = cc.solve(punch_scene()[0])
+    api = cc.solve(elastic_punch()[0])
     assert rel(punch.u[0], api.u[0]) < 1e-12 and rel(punch.contact.force, api.contact.force) < 1e-12
     rigid = load_scene(tmp_path / "rigid.toml").solve()
     ref = cc.solve(block_on(cc.Rigid.plane((0.0, 0.0), (0.0, 1.0))))

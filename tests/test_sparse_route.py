@@ -150,10 +150,10 @@ def test_sparse_refuses_what_it_cannot_take(scene):
 @pytest.mark.parametrize("make", ["punch_gamma3", "punch_sigma2", "three_bodies", "circle"])
 def test_sparse_agrees_with_condensed_on_pairs_and_obstacles(make):
     """Partial overlap with a prescribed approach, three bodies (two pairs), a rigid circle."""
-    from test_pairs import block_on, punch_scene
+    from pair_scenes import block_on, elastic_punch
 
     if make.startswith("punch"):
-        scene = punch_scene(condition=make.split("_")[1])[0]
+        scene = elastic_punch(condition=make.split("_")[1])[0]
     elif make == "circle":
         scene = block_on(cc.Rigid.circle((0.5, -0.3 - 1e-4), 0.3))
     else:

@@ -4,39 +4,11 @@ the other and their edge crossings, integrated by a rule exact for quadratics.""
 
 import numpy as np
 import pytest
-from scipy.spatial import ConvexHull, Delaunay
+from meshes import grid, random_mesh, rotated
+from scipy.spatial import ConvexHull
 
 from cvxcontact.contact.overlay import overlay
 from cvxcontact.errors import SceneError
-
-
-def grid(nx, ny, x=(0.0, 1.0), y=(0.0, 1.0), flip=False):
-    """A structured triangulation of a rectangle (each cell split along one diagonal)."""
-    X, Y = np.meshgrid(np.linspace(*x, nx + 1), np.linspace(*y, ny + 1))
-    pts = np.column_stack([X.ravel(), Y.ravel()])
-    i = (np.arange(nx)[None, :] + (nx + 1) * np.arange(ny)[:, None]).ravel()
-    if flip:
-        tri = np.concatenate([np.column_stack([i, i + 1, i + nx + 1]), np.column_stack([i + 1, i + nx + 2, i + nx + 1])])
-    else:
-        tri = np.concatenate([np.column_stack([i, i + 1, i + nx + 2]), np.column_stack([i, i + nx + 2, i + nx + 1])])
-    return pts, tri
-
-
-def random_mesh(n, rng, x=(0.0, 1.0), y=(0.0, 1.0)):
-    """A Delaunay triangulation of the rectangle's corners, points on its sides and random inner points."""
-    side = rng.uniform(0.05, 0.95, (4, 3))
-    border = np.concatenate([np.column_stack([side[0], np.zeros(3)]), np.column_stack([side[1], np.ones(3)]),
-                             np.column_stack([np.zeros(3), side[2]]), np.column_stack([np.ones(3), side[3]]),
-                             [[0, 0], [1, 0], [0, 1], [1, 1]]])
-    unit = np.concatenate([border, rng.uniform(0.05, 0.95, (n, 2))])
-    pts = np.column_stack([x[0] + (x[1] - x[0]) * unit[:, 0], y[0] + (y[1] - y[0]) * unit[:, 1]])
-    return pts, Delaunay(pts).simplices
-
-
-def rotated(mesh, theta, centre=(0.5, 0.5)):
-    c, s = np.cos(theta), np.sin(theta)
-    R = np.array([[c, -s], [s, c]])
-    return (mesh[0] - centre) @ R.T + centre, mesh[1]
 
 
 def inside(P, tri_pts, eps=1e-12):

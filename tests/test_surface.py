@@ -15,7 +15,7 @@ from cvxcontact.contact.interface import Stack
 from cvxcontact.contact.surface import SurfaceInterface, canonical_frame
 from cvxcontact.errors import SceneError
 
-from test_overlay import grid, random_mesh, rotated
+from meshes import grid, random_mesh, rotated
 
 
 class StandInMesh:

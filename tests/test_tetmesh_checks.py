@@ -5,7 +5,7 @@ joining three fans)."""
 
 import numpy as np
 import pytest
-from test_tetmesh import UNIT, bad_meshes, positive, ring_around_an_edge
+from meshes import UNIT, bad_meshes, positive, ring_around_an_edge
 
 import cvxcontact as cc
 from cvxcontact.errors import MeshError

@@ -20,7 +20,7 @@ from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, bernstein_argmax
 from cvxcontact.contact.quadratic3d import locate, p2_shape
 from cvxcontact.fem.space import space
 from cvxcontact.geometry.quadratic import P2TetNodes
-from scenes3d import SIDES, STEEL, bumped_gap, uniaxial_modulus
+from scenes3d import SIDES, STEEL, bumped_gap, pressed_blocks, uniaxial_modulus
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -90,15 +90,6 @@ def test_the_copositive_constraints_are_feasible_exactly_when_the_quadratic_is_n
 
 
 # --- scenes ------------------------------------------------------------------------------------------------
-
-def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1):
-    """Two blocks on (0, 1)^2 meeting at z = 0.5 with non-matching faces: the lower clamped at its base, the
-    upper pushed down by d (m) on its top (both held by their supports), the gap ``gap``."""
-    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=nz)
-    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=nz)
-    b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
-    b2 = cc.Body(up, STEEL, displacement={"top": (0.0, 0.0, -d)}, contact="bottom", name="upper")
-    return cc.Scene(b1, b2, gap=gap)
 
 
 def solve(scene, condition="gamma3", **kw):

@@ -10,7 +10,7 @@ import pytest
 
 import cvxcontact as cc
 from scenes3d import SIDES, STEEL, bumped_gap, layer_on_plane
-from test_copositive import pressed_blocks
+from scenes3d import pressed_blocks
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 

@@ -6,7 +6,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,20 +14,7 @@ import cvxcontact as cc
 from cvxcontact.io.scenefile import load_scene
 from cvxcontact.apps.sweep import SweepError, read_sweep, run_sweep
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-
-
-def write_sweep(tmp_path, grid, extra="", method="condensed", small=True):
-    """A sweep file over the example's scene (meshes halved if ``small``) with this ``[grid]``."""
-    text = (EXAMPLES / "two_blocks.toml").read_text()
-    if small:
-        text = text.replace("nx = 16, ny = 8", "nx = 8, ny = 4").replace("nx = 11, ny = 6", "nx = 6, ny = 3")
-    (tmp_path / "scene.toml").write_text(text)
-    lines = ['scene = "scene.toml"', f'method = "{method}"', extra, "[grid]"]
-    lines += [f'"{k}" = {json.dumps(v)}' for k, v in grid.items()]
-    path = tmp_path / "sweep.toml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+from sweep_files import write_sweep
 
 
 def test_sweep_results_equal_direct_solves_and_failures_are_recorded(tmp_path):

@@ -18,7 +18,7 @@ from cvxcontact.apps import cli
 from cvxcontact.apps.sweep import SweepLockedError, SweepOutputError, read_sweep, run_sweep
 from cvxcontact.apps.sweep import store
 from cvxcontact.io.scenefile import load_scene
-from test_sweep import write_sweep as setup
+from sweep_files import write_sweep as setup
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

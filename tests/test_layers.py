@@ -70,3 +70,48 @@ def test_the_library_does_not_print(path):
 def test_the_print_check_sees_a_print():
     assert prints("def f(x):\n    print('DBG', x)\n    return x\n") == [2]
     assert prints("def f(out):\n    out.print(1)\n") == []
+
+
+TESTS = Path(__file__).resolve().parent
+
+
+def imported_tests(source):
+    """The test modules (``test_*``) and test functions that ``source`` imports, anywhere in the file: ``import``
+    and ``from ... import``, absolute, package-qualified (``tests.test_x``) or relative, module-level or nested, and
+    ``importlib.import_module("test_x")``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            names = [node.module or ""] + [a.name for a in node.names]
+        elif (isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
+              and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+            names = [node.args[0].value]
+        else:
+            continue
+        found += [n for n in names if any(part.startswith("test_") for part in n.split("."))]
+    return found
+
+
+def test_no_test_module_imports_another():
+    """What tests share (scenes, meshes, reference solvers, constants) lives in fixtures modules (tests/scenes.py,
+    tests/references.py, tests/meshes.py, ...), never in a test module: no file of tests/ imports a test module or a
+    test function, so each test module runs, moves or goes alone and pytest collects every test once."""
+    bad = {str(p.relative_to(TESTS)): found for p in sorted(TESTS.rglob("*.py"))
+           if (found := imported_tests(p.read_text()))}
+    assert not bad, f"{bad}: move what another module needs into a fixtures module (docs/architecture.md)"
+
+
+def test_the_test_import_check_sees_every_form():
+    """Module-level and nested, plain, aliased, package-qualified and relative imports of a test module, and a test
+    function imported by name, are all caught; fixtures modules and names that merely contain "test" are not."""
+    assert imported_tests("from test_solve import direct_mixed_solve\n") == ["test_solve"]
+    assert imported_tests("def f():\n    from test_refusals import DELTA3\n") == ["test_refusals"]
+    assert imported_tests("import test_friction3d as t3\n") == ["test_friction3d"]
+    assert imported_tests("from tests.test_pairs import block_on\n") == ["tests.test_pairs"]
+    assert imported_tests("from . import test_overlay\n") == ["test_overlay"]
+    assert imported_tests("from .test_sweep import write_sweep\n") == ["test_sweep"]
+    assert imported_tests("from scenes import test_like\n") == ["test_like"]
+    assert imported_tests("import importlib\nm = importlib.import_module('test_tetmesh')\n") == ["test_tetmesh"]
+    assert imported_tests("from references import dense_kkt\nimport pytest\nfrom testing import x\n") == []

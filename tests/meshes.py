@@ -18,7 +18,8 @@ def grid(nx, ny, x=(0.0, 1.0), y=(0.0, 1.0), flip=False):
     pts = np.column_stack([X.ravel(), Y.ravel()])
     i = (np.arange(nx)[None, :] + (nx + 1) * np.arange(ny)[:, None]).ravel()
     if flip:
-        tri = np.concatenate([np.column_stack([i, i + 1, i + nx + 1]), np.column_stack([i + 1, i + nx + 2, i + nx + 1])])
+        tri = np.concatenate([np.column_stack([i, i + 1, i + nx + 1]),
+                              np.column_stack([i + 1, i + nx + 2, i + nx + 1])])
     else:
         tri = np.concatenate([np.column_stack([i, i + 1, i + nx + 2]), np.column_stack([i, i + nx + 2, i + nx + 1])])
     return pts, tri
@@ -104,8 +105,10 @@ def bad_meshes():
          "is shared by 3 tetrahedra"),
         (above[:5], [[0, 1, 2, 3], [0, 1, 2, 4]], None, "tetrahedra 0 and 1 .* lie on the same side of their "
                                                         r"common face \[0, 1, 2\]"),
-        (edge_pair, positive(edge_pair, [[0, 1, 2, 3], [0, 1, 4, 5]]), None, r"boundary edge \(0, 1\) .* lies on 4 boundary faces"),
-        (np.vstack([UNIT, -UNIT[1:]]), positive(np.vstack([UNIT, -UNIT[1:]]), [[0, 1, 2, 3], [0, 4, 5, 6]]), None, "node 0 .* joins 2 separate fans"),
+        (edge_pair, positive(edge_pair, [[0, 1, 2, 3], [0, 1, 4, 5]]), None,
+         r"boundary edge \(0, 1\) .* lies on 4 boundary faces"),
+        (np.vstack([UNIT, -UNIT[1:]]), positive(np.vstack([UNIT, -UNIT[1:]]), [[0, 1, 2, 3], [0, 4, 5, 6]]), None,
+         "node 0 .* joins 2 separate fans"),
         (*ring_around_an_edge(2), None, r"interior edge \(0, 1\) .* turn 2.000 times around it"),
         (np.vstack([a.points, b.points]), np.vstack([a.tets, b.tets + 8]), None, "lies inside 1 other layer"),
         (*crossing_bars(), None, "boundary faces .* meet near .* the boundary surface cuts through itself"),

@@ -18,7 +18,8 @@ def elastic_punch(condition=None, width=(0.3, 0.7)):
     base = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(-0.5, 0.0), nx=8, ny=4), ALU, clamped="bottom", contact="top",
                    name="substrate")
     gap = lambda s: -2e-4 + 5e-3 * (s - 0.52) ** 2                       # noqa: E731
-    return cc.Scene(punch, base, contacts=[cc.Contact(punch, "bottom", base, "top", gap=gap, condition=condition)]), gap
+    contact = cc.Contact(punch, "bottom", base, "top", gap=gap, condition=condition)
+    return cc.Scene(punch, base, contacts=[contact]), gap
 
 
 def block_on(obstacle_or_body, E_found=None):

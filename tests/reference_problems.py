@@ -3,8 +3,8 @@
 * Two elastic blocks with nu = 0, clamped at their far ends and pressed together by an interference
   DELTA (gap g = -DELTA): two 1D springs in series (heights H_l, moduli E_l; plane strain with nu = 0
   gives c22 = E). The contact pressure is uniform, lambda = (DELTA - r) / C with C = H1/E1 + H2/E2, and a
-  normal-compliance law lambda = k r^m gives the scalar equation r + C k r^m = DELTA (:func:`closed_form`); :func:`field_error` measures a
-  solution's u against the springs' fields.
+  normal-compliance law lambda = k r^m gives the scalar equation r + C k r^m = DELTA (:func:`closed_form`);
+  :func:`field_error` measures a solution's u against the springs' fields.
 * Dense contact rows of two horizontal contact parts, test-built from each body's own trace nodes
   (:func:`merged_rows`), and a dense primal-dual active-set solve of the mixed system (26) with them
   (:func:`active_set_solve`), which asserts that its answer satisfies (27).

@@ -65,8 +65,8 @@ def dense_stack(bodies, gaps):
         K[a:b, a:b] = s.Kuu[s.u_free][:, s.u_free].toarray()
         f[a:b] = s.f[s.u_free]
     rows, gs, xs_all = [], [], []
-    for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"), (1, "bottom", 2, "top", 2, "top")),
-                                            gaps):
+    for (ka, pa, kb, pb, kc, pc), gap in zip(((0, "bottom", 1, "top", 0, "bottom"),
+                                             (1, "bottom", 2, "top", 2, "top")), gaps):
         xs = part_abscissae(nodes[kc], pc)
         G = np.zeros((len(xs), off[-1]))
         G[:, off[ka]:off[ka + 1]] -= _trace_rows(bodies[ka], pa, nodes[ka], xs)[:, systems[ka].u_free]

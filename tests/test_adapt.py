@@ -46,7 +46,8 @@ def test_adaptive_peak_pressure_closer_to_hertz(degree, level, ratio):
         uniform = measures(cc.solve(uniformly(coarse_scene(), level), method="condensed", degree=degree))
         cells = uniform["unknowns"] if degree == 1 else uniform["unknowns"] // 4
         result = cc.adapt(coarse_scene(), method="condensed", degree=degree, theta=0.5, rate=np.inf,
-                          exact_steps=True, max_steps=40, max_cells=cells)    # the loop measured (P2's default: LOOPS)
+                          exact_steps=True, max_steps=40,
+                          max_cells=cells)    # the loop measured (P2's default: LOOPS)
         adaptive = measures(result.solution)
     assert result.stopped == "max_cells"
     assert adaptive["unknowns"] <= uniform["unknowns"]

@@ -245,7 +245,7 @@ def test_near_grazing(delta, polish, method):
     check(sol, ref, caught, f"delta={delta:g} polish={polish} method={method} node={j}")
 
 
-# --------------------------------------------------------------------------- traps: expressions with an output argument
+# ------------------------------------------------------------------------ traps: expressions with an output argument
 
 _FILE = """
 condition = "gamma3"

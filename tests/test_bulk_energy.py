@@ -23,7 +23,8 @@ from cvxcontact.fem.space import space
 from cvxcontact.physics.materials import deviator
 from references import dense_newton
 
-TOL = 1e-3          # the checks of an unfinished interior point: measured <= 5e-6 (complementarity), 1.4e-6 (equilibrium)
+TOL = 1e-3          # the checks of an unfinished interior point: measured <= 5e-6 (complementarity),
+#                     1.4e-6 (equilibrium)
 
 
 def checked(scene, **kw):
@@ -67,7 +68,8 @@ def test_the_deviator_and_the_stress_are_those_of_the_tensors():
         grad = [(mat.density(eps + step * e, dim) - mat.density(eps - step * e, dim)) / (2 * step)
                 for e in np.eye(len(eps))]
         assert rel(mat.stress(eps, dim), grad) < 1e-6                        # measured 3e-11 to 8e-11
-        hess = [(mat.stress(eps + step * e, dim) - mat.stress(eps - step * e, dim)) / (2 * step) for e in np.eye(len(eps))]
+        hess = [(mat.stress(eps + step * e, dim) - mat.stress(eps - step * e, dim)) / (2 * step)
+                for e in np.eye(len(eps))]
         assert rel(mat.tangent(eps, dim), np.array(hess).T) < 1e-5           # measured below 1e-7
 
 
@@ -83,10 +85,10 @@ def test_uniaxial_strain_follows_the_closed_form(strain):
 
 
 def test_h_one_and_a_huge_yield_stress_are_the_linear_material():
-    """h = 1 (no softening) and sigma_y -> inf (1e15 Pa) (never yields) give psi(s) = s^2: the linear isotropic material, to
-    rounding after the Newton finish, on the pressed block and on a circle pressed into a clamped block (whose
-    answer the linear material's condensed route and LCP finish give independently); a finite sigma_y that the
-    strain passes does not."""
+    """h = 1 (no softening) and sigma_y -> inf (1e15 Pa) (never yields) give psi(s) = s^2: the linear isotropic
+    material, to rounding after the Newton finish, on the pressed block and on a circle pressed into a clamped block
+    (whose answer the linear material's condensed route and LCP finish give independently); a finite sigma_y that
+    the strain passes does not."""
     lin = cc.solve(pressed_block(cc.materials.isotropic(E, NU), -1e-2), estimate=False)
     for mat in (cc.materials.hencky(E, NU, SIGMA_Y, 1.0), cc.materials.hencky(E, NU, 1e15, H)):
         sol = checked(pressed_block(mat, -1e-2))
@@ -94,7 +96,8 @@ def test_h_one_and_a_huge_yield_stress_are_the_linear_material():
     circle = cc.solve(indented(cc.materials.isotropic(E, NU)), estimate=False)
     sol = checked(indented(cc.materials.hencky(E, NU, SIGMA_Y, 1.0)))
     assert circle.info.method == "condensed" and sol.info.iterations > 0
-    assert rel(sol.u[0], circle.u[0]) < 1e-12 and rel(sol.contact.lam, circle.contact.lam) < 1e-12   # measured 5.8e-16, 1.1e-15
+    assert rel(sol.u[0], circle.u[0]) < 1e-12                          # measured 5.8e-16
+    assert rel(sol.contact.lam, circle.contact.lam) < 1e-12            # measured 1.1e-15
     soft = checked(pressed_block(cc.materials.hencky(E, NU, SIGMA_Y, H), -1e-2))
     assert rel(soft.contact.lam, lin.contact.lam) > 0.1           # the closed forms: 1 - 7.392/9.423 = 0.2155
 
@@ -113,7 +116,8 @@ def test_the_energy_object_answers_and_the_fast_routes_refuse():
     bulk, rng = problem.blocks[1].bulk, np.random.default_rng(0)
     z = rng.normal(size=bulk.A.shape[1]) * 50 / problem.units.load * 1e-6 * problem.units.length
     dz = rng.normal(size=z.size) * 1e-6 * np.abs(z).max()
-    assert abs(bulk.value(z + dz) - bulk.value(z - dz) - 2 * bulk.gradient(z) @ dz) < 1e-6 * abs(bulk.gradient(z) @ dz)
+    difference = bulk.value(z + dz) - bulk.value(z - dz)
+    assert abs(difference - 2 * bulk.gradient(z) @ dz) < 1e-6 * abs(bulk.gradient(z) @ dz)
     assert rel(bulk.gradient(z + dz) - bulk.gradient(z - dz), 2 * bulk.hessian(z) @ dz) < 1e-5
 
 
@@ -144,8 +148,8 @@ def test_a_hencky_block_under_a_circle_is_the_newton_answer():
     history = np.array(out[5])
     print("relative residuals of (26) per Newton step:", " ".join(f"{h:.1e}" for h in history))
     # measured: 6.5e-01 1.0 1.0 1.0 1.3e-01 5.8e-03 4.1e-06 4.3e-12 5.8e-14 | 9.7e-01 2.3e-01 3.6e-02 1.1e-03
-    # 5.8e-07 5.2e-13 1.1e-13 (| an active-set change; one 1.1e-13 more before the steps stopped at their own floor): r_k+1 / r_k^2 <= 1.5 (a linear rate rho would need
-    # rho < 150 r_k, 1e-4 at these r_k, to pass)
+    # 5.8e-07 5.2e-13 1.1e-13 (| an active-set change; one 1.1e-13 more before the steps stopped at their own floor):
+    # r_k+1 / r_k^2 <= 1.5 (a linear rate rho would need rho < 150 r_k, 1e-4 at these r_k, to pass)
     pairs = [(a, b) for a, b in zip(history, history[1:]) if 1e-11 < a < 1e-2 and b > 1e-13]
     assert len(pairs) >= 3 and all(b <= 150 * a ** 2 for a, b in pairs), history
 

@@ -76,8 +76,8 @@ def test_scene_file_equals_api_scene(tmp_path):
 
 def test_scene_file_gap_expression(tmp_path):
     """A parabolic gap in a scene file equals the same gap given to the API."""
-    text = (EXAMPLES / "two_blocks.toml").read_text().replace('condition = "gamma3"',
-                                                               'condition = "gamma3"\ngap = "(x - 0.5)**2 / 2 - 1e-3"')
+    text = (EXAMPLES / "two_blocks.toml").read_text().replace(
+        'condition = "gamma3"', 'condition = "gamma3"\ngap = "(x - 0.5)**2 / 2 - 1e-3"')
     path = tmp_path / "gap.toml"
     path.write_text(text)
     spec = load_scene(path)
@@ -161,4 +161,5 @@ def test_cli_prints_the_report_of_the_solution(tmp_path, capsys):
     assert floating
     for e in sol.electrodes:
         name = sol.scene.bodies[e.body].name
-        assert f"  electrode {name}/{e.tag} ({e.kind}): potential {e.potential:.6g} V, charge {e.charge:.6g} C/m" in lines
+        assert (f"  electrode {name}/{e.tag} ({e.kind}): potential {e.potential:.6g} V, charge {e.charge:.6g} C/m"
+                in lines)

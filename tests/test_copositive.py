@@ -283,4 +283,5 @@ def test_canonical_scenes_held_by_the_contact_are_finished(name):
 def test_the_pressure_of_a_3d_p2_solution_is_lambda_h():
     # (it raised a broadcast error: the 1D P2 lumping applied to in-plane points)
     sol = solve(pressed_blocks())
-    assert np.array_equal(sol.contact.pressure, sol.contact.lam) and sol.contact.pressure.shape == (len(sol.contact.x),)
+    assert np.array_equal(sol.contact.pressure, sol.contact.lam)
+    assert sol.contact.pressure.shape == (len(sol.contact.x),)

@@ -29,7 +29,8 @@ def held_sides():
     return cc.Scene(b1, b2, gap=lambda x, y: bumped_gap(x, y) - 1e-6)
 
 
-@pytest.mark.parametrize("build", [lambda: pressed_blocks(gap=quartic_gap), held_sides], ids=["quartic gap", "held sides"])
+@pytest.mark.parametrize("build", [lambda: pressed_blocks(gap=quartic_gap), held_sides],
+                         ids=["quartic gap", "held sides"])
 def test_the_cuts_finish_when_the_gap_is_not_in_the_range_of_the_compliance(build):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

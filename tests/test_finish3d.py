@@ -650,7 +650,8 @@ def test_dependent_rows_next_to_a_compliance_pair_against_a_dense_solve():
     assert np.abs(sol.contacts[1].lam[rows[1]] - lam).max() < 1e-10 * lam.max()    # measured 6.8e-15
 
 
-@pytest.mark.parametrize("name", ["squeezed", "squeezed, turned", "two PZT-5A-on-aluminium boxes", "two elastic boxes"])
+@pytest.mark.parametrize("name", ["squeezed", "squeezed, turned", "two PZT-5A-on-aluminium boxes",
+                                  "two elastic boxes"])
 def test_the_sparse_route_finishes_dependent_rows_like_the_condensed_and_full_routes(name):
     """P1 "gamma3" between two 3D bodies held by their supports, non-matching faces: the sparse route (a
     regularised stage on the quasi-definite mixed system, then Lawson-Hanson on the exact one, no interior point)

@@ -36,7 +36,8 @@ from cvxcontact.physics.materials import deviator
 pytestmark = pytest.mark.numerics
 
 HENCKY = cc.materials.hencky(E, NU, SIGMA_Y, H)
-SAME = 1e-11        # fast against full: both exact finishes of (26); measured <= 5.7e-14 (forces of a pair), 7.1e-15 (u)
+SAME = 1e-11        # fast against full: both exact finishes of (26); measured <= 5.7e-14 (forces of a pair),
+#                     7.1e-15 (u)
 
 
 def both(scene, **kw):
@@ -166,7 +167,8 @@ def dense_compliance(bulk, f, G, g, w, law):
     """An independent solution of one body with the energy ``bulk`` and a normal-compliance law on the rows G z - g
     (no limit): min bulk(z) - f z + sum_a w_a Phi_a(G z - g) by damped Newton on dense matrices, until the step is
     at rounding. Near the answer the energy's decrease drowns in its rounding, so a step that reduces the gradient
-    is taken too (else the halving can stop the steps at a step of rounding size short of the answer: 2.6e-12 seen)."""
+    is taken too (else the halving can stop the steps at a step of rounding size short of the answer: 2.6e-12
+    seen)."""
     z = np.zeros(G.shape[1])
 
     def energy(v):

@@ -44,8 +44,8 @@ def test_force_control_balances_the_force_exactly(guided):
 def test_closest_point_rows_balance_the_vertical_resultant_not_the_sum_of_the_nodal_forces():
     """The sphere posed at the closest point (the rows along the radius): the balance holds for the obstacle's
     resultant sum_a n_o y_a (total_force), exactly; the nodal forces' plain sum is larger (they lean outwards),
-    by sum y (1 - cos theta) over sum y cos theta at most, theta the angle off the axis; the study's ray posing (:data:`h.DISTANCE`) gives a
-    longer approach, the closest point's rows being stiffer off the axis."""
+    by sum y (1 - cos theta) over sum y cos theta at most, theta the angle off the axis; the study's ray posing
+    (:data:`h.DISTANCE`) gives a longer approach, the closest point's rows being stiffer off the axis."""
     sol = cc.solve(h.scene(N, force=h.FORCE, distance="closest"))
     assert sol.ok and sol.polished, sol.report()
     assert abs(h.total_force(sol) - h.FORCE) <= 1e-12 * h.FORCE              # measured 1.8e-16
@@ -311,7 +311,7 @@ def test_p2_gamma3_maxima_of_the_true_slack_converge(gamma3_closest_level):
     _, sol = gamma3_closest_level
     c = sol.contact
     b = (np.asarray(c.jump) - np.asarray(c.gap))[np.asarray(sol.interface.cells)] @ TRIANGLE.to_bernstein.T
-    check_argmax(h.true_departure(sol), b, 48, 5e-11)          # measured 4.7e-13 (the zoom below Newton on the ridges)
+    check_argmax(h.true_departure(sol), b, 48, 5e-11)   # measured 4.7e-13 (the zoom below Newton on the ridges)
 
 
 def test_p2_gamma3_hertz_quantities_at_the_coarsest_level(gamma3_level, p2_levels):

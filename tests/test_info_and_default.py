@@ -27,8 +27,8 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 def test_registry_auto_takes_the_first_accepting_backend_in_speed_order():
     assert METHODS[0] == "auto" and set(METHODS[1:]) == {b.name for b in BACKENDS} == {"full", "condensed", "sparse",
                                                                                       "amg", "newton"}
-    assert [b.name for b in BACKENDS] == ["amg", "sparse", "condensed", "newton", "full"]    # speed order (sparse: long
-    assert choose("auto") == "condensed"                                          # interfaces only, issue 13)
+    assert [b.name for b in BACKENDS] == ["amg", "sparse", "condensed", "newton", "full"]   # speed order (sparse:
+    assert choose("auto") == "condensed"                                          # long interfaces only, issue 13)
     assert choose("auto", ProblemDescription(user_terms=2)) == "full"              # user terms: only full
     assert choose("auto", ProblemDescription(quadratic_energy=False)) == "newton"     # Hencky: the Newton route
     assert choose("auto", ProblemDescription(quadratic_energy=False, dependent_rows=True)) == "full"
@@ -112,7 +112,8 @@ def _body(**kw):
 def test_every_body_parameter_is_classified_as_load_or_geometry():
     params = set(inspect.signature(cc.Body.__init__).parameters) - {"self", "name"}
     assert params == set(LOAD_FIELDS) | set(GEOMETRY_FIELDS) and not set(LOAD_FIELDS) & set(GEOMETRY_FIELDS)
-    assert set(inspect.signature(cc.Scene.__init__).parameters) - {"self", "bodies", "contacts"} == set(SCENE_LOAD_FIELDS)
+    fields = set(inspect.signature(cc.Scene.__init__).parameters) - {"self", "bodies", "contacts"}
+    assert fields == set(SCENE_LOAD_FIELDS)
 
 
 def test_fingerprint_excludes_exactly_the_loads():

@@ -7,8 +7,8 @@ import pytest
 
 import cvxcontact
 
-LAYERS = ["errors", "version", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve", "model", "goal", "adapt", "io",
-          "apps"]
+LAYERS = ["errors", "version", "geometry", "contact", "physics", "fem", "discrete", "backends", "solution", "solve",
+          "model", "goal", "adapt", "io", "apps"]
 ROOT = Path(cvxcontact.__file__).parent
 MODULES = sorted(p for p in ROOT.rglob("*.py") if p not in (ROOT / "__init__.py", ROOT / "__main__.py"))
 
@@ -85,8 +85,9 @@ def imported_tests(source):
             names = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
             names = [node.module or ""] + [a.name for a in node.names]
-        elif (isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
-              and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+        elif (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
+              and isinstance(node.args[0].value, str)
+              and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"):
             names = [node.args[0].value]
         else:
             continue

@@ -119,7 +119,8 @@ def test_a_dependent_row_whose_slack_is_rounding_is_passed_over():
     start = np.array([True, True, False])
     out = finish.lawson_hanson(G, np.ones(3), start, lambda first: step, purify=False, g=g, max_iter=20)
     assert not isinstance(out, str) and list(np.flatnonzero(out[1])) == [0, 1] and out[2] == 1
-    assert finish.lawson_hanson(G, np.ones(3), start, lambda first: step, purify=False, max_iter=20) is finish.MAX_ITER
+    assert (finish.lawson_hanson(G, np.ones(3), start, lambda first: step, purify=False, max_iter=20)
+            is finish.MAX_ITER)
 
 
 def test_a_node_that_does_not_move_is_scaled_by_its_neighbours():

@@ -67,7 +67,8 @@ def test_p2_model_on_a_conic_stack_is_the_full_solve(conditions):
     scene, _ = _stack(conditions)
     ref = cc.solve(scene, degree=2, method="full")
     sol = cc.Model(scene, degree=2).solve()
-    assert ref.ok and sol.ok and sol.polished and sol.info.finish in ("accumulated cuts", "tangency Newton"), sol.report()
+    assert ref.ok and sol.ok and sol.polished, sol.report()
+    assert sol.info.finish in ("accumulated cuts", "tangency Newton"), sol.report()
     for a, b in zip(sol.u, ref.u):
         assert rel(a, b) < 1e-7  # measured 0: the same program and IPM run
     for c, r in zip(sol.contacts, ref.contacts):

@@ -179,7 +179,8 @@ def test_rigid_circle_and_profile():
     assert np.abs(scene.gap_values() - exact).max() < 1e-15
     sol = cc.solve(scene)
     assert sol.ok and sol.contact.active.any()
-    f = lambda s: np.where(np.abs(s - 0.5) < R, 1e-4 + R - np.sqrt(np.maximum(R ** 2 - (s - 0.5) ** 2, 0)), np.inf)  # noqa: E731
+    f = lambda s: np.where(np.abs(s - 0.5) < R,                                           # noqa: E731
+                           1e-4 + R - np.sqrt(np.maximum(R ** 2 - (s - 0.5) ** 2, 0)), np.inf)
     prof = cc.solve(block_on(cc.Rigid.profile(f)))
     # the profile is the disc's arc where it is finite (its foot points are the disc's closest points there); the
     # circle's other nodes are inactive
@@ -214,19 +215,22 @@ def _block(x=(0.0, 1.0), y=(0.0, 0.5), **kw):
     (lambda: cc.Rigid.plane((0, 0), (0, 1), force=(0.0, 0.0)), cc.SceneError, "zero force"),
     (lambda: cc.Rigid.circle((0, 0), -1.0), cc.SceneError, "radius"),
     (lambda: cc.Contact(_block(), "roof", cc.Rigid.plane((0, 0), (0, 1))), cc.SceneError, "unknown boundary tag"),
-    (lambda: cc.Contact(_block(), "bottom", cc.Rigid.plane((0, 0), (0, 1)), "top"), cc.SceneError, "no boundary parts"),
+    (lambda: cc.Contact(_block(), "bottom", cc.Rigid.plane((0, 0), (0, 1)), "top"), cc.SceneError,
+     "no boundary parts"),
     (lambda: cc.Contact(_block(), "bottom", cc.Rigid.plane((0, 0), (0, 1)), condition="sigma3"), cc.SceneError,
      "condition"),
     (lambda: (lambda b: cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0, 0), (0, -1)))]))(_block()),
      cc.SceneError, "does not face"),
     (lambda: (lambda a, b: cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top")]))(
-        _block(), _block(x=(1.5, 2.5), y=(-0.5, 0), clamped="bottom", contact="top")), cc.SceneError, "do not overlap"),
+        _block(), _block(x=(1.5, 2.5), y=(-0.5, 0), clamped="bottom", contact="top")), cc.SceneError,
+     "do not overlap"),
     (lambda: (lambda a, b: cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top")]))(
         _block(), _block(y=(-0.5, -0.1), clamped="bottom", contact="top")), cc.SceneError, "not collinear"),
     (lambda: (lambda a, b: cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "left")]))(
         _block(), _block(x=(1.0, 2.0), clamped="right", contact="left")), cc.SceneError, "do not face each other"),
     (lambda: (lambda a, b: cc.Scene(a, contacts=[cc.Contact(a, "bottom", b, "top")]))(
-        _block(), _block(y=(-0.5, 0), clamped="bottom", contact="top")), cc.SceneError, "not one of the scene's bodies"),
+        _block(), _block(y=(-0.5, 0), clamped="bottom", contact="top")), cc.SceneError,
+     "not one of the scene's bodies"),
     (lambda: (lambda a, b, c: cc.Scene(a, b, c, contacts=[cc.Contact(a, "bottom", b, "top")]))(
         _block(), _block(y=(-0.5, 0), clamped="bottom", contact="top"), _block(x=(3, 4))), cc.SceneError,
      "no contact pair"),

@@ -99,7 +99,8 @@ def test_export_problem_writes_the_conic_data(tmp_path):
     import clarabel
 
     cones = [clarabel.ZeroConeT(int(f["cone_zero"]))] if int(f["cone_zero"]) else []
-    cones += [clarabel.NonnegativeConeT(int(f["cone_nonneg"]))] + [clarabel.SecondOrderConeT(int(k)) for k in f["cone_soc"]]
+    cones += ([clarabel.NonnegativeConeT(int(f["cone_nonneg"]))]
+              + [clarabel.SecondOrderConeT(int(k)) for k in f["cone_soc"]])
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     sol = clarabel.DefaultSolver(sp.triu(P).tocsc(), f["q"], A, f["b"], cones, settings).solve()
@@ -287,7 +288,8 @@ def test_a_crash_between_write_and_rename_leaves_nothing_that_looks_like_a_resul
     left = sorted(p.name for p in (out / "cases").iterdir())
     assert "c0.npz" in left and any(n.startswith(".c0.") for n in left)       # the npz, the JSON's temporary
     # what a reader of results lists (pathlib's glob matches names starting with a dot too): nothing
-    assert list((out / "cases").glob("*.json")) == [] and list((out / "cases").glob("*.npz")) == [out / "cases" / "c0.npz"]
+    assert list((out / "cases").glob("*.json")) == []
+    assert list((out / "cases").glob("*.npz")) == [out / "cases" / "c0.npz"]
     assert store.case_state(out, "c0") == ("pending", None)                      # the case is redone on resume
     store.clean_temporaries(out)
     assert sorted(p.name for p in (out / "cases").iterdir()) == ["c0.npz"]
@@ -346,8 +348,8 @@ def _session(sid, python=False):
 @pytest.mark.parametrize("cases", [1, 3])
 def test_ctrl_c_stops_the_workers_promptly_and_says_how_to_resume(tmp_path, cases):
     # cases of 1.9e4 unknowns (nx = 96); Ctrl-C (SIGINT to the process group) 0.1 s after the workers started,
-    # i.e. while they build, assemble or factorise their case. A single case with --workers 2 runs in a worker process too, so
-    # that Ctrl-C does not wait for a factorisation to return. The bound is generous (a loaded machine): the
+    # i.e. while they build, assemble or factorise their case. A single case with --workers 2 runs in a worker process
+    # too, so that Ctrl-C does not wait for a factorisation to return. The bound is generous (a loaded machine): the
     # time on large cases (1e5-1e6 unknowns) is measured by benchmarks/bench_sweep_interrupt.py
     text = (EXAMPLES / "two_blocks.toml").read_text().replace("nx = 16, ny = 8", "nx = 96, ny = 48")
     (tmp_path / "scene.toml").write_text(text.replace("nx = 11, ny = 6", "nx = 66, ny = 36"))
@@ -379,7 +381,7 @@ def test_ctrl_c_stops_the_workers_promptly_and_says_how_to_resume(tmp_path, case
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 130 and not left, (proc.returncode, left)
-    assert seconds < 20, seconds                    # measured 0.9-1.0 s (load 7 on 2 cores); 0.6-1.8 s at 1e5-1e6 unknowns
+    assert seconds < 20, seconds         # measured 0.9-1.0 s (load 7 on 2 cores); 0.6-1.8 s at 1e5-1e6 unknowns
     assert "Traceback" not in err
     hint = err.split("Resume with the same command: ", 1)[1].strip()
     assert hint == "cvxcontact sweep sweep.toml --out out --workers 2 -q"

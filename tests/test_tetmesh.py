@@ -255,7 +255,8 @@ def test_a_box_builds_at_any_length_scale(h):
 def test_a_surface_cutting_through_itself_is_refused_at_any_length_scale(h):
     """The crafted self-intersections above, scaled: still refused; the strip short of a turn still a mesh."""
     for points, tets in (crossing_bars(), curled_strip(2.2 * np.pi)):
-        with pytest.raises(MeshError, match="boundary faces .* meet near .* the boundary surface cuts through itself"):
+        with pytest.raises(MeshError,
+                           match="boundary faces .* meet near .* the boundary surface cuts through itself"):
             TetMesh(h * points, tets)
     points, tets = curled_strip(2 * np.pi - 0.2)
     assert TetMesh(h * points, tets).volumes.sum() == pytest.approx(h ** 3 * TetMesh(points, tets).volumes.sum(),

@@ -279,6 +279,43 @@ def test_resolve_on_an_object_left_by_another_start_reaches_the_fresh_answer():
     assert np.array_equal(np.asarray(full.contact.active), again[3])
 
 
+def test_a_retry_from_a_fresh_factorisation_counts_the_systems_of_every_attempt(monkeypatch, layer):
+    """SparseContact.solve retries from a fresh factorisation when its steps on the base a previous solve left stop
+    (SparseContact._attempts); the count it reports is that of the systems solved exactly by all its attempts.
+    Forced: the first attempt's steps are cut after one system (it ends MAX_ITER, as steps that stop do). The retry
+    takes a fresh object's path (same cap; SuperLU, its ordering from the pattern alone), so the count is 1 + the
+    fresh object's, and a spy on the exact solves counts the same; the answer is the fresh object's."""
+    from cvxcontact.backends import sparse as module
+
+    problem = cc.ContactSolver(layer, method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    free = ~problem.held_rows
+    fresh = SparseContact(blocks, E, cap=24, factorization="superlu").solve(F, g, free)
+    assert fresh is not None and fresh[4] >= 2                   # the bonded start is not the answer
+    used = SparseContact(blocks, E, cap=24, factorization="superlu")
+    assert used.solve(F, g, np.arange(E.shape[0]) % 2 == 0) is not None and used.attempts == 1   # leaves a base
+    real, cuts, solved = module.active_set_steps, [], []
+
+    def cut_first(step, start, max_iter):
+        cuts.append(max_iter)
+        return real(step, start, 1 if len(cuts) == 1 else max_iter)
+
+    def counted(self, active, system=SparseContact._system):
+        z = system(self, active)
+        solved.append(z is not None)
+        return z
+
+    monkeypatch.setattr(module, "active_set_steps", cut_first)
+    monkeypatch.setattr(SparseContact, "_system", counted)
+    again = used.solve(F, g, free)
+    assert again is not None and used.attempts == len(cuts) == 2
+    assert again[4] == sum(solved) == 1 + fresh[4]
+    assert np.array_equal(again[3], fresh[3])
+    # measured 0 (the same path, the same factorisations); 1e-12 for any rounding of a refactorised base
+    assert rel(np.concatenate(again[0]), np.concatenate(fresh[0])) < 1e-12 and rel(again[2], fresh[2]) < 1e-10
+
+
 # ================================================================ rows against a side that does not move
 
 def _floor_reference(body):

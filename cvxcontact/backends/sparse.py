@@ -214,6 +214,7 @@ class SparseContact:
         self.factorizations = 0
         self.factor_time = 0.0            # seconds spent in ordering() and factorize()
         self.column_solves = 0
+        self.attempts = 0                 # the attempts (:meth:`_attempts`) the last :meth:`solve` made
 
     def matrix(self, active) -> sp.csc_matrix:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
@@ -396,19 +397,24 @@ class SparseContact:
 
         Returns ``(u, phi, y, active, steps)`` (per-body lists as in
         :func:`~cvxcontact.backends.full.mixed_kkt`, y the row forces, ``steps`` the number of systems
-        solved exactly; the steps taken on the capacitance columns alone, :meth:`_settle`, are not counted) or None
-        if the steps cycle, stall or meet a singular system."""
+        solved exactly over every attempt, :meth:`_attempts`: those of the attempts that stopped before the one
+        that settled too; the steps taken on the capacitance columns alone, :meth:`_settle`, are not counted) or
+        None if the steps cycle, stall or meet a singular system in every attempt. :attr:`attempts` is then the
+        number of attempts this solve made."""
         self.F = np.asarray(F, dtype=float)
         self._g = np.asarray(g, dtype=float)
         self._base_state = None
         n, m = self.n, self.m
         active = np.ones(m, dtype=bool) if active is None else np.asarray(active, dtype=bool).copy()
         visited = set()                                 # the sets solved exactly (the steps' cycle test)
+        systems = 0                                     # the systems solved exactly, over every attempt
 
         def step(active):
+            nonlocal systems
             z = self._system(active)
             if z is None:
                 return None
+            systems += 1
             visited.add(active.tobytes())
             x, y = z[:n], z[n:]
             s = self.G @ x - self._g
@@ -421,18 +427,19 @@ class SparseContact:
             settled = self._settle(new, S, visited) if settle else new    # the steps near the base on its columns
             return (x, y), (new if settled.tobytes() in visited else settled)
 
-        out, start = None, active
+        out, start, self.attempts = None, active, 0
         for settle, fresh in self._attempts():
             if fresh:
                 self.forget(analysis=True)
             visited = set()
+            self.attempts += 1
             out = active_set_steps(step, start, max_iter)
             if not isinstance(out, Declined):
                 break
         if isinstance(out, Declined):
             return None
-        (x, y), active, steps = out
-        return self._split(x) + (np.where(active, y, 0.0), active, steps)
+        (x, y), active, _ = out
+        return self._split(x) + (np.where(active, y, 0.0), active, systems)
 
     def _attempts(self):
         """The (settle, fresh) of :meth:`solve`'s attempts, each from the same start set: the steps near the base

@@ -1,8 +1,8 @@
 """Benchmark: the checks of friction answers before (``polish=False``, the interior point) and after the exact
 finish (docs/howto/friction.md, "The exact finish"), on the 2D scenes of tests/friction_scenes.py and the 3D
-scenes of tests/test_friction3d.py, with the closed forms there (the block that sticks against the tied block,
-the block that slides against its friction force -g L), the box held along one tangent on a side, and the pair
-whose faces do not match (nodal "sigma1" and dependent overlay "gamma3" rows):
+scenes of tests/friction_box_scenes.py, with the closed forms of tests/test_friction3d.py (the block that sticks
+against the tied block, the block that slides against its friction force -g L), the box held along one tangent on a
+side, and the pair whose faces do not match (nodal "sigma1" and dependent overlay "gamma3" rows):
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 OPENBLAS_CORETYPE=Haswell \
         PYTHONPATH=.:tests python benchmarks/friction_finish.py
@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import warnings
 
+import friction_box_scenes as t3
 import friction_scenes as fs
 import numpy as np
-import test_friction3d as t3
 
 import cvxcontact as cc
 

@@ -1,4 +1,4 @@
-"""Benchmark: a 3D pair whose faces do not match (tests/test_friction3d.py's ``non_matching``: 3 x 3 cells on
+"""Benchmark: a 3D pair whose faces do not match (tests/friction_box_scenes.py's ``non_matching``: 3 x 3 cells on
 4 x 4, 75 overlay rows under "gamma3") solved posed from either body; the relative distance of the two answers'
 displacements, finished and interior point (``polish=False``), for Tresca in partial slip, Tresca sliding (the
 pushed box) and Coulomb:
@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 import warnings
 
-import test_friction3d as t3
+import friction_box_scenes as t3
 
 import cvxcontact as cc
 
@@ -31,7 +31,7 @@ def main():
             one, other = (cc.solve(t3.non_matching(law(), swap=s, **kw), condition="gamma3") for s in (False, True))
             ipm = [cc.solve(t3.non_matching(law(), swap=s, **kw), condition="gamma3", polish=False)
                    for s in (False, True)]
-        print(f"{name:32s} {t3._apart(one, other):9.1e} {t3._apart(*ipm):9.1e} {time.process_time() - start:6.1f}")
+        print(f"{name:32s} {t3.apart(one, other):9.1e} {t3.apart(*ipm):9.1e} {time.process_time() - start:6.1f}")
 
 
 if __name__ == "__main__":

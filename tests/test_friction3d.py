@@ -25,38 +25,23 @@ A steel box (1 m cube, 3 x 3 x 2 cells) pressed on a rigid plane z = 0 by p = 10
 
 import numpy as np
 import pytest
+from friction_box_scenes import (
+    BOX,
+    DIAGONAL,
+    FLOOR,
+    E,
+    P,
+    apart,
+    held_side,
+    non_matching,
+    pair,
+    pushed,
+    sheared,
+    steel,
+)
 from friction_scenes import tresca_reference
 
 import cvxcontact as cc
-
-P, E = 1e7, 200e9
-FLOOR = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-BOX = cc.box(nx=3, ny=3, nz=2)
-THETA = 0.5
-DIAGONAL = np.array([np.cos(THETA), np.sin(THETA)])
-
-
-def steel(nu=0.3, scale=1.0):
-    return cc.materials.isotropic(E=E * scale, nu=nu)
-
-
-def sheared(q, law, mesh=BOX, tied=False):
-    """The box under (q_x, q_y, -p) on its top; ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
-    if tied:
-        mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags},
-                                                   "base": mesh.boundary("bottom")})
-        b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)},
-                    displacement={"base": (0.0, 0.0, None)})
-        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
-    b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
-
-
-def pushed(law, s=1e-4):
-    """The nu = 0 box pushed by (s cos t, s sin t) on its left face, pressed by p."""
-    b = cc.Body(BOX, steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
-                displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 
 
 @pytest.mark.numerics
@@ -126,14 +111,6 @@ def test_a_diagonal_load_beyond_the_capacity_is_refused_naming_the_diagonal():
         cc.solve(sheared((0.3 * P, 0.3 * P), cc.Coulomb(0.4)))       # |q| = 0.42 P > 0.4 P
 
 
-def pair(law, stiffer, q):
-    """The box on a box ``stiffer`` times stiffer, clamped at its bottom."""
-    a = cc.Body(BOX, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top")
-    b = cc.Body(BOX.with_points(BOX.points - [0.0, 0.0, 1.0]), steel(scale=stiffer), contact="top",
-                clamped="bottom", name="below")
-    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law)])
-
-
 @pytest.mark.numerics
 def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
     """The pair's departure from the rigid plane is the partner's compliance: linear in it (stiffer by 1e3 and
@@ -153,19 +130,6 @@ def test_a_pair_on_a_much_stiffer_box_tends_to_the_rigid_plane():
             departures[stiffer] = np.abs(sol.u[0] - rigid.u[0]).max() / np.abs(rigid.u[0]).max()
         # measured 2.2e-3 / 2.2e-4 (Tresca), 2.4e-3 / 2.4e-4 (Coulomb); ratios 9.99992, 9.99984
         assert departures[1e3] / departures[1e4] == pytest.approx(10.0, rel=1e-2)
-
-
-def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False):
-    """The box pressed on the plane, its left side held along x, sheared by (0, q) on its top; ``push``: its
-    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
-    mesh, held = BOX, {"left": (0.0, None, None)}
-    if tied:
-        mesh = cc.TetMesh(BOX.points, BOX.tets, {**{t: BOX.boundary(t) for t in BOX.tags}, "base": BOX.boundary("bottom")})
-        held["base"] = (0.0, 0.0, None)
-    if push is not None:
-        held["front"] = (None, push, None)
-    b = cc.Body(mesh, steel(nu=nu), contact="bottom", traction={"top": (0.0, q, -P)}, displacement=held)
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])
 
 
 @pytest.mark.numerics
@@ -199,24 +163,6 @@ def test_a_side_held_along_one_tangent_is_finished_stuck_sliding_and_in_partial_
     assert max(sol.residuals()[k] for k in ("stick-slip", "slip direction")) < 1e-7     # measured 1.5e-9
 
 
-def non_matching(law, q=0.2 * P * DIAGONAL, swap=False, nu=0.3, push=None):
-    """The box (3 x 3 x 2 cells) on a clamped box of 4 x 4 x 2 cells under (q_x, q_y, -p), the pair posed from
-    the top box (``swap``: from the lower one); ``push``: the top box's left side moved by push (cos t, sin t)."""
-    lower = cc.box(nx=4, ny=4, nz=2)
-    a = cc.Body(BOX, steel(nu=nu), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top",
-                displacement={} if push is None else {"left": (push * DIAGONAL[0], push * DIAGONAL[1], None)})
-    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(nu=nu), contact="top", clamped="bottom",
-                name="below")
-    pair = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
-    return cc.Scene(a, b, contacts=[pair])
-
-
-def _apart(one, other):
-    """The largest difference of two solutions' displacements over the largest displacement."""
-    scale = max(np.abs(u).max() for u in one.u)
-    return max(np.abs(u - v).max() for u, v in zip(one.u, other.u)) / scale
-
-
 @pytest.mark.numerics
 def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
     """Nodal rows are independent; the overlay rows ("gamma3", one per overlay vertex: 75 rows on 2 x 25 jump
@@ -234,13 +180,13 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
         assert 1 <= (slip < 1e-3 * slip.max()).sum() <= len(slip) - 2               # partial slip: 8, 5 of 75
         assert np.allclose(sol.contact.shear_force.sum(axis=0), -0.2 * P * DIAGONAL, rtol=1e-12)   # 1.9e-14
         # the interior point's answer: measured 7.4e-10 (sigma1), 3.0e-10 (gamma3)
-        assert _apart(sol, cc.solve(non_matching(tresca), condition=condition, polish=False)) < 1e-6
+        assert apart(sol, cc.solve(non_matching(tresca), condition=condition, polish=False)) < 1e-6
         for stuck in (tresca, cc.Tresca(1e9)):
             here = sol if stuck is tresca else cc.solve(non_matching(stuck), condition=condition)
             there = cc.solve(non_matching(stuck, swap=True), condition=other)
             assert here.info.finish == there.info.finish == cc.Finish.FRICTION_NEWTON
             # measured 6.3e-15 (sigma1), 6.7e-15 (gamma3, partial slip), 9.2e-15 (gamma3, stuck)
-            assert _apart(here, there) < 1e-12
+            assert apart(here, there) < 1e-12
     for g in (1e2, 1e3):                                     # pushed: every overlay vertex slides, force g w_a
         sol = cc.solve(non_matching(cc.Tresca(g), q=(0.0, 0.0), nu=0.0, push=1e-4), condition="gamma3")
         assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
@@ -248,7 +194,7 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
         assert slip.min() > 0.5 * slip.max()                                         # measured 0.99987
         assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g * 1.0, rel=1e-12)  # 1.1e-16
         there = cc.solve(non_matching(cc.Tresca(g), q=(0.0, 0.0), nu=0.0, push=1e-4, swap=True), condition="gamma3")
-        assert _apart(sol, there) < 1e-12                                            # measured 1.4e-15 (g = 1e3)
+        assert apart(sol, there) < 1e-12                                            # measured 1.4e-15 (g = 1e3)
     with pytest.warns(cc.FixedPointWarning):            # the forces on dependent rows wander: no fixed point
         ipm = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3", polish=False, tol=1.0)
     sol = cc.solve(non_matching(cc.Coulomb(0.3)), condition="gamma3")
@@ -256,12 +202,12 @@ def test_a_pair_whose_faces_do_not_match_is_finished_exactly():
     assert ipm.residuals()["stick-slip"] > 1e-7            # the fixed point's iterate off its law: 3.9e-5, 7.2e-5
     # after the finish: measured at most 4.0e-9 (stick-slip; Haswell, Prescott), the default tolerance 1e-6
     assert max(sol.residuals()[k] for k in ("friction cone", "stick-slip", "slip direction")) < 1e-6
-    assert _apart(sol, ipm) < 1e-6                                                   # measured 3.8e-9
+    assert apart(sol, ipm) < 1e-6                                                   # measured 3.8e-9
     # posed from the other side: its own law's answer too; not at rounding (the finish stops at its law's
     # residual, 4e-9, and the forces of the dependent rows, hence the capacities mu y_a, are not unique)
     there = cc.solve(non_matching(cc.Coulomb(0.3), swap=True), condition="gamma3")
     assert there.ok and there.info.finish == cc.Finish.FRICTION_NEWTON
-    assert _apart(sol, there) < 1e-6                                                 # measured 2.6e-9
+    assert apart(sol, there) < 1e-6                                                 # measured 2.6e-9
 
 
 @pytest.mark.numerics

@@ -96,11 +96,12 @@ def imported_tests(source):
 
 
 def test_no_test_module_imports_another():
-    """What tests share (scenes, meshes, reference solvers, constants) lives in fixtures modules (tests/scenes.py,
-    tests/references.py, tests/meshes.py, ...), never in a test module: no file of tests/ imports a test module or a
-    test function, so each test module runs, moves or goes alone and pytest collects every test once."""
-    bad = {str(p.relative_to(TESTS)): found for p in sorted(TESTS.rglob("*.py"))
-           if (found := imported_tests(p.read_text()))}
+    """What tests and benchmarks share (scenes, meshes, reference solvers, constants) lives in fixtures modules
+    (tests/scenes.py, tests/references.py, tests/meshes.py, ...), never in a test module: no file of tests/,
+    benchmarks/ or examples/ imports a test module or a test function, so each test module runs, moves or goes alone
+    and pytest collects every test once."""
+    files = [p for d in ("tests", "benchmarks", "examples") for p in sorted((TESTS.parent / d).rglob("*.py"))]
+    bad = {str(p.relative_to(TESTS.parent)): found for p in files if (found := imported_tests(p.read_text()))}
     assert not bad, f"{bad}: move what another module needs into a fixtures module (docs/architecture.md)"
 
 

@@ -1,0 +1,80 @@
+"""The steel box of tests/test_friction3d.py (a 1 m cube of 3 x 3 x 2 cells pressed on a rigid plane z = 0 by
+p = 10 MPa on its top), where each scene is checked, shared with benchmarks/friction_finish.py and
+benchmarks/friction_sides.py: the box sheared or pushed along a diagonal, on a stiffer box, with a side held along
+one tangent, on a non-matching box, and the distance of two solutions. A fixtures module: the test modules do not
+import each other.
+"""
+
+import numpy as np
+
+import cvxcontact as cc
+
+P, E = 1e7, 200e9
+FLOOR = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+BOX = cc.box(nx=3, ny=3, nz=2)
+THETA = 0.5
+DIAGONAL = np.array([np.cos(THETA), np.sin(THETA)])
+
+
+def steel(nu=0.3, scale=1.0):
+    """Steel (E = 200 GPa times ``scale``, Poisson ratio ``nu``)."""
+    return cc.materials.isotropic(E=E * scale, nu=nu)
+
+
+def sheared(q, law, mesh=BOX, tied=False):
+    """The box under (q_x, q_y, -p) on its top; ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
+    if tied:
+        mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags},
+                                                   "base": mesh.boundary("bottom")})
+        b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)},
+                    displacement={"base": (0.0, 0.0, None)})
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
+    b = cc.Body(mesh, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def pushed(law, s=1e-4):
+    """The nu = 0 box pushed by (s cos t, s sin t) on its left face, pressed by p."""
+    b = cc.Body(BOX, steel(nu=0.0), contact="bottom", traction={"top": (0.0, 0.0, -P)},
+                displacement={"left": (s * DIAGONAL[0], s * DIAGONAL[1], None)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def pair(law, stiffer, q):
+    """The box on a box ``stiffer`` times stiffer, clamped at its bottom."""
+    a = cc.Body(BOX, steel(), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top")
+    b = cc.Body(BOX.with_points(BOX.points - [0.0, 0.0, 1.0]), steel(scale=stiffer), contact="top",
+                clamped="bottom", name="below")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law)])
+
+
+def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False):
+    """The box pressed on the plane, its left side held along x, sheared by (0, q) on its top; ``push``: its
+    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
+    mesh, held = BOX, {"left": (0.0, None, None)}
+    if tied:
+        mesh = cc.TetMesh(BOX.points, BOX.tets, {**{t: BOX.boundary(t) for t in BOX.tags},
+                                                 "base": BOX.boundary("bottom")})
+        held["base"] = (0.0, 0.0, None)
+    if push is not None:
+        held["front"] = (None, push, None)
+    b = cc.Body(mesh, steel(nu=nu), contact="bottom", traction={"top": (0.0, q, -P)}, displacement=held)
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])
+
+
+def non_matching(law, q=0.2 * P * DIAGONAL, swap=False, nu=0.3, push=None):
+    """The box (3 x 3 x 2 cells) on a clamped box of 4 x 4 x 2 cells under (q_x, q_y, -p), the pair posed from
+    the top box (``swap``: from the lower one); ``push``: the top box's left side moved by push (cos t, sin t)."""
+    lower = cc.box(nx=4, ny=4, nz=2)
+    a = cc.Body(BOX, steel(nu=nu), contact="bottom", traction={"top": (q[0], q[1], -P)}, name="top",
+                displacement={} if push is None else {"left": (push * DIAGONAL[0], push * DIAGONAL[1], None)})
+    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(nu=nu), contact="top", clamped="bottom",
+                name="below")
+    pair = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
+    return cc.Scene(a, b, contacts=[pair])
+
+
+def apart(one, other):
+    """The largest difference of two solutions' displacements over the largest displacement."""
+    scale = max(np.abs(u).max() for u in one.u)
+    return max(np.abs(u - v).max() for u, v in zip(one.u, other.u)) / scale

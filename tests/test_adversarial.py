@@ -104,7 +104,7 @@ def partial_gap(ref0, a, b, xc, width):
 
 def test_reference_satisfies_the_mixed_system_and_matches_a_direct_solve():
     """The reference itself: LCP signs, residual of (26) with its own operators, and the same
-    answer as the dense KKT solve of (26) in test_solve.py on the reference's active set."""
+    answer as the dense KKT solve of (26) in references.py on the reference's active set."""
     from references import direct_mixed_solve
 
     b1, b2, gap, condition = _random_scene(3)

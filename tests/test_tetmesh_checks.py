@@ -1,5 +1,5 @@
 """TetMesh validation by blocks: the dihedral angles against an independent formula and a closed form, every
-refusal of test_tetmesh.bad_meshes still firing when the blocks are a few tetrahedra (every block boundary
+refusal of meshes.bad_meshes still firing when the blocks are a few tetrahedra (every block boundary
 crossed), and the refusals whose path the blocked checks changed (a folded fan at a boundary edge, a node
 joining three fans)."""
 

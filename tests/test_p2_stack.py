@@ -18,7 +18,7 @@ from cvxcontact.geometry.quadratic import P2Nodes
 
 from conftest import rel
 from reference_problems import active_set_solve
-from stack_scenes import MAT, YOUNG, A, dense_stack, three_blocks
+from stack_scenes import A, MAT, YOUNG, dense_stack, three_blocks
 from stack_scenes import part_abscissae as _part_x
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run

@@ -16,7 +16,7 @@ import pytest
 import cvxcontact as cc
 
 from conftest import rel
-from foundation_scenes import ALU, GAP, H, E, NU
+from foundation_scenes import ALU, GAP, NU, E, H
 from foundation_scenes import clamped_foundation as _clamped_foundation
 from foundation_scenes import moved_foundation as _moved_foundation
 from foundation_scenes import upper_block as _upper

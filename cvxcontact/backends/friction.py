@@ -35,11 +35,13 @@ from __future__ import annotations
 import logging
 import time
 import warnings
+from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.bernstein import bernstein_max
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
@@ -51,7 +53,7 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 
-__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full", "prescribed_row_slip"]
+__all__ = ["ENERGY_SLACK", "RESOLUTION", "CONE_ROUNDING", "UNFINISHED_CONES", "conic_full", "finish_on_nodes", "point_duals", "exact_finish", "friction_program", "full", "prescribed_row_slip"]
 
 log = logging.getLogger(__name__)
 
@@ -111,22 +113,124 @@ def full(problem, cache, settings, timings) -> RawResult:
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
     of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
     (``polish``) the exact finish, :func:`exact_finish`."""
+    raw, unsettled = _interior(problem, settings, timings, _row_forces)
+    moved = problem.g - sum((R @ tau for (R, _), tau in zip(problem.translations, raw.taus)),
+                            np.zeros(len(problem.g)))
+    parts = [problem.E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)]
+    raw.active = ipm_active(parts, moved, raw.y, force_displacements(problem.blocks, problem.E, raw.y),
+                            reach_forces(problem.blocks, problem.E, raw.u, raw.phi))
+    if settings.polish:
+        exact_finish(problem, raw, timings)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    return raw
+
+
+UNFINISHED_CONES = ("no exact finish joins the P2 cones' tangency Newton with the friction Newton yet: the interior "
+                    "point's answer, checked")
+"""Why the friction next to the P2 "gamma3" cones keeps the interior point's answer where the finish on the nodes
+(:func:`conic_full`) does not apply (in ``raw.declined``)."""
+
+CONE_ROUNDING = 1e-9
+"""The finish on the nodes of X_h (:func:`conic_full`) is kept where its slack's largest value on every element is
+at most this times the largest displacement (the closed nodes' slack is rounding; a contact ending inside an
+element dips by a part of the displacements between its nodes)."""
+
+
+def conic_full(problem, cache, settings, timings) -> RawResult:
+    """The full program of the P2 "gamma3" cones (:func:`~cvxcontact.backends.cones.cone_program`) with the
+    friction energy on the nodes of X_h (module docstring; the term
+    :class:`~cvxcontact.discrete.terms.ConesWithFriction`), Coulomb's by the fixed point on the capacities mu r_a
+    of the cones' nodal force r = B^T beta; ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then (``polish``)
+    :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
+    why (the read-back checks it: the conic checks and the friction law's)."""
+    raw, unsettled = _interior(problem, settings, timings, _cone_forces)
+    if settings.polish:
+        raw = finish_on_nodes(problem, raw, timings)
+    else:
+        raw.declined = Declined(Stop.NOT_POSED, UNFINISHED_CONES)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    return raw
+
+
+def finish_on_nodes(problem, raw, timings) -> RawResult:
+    """The exact finish of the cones with friction where their contact closes at nodes: the friction finish
+    (:func:`exact_finish`) of the nodal relaxation (E = I: a Signorini row at every node of X_h, the friction rows
+    where they are), kept if its slack q = [u_nu] - g satisfies every element's cone (max over the element
+    <= :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_max`). The relaxation's
+    answer is then the cones' (its forces y >= 0 at the nodes are point evaluations, in every element's dual cone:
+    beta_s = B_s^-T y_s, a vertex's force shared by its elements; docs/howto/friction.md). Otherwise (a contact
+    ending inside an element, a curved obstacle's own gap, a declined finish) the interior point's answer ``raw``
+    with its ``declined`` saying why. Returns the answer."""
+    if problem.departure is not None:
+        raw.declined = Declined(Stop.NOT_POSED, f"{UNFINISHED_CONES} (a curved obstacle's own gap)")
+        return raw
+    trial = replace(raw)
+    exact_finish(problem, trial, timings)
+    if not trial.polished:
+        raw.declined = Declined(trial.declined.stop, f"{UNFINISHED_CONES} (the finish on the nodes: {trial.declined})",
+                                trial.declined.rows)
+        return raw
+    B, segments = problem.lines.cone
+    jump = sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))
+    jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(len(jump)))
+    w = segments.shape[1]
+    top = float(bernstein_max((B @ (jump - problem.g)).reshape(-1, w)).max(initial=-np.inf))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
+    if top > CONE_ROUNDING * U:
+        raw.declined = Declined(Stop.NOT_POSED, f"{UNFINISHED_CONES} (the finish on the nodes leaves the cone of an "
+                                f"element by {top / U:.2g} of the displacements: a contact ending inside it)")
+        return raw
+    trial.beta = point_duals(B, segments, trial.y)
+    return trial
+
+
+def point_duals(B, segments, y) -> np.ndarray:
+    """(S, w) Bernstein duals beta with B^T beta = ``y`` (nodal forces >= 0 on X_h), each node's force shared
+    equally by the elements it belongs to, beta_s = B_s^-T y_s (B_s the element's block of ``B``, (w S, n)): the
+    point evaluations at the nodes, in every element's dual cone."""
+    S, w = segments.shape
+    share = np.asarray(y, dtype=float) / np.bincount(segments.ravel(), minlength=len(y)).clip(min=1)
+    rows = (w * np.arange(S))[:, None, None] + np.arange(w)[None, :, None]
+    Bs = np.asarray(sp.csr_matrix(B)[np.broadcast_to(rows, (S, w, w)).ravel(),
+                                     np.broadcast_to(segments[:, None, :], (S, w, w)).ravel()]).reshape(S, w, w)
+    return np.linalg.solve(np.transpose(Bs, (0, 2, 1)), share[segments][..., None])[..., 0]
+
+
+def _row_forces(problem, model):
+    """(y, None): the normal rows' multipliers of the solved program (scaled)."""
+    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None
+
+
+def _cone_forces(problem, model):
+    """(r, beta): the cones' nodal force r = B^T beta on X_h and their Bernstein duals beta (the held elements' at
+    their least admissible value; :func:`~cvxcontact.backends.cones.cone_forces`), scaled."""
+    y, _, beta = problem.term.program_forces(problem, model, None, None)
+    return y, beta
+
+
+def _interior(problem, settings, timings, normal):
+    """(raw, unsettled): the interior point's answer of the full program with the friction energy (Tresca's, or
+    Coulomb's fixed point), ``normal(problem, model) -> (y, beta)`` reading the normal forces of the solved
+    program; ``unsettled`` the words of a :class:`~cvxcontact.errors.FixedPointWarning` (None: converged or
+    Tresca), warned by the route if no finish reaches the law."""
     t0 = time.perf_counter()
-    E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
-    model = problem.term.program(problem)              # the normal rows (full.signorini_program)
+    E = problem.E
+    model = problem.term.program(problem)              # the normal rows or cones (the term's program)
     program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
     options = conic_options(settings.solver, settings.options)
     n_c = problem.slip_components
 
     def answer():
-        """The arrays of the program's current solution: u, phi, y, mu ((c R,) component-major, like the slip
-        rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
+        """The arrays of the program's current solution: u, phi, (y, beta), mu ((c R,) component-major, like the
+        slip rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
         mu = np.zeros((n_c, E.shape[0]))
         mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))
         return ([np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u],
                 [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi],
-                np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
+                normal(problem, model), mu.ravel(),
                 [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
 
     fixed_point, unsettled = problem.rows.fixed_point, None
@@ -138,22 +242,15 @@ def full(problem, cache, settings, timings) -> RawResult:
         stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
         iterations, (best, status), changes, unsettled = _fixed_point(
             problem, model, stuck, program, capacity, rows, answer, fixed_point,
-            lambda p: timed_program(p, settings, timings, options))
-    u, phi, y, mu, taus, posed = best
-    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
+            lambda p: timed_program(p, settings, timings, options), lambda: normal(problem, model)[0])
+    u, phi, (y, beta), mu, taus, posed = best
+    raw = RawResult(u=u, phi=phi, y=y, beta=beta, program=program, taus=taus, method="full", iterations=iterations,
                     route=Route.INTERIOR_POINT_FRICTION, status=status)
-    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
-    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
-    raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
     raw.tangential = mu
     raw.capacity = np.zeros(E.shape[0])
     raw.capacity[rows] = posed
     raw.fixed_point = changes
-    if settings.polish:
-        exact_finish(problem, raw, timings)
-    if unsettled and not raw.polished:
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
-    return raw
+    return raw, unsettled
 
 
 def exact_finish(problem, raw, timings) -> RawResult:
@@ -257,10 +354,10 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     return model.with_terms([constraint, *held], objective=friction)
 
 
-def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve):
+def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve, forces):
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
-    ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
-    iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
+    ``program`` with ``capacity`` set to the last normal row forces' (``forces()``, of the program last solved;
+    ``solve(program)``: its interior-point iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
     iterate), the relative changes, the words of a :class:`~cvxcontact.errors.FixedPointWarning` if it did not
     converge, else None: :func:`full` warns if the exact finish does not reach Coulomb's law either)."""
     tol, most = fixed_point
@@ -268,7 +365,7 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
     solved = stuck                                         # the program whose solution the variables hold
     previous, changes, best, converged = None, [], None, False
     for _ in range(most + 1):
-        c_all = problem.capacities(np.asarray(model.contact.dual_value, dtype=float).ravel())
+        c_all = problem.capacities(forces())
         c = c_all[rows]
         if previous is not None:
             changes.append(float(np.abs(c - previous).max(initial=0.0)

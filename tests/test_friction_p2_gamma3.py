@@ -1,0 +1,118 @@
+"""Friction (cc.Tresca, cc.Coulomb) with 2D P2 elements under "gamma3": the cones of every element for the normal
+condition, a friction row at every node of X_h (its capacity g times the Simpson weight of the merged P2 line;
+Coulomb's mu r_a from the cones' nodal force r = B^T beta), finished exactly where the contact closes at nodes
+(docs/howto/friction.md, "P2 under 'gamma3'"; docs/refusals.md row 32).
+
+Closed forms on the block of tests/friction_scenes.py (1 m x 0.5 m on a rigid floor): the uniformly sheared layer
+sticks with u = (tau y / G, -p y / E) (nu = 0, G = E / 2), exact in P2; the block pushed by u_x = s on its left face
+slides with the friction force g L (Tresca) or mu p L (Coulomb). Where every node of the face touches, the cones and
+the nodal rows at the nodes of X_h are one condition: the same answer as "sigma1" against the rigid floor (every P2
+node). A contact that ends inside an element (two blocks, non-matching lines) keeps the interior point's answer
+with a ResidualWarning naming why.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from friction_scenes import E, L, P, pair2d, pushed, sheared, uniform_layer
+
+import cvxcontact as cc
+from cvxcontact.backends.friction import UNFINISHED_CONES
+
+P2 = {"condition": "gamma3", "degree": 2}
+
+
+@pytest.mark.numerics
+def test_a_uniform_layer_sticks_with_the_closed_form_and_its_shear_read_back():
+    """Stuck (g = 10 tau): u = (2 tau y / E, -p y / E) exactly in P2, the shear traction tau at every node of X_h,
+    the floor holding the shear tau L; finished on the nodes (the checks at rounding)."""
+    tau = 0.2 * P
+    sol = cc.solve(uniform_layer(tau, cc.Tresca(10 * tau)), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    y = sol.points[0][:, 1]
+    exact = np.column_stack([2 * tau * y / E, -P * y / E])
+    assert np.abs(sol.u[0] - exact).max() <= 1e-10 * np.abs(exact).max()          # measured 4.5e-15
+    c = sol.contact
+    assert np.abs(np.abs(c.shear) / tau - 1).max() <= 1e-10                       # the read-back's sigma_t = tau
+    assert abs(c.shear_force.sum() / (-tau * L) - 1) <= 1e-10                     # measured 1.0e-14
+    assert np.abs(c.slip).max() <= 1e-10 * np.abs(exact).max()                    # stuck
+    r = sol.residuals()
+    assert max(r["complementarity"], r["stick-slip"], r["friction cone"]) <= 1e-10   # measured 4.3e-15, 0, 0
+    assert r["cone"] == 0.0 and r["feasibility"] <= 1e-12                          # the duals are point evaluations
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, force", [(cc.Tresca(1e2), 1e2 * L), (cc.Tresca(1e3), 1e3 * L),
+                                        (cc.Coulomb(1e-5), 1e-5 * P * L)])
+def test_a_block_pushed_against_a_held_side_slides_with_the_whole_capacity(law, force):
+    """u_x = s = 1e-4 m on the left face: every node of X_h slides along x and the floor's friction force is the
+    capacity, g L (Tresca) or mu p L (Coulomb: its fixed point converges, in 4 iterations measured)."""
+    _, scene = pushed(law)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                       # no ResidualWarning, no FixedPointWarning
+        sol = cc.solve(scene, **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    c = sol.contact
+    assert (c.slip > 0.5e-4).all()                                                  # measured >= 9.99e-5 m
+    assert abs(c.shear_force.sum() / (-force) - 1) <= 1e-10                         # measured 1.6e-14 (Coulomb)
+    threshold = np.broadcast_to(c.threshold, c.shear.shape)
+    assert np.abs(np.abs(c.shear) - threshold).max() <= 1e-10 * threshold.max()    # sliding: |sigma_t| = g
+    if law.friction.pressure_dependent:
+        changes = sol.info.fixed_point
+        assert 1 <= len(changes) <= 10 and changes[-1] <= 1e-8                      # measured 4: 0.65 ... 9.4e-15
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.Tresca(1e9), cc.Tresca(3e6), cc.Coulomb(0.5), cc.Coulomb(0.25)],
+                         ids=["stuck", "partial", "coulomb-stuck", "coulomb-slides"])
+def test_where_every_node_touches_the_cones_are_the_nodal_rows_of_sigma1(law):
+    """The block sheared by q = 0.2 p on its top (partial slip at g = 3e6 Pa and mu = 0.25): every P2 node touches
+    the floor, where the cones and the nodal rows at the nodes of X_h (sigma1 against the rigid floor: every P2
+    node, the same Simpson weights) pose one condition: the same answer to rounding, both finished exactly."""
+    scene = sheared(0.2 * P, law)
+    cones, nodal = cc.solve(scene, **P2), cc.solve(scene, "sigma1", degree=2)
+    assert cones.ok and nodal.ok
+    assert cones.info.finish == nodal.info.finish == cc.Finish.FRICTION_NEWTON, cones.info.declined
+    scale = np.abs(nodal.u[0]).max()
+    assert np.abs(cones.u[0] - nodal.u[0]).max() <= 1e-10 * scale                  # measured 5.6e-15 (stuck)
+    a, b = cones.contact, nodal.contact
+    assert np.abs(a.shear_force - b.shear_force).max() <= 1e-10 * np.abs(b.shear_force).max()
+    assert np.abs(a.force - b.force).max() <= 1e-10 * np.abs(b.force).max()
+    assert abs(a.shear_force.sum() / (-0.2 * P * L) - 1) <= 1e-10                   # the floor holds q L; 5.3e-14
+    # (measured: 10 of 17 nodes slip at g = 3e6 Pa, 12 at mu = 0.25, whose fixed point converges in 10 iterations)
+
+
+@pytest.mark.numerics
+def test_a_contact_ending_inside_an_element_keeps_the_interior_point_with_a_warning_naming_why():
+    """Two blocks (non-matching lines, the upper one narrower): the finish on the nodes leaves an element's cone
+    (measured by 2.2e-4 of the displacements near the upper block's corner), so the interior point's answer is kept
+    and checked, with a ResidualWarning naming why; its shear still balances q L (the upper block has no other
+    support along x) and its checks sit at the interior point's resolution."""
+    q = 0.02 * P
+    with pytest.warns(cc.ResidualWarning, match="no exact finish joins the P2 cones") as record:
+        sol = cc.solve(pair2d(cc.Tresca(0.03 * P), q, condition="gamma3"), degree=2)
+    assert "contact ending inside" in str(record[0].message)
+    assert not sol.polished and UNFINISHED_CONES in sol.info.declined
+    assert abs(sol.contact.shear_force.sum() / (-q * L) - 1) <= 1e-10                # measured 1.7e-13
+    r = sol.residuals()
+    assert r["equilibrium"] <= 1e-10 and r["friction cone"] <= 1e-10               # measured 6.3e-14, 3.4e-15
+    assert r["complementarity"] <= 1e-5 and r["stick-slip"] <= 1e-5                 # measured 7.7e-8, 3.7e-8
+
+
+def test_without_polish_the_answer_is_the_interior_points_and_says_so():
+    """polish=False: the interior point's answer, checked (a check failing at tol would warn with the term's hint),
+    its ``info.declined`` naming why it is not finished."""
+    sol = cc.solve(uniform_layer(0.2 * P, cc.Tresca(2 * P)), polish=False, **P2)
+    assert not sol.polished and UNFINISHED_CONES in sol.info.declined
+    with pytest.warns(cc.ResidualWarning, match="no exact finish joins the cones' tangency Newton"):
+        cc.solve(uniform_layer(0.2 * P, cc.Tresca(2 * P)), polish=False, tol=1e-14, **P2)
+
+
+def test_three_dimensional_p2_friction_under_gamma3_is_refused_naming_what_to_use():
+    from friction_scenes import uniform_layer3d
+
+    with pytest.raises(cc.UnsupportedError) as info:
+        cc.solve(uniform_layer3d(0.2 * P, cc.Tresca(2 * P)), **P2)
+    msg = str(info.value)
+    assert "in 3D" in msg and "'sigma1' or 'sigma2'" in msg and "degree=1" in msg, msg

@@ -24,6 +24,11 @@ iterate of smallest change (at the interior point's resolution the change wander
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
+With 2D P2 elements under "gamma3" (:func:`conic_full`, the term
+:class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
+(:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
+cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`.
+
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
 is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
 law, the capacities those of the finished forces), or kept where the finish is declined; checked

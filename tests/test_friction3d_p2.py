@@ -338,11 +338,19 @@ def test_on_cut_faces_the_weights_are_the_red_hats_integrated_over_the_overlap()
     for k in (0, 1):
         assert np.abs(here.u[k] - there.u[k]).max() < 1e-11 * np.abs(here.u[0]).max()   # measured 0
 
-def test_friction_under_the_conic_condition_is_refused_naming_the_nodal_rows_and_p1():
-    scene = sheared(0.2 * P * DIAGONAL, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
-    with pytest.raises(cc.UnsupportedError, match=r"'gamma3'.*condition='sigma1' or 'sigma2'.*degree=1 with 'gamma3'"):
-        cc.solve(scene, degree=2, condition="gamma3")
-    assert cc.solve(scene, degree=1, condition="gamma3").ok                  # the alternative it names
+@pytest.mark.numerics
+def test_friction_under_the_conic_condition_where_the_contact_ends_inside_a_face_keeps_the_interior_point():
+    """Under "gamma3" (the copositive cones, tests/test_friction_p2_gamma3.py) the sheared box (nu = 0.3) lifts off
+    inside a face: the finish on the nodes leaves a triangle's cone (measured by 0.0099 of the displacements), so the
+    interior point's answer is kept with a ResidualWarning naming why; it passes its checks and the floor holds the
+    shear q A (measured 1.7e-14; complementarity 1.9e-7; the nodal "sigma1" answer differs by 2.7 %: its rows do
+    not hold between nodes)."""
+    q = 0.2 * P * DIAGONAL
+    scene = sheared(q, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
+    with pytest.warns(cc.ResidualWarning, match="no exact finish joins the P2 cones"):
+        sol = cc.solve(scene, degree=2, condition="gamma3")
+    assert sol.ok and not sol.polished
+    assert np.abs(sol.contact.shear_force.sum(axis=0) + q).max() <= 1e-9 * np.linalg.norm(q)
 
 
 def overhanging_push(g, edge, s=1e-2):

@@ -15,7 +15,8 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import E, L, P, pair2d, pushed, sheared, uniform_layer
+from friction_scenes import (DIAGONAL3, E, L, P, _side_shear, pair2d, pushed, sheared, sliding_layer3d, steel,
+                             uniform_layer, uniform_layer3d)
 
 import cvxcontact as cc
 from cvxcontact.backends.friction import UNFINISHED_CONES
@@ -109,10 +110,87 @@ def test_without_polish_the_answer_is_the_interior_points_and_says_so():
         cc.solve(uniform_layer(0.2 * P, cc.Tresca(2 * P)), polish=False, tol=1e-14, **P2)
 
 
-def test_three_dimensional_p2_friction_under_gamma3_is_refused_naming_what_to_use():
-    from friction_scenes import uniform_layer3d
+def _stuck_pair3d(tau, law, lower_n):
+    """The two layers of :func:`friction_scenes.uniform_pair3d` (the upper 2 x 2 x 1 tetrahedra cells), the lower
+    one ``lower_n`` x ``lower_n`` x 1 (3: non-matching faces)."""
+    q = tau * DIAGONAL3
+    a = cc.Body(cc.box(nx=2, ny=2, nz=1), steel(nu=0.0), contact="bottom",
+                traction={"top": (q[0], q[1], -P), **_side_shear(q)}, name="upper")
+    lower = cc.box(nx=lower_n, ny=lower_n, nz=1)
+    b = cc.Body(lower.with_points(lower.points - [0.0, 0.0, 1.0]), steel(nu=0.0), contact="top", clamped="bottom",
+                traction=_side_shear(q), name="lower")
+    return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law)])
 
+
+def _uniform3d(tau, z):
+    """The stuck uniform layer's displacement (tau_x z / G, tau_y z / G, -p z / E), G = E / 2 (nu = 0)."""
+    return np.column_stack([2 * tau * DIAGONAL3[0] * z / E, 2 * tau * DIAGONAL3[1] * z / E, -P * z / E])
+
+
+@pytest.mark.numerics
+def test_3d_a_uniform_layer_on_a_plane_sticks_with_the_closed_form_and_its_shear_read_back():
+    """P2 tetrahedra: the copositive cones of every face triangle, a friction row at every node of X_h (capacity g
+    times the red refinement's lumped areas, positive at the vertices). Stuck: the closed form, exact in P2
+    (measured 5.4e-15), the plane holding tau A along the diagonal (A = 1 m^2), the nodal forces those of "sigma1"."""
+    tau = 0.2 * P
+    sol = cc.solve(uniform_layer3d(tau, cc.Tresca(10 * tau)), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    exact = _uniform3d(tau, sol.points[0][:, 2])
+    assert np.abs(sol.u[0] - exact).max() <= 1e-10 * np.abs(exact).max()
+    c, nodal = sol.contact, cc.solve(uniform_layer3d(tau, cc.Tresca(10 * tau)), "sigma1", degree=2).contact
+    assert np.abs(c.shear_force.sum(axis=0) / (-tau * DIAGONAL3) - 1).max() <= 1e-10
+    # every P2 node touches: the nodal rows of "sigma1" (every P2 face node) are the same condition; the rows carry
+    # the consistent forces of the uniform shear, 0 at a vertex and tau A/3 per face at an edge midpoint
+    # (tests/test_friction3d_p2.py)
+    assert np.abs(c.shear_force - nodal.shear_force).max() <= 1e-10 * np.abs(nodal.shear_force).max()
+    assert np.abs(c.force - nodal.force).max() <= 1e-10 * np.abs(nodal.force).max()
+    r = sol.residuals()
+    assert max(r["complementarity"], r["stick-slip"], r["cone"]) <= 1e-10            # measured 0, 0, 0
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, lower_n", [(cc.Tresca(2 * P), 2), (cc.Coulomb(0.5), 2), (cc.Tresca(2 * P), 3)],
+                         ids=["tresca", "coulomb", "tresca-non-matching"])
+def test_3d_a_stuck_pair_of_layers_is_the_closed_form(law, lower_n):
+    """Two layers (the lower one clamped at z = -1), matching and non-matching faces: stuck, u = the uniform state of
+    z + 1 on the upper layer (measured 1.1e-14, 4.9e-15, 5.8e-15), finished on the nodes; Coulomb's fixed point
+    converges (1 iteration measured)."""
+    tau = 0.2 * P
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(_stuck_pair3d(tau, law, lower_n), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    exact = _uniform3d(tau, sol.points[0][:, 2] + 1.0)
+    assert np.abs(sol.u[0] - exact).max() <= 1e-10 * np.abs(exact).max()
+
+
+@pytest.mark.numerics
+def test_3d_a_sliding_layer_keeps_the_interior_point_with_a_warning_and_slides_with_g_times_the_area():
+    """The layer whose top is moved by s > g / G along the diagonal slides with the friction force g A along it.
+    The vertices' friction capacities (the red refinement's areas, A/12) are not the consistent P2 forces (0 there),
+    so the nodal relaxation opens a vertex and leaves its triangles' cones (measured 6.1e-6 of the displacements):
+    the interior point's answer is kept, with the warning; its force is g A to its accuracy (measured 3.7e-7)."""
+    g = 1e5
+    with pytest.warns(cc.ResidualWarning, match="no exact finish joins the P2 cones"):
+        sol = cc.solve(sliding_layer3d(g), **P2)
+    assert not sol.polished and UNFINISHED_CONES in sol.info.declined
+    force = sol.contact.shear_force.sum(axis=0)
+    assert np.linalg.norm(force + g * DIAGONAL3) <= 1e-4 * g
+
+
+def test_p2_friction_under_gamma3_beside_a_nodal_pair_is_refused_in_3d_too():
+    """A 3D pair under 'sigma1' beside a 'gamma3' one: the cones' rows are the nodes of X_h, the nodal pair's fewer
+    (the 2D case: tests/test_tresca.py); refused naming what to use."""
+    tau = 0.2 * P
+    scene = _stuck_pair3d(tau, cc.Tresca(2 * P), 3)
+    floor = cc.Rigid.plane(point=(0.0, 0.0, -3.0), normal=(0.0, 0.0, 1.0))
+    aside = cc.Body(cc.box(x=(2, 3), y=(0, 1), z=(-3, -2), nx=1, ny=1, nz=1), steel(), contact="bottom",
+                    traction={"top": (0.0, 0.0, -P)}, displacement={"left": (0.0, 0.0, None), "front": (0.0, 0.0, None)},
+                    name="aside")
+    upper, lower = scene.bodies
+    pairs = [cc.Contact(upper, "bottom", lower, "top", law=cc.Tresca(2 * P), condition="sigma1"),
+             cc.Contact(aside, "bottom", floor, condition="gamma3")]
     with pytest.raises(cc.UnsupportedError) as info:
-        cc.solve(uniform_layer3d(0.2 * P, cc.Tresca(2 * P)), **P2)
+        cc.solve(cc.Scene(*scene.bodies, aside, contacts=pairs), **P2)
     msg = str(info.value)
-    assert "in 3D" in msg and "'sigma1' or 'sigma2'" in msg and "degree=1" in msg, msg
+    assert "nodal condition" in msg and "'sigma1' or" in msg and "degree=1" in msg, msg

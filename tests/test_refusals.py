@@ -245,10 +245,9 @@ def test_p2_tetrahedra_compliance_under_sigma1_on_cut_faces_sums_to_the_overlap(
     assert np.abs(sol.contact.lam / (k * DELTA3) - 1).max() <= 1e-4
 
 
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a friction law with P2 elements under gamma3 "
-                   "in 3D (friction rows next to the copositive cones)")
+@pytest.mark.numerics
 def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
-    """Row 32 (b), 3D (2D is supported: the test below). The uniform sheared layer on a rigid plane
+    """Row 32 (b), supported (2D: the test below). The uniform sheared layer on a rigid plane
     (tests/friction_scenes.py) with Tresca far above its shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
     tests/test_friction3d_p2.py)."""
     from friction_scenes import DIAGONAL3, uniform_layer3d

@@ -24,7 +24,7 @@ iterate of smallest change (at the interior point's resolution the change wander
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
-With 2D P2 elements under "gamma3" (:func:`conic_full`, the term
+With P2 elements under "gamma3" (:func:`conic_full`, the term
 :class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
 (:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
 cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`.
@@ -193,14 +193,22 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
 
 def point_duals(B, segments, y) -> np.ndarray:
     """(S, w) Bernstein duals beta with B^T beta = ``y`` (nodal forces >= 0 on X_h), each node's force shared
-    equally by the elements it belongs to, beta_s = B_s^-T y_s (B_s the element's block of ``B``, (w S, n)): the
-    point evaluations at the nodes, in every element's dual cone."""
+    equally by the elements it belongs to: the point evaluations at the nodes, in every element's dual cone. On an
+    element (w distinct nodes) beta_s = B_s^-T y_s (B_s its block of ``B``, (w S, n)); on a degenerate one (a node
+    repeated w times: a nodal row, every coefficient the value there) its share in the first coefficient."""
     S, w = segments.shape
     share = np.asarray(y, dtype=float) / np.bincount(segments.ravel(), minlength=len(y)).clip(min=1)
-    rows = (w * np.arange(S))[:, None, None] + np.arange(w)[None, :, None]
-    Bs = np.asarray(sp.csr_matrix(B)[np.broadcast_to(rows, (S, w, w)).ravel(),
-                                     np.broadcast_to(segments[:, None, :], (S, w, w)).ravel()]).reshape(S, w, w)
-    return np.linalg.solve(np.transpose(Bs, (0, 2, 1)), share[segments][..., None])[..., 0]
+    beta = np.zeros((S, w))
+    flat = (segments == segments[:, :1]).all(axis=1)
+    beta[flat, 0] = w * share[segments[flat, 0]]              # the node counted w times by bincount
+    on = np.flatnonzero(~flat)
+    if len(on):
+        rows = (w * on)[:, None, None] + np.arange(w)[None, :, None]
+        k = len(on)
+        Bs = np.asarray(sp.csr_matrix(B)[np.broadcast_to(rows, (k, w, w)).ravel(),
+                                         np.broadcast_to(segments[on][:, None, :], (k, w, w)).ravel()]).reshape(k, w, w)
+        beta[on] = np.linalg.solve(np.transpose(Bs, (0, 2, 1)), share[segments[on]][..., None])[..., 0]
+    return beta
 
 
 def _row_forces(problem, model):

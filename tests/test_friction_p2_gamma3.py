@@ -15,8 +15,20 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import (DIAGONAL3, E, L, P, _side_shear, pair2d, pushed, sheared, sliding_layer3d, steel,
-                             uniform_layer, uniform_layer3d)
+from friction_scenes import (
+    DIAGONAL3,
+    E,
+    L,
+    P,
+    _side_shear,
+    pair2d,
+    pushed,
+    sheared,
+    sliding_layer3d,
+    steel,
+    uniform_layer,
+    uniform_layer3d,
+)
 
 import cvxcontact as cc
 from cvxcontact.backends.friction import UNFINISHED_CONES

@@ -58,7 +58,8 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 
-__all__ = ["ENERGY_SLACK", "RESOLUTION", "CONE_ROUNDING", "UNFINISHED_CONES", "conic_full", "finish_on_nodes", "point_duals", "exact_finish", "friction_program", "full", "prescribed_row_slip"]
+__all__ = ["CONE_ROUNDING", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES", "conic_full", "exact_finish",
+           "finish_on_nodes", "friction_program", "full", "point_duals", "prescribed_row_slip"]
 
 log = logging.getLogger(__name__)
 

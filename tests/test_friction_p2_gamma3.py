@@ -206,3 +206,18 @@ def test_p2_friction_under_gamma3_beside_a_nodal_pair_is_refused_in_3d_too():
         cc.solve(cc.Scene(*scene.bodies, aside, contacts=pairs), **P2)
     msg = str(info.value)
     assert "nodal condition" in msg and "'sigma1' or" in msg and "degree=1" in msg, msg
+
+
+@pytest.mark.numerics
+def test_a_body_above_a_curved_obstacle_is_finished_against_its_own_gap():
+    """A clamped block under its weight above a disk (gap 1e-4 m, never closed): the finish on the nodes checks the
+    slack against the disk's own gap (its departure from the P2 interpolant) and is kept; Tresca's threshold holds
+    the face tangentially with no pressure, as under "sigma1" (the same answer, measured 2.5e-15)."""
+    m = cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=8, ny=4)
+    body = cc.Body(m, steel(), contact="bottom", clamped="top", body_force=(0.0, -1e5))
+    disk = cc.Rigid.circle(center=(0.0, -1.0), radius=1.0 - 1e-4)
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", disk, law=cc.Tresca(1e6))])
+    sol, nodal = cc.solve(scene, **P2), cc.solve(scene, "sigma1", degree=2)
+    assert sol.ok and sol.polished, sol.info.declined
+    assert np.abs(sol.u[0] - nodal.u[0]).max() <= 1e-10 * np.abs(nodal.u[0]).max()
+    assert np.abs(sol.contact.force).max() == 0.0 and sol.residuals()["feasibility"] == 0.0

@@ -164,14 +164,12 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     """The exact finish of the cones with friction where their contact closes at nodes: the friction finish
     (:func:`exact_finish`) of the nodal relaxation (E = I: a Signorini row at every node of X_h, the friction rows
     where they are), kept if its slack q = [u_nu] - g satisfies every element's cone (max over the element
-    <= :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_max`). The relaxation's
-    answer is then the cones' (its forces y >= 0 at the nodes are point evaluations, in every element's dual cone:
-    beta_s = B_s^-T y_s, a vertex's force shared by its elements; docs/howto/friction.md). Otherwise (a contact
-    ending inside an element, a curved obstacle's own gap, a declined finish) the interior point's answer ``raw``
-    with its ``declined`` saying why. Returns the answer."""
-    if problem.departure is not None:
-        raw.declined = Declined(Stop.NOT_POSED, f"{UNFINISHED_CONES} (a curved obstacle's own gap)")
-        return raw
+    <= :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_max`; against a curved
+    obstacle the true slack, q_h less the gap's departure from its interpolant, :class:`~cvxcontact.contact.truegap.
+    GapDeparture`, which vanishes at the nodes). The relaxation's answer is then the cones' (its forces y >= 0 at the
+    nodes are point evaluations, in every element's dual cone: beta_s = B_s^-T y_s, a vertex's force shared by its
+    elements; docs/howto/friction.md). Otherwise (a contact ending inside an element, a declined finish) the
+    interior point's answer ``raw`` with its ``declined`` saying why. Returns the answer."""
     trial = replace(raw)
     exact_finish(problem, trial, timings)
     if not trial.polished:
@@ -181,8 +179,9 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     B, segments = problem.lines.cone
     jump = sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))
     jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(len(jump)))
-    w = segments.shape[1]
-    top = float(bernstein_max((B @ (jump - problem.g)).reshape(-1, w)).max(initial=-np.inf))
+    w, departure = segments.shape[1], problem.departure
+    slack = (B @ (jump - problem.g)).reshape(-1, w)                # against a curved obstacle: its own gap
+    top = float((bernstein_max(slack) if departure is None else departure.argmax(slack)[0]).max(initial=-np.inf))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
     if top > CONE_ROUNDING * U:
         raw.declined = Declined(Stop.NOT_POSED, f"{UNFINISHED_CONES} (the finish on the nodes leaves the cone of an "

@@ -57,6 +57,9 @@ def main() -> None:
     row("2D partial 32x16 g=3e6", fs.sheared(0.2 * P, cc.Tresca(3e6), nx=32, ny=16))
     row("2D pair q=.02P g=.03P", fs.pair2d(cc.Tresca(0.03 * P), 0.02 * P, condition="gamma3"),
         fs.pair2d(cc.Tresca(0.03 * P), 0.02 * P))
+    body = cc.Body(cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=8, ny=4), fs.steel(), contact="bottom", clamped="top")
+    disk = cc.Rigid.circle(center=(0.0, -1.0), radius=1.0 + 1e-4)              # pressed 1e-4 m into a disk
+    row("2D disk g=1e4 (cut points)", cc.Scene(body, contacts=[cc.Contact(body, "bottom", disk, law=cc.Tresca(1e4))]))
     row("3D layer stuck", fs.uniform_layer3d(0.2 * P, cc.Tresca(2 * P)))
     row("3D pair stuck", fs.uniform_pair3d(0.2 * P, cc.Tresca(2 * P)))
     row("3D pair Coulomb mu=.5", fs.uniform_pair3d(0.2 * P, cc.Coulomb(0.5)))

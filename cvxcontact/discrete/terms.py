@@ -330,11 +330,12 @@ class ConesWithFriction(_Term):
     """The P2 "gamma3" cones (the normal condition on every element, docs/formulation.md §8, §16) and a friction
     law's cone per node of X_h on the slip, its capacity g_a w_a with w_a the positive weights of the nodal P2
     friction (2D: the Simpson weights of the merged P2 line; 3D: the red refinement's lumped areas), Coulomb's
-    mu r_a from the cones' nodal force r = B^T beta (docs/howto/friction.md, "P2 under 'gamma3'"). The full program only
-    (:func:`cvxcontact.backends.friction.conic_full`), finished exactly where the contact closes at nodes (the
-    friction finish of the nodal relaxation, kept if it satisfies every element's cone); elsewhere the finish is
-    declined (a :class:`~cvxcontact.errors.ResidualWarning` naming why) and the interior point's answer kept, with
-    the conic and friction checks."""
+    mu r_a from the cones' nodal force r = B^T beta (docs/howto/friction.md, "P2 under 'gamma3'"). The full program
+    only (:func:`cvxcontact.backends.friction.conic_full`), finished exactly where the contact closes at nodes (the
+    friction finish of the nodal relaxation, kept if it satisfies every element's cone) and, with Tresca, where it
+    ends inside an element (normal rows added at the slack's maxima: cut points); elsewhere the finish is declined
+    (a :class:`~cvxcontact.errors.ResidualWarning` naming why) and the interior point's answer kept, with the conic
+    and friction checks."""
 
     kind: ClassVar[str] = "conic_friction"
     cones: ClassVar[bool] = True
@@ -343,11 +344,11 @@ class ConesWithFriction(_Term):
     rows_may_depend: ClassVar[bool] = False
     refuses_user_terms: ClassVar[str] = TrescaFriction.refuses_user_terms
     unfinished_hint: ClassVar[str] = (
-        "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a contact that does not close "
-        "at nodes: no exact finish joins the cones' tangency Newton with the friction Newton yet), so its "
-        "complementarity and stick-slip checks stop where the interior point stops (docs/howto/friction.md). Pass "
-        "a tol above what the report shows to accept it, or use 'sigma1'/'sigma2' (nodal P2 friction rows, "
-        "finished exactly).")
+        "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish on the nodes and cut "
+        "points that did not settle: no exact finish joins the cones' tangency Newton with the friction Newton "
+        "yet), so its complementarity and stick-slip checks stop where the interior point stops "
+        "(docs/howto/friction.md). Pass a tol above what the report shows to accept it, or use 'sigma1'/'sigma2' "
+        "(nodal P2 friction rows, finished exactly).")
     programs: ClassVar[str | Callable] = EverywhereCones.programs
     forces: ClassVar[str | Callable] = EverywhereCones.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_conic_friction"

@@ -177,8 +177,9 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     they are), then, while its slack q = [u_nu] - g leaves an element's cone (its maximum over the element above
     :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_argmax`; against a curved
     obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
-    same finish with a normal row added at each such maximum (a cut, :func:`~cvxcontact.backends.cuts.accumulate_cuts`;
-    Tresca only, at most :data:`CUT_ROUNDS` rounds: Coulomb's capacities are the nodes' forces'). The answer is
+    same finish with a normal row added at each such maximum (a cut,
+    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; Tresca only, at most :data:`CUT_ROUNDS` rounds and
+    :data:`CUT_FAILURES` declined ones: Coulomb's capacities are the nodes' forces'). The answer is
     then the cones': its point forces y_p >= 0 are point evaluations, in every element's dual cone (beta_s =
     sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md).
     Otherwise (a finish declined, cuts that do not settle) the interior point's answer ``raw`` with its
@@ -190,7 +191,8 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     segment, t = where // w, element(w).nodes[where % w]
     P0 = point_rows(B, segment, t)
     if P0.shape != (n, n) or abs(P0 - sp.identity(n)).max() > 1e-15:
-        raw.declined = Declined(Stop.NOT_POSED, f"{UNFINISHED_CONES} (the nodes of X_h are not points of its elements)")
+        raw.declined = Declined(Stop.NOT_POSED,
+                                f"{UNFINISHED_CONES} (the nodes of X_h are not points of its elements)")
         return raw
     tried, solved = [], []
 
@@ -403,8 +405,9 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
     ``program`` with ``capacity`` set to the last normal row forces' (``forces()``, of the program last solved;
     ``solve(program)``: its interior-point iterations); (iterations, (``answer()`` of the iterate of smallest
-    change, the solver status of that iterate), the relative changes, the words of a :class:`~cvxcontact.errors.FixedPointWarning` if it did not
-    converge, else None: :func:`full` warns if the exact finish does not reach Coulomb's law either)."""
+    change, the solver status of that iterate), the relative changes, the words of a
+    :class:`~cvxcontact.errors.FixedPointWarning` if it did not converge, else None: :func:`full` warns if the exact
+    finish does not reach Coulomb's law either)."""
     tol, most = fixed_point
     iterations = solve(stuck)
     solved = stuck                                         # the program whose solution the variables hold

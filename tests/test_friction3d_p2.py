@@ -23,6 +23,8 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
   slides with the capacity g times the overlap's area.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 from friction_scenes import DIAGONAL3, tresca_reference, uniform_layer3d
@@ -338,11 +340,25 @@ def test_on_cut_faces_the_weights_are_the_red_hats_integrated_over_the_overlap()
     for k in (0, 1):
         assert np.abs(here.u[k] - there.u[k]).max() < 1e-11 * np.abs(here.u[0]).max()   # measured 0
 
-def test_friction_under_the_conic_condition_is_refused_naming_the_nodal_rows_and_p1():
-    scene = sheared(0.2 * P * DIAGONAL, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
-    with pytest.raises(cc.UnsupportedError, match=r"'gamma3'.*condition='sigma1' or 'sigma2'.*degree=1 with 'gamma3'"):
-        cc.solve(scene, degree=2, condition="gamma3")
-    assert cc.solve(scene, degree=1, condition="gamma3").ok                  # the alternative it names
+@pytest.mark.numerics
+def test_friction_under_the_conic_condition_where_the_contact_ends_inside_a_face_balances():
+    """Under "gamma3" (the copositive cones, tests/test_friction_p2_gamma3.py) the sheared box (nu = 0.3) lifts off
+    inside a face: the finish on the nodes leaves a triangle's cone (by 0.0099 of the displacements) and adds cut
+    points; where their steps do not settle (measured) the interior point's answer is kept with a ResidualWarning
+    naming why. Either way the floor holds the shear q A (measured 1.7e-14; complementarity 1.9e-7; the nodal
+    "sigma1" answer differs by 2.7 %: its rows do not hold between nodes)."""
+    from cvxcontact.backends.friction import UNFINISHED_CONES
+
+    q = 0.2 * P * DIAGONAL
+    scene = sheared(q, cc.Tresca(0.5 * P), cc.box(nx=2, ny=2, nz=1))
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        sol = cc.solve(scene, degree=2, condition="gamma3")
+    if not sol.polished:
+        assert any(UNFINISHED_CONES in str(w.message) for w in record if issubclass(w.category, cc.ResidualWarning))
+    assert np.abs(sol.contact.shear_force.sum(axis=0) + q).max() <= 1e-9 * np.linalg.norm(q)
+    r = sol.residuals()
+    assert r["equilibrium"] <= 1e-10 and r["complementarity"] <= 1e-4               # measured 8.4e-15, 1.9e-7
 
 
 def overhanging_push(g, edge, s=1e-2):

@@ -222,11 +222,10 @@ def test_p2_tetrahedra_compliance_under_sigma1_on_cut_faces_sums_to_the_overlap(
     assert np.abs(sol.contact.lam / (k * DELTA3) - 1).max() <= 1e-4
 
 
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="a friction law with P2 elements under gamma3 "
-                   "(friction rows next to the copositive cones)")
+@pytest.mark.numerics
 def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
-    """Row 32 (b). The uniform sheared layer on a rigid plane (tests/friction_scenes.py) with Tresca far above its
-    shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
+    """Row 32 (b), supported (2D: the test below). The uniform sheared layer on a rigid plane
+    (tests/friction_scenes.py) with Tresca far above its shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
     tests/test_friction3d_p2.py)."""
     from friction_scenes import DIAGONAL3, uniform_layer3d
     from friction_scenes import E as E3
@@ -237,6 +236,21 @@ def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
     z = sol.points[0][:, 2]
     exact = np.column_stack([2 * tau * DIAGONAL3[0] * z / E3, 2 * tau * DIAGONAL3[1] * z / E3, -P3 * z / E3])
     assert sol.ok and rel(sol.u[0], exact) <= 1e-9
+
+
+@pytest.mark.numerics
+def test_p2_friction_under_gamma3_in_2d_sticks_a_uniform_layer_closed_form():
+    """Row 32 (b), supported in 2D. The uniform sheared layer on a rigid floor (tests/friction_scenes.py) with Tresca
+    far above its shear: stuck, u = (tau y / G, -p y / E) exactly in P2 (G = E / 2, nu = 0), finished on the nodes
+    (measured 4.5e-15; tests/test_friction_p2_gamma3.py)."""
+    from friction_scenes import E as E2
+    from friction_scenes import P as P2
+    from friction_scenes import uniform_layer
+
+    tau = 0.2 * P2
+    sol = cc.solve(uniform_layer(tau, cc.Tresca(10 * tau)), "gamma3", degree=2)
+    y = sol.points[0][:, 1]
+    assert sol.ok and sol.polished and rel(sol.u[0], np.column_stack([2 * tau * y / E2, -P2 * y / E2])) <= 1e-9
 
 
 def test_p2_cones_with_a_hencky_body_in_3d_are_refused_naming_what_to_use():

@@ -34,7 +34,7 @@ FLOOR = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
 def _flags_kind(p) -> str:
     """The kind as backends/run.kind computed it from the flags before the term (the same precedence)."""
     if p.friction:
-        return "friction"
+        return "conic_friction" if p.conic else "friction"
     if p.mixed:
         return "mixed"
     if p.conic:
@@ -75,6 +75,7 @@ CASES = {                                   # name: (scene, ContactSolver keywor
     "conic P2": (_small, dict(condition="gamma3", degree=2), "conic"),
     "mixed P2": (_mixed_scene, dict(degree=2), "mixed"),
     "friction P1": (_tresca_scene, dict(condition="gamma3"), "friction"),
+    "friction P2 cones": (_tresca_scene, {"condition": "gamma3", "degree": 2}, "conic_friction"),
 }
 
 
@@ -105,7 +106,7 @@ def test_the_term_answers_as_the_flag_branches_it_replaces(case):
     for polished, y in ((True, np.ones(2)), (False, np.ones(2)), (True, None)):      # start.py's _hands_on
         raw = SimpleNamespace(polished=polished, y=y)
         assert t.hands_on(raw) == (t.hands_on_state and polished and y is not None)
-    assert t.finishes == (not p.mixed and not p.friction)                          # solve.py: declined finish
+    assert t.finishes == (not p.mixed and (not p.friction or p.conic))            # solve.py: declined finish
     assert t.always_finished == (not (p.conic or p.mixed or p.friction))           # solve.py, Model._warn
     assert t.cones == (p.conic or p.mixed)                                         # solve.py's hint
     assert t.estimated                                                             # solve.py, Model.solve

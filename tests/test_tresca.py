@@ -102,13 +102,6 @@ def test_friction_is_refused_where_it_is_not_posed():
     scene = sheared(0.2 * P, 1e7)
     with pytest.raises(cc.SolverError, match="condensed"):
         cc.solve(scene, method="condensed")
-    with pytest.raises(cc.UnsupportedError, match="P2"):
-        cc.solve(scene, degree=2)
-    box = cc.box(nx=2, ny=2, nz=2)
-    body = cc.Body(box, steel(), contact="bottom", traction={"top": (0.0, 0.0, -P)})
-    floor = cc.Rigid.plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-    with pytest.raises(cc.UnsupportedError, match="P2"):       # "gamma3"; the nodal rows: test_friction3d_p2.py
-        cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor, law=cc.Tresca(1e6))]), degree=2)
 
 
 def test_a_scene_file_names_the_law():
@@ -180,9 +173,20 @@ def test_p2_a_pair_tends_to_the_rigid_plane_linearly_in_the_partners_compliance(
     assert departures[0] / departures[1] == pytest.approx(10.0, rel=1e-2)           # 1.96e-3 / 1.96e-4
 
 
-def test_p2_friction_under_the_conic_condition_is_refused_naming_the_nodal_conditions():
-    with pytest.raises(cc.UnsupportedError, match=r"gamma3.*condition='sigma1' or 'sigma2'"):
-        cc.solve(sheared(0.2 * P, 1e7), degree=2)
+def test_p2_friction_under_the_conic_condition_is_refused_beside_a_nodal_pair_naming_the_nodal_conditions():
+    """P2 friction under 'gamma3' is supported (tests/test_friction_p2_gamma3.py) where every pair's rows are the
+    nodes of X_h; a two-body pair under 'sigma1' beside the cones (its rows fewer than its nodes) is refused."""
+    a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=4, ny=2), steel(), contact="bottom",
+                traction={"top": (0.02 * P, -P)}, name="top")
+    b = cc.Body(cc.rectangle(x=(-0.2, 1.2), y=(-H, 0.0), nx=5, ny=2), steel(), contact="top", clamped="bottom",
+                name="below")
+    c = cc.Body(cc.rectangle(x=(2.0, 3.0), y=(0.0, H), nx=2, ny=1), steel(), contact="bottom",
+                traction={"top": (0.0, -P)}, displacement={"left": (0.0, None)}, name="aside")
+    floor = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+    scene = cc.Scene(a, b, c, contacts=[cc.Contact(a, "bottom", b, "top", law=cc.Tresca(1e7), condition="sigma1"),
+                                        cc.Contact(c, "bottom", floor, condition="gamma3")])
+    with pytest.raises(cc.UnsupportedError, match=r"gamma3.*nodal condition.*condition='sigma1' or\s+'sigma2'"):
+        cc.solve(scene, degree=2)
 
 
 @pytest.mark.numerics
@@ -201,12 +205,12 @@ def test_a_p2_pair_under_sigma1_in_partial_slip_is_finished():
 
 def test_p2_friction_on_rows_forming_no_p2_mesh_is_refused_naming_friction():
     """Under "sigma1" the upper block's first P2 node in the overlap is a midpoint: its rows form no P2 mesh for the
-    law's weights. The refusal names friction among the laws concerned and the other sigma condition; 'gamma3' only
-    for normal compliance (friction under 'gamma3' with P2 is refused too)."""
+    law's weights. The refusal names friction among the laws concerned, the other sigma condition and 'gamma3'
+    (friction under 'gamma3' with P2: tests/test_friction_p2_gamma3.py)."""
     mat = cc.materials.isotropic(E=E, nu=0.0)
     upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, clamped=["top"], contact="bottom")
     lower = cc.Body(cc.rectangle(x=(0.1, 1.0), y=(-0.5, 0), nx=3, ny=2), mat, clamped=["bottom"], contact="top")
     scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=-1e-5)])
     with pytest.raises(cc.UnsupportedError, match="friction") as info:
         cc.solve(scene, "sigma1", degree=2, law=cc.Tresca(1e6))
-    assert "the other sigma condition" in str(info.value) and "for normal compliance, 'gamma3'" in str(info.value)
+    assert "the other sigma condition" in str(info.value) and "or 'gamma3'" in str(info.value)

@@ -250,7 +250,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             "quadratic energy, a non-quadratic one with the Signorini law or the 2D P2 cones: Newton finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full",
-                                     "friction": ".friction:full"})),
+                                     "friction": ".friction:full", "conic_friction": ".friction:conic_full"})),
 )}
 """The registered backends by name, in speed order (fastest first): :func:`register` adds to it."""
 
@@ -311,7 +311,7 @@ class _Live(Sequence):
 
 KINDS: Sequence[str] = _Live(_kinds)
 """The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`): "signorini", "compliance",
-"conic", "mixed", "friction" and those of terms registered from outside
+"conic", "mixed", "friction", "conic_friction" and those of terms registered from outside
 (:func:`cvxcontact.discrete.terms.register_term`); a backend names one route per kind it solves. A live view."""
 
 BACKENDS: Sequence[Backend] = _Live(lambda: tuple(_REGISTRY.values()))

@@ -24,6 +24,11 @@ iterate of smallest change (at the interior point's resolution the change wander
 checked to hold the load (:func:`~cvxcontact.fem.kernel.refuse_sliding`): where they cannot, a SceneError names
 the sliding motion.
 
+With P2 elements under "gamma3" (:func:`conic_full`, the term
+:class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
+(:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
+cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`.
+
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
 is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
 law, the capacities those of the finished forces), or kept where the finish is declined; checked
@@ -35,13 +40,16 @@ from __future__ import annotations
 import logging
 import time
 import warnings
+from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.bernstein import element, point_rows
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
+from .cuts import accumulate_cuts, point_read_back
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows, solve_friction
@@ -51,7 +59,8 @@ from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 
-__all__ = ["ENERGY_SLACK", "RESOLUTION", "exact_finish", "friction_program", "full", "prescribed_row_slip"]
+__all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
+           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip"]
 
 log = logging.getLogger(__name__)
 
@@ -111,22 +120,150 @@ def full(problem, cache, settings, timings) -> RawResult:
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
     of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
     (``polish``) the exact finish, :func:`exact_finish`."""
+    raw, unsettled = _interior(problem, settings, timings, _row_forces)
+    moved = problem.g - sum((R @ tau for (R, _), tau in zip(problem.translations, raw.taus)),
+                            np.zeros(len(problem.g)))
+    parts = [problem.E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)]
+    raw.active = ipm_active(parts, moved, raw.y, force_displacements(problem.blocks, problem.E, raw.y),
+                            reach_forces(problem.blocks, problem.E, raw.u, raw.phi))
+    if settings.polish:
+        exact_finish(problem, raw, timings)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    return raw
+
+
+UNFINISHED_CONES = ("no exact finish joins the P2 cones' tangency Newton with the friction Newton yet: the interior "
+                    "point's answer, checked")
+"""Why the friction next to the P2 "gamma3" cones keeps the interior point's answer where the finish on the nodes
+(:func:`conic_full`) does not apply (in ``raw.declined``)."""
+
+CONE_ROUNDING = 1e-9
+"""The finish of the cones with friction (:func:`finish_on_nodes`) stops where the slack's largest value on every
+element is at most this times the largest displacement (the closed points' slack is rounding; a contact ending
+inside an element dips by a part of the displacements between its nodes)."""
+
+CUT_ROUNDS = 40
+"""At most this many rounds of cut points (:func:`finish_on_nodes`; Tresca: Coulomb's capacities are those of the
+nodes' forces, so its finish is the nodes' round alone)."""
+
+CUT_FAILURES = 2
+"""The cuts end (declined) once this many rounds' friction finishes were declined: a round that adds many points
+whose steps cycle, then its worst point alone, again and again (measured: the 3D box of
+benchmarks/friction_p2_gamma3.py lifting at a corner, violation 5e-3 to 4e-4 of the displacements in 11 rounds of
+its worst point, 8.3 s CPU before the decline; the interior point 0.24 s)."""
+
+
+def conic_full(problem, cache, settings, timings) -> RawResult:
+    """The full program of the P2 "gamma3" cones (:func:`~cvxcontact.backends.cones.cone_program`) with the
+    friction energy on the nodes of X_h (module docstring; the term
+    :class:`~cvxcontact.discrete.terms.ConesWithFriction`), Coulomb's by the fixed point on the capacities mu r_a
+    of the cones' nodal force r = B^T beta; ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then (``polish``)
+    :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
+    why (the read-back checks it: the conic checks and the friction law's)."""
+    raw, unsettled = _interior(problem, settings, timings, _cone_forces)
+    if settings.polish:
+        raw = finish_on_nodes(problem, raw, timings)
+    else:
+        raw.declined = Declined(Stop.NOT_POSED, UNFINISHED_CONES)
+    if unsettled and not raw.polished:
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    return raw
+
+
+def finish_on_nodes(problem, raw, timings) -> RawResult:
+    """The exact finish of the cones with friction where their contact closes at points: the friction finish
+    (:func:`exact_finish`) of the nodal relaxation (a Signorini row at every node of X_h, the friction rows where
+    they are), then, while its slack q = [u_nu] - g leaves an element's cone (its maximum over the element above
+    :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_argmax`; against a curved
+    obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
+    same finish with a normal row added at each such maximum (a cut,
+    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; Tresca only, at most :data:`CUT_ROUNDS` rounds and
+    :data:`CUT_FAILURES` declined ones: Coulomb's capacities are the nodes' forces'). The answer is
+    then the cones': its point forces y_p >= 0 are point evaluations, in every element's dual cone (beta_s =
+    sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md).
+    Otherwise (a finish declined, cuts that do not settle) the interior point's answer ``raw`` with its
+    ``declined`` saying why. Returns the answer."""
+    B, cells = problem.lines.cone
+    n, w = B.shape[1], cells.shape[1]
+    where = np.zeros(n, dtype=int)                 # every node of X_h once, as a point of an element holding it
+    where[cells.ravel()] = np.arange(cells.size)
+    segment, t = where // w, element(w).nodes[where % w]
+    P0 = point_rows(B, segment, t)
+    if P0.shape != (n, n) or abs(P0 - sp.identity(n)).max() > 1e-15:
+        raw.declined = Declined(Stop.NOT_POSED,
+                                f"{UNFINISHED_CONES} (the nodes of X_h are not points of its elements)")
+        return raw
+    tried, solved = [], []
+
+    def solve(P, delta):
+        """The friction finish with the normal rows ``P`` (their slack P q - delta), from the last round's answer:
+        (point forces, q at the nodes of X_h, each node's displacement scale, the answer, its closed rows), or None
+        (its decline kept)."""
+        if sum(d is not None for d in tried) >= CUT_FAILURES:
+            return None
+        start = next((a for a in reversed(solved) if len(a.y) <= P.shape[0]), None)
+        trial = exact_finish(problem, replace(raw), timings, points=(P, delta), start=start)
+        tried.append(trial.declined)
+        if not trial.polished:
+            return None
+        solved.append(trial)
+        jump = sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))
+        jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(n))
+        U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
+        return trial.y, jump - problem.g, np.full(n, U), trial, trial.active
+
+    rounds = 1 if problem.rows.pressure_dependent.any() else CUT_ROUNDS
+    out = accumulate_cuts(B, solve, segment, t, max_rounds=rounds, tol=CONE_ROUNDING, width=w,
+                          departure=problem.departure)
+    if isinstance(out, Declined):
+        why = next((d for d in reversed(tried) if d is not None), out)
+        words = str(why) if why is not out or rounds > 1 else (
+            f"it leaves the cone of an element, a contact ending inside it, and Coulomb's finish takes no cut points "
+            f"(its capacities are the nodes' forces): {why}")
+        raw.declined = Declined(why.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes"
+                                f"{'' if rounds == 1 else ' and cut points'}: {words})", why.rows)
+        return raw
+    trial = out["state"]
+    trial.y, trial.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
+    trial.beta = out["beta"]
+    trial.pairing = None if problem.departure is None else out["pairing"]
+    return trial
+
+
+def _row_forces(problem, model):
+    """(y, None): the normal rows' multipliers of the solved program (scaled)."""
+    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None
+
+
+def _cone_forces(problem, model):
+    """(r, beta): the cones' nodal force r = B^T beta on X_h and their Bernstein duals beta (the held elements' at
+    their least admissible value; :func:`~cvxcontact.backends.cones.cone_forces`), scaled."""
+    y, _, beta = problem.term.program_forces(problem, model, None, None)
+    return y, beta
+
+
+def _interior(problem, settings, timings, normal):
+    """(raw, unsettled): the interior point's answer of the full program with the friction energy (Tresca's, or
+    Coulomb's fixed point), ``normal(problem, model) -> (y, beta)`` reading the normal forces of the solved
+    program; ``unsettled`` the words of a :class:`~cvxcontact.errors.FixedPointWarning` (None: converged or
+    Tresca), warned by the route if no finish reaches the law."""
     t0 = time.perf_counter()
-    E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
-    model = problem.term.program(problem)              # the normal rows (full.signorini_program)
+    E = problem.E
+    model = problem.term.program(problem)              # the normal rows or cones (the term's program)
     program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
     options = conic_options(settings.solver, settings.options)
     n_c = problem.slip_components
 
     def answer():
-        """The arrays of the program's current solution: u, phi, y, mu ((c R,) component-major, like the slip
-        rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
+        """The arrays of the program's current solution: u, phi, (y, beta), mu ((c R,) component-major, like the
+        slip rows; CVXPY's L = ... + nu^T (s - slip)), the translations and the capacities it was posed with."""
         mu = np.zeros((n_c, E.shape[0]))
         mu[:, rows] = -np.asarray(constraint.dual_value, dtype=float).reshape(n_c, len(rows))
         return ([np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u],
                 [np.asarray(v.value, dtype=float).ravel() if v is not None else None for v in model.phi],
-                np.asarray(model.contact.dual_value, dtype=float).ravel(), mu.ravel(),
+                normal(problem, model), mu.ravel(),
                 [np.asarray(t.value, dtype=float).ravel() for t in model.t], np.array(capacity.value, dtype=float))
 
     fixed_point, unsettled = problem.rows.fixed_point, None
@@ -138,39 +275,43 @@ def full(problem, cache, settings, timings) -> RawResult:
         stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
         iterations, (best, status), changes, unsettled = _fixed_point(
             problem, model, stuck, program, capacity, rows, answer, fixed_point,
-            lambda p: timed_program(p, settings, timings, options))
-    u, phi, y, mu, taus, posed = best
-    raw = RawResult(u=u, phi=phi, y=y, program=program, taus=taus, method="full", iterations=iterations,
+            lambda p: timed_program(p, settings, timings, options), lambda: normal(problem, model)[0])
+    u, phi, (y, beta), mu, taus, posed = best
+    raw = RawResult(u=u, phi=phi, y=y, beta=beta, program=program, taus=taus, method="full", iterations=iterations,
                     route=Route.INTERIOR_POINT_FRICTION, status=status)
-    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
-    parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, u)]
-    raw.active = ipm_active(parts, moved, y, force_displacements(blocks, E, y), reach_forces(blocks, E, u, phi))
     raw.tangential = mu
     raw.capacity = np.zeros(E.shape[0])
     raw.capacity[rows] = posed
     raw.fixed_point = changes
-    if settings.polish:
-        exact_finish(problem, raw, timings)
-    if unsettled and not raw.polished:
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
-    return raw
+    return raw, unsettled
 
 
-def exact_finish(problem, raw, timings) -> RawResult:
+def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
     its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`, the interior point's answer kept): a
     non-quadratic energy, a singular step, steps that do not settle, broken signs, or an energy above the
-    interior point's (beyond :data:`ENERGY_SLACK`). Rows that may be linearly dependent
+    interior point's (beyond :data:`ENERGY_SLACK`; not against a curved obstacle's own gap at points, where the
+    interior point's program is the interpolant's). Rows that may be linearly dependent
     (:func:`~cvxcontact.backends.signorini.dependent_rows`: 3D "gamma3" pairs) are finished on an independent
-    subset of them per step."""
+    subset of them per step. ``points`` (P, delta): the normal rows at points of the P2 cones' elements instead of
+    E's (P (k, n) on the nodes of X_h, its first n rows the nodes themselves, the frictional rows; the slack
+    P q - delta, ``delta`` a curved obstacle's departure at the points; :func:`finish_on_nodes`): ``raw.y`` and
+    ``raw.active`` are then per point; ``start``: an answer to start the steps from (its forces on a prefix of the
+    points), else ``raw`` (whose energy the finish's may not exceed either way)."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
         return raw
     t0 = time.perf_counter()
-    E, g, blocks = problem.E, problem.g, problem.blocks
+    E, blocks = problem.E, problem.blocks
     op, G, widths = mixed_system(problem)
+    first = raw if start is None else start
+    g, free, y0, dependent = problem.g, ~problem.held_rows, first.y, False
+    if points is not None:                        # the rows at points of the cones' elements (finish_on_nodes)
+        P, delta = points
+        G, g, y0 = (P @ G).tocsr(), P @ g + delta, np.concatenate([first.y, np.zeros(P.shape[0] - len(first.y))])
+        free, dependent = (abs(P) @ free.astype(float)) > 0, P.shape[0] > P.shape[1]
     x0 = stacked(raw.u, raw.phi, raw.taus)
     T, b = op.linearised(x0)
     R, n_c = E.shape[0], problem.slip_components
@@ -188,8 +329,9 @@ def exact_finish(problem, raw, timings) -> RawResult:
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
         return raw
-    out = solve_friction(T, b, G, g, fr, ~problem.held_rows, x0, raw.y, raw.tangential.reshape(n_c, R)[:, rows].T,
-                         (C, U), dependent=dependent_rows(problem) or _shared(problem, G, S, rows))
+    out = solve_friction(T, b, G, g, fr, free, stacked(first.u, first.phi, first.taus), y0,
+                         first.tangential.reshape(n_c, R)[:, rows].T,
+                         (C, U), dependent=dependent or dependent_rows(problem) or _shared(problem, G, S, rows))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out
@@ -208,7 +350,9 @@ def exact_finish(problem, raw, timings) -> RawResult:
     before, after = objective(x0, c), objective(x, c)
     log.info("friction finish: %d steps, objective %.17g (the interior point's %.17g, relative change %.1e)", steps,
              after, before, (after - before) / max(abs(before), C * U))
-    if after > before + ENERGY_SLACK * max(abs(before), C * U):
+    bounded = points is None or problem.departure is None   # a curved obstacle's own gap: the interior point's
+    #                        program is its interpolant's, whose answer leaves the true gap: its energy bounds nothing
+    if bounded and after > before + ENERGY_SLACK * max(abs(before), C * U):
         raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
         return raw
     raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
@@ -257,18 +401,19 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     return model.with_terms([constraint, *held], objective=friction)
 
 
-def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve):
+def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve, forces):
     """Coulomb's fixed point on the capacities (module docstring) from the ``stuck`` start, re-solving
-    ``program`` with ``capacity`` set to the last normal row forces' (``solve(program)``: its interior-point
-    iterations); (iterations, (``answer()`` of the iterate of smallest change, the solver status of that
-    iterate), the relative changes, the words of a :class:`~cvxcontact.errors.FixedPointWarning` if it did not
-    converge, else None: :func:`full` warns if the exact finish does not reach Coulomb's law either)."""
+    ``program`` with ``capacity`` set to the last normal row forces' (``forces()``, of the program last solved;
+    ``solve(program)``: its interior-point iterations); (iterations, (``answer()`` of the iterate of smallest
+    change, the solver status of that iterate), the relative changes, the words of a
+    :class:`~cvxcontact.errors.FixedPointWarning` if it did not converge, else None: :func:`full` warns if the exact
+    finish does not reach Coulomb's law either)."""
     tol, most = fixed_point
     iterations = solve(stuck)
     solved = stuck                                         # the program whose solution the variables hold
     previous, changes, best, converged = None, [], None, False
     for _ in range(most + 1):
-        c_all = problem.capacities(np.asarray(model.contact.dual_value, dtype=float).ravel())
+        c_all = problem.capacities(forces())
         c = c_all[rows]
         if previous is not None:
             changes.append(float(np.abs(c - previous).max(initial=0.0)

@@ -178,7 +178,7 @@ class QuadraticInterface:
                                    f"(degree=2) under {condition!r}: the overlap of the pair ends inside a "
                                    f"segment of body {k + 1}'s trace (at or before its midpoint), so its "
                                    "constrained nodes form no P2 mesh for the law's quadrature; use the other "
-                                   "sigma condition (or, for normal compliance, 'gamma3')")
+                                   "sigma condition, or 'gamma3' (every node of the merged P2 line)")
         return xc
 
     def bernstein(self) -> sp.csr_matrix:

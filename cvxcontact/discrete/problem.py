@@ -355,15 +355,17 @@ def _capacity(scene, condition, lines):
     rows = lines.rows
     if not rows.friction:
         return None
-    if lines.conic or lines.mixed:
-        raise UnsupportedError("a friction law with P2 elements under 'gamma3' (the conic condition: cones on "
-                               "every element of X_h, whose forces no nodal friction row can follow) is not "
-                               "available yet: use condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of "
-                               "that body's faces, in 3D the finer side's on nested faces; against a rigid "
-                               "obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere "
-                               "is its nodal rows)")
     E = lines.E
     weights = row_weights(lines.interface, condition, scene.conditions)
+    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones' rows: X_h's nodes
+        raise UnsupportedError(
+            "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
+            "the friction rows at its nodes) is available where every pair is under 'gamma3' or against a rigid "
+            "obstacle and no pair has a normal-compliance law; not with a pair under a nodal condition or a "
+            "compliance law beside the cones: pose every pair under 'gamma3', or use condition='sigma1' or "
+            "'sigma2' (nodal rows at the P2 nodes of that body's faces, in 3D the finer side's on nested faces; "
+            "against a rigid obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere is "
+            "its nodal rows)")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity

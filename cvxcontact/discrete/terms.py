@@ -65,7 +65,7 @@ import numpy as np
 from ..errors import SolverError
 
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
+           "TrescaFriction", "ConesWithFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -325,12 +325,45 @@ class TrescaFriction(_Term):
         return lines.rows.friction
 
 
+@dataclass(frozen=True)
+class ConesWithFriction(_Term):
+    """The P2 "gamma3" cones (the normal condition on every element, docs/formulation.md §8, §16) and a friction
+    law's cone per node of X_h on the slip, its capacity g_a w_a with w_a the positive weights of the nodal P2
+    friction (2D: the Simpson weights of the merged P2 line; 3D: the red refinement's lumped areas), Coulomb's
+    mu r_a from the cones' nodal force r = B^T beta (docs/howto/friction.md, "P2 under 'gamma3'"). The full program
+    only (:func:`cvxcontact.backends.friction.conic_full`), finished exactly where the contact closes at nodes (the
+    friction finish of the nodal relaxation, kept if it satisfies every element's cone) and, with Tresca, where it
+    ends inside an element (normal rows added at the slack's maxima: cut points); elsewhere the finish is declined
+    (a :class:`~cvxcontact.errors.ResidualWarning` naming why) and the interior point's answer kept, with the conic
+    and friction checks."""
+
+    kind: ClassVar[str] = "conic_friction"
+    cones: ClassVar[bool] = True
+    tangential: ClassVar[bool] = True
+    always_finished: ClassVar[bool] = False
+    rows_may_depend: ClassVar[bool] = False
+    refuses_user_terms: ClassVar[str] = TrescaFriction.refuses_user_terms
+    unfinished_hint: ClassVar[str] = (
+        "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish on the nodes and cut "
+        "points that did not settle: no exact finish joins the cones' tangency Newton with the friction Newton "
+        "yet), so its complementarity and stick-slip checks stop where the interior point stops "
+        "(docs/howto/friction.md). Pass a tol above what the report shows to accept it, or use 'sigma1'/'sigma2' "
+        "(nodal P2 friction rows, finished exactly).")
+    programs: ClassVar[str | Callable] = EverywhereCones.programs
+    forces: ClassVar[str | Callable] = EverywhereCones.forces
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_conic_friction"
+
+    @staticmethod
+    def poses(lines) -> bool:
+        return lines.rows.friction and lines.conic
+
+
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
             "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces",
             "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
-_REGISTRY: list = [TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
+_REGISTRY: list = [ConesWithFriction, TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
 _BUILT_IN = tuple(_REGISTRY)
 
 
@@ -349,7 +382,7 @@ class _Terms(Sequence):
 
 TERMS: Sequence[type] = _Terms()
 """The term classes in the order they are tried: the first whose ``poses(lines)`` holds is the problem's (a
-friction law before the normal ones, cones beside a law before cones alone, Signorini rows last); a live view
+friction law before the normal ones (next to the cones first), cones beside a law before cones alone, Signorini rows last); a live view
 of the registry (:func:`register_term` puts a term from outside first)."""
 
 

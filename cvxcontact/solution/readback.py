@@ -10,16 +10,25 @@ from dataclasses import replace
 from ..discrete.terms import TERMS, named
 from .friction import read_back_friction
 from .info import Route
-from .nodal import read_back_nodal
+from .nodal import read_back_cones, read_back_nodal
 from .solution import Solution, obstacle_results
 
-__all__ = ["read_back", "read_back_tresca", "READ_BACKS"]
+__all__ = ["read_back", "read_back_tresca", "read_back_conic_friction", "READ_BACKS"]
 
 
 def read_back_tresca(problem, raw, tol: float, timings) -> Solution:
     """Nodal Signorini rows (:func:`~cvxcontact.solution.nodal.read_back_nodal`) completed with the friction
     law's slip, shear force and checks (:func:`~cvxcontact.solution.friction.read_back_friction`)."""
     sol = read_back_nodal(problem, raw, tol, timings)
+    read_back_friction(problem, raw, sol)
+    return sol
+
+
+def read_back_conic_friction(problem, raw, tol: float, timings) -> Solution:
+    """The P2 "gamma3" cones (:func:`~cvxcontact.solution.nodal.read_back_cones`: lambda_h from r = B^T beta, the
+    conic checks) completed with the friction law's slip, shear force and checks at the nodes of X_h
+    (:func:`~cvxcontact.solution.friction.read_back_friction`, the capacities at the pressures of r)."""
+    sol = read_back_cones(problem, raw, tol, timings)
     read_back_friction(problem, raw, sol)
     return sol
 

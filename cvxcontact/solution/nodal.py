@@ -24,7 +24,7 @@ import scipy.sparse.linalg as spla
 from ..backends.finish.forces import RowReach
 from .checks import ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, rigid_balance
 from .info import Route, SolveInfo, Status
-from .solution import ContactResult, Solution, _line, _pairs, electrodes
+from .solution import ContactResult, Solution, _line, _pairs, electrode_rows, electrodes
 
 __all__ = ["read_back_nodal", "read_back_cones", "read_back_compliance", "read_back_conic_mix"]
 
@@ -125,7 +125,9 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
                     degree=trace.degree, interface=interface,
-                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
+                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes,
+                                          problem.shared("electrode rows", lambda: electrode_rows(scene, systems,
+                                                                                                  nodes))))
 
 
 def read_back_compliance(problem, raw, tol: float, timings, polished: bool | None = None) -> Solution:

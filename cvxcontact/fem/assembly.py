@@ -479,7 +479,7 @@ def _body_load(mesh, load, ncomp):
     if not load.nonzero:
         return np.zeros((len(p), ncomp)) if ncomp > 1 else np.zeros(len(p))
     if not callable(load.value):                                   # constant: area / 3 to each vertex
-        share = np.bincount(tri.ravel(), weights=np.repeat(mesh.areas / 3.0, 3), minlength=len(p))
+        share = mesh.vertex_areas                                 # (once per mesh)
         return share[:, None] * load.value if ncomp > 1 else share * float(load.value)
     mid = 0.5 * (p[tri] + p[np.roll(tri, -1, axis=1)])        # midpoints of edges (0,1), (1,2), (2,0)
     val = load(mid[..., 0], mid[..., 1]).reshape(len(tri), 3, ncomp)

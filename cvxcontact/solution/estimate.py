@@ -178,23 +178,6 @@ def _cell_energies(body, fields) -> np.ndarray:
     return total * measure / (k * (k + 1))
 
 
-def _total_energy(fields) -> float:
-    """The sum over the cells of :func:`_cell_energies` (J/m in 2D, J in 3D), each product summed over the cells
-    at once (the cells' own values are not formed)."""
-    eps, gphi, sigma, D, gradL, measure = fields
-    k, q = gradL.shape[2], eps.shape[1]
-    r = k // q
-    w = measure / (k * (k + 1))
-
-    def pairs(a, b, c=None, d=None):                      # sum_T w_T (a . b - c . d) over the other axes
-        axes = "mvs"[:a.ndim - 1] + "s" if a.ndim > 2 else "ms"
-        t = np.einsum(f"m,{axes},{axes}->", w, a, b)
-        return t if c is None else t - np.einsum(f"m,{axes},{axes}->", w, c, d)
-
-    sums = [None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)]
-    return float(r * pairs(eps, sigma, gphi, D) + r * r * pairs(*sums))
-
-
 def cell_energies(body, u, phi, degree: int) -> np.ndarray:
     """(m,) int_T c eps(u) : eps(u) + kappa grad phi . grad phi of each cell (J/m in 2D, J in 3D): the squared
     energy norm of (u, phi) cell by cell (exact: the integrand is at most quadratic, the rule of degree 2)."""
@@ -286,7 +269,7 @@ class Geometry:
         corners = np.broadcast_to(sigma, (len(sigma), self.gradL.shape[2], sigma.shape[2]))   # a view: no copies
         _element_terms(body, fields, self, eta2, parts)
         _facet_terms(body, fields, self, eta2, parts, sol)
-        return _total_energy(fields), contact.SimplexSides(body.mesh, corners, self.facets)
+        return float(_cell_energies(body, fields).sum()), contact.SimplexSides(body.mesh, corners, self.facets)
 
     def points(self, L) -> np.ndarray:
         """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""

@@ -40,9 +40,11 @@ log = logging.getLogger(__name__)
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
-ESTIMATES = {"residual": estimate_error, "equilibrated": lambda sol, cache=None: (error_bound(sol), "")}
+ESTIMATES = {"residual": estimate_error,
+             "equilibrated": lambda sol, cache=None, fingerprints=None: (error_bound(sol), "")}
 """The error estimates ``solve(..., estimate=...)`` computes, by name: (the estimate, why there is none) of a
-solution; ``True`` is "residual"."""
+solution (``cache``: what a ContactSolver keeps of its geometry between load cases, under the bodies'
+``fingerprints``); ``True`` is "residual"."""
 
 
 def solve(scene, condition: str = "gamma3", solver: str = "CLARABEL", *, method: str = DEFAULT_METHOD,
@@ -233,7 +235,8 @@ class ContactSolver:
             sol.estimate_reason = f"not computed: {unestimated}"
         elif self.estimate:
             t0 = time.perf_counter()
-            sol.estimate, sol.estimate_reason = self.estimate(sol, cache=self._geometry)
+            sol.estimate, sol.estimate_reason = self.estimate(sol, cache=self._geometry,
+                                                              fingerprints=problem.fingerprints)
             timings["estimate"] = time.perf_counter() - t0
         elif self._unestimated:
             sol.estimate_reason = (f"not computed: the error estimates do not cover {problem.scene.cell} cells yet "

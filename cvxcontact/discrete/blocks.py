@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from .energy import BulkEnergy, bulk_energy
+from .energy import BulkEnergy, abs_product, bulk_energy
 
 __all__ = ["Units", "Block", "units"]
 
@@ -150,8 +150,8 @@ class Block:
         au = self.bulk.magnitude(u) + cu
         if self.Kpp is None:
             return au, np.zeros(0)
-        au = au + abs(self.Kup) @ np.abs(phi)
-        return au, abs(self.Kpp) @ np.abs(phi) + abs(self.Kup).T @ np.abs(u) + np.abs(self.q)
+        au = au + abs_product(self.Kup, phi)             # (no copies of the matrices: abs_product)
+        return au, abs_product(self.Kpp, phi) + abs_product(self.Kup.T, u) + np.abs(self.q)
 
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""

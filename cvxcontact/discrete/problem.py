@@ -21,7 +21,6 @@ whose bodies or pairs differ.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -81,6 +80,7 @@ class DiscreteProblem:
     kernel: Kernel | None = field(default=None, repr=False)
     prescribed_slip: np.ndarray | float = 0.0
     _fingerprints: tuple = field(default=(), repr=False)
+    _shared: dict = field(default_factory=dict, repr=False)
 
     # ---- what the backends read ---------------------------------------------------------------
     @property
@@ -204,11 +204,30 @@ class DiscreteProblem:
         live (points, cells, boundary nodes; the factorisations' orderings, the read-back)."""
         return list(self.nodes) if self.nodes is not None else [b.mesh for b in self.scene.bodies]
 
-    @cached_property
+    @property
     def rigid_fits(self) -> tuple[RigidFit, ...]:
         """Each body's rigid motions on its free unknowns (:class:`~cvxcontact.fem.rigidfit.RigidFit`, per mesh
-        component of its node set): its deformation, free of how far it slid or turned (built on first use)."""
-        return tuple(rigid_fit(m.points, m.node_components, s.Tu) for m, s in zip(self.meshes, self.systems))
+        component of its node set): its deformation, free of how far it slid or turned (built on first use, once
+        per geometry: :meth:`shared`)."""
+        return self.shared("rigid fits", lambda: tuple(rigid_fit(m.points, m.node_components, s.Tu)
+                                                       for m, s in zip(self.meshes, self.systems)))
+
+    @property
+    def fingerprints(self) -> tuple[str, ...]:
+        """Each body's :func:`~cvxcontact.physics.fingerprint.geometry_fingerprint`, as checked when this problem
+        was derived (:meth:`with_loads` checks the scene's bodies against them)."""
+        return self._fingerprints
+
+    def shared(self, name: str, build, rows: bool = False):
+        """What depends on the geometry alone (the meshes, the supports, the assembled matrices; with ``rows``:
+        and the contact rows, :meth:`~cvxcontact.fem.space.ContactLines.key`), built by ``build()`` on first use
+        and kept for every load case of this geometry (:meth:`with_loads` hands the same store on; a moved
+        obstacle's new rows are another key). Nothing kept here may read a load."""
+        key = (name, self.lines.key()) if rows else name
+        store = self._shared
+        if key not in store:
+            store[key] = build()
+        return store[key]
 
     @property
     def unknowns(self) -> int:
@@ -337,7 +356,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                               scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
                               _fingerprints=previous._fingerprints if previous is not None else
-                              tuple(geometry_fingerprint(b) for b in scene.bodies))
+                              tuple(geometry_fingerprint(b) for b in scene.bodies),
+                              _shared=previous._shared if previous is not None else {})
     check_reachable(problem)
     return problem
 

@@ -444,13 +444,18 @@ def lifted(body, matrices: BodySystem, f: np.ndarray, q: np.ndarray | None, node
     f - Kuu u_D - Kup phi_D, q + Kup^T u_D - Kpp phi_D, and the floating charges Q (C/m) of ``body``.
     ``nodes``: the node set of the unknowns (the Mesh for P1, P2Nodes for P2)."""
     system = replace(matrices, f=f)
+    moved = np.any(matrices.u_fixed)                   # (a product with zeros adds nothing: not formed)
     if matrices.piezoelectric:
         phi_fixed = _electrode_potential(nodes, body)
-        system.f = system.f - matrices.Kup @ phi_fixed
-        system.q = q - matrices.Kpp @ phi_fixed + matrices.Kup.T @ matrices.u_fixed
+        driven = np.any(phi_fixed)
+        if driven:
+            system.f = system.f - matrices.Kup @ phi_fixed
+        system.q = q - matrices.Kpp @ phi_fixed if driven else q
+        if moved:
+            system.q = system.q + matrices.Kup.T @ matrices.u_fixed
         system.phi_fixed = phi_fixed
         system.charge = np.array([body.floating[t] for t in body.floating], dtype=float)    # Q, C/m
-    if np.any(matrices.u_fixed):
+    if moved:
         system.f = system.f - matrices.Kuu @ matrices.u_fixed
     return system
 
@@ -474,7 +479,7 @@ def _body_load(mesh, load, ncomp):
     if not load.nonzero:
         return np.zeros((len(p), ncomp)) if ncomp > 1 else np.zeros(len(p))
     if not callable(load.value):                                   # constant: area / 3 to each vertex
-        share = np.bincount(tri.ravel(), weights=np.repeat(mesh.areas / 3.0, 3), minlength=len(p))
+        share = mesh.vertex_areas                                 # (once per mesh)
         return share[:, None] * load.value if ncomp > 1 else share * float(load.value)
     mid = 0.5 * (p[tri] + p[np.roll(tri, -1, axis=1)])        # midpoints of edges (0,1), (1,2), (2,0)
     val = load(mid[..., 0], mid[..., 1]).reshape(len(tri), 3, ncomp)

@@ -10,6 +10,7 @@ and ``renumbered``; what is written once for all of them lives here.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from functools import cached_property
 
 import numpy as np
 
@@ -29,10 +30,19 @@ class CellMesh(Frozen):
         """Names of the tagged boundary parts."""
         return tuple(self._tags)
 
+    @cached_property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lowest, highest) (dim,) m: the corners of the bounding box (computed once: the points are read-only)."""
+        low, high = self.points.min(axis=0), self.points.max(axis=0)
+        low.setflags(write=False)
+        high.setflags(write=False)
+        return low, high
+
     @property
     def size(self) -> float:
         """Length of the bounding-box diagonal, in metres."""
-        return float(np.linalg.norm(np.ptp(self.points, axis=0)))
+        low, high = self.bounds
+        return float(np.linalg.norm(high - low))
 
     def boundary_nodes(self, tags: Iterable[str] | str) -> np.ndarray:
         """Sorted unique node indices on the union of the parts named in ``tags`` (a name or names)."""

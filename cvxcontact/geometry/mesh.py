@@ -154,6 +154,14 @@ class Mesh(CellMesh):
         return areas
 
     @cached_property
+    def vertex_areas(self) -> np.ndarray:
+        """(n,) m^2: a third of the area of each triangle at each of its vertices, summed (read-only): the
+        consistent nodal load of a constant density per unit of it."""
+        share = np.bincount(self.triangles.ravel(), weights=np.repeat(self.areas / 3.0, 3), minlength=len(self.points))
+        share.setflags(write=False)
+        return share
+
+    @cached_property
     def node_components(self) -> np.ndarray:
         """(n,) connected-component label of each node (read-only).
 

@@ -110,7 +110,7 @@ class Body(Frozen):
                                                     for t, v in self._parts(displacement, "displacement").items()}),
             floating=self._map("floating", {t: _charge(v, f"{self.name}: floating[{t!r}]")
                                             for t, v in self._parts(floating, "floating").items()}))
-        self._check_parts()
+        self._check_parts(self.__dict__.pop("_checked_like", None))     # set by _variant: a body of this geometry
 
     # ------------------------------------------------------------------ immutability and variants
 
@@ -142,12 +142,21 @@ class Body(Frozen):
         loads, ``name``; as :class:`Body` takes them, units there), validated afresh. A change outside the
         loads (:data:`~cvxcontact.physics.loads.LOAD_FIELDS`) is a new geometry: a prepared ContactSolver
         refuses it. ``body.with_changes(mesh=finer, clamped=["top", "left"])``."""
+        return self._variant(fields)
+
+    def _variant(self, fields, geometry=None) -> Body:
+        """:meth:`with_changes` of ``fields``; ``geometry``: a body whose checks of the geometry the new one
+        shares (:meth:`with_loads`: itself)."""
         args = self._arguments()
         unknown = sorted(set(fields) - set(args))
         if unknown:
             raise SceneError(f"{self.name}: with_changes got unknown field(s) {unknown}; a Body takes {sorted(args)}")
         args.update(fields)
-        return Body(args.pop("mesh"), args.pop("material"), **args)
+        body = Body.__new__(Body)
+        if geometry is not None:
+            object.__setattr__(body, "_checked_like", geometry)       # read (and dropped) by __init__
+        body.__init__(args.pop("mesh"), args.pop("material"), **args)
+        return body
 
     def with_loads(self, **loads) -> "Body":
         """A new body with the same geometry and other loads: any of ``body_force`` ((dim,) or f(x, y[, z]),
@@ -170,7 +179,7 @@ class Body(Frozen):
                                      f"{'driven' if field == 'potential' else 'floating'} electrodes "
                                      f"{sorted(held)} and must name exactly those (got {given!r}); which parts are "
                                      f"electrodes is geometry: use body.with_changes({field}=...)")
-        return self.with_changes(**loads)
+        return self._variant(loads, geometry=self)          # what its geometry's checks decided is shared
 
     def __repr__(self):
         return f"Body({self.name!r}, {self.mesh!r}, {self.material!r})"
@@ -199,29 +208,37 @@ class Body(Frozen):
         self._tags(list(loads), role)
         return dict(loads)
 
-    def _check_parts(self):
+    def _check_parts(self, geometry=None):
+        """Check the parts; ``geometry``: a body of the same mesh, material, supports and electrodes
+        (:meth:`with_loads`), whose checks of them this body shares (only the loads' parts are checked again)."""
         mechanical = ([("clamped", t) for t in self.clamped] + [("traction", t) for t in self.traction]
                       + [("roller", t) for t in self.roller] + [("displacement", t) for t in self.displacement])
         if self.contact is not None:
             mechanical.append(("contact", self.contact))
         _disjoint(self, mechanical)
-        self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
-        # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
-        # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
-        reduced = _supports.node_supports(self)             # consistent at every node (or a SceneError)
-        for a in reduced:
-            a.setflags(write=False)
-        self._set(_node_supports=reduced)                   # kept: the prolongation of the vertices reads it
-        self._check_kinematics()
+        if geometry is not None:
+            self._set(_roller_normals=geometry._roller_normals, _node_supports=geometry._node_supports,
+                      held_by_contact=geometry.held_by_contact)
+        else:
+            self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
+            # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
+            # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
+            reduced = _supports.node_supports(self)             # consistent at every node (or a SceneError)
+            for a in reduced:
+                a.setflags(write=False)
+            self._set(_node_supports=reduced)                   # kept: the prolongation of the vertices reads it
+            self._check_kinematics()
         if self.piezoelectric:
             if not (self.grounded or self.potential):
                 raise SceneError(f"{self.name}: piezoelectric body without a grounded or driven electrode "
                                  "(Gamma_a is empty); its potential is undetermined")
-            self._check_components([*self.grounded, *self.potential],
-                                   "touches no grounded or driven electrode: its potential is undetermined")
             _disjoint(self, [("grounded", t) for t in self.grounded] + [("potential", t) for t in self.potential]
                       + [("surface_charge", t) for t in self.surface_charge]
                       + [("floating", t) for t in self.floating])
+            if geometry is not None:
+                return                                          # the electrodes are the same parts
+            self._check_components([*self.grounded, *self.potential],
+                                   "touches no grounded or driven electrode: its potential is undetermined")
             fixed = self.mesh.boundary_nodes([*self.grounded, *self.potential])
             seen = np.zeros(0, dtype=int)
             for tag in self.floating:
@@ -377,6 +394,11 @@ class Load(Frozen):
     @property
     def nonzero(self) -> bool:
         return callable(self.value) or bool(np.any(self.value != 0))
+
+    @property
+    def constant(self) -> bool:
+        """True for a constant load (its ``value`` everywhere), False for a function of the coordinates."""
+        return not callable(self.value)
 
     def __call__(self, *coords) -> np.ndarray:
         """Values at points (x, y) or (x, y, z) in metres: shape (k,) for scalars, (k, ncomp) for vectors."""

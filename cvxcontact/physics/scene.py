@@ -374,5 +374,6 @@ class Scene(Frozen):
     @property
     def length(self) -> float:
         """Reference length L0 (m): the bounding-box diagonal of the whole scene."""
-        p = np.concatenate([b.mesh.points for b in self.bodies])
-        return float(np.linalg.norm(np.ptp(p, axis=0)))
+        low = np.min([b.mesh.bounds[0] for b in self.bodies], axis=0)
+        high = np.max([b.mesh.bounds[1] for b in self.bodies], axis=0)
+        return float(np.linalg.norm(high - low))

@@ -30,7 +30,7 @@ __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance
            "obstacle_balance"]
 
 
-def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None):
+def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None, reach=None):
     """The relative residuals of the mixed formulation, in scaled units (module docstring).
 
     Each is normalised where nothing can hide: equilibrium per body by that body's own
@@ -40,6 +40,8 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None):
     force, never by the total load. ``moved`` (per row, optional): the size of the obstacles' translation
     terms in the gap ``g`` (:meth:`~cvxcontact.discrete.DiscreteProblem.translation_sizes`), added to U_a.
     ``fits`` (per body, ``problem.rigid_fits``): the floor of Y reads each body's deformation (:func:`reach_forces`).
+    ``reach``: the rows' :class:`~cvxcontact.backends.finish.forces.RowReach` on ``blocks`` and ``E``, if kept (the
+    same numbers, without reading the whole matrices).
     """
     tiny = np.finfo(float).tiny
     equilibrium = 0.0
@@ -47,10 +49,15 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None):
         r = np.concatenate(b.residual(uk, pk, Mlam))
         m = np.concatenate(b.magnitude(uk, pk, Mlam))
         equilibrium = max(equilibrium, float(np.linalg.norm(r) / max(np.linalg.norm(m), tiny)))
+    if reach is None:
+        local = force_displacements(blocks, E, y) + reach_displacements(blocks, E, u, phi)
+        elastic = reach_forces(blocks, E, u, phi, fits)
+    else:
+        local = reach.compliance * np.abs(y) + reach.displacements(u, phi)
+        elastic = reach.forces(u, phi, fits)
     slack, U = node_scales([E @ (b.jump @ uk) for b, uk in zip(blocks, u)], g,
-                           force_displacements(blocks, E, y) + reach_displacements(blocks, E, u, phi)
-                           + (0.0 if moved is None else np.abs(moved)))
-    Y = force_scale(y, reach_forces(blocks, E, u, phi, fits))
+                           local + (0.0 if moved is None else np.abs(moved)))
+    Y = force_scale(y, elastic)
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(slack, 0.0) / U).max(initial=0.0)),

@@ -115,17 +115,21 @@ def _fields(g, u, phi):
     (m, q, ...) with q = d + 1, or q = 1 where the fields are constant on a cell (then every vertex has it)."""
     c, e, kappa = g.tensors
     u = np.asarray(u, dtype=float)
-    m = len(g.el)
-    ue = u[g.el].reshape(m, -1)
-    eps = _strains(g.G, ue)
-    sigma = eps @ c.T
+    eps = _strains(g.G, np.take(u.ravel(), g.dofs))
+    sigma = _times(eps, c.T)
     gphi = D = None
     if e is not None:
-        pe = np.asarray(phi, dtype=float)[g.el]
+        pe = np.take(np.asarray(phi, dtype=float), g.el)
         gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
-        sigma = sigma + gphi @ e
-        D = eps @ e.T - gphi @ kappa.T
+        sigma = sigma + _times(gphi, e)
+        D = _times(eps, e.T) - _times(gphi, kappa.T)
     return eps, gphi, sigma, D, g.gradL, g.measure
+
+
+def _times(a, b) -> np.ndarray:
+    """a (..., i) @ b (i, j): one product of the stacked rows of ``a`` (a (m, q, i) stack of q x i products is
+    several times slower)."""
+    return (a.reshape(-1, a.shape[-1]) @ b).reshape(a.shape[:-1] + (b.shape[1],))
 
 
 def _strains(G, ue) -> np.ndarray:
@@ -166,8 +170,8 @@ def _cell_energies(body, fields) -> np.ndarray:
     r = k // q
 
     def density(a, b, c=None, d=None):                    # a . b - c . d over the last axis
-        w = (a * b).sum(axis=-1)
-        return w if c is None else w - (c * d).sum(axis=-1)
+        w = np.einsum("...s,...s->...", a, b)
+        return w if c is None else w - np.einsum("...s,...s->...", c, d)
 
     sums = [None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)]
     total = r * density(eps, sigma, gphi, D).sum(axis=1) + r * r * density(*sums)
@@ -200,6 +204,23 @@ class Geometry:
         # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL, one copy of the gradients)
         self.el, self.G = space(degree, mesh.cell).corner_gradients(body, self.gradL)
         self._parts: dict = {}
+        self._roles: dict = {}
+
+    @cached_property
+    def dofs(self) -> np.ndarray:
+        """(m, k d) the element displacements' indices in the flattened nodal displacements (node-major)."""
+        k, dim = self.el.shape[1], self.dim
+        index = np.int32 if (int(self.el.max()) + 1) * dim <= np.iinfo(np.int32).max else np.int64
+        return (dim * self.el[:, :, None] + np.arange(dim)).reshape(len(self.el), k * dim).astype(index)
+
+    def roles(self, mech: dict, elec: dict, partial: dict) -> _Roles:
+        """The :class:`_Roles` of the boundary parts' mechanical roles ``mech`` and electric roles ``elec`` (tag ->
+        role, :func:`~.contactestimate._boundary_roles`) and the prescribed components of the ``partial`` parts,
+        kept per roles (a load case keeps them unless it loads other parts)."""
+        key = (tuple(mech.items()), tuple(elec.items()), tuple((t, tuple(c)) for t, c in partial.items()))
+        if key not in self._roles:
+            self._roles[key] = _Roles.of(self, mech, elec, partial)
+        return self._roles[key]
 
     @cached_property
     def facets(self):
@@ -226,10 +247,12 @@ class Geometry:
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
         hF = _diameters(mesh.points, vertices)
+        pos0 = (contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
+        pos1 = (contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
+        at1 = np.full(pos0.shape, q * len(self.el))                     # a boundary facet's other side: a zero row
+        at1[ii] = q * c1[:, None] + pos1
         return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
-                      hF=hF, pos0=(contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)],
-                      pos1=(contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)],
-                      scale=np.where(inner, 0.5, 1.0) * hF * area)
+                      hF=hF, at0=q * c0[:, None] + pos0, at1=at1, scale=np.where(inner, 0.5, 1.0) * hF * area)
 
     def part(self, tag) -> np.ndarray:
         """The indices in the facet table of the facets of boundary part ``tag``."""
@@ -257,10 +280,11 @@ class Geometry:
 class _Faces:
     """The facets of a :class:`Geometry`: ``c0`` (f,) the first cell of each (its normal points out of it),
     ``c1`` the second cell of the interior ones ``ii`` (``inner`` (f,) 1.0 for those, else 0.0), ``normal``
-    (f, d) unit, ``area`` (f,) m (2D) or m^2, ``hF`` (f,) m its longest edge, ``pos0`` / ``pos1`` (f, v) the
-    index among its first / second cell's distinct corner values of each of its vertices (v = d, or 1 for
-    fields constant on a cell), ``scale`` (f,) the weight h_F |F| of its residual, halved on an interior
-    facet (shared by its two cells)."""
+    (f, d) unit, ``area`` (f,) m (2D) or m^2, ``hF`` (f,) m its longest edge, ``at0`` / ``at1`` (f, v) where each
+    of its vertices sits among the distinct corner values of its first / second cell, as a row of the fields
+    stacked (m q, ...) (v = d, or 1 for fields constant on a cell; a boundary facet's second: the row m q, a zero
+    row appended), ``scale`` (f,) the weight h_F |F| of its residual, halved on an interior facet (shared by its
+    two cells)."""
 
     c0: np.ndarray
     c1: np.ndarray
@@ -269,18 +293,72 @@ class _Faces:
     normal: np.ndarray
     area: np.ndarray
     hF: np.ndarray
-    pos0: np.ndarray
-    pos1: np.ndarray
+    at0: np.ndarray
+    at1: np.ndarray
     scale: np.ndarray
 
 
-def _geometry(body, degree: int, cache) -> Geometry:
+@dataclass(frozen=True)
+class _Roles:
+    """Where the boundary conditions of one body act on its facet table (:meth:`Geometry.roles`): ``held`` the
+    facets where sigma_h n does not count (clamped, prescribed, contact: the contact terms' own), ``roller`` those
+    where only its tangential part does, ``partial`` ((facets, components)) those of the parts with prescribed
+    components (those do not count), ``grounded`` those where D_h . n does not count (electrodes); ``loaded`` the
+    facets with a traction or a charge (their residual by a rule: a load is any function), and there ``load_m`` /
+    ``load_e`` (tag -> positions in ``loaded``), ``roller_l`` (positions), ``keep_m`` (l, d) and ``keep_e`` (l,) the
+    components that count (1.0, else 0.0)."""
+
+    held: np.ndarray
+    roller: np.ndarray
+    partial: tuple
+    grounded: np.ndarray
+    loaded: np.ndarray
+    load_m: dict
+    load_e: dict
+    roller_l: np.ndarray
+    keep_m: np.ndarray
+    keep_e: np.ndarray
+
+    @classmethod
+    def of(cls, g, mech_role, elec_role, partial) -> _Roles:
+        """The roles of :meth:`Geometry.roles` on the facet table of ``g``: a part's facets take its role, a facet
+        of two parts the later one's."""
+        dim, count = g.dim, len(g.facets[3])
+        code = {role: c for c, role in enumerate(("free", "dirichlet", "contact", "roller", "partial", "traction",
+                                                   "charge"))}      # each facet's role as a small integer
+        role_m = np.zeros(count, dtype=np.int8)
+        role_e = np.zeros(count, dtype=np.int8)
+        load_m, load_e = {}, {}
+        for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
+            for tag, role in roles.items():
+                out[g.part(tag)] = code[role]
+                if role == kind:
+                    loads[tag] = g.part(tag)
+        held = (role_m == code["dirichlet"]) | (role_m == code["contact"])
+        partial = tuple((g.part(tag), list(comps)) for tag, comps in partial.items())
+        roller = np.flatnonzero(role_m == code["roller"])
+        loaded = np.unique(np.concatenate([np.zeros(0, dtype=int), *load_m.values(), *load_e.values()]))
+        at = np.full(count, -1)
+        at[loaded] = np.arange(len(loaded))
+        keep = np.ones((len(loaded), dim))
+        keep[held[loaded]] = 0.0
+        for idx, comps in partial:
+            keep[np.ix_(np.isin(loaded, idx), comps)] = 0.0
+        return cls(held=np.flatnonzero(held), roller=roller, partial=partial,
+                   grounded=np.flatnonzero(role_e == code["dirichlet"]), loaded=loaded,
+                   load_m={t: at[i] for t, i in load_m.items()}, load_e={t: at[i] for t, i in load_e.items()},
+                   roller_l=at[roller][at[roller] >= 0], keep_m=keep,
+                   keep_e=(role_e[loaded] != code["dirichlet"]).astype(float))
+
+
+def _geometry(body, degree: int, cache, fingerprint: str | None = None) -> Geometry:
     """The :class:`Geometry` of ``body`` in ``degree``: from ``cache`` (a dict, or None: built afresh) under the
-    body's geometry fingerprint and the degree, else built (and kept there)."""
+    body's geometry fingerprint (``fingerprint``, if the caller has just checked it; else computed) and the
+    degree, else built (and kept there)."""
     build = GEOMETRIES[body.mesh.cell]
     if cache is None:
         return build(body, degree)
-    key = (geometry_fingerprint(body), degree)
+    key = (geometry_fingerprint(body) if fingerprint is None else fingerprint, degree)
     if key not in cache:
         cache[key] = build(body, degree)
     return cache[key]
@@ -295,12 +373,16 @@ hexahedra (fields at quadrature points)."""
 # ---------------------------------------------------------------------------------------------- the estimator
 
 
-def estimate(sol, signorini: bool = True, cache: dict | None = None) -> tuple[ErrorEstimate | None, str]:
+def estimate(sol, signorini: bool = True, cache: dict | None = None,
+             fingerprints: tuple | None = None) -> tuple[ErrorEstimate | None, str]:
     """(the :class:`ErrorEstimate` of ``sol``, "") (module docstring); the tuple's second entry says why the
     estimate is None for a case not covered (none at present). ``signorini=False`` leaves out the
     complementarity and penetration terms (a problem whose contact rows are equalities: the dual problem of
     :mod:`cvxcontact.goal`). ``cache``: a dict that keeps each body's :class:`Geometry` between calls (a
-    ContactSolver's, for its load cases; None: built afresh); the answer is the same with or without it."""
+    ContactSolver's, for its load cases; None: built afresh); the answer is the same with or without it.
+    ``fingerprints``: the bodies' geometry fingerprints as the caller checked them for this solve (a
+    ContactSolver's problem, :attr:`~cvxcontact.discrete.DiscreteProblem.fingerprints`), the cache's keys
+    (None: computed here)."""
     scene = sol.scene
     bodies = scene.bodies
     eta2 = [np.zeros(len(b.mesh.cells)) for b in bodies]
@@ -309,7 +391,7 @@ def estimate(sol, signorini: bool = True, cache: dict | None = None) -> tuple[Er
     norm2 = 0.0
     data, held = [], []
     for k, b in enumerate(bodies):
-        g = _geometry(b, sol.degree, cache)
+        g = _geometry(b, sol.degree, cache, None if fingerprints is None else fingerprints[k])
         energy, sides = g.terms(b, sol.u[k], sol.phi[k], eta2[k], parts, sol)
         norm2 += energy
         held.append(sides)
@@ -341,8 +423,10 @@ def _element_terms(body, fields, geometry, eta2, parts):
     dim = gradL.shape[1]
     # sigma is affine: d sigma / d x_j = sum_i sigma(vertex i) d L_i / d x_j;  (div sigma)_i = sum_j d sigma_ij / d x_j
     f0, q0 = body.body_force, body.volume_charge
+    at_points = not (f0.constant and q0.constant)          # a load function is evaluated at the rule's points
     if sigma.shape[1] == 1:                                # fields constant on each cell: no divergence, exactly
-        div, rd = np.zeros((len(sigma), dim)), (None if D is None else np.zeros(len(D)))
+        n = len(sigma) if at_points else 1                 # (and with constant loads one residual for every cell)
+        div, rd = np.zeros((n, dim)), (None if D is None else np.zeros(n))
     else:
         dsig = contact._tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))          # (m, j, i, i')
         div = np.einsum("mjij->mi", dsig)
@@ -352,11 +436,11 @@ def _element_terms(body, fields, geometry, eta2, parts):
     if f0.nonzero or (D is not None and q0.nonzero):
         mech, elec = 0.0, (None if D is None else 0.0)
         for L, w in zip(*simplex_rule(dim, 2)):
-            x = geometry.points(L)
-            r = div + np.asarray(f0(*x.T), dtype=float).reshape(len(div), dim) if f0.nonzero else div
+            x = geometry.points(L).T if at_points else None
+            r = div + _load_values(f0, x, div.shape) if f0.nonzero else div
             mech = mech + w * (r ** 2).sum(axis=1)
             if D is not None:
-                re = rd - np.asarray(q0(*x.T), dtype=float).reshape(len(rd)) if q0.nonzero else rd
+                re = rd - _load_values(q0, x, rd.shape) if q0.nonzero else rd
                 elec = elec + w * re ** 2
     term = hT ** 2 * mech * measure / cT
     eta2 += term
@@ -367,92 +451,75 @@ def _element_terms(body, fields, geometry, eta2, parts):
         parts["electric element"] += float(term.sum())
 
 
+def _load_values(load, x, shape) -> np.ndarray:
+    """The values of ``load`` (a :class:`~cvxcontact.physics.body.Load`) at the points ``x`` (d, k) m, as an
+    array of ``shape`` (k, ...); ``x`` None for a constant load (its value everywhere: no points needed)."""
+    if x is None:
+        return np.broadcast_to(load.value, shape)
+    return np.asarray(load(*x), dtype=float).reshape(shape)
+
+
 def _affine_mean_square(values) -> np.ndarray:
     """(k,): the mean over each simplex of |f|^2 for the affine f of vertex values ``values`` (k, v, c) (v
     vertices): (sum_i |f_i|^2 + |sum_i f_i|^2) / (v (v + 1))."""
     v = values.shape[1]
-    return ((values ** 2).sum(axis=(1, 2)) + (values.sum(axis=1) ** 2).sum(axis=1)) / (v * (v + 1))
+    total = values.sum(axis=1)
+    return (np.einsum("kvc,kvc->k", values, values) + np.einsum("kc,kc->k", total, total)) / (v * (v + 1))
 
 
 def _facet_terms(body, fields, geometry, eta2, parts, sol):
     """The interior jumps and the boundary residuals of ``body`` (module docstring; ``facets`` its
     :func:`~cvxcontact.geometry.facets.facets`); contact parts are left to the contact terms.
-    sigma_h and D_h are affine on each facet:
-    their normal components are formed at its vertices and interpolated to the quadrature points."""
+    sigma_h and D_h are affine on each facet: their normal components are formed at its vertices (an interior
+    facet's from the jump of the two cells' values there) and interpolated to the quadrature points."""
     sigma, D = fields[2], fields[3]
     g = geometry
     dim = g.dim
-    vertices, key = g.facets[2], g.facets[3]
+    vertices = g.facets[2]
     p = body.mesh.points
     f = g.faces
-    n, ii = f.normal, f.ii
-    c0, c1 = f.c0[:, None], f.c1[:, None]
-    Rv = contact._voigt_traction(sigma[c0, f.pos0], n)                                             # (k, v, d)
-    Rv[ii] -= contact._voigt_traction(sigma[c1, f.pos1], n[ii])
-    if D is not None:
-        rv = np.einsum("kvd,kd->kv", D[c0, f.pos0], n)                                             # (k, v)
-        rv[ii] -= np.einsum("kvd,kd->kv", D[c1, f.pos1], n[ii])
+    n = f.normal
     mech_role, elec_role = _boundary_roles(body, sol)
-    code = {role: c for c, role in enumerate(("free", "dirichlet", "contact", "roller", "partial", "traction",
-                                               "charge"))}      # each facet's role as a small integer
-    role_m = np.zeros(len(key), dtype=np.int8)
-    role_e = np.zeros(len(key), dtype=np.int8)
-    load_m, load_e, index = {}, {}, {}
-    for roles, out, loads, kind in ((mech_role, role_m, load_m, "traction"), (elec_role, role_e, load_e, "charge")):
-        for tag, role in roles.items():
-            if tag not in index:
-                index[tag] = g.part(tag)
-            out[index[tag]] = code[role]
-            if role == kind:
-                loads[tag] = index[tag]
     partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
                if mech_role.get(tag) == "partial"}
-
-    def keep(at):                                          # (len(at), d): the components of R that count there
-        out = np.ones((len(at), dim))
-        out[(role_m[at] == code["dirichlet"]) | (role_m[at] == code["contact"])] = 0.0
-        for tag, comps in partial.items():
-            out[np.ix_(np.isin(at, index[tag]), comps)] = 0.0
-        return out
-
-    roller = np.flatnonzero(role_m == code["roller"])
+    roles = g.roles(mech_role, elec_role, partial)
+    Rv = contact._voigt_traction(_jumps(sigma, f), n)                                             # (k, v, d)
+    rv = None if D is None else np.einsum("kvd,kd->kv", _jumps(D, f), n)                          # (k, v)
+    loaded = roles.loaded
+    Rl = Rv[loaded]                                       # the loaded facets' by a rule below (copies)
+    rl = None if D is None else rv[loaded]
     # without a load R is affine on the facet: the mean of |R|^2 from its vertex values, exactly (the rule of
     # degree 3 below gives the same to rounding); the loaded facets by that rule (a load is any function).
     # Only the boundary facets have a role: R is zeroed where a component does not count, in place.
-    Re = Rv.copy()
+    Re, roller = Rv, roles.roller
     Re[roller] -= (Re[roller] * n[roller, None, :]).sum(axis=2)[..., None] * n[roller, None, :]
-    Re[(role_m == code["dirichlet"]) | (role_m == code["contact"])] = 0.0
-    for tag, comps in partial.items():
-        sub = Re[index[tag]]
+    Re[roles.held] = 0.0
+    for idx, comps in roles.partial:
+        sub = Re[idx]
         sub[..., comps] = 0.0
-        Re[index[tag]] = sub
+        Re[idx] = sub
     mech = _affine_mean_square(Re)
     if D is not None:
-        re = rv.copy()
-        re[role_e == code["dirichlet"]] = 0.0
-        elec = _affine_mean_square(re[..., None])
-    loaded = np.unique(np.concatenate([np.zeros(0, dtype=int), *load_m.values(), *load_e.values()]))
+        rv[roles.grounded] = 0.0
+        elec = _affine_mean_square(rv[..., None])
     if len(loaded):
         mech[loaded] = 0.0
         if D is not None:
             elec[loaded] = 0.0
-        at = np.full(len(key), -1)
-        at[loaded] = np.arange(len(loaded))
-        roller_l = at[roller][at[roller] >= 0]
-        keep_l, keep_e = keep(loaded), (role_e[loaded] != code["dirichlet"]).astype(float)
+        roller_l, n_l = roles.roller_l, n[loaded]
         for Lf, w in zip(*simplex_rule(dim - 1, 3)):
-            R = np.tensordot(_onto(Lf, Rv.shape[1]), Rv[loaded], axes=(0, 1))
+            R = np.tensordot(_onto(Lf, Rl.shape[1]), Rl, axes=(0, 1))
             x = np.tensordot(Lf, p[vertices[loaded]], axes=(0, 1))
-            for tag, idx in load_m.items():
-                R[at[idx]] -= np.asarray(body.traction[tag](*x[at[idx]].T), dtype=float).reshape(len(idx), dim)
-            R[roller_l] -= (R[roller_l] * n[loaded][roller_l]).sum(axis=1)[:, None] * n[loaded][roller_l]
-            R *= keep_l
+            for tag, idx in roles.load_m.items():
+                R[idx] -= np.asarray(body.traction[tag](*x[idx].T), dtype=float).reshape(len(idx), dim)
+            R[roller_l] -= (R[roller_l] * n_l[roller_l]).sum(axis=1)[:, None] * n_l[roller_l]
+            R *= roles.keep_m
             mech[loaded] += w * (R ** 2).sum(axis=1)
             if D is not None:
-                r = rv[loaded] @ _onto(Lf, rv.shape[1])
-                for tag, idx in load_e.items():
-                    r[at[idx]] -= np.asarray(body.surface_charge[tag](*x[at[idx]].T), dtype=float).reshape(len(idx))
-                elec[loaded] += w * (r * keep_e) ** 2
+                r = rl @ _onto(Lf, rl.shape[1])
+                for tag, idx in roles.load_e.items():
+                    r[idx] -= np.asarray(body.surface_charge[tag](*x[idx].T), dtype=float).reshape(len(idx))
+                elec[loaded] += w * (r * roles.keep_e) ** 2
     # h_F ||R||_F^2 = h_F |F| sum_q w_q R_q^2, an interior jump shared by its two cells (f.scale: the weight h_F |F|)
     term = f.scale * mech / g.cT
     jump = float(term @ f.inner)
@@ -464,5 +531,12 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
         parts["electric jump"] += 2 * jump
         parts["electric boundary"] += float(term_e.sum()) - jump
         term = term + term_e
-    eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[ii], len(eta2))
+    eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[f.ii], len(eta2))
 
+
+def _jumps(values, f) -> np.ndarray:
+    """(k, v, ...) the vertex values ``values`` (m, q, ...) of each facet's first cell minus its second's (a
+    boundary facet's: its first's), at the facet's v vertices (:class:`_Faces` ``at0``, ``at1``)."""
+    stacked = values.reshape((-1,) + values.shape[2:])
+    stacked = np.concatenate([stacked, np.zeros((1,) + stacked.shape[1:])])     # the row a boundary facet reads
+    return np.take(stacked, f.at0, axis=0) - np.take(stacked, f.at1, axis=0)   # (take: 4x faster than indexing)

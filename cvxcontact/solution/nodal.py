@@ -21,9 +21,10 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse.linalg as spla
 
+from ..backends.finish.forces import RowReach
 from .checks import ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, rigid_balance
 from .info import Route, SolveInfo, Status
-from .solution import ContactResult, Solution, _line, _pairs, electrodes
+from .solution import ContactResult, Solution, _line, _pairs, electrode_rows, electrodes
 
 __all__ = ["read_back_nodal", "read_back_cones", "read_back_compliance", "read_back_conic_mix"]
 
@@ -41,8 +42,9 @@ def read_back_nodal(problem, raw, tol: float, timings) -> Solution:
     to. The constrained nodes are those the rows read, the active ones those the closed rows read."""
     blocks, E, gap, u, phi = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi
     y = raw.y
+    reach = problem.shared("row reach", lambda: RowReach(blocks, E), rows=True)     # the matrices' part, kept
     checks_ = checks(blocks, u, phi, E.T @ y, E, E @ gap, y,   # the row forces (3D: M lam = E^T y on the traces)
-                     abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None, problem.rigid_fits)
+                     abs(E) @ problem.translation_sizes(raw.taus) if raw.taus else None, problem.rigid_fits, reach)
     on = np.zeros(problem.interface.size, dtype=bool)
     on[np.flatnonzero(np.asarray(abs(E[np.flatnonzero(raw.active)]).sum(axis=0)).ravel() > 0)] = True
     return _assembled(problem, raw, tol, timings, checks_, E, on)
@@ -123,7 +125,9 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
                     degree=trace.degree, interface=interface,
-                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes))
+                    electrodes=electrodes(scene, systems, u_si, phi_si, nodes,
+                                          problem.shared("electrode rows", lambda: electrode_rows(scene, systems,
+                                                                                                  nodes))))
 
 
 def read_back_compliance(problem, raw, tol: float, timings, polished: bool | None = None) -> Solution:

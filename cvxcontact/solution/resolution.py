@@ -115,7 +115,9 @@ def _owners(cells, facets) -> np.ndarray:
     """The cell owning each boundary facet (k, d) (mesh vertex indices) among ``cells`` (m, d + 1)."""
     cells, facets = np.asarray(cells), np.asarray(facets)
     n = int(max(cells.max(initial=0), facets.max(initial=0))) + 1
-    near = np.flatnonzero(np.isin(cells, facets).any(axis=1))
+    touched = np.zeros(n, dtype=bool)
+    touched[facets.ravel()] = True
+    near = np.flatnonzero(touched[cells].any(axis=1))              # the cells with a vertex on a facet
     d1 = cells.shape[1]
     local = np.array([[j for j in range(d1) if j != i] for i in range(d1)])
     mine = np.sort(cells[near][:, local], axis=2).reshape(-1, d1 - 1)

@@ -141,15 +141,20 @@ class Electrode:
     charge: float
 
 
-def electrodes(scene, systems, u_si, phi_si, nodes) -> list[Electrode]:
+def electrodes(scene, systems, u_si, phi_si, nodes, rows=None) -> list[Electrode]:
     """The :class:`Electrode` results of every piezoelectric body (SI, see :class:`Electrode`).
     ``nodes``: each body's node set (its mesh, or e.g. the :class:`~cvxcontact.geometry.quadratic.P2Nodes` of a
-    P2 solution: an electrode's nodes are then its vertices and edge midpoints)."""
+    P2 solution: an electrode's nodes are then its vertices and edge midpoints). ``rows``: the bodies'
+    :func:`electrode_rows` if kept (a load case of the same geometry: the same numbers, without the products over
+    the whole body)."""
     out = []
+    rows = electrode_rows(scene, systems, nodes) if rows is None else rows
     for k, (b, s, u, phi) in enumerate(zip(scene.bodies, systems, u_si, phi_si)):
         if phi is None:
             continue
-        r = s.Kpp @ (phi - s.phi_fixed) - s.Kup.T @ (u.ravel() - s.u_fixed) - s.q      # C/m per node
+        at, Kpp, KupT = rows[k]
+        r = np.zeros(len(phi))
+        r[at] = Kpp @ (phi - s.phi_fixed) - KupT @ (u.ravel() - s.u_fixed) - s.q[at]      # C/m per node
         taken = np.zeros(len(phi), dtype=bool)
         parts = ([(t, "grounded") for t in b.grounded] + [(t, "driven") for t in b.potential]
                  + [(t, "floating") for t in getattr(b, "floating", {})])
@@ -159,6 +164,20 @@ def electrodes(scene, systems, u_si, phi_si, nodes) -> list[Electrode]:
             taken[on] = True
             out.append(Electrode(body=k, tag=tag, kind=kind, potential=float(phi[on].mean()),
                                  charge=float(r[mine].sum())))
+    return out
+
+
+def electrode_rows(scene, systems, nodes) -> list:
+    """Per body, None for an elastic one, else (the nodes of its electrodes (r,), the rows of Kpp and of Kup^T
+    there (CSR, SI)): what :func:`electrodes` reads of the matrices (geometry alone: kept between load cases)."""
+    out = []
+    for k, (b, s) in enumerate(zip(scene.bodies, systems)):
+        if s.Kpp is None:
+            out.append(None)
+            continue
+        tags = [*b.grounded, *b.potential, *getattr(b, "floating", {})]
+        at = nodes[k].boundary_nodes(tags) if tags else np.zeros(0, dtype=np.int64)
+        out.append((at, s.Kpp.tocsr()[at], s.Kup.T.tocsr()[at]))
     return out
 
 

@@ -71,6 +71,51 @@ def reach_forces(blocks, E, u, phi=None, fits=None):
                np.zeros(E.shape[0]))
 
 
+class RowReach:
+    """:func:`row_compliance`, :func:`reach_displacements` and :func:`reach_forces` of the rows ``E`` on ``blocks``
+    with what they read of the matrices alone taken once (a load case of the same geometry and rows reuses it,
+    :meth:`~cvxcontact.discrete.DiscreteProblem.shared`): the rows' compliance w_a, and per body |E J_l|, the
+    unknowns it reads (the columns holding its entries) and there the rows of Kuu_l and |Kup_l| and the inverse
+    diagonal of Kuu_l. The reaches then read |Kuu_l| |u_l| and |Kup_l| |phi_l| at those unknowns only, not over
+    the whole body: each row's sum is the same as in the whole product, so the answers are the same numbers."""
+
+    def __init__(self, blocks, E):
+        self.compliance = row_compliance(blocks, E)
+        self._bodies = []
+        for b in blocks:
+            A = abs(E @ b.jump).tocsr()
+            at = np.flatnonzero(np.diff(A.tocsc().indptr))            # the unknowns the rows read
+            Kup = getattr(b, "Kup", None)
+            self._bodies.append((A, at, b.Kuu.tocsr()[at], None if Kup is None else abs(Kup.tocsr()[at]),
+                                 _inverse_diagonal(b.Kuu)[at]))
+
+    def _forces(self, u, phi):
+        """Per body (|E J_l|, the unknowns it reads, |Kuu_l| |u_l| + |Kup_l| |phi_l| there, 1 / diag Kuu_l there)."""
+        for k, ((A, at, K, Kp, inverse), uk) in enumerate(zip(self._bodies, u)):
+            f = abs_product(K, uk)
+            pk = None if phi is None else phi[k]
+            if pk is not None and Kp is not None:
+                f = f + Kp @ np.abs(pk)
+            yield A, at, f, inverse, len(uk)
+
+    def displacements(self, u, phi=None) -> np.ndarray:
+        """:func:`reach_displacements` of ``u``, ``phi`` (scaled)."""
+        return sum((A @ _placed(at, inverse * f, n) for A, at, f, inverse, n in self._forces(u, phi)),
+                   np.zeros(len(self.compliance)))
+
+    def forces(self, u, phi=None, fits=None) -> np.ndarray:
+        """:func:`reach_forces` of ``u``, ``phi`` (scaled; ``fits``: read as the deformation)."""
+        return sum((A @ _placed(at, f, n) for A, at, f, _, n in self._forces(deformations(fits, u), phi)),
+                   np.zeros(len(self.compliance)))
+
+
+def _placed(at, values, n) -> np.ndarray:
+    """(n,) zeros with ``values`` at ``at``."""
+    out = np.zeros(n)
+    out[at] = values
+    return out
+
+
 def deformations(fits, u):
     """Each body's free unknowns ``u`` (scaled) with its least-squares rigid fit per piece taken out
     (``fits``: per body, :class:`~cvxcontact.fem.rigidfit.RigidFit`); ``u`` itself when ``fits`` is None."""

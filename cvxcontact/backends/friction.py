@@ -387,15 +387,17 @@ def _shared(problem, G, S, rows) -> bool:
 
 def _stuck(problem, model, constraint, rows, capacity, s, friction):
     """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
-    held at 0 (some unknown moves their slip, and no component that no unknown moves has a prescribed slip: a
-    support on a side that meets the contact moving it along one tangent, docs/howto/friction.md), the other
-    rows at their given thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
+    held at 0 (some unknown moves their slip, and no support prescribes a slip there: a side that meets the
+    contact moved along a tangent, docs/howto/friction.md; against a curved obstacle its tangent at a corner
+    is tilted, so the unknown normal displacement moves that slip too, but cancelling the support's slip with it
+    would drive the corner into the obstacle: the start was infeasible), the other rows at their given
+    thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
     E, n_c = problem.E, problem.slip_components
     moved = _moved_components(problem, rows)
     at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
     prescribed = prescribed_row_slip(problem)[at].reshape(n_c, len(rows)).T != 0
     pressure = problem.rows.pressure_dependent[rows]
-    sticks = pressure & moved.any(axis=1) & ~(prescribed & ~moved).any(axis=1)
+    sticks = pressure & moved.any(axis=1) & ~prescribed.any(axis=1)
     capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
     held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
     return model.with_terms([constraint, *held], objective=friction)

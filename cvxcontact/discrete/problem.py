@@ -386,6 +386,15 @@ def _capacity(scene, condition, lines):
             "'sigma2' (nodal rows at the P2 nodes of that body's faces, in 3D the finer side's on nested faces; "
             "against a rigid obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere is "
             "its nodal rows)")
+    if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
+            not getattr(i, "rigid", True) for i in getattr(lines.interface, "interfaces", (lines.interface,))):
+        raise UnsupportedError(
+            "a pressure-dependent friction law (cc.Coulomb) with P2 tetrahedra under 'gamma3' between two bodies is "
+            "not available: its capacities mu r_a need the cones' nodal normal forces r on the nodes of X_h, which "
+            "are not unique where the faces do not match (more overlay nodes than the jump's degrees of freedom: "
+            "the capacities, and the answer, would depend on the solver's representation); use cc.Tresca(g) under "
+            "'gamma3', or cc.Coulomb with condition='sigma1' or 'sigma2' (nodal rows with positive weights), or "
+            "degree=1 with 'gamma3'; against a rigid obstacle Coulomb under 'gamma3' with P2 is available")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity

@@ -153,7 +153,8 @@ class TangentSolver:
     matrix), from the last step's answer, inexact by :data:`FORCING` (a budget of iterations: ``krylov`` if given,
     else half what a factorisation is worth, at most :data:`KRYLOV`; after a step whose GMRES did not converge only
     near the answer, :data:`NEAR`, else not where the last answer is a worse start than none, :data:`FAR`), else
-    factorised itself and solved, then refined (up to three steps against the matrix itself). Either way the
+    factorised itself (with PARDISO in single precision, :data:`SINGLE`) and solved, then refined against the matrix
+    itself in double (up to three steps on a double factor, :data:`SINGLE_REFINE` on a single one). Either way the
     answer is accepted only once every row's residual is within 1e-14 of its terms (|A| |z| + |b|; the direct
     solve: or after three refinements), the direct solves' accuracy, so the answers are the same to rounding (the
     steps far from it are inexact by :data:`FORCING`/:data:`LOOSE`; a direct solve there within FORCING of its
@@ -162,7 +163,8 @@ class TangentSolver:
     :func:`~cvxcontact.backends.full.solve_mixed`). ``factorizations`` counts the numeric factorisations,
     ``analyses`` the analyses, ``solves`` the systems, ``iterations`` the GMRES iterations, ``unrefined`` the
     factorised systems taken unrefined far from the answer (:data:`ROUGH`; ``distance``: the relative residual of
-    (26) before the step, which the steps set); ``exact``: the last
+    (26) before the step, which the steps set); ``single``: the factorisations are in single precision
+    (:data:`SINGLE`), ``doubled``: a single factor did not refine and double precision took over; ``exact``: the last
     system was solved to rounding (False: GMRES stopped at its forcing term, so its residual is no rounding
     floor for :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor`)."""
 
@@ -262,10 +264,16 @@ class TangentSolver:
         bb[n + np.flatnonzero(at)] = b[n:]
         self.solves += 1
         absA, tiny = abs(A), np.finfo(float).tiny
+        columns, sized = np.asarray(absA.sum(axis=0)).ravel(), np.abs(bb).sum() + len(bb) * tiny
 
         def settled(z, r):          # every row's residual within 1e-14 of its own terms
-            return np.isfinite(r).all() and (np.abs(r) <= 1e-14 * np.maximum(absA @ np.abs(z) + np.abs(bb),
-                                                                               tiny)).all()
+            if not np.isfinite(r).all():
+                return False
+            # summed over the rows, that asks sum|r| <= 1e-14 (1^T |A| |z| + sum|b|): where twice that fails, no
+            # row-by-row product is needed (the refinements of a single-precision factor, GMRES's first cycles)
+            if np.abs(r).sum() > 2e-14 * (columns @ np.abs(z) + sized):
+                return False
+            return bool((np.abs(r) <= 1e-14 * np.maximum(absA @ np.abs(z) + np.abs(bb), tiny)).all())
 
         z, self.exact = None, True
         if self._last is not None and self._z is not None and self._budget:

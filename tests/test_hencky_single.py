@@ -107,3 +107,22 @@ def test_a_single_precision_factor_solves_to_its_precision_and_refines_to_roundi
         z = z + factor.solve(r)
     assert history[0] < 1e-5 and min(history) < 1e-13           # measured 9.1e-8, 1.8e-13, 1.6e-16, ...
     assert rel(z, reference) < 1e-12                            # measured 5.5e-15
+
+
+def test_a_single_factorisation_that_fails_hands_the_steps_to_double_precision(monkeypatch):
+    """A single-precision numeric factorisation that PARDISO refuses (a SolverError, forced here on the first one)
+    is done again in double, and the steps go on in double: the answer of double-precision factors."""
+    scene = indented(HENCKY, nx=24, ny=8, depth=5e-3)
+    factor = PardisoSymmetric.factor
+
+    def refused(self, K):
+        if self.single:
+            raise cc.SolverError("refused (the test's)")
+        return factor(self, K)
+
+    monkeypatch.setattr(PardisoSymmetric, "factor", refused)
+    handed, tangent = fast(scene)
+    assert tangent.doubled and not tangent.single and tangent.analyses == 2
+    monkeypatch.setattr(nonlinear, "SINGLE", False)
+    double, _ = fast(scene)
+    same(handed, double, 1e-11)         # measured 0 (u and forces: every step in double)

@@ -245,7 +245,7 @@ class TangentSolver:
                 try:
                     self._pardiso = PardisoSymmetric(M, single=self.single)
                 except SolverError:
-                    self.kind = "superlu"              # refused: SuperLU from here on
+                    self.kind, self.single = "superlu", False        # refused: SuperLU (double) from here on
             if self._pardiso is None:
                 self._perm = ordering(M, self.n + np.arange(self.m))
         self.factorizations += 1
@@ -291,7 +291,8 @@ class TangentSolver:
                 log.info("the single-precision factor of a Newton step's system did not refine to its accuracy; "
                          "double precision from here on")
                 self.single, self.doubled = False, True
-                self._pardiso.release()
+                if self._pardiso is not None:
+                    self._pardiso.release()
                 self._pardiso = self._last = None
                 self.exact = True
                 z = self._direct(A, bb, settled)
@@ -307,13 +308,13 @@ class TangentSolver:
         (``settled``), or taken unrefined within :data:`FORCING` of bb far from the answer (:data:`ROUGH`); None if
         the factorisation fails, its residual exceeds ``residual`` max|bb|, or a single-precision factor does not
         settle where the answer is asked to rounding (the caller then factorises in double)."""
-        single = self.single
         try:
             factor = self._last = self._factor(A)
         except SolverError:
-            if not single:
+            if not self.single:
                 raise
             return None
+        single = self.single
         if factor is None:
             return None
         if self._budget is None:

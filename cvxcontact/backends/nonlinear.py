@@ -306,8 +306,10 @@ class TangentSolver:
         """The answer of A z = bb by a numeric factorisation of A, refined against A (up to three steps, up to
         :data:`SINGLE_REFINE` on a single-precision factor) while a row's residual exceeds 1e-14 of its terms
         (``settled``), or taken unrefined within :data:`FORCING` of bb far from the answer (:data:`ROUGH`); None if
-        the factorisation fails, its residual exceeds ``residual`` max|bb|, or a single-precision factor does not
-        settle where the answer is asked to rounding (the caller then factorises in double)."""
+        the factorisation fails, its residual exceeds ``residual`` max|bb| (an unrefined answer's: FORCING max|bb|,
+        which a singular system's misses as well; a single factor's first answer is within about 1e-7), or a
+        single-precision factor does not settle where the answer is asked to rounding (the caller then factorises
+        in double)."""
         try:
             factor = self._last = self._factor(A)
         except SolverError:
@@ -330,7 +332,7 @@ class TangentSolver:
             if settled(z, r) or not np.isfinite(r).all():
                 done = True
                 break
-            if rough and np.linalg.norm(r) <= FORCING * size and np.abs(r).max() <= check:
+            if rough and np.linalg.norm(r) <= FORCING * size:
                 self.exact = False                           # an inexact Newton step, as GMRES's
                 self.unrefined += 1
                 done = True
@@ -338,7 +340,8 @@ class TangentSolver:
             z = z + factor.solve(r)
         if single and not done and not settled(z, bb - A @ z):
             return None
-        if np.abs(A @ z - bb).max() > check:
+        # a singular system's answer misses bb by far more than rounding (or FORCING, an unrefined one's)
+        if np.abs(A @ z - bb).max() > (check if self.exact else max(check, FORCING * scale)):
             return None
         return z
 

@@ -436,9 +436,13 @@ class PardisoSymmetric:
 
     ``K``: CSC with sorted indices, symmetric, every diagonal entry stored (zeros included). Pivots
     PARDISO perturbs (``perturbed``) make the factor that of a nearby matrix; the caller refines against
-    K itself (the sparse route checks every answer's componentwise backward error)."""
+    K itself (the sparse route checks every answer's componentwise backward error). ``single``: the factor in
+    single precision (PARDISO's iparm[27] = 1; the values and the solves' vectors rounded to float32, the answers
+    returned in float64): a factor of K to about 6e-8 relative, which the caller refines against K in double
+    (measured, the Hencky route's systems at 103,041 unknowns, one thread: a factorisation 0.095 s against 0.136 s,
+    a solve 0.013 s against 0.024 s, residual 1e-7 after one solve and 2e-16 after three refinements)."""
 
-    def __init__(self, K, threads=None):
+    def __init__(self, K, threads=None, single: bool = False):
         lib = _load()
         if lib is None:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
@@ -453,7 +457,8 @@ class PardisoSymmetric:
         counts = np.bincount(col[self._upper], minlength=n)
         self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(counts)]), dtype=np.int32)
         self._ja = np.ascontiguousarray(K.indices[self._upper], dtype=np.int32)
-        self._a = np.ascontiguousarray(K.data[self._upper], dtype=np.float64)
+        self.single, self._real = bool(single), np.float32 if single else np.float64
+        self._a = np.ascontiguousarray(K.data[self._upper], dtype=self._real)
         self.perturbed, self._analysed = 0, False
         _open(self, lib, n, threads)
         ip = self._iparm
@@ -466,6 +471,7 @@ class PardisoSymmetric:
         ip[17] = -1                # report the factor's nonzeros and its factorisation's Mflop (``cost``)
         ip[18] = -1
         ip[26] = 0
+        ip[27] = int(self.single)  # 1: single precision (the values, factors and solves' vectors in float32)
         ip[34] = 1                 # 0-based indices
         self.cost = None
 
@@ -485,11 +491,11 @@ class PardisoSymmetric:
         return self
 
     def solve(self, b):
-        b = np.array(b, dtype=np.float64, order="F")
+        b = np.array(b, dtype=self._real, order="F")
         x = np.zeros_like(b)
         self._iparm[5] = 0
         self._call(33, b, x, b.shape[1] if b.ndim == 2 else 1)
-        return x
+        return x.astype(np.float64, copy=False)
 
     def release(self):
         """Free PARDISO's memory now (otherwise when this object is collected)."""

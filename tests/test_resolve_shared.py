@@ -161,3 +161,23 @@ def test_a_load_case_on_other_parts_has_the_facet_roles_of_a_direct_solve():
     forced = estimate(again, cache=wrong, fingerprints=solver.problem.fingerprints)[0]
 
     assert rel(forced.indicators[0], direct.estimate.indicators[0]) > 1e-3
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")         # a coarse top: not the point here
+def test_the_row_keyed_store_does_not_grow_with_the_obstacle_positions():
+    """An obstacle moved to many positions gives as many sets of rows; the store keeps the structures of the
+    latest ROWS_KEPT of them only (measured before the bound: one entry per position, 202 after 200 positions of
+    a 96 x 24 mesh, 1.8 MB growing 9 kB a step), and a load case back at a dropped position is a direct solve's."""
+    from cvxcontact.discrete.problem import ROWS_KEPT
+
+    solver = cc.ContactSolver(_block_under_circle(0.3), method="condensed", estimate=False)
+    positions = np.linspace(0.3, 0.7, 3 * ROWS_KEPT)
+    for x in positions:
+        solver.solve(_block_under_circle(float(x)))
+    rows = {k[1] for k in solver.problem._shared if isinstance(k, tuple)}
+    assert len({solver.problem.lines.key()} | rows) == len(rows) == ROWS_KEPT
+    back = _block_under_circle(float(positions[0]))
+    again, direct = solver.solve(back), cc.solve(back, method="condensed", estimate=False)
+    assert rel(again.u[0], direct.u[0]) < 1e-12 and rel(again.contact.force, direct.contact.force) < 1e-12
+    for key, value in direct.residuals().items():
+        assert abs(again.residuals()[key] - value) <= 1e-6 * max(value, 1e-12), key

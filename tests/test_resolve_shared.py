@@ -181,3 +181,36 @@ def test_the_row_keyed_store_does_not_grow_with_the_obstacle_positions():
     assert rel(again.u[0], direct.u[0]) < 1e-12 and rel(again.contact.force, direct.contact.force) < 1e-12
     for key, value in direct.residuals().items():
         assert abs(again.residuals()[key] - value) <= 1e-6 * max(value, 1e-12), key
+
+
+def _fingerprint_of(points, cells, e=None, **parts):
+    """geometry_fingerprint of a stand-in body with these mesh arrays and piezoelectric constants ``e``."""
+    from types import SimpleNamespace
+
+    from cvxcontact.physics.fingerprint import geometry_fingerprint
+
+    mesh = SimpleNamespace(points=points, cells=cells, tags=("a",), boundary=lambda tag: np.array([[0, 1]]), dim=2)
+    material = SimpleNamespace(c=np.eye(3), e=e, kappa=None)
+    roles = {"clamped": [], "grounded": [], "potential": {}, "contact": None, "roller": [], "floating": {},
+             "displacement": {}}
+    roles.update(parts)
+    return geometry_fingerprint(SimpleNamespace(mesh=mesh, material=material, **roles))
+
+
+def test_fingerprints_read_the_values_and_shapes_not_the_layout():
+    """The SHA-256 over the arrays' bytes: a strided or Fortran-ordered array is hashed as its values (the same
+    fingerprint as a contiguous copy), the same bytes in another shape or dtype are other arrays, and an empty
+    array is hashed (before: memoryview.cast refused a (0, k) array with a TypeError)."""
+    rng = np.random.default_rng(3)
+    wide = rng.standard_normal((6, 4))
+    points, cells = wide[:, ::2], np.array([[0, 1, 2], [1, 2, 3]])
+    base = _fingerprint_of(np.ascontiguousarray(points), cells)
+    assert _fingerprint_of(points, cells) == base                                     # a strided view
+    assert _fingerprint_of(np.asfortranarray(points), np.asfortranarray(cells)) == base
+    assert _fingerprint_of(points.astype(np.float32).astype(np.float64), cells) != base   # other values
+    assert _fingerprint_of(points.reshape(4, 3), cells) != base                         # the same bytes, other shape
+    assert _fingerprint_of(points, cells.T.copy().reshape(2, 3)) != base
+    assert _fingerprint_of(points, cells.astype(np.int32)) == base                      # the same integers
+    assert _fingerprint_of(points, cells, e=np.zeros((3, 0))) != _fingerprint_of(points, cells, e=np.zeros((0, 3)))
+    assert _fingerprint_of(points, cells, e=np.zeros((3, 0))) != base
+    assert _fingerprint_of(points, cells, clamped=["a"]) != base

@@ -149,6 +149,24 @@ def test_a_frozen_body_copies_and_pickles_as_itself():
             twin.mesh = b1.mesh
 
 
+
+@pytest.mark.parametrize("make", [lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=2, ny=2),
+                                  lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=2, ny=2, cell="quad"),
+                                  lambda: cc.box(x=(0, 1), y=(0, 1), z=(0, 1), nx=1, ny=1, nz=1)])
+def test_a_mesh_stays_read_only_when_asked_to_be_writeable_and_when_unpickled(make):
+    """A mesh's arrays cannot be made writeable again (``setflags(write=True)``; they owned their data, so it was
+    allowed, and a triangle mesh stretched in place after one solve gave another scene's answer off by 0.50
+    relative in u: the nodal shares of its body force, computed once, were the old mesh's), nor come back writeable
+    from pickle or deepcopy."""
+    mesh = make()
+    for twin in (mesh, pickle.loads(pickle.dumps(mesh)), copy.deepcopy(mesh)):
+        for a in (twin.points, twin.cells, *(twin.boundary(t) for t in twin.tags)):
+            assert not a.flags.writeable
+            with pytest.raises(ValueError):
+                a.setflags(write=True)
+        assert np.array_equal(twin.points, mesh.points) and twin.tags == mesh.tags
+
+
 # ------------------------------------------------------------------ the variants
 
 def test_body_with_loads_keeps_the_geometry_and_a_prepared_solver_resolves_it():

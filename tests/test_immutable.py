@@ -165,6 +165,10 @@ def test_a_mesh_stays_read_only_when_asked_to_be_writeable_and_when_unpickled(ma
             with pytest.raises(ValueError):
                 a.setflags(write=True)
         assert np.array_equal(twin.points, mesh.points) and twin.tags == mesh.tags
+    once = [getattr(mesh, name) for name in ("areas", "vertex_areas", "volumes") if hasattr(type(mesh), name)]
+    for a in (*once, *mesh.bounds):                                                       # computed once
+        with pytest.raises(ValueError):
+            a.setflags(write=True)
 
 
 # ------------------------------------------------------------------ the variants

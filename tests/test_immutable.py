@@ -171,6 +171,17 @@ def test_a_mesh_stays_read_only_when_asked_to_be_writeable_and_when_unpickled(ma
             a.setflags(write=True)
 
 
+
+def test_a_load_cannot_be_made_writeable_behind_a_prepared_solver():
+    """A load's values cannot be made writeable again: edited in place (``setflags(write=True)`` was allowed, the
+    array owned its data), a prepared solver's ``solve()`` of the same Scene answered the old loads (measured: u
+    unchanged, 0.0, after the body force was tripled) while ``cc.solve`` answered the new ones."""
+    body = two_blocks().bodies[0]
+    for a in (body.body_force.value, body.traction["right"].value):
+        with pytest.raises(ValueError):
+            a.setflags(write=True)
+
+
 # ------------------------------------------------------------------ the variants
 
 def test_body_with_loads_keeps_the_geometry_and_a_prepared_solver_resolves_it():

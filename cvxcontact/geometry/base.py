@@ -14,8 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import Frozen, FrozenMap, MeshError
-from .meshchecks import locked
+from ..errors import Frozen, MeshError, locked
 
 __all__ = ["CellMesh", "cell_corners"]
 
@@ -25,17 +24,6 @@ class CellMesh(Frozen):
 
     dim: int
     cell: str
-
-    def __setstate__(self, state: dict) -> None:
-        """Unpickled (or deep-copied): the arrays read-only again (pickle restores arrays writeable)."""
-        def again(v):
-            if isinstance(v, np.ndarray):
-                return locked(v)
-            if isinstance(v, FrozenMap):
-                return FrozenMap({k: again(x) for k, x in v.items()}, *v._edit)
-            return v
-
-        self.__dict__.update({k: again(v) for k, v in state.items()})
 
     @property
     def tags(self) -> tuple[str, ...]:

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError, locked
 from .base import CellMesh, cell_corners
 from .meshchecks import (
     _as_points,
@@ -33,7 +33,6 @@ from .meshchecks import (
     _orient,
     _renumbering,
     _signed_areas,
-    locked,
 )
 
 if TYPE_CHECKING:

@@ -13,7 +13,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import MeshError
+from ..errors import MeshError, locked
 
 DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
@@ -24,14 +24,6 @@ DUPLICATE_TOL = 1e-8
 def _frozen(a, dtype):
     """A C-contiguous read-only copy of ``a`` (:func:`locked`: its writing cannot be turned back on)."""
     return locked(np.array(a, dtype=dtype, order="C", copy=True))
-
-
-def locked(a: np.ndarray) -> np.ndarray:
-    """``a`` read-only for good: a view of it with ``a`` made read-only. An array that owns its data may be made
-    writeable again (``setflags(write=True)``), a view of a read-only array may not; a mesh edited in place would
-    leave what it computed once (areas, bounds, a constant load's nodal shares) silently stale."""
-    a.setflags(write=False)
-    return a.view()
 
 
 def _as_points(points):

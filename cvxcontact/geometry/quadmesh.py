@@ -16,10 +16,10 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import MeshError
+from ..errors import MeshError, locked
 from .base import CellMesh, cell_corners
 from .mesh import Mesh
-from .meshchecks import _as_points, _frozen, _renumbering, locked, one_orientation
+from .meshchecks import _as_points, _frozen, _renumbering, one_orientation
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
 

@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import MeshError
-from .meshchecks import locked
+from ..errors import MeshError, locked
 
 __all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes", "Q2HexNodes"]
 

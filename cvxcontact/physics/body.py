@@ -15,9 +15,8 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import Frozen, FrozenMap, FrozenTuple, SceneError
+from ..errors import Frozen, FrozenMap, FrozenTuple, SceneError, locked
 from ..geometry.base import CellMesh
-from ..geometry.meshchecks import locked
 from . import supports as _supports
 from .loads import LOAD_FIELDS
 from .materials import Elastic, Piezoelectric

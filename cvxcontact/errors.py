@@ -12,6 +12,8 @@ Below the errors, the immutability of built descriptions: :class:`Frozen` (objec
 
 from collections.abc import Mapping
 
+import numpy as np
+
 
 class CvxContactError(Exception):
     """Base class of all cvxcontact errors."""
@@ -102,6 +104,33 @@ class Frozen:
 
     def __delattr__(self, name):
         raise FrozenError(_refusal(f"{type(self).__name__}.{name}", "deleted", self._frozen_hint(name)))
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled or deep-copied: its arrays read-only again (:func:`locked`; pickle restores them writeable)."""
+        self.__dict__.update({k: _relocked(v) for k, v in state.items()})
+
+
+def locked(a: np.ndarray) -> np.ndarray:
+    """A copy of ``a`` (C order, same shape and dtype) read-only for good: its memory is a ``bytes`` object, so no
+    ``setflags(write=True)`` (of it or of its ``base``) makes it writeable again, as it would an array that owns its
+    data. A description edited in place would leave what was computed from it once (a mesh's areas, a prepared
+    solver's loads) silently stale."""
+    shape = np.shape(a)
+    a = np.ascontiguousarray(a)
+    return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(shape)
+
+
+def _relocked(v):
+    """``v`` with the arrays in it (directly, or in a tuple or :class:`FrozenMap`) :func:`locked`."""
+    if isinstance(v, np.ndarray):
+        return locked(v)
+    if isinstance(v, FrozenMap):
+        return FrozenMap({k: _relocked(x) for k, x in v.items()}, *v._edit)
+    if isinstance(v, FrozenTuple):
+        return FrozenTuple([_relocked(x) for x in v], *v._edit)
+    if type(v) is tuple:
+        return tuple(_relocked(x) for x in v)
+    return v
 
 
 def _refusal(what, how, hint):

@@ -149,6 +149,46 @@ def test_a_frozen_body_copies_and_pickles_as_itself():
             twin.mesh = b1.mesh
 
 
+
+@pytest.mark.parametrize("make", [lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=2, ny=2),
+                                  lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=2, ny=2, cell="quad"),
+                                  lambda: cc.box(x=(0, 1), y=(0, 1), z=(0, 1), nx=1, ny=1, nz=1)])
+def test_a_mesh_stays_read_only_when_asked_to_be_writeable_and_when_unpickled(make):
+    """A mesh's arrays cannot be made writeable again (``setflags(write=True)``; they owned their data, so it was
+    allowed, and a triangle mesh stretched in place after one solve gave another scene's answer off by 0.50
+    relative in u: the nodal shares of its body force, computed once, were the old mesh's), nor come back writeable
+    from pickle or deepcopy."""
+    mesh = make()
+    for twin in (mesh, pickle.loads(pickle.dumps(mesh)), copy.deepcopy(mesh)):
+        for a in (twin.points, twin.cells, *(twin.boundary(t) for t in twin.tags)):
+            assert not a.flags.writeable
+            _cannot_be_made_writeable(a)
+        assert np.array_equal(twin.points, mesh.points) and twin.tags == mesh.tags
+    once = [getattr(mesh, name) for name in ("areas", "vertex_areas", "volumes") if hasattr(type(mesh), name)]
+    for a in (*once, *mesh.bounds):                                                       # computed once
+        _cannot_be_made_writeable(a)
+
+
+def _cannot_be_made_writeable(a):
+    """Neither ``a`` nor the array it views (its ``base``) can be made writeable again."""
+    for x in (a, a.base):
+        if isinstance(x, np.ndarray):
+            with pytest.raises(ValueError):
+                x.setflags(write=True)
+
+
+
+def test_a_load_cannot_be_made_writeable_behind_a_prepared_solver():
+    """A load's values cannot be made writeable again: edited in place (``setflags(write=True)`` was allowed, the
+    array owned its data), a prepared solver's ``solve()`` of the same Scene answered the old loads (measured: u
+    unchanged, 0.0, after the body force was tripled) while ``cc.solve`` answered the new ones."""
+    body = two_blocks().bodies[0]
+    for twin in (body, pickle.loads(pickle.dumps(body)), copy.deepcopy(body)):      # (pickle: writeable before)
+        for a in (twin.body_force.value, twin.traction["right"].value, twin.material.c, twin.mesh.points):
+            assert not a.flags.writeable
+            _cannot_be_made_writeable(a)
+
+
 # ------------------------------------------------------------------ the variants
 
 def test_body_with_loads_keeps_the_geometry_and_a_prepared_solver_resolves_it():

@@ -161,3 +161,56 @@ def test_a_load_case_on_other_parts_has_the_facet_roles_of_a_direct_solve():
     forced = estimate(again, cache=wrong, fingerprints=solver.problem.fingerprints)[0]
 
     assert rel(forced.indicators[0], direct.estimate.indicators[0]) > 1e-3
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")         # a coarse top: not the point here
+def test_the_row_keyed_store_does_not_grow_with_the_obstacle_positions():
+    """An obstacle moved to many positions gives as many sets of rows; the store keeps the structures of the
+    latest ROWS_KEPT of them only (measured before the bound: one entry per position, 202 after 200 positions of
+    a 96 x 24 mesh, 1.8 MB growing 9 kB a step), and a load case back at a dropped position is a direct solve's."""
+    from cvxcontact.discrete.problem import ROWS_KEPT
+
+    solver = cc.ContactSolver(_block_under_circle(0.3), method="condensed", estimate=False)
+    positions = np.linspace(0.3, 0.7, 3 * ROWS_KEPT)
+    for x in positions:
+        solver.solve(_block_under_circle(float(x)))
+    rows = {k[1] for k in solver.problem._shared if isinstance(k, tuple)}
+    assert len({solver.problem.lines.key()} | rows) == len(rows) == ROWS_KEPT
+    back = _block_under_circle(float(positions[0]))
+    again, direct = solver.solve(back), cc.solve(back, method="condensed", estimate=False)
+    assert rel(again.u[0], direct.u[0]) < 1e-12 and rel(again.contact.force, direct.contact.force) < 1e-12
+    for key, value in direct.residuals().items():
+        assert abs(again.residuals()[key] - value) <= 1e-6 * max(value, 1e-12), key
+
+
+def _fingerprint_of(points, cells, e=None, **parts):
+    """geometry_fingerprint of a stand-in body with these mesh arrays and piezoelectric constants ``e``."""
+    from types import SimpleNamespace
+
+    from cvxcontact.physics.fingerprint import geometry_fingerprint
+
+    mesh = SimpleNamespace(points=points, cells=cells, tags=("a",), boundary=lambda tag: np.array([[0, 1]]), dim=2)
+    material = SimpleNamespace(c=np.eye(3), e=e, kappa=None)
+    roles = {"clamped": [], "grounded": [], "potential": {}, "contact": None, "roller": [], "floating": {},
+             "displacement": {}}
+    roles.update(parts)
+    return geometry_fingerprint(SimpleNamespace(mesh=mesh, material=material, **roles))
+
+
+def test_fingerprints_read_the_values_and_shapes_not_the_layout():
+    """The SHA-256 over the arrays' bytes: a strided or Fortran-ordered array is hashed as its values (the same
+    fingerprint as a contiguous copy), the same bytes in another shape or dtype are other arrays, and an empty
+    array is hashed (before: memoryview.cast refused a (0, k) array with a TypeError)."""
+    rng = np.random.default_rng(3)
+    wide = rng.standard_normal((6, 4))
+    points, cells = wide[:, ::2], np.array([[0, 1, 2], [1, 2, 3]])
+    base = _fingerprint_of(np.ascontiguousarray(points), cells)
+    assert _fingerprint_of(points, cells) == base                                     # a strided view
+    assert _fingerprint_of(np.asfortranarray(points), np.asfortranarray(cells)) == base
+    assert _fingerprint_of(points.astype(np.float32).astype(np.float64), cells) != base   # other values
+    assert _fingerprint_of(points.reshape(4, 3), cells) != base                         # the same bytes, other shape
+    assert _fingerprint_of(points, cells.T.copy().reshape(2, 3)) != base
+    assert _fingerprint_of(points, cells.astype(np.int32)) == base                      # the same integers
+    assert _fingerprint_of(points, cells, e=np.zeros((3, 0))) != _fingerprint_of(points, cells, e=np.zeros((0, 3)))
+    assert _fingerprint_of(points, cells, e=np.zeros((3, 0))) != base
+    assert _fingerprint_of(points, cells, clamped=["a"]) != base

@@ -37,6 +37,11 @@ from .terms import ContactTerm, contact_term
 __all__ = ["DiscreteProblem", "build_problem"]
 
 
+ROWS_KEPT = 4
+"""How many sets of contact rows :meth:`DiscreteProblem.shared` keeps what depends on (the latest used): a moving
+obstacle's earlier rows are dropped, a load case back at one of the last positions finds its rows' structures."""
+
+
 @dataclass(frozen=True, eq=False)
 class DiscreteProblem:
     """The scaled discrete problem of a scene (see the module docstring). Immutable: a changed scene is a new
@@ -222,12 +227,21 @@ class DiscreteProblem:
         """What depends on the geometry alone (the meshes, the supports, the assembled matrices; with ``rows``:
         and the contact rows, :meth:`~cvxcontact.fem.space.ContactLines.key`), built by ``build()`` on first use
         and kept for every load case of this geometry (:meth:`with_loads` hands the same store on; a moved
-        obstacle's new rows are another key). Nothing kept here may read a load."""
-        key = (name, self.lines.key()) if rows else name
+        obstacle's new rows are another key: those of the :data:`ROWS_KEPT` sets of rows used last are kept, the
+        store does not grow with the positions an obstacle takes). Nothing kept here may read a load."""
         store = self._shared
-        if key not in store:
-            store[key] = build()
-        return store[key]
+        if not rows:
+            if name not in store:
+                store[name] = build()
+            return store[name]
+        key = (name, self.lines.key())
+        value = store.pop(key) if key in store else build()
+        store[key] = value                                  # the rows used last at the end (insertion order)
+        held = list(dict.fromkeys(k[1] for k in reversed(store) if isinstance(k, tuple)))     # the latest first
+        for old in held[ROWS_KEPT:]:
+            for k in [k for k in store if isinstance(k, tuple) and k[1] == old]:
+                del store[k]
+        return value
 
     @property
     def unknowns(self) -> int:

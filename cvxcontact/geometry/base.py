@@ -14,7 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import Frozen, MeshError
+from ..errors import Frozen, MeshError, locked
 
 __all__ = ["CellMesh", "cell_corners"]
 
@@ -34,9 +34,7 @@ class CellMesh(Frozen):
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(lowest, highest) (dim,) m: the corners of the bounding box (computed once: the points are read-only)."""
         low, high = self.points.min(axis=0), self.points.max(axis=0)
-        low.setflags(write=False)
-        high.setflags(write=False)
-        return low, high
+        return locked(low), locked(high)
 
     @property
     def size(self) -> float:

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError, locked
 from .base import CellMesh, cell_corners
 from .meshchecks import (
     _as_points,
@@ -150,16 +150,14 @@ class Mesh(CellMesh):
     def areas(self) -> np.ndarray:
         """(m,) triangle areas in m^2."""
         areas = _signed_areas(self.points, self.triangles)
-        areas.setflags(write=False)
-        return areas
+        return locked(areas)
 
     @cached_property
     def vertex_areas(self) -> np.ndarray:
         """(n,) m^2: a third of the area of each triangle at each of its vertices, summed (read-only): the
         consistent nodal load of a constant density per unit of it."""
         share = np.bincount(self.triangles.ravel(), weights=np.repeat(self.areas / 3.0, 3), minlength=len(self.points))
-        share.setflags(write=False)
-        return share
+        return locked(share)
 
     @cached_property
     def node_components(self) -> np.ndarray:

@@ -13,7 +13,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import MeshError
+from ..errors import MeshError, locked
 
 DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
@@ -22,10 +22,8 @@ DUPLICATE_TOL = 1e-8
 # --------------------------------------------------------------------------- validation helpers
 
 def _frozen(a, dtype):
-    """A C-contiguous read-only copy of ``a``."""
-    out = np.array(a, dtype=dtype, order="C", copy=True)
-    out.setflags(write=False)
-    return out
+    """A C-contiguous read-only copy of ``a`` (:func:`locked`: its writing cannot be turned back on)."""
+    return locked(np.array(a, dtype=dtype, order="C", copy=True))
 
 
 def _as_points(points):

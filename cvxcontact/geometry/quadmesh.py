@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import MeshError
+from ..errors import MeshError, locked
 from .base import CellMesh, cell_corners
 from .mesh import Mesh
 from .meshchecks import _as_points, _frozen, _renumbering, one_orientation
@@ -98,8 +98,7 @@ class QuadMesh(CellMesh):
     def areas(self) -> np.ndarray:
         """(m,) cell areas in m^2 (the two triangles of each cell)."""
         a = self.split.areas.reshape(-1, 2).sum(axis=1)
-        a.setflags(write=False)
-        return a
+        return locked(a)
 
     @property
     def node_components(self) -> np.ndarray:

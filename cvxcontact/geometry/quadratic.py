@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import MeshError
+from ..errors import MeshError, locked
 
 __all__ = ["P2Nodes", "P2TetNodes", "Q2Nodes", "Q2HexNodes"]
 
@@ -245,6 +245,4 @@ def _midpoint(keys, nv, a, b):
 
 
 def _frozen(a):
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
+    return locked(np.array(a))

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import Frozen, FrozenMap, FrozenTuple, SceneError
+from ..errors import Frozen, FrozenMap, FrozenTuple, SceneError, locked
 from ..geometry.base import CellMesh
 from . import supports as _supports
 from .loads import LOAD_FIELDS
@@ -385,8 +385,7 @@ class Load(Frozen):
                              f"got shape {v.shape}")
         if not np.isfinite(v).all():
             raise SceneError(f"{label}: NaN or infinite value {v.tolist()}")
-        v.setflags(write=False)
-        self._set(value=v)
+        self._set(value=locked(v))                     # (writing cannot be turned back on)
 
     def _frozen_hint(self, name: str) -> str:
         return "build a new Body with body.with_loads(...) (a new scene gap: scene.with_gap(...))"
@@ -461,7 +460,5 @@ def _kind(value) -> str:
 
 
 def _frozen(a):
-    """A read-only float copy of ``a``."""
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
+    """A read-only float copy of ``a`` (writing cannot be turned back on)."""
+    return locked(np.array(a, dtype=float))

@@ -39,7 +39,7 @@ def geometry_fingerprint(body) -> str:
             return
         a = np.ascontiguousarray(a, dtype=dtype)
         text(a.shape)
-        h.update(memoryview(a).cast("B"))                 # the array's bytes, not a copy of them
+        h.update(a.reshape(-1).view(np.uint8))            # the array's bytes, not a copy of them (also of no bytes)
 
     mesh, mat = body.mesh, body.material
     array("points", mesh.points, np.float64)

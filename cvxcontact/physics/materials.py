@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import Frozen, MaterialError
+from ..errors import Frozen, MaterialError, locked
 
 __all__ = ["EPS0", "Piezoelectric", "Elastic", "Hencky", "hencky", "isotropic", "deviator", "PZT4", "PZT5A", "PZT5H", "BaTiO3", "hexagonal",
            "bond_matrix"]
@@ -415,26 +415,18 @@ def _rotation(rotation, mat):
 
 
 def _frozen_rotation(R):
-    R = np.array(R, dtype=float)
-    R.setflags(write=False)
-    return R
+    return locked(np.array(R, dtype=float))
 
 
 def _read_only(a):
-    if a is not None:
-        a = np.array(a, dtype=float)
-        a.setflags(write=False)
-    return a
+    return None if a is None else locked(np.array(a, dtype=float))
 
 
 def _row(out):
     """The out-of-plane row (a, c22, b) with read-only arrays, or None."""
     if out is None:
         return None
-    arrays = [None if v is None else np.array(v, dtype=float) for v in (out[0], out[2])]
-    for a in arrays:
-        if a is not None:
-            a.setflags(write=False)
+    arrays = [None if v is None else locked(np.array(v, dtype=float)) for v in (out[0], out[2])]
     return arrays[0], float(out[1]), arrays[1]
 
 
@@ -511,8 +503,7 @@ def _matrix(a, shape, key, name, spd):
             raise MaterialError(f"material {name!r}: {key} is not positive definite "
                                 f"(smallest eigenvalue {lo:.3g})")
         a = 0.5 * (a + a.T)
-    a.setflags(write=False)
-    return a
+    return locked(a)
 
 
 def _table(name, c11, c12, c13, c33, c44, e31, e33, e15, eps11, eps33):

@@ -24,8 +24,8 @@ import subprocess
 import sys
 import threading
 import time
-import tracemalloc
 import traceback
+import tracemalloc
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent

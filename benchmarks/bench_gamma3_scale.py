@@ -15,7 +15,9 @@ finish's),
 max |u_after - u_before| / max |u_before| over both bodies (the finish is exact: rounding).
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench_gamma3_scale.py \\
-        --sizes 5e4 1.5e5 --before /tmp/before [--md FILE]
+        --sizes 5e4 1.5e5 --before /tmp/before [--md FILE] [--limit 16] [--only after]
+
+Each child runs under a watchdog that ends it above ``--limit`` GB resident (default 16).
 
 A size is a count of unknowns (n from ``bench3d.cells``: N ~ 2.2 n^3) or n itself (< 1e3).
 """
@@ -38,7 +40,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench3d import cells
 
 CHILD = """
-import json, resource, sys, time
+import json, os, resource, sys, threading, time
+def watchdog(limit):                           # ends the run above the limit (GB resident), before the machine does
+    while True:
+        with open("/proc/self/statm") as f:
+            if int(f.read().split()[1]) * resource.getpagesize() > limit * 2**30:
+                print(json.dumps(dict(killed=limit)), flush=True)
+                os._exit(3)
+        time.sleep(0.05)
+threading.Thread(target=watchdog, args=({limit},), daemon=True).start()
 time.perf_counter = time.process_time          # sol.timings in this process's CPU seconds (one thread)
 sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r})
 import numpy as np
@@ -60,11 +70,11 @@ print(json.dumps(dict(code=cc.__file__, N=int(solver.problem.unknowns), m=int(so
 """
 
 
-def run(root: Path, n: int, out: str) -> dict:
-    code = CHILD.format(root=str(root), tests=str(ROOT / "tests"), n=n, out=out)
+def run(root: Path, n: int, out: str, limit: float = 16.0) -> dict:
+    code = CHILD.format(root=str(root), tests=str(ROOT / "tests"), n=n, out=out, limit=limit)
     res = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True)
     if res.returncode:
-        raise RuntimeError(res.stderr[-3000:])
+        raise RuntimeError((res.stdout + res.stderr)[-3000:])
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
@@ -73,6 +83,9 @@ def main() -> None:
     ap.add_argument("--sizes", type=float, nargs="+", default=[5e4])
     ap.add_argument("--before", type=Path, required=True, help="the other checkout (its cvxcontact is imported)")
     ap.add_argument("--md", type=Path, default=None, help="append the table to this file")
+    ap.add_argument("--limit", type=float, default=16.0, help="GB resident at which a run is ended (watchdog)")
+    ap.add_argument("--only", choices=("before", "after"), default=None,
+                    help="run one checkout only (no du/u; e.g. a size too long for both)")
     args = ap.parse_args()
     head = ("| unknowns | rows | active rows | code | steps | solve CPU s | factorisation s | interior point s | finish s | "
             "peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
@@ -82,15 +95,19 @@ def main() -> None:
         for size in args.sizes:
             n = cells("two_boxes", size, True)
             res = {}
+            names = [args.only] if args.only else ["before", "after"]
             for name, root in (("before", args.before), ("after", ROOT)):
-                res[name] = run(root, n, os.path.join(tmp, f"{name}{n}.npz"))
-            ub = [np.load(os.path.join(tmp, f"before{n}.npz"))[k] for k in ("arr_0", "arr_1")]
-            ua = [np.load(os.path.join(tmp, f"after{n}.npz"))[k] for k in ("arr_0", "arr_1")]
-            du = max(np.abs(a - b).max() for a, b in zip(ua, ub)) / max(np.abs(b).max() for b in ub)
-            for name in ("before", "after"):
+                if name in names:
+                    res[name] = run(root, n, os.path.join(tmp, f"{name}{n}.npz"), args.limit)
+            du = float("nan")
+            if len(res) == 2:
+                ub = [np.load(os.path.join(tmp, f"before{n}.npz"))[k] for k in ("arr_0", "arr_1")]
+                ua = [np.load(os.path.join(tmp, f"after{n}.npz"))[k] for k in ("arr_0", "arr_1")]
+                du = max(np.abs(a - b).max() for a, b in zip(ua, ub)) / max(np.abs(b).max() for b in ub)
+            for name in names:
                 r = res[name]
                 t = r["timings"]
-                ratio = r["solve_cpu"] / res["before"]["solve_cpu"]
+                ratio = r["solve_cpu"] / res[names[0]]["solve_cpu"]
                 ipm = r["solve_cpu"] - sum(v for k, v in t.items() if k not in ("compile", "solve", "assembly"))
                 lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r['iterations']} | "
                              f"{r['solve_cpu']:.1f} | "

@@ -85,6 +85,35 @@ def test_schur_complement_and_solves_match_dense(bodies, kind):
         assert rel(c.unconstrained(fwd), np.linalg.solve(D, b)[g]) < 1e-12
 
 
+@pytest.mark.parametrize("kind", KINDS)
+def test_the_condensation_keeps_one_copy_of_each_sigma_and_its_cholesky_factors(bodies, kind):
+    """Sigma (m x m dense, m the contact dofs: the largest arrays of a 3D condensation besides the factor) is
+    held once: the body's ``stiffness`` is its factorisation's Schur complement, and the interface compliance
+    solves with the factorisation's own Cholesky factors, which are Sigma's (checked against dense algebra). A
+    body condensed with the shift of ``held`` keeps Sigma = Schur(S + D) - D apart from the shifted Schur
+    complement it factorised, equal to the dense Schur complement of S, and the compliance factorises that."""
+    import scipy.linalg as sla
+
+    from cvxcontact.backends.condensed import Compliance
+
+    conds = [condense(block, system, mesh, kind) for block, system, mesh in bodies]
+    for c in conds:
+        assert c.stiffness is c.factor.schur
+        L, lower = c.factor.cholesky
+        assert rel(sla.cho_solve((L, lower), c.stiffness), np.eye(len(c.gamma))) < 1e-10
+    E = sp.eye(conds[0].jump.shape[0], format="csr")
+    comp = Compliance(conds, E)
+    assert all(np.shares_memory(f[0], c.factor.cholesky[0]) for f, c in zip(comp._factors, conds))
+    block, system, mesh = bodies[0]
+    held = condense(block, system, mesh, kind, held=True)
+    S = quasi_definite(block)[0]
+    assert held.stiffness is not held.factor.schur
+    assert rel(held.stiffness, dense_schur(S, held.gamma)) < 1e-12
+    comp = Compliance([held], sp.eye(held.jump.shape[0], format="csr"))
+    assert not np.shares_memory(comp._factors[0][0], held.factor.cholesky[0])
+    assert rel(sla.cho_solve(comp._factors[0], held.stiffness), np.eye(len(held.gamma))) < 1e-10
+
+
 @needs_pardiso
 def test_pardiso_on_a_random_quasi_definite_matrix_with_threads():
     """A generic quasi-definite S (not from a mesh), Schur rows scattered, with one MKL thread: Sigma and a

@@ -365,6 +365,35 @@ def test_the_condensed_route_finishes_dependent_rows_like_the_full_route():
     assert np.abs(again.contact.lam / (uniaxial_modulus() * 2 * overlap) - 1).max() < 1e-10   # measured 6.5e-12
 
 
+def test_the_condensed_route_frees_the_interface_program_before_the_finish(monkeypatch):
+    """The interface program's compiled data and Clarabel's solver (its KKT factors, kept by CVXPY for a warm
+    re-solve of the same problem) are dropped once the interior point's answer is read: the finish of dependent
+    rows runs without them (the largest stage of memory at scale). The program keeps its status, values and
+    duals, a later solve of it compiles again to the same answer, and the route's answer is the full route's."""
+    seen = []
+
+    def finish(*args, **kwargs):
+        seen.append([(p._cache.param_prog, dict(p._solver_cache)) for p in programs])
+        return interface_finish(*args, **kwargs)
+
+    programs, release, interface_finish = [], signorini.release, signorini.interface_finish
+    monkeypatch.setattr(signorini, "release", lambda p: (programs.append(p), release(p)))
+    monkeypatch.setattr(signorini, "interface_finish", finish)
+    scene = squeezed_blocks(overlap=1e-5)
+    sol = cc.solve(scene, "gamma3", method="condensed")
+    ref = cc.solve(squeezed_blocks(overlap=1e-5), "gamma3", method="full")
+    assert sol.ok and sol.polished and len(programs) == 1
+    assert seen == [[(None, {})]]                            # nothing compiled or factorised kept at the finish
+    program = programs[0]
+    values = [v.value.copy() for v in program.variables()]
+    duals = np.asarray(program.constraints[0].dual_value).copy()
+    assert program.status == "optimal" and duals.max() > 0
+    program.solve(solver="CLARABEL")                         # compiles again
+    assert all(np.abs(v.value - w).max() <= 1e-8 * np.abs(w).max() for v, w in zip(program.variables(), values))
+    scale = max(np.abs(ref.u[k]).max() for k in (0, 1))
+    assert max(np.abs(sol.u[k] - ref.u[k]).max() for k in (0, 1)) < 1e-12 * scale
+
+
 def test_the_default_route_of_dependent_rows_between_supported_bodies_is_finished():
     # P1 "gamma3" between two 3D bodies held by their supports, non-matching faces: the rows depend on each
     # other. `auto` used to take the sparse route (long interface), which had no dependent-row finish, and

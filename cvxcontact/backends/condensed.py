@@ -155,7 +155,11 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
             warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
-    return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=factor.schur - np.diag(shift),
+    stiffness = factor.schur                        # (shared, read only: no second m x m copy)
+    if held:
+        stiffness = factor.schur.copy()
+        stiffness[np.diag_indices(len(gamma))] -= shift
+    return CondensedBody(factor=factor, n_u=n_u, gamma=gamma, stiffness=stiffness,
                          jump=sp.csr_matrix(block.jump[:, gamma]))
 
 
@@ -201,6 +205,15 @@ class InterfaceModel:
         self.problem = cp.Problem(cp.Minimize(energy), [self.contact] if self.contact is not None else [])
 
 
+def _sigma_cholesky(body):
+    """``scipy.linalg.cho_factor``'s factors of a body's ``stiffness`` Sigma: its factorisation's own where Sigma
+    is that factorisation's Schur complement (no second m x m copy), else computed."""
+    factor = getattr(body, "factor", None)
+    if factor is not None and body.stiffness is factor.schur and factor.cholesky is not None:
+        return factor.cholesky
+    return sla.cho_factor(body.stiffness)
+
+
 class Compliance:
     """Interface compliance of condensed bodies seen by the contact rows E (scaled units):
 
@@ -219,7 +232,7 @@ class Compliance:
 
     def __init__(self, bodies, E):
         self.rows = [sp.csr_matrix(E @ b.jump) for b in bodies]
-        self._factors = [sla.cho_factor(b.stiffness) for b in bodies]
+        self._factors = [_sigma_cholesky(b) for b in bodies]
         self._B = self._W = self._stacked = None
         m = E.shape[0]
         self.where = np.full(m, -1)          # each row's position in the kept block, -1 if not kept (:meth:`keep`)
@@ -264,8 +277,8 @@ class Compliance:
         new = np.unique(rows[self.where[rows] < 0])
         if len(new):
             c, k = self.count, len(new)
-            if c + k > self.kept_B.shape[1]:
-                cap = min(len(self.where), max(2 * self.kept_B.shape[1], c + k))
+            if c + k > self.kept_B.shape[1]:       # room for an eighth more (not double: cap^2 doubles)
+                cap = min(len(self.where), c + k + max(64, (c + k) // 8))
                 B, W = np.zeros((self.kept_B.shape[0], cap)), np.zeros((cap, cap))
                 B[:, :c], W[:c, :c] = self.kept_B[:, :c], self.kept_W[:c, :c]
                 self.kept_B, self.kept_W = B, W

@@ -152,7 +152,9 @@ class Factorization:
 
     def __init__(self, n: int, gamma: np.ndarray, schur: np.ndarray):
         self.n, self.gamma = n, gamma
-        self.schur = 0.5 * (schur + schur.T)
+        schur += schur.T           # symmetrised in place (NumPy buffers the overlapping transpose): the adapter's
+        schur *= 0.5               # array is its own (m^2 doubles, m the contact dofs: no second copy)
+        self.schur = schur
         self._chol = self._lu = None
         if not len(gamma):
             return
@@ -166,6 +168,12 @@ class Factorization:
                 except (sla.LinAlgWarning, ValueError) as exc:
                     raise SolverError(f"the Schur complement on the {len(gamma)} contact dofs from {self.name} "
                                       f"is singular: {exc}") from exc
+
+    @property
+    def cholesky(self):
+        """``scipy.linalg.cho_factor``'s factors of Sigma (None if Sigma is indefinite or there is no contact dof),
+        for the callers that solve with Sigma themselves (one copy of the factors per body)."""
+        return self._chol
 
     def schur_solve(self, r: np.ndarray) -> np.ndarray:
         """Sigma^{-1} r (dense Cholesky; LU if Sigma is indefinite)."""

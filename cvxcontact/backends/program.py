@@ -9,7 +9,8 @@ import cvxpy as cp
 
 from ..errors import SolverError
 
-__all__ = ["CLARABEL", "CLARABEL_BULK_CONES", "CLARABEL_CONIC", "CLARABEL_CONIC_PAIRS", "conic_options", "run_program", "timed_program"]
+__all__ = ["CLARABEL", "CLARABEL_BULK_CONES", "CLARABEL_CONIC", "CLARABEL_CONIC_PAIRS", "conic_options", "release",
+           "run_program", "timed_program"]
 
 CLARABEL = dict(tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10, tol_ktratio=1e-8)
 """Clarabel's tolerances for the package's programs (their answers are finished exactly where a finish applies)."""
@@ -83,3 +84,16 @@ def timed_program(problem: cp.Problem, settings, timings: dict, options: Mapping
     timings["compile"] = problem.compilation_time or 0.0
     timings["solve"] = problem.solver_stats.solve_time or 0.0
     return iterations
+
+
+def release(problem: cp.Problem) -> None:
+    """Free what CVXPY keeps of a solved ``problem`` for a later solve of the same problem: its compiled data
+    and the solver object (Clarabel's, with its KKT factors) held for warm starts. The values, the duals and
+    the status stay. For a program solved once whose answer a finish takes over: the condensed "gamma3"
+    interface program of two 3D bodies kept these through the finish (305,562 unknowns, the dense Sigma blocks
+    of 4,178 contact dofs: about 1 GB; benchmarks/results/bench_gamma3_scale.md)."""
+    cache = getattr(problem, "_cache", None)
+    if cache is not None and hasattr(cache, "invalidate"):
+        cache.invalidate()
+    if isinstance(getattr(problem, "_solver_cache", None), dict):
+        problem._solver_cache = {}

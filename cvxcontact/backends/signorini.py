@@ -17,7 +17,7 @@ from .finish import (Declined, Stop, force_displacements, independent_active_set
 from .full import mixed_kkt
 from .interface import condensation
 from .mixed import mixed_system, stacked, unstacked
-from .program import timed_program
+from .program import release, timed_program
 from .result import Finish, RawResult, Route
 
 __all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows"]
@@ -207,6 +207,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         slack = sum(parts) - g
         raw.active = ipm_active(parts, g, raw.y, force_displacements(problem.blocks, E, raw.y))
         raw.program = model.problem
+        release(model.problem)             # its compiled data and Clarabel's factors: not needed by the finish
         if settings.polish:
             out = finish(raw.active if dependent else lcp_start(compliance.W, d, raw.y, slack), raw.y)
             if isinstance(out, Declined):

@@ -243,7 +243,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     def factors():
         nonlocal Q, R
         if Q is None:
-            Q, R = (sla.qr(unit[passive].toarray().T, mode="economic") if passive   # economic: P's columns only
+            Q, R = (sla.qr(unit[passive].toarray().T, mode="economic", overwrite_a=True)  # P's columns only,
+                    if passive                                          # factorised in place (no copy)
                     else (np.zeros((len(touched), 0)), np.zeros((0, 0))))
 
     max_iter = 3 * m + 20 if max_iter is None else max_iter

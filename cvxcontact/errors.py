@@ -10,9 +10,10 @@ Below the errors, the immutability of built descriptions: :class:`Frozen` (objec
 :class:`FrozenError` that names what to build instead.
 """
 
-from collections.abc import Mapping
+from __future__ import annotations
 
-import numpy as np
+import sys
+from collections.abc import Mapping
 
 
 class CvxContactError(Exception):
@@ -115,6 +116,8 @@ def locked(a: np.ndarray) -> np.ndarray:
     ``setflags(write=True)`` (of it or of its ``base``) makes it writeable again, as it would an array that owns its
     data. A description edited in place would leave what was computed from it once (a mesh's areas, a prepared
     solver's loads) silently stale."""
+    import numpy as np                  # here, not at the top: ``cvxcontact --help`` must not load numpy
+
     shape = np.shape(a)
     a = np.ascontiguousarray(a)
     return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(shape)
@@ -122,7 +125,8 @@ def locked(a: np.ndarray) -> np.ndarray:
 
 def _relocked(v):
     """``v`` with the arrays in it (directly, or in a tuple or :class:`FrozenMap`) :func:`locked`."""
-    if isinstance(v, np.ndarray):
+    np = sys.modules.get("numpy")           # not imported at the top (see locked): unloaded, v is no array
+    if np is not None and isinstance(v, np.ndarray):
         return locked(v)
     if isinstance(v, FrozenMap):
         return FrozenMap({k: _relocked(x) for k, x in v.items()}, *v._edit)

@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from conftest import rel
-from test_bulk_energy import EXACT, NU, SIGMA_Y, E, H, indented
+from hencky_scenes import EXACT, NU, SIGMA_Y, E, H, indented
 
 import cvxcontact as cc
 from cvxcontact.backends import nonlinear

@@ -431,8 +431,13 @@ def _prescribed_values(k: int, prepared, body, fp: str) -> None:
     loads. Returns quietly otherwise (another difference, told by the caller)."""
     old, new = dict(getattr(prepared, "displacement", {})), dict(getattr(body, "displacement", {}))
     changed = sorted(t for t in new if t in old and new[t] != old[t])
-    if body is prepared or set(old) != set(new) or not changed \
-            or geometry_fingerprint(body.with_changes(displacement=old)) != fp:
+    if body is prepared or set(old) != set(new) or not changed:
+        return
+    try:
+        restored = geometry_fingerprint(body.with_changes(displacement=old))
+    except SceneError:                                   # the old values do not fit this body: other changes too
+        return
+    if restored != fp:
         return
 
     def show(v):

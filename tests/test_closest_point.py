@@ -4,6 +4,8 @@ d the unit direction from the node to q and c = -d, checked against brute force 
 and a local refinement by scipy), against an independent dense solve of the radial rows (tests/reference3d.py)
 and under a rigid rotation of the whole scene."""
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize
@@ -64,8 +66,12 @@ def test_circle_rows_are_the_closest_point_by_brute_force():
     angle = np.linspace(-np.pi, 0, 4001)[:, None]
     g, _ = check_rows(disc, x, nu, lambda p: centre + R * np.array([np.cos(p[0]), np.sin(p[0])]), angle,
                       [(-np.pi, 0)], lambda q: (q - centre) / R, 1e-12)   # measured 1.3e-13, 1.1e-16
-    # the closed form itself, by its definition
-    np.testing.assert_allclose(disc.distance(x, nu), np.linalg.norm(x - centre, axis=1) - R, rtol=1e-15, atol=0)
+    # the closed form itself, by its definition: |x - c| - R = (|x - c|^2 - R^2) / (|x - c| + R), the numerator
+    # exact in rationals (the subtraction |x - c| - R in floats is off by up to eps R: 4e-15 relative here)
+    exact = [float(sum((Fraction(a) - Fraction(b)) ** 2 for a, b in zip(p, centre)) - Fraction(R) ** 2)
+             / (np.linalg.norm(p - centre) + R) for p in x]
+    # the numerator in doubled precision: the rounding of the last few operations, <= ~5 eps (measured 2.3e-16)
+    np.testing.assert_allclose(disc.distance(x, nu), exact, rtol=2e-15, atol=0)
 
 
 def test_sphere_and_cylinder_rows_are_the_closest_point_by_brute_force():

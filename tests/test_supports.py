@@ -332,3 +332,22 @@ def test_a_foundation_with_no_unknown_of_its_own(lift, degree, condition):
         assert np.abs(sol.u[0] - ref.u[0]).max() <= 1e-12 * np.abs(ref.u[0]).max()
         scale = max(lift, np.abs(ref.u[0]).max())           # (P2: the midpoints of interior edges are free)
         assert np.abs(sol.u[1] - [0.0, lift]).max() <= 1e-12 * scale
+
+
+def test_prepared_solver_names_a_changed_prescribed_displacement():
+    """A prescribed displacement is part of a prepared ContactSolver: a new value is refused with a message
+    naming the body, the part, both values and what to do (not "mesh, material or boundary parts")."""
+    scene = _column(ALU)
+    solver = cc.ContactSolver(scene)
+    b1, b2 = scene.bodies
+    pushed = cc.Scene(b1, b2.with_changes(displacement={"top": (None, -2 * DELTA)}))
+    with pytest.raises(SceneError) as err:
+        solver.solve(pushed)
+    text = str(err.value)
+    assert "body 2" in text and "prescribed displacement" in text and "'top'" in text
+    assert "(free, -0.0001)" in text and "(free, -0.0002)" in text
+    assert "new ContactSolver" in text and "cc.solve" in text and "mesh, material" not in text
+    # another part prescribed is a changed structure, told as before
+    other = cc.Scene(b1, b2.with_changes(displacement={"top": (None, -DELTA)}, roller=["left"]))
+    with pytest.raises(SceneError, match="mesh, material or boundary parts"):
+        solver.solve(other)

@@ -226,8 +226,8 @@ class GapDeparture:
         that improves s is taken. A start has converged where the predicted gain g . y / 2 of a step of the
         unshifted (concave) system is below the rounding of s (then s there is its maximum to rounding: 16 eps of
         its terms' size, or, where no fraction improves s, the scatter of s over the shortest fractions, the
-        rounding of the gap's own evaluation, e.g. eps R of a sphere's |x - c| - R), or where the step is below
-        the rounding of the point; it has stalled where no fraction improves s before that."""
+        rounding of the gap's own evaluation, e.g. eps R of a user's distance that subtracts a radius R), or where
+        the step is below the rounding of the point; it has stalled where no fraction improves s before that."""
         eps = np.finfo(float).eps
         L, v = L.copy(), v.copy()
         k, c = L.shape
@@ -269,7 +269,7 @@ class GapDeparture:
             L[live[moved]] = cand[r, a][moved]
             v[live[moved]] = sc[r, a][moved]
             # the scatter of s over the shortest fractions (whose predicted change is below gain / 32): the
-            # rounding of the gap's own evaluation (e.g. |x - c| - R of a sphere, to rounding of R, not of g)
+            # rounding of the gap's own evaluation (e.g. a user's distance |x - c| - R, to rounding of R, not of g)
             scatter = np.abs(sc[:, LINE_SEARCH <= 1 / 64] - v[live][:, None]).max(axis=1)
             done = concave & (gain <= np.where(moved, rounding[live], np.maximum(rounding[live], scatter))) \
                 | (np.abs(d).max(axis=1) <= 4 * eps)

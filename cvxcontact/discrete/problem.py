@@ -470,6 +470,30 @@ def _structure(scene) -> tuple:
                  for m, c, itf in zip(scene.stack.members, scene.contacts, scene.interfaces))
 
 
+def _prescribed_values(k: int, prepared, body, fp: str) -> None:
+    """SceneError naming the part if ``body`` (k-th of the scene) differs from the ``prepared`` body (fingerprint
+    ``fp``) in the values of its prescribed displacements only: they are rows of the prepared problem, not
+    loads. Returns quietly otherwise (another difference, told by the caller)."""
+    old, new = dict(getattr(prepared, "displacement", {})), dict(getattr(body, "displacement", {}))
+    changed = sorted(t for t in new if t in old and new[t] != old[t])
+    if body is prepared or set(old) != set(new) or not changed:
+        return
+    try:
+        restored = geometry_fingerprint(body.with_changes(displacement=old))
+    except SceneError:                                   # the old values do not fit this body: other changes too
+        return
+    if restored != fp:
+        return
+
+    def show(v):
+        return "(" + ", ".join("free" if c is None else f"{c:.6g}" for c in v) + ")"
+
+    parts = "; ".join(f"part {t!r} from {show(old[t])} to {show(new[t])} m" for t in changed)
+    raise SceneError(f"body {k} ({body.name}): the prescribed displacement changed ({parts}); a prescribed "
+                     "displacement is built into a prepared ContactSolver (only loads may change between its "
+                     "solves): build a new ContactSolver for this scene, or solve it once with cc.solve(scene)")
+
+
 def _same_geometry(problem: DiscreteProblem, scene) -> None:
     """SceneError unless ``scene`` differs from ``problem.scene`` in its loads only."""
     if not isinstance(scene, Scene):
@@ -480,6 +504,7 @@ def _same_geometry(problem: DiscreteProblem, scene) -> None:
                          "only loads may change between solves of one ContactSolver")
     for k, (fp, b) in enumerate(zip(prints, scene.bodies), start=1):
         if geometry_fingerprint(b) != fp:
+            _prescribed_values(k, problem.scene.bodies[k - 1], b, fp)
             edited = any(b is a for a in problem.scene.bodies)
             raise SceneError(
                 f"body {k} ({b.name}): " + ("its mesh, material or boundary parts were changed in place after "

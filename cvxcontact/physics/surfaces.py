@@ -101,18 +101,18 @@ class _Ball(_Surface):
         self.describe = f"{kind}(center={_fmt(c)}, radius={R:.6g})"
 
     def ray(self, x, nu):
-        w = x - self.c
-        return _quadratic_hit(np.ones(len(w)), w @ nu, np.einsum("ij,ij->i", w, w) - self.R * self.R)
+        w, lo = _two_sum(x, -self.c)
+        return _quadratic_hit(np.ones(len(w)), w @ nu, _power(w, lo, self.R))
 
     def outward(self, q):
         return (q - self.c) / self.R
 
     def closest(self, x, nu):
-        w = x - self.c
+        w, lo = _two_sum(x, -self.c)
         r = np.linalg.norm(w, axis=1)
         centre = r == 0                                     # at the centre: straight out along -nu
         n_o = np.where(centre[:, None], -nu, w / np.where(centre, 1.0, r)[:, None])
-        return r - self.R, n_o
+        return _power(w, lo, self.R) / (r + self.R), n_o   # |w| - R without cancellation
 
     def closest_hessian(self, x, nu):
         g, n_o = self.closest(x, nu)
@@ -138,16 +138,18 @@ class _Cylinder(_Surface):
         return v - np.multiply.outer(v @ self.axis, self.axis)
 
     def ray(self, x, nu):
-        w, v = self.across(x - self.p), self.across(nu)
+        hi, lo = _two_sum(x, -self.p)
+        w, lo, v = self.across(hi), self.across(lo), self.across(nu)
         a = np.full(len(w), float(v @ v))
         a = np.where(a > 1e-24, a, 0.0)                     # a ray along the axis misses
-        return _quadratic_hit(a, w @ v, np.einsum("ij,ij->i", w, w) - self.R * self.R)
+        return _quadratic_hit(a, w @ v, _power(w, lo, self.R))
 
     def outward(self, q):
         return self.across(q - self.p) / self.R
 
     def closest(self, x, nu):
-        w = self.across(x - self.p)
+        hi, lo = _two_sum(x, -self.p)
+        w, lo = self.across(hi), self.across(lo)
         r = np.linalg.norm(w, axis=1)
         v = -self.across(nu)                                # on the axis: out along -nu across the axis
         on_axis = r == 0
@@ -156,8 +158,8 @@ class _Cylinder(_Surface):
             if np.linalg.norm(v) > 1e-12:
                 n_o[on_axis] = v / np.linalg.norm(v)
             else:                                           # a part normal along the axis, on the axis: none
-                r = np.where(on_axis, np.inf, r)
-        return r - self.R, n_o
+                return np.where(on_axis, np.inf, r - self.R), n_o
+        return _power(w, lo, self.R) / (r + self.R), n_o   # |w| - R without cancellation
 
     def closest_hessian(self, x, nu):
         g, n_o = self.closest(x, nu)
@@ -454,8 +456,42 @@ def _quadratic_hit(a, b, c):
     disc = b * b - a * c
     root = np.sqrt(np.maximum(disc, 0.0))
     hit = (disc >= 0) & (-b + root > 0) & (a > 0)     # the ray enters ahead or the node is inside
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(hit, (-b - root) / np.where(a > 0, a, 1.0), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):   # c / (-b + root) = (-b - root) / a, no cancellation
+        d = np.where(b <= 0, c / np.where(hit, -b + root, 1.0), (-b - root) / np.where(a > 0, a, 1.0))
+        return np.where(hit, d, np.inf)
+
+
+def _two_sum(a, b):
+    """(s, e) with s = fl(a + b) and a + b = s + e exactly (Knuth's TwoSum, elementwise)."""
+    s = a + b
+    t = s - a
+    return s, (a - (s - t)) + (b - t)
+
+
+def _two_product(a, b):
+    """(p, e) with p = fl(a b) and a b = p + e exactly (Dekker's TwoProduct, elementwise; |a|, |b| < 1e150)."""
+    def split(v):
+        t = 134217729.0 * v                                 # 2^27 + 1
+        hi = t - (t - v)
+        return hi, v - hi
+
+    p = a * b
+    (ah, al), (bh, bl) = split(a), split(b)
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _power(w, lo, R):
+    """|w + lo|^2 - R^2 (m^2) for the vectors (n, d) w + lo = x - c held exactly as a float w and its rounding
+    lo (:func:`_two_sum`): the squares summed in doubled precision (Ogita, Rump and Oishi's Sum2), so that a
+    point near a sphere of large radius R keeps its gap |x - c| - R = (|x - c|^2 - R^2) / (|x - c| + R) to
+    rounding of the gap, not of R (eps R: 2e-6 m at R = 1e10 m)."""
+    s, small = _two_product(np.asarray(R, float), -np.asarray(R, float))
+    s, small = np.full(len(w), float(s)), np.full(len(w), float(small))
+    for k in range(w.shape[1]):
+        p, e = _two_product(w[:, k], w[:, k])
+        s, t = _two_sum(s, p)
+        small = small + t + e
+    return s + (small + np.einsum("ij,ij->i", 2 * w + lo, lo))
 
 
 def _implicit_ray(g, grad_phi, hess_phi, nu):

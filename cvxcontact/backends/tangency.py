@@ -225,7 +225,8 @@ def _conforming(cells, force: dict, tol: float):
     carries such forces, and a sign test on the vertex rows drops and re-adds them in turn). A vertex shared by
     two segments of a run splits its force between them: along the run, each segment takes at its far vertex the
     least force its cone asks for (f1 >= f_mid^2 / (16 beta0) - f_mid / 4, smaller as beta0 grows), the next
-    segment the rest. Returns (points, covered): point forces (segment, t, y >= 0) reproducing the nodal forces
+    segment the rest (a loop: the start vertex's whole force to the first segment, none to the last; sound, not
+    the widest split). Returns (points, covered): point forces (segment, t, y >= 0) reproducing the nodal forces
     of every run whose forces lie in the cone (up to ``tol``), and the nodes of those runs."""
     whole = [s for s in range(len(cells)) if min(cells[s]) >= 0 and all(int(c) in force for c in cells[s])]
     ends: dict[int, list] = {}
@@ -246,6 +247,7 @@ def _conforming(cells, force: dict, tol: float):
             seen.add(s)
             run.append((s, v))
             v = int(cells[s, 2] if cells[s, 0] == v else cells[s, 0])
+        closed = v == v0                                 # a loop: v0's force went to the first segment
         pts, p, ok = [], force[v0], True
         for i, (s, a) in enumerate(run):
             far = int(cells[s, 2] if cells[s, 0] == a else cells[s, 0])
@@ -256,7 +258,7 @@ def _conforming(cells, force: dict, tol: float):
                 break
             fm, b0 = max(fm, 0.0), max(b0, 0.0)
             need = fm * fm / (16 * b0) - fm / 4 if b0 > 0 else (0.0 if fm <= tol else np.inf)
-            r = force[far] if i == len(run) - 1 else need
+            r = (0.0 if closed else force[far]) if i == len(run) - 1 else need
             if r < need - tol:
                 ok = False
                 break

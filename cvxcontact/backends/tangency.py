@@ -226,13 +226,20 @@ def _conforming(cells, force: dict, tol: float):
     two segments of a run splits its force between them: along the run, each segment takes at its far vertex the
     least force its cone asks for (f1 >= f_mid^2 / (16 beta0) - f_mid / 4, smaller as beta0 grows), the next
     segment the rest (a loop: the start vertex's whole force to the first segment, none to the last; sound, not
-    the widest split). Returns (points, covered): point forces (segment, t, y >= 0) reproducing the nodal forces
+    the widest split; a vertex of three or more segments: no run through it). Returns (points, covered): point forces (segment, t, y >= 0) reproducing the nodal forces
     of every run whose forces lie in the cone (up to ``tol``), and the nodes of those runs."""
     whole = [s for s in range(len(cells)) if min(cells[s]) >= 0 and all(int(c) in force for c in cells[s])]
     ends: dict[int, list] = {}
     for s in whole:
         for c in (cells[s, 0], cells[s, 2]):
             ends.setdefault(int(c), []).append(s)
+    branch = {v for v, ss in ends.items() if len(ss) > 2}     # a vertex of three segments: no run (sign test)
+    if branch:
+        whole = [s for s in whole if int(cells[s, 0]) not in branch and int(cells[s, 2]) not in branch]
+        ends = {}
+        for s in whole:
+            for c in (cells[s, 0], cells[s, 2]):
+                ends.setdefault(int(c), []).append(s)
     points, covered, seen = [], set(), set()
     starts = [v for v, ss in ends.items() if len(ss) == 1] + list(ends)      # path ends first (a loop: anywhere)
     for v0 in starts:

@@ -226,8 +226,9 @@ def _conforming(cells, force: dict, tol: float):
     two segments of a run splits its force between them: along the run, each segment takes at its far vertex the
     least force its cone asks for (f1 >= f_mid^2 / (16 beta0) - f_mid / 4, smaller as beta0 grows), the next
     segment the rest (a loop: the start vertex's whole force to the first segment, none to the last; sound, not
-    the widest split; a vertex of three or more segments: no run through it). Returns (points, covered): point forces (segment, t, y >= 0) reproducing the nodal forces
-    of every run whose forces lie in the cone (up to ``tol``), and the nodes of those runs."""
+    the widest split; a vertex of three or more segments: no run through it). Returns (points, covered): point
+    forces (segment, t, y >= 0) reproducing the nodal forces of every run whose forces lie in the cone (up to
+    ``tol``), and the nodes of those runs."""
     whole = [s for s in range(len(cells)) if min(cells[s]) >= 0 and all(int(c) in force for c in cells[s])]
     ends: dict[int, list] = {}
     for s in whole:

@@ -421,4 +421,3 @@ def test_a_segment_flat_to_the_finish_tolerance_is_a_whole_contact():
     assert _maximum(SEGMENT, rounding, (0, 1), flat=1e-11 * 3.9) is None
     m, L, _ = _maximum(SEGMENT, np.array([0.0, 1e-9, 0.0]), (0, 1), flat=1e-11 * 3.9)
     assert m == pytest.approx(5e-10, rel=1e-12) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
-

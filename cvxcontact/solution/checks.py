@@ -25,7 +25,7 @@ from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ip
                                node_scales, reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
-__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "closed_contact", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
 
@@ -121,6 +121,33 @@ def rows_active(slack, S, z, norms, Z):
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
 
 
+def cone_slack(blocks, u, g, r) -> tuple[np.ndarray, np.ndarray]:
+    """(q, U) at the nodes of X_h: the slack q = [u_h nu] - g of the P2 "everywhere" condition (docs/formulation.md
+    §8; <= 0 where admissible) and each node's displacement scale U_a: both bodies' |normal displacement| plus
+    |g_a| plus the displacement w_a |r_a| its own contact force produces (:func:`force_displacements`), floored
+    at 1e-9 of the largest (scaled units). ``r`` = B^T beta the nodal contact force on X_h."""
+    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
+    # plus the displacement each node's own contact force |r_a| produces (as for the nodal conditions,
+    # docs/checks.md): next to a clamped corner on a rigid floor (g = 0) nothing moves, and q there is
+    # rounding of the bodies' displacements (measured: complementarity 3.1e-3 without this term, 1.2e-6 with it)
+    U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def closed_contact(blocks, u, g, r, tol: float) -> np.ndarray:
+    """The nodes of X_h where the P2 "everywhere" condition is closed: the slack q_a = ([u_h nu] - g)_a reaches
+    0 within ``tol`` of the node's displacement scale U_a (:func:`cone_slack`), q_a >= -tol U_a, the relative
+    slack the feasibility check of :func:`conic_checks` accepts at ``tol`` on the other side (bool per node).
+
+    A function of the displacement alone: the Bernstein duals beta are not unique where a run of segments
+    touches (docs/formulation.md §8), so which segments carry a force depends on the route; where q closes
+    does not. An exact finish closes its touching nodes to rounding (|q_a| / U_a about 1e-16); a node beside a
+    tangency inside a segment, open by c h^2 U_a, is not active unless c h^2 <= ``tol`` (docs/formulation.md §8,
+    "Which nodes are active")."""
+    q, U = cone_slack(blocks, u, g, r)
+    return q >= -tol * U
+
+
 def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
@@ -151,14 +178,9 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, depart
         res = np.concatenate(blk.residual(uk, pk, r))
         m = np.concatenate(blk.magnitude(uk, pk, r))
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
-    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
-    # plus the displacement each node's own contact force |r_a| produces (as for the nodal conditions,
-    # docs/checks.md): next to a clamped corner on a rigid floor (g = 0) nothing moves, and q there is
-    # rounding of the bodies' displacements (measured: complementarity 3.1e-3 without this term, 1.2e-6 with it)
-    U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
-    U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
+    q, U = cone_slack(blocks, u, g, r)
     width = beta.shape[1]
-    b = (B @ (sum(parts) - g)).reshape(-1, width)
+    b = (B @ q).reshape(-1, width)
     Us = segment_scales(B, U, width)
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     cone = element(width).dual_cone_violation(beta)

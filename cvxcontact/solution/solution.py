@@ -30,8 +30,15 @@ class ContactResult:
 
     ``lam`` is lambda_h (Pa), ``jump`` is [u_h nu] (m), ``force`` the equivalent nodal
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
-    and ``active`` those among them that carry a positive force; ``line`` is the
-    ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
+    and ``active`` those among them that carry a positive force (the nodal rows: the rows the finish closes;
+    a normal-compliance law: the rows whose law presses); ``line`` is the ordinate of Gamma_3 (m), ``gap`` the
+    initial gap g at the nodes (m).
+
+    Under the P2 "everywhere" cones (2D segments, 3D copositive triangles) ``active`` is the closed-contact set
+    of the displacement: the constrained nodes where [u_h nu] - g reaches 0 within ``tol`` of the node's
+    displacement scale (:func:`cvxcontact.solution.checks.closed_contact`), whatever Bernstein duals the route
+    returned (they are not unique where runs of segments touch; docs/formulation.md §8, "Which nodes are
+    active"). A segment touching at an interior point only has no active node.
 
     For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
     tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to

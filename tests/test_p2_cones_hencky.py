@@ -72,7 +72,8 @@ def test_a_yielding_block_under_the_cones_is_finished_exactly_and_balances_26_27
     res = sol.residuals()
     assert sol.ok and res["equilibrium"] < 1e-11 and res["feasibility"] < 1e-13 and res["cone"] < 1e-13, res
     assert res["complementarity"] < 1e-6, res
-    assert sol.contact.active.any() and not sol.contact.active.all()
+    touching = sol.in_contact()        # the contact zone (at nx = 3 it touches inside segments: no node closes)
+    assert touching.any() and not touching.all()
 
 
 def test_the_condition_holds_between_the_nodes_where_the_nodal_one_penetrates(yielding):
@@ -88,10 +89,11 @@ def test_the_condition_holds_between_the_nodes_where_the_nodal_one_penetrates(yi
 
 def test_the_yielding_answer_is_not_the_linear_one(yielding):
     """The nonlinear branch is exercised: the answer differs from the linear material's (measured 0.77 in the lower
-    block's displacements, 0.44 in lambda_h), on as many active nodes (10) or more."""
+    block's displacements, 0.44 in lambda_h), on a contact zone as wide or wider (measured 13 nodes of 25 each; no
+    node closes to tol in either: both touch inside segments)."""
     linear = cc.solve(pressed(ALU), "gamma3", degree=2)
     assert linear.ok and rel(yielding.u[1], linear.u[1]) > 0.1 and rel(yielding.contact.lam, linear.contact.lam) > 0.1
-    assert yielding.contact.active.sum() >= linear.contact.active.sum()
+    assert yielding.in_contact().sum() >= linear.in_contact().sum()
 
 
 def test_the_interior_point_of_the_cvxpy_program_agrees_with_the_finish(yielding):

@@ -25,7 +25,7 @@ from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ip
                                node_scales, reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
-__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "closed_contact", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "touching_nodes", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
 
@@ -134,18 +134,30 @@ def cone_slack(blocks, u, g, r) -> tuple[np.ndarray, np.ndarray]:
     return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
 
 
-def closed_contact(blocks, u, g, r, tol: float) -> np.ndarray:
-    """The nodes of X_h where the P2 "everywhere" condition is closed: the slack q_a = ([u_h nu] - g)_a reaches
-    0 within ``tol`` of the node's displacement scale U_a (:func:`cone_slack`), q_a >= -tol U_a, the relative
-    slack the feasibility check of :func:`conic_checks` accepts at ``tol`` on the other side (bool per node).
+def touching_nodes(blocks, u, g, r, B, elements, tol: float, departure=None) -> np.ndarray:
+    """The nodes of X_h of the elements where the P2 "everywhere" condition closes somewhere (bool per node;
+    docs/formulation.md §8, "Which nodes are active").
 
-    A function of the displacement alone: the Bernstein duals beta are not unique where a run of segments
-    touches (docs/formulation.md §8), so which segments carry a force depends on the route; where q closes
-    does not. An exact finish closes its touching nodes to rounding (|q_a| / U_a about 1e-16); a node beside a
-    tangency inside a segment, open by c h^2 U_a, is not active unless c h^2 <= ``tol`` (docs/formulation.md §8,
-    "Which nodes are active")."""
+    Per element s of the cone (``elements`` (S, w) its nodes of X_h: a merged segment's 3, an overlay
+    triangle's 6; ``B`` (w S, n) the Bernstein map), with b_s the Bernstein coefficients of the slack
+    q = [u_h nu] - g (:func:`cone_slack`) and U_s the largest displacement scale of its nodes (as
+    :func:`conic_checks`): the element touches where its exact maximum reaches 0 within ``tol`` of U_s,
+    max_s q >= -tol U_s (:func:`bernstein_max`; against a curved rigid obstacle, ``departure``, the true slack
+    q_h - delta as the feasibility check reads it). Every node of a touching element is active.
+
+    A function of the displacement alone: the Bernstein duals beta are not unique where a run of elements
+    touches, so which elements carry a force depends on the route; where q closes does not. By elements, not
+    nodes: on a curved contact the bodies touch inside elements and the nodes beside the tangency are open
+    (by c h^2 U_a), so a node rule finds no contact at all (the Hertz cylinder at n = 16, the sphere at
+    n = 8). A closed node makes each of its elements touch, so the set contains every closed node."""
     q, U = cone_slack(blocks, u, g, r)
-    return q >= -tol * U
+    elements = np.asarray(elements)
+    width = elements.shape[1]
+    b = (B @ q).reshape(-1, width)
+    smax = bernstein_max(b) if departure is None else departure.argmax(b)[0]
+    on = np.zeros(len(q), dtype=bool)
+    on[elements[smax >= -tol * segment_scales(B, U, width)].ravel()] = True
+    return on
 
 
 def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None):

@@ -24,11 +24,11 @@ import scipy.sparse.linalg as spla
 from .checks import (
     ENERGY_ERROR,
     checks,
-    closed_contact,
     compliance_checks,
     conic_checks,
     energy_error,
     rigid_balance,
+    touching_nodes,
 )
 from .info import Route, SolveInfo, Status
 from .solution import ContactResult, Solution, _line, _pairs, electrodes
@@ -61,16 +61,16 @@ def read_back_cones(problem, raw, tol: float, timings) -> Solution:
     docs/formulation.md §8): ``raw.beta`` (S, 3) are the Bernstein duals of each merged segment, ``raw.y`` the
     nodal force r = B^T beta on X_h and M lambda_h = r; the cone's rows (B, segments) are ``problem.lines.cone``.
     Checks: :func:`~cvxcontact.solution.checks.conic_checks` (and the certified energy error where the route
-    computed one); the constrained nodes those B reads, the active ones those where the contact is closed
-    (:func:`~cvxcontact.solution.checks.closed_contact` at ``tol``: a function of the displacement alone, not of
-    the duals beta, which are not unique where runs of segments touch)."""
+    computed one); the constrained nodes those B reads, the active ones the nodes of the elements where the
+    contact closes somewhere (:func:`~cvxcontact.solution.checks.touching_nodes` at ``tol``: a function of the
+    displacement alone, not of the duals beta, which are not unique where runs of segments touch)."""
     blocks, E, gap, u, phi, beta = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi, raw.beta
-    B, _ = problem.lines.cone
+    B, elements = problem.lines.cone
     checks_ = conic_checks(blocks, u, phi, E.T @ raw.y, B, gap, beta, departure=problem.departure,
                            pairing=raw.pairing)
     if raw.certificate is not None:
         checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
-    on = _reads(B) & closed_contact(blocks, u, gap, raw.y, tol)       # the constrained nodes where q closes
+    on = _reads(B) & touching_nodes(blocks, u, gap, raw.y, B, elements, tol, departure=problem.departure)
     return _assembled(problem, raw, tol, timings, checks_, B, on)
 
 
@@ -223,13 +223,13 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     :func:`~cvxcontact.solution.checks.compliance_checks` (with the nodal limit rows' feasibility,
     complementarity and cone), and feasibility, complementarity and cone of the cones
     (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
-    ``active`` of a cone pair: its nodes where the cone is closed at the gap g + l
-    (:func:`~cvxcontact.solution.checks.closed_contact`, as :func:`read_back_cones`), and its rows with p(r) > 0."""
+    ``active`` of a cone pair: the nodes of its elements where the cone closes at the gap g + l
+    (:func:`~cvxcontact.solution.checks.touching_nodes`, as :func:`read_back_cones`), and its rows with p(r) > 0."""
     scene, _, blocks, _, un, E, gap, u, phi = _fields(problem, raw)
     law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
     sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
     scaled = law.scaled(un.stress * un.load, un.displacement)
-    B, _ = cone
+    B, elements = cone
     force = np.asarray(force, dtype=float)
     cone_checks = conic_checks(blocks, u, phi, E.T @ force, B, gap + E.T @ scaled.cone_shift, beta,
                                force_scale=float(np.abs(force).max(initial=0.0)))
@@ -239,7 +239,7 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - E @ gap
     p = scaled.pressure(r)
     zc = B.T @ beta.ravel()                                                    # the cones' force on X_h, scaled
-    on = _reads(B) & closed_contact(blocks, u, gap + E.T @ scaled.cone_shift, E.T @ force, tol)
+    on = _reads(B) & touching_nodes(blocks, u, gap + E.T @ scaled.cone_shift, E.T @ force, B, elements, tol)
     pairs, offsets = _pairs(scene, interface)
     rows_at = np.concatenate([[0], np.cumsum(law.counts)]).astype(int)
     contacts = []

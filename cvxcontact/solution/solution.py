@@ -34,11 +34,12 @@ class ContactResult:
     a normal-compliance law: the rows whose law presses); ``line`` is the ordinate of Gamma_3 (m), ``gap`` the
     initial gap g at the nodes (m).
 
-    Under the P2 "everywhere" cones (2D segments, 3D copositive triangles) ``active`` is the closed-contact set
-    of the displacement: the constrained nodes where [u_h nu] - g reaches 0 within ``tol`` of the node's
-    displacement scale (:func:`cvxcontact.solution.checks.closed_contact`), whatever Bernstein duals the route
-    returned (they are not unique where runs of segments touch; docs/formulation.md §8, "Which nodes are
-    active"). A segment touching at an interior point only has no active node.
+    Under the P2 "everywhere" cones (2D segments, 3D copositive triangles) ``active`` is a function of the
+    displacement: every node of the elements (merged segments, overlay triangles) where [u_h nu] - g reaches 0
+    within ``tol`` of the element's displacement scale somewhere on the element
+    (:func:`cvxcontact.solution.checks.touching_nodes`), whatever Bernstein duals the route returned (they are
+    not unique where runs of segments touch; docs/formulation.md §8, "Which nodes are active"). A curved contact
+    touches inside elements, its nodes open: they count as the nodes of a touching element.
 
     For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
     tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to

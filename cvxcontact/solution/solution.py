@@ -423,7 +423,7 @@ class Solution:
                          + (f" ({100 * share:.4g} % of the {'area' if self.scene.dim == 3 else 'length'})"
                             if share is not None else "")
                          + f"; {int(c.active.sum())} of {int(c.constrained.sum())} constrained nodes active "
-                           "(in closed contact)")
+                           "(in contact)")
         for e in self.electrodes:
             lines.append(f"  electrode {self.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
                          f"{e.potential:.6g} V, charge {e.charge:.6g} {charge}")

@@ -119,11 +119,11 @@ def test_hertz3d_coarse_rows():
     for degree, condition in ((1, "gamma3"), (2, "sigma1"), (2, "gamma3")):
         fresh, _ = solve_level(8, degree=degree, condition=condition)
         old = find(rows, degree=degree, condition=condition, n=8, size_a=fresh["size_a"])
-        # P2 "gamma3": the point forces on dependent rows are not unique, so neither is the count of nodes
-        # that carry them (measured 39, 42, 45 with the BLAS threads and the maximum search); the field and
-        # the touching points are (support_points compared)
-        skip = ("seconds", "resolves") + (("active_nodes",) if (degree, condition) == (2, "gamma3") else ())
-        agree(old, fresh, rel=1e-5, skip=skip, where=f"hertz3d P{degree} {condition}")
+        # P2 "gamma3": the point forces on dependent rows are not unique (the nodes of the triangles that carry
+        # them measured 39, 42, 45 with the BLAS threads and the maximum search); active_nodes counts the nodes
+        # of the triangles where the true slack closes somewhere, a function of the field (compared: 45, 16 of
+        # 32 triangles, which close to <= 7.6e-15 of their scale, the nearest open by 5.2e-5, tol = 1e-6)
+        agree(old, fresh, rel=1e-5, skip=("seconds", "resolves"), where=f"hertz3d P{degree} {condition}")
 
 
 def test_hertz3d_elastic_coarse_rows():
@@ -137,6 +137,8 @@ def test_hertz3d_elastic_coarse_rows():
     rows = committed("hertz3d_elastic", "hertz3d_elastic_profile")
     for degree, condition in ((1, "sigma1"), (1, "gamma3"), (2, "sigma1"), (2, "gamma3")):
         fresh, _ = solve_profile_level(8, degree=degree, condition=condition)
+        # P2 "gamma3": active_nodes the nodes of the triangles where the slack closes (39: 14 of 32 triangles,
+        # closed to <= 1e-16 of their scale, the nearest open by 5.3e-6 against tol = 1e-6)
         agree(find(rows, degree=degree, condition=condition, n=8), fresh, rel=1e-5, skip=("seconds", "resolves"),
               where=f"profile P{degree} {condition}")
 

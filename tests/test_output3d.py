@@ -326,4 +326,4 @@ def test_full_contact_under_gamma3_on_non_matching_faces_is_the_whole_face():
     assert pair["contact_zone_nodes"] == len(c.x) and pair["contact_zone_fraction"] == pytest.approx(1.0, abs=1e-12)
     line = next(ln for ln in sol.report().splitlines() if ln.startswith("  contact[0]"))
     assert f"pressure > 0 at {len(c.x)} of {len(c.x)} nodes (100 % of the area)" in line
-    assert f"{int(c.active.sum())} of {len(c.x)} constrained nodes active (carry a force)" in line
+    assert f"{int(c.active.sum())} of {len(c.x)} constrained nodes active (in contact)" in line

@@ -24,6 +24,11 @@ tangential translation lacks. The active structure comes from the interior point
 corrected in an outer loop (a negative multiplier leaves, a violated element enters, a maximiser leaving its
 sub-simplex moves to the sub-face). Quadratic convergence: from the interior point's answer (~1e-8) two to
 four steps reach rounding.
+
+A run of P2 segments in contact along their whole length (a body that conforms to the other, a whole line in
+contact) carries its force as a measure on each segment: its nodal forces are read through the dual cone, a shared
+vertex's force split between its segments (:func:`_conforming`), not by their signs (a vertex of such a run may carry
+a negative nodal force: read as a sign test, the structure dropped and re-added it round after round).
 """
 
 from __future__ import annotations
@@ -208,6 +213,78 @@ def _cells(B, w: int) -> np.ndarray:
     return cells.reshape(-1, w)
 
 
+def _conforming(cells, force: dict, tol: float):
+    """The runs of P2 segments in contact along their whole length (rows at their three nodes, ``cells`` (S, 3))
+    with the nodal forces ``force`` (node -> multiplier of its row) as point forces, and the nodes they cover.
+
+    On a segment in full contact the condition's force is a measure on the segment, not one per node: its
+    Bernstein duals beta = T^-T f of the nodal forces f = (f0, f_mid, f1) (T ``to_bernstein``: beta0 = f0 +
+    f_mid / 4, beta1 = f_mid / 2, beta2 = f1 + f_mid / 4) must lie in the dual cone beta0, beta2 >= 0,
+    beta1 >= 0, beta1^2 <= 4 beta0 beta2 (docs/formulation.md §8), and a vertex's force may be negative (a point
+    force at t in (1/2, 1) reads (1 - t) (1 - 2 t) < 0 at the start vertex: a body that conforms along segments
+    carries such forces, and a sign test on the vertex rows drops and re-adds them in turn). A vertex shared by
+    two segments of a run splits its force between them: along the run, each segment takes at its far vertex the
+    least force its cone asks for (f1 >= f_mid^2 / (16 beta0) - f_mid / 4, smaller as beta0 grows), the next
+    segment the rest (a loop: the start vertex's whole force to the first segment, none to the last; sound, not
+    the widest split; a vertex of three or more segments: no run through it). Returns (points, covered): point
+    forces (segment, t, y >= 0) reproducing the nodal forces of every run whose forces lie in the cone (up to
+    ``tol``), and the nodes of those runs."""
+    whole = [s for s in range(len(cells)) if min(cells[s]) >= 0 and all(int(c) in force for c in cells[s])]
+    ends: dict[int, list] = {}
+    for s in whole:
+        for c in (cells[s, 0], cells[s, 2]):
+            ends.setdefault(int(c), []).append(s)
+    branch = {v for v, ss in ends.items() if len(ss) > 2}     # a vertex of three segments: no run (sign test)
+    if branch:
+        whole = [s for s in whole if int(cells[s, 0]) not in branch and int(cells[s, 2]) not in branch]
+        ends = {}
+        for s in whole:
+            for c in (cells[s, 0], cells[s, 2]):
+                ends.setdefault(int(c), []).append(s)
+    points, covered, seen = [], set(), set()
+    starts = [v for v, ss in ends.items() if len(ss) == 1] + list(ends)      # path ends first (a loop: anywhere)
+    for v0 in starts:
+        if all(s in seen for s in ends[v0]):
+            continue
+        run, v = [], v0                                  # (segment, its node at the run's start) along the run
+        while True:
+            nxt = [s for s in ends[v] if s not in seen]
+            if not nxt:
+                break
+            s = nxt[0]
+            seen.add(s)
+            run.append((s, v))
+            v = int(cells[s, 2] if cells[s, 0] == v else cells[s, 0])
+        closed = v == v0                                 # a loop: v0's force went to the first segment
+        pts, p, ok = [], force[v0], True
+        for i, (s, a) in enumerate(run):
+            far = int(cells[s, 2] if cells[s, 0] == a else cells[s, 0])
+            fm = force[int(cells[s, 1])]
+            b0 = p + fm / 4
+            if fm < -tol or b0 < -tol:
+                ok = False
+                break
+            fm, b0 = max(fm, 0.0), max(b0, 0.0)
+            need = fm * fm / (16 * b0) - fm / 4 if b0 > 0 else (0.0 if fm <= tol else np.inf)
+            r = (0.0 if closed else force[far]) if i == len(run) - 1 else need
+            if r < need - tol:
+                ok = False
+                break
+            b2, b1 = max(r + fm / 4, 0.0), fm / 2
+            b1 = min(b1, 2 * np.sqrt(b0 * b2))          # within ``tol`` of the cone: onto it
+            if b1 > 0:                                   # Z = a e0 e0^T + c e1 e1^T + y L L^T, L = (1 - t, t)
+                t = np.sqrt(b2) / (np.sqrt(b0) + np.sqrt(b2))
+                y = b1 / (2 * t * (1 - t))
+                b0, b2 = max(b0 - y * (1 - t) ** 2, 0.0), max(b2 - y * t * t, 0.0)
+                pts.append((s, t if cells[s, 0] == a else 1 - t, y))
+            pts += [(s, 0.0 if cells[s, 0] == a else 1.0, b0), (s, 1.0 if cells[s, 0] == a else 0.0, b2)]
+            p = force[far] - r
+        if ok:
+            points += pts
+            covered.update(int(c) for s, _ in run for c in cells[s])
+    return points, covered
+
+
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
                     max_steps: int = 40, max_rounds: int = 10, departure=None, points=None, energy=None):
@@ -332,6 +409,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
     x = np.asarray(x0, dtype=float).copy()
     for rounds in range(1, max_rounds + 1):
+        while touching := [c for c in tangencies if any(v in vertices for v in c)]:
+            for c in touching:                    # a vertex row added beside a tangency: the contact covers I
+                s, I, _ = tangencies.pop(c)       # (a concave q touching 0 inside I and at its vertex: add())
+                whole(s, I)
         vnodes = np.array(sorted(vertices), dtype=int)
         lrows = np.array(sorted(limits), dtype=int)
         tkeys = list(tangencies)
@@ -339,7 +420,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         Gl, gl = G[lrows], g[lrows] + lim[lrows]
         lam_lin = np.r_[[vertices[v] for v in vnodes], [limits[a] for a in lrows]]
         mu = np.array([tangencies[c][2] for c in tkeys])
-        why, pen, last, last_res, flat, drop = None, None, np.inf, np.inf, None, []
+        why, pen, last, last_res, flat, drop = None, None, np.inf, np.inf, [], []
         for step_no in range(max_steps):
             rows, vals, hess = [], [], sp.csr_matrix((n, n))
             points = []
@@ -351,8 +432,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
                                None if departure is None else (lambda L, s=s: departure.curvature(s, L)),
                                start=where.get(c), flat=flats[s])
                 if out is None:              # q flat or convex along I: the contact covers I (next round)
-                    flat = (c, s, I)
-                    break
+                    flat.append((c, s, I))   # all of them at once: a conforming body flattens many segments
+                    continue
                 m, L, M = out
                 where[c] = L
                 phi = shape.basis(L[None, :] if w == 6 else L[None, 1])[0]
@@ -384,6 +465,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             r2 = np.r_[Gv @ x - gv, Gl @ x - gl, np.array(vals)]
             K = sp.bmat([[At + hess + G.T @ sp.diags(stiff) @ G, C.T], [C, None]], format="csc") if C.shape[0] \
                 else (At + hess + G.T @ sp.diags(stiff) @ G).tocsc()
+            if C.shape[0] > n:   # a whole merged line in contact: K structurally singular (SuperLU crashed on it)
+                why = Declined(Stop.SINGULAR, f"the Newton system is singular: {C.shape[0]} contact rows on {n} "
+                                              "unknowns")
+                break
             try:
                 dz = dense_or_sparse_lu(K).solve(-np.r_[r1, r2])
             except RuntimeError:
@@ -415,8 +500,9 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         if why:
             return why
         if flat:
-            del tangencies[flat[0]]
-            whole(flat[1], flat[2])
+            for c, s, I in flat:
+                del tangencies[c]
+                whole(s, I)
             continue
         if drop:
             for i in drop:
@@ -427,9 +513,10 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         y, zl = lam_lin[:len(vnodes)], lam_lin[len(vnodes):]
         fscale = max(np.abs(np.r_[lam_lin, mu, force]).max(initial=0.0), np.finfo(float).tiny)
         changed = False
+        spread, runs = _conforming(cells, dict(zip(vnodes.tolist(), y)), 1e-12 * fscale) if w == 3 else ([], set())
         for table, keys, values in ((vertices, vnodes, y), (limits, lrows, zl)):
             for a, v in zip(keys, values):
-                if v < -1e-12 * fscale:
+                if v < -1e-12 * fscale and not (table is vertices and int(a) in runs):
                     del table[int(a)]
                     changed = True
                 else:
@@ -469,8 +556,12 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     nodes = shape.nodes if w == 6 else np.column_stack([1 - shape.nodes, shape.nodes])
     seg, pts, yk = [], [], []
     for v, yv in zip(vnodes, y):
+        if int(v) in runs:                        # a run in full contact: its forces as measures (_conforming)
+            continue
         s, i = first[int(v)]
         seg.append(s), pts.append(nodes[i]), yk.append(yv)
+    for s, ts, ys in spread:
+        seg.append(s), pts.append(np.array([1 - ts, ts])), yk.append(ys)
     for m_c, (s, L) in zip(mu, points):
         seg.append(s), pts.append(L), yk.append(m_c)
     seg = np.array(seg, dtype=int)
@@ -481,7 +572,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     z[lrows] = np.maximum(zl, 0.0)
     nodal, active = point_read_back(B, seg, t, yk, yk > 0)
     active |= (z > 0) | (force > 0)
-    return dict(x=x, segment=seg, t=t, y=yk, beta=point_duals(S, seg, t, yk), z=z, active=active, rounds=rounds,
-                violation=float(rel.max(initial=0.0)), nodal=nodal, pressure=force,
-                pairing=None if departure is None else departure.pairing(S, seg, t, yk))
+    return {"x": x, "segment": seg, "t": t, "y": yk, "beta": point_duals(S, seg, t, yk), "z": z, "active": active,
+            "rounds": rounds, "violation": float(rel.max(initial=0.0)), "nodal": nodal, "pressure": force,
+            "pairing": None if departure is None else departure.pairing(S, seg, t, yk)}
 

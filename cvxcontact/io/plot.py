@@ -429,7 +429,7 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
         fig.colorbar(shown, ax=ax, label=r"opening $g - [u_\nu]$", format=eng("m"), shrink=0.9)
         zone_nodes, share = _zone_words(sol, i)
         ax.set_title(f"{label}: pressure > 0 at {zone_nodes} of {len(c.x)} nodes{share},\n"
-                     f"{int(c.active.sum())} active (carry a force)"
+                     f"{int(c.active.sum())} active (in contact)"
                      + (f"\nopening at rounding ({small:.0e} m), drawn as 0" if small is not None else ""), fontsize=9)
         for ax in axes[r, :len(sides)].tolist() + [axes[r, 2]]:
             for seg in zone:

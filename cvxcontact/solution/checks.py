@@ -25,7 +25,7 @@ from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ip
                                node_scales, reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
-__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "touching_nodes", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
            "obstacle_balance"]
 
@@ -128,6 +128,45 @@ def rows_active(slack, S, z, norms, Z):
     return z * norms / max(float(Z), np.finfo(float).tiny) > np.abs(slack) / S
 
 
+def cone_slack(blocks, u, g, r) -> tuple[np.ndarray, np.ndarray]:
+    """(q, U) at the nodes of X_h: the slack q = [u_h nu] - g of the P2 "everywhere" condition (docs/formulation.md
+    §8; <= 0 where admissible) and each node's displacement scale U_a: both bodies' |normal displacement| plus
+    |g_a| plus the displacement w_a |r_a| its own contact force produces (:func:`force_displacements`), floored
+    at 1e-9 of the largest (scaled units). ``r`` = B^T beta the nodal contact force on X_h."""
+    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
+    # plus the displacement each node's own contact force |r_a| produces (as for the nodal conditions,
+    # docs/checks.md): next to a clamped corner on a rigid floor (g = 0) nothing moves, and q there is
+    # rounding of the bodies' displacements (measured: complementarity 3.1e-3 without this term, 1.2e-6 with it)
+    U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
+    return sum(parts) - g, np.maximum(U, 1e-9 * U.max(initial=0.0) + np.finfo(float).tiny)
+
+
+def touching_nodes(blocks, u, g, r, B, elements, tol: float, departure=None) -> np.ndarray:
+    """The nodes of X_h of the elements where the P2 "everywhere" condition closes somewhere (bool per node;
+    docs/formulation.md §8, "Which nodes are active").
+
+    Per element s of the cone (``elements`` (S, w) its nodes of X_h: a merged segment's 3, an overlay
+    triangle's 6; ``B`` (w S, n) the Bernstein map), with b_s the Bernstein coefficients of the slack
+    q = [u_h nu] - g (:func:`cone_slack`) and U_s the largest displacement scale of its nodes (as
+    :func:`conic_checks`): the element touches where its exact maximum reaches 0 within ``tol`` of U_s,
+    max_s q >= -tol U_s (:func:`bernstein_max`; against a curved rigid obstacle, ``departure``, the true slack
+    q_h - delta as the feasibility check reads it). Every node of a touching element is active.
+
+    A function of the displacement alone: the Bernstein duals beta are not unique where a run of elements
+    touches, so which elements carry a force depends on the route; where q closes does not. By elements, not
+    nodes: on a curved contact the bodies touch inside elements and the nodes beside the tangency are open
+    (by c h^2 U_a), so a node rule finds no contact at all (the Hertz cylinder at n = 16, the sphere at
+    n = 8). A closed node makes each of its elements touch, so the set contains every closed node."""
+    q, U = cone_slack(blocks, u, g, r)
+    elements = np.asarray(elements)
+    width = elements.shape[1]
+    b = (B @ q).reshape(-1, width)
+    smax = bernstein_max(b) if departure is None else departure.argmax(b)[0]
+    on = np.zeros(len(q), dtype=bool)
+    on[elements[smax >= -tol * segment_scales(B, U, width)].ravel()] = True
+    return on
+
+
 def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
@@ -158,14 +197,9 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, depart
         res = np.concatenate(blk.residual(uk, pk, r))
         m = np.concatenate(blk.magnitude(uk, pk, r))
         equilibrium = max(equilibrium, float(np.linalg.norm(res) / max(np.linalg.norm(m), tiny)))
-    parts = [blk.jump @ uk for blk, uk in zip(blocks, u)]
-    # plus the displacement each node's own contact force |r_a| produces (as for the nodal conditions,
-    # docs/checks.md): next to a clamped corner on a rigid floor (g = 0) nothing moves, and q there is
-    # rounding of the bodies' displacements (measured: complementarity 3.1e-3 without this term, 1.2e-6 with it)
-    U = sum(np.abs(p) for p in parts) + np.abs(g) + force_displacements(blocks, sp.identity(len(g), format="csr"), r)
-    U = np.maximum(U, 1e-9 * U.max(initial=0.0) + tiny)
+    q, U = cone_slack(blocks, u, g, r)
     width = beta.shape[1]
-    b = (B @ (sum(parts) - g)).reshape(-1, width)
+    b = (B @ q).reshape(-1, width)
     Us = segment_scales(B, U, width)
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     cone = element(width).dual_cone_violation(beta)

@@ -22,7 +22,15 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from ..backends.finish.forces import RowReach
-from .checks import ENERGY_ERROR, checks, compliance_checks, conic_checks, energy_error, rigid_balance
+from .checks import (
+    ENERGY_ERROR,
+    checks,
+    compliance_checks,
+    conic_checks,
+    energy_error,
+    rigid_balance,
+    touching_nodes,
+)
 from .info import Route, SolveInfo, Status
 from .solution import ContactResult, Solution, _line, _pairs, electrode_rows, electrodes
 
@@ -55,18 +63,22 @@ def read_back_cones(problem, raw, tol: float, timings) -> Solution:
     docs/formulation.md §8): ``raw.beta`` (S, 3) are the Bernstein duals of each merged segment, ``raw.y`` the
     nodal force r = B^T beta on X_h and M lambda_h = r; the cone's rows (B, segments) are ``problem.lines.cone``.
     Checks: :func:`~cvxcontact.solution.checks.conic_checks` (and the certified energy error where the route
-    computed one); the constrained nodes those B reads, the active ones the nodes of segments that carry a
-    force."""
+    computed one); the constrained nodes those B reads, the active ones the nodes of the elements where the
+    contact closes somewhere (:func:`~cvxcontact.solution.checks.touching_nodes` at ``tol``: a function of the
+    displacement alone, not of the duals beta, which are not unique where runs of segments touch)."""
     blocks, E, gap, u, phi, beta = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi, raw.beta
-    B, segments = problem.lines.cone
+    B, elements = problem.lines.cone
     checks_ = conic_checks(blocks, u, phi, E.T @ raw.y, B, gap, beta, departure=problem.departure,
                            pairing=raw.pairing)
     if raw.certificate is not None:
         checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
-    carrying = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
-    on = np.zeros(problem.interface.size, dtype=bool)
-    on[carrying.ravel()] = True              # the nodes of segments that carry a force
+    on = _reads(B) & touching_nodes(blocks, u, gap, raw.y, B, elements, tol, departure=problem.departure)
     return _assembled(problem, raw, tol, timings, checks_, B, on)
+
+
+def _reads(rows) -> np.ndarray:
+    """The columns (nodes) the sparse ``rows`` read (bool per column)."""
+    return np.asarray(abs(rows).sum(axis=0)).ravel() > 0
 
 
 def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) -> Solution:
@@ -98,8 +110,7 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
             phi_si.append(None)
             continue
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
-    constrained = np.zeros(itf.size, dtype=bool)
-    constrained[np.flatnonzero(np.asarray(abs(support).sum(axis=0)).ravel() > 0)] = True   # the rows' nodes
+    constrained = _reads(support)                                                        # the rows' nodes
     contacts = []
     pairs, offsets = _pairs(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
@@ -216,12 +227,13 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     :func:`~cvxcontact.solution.checks.compliance_checks` (with the nodal limit rows' feasibility,
     complementarity and cone), and feasibility, complementarity and cone of the cones
     (:func:`~cvxcontact.solution.checks.conic_checks`, at the gap g + l), the worse of both reported.
-    ``active`` of a cone pair: the nodes of its segments that carry a force, and its rows with p(r) > 0."""
+    ``active`` of a cone pair: the nodes of its elements where the cone closes at the gap g + l
+    (:func:`~cvxcontact.solution.checks.touching_nodes`, as :func:`read_back_cones`), and its rows with p(r) > 0."""
     scene, _, blocks, _, un, E, gap, u, phi = _fields(problem, raw)
     law, interface, cone, beta, force = problem.rows, problem.interface, problem.lines.mixed_bernstein, raw.beta, raw.y
     sol = read_back_compliance(problem, raw, tol, timings, polished=raw.polished)     # polished: §18's finish
     scaled = law.scaled(un.stress * un.load, un.displacement)
-    B, segments = cone
+    B, elements = cone
     force = np.asarray(force, dtype=float)
     cone_checks = conic_checks(blocks, u, phi, E.T @ force, B, gap + E.T @ scaled.cone_shift, beta,
                                force_scale=float(np.abs(force).max(initial=0.0)))
@@ -231,9 +243,7 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - E @ gap
     p = scaled.pressure(r)
     zc = B.T @ beta.ravel()                                                    # the cones' force on X_h, scaled
-    carries = segments[beta.sum(axis=1) > 1e-6 * max(float(np.abs(beta).max(initial=0.0)), 1e-300)]
-    on = np.zeros(len(gap), dtype=bool)
-    on[carries.ravel()] = True
+    on = _reads(B) & touching_nodes(blocks, u, gap + E.T @ scaled.cone_shift, E.T @ force, B, elements, tol)
     pairs, offsets = _pairs(scene, interface)
     rows_at = np.concatenate([[0], np.cumsum(law.counts)]).astype(int)
     contacts = []

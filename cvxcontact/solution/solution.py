@@ -30,8 +30,16 @@ class ContactResult:
 
     ``lam`` is lambda_h (Pa), ``jump`` is [u_h nu] (m), ``force`` the equivalent nodal
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
-    and ``active`` those among them that carry a positive force; ``line`` is the
-    ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
+    and ``active`` those among them that carry a positive force (the nodal rows: the rows the finish closes;
+    a normal-compliance law: the rows whose law presses); ``line`` is the ordinate of Gamma_3 (m), ``gap`` the
+    initial gap g at the nodes (m).
+
+    Under the P2 "everywhere" cones (2D segments, 3D copositive triangles) ``active`` is a function of the
+    displacement: every node of the elements (merged segments, overlay triangles) where [u_h nu] - g reaches 0
+    within ``tol`` of the element's displacement scale somewhere on the element
+    (:func:`cvxcontact.solution.checks.touching_nodes`), whatever Bernstein duals the route returned (they are
+    not unique where runs of segments touch; docs/formulation.md §8, "Which nodes are active"). A curved contact
+    touches inside elements, its nodes open: they count as the nodes of a touching element.
 
     For a pair in any direction, ``x`` is the tangential coordinate s = x . t (m) along the pair's
     tangent t (:func:`cvxcontact.contact.interface.canonical_tangent`; s = x1 for a line parallel to
@@ -434,7 +442,7 @@ class Solution:
                          + (f" ({100 * share:.4g} % of the {'area' if self.scene.dim == 3 else 'length'})"
                             if share is not None else "")
                          + f"; {int(c.active.sum())} of {int(c.constrained.sum())} constrained nodes active "
-                           "(carry a force)")
+                           "(in contact)")
         for e in self.electrodes:
             lines.append(f"  electrode {self.scene.bodies[e.body].name}/{e.tag} ({e.kind}): potential "
                          f"{e.potential:.6g} V, charge {e.charge:.6g} {charge}")

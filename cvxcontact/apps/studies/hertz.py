@@ -121,7 +121,7 @@ def level(degree, n):
     a, p0 = hertz(P, R, e_star(*STEEL, *ALU))
     a_h, p0_h = half_width(c), float(sol.traction(0)[1].max())
     xv = c.trace.vertices(c.x)                                  # merged vertices
-    h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if c.active.any() else float("nan")
+    h = float(np.diff(xv)[np.abs(xv[:-1]) <= a].max()) if P > 0 else float("nan")
     dofs = sum(3 * len(p) if ph is not None else 2 * len(p) for p, ph in zip(sol.points, sol.phi))
     return dict(degree=degree, n=n, dofs=dofs, h_contact_m=h, load_N_per_m=P, a_m=a, a_h_m=a_h,
                 a_rel_error=a_h / a - 1, p0_Pa=p0, p0_h_Pa=p0_h, p0_rel_error=p0_h / p0 - 1,

@@ -320,6 +320,33 @@ def test_nnls_exchanges_a_dependent_column_whose_slack_is_no_rounding():
     assert w.max() < 1e-14 and np.abs(w[y > 0]).max() < 1e-14
 
 
+def test_nnls_does_not_exchange_a_duplicate_column_on_the_dual_s_rounding():
+    """Column 2 repeats column 0 with the same constant (a point row added twice: the P2 Hertz study at n = 256),
+    and ``dual`` (the slack by another route) reads 1e-13 on the columns outside the passive set, rounding
+    above EXCHANGE_TOL (1e-14) of their scale 1. The exchange's true gain c_2 - c_0 is 0: column 2 is left out
+    as dependent. Before, columns 0 and 2 were exchanged back and forth until max_iter (None)."""
+    from cvxcontact.backends.cuts import nnls_warm
+
+    A, b, c = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 0.0]]), np.array([1.0, 1.0]), np.full(3, 0.1)
+    calls = []
+
+    def dual(y):
+        calls.append(1)
+        w = A.T @ (b - A @ y) + c
+        return w + 1e-13 * (y == 0)
+
+    out = nnls_warm(A, b, np.array([1.0, 1.0, 0.0]), lambda y: np.ones(3), c, dual=dual)
+    assert out is not None
+    y, passive = out
+    # min 1/2 |A y - b|^2 - c.y: A y = b + (c_0, c_1) = (1.1, 1.1) (closed form), the split of 1.1 over the two
+    # copies free; from the warm start all of it on column 0
+    np.testing.assert_allclose(A @ y, [1.1, 1.1], rtol=1e-14)
+    assert y[2] == 0.0 and list(passive) == [True, True, False]
+    w = A.T @ (b - A @ y) + c                                      # KKT: w = 0 on every column (all in the span)
+    assert np.abs(w).max() < 1e-14
+    assert len(calls) <= 3                                         # measured 2 (max_iter 19 before)
+
+
 def test_a_cone_that_carries_nothing_next_to_a_compliance_law_is_finished():
     """A layer held by the contact through compliance (m = 2) with a P2 conic limit at 3x the free
     penetration (the limit does not bind, non-matching 3 : 4 meshes): the cones' Bernstein duals are the

@@ -236,8 +236,9 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
     set. The least squares on the passive set P closes its rows, A_P^T A_P z = A_P^T b + c_P, i.e.
     R z = Q^T b + R^-T c_P. The passive columns stay linearly independent (a column enters only with w_j > 0;
     one that rounding alone made positive while it lies in their span, a vanishing new pivot of R, is left
-    out; one in their span whose w_j exceeds :data:`EXCHANGE_TOL` of its scale, a constant no combination of
-    theirs gives, replaces one of them, :func:`_exchange`), which is what the point rows need: more points than
+    out; one in their span, A_j = A_P z, whose slack there c_j - c_P . z (from the constants, not the rounding
+    of ``dual``) exceeds :data:`EXCHANGE_TOL` of its scale, a constant no combination of theirs gives, replaces
+    one of them, :func:`_exchange`), which is what the point rows need: more points than
     nodes, the forces not unique, the slack unique. ``dual(y)``: the same w computed another way (e.g. cheaper than A^T (A y)).
     ``carry`` (a dict): the passive columns and their QR factors at the return, kept there; a later call whose
     ``A`` has the same first columns (more columns appended: the next round of cuts) and whose warm start is
@@ -325,16 +326,22 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
         # no room (p >= n): every candidate lies in the passive span
         first = len(cand) if p >= n else _first_independent(Q[:, p:], A, cand)
         if first and has_c and w[cand[0]] > EXCHANGE_TOL * S[cand[0]]:
-            # the best column lies in the passive span but its slack is no rounding: its constant differs from
-            # the passive ones' combination (a true gap's departure), so it replaces one of them (an exchange)
-            y = _exchange(Q, R, A, passive, y, int(cand[0]))
-            if y is None:
-                return None
-            Q, R = sla.qr(A[:, passive])
-            y = settle(y)
-            if y is None:
-                return None
-            continue
+            # the best column lies in the passive span (A_j = A_P z); at the passive least-squares point its
+            # slack is w_j = c_j - c_P . z, read from the constants alone (the w of ``dual`` carries the
+            # rounding of its own route: a duplicate point row, z = e_k and c_j = c_k, showed w_j = 2.4e-14
+            # of its scale on both copies, exchanged back and forth 2400 times). A true gain means the constant
+            # differs from the passive ones' combination (a true gap's departure): it replaces one of them
+            j = int(cand[0])
+            z = _span_coefficients(Q, R, A, len(passive), j)
+            if c[j] - c[passive] @ z > EXCHANGE_TOL * S[j]:
+                y = _exchange(passive, y, j, z)
+                if y is None:
+                    return None
+                Q, R = sla.qr(A[:, passive])
+                y = settle(y)
+                if y is None:
+                    return None
+                continue
         dependent[cand[:first]] = True                # in the span of the passive columns: rounding made w_j > 0
         if first == len(cand):
             continue
@@ -363,14 +370,19 @@ EXCHANGE_TOL = 1e-2 * STALL_TOL
 exchanged for a passive column (:func:`nnls_warm`, with a constant ``c``)."""
 
 
-def _exchange(Q, R, A, passive: list, y, j: int):
-    """One exchange step of :func:`nnls_warm` for column ``j`` of ``A`` in the span of the passive columns
-    (``A_P z = A_j``, ``Q R`` their factors): along ``y_j += theta``, ``y_P -= theta z`` the residual A y does not
-    change and the objective falls by ``theta w_j``; ``theta`` is the largest step keeping ``y >= 0``, and the
-    passive column that reaches 0 leaves (``passive`` updated in place; ``j`` appended). None if no passive force
-    falls (the point rows have no solution)."""
+def _span_coefficients(Q, R, A, p: int, j: int) -> np.ndarray:
+    """z with ``A_P z = A_j`` for column ``j`` of ``A`` in the span of the ``p`` passive columns A_P of
+    :func:`nnls_warm` (``Q R`` their factors)."""
+    return sla.solve_triangular(R[:p, :p], Q[:, :p].T @ A[:, j])
+
+
+def _exchange(passive: list, y, j: int, z):
+    """One exchange step of :func:`nnls_warm` for a column ``j`` in the span of the passive columns
+    (``A_P z = A_j``, :func:`_span_coefficients`): along ``y_j += theta``, ``y_P -= theta z`` the residual A y
+    does not change and the objective falls by ``theta w_j``; ``theta`` is the largest step keeping ``y >= 0``,
+    and the passive column that reaches 0 leaves (``passive`` updated in place; ``j`` appended). None if no
+    passive force falls (the point rows have no solution)."""
     p = len(passive)
-    z = sla.solve_triangular(R[:p, :p], Q[:, :p].T @ A[:, j])
     yp = y[passive]
     falls = z > 0
     if not falls.any():

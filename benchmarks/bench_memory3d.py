@@ -21,48 +21,16 @@ import json
 import resource
 import subprocess
 import sys
-import threading
 import time
-import traceback
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
 
-def resident_mb() -> float:
-    """Resident memory of this process now, MB."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize() / 1e6
-
-
-class PeakSampler:
-    """Samples the resident memory every ``dt`` seconds; keeps the highest sample since :meth:`reset` and the
-    main thread's innermost package frames at it."""
-
-    def __init__(self, dt: float = 0.02):
-        self.dt, self.main = dt, threading.main_thread().ident
-        self.reset()
-        threading.Thread(target=self._run, daemon=True).start()
-
-    def reset(self):
-        self.peak, self.where = resident_mb(), []
-
-    def _run(self):
-        while True:
-            r = resident_mb()
-            if r > self.peak:
-                frame = sys._current_frames().get(self.main)
-                stack = traceback.extract_stack(frame) if frame is not None else []
-                self.peak = r
-                self.where = [f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in stack
-                              if "cvxcontact" in f.filename][-4:]
-            time.sleep(self.dt)
-
-
 def one(size: float, checkout: str, solve: bool) -> None:
     sys.path[:0] = [str(HERE.parent / "tests"), str(HERE)]
     from bench3d import cells
-    from harness import unknowns
+    from harness import PeakSampler, resident_mb, unknowns
 
     sys.path.insert(0, checkout)
     from scenes3d import two_boxes

@@ -31,7 +31,9 @@ import resource
 import statistics
 import subprocess
 import sys
+import threading
 import time
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +44,42 @@ import numpy as np
 def peak_gb() -> float:
     """Peak resident memory of this process so far, GB (``ru_maxrss``, KiB on Linux)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
+def resident_mb() -> float:
+    """Resident memory of this process now, MB."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * resource.getpagesize() / 1e6
+
+
+class PeakSampler:
+    """Samples the resident memory every ``dt`` seconds in a thread; keeps the highest sample since :meth:`reset`
+    and the main thread's innermost frames of ``packages`` at it. With ``limit_mb``, a watchdog too: above it the
+    process prints where it was and ends (exit code 3) before the machine runs short."""
+
+    def __init__(self, dt: float = 0.02, limit_mb: float | None = None, packages=("cvxcontact",)):
+        self.dt, self.limit, self.packages = dt, limit_mb, tuple(packages)
+        self.main = threading.main_thread().ident
+        self.reset()
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def reset(self):
+        self.peak, self.where = resident_mb(), []
+
+    def _run(self):
+        while True:
+            r = resident_mb()
+            if self.limit is not None and r > self.limit:
+                print(json.dumps({"killed": f"resident {r:.0f} MB above the limit {self.limit:.0f} MB",
+                                  "at": self.where}), flush=True)
+                os._exit(3)
+            if r > self.peak:
+                frame = sys._current_frames().get(self.main)
+                stack = traceback.extract_stack(frame) if frame is not None else []
+                self.peak = r
+                self.where = [f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in stack
+                              if any(p in f.filename for p in self.packages)][-4:]
+            time.sleep(self.dt)
 
 
 def load() -> str:

@@ -18,56 +18,20 @@ from __future__ import annotations
 import argparse
 import functools
 import json
-import os
 import resource
 import subprocess
 import sys
-import threading
 import time
-import traceback
 import tracemalloc
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
 
-def resident_mb() -> float:
-    """Resident memory of this process now, MB."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize() / 1e6
-
-
-class Sampler:
-    """The highest resident sample since :meth:`reset` and the main thread's innermost package frames at it;
-    ends the process above ``limit_mb``."""
-
-    def __init__(self, limit_mb: float, dt: float = 0.02):
-        self.dt, self.limit, self.main = dt, limit_mb, threading.main_thread().ident
-        self.reset()
-        threading.Thread(target=self._run, daemon=True).start()
-
-    def reset(self):
-        self.peak, self.where = resident_mb(), []
-
-    def _run(self):
-        while True:
-            r = resident_mb()
-            if r > self.limit:
-                print(json.dumps({"killed": f"resident {r:.0f} MB above the limit {self.limit:.0f} MB",
-                                  "at": self.where}), flush=True)
-                os._exit(3)
-            if r > self.peak:
-                frame = sys._current_frames().get(self.main)
-                stack = traceback.extract_stack(frame) if frame is not None else []
-                self.peak = r
-                self.where = [f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in stack
-                              if "cvxcontact" in f.filename or "cvxpy" in f.filename][-4:]
-            time.sleep(self.dt)
-
-
 def one(size: float, checkout: str, limit_gb: float, trace: bool = False) -> None:
     sys.path[:0] = [str(HERE.parent / "tests"), str(HERE)]
     from bench3d import cells
+    from harness import PeakSampler, resident_mb
 
     sys.path.insert(0, checkout)
     import cvxpy as cp
@@ -77,7 +41,7 @@ def one(size: float, checkout: str, limit_gb: float, trace: bool = False) -> Non
     from cvxcontact.backends import condensed, interface, signorini
 
     cc.solve(two_boxes(4, "gamma3", True))                           # imports, first-call set-up
-    sampler = Sampler(1e3 * limit_gb)
+    sampler = PeakSampler(limit_mb=1e3 * limit_gb, packages=("cvxcontact", "cvxpy"))
     clock = [time.process_time()]
 
     def report(name):

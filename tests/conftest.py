@@ -106,21 +106,24 @@ def captured(monkeypatch, scene, **options):
     return sol, seen["problem"], seen["raw"]
 
 
-def p2_trace_jump(sol, xs):
-    """[u_nu] at the abscissae ``xs`` of a horizontal contact line from each body's own P2 trace (its boundary
-    edges, quadratic Lagrange on (start, end, mid)), body 1 above the line and body 2 below: independent of the
-    merged mesh and of what the contact rows or cones hold (m)."""
+def p2_trace_side(sol, k, xs):
+    """Body ``k``'s normal displacement u_y at the abscissae ``xs`` of a horizontal contact line from its own P2
+    trace (its boundary edges, quadratic Lagrange on (start, end, mid)) (m)."""
     from cvxcontact.geometry.quadratic import P2Nodes
 
-    out = np.zeros_like(xs)
-    for k, body in enumerate(sol.scene.bodies):
-        nodes = P2Nodes(body.mesh)
-        e = nodes.boundary(body.contact)
-        xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
-        lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
-        j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
-        t = (xs - xa[j]) / (xb[j] - xa[j])
-        uy = sol.u[k][:, 1]
-        val = uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)
-        out += (-1.0 if k == 0 else 1.0) * val
-    return out
+    body = sol.scene.bodies[k]
+    nodes = P2Nodes(body.mesh)
+    e = nodes.boundary(body.contact)
+    xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
+    lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
+    j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
+    t = (xs - xa[j]) / (xb[j] - xa[j])
+    uy = sol.u[k][:, 1]
+    return uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)
+
+
+def p2_trace_jump(sol, xs):
+    """[u_nu] at the abscissae ``xs`` of a horizontal contact line from each body's own P2 trace
+    (:func:`p2_trace_side`), body 1 above the line and body 2 below: independent of the merged mesh and of what
+    the contact rows or cones hold (m)."""
+    return sum((-1.0 if k == 0 else 1.0) * p2_trace_side(sol, k, xs) for k in range(len(sol.scene.bodies)))

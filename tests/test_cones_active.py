@@ -8,7 +8,7 @@ merged segment."""
 
 import numpy as np
 import pytest
-from conftest import p2_trace_jump
+from conftest import p2_trace_jump, p2_trace_side
 
 from cvxcontact.apps.studies import hertz
 from cvxcontact.apps.studies.common import solve_quietly
@@ -72,7 +72,7 @@ def sampled_elements(sol, segments, points: int = 2001):
     alone, so it is active exactly where the segment touches."""
     c = sol.contact
     xs_nodes = c.x
-    size = sum(np.abs(p2_trace_jump_side(sol, k, xs_nodes)) for k in (0, 1)) + np.abs(c.gap)
+    size = sum(np.abs(p2_trace_side(sol, k, xs_nodes)) for k in (0, 1)) + np.abs(c.gap)
     size = np.maximum(size, 1e-9 * size.max())
     out = []
     for seg in segments:
@@ -122,18 +122,3 @@ def test_hertz_p2_active_covers_the_sampled_contact_zone():
     gap = np.array([r for r, _, _ in rows])
     assert gap[touching].max() <= sol.tol
     assert gap[~touching].min(initial=np.inf) > sol.tol
-
-
-def p2_trace_jump_side(sol, k, xs):
-    """Body ``k``'s normal displacement at ``xs`` from its own P2 trace (the sign of the jump dropped)."""
-    from cvxcontact.geometry.quadratic import P2Nodes
-
-    body = sol.scene.bodies[k]
-    nodes = P2Nodes(body.mesh)
-    e = nodes.boundary(body.contact)
-    xa, xb = nodes.points[e[:, 0], 0], nodes.points[e[:, 1], 0]
-    lo, hi = np.minimum(xa, xb), np.maximum(xa, xb)
-    j = np.array([np.flatnonzero((lo <= x + 1e-15) & (x <= hi + 1e-15))[0] for x in xs])
-    t = (xs - xa[j]) / (xb[j] - xa[j])
-    uy = sol.u[k][:, 1]
-    return uy[e[j, 0]] * (1 - t) * (1 - 2 * t) + uy[e[j, 1]] * t * (2 * t - 1) + uy[e[j, 2]] * 4 * t * (1 - t)

@@ -76,20 +76,27 @@ def test_a_registered_name_is_a_method_everywhere_and_auto_walks_it_where_placed
         check_solve_parameters("gamma3", "mine", 1e-6)
 
 
-def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it(registry):
-    """P2 cones beside a non-quadratic energy: no backend solves it, so ``choose`` raises the
-    :data:`~cvxcontact.backends.REFUSALS` entry (UnsupportedError, not the generic SolverError) for ``auto`` and for a
-    named backend; a backend registered with a route for it is then chosen, and a problem no refusal names keeps the
-    generic SolverError (docs/refusals.md row 35: 3D; the 2D cones beside such an energy are the full route's)."""
+def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it(registry, monkeypatch):
+    """A problem no backend solves (a compliance law beside a non-quadratic energy on a body held by the contact
+    only: the Newton route needs bodies held by their supports, the full route finishes the law on Kuu) named by
+    a :data:`~cvxcontact.backends.REFUSALS` entry: ``choose`` raises it (UnsupportedError, not the generic
+    SolverError) for ``auto`` and for a named backend; a backend registered with a route for it is then chosen,
+    and a problem no refusal names keeps the generic SolverError. The P2 cones beside a non-quadratic energy,
+    once refused in 3D (docs/refusals.md row 35), are the full route's in 2D and 3D."""
     cones = backends.ProblemDescription(quadratic_energy=False, conic=True, dim=3, degree=2, kind="conic")
-    assert backends.choose("auto", replace(cones, dim=2)) == "full"
+    for dim in (2, 3):
+        assert backends.choose("auto", replace(cones, dim=dim)) == "full" == backends.choose("full", cones)
+    law = backends.ProblemDescription(quadratic_energy=False, compliant=True, held_by_contact=True, linear_contact=False,
+                                      kind="compliance")
+    monkeypatch.setattr(backends, "REFUSALS", (backends.Refusal(lambda p: p.compliant and not p.quadratic_energy,
+                                                                "a law beside a Hencky body: use 'sigma1'"),))
     for method in ("auto", "full", "newton"):
-        with pytest.raises(cc.UnsupportedError, match="3D P2 copositive cones.*'sigma1' or 'sigma2'"):
-            backends.choose(method, cones)
-    registry(Backend("mine", lambda p: p.conic, routes={"conic": full_route}), before="full")
-    assert backends.choose("auto", cones) == "mine"
+        with pytest.raises(cc.UnsupportedError, match="a law beside a Hencky body: use 'sigma1'"):
+            backends.choose(method, law)
+    registry(Backend("mine", lambda p: p.compliant, routes={"compliance": full_route}), before="full")
+    assert backends.choose("auto", law) == "mine"
     with pytest.raises(cc.SolverError, match="method 'full' does not accept") as info:
-        backends.choose("full", cones)                 # another backend solves it: the named one just refuses
+        backends.choose("full", law)                   # another backend solves it: the named one just refuses
     assert not isinstance(info.value, cc.UnsupportedError)
     unregister("mine")
     with pytest.raises(cc.SolverError, match="method 'condensed' does not accept") as info:

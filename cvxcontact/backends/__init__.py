@@ -15,7 +15,7 @@ an ``accepts(problem) -> bool`` on a :class:`ProblemDescription` and a ``prefers
 :data:`AMG_UNKNOWNS` unknowns when pyamg is installed, "sparse" for a slender interface (:data:`SPARSE_SLENDER`) or above :data:`SPARSE_ROWS` contact rows
 (where the condensed route's dense m x m interface matrices dominate), else "condensed"; "newton" for a
 non-quadratic bulk energy with Signorini rows or a compliance law (:mod:`cvxcontact.backends.nonlinear`), "full"
-for what none accepts (e.g. the 2D P2 cones beside a non-quadratic energy, :func:`~cvxcontact.backends.cones.
+for what none accepts (e.g. the P2 cones beside a non-quadratic energy, :func:`~cvxcontact.backends.cones.
 finish_bulk`). A backend outside the package plugs in with one call, :func:`register` (docs/howto/extending.md).
 """
 
@@ -200,10 +200,10 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 
 
 def _full_accepts(p: ProblemDescription) -> bool:
-    # a non-quadratic bulk energy: Signorini rows, and the 2D P2 cones alone (their finish: Newton at the tangency
-    # points on the nonlinear (26), cones.finish_bulk); not a compliance law (its routes finish on Kuu), nor the 3D
-    # copositive cones (REFUSALS)
-    return p.quadratic_energy or not (p.compliant or (p.conic and p.dim == 3))
+    # a non-quadratic bulk energy: Signorini rows, and the P2 cones alone (their finish: Newton at the tangency
+    # points on the nonlinear (26), else the cuts on it, cones.finish_bulk); not a compliance law (its routes
+    # finish on Kuu)
+    return p.quadratic_energy or not p.compliant
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
@@ -247,7 +247,7 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             "full route if it does not settle)",
             routes=MappingProxyType({"signorini": ".nonlinear:newton", "compliance": ".nonlinear:compliance"})),
     Backend("full", _full_accepts, "the whole phi-form model in CVXPY (reference; accepts everything with a "
-            "quadratic energy, a non-quadratic one with the Signorini law or the 2D P2 cones: Newton finish)",
+            "quadratic energy, a non-quadratic one with the Signorini law or the P2 cones: Newton or cuts finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full",
                                      "friction": ".friction:full", "conic_friction": ".friction:conic_full"})),
@@ -268,15 +268,11 @@ class Refusal:
     message: str
 
 
-REFUSALS: tuple[Refusal, ...] = (
-    Refusal(lambda p: p.conic and not p.quadratic_energy and p.dim == 3,
-            "the 3D P2 copositive cones (condition='gamma3' with degree=2 on tetrahedra) with a non-quadratic bulk "
-            "energy (a Hencky material) are not available: their exact finish, Newton at the tangency points on "
-            "the nonlinear (26), does not settle on the triangles' cones (2D P2 'gamma3' is supported); use "
-            "condition='sigma1' or 'sigma2' with degree=2 (nodal rows, the Newton route), or degree=1 with 'gamma3'"),
-)
+REFUSALS: tuple[Refusal, ...] = ()
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
-problem (a backend registered later that solves it lifts it)."""
+problem (a backend registered later that solves it lifts it). None today: the last one (row 35, the 3D P2
+copositive cones beside a non-quadratic energy) is solved by the full route (:func:`~cvxcontact.backends.cones.
+finish_bulk`)."""
 
 
 def _refuse(problem: ProblemDescription) -> None:

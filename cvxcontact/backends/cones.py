@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from ..contact.bernstein import bernstein_max, point_rows
 from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
+from .bulkcuts import finish_cuts_bulk
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    point_duals, point_read_back, seed_forces, seed_points, segment_scales)
 from .finish import Declined, Stop, independent_active_set, row_reach
@@ -422,6 +423,11 @@ def finish_bulk(problem, timings, raw) -> None:
         return
     why = raw.declined or Declined(Stop.STALL, "Newton at the tangency points on the nonlinear (26) after the cuts "
                                    "on the energy's tangent did not settle")
+    for k, v in kept.items():
+        setattr(raw, k, v)
+    if finish_cuts_bulk(problem, timings, raw):       # the cuts on the nonlinear (26) itself (3D: the triangles)
+        return
+    why = Declined(why.stop, f"{why}; the accumulated cuts on the nonlinear (26): {raw.declined}", why.rows)
     for k, v in kept.items():
         setattr(raw, k, v)
     raw.declined = why

@@ -72,15 +72,15 @@ def tilted_gap(x, y):
     return 5e-5 * np.asarray(x) + 0 * np.asarray(y)
 
 
-def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap):
-    """Two blocks on (0, 1)^2 (lower clamped at its base, upper held by rollers on two sides) meeting at
-    z = 0.5 with the gap ``gap`` (default :func:`bumped_gap`, opening away from the centre), the upper
+def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap, material=STEEL, nz=2):
+    """Two blocks on (0, 1)^2 (lower clamped at its base, of ``material``; upper held by rollers on two sides)
+    meeting at z = 0.5 with the gap ``gap`` (default :func:`bumped_gap`, opening away from the centre), the upper
     pushed by a traction ``load`` (Pa) on a central square of its top: a contact zone with an edge inside
-    the faces."""
-    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=2)
-    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=2)
+    the faces. ``nz`` cells through each block."""
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=nz)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=nz)
     press = lambda x, y, z: np.where((np.abs(x - .5) < .3) & (np.abs(y - .5) < .3), -load, 0.0)
-    b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
+    b1 = cc.Body(low, material, clamped="bottom", contact="top", name="lower")
     b2 = cc.Body(up, STEEL, roller=["left", "front"], contact="bottom", name="upper",
                  traction={"top": lambda x, y, z: (0 * x, 0 * x, press(x, y, z))})
     return cc.Scene(b1, b2, gap=gap)
@@ -243,3 +243,33 @@ SCENES3D = {
     "two PZT blocks": (piezo_pair, dict(condition="sigma1")),
 }
 """name -> (builder, keywords of cc.solve)."""
+
+
+def _simplex_grid(n) -> np.ndarray:
+    """Barycentric coordinates (p, 3) of the points of spacing 1/n on a triangle."""
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    keep = i + j <= n
+    a, b = i[keep] / n, j[keep] / n
+    return np.column_stack([1 - a - b, a, b])
+
+
+def sampled_penetration(scene, sol, gap, pair=0, n=12):
+    """[u_nu] - g (m) at the points of spacing 1/n of every overlay triangle of the P2 pair ``pair`` of ``scene``:
+    the jump evaluated from each body's own P2 face functions at the point (not through X_h, nor the Bernstein form)
+    and the gap function ``gap(x, y)`` itself (a quadratic: its P2 interpolant on a triangle is itself)."""
+    from cvxcontact.contact.quadratic3d import locate, p2_shape
+    from cvxcontact.fem.space import P2Tet
+
+    lines = P2Tet().contact(scene, "gamma3", cc.Signorini()).interface
+    itf = getattr(lines, "interfaces", (lines,))[pair]
+    ov = itf.linear.overlay
+    V = np.asarray(ov.vertices)
+    x = np.einsum("pk,tkd->tpd", _simplex_grid(n), V[np.asarray(ov.triangles)]).reshape(-1, 2)
+    jump = np.zeros(len(x))
+    for trace, body in zip(itf.traces, itf.members):
+        tri, bary = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
+        assert (tri >= 0).all()
+        face = np.asarray(trace.nodes)[np.asarray(trace.faces)[tri]]
+        jump += np.einsum("pk,pkd->pd", p2_shape(bary), sol.u[body][face]) @ np.asarray(trace.unit_normal)
+    points = itf.offset * np.asarray(itf.normal) + x @ np.asarray(itf.frame)
+    return jump - gap(points[:, 0], points[:, 1])

@@ -86,8 +86,8 @@ def test_a_named_refusal_is_typed_and_a_backend_that_solves_the_problem_lifts_it
     cones = backends.ProblemDescription(quadratic_energy=False, conic=True, dim=3, degree=2, kind="conic")
     for dim in (2, 3):
         assert backends.choose("auto", replace(cones, dim=dim)) == "full" == backends.choose("full", cones)
-    law = backends.ProblemDescription(quadratic_energy=False, compliant=True, held_by_contact=True, linear_contact=False,
-                                      kind="compliance")
+    law = backends.ProblemDescription(quadratic_energy=False, compliant=True, held_by_contact=True,
+                                      linear_contact=False, kind="compliance")
     monkeypatch.setattr(backends, "REFUSALS", (backends.Refusal(lambda p: p.compliant and not p.quadratic_energy,
                                                                 "a law beside a Hencky body: use 'sigma1'"),))
     for method in ("auto", "full", "newton"):

@@ -84,7 +84,7 @@ def finish_cuts_bulk(problem, timings, raw) -> bool:
         x = state["x"]
         last = np.inf
         for _ in range(BULK_STEPS):
-            u, phi, _ = unstacked(problem, x, widths)
+            u, _, _ = unstacked(problem, x, widths)
             blocks = tangent_blocks(problem.blocks, u)
             kkt = mixed_kkt(blocks, P @ E, gp, translations=[(P @ R, F) for R, F in tr])
             out = independent_active_set(kkt, gp, y, y > 0, factored=True, purify=False)

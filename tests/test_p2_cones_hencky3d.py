@@ -1,0 +1,111 @@
+"""The 3D P2 copositive cones ("gamma3" on 10-node tetrahedra, docs/formulation.md §16) beside a non-quadratic bulk
+energy (a Hencky body, docs/materials.md §8; issue 31, docs/refusals.md row 35, once refused): the full CVXPY
+program, finished by accumulated cuts on the nonlinear (26) (:mod:`cvxcontact.backends.bulkcuts`: the nodal problem
+at the cut points solved by sequential quadratic steps on the Hencky tangent, the cuts accepted by the exact
+Bernstein maximum of every triangle's slack). Checked against (26)-(27) with the nonlinear stress (the read-back),
+the condition sampled on every overlay triangle from each body's own P2 face functions (not through X_h nor the
+Bernstein form), the interior point of the CVXPY program, the elastic limit (a yield stress never reached: the
+linear material's answer), and the nodal condition, which penetrates between its nodes. Small meshes (2 x 2 x 1 and
+3 x 2 x 1 cells): the full route is slow in 3D. Tolerances: >= 100x the measured values (beside them)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import rel
+from scenes3d import E, NU, STEEL, bumped_blocks, bumped_gap, sampled_penetration
+
+import cvxcontact as cc
+from cvxcontact.apps.studies.convergence_hencky import plastic_zone
+from cvxcontact.backends.result import Finish, Route
+from cvxcontact.errors import ResidualWarning
+
+pytestmark = pytest.mark.numerics
+
+YIELDING = cc.materials.hencky(E=E, nu=NU, sigma_y=8e6, h=0.1)     # yields under the contact zone (41 of 192 points)
+NEVER = cc.materials.hencky(E=E, nu=NU, sigma_y=1e15, h=0.1)       # no strain reaches its yield stress
+
+
+def blocks(material):
+    """:func:`scenes3d.bumped_blocks` with a lower block of ``material``, 2 x 2 x 1 cells below, 3 x 2 x 1 above
+    (non-matching faces; the upper block held by the contact, the finish on the sparse mixed system)."""
+    return bumped_blocks((2, 2), (3, 2), material=material, nz=1)
+
+
+def penetration(sol, material) -> float:
+    """The largest sampled [u_nu] - g on 496 points of every overlay triangle, over the largest displacement."""
+    over = sampled_penetration(blocks(material), sol, bumped_gap, n=30)
+    return float(over.max() / max(np.abs(u).max() for u in sol.u))
+
+
+def interior_point(material):
+    """The full program's interior point, not finished (its status may read "optimal_inaccurate")."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResidualWarning)
+        return cc.solve(blocks(material), "gamma3", degree=2, polish=False, tol=1e-3)
+
+
+@pytest.fixture(scope="module")
+def yielding():
+    return cc.solve(blocks(YIELDING), "gamma3", degree=2)
+
+
+@pytest.fixture(scope="module")
+def linear():
+    return cc.solve(blocks(STEEL), "gamma3", degree=2)
+
+
+def test_a_yielding_block_under_the_copositive_cones_is_finished_and_balances_26_27(yielding):
+    """The full route (auto), finished by the accumulated cuts on the nonlinear (26); the lower block yields under
+    the contact zone only (measured 41 of 192 quadrature points); (26)-(27) with the nonlinear stress (measured
+    equilibrium 7.4e-16, feasibility 8.8e-12, cone 9.1e-17, complementarity 2.5e-8, read on the point forces as
+    for a linear material: 2.7e-8 in the elastic limit)."""
+    sol = yielding
+    assert sol.info.method == "full" and sol.info.requested == "auto" and sol.info.declined is None
+    assert sol.polished and sol.info.finish == Finish.ACCUMULATED_CUTS, sol.report()
+    zone = plastic_zone(sol, body=0)
+    assert 0 < zone["yielded"] < zone["points"], zone
+    res = sol.residuals()
+    assert sol.ok and res["equilibrium"] < 1e-13 and res["feasibility"] < 1e-9 and res["cone"] < 1e-14, res
+    assert res["complementarity"] < 1e-5, res
+    assert sol.in_contact().any() and not sol.in_contact().all()
+
+
+def test_the_condition_holds_on_every_triangle_where_the_nodal_one_penetrates(yielding):
+    """[u_nu] <= g sampled on 496 points of every overlay triangle from each body's own P2 face functions
+    (measured max -7.3e-9 of the largest displacement: no penetration anywhere); the nodal condition "sigma1" with
+    the same Hencky block penetrates between its nodes (measured 7.7e-2) and its answer is another (3.2e-1)."""
+    assert penetration(yielding, YIELDING) <= 1e-9
+    nodal = cc.solve(blocks(YIELDING), "sigma1", degree=2)
+    assert nodal.ok and penetration(nodal, YIELDING) > 1e-3 and rel(nodal.u[0], yielding.u[0]) > 1e-2
+
+
+def test_the_yielding_answer_is_not_the_linear_one(yielding, linear):
+    """The nonlinear branch is exercised: the lower block's displacements differ from the linear material's by
+    0.11 (measured), lambda_h by 0.045; the contact zone is as wide or wider (measured 64 nodes against 63)."""
+    assert linear.ok and rel(yielding.u[0], linear.u[0]) > 1e-2 and rel(yielding.contact.lam, linear.contact.lam) > 4e-3
+    assert yielding.in_contact().sum() >= linear.in_contact().sum()
+
+
+def test_the_interior_point_of_the_cvxpy_program_agrees_with_the_finish(yielding):
+    """The reference: the full program's interior point (polish=False) within 1e-5 of the finished answer in u and
+    3e-5 in lambda_h (measured 8.1e-8 and 2.2e-7: the interior point's own accuracy)."""
+    ipm = interior_point(YIELDING)
+    assert not ipm.polished and ipm.info.route == Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    assert all(rel(a, b) <= 1e-5 for a, b in zip(ipm.u, yielding.u))
+    assert rel(ipm.contact.lam, yielding.contact.lam) <= 3e-5
+
+
+def test_a_block_that_never_yields_gives_the_linear_answer(linear):
+    """The elastic limit: a Hencky block whose yield stress no strain reaches has the linear material's energy, and
+    its answer (the cuts on the nonlinear (26)) is the linear material's (the cuts on the linear (26)) within 2e-6
+    in u and lambda_h (measured 1.2e-8 and 5.3e-8: both finishes stop at a cut violation of 1e-11 of the
+    displacements, at different points; the interior point is as far from either, 1.2e-8), on the same closed
+    nodes; no penetration sampled (measured -4.0e-11)."""
+    sol = cc.solve(blocks(NEVER), "gamma3", degree=2)
+    assert sol.info.method == "full" and sol.polished and sol.info.finish == Finish.ACCUMULATED_CUTS
+    assert plastic_zone(sol, body=0)["yielded"] == 0
+    assert linear.ok and linear.polished and sol.ok
+    assert all(rel(a, b) <= 2e-6 for a, b in zip(sol.u, linear.u)) and rel(sol.contact.lam, linear.contact.lam) <= 6e-6
+    assert np.array_equal(sol.in_contact(), linear.in_contact())
+    assert penetration(sol, NEVER) <= 1e-9

@@ -83,7 +83,8 @@ def test_the_condition_holds_on_every_triangle_where_the_nodal_one_penetrates(yi
 def test_the_yielding_answer_is_not_the_linear_one(yielding, linear):
     """The nonlinear branch is exercised: the lower block's displacements differ from the linear material's by
     0.11 (measured), lambda_h by 0.045; the contact zone is as wide or wider (measured 64 nodes against 63)."""
-    assert linear.ok and rel(yielding.u[0], linear.u[0]) > 1e-2 and rel(yielding.contact.lam, linear.contact.lam) > 4e-3
+    assert linear.ok and rel(yielding.u[0], linear.u[0]) > 1e-2
+    assert rel(yielding.contact.lam, linear.contact.lam) > 4e-3
     assert yielding.in_contact().sum() >= linear.in_contact().sum()
 
 
@@ -106,6 +107,7 @@ def test_a_block_that_never_yields_gives_the_linear_answer(linear):
     assert sol.info.method == "full" and sol.polished and sol.info.finish == Finish.ACCUMULATED_CUTS
     assert plastic_zone(sol, body=0)["yielded"] == 0
     assert linear.ok and linear.polished and sol.ok
-    assert all(rel(a, b) <= 2e-6 for a, b in zip(sol.u, linear.u)) and rel(sol.contact.lam, linear.contact.lam) <= 6e-6
+    assert all(rel(a, b) <= 2e-6 for a, b in zip(sol.u, linear.u))
+    assert rel(sol.contact.lam, linear.contact.lam) <= 6e-6
     assert np.array_equal(sol.in_contact(), linear.in_contact())
     assert penetration(sol, NEVER) <= 1e-9

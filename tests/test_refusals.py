@@ -254,22 +254,24 @@ def test_p2_friction_under_gamma3_in_2d_sticks_a_uniform_layer_closed_form():
     assert sol.ok and sol.polished and rel(sol.u[0], np.column_stack([2 * tau * y / E2, -P2 * y / E2])) <= 1e-9
 
 
-def test_p2_cones_with_a_hencky_body_in_3d_are_refused_naming_what_to_use():
-    """Row 35, 3D: the refusal is typed, raised where the registry decides for ``auto`` and for every backend named,
-    and names what is not available and what to use instead (2D is supported: the test below)."""
+@pytest.mark.numerics
+def test_p2_cones_with_a_hencky_body_in_3d_are_solved_by_the_full_route():
+    """Row 35 (b), supported in 3D (once refused). A Hencky block under P2 "gamma3" on tetrahedra: ``auto`` and
+    "full" take the full route, finished by the accumulated cuts on the nonlinear (26) (measured equilibrium
+    4.0e-16 on this one-cell scene); "newton" (nodal rows only) refuses it by name as a backend that does not
+    accept the problem, not as a named refusal. The yielding case and its checks: tests/test_p2_cones_hencky3d.py."""
     never = cc.materials.hencky(E=E, nu=NU, sigma_y=1e15, h=0.1)
     low = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(-.5, 0), nx=1, ny=1, nz=1), never, clamped="bottom", contact="top")
     up = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=1, ny=1, nz=1), ALU, clamped="top", contact="bottom",
                  body_force=(0.0, 0.0, -1e8), name="upper")
     scene = cc.Scene(low, up)
-    for method in ("auto", "newton", "full"):
-        with pytest.raises(cc.UnsupportedError) as info:
-            cc.solve(scene, "gamma3", degree=2, method=method)
-        msg = _message(info)
-        assert "3D P2 copositive cones" in msg and "non-quadratic bulk energy" in msg, msg
-        assert "'sigma1'" in msg and "'sigma2'" in msg and "degree=1" in msg, msg
-    for degree, condition in ((2, "sigma1"), (2, "sigma2"), (1, "gamma3")):                # what it names is taken
-        assert cc.ContactSolver(scene, condition, degree=degree).method in ("newton", "full")
+    for method in ("auto", "full"):
+        sol = cc.solve(scene, "gamma3", degree=2, method=method)
+        assert sol.info.method == "full" and sol.polished and sol.info.finish == "accumulated cuts", sol.report()
+        assert sol.ok and sol.residuals()["equilibrium"] < 1e-12
+    with pytest.raises(cc.SolverError, match="method 'newton' does not accept") as info:
+        cc.solve(scene, "gamma3", degree=2, method="newton")
+    assert not isinstance(info.value, cc.UnsupportedError)
 
 
 @pytest.mark.numerics

@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import rel
-from scenes3d import E, NU, STEEL, bumped_blocks, bumped_gap, sampled_penetration
+from scenes3d import NU, STEEL, E, bumped_blocks, bumped_gap, sampled_penetration
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone

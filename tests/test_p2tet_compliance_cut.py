@@ -15,6 +15,7 @@ import cvxcontact as cc
 from cvxcontact.fem.space import P2Tet
 
 from scenes3d import SIDES, STEEL
+from scenes3d import sampled_penetration as sampled_jump_excess
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -130,33 +131,10 @@ def bump(x, y):
     return -DELTA + 4 * DELTA * ((np.asarray(x) - .5) ** 2 + (np.asarray(y) - .5) ** 2)
 
 
-def simplex_grid(n) -> np.ndarray:
-    """Barycentric coordinates (p, 3) of the points of spacing 1/n on a triangle."""
-    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
-    keep = i + j <= n
-    a, b = i[keep] / n, j[keep] / n
-    return np.column_stack([1 - a - b, a, b])
-
-
 def sampled_penetration(scene, sol, pair=0, n=12):
-    """max over the points of spacing 1/n of every overlay triangle of pair ``pair`` of [u_nu] - g (m): the jump
-    evaluated from each body's own P2 face functions at the point (not through X_h) and the pair's gap function
-    itself (a quadratic: its P2 interpolant on a triangle is itself)."""
-    from cvxcontact.contact.quadratic3d import locate, p2_shape
-
-    lines = P2Tet().contact(scene, "gamma3", cc.Signorini()).interface
-    itf = getattr(lines, "interfaces", (lines,))[pair]
-    ov = itf.linear.overlay
-    V = np.asarray(ov.vertices)
-    x = np.einsum("pk,tkd->tpd", simplex_grid(n), V[np.asarray(ov.triangles)]).reshape(-1, 2)
-    jump = np.zeros(len(x))
-    for trace, body in zip(itf.traces, itf.members):
-        tri, bary = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
-        assert (tri >= 0).all()
-        face = np.asarray(trace.nodes)[np.asarray(trace.faces)[tri]]
-        jump += np.einsum("pk,pkd->pd", p2_shape(bary), sol.u[body][face]) @ np.asarray(trace.unit_normal)
-    points = itf.offset * np.asarray(itf.normal) + x @ np.asarray(itf.frame)
-    return float((jump - bump(points[:, 0], points[:, 1])).max())
+    """max over the points of spacing 1/n of every overlay triangle of pair ``pair`` of [u_nu] - g (m), the jump
+    from each body's own P2 face functions and :func:`bump` itself (:func:`scenes3d.sampled_penetration`)."""
+    return float(sampled_jump_excess(scene, sol, bump, pair, n).max())
 
 
 def test_signorini_cones_beside_a_compliance_pair_hold_everywhere_and_are_finished():

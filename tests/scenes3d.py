@@ -86,21 +86,22 @@ def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap, material
     return cc.Scene(b1, b2, gap=gap)
 
 
-def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1):
-    """Two blocks on (0, 1)^2 meeting at z = 0.5 with non-matching faces: the lower clamped at its base, the
-    upper pushed down by d (m) on its top (both held by their supports), the gap ``gap``."""
+def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1, material=STEEL):
+    """Two blocks on (0, 1)^2 meeting at z = 0.5 with non-matching faces: the lower (of ``material``) clamped at
+    its base, the upper pushed down by d (m) on its top (both held by their supports), the gap ``gap``."""
     low = cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=lower[0], ny=lower[1], nz=nz)
     up = cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=upper[0], ny=upper[1], nz=nz)
-    b1 = cc.Body(low, STEEL, clamped="bottom", contact="top", name="lower")
+    b1 = cc.Body(low, material, clamped="bottom", contact="top", name="lower")
     b2 = cc.Body(up, STEEL, displacement={"top": (0.0, 0.0, -d)}, contact="bottom", name="upper")
     return cc.Scene(b1, b2, gap=gap)
 
 
-def sphere_on_block(force=2e9, n=(6, 6, 3)):
+def sphere_on_block(force=2e9, n=(6, 6, 3), material=STEEL):
     """A rigid sphere (radius 1 m) under the prescribed force (0, 0, -force) N on a block (-0.5, 0.5)^2 x
-    (-0.5, 0) m clamped at its base, touching its top at the centre: about 9 contact nodes at 2e9 N."""
+    (-0.5, 0) m of ``material`` clamped at its base, touching its top at the centre: about 9 contact nodes at
+    2e9 N."""
     mesh = cc.box(x=(-.5, .5), y=(-.5, .5), z=(-.5, 0), nx=n[0], ny=n[1], nz=n[2])
-    body = cc.Body(mesh, STEEL, clamped="bottom", contact="top", name="block")
+    body = cc.Body(mesh, material, clamped="bottom", contact="top", name="block")
     ball = cc.Rigid.sphere((0, 0, 1.0), 1.0, force=(0, 0, -force))
     return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
 

@@ -5,15 +5,16 @@ at the cut points solved by sequential quadratic steps on the Hencky tangent, th
 Bernstein maximum of every triangle's slack). Checked against (26)-(27) with the nonlinear stress (the read-back),
 the condition sampled on every overlay triangle from each body's own P2 face functions (not through X_h nor the
 Bernstein form), the interior point of the CVXPY program, the elastic limit (a yield stress never reached: the
-linear material's answer), and the nodal condition, which penetrates between its nodes. Small meshes (2 x 2 x 1 and
-3 x 2 x 1 cells): the full route is slow in 3D. Tolerances: >= 100x the measured values (beside them)."""
+linear material's answer, the condensed route's), and the nodal condition, which penetrates between its nodes; a pair
+of blocks held by their supports and a force-controlled sphere too. Small meshes (2 x 2 x 1 to 3 x 3 x 2 cells): the
+full route is slow in 3D. Tolerances: >= 100x the measured values (beside them)."""
 
 import warnings
 
 import numpy as np
 import pytest
 from conftest import rel
-from scenes3d import NU, STEEL, E, bumped_blocks, bumped_gap, sampled_penetration
+from scenes3d import NU, STEEL, E, bumped_blocks, bumped_gap, pressed_blocks, sampled_penetration, sphere_on_block
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
@@ -32,9 +33,10 @@ def blocks(material):
     return bumped_blocks((2, 2), (3, 2), material=material, nz=1)
 
 
-def penetration(sol, material) -> float:
-    """The largest sampled [u_nu] - g on 496 points of every overlay triangle, over the largest displacement."""
-    over = sampled_penetration(blocks(material), sol, bumped_gap, n=30)
+def penetration(sol, material, scene=blocks) -> float:
+    """The largest sampled [u_nu] - g on 496 points of every overlay triangle of ``scene(material)``, over the
+    largest displacement."""
+    over = sampled_penetration(scene(material), sol, bumped_gap, n=30)
     return float(over.max() / max(np.abs(u).max() for u in sol.u))
 
 
@@ -111,3 +113,50 @@ def test_a_block_that_never_yields_gives_the_linear_answer(linear):
     assert rel(sol.contact.lam, linear.contact.lam) <= 6e-6
     assert np.array_equal(sol.in_contact(), linear.in_contact())
     assert penetration(sol, NEVER) <= 1e-9
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")     # a zone of 3 faces on these coarse meshes
+def test_blocks_held_by_their_supports_yield_and_never_yielding_give_the_linear_answer_to_rounding():
+    """Both blocks held by their supports (:func:`scenes3d.pressed_blocks`, the upper pushed down 20 um): the linear
+    material's answer is the condensed route's, finished by Newton at the tangency points to rounding. A Hencky
+    lower block that never yields gives it to rounding (measured 1.8e-15 in u, 1.0e-13 in lambda_h, the same
+    closed nodes; its finish: the tangency Newton on the nonlinear (26)); one that yields (sigma_y = 1 MPa:
+    measured 67 of 432 points) is finished by the cuts on the nonlinear (26) (measured equilibrium 4.0e-16,
+    feasibility 3.0e-11, no penetration sampled: -7.5e-9 of the largest displacement) and is 0.12 from the linear
+    answer."""
+    linear = cc.solve(pressed_blocks(), "gamma3", degree=2)
+    assert linear.ok and linear.info.method == "condensed" and linear.info.finish == Finish.TANGENCY_NEWTON
+    never = cc.solve(pressed_blocks(material=NEVER), "gamma3", degree=2)
+    assert never.info.method == "full" and never.polished and never.ok
+    assert all(rel(a, b) <= 1e-12 for a, b in zip(never.u, linear.u))
+    assert rel(never.contact.lam, linear.contact.lam) <= 1e-10
+    assert np.array_equal(never.in_contact(), linear.in_contact())
+    soft = cc.materials.hencky(E=E, nu=NU, sigma_y=1e6, h=0.1)
+    sol = cc.solve(pressed_blocks(material=soft), "gamma3", degree=2)
+    assert sol.polished and sol.info.finish == Finish.ACCUMULATED_CUTS and 0 < plastic_zone(sol, body=0)["yielded"]
+    res = sol.residuals()
+    assert sol.ok and res["equilibrium"] < 1e-13 and res["feasibility"] < 1e-8 and res["cone"] < 1e-14, res
+    assert penetration(sol, soft, lambda m: pressed_blocks(material=m)) <= 1e-9
+    assert rel(sol.u[0], linear.u[0]) > 1e-2
+
+
+def test_a_force_controlled_sphere_on_a_hencky_block_is_finished_and_balanced():
+    """A rigid sphere under a prescribed force (2e8 N) on a Hencky block (3 x 3 x 2 cells; the sphere's own gap, a
+    translation unknown): finished by Newton at the tangency points on the nonlinear (26) (cones.finish_bulk's
+    first finish, which settles here); the block yields under the sphere (sigma_y = 1 GPa: measured 55 of 864
+    points); (26)-(27) and the obstacle's balance (measured equilibrium 1.6e-16, feasibility 8.9e-17, cone
+    7.9e-17, obstacle balance 1.5e-16). A block that never yields gives the linear material's answer (the
+    condensed route's) to rounding (measured 7.4e-16 in u, 3.4e-16 in lambda_h)."""
+    linear = cc.solve(sphere_on_block(force=2e8, n=(3, 3, 2)), "gamma3", degree=2)
+    assert linear.ok and linear.polished
+    never = cc.solve(sphere_on_block(force=2e8, n=(3, 3, 2), material=NEVER), "gamma3", degree=2)
+    assert never.info.method == "full" and never.polished and never.ok
+    assert rel(never.u[0], linear.u[0]) <= 1e-12 and rel(never.contact.lam, linear.contact.lam) <= 1e-12
+    hard = cc.materials.hencky(E=E, nu=NU, sigma_y=1e9, h=0.1)
+    sol = cc.solve(sphere_on_block(force=2e8, n=(3, 3, 2), material=hard), "gamma3", degree=2)
+    assert sol.polished and sol.info.finish == Finish.TANGENCY_NEWTON, sol.report()
+    zone = plastic_zone(sol, body=0)
+    assert 0 < zone["yielded"] < zone["points"], zone
+    res = sol.residuals()
+    assert sol.ok and res["equilibrium"] < 1e-13 and res["feasibility"] < 1e-13 and res["cone"] < 1e-14, res
+    assert res["obstacle balance"] < 1e-13, res

@@ -14,7 +14,16 @@ import warnings
 import numpy as np
 import pytest
 from conftest import rel
-from scenes3d import NU, STEEL, E, bumped_blocks, bumped_gap, pressed_blocks, sampled_penetration, sphere_on_block
+from scenes3d import (
+    NU,
+    STEEL,
+    E,
+    bumped_blocks,
+    bumped_gap,
+    pressed_blocks,
+    sampled_penetration,
+    sphere_on_block,
+)
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone

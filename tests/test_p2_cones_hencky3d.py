@@ -169,3 +169,19 @@ def test_a_force_controlled_sphere_on_a_hencky_block_is_finished_and_balanced():
     res = sol.residuals()
     assert sol.ok and res["equilibrium"] < 1e-13 and res["feasibility"] < 1e-13 and res["cone"] < 1e-14, res
     assert res["obstacle balance"] < 1e-13, res
+
+
+def test_where_the_cuts_on_the_nonlinear_26_decline_the_interior_point_is_kept_and_flagged(yielding, monkeypatch):
+    """No sequential quadratic step allowed (``BULK_STEPS`` = 0: every round declines): the answer is the interior
+    point's, not polished, with a ResidualWarning and ``info.declined`` naming both finishes tried (the tangency
+    Newton on the nonlinear (26) and the cuts on it); it is the finished answer's to the interior point's accuracy
+    (measured 8.1e-8 in u)."""
+    from cvxcontact.backends import bulkcuts
+
+    monkeypatch.setattr(bulkcuts, "BULK_STEPS", 0)
+    with pytest.warns(ResidualWarning, match="declined"):
+        sol = cc.solve(blocks(YIELDING), "gamma3", degree=2)
+    assert not sol.polished and sol.info.route == Route.INTERIOR_POINT_NONLINEAR_ENERGY
+    assert "the accumulated cuts on the nonlinear (26)" in sol.info.declined, sol.info.declined
+    assert "tangency" in sol.info.declined, sol.info.declined
+    assert all(rel(a, b) <= 1e-5 for a, b in zip(sol.u, yielding.u))

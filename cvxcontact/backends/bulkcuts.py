@@ -82,7 +82,7 @@ def finish_cuts_bulk(problem, timings, raw) -> bool:
         y = np.zeros(k)
         y[:min(k, len(state["y"]))] = state["y"][:k]
         x = state["x"]
-        last = np.inf
+        last = res = np.inf
         for _ in range(BULK_STEPS):
             u, _, _ = unstacked(problem, x, widths)
             blocks = tangent_blocks(problem.blocks, u)

@@ -34,9 +34,12 @@ __all__ = ["finish_cuts_bulk"]
 
 log = logging.getLogger(__name__)
 
-BULK_CUT_TOL = 1e-11
-"""The cuts' stopping violation, relative to each element's displacement scale (as the cones of a linear material
-on the mixed system, :data:`~cvxcontact.backends.cones.MIXED_CUT_TOL`)."""
+BULK_CUT_TOL = 1e-13
+"""The cuts' stopping violation, relative to each element's displacement scale (below it, a violation that no longer
+halves is rounding: :data:`~cvxcontact.backends.cuts.STALL_TOL`). The fields of a relaxation at points are within
+about the square root of its violation: measured on :func:`scenes3d.bumped_blocks` (4 x 4 x 2 / 5 x 3 x 2 cells)
+with a Hencky block that never yields, 2.6e-6 from the linear material's answer with 1e-11 (the linear finish's
+:data:`~cvxcontact.backends.cones.MIXED_CUT_TOL`), 4.7e-7 with 1e-13 (stalled at 4.8e-12), CPU 10.1 s and 12.7 s."""
 
 BULK_RESIDUAL_TOL = 1e-13
 """The relative residual of the nonlinear (26) at the points (each row against the sizes of its terms) at which the
@@ -56,11 +59,13 @@ def _residual(op, GP, x, y) -> float:
     return float((np.abs(r) / np.maximum(size, np.finfo(float).tiny)).max(initial=0.0))
 
 
-def finish_cuts_bulk(problem, timings, raw) -> bool:
+def finish_cuts_bulk(problem, timings, raw, seeds=None) -> bool:
     """The finish of the module docstring from a solved cone program ``raw`` beside a non-quadratic energy (scaled:
-    its fields, translations and Bernstein duals ``raw.beta``). Updates ``raw`` (u, phi, taus, y, beta, active,
-    pairing, points, finish) and returns True, or sets ``raw.declined`` and returns False (the rounds and the
-    sequential quadratic steps are logged)."""
+    its fields and translations, the start of the steps, and its Bernstein duals ``raw.beta``, whose tangency points
+    are the first cut points), or from ``seeds`` (element, t, y: cut points and their forces, e.g. the cuts' answer
+    on the energy's tangent, :func:`~cvxcontact.backends.cones.finish_bulk`; ``raw``'s fields then theirs).
+    Updates ``raw`` (u, phi, taus, y, beta, active, pairing, points, finish) and returns True, or sets
+    ``raw.declined`` and returns False (the rounds and the sequential quadratic steps are logged)."""
     B, cells = problem.lines.cone
     width = cells.shape[1]
     B = sp.csr_matrix(B)
@@ -70,9 +75,12 @@ def finish_cuts_bulk(problem, timings, raw) -> bool:
     op, G, widths = mixed_system(problem)
     t0 = time.perf_counter()
     reach = row_reach(mixed_kkt(problem.blocks, E, g, translations=tr).matrix, G)
-    segment, t = seed_points(B, raw.beta, width=width)
-    state = {"x": stacked(raw.u, raw.phi, raw.taus if tr else ()), "y": seed_forces(segment, t, raw.beta),
-             "steps": 0}
+    if seeds is None:
+        segment, t = seed_points(B, raw.beta, width=width)
+        y0 = seed_forces(segment, t, raw.beta)
+    else:
+        segment, t, y0 = (np.asarray(a) for a in seeds)
+    state = {"x": stacked(raw.u, raw.phi, raw.taus if tr else ()), "y": y0, "steps": 0}
 
     def solve(P, delta):
         P = sp.csr_matrix(P)

@@ -330,7 +330,7 @@ solve closes its rows (measured: with the cuts' own 1e-15 the violation stalls a
 points at the same places)."""
 
 
-def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None) -> None:
+def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None, keep: dict | None = None) -> None:
     """The exact finish of the cones by accumulated cuts where the interface compliance does not exist (a body
     held by the contact only, a force-controlled obstacle): each round's nodal problem at the cut points is
     solved on the sparse mixed system (26) with the obstacles' translations
@@ -344,7 +344,8 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None) -> None:
     :func:`~cvxcontact.backends.forced.gamma_blocks`: condensed onto their Gamma dofs, ``raw.u`` then their
     Gamma values; :func:`~cvxcontact.backends.mixed.tangent_blocks`: a non-quadratic energy's Newton model).
     ``energy``: the Newton at the tangency points after the cuts on the nonlinear (26) of this
-    :class:`~cvxcontact.backends.mixed.MixedEnergy` (:func:`finish_bulk`)."""
+    :class:`~cvxcontact.backends.mixed.MixedEnergy` (:func:`finish_bulk`). ``keep``: updated with the cuts'
+    answer (segment, t, y: their points and forces) where they reach it."""
     B, cells = problem.lines.cone
     width = cells.shape[1]
     blocks, E, g = problem.blocks if blocks is None else blocks, problem.E, problem.g
@@ -391,6 +392,8 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None) -> None:
             # cuts' rounds' systems are on the cut points), in words that name the cuts' reason first
             raw.declined = raw.declined.within(f"{why}; Newton at the tangency points")
         return
+    if keep is not None:
+        keep.update(out)
     x, taus = out["state"]
     raw.u, raw.phi = x[0], x[1]
     if tr:
@@ -418,14 +421,17 @@ def finish_bulk(problem, timings, raw) -> None:
     interior point's answer with the reason (the cuts' answer is the model's, not the problem's). Updates ``raw``."""
     kept = {k: getattr(raw, k) for k in _FIELDS}
     energy = mixed_system(problem)[0]
-    finish_cuts_mixed(problem, timings, raw, blocks=tangent_blocks(problem.blocks, raw.u), energy=energy)
+    cuts: dict = {}
+    finish_cuts_mixed(problem, timings, raw, blocks=tangent_blocks(problem.blocks, raw.u), energy=energy, keep=cuts)
     if raw.finish == Finish.TANGENCY_NEWTON and raw.declined is None:
         return
     why = raw.declined or Declined(Stop.STALL, "Newton at the tangency points on the nonlinear (26) after the cuts "
                                    "on the energy's tangent did not settle")
-    for k, v in kept.items():
-        setattr(raw, k, v)
-    if finish_cuts_bulk(problem, timings, raw):       # the cuts on the nonlinear (26) itself (3D: the triangles)
+    if not cuts:                                      # the cuts on the tangent declined: from the interior point
+        for k, v in kept.items():
+            setattr(raw, k, v)
+    # the cuts on the nonlinear (26) itself (3D: the triangles), from the tangent's cuts (their fields and points)
+    if finish_cuts_bulk(problem, timings, raw, seeds=(cuts["segment"], cuts["t"], cuts["y"]) if cuts else None):
         return
     why = Declined(why.stop, f"{why}; the accumulated cuts on the nonlinear (26): {raw.declined}", why.rows)
     for k, v in kept.items():

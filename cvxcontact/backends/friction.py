@@ -178,12 +178,13 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_argmax`; against a curved
     obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
     same finish with a normal row added at each such maximum (a cut,
-    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; Tresca only, at most :data:`CUT_ROUNDS` rounds and
-    :data:`CUT_FAILURES` declined ones: Coulomb's capacities are the nodes' forces'). The answer is
-    then the cones': its point forces y_p >= 0 are point evaluations, in every element's dual cone (beta_s =
-    sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md).
-    Otherwise (a finish declined, cuts that do not settle) the interior point's answer ``raw`` with its
-    ``declined`` saying why. Returns the answer."""
+    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; at most :data:`CUT_ROUNDS` rounds and
+    :data:`CUT_FAILURES` declined ones). Coulomb (:func:`_coulomb_cuts`): a fixed point on Tresca's capacities
+    c = mu r, r = P^T y the nodal force of the cut points' forces, each iterate that finish at the given
+    capacities. The answer is then the cones': its point forces y_p >= 0 are point evaluations, in every element's
+    dual cone (beta_s = sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h;
+    docs/howto/friction.md). Otherwise (a finish declined, cuts that do not settle, a fixed point that does not)
+    the interior point's answer ``raw`` with its ``declined`` saying why. Returns the answer."""
     B, cells = problem.lines.cone
     n, w = B.shape[1], cells.shape[1]
     where = np.zeros(n, dtype=int)                 # every node of X_h once, as a point of an element holding it
@@ -194,7 +195,28 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         raw.declined = Declined(Stop.NOT_POSED,
                                 f"{UNFINISHED_CONES} (the nodes of X_h are not points of its elements)")
         return raw
-    tried, solved = [], []
+    if problem.rows.pressure_dependent.any():      # the nodes' round on Coulomb's own law, else its fixed point
+        out = _cuts(problem, raw, timings, segment, t, rounds=1)
+        if isinstance(out, Declined):
+            out = _coulomb_cuts(problem, raw, timings, segment, t)
+    else:
+        out = _cuts(problem, raw, timings, segment, t)
+    if isinstance(out, Declined):
+        raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
+                                f"{out})", out.rows)
+        return raw
+    return out
+
+
+def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=CUT_ROUNDS):
+    """The cut rounds of :func:`finish_on_nodes` (at most ``rounds``) at the given friction capacities
+    (``capacity`` (R,), scaled: Tresca's law at them; default the law's own, Coulomb's on the nodes' forces), from the points (``segment``, ``t``) (the nodes of X_h, then any points kept from an
+    earlier call) and the answer ``start`` (its forces on a prefix of the points; default the interior point's
+    ``raw``). Returns the finished answer (a new :class:`RawResult`; its ``points`` (segment, t, y) the cut
+    points and their forces) or the :class:`~cvxcontact.backends.finish.Declined` that stopped it."""
+    B, cells = problem.lines.cone
+    n, w = B.shape[1], cells.shape[1]
+    tried, solved = [], [] if start is None else [start]
 
     def solve(P, delta):
         """The friction finish with the normal rows ``P`` (their slack P q - delta), from the last round's answer:
@@ -202,8 +224,8 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         (its decline kept)."""
         if sum(d is not None for d in tried) >= CUT_FAILURES:
             return None
-        start = next((a for a in reversed(solved) if len(a.y) <= P.shape[0]), None)
-        trial = exact_finish(problem, replace(raw), timings, points=(P, delta), start=start)
+        begin = next((a for a in reversed(solved) if len(a.y) <= P.shape[0]), None)
+        trial = exact_finish(problem, replace(raw), timings, points=(P, delta), start=begin, capacity=capacity)
         tried.append(trial.declined)
         if not trial.polished:
             return None
@@ -213,22 +235,53 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
         return trial.y, jump - problem.g, np.full(n, U), trial, trial.active
 
-    rounds = 1 if problem.rows.pressure_dependent.any() else CUT_ROUNDS
     out = accumulate_cuts(B, solve, segment, t, max_rounds=rounds, tol=CONE_ROUNDING, width=w,
                           departure=problem.departure)
     if isinstance(out, Declined):
-        why = next((d for d in reversed(tried) if d is not None), out)
-        words = str(why) if why is not out or rounds > 1 else (
-            f"it leaves the cone of an element, a contact ending inside it, and Coulomb's finish takes no cut points "
-            f"(its capacities are the nodes' forces): {why}")
-        raw.declined = Declined(why.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes"
-                                f"{'' if rounds == 1 else ' and cut points'}: {words})", why.rows)
-        return raw
+        return next((d for d in reversed(tried) if d is not None), out)
     trial = out["state"]
+    trial.points = (out["segment"], out["t"], out["y"])
     trial.y, trial.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     trial.beta = out["beta"]
     trial.pairing = None if problem.departure is None else out["pairing"]
     return trial
+
+
+COULOMB_ROUNDING = 1e-10
+"""Below this relative change of the capacities, a fixed point of :func:`_coulomb_cuts` whose change no longer
+decreases by 10 % per iterate has reached the rounding of its exact iterates and stops as converged."""
+
+
+def _coulomb_cuts(problem, raw, timings, segment, t):
+    """Coulomb's finish with cut points: the fixed point c^(k+1) = mu r^(k) on Tresca's capacities, r^(k) = P^T y
+    the nodal force on X_h of the cut points' forces of iterate k (a negative entry, a P2 node's share of a force
+    between nodes, counts as 0), each iterate the Tresca finish :func:`_cuts` at c^(k), exact; from the
+    interior point's capacities c^(0) = mu r (its cones' nodal force), each iterate starting from the last one's
+    points and answer. It stops where max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or
+    where that change no longer decreases by 10 % below :data:`COULOMB_ROUNDING`; the answer is the last iterate,
+    whose capacities are those of its own forces to that change. The map is a contraction for small mu (the
+    friction forces' effect on the pressures is of order mu; measured rates in docs/howto/friction.md); where it is
+    not (``max_iterations`` of the law reached, or an iterate declined) the finish declines."""
+    tol, most = problem.rows.fixed_point
+    capacity = problem.capacities(raw.y)
+    start, changes = None, []
+    for _ in range(most):
+        trial = _cuts(problem, raw, timings, segment, t, capacity=capacity, start=start)
+        if isinstance(trial, Declined):
+            return trial
+        new = problem.capacities(trial.y)
+        changes.append(float(np.abs(new - capacity).max(initial=0.0)
+                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
+                                   np.finfo(float).tiny)))
+        log.info("Coulomb finish at cut points: iterate %d, relative change of the capacities %.2e", len(changes),
+                 changes[-1])
+        if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
+                                  and changes[-1] > 0.9 * changes[-2]):
+            return trial
+        segment, t, y = trial.points                  # the next iterate starts from these points and forces
+        capacity, start = new, replace(trial, y=y)
+    return Declined(Stop.MAX_ITER, f"Coulomb's fixed point on the cut points' capacities changed them by "
+                    f"{changes[-1]:.3g} (relative) at its iterate {len(changes)}, above the tolerance {tol:.3g}")
 
 
 def _row_forces(problem, model):
@@ -286,7 +339,7 @@ def _interior(problem, settings, timings, normal):
     return raw, unsettled
 
 
-def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
+def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
@@ -299,7 +352,8 @@ def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
     E's (P (k, n) on the nodes of X_h, its first n rows the nodes themselves, the frictional rows; the slack
     P q - delta, ``delta`` a curved obstacle's departure at the points; :func:`finish_on_nodes`): ``raw.y`` and
     ``raw.active`` are then per point; ``start``: an answer to start the steps from (its forces on a prefix of the
-    points), else ``raw`` (whose energy the finish's may not exceed either way)."""
+    points), else ``raw`` (whose energy the finish's may not exceed either way). ``capacity`` (R,): the friction
+    capacities to finish at (scaled; Tresca's law at them), instead of the law's (:func:`_coulomb_cuts`)."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
         return raw
@@ -320,8 +374,9 @@ def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
     Es = problem.slip_rows[order]
     S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
                    for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
-    c0 = problem.capacities(np.zeros(R))
-    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
+    c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
+    slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
+    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], slope[rows], n_c,
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])

@@ -17,7 +17,6 @@ import warnings
 
 import friction_box_scenes as fb
 import friction_scenes as fs
-import numpy as np
 
 import cvxcontact as cc
 
@@ -74,7 +73,7 @@ SCENES = {
 
 def main(names) -> None:
     warnings.simplefilter("ignore")
-    print(f"| scene | mesh | law | declined | reason | worst check | CPU s |\n|---|---|---|---|---|---|---|", flush=True)
+    print("| scene | mesh | law | declined | reason | worst check | CPU s |\n|---|---|---|---|---|---|---|", flush=True)
     for name, (mesh, law, make) in SCENES.items():
         if names and not any(n in name for n in names):
             continue

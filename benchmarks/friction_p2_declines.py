@@ -40,6 +40,14 @@ def dragged(law, s=1e-5, nx=8, ny=4):
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", obstacle, law=law)])
 
 
+def tilted(law, nx):
+    """The free 1 m x 1 m block of tests/test_friction_p2_gamma3_checks.py under (0.3 p, -p) on its top (nx x 8
+    cells): its left heel lifts, the contact ending inside an element for nx = 8, at a node for nx = 7."""
+    b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8), fs.steel(), contact="bottom",
+                traction={"top": (0.3 * fs.P, -fs.P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", fs.FLOOR, law=law)])
+
+
 P = fs.P
 SCENES = {
     "2D sheared stuck": ("8x4", "Tresca 1e9", lambda: fs.sheared(0.2 * P, cc.Tresca(1e9))),
@@ -60,6 +68,10 @@ SCENES = {
     "2D disk C 16x8": ("16x8", "Coulomb .3", lambda: disk(cc.Coulomb(0.3), nx=16, ny=8)),
     "2D dragged": ("8x4", "Tresca 1e6", lambda: dragged(cc.Tresca(1e6))),
     "2D dragged C": ("8x4", "Coulomb .3", lambda: dragged(cc.Coulomb(0.3))),
+    "2D tilted 7": ("7x8", "Tresca .6P", lambda: tilted(cc.Tresca(0.6 * P), 7)),
+    "2D tilted 8": ("8x8", "Tresca .6P", lambda: tilted(cc.Tresca(0.6 * P), 8)),
+    "2D tilted 7 C": ("7x8", "Coulomb .6", lambda: tilted(cc.Coulomb(0.6), 7)),
+    "2D tilted 8 C": ("8x8", "Coulomb .6", lambda: tilted(cc.Coulomb(0.6), 8)),
     "3D layer stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_layer3d(0.2 * P, cc.Tresca(2 * P))),
     "3D layer sliding": ("2x2x1", "Tresca 1e5", lambda: fs.sliding_layer3d(1e5)),
     "3D pair stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_pair3d(0.2 * P, cc.Tresca(2 * P))),

@@ -348,7 +348,7 @@ def _pivots(system, w, solved, most: int):
             return None
         w = w + dw
         state = system.state(w)
-        closed, stuck, z, c = solved
+        closed, stuck, z, _ = solved
         turned = ~stuck & ~state[1] & (np.sign(z[:, 0]) != np.sign(state[2][:, 0]))
         flips = np.concatenate([np.flatnonzero(closed != state[0]),
                                 R + np.flatnonzero((stuck != state[1]) | turned)])

@@ -41,6 +41,7 @@ import logging
 import time
 import warnings
 from dataclasses import replace
+from types import SimpleNamespace
 
 import cvxpy as cp
 import numpy as np
@@ -49,15 +50,17 @@ import scipy.sparse as sp
 from ..contact.bernstein import element, point_rows
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
+from .cones import MIXED_CUT_TOL
 from .cuts import accumulate_cuts, point_read_back
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows, solve_friction
-from .full import ContactModel
+from .full import ContactModel, mixed_kkt
 from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
+from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
            "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip"]
@@ -201,6 +204,8 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
             out = _coulomb_cuts(problem, raw, timings, segment, t)
     else:
         out = _cuts(problem, raw, timings, segment, t)
+        if not isinstance(out, Declined) and _cut(problem, out):
+            out = _tangency_polish(problem, out, timings, problem.capacities(np.zeros(len(problem.g)))) or out
     if isinstance(out, Declined):
         raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
                                 f"{out})", out.rows)
@@ -247,6 +252,113 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
     return trial
 
 
+def _coulomb_tangency(problem, trial, timings, capacity, tol, most):
+    """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
+    forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
+    :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
+    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (its
+    capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop)."""
+    changes, cuts = [], trial
+    for _ in range(most):
+        done = _tangency_polish(problem, trial, timings, capacity)
+        if done is None:
+            return cuts
+        new = problem.capacities(done.y)
+        changes.append(float(np.abs(new - capacity).max(initial=0.0)
+                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
+                                   np.finfo(float).tiny)))
+        log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),
+                 changes[-1])
+        trial, capacity = done, new
+        if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
+                                  and changes[-1] > 0.9 * changes[-2]):
+            return done
+    return cuts
+
+
+def _cut(problem, trial) -> bool:
+    """Whether the cuts' answer ``trial`` holds a point besides the nodes of X_h (else it is exact on them)."""
+    return len(trial.points[0]) > problem.lines.cone[0].shape[1]
+
+
+BALANCE_ROUNDING = 1e-10
+"""The answer of :func:`_tangency_polish` is taken only where (26) holds with its own nodal forces to this fraction
+of its largest term (measured at most 1e-15; a pair under a nodal condition beside the cones, whose rows the
+tangency points do not carry, missed it by 2.4e-2 of the load and is left to the cuts' answer)."""
+
+SLIP_ROUNDING = 1e-10
+"""A friction row of the cuts' answer whose slip is at most this times the largest displacement is stuck in the
+Newton at the tangency points (:func:`_tangency_polish`); the others slip along their slip's sign."""
+
+
+def _tangency_polish(problem, trial, timings, capacity):
+    """The cuts' answer ``trial`` (its ``points`` the cut points and forces) finished at the exact tangency points
+    (2D): the cuts close in on the point where a contact ends inside an element only linearly, the fields' error
+    the square root of the violation (measured 2.3e-6 of the displacements at the cuts' stop, 1e-9: the block
+    dragged over a disk). With the answer's stick-slip partition fixed, Tresca's law at the capacities
+    ``capacity`` (R,) is linear in 2D: a slipping row's force is c_a sign(s_a), a load; a stuck row's slip is
+    0, a linear row S_a x + s0_a = 0 whose multiplier is its force. So the frictionless cones' Newton at the
+    tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`, docs/formulation.md §18) on (26)
+    with those loads and rows finishes it, from the cuts' points; accepted where its answer keeps the partition
+    (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force), else None (the cuts'
+    answer stands). Returns the finished answer (a new :class:`RawResult`) or None."""
+    if problem.slip_components != 1 or trial.points is None or not problem.quadratic:
+        return None
+    t0 = time.perf_counter()
+    R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
+    _, _, widths = mixed_system(problem)
+    rows = np.flatnonzero(problem.rows.frictional)
+    Es = problem.slip_rows[rows]
+    S = sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(rows), 0 if b.Kpp is None else b.Kpp.shape[0]))])
+                   for b in problem.blocks] + [sp.csr_matrix((len(rows), w)) for w in widths]).tocsr()
+    s0 = prescribed_row_slip(problem)[rows]
+    x0 = stacked(trial.u, trial.phi, trial.taus)
+    U = float(np.abs(x0).max(initial=0.0))
+    slip = S @ x0 + s0
+    moved = np.asarray(abs(S).sum(axis=1)).ravel() > 0
+    stuck = moved & (np.abs(slip) <= SLIP_ROUNDING * U)
+    sliding = ~stuck & (slip != 0)
+    force = np.zeros(len(rows))
+    force[sliding] = c[rows][sliding] * np.sign(slip[sliding])
+    kkt = mixed_kkt(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
+    A, F, G, n = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float), sp.csr_matrix(kkt.rows), len(x0)
+    held = S[stuck]
+    mu0 = trial.tangential.reshape(1, R)[0, rows][stuck]     # the stuck rows' forces: their rows' multipliers
+    aug = SimpleNamespace(matrix=sp.bmat([[A, held.T], [held, None]], format="csr"),
+                          rhs=np.concatenate([F - S.T @ force, -s0[stuck]]),
+                          rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
+    B = problem.lines.cone[0]
+    out = tangency_newton(aug, B, problem.g, trial.beta, np.concatenate([x0, mu0]), held=problem.held_rows,
+                          tol=MIXED_CUT_TOL, departure=problem.departure, points=trial.points)
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    if isinstance(out, Declined):
+        log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
+        return None
+    x, mu_stuck = out["x"][:n], out["x"][n:]
+    new = S @ x + s0
+    mu = force.copy()
+    mu[stuck] = mu_stuck
+    C = max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
+    if (np.abs(mu_stuck) > c[rows][stuck] + SLIP_ROUNDING * C).any() or (new[sliding] * force[sliding] < 0).any():
+        log.info("the Newton at the tangency points after the friction cuts changed the stick-slip partition")
+        return None
+    y = np.asarray(out["nodal"], dtype=float)
+    balance = A @ x + G.T @ y + S.T @ mu - F                   # (26) with the answer's own forces
+    size = abs(A) @ np.abs(x) + np.abs(F) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
+    if (np.abs(balance) > BALANCE_ROUNDING * max(float(size.max(initial=0.0)), np.finfo(float).tiny)).any():
+        log.info("the Newton at the tangency points after the friction cuts: its forces do not balance (26)")
+        return None
+    done = replace(trial)
+    done.u, done.phi, done.taus = unstacked(problem, x, widths)
+    done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]
+    done.points = (out["segment"], out["t"], out["y"])
+    done.tangential = np.zeros(R)
+    done.tangential[rows] = mu
+    done.capacity = np.zeros(R)
+    done.capacity[rows] = c[rows]
+    return done
+
+
 COULOMB_ROUNDING = 1e-10
 """Below this relative change of the capacities, a fixed point of :func:`_coulomb_cuts` whose change no longer
 decreases by 10 % per iterate has reached the rounding of its exact iterates and stops as converged."""
@@ -277,7 +389,7 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
                  changes[-1])
         if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
                                   and changes[-1] > 0.9 * changes[-2]):
-            return trial
+            return _coulomb_tangency(problem, trial, timings, new, tol, most) if _cut(problem, trial) else trial
         segment, t, y = trial.points                  # the next iterate starts from these points and forces
         capacity, start = new, replace(trial, y=y)
     return Declined(Stop.MAX_ITER, f"Coulomb's fixed point on the cut points' capacities changed them by "

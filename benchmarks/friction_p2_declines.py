@@ -23,31 +23,6 @@ import cvxcontact as cc
 KEYS = ("equilibrium", "complementarity", "cone", "friction cone", "stick-slip")
 
 
-def disk(law, depth=1e-4, nx=8, ny=4):
-    """The clamped block pressed ``depth`` into a disk (tests/test_friction_p2_gamma3.py): the contact ends inside
-    elements."""
-    body = cc.Body(cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=nx, ny=ny), fs.steel(), contact="bottom",
-                   clamped="top")
-    obstacle = cc.Rigid.circle(center=(0.0, -1.0), radius=1.0 + depth)
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", obstacle, law=law)])
-
-
-def dragged(law, s=1e-5, nx=8, ny=4):
-    """The block of :func:`disk` held along x by u_x = s on its top (not clamped): dragged over the disk."""
-    body = cc.Body(cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=nx, ny=ny), fs.steel(), contact="bottom",
-                   displacement={"top": (s, -1e-4)})
-    obstacle = cc.Rigid.circle(center=(0.0, -1.0), radius=1.0)
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", obstacle, law=law)])
-
-
-def tilted(law, nx):
-    """The free 1 m x 1 m block of tests/test_friction_p2_gamma3_checks.py under (0.3 p, -p) on its top (nx x 8
-    cells): its left heel lifts, the contact ending inside an element for nx = 8, at a node for nx = 7."""
-    b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8), fs.steel(), contact="bottom",
-                traction={"top": (0.3 * fs.P, -fs.P)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", fs.FLOOR, law=law)])
-
-
 P = fs.P
 SCENES = {
     "2D sheared stuck": ("8x4", "Tresca 1e9", lambda: fs.sheared(0.2 * P, cc.Tresca(1e9))),
@@ -60,18 +35,18 @@ SCENES = {
     "2D walled": ("8x4", "Tresca 1e6", lambda: fs.walled(cc.Tresca(1e6))),
     "2D pair2d": ("7x3/9x3", "Tresca .03P", lambda: fs.pair2d(cc.Tresca(0.03 * P), 0.02 * P, condition="gamma3")),
     "2D pair2d C": ("7x3/9x3", "Coulomb .3", lambda: fs.pair2d(cc.Coulomb(0.3), 0.02 * P, condition="gamma3")),
-    "2D disk g=1e3": ("8x4", "Tresca 1e3", lambda: disk(cc.Tresca(1e3))),
-    "2D disk g=1e6": ("8x4", "Tresca 1e6", lambda: disk(cc.Tresca(1e6))),
-    "2D disk g=1e8": ("8x4", "Tresca 1e8", lambda: disk(cc.Tresca(1e8))),
-    "2D disk 16x8": ("16x8", "Tresca 1e6", lambda: disk(cc.Tresca(1e6), nx=16, ny=8)),
-    "2D disk C": ("8x4", "Coulomb .3", lambda: disk(cc.Coulomb(0.3))),
-    "2D disk C 16x8": ("16x8", "Coulomb .3", lambda: disk(cc.Coulomb(0.3), nx=16, ny=8)),
-    "2D dragged": ("8x4", "Tresca 1e6", lambda: dragged(cc.Tresca(1e6))),
-    "2D dragged C": ("8x4", "Coulomb .3", lambda: dragged(cc.Coulomb(0.3))),
-    "2D tilted 7": ("7x8", "Tresca .6P", lambda: tilted(cc.Tresca(0.6 * P), 7)),
-    "2D tilted 8": ("8x8", "Tresca .6P", lambda: tilted(cc.Tresca(0.6 * P), 8)),
-    "2D tilted 7 C": ("7x8", "Coulomb .6", lambda: tilted(cc.Coulomb(0.6), 7)),
-    "2D tilted 8 C": ("8x8", "Coulomb .6", lambda: tilted(cc.Coulomb(0.6), 8)),
+    "2D disk g=1e3": ("8x4", "Tresca 1e3", lambda: fs.pressed_disk(cc.Tresca(1e3))),
+    "2D disk g=1e6": ("8x4", "Tresca 1e6", lambda: fs.pressed_disk(cc.Tresca(1e6))),
+    "2D disk g=1e8": ("8x4", "Tresca 1e8", lambda: fs.pressed_disk(cc.Tresca(1e8))),
+    "2D disk 16x8": ("16x8", "Tresca 1e6", lambda: fs.pressed_disk(cc.Tresca(1e6), nx=16, ny=8)),
+    "2D disk C": ("8x4", "Coulomb .3", lambda: fs.pressed_disk(cc.Coulomb(0.3))),
+    "2D disk C 16x8": ("16x8", "Coulomb .3", lambda: fs.pressed_disk(cc.Coulomb(0.3), nx=16, ny=8)),
+    "2D dragged": ("8x4", "Tresca 1e6", lambda: fs.dragged_disk(cc.Tresca(1e6))),
+    "2D dragged C": ("8x4", "Coulomb .3", lambda: fs.dragged_disk(cc.Coulomb(0.3))),
+    "2D tilted 7": ("7x8", "Tresca .6P", lambda: fs.tilted(cc.Tresca(0.6 * P), 7)),
+    "2D tilted 8": ("8x8", "Tresca .6P", lambda: fs.tilted(cc.Tresca(0.6 * P), 8)),
+    "2D tilted 7 C": ("7x8", "Coulomb .6", lambda: fs.tilted(cc.Coulomb(0.6), 7)),
+    "2D tilted 8 C": ("8x8", "Coulomb .6", lambda: fs.tilted(cc.Coulomb(0.6), 8)),
     "3D layer stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_layer3d(0.2 * P, cc.Tresca(2 * P))),
     "3D layer sliding": ("2x2x1", "Tresca 1e5", lambda: fs.sliding_layer3d(1e5)),
     "3D pair stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_pair3d(0.2 * P, cc.Tresca(2 * P))),

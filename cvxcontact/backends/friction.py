@@ -27,7 +27,9 @@ the sliding motion.
 With P2 elements under "gamma3" (:func:`conic_full`, the term
 :class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
 (:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
-cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`.
+cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`: the nodes' round,
+cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
+stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
 
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
 is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
@@ -147,8 +149,8 @@ element is at most this times the largest displacement (the closed points' slack
 inside an element dips by a part of the displacements between its nodes)."""
 
 CUT_ROUNDS = 40
-"""At most this many rounds of cut points (:func:`finish_on_nodes`; Tresca: Coulomb's capacities are those of the
-nodes' forces, so its finish is the nodes' round alone)."""
+"""At most this many rounds of cut points (:func:`finish_on_nodes`; per iterate of Coulomb's fixed point,
+:func:`_coulomb_cuts`)."""
 
 CUT_FAILURES = 2
 """The cuts end (declined) once this many rounds' friction finishes were declined: a round that adds many points
@@ -182,11 +184,14 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
     same finish with a normal row added at each such maximum (a cut,
     :func:`~cvxcontact.backends.cuts.accumulate_cuts`; at most :data:`CUT_ROUNDS` rounds and
-    :data:`CUT_FAILURES` declined ones). Coulomb (:func:`_coulomb_cuts`): a fixed point on Tresca's capacities
-    c = mu r, r = P^T y the nodal force of the cut points' forces, each iterate that finish at the given
-    capacities. The answer is then the cones': its point forces y_p >= 0 are point evaluations, in every element's
-    dual cone (beta_s = sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h;
-    docs/howto/friction.md). Otherwise (a finish declined, cuts that do not settle, a fixed point that does not)
+    :data:`CUT_FAILURES` declined ones); in 2D, where cut points were added, that answer finished at the exact
+    tangency points (:func:`_tangency_polish`). Coulomb: the nodes' round on its own law (capacities mu y_a of
+    the nodes' forces); where that leaves an element's cone, a fixed point on Tresca's capacities c = mu r,
+    r = P^T y the nodal force of the cut points' forces, each iterate the finish above at the given capacities
+    (:func:`_coulomb_cuts`, then :func:`_coulomb_tangency`). The answer is then the cones': its point forces
+    y_p >= 0 are point evaluations, in every element's dual cone (beta_s = sum_p y_p basis(t_p),
+    :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md). Otherwise (a
+    finish declined, cuts that do not settle, a fixed point that does not)
     the interior point's answer ``raw`` with its ``declined`` saying why. Returns the answer."""
     B, cells = problem.lines.cone
     n, w = B.shape[1], cells.shape[1]

@@ -322,8 +322,11 @@ def _key(state) -> tuple:
     return closed.tobytes(), stuck.tobytes(), bytes(turn)
 
 
-PIVOTS = 4
-"""The single-row changes of :func:`_pivots` at most, per row (normal and friction rows)."""
+PIVOTS = 1
+"""The single-row changes of :func:`_pivots` at most, per row (normal and friction rows; plus 10): each is a sparse
+LU. Measured: the tilted block settles within it; where it does not (the 2D pair of non-matching lines, the tilted
+block with Coulomb at nx = 7) four per row cost 3.6 to 4.1 s CPU before the decline, one per row 1.0 to 1.5 s
+(benchmarks/results/friction_p2_declines.md)."""
 
 
 def _pivots(system, w, solved, most: int):

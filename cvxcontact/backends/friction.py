@@ -208,9 +208,12 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         if isinstance(out, Declined):
             out = _coulomb_cuts(problem, raw, timings, segment, t)
     else:
+        capacity = problem.capacities(np.zeros(len(problem.g)))
         out = _cuts(problem, raw, timings, segment, t)
-        if not isinstance(out, Declined) and _cut(problem, out):
-            out = _tangency_polish(problem, out, timings, problem.capacities(np.zeros(len(problem.g)))) or out
+        if isinstance(out, Declined):             # the tangency points from the interior point's structure
+            out = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP) or out
+        elif _cut(problem, out):
+            out = _tangency_polish(problem, out, timings, capacity) or out
     if isinstance(out, Declined):
         raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
                                 f"{out})", out.rows)
@@ -257,15 +260,18 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
     return trial
 
 
-def _coulomb_tangency(problem, trial, timings, capacity, tol, most):
+def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=None):
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
     :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (its
-    capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop)."""
-    changes, cuts = [], trial
+    capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
+    first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
+    declined (then None where the fixed point does not settle)."""
+    changes, cuts = [], None if slip_floor is not None else trial
     for _ in range(most):
-        done = _tangency_polish(problem, trial, timings, capacity)
+        done = _tangency_polish(problem, trial, timings, capacity,
+                                SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
         if done is None:
             return cuts
         new = problem.capacities(done.y)
@@ -286,6 +292,16 @@ def _cut(problem, trial) -> bool:
     return len(trial.points[0]) > problem.lines.cone[0].shape[1]
 
 
+PARTITIONS = 10
+"""Stick-slip partitions tried at most by :func:`_tangency_polish` (a stuck row whose force exceeds its capacity
+then slips along it, a slipping row whose slip turns against its force sticks)."""
+
+INTERIOR_SLIP = 1e-7
+"""From the interior point's answer (:func:`_tangency_polish` where the cuts declined), a friction row whose slip is
+at most this times the largest displacement is stuck, the others slip along their slip (a wrong guess is corrected
+by :data:`PARTITIONS`, and caught by the acceptance). Measured on the Coulomb pair of non-matching lines: 1e-7 and
+1e-8 finish it; 1e-6 took 9 slipping rows for stuck, and the Newton on the corrected partition did not converge."""
+
 BALANCE_ROUNDING = 1e-10
 """The answer of :func:`_tangency_polish` is taken only where (26) holds with its own nodal forces to this fraction
 of its largest term (measured at most 1e-15; a pair under a nodal condition beside the cones, whose rows the
@@ -296,7 +312,7 @@ SLIP_ROUNDING = 1e-10
 Newton at the tangency points (:func:`_tangency_polish`); the others slip along their slip's sign."""
 
 
-def _tangency_polish(problem, trial, timings, capacity):
+def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     """The cuts' answer ``trial`` (its ``points`` the cut points and forces) finished at the exact tangency points
     (2D): the cuts close in on the point where a contact ends inside an element only linearly, the fields' error
     the square root of the violation (measured 2.3e-6 of the displacements at the cuts' stop, 1e-9: the block
@@ -305,9 +321,15 @@ def _tangency_polish(problem, trial, timings, capacity):
     0, a linear row S_a x + s0_a = 0 whose multiplier is its force. So the frictionless cones' Newton at the
     tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`, docs/formulation.md §18) on (26)
     with those loads and rows finishes it, from the cuts' points; accepted where its answer keeps the partition
-    (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force), else None (the cuts'
-    answer stands). Returns the finished answer (a new :class:`RawResult`) or None."""
-    if problem.slip_components != 1 or trial.points is None or not problem.quadratic:
+    (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force: else the rows that break it
+    change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces, else
+    None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None.
+
+    From the interior point's answer (where the cuts declined: ``trial.points`` None, its Bernstein duals the
+    contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
+    to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
+    largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
+    if problem.slip_components != 1 or not problem.quadratic:
         return None
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
@@ -321,32 +343,44 @@ def _tangency_polish(problem, trial, timings, capacity):
     U = float(np.abs(x0).max(initial=0.0))
     slip = S @ x0 + s0
     moved = np.asarray(abs(S).sum(axis=1)).ravel() > 0
-    stuck = moved & (np.abs(slip) <= SLIP_ROUNDING * U)
-    sliding = ~stuck & (slip != 0)
-    force = np.zeros(len(rows))
-    force[sliding] = c[rows][sliding] * np.sign(slip[sliding])
+    stuck = moved & (np.abs(slip) <= (SLIP_ROUNDING if slip_floor is None else slip_floor) * U)
+    sign = np.where(stuck, 0.0, np.sign(slip))
     kkt = mixed_kkt(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
     A, F, G, n = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float), sp.csr_matrix(kkt.rows), len(x0)
-    held = S[stuck]
-    mu0 = trial.tangential.reshape(1, R)[0, rows][stuck]     # the stuck rows' forces: their rows' multipliers
-    aug = SimpleNamespace(matrix=sp.bmat([[A, held.T], [held, None]], format="csr"),
-                          rhs=np.concatenate([F - S.T @ force, -s0[stuck]]),
-                          rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
-    B = problem.lines.cone[0]
-    out = tangency_newton(aug, B, problem.g, trial.beta, np.concatenate([x0, mu0]), held=problem.held_rows,
-                          tol=MIXED_CUT_TOL, departure=problem.departure, points=trial.points)
+    B, C = problem.lines.cone[0], max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
+    mu = trial.tangential.reshape(1, R)[0, rows]
+    beta, points = trial.beta, trial.points
+    for _ in range(PARTITIONS):
+        force = c[rows] * sign                                # the slipping rows' forces (0 on the stuck ones)
+        held = S[stuck]
+        aug = SimpleNamespace(matrix=sp.bmat([[A, held.T], [held, None]], format="csr"),
+                              rhs=np.concatenate([F - S.T @ force, -s0[stuck]]),
+                              rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
+        out = tangency_newton(aug, B, problem.g, beta, np.concatenate([x0, mu[stuck]]), held=problem.held_rows,
+                              tol=MIXED_CUT_TOL, departure=problem.departure, points=points)
+        if isinstance(out, Declined):
+            log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
+            timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+            return None
+        x0 = out["x"][:n]
+        mu = force.copy()
+        mu[stuck] = out["x"][n:]
+        new = S @ x0 + s0
+        over = stuck & (np.abs(mu) > c[rows] + SLIP_ROUNDING * C)      # stuck beyond its capacity: it slips
+        back = ~stuck & moved & (new * sign <= 0)                      # slipping against its force: it sticks
+        if not (over.any() or back.any()):
+            break
+        log.info("the Newton at the tangency points after the friction cuts: %d rows start to slip, %d stick",
+                 over.sum(), back.sum())
+        sign = np.where(over, np.sign(mu), np.where(back, 0.0, sign))
+        stuck = (stuck & ~over) | back
+        beta, points = out["beta"], (out["segment"], out["t"], out["y"])
+    else:
+        timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+        log.info("the Newton at the tangency points after the friction cuts: the stick-slip partition did not settle")
+        return None
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-    if isinstance(out, Declined):
-        log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
-        return None
-    x, mu_stuck = out["x"][:n], out["x"][n:]
-    new = S @ x + s0
-    mu = force.copy()
-    mu[stuck] = mu_stuck
-    C = max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
-    if (np.abs(mu_stuck) > c[rows][stuck] + SLIP_ROUNDING * C).any() or (new[sliding] * force[sliding] < 0).any():
-        log.info("the Newton at the tangency points after the friction cuts changed the stick-slip partition")
-        return None
+    x = x0
     y = np.asarray(out["nodal"], dtype=float)
     balance = A @ x + G.T @ y + S.T @ mu - F                   # (26) with the answer's own forces
     size = abs(A) @ np.abs(x) + np.abs(F) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
@@ -361,6 +395,8 @@ def _tangency_polish(problem, trial, timings, capacity):
     done.tangential[rows] = mu
     done.capacity = np.zeros(R)
     done.capacity[rows] = c[rows]
+    done.polished, done.finish, done.route, done.declined = (True, Finish.FRICTION_NEWTON,
+                                                             Route.INTERIOR_POINT_FINISHED, None)
     return done
 
 
@@ -385,7 +421,12 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
     for _ in range(most):
         trial = _cuts(problem, raw, timings, segment, t, capacity=capacity, start=start)
         if isinstance(trial, Declined):
-            return trial
+            if start is not None:
+                return trial
+            # the first iterate's cuts declined: the fixed point at the tangency points from the interior point
+            done = _coulomb_tangency(problem, replace(raw, points=None), timings, capacity, tol, most,
+                                     INTERIOR_SLIP)
+            return trial if done is None else done
         new = problem.capacities(trial.y)
         changes.append(float(np.abs(new - capacity).max(initial=0.0)
                              / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),

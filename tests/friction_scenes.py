@@ -333,3 +333,32 @@ def cornered3d_reference(body, capacity):
     R = projected_gradient_tresca(W, q, np.concatenate([capacity, np.zeros(len(right))]), iterations=40000)
     u = (Tu @ np.linalg.solve(K, f + PT.T @ R) + u_fixed).reshape(-1, 3)
     return u, R.reshape(-1, 3)[:len(bottom)]
+
+
+def pressed_disk(law, depth=1e-4, nx=8, ny=4, mirrored=False):
+    """The block 1 m x 0.5 m (nx x ny cells) clamped on its top and pressed ``depth`` into a rigid disk of radius 1 m
+    below x = 0 (tests/test_friction_p2_gamma3.py): under the P2 cones its contact ends inside the elements beside
+    x = 0. ``mirrored``: the mesh reflected about x = 0 (the same scene, its triangles the mirror images)."""
+    m = cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=nx, ny=ny)
+    if mirrored:
+        m = cc.Mesh(m.points * [-1.0, 1.0], m.triangles[:, ::-1], {t: m.boundary(t) for t in m.tags})
+    body = cc.Body(m, steel(), contact="bottom", clamped="top")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.circle(center=(0.0, -1.0), radius=1.0 + depth),
+                                               law=law)])
+
+
+def dragged_disk(law, s=1e-5, d=1e-4, nx=8, ny=4):
+    """The block of :func:`pressed_disk` moved by (s, -d) on its top onto the disk of radius 1 m (touching at x = 0):
+    dragged over it, the contact ends inside the elements beside x = 0."""
+    body = cc.Body(cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=nx, ny=ny), steel(), contact="bottom",
+                   displacement={"top": (s, -d)})
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.circle(center=(0.0, -1.0), radius=1.0),
+                                               law=law)])
+
+
+def tilted(law, nx=8):
+    """A free 1 m x 1 m block (nx x 8 cells) on the floor under (0.3 p, -p) on its top: its left heel lifts (the
+    contact ends inside an element for nx = 8, at a node for nx = 7), nothing but friction holds it along x."""
+    b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8), steel(), contact="bottom",
+                traction={"top": (0.3 * P, -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])

@@ -124,8 +124,9 @@ def test_a_contact_ending_inside_an_element_is_finished_at_cut_points_and_tends_
 @pytest.mark.numerics
 def test_two_blocks_on_non_matching_lines_balance_finished_or_not():
     """Two blocks (non-matching lines, the upper one narrower): the finish adds cut points where the contact ends
-    inside an element; where its steps do not settle (measured: they cycle on the cut round) the interior point's
-    answer is kept with a ResidualWarning naming why. Either way the shear balances q L (the upper block has no
+    inside an element; where its steps do not settle (measured: they cycle on the cut round) the Newton at the
+    tangency points from the interior point's structure (measured: finished, tests/test_friction_p2_cuts.py), else
+    the interior point's answer is kept with a ResidualWarning naming why. Either way the shear balances q L (the upper block has no
     other support along x) and the checks sit within the interior point's resolution."""
     q = 0.02 * P
     with warnings.catch_warnings(record=True) as record:

@@ -121,8 +121,8 @@ def _tilted(law, nx):
 @pytest.mark.parametrize("law", [cc.Tresca(0.6 * P), cc.Coulomb(0.6)], ids=["tresca", "coulomb"])
 @pytest.mark.parametrize("nx", [7, 8])
 def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law, nx):
-    """Finished or not (measured: Tresca finished at nx = 7, the equal of "sigma1" to 3.4e-14; its cut rounds
-    cycle at nx = 8; Coulomb declined both), the answer balances the load exactly (the floor holds p L and 0.3 p L),
+    """Finished or not (measured: Tresca finished at nx = 7, the equal of "sigma1" to 3.4e-14, and at nx = 8 (its cut
+    rounds' cycle followed by Murty's rule); Coulomb finished at nx = 8, declined at nx = 7), the answer balances the load exactly (the floor holds p L and 0.3 p L),
     its P2 trace never dips below the floor beyond the interior point's rounding (measured at most 1e-15 of the
     displacements, exactly 0 where finished), sum r_a q_a = beta . b vanishes (complementarity) and the friction
     capacities bound the shear. A declined finish is named in info.declined and warned."""

@@ -27,7 +27,9 @@ the sliding motion.
 With P2 elements under "gamma3" (:func:`conic_full`, the term
 :class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
 (:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
-cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`.
+cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`: the nodes' round,
+cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
+stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
 
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
 is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
@@ -41,6 +43,7 @@ import logging
 import time
 import warnings
 from dataclasses import replace
+from types import SimpleNamespace
 
 import cvxpy as cp
 import numpy as np
@@ -49,15 +52,17 @@ import scipy.sparse as sp
 from ..contact.bernstein import element, point_rows
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
+from .cones import MIXED_CUT_TOL
 from .cuts import accumulate_cuts, point_read_back
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows, solve_friction
-from .full import ContactModel
+from .full import ContactModel, mixed_kkt
 from .mixed import mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
+from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
            "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip"]
@@ -144,8 +149,8 @@ element is at most this times the largest displacement (the closed points' slack
 inside an element dips by a part of the displacements between its nodes)."""
 
 CUT_ROUNDS = 40
-"""At most this many rounds of cut points (:func:`finish_on_nodes`; Tresca: Coulomb's capacities are those of the
-nodes' forces, so its finish is the nodes' round alone)."""
+"""At most this many rounds of cut points (:func:`finish_on_nodes`; per iterate of Coulomb's fixed point,
+:func:`_coulomb_cuts`)."""
 
 CUT_FAILURES = 2
 """The cuts end (declined) once this many rounds' friction finishes were declined: a round that adds many points
@@ -178,12 +183,16 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     :data:`CONE_ROUNDING` U, exact by :func:`~cvxcontact.contact.bernstein.bernstein_argmax`; against a curved
     obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
     same finish with a normal row added at each such maximum (a cut,
-    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; Tresca only, at most :data:`CUT_ROUNDS` rounds and
-    :data:`CUT_FAILURES` declined ones: Coulomb's capacities are the nodes' forces'). The answer is
-    then the cones': its point forces y_p >= 0 are point evaluations, in every element's dual cone (beta_s =
-    sum_p y_p basis(t_p), :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md).
-    Otherwise (a finish declined, cuts that do not settle) the interior point's answer ``raw`` with its
-    ``declined`` saying why. Returns the answer."""
+    :func:`~cvxcontact.backends.cuts.accumulate_cuts`; at most :data:`CUT_ROUNDS` rounds and
+    :data:`CUT_FAILURES` declined ones); in 2D, where cut points were added, that answer finished at the exact
+    tangency points (:func:`_tangency_polish`). Coulomb: the nodes' round on its own law (capacities mu y_a of
+    the nodes' forces); where that leaves an element's cone, a fixed point on Tresca's capacities c = mu r,
+    r = P^T y the nodal force of the cut points' forces, each iterate the finish above at the given capacities
+    (:func:`_coulomb_cuts`, then :func:`_coulomb_tangency`). The answer is then the cones': its point forces
+    y_p >= 0 are point evaluations, in every element's dual cone (beta_s = sum_p y_p basis(t_p),
+    :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md). Otherwise (a
+    finish declined, cuts that do not settle, a fixed point that does not)
+    the interior point's answer ``raw`` with its ``declined`` saying why. Returns the answer."""
     B, cells = problem.lines.cone
     n, w = B.shape[1], cells.shape[1]
     where = np.zeros(n, dtype=int)                 # every node of X_h once, as a point of an element holding it
@@ -194,7 +203,33 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         raw.declined = Declined(Stop.NOT_POSED,
                                 f"{UNFINISHED_CONES} (the nodes of X_h are not points of its elements)")
         return raw
-    tried, solved = [], []
+    if problem.rows.pressure_dependent.any():      # the nodes' round on Coulomb's own law, else its fixed point
+        out = _cuts(problem, raw, timings, segment, t, rounds=1)
+        if isinstance(out, Declined):
+            out = _coulomb_cuts(problem, raw, timings, segment, t)
+    else:
+        capacity = problem.capacities(np.zeros(len(problem.g)))
+        out = _cuts(problem, raw, timings, segment, t)
+        if isinstance(out, Declined):             # the tangency points from the interior point's structure
+            out = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP) or out
+        elif _cut(problem, out):
+            out = _tangency_polish(problem, out, timings, capacity) or out
+    if isinstance(out, Declined):
+        raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
+                                f"{out})", out.rows)
+        return raw
+    return out
+
+
+def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=CUT_ROUNDS):
+    """The cut rounds of :func:`finish_on_nodes` (at most ``rounds``) at the given friction capacities
+    (``capacity`` (R,), scaled: Tresca's law at them; default the law's own, Coulomb's on the nodes' forces), from the points (``segment``, ``t``) (the nodes of X_h, then any points kept from an
+    earlier call) and the answer ``start`` (its forces on a prefix of the points; default the interior point's
+    ``raw``). Returns the finished answer (a new :class:`RawResult`; its ``points`` (segment, t, y) the cut
+    points and their forces) or the :class:`~cvxcontact.backends.finish.Declined` that stopped it."""
+    B, cells = problem.lines.cone
+    n, w = B.shape[1], cells.shape[1]
+    tried, solved = [], [] if start is None else [start]
 
     def solve(P, delta):
         """The friction finish with the normal rows ``P`` (their slack P q - delta), from the last round's answer:
@@ -202,8 +237,8 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         (its decline kept)."""
         if sum(d is not None for d in tried) >= CUT_FAILURES:
             return None
-        start = next((a for a in reversed(solved) if len(a.y) <= P.shape[0]), None)
-        trial = exact_finish(problem, replace(raw), timings, points=(P, delta), start=start)
+        begin = next((a for a in reversed(solved) if len(a.y) <= P.shape[0]), None)
+        trial = exact_finish(problem, replace(raw), timings, points=(P, delta), start=begin, capacity=capacity)
         tried.append(trial.declined)
         if not trial.polished:
             return None
@@ -213,22 +248,198 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
         return trial.y, jump - problem.g, np.full(n, U), trial, trial.active
 
-    rounds = 1 if problem.rows.pressure_dependent.any() else CUT_ROUNDS
     out = accumulate_cuts(B, solve, segment, t, max_rounds=rounds, tol=CONE_ROUNDING, width=w,
                           departure=problem.departure)
     if isinstance(out, Declined):
-        why = next((d for d in reversed(tried) if d is not None), out)
-        words = str(why) if why is not out or rounds > 1 else (
-            f"it leaves the cone of an element, a contact ending inside it, and Coulomb's finish takes no cut points "
-            f"(its capacities are the nodes' forces): {why}")
-        raw.declined = Declined(why.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes"
-                                f"{'' if rounds == 1 else ' and cut points'}: {words})", why.rows)
-        return raw
+        return next((d for d in reversed(tried) if d is not None), out)
     trial = out["state"]
+    trial.points = (out["segment"], out["t"], out["y"])
     trial.y, trial.active = point_read_back(B, out["segment"], out["t"], out["y"], out["active"])
     trial.beta = out["beta"]
     trial.pairing = None if problem.departure is None else out["pairing"]
     return trial
+
+
+def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=None):
+    """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
+    forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
+    :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
+    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (its
+    capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
+    first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
+    declined (then None where the fixed point does not settle)."""
+    changes, cuts = [], None if slip_floor is not None else trial
+    for _ in range(most):
+        done = _tangency_polish(problem, trial, timings, capacity,
+                                SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
+        if done is None:
+            return cuts
+        new = problem.capacities(done.y)
+        changes.append(float(np.abs(new - capacity).max(initial=0.0)
+                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
+                                   np.finfo(float).tiny)))
+        log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),
+                 changes[-1])
+        trial, capacity = done, new
+        if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
+                                  and changes[-1] > 0.9 * changes[-2]):
+            return done
+    return cuts
+
+
+def _cut(problem, trial) -> bool:
+    """Whether the cuts' answer ``trial`` holds a point besides the nodes of X_h (else it is exact on them)."""
+    return len(trial.points[0]) > problem.lines.cone[0].shape[1]
+
+
+PARTITIONS = 10
+"""Stick-slip partitions tried at most by :func:`_tangency_polish` (a stuck row whose force exceeds its capacity
+then slips along it, a slipping row whose slip turns against its force sticks)."""
+
+INTERIOR_SLIP = 1e-7
+"""From the interior point's answer (:func:`_tangency_polish` where the cuts declined), a friction row whose slip is
+at most this times the largest displacement is stuck, the others slip along their slip (a wrong guess is corrected
+by :data:`PARTITIONS`, and caught by the acceptance). Measured on the Coulomb pair of non-matching lines: 1e-7 and
+1e-8 finish it; 1e-6 took 9 slipping rows for stuck, and the Newton on the corrected partition did not converge."""
+
+BALANCE_ROUNDING = 1e-10
+"""The answer of :func:`_tangency_polish` is taken only where (26) holds with its own nodal forces to this fraction
+of its largest term (measured at most 1e-15; a pair under a nodal condition beside the cones, whose rows the
+tangency points do not carry, missed it by 2.4e-2 of the load and is left to the cuts' answer)."""
+
+SLIP_ROUNDING = 1e-10
+"""A friction row of the cuts' answer whose slip is at most this times the largest displacement is stuck in the
+Newton at the tangency points (:func:`_tangency_polish`); the others slip along their slip's sign."""
+
+
+def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
+    """The cuts' answer ``trial`` (its ``points`` the cut points and forces) finished at the exact tangency points
+    (2D): the cuts close in on the point where a contact ends inside an element only linearly, the fields' error
+    the square root of the violation (measured 2.3e-6 of the displacements at the cuts' stop, 1e-9: the block
+    dragged over a disk). With the answer's stick-slip partition fixed, Tresca's law at the capacities
+    ``capacity`` (R,) is linear in 2D: a slipping row's force is c_a sign(s_a), a load; a stuck row's slip is
+    0, a linear row S_a x + s0_a = 0 whose multiplier is its force. So the frictionless cones' Newton at the
+    tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`, docs/formulation.md §18) on (26)
+    with those loads and rows finishes it, from the cuts' points; accepted where its answer keeps the partition
+    (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force: else the rows that break it
+    change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces, else
+    None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None.
+
+    From the interior point's answer (where the cuts declined: ``trial.points`` None, its Bernstein duals the
+    contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
+    to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
+    largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
+    if problem.slip_components != 1 or not problem.quadratic:
+        return None
+    t0 = time.perf_counter()
+    R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
+    _, _, widths = mixed_system(problem)
+    rows = np.flatnonzero(problem.rows.frictional)
+    Es = problem.slip_rows[rows]
+    S = sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(rows), 0 if b.Kpp is None else b.Kpp.shape[0]))])
+                   for b in problem.blocks] + [sp.csr_matrix((len(rows), w)) for w in widths]).tocsr()
+    s0 = prescribed_row_slip(problem)[rows]
+    x0 = stacked(trial.u, trial.phi, trial.taus)
+    U = float(np.abs(x0).max(initial=0.0))
+    slip = S @ x0 + s0
+    moved = np.asarray(abs(S).sum(axis=1)).ravel() > 0
+    stuck = moved & (np.abs(slip) <= (SLIP_ROUNDING if slip_floor is None else slip_floor) * U)
+    sign = np.where(stuck, 0.0, np.sign(slip))
+    kkt = mixed_kkt(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
+    A, F, G, n = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float), sp.csr_matrix(kkt.rows), len(x0)
+    B, C = problem.lines.cone[0], max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
+    mu = trial.tangential.reshape(1, R)[0, rows]
+    beta, points = trial.beta, trial.points
+    for _ in range(PARTITIONS):
+        force = c[rows] * sign                                # the slipping rows' forces (0 on the stuck ones)
+        held = S[stuck]
+        aug = SimpleNamespace(matrix=sp.bmat([[A, held.T], [held, None]], format="csr"),
+                              rhs=np.concatenate([F - S.T @ force, -s0[stuck]]),
+                              rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
+        out = tangency_newton(aug, B, problem.g, beta, np.concatenate([x0, mu[stuck]]), held=problem.held_rows,
+                              tol=MIXED_CUT_TOL, departure=problem.departure, points=points)
+        if isinstance(out, Declined):
+            log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
+            timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+            return None
+        x0 = out["x"][:n]
+        mu = force.copy()
+        mu[stuck] = out["x"][n:]
+        new = S @ x0 + s0
+        over = stuck & (np.abs(mu) > c[rows] + SLIP_ROUNDING * C)      # stuck beyond its capacity: it slips
+        back = ~stuck & moved & (new * sign <= 0)                      # slipping against its force: it sticks
+        if not (over.any() or back.any()):
+            break
+        log.info("the Newton at the tangency points after the friction cuts: %d rows start to slip, %d stick",
+                 over.sum(), back.sum())
+        sign = np.where(over, np.sign(mu), np.where(back, 0.0, sign))
+        stuck = (stuck & ~over) | back
+        beta, points = out["beta"], (out["segment"], out["t"], out["y"])
+    else:
+        timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+        log.info("the Newton at the tangency points after the friction cuts: the stick-slip partition did not settle")
+        return None
+    timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+    x = x0
+    y = np.asarray(out["nodal"], dtype=float)
+    balance = A @ x + G.T @ y + S.T @ mu - F                   # (26) with the answer's own forces
+    size = abs(A) @ np.abs(x) + np.abs(F) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
+    if (np.abs(balance) > BALANCE_ROUNDING * max(float(size.max(initial=0.0)), np.finfo(float).tiny)).any():
+        log.info("the Newton at the tangency points after the friction cuts: its forces do not balance (26)")
+        return None
+    done = replace(trial)
+    done.u, done.phi, done.taus = unstacked(problem, x, widths)
+    done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]
+    done.points = (out["segment"], out["t"], out["y"])
+    done.tangential = np.zeros(R)
+    done.tangential[rows] = mu
+    done.capacity = np.zeros(R)
+    done.capacity[rows] = c[rows]
+    done.polished, done.finish, done.route, done.declined = (True, Finish.FRICTION_NEWTON,
+                                                             Route.INTERIOR_POINT_FINISHED, None)
+    return done
+
+
+COULOMB_ROUNDING = 1e-10
+"""Below this relative change of the capacities, a fixed point of :func:`_coulomb_cuts` whose change no longer
+decreases by 10 % per iterate has reached the rounding of its exact iterates and stops as converged."""
+
+
+def _coulomb_cuts(problem, raw, timings, segment, t):
+    """Coulomb's finish with cut points: the fixed point c^(k+1) = mu r^(k) on Tresca's capacities, r^(k) = P^T y
+    the nodal force on X_h of the cut points' forces of iterate k (a negative entry, a P2 node's share of a force
+    between nodes, counts as 0), each iterate the Tresca finish :func:`_cuts` at c^(k), exact; from the
+    interior point's capacities c^(0) = mu r (its cones' nodal force), each iterate starting from the last one's
+    points and answer. It stops where max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or
+    where that change no longer decreases by 10 % below :data:`COULOMB_ROUNDING`; the answer is the last iterate,
+    whose capacities are those of its own forces to that change. The map is a contraction for small mu (the
+    friction forces' effect on the pressures is of order mu; measured rates in docs/howto/friction.md); where it is
+    not (``max_iterations`` of the law reached, or an iterate declined) the finish declines."""
+    tol, most = problem.rows.fixed_point
+    capacity = problem.capacities(raw.y)
+    start, changes = None, []
+    for _ in range(most):
+        trial = _cuts(problem, raw, timings, segment, t, capacity=capacity, start=start)
+        if isinstance(trial, Declined):
+            if start is not None:
+                return trial
+            # the first iterate's cuts declined: the fixed point at the tangency points from the interior point
+            done = _coulomb_tangency(problem, replace(raw, points=None), timings, capacity, tol, most,
+                                     INTERIOR_SLIP)
+            return trial if done is None else done
+        new = problem.capacities(trial.y)
+        changes.append(float(np.abs(new - capacity).max(initial=0.0)
+                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
+                                   np.finfo(float).tiny)))
+        log.info("Coulomb finish at cut points: iterate %d, relative change of the capacities %.2e", len(changes),
+                 changes[-1])
+        if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
+                                  and changes[-1] > 0.9 * changes[-2]):
+            return _coulomb_tangency(problem, trial, timings, new, tol, most) if _cut(problem, trial) else trial
+        segment, t, y = trial.points                  # the next iterate starts from these points and forces
+        capacity, start = new, replace(trial, y=y)
+    return Declined(Stop.MAX_ITER, f"Coulomb's fixed point on the cut points' capacities changed them by "
+                    f"{changes[-1]:.3g} (relative) at its iterate {len(changes)}, above the tolerance {tol:.3g}")
 
 
 def _row_forces(problem, model):
@@ -286,7 +497,7 @@ def _interior(problem, settings, timings, normal):
     return raw, unsettled
 
 
-def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
+def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
@@ -299,7 +510,8 @@ def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
     E's (P (k, n) on the nodes of X_h, its first n rows the nodes themselves, the frictional rows; the slack
     P q - delta, ``delta`` a curved obstacle's departure at the points; :func:`finish_on_nodes`): ``raw.y`` and
     ``raw.active`` are then per point; ``start``: an answer to start the steps from (its forces on a prefix of the
-    points), else ``raw`` (whose energy the finish's may not exceed either way)."""
+    points), else ``raw`` (whose energy the finish's may not exceed either way). ``capacity`` (R,): the friction
+    capacities to finish at (scaled; Tresca's law at them), instead of the law's (:func:`_coulomb_cuts`)."""
     if not problem.quadratic:
         raw.declined = Declined(Stop.NOT_POSED, "the friction finish solves linear systems of the quadratic energy")
         return raw
@@ -320,8 +532,9 @@ def exact_finish(problem, raw, timings, points=None, start=None) -> RawResult:
     Es = problem.slip_rows[order]
     S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
                    for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
-    c0 = problem.capacities(np.zeros(R))
-    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], (problem.capacities(np.ones(R)) - c0)[rows], n_c,
+    c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
+    slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
+    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], slope[rows], n_c,
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])

@@ -313,8 +313,58 @@ def _broken(merit, closed_forces, open_gaps, over, stick_slip, turned) -> str:
 
 
 def _key(state) -> tuple:
-    """The active set of a state (closed normal rows, stuck friction rows) as a hashable key."""
-    return state[0].tobytes(), state[1].tobytes()
+    """The active set of a state (closed normal rows, stuck friction rows; in 2D the slipping rows' directions,
+    sign(z_a), too: a step that turns a slipping row's direction changes its law mu_a = c_a sign(z_a), and
+    repeating the set without it ended the steps as settled where they were not, measured: a block dragged over a
+    disk under the P2 cones with Tresca's friction, a cut round's residual 0.04 of the scales) as a hashable key."""
+    closed, stuck, z = state[0], state[1], state[2]
+    turn = np.where(stuck, 0, np.sign(z[:, 0])).astype(np.int8) if z.shape[1] == 1 else b""
+    return closed.tobytes(), stuck.tobytes(), bytes(turn)
+
+
+PIVOTS = 1
+"""The single-row changes of :func:`_pivots` at most, per row (normal and friction rows; plus 10): each is a sparse
+LU. Measured: the tilted block settles within it; where it does not (the 2D pair of non-matching lines, the tilted
+block with Coulomb at nx = 7) four per row cost 3.6 to 4.1 s CPU before the decline, one per row 1.0 to 1.5 s
+(benchmarks/results/friction_p2_declines.md)."""
+
+
+def _pivots(system, w, solved, most: int):
+    """Murty's least-index rule on a 2D active set that cycles (:func:`solve_friction`): from the set ``solved``
+    (a state), the full step that solves it exactly (the 2D conditions are linear on a set), then, where the point
+    reached asks for other sets, the change of its first row alone (normal rows by index, then friction rows: closed
+    or open, stuck or slipping, the slip's direction), again, at most ``most`` times. The Newton steps change every
+    row at once and may jump between two sets (a contact edge between two nodes with a cut point between them: each
+    set makes the other node's force a tension; measured on a free block tilted on a floor under the P2 cones), a
+    single change at a time moves on. Returns (w, state, steps) once the point's own set is the one solved, or
+    None."""
+    R = len(system.g)
+    for k in range(1, most + 1):
+        frozen = system.frozen(w, solved)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", spla.MatrixRankWarning)
+                dw = spla.splu(system.jacobian(solved, frozen)).solve(system.step_rhs(w, solved, frozen))
+        except (RuntimeError, spla.MatrixRankWarning):
+            return None
+        if not np.isfinite(dw).all():
+            return None
+        w = w + dw
+        state = system.state(w)
+        closed, stuck, z, _ = solved
+        turned = ~stuck & ~state[1] & (np.sign(z[:, 0]) != np.sign(state[2][:, 0]))
+        flips = np.concatenate([np.flatnonzero(closed != state[0]),
+                                R + np.flatnonzero((stuck != state[1]) | turned)])
+        if not len(flips):
+            return w, state, k
+        i = int(flips.min())
+        closed, stuck, z = closed.copy(), stuck.copy(), z.copy()
+        if i < R:
+            closed[i] = state[0][i]
+        else:
+            stuck[i - R], z[i - R] = state[1][i - R], state[2][i - R]
+        solved = (closed, stuck, z, state[3])
+    return None
 
 
 def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_steps: int | None = None,
@@ -352,7 +402,7 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             return Declined(Stop.SINGULAR)
         if not np.isfinite(dw).all():
             return Declined(Stop.SINGULAR)
-        key = _key(state)
+        key, solved = _key(state), state
         alpha, trial = 1.0, None
         while alpha >= 2.0 ** -10:                        # damping: halve until the scaled residual decreases
             trial = w + alpha * dw
@@ -377,7 +427,14 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
             break
         seen.add(key)
         if not same and fr.nc == 1 and _key(state) in seen:
-            return Declined(Stop.CYCLE)                   # 2D: a set already solved exactly comes back
+            # 2D: a set already solved exactly comes back: one row's change at a time from the set just solved
+            out = _pivots(system, w, solved, PIVOTS * (len(g) + len(fr.rows)) + 10)
+            if out is None:
+                return Declined(Stop.CYCLE)
+            w, state, pivots = out
+            steps += pivots
+            merit, settled = np.linalg.norm(system.residual(w, state)), True
+            break
     if not settled:
         return Declined(Stop.MAX_ITER)
     x, y, mu = system.split(w)

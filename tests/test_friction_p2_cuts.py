@@ -1,0 +1,105 @@
+"""Friction with P2 elements under "gamma3" where the contact ends inside an element (docs/howto/friction.md, "P2
+under 'gamma3'"): the cut rounds' answer finished at the exact tangency points (Tresca), Coulomb by its fixed point
+on Tresca's capacities mu r, r the nodal force of the cut points' (then the tangency points') forces.
+
+Each scene below was declined before (the interior point's answer kept; benchmarks/friction_p2_declines.py and
+benchmarks/results/friction_p2_declines.md hold the table): a block dragged over a disk (a 2D cut round's slipping
+row turned its direction and the steps ended as settled, residual 0.04), Coulomb pressed into a disk and dragged
+over it (no cut points for Coulomb), a free block tilted on a floor whose heel lifts inside an element (its cut
+round's active set cycled between two nodes; Coulomb too), the pair of non-matching lines (its cut rounds' steps do
+not settle: finished at the tangency points from the interior point's structure). Each is now finished, no ResidualWarning, and checked
+against what does not share the finish: the frictionless cones' exact answer (the tangency Newton) as the
+threshold or coefficient tends to 0 (linear in it, extrapolated to 0), the mirror image of the scene, and on a flat
+floor the interior point of the full program at tight tolerances.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from friction_scenes import P, dragged_disk, pair2d, pressed_disk, tilted
+
+import cvxcontact as cc
+
+P2 = {"condition": "gamma3", "degree": 2}
+TIGHT = {"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-13, "tol_ktratio": 1e-12, "max_iter": 1000}
+
+
+def _finished(scene):
+    """The answer of ``scene`` under the P2 cones, finished (no ResidualWarning)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene, **P2)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    return sol
+
+
+def _apart(u, v) -> float:
+    return float(np.abs(u - v).max() / np.abs(v).max())
+
+
+def _pair(law):
+    """The block on a wider clamped block (non-matching lines) under (0.02 p, -p), both under "gamma3"."""
+    return pair2d(law, 0.02 * P, condition="gamma3")
+
+
+FLAT = [(_pair, cc.Tresca(0.03 * P)), (_pair, cc.Coulomb(0.3)), (lambda law: tilted(law, 7), cc.Coulomb(0.6)),
+        (tilted, cc.Coulomb(0.6)), (tilted, cc.Tresca(0.6 * P))]
+FLAT_IDS = ["pair-tresca", "pair-coulomb", "tilted7-coulomb", "tilted-coulomb", "tilted-tresca"]
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("scene, law", [(pressed_disk, cc.Coulomb(0.3)), (dragged_disk, cc.Tresca(1e6)),
+                                        (dragged_disk, cc.Coulomb(0.3)), *FLAT],
+                         ids=["pressed-coulomb", "dragged-tresca", "dragged-coulomb", *FLAT_IDS])
+def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law):
+    """Finished (was declined), every check at rounding: the slack at the tangency points exactly (feasibility,
+    measured at most 7.9e-17), the friction cone and the stick-slip (Coulomb's capacities those of the answer's own
+    forces: its fixed point converged; measured at most 5e-14 and 6.5e-8, the latter a square root)."""
+    r = _finished(scene(law)).residuals()
+    assert r["feasibility"] <= 1e-12 and r["cone"] <= 1e-12 and r["friction cone"] <= 1e-10
+    assert r["stick-slip"] <= 1e-5 and r["complementarity"] <= 1e-6 and r["equilibrium"] <= 1e-10
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
+@pytest.mark.parametrize("laws", [(cc.Tresca(1e-2), cc.Tresca(1e-1)), (cc.Coulomb(1e-9), cc.Coulomb(1e-8))],
+                         ids=["tresca", "coulomb"])
+def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(scene, laws):
+    """The answer departs from the frictionless cones' (finished by the tangency Newton: another route) linearly in
+    the threshold or the coefficient (measured ratios 9.99999, 9.9954, 9.99995, 10.00002 for x10), and its linear
+    extrapolation to 0 is that answer (measured at most 2.5e-14 of the displacements). Before the finish at the
+    tangency points the cuts' answer stood 9.4e-8 and 2.3e-6 away at every threshold (the cuts' stop, 1e-9, under
+    a square root)."""
+    free = cc.solve(scene(None), **P2)
+    assert free.polished and free.info.finish == cc.Finish.TANGENCY_NEWTON
+    small, large = (_finished(scene(law)).u[0] for law in laws)
+    d1, d2 = _apart(small, free.u[0]), _apart(large, free.u[0])
+    assert d1 <= 1e-7 and abs(d2 / d1 - 10) <= 0.01                  # measured d1 at most 1.4e-9
+    assert _apart(small - (large - small) / 9, free.u[0]) <= 1e-10
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law):
+    """The scene on the mesh reflected about x = 0 (its triangles the mirror images of the first mesh's, another
+    set of elements and cut points): u_x(-x, y) = -u_x(x, y), u_y(-x, y) = u_y(x, y) (measured 2.4e-15, 1.2e-14)."""
+    a, b = _finished(pressed_disk(law)), _finished(pressed_disk(law, mirrored=True))
+    at = {tuple(np.round(p, 12)): i for i, p in enumerate(b.points[0])}
+    mirror = np.array([at[tuple(np.round(p * [-1.0, 1.0], 12) + 0.0)] for p in a.points[0]])
+    assert _apart(b.u[0][mirror] * [-1.0, 1.0], a.u[0]) <= 1e-10
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("scene, law", FLAT, ids=FLAT_IDS)
+def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(scene, law):
+    """Between flat faces the interior point's program is the finish's (no gap departure): at tight tolerances its
+    displacements are the finished ones (measured 4.0e-11, 1.5e-11 on the pair, 1.4e-10, 3.5e-14, 2.0e-14 on the
+    tilted block), its own complementarity 5e-9. The pair and the tilted block at nx = 7 with Coulomb are finished
+    at the tangency points from the interior point's structure (their cut rounds' steps do not settle)."""
+    sol = _finished(scene(law))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ipm = cc.solve(scene(law), polish=False, solver_options=TIGHT, **P2)
+    assert not ipm.polished
+    assert max(_apart(a, b) for a, b in zip(ipm.u, sol.u)) <= 1e-7

@@ -263,7 +263,7 @@ class TangentSolver:
         bb[:n] = b[:n]
         bb[n + np.flatnonzero(at)] = b[n:]
         self.solves += 1
-        absA, tiny = abs(A), np.finfo(float).tiny
+        absA, tiny = sp.csc_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape), np.finfo(float).tiny
         columns, sized = np.asarray(absA.sum(axis=0)).ravel(), np.abs(bb).sum() + len(bb) * tiny
 
         def settled(z, r):          # every row's residual within 1e-14 of its own terms
@@ -338,10 +338,12 @@ class TangentSolver:
                 done = True
                 break
             z = z + factor.solve(r)
-        if single and not done and not settled(z, bb - A @ z):
-            return None
+        if not done:                                         # (else r is z's residual already)
+            r = bb - A @ z
+            if single and not settled(z, r):
+                return None
         # a singular system's answer misses bb by far more than rounding (or FORCING, an unrefined one's)
-        if np.abs(A @ z - bb).max() > (check if self.exact else max(check, FORCING * scale)):
+        if np.abs(r).max() > (check if self.exact else max(check, FORCING * scale)):
             return None
         return z
 

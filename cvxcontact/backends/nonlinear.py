@@ -212,11 +212,12 @@ class TangentSolver:
         K.sort_indices()
         last = self._found
         inner = self._inner
-        if last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
+        if last is not None and last[3] is K.indptr and last[4] is K.indices:
+            places = last[2]                                     # the same index arrays (a tangent on H_0's)
+        elif last is not None and np.array_equal(last[0], K.indptr) and np.array_equal(last[1], K.indices):
             places = last[2]                                     # the last step's sparsity (the tangent's own)
         elif np.array_equal(inner.indptr, K.indptr) and np.array_equal(inner.indices, K.indices):
             places = self._places                                # the pattern's own sparsity (no merge)
-            self._found = (K.indptr.copy(), K.indices.copy(), places)
         else:
             mask = sp.csr_matrix((np.ones(K.nnz), K.indices, K.indptr), shape=K.shape)
             found = self._inner.multiply(mask).tocsr()          # K's entries' places in the pattern (a merge)
@@ -225,7 +226,8 @@ class TangentSolver:
                 places = self._places[found.data.astype(np.int64) - 1]
             else:                                                # an entry off the pattern (not by construction)
                 places = self._at(np.repeat(np.arange(self.n), np.diff(K.indptr)), K.indices)
-            self._found = (K.indptr.copy(), K.indices.copy(), places)
+        if last is None or last[2] is not places or last[3] is not K.indptr or last[4] is not K.indices:
+            self._found = (K.indptr.copy(), K.indices.copy(), places, K.indptr, K.indices)
         gr, gv, lower, upper, diagonal = self._G
         on = np.asarray(at, dtype=bool)
         data = np.zeros(self._index.nnz)
@@ -263,7 +265,7 @@ class TangentSolver:
         bb[:n] = b[:n]
         bb[n + np.flatnonzero(at)] = b[n:]
         self.solves += 1
-        absA, tiny = abs(A), np.finfo(float).tiny
+        absA, tiny = sp.csc_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape), np.finfo(float).tiny
         columns, sized = np.asarray(absA.sum(axis=0)).ravel(), np.abs(bb).sum() + len(bb) * tiny
 
         def settled(z, r):          # every row's residual within 1e-14 of its own terms
@@ -338,10 +340,12 @@ class TangentSolver:
                 done = True
                 break
             z = z + factor.solve(r)
-        if single and not done and not settled(z, bb - A @ z):
-            return None
+        if not done:                                         # (else r is z's residual already)
+            r = bb - A @ z
+            if single and not settled(z, r):
+                return None
         # a singular system's answer misses bb by far more than rounding (or FORCING, an unrefined one's)
-        if np.abs(A @ z - bb).max() > (check if self.exact else max(check, FORCING * scale)):
+        if np.abs(r).max() > (check if self.exact else max(check, FORCING * scale)):
             return None
         return z
 

@@ -31,6 +31,9 @@ __all__ = ["BulkEnergy", "Quadratic", "StrainEnergy", "abs_product", "bulk_energ
 ROWS = 1 << 16
 """Rows (CSR) or columns (CSC) per block of :func:`abs_product`."""
 
+STATES = 3
+"""The points whose strains and stresses :class:`StrainEnergy` keeps (the most recently asked)."""
+
 
 def abs_product(K, z) -> np.ndarray:
     """|K| |z| (entrywise absolute values) of a sparse matrix: the sizes of the terms of K z, without the copy of K
@@ -147,16 +150,19 @@ class StrainEnergy:
         return (self.load * (self.A @ z + self.e0)).reshape(-1, self.s)
 
     def _state(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """(strains, stresses) at ``z``, those of the last ``z`` asked kept: the Newton steps ask the gradient, the
-        magnitude, the energy and the tangent at the same point (up to four evaluations of the material per step;
-        the same numbers, computed once)."""
+        """(strains, stresses) at ``z``, those of the last :data:`STATES` points asked kept: the Newton steps ask
+        the gradient, the magnitude, the energy and the tangent at the same point, and the line search and the
+        backtracking come back to the step's start after its trial point (the same numbers, computed once)."""
         z = np.asarray(z, dtype=float)
-        last = getattr(self, "_last", None)
-        if last is not None and last[0].shape == z.shape and np.array_equal(last[0], z):
-            return last[1], last[2]
+        kept = self.__dict__.setdefault("_kept", [])
+        for i, (y, eps, sigma) in enumerate(kept):
+            if y.shape == z.shape and np.array_equal(y, z):
+                kept.insert(0, kept.pop(i))                              # the most recent first
+                return eps, sigma
         eps = self.strains(z)
         sigma = self.material.stress(eps, self.dim)
-        self._last = (z.copy(), eps, sigma)
+        kept.insert(0, (z.copy(), eps, sigma))
+        del kept[STATES:]
         return eps, sigma
 
     def value(self, z):
@@ -164,7 +170,7 @@ class StrainEnergy:
 
     def gradient(self, z):
         sigma = self._state(z)[1] * self.w[:, None]
-        return self.A.T @ sigma.ravel() / self.load - self.d
+        return self._transposed()[0] @ sigma.ravel() / self.load - self.d
 
     def _local(self):
         """The strain rows of each quadrature point as a dense (q, s, k) block B, its k columns (q, k) (padding:
@@ -186,21 +192,31 @@ class StrainEnergy:
             cols = np.full((q, k), -1, dtype=np.int64)
             owner = np.repeat(np.arange(q), counts)
             cols[owner, np.arange(touched.nnz) - touched.indptr[owner]] = touched.indices
-            # each entry's place among its point's columns: the rank of (point, col) in touched's sorted keys
-            # (canonical CSR: rows in order, columns sorted within each), less the point's first place
-            keys = owner * np.int64(n) + touched.indices
-            rank = np.searchsorted(keys, point * np.int64(n) + col) - touched.indptr[point]
+            # each entry's place among its point's columns: its place in touched's data (canonical CSR: rows in
+            # order, columns sorted within each, looked up row by row), less the point's first place
+            order = sp.csr_matrix((np.arange(1, touched.nnz + 1, dtype=float), touched.indices, touched.indptr),
+                                  shape=(q, n))
+            rank = np.asarray(order[point, col], dtype=np.int64).ravel() - 1 - touched.indptr[point]
             slot = (point * self.s + comp) * k + rank
             B = np.bincount(slot, weights=val, minlength=q * self.s * k).reshape(q, self.s, k)
-            _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
-            of = of.ravel()
+            # the groups: the points' column lists by a (wrapping) integer hash, checked entry by entry (a
+            # collision: by the lists themselves), numbered in the order of their first points
+            key = cols @ np.random.default_rng(0).integers(1, 1 << 62, size=k)
+            _, first, of = np.unique(key, return_index=True, return_inverse=True)
+            if not np.array_equal(cols[first][of.ravel()], cols):
+                _, first, of = np.unique(cols, axis=0, return_index=True, return_inverse=True)
+            seq = np.argsort(first)
+            first, of = first[seq], np.argsort(seq)[of.ravel()]
             cols, r = cols[first], len(first)
+            inside = cols >= 0
+            groups = sp.csr_matrix((np.ones(int(inside.sum())), cols[inside],
+                                    np.concatenate([[0], np.cumsum(inside.sum(axis=1))])), shape=(r, n))
+            shape = (groups.T @ groups).tocsr()                      # the distinct pairs (columns sharing a group)
+            shape.sort_indices()
+            shape.data[:] = 1.0
             i, j = np.broadcast_to(cols[:, :, None], (r, k, k)).ravel(), np.broadcast_to(cols[:, None, :], (r, k, k)).ravel()
             valid = (i >= 0) & (j >= 0)
             i, j = i[valid], j[valid]
-            shape = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))      # the distinct pairs, sorted
-            shape.sum_duplicates()
-            shape.data[:] = 1.0
             index = sp.csr_array((np.arange(1, shape.nnz + 1, dtype=float), shape.indices, shape.indptr),
                                  shape=(n, n))                      # each pair's place (+1) in the CSR data
             place = np.full(len(valid), shape.nnz, dtype=np.int64)   # padding: one place past the end
@@ -226,16 +242,19 @@ class StrainEnergy:
         # (a material without a secant, whose tangent takes no ``secant``, is asked for its tangent only)
         C = self.material.tangent(eps, self.dim, secant=True) if secant else self._tangent(z)
         changed = np.flatnonzero((np.abs(C - C0) > 1e-13 * np.abs(C0).max()).any(axis=(1, 2)))
-        H = H0.copy()
+        data = H0.data.copy()
         if len(changed):
             changed = changed[np.argsort(of[changed], kind="stable")]            # each group's points together
             Bc, runs = B[changed], of[changed]
             local = np.einsum("qak,qab,qbl->qkl", Bc, (C[changed] - C0) * self.w[changed, None, None], Bc,
                               optimize=True)
-            starts = np.flatnonzero(np.concatenate([[True], runs[1:] != runs[:-1]]))
-            local = np.add.reduceat(local, starts, axis=0)                             # summed over each run
-            H.data = H.data + np.bincount(place[runs[starts]].ravel(), weights=local.ravel(),
-                                          minlength=H.nnz + 1)[:H.nnz]
+            local = _run_sums(local, runs)                                             # summed over each run
+            data = data + np.bincount(place[runs[_run_starts(runs)]].ravel(), weights=local.ravel(),
+                                      minlength=H0.nnz + 1)[:H0.nnz]
+        # on H_0's sparsity, its index arrays shared (canonical: the steps' solver recognises them without a check)
+        H = sp.csr_matrix((data, H0.indices, H0.indptr), shape=H0.shape)
+        H.indices, H.indptr = H0.indices, H0.indptr                # the arrays themselves (scipy makes views)
+        H.has_canonical_format = True
         return H
 
     def _initial(self):
@@ -251,8 +270,7 @@ class StrainEnergy:
                 return self._zero
             order = np.argsort(of, kind="stable")                                   # each group's points together
             local = np.einsum("qak,ab,qbl->qkl", B[order], C0, B[order], optimize=True) * self.w[order, None, None]
-            starts = np.flatnonzero(np.concatenate([[True], of[order][1:] != of[order][:-1]]))
-            local = np.add.reduceat(local, starts, axis=0) if len(order) else local[:0]
+            local = _run_sums(local, of[order])
             H = self._shape.copy()
             H.data = np.bincount(place.ravel(), weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
             self._zero = (H, C0)
@@ -283,13 +301,22 @@ class StrainEnergy:
 
     def magnitude(self, z):
         sigma = np.abs(self._state(z)[1]) * self.w[:, None]
-        return self._absolute().T @ sigma.ravel() / self.load + np.abs(self.d)
+        return self._transposed()[1] @ sigma.ravel() / self.load + np.abs(self.d)
 
     def _absolute(self):
         """|A| (entrywise), built once."""
         if getattr(self, "_abs_A", None) is None:
             self._abs_A = abs(self.A).tocsr()
         return self._abs_A
+
+    def _transposed(self):
+        """(A^T, |A|^T) in CSR, built once: the products A^T v of the gradients, magnitudes and floors row by row
+        (the same sums in the same order as A.T @ v, a CSC product; measured 0.73 against 1.19 ms at the 76,800
+        points of the 2D P2 block at 103,362 unknowns)."""
+        if getattr(self, "_transpose", None) is None:
+            AT = self.A.T.tocsr()
+            self._transpose = (AT, sp.csr_matrix((np.abs(AT.data), AT.indices, AT.indptr), shape=AT.shape))
+        return self._transpose
 
     def _tangent(self, z) -> np.ndarray:
         """The material's tangent (q, s, s) at the points' strains at ``z``, that of the last ``z`` asked kept (the
@@ -309,7 +336,7 @@ class StrainEnergy:
         assembled |H| |z| (H = A^T w C A) misses it wherever the points' contributions to an entry of H cancel."""
         C = np.abs(self._tangent(z)) * self.w[:, None, None]
         e = (self._absolute() @ np.abs(z) + np.abs(self.e0)).reshape(-1, self.s)
-        return self._absolute().T @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
+        return self._transposed()[1] @ np.einsum("qab,qb->qa", C, e).ravel() + np.abs(self.d)
 
     def expression(self, z):
         """K/2 (tr eps)^2 + mu (h |dev eps|^2 + (1 - h) huber(|dev eps|, s_y)) summed with the weights: second-order
@@ -330,6 +357,24 @@ class StrainEnergy:
             norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
             energy = energy + m.mu * (1.0 - m.h) * (self.w @ cp.huber(norms, s_y))
         return energy - self.d @ z
+
+
+def _run_starts(runs: np.ndarray) -> np.ndarray:
+    """The first index of each run of equal consecutive entries of ``runs``."""
+    return np.flatnonzero(np.concatenate([[True], runs[1:] != runs[:-1]])) if len(runs) else np.zeros(0, dtype=int)
+
+
+def _run_sums(local: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """The (k, k) blocks ``local`` (q, k, k) summed over each run of equal consecutive ``runs``: (r, k, k), by one
+    sparse product with the runs' 0/1 indicator (CSR, a row per run): the sums of ``np.add.reduceat`` to rounding,
+    measured 15 times faster on the 13,017 yielded points of the 2D P2 block at 103,362 unknowns (0.6 against
+    10 ms: reduceat's many short segments)."""
+    q, k = local.shape[0], local.shape[1:]
+    if q == 0:
+        return local[:0]
+    starts = _run_starts(runs)
+    S = sp.csr_matrix((np.ones(q), np.arange(q), np.append(starts, q)), shape=(len(starts), q))
+    return np.asarray(S @ local.reshape(q, -1)).reshape((len(starts),) + k)
 
 
 def bulk_energy(system, un, Kuu) -> BulkEnergy:

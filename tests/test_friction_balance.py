@@ -62,3 +62,32 @@ def test_a_q2_hexahedral_cube_slid_along_x_reads_balanced_and_agrees_with_the_un
     mu[rows + rows // 2] += 1e-6 * float(np.sum(raw.y))
     bad = read_back(problem, dataclasses.replace(raw, tangential=mu), sol.tol, {})
     assert not bad.ok and bad.residuals()["equilibrium"] > sol.tol          # measured 9.5e-2
+
+
+def test_a_cube_slid_by_its_own_size_is_finished_and_carries_the_same_deformation(monkeypatch):
+    """The cube slid 1 m (its own size) against 0.1 m. Its deformation is 5.1e-9 m, 2e8 times smaller than the
+    slide, and the units' load is the slide's: the contact forces are 1e-10 of the force unit, below the interior
+    point's precision (its answer carried 0.17 N of the 1000 N load, every row open), and the friction finish's
+    steps from it did not settle (cone 1.7, equilibrium 1: not ok). The finish starts again from every row closed
+    and slipping where the first steps decline: it settles, and the answer is the 0.1 m one carried 0.9 m further.
+    Its translation along y, which only the friction holds (a stiffness g / s = 100 N/m at s = 1 m against the
+    rounding of the elastic forces, eps |K| |u|), differs by 2.9e-8 m (measured); the deformation by 1.4e-15 m.
+    A tangential force 1 % above the capacity on one row reads the same cone violation at both (5.0e-4)."""
+    sols, cones = {}, {}
+    for s in (1e-1, 1.0):
+        sol, problem, raw = captured(monkeypatch, slid_cube(s))
+        assert sol.ok and sol.polished
+        assert sol.residuals()["equilibrium"] < 0.2 * sol.tol                # measured 5.3e-9, 2.9e-8
+        assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(1e2, rel=1e-9)  # g A
+        R = problem.E.shape[0]
+        mu = np.array(raw.tangential, dtype=float).reshape(-1, R)
+        a = R // 2
+        mu[:, a] *= 1.01 * raw.capacity[a] / np.linalg.norm(mu[:, a])
+        bad = read_back(problem, dataclasses.replace(raw, tangential=mu.ravel()), sol.tol, {})
+        assert not bad.ok
+        sols[s], cones[s] = sol.u[0], bad.residuals()["friction cone"]
+    d = sols[1.0] - sols[1e-1] - [0.9, 0.0, 0.0]
+    deformation = np.abs(sols[1e-1] - [0.1, 0.0, 0.0]).max()                 # 5.1e-9 m
+    assert np.abs(d - d.mean(axis=0)).max() < 1e-4 * deformation             # measured 1.4e-15 m
+    assert np.abs(d.mean(axis=0)).max() < 1e-5                               # measured 2.9e-8 m (y)
+    assert cones[1e-1] > 1e-4 and cones[1.0] == pytest.approx(cones[1e-1], rel=1e-3)  # measured 5.0e-4 both

@@ -165,8 +165,8 @@ def test_p2_one_pair_helper_refuses_several_pairs_which_the_public_route_takes()
 @pytest.mark.numerics
 def test_p2_tetrahedra_gamma3_next_to_a_compliance_pair_closed_form():
     """Row 29 (b), supported. A Signorini gamma3 pair below a compliance pair p = k r: the three blocks and the law
-    in series, 2 DELTA3 = 3 p (1/3 m) / c33 + p / k (the Signorini pair closes exactly, the compliant one penetrates by
-    p / k): lambda = p on both pairs. The compliant pair is under "gamma3" too (the law on the triangles of X_h,
+    in series, 2 DELTA3 = 3 p (1/3 m) / c33 + p / k (the Signorini pair closes exactly, the compliant one penetrates
+    by p / k): lambda = p on both pairs. The compliant pair is under "gamma3" too (the law on the triangles of X_h,
     exact for a uniform state: 9.2e-15 alone); under "sigma1" its rows, block 1's nodes, cross block 2's faces
     without nesting them and the law is 22 % off alone (as the coarser side's nodes, tests/test_p2tet_compliance.py).
     Finished exactly by accumulated cuts (measured lambda 1.8e-12, u 1e-15 of DELTA3)."""
@@ -226,7 +226,8 @@ def test_p2_tetrahedra_compliance_under_sigma1_on_cut_faces_sums_to_the_overlap(
 @pytest.mark.numerics
 def test_p2_friction_under_gamma3_sticks_a_uniform_layer_closed_form():
     """Row 32 (b), supported (2D: the test below). The uniform sheared layer on a rigid plane
-    (tests/friction_scenes.py) with Tresca far above its shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E) exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
+    (tests/friction_scenes.py) with Tresca far above its shear: stuck, u = (tau_x z / G, tau_y z / G, -p z / E)
+    exactly in P2 (the nodal sigma1 rows give it to 3.8e-15,
     tests/test_friction3d_p2.py)."""
     from friction_scenes import DIAGONAL3, uniform_layer3d
     from friction_scenes import E as E3
@@ -295,10 +296,10 @@ def test_p2_cones_with_a_hencky_body_that_never_yields_are_the_linear_answer():
 
 
 def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity():
-    """Row 33 (b), supported. A half-width block (2 x 2 cells) pushed along x by 1 mm on a clamped block (3 x 3 cells: the
-    overlap's edge x = 0.5 cuts its faces), nu = 0, under "sigma1", the lower block's nodes, with a tiny threshold
-    g: every row slides along x, and the tangential forces sum to g times the overlap's area, 0.5 m^2, along x
-    (measured 5.3e-10; the upper block's nodes, "sigma2": 2.7e-10; P1: 3.1e-9)."""
+    """Row 33 (b), supported. A half-width block (2 x 2 cells) pushed along x by 1 mm on a clamped block (3 x 3
+    cells: the overlap's edge x = 0.5 cuts its faces), nu = 0, under "sigma1", the lower block's nodes, with a tiny
+    threshold g: every row slides along x, and the tangential forces sum to g times the overlap's area, 0.5 m^2,
+    along x (measured 5.3e-10; the upper block's nodes, "sigma2": 2.7e-10; P1: 3.1e-9)."""
     steel0 = cc.materials.isotropic(E=200e9, nu=0.0)
     low = cc.box(x=(0, 1), y=(0, 1), z=(-0.5, 0), nx=3, ny=3, nz=1)
     up = cc.box(x=(0, .5), y=(0, 1), z=(0, 0.5), nx=2, ny=2, nz=1)
@@ -313,7 +314,8 @@ def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity(
 
 @pytest.mark.parametrize("skewed", [False, pytest.param(True, marks=pytest.mark.xfail(
     strict=True, raises=cc.UnsupportedError, reason="Q1 hexahedra: gamma3 between crossing faces that are not "
-    "parallelograms along common directions (the jump is not bilinear on the pieces)"))], ids=["rectangles", "skewed"])
+    "parallelograms along common directions (the jump is not bilinear on the pieces)"))],
+    ids=["rectangles", "skewed"])
 def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
     """Row 34 (b); rectangles supported. A 3 x 3 block under a 2 x 2 one (crossing grids; the upper's faces
     general quadrilaterals if ``skewed``), an affine gap leaving part open, "gamma3": the jump sampled at 7 x 7
@@ -405,7 +407,8 @@ def test_a_held_body_without_load_is_refused_as_undetermined():
 
 
 def test_a_load_free_layer_squeezed_between_a_floor_and_a_punch():
-    """Row 12 (b), now solved (the check is made on the assembled problem, fem/kernel.py). A load-free layer between side rollers, on a rigid floor, a rigid punch (a plane) pushed
+    """Row 12 (b), now solved (the check is made on the assembled problem, fem/kernel.py). A load-free layer
+    between side rollers, on a rigid floor, a rigid punch (a plane) pushed
     d into its top: uniaxial strain, u_y = -d y / H, lambda = M d / H on both faces (P1 exact). The layer with
     its top moved by a prescribed displacement instead (supported) measured 3.3e-16 (u), 7.9e-16 (lambda)."""
     d = 1e-4
@@ -429,8 +432,9 @@ def _layer_tagged(tag_on_top):
 
 
 def test_the_pull_off_check_follows_the_pairs_not_the_contact_tag():
-    """Row 13 (b), now solved. The layer on the floor carries p (closed form u_y = -p y / M, lambda = p) whatever part its
-    contact= tag names. With the tag on the pair's part (supported) measured 2.6e-16 (u), 7.5e-16 (lambda)."""
+    """Row 13 (b), now solved. The layer on the floor carries p (closed form u_y = -p y / M, lambda = p) whatever
+    part its contact= tag names. With the tag on the pair's part (supported) measured 2.6e-16 (u), 7.5e-16
+    (lambda)."""
     p = 1e7
     sol = cc.solve(_layer_tagged(tag_on_top=True))
     q = sol.points[0]
@@ -485,8 +489,8 @@ def _pushed_to_a_wall(tag):
 
 
 def test_a_motion_held_by_a_pair_on_another_part_is_not_refused():
-    """Row 17 (b), now solved. The wall holds the x translation through the pair on 'left'; the contact= tag 'top' leaves
-    it free for the check. Closed form: uniform sigma_xx = -p, u_x = eps_xx x, u_y = eps_yy y with plane-strain
+    """Row 17 (b), now solved. The wall holds the x translation through the pair on 'left'; the contact= tag 'top'
+    leaves it free for the check. Closed form: uniform sigma_xx = -p, u_x = eps_xx x, u_y = eps_yy y with plane-strain
     eps_xx = -(1 - nu^2) p / E, eps_yy = nu (1 + nu) p / E (P1 exact). With the tag on 'left' (supported)
     measured 2.1e-16 (u), 9.3e-16 (lambda)."""
     p = 1e7
@@ -548,7 +552,8 @@ def test_a_force_contact_cannot_balance_is_refused_naming_the_free_direction(for
 
 
 def test_a_forced_circle_on_a_half_model_symmetry_line_is_refused():
-    """Row 23 (a), refused now (it drifted by 0.68 m with the finish declined). Half model: a block [0, 0.5] with a symmetry roller on x = 0, a circle
+    """Row 23 (a), refused now (it drifted by 0.68 m with the finish declined). Half model: a block [0, 0.5] with
+    a symmetry roller on x = 0, a circle
     centred on x = 0 pressed down by a force: every contact force pushes the circle towards +x, so nothing
     balances a lateral translation."""
     block = cc.Body(cc.rectangle(x=(0, 0.5), y=(0, 0.5), nx=12, ny=6), ALU, clamped=["bottom"], roller=["left"],

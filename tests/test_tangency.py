@@ -281,7 +281,7 @@ def test_a_circle_touching_just_beside_a_vertex_is_a_tangency():
     # q touches 0 between the samples: -(half the spacing)^2 / (2 R) <= max <= 0 (the gap's curvature 1/R)
     scale = np.abs(sol.u[0]).max()                                          # 6.9e-8 m
     assert -(0.5 / 24 / 4000) ** 2 / (2 * R) - 1e-15 * scale <= q <= 1e-15 * scale, q
-    assert abs(x - cx) < 2 / 24 / 4000                                      # at the circle's foot, 1e-3 h from the vertex
+    assert abs(x - cx) < 2 / 24 / 4000                                # at the circle's foot, 1e-3 h from the vertex
 
 
 @pytest.mark.numerics

@@ -86,6 +86,14 @@ def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap, material
     return cc.Scene(b1, b2, gap=gap)
 
 
+def pzt_on_block(material, volts=50.0, lower=(2, 2), upper=(3, 2), load=2e7, nz=1):
+    """:func:`bumped_blocks` with a PZT-5A upper block (poled along z, driven at ``volts`` on its top, no grounded
+    electrode: its potential is fixed by the top alone) on a lower block of ``material``."""
+    scene = bumped_blocks(lower, upper, load=load, material=material, nz=nz)
+    low, up = scene.bodies
+    return cc.Scene(low, up.with_changes(material=cc.materials.PZT5A, potential={"top": volts}), gap=bumped_gap)
+
+
 def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1, material=STEEL):
     """Two blocks on (0, 1)^2 meeting at z = 0.5 with non-matching faces: the lower (of ``material``) clamped at
     its base, the upper pushed down by d (m) on its top (both held by their supports), the gap ``gap``."""

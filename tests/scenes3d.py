@@ -114,16 +114,17 @@ def sphere_on_block(force=2e9, n=(6, 6, 3), material=STEEL):
     return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
 
 
-def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3")):
+def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3"), middle=STEEL):
     """Three blocks of height 1/3 m stacked on (0, 1)^2 (rollers on their sides, the lowest on its base),
     their faces non-matching (``counts`` cells across each block), pressed by ``p`` on the top: the
-    uniaxial solution through two contact pairs."""
+    uniaxial solution through two contact pairs. ``middle``: the middle block's material (the others STEEL)."""
     zs = (0.0, 1 / 3, 2 / 3, 1.0)
     bodies = []
     for k, (c, name) in enumerate(zip(counts, ("bottom block", "middle block", "top block"))):
         mesh = cc.box(x=(0, 1), y=(0, 1), z=(zs[k], zs[k + 1]), nx=c[0], ny=c[1], nz=1)
         extra = dict(traction={"top": (0, 0, -p)}) if k == 2 else {}
-        bodies.append(cc.Body(mesh, STEEL, roller=SIDES + (["bottom"] if k == 0 else []), name=name, **extra))
+        bodies.append(cc.Body(mesh, middle if k == 1 else STEEL, roller=SIDES + (["bottom"] if k == 0 else []),
+                              name=name, **extra))
     low, mid, top = bodies
     pairs = [cc.Contact(low, "top", mid, "bottom", condition=conditions[0]),
              cc.Contact(mid, "top", top, "bottom", condition=conditions[1])]

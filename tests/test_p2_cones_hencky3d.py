@@ -24,6 +24,7 @@ from scenes3d import (
     pzt_on_block,
     sampled_penetration,
     sphere_on_block,
+    three_blocks,
 )
 
 import cvxcontact as cc
@@ -265,3 +266,36 @@ def test_a_nearly_perfectly_plastic_block_yielding_everywhere_is_the_least_energ
     assert energy_and_residual(scene, ipm.u)[0] > energy
     between = [a + 0.1 * (b - a) for a, b in zip(sol.u, ipm.u)]
     assert energy_and_residual(scene, between)[0] > energy
+
+
+def test_a_hencky_block_between_two_pairs_yielding_everywhere_is_the_uniaxial_closed_form():
+    """Three blocks stacked under rollers (:func:`scenes3d.three_blocks`: two pairs of non-matching faces), the
+    middle one Hencky (sigma_y = 2 MPa, h = 0.1) yielding at every quadrature point under p = 10 MPa: uniaxial
+    strain, eps_zz = -p / c33 in the steel blocks and, in the Hencky one, sigma_zz = (K + 4 h mu / 3) e
+    - 2 sqrt(2/3) (1 - h) mu s_y = -p (|dev eps| = sqrt(2/3) |e| beyond s_y = sigma_y / (sqrt(6) mu)), by hand,
+    not from the material's code: e = -1.42e-4 against -1.06e-4 linear. The finish (the cuts on the nonlinear
+    (26)) is it within 1e-9 of the largest displacement (measured 2.2e-12)."""
+    p, sigma_y, h = 1e7, 2e6, 0.1
+    material = cc.materials.hencky(E=E, nu=NU, sigma_y=sigma_y, h=h)
+    scene = three_blocks(p=p, middle=material)
+    sol = cc.solve(scene, "gamma3", degree=2)
+    assert sol.polished and sol.ok and sol.info.declined is None, sol.report()
+    zone = plastic_zone(sol, body=1)
+    assert zone["yielded"] == zone["points"], zone
+    mu, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
+    c33 = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+    s_y = sigma_y / (np.sqrt(6.0) * mu)
+    e = (-p + 2 * np.sqrt(2 / 3) * (1 - h) * mu * s_y) / (K + 4 * h * mu / 3)
+    assert np.sqrt(2 / 3) * abs(e) > s_y and abs(e) > 1.3 * p / c33
+
+    def uz(z):
+        return np.where(z <= 1 / 3, -p * z / c33, np.where(z <= 2 / 3, -p / (3 * c33) + e * (z - 1 / 3),
+                                                          -p / (3 * c33) + e / 3 - p * (z - 2 / 3) / c33))
+
+    worst = 0.0
+    for body, u in zip(scene.bodies, sol.u):
+        z = np.asarray(space(2, body.mesh.cell).nodes(body).points)[:, 2]
+        exact = np.zeros_like(u)
+        exact[:, 2] = uz(z)
+        worst = max(worst, float(np.abs(u - exact).max()))
+    assert worst <= 1e-9 * max(float(np.abs(u).max()) for u in sol.u)

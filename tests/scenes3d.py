@@ -86,6 +86,14 @@ def bumped_blocks(lower=(4, 4), upper=(5, 3), load=2e7, gap=bumped_gap, material
     return cc.Scene(b1, b2, gap=gap)
 
 
+def pzt_on_block(material, volts=50.0, lower=(2, 2), upper=(3, 2), load=2e7, nz=1):
+    """:func:`bumped_blocks` with a PZT-5A upper block (poled along z, driven at ``volts`` on its top, no grounded
+    electrode: its potential is fixed by the top alone) on a lower block of ``material``."""
+    scene = bumped_blocks(lower, upper, load=load, material=material, nz=nz)
+    low, up = scene.bodies
+    return cc.Scene(low, up.with_changes(material=cc.materials.PZT5A, potential={"top": volts}), gap=bumped_gap)
+
+
 def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1, material=STEEL):
     """Two blocks on (0, 1)^2 meeting at z = 0.5 with non-matching faces: the lower (of ``material``) clamped at
     its base, the upper pushed down by d (m) on its top (both held by their supports), the gap ``gap``."""
@@ -106,16 +114,17 @@ def sphere_on_block(force=2e9, n=(6, 6, 3), material=STEEL):
     return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
 
 
-def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3")):
+def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3"), middle=STEEL):
     """Three blocks of height 1/3 m stacked on (0, 1)^2 (rollers on their sides, the lowest on its base),
     their faces non-matching (``counts`` cells across each block), pressed by ``p`` on the top: the
-    uniaxial solution through two contact pairs."""
+    uniaxial solution through two contact pairs. ``middle``: the middle block's material (the others STEEL)."""
     zs = (0.0, 1 / 3, 2 / 3, 1.0)
     bodies = []
     for k, (c, name) in enumerate(zip(counts, ("bottom block", "middle block", "top block"))):
         mesh = cc.box(x=(0, 1), y=(0, 1), z=(zs[k], zs[k + 1]), nx=c[0], ny=c[1], nz=1)
         extra = dict(traction={"top": (0, 0, -p)}) if k == 2 else {}
-        bodies.append(cc.Body(mesh, STEEL, roller=SIDES + (["bottom"] if k == 0 else []), name=name, **extra))
+        bodies.append(cc.Body(mesh, middle if k == 1 else STEEL, roller=SIDES + (["bottom"] if k == 0 else []),
+                              name=name, **extra))
     low, mid, top = bodies
     pairs = [cc.Contact(low, "top", mid, "bottom", condition=conditions[0]),
              cc.Contact(mid, "top", top, "bottom", condition=conditions[1])]

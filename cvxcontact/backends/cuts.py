@@ -165,7 +165,7 @@ def segment_scales(B, U, width: int = 3) -> np.ndarray:
 
 
 def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL, width: int = 3,
-                    departure=None):
+                    departure=None, accept: float | None = None):
     """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer
     halves per round). ``solve(P, delta)`` solves the nodal problem with the rows ``P`` (k, n), each point's
     slack P q - delta (``delta`` (k,): the true gap's departure from its interpolant at the points,
@@ -176,7 +176,9 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
     The new cut on an element is the maximiser of its true slack q_h - delta (``departure.argmax``; the
     quadratic's exact one without a departure). Returns a dict (state, y, segment, t, beta, pairing: the
     point forces' sum y_p delta_p per element, rounds, violation, active) or the reason it stopped (a
-    :class:`~cvxcontact.backends.finish.declined.Declined`)."""
+    :class:`~cvxcontact.backends.finish.declined.Declined`). ``accept``: after ``max_rounds``, the last round is
+    returned if its violation is at most this (a ``tol`` below the rounding floor of the rounds' solves, where the
+    violation neither reaches it nor stalls below :data:`STALL_TOL`); None: the rounds decline."""
     S = B.shape[0] // width
     maximum = bernstein_argmax if departure is None else departure.argmax
     offsets = (lambda e, p: np.zeros(len(e))) if departure is None else departure.at
@@ -223,6 +225,8 @@ def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT
         new = np.flatnonzero(rel > tol)
         segment = np.concatenate([segment, new])
         t = np.concatenate([t, tmax[new]])
+    if accept is not None and good is not None and good["violation"] <= accept:
+        return good
     return Declined(Stop.MAX_ITER, f"the cuts did not reach rounding in {max_rounds} rounds (violation {worst:.1e})")
 
 

@@ -447,7 +447,7 @@ def _steps(system, w, max_steps: int):
         seen.add(key)
         if not same and fr.nc == 1 and _key(state) in seen:
             # 2D: a set already solved exactly comes back: one row's change at a time from the set just solved
-            out = _pivots(system, w, solved, PIVOTS * (len(g) + len(fr.rows)) + 10)
+            out = _pivots(system, w, solved, PIVOTS * (len(system.g) + len(fr.rows)) + 10)
             if out is None:
                 return Declined(Stop.CYCLE)
             w, state, pivots = out

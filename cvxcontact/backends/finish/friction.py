@@ -81,6 +81,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..factor import superlu
 from .declined import Declined, Stop
 from .lcp import SIGN_TOL
 from .rows import _independent
@@ -347,7 +348,7 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", spla.MatrixRankWarning)
-                dw = spla.splu(J).solve(system.step_rhs(w, state, frozen))
+                dw = superlu(J).solve(system.step_rhs(w, state, frozen))
         except (RuntimeError, spla.MatrixRankWarning):
             return Declined(Stop.SINGULAR)
         if not np.isfinite(dw).all():

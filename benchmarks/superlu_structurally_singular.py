@@ -25,32 +25,32 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import structural_rank
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from matrices import surplus_saddle  # noqa: E402
+from matrices import surplus_saddle
 
 LIBC = ctypes.CDLL(None)          # (POSIX) to flush C stdio, where xerbla's printf waits when stdout is a file
 
 
 def superlu_output(K):
     """(lu or None, what SuperLU/BLAS printed on fd 1 and 2, the error or None) of splu(K)."""
-    out = tempfile.TemporaryFile()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    LIBC.fflush(None)
-    saved = [os.dup(1), os.dup(2)]
-    os.dup2(out.fileno(), 1)
-    os.dup2(out.fileno(), 2)
-    try:
-        lu, err = spla.splu(K), None
-    except RuntimeError as exc:
-        lu, err = None, str(exc).strip()
-    finally:
+    with tempfile.TemporaryFile() as out:
+        sys.stdout.flush()
+        sys.stderr.flush()
         LIBC.fflush(None)
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        os.close(saved[0])
-        os.close(saved[1])
-    out.seek(0)
-    return lu, out.read().decode(), err
+        saved = [os.dup(1), os.dup(2)]
+        os.dup2(out.fileno(), 1)
+        os.dup2(out.fileno(), 2)
+        try:
+            lu, err = spla.splu(K), None
+        except RuntimeError as exc:
+            lu, err = None, str(exc).strip()
+        finally:
+            LIBC.fflush(None)
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+        out.seek(0)
+        return lu, out.read().decode(), err
 
 
 def main():

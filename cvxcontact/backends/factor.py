@@ -93,10 +93,11 @@ def structurally_nonsingular(K) -> None:
     """Raise RuntimeError if the square sparse ``K`` is structurally singular: no permutation puts a stored entry
     on every diagonal position (:func:`scipy.sparse.csgraph.structural_rank` below its order; stored zeros
     count, as they do for SuperLU). Such a K is singular whatever its values, and SuperLU must not see it:
-    its column updates then reach BLAS with negative dimensions (OpenBLAS prints "On entry to DGEMV parameter
+    its column updates then call BLAS with illegal sizes (OpenBLAS prints "On entry to DGEMV parameter
     number 2 had an illegal value", or DTRSV's parameter 6, and skips the call), after which it either stops
-    with an error or returns factors whose pivots are rounding (a solve off by ~1e17). O(nnz sqrt(n)) at worst,
-    ~1e-3 s on a 2,221-row Newton system whose SuperLU factorisation takes ~0.1 s."""
+    with an error or returns factors whose pivots are rounding (a solve off by ~1e17). O(nnz sqrt(n)) at worst;
+    measured 1e-3 s CPU on the systems of order ~2,100 of the P2 "gamma3" cuts on two blocks (SuperLU: 0.02 to
+    0.05 s each) and 0.01 s on a saddle matrix of order 130,000 (890,000 entries)."""
     n = K.shape[0]
     rank = int(structural_rank(sp.csr_matrix(K))) if n else 0
     if rank < n:

@@ -1,15 +1,19 @@
 """The factorisation adapters (cvxcontact.backends.factor): Schur complement and solves against dense
 linear algebra, whole solves with PARDISO against SuperLU, typed errors. PARDISO tests skip without oneMKL."""
 
+import ctypes
+import os
 import warnings
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 import cvxcontact as cc
 from cvxcontact.apps.demo import two_blocks
 from cvxcontact.backends import factor
+from cvxcontact.backends import sparse as sparse_backend
 from cvxcontact.backends.condensed import condense, quasi_definite
 from cvxcontact.discrete import Block, units
 from cvxcontact.errors import CvxContactError, SolverError
@@ -19,6 +23,8 @@ from cvxcontact.geometry.quadratic import P2Nodes
 from cvxcontact.contact.quadratic import quadratic_interface
 
 from conftest import rel
+from matrices import surplus_saddle
+from scenes3d import bumped_blocks
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -264,3 +270,76 @@ def test_pardiso_honours_the_thread_count_of_a_sweep_worker(monkeypatch):
     f.solve(np.ones(6))
     assert seen and set(seen) == {1}
     assert lib.MKL_Get_Max_Threads() == before
+
+
+# ---------------------------------------------------------------------------------------------------------
+# structurally singular matrices: refused before SuperLU (benchmarks/results/superlu_structurally_singular.md)
+
+def printed(capfd) -> str:
+    """What the process wrote on its file descriptors 1 and 2 since the last read, C stdio flushed first (BLAS's
+    xerbla prints with printf, buffered while fd 1 is a file)."""
+    if os.name == "posix":
+        ctypes.CDLL(None).fflush(None)
+    out, err = capfd.readouterr()
+    return out + err
+
+
+@pytest.mark.parametrize("n, m", [(24, 8), (20, 4), (10, 8)])
+def test_a_structurally_singular_matrix_is_refused_before_superlu_sees_it(n, m, capfd):
+    """m constraint rows on m - 1 unknowns: singular whatever the values. Given to SuperLU (SciPy 1.17.1) these
+    print "On entry to DGEMV parameter number 2 had an illegal value" and stop at dpanel_bmod.c (24, 8), print
+    DTRSV's and DGEMV's (20, 4), or print nothing and return factors with rounding pivots, a solve of max|x|
+    ~1e17 (10, 8), under every OpenBLAS kernel set tried. Every route refuses them with the same RuntimeError,
+    silently; the matrix without its surplus row is factorised, as the dense solve gives it."""
+    K = surplus_saddle(n, m)
+    routes = (factor.lu,            # (these small matrices are dense enough for its LAPACK route, DENSE_FILL)
+              factor.superlu, lambda K: sparse_backend.factorize(K, np.arange(K.shape[0])))
+    printed(capfd)
+    for factorise in routes:
+        with pytest.raises(RuntimeError, match=f"structural rank {n + m - 1} of {n + m}"):
+            factorise(K)
+    assert "illegal value" not in printed(capfd)
+    K1 = surplus_saddle(n, m, surplus=False)
+    b = np.cos(np.arange(K1.shape[0]))
+    for factorise in routes:
+        x = factorise(K1).solve(b)
+        assert rel(x, np.linalg.solve(K1.toarray(), b)) < 2e-11           # measured <= 1.5e-13 (cond ~3e3)
+    assert printed(capfd) == ""
+
+
+def test_the_p2_gamma3_cuts_on_bumped_blocks_print_nothing_and_factorise_correctly(monkeypatch, capfd):
+    """The scene where "On entry to DGEMV parameter number 2 had an illegal value" was printed: linear P2
+    gamma3, the exact finish by accumulated cuts, whose tangency Newton meets a structurally singular system
+    (more point rows than the unknowns they touch: structural rank 2,179 of 2,221 under the SkylakeX kernels,
+    2,178 of 2,220 under Prescott and Sandybridge). That system is refused before SuperLU (the Newton then
+    declines, as it did on SuperLU's error); every factorisation SuperLU makes in the run solves a probe
+    system to a backward error of rounding; nothing is printed; the answer passes its checks."""
+    refused, worst = [], [0.0]
+    check, splu = factor.structurally_nonsingular, spla.splu
+
+    def counting(K):
+        try:
+            check(K)
+        except RuntimeError:
+            refused.append(K.shape[0])
+            raise
+
+    def probed(K, *args, **kw):
+        lu = splu(K, *args, **kw)
+        v = np.cos(0.7548776662466927 * np.arange(K.shape[0])) + 1.5
+        b = K @ v
+        x = lu.solve(b)
+        worst[0] = max(worst[0], float(np.abs(K @ x - b).max() / (abs(K).max() * np.abs(x).max() + np.abs(b).max())))
+        return lu
+
+    monkeypatch.setattr(factor, "structurally_nonsingular", counting)
+    monkeypatch.setattr(spla, "splu", probed)
+    printed(capfd)
+    sol = cc.solve(bumped_blocks(), "gamma3", degree=2)
+    assert "illegal value" not in printed(capfd)
+    assert refused                                   # the triggering system was met (measured: 1, order 2,221)
+    assert worst[0] < 2e-13                          # measured 7.0e-16 (1.2e-15 under Prescott)
+    assert sol.ok and sol.info.finish == "accumulated cuts"
+    r = sol.residuals()
+    assert r["equilibrium"] < 1e-12 and r["feasibility"] < 5e-9     # measured 4.5e-16 .. 2.1e-15, 2.9e-11 .. 3.5e-11
+    assert r["complementarity"] < 5e-6 and r["cone"] < 1e-13        # measured 2.4e-8 .. 2.7e-8, 1.0e-16 .. 1.4e-16

@@ -16,11 +16,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla  # noqa: F401  (tests reach scipy.sparse.linalg as full.spla)
 from scipy.linalg import null_space
-from scipy.sparse.csgraph import structural_rank
 
 from .condensed import quasi_definite
 from .factor import lu as dense_or_sparse_lu
-from .factor import symmetric_lu
+from .factor import structurally_nonsingular, symmetric_lu
 
 __all__ = [
     "ContactModel",
@@ -48,14 +47,17 @@ def solve_mixed(K, b, residual: float | None = 1e-8, factorization: str = "super
     finite, or (``residual`` not None) max|K x - b| exceeds ``residual`` times max|b|: the system does not
     determine the unknowns (e.g. an active set that leaves multipliers free). A structurally singular K (more
     active rows than the unknowns they touch, as on a 3D overlay whose rows outnumber the jump's dofs) is None
-    before any factorisation: SuperLU 1.17's panel updates call BLAS with illegal sizes on such matrices and
-    can corrupt memory (measured: segmentation faults in later factorisations).
+    before any factorisation (:func:`~cvxcontact.backends.factor.structurally_nonsingular`): SuperLU 1.17's panel
+    updates call BLAS with illegal sizes on such matrices and can corrupt memory (measured: segmentation faults
+    in later factorisations).
 
     ``factorization="auto"`` (with ``residual`` set, K of order :data:`PARDISO_MIN` or more): PARDISO first where
     it applies (:func:`~cvxcontact.backends.factor.symmetric_lu`: a symmetric K, no perturbed pivot), refined the
     same way; an answer that misses the residual falls back to SuperLU, which then decides (measured on issue
     30's punch, 23,938 rows: 0.13 s a factorisation instead of SuperLU's 1 s)."""
-    if structural_rank(sp.csr_matrix(K)) < K.shape[0]:
+    try:
+        structurally_nonsingular(K)     # before PARDISO too
+    except RuntimeError:
         return None
     if factorization == "auto" and residual is not None and K.shape[0] >= PARDISO_MIN:
         x = _refined(symmetric_lu(K), K, b, residual)

@@ -65,6 +65,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .condensed import quasi_definite
+from .factor import superlu
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from ..discrete.energy import abs_product
@@ -150,7 +151,7 @@ def factorize(K, perm):
     as an object with ``solve(b)`` (b a vector or a matrix of columns). The one sparse factorisation of
     this module, so that another direct solver (e.g. PARDISO) can be routed here. Raises RuntimeError
     if K is singular."""
-    return _Factor(spla.splu(K[perm][:, perm].tocsc(), **_SUPERLU), perm)
+    return _Factor(superlu(K[perm][:, perm].tocsc(), **_SUPERLU), perm)
 
 
 def row_weights(blocks, E) -> np.ndarray:

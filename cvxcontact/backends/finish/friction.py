@@ -89,6 +89,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..factor import superlu
 from .declined import Declined, Stop
 from .lcp import SIGN_TOL
 from .rows import _independent
@@ -416,7 +417,7 @@ def _steps(system, w, max_steps: int):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", spla.MatrixRankWarning)
-                dw = spla.splu(J).solve(system.step_rhs(w, state, frozen))
+                dw = superlu(J).solve(system.step_rhs(w, state, frozen))
         except (RuntimeError, spla.MatrixRankWarning):
             return Declined(Stop.SINGULAR)
         if not np.isfinite(dw).all():

@@ -314,11 +314,9 @@ class UpdatedSystem:
 
 def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
     """:class:`FactoredRows` of the mixed system, or None if K0 is singular (the anchor rows do not hold every
-    body): structurally (checked before SuperLU, which can corrupt memory on such matrices, see
-    :func:`~cvxcontact.backends.full.solve_mixed`), by a zero pivot, or numerically (a solve of K0 z = K0 v
+    body): structurally (:func:`~cvxcontact.backends.factor.lu` checks it before SuperLU, which goes wrong on such
+    matrices), by a zero pivot, or numerically (a solve of K0 z = K0 v
     misses v by more than 1e-6, v a fixed vector with components along any kernel)."""
-    from scipy.sparse.csgraph import structural_rank
-
     A, G = sp.csr_matrix(A), sp.csr_matrix(G)
     anchor = np.asarray(anchor, dtype=int)
     GQ = G[anchor]
@@ -330,8 +328,6 @@ def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
     rho = big / np.asarray(GQ.multiply(GQ).sum(axis=1)).ravel()
     K0 = (A + GQ.T @ sp.diags(rho) @ GQ).tocsc()
     n = K0.shape[0]
-    if structural_rank(K0) < n:
-        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", spla.MatrixRankWarning)

@@ -103,3 +103,34 @@ def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(sc
         ipm = cc.solve(scene(law), polish=False, solver_options=TIGHT, **P2)
     assert not ipm.polished
     assert max(_apart(a, b) for a, b in zip(ipm.u, sol.u)) <= 1e-7
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
+def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene):
+    """Coulomb's fixed point on the cut points' capacities stopped at its ``max_iterations`` (2: measured relative
+    change 2.1e-4 there, above the tolerance 1e-12) is no answer: the interior point's, not polished, its
+    ``info.declined`` naming the fixed point, a ResidualWarning (and the interior point's FixedPointWarning)."""
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        sol = cc.solve(scene(cc.Coulomb(0.3, max_iterations=2)), **P2)
+    assert not sol.polished and sol.info.finish is None
+    assert "Coulomb's fixed point on the cut points' capacities" in sol.info.declined
+    assert any(issubclass(w.category, cc.ResidualWarning) and "Coulomb's fixed point" in str(w.message)
+               for w in record)
+
+
+@pytest.mark.numerics
+def test_a_cycle_murty_s_rule_does_not_settle_declines_and_says_so(monkeypatch):
+    """Where the 2D active set cycles and Murty's least-index rule does not settle (forced here; the tilted block
+    at nx = 8 needs it, measured 3 calls), the finish declines with the cycle named and a ResidualWarning, the
+    interior point's answer kept (never a step's point taken as settled)."""
+    from cvxcontact.backends.finish import Stop
+    from cvxcontact.backends.finish import friction as steps
+
+    monkeypatch.setattr(steps, "_pivots", lambda *args, **kwargs: None)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        sol = cc.solve(tilted(cc.Tresca(0.6 * P)), **P2)
+    assert not sol.polished and sol.info.declined.stop is Stop.CYCLE, sol.info.declined
+    assert any(issubclass(w.category, cc.ResidualWarning) and "cycle" in str(w.message) for w in record)

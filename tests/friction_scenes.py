@@ -356,9 +356,9 @@ def dragged_disk(law, s=1e-5, d=1e-4, nx=8, ny=4):
                                                law=law)])
 
 
-def tilted(law, nx=8):
-    """A free 1 m x 1 m block (nx x 8 cells) on the floor under (0.3 p, -p) on its top: its left heel lifts (the
+def tilted(law, nx=8, q=0.3):
+    """A free 1 m x 1 m block (nx x 8 cells) on the floor under (q p, -p) on its top: its left heel lifts (the
     contact ends inside an element for nx = 8, at a node for nx = 7), nothing but friction holds it along x."""
     b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8), steel(), contact="bottom",
-                traction={"top": (0.3 * P, -P)})
+                traction={"top": (q * P, -P)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])

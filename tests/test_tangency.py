@@ -444,3 +444,43 @@ def test_a_segment_flat_to_the_finish_tolerance_is_a_whole_contact():
     assert _maximum(SEGMENT, rounding, (0, 1), flat=1e-11 * 3.9) is None
     m, L, _ = _maximum(SEGMENT, np.array([0.0, 1e-9, 0.0]), (0, 1), flat=1e-11 * 3.9)
     assert m == pytest.approx(5e-10, rel=1e-12) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
+
+
+@pytest.mark.numerics
+def test_a_nodal_pair_beside_the_cones_carries_its_force_once():
+    """A free block (1 m x 0.5 m, 8 x 4 P2 cells) under (0, -p) on its top and 0.3 p on its left face, on a rigid
+    disk of radius 10 m under "gamma3" (the contact ends inside elements), its right face's upper half against a
+    frictionless wall under "sigma1" (a nodal pair beside the cones: each of its rows one degenerate element of
+    the Bernstein map, the same row at its three nodes). The answer balances the load, summed here from the
+    pairs' nodal forces along their own normals: the wall takes 0.3 p H less the disk's x-component, the disk
+    p L (measured 3.5e-14 and 6.2e-14). Before, the tangency finish read each wall row's force at three nodes
+    (a run of one element) and reported the wall's force twice (2.99e6 N/m against 1.49e6: ok False, warned).
+    The interior point of the full program at tight tolerances, which shares nothing with the finish, has the
+    same wall force (measured 3.6e-7) and displacements (1.3e-5: its own resolution)."""
+    P, L, H = 1e7, 1.0, 0.5
+    centre = np.array([L / 2, -10.0])
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4, segments={"side": ("right", H / 2, H)})
+    b = cc.Body(m, STEEL, contact="bottom", traction={"top": (0.0, -P), "left": (0.3 * P, 0.0)})
+    scene = cc.Scene(b, contacts=[
+        cc.Contact(b, "bottom", cc.Rigid.circle(center=tuple(centre), radius=10.0)),
+        cc.Contact(b, "side", cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0)), condition="sigma1")])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene, degree=2)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.TANGENCY_NEWTON, sol.info.declined
+
+    def balance(s):
+        floor, wall = s.contacts
+        n = floor.points - centre
+        f = floor.force @ (n / np.linalg.norm(n, axis=1)[:, None])     # the disk's force on the block
+        return wall.force.sum(), (0.3 * P * H + f[0] - wall.force.sum()) / (0.3 * P * H), (f[1] - P * L) / (P * L)
+
+    wall, bx, by = balance(sol)
+    assert abs(bx) <= 1e-11 and abs(by) <= 1e-11
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ipm = cc.solve(scene, degree=2, method="full", polish=False,
+                       solver_options={"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-13,
+                                       "tol_ktratio": 1e-12, "max_iter": 1000})
+    assert abs(balance(ipm)[0] / wall - 1) <= 1e-5
+    assert max(np.abs(a - c).max() / np.abs(c).max() for a, c in zip(sol.u, ipm.u)) <= 1e-3

@@ -138,10 +138,10 @@ def full(problem, cache, settings, timings) -> RawResult:
     return raw
 
 
-UNFINISHED_CONES = ("no exact finish joins the P2 cones' tangency Newton with the friction Newton yet: the interior "
-                    "point's answer, checked")
-"""Why the friction next to the P2 "gamma3" cones keeps the interior point's answer where the finish on the nodes
-(:func:`conic_full`) does not apply (in ``raw.declined``)."""
+UNFINISHED_CONES = "not finished exactly under the P2 cones: the interior point's answer, checked"
+"""Why the friction next to the P2 "gamma3" cones keeps the interior point's answer where the finish
+(:func:`finish_on_nodes`) is off (``polish=False``) or declined, the finish's own reason after it (in
+``raw.declined``)."""
 
 CONE_ROUNDING = 1e-9
 """The finish of the cones with friction (:func:`finish_on_nodes`) stops where the slack's largest value on every

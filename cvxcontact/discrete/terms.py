@@ -344,9 +344,9 @@ class ConesWithFriction(_Term):
     rows_may_depend: ClassVar[bool] = False
     refuses_user_terms: ClassVar[str] = TrescaFriction.refuses_user_terms
     unfinished_hint: ClassVar[str] = (
-        "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish on the nodes and cut "
-        "points that did not settle: no exact finish joins the cones' tangency Newton with the friction Newton "
-        "yet), so its complementarity and stick-slip checks stop where the interior point stops "
+        "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish that declined: on "
+        "the nodes and cut points, in 2D then at the exact tangency points; info.declined says why), so its "
+        "complementarity and stick-slip checks stop where the interior point stops "
         "(docs/howto/friction.md). Pass a tol above what the report shows to accept it, or use 'sigma1'/'sigma2' "
         "(nodal P2 friction rows, finished exactly).")
     programs: ClassVar[str | Callable] = EverywhereCones.programs

@@ -17,12 +17,12 @@ solver sees O(1) data whatever the SI magnitudes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
 
-from .energy import BulkEnergy, abs_product, bulk_energy
+from .energy import BulkEnergy, Quadratic, abs_product, bulk_energy
 
 __all__ = ["Units", "Block", "units"]
 
@@ -105,6 +105,7 @@ class Block:
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     slip: sp.csr_matrix | None = None   # [u_t] at merged nodes from the free u dofs (a friction law; else None)
+    kept: dict = field(default_factory=dict, repr=False, compare=False)   # |K| per matrix (:meth:`absolute`)
 
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
@@ -143,15 +144,37 @@ class Block:
         """The right-hand side [f; q] of (26)."""
         return self.f, (self.q if self.q is not None else np.zeros(0))
 
+    def absolute(self, name: str) -> sp.csr_matrix | None:
+        """|K| of the matrix ``name`` ("Kuu", "Kup", "Kpp"): the absolute values of its entries on its own indices
+        (a second data array: 8 bytes per stored entry), formed when first asked and kept in ``kept``, which the
+        load cases of the same matrices share (:meth:`with_loads`, ``replace``); None for a matrix that is not a
+        canonical CSR one (:func:`~cvxcontact.discrete.energy.abs_product` then forms it block by block)."""
+        K = getattr(self, name)
+        if not (sp.issparse(K) and K.format == "csr" and K.has_canonical_format):
+            return None
+        entry = self.kept.get(name)
+        if entry is None or entry[0] is not K:               # (another matrix under the name: formed anew)
+            entry = self.kept[name] = (K, sp.csr_matrix((np.abs(K.data), K.indices, K.indptr), shape=K.shape))
+        return entry[1]
+
+    def _abs_times(self, name, z):
+        """|K| |z| of the matrix ``name``: the kept |K| (:meth:`absolute`) times |z|, the same numbers as
+        ``abs_product(K, z)`` (each row summed in the same order)."""
+        A = self.absolute(name)
+        return abs_product(getattr(self, name), z) if A is None else A @ np.abs(z)
+
     def magnitude(self, u, phi, contact_force):
         """Row scales of (26) for this body: |A| |x| + |F| + |J^T| |c|, the sizes of the terms each
-        residual row balances (momentum rows, Gauss rows)."""
+        residual row balances (momentum rows, Gauss rows); |Kuu|, |Kup| and |Kpp| kept (:meth:`absolute`)."""
         cu = abs(self.jump).T @ np.abs(contact_force) + np.abs(self.f)
-        au = self.bulk.magnitude(u) + cu
+        linear = isinstance(self.bulk, Quadratic) and self.bulk.K is self.Kuu
+        au = (self._abs_times("Kuu", u) if linear else self.bulk.magnitude(u)) + cu
         if self.Kpp is None:
             return au, np.zeros(0)
-        au = au + abs_product(self.Kup, phi)             # (no copies of the matrices: abs_product)
-        return au, abs_product(self.Kpp, phi) + abs_product(self.Kup.T, u) + np.abs(self.q)
+        au = au + self._abs_times("Kup", phi)
+        Kup = self.absolute("Kup")
+        return au, (self._abs_times("Kpp", phi) + abs_product(self.Kup.T, u, None if Kup is None else Kup.data)
+                    + np.abs(self.q))
 
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""

@@ -11,6 +11,7 @@ from conftest import rel, two_blocks
 
 import cvxcontact as cc
 from cvxcontact.discrete import build_problem
+from cvxcontact.discrete.energy import Quadratic
 from cvxcontact.fem.assembly import gradients, strain_matrix, voigt_strains
 from cvxcontact.fem.space import space
 
@@ -82,6 +83,34 @@ def test_the_kept_absolute_values_give_the_row_scales_of_the_whole_products():
     stiffer = build_problem(two_blocks(mat2=cc.materials.isotropic(E=200e9, nu=0.3)), sp1, "gamma3", cc.Signorini())
     assert all(s.kept is not b.kept for s, b in zip(stiffer.blocks, problem.blocks))
     assert not stiffer.blocks[1].kept
+
+
+def test_the_energy_reads_the_residual_products_only_for_the_same_fields():
+    """Block.energy after Block.residual of the same (u, phi) reuses Kuu u and Kpp phi (bit for bit the direct
+    formula's numbers); other fields, the same array edited in place, or another matrix are formed anew."""
+    problem = build_problem(two_blocks(), space(1, "triangle"), "gamma3", cc.Signorini())
+    b = problem.blocks[0]
+    rng = np.random.default_rng(5)
+    u, phi = rng.standard_normal(b.Kuu.shape[0]), rng.standard_normal(b.Kpp.shape[0])
+    c = rng.standard_normal(b.jump.shape[0])
+
+    def direct(blk, u, phi):
+        return 0.5 * float(u @ (blk.Kuu @ u)) - blk.f @ u + 0.5 * phi @ (blk.Kpp @ phi)
+
+    r = b.residual(u, phi, c)
+    assert np.array_equal(r[0], b.Kuu @ u + b.Kup @ phi + b.jump.T @ c - b.f)
+    assert b.energy(u, phi) == direct(b, u, phi)
+    product = b.products[("product", "Kuu")][2]
+    assert not product.flags.writeable and b.energy(u, phi) == direct(b, u, phi)
+    assert b.products[("product", "Kuu")][2] is product                       # read, not formed again
+    u[:7] += 1.0                                                               # the same array, other numbers
+    assert b.energy(u, phi) == direct(b, u, phi)
+    v = rng.standard_normal(b.Kuu.shape[0])
+    assert b.energy(v, phi) == direct(b, v, phi)
+    K2 = (2.0 * b.Kuu).tocsr()
+    doubled = replace(b, Kuu=K2, bulk=Quadratic(K2))                         # (shares the products' dict)
+    assert doubled.products is b.products and doubled.energy(v, phi) == direct(doubled, v, phi)
+    assert problem.with_loads(two_blocks(scale=0.5)).blocks[0].products == {}
 
 
 @pytest.mark.parametrize("dim, k", [(2, 3), (2, 6), (3, 4), (3, 10)])

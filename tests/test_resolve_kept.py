@@ -135,3 +135,21 @@ def test_voigt_strains_of_an_affine_field_are_exact(dim):
     pairs = {2: ((0, 0), (1, 1), (0, 1)), 3: ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))}[dim]
     exact = np.array([A[i, j] + (A[j, i] if i != j else 0.0) for i, j in pairs])
     assert rel(voigt_strains(grad, ue), np.broadcast_to(exact, (len(mesh.cells), len(exact)))) < 1e-12
+
+
+def test_a_body_keeps_its_fingerprint_and_a_load_case_of_it_starts_with_it():
+    """The fingerprint is hashed once per body (the arrays are read-only for good) and is the hash of its arrays
+    (computed here afresh: _digest); a with_loads body starts with it, a with_changes body of another mesh, of
+    another material or with other supports hashes its own."""
+    from cvxcontact.physics.fingerprint import KEPT, _digest, geometry_fingerprint
+
+    body = two_blocks().bodies[0]
+    assert KEPT not in body.__dict__
+    fp = geometry_fingerprint(body)
+    assert body.__dict__[KEPT] == fp == _digest(body)
+    loaded = body.with_loads(body_force=(1e8, -1e9))
+    assert loaded.__dict__[KEPT] == fp == _digest(loaded)
+    for other in (body.with_changes(mesh=cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=10, ny=4)),
+                  body.with_changes(material=cc.materials.PZT4),
+                  body.with_changes(clamped=["top", "left"])):
+        assert KEPT not in other.__dict__ and geometry_fingerprint(other) == _digest(other) != fp

@@ -60,9 +60,11 @@ def test_the_kept_absolute_values_give_the_row_scales_of_the_whole_products():
     bit for bit); |K| shares K's indices; a load case of the same matrices shares it, another matrix under the same
     name (replace) and another geometry do not reuse it."""
     sp1 = space(1, "triangle")
-    problem = build_problem(two_blocks(), sp1, "gamma3", cc.Signorini())
+    first = build_problem(two_blocks(), sp1, "gamma3", cc.Signorini())
+    assert all(b.absolute("Kuu") is None for b in first.blocks)             # a single solve keeps none
+    problem = first.with_loads(two_blocks(scale=0.37))                        # a further load case keeps them
     rng = np.random.default_rng(3)
-    for b in problem.blocks:
+    for b, once in zip(problem.blocks, first.blocks):
         u = rng.standard_normal(b.Kuu.shape[0])
         phi = None if b.Kpp is None else rng.standard_normal(b.Kpp.shape[0])
         c = rng.standard_normal(b.jump.shape[0])
@@ -72,6 +74,7 @@ def test_the_kept_absolute_values_give_the_row_scales_of_the_whole_products():
             want = want + abs(b.Kup) @ np.abs(phi)
             assert np.array_equal(ap, abs(b.Kpp) @ np.abs(phi) + abs(b.Kup).T @ np.abs(u) + np.abs(b.q))
         assert np.array_equal(au, want) and au.max() > 0
+        assert np.array_equal(np.concatenate(once.magnitude(u, phi, c)), np.concatenate((au, ap)))
         A = b.absolute("Kuu")
         assert np.array_equal(A.data, np.abs(b.Kuu.data)) and np.shares_memory(A.indices, b.Kuu.indices)
         assert b.absolute("Kuu") is A                                 # formed once
@@ -81,8 +84,9 @@ def test_the_kept_absolute_values_give_the_row_scales_of_the_whole_products():
     doubled = replace(blk, Kuu=(2.0 * blk.Kuu).tocsr())
     assert np.array_equal(doubled.absolute("Kuu").data, 2.0 * np.abs(blk.Kuu.data))
     stiffer = build_problem(two_blocks(mat2=cc.materials.isotropic(E=200e9, nu=0.3)), sp1, "gamma3", cc.Signorini())
+    stiffer = stiffer.with_loads(two_blocks(scale=0.5, mat2=cc.materials.isotropic(E=200e9, nu=0.3)))
     assert all(s.kept is not b.kept for s, b in zip(stiffer.blocks, problem.blocks))
-    assert not stiffer.blocks[1].kept
+    assert "Kuu" not in stiffer.blocks[1].kept and stiffer.blocks[1].absolute("Kuu") is not None
 
 
 def test_the_energy_reads_the_residual_products_only_for_the_same_fields():

@@ -125,6 +125,7 @@ class Block:
         """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on
         the load scale)."""
         fz, qz = system.reduced_loads()
+        self.kept["load cases"] = self.kept.get("load cases", 0) + 1          # of these matrices (:meth:`absolute`)
         return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None,
                        bulk=bulk_energy(system, un, self.Kuu), products={})
 
@@ -167,10 +168,12 @@ class Block:
     def absolute(self, name: str) -> sp.csr_matrix | None:
         """|K| of the matrix ``name`` ("Kuu", "Kup", "Kpp"): the absolute values of its entries on its own indices
         (a second data array: 8 bytes per stored entry), formed when first asked and kept in ``kept``, which the
-        load cases of the same matrices share (:meth:`with_loads`, ``replace``); None for a matrix that is not a
-        canonical CSR one (:func:`~cvxcontact.discrete.energy.abs_product` then forms it block by block)."""
+        load cases of the same matrices share (:meth:`with_loads`, ``replace``); None for the first load case of
+        the matrices (a single solve keeps no second data array: 3D P1 about 650 bytes per unknown) and for a
+        matrix that is not a canonical CSR one (:func:`~cvxcontact.discrete.energy.abs_product` then forms it
+        block by block: the same numbers)."""
         K = getattr(self, name)
-        if not (sp.issparse(K) and K.format == "csr" and K.has_canonical_format):
+        if self.kept.get("load cases", 0) < 2 or not (sp.issparse(K) and K.format == "csr" and K.has_canonical_format):
             return None
         entry = self.kept.get(name)
         if entry is None or entry[0] is not K:               # (another matrix under the name: formed anew)

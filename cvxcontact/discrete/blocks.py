@@ -105,7 +105,6 @@ class Block:
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     slip: sp.csr_matrix | None = None   # [u_t] at merged nodes from the free u dofs (a friction law; else None)
-    kept: dict = field(default_factory=dict, repr=False, compare=False)   # |K| per matrix (:meth:`absolute`)
     products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
 
     @classmethod
@@ -125,7 +124,6 @@ class Block:
         """The same matrices with the loads of ``system`` scaled by ``un`` (the matrices do not depend on
         the load scale)."""
         fz, qz = system.reduced_loads()
-        self.kept["load cases"] = self.kept.get("load cases", 0) + 1          # of these matrices (:meth:`absolute`)
         return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None,
                        bulk=bulk_energy(system, un, self.Kuu), products={})
 
@@ -165,38 +163,15 @@ class Block:
         """The right-hand side [f; q] of (26)."""
         return self.f, (self.q if self.q is not None else np.zeros(0))
 
-    def absolute(self, name: str) -> sp.csr_matrix | None:
-        """|K| of the matrix ``name`` ("Kuu", "Kup", "Kpp"): the absolute values of its entries on its own indices
-        (a second data array: 8 bytes per stored entry), formed when first asked and kept in ``kept``, which the
-        load cases of the same matrices share (:meth:`with_loads`, ``replace``); None for the first load case of
-        the matrices (a single solve keeps no second data array: 3D P1 about 650 bytes per unknown) and for a
-        matrix that is not a canonical CSR one (:func:`~cvxcontact.discrete.energy.abs_product` then forms it
-        block by block: the same numbers)."""
-        K = getattr(self, name)
-        if self.kept.get("load cases", 0) < 2 or not (sp.issparse(K) and K.format == "csr" and K.has_canonical_format):
-            return None
-        entry = self.kept.get(name)
-        if entry is None or entry[0] is not K:               # (another matrix under the name: formed anew)
-            entry = self.kept[name] = (K, sp.csr_matrix((np.abs(K.data), K.indices, K.indptr), shape=K.shape))
-        return entry[1]
-
-    def _abs_times(self, name, z):
-        """|K| |z| of the matrix ``name``: the kept |K| (:meth:`absolute`) times |z|, the same numbers as
-        ``abs_product(K, z)`` (each row summed in the same order)."""
-        A = self.absolute(name)
-        return abs_product(getattr(self, name), z) if A is None else A @ np.abs(z)
-
     def magnitude(self, u, phi, contact_force):
         """Row scales of (26) for this body: |A| |x| + |F| + |J^T| |c|, the sizes of the terms each
-        residual row balances (momentum rows, Gauss rows); |Kuu|, |Kup| and |Kpp| kept (:meth:`absolute`)."""
+        residual row balances (momentum rows, Gauss rows)."""
         cu = abs(self.jump).T @ np.abs(contact_force) + np.abs(self.f)
-        au = (self._abs_times("Kuu", u) if self._linear else self.bulk.magnitude(u)) + cu
+        au = self.bulk.magnitude(u) + cu
         if self.Kpp is None:
             return au, np.zeros(0)
-        au = au + self._abs_times("Kup", phi)
-        Kup = self.absolute("Kup")
-        return au, (self._abs_times("Kpp", phi) + abs_product(self.Kup.T, u, None if Kup is None else Kup.data)
-                    + np.abs(self.q))
+        au = au + abs_product(self.Kup, phi)             # (no copies of the matrices: abs_product)
+        return au, abs_product(self.Kpp, phi) + abs_product(self.Kup.T, u) + np.abs(self.q)
 
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""

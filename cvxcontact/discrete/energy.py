@@ -32,34 +32,29 @@ ROWS = 1 << 16
 """Rows (CSR) or columns (CSC) per block of :func:`abs_product`."""
 
 
-def abs_product(K, z, magnitudes: np.ndarray | None = None) -> np.ndarray:
+def abs_product(K, z) -> np.ndarray:
     """|K| |z| (entrywise absolute values) of a sparse matrix: the sizes of the terms of K z, without the copy of K
     that abs(K) makes (its transient was the peak of a large 3D solve's checks). A canonical CSR matrix goes by
     blocks of ROWS rows, each row summed as in abs(K) @ np.abs(z) (the same numbers); a canonical CSC matrix by
     blocks of ROWS columns, their products added (the same terms, all non-negative: with one block the same
     numbers, else each row's sum differs from abs(K) @ np.abs(z) by rounding, below its number of terms times
-    eps relative); any other, as abs(K) @ |z|. ``magnitudes``: |K.data| if the caller keeps it (the same numbers,
-    without forming it again; a canonical CSR or CSC ``K`` only)."""
+    eps relative); any other, as abs(K) @ |z|."""
     z = np.abs(z)
     if not (sp.issparse(K) and K.format in ("csr", "csc") and K.has_canonical_format):
         return abs(K) @ z
     rows, cols = K.shape
-
-    def mags(a, b):                                   # |K.data[a:b]|, formed block by block unless kept
-        return np.abs(K.data[a:b]) if magnitudes is None else magnitudes[a:b]
-
     if K.format == "csc":
         out = np.zeros(rows, dtype=np.result_type(K.dtype, z.dtype))
         for c in range(0, cols, ROWS):
             a, b = K.indptr[c], K.indptr[min(c + ROWS, cols)]
-            block = sp.csc_matrix((mags(a, b), K.indices[a:b], K.indptr[c:c + ROWS + 1] - a),
+            block = sp.csc_matrix((np.abs(K.data[a:b]), K.indices[a:b], K.indptr[c:c + ROWS + 1] - a),
                                   shape=(rows, min(ROWS, cols - c)))
             out += block @ z[c:c + ROWS]
         return out
     out = np.empty(rows, dtype=np.result_type(K.dtype, z.dtype))
     for r in range(0, rows, ROWS):
         a, b = K.indptr[r], K.indptr[min(r + ROWS, rows)]
-        block = sp.csr_matrix((mags(a, b), K.indices[a:b], K.indptr[r:r + ROWS + 1] - a),
+        block = sp.csr_matrix((np.abs(K.data[a:b]), K.indices[a:b], K.indptr[r:r + ROWS + 1] - a),
                               shape=(min(ROWS, rows - r), cols))
         out[r:r + ROWS] = block @ z
     return out

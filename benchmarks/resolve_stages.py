@@ -1,7 +1,8 @@
 """Where a re-solve's CPU time goes, stage by stage, and its answers saved for a comparison between two trees.
 
 Scene: ``apps.demo.two_blocks(nx)`` (as benchmarks/bench_resolve.py). One process: the first solve, then four load
-cases (the upper block's loads x 0.37, each with its new Scene), each timed in CPU seconds per stage (the new Scene;
+cases (the upper block's loads x 0.37, its traction also x 1, 1.05, 1.1, 1.15: no load case repeats the one before,
+whose forward sweeps a ContactSolver would reuse; each with its new Scene), each timed in CPU seconds per stage (the new Scene;
 ``DiscreteProblem.with_loads``: fingerprints, loads, units; the backend's ``run``: sweeps and finish; the read-back
 with its checks; the error estimate; the resolution check). The last load case's u, phi, contact forces, estimate
 (total, indicators, parts), checks and electrode charges are saved to ``--save`` (npz); with ``--reference`` (an npz
@@ -65,10 +66,11 @@ def main():
     c_first = time.process_time() - t0
     print(f"first solve {c_first:.3f} CPU s")
     s = SCALE
-    for _ in range(4):
+    for case in range(4):
         spent.clear()
+        t = 1.0 + 0.05 * case            # the traction's share differs per case: no two load cases alike
         t0 = time.process_time()
-        other = scene.with_loads(0, body_force=(0.0, -2e9 * s), traction={"right": (0.0, 3e8 * s)},
+        other = scene.with_loads(0, body_force=(0.0, -2e9 * s), traction={"right": (0.0, 3e8 * s * t)},
                                  surface_charge={"left": -0.05 * s})
         spent["scene"] = time.process_time() - t0
         again = solver.solve(other)

@@ -21,7 +21,8 @@ class Condensation:
     as a Schur block, :func:`~cvxcontact.backends.condensed.condense`, and the interface compliance W = sum_l
     R_l Sigma_l^-1 R_l^T of the rows E): the factorisations are the inverse data. :meth:`apply` reduces a load
     case to the interface: per body the unconstrained Gamma displacements v0 and the interface loads
-    Sigma v0, and the free slack d = E [v0_nu] - g (the forward sweeps are kept). :meth:`invert` maps the
+    Sigma v0, and the free slack d = E [v0_nu] - g (the forward sweeps are kept; a body whose scaled load
+    is bit for bit the last load case's reuses its sweep). :meth:`invert` maps the
     contact forces y on the rows back to every body's (u, phi) (one backward sweep per body);
     :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v).
     """
@@ -37,6 +38,7 @@ class Condensation:
             _ = self.compliance.W              # formed here (timed with the factorisations) for the routes reading
             # it whole; the finish of dependent rows reads a block of it (Compliance.keep) and passes whole=False
         self.sweeps = None
+        self._loaded = [None] * len(self.bodies)   # per body (F, its forward sweep) of the last load case
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
@@ -54,11 +56,22 @@ class Condensation:
         """(v0, loads, d) of the load case of ``problem`` (see the class docstring)."""
         t0 = time.perf_counter()
         rhs = [quasi_definite_rhs(b) for b in problem.blocks]
-        self.sweeps = [c.forward(F) for c, F in zip(self.bodies, rhs)]
+        self.sweeps = [self._forward(k, F) for k, F in enumerate(rhs)]
         v0 = [c.unconstrained(f) for c, f in zip(self.bodies, self.sweeps)]
         d = None if self.compliance is None else self.compliance.free_slack(v0, problem.g)
         timings["interface_load"] = time.perf_counter() - t0
         return v0, [c.stiffness @ v for c, v in zip(self.bodies, v0)], d
+
+    def _forward(self, k, F):
+        """Body k's forward sweep of its scaled load F: the last load case's if F is bit for bit the same (a load
+        case that leaves this body's scaled loads as they were: the sweep would give the same numbers), else a
+        new sweep (kept with a copy of F: 8 bytes per unknown of the body)."""
+        last = self._loaded[k]
+        if last is not None and np.array_equal(last[0], F):
+            return last[1]
+        sweep = self.bodies[k].forward(F)
+        self._loaded[k] = (np.array(F, dtype=float), sweep)
+        return sweep
 
     def invert(self, problem, y, timings):
         """(u, phi) of every body under the contact forces ``y`` on the rows of the last :meth:`apply`."""

@@ -17,12 +17,12 @@ solver sees O(1) data whatever the SI magnitudes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
 
-from .energy import BulkEnergy, abs_product, bulk_energy
+from .energy import BulkEnergy, Quadratic, abs_product, bulk_energy
 
 __all__ = ["Units", "Block", "units"]
 
@@ -105,6 +105,7 @@ class Block:
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     slip: sp.csr_matrix | None = None   # [u_t] at merged nodes from the free u dofs (a friction law; else None)
+    products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
 
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
@@ -124,20 +125,39 @@ class Block:
         the load scale)."""
         fz, qz = system.reduced_loads()
         return replace(self, f=fz / un.force, q=qz / un.charge if self.Kpp is not None else None,
-                       bulk=bulk_energy(system, un, self.Kuu))
+                       bulk=bulk_energy(system, un, self.Kuu), products={})
 
     def energy(self, u, phi):
         """Scaled reduced energy Pi(u) - f^T u + 1/2 phi^T Kpp phi (phi satisfying Gauss's law; Pi the bulk energy,
-        1/2 u^T Kuu u for a linear material)."""
-        e = self.bulk.value(u) - self.f @ u
-        return e if phi is None else e + 0.5 * phi @ (self.Kpp @ phi)
+        1/2 u^T Kuu u for a linear material). Kuu u and Kpp phi: those of :meth:`internal` if it had the same
+        (u, phi) (:meth:`_times`: the checks' residual and the energy of one answer form them once)."""
+        e = (0.5 * float(u @ self._times("Kuu", u)) if self._linear else self.bulk.value(u)) - self.f @ u
+        return e if phi is None else e + 0.5 * phi @ self._times("Kpp", phi)
 
     def internal(self, u, phi):
         """The operator of (26) applied to (u, phi): momentum rows (the bulk energy's gradient, Kuu u for a linear
         material: the internal forces of sigma = A(eps(u)) - E* E(phi)), Gauss rows."""
+        Ku = self._times("Kuu", u) if self._linear else self.bulk.gradient(u)
         if self.Kpp is None:
-            return self.bulk.gradient(u), np.zeros(0)
-        return self.bulk.gradient(u) + self.Kup @ phi, self.Kpp @ phi - self.Kup.T @ u
+            return Ku, np.zeros(0)
+        return Ku + self.Kup @ phi, self._times("Kpp", phi) - self.Kup.T @ u
+
+    @property
+    def _linear(self) -> bool:
+        """The bulk energy is 1/2 u^T Kuu u of this block's Kuu (its gradient the product Kuu u)."""
+        return isinstance(self.bulk, Quadratic) and self.bulk.K is self.Kuu
+
+    def _times(self, name, z) -> np.ndarray:
+        """The product of the matrix ``name`` ("Kuu", "Kpp") with ``z`` (read-only): the last one of this block
+        if ``z`` holds the same numbers (kept with a copy of z: 16 bytes per unknown), else formed and kept."""
+        K, key = getattr(self, name), ("product", name)
+        last = self.products.get(key)
+        if last is not None and last[0] is K and np.array_equal(last[1], z):
+            return last[2]
+        out = K @ z
+        out.setflags(write=False)
+        self.products[key] = (K, np.array(z, dtype=float), out)
+        return out
 
     def loads(self):
         """The right-hand side [f; q] of (26)."""

@@ -41,7 +41,7 @@ from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "NodePattern", "assemble", "assemble_loads", "assemble_matrices", "coefficients",
            "constrained", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
-           "strain_matrix", "strain_points"]
+           "strain_matrix", "strain_points", "voigt_strains"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -144,6 +144,22 @@ def strain_matrix(grad):
         if i != j:
             B[:, row, j::dim] = grad[:, i]
     return B
+
+
+def voigt_strains(grad, ue) -> np.ndarray:
+    """(m, s) Voigt strains (as :func:`strain_matrix`: engineering shears) of the element displacements ``ue``
+    (m, dim k), node-major (u0x, u0y[, u0z], u1x, ...), ``grad`` (m, dim, k) the basis gradients (1/m): the same
+    numbers as ``strain_matrix(grad) @ ue`` cell by cell up to summation order, without forming the (m, s, dim k)
+    matrices (most of whose entries are zeros): eps_ij = sum_k (grad_j,k u_i,k + grad_i,k u_j,k) / (1 + delta_ij)."""
+    m, dim, k = grad.shape
+    u = np.asarray(ue).reshape(m, k, dim)
+    out = np.empty((m, len(VOIGT[dim])))
+    for row, (i, j) in enumerate(VOIGT[dim]):
+        e = np.einsum("mk,mk->m", grad[:, j], u[:, :, i])
+        if i != j:
+            e += np.einsum("mk,mk->m", grad[:, i], u[:, :, j])
+        out[:, row] = e
+    return out
 
 
 def points_strain(B, weights, udofs, n_dofs) -> tuple[sp.csr_matrix, np.ndarray]:

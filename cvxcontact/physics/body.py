@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 from ..errors import Frozen, FrozenMap, FrozenTuple, SceneError, locked
 from ..geometry.base import CellMesh
 from . import supports as _supports
+from .fingerprint import KEPT
 from .loads import LOAD_FIELDS
 from .materials import Elastic, Piezoelectric
 
@@ -219,6 +220,8 @@ class Body(Frozen):
         if geometry is not None:
             self._set(_roller_normals=geometry._roller_normals, _node_supports=geometry._node_supports,
                       held_by_contact=geometry.held_by_contact)
+            if KEPT in geometry.__dict__:                       # the same geometry: its fingerprint, not hashed again
+                self._set(**{KEPT: geometry.__dict__[KEPT]})
         else:
             self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
             # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:

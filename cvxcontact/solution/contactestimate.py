@@ -36,11 +36,17 @@ def _voigt_traction(sv, n) -> np.ndarray:
     """(k, v, d): sigma n of Voigt vectors ``sv`` (k, v, s) on the unit normals ``n`` (k, d), component by
     component (t_i += sigma_ij n_j over the Voigt pairs), without forming the tensors."""
     dim = n.shape[1]
-    t = np.zeros(sv.shape[:2] + (dim,))
+    terms: dict = {i: [] for i in range(dim)}             # per component i, its (Voigt row, j) in row order
     for row, (i, j) in enumerate(VOIGT[dim]):
-        t[..., i] += sv[..., row] * n[:, None, j]
+        terms[i].append((row, j))
         if i != j:
-            t[..., j] += sv[..., row] * n[:, None, i]
+            terms[j].append((row, i))
+    t = np.empty(sv.shape[:2] + (dim,))
+    for i, ((row, j), *rest) in terms.items():
+        out = t[..., i]
+        np.multiply(sv[..., row], n[:, None, j], out=out)
+        for row, j in rest:
+            out += sv[..., row] * n[:, None, j]
     return t
 
 

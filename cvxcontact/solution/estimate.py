@@ -48,14 +48,14 @@ from functools import cached_property
 
 import numpy as np
 
-from ..fem.assembly import VOIGT, gradients, strain_matrix
+from ..fem.assembly import VOIGT, gradients, voigt_strains
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
 from . import contactestimate as contact
-from .contactestimate import CELLS, _boundary_roles, _diameters, _smallest
+from .contactestimate import _boundary_roles, _diameters, _smallest
 from .tensorestimate import TensorGeometry
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
@@ -134,12 +134,11 @@ def _times(a, b) -> np.ndarray:
 
 def _strains(G, ue) -> np.ndarray:
     """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values, G (m, q, d, k) the shape gradients, ue (m, d k)
-    the element displacements; B (:func:`strain_matrix`, 576 bytes per P1 tetrahedron) by blocks of CELLS cells."""
+    the element displacements (:func:`~cvxcontact.fem.assembly.voigt_strains`: without forming B)."""
     m, q, dim, _ = G.shape
     eps = np.empty((m, q, len(VOIGT[dim])))
-    for s in range(0, m, CELLS):
-        for i in range(q):
-            eps[s:s + CELLS, i] = np.einsum("mij,mj->mi", strain_matrix(G[s:s + CELLS, i]), ue[s:s + CELLS])
+    for i in range(q):
+        eps[:, i] = voigt_strains(G[:, i], ue)
     return eps
 
 
@@ -173,8 +172,12 @@ def _cell_energies(body, fields) -> np.ndarray:
         w = np.einsum("...s,...s->...", a, b)
         return w if c is None else w - np.einsum("...s,...s->...", c, d)
 
-    sums = [None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)]
-    total = r * density(eps, sigma, gphi, D).sum(axis=1) + r * r * density(*sums)
+    own = density(eps, sigma, gphi, D)                   # (m, q)
+    if q == 1:                                            # the sums over the q values are the values: the same
+        together = own[:, 0]                              # numbers as density(*sums), not formed twice
+    else:
+        together = density(*(None if x is None else x.sum(axis=1) for x in (eps, sigma, gphi, D)))
+    total = r * own.sum(axis=1) + r * r * together
     return total * measure / (k * (k + 1))
 
 
@@ -463,8 +466,11 @@ def _affine_mean_square(values) -> np.ndarray:
     """(k,): the mean over each simplex of |f|^2 for the affine f of vertex values ``values`` (k, v, c) (v
     vertices): (sum_i |f_i|^2 + |sum_i f_i|^2) / (v (v + 1))."""
     v = values.shape[1]
+    own = np.einsum("kvc,kvc->k", values, values)
+    if v == 1:                                            # one value (a field constant on the facet): |f|^2,
+        return own                                        # (own + own) / 2 exactly
     total = values.sum(axis=1)
-    return (np.einsum("kvc,kvc->k", values, values) + np.einsum("kc,kc->k", total, total)) / (v * (v + 1))
+    return (own + np.einsum("kc,kc->k", total, total)) / (v * (v + 1))
 
 
 def _facet_terms(body, fields, geometry, eta2, parts, sol):

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["RELEASE", "SAFETY", "INTERFACE_BYTES", "Budget", "mem_available"]
+__all__ = ["INTERFACE_BYTES", "RELEASE", "SAFETY", "Budget", "mem_available"]
 
 RELEASE: bool | None = None
 """None: decide by the memory budget (module docstring); True: always free the factors; False: never (the

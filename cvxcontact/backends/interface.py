@@ -10,8 +10,8 @@ import numpy as np
 
 from .budget import Budget
 from .condensed import Compliance, condense, quasi_definite_rhs
-from .factor import Released
 from .conic import least_held_duals
+from .factor import Released
 
 __all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
 

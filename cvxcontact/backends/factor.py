@@ -30,6 +30,11 @@ on Windows), then by :func:`ctypes.util.find_library`; the variable CVXCONTACT_M
 Both adapters also give the two sweeps separately (:meth:`Factorization.forward`,
 :meth:`Factorization.backward`): a load case needs r (v0 = Sigma^{-1} r, g = Sigma v0 = r), and the fields
 follow from one backward sweep once the contact has fixed v.
+
+:class:`Released` is a factorisation whose adapter's factors were freed (:meth:`Factorization.free`; where memory
+is short, :mod:`cvxcontact.backends.budget`): Sigma, its Cholesky factors and one forward sweep are kept, and every
+later sweep re-makes S_II's plain factorisation (:func:`interior_solve`: PARDISO without the Schur option, else
+SuperLU), freed at once.
 """
 
 from __future__ import annotations

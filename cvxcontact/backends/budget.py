@@ -32,10 +32,10 @@ behaviour before the budget existed). Read at each condensation."""
 SAFETY = 0.75
 """The fraction of the available memory the rest of a solve may plan to use with the factors kept."""
 
-INTERFACE_BYTES = 160
+INTERFACE_BYTES = 250
 """Bytes per entry of the Sigma_l that the interface program and the exact finish take above the factorisations
-(measured on two elastic boxes at 3.1e5 unknowns, benchmarks/results/bench_gamma3_scale.md: about 116 bytes per
-entry, CVXPY's compilation, Clarabel and the finish's kept block; 160 for margin)."""
+(CVXPY's compilation, Clarabel and the finish's kept block; measured on two elastic boxes,
+benchmarks/results/bench_gamma3_scale.md: 162 bytes per entry at 1.4e5 unknowns, 116 at 3.1e5; 250 for margin)."""
 
 MEMINFO = "/proc/meminfo"
 

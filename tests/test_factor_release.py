@@ -169,10 +169,14 @@ def test_the_budget_frees_the_factors_only_when_memory_is_short(monkeypatch, tmp
     assert budget.Budget([100], [1]).release(None)
 
 
-def test_a_scene_is_released_by_the_budget_when_memory_is_short(monkeypatch, tmp_path):
-    """The decision reaches the route: MemAvailable of 1 KB frees both bodies' factors (info.released), the
-    machine's real memory keeps them for this small scene; the answers equal to 1e-12."""
+@pytest.mark.parametrize("pardiso", [pytest.param(True, marks=needs_pardiso), False], ids=["pardiso", "superlu"])
+def test_a_scene_is_released_by_the_budget_when_memory_is_short(monkeypatch, tmp_path, pardiso):
+    """The decision reaches the route: MemAvailable of 1 KB frees both bodies' factors (info.released; SuperLU's
+    factors' memory is known too), the machine's real memory keeps them for this small scene; the answers equal
+    to 1e-12."""
     monkeypatch.setattr(budget, "RELEASE", None)
+    if not pardiso:
+        no_pardiso(monkeypatch)
     scene = two_boxes(4, "gamma3", True)
     kept = cc.solve(scene)
     meminfo = tmp_path / "meminfo"
@@ -180,4 +184,5 @@ def test_a_scene_is_released_by_the_budget_when_memory_is_short(monkeypatch, tmp
     monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
     short = cc.solve(scene)
     assert short.info.released and not kept.info.released
+    assert short.info.factorization == kept.info.factorization == ("pardiso" if pardiso else "superlu")
     assert rel(np.concatenate([np.ravel(u) for u in short.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12

@@ -19,6 +19,16 @@ max |u_after - u_before| / max |u_before| over both bodies (the finish is exact:
 
 Each child runs under a watchdog that ends it above ``--limit`` GB resident (default 16).
 
+``--release free|keep|auto`` (and ``--release-before`` for the other checkout, which must have
+``cvxcontact.backends.budget``): the bodies' factorisations freed once their Sigma is taken and re-made for the
+back-substitution, kept, or as the memory budget decides (the default of the package; without the option the
+child leaves the package's default). Forced against kept on this checkout alone:
+
+    python benchmarks/bench_gamma3_scale.py --sizes 1.5e5 --before . --release-before keep --release free --limit 8
+
+The "back-substitution s" column is the stage "back_substitution" (with the factors freed: the interior
+factorisations re-made, one body at a time); "released" is ``sol.info.released``.
+
 A size is a count of unknowns (n from ``bench3d.cells``: N ~ 2.2 n^3) or n itself (< 1e3).
 """
 
@@ -54,6 +64,9 @@ sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r})
 import numpy as np
 import cvxcontact as cc
 from scenes3d import two_boxes
+if {release!r} is not None:
+    import cvxcontact.backends.budget as budget
+    budget.RELEASE = {release!r}
 cc.solve(two_boxes(4, "gamma3", True))                       # imports, first-call set-up
 scene = two_boxes({n}, "gamma3", True)
 c0 = time.process_time()
@@ -65,13 +78,18 @@ np.savez({out!r}, *[np.asarray(u) for u in sol.u])
 print(json.dumps(dict(code=cc.__file__, N=int(solver.problem.unknowns), m=int(solver.problem.E.shape[0]),
                       assembly_cpu=c1 - c0, solve_cpu=c2 - c1, ok=bool(sol.ok), route=str(sol.info.route),
                       active=int(np.sum(solver.cache.active)), iterations=int(sol.info.iterations),
+                      released=bool(getattr(sol.info, "released", False)),
                       timings={{k: float(v) for k, v in dict(sol.timings).items()}},
                       peak_gb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)))
 """
 
 
-def run(root: Path, n: int, out: str, limit: float = 16.0) -> dict:
-    code = CHILD.format(root=str(root), tests=str(ROOT / "tests"), n=n, out=out, limit=limit)
+RELEASE = {"free": True, "keep": False, "auto": None}
+
+
+def run(root: Path, n: int, out: str, limit: float = 16.0, release: str | None = None) -> dict:
+    code = CHILD.format(root=str(root), tests=str(ROOT / "tests"), n=n, out=out, limit=limit,
+                        release=None if release is None else RELEASE[release])
     res = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True)
     if res.returncode:
         raise RuntimeError((res.stdout + res.stderr)[-3000:])
@@ -86,9 +104,12 @@ def main() -> None:
     ap.add_argument("--limit", type=float, default=16.0, help="GB resident at which a run is ended (watchdog)")
     ap.add_argument("--only", choices=("before", "after"), default=None,
                     help="run one checkout only (no du/u; e.g. a size too long for both)")
+    ap.add_argument("--release", choices=tuple(RELEASE), default=None,
+                    help="this checkout: the factors freed after Sigma, kept, or by the memory budget")
+    ap.add_argument("--release-before", choices=tuple(RELEASE), default=None, help="the same for --before")
     args = ap.parse_args()
-    head = ("| unknowns | rows | active rows | code | steps | solve CPU s | factorisation s | interior point s | finish s | "
-            "peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
+    head = ("| unknowns | rows | active rows | code | released | steps | solve CPU s | factorisation s | interior point s "
+            "| finish s | back-substitution s | peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     print(lines[0], flush=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -96,9 +117,9 @@ def main() -> None:
             n = cells("two_boxes", size, True)
             res = {}
             names = [args.only] if args.only else ["before", "after"]
-            for name, root in (("before", args.before), ("after", ROOT)):
+            for name, root, release in (("before", args.before, args.release_before), ("after", ROOT, args.release)):
                 if name in names:
-                    res[name] = run(root, n, os.path.join(tmp, f"{name}{n}.npz"), args.limit)
+                    res[name] = run(root.resolve(), n, os.path.join(tmp, f"{name}{n}.npz"), args.limit, release)
             du = float("nan")
             if len(res) == 2:
                 ub = [np.load(os.path.join(tmp, f"before{n}.npz"))[k] for k in ("arr_0", "arr_1")]
@@ -109,9 +130,10 @@ def main() -> None:
                 t = r["timings"]
                 ratio = r["solve_cpu"] / res[names[0]]["solve_cpu"]
                 ipm = r["solve_cpu"] - sum(v for k, v in t.items() if k not in ("compile", "solve", "assembly"))
-                lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r['iterations']} | "
-                             f"{r['solve_cpu']:.1f} | "
-                             f"{t['factorization']:.1f} | {ipm:.1f} | {t['polish']:.1f}"
+                lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r.get('released', False)} | "
+                             f"{r['iterations']} | {r['solve_cpu']:.1f} | "
+                             f"{t['factorization']:.1f} | {ipm:.1f} | {t['polish']:.1f} | "
+                             f"{t.get('back_substitution', 0.0):.1f}"
                              + f" | {r['peak_gb']:.2f} | {ratio:.2f} | {du:.1e} | {r['ok']} |")
                 print(lines[-1], flush=True)
     print("load", " ".join(f"{x:.1f}" for x in os.getloadavg()))

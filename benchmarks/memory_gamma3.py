@@ -10,7 +10,11 @@ package's innermost frames at that peak. The same thread is a watchdog: above ``
 process (exit code 3) before the machine runs short.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/memory_gamma3.py \\
-        --sizes 1.5e5 3e5 [--checkout DIR] [--limit 16] [--trace]
+        --sizes 1.5e5 3e5 [--checkout DIR] [--limit 16] [--trace] [--release free|keep|auto]
+
+``--release``: the bodies' factorisations freed once their Sigma is taken (``free``; the stage "factors freed"
+marks each), kept (``keep``) or as the memory budget decides (``auto``, the package's default;
+:mod:`cvxcontact.backends.budget`); without it the package's default.
 """
 
 from __future__ import annotations
@@ -28,7 +32,10 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def one(size: float, checkout: str, limit_gb: float, trace: bool = False) -> None:
+RELEASE = {"free": True, "keep": False, "auto": None}
+
+
+def one(size: float, checkout: str, limit_gb: float, trace: bool = False, release: str | None = None) -> None:
     sys.path[:0] = [str(HERE.parent / "tests"), str(HERE)]
     from bench3d import cells
     from harness import PeakSampler, resident_mb
@@ -40,6 +47,9 @@ def one(size: float, checkout: str, limit_gb: float, trace: bool = False) -> Non
     import cvxcontact as cc
     from cvxcontact.backends import condensed, interface, signorini
 
+    if release is not None:
+        from cvxcontact.backends import budget
+        budget.RELEASE = RELEASE[release]
     cc.solve(two_boxes(4, "gamma3", True))                           # imports, first-call set-up
     sampler = PeakSampler(limit_mb=1e3 * limit_gb, packages=("cvxcontact", "cvxpy"))
     clock = [time.process_time()]
@@ -67,6 +77,8 @@ def one(size: float, checkout: str, limit_gb: float, trace: bool = False) -> Non
         return wrapper
 
     condensed.factorize = marked("factorisation with the Schur block", condensed.factorize)
+    if hasattr(condensed, "Released"):
+        condensed.Released = marked("factors freed (Sigma and the load's forward sweep kept)", condensed.Released)
     condensed.Compliance.__init__ = marked("compliance (Cholesky of each Sigma)", condensed.Compliance.__init__)
     interface.Condensation.apply = marked("load case (forward sweeps)", interface.Condensation.apply)
     condensed.InterfaceModel.__init__ = marked("interface model (CVXPY expressions)",
@@ -101,14 +113,17 @@ def main():
     p.add_argument("--limit", type=float, default=16.0, help="GB resident at which the run is ended")
     p.add_argument("--trace", action="store_true", help="also tracemalloc's live and peak MB (NumPy arrays and "
                    "Python objects; slower)")
+    p.add_argument("--release", choices=tuple(RELEASE), default=None,
+                   help="the factors freed after Sigma, kept, or by the memory budget")
     p.add_argument("--one", help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.one:
-        one(float(args.one), args.checkout, args.limit, args.trace)
+        one(float(args.one), args.checkout, args.limit, args.trace, args.release)
         return
     for size in args.sizes:
         cmd = [sys.executable, __file__, "--one", str(size), "--checkout", args.checkout, "--limit", str(args.limit)]
         cmd += ["--trace"] if args.trace else []
+        cmd += ["--release", args.release] if args.release else []
         out = subprocess.run(cmd, capture_output=True, text=True, check=False)
         print(out.stdout.strip(), flush=True)
         if out.returncode:

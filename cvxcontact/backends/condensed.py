@@ -30,7 +30,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
-from .factor import Factorization, Forward, factorize, resolve
+from .factor import Factorization, Forward, Released, factorize, resolve
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "node_order",
            "quasi_definite", "quasi_definite_rhs"]
@@ -122,7 +122,7 @@ def quasi_definite_rhs(block):
 
 
 def condense(block, system, mesh, factorization: str = "auto", threads: int | None = None,
-             held: bool = False) -> CondensedBody:
+             held: bool = False, budget=None) -> CondensedBody:
     """Factorise one body with its Gamma dofs as the Schur block and extract Sigma (module docstring).
 
     ``factorization``: one of :data:`~cvxcontact.backends.factor.FACTORIZATIONS` ("auto": PARDISO if Intel
@@ -136,8 +136,12 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
     sweep x_I = S_II^-1 (F_I - S_IG v) are S's, and ``stiffness`` is Sigma = Schur(S + D) - D, singular along the
     rigid motions (only :mod:`cvxcontact.backends.forced` reads such a body: ``unconstrained`` and
     ``back_substitute`` solve with S + D).
+
+    ``budget``: a :class:`~cvxcontact.backends.budget.Budget`; where it says so, the factors are freed once Sigma
+    and the forward sweep of the body's load are taken (``factor`` is then a
+    :class:`~cvxcontact.backends.factor.Released`, which re-makes S_II's factorisation for each later sweep).
     """
-    S, _ = quasi_definite(block)
+    S, F = quasi_definite(block)
     n_u = block.Kuu.shape[0]
     gamma = np.flatnonzero(np.diff(block.jump.tocsc().indptr))              # columns touching [u_nu]
     shift = np.zeros(len(gamma))
@@ -155,6 +159,8 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
             warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
+    if budget is not None and 0 < len(gamma) < S.shape[0] and budget.release(factor.memory):
+        factor = Released(factor, S, F)
     stiffness = factor.schur                        # (shared, read only: no second m x m copy)
     if held:
         stiffness = factor.schur.copy()

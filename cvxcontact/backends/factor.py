@@ -30,6 +30,11 @@ on Windows), then by :func:`ctypes.util.find_library`; the variable CVXCONTACT_M
 Both adapters also give the two sweeps separately (:meth:`Factorization.forward`,
 :meth:`Factorization.backward`): a load case needs r (v0 = Sigma^{-1} r, g = Sigma v0 = r), and the fields
 follow from one backward sweep once the contact has fixed v.
+
+:class:`Released` is a factorisation whose adapter's factors were freed (:meth:`Factorization.free`; where memory
+is short, :mod:`cvxcontact.backends.budget`): Sigma, its Cholesky factors and one forward sweep are kept, and every
+later sweep re-makes S_II's plain factorisation (:func:`interior_solve`: PARDISO without the Schur option, else
+SuperLU), freed at once.
 """
 
 from __future__ import annotations
@@ -53,7 +58,7 @@ from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
            "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
-           "symmetric_lu"]
+           "symmetric_lu", "Released", "interior_solve"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -207,6 +212,15 @@ class Factorization:
             return sla.cho_solve(self._chol, r)
         return sla.lu_solve(self._lu, r) if self._lu is not None else np.zeros_like(r)
 
+    @property
+    def memory(self) -> int | None:
+        """Bytes the adapter's factors hold (PARDISO's own report after the factorisation; SuperLU: its factors'
+        nonzeros at 12 bytes each), None where unknown. Sigma and its Cholesky factors are not counted."""
+        return None
+
+    def free(self) -> None:
+        """Free the adapter's factors now (:class:`Released` keeps what the interface needs)."""
+
     def forward(self, rhs: np.ndarray) -> Forward:
         raise NotImplementedError
 
@@ -240,6 +254,13 @@ class SuperLUFactorization(Factorization):
                               "order; use method='full'")
         tail = (self.lu.L[n - m:, n - m:] @ self.lu.U[n - m:, n - m:]).toarray() if m else np.zeros((0, 0))
         super().__init__(n, gamma, tail[np.ix_(rows, cols)])
+
+    @property
+    def memory(self):
+        return None if self.lu is None else 12 * int(self.lu.nnz)
+
+    def free(self):
+        self.lu = None
 
     def _full(self, rhs):
         x = np.empty_like(rhs, dtype=float)
@@ -459,6 +480,112 @@ class PardisoFactorization(Factorization):
     def release(self):
         """Free PARDISO's memory now (otherwise when this object is collected)."""
         self._finalizer()
+
+    free = release
+
+    @property
+    def memory(self):
+        """PARDISO's report (iparm[14]-[16], KB): the larger of the analysis' peak and the factorisation's
+        permanent plus numerical memory."""
+        ip = self._iparm
+        return 1024 * max(int(ip[14]), int(ip[15]) + int(ip[16]))
+
+
+class PardisoInterior:
+    """A plain PARDISO factorisation (real symmetric indefinite, mtype -2, no Schur block; the settings of
+    :class:`PardisoFactorization` otherwise) of the interior block S_II of a body's quasi-definite S, for
+    :func:`interior_solve`. ``S_upper``: S_II's upper triangle in CSR with every diagonal entry stored."""
+
+    def __init__(self, S_upper, threads=None):
+        lib = _load()
+        if lib is None:
+            raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
+        self._a = np.ascontiguousarray(S_upper.data, dtype=np.float64)
+        self._ia = np.ascontiguousarray(S_upper.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(S_upper.indices, dtype=np.int32)
+        _open(self, lib, S_upper.shape[0], threads)
+        ip = self._iparm
+        ip[0], ip[1], ip[7], ip[9], ip[10], ip[12], ip[17], ip[26], ip[34] = 1, 3, 0, 13, 0, 0, 0, 0, 1
+        try:
+            self._call(12, None, None)
+            if ip[13] > 0:
+                raise SolverError(f"PARDISO perturbed {int(ip[13])} pivot(s) of a body's interior block")
+        except SolverError:
+            self._finalizer()
+            raise
+
+    _call = PardisoFactorization._call
+    release = PardisoFactorization.release
+
+    def solve(self, b):
+        b = np.array(b, dtype=np.float64, order="F")
+        x = np.zeros_like(b)
+        self._iparm[5] = 0
+        self._call(33, b, x, b.shape[1] if b.ndim == 2 else 1)
+        return x
+
+
+def interior_solve(U, b, kind: str) -> np.ndarray:
+    """S_II^{-1} b by a fresh factorisation freed before returning (:class:`Released`), ``U`` S_II's upper
+    triangle (CSR, every diagonal entry stored): PARDISO (:class:`PardisoInterior`) for ``kind`` "pardiso" where
+    it loads and does not perturb a pivot, else SuperLU with partial pivoting (S_II quasi-definite: both are
+    exact triangular solves, to rounding)."""
+    if kind == "pardiso" and pardiso_available():
+        try:
+            factor = PardisoInterior(U)
+        except SolverError:
+            factor = None
+        if factor is not None:
+            try:
+                return factor.solve(b)
+            finally:
+                factor.release()
+    S_II = (U + U.T - sp.diags(U.diagonal())).tocsc()
+    return spla.splu(S_II).solve(np.asarray(b, dtype=float))
+
+
+class Released(Factorization):
+    """A body's factorisation after its adapter's factors were freed (:meth:`Factorization.free`): Sigma, its
+    Cholesky factors and the forward sweep of one right-hand side ``rhs`` are kept (taken before the factors
+    were freed), with S's interior blocks S_II and S_IG. A forward sweep of another right-hand side and every
+    backward sweep re-make S_II's factorisation (:func:`interior_solve`, freed at once; ``remade`` counts them):
+
+        r = b_G - S_IG^T S_II^{-1} b_I,      x_I = S_II^{-1} (b_I - S_IG v),  x_G = v.
+
+    The answers are those of the kept factorisation to rounding (another factorisation of the same S_II)."""
+
+    def __init__(self, factor: Factorization, S, rhs):
+        fwd = factor.forward(rhs)
+        self.n, self.gamma, self.name = factor.n, factor.gamma, factor.name
+        self.schur, self._chol, self._lu = factor.schur, factor._chol, factor._lu
+        self._rhs, self._reduced = np.array(rhs, dtype=float), fwd.reduced
+        del fwd
+        factor.free()
+        interior = np.ones(self.n, dtype=bool)
+        interior[self.gamma] = False
+        self.interior = np.flatnonzero(interior)
+        S = sp.csr_matrix(S)[self.interior]
+        self._S_IG = S[:, self.gamma].tocsr()
+        self._S_II = _diagonal_stored(sp.triu(S[:, self.interior], format="coo"), sp.csr_matrix)   # upper only
+        self.remade = 0
+
+    def _interior(self, b):
+        self.remade += 1
+        return interior_solve(self._S_II, b, self.name)
+
+    def forward(self, rhs):
+        rhs = np.asarray(rhs, dtype=float)
+        if rhs.shape == self._rhs.shape and np.array_equal(rhs, self._rhs):
+            return Forward(self._reduced.copy(), rhs)
+        xi = self._interior(rhs[self.interior])
+        return Forward(rhs[self.gamma] - self._S_IG.T @ xi, rhs)
+
+    def backward(self, fwd, v):
+        b = fwd.state
+        x = np.zeros_like(b)
+        x[self.gamma] = v
+        x[self.interior] = self._interior(b[self.interior] - self._S_IG @ np.asarray(v, dtype=float))
+        return x
 
 
 class PardisoSymmetric:

@@ -8,8 +8,10 @@ import time
 
 import numpy as np
 
+from .budget import Budget
 from .condensed import Compliance, condense, quasi_definite_rhs
 from .conic import least_held_duals
+from .factor import Released
 
 __all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
 
@@ -24,14 +26,19 @@ class Condensation:
     Sigma v0, and the free slack d = E [v0_nu] - g (the forward sweeps are kept; a body whose scaled load
     is bit for bit the last load case's reuses its sweep). :meth:`invert` maps the
     contact forces y on the rows back to every body's (u, phi) (one backward sweep per body);
-    :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v).
+    :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v). Where
+    memory is short (:mod:`cvxcontact.backends.budget`) a body's factors are freed once its Sigma and its load's
+    forward sweep are taken, and each later sweep re-makes its interior factorisation (:attr:`released`).
     """
 
     def __init__(self, problem, settings, timings, whole: bool = True):
         t0 = time.perf_counter()
         held = [bool(getattr(b, "held_by_contact", None)) for b in problem.scene.bodies]
-        self.bodies = [condense(b, s, m, settings.factorization, held=h)       # held: backends/forced.py only
-                       for b, s, m, h in zip(problem.blocks, problem.matrices, problem.meshes, held)]
+        blocks = list(problem.blocks)
+        budget = Budget([_nonzeros(b) for b in blocks], [np.count_nonzero(np.diff(b.jump.tocsc().indptr))
+                                                          for b in blocks])
+        self.bodies = [condense(b, s, m, settings.factorization, held=h, budget=budget)   # held: forced.py only
+                       for b, s, m, h in zip(blocks, problem.matrices, problem.meshes, held)]
         # a body held by the contact only has a singular Sigma: no compliance (backends/forced.py does without)
         self.compliance = None if any(held) else Compliance(self.bodies, problem.E)
         if whole and self.compliance is not None:
@@ -46,6 +53,12 @@ class Condensation:
     def W(self):
         """The interface compliance (rows x rows, scaled)."""
         return self.compliance.W
+
+    @property
+    def released(self) -> bool:
+        """Whether some body's factors were freed after its Sigma was taken (:mod:`cvxcontact.backends.budget`):
+        its later sweeps re-make its interior factorisation."""
+        return any(isinstance(c.factor, Released) for c in self.bodies)
 
     @property
     def factorization(self) -> str:
@@ -86,6 +99,11 @@ class Condensation:
         x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
         return split(self.bodies, x, problem.blocks)
+
+
+def _nonzeros(block) -> int:
+    """The nonzeros of a block's quasi-definite S (:func:`~cvxcontact.backends.condensed.quasi_definite`)."""
+    return sum(2 * M.nnz if M is block.Kup else M.nnz for M in (block.Kuu, block.Kup, block.Kpp) if M is not None)
 
 
 def condensation(problem, cache, settings, timings, whole: bool = True) -> Condensation:

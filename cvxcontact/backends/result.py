@@ -145,6 +145,8 @@ class RawResult:
     declined: Declined | None = None
     method: str = ""
     factorization: str = ""
+    released: bool = False
+    """The condensation freed some body's factors and re-made them for the sweeps (SolveInfo.released)."""
     tangential: np.ndarray | None = None
     """A friction law: the tangential force mu_a of every row (scaled; the force on the pair's first body along
     its tangent is -mu_a, :mod:`cvxcontact.backends.friction`), None without friction."""

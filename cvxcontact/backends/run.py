@@ -75,4 +75,6 @@ def run(method: str, problem, cache, settings, timings) -> RawResult:
     raw.y = term.held_forces(problem, raw.y)
     if not raw.factorization and cache.condensation is not None:
         raw.factorization = cache.condensation.factorization
+    if cache.condensation is not None:
+        raw.released = raw.released or cache.condensation.released
     return raw

@@ -70,6 +70,10 @@ class SolveInfo:
     fixed_point : tuple of float
         Coulomb friction: the relative change of the friction capacities at each iteration of the fixed point
         (docs/howto/friction.md, "Coulomb"; its length is the number of iterations); () otherwise.
+    released : bool
+        True if the condensed route freed some body's factorisation once its interface stiffness was taken (memory
+        short, :mod:`cvxcontact.backends.budget`) and re-made its interior factorisation for the back-substitution
+        (the answer is the same to rounding; the "back_substitution" stage then includes the factorisations).
     declined : Declined or None
         Why the exact finish was declined, where the answer is the interior point's because of it: a
         :class:`~cvxcontact.backends.finish.declined.Declined` (a string, its full words; ``.stop`` what stopped
@@ -88,6 +92,7 @@ class SolveInfo:
     factorization: str = ""
     fixed_point: tuple = ()
     declined: Declined | None = None
+    released: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
@@ -97,6 +102,7 @@ class SolveInfo:
         object.__setattr__(self, "timings", _frozen_timings(self.timings))
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
+        object.__setattr__(self, "released", bool(self.released))
         object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
         try:
             object.__setattr__(self, "declined", Declined.of(self.declined))

@@ -67,6 +67,6 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
     sol.info = replace(sol.info, method=raw.method, requested=requested or raw.method, route=route,
                        iterations=raw.iterations, timings=timings,
                        finish=raw.finish if raw.polished and raw.finish else None,
-                       factorization=raw.factorization, fixed_point=raw.fixed_point or (),
+                       factorization=raw.factorization, fixed_point=raw.fixed_point or (), released=raw.released,
                        declined=None if raw.polished else raw.declined)
     return sol

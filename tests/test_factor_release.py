@@ -1,0 +1,188 @@
+"""A body's factorisation freed once its interface stiffness is taken (cvxcontact.backends.factor.Released, the
+memory budget of cvxcontact.backends.budget): the sweeps against dense algebra, the condensed route's answers
+with the factors freed against those with them kept (the same to rounding), re-solves after a release, the
+fallback without PARDISO, and the budget's decision from the available memory."""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+from cvxcontact.apps.demo import two_blocks
+from cvxcontact.backends import budget, factor
+from cvxcontact.backends.condensed import condense, quasi_definite
+from cvxcontact.discrete import Block, units
+from cvxcontact.fem.assembly import assemble
+
+from conftest import rel
+from scenes3d import two_boxes
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
+needs_pardiso = pytest.mark.skipif(not factor.pardiso_available(), reason="Intel oneMKL (libmkl_rt) not installed")
+KINDS = ["superlu", pytest.param("pardiso", marks=needs_pardiso)]
+
+
+class Always:
+    """A budget that frees every body's factors (counting what it was told)."""
+
+    def __init__(self):
+        self.memory = []
+
+    def release(self, memory):
+        self.memory.append(memory)
+        return True
+
+
+def no_pardiso(monkeypatch):
+    """Emulate a machine without Intel oneMKL (as tests/test_factor.py does)."""
+    monkeypatch.setattr(factor, "_LIB", None)
+    monkeypatch.setattr(factor, "_LIB_ERROR", "libmkl_rt (Intel oneMKL) was not found")
+
+
+@pytest.fixture(scope="module")
+def piezo_bodies():
+    """(block, system, mesh) of both bodies of the 2D piezoelectric demo (nx = 8; S quasi-definite), scaled."""
+    scene = two_blocks(nx=8)
+    systems = [assemble(b) for b in scene.bodies]
+    un = units(scene, systems)
+    return [(Block.scaled(s, scene.interface.jump(k, len(b.mesh.points)), un), s, b.mesh)
+            for k, (s, b) in enumerate(zip(systems, scene.bodies))]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_released_sweeps_match_dense_solves(piezo_bodies, kind):
+    """With the factors freed: Sigma and its Cholesky factors kept (the same arrays), the forward sweep of the
+    body's own load read from what was kept (no factorisation), that of another load, the backward sweep and the
+    back-substitution re-made, each against dense solves of S to 1e-12."""
+    rng = np.random.default_rng(5)
+    for block, system, mesh in piezo_bodies:
+        kept = condense(block, system, mesh, kind)
+        c = condense(block, system, mesh, kind, budget=Always())
+        assert isinstance(c.factor, factor.Released) and c.factorization == kind and c.factor.remade == 0
+        assert np.array_equal(c.stiffness, kept.stiffness)          # the same Schur complement
+        S, F = quasi_definite(block)
+        D, g = S.toarray(), c.gamma
+        i = np.setdiff1d(np.arange(len(D)), g)
+
+        def reduced(b, D=D, g=g, i=i):
+            return b[g] - D[np.ix_(g, i)] @ np.linalg.solve(D[np.ix_(i, i)], b[i])
+
+        fwd = c.forward(F)
+        assert c.factor.remade == 0                                  # the kept sweep of the body's load
+        assert rel(fwd.reduced, reduced(F)) < 1e-12
+        b = rng.standard_normal(len(D))
+        assert rel(c.forward(b).reduced, reduced(b)) < 1e-12
+        assert c.factor.remade == 1
+        v = rng.standard_normal(len(g))
+        x = c.factor.backward(c.forward(b), v)
+        assert np.array_equal(x[g], v)
+        assert rel(x[i], np.linalg.solve(D[np.ix_(i, i)], b[i] - D[np.ix_(i, g)] @ v)) < 1e-12
+        force = rng.standard_normal(c.jump.shape[0])
+        lifted = b.copy()
+        lifted[g] -= c.jump.T @ force
+        assert rel(c.back_substitute(c.forward(b), force), np.linalg.solve(D, lifted)) < 1e-12
+        assert rel(c.solve(b), np.linalg.solve(D, b)) < 1e-12
+        B = rng.standard_normal((len(D), 3))                         # several right-hand sides at once
+        assert rel(c.solve(B), np.linalg.solve(D, B)) < 1e-12
+
+
+def _solve_both(scene, monkeypatch, **options):
+    out = {}
+    for release in (False, True):
+        monkeypatch.setattr(budget, "RELEASE", release)
+        solver = cc.ContactSolver(scene, **options)
+        out[release] = (solver, solver.solve())
+    return out
+
+
+@pytest.mark.parametrize("elastic", [True, False], ids=["elastic", "piezo"])
+def test_gamma3_3d_with_the_factors_freed_equals_kept(monkeypatch, elastic):
+    """Two boxes, non-matching faces, "gamma3" on the default (condensed) route: the answer with every body's
+    factors freed and re-made equals the one with them kept to rounding (measured max |du| / max |u|: 6.8e-16
+    elastic, 1.4e-15 piezoelectric; bound 1e-12), the same active rows; ``info.released`` says which ran. A
+    re-solve with other loads after the release (the forward sweep re-made) equals the kept solver's re-solve
+    (measured 1.6e-15, 3.3e-15) and a fresh solve of the new scene (2.3e-15, 2.9e-15)."""
+    scene = two_boxes(6, "gamma3", elastic)
+    out = _solve_both(scene, monkeypatch)
+    (ks, kept), (rs, rel_) = out[False], out[True]
+    assert kept.ok and rel_.ok
+    assert not kept.info.released and rel_.info.released
+    assert kept.info.factorization == rel_.info.factorization
+    assert "back_substitution" in rel_.timings
+    assert rel(np.concatenate([np.ravel(u) for u in rel_.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12
+    if not elastic:
+        assert rel(np.concatenate([np.ravel(p) for p in rel_.phi if p is not None]),
+                   np.concatenate([np.ravel(p) for p in kept.phi if p is not None])) < 1e-12
+    assert np.array_equal(np.asarray(ks.cache.active), np.asarray(rs.cache.active))
+    other = scene.with_loads(0, body_force=(0.0, 0.0, -3e9))
+    again_kept, again_rel = ks.solve(other), rs.solve(other)
+    fresh = cc.solve(other)
+    assert again_rel.ok and again_rel.info.released and again_rel.info.factorizations == 0
+
+    def u(s):
+        return np.concatenate([np.ravel(x) for x in s.u])
+
+    assert rel(u(again_rel), u(again_kept)) < 1e-12
+    assert rel(u(again_rel), u(fresh)) < 1e-12
+    assert rel(u(again_rel), u(rel_)) > 1e-3               # the new load was applied, not the kept sweep
+
+
+def test_without_pardiso_superlu_is_released_and_remade(monkeypatch):
+    """No Intel oneMKL: SuperLU factorises the bodies, and with the factors freed the answer equals the kept one
+    to rounding (measured 1.1e-15; bound 1e-12), the re-made interior factorisations SuperLU's too."""
+    no_pardiso(monkeypatch)
+    out = _solve_both(two_boxes(5, "gamma3", True), monkeypatch)
+    kept, rel_ = out[False][1], out[True][1]
+    assert kept.info.factorization == rel_.info.factorization == "superlu"
+    assert rel_.info.released and not kept.info.released
+    assert rel(np.concatenate([np.ravel(u) for u in rel_.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12
+
+
+def test_the_budget_frees_the_factors_only_when_memory_is_short(monkeypatch, tmp_path):
+    """RELEASE None: the factors are freed where what follows them (the later bodies' factorisations scaled by
+    their nonzeros, INTERFACE_BYTES per entry of the Sigma blocks) exceeds SAFETY times MemAvailable, read from
+    /proc/meminfo; kept where it fits, where that file cannot be read, or the factors' memory is unknown."""
+    monkeypatch.setattr(budget, "RELEASE", None)
+    meminfo = tmp_path / "meminfo"
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+
+    def available(kb):
+        meminfo.write_text(f"MemTotal:       99999999 kB\nMemFree:  1 kB\nMemAvailable:   {kb} kB\n")
+
+    available(4 * 2**20)
+    assert budget.mem_available() == 4 * 2**30
+    b = budget.Budget([100, 300], [1000, 500])
+    interface = budget.INTERFACE_BYTES * (1000**2 + 500**2)          # 200 MB
+    need = 2**30 + 3 * 2**30 + interface                              # body 2 estimated 3x body 1's factors
+    # body 1, 1 GiB of factors: body 2's 3 GiB and the interface do not fit in 0.75 x 4 GiB
+    assert b.release(2**30)
+    # body 2, 3 GiB: the interface (200 MB) fits
+    assert not b.release(3 * 2**30)
+    assert b.released == 1
+    available(int(need / budget.SAFETY / 1024) + 1)
+    assert not budget.Budget([100, 300], [1000, 500]).release(2**30)
+    assert not budget.Budget([100], [1000]).release(None)             # the factors' memory unknown
+    meminfo.unlink()
+    assert budget.mem_available() is None
+    assert not budget.Budget([100], [10**6]).release(2**30)          # no /proc/meminfo: keep, as before
+    monkeypatch.setattr(budget, "RELEASE", True)
+    assert budget.Budget([100], [1]).release(None)
+
+
+@pytest.mark.parametrize("pardiso", [pytest.param(True, marks=needs_pardiso), False], ids=["pardiso", "superlu"])
+def test_a_scene_is_released_by_the_budget_when_memory_is_short(monkeypatch, tmp_path, pardiso):
+    """The decision reaches the route: MemAvailable of 1 KB frees both bodies' factors (info.released; SuperLU's
+    factors' memory is known too), the machine's real memory keeps them for this small scene; the answers equal
+    to 1e-12."""
+    monkeypatch.setattr(budget, "RELEASE", None)
+    if not pardiso:
+        no_pardiso(monkeypatch)
+    scene = two_boxes(4, "gamma3", True)
+    kept = cc.solve(scene)
+    meminfo = tmp_path / "meminfo"
+    meminfo.write_text("MemAvailable:   1 kB\n")
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    short = cc.solve(scene)
+    assert short.info.released and not kept.info.released
+    assert short.info.factorization == kept.info.factorization == ("pardiso" if pardiso else "superlu")
+    assert rel(np.concatenate([np.ravel(u) for u in short.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12

@@ -145,6 +145,7 @@ def test_the_budget_frees_the_factors_only_when_memory_is_short(monkeypatch, tmp
     monkeypatch.setattr(budget, "RELEASE", None)
     meminfo = tmp_path / "meminfo"
     monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(tmp_path / "no cgroup"))     # not the test machine's limits
 
     def available(kb):
         meminfo.write_text(f"MemTotal:       99999999 kB\nMemFree:  1 kB\nMemAvailable:   {kb} kB\n")
@@ -216,3 +217,42 @@ def test_the_cones_route_sweeps_each_freed_body_once_per_back_substitution(monke
     assert rel(np.concatenate([np.ravel(u) for u in again_rel.u]),
                np.concatenate([np.ravel(u) for u in again_kept.u])) < 1e-12
     assert [b - a for a, b in zip(first, _remade(rs))] == [4, 3]             # the other loads press them
+
+
+def test_a_control_group_limit_bounds_the_available_memory(monkeypatch, tmp_path):
+    """In a container /proc/meminfo is the host's: the room under the process's control-group limits (v2
+    memory.max - memory.current of its group and the groups above; v1 memory.limit_in_bytes - usage) bounds
+    MemAvailable, and frees the factors the host's memory would have kept (failed before: the host's 64 GiB
+    read, the factors kept under a 1 GiB limit). No limit ("max"), no control groups, or unreadable files:
+    MemAvailable alone, as before."""
+    monkeypatch.setattr(budget, "RELEASE", None)
+    meminfo, proc, root = tmp_path / "meminfo", tmp_path / "cgroup", tmp_path / "fs"
+    meminfo.write_text(f"MemAvailable:   {64 * 2**20} kB\n")                   # 64 GiB on the host
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(proc))
+    monkeypatch.setattr(budget, "CGROUP", str(root))
+    proc.write_text("0::/box/job\n")
+    group = root / "box" / "job"
+    group.mkdir(parents=True)
+    (group / "memory.max").write_text("max\n")
+    (group / "memory.current").write_text(f"{2**29}\n")
+    assert budget.mem_available() == 64 * 2**30                                # no limit on the group
+    (root / "box" / "memory.max").write_text(f"{2**30}\n")                    # 1 GiB on the group above,
+    (root / "box" / "memory.current").write_text(f"{2**29}\n")                # half of it used
+    assert budget.mem_available() == 2**29
+    assert budget.Budget([100, 300], [1000, 500]).release(2**28)              # 256 MiB now, 768 MiB later
+    meminfo.unlink()
+    assert budget.mem_available() == 2**29                                     # the limit without /proc/meminfo
+    (group / "memory.max").write_text(f"{2**29 + 2**27}\n")                   # the tighter limit below it
+    assert budget.mem_available() == 2**27
+    (group / "memory.max").write_text("garbage\n")
+    assert budget.mem_available() == 2**29
+    proc.write_text("4:memory:/job\n3:cpu:/\n")                              # cgroup v1
+    v1 = root / "memory" / "job"
+    v1.mkdir(parents=True)
+    (v1 / "memory.limit_in_bytes").write_text(f"{3 * 2**30}\n")
+    (v1 / "memory.usage_in_bytes").write_text(f"{2**30}\n")
+    assert budget.mem_available() == 2 * 2**30
+    proc.unlink()
+    assert budget.mem_available() is None and budget.cgroup_room() is None    # neither: keep, as before
+    assert not budget.Budget([100], [10**6]).release(2**30)

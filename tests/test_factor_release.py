@@ -28,9 +28,9 @@ class Always:
     def __init__(self):
         self.memory = []
 
-    def release(self, memory):
+    def release(self, memory, possible=True):
         self.memory.append(memory)
-        return True
+        return possible
 
 
 def no_pardiso(monkeypatch):
@@ -256,3 +256,34 @@ def test_a_control_group_limit_bounds_the_available_memory(monkeypatch, tmp_path
     proc.unlink()
     assert budget.mem_available() is None and budget.cgroup_room() is None    # neither: keep, as before
     assert not budget.Budget([100], [10**6]).release(2**30)
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.errors.ResolutionWarning")    # the coarse shared scene
+def test_a_body_whose_factors_stay_takes_its_turn_in_the_budget(monkeypatch, tmp_path):
+    """A clamped foundation first (its contact part held: no Gamma dofs, its factors never freed), the block
+    second: the block's factors are the last ones, so only the interface program follows them and a
+    MemAvailable of (interface + the block's factors) / SAFETY keeps them. Before, the foundation did not take
+    its turn: the block was read as body 0, itself counted among the later bodies (its factors x 176 / 52
+    nonzeros) and freed. 1 KB frees them; the answers equal the kept ones to 1e-12."""
+    from foundation_scenes import clamped_foundation
+
+    upper, scene = clamped_foundation("pair")
+    scene = cc.Scene(scene.bodies[1], upper, contacts=list(scene.contacts))
+    monkeypatch.setattr(budget, "RELEASE", False)
+    solver = cc.ContactSolver(scene, condition="sigma1")
+    kept = solver.solve()
+    foundation, block = solver.cache.condensation.bodies
+    assert len(foundation.gamma) == 0 and 0 < len(block.gamma) < block.factor.n
+    interface = budget.INTERFACE_BYTES * len(block.gamma) ** 2
+    meminfo = tmp_path / "meminfo"
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(tmp_path / "no cgroup"))
+    monkeypatch.setattr(budget, "RELEASE", None)
+    meminfo.write_text(f"MemAvailable: {int((interface + block.factor.memory) / budget.SAFETY / 1024) + 1} kB\n")
+    fits = cc.solve(scene, condition="sigma1")
+    assert not fits.info.released
+    meminfo.write_text("MemAvailable: 1 kB\n")
+    short = cc.solve(scene, condition="sigma1")
+    assert short.info.released
+    for sol in (fits, short):
+        assert rel(np.concatenate([np.ravel(u) for u in sol.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12

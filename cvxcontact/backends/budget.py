@@ -119,9 +119,13 @@ class Budget:
         self.k = 0
         self.released = 0
 
-    def release(self, memory: int | None) -> bool:
-        """Whether to free the factors of the next body, ``memory`` the bytes they hold (None: unknown)."""
+    def release(self, memory: int | None, possible: bool = True) -> bool:
+        """Whether to free the factors of the next body, ``memory`` the bytes they hold (None: unknown).
+        ``possible``: False for a body whose factors are not freed whatever the memory (no Gamma dofs, or only
+        Gamma dofs): its turn is taken (the later bodies are read as later), False returned."""
         k, self.k = self.k, self.k + 1
+        if not possible:
+            return False
         if RELEASE is not None:
             out = bool(RELEASE)
         else:

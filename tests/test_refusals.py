@@ -305,8 +305,8 @@ def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(la
     friction law far above its shear sticks: u = (tau y / G, -p y / E) exactly (nu = 0). A Hencky body whose yield
     stress no strain reaches has the linear energy, so the same closed form (measured before the refusal: the
     interior point left unfinished, equilibrium 1.2e-2, ok False)."""
-    from friction_scenes import E as E2
     from friction_scenes import FLOOR
+    from friction_scenes import E as E2
     from friction_scenes import P as P2
 
     tau = 0.2 * P2

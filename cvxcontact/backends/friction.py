@@ -260,6 +260,12 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
     return trial
 
 
+def _change(new, old) -> float:
+    """max |new - old| / max(max new, max old): the relative change of Coulomb's capacities over an iterate."""
+    return float(np.abs(new - old).max(initial=0.0)
+                 / max(float(new.max(initial=0.0)), float(old.max(initial=0.0)), np.finfo(float).tiny))
+
+
 def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=None):
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
@@ -275,9 +281,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
         if done is None:
             return cuts
         new = problem.capacities(done.y)
-        changes.append(float(np.abs(new - capacity).max(initial=0.0)
-                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
-                                   np.finfo(float).tiny)))
+        changes.append(_change(new, capacity))
         log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),
                  changes[-1])
         trial, capacity = done, new
@@ -428,9 +432,7 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
                                      INTERIOR_SLIP)
             return trial if done is None else done
         new = problem.capacities(trial.y)
-        changes.append(float(np.abs(new - capacity).max(initial=0.0)
-                             / max(float(new.max(initial=0.0)), float(capacity.max(initial=0.0)),
-                                   np.finfo(float).tiny)))
+        changes.append(_change(new, capacity))
         log.info("Coulomb finish at cut points: iterate %d, relative change of the capacities %.2e", len(changes),
                  changes[-1])
         if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1

@@ -272,15 +272,15 @@ class Refusal:
 REFUSALS: tuple[Refusal, ...] = (
     Refusal(lambda p: p.friction and p.conic and not p.quadratic_energy,
             "a friction law (cc.Tresca, cc.Coulomb) beside a non-quadratic bulk energy (a Hencky material) under "
-            "the P2 cones (condition \"gamma3\") is not available: the cones' friction finish on the nodes and cut "
-            "points solves systems of the linear stiffness, so the interior point's answer would stay unfinished "
-            "(measured: equilibrium 4e-2 of the loads where the body never yields); use the nodal conditions "
-            "(\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, or a linear material "
-            "(cc.materials.isotropic) under \"gamma3\""),
+            "the degree-2 cones (condition \"gamma3\" with degree=2) is not available: the cones' friction finish "
+            "on the nodes and cut points solves systems of the linear stiffness, so the interior point's answer "
+            "would stay unfinished (measured: equilibrium 4e-2 of the loads where the body never yields); use the "
+            "nodal conditions (\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, or a "
+            "linear material (cc.materials.isotropic) under \"gamma3\""),
 )
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
 problem (a backend registered later that solves it lifts it). Row 36: friction beside a non-quadratic energy under
-the P2 cones.
+the degree-2 cones.
 (Row 35, the 3D P2 copositive cones beside a non-quadratic energy, is solved by the full route:
 :func:`~cvxcontact.backends.cones.finish_bulk`.)"""
 

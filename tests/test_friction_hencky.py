@@ -101,3 +101,23 @@ def test_a_vanishing_threshold_is_the_frictionless_hencky_answer(condition, degr
     plain = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", circle)]), condition, degree=degree, method="newton")
     assert tresca.ok and tresca.polished and plain.ok
     assert rel(tresca.u[0], plain.u[0]) <= 1e-10
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, condition, degree", [("tresca", "sigma1", 1), ("tresca", "sigma2", 2),
+                                                     ("coulomb", "sigma1", 1)])
+def test_friction_beside_a_hencky_box_that_never_yields_is_the_linear_answer_in_3d(law, condition, degree):
+    """The uniform sheared 3D layer of tests/friction_scenes.py (stuck: u = (tau_x z / G, tau_y z / G, -p z / E),
+    nu = 0) with a Hencky body whose yield stress no strain reaches: the linear closed form (measured 5.4e-16 P1,
+    6.8e-16 P2, Coulomb 4.1e-16)."""
+    from friction_scenes import DIAGONAL3, FLOOR3D, P, uniform_layer3d
+    from friction_scenes import E as E3
+
+    tau = 0.2 * P
+    friction = cc.Tresca(10 * tau) if law == "tresca" else cc.Coulomb(1.0)
+    layer = uniform_layer3d(tau, friction).bodies[0]
+    b = layer.with_changes(material=cc.materials.hencky(E=E3, nu=0.0, sigma_y=1e15, h=0.1))
+    sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=friction)]), condition, degree=degree)
+    z, q = sol.points[0][:, 2], tau * DIAGONAL3
+    assert sol.ok and sol.polished
+    assert rel(sol.u[0], np.column_stack([2 * q[0] * z / E3, 2 * q[1] * z / E3, -P * z / E3])) <= 1e-9

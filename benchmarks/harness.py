@@ -97,6 +97,19 @@ def run_part(script, args: dict, env=None) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def solve_cpu(scene, condition, **kw):
+    """``cc.solve(scene, condition, **kw)`` with its warnings silenced: (the solution, its CPU seconds)."""
+    import warnings
+
+    import cvxcontact as cc
+
+    t0 = time.process_time()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = cc.solve(scene, condition, **kw)
+    return sol, time.process_time() - t0
+
+
 def side_cells(size: float, per: float) -> int:
     """Cells along a side for a size: the size itself below 1e3, else a count of unknowns N ~ ``per`` n^3 (3D
     scenes of n x n x n/2 cells), rounded to an even n >= 2."""

@@ -19,8 +19,8 @@ Results: benchmarks/results/p2_cones_hencky.md.
 from __future__ import annotations
 
 import argparse
-import time
-import warnings
+
+from harness import solve_cpu
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
@@ -44,11 +44,7 @@ def pressed(material, nx):
 
 
 def timed(scene, condition, **kw):
-    t0 = time.process_time()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        sol = cc.solve(scene, condition, degree=2, estimate=False, **kw)
-    return sol, time.process_time() - t0
+    return solve_cpu(scene, condition, degree=2, estimate=False, **kw)
 
 
 def main() -> None:

@@ -21,11 +21,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-import warnings
 from pathlib import Path
 
 import numpy as np
+from harness import solve_cpu
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
@@ -41,11 +40,7 @@ def scene(material, n):
 
 
 def timed(scene, condition, **kw):
-    t0 = time.process_time()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        sol = cc.solve(scene, condition, degree=2, estimate=False, **kw)
-    return sol, time.process_time() - t0
+    return solve_cpu(scene, condition, degree=2, estimate=False, **kw)
 
 
 def main() -> None:

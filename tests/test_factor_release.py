@@ -28,9 +28,9 @@ class Always:
     def __init__(self):
         self.memory = []
 
-    def release(self, memory):
+    def release(self, memory, possible=True):
         self.memory.append(memory)
-        return True
+        return possible
 
 
 def no_pardiso(monkeypatch):
@@ -145,6 +145,7 @@ def test_the_budget_frees_the_factors_only_when_memory_is_short(monkeypatch, tmp
     monkeypatch.setattr(budget, "RELEASE", None)
     meminfo = tmp_path / "meminfo"
     monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(tmp_path / "no cgroup"))     # not the test machine's limits
 
     def available(kb):
         meminfo.write_text(f"MemTotal:       99999999 kB\nMemFree:  1 kB\nMemAvailable:   {kb} kB\n")
@@ -186,3 +187,103 @@ def test_a_scene_is_released_by_the_budget_when_memory_is_short(monkeypatch, tmp
     assert short.info.released and not kept.info.released
     assert short.info.factorization == kept.info.factorization == ("pardiso" if pardiso else "superlu")
     assert rel(np.concatenate([np.ravel(u) for u in short.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12
+
+
+def _remade(solver):
+    return [c.factor.remade for c in solver.cache.condensation.bodies]
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.0], ids=["pressed", "unloaded"])
+def test_the_cones_route_sweeps_each_freed_body_once_per_back_substitution(monkeypatch, scale):
+    """P2 "gamma3" (the cones, condensed): with the factors freed each sweep re-makes a body's interior
+    factorisation, so the route takes the body's forward sweep once and reuses it: v0 = Sigma^-1 r without a
+    backward sweep, the back-substitution from that sweep (was: a full solve for v0 and another for the fields,
+    five factorisations a body per solve; now three: the back-substitution, the finish's and the tangency's;
+    none but the fields' one without contact), the forward sweep the condensation's (its own load's, kept; the
+    finish's load case reads it). The answers equal the kept factors' to 1e-12 (measured 2.3e-15 pressed, 0
+    unloaded), on the first solve and on a re-solve with other loads on the first body (one forward sweep more
+    for it alone: was two)."""
+    from conftest import two_blocks as blocks
+
+    scene = blocks((8, 4), (5, 3), scale=scale)
+    out = _solve_both(scene, monkeypatch, condition="gamma3", degree=2)
+    (ks, kept), (rs, rel_) = out[False], out[True]
+    assert rel_.info.released and rel_.info.method == "condensed"
+    assert rel(np.concatenate([np.ravel(u) for u in rel_.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12
+    first = _remade(rs)
+    assert first == ([3, 3] if scale else [1, 1])
+    other = scene.with_loads(0, body_force=(0.0, -3e9))
+    again_kept, again_rel = ks.solve(other), rs.solve(other)
+    assert rel(np.concatenate([np.ravel(u) for u in again_rel.u]),
+               np.concatenate([np.ravel(u) for u in again_kept.u])) < 1e-12
+    assert [b - a for a, b in zip(first, _remade(rs))] == [4, 3]             # the other loads press them
+
+
+def test_a_control_group_limit_bounds_the_available_memory(monkeypatch, tmp_path):
+    """In a container /proc/meminfo is the host's: the room under the process's control-group limits (v2
+    memory.max - memory.current of its group and the groups above; v1 memory.limit_in_bytes - usage) bounds
+    MemAvailable, and frees the factors the host's memory would have kept (failed before: the host's 64 GiB
+    read, the factors kept under a 1 GiB limit). No limit ("max"), no control groups, or unreadable files:
+    MemAvailable alone, as before."""
+    monkeypatch.setattr(budget, "RELEASE", None)
+    meminfo, proc, root = tmp_path / "meminfo", tmp_path / "cgroup", tmp_path / "fs"
+    meminfo.write_text(f"MemAvailable:   {64 * 2**20} kB\n")                   # 64 GiB on the host
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(proc))
+    monkeypatch.setattr(budget, "CGROUP", str(root))
+    proc.write_text("0::/box/job\n")
+    group = root / "box" / "job"
+    group.mkdir(parents=True)
+    (group / "memory.max").write_text("max\n")
+    (group / "memory.current").write_text(f"{2**29}\n")
+    assert budget.mem_available() == 64 * 2**30                                # no limit on the group
+    (root / "box" / "memory.max").write_text(f"{2**30}\n")                    # 1 GiB on the group above,
+    (root / "box" / "memory.current").write_text(f"{2**29}\n")                # half of it used
+    assert budget.mem_available() == 2**29
+    assert budget.Budget([100, 300], [1000, 500]).release(2**28)              # 256 MiB now, 768 MiB later
+    meminfo.unlink()
+    assert budget.mem_available() == 2**29                                     # the limit without /proc/meminfo
+    (group / "memory.max").write_text(f"{2**29 + 2**27}\n")                   # the tighter limit below it
+    assert budget.mem_available() == 2**27
+    (group / "memory.max").write_text("garbage\n")
+    assert budget.mem_available() == 2**29
+    proc.write_text("4:memory:/job\n3:cpu:/\n")                              # cgroup v1
+    v1 = root / "memory" / "job"
+    v1.mkdir(parents=True)
+    (v1 / "memory.limit_in_bytes").write_text(f"{3 * 2**30}\n")
+    (v1 / "memory.usage_in_bytes").write_text(f"{2**30}\n")
+    assert budget.mem_available() == 2 * 2**30
+    proc.unlink()
+    assert budget.mem_available() is None and budget.cgroup_room() is None    # neither: keep, as before
+    assert not budget.Budget([100], [10**6]).release(2**30)
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.errors.ResolutionWarning")    # the coarse shared scene
+def test_a_body_whose_factors_stay_takes_its_turn_in_the_budget(monkeypatch, tmp_path):
+    """A clamped foundation first (its contact part held: no Gamma dofs, its factors never freed), the block
+    second: the block's factors are the last ones, so only the interface program follows them and a
+    MemAvailable of (interface + the block's factors) / SAFETY keeps them. Before, the foundation did not take
+    its turn: the block was read as body 0, itself counted among the later bodies (its factors x 176 / 52
+    nonzeros) and freed. 1 KB frees them; the answers equal the kept ones to 1e-12."""
+    from foundation_scenes import clamped_foundation
+
+    upper, scene = clamped_foundation("pair")
+    scene = cc.Scene(scene.bodies[1], upper, contacts=list(scene.contacts))
+    monkeypatch.setattr(budget, "RELEASE", False)
+    solver = cc.ContactSolver(scene, condition="sigma1")
+    kept = solver.solve()
+    foundation, block = solver.cache.condensation.bodies
+    assert len(foundation.gamma) == 0 and 0 < len(block.gamma) < block.factor.n
+    interface = budget.INTERFACE_BYTES * len(block.gamma) ** 2
+    meminfo = tmp_path / "meminfo"
+    monkeypatch.setattr(budget, "MEMINFO", str(meminfo))
+    monkeypatch.setattr(budget, "PROC_CGROUP", str(tmp_path / "no cgroup"))
+    monkeypatch.setattr(budget, "RELEASE", None)
+    meminfo.write_text(f"MemAvailable: {int((interface + block.factor.memory) / budget.SAFETY / 1024) + 1} kB\n")
+    fits = cc.solve(scene, condition="sigma1")
+    assert not fits.info.released
+    meminfo.write_text("MemAvailable: 1 kB\n")
+    short = cc.solve(scene, condition="sigma1")
+    assert short.info.released
+    for sol in (fits, short):
+        assert rel(np.concatenate([np.ravel(u) for u in sol.u]), np.concatenate([np.ravel(u) for u in kept.u])) < 1e-12

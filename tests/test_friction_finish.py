@@ -4,6 +4,8 @@ answers are closed forms (2D) or the root of one scalar equation (3D, anisotropi
 is not along the pull, the direction condition is genuinely nonlinear); and the decline that keeps the interior
 point's answer."""
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -224,3 +226,29 @@ def test_rows_each_posed_twice_are_finished_to_the_closed_form(nc):
         assert np.abs(muf[:n] + muf[n:] - mu).max() < 1e-12 * np.abs(mu).max()
         cap = twice.capacity(yf)                                     # each copy within its own cone
         assert (np.linalg.norm(muf, axis=1) <= cap * (1 + 1e-12) + 1e-15).all() and (yf >= 0).all()
+
+
+@pytest.mark.numerics
+def test_a_2d_set_that_comes_back_is_pivoted_to_the_answer(monkeypatch):
+    """The 2D pair of non-matching lines under the P2 cones with Tresca's friction: the finish's steps come back to
+    an active set already solved, and the one-row pivots from the set just solved end them (module docstring of
+    backends/finish/friction.py). The pivots run (spied) and the answer is finished, every check at rounding (was:
+    a NameError out of ``cc.solve`` once the steps moved into their own function)."""
+    from friction_scenes import P, pair2d
+
+    from cvxcontact.backends.finish import friction as finish
+
+    pivots, calls = finish._pivots, []
+
+    def spy(*args, **kwargs):
+        calls.append(1)
+        return pivots(*args, **kwargs)
+
+    monkeypatch.setattr(finish, "_pivots", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(pair2d(cc.Tresca(0.03 * P), 0.02 * P, condition="gamma3"), condition="gamma3", degree=2)
+    assert calls
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    r = sol.residuals()
+    assert r["friction cone"] <= 1e-10 and r["equilibrium"] <= 1e-10     # measured 0 and 7.3e-14

@@ -122,3 +122,52 @@ def test_the_run_sums_are_those_of_reduceat():
     starts = np.flatnonzero(np.concatenate([[True], runs[1:] != runs[:-1]]))
     assert rel(energies._run_sums(local, runs), np.add.reduceat(local, starts, axis=0)) < 1e-13   # measured 1.3e-16
     assert energies._run_sums(local[:0], runs[:0]).shape == (0, 4, 4)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_hessian_thinned_in_place_leaves_the_next_ones(degree):
+    """A caller thins a Hessian in place (small entries zeroed, ``eliminate_zeros``): the Hessians share H_0's index
+    arrays, so the change either is refused (read-only arrays) or stays in that Hessian; the next Hessian equals a
+    fresh energy's at its point (was: H_0's indptr rewritten in place, the next Hessian a broadcast error)."""
+    problem = problem_of(degree=degree)
+    bulk, system = problem.blocks[0].bulk, problem.systems[0]
+    z1, z2 = strained(bulk, 1), strained(bulk, 2, 2e-2)
+    H = bulk.hessian(z1)
+    H.data[np.abs(H.data) < 1e-3 * np.abs(H.data).max()] = 0.0
+    try:
+        H.eliminate_zeros()
+    except ValueError:                                              # read-only index arrays: refused
+        pass
+    expected = type(bulk)(system, problem.units).hessian(z2).toarray()
+    assert rel(bulk.hessian(z2).toarray(), expected) < 1e-13        # measured 0 (the same sums)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_colliding_hashes_of_the_cells_give_the_same_sparsity_and_hessians(degree, monkeypatch):
+    """The points' column lists are grouped by an integer hash checked entry by entry: with every weight of the hash
+    forced to 1 (the key the sum of the columns: different lists collide), the groups are read from the lists
+    themselves; the pattern and the Hessians are those of an energy built with the real hash (equal bits)."""
+    problem = problem_of(degree=degree)
+    bulk, system = problem.blocks[0].bulk, problem.systems[0]
+    z = strained(bulk, 5)
+    real = type(bulk)(system, problem.units)
+    pattern, hessian = real.pattern(), real.hessian(z)
+    rng = np.random.default_rng
+
+    class Ones:
+        def __init__(self, seed=None):
+            self.inner = rng(seed)
+
+        def integers(self, low, high=None, size=None, **kw):
+            return np.ones(size, dtype=np.int64)
+
+    monkeypatch.setattr(energies.np.random, "default_rng", Ones)
+    forced = type(bulk)(system, problem.units)
+    A, s = sp.csr_matrix(real.A), real.s
+    groups = real._local()[2]                                       # a point of each distinct column list
+    sums = {int(np.unique(A[p * s:(p + 1) * s].indices[A[p * s:(p + 1) * s].data != 0]).sum()) for p in groups}
+    assert len(sums) < len(groups)                                  # the forced keys collide
+    assert forced.pattern().nnz == pattern.nnz and (forced.pattern() != pattern).nnz == 0
+    got = forced.hessian(z)
+    assert np.array_equal(got.indptr, hessian.indptr) and np.array_equal(got.indices, hessian.indices)
+    assert np.array_equal(got.data, hessian.data)

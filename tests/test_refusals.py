@@ -305,8 +305,8 @@ def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(la
     Hencky body whose yield stress no strain reaches has the linear energy, so the same closed form (measured before
     the finish by sequential quadratic steps: the interior point left unfinished, equilibrium 1.2e-2, ok False;
     with it 4.1e-16 of the displacements)."""
-    from friction_scenes import E as E2
     from friction_scenes import FLOOR
+    from friction_scenes import E as E2
     from friction_scenes import P as P2
 
     tau = 0.2 * P2

@@ -159,7 +159,7 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
             warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
-    if budget is not None and 0 < len(gamma) < S.shape[0] and budget.release(factor.memory):
+    if budget is not None and budget.release(factor.memory, possible=0 < len(gamma) < S.shape[0]):
         factor = Released(factor, S, F)
     stiffness = factor.schur                        # (shared, read only: no second m x m copy)
     if held:

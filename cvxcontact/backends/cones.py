@@ -128,10 +128,14 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         from .forced import cones as forced
 
         return forced(problem, cache, settings, timings)
-    cond = condensation(problem, cache, settings, timings).bodies
+    reduction = condensation(problem, cache, settings, timings)
+    cond = reduction.bodies
     t0 = time.perf_counter()
-    rhs = [quasi_definite_rhs(b) for b in problem.blocks]
-    v0 = [c.solve(F)[c.gamma] for c, F in zip(cond, rhs)]
+    # one forward sweep per body (the condensation's: the finish's load case reads the same), kept for the
+    # back-substitution (a body whose factors were freed re-makes its interior factorisation for each sweep:
+    # cvxcontact.backends.budget); v0 = Sigma^-1 r needs no backward sweep
+    sweeps = [reduction.forward(k, quasi_definite_rhs(b)) for k, b in enumerate(problem.blocks)]
+    v0 = [c.unconstrained(f) for c, f in zip(cond, sweeps)]
     B = problem.lines.cone[0]
     w = _width(problem)
     free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, w)
@@ -140,7 +144,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
         # [u_nu] <= g everywhere with no contact force (e.g. no load, or bodies apart): the unconstrained
         # solution is the solution, beta = 0 exactly; an interior point would stop at rounding around it
         # (measured: u = 5e-8 m under zero load, complementarity read 1.5)
-        u, phi = split(cond, [c.solve(F) for c, F in zip(cond, rhs)], problem.blocks)
+        u, phi = split(cond, [c.factor.backward(f, v) for c, f, v in zip(cond, sweeps, v0)], problem.blocks)
         timings["model"] = time.perf_counter() - t0
         return RawResult(u=u, phi=phi, y=np.zeros(B.shape[1]), beta=np.zeros((B.shape[0] // w, w)),
                          polished=True, route=Route.NO_CONTACT, method="condensed",
@@ -159,7 +163,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
     beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
     r = _cone_force(problem, beta)
-    u, phi = split(cond, [c.solve(F - c.lift(r)) for c, F in zip(cond, rhs)], problem.blocks)
+    u, phi = split(cond, [c.back_substitute(f, r) for c, f in zip(cond, sweeps)], problem.blocks)
     raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
                     method="condensed")
     if settings.polish:

@@ -69,13 +69,13 @@ class Condensation:
         """(v0, loads, d) of the load case of ``problem`` (see the class docstring)."""
         t0 = time.perf_counter()
         rhs = [quasi_definite_rhs(b) for b in problem.blocks]
-        self.sweeps = [self._forward(k, F) for k, F in enumerate(rhs)]
+        self.sweeps = [self.forward(k, F) for k, F in enumerate(rhs)]
         v0 = [c.unconstrained(f) for c, f in zip(self.bodies, self.sweeps)]
         d = None if self.compliance is None else self.compliance.free_slack(v0, problem.g)
         timings["interface_load"] = time.perf_counter() - t0
         return v0, [c.stiffness @ v for c, v in zip(self.bodies, v0)], d
 
-    def _forward(self, k, F):
+    def forward(self, k, F):
         """Body k's forward sweep of its scaled load F: the last load case's if F is bit for bit the same (a load
         case that leaves this body's scaled loads as they were: the sweep would give the same numbers), else a
         new sweep (kept with a copy of F: 8 bytes per unknown of the body)."""

@@ -297,14 +297,14 @@ def test_p2_cones_with_a_hencky_body_that_never_yields_are_the_linear_answer():
 
 
 @pytest.mark.numerics
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError,
-                   reason="row 36: a friction law beside a non-quadratic bulk energy has no finish")
+@pytest.mark.parametrize("condition, degree", [("sigma1", 1), ("sigma1", 2), ("sigma2", 2)])
 @pytest.mark.parametrize("law", ["tresca", "coulomb"])
-def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(law):
-    """Row 36 (b). The uniform sheared layer (tests/friction_scenes.py: sigma_xy = tau, sigma_yy = -p) under a
-    friction law far above its shear sticks: u = (tau y / G, -p y / E) exactly (nu = 0). A Hencky body whose yield
-    stress no strain reaches has the linear energy, so the same closed form (measured before the refusal: the
-    interior point left unfinished, equilibrium 1.2e-2, ok False)."""
+def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(law, condition, degree):
+    """Row 36 (b), supported on nodal rows. The uniform sheared layer (tests/friction_scenes.py: sigma_xy = tau,
+    sigma_yy = -p) under a friction law far above its shear sticks: u = (tau y / G, -p y / E) exactly (nu = 0). A
+    Hencky body whose yield stress no strain reaches has the linear energy, so the same closed form (measured before
+    the finish by sequential quadratic steps: the interior point left unfinished, equilibrium 1.2e-2, ok False;
+    with it 4.1e-16 of the displacements)."""
     from friction_scenes import FLOOR
     from friction_scenes import E as E2
     from friction_scenes import P as P2
@@ -314,9 +314,22 @@ def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(la
     m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=4, ny=2)
     b = cc.Body(m, never, contact="bottom", traction={"top": (tau, -P2), "left": (0.0, -tau), "right": (0.0, tau)})
     friction = cc.Tresca(10 * tau) if law == "tresca" else cc.Coulomb(1.0)
-    sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=friction)]), "sigma1")
+    sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=friction)]), condition, degree=degree)
     y = sol.points[0][:, 1]
     assert sol.ok and rel(sol.u[0], np.column_stack([2 * tau * y / E2, -P2 * y / E2])) <= 1e-9
+
+
+@pytest.mark.parametrize("law", ["tresca", "coulomb"])
+def test_friction_beside_a_hencky_body_under_the_p2_cones_is_refused(law):
+    """Row 36 (b), what is left: "gamma3" (the P2 cones with friction) beside a Hencky body."""
+    from friction_scenes import FLOOR
+
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=2, ny=1)
+    b = cc.Body(m, cc.materials.hencky(E=1e9, nu=0.0, sigma_y=1e15, h=0.1), contact="bottom",
+                traction={"top": (1e5, -1e6)})
+    friction = cc.Tresca(1e6) if law == "tresca" else cc.Coulomb(1.0)
+    with pytest.raises(cc.UnsupportedError, match="gamma3"):
+        cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=friction)]), "gamma3", degree=2)
 
 def test_p2_friction_under_sigma1_on_cut_faces_slides_with_the_overlap_capacity():
     """Row 33 (b), supported. A half-width block (2 x 2 cells) pushed along x by 1 mm on a clamped block (3 x 3

@@ -201,9 +201,10 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 
 def _full_accepts(p: ProblemDescription) -> bool:
     # a non-quadratic bulk energy: Signorini rows, and the P2 cones alone (their finish: Newton at the tangency
-    # points on the nonlinear (26), else the cuts on it, cones.finish_bulk); not a compliance law (its routes
-    # finish on Kuu), nor a friction law (its finish solves systems of Kuu too: REFUSALS)
-    return p.quadratic_energy or not (p.compliant or p.friction)
+    # points on the nonlinear (26), else the cuts on it, cones.finish_bulk), and a friction law on nodal rows
+    # (its finish by sequential quadratic steps); not a compliance law (its routes finish on Kuu), nor a friction
+    # law beside the P2 cones (their finish on the nodes solves systems of Kuu: REFUSALS)
+    return p.quadratic_energy or not (p.compliant or (p.friction and p.conic))
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
@@ -269,15 +270,17 @@ class Refusal:
 
 
 REFUSALS: tuple[Refusal, ...] = (
-    Refusal(lambda p: p.friction and not p.quadratic_energy,
-            "a friction law (cc.Tresca, cc.Coulomb) beside a non-quadratic bulk energy (a Hencky material) is not "
-            "available: the friction finish solves systems of the linear stiffness, so the interior point's answer "
-            "would stay unfinished (measured: equilibrium 1e-2 to 4e-2 of the loads even where the body never "
-            "yields); use the Hencky material with frictionless contact (cc.Signorini(), the default), or a linear "
-            "material (cc.materials.isotropic) with the friction law"),
+    Refusal(lambda p: p.friction and p.conic and not p.quadratic_energy,
+            "a friction law (cc.Tresca, cc.Coulomb) beside a non-quadratic bulk energy (a Hencky material) under "
+            "the degree-2 cones (condition \"gamma3\" with degree=2) is not available: the cones' friction finish "
+            "on the nodes and cut points solves systems of the linear stiffness, so the interior point's answer "
+            "would stay unfinished (measured: equilibrium 4e-2 of the loads where the body never yields); use the "
+            "nodal conditions (\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, or a "
+            "linear material (cc.materials.isotropic) under \"gamma3\""),
 )
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
-problem (a backend registered later that solves it lifts it). Row 36: friction beside a non-quadratic energy.
+problem (a backend registered later that solves it lifts it). Row 36: friction beside a non-quadratic energy under
+the degree-2 cones.
 (Row 35, the 3D P2 copositive cones beside a non-quadratic energy, is solved by the full route:
 :func:`~cvxcontact.backends.cones.finish_bulk`.)"""
 

@@ -1,0 +1,136 @@
+"""A friction law beside a Hencky body (docs/refusals.md row 36, supported on nodal rows): the friction finish by
+sequential quadratic steps on the nonlinear (26) (cvxcontact/backends/friction.py ``_sequential``), checked against
+a yielding uniform layer's closed form, the frictionless Hencky answer of the Newton route as the threshold
+vanishes, the friction law read off the answer, and the interior point's answer."""
+
+import numpy as np
+import pytest
+
+import cvxcontact as cc
+
+E, NU, SIGMA_Y, H = 200e9, 0.3, 200e6, 0.1
+FLOOR = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
+
+
+def hencky_stress(e_yy, gamma):
+    """The Hencky stress (sigma_xx, sigma_yy, sigma_xy) of the plane strain eps_xx = 0, eps_yy = e_yy, 2 eps_xy =
+    gamma, from the density W = K/2 (tr eps)^2 + mu psi(|dev eps|) (docs/materials.md) by hand: sigma = K tr(eps) I
+    + mu psi'(s) dev(eps) / s, psi'(s) = 2 h s + 2 (1 - h) min(s, s_y), s_y = sigma_y / (sqrt(6) mu)."""
+    mu, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
+    s_y = SIGMA_Y / (np.sqrt(6.0) * mu)
+    dev = np.array([-e_yy / 3, 2 * e_yy / 3, -e_yy / 3])          # xx, yy, zz (eps_zz = 0)
+    s = np.sqrt(dev @ dev + 2 * (gamma / 2) ** 2)
+    k = mu * (2 * H * s + 2 * (1 - H) * min(s, s_y)) / s
+    assert s > 1.5 * s_y                                            # the state has yielded
+    return K * e_yy + k * dev[0], K * e_yy + k * dev[1], k * gamma / 2
+
+
+def yielded_layer(law_of_shear, e_yy=-1e-3, gamma=3e-3, nx=4, ny=2):
+    """The layer 1 m x 0.5 m on the floor under the tractions of the uniform yielded state u = (gamma y, e_yy y)
+    (top (s_xy, s_yy), sides -+(s_xx, s_xy)), its contact under ``law_of_shear(s_xy)``; (scene, exact u(points))
+    with exact(points) the state's displacement at the given points."""
+    sxx, syy, sxy = hencky_stress(e_yy, gamma)
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny)
+    b = cc.Body(m, cc.materials.hencky(E=E, nu=NU, sigma_y=SIGMA_Y, h=H), contact="bottom",
+                traction={"top": (sxy, syy), "left": (-sxx, -sxy), "right": (sxx, sxy)})
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law_of_shear(sxy))])
+    return scene, lambda points: np.column_stack([gamma * points[:, 1], e_yy * points[:, 1]])
+
+
+def rel(a, b):
+    return float(np.abs(np.asarray(a) - b).max() / np.abs(b).max())
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("condition, degree", [("sigma1", 1), ("sigma2", 2)])
+@pytest.mark.parametrize("law", ["tresca", "coulomb"])
+def test_a_yielded_layer_stuck_on_the_floor_is_the_uniform_hencky_state(law, condition, degree):
+    """The layer's uniform yielded state (|dev eps| = 2.1 s_y) with the Hencky stress computed by hand: stuck under
+    a threshold three times its shear (Coulomb: mu = 3 |s_xy| / |s_yy|), the displacement is the uniform state's
+    (exact in P1 and P2; measured 1e-16 relative), its tangential forces below their capacities."""
+    def law_of(sxy):
+        _, syy, _ = hencky_stress(-1e-3, 3e-3)
+        return cc.Tresca(3 * abs(sxy)) if law == "tresca" else cc.Coulomb(3 * abs(sxy) / abs(syy))
+
+    scene, exact = yielded_layer(law_of)
+    sol = cc.solve(scene, condition, degree=degree)
+    assert sol.ok and sol.polished
+    assert rel(sol.u[0], exact(sol.points[0])) <= 1e-9
+    c = sol.contact
+    assert (np.abs(c.shear_force) < 0.5 * c.threshold * c.slip_measure).all()     # a third of the capacity
+
+
+def sheared_block(law, P=1e8, nx=8, ny=4):
+    """A Hencky block 1 m x 0.5 m (sigma_y = P, yields at its corners) on the floor under (P / 2, -P) on its top:
+    the contact sticks in its middle and slips towards its ends under a threshold 0.6 P (Coulomb: mu = 0.6)."""
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny)
+    b = cc.Body(m, cc.materials.hencky(E=E, nu=NU, sigma_y=P, h=H), contact="bottom", traction={"top": (0.5 * P, -P)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, condition, degree", [
+    (cc.Tresca(0.6e8), "sigma1", 1), (cc.Tresca(0.6e8), "sigma2", 2), (cc.Coulomb(0.6), "sigma1", 1)],
+    ids=["tresca-sigma1", "tresca-sigma2", "coulomb-sigma1"])
+def test_a_sheared_hencky_block_keeps_the_friction_law_where_it_slips(law, condition, degree):
+    """The friction law read off the answer by hand: every nodal shear force within its capacity (threshold times
+    the node's weight), and where a node slips (|slip| above 1e-9 of the displacements) the force is the capacity
+    opposite to the slip (measured 1.1e-16 of the largest capacity; 6 of 9 nodes slip under Tresca P1). Some
+    nodes stick, some slip: the test sees both branches."""
+    sol = cc.solve(sheared_block(law), condition, degree=degree)
+    assert sol.ok and sol.polished
+    c = sol.contact
+    capacity = c.threshold * c.slip_measure
+    slipping = np.abs(c.slip) > 1e-9 * np.abs(sol.u[0]).max()
+    assert 0 < slipping.sum() < len(slipping)
+    assert (np.abs(c.shear_force) - capacity).max() <= 1e-12 * capacity.max()
+    assert np.abs(c.shear_force + np.sign(c.slip) * capacity)[slipping].max() <= 1e-12 * capacity.max()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("condition, degree", [("sigma1", 1), ("sigma2", 2)])
+def test_a_vanishing_threshold_is_the_frictionless_hencky_answer(condition, degree):
+    """Tresca's threshold 1e-6 Pa (1e-14 of the stresses) beside a Hencky body indented by a rigid circle (it yields
+    under the circle: strains about 1e-2 against the yield strain 1e-3) equals the frictionless answer of the Newton
+    route to 1e-10 (measured 4.7e-15 P1, 4.9e-15 P2)."""
+    m = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=16, ny=4)
+    b = cc.Body(m, cc.materials.hencky(E=E, nu=NU, sigma_y=SIGMA_Y, h=H), clamped="bottom", contact="top")
+    circle = cc.Rigid.circle((0.47, 0.5 + 3.0 - 5e-3), 3.0)
+    tresca = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", circle, law=cc.Tresca(1e-6))]), condition,
+                      degree=degree)
+    plain = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", circle)]), condition, degree=degree, method="newton")
+    assert tresca.ok and tresca.polished and plain.ok
+    assert rel(tresca.u[0], plain.u[0]) <= 1e-10
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law, condition, degree", [("tresca", "sigma1", 1), ("tresca", "sigma2", 2),
+                                                     ("coulomb", "sigma1", 1)])
+def test_friction_beside_a_hencky_box_that_never_yields_is_the_linear_answer_in_3d(law, condition, degree):
+    """The uniform sheared 3D layer of tests/friction_scenes.py (stuck: u = (tau_x z / G, tau_y z / G, -p z / E),
+    nu = 0) with a Hencky body whose yield stress no strain reaches: the linear closed form (measured 5.4e-16 P1,
+    6.8e-16 P2, Coulomb 4.1e-16)."""
+    from friction_scenes import DIAGONAL3, FLOOR3D, P, uniform_layer3d
+    from friction_scenes import E as E3
+
+    tau = 0.2 * P
+    friction = cc.Tresca(10 * tau) if law == "tresca" else cc.Coulomb(1.0)
+    layer = uniform_layer3d(tau, friction).bodies[0]
+    b = layer.with_changes(material=cc.materials.hencky(E=E3, nu=0.0, sigma_y=1e15, h=0.1))
+    sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=friction)]), condition, degree=degree)
+    z, q = sol.points[0][:, 2], tau * DIAGONAL3
+    assert sol.ok and sol.polished
+    assert rel(sol.u[0], np.column_stack([2 * q[0] * z / E3, 2 * q[1] * z / E3, -P * z / E3])) <= 1e-9
+
+
+@pytest.mark.numerics
+def test_the_sequential_steps_past_their_cap_decline_flagged(monkeypatch):
+    """One sequential quadratic step cannot see the same closed and stuck rows twice: the finish declines, and the
+    interior point's answer is returned flagged (ResidualWarning, ``info.declined`` naming the steps; measured:
+    the residual of the nonlinear (26) 4.5e-4 after one step)."""
+    import cvxcontact.backends.friction as route
+
+    monkeypatch.setattr(route, "SEQUENTIAL_STEPS", 1)
+    with pytest.warns(cc.ResidualWarning):
+        sol = cc.solve(sheared_block(cc.Tresca(0.6e8)), "sigma1")
+    assert not sol.ok and not sol.polished and "sequential quadratic steps" in str(sol.info.declined)

@@ -525,11 +525,13 @@ class PardisoInterior:
         return x
 
 
-def interior_solve(U, b, kind: str) -> np.ndarray:
+def interior_solve(U, b, kind: str, order: np.ndarray | None = None) -> np.ndarray:
     """S_II^{-1} b by a fresh factorisation freed before returning (:class:`Released`), ``U`` S_II's upper
     triangle (CSR, every diagonal entry stored): PARDISO (:class:`PardisoInterior`) for ``kind`` "pardiso" where
-    it loads and does not perturb a pivot, else SuperLU with partial pivoting (S_II quasi-definite: both are
-    exact triangular solves, to rounding)."""
+    it loads and does not perturb a pivot; else SuperLU, on ``order`` (a fill-reducing permutation of S_II's
+    rows, the body's own SuperLU order: the leading block of its first factorisation, no more fill) with
+    :data:`SUPERLU_OPTIONS` where given, with partial pivoting on SciPy's default order where not (S_II
+    quasi-definite: each is an exact triangular solve, to rounding)."""
     if kind == "pardiso" and pardiso_available():
         try:
             factor = PardisoInterior(U)
@@ -541,7 +543,12 @@ def interior_solve(U, b, kind: str) -> np.ndarray:
             finally:
                 factor.release()
     S_II = (U + U.T - sp.diags(U.diagonal())).tocsc()
-    return spla.splu(S_II).solve(np.asarray(b, dtype=float))
+    b = np.asarray(b, dtype=float)
+    if order is None:
+        return spla.splu(S_II).solve(b)
+    x = np.empty_like(b)
+    x[order] = spla.splu(S_II[order][:, order].tocsc(), **SUPERLU_OPTIONS).solve(b[order])
+    return x
 
 
 class Released(Factorization):
@@ -552,7 +559,9 @@ class Released(Factorization):
 
         r = b_G - S_IG^T S_II^{-1} b_I,      x_I = S_II^{-1} (b_I - S_IG v),  x_G = v.
 
-    The answers are those of the kept factorisation to rounding (another factorisation of the same S_II)."""
+    The answers are those of the kept factorisation to rounding (another factorisation of the same S_II). A
+    SuperLU body's re-made factorisation keeps its elimination order (``order``: the interior dofs' part of
+    ``factor.perm``, as positions in S_II), so its factors are the leading block of the first one's."""
 
     def __init__(self, factor: Factorization, S, rhs):
         fwd = factor.forward(rhs)
@@ -567,11 +576,17 @@ class Released(Factorization):
         S = sp.csr_matrix(S)[self.interior]
         self._S_IG = S[:, self.gamma].tocsr()
         self._S_II = _diagonal_stored(sp.triu(S[:, self.interior], format="coo"), sp.csr_matrix)   # upper only
+        perm = getattr(factor, "perm", None)            # SuperLU's order: the interior dofs first, Gamma last
+        self.order = None
+        if perm is not None:
+            position = np.empty(self.n, dtype=np.int64)
+            position[self.interior] = np.arange(len(self.interior))
+            self.order = position[np.asarray(perm)[:len(self.interior)]]
         self.remade = 0
 
     def _interior(self, b):
         self.remade += 1
-        return interior_solve(self._S_II, b, self.name)
+        return interior_solve(self._S_II, b, self.name, self.order)
 
     def forward(self, rhs):
         rhs = np.asarray(rhs, dtype=float)

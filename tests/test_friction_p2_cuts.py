@@ -121,6 +121,32 @@ def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene):
 
 
 @pytest.mark.numerics
+@pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
+def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene):
+    """Coulomb under the P2 cones, finished by its fixed point at the cut points then at the tangency points:
+    ``info.fixed_point`` lists that finish's changes (measured 9 iterates, the last 8.5e-14 pressed and 1.7e-13
+    dragged, <= the law's tolerance 1e-12), not the interior point's fixed point (50 iterates, its limit, last
+    change 1.0e-7 and 2.2e-6: what was reported before). Declined (its ``max_iterations`` 2), the answer is the
+    interior point's and so is the fixed point reported: that of the interior point alone (``polish=False``)."""
+    law = cc.Coulomb(0.3)
+    sol = _finished(scene(law))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")                  # the interior point's answer fails its checks
+        interior = cc.solve(scene(law), polish=False, **P2).info.fixed_point
+    assert len(interior) == law.max_iterations and interior[-1] > law.tolerance   # it never settled
+    changes = sol.info.fixed_point
+    assert 1 <= len(changes) <= 2 * law.max_iterations and changes[-1] <= law.tolerance
+    assert changes != interior
+    short = cc.Coulomb(0.3, max_iterations=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        declined = cc.solve(scene(short), **P2)
+        alone = cc.solve(scene(short), polish=False, **P2)
+    assert not declined.polished and len(declined.info.fixed_point) == 2
+    assert np.allclose(declined.info.fixed_point, alone.info.fixed_point, rtol=1e-6, atol=0)
+
+
+@pytest.mark.numerics
 def test_a_cycle_murty_s_rule_does_not_settle_declines_and_says_so(monkeypatch):
     """Where the 2D active set cycles and Murty's least-index rule does not settle (forced here; the tilted block
     at nx = 8 needs it, measured 3 calls), the finish declines with the cycle named and a ResidualWarning, the

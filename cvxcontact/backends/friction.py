@@ -267,14 +267,16 @@ def _change(new, old) -> float:
                  / max(float(new.max(initial=0.0)), float(old.max(initial=0.0)), np.finfo(float).tiny))
 
 
-def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=None):
+def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=None, before=()):
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
     :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (its
     capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
     first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
-    declined (then None where the fixed point does not settle)."""
+    declined (then None where the fixed point does not settle). The answer's ``fixed_point``: ``before`` (the
+    cuts' fixed point's changes, which end at ``capacity``) then this one's (an answer of the cuts keeps its
+    own)."""
     changes, cuts = [], None if slip_floor is not None else trial
     for _ in range(most):
         done = _tangency_polish(problem, trial, timings, capacity,
@@ -288,6 +290,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
         trial, capacity = done, new
         if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
                                   and changes[-1] > 0.9 * changes[-2]):
+            done.fixed_point = tuple(before) + tuple(changes)
             return done
     return cuts
 
@@ -419,7 +422,9 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
     where that change no longer decreases by 10 % below :data:`COULOMB_ROUNDING`; the answer is the last iterate,
     whose capacities are those of its own forces to that change. The map is a contraction for small mu (the
     friction forces' effect on the pressures is of order mu; measured rates in docs/howto/friction.md); where it is
-    not (``max_iterations`` of the law reached, or an iterate declined) the finish declines."""
+    not (``max_iterations`` of the law reached, or an iterate declined) the finish declines. The answer's
+    ``fixed_point`` is this fixed point's relative changes (then :func:`_coulomb_tangency`'s after them, where
+    that one answers), not the interior point's."""
     tol, most = problem.rows.fixed_point
     capacity = problem.capacities(raw.y)
     start, changes = None, []
@@ -438,7 +443,9 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
                  changes[-1])
         if changes[-1] <= tol or (changes[-1] <= COULOMB_ROUNDING and len(changes) > 1
                                   and changes[-1] > 0.9 * changes[-2]):
-            return _coulomb_tangency(problem, trial, timings, new, tol, most) if _cut(problem, trial) else trial
+            trial.fixed_point = tuple(changes)
+            return _coulomb_tangency(problem, trial, timings, new, tol, most,
+                                     before=trial.fixed_point) if _cut(problem, trial) else trial
         segment, t, y = trial.points                  # the next iterate starts from these points and forces
         capacity, start = new, replace(trial, y=y)
     return Declined(Stop.MAX_ITER, f"Coulomb's fixed point on the cut points' capacities changed them by "

@@ -69,7 +69,9 @@ class SolveInfo:
         "pardiso", :mod:`cvxcontact.backends.factor`); "" if no body was factorised.
     fixed_point : tuple of float
         Coulomb friction: the relative change of the friction capacities at each iteration of the fixed point
-        (docs/howto/friction.md, "Coulomb"; its length is the number of iterations); () otherwise.
+        that produced the answer (docs/howto/friction.md, "Coulomb"; its length is the number of iterations):
+        the exact finish's where it ran one (the P2 cones' cut points, then their tangency points), else the
+        interior point's (a finish on Coulomb's own law, or a declined one); () otherwise.
     released : bool
         True if the condensed route freed some body's factorisation once its interface stiffness was taken (memory
         short, :mod:`cvxcontact.backends.budget`) and re-made its interior factorisation for the back-substitution

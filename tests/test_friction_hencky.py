@@ -3,6 +3,8 @@ sequential quadratic steps on the nonlinear (26) (cvxcontact/backends/friction.p
 a yielding uniform layer's closed form, the frictionless Hencky answer of the Newton route as the threshold
 vanishes, the friction law read off the answer, and the interior point's answer."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -177,3 +179,20 @@ def test_a_vanishing_threshold_under_the_p2_cones_is_the_frictionless_hencky_ans
     plain = cc.solve(indented(), "gamma3", degree=2)
     assert sol.ok and sol.polished and plain.ok and plain.polished
     assert rel(sol.u[0], plain.u[0]) <= 1e-10
+
+
+@pytest.mark.numerics
+def test_a_sheared_hencky_block_under_the_p2_cones_keeps_the_law_or_is_flagged():
+    """The block sheared until it yields at its corners, Tresca 0.6 P, under "gamma3" with degree=2: the interior
+    point stops at its iteration cap (optimal_inaccurate) and the finish's active-set steps cycle from it (measured:
+    declined, equilibrium 1.0e-1). Whichever answer comes back, it is never reported ok while breaking the law: an
+    ok answer keeps every nodal shear force within its capacity, else it is flagged (not polished, a reason)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        sol = cc.solve(sheared_block(cc.Tresca(0.6e8)), "gamma3", degree=2)
+    c = sol.contact
+    capacity = c.threshold * c.slip_measure
+    if sol.ok:
+        assert sol.polished and (np.abs(c.shear_force) - capacity).max() <= 1e-12 * capacity.max()
+    else:
+        assert not sol.polished and sol.info.declined

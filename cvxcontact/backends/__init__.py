@@ -201,10 +201,11 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 
 def _full_accepts(p: ProblemDescription) -> bool:
     # a non-quadratic bulk energy: Signorini rows, and the P2 cones alone (their finish: Newton at the tangency
-    # points on the nonlinear (26), else the cuts on it, cones.finish_bulk), and a friction law on nodal rows
-    # (its finish by sequential quadratic steps); not a compliance law (its routes finish on Kuu), nor a friction
-    # law beside the P2 cones (their finish on the nodes solves systems of Kuu: REFUSALS)
-    return p.quadratic_energy or not (p.compliant or (p.friction and p.conic))
+    # points on the nonlinear (26), else the cuts on it, cones.finish_bulk), and a friction law on nodal rows or
+    # beside the 2D P2 cones (its finish by sequential quadratic steps, then Newton at the tangency points on the
+    # nonlinear (26)); not a compliance law (its routes finish on Kuu), nor a friction law beside the 3D P2 cones
+    # (REFUSALS)
+    return p.quadratic_energy or not (p.compliant or (p.friction and p.conic and p.dim == 3))
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
@@ -270,17 +271,17 @@ class Refusal:
 
 
 REFUSALS: tuple[Refusal, ...] = (
-    Refusal(lambda p: p.friction and p.conic and not p.quadratic_energy,
+    Refusal(lambda p: p.friction and p.conic and not p.quadratic_energy and p.dim == 3,
             "a friction law (cc.Tresca, cc.Coulomb) beside a non-quadratic bulk energy (a Hencky material) under "
-            "the degree-2 cones (condition \"gamma3\" with degree=2) is not available: the cones' friction finish "
-            "on the nodes and cut points solves systems of the linear stiffness, so the interior point's answer "
-            "would stay unfinished (measured: equilibrium 4e-2 of the loads where the body never yields); use the "
-            "nodal conditions (\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, or a "
-            "linear material (cc.materials.isotropic) under \"gamma3\""),
+            "the 3D degree-2 cones (condition \"gamma3\" with degree=2 on tetrahedra or hexahedra) is not "
+            "available: the interior point of its program fails (measured: Coulomb on a sheared layer, the solver "
+            "stops) and no Newton at the tangency points finishes the 3D friction rows; use the nodal conditions "
+            "(\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, a linear material "
+            "(cc.materials.isotropic) under \"gamma3\", or the 2D P2 cones"),
 )
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
 problem (a backend registered later that solves it lifts it). Row 36: friction beside a non-quadratic energy under
-the degree-2 cones.
+the 3D degree-2 cones (the 2D ones are solved by the full route: :func:`~cvxcontact.backends.friction.conic_full`).
 (Row 35, the 3D P2 copositive cones beside a non-quadratic energy, is solved by the full route:
 :func:`~cvxcontact.backends.cones.finish_bulk`.)"""
 

@@ -59,7 +59,7 @@ from .finish import Declined, Stop, force_displacements, ipm_active, reach_force
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows, solve_friction
 from .full import ContactModel, mixed_kkt
-from .mixed import mixed_system, stacked, unstacked
+from .mixed import HeldEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
@@ -337,7 +337,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
-    if problem.slip_components != 1 or not problem.quadratic:
+    if problem.slip_components != 1:
         return None
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
@@ -355,6 +355,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     sign = np.where(stuck, 0.0, np.sign(slip))
     kkt = mixed_kkt(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
     A, F, G, n = sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float), sp.csr_matrix(kkt.rows), len(x0)
+    op = mixed_system(problem)[0]           # a non-quadratic energy: Newton on the nonlinear (26) (its gradient)
     B, C = problem.lines.cone[0], max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
     mu = trial.tangential.reshape(1, R)[0, rows]
     beta, points = trial.beta, trial.points
@@ -365,7 +366,8 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
                               rhs=np.concatenate([F - S.T @ force, -s0[stuck]]),
                               rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
         out = tangency_newton(aug, B, problem.g, beta, np.concatenate([x0, mu[stuck]]), held=problem.held_rows,
-                              tol=MIXED_CUT_TOL, departure=problem.departure, points=points)
+                              tol=MIXED_CUT_TOL, departure=problem.departure, points=points,
+                              energy=None if op.linear else HeldEnergy(op, S.T @ force, held, s0[stuck]))
         if isinstance(out, Declined):
             log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
             timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
@@ -390,8 +392,9 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     x = x0
     y = np.asarray(out["nodal"], dtype=float)
-    balance = A @ x + G.T @ y + S.T @ mu - F                   # (26) with the answer's own forces
-    size = abs(A) @ np.abs(x) + np.abs(F) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
+    inner, terms = (A @ x - F, abs(A) @ np.abs(x) + np.abs(F)) if op.linear else (op.gradient(x), op.magnitude(x))
+    balance = inner + G.T @ y + S.T @ mu                       # (26) with the answer's own forces
+    size = terms + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
     if (np.abs(balance) > BALANCE_ROUNDING * max(float(size.max(initial=0.0)), np.finfo(float).tiny)).any():
         log.info("the Newton at the tangency points after the friction cuts: its forces do not balance (26)")
         return None

@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
+__all__ = ["HeldEnergy", "MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
 
 
 class MixedEnergy:
@@ -128,6 +128,32 @@ class MixedEnergy:
             if len(mats) == 1 and not self.width:               # one body: its block itself (no copy)
                 return sp.csr_matrix(mats[0])
         return sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width), format="csr")
+
+
+class HeldEnergy:
+    """A :class:`MixedEnergy` ``energy`` with a constant load and linear equality rows appended, on the unknowns
+    z = [x; m] (m the rows' multipliers): the saddle energy L(x) + load^T x + m^T (H x + h), whose gradient is
+    [grad L(x) + load + H^T m; H x + h] and tangent [[Hess L(x), H^T], [H, 0]]. The stick-slip partition of
+    Tresca's law in 2D posed on the nonlinear (26) (:func:`~cvxcontact.backends.friction._tangency_polish`): the
+    slipping rows' forces c_a sign(s_a) are the load S^T f, the stuck rows' slips S_a x + s0_a = 0 the rows ``H``
+    (h = s0), their multipliers the stuck rows' tangential forces. ``gradient``, ``tangent``, ``magnitude`` as
+    :class:`MixedEnergy`'s (what :func:`~cvxcontact.backends.tangency.tangency_newton` reads)."""
+
+    def __init__(self, energy: MixedEnergy, load: np.ndarray, H, h: np.ndarray):
+        self.energy, self.load, self.H, self.h = energy, np.asarray(load, dtype=float), sp.csr_matrix(H), h
+        self.n, self.linear = len(self.load), energy.linear
+
+    def gradient(self, z) -> np.ndarray:
+        x, m = z[:self.n], z[self.n:]
+        return np.concatenate([self.energy.gradient(x) + self.load + self.H.T @ m, self.H @ x + self.h])
+
+    def tangent(self, z) -> sp.csr_matrix:
+        return sp.bmat([[self.energy.tangent(z[:self.n]), self.H.T], [self.H, None]], format="csr")
+
+    def magnitude(self, z) -> np.ndarray:
+        x, m = z[:self.n], z[self.n:]
+        return np.concatenate([self.energy.magnitude(x) + np.abs(self.load) + abs(self.H).T @ np.abs(m),
+                               abs(self.H) @ np.abs(x) + np.abs(self.h)])
 
 
 def mixed_system(problem):

@@ -31,10 +31,10 @@ cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`fi
 cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
 stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
 
-The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`)
-is then finished exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own
-law, the capacities those of the finished forces), or kept where the finish is declined; checked
-(:mod:`cvxcontact.solution.friction`).
+The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`;
+beside a Hencky body the bulk cones', :data:`~cvxcontact.backends.program.CLARABEL_BULK_CONES`) is then finished
+exactly (:func:`exact_finish`, :mod:`cvxcontact.backends.finish.friction`; Coulomb: on its own law, the capacities
+those of the finished forces), or kept where the finish is declined; checked (:mod:`cvxcontact.solution.friction`).
 """
 
 from __future__ import annotations
@@ -477,7 +477,9 @@ def _interior(problem, settings, timings, normal):
     model = problem.term.program(problem)              # the normal rows or cones (the term's program)
     program, constraint, rows, capacity, s, friction = friction_program(problem, model)
     timings["model"] = time.perf_counter() - t0
-    options = conic_options(settings.solver, settings.options)
+    # beside a non-quadratic energy the bulk cones' settings (equilibrated): the conic ones stalled there, Clarabel
+    # ended InsufficientProgress (SolverError) on Coulomb's first program of a yielding P2 block (sigma1, sigma2)
+    options = conic_options(settings.solver, settings.options, quadratic=problem.quadratic)
     n_c = problem.slip_components
 
     def answer():

@@ -24,7 +24,13 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from .cuts import accumulate_cuts, point_read_back, seed_forces, seed_points
+from .cuts import (
+    accumulate_cuts,
+    nodal_slack,
+    point_read_back,
+    seed_forces,
+    seed_points,
+)
 from .finish import Declined, Stop, independent_active_set, row_reach
 from .full import mixed_kkt
 from .mixed import mixed_system, stacked, tangent_blocks, unstacked
@@ -124,11 +130,8 @@ def finish_cuts_bulk(problem, timings, raw, seeds=None) -> bool:
                                         f"relative residual {res:.1e} of the nonlinear (26)")
                 return None
         state.update(x=x, y=y)
-        slack = G @ x - g
-        scale = reach @ np.abs(x) + np.abs(g)
-        scale = np.where(held, np.abs(g), scale)
-        scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
-        return y, np.where(held, np.minimum(slack, 0.0), slack), scale, x, active
+        slack, scale = nodal_slack(G @ x - g, reach @ np.abs(x) + np.abs(g), g, held)
+        return y, slack, scale, x, active
 
     out = accumulate_cuts(B, solve, segment, t, width=width, tol=BULK_CUT_TOL, departure=problem.departure,
                           accept=BULK_ACCEPT_TOL)

@@ -17,7 +17,7 @@ from .compliance import newton, program_penetration
 from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .bulkcuts import finish_cuts_bulk
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
-                   point_duals, point_read_back, seed_forces, seed_points, segment_scales)
+                   nodal_slack, point_duals, point_read_back, seed_forces, seed_points, segment_scales)
 from .finish import Declined, Stop, independent_active_set, row_reach
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
@@ -379,11 +379,8 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None, keep: dic
         taus = list(x[3]) if tr else []
         parts = [J @ uk for J, uk in zip(jumps, x[0])]
         moved = sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g)))
-        slack = sum(parts) + moved - g
-        scale = reach @ np.abs(kkt.stack(x)) + np.abs(g)
-        scale = np.where(held, np.abs(g), scale)
-        scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
-        return y, np.where(held, np.minimum(slack, 0.0), slack), scale, (x, taus), active
+        slack, scale = nodal_slack(sum(parts) + moved - g, reach @ np.abs(kkt.stack(x)) + np.abs(g), g, held)
+        return y, slack, scale, (x, taus), active
 
     segment, t = seed_points(B, raw.beta, width=width)
     departure = problem.departure

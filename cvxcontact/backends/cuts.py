@@ -164,6 +164,17 @@ def segment_scales(B, U, width: int = 3) -> np.ndarray:
     return node.reshape(-1, width).max(axis=1)
 
 
+def nodal_slack(slack, size, g, held=None) -> tuple[np.ndarray, np.ndarray]:
+    """(slack, scale) of a round's nodal rows as ``solve`` of :func:`accumulate_cuts` returns them: ``size``
+    (each row's reach of the displacements plus |g|) floored at 1e-9 of the largest; a row of ``held`` (a
+    support's, :attr:`~cvxcontact.discrete.DiscreteProblem.held_rows`) scaled by |g| alone and its slack counted
+    only where it penetrates."""
+    g = np.abs(g)
+    if held is not None:
+        size, slack = np.where(held, g, size), np.where(held, np.minimum(slack, 0.0), slack)
+    return slack, np.maximum(size, 1e-9 * size.max(initial=0.0) + np.finfo(float).tiny)
+
+
 def accumulate_cuts(B, solve, segment, t, max_rounds: int = 40, tol: float = CUT_TOL, width: int = 3,
                     departure=None, accept: float | None = None):
     """The loop of the module docstring (stopping at ``tol``, or at ``STALL_TOL`` once the violation no longer

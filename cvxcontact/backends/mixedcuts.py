@@ -20,7 +20,13 @@ import scipy.sparse as sp
 
 from ..contact.laws import RowLaws, Signorini
 from .compliance import _mixed_system, dependent_newton
-from .cuts import accumulate_cuts, point_read_back, seed_forces, seed_points
+from .cuts import (
+    accumulate_cuts,
+    nodal_slack,
+    point_read_back,
+    seed_forces,
+    seed_points,
+)
 from .finish import Declined, Stop
 from .mixed import stacked, unstacked
 from .result import Finish
@@ -74,9 +80,7 @@ def finish_cuts_compliance(problem, timings, raw, B) -> bool:
             return None
         x, _, z = out[:3]
         state.update(x=x, z=z[:len(rows)], y=z[len(rows):])
-        slack = G @ x - g - shift
-        scale = absG @ np.abs(x) + np.abs(g)
-        scale = np.maximum(scale, 1e-9 * scale.max(initial=0.0) + np.finfo(float).tiny)
+        slack, scale = nodal_slack(G @ x - g - shift, absG @ np.abs(x) + np.abs(g), g)
         return state["y"], slack, scale, (x, z), state["y"] > 0
 
     out = accumulate_cuts(B, solve, segment, t, width=width, tol=MIXED_CUT_TOL)

@@ -67,13 +67,6 @@ BULK_STEPS = 30
 """The most sequential quadratic steps of one round; a round that does not reach :data:`BULK_STALL_TOL` declines."""
 
 
-def _residual(op, GP, x, y) -> float:
-    """max_i |grad L(x) + GP^T y|_i / (magnitude(x) + |GP^T| |y|)_i: the relative residual of the nonlinear (26)."""
-    r = op.gradient(x) + GP.T @ y
-    size = op.magnitude(x) + abs(GP).T @ np.abs(y)
-    return float((np.abs(r) / np.maximum(size, np.finfo(float).tiny)).max(initial=0.0))
-
-
 def finish_cuts_bulk(problem, timings, raw, seeds=None) -> bool:
     """The finish of the module docstring from a solved cone program ``raw`` beside a non-quadratic energy (scaled:
     its fields and translations, the start of the steps, and its Bernstein duals ``raw.beta``, whose tangency points
@@ -120,7 +113,7 @@ def finish_cuts_bulk(problem, timings, raw, seeds=None) -> bool:
             state["steps"] += 1
             x = stacked(fields[0], fields[1], list(fields[3]) if tr else ())
             y = fields[2]
-            res = _residual(op, GP, x, y)
+            res = op.residual(x, (GP, y))
             if res <= BULK_RESIDUAL_TOL or (res <= BULK_STALL_TOL and res > 0.5 * last):
                 break
             last = res

@@ -343,9 +343,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)
     rows = np.flatnonzero(problem.rows.frictional)
-    Es = problem.slip_rows[rows]
-    S = sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(rows), 0 if b.Kpp is None else b.Kpp.shape[0]))])
-                   for b in problem.blocks] + [sp.csr_matrix((len(rows), w)) for w in widths]).tocsr()
+    S = _slip_matrix(problem, rows, widths)
     s0 = prescribed_row_slip(problem)[rows]
     x0 = stacked(trial.u, trial.phi, trial.taus)
     U = float(np.abs(x0).max(initial=0.0))
@@ -529,7 +527,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     points), else ``raw`` (whose energy the finish's may not exceed either way). ``capacity`` (R,): the friction
     capacities to finish at (scaled; Tresca's law at them), instead of the law's (:func:`_coulomb_cuts`)."""
     t0 = time.perf_counter()
-    E, blocks = problem.E, problem.blocks
+    E = problem.E
     op, G, widths = mixed_system(problem)
     first = raw if start is None else start
     g, free, y0, dependent = problem.g, ~problem.held_rows, first.y, False
@@ -541,9 +539,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     R, n_c = E.shape[0], problem.slip_components
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
-    Es = problem.slip_rows[order]
-    S = sp.hstack([sp.hstack([Es @ b_.slip, sp.csr_matrix((len(order), 0 if b_.Kpp is None else b_.Kpp.shape[0]))])
-                   for b_ in blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
+    S = _slip_matrix(problem, order, widths)
     c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
     slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
     fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], slope[rows], n_c,
@@ -620,15 +616,22 @@ def _sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
         steps += k
         c = fr.capacity(y)
         key = (closed.tobytes(), (c - np.linalg.norm(mu, axis=1) > 1e-9 * scales[0]).tobytes())
-        r = op.gradient(x) + G.T @ y + fr.S.T @ mu.ravel()
-        size = op.magnitude(x) + abs(G).T @ np.abs(y) + abs(fr.S).T @ np.abs(mu.ravel())
-        res = float((np.abs(r) / np.maximum(size, np.finfo(float).tiny)).max(initial=0.0))
+        res = op.residual(x, (G, y), (fr.S, mu.ravel()))
         log.info("friction finish, sequential quadratic step: relative residual %.1e", res)
         if (res <= SEQUENTIAL_TOL and key == seen) or (res <= BULK_STALL_TOL and res > 0.5 * last):
             return x, y, mu, closed, steps
         seen, last = key, res
     return Declined(Stop.MAX_ITER, f"the sequential quadratic steps of the friction finish stopped at a relative "
                     f"residual {res:.1e} of the nonlinear (26)")
+
+
+def _slip_matrix(problem, order, widths):
+    """The slips of the friction rows' components ``order`` (row a, component j at a n_c + j) as rows on the
+    stacked unknowns x = (u, phi, taus) of :func:`~cvxcontact.backends.mixed.stacked` (``widths``: the
+    translations'; 0 on phi and on them): (len(order), len(x)), CSR."""
+    Es = problem.slip_rows[order]
+    return sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(order), 0 if b.Kpp is None else b.Kpp.shape[0]))])
+                      for b in problem.blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
 
 
 def _shared(problem, G, S, rows) -> bool:

@@ -90,6 +90,16 @@ class MixedEnergy:
             parts += [b.bulk.rounding(u)] + ([] if p is None else [np.zeros(len(p))])
         return np.concatenate(parts + [np.zeros(self.width)])
 
+    def residual(self, x, *forces) -> float:
+        """The relative residual of the nonlinear (26) at ``x`` with the row forces ``forces`` ((M, f) pairs: the
+        rows M on x and their forces f): max_i |gradient(x) + sum M^T f|_i over the sizes of its terms,
+        magnitude(x) + sum |M|^T |f| (0 at the answer, rounding of its terms at best)."""
+        r, size = self.gradient(x), self.magnitude(x)
+        for M, f in forces:
+            r = r + M.T @ f
+            size = size + abs(M).T @ np.abs(f)
+        return float((np.abs(r) / np.maximum(size, np.finfo(float).tiny)).max(initial=0.0))
+
     def tangent(self, x, secant: bool = False) -> sp.csr_matrix:
         """The derivative of :meth:`gradient` at ``x``; ``secant``: with the bodies' secant stiffness instead
         (:meth:`~cvxcontact.discrete.energy.BulkEnergy.hessian`; the same for a linear material)."""

@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 from .factor import Factorization, Forward, Released, factorize, resolve
 
-__all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "node_order",
+__all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "contact_dofs", "node_order",
            "quasi_definite", "quasi_definite_rhs"]
 
 def node_order(mesh) -> np.ndarray:
@@ -121,6 +121,11 @@ def quasi_definite_rhs(block):
     return block.f if block.Kpp is None else np.concatenate([block.f, -block.q])
 
 
+def contact_dofs(block) -> np.ndarray:
+    """The Gamma dofs of a body's scaled ``block``: the columns of its jump map touching [u_nu] (sorted)."""
+    return np.flatnonzero(np.diff(block.jump.tocsc().indptr))
+
+
 def condense(block, system, mesh, factorization: str = "auto", threads: int | None = None,
              held: bool = False, budget=None) -> CondensedBody:
     """Factorise one body with its Gamma dofs as the Schur block and extract Sigma (module docstring).
@@ -143,7 +148,7 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
     """
     S, F = quasi_definite(block)
     n_u = block.Kuu.shape[0]
-    gamma = np.flatnonzero(np.diff(block.jump.tocsc().indptr))              # columns touching [u_nu]
+    gamma = contact_dofs(block)
     shift = np.zeros(len(gamma))
     if held:
         shift = np.abs(S.diagonal()[gamma])

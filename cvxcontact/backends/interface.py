@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from .budget import Budget
-from .condensed import Compliance, condense, quasi_definite_rhs
+from .condensed import Compliance, condense, contact_dofs, quasi_definite_rhs
 from .conic import least_held_duals
 from .factor import Released
 
@@ -35,8 +35,7 @@ class Condensation:
         t0 = time.perf_counter()
         held = [bool(getattr(b, "held_by_contact", None)) for b in problem.scene.bodies]
         blocks = list(problem.blocks)
-        budget = Budget([_nonzeros(b) for b in blocks], [np.count_nonzero(np.diff(b.jump.tocsc().indptr))
-                                                          for b in blocks])
+        budget = Budget([_nonzeros(b) for b in blocks], [len(contact_dofs(b)) for b in blocks])
         self.bodies = [condense(b, s, m, settings.factorization, held=h, budget=budget)   # held: forced.py only
                        for b, s, m, h in zip(blocks, problem.matrices, problem.meshes, held)]
         # a body held by the contact only has a singular Sigma: no compliance (backends/forced.py does without)

@@ -331,6 +331,20 @@ def _key(state) -> tuple:
     return closed.tobytes(), stuck.tobytes(), bytes(turn)
 
 
+def _step(system, w, state):
+    """The semismooth Newton step from ``w`` on the active set ``state`` (its Jacobian's sparse LU,
+    :func:`~cvxcontact.backends.factor.superlu`: none on a structurally singular one), or None where that
+    Jacobian is singular or the step not finite."""
+    frozen = system.frozen(w, state)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", spla.MatrixRankWarning)
+            dw = superlu(system.jacobian(state, frozen)).solve(system.step_rhs(w, state, frozen))
+    except (RuntimeError, spla.MatrixRankWarning):
+        return None
+    return dw if np.isfinite(dw).all() else None
+
+
 PIVOTS = 1
 """The single-row changes of :func:`_pivots` at most, per row (normal and friction rows; plus 10): each is a sparse
 LU. Measured: the tilted block settles within it; where it does not (the 2D pair of non-matching lines, the tilted
@@ -349,14 +363,8 @@ def _pivots(system, w, solved, most: int):
     None."""
     R = len(system.g)
     for k in range(1, most + 1):
-        frozen = system.frozen(w, solved)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", spla.MatrixRankWarning)
-                dw = spla.splu(system.jacobian(solved, frozen)).solve(system.step_rhs(w, solved, frozen))
-        except (RuntimeError, spla.MatrixRankWarning):
-            return None
-        if not np.isfinite(dw).all():
+        dw = _step(system, w, solved)
+        if dw is None:
             return None
         w = w + dw
         state = system.state(w)
@@ -412,15 +420,8 @@ def _steps(system, w, max_steps: int):
     merit = np.linalg.norm(system.residual(w, state))
     seen, settled, stalled = set(), False, 0
     for steps in range(1, max_steps + 1):
-        frozen = system.frozen(w, state)
-        J = system.jacobian(state, frozen)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", spla.MatrixRankWarning)
-                dw = superlu(J).solve(system.step_rhs(w, state, frozen))
-        except (RuntimeError, spla.MatrixRankWarning):
-            return Declined(Stop.SINGULAR)
-        if not np.isfinite(dw).all():
+        dw = _step(system, w, state)
+        if dw is None:
             return Declined(Stop.SINGULAR)
         key, solved = _key(state), state
         alpha, trial = 1.0, None

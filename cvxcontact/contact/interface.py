@@ -18,8 +18,8 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "shares_to_nearest", "canonical_tangent", "row_directions",
-           "row_tangents", "row_frames"]
+__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "shares_to_nearest", "canonical_tangent",
+           "row_directions", "row_tangents", "row_frames"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""

@@ -203,14 +203,30 @@ def test_a_p2_pair_under_sigma1_in_partial_slip_is_finished():
     assert r["friction cone"] < 1e-12 and r["slip direction"] < 1e-12                    # measured 2.3e-16, 0
 
 
-def test_p2_friction_on_rows_forming_no_p2_mesh_is_refused_naming_friction():
-    """Under "sigma1" the upper block's first P2 node in the overlap is a midpoint: its rows form no P2 mesh for the
-    law's weights. The refusal names friction among the laws concerned, the other sigma condition and 'gamma3'
-    (friction under 'gamma3' with P2: tests/test_friction_p2_gamma3.py)."""
+def _overhang(q, g):
+    """A block (1 m x 0.5 m, 4 x 2 cells) under (q, -p) on its top, held by the contact only, over a clamped block on
+    [0.1, 1] (3 x 2 cells), Tresca's g between them under "sigma1": the upper trace's first P2 node in the overlap
+    is the midpoint 0.125, its rows begin inside a segment."""
     mat = cc.materials.isotropic(E=E, nu=0.0)
-    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, clamped=["top"], contact="bottom")
+    upper = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=4, ny=2), mat, contact="bottom", traction={"top": (q, -P)})
     lower = cc.Body(cc.rectangle(x=(0.1, 1.0), y=(-0.5, 0), nx=3, ny=2), mat, clamped=["bottom"], contact="top")
-    scene = cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", gap=-1e-5)])
-    with pytest.raises(cc.UnsupportedError, match="friction") as info:
-        cc.solve(scene, "sigma1", degree=2, law=cc.Tresca(1e6))
-    assert "the other sigma condition" in str(info.value) and "or 'gamma3'" in str(info.value)
+    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=cc.Tresca(g),
+                                                       condition="sigma1")])
+
+
+@pytest.mark.numerics
+def test_p2_friction_on_rows_beginning_inside_a_segment_has_the_overlaps_capacity():
+    """Under "sigma1" the upper block's first P2 node in the overlap [0.1, 1] is a midpoint (docs/refusals.md row 4):
+    the rows' weights are Simpson's on the segments inside and the red refinement's hats over the overlap on the
+    segment it cuts, positive and summing to the overlap's length 0.9 m, so the capacity is g times it: a net shear
+    2 % above it is refused naming 0.9 g, 2 % below it the block holds, the shear forces balancing q L (measured
+    4.5e-14) with the friction conditions at rounding."""
+    g = 1e6
+    with pytest.raises(cc.SceneError, match=r"918000 N/m, exceeds the friction capacity 900000 N/m"):
+        cc.solve(_overhang(1.02 * 0.9 * g, g), degree=2)
+    q = 0.98 * 0.9 * g
+    sol = cc.solve(_overhang(q, g), degree=2)
+    assert sol.ok and sol.polished
+    assert abs(sol.contact.shear_force.sum() + q * L) < 1e-11 * q * L
+    r = sol.residuals()
+    assert r["friction cone"] < 1e-12 and r["slip direction"] < 1e-12 and r["equilibrium"] < 1e-11

@@ -18,8 +18,8 @@ import scipy.sparse as sp
 
 from ..errors import SceneError
 
-__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "canonical_tangent", "row_directions",
-           "row_tangents", "row_frames"]
+__all__ = ["Interface", "Stack", "CONDITIONS", "lumped_lengths", "shares_to_nearest", "canonical_tangent",
+           "row_directions", "row_tangents", "row_frames"]
 
 CONDITIONS = ("gamma3", "sigma1", "sigma2")
 """K_h(Gamma_3): [u_nu] <= 0 at every merged node; K_h(Sigma_h^l): at the nodes of mesh l."""
@@ -412,6 +412,25 @@ def lumped_lengths(x) -> np.ndarray:
     w[:-1] += h / 2
     w[1:] += h / 2
     return w
+
+
+def shares_to_nearest(shares, inside, points) -> np.ndarray:
+    """(len(inside),) the weights of the rows at the nodes ``inside`` (indices into ``shares``) when every other
+    node with a positive share gives it to the nearest node of ``inside`` (``points`` (n, d) the nodes'
+    coordinates; ``shares`` (n,) e.g. the integrals over the overlap of the hats of the faces or segments its edge
+    cuts, m^2 or m). The sum of ``shares`` is kept, so a constant stays integrated exactly (docs/formulation.md
+    §10, §15). The one rule of the nodal weights where an overlap's edge cuts the cells of a sigma condition's
+    body: 2D P2 segments (:meth:`~cvxcontact.contact.quadratic.QuadraticInterface.weights`) and 3D P2 faces
+    (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface._overlap_hats`)."""
+    from scipy.spatial import cKDTree
+
+    shares, inside = np.asarray(shares, dtype=float), np.asarray(inside, dtype=int)
+    points = np.asarray(points, dtype=float).reshape(len(shares), -1)
+    out = np.setdiff1d(np.flatnonzero(shares > 0), inside)
+    if len(out) == 0:
+        return shares[inside]
+    nearest = cKDTree(points[inside]).query(points[out])[1]
+    return shares[inside] + np.bincount(nearest, weights=shares[out], minlength=len(inside))
 
 
 def _merge(x1, x2, lo, hi, tol):

@@ -29,7 +29,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SceneError, UnsupportedError
 from ..geometry.quadratic import P2Nodes
 from .bernstein import bernstein_argmax, bernstein_basis, bernstein_map, bernstein_max, point_rows  # noqa: F401
-from .interface import CONDITIONS, Interface, normal_jump, read_only, row_directions, row_tangents
+from .interface import CONDITIONS, Interface, normal_jump, read_only, row_directions, row_tangents, shares_to_nearest
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
@@ -106,8 +106,9 @@ class QuadraticInterface:
         # nodes of each trace inside the overlap, as points of X_h: the rows of E for K_h(Sigma_h^l)
         tol = 1e-9 * max(t.body.mesh.size for t in linear.traces)
         lo, hi = xv[0], xv[-1]
-        self.sigma_x = tuple(read_only(np.clip(t.x[(t.x >= lo - tol) & (t.x <= hi + tol)], lo, hi))
-                             for t in self.traces)
+        inside = [np.flatnonzero((t.x >= lo - tol) & (t.x <= hi + tol)) for t in self.traces]
+        self._sigma_at = tuple(read_only(at) for at in inside)        # their indices in the interleaved trace
+        self.sigma_x = tuple(read_only(np.clip(t.x[at], lo, hi)) for t, at in zip(self.traces, inside))
 
 
     @property
@@ -146,40 +147,66 @@ class QuadraticInterface:
         return p2_interpolation(self.xv, self.sigma_x[int(condition[-1]) - 1])
 
     def weights(self, condition) -> np.ndarray:
-        """The quadrature weights (m) of a normal-compliance energy on the rows of :meth:`evaluation`
-        (docs/formulation.md §10): the row sums of the 1D P2 mass matrix of the mesh the constrained nodes
-        form (Simpson: h/6 at each end vertex of a segment, 2h/3 at its midpoint; all positive). ``"gamma3"``:
-        the merged P2 mesh; ``"sigma1"``/``"sigma2"``: that body's P2 trace nodes inside the overlap, which
-        must begin and end at a vertex of that trace (else UnsupportedError: the overlap ends inside a
-        segment of it, at or before its midpoint, and those nodes form no P2 mesh)."""
+        """The quadrature weights (m) of a law weighted on the rows of :meth:`evaluation` (normal compliance,
+        friction's capacities; docs/formulation.md §10), all positive, summing to the length of the overlap.
+        ``"gamma3"`` (and an obstacle): the row sums of the P2 mass matrix of the merged P2 line (Simpson: h/6 at
+        each end vertex of a segment, 2h/3 at its midpoint). ``"sigma1"``/``"sigma2"``: Simpson's on the
+        segments of that body's trace with all three nodes in the overlap; on a segment the overlap's end cuts
+        (some of its nodes outside), its red refinement (the segment split at its midpoint into two P1 segments)
+        with the P1 hats integrated over the overlap, a node outside giving its share to the nearest node inside
+        (:func:`~cvxcontact.contact.interface.shares_to_nearest`, the rule of the 3D faces'
+        :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface._cut_weights`). Where no node of that trace lies
+        in the overlap the law has no row: UnsupportedError."""
         xc = self._constrained(condition)
-        return np.asarray(_mass(xc[0::2]).sum(axis=1)).ravel()
+        if condition == "gamma3" or self.rigid:
+            return np.asarray(_mass(xc[0::2]).sum(axis=1)).ravel()
+        k = int(condition[-1]) - 1
+        at, xc = self._sigma_at[k], self.sigma_x[k]
+        a, b = at[0] % 2, len(at) - 1 - at[-1] % 2               # the run's first and last vertex
+        w = np.zeros(len(at))
+        if b > a:                                                # the segments with all three nodes inside
+            w[a:b + 1] = np.asarray(_mass(xc[a:b + 1:2]).sum(axis=1)).ravel()
+        x = np.array(self.traces[k].x, dtype=float)
+        x[at] = xc
+        pieces = np.setdiff1d(np.arange(len(x) - 1), np.arange(at[a], at[b])) if b > a else np.arange(len(x) - 1)
+        hats = _overlap_hats(x, pieces, self.xv[0], self.xv[-1])
+        return w + shares_to_nearest(hats, at, x)
 
     def extend(self, condition, values) -> np.ndarray:
-        """The P2 function of the mesh of the constrained nodes under ``condition`` (:meth:`weights`) with
-        nodal ``values`` there, evaluated at every node of X_h (constant beyond its end nodes)."""
+        """The function of the constrained nodes under ``condition`` (:meth:`weights`) with nodal ``values``
+        there, evaluated at every node of X_h: under "sigma1"/"sigma2" the P2 function of the mesh they form
+        (constant beyond its end nodes) if they begin and end at vertices of that body's trace, else that trace's
+        P2 function with its nodes outside the overlap taking the value of the nearest node inside (as on 3D
+        faces, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.extend`)."""
         values = np.asarray(values, dtype=float)
         if condition == "gamma3" or self.rigid:
             return values.copy()
         xc = self._constrained(condition)
-        return p2_interpolation(xc[0::2], np.asarray(self.x)) @ values
+        if xc is not None:
+            return p2_interpolation(xc[0::2], np.asarray(self.x)) @ values
+        k = int(condition[-1]) - 1
+        at = self._sigma_at[k]
+        nearest = np.clip(np.arange(len(self.traces[k].x)) - at[0], 0, len(at) - 1)    # the run is contiguous
+        return self._interp[k] @ values[nearest]
 
-    def _constrained(self, condition) -> np.ndarray:
-        """Abscissae of the constrained nodes of ``condition`` as an interleaved P2 mesh (:meth:`weights`)."""
+    def _constrained(self, condition) -> np.ndarray | None:
+        """Abscissae of the constrained nodes of ``condition`` if they form an interleaved P2 mesh (every node
+        of X_h; under "sigma1"/"sigma2" if that body's nodes in the overlap begin and end at vertices of its
+        trace), else None (:meth:`weights`). UnsupportedError if no node of that trace lies in the overlap."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if condition == "gamma3" or self.rigid:
             return np.asarray(self.x)
         k = int(condition[-1]) - 1
-        t, xc = self.traces[k], self.sigma_x[k]
-        first = int(np.argmin(np.abs(t.x - xc[0]))) if len(xc) else 0      # its index in the interleaved trace
-        if len(xc) < 3 or first % 2 or len(xc) % 2 == 0:
-            raise UnsupportedError(f"a law weighted on the rows (normal compliance, friction) with P2 elements "
-                                   f"(degree=2) under {condition!r}: the overlap of the pair ends inside a "
-                                   f"segment of body {k + 1}'s trace (at or before its midpoint), so its "
-                                   "constrained nodes form no P2 mesh for the law's quadrature; use the other "
-                                   "sigma condition, or 'gamma3' (every node of the merged P2 line)")
-        return xc
+        at = self._sigma_at[k]
+        if len(at) == 0:
+            raise UnsupportedError(f"a law weighted on the rows (normal compliance, friction) under {condition!r} "
+                                   f"with P2 elements (degree=2): no P2 node of body {k + 1}'s trace lies in the "
+                                   "overlap of the pair, so the law has no row to sit on; use the other sigma "
+                                   "condition, or 'gamma3' (every node of the merged P2 line)")
+        if len(at) >= 3 and at[0] % 2 == 0 and at[-1] % 2 == 0:
+            return self.sigma_x[k]
+        return None
 
     def bernstein(self) -> sp.csr_matrix:
         """(3 S, size) map from nodal values of X_h to the Bernstein coefficients, rows (b0, b1, b2) of
@@ -237,7 +264,7 @@ class P2Pairs:
 def p2_pairs(scene, nodes, condition: str, law) -> P2Pairs:
     """The :class:`P2Pairs` of ``scene`` (``nodes[k]``: the P2 nodes of body k; ``condition`` and ``law``
     those given to ``solve``/``Model``, each pair's own taking precedence). A compliance law under a sigma
-    condition whose rows form no P2 mesh is refused here (UnsupportedError, :meth:`QuadraticInterface.weights`)."""
+    condition with no row in the overlap is refused here (UnsupportedError, :meth:`QuadraticInterface.weights`)."""
     interface = quadratic_stack(scene, nodes)
     stack = interface if isinstance(interface, QuadraticStack) else QuadraticStack([interface], scene.stack.members)
     conditions = [c or condition for c in scene.conditions]
@@ -245,7 +272,7 @@ def p2_pairs(scene, nodes, condition: str, law) -> P2Pairs:
     conic, limited = [], []
     for pair, cond, lw in zip(stack.interfaces, conditions, laws):
         if lw.compliant:
-            pair.weights(cond)                                   # refuses sigma rows forming no P2 mesh
+            pair.weights(cond)                                   # refuses a sigma condition with no row
         conic.append(cond == "gamma3" and not lw.compliant)      # compliance: nodal rows (§10)
         limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
     return P2Pairs(interface, stack, conditions, laws, conic, limited)
@@ -418,6 +445,20 @@ class ConeRowLaws(RowLaws):
         """The same rows in units of ``pressure`` (Pa) and ``displacement`` (m), cone flags kept."""
         return ConeRowLaws([law.scaled(pressure, displacement) if law.compliant else law for law in self.laws],
                            self.counts, self.cone)
+
+
+def _overlap_hats(x, pieces, lo, hi) -> np.ndarray:
+    """(len(x),) m: the integrals over the overlap [lo, hi] of the P1 hats of the 1D mesh with sorted nodes ``x``
+    restricted to its segments ``pieces`` (piece i from x[i] to x[i + 1]; the red refinement of a P2 line is the
+    P1 line through all its nodes): exact, the hats being affine on each piece. Non-negative; they sum to the
+    length of the overlap the pieces cover."""
+    p, q = x[pieces], x[pieces + 1]
+    c, d = np.clip(lo, p, q), np.clip(hi, p, q)
+    span = q - p
+    mid = 0.5 * (c + d - 2 * p) / np.where(span > 0, span, 1.0)          # the hat of x[i + 1] at the middle
+    length = d - c
+    return (np.bincount(pieces, weights=length * (1 - mid), minlength=len(x))
+            + np.bincount(pieces + 1, weights=length * mid, minlength=len(x)))
 
 
 def _mass(xv):

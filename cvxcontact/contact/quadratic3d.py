@@ -36,7 +36,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import SceneError
 from .bernstein import bernstein_map
-from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames
+from .interface import CONDITIONS, normal_jump, read_only, row_directions, row_frames, shares_to_nearest
 from .overlay import barycentric, locate, overlay  # noqa: F401  (locate: re-exported)
 from .riesz import Represented, TraceRiesz
 from .surface import reached_faces
@@ -358,11 +358,7 @@ class QuadraticSurface(Represented):
         if len(cover.vertices) == 0:
             return np.zeros(len(inside))
         hats = np.asarray(cover.Ia.T @ np.asarray(cover.lumped)).ravel()   # int over the overlap of each hat
-        out = np.setdiff1d(np.flatnonzero(hats > 0), inside)
-        if len(out) == 0:
-            return hats[inside]
-        nearest = cKDTree(t.x[inside]).query(t.x[out])[1]
-        return hats[inside] + np.bincount(nearest, weights=hats[out], minlength=len(inside))
+        return shares_to_nearest(hats, inside, t.x)
 
     def _rows(self, condition) -> int:
         return self.size if self.rigid or condition == "gamma3" else len(self.sigma_rows(int(condition[-1]) - 1))

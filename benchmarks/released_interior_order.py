@@ -1,4 +1,4 @@
-"""The interior factorisation a body re-makes after its factors were freed (cvxcontact.backends.factor.Released),
+"""The interior factorisation a body re-makes after its factors were freed (cvxcontact.backends.released.Released),
 without PARDISO (SuperLU): on the body's own elimination order (now) against SciPy's default order (COLAMD with
 partial pivoting, before), on ``two_boxes(n, "gamma3", elastic=False)`` (tests/scenes3d.py, piezoelectric).
 Prints per body the first factorisation's nonzeros, the re-made one's on the kept order and its CPU seconds,

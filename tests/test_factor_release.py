@@ -1,4 +1,4 @@
-"""A body's factorisation freed once its interface stiffness is taken (cvxcontact.backends.factor.Released, the
+"""A body's factorisation freed once its interface stiffness is taken (cvxcontact.backends.released.Released, the
 memory budget of cvxcontact.backends.budget): the sweeps against dense algebra, the condensed route's answers
 with the factors freed against those with them kept (the same to rounding), re-solves after a release, the
 fallback without PARDISO, and the budget's decision from the available memory."""
@@ -8,7 +8,7 @@ import pytest
 
 import cvxcontact as cc
 from cvxcontact.apps.demo import two_blocks
-from cvxcontact.backends import budget, factor
+from cvxcontact.backends import budget, factor, released
 from cvxcontact.backends.condensed import condense, quasi_definite
 from cvxcontact.discrete import Block, units
 from cvxcontact.fem.assembly import assemble
@@ -58,7 +58,7 @@ def test_released_sweeps_match_dense_solves(piezo_bodies, kind):
     for block, system, mesh in piezo_bodies:
         kept = condense(block, system, mesh, kind)
         c = condense(block, system, mesh, kind, budget=Always())
-        assert isinstance(c.factor, factor.Released) and c.factorization == kind and c.factor.remade == 0
+        assert isinstance(c.factor, released.Released) and c.factorization == kind and c.factor.remade == 0
         assert np.array_equal(c.stiffness, kept.stiffness)          # the same Schur complement
         S, F = quasi_definite(block)
         D, g = S.toarray(), c.gamma

@@ -4,7 +4,7 @@ The condensed route (:mod:`cvxcontact.backends.condensed`) factorises each body'
 contact (Gamma) dofs as a Schur block and keeps the factors for the forward and backward sweeps of every load
 case. Between the Schur complements and the final back-substitution only Sigma (dense, m x m) and the interface
 program are needed, so where memory is short each body's factors are freed right after its Sigma and its load's
-forward sweep are taken (:class:`~cvxcontact.backends.factor.Released`), and the back-substitution re-makes one
+forward sweep are taken (:class:`~cvxcontact.backends.released.Released`), and the back-substitution re-makes one
 body's interior factorisation at a time: the peak is then the larger of one body's factorisation and the interface
 program, not their sum. Small scenes keep their factors (re-solves reuse them at today's speed).
 

@@ -30,7 +30,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
-from .factor import Factorization, Forward, Released, factorize, resolve
+from .factor import Factorization, Forward, factorize, resolve
+from .released import Released
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "contact_dofs", "node_order",
            "quasi_definite", "quasi_definite_rhs"]
@@ -144,7 +145,7 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
 
     ``budget``: a :class:`~cvxcontact.backends.budget.Budget`; where it says so, the factors are freed once Sigma
     and the forward sweep of the body's load are taken (``factor`` is then a
-    :class:`~cvxcontact.backends.factor.Released`, which re-makes S_II's factorisation for each later sweep).
+    :class:`~cvxcontact.backends.released.Released`, which re-makes S_II's factorisation for each later sweep).
     """
     S, F = quasi_definite(block)
     n_u = block.Kuu.shape[0]

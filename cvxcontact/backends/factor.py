@@ -31,10 +31,8 @@ Both adapters also give the two sweeps separately (:meth:`Factorization.forward`
 :meth:`Factorization.backward`): a load case needs r (v0 = Sigma^{-1} r, g = Sigma v0 = r), and the fields
 follow from one backward sweep once the contact has fixed v.
 
-:class:`Released` is a factorisation whose adapter's factors were freed (:meth:`Factorization.free`; where memory
-is short, :mod:`cvxcontact.backends.budget`): Sigma, its Cholesky factors and one forward sweep are kept, and every
-later sweep re-makes S_II's plain factorisation (:func:`interior_solve`: PARDISO without the Schur option, else
-SuperLU), freed at once.
+:mod:`cvxcontact.backends.released` keeps what the interface needs of a factorisation whose adapter's factors
+were freed (:meth:`Factorization.free`; where memory is short, :mod:`cvxcontact.backends.budget`).
 """
 
 from __future__ import annotations
@@ -58,7 +56,7 @@ from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
            "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
-           "symmetric_lu", "Released", "interior_solve"]
+           "symmetric_lu", "PardisoInterior"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -219,7 +217,8 @@ class Factorization:
         return None
 
     def free(self) -> None:
-        """Free the adapter's factors now (:class:`Released` keeps what the interface needs)."""
+        """Free the adapter's factors now (:class:`cvxcontact.backends.released.Released` keeps what the interface
+        needs)."""
 
     def forward(self, rhs: np.ndarray) -> Forward:
         raise NotImplementedError
@@ -494,7 +493,8 @@ class PardisoFactorization(Factorization):
 class PardisoInterior:
     """A plain PARDISO factorisation (real symmetric indefinite, mtype -2, no Schur block; the settings of
     :class:`PardisoFactorization` otherwise) of the interior block S_II of a body's quasi-definite S, for
-    :func:`interior_solve`. ``S_upper``: S_II's upper triangle in CSR with every diagonal entry stored."""
+    :func:`cvxcontact.backends.released.interior_solve`. ``S_upper``: S_II's upper triangle in CSR with every
+    diagonal entry stored."""
 
     def __init__(self, S_upper, threads=None):
         lib = _load()
@@ -522,84 +522,6 @@ class PardisoInterior:
         x = np.zeros_like(b)
         self._iparm[5] = 0
         self._call(33, b, x, b.shape[1] if b.ndim == 2 else 1)
-        return x
-
-
-def interior_solve(U, b, kind: str, order: np.ndarray | None = None) -> np.ndarray:
-    """S_II^{-1} b by a fresh factorisation freed before returning (:class:`Released`), ``U`` S_II's upper
-    triangle (CSR, every diagonal entry stored): PARDISO (:class:`PardisoInterior`) for ``kind`` "pardiso" where
-    it loads and does not perturb a pivot; else SuperLU, on ``order`` (a fill-reducing permutation of S_II's
-    rows, the body's own SuperLU order: the leading block of its first factorisation, no more fill) with
-    :data:`SUPERLU_OPTIONS` where given, with partial pivoting on SciPy's default order where not (S_II
-    quasi-definite: each is an exact triangular solve, to rounding)."""
-    if kind == "pardiso" and pardiso_available():
-        try:
-            factor = PardisoInterior(U)
-        except SolverError:
-            factor = None
-        if factor is not None:
-            try:
-                return factor.solve(b)
-            finally:
-                factor.release()
-    S_II = (U + U.T - sp.diags(U.diagonal())).tocsc()
-    b = np.asarray(b, dtype=float)
-    if order is None:
-        return spla.splu(S_II).solve(b)
-    x = np.empty_like(b)
-    x[order] = spla.splu(S_II[order][:, order].tocsc(), **SUPERLU_OPTIONS).solve(b[order])
-    return x
-
-
-class Released(Factorization):
-    """A body's factorisation after its adapter's factors were freed (:meth:`Factorization.free`): Sigma, its
-    Cholesky factors and the forward sweep of one right-hand side ``rhs`` are kept (taken before the factors
-    were freed), with S's interior blocks S_II and S_IG. A forward sweep of another right-hand side and every
-    backward sweep re-make S_II's factorisation (:func:`interior_solve`, freed at once; ``remade`` counts them):
-
-        r = b_G - S_IG^T S_II^{-1} b_I,      x_I = S_II^{-1} (b_I - S_IG v),  x_G = v.
-
-    The answers are those of the kept factorisation to rounding (another factorisation of the same S_II). A
-    SuperLU body's re-made factorisation keeps its elimination order (``order``: the interior dofs' part of
-    ``factor.perm``, as positions in S_II), so its factors are the leading block of the first one's."""
-
-    def __init__(self, factor: Factorization, S, rhs):
-        fwd = factor.forward(rhs)
-        self.n, self.gamma, self.name = factor.n, factor.gamma, factor.name
-        self.schur, self._chol, self._lu = factor.schur, factor._chol, factor._lu
-        self._rhs, self._reduced = np.array(rhs, dtype=float), fwd.reduced
-        del fwd
-        factor.free()
-        interior = np.ones(self.n, dtype=bool)
-        interior[self.gamma] = False
-        self.interior = np.flatnonzero(interior)
-        S = sp.csr_matrix(S)[self.interior]
-        self._S_IG = S[:, self.gamma].tocsr()
-        self._S_II = _diagonal_stored(sp.triu(S[:, self.interior], format="coo"), sp.csr_matrix)   # upper only
-        perm = getattr(factor, "perm", None)            # SuperLU's order: the interior dofs first, Gamma last
-        self.order = None
-        if perm is not None:
-            position = np.empty(self.n, dtype=np.int64)
-            position[self.interior] = np.arange(len(self.interior))
-            self.order = position[np.asarray(perm)[:len(self.interior)]]
-        self.remade = 0
-
-    def _interior(self, b):
-        self.remade += 1
-        return interior_solve(self._S_II, b, self.name, self.order)
-
-    def forward(self, rhs):
-        rhs = np.asarray(rhs, dtype=float)
-        if rhs.shape == self._rhs.shape and np.array_equal(rhs, self._rhs):
-            return Forward(self._reduced.copy(), rhs)
-        xi = self._interior(rhs[self.interior])
-        return Forward(rhs[self.gamma] - self._S_IG.T @ xi, rhs)
-
-    def backward(self, fwd, v):
-        b = fwd.state
-        x = np.zeros_like(b)
-        x[self.gamma] = v
-        x[self.interior] = self._interior(b[self.interior] - self._S_IG @ np.asarray(v, dtype=float))
         return x
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from .budget import Budget
 from .condensed import Compliance, condense, contact_dofs, quasi_definite_rhs
 from .conic import least_held_duals
-from .factor import Released
+from .released import Released
 
 __all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
 

@@ -180,7 +180,7 @@ class DiscreteProblem:
 
     @property
     def obstacles(self) -> tuple:
-        """Every rigid obstacle's :class:`~cvxcontact.physics.pairs.ObstacleRows` at the rows of this space."""
+        """Every rigid obstacle's :class:`~cvxcontact.physics.obstacles.ObstacleRows` at the rows of this space."""
         return self.lines.obstacles
 
     @property

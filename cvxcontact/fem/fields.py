@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import strain_matrix
+from .assembly import voigt_strains
 
 __all__ = ["BodyFields", "body_fields"]
 
@@ -49,7 +49,7 @@ def body_fields(body, u, phi, nodes=None) -> BodyFields:
     el, grad = space_of(body, nodes).centre_gradients(body, nodes)
     if body.dim == 3:
         return _solid_fields(body, u, phi, el, grad)
-    eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))  # (exx, eyy, 2exy)
+    eps = voigt_strains(grad, np.asarray(u)[el])                 # (exx, eyy, 2exy)
     if not getattr(mat, "quadratic", True):     # a convex strain energy (Hencky): sigma = A(eps), not its c eps
         plane = np.zeros((len(eps), 6))         # plane strain: (exx, eyy, 0, 0, 0, 2exy); isotropic, so szz too
         plane[:, [0, 1, 5]] = eps
@@ -82,7 +82,7 @@ def _solid_fields(body, u, phi, el, grad):
     """The fields of a 3D body (module docstring), per tetrahedron at its centroid (element nodes ``el``, shape
     gradients ``grad`` there)."""
     c, e, kappa = body.material.tensors(3)
-    eps = np.einsum("mij,mj->mi", strain_matrix(grad), np.asarray(u)[el].reshape(len(el), -1))
+    eps = voigt_strains(grad, np.asarray(u)[el])
     stress = eps @ c.T if getattr(body.material, "quadratic", True) else body.material.stress(eps, 3)
     field = disp = None
     if e is not None:

@@ -15,7 +15,7 @@ nodal load, each obstacle's prescribed force). Its kernel Z = ker K is spanned b
 
 - the rigid motions of each body (each mesh component) that no support holds (:meth:`Body.held_modes`:
   P1 vertices or P2 nodes), and
-- the translations of the force-controlled obstacles (:class:`~cvxcontact.physics.pairs.ObstacleRows`
+- the translations of the force-controlled obstacles (:class:`~cvxcontact.physics.obstacles.ObstacleRows`
   ``basis``: the directions their rows see).
 
 For d in Z, K d = 0, so J(x + t d) = J(x) - t f^T d, and every row changes by t (G d)_i. (A rigid d has
@@ -172,7 +172,7 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     (:func:`cvxcontact.fem.assembly.assemble_loads` / :func:`cvxcontact.fem.p2.assemble_loads`, ``.f``);
     ``evaluation`` E (rows, merged nodes) and ``interface`` the stacked contact lines with ``jump(k, n)``
     (P1 ``scene.stack``, P2 the :class:`~cvxcontact.contact.quadratic.QuadraticStack`); ``obstacles`` the
-    scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with rows on the same merged nodes (fixed ones
+    scene's :class:`~cvxcontact.physics.obstacles.ObstacleRows` with rows on the same merged nodes (fixed ones
     are skipped); ``nodes[k]`` body k's node set (P2 :class:`~cvxcontact.geometry.quadratic.P2Nodes`) or
     None (P1 vertices). ``capacity``: with a friction law, (slip, c): ``slip(k, n)`` body k's slip rows at the
     rows of E and c (N/m) their friction capacities (the kernel's ``slip`` and ``capacity``), else None."""

@@ -57,7 +57,7 @@ class ContactLines:
     without a compliance law); ``cone_pairs``: per pair whether it is posed as a cone in a program mixing
     cones and compliance (None otherwise); ``gap`` (m): the gap at the stacked nodes of X_h (pair gaps plus
     the distance to rigid obstacles); ``obstacles``: the scene's
-    :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
+    :class:`~cvxcontact.physics.obstacles.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
     cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether a compliance law's rows can depend
     on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
     nodes; the interface compliance W is singular on them, docs/formulation.md §15); ``departure``: the
@@ -339,7 +339,7 @@ def gap_departure(scene, stack, conditions, cells, gap) -> GapDeparture | None:
 
 
 def _p2_obstacles(scene, stack, dim: int = 2):
-    """The scene's :class:`~cvxcontact.physics.pairs.ObstacleRows` with their rows at the stacked P2 nodes of
+    """The scene's :class:`~cvxcontact.physics.obstacles.ObstacleRows` with their rows at the stacked P2 nodes of
     ``stack`` (a :class:`~cvxcontact.contact.quadratic.QuadraticStack`): the sensitivities c(x) of each
     obstacle at its pairs' P2 nodes (vertices and midpoints), zero elsewhere; ``basis`` and ``force`` kept."""
     out = []

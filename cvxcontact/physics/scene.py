@@ -12,7 +12,8 @@ from numpy.typing import ArrayLike
 from ..contact.interface import Interface, Stack
 from ..errors import Frozen, FrozenTuple, MeshError, SceneError
 from .body import Body, Load, _real_scalar
-from .pairs import Contact, Rigid, obstacle_rows
+from .obstacles import obstacle_rows
+from .pairs import Contact, Rigid
 
 __all__ = ["Body", "Scene"]
 

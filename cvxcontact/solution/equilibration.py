@@ -24,7 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError, UnsupportedError
-from ..fem.assembly import gradients, strain_matrix
+from ..fem.assembly import gradients, voigt_strains
 from ..geometry.facets import facets
 from ..geometry.mesh import Mesh
 from .estimate import _boundary_roles
@@ -122,7 +122,7 @@ def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
     m0 = len(tri0)
     c_mat = body.material.tensors(2)[0]
     _, cell_grad = gradients(mesh0.points, tri0)
-    eps_v = np.einsum("mij,mj->mi", strain_matrix(cell_grad), v[tri0].reshape(m0, -1))  # (m, 3) Voigt
+    eps_v = voigt_strains(cell_grad, v[tri0])                                           # (m, 3) Voigt
     sigma_v = eps_v @ c_mat.T                                                            # (m, 3) Pa
     D_v = None
     if body.piezoelectric:                     # the coupled law: sigma = c eps + e^T grad phi, D = e eps - kappa grad phi

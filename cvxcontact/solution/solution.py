@@ -496,7 +496,7 @@ def obstacle_results(sol, translations, obstacles=None) -> None:
     and ``translations`` (m, the unknowns tau of each force-controlled obstacle, in order); add the
     work -F . t of the prescribed forces to ``sol.energy`` and the check "obstacle balance" (the largest
     |F - sum_a c_a y_a| / |F|) to the residuals. ``obstacles``: the scene's
-    :class:`~cvxcontact.physics.pairs.ObstacleRows` with rows at the stacked nodes of ``sol.contacts``
+    :class:`~cvxcontact.physics.obstacles.ObstacleRows` with rows at the stacked nodes of ``sol.contacts``
     (default ``sol.scene.obstacles``, the P1 merged nodes; P2: rows at the P2 nodes)."""
     y = np.concatenate([c.force for c in sol.contacts])                     # N/m at the stacked merged nodes
     taus, out, worst = iter(translations), [], 0.0

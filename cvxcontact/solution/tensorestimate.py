@@ -30,7 +30,7 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..fem.assembly import strain_matrix
+from ..fem.assembly import voigt_strains
 from ..fem.hex import face_hats
 from ..fem.quad import gauss_cube
 from ..fem.space import space
@@ -97,7 +97,7 @@ class TensorGeometry:
         x, G, det, inv_T, H = self.element.at_points(self.corners[cells], xi, second)
         k = len(x)
         ue = np.asarray(u, dtype=float)[self.el[cells]].reshape(k, self.el.shape[1] * self.dim)
-        eps = np.einsum("mij,mj->mi", strain_matrix(G), ue)
+        eps = voigt_strains(G, ue)
         sigma = eps @ c.T
         gphi = D = div = divD = pe = None
         if e is not None:
@@ -110,7 +110,7 @@ class TensorGeometry:
             divD = None if e is None else np.zeros(k)
             for j in range(self.dim):                      # d/dx_j of the fields: the gradients of dN/dx_j
                 Hj = H[:, :, j, :]
-                deps = np.einsum("mij,mj->mi", strain_matrix(Hj), ue)
+                deps = voigt_strains(Hj, ue)
                 dsig = deps @ c.T
                 if e is not None:
                     dg = np.einsum("mdk,mk->md", Hj, pe)

@@ -17,7 +17,8 @@ from friction_scenes import E as E3
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
 
-pytestmark = pytest.mark.numerics
+pytestmark = [pytest.mark.numerics,       # the sphere's contact zone is spanned by 3 faces (a coarse mesh)
+              pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]
 
 P2 = {"condition": "gamma3", "degree": 2}
 NEVER = cc.materials.hencky(E=E3, nu=0.0, sigma_y=1e15, h=0.1)      # no strain reaches its yield stress
@@ -214,3 +215,33 @@ def test_undamped_sequential_steps_on_the_indented_block_decline_flagged(monkeyp
     with pytest.warns(cc.ResidualWarning):
         sol = cc.solve(indented_block(cc.Tresca(1e-6)), **P2)
     assert not sol.polished and "sequential quadratic steps" in str(sol.info.declined), sol.info.declined
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(3e8), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+def test_friction_under_a_sphere_keeps_its_law_and_never_yielding_is_the_linear_answer(law):
+    """The indented block under a friction law that holds part of the contact (Tresca 300 MPa; Coulomb mu = 0.3, its
+    fixed point on Tresca's capacities mu r at the cut points): a Hencky block that never yields gives the linear
+    material's answer through the same cut rounds (measured 2.3e-15 Tresca, 2.9e-13 Coulomb); one that yields (0.19
+    and 0.21 from the linear answer, measured) is finished with no sampled penetration (measured at most -2.0e-4
+    and -1.7e-4 of the largest displacement) and its friction law read off by hand: every nodal shear force within
+    its capacity, and where a node slips (above 1e-9 of the displacements) the capacity against the slip (measured
+    8.4e-17 and 1.0e-15 of the largest capacity Tresca, 2 of 49 nodes slipping; Coulomb 1.1e-14, its fixed point
+    stops at 1e-12)."""
+    linear = solve_strict(indented_block(law, material=cc.materials.isotropic(E=E, nu=NU)))
+    never = solve_strict(indented_block(law, material=cc.materials.hencky(E=E, nu=NU, sigma_y=1e15, h=H)))
+    assert linear.polished and never.ok and never.polished, never.info.declined
+    assert rel(never.u[0], linear.u[0]) <= 1e-10
+    sol = solve_strict(indented_block(law))
+    assert sol.ok and sol.polished, sol.info.declined
+    assert 0 < plastic_zone(sol, body=0)["yielded"] and rel(sol.u[0], linear.u[0]) > 1e-2
+    assert sampled_slack(sol) <= 1e-9
+    c = sol.contact
+    # Tresca: g times the node's weight; Coulomb: mu r_a, r the cones' nodal normal force (a negative share: 0)
+    capacity = c.threshold * c.slip_measure if isinstance(law, cc.Tresca) else 0.3 * np.maximum(c.force, 0.0)
+    force = np.linalg.norm(c.shear_force, axis=1)
+    slip = np.linalg.norm(c.slip, axis=1)
+    slipping = slip > 1e-9 * np.abs(sol.u[0]).max()
+    along = c.shear_force + capacity[:, None] * c.slip / np.where(slipping, slip, 1.0)[:, None]
+    assert 0 < slipping.sum() < len(slipping)
+    assert (force - capacity).max() <= 1e-10 * capacity.max()
+    assert np.abs(along[slipping]).max() <= 1e-10 * capacity.max()

@@ -32,7 +32,7 @@ from .bulkcuts import BULK_STALL_TOL
 from .finish import Declined, Stop
 from .finish.friction import solve_friction
 
-__all__ = ["ARMIJO", "ENERGY_ROUNDING", "SEQUENTIAL_STEPS", "SEQUENTIAL_TOL", "sequential"]
+__all__ = ["ARMIJO", "ENERGY_ROUNDING", "SEQUENTIAL_STEPS", "SEQUENTIAL_TOL", "SMALLEST_STEP", "sequential"]
 
 log = logging.getLogger(__name__)
 

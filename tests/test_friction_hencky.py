@@ -1,5 +1,5 @@
 """A friction law beside a Hencky body (docs/refusals.md row 36, supported on nodal rows): the friction finish by
-sequential quadratic steps on the nonlinear (26) (cvxcontact/backends/friction.py ``_sequential``), checked against
+sequential quadratic steps on the nonlinear (26) (cvxcontact/backends/frictionsteps.py ``sequential``), checked against
 a yielding uniform layer's closed form, the frictionless Hencky answer of the Newton route as the threshold
 vanishes, the friction law read off the answer, and the interior point's answer."""
 
@@ -142,9 +142,9 @@ def test_the_sequential_steps_past_their_cap_decline_flagged(monkeypatch):
     fails its checks, as under the unequilibrated conic settings (the interior point 3.2e-3 off; measured: the
     residual of the nonlinear (26) 4.5e-4 after one step); under the route's own settings it is the minimiser to
     2e-12 and passes them."""
-    import cvxcontact.backends.friction as route
+    import cvxcontact.backends.frictionsteps as steps
 
-    monkeypatch.setattr(route, "SEQUENTIAL_STEPS", 1)
+    monkeypatch.setattr(steps, "SEQUENTIAL_STEPS", 1)
     with pytest.warns(cc.ResidualWarning):
         sol = cc.solve(sheared_block(cc.Tresca(0.6e8)), "sigma1", solver_options={"equilibrate_enable": False})
     assert not sol.ok and not sol.polished and "sequential quadratic steps" in str(sol.info.declined)

@@ -202,10 +202,9 @@ def _amg_accepts(p: ProblemDescription) -> bool:
 def _full_accepts(p: ProblemDescription) -> bool:
     # a non-quadratic bulk energy: Signorini rows, and the P2 cones alone (their finish: Newton at the tangency
     # points on the nonlinear (26), else the cuts on it, cones.finish_bulk), and a friction law on nodal rows or
-    # beside the 2D P2 cones (its finish by sequential quadratic steps, then Newton at the tangency points on the
-    # nonlinear (26)); not a compliance law (its routes finish on Kuu), nor a friction law beside the 3D P2 cones
-    # (REFUSALS)
-    return p.quadratic_energy or not (p.compliant or (p.friction and p.conic and p.dim == 3))
+    # beside the P2 cones (its finish by damped sequential quadratic steps, frictionsteps.sequential; in 2D then
+    # Newton at the tangency points on the nonlinear (26)); not a compliance law (its routes finish on Kuu)
+    return p.quadratic_energy or not p.compliant
 
 
 def _sparse_accepts(p: ProblemDescription) -> bool:
@@ -270,20 +269,12 @@ class Refusal:
     message: str
 
 
-REFUSALS: tuple[Refusal, ...] = (
-    Refusal(lambda p: p.friction and p.conic and not p.quadratic_energy and p.dim == 3,
-            "a friction law (cc.Tresca, cc.Coulomb) beside a non-quadratic bulk energy (a Hencky material) under "
-            "the 3D degree-2 cones (condition \"gamma3\" with degree=2 on tetrahedra or hexahedra) is not "
-            "available: the interior point of its program fails (measured: Coulomb on a sheared layer, the solver "
-            "stops) and no Newton at the tangency points finishes the 3D friction rows; use the nodal conditions "
-            "(\"sigma1\", \"sigma2\"), whose friction finish takes the Hencky energy, a linear material "
-            "(cc.materials.isotropic) under \"gamma3\", or the 2D P2 cones"),
-)
+REFUSALS: tuple[Refusal, ...] = ()
 """The refusals :func:`choose` names (docs/refusals.md), each checked only once no registered backend solves the
-problem (a backend registered later that solves it lifts it). Row 36: friction beside a non-quadratic energy under
-the 3D degree-2 cones (the 2D ones are solved by the full route: :func:`~cvxcontact.backends.friction.conic_full`).
-(Row 35, the 3D P2 copositive cones beside a non-quadratic energy, is solved by the full route:
-:func:`~cvxcontact.backends.cones.finish_bulk`.)"""
+problem (a backend registered later that solves it lifts it). None is left: row 36, friction beside a non-quadratic
+energy under the 3D degree-2 cones, is solved by the full route (:func:`~cvxcontact.backends.friction.conic_full`,
+its rounds by :func:`~cvxcontact.backends.frictionsteps.sequential`), as row 35, the 3D P2 copositive cones beside
+a non-quadratic energy (:func:`~cvxcontact.backends.cones.finish_bulk`)."""
 
 
 def _refuse(problem: ProblemDescription) -> None:

@@ -52,12 +52,12 @@ import scipy.sparse as sp
 from ..contact.bernstein import element, point_rows
 from ..errors import FixedPointWarning
 from ..fem.kernel import refuse_sliding
-from .bulkcuts import BULK_STALL_TOL
 from .cones import MIXED_CUT_TOL
 from .cuts import accumulate_cuts, point_read_back
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
 from .finish.forces import friction_scale
-from .finish.friction import FrictionRows, solve_friction
+from .finish.friction import FrictionRows
+from .frictionsteps import sequential as _sequential
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
@@ -515,7 +515,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
     from the interior point's answer in ``raw``; fills ``raw`` (polished, :attr:`Finish.FRICTION_NEWTON`) or
     its ``declined`` (a :class:`~cvxcontact.backends.finish.Declined`, the interior point's answer kept): a
-    non-quadratic energy (a Hencky body) is finished by sequential quadratic steps (:func:`_sequential`); a
+    non-quadratic energy (a Hencky body) is finished by damped sequential quadratic steps (:func:`~cvxcontact.backends.frictionsteps.sequential`); a
     singular step, steps that do not settle, broken signs, or an energy above the
     interior point's (beyond :data:`ENERGY_SLACK`; not against a curved obstacle's own gap at points, where the
     interior point's program is the interpolant's). Rows that may be linearly dependent
@@ -586,43 +586,6 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     raw.polished, raw.finish, raw.route = True, Finish.FRICTION_NEWTON, Route.INTERIOR_POINT_FINISHED
     raw.iterations += steps
     return raw
-
-
-SEQUENTIAL_TOL = 1e-12
-"""A non-quadratic energy's friction finish (:func:`_sequential`) stops once the relative residual of the nonlinear
-(26) with the normal and tangential forces is at most this (rounding of its terms) with the same closed and stuck
-rows at two steps in a row."""
-
-SEQUENTIAL_STEPS = 30
-"""The most sequential quadratic steps of :func:`_sequential`; then it declines."""
-
-
-def _sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
-    """The friction finish (:func:`~cvxcontact.backends.finish.solve_friction`) of the mixed energy ``op`` from
-    (x, y, mu): for a linear material one solve of its system (T, b) (:meth:`MixedEnergy.linearised`); for a
-    non-quadratic energy (a Hencky body) sequential quadratic steps, each the exact finish of the energy's
-    second-order model at the last answer (the tangent T_k = Hess L(x_k), b_k = T_k x_k - grad L(x_k)), until the
-    relative residual of the nonlinear (26), max_i |grad L(x) + G^T y + S^T mu|_i over the sizes of its terms, is
-    at most :data:`SEQUENTIAL_TOL` with the closed and stuck rows of the step before, or at most
-    :data:`~cvxcontact.backends.bulkcuts.BULK_STALL_TOL` and no longer halving (rounding of the gradient).
-    Returns solve_friction's (x, y, mu, closed, steps), the steps summed, or the Declined that stopped it."""
-    steps, seen, last, res = 0, None, np.inf, np.inf
-    for _ in range(1 if op.linear else SEQUENTIAL_STEPS):
-        T, b = op.linearised(x)
-        out = solve_friction(T, b, G, g, fr, free, x, y, mu, scales, dependent=dependent)
-        if isinstance(out, Declined) or op.linear:
-            return out
-        x, y, mu, closed, k = out
-        steps += k
-        c = fr.capacity(y)
-        key = (closed.tobytes(), (c - np.linalg.norm(mu, axis=1) > 1e-9 * scales[0]).tobytes())
-        res = op.residual(x, (G, y), (fr.S, mu.ravel()))
-        log.info("friction finish, sequential quadratic step: relative residual %.1e", res)
-        if (res <= SEQUENTIAL_TOL and key == seen) or (res <= BULK_STALL_TOL and res > 0.5 * last):
-            return x, y, mu, closed, steps
-        seen, last = key, res
-    return Declined(Stop.MAX_ITER, f"the sequential quadratic steps of the friction finish stopped at a relative "
-                    f"residual {res:.1e} of the nonlinear (26)")
 
 
 def _slip_matrix(problem, order, widths):

@@ -84,3 +84,48 @@ def test_thin_contact_cells_warn_in_2d_and_3d():
         assert f"Remesh the cells along 'top' there with aspect ratio at most {MAX_ASPECT:g}" in m
         ratio = float(m.split("aspect ratio up to ")[1].split(" ")[0])
         assert MAX_ASPECT < ratio <= aspect_ratios(s.bodies[0].mesh.points, s.bodies[0].mesh.cells).max() * (1 + 1e-3)
+
+
+def _coarse_over_small(lo=0.3, hi=0.45):
+    """A block (0, 1) x (0, 0.5) of 2 x 2 cells (its bottom nodes at x = 0, 0.5, 1) clamped on its top, 1e-5 m
+    into a block (lo, hi) x (-0.5, 0) clamped on its bottom: no node of the upper block's bottom lies in the
+    overlap (lo, hi)."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.0)
+    up = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=2, ny=2), mat, contact="bottom", clamped=["top"])
+    low = cc.Body(cc.rectangle(x=(lo, hi), y=(-0.5, 0), nx=1, ny=2), mat, clamped=["bottom"], contact="top")
+    return cc.Scene(up, low, contacts=[cc.Contact(up, "bottom", low, "top", gap=-1e-5)])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_sigma_condition_with_no_row_in_the_overlap_warns_naming_the_other_conditions(degree):
+    """Under "sigma1" the rows are body 1's nodes in the overlap; with none there the pair has no row and the
+    bodies pass through each other (the discrete problem solved exactly, ok): a ResolutionWarning names the pair,
+    the missing rows, the interpenetration (1e-5 m: both blocks clamped, nothing moves) and the fix. Under "sigma2"
+    (the small block's two nodes) and "gamma3" the bodies are kept apart, and no such warning is given (before:
+    "gamma3" raised a bare ValueError in the resolution check)."""
+    scene = _coarse_over_small()
+    sol, messages = _resolution_messages(scene, condition="sigma1", degree=degree)
+    rowless = [m for m in messages if "there is none" in m]
+    assert sol.ok and len(rowless) == 1
+    assert "'sigma2'" in rowless[0] and "'gamma3'" in rowless[0] and "1e-05 m" in rowless[0]
+    assert np.max(sol.contact.jump - sol.contact.gap) == pytest.approx(1e-5, rel=1e-12)
+    for condition in ("sigma2", "gamma3"):
+        sol, messages = _resolution_messages(scene, condition=condition, degree=degree)
+        assert sol.ok and not [m for m in messages if "there is none" in m]
+        assert np.max(sol.contact.jump - sol.contact.gap) <= 1e-12 * 1e-5 * 1e3    # kept apart (rounding)
+
+
+@pytest.mark.numerics
+def test_a_sigma_condition_with_no_row_in_the_overlap_warns_in_3d():
+    """The 3D counterpart: a box of 1 x 1 x 1 cells over a block (0.3, 0.45)^2 of the plane: under "sigma1" no
+    node of the box's bottom lies in the overlap (warned); under "sigma2" the rows are the small block's nodes."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.0)
+    up = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=1, ny=1, nz=1), mat, contact="bottom", clamped=["top"])
+    low = cc.Body(cc.box(x=(.3, .45), y=(.3, .45), z=(-.5, 0), nx=1, ny=1, nz=1), mat, contact="top",
+                  clamped=["bottom"])
+    scene = cc.Scene(up, low, contacts=[cc.Contact(up, "bottom", low, "top", gap=-1e-5)])
+    sol, messages = _resolution_messages(scene, condition="sigma1")
+    assert sol.ok and len([m for m in messages if "there is none" in m]) == 1
+    sol, messages = _resolution_messages(scene, condition="sigma2")
+    assert sol.ok and not [m for m in messages if "there is none" in m]

@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .solution import pair_label
 
-__all__ = ["MAX_ASPECT", "MIN_CELLS", "aspect_ratios", "unresolved", "zone_cells"]
+__all__ = ["MAX_ASPECT", "MIN_CELLS", "aspect_ratios", "rowless", "unresolved", "zone_cells"]
 
 MIN_CELLS = 4
 """The fewest cells of a body (2D: contact faces, 3D: face sizes across the zone) that must span a contact
@@ -148,7 +148,8 @@ def _zones_2d(sol, itf, k, p, merged, trace) -> list[_Zone]:
     for intervals, lo, hi in _runs(x, p):
         first = intervals // step * step                                   # each interval's face: its vertices
         facets = np.column_stack([nodes[first], nodes[first + step]])
-        whole = bool(lo <= x[face].min() + tol and hi >= x[face].max() - tol)
+        inside = x[face]                                                   # none: the overlap inside a face
+        whole = bool(inside.size and lo <= inside.min() + tol and hi >= inside.max() - tol)
         out.append(_Zone(len(intervals), f"s = {lo:.6g} to {hi:.6g} m", hi - lo, h, whole, facets))
     return out
 
@@ -229,6 +230,30 @@ def unresolved(sol) -> list[str]:
                                f"): cells that elongated do not resolve the stress across the zone. Remesh the cells "
                                f"along {part!r} there with aspect ratio at most {MAX_ASPECT:g} (e.g. more cells "
                                f"across the body's thickness near the contact, or fewer along the face).")
+    return out
+
+
+def rowless(sol) -> list[str]:
+    """The messages of :class:`~cvxcontact.errors.ResolutionWarning` for the pairs of two bodies that meet over an
+    overlap of positive extent while their condition puts no row on it: under "sigma_l" the rows are the nodes of
+    body l's part inside the overlap (K_h(Sigma_h^l)), and a part coarser than the overlap has none, so nothing
+    keeps the bodies apart there. Independent of the estimate (a solution is exact for a problem without rows)."""
+    out = []
+    for i, pair in enumerate(sol.scene.contacts):
+        c = sol.contacts[i]
+        x = np.asarray(c.x, dtype=float).reshape(len(c.x), -1)
+        if pair.rigid or len(x) < 2 or np.asarray(c.constrained).any() or not np.ptp(x, axis=0).all():
+            continue
+        condition = sol.scene.conditions[i] or sol.condition
+        body, part = ((pair.body_a, pair.part_a), (pair.other, pair.part_b))[condition == "sigma2"]
+        other = "sigma1" if condition == "sigma2" else "sigma2"
+        where = ", ".join(f"{lo:.6g} to {hi:.6g}" for lo, hi in zip(x.min(axis=0), x.max(axis=0)))
+        over = np.asarray(c.jump, dtype=float) - (0.0 if c.gap is None else np.asarray(c.gap, dtype=float))
+        out.append(f"contact[{i}] {pair_label(sol, i)}: under {condition!r} the rows are the nodes of "
+                   f"{body.name}/{part} inside the overlap of the pair (s = {where} m), and there is none: nothing "
+                   f"keeps the bodies apart there (largest [u_nu] - g at the merged nodes: {over.max():.3g} m, "
+                   f"positive: interpenetration). Use condition={other!r} or 'gamma3', or refine {part!r} of "
+                   f"{body.name} so that its nodes fall in the overlap.")
     return out
 
 

@@ -317,3 +317,55 @@ def test_amg_route_drops_its_stacked_blocks_during_the_answers_solve_alike(monke
         assert a.ok and b.ok and a.info.iterations == b.info.iterations and np.array_equal(a.contact.active,
                                                                                             b.contact.active)
         assert all(np.array_equal(x, y) for x, y in zip(a.u, b.u)) and np.array_equal(a.phi[0], b.phi[0])
+
+
+@pytest.mark.numerics
+def test_amg_route_frees_a_sets_preconditioner_before_the_next_sets_matrix(monkeypatch):
+    """A new active set's K = T^T S T is formed after the last set's preconditioner (its contact rows, their
+    factor and its copy of Kup) is dropped, not beside it; the steps still reuse each set's own preconditioner
+    (built once per set) and the answer passes its checks."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    plain_congruence, plain_precondition = amg.congruence, amg.KrylovContact._precondition
+    held, built = [], []
+
+    def spy(Tt, S, T, D):
+        held.append(solver.cache.amg._preconditioner)
+        return plain_congruence(Tt, S, T, D)
+
+    def count(self, K=None):
+        built.append(1)
+        return plain_precondition(self, K)
+
+    monkeypatch.setattr(amg, "congruence", spy)
+    monkeypatch.setattr(amg.KrylovContact, "_precondition", count)
+    solver = cc.ContactSolver(two_boxes(6), method="amg")
+    sol = solver.solve()
+    assert sol.ok and sol.info.iterations >= 2           # several sets: a preconditioner existed before a K
+    assert len(held) >= 3 and all(h is None for h in held)
+    assert len(built) == len(held) - 1                   # one per set (the first set's K formed twice: set-up)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("case", ["3d p1", "3d p2", "2d p1"])
+def test_estimate_geometry_int32_indices_give_the_int64_estimate(monkeypatch, case):
+    """The estimate's Geometry keeps its facet table and facet positions in int32 (local indices int8): the
+    indicators and every part of the estimate are those of the same Geometry with int64 indices, bit for bit
+    (indices select the same numbers; nothing is summed differently)."""
+    from cvxcontact.apps.demo import two_blocks
+
+    scene, degree = {"3d p1": (two_boxes(4), 1), "3d p2": (two_boxes(2), 2), "2d p1": (two_blocks(8), 1)}[case]
+    sol = cc.solve(scene, "sigma1", degree=degree, estimate=False)
+    saving, _ = est.estimate(sol)
+    g = est.Geometry(scene.bodies[0], degree)
+    owners, local, vertices, keys = g.facets
+    assert owners.dtype == vertices.dtype == np.int32 and local.dtype == np.int8 and keys.dtype == np.int64
+    assert all(a.dtype == np.int32 for a in (g.faces.c0, g.faces.c1, g.faces.ii, g.faces.at0, g.faces.at1))
+    monkeypatch.setattr(est.Geometry, "index", property(lambda self: np.int64))
+    monkeypatch.setattr(est.Geometry, "facets", property(lambda self: est.facet_table(self._mesh.cells,
+                                                                                        len(self._mesh.points))))
+    assert est.Geometry(scene.bodies[0], degree).faces.at0.dtype == np.int64
+    plain, _ = est.estimate(sol)
+    assert saving.absolute == plain.absolute and saving.norm == plain.norm and saving.parts == plain.parts
+    assert all(np.array_equal(a, b) for a, b in zip(saving.indicators, plain.indicators))

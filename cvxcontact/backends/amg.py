@@ -386,6 +386,8 @@ class KrylovContact:
         if self._reduction is not None and self._reduction[0] == key:
             return self._reduction[1]
         self._reduction = None                   # the last set's K freed before this one's is formed (peak memory)
+        if self._preconditioner is not None and self._preconditioner[0] != rows.tobytes():
+            self._preconditioner = None          # and its preconditioner (contact rows, their factor, Kup's copy)
         n = self.n
         slaves, piv = self.dof[rows], self.coef[rows]
         Gc = self.G[rows].tocoo()

@@ -121,8 +121,9 @@ def _fields(g, u, phi):
     if e is not None:
         pe = np.take(np.asarray(phi, dtype=float), g.el)
         gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
-        sigma = sigma + _times(gphi, e)
-        D = _times(eps, e.T) - _times(gphi, kappa.T)
+        sigma += _times(gphi, e)                                     # in place: the same sums, one array fewer
+        D = _times(eps, e.T)
+        D -= _times(gphi, kappa.T)
     return eps, gphi, sigma, D, g.gradL, g.measure
 
 
@@ -226,9 +227,18 @@ class Geometry:
         return self._roles[key]
 
     @cached_property
+    def index(self) -> type:
+        """The integer type of the cell, facet and node indices kept here: int32 while every index (the rows of
+        the fields stacked, ``q`` per cell, and the nodes) fits in it (half the bytes of int64), else int64."""
+        size = max(self.G.shape[1] * len(self.el) + 1, len(self._mesh.points))
+        return np.int32 if size <= np.iinfo(np.int32).max else np.int64
+
+    @cached_property
     def facets(self):
-        """The facet table (:func:`~cvxcontact.geometry.facets.facets`: owners, local indices, vertices, keys)."""
-        return facet_table(self._mesh.cells, len(self._mesh.points))
+        """The facet table (:func:`~cvxcontact.geometry.facets.facets`: owners, local indices, vertices, keys),
+        kept with owners and vertices of :attr:`index` type and local indices as int8 (the keys int64)."""
+        owners, local, vertices, keys = facet_table(self._mesh.cells, len(self._mesh.points))
+        return owners.astype(self.index), local.astype(np.int8), vertices.astype(self.index), keys
 
     @cached_property
     def hT(self) -> np.ndarray:
@@ -245,17 +255,18 @@ class Geometry:
         grad = self.gradL[c0, :, local[:, 0]]                 # grad of the opposite vertex's coordinate: inward
         size = np.linalg.norm(grad, axis=1)
         inner = owners[:, 1] >= 0
-        ii = np.flatnonzero(inner)
+        ii = np.flatnonzero(inner).astype(self.index)
         c1 = owners[ii, 1]
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
         hF = _diameters(mesh.points, vertices)
         pos0 = (contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
         pos1 = (contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
-        at1 = np.full(pos0.shape, q * len(self.el))                     # a boundary facet's other side: a zero row
+        at1 = np.full(pos0.shape, q * len(self.el), dtype=self.index)   # a boundary facet's other side: a zero row
         at1[ii] = q * c1[:, None] + pos1
         return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
-                      hF=hF, at0=q * c0[:, None] + pos0, at1=at1, scale=np.where(inner, 0.5, 1.0) * hF * area)
+                      hF=hF, at0=(q * c0[:, None] + pos0).astype(self.index), at1=at1,
+                      scale=np.where(inner, 0.5, 1.0) * hF * area)
 
     def part(self, tag) -> np.ndarray:
         """The indices in the facet table of the facets of boundary part ``tag``."""

@@ -369,3 +369,29 @@ def test_estimate_geometry_int32_indices_give_the_int64_estimate(monkeypatch, ca
     plain, _ = est.estimate(sol)
     assert saving.absolute == plain.absolute and saving.norm == plain.norm and saving.parts == plain.parts
     assert all(np.array_equal(a, b) for a, b in zip(saving.indicators, plain.indicators))
+
+
+@pytest.mark.parametrize("cells", [3, 7, 1 << 16])
+def test_node_checks_by_blocks_of_cells_find_the_same_duplicate(monkeypatch, cells):
+    """The node checks' edge lengths by blocks of cells (`geometry/meshchecks.py` ``CELLS``, ragged last block)
+    give every node the same local size as all cells at once: a near-duplicate of a node is refused with the
+    same message (the distance and the local size in it), and a box's faces and tags are unchanged."""
+    from cvxcontact.geometry import meshchecks
+
+    box = cc.box(nx=3, ny=2, nz=2)
+    points, tets = np.array(box.points), np.array(box.tets)
+    v = int(tets[-1, 2])                                      # a node of the last cell: in the last block
+    points = np.vstack([points, points[v] + 1e-12])
+    tets[-1, 2] = len(points) - 1                             # the copy takes its place in one cell
+    with pytest.raises(cc.errors.MeshError) as whole:
+        cc.TetMesh(points, tets)
+    monkeypatch.setattr(meshchecks, "CELLS", cells)
+    with pytest.raises(cc.errors.MeshError) as blocks:
+        cc.TetMesh(points, tets)
+    assert "duplicate nodes" in str(whole.value) and str(blocks.value) == str(whole.value)
+    sides = {"left": (0, 0.0), "right": (0, 1.0), "front": (1, 0.0), "back": (1, 1.0), "bottom": (2, 0.0),
+             "top": (2, 1.0)}                                # cc.box's default bounds
+    for tag, (axis, at) in sides.items():                    # the box's sides: its boundary faces on each plane
+        on = (box.points[box.boundary_faces, axis] == at).all(axis=1)
+        assert sorted(map(tuple, np.sort(box.boundary(tag), axis=1))) == \
+            sorted(map(tuple, np.sort(box.boundary_faces[on], axis=1))) and on.any()

@@ -395,3 +395,33 @@ def test_node_checks_by_blocks_of_cells_find_the_same_duplicate(monkeypatch, cel
         on = (box.points[box.boundary_faces, axis] == at).all(axis=1)
         assert sorted(map(tuple, np.sort(box.boundary(tag), axis=1))) == \
             sorted(map(tuple, np.sort(box.boundary_faces[on], axis=1))) and on.any()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree", [1, 2])
+def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypatch, degree):
+    """The facets' jumps sigma n and D . n by blocks of 7 facets (`estimate._normal_jumps`, ragged last block; a
+    boundary facet's second side 0.0) are those of all facets' jumps at once with a zero row appended, bit for
+    bit; the estimate is the same with blocks of 7 as with one."""
+    from cvxcontact.solution import contactestimate as contact
+
+    scene = two_boxes(3)
+    sol = cc.solve(scene, "sigma1", degree=degree, estimate=False)
+    body = scene.bodies[0]
+    g = est.Geometry(body, degree)
+    fields = est._fields(g, sol.u[0], sol.phi[0])
+    f, n = g.faces, g.faces.normal
+
+    def whole(values):                                       # all facets at once, the boundary's zero row
+        stacked = np.concatenate([values.reshape((-1,) + values.shape[2:]), np.zeros((1,) + values.shape[2:])])
+        return stacked[f.at0] - stacked[f.at1]
+
+    monkeypatch.setattr(contact, "CELLS", 7)
+    assert np.array_equal(est._normal_jumps(fields[2], f, n, contact._voigt_traction),
+                          contact._voigt_traction(whole(fields[2]), n))
+    assert np.array_equal(est._normal_jumps(fields[3], f, n, lambda J, nb: np.einsum("kvd,kd->kv", J, nb)),
+                          np.einsum("kvd,kd->kv", whole(fields[3]), n))
+    small, _ = est.estimate(sol)
+    monkeypatch.setattr(contact, "CELLS", 1 << 30)
+    one, _ = est.estimate(sol)
+    assert small.parts == one.parts and all(np.array_equal(a, b) for a, b in zip(small.indicators, one.indicators))

@@ -425,3 +425,33 @@ def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypa
     monkeypatch.setattr(contact, "CELLS", 1 << 30)
     one, _ = est.estimate(sol)
     assert small.parts == one.parts and all(np.array_equal(a, b) for a, b in zip(small.indicators, one.indicators))
+
+
+@pytest.mark.parametrize("elastic", [False, True])
+def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elastic):
+    """The AMG route's S stacked from the CSR blocks (`amg.stacked`) has the arrays of scipy's block_diag of
+    each body's quasi-definite block (a PZT-5A box on aluminium, and two aluminium boxes), index types included;
+    blocks not in canonical form take block_diag itself (the same arrays again)."""
+    from cvxcontact.backends import amg
+    from cvxcontact.backends.condensed import quasi_definite
+
+    blocks = cc.ContactSolver(two_boxes(4, elastic=elastic), method="amg").problem.blocks
+    plain = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+    for S in (amg.stacked(blocks), amg.stacked([_uncanonical(b) for b in blocks])):
+        assert S.format == "csr" and S.shape == plain.shape and S.dtype == plain.dtype
+        for a in ("indptr", "indices", "data"):
+            assert getattr(S, a).dtype == getattr(plain, a).dtype
+            assert np.array_equal(getattr(S, a), getattr(plain, a))
+
+
+def _uncanonical(block):
+    """The block with its Kuu's rows' entries in reverse order (the same matrix, not canonical)."""
+    from dataclasses import replace
+
+    K = block.Kuu.copy()
+    for i in range(K.shape[0]):
+        lo, hi = K.indptr[i], K.indptr[i + 1]
+        K.indices[lo:hi], K.data[lo:hi] = K.indices[lo:hi][::-1].copy(), K.data[lo:hi][::-1].copy()
+    K.has_sorted_indices = False
+    assert not K.has_canonical_format
+    return replace(block, Kuu=K)

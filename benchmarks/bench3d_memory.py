@@ -140,6 +140,13 @@ def one(size: float, checkout: str, top: int, save: str | None = None) -> None:
     print(json.dumps({"held_mb": sizes, "resident_mb": round(resident), "resident_after_trim_mb":
                       round(resident_mb())}), flush=True)
     print(json.dumps({"peaks_mb": {k: round(v) for k, v in ranked}}, indent=0), flush=True)
+    modules: dict = {}
+    for k, v in lines.peaks.items():                                 # the highest line of each module
+        mod = k.split(":")[0]
+        if v > modules.get(mod, (0.0, ""))[0]:
+            modules[mod] = (v, k.split(":", 1)[1])
+    print(json.dumps({"module_peaks_mb": {f"{m} ({at})": round(v) for m, (v, at) in
+                                          sorted(modules.items(), key=lambda kv: -kv[1][0])}}, indent=0), flush=True)
     print(json.dumps({"checkout": cc.__file__, "n": n, "unknowns": N, "ok": bool(sol.ok), "residuals": {k: float(v) for k, v in sol.residuals().items()},
                                             "base_mb": round(base), "peak_gib": round(peak_kib / 2**20, 3),
                       "kib_per_unknown": round(peak_kib / N, 2),

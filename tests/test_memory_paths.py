@@ -317,3 +317,141 @@ def test_amg_route_drops_its_stacked_blocks_during_the_answers_solve_alike(monke
         assert a.ok and b.ok and a.info.iterations == b.info.iterations and np.array_equal(a.contact.active,
                                                                                             b.contact.active)
         assert all(np.array_equal(x, y) for x, y in zip(a.u, b.u)) and np.array_equal(a.phi[0], b.phi[0])
+
+
+@pytest.mark.numerics
+def test_amg_route_frees_a_sets_preconditioner_before_the_next_sets_matrix(monkeypatch):
+    """A new active set's K = T^T S T is formed after the last set's preconditioner (its contact rows, their
+    factor and its copy of Kup) is dropped, not beside it; the steps still reuse each set's own preconditioner
+    (built once per set) and the answer passes its checks."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    plain_congruence, plain_precondition = amg.congruence, amg.KrylovContact._precondition
+    held, built = [], []
+
+    def spy(Tt, S, T, D):
+        held.append(solver.cache.amg._preconditioner)
+        return plain_congruence(Tt, S, T, D)
+
+    def count(self, K=None):
+        built.append(1)
+        return plain_precondition(self, K)
+
+    monkeypatch.setattr(amg, "congruence", spy)
+    monkeypatch.setattr(amg.KrylovContact, "_precondition", count)
+    solver = cc.ContactSolver(two_boxes(6), method="amg")
+    sol = solver.solve()
+    assert sol.ok and sol.info.iterations >= 2           # several sets: a preconditioner existed before a K
+    assert len(held) >= 3 and all(h is None for h in held)
+    assert len(built) == len(held) - 1                   # one per set (the first set's K formed twice: set-up)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("case", ["3d p1", "3d p2", "2d p1"])
+def test_estimate_geometry_int32_indices_give_the_int64_estimate(monkeypatch, case):
+    """The estimate's Geometry keeps its facet table and facet positions in int32 (local indices int8): the
+    indicators and every part of the estimate are those of the same Geometry with int64 indices, bit for bit
+    (indices select the same numbers; nothing is summed differently)."""
+    from cvxcontact.apps.demo import two_blocks
+
+    scene, degree = {"3d p1": (two_boxes(4), 1), "3d p2": (two_boxes(2), 2), "2d p1": (two_blocks(8), 1)}[case]
+    sol = cc.solve(scene, "sigma1", degree=degree, estimate=False)
+    saving, _ = est.estimate(sol)
+    g = est.Geometry(scene.bodies[0], degree)
+    owners, local, vertices, keys = g.facets
+    assert owners.dtype == vertices.dtype == np.int32 and local.dtype == np.int8 and keys.dtype == np.int64
+    assert all(a.dtype == np.int32 for a in (g.faces.c0, g.faces.c1, g.faces.ii, g.faces.at0, g.faces.at1))
+    monkeypatch.setattr(est.Geometry, "index", property(lambda self: np.int64))
+    monkeypatch.setattr(est.Geometry, "facets", property(lambda self: est.facet_table(self._mesh.cells,
+                                                                                        len(self._mesh.points))))
+    assert est.Geometry(scene.bodies[0], degree).faces.at0.dtype == np.int64
+    plain, _ = est.estimate(sol)
+    assert saving.absolute == plain.absolute and saving.norm == plain.norm and saving.parts == plain.parts
+    assert all(np.array_equal(a, b) for a, b in zip(saving.indicators, plain.indicators))
+
+
+@pytest.mark.parametrize("cells", [3, 7, 1 << 16])
+def test_node_checks_by_blocks_of_cells_find_the_same_duplicate(monkeypatch, cells):
+    """The node checks' edge lengths by blocks of cells (`geometry/meshchecks.py` ``CELLS``, ragged last block)
+    give every node the same local size as all cells at once: a near-duplicate of a node is refused with the
+    same message (the distance and the local size in it), and a box's faces and tags are unchanged."""
+    from cvxcontact.geometry import meshchecks
+
+    box = cc.box(nx=3, ny=2, nz=2)
+    points, tets = np.array(box.points), np.array(box.tets)
+    v = int(tets[-1, 2])                                      # a node of the last cell: in the last block
+    points = np.vstack([points, points[v] + 1e-12])
+    tets[-1, 2] = len(points) - 1                             # the copy takes its place in one cell
+    with pytest.raises(cc.errors.MeshError) as whole:
+        cc.TetMesh(points, tets)
+    monkeypatch.setattr(meshchecks, "CELLS", cells)
+    with pytest.raises(cc.errors.MeshError) as blocks:
+        cc.TetMesh(points, tets)
+    assert "duplicate nodes" in str(whole.value) and str(blocks.value) == str(whole.value)
+    sides = {"left": (0, 0.0), "right": (0, 1.0), "front": (1, 0.0), "back": (1, 1.0), "bottom": (2, 0.0),
+             "top": (2, 1.0)}                                # cc.box's default bounds
+    for tag, (axis, at) in sides.items():                    # the box's sides: its boundary faces on each plane
+        on = (box.points[box.boundary_faces, axis] == at).all(axis=1)
+        assert sorted(map(tuple, np.sort(box.boundary(tag), axis=1))) == \
+            sorted(map(tuple, np.sort(box.boundary_faces[on], axis=1))) and on.any()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree", [1, 2])
+def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypatch, degree):
+    """The facets' jumps sigma n and D . n by blocks of 7 facets (`estimate._normal_jumps`, ragged last block; a
+    boundary facet's second side 0.0) are those of all facets' jumps at once with a zero row appended, bit for
+    bit; the estimate is the same with blocks of 7 as with one."""
+    from cvxcontact.solution import contactestimate as contact
+
+    scene = two_boxes(3)
+    sol = cc.solve(scene, "sigma1", degree=degree, estimate=False)
+    body = scene.bodies[0]
+    g = est.Geometry(body, degree)
+    fields = est._fields(g, sol.u[0], sol.phi[0])
+    f, n = g.faces, g.faces.normal
+
+    def whole(values):                                       # all facets at once, the boundary's zero row
+        stacked = np.concatenate([values.reshape((-1,) + values.shape[2:]), np.zeros((1,) + values.shape[2:])])
+        return stacked[f.at0] - stacked[f.at1]
+
+    monkeypatch.setattr(contact, "CELLS", 7)
+    assert np.array_equal(est._normal_jumps(fields[2], f, n, contact._voigt_traction),
+                          contact._voigt_traction(whole(fields[2]), n))
+    assert np.array_equal(est._normal_jumps(fields[3], f, n, lambda J, nb: np.einsum("kvd,kd->kv", J, nb)),
+                          np.einsum("kvd,kd->kv", whole(fields[3]), n))
+    small, _ = est.estimate(sol)
+    monkeypatch.setattr(contact, "CELLS", 1 << 30)
+    one, _ = est.estimate(sol)
+    assert small.parts == one.parts and all(np.array_equal(a, b) for a, b in zip(small.indicators, one.indicators))
+
+
+@pytest.mark.parametrize("elastic", [False, True])
+def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elastic):
+    """The AMG route's S stacked from the CSR blocks (`amg.stacked`) has the arrays of scipy's block_diag of
+    each body's quasi-definite block (a PZT-5A box on aluminium, and two aluminium boxes), index types included;
+    blocks not in canonical form take block_diag itself (the same arrays again)."""
+    from cvxcontact.backends import amg
+    from cvxcontact.backends.condensed import quasi_definite
+
+    blocks = cc.ContactSolver(two_boxes(4, elastic=elastic), method="amg").problem.blocks
+    plain = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+    for S in (amg.stacked(blocks), amg.stacked([_uncanonical(b) for b in blocks])):
+        assert S.format == "csr" and S.shape == plain.shape and S.dtype == plain.dtype
+        for a in ("indptr", "indices", "data"):
+            assert getattr(S, a).dtype == getattr(plain, a).dtype
+            assert np.array_equal(getattr(S, a), getattr(plain, a))
+
+
+def _uncanonical(block):
+    """The block with its Kuu's rows' entries in reverse order (the same matrix, not canonical)."""
+    from dataclasses import replace
+
+    K = block.Kuu.copy()
+    for i in range(K.shape[0]):
+        lo, hi = K.indptr[i], K.indptr[i + 1]
+        K.indices[lo:hi], K.data[lo:hi] = K.indices[lo:hi][::-1].copy(), K.data[lo:hi][::-1].copy()
+    K.has_sorted_indices = False
+    assert not K.has_canonical_format
+    return replace(block, Kuu=K)

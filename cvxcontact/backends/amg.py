@@ -222,6 +222,38 @@ def congruence(Tt, S, T, D) -> sp.csr_matrix:
     return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
 
 
+def stacked(blocks) -> sp.csr_matrix:
+    """S = diag(S_1, S_2, ...), each body's quasi-definite S_k = [[Kuu, Kup], [Kup^T, -Kpp]] (:func:`~cvxcontact.
+    backends.condensed.quasi_definite`), in CSR: the arrays of ``sp.block_diag([quasi_definite(b)[0] ...],
+    format="csr")``, formed from the CSR blocks by stacking their rows (each S_k by scipy's CSR stacking, then
+    copied into S's arrays and freed) without the COO copy (int64 rows and columns) through which block_diag
+    converts, whose transients were the peak of a large solve's start. Blocks not in canonical CSR (sorted,
+    no duplicates; block_diag sorts and sums them): the plain expression."""
+    pieces = [m for b in blocks for m in (b.Kuu, b.Kup, b.Kpp) if m is not None]
+    if not all(sp.issparse(m) and m.format == "csr" and m.has_canonical_format for m in pieces):
+        return sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+    sizes = [b.Kuu.shape[0] + (0 if b.Kpp is None else b.Kpp.shape[0]) for b in blocks]
+    nnz = sum(m.nnz for b in blocks for m in (b.Kuu, b.Kup, b.Kup, b.Kpp) if m is not None)
+    n = sum(sizes)
+    idx = np.int32 if max(n, nnz) < np.iinfo(np.int32).max else np.int64
+    data, indices, indptr = np.empty(nnz), np.empty(nnz, dtype=idx), np.empty(n + 1, dtype=idx)
+    indptr[0], row, pos = 0, 0, 0
+    for b, size in zip(blocks, sizes):
+        if b.Kpp is None:
+            S = b.Kuu
+        else:
+            S = sp.vstack([sp.hstack([b.Kuu, b.Kup], format="csr"),
+                           sp.hstack([b.Kup.T.tocsr(), -b.Kpp], format="csr")], format="csr")
+        data[pos:pos + S.nnz] = S.data
+        indices[pos:pos + S.nnz] = S.indices
+        indices[pos:pos + S.nnz] += row
+        indptr[row + 1:row + size + 1] = S.indptr[1:]
+        indptr[row + 1:row + size + 1] += pos
+        row, pos = row + size, pos + S.nnz
+        del S
+    return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+
+
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
     """The six rigid-body modes of a body with nodes ``points`` (n, 3) on its free u dofs (``Tu`` the
     prolongation, node-major dofs), about ``centre`` (default the nodes' mean) in units of ``size`` (default
@@ -263,10 +295,9 @@ class KrylovContact:
         except ImportError as exc:
             raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
         blocks = self._blocks = list(problem.blocks)
-        parts = [quasi_definite(b) for b in blocks]
-        self.S = sp.block_diag([S for S, _ in parts], format="csr")   # None between solves (:meth:`release`)
+        self.S = stacked(blocks)                                      # None between solves (:meth:`release`)
         self._diag = np.abs(self.S.diagonal())
-        self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
+        self.sizes = [(b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]) for b in blocks]
         self.n = n = self.S.shape[0]
         E = problem.E
         self.m = m = E.shape[0]
@@ -386,6 +417,8 @@ class KrylovContact:
         if self._reduction is not None and self._reduction[0] == key:
             return self._reduction[1]
         self._reduction = None                   # the last set's K freed before this one's is formed (peak memory)
+        if self._preconditioner is not None and self._preconditioner[0] != rows.tobytes():
+            self._preconditioner = None          # and its preconditioner (contact rows, their factor, Kup's copy)
         n = self.n
         slaves, piv = self.dof[rows], self.coef[rows]
         Gc = self.G[rows].tocoo()
@@ -453,7 +486,7 @@ class KrylovContact:
     def _stacked(self) -> sp.csr_matrix:
         """S, stacked again from the blocks if it was dropped (the same arrays)."""
         if self.S is None:
-            self.S = sp.block_diag([quasi_definite(b)[0] for b in self._blocks], format="csr")
+            self.S = stacked(self._blocks)
         return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):

@@ -80,7 +80,7 @@ def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Seq
         faces = cells[:, OUTWARD_FACES].reshape(-1, 3)
     boundaries = {}
     for tag, (axis, end) in SIDES.items():
-        on = (index[faces, axis] == end * counts[axis]).all(axis=1)
+        on = (index[:, axis] == end * counts[axis])[faces].all(axis=1)     # by node: no (faces, 3) index copy
         boundaries[tag] = faces[on]
     for name, (side, axis_ranges) in specs.items():
         f = boundaries[side]

@@ -18,6 +18,10 @@ from ..errors import MeshError, locked
 DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
 
+CELLS = 1 << 16
+"""Cells per block of the edge lengths of :func:`_check_nodes` (their temporaries, about 500 bytes per
+tetrahedron at once, were the peak of building a large tetrahedral mesh)."""
+
 
 # --------------------------------------------------------------------------- validation helpers
 
@@ -65,11 +69,13 @@ def _check_nodes(points, cells, what="triangle"):
     used[cells.ravel()] = True
     if not used.all():
         raise MeshError(f"{int((~used).sum())} node(s) belong to no {what}, e.g. node {int(np.argmin(used))}")
-    pairs = [(a, b) for a in range(cells.shape[1]) for b in range(a + 1, cells.shape[1])]
-    edges = cells[:, np.array(pairs).ravel()].reshape(-1, 2)
-    length = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
+    a, b = np.triu_indices(cells.shape[1], 1)                 # the cells' edges (a, b), by blocks of CELLS cells
     h = np.zeros(len(points))
-    np.maximum.at(h, edges.ravel(), np.repeat(length, 2))
+    for s in range(0, len(cells), CELLS):
+        ends = cells[s:s + CELLS, a], cells[s:s + CELLS, b]
+        length = np.linalg.norm(points[ends[1]] - points[ends[0]], axis=2)
+        for end in ends:
+            np.maximum.at(h, end, length)
     dist, idx = cKDTree(points).query(points, k=2)
     own = np.arange(len(points))
     other = np.where(idx[:, 0] == own, idx[:, 1], idx[:, 0])

@@ -121,8 +121,9 @@ def _fields(g, u, phi):
     if e is not None:
         pe = np.take(np.asarray(phi, dtype=float), g.el)
         gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
-        sigma = sigma + _times(gphi, e)
-        D = _times(eps, e.T) - _times(gphi, kappa.T)
+        sigma += _times(gphi, e)                                     # in place: the same sums, one array fewer
+        D = _times(eps, e.T)
+        D -= _times(gphi, kappa.T)
     return eps, gphi, sigma, D, g.gradL, g.measure
 
 
@@ -226,9 +227,18 @@ class Geometry:
         return self._roles[key]
 
     @cached_property
+    def index(self) -> type:
+        """The integer type of the cell, facet and node indices kept here: int32 while every index (the rows of
+        the fields stacked, ``q`` per cell, and the nodes) fits in it (half the bytes of int64), else int64."""
+        size = max(self.G.shape[1] * len(self.el) + 1, len(self._mesh.points))
+        return np.int32 if size <= np.iinfo(np.int32).max else np.int64
+
+    @cached_property
     def facets(self):
-        """The facet table (:func:`~cvxcontact.geometry.facets.facets`: owners, local indices, vertices, keys)."""
-        return facet_table(self._mesh.cells, len(self._mesh.points))
+        """The facet table (:func:`~cvxcontact.geometry.facets.facets`: owners, local indices, vertices, keys),
+        kept with owners and vertices of :attr:`index` type and local indices as int8 (the keys int64)."""
+        owners, local, vertices, keys = facet_table(self._mesh.cells, len(self._mesh.points))
+        return owners.astype(self.index), local.astype(np.int8), vertices.astype(self.index), keys
 
     @cached_property
     def hT(self) -> np.ndarray:
@@ -245,17 +255,18 @@ class Geometry:
         grad = self.gradL[c0, :, local[:, 0]]                 # grad of the opposite vertex's coordinate: inward
         size = np.linalg.norm(grad, axis=1)
         inner = owners[:, 1] >= 0
-        ii = np.flatnonzero(inner)
+        ii = np.flatnonzero(inner).astype(self.index)
         c1 = owners[ii, 1]
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
         hF = _diameters(mesh.points, vertices)
         pos0 = (contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
         pos1 = (contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
-        at1 = np.full(pos0.shape, q * len(self.el))                     # a boundary facet's other side: a zero row
+        at1 = np.full(pos0.shape, q * len(self.el), dtype=self.index)   # a boundary facet's other side: a zero row
         at1[ii] = q * c1[:, None] + pos1
         return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
-                      hF=hF, at0=q * c0[:, None] + pos0, at1=at1, scale=np.where(inner, 0.5, 1.0) * hF * area)
+                      hF=hF, at0=(q * c0[:, None] + pos0).astype(self.index), at1=at1,
+                      scale=np.where(inner, 0.5, 1.0) * hF * area)
 
     def part(self, tag) -> np.ndarray:
         """The indices in the facet table of the facets of boundary part ``tag``."""
@@ -489,8 +500,8 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
                if mech_role.get(tag) == "partial"}
     roles = g.roles(mech_role, elec_role, partial)
-    Rv = contact._voigt_traction(_jumps(sigma, f), n)                                             # (k, v, d)
-    rv = None if D is None else np.einsum("kvd,kd->kv", _jumps(D, f), n)                          # (k, v)
+    Rv = _normal_jumps(sigma, f, n, contact._voigt_traction)                                      # (k, v, d)
+    rv = None if D is None else _normal_jumps(D, f, n, lambda J, nb: np.einsum("kvd,kd->kv", J, nb))  # (k, v)
     loaded = roles.loaded
     Rl = Rv[loaded]                                       # the loaded facets' by a rule below (copies)
     rl = None if D is None else rv[loaded]
@@ -540,9 +551,20 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     eta2 += np.bincount(f.c0, term, len(eta2)) + np.bincount(f.c1, term[f.ii], len(eta2))
 
 
-def _jumps(values, f) -> np.ndarray:
-    """(k, v, ...) the vertex values ``values`` (m, q, ...) of each facet's first cell minus its second's (a
-    boundary facet's: its first's), at the facet's v vertices (:class:`_Faces` ``at0``, ``at1``)."""
+def _normal_jumps(values, f, n, times) -> np.ndarray:
+    """``times(J, n)`` of the jumps J (k, v, ...) of the vertex values ``values`` (m, q, ...): each facet's first
+    cell's values minus its second's (a boundary facet's: its first's) at the facet's v vertices (:class:`_Faces`
+    ``at0``, ``at1``), on the facets' normals ``n`` (k, d); by blocks of ``contact.CELLS`` facets, so that the
+    jumps (k, v, s) are never all formed (the same numbers: a boundary facet's second side is 0.0)."""
     stacked = values.reshape((-1,) + values.shape[2:])
-    stacked = np.concatenate([stacked, np.zeros((1,) + stacked.shape[1:])])     # the row a boundary facet reads
-    return np.take(stacked, f.at0, axis=0) - np.take(stacked, f.at1, axis=0)   # (take: 4x faster than indexing)
+    out = None
+    for s in range(0, max(len(f.at0), 1), contact.CELLS):                         # (one block if empty)
+        at1 = f.at1[s:s + contact.CELLS]
+        outer = at1 == len(stacked)                                                 # a boundary facet's row
+        second = np.take(stacked, np.where(outer, 0, at1), axis=0)                  # (take: 4x faster than
+        second[outer] = 0.0                                                         # indexing)
+        block = times(np.take(stacked, f.at0[s:s + contact.CELLS], axis=0) - second, n[s:s + contact.CELLS])
+        if out is None:
+            out = np.empty((len(f.at0),) + block.shape[1:])
+        out[s:s + len(block)] = block
+    return out

@@ -16,12 +16,20 @@ is the plain route's.
   sharing a dof are neighbours) solved to its answer from the bonded start; then every row within ``--hops``
   hops of a closed coarse row closed, less one row of each nearly dependent pair (as in ``reduced``), and the
   full problem from there (on a declined run, the plain steps).
+* ``schur``: the same coarse rows, but their problem solved on the dense Schur complement of the mixed system
+  with only the coarse rows in it, W_c = G_c S^{-1} G_c^T (c x c, by PARDISO's Schur option:
+  :class:`~cvxcontact.backends.factor.PardisoFactorization`, one partial factorisation of a handle of its own,
+  freed before the route's), by primal-dual active-set steps on the dense W_c (y >= 0, s = q - W_c y <= 0,
+  q = G_c S^{-1} F - g_c: the coarse forces of the same steps as the route's, to the row weights), from every
+  coarse row closed; then the start as in ``coarse`` (every row within ``--hops`` hops of a closed coarse row,
+  thinned) and the full problem from there (on a declined run, the plain steps). ``coarse_cpu`` is the Schur
+  complement and the dense steps.
 
 A row is left out of a subproblem by a gap of 1e3 max|g| + 1 (scaled) on it: it never penetrates, so the steps
 never close it. This is an exploration (the package does not ship these starts): see
 benchmarks/results/bench_longif.md for what was measured and what remains.
 
-Run:  OMP_NUM_THREADS=1 python benchmarks/explore_longif.py --n 3000 [--variants plain coarse reduced]
+Run:  OMP_NUM_THREADS=1 python benchmarks/explore_longif.py --n 3000 [--variants plain coarse reduced schur]
 """
 
 from __future__ import annotations
@@ -44,6 +52,7 @@ sys.path.insert(0, str(HERE))
 import cvxcontact as cc
 from cvxcontact.apps import demo
 from cvxcontact.backends.condensed import quasi_definite_rhs
+from cvxcontact.backends.factor import PardisoFactorization
 from cvxcontact.backends.sparse import SparseContact
 
 
@@ -90,10 +99,37 @@ def coarse_rows(H: sp.csr_matrix) -> np.ndarray:
     return keep
 
 
+def schur_start(sc: SparseContact, F, g, keep: np.ndarray, max_iter: int = 50):
+    """The closed rows (bool, m) of the coarse problem on the rows ``keep``, solved on the dense Schur complement
+    W_c = G_c S^{-1} G_c^T (module docstring), and the dense steps taken."""
+    import scipy.linalg as sla
+
+    idx = np.flatnonzero(keep)
+    Gc = sc.G[idx]
+    M = sp.bmat([[sc.A, Gc.T], [Gc, None]], format="csr")
+    factor = PardisoFactorization(M, sc.n + np.arange(len(idx)))
+    W = -factor.schur                                            # the Schur block of [[S, Gc^T], [Gc, 0]]
+    q = -factor.forward(np.concatenate([F, np.zeros(len(idx))])).reduced - g[idx]     # Gc S^{-1} F - g_c
+    factor.release()
+    w, closed, seen = sc.w[idx], np.ones(len(idx), bool), set()
+    for steps in range(1, max_iter + 1):
+        y = np.zeros(len(idx))
+        ia = np.flatnonzero(closed)
+        y[ia] = sla.solve(W[np.ix_(ia, ia)], q[ia], assume_a="sym")
+        new = y * w + (q - W @ y) > 0
+        if np.array_equal(new, closed) or new.tobytes() in seen:
+            break
+        seen.add(closed.tobytes())
+        closed = new
+    out = np.zeros(sc.m, bool)
+    out[idx[closed]] = True
+    return out, steps
+
+
 def run(variant: str, blocks, E, F, g, eps: float, hops: int):
     sc = SparseContact(blocks, E, factorization="auto")
     systems, far = 0, 1e3 * float(np.abs(g).max()) + 1.0
-    start = None
+    start, coarse_cpu = None, 0.0
     if variant == "reduced":
         keep = thin_out(sc, np.ones(sc.m, bool), eps)
         out = sc.solve(F, np.where(keep, g, far), active=keep)
@@ -105,10 +141,17 @@ def run(variant: str, blocks, E, F, g, eps: float, hops: int):
         out = sc.solve(F, np.where(keep, g, far), active=keep)
         systems += out[4]
         start = thin_out(sc, (H @ out[3].astype(float)) > 0, eps)
+    elif variant == "schur":
+        t0 = time.process_time()
+        H = row_graph(sc, hops)
+        closed, _ = schur_start(sc, F, g, coarse_rows(H))
+        start = thin_out(sc, (H @ closed.astype(float)) > 0, eps)
+        coarse_cpu = time.process_time() - t0
     out = sc.solve(F, g, active=start)
-    if out is None:
+    declined = out is None
+    if declined:
         out = sc.solve(F, g)
-    return out[3], systems + out[4], sc.factorizations, sc.column_solves
+    return out[3], systems + out[4], sc.factorizations, sc.column_solves, coarse_cpu, declined
 
 
 def main():
@@ -141,11 +184,12 @@ def main():
     reference = None
     for v in args.variants:
         t0 = time.process_time()
-        active, systems, fact, cols = run(v, blocks, E, F, g, args.eps, args.hops)
+        active, systems, fact, cols, coarse_cpu, declined = run(v, blocks, E, F, g, args.eps, args.hops)
         cpu = time.process_time() - t0
         reference = active if reference is None else reference
         row = {"n": args.n, "variant": v, "factorizations": fact, "systems": systems, "column_solves": cols,
-               "cpu": round(cpu, 3), "bonded_cpu": round(b, 3), "ratio": round(cpu / b, 2),
+               "cpu": round(cpu, 3), "coarse_cpu": round(coarse_cpu, 3), "declined": declined,
+               "bonded_cpu": round(b, 3), "ratio": round(cpu / b, 2),
                "closed": int(active.sum()), "same_set": bool(np.array_equal(active, reference))}
         print(json.dumps(row), flush=True)
 

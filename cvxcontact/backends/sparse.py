@@ -21,8 +21,9 @@ A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj 
 compliance (a force turned into a displacement of that node, as in the checks, docs/checks.md), until
 A_{k+1} = A_k with y >= 0 on A and s <= 0 off A, each to ``SIGN_TOL`` of the row's own scale. A_0 is
 the bonded system (every row closed: [u_nu] = g at every merged node) for a first solve (in 3D the rows the
-obstacles already close, :func:`~cvxcontact.backends.signorini.cheap_start`), the previous active set for a
-re-solve of a :class:`~cvxcontact.ContactSolver`.
+obstacles already close, :func:`~cvxcontact.backends.signorini.cheap_start`; above :data:`COARSE_ROWS` free rows
+the rows near the closed ones of a coarse subproblem solved on its dense Schur complement,
+:meth:`SparseContact.coarse_start`), the previous active set for a re-solve of a :class:`~cvxcontact.ContactSolver`.
 
 Most steps change only a few rows near the edges of the contact zone, so K(A) is not refactorised at
 each step: with the factor of a base K(A_b), K(A) z = b is solved exactly by the capacitance (bordered)
@@ -32,7 +33,10 @@ dense system for (t, s) needs one base solve per changed row (cached across step
 m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
 column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
 answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
-refinement steps) and refactorised if the check fails. Steps that stop (a cycle, a system failing its check) on the
+refinement steps) and refactorised if the check fails, with PARDISO's analysis redone on K(A) itself if it fails
+again (its scaling and matching are taken from the first matrix analysed, which may not suit a later one: measured,
+thin_layer(1000) from the coarse start, 124 perturbed pivots and a failed check on its second set; analysed
+afresh, the steps go on to the answer). Steps that stop (a cycle, a system failing its check) on the
 state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
 the path of a new object (:meth:`SparseContact._attempts`).
 
@@ -69,9 +73,25 @@ from .factor import superlu
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from ..discrete.energy import abs_product
-from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
+from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS"]
+
+COARSE_ROWS = 3000
+"""The free contact rows from which the route's first solve starts from the coarse rows' answer
+(:meth:`SparseContact.coarse_start`) instead of the bonded system. Measured on thin_layer (one thread, numeric
+factorisations and CPU from the bonded start / from this start): n = 3000 (5,101 rows) 15 / 4 and 2.43 / 1.85 s,
+n = 5000 (8,501 rows) 16 / 5 and 4.2 / 3.7 s, but n = 1000 (1,701 rows) 9 / 8 and 0.53 / 0.84 s (the coarse
+problem's partial factorisation costs about one bonded solve: worth it where the bonded start takes many steps;
+benchmarks/results/bench_longif.md)."""
+
+COARSE_HOPS = 4
+"""The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
+neighbours); the start closes every row within as many hops of a closed coarse row."""
+
+NEAR_DEPENDENT = 1e-2
+"""Two rows whose Jacobi-scaled cosine exceeds 1 - this are nearly dependent (merged nodes of two traces close
+together): the start closes at most one of them (the more compliant)."""
 
 SOFT = 1e-6
 """The relative compliance of the regularised stage of the sparse route for dependent rows
@@ -365,10 +385,13 @@ class SparseContact:
         return active
 
     def _system(self, active):
-        """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed); None if singular."""
+        """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
+        check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
         K = self.matrix(active)
-        for attempt in range(2):
-            if self.base is None or int((self.base[0] ^ active).sum()) > self.cap or attempt == 1:
+        for attempt in range(3):
+            if attempt == 2:
+                self.forget(analysis=True)
+            if self.base is None or int((self.base[0] ^ active).sum()) > self.cap or attempt >= 1:
                 if not self._refactor(active, K):
                     return None
             b = np.concatenate([self.F, np.where(active, self._g, 0.0)])
@@ -545,6 +568,91 @@ class SparseContact:
             return out
         (x, y), passive, steps = out
         return self._split(x) + (y, passive, steps)
+
+    def coarse_start(self, F, g, free=None):
+        """A start set for :meth:`solve`'s steps on a long interface, from the answer of a coarse subproblem.
+
+        The coarse rows: a maximal independent set of the free rows' graph to :data:`COARSE_HOPS` hops (no two
+        within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
+        alone (every other row left out) is solved on its dense Schur complement, the coarse rows' compliance
+        W_c = G_c S^{-1} G_c^T (c x c, one partial factorisation of [[S, G_c^T], [G_c, 0]] with the coarse rows as
+        its Schur block, :func:`~cvxcontact.backends.factor.factorize`, freed at once), as the LCP y >= 0,
+        s = q - W_c y <= 0, y^T s = 0 with q = G_c S^{-1} F - g_c (:func:`~cvxcontact.backends.finish.solve_lcp`).
+        The start: every free row within :data:`COARSE_HOPS` hops of a closed coarse row, less the stiffer row of
+        each nearly dependent pair (:data:`NEAR_DEPENDENT`). Only a start: the answer is the steps' (checked as
+        always). Why: from the bonded start a slender layer's contact zone moves by hundreds of rows a step, each
+        step a numeric factorisation (15 on thin_layer(3000)); from this start 4. Returns None where there is no
+        coarse problem to solve (every free row coarse, none free) or it cannot be solved (a perturbed pivot, a
+        singular W_c, the LCP declined): the caller then starts from the bonded system.
+
+        Parameters
+        ----------
+        F : (n,) ndarray, the loads [f_1; -q_1; ...] (scaled)
+        g : (m,) ndarray, the rows' gaps (scaled)
+        free : (m,) bool ndarray, optional, the rows that may close (default every row)
+        """
+        free = np.ones(self.m, dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        out = self._coarse(F, g, free)
+        if out is None:
+            return None
+        H, idx, y = out
+        closed = np.zeros(self.m)
+        closed[idx[y > 0]] = 1.0
+        start = free & ((H @ closed) > 0)
+        Gs = self.G @ sp.diags(1.0 / np.sqrt(np.abs(self.A.diagonal())))
+        P = (Gs @ Gs.T).tocoo()
+        norm = np.sqrt(np.maximum(np.asarray(Gs.multiply(Gs).sum(axis=1)).ravel(), np.finfo(float).tiny))
+        cos = P.data / (norm[P.row] * norm[P.col])
+        near = np.flatnonzero((P.row < P.col) & (cos > 1.0 - NEAR_DEPENDENT))
+        near = near[np.argsort(-cos[near], kind="stable")]          # the most nearly dependent pairs first
+        for a, b in zip(P.row[near], P.col[near]):
+            if start[a] and start[b]:
+                start[a if self.w[a] < self.w[b] else b] = False
+        return start if start.any() else None
+
+    def _coarse(self, F, g, free):
+        """(H, idx, y) of :meth:`coarse_start`: the rows' graph to :data:`COARSE_HOPS` hops (pattern, m x m), the
+        coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as there."""
+        from .factor import factorize as factorize_schur
+
+        B = abs(self.G).tocsr()
+        B.data[:] = 1.0
+        C = (B @ B.T).tocsr()
+        C.data[:] = 1.0
+        H = C.copy()
+        for _ in range(COARSE_HOPS - 1):
+            H = (H @ C).tocsr()
+            H.data[:] = 1.0
+        keep, blocked = np.zeros(self.m, dtype=bool), ~free
+        for a in range(self.m):                         # greedy maximal independent set, in row order
+            if not blocked[a]:
+                keep[a] = True
+                blocked[H.indices[H.indptr[a]:H.indptr[a + 1]]] = True
+        idx = np.flatnonzero(keep)
+        if len(idx) == 0 or len(idx) == int(free.sum()):
+            return None
+        Gc = self.G[idx]
+        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr")
+        gamma = self.n + np.arange(len(idx))
+        order = None
+        if self.factorization != "pardiso":             # SuperLU: the route's ordering of S's dofs, the rows last
+            if self.perm is None:
+                self.perm = ordering(self.matrix(np.ones(self.m, dtype=bool)), self.n + np.arange(self.m))
+            order = np.concatenate([self.perm[self.perm < self.n], gamma])
+        try:
+            fac = factorize_schur(M, gamma, self.factorization, order=order)
+        except (SolverError, RuntimeError):
+            return None
+        try:
+            q = -fac.forward(np.concatenate([np.asarray(F, dtype=float), np.zeros(len(idx))])).reduced \
+                - np.asarray(g, dtype=float)[idx]                        # G_c S^{-1} F - g_c
+            W = -fac.schur                                               # the Schur block of M is -W_c
+        finally:
+            fac.free()
+        out = solve_lcp(W, q, np.ones(len(idx), dtype=bool))
+        if isinstance(out, Declined):
+            return None
+        return H, idx, np.where(out[1], out[0], 0.0)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

@@ -75,9 +75,9 @@ def one(root: str, n: int, repeats: int, out: str) -> dict:
         start = None                                    # the route's start (backends/signorini.sparse)
         if hasattr(sc, "coarse_start") and len(g) >= getattr(sparse_module, "COARSE_ROWS", np.inf):
             start = sc.coarse_start(F, g)
-        out = sc.solve(F, g, start)
-        out = sc.solve(F, g) if out is None else out
-        u, phi, y, active, steps = out
+        answer = sc.solve(F, g, start)
+        answer = sc.solve(F, g) if answer is None else answer
+        u, phi, y, active, steps = answer
         route.append(time.process_time() - t0)
         counts = {"systems": steps, "factorizations": sc.factorizations, "column_solves": sc.column_solves,
                   "closed": int(active.sum()), "rows": len(active), "factorization": sc.factorization}

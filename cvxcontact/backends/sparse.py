@@ -79,11 +79,11 @@ __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS"]
 
 COARSE_ROWS = 3000
 """The free contact rows from which the route's first solve starts from the coarse rows' answer
-(:meth:`SparseContact.coarse_start`) instead of the bonded system. Measured on thin_layer (one thread, numeric
-factorisations and CPU from the bonded start / from this start): n = 3000 (5,101 rows) 15 / 4 and 2.43 / 1.85 s,
-n = 5000 (8,501 rows) 16 / 5 and 4.2 / 3.7 s, but n = 1000 (1,701 rows) 9 / 8 and 0.53 / 0.84 s (the coarse
-problem's partial factorisation costs about one bonded solve: worth it where the bonded start takes many steps;
-benchmarks/results/bench_longif.md)."""
+(:meth:`SparseContact.coarse_start`) instead of the bonded system. Measured on thin_layer (one thread, PARDISO,
+numeric factorisations and CPU from the bonded start / from this start): n = 3000 (5,101 rows) 15 / 4 and 2.7 /
+1.65 s, n = 5000 (8,501 rows) 16-17 / 5 and 4.3-4.8 / 3.2-3.5 s, but n = 1000 (1,701 rows) 9 / 6-7 and 0.57-0.59 /
+0.58-0.68 s (the coarse problem's partial factorisation costs about one bonded solve: worth it where the bonded
+start takes many steps; benchmarks/results/bench_longif.md)."""
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are

@@ -16,14 +16,11 @@ is the plain route's.
   sharing a dof are neighbours) solved to its answer from the bonded start; then every row within ``--hops``
   hops of a closed coarse row closed, less one row of each nearly dependent pair (as in ``reduced``), and the
   full problem from there (on a declined run, the plain steps).
-* ``schur``: the same coarse rows, but their problem solved on the dense Schur complement of the mixed system
-  with only the coarse rows in it, W_c = G_c S^{-1} G_c^T (c x c, by PARDISO's Schur option:
-  :class:`~cvxcontact.backends.factor.PardisoFactorization`, one partial factorisation of a handle of its own,
-  freed before the route's), by primal-dual active-set steps on the dense W_c (y >= 0, s = q - W_c y <= 0,
-  q = G_c S^{-1} F - g_c: the coarse forces of the same steps as the route's, to the row weights), from every
-  coarse row closed; then the start as in ``coarse`` (every row within ``--hops`` hops of a closed coarse row,
-  thinned) and the full problem from there (on a declined run, the plain steps). ``coarse_cpu`` is the Schur
-  complement and the dense steps.
+* ``schur``: the package's start above ``sparse.COARSE_ROWS`` rows, :meth:`SparseContact.coarse_start` (the same
+  coarse rows, their problem solved on its dense Schur complement W_c = G_c S^{-1} G_c^T by one partial
+  factorisation and the dense LCP, then the start as in ``coarse``, with the package's hops and eps: ``--hops``
+  and ``--eps`` do not apply), then the full problem from there (on a declined run, the plain steps).
+  ``coarse_cpu`` is the start's CPU.
 
 A row is left out of a subproblem by a gap of 1e3 max|g| + 1 (scaled) on it: it never penetrates, so the steps
 never close it. This is an exploration (the package does not ship these starts): see
@@ -52,7 +49,6 @@ sys.path.insert(0, str(HERE))
 import cvxcontact as cc
 from cvxcontact.apps import demo
 from cvxcontact.backends.condensed import quasi_definite_rhs
-from cvxcontact.backends.factor import PardisoFactorization
 from cvxcontact.backends.sparse import SparseContact
 
 
@@ -99,33 +95,6 @@ def coarse_rows(H: sp.csr_matrix) -> np.ndarray:
     return keep
 
 
-def schur_start(sc: SparseContact, F, g, keep: np.ndarray, max_iter: int = 50):
-    """The closed rows (bool, m) of the coarse problem on the rows ``keep``, solved on the dense Schur complement
-    W_c = G_c S^{-1} G_c^T (module docstring), and the dense steps taken."""
-    import scipy.linalg as sla
-
-    idx = np.flatnonzero(keep)
-    Gc = sc.G[idx]
-    M = sp.bmat([[sc.A, Gc.T], [Gc, None]], format="csr")
-    factor = PardisoFactorization(M, sc.n + np.arange(len(idx)))
-    W = -factor.schur                                            # the Schur block of [[S, Gc^T], [Gc, 0]]
-    q = -factor.forward(np.concatenate([F, np.zeros(len(idx))])).reduced - g[idx]     # Gc S^{-1} F - g_c
-    factor.release()
-    w, closed, seen = sc.w[idx], np.ones(len(idx), bool), set()
-    for steps in range(1, max_iter + 1):
-        y = np.zeros(len(idx))
-        ia = np.flatnonzero(closed)
-        y[ia] = sla.solve(W[np.ix_(ia, ia)], q[ia], assume_a="sym")
-        new = y * w + (q - W @ y) > 0
-        if np.array_equal(new, closed) or new.tobytes() in seen:
-            break
-        seen.add(closed.tobytes())
-        closed = new
-    out = np.zeros(sc.m, bool)
-    out[idx[closed]] = True
-    return out, steps
-
-
 def run(variant: str, blocks, E, F, g, eps: float, hops: int):
     sc = SparseContact(blocks, E, factorization="auto")
     systems, far = 0, 1e3 * float(np.abs(g).max()) + 1.0
@@ -141,11 +110,9 @@ def run(variant: str, blocks, E, F, g, eps: float, hops: int):
         out = sc.solve(F, np.where(keep, g, far), active=keep)
         systems += out[4]
         start = thin_out(sc, (H @ out[3].astype(float)) > 0, eps)
-    elif variant == "schur":
+    elif variant == "schur":                            # the package's start (its own hops and eps)
         t0 = time.process_time()
-        H = row_graph(sc, hops)
-        closed, _ = schur_start(sc, F, g, coarse_rows(H))
-        start = thin_out(sc, (H @ closed.astype(float)) > 0, eps)
+        start = sc.coarse_start(F, g)
         coarse_cpu = time.process_time() - t0
     out = sc.solve(F, g, active=start)
     declined = out is None

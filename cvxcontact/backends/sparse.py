@@ -603,6 +603,10 @@ class SparseContact:
         F : (n,) ndarray, the loads [f_1; -q_1; ...] (scaled)
         g : (m,) ndarray, the rows' gaps (scaled)
         free : (m,) bool ndarray, optional, the rows that may close (default every row)
+
+        Returns
+        -------
+        (m,) bool ndarray, the rows to close first, or None (above)
         """
         free = np.ones(self.m, dtype=bool) if free is None else np.asarray(free, dtype=bool)
         self._bonded_analysis = True          # the steps from the start: PARDISO analysed on the bonded values

@@ -8,8 +8,10 @@ builds the problem once and then measures, in process CPU seconds (``time.proces
 ``--threads 1``, the default):
 
 * ``route_cpu``: the sparse route from the scaled problem to the exact answer, i.e.
-  ``SparseContact(blocks, E).solve(F, g)`` from the bonded start (the pattern, PARDISO's analysis, the active-set
-  steps, every factorisation and solve); median of ``--repeats``. Its systems solved, factorisations and capacitance
+  ``SparseContact(blocks, E).solve(F, g, start)`` from the route's start (the bonded system, or above
+  ``sparse.COARSE_ROWS`` rows where the side has it ``SparseContact.coarse_start``; the bonded start if the steps
+  from it lead nowhere, as the route does) (the pattern, PARDISO's analysis, the start, the active-set steps, every
+  factorisation and solve); median of ``--repeats``. Its systems solved, factorisations and capacitance
   column solves are reported;
 * ``solve_cpu``: ``cc.ContactSolver(scene).solve()`` (``method="auto"``: the sparse route here), from the Scene to
   the checked Solution, minus its assembly (``sol.timings["assembly"]``); median of ``--repeats``;
@@ -53,6 +55,7 @@ def one(root: str, n: int, repeats: int, out: str) -> dict:
     warnings.simplefilter("ignore")
     import cvxcontact as cc
     from cvxcontact.apps import demo
+    from cvxcontact.backends import sparse as sparse_module
     from cvxcontact.backends.condensed import quasi_definite_rhs
     from cvxcontact.backends.sparse import SparseContact
 
@@ -69,7 +72,12 @@ def one(root: str, n: int, repeats: int, out: str) -> dict:
     for _ in range(repeats):
         t0 = time.process_time()
         sc = SparseContact(blocks, E, factorization="auto")
-        u, phi, y, active, steps = sc.solve(F, g)
+        start = None                                    # the route's start (backends/signorini.sparse)
+        if hasattr(sc, "coarse_start") and len(g) >= getattr(sparse_module, "COARSE_ROWS", np.inf):
+            start = sc.coarse_start(F, g)
+        answer = sc.solve(F, g, start)
+        answer = sc.solve(F, g) if answer is None else answer
+        u, phi, y, active, steps = answer
         route.append(time.process_time() - t0)
         counts = {"systems": steps, "factorizations": sc.factorizations, "column_solves": sc.column_solves,
                   "closed": int(active.sum()), "rows": len(active), "factorization": sc.factorization}

@@ -16,12 +16,17 @@ is the plain route's.
   sharing a dof are neighbours) solved to its answer from the bonded start; then every row within ``--hops``
   hops of a closed coarse row closed, less one row of each nearly dependent pair (as in ``reduced``), and the
   full problem from there (on a declined run, the plain steps).
+* ``schur``: the package's start above ``sparse.COARSE_ROWS`` rows, :meth:`SparseContact.coarse_start` (the same
+  coarse rows, their problem solved on its dense Schur complement W_c = G_c S^{-1} G_c^T by one partial
+  factorisation and the dense LCP, then the start as in ``coarse``, with the package's hops and eps: ``--hops``
+  and ``--eps`` do not apply), then the full problem from there (on a declined run, the plain steps).
+  ``coarse_cpu`` is the start's CPU.
 
 A row is left out of a subproblem by a gap of 1e3 max|g| + 1 (scaled) on it: it never penetrates, so the steps
 never close it. This is an exploration (the package does not ship these starts): see
 benchmarks/results/bench_longif.md for what was measured and what remains.
 
-Run:  OMP_NUM_THREADS=1 python benchmarks/explore_longif.py --n 3000 [--variants plain coarse reduced]
+Run:  OMP_NUM_THREADS=1 python benchmarks/explore_longif.py --n 3000 [--variants plain coarse reduced schur]
 """
 
 from __future__ import annotations
@@ -93,7 +98,7 @@ def coarse_rows(H: sp.csr_matrix) -> np.ndarray:
 def run(variant: str, blocks, E, F, g, eps: float, hops: int):
     sc = SparseContact(blocks, E, factorization="auto")
     systems, far = 0, 1e3 * float(np.abs(g).max()) + 1.0
-    start = None
+    start, coarse_cpu = None, 0.0
     if variant == "reduced":
         keep = thin_out(sc, np.ones(sc.m, bool), eps)
         out = sc.solve(F, np.where(keep, g, far), active=keep)
@@ -105,10 +110,15 @@ def run(variant: str, blocks, E, F, g, eps: float, hops: int):
         out = sc.solve(F, np.where(keep, g, far), active=keep)
         systems += out[4]
         start = thin_out(sc, (H @ out[3].astype(float)) > 0, eps)
+    elif variant == "schur":                            # the package's start (its own hops and eps)
+        t0 = time.process_time()
+        start = sc.coarse_start(F, g)
+        coarse_cpu = time.process_time() - t0
     out = sc.solve(F, g, active=start)
-    if out is None:
+    declined = out is None
+    if declined:
         out = sc.solve(F, g)
-    return out[3], systems + out[4], sc.factorizations, sc.column_solves
+    return out[3], systems + out[4], sc.factorizations, sc.column_solves, coarse_cpu, declined
 
 
 def main():
@@ -141,11 +151,12 @@ def main():
     reference = None
     for v in args.variants:
         t0 = time.process_time()
-        active, systems, fact, cols = run(v, blocks, E, F, g, args.eps, args.hops)
+        active, systems, fact, cols, coarse_cpu, declined = run(v, blocks, E, F, g, args.eps, args.hops)
         cpu = time.process_time() - t0
         reference = active if reference is None else reference
         row = {"n": args.n, "variant": v, "factorizations": fact, "systems": systems, "column_solves": cols,
-               "cpu": round(cpu, 3), "bonded_cpu": round(b, 3), "ratio": round(cpu / b, 2),
+               "cpu": round(cpu, 3), "coarse_cpu": round(coarse_cpu, 3), "declined": declined,
+               "bonded_cpu": round(b, 3), "ratio": round(cpu / b, 2),
                "closed": int(active.sum()), "same_set": bool(np.array_equal(active, reference))}
         print(json.dumps(row), flush=True)
 

@@ -364,3 +364,85 @@ def test_sparse_route_against_a_clamped_foundation_at_zero_gap(ny):
     sol = cc.solve(scene, "sigma1", method="sparse")
     assert sol.ok, sol.report()
     assert rel(sol.u[0], _floor_reference(upper)) < 1e-11 and np.abs(sol.u[1]).max() == 0.0
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_coarse_start_reaches_the_answer_of_the_bonded_start(monkeypatch, factorization):
+    """The coarse start of a long interface (SparseContact.coarse_start; the route takes it above COARSE_ROWS
+    free rows, lowered here to thin_layer(200)'s 341): the coarse rows' forces from their dense Schur complement
+    are those of the route's own steps on the coarse rows alone (the other rows left out by a far gap), and the
+    steps from the start end on the same active set and answer as from the bonded start and as the full model."""
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends.factor import pardiso_available
+
+    if factorization == "pardiso" and not pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    scene = thin_layer(200)
+    bonded = cc.ContactSolver(scene, method="sparse", factorization=factorization)
+    ref = bonded.solve()                                   # 348 rows < COARSE_ROWS: from the bonded start
+    monkeypatch.setattr(sparse_mod, "COARSE_ROWS", 10)
+    calls = []
+    coarse_start = SparseContact.coarse_start
+
+    def spy(self, *args):
+        calls.append(coarse_start(self, *args))
+        return calls[-1]
+
+    monkeypatch.setattr(SparseContact, "coarse_start", spy)
+    solver = cc.ContactSolver(scene, method="sparse", factorization=factorization)
+    sol = solver.solve()
+    assert len(calls) == 1 and calls[0] is not None
+    start = calls[0]
+    assert sol.ok and sol.info.route == Route.SPARSE_ACTIVE_SET
+    assert not np.array_equal(start, ref.contact.active)          # a start, not the answer (measured: 96 rows off)
+    # measured (SuperLU / PARDISO) u 2.4e-14 / 2.6e-12, phi 4.9e-15 / 2.1e-13, force 6.1e-13 / 3.3e-11 against
+    # the bonded start; u 2.1e-13 / 2.7e-12, phi 7.1e-14 / 2.1e-13, force 1.2e-12 / 1.0e-11 against the full
+    # model: >= 370x, 300x
+    fields_agree(sol, ref, 1e-9, force_tol=1e-8)
+    fields_agree(sol, cc.solve(scene, method="full"), 1e-9, force_tol=1e-8)
+    # the coarse problem two ways: dense Schur complement + LCP, and the sparse steps with the other rows far
+    blocks, E = list(solver.problem.blocks), solver.problem.E
+    g = np.asarray(solver.problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    sc = SparseContact(blocks, E, factorization=factorization)
+    _, idx, y_c = sc._coarse(F, g, np.ones(len(g), dtype=bool))
+    assert 0 < len(idx) < len(g) and (y_c > 0).any() and (y_c == 0).any()
+    keep = np.zeros(len(g), dtype=bool)
+    keep[idx] = True
+    far = np.where(keep, g, 1e3 * np.abs(g).max() + 1.0)
+    _, _, y, active, _ = SparseContact(blocks, E, factorization=factorization).solve(F, far, keep)
+    assert np.array_equal(active[idx], y_c > 0) and not active[~keep].any()
+    assert rel(y[idx], y_c) < 1e-9                               # measured 2.9e-12 / 3.2e-12
+
+
+def test_a_system_failing_its_check_twice_is_refactorised_after_a_fresh_analysis(monkeypatch, layer):
+    """SparseContact._system: an answer that fails its check against K(A) is refactorised; failing again, the
+    factorisation (and with PARDISO its analysis) is made afresh on K(A) itself, and the steps go on to the
+    answer of an undisturbed solve. Here the first two answers of the first system are spoiled on purpose."""
+    solver = cc.ContactSolver(layer, method="sparse")
+    ref = solver.solve()
+    blocks, E = list(solver.problem.blocks), solver.problem.E
+    g = np.asarray(solver.problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    u0, _, y0, _, _ = SparseContact(blocks, E, factorization=ref.info.factorization).solve(F, g)    # undisturbed
+    sc = SparseContact(blocks, E, factorization=ref.info.factorization)
+    solve_on, refactor, spoiled, own = SparseContact._solve_on, SparseContact._refactor, [], []
+
+    def spoil(self, active, b):
+        z = solve_on(self, active, b)
+        if len(spoiled) < 8:         # the first answer and its three refinements, twice over: all fail the check
+            spoiled.append(1)
+            return z + 1.0
+        return z
+
+    def spy(self, active, K=None, own_analysis=False):
+        own.append(own_analysis)
+        return refactor(self, active, K, own_analysis)
+
+    monkeypatch.setattr(SparseContact, "_solve_on", spoil)
+    monkeypatch.setattr(SparseContact, "_refactor", spy)
+    u, _, y, active, _ = sc.solve(F, g)
+    assert own[:3] == [False, False, True] and sc.attempts == 1
+    assert np.array_equal(active, ref.contact.active)
+    # measured 2.9e-14 / 7.0e-13 against the undisturbed solve (scaled units): >= 3000x, 14000x
+    assert rel(np.concatenate(u), np.concatenate(u0)) < 1e-10 and rel(y, y0) < 1e-8

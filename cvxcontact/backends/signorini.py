@@ -222,9 +222,11 @@ def condensed(problem, cache, settings, timings) -> RawResult:
 
 def sparse(problem, cache, settings, timings) -> RawResult:
     """Active-set steps on the sparse mixed system (26) (:mod:`cvxcontact.backends.sparse`), from the bonded
-    system (first solve) or the previous active set (re-solve); exact, no interior point (``polish`` does not
+    system (first solve; above :data:`~cvxcontact.backends.sparse.COARSE_ROWS` free rows from the answer of the
+    coarse rows, :meth:`~cvxcontact.backends.sparse.SparseContact.coarse_start`, the bonded system if that
+    leads nowhere) or the previous active set (re-solve); exact, no interior point (``polish`` does not
     apply). ``iterations`` counts the systems solved."""
-    from .sparse import SparseContact
+    from .sparse import COARSE_ROWS, SparseContact
 
     if dependent_rows(problem):
         return _sparse_dependent(problem, cache, settings, timings)
@@ -237,6 +239,8 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
     out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
     start = cheap_start(problem)
+    if out is None and start is None and int(free.sum()) >= COARSE_ROWS:    # a long interface: from the
+        start = sc.coarse_start(rhs, problem.g, free)                         # answer of its coarse rows
     if out is None and start is not None:                  # 3D: the rows the obstacles already close
         out, warm = sc.solve(rhs, problem.g, start), False
     if out is None:                                        # first solve, or the previous set led nowhere

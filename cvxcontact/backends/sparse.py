@@ -21,8 +21,9 @@ A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj 
 compliance (a force turned into a displacement of that node, as in the checks, docs/checks.md), until
 A_{k+1} = A_k with y >= 0 on A and s <= 0 off A, each to ``SIGN_TOL`` of the row's own scale. A_0 is
 the bonded system (every row closed: [u_nu] = g at every merged node) for a first solve (in 3D the rows the
-obstacles already close, :func:`~cvxcontact.backends.signorini.cheap_start`), the previous active set for a
-re-solve of a :class:`~cvxcontact.ContactSolver`.
+obstacles already close, :func:`~cvxcontact.backends.signorini.cheap_start`; above :data:`COARSE_ROWS` free rows
+the rows near the closed ones of a coarse subproblem solved on its dense Schur complement,
+:meth:`SparseContact.coarse_start`), the previous active set for a re-solve of a :class:`~cvxcontact.ContactSolver`.
 
 Most steps change only a few rows near the edges of the contact zone, so K(A) is not refactorised at
 each step: with the factor of a base K(A_b), K(A) z = b is solved exactly by the capacitance (bordered)
@@ -32,7 +33,10 @@ dense system for (t, s) needs one base solve per changed row (cached across step
 m-vectors each: O(m c) memory). When c exceeds ``cap`` (default: what a refactorisation costs in
 column solves, measured, at most 500) K(A) is refactorised with the stored ordering and becomes the base. Every
 answer is checked against K(A) itself (componentwise backward error <= 1e-12, after up to two
-refinement steps) and refactorised if the check fails. Steps that stop (a cycle, a system failing its check) on the
+refinement steps) and refactorised if the check fails, with PARDISO's analysis redone on K(A) itself if it fails
+again (its scaling and matching are taken from the first matrix analysed, which may not suit a later one: measured,
+thin_layer(1000) from the coarse start, 124 perturbed pivots and a failed check on its second set; analysed
+afresh, the steps go on to the answer). Steps that stop (a cycle, a system failing its check) on the
 state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
 the path of a new object (:meth:`SparseContact._attempts`).
 
@@ -69,9 +73,25 @@ from .factor import superlu
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from ..discrete.energy import abs_product
-from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
+from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS"]
+
+COARSE_ROWS = 3000
+"""The free contact rows from which the route's first solve starts from the coarse rows' answer
+(:meth:`SparseContact.coarse_start`) instead of the bonded system. Measured on thin_layer (one thread, PARDISO,
+numeric factorisations and CPU from the bonded start / from this start): n = 3000 (5,101 rows) 15 / 4 and 2.7 /
+1.65 s, n = 5000 (8,501 rows) 16-17 / 5 and 4.3-4.8 / 3.2-3.5 s, but n = 1000 (1,701 rows) 9 / 6-7 and 0.57-0.59 /
+0.58-0.68 s (the coarse problem's partial factorisation costs about one bonded solve: worth it where the bonded
+start takes many steps; benchmarks/results/bench_longif.md)."""
+
+COARSE_HOPS = 4
+"""The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
+neighbours); the start closes every row within as many hops of a closed coarse row."""
+
+NEAR_DEPENDENT = 1e-2
+"""Two rows whose Jacobi-scaled cosine exceeds 1 - this are nearly dependent (merged nodes of two traces close
+together): the start closes at most one of them (the more compliant)."""
 
 SOFT = 1e-6
 """The relative compliance of the regularised stage of the sparse route for dependent rows
@@ -216,6 +236,7 @@ class SparseContact:
         self.factor_time = 0.0            # seconds spent in ordering() and factorize()
         self.column_solves = 0
         self.attempts = 0                 # the attempts (:meth:`_attempts`) the last :meth:`solve` made
+        self._bonded_analysis = False     # PARDISO's analysis on the bonded values (:meth:`_refactor`)
 
     def matrix(self, active) -> sp.csc_matrix:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
@@ -227,7 +248,15 @@ class SparseContact:
         N = self.n + self.m
         return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=(N, N))
 
-    def _refactor(self, active, K=None):
+    def _refactor(self, active, K=None, own_analysis: bool = False):
+        """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
+        analysis is made on the first matrix a new handle factorises, and its scaling and weighted matching kept
+        for every later factorisation; after :meth:`coarse_start` it is made on the values of the bonded system
+        instead (every row some unknown moves closed; one numeric factorisation more), whatever ``active`` is:
+        the matching then pairs every contact row with a dof, so a row closed later finds its pivot (measured,
+        thin_layer(3000) from the coarse start: analysed on the start's own values 69-72 perturbed pivots in every
+        later factorisation, each solve 2.4 times slower and followed by a refinement; on the bonded values none,
+        1.65 s against 2.14 s). ``own_analysis``: analyse on K itself (the last resort of :meth:`_system`)."""
         t0 = time.perf_counter()
         K = self.matrix(active) if K is None else K
         if self.factorization == "pardiso":
@@ -237,6 +266,9 @@ class SparseContact:
             try:
                 if self._pardiso is None:
                     self._pardiso = PardisoSymmetric(K)
+                    moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
+                    if self._bonded_analysis and not own_analysis and not np.array_equal(active, moves):
+                        self._pardiso.factor(self.matrix(moves))        # the analysis on the bonded values
                 factor = self._pardiso.factor(K)
             except SolverError:
                 self._pardiso, self.factorization = None, "superlu"     # refused: SuperLU from here on
@@ -365,11 +397,14 @@ class SparseContact:
         return active
 
     def _system(self, active):
-        """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed); None if singular."""
+        """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
+        check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
         K = self.matrix(active)
-        for attempt in range(2):
-            if self.base is None or int((self.base[0] ^ active).sum()) > self.cap or attempt == 1:
-                if not self._refactor(active, K):
+        for attempt in range(3):
+            if attempt == 2:
+                self.forget(analysis=True)
+            if self.base is None or int((self.base[0] ^ active).sum()) > self.cap or attempt >= 1:
+                if not self._refactor(active, K, own_analysis=attempt == 2):
                     return None
             b = np.concatenate([self.F, np.where(active, self._g, 0.0)])
             z = self._solve_on(active, b)
@@ -545,6 +580,99 @@ class SparseContact:
             return out
         (x, y), passive, steps = out
         return self._split(x) + (y, passive, steps)
+
+    def coarse_start(self, F, g, free=None):
+        """A start set for :meth:`solve`'s steps on a long interface, from the answer of a coarse subproblem.
+
+        The coarse rows: a maximal independent set of the free rows' graph to :data:`COARSE_HOPS` hops (no two
+        within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
+        alone (every other row left out) is solved on its dense Schur complement, the coarse rows' compliance
+        W_c = G_c S^{-1} G_c^T (c x c, one partial factorisation of [[S, G_c^T], [G_c, 0]] with the coarse rows as
+        its Schur block, :func:`~cvxcontact.backends.factor.factorize`, freed at once), as the LCP y >= 0,
+        s = q - W_c y <= 0, y^T s = 0 with q = G_c S^{-1} F - g_c (:func:`~cvxcontact.backends.finish.solve_lcp`).
+        The start: every free row within :data:`COARSE_HOPS` hops of a closed coarse row, less the stiffer row of
+        each nearly dependent pair (:data:`NEAR_DEPENDENT`). Only a start: the answer is the steps' (checked as
+        always). Why: from the bonded start a slender layer's contact zone moves by hundreds of rows a step, each
+        step a numeric factorisation (15 on thin_layer(3000)); from this start 4. Returns None where there is no
+        coarse problem to solve (every free row coarse, none free) or it cannot be solved (a perturbed pivot, a
+        singular W_c, the LCP declined): the caller then starts from the bonded system. From this call on, a new
+        PARDISO analysis of this object is made on the bonded values (:meth:`_refactor`).
+
+        Parameters
+        ----------
+        F : (n,) ndarray, the loads [f_1; -q_1; ...] (scaled)
+        g : (m,) ndarray, the rows' gaps (scaled)
+        free : (m,) bool ndarray, optional, the rows that may close (default every row)
+
+        Returns
+        -------
+        (m,) bool ndarray, the rows to close first, or None (above)
+        """
+        free = np.ones(self.m, dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        self._bonded_analysis = True          # the steps from the start: PARDISO analysed on the bonded values
+        out = self._coarse(F, g, free)
+        if out is None:
+            return None
+        C, idx, y = out
+        start = np.zeros(self.m)
+        start[idx[y > 0]] = 1.0
+        for _ in range(COARSE_HOPS):                    # the rows within COARSE_HOPS hops of a closed coarse row
+            start = (C @ start > 0).astype(float)
+        start = free & (start > 0)
+        Gs = self.G @ sp.diags(1.0 / np.sqrt(np.abs(self.A.diagonal())))
+        P = (Gs @ Gs.T).tocoo()
+        norm = np.sqrt(np.maximum(np.asarray(Gs.multiply(Gs).sum(axis=1)).ravel(), np.finfo(float).tiny))
+        cos = P.data / (norm[P.row] * norm[P.col])
+        near = np.flatnonzero((P.row < P.col) & (cos > 1.0 - NEAR_DEPENDENT))
+        near = near[np.argsort(-cos[near], kind="stable")]          # the most nearly dependent pairs first
+        for a, b in zip(P.row[near], P.col[near]):
+            if start[a] and start[b]:
+                start[a if self.w[a] < self.w[b] else b] = False
+        return start if start.any() else None
+
+    def _coarse(self, F, g, free):
+        """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
+        neighbour), the coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as
+        there."""
+        from .factor import factorize as factorize_schur
+
+        B = abs(self.G).tocsr()
+        B.data[:] = 1.0
+        C = (B @ B.T).tocsr()
+        C.data[:] = 1.0
+        keep, blocked = np.zeros(self.m, dtype=bool), ~free
+        for a in range(self.m):        # greedy maximal independent set, in row order; each ball by its own search
+            if not blocked[a]:         # (no power of the graph is formed: to 4 hops it holds ~100-300 rows per row)
+                keep[a] = True
+                ball = np.array([a])
+                for _ in range(COARSE_HOPS):
+                    ball = np.unique(np.concatenate([C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
+                blocked[ball] = True
+        idx = np.flatnonzero(keep)
+        if len(idx) == 0 or len(idx) == int(free.sum()):
+            return None
+        Gc = self.G[idx]
+        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr")
+        gamma = self.n + np.arange(len(idx))
+        order = None
+        if self.factorization != "pardiso":             # SuperLU: the route's ordering of S's dofs, the rows last
+            if self.perm is None:
+                self.perm = ordering(self.matrix(np.ones(self.m, dtype=bool)), self.n + np.arange(self.m))
+            order = np.concatenate([self.perm[self.perm < self.n], gamma])
+        try:
+            fac = factorize_schur(M, gamma, self.factorization, order=order)
+        except (SolverError, RuntimeError):
+            return None
+        try:
+            q = -fac.forward(np.concatenate([np.asarray(F, dtype=float), np.zeros(len(idx))])).reduced \
+                - np.asarray(g, dtype=float)[idx]                        # G_c S^{-1} F - g_c
+            W = -fac.schur                                               # the Schur block of M is -W_c
+        finally:
+            fac.free()
+        out = solve_lcp(W, q, np.ones(len(idx), dtype=bool))
+        if isinstance(out, Declined):
+            return None
+        return C, idx, np.where(out[1], out[0], 0.0)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import BISECTED, Curve, label_longest, refine_times
+from .geometry.refine import Curve, local_refusal, refine_local, start_local
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
@@ -272,11 +272,6 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
-    if scene.cell not in BISECTED:
-        raise UnsupportedError(f"adapt covers triangle and tetrahedron meshes only, got {scene.cell} cells: the "
-                               "error estimate and the bisections are those of simplices; mesh the bodies with "
-                               "triangles (cc.rectangle(..., cell='triangle')) or refine the quadrilaterals "
-                               "uniformly")
     if scene.dim == 3 and curves:
         raise UnsupportedError("adapt: curves= puts new boundary nodes back on 2D curves only; in 3D the new "
                                "boundary nodes stay on the flat facets of the first mesh: remove curves= (or mesh "
@@ -308,8 +303,13 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         raise SceneError(f"adapt: tol must be a positive number (the relative estimate to reach), got {tol!r}")
     say = progress or (lambda line: None)
     body_curves = _curves(scene, curves)
-    if scene.dim == 2:
-        scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    for k, b in enumerate(scene.bodies):
+        why = local_refusal(b.mesh, bool(body_curves.get(k)))
+        if why:
+            raise UnsupportedError(f"adapt cannot refine body {b.name!r} locally: {why}")
+    first = [start_local(b.mesh) for b in scene.bodies]
+    if any(m is not b.mesh for m, b in zip(first, scene.bodies)):
+        scene = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, first)))
     exact = options.pop("polish", True)             # the last step's finish; the others' too with exact_steps
     history, kept = [], []
     step, sol = 0, None
@@ -328,7 +328,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         if not stopped:
             marked = (mark_bulk(indicators, theta) if np.isinf(rate)
                       else mark_bisections(indicators, theta, rate, scene.dim, most))
-            meshes = [refine_times(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
+            meshes = [refine_local(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
             bodies = [b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:

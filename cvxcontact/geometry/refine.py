@@ -39,6 +39,11 @@ BISECTED = frozenset({"triangle", "tetra"})
 """The cells (``mesh.cell``) :func:`refine_marked` bisects."""
 
 
+GRID_HALVINGS = 1
+"""The most halvings of a tensor grid's interval in one call of :func:`refine_local`: a strip halved k times
+multiplies every cell along it by 2^k, so more bisections asked of a cell wait for the next step."""
+
+
 def local_refusal(mesh, curved: bool = False) -> str:
     """Why :func:`refine_local` cannot refine ``mesh`` ("" if it can): triangles and tetrahedra are bisected,
     quadrilaterals and hexahedra refined as a tensor grid (:func:`~cvxcontact.geometry.grid.refine_grid`) if
@@ -77,7 +82,7 @@ def refine_local(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = No
     if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
         raise MeshError(f"refine_local: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
                         f"got dtype {times.dtype} and shape {times.shape}")
-    return refine_grid(mesh, -(-times // mesh.dim))
+    return refine_grid(mesh, np.minimum(-(-times // mesh.dim), GRID_HALVINGS))
 
 def refine_uniform(mesh: Mesh | TetMesh, times: int = 1) -> tuple[Mesh | TetMesh, np.ndarray]:
     """(fine mesh, parent): ``mesh`` refined ``times`` times (module docstring); ``parent`` (m_fine,) the

@@ -4,6 +4,7 @@ uniform grid built directly), the refusals, a patch test solved on adapted non-m
 closed form, and the loop on a rigid cylinder pressed into a Q1 block against uniform refinement."""
 
 import warnings
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -197,9 +198,9 @@ def test_adapt_on_q1_beats_uniform_refinement():
     uniform = quietly(cc.solve, indentation(64, 32))
     h = result.history
     assert result.stopped == "max_steps" and [s.step for s in h] == list(range(6))
-    assert all(b.cells > a.cells for a, b in zip(h, h[1:])) and all(s.ok for s in h)
+    assert all(b.cells > a.cells for a, b in pairwise(h)) and all(s.ok for s in h)
     assert h[-1].marked == 0 and all(s.marked > 0 for s in h[:-1])
-    assert all(b.estimate < a.estimate for a, b in zip(h, h[1:]))
+    assert all(b.estimate < a.estimate for a, b in pairwise(h))
     mesh = result.scene.bodies[0].mesh
     assert tensor_grid(mesh) is not None and h[-1].cells == len(mesh.cells)
     assert h[-1].unknowns == 2 * len(mesh.points) == sum(u.size for u in result.solution.u)
@@ -223,7 +224,7 @@ def test_adapt_on_hexahedra():
     result = quietly(cc.adapt, scene, "sigma1", max_steps=2)
     h = result.history
     assert [s.step for s in h] == [0, 1, 2] and all(s.ok for s in h)
-    assert all(b.cells > a.cells for a, b in zip(h, h[1:]))
+    assert all(b.cells > a.cells for a, b in pairwise(h))
     mesh = result.scene.bodies[0].mesh
     assert tensor_grid(mesh) is not None and h[-1].unknowns == 3 * len(mesh.points)
     assert mesh.volumes.sum() == pytest.approx(0.5, rel=1e-12)

@@ -62,6 +62,9 @@ def test_tensor_grids_are_found_and_other_meshes_are_not():
                       np.vstack([rect.cells, rect.cells + len(rect.points)]))          # two grids side by side
     for other in (warped, rect.with_points(rect.points @ turn.T), two, cc.rectangle(nx=3, ny=2)):
         assert tensor_grid(other) is None
+    noisy = rect.with_points(rect.points + 1e-13 * np.random.default_rng(0).standard_normal(rect.points.shape))
+    grid = tensor_grid(noisy)                               # within GRID_TOL of the size: the same grid lines
+    assert grid is not None and np.abs(grid.axes[0] - np.linspace(-1, 1, 5)).max() < 1e-12
     assert "tensor grid" in local_refusal(warped) and "triangles" in local_refusal(warped)
     assert local_refusal(rect) == "" and "curves=" in local_refusal(rect, curved=True)
 

@@ -1,7 +1,8 @@
 """Refinement of triangle and tetrahedron meshes: uniform (red; a tetrahedron into 8), the nested meshes of a
 reference solution, and local (:func:`refine_marked`: newest-vertex bisection of triangles, longest-edge
 bisection of tetrahedra (:func:`bisect_tets`), both with conforming closure; :func:`refine_times`: a number of
-bisections per cell), the meshes of adaptive refinement.
+bisections per cell), the meshes of adaptive refinement; :func:`refine_local`, the local refinement of every mesh
+an adaptive loop takes (these bisections, or a tensor grid's strips halved: :mod:`cvxcontact.geometry.grid`).
 
 Uniform refinement:
 Each triangle (v0, v1, v2) is split into four by its edge midpoints m01, m12, m20 (straight edges, the

@@ -4,7 +4,8 @@ Each step solves the scene (:func:`cvxcontact.solve.ContactSolver`), reads the e
 eta_T of every body (:mod:`cvxcontact.solution.estimate`, docs/accuracy.md), marks by Dorfler's bulk
 criterion on all bodies together (:func:`mark_bulk`: the fewest cells, largest first, whose eta_T^2 sum to
 ``theta`` times the total) and bisects them (:func:`cvxcontact.geometry.refine.refine_marked`: newest-vertex
-bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure); with ``rate``, each
+bisection of triangles, longest-edge bisection of tetrahedra, both with conforming closure; a tensor grid of
+quadrilaterals or hexahedra: its strips through them halved, below); with ``rate``, each
 marked cell as often as its indicator predicts (:func:`mark_bisections`, "h-prediction";
 :func:`~cvxcontact.geometry.refine.refine_times`): fewer steps to grade the mesh. The scene is rebuilt on the
 refined meshes (``Body.with_changes(mesh=...)``, ``Scene.with_bodies``: loads, parts, pairs, gaps and obstacles
@@ -22,10 +23,20 @@ step's interior point starts cold) and the mesh the loop stops on is solved with
 returned is exact and checked either way. The fields are not carried over: the routes adapt uses solve the
 bodies directly.
 
-Covered: 2D and 3D, P1 and P2, every scene the estimate covers (triangles and tetrahedra). In 3D a curved
-boundary stays the faceted surface of the first mesh: new boundary nodes are the midpoints of the facets'
-edges (``curves`` is 2D only); a rigid obstacle is exact whatever the mesh. Not covered: quadrilaterals
-(no estimate; :class:`~cvxcontact.errors.UnsupportedError`).
+Covered: 2D and 3D, P1 and P2 on triangles and tetrahedra, Q1 and Q2 on quadrilaterals and hexahedra whose mesh is
+a tensor grid (its nodes the product of sorted x, y (z) coordinate lists, its cells the grid's cells:
+:func:`cvxcontact.geometry.grid.tensor_grid`, found from the mesh; ``cc.rectangle``, ``cc.graded_block``,
+``cc.box`` with ``cell="quad"`` or ``"hex"``). A grid is refined without hanging nodes by halving every column and
+row (slab in 3D) that holds a marked cell (:func:`cvxcontact.geometry.grid.refine_grid`, through
+:func:`cvxcontact.geometry.refine.refine_local`), once a step whatever ``rate`` asks (a strip halved k times
+multiplies every cell along it by 2^k): the cost is that the whole strip through a marked cell is refined, a
+graded grid whose unknowns grow as the strips' lengths, not as the marked cells (on the Q1 block under a rigid
+circle of tests/test_adapt_grid.py the estimate still falls faster per unknown than under uniform refinement:
+benchmarks/results/adapt_grid.md). In 3D a curved boundary stays the faceted surface of the first mesh: new
+boundary nodes are the midpoints of the facets' edges (``curves`` is 2D triangles only); a rigid obstacle is
+exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (a gmsh mesh, a
+grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives, triangles or
+tetrahedra, or a tensor grid.
 """
 
 from __future__ import annotations
@@ -40,7 +51,7 @@ from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import BISECTED, Curve, label_longest, refine_times
+from .geometry.refine import Curve, local_refusal, refine_local, start_local
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
@@ -112,7 +123,7 @@ def unknowns(bodies: Sequence, degree: int) -> int:
 class AdaptStep:
     """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
 
-    ``cells``: triangles or tetrahedra of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
+    ``cells``: the cells (triangles, tetrahedra, quadrilaterals, hexahedra) of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
     (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
     the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
     bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
@@ -205,9 +216,11 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     Parameters
     ----------
     scene : Scene
-        A 2D or 3D scene of triangles or tetrahedra; its meshes are the first step's (2D: relabelled so that
-        each triangle's longest edge is its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`;
-        3D: a tetrahedron's refinement edge is its longest, :func:`~cvxcontact.geometry.refine.bisect_tets`).
+        A 2D or 3D scene of triangles or tetrahedra, or of quadrilaterals or hexahedra on tensor grids (module
+        docstring); its meshes are the first step's (triangles: relabelled so that each triangle's longest edge
+        is its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`; a tetrahedron's refinement
+        edge is its longest, :func:`~cvxcontact.geometry.refine.bisect_tets`; a grid's strips are halved,
+        :func:`~cvxcontact.geometry.grid.refine_grid`).
     condition : str
         The contact condition of every solve, as in :func:`cvxcontact.solve`.
     theta : float, optional
@@ -226,7 +239,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     curves : dict, optional
         Body (its name or index in ``scene.bodies``) -> {tag: closest-point map} of its curved boundary
         parts (:func:`~cvxcontact.geometry.refine.refine_marked`); without, new boundary nodes are the
-        edges' midpoints. 2D only (a 3D scene with ``curves`` is refused).
+        edges' midpoints. 2D triangles only (a 3D scene or a grid of quadrilaterals with ``curves`` is refused).
     progress : callable, optional
         Called with one line of text per step (the package's progress convention, as the sweeps and studies).
     keep : bool
@@ -236,7 +249,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         (the first pair's total contact force, goal-oriented).
     rate : float, optional
         Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`, at most ``most`` times in
-        a step); ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D
+        a step; a grid's strips are halved once a step whatever it asks); ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D
         P2, else inf).
     most : int
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
@@ -256,7 +269,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     Raises
     ------
     UnsupportedError
-        For a mesh of quadrilaterals, ``curves`` in 3D, or a solution without an estimate (the reason is named).
+        For a mesh of quadrilaterals or hexahedra that is not a tensor grid, ``curves`` in 3D or on a grid, or a
+        solution without an estimate (the reason is named).
     SceneError
         For a scene that is not a Scene, or a parameter out of range.
 
@@ -272,11 +286,6 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"adapt takes a cc.Scene, got {type(scene).__name__}")
-    if scene.cell not in BISECTED:
-        raise UnsupportedError(f"adapt covers triangle and tetrahedron meshes only, got {scene.cell} cells: the "
-                               "error estimate and the bisections are those of simplices; mesh the bodies with "
-                               "triangles (cc.rectangle(..., cell='triangle')) or refine the quadrilaterals "
-                               "uniformly")
     if scene.dim == 3 and curves:
         raise UnsupportedError("adapt: curves= puts new boundary nodes back on 2D curves only; in 3D the new "
                                "boundary nodes stay on the flat facets of the first mesh: remove curves= (or mesh "
@@ -308,8 +317,13 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         raise SceneError(f"adapt: tol must be a positive number (the relative estimate to reach), got {tol!r}")
     say = progress or (lambda line: None)
     body_curves = _curves(scene, curves)
-    if scene.dim == 2:
-        scene = scene.with_bodies(*(b.with_changes(mesh=label_longest(b.mesh)) for b in scene.bodies))
+    for k, b in enumerate(scene.bodies):
+        why = local_refusal(b.mesh, bool(body_curves.get(k)))
+        if why:
+            raise UnsupportedError(f"adapt cannot refine body {b.name!r} locally: {why}")
+    first = [start_local(b.mesh) for b in scene.bodies]
+    if any(m is not b.mesh for m, b in zip(first, scene.bodies)):
+        scene = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, first)))
     exact = options.pop("polish", True)             # the last step's finish; the others' too with exact_steps
     history, kept = [], []
     step, sol = 0, None
@@ -328,7 +342,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         if not stopped:
             marked = (mark_bulk(indicators, theta) if np.isinf(rate)
                       else mark_bisections(indicators, theta, rate, scene.dim, most))
-            meshes = [refine_times(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
+            meshes = [refine_local(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
                       for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
             bodies = [b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:

@@ -366,8 +366,11 @@ def test_quadrilateral_mesh_refusals_and_what_is_not_covered_yet():
     scene = cc.Scene(quad, other)
     with pytest.raises(UnsupportedError, match="bound does not cover quad cells"):
         cc.solve(scene, "sigma1", estimate="equilibrated")
-    with pytest.raises(UnsupportedError, match="triangle and tetrahedron meshes only"):
-        cc.adapt(scene, "sigma1")
+    grid = quad.mesh
+    inner = (grid.points[:, 0] == 0.5) & (grid.points[:, 1] == 0.25)          # the interior node: not a grid
+    bent = quad.with_changes(mesh=grid.with_points(grid.points + np.where(inner, 0.05, 0.0)[:, None] * [1, 0]))
+    with pytest.raises(UnsupportedError, match="not a tensor grid"):
+        cc.adapt(cc.Scene(bent, other), "sigma1")
     sol = cc.solve(scene, "sigma1")
     assert sol.ok and sol.estimate is not None and sol.estimate_reason == ""
     with pytest.raises(UnsupportedError, match="quad cells"):
@@ -543,8 +546,8 @@ def test_hexahedral_contact_refusals_name_the_alternative():
                  "sigma1", degree=2)
     with pytest.raises(UnsupportedError, match=r"bound does not cover 3D \(hex cells\)"):
         cc.solve(plane, "sigma1", estimate="equilibrated")
-    with pytest.raises(UnsupportedError, match="triangle and tetrahedron meshes only, got hex cells"):
-        cc.adapt(plane, "sigma1")
+    with pytest.raises(UnsupportedError, match="hex cells are not a tensor grid"):
+        cc.adapt(cc.Scene(skew, contacts=[cc.Contact(skew, "bottom", cc.Rigid.plane((0, 0, 0), (0, 0, 1)))]), "sigma1")
     with pytest.raises(UnsupportedError, match=r"does not cover 3D \(hex cells\)"):
         cc.error_bound(cc.solve(plane, "sigma1"))
 

@@ -1,7 +1,8 @@
 """Refinement of triangle and tetrahedron meshes: uniform (red; a tetrahedron into 8), the nested meshes of a
 reference solution, and local (:func:`refine_marked`: newest-vertex bisection of triangles, longest-edge
 bisection of tetrahedra (:func:`bisect_tets`), both with conforming closure; :func:`refine_times`: a number of
-bisections per cell), the meshes of adaptive refinement.
+bisections per cell), the meshes of adaptive refinement; :func:`refine_local`, the local refinement of every mesh
+an adaptive loop takes (these bisections, or a tensor grid's strips halved: :mod:`cvxcontact.geometry.grid`).
 
 Uniform refinement:
 Each triangle (v0, v1, v2) is split into four by its edge midpoints m01, m12, m20 (straight edges, the
@@ -27,14 +28,62 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MeshError
+from .grid import refine_grid, tensor_grid
 from .mesh import Mesh
 from .tetmesh import TetMesh
 
-__all__ = ["bisect_tets", "circle", "label_longest", "refine_marked", "refine_times", "refine_uniform"]
+__all__ = ["bisect_tets", "circle", "label_longest", "local_refusal", "refine_local", "refine_marked",
+           "refine_times", "refine_uniform", "start_local"]
 
 
 BISECTED = frozenset({"triangle", "tetra"})
-"""The cells (``mesh.cell``) :func:`refine_marked` bisects: what an adaptive loop can refine."""
+"""The cells (``mesh.cell``) :func:`refine_marked` bisects."""
+
+
+GRID_HALVINGS = 1
+"""The most halvings of a tensor grid's interval in one call of :func:`refine_local`: a strip halved k times
+multiplies every cell along it by 2^k, so more bisections asked of a cell wait for the next step."""
+
+
+def local_refusal(mesh, curved: bool = False) -> str:
+    """Why :func:`refine_local` cannot refine ``mesh`` ("" if it can): triangles and tetrahedra are bisected,
+    quadrilaterals and hexahedra refined as a tensor grid (:func:`~cvxcontact.geometry.grid.refine_grid`) if
+    they are one; ``curved``: new boundary nodes are to go back on a curve (triangles only)."""
+    if mesh.cell in BISECTED:
+        return ""
+    if tensor_grid(mesh) is None:
+        return (f"its {mesh.cell} cells are not a tensor grid (nodes the product of sorted coordinate lists, cells "
+                "the grid's cells), the only quadrilateral or hexahedral mesh refined locally without hanging "
+                "nodes: mesh the body with triangles or tetrahedra (cell='triangle' or 'tetra'), or as a grid "
+                "(cc.rectangle, cc.graded_block, cc.box with cell='quad' or 'hex')")
+    if curved:
+        return ("curves= puts new boundary nodes back on a curve on triangles only; a tensor grid's new nodes "
+                "are on its grid lines: remove curves= (or mesh the curved body with triangles)")
+    return ""
+
+
+def start_local(mesh):
+    """``mesh`` as the first mesh of :func:`refine_local`: a triangle mesh relabelled so that each triangle's
+    refinement edge is its longest (:func:`label_longest`), others as they are."""
+    return label_longest(mesh) if isinstance(mesh, Mesh) else mesh
+
+
+def refine_local(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None) -> tuple:
+    """(fine mesh, parent): ``mesh`` refined where ``times`` (an int per cell: the bisections it asks, each
+    halving its area or volume) says. Triangles and tetrahedra: :func:`refine_times` (``curves`` as there). A
+    tensor grid of quadrilaterals or hexahedra (:func:`local_refusal` says which are): every grid interval
+    through cell T halved ceil(times[T] / dim) times (:func:`~cvxcontact.geometry.grid.refine_grid`; one
+    halving along every axis divides the cell's size by 2^dim, dim bisections), ``curves`` refused."""
+    if mesh.cell in BISECTED:
+        return refine_times(mesh, times, curves)
+    why = local_refusal(mesh, bool(curves))
+    if why:
+        raise MeshError(f"refine_local: {why}")
+    times = np.asarray(times)
+    if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
+        raise MeshError(f"refine_local: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
+                        f"got dtype {times.dtype} and shape {times.shape}")
+    return refine_grid(mesh, np.minimum(-(-times // mesh.dim), GRID_HALVINGS))
 
 def refine_uniform(mesh: Mesh | TetMesh, times: int = 1) -> tuple[Mesh | TetMesh, np.ndarray]:
     """(fine mesh, parent): ``mesh`` refined ``times`` times (module docstring); ``parent`` (m_fine,) the

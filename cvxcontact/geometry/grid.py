@@ -1,0 +1,193 @@
+"""Local refinement of tensor-product grids of quadrilaterals and hexahedra: the meshes of adaptive refinement
+on Q1/Q2 cells without hanging nodes.
+
+A mesh is a tensor grid when its nodes are the product of sorted coordinate lists x_0 < ... < x_nx,
+y_0 < ... < y_ny (and z_0 < ... < z_nz in 3D) and its cells are the grid's cells, each the box
+[x_i, x_i+1] x [y_j, y_j+1] (x [z_k, z_k+1]): what :func:`~cvxcontact.geometry.mesh.rectangle`,
+:func:`~cvxcontact.geometry.generators.graded_block` and :func:`~cvxcontact.geometry.generators3d.box` make
+with ``cell="quad"`` or ``"hex"`` (graded or not, with named segments and patches). :func:`tensor_grid`
+detects it from the points and cells alone (a quadrilateral mesh read from a gmsh file, or a grid turned
+out of the axes, is none).
+
+:func:`refine_grid` bisects every column and row (every slab in 3D) of the grid that holds a marked cell: a
+marked cell splits into 4 (8), and so does every cell sharing one of its columns or rows, which splits in two
+(the price of conformity without hanging nodes: the whole strip through a marked cell is refined, so the
+unknowns grow as the strips' lengths, not as the marked cells). The result is again a tensor grid, graded
+towards the marked cells, conforming, covering exactly the same box; each boundary tag goes to the fine
+facets inside its coarse facets, so lengths and areas of every tag are kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import MeshError
+from .hexmesh import HEX_FACES, HexMesh
+from .quadmesh import EDGES, QuadMesh
+
+__all__ = ["GRID_TOL", "Grid", "refine_grid", "tensor_grid"]
+
+GRID_TOL = 1e-10
+"""Coordinates of two nodes that differ by at most this times the mesh's size (its bounding-box diagonal) lie on
+the same grid line (:func:`tensor_grid`)."""
+
+_GRIDS = {
+    QuadMesh: (np.array([[0, 0], [1, 0], [1, 1], [0, 1]]), EDGES),
+    HexMesh: (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]),
+              HEX_FACES),
+}
+"""Mesh type -> (the grid offsets of a cell's corners in the mesh's corner order, the local corners of its facets
+(edges, faces) in order around each with the domain on the left / the normal outward)."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A tensor grid found in a mesh (:func:`tensor_grid`).
+
+    ``axes``: the sorted coordinates of the grid lines along x, y (z), m; ``index``: (n, dim) the grid index of
+    each node of the mesh; ``lower``: (m, dim) the grid index of each cell's lowest corner (cell c is the box
+    of ``axes[d][lower[c, d]]`` to ``axes[d][lower[c, d] + 1]``)."""
+
+    axes: tuple
+    index: np.ndarray
+    lower: np.ndarray
+
+
+def tensor_grid(mesh) -> Grid | None:
+    """The :class:`Grid` of ``mesh`` if it is a tensor grid of quadrilaterals or hexahedra (module docstring),
+    else None.
+
+    The grid lines along each axis are the node coordinates clustered within :data:`GRID_TOL` times the mesh's
+    size; the mesh is a grid when every product of grid lines is exactly one node and the cells are the grid's
+    cells, one each, with their corners where the mesh's corner order puts them."""
+    kind = _GRIDS.get(type(mesh))
+    if kind is None:
+        return None
+    offsets = kind[0]
+    p, cells = mesh.points, mesh.cells
+    tol = GRID_TOL * mesh.size
+    axes, index = [], np.empty(p.shape, dtype=np.int64)
+    for d in range(mesh.dim):
+        order = np.argsort(p[:, d], kind="stable")
+        v = p[order, d]
+        line = np.concatenate([[0], np.cumsum(np.diff(v) > tol)])
+        index[order, d] = line
+        axes.append(np.array([v[line == k].mean() for k in range(line[-1] + 1)]))
+    shape = tuple(len(a) for a in axes)
+    if len(p) != np.prod(shape) or len(cells) != np.prod([s - 1 for s in shape]):
+        return None
+    if len(np.unique(np.ravel_multi_index(index.T, shape))) != len(p):
+        return None
+    lower = index[cells].min(axis=1)                                             # (m, dim)
+    if not np.array_equal(index[cells] - lower[:, None, :], np.broadcast_to(offsets, (len(cells),) + offsets.shape)):
+        return None                                          # a cell that is not one grid box in the mesh's order
+    cell_shape = tuple(s - 1 for s in shape)
+    if len(np.unique(np.ravel_multi_index(lower.T, cell_shape))) != len(cells):
+        return None
+    return Grid(axes=tuple(axes), index=index, lower=lower)
+
+
+def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | HexMesh, np.ndarray]:
+    """(fine mesh, parent): the tensor grid ``mesh`` with every grid interval (column, row, slab) that holds a
+    cell T cut into 2^times[T] equal pieces (the most any of its cells asks), so that T splits into at least
+    2^(dim times[T]) cells (module docstring).
+
+    Parameters
+    ----------
+    mesh : QuadMesh or HexMesh
+        A tensor grid (:func:`tensor_grid`).
+    times : (m,) bool or int array_like
+        Per cell, how often to halve it along every axis (0: only as its strips ask); a mask is one halving of
+        the marked cells.
+
+    Returns
+    -------
+    QuadMesh or HexMesh, (m_fine,) int array
+        The fine grid (nodes numbered x fastest, then y, then z; the grid lines of ``mesh`` kept, new ones at the
+        midpoints of the intervals they cut; the same tags, each on the fine facets inside its coarse ones) and
+        ``parent``, the coarse cell that contains each fine one: a per-cell tag of the coarse mesh is
+        ``tag[parent]`` on the fine one.
+
+    Raises
+    ------
+    MeshError
+        For a mesh that is not a tensor grid of quadrilaterals or hexahedra (mesh it with triangles or
+        tetrahedra to refine it locally, or as a grid), or ``times`` that is not one non-negative integer (or
+        boolean) per cell.
+    """
+    grid = tensor_grid(mesh)
+    if grid is None:
+        raise MeshError(f"refine_grid refines tensor grids of quadrilaterals or hexahedra (nodes the product of "
+                        f"sorted coordinate lists, cells the grid's cells), got {mesh!r}: mesh the body with "
+                        "triangles or tetrahedra (bisected locally: refine_marked), or as a grid (cc.rectangle, "
+                        "cc.graded_block, cc.box with cell='quad' or 'hex')")
+    times = np.asarray(times)
+    if times.dtype == bool:
+        times = times.astype(np.int64)
+    if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
+        raise MeshError(f"refine_grid: times must be non-negative integers or a boolean mask, one per cell "
+                        f"({len(mesh.cells)}), got dtype {times.dtype} and shape {times.shape}")
+    offsets, facets = _GRIDS[type(mesh)]
+    dim = mesh.dim
+    axes, coarse, fine_of = [], [], []          # fine grid lines; per fine interval its coarse one; node maps
+    for d, a in enumerate(grid.axes):
+        cuts = np.zeros(len(a) - 1, dtype=np.int64)
+        np.maximum.at(cuts, grid.lower[:, d], times)
+        pieces = 2 ** cuts
+        start = np.concatenate([[0], np.cumsum(pieces)])                        # fine index of each coarse line
+        parent = np.repeat(np.arange(len(a) - 1), pieces)
+        t = (np.arange(start[-1]) - start[parent]) / pieces[parent]
+        axes.append(np.concatenate([a[parent] + t * (a[parent + 1] - a[parent]), a[-1:]]))
+        coarse.append(parent)
+        fine_of.append(start)
+    shape = tuple(len(a) for a in axes)
+    cell_shape = tuple(s - 1 for s in shape)
+    grids = np.meshgrid(*axes, indexing="ij")
+    points = np.column_stack([g.ravel(order="F") for g in grids])              # x fastest
+    lower = np.column_stack([g.ravel(order="F") for g in np.meshgrid(*(np.arange(s) for s in cell_shape),
+                                                                     indexing="ij")])
+    corners = lower[:, None, :] + offsets[None]                                 # (m_fine, corners, dim)
+    cells = np.ravel_multi_index(tuple(np.moveaxis(corners, -1, 0)), shape, order="F")
+    coarse_lower = np.column_stack([coarse[d][lower[:, d]] for d in range(dim)])
+    coarse_id = np.full(tuple(len(a) - 1 for a in grid.axes), -1, dtype=np.int64)
+    coarse_id[tuple(grid.lower.T)] = np.arange(len(mesh.cells))
+    parent = coarse_id[tuple(coarse_lower.T)]
+    # tags: a fine boundary facet carries the tags of the coarse facet it lies in (the same key)
+    node_grid_shape = tuple(len(a) for a in grid.axes)
+    faces = cells[:, facets].reshape(-1, facets.shape[1])                       # (m_fine * f, k) outward
+    face_index = np.stack([np.column_stack(np.unravel_index(f, shape, order="F")) for f in faces.T], axis=1)
+    normal, side = _normal_axis(face_index)
+    limit = np.array(shape)[normal] - 1
+    on = (side == 0) | (side == limit)
+    faces, face_index, normal = faces[on], face_index[on], normal[on]
+    low = face_index.min(axis=1)                                                # fine lowest corner
+    up = np.empty_like(low)
+    for d in range(dim):
+        node_line = np.searchsorted(fine_of[d], low[:, d])                     # a coarse line where the face lies
+        interval = coarse[d][np.minimum(low[:, d], len(coarse[d]) - 1)]
+        up[:, d] = np.where(normal == d, node_line, interval)
+    fine_keys = _facet_keys(normal, up, node_grid_shape)
+    tags = {}
+    for tag in mesh.tags:
+        f = mesh.boundary(tag)
+        idx = grid.index[f]                                                     # (k, corners, dim)
+        n_ax, _ = _normal_axis(idx)
+        keys = _facet_keys(n_ax, idx.min(axis=1), node_grid_shape)
+        tags[tag] = faces[np.isin(fine_keys, keys)]
+    return type(mesh)(points, cells, tags), parent
+
+
+def _normal_axis(index):
+    """(k,) the axis along which each facet's corners (grid indices (k, corners, dim)) share their index, and
+    that index."""
+    flat = (index == index[:, :1, :]).all(axis=1)                               # (k, dim)
+    axis = np.argmax(flat, axis=1)
+    return axis, index[np.arange(len(index)), 0, axis]
+
+
+def _facet_keys(axis, low, shape):
+    """(k,) int keys of the facets of a grid of node ``shape`` normal to ``axis`` with lowest corner ``low``."""
+    return axis.astype(np.int64) * int(np.prod(shape)) + np.ravel_multi_index(tuple(low.T), shape)

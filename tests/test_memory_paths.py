@@ -427,6 +427,26 @@ def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypa
     assert small.parts == one.parts and all(np.array_equal(a, b) for a, b in zip(small.indicators, one.indicators))
 
 
+@pytest.mark.parametrize("dim, cells, q, wide", [(3, 540_000_000, 1, True),      # 4 m facets > 2^31 - 1
+                                                  (3, 530_000_000, 1, False),     # 4 m = 2.12e9: all fit
+                                                  (2, 715_000_000, 1, False),     # 3 m = 2.145e9: all fit
+                                                  (2, 716_000_000, 1, True),      # 3 m = 2.148e9
+                                                  (3, 540_000_000, 4, True)])     # q m rows > 2^31 - 1
+def test_estimate_geometry_index_type_bounds_the_facets_too(dim, cells, q, wide):
+    """The estimate Geometry's index type is int64 as soon as any index it keeps in it could pass 2^31 - 1:
+    the fields' stacked rows (q per cell), the nodes, and the facets (`faces.ii`, at most d + 1 per cell; a
+    P1 mesh of m cells has only m + 1 stacked rows but up to (d + 1) m facets, which int32 would wrap to
+    negative indices). The sizes alone are read: arrays broadcast from one entry (no memory)."""
+    from types import SimpleNamespace
+
+    g = est.Geometry.__new__(est.Geometry)
+    g.dim = dim
+    g.el = np.broadcast_to(np.zeros(1, dtype=np.int64), (cells, dim + 1))
+    g.G = np.broadcast_to(np.zeros(1), (cells, q, dim, dim + 1))
+    g._mesh = SimpleNamespace(points=np.broadcast_to(np.zeros(1), (cells // 5, dim)))
+    assert g.index == (np.int64 if wide else np.int32)
+
+
 @pytest.mark.parametrize("elastic", [False, True])
 def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elastic):
     """The AMG route's S stacked from the CSR blocks (`amg.stacked`) has the arrays of scipy's block_diag of

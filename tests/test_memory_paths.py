@@ -464,6 +464,58 @@ def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elasti
             assert np.array_equal(getattr(S, a), getattr(plain, a))
 
 
+def _synthetic_block(seed, nu, n_p, empty_rows=(), zeros=False, index=np.int32):
+    """A block with a random symmetric Kuu (nu x nu), and for n_p > 0 Kup (nu x n_p) and a symmetric Kpp, in
+    canonical CSR with ``index`` indices: rows ``empty_rows`` of Kuu and Kup empty, every third stored entry an
+    explicit zero (``zeros``)."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(seed)
+
+    def csr(m, n, symmetric):
+        A = sp.random(m, n, density=0.4, random_state=rng, format="csr")
+        A = (A + A.T + sp.eye(m)).tocsr() if symmetric else A
+        if m == nu:                                            # Kuu and Kup
+            keep = np.ones(m)
+            keep[list(empty_rows)] = 0.0
+            A = (sp.diags(keep) @ A).tocsr()
+        A.eliminate_zeros()
+        A.sort_indices()
+        if zeros:
+            A.data[::3] = 0.0
+        A.indices, A.indptr = A.indices.astype(index), A.indptr.astype(index)
+        assert A.has_canonical_format and A.indices.dtype == index
+        return A
+
+    if n_p == 0:
+        return SimpleNamespace(Kuu=csr(nu, nu, True), Kup=None, Kpp=None, f=np.zeros(nu), q=None)
+    return SimpleNamespace(Kuu=csr(nu, nu, True), Kup=csr(nu, n_p, False), Kpp=csr(n_p, n_p, True), f=np.zeros(nu),
+                           q=np.zeros(n_p))
+
+
+@pytest.mark.parametrize("shapes, kw", [([(6, 0)], {}), ([(6, 3)], {}), ([(6, 3), (5, 0), (4, 2)], {}),
+                                        ([(6, 3), (5, 0)], {"index": np.int64}),
+                                        ([(6, 3), (5, 0)], {"zeros": True}),
+                                        ([(7, 3), (5, 0)], {"empty_rows": (0, 4)}),
+                                        ([(1, 1), (1, 0), (3, 1)], {})])
+def test_amg_stacked_equals_block_diag_on_edge_blocks(shapes, kw):
+    """`amg.stacked` has the arrays and index types of scipy's block_diag of the quasi-definite blocks on
+    synthetic blocks: one block, elastic and piezoelectric mixed, int64 index inputs, explicit zeros (kept, as
+    block_diag keeps them), empty rows, 1 x 1 blocks; and an all-zero coupling block."""
+    from cvxcontact.backends import amg
+    from cvxcontact.backends.condensed import quasi_definite
+
+    blocks = [_synthetic_block(i, nu, n_p, **kw) for i, (nu, n_p) in enumerate(shapes)]
+    if blocks[0].Kup is not None and kw == {}:
+        blocks[0].Kup = sp.csr_matrix(blocks[0].Kup.shape)                # no coupling at all
+    plain = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+    S = amg.stacked(blocks)
+    assert S.shape == plain.shape
+    for a in ("indptr", "indices", "data"):
+        assert getattr(S, a).dtype == getattr(plain, a).dtype
+        assert np.array_equal(getattr(S, a), getattr(plain, a))
+
+
 def _uncanonical(block):
     """The block with its Kuu's rows' entries in reverse order (the same matrix, not canonical)."""
     from dataclasses import replace

@@ -427,6 +427,26 @@ def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypa
     assert small.parts == one.parts and all(np.array_equal(a, b) for a, b in zip(small.indicators, one.indicators))
 
 
+@pytest.mark.parametrize("dim, cells, q, wide", [(3, 540_000_000, 1, True),      # 4 m facets > 2^31 - 1
+                                                  (3, 530_000_000, 1, False),     # 4 m = 2.12e9: all fit
+                                                  (2, 715_000_000, 1, False),     # 3 m = 2.145e9: all fit
+                                                  (2, 716_000_000, 1, True),      # 3 m = 2.148e9
+                                                  (3, 540_000_000, 4, True)])     # q m rows > 2^31 - 1
+def test_estimate_geometry_index_type_bounds_the_facets_too(dim, cells, q, wide):
+    """The estimate Geometry's index type is int64 as soon as any index it keeps in it could pass 2^31 - 1:
+    the fields' stacked rows (q per cell), the nodes, and the facets (`faces.ii`, at most d + 1 per cell; a
+    P1 mesh of m cells has only m + 1 stacked rows but up to (d + 1) m facets, which int32 would wrap to
+    negative indices). The sizes alone are read: arrays broadcast from one entry (no memory)."""
+    from types import SimpleNamespace
+
+    g = est.Geometry.__new__(est.Geometry)
+    g.dim = dim
+    g.el = np.broadcast_to(np.zeros(1, dtype=np.int64), (cells, dim + 1))
+    g.G = np.broadcast_to(np.zeros(1), (cells, q, dim, dim + 1))
+    g._mesh = SimpleNamespace(points=np.broadcast_to(np.zeros(1), (cells // 5, dim)))
+    assert g.index == (np.int64 if wide else np.int32)
+
+
 @pytest.mark.parametrize("elastic", [False, True])
 def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elastic):
     """The AMG route's S stacked from the CSR blocks (`amg.stacked`) has the arrays of scipy's block_diag of
@@ -442,6 +462,58 @@ def test_amg_stacked_blocks_equal_block_diag_of_the_quasi_definite_blocks(elasti
         for a in ("indptr", "indices", "data"):
             assert getattr(S, a).dtype == getattr(plain, a).dtype
             assert np.array_equal(getattr(S, a), getattr(plain, a))
+
+
+def _synthetic_block(seed, nu, n_p, empty_rows=(), zeros=False, index=np.int32):
+    """A block with a random symmetric Kuu (nu x nu), and for n_p > 0 Kup (nu x n_p) and a symmetric Kpp, in
+    canonical CSR with ``index`` indices: rows ``empty_rows`` of Kuu and Kup empty, every third stored entry an
+    explicit zero (``zeros``)."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(seed)
+
+    def csr(m, n, symmetric):
+        A = sp.random(m, n, density=0.4, random_state=rng, format="csr")
+        A = (A + A.T + sp.eye(m)).tocsr() if symmetric else A
+        if m == nu:                                            # Kuu and Kup
+            keep = np.ones(m)
+            keep[list(empty_rows)] = 0.0
+            A = (sp.diags(keep) @ A).tocsr()
+        A.eliminate_zeros()
+        A.sort_indices()
+        if zeros:
+            A.data[::3] = 0.0
+        A.indices, A.indptr = A.indices.astype(index), A.indptr.astype(index)
+        assert A.has_canonical_format and A.indices.dtype == index
+        return A
+
+    if n_p == 0:
+        return SimpleNamespace(Kuu=csr(nu, nu, True), Kup=None, Kpp=None, f=np.zeros(nu), q=None)
+    return SimpleNamespace(Kuu=csr(nu, nu, True), Kup=csr(nu, n_p, False), Kpp=csr(n_p, n_p, True), f=np.zeros(nu),
+                           q=np.zeros(n_p))
+
+
+@pytest.mark.parametrize("shapes, kw", [([(6, 0)], {}), ([(6, 3)], {}), ([(6, 3), (5, 0), (4, 2)], {}),
+                                        ([(6, 3), (5, 0)], {"index": np.int64}),
+                                        ([(6, 3), (5, 0)], {"zeros": True}),
+                                        ([(7, 3), (5, 0)], {"empty_rows": (0, 4)}),
+                                        ([(1, 1), (1, 0), (3, 1)], {})])
+def test_amg_stacked_equals_block_diag_on_edge_blocks(shapes, kw):
+    """`amg.stacked` has the arrays and index types of scipy's block_diag of the quasi-definite blocks on
+    synthetic blocks: one block, elastic and piezoelectric mixed, int64 index inputs, explicit zeros (kept, as
+    block_diag keeps them), empty rows, 1 x 1 blocks; and an all-zero coupling block."""
+    from cvxcontact.backends import amg
+    from cvxcontact.backends.condensed import quasi_definite
+
+    blocks = [_synthetic_block(i, nu, n_p, **kw) for i, (nu, n_p) in enumerate(shapes)]
+    if blocks[0].Kup is not None and kw == {}:
+        blocks[0].Kup = sp.csr_matrix(blocks[0].Kup.shape)                # no coupling at all
+    plain = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+    S = amg.stacked(blocks)
+    assert S.shape == plain.shape
+    for a in ("indptr", "indices", "data"):
+        assert getattr(S, a).dtype == getattr(plain, a).dtype
+        assert np.array_equal(getattr(S, a), getattr(plain, a))
 
 
 def _uncanonical(block):

@@ -229,8 +229,9 @@ class Geometry:
     @cached_property
     def index(self) -> type:
         """The integer type of the cell, facet and node indices kept here: int32 while every index (the rows of
-        the fields stacked, ``q`` per cell, and the nodes) fits in it (half the bytes of int64), else int64."""
-        size = max(self.G.shape[1] * len(self.el) + 1, len(self._mesh.points))
+        the fields stacked, ``q`` per cell; the facets, at most d + 1 per cell; the nodes) fits in it (half the
+        bytes of int64), else int64."""
+        size = max(self.G.shape[1] * len(self.el) + 1, (self.dim + 1) * len(self.el), len(self._mesh.points))
         return np.int32 if size <= np.iinfo(np.int32).max else np.int64
 
     @cached_property

@@ -92,17 +92,20 @@ class TensorGeometry:
 
     @cached_property
     def _flux(self) -> np.ndarray:
-        """(nc d d, d [+ 1]): the divergence of the stress (and of D) from the second derivatives of the fields
-        w = (u_1, ..., u_d[, phi]), nc components: div_i = sum_(c, g, p) M[(c, g, p), i] d^2 w_c / dx_g dx_p.
-        Column i < d is row i of the stress tensor (sigma_ip), column d (piezoelectric) D_p; the entries are
-        those of c, e, kappa, read off the fields of unit gradients by the formulas of :meth:`_values`."""
+        """(nc d (d + 1) / 2, d [+ 1]): the divergence of the stress (and of D) from the second derivatives of
+        the fields w = (u_1, ..., u_d[, phi]), nc components: div_i = sum_(c, g <= p) M[(c, g, p), i]
+        d^2 w_c / dx_g dx_p (the Hessian symmetric: the terms of (g, p) and (p, g) in one). Column i < d is row i
+        of the stress tensor (sigma_ip), column d (piezoelectric) D_p; the entries are those of c, e, kappa (a
+        shear's twice), read off the fields of unit gradients by the formulas of :meth:`_values`."""
         d, nc = self.dim, self._components
         unit = np.eye(nc * d).reshape(nc * d, nc, d)                            # dw_c / dx_g = 1 for one (c, g)
         _, _, sigma, D = self._values(unit)
         F = contact._tensor(sigma)                                              # ((c, g), i, p)
         if D is not None:
             F = np.concatenate([F, D[:, None, :]], axis=1)
-        return F.reshape(nc, d, -1, d).transpose(0, 1, 3, 2).reshape(nc * d * d, -1)
+        M = F.reshape(nc, d, -1, d).transpose(0, 1, 3, 2)                      # (c, g, p, i)
+        g, p = np.triu_indices(d)                                               # the Hessian's g <= p
+        return (M[:, g, p] + np.where((g < p)[:, None], M[:, p, g], 0.0)).reshape(nc * len(g), -1)
 
     @property
     def _components(self) -> int:
@@ -141,10 +144,11 @@ class TensorGeometry:
         return eps, gphi, sigma, D
 
     def _basis(self, xi, second: bool) -> tuple:
-        """(N1 (p, 2^d, 1), dN1 (p, 2^d, d), dN (p, k, d), d2N1 (p, 2^d, d d), d2N (p, k, d d), or None, None)
-        at the reference points ``xi`` (p, d), node-major: the map's and the element's shape functions and
-        their derivatives; those at one point (p = 1: a point of the cell or facet rule) kept for the next call
-        (:func:`_shared_basis`)."""
+        """(N1 (p, 2^d, 1), dN1 (p, 2^d, d), dN (p, k, d), ((d2N1 (p, 2^d, u), d2N (p, k, u)), (a (u,), b (u,)))
+        or None) at the reference points ``xi`` (p, d), node-major: the map's and the element's shape functions
+        and derivatives, the second d^2 / dxi_a dxi_b for the pairs a <= b where either is not 0 everywhere (Q1:
+        a < b, the multilinear functions' own second derivatives 0); those at one point (p = 1: a point of the
+        cell or facet rule) kept for the next call (:func:`_shared_basis`)."""
         if len(xi) == 1:
             return _shared_basis(self.element, tuple(np.asarray(xi, dtype=float)[0]), second)
         return _point_basis(self.element, xi, second)
@@ -156,17 +160,21 @@ class TensorGeometry:
         g = (grad_xi w) J^-1; the second derivatives J^-T (d^2 w / dxi^2 - sum_c dw/dx_c d^2 x_c / dxi^2) J^-1
         (the map's own curvature taken out, :meth:`~cvxcontact.fem.quad.TensorElement.at_points`), contracted
         with :attr:`_flux`."""
-        N1, dN1, dN, d2N1, d2N = basis
+        N1, dN1, dN, d2N = basis
         k, d = len(X), self.dim
         x = _times(X, N1)[:, :, 0]
         det, inv = inverse(_times(X, dN1))                            # J[e, a] = dx_e / dxi_a
         g = _times(W, dN) @ inv                                       # (k, nc, d): dw_c / dx_p
         if d2N is None:
             return x, det, inv.transpose(0, 2, 1), g, None
-        R = _times(W, d2N) - g @ _times(X, d2N1)                      # (k, c, (a, b))
+        (d2N1, d2N), (a, b) = d2N
+        R = _times(W, d2N) - g @ _times(X, d2N1)                      # (k, c, u): the pairs u = (a, b) kept
         rows = inv.transpose(1, 2, 0)                                 # (a, g, k): the cells last, contiguous
-        kron = (rows[:, None, :, None] * rows[None, :, None, :]).reshape(d * d, d * d, k).transpose(2, 0, 1)
-        H = R @ kron                                                  # (k, c, (g, p)): d^2 w_c / dx_g dx_p
+        gv, pv = np.triu_indices(d)                                   # v = (g, p), g <= p
+        kron = rows[a][:, gv] * rows[b][:, pv]                        # (u, v, k): J^-1_ag J^-1_bp (+ a <-> b)
+        off = a < b
+        kron[off] += rows[b[off]][:, gv] * rows[a[off]][:, pv]
+        H = R @ kron.transpose(2, 0, 1)                               # (k, c, v): d^2 w_c / dx_g dx_p
         return x, det, inv.transpose(0, 2, 1), g, H.reshape(k, -1) @ self._flux
 
     def fields(self, cells, xi, u, phi, second: bool = False):
@@ -186,12 +194,15 @@ class TensorGeometry:
         return x, det, inv_T, eps, gphi, sigma, D, div, divD
 
     def _facet_points(self, cells, pos, W):
-        """For each point q of the facet rule: (w_q, the :meth:`fields` tuple at that point of each facet, in
-        its cell ``cells`` (f,), the facet's corners at the local positions ``pos`` (f, v) there) with the
-        nodal values ``W`` (m, nc, n). The facets are taken in groups of the same ``pos`` (one reference point
-        per group and q: its shape functions evaluated once), each group's fields written back in place."""
+        """For each point q of the facet rule: (w_q, x (f, d) m, n da / dA (f, d) m^(d - 1), eps, grad phi, sigma,
+        D (:meth:`_values`)) at that point of each facet, in its cell ``cells`` (f,), the facet's corners at the
+        local positions ``pos`` (f, v) there, with the nodal values ``W`` (m, nc, n); n da / dA = det J J^-T N
+        (Nanson's formula, N the reference face's unit outward normal: the mean of its corners). The facets
+        are taken in groups of the same ``pos`` (one reference point per group and q: its shape functions
+        evaluated once, one matrix product for the group), each group's values written back in place."""
         Wq, wq = self.element.face_rule(self.n)
-        f, (base, v) = len(cells), (len(self.element.corners), pos.shape[1])
+        corners, d = self.element.corners, self.dim
+        f, (base, v) = len(cells), (len(corners), pos.shape[1])
         code = (pos * base ** np.arange(v)).sum(axis=1)
         seen = np.zeros(base ** v, dtype=bool)
         seen[code] = True
@@ -201,21 +212,16 @@ class TensorGeometry:
         bounds = np.searchsorted(which[order], np.arange(len(labels) + 1))
         rep = np.empty(len(labels), dtype=int)
         rep[which] = np.arange(f)
-        ref = np.einsum("qv,gvd->gqd", Wq, self.element.corners[pos[rep]])          # (groups, q, d)
+        ref = np.einsum("qv,gvd->gqd", Wq, corners[pos[rep]])                       # (groups, q, d)
+        normal = corners[pos[rep]].mean(axis=1)                                     # (groups, d)
         X, Wo = self._corners_T[cells[order]], W[cells[order]]
-        groups = list(enumerate(pairwise(bounds))) if f else [(0, (0, 0))]
-        ref = ref if f else np.zeros((1, len(wq), self.dim))                        # no facets: empty fields
         for q in range(len(wq)):
-            parts = [self._evaluate(X[a:b], Wo[a:b], self._basis(ref[g, q][None], False)) for g, (a, b) in groups]
-            out = []
-            for arrays in zip(*parts):
-                if arrays[0] is None:
-                    out.append(None)
-                    continue
-                back = np.empty((f,) + arrays[0].shape[1:])
-                back[order] = np.concatenate(arrays)
-                out.append(back)
-            yield wq[q], self._fields_of(tuple(out))
+            x, nda, g = np.empty((f, d)), np.empty((f, d)), np.empty((f, W.shape[1], d))
+            for k, (a, b) in enumerate(pairwise(bounds)):
+                at = order[a:b]
+                x[at], det, inv_T, g[at], _ = self._evaluate(X[a:b], Wo[a:b], self._basis(ref[k, q][None], False))
+                nda[at] = det[:, None] * (inv_T @ normal[k])
+            yield (wq[q], x, nda) + self._values(g)
 
     def terms(self, body, u, phi, eta2, parts, sol) -> tuple[float, TensorSides]:
         """Add the element and facet terms of ``body``'s fields to its ``eta2`` (m,) and ``parts``; (its squared
@@ -256,11 +262,10 @@ class TensorGeometry:
         an interior facet's jump shared by its two cells; the boundary facets by their part's role; contact
         parts are left to the contact terms)."""
         owners, pos0, pos1, vertices, _ = self.facets
-        dim, corners = self.dim, self.element.corners
+        dim = self.dim
         c0 = owners[:, 0]
         ii = np.flatnonzero(owners[:, 1] >= 0)
         c1 = owners[ii, 1]
-        normal_ref = corners[pos0].mean(axis=1)                    # the reference face's unit outward normal
         f = len(c0)
         roles_m, roles_e = contact._boundary_roles(body, sol)
         zero_m, zero_e, roller = np.zeros(f, bool), np.zeros(f, bool), np.zeros(f, bool)
@@ -279,14 +284,13 @@ class TensorGeometry:
                 zero_e[self.part(tag)] = True
         keep[zero_m] = 0.0
         mech, elec = np.zeros(f), np.zeros(f)
-        for (wq, (x, det, inv_T, _, _, sigma, D, _, _)), (_, (_, _, _, _, _, sigma1, D1, _, _)) in zip(
+        for (wq, x, nvec, _, _, sigma, D), (_, _, _, _, _, sigma1, D1) in zip(
                 self._facet_points(c0, pos0, W), self._facet_points(c1, pos1[ii], W)):
-            nvec = det[:, None] * (inv_T @ normal_ref[:, :, None])[:, :, 0]
-            length = np.linalg.norm(nvec, axis=1)
+            length = np.sqrt((nvec ** 2).sum(axis=1))
             da = wq * length
             n = nvec / length[:, None]
-            R = (contact._tensor(sigma) @ n[:, :, None])[:, :, 0]
-            R[ii] -= (contact._tensor(sigma1) @ n[ii, :, None])[:, :, 0]
+            R = contact._voigt_traction(sigma[:, None], n)[:, 0]
+            R[ii] -= contact._voigt_traction(sigma1[:, None], n[ii])[:, 0]
             for tag, load in body.traction.items():
                 at = self.part(tag)
                 R[at] -= np.asarray(load(*x[at].T), dtype=float).reshape(len(at), dim)
@@ -317,12 +321,16 @@ class TensorGeometry:
 
 def _point_basis(element, xi, second: bool) -> tuple:
     """:meth:`TensorGeometry._basis` of ``element`` at the points ``xi`` (p, d)."""
-    lin, (n, d) = element.linear, np.shape(xi)
+    lin, d = element.linear, np.shape(xi)[1]
     N1, dN1 = lin.shape_derivatives(xi)
     dN = element.shape_derivatives(xi)[1]
     out = (N1[:, :, None], dN1.transpose(0, 2, 1), dN.transpose(0, 2, 1))
-    return out + ((lin.second_derivatives(xi).reshape(n, d * d, -1).transpose(0, 2, 1),
-                   element.second_derivatives(xi).reshape(n, d * d, -1).transpose(0, 2, 1)) if second else (None, None))
+    if not second:
+        return out + (None,)
+    a, b = np.triu_indices(d)                                   # the pairs a <= b of d^2 / dxi_a dxi_b
+    d2 = [f.second_derivatives(xi)[:, a, b].transpose(0, 2, 1) for f in (lin, element)]    # (n, nodes, pairs)
+    live = np.flatnonzero(np.any(d2[0] != 0, axis=(0, 1)) | np.any(d2[1] != 0, axis=(0, 1)))
+    return out + ((tuple(np.ascontiguousarray(v[:, :, live]) for v in d2), (a[live], b[live])),)
 
 
 @lru_cache(maxsize=4096)
@@ -431,9 +439,8 @@ class TensorSide:
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F, by the facet rule of the geometry."""
         g = self._g
-        normal_ref = g.element.corners[self._pos].mean(axis=1)                 # (k, d)
         acc = np.zeros(len(self.f))
-        for wq, (_, det, inv_T, _, _, sigma, _, _, _) in g._facet_points(self.cell, self._pos, self._W):
-            da = wq * np.linalg.norm(det[:, None] * (inv_T @ normal_ref[:, :, None])[:, :, 0], axis=1)
-            acc += da * (((contact._tensor(sigma) @ self.normals[:, :, None])[:, :, 0]) ** 2).sum(axis=1)
+        for wq, _, nvec, _, _, sigma, _ in g._facet_points(self.cell, self._pos, self._W):
+            da = wq * np.sqrt((nvec ** 2).sum(axis=1))
+            acc += da * (contact._voigt_traction(sigma[:, None], self.normals)[:, 0] ** 2).sum(axis=1)
         return acc

@@ -7,8 +7,12 @@ The same terms as on simplices, per cell T of every body,
 
 with fields that are not affine on a cell: sigma_h, D_h are evaluated at Gauss points of the cell's multilinear
 map (:class:`~cvxcontact.fem.quad.TensorElement`), and their divergence from the physical second derivatives
-of the shape functions (:meth:`~cvxcontact.fem.quad.TensorElement.at_points`: a Q1 field's sigma_h varies on a
-cell, so div sigma_h is not 0 in general). Rules: (degree + 2)^d Gauss points on each cell and
+of the fields (the second derivatives of the shape functions as in
+:meth:`~cvxcontact.fem.quad.TensorElement.at_points`: a Q1 field's sigma_h varies on a cell, so div sigma_h is
+not 0 in general). The fields are formed from their reference derivatives, one matrix product of all cells'
+nodal values with the shape functions' values at a rule's point (the same point in every cell; a facet's
+points grouped by the facet's place in its cell), then mapped by each cell's Jacobian (closed-form inverses,
+:func:`~cvxcontact.fem.quad.inverse`), the Hessian on its symmetric pairs (Q1: the mixed ones alone). Rules: (degree + 2)^d Gauss points on each cell and
 (degree + 2)^(d - 1) on each facet (an edge, or a quadrilateral face of a hexahedron), the facet's points
 placed in both its cells as the same combination of its corners' reference coordinates, its unit normal and
 area element from Nanson's formula n da = det J J^-T N dA on the first cell (N the reference face's normal).

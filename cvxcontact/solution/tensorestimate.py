@@ -340,8 +340,12 @@ def _point_basis(element, xi, second: bool) -> tuple:
 @lru_cache(maxsize=4096)
 def _shared_basis(element, xi: tuple, second: bool) -> tuple:
     """:func:`_point_basis` at the one point ``xi`` (d floats): the points of the cell and facet rules are a
-    few (per element, the rule's points on each face in each of its orientations), each computed once."""
-    return _point_basis(element, np.array([xi]), second)
+    few (per element, the rule's points on each face in each of its orientations), each computed once; the
+    arrays read-only (shared between calls)."""
+    out = _point_basis(element, np.array([xi]), second)
+    for a in (*out[:3], *(out[3][0] if second else ())):
+        a.setflags(write=False)
+    return out
 
 
 def _times(T, B) -> np.ndarray:

@@ -7,8 +7,12 @@ The same terms as on simplices, per cell T of every body,
 
 with fields that are not affine on a cell: sigma_h, D_h are evaluated at Gauss points of the cell's multilinear
 map (:class:`~cvxcontact.fem.quad.TensorElement`), and their divergence from the physical second derivatives
-of the shape functions (:meth:`~cvxcontact.fem.quad.TensorElement.at_points`: a Q1 field's sigma_h varies on a
-cell, so div sigma_h is not 0 in general). Rules: (degree + 2)^d Gauss points on each cell and
+of the fields (the second derivatives of the shape functions as in
+:meth:`~cvxcontact.fem.quad.TensorElement.at_points`: a Q1 field's sigma_h varies on a cell, so div sigma_h is
+not 0 in general). The fields are formed from their reference derivatives, one matrix product of all cells'
+nodal values with the shape functions' values at a rule's point (the same point in every cell; a facet's
+points grouped by the facet's place in its cell), then mapped by each cell's Jacobian (closed-form inverses,
+:func:`~cvxcontact.fem.quad.inverse`), the Hessian on its symmetric pairs (Q1: the mixed ones alone). Rules: (degree + 2)^d Gauss points on each cell and
 (degree + 2)^(d - 1) on each facet (an edge, or a quadrilateral face of a hexahedron), the facet's points
 placed in both its cells as the same combination of its corners' reference coordinates, its unit normal and
 area element from Nanson's formula n da = det J J^-T N dA on the first cell (N the reference face's normal).
@@ -25,14 +29,15 @@ parallelepipeds, where it equals u^T K u).
 from __future__ import annotations
 
 from dataclasses import replace
-from functools import cached_property
+from functools import cached_property, lru_cache
+from itertools import pairwise
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..fem.assembly import voigt_strains
+from ..fem.assembly import VOIGT
 from ..fem.hex import face_hats
-from ..fem.quad import gauss_cube
+from ..fem.quad import gauss_cube, inverse
 from ..fem.space import space
 from ..geometry.facets import facet_keys, paired
 from . import contactestimate as contact
@@ -89,51 +94,155 @@ class TensorGeometry:
             self._parts[tag] = np.searchsorted(self.facets[4], _keys(np.asarray(mesh.boundary(tag)), len(mesh.points)))
         return self._parts[tag]
 
+    @cached_property
+    def _flux(self) -> np.ndarray:
+        """(nc d (d + 1) / 2, d [+ 1]): the divergence of the stress (and of D) from the second derivatives of
+        the fields w = (u_1, ..., u_d[, phi]), nc components: div_i = sum_(c, g <= p) M[(c, g, p), i]
+        d^2 w_c / dx_g dx_p (the Hessian symmetric: the terms of (g, p) and (p, g) in one). Column i < d is row i
+        of the stress tensor (sigma_ip), column d (piezoelectric) D_p; the entries are those of c, e, kappa (a
+        shear's twice), read off the fields of unit gradients by the formulas of :meth:`_values`."""
+        d, nc = self.dim, self._components
+        unit = np.eye(nc * d).reshape(nc * d, nc, d)                            # dw_c / dx_g = 1 for one (c, g)
+        _, _, sigma, D = self._values(unit)
+        F = contact._tensor(sigma)                                              # ((c, g), i, p)
+        if D is not None:
+            F = np.concatenate([F, D[:, None, :]], axis=1)
+        M = F.reshape(nc, d, -1, d).transpose(0, 1, 3, 2)                      # (c, g, p, i)
+        g, p = np.triu_indices(d)                                               # the Hessian's g <= p
+        return (M[:, g, p] + np.where((g < p)[:, None], M[:, p, g], 0.0)).reshape(nc * len(g), -1)
+
+    @property
+    def _components(self) -> int:
+        """The fields' components per node: d displacements and, piezoelectric, the potential."""
+        return self.dim + (self.tensors[1] is not None)
+
+    @cached_property
+    def _corners_T(self) -> np.ndarray:
+        """(m, d, 2^d) the cells' corner coordinates, coordinate-major (the products with shared basis values
+        are then one matrix product for all cells)."""
+        return np.ascontiguousarray(self.corners.transpose(0, 2, 1))
+
+    def _nodal(self, u, phi, cells=slice(None)) -> np.ndarray:
+        """(m, nc, k) the nodal values of u (and phi) on the k element nodes of each of the cells ``cells``,
+        component-major."""
+        w = np.asarray(u, dtype=float).reshape(-1, self.dim)
+        if self.tensors[1] is not None:
+            w = np.column_stack([w, np.asarray(phi, dtype=float).reshape(-1)])
+        return np.ascontiguousarray(w.T[:, self.el[cells]].transpose(1, 0, 2))
+
+    def _values(self, g):
+        """(eps (k, s), grad phi (k, d) or None, sigma (k, s) Pa, D (k, d) C/m^2 or None) of the gradients
+        ``g`` (k, nc, d) (g[:, c, p] = dw_c / dx_p): Voigt strains with engineering shears, sigma = c eps -
+        e^T E, D = e eps + kappa E, E = -grad phi (eq. (2))."""
+        c, e, kappa = self.tensors
+        pairs = VOIGT[self.dim]
+        eps = np.empty((len(g), len(pairs)))
+        for row, (i, j) in enumerate(pairs):
+            eps[:, row] = g[:, i, j] if i == j else g[:, i, j] + g[:, j, i]
+        sigma = eps @ c.T
+        gphi = D = None
+        if e is not None:
+            gphi = g[:, self.dim]
+            sigma = sigma + gphi @ e
+            D = eps @ e.T - gphi @ kappa.T
+        return eps, gphi, sigma, D
+
+    def _basis(self, xi, second: bool) -> tuple:
+        """(N1 (p, 2^d, 1), dN1 (p, 2^d, d), dN (p, k, d), ((d2N1 (p, 2^d, u), d2N (p, k, u)), (a (u,), b (u,)))
+        or None) at the reference points ``xi`` (p, d), node-major: the map's and the element's shape functions
+        and derivatives, the second d^2 / dxi_a dxi_b for the pairs a <= b where either is not 0 everywhere (Q1:
+        a < b, the multilinear functions' own second derivatives 0); those at one point (p = 1: a point of the
+        cell or facet rule) kept for the next call (:func:`_shared_basis`)."""
+        if len(xi) == 1:
+            return _shared_basis(self.element, tuple(np.asarray(xi, dtype=float)[0]), second)
+        return _point_basis(self.element, xi, second)
+
+    def _evaluate(self, X, W, basis):
+        """(x (k, d) m, det J (k,), J^-T (k, d, d), g (k, nc, d), div (k, d [+ 1]) or None) at one point per
+        cell of corners ``X`` (k, d, 2^d) and nodal values ``W`` (k, nc, n), the :meth:`_basis` at those points
+        (p = k, or p = 1: the same reference point in every cell, one matrix product for all). The gradients
+        g = (grad_xi w) J^-1; the second derivatives J^-T (d^2 w / dxi^2 - sum_c dw/dx_c d^2 x_c / dxi^2) J^-1
+        (the map's own curvature taken out, :meth:`~cvxcontact.fem.quad.TensorElement.at_points`), contracted
+        with :attr:`_flux`."""
+        N1, dN1, dN, d2N = basis
+        k, d = len(X), self.dim
+        x = _times(X, N1)[:, :, 0]
+        det, inv = inverse(_times(X, dN1))                            # J[e, a] = dx_e / dxi_a
+        g = _times(W, dN) @ inv                                       # (k, nc, d): dw_c / dx_p
+        if d2N is None:
+            return x, det, inv.transpose(0, 2, 1), g, None
+        (d2N1, d2N), (a, b) = d2N
+        R = _times(W, d2N) - g @ _times(X, d2N1)                      # (k, c, u): the pairs u = (a, b) kept
+        rows = inv.transpose(1, 2, 0)                                 # (a, g, k): the cells last, contiguous
+        gv, pv = np.triu_indices(d)                                   # v = (g, p), g <= p
+        kron = rows[a][:, gv] * rows[b][:, pv]                        # (u, v, k): J^-1_ag J^-1_bp (+ a <-> b)
+        off = a < b
+        kron[off] += rows[b[off]][:, gv] * rows[a[off]][:, pv]
+        H = R @ kron.transpose(2, 0, 1)                               # (k, c, v): d^2 w_c / dx_g dx_p
+        return x, det, inv.transpose(0, 2, 1), g, H.reshape(k, -1) @ self._flux
+
     def fields(self, cells, xi, u, phi, second: bool = False):
         """The fields at one reference point ``xi`` (k, d) of each of the cells ``cells`` (k,): (x (k, d) m,
         det J (k,), J^-T (k, d, d), eps (k, s), grad phi (k, d) or None, sigma (k, s) Pa, D (k, d) C/m^2 or None,
         div sigma (k, d) Pa/m and div D (k,) C/m^3 (or None) with ``second``, else None)."""
-        c, e, kappa = self.tensors
-        x, G, det, inv_T, H = self.element.at_points(self.corners[cells], xi, second)
-        k = len(x)
-        ue = np.asarray(u, dtype=float)[self.el[cells]].reshape(k, self.el.shape[1] * self.dim)
-        eps = voigt_strains(G, ue)
-        sigma = eps @ c.T
-        gphi = D = div = divD = pe = None
-        if e is not None:
-            pe = np.asarray(phi, dtype=float)[self.el[cells]]
-            gphi = np.einsum("mdk,mk->md", G, pe)
-            sigma = sigma + gphi @ e
-            D = eps @ e.T - gphi @ kappa.T
-        if second:
-            div = np.zeros((k, self.dim))
-            divD = None if e is None else np.zeros(k)
-            for j in range(self.dim):                      # d/dx_j of the fields: the gradients of dN/dx_j
-                Hj = H[:, :, j, :]
-                deps = voigt_strains(Hj, ue)
-                dsig = deps @ c.T
-                if e is not None:
-                    dg = np.einsum("mdk,mk->md", Hj, pe)
-                    dsig = dsig + dg @ e
-                    divD += (deps @ e.T - dg @ kappa.T)[:, j]
-                div += contact._tensor(dsig)[:, :, j]
+        return self._fields_of(self._evaluate(self._corners_T[cells], self._nodal(u, phi, cells),
+                                              self._basis(np.asarray(xi, dtype=float), second)))
+
+    def _fields_of(self, evaluated):
+        """:meth:`fields`' tuple of what :meth:`_evaluate` returned."""
+        x, det, inv_T, g, div = evaluated
+        eps, gphi, sigma, D = self._values(g)
+        divD = None
+        if div is not None:
+            div, divD = div[:, :self.dim], (div[:, self.dim] if D is not None else None)
         return x, det, inv_T, eps, gphi, sigma, D, div, divD
+
+    def _facet_points(self, cells, pos, W):
+        """For each point q of the facet rule: (w_q, x (f, d) m, n da / dA (f, d) m^(d - 1), eps, grad phi, sigma,
+        D (:meth:`_values`)) at that point of each facet, in its cell ``cells`` (f,), the facet's corners at the
+        local positions ``pos`` (f, v) there, with the nodal values ``W`` (m, nc, n); n da / dA = det J J^-T N
+        (Nanson's formula, N the reference face's unit outward normal: the mean of its corners). The facets
+        are taken in groups of the same ``pos`` (one reference point per group and q: its shape functions
+        evaluated once, one matrix product for the group), each group's values written back in place."""
+        Wq, wq = self.element.face_rule(self.n)
+        corners, d = self.element.corners, self.dim
+        f, (base, v) = len(cells), (len(corners), pos.shape[1])
+        code = (pos * base ** np.arange(v)).sum(axis=1)
+        seen = np.zeros(base ** v, dtype=bool)
+        seen[code] = True
+        labels = np.flatnonzero(seen)
+        which = np.searchsorted(labels, code)
+        order = np.argsort(which, kind="stable")
+        bounds = np.searchsorted(which[order], np.arange(len(labels) + 1))
+        rep = np.empty(len(labels), dtype=int)
+        rep[which] = np.arange(f)
+        ref = np.einsum("qv,gvd->gqd", Wq, corners[pos[rep]])                       # (groups, q, d)
+        normal = corners[pos[rep]].mean(axis=1)                                     # (groups, d)
+        X, Wo = self._corners_T[cells[order]], W[cells[order]]
+        for q in range(len(wq)):
+            x, nda, g = np.empty((f, d)), np.empty((f, d)), np.empty((f, W.shape[1], d))
+            for k, (a, b) in enumerate(pairwise(bounds)):
+                at = order[a:b]
+                x[at], det, inv_T, g[at], _ = self._evaluate(X[a:b], Wo[a:b], self._basis(ref[k, q][None], False))
+                nda[at] = det[:, None] * (inv_T @ normal[k])
+            yield (wq[q], x, nda) + self._values(g)
 
     def terms(self, body, u, phi, eta2, parts, sol) -> tuple[float, TensorSides]:
         """Add the element and facet terms of ``body``'s fields to its ``eta2`` (m,) and ``parts``; (its squared
         energy norm, what the contact terms read of it)."""
-        energy = self._element_terms(body, u, phi, eta2, parts)
-        self._facet_terms(body, u, phi, eta2, parts, sol)
-        return energy, TensorSides(self, u, phi)
+        W = self._nodal(u, phi)
+        energy = self._element_terms(body, W, eta2, parts)
+        self._facet_terms(body, W, eta2, parts, sol)
+        return energy, TensorSides(self, u, phi, W)
 
-    def _element_terms(self, body, u, phi, eta2, parts) -> float:
+    def _element_terms(self, body, W, eta2, parts) -> float:
         """h_T^2 ||f0 + div sigma_h||^2 / c_T and h_T^2 ||div D_h - q0||^2 / kappa_T; the squared energy norm."""
         m, dim = len(self.el), self.dim
-        cells = np.arange(m)
         f0, q0 = body.body_force, body.volume_charge
         mech, elec, energy = np.zeros(m), np.zeros(m), 0.0
         for xi, w in zip(*gauss_cube(self.n, dim)):
-            x, det, _, eps, gphi, sigma, D, div, divD = self.fields(cells, np.broadcast_to(xi, (m, dim)), u, phi, True)
+            x, det, _, eps, gphi, sigma, D, div, divD = self._fields_of(
+                self._evaluate(self._corners_T, W, self._basis(xi[None], True)))
             wd = w * det
             r = div + np.asarray(f0(*x.T), dtype=float).reshape(m, dim) if f0.nonzero else div
             mech += wd * (r ** 2).sum(axis=1)
@@ -152,19 +261,15 @@ class TensorGeometry:
             parts["electric element"] += float(term.sum())
         return energy
 
-    def _facet_terms(self, body, u, phi, eta2, parts, sol):
+    def _facet_terms(self, body, W, eta2, parts, sol):
         """h_F ||R_F||^2 / c_T and h_F ||r_F||^2 / kappa_T on every facet (module docstring of :mod:`.estimate`:
         an interior facet's jump shared by its two cells; the boundary facets by their part's role; contact
         parts are left to the contact terms)."""
         owners, pos0, pos1, vertices, _ = self.facets
-        dim, corners = self.dim, self.element.corners
+        dim = self.dim
         c0 = owners[:, 0]
         ii = np.flatnonzero(owners[:, 1] >= 0)
         c1 = owners[ii, 1]
-        W, wf = self.element.face_rule(self.n)
-        xi0 = np.einsum("qv,fvd->fqd", W, corners[pos0])
-        xi1 = np.einsum("qv,fvd->fqd", W, corners[pos1[ii]])
-        normal_ref = corners[pos0].mean(axis=1)                    # the reference face's unit outward normal
         f = len(c0)
         roles_m, roles_e = contact._boundary_roles(body, sol)
         zero_m, zero_e, roller = np.zeros(f, bool), np.zeros(f, bool), np.zeros(f, bool)
@@ -183,14 +288,13 @@ class TensorGeometry:
                 zero_e[self.part(tag)] = True
         keep[zero_m] = 0.0
         mech, elec = np.zeros(f), np.zeros(f)
-        for q in range(len(wf)):
-            x, det, inv_T, _, _, sigma, D, _, _ = self.fields(c0, xi0[:, q], u, phi)
-            nvec = det[:, None] * np.einsum("fij,fj->fi", inv_T, normal_ref)
-            da = wf[q] * np.linalg.norm(nvec, axis=1)
-            n = nvec / np.linalg.norm(nvec, axis=1)[:, None]
-            _, _, _, _, _, sigma1, D1, _, _ = self.fields(c1, xi1[:, q], u, phi)
-            R = np.einsum("fij,fj->fi", contact._tensor(sigma), n)
-            R[ii] -= np.einsum("fij,fj->fi", contact._tensor(sigma1), n[ii])
+        for (wq, x, nvec, _, _, sigma, D), (_, _, _, _, _, sigma1, D1) in zip(
+                self._facet_points(c0, pos0, W), self._facet_points(c1, pos1[ii], W)):
+            length = np.sqrt((nvec ** 2).sum(axis=1))
+            da = wq * length
+            n = nvec / length[:, None]
+            R = contact._voigt_traction(sigma[:, None], n)[:, 0]
+            R[ii] -= contact._voigt_traction(sigma1[:, None], n[ii])[:, 0]
             for tag, load in body.traction.items():
                 at = self.part(tag)
                 R[at] -= np.asarray(load(*x[at].T), dtype=float).reshape(len(at), dim)
@@ -219,6 +323,40 @@ class TensorGeometry:
         eta2 += np.bincount(c0, term, len(eta2)) + np.bincount(c1, term[ii], len(eta2))
 
 
+def _point_basis(element, xi, second: bool) -> tuple:
+    """:meth:`TensorGeometry._basis` of ``element`` at the points ``xi`` (p, d)."""
+    lin, d = element.linear, np.shape(xi)[1]
+    N1, dN1 = lin.shape_derivatives(xi)
+    dN = element.shape_derivatives(xi)[1]
+    out = (N1[:, :, None], dN1.transpose(0, 2, 1), dN.transpose(0, 2, 1))
+    if not second:
+        return out + (None,)
+    a, b = np.triu_indices(d)                                   # the pairs a <= b of d^2 / dxi_a dxi_b
+    d2 = [f.second_derivatives(xi)[:, a, b].transpose(0, 2, 1) for f in (lin, element)]    # (n, nodes, pairs)
+    live = np.flatnonzero(np.any(d2[0] != 0, axis=(0, 1)) | np.any(d2[1] != 0, axis=(0, 1)))
+    return out + ((tuple(np.ascontiguousarray(v[:, :, live]) for v in d2), (a[live], b[live])),)
+
+
+@lru_cache(maxsize=4096)
+def _shared_basis(element, xi: tuple, second: bool) -> tuple:
+    """:func:`_point_basis` at the one point ``xi`` (d floats): the points of the cell and facet rules are a
+    few (per element, the rule's points on each face in each of its orientations), each computed once; the
+    arrays read-only (shared between calls)."""
+    out = _point_basis(element, np.array([xi]), second)
+    for a in (*out[:3], *(out[3][0] if second else ())):
+        a.setflags(write=False)
+    return out
+
+
+def _times(T, B) -> np.ndarray:
+    """(k, r, s): the rows of ``T`` (k, r, n) times the basis values ``B`` (p, n, s), p = k (point by point) or
+    p = 1 (one point for all: a single matrix product)."""
+    if len(B) == 1:
+        k, r, n = T.shape
+        return (T.reshape(k * r, n) @ B[0]).reshape(k, r, -1)
+    return T @ B
+
+
 def _keys(faces, n) -> np.ndarray:
     """One int64 key per facet (k, v) of a mesh of ``n`` nodes: :func:`facet_keys` of its three lowest vertices
     (two on an edge), which no other facet of a conforming mesh of convex cells shares."""
@@ -230,12 +368,12 @@ class TensorSides:
     """What the contact terms read of one body of quadrilaterals or hexahedra (the counterpart of
     :class:`~cvxcontact.solution.contactestimate.SimplexSides`): :meth:`side` one boundary part."""
 
-    def __init__(self, geometry: TensorGeometry, u, phi):
-        self._g, self._u, self._phi = geometry, u, phi
+    def __init__(self, geometry: TensorGeometry, u, phi, W=None):
+        self._g, self._W = geometry, geometry._nodal(u, phi) if W is None else W
 
     def side(self, part) -> TensorSide:
         """The :class:`TensorSide` of boundary part ``part``."""
-        return TensorSide(self._g, self._u, self._phi, part)
+        return TensorSide(self._g, self._W, part)
 
     def multiplier(self, c, part) -> np.ndarray:
         """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c``: the read-back's ``c.lam``, on
@@ -276,8 +414,8 @@ class TensorSide:
     2D, the faces' two triangles in 3D, ``triangulation.boundary(part)``), the face of each element
     (:meth:`face_of`) and int_F |sigma_h n|^2 (:meth:`squares`)."""
 
-    def __init__(self, geometry: TensorGeometry, u, phi, part):
-        self._g, self._u, self._phi = geometry, u, phi
+    def __init__(self, geometry: TensorGeometry, W, part):
+        self._g, self._W = geometry, W
         mesh = geometry._mesh
         self.f = np.asarray(mesh.boundary(part))
         self.cell = geometry.facets[0][geometry.part(part), 0]
@@ -303,19 +441,14 @@ class TensorSide:
         x = np.einsum("kv,kvd->kd", L, g._mesh.points[tri])
         start = np.einsum("kv,kvd->kd", L, g.element.corners[contact._facet_positions(np.asarray(g._mesh.cells)[cell], tri)])
         xi = g.element.locate(g.corners[cell], x, start)
-        sigma = g.fields(cell, xi, self._u, self._phi)[5]
+        sigma = g._fields_of(g._evaluate(g._corners_T[cell], self._W[cell], g._basis(xi, False)))[5]
         return np.einsum("kij,kj->ki", contact._tensor(sigma), self.normals[face])
 
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F, by the facet rule of the geometry."""
         g = self._g
-        W, wf = g.element.face_rule(g.n)
-        ref = g.element.corners[self._pos]                                    # (k, v, d)
-        xi = np.einsum("qv,kvd->kqd", W, ref)
-        normal_ref = ref.mean(axis=1)
         acc = np.zeros(len(self.f))
-        for q in range(len(wf)):
-            _, det, inv_T, _, _, sigma, _, _, _ = g.fields(self.cell, xi[:, q], self._u, self._phi)
-            da = wf[q] * np.linalg.norm(det[:, None] * np.einsum("fij,fj->fi", inv_T, normal_ref), axis=1)
-            acc += da * (np.einsum("kij,kj->ki", contact._tensor(sigma), self.normals) ** 2).sum(axis=1)
+        for wq, _, nvec, _, _, sigma, _ in g._facet_points(self.cell, self._pos, self._W):
+            da = wq * np.sqrt((nvec ** 2).sum(axis=1))
+            acc += da * (contact._voigt_traction(sigma[:, None], self.normals)[:, 0] ** 2).sum(axis=1)
         return acc

@@ -110,3 +110,15 @@ def test_load_cases_with_the_kept_factor_answer_as_direct_solves(monkeypatch):
         assert again.ok and direct.ok
         assert rel(_fields(again), _fields(direct)) < 1e-12
         assert rel(again.contact.force, direct.contact.force) < 1e-12
+
+
+def test_a_factor_of_more_rows_than_kept_rows_is_not_kept(monkeypatch):
+    """Above KEPT_ROWS closed rows the factor is dropped (its memory), and the answers stay those of fresh
+    factorisations."""
+    monkeypatch.setattr(lcp, "KEPT_ROWS", 5)
+    m = 30
+    W, d = _spd(m, 3), np.random.default_rng(4).standard_normal(m)
+    kept = LastFactor()
+    out = solve_lcp(W, d, kept=kept)
+    assert out[1].sum() > 5 and kept.factor is None and kept.active is None
+    assert np.array_equal(out[0], solve_lcp(W, d)[0])

@@ -115,12 +115,17 @@ def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobyt
     return MAX_ITER
 
 
+KEPT_ROWS = 2048
+"""The most closed rows whose factor a :class:`LastFactor` keeps (32 MB): a larger set's is not kept between load
+cases (a 3D interface of many thousand closed rows would otherwise hold a second matrix of W's size)."""
+
+
 class LastFactor:
     """The Cholesky factor of W_AA of the last active set A the steps of :func:`solve_lcp` closed on one W (the
     equilibrated W of a kept compliance), for the next load case, whose first step starts from the set the last one
     ended with: the same matrix, the same factor (a deterministic factorisation of the same entries), not formed
-    twice. Kept: 8 bytes per closed row squared. ``owner``: the W it belongs to (the caller's; a factor is reused
-    only while :func:`solve_lcp` is given that very array)."""
+    twice. Kept: 8 bytes per closed row squared, up to :data:`KEPT_ROWS` rows. ``owner``: the W it belongs to (the
+    caller's; a factor is reused only while :func:`solve_lcp` is given that very array, which is not edited)."""
 
     def __init__(self):
         self.owner = self.active = self.factor = None
@@ -131,7 +136,9 @@ class LastFactor:
         return self.factor if same else None
 
     def put(self, active, factor) -> None:
-        self.active, self.factor = np.array(active, dtype=bool), factor
+        """Keep ``factor`` of the rows ``active``, unless it has more than :data:`KEPT_ROWS` rows (then none)."""
+        small = len(factor[0]) <= KEPT_ROWS
+        self.active, self.factor = (np.array(active, dtype=bool), factor) if small else (None, None)
 
 
 def _pdas(W, d, active, max_iter, kept=None):

@@ -122,3 +122,19 @@ def test_a_factor_of_more_rows_than_kept_rows_is_not_kept(monkeypatch):
     out = solve_lcp(W, d, kept=kept)
     assert out[1].sum() > 5 and kept.factor is None and kept.active is None
     assert np.array_equal(out[0], solve_lcp(W, d)[0])
+
+
+def test_3d_load_cases_answer_as_direct_solves():
+    """bumped_blocks (3D P1, a contact zone with an edge inside the faces) through one ContactSolver: the load x 0.5,
+    x 0.5 again, x 1.3; each answers as cc.solve of its scene (asserted to 1e-12 relative). (Its rows may be
+    dependent: its finish is the independent-rows one, which keeps no factor.)"""
+    from scenes3d import bumped_blocks
+
+    solver = cc.ContactSolver(bumped_blocks(), condition="sigma1", method="condensed")
+    solver.solve()
+    for load in (1e7, 1e7, 2.6e7):
+        scene = bumped_blocks(load=load)
+        again, direct = solver.solve(scene), cc.solve(scene, condition="sigma1", method="condensed")
+        assert again.ok and direct.ok
+        assert rel(_fields(again), _fields(direct)) < 1e-12
+        assert rel(again.contact.force, direct.contact.force) < 1e-12

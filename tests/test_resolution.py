@@ -129,3 +129,23 @@ def test_a_sigma_condition_with_no_row_in_the_overlap_warns_in_3d():
     assert sol.ok and len([m for m in messages if "there is none" in m]) == 1
     sol, messages = _resolution_messages(scene, condition="sigma2")
     assert sol.ok and not [m for m in messages if "there is none" in m]
+
+
+@pytest.mark.parametrize("mesh", [cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=12, ny=5),
+                                  cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=6, ny=3, cell="quad"),
+                                  cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=4, ny=3, nz=2)],
+                         ids=["triangles", "quads", "tetrahedra"])
+def test_the_owners_of_a_part_s_facets_are_found_among_the_cells_kept_at_the_part(mesh):
+    """The cells at a boundary part (CellMesh.cells_at, kept: the same array when asked again) hold the owner of
+    each of its facets: the search among them finds the owners of a search among all cells, and each owner has
+    the facet's vertices among its own (the oracle: the cells' vertex lists)."""
+    from cvxcontact.solution.resolution import _owners
+
+    simplices = getattr(mesh, "split", mesh)
+    for part in ("top", "left"):
+        facets = simplices.boundary(part)[::2]                           # some of the part's facets
+        near = simplices.cells_at(part)
+        assert simplices.cells_at(part) is near and len(near) < len(simplices.cells)
+        owners = _owners(simplices.cells, facets, near)
+        assert np.array_equal(owners, _owners(simplices.cells, facets))
+        assert all(set(f) <= set(simplices.cells[c]) for f, c in zip(facets, owners))

@@ -31,6 +31,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 from .factor import Factorization, Forward, factorize, resolve
+from .finish.lcp import LastFactor
 from .released import Released
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "contact_dofs", "node_order",
@@ -251,6 +252,7 @@ class Compliance:
         self.count = 0
         self.kept_B = np.zeros((sum(R.shape[1] for R in self.rows), min(m, 64)))   # B's columns of the kept rows
         self.kept_W = np.zeros((min(m, 64), min(m, 64)))                          # W on the kept rows
+        self.last_factor = LastFactor()      # the exact finish's last factor of W on its closed rows (solve_lcp)
 
     @property
     def B(self) -> list:

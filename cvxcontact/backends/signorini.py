@@ -111,7 +111,7 @@ def interface_finish(compliance, d, start, timings, dependent=None, max_iter=Non
     most ``max_iter`` Lawson-Hanson steps (None: its own bound)."""
     t0 = time.perf_counter()
     if dependent is None:
-        out = solve_lcp(compliance.W, d, start)
+        out = solve_lcp(compliance.W, d, start, kept=compliance.last_factor)
     else:
         v0, g, y0 = dependent
         res = independent_interface(compliance, v0, g, y0, start, max_iter=max_iter)

@@ -50,17 +50,26 @@ def abs_product(K, z) -> np.ndarray:
         out = np.zeros(rows, dtype=np.result_type(K.dtype, z.dtype))
         for c in range(0, cols, ROWS):
             a, b = K.indptr[c], K.indptr[min(c + ROWS, cols)]
-            block = sp.csc_matrix((np.abs(K.data[a:b]), K.indices[a:b], K.indptr[c:c + ROWS + 1] - a),
-                                  shape=(rows, min(ROWS, cols - c)))
+            block = _on(sp.csc_matrix, (rows, min(ROWS, cols - c)), np.abs(K.data[a:b]), K.indices[a:b],
+                        K.indptr[c:c + ROWS + 1] - a)
             out += block @ z[c:c + ROWS]
         return out
     out = np.empty(rows, dtype=np.result_type(K.dtype, z.dtype))
     for r in range(0, rows, ROWS):
         a, b = K.indptr[r], K.indptr[min(r + ROWS, rows)]
-        block = sp.csr_matrix((np.abs(K.data[a:b]), K.indices[a:b], K.indptr[r:r + ROWS + 1] - a),
-                              shape=(min(ROWS, rows - r), cols))
+        block = _on(sp.csr_matrix, (min(ROWS, rows - r), cols), np.abs(K.data[a:b]), K.indices[a:b],
+                    K.indptr[r:r + ROWS + 1] - a)
         out[r:r + ROWS] = block @ z
     return out
+
+
+def _on(kind, shape, data, indices, indptr):
+    """A ``kind`` (csr_matrix or csc_matrix) of ``shape`` on the arrays given, as they are: slices of a canonical
+    matrix's arrays (valid by construction), so without the constructor's format check, which copies index slices
+    that are views of a larger array (about a quarter of :func:`abs_product`'s time on a large matrix)."""
+    M = kind(shape, dtype=data.dtype)
+    M.data, M.indices, M.indptr = data, indices, indptr
+    return M
 
 
 class BulkEnergy(Protocol):

@@ -47,6 +47,16 @@ class CellMesh(Frozen):
         parts = [self.boundary(t) for t in ([tags] if isinstance(tags, str) else tags)]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.int64)
 
+    def cells_at(self, tag: str) -> np.ndarray:
+        """Sorted indices of the cells with a node on the boundary part ``tag`` (formed once per part and kept:
+        the mesh is immutable)."""
+        kept = self.__dict__.setdefault("_cells_at", {})
+        if tag not in kept:
+            touched = np.zeros(len(self.points), dtype=bool)
+            touched[self.boundary_nodes(tag)] = True
+            kept[tag] = locked(np.flatnonzero(touched[self.cells].any(axis=1)))
+        return kept[tag]
+
     def node_set(self, nodes=None):
         """The node set a body's unknowns live on: ``nodes`` (another node set of this mesh with ``points``,
         ``cells``, ``boundary_nodes`` and ``node_components``, e.g. its P2 nodes), else the mesh itself (its

@@ -111,13 +111,18 @@ def aspect_ratios(points, cells) -> np.ndarray:
     return edges.max(axis=1) / np.maximum(2 * inradius, np.finfo(float).tiny) / regular
 
 
-def _owners(cells, facets) -> np.ndarray:
-    """The cell owning each boundary facet (k, d) (mesh vertex indices) among ``cells`` (m, d + 1)."""
+def _owners(cells, facets, near=None) -> np.ndarray:
+    """The cell owning each boundary facet (k, d) (mesh vertex indices) among ``cells`` (m, d + 1). ``near``: the
+    sorted indices of some cells among which is every cell with a vertex on a facet (e.g. the cells at the facets'
+    boundary part, :meth:`~cvxcontact.geometry.base.CellMesh.cells_at`), searched instead of all."""
     cells, facets = np.asarray(cells), np.asarray(facets)
     n = int(max(cells.max(initial=0), facets.max(initial=0))) + 1
     touched = np.zeros(n, dtype=bool)
     touched[facets.ravel()] = True
-    near = np.flatnonzero(touched[cells].any(axis=1))              # the cells with a vertex on a facet
+    if near is None:
+        near = np.flatnonzero(touched[cells].any(axis=1))          # the cells with a vertex on a facet
+    else:
+        near = near[touched[cells[near]].any(axis=1)]              # the same cells, from a superset
     d1 = cells.shape[1]
     local = np.array([[j for j in range(d1) if j != i] for i in range(d1)])
     mine = np.sort(cells[near][:, local], axis=2).reshape(-1, d1 - 1)
@@ -220,7 +225,8 @@ def unresolved(sol) -> list[str]:
                 if z.across < MIN_CELLS and not z.whole:
                     out.append(_too_few(head, z, body.name, part, dim, trace))
                 simplices = getattr(body.mesh, "split", body.mesh)     # quadrilaterals, hexahedra: their simplices
-                cells = _owners(simplices.cells, z.facets)
+                at = np.isin(z.facets, simplices.boundary_nodes(part)).all()     # the zone's facets on its part:
+                cells = _owners(simplices.cells, z.facets, simplices.cells_at(part) if at else None)  # its cells
                 ratio = aspect_ratios(simplices.points, simplices.cells[cells])
                 if ratio.max() > MAX_ASPECT:
                     worst = cells[int(np.argmax(ratio))]

@@ -42,13 +42,14 @@ SIGN_TOL = 1e-10
 """Relative tolerance of the sign tests of the finish (rounding is ~1e-15 of the row scales)."""
 
 
-def row_scales(W, d, y):
+def row_scales(W, d, y, absW=None):
     """Per-row compliance w (floored at 1e-14 of its max) and per-row displacement scale S_a =
-    |d_a| + (|W| |y|)_a, the sizes of the terms of the slack s_a = d_a - (W y)_a (floored likewise)."""
+    |d_a| + (|W| |y|)_a, the sizes of the terms of the slack s_a = d_a - (W y)_a (floored likewise).
+    ``absW``: |W| if formed already (the active-set steps form it once)."""
     tiny = np.finfo(float).tiny
     w = np.diag(W).copy()
     w = np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), tiny))
-    S = np.abs(d) + np.abs(W) @ np.abs(y)
+    S = np.abs(d) + (np.abs(W) if absW is None else absW) @ np.abs(y)
     return w, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
 
 
@@ -59,14 +60,19 @@ def lcp_start(W, d, y, slack):
     return y * w + slack > 0
 
 
-def _closed(W, d, active):
-    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular."""
+def _closed(W, d, active, kept=None):
+    """y with W_AA y_A = d_A, zero elsewhere; None if W_AA is singular. ``kept``: a :class:`LastFactor` of W."""
     y = np.zeros(len(d))
     if active.any():
+        at = np.flatnonzero(active)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("error", sla.LinAlgWarning)
-                c = sla.cho_factor(W[np.ix_(active, active)])
+                c = None if kept is None else kept.get(active)
+                if c is None:     # W_AA by two takes (W[np.ix_(A, A)]'s entries, C order: a third of its time)
+                    c = sla.cho_factor(W.take(at, axis=0).take(at, axis=1), overwrite_a=True)
+                    if kept is not None:
+                        kept.put(active, c)
                 y[active] = sla.cho_solve(c, d[active])
         except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
             return None
@@ -80,9 +86,9 @@ def signs_hold(y, slack, active, w, S):
                 and (slack[~active] <= SIGN_TOL * S[~active]).all())
 
 
-def _signs_hold(W, d, y, active):
-    w, S = row_scales(W, d, y)
-    return signs_hold(y, d - W @ y, active, w, S)
+def _signs_hold(W, d, y, active, absW=None, slack=None):
+    w, S = row_scales(W, d, y, absW)
+    return signs_hold(y, d - W @ y if slack is None else slack, active, w, S)
 
 
 def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobytes()):
@@ -109,14 +115,42 @@ def active_set_steps(step, start, max_iter: int, key=lambda active: active.tobyt
     return MAX_ITER
 
 
-def _pdas(W, d, active, max_iter):
+KEPT_ROWS = 2048
+"""The most closed rows whose factor a :class:`LastFactor` keeps (32 MB): a larger set's is not kept between load
+cases (a 3D interface of many thousand closed rows would otherwise hold a second matrix of W's size)."""
+
+
+class LastFactor:
+    """The Cholesky factor of W_AA of the last active set A the steps of :func:`solve_lcp` closed on one W (the
+    equilibrated W of a kept compliance), for the next load case, whose first step starts from the set the last one
+    ended with: the same matrix, the same factor (a deterministic factorisation of the same entries), not formed
+    twice. Kept: 8 bytes per closed row squared, up to :data:`KEPT_ROWS` rows. ``owner``: the W it belongs to (the
+    caller's; a factor is reused only while :func:`solve_lcp` is given that very array, which is not edited)."""
+
+    def __init__(self):
+        self.owner = self.active = self.factor = None
+
+    def get(self, active):
+        """The kept factor if it is of the rows ``active`` (bool per row), else None."""
+        same = self.active is not None and np.array_equal(self.active, active)
+        return self.factor if same else None
+
+    def put(self, active, factor) -> None:
+        """Keep ``factor`` of the rows ``active``, unless it has more than :data:`KEPT_ROWS` rows (then none)."""
+        small = len(factor[0]) <= KEPT_ROWS
+        self.active, self.factor = (np.array(active, dtype=bool), factor) if small else (None, None)
+
+
+def _pdas(W, d, active, max_iter, kept=None):
     w, _ = row_scales(W, d, np.zeros(len(d)))
+    absW = np.abs(W)                                   # |W| for every step's row scales, formed once
 
     def step(active):
-        y = _closed(W, d, active)
+        y = _closed(W, d, active, kept)
         if y is None:
             return None
-        return y, (None if _signs_hold(W, d, y, active) else y * w + (d - W @ y) > 0)
+        slack = d - W @ y
+        return y, (None if _signs_hold(W, d, y, active, absW, slack) else y * w + slack > 0)
 
     out = active_set_steps(step, active, max_iter)
     return None if isinstance(out, Declined) else out[:2]
@@ -134,7 +168,7 @@ def _least_squares_form(W, d):
         return L.T, sla.lstsq(L, d)[0]
 
 
-def solve_lcp(W, d, active=None, max_iter=30):
+def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
     """Solve the LCP of the module docstring exactly.
 
     Parameters
@@ -143,6 +177,9 @@ def solve_lcp(W, d, active=None, max_iter=30):
     d : (m,) ndarray, slack at y = 0 (scaled displacement)
     active : (m,) bool ndarray, optional
         Starting active set (default: rows with d > 0, the penetrating ones).
+    kept : LastFactor, optional
+        The factor of the last closed set on this very ``W`` (kept by the caller between load cases): reused if the
+        steps close on that set again, and replaced by the last one they factorise (the same answer either way).
 
     Returns
     -------
@@ -170,20 +207,22 @@ def solve_lcp(W, d, active=None, max_iter=30):
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
-    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter)
+    if kept is not None and kept.owner is not W:       # another W: nothing kept applies
+        kept.owner, kept.active, kept.factor = W, None, None
+    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter, kept)
     return out if isinstance(out, Declined) else (D * out[0], out[1], out[2])
 
 
-def _solve_equilibrated(W, d, active, max_iter):
+def _solve_equilibrated(W, d, active, max_iter, kept=None):
     start = (d > 0) if active is None else np.asarray(active, dtype=bool)
-    out = _pdas(W, d, start, max_iter)
+    out = _pdas(W, d, start, max_iter, kept)
     if out is not None:
         return out[0], out[1], "active set"
     A, b = _least_squares_form(W, d)
     y, _ = nnls(A, b, maxiter=50 * len(d))
     w, S = row_scales(W, d, y)
     support = y * w > SIGN_TOL * S
-    out = _pdas(W, d, support, max_iter)
+    out = _pdas(W, d, support, max_iter, kept)
     if out is not None:
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):

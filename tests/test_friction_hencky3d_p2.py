@@ -245,3 +245,32 @@ def test_friction_under_a_sphere_keeps_its_law_and_never_yielding_is_the_linear_
     assert 0 < slipping.sum() < len(slipping)
     assert (force - capacity).max() <= 1e-10 * capacity.max()
     assert np.abs(along[slipping]).max() <= 1e-10 * capacity.max()
+
+
+def beside_a_piezoelectric_layer(law, material=YIELDING):
+    """The indented block of :func:`indented_block` (``material``, ``law`` on its top) and, apart from it, a PZT-5A
+    layer (x in (5, 6); grounded base, floating top electrode, held by rollers on its sides) pressed by 10 MPa on the
+    plane z = 0 under the same ``law``: two bodies that share no row, the layer's electric unknowns making the
+    program's energy a saddle."""
+    blk = indented_block(law, material=material)
+    mesh = cc.box(x=(5, 6), y=(0, 1), z=(0, 0.5), nx=2, ny=2, nz=1)
+    layer = cc.Body(mesh, cc.materials.PZT5A, roller=["left", "right", "front", "back"], contact="bottom",
+                    traction={"top": (0, 0, -1e7)}, grounded="bottom", floating={"top": 0.0}, name="layer")
+    return cc.Scene(blk.bodies[0], layer, contacts=[blk.contacts[0], cc.Contact(layer, "bottom", FLOOR3D, law=law)])
+
+
+def test_a_piezoelectric_layer_beside_the_yielding_block_leaves_both_answers():
+    """The yielding indented block under Tresca's 1e-6 Pa beside a PZT-5A layer that shares no row with it: the
+    damped steps also run with the layer's electric unknowns (after the first step every iterate satisfies the
+    linear electric rows, where the enthalpy is the energy with the potential eliminated, convex in the
+    displacements: the same objective); undamped there, the steps cycled and the finish declined (the interior
+    point's answer 4.8e-2 off). Independent checks, the bodies being uncoupled: the block is the block's answer
+    alone (measured 1.8e-15), the layer the layer's beside a linear block (measured 1.2e-15 in u, 5.9e-16 in phi)."""
+    law = cc.Tresca(1e-6)
+    sol = solve_strict(beside_a_piezoelectric_layer(law))
+    alone = solve_strict(indented_block(law))
+    linear = solve_strict(beside_a_piezoelectric_layer(law, material=cc.materials.isotropic(E=E, nu=NU)))
+    assert sol.ok and sol.polished and alone.polished and linear.polished, sol.info.declined
+    assert 0 < plastic_zone(sol, body=0)["yielded"]
+    assert rel(sol.u[0], alone.u[0]) <= 1e-10
+    assert rel(sol.u[1], linear.u[1]) <= 1e-10 and rel(sol.phi[1], linear.phi[1]) <= 1e-10

@@ -63,7 +63,6 @@ def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
     linearly dependent. Returns solve_friction's (x, y, mu, closed, steps), the steps summed, or the Declined that
     stopped it."""
     steps, seen, last, res, settled = 0, None, np.inf, np.inf, None
-    convex = not op.linear and all(npf == 0 for _, npf in op.sizes)
     for i in range(1 if op.linear else SEQUENTIAL_STEPS):
         T, b = op.linearised(x)
         out = solve_friction(T, b, G, g, fr, free, x, y, mu, scales, dependent=dependent)
@@ -72,7 +71,7 @@ def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
         target, y_new, mu_new, closed, k = out
         steps += k
         c = fr.capacity(y_new)
-        alpha = _damping(op, fr, x, target, c, scales) if convex and i > 0 else 1.0
+        alpha = _damping(op, fr, x, target, c, scales) if i > 0 else 1.0
         if alpha is None:                 # no descent from x: the last full step's answer, if it was at rounding
             if settled is not None:
                 return (*settled, steps)

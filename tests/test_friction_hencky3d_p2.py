@@ -245,3 +245,99 @@ def test_friction_under_a_sphere_keeps_its_law_and_never_yielding_is_the_linear_
     assert 0 < slipping.sum() < len(slipping)
     assert (force - capacity).max() <= 1e-10 * capacity.max()
     assert np.abs(along[slipping]).max() <= 1e-10 * capacity.max()
+
+
+def beside_a_piezoelectric_layer(law, material=YIELDING):
+    """The indented block of :func:`indented_block` (``material``, ``law`` on its top) and, apart from it, a PZT-5A
+    layer (x in (5, 6); grounded base, floating top electrode, held by rollers on its sides) pressed by 10 MPa on the
+    plane z = 0 under the same ``law``: two bodies that share no row, the layer's electric unknowns making the
+    program's energy a saddle."""
+    blk = indented_block(law, material=material)
+    mesh = cc.box(x=(5, 6), y=(0, 1), z=(0, 0.5), nx=2, ny=2, nz=1)
+    layer = cc.Body(mesh, cc.materials.PZT5A, roller=["left", "right", "front", "back"], contact="bottom",
+                    traction={"top": (0, 0, -1e7)}, grounded="bottom", floating={"top": 0.0}, name="layer")
+    return cc.Scene(blk.bodies[0], layer, contacts=[blk.contacts[0], cc.Contact(layer, "bottom", FLOOR3D, law=law)])
+
+
+def test_a_piezoelectric_layer_beside_the_yielding_block_leaves_both_answers():
+    """The yielding indented block under Tresca's 1e-6 Pa beside a PZT-5A layer that shares no row with it: the
+    damped steps also run with the layer's electric unknowns (after the first step every iterate satisfies the
+    linear electric rows, where the enthalpy is the energy with the potential eliminated, convex in the
+    displacements: the same objective); undamped there, the steps cycled and the finish declined (the interior
+    point's answer 4.8e-2 off). Independent checks, the bodies being uncoupled: the block is the block's answer
+    alone (measured 1.8e-15), the layer the layer's beside a linear block (measured 1.2e-15 in u, 5.9e-16 in phi)."""
+    law = cc.Tresca(1e-6)
+    sol = solve_strict(beside_a_piezoelectric_layer(law))
+    alone = solve_strict(indented_block(law))
+    linear = solve_strict(beside_a_piezoelectric_layer(law, material=cc.materials.isotropic(E=E, nu=NU)))
+    assert sol.ok and sol.polished and alone.polished and linear.polished, sol.info.declined
+    assert 0 < plastic_zone(sol, body=0)["yielded"]
+    assert rel(sol.u[0], alone.u[0]) <= 1e-10
+    assert rel(sol.u[1], linear.u[1]) <= 1e-10 and rel(sol.phi[1], linear.phi[1]) <= 1e-10
+
+
+def test_no_descent_above_the_tolerance_declines_flagged(monkeypatch):
+    """The damping given no halving (the smallest step 1): the first damped step of the yielding indented block
+    finds no descent at a residual far above 1e-12 (the full step raised the objective by 0.4 of it, measured), so
+    the finish declines, the interior point's answer kept, flagged (``ResidualWarning``, ``info.declined`` naming
+    the missing descent), never ``ok``."""
+    from cvxcontact.backends import frictionsteps
+
+    monkeypatch.setattr(frictionsteps, "SMALLEST_STEP", 1.0)
+    with pytest.warns(cc.ResidualWarning):
+        sol = cc.solve(indented_block(cc.Tresca(1e-6)), **P2)
+    assert not sol.ok and not sol.polished and "no descent" in str(sol.info.declined), sol.info.declined
+
+
+def hencky_forces(sol):
+    """(F, size) per node of the block (n, 3): F = the gradient of its Hencky energy by hand, sum_q w_q B_q^T
+    sigma(eps_q), the stress sigma = dW/d eps of W = K/2 tr(eps)^2 + mu psi(|dev eps|) (:func:`hencky_stress`'s
+    law, engineering shears), the strain rows B and weights w of the body's own assembly; size the largest
+    sum_q w_q |B_q|^T |sigma_q| (the scale of its terms)."""
+    from cvxcontact.fem.space import space
+
+    b = sol.scene.bodies[0]
+    element = space(sol.degree, b.mesh.cell)
+    system = element.assemble_matrices(b, element.nodes(b))
+    mu, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
+    s_y = SIGMA_Y / (np.sqrt(6.0) * mu)
+    eps = (system.strain @ np.asarray(sol.u[0]).ravel()).reshape(len(system.weights), 6)
+    tr = eps[:, :3].sum(axis=1)
+    dev = eps[:, :3] - tr[:, None] / 3
+    s = np.sqrt((dev ** 2).sum(axis=1) + 0.5 * (eps[:, 3:] ** 2).sum(axis=1))
+    k = mu * (2 * H * s + 2 * (1 - H) * np.minimum(s, s_y)) / s
+    sigma = np.column_stack([K * tr[:, None] + k[:, None] * dev, k[:, None] * eps[:, 3:] / 2]) * system.weights[:, None]
+    size = abs(system.strain).T @ np.abs(sigma).ravel()
+    return (system.strain.T @ sigma.ravel()).reshape(-1, 3), float(size.max())
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(3e8), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+def test_the_yielding_block_under_a_sphere_balances_a_stress_computed_by_hand(law):
+    """The indented yielding block's equilibrium and friction law read off the Hencky stress computed here (not the
+    package's energy): every node off the contact face and the clamped base balanced (measured 9.3e-16 Tresca,
+    3.5e-16 Coulomb of the terms' size); on the top nodes F is the contact's force on the block: -F_z the reported
+    normal force (measured 3.8e-16), F_t the reported friction force (1.4e-15 / 1.8e-15), within the capacity
+    (1.7e-16 / 1.1e-14 above it at most, of the largest capacity) and against the slip where a node slips
+    (1.3e-15 / 1.1e-14)."""
+    from scipy.spatial import cKDTree
+
+    sol = solve_strict(indented_block(law))
+    assert sol.ok and sol.polished, sol.info.declined
+    assert 0 < plastic_zone(sol, body=0)["yielded"]
+    F, size = hencky_forces(sol)
+    z = np.asarray(sol.points[0])[:, 2]
+    inside = (z > 1e-12) & (z < 1 - 1e-12)
+    assert np.abs(F[inside]).max() <= 1e-12 * size
+    c = sol.contact
+    dist, node = cKDTree(sol.points[0]).query(c.points)
+    assert dist.max() < 1e-12 and len(node) == (~inside & (z > 0.5)).sum()
+    r = -F[node]                                  # the block's force on the sphere
+    assert np.abs(r[:, 2] - c.force).max() <= 1e-12 * np.abs(c.force).max()
+    assert np.abs(r[:, :2] + c.shear_force).max() <= 1e-12 * np.abs(c.shear_force).max()
+    capacity = c.threshold * c.slip_measure if isinstance(law, cc.Tresca) else 0.3 * np.maximum(c.force, 0.0)
+    assert (np.linalg.norm(r[:, :2], axis=1) - capacity).max() <= 1e-10 * capacity.max()
+    slip = np.linalg.norm(c.slip, axis=1)
+    slipping = slip > 1e-9 * np.abs(sol.u[0]).max()
+    assert slipping.any()
+    along = r[:, :2] - capacity[:, None] * c.slip / np.where(slipping, slip, 1.0)[:, None]
+    assert np.abs(along[slipping]).max() <= 1e-10 * capacity.max()

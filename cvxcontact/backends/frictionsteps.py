@@ -5,9 +5,12 @@ Each step is the exact friction finish (:func:`~cvxcontact.backends.finish.solve
 second-order model at the last answer x_k (:meth:`~cvxcontact.backends.mixed.MixedEnergy.linearised`: the tangent
 T_k = Hess L(x_k), b_k = T_k x_k - grad L(x_k)), from the last answer's (x, y, mu). Its answer x* minimises the model
 plus the friction energy sum_a c_a |S_a x + s0_a| under the normal rows G x <= g; with the bodies' energy convex
-(a Hencky body; no electric unknowns, whose enthalpy is a saddle), d = x* - x_k is a descent direction of the
-program's objective F(x) = L(x) + sum_a c_a |S_a x + s0_a| (a proximal Newton step: the model's Hessian is positive
-definite), and F is convex on the rows. The first step is taken in full (its start, the interior point's answer or
+(a Hencky body), d = x* - x_k is a descent direction of the program's objective F(x) = L(x) + sum_a c_a |S_a x +
+s0_a| (a proximal Newton step: the model's Hessian is positive definite), and F is convex on the rows. Electric
+unknowns (a piezoelectric body; their enthalpy a saddle, concave in phi) leave it so: their rows are linear, so
+that every model's answer satisfies them exactly, and on them L is the energy with the potentials eliminated,
+max over phi, convex in the displacements, and d its proximal Newton step (measured: a PZT layer beside a yielding
+block, undamped the steps cycled). The first step is taken in full (its start, the interior point's answer or
 an earlier round's, may lie outside the rows: its objective bounds nothing); its answer and every later iterate, a
 convex combination of answers, are within them. Where a later full step raises F beyond rounding (measured: a Hencky block indented by a
 rigid sphere under 3D P2 cones yields under it and the undamped steps cycle at a relative residual of 1), the step is
@@ -63,7 +66,6 @@ def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
     linearly dependent. Returns solve_friction's (x, y, mu, closed, steps), the steps summed, or the Declined that
     stopped it."""
     steps, seen, last, res, settled = 0, None, np.inf, np.inf, None
-    convex = not op.linear and all(npf == 0 for _, npf in op.sizes)
     for i in range(1 if op.linear else SEQUENTIAL_STEPS):
         T, b = op.linearised(x)
         out = solve_friction(T, b, G, g, fr, free, x, y, mu, scales, dependent=dependent)
@@ -72,7 +74,7 @@ def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
         target, y_new, mu_new, closed, k = out
         steps += k
         c = fr.capacity(y_new)
-        alpha = _damping(op, fr, x, target, c, scales) if convex and i > 0 else 1.0
+        alpha = _damping(op, fr, x, target, c, scales) if i > 0 else 1.0
         if alpha is None:                 # no descent from x: the last full step's answer, if it was at rounding
             if settled is not None:
                 return (*settled, steps)

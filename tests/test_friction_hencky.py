@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
+from friction_scenes import sheared_hencky as sheared_block
 
 import cvxcontact as cc
 
@@ -71,14 +72,6 @@ def indented(law=None):
     m = cc.rectangle(x=(0, 1), y=(0, 0.5), nx=16, ny=4)
     b = cc.Body(m, cc.materials.hencky(E=E, nu=NU, sigma_y=SIGMA_Y, h=H), clamped="bottom", contact="top")
     return cc.Scene(b, contacts=[cc.Contact(b, "top", CIRCLE, **({} if law is None else {"law": law}))])
-
-
-def sheared_block(law, P=1e8, nx=8, ny=4):
-    """A Hencky block 1 m x 0.5 m (sigma_y = P, yields at its corners) on the floor under (P / 2, -P) on its top:
-    the contact sticks in its middle and slips towards its ends under a threshold 0.6 P (Coulomb: mu = 0.6)."""
-    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=nx, ny=ny)
-    b = cc.Body(m, cc.materials.hencky(E=E, nu=NU, sigma_y=P, h=H), contact="bottom", traction={"top": (0.5 * P, -P)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 
 
 @pytest.mark.numerics

@@ -1,5 +1,6 @@
 """Benchmark: where the exact finish of friction with P2 elements under "gamma3" is declined, and why (the scenes of
-tests/friction_scenes.py, tests/friction_box_scenes.py and tests/test_friction_p2_gamma3.py):
+tests/friction_scenes.py, tests/friction_box_scenes.py, tests/test_friction_p2_gamma3.py and the sheared Hencky block
+of tests/test_friction_hencky.py, fs.sheared_hencky):
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=.:tests \
         python benchmarks/friction_p2_declines.py
@@ -47,6 +48,7 @@ SCENES = {
     "2D tilted 8": ("8x8", "Tresca .6P", lambda: fs.tilted(cc.Tresca(0.6 * P), 8)),
     "2D tilted 7 C": ("7x8", "Coulomb .6", lambda: fs.tilted(cc.Coulomb(0.6), 7)),
     "2D tilted 8 C": ("8x8", "Coulomb .6", lambda: fs.tilted(cc.Coulomb(0.6), 8)),
+    "2D Hencky sheared": ("8x4", "Tresca 6e7", lambda: fs.sheared_hencky(cc.Tresca(0.6e8))),
     "3D layer stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_layer3d(0.2 * P, cc.Tresca(2 * P))),
     "3D layer sliding": ("2x2x1", "Tresca 1e5", lambda: fs.sliding_layer3d(1e5)),
     "3D pair stuck": ("2x2x1", "Tresca 2P", lambda: fs.uniform_pair3d(0.2 * P, cc.Tresca(2 * P))),

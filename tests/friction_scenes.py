@@ -362,3 +362,13 @@ def tilted(law, nx=8, q=0.3):
     b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8), steel(), contact="bottom",
                 traction={"top": (q * P, -P)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+def sheared_hencky(law, p=1e8, nx=8, ny=4):
+    """A Hencky block 1 m x 0.5 m (E = 200 GPa, nu = 0.3, sigma_y = p, h = 0.1: it yields at its corners) on the
+    floor under (p / 2, -p) on its top: the contact sticks in its middle and slips towards its ends under a threshold
+    0.6 p (Coulomb: mu = 0.6) (tests/test_friction_hencky.py, benchmarks/friction_p2_declines.py)."""
+    m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
+    b = cc.Body(m, cc.materials.hencky(E=E, nu=0.3, sigma_y=p, h=0.1), contact="bottom",
+                traction={"top": (0.5 * p, -p)})
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])

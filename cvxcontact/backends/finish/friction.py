@@ -91,6 +91,7 @@ import scipy.sparse.linalg as spla
 
 from ..factor import superlu
 from .declined import Declined, Stop
+from .directions import fixed_directions
 from .lcp import SIGN_TOL
 from .rows import _independent
 
@@ -405,7 +406,13 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
         return np.zeros(T.shape[0]), np.zeros(G.shape[0]), np.zeros((len(fr.rows), fr.nc)), free & (g == 0), 0
     system = _System(T, b, G, g, fr, free, scales, dependent)
     mu0 = np.asarray(mu0, dtype=float)
-    out = _steps(system, np.concatenate([x0, np.where(free, y0, 0.0), mu0.ravel()]), max_steps)
+    w0 = np.concatenate([x0, np.where(free, y0, 0.0), mu0.ravel()])
+    if fr.nc > 1 and system.dependent:            # 3D, dependent rows: Lawson-Hanson on the normal rows first
+        w1 = fixed_directions(system, w0)
+        out = w1 if isinstance(w1, Declined) else _steps(system, w1, max_steps)
+        if not isinstance(out, Declined):
+            return out
+    out = _steps(system, w0, max_steps)
     if isinstance(out, Declined):                 # once more from every free row closed (module docstring)
         again = _steps(system, np.concatenate([x0, np.where(free, scales[0], 0.0), np.zeros(mu0.size)]), max_steps)
         out = out if isinstance(again, Declined) else again

@@ -234,3 +234,32 @@ def test_adapt_on_hexahedra():
     for tag in block.mesh.tags:
         assert mesh.face_areas(tag).sum() == pytest.approx(block.mesh.face_areas(tag).sum(), rel=1e-12)
     assert h[-1].estimate < h[0].estimate
+
+
+def test_a_grid_listed_from_other_corners_is_the_same_grid():
+    """A cell listed from another corner (a gmsh grid, a clockwise mesh reoriented by QuadMesh) is the same box:
+    the rotated grid is found and refined as the grid of the generator (the same fine points, parents and tags);
+    corners out of order around the box stay refused (HexMesh accepts a hexahedron whose corners are the box's in
+    another order only if it is a rotation of the reference cell)."""
+    rng = np.random.default_rng(4)
+    rect = cc.rectangle(x=(0.0, 2.0), y=(0.0, 1.0), nx=4, ny=3, cell="quad", segments={"s": ("top", 0.5, 1.5)})
+    box = cc.box(nx=2, ny=3, nz=2, cell="hex", patches={"p": ("top", (0.0, 0.5), (1 / 3, 1.0))})
+    # per cell a different start corner (quads), a different rotation of the cube (hexes: about z, about x)
+    about_z = np.array([[0, 1, 2, 3, 4, 5, 6, 7], [1, 2, 3, 0, 5, 6, 7, 4], [2, 3, 0, 1, 6, 7, 4, 5]])
+    about_x = np.array([3, 2, 6, 7, 0, 1, 5, 4])                      # bottom face -> the face y = 1
+    shuffled = []
+    for mesh, orders in ((rect, np.array([np.roll(np.arange(4), -k) for k in range(4)])),
+                         (box, np.vstack([about_z, about_z[:, about_x]]))):
+        pick = orders[rng.integers(len(orders), size=len(mesh.cells))]
+        cells = np.take_along_axis(mesh.cells, pick, axis=1)
+        other = type(mesh)(mesh.points, cells, {t: mesh.boundary(t) for t in mesh.tags})
+        assert not np.array_equal(other.cells, mesh.cells)
+        shuffled.append(other)
+        assert tensor_grid(other) is not None and local_refusal(other) == ""
+        times = (rng.random(len(mesh.cells)) < 0.3).astype(np.int64)
+        (a, pa), (b, pb) = refine_grid(mesh, times), refine_grid(other, times)
+        assert np.array_equal(a.points, b.points) and np.array_equal(a.cells, b.cells) and np.array_equal(pa, pb)
+        assert all(np.array_equal(a.boundary(t), b.boundary(t)) for t in mesh.tags)
+    crossed = rect.cells[:, [0, 2, 1, 3]]                   # not around the box: QuadMesh refuses it already
+    with pytest.raises(cc.MeshError):
+        cc.QuadMesh(rect.points, crossed)

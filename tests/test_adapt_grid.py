@@ -263,3 +263,19 @@ def test_a_grid_listed_from_other_corners_is_the_same_grid():
     crossed = rect.cells[:, [0, 2, 1, 3]]                   # not around the box: QuadMesh refuses it already
     with pytest.raises(cc.MeshError):
         cc.QuadMesh(rect.points, crossed)
+
+
+def test_refined_grid_keeps_the_coarse_coordinates_bit_for_bit():
+    """Grid lines given exactly (every node of a line holds the same float) are kept exactly: a contact face at
+    z = 0.9 stays at 0.9, not one rounding off it (a mean of equal floats is not always that float: three
+    copies of 0.1 sum to 0.30000000000000004); lines given with noise go to their mean, within the noise."""
+    rng = np.random.default_rng(5)
+    for mesh in (cc.rectangle(x=(0.1, 0.7), y=(0.3, 0.9), nx=7, ny=13, cell="quad"),
+                 cc.box(x=(0.1, 0.7), y=(0.3, 1.1), z=(0.2, 0.9), nx=5, ny=6, nz=7, cell="hex")):
+        fine, _ = refine_grid(mesh, rng.random(len(mesh.cells)) < 0.2)
+        for d in range(mesh.dim):
+            assert set(mesh.points[:, d]) <= set(fine.points[:, d]), d                 # exactly, no tolerance
+        noise = 1e-11 * rng.standard_normal(mesh.points.shape)
+        grid = tensor_grid(mesh.with_points(mesh.points + noise))
+        for d, a in enumerate(grid.axes):
+            assert np.abs(a - np.unique(mesh.points[:, d])).max() <= np.abs(noise[:, d]).max()

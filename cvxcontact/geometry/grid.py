@@ -62,7 +62,8 @@ def tensor_grid(mesh) -> Grid | None:
     else None.
 
     The grid lines along each axis are the node coordinates clustered within :data:`GRID_TOL` times the mesh's
-    size; the mesh is a grid when every product of grid lines is exactly one node and the cells are the grid's
+    size, each line at the mean of its cluster (the very value its nodes share when they agree: a grid given
+    exactly keeps its coordinates bit for bit, one given with rounding noise is straightened); the mesh is a grid when every product of grid lines is exactly one node and the cells are the grid's
     cells, one each, each cell's corners the corners of its box with its edges along the box's edges (the mesh's
     corner order up to a rotation of the cell: a cell listed from another corner is the same box)."""
     kind = _GRIDS.get(type(mesh))
@@ -76,7 +77,9 @@ def tensor_grid(mesh) -> Grid | None:
         v = p[order, d]
         line = np.concatenate([[0], np.cumsum(np.diff(v) > tol)])
         index[order, d] = line
-        axes.append(np.array([v[line == k].mean() for k in range(line[-1] + 1)]))
+        first = v[np.concatenate([[0], np.flatnonzero(np.diff(line)) + 1])]      # each line's lowest value
+        spread = np.bincount(line, v - first[line]) / np.bincount(line)        # 0 where the values are equal
+        axes.append(first + spread)                     # the mean, bit for bit the value that all nodes share
     shape = tuple(len(a) for a in axes)
     if len(p) != np.prod(shape) or len(cells) != np.prod([s - 1 for s in shape]):
         return None

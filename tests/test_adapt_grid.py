@@ -393,3 +393,53 @@ def test_refined_pair_is_the_graded_grid_built_by_hand(degree, condition):
     right = np.flatnonzero((x[:, 1] == 0.5) & (x[:, 0] > 0.9))
     below = np.flatnonzero((lower.points[:, 1] == 0.5) & (lower.points[:, 0] == 1.0))
     assert (one.u[1][right, 1] - one.u[0][below, 1] > 1e-6).all()                # open: measured >= 6.9e-5
+
+
+def test_grids_with_holes_are_refused():
+    """Meshes whose nodes or cells are almost a grid's: an L-shape (a quadrant of cells and its corner node
+    missing), a square ring (the centre cell missing, every node kept): neither is a tensor grid, adapt refuses
+    them by name rather than filling the hole. (A cell spanning two columns leaves a hanging node, which QuadMesh
+    refuses already.)"""
+    square = cc.rectangle(nx=3, ny=3, cell="quad")
+    centre = square.points[square.cells].mean(axis=1)
+    ring = cc.QuadMesh(square.points, square.cells[~((np.abs(centre - 0.5) < 0.2).all(axis=1))],
+                       {t: square.boundary(t) for t in ("bottom", "left")})
+    rect = cc.rectangle(x=(0.0, 2.0), y=(0.0, 1.0), nx=4, ny=2, cell="quad")
+    c = rect.points[rect.cells].mean(axis=1)
+    kept = ~((c[:, 0] > 1) & (c[:, 1] > 0.5))
+    used = np.unique(rect.cells[kept])
+    number = np.full(len(rect.points), -1)
+    number[used] = np.arange(len(used))
+    ell = cc.QuadMesh(rect.points[used], number[rect.cells[kept]], {t: number[rect.boundary(t)] for t in ("bottom", "left")})
+    for mesh in (ell, ring):
+        assert tensor_grid(mesh) is None and "not a tensor grid" in local_refusal(mesh)
+        body = cc.Body(mesh, ALU, clamped="left", contact="bottom", name="b")
+        scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.circle((0.5, -1.0), 0.9))])
+        with pytest.raises(cc.UnsupportedError, match="not a tensor grid"):
+            cc.adapt(scene)
+
+
+@pytest.mark.numerics
+def test_adapt_history_on_a_piezoelectric_q2_grid():
+    """A PZT-5A block on Q2 cells (an electrode on part of the bottom, the top floating) under a rigid circle, the
+    loop bounded by max_unknowns: every step's kept solution is solved on a tensor grid of the step's cells, its
+    unknowns (u and phi) and estimate are the history's, none above max_unknowns, the electrode keeps its length,
+    and the loop stops by max_unknowns before max_steps (measured: 459, 759, 1131 unknowns)."""
+    mesh = cc.rectangle(x=(0.0, 1e-2), y=(0.0, 5e-3), nx=8, ny=4, cell="quad",
+                        segments={"el": ("bottom", 2.5e-3, 7.5e-3)})
+    block = cc.Body(mesh, cc.materials.PZT5A, clamped="bottom", contact="top", grounded="el",
+                    floating={"top": 0.0}, name="pzt")
+    scene = cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((4.7e-3, 1.1e-2 - 3e-5), 6e-3))])
+    result = quietly(cc.adapt, scene, degree=2, max_steps=8, max_unknowns=1500, keep=True)
+    h = result.history
+    assert result.stopped == "max_unknowns" and len(h) == len(result.solutions) and h[-1].step < 8
+    assert h[-1].ok and h[-1].marked == 0 and all(s.marked > 0 for s in h[:-1])
+    for row, sol in zip(h, result.solutions):
+        fine = sol.scene.bodies[0].mesh
+        assert tensor_grid(fine) is not None and len(fine.cells) == row.cells
+        assert row.unknowns == sum(u.size + p.size for u, p in zip(sol.u, sol.phi)) <= 1500
+        assert sol.estimate.absolute == row.estimate
+        edges = fine.points[fine.boundary("el")]
+        assert np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1).sum() == pytest.approx(5e-3, rel=1e-13)
+    assert result.solution is result.solutions[-1] and result.scene is result.solutions[-1].scene
+    assert all(b.unknowns > a.unknowns for a, b in pairwise(h))

@@ -34,9 +34,9 @@ graded grid whose unknowns grow as the strips' lengths, not as the marked cells 
 circle of tests/test_adapt_grid.py the estimate still falls faster per unknown than under uniform refinement:
 benchmarks/results/adapt_grid.md). In 3D a curved boundary stays the faceted surface of the first mesh: new
 boundary nodes are the midpoints of the facets' edges (``curves`` is 2D triangles only); a rigid obstacle is
-exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (a gmsh mesh, a
-grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives, triangles or
-tetrahedra, or a tensor grid.
+exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (an unstructured
+gmsh mesh, a grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives,
+triangles or tetrahedra, or a tensor grid.
 """
 
 from __future__ import annotations

@@ -6,8 +6,9 @@ y_0 < ... < y_ny (and z_0 < ... < z_nz in 3D) and its cells are the grid's cells
 [x_i, x_i+1] x [y_j, y_j+1] (x [z_k, z_k+1]): what :func:`~cvxcontact.geometry.mesh.rectangle`,
 :func:`~cvxcontact.geometry.generators.graded_block` and :func:`~cvxcontact.geometry.generators3d.box` make
 with ``cell="quad"`` or ``"hex"`` (graded or not, with named segments and patches). :func:`tensor_grid`
-detects it from the points and cells alone (a quadrilateral mesh read from a gmsh file, or a grid turned
-out of the axes, is none).
+detects it from the points and cells alone, whatever the nodes' numbering and the corner each cell is listed
+from (a structured grid read from a gmsh file is one; an unstructured quadrilateral mesh, or a grid turned out
+of the axes, is none).
 
 :func:`refine_grid` bisects every column and row (every slab in 3D) of the grid that holds a marked cell: a
 marked cell splits into 4 (8), and so does every cell sharing one of its columns or rows, which splits in two

@@ -123,11 +123,11 @@ def unknowns(bodies: Sequence, degree: int) -> int:
 class AdaptStep:
     """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
 
-    ``cells``: the cells (triangles, tetrahedra, quadrilaterals, hexahedra) of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
-    (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
-    the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
-    bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
-    with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
+    ``cells``: the cells (triangles, tetrahedra, quadrilaterals, hexahedra) of all bodies; ``unknowns``: nodal
+    unknowns (u and phi, all bodies); ``estimate`` (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and
+    ``.relative``; ``marked``: cells marked for the next mesh (0 on the last step); ``solve_s``: the solve with its
+    estimate (s), ``refine_s``: marking, refinement and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both
+    (process time: on a machine shared with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
     largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its relative change from the
     step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak pressure's error, not a
     bound (docs/accuracy.md, "The peak pressure between steps").
@@ -249,8 +249,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         (the first pair's total contact force, goal-oriented).
     rate : float, optional
         Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`, at most ``most`` times in
-        a step; a grid's strips are halved once a step whatever it asks); ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D
-        P2, else inf).
+        a step; a grid's strips are halved once a step whatever it asks); ``math.inf``: each marked cell once.
+        None: the dimension and degree's (:data:`LOOPS`: 1 in 2D P2, else inf).
     most : int
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool, optional

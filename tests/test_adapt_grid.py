@@ -323,7 +323,8 @@ def test_tags_cover_the_same_set_and_carry_the_same_loads(degree):
     exactly the fine nodes on the clamped part."""
     rng = np.random.default_rng(degree)
     rect = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=5, ny=3, cell="quad",
-                        segments={"pad": ("top", 0.2, 0.6), "grip": ("left", 1 / 6, 0.5), "foot": ("bottom", 0.4, 0.8)})
+                        segments={"pad": ("top", 0.2, 0.6), "grip": ("left", 1 / 6, 0.5),
+                                  "foot": ("bottom", 0.4, 0.8)})
     box = cc.box(x=(0.0, 1.0), y=(0.0, 2.0), z=(0.0, 0.5), nx=4, ny=4, nz=2, cell="hex",
                  patches={"pad": ("top", (0.25, 0.75), (0.5, 1.5)), "grip": ("left", (0.5, 1.5), (0.0, 0.25))})
     on_grip = {2: lambda x: (x[:, 0] == 0) & (x[:, 1] >= 1 / 6) & (x[:, 1] <= 0.5),
@@ -410,7 +411,8 @@ def test_grids_with_holes_are_refused():
     used = np.unique(rect.cells[kept])
     number = np.full(len(rect.points), -1)
     number[used] = np.arange(len(used))
-    ell = cc.QuadMesh(rect.points[used], number[rect.cells[kept]], {t: number[rect.boundary(t)] for t in ("bottom", "left")})
+    ell = cc.QuadMesh(rect.points[used], number[rect.cells[kept]],
+                      {t: number[rect.boundary(t)] for t in ("bottom", "left")})
     for mesh in (ell, ring):
         assert tensor_grid(mesh) is None and "not a tensor grid" in local_refusal(mesh)
         body = cc.Body(mesh, ALU, clamped="left", contact="bottom", name="b")

@@ -64,9 +64,10 @@ def tensor_grid(mesh) -> Grid | None:
 
     The grid lines along each axis are the node coordinates clustered within :data:`GRID_TOL` times the mesh's
     size, each line at the mean of its cluster (the very value its nodes share when they agree: a grid given
-    exactly keeps its coordinates bit for bit, one given with rounding noise is straightened); the mesh is a grid when every product of grid lines is exactly one node and the cells are the grid's
-    cells, one each, each cell's corners the corners of its box with its edges along the box's edges (the mesh's
-    corner order up to a rotation of the cell: a cell listed from another corner is the same box)."""
+    exactly keeps its coordinates bit for bit, one given with rounding noise is straightened); the mesh is a grid
+    when every product of grid lines is exactly one node and the cells are the grid's cells, one each, each
+    cell's corners the corners of its box with its edges along the box's edges (the mesh's corner order up to a
+    rotation of the cell: a cell listed from another corner is the same box)."""
     kind = _GRIDS.get(type(mesh))
     if kind is None:
         return None

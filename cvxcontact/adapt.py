@@ -127,10 +127,10 @@ class AdaptStep:
     unknowns (u and phi, all bodies); ``estimate`` (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and
     ``.relative``; ``marked``: cells marked for the next mesh (0 on the last step); ``solve_s``: the solve with its
     estimate (s), ``refine_s``: marking, refinement and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both
-    (process time: on a machine shared with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
-    largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its relative change from the
-    step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak pressure's error, not a
-    bound (docs/accuracy.md, "The peak pressure between steps").
+    (process time: on a machine shared with other work, wall time measures the neighbours); ``ok``: the solution's
+    checks; ``peak`` (Pa): the largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its
+    relative change from the step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak
+    pressure's error, not a bound (docs/accuracy.md, "The peak pressure between steps").
     """
 
     step: int

@@ -368,7 +368,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),
-                        estimate=est.absolute, relative=est.relative, marked=int(sum(m.sum() for m in marked)),
+                        estimate=est.absolute, relative=est.relative, marked=sum(np.count_nonzero(m) for m in marked),
                         solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s, peak=peak,
                         peak_change=abs(peak - before) / peak if peak > 0 else float("nan"))
         history.append(row)

@@ -36,7 +36,8 @@ benchmarks/results/adapt_grid.md). In 3D a curved boundary stays the faceted sur
 boundary nodes are the midpoints of the facets' edges (``curves`` is 2D triangles only); a rigid obstacle is
 exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (an unstructured
 gmsh mesh, a grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives,
-triangles or tetrahedra, or a tensor grid.
+triangles or tetrahedra, or a tensor grid; two hexahedral bodies in contact on Q2 cells (their contact faces must
+match corner to corner, which refining each body on its own does not keep: the second step's solve raises).
 """
 
 from __future__ import annotations

@@ -34,9 +34,10 @@ graded grid whose unknowns grow as the strips' lengths, not as the marked cells 
 circle of tests/test_adapt_grid.py the estimate still falls faster per unknown than under uniform refinement:
 benchmarks/results/adapt_grid.md). In 3D a curved boundary stays the faceted surface of the first mesh: new
 boundary nodes are the midpoints of the facets' edges (``curves`` is 2D triangles only); a rigid obstacle is
-exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (a gmsh mesh, a
-grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives, triangles or
-tetrahedra, or a tensor grid.
+exact whatever the mesh. Not covered: quadrilaterals and hexahedra that are not a tensor grid (an unstructured
+gmsh mesh, a grid turned out of the axes): :class:`~cvxcontact.errors.UnsupportedError` naming the alternatives,
+triangles or tetrahedra, or a tensor grid; two hexahedral bodies in contact on Q2 cells (their contact faces must
+match corner to corner, which refining each body on its own does not keep: the second step's solve raises).
 """
 
 from __future__ import annotations
@@ -123,14 +124,14 @@ def unknowns(bodies: Sequence, degree: int) -> int:
 class AdaptStep:
     """One step of :func:`adapt`: the mesh solved and what its solution's estimate said.
 
-    ``cells``: the cells (triangles, tetrahedra, quadrilaterals, hexahedra) of all bodies; ``unknowns``: nodal unknowns (u and phi, all bodies); ``estimate``
-    (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and ``.relative``; ``marked``: cells marked for
-    the next mesh (0 on the last step); ``solve_s``: the solve with its estimate (s), ``refine_s``: marking,
-    bisection and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both (process time: on a machine shared
-    with other work, wall time measures the neighbours); ``ok``: the solution's checks; ``peak`` (Pa): the
-    largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its relative change from the
-    step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak pressure's error, not a
-    bound (docs/accuracy.md, "The peak pressure between steps").
+    ``cells``: the cells (triangles, tetrahedra, quadrilaterals, hexahedra) of all bodies; ``unknowns``: nodal
+    unknowns (u and phi, all bodies); ``estimate`` (sqrt(J/m)) and ``relative``: ``sol.estimate.absolute`` and
+    ``.relative``; ``marked``: cells marked for the next mesh (0 on the last step); ``solve_s``: the solve with its
+    estimate (s), ``refine_s``: marking, refinement and the rebuilt scene (s); ``cpu_s``: the CPU seconds of both
+    (process time: on a machine shared with other work, wall time measures the neighbours); ``ok``: the solution's
+    checks; ``peak`` (Pa): the largest contact pressure of the step (:func:`peak_pressure`), ``peak_change``: its
+    relative change from the step before, |peak_k - peak_(k-1)| / peak_k (NaN on step 0): an indicator of the peak
+    pressure's error, not a bound (docs/accuracy.md, "The peak pressure between steps").
     """
 
     step: int
@@ -249,8 +250,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         (the first pair's total contact force, goal-oriented).
     rate : float, optional
         Bisect each marked cell as often as its indicator asks (:func:`mark_bisections`, at most ``most`` times in
-        a step; a grid's strips are halved once a step whatever it asks); ``math.inf``: each marked cell once. None: the dimension and degree's (:data:`LOOPS`: 1 in 2D
-        P2, else inf).
+        a step; a grid's strips are halved once a step whatever it asks); ``math.inf``: each marked cell once.
+        None: the dimension and degree's (:data:`LOOPS`: 1 in 2D P2, else inf).
     most : int
         The most bisections of one cell in one step with ``rate`` (8: h_T / 16 in 2D).
     exact_steps : bool, optional
@@ -368,7 +369,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
                                                                    for u, p in zip(sol.u, sol.phi))),
-                        estimate=est.absolute, relative=est.relative, marked=int(sum(m.sum() for m in marked)),
+                        estimate=est.absolute, relative=est.relative, marked=sum(np.count_nonzero(m) for m in marked),
                         solve_s=solve_s, refine_s=refine_s, ok=bool(sol.ok), cpu_s=cpu_s, peak=peak,
                         peak_change=abs(peak - before) / peak if peak > 0 else float("nan"))
         history.append(row)

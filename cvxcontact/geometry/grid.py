@@ -6,8 +6,9 @@ y_0 < ... < y_ny (and z_0 < ... < z_nz in 3D) and its cells are the grid's cells
 [x_i, x_i+1] x [y_j, y_j+1] (x [z_k, z_k+1]): what :func:`~cvxcontact.geometry.mesh.rectangle`,
 :func:`~cvxcontact.geometry.generators.graded_block` and :func:`~cvxcontact.geometry.generators3d.box` make
 with ``cell="quad"`` or ``"hex"`` (graded or not, with named segments and patches). :func:`tensor_grid`
-detects it from the points and cells alone (a quadrilateral mesh read from a gmsh file, or a grid turned
-out of the axes, is none).
+detects it from the points and cells alone, whatever the nodes' numbering and the corner each cell is listed
+from (a structured grid read from a gmsh file is one; an unstructured quadrilateral mesh, or a grid turned out
+of the axes, is none).
 
 :func:`refine_grid` bisects every column and row (every slab in 3D) of the grid that holds a marked cell: a
 marked cell splits into 4 (8), and so does every cell sharing one of its columns or rows, which splits in two
@@ -25,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MeshError
-from .hexmesh import HEX_FACES, HexMesh
+from .hexmesh import HEX_EDGES, HEX_FACES, HexMesh
 from .quadmesh import EDGES, QuadMesh
 
 __all__ = ["GRID_TOL", "Grid", "refine_grid", "tensor_grid"]
@@ -35,12 +36,13 @@ GRID_TOL = 1e-10
 the same grid line (:func:`tensor_grid`)."""
 
 _GRIDS = {
-    QuadMesh: (np.array([[0, 0], [1, 0], [1, 1], [0, 1]]), EDGES),
+    QuadMesh: (np.array([[0, 0], [1, 0], [1, 1], [0, 1]]), EDGES, EDGES),
     HexMesh: (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]),
-              HEX_FACES),
+              HEX_FACES, HEX_EDGES),
 }
 """Mesh type -> (the grid offsets of a cell's corners in the mesh's corner order, the local corners of its facets
-(edges, faces) in order around each with the domain on the left / the normal outward)."""
+(edges, faces) in order around each with the domain on the left / the normal outward, the local corners of its
+edges)."""
 
 
 @dataclass(frozen=True)
@@ -61,12 +63,14 @@ def tensor_grid(mesh) -> Grid | None:
     else None.
 
     The grid lines along each axis are the node coordinates clustered within :data:`GRID_TOL` times the mesh's
-    size; the mesh is a grid when every product of grid lines is exactly one node and the cells are the grid's
-    cells, one each, with their corners where the mesh's corner order puts them."""
+    size, each line at the mean of its cluster (the very value its nodes share when they agree: a grid given
+    exactly keeps its coordinates bit for bit, one given with rounding noise is straightened); the mesh is a grid
+    when every product of grid lines is exactly one node and the cells are the grid's cells, one each, each
+    cell's corners the corners of its box with its edges along the box's edges (the mesh's corner order up to a
+    rotation of the cell: a cell listed from another corner is the same box)."""
     kind = _GRIDS.get(type(mesh))
     if kind is None:
         return None
-    offsets = kind[0]
     p, cells = mesh.points, mesh.cells
     tol = GRID_TOL * mesh.size
     axes, index = [], np.empty(p.shape, dtype=np.int64)
@@ -75,15 +79,22 @@ def tensor_grid(mesh) -> Grid | None:
         v = p[order, d]
         line = np.concatenate([[0], np.cumsum(np.diff(v) > tol)])
         index[order, d] = line
-        axes.append(np.array([v[line == k].mean() for k in range(line[-1] + 1)]))
+        first = v[np.concatenate([[0], np.flatnonzero(np.diff(line)) + 1])]      # each line's lowest value
+        spread = np.bincount(line, v - first[line]) / np.bincount(line)        # 0 where the values are equal
+        axes.append(first + spread)                     # the mean, bit for bit the value that all nodes share
     shape = tuple(len(a) for a in axes)
     if len(p) != np.prod(shape) or len(cells) != np.prod([s - 1 for s in shape]):
         return None
     if len(np.unique(np.ravel_multi_index(index.T, shape))) != len(p):
         return None
     lower = index[cells].min(axis=1)                                             # (m, dim)
-    if not np.array_equal(index[cells] - lower[:, None, :], np.broadcast_to(offsets, (len(cells),) + offsets.shape)):
-        return None                                          # a cell that is not one grid box in the mesh's order
+    offset = index[cells] - lower[:, None, :]                                    # (m, corners, dim)
+    corner = offset @ (1 << np.arange(mesh.dim))                                 # which corner of its box
+    if offset.max(initial=0) > 1 or not (np.sort(corner, axis=1) == np.arange(2 ** mesh.dim)).all():
+        return None                                          # a cell that is not one grid box
+    step = np.abs(offset[:, kind[2][:, 1]] - offset[:, kind[2][:, 0]]).sum(axis=2)
+    if (step != 1).any():
+        return None                                          # its corners not in order around the box
     cell_shape = tuple(s - 1 for s in shape)
     if len(np.unique(np.ravel_multi_index(lower.T, cell_shape))) != len(cells):
         return None
@@ -130,7 +141,7 @@ def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | 
     if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
         raise MeshError(f"refine_grid: times must be non-negative integers or a boolean mask, one per cell "
                         f"({len(mesh.cells)}), got dtype {times.dtype} and shape {times.shape}")
-    offsets, facets = _GRIDS[type(mesh)]
+    offsets, facets, _ = _GRIDS[type(mesh)]
     dim = mesh.dim
     axes, coarse, fine_of = [], [], []          # fine grid lines; per fine interval its coarse one; node maps
     for d, a in enumerate(grid.axes):

@@ -446,3 +446,70 @@ def test_a_system_failing_its_check_twice_is_refactorised_after_a_fresh_analysis
     assert np.array_equal(active, ref.contact.active)
     # measured 2.9e-14 / 7.0e-13 against the undisturbed solve (scaled units): >= 3000x, 14000x
     assert rel(np.concatenate(u), np.concatenate(u0)) < 1e-10 and rel(y, y0) < 1e-8
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_coarse_forces_solve_the_lcp_of_an_independently_built_coarse_compliance(factorization):
+    """SparseContact._coarse: the coarse rows' compliance W_c = G_c S^{-1} G_c^T and slack q = G_c S^{-1} F - g_c,
+    built here column by column from SciPy's LU of S (partial pivoting, its own order: not the route's Schur
+    factorisation), and the forces y_c of the coarse LCP satisfy that LCP, y >= 0, s = q - W_c y <= 0, y s = 0,
+    each row to its own scale S_a = |q_a| + (|W_c| |y|)_a (thin_layer(200), both factorisations)."""
+    import scipy.sparse.linalg as spla
+
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends.factor import pardiso_available
+
+    if factorization == "pardiso" and not pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    solver = cc.ContactSolver(thin_layer(200), method="sparse", factorization=factorization)
+    p = solver.problem
+    blocks, E, g = list(p.blocks), p.E, np.asarray(p.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    sc = SparseContact(blocks, E, factorization=factorization)
+    seen = {}
+    solve_lcp = sparse_mod.solve_lcp
+
+    def spy(W, q, active):
+        seen["W"], seen["q"] = W.copy(), q.copy()
+        return solve_lcp(W, q, active)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sparse_mod, "solve_lcp", spy)
+        _, idx, y = sc._coarse(F, g, ~p.held_rows)
+    Gc = sc.G[idx].toarray()
+    lu = spla.splu(sc.A.tocsc())
+    W, q = Gc @ lu.solve(Gc.T.copy()), Gc @ lu.solve(F) - g[idx]
+    # measured 3.7e-10 (SuperLU) / 5.7e-10 (PARDISO) for W, 3.9e-10 / 6.0e-10 for q: >= 175x
+    assert np.abs(seen["W"] - W).max() < 1e-7 * np.abs(W).max()
+    assert np.abs(seen["q"] - q).max() < 1e-7 * np.abs(q).max()
+    closed = y > 0
+    assert 0 < closed.sum() < len(idx) and (y >= 0).all()        # measured 30 of 36 closed
+    s = q - W @ y
+    scale = np.abs(q) + np.abs(W) @ y
+    # measured max s / S <= -2.5e-14, |s| / S on the closed rows <= 5.6e-14: >= 1700x (W, q differ by <= 6e-10)
+    assert (s / scale).max() < 1e-10 and np.abs(s[closed] / scale[closed]).max() < 1e-10
+    assert (s[~closed] < 0).all()                                 # the open coarse rows are strictly open
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_route_takes_the_coarse_start_where_the_other_starts_lead_nowhere(monkeypatch, factorization):
+    """thin_layer(200) on a flat gap (crown 0: every merged node starts in contact, 295 of 341 rows closed at the
+    answer), below COARSE_ROWS: the route goes on to the coarse start when the bonded start leads nowhere (the
+    steps from it cycle here, measured with either factorisation), and ends on the full model's answer."""
+    from cvxcontact.backends.factor import pardiso_available
+
+    if factorization == "pardiso" and not pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    scene = thin_layer(200, crown=0.0)
+    starts, coarse_start = [], SparseContact.coarse_start
+
+    def spy(self, *args):
+        starts.append(coarse_start(self, *args))
+        return starts[-1]
+
+    monkeypatch.setattr(SparseContact, "coarse_start", spy)
+    sol = cc.solve(scene, method="sparse", factorization=factorization)
+    assert sol.ok and sol.info.route == Route.SPARSE_ACTIVE_SET
+    assert len(starts) <= 1                                       # measured 1 (the bonded start cycled)
+    # measured (SuperLU / PARDISO) u 3.4e-14 / 3.2e-14, phi 4.0e-14 / 3.1e-14, force 1.2e-11 / 5.9e-12: >= 800x
+    fields_agree(sol, cc.solve(scene, method="full"), 1e-10, force_tol=1e-8)

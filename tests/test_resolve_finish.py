@@ -173,3 +173,40 @@ def test_a_w_editable_in_place_keeps_no_factor_and_the_compliance_s_w_is_read_on
     assert solver.cache.condensation.compliance.last_factor.factor is not None
     with pytest.raises(ValueError):
         Wc[0, 0] += 1.0
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")
+def test_3d_and_lift_off_load_cases_that_read_the_kept_factor_answer_as_direct_solves(monkeypatch):
+    """Load cases that do read the kept factor (counted), through one ContactSolver: 3D P1 two_boxes under "sigma1"
+    (independent rows: the LCP finish) and 2D two_blocks, each with its load x 0.5, the same again, reversed (the
+    contact opens: no closed row), back and x 2. Each answers as cc.solve of its scene (measured: identical;
+    asserted to 1e-12 relative), and the solver's W is bit for bit the one of its first solve."""
+    from scenes3d import two_boxes
+
+    reads, real = [], LastFactor.get
+
+    def counted(self, active):
+        c = real(self, active)
+        reads.append(c is not None)
+        return c
+
+    monkeypatch.setattr(LastFactor, "get", counted)
+    base = two_boxes(n=4, condition="sigma1")
+
+    def boxes(s):
+        return base.with_loads(0, body_force=(0.0, 0.0, -2e9 * s), traction={"right": (0.0, 0.0, 3e8 * s)},
+                               surface_charge={"left": -0.05 * s})
+
+    for make, kw in ((boxes, {"condition": "sigma1"}), (lambda s: two_blocks(scale=s), {})):
+        solver = cc.ContactSolver(make(1.0), method="condensed", **kw)
+        solver.solve()
+        W = np.array(solver.cache.condensation.compliance.W)
+        reads.clear()
+        for s in (0.5, 0.5, -0.3, 1.0, 2.0):
+            again, direct = solver.solve(make(s)), cc.solve(make(s), method="condensed", **kw)
+            assert again.ok and direct.ok
+            assert rel(_fields(again), _fields(direct)) < 1e-12
+            assert rel(again.contact.force, direct.contact.force) < 1e-12 or not direct.contact.active.any()
+            assert np.array_equal(again.contact.active, direct.contact.active)
+        assert any(reads)                                                  # the kept factor was read
+        assert solver.cache.condensation.compliance.W.tobytes() == W.tobytes()

@@ -124,7 +124,8 @@ def locked(a: np.ndarray) -> np.ndarray:
 
 
 def _relocked(v):
-    """``v`` with the arrays in it (directly, or in a tuple or :class:`FrozenMap`) :func:`locked`."""
+    """``v`` with the arrays in it (directly, or in a tuple, :class:`FrozenMap` or dict, e.g. a mesh's kept
+    ``cells_at``) :func:`locked`."""
     np = sys.modules.get("numpy")           # not imported at the top (see locked): unloaded, v is no array
     if np is not None and isinstance(v, np.ndarray):
         return locked(v)
@@ -134,6 +135,8 @@ def _relocked(v):
         return FrozenTuple([_relocked(x) for x in v], *v._edit)
     if type(v) is tuple:
         return tuple(_relocked(x) for x in v)
+    if type(v) is dict:
+        return {k: _relocked(x) for k, x in v.items()}
     return v
 
 

@@ -108,7 +108,8 @@ def test_a_declined_finish_reaches_info_and_report(monkeypatch):
     from cvxcontact.backends import signorini
 
     scene = two_blocks()
-    monkeypatch.setattr(signorini, "solve_lcp", lambda W, d, start=None: Declined(Stop.CYCLE, "cycled (a test)"))
+    monkeypatch.setattr(signorini, "solve_lcp",
+                        lambda W, d, start=None, kept=None: Declined(Stop.CYCLE, "cycled (a test)"))
     with pytest.warns(cc.ResidualWarning, match=r"was declined \(cycled \(a test\)\)"):
         sol = cc.solve(scene, method="condensed")
     assert not sol.polished and sol.info.route is cc.Route.INTERIOR_POINT

@@ -169,6 +169,23 @@ def test_a_mesh_stays_read_only_when_asked_to_be_writeable_and_when_unpickled(ma
         _cannot_be_made_writeable(a)
 
 
+@pytest.mark.parametrize("make", [lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=3, ny=2),
+                                  lambda: cc.rectangle(x=(0, 1), y=(0, 1), nx=3, ny=2, cell="quad"),
+                                  lambda: cc.box(x=(0, 1), y=(0, 1), z=(0, 1), nx=2, ny=1, nz=1)])
+def test_the_cells_a_mesh_keeps_at_a_part_stay_read_only_when_unpickled(make):
+    """CellMesh.cells_at keeps its answer on the mesh (a dict in its instance dict); a pickled or deep-copied
+    mesh brings it along read-only for good as its other arrays (it came back writeable: an edit of it would
+    change every later search for the owners of that part's facets), and equal to the twin's own."""
+    mesh = make()
+    kept = mesh.cells_at("top")
+    for twin in (pickle.loads(pickle.dumps(mesh)), copy.deepcopy(mesh)):
+        again = twin.cells_at("top")
+        assert np.array_equal(again, kept) and not again.flags.writeable
+        _cannot_be_made_writeable(again)
+        fresh = make().cells_at("top")                                     # formed by the twin's own mesh
+        assert np.array_equal(again, fresh)
+
+
 def _cannot_be_made_writeable(a):
     """Neither ``a`` nor the array it views (its ``base``) can be made writeable again."""
     for x in (a, a.base):

@@ -17,9 +17,11 @@ pytestmark = pytest.mark.numerics
 ALU = cc.materials.isotropic(E=70e9, nu=0.3)
 
 
-def _spd(m, seed):
+def _spd(m, seed, editable=False):
     A = np.random.default_rng(seed).standard_normal((m, m))
-    return A @ A.T / m + 0.05 * np.eye(m)
+    W = A @ A.T / m + 0.05 * np.eye(m)
+    W.flags.writeable = editable                   # a kept factor is for a read-only W only (as Compliance.W)
+    return W
 
 
 def _counting(monkeypatch):
@@ -60,10 +62,12 @@ def test_a_kept_factor_gives_the_answers_of_fresh_ones_and_is_reused_only_for_it
     again = solve_lcp(W, d, active, kept=kept)
     assert len(calls) == 0 and np.array_equal(again[0], with_kept[0])      # the kept factor, the same answer
     other = W + 0.3 * np.eye(m)                                            # the same rows, other entries
+    other.flags.writeable = False
     mine, its_own = solve_lcp(other, d, active, kept=kept), solve_lcp(other, d, active)
     assert np.array_equal(mine[0], its_own[0]) and rel(mine[0], again[0]) > 1e-3
     calls.clear()
     copy = np.array(other)                                                 # the same entries, another array
+    copy.flags.writeable = False
     assert np.array_equal(solve_lcp(copy, d, mine[1], kept=kept)[0], its_own[0]) and len(calls) == 1
 
 
@@ -138,3 +142,71 @@ def test_3d_load_cases_answer_as_direct_solves():
         assert again.ok and direct.ok
         assert rel(_fields(again), _fields(direct)) < 1e-12
         assert rel(again.contact.force, direct.contact.force) < 1e-12
+
+
+def test_a_w_editable_in_place_keeps_no_factor_and_the_compliance_s_w_is_read_only():
+    """A factor kept for a W that is then edited in place (the same array, other entries) would close the next
+    load case on the old W_AA: its y would leave the closed rows' slack nonzero (measured before the guard: 5.7,
+    the answer 3.0 off), yet pass the signs (they test the open rows' slack only). So a writeable W (or a view)
+    keeps nothing, each step factorises afresh (the oracle: solve_lcp without a kept factor, and the closed rows'
+    slack d - W y = 0); and the W the solver keeps, Compliance.W, refuses edits in place."""
+    m = 30
+    rng = np.random.default_rng(1)
+    rng.standard_normal((m, m))                                            # _spd's draw: d is the next one
+    W, d = _spd(m, 1, editable=True), rng.standard_normal(m)
+    kept = LastFactor()
+    first = solve_lcp(W, d, kept=kept)
+    assert kept.factor is None and kept.owner is None                      # nothing kept for an editable W
+    A = first[1]
+    W[np.ix_(A, A)] += 0.2                                                 # edited in place: the same array
+    again, fresh = solve_lcp(W, d, A, kept=kept), solve_lcp(W, d, A)
+    assert np.array_equal(again[0], fresh[0]) and np.array_equal(again[1], fresh[1])
+    s = d - W @ again[0]
+    assert np.abs(s[again[1]]).max() <= 1e-12 * np.abs(d).max()            # closed rows closed (measured 4e-16)
+    ro = _spd(m, 1)
+    view = ro[:, :]                                                        # read-only, but a view of another array
+    solve_lcp(view, d, kept=kept)
+    assert kept.factor is None
+    solver = cc.ContactSolver(two_blocks(), method="condensed")
+    solver.solve()
+    Wc = solver.cache.condensation.compliance.W
+    assert solver.cache.condensation.compliance.last_factor.factor is not None
+    with pytest.raises(ValueError):
+        Wc[0, 0] += 1.0
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")
+def test_3d_and_lift_off_load_cases_that_read_the_kept_factor_answer_as_direct_solves(monkeypatch):
+    """Load cases that do read the kept factor (counted), through one ContactSolver: 3D P1 two_boxes under "sigma1"
+    (independent rows: the LCP finish) and 2D two_blocks, each with its load x 0.5, the same again, reversed (the
+    contact opens: no closed row), back and x 2. Each answers as cc.solve of its scene (measured: identical;
+    asserted to 1e-12 relative), and the solver's W is bit for bit the one of its first solve."""
+    from scenes3d import two_boxes
+
+    reads, real = [], LastFactor.get
+
+    def counted(self, active):
+        c = real(self, active)
+        reads.append(c is not None)
+        return c
+
+    monkeypatch.setattr(LastFactor, "get", counted)
+    base = two_boxes(n=4, condition="sigma1")
+
+    def boxes(s):
+        return base.with_loads(0, body_force=(0.0, 0.0, -2e9 * s), traction={"right": (0.0, 0.0, 3e8 * s)},
+                               surface_charge={"left": -0.05 * s})
+
+    for make, kw in ((boxes, {"condition": "sigma1"}), (lambda s: two_blocks(scale=s), {})):
+        solver = cc.ContactSolver(make(1.0), method="condensed", **kw)
+        solver.solve()
+        W = np.array(solver.cache.condensation.compliance.W)
+        reads.clear()
+        for s in (0.5, 0.5, -0.3, 1.0, 2.0):
+            again, direct = solver.solve(make(s)), cc.solve(make(s), method="condensed", **kw)
+            assert again.ok and direct.ok
+            assert rel(_fields(again), _fields(direct)) < 1e-12
+            assert rel(again.contact.force, direct.contact.force) < 1e-12 or not direct.contact.active.any()
+            assert np.array_equal(again.contact.active, direct.contact.active)
+        assert any(reads)                                                  # the kept factor was read
+        assert solver.cache.condensation.compliance.W.tobytes() == W.tobytes()

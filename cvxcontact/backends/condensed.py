@@ -263,9 +263,10 @@ class Compliance:
 
     @property
     def W(self) -> np.ndarray:
-        """W = sum_l R_l B_l (m x m), formed on first use."""
+        """W = sum_l R_l B_l (m x m), formed on first use; read-only (a factor of it is kept between load cases)."""
         if self._W is None:
             self._W = sum(np.asarray(R @ B) for R, B in zip(self.rows, self.B))
+            self._W.flags.writeable = False      # read-only: the exact finish keeps a factor of it (LastFactor)
         return self._W
 
     @property

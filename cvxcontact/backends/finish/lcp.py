@@ -125,7 +125,7 @@ class LastFactor:
     equilibrated W of a kept compliance), for the next load case, whose first step starts from the set the last one
     ended with: the same matrix, the same factor (a deterministic factorisation of the same entries), not formed
     twice. Kept: 8 bytes per closed row squared, up to :data:`KEPT_ROWS` rows. ``owner``: the W it belongs to (the
-    caller's; a factor is reused only while :func:`solve_lcp` is given that very array, which is not edited)."""
+    caller's; a factor is reused only while :func:`solve_lcp` is given that very array, read-only: not edited)."""
 
     def __init__(self):
         self.owner = self.active = self.factor = None
@@ -180,6 +180,8 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
     kept : LastFactor, optional
         The factor of the last closed set on this very ``W`` (kept by the caller between load cases): reused if the
         steps close on that set again, and replaced by the last one they factorise (the same answer either way).
+        Only for a read-only ``W`` that owns its entries (as :attr:`Compliance.W
+        <cvxcontact.backends.condensed.Compliance.W>`): a W that can be edited in place keeps no factor.
 
     Returns
     -------
@@ -207,8 +209,10 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
     D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
-    if kept is not None and kept.owner is not W:       # another W: nothing kept applies
-        kept.owner, kept.active, kept.factor = W, None, None
+    editable = not (isinstance(W, np.ndarray) and W.flags.owndata) or W.flags.writeable
+    if kept is not None and (editable or kept.owner is not W):    # another W, or one editable in place (its
+        kept.owner, kept.active, kept.factor = (None if editable else W), None, None    # entries may have changed
+        kept = None if editable else kept                          # under the kept factor): nothing kept applies
     out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter, kept)
     return out if isinstance(out, Declined) else (D * out[0], out[1], out[2])
 

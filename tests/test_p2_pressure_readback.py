@@ -91,7 +91,7 @@ def test_a_uniform_pressure_reads_itself_at_every_constrained_p2_node(condition)
     force = E.T @ y
     c = ContactResult(x=x, lam=np.zeros(len(x)), jump=np.zeros(len(x)), force=force,
                       constrained=np.abs(E).sum(axis=0) > 0, active=np.abs(E).sum(axis=0) > 0, degree=2,
-                      row_pressure=trace.row_pressure(itf, condition, y))
+                      row_pressure=trace.row_pressure(itf, condition, itf.evaluation(condition), y))
     on = c.constrained
     assert np.abs(c.pressure[on] - p).max() <= 1e-12 * p
     assert np.all(c.pressure[~on] == 0.0)
@@ -112,8 +112,8 @@ def test_a_uniform_pressure_on_a_partial_overlap_reads_itself(x1, n1, condition)
     w = itf.weights(condition)
     assert np.all(w > 0) and abs(w.sum() - (x[-1] - x[0])) <= 1e-12
     p = 2.0e6
-    row_p = TRACES[2].row_pressure(itf, condition, w * p)
     E = itf.evaluation(condition)
+    row_p = TRACES[2].row_pressure(itf, condition, E, w * p)
     on = np.asarray(abs(E).sum(axis=0)).ravel() > 0
     assert on.sum() >= 3 and np.abs(row_p[on] - p).max() <= 1e-12 * p
 

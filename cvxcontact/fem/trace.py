@@ -103,7 +103,7 @@ class LinearTrace:
         out[pair.evaluation(condition).indices] = pair.weights(condition)
         return out
 
-    def row_pressure(self, pair, condition: str, forces) -> None:
+    def row_pressure(self, pair, condition: str, rows, forces) -> None:
         """None: the rows of ``condition`` sit at nodes of X_h, whose force over its :meth:`measure` is the row's
         force over its own weight (:meth:`pressure`)."""
 
@@ -212,17 +212,22 @@ class QuadraticTrace(LinearTrace):
     def measure(self, pair, condition: str) -> None:
         """None: the forces M lambda_h live on every node of X_h (:meth:`pressure`)."""
 
-    def row_pressure(self, pair, condition: str, forces) -> np.ndarray | None:
-        """On a 2D line: the rows' ``forces`` (N/m, one per row of ``pair.evaluation(condition)``) over their own
-        weights (``pair.weights(condition)``, m), extended to every node of X_h as the function of the rows'
-        values (``pair.extend``), Pa: a uniform p reads p exactly, the rows being where the forces were made.
-        (The forces E^T y on the nodes of X_h over the row sums of its mass matrix would not: under
-        "sigma1"/"sigma2" the rows are that body's P2 nodes, and E^T w is not M 1.) None on a 3D surface."""
+    def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
+        """On a 2D line: the rows' ``forces`` (N/m, one per row of ``rows``, the sparse evaluation rows the
+        problem posed on ``pair``'s nodes of X_h) over their own weights (``pair.weights(condition)``, m),
+        extended to every node of X_h as the function of the rows' values (``pair.extend``), Pa: a uniform p
+        reads p exactly, the rows being where the forces were made. (The forces E^T y on the nodes of X_h over
+        the row sums of its mass matrix would not: under "sigma1"/"sigma2" the rows are that body's P2 nodes,
+        and E^T w is not M 1.) None on a 3D surface, and where ``rows`` are not ``condition``'s own
+        (``pair.evaluation(condition)``: rows a problem was given, which hold no weights)."""
         forces = np.asarray(forces, dtype=float)
         if np.ndim(pair.x) == 2:
             return None
         if len(forces) == 0:
             return np.zeros(pair.size)
+        own = pair.evaluation(condition)
+        if own.shape != rows.shape or abs(own - rows).max() > 0:
+            return None
         return pair.extend(condition, forces / pair.weights(condition))
 
     def pressure(self, contact) -> np.ndarray:

@@ -221,3 +221,23 @@ def test_a_partial_overlap_reads_the_laws_pressure_at_its_rows(condition):
     verts = np.flatnonzero(np.isin(np.round(x, 12), np.round(xr, 12)))
     r = (c.jump - c.gap)[verts]
     assert len(verts) >= 3 and np.abs(c.pressure[verts] - 1e11 * r).max() <= 1e-11 * 1e11 * np.abs(r).max()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("condition", ["sigma1", "sigma2"])
+def test_the_p2_shear_is_each_rows_tangential_force_over_its_own_weight(condition):
+    """Tresca on the non-matching springs in series under a sigma condition with P2 (the rows slip somewhere: the
+    nodal forces of the non-rows body are not uniform): the shear at the rows (the P2 function of X_h evaluated at
+    that body's P2 nodes, built here) times Simpson's weights of that body's trace (built here) sums to the total
+    tangential force (measured 1.1e-16 g; the former rule, the forces over the merged row sums, 1.6e-2 g), and is
+    at most g there (measured (1 + 2.2e-16) g; the former rule 3.3 g)."""
+    scene = pressed()
+    g = 1e5
+    sol = _solve(scene, condition=condition, degree=2, law=cc.Tresca(g))
+    c = sol.contact
+    xr = _trace_x(*_side(scene, condition), 2)
+    w = _simpson(xr[::2])
+    at_rows = _p2_rows(np.asarray(c.x), xr) @ c.shear
+    assert np.abs(c.slip).max() > 0
+    assert abs(w @ at_rows - float(np.sum(c.shear_force))) <= 1e-12 * g
+    assert np.abs(at_rows).max() <= g * (1 + 1e-12)

@@ -241,10 +241,14 @@ class QuadraticTrace(LinearTrace):
         return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_pressure, 0.0)
 
     def per_length(self, contact, force) -> np.ndarray:
-        """As the pressure: the forces over the row sums of the P2 mass matrix of X_h (a 2D line); on a 3D surface,
+        """As the pressure: on a 2D line the rows' forces over their own weights (``contact.row_shear``, for the
+        tangential forces ``force`` = ``contact.shear_force``; without it the forces over the row sums of the P2
+        mass matrix of X_h); on a 3D surface,
         where those vanish at the vertices, over the areas the friction law's rows give the nodes
         (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
         if np.ndim(contact.x) == 1:
+            if contact.row_shear is not None and np.shape(force) == np.shape(contact.row_shear):
+                return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_shear, 0.0)
             return force / quadratic_lumped(contact.x)
         w = np.asarray(contact.slip_measure, dtype=float)
         out = np.zeros(np.shape(force))

@@ -103,6 +103,10 @@ class LinearTrace:
         out[pair.evaluation(condition).indices] = pair.weights(condition)
         return out
 
+    def row_pressure(self, pair, condition: str, rows, forces) -> None:
+        """None: the rows of ``condition`` sit at nodes of X_h, whose force over its :meth:`measure` is the row's
+        force over its own weight (:meth:`pressure`)."""
+
     def pressure(self, contact) -> np.ndarray:
         """The pressure (Pa) of a :class:`~cvxcontact.solution.solution.ContactResult`: each constrained node's
         force over its measure (the lumped length of the constrained nodes without one); 0 elsewhere."""
@@ -208,18 +212,43 @@ class QuadraticTrace(LinearTrace):
     def measure(self, pair, condition: str) -> None:
         """None: the forces M lambda_h live on every node of X_h (:meth:`pressure`)."""
 
+    def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
+        """On a 2D line: the rows' ``forces`` (N/m, one per row of ``rows``, the sparse evaluation rows the
+        problem posed on ``pair``'s nodes of X_h) over their own weights (``pair.weights(condition)``, m),
+        extended to every node of X_h as the function of the rows' values (``pair.extend``), Pa: a uniform p
+        reads p exactly, the rows being where the forces were made. (The forces E^T y on the nodes of X_h over
+        the row sums of its mass matrix would not: under "sigma1"/"sigma2" the rows are that body's P2 nodes,
+        and E^T w is not M 1.) None on a 3D surface, and where ``rows`` are not ``condition``'s own
+        (``pair.evaluation(condition)``: rows a problem was given, which hold no weights)."""
+        forces = np.asarray(forces, dtype=float)
+        if np.ndim(pair.x) == 2:
+            return None
+        if len(forces) == 0:
+            return np.zeros(pair.size)
+        own = pair.evaluation(condition)
+        if own.shape != rows.shape or abs(own - rows).max() > 0:
+            return None
+        return pair.extend(condition, forces / pair.weights(condition))
+
     def pressure(self, contact) -> np.ndarray:
-        """The forces r = M lambda_h over the row sums of the P2 mass matrix of X_h on a 2D line; on a 3D surface,
-        where those row sums vanish at the vertices, lambda_h itself."""
+        """On a 2D line the rows' forces over their own weights (``contact.row_pressure``, :meth:`row_pressure`),
+        0 at the nodes no row reads (without it, the forces r = M lambda_h over the row sums of the P2 mass
+        matrix of X_h); on a 3D surface, where those row sums vanish at the vertices, lambda_h itself."""
         if np.ndim(contact.x) == 2:
             return np.array(contact.lam, dtype=float)
-        return contact.force / quadratic_lumped(contact.x)
+        if contact.row_pressure is None:
+            return contact.force / quadratic_lumped(contact.x)
+        return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_pressure, 0.0)
 
     def per_length(self, contact, force) -> np.ndarray:
-        """As the pressure: the forces over the row sums of the P2 mass matrix of X_h (a 2D line); on a 3D surface,
+        """As the pressure: on a 2D line the rows' forces over their own weights (``contact.row_shear``, for the
+        tangential forces ``force`` = ``contact.shear_force``; without it the forces over the row sums of the P2
+        mass matrix of X_h); on a 3D surface,
         where those vanish at the vertices, over the areas the friction law's rows give the nodes
         (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
         if np.ndim(contact.x) == 1:
+            if contact.row_shear is not None and np.shape(force) == np.shape(contact.row_shear):
+                return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_shear, 0.0)
             return force / quadratic_lumped(contact.x)
         w = np.asarray(contact.slip_measure, dtype=float)
         out = np.zeros(np.shape(force))

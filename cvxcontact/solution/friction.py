@@ -28,6 +28,7 @@ import numpy as np
 
 from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with, rigid_balance
+from .solution import _pairs
 
 __all__ = ["friction_checks", "read_back_friction"]
 
@@ -95,11 +96,21 @@ def read_back_friction(problem, raw, sol) -> None:
 
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
+    trace = problem.space.trace
+    pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
+
+    def row_shear(i, a, b):
+        """2D P2: the rows' tangential forces over their own weights at the nodes of X_h (as the pressure)."""
+        cond = problem.scene.conditions[i] or problem.condition
+        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
+        return trace.row_pressure(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
+
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b])
+                            threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b],
+                            row_shear=row_shear(i, a, b))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
-        for f in ("slip", "shear_force", "threshold", "slip_measure"):
+        for f in ("slip", "shear_force", "threshold", "slip_measure", "row_shear"):
             if isinstance(getattr(c, f), np.ndarray):
                 getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]

@@ -117,13 +117,17 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
         part = slice(offsets[i], offsets[i + 1])
         cond = condition if scene.conditions[i] is None else scene.conditions[i]
         measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
+        rows = np.flatnonzero(_reads(E[:, part].T))   # the pair's rows (each reads its own pair's nodes only)
+        row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)    # 2D P2: y_a / w_a
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
             gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
-            degree=trace.degree, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure))
+            degree=trace.degree, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure,
+            row_pressure=row_pressure))
     for a in [*u_si, *(p for p in phi_si if p is not None), *(getattr(c, f) for c in contacts for f in
-              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal", "measure")
+              ("x", "lam", "jump", "force", "constrained", "active", "gap", "points", "normal", "measure",
+               "row_pressure")
               if getattr(c, f) is not None)]:
         a.setflags(write=False)                 # results are data: read-only, never silently edited
     contact = contacts[0]

@@ -84,6 +84,15 @@ class ContactResult:
     """A friction law: the area (3D, m^2) or length (2D, m) the law's rows give each node of X_h, E^T w (w the
     rows' lumped areas or lengths, the friction capacities' weights), what :attr:`shear` divides by on a 3D P2
     surface; None without friction."""
+    row_pressure: np.ndarray | None = None
+    """A 2D P2 pair: the rows' forces y_a over their own weights w_a (the lumped lengths of the condition's rows,
+    Simpson's on the constrained trace, the cut segments' shares), Pa, extended to every node of X_h as the
+    function of the rows' values (the rows of "sigma1"/"sigma2" sit at that body's P2 nodes, not at nodes of
+    X_h); what :attr:`pressure` reads. None: the pressure is :attr:`force` over :attr:`measure`."""
+    row_shear: np.ndarray | None = None
+    """A friction law on a 2D P2 pair: the rows' tangential forces over their own weights (Pa), extended to every
+    node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None: :attr:`shear_force` over the lumped
+    lengths (areas)."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -98,10 +107,15 @@ class ContactResult:
         mesh's shorter lengths. 0 at the nodes without a constraint (they carry no force).
         For the pressure felt by a body use :meth:`Solution.traction`.
 
-        P2 (a quadratic trace, ``degree`` 2): the forces r = M lambda_h live on every node of X_h, each divided
-        by the row sum of the P2 mass matrix of X_h (h/6 per adjacent segment at a vertex, 2h/3 at a
-        midpoint). On a 3D surface the P2 row sums vanish at the vertices (a vertex's shape function
-        integrates to 0 on a triangle): there the pressure is lambda_h itself (:attr:`lam`).
+        Each row's force is divided by the weight that row holds (the quadrature weight of its condition, the
+        one a normal-compliance or friction law is weighted by), so a uniform pressure p reads p at every
+        constrained node. P2 on a 2D line (a quadratic trace, ``degree`` 2): the rows' forces over their own
+        weights (:attr:`row_pressure`; "gamma3" and obstacles: the forces r = M lambda_h over the row sums
+        of the P2 mass matrix of X_h, h/6 per adjacent segment at a vertex, 2h/3 at a midpoint; "sigma1" /
+        "sigma2": the rows at that body's P2 nodes over their Simpson weights, extended to the nodes of X_h
+        as the P2 function of the rows' values), 0 at the nodes no row reads. On a 3D surface the P2 row
+        sums vanish at the vertices (a vertex's shape function integrates to 0 on a triangle): there the
+        pressure is lambda_h itself (:attr:`lam`).
         """
         return self.trace.pressure(self)
 
@@ -113,7 +127,9 @@ class ContactResult:
     @property
     def shear(self) -> np.ndarray | None:
         """The tangential traction sigma_t on the first body along t (Pa): :attr:`shear_force` over the lumped
-        lengths of the constrained nodes (as :attr:`pressure`); |sigma_t| <= g. None without friction."""
+        lengths of the constrained nodes (as :attr:`pressure`; P2 on a 2D line the rows' tangential forces over
+        their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under "sigma1"/"sigma2": between
+        them the P2 function of the rows' values may exceed g). None without friction."""
         if self.shear_force is None:
             return None
         return self.trace.per_length(self, self.shear_force)

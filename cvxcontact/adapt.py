@@ -217,11 +217,9 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
     Parameters
     ----------
     scene : Scene
-        A 2D or 3D scene of triangles or tetrahedra, or of quadrilaterals or hexahedra on tensor grids (module
-        docstring); its meshes are the first step's (triangles: relabelled so that each triangle's longest edge
-        is its refinement edge, :func:`~cvxcontact.geometry.refine.label_longest`; a tetrahedron's refinement
-        edge is its longest, :func:`~cvxcontact.geometry.refine.bisect_tets`; a grid's strips are halved,
-        :func:`~cvxcontact.geometry.grid.refine_grid`).
+        A 2D or 3D scene of triangles or tetrahedra, or of quadrilaterals or hexahedra on tensor grids; its
+        meshes are the first step's (how each kind is refined: the module docstring,
+        :func:`~cvxcontact.geometry.refine.refine_local`).
     condition : str
         The contact condition of every solve, as in :func:`cvxcontact.solve`.
     theta : float, optional

@@ -8,6 +8,8 @@
 * Dense contact rows of two horizontal contact parts, test-built from each body's own trace nodes
   (:func:`merged_rows`), and a dense primal-dual active-set solve of the mixed system (26) with them
   (:func:`active_set_solve`), which asserts that its answer satisfies (27).
+* Simpson's weights on a P2 line (:func:`simpson`), the rows' weights of a P2 trace whose segments all lie in the
+  overlap.
 * A piezoelectric layer bonded in uniaxial strain to a steel layer, driven by a surface charge or a
   voltage, with its closed form (:func:`bonded_patch`: u and phi linear in y, lambda uniform).
 """
@@ -177,3 +179,13 @@ def bonded_patch(n1, n2, q2=-0.08, voltage=None):
                  u2=lambda p: np.column_stack([0 * p[:, 0], -alpha * (p[:, 1] + 1)]),
                  phi1=lambda p: phi0 + d * p[:, 1], lam=M2 * alpha)
     return cc.Scene(b1, b2), exact
+
+
+def simpson(xv):
+    """Simpson's weights on the P2 line with sorted vertices ``xv`` (m; interleaved: vertex, midpoint, ...)."""
+    h = np.diff(xv)
+    w = np.zeros(2 * len(xv) - 1)
+    w[0:-1:2] += h / 6
+    w[2::2] += h / 6
+    w[1::2] = 2 * h / 3
+    return w

@@ -7,6 +7,7 @@ The references are built here from the meshes' abscissae (uniform cells of cc.re
 
 import numpy as np
 import pytest
+from reference_problems import simpson
 
 import cvxcontact as cc
 from cvxcontact.contact.interface import shares_to_nearest
@@ -23,15 +24,6 @@ def _pair(x1, n1, x2, n2):
     scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", gap=-1e-5)])
     return quadratic_interface(scene, [P2Nodes(b.mesh) for b in scene.bodies])
 
-
-def _simpson(xv):
-    """Simpson's weights on the P2 line with vertices ``xv`` (interleaved: vertex, midpoint, ...)."""
-    h = np.diff(xv)
-    w = np.zeros(2 * len(xv) - 1)
-    w[0:-1:2] += h / 6
-    w[2::2] += h / 6
-    w[1::2] = 2 * h / 3
-    return w
 
 
 def test_random_overlaps_give_positive_weights_summing_to_the_overlap():
@@ -71,10 +63,10 @@ def test_an_overlap_ending_at_vertices_keeps_simpsons_weights(cells):
     n1, n2 = cells
     itf = _pair((0, 1), n1, (0, 1), n2)
     for condition, n in (("sigma1", n1), ("sigma2", n2)):
-        assert np.abs(itf.weights(condition) - _simpson(np.linspace(0, 1, n + 1))).max() <= 1e-15
-    assert np.abs(itf.weights("gamma3") - _simpson(np.asarray(itf.xv))).max() <= 1e-15
+        assert np.abs(itf.weights(condition) - simpson(np.linspace(0, 1, n + 1))).max() <= 1e-15
+    assert np.abs(itf.weights("gamma3") - simpson(np.asarray(itf.xv))).max() <= 1e-15
     inner = _pair((0, 1), 4, (0.25, 0.75), n2)
-    assert np.abs(inner.weights("sigma1") - _simpson(np.array([0.25, 0.5, 0.75]))).max() <= 1e-15
+    assert np.abs(inner.weights("sigma1") - simpson(np.array([0.25, 0.5, 0.75]))).max() <= 1e-15
 
 
 def test_a_cut_segment_takes_the_red_hats_over_the_overlap():
@@ -84,10 +76,10 @@ def test_a_cut_segment_takes_the_red_hats_over_the_overlap():
     segment and Simpson's 0.25 / 6 from the next; Simpson's further on. The overlap [0.2, 1] (first row the vertex
     0.25) adds the cut segment's [0.2, 0.25] to 0.25: 0.05 + 0.25 / 6."""
     w = _pair((0, 1), 4, (0.1, 1), 3).weights("sigma1")
-    expected = np.concatenate([[0.025 + 0.0625, 0.0625 + 0.25 / 6], _simpson(np.array([0.25, 0.5, 0.75, 1.0]))[1:]])
+    expected = np.concatenate([[0.025 + 0.0625, 0.0625 + 0.25 / 6], simpson(np.array([0.25, 0.5, 0.75, 1.0]))[1:]])
     assert np.abs(w - expected).max() <= 1e-15
     w = _pair((0, 1), 4, (0.2, 1), 3).weights("sigma1")
-    expected = _simpson(np.array([0.25, 0.5, 0.75, 1.0]))
+    expected = simpson(np.array([0.25, 0.5, 0.75, 1.0]))
     expected[0] += 0.05
     assert np.abs(w - expected).max() <= 1e-15
 

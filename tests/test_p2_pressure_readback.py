@@ -15,7 +15,7 @@ import warnings
 
 import numpy as np
 import pytest
-from reference_problems import DELTA, C, closed_form, pressed
+from reference_problems import DELTA, C, closed_form, pressed, simpson
 
 import cvxcontact as cc
 from cvxcontact.contact.quadratic import quadratic_interface
@@ -28,15 +28,6 @@ LAWS = {"signorini": None, "compliance": cc.NormalCompliance(stiffness=K), "tres
         "coulomb": cc.Coulomb(0.3)}
 MAT = cc.materials.isotropic(E=1e9, nu=0.0)
 
-
-def _simpson(xv):
-    """Simpson's weights on the P2 line with sorted vertices ``xv`` (interleaved: vertex, midpoint, ...)."""
-    h = np.diff(xv)
-    w = np.zeros(2 * len(xv) - 1)
-    w[0:-1:2] += h / 6
-    w[2::2] += h / 6
-    w[1::2] = 2 * h / 3
-    return w
 
 
 def _p2_rows(x, points):
@@ -86,7 +77,7 @@ def test_a_uniform_pressure_reads_itself_at_every_constrained_p2_node(condition)
     xc = x if condition == "gamma3" else _trace_x(*_side(scene, condition), 2)
     E = _p2_rows(x, xc)
     p = 3.7e6
-    y = _simpson(xc[::2]) * p                                      # N/m at the rows
+    y = simpson(xc[::2]) * p                                      # N/m at the rows
     trace = TRACES[2]
     force = E.T @ y
     c = ContactResult(x=x, lam=np.zeros(len(x)), jump=np.zeros(len(x)), force=force,
@@ -96,7 +87,7 @@ def test_a_uniform_pressure_reads_itself_at_every_constrained_p2_node(condition)
     assert np.abs(c.pressure[on] - p).max() <= 1e-12 * p
     assert np.all(c.pressure[~on] == 0.0)
     if condition != "gamma3":                                      # the test can fail: the former rule did
-        old = force / _simpson(x[::2])
+        old = force / simpson(x[::2])
         assert np.abs(old[on] - p).max() > 0.5 * p
 
 
@@ -157,7 +148,7 @@ def test_the_pressure_is_each_rows_force_over_its_own_weight(degree, condition, 
     xr = _trace_x(*_side(scene, condition), degree)
     if degree == 2:
         at_rows = _p2_rows(np.asarray(c.x), xr) @ c.pressure
-        w = _simpson(xr[::2])
+        w = simpson(xr[::2])
     else:
         at_rows = np.interp(xr, c.x, c.pressure)
         h = np.diff(xr)
@@ -236,7 +227,7 @@ def test_the_p2_shear_is_each_rows_tangential_force_over_its_own_weight(conditio
     sol = _solve(scene, condition=condition, degree=2, law=cc.Tresca(g))
     c = sol.contact
     xr = _trace_x(*_side(scene, condition), 2)
-    w = _simpson(xr[::2])
+    w = simpson(xr[::2])
     at_rows = _p2_rows(np.asarray(c.x), xr) @ c.shear
     assert np.abs(c.slip).max() > 0
     assert abs(w @ at_rows - float(np.sum(c.shear_force))) <= 1e-12 * g

@@ -6,6 +6,8 @@ a uniformly sheared 3D layer (stuck, sliding, and on a second layer) and the ind
 tests/test_friction3d_p2.py, tests/test_refusals.py).
 """
 
+import warnings
+
 import numpy as np
 
 import cvxcontact as cc
@@ -372,3 +374,17 @@ def sheared_hencky(law, p=1e8, nx=8, ny=4):
     b = cc.Body(m, cc.materials.hencky(E=E, nu=0.3, sigma_y=p, h=0.1), contact="bottom",
                 traction={"top": (0.5 * p, -p)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+
+
+P2_CONES = {"condition": "gamma3", "degree": 2}
+"""The options of the P2 "everywhere" cones ("gamma3" with degree=2)."""
+
+
+def finished_p2(scene):
+    """The answer of ``scene`` under the P2 cones (:data:`P2_CONES`), finished by the friction Newton: raises on a
+    ResidualWarning, asserts ok, polished and the finish."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(scene, **P2_CONES)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    return sol

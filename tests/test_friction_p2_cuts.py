@@ -17,21 +17,13 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import P, dragged_disk, pair2d, pressed_disk, tilted
+from friction_scenes import P, dragged_disk, finished_p2, pair2d, pressed_disk, tilted
 
 import cvxcontact as cc
 
 P2 = {"condition": "gamma3", "degree": 2}
 TIGHT = {"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-13, "tol_ktratio": 1e-12, "max_iter": 1000}
 
-
-def _finished(scene):
-    """The answer of ``scene`` under the P2 cones, finished (no ResidualWarning)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(scene, **P2)
-    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
-    return sol
 
 
 def _apart(u, v) -> float:
@@ -56,7 +48,7 @@ def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law
     """Finished (was declined), every check at rounding: the slack at the tangency points exactly (feasibility,
     measured at most 7.9e-17), the friction cone and the stick-slip (Coulomb's capacities those of the answer's own
     forces: its fixed point converged; measured at most 5e-14 and 6.5e-8, the latter a square root)."""
-    r = _finished(scene(law)).residuals()
+    r = finished_p2(scene(law)).residuals()
     assert r["feasibility"] <= 1e-12 and r["cone"] <= 1e-12 and r["friction cone"] <= 1e-10
     assert r["stick-slip"] <= 1e-5 and r["complementarity"] <= 1e-6 and r["equilibrium"] <= 1e-10
 
@@ -73,7 +65,7 @@ def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(sce
     a square root)."""
     free = cc.solve(scene(None), **P2)
     assert free.polished and free.info.finish == cc.Finish.TANGENCY_NEWTON
-    small, large = (_finished(scene(law)).u[0] for law in laws)
+    small, large = (finished_p2(scene(law)).u[0] for law in laws)
     d1, d2 = _apart(small, free.u[0]), _apart(large, free.u[0])
     assert d1 <= 1e-7 and abs(d2 / d1 - 10) <= 0.01                  # measured d1 at most 1.4e-9
     assert _apart(small - (large - small) / 9, free.u[0]) <= 1e-10
@@ -84,7 +76,7 @@ def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(sce
 def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law):
     """The scene on the mesh reflected about x = 0 (its triangles the mirror images of the first mesh's, another
     set of elements and cut points): u_x(-x, y) = -u_x(x, y), u_y(-x, y) = u_y(x, y) (measured 2.4e-15, 1.2e-14)."""
-    a, b = _finished(pressed_disk(law)), _finished(pressed_disk(law, mirrored=True))
+    a, b = finished_p2(pressed_disk(law)), finished_p2(pressed_disk(law, mirrored=True))
     at = {tuple(np.round(p, 12)): i for i, p in enumerate(b.points[0])}
     mirror = np.array([at[tuple(np.round(p * [-1.0, 1.0], 12) + 0.0)] for p in a.points[0]])
     assert _apart(b.u[0][mirror] * [-1.0, 1.0], a.u[0]) <= 1e-10
@@ -97,7 +89,7 @@ def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(sc
     displacements are the finished ones (measured 4.0e-11, 1.5e-11 on the pair, 1.4e-10, 3.5e-14, 2.0e-14 on the
     tilted block), its own complementarity 5e-9. The pair and the tilted block at nx = 7 with Coulomb are finished
     at the tangency points from the interior point's structure (their cut rounds' steps do not settle)."""
-    sol = _finished(scene(law))
+    sol = finished_p2(scene(law))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ipm = cc.solve(scene(law), polish=False, solver_options=TIGHT, **P2)
@@ -129,7 +121,7 @@ def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene):
     change 1.0e-7 and 2.2e-6: what was reported before). Declined (its ``max_iterations`` 2), the answer is the
     interior point's and so is the fixed point reported: that of the interior point alone (``polish=False``)."""
     law = cc.Coulomb(0.3)
-    sol = _finished(scene(law))
+    sol = finished_p2(scene(law))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                  # the interior point's answer fails its checks
         interior = cc.solve(scene(law), polish=False, **P2).info.fixed_point
@@ -177,7 +169,7 @@ def test_the_finished_tresca_energy_is_no_more_than_the_interior_point_s(nx, q, 
     program (measured (J_finish - J_ipm) / |J| = -1.6e-14 and -1.0e-12), and its friction forces are at the
     capacity g w_a, against their slip, where it slips (measured 1.6e-16)."""
     law = cc.Tresca(g * P)
-    sol = _finished(tilted(law, nx, q))
+    sol = finished_p2(tilted(law, nx, q))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ipm = cc.solve(tilted(law, nx, q), polish=False, solver_options=TIGHT, **P2)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from friction_box_scenes import DIAGONAL, held_side, sheared
 from friction_box_scenes import P as BOX_P
-from friction_scenes import P, box
+from friction_scenes import P, box, finished_p2
 
 import cvxcontact as cc
 
@@ -20,14 +20,6 @@ P2 = {"condition": "gamma3", "degree": 2}
 SHEAR = (0.2 * P, 0.1 * P)
 SCENES = {"sheared": lambda law: box(SHEAR, law), "held-side": lambda law: held_side(law)}
 
-
-def _finished(scene):
-    """The answer of ``scene`` under the P2 cones, finished (no ResidualWarning)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(scene, **P2)
-    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
-    return sol
 
 
 def _nodes(points):
@@ -65,7 +57,7 @@ def test_a_box_lifting_at_a_corner_is_finished_and_keeps_tresca_law(name):
     0; the force 2.5e-15 of the largest capacity from the law); some nodes carry no normal force (the box lifts);
     the normal forces sum to the load p (1 m^2; measured 3.7e-15 relative), the shear forces of the free box to
     its shear (the held one's side takes a part)."""
-    sol = _finished(SCENES[name](cc.Tresca(3e6)))
+    sol = finished_p2(SCENES[name](cc.Tresca(3e6)))
     U = float(np.abs(sol.u[0]).max())
     assert -_sampled_uz(sol, _bottom_faces(sol)).min() <= 5e-8 * U
     c = sol.contact
@@ -90,7 +82,7 @@ def test_far_above_the_shear_the_threshold_holds_the_box_as_tied():
     """Tresca's threshold 1e12 Pa (5e5 times the shear) on the sheared box: every row sticks (Tresca's capacity
     does not depend on the contact, the lifted rows stick too), so the answer is the tied one (frictionless P2
     cones, u_x = u_y = 0 on the base: another route) to 1e-9 of the displacements (measured 4.3e-15)."""
-    sol = _finished(box(SHEAR, cc.Tresca(1e12)))
+    sol = finished_p2(box(SHEAR, cc.Tresca(1e12)))
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
         tied = cc.solve(box(SHEAR, None, tied=True), **P2)
@@ -107,7 +99,7 @@ def test_coulomb_on_the_box_lifting_at_a_corner_is_finished_and_keeps_its_law():
     (measured 2.8e-13 of the largest: the fixed point's last change) and at it against the slip where a node slips
     (measured 2.0e-13; 39 of 49 nodes, 11 of them open with no force nor friction), the normal forces summing to p
     and the shear forces to the shear (measured 4.1e-15, 1.6e-14)."""
-    sol = _finished(sheared(0.2 * BOX_P * DIAGONAL, cc.Coulomb(0.3)))
+    sol = finished_p2(sheared(0.2 * BOX_P * DIAGONAL, cc.Coulomb(0.3)))
     U = float(np.abs(sol.u[0]).max())
     assert -_sampled_uz(sol, _bottom_faces(sol)).min() <= 1e-7 * U
     c = sol.contact

@@ -15,10 +15,14 @@ semidefinite), s_a = S_a x + s0_a. A stuck row's slip S_a x + s0_a = 0 is two op
 -S_a x <= s0_a whose forces' difference is its tangential force. So the step is the mixed system with the matrix
 T + S^T D S, the loads b - S^T (c t + D s0), the normal rows G x <= g and the stuck rows' pairs: rows that may be
 dependent, solved exactly by :func:`~cvxcontact.backends.finish.dependent.independent_active_set` (Lawson-Hanson
-on the forces: its passive rows independent, whatever the dependence). It is Newton's step on the slipping rows'
+on the forces: its passive rows independent, whatever the dependence; its steps on the rows with one factorisation
+of the bodies per step of the directions, the set where they stop solved again to a componentwise backward error of
+1e-12, refined, or by a sparse LU of the mixed system: measured on the non-matching boxes of benchmarks/friction_p2_declines.py, a sparse LU at
+every one of Lawson-Hanson's steps took 114 s of CPU, 35 s so). It is Newton's step on the slipping rows'
 directions (measured: changes 3e-1, 2e-3, 2e-5, 3e-9, 2e-14 of the scales), and the normal rows' active set is
 Lawson-Hanson's at every step, so it does not cycle. The steps stop where the change is at most
-:data:`DIRECTION_TOL` of the scales, or no longer halves with the residual at rounding; their answer then starts the
+:data:`DIRECTION_TOL` of the scales, or no longer halves with the residual at rounding (declined where the residual
+has not halved in :data:`DIRECTION_STALL` steps); their answer then starts the
 semismooth steps, whose acceptance (the active set repeated, the signs, the residual at rounding) is unchanged.
 A capacity that depends on the normal force (Coulomb, D != 0) is lagged a step (the cut rounds' capacities are
 given: Tresca's law at them).
@@ -35,12 +39,19 @@ from ..factor import superlu
 from .declined import Declined, Stop
 from .dependent import independent_active_set
 
-__all__ = ["DIRECTION_ROUNDS", "DIRECTION_TOL", "fixed_directions"]
+__all__ = ["DIRECTION_ROUNDS", "DIRECTION_STALL", "DIRECTION_TOL", "fixed_directions"]
 
 log = logging.getLogger(__name__)
 
 DIRECTION_ROUNDS = 40
 """Steps of :func:`fixed_directions` at most (each a Lawson-Hanson finish; measured: 5 where they settle)."""
+
+DIRECTION_STALL = 4
+"""The steps of :func:`fixed_directions` end (declined) once this many in a row have not halved the least residual
+so far: a stick-slip partition that flips between two sets, each step's point the other's start (measured: the
+non-matching boxes of benchmarks/friction_p2_declines.py, one row at the stick-slip boundary, 64 and 65 stuck rows
+in turn, the residual 2e-3 and 1e-13 to 4e-13 in turn, 40 steps; converging steps halve it at least every other
+step)."""
 
 DIRECTION_TOL = 1e-13
 """:func:`fixed_directions` stops where its step changed no displacement by more than this times U and no force by
@@ -92,7 +103,7 @@ def fixed_directions(system, w):
     :data:`DIRECTION_ROUNDS` steps that did not settle)."""
     fr, C, U = system.fr, system.C, system.U
     free = np.flatnonzero(system.free)
-    R, nc, last = len(system.g), fr.nc, None
+    R, nc, last, best, stalled = len(system.g), fr.nc, None, np.inf, 0
     for k in range(1, DIRECTION_ROUNDS + 1):
         x, y, mu = system.split(w)
         _, stuck, z, c = system.state(w)
@@ -112,7 +123,7 @@ def fixed_directions(system, w):
         mh = mu.ravel()[held]
         y0 = np.concatenate([np.maximum(y[free], 0.0), np.maximum(mh, 0.0), np.maximum(-mh, 0.0)])
         out = independent_active_set(_kkt(T, system.b - fr.S.T @ (f + Dm @ fr.s0), GL, cL), cL, y0, y0 > 0,
-                                     factored=False, purify=False)
+                                     purify=False)
         if isinstance(out, Declined):
             log.info("friction finish, directions: step %d declined: %s", k, out)
             return out
@@ -132,4 +143,8 @@ def fixed_directions(system, w):
         if change <= DIRECTION_TOL or (merit <= 1e-13 and last is not None and change > 0.5 * last):
             return w
         last = change
+        best, stalled = (merit, 0) if merit <= 0.5 * best else (best, stalled + 1)
+        if stalled >= DIRECTION_STALL:
+            log.info("friction finish, directions: the residual not halved in %d steps (least %.1e)", stalled, best)
+            return Declined(Stop.MAX_ITER, "the steps on the slipping rows' directions stalled")
     return Declined(Stop.MAX_ITER, "the steps on the slipping rows' directions did not settle")

@@ -1,0 +1,135 @@
+"""The steps on the slipping rows' directions (:func:`cvxcontact.backends.finish.directions.fixed_directions`) of
+the friction finish under the 3D P2 cones: their cost (Lawson-Hanson's steps on one factorisation of the bodies, a
+sparse LU of the mixed system only where they stop), their end where they stall (the non-matching boxes of
+benchmarks/friction_p2_declines.py, a stick-slip partition flipping between two sets), and the finished box's
+Tresca energy against the interior point's (a point of the same program: the finish is the minimiser)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from friction_box_scenes import non_matching
+from friction_scenes import E, P, box, sliding_layer3d
+
+import cvxcontact as cc
+from cvxcontact.backends.finish import directions
+from cvxcontact.backends.finish import friction as finish_friction
+from cvxcontact.backends.finish.directions import DIRECTION_STALL
+
+P2 = {"condition": "gamma3", "degree": 2}
+TIGHT = {"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-13, "tol_ktratio": 1e-12, "max_iter": 1000}
+SHEAR = (0.2 * P, 0.1 * P)
+
+
+def _counted(monkeypatch):
+    """Counts (in the returned dict) the sparse LUs of the directions' mixed system, Lawson-Hanson's finishes (one
+    per step on the directions) and, per call of ``fixed_directions``, its steps and how it ended."""
+    count = {"lu": 0, "steps": 0, "runs": []}
+    lu, finish, steps = directions.superlu, directions.independent_active_set, finish_friction.fixed_directions
+
+    def counted_lu(*args, **kwargs):
+        count["lu"] += 1
+        return lu(*args, **kwargs)
+
+    def counted_finish(*args, **kwargs):
+        count["steps"] += 1
+        count["runs"][-1][0] += 1
+        return finish(*args, **kwargs)
+
+    def counted_steps(*args, **kwargs):
+        count["runs"].append([0, None])
+        out = steps(*args, **kwargs)
+        count["runs"][-1][1] = isinstance(out, cc.backends.finish.Declined)
+        return out
+
+    monkeypatch.setattr(directions, "superlu", counted_lu)
+    monkeypatch.setattr(directions, "independent_active_set", counted_finish)
+    monkeypatch.setattr(finish_friction, "fixed_directions", counted_steps)
+    return count
+
+
+def _tresca_energy(sol, g: float) -> float:
+    """The Tresca energy of an answer summed here (J): its bulk energy ``sol.energy`` (1/2 a(u, u) - f(u)) plus the
+    friction dissipation sum_a g w_a |s_a| (w the nodes' weights, s their slips)."""
+    c = sol.contact
+    return sol.energy + float(g * np.asarray(c.slip_measure) @ np.linalg.norm(np.asarray(c.slip), axis=1))
+
+
+@pytest.mark.numerics
+def test_the_directions_solve_lawson_hanson_on_one_factorisation_per_step(monkeypatch):
+    """The sheared box lifting at a corner (finished): Lawson-Hanson's steps within a step on the directions are
+    solved on one factorisation of the bodies, a sparse LU of the mixed system only checks the set where they stop
+    (or stands in for a step whose system on the rows is singular). Measured 112 sparse LUs over 99 steps (a sparse
+    LU at every Lawson-Hanson step before: 792 over 96, 11 s of CPU instead of 4.6 s)."""
+    count = _counted(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(box(SHEAR, cc.Tresca(3e6)), **P2)
+    assert sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    assert count["steps"] > 0 and count["lu"] <= 2 * count["steps"]
+
+
+@pytest.mark.numerics
+def test_steps_that_stall_on_the_non_matching_boxes_end_early_and_decline_as_before(monkeypatch):
+    """The non-matching boxes (3 x 3 x 2 on 4 x 4 x 2 cells): still declined, for the same reason (the
+    interior point's answer, checked), but a call of the steps on the directions that does not settle ends once
+    the residual has not halved in DIRECTION_STALL steps (a row at the stick-slip boundary: 64 and 65 stuck rows
+    in turn, the residual 2e-3 and 1e-13 in turn; measured 8 steps at most, 18 s of CPU for the solve, with no
+    second start of the semismooth steps after them; before, two calls ran all 40 steps, 114 s)."""
+    count = _counted(monkeypatch)
+    with pytest.warns(cc.ResidualWarning, match="declined"):
+        sol = cc.solve(non_matching(cc.Tresca(3e6)), **P2)
+    assert not sol.polished and "the active-set steps did not settle" in str(sol.info.declined)
+    declined = [steps for steps, out in count["runs"] if out]
+    assert declined and max(declined) <= 3 * DIRECTION_STALL
+
+
+@pytest.mark.numerics
+def test_the_finished_box_has_no_more_tresca_energy_than_the_interior_point(monkeypatch):
+    """The sheared box lifting at a corner: the finish minimises the Tresca energy over u_z + gap >= 0 on every P2
+    face (to the cuts' rounding), the interior point at tight tolerances over the P2 cones (Bernstein coefficients
+    >= 0: a subset), so the finished energy is at most the interior point's (measured (J_finish - J_ipm) / |J|
+    = -6.9e-10; a finish off the minimiser by d in the energy norm would be d^2 / 2 above it)."""
+    g = 3e6
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(box(SHEAR, cc.Tresca(g)), **P2)
+    assert sol.polished
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ipm = cc.solve(box(SHEAR, cc.Tresca(g)), polish=False, solver_options=TIGHT, **P2)
+    a, b = _tresca_energy(sol, g), _tresca_energy(ipm, g)
+    assert a - b <= 1e-10 * abs(b)
+
+
+ONSET = (1.0359174569985043, 1.0359174569994138)
+"""The top's move s (in units of g / G) just below and just above the onset of slip of the two nodes of the
+sliding layer that stick longest (found by bisection to 1e-12; nu = 0, Tresca's g = 0.01 p)."""
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("f", ONSET, ids=["below", "above"])
+def test_at_the_stick_slip_boundary_the_finish_keeps_tresca_law(monkeypatch, f):
+    """The layer of tests/friction_scenes.py slid by s = f g / G (the onset of its nodal forces' last stuck pair):
+    a row at the stick-slip boundary, stuck with its force at the capacity or slipping by 1e-12 of the
+    displacements, whose direction is nearly undefined. The steps on the directions run (their answer starts the
+    semismooth steps) and the finished answer keeps Tresca's law at every node of X_h: the shear force within its
+    capacity (measured 4.0e-10 over it below the onset, the same at e88f3a9 without the steps on the directions:
+    the semismooth steps' acceptance at 1e-10 of the largest capacity; 2e-16 above), and where a node slips, at
+    the capacity (measured 2e-16) and against the slip (measured 1.2e-7 rad at the slip of 1e-12 of U: the
+    direction of a slip at rounding is rounding's square root; 2e-8 elsewhere)."""
+    count = _counted(monkeypatch)
+    g = 0.01 * P
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(sliding_layer3d(g, s=f * g / (E / 2)), **P2)
+    assert sol.polished and len(count["runs"]) > 0
+    c = sol.contact
+    capacity = c.threshold * np.asarray(c.slip_measure)
+    size, force = np.linalg.norm(c.slip, axis=1), np.linalg.norm(c.shear_force, axis=1)
+    assert (force <= capacity * (1 + 4e-8)).all()
+    on = size > 0
+    assert on.any() and (~on).any()
+    assert np.abs(force[on] / capacity[on] - 1).max() <= 1e-12
+    cos = -np.einsum("ij,ij->i", c.shear_force[on], c.slip[on]) / (force[on] * size[on])
+    assert np.arccos(np.clip(cos, -1.0, 1.0)).max() <= 1e-5

@@ -14,8 +14,8 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel
-from .finish import (SIGN_TOL, Declined, Stop, independent_active_set, solve_compliance, solve_linear_compliance,
-                     solve_sparse_compliance)
+from .finish import (SIGN_TOL, Declined, Stop, independent_active_set, rows_kkt, solve_compliance,
+                     solve_linear_compliance, solve_sparse_compliance)
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
 from .mixed import mixed_system, stacked, unstacked
@@ -241,28 +241,6 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
     return raw
 
 
-def _rows_kkt(K, b, GL, c):
-    """``kkt(active)`` of :func:`~cvxcontact.backends.finish.independent_active_set` for the mixed system
-    [[K, G_A^T], [G_A, 0]] [x; y_A] = [b; c_A] (K sparse, the rows GL x <= c): the state is (x, y)."""
-    n = K.shape[0]
-
-    def fields(active, s):
-        y = np.zeros(GL.shape[0])
-        y[active] = s[n:]
-        x = s[:n]
-        return (x, y), y, GL @ x - c, float(np.abs(x).max(initial=0.0))
-
-    def kkt(active):
-        Ga = GL[active]
-        M = sp.bmat([[K, Ga.T], [Ga, None]], format="csc") if Ga.shape[0] else K.tocsc()
-        s = solve_mixed(M, np.concatenate([b, c[active]]))
-        return None if s is None else fields(active, s)
-
-    kkt.rows, kkt.matrix, kkt.rhs, kkt.fields = GL, K, b, fields
-    kkt.stack = lambda state: state[0]
-    return kkt
-
-
 def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50):
     """Exact finish of rows with a condition r <= l (Signorini rows, l = 0; compliance rows with a penetration
     limit) that may depend on each other (3D "gamma3" overlay rows, docs/formulation.md §13) next to rows of
@@ -319,7 +297,7 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
         D = w * law.derivative(r)
         K = (A + G.T @ sp.diags(D) @ G).tocsr()
         b = F - G.T @ (w * law.pressure(r) - D * (g + r))
-        out = independent_active_set(_rows_kkt(K, b, GL, cL), cL, zL, active)
+        out = independent_active_set(rows_kkt(K, b, GL, cL, solve_mixed), cL, zL, active)
         if isinstance(out, Declined):
             return out
         (target, zL), active, steps = out

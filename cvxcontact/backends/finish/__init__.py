@@ -13,7 +13,7 @@ answer of the discrete problem, one module per algorithm.
 """
 
 from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, STALL, Declined, Stop
-from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson
+from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson, rows_kkt
 from .forces import (FORCE_FLOOR, force_displacements, force_scale, friction_scale, ipm_active, node_scales,
                      reach_displacements, reach_forces, row_compliance, slip_reach)
 from .lcp import SIGN_TOL, active_set_steps, lcp_start, row_scales, signs_hold, solve_lcp
@@ -25,7 +25,7 @@ from .rows import (DEPENDENT_PIVOT, CompliantRows, FactoredRows, UpdatedSystem, 
 __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
            "row_compliance", "force_scale", "friction_scale", "slip_reach", "FORCE_FLOOR", "solve_compliance",
            "solve_linear_compliance",
-           "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set",
+           "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set", "rows_kkt",
            "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",
            "FactoredRows", "UpdatedSystem", "CompliantRows", "factored_rows", "refined_solve", "row_reach",
            "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL",

@@ -361,3 +361,26 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         passive.append(j)
         settled.clear()
     return MAX_ITER
+
+
+def rows_kkt(K, b, GL, c, solve):
+    """``kkt(active)`` of :func:`independent_active_set` for the mixed system [[K, G_A^T], [G_A, 0]] [x; y_A] =
+    [b; c_A] (K sparse, the rows GL x <= c), each system solved by ``solve(M, rhs)`` (the solution, or None where
+    the system is singular): the state is (x, y)."""
+    n = K.shape[0]
+
+    def fields(active, s):
+        y = np.zeros(GL.shape[0])
+        y[active] = s[n:]
+        x = s[:n]
+        return (x, y), y, GL @ x - c, float(np.abs(x).max(initial=0.0))
+
+    def kkt(active):
+        Ga = GL[active]
+        M = sp.bmat([[K, Ga.T], [Ga, None]], format="csc") if Ga.shape[0] else sp.csc_matrix(K)
+        s = solve(M, np.concatenate([b, c[active]]))
+        return None if s is None else fields(active, s)
+
+    kkt.rows, kkt.matrix, kkt.rhs, kkt.fields = GL, K, b, fields
+    kkt.stack = lambda state: state[0]
+    return kkt

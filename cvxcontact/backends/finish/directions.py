@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from ..factor import superlu
 from .declined import Declined, Stop
-from .dependent import independent_active_set
+from .dependent import independent_active_set, rows_kkt
 
 __all__ = ["DIRECTION_ROUNDS", "DIRECTION_STALL", "DIRECTION_TOL", "fixed_directions"]
 
@@ -66,33 +66,17 @@ terms, on the box with a side held under OPENBLAS_CORETYPE=Prescott); Lawson-Han
 force."""
 
 
-def _kkt(T, b, GL, cL):
-    """``kkt(active)`` of :func:`~cvxcontact.backends.finish.dependent.independent_active_set` for the system
-    [[T, G_A^T], [G_A, 0]] [x; y_A] = [b; c_A] (the rows GL x <= cL): the state is (x, y)."""
-    n = T.shape[0]
-
-    def fields(active, s):
-        y = np.zeros(GL.shape[0])
-        y[active] = s[n:]
-        x = s[:n]
-        return (x, y), y, GL @ x - cL, float(np.abs(x).max(initial=0.0))
-
-    def kkt(active):
-        Ga = GL[active]
-        M = sp.bmat([[T, Ga.T], [Ga, None]], format="csc") if Ga.shape[0] else sp.csc_matrix(T)
-        try:
-            s = superlu(M).solve(np.concatenate([b, cL[active]]))
-        except RuntimeError:
-            return None
-        rhs = np.concatenate([b, cL[active]])
-        if not np.isfinite(s).all() or np.abs(M @ s - rhs).max() > KKT_RESIDUAL * max(
-                float(np.abs(rhs).max(initial=0.0)), float((abs(M) @ np.abs(s)).max(initial=0.0)), np.finfo(float).tiny):
-            return None
-        return fields(active, s)
-
-    kkt.rows, kkt.matrix, kkt.rhs, kkt.fields = GL, T, b, fields
-    kkt.stack = lambda state: state[0]
-    return kkt
+def _checked_solve(M, rhs):
+    """The solution of ``M s = rhs`` by SuperLU, or None where it fails or its residual exceeds
+    :data:`KKT_RESIDUAL` times the size of its terms."""
+    try:
+        s = superlu(M).solve(rhs)
+    except RuntimeError:
+        return None
+    if not np.isfinite(s).all() or np.abs(M @ s - rhs).max() > KKT_RESIDUAL * max(
+            float(np.abs(rhs).max(initial=0.0)), float((abs(M) @ np.abs(s)).max(initial=0.0)), np.finfo(float).tiny):
+        return None
+    return s
 
 
 def fixed_directions(system, w):
@@ -122,8 +106,8 @@ def fixed_directions(system, w):
         cL = np.concatenate([system.g[free], -sh, sh])
         mh = mu.ravel()[held]
         y0 = np.concatenate([np.maximum(y[free], 0.0), np.maximum(mh, 0.0), np.maximum(-mh, 0.0)])
-        out = independent_active_set(_kkt(T, system.b - fr.S.T @ (f + Dm @ fr.s0), GL, cL), cL, y0, y0 > 0,
-                                     purify=False)
+        kkt = rows_kkt(T, system.b - fr.S.T @ (f + Dm @ fr.s0), GL, cL, _checked_solve)
+        out = independent_active_set(kkt, cL, y0, y0 > 0, purify=False)
         if isinstance(out, Declined):
             log.info("friction finish, directions: step %d declined: %s", k, out)
             return out

@@ -19,7 +19,6 @@ centres, the fields of every body and the estimate on ``apps.demo.two_blocks(560
 from __future__ import annotations
 
 import argparse
-import inspect
 import sys
 import time
 import warnings
@@ -138,14 +137,8 @@ def all_scenes():
     from scenes import SCENES
 
     out = dict(SCENES)
-    for name, f in inspect.getmembers(scenes3d, inspect.isfunction):
-        if f.__module__ != "scenes3d" or name.startswith("_"):
-            continue
-        params = inspect.signature(f).parameters.values()
-        if name == "pzt_on_block":
-            out[f"3D {name}"] = (lambda f=f: f(scenes3d.STEEL), {})
-        elif all(p.default is not inspect.Parameter.empty for p in params):
-            out[f"3D {name}"] = (f, {})
+    for name, build in scenes3d.default_builders().items():
+        out[f"3D {name}"] = (build, {})
     out.update(tensor_scenes())
     return out
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib.util
-import inspect
 import subprocess
 import sys
 import tempfile
@@ -140,14 +139,8 @@ def all_scenes():
     from scenes import SCENES
 
     out = {f"{name} (quadrilaterals)": item for name, item in SCENES.items()}
-    for name, f in inspect.getmembers(scenes3d, inspect.isfunction):
-        if f.__module__ != "scenes3d" or name.startswith("_"):
-            continue
-        params = inspect.signature(f).parameters.values()
-        if name == "pzt_on_block":
-            out[f"3D {name} (hexahedra)"] = (lambda f=f: f(scenes3d.STEEL), {})
-        elif all(p.default is not inspect.Parameter.empty for p in params):
-            out[f"3D {name} (hexahedra)"] = (f, {})
+    for name, build in scenes3d.default_builders().items():
+        out[f"3D {name} (hexahedra)"] = (build, {})
     for label in hex_scenes.NESTED:
         out[f"hex_scenes {label}, uniform"] = (lambda label=label: hex_scenes.nested(label)[0], {})
         out[f"hex_scenes {label}, tilted gap"] = (

@@ -6,6 +6,9 @@ Each builder returns a cc.Scene small enough to solve in well under 2 s; ``SCENE
 against an independent dense solve of the mixed system (26).
 """
 
+import inspect
+import sys
+
 import numpy as np
 
 import cvxcontact as cc
@@ -283,3 +286,21 @@ def sampled_penetration(scene, sol, gap, pair=0, n=12):
         jump += np.einsum("pk,pkd->pd", p2_shape(bary), sol.u[body][face]) @ np.asarray(trace.unit_normal)
     points = itf.offset * np.asarray(itf.normal) + x @ np.asarray(itf.frame)
     return jump - gap(points[:, 0], points[:, 1])
+
+
+def default_builders() -> dict:
+    """The scene builders of this module callable with their defaults, by name: every public function whose
+    arguments all have defaults and whose return is not annotated (the helpers returning a number or an array are),
+    ``pzt_on_block`` given ``STEEL``."""
+    out = {}
+    for name, f in inspect.getmembers(sys.modules[__name__], inspect.isfunction):
+        if f.__module__ != __name__ or name.startswith("_") or f is default_builders:
+            continue
+        sig = inspect.signature(f)
+        if sig.return_annotation is not inspect.Signature.empty:
+            continue
+        if name == "pzt_on_block":
+            out[name] = lambda f=f: f(STEEL)
+        elif all(p.default is not inspect.Parameter.empty for p in sig.parameters.values()):
+            out[name] = f
+    return out

@@ -10,14 +10,13 @@ Scenes: tests/friction_scenes.py (capped_pair), tests/scenes3d.py (sphere_into_b
 
 import numpy as np
 import pytest
+from friction_scenes import capped_pair
+from scenes3d import sphere_into_block
 
 import cvxcontact as cc
 import cvxcontact.physics.scene as scene_module
 from cvxcontact.contact.surface import CurvedSurfaceInterface, SurfaceInterface
 from cvxcontact.errors import UnsupportedError
-
-from friction_scenes import capped_pair
-from scenes3d import sphere_into_block
 
 pytestmark = pytest.mark.numerics
 
@@ -123,7 +122,7 @@ def test_a_cap_of_large_radius_tends_to_the_planar_pair(name):
         sol = cc.solve(capped_pair(law, radius=R, s=S))
         assert isinstance(sol.scene.interfaces[0], CurvedSurfaceInterface) and sol.ok
         diffs.append(_difference(sol, flat))
-    assert diffs[0] < 1e-2                                   # measured 9.6e-4
+    assert diffs[0] < 0.1                                    # measured 9.6e-4 (Tresca), 9.5e-4 (Coulomb)
     assert diffs[1] == pytest.approx(0.1 * diffs[0], rel=1e-3)   # measured ratio 0.1 to 2e-8
 
 
@@ -135,7 +134,7 @@ def test_tresca_without_threshold_is_frictionless():
     assert free.ok and zero.ok
     assert _difference(zero, free) <= 1e-12                 # measured 1.1e-15
     d1, d10 = (_difference(cc.solve(capped_pair(cc.Tresca(threshold=g), s=S)), free) for g in (1.0, 10.0))
-    assert d1 < 1e-6                                        # measured 3.4e-8
+    assert d1 < 1e-5                                        # measured 3.4e-8
     assert d10 == pytest.approx(10 * d1, rel=1e-3)         # measured 10 * (1 + 2e-9)
 
 
@@ -180,13 +179,13 @@ def test_a_huge_threshold_is_the_stuck_pair():
     u, y, N, gap, _ = _stuck_reference(sc, active)
     scale = _scale(sol)
     for mine, theirs in zip(sol.u, u):
-        np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-9 * scale)   # measured below
+        np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-9 * scale)   # measured 9e-16 of the scale
     forces = np.zeros(len(X))
     forces[active] = y
-    np.testing.assert_allclose(c.force[order], forces[ref], rtol=0, atol=1e-9 * float(y.sum()))
-    assert (y > 0).all()
+    np.testing.assert_allclose(c.force[order], forces[ref], rtol=0, atol=1e-9 * float(y.sum()))   # measured 3e-16
+    assert (y > 0).all()                                                  # measured min / max 0.80
     opening = (gap - N @ np.concatenate([v.ravel() for v in u]))[~active]
-    assert (opening > 0).all()
+    assert (opening > 0).all()                                            # measured min 5.1e-5 m
     assert float(np.linalg.norm(c.slip, axis=1).max()) <= 1e-12 * S      # measured 1e-20 m
 
 
@@ -210,7 +209,8 @@ def _capacities(sol, law):
 @pytest.mark.parametrize("name", LAWS)
 def test_the_law_read_off_the_answer(name):
     """|shear_a| <= capacity_a (1 + 1e-12) on every row; where a row slips the shear force on the first body is
-    its capacity, against the slip; somewhere it slips, somewhere it sticks (measured below)."""
+    its capacity, against the slip; somewhere it slips, somewhere it sticks (measured: Tresca g = 8 MPa 10 rows
+    slip, 15 stick, the open rows included; Coulomb mu = 0.15 7 of the 9 loaded rows slip)."""
     law = LAWS[name]
     sol = cc.solve(capped_pair(law, s=S))
     assert sol.ok
@@ -223,21 +223,22 @@ def test_the_law_read_off_the_answer(name):
     carried = cap > 1e-9 * cap.max()
     assert (sliding & carried).any() and (~sliding & carried).any()
     turned = np.einsum("ij,ij->i", c.shear_force, c.slip) / np.maximum(shear * slip, np.finfo(float).tiny)
-    assert (turned[sliding & carried] <= -1 + 1e-6).all()     # measured
-    np.testing.assert_allclose(shear[sliding], cap[sliding], rtol=1e-6, atol=1e-9 * cap.max())   # measured
-    assert max(float(v) for v in sol.residuals().values()) <= 1e-6                               # measured
+    assert (turned[sliding & carried] <= -1 + 1e-6).all()     # measured -1 + 2.2e-16
+    np.testing.assert_allclose(shear[sliding], cap[sliding], rtol=1e-6, atol=1e-9 * cap.max())   # measured 3.5e-16
+    assert max(float(v) for v in sol.residuals().values()) <= 1e-6              # measured 4.0e-9 (complementarity)
 
 
 @pytest.mark.parametrize("name", LAWS)
 def test_a_centred_cap_carries_no_net_shear(name):
     """No tangential load and a scene mirror-symmetric about x = 0.5 and y = 0.5: the net shear is zero and the
-    rows' shear forces are the mirror images of each other (measured net 3e-15 of the sum of |shear|)."""
+    rows' shear forces are the mirror images of each other (measured: net 1.9e-15, mirror images 1.4e-15 of the
+    sum of |shear|)."""
     sol = cc.solve(capped_pair(LAWS[name], s=0.0))
     assert sol.ok
     c = sol.contact
     total = float(np.abs(c.shear_force).sum())
     assert total > 0
-    assert np.abs(c.shear_force.sum(axis=0)).max() <= 1e-12 * total      # measured 3e-15
+    assert np.abs(c.shear_force.sum(axis=0)).max() <= 1e-12 * total      # measured 1.9e-15
     pts = c.points[:, :2]
     for flip in ([-1.0, 1.0], [1.0, -1.0]):
         mirrored = 0.5 + (pts - 0.5) * flip
@@ -258,11 +259,12 @@ def test_friction_refused_on_a_pair_without_slip_rows(monkeypatch):
 @pytest.mark.parametrize("law", [cc.Tresca(threshold=1e8), cc.Coulomb(coefficient=0.3)], ids=["tresca", "coulomb"])
 def test_a_rigid_sphere_into_a_block(law):
     """A rigid sphere of radius 0.3 m pressed 0.02 m into the aluminium block (6 x 6 x 3 cells) with friction:
-    finished exactly, every check at rounding (measured below, the largest of every check)."""
+    finished exactly (the friction rows' Newton), every check at rounding (measured: at most 6.5e-10, Tresca's
+    stick-slip, a square root of rounding products; Coulomb 0 but equilibrium 3.7e-17)."""
     sol = cc.solve(sphere_into_block(6, radius=0.3, depth=0.02, law=law))
     assert sol.ok and sol.polished
     checks = {k: float(v) for k, v in sol.residuals().items()}
     assert {"friction cone", "stick-slip", "slip direction"} <= set(checks)
-    assert max(checks.values()) <= 1.5e-8, checks            # measured
+    assert max(checks.values()) <= 1e-7, checks              # measured 6.5e-10
     c = sol.contact
     assert c.active.sum() >= 1 and np.linalg.norm(c.shear_force, axis=1).max() > 0

@@ -10,7 +10,7 @@ Scenes: tests/friction_scenes.py (capped_pair), tests/scenes3d.py (sphere_into_b
 
 import numpy as np
 import pytest
-from friction_scenes import capped_pair
+from friction_scenes import capped_pair, projected_gradient_tresca
 from scenes3d import sphere_into_block
 
 import cvxcontact as cc
@@ -189,21 +189,70 @@ def test_a_huge_threshold_is_the_stuck_pair():
     assert float(np.linalg.norm(c.slip, axis=1).max()) <= 1e-12 * S      # measured 1e-20 m
 
 
+def _tresca_reference(scene, g):
+    """(u per body, R (m, 3): t1, t2 force on the lower block and the normal force per node, in the brute-force
+    rows' order, points): the nodal Tresca law of threshold ``g`` (Pa) on the pair of :func:`capped_pair` solved
+    independently of the package's contact code: both bodies' reduced stiffness, the brute-force rows (groups
+    slip t1, slip t2, -[u_nu] >= -gap), capacities g times a third of each curved face's area, the dual QP by
+    :func:`projected_gradient_tresca` (FISTA: accurate to about the square root of rounding)."""
+    import scipy.linalg as sla
+
+    from cvxcontact.fem.space import P1Tet
+
+    systems = [P1Tet().assemble_loads(b, P1Tet().assemble_matrices(b)) for b in scene.bodies]
+    Tu = sla.block_diag(*[s.Tu.toarray() for s in systems])
+    K = Tu.T @ sla.block_diag(*[s.Kuu.toarray() for s in systems]) @ Tu
+    f = Tu.T @ np.concatenate([s.f for s in systems])
+    u_fixed = np.concatenate([s.u_fixed for s in systems])
+    N, T, gap, X = _brute_force_rows(scene)
+    D = np.empty((3 * len(X), N.shape[1]))
+    D[0::3], D[1::3], D[2::3] = T[0], T[1], -N
+    DT = D @ Tu
+    q = DT @ np.linalg.solve(K, f) + D @ u_fixed
+    q[2::3] += gap
+    R = projected_gradient_tresca(DT @ np.linalg.solve(K, DT.T), q, g * _face_shares(scene.bodies[1], X))
+    u = Tu @ np.linalg.solve(K, f + DT.T @ R) + u_fixed
+    n0 = 3 * len(scene.bodies[0].mesh.points)
+    return (u[:n0].reshape(-1, 3), u[n0:].reshape(-1, 3)), R.reshape(-1, 3), X
+
+
+def test_tresca_against_a_dense_dual_reference():
+    """Tresca g = 8 MPa, the upper block's top moved by 1e-4 m along x (10 rows slip): the package's answer against
+    the dense dual reference (measured 2.0e-8 of the displacement scale, 6.3e-9 of the normal forces' sum, 7.6e-8
+    of the shear forces' sum: the reference's own accuracy)."""
+    g = 8e6
+    sc = capped_pair(cc.Tresca(threshold=g), s=S)
+    sol = cc.solve(sc)
+    assert sol.ok
+    u, R, X = _tresca_reference(sc, g)
+    scale = _scale(sol)
+    for mine, theirs in zip(sol.u, u):
+        np.testing.assert_allclose(mine, theirs, rtol=0, atol=2e-6 * scale)
+    c, itf = sol.contact, sc.interfaces[0]
+    order, ref = np.lexsort(itf.points.T), np.lexsort(X.T)
+    np.testing.assert_allclose(c.force[order], R[ref, 2], rtol=0, atol=1e-6 * float(R[:, 2].sum()))
+    np.testing.assert_allclose(c.shear_force[order], R[ref, :2], rtol=0, atol=1e-5 * float(np.abs(R[:, :2]).sum()))
+
+
+def _face_shares(body, X):
+    """A third of the area of every face of ``body``'s "bottom" at each of the points ``X`` (its nodes), m^2."""
+    mesh = body.mesh.triangulation
+    faces = np.asarray(mesh.boundary("bottom"))
+    P = np.asarray(mesh.points)[faces]
+    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    share = np.zeros(len(mesh.points))
+    np.add.at(share, faces.ravel(), np.repeat(area / 3.0, 3))
+    at = [int(np.flatnonzero((np.abs(np.asarray(mesh.points) - x) <= 1e-14).all(axis=1))[0]) for x in X]
+    return share[at]
+
+
 def _capacities(sol, law):
     """Each row's capacity (N) from the mesh: Tresca g times a third of the area of every face of the upper bottom
     at the row's node (the faces' true areas); Coulomb mu times the row's normal force."""
-    c, itf = sol.contact, sol.scene.interfaces[0]
+    c = sol.contact
     if isinstance(law, cc.Coulomb):
         return law.coefficient * c.force
-    upper = sol.scene.bodies[1].mesh.triangulation
-    faces = np.asarray(upper.boundary("bottom"))
-    P = np.asarray(upper.points)[faces]
-    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
-    share = np.zeros(len(upper.points))
-    np.add.at(share, faces.ravel(), np.repeat(area / 3.0, 3))
-    X = np.asarray(upper.points)
-    at = [int(np.flatnonzero((np.abs(X - x) <= 1e-14).all(axis=1))[0]) for x in itf.points]
-    return law.threshold * share[at]
+    return law.threshold * _face_shares(sol.scene.bodies[1], sol.scene.interfaces[0].points)
 
 
 @pytest.mark.parametrize("name", LAWS)
@@ -245,6 +294,51 @@ def test_a_centred_cap_carries_no_net_shear(name):
         j = [int(np.argmin(np.linalg.norm(pts - q, axis=1))) for q in mirrored]
         np.testing.assert_allclose(pts[j], mirrored, rtol=0, atol=1e-14)
         np.testing.assert_allclose(c.shear_force[j] * flip, c.shear_force, rtol=0, atol=1e-12 * total)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_the_body_order_turns_the_slip_and_the_shear(name):
+    """The pair posed from the curved body (its nodes "sigma1", the pair's normal -z): the same displacements and
+    normal forces, the slip (u^a - u^b) and the shear force on the first body of the opposite sign (measured 0:
+    the same operations)."""
+    ref = cc.solve(capped_pair(LAWS[name], s=S))
+    sol = cc.solve(capped_pair(LAWS[name], s=S, swap=True))
+    itf = sol.scene.interfaces[0]
+    assert itf.curved == 0 and itf.normal[2] == -1.0 and sol.ok
+    assert _difference(sol, ref) <= 1e-12
+    a, b = sol.contact, ref.contact
+    i, j = np.lexsort(a.points.T), np.lexsort(b.points.T)
+    F = float(np.abs(b.shear_force).sum())
+    assert F > 0
+    np.testing.assert_allclose(a.shear_force[i], -b.shear_force[j], rtol=0, atol=1e-12 * F)
+    np.testing.assert_allclose(a.slip[i], -b.slip[j], rtol=0, atol=1e-12 * S)
+    np.testing.assert_allclose(a.force[i], b.force[j], rtol=0, atol=1e-12 * float(b.force.sum()))
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_the_answer_turns_with_the_scene(name):
+    """The whole scene turned by a generic rotation Q (the plane's normal then along no axis, its frame
+    canonical_frame's): the displacements are Q u, the slip and shear vectors (frame components mapped to 3D)
+    Q times the unturned ones: the friction is isotropic and the frame a mere basis (measured 1.5e-13, 2e-13, 6e-14
+    of the scales)."""
+    from scenes3d import rotation
+
+    Q = rotation()
+    ref = cc.solve(capped_pair(LAWS[name], s=S))
+    sol = cc.solve(capped_pair(LAWS[name], s=S, turn=Q))
+    itf = sol.scene.interfaces[0]
+    assert isinstance(itf, CurvedSurfaceInterface) and sol.ok
+    scale = _scale(ref)
+    for u, v in zip(sol.u, ref.u):
+        np.testing.assert_allclose(u, v @ Q.T, rtol=0, atol=1e-10 * scale)
+    a, b = sol.contact, ref.contact
+    back = a.points @ Q
+    j = [int(np.argmin(np.linalg.norm(b.points - p, axis=1))) for p in back]
+    np.testing.assert_allclose(b.points[j], back, rtol=0, atol=1e-12)
+    frame, frame0 = itf.frame, ref.scene.interfaces[0].frame
+    F = float(np.abs(b.shear_force).sum())
+    np.testing.assert_allclose(a.shear_force @ frame, (b.shear_force @ frame0)[j] @ Q.T, rtol=0, atol=1e-10 * F)
+    np.testing.assert_allclose(a.slip @ frame, (b.slip @ frame0)[j] @ Q.T, rtol=0, atol=1e-10 * S)
 
 
 def test_friction_refused_on_a_pair_without_slip_rows(monkeypatch):

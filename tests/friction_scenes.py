@@ -388,3 +388,29 @@ def finished_p2(scene):
         sol = cc.solve(scene, **P2_CONES)
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     return sol
+
+
+def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None):
+    """A curved part against a planar one in 3D (node-to-face, ``contact/surface.CurvedSurfaceInterface``): a steel
+    block (0, 1)^2 x (-0.5, 0) m (n[0] x n[0] x 2 cells, clamped at its base, planar "top") under a steel block
+    (0, 1)^2 x (0, 0.5) (n[1] x n[1] x 2 cells) whose "bottom" is lifted onto the spherical cap of ``radius`` (m)
+    touching z = 0 at the centre (each node by z_s (1 - z / 0.5), z_s = r^2 / (R + sqrt(R^2 - r^2)); None: flat),
+    its top moved by (s, 0, -d); ``law`` on the pair posed from the lower block under ``condition`` (``swap``: from
+    the upper block, under "sigma1"). Both grids are mirror-symmetric about x = 0.5 and y = 0.5, so with s = 0 the
+    whole scene is. ``turn``: a rotation matrix applied to the whole scene (points and prescribed displacement)."""
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n[0], ny=n[0], nz=2)
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n[1], ny=n[1], nz=2)
+    if radius is not None:
+        p = np.array(upper.points)
+        r2 = (p[:, 0] - 0.5) ** 2 + (p[:, 1] - 0.5) ** 2
+        p[:, 2] += r2 / (radius + np.sqrt(radius ** 2 - r2)) * (1.0 - p[:, 2] / 0.5)
+        upper = upper.with_points(p)
+    moved = np.array([s, 0.0, -d])
+    if turn is not None:
+        lower, upper = (m.with_points(np.asarray(m.points) @ np.asarray(turn).T) for m in (lower, upper))
+        moved = np.asarray(turn) @ moved
+    a = cc.Body(lower, steel(), clamped="bottom", contact="top", name="lower")
+    b = cc.Body(upper, steel(), displacement={"top": tuple(moved)}, contact="bottom", name="upper")
+    pair = (cc.Contact(b, "bottom", a, "top", condition="sigma1", law=law) if swap
+            else cc.Contact(a, "top", b, "bottom", condition=condition, law=law))
+    return cc.Scene(a, b, contacts=[pair])

@@ -225,16 +225,16 @@ def two_boxes(n=4, condition="sigma1", elastic=False):
     return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition=condition)])
 
 
-def sphere_into_block(n=6):
-    """An aluminium block (-1, 1)^2 x (-1, 0) m (n x n x n/2 cells, clamped at the bottom) pressed 0.02 m deep
-    by a fixed rigid sphere of radius 2 m: a Hertz contact whose zone (radius about 0.2 m) is a small part of
-    the rows (one per top node; benchmarks/bench3d.py)."""
+def sphere_into_block(n=6, radius=2.0, depth=0.02, law=None):
+    """An aluminium block (-1, 1)^2 x (-1, 0) m (n x n x n/2 cells, clamped at the bottom) pressed ``depth`` (m)
+    deep by a fixed rigid sphere of ``radius`` (m; 2 m, 0.02 m: a Hertz contact whose zone, radius about 0.2 m, is
+    a small part of the rows, one per top node; benchmarks/bench3d.py), ``law`` on the pair (None: Signorini)."""
     n = max(2, int(n))
     block = cc.box(x=(-1.0, 1.0), y=(-1.0, 1.0), z=(-1.0, 0.0), nx=n, ny=n, nz=max(1, n // 2))
     body = cc.Body(block, cc.materials.isotropic(E=70e9, nu=0.3, name="aluminium"), clamped=["bottom"],
                    name="aluminium block")
-    ball = cc.Rigid.sphere((0.0, 0.0, 2.0 - 0.02), 2.0)
-    return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
+    ball = cc.Rigid.sphere((0.0, 0.0, radius - depth), radius)
+    return cc.Scene(body, contacts=[cc.Contact(body, "top", ball, law=law)])
 
 
 def _section_gap(x, *rest):

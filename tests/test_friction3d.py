@@ -253,15 +253,18 @@ def test_a_sheared_layer_in_partial_slip_matches_a_projected_gradient_reference(
     assert np.abs(c.force[at] - R[:, 2]).max() < 2e-5 * np.abs(R).max()        # measured 1.6e-7
 
 
-def test_a_curved_part_with_friction_is_refused_naming_planar_parts_only():
-    """A curved 3D part against a planar one poses no slip rows yet: the refusal names planar parts (or a rigid
-    obstacle), and no longer degree=1 (P2 faces take friction under the nodal rows: tests/test_friction3d_p2.py)."""
+def test_a_curved_part_with_friction_is_posed_with_p1_only():
+    """A curved 3D part against a planar one takes a friction law with P1 tetrahedra (its slip rows:
+    CurvedSurfaceInterface.tangential_jump, tests/test_friction_curved3d.py); P2 tetrahedra with a curved part are
+    refused as without friction, naming degree=1."""
     from cvxcontact.apps.studies import hertz3d_elastic
 
     base = hertz3d_elastic.scene(2, delta=1e-3)
     pair = base.contacts[0]
     rubbing = cc.Contact(pair.body_a, pair.part_a, pair.other, pair.part_b, law=cc.Tresca(1e6),
                          condition=base.conditions[0])
-    with pytest.raises(cc.UnsupportedError, match="planar contact parts") as info:
-        cc.solve(cc.Scene(*base.bodies, contacts=[rubbing]), condition="sigma2")
-    assert "degree=1" not in str(info.value)
+    scene = cc.Scene(*base.bodies, contacts=[rubbing])
+    sol = cc.solve(scene, condition="sigma2")
+    assert sol.ok and {"friction cone", "stick-slip", "slip direction"} <= set(sol.residuals())
+    with pytest.raises(cc.UnsupportedError, match="use degree=1"):
+        cc.solve(scene, condition="sigma2", degree=2)

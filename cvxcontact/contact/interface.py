@@ -278,14 +278,15 @@ class Stack:
         """(c size, d n_nodes): body k's part of the slip [u_t] at every pair's merged nodes
         (:meth:`Interface.tangential_jump`, :meth:`~cvxcontact.contact.surface.SurfaceInterface.tangential_jump`),
         c = :attr:`slip_components`, component-major (rows j size + a: component j at stacked node a). An
-        interface without a tangential part (a curved 3D part against a planar one): UnsupportedError."""
+        interface without a tangential part (no ``tangential_jump``): UnsupportedError naming it."""
         from ..errors import UnsupportedError
 
         c = self.slip_components
         for itf in self.interfaces:
             if not hasattr(itf, "tangential_jump"):
-                raise UnsupportedError(f"a friction law on {type(itf).__name__} contact lines is not available "
-                                       "yet: use planar contact parts (or a rigid obstacle)")
+                raise UnsupportedError(f"a friction law on {type(itf).__name__} contact lines is not available: "
+                                       "the interface has no slip rows (tangential_jump); pose the pair without a "
+                                       "friction law, or give its interface a tangential_jump(k, n_nodes)")
         parts = []
         for itf, (a, b) in zip(self.interfaces, self.members):
             side = 0 if k == a else 1 if k == b else None

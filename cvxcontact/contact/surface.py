@@ -483,6 +483,17 @@ class CurvedSurfaceInterface:
         t = self.traces[k]
         return normal_jump(self._interp[k], t.nodes, row_directions(self, t.unit_normal), 3 * n_nodes)
 
+    def tangential_jump(self, k, n_nodes) -> sp.csr_matrix:
+        """(2 size, 3 n_nodes): body k's part of the slip [u_t]_j = (u^a - u^b) . t_j at the nodes of X_h,
+        component-major (rows j size + a), (t_1, t_2) the planar part's ``frame`` (the plane is the tangent plane
+        of the pair: its rows measure along n_p), taken along +t_j for the first body and -t_j for the second:
+        the curved body's displacement at its node x, the planar body's P1 interpolant at the projection X (as
+        :meth:`jump`; :meth:`SurfaceInterface.tangential_jump`)."""
+        t = self.traces[k]
+        sign = 1.0 if k == 0 else -1.0
+        return sp.vstack([normal_jump(self._interp[k], t.nodes, sign * tj, 3 * n_nodes) for tj in self.frame],
+                         format="csr")
+
     def _rows(self, condition) -> np.ndarray:
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")

@@ -239,10 +239,17 @@ class QuadraticTrace(LinearTrace):
         forces = np.asarray(forces, dtype=float)
         if np.ndim(pair.x) == 1:
             return self._over_weights(pair, condition, rows, forces)
-        if pair.rigid or condition == "gamma3" or pair.representer is not None or not self._own(pair, condition,
-                                                                                                   rows):
+        if self._on_nodes(pair, condition) or not self._own(pair, condition, rows):
             return None
         return pair.extend(condition, pair.row_riesz(condition, forces))
+
+    @staticmethod
+    def _on_nodes(pair, condition: str) -> bool:
+        """Whether the 3D ``pair`` reads its rows' forces at its nodes of X_h as it is (None from :meth:`row_pressure`
+        and :meth:`row_shear`): under "gamma3" and against an obstacle (the rows are the nodes of X_h: lambda_h is
+        their representer, a row's force over its measure its own weight's), and a pair given its own pressure's
+        representer (``pair.representer``: Q2 hexahedra's faces, whose consistent loads are not the triangles')."""
+        return bool(pair.rigid or condition == "gamma3" or pair.representer is not None)
 
     def row_shear(self, pair, condition: str, rows, forces) -> np.ndarray | None:
         """The tangential traction (Pa) at every node of X_h of the rows' tangential ``forces`` ((r,), or (r, c)
@@ -252,7 +259,10 @@ class QuadraticTrace(LinearTrace):
         2D line as :meth:`row_pressure`. On a 3D surface the weights are the red refinement's (A/12 at a vertex,
         A/4 at an edge midpoint; the cut faces' shares): a sliding row reads g, a uniform traction that sticks
         reads 0 and 4/3 of itself (its consistent loads are 0 and A/3). None where ``rows`` are not
-        ``condition``'s own."""
+        ``condition``'s own, and on a 3D surface where the rows are the nodes of X_h (:meth:`_on_nodes`: there
+        :meth:`per_length` reads the same ratio at them)."""
+        if np.ndim(pair.x) == 2 and self._on_nodes(pair, condition):
+            return None
         return self._over_weights(pair, condition, rows, np.asarray(forces, dtype=float))
 
     def _over_weights(self, pair, condition: str, rows, forces) -> np.ndarray | None:

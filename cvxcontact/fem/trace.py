@@ -324,7 +324,7 @@ class QuadraticTrace(LinearTrace):
         0 and 4/3 tau, whose interpolant reaches 16/9 tau inside. t_r the lumped read-back (the rows' law: a
         sliding row's force g w_a is t_r = g, whose representer oscillates about g by a pattern the size of g
         at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb mu p, p the
-        Riesz lambda_h)."""
+        reported pressure, :meth:`pressure`)."""
         if np.ndim(contact.x) == 1:
             return super().friction_fields(itf, condition, contact)
         f = np.asarray(contact.shear_force, dtype=float)

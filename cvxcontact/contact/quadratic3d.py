@@ -422,11 +422,21 @@ class QuadraticSurface(Represented):
         law's triangles, M lambda = Q^T force (M = :meth:`row_mass`; exact for a pressure that is quadratic
         on those triangles, a uniform one included); 0 at rows on no such triangle."""
         Q, _ = self.quadrature(condition)
+        return self.row_riesz(condition, Q.T @ np.asarray(force, dtype=float))
+
+    def row_riesz(self, condition, forces) -> np.ndarray:
+        """The pressure (Pa for ``forces`` in N, one per row of :meth:`evaluation`) at the rows: the Riesz
+        representer of the row forces in the P2 functions of the condition's own faces, M p = forces with M =
+        :meth:`row_mass` (under "sigma1"/"sigma2" the P2 mass of that body's faces wholly in the overlap, plus the
+        cut faces' nodal weights on its diagonal). Exact for a pressure quadratic on those faces whose forces are
+        its integrals against the P2 functions (a uniform one included: the consistent loads of a uniform traction
+        on 6-node triangles, 0 at the vertices and A/3 at the edge midpoints); 1^T M p = 1^T forces, the total
+        force. 0 at rows on no such face and of no cut weight (their forces are then not read)."""
         M = self.row_mass(condition)
         on = np.flatnonzero(M.diagonal() > 0)
         out = np.zeros(M.shape[0])
         if len(on):
-            out[on] = spla.spsolve(M[on][:, on].tocsc(), (Q.T @ np.asarray(force, dtype=float))[on])
+            out[on] = spla.spsolve(M[on][:, on].tocsc(), np.asarray(forces, dtype=float)[on])
         return out
 
     def _sigma_faces(self, condition) -> tuple[np.ndarray, np.ndarray]:

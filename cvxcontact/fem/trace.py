@@ -107,6 +107,9 @@ class LinearTrace:
         """None: the rows of ``condition`` sit at nodes of X_h, whose force over its :meth:`measure` is the row's
         force over its own weight (:meth:`pressure`)."""
 
+    def row_shear(self, pair, condition: str, rows, forces) -> None:
+        """None: as :meth:`row_pressure`, for the rows' tangential forces (:meth:`per_length`)."""
+
     def pressure(self, contact) -> np.ndarray:
         """The pressure (Pa) of a :class:`~cvxcontact.solution.solution.ContactResult`: each constrained node's
         force over its measure (the lumped length of the constrained nodes without one); 0 elsewhere."""
@@ -212,43 +215,92 @@ class QuadraticTrace(LinearTrace):
     def measure(self, pair, condition: str) -> None:
         """None: the forces M lambda_h live on every node of X_h (:meth:`pressure`)."""
 
-    def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
-        """On a 2D line: the rows' ``forces`` (N/m, one per row of ``rows``, the sparse evaluation rows the
-        problem posed on ``pair``'s nodes of X_h) over their own weights (``pair.weights(condition)``, m),
-        extended to every node of X_h as the function of the rows' values (``pair.extend``), Pa: a uniform p
-        reads p exactly, the rows being where the forces were made. (The forces E^T y on the nodes of X_h over
-        the row sums of its mass matrix would not: under "sigma1"/"sigma2" the rows are that body's P2 nodes,
-        and E^T w is not M 1.) None on a 3D surface, and where ``rows`` are not ``condition``'s own
-        (``pair.evaluation(condition)``: rows a problem was given, which hold no weights)."""
-        forces = np.asarray(forces, dtype=float)
-        if np.ndim(pair.x) == 2:
-            return None
-        if len(forces) == 0:
-            return np.zeros(pair.size)
+    @staticmethod
+    def _own(pair, condition: str, rows) -> bool:
+        """Whether the sparse ``rows`` are ``condition``'s own rows of ``pair`` (``pair.evaluation(condition)``),
+        whose weights the pair holds; not rows a problem was given."""
         own = pair.evaluation(condition)
-        if own.shape != rows.shape or abs(own - rows).max() > 0:
+        return own.shape == rows.shape and not abs(own - rows).max() > 0
+
+    def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
+        """The pressure (Pa) at every node of X_h of the rows' normal ``forces`` (one per row of ``rows``, the
+        sparse evaluation rows the problem posed on ``pair``'s nodes of X_h; N/m in 2D, N in 3D) read on the
+        condition's own nodes, extended to every node of X_h as the function of the rows' values
+        (``pair.extend``): a uniform p reads p exactly, the rows being where the forces were made. On a 2D line
+        each row's force over its own weight (``pair.weights(condition)``, Simpson's on the constrained trace, the
+        cut segments' shares, m), the integral of its P2 function. On a 3D surface under "sigma1"/"sigma2", where
+        the P2 functions of a vertex integrate to 0, the Riesz representer in the P2 functions of that body's own
+        faces (``pair.row_riesz``: M p = forces, M their P2 mass, the cut faces' weights on its diagonal; the
+        consistent loads of a uniform p are 0 at the vertices and pA/3 at the edge midpoints). (The forces E^T y on
+        the nodes of X_h over the row sums of X_h's mass matrix, or their representer lambda_h in X_h, would not
+        read p: the rows are that body's P2 nodes, and E^T w is not M 1.) None on a 3D surface under "gamma3" and
+        against an obstacle (the rows are the nodes of X_h: lambda_h is the rows' representer), and where ``rows``
+        are not ``condition``'s own (rows a problem was given, which hold no weights)."""
+        forces = np.asarray(forces, dtype=float)
+        if np.ndim(pair.x) == 1:
+            return self._over_weights(pair, condition, rows, forces)
+        if self._on_nodes(pair, condition) or not self._own(pair, condition, rows):
             return None
-        return pair.extend(condition, forces / pair.weights(condition))
+        return pair.extend(condition, pair.row_riesz(condition, forces))
+
+    @staticmethod
+    def _on_nodes(pair, condition: str) -> bool:
+        """Whether the 3D ``pair`` reads its rows' forces at its nodes of X_h as it is (None from :meth:`row_pressure`
+        and :meth:`row_shear`): under "gamma3" and against an obstacle (the rows are the nodes of X_h: lambda_h is
+        their representer, a row's force over its measure its own weight's), and a pair given its own pressure's
+        representer (``pair.representer``: Q2 hexahedra's faces, whose consistent loads are not the triangles')."""
+        return bool(pair.rigid or condition == "gamma3" or pair.representer is not None)
+
+    def row_shear(self, pair, condition: str, rows, forces) -> np.ndarray | None:
+        """The tangential traction (Pa) at every node of X_h of the rows' tangential ``forces`` ((r,), or (r, c)
+        per component; N/m in 2D, N in 3D): each row's force over its own weight (``pair.weights(condition)``, the
+        areas or lengths that weigh the friction capacities g w_a, so that |t| <= g at every row under Tresca),
+        extended to every node of X_h as the function of the rows' values (``pair.extend``, per component). On a
+        2D line as :meth:`row_pressure`. On a 3D surface the weights are the red refinement's (A/12 at a vertex,
+        A/4 at an edge midpoint; the cut faces' shares): a sliding row reads g, a uniform traction that sticks
+        reads 0 and 4/3 of itself (its consistent loads are 0 and A/3). None where ``rows`` are not
+        ``condition``'s own, and on a 3D surface where the rows are the nodes of X_h (:meth:`_on_nodes`: there
+        :meth:`per_length` reads the same ratio at them)."""
+        if np.ndim(pair.x) == 2 and self._on_nodes(pair, condition):
+            return None
+        return self._over_weights(pair, condition, rows, np.asarray(forces, dtype=float))
+
+    def _over_weights(self, pair, condition: str, rows, forces) -> np.ndarray | None:
+        """Each row's ``forces`` ((r,) or (r, c)) over its own weight, extended to every node of X_h (per
+        component); None where ``rows`` are not ``condition``'s own."""
+        if len(forces) == 0:
+            return np.zeros((pair.size,) + forces.shape[1:])
+        if not self._own(pair, condition, rows):
+            return None
+        v = forces / np.asarray(pair.weights(condition), dtype=float).reshape((-1,) + (1,) * (forces.ndim - 1))
+        cols = [pair.extend(condition, col) for col in v.reshape(len(v), -1).T]
+        return np.column_stack(cols).reshape((pair.size,) + forces.shape[1:])
 
     def pressure(self, contact) -> np.ndarray:
-        """On a 2D line the rows' forces over their own weights (``contact.row_pressure``, :meth:`row_pressure`),
-        0 at the nodes no row reads (without it, the forces r = M lambda_h over the row sums of the P2 mass
-        matrix of X_h); on a 3D surface, where those row sums vanish at the vertices, lambda_h itself."""
-        if np.ndim(contact.x) == 2:
-            return np.array(contact.lam, dtype=float)
+        """The rows' forces read on the condition's own nodes (``contact.row_pressure``, :meth:`row_pressure`): on
+        a 2D line 0 at the nodes no row reads; on a 3D surface at every node of X_h (the function of the
+        constrained body's trace on the overlap). Without it: on a 2D line the forces r = M lambda_h over the row
+        sums of the P2 mass matrix of X_h; on a 3D surface ("gamma3", an obstacle, a compliance law), where those
+        row sums vanish at the vertices, lambda_h itself."""
         if contact.row_pressure is None:
+            if np.ndim(contact.x) == 2:
+                return np.array(contact.lam, dtype=float)
             return contact.force / quadratic_lumped(contact.x)
+        if np.ndim(contact.x) == 2:
+            return np.array(contact.row_pressure, dtype=float)
         return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_pressure, 0.0)
 
     def per_length(self, contact, force) -> np.ndarray:
-        """As the pressure: on a 2D line the rows' forces over their own weights (``contact.row_shear``, for the
-        tangential forces ``force`` = ``contact.shear_force``; without it the forces over the row sums of the P2
-        mass matrix of X_h); on a 3D surface,
-        where those vanish at the vertices, over the areas the friction law's rows give the nodes
-        (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
+        """The rows' tangential forces over their own weights (``contact.row_shear``, :meth:`row_shear`, for the
+        tangential forces ``force`` = ``contact.shear_force``; on a 2D line 0 at the nodes no row reads, on a 3D
+        surface at every node of X_h). Without it: on a 2D line the forces over the row sums of the P2 mass matrix
+        of X_h; on a 3D surface, where those vanish at the vertices, over the areas the friction law's rows give
+        the nodes (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
+        if contact.row_shear is not None and np.shape(force) == np.shape(contact.row_shear):
+            if np.ndim(contact.x) == 2:
+                return np.array(contact.row_shear, dtype=float)
+            return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_shear, 0.0)
         if np.ndim(contact.x) == 1:
-            if contact.row_shear is not None and np.shape(force) == np.shape(contact.row_shear):
-                return np.where(np.asarray(contact.constrained, dtype=bool), contact.row_shear, 0.0)
             return force / quadratic_lumped(contact.x)
         w = np.asarray(contact.slip_measure, dtype=float)
         out = np.zeros(np.shape(force))
@@ -272,7 +324,7 @@ class QuadraticTrace(LinearTrace):
         0 and 4/3 tau, whose interpolant reaches 16/9 tau inside. t_r the lumped read-back (the rows' law: a
         sliding row's force g w_a is t_r = g, whose representer oscillates about g by a pattern the size of g
         at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb mu p, p the
-        Riesz lambda_h)."""
+        reported pressure, :meth:`pressure`)."""
         if np.ndim(contact.x) == 1:
             return super().friction_fields(itf, condition, contact)
         f = np.asarray(contact.shear_force, dtype=float)

@@ -100,10 +100,10 @@ def read_back_friction(problem, raw, sol) -> None:
     pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
 
     def row_shear(i, a, b):
-        """2D P2: the rows' tangential forces over their own weights at the nodes of X_h (as the pressure)."""
+        """P2: the rows' tangential forces over their own weights at the nodes of X_h (``trace.row_shear``)."""
         cond = problem.scene.conditions[i] or problem.condition
         rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
-        return trace.row_pressure(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
+        return trace.row_shear(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
 
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
                             threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b],

@@ -118,7 +118,7 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
         cond = condition if scene.conditions[i] is None else scene.conditions[i]
         measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
         rows = np.flatnonzero(_reads(E[:, part].T))   # the pair's rows (each reads its own pair's nodes only)
-        row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)    # 2D P2: y_a / w_a
+        row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)    # P2: y_a / w_a, M p = y
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
@@ -197,16 +197,17 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
             merged = slice(merged_at[i], merged_at[i + 1])
             rows_i = slice(offsets[i], offsets[i + 1])
-            lam_i = lam[rows_i]
+            lam_i, own = lam[rows_i], {}
             if hasattr(itf, "law_pressure"):     # P2 faces: rows at the law's quadrature points, lambda the Riesz
                 law_i = ~np.asarray(getattr(rows, "cone", np.zeros(len(force), dtype=bool)))[rows_i]   # of w p + z
                 lam_i = itf.law_pressure(cond, force[rows_i][law_i]) * un.length     # (not the cone's nodal rows)
+                own = {"row_pressure": None}     # the law's lambda is the pressure (its rows are not the nodes')
             elif z is not None and cond == "gamma3" and getattr(itf, "rigid", True) is False:
                 # 3D gamma3 between two bodies: the limit reactions of dependent rows are not unique, their work
                 # on the jumps is; z as a pressure is its Riesz representer in X_h (as a Signorini pair's, §13),
                 # read at the rows (every node of X_h but on Q1 hexahedra's nested and crossing faces)
                 lam_i = p[rows_i] + itf.evaluation(cond) @ itf.multiplier((E.T @ z)[merged]) * un.force / unit
-            c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force)
+            c = replace(c, lam=itf.extend(cond, lam_i) * unit, force=nodal[merged] * un.force, **own)
             for a in (c.lam, c.force):
                 a.setflags(write=False)
         contacts.append(replace(c, law=pair_law))

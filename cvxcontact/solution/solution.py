@@ -85,13 +85,15 @@ class ContactResult:
     rows' lumped areas or lengths, the friction capacities' weights), what :attr:`shear` divides by on a 3D P2
     surface; None without friction."""
     row_pressure: np.ndarray | None = None
-    """A 2D P2 pair: the rows' forces y_a over their own weights w_a (the lumped lengths of the condition's rows,
-    Simpson's on the constrained trace, the cut segments' shares), Pa, extended to every node of X_h as the
-    function of the rows' values (the rows of "sigma1"/"sigma2" sit at that body's P2 nodes, not at nodes of
-    X_h); what :attr:`pressure` reads. None: the pressure is :attr:`force` over :attr:`measure`."""
+    """A P2 pair: the rows' forces read on the condition's own nodes, Pa, extended to every node of X_h as the
+    function of the rows' values (the rows of "sigma1"/"sigma2" sit at that body's P2 nodes, not at nodes of X_h);
+    what :attr:`pressure` reads. 2D: y_a over their own weights w_a (the lumped lengths of the condition's rows,
+    Simpson's on the constrained trace, the cut segments' shares); 3D "sigma1"/"sigma2": their Riesz
+    representer in the P2 functions of that body's faces (:meth:`~cvxcontact.fem.trace.QuadraticTrace.row_pressure`).
+    None: the pressure is :attr:`force` over :attr:`measure` (3D P2: :attr:`lam`)."""
     row_shear: np.ndarray | None = None
-    """A friction law on a 2D P2 pair: the rows' tangential forces over their own weights (Pa), extended to every
-    node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None: :attr:`shear_force` over the lumped
+    """A friction law on a P2 pair: the rows' tangential forces over their own weights (Pa; 3D the capacities'
+    areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None: :attr:`shear_force` over the lumped
     lengths (areas)."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
@@ -114,8 +116,10 @@ class ContactResult:
         of the P2 mass matrix of X_h, h/6 per adjacent segment at a vertex, 2h/3 at a midpoint; "sigma1" /
         "sigma2": the rows at that body's P2 nodes over their Simpson weights, extended to the nodes of X_h
         as the P2 function of the rows' values), 0 at the nodes no row reads. On a 3D surface the P2 row
-        sums vanish at the vertices (a vertex's shape function integrates to 0 on a triangle): there the
-        pressure is lambda_h itself (:attr:`lam`).
+        sums vanish at the vertices (a vertex's shape function integrates to 0 on a triangle): under
+        "sigma1"/"sigma2" the pressure is the Riesz representer of the rows' forces in the P2 functions of that
+        body's faces, extended to every node of X_h as its P2 function (:attr:`row_pressure`); under "gamma3",
+        against an obstacle and under a compliance law lambda_h itself (:attr:`lam`).
         """
         return self.trace.pressure(self)
 
@@ -127,8 +131,8 @@ class ContactResult:
     @property
     def shear(self) -> np.ndarray | None:
         """The tangential traction sigma_t on the first body along t (Pa): :attr:`shear_force` over the lumped
-        lengths of the constrained nodes (as :attr:`pressure`; P2 on a 2D line the rows' tangential forces over
-        their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under "sigma1"/"sigma2": between
+        lengths of the constrained nodes (as :attr:`pressure`; P2 under "sigma1"/"sigma2" the rows'
+        tangential forces over their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under "sigma1"/"sigma2": between
         them the P2 function of the rows' values may exceed g). None without friction."""
         if self.shear_force is None:
             return None

@@ -244,7 +244,7 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
         if not trial.polished:
             return None
         solved.append(trial)
-        jump = sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))
+        jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))     # at the rows of the cones
         jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(n))
         U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
         return trial.y, jump - problem.g, np.full(n, U), trial, trial.active

@@ -391,15 +391,13 @@ def _capacity(scene, condition, lines):
         return None
     E = lines.E
     weights = row_weights(lines.interface, condition, scene.conditions)
-    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones' rows: X_h's nodes
+    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones on E's rows
         raise UnsupportedError(
             "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
-            "the friction rows at its nodes) is available where every pair is under 'gamma3' or against a rigid "
-            "obstacle and no pair has a normal-compliance law; not with a pair under a nodal condition or a "
-            "compliance law beside the cones: pose every pair under 'gamma3', or use condition='sigma1' or "
-            "'sigma2' (nodal rows at the P2 nodes of that body's faces, in 3D the finer side's on nested faces; "
-            "against a rigid obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere is "
-            "its nodal rows)")
+            "the friction rows at its nodes and at the rows of the pairs under a nodal condition) is not available "
+            "beside a normal-compliance law: pose every pair under a Signorini law (the default), or use "
+            "condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with "
+            "'gamma3' (P1: the condition everywhere is its nodal rows)")
     if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
             not getattr(i, "rigid", True) for i in getattr(lines.interface, "interfaces", (lines.interface,))):
         raise UnsupportedError(

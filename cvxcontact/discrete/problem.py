@@ -398,8 +398,9 @@ def _capacity(scene, condition, lines):
             "beside a normal-compliance law: pose every pair under a Signorini law (the default), or use "
             "condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with "
             "'gamma3' (P1: the condition everywhere is its nodal rows)")
+    pairs = getattr(lines.interface, "interfaces", (lines.interface,))
     if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
-            not getattr(i, "rigid", True) for i in getattr(lines.interface, "interfaces", (lines.interface,))):
+            not getattr(i, "rigid", True) and (c or condition) == "gamma3" for i, c in zip(pairs, scene.conditions)):
         raise UnsupportedError(
             "a pressure-dependent friction law (cc.Coulomb) with P2 tetrahedra under 'gamma3' between two bodies is "
             "not available: its capacities mu r_a need the cones' nodal normal forces r on the nodes of X_h, which "

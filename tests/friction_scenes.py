@@ -390,16 +390,16 @@ def finished_p2(scene):
     return sol
 
 
-def uniform_stack(tau, law, conditions=("gamma3", "sigma1"), nx=(4, 3, 5)):
+def uniform_stack(tau, law, conditions=("gamma3", "sigma1"), nx=(4, 3, 5), cell="triangle"):
     """Three blocks (L x H each, ``nx`` cells across: top, middle, bottom; non-matching lines by default; nu = 0)
     stacked on y in [-2H, H], the lowest clamped at its base, in the uniform state of :func:`uniform_layer` (the
     top block under (tau, -p), the complementary shear (0, -+tau) on every block's sides), ``law`` on both pairs,
     the upper pair (top on middle) under ``conditions[0]``, the lower one under ``conditions[1]``. Stuck: u =
-    (tau (y + 2H) / G, -p (y + 2H) / E), G = E / 2, exact in P2."""
+    (tau (y + 2H) / G, -p (y + 2H) / E), G = E / 2, exact in P2 (and Q2: ``cell="quad"``)."""
     side = {"left": (0.0, -tau), "right": (0.0, tau)}
     blocks = []
     for k, (n, y0, name) in enumerate(zip(nx, (0.0, -H, -2 * H), ("top", "middle", "bottom"))):
-        m = cc.rectangle(x=(0.0, L), y=(y0, y0 + H), nx=n, ny=2)
+        m = cc.rectangle(x=(0.0, L), y=(y0, y0 + H), nx=n, ny=2, cell=cell)
         load = {**side, "top": (tau, -P)} if k == 0 else side
         blocks.append(cc.Body(m, steel(nu=0.0), contact="top" if k == 2 else "bottom", traction=load, name=name,
                               **({"clamped": "bottom"} if k == 2 else {})))

@@ -76,15 +76,16 @@ def _largest_sample(values, samples=401):
 
 
 @pytest.mark.numerics
+@pytest.mark.parametrize("cell", ["triangle", "quad"])
 @pytest.mark.parametrize("law", [cc.Tresca(2 * P), cc.Coulomb(0.5)], ids=["tresca", "coulomb"])
 @pytest.mark.parametrize("conditions, nx", MIXED, ids=["cones-above", "cones-below"])
-def test_a_stuck_stack_of_three_blocks_is_the_closed_form(conditions, nx, law):
+def test_a_stuck_stack_of_three_blocks_is_the_closed_form(conditions, nx, law, cell):
     """Three blocks in the uniform state (sigma_yy = -p, sigma_xy = tau = 0.2 p), one pair under "gamma3", the other
     under "sigma1", the threshold (2 p, or 0.5 p) above the shear: every row stuck, u = (tau (y + 2H) / G, -p (y +
-    2H) / E) in every block, exact in P2 (measured at most 7.9e-14 of the largest displacement), finished."""
+    2H) / E) in every block, exact in P2 and Q2 (measured at most 7.9e-14 of the largest displacement), finished."""
     tau = 0.2 * P
     with _strict():
-        sol = cc.solve(uniform_stack(tau, law, conditions, nx), degree=2)
+        sol = cc.solve(uniform_stack(tau, law, conditions, nx, cell), degree=2)
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     scale = 1.5 * P / E
     for x, u in zip(sol.points, sol.u):

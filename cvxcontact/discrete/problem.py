@@ -286,7 +286,7 @@ class DiscreteProblem:
                              f"row per law row; got E {E.shape} and {rows.size} law rows")
         lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
                         np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None,
-                        departure=None)
+                        departure=None, node_cone=None)
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)

@@ -414,3 +414,69 @@ def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", 
     pair = (cc.Contact(b, "bottom", a, "top", condition="sigma1", law=law) if swap
             else cc.Contact(a, "top", b, "bottom", condition=condition, law=law))
     return cc.Scene(a, b, contacts=[pair])
+
+
+def uniform_stack(tau, law, conditions=("gamma3", "sigma1"), nx=(4, 3, 5), cell="triangle"):
+    """Three blocks (L x H each, ``nx`` cells across: top, middle, bottom; non-matching lines by default; nu = 0)
+    stacked on y in [-2H, H], the lowest clamped at its base, in the uniform state of :func:`uniform_layer` (the
+    top block under (tau, -p), the complementary shear (0, -+tau) on every block's sides), ``law`` on both pairs,
+    the upper pair (top on middle) under ``conditions[0]``, the lower one under ``conditions[1]``. Stuck: u =
+    (tau (y + 2H) / G, -p (y + 2H) / E), G = E / 2, exact in P2 (and Q2: ``cell="quad"``)."""
+    side = {"left": (0.0, -tau), "right": (0.0, tau)}
+    blocks = []
+    for k, (n, y0, name) in enumerate(zip(nx, (0.0, -H, -2 * H), ("top", "middle", "bottom"))):
+        m = cc.rectangle(x=(0.0, L), y=(y0, y0 + H), nx=n, ny=2, cell=cell)
+        load = {**side, "top": (tau, -P)} if k == 0 else side
+        blocks.append(cc.Body(m, steel(nu=0.0), contact="top" if k == 2 else "bottom", traction=load, name=name,
+                              **({"clamped": "bottom"} if k == 2 else {})))
+    top, middle, bottom = blocks
+    return cc.Scene(*blocks, contacts=[cc.Contact(top, "bottom", middle, "top", law=law, condition=conditions[0]),
+                                       cc.Contact(middle, "bottom", bottom, "top", law=law, condition=conditions[1])])
+
+
+def rolled_stack(law, conditions=("gamma3", "sigma1"), q=0.05 * P, nx=(4, 4, 4)):
+    """Three steel blocks (nu = 0.3; L x H each, ``nx`` cells across, the "right" diagonal) stacked on y in
+    [-2H, H], each held along x on its left face (u_x = 0), the lowest clamped at its base, the top one under (q,
+    -p): Poisson's expansion slides the upper blocks over the clamped one without friction; ``law`` on both pairs,
+    the upper under ``conditions[0]``, the lower under ``conditions[1]``. With matching ``nx`` and a threshold
+    that holds them, every row stuck: the answer of :func:`rolled_union`, the one body they make."""
+    blocks = []
+    for k, (n, y0, name) in enumerate(zip(nx, (0.0, -H, -2 * H), ("top", "middle", "bottom"))):
+        m = cc.rectangle(x=(0.0, L), y=(y0, y0 + H), nx=n, ny=2, diagonal="right")
+        extra = {"traction": {"top": (q, -P)}} if k == 0 else {}
+        held = {"left": (0.0, None), **({"bottom": (0.0, 0.0)} if k == 2 else {})}
+        blocks.append(cc.Body(m, steel(), contact="top" if k == 2 else "bottom", displacement=held, name=name,
+                              **extra))
+    top, middle, bottom = blocks
+    return cc.Scene(*blocks, contacts=[cc.Contact(top, "bottom", middle, "top", law=law, condition=conditions[0]),
+                                       cc.Contact(middle, "bottom", bottom, "top", law=law, condition=conditions[1])])
+
+
+def rolled_union(q=0.05 * P, n=4):
+    """The one body (L x 3H on y in [-2H, H], n x 6 cells, the "right" diagonal: the triangles of
+    :func:`rolled_stack`'s three blocks) with the same supports and load: the stack bonded (its only contact a
+    rigid wall 1 m beside it, never touched)."""
+    m = cc.rectangle(x=(0.0, L), y=(-2 * H, H), nx=n, ny=6, diagonal="right")
+    b = cc.Body(m, steel(), traction={"top": (q, -P)}, displacement={"left": (0.0, None), "bottom": (0.0, 0.0)},
+                contact="right")
+    far = cc.Rigid.plane(point=(L + 1.0, 0.0), normal=(-1.0, 0.0))        # 1 m away: never touched
+    return cc.Scene(b, contacts=[cc.Contact(b, "right", far, condition="sigma1")])
+
+
+def uniform_stack3d(tau, law, conditions=("gamma3", "sigma1"), n=(2, 3, 3)):
+    """The 3D :func:`uniform_stack`: three unit boxes (``n`` x ``n`` x 1 tetrahedra each: top, middle, bottom; nu =
+    0) stacked on z in [-2, 1], the lowest clamped at its base, in the uniform state of :func:`uniform_layer3d`
+    (the top box under (tau_x, tau_y, -p) along :data:`DIAGONAL3`, the complementary shear on every box's
+    sides), ``law`` on both pairs, the upper (top on middle) under ``conditions[0]``, the lower under
+    ``conditions[1]``. Stuck: u = (tau_x (z + 2) / G, tau_y (z + 2) / G, -p (z + 2) / E), G = E / 2."""
+    q = tau * DIAGONAL3
+    boxes = []
+    for k, (m, z0, name) in enumerate(zip(n, (0.0, -1.0, -2.0), ("top", "middle", "bottom"))):
+        mesh = cc.box(nx=m, ny=m, nz=1)
+        mesh = mesh.with_points(mesh.points + [0.0, 0.0, z0])
+        load = {**_side_shear(q), "top": (q[0], q[1], -P)} if k == 0 else _side_shear(q)
+        boxes.append(cc.Body(mesh, steel(nu=0.0), contact="top" if k == 2 else "bottom", traction=load, name=name,
+                             **({"clamped": "bottom"} if k == 2 else {})))
+    top, middle, bottom = boxes
+    return cc.Scene(*boxes, contacts=[cc.Contact(top, "bottom", middle, "top", law=law, condition=conditions[0]),
+                                      cc.Contact(middle, "bottom", bottom, "top", law=law, condition=conditions[1])])

@@ -273,6 +273,25 @@ def test_p2_friction_under_gamma3_in_2d_sticks_a_uniform_layer_closed_form():
 
 
 @pytest.mark.numerics
+def test_p2_friction_under_gamma3_beside_a_nodal_pair_sticks_a_stack_closed_form():
+    """Row 32 (b), supported beside a pair under a nodal condition (once refused there). Three blocks in the
+    uniform sheared state (tests/friction_scenes.py), the upper pair under "gamma3" (non-matching lines), the lower
+    under "sigma1", Tresca far above the shear: stuck, u = (tau (y + 2H) / G, -p (y + 2H) / E) in every block, exact
+    in P2 (measured 7.9e-14; 2D and 3D, Coulomb, the limits: tests/test_friction_p2_gamma3_mixed.py)."""
+    from friction_scenes import E as E2
+    from friction_scenes import H as H2
+    from friction_scenes import P as P2
+    from friction_scenes import uniform_stack
+
+    tau = 0.2 * P2
+    sol = cc.solve(uniform_stack(tau, cc.Tresca(10 * tau), ("gamma3", "sigma1"), (4, 3, 3)), degree=2)
+    assert sol.ok and sol.polished, sol.info.declined
+    for x, u in zip(sol.points, sol.u):
+        y = x[:, 1] + 2 * H2
+        assert rel(u, np.column_stack([2 * tau * y / E2, -P2 * y / E2])) <= 1e-9
+
+
+@pytest.mark.numerics
 def test_p2_cones_with_a_hencky_body_in_3d_are_solved_by_the_full_route():
     """Row 35 (b), supported in 3D (once refused). A Hencky block under P2 "gamma3" on tetrahedra: ``auto`` and
     "full" take the full route, finished by the accumulated cuts on the nonlinear (26) (measured equilibrium

@@ -62,7 +62,8 @@ def cone_program(problem) -> ContactModel:
 
 def cone_forces(problem, model, u, taus) -> tuple:
     """(y, None, beta) of the solved :func:`cone_program`: the Bernstein duals beta (the held elements' at their
-    least admissible value) and the nodal force y = B^T beta on X_h (E = I); scaled."""
+    least admissible value) and the nodal force y = B^T beta on X_h (E = I; beside a nodal pair with friction, on
+    E's rows, :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`); scaled."""
     B, w = problem.lines.cone[0], _width(problem)
     beta = held_cone(bernstein_duals(model.cone, model.row, w), B, problem.held_rows, problem.g, w)
     return B.T @ beta.ravel(), None, beta

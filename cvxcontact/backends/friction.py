@@ -26,8 +26,9 @@ the sliding motion.
 
 With P2 elements under "gamma3" (:func:`conic_full`, the term
 :class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
-(:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h, the normal forces y the
-cones' nodal force r = B^T beta (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`: the nodes' round,
+(:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h (beside a pair under a
+nodal condition the rows of E: that pair's own rows, each a degenerate element of the cones), the normal forces y the
+cones' force r = B^T beta on those rows (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`: the nodes' round,
 cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
 stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
 
@@ -244,7 +245,7 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
         if not trial.polished:
             return None
         solved.append(trial)
-        jump = sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))
+        jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))     # at the rows of the cones
         jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(n))
         U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
         return trial.y, jump - problem.g, np.full(n, U), trial, trial.active

@@ -402,6 +402,30 @@ class QuadraticStack:
             segs.append(seg + o)
         return sp.block_diag(blocks, format="csr"), read_only(np.concatenate(segs))
 
+    def row_cone(self, condition, conditions=None):
+        """(B, cells): :meth:`cone_rows` on the rows of :meth:`evaluation` E instead of the nodes of X_h, so that
+        B E is :meth:`cone_rows`' B and its cells are the same elements in the same order. A "gamma3" pair's rows
+        are its nodes of X_h (E the identity there): its :meth:`QuadraticInterface.bernstein` rows and cells,
+        indexed by row; a nodal pair's row a (three times in 2D, six in 3D) is the degenerate element of the
+        constant e_a q, its cell the row a repeated. A friction law's rows are the rows of E (its capacities on
+        their own weights, :meth:`weights`): beside a nodal pair the cones then sit on those rows
+        (docs/howto/friction.md, "P2 under 'gamma3'")."""
+        w = np.asarray(self.interfaces[0].segments).shape[1]
+        blocks, cells = [], []
+        conditions = self._each(condition, conditions)
+        for itf, c, o in zip(self.interfaces, conditions, self.row_offsets(condition, conditions)[:-1]):
+            E = itf.evaluation(c)
+            if c == "gamma3":
+                if E.shape != (itf.size, itf.size) or (E - sp.identity(itf.size)).count_nonzero():
+                    raise SceneError("row_cone: a 'gamma3' pair's rows must be its nodes of X_h")
+                blocks.append(itf.bernstein())
+                cells.append(np.asarray(getattr(itf, "cone_cells", itf.segments)) + o)
+                continue
+            m = E.shape[0]
+            blocks.append(sp.identity(m, format="csr")[np.repeat(np.arange(m), w)])
+            cells.append(np.repeat(np.arange(m), w).reshape(m, w) + o)
+        return sp.block_diag(blocks, format="csr"), read_only(np.concatenate(cells))
+
 
 class ConeRowLaws(RowLaws):
     """The :class:`~cvxcontact.contact.laws.RowLaws` of a P2 scene whose conic pairs sit next to

@@ -286,7 +286,7 @@ class DiscreteProblem:
                              f"row per law row; got E {E.shape} and {rows.size} law rows")
         lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
                         np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None,
-                        departure=None)
+                        departure=None, node_cone=None)
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)
@@ -391,17 +391,16 @@ def _capacity(scene, condition, lines):
         return None
     E = lines.E
     weights = row_weights(lines.interface, condition, scene.conditions)
-    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones' rows: X_h's nodes
+    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones on E's rows
         raise UnsupportedError(
             "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
-            "the friction rows at its nodes) is available where every pair is under 'gamma3' or against a rigid "
-            "obstacle and no pair has a normal-compliance law; not with a pair under a nodal condition or a "
-            "compliance law beside the cones: pose every pair under 'gamma3', or use condition='sigma1' or "
-            "'sigma2' (nodal rows at the P2 nodes of that body's faces, in 3D the finer side's on nested faces; "
-            "against a rigid obstacle every P2 node), or degree=1 with 'gamma3' (P1: the condition everywhere is "
-            "its nodal rows)")
+            "the friction rows at its nodes and at the rows of the pairs under a nodal condition) is not available "
+            "beside a normal-compliance law: pose every pair under a Signorini law (the default), or use "
+            "condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with "
+            "'gamma3' (P1: the condition everywhere is its nodal rows)")
+    pairs = getattr(lines.interface, "interfaces", (lines.interface,))
     if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
-            not getattr(i, "rigid", True) for i in getattr(lines.interface, "interfaces", (lines.interface,))):
+            not getattr(i, "rigid", True) and (c or condition) == "gamma3" for i, c in zip(pairs, scene.conditions)):
         raise UnsupportedError(
             "a pressure-dependent friction law (cc.Coulomb) with P2 tetrahedra under 'gamma3' between two bodies is "
             "not available: its capacities mu r_a need the cones' nodal normal forces r on the nodes of X_h, which "

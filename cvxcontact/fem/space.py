@@ -65,7 +65,9 @@ class ContactLines:
     (:class:`~cvxcontact.contact.truegap.GapDeparture`, m), None where the gap is quadratic on every element;
     ``independent``: the "gamma3" rows between two bodies are known to be linearly independent (Q1 hexahedra on
     nested faces: one row per node of the finer side, :func:`~cvxcontact.fem.hexfaces.independent_rows`), so no
-    route need treat them as possibly dependent.
+    route need treat them as possibly dependent; ``node_cone``: with a friction law under "gamma3" beside a pair
+    under a nodal condition, the cone on the nodes of X_h where ``cone`` sits on E's rows (None otherwise:
+    :attr:`cone_on_nodes`).
     """
 
     interface: object
@@ -81,6 +83,14 @@ class ContactLines:
     dependent: bool = False
     departure: GapDeparture | None = None
     independent: bool = False
+    node_cone: tuple | None = None
+
+    @property
+    def cone_on_nodes(self) -> tuple | None:
+        """(B, cells) of the conic condition on the nodes of X_h: ``cone`` where E is the identity; with a friction
+        law beside a pair under a nodal condition ``cone`` sits on E's rows (:meth:`~cvxcontact.contact.quadratic.
+        QuadraticStack.row_cone`) and this is ``node_cone``, its B times E (what the conic checks read)."""
+        return self.cone if self.node_cone is None else self.node_cone
 
     @property
     def conic(self) -> bool:
@@ -264,25 +274,42 @@ class P2:
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         pairs = p2_pairs(scene, nodes, condition, law)
         stack = pairs.stack
-        cone = None
-        if pairs.conic_only:       # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
+        cone = node_cone = None
+        rows = RowLaws(pair_laws(scene, law), np.diff(stack.row_offsets(condition, scene.conditions)))
+        if pairs.conic_only and rows.friction:   # a friction law's rows are E's: the cones on them (§8)
+            E = stack.evaluation(condition, list(pairs.conditions))
+            cone, node_cone = _row_cones(stack, condition, list(pairs.conditions))
+        elif pairs.conic_only:     # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, list(pairs.conditions))
         else:
             E = stack.evaluation(condition, list(pairs.conditions))
-        rows = RowLaws(pair_laws(scene, law), np.diff(stack.row_offsets(condition, scene.conditions)))
         mixed = None
         if pairs.mixed:            # the cone pairs' rows take the cone, not nodal limit rows (§10)
             rows = ConeRowLaws(rows.laws, rows.counts, np.repeat(pairs.cone_pairs, rows.counts))
             mixed = stack.bernstein_of(pairs.cone_pairs)
         weights = stack.weights(condition, scene.conditions) if rows.compliant else None   # Simpson (§10)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(stack.interfaces)])
-        departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), cone[1], gap)
+        on_nodes = node_cone or cone
+        departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), on_nodes[1], gap)
         return ContactLines(interface=pairs.interface, offsets=np.asarray(stack.offsets), E=E, cone=cone,
                             rows=rows, weights=weights,
                             cone_pairs=tuple(pairs.cone_pairs) if pairs.cone_pairs is not None else None,
                             gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed,
-                            departure=departure)
+                            departure=departure, node_cone=node_cone)
+
+
+def _row_cones(stack, condition, conditions) -> tuple[tuple, tuple | None]:
+    """(cone, node_cone) of a friction law under the conic condition: the cones on E's rows (each nodal row a
+    degenerate element, :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`; the friction rows and the
+    normal rows are then one set, the nodes of X_h on the "gamma3" pairs, each nodal pair's own rows) and the same
+    cones on the nodes of X_h (:meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`; None where E is
+    the identity: every pair's rows are its nodes)."""
+    E = stack.evaluation(condition, conditions)
+    on_rows = stack.row_cone(condition, conditions)
+    if E.shape[0] == E.shape[1] and (E - sp.identity(E.shape[0])).count_nonzero() == 0:
+        return on_rows, None
+    return on_rows, stack.cone_rows(condition, conditions)
 
 
 def gap_departure(scene, stack, conditions, cells, gap) -> GapDeparture | None:
@@ -483,13 +510,18 @@ class P2Tet(P2):
         pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
                  for itf, m in zip(scene.interfaces, members)]
         stack = QuadraticStack(pairs, members)
-        cone = weights = None
-        if "gamma3" in conditions and not compliant:   # the copositive condition on the gamma3 pairs (§16)
+        cone = weights = node_cone = None
+        friction = any(lw.friction is not None for lw in laws)
+        if "gamma3" in conditions and not compliant and friction:   # a friction law's rows are E's: the cones on them
+            E = stack.evaluation(condition, conditions)
+            cone, node_cone = _row_cones(stack, condition, conditions)
+        elif "gamma3" in conditions and not compliant:   # the copositive condition on the gamma3 pairs (§16)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, conditions)
         else:                            # nodal rows; a compliant gamma3 pair's: every node of X_h (§15)
             E = stack.evaluation(condition, conditions)
-        counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
+        counts = (np.diff(stack.offsets) if cone is not None and node_cone is None
+                  else np.diff(stack.row_offsets(condition, conditions)))
         on_cone = None
         if compliant:                    # a compliant pair's rows: the law's quadrature points on its triangles (§15)
             rules = [_law_rows(itf, c, lw, n, lim)
@@ -503,12 +535,12 @@ class P2Tet(P2):
             rows = ConeRowLaws(laws, counts, on_cone)
             mixed = stack.bernstein_of(cone_pairs)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
-        departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
+        departure = None if cone is None else gap_departure(scene, stack, conditions, (node_cone or cone)[1], gap)
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
                             E=E, cone=cone, rows=rows, weights=weights, gap=gap,
                             cone_pairs=tuple(cone_pairs) if compliant else None,
                             obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant,
-                            departure=departure, mixed_bernstein=mixed)
+                            departure=departure, mixed_bernstein=mixed, node_cone=node_cone)
 
 
 def _law_rows(itf, condition, law, n, limited) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:

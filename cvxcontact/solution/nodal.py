@@ -67,12 +67,12 @@ def read_back_cones(problem, raw, tol: float, timings) -> Solution:
     contact closes somewhere (:func:`~cvxcontact.solution.checks.touching_nodes` at ``tol``: a function of the
     displacement alone, not of the duals beta, which are not unique where runs of segments touch)."""
     blocks, E, gap, u, phi, beta = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi, raw.beta
-    B, elements = problem.lines.cone
+    B, elements = problem.lines.cone_on_nodes        # (beside a nodal pair a friction law's cones sit on E's rows)
     checks_ = conic_checks(blocks, u, phi, E.T @ raw.y, B, gap, beta, departure=problem.departure,
                            pairing=raw.pairing)
     if raw.certificate is not None:
         checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
-    on = _reads(B) & touching_nodes(blocks, u, gap, raw.y, B, elements, tol, departure=problem.departure)
+    on = _reads(B) & touching_nodes(blocks, u, gap, E.T @ raw.y, B, elements, tol, departure=problem.departure)
     return _assembled(problem, raw, tol, timings, checks_, B, on)
 
 

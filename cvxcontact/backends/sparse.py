@@ -198,8 +198,10 @@ class SparseContact:
 
     ``cap``: the largest number of rows changed from the base active set solved by the capacitance form
     before refactorising, and taken by the steps on the columns alone (:meth:`_settle`) (None: the measured cost
-    of one factorisation in column solves, the columns solved in blocks as the capacitance form solves them; at
-    least 16, at most 500; measured on the first change of 17 to 500 rows, :meth:`_over_cap`). The count of systems :meth:`solve` reports follows it (its answer does not).
+    of one numeric factorisation in column solves, the columns solved in blocks as the capacitance form solves
+    them; at least 16, at most 500; :meth:`_over_cap`: ``cap`` stays None until the capacitance form has solved a
+    block of 16 columns or more, which sets it). The count of systems :meth:`solve` reports follows it (its answer
+    does not).
     """
 
     def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
@@ -308,11 +310,12 @@ class SparseContact:
         """Whether the rows ``drop`` and ``add`` changed from the base are more than the cap (refactorise rather
         than solve by the capacitance form). The default cap (``cap=None``): a refactorisation costs about this
         many column solves, solved in blocks as :meth:`_solve_on` solves them: a numeric factorisation's time
-        (the least seen, PARDISO's analysis left out) over half a column's, at least :data:`CAP_MIN`, at most :data:`CAP_MAX`. A column's time is measured on the
-        first block of at least CAP_MIN columns the capacitance form solves (:meth:`_solve_columns`); until then
-        it is taken as :data:`BLOCK_GAIN` times less than the first single solve on a base (no block of columns
-        solved for the measurement alone: 16 columns cost about a numeric factorisation, 0.072-0.078 s on
-        thin_layer(3000), where the change that asked was then refactorised anyway)."""
+        (the least seen, PARDISO's analysis left out) over half a column's, at least :data:`CAP_MIN`, at most
+        :data:`CAP_MAX`. A column's time is measured on the first block of at least CAP_MIN columns the capacitance
+        form solves (:meth:`_solve_columns`); until then it is taken as :data:`BLOCK_GAIN` times less than the
+        first single solve on a base (no block of columns solved for the measurement alone: 16 columns cost about
+        a numeric factorisation, 0.072-0.078 s on thin_layer(3000), where the change that asked for them was then
+        refactorised anyway). Answers do not depend on it, only which sets are refactorised."""
         cap = self.cap
         if cap is None:
             cap = CAP_MIN if self._t_solve is None else \
@@ -375,7 +378,8 @@ class SparseContact:
         """(G Zx, Zy) (m x c each) of the base factor's capacitance columns for the rows ``drop`` (dropped from the
         base: a gap correction e_a on the row) and ``add`` (added: a force -G_a^T on x), cached across steps."""
         keys = [(int(a), 0) for a in drop] + [(int(a), 1) for a in add]
-        if len(self._columns) > 2 * max(self.cap or CAP_MIN, len(keys)):   # the cache O(m cap): the current rows
+        cap = CAP_MIN if self.cap is None else self.cap
+        if len(self._columns) > 2 * max(cap, len(keys)):    # keep the cache O(m cap): the current rows only
             self._columns = {k: v for k, v in self._columns.items() if k in set(keys)}
         new = [k for k in keys if k not in self._columns]
         if new:

@@ -513,3 +513,73 @@ def test_route_takes_the_coarse_start_where_the_other_starts_lead_nowhere(monkey
     assert len(starts) <= 1                                       # measured 1 (the bonded start cycled)
     # measured (SuperLU / PARDISO) u 3.4e-14 / 3.2e-14, phi 4.0e-14 / 3.1e-14, force 1.2e-11 / 5.9e-12: >= 800x
     fields_agree(sol, cc.solve(scene, method="full"), 1e-10, force_tol=1e-8)
+
+
+@pytest.mark.skipif(not __import__("cvxcontact.backends.factor", fromlist=["x"]).pardiso_available(),
+                    reason="Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+def test_pardiso_analysis_on_other_values_then_a_numeric_factorisation_solves_k_itself(layer):
+    """PardisoSymmetric.analyse: the analysis (ordering, scaling and weighted matching) on one matrix's values with
+    no factor of it, then a numeric factorisation of another matrix of the same pattern (the sparse route after
+    coarse_start: analysed on the bonded values, every factor numeric): its solves are those of K itself, as
+    SciPy's pivoting sparse LU solves it; a second analysis and a matrix of another pattern are refused."""
+    import scipy.sparse as sps
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.factor import PardisoSymmetric
+
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    sc = solver.cache.sparse
+    half = np.arange(sc.m) % 2 == 0
+    bonded, K = sc.matrix(np.ones(sc.m, dtype=bool)), sc.matrix(half)
+    b = np.concatenate([sc.F, np.where(half, sc._g, 0.0)])
+    ps = PardisoSymmetric(K).analyse(bonded)
+    assert ps.cost is not None and ps.cost[1] > 0
+    z = ps.factor(K).solve(b)
+    scale = np.maximum(abs(K) @ np.abs(z) + np.abs(b), np.finfo(float).tiny)     # componentwise backward error
+    # measured: backward error 3.3e-14, 7.1e-14 from SciPy's LU (Haswell, Prescott, Sandybridge kernels): >= 140x
+    assert float((np.abs(b - K @ z) / scale).max()) < 1e-11
+    assert rel(z, spla.spsolve(K.tocsc(), b)) < 1e-11
+    with pytest.raises(cc.SolverError, match="already analysed"):
+        ps.analyse(bonded)
+    with pytest.raises(cc.SolverError, match="pattern differs"):
+        PardisoSymmetric(K).analyse(sps.identity(K.shape[0], format="csc"))
+    ps.release()
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_default_cap_is_measured_on_the_capacitance_forms_own_columns(layer, factorization):
+    """SparseContact's default cap (cap=None, SparseContact._over_cap): a change of at most CAP_MIN rows is solved
+    by the capacitance form and one of more than CAP_MAX refactorised, whatever the timings; the first block of at
+    least CAP_MIN columns the capacitance form solves sets the cap within [CAP_MIN, CAP_MAX], with no column solved
+    for the measurement alone (column_solves counts the rows asked). Those columns are the base matrix's inverse
+    on the rows' unit vectors (SciPy's LU); the steps with this cap end on the full model's set and answer."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends import factor as factor_module
+    from cvxcontact.backends.sparse import CAP_MAX, CAP_MIN
+
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    problem = cc.ContactSolver(layer, method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    sc = SparseContact(blocks, E, factorization=factorization)
+    bonded = np.ones(sc.m, dtype=bool)
+    assert sc.m > CAP_MIN + 4 and sc._refactor(bonded)
+    none = np.zeros(0, dtype=int)
+    assert not sc._over_cap(np.arange(CAP_MIN), none) and sc._over_cap(np.arange(CAP_MAX + 1), none)
+    assert sc.cap is None and sc.column_solves == 0                  # nothing solved to decide those
+    drop = np.arange(0, sc.m, 2)[:CAP_MIN + 4]                       # CAP_MIN + 4 rows dropped from the base
+    GZ, YZ = sc._capacitance_columns(drop, none)
+    assert sc.column_solves == len(drop) and CAP_MIN <= sc.cap <= CAP_MAX
+    rhs = np.zeros((sc.n + sc.m, len(drop)))
+    rhs[sc.n + drop, np.arange(len(drop))] = 1.0                     # a gap correction on each dropped row
+    Z = spla.splu(sc.matrix(bonded).tocsc()).solve(rhs)
+    # measured 2.9e-10 .. 8.6e-10 (SuperLU unpivoted against SciPy's pivoting LU: the slender layer's conditioning),
+    # 1.2e-13 .. 7.1e-12 (PARDISO), under the Haswell, Prescott and Sandybridge kernels: >= 116x
+    assert rel(GZ, sc.G @ Z[:sc.n]) < 1e-7 and rel(YZ, Z[sc.n:]) < 1e-7
+    active = SparseContact(blocks, E, factorization=factorization).solve(F, g)[3]
+    sol, full = cc.solve(layer, method="sparse", factorization=factorization), cc.solve(layer, method="full")
+    assert np.array_equal(active, np.asarray(full.contact.active)) and np.array_equal(active, sol.contact.active)
+    fields_agree(sol, full, 1e-9, force_tol=2e-8)            # as in the test of this scene above (its conditioning)

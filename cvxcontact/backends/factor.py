@@ -575,12 +575,29 @@ class PardisoSymmetric:
 
     _call = PardisoFactorization._call
 
-    def factor(self, K):
-        """Numeric factorisation of ``K`` (same pattern as at construction); self."""
+    def _values(self, K, what):
         data = sp.csc_matrix(K).data
         if len(data) != len(self._upper):
-            raise SolverError("PardisoSymmetric.factor: K's pattern differs from the analysed one")
+            raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one")
         self._a[:] = data[self._upper]
+
+    def analyse(self, K):
+        """The analysis alone (PARDISO's phase 11: ordering, symbolic factorisation, and the scaling and weighted
+        matching computed from ``K``'s values), kept for every later :meth:`factor`, which is then numeric only;
+        no factor is made of ``K`` itself (saves a numeric factorisation where ``K`` is not solved with). Only
+        before the first :meth:`factor`; self."""
+        if self._analysed:
+            raise SolverError("PardisoSymmetric.analyse: already analysed (a new handle analyses afresh)")
+        self._values(K, "analyse")
+        self._call(11, None, None)
+        self.cost = (float(self._iparm[18]), float(self._iparm[17]))     # (factor Mflop, factor nonzeros)
+        self._analysed = True
+        return self
+
+    def factor(self, K):
+        """Numeric factorisation of ``K`` (same pattern as at construction; analysed on ``K`` itself unless
+        :meth:`analyse` came first); self."""
+        self._values(K, "factor")
         self._call(22 if self._analysed else 12, None, None)
         if not self._analysed:     # (factor Mflop, factor nonzeros) of the analysis
             self.cost = (float(self._iparm[18]), float(self._iparm[17]))

@@ -89,6 +89,16 @@ COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
 neighbours); the start closes every row within as many hops of a closed coarse row."""
 
+CAP_MIN, CAP_MAX = 16, 500
+"""The bounds of the default ``cap`` of :class:`SparseContact` (:meth:`SparseContact._over_cap`): changes of at
+most CAP_MIN rows are always solved by the capacitance form, changes of more than CAP_MAX rows always refactorised."""
+
+BLOCK_GAIN = 3.0
+"""How many times less a capacitance column costs, solved in a block of :data:`CAP_MIN` or more, than a single
+solve: the default cap's first guess, before a block has been timed (:meth:`SparseContact._over_cap`). Measured,
+one thread: thin_layer(3000) 0.0045 s against 0.016 s (3.5x) with PARDISO; two elastic boxes of 1.1e4 and 2.0e4
+unknowns 2.5-6x."""
+
 NEAR_DEPENDENT = 1e-2
 """Two rows whose Jacobi-scaled cosine exceeds 1 - this are nearly dependent (merged nodes of two traces close
 together): the start closes at most one of them (the more compliant)."""
@@ -188,8 +198,10 @@ class SparseContact:
 
     ``cap``: the largest number of rows changed from the base active set solved by the capacitance form
     before refactorising, and taken by the steps on the columns alone (:meth:`_settle`) (None: the measured cost
-    of one factorisation in column solves, the columns solved in blocks as the capacitance form solves them; at
-    least 16, at most 500). The count of systems :meth:`solve` reports follows it (its answer does not).
+    of one numeric factorisation in column solves, the columns solved in blocks as the capacitance form solves
+    them; at least 16, at most 500; :meth:`_over_cap`: ``cap`` stays None until the capacitance form has solved a
+    block of 16 columns or more, which sets it). The count of systems :meth:`solve` reports follows it (its answer
+    does not).
     """
 
     def __init__(self, blocks, E, cap: int | None = None, factorization: str = "superlu", soft=None):
@@ -237,6 +249,8 @@ class SparseContact:
         self.column_solves = 0
         self.attempts = 0                 # the attempts (:meth:`_attempts`) the last :meth:`solve` made
         self._bonded_analysis = False     # PARDISO's analysis on the bonded values (:meth:`_refactor`)
+        self._t_fact = None               # seconds of a numeric factorisation (the default cap, :meth:`_over_cap`)
+        self._t_solve = None              # seconds of the first single solve on a base (the same)
 
     def matrix(self, active) -> sp.csc_matrix:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
@@ -252,7 +266,9 @@ class SparseContact:
         """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
         analysis is made on the first matrix a new handle factorises, and its scaling and weighted matching kept
         for every later factorisation; after :meth:`coarse_start` it is made on the values of the bonded system
-        instead (every row some unknown moves closed; one numeric factorisation more), whatever ``active`` is:
+        instead (every row some unknown moves closed; the analysis alone,
+        :meth:`~cvxcontact.backends.factor.PardisoSymmetric.analyse`, no numeric factorisation of those values:
+        0.075 s less on thin_layer(3000)), whatever ``active`` is:
         the matching then pairs every contact row with a dof, so a row closed later finds its pivot (measured,
         thin_layer(3000) from the coarse start: analysed on the start's own values 69-72 perturbed pivots in every
         later factorisation, each solve 2.4 times slower and followed by a refinement; on the bonded values none,
@@ -268,7 +284,8 @@ class SparseContact:
                     self._pardiso = PardisoSymmetric(K)
                     moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
                     if self._bonded_analysis and not own_analysis and not np.array_equal(active, moves):
-                        self._pardiso.factor(self.matrix(moves))        # the analysis on the bonded values
+                        self._pardiso.analyse(self.matrix(moves))       # the analysis on the bonded values
+                    t1 = time.perf_counter()      # (a numeric factorisation's time: without the analysis)
                 factor = self._pardiso.factor(K)
             except SolverError:
                 self._pardiso, self.factorization = None, "superlu"     # refused: SuperLU from here on
@@ -281,17 +298,29 @@ class SparseContact:
                 factor = factorize(K, self.perm)
             except RuntimeError:
                 return False
-        t_fact = time.perf_counter() - t1
+        t_fact = time.perf_counter() - t1                  # the least seen (the first may include PARDISO's analysis)
+        self._t_fact = t_fact if self._t_fact is None else min(self._t_fact, t_fact)
         self.factorizations += 1
         self.factor_time += time.perf_counter() - t0
         self.base = (active.copy(), factor)
         self._columns, self._base_state = {}, None
-        if self.cap is None:   # a refactorisation costs about this many column solves, solved in blocks as
-            t1 = time.perf_counter()        # _solve_on does (one at a time a column costs 2.5-6 times more, measured
-            factor.solve(np.ones((K.shape[0], 16)))     # on two elastic boxes of 1.1e4 and 2.0e4 unknowns)
-            t_col = max((time.perf_counter() - t1) / 16, 1e-7)
-            self.cap = int(min(max(16, t_fact / t_col / 2), 500))
         return True
+
+    def _over_cap(self, drop, add) -> bool:
+        """Whether the rows ``drop`` and ``add`` changed from the base are more than the cap (refactorise rather
+        than solve by the capacitance form). The default cap (``cap=None``): a refactorisation costs about this
+        many column solves, solved in blocks as :meth:`_solve_on` solves them: a numeric factorisation's time
+        (the least seen, PARDISO's analysis left out) over half a column's, at least :data:`CAP_MIN`, at most
+        :data:`CAP_MAX`. A column's time is measured on the first block of at least CAP_MIN columns the capacitance
+        form solves (:meth:`_solve_columns`); until then it is taken as :data:`BLOCK_GAIN` times less than the
+        first single solve on a base (no block of columns solved for the measurement alone: 16 columns cost about
+        a numeric factorisation, 0.072-0.078 s on thin_layer(3000), where the change that asked for them was then
+        refactorised anyway). Answers do not depend on it, only which sets are refactorised."""
+        cap = self.cap
+        if cap is None:
+            cap = CAP_MIN if self._t_solve is None else \
+                int(min(max(CAP_MIN, self._t_fact * BLOCK_GAIN / self._t_solve / 2), CAP_MAX))
+        return len(drop) + len(add) > cap
 
     def _solve_on(self, active, b):
         """z with K(active) z = b through the base factor and the capacitance form; None if singular."""
@@ -304,7 +333,11 @@ class SparseContact:
         bb[n + drop] = 0.0
         bb[n + add] = 0.0
         if c == 0:
-            return factor.solve(bb)
+            t0 = time.perf_counter()
+            z = factor.solve(bb)
+            if self._t_solve is None:                   # the first single solve (the default cap, _over_cap)
+                self._t_solve = time.perf_counter() - t0
+            return z
         GZ, YZ = self._capacitance_columns(drop, add)
         z0 = factor.solve(bb)
         ts = self._capacitance(GZ, YZ, drop, add, self.G[add] @ z0[:n], z0[n:], b[n + add])
@@ -319,27 +352,38 @@ class SparseContact:
         z[n + add] = ts[len(drop):]
         return z
 
+    def _solve_columns(self, keys):
+        """Solve the base factor's capacitance columns ``keys`` ((row, 0): a gap correction e_a on a row dropped
+        from the base; (row, 1): a force -G_a^T on x along an added row) in one block and cache their
+        (G Zx, Zy); the first block of at least :data:`CAP_MIN` columns sets the default cap (:meth:`_over_cap`)."""
+        n, factor = self.n, self.base[1]
+        cols = np.zeros((n + self.m, len(keys)))
+        for j, (a, kind) in enumerate(keys):
+            if kind == 0:
+                cols[n + a, j] = 1.0                                  # a gap correction on the dropped row
+            else:
+                row = self.G.getrow(a)
+                cols[row.indices, j] = -row.data                     # a force on x along the added row
+        t0 = time.perf_counter()
+        Z = factor.solve(cols)
+        t_col = max((time.perf_counter() - t0) / len(keys), 1e-7)
+        if self.cap is None and len(keys) >= CAP_MIN:          # the default cap, measured (:meth:`_over_cap`)
+            self.cap = int(min(max(CAP_MIN, self._t_fact / t_col / 2), CAP_MAX))
+        self.column_solves += len(keys)
+        GZ, YZ = self.G @ Z[:n], Z[n:]
+        for j, k in enumerate(keys):
+            self._columns[k] = (GZ[:, j], YZ[:, j])
+
     def _capacitance_columns(self, drop, add):
         """(G Zx, Zy) (m x c each) of the base factor's capacitance columns for the rows ``drop`` (dropped from the
         base: a gap correction e_a on the row) and ``add`` (added: a force -G_a^T on x), cached across steps."""
-        n, factor = self.n, self.base[1]
         keys = [(int(a), 0) for a in drop] + [(int(a), 1) for a in add]
-        if len(self._columns) > 2 * max(self.cap, len(keys)):    # keep the cache O(m cap): the current rows only
+        cap = CAP_MIN if self.cap is None else self.cap
+        if len(self._columns) > 2 * max(cap, len(keys)):    # keep the cache O(m cap): the current rows only
             self._columns = {k: v for k, v in self._columns.items() if k in set(keys)}
         new = [k for k in keys if k not in self._columns]
         if new:
-            cols = np.zeros((n + self.m, len(new)))
-            for j, (a, kind) in enumerate(new):
-                if kind == 0:
-                    cols[n + a, j] = 1.0                              # a gap correction on the dropped row
-                else:
-                    row = self.G.getrow(a)
-                    cols[row.indices, j] = -row.data                 # a force on x along the added row
-            Z = factor.solve(cols)
-            self.column_solves += len(new)
-            GZ, YZ = self.G @ Z[:n], Z[n:]
-            for j, k in enumerate(new):
-                self._columns[k] = (GZ[:, j], YZ[:, j])
+            self._solve_columns(new)
         if not keys:
             return np.zeros((self.m, 0)), np.zeros((self.m, 0))
         return (np.column_stack([self._columns[k][0] for k in keys]),
@@ -374,7 +418,7 @@ class SparseContact:
         for _ in range(max_iter):
             drop = np.flatnonzero(A_b & ~active)
             add = np.flatnonzero(active & ~A_b)
-            if len(drop) + len(add) > self.cap or active.tobytes() in seen:
+            if active.tobytes() in seen or self._over_cap(drop, add):
                 return active
             if self._base_state is None:              # the base set's own solution, once per base and load
                 zb = factor.solve(np.concatenate([self.F, np.where(A_b, self._g, 0.0)]))
@@ -403,7 +447,8 @@ class SparseContact:
         for attempt in range(3):
             if attempt == 2:
                 self.forget(analysis=True)
-            if self.base is None or int((self.base[0] ^ active).sum()) > self.cap or attempt >= 1:
+            if self.base is None or attempt >= 1 or self._over_cap(np.flatnonzero(self.base[0] & ~active),
+                                                                   np.flatnonzero(active & ~self.base[0])):
                 if not self._refactor(active, K, own_analysis=attempt == 2):
                     return None
             b = np.concatenate([self.F, np.where(active, self._g, 0.0)])

@@ -717,3 +717,98 @@ def test_a_load_free_layer_in_an_open_gap_is_refused_after_the_solve():
         cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", FLOOR), cc.Contact(layer, "top", above)]))
     msg = _message(info)
     assert "does not determine the translation y of body 'layer'" in msg and "open" in msg and "support" in msg
+
+
+# ================================================================ rows 37-41: cc.Model user terms beside friction,
+# and the hexahedral refusals of fem/hexfaces.py (each the b-verdict's test: it XPASSes the day the refusal goes)
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 37")
+def test_model_takes_a_user_constraint_beside_a_friction_law():
+    """Row 37: cc.Model refuses user terms beside a friction law (the term's ``refuses_user_terms``). Reference: a
+    user constraint that never binds (the block's nodes stay above y = -1 m) leaves the answer of
+    ``cc.solve(..., method="full")``."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    scene = sheared(0.35 * P_FRICTION, cc.Tresca(0.5 * P_FRICTION))
+    ref = cc.solve(scene, "sigma1", method="full")
+    model = cc.Model(scene, "sigma1")
+    model.add(model.u(scene.bodies[0])[:, 1] >= -1.0)
+    sol = model.solve()
+    assert ref.ok and sol.ok and rel(sol.u[0], ref.u[0]) <= 1e-9
+    assert rel(sol.contact.shear_force, ref.contact.shear_force) <= 1e-9
+
+
+STIFF = 1e6
+"""How much stiffer than steel the stiff block of a non-matching pair is (rows 40, 41): nearly rigid."""
+
+
+def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=None):
+    """Two hexahedral blocks [0, 1]^2 x (0, 0.5) and x (0.5, 1) (``lower_n``, ``upper_n`` cells across; rollers on
+    the sides, the lower clamped at its bottom, the upper's top pushed down delta = 1e-5 m: tests/hex_scenes.py), of
+    steel, the one ``stiff`` ("lower", "upper") STIFF times stiffer, solved under ``condition`` and ``law``, checked
+    against the closed form of uniaxial strain in series (a law of stiffness ``k`` between them): sigma = delta /
+    (h1/E1' + 1/k + h2/E2'), u_z linear in each block. Exact in Q1 and Q2 where the faces match (or are aligned
+    under "gamma3"); where they do not, the rows at the nodes of one side (the nodal condition, a law weighted by
+    that side's hats: consistent loads of a uniform pressure) give the closed form when the other side is nearly
+    rigid (flat): within 2e-4 delta (measured on the taken Q1 cases: 1.3e-6 delta under "sigma1", 3.4e-7 under
+    "sigma2", the stiff side's own strain; 0.23 delta with two steel blocks, the point loads of the rows; where
+    exact, 8.5e-16 (Q2) and 3.4e-16 (Q1 "gamma3" with the law))."""
+    from hex_scenes import DELTA as PUSH
+    from hex_scenes import STEEL, block, pair
+
+    from cvxcontact.fem.space import space
+
+    mats = [STEEL, STEEL]
+    if stiff is not None:
+        mats[("lower", "upper").index(stiff)] = cc.materials.isotropic(E=STEEL.E * STIFF, nu=STEEL.nu)
+    scene = pair(block(lower_n, (0.0, 0.5)), block(upper_n, (0.5, 1.0)), materials=tuple(mats))
+    sol = cc.solve(scene, condition, degree=degree, law=law)
+    Ep = [m.E * (1 - m.nu) / ((1 + m.nu) * (1 - 2 * m.nu)) for m in mats]
+    sigma = PUSH / (0.5 / Ep[0] + 0.5 / Ep[1] + 1 / k)
+    exact = [lambda z: -sigma * z / Ep[0], lambda z: -sigma * 0.5 / Ep[0] - sigma / k - sigma * (z - 0.5) / Ep[1]]
+    bound = 1e-9 if stiff is None else 2e-4
+    assert sol.ok
+    for body, u, f in zip(scene.bodies, sol.u, exact):
+        z = space(degree, "hex").node_set(body.mesh).points[:, 2]
+        assert np.abs(u[:, 2] - f(z)).max() <= bound * PUSH and np.abs(u[:, :2]).max() <= bound * PUSH
+    return sol
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 38")
+def test_q2_hexahedra_under_gamma3_closed_form():
+    """Row 38: "gamma3" on Q2 (27-node) hexahedra, matching faces: uniaxial strain in series (closed form)."""
+    _hex_series(2, 2, 2, "gamma3")
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 39")
+def test_q2_hexahedra_with_a_compliance_law_closed_form():
+    """Row 39: a normal-compliance law on Q2 hexahedra, matching faces: two blocks and the law in series."""
+    _hex_series(2, 2, 2, "sigma1", cc.NormalCompliance(stiffness=1e12), k=1e12)
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 40")
+def test_q2_hexahedra_on_faces_that_do_not_match_closed_form():
+    """Row 40: Q2 hexahedra whose contact faces do not match (2 x 2 under 3 x 3), "sigma1" (the lower's nodes), the
+    upper nearly rigid: the closed form."""
+    _hex_series(2, 3, 2, "sigma1", stiff="upper")
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 41")
+@pytest.mark.parametrize("condition, stiff", [("sigma1", "upper"), ("sigma2", "lower")])
+def test_q1_hexahedra_with_a_compliance_law_on_faces_that_do_not_match_closed_form(condition, stiff):
+    """Row 41: a normal-compliance law on Q1 hexahedra whose faces neither match nor nest (2 x 2 under 3 x 3) under
+    a nodal condition ("gamma3" takes them: aligned grids), the other side nearly rigid: the law and the block in
+    series (closed form)."""
+    _hex_series(2, 3, 1, condition, cc.NormalCompliance(stiffness=1e12), k=1e12, stiff=stiff)
+
+
+def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
+    """The reference of rows 38-41 is right where the package takes the scene: Q2 "sigma1" on matching faces, Q1
+    "gamma3" with the compliance law on the aligned 2 x 2 / 3 x 3 faces, Q1 "sigma1" and "sigma2" on them without
+    it, the other side nearly rigid."""
+    _hex_series(2, 2, 2, "sigma1")
+    _hex_series(2, 3, 1, "gamma3", cc.NormalCompliance(stiffness=1e12), k=1e12)
+    _hex_series(2, 3, 1, "sigma1", stiff="upper")
+    _hex_series(2, 3, 1, "sigma2", stiff="lower")

@@ -812,3 +812,50 @@ def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
     _hex_series(2, 3, 1, "gamma3", cc.NormalCompliance(stiffness=1e12), k=1e12)
     _hex_series(2, 3, 1, "sigma1", stiff="upper")
     _hex_series(2, 3, 1, "sigma2", stiff="lower")
+
+
+def _hex_under(obstacle, condition="gamma3"):
+    """A steel Q1 block [0, 1]^2 x (0, 0.5) of 2 x 2 x 1 hexahedra (rollers on the sides, clamped at its bottom)
+    whose top meets ``obstacle``."""
+    from hex_scenes import SIDES, STEEL, block
+
+    body = cc.Body(block(2, (0.0, 0.5)), STEEL, roller=SIDES, clamped=["bottom"], contact="top", name="block")
+    return cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", obstacle)]), condition)
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 42")
+def test_q1_hexahedra_under_gamma3_against_a_nearly_flat_sphere_is_the_plane_answer():
+    """Row 42: "gamma3" on Q1 hexahedra against a curved obstacle. Reference, a limit: a sphere of radius 1e7 m
+    pressed 1 mm into the block's top is flat to 2.5e-8 m over it (r^2 / 2R, r <= 0.71 m; its centre's rounding
+    1.9e-9 m), so its answer is the plane's ("gamma3" takes planes) to 5e-3 of the push (the gap's departure
+    from flat is 2.5e-5 of it; under "sigma1" the answers differ by 2.5e-5 of it)."""
+    delta, R = 1e-3, 1e7
+    plane = _hex_under(cc.Rigid.plane((0.0, 0.0, 0.5 - delta), (0.0, 0.0, -1.0)))
+    sphere = _hex_under(cc.Rigid.sphere((0.5, 0.5, 0.5 - delta + R), R))
+    assert plane.ok and sphere.ok and plane.contact.active.all()
+    assert np.abs(sphere.u[0] - plane.u[0]).max() <= 5e-3 * delta
+
+
+def test_q1_hexahedra_take_a_nearly_flat_sphere_under_the_nodal_condition():
+    """The reference of row 42 where the scene is taken ("sigma1", the block's nodes): the sphere's answer is the
+    plane's (measured 2.5e-5 of the push: the sphere's departure from flat)."""
+    delta, R = 1e-3, 1e7
+    plane = _hex_under(cc.Rigid.plane((0.0, 0.0, 0.5 - delta), (0.0, 0.0, -1.0)), "sigma1")
+    sphere = _hex_under(cc.Rigid.sphere((0.5, 0.5, 0.5 - delta + R), R), "sigma1")
+    assert plane.ok and sphere.ok and plane.contact.active.all()
+    assert np.abs(sphere.u[0] - plane.u[0]).max() <= 5e-3 * delta
+
+
+def test_the_equilibrated_bound_refuses_what_it_does_not_cover_and_the_residual_estimate_takes_it():
+    """Row 43 (c): ``estimate="equilibrated"`` on a scene the bound does not cover (P2 elements, friction) is refused
+    before anything is solved, naming what it covers and the residual estimate; ``estimate=True`` solves it."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    scene = sheared(0.35 * P_FRICTION, cc.Tresca(0.5 * P_FRICTION))
+    for options, words in (({"degree": 2}, "P2 elements"), ({}, "friction")):
+        with pytest.raises(cc.UnsupportedError, match="equilibrated error bound does not cover") as info:
+            cc.solve(scene, "sigma1", estimate="equilibrated", **options)
+        assert words in _message(info) and "estimate=True" in _message(info)
+        sol = cc.solve(scene, "sigma1", estimate=True, **options)
+        assert sol.ok and sol.estimate is not None

@@ -859,3 +859,31 @@ def test_the_equilibrated_bound_refuses_what_it_does_not_cover_and_the_residual_
         assert words in _message(info) and "estimate=True" in _message(info)
         sol = cc.solve(scene, "sigma1", estimate=True, **options)
         assert sol.ok and sol.estimate is not None
+
+
+def test_a_load_friction_cannot_hold_is_refused_naming_the_sliding():
+    """Row 44 (a): a block on a floor under a Tresca threshold g, its net shear load 2 % above the capacity g L: no
+    equilibrium exists (it slides); the refusal names the body, the motion, the load, the capacity and the fix.
+    2 % below it the block holds, its tangential forces balancing the load."""
+    from friction_scenes import L as LENGTH
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    g = 0.5 * P_FRICTION
+    with pytest.raises(cc.SceneError, match="exceeds the friction capacity") as info:
+        cc.solve(sheared(1.02 * g, cc.Tresca(g)), "sigma1")
+    message = _message(info)
+    assert "slides" in message and "translation x" in message and "no equilibrium" in message
+    sol = cc.solve(sheared(0.98 * g, cc.Tresca(g)), "sigma1")
+    assert sol.ok and sol.contact.shear_force.sum() == pytest.approx(-0.98 * g * LENGTH, rel=1e-9)
+
+
+def test_a_guide_no_contact_row_sees_is_refused():
+    """Row 45 (a): a force-controlled plane guided along its own tangent: no translation it may make changes a
+    distance to its pairs' nodes, so no contact force balances its force (the obstacle is free along the guide)."""
+    mesh = cc.box(x=(0, 1e-2), y=(0, 1e-2), z=(0, 5e-3), nx=2, ny=2, nz=1)
+    body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), name="layer", clamped=["bottom"], contact="top")
+    plane = cc.Rigid.plane((0, 0, 5e-3), (0, 0, -1), force=(1.0, 0, 0), guided=(1, 0, 0))
+    with pytest.raises(cc.SceneError, match="along its guided axes changes no distance") as info:
+        cc.Scene(body, contacts=[cc.Contact(body, "top", plane)])
+    assert "guide it along a direction that presses it onto the bodies" in _message(info)

@@ -744,10 +744,11 @@ STIFF = 1e6
 """How much stiffer than steel the stiff block of a non-matching pair is (rows 40, 41): nearly rigid."""
 
 
-def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=None):
+def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=None, skewed=False):
     """Two hexahedral blocks [0, 1]^2 x (0, 0.5) and x (0.5, 1) (``lower_n``, ``upper_n`` cells across; rollers on
     the sides, the lower clamped at its bottom, the upper's top pushed down delta = 1e-5 m: tests/hex_scenes.py), of
-    steel, the one ``stiff`` ("lower", "upper") STIFF times stiffer, solved under ``condition`` and ``law``, checked
+    steel, the one ``stiff`` ("lower", "upper") STIFF times stiffer (``skewed``: both grids warped alike,
+    tests/hex_scenes.warp: general quadrilateral faces), solved under ``condition`` and ``law``, checked
     against the closed form of uniaxial strain in series (a law of stiffness ``k`` between them): sigma = delta /
     (h1/E1' + 1/k + h2/E2'), u_z linear in each block. Exact in Q1 and Q2 where the faces match (or are aligned
     under "gamma3"); where they do not, the rows at the nodes of one side (the nodal condition, a law weighted by
@@ -763,7 +764,7 @@ def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=N
     mats = [STEEL, STEEL]
     if stiff is not None:
         mats[("lower", "upper").index(stiff)] = cc.materials.isotropic(E=STEEL.E * STIFF, nu=STEEL.nu)
-    scene = pair(block(lower_n, (0.0, 0.5)), block(upper_n, (0.5, 1.0)), materials=tuple(mats))
+    scene = pair(block(lower_n, (0.0, 0.5), skewed), block(upper_n, (0.5, 1.0), skewed), materials=tuple(mats))
     sol = cc.solve(scene, condition, degree=degree, law=law)
     Ep = [m.E * (1 - m.nu) / ((1 + m.nu) * (1 - 2 * m.nu)) for m in mats]
     sigma = PUSH / (0.5 / Ep[0] + 0.5 / Ep[1] + 1 / k)
@@ -812,6 +813,15 @@ def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
     _hex_series(2, 3, 1, "gamma3", cc.NormalCompliance(stiffness=1e12), k=1e12)
     _hex_series(2, 3, 1, "sigma1", stiff="upper")
     _hex_series(2, 3, 1, "sigma2", stiff="lower")
+    _hex_series(2, 2, 1, "sigma1", skewed=True)
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 46")
+def test_q2_hexahedra_with_faces_that_are_not_parallelograms_closed_form():
+    """Row 46: Q2 hexahedra whose contact faces are general quadrilaterals (both 2 x 2 grids warped alike, matching
+    faces), "sigma1": uniaxial strain in series, exact (Q2 on trilinear maps holds the linear fields; Q1 takes the
+    scene and gives it: test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken)."""
+    _hex_series(2, 2, 2, "sigma1", skewed=True)
 
 
 def _hex_under(obstacle, condition="gamma3"):

@@ -233,6 +233,7 @@ def test_a_scene_file_poses_coulomb_on_its_pair(tmp_path):
     assert np.abs(sol.u[0] - direct.u[0]).max() < 1e-12 * np.abs(direct.u[0]).max()
 
 
+@pytest.mark.numerics
 def test_a_sweep_over_the_coefficient_stores_the_friction_read_back(tmp_path):
     """A sweep of the scene file above over the Coulomb coefficient: each case's arrays hold the friction read-back
     (slip, tangential forces, traction, threshold; with their units) equal to the direct solve's, and the stored

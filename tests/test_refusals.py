@@ -723,6 +723,7 @@ def test_a_load_free_layer_in_an_open_gap_is_refused_after_the_solve():
 # and the hexahedral refusals of fem/hexfaces.py (each the b-verdict's test: it XPASSes the day the refusal goes)
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 37")
 def test_model_takes_a_user_constraint_beside_a_friction_law():
     """Row 37: cc.Model refuses user terms beside a friction law (the term's ``refuses_user_terms``). Reference: a
@@ -777,18 +778,21 @@ def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=N
     return sol
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 38")
 def test_q2_hexahedra_under_gamma3_closed_form():
     """Row 38: "gamma3" on Q2 (27-node) hexahedra, matching faces: uniaxial strain in series (closed form)."""
     _hex_series(2, 2, 2, "gamma3")
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 39")
 def test_q2_hexahedra_with_a_compliance_law_closed_form():
     """Row 39: a normal-compliance law on Q2 hexahedra, matching faces: two blocks and the law in series."""
     _hex_series(2, 2, 2, "sigma1", cc.NormalCompliance(stiffness=1e12), k=1e12)
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 40")
 def test_q2_hexahedra_on_faces_that_do_not_match_closed_form():
     """Row 40: Q2 hexahedra whose contact faces do not match (2 x 2 under 3 x 3), "sigma1" (the lower's nodes), the
@@ -796,6 +800,7 @@ def test_q2_hexahedra_on_faces_that_do_not_match_closed_form():
     _hex_series(2, 3, 2, "sigma1", stiff="upper")
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 41")
 @pytest.mark.parametrize("condition, stiff", [("sigma1", "upper"), ("sigma2", "lower")])
 def test_q1_hexahedra_with_a_compliance_law_on_faces_that_do_not_match_closed_form(condition, stiff):
@@ -805,6 +810,7 @@ def test_q1_hexahedra_with_a_compliance_law_on_faces_that_do_not_match_closed_fo
     _hex_series(2, 3, 1, condition, cc.NormalCompliance(stiffness=1e12), k=1e12, stiff=stiff)
 
 
+@pytest.mark.numerics
 def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
     """The reference of rows 38-41 is right where the package takes the scene: Q2 "sigma1" on matching faces, Q1
     "gamma3" with the compliance law on the aligned 2 x 2 / 3 x 3 faces, Q1 "sigma1" and "sigma2" on them without
@@ -816,6 +822,7 @@ def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
     _hex_series(2, 2, 1, "sigma1", skewed=True)
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 46")
 def test_q2_hexahedra_with_faces_that_are_not_parallelograms_closed_form():
     """Row 46: Q2 hexahedra whose contact faces are general quadrilaterals (both 2 x 2 grids warped alike, matching
@@ -833,6 +840,7 @@ def _hex_under(obstacle, condition="gamma3"):
     return cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", obstacle)]), condition)
 
 
+@pytest.mark.numerics
 @pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 42")
 def test_q1_hexahedra_under_gamma3_against_a_nearly_flat_sphere_is_the_plane_answer():
     """Row 42: "gamma3" on Q1 hexahedra against a curved obstacle. Reference, a limit: a sphere of radius 1e7 m
@@ -846,6 +854,7 @@ def test_q1_hexahedra_under_gamma3_against_a_nearly_flat_sphere_is_the_plane_ans
     assert np.abs(sphere.u[0] - plane.u[0]).max() <= 5e-3 * delta
 
 
+@pytest.mark.numerics
 def test_q1_hexahedra_take_a_nearly_flat_sphere_under_the_nodal_condition():
     """The reference of row 42 where the scene is taken ("sigma1", the block's nodes): the sphere's answer is the
     plane's (measured 2.5e-5 of the push: the sphere's departure from flat)."""
@@ -871,6 +880,7 @@ def test_the_equilibrated_bound_refuses_what_it_does_not_cover_and_the_residual_
         assert sol.ok and sol.estimate is not None
 
 
+@pytest.mark.numerics
 def test_a_load_friction_cannot_hold_is_refused_naming_the_sliding():
     """Row 44 (a): a block on a floor under a Tresca threshold g, its net shear load 2 % above the capacity g L: no
     equilibrium exists (it slides); the refusal names the body, the motion, the load, the capacity and the fix.

@@ -283,3 +283,19 @@ def sampled_penetration(scene, sol, gap, pair=0, n=12):
         jump += np.einsum("pk,pkd->pd", p2_shape(bary), sol.u[body][face]) @ np.asarray(trace.unit_normal)
     points = itf.offset * np.asarray(itf.normal) + x @ np.asarray(itf.frame)
     return jump - gap(points[:, 0], points[:, 1])
+
+
+def read_as_curved(monkeypatch, curved=1):
+    """While ``monkeypatch`` is active, scenes built read their pairs' ``curved``-th part as curved (node-to-face,
+    contact/surface.py ``CurvedSurfaceInterface``) though it is planar: on coplanar faces its rows are the
+    overlay's nodal rows at that body's nodes (tests/test_hertz3d_elastic.py), a reference for curved parts."""
+    import cvxcontact.physics.scene as scene_module
+    from cvxcontact.contact.surface import CurvedSurfaceInterface, SurfaceInterface
+
+    def forced(bodies, parts=None, obstacle=None):
+        parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
+        if obstacle is not None:
+            return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
+        return CurvedSurfaceInterface(tuple(bodies), parts, curved=curved)
+
+    monkeypatch.setattr(scene_module, "pair_interface", forced)

@@ -907,3 +907,50 @@ def test_a_guide_no_contact_row_sees_is_refused():
     with pytest.raises(cc.SceneError, match="along its guided axes changes no distance") as info:
         cc.Scene(body, contacts=[cc.Contact(body, "top", plane)])
     assert "guide it along a direction that presses it onto the bodies" in _message(info)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 47")
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_a_curved_part_under_another_condition_than_its_nodal_one(condition, monkeypatch):
+    """Row 47: a curved 3D part takes only its own body's nodal condition ("sigma2" here). Reference: a flat part
+    read as curved (tests/scenes3d.read_as_curved), whose answer under ``condition`` is the overlay pair's
+    (two blocks under a uniform pressure, non-matching faces: the overlay takes every condition)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), condition)
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), condition)
+    assert ref.ok and sol.ok
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 48")
+def test_p2_tetrahedra_on_a_curved_part(monkeypatch):
+    """Row 48: P2 (10-node) tetrahedra with a curved 3D part. Reference: a flat part read as curved, under its
+    nodal condition "sigma2" with degree=2, is the overlay pair's P2 "sigma2" answer (the rows at the upper body's
+    P2 nodes)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), "sigma2", degree=2)
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), "sigma2", degree=2)
+    assert ref.ok and sol.ok
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+def test_a_flat_part_read_as_curved_is_the_overlay_under_its_nodal_condition(monkeypatch):
+    """The reference of rows 47 and 48 where the scene is taken: P1, "sigma2" (measured: 0 apart, bit for bit;
+    tests/test_hertz3d_elastic.py checks the rows themselves)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), "sigma2")
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), "sigma2")
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert ref.ok and sol.ok
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale

@@ -954,3 +954,15 @@ def test_a_flat_part_read_as_curved_is_the_overlay_under_its_nodal_condition(mon
     scale = max(float(np.abs(u).max()) for u in ref.u)
     assert ref.ok and sol.ok
     assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 49")
+def test_a_curved_part_of_hexahedra(monkeypatch):
+    """Row 49: a curved contact part of hexahedra. Reference: the upper Q1 block's flat bottom read as curved
+    (tests/scenes3d.read_as_curved) on a nearly rigid lower block, under its nodal condition "sigma2": the closed
+    form of rows 40-41 (the rows at the upper's nodes on a flat face: any interpolation of it is exact)."""
+    from scenes3d import read_as_curved
+
+    read_as_curved(monkeypatch)
+    _hex_series(2, 3, 1, "sigma2", stiff="lower")

@@ -157,7 +157,7 @@ def test_a_law_under_a_sigma_condition_with_no_row_in_the_overlap_warns_as_signo
     assert sol.ok and len(rowless) == 1
     assert "'sigma2'" in rowless[0] and "'gamma3'" in rowless[0] and "1e-05 m" in rowless[0]
     assert np.max(sol.contact.jump - sol.contact.gap) == pytest.approx(1e-5, rel=1e-12)
-    assert not np.asarray(sol.contact.force).any()
+    assert not np.asarray(sol.contact.force).any() and not np.asarray(sol.contact.lam).any()
     sol, messages = _resolution_messages(scene, condition="sigma2", degree=degree, law=law)
     assert sol.ok and not [m for m in messages if "there is none" in m]
     assert np.asarray(sol.contact.force).sum() > 0

@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
 from .fem.space import space
-from .geometry.refine import Curve, local_refusal, refine_local, start_local
+from .geometry.refine import Curve, local_refusal, refine_together, start_local
 from .goal import force_estimate
 from .physics.scene import Scene
 from .solve import ContactSolver, Solution
@@ -320,6 +320,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         why = local_refusal(b.mesh, bool(body_curves.get(k)))
         if why:
             raise UnsupportedError(f"adapt cannot refine body {b.name!r} locally: {why}")
+    alike = _alike(scene, degree)
     first = [start_local(b.mesh) for b in scene.bodies]
     if any(m is not b.mesh for m, b in zip(first, scene.bodies)):
         scene = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, first)))
@@ -341,8 +342,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         if not stopped:
             marked = (mark_bulk(indicators, theta) if np.isinf(rate)
                       else mark_bisections(indicators, theta, rate, scene.dim, most))
-            meshes = [refine_local(b.mesh, mk.astype(np.int64), body_curves.get(k))[0]
-                      for k, (b, mk) in enumerate(zip(scene.bodies, marked))]
+            meshes = refine_together([b.mesh for b in scene.bodies], [mk.astype(np.int64) for mk in marked],
+                                     alike, [body_curves.get(k) for k in range(len(scene.bodies))])
             bodies = [b.with_changes(mesh=m) for b, m in zip(scene.bodies, meshes)]
             if max_cells is not None and sum(len(m.cells) for m in meshes) > max_cells:
                 stopped, marked = "max_cells", []
@@ -390,6 +391,15 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
                               ResolutionWarning, stacklevel=2)
             return Adapted(solution=sol, scene=scene, history=tuple(history), stopped=stopped, solutions=tuple(kept))
         scene, step = refined, step + 1
+
+
+def _alike(scene, degree) -> list:
+    """The faces ((k, part), (l, part)) of the scene's two-body pairs that refinement keeps meshed alike: every
+    such pair's where the space needs matching faces (``matching_faces``: Q2 hexahedra), else none."""
+    if not space(degree, scene.cell).matching_faces:
+        return []
+    return [((a, c.part_a), (b, c.part_b)) for c, (a, b) in zip(scene.contacts, scene.stack.members)
+            if b is not None]
 
 
 def _solve(scene, condition, previous, options, polish):

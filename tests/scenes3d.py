@@ -304,3 +304,19 @@ def default_builders() -> dict:
         elif all(p.default is not inspect.Parameter.empty for p in sig.parameters.values()):
             out[name] = f
     return out
+
+
+def read_as_curved(monkeypatch, curved=1):
+    """While ``monkeypatch`` is active, scenes built read their pairs' ``curved``-th part as curved (node-to-face,
+    contact/surface.py ``CurvedSurfaceInterface``) though it is planar: on coplanar faces its rows are the
+    overlay's nodal rows at that body's nodes (tests/test_hertz3d_elastic.py), a reference for curved parts."""
+    import cvxcontact.physics.scene as scene_module
+    from cvxcontact.contact.surface import CurvedSurfaceInterface, SurfaceInterface
+
+    def forced(bodies, parts=None, obstacle=None):
+        parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
+        if obstacle is not None:
+            return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
+        return CurvedSurfaceInterface(tuple(bodies), parts, curved=curved)
+
+    monkeypatch.setattr(scene_module, "pair_interface", forced)

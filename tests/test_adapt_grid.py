@@ -482,7 +482,8 @@ def _hexes_by_hand(xs, ys, zs):
 def test_refined_hexahedral_pair_is_the_grid_built_by_hand(condition):
     """Two Q1 boxes refined each on its own (non-matching, aligned faces) and the same grids built by hand: the
     same answer (u within 1e-10 of its largest value; measured <= 8.1e-15). (Q2 hexahedra need matching contact
-    faces, which refining two bodies each on its own does not keep: fem/hexfaces.py refuses them.)"""
+    faces, which refining two bodies each on its own does not keep: fem/hexfaces.py refuses them; cc.adapt refines
+    them together, test_q2_hexahedral_pairs_are_refined_with_their_faces_alike.)"""
     lower = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=2, nz=1, cell="hex")
     upper = cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1.0), nx=3, ny=3, nz=1, cell="hex")
     lower = refine_grid(lower, np.arange(len(lower.cells)) == 0)[0]
@@ -501,3 +502,66 @@ def test_refined_hexahedral_pair_is_the_grid_built_by_hand(condition):
         oa, ob = np.lexsort(a.points.T), np.lexsort(b.points.T)
         assert np.array_equal(a.points[oa], b.points[ob])
         assert np.abs(one.u[k][oa] - two.u[k][ob]).max() < 1e-10 * np.abs(one.u[k]).max()
+
+
+def _q2_pair(lower_mesh, upper_mesh):
+    """A Q2 block pressed by a load varying along x onto another, the two contact faces meshed alike."""
+    lower = cc.Body(lower_mesh, ALU, clamped="bottom", contact="top", name="lower")
+    upper = cc.Body(upper_mesh, STEEL, roller=["left", "front"], contact="bottom", name="upper",
+                    traction={"top": lambda x, y, z: (0 * x, 0 * x, -1e7 * (1 - 0.8 * x))})
+    return cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom")])
+
+
+def _blocks(n):
+    """(lower, upper) hexahedral boxes, n x n x n/2 and n x n x n cells: faces on z = 0.5 meshed alike."""
+    return (cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=n, ny=n, nz=n // 2, cell="hex"),
+            cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1.0), nx=n, ny=n, nz=n, cell="hex"))
+
+
+@pytest.mark.numerics
+def test_q2_hexahedral_pairs_are_refined_with_their_faces_alike():
+    """Q2 hexahedra pose contact on matching faces only (fem/hexfaces.py): cc.adapt refines the partners' strips
+    across a pair's faces together (geometry/refine.refine_together), so two Q2 blocks take two steps (before:
+    UnsupportedError at step 1, "do not match corner to corner"). The faces stay alike (the same grid lines on
+    z = 0.5), every step is exact and the estimate falls (measured 30.6 -> 19.4 -> 14.3). Marking every cell
+    (theta = 1) halves every strip: the answer is that of the uniform grids built directly (measured 0 apart)."""
+    scene = _q2_pair(*_blocks(2))
+    result = quietly(cc.adapt, scene, "sigma1", degree=2, max_steps=2)
+    h = result.history
+    assert [s.step for s in h] == [0, 1, 2] and all(s.ok for s in h)
+    assert h[2].estimate < h[1].estimate < h[0].estimate
+    lower, upper = (b.mesh for b in result.scene.bodies)
+    assert len(lower.cells) > 4
+    for d in (0, 1):
+        assert np.array_equal(tensor_grid(lower).axes[d], tensor_grid(upper).axes[d])
+    full = quietly(cc.adapt, scene, "sigma1", degree=2, max_steps=1, theta=1.0, keep=True)
+    direct = quietly(cc.solve, _q2_pair(*_blocks(4)), "sigma1", degree=2)
+    assert [len(b.mesh.cells) for b in full.scene.bodies] == [32, 64] and direct.ok
+    for k, (a, b) in enumerate(zip(full.scene.bodies, direct.scene.bodies)):
+        pa, pb = (space(2, "hex").node_set(m.mesh).points for m in (a, b))
+        oa, ob = np.lexsort(np.round(pa, 12).T), np.lexsort(np.round(pb, 12).T)
+        assert np.abs(pa[oa] - pb[ob]).max() < 1e-14              # the same nodes (midpoints: rounding)
+        assert np.abs(full.solution.u[k][oa] - direct.u[k][ob]).max() < 1e-10 * np.abs(direct.u[k]).max()
+
+
+def test_refine_together_passes_a_partner_s_lines_and_refuses_faces_not_alike():
+    """refine_together: a face's partner refined in one strip passes its line (x = 0.25) to the other side, which
+    was not marked; a chain of three boxes passes it on; lines that no halving makes (faces 3 and 2 cells across)
+    are refused by name (MeshError)."""
+    from cvxcontact.geometry.grid import face_lines
+    from cvxcontact.geometry.refine import refine_together
+
+    boxes = [cc.box(x=(0, 1), y=(0, 1), z=(z, z + 1), nx=2, ny=2, nz=1, cell="hex") for z in (0, 1, 2)]
+    times = [np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64), np.arange(4) == 0]
+    faces = [((0, "top"), (1, "bottom")), ((1, "top"), (2, "bottom"))]
+    fine = refine_together(boxes, [np.asarray(t, dtype=np.int64) * 3 for t in times], faces)
+    for m in fine:
+        assert np.array_equal(tensor_grid(m).axes[0], [0, 0.25, 0.5, 1]), tensor_grid(m).axes[0]
+        assert np.array_equal(tensor_grid(m).axes[1], [0, 0.25, 0.5, 1])
+    assert np.array_equal(face_lines(fine[0], "top")[0], [0, 0.25, 0.5, 1]) and len(face_lines(fine[0], "top")[2]) == 0
+    alone = refine_together(boxes, [np.asarray(t, dtype=np.int64) * 3 for t in times], [])
+    assert len(alone[0].cells) == 4 and len(alone[2].cells) > 4
+    three = cc.box(x=(0, 1), y=(0, 1), z=(1, 2), nx=3, ny=3, nz=1, cell="hex")
+    with pytest.raises(cc.MeshError, match="not meshed alike"):
+        refine_together([boxes[0], three], [np.zeros(4, dtype=np.int64), np.zeros(9, dtype=np.int64)],
+                        [((0, "top"), (1, "bottom"))])

@@ -163,3 +163,27 @@ def test_cli_prints_the_report_of_the_solution(tmp_path, capsys):
         name = sol.scene.bodies[e.body].name
         assert (f"  electrode {name}/{e.tag} ({e.kind}): potential {e.potential:.6g} V, charge {e.charge:.6g} C/m"
                 in lines)
+
+
+@pytest.mark.parametrize("mesh, counts", [
+    ('{ rectangle = { x = [0.0, 1.0], y = [Y0, Y1], nx = 6, ny = 3, cell = "quad" } }',
+     ("91 nodes, 18 quads (Q2)", "unknowns: 156 displacement")),         # 13 x 7 nodes, 13 clamped: 2 x 78
+    ('{ box = { x = [0.0, 1.0], y = [0.0, 1.0], z = [Y0, Y1], nx = 2, ny = 2, nz = 1, cell = "hex" } }',
+     ("75 nodes, 4 hexahedra (Q2)", "unknowns: 150 displacement")),      # 5 x 5 x 3 nodes, 25 clamped: 3 x 50
+], ids=["quads", "hexahedra"])
+def test_info_counts_the_unknowns_of_the_file_s_cells_and_degree(tmp_path, capsys, mesh, counts):
+    """`cvxcontact info` on Q2 quadrilateral and hexahedral scene files (before: a traceback, the P1 simplex
+    assembly): the nodes and unknowns of the file's degree on its cells, counted by hand."""
+    bodies = "".join(f'''
+[[body]]
+name = "{name}"
+material = {{ E = 200e9, nu = 0.3 }}
+mesh = {mesh.replace("Y0", lo).replace("Y1", hi)}
+contact = "{part}"
+clamped = ["{held}"]
+''' for name, lo, hi, part, held in (("upper", "0.5", "1.0", "bottom", "top"), ("lower", "0.0", "0.5", "top", "bottom")))
+    path = tmp_path / "scene.toml"
+    path.write_text('condition = "sigma1"\ndegree = 2\n' + bodies, encoding="utf-8")
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert all(words in out for words in counts), out

@@ -231,3 +231,30 @@ def test_a_scene_file_poses_coulomb_on_its_pair(tmp_path):
     assert sol.contact.shear_force.sum() == pytest.approx(-3.5e6, rel=1e-9)          # the file's shear load
     direct = cc.solve(sheared(0.35 * P, cc.Coulomb(0.4)))                              # the same scene in code
     assert np.abs(sol.u[0] - direct.u[0]).max() < 1e-12 * np.abs(direct.u[0]).max()
+
+
+@pytest.mark.numerics
+def test_a_sweep_over_the_coefficient_stores_the_friction_read_back(tmp_path):
+    """A sweep of the scene file above over the Coulomb coefficient: each case's arrays hold the friction read-back
+    (slip, tangential forces, traction, threshold; with their units) equal to the direct solve's, and the stored
+    tangential forces balance the file's shear load (3.5e6 N/m)."""
+    import json
+
+    from cvxcontact.apps.sweep import run_sweep
+
+    (tmp_path / "block.toml").write_text(SCENE, encoding="utf-8")
+    (tmp_path / "sweep.toml").write_text('scene = "block.toml"\nconditions = ["sigma1"]\n[grid]\n'
+                                         '"contact[0].law.coulomb.coefficient" = [0.4, 0.6]\n', encoding="utf-8")
+    report = run_sweep(tmp_path / "sweep.toml", tmp_path / "out", workers=1)
+    assert report.done == 2 and not report.failed
+    results = cc.load_sweep(tmp_path / "out")
+    for case in json.loads((tmp_path / "out" / "manifest.json").read_text())["cases"]:
+        mu = case["overrides"]["contact[0].law.coulomb.coefficient"]
+        ref = cc.solve(sheared(0.35 * P, cc.Coulomb(mu)), "sigma1").contact
+        arrays = results.arrays(case["id"])
+        for name in ("slip", "shear_force", "shear", "threshold"):
+            expected = np.asarray(getattr(ref, name))
+            assert np.abs(arrays[name] - expected).max() <= 1e-10 * np.abs(expected).max(), name
+        assert arrays["shear_force"].sum() == pytest.approx(-3.5e6, rel=1e-9)
+        record = json.loads((tmp_path / "out" / "cases" / f"{case['id']}.json").read_text())
+        assert record["units"]["slip"] == "m" and record["units"]["shear"] == "Pa"

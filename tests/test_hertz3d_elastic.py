@@ -8,13 +8,12 @@ import numpy as np
 import pytest
 
 import cvxcontact as cc
-import cvxcontact.physics.scene as scene_module
 from cvxcontact.apps.studies import hertz3d_elastic as h
 from cvxcontact.contact.surface import CurvedSurfaceInterface, SurfaceInterface
 from cvxcontact.errors import SceneError, UnsupportedError
 from cvxcontact.fem.assembly import assemble_matrices
 
-from scenes3d import bumped_blocks, stacked_blocks
+from scenes3d import bumped_blocks, read_as_curved, stacked_blocks
 
 N = 8                                                     # the study's coarsest level
 
@@ -65,17 +64,6 @@ def test_rows_against_a_brute_force_projection():
     assert sc.gap_values().min() == pytest.approx(-1e-5, abs=1e-18)      # the pole touches z = 0
 
 
-def _read_as_curved(monkeypatch, curved=1):
-    """Scenes built while active read their pairs' second (``curved``) part as curved, though it is planar."""
-    def forced(bodies, parts=None, obstacle=None):
-        parts = tuple(b.contact for b in bodies) if parts is None else tuple(parts)
-        if obstacle is not None:
-            return SurfaceInterface(tuple(bodies), parts, obstacle=obstacle)
-        return CurvedSurfaceInterface(tuple(bodies), parts, curved=curved)
-
-    monkeypatch.setattr(scene_module, "pair_interface", forced)
-
-
 @pytest.mark.parametrize("build", [stacked_blocks, bumped_blocks], ids=["uniform pressure", "bumped gap"])
 def test_a_flat_part_read_as_curved_reproduces_the_overlay_sigma_rows(build, monkeypatch):
     """On coplanar non-matching faces (5x5 on 7x3, 4x4 on 5x3) the node-to-face rows at the upper body's
@@ -84,7 +72,7 @@ def test_a_flat_part_read_as_curved_reproduces_the_overlay_sigma_rows(build, mon
     overlay = build()
     assert isinstance(overlay.interfaces[0], SurfaceInterface)
     ref = cc.solve(overlay, "sigma2")
-    _read_as_curved(monkeypatch)
+    read_as_curved(monkeypatch)
     curved = build()
     assert isinstance(curved.interfaces[0], CurvedSurfaceInterface)
     sol = cc.solve(curved, "sigma2")

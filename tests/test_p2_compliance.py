@@ -146,7 +146,8 @@ def test_p2_compliance_refusals_are_typed():
     Sigma rows that begin inside a segment of that trace (the lower block on [0.1, 1]: the upper trace's first node
     in the overlap is the midpoint 0.125) are taken (docs/refusals.md row 4, tests/test_p2_overlap_weights.py); a
     sigma condition with no node of that trace in the overlap (the lower block on [0.3, 0.45], between the upper
-    trace's nodes 0.25 and 0.5) gives the law no row: UnsupportedError naming the case."""
+    trace's nodes 0.25 and 0.5) gives the law no row, as Signorini's: a ResolutionWarning naming the case
+    (tests/test_resolution.py)."""
     scene = pressed(n1=(4, 2), n2=(4, 2))
     sol = cc.solve(scene, "sigma1", degree=2, law=cc.NormalCompliance(stiffness=1e11, penetration_limit=1e-6))
     assert sol.ok and sol.polished and {"feasibility", "complementarity", "cone"} <= set(sol.residuals())
@@ -154,8 +155,8 @@ def test_p2_compliance_refusals_are_typed():
     law = cc.NormalCompliance(stiffness=1e11)
     partial = cc.solve(_overhang(0.1, 1.0), "sigma1", degree=2, law=law)
     assert partial.ok and max(partial.residuals().values()) < 1e-9
-    with pytest.raises(cc.UnsupportedError, match="no P2 node of body 1's trace lies in the overlap"):
-        cc.solve(_overhang(0.3, 0.45, n1=2, n2=1), "sigma1", degree=2, law=law)
+    with pytest.warns(cc.ResolutionWarning, match="under 'sigma1' the rows are the nodes of"):
+        assert cc.solve(_overhang(0.3, 0.45, n1=2, n2=1), "sigma1", degree=2, law=law).ok
     assert cc.solve(_overhang(0.3, 0.45, n1=2, n2=1), "sigma2", degree=2, law=law).ok
 
 

@@ -28,8 +28,8 @@ def _pair(x1, n1, x2, n2):
 
 def test_random_overlaps_give_positive_weights_summing_to_the_overlap():
     """200 random pairs (cells, extents): under each condition every row's weight is positive and they sum to the
-    overlap's length (measured: 3.3e-16 relative at most); "sigma<l>" is refused (UnsupportedError) exactly when no
-    P2 node of trace l lies in the overlap."""
+    overlap's length (measured: 3.3e-16 relative at most); "sigma<l>" has no row and no weight exactly when no
+    P2 node of trace l lies in the overlap (the solve warns: tests/test_resolution.py)."""
     rng = np.random.default_rng(4)
     worst, refused = 0.0, 0
     for _ in range(200):
@@ -45,8 +45,7 @@ def test_random_overlaps_give_positive_weights_summing_to_the_overlap():
             if condition != "gamma3":
                 x = nodes[int(condition[-1]) - 1]
                 if not ((x >= lo - 1e-9) & (x <= hi + 1e-9)).any():
-                    with pytest.raises(cc.UnsupportedError, match="no P2 node"):
-                        itf.weights(condition)
+                    assert len(itf.weights(condition)) == itf.evaluation(condition).shape[0] == 0
                     refused += 1
                     continue
             w = itf.weights(condition)

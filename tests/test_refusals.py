@@ -736,3 +736,252 @@ def test_a_load_free_layer_in_an_open_gap_is_refused_after_the_solve():
         cc.solve(cc.Scene(layer, contacts=[cc.Contact(layer, "bottom", FLOOR), cc.Contact(layer, "top", above)]))
     msg = _message(info)
     assert "does not determine the translation y of body 'layer'" in msg and "open" in msg and "support" in msg
+
+
+# ================================================================ rows 37-41: cc.Model user terms beside friction,
+# and the hexahedral refusals of fem/hexfaces.py (each the b-verdict's test: it XPASSes the day the refusal goes)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 37")
+def test_model_takes_a_user_constraint_beside_a_friction_law():
+    """Row 37: cc.Model refuses user terms beside a friction law (the term's ``refuses_user_terms``). Reference: a
+    user constraint that never binds (the block's nodes stay above y = -1 m) leaves the answer of
+    ``cc.solve(..., method="full")``."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    scene = sheared(0.35 * P_FRICTION, cc.Tresca(0.5 * P_FRICTION))
+    ref = cc.solve(scene, "sigma1", method="full")
+    model = cc.Model(scene, "sigma1")
+    model.add(model.u(scene.bodies[0])[:, 1] >= -1.0)
+    sol = model.solve()
+    assert ref.ok and sol.ok and rel(sol.u[0], ref.u[0]) <= 1e-9
+    assert rel(sol.contact.shear_force, ref.contact.shear_force) <= 1e-9
+
+
+STIFF = 1e6
+"""How much stiffer than steel the stiff block of a non-matching pair is (rows 40, 41): nearly rigid."""
+
+
+def _hex_series(lower_n, upper_n, degree, condition, law=None, k=np.inf, stiff=None, skewed=False):
+    """Two hexahedral blocks [0, 1]^2 x (0, 0.5) and x (0.5, 1) (``lower_n``, ``upper_n`` cells across; rollers on
+    the sides, the lower clamped at its bottom, the upper's top pushed down delta = 1e-5 m: tests/hex_scenes.py), of
+    steel, the one ``stiff`` ("lower", "upper") STIFF times stiffer (``skewed``: both grids warped alike,
+    tests/hex_scenes.warp: general quadrilateral faces), solved under ``condition`` and ``law``, checked
+    against the closed form of uniaxial strain in series (a law of stiffness ``k`` between them): sigma = delta /
+    (h1/E1' + 1/k + h2/E2'), u_z linear in each block. Exact in Q1 and Q2 where the faces match (or are aligned
+    under "gamma3"); where they do not, the rows at the nodes of one side (the nodal condition, a law weighted by
+    that side's hats: consistent loads of a uniform pressure) give the closed form when the other side is nearly
+    rigid (flat): within 2e-4 delta (measured on the taken Q1 cases: 1.3e-6 delta under "sigma1", 3.4e-7 under
+    "sigma2", the stiff side's own strain; 0.23 delta with two steel blocks, the point loads of the rows; where
+    exact, 8.5e-16 (Q2) and 3.4e-16 (Q1 "gamma3" with the law))."""
+    from hex_scenes import DELTA as PUSH
+    from hex_scenes import STEEL, block, pair
+
+    from cvxcontact.fem.space import space
+
+    mats = [STEEL, STEEL]
+    if stiff is not None:
+        mats[("lower", "upper").index(stiff)] = cc.materials.isotropic(E=STEEL.E * STIFF, nu=STEEL.nu)
+    scene = pair(block(lower_n, (0.0, 0.5), skewed), block(upper_n, (0.5, 1.0), skewed), materials=tuple(mats))
+    sol = cc.solve(scene, condition, degree=degree, law=law)
+    Ep = [m.E * (1 - m.nu) / ((1 + m.nu) * (1 - 2 * m.nu)) for m in mats]
+    sigma = PUSH / (0.5 / Ep[0] + 0.5 / Ep[1] + 1 / k)
+    exact = [lambda z: -sigma * z / Ep[0], lambda z: -sigma * 0.5 / Ep[0] - sigma / k - sigma * (z - 0.5) / Ep[1]]
+    bound = 1e-9 if stiff is None else 2e-4
+    assert sol.ok
+    for body, u, f in zip(scene.bodies, sol.u, exact):
+        z = space(degree, "hex").node_set(body.mesh).points[:, 2]
+        assert np.abs(u[:, 2] - f(z)).max() <= bound * PUSH and np.abs(u[:, :2]).max() <= bound * PUSH
+    return sol
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 38")
+def test_q2_hexahedra_under_gamma3_closed_form():
+    """Row 38: "gamma3" on Q2 (27-node) hexahedra, matching faces: uniaxial strain in series (closed form)."""
+    _hex_series(2, 2, 2, "gamma3")
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 39")
+def test_q2_hexahedra_with_a_compliance_law_closed_form():
+    """Row 39: a normal-compliance law on Q2 hexahedra, matching faces: two blocks and the law in series."""
+    _hex_series(2, 2, 2, "sigma1", cc.NormalCompliance(stiffness=1e12), k=1e12)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 40")
+def test_q2_hexahedra_on_faces_that_do_not_match_closed_form():
+    """Row 40: Q2 hexahedra whose contact faces do not match (2 x 2 under 3 x 3), "sigma1" (the lower's nodes), the
+    upper nearly rigid: the closed form."""
+    _hex_series(2, 3, 2, "sigma1", stiff="upper")
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 41")
+@pytest.mark.parametrize("condition, stiff", [("sigma1", "upper"), ("sigma2", "lower")])
+def test_q1_hexahedra_with_a_compliance_law_on_faces_that_do_not_match_closed_form(condition, stiff):
+    """Row 41: a normal-compliance law on Q1 hexahedra whose faces neither match nor nest (2 x 2 under 3 x 3) under
+    a nodal condition ("gamma3" takes them: aligned grids), the other side nearly rigid: the law and the block in
+    series (closed form)."""
+    _hex_series(2, 3, 1, condition, cc.NormalCompliance(stiffness=1e12), k=1e12, stiff=stiff)
+
+
+@pytest.mark.numerics
+def test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken():
+    """The reference of rows 38-41 is right where the package takes the scene: Q2 "sigma1" on matching faces, Q1
+    "gamma3" with the compliance law on the aligned 2 x 2 / 3 x 3 faces, Q1 "sigma1" and "sigma2" on them without
+    it, the other side nearly rigid."""
+    _hex_series(2, 2, 2, "sigma1")
+    _hex_series(2, 3, 1, "gamma3", cc.NormalCompliance(stiffness=1e12), k=1e12)
+    _hex_series(2, 3, 1, "sigma1", stiff="upper")
+    _hex_series(2, 3, 1, "sigma2", stiff="lower")
+    _hex_series(2, 2, 1, "sigma1", skewed=True)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 46")
+def test_q2_hexahedra_with_faces_that_are_not_parallelograms_closed_form():
+    """Row 46: Q2 hexahedra whose contact faces are general quadrilaterals (both 2 x 2 grids warped alike, matching
+    faces), "sigma1": uniaxial strain in series, exact (Q2 on trilinear maps holds the linear fields; Q1 takes the
+    scene and gives it: test_the_hexahedral_closed_form_holds_where_the_scenes_are_taken)."""
+    _hex_series(2, 2, 2, "sigma1", skewed=True)
+
+
+def _hex_under(obstacle, condition="gamma3"):
+    """A steel Q1 block [0, 1]^2 x (0, 0.5) of 2 x 2 x 1 hexahedra (rollers on the sides, clamped at its bottom)
+    whose top meets ``obstacle``."""
+    from hex_scenes import SIDES, STEEL, block
+
+    body = cc.Body(block(2, (0.0, 0.5)), STEEL, roller=SIDES, clamped=["bottom"], contact="top", name="block")
+    return cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", obstacle)]), condition)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 42")
+def test_q1_hexahedra_under_gamma3_against_a_nearly_flat_sphere_is_the_plane_answer():
+    """Row 42: "gamma3" on Q1 hexahedra against a curved obstacle. Reference, a limit: a sphere of radius 1e7 m
+    pressed 1 mm into the block's top is flat to 2.5e-8 m over it (r^2 / 2R, r <= 0.71 m; its centre's rounding
+    1.9e-9 m), so its answer is the plane's ("gamma3" takes planes) to 5e-3 of the push (the gap's departure
+    from flat is 2.5e-5 of it; under "sigma1" the answers differ by 2.5e-5 of it)."""
+    delta, R = 1e-3, 1e7
+    plane = _hex_under(cc.Rigid.plane((0.0, 0.0, 0.5 - delta), (0.0, 0.0, -1.0)))
+    sphere = _hex_under(cc.Rigid.sphere((0.5, 0.5, 0.5 - delta + R), R))
+    assert plane.ok and sphere.ok and plane.contact.active.all()
+    assert np.abs(sphere.u[0] - plane.u[0]).max() <= 5e-3 * delta
+
+
+@pytest.mark.numerics
+def test_q1_hexahedra_take_a_nearly_flat_sphere_under_the_nodal_condition():
+    """The reference of row 42 where the scene is taken ("sigma1", the block's nodes): the sphere's answer is the
+    plane's (measured 2.5e-5 of the push: the sphere's departure from flat)."""
+    delta, R = 1e-3, 1e7
+    plane = _hex_under(cc.Rigid.plane((0.0, 0.0, 0.5 - delta), (0.0, 0.0, -1.0)), "sigma1")
+    sphere = _hex_under(cc.Rigid.sphere((0.5, 0.5, 0.5 - delta + R), R), "sigma1")
+    assert plane.ok and sphere.ok and plane.contact.active.all()
+    assert np.abs(sphere.u[0] - plane.u[0]).max() <= 5e-3 * delta
+
+
+def test_the_equilibrated_bound_refuses_what_it_does_not_cover_and_the_residual_estimate_takes_it():
+    """Row 43 (c): ``estimate="equilibrated"`` on a scene the bound does not cover (P2 elements, friction) is refused
+    before anything is solved, naming what it covers and the residual estimate; ``estimate=True`` solves it."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    scene = sheared(0.35 * P_FRICTION, cc.Tresca(0.5 * P_FRICTION))
+    for options, words in (({"degree": 2}, "P2 elements"), ({}, "friction")):
+        with pytest.raises(cc.UnsupportedError, match="equilibrated error bound does not cover") as info:
+            cc.solve(scene, "sigma1", estimate="equilibrated", **options)
+        assert words in _message(info) and "estimate=True" in _message(info)
+        sol = cc.solve(scene, "sigma1", estimate=True, **options)
+        assert sol.ok and sol.estimate is not None
+
+
+@pytest.mark.numerics
+def test_a_load_friction_cannot_hold_is_refused_naming_the_sliding():
+    """Row 44 (a): a block on a floor under a Tresca threshold g, its net shear load 2 % above the capacity g L: no
+    equilibrium exists (it slides); the refusal names the body, the motion, the load, the capacity and the fix.
+    2 % below it the block holds, its tangential forces balancing the load."""
+    from friction_scenes import L as LENGTH
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import sheared
+
+    g = 0.5 * P_FRICTION
+    with pytest.raises(cc.SceneError, match="exceeds the friction capacity") as info:
+        cc.solve(sheared(1.02 * g, cc.Tresca(g)), "sigma1")
+    message = _message(info)
+    assert "slides" in message and "translation x" in message and "no equilibrium" in message
+    sol = cc.solve(sheared(0.98 * g, cc.Tresca(g)), "sigma1")
+    assert sol.ok and sol.contact.shear_force.sum() == pytest.approx(-0.98 * g * LENGTH, rel=1e-9)
+
+
+def test_a_guide_no_contact_row_sees_is_refused():
+    """Row 45 (a): a force-controlled plane guided along its own tangent: no translation it may make changes a
+    distance to its pairs' nodes, so no contact force balances its force (the obstacle is free along the guide)."""
+    mesh = cc.box(x=(0, 1e-2), y=(0, 1e-2), z=(0, 5e-3), nx=2, ny=2, nz=1)
+    body = cc.Body(mesh, cc.materials.isotropic(E=70e9, nu=0.3), name="layer", clamped=["bottom"], contact="top")
+    plane = cc.Rigid.plane((0, 0, 5e-3), (0, 0, -1), force=(1.0, 0, 0), guided=(1, 0, 0))
+    with pytest.raises(cc.SceneError, match="along its guided axes changes no distance") as info:
+        cc.Scene(body, contacts=[cc.Contact(body, "top", plane)])
+    assert "guide it along a direction that presses it onto the bodies" in _message(info)
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 47")
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_a_curved_part_under_another_condition_than_its_nodal_one(condition, monkeypatch):
+    """Row 47: a curved 3D part takes only its own body's nodal condition ("sigma2" here). Reference: a flat part
+    read as curved (tests/scenes3d.read_as_curved), whose answer under ``condition`` is the overlay pair's
+    (two blocks under a uniform pressure, non-matching faces: the overlay takes every condition)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), condition)
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), condition)
+    assert ref.ok and sol.ok
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 48")
+def test_p2_tetrahedra_on_a_curved_part(monkeypatch):
+    """Row 48: P2 (10-node) tetrahedra with a curved 3D part. Reference: a flat part read as curved, under its
+    nodal condition "sigma2" with degree=2, is the overlay pair's P2 "sigma2" answer (the rows at the upper body's
+    P2 nodes)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), "sigma2", degree=2)
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), "sigma2", degree=2)
+    assert ref.ok and sol.ok
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+def test_a_flat_part_read_as_curved_is_the_overlay_under_its_nodal_condition(monkeypatch):
+    """The reference of rows 47 and 48 where the scene is taken: P1, "sigma2" (measured: 0 apart, bit for bit;
+    tests/test_hertz3d_elastic.py checks the rows themselves)."""
+    from scenes3d import read_as_curved, stacked_blocks
+
+    ref = cc.solve(stacked_blocks(), "sigma2")
+    read_as_curved(monkeypatch)
+    sol = cc.solve(stacked_blocks(), "sigma2")
+    scale = max(float(np.abs(u).max()) for u in ref.u)
+    assert ref.ok and sol.ok
+    assert max(float(np.abs(u - v).max()) for u, v in zip(sol.u, ref.u)) <= 1e-9 * scale
+
+
+@pytest.mark.numerics
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 49")
+def test_a_curved_part_of_hexahedra(monkeypatch):
+    """Row 49: a curved contact part of hexahedra. Reference: the upper Q1 block's flat bottom read as curved
+    (tests/scenes3d.read_as_curved) on a nearly rigid lower block, under its nodal condition "sigma2": the closed
+    form of rows 40-41 (the rows at the upper's nodes on a flat face: any interpolation of it is exact)."""
+    from scenes3d import read_as_curved
+
+    read_as_curved(monkeypatch)
+    _hex_series(2, 3, 1, "sigma2", stiff="lower")

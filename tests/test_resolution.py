@@ -131,6 +131,61 @@ def test_a_sigma_condition_with_no_row_in_the_overlap_warns_in_3d():
     assert sol.ok and not [m for m in messages if "there is none" in m]
 
 
+def _box_over_small():
+    """The 3D counterpart of :func:`_coarse_over_small`: a box of 1 x 1 x 1 cells (its bottom's P1 and Q1/P2 nodes
+    at x, y in {0, 0.5, 1}) clamped on its top, 1e-5 m into a block (0.3, 0.45)^2 clamped on its bottom."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.0)
+    up = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=1, ny=1, nz=1), mat, contact="bottom", clamped=["top"])
+    low = cc.Body(cc.box(x=(.3, .45), y=(.3, .45), z=(-.5, 0), nx=1, ny=1, nz=1), mat, contact="top",
+                  clamped=["bottom"])
+    return cc.Scene(up, low, contacts=[cc.Contact(up, "bottom", low, "top", gap=-1e-5)])
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.NormalCompliance(stiffness=1e12), cc.Tresca(1e3), cc.Coulomb(0.3)],
+                         ids=["compliance", "tresca", "coulomb"])
+@pytest.mark.parametrize("dim, degree", [(2, 1), (2, 2), (3, 1), (3, 2)])
+def test_a_law_under_a_sigma_condition_with_no_row_in_the_overlap_warns_as_signorini(dim, degree, law):
+    """A law on the rows (normal compliance, friction) under "sigma1" with no node of body 1's part in the overlap
+    has no row, as Signorini's condition: the same ResolutionWarning (the pair, the other conditions, the
+    interpenetration: 1e-5 m, both blocks clamped, nothing moves) on every dimension and degree (before, the 2D P2
+    compliance law raised UnsupportedError). Under "sigma2" the small block's nodes carry the law: no warning,
+    and the blocks are kept apart by a compressive force."""
+    scene = _coarse_over_small() if dim == 2 else _box_over_small()
+    sol, messages = _resolution_messages(scene, condition="sigma1", degree=degree, law=law)
+    rowless = [m for m in messages if "there is none" in m]
+    assert sol.ok and len(rowless) == 1
+    assert "'sigma2'" in rowless[0] and "'gamma3'" in rowless[0] and "1e-05 m" in rowless[0]
+    assert np.max(sol.contact.jump - sol.contact.gap) == pytest.approx(1e-5, rel=1e-12)
+    assert not np.asarray(sol.contact.force).any() and not np.asarray(sol.contact.lam).any()
+    sol, messages = _resolution_messages(scene, condition="sigma2", degree=degree, law=law)
+    assert sol.ok and not [m for m in messages if "there is none" in m]
+    assert np.asarray(sol.contact.force).sum() > 0
+
+
+@pytest.mark.numerics
+def test_a_pair_with_no_row_leaves_the_other_pairs_answer_unchanged():
+    """A P2 compliance or Tresca law with one pair rowless under "sigma1" (warned) beside a block pressed on a rigid
+    plane: the pressed block's answer equals that of the scene without the rowless pair, by cc.solve and cc.Model
+    (measured: 1.7e-16 relative, forces equal to rounding)."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.0)
+    pressed = cc.Body(cc.rectangle(x=(2, 3), y=(0, 0.5), nx=2, ny=2), mat, displacement={"top": (0, -1e-5)},
+                      contact="bottom")
+    plane = cc.Contact(pressed, "bottom", cc.Rigid.plane((0, 0), (0, 1)))
+    pair = _coarse_over_small()
+    both = cc.Scene(*pair.bodies, pressed, contacts=[*pair.contacts, plane])
+    alone = cc.Scene(pressed, contacts=[plane])
+    for law in (cc.NormalCompliance(stiffness=1e12), cc.Tresca(1e3)):
+        ref = cc.solve(alone, "sigma1", degree=2, law=law)
+        with pytest.warns(cc.ResolutionWarning, match="there is none"):
+            sol = cc.solve(both, "sigma1", degree=2, law=law)
+        model = cc.Model(both, "sigma1", degree=2, law=law).solve()
+        assert ref.ok and sol.ok and model.ok and ref.contact.force.sum() > 0
+        for other in (sol, model):
+            assert np.abs(other.u[2] - ref.u[0]).max() <= 1e-12 * np.abs(ref.u[0]).max()      # measured 1.7e-16
+            assert other.contacts[1].force.sum() == pytest.approx(ref.contact.force.sum(), rel=1e-12)
+
+
 @pytest.mark.parametrize("mesh", [cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=12, ny=5),
                                   cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=6, ny=3, cell="quad"),
                                   cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=4, ny=3, nz=2)],

@@ -55,6 +55,22 @@ def test_degree_comparisons_only_where_listed():
     assert sum(n for p, n in DEGREE_SITES.items() if p != "backends/__init__.py") <= 3    # issue 31, "Done when"
 
 
+KIND = re.compile(r"term\.(kind|compliant|cones|tangential|finishes|always_finished|estimated|takes_user_terms|"
+                  r"zeroes_held_forces|active_from_forces|rows_may_depend|hands_on_state|takes_active_start)\b")
+"""A line asking the contact term for its kind or a flag (docs/architecture.md, "A new contact law": the grep)."""
+
+
+def test_kind_tests_outside_the_discrete_problem_are_at_most_eight():
+    """Issue 31, "Done when": at most 8 lines outside fem/, geometry/ and discrete/ ask the term for its kind or a
+    flag (the counting grep of docs/architecture.md, which also reads fem/ and geometry/: 8 now, the public
+    description's fields and the route's key among them); a planted one is found."""
+    files = {p: s for p, s in package().items() if not p.startswith("discrete/")}
+    found = {path: len(lines) for path, lines in sites(KIND, files).items()}
+    assert sum(found.values()) <= 8, f"kind tests outside {INSIDE} (path: count): {found}"
+    planted = {"io/output.py": files["io/output.py"] + "\nif problem.term.compliant:\n    pass\n"}
+    assert sites(KIND, planted) == {"io/output.py": [len(planted["io/output.py"].splitlines()) - 1]}
+
+
 def test_the_checks_see_a_planted_site():
     """A planted "is this P2?" and a planted degree comparison in a module above fem/ are found; the same lines
     inside fem/ are not (the checks run on the package's text, so they fail on these plants)."""

@@ -287,19 +287,22 @@ def _logging(args) -> None:
 
 
 def _info(args):
-    from ..fem.assembly import assemble
+    from ..fem.space import space
     from ..io.scenefile import load_scene
+    from .sweep.worker import CELL_ARRAYS
 
     spec = load_scene(args.scene, allow_outside=args.allow_outside_mesh)
     itf = spec.scene.interface
     print(f"scene {args.scene}: condition {spec.condition}, solver {spec.solver}, tol {spec.tol:g}")
     total = 0
     for k, b in enumerate(spec.scene.bodies, start=1):
-        s = assemble(b)
+        element = space(spec.degree, b.mesh.cell)          # the file's degree on the body's cells
+        s = element.assemble_matrices(b)
         n_u, n_phi = len(s.u_free), len(s.phi_free) if s.piezoelectric else 0
         total += n_u + n_phi
-        cells = f"{len(b.mesh.cells)} {'tetrahedra' if b.dim == 3 else 'triangles'}"
-        print(f"  body {k} {b.name!r}: {b.material.name}, {len(b.mesh.points)} nodes, {cells}; unknowns: "
+        cells = f"{len(b.mesh.cells)} {CELL_ARRAYS[b.mesh.cell]} ({element.label})"
+        nodes = len(element.node_set(b.mesh).points)
+        print(f"  body {k} {b.name!r}: {b.material.name}, {nodes} nodes, {cells}; unknowns: "
               f"{n_u} displacement, "
               + (f"{n_phi} potential (electric unknowns)" if b.piezoelectric else "no electric unknowns (elastic)"))
     if spec.scene.dim == 3:                                # planar contact surfaces

@@ -156,12 +156,15 @@ class QuadraticInterface:
         with the P1 hats integrated over the overlap, a node outside giving its share to the nearest node inside
         (:func:`~cvxcontact.contact.interface.shares_to_nearest`, the rule of the 3D faces'
         :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface._cut_weights`). Where no node of that trace lies
-        in the overlap the law has no row: UnsupportedError."""
+        in the overlap the pair has no row and no weight (an empty array; the solve warns,
+        :func:`~cvxcontact.solution.resolution.rowless`)."""
         xc = self._constrained(condition)
         if condition == "gamma3" or self.rigid:
             return np.asarray(_mass(xc[0::2]).sum(axis=1)).ravel()
         k = int(condition[-1]) - 1
         at, xc = self._sigma_at[k], self.sigma_x[k]
+        if len(at) == 0:
+            return np.zeros(0)
         a, b = at[0] % 2, len(at) - 1 - at[-1] % 2               # the run's first and last vertex
         w = np.zeros(len(at))
         if b > a:                                                # the segments with all three nodes inside
@@ -186,24 +189,21 @@ class QuadraticInterface:
             return p2_interpolation(xc[0::2], np.asarray(self.x)) @ values
         k = int(condition[-1]) - 1
         at = self._sigma_at[k]
+        if len(at) == 0:                                         # no row: nothing to extend
+            return np.zeros(self.size)
         nearest = np.clip(np.arange(len(self.traces[k].x)) - at[0], 0, len(at) - 1)    # the run is contiguous
         return self._interp[k] @ values[nearest]
 
     def _constrained(self, condition) -> np.ndarray | None:
         """Abscissae of the constrained nodes of ``condition`` if they form an interleaved P2 mesh (every node
         of X_h; under "sigma1"/"sigma2" if that body's nodes in the overlap begin and end at vertices of its
-        trace), else None (:meth:`weights`). UnsupportedError if no node of that trace lies in the overlap."""
+        trace), else None (:meth:`weights`; also where no node of that trace lies in the overlap)."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if condition == "gamma3" or self.rigid:
             return np.asarray(self.x)
         k = int(condition[-1]) - 1
         at = self._sigma_at[k]
-        if len(at) == 0:
-            raise UnsupportedError(f"a law weighted on the rows (normal compliance, friction) under {condition!r} "
-                                   f"with P2 elements (degree=2): no P2 node of body {k + 1}'s trace lies in the "
-                                   "overlap of the pair, so the law has no row to sit on; use the other sigma "
-                                   "condition, or 'gamma3' (every node of the merged P2 line)")
         if len(at) >= 3 and at[0] % 2 == 0 and at[-1] % 2 == 0:
             return self.sigma_x[k]
         return None
@@ -263,16 +263,14 @@ class P2Pairs:
 
 def p2_pairs(scene, nodes, condition: str, law) -> P2Pairs:
     """The :class:`P2Pairs` of ``scene`` (``nodes[k]``: the P2 nodes of body k; ``condition`` and ``law``
-    those given to ``solve``/``Model``, each pair's own taking precedence). A compliance law under a sigma
-    condition with no row in the overlap is refused here (UnsupportedError, :meth:`QuadraticInterface.weights`)."""
+    those given to ``solve``/``Model``, each pair's own taking precedence). A pair under a sigma condition with
+    no row in the overlap has no row for its law either (the solve warns: ResolutionWarning)."""
     interface = quadratic_stack(scene, nodes)
     stack = interface if isinstance(interface, QuadraticStack) else QuadraticStack([interface], scene.stack.members)
     conditions = [c or condition for c in scene.conditions]
     laws = pair_laws(scene, law)
     conic, limited = [], []
-    for pair, cond, lw in zip(stack.interfaces, conditions, laws):
-        if lw.compliant:
-            pair.weights(cond)                                   # refuses a sigma condition with no row
+    for cond, lw in zip(conditions, laws):
         conic.append(cond == "gamma3" and not lw.compliant)      # compliance: nodal rows (§10)
         limited.append(cond == "gamma3" and lw.compliant and lw.penetration_limit is not None)
     return P2Pairs(interface, stack, conditions, laws, conic, limited)

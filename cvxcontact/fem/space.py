@@ -126,7 +126,9 @@ class Space(Protocol):
     error bound does (``bounded``: :mod:`cvxcontact.solution.bound`, P1 triangles), its ``trace`` on the contact
     lines (:mod:`cvxcontact.fem.trace`: what the read-back, estimates and output ask of X_h), its ``label``
     ("P1", "Q2", ...: figures and reports), the ``order`` of its energy-norm error on smooth solutions (h^order:
-    the rate the studies expect) and the methods below."""
+    the rate the studies expect), whether a pair of two bodies needs their contact faces meshed alike
+    (``matching_faces``: local refinement then refines the partners' strips together, ``cc.adapt``) and the
+    methods below."""
 
     cell: str
     degree: int
@@ -136,6 +138,7 @@ class Space(Protocol):
     trace: LinearTrace
     label: str
     order: int
+    matching_faces: bool
 
     def nodes(self, body):
         """The node set of ``body`` (None: the mesh's vertices)."""
@@ -177,6 +180,7 @@ class P1:
 
     cell, degree, dim, estimates = "triangle", 1, 2, True
     trace, label, order, bounded = TRACES[1], "P1", 1, True
+    matching_faces = False
     vtk = "triangle"
     """The meshio (VTK) cell type."""
 
@@ -236,6 +240,7 @@ class P2:
 
     cell, degree, dim, estimates = "triangle", 2, 2, True
     trace, label, order, bounded = TRACES[2], "P2", 2, False
+    matching_faces = False
     vtk = "triangle6"
 
     def nodes(self, body):
@@ -615,6 +620,7 @@ class Q2Hex(P2Tet):
 
     cell, degree, dim, estimates = "hex", 2, 3, True
     label = "Q2"
+    matching_faces = True          # its rows are exact on matching faces only (hex_contact)
     vtk = "hexahedron27"
     element = HEX2_ELEMENT
 

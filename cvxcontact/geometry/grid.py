@@ -29,7 +29,7 @@ from ..errors import MeshError
 from .hexmesh import HEX_EDGES, HEX_FACES, HexMesh
 from .quadmesh import EDGES, QuadMesh
 
-__all__ = ["GRID_TOL", "Grid", "refine_grid", "tensor_grid"]
+__all__ = ["GRID_TOL", "Grid", "face_lines", "refine_grid", "tensor_grid"]
 
 GRID_TOL = 1e-10
 """Coordinates of two nodes that differ by at most this times the mesh's size (its bounding-box diagonal) lie on
@@ -101,10 +101,12 @@ def tensor_grid(mesh) -> Grid | None:
     return Grid(axes=tuple(axes), index=index, lower=lower)
 
 
-def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | HexMesh, np.ndarray]:
+def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike,
+                lines: tuple | None = None) -> tuple[QuadMesh | HexMesh, np.ndarray]:
     """(fine mesh, parent): the tensor grid ``mesh`` with every grid interval (column, row, slab) that holds a
     cell T cut into 2^times[T] equal pieces (the most any of its cells asks), so that T splits into at least
-    2^(dim times[T]) cells (module docstring).
+    2^(dim times[T]) cells (module docstring); with ``lines``, every interval also cut as often as it takes to
+    hold each of them (a partner's face lines, :func:`face_lines`: two faces meshed alike stay alike).
 
     Parameters
     ----------
@@ -113,6 +115,10 @@ def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | 
     times : (m,) bool or int array_like
         Per cell, how often to halve it along every axis (0: only as its strips ask); a mask is one halving of
         the marked cells.
+    lines : tuple of dim array_like, optional
+        Per axis, coordinates (m) the fine grid must hold; those strictly inside an interval must be dyadic
+        points of it (a + j (b - a) / 2^k: lines a halving of the same coarse interval makes), others are
+        ignored.
 
     Returns
     -------
@@ -126,8 +132,8 @@ def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | 
     ------
     MeshError
         For a mesh that is not a tensor grid of quadrilaterals or hexahedra (mesh it with triangles or
-        tetrahedra to refine it locally, or as a grid), or ``times`` that is not one non-negative integer (or
-        boolean) per cell.
+        tetrahedra to refine it locally, or as a grid), ``times`` that is not one non-negative integer (or
+        boolean) per cell, or a line that no halving of its interval makes (the faces were not meshed alike).
     """
     grid = tensor_grid(mesh)
     if grid is None:
@@ -147,6 +153,8 @@ def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | 
     for d, a in enumerate(grid.axes):
         cuts = np.zeros(len(a) - 1, dtype=np.int64)
         np.maximum.at(cuts, grid.lower[:, d], times)
+        if lines is not None:
+            cuts = np.maximum(cuts, _halvings(a, lines[d], GRID_TOL * mesh.size))
         pieces = 2 ** cuts
         start = np.concatenate([[0], np.cumsum(pieces)])                        # fine index of each coarse line
         parent = np.repeat(np.arange(len(a) - 1), pieces)
@@ -189,6 +197,45 @@ def refine_grid(mesh: QuadMesh | HexMesh, times: ArrayLike) -> tuple[QuadMesh | 
         keys = _facet_keys(n_ax, idx.min(axis=1), node_grid_shape)
         tags[tag] = faces[np.isin(fine_keys, keys)]
     return type(mesh)(points, cells, tags), parent
+
+
+def face_lines(mesh: QuadMesh | HexMesh, part: str) -> tuple:
+    """Per axis, the grid lines (m) of the tensor grid ``mesh`` across its boundary part ``part``: those within
+    the part's extent along each axis the part spans, none along the axis it is flat in (its normal): what a
+    partner's face must hold to be meshed alike (:func:`refine_grid`'s ``lines``)."""
+    grid = tensor_grid(mesh)
+    X = mesh.points[np.unique(mesh.boundary(part))]
+    lo, hi, tol = X.min(axis=0), X.max(axis=0), GRID_TOL * mesh.size
+    return tuple(a[(a >= l - tol) & (a <= h + tol)] if h - l > tol else a[:0]
+                 for a, l, h in zip(grid.axes, lo, hi))
+
+
+MAX_HALVINGS = 8
+"""The most halvings of an interval :func:`refine_grid` makes to hold a line (2^-8 of the interval; a partner
+refined alike is one step ahead at most, :data:`~cvxcontact.geometry.refine.GRID_HALVINGS` halvings)."""
+
+
+def _halvings(a, lines, tol) -> np.ndarray:
+    """(len(a) - 1,) per interval of the sorted grid lines ``a``, the halvings that make it hold every one of
+    ``lines`` strictly inside it (0 for none); MeshError for a line no halving makes."""
+    out = np.zeros(len(a) - 1, dtype=np.int64)
+    c = np.asarray(lines, dtype=float).ravel()
+    c = c[(c > a[0] + tol) & (c < a[-1] - tol)]
+    near = np.abs(a[np.clip(np.searchsorted(a, c), 0, len(a) - 1)] - c) <= tol
+    near |= np.abs(a[np.clip(np.searchsorted(a, c) - 1, 0, len(a) - 1)] - c) <= tol
+    c = c[~near]                                                 # on a line already
+    i = np.searchsorted(a, c) - 1
+    t = (c - a[i]) / (a[i + 1] - a[i])
+    k = np.full(len(c), -1)
+    for n in range(MAX_HALVINGS, 0, -1):                         # the fewest halvings that make t
+        made = np.abs(t * 2 ** n - np.round(t * 2 ** n)) * (a[i + 1] - a[i]) <= tol * 2 ** n
+        k = np.where(made, n, k)
+    if (k < 0).any():
+        j = int(np.argmax(k < 0))
+        raise MeshError(f"refine_grid: the line at {c[j]:.9g} m is no halving of the interval [{a[i[j]]:.9g}, "
+                        f"{a[i[j] + 1]:.9g}] m: the faces are not meshed alike (the same grid on the contact plane)")
+    np.maximum.at(out, i, k)
+    return out
 
 
 def _normal_axis(index):

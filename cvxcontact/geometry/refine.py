@@ -28,12 +28,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MeshError
-from .grid import refine_grid, tensor_grid
+from .grid import face_lines, refine_grid, tensor_grid
 from .mesh import Mesh
 from .tetmesh import TetMesh
 
-__all__ = ["bisect_tets", "circle", "label_longest", "local_refusal", "refine_local", "refine_marked",
-           "refine_times", "refine_uniform", "start_local"]
+__all__ = ["bisect_tets", "circle", "label_longest", "local_refusal", "refine_local", "refine_marked", "refine_times",
+           "refine_together", "refine_uniform", "start_local"]
 
 
 BISECTED = frozenset({"triangle", "tetra"})
@@ -68,12 +68,15 @@ def start_local(mesh):
     return label_longest(mesh) if isinstance(mesh, Mesh) else mesh
 
 
-def refine_local(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None) -> tuple:
+def refine_local(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = None,
+                 lines: tuple | None = None) -> tuple:
     """(fine mesh, parent): ``mesh`` refined where ``times`` (an int per cell: the bisections it asks, each
     halving its area or volume) says. Triangles and tetrahedra: :func:`refine_times` (``curves`` as there). A
     tensor grid of quadrilaterals or hexahedra (:func:`local_refusal` says which are): every grid interval
     through cell T halved ceil(times[T] / dim) times (:func:`~cvxcontact.geometry.grid.refine_grid`; one
-    halving along every axis divides the cell's size by 2^dim, dim bisections), ``curves`` refused."""
+    halving along every axis divides the cell's size by 2^dim, dim bisections), and as often as it takes to hold
+    ``lines`` (per axis, a partner's face lines: :func:`~cvxcontact.geometry.grid.face_lines`), ``curves``
+    refused."""
     if mesh.cell in BISECTED:
         return refine_times(mesh, times, curves)
     why = local_refusal(mesh, bool(curves))
@@ -83,7 +86,35 @@ def refine_local(mesh, times: ArrayLike, curves: Mapping[str, Curve] | None = No
     if times.shape != (len(mesh.cells),) or not np.issubdtype(times.dtype, np.integer) or (times < 0).any():
         raise MeshError(f"refine_local: times must be non-negative integers, one per cell ({len(mesh.cells)}), "
                         f"got dtype {times.dtype} and shape {times.shape}")
-    return refine_grid(mesh, np.minimum(-(-times // mesh.dim), GRID_HALVINGS))
+    return refine_grid(mesh, np.minimum(-(-times // mesh.dim), GRID_HALVINGS), lines)
+
+def refine_together(meshes: Sequence, times: Sequence[ArrayLike], faces: Sequence[tuple],
+                    curves: Sequence[Mapping[str, Curve] | None] | None = None) -> list:
+    """The meshes ``meshes`` each refined by :func:`refine_local` (``times[k]``, ``curves[k]``), the tensor grids
+    among them keeping their contact faces meshed alike: ``faces``, pairs ((k, part_k), (l, part_l)) of faces of
+    meshes k and l that are meshed alike (the same grid on the contact plane) and must stay so. Each grid interval
+    across such a face is cut as often as its partner's is (the partner's lines, :func:`~cvxcontact.geometry.grid.
+    face_lines`), repeated until no mesh changes (a chain of faces passes a line along)."""
+    curves = [None] * len(meshes) if curves is None else list(curves)
+    fine = [refine_local(m, t, c)[0] for m, t, c in zip(meshes, times, curves)]
+    grids = [m.cell not in BISECTED for m in meshes]
+    faces = [f for f in faces if grids[f[0][0]] and grids[f[1][0]]]
+    for _ in range(len(meshes)):
+        if not faces:
+            break
+        lines = [[[] for _ in range(m.dim)] for m in meshes]
+        for (k, pk), (l, pl) in faces:
+            for (a, _), (b, pb) in (((k, pk), (l, pl)), ((l, pl), (k, pk))):
+                for d, line in enumerate(face_lines(fine[b], pb)):
+                    lines[a][d].append(line)
+        again = [refine_local(m, t, c, tuple(np.concatenate(x) if x else np.zeros(0) for x in ln))[0]
+                 if g else f for m, t, c, ln, g, f in zip(meshes, times, curves, lines, grids, fine)]
+        same = all(len(a.points) == len(b.points) for a, b in zip(again, fine))
+        fine = again
+        if same:
+            break
+    return fine
+
 
 def refine_uniform(mesh: Mesh | TetMesh, times: int = 1) -> tuple[Mesh | TetMesh, np.ndarray]:
     """(fine mesh, parent): ``mesh`` refined ``times`` times (module docstring); ``parent`` (m_fine,) the

@@ -57,7 +57,9 @@ def _refuse_unheld(scene):
         if unheld:
             raise SceneError(f"{b.name}: nothing holds the rigid motion(s) {unheld}: add a clamped, roller or "
                              f"displacement support that stops it (contact is unilateral and holds only along "
-                             f"the normal of the contact part(s) {parts})")
+                             f"the normal of the contact part(s) {parts}), or give one of its pairs a friction "
+                             f"law of its own (Contact(..., law=cc.Tresca(g)); in a scene file the [[contact]]'s "
+                             f"law: a solve's law= comes after the scene is built)")
 
 
 class Scene(Frozen):

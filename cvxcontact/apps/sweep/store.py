@@ -100,15 +100,18 @@ def sha256(path) -> str:
 ARRAY_UNITS = (                  # (pattern of a case array's name, its unit), the first match counts
     (r"u\d+", "m"), (r"phi\d+", "V"), (r"points\d+", "m"), (r"triangles\d+", "1"), (r"quads\d+", "1"), (r"tetrahedra\d+", "1"),
     (r"hexahedra\d+", "1"),
-    (r"(contact\d+_)?(x|trace_s\d+|line_points|jump|gap)", "m"), (r"(contact\d+_)?(lam|pressure\d+)", "Pa"),
-    (r"(contact\d+_)?force", "N/m"), (r"(contact\d+_)?(active|constrained)", "1"),
+    (r"(contact\d+_)?(x|trace_s\d+|line_points|jump|gap|slip)", "m"),
+    (r"(contact\d+_)?(lam|pressure\d+|shear|threshold)", "Pa"),
+    (r"(contact\d+_)?(force|shear_force)", "N/m"), (r"(contact\d+_)?(active|constrained)", "1"),
 )
 """Units of the arrays of ``cases/<id>.npz``: ``u<k>`` displacement of body k (nodes, 2) and ``phi<k>``
 its electric potential; ``points<k>``/``triangles<k>`` its mesh (triangles: node indices; ``quads<k>`` for quadrilaterals, ``tetrahedra<k>`` or ``hexahedra<k>`` in 3D); contact pair 1
 (pair p >= 2: the same names prefixed ``contact<p>_``): ``x`` the tangential coordinate s of the merged
 nodes, ``line_points`` their coordinates, ``lam`` lambda_h (a diagnostic), ``jump`` [u_h nu], ``gap``,
 ``force`` the nodal forces, ``active``/``constrained`` (booleans), ``pressure<j>`` the pressure felt by
-body j on its own trace nodes at ``trace_s<j>``. "1": dimensionless (indices, flags)."""
+body j on its own trace nodes at ``trace_s<j>``; under a friction law ``slip`` [u_t], ``shear_force`` the
+tangential nodal forces on the first body, ``shear`` its tangential traction and ``threshold`` the slip threshold g
+(ContactResult's fields). "1": dimensionless (indices, flags)."""
 
 
 def array_unit(name: str) -> str | None:

@@ -108,7 +108,8 @@ def _solve(spec, task, method, scene_path):
 def arrays(sol) -> dict:
     """The arrays of a case file (names and units: :data:`.store.ARRAY_UNITS`). Contact pair 1 unprefixed,
     pair p >= 2 prefixed ``contact<p>_``; ``pressure<j>``/``trace_s<j>``: the pressure felt by body j
-    (1-based scene index) on its own trace nodes (:meth:`Solution.traction`), the one to read first."""
+    (1-based scene index) on its own trace nodes (:meth:`Solution.traction`), the one to read first; a pair under
+    a friction law also ``slip``, ``shear_force``, ``shear`` and ``threshold`` (:class:`ContactResult`)."""
     from ...io.output import pair_bodies
 
     out = {}
@@ -119,6 +120,9 @@ def arrays(sol) -> dict:
                     f"{pre}force": c.force, f"{pre}active": c.active, f"{pre}constrained": c.constrained})
         if c.gap is not None:
             out[f"{pre}gap"] = c.gap
+        if c.slip is not None:                  # a friction law: its read-back (ContactResult)
+            out.update({f"{pre}slip": c.slip, f"{pre}shear_force": c.shear_force, f"{pre}shear": c.shear,
+                        f"{pre}threshold": c.threshold})
         for k, b in enumerate(pair_bodies(sol, i)):
             out[f"{pre}trace_s{b + 1}"], out[f"{pre}pressure{b + 1}"] = sol.traction(k, i)
     for k, (body, u, phi) in enumerate(zip(sol.scene.bodies, sol.u, sol.phi), start=1):

@@ -59,14 +59,14 @@ from .finish.forces import friction_scale
 from .finish.friction import FrictionRows
 from .frictionsteps import sequential as _sequential
 from .full import ContactModel, mixed_kkt
-from .mixed import HeldEnergy, mixed_system, stacked, unstacked
+from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
-           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip"]
+           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip", "row_forces"]
 
 log = logging.getLogger(__name__)
 
@@ -453,9 +453,19 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
                     f"{changes[-1]:.3g} (relative) at its iterate {len(changes)}, above the tolerance {tol:.3g}")
 
 
+def row_forces(problem, model: ContactModel, u, taus) -> tuple:
+    """(y, None, None): the Signorini rows' multipliers of the solved friction program (scaled; the term
+    :class:`~cvxcontact.discrete.terms.TrescaFriction`'s forces)."""
+    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None, None
+
+
 def _row_forces(problem, model):
-    """(y, None): the normal rows' multipliers of the solved program (scaled)."""
-    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None
+    """(y, None): the normal row forces of the solved program (scaled), as its term reads them (Signorini rows:
+    their multipliers; beside a compliance law w p(r) + z on every row, :func:`~cvxcontact.backends.compliance.
+    compliance_forces`)."""
+    values = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
+    taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
+    return problem.term.program_forces(problem, model, values, taus)[0], None
 
 
 def _cone_forces(problem, model):
@@ -540,9 +550,17 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
     S = _slip_matrix(problem, order, widths)
+    dependent = dependent or dependent_rows(problem) or _shared(problem, G, S, rows)
+    limited, on = None, rows                     # beside a compliance law: its energy in op, the limited rows in G
+    if problem.compliant and points is None:
+        op, limited = LawEnergy(op, G, g, problem.weights, problem.scaled_law), problem.scaled_law.limited
+        y0 = (first.y - op.forces(stacked(first.u, first.phi, first.taus)))[limited]     # their reactions z
+        G, g, free = G[limited], (g + np.where(limited, problem.scaled_law.penetration_limit, 0.0))[limited], \
+            free[limited]
+        on = np.searchsorted(np.flatnonzero(limited), rows)      # the frictional rows (Signorini) among them
     c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
     slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
-    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], slope[rows], n_c,
+    fr = FrictionRows(S, prescribed_row_slip(problem)[order], on, c0[rows], slope[rows], n_c,
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
@@ -552,7 +570,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
         return raw
     out = _sequential(op, G, g, fr, free, stacked(first.u, first.phi, first.taus), y0,
                       first.tangential.reshape(n_c, R)[:, rows].T,
-                      (C, U), dependent or dependent_rows(problem) or _shared(problem, G, S, rows))
+                      (C, U), dependent)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out
@@ -576,6 +594,10 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     if bounded and after > before + ENERGY_SLACK * max(abs(before), C * U):
         raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
         return raw
+    if limited is not None:                       # every row's force: the law's w p(r), and z on the limited rows
+        z, y = y, op.forces(x)
+        y[limited] += z
+        closed, raw.z = _scattered(closed, limited) | (y > 0), _scattered(z, limited)
     raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
     raw.y, raw.active = y, closed
     raw.tangential = np.zeros((n_c, R))
@@ -586,6 +608,13 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     raw.polished, raw.finish, raw.route = True, Finish.FRICTION_NEWTON, Route.INTERIOR_POINT_FINISHED
     raw.iterations += steps
     return raw
+
+
+def _scattered(values, mask) -> np.ndarray:
+    """``values`` of the rows ``mask`` selects, on every row (0 / False elsewhere)."""
+    out = np.zeros(len(mask), dtype=np.asarray(values).dtype)
+    out[mask] = values
+    return out
 
 
 def _slip_matrix(problem, order, widths):

@@ -409,6 +409,12 @@ def _capacity(scene, condition, lines):
             "the capacities, and the answer, would depend on the solver's representation); use cc.Tresca(g) under "
             "'gamma3', or cc.Coulomb with condition='sigma1' or 'sigma2' (nodal rows with positive weights), or "
             "degree=1 with 'gamma3'; against a rigid obstacle Coulomb under 'gamma3' with P2 is available")
+    if rows.compliant and rows.size != len(weights):    # the law's rows at quadrature points of its P2 faces
+        raise UnsupportedError(
+            "a friction law next to a normal-compliance pair with P2 (10-node or 27-node) elements in 3D is not "
+            "available yet: the compliance law's rows are quadrature points on its P2 faces, the friction rows the "
+            "nodes of the other pairs, and their weights are not one stack; use degree=1 (friction and compliance "
+            "on nodal rows), or Signorini in place of the compliance law")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity

@@ -441,3 +441,14 @@ def compliant_series3d_exact(points, tau, k):
     z = np.asarray(points, dtype=float)[:, 2] + 1.0
     q = tau * DIAGONAL3
     return np.column_stack([q[0] * z / (E / 2), q[1] * z / (E / 2), -P / k - P * z / E])
+
+
+def lidded(law, force=-P, lid_law=None, q=0.05 * P, at=H, nx=8, ny=4):
+    """The block (1 m x 0.5 m, nu = 0.3) on the rigid floor y = 0 (``law``) under the shear traction (q, 0) on its
+    right face, pressed from above by the plane y = ``at`` (``lid_law`` on that pair; None: frictionless) under the
+    prescribed force (0, ``force``) N/m (``force`` None: the plane fixed at y = ``at``): force control beside a
+    friction law; the block is held along x by the friction alone."""
+    b = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny), steel(), contact="bottom",
+                traction={"right": (q, 0.0)})
+    lid = cc.Rigid.plane(point=(0.0, at), normal=(0.0, -1.0), force=None if force is None else (0.0, force))
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "top", lid, law=lid_law)])

@@ -331,7 +331,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
     kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes,
-                              capacity=_capacity(scene, condition, lines))
+                              capacity=_capacity(scene, condition, lines, [len(s.f) // space.dim for s in systems]))
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
     jumps = {}
@@ -381,11 +381,13 @@ def _slip(interface, k, n_nodes):
     return interface.tangential_jump(k, n_nodes)
 
 
-def _capacity(scene, condition, lines):
+def _capacity(scene, condition, lines, counts):
     """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
     k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
     threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
-    route checks its capacity at every iterate); None without."""
+    route checks its capacity at every iterate), and ``moves(o)``, the slip rows of a force-controlled obstacle's
+    translations on the frictional rows (:func:`obstacle_slip`; UnsupportedError where they slip one: not yet
+    available); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
@@ -417,7 +419,43 @@ def _capacity(scene, condition, lines):
             "on nodal rows), or Signorini in place of the compliance law")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
-    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity
+    frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
+    moves = {}
+    for o in lines.obstacles:
+        if o.force is not None:
+            moves[id(o)] = np.where(frictional[:, None], Ec @ obstacle_slip(lines.interface, o, counts), 0.0)
+            if np.abs(moves[id(o)]).max(initial=0.0) > SLIP_TOL:
+                raise UnsupportedError(
+                    f"a friction law on a contact the force-controlled obstacle {o.obstacle!r} slips as it moves "
+                    "(its translations have a part along the tangents of a frictional pair's rows: a curved "
+                    "obstacle, or a plane not parallel to its part) is not available yet: prescribe the obstacle's "
+                    "position, leave its pairs frictionless, or press the part with a plane parallel to it")
+    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: moves[id(o)]
+
+
+SLIP_TOL = 1e-9
+"""A force-controlled obstacle's translation slips a frictional row where its slip per unit translation exceeds this
+(dimensionless; a plane's normal translation against a parallel part: rounding, ~1e-17)."""
+
+
+def obstacle_slip(interface, obstacle, counts) -> np.ndarray:
+    """(c size, k): the slip [u_t] at the stacked nodes of X_h (component-major, like ``tangential_jump``) that a
+    unit translation of the obstacle along each of its ``basis`` columns causes on its pairs' nodes: the body's
+    nodes slip against it by -t . t_a, minus the slip of the body translated by t (the interpolations of the traces
+    sum to 1), 0 on the other pairs' nodes. ``counts``: the bodies' node counts."""
+    c = getattr(interface, "slip_components", 1)
+    offsets = getattr(interface, "offsets", (0, interface.size))
+    size = int(offsets[-1])
+    on = np.zeros(size, dtype=bool)
+    for i in obstacle.pairs:
+        on[offsets[i]:offsets[i + 1]] = True
+    basis = np.asarray(obstacle.basis, dtype=float)
+    out = np.zeros((c * size, basis.shape[1]))
+    for k, n in enumerate(counts):
+        T = interface.tangential_jump(k, n)
+        out -= np.column_stack([T @ np.tile(v, n) for v in basis.T])
+    out[~np.tile(on, c)] = 0.0
+    return out
 
 
 def row_weights(interface, condition, conditions) -> np.ndarray:

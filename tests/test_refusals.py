@@ -395,6 +395,42 @@ def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
     assert sol.ok and min(lower.min(), upper.min()) >= -1e-12 * scale and lower.max() >= 0.1 * scale
     assert max(rel(full.u[k], sol.u[k]) for k in (0, 1)) <= 1e-9
 
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="row 39: a force-controlled obstacle whose "
+                   "translations slip a frictional row")
+def test_a_force_controlled_disk_on_a_frictional_pair_equals_the_prescribed_one():
+    """Row 39 (b). A block clamped at its base, pressed by a force-controlled disk with Tresca friction on that pair:
+    the disk's translation, then the disk prescribed there (moved by it, fixed): the same u, its force the
+    prescribed one (an invariance)."""
+    from friction_scenes import steel
+
+    b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=16, ny=4), steel(), contact="top", clamped="bottom")
+    F = (0.0, -1e6)
+    disk = cc.Rigid.circle(center=(0.5, 0.8), radius=0.3, force=F)
+    forced = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", disk, law=cc.Tresca(1e5))]))
+    t = forced.obstacles[0].translation
+    fixed = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", disk.with_force(None).moved(by=t),
+                                                      law=cc.Tresca(1e5))]))
+    assert forced.ok and fixed.ok
+    assert rel(forced.u[0], fixed.u[0]) <= 1e-9 and rel(fixed.obstacles[0].force, F) <= 1e-9
+
+
+@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="row 40: friction beside a compliance law, P2 3D")
+def test_p2_tetrahedra_friction_beside_a_compliance_pair_closed_form():
+    """Row 40 (b). The compliance pair and the stuck sheared layer in series (tests/friction_scenes.py), P2
+    tetrahedra under "sigma1": the closed form (springs in series, the stuck shear; linear, P2 reproduces it)."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import compliant_series3d, compliant_series3d_exact
+
+    from cvxcontact.geometry.quadratic import P2TetNodes
+
+    tau, k = 0.1 * P_FRICTION, 1e13
+    scene = compliant_series3d(tau, k, g=0.5 * P_FRICTION)
+    sol = cc.solve(scene, degree=2, condition="sigma1")
+    assert sol.ok
+    for i, body in enumerate(scene.bodies):
+        assert rel(sol.u[i], compliant_series3d_exact(P2TetNodes(body.mesh).points, tau, k)) <= 1e-10
+
+
 # ================================================================ held rows, supports on a contact part
 
 

@@ -416,9 +416,9 @@ def compliant_series_exact(points, tau, k):
     return np.column_stack([tau * y / (E / 2), -P / k - P * y / E])
 
 
-def compliant_series3d(tau, k, g=None, n=2, cell="tetra"):
+def compliant_series3d(tau, k, g=None, n=2, cell="tetra", law=None):
     """The 3D counterpart of :func:`compliant_series`: two unit boxes (n x n x 1 cells, nu = 0) in the uniform state of
-    :func:`uniform_layer3d`, the upper one on the lower one with Tresca's g (stuck), the lower one on the rigid plane
+    :func:`uniform_layer3d`, the upper one on the lower one with ``law`` (default Tresca's g; stuck), the lower one on the rigid plane
     z = -1 under cc.NormalCompliance(k), u_x = u_y = 0 on its base. u = (tau_x (z+1) / G, tau_y (z+1) / G,
     -p / k - p (z + 1) / E) along :data:`DIAGONAL3`."""
     q = tau * DIAGONAL3
@@ -432,7 +432,8 @@ def compliant_series3d(tau, k, g=None, n=2, cell="tetra"):
     lower = cc.Body(mesh, steel(nu=0.0), contact="top", name="lower", displacement={"base": (0.0, 0.0, None)},
                     traction=_side_shear(q))
     floor = cc.Rigid.plane(point=(0.0, 0.0, -1.0), normal=(0.0, 0.0, 1.0))
-    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=cc.Tresca(g)),
+    law = cc.Tresca(g) if law is None else law
+    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=law),
                                             cc.Contact(lower, "bottom", floor, law=cc.NormalCompliance(k))])
 
 

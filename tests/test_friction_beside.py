@@ -50,21 +50,25 @@ def solved(scene, **kw):
         return cc.solve(scene, **kw)
 
 
-@pytest.mark.parametrize("dim, degree, cell", [(2, 1, None), (2, 2, None), (3, 1, "tetra"), (3, 1, "hex")])
-def test_compliance_pair_and_stuck_layer_in_series_closed_form(dim, degree, cell):
-    """Two layers under (tau, -p), stuck together by Tresca (g = p / 2 > tau), the lower one on the floor under the
-    compliance law: u = (tau y' / G, -p / k - p y' / E), y' the height above the floor, in both layers."""
+@pytest.mark.parametrize("dim, degree, cell, coulomb", [(2, 1, None, False), (2, 1, None, True), (2, 2, None, False),
+                                                          (3, 1, "tetra", False), (3, 1, "tetra", True),
+                                                          (3, 1, "hex", False)])
+def test_compliance_pair_and_stuck_layer_in_series_closed_form(dim, degree, cell, coulomb):
+    """Two layers under (tau, -p), stuck together by Tresca (g = p / 2 > tau; or Coulomb, mu = 1/2), the lower one
+    on the floor under the compliance law: u = (tau y' / G, -p / k - p y' / E), y' the height above the floor, in
+    both layers."""
     tau = 0.1 * P
+    law = cc.Coulomb(0.5) if coulomb else None
     if dim == 2:
-        scene, exact = compliant_series(tau, K, g=0.5 * P), compliant_series_exact
+        scene, exact = compliant_series(tau, K, g=0.5 * P, law=law), compliant_series_exact
     else:
-        scene, exact = compliant_series3d(tau, K, g=0.5 * P, cell=cell), compliant_series3d_exact
+        scene, exact = compliant_series3d(tau, K, g=0.5 * P, cell=cell, law=law), compliant_series3d_exact
     kw = {"degree": 2, "condition": "sigma1"} if degree == 2 else {}
     sol = solved(scene, **kw)
     assert sol.ok and sol.polished and sol.info.declined is None
     for i, body in enumerate(scene.bodies):
         points = body.mesh.points if degree == 1 else P2Nodes(body.mesh).points
-        # measured: 3.2e-15 / 5.0e-15 (2D P1), 1.5e-14 (2D P2), 6.0e-16 (3D tetra), 8.7e-16 (3D hex)
+        # measured: 3.2e-15 / 5.0e-15 (2D P1), 1.5e-14 (2D P2), 6.0e-16 (3D tetra; Coulomb 8.2e-16), 8.7e-16 (hex)
         assert rel(sol.u[i], exact(points, tau, K)) < 1e-11
     floor = sol.contacts[1]                                   # the compliance pair: lambda = k r = p everywhere
     assert rel(floor.lam, np.full(len(floor.lam), P)) < 1e-11

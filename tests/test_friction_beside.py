@@ -44,9 +44,9 @@ def rel(a, b):
 
 
 def solved(scene, **kw):
-    """The solution of ``scene``, every warning an error (a declined finish warns)."""
+    """The solution of ``scene``, a ResidualWarning an error (a declined finish, failed checks)."""
     with warnings.catch_warnings():
-        warnings.simplefilter("error")
+        warnings.simplefilter("error", cc.ResidualWarning)
         return cc.solve(scene, **kw)
 
 
@@ -158,12 +158,8 @@ def test_force_controlled_plane_beside_friction_3d():
 
 
 def test_refusals_named():
-    """What stays refused: a force-controlled obstacle whose translations slip a frictional row (a disk), and a
-    friction law beside a compliance law with P2 tetrahedra (the law's rows are quadrature points)."""
-    b = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=8, ny=4), steel(), contact="top", clamped="bottom")
-    disk = cc.Rigid.circle(center=(0.5, 0.8), radius=0.3, force=(0.0, -1e6))
-    with pytest.raises(cc.UnsupportedError, match="force-controlled obstacle .* slips as it moves"):
-        cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", disk, law=cc.Tresca(1e5))]))
+    """What stays refused: a friction law beside a compliance law with P2 tetrahedra (the law's rows are
+    quadrature points; docs/refusals.md row 40)."""
     with pytest.raises(cc.UnsupportedError, match="next to a normal-compliance pair with P2"):
         cc.solve(compliant_series3d(0.1 * P, K, g=0.5 * P), degree=2, condition="sigma1")
 
@@ -178,3 +174,24 @@ def test_a_declined_finish_is_flagged(monkeypatch):
     with pytest.warns(cc.ResidualWarning, match="declined"):
         sol = cc.solve(walled(cc.Tresca(1e5), cc.NormalCompliance(K)))
     assert not sol.polished and sol.info.declined is not None and "planted" in str(sol.info.declined)
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
+def test_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(law):
+    """3D (docs/refusals.md row 39): a block clamped at its base pressed by a force-controlled sphere (force
+    (1e4, 5e3, -1e5) N) with friction on that pair; its translation t slips the rows (the sphere's tangents are
+    tilted). The scene translated by -t (the sphere fixed where it started, the base moved by -t) has the same
+    relative motion: its u is u - t."""
+    mesh = cc.box(nx=4, ny=4, nz=2)
+    F = np.array([1e4, 5e3, -1e5])
+    sphere = cc.Rigid.sphere(center=(0.5, 0.5, 1.5), radius=0.5, force=tuple(F))
+    body = cc.Body(mesh, steel(), contact="top", clamped="bottom")
+    forced = solved(cc.Scene(body, contacts=[cc.Contact(body, "top", sphere, law=law)]))
+    assert forced.ok and forced.polished
+    t = forced.obstacles[0].translation
+    assert np.abs(t[:2]).min() > 0                            # measured (1.6e-7, 8.1e-8, -4.9e-7) (Tresca)
+    moved = cc.Body(mesh, steel(), contact="top", displacement={"bottom": tuple(-t)})
+    ref = solved(cc.Scene(moved, contacts=[cc.Contact(moved, "top", sphere.with_force(None), law=law)]))
+    assert ref.ok and ref.polished
+    assert rel(forced.u[0] - t, ref.u[0]) <= 1e-12            # measured 1.3e-15, 1.4e-15
+    assert rel(forced.obstacles[0].force, F) <= 1e-13         # measured 2.9e-16, 0

@@ -93,6 +93,7 @@ def friction_program(problem, model: ContactModel):
     at = np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])
     Es = problem.slip_rows[at]
     slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + prescribed_row_slip(problem)[at]
+    slip = slip + sum((Es @ T) @ t for T, t in zip(problem.translation_slips, model.t))   # a moving obstacle's
     capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
     if n_c == 1:
         s = cp.Variable(len(rows), name="slip")
@@ -118,6 +119,7 @@ def _moved_components(problem, rows) -> np.ndarray:
     n_c, R = problem.slip_components, problem.E.shape[0]
     Es = problem.slip_rows
     reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
+    reach = reach + sum((abs(Es @ T) @ np.ones(T.shape[1]) for T in problem.translation_slips), np.zeros(n_c * R))
     return reach.reshape(n_c, R)[:, rows].T > 0
 
 
@@ -620,10 +622,12 @@ def _scattered(values, mask) -> np.ndarray:
 def _slip_matrix(problem, order, widths):
     """The slips of the friction rows' components ``order`` (row a, component j at a n_c + j) as rows on the
     stacked unknowns x = (u, phi, taus) of :func:`~cvxcontact.backends.mixed.stacked` (``widths``: the
-    translations'; 0 on phi and on them): (len(order), len(x)), CSR."""
+    translations'; 0 on phi; on the translations the slip their obstacle's motion causes,
+    ``problem.translation_slips``): (len(order), len(x)), CSR."""
     Es = problem.slip_rows[order]
+    moves = problem.translation_slips or [np.zeros((Es.shape[1], w)) for w in widths]
     return sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(order), 0 if b.Kpp is None else b.Kpp.shape[0]))])
-                      for b in problem.blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
+                      for b in problem.blocks] + [sp.csr_matrix(Es @ T) for T in moves]).tocsr()
 
 
 def _shared(problem, G, S, rows) -> bool:

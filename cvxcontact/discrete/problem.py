@@ -59,7 +59,8 @@ class DiscreteProblem:
     contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
     given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
     ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
-    law only); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    law only); ``translation_slips``: per force-controlled obstacle, the slip at the nodes of X_h of its translation
+    unknowns tau ((c size, k), :func:`obstacle_slip`; a friction law only, else empty); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`); ``term``: the
     contact term its law poses (:class:`~cvxcontact.discrete.terms.ContactTerm`: its route key, its warm start,
@@ -84,6 +85,7 @@ class DiscreteProblem:
     prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
     prescribed_slip: np.ndarray | float = 0.0
+    translation_slips: tuple = ()
     _fingerprints: tuple = field(default=(), repr=False)
     _shared: dict = field(default_factory=dict, repr=False)
 
@@ -364,11 +366,14 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
         slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
                          np.zeros(slips[0].shape[0])) / un.displacement
+    counts = [len(s.f) // space.dim for s in systems]
+    moves = tuple(obstacle_slip(lines.interface, o, counts) for o in forced) if slips is not None else ()
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=contact_term(lines, space.dim),
                               scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
+                              translation_slips=moves,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies),
                               _shared=previous._shared if previous is not None else {})
@@ -386,8 +391,7 @@ def _capacity(scene, condition, lines, counts):
     k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
     threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
     route checks its capacity at every iterate), and ``moves(o)``, the slip rows of a force-controlled obstacle's
-    translations on the frictional rows (:func:`obstacle_slip`; UnsupportedError where they slip one: not yet
-    available); None without."""
+    translations on the frictional rows (:func:`obstacle_slip`); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
@@ -420,36 +424,24 @@ def _capacity(scene, condition, lines, counts):
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
-    moves = {}
-    for o in lines.obstacles:
-        if o.force is not None:
-            moves[id(o)] = np.where(frictional[:, None], Ec @ obstacle_slip(lines.interface, o, counts), 0.0)
-            if np.abs(moves[id(o)]).max(initial=0.0) > SLIP_TOL:
-                raise UnsupportedError(
-                    f"a friction law on a contact the force-controlled obstacle {o.obstacle!r} slips as it moves "
-                    "(its translations have a part along the tangents of a frictional pair's rows: a curved "
-                    "obstacle, or a plane not parallel to its part) is not available yet: prescribe the obstacle's "
-                    "position, leave its pairs frictionless, or press the part with a plane parallel to it")
+    moves = {id(o): np.where(frictional[:, None], Ec @ obstacle_slip(lines.interface, o, counts), 0.0)
+             for o in lines.obstacles if o.force is not None}
     return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: moves[id(o)]
 
 
-SLIP_TOL = 1e-9
-"""A force-controlled obstacle's translation slips a frictional row where its slip per unit translation exceeds this
-(dimensionless; a plane's normal translation against a parallel part: rounding, ~1e-17)."""
-
-
-def obstacle_slip(interface, obstacle, counts) -> np.ndarray:
+def obstacle_slip(interface, obstacle, counts, basis=None) -> np.ndarray:
     """(c size, k): the slip [u_t] at the stacked nodes of X_h (component-major, like ``tangential_jump``) that a
     unit translation of the obstacle along each of its ``basis`` columns causes on its pairs' nodes: the body's
     nodes slip against it by -t . t_a, minus the slip of the body translated by t (the interpolations of the traces
-    sum to 1), 0 on the other pairs' nodes. ``counts``: the bodies' node counts."""
+    sum to 1), 0 on the other pairs' nodes. ``counts``: the bodies' node counts; ``basis`` (d, k): other directions
+    (default the obstacle's ``basis``; the identity gives the slip of a translation along each axis)."""
     c = getattr(interface, "slip_components", 1)
     offsets = getattr(interface, "offsets", (0, interface.size))
     size = int(offsets[-1])
     on = np.zeros(size, dtype=bool)
     for i in obstacle.pairs:
         on[offsets[i]:offsets[i + 1]] = True
-    basis = np.asarray(obstacle.basis, dtype=float)
+    basis = np.asarray(obstacle.basis if basis is None else basis, dtype=float)
     out = np.zeros((c * size, basis.shape[1]))
     for k, n in enumerate(counts):
         T = interface.tangential_jump(k, n)

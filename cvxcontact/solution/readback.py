@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..discrete.terms import TERMS, named
-from .friction import read_back_friction
+from .friction import obstacle_friction, read_back_friction
 from .info import Route
 from .nodal import read_back_compliance, read_back_cones, read_back_nodal
 from .solution import Solution, obstacle_results
@@ -79,7 +79,8 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
     scene, un = problem.scene, problem.units
     sol = problem.term.read_back(problem, raw, tol, timings)
     if scene.obstacles:
-        obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles)
+        obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles,
+                         obstacle_friction(problem, raw))
     route = raw.route
     if raw.polished and route == Route.INTERIOR_POINT:
         route = Route.INTERIOR_POINT_FINISHED

@@ -497,7 +497,9 @@ class ObstacleResult:
     :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), equal and
     opposite to the contact's push on the obstacle, i.e. the force needed to hold it where it is (a plane
     under a body: upwards; a sphere pressed down onto one: downwards); for a force-controlled obstacle it equals the prescribed
-    ``prescribed`` (the check "obstacle balance"). ``pairs`` are its contact pairs.
+    ``prescribed`` (the check "obstacle balance"), and beside a friction law it includes the friction forces on its
+    pairs along the translations it is free to make (:func:`~cvxcontact.solution.friction.obstacle_friction`).
+    ``pairs`` are its contact pairs.
     """
 
     obstacle: object

@@ -165,7 +165,7 @@ class DiscreteProblem:
     @property
     def row_lengths(self) -> np.ndarray:
         """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
-        return row_weights(self.interface, self.condition, self.scene.conditions) / self.units.length
+        return friction_weights(self.lines, self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -396,7 +396,7 @@ def _capacity(scene, condition, lines, counts):
     if not rows.friction:
         return None
     E = lines.E
-    weights = row_weights(lines.interface, condition, scene.conditions)
+    weights = friction_weights(lines, condition, scene.conditions)
     if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones' rows: X_h's nodes
         raise UnsupportedError(
             "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
@@ -415,12 +415,6 @@ def _capacity(scene, condition, lines, counts):
             "the capacities, and the answer, would depend on the solver's representation); use cc.Tresca(g) under "
             "'gamma3', or cc.Coulomb with condition='sigma1' or 'sigma2' (nodal rows with positive weights), or "
             "degree=1 with 'gamma3'; against a rigid obstacle Coulomb under 'gamma3' with P2 is available")
-    if rows.compliant and rows.size != len(weights):    # the law's rows at quadrature points of its P2 faces
-        raise UnsupportedError(
-            "a friction law next to a normal-compliance pair with P2 (10-node or 27-node) elements in 3D is not "
-            "available yet: the compliance law's rows are quadrature points on its P2 faces, the friction rows the "
-            "nodes of the other pairs, and their weights are not one stack; use degree=1 (friction and compliance "
-            "on nodal rows), or Signorini in place of the compliance law")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
@@ -448,6 +442,28 @@ def obstacle_slip(interface, obstacle, counts, basis=None) -> np.ndarray:
         out -= np.column_stack([T @ np.tile(v, n) for v in basis.T])
     out[~np.tile(on, c)] = 0.0
     return out
+
+
+def friction_weights(lines, condition, conditions) -> np.ndarray:
+    """The weights of the friction capacities g_a w_a, one per row (m; m^2 in 3D): :func:`row_weights`, or, where a
+    compliance pair's rows are its law's quadrature points (P2 in 3D: not one row per node of the condition), per
+    pair its :func:`row_weights` where they are its rows and the law's own weights on such a pair (frictionless: no
+    capacity there, the weights of its quadrature). UnsupportedError if a frictional pair's rows are not its nodes."""
+    w = row_weights(lines.interface, condition, conditions)
+    rows = lines.rows
+    if len(w) == rows.size or lines.weights is None or not hasattr(lines.interface, "interfaces"):
+        return w
+    interfaces = lines.interface.interfaces
+    conditions = conditions or [None] * len(interfaces)
+    parts, start = [], 0
+    for itf, c, n, law in zip(interfaces, conditions, rows.counts, rows.laws):
+        own = itf.weights(condition if c is None else c)
+        if len(own) != n and law.friction is not None:
+            raise UnsupportedError(f"a friction law on a pair whose {n} contact rows are not the {len(own)} nodes of "
+                                   "its condition is not available: pose the pair under a nodal condition")
+        parts.append(own if len(own) == n else np.asarray(lines.weights[start:start + n], dtype=float))
+        start += n
+    return np.concatenate(parts)
 
 
 def row_weights(interface, condition, conditions) -> np.ndarray:

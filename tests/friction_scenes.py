@@ -480,3 +480,68 @@ def uniform_stack3d(tau, law, conditions=("gamma3", "sigma1"), n=(2, 3, 3)):
     top, middle, bottom = boxes
     return cc.Scene(*boxes, contacts=[cc.Contact(top, "bottom", middle, "top", law=law, condition=conditions[0]),
                                       cc.Contact(middle, "bottom", bottom, "top", law=law, condition=conditions[1])])
+
+
+def compliant_series(tau, k, g=None, law=None, nx=4, ny=2):
+    """Two layers (1 m x 0.5 m, nu = 0) in the uniform state of :func:`uniform_layer` (sigma_yy = -p, sigma_xy = tau:
+    (tau, -p) on the upper one's top, the complementary shear on both layers' sides): the upper layer on the lower
+    one (matching lines) with ``law`` (default Tresca's g, > tau: stuck), the lower one on the rigid floor y = -H
+    under cc.NormalCompliance(k) with u_x = 0 on its base (a second tag "base"). Springs in series and the stuck
+    shear: u = (tau (y + H) / G, -p / k - p (y + H) / E), G = E / 2 (plane strain, nu = 0), in both layers.
+    Returns the scene (bodies "upper", "lower")."""
+    law = cc.Tresca(g) if law is None else law
+    top = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
+    upper = cc.Body(top, steel(nu=0.0), contact="bottom", name="upper",
+                    traction={"top": (tau, -P), "left": (0.0, -tau), "right": (0.0, tau)})
+    m = cc.rectangle(x=(0.0, L), y=(-H, 0.0), nx=nx, ny=ny)
+    m = cc.Mesh(m.points, m.triangles, {**{t: m.boundary(t) for t in m.tags}, "base": m.boundary("bottom")})
+    lower = cc.Body(m, steel(nu=0.0), contact="top", name="lower", displacement={"base": (0.0, None)},
+                    traction={"left": (0.0, -tau), "right": (0.0, tau)})
+    floor = cc.Rigid.plane(point=(0.0, -H), normal=(0.0, 1.0))
+    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=law),
+                                            cc.Contact(lower, "bottom", floor, law=cc.NormalCompliance(k))])
+
+
+def compliant_series_exact(points, tau, k):
+    """The closed form of :func:`compliant_series` at ``points`` (n, 2): (n, 2) m."""
+    y = np.asarray(points, dtype=float)[:, 1] + H
+    return np.column_stack([tau * y / (E / 2), -P / k - P * y / E])
+
+
+def compliant_series3d(tau, k, g=None, n=2, cell="tetra", law=None):
+    """The 3D counterpart of :func:`compliant_series`: two unit boxes (n x n x 1 cells, nu = 0) in the uniform state of
+    :func:`uniform_layer3d`, the upper one on the lower one with ``law`` (default Tresca's g; stuck), the lower one on the rigid plane
+    z = -1 under cc.NormalCompliance(k), u_x = u_y = 0 on its base. u = (tau_x (z+1) / G, tau_y (z+1) / G,
+    -p / k - p (z + 1) / E) along :data:`DIAGONAL3`."""
+    q = tau * DIAGONAL3
+    upper = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom", name="upper",
+                    traction={"top": (q[0], q[1], -P), **_side_shear(q)})
+    mesh = cc.box(nx=n, ny=n, nz=1, cell=cell)
+    mesh = mesh.with_points(mesh.points - [0.0, 0.0, 1.0])
+    Mesh = type(mesh)
+    cells = mesh.tets if cell == "tetra" else mesh.cells
+    mesh = Mesh(mesh.points, cells, {**{t: mesh.boundary(t) for t in mesh.tags}, "base": mesh.boundary("bottom")})
+    lower = cc.Body(mesh, steel(nu=0.0), contact="top", name="lower", displacement={"base": (0.0, 0.0, None)},
+                    traction=_side_shear(q))
+    floor = cc.Rigid.plane(point=(0.0, 0.0, -1.0), normal=(0.0, 0.0, 1.0))
+    law = cc.Tresca(g) if law is None else law
+    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=law),
+                                            cc.Contact(lower, "bottom", floor, law=cc.NormalCompliance(k))])
+
+
+def compliant_series3d_exact(points, tau, k):
+    """The closed form of :func:`compliant_series3d` at ``points`` (n, 3): (n, 3) m."""
+    z = np.asarray(points, dtype=float)[:, 2] + 1.0
+    q = tau * DIAGONAL3
+    return np.column_stack([q[0] * z / (E / 2), q[1] * z / (E / 2), -P / k - P * z / E])
+
+
+def lidded(law, force=-P, lid_law=None, q=0.05 * P, at=H, nx=8, ny=4):
+    """The block (1 m x 0.5 m, nu = 0.3) on the rigid floor y = 0 (``law``) under the shear traction (q, 0) on its
+    right face, pressed from above by the plane y = ``at`` (``lid_law`` on that pair; None: frictionless) under the
+    prescribed force (0, ``force``) N/m (``force`` None: the plane fixed at y = ``at``): force control beside a
+    friction law; the block is held along x by the friction alone."""
+    b = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny), steel(), contact="bottom",
+                traction={"right": (q, 0.0)})
+    lid = cc.Rigid.plane(point=(0.0, at), normal=(0.0, -1.0), force=None if force is None else (0.0, force))
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "top", lid, law=lid_law)])

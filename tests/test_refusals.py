@@ -414,6 +414,53 @@ def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
     assert sol.ok and min(lower.min(), upper.min()) >= -1e-12 * scale and lower.max() >= 0.1 * scale
     assert max(rel(full.u[k], sol.u[k]) for k in (0, 1)) <= 1e-9
 
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
+def test_a_force_controlled_disk_on_a_frictional_pair_is_the_translated_scene(law):
+    """Row 39 (b), supported. A block clamped at its base, pressed by a force-controlled disk (force (2e5, -1e6) N/m)
+    with friction on that pair: the disk's translation t found, then the same scene translated by -t (the disk fixed
+    where it started, the base moved by -t): the relative motion is the same, so u - t is that scene's u, and the
+    disk's force, its normal part plus the friction forces sum_a f_a t_a (t_a the disk's tangent at each node's
+    closest point, computed here), the prescribed one. (Prescribing the disk at its final place is not the
+    reference: friction sees the path, the disk sliding along the surface as it moves.)"""
+    from friction_scenes import steel
+
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=16, ny=4)
+    F, centre = np.array([2e5, -1e6]), np.array([0.5, 0.8])
+    disk = cc.Rigid.circle(center=tuple(centre), radius=0.3, force=tuple(F))
+    b = cc.Body(m, steel(), contact="top", clamped="bottom")
+    forced = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "top", disk, law=law)]))
+    assert forced.ok and forced.polished
+    t = forced.obstacles[0].translation
+    assert abs(t[0]) > 1e-3 * abs(t[1]) > 0                   # measured t = (2.2e-6, -4.8e-6) (Tresca)
+    moved = cc.Body(m, steel(), contact="top", displacement={"bottom": (-t[0], -t[1])})
+    ref = cc.solve(cc.Scene(moved, contacts=[cc.Contact(moved, "top", disk.with_force(None), law=law)]))
+    assert ref.ok and ref.polished
+    assert rel(forced.u[0] - t, ref.u[0]) <= 1e-12            # measured 3.3e-15 (Tresca), 2.3e-15 (Coulomb)
+    n = ref.contact.points - centre
+    tangent = np.column_stack([-n[:, 1], n[:, 0]]) / np.linalg.norm(n, axis=1)[:, None]
+    tangent *= np.sign(tangent[:, 0])[:, None]                # oriented along +x, like the pair's tangent
+    total = ref.obstacles[0].force + ref.contact.shear_force @ tangent
+    assert rel(total, F) <= 1e-12                              # measured 3.1e-15, 3.2e-15
+    assert rel(forced.obstacles[0].force, F) <= 1e-13          # measured 8.7e-17, 1.2e-16
+
+
+def test_p2_tetrahedra_friction_beside_a_compliance_pair_closed_form():
+    """Row 40 (b), supported. The compliance pair and the stuck sheared layer in series (tests/friction_scenes.py), P2
+    tetrahedra under "sigma1": the closed form (springs in series, the stuck shear; linear, P2 reproduces it)."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import compliant_series3d, compliant_series3d_exact
+
+    from cvxcontact.geometry.quadratic import P2TetNodes
+
+    tau, k = 0.1 * P_FRICTION, 1e13
+    scene = compliant_series3d(tau, k, g=0.5 * P_FRICTION)
+    sol = cc.solve(scene, degree=2, condition="sigma1")
+    assert sol.ok
+    for i, body in enumerate(scene.bodies):
+        # measured 9.5e-15, 6.8e-15
+        assert rel(sol.u[i], compliant_series3d_exact(P2TetNodes(body.mesh).points, tau, k)) <= 1e-12
+
+
 # ================================================================ held rows, supports on a contact part
 
 

@@ -251,7 +251,8 @@ _REGISTRY: dict[str, Backend] = {b.name: b for b in (
             "quadratic energy, a non-quadratic one with the Signorini law or the P2 cones: Newton or cuts finish)",
             routes=MappingProxyType({"signorini": ".signorini:full", "compliance": ".compliance:full",
                                      "conic": ".cones:full", "mixed": ".cones:mixed_full",
-                                     "friction": ".friction:full", "conic_friction": ".friction:conic_full"})),
+                                     "friction": ".friction:full", "conic_friction": ".friction:conic_full",
+                                     "compliance_friction": ".friction:full"})),
 )}
 """The registered backends by name, in speed order (fastest first): :func:`register` adds to it."""
 

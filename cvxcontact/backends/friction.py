@@ -60,14 +60,14 @@ from .finish.forces import friction_scale
 from .finish.friction import FrictionRows
 from .frictionsteps import sequential as _sequential
 from .full import ContactModel, mixed_kkt
-from .mixed import HeldEnergy, mixed_system, stacked, unstacked
+from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
 from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
-           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip"]
+           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip", "row_forces"]
 
 log = logging.getLogger(__name__)
 
@@ -94,6 +94,7 @@ def friction_program(problem, model: ContactModel):
     at = np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])
     Es = problem.slip_rows[at]
     slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + prescribed_row_slip(problem)[at]
+    slip = slip + sum((Es @ T) @ t for T, t in zip(problem.translation_slips, model.t))   # a moving obstacle's
     capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
     if n_c == 1:
         s = cp.Variable(len(rows), name="slip")
@@ -119,6 +120,7 @@ def _moved_components(problem, rows) -> np.ndarray:
     n_c, R = problem.slip_components, problem.E.shape[0]
     Es = problem.slip_rows
     reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
+    reach = reach + sum((abs(Es @ T) @ np.ones(T.shape[1]) for T in problem.translation_slips), np.zeros(n_c * R))
     return reach.reshape(n_c, R)[:, rows].T > 0
 
 
@@ -454,9 +456,19 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
                     f"{changes[-1]:.3g} (relative) at its iterate {len(changes)}, above the tolerance {tol:.3g}")
 
 
+def row_forces(problem, model: ContactModel, u, taus) -> tuple:
+    """(y, None, None): the Signorini rows' multipliers of the solved friction program (scaled; the term
+    :class:`~cvxcontact.discrete.terms.TrescaFriction`'s forces)."""
+    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None, None
+
+
 def _row_forces(problem, model):
-    """(y, None): the normal rows' multipliers of the solved program (scaled)."""
-    return np.asarray(model.contact.dual_value, dtype=float).ravel(), None
+    """(y, None): the normal row forces of the solved program (scaled), as its term reads them (Signorini rows:
+    their multipliers; beside a compliance law w p(r) + z on every row, :func:`~cvxcontact.backends.compliance.
+    compliance_forces`)."""
+    values = [np.asarray(v.value, dtype=float).ravel() if v.size else np.zeros(0) for v in model.u]
+    taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
+    return problem.term.program_forces(problem, model, values, taus)[0], None
 
 
 def _cone_forces(problem, model):
@@ -541,9 +553,17 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
     S = _slip_matrix(problem, order, widths)
+    dependent = dependent or dependent_rows(problem) or _shared(problem, G, S, rows)
+    limited, on = None, rows                     # beside a compliance law: its energy in op, the limited rows in G
+    if problem.compliant and points is None:
+        op, limited = LawEnergy(op, G, g, problem.weights, problem.scaled_law), problem.scaled_law.limited
+        y0 = (first.y - op.forces(stacked(first.u, first.phi, first.taus)))[limited]     # their reactions z
+        G, g, free = G[limited], (g + np.where(limited, problem.scaled_law.penetration_limit, 0.0))[limited], \
+            free[limited]
+        on = np.searchsorted(np.flatnonzero(limited), rows)      # the frictional rows (Signorini) among them
     c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
     slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
-    fr = FrictionRows(S, prescribed_row_slip(problem)[order], rows, c0[rows], slope[rows], n_c,
+    fr = FrictionRows(S, prescribed_row_slip(problem)[order], on, c0[rows], slope[rows], n_c,
                       _moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
@@ -553,7 +573,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
         return raw
     out = _sequential(op, G, g, fr, free, stacked(first.u, first.phi, first.taus), y0,
                       first.tangential.reshape(n_c, R)[:, rows].T,
-                      (C, U), dependent or dependent_rows(problem) or _shared(problem, G, S, rows))
+                      (C, U), dependent)
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out
@@ -577,6 +597,10 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     if bounded and after > before + ENERGY_SLACK * max(abs(before), C * U):
         raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
         return raw
+    if limited is not None:                       # every row's force: the law's w p(r), and z on the limited rows
+        z, y = y, op.forces(x)
+        y[limited] += z
+        closed, raw.z = _scattered(closed, limited) | (y > 0), _scattered(z, limited)
     raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
     raw.y, raw.active = y, closed
     raw.tangential = np.zeros((n_c, R))
@@ -589,13 +613,22 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     return raw
 
 
+def _scattered(values, mask) -> np.ndarray:
+    """``values`` of the rows ``mask`` selects, on every row (0 / False elsewhere)."""
+    out = np.zeros(len(mask), dtype=np.asarray(values).dtype)
+    out[mask] = values
+    return out
+
+
 def _slip_matrix(problem, order, widths):
     """The slips of the friction rows' components ``order`` (row a, component j at a n_c + j) as rows on the
     stacked unknowns x = (u, phi, taus) of :func:`~cvxcontact.backends.mixed.stacked` (``widths``: the
-    translations'; 0 on phi and on them): (len(order), len(x)), CSR."""
+    translations'; 0 on phi; on the translations the slip their obstacle's motion causes,
+    ``problem.translation_slips``): (len(order), len(x)), CSR."""
     Es = problem.slip_rows[order]
+    moves = problem.translation_slips or [np.zeros((Es.shape[1], w)) for w in widths]
     return sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(order), 0 if b.Kpp is None else b.Kpp.shape[0]))])
-                      for b in problem.blocks] + [sp.csr_matrix((len(order), w)) for w in widths]).tocsr()
+                      for b in problem.blocks] + [sp.csr_matrix(Es @ T) for T in moves]).tocsr()
 
 
 def _shared(problem, G, S, rows) -> bool:

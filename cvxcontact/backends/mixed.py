@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["HeldEnergy", "MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
+__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
 
 
 class MixedEnergy:
@@ -138,6 +138,51 @@ class MixedEnergy:
             if len(mats) == 1 and not self.width:               # one body: its block itself (no copy)
                 return sp.csr_matrix(mats[0])
         return sp.block_diag(mats + [sp.csr_matrix((self.width, self.width))] * bool(self.width), format="csr")
+
+
+class LawEnergy:
+    """A :class:`MixedEnergy` ``energy`` plus the normal-compliance energy of the contact rows (docs/formulation.md
+    §10): L(x) + sum_a w_a Phi_a(G_a x - g_a), ``law`` the rows' scaled :class:`~cvxcontact.contact.laws.RowLaws`
+    (Phi_a = 0 on Signorini rows), ``weights`` w the rows' lumped lengths, G x - g the penetration
+    (:func:`mixed_system`). Its gradient adds the law's row forces G^T (w p(r)), its tangent G^T diag(w p'(r)) G
+    (semismooth for m = 1: p' is k on the rows in penetration, 0 elsewhere). ``linear``: the energy is quadratic
+    and no row is compliant. What the friction finish beside a compliance law steps on
+    (:func:`~cvxcontact.backends.frictionsteps.sequential`), with the rows of a finite limit as its normal rows."""
+
+    def __init__(self, energy: MixedEnergy, G, g, weights, law):
+        self.energy, self.G, self.g, self.law = energy, sp.csr_matrix(G), np.asarray(g, dtype=float), law
+        self.w = np.asarray(weights, dtype=float)
+        self.absG = abs(self.G)
+        self.linear = energy.linear and not law.compliant
+
+    def forces(self, x) -> np.ndarray:
+        """The law's row forces w p(G x - g) (scaled)."""
+        return self.w * self.law.pressure(self.G @ x - self.g)
+
+    def value(self, x) -> float:
+        return self.energy.value(x) + float(self.w @ self.law.energy(self.G @ x - self.g))
+
+    def gradient(self, x) -> np.ndarray:
+        return self.energy.gradient(x) + self.G.T @ self.forces(x)
+
+    def magnitude(self, x) -> np.ndarray:
+        return self.energy.magnitude(x) + self.absG.T @ np.abs(self.forces(x))
+
+    def rounding(self, x) -> np.ndarray:
+        return self.energy.rounding(x)
+
+    residual = MixedEnergy.residual
+
+    def tangent(self, x, secant: bool = False) -> sp.csr_matrix:
+        D = self.w * self.law.derivative(self.G @ x - self.g)
+        return (self.energy.tangent(x, secant) + self.G.T @ sp.diags(D) @ self.G).tocsr()
+
+    def linearised(self, x):
+        """(T, b) as :meth:`MixedEnergy.linearised`, the law's term linearised at ``x``."""
+        if self.linear:
+            return self.energy.linearised(x)
+        T = self.tangent(x)
+        return T, T @ x - self.gradient(x)
 
 
 class HeldEnergy:

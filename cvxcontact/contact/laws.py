@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SceneError, UnsupportedError
+from ..errors import SceneError
 
 __all__ = ["ContactLaw", "Signorini", "NormalCompliance", "Tresca", "Coulomb", "check_law", "check_law_for", "pair_laws", "RowLaws", "LAWS"]
 
@@ -258,13 +258,12 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
     """``law`` (the law given to ``solve``/``Model``) once the scene's pairs are known to support it.
 
     Every pair takes its own ``Contact.law`` or, if None, ``law`` (:func:`pair_laws`); any mix of
-    Signorini and normal-compliance pairs, between bodies or against rigid obstacles, is solved. A friction
-    law (:class:`Tresca`, :class:`Coulomb`; 2D, and 3D with planar contact parts) is posed next to Signorini
-    pairs only: :class:`~cvxcontact.errors.UnsupportedError` otherwise."""
-    laws = pair_laws(scene, law)
-    if any(lw.friction is not None for lw in laws) and any(lw.compliant for lw in laws):
-        raise UnsupportedError("friction (Tresca, Coulomb) next to a normal-compliance pair is not available yet: "
-                               "use Signorini, Tresca or Coulomb on every pair")
+    Signorini, normal-compliance and friction pairs (:class:`Tresca`, :class:`Coulomb`; 2D, and 3D with planar
+    contact parts), between bodies or against rigid obstacles, is posed here. A pair is either compliant in the
+    normal direction (frictionless) or frictional (Signorini in the normal direction): no law here is both. The
+    refusals that remain are the space's (P2 "gamma3" cones with friction beside a compliance law,
+    :mod:`cvxcontact.discrete.problem`)."""
+    pair_laws(scene, law)
     return law
 
 

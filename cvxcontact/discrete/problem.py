@@ -59,7 +59,8 @@ class DiscreteProblem:
     contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
     given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
     ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
-    law only); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    law only); ``translation_slips``: per force-controlled obstacle, the slip at the nodes of X_h of its translation
+    unknowns tau ((c size, k), :func:`obstacle_slip`; a friction law only, else empty); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`); ``term``: the
     contact term its law poses (:class:`~cvxcontact.discrete.terms.ContactTerm`: its route key, its warm start,
@@ -84,6 +85,7 @@ class DiscreteProblem:
     prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
     prescribed_slip: np.ndarray | float = 0.0
+    translation_slips: tuple = ()
     _fingerprints: tuple = field(default=(), repr=False)
     _shared: dict = field(default_factory=dict, repr=False)
 
@@ -163,7 +165,7 @@ class DiscreteProblem:
     @property
     def row_lengths(self) -> np.ndarray:
         """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
-        return row_weights(self.interface, self.condition, self.scene.conditions) / self.units.length
+        return friction_weights(self.lines, self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -331,7 +333,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
     kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes,
-                              capacity=_capacity(scene, condition, lines))
+                              capacity=_capacity(scene, condition, lines, [len(s.f) // space.dim for s in systems]))
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
     jumps = {}
@@ -364,11 +366,14 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
         slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
                          np.zeros(slips[0].shape[0])) / un.displacement
+    counts = [len(s.f) // space.dim for s in systems]
+    moves = tuple(obstacle_slip(lines.interface, o, counts) for o in forced) if slips is not None else ()
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=contact_term(lines, space.dim),
                               scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
+                              translation_slips=moves,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies),
                               _shared=previous._shared if previous is not None else {})
@@ -381,16 +386,17 @@ def _slip(interface, k, n_nodes):
     return interface.tangential_jump(k, n_nodes)
 
 
-def _capacity(scene, condition, lines):
+def _capacity(scene, condition, lines, counts):
     """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
     k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
     threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
-    route checks its capacity at every iterate); None without."""
+    route checks its capacity at every iterate), and ``moves(o)``, the slip rows of a force-controlled obstacle's
+    translations on the frictional rows (:func:`obstacle_slip`); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
     E = lines.E
-    weights = row_weights(lines.interface, condition, scene.conditions)
+    weights = friction_weights(lines, condition, scene.conditions)
     if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones on E's rows
         raise UnsupportedError(
             "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
@@ -410,7 +416,53 @@ def _capacity(scene, condition, lines):
             "degree=1 with 'gamma3'; against a rigid obstacle Coulomb under 'gamma3' with P2 is available")
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
-    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity
+    frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
+    moves = {id(o): np.where(frictional[:, None], Ec @ obstacle_slip(lines.interface, o, counts), 0.0)
+             for o in lines.obstacles if o.force is not None}
+    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: moves[id(o)]
+
+
+def obstacle_slip(interface, obstacle, counts, basis=None) -> np.ndarray:
+    """(c size, k): the slip [u_t] at the stacked nodes of X_h (component-major, like ``tangential_jump``) that a
+    unit translation of the obstacle along each of its ``basis`` columns causes on its pairs' nodes: the body's
+    nodes slip against it by -t . t_a, minus the slip of the body translated by t (the interpolations of the traces
+    sum to 1), 0 on the other pairs' nodes. ``counts``: the bodies' node counts; ``basis`` (d, k): other directions
+    (default the obstacle's ``basis``; the identity gives the slip of a translation along each axis)."""
+    c = getattr(interface, "slip_components", 1)
+    offsets = getattr(interface, "offsets", (0, interface.size))
+    size = int(offsets[-1])
+    on = np.zeros(size, dtype=bool)
+    for i in obstacle.pairs:
+        on[offsets[i]:offsets[i + 1]] = True
+    basis = np.asarray(obstacle.basis if basis is None else basis, dtype=float)
+    out = np.zeros((c * size, basis.shape[1]))
+    for k, n in enumerate(counts):
+        T = interface.tangential_jump(k, n)
+        out -= np.column_stack([T @ np.tile(v, n) for v in basis.T])
+    out[~np.tile(on, c)] = 0.0
+    return out
+
+
+def friction_weights(lines, condition, conditions) -> np.ndarray:
+    """The weights of the friction capacities g_a w_a, one per row (m; m^2 in 3D): :func:`row_weights`, or, where a
+    compliance pair's rows are its law's quadrature points (P2 in 3D: not one row per node of the condition), per
+    pair its :func:`row_weights` where they are its rows and the law's own weights on such a pair (frictionless: no
+    capacity there, the weights of its quadrature). UnsupportedError if a frictional pair's rows are not its nodes."""
+    w = row_weights(lines.interface, condition, conditions)
+    rows = lines.rows
+    if len(w) == rows.size or lines.weights is None or not hasattr(lines.interface, "interfaces"):
+        return w
+    interfaces = lines.interface.interfaces
+    conditions = conditions or [None] * len(interfaces)
+    parts, start = [], 0
+    for itf, c, n, law in zip(interfaces, conditions, rows.counts, rows.laws):
+        own = itf.weights(condition if c is None else c)
+        if len(own) != n and law.friction is not None:
+            raise UnsupportedError(f"a friction law on a pair whose {n} contact rows are not the {len(own)} nodes of "
+                                   "its condition is not available: pose the pair under a nodal condition")
+        parts.append(own if len(own) == n else np.asarray(lines.weights[start:start + n], dtype=float))
+        start += n
+    return np.concatenate(parts)
 
 
 def row_weights(interface, condition, conditions) -> np.ndarray:

@@ -65,7 +65,7 @@ import numpy as np
 from ..errors import SolverError
 
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "ConesWithFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
+           "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -317,12 +317,35 @@ class TrescaFriction(_Term):
     refuses_user_terms: ClassVar[str] = ("user terms next to a friction law are not available yet: solve the model "
                                          "without them, or use a frictionless law")
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
+    forces: ClassVar[str | Callable] = "cvxcontact.backends.friction:row_forces"
     # its program: the Signorini rows, to which the friction route adds the slip's cones
     # (:func:`cvxcontact.backends.friction.friction_program`)
 
     @staticmethod
     def poses(lines) -> bool:
         return lines.rows.friction
+
+
+@dataclass(frozen=True)
+class FrictionBesideCompliance(TrescaFriction):
+    """A friction law on some pairs (Signorini rows, the slip's cones) and a normal-compliance law on others (nodal
+    rows; docs/howto/friction.md, "Next to a compliance law"): one program, the compliance energy on its rows
+    (:func:`cvxcontact.backends.compliance.compliance_program`) plus the friction energy, finished exactly by the
+    friction finish on the energy with the law's term (:class:`~cvxcontact.backends.mixed.LawEnergy`: sequential
+    quadratic steps, semismooth on the law's rows), or declined (a :class:`~cvxcontact.errors.ResidualWarning`);
+    read back with the compliance checks and the friction law's."""
+
+    kind: ClassVar[str] = "compliance_friction"
+    compliant: ClassVar[bool] = True
+    active_from_forces: ClassVar[bool] = True
+    finishes: ClassVar[bool] = True
+    programs: ClassVar[str | Callable] = ComplianceRows.programs
+    forces: ClassVar[str | Callable] = ComplianceRows.forces
+    reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_compliance_friction"
+
+    @staticmethod
+    def poses(lines) -> bool:
+        return lines.rows.friction and lines.rows.compliant and not lines.conic
 
 
 @dataclass(frozen=True)
@@ -365,7 +388,7 @@ _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "take
             "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
-_REGISTRY: list = [ConesWithFriction, TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
+_REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
 _BUILT_IN = tuple(_REGISTRY)
 
 

@@ -174,8 +174,10 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     (P1 ``scene.stack``, P2 the :class:`~cvxcontact.contact.quadratic.QuadraticStack`); ``obstacles`` the
     scene's :class:`~cvxcontact.physics.obstacles.ObstacleRows` with rows on the same merged nodes (fixed ones
     are skipped); ``nodes[k]`` body k's node set (P2 :class:`~cvxcontact.geometry.quadratic.P2Nodes`) or
-    None (P1 vertices). ``capacity``: with a friction law, (slip, c): ``slip(k, n)`` body k's slip rows at the
-    rows of E and c (N/m) their friction capacities (the kernel's ``slip`` and ``capacity``), else None."""
+    None (P1 vertices). ``capacity``: with a friction law, (slip, c, moves): ``slip(k, n)`` body k's slip rows at the
+    rows of E, c (N/m) their friction capacities (the kernel's ``slip`` and ``capacity``) and ``moves(o)`` the slip
+    rows (c R, k) of a force-controlled obstacle's translations (:func:`~cvxcontact.discrete.problem.obstacle_slip`
+    at the frictional rows), else None."""
     E = sp.csr_matrix(evaluation)
     nodes = list(nodes) if nodes is not None else [None] * len(bodies)
     cols, work, magnitude, owners, slips = [], [], [], [], []
@@ -204,6 +206,8 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
         F = np.asarray(o.force, dtype=float)
         work.append(basis.T @ F)
         magnitude.append(np.abs(basis.T) @ np.abs(F))
+        if capacity is not None:                        # the slip its translations cause at the frictional rows
+            slips.append(np.asarray(capacity[2](o)))
         owners.append((f"obstacle {i} ({o.obstacle!r})", "obstacle", slice(m, m + basis.shape[1]),
                        lambda a, basis=basis: _translation_name(basis @ a)))
         m += basis.shape[1]
@@ -213,10 +217,6 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     index = np.flatnonzero(np.abs(A).max(axis=1) > ROW_TOL)             # rows no unit motion moves: out
     slip = c = None
     if capacity is not None:
-        if len(slips) != len(cols):
-            from ..errors import UnsupportedError
-            raise UnsupportedError("a friction law next to a force-controlled obstacle is not available yet: "
-                                   "prescribe the obstacle's position instead")
         c = np.asarray(capacity[1], dtype=float)
         slip = np.hstack(slips)
         n_c = slip.shape[0] // len(c)                                  # slip components per row

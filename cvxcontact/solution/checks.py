@@ -315,9 +315,10 @@ def rigid_balance(block, modes, u, phi, Mlam, extra=None):
     return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
 
 
-def obstacle_balance(force, rows, nodal_forces) -> float:
+def obstacle_balance(force, rows, nodal_forces, friction=0.0) -> float:
     """Force balance of a force-controlled obstacle (docs/formulation.md §12, docs/checks.md):
-    |F - sum_a c_a y_a| / |F| with F the prescribed force, c_a the rows' sensitivities ``rows``
-    (n, 2) and y_a the nodal contact forces ``nodal_forces`` (n,) (any consistent units)."""
+    |F - sum_a c_a y_a - f_t| / |F| with F the prescribed force, c_a the rows' sensitivities ``rows``
+    (n, 2) and y_a the nodal contact forces ``nodal_forces`` (n,), f_t the resultant of the friction forces on its
+    pairs (``friction``, (d,); 0 without; any consistent units)."""
     F = np.asarray(force, dtype=float)
-    return float(np.linalg.norm(F - rows.T @ nodal_forces) / np.linalg.norm(F))
+    return float(np.linalg.norm(F - rows.T @ nodal_forces - friction) / np.linalg.norm(F))

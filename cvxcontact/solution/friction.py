@@ -30,7 +30,7 @@ from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with, rigid_balance
 from .solution import _pairs
 
-__all__ = ["friction_checks", "read_back_friction"]
+__all__ = ["friction_checks", "obstacle_friction", "read_back_friction"]
 
 
 def friction_checks(mu, slip, capacity, U, Y=0.0) -> dict[str, float]:
@@ -78,7 +78,9 @@ def read_back_friction(problem, raw, sol) -> None:
     checks["equilibrium"] = equilibrium
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)
-    U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))])
+    slip = slip + sum((T @ t for T, t in zip(problem.translation_slips, raw.taus)), np.zeros(len(slip)))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))]
+            + [float(np.abs(t).max(initial=0.0)) for t in raw.taus])
     rows = problem.rows.frictional
     capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
@@ -114,3 +116,19 @@ def read_back_friction(problem, raw, sol) -> None:
             if isinstance(getattr(c, f), np.ndarray):
                 getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]
+
+
+def obstacle_friction(problem, raw) -> list | None:
+    """Per force-controlled obstacle of ``problem`` the resultant (d,) N/m (3D: N) of the friction forces of the
+    answer ``raw`` on its pairs along the translations it is free to make (its ``basis`` B), as it enters the
+    obstacle's balance: B^T F = B^T sum_a c_a y_a + T^T E_s^T mu, T the slip of its translation unknowns
+    (:func:`~cvxcontact.discrete.problem.obstacle_slip`; the stationarity of the energy in them); the part along
+    the translations its rows do not see (a plane's tangential ones) is its guide's. None without a friction law or
+    a force-controlled obstacle."""
+    if raw.tangential is None or not problem.translation_slips:
+        return None
+    from ..discrete.problem import obstacle_slip
+
+    counts = [len(s.f) // problem.space.dim for s in problem.systems]
+    force = problem.slip_rows.T @ np.asarray(raw.tangential, dtype=float) * problem.units.force
+    return [o.basis @ (obstacle_slip(problem.interface, o, counts).T @ force) for o in problem.forced]

@@ -7,19 +7,38 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import replace
 
+import numpy as np
+
 from ..discrete.terms import TERMS, named
-from .friction import read_back_friction
+from .friction import obstacle_friction, read_back_friction
 from .info import Route
-from .nodal import read_back_cones, read_back_nodal
+from .nodal import read_back_compliance, read_back_cones, read_back_nodal
 from .solution import Solution, obstacle_results
 
-__all__ = ["read_back", "read_back_tresca", "read_back_conic_friction", "READ_BACKS"]
+__all__ = ["read_back", "read_back_tresca", "read_back_compliance_friction", "read_back_conic_friction", "READ_BACKS"]
 
 
 def read_back_tresca(problem, raw, tol: float, timings) -> Solution:
     """Nodal Signorini rows (:func:`~cvxcontact.solution.nodal.read_back_nodal`) completed with the friction
     law's slip, shear force and checks (:func:`~cvxcontact.solution.friction.read_back_friction`)."""
     sol = read_back_nodal(problem, raw, tol, timings)
+    read_back_friction(problem, raw, sol)
+    return sol
+
+
+def read_back_compliance_friction(problem, raw, tol: float, timings) -> Solution:
+    """A friction law beside a normal-compliance law (the term
+    :class:`~cvxcontact.discrete.terms.FrictionBesideCompliance`): the compliance read-back
+    (:func:`~cvxcontact.solution.nodal.read_back_compliance`: lambda = p(r) + z / w on the compliant rows, the
+    Signorini rows' multipliers, the checks of both laws) completed with the friction law's slip, shear force and
+    checks (:func:`~cvxcontact.solution.friction.read_back_friction`). ``raw.z``, the reactions of the rows with a
+    finite limit (the Signorini rows', the frictional rows among them), is y - w p(r) there where the route left
+    it unset (the interior point's answer)."""
+    if raw.z is None:
+        law, E, w = problem.scaled_law, problem.E, problem.weights
+        r = sum(E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)) - E @ problem.moved_gap(raw.taus)
+        raw = replace(raw, z=np.where(law.limited, raw.y - w * law.pressure(r), 0.0))
+    sol = read_back_compliance(problem, raw, tol, timings)
     read_back_friction(problem, raw, sol)
     return sol
 
@@ -60,7 +79,8 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
     scene, un = problem.scene, problem.units
     sol = problem.term.read_back(problem, raw, tol, timings)
     if scene.obstacles:
-        obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles)
+        obstacle_results(sol, [tau * un.displacement for tau in raw.taus], problem.obstacles,
+                         obstacle_friction(problem, raw))
     route = raw.route
     if raw.polished and route == Route.INTERIOR_POINT:
         route = Route.INTERIOR_POINT_FINISHED

@@ -501,7 +501,9 @@ class ObstacleResult:
     :meth:`~cvxcontact.physics.pairs.Rigid.sensitivity`, y_a >= 0 the nodal contact forces), equal and
     opposite to the contact's push on the obstacle, i.e. the force needed to hold it where it is (a plane
     under a body: upwards; a sphere pressed down onto one: downwards); for a force-controlled obstacle it equals the prescribed
-    ``prescribed`` (the check "obstacle balance"). ``pairs`` are its contact pairs.
+    ``prescribed`` (the check "obstacle balance"), and beside a friction law it includes the friction forces on its
+    pairs along the translations it is free to make (:func:`~cvxcontact.solution.friction.obstacle_friction`).
+    ``pairs`` are its contact pairs.
     """
 
     obstacle: object
@@ -511,21 +513,26 @@ class ObstacleResult:
     prescribed: np.ndarray | None = None
 
 
-def obstacle_results(sol, translations, obstacles=None) -> None:
+def obstacle_results(sol, translations, obstacles=None, friction=None) -> None:
     """Fill ``sol.obstacles`` (:class:`ObstacleResult`) from the stacked nodal forces of ``sol.contacts``
     and ``translations`` (m, the unknowns tau of each force-controlled obstacle, in order); add the
     work -F . t of the prescribed forces to ``sol.energy`` and the check "obstacle balance" (the largest
     |F - sum_a c_a y_a| / |F|) to the residuals. ``obstacles``: the scene's
     :class:`~cvxcontact.physics.obstacles.ObstacleRows` with rows at the stacked nodes of ``sol.contacts``
-    (default ``sol.scene.obstacles``, the P1 merged nodes; P2: rows at the P2 nodes)."""
+    (default ``sol.scene.obstacles``, the P1 merged nodes; P2: rows at the P2 nodes). ``friction``: per
+    force-controlled obstacle (in order) the resultant (d,) of the friction forces on its pairs, added to its force
+    (:func:`~cvxcontact.solution.friction.obstacle_friction`; None: none)."""
     y = np.concatenate([c.force for c in sol.contacts])                     # N/m at the stacked merged nodes
     taus, out, worst = iter(translations), [], 0.0
+    frictions = iter(friction or ())
     for o in (sol.scene.obstacles if obstacles is None else obstacles):
         rows = o.rows.toarray()
         force = rows.T @ y
         t = np.zeros(rows.shape[1]) if o.force is None else o.basis @ next(taus)
         if o.force is not None:
-            worst = max(worst, obstacle_balance(o.force, rows, y))
+            extra = next(frictions, 0.0)
+            force = force + extra
+            worst = max(worst, obstacle_balance(o.force, rows, y, extra))
             sol.energy -= float(o.force @ t)
         for a in (t, force):
             a.setflags(write=False)

@@ -1,0 +1,192 @@
+"""Friction next to a normal-compliance pair, and friction next to a force-controlled obstacle (docs/howto/friction.md,
+"Next to a compliance law", "Next to a force-controlled obstacle"; scenes in tests/friction_scenes.py).
+
+Independent references:
+- a compliance pair and a stuck sheared layer in series: springs in series and the stuck shear in closed form
+  (nu = 0, uniform state: P1 and P2 reproduce it);
+- Tresca's g = 0 beside a compliance law is the frictionless mixed answer (Signorini and compliance pairs);
+- the compliance law and Tresca's law read off the answer by this module's own code (penetration from u, the
+  pressure k r; the shear force against g w_a and the slip's direction);
+- a force-controlled plane: the obstacle's translation found, the plane then prescribed at that position: the same u
+  and the same force (an invariance).
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from friction_scenes import (
+    DIAGONAL3,
+    FLOOR3D,
+    H,
+    P,
+    compliant_series,
+    compliant_series3d,
+    compliant_series3d_exact,
+    compliant_series_exact,
+    lidded,
+    steel,
+    walled,
+)
+
+import cvxcontact as cc
+from cvxcontact.geometry.quadratic import P2Nodes, P2TetNodes
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
+K = 1e13
+"""The compliance stiffness (Pa/m): a penetration p / K = 1 um under p = 10 MPa, beside the layers' 25 um."""
+
+
+def rel(a, b):
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return float(np.abs(a - b).max() / max(np.abs(b).max(), 1e-300))
+
+
+def solved(scene, **kw):
+    """The solution of ``scene``, a ResidualWarning an error (a declined finish, failed checks)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)
+        return cc.solve(scene, **kw)
+
+
+@pytest.mark.parametrize("dim, degree, cell, coulomb", [(2, 1, None, False), (2, 1, None, True), (2, 2, None, False),
+                                                          (3, 1, "tetra", False), (3, 1, "tetra", True),
+                                                          (3, 1, "hex", False), (3, 2, "tetra", False),
+                                                          (3, 2, "tetra", True)])
+def test_compliance_pair_and_stuck_layer_in_series_closed_form(dim, degree, cell, coulomb):
+    """Two layers under (tau, -p), stuck together by Tresca (g = p / 2 > tau; or Coulomb, mu = 1/2), the lower one
+    on the floor under the compliance law: u = (tau y' / G, -p / k - p y' / E), y' the height above the floor, in
+    both layers."""
+    tau = 0.1 * P
+    law = cc.Coulomb(0.5) if coulomb else None
+    if dim == 2:
+        scene, exact = compliant_series(tau, K, g=0.5 * P, law=law), compliant_series_exact
+    else:
+        scene, exact = compliant_series3d(tau, K, g=0.5 * P, cell=cell, law=law), compliant_series3d_exact
+    kw = {"degree": 2, "condition": "sigma1"} if degree == 2 else {}
+    sol = solved(scene, **kw)
+    assert sol.ok and sol.polished and sol.info.declined is None
+    for i, body in enumerate(scene.bodies):
+        points = body.mesh.points if degree == 1 else (P2Nodes if dim == 2 else P2TetNodes)(body.mesh).points
+        # measured: 3.2e-15 / 5.0e-15 (2D P1), 1.5e-14 (2D P2), 6.0e-16 (3D tetra; Coulomb 8.2e-16), 8.7e-16 (hex),
+        # 9.5e-15 (P2 tetrahedra: the law's rows at quadrature points of its faces; Coulomb 1.1e-14)
+        assert rel(sol.u[i], exact(points, tau, K)) < 1e-11
+    floor = sol.contacts[1]                                   # the compliance pair: lambda = k r = p everywhere
+    assert rel(floor.lam, np.full(len(floor.lam), P)) < 1e-11   # measured at most 1.5e-14
+    assert np.all(floor.active)
+
+
+def test_tresca_to_zero_beside_compliance_is_the_frictionless_mixed_answer():
+    """walled: Tresca(g) on the floor, the compliance law on the wall. g = 0 is the frictionless answer (Signorini
+    floor beside the compliant wall, the term ComplianceRows' own route); a small g departs from it by O(g)."""
+    law = cc.NormalCompliance(K)
+    ref = solved(walled(cc.Signorini(), law))
+    zero = solved(walled(cc.Tresca(0.0), law))
+    assert ref.ok and zero.ok and zero.polished
+    assert rel(zero.u[0], ref.u[0]) < 1e-12                   # measured 6.7e-16
+    assert rel(zero.contacts[1].lam, ref.contacts[1].lam) < 1e-12
+    gaps = [rel(solved(walled(cc.Tresca(g), law)).u[0], ref.u[0]) for g in (1e2, 1e3)]
+    assert 0 < gaps[0] < gaps[1] < 1e-2                       # measured 1.7e-5, 1.7e-4 (g / p = 1e-5, 1e-4)
+    assert 5 < gaps[1] / gaps[0] < 20                         # linear in g (measured ratio 10.000)
+
+
+def test_the_laws_read_off_by_own_code():
+    """walled with Coulomb on the floor and a compliance law on the wall: at the wall p = k [u_x - 0]_+ from the
+    displacement (this module's penetration), 0 where open; on the floor |shear force| <= mu lambda w (to rounding)
+    and, where it slips, the force anti-parallel to the slip at that bound."""
+    mu = 0.2
+    scene = walled(cc.Coulomb(mu), cc.NormalCompliance(K))
+    sol = solved(scene)
+    assert sol.ok and sol.polished
+    body = scene.bodies[0]
+    wall = sol.contacts[1]
+    pts = body.mesh.points
+    ux = np.array([sol.u[0][np.argmin(np.linalg.norm(pts - x, axis=1)), 0] for x in wall.points])
+    penetration = np.maximum(ux - 0.0, 0.0)                    # the wall at x = L, the part's nodes at x = L
+    assert penetration.max() > 0
+    assert rel(wall.lam, K * penetration) < 1e-12              # measured 2.0e-16 (the lumped nodal law)
+    floor = sol.contacts[0]
+    capacity = mu * floor.force                                # mu lambda w_a: mu times the nodal normal force
+    shear = np.abs(floor.shear_force)
+    assert np.all(shear <= capacity + 1e-12 * capacity.max())  # measured: max(shear - capacity) = 0.0
+    slipping = np.abs(floor.slip) > 1e-6 * np.abs(sol.u[0]).max()
+    assert slipping.any()
+    assert rel(shear[slipping], capacity[slipping]) < 1e-12    # measured 5.8e-17 (2 of the 9 rows slip)
+    assert np.all(np.sign(floor.shear_force[slipping]) == -np.sign(floor.slip[slipping]))
+
+
+@pytest.mark.parametrize("law, lid_law, kw", [
+    (cc.Tresca(0.2 * P), None, {}),
+    (cc.Coulomb(0.3), None, {}),
+    (cc.Coulomb(0.3), cc.Tresca(0.1 * P), {}),
+    (cc.Coulomb(0.3), cc.NormalCompliance(K), {}),
+    (cc.Coulomb(0.3), None, {"degree": 2, "condition": "sigma1"}),
+])
+def test_force_controlled_plane_beside_friction_is_the_prescribed_one(law, lid_law, kw):
+    """lidded: the plane on top under the force (0, -p) N/m, friction on the floor (and on the lid): its
+    translation found, then the plane prescribed there: the same displacement, and its force the prescribed one."""
+    forced = solved(lidded(law, lid_law=lid_law), **kw)
+    assert forced.ok and forced.polished and forced.info.declined is None
+    t = forced.obstacles[1].translation
+    assert t[0] == 0.0 and t[1] < 0
+    fixed = solved(lidded(law, force=None, at=H + t[1], lid_law=lid_law), **kw)
+    assert fixed.ok and fixed.polished
+    assert rel(forced.u[0], fixed.u[0]) < 1e-9                # measured 6e-14 .. 1.2e-12
+    assert rel(fixed.obstacles[1].force, [0.0, -P]) < 1e-9    # measured 1e-15 .. 9e-13
+    assert rel(forced.obstacles[1].force, [0.0, -P]) < 1e-12
+    assert forced.residuals()["obstacle balance"] < 1e-12
+
+
+def test_force_controlled_plane_beside_friction_3d():
+    """The 3D counterpart: a unit cube on the floor z = 0 with Coulomb, sheared on its right face, pressed by a
+    force-controlled plane on its top; prescribed at the translation found, the same answer."""
+
+    def scene(force=-P, at=1.0):
+        body = cc.Body(cc.box(nx=2, ny=2, nz=2), steel(), contact="bottom",
+                       traction={"right": (0.0, 0.05 * P * DIAGONAL3[0], 0.05 * P * DIAGONAL3[1])})
+        lid = cc.Rigid.plane(point=(0.0, 0.0, at), normal=(0.0, 0.0, -1.0),
+                             force=None if force is None else (0.0, 0.0, force))
+        return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Coulomb(0.3)),
+                                        cc.Contact(body, "top", lid)])
+
+    forced = solved(scene())
+    assert forced.ok and forced.polished
+    t = forced.obstacles[1].translation
+    fixed = solved(scene(force=None, at=1.0 + t[2]))
+    assert fixed.ok and fixed.polished
+    assert rel(forced.u[0], fixed.u[0]) < 1e-9
+    assert rel(fixed.obstacles[1].force, [0.0, 0.0, -P]) < 1e-9
+
+
+def test_a_declined_finish_is_flagged(monkeypatch):
+    """Where the friction finish beside a compliance law declines, the interior point's answer is kept with a
+    ResidualWarning and info.declined (never a silent interior-point answer called finished)."""
+    from cvxcontact.backends import friction
+    from cvxcontact.backends.finish import Declined, Stop
+
+    monkeypatch.setattr(friction, "_sequential", lambda *a, **k: Declined(Stop.STALL, "planted"))
+    with pytest.warns(cc.ResidualWarning, match="declined"):
+        sol = cc.solve(walled(cc.Tresca(1e5), cc.NormalCompliance(K)))
+    assert not sol.polished and sol.info.declined is not None and "planted" in str(sol.info.declined)
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
+def test_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(law):
+    """3D (docs/refusals.md row 39): a block clamped at its base pressed by a force-controlled sphere (force
+    (1e4, 5e3, -1e5) N) with friction on that pair; its translation t slips the rows (the sphere's tangents are
+    tilted). The scene translated by -t (the sphere fixed where it started, the base moved by -t) has the same
+    relative motion: its u is u - t."""
+    mesh = cc.box(nx=4, ny=4, nz=2)
+    F = np.array([1e4, 5e3, -1e5])
+    sphere = cc.Rigid.sphere(center=(0.5, 0.5, 1.5), radius=0.5, force=tuple(F))
+    body = cc.Body(mesh, steel(), contact="top", clamped="bottom")
+    forced = solved(cc.Scene(body, contacts=[cc.Contact(body, "top", sphere, law=law)]))
+    assert forced.ok and forced.polished
+    t = forced.obstacles[0].translation
+    assert np.abs(t[:2]).min() > 0                            # measured (1.6e-7, 8.1e-8, -4.9e-7) (Tresca)
+    moved = cc.Body(mesh, steel(), contact="top", displacement={"bottom": tuple(-t)})
+    ref = solved(cc.Scene(moved, contacts=[cc.Contact(moved, "top", sphere.with_force(None), law=law)]))
+    assert ref.ok and ref.polished
+    assert rel(forced.u[0] - t, ref.u[0]) <= 1e-12            # measured 1.3e-15, 1.4e-15
+    assert rel(forced.obstacles[0].force, F) <= 1e-13         # measured 2.9e-16, 0

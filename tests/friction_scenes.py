@@ -391,7 +391,8 @@ def finished_p2(scene):
 
 
 def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None,
-                span=(0.0, 1.0), centre=(0.5, 0.5), length=1.0, piezo=False, volts=0.0, order=None):
+                span=(0.0, 1.0), centre=(0.5, 0.5), length=1.0, piezo=False, volts=0.0, order=None, floor=None,
+                dome=None):
     """A curved part against a planar one in 3D (node-to-face, ``contact/surface.CurvedSurfaceInterface``): a steel
     block (0, 1)^2 x (-0.5, 0) m (n[0] x n[0] x 2 cells, clamped at its base, planar "top") under a steel block
     (0, 1)^2 x (0, 0.5) (n[1] x n[1] x 2 cells) whose "bottom" is lifted onto the spherical cap of ``radius`` (m)
@@ -403,11 +404,20 @@ def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", 
     ``centre``: the cap's lowest point (x, y); ``length``: every length (the blocks, the radius, ``span``,
     ``centre``; not d, s) times it; ``piezo``: both blocks PZT-5A (poled along z), the lower grounded at its base,
     the upper's top at ``volts`` (V); ``order``: a seed renumbering both meshes' nodes (``TetMesh.renumbered`` with
-    a random permutation of each: the same bodies, another numbering)."""
+    a random permutation of each: the same bodies, another numbering); ``floor``: the lower block clamped on its
+    "left" face only, its "bottom" on the rigid plane z = -0.5 under the law ``floor`` (a second pair, rigid);
+    ``dome``: a radius (m): the lower block's top lifted onto a dome of that radius (highest at the centre, z = 0)
+    and the upper block's bottom left flat (``radius`` ignored): the curved part on the lower body, the planar
+    one facing down."""
     L = float(length)
     lower = cc.box(x=(0.0, L), y=(0.0, L), z=(-0.5 * L, 0.0), nx=n[0], ny=n[0], nz=2)
     upper = cc.box(x=tuple(L * np.asarray(span)), y=tuple(L * np.asarray(span)), z=(0.0, 0.5 * L), nx=n[1],
                    ny=n[1], nz=2)
+    if dome is not None:
+        p = np.array(lower.points)
+        r2 = (p[:, 0] - centre[0] * L) ** 2 + (p[:, 1] - centre[1] * L) ** 2
+        p[:, 2] -= r2 / (dome * L + np.sqrt((dome * L) ** 2 - r2)) * (1.0 + p[:, 2] / (0.5 * L))
+        lower, radius = lower.with_points(p), None
     if radius is not None:
         p = np.array(upper.points)
         R = radius * L
@@ -423,11 +433,18 @@ def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", 
         moved = np.asarray(turn) @ moved
     material = cc.materials.PZT5A if piezo else steel()
     grounded, driven = ({"grounded": "bottom"}, {"potential": {"top": volts}}) if piezo else ({}, {})
-    a = cc.Body(lower, material, clamped="bottom", contact="top", name="lower", **grounded)
+    a = cc.Body(lower, material, clamped="bottom" if floor is None else "left", contact="top", name="lower",
+                **grounded)
     b = cc.Body(upper, material, displacement={"top": tuple(moved)}, contact="bottom", name="upper", **driven)
-    pair = (cc.Contact(b, "bottom", a, "top", condition="sigma1", law=law) if swap
-            else cc.Contact(a, "top", b, "bottom", condition=condition, law=law))
-    return cc.Scene(a, b, contacts=[pair])
+    flat = "sigma1" if swap else condition
+    if dome is not None:
+        flat = "sigma2" if swap else "sigma1"
+    pair = (cc.Contact(b, "bottom", a, "top", condition=flat, law=law) if swap
+            else cc.Contact(a, "top", b, "bottom", condition=flat, law=law))
+    if floor is None:
+        return cc.Scene(a, b, contacts=[pair])
+    plane = cc.Rigid.plane(point=(0.0, 0.0, -0.5 * L), normal=(0.0, 0.0, 1.0))
+    return cc.Scene(a, b, contacts=[pair, cc.Contact(a, "bottom", plane, law=floor)])
 
 
 def two_caps(laws, radius=50.0, d=3e-4, s=1e-4, n=(6, 3)):

@@ -392,7 +392,7 @@ def finished_p2(scene):
 
 def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None,
                 span=(0.0, 1.0), centre=(0.5, 0.5), length=1.0, piezo=False, volts=0.0, order=None, floor=None,
-                dome=None):
+                dome=None, traction=None):
     """A curved part against a planar one in 3D (node-to-face, ``contact/surface.CurvedSurfaceInterface``): a steel
     block (0, 1)^2 x (-0.5, 0) m (n[0] x n[0] x 2 cells, clamped at its base, planar "top") under a steel block
     (0, 1)^2 x (0, 0.5) (n[1] x n[1] x 2 cells) whose "bottom" is lifted onto the spherical cap of ``radius`` (m)
@@ -408,7 +408,8 @@ def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", 
     "left" face only, its "bottom" on the rigid plane z = -0.5 under the law ``floor`` (a second pair, rigid);
     ``dome``: a radius (m): the lower block's top lifted onto a dome of that radius (highest at the centre, z = 0)
     and the upper block's bottom left flat (``radius`` ignored): the curved part on the lower body, the planar
-    one facing down."""
+    one facing down; ``traction`` (3,) Pa: the upper block's top loaded by it instead of moved (nothing else holds
+    that block: its rigid motions along the plane are held by the friction alone)."""
     L = float(length)
     lower = cc.box(x=(0.0, L), y=(0.0, L), z=(-0.5 * L, 0.0), nx=n[0], ny=n[0], nz=2)
     upper = cc.box(x=tuple(L * np.asarray(span)), y=tuple(L * np.asarray(span)), z=(0.0, 0.5 * L), nx=n[1],
@@ -435,7 +436,8 @@ def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", 
     grounded, driven = ({"grounded": "bottom"}, {"potential": {"top": volts}}) if piezo else ({}, {})
     a = cc.Body(lower, material, clamped="bottom" if floor is None else "left", contact="top", name="lower",
                 **grounded)
-    b = cc.Body(upper, material, displacement={"top": tuple(moved)}, contact="bottom", name="upper", **driven)
+    held = {"displacement": {"top": tuple(moved)}} if traction is None else {"traction": {"top": tuple(traction)}}
+    b = cc.Body(upper, material, contact="bottom", name="upper", **held, **driven)
     flat = "sigma1" if swap else condition
     if dome is not None:
         flat = "sigma2" if swap else "sigma1"

@@ -343,3 +343,13 @@ def test_a_curved_pair_beside_a_rigid_floor_with_friction(name):
     sol = cc.solve(capped_pair(LAWS[name], s=S, floor=cc.Tresca(threshold=2e6)))
     assert [type(i).__name__ for i in sol.scene.interfaces] == ["CurvedSurfaceInterface", "SurfaceInterface"]
     _certified(sol)
+
+
+@pytest.mark.parametrize("name", LAWS)
+def test_a_curved_block_held_by_its_friction_alone(name):
+    """The upper block loaded on its top by (1e5, 0, -1e7) Pa and held by nothing else (its rigid motions along the
+    plane held by the friction): certified (measured at most 3.0e-15); Coulomb mu = 0.3 under a shear load of
+    half the normal one cannot hold it: a SceneError naming the slide."""
+    _certified(cc.solve(capped_pair(LAWS[name], traction=(1e5, 0.0, -1e7))), sliding=name == "coulomb")
+    with pytest.raises(cc.SceneError, match="exceeds the friction capacity"):
+        cc.solve(capped_pair(cc.Coulomb(coefficient=0.3), traction=(5e6, 0.0, -1e7)))

@@ -390,30 +390,83 @@ def finished_p2(scene):
     return sol
 
 
-def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None):
+def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None,
+                span=(0.0, 1.0), centre=(0.5, 0.5), length=1.0, piezo=False, volts=0.0, order=None, floor=None,
+                dome=None, traction=None):
     """A curved part against a planar one in 3D (node-to-face, ``contact/surface.CurvedSurfaceInterface``): a steel
     block (0, 1)^2 x (-0.5, 0) m (n[0] x n[0] x 2 cells, clamped at its base, planar "top") under a steel block
     (0, 1)^2 x (0, 0.5) (n[1] x n[1] x 2 cells) whose "bottom" is lifted onto the spherical cap of ``radius`` (m)
     touching z = 0 at the centre (each node by z_s (1 - z / 0.5), z_s = r^2 / (R + sqrt(R^2 - r^2)); None: flat),
     its top moved by (s, 0, -d); ``law`` on the pair posed from the lower block under ``condition`` (``swap``: from
     the upper block, under "sigma1"). Both grids are mirror-symmetric about x = 0.5 and y = 0.5, so with s = 0 the
-    whole scene is. ``turn``: a rotation matrix applied to the whole scene (points and prescribed displacement)."""
-    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n[0], ny=n[0], nz=2)
-    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n[1], ny=n[1], nz=2)
+    whole scene is. ``turn``: a rotation matrix applied to the whole scene (points and prescribed displacement).
+    ``span``: the upper block's x and y range instead of (0, 1) (wider: nodes of its bottom miss the lower top);
+    ``centre``: the cap's lowest point (x, y); ``length``: every length (the blocks, the radius, ``span``,
+    ``centre``; not d, s) times it; ``piezo``: both blocks PZT-5A (poled along z), the lower grounded at its base,
+    the upper's top at ``volts`` (V); ``order``: a seed renumbering both meshes' nodes (``TetMesh.renumbered`` with
+    a random permutation of each: the same bodies, another numbering); ``floor``: the lower block clamped on its
+    "left" face only, its "bottom" on the rigid plane z = -0.5 under the law ``floor`` (a second pair, rigid);
+    ``dome``: a radius (m): the lower block's top lifted onto a dome of that radius (highest at the centre, z = 0)
+    and the upper block's bottom left flat (``radius`` ignored): the curved part on the lower body, the planar
+    one facing down; ``traction`` (3,) Pa: the upper block's top loaded by it instead of moved (nothing else holds
+    that block: its rigid motions along the plane are held by the friction alone)."""
+    L = float(length)
+    lower = cc.box(x=(0.0, L), y=(0.0, L), z=(-0.5 * L, 0.0), nx=n[0], ny=n[0], nz=2)
+    upper = cc.box(x=tuple(L * np.asarray(span)), y=tuple(L * np.asarray(span)), z=(0.0, 0.5 * L), nx=n[1],
+                   ny=n[1], nz=2)
+    if dome is not None:
+        p = np.array(lower.points)
+        r2 = (p[:, 0] - centre[0] * L) ** 2 + (p[:, 1] - centre[1] * L) ** 2
+        p[:, 2] -= r2 / (dome * L + np.sqrt((dome * L) ** 2 - r2)) * (1.0 + p[:, 2] / (0.5 * L))
+        lower, radius = lower.with_points(p), None
     if radius is not None:
         p = np.array(upper.points)
-        r2 = (p[:, 0] - 0.5) ** 2 + (p[:, 1] - 0.5) ** 2
-        p[:, 2] += r2 / (radius + np.sqrt(radius ** 2 - r2)) * (1.0 - p[:, 2] / 0.5)
+        R = radius * L
+        r2 = (p[:, 0] - centre[0] * L) ** 2 + (p[:, 1] - centre[1] * L) ** 2
+        p[:, 2] += r2 / (R + np.sqrt(R ** 2 - r2)) * (1.0 - p[:, 2] / (0.5 * L))
         upper = upper.with_points(p)
+    if order is not None:
+        rng = np.random.default_rng(order)
+        lower, upper = (m.renumbered(rng.permutation(len(m.points))) for m in (lower, upper))
     moved = np.array([s, 0.0, -d])
     if turn is not None:
         lower, upper = (m.with_points(np.asarray(m.points) @ np.asarray(turn).T) for m in (lower, upper))
         moved = np.asarray(turn) @ moved
+    material = cc.materials.PZT5A if piezo else steel()
+    grounded, driven = ({"grounded": "bottom"}, {"potential": {"top": volts}}) if piezo else ({}, {})
+    a = cc.Body(lower, material, clamped="bottom" if floor is None else "left", contact="top", name="lower",
+                **grounded)
+    held = {"displacement": {"top": tuple(moved)}} if traction is None else {"traction": {"top": tuple(traction)}}
+    b = cc.Body(upper, material, contact="bottom", name="upper", **held, **driven)
+    flat = "sigma1" if swap else condition
+    if dome is not None:
+        flat = "sigma2" if swap else "sigma1"
+    pair = (cc.Contact(b, "bottom", a, "top", condition=flat, law=law) if swap
+            else cc.Contact(a, "top", b, "bottom", condition=flat, law=law))
+    if floor is None:
+        return cc.Scene(a, b, contacts=[pair])
+    plane = cc.Rigid.plane(point=(0.0, 0.0, -0.5 * L), normal=(0.0, 0.0, 1.0))
+    return cc.Scene(a, b, contacts=[pair, cc.Contact(a, "bottom", plane, law=floor)])
+
+
+def two_caps(laws, radius=50.0, d=3e-4, s=1e-4, n=(6, 3)):
+    """Two curved parts on one planar part (two node-to-face pairs): the steel block (0, 1)^2 x (-0.5, 0) m of
+    :func:`capped_pair` (n[0] x n[0] x 2 cells, clamped at its base) under two steel blocks (0, 0.5) x (0, 1) and
+    (0.5, 1) x (0, 1) (x, y; n[1] x 2 n[1] x 2 cells, 0 < z < 0.5) whose bottoms are lifted onto spherical caps of
+    ``radius`` (m) centred below each, their tops moved by (s, 0, -d) and (0, -s, -d); pair i (the lower "top"
+    against block i's "bottom", "sigma2") under ``laws[i]``."""
+    lower = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(-0.5, 0.0), nx=n[0], ny=n[0], nz=2)
     a = cc.Body(lower, steel(), clamped="bottom", contact="top", name="lower")
-    b = cc.Body(upper, steel(), displacement={"top": tuple(moved)}, contact="bottom", name="upper")
-    pair = (cc.Contact(b, "bottom", a, "top", condition="sigma1", law=law) if swap
-            else cc.Contact(a, "top", b, "bottom", condition=condition, law=law))
-    return cc.Scene(a, b, contacts=[pair])
+    bodies, pairs = [a], []
+    for i, (x, moved, law) in enumerate(zip(((0.0, 0.5), (0.5, 1.0)), ((s, 0.0, -d), (0.0, -s, -d)), laws)):
+        m = cc.box(x=x, y=(0.0, 1.0), z=(0.0, 0.5), nx=n[1], ny=2 * n[1], nz=2)
+        p = np.array(m.points)
+        r2 = (p[:, 0] - sum(x) / 2) ** 2 + (p[:, 1] - 0.5) ** 2
+        p[:, 2] += r2 / (radius + np.sqrt(radius ** 2 - r2)) * (1.0 - p[:, 2] / 0.5)
+        b = cc.Body(m.with_points(p), steel(), displacement={"top": moved}, contact="bottom", name=f"cap {i}")
+        bodies.append(b)
+        pairs.append(cc.Contact(a, "top", b, "bottom", condition="sigma2", law=law))
+    return cc.Scene(*bodies, contacts=pairs)
 
 
 def uniform_stack(tau, law, conditions=("gamma3", "sigma1"), nx=(4, 3, 5), cell="triangle"):

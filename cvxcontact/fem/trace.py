@@ -239,7 +239,11 @@ class QuadraticTrace(LinearTrace):
         forces = np.asarray(forces, dtype=float)
         if np.ndim(pair.x) == 1:
             return self._over_weights(pair, condition, rows, forces)
-        if self._on_nodes(pair, condition) or not self._own(pair, condition, rows):
+        if self._on_nodes(pair, condition):
+            return None
+        if len(forces) == 0:                            # a pair with no row in its overlap (ResolutionWarning)
+            return np.zeros(pair.size)
+        if not self._own(pair, condition, rows):
             return None
         return pair.extend(condition, pair.row_riesz(condition, forces))
 

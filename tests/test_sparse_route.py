@@ -191,7 +191,7 @@ def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(lay
     the bonded mixed system as SciPy's pivoting spsolve does."""
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.sparse import factorize, ordering
+    from cvxcontact.backends.elimination import factorize, ordering
 
     solver = cc.ContactSolver(layer, method="sparse")
     solver.solve()

@@ -250,7 +250,7 @@ class SparseContact:
         cap = self.cap
         if cap is None:
             cap = CAP_MIN if self._t_solve is None else \
-                int(min(max(CAP_MIN, self._t_fact * BLOCK_GAIN / self._t_solve / 2), CAP_MAX))
+                int(min(max(CAP_MIN, self._t_fact * BLOCK_GAIN / max(self._t_solve, 1e-7) / 2), CAP_MAX))
         return len(drop) + len(add) > cap
 
     def _solve_on(self, active, b):

@@ -615,3 +615,38 @@ def test_default_cap_under_a_clock_that_does_not_advance(monkeypatch, layer, fac
     # measured u 3.2e-14 .. 5.3e-14 (SuperLU), 1.2e-13 .. 2.4e-13 (PARDISO) between the two (the same set solved
     # exactly twice, scaled units) under the Haswell, Prescott and Sandybridge kernels: >= 400x
     assert max(rel(out[0][k], plain[0][k]) for k in range(2)) < 1e-10
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeypatch, factorization):
+    """The coarse start taken (COARSE_ROWS lowered), so that with PARDISO the analysis is made on the bonded values
+    alone (PardisoSymmetric.analyse) and every later factor is numeric on other values: (1) three load cases on one
+    ContactSolver (the analysis kept, a re-solve never analyses the same handle twice), each the full model's set
+    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes 4e-4 of a cell apart, nearly
+    dependent rows, a nearly singular system wherever both close), the full model's set and fields."""
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends import factor as factor_module
+    from conftest import two_blocks
+
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    monkeypatch.setattr(sparse_mod, "COARSE_ROWS", 10)
+    analyses = []
+    if factorization == "pardiso":
+        analyse = factor_module.PardisoSymmetric.analyse
+        monkeypatch.setattr(factor_module.PardisoSymmetric, "analyse",
+                            lambda self, K: analyses.append(1) or analyse(self, K))
+    solver = cc.ContactSolver(thin_layer(40), method="sparse", factorization=factorization)
+    for kw in ({}, {"pressure": 3e6, "crown": 1e-5}, {"pressure": 2e5, "voltage": -200.0, "crown": 4e-5}):
+        scene = thin_layer(40, **kw)
+        sol, full = solver.solve(scene), cc.solve(scene, method="full")
+        assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))
+        # measured (SuperLU and PARDISO, the three cases, Haswell / Prescott / Sandybridge kernels) u <= 3.1e-12 /
+        # 5.9e-12 / 4.7e-12, phi <= 1.5e-12, the force <= 6.2e-11 / 2.6e-10 / 2.3e-10: >= 169x, 115x
+        fields_agree(sol, full, 1e-9, force_tol=3e-8)
+    scene = two_blocks((50, 4), (51, 4))
+    sol, full = cc.solve(scene, "gamma3", method="sparse", factorization=factorization), \
+        cc.solve(scene, "gamma3", method="full")
+    assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))
+    fields_agree(sol, full, 1e-10)        # measured u, phi 1.3e-14 .. 3.6e-14 (the three kernel sets): >= 2700x
+    assert factorization == "superlu" or len(analyses) >= 2   # the bonded analysis was the one taken, both scenes

@@ -624,9 +624,10 @@ def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeyp
     ContactSolver (the analysis kept, a re-solve never analyses the same handle twice), each the full model's set
     and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes 4e-4 of a cell apart, nearly
     dependent rows, a nearly singular system wherever both close), the full model's set and fields."""
+    from conftest import two_blocks
+
     import cvxcontact.backends.sparse as sparse_mod
     from cvxcontact.backends import factor as factor_module
-    from conftest import two_blocks
 
     if factorization == "pardiso" and not factor_module.pardiso_available():
         pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")

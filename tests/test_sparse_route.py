@@ -622,8 +622,8 @@ def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeyp
     """The coarse start taken (COARSE_ROWS lowered), so that with PARDISO the analysis is made on the bonded values
     alone (PardisoSymmetric.analyse) and every later factor is numeric on other values: (1) three load cases on one
     ContactSolver (the analysis kept, a re-solve never analyses the same handle twice), each the full model's set
-    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes 4e-4 of a cell apart, nearly
-    dependent rows, a nearly singular system wherever both close), the full model's set and fields."""
+    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes down to 3.9e-4 m, 2% of a cell,
+    apart: nearly dependent rows, a nearly singular system wherever both close), the full model's set and fields."""
     from conftest import two_blocks
 
     import cvxcontact.backends.sparse as sparse_mod
@@ -651,3 +651,32 @@ def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeyp
     assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))
     fields_agree(sol, full, 1e-10)        # measured u, phi 1.3e-14 .. 3.6e-14 (the three kernel sets): >= 2700x
     assert factorization == "superlu" or len(analyses) >= 2   # the bonded analysis was the one taken, both scenes
+
+
+@pytest.mark.skipif(not __import__("cvxcontact.backends.factor", fromlist=["x"]).pardiso_available(),
+                    reason="Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+def test_pardiso_refuses_another_pattern_with_the_same_count_of_entries(layer):
+    """PardisoSymmetric reads every later K's values in the order of the pattern given at construction: a matrix
+    with as many stored entries in another pattern (the bonded system symmetrically permuted) is refused by
+    analyse and factor (SolverError), not factorised as another matrix (it was: the solve's residual 6e36)."""
+    import scipy.sparse as sps
+
+    from cvxcontact.backends.factor import PardisoSymmetric
+
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    sc = solver.cache.sparse
+    K = sc.matrix(np.ones(sc.m, dtype=bool))
+    p = np.random.default_rng(0).permutation(K.shape[0])
+    other = sps.csc_matrix(K[p][:, p])
+    other.sort_indices()
+    assert other.nnz == K.nnz and not np.array_equal(other.indices, K.indices)
+    for call in ("analyse", "factor"):
+        ps = PardisoSymmetric(K)
+        with pytest.raises(cc.SolverError, match="pattern differs"):
+            getattr(ps, call)(other)
+        ps.release()
+    ps = PardisoSymmetric(K).factor(K)                   # its own pattern, values changed: taken
+    z = ps.factor(sc.matrix(np.arange(sc.m) % 3 == 0)).solve(np.ones(K.shape[0]))
+    assert np.isfinite(z).all()
+    ps.release()

@@ -622,8 +622,8 @@ def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeyp
     """The coarse start taken (COARSE_ROWS lowered), so that with PARDISO the analysis is made on the bonded values
     alone (PardisoSymmetric.analyse) and every later factor is numeric on other values: (1) three load cases on one
     ContactSolver (the analysis kept, a re-solve never analyses the same handle twice), each the full model's set
-    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes down to 3.9e-4 m, 2% of a cell,
-    apart: nearly dependent rows, a nearly singular system wherever both close), the full model's set and fields."""
+    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes down to 3.9e-4 m, 2% of a
+    cell, apart: nearly dependent rows, a nearly singular system wherever both close), the full model's as well."""
     from conftest import two_blocks
 
     import cvxcontact.backends.sparse as sparse_mod
@@ -645,7 +645,7 @@ def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeyp
         # measured (SuperLU and PARDISO, the three cases, Haswell / Prescott / Sandybridge kernels) u <= 3.1e-12 /
         # 5.9e-12 / 4.7e-12, phi <= 1.5e-12, the force <= 6.2e-11 / 2.6e-10 / 2.3e-10: >= 169x, 115x
         fields_agree(sol, full, 1e-9, force_tol=3e-8)
-    scene = two_blocks((50, 4), (51, 4))
+    scene = two_blocks((50, 4), (51, 4))      # 101 rows, 8 pairs of Jacobi-scaled cosine > 0.99 (up to 0.9995)
     sol, full = cc.solve(scene, "gamma3", method="sparse", factorization=factorization), \
         cc.solve(scene, "gamma3", method="full")
     assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))

@@ -582,7 +582,8 @@ class PardisoSymmetric:
         otherwise be read in the wrong places: a factor of another matrix)."""
         K = sp.csc_matrix(K)
         indptr, indices = self._pattern
-        if K.shape != (self.n, self.n) or not (np.array_equal(K.indptr, indptr) and np.array_equal(K.indices, indices)):
+        same = K.shape == (self.n, self.n) and np.array_equal(K.indptr, indptr) and np.array_equal(K.indices, indices)
+        if not same:
             raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one (the same stored "
                               "entries in the same CSC order are needed; a new PardisoSymmetric for another pattern)")
         self._a[:] = K.data[self._upper]

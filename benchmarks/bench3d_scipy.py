@@ -27,10 +27,10 @@ from harness import bonded_system, residual, unknowns, write_report
 
 def superlu_bonded(problem):
     """SuperLU as the package's sparse route uses it (its fill-reducing quasi-definite order, no pivoting:
-    ``cvxcontact.backends.sparse.ordering``), order + factorisation + solve of the bonded system."""
+    ``cvxcontact.backends.elimination.ordering``), order + factorisation + solve of the bonded system."""
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.sparse import _SUPERLU, ordering
+    from cvxcontact.backends.elimination import _SUPERLU, ordering
 
     K, rhs, A, _, _ = bonded_system(problem)
     rows = np.arange(A.shape[0], K.shape[0])                               # the closed rows come last in K

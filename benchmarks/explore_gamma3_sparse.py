@@ -100,7 +100,8 @@ def run(problem, start: str, levels, cap) -> dict:
         raise SystemExit(f"the Lawson-Hanson finish stopped: {out}")
     return {"seconds": time.perf_counter() - t0, "systems": systems,
             "factorisations": factorisations + soft.factorizations + exact.factorizations, "lh": out[4],
-            "passive": int(out[3].sum()), "u": np.concatenate(out[0]), "cap": soft.cap}
+            "passive": int(out[3].sum()), "u": np.concatenate(out[0]),
+            "cap": "not measured" if soft.cap is None else soft.cap}    # (the default: None until a block of >= 16)
 
 
 def columns(problem, counts) -> None:

@@ -191,7 +191,7 @@ def test_unpivoted_factorisation_in_the_route_order_solves_the_bonded_system(lay
     the bonded mixed system as SciPy's pivoting spsolve does."""
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.sparse import factorize, ordering
+    from cvxcontact.backends.elimination import factorize, ordering
 
     solver = cc.ContactSolver(layer, method="sparse")
     solver.solve()
@@ -583,3 +583,100 @@ def test_default_cap_is_measured_on_the_capacitance_forms_own_columns(layer, fac
     sol, full = cc.solve(layer, method="sparse", factorization=factorization), cc.solve(layer, method="full")
     assert np.array_equal(active, np.asarray(full.contact.active)) and np.array_equal(active, sol.contact.active)
     fields_agree(sol, full, 1e-9, force_tol=2e-8)            # as in the test of this scene above (its conditioning)
+
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_default_cap_under_a_clock_that_does_not_advance(monkeypatch, layer, factorization):
+    """The default cap (cap=None) is read from timings (SparseContact._over_cap); a clock that does not advance
+    between two readings (a coarse timer, a solve shorter than its resolution: every time read 0 here) must not
+    stop the route (it divided by the first single solve's time: ZeroDivisionError). The cap stays within
+    [CAP_MIN, CAP_MAX] and the answer does not depend on it: the full model's set, the plain steps' fields."""
+    from types import SimpleNamespace
+
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends import factor as factor_module
+
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    problem = cc.ContactSolver(layer, method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    plain = SparseContact(blocks, E, cap=0, factorization=factorization).solve(F, g)   # no timing read
+    monkeypatch.setattr(sparse_mod, "time", SimpleNamespace(perf_counter=lambda: 0.0))
+    sc = SparseContact(blocks, E, factorization=factorization)
+    out = sc.solve(F, g)
+    assert out is not None and plain is not None
+    assert sc._t_solve == 0.0 and sc._t_fact == 0.0                  # the clock did not advance
+    assert sc._over_cap(np.arange(sparse_mod.CAP_MIN), np.zeros(0, dtype=int)) is False
+    assert sc.cap is None or sparse_mod.CAP_MIN <= sc.cap <= sparse_mod.CAP_MAX
+    assert np.array_equal(out[3], plain[3])
+    assert np.array_equal(out[3], np.asarray(cc.solve(layer, method="full").contact.active))
+    # measured u 3.2e-14 .. 5.3e-14 (SuperLU), 1.2e-13 .. 2.4e-13 (PARDISO) between the two (the same set solved
+    # exactly twice, scaled units) under the Haswell, Prescott and Sandybridge kernels: >= 400x
+    assert max(rel(out[0][k], plain[0][k]) for k in range(2)) < 1e-10
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_bonded_analysis_then_other_load_cases_and_nearly_dependent_rows(monkeypatch, factorization):
+    """The coarse start taken (COARSE_ROWS lowered), so that with PARDISO the analysis is made on the bonded values
+    alone (PardisoSymmetric.analyse) and every later factor is numeric on other values: (1) three load cases on one
+    ContactSolver (the analysis kept, a re-solve never analyses the same handle twice), each the full model's set
+    and fields; (2) two blocks of nearly matching meshes (50 and 51 cells: merged nodes down to 3.9e-4 m, 2% of a
+    cell, apart: nearly dependent rows, a nearly singular system wherever both close), the full model's as well."""
+    from conftest import two_blocks
+
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends import factor as factor_module
+
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    monkeypatch.setattr(sparse_mod, "COARSE_ROWS", 10)
+    analyses = []
+    if factorization == "pardiso":
+        analyse = factor_module.PardisoSymmetric.analyse
+        monkeypatch.setattr(factor_module.PardisoSymmetric, "analyse",
+                            lambda self, K: analyses.append(1) or analyse(self, K))
+    solver = cc.ContactSolver(thin_layer(40), method="sparse", factorization=factorization)
+    for kw in ({}, {"pressure": 3e6, "crown": 1e-5}, {"pressure": 2e5, "voltage": -200.0, "crown": 4e-5}):
+        scene = thin_layer(40, **kw)
+        sol, full = solver.solve(scene), cc.solve(scene, method="full")
+        assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))
+        # measured (SuperLU and PARDISO, the three cases, Haswell / Prescott / Sandybridge kernels) u <= 3.1e-12 /
+        # 5.9e-12 / 4.7e-12, phi <= 1.5e-12, the force <= 6.2e-11 / 2.6e-10 / 2.3e-10: >= 169x, 115x
+        fields_agree(sol, full, 1e-9, force_tol=3e-8)
+    scene = two_blocks((50, 4), (51, 4))      # 101 rows, 8 pairs of Jacobi-scaled cosine > 0.99 (up to 0.9995)
+    sol, full = cc.solve(scene, "gamma3", method="sparse", factorization=factorization), \
+        cc.solve(scene, "gamma3", method="full")
+    assert sol.ok and np.array_equal(np.asarray(sol.contact.active), np.asarray(full.contact.active))
+    fields_agree(sol, full, 1e-10)        # measured u, phi 1.3e-14 .. 3.6e-14 (the three kernel sets): >= 2700x
+    assert factorization == "superlu" or len(analyses) >= 2   # the bonded analysis was the one taken, both scenes
+
+
+@pytest.mark.skipif(not __import__("cvxcontact.backends.factor", fromlist=["x"]).pardiso_available(),
+                    reason="Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+def test_pardiso_refuses_another_pattern_with_the_same_count_of_entries(layer):
+    """PardisoSymmetric reads every later K's values in the order of the pattern given at construction: a matrix
+    with as many stored entries in another pattern (the bonded system symmetrically permuted) is refused by
+    analyse and factor (SolverError), not factorised as another matrix (it was: the solve's residual 6e36)."""
+    import scipy.sparse as sps
+
+    from cvxcontact.backends.factor import PardisoSymmetric
+
+    solver = cc.ContactSolver(layer, method="sparse")
+    solver.solve()
+    sc = solver.cache.sparse
+    K = sc.matrix(np.ones(sc.m, dtype=bool))
+    p = np.random.default_rng(0).permutation(K.shape[0])
+    other = sps.csc_matrix(K[p][:, p])
+    other.sort_indices()
+    assert other.nnz == K.nnz and not np.array_equal(other.indices, K.indices)
+    for call in ("analyse", "factor"):
+        ps = PardisoSymmetric(K)
+        with pytest.raises(cc.SolverError, match="pattern differs"):
+            getattr(ps, call)(other)
+        ps.release()
+    ps = PardisoSymmetric(K).factor(K)                   # its own pattern, values changed: taken
+    z = ps.factor(sc.matrix(np.arange(sc.m) % 3 == 0)).solve(np.ones(K.shape[0]))
+    assert np.isfinite(z).all()
+    ps.release()

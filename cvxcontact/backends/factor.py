@@ -548,6 +548,7 @@ class PardisoSymmetric:
         n = K.shape[0]
         if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
             raise SolverError("PardisoSymmetric needs K in CSC with sorted indices")
+        self._pattern = (K.indptr.copy(), K.indices.copy())          # every later K's, entry for entry
         col = np.repeat(np.arange(n), np.diff(K.indptr))             # CSC of a symmetric K = CSR of K:
         self._upper = K.indices >= col                                # column j's rows >= j = row j's upper part
         if int(self._upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
@@ -576,10 +577,16 @@ class PardisoSymmetric:
     _call = PardisoFactorization._call
 
     def _values(self, K, what):
-        data = sp.csc_matrix(K).data
-        if len(data) != len(self._upper):
-            raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one")
-        self._a[:] = data[self._upper]
+        """Take ``K``'s values in the analysed pattern's order; SolverError if its stored entries (CSC, in their
+        order) are not exactly those of the matrix given at construction (the same count in another pattern would
+        otherwise be read in the wrong places: a factor of another matrix)."""
+        K = sp.csc_matrix(K)
+        indptr, indices = self._pattern
+        same = K.shape == (self.n, self.n) and np.array_equal(K.indptr, indptr) and np.array_equal(K.indices, indices)
+        if not same:
+            raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one (the same stored "
+                              "entries in the same CSC order are needed; a new PardisoSymmetric for another pattern)")
+        self._a[:] = K.data[self._upper]
 
     def analyse(self, K):
         """The analysis alone (PARDISO's phase 11: ordering, symbolic factorisation, and the scaling and weighted

@@ -147,7 +147,7 @@ class TangentSolver:
     wherever the tangent may be non-zero (:meth:`~cvxcontact.backends.mixed.MixedEnergy.pattern`; a product drops
     the moduli's zeros) and every row's couplings, stored as explicit zeros where off. So the fill-reducing
     analysis is done once: with ``factorization="pardiso"`` :class:`~cvxcontact.backends.factor.PardisoSymmetric`,
-    else SuperLU without pivoting in the quasi-definite order :func:`~cvxcontact.backends.sparse.ordering`.
+    else SuperLU without pivoting in the quasi-definite order :func:`~cvxcontact.backends.elimination.ordering`.
 
     Each system is first solved by GMRES preconditioned by the last numeric factorisation (of an earlier step's
     matrix), from the last step's answer, inexact by :data:`FORCING` (a budget of iterations: ``krylov`` if given,
@@ -238,8 +238,8 @@ class TangentSolver:
         return sp.csc_matrix((data, self._indices, self._indptr), shape=(N, N))
 
     def _factor(self, M):
+        from .elimination import factorize, ordering
         from .factor import PardisoSymmetric
-        from .sparse import factorize, ordering
 
         if self._pardiso is None and self._perm is None:
             self.analyses += 1

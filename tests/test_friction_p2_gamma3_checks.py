@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from friction_scenes import P, pair2d, steel
+from friction_scenes import P, pair2d, positive_forces, steel
 from scipy.optimize import minimize_scalar
 
 import cvxcontact as cc
@@ -47,23 +47,8 @@ def _simpson(x):
 
 
 def _positive(r):
-    """Coulomb's normal nodal forces under the cones (docs/howto/friction.md): the nodal forces ``r`` of the sorted
-    P2 line (vertex, midpoint, vertex, ...) with each negative one taken from the positive ones of its patch (a
-    vertex's two segments, a midpoint's one) in proportion to them, repeated while a node is negative; written
-    node by node here."""
-    p = np.array(r, dtype=float)
-    n = len(p)
-    patch = [range(max(a - 2, 0), min(a + 3, n)) if a % 2 == 0 else range(a - 1, a + 2) for a in range(n)]
-    for _ in range(8):
-        plus, new = np.maximum(p, 0.0), p.copy()
-        for a in np.flatnonzero(p < 0):
-            mass = sum(plus[b] for b in patch[a])
-            if mass > 0:
-                new[a] = 0.0
-                for b in patch[a]:
-                    new[b] -= plus[b] * -p[a] / mass
-        p = new
-    return p
+    """Coulomb's normal nodal forces of the sorted P2 line's nodal forces ``r`` (vertex, midpoint, vertex, ...)."""
+    return positive_forces(r, [range(a, a + 3) for a in range(0, len(r) - 2, 2)])
 
 
 def _largest_slack(x, rows, gap, samples=2001):

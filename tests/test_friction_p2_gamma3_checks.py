@@ -128,7 +128,7 @@ def _tilted(law, nx):
 def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law, nx):
     """Finished or not (measured: Tresca finished at nx = 7, the equal of "sigma1" to 3.4e-14, and at nx = 8 (its cut
     rounds' cycle followed by Murty's rule); Coulomb finished at nx = 7 and 8, its capacities those of the nodal
-    forces made non-negative by patches, :func:`_positive`; declined at nx = 7 under mu max(r_a, 0)), the answer
+    forces made non-negative by patches, :func:`_positive`, as reported by its thresholds), the answer
     balances the load exactly (the floor holds p L and 0.3 p L),
     its P2 trace never dips below the floor beyond the interior point's rounding (measured at most 1e-15 of the
     displacements, exactly 0 where finished), sum r_a q_a = beta . b vanishes (complementarity) and the friction

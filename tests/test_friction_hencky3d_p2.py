@@ -11,7 +11,14 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import DIAGONAL3, FLOOR3D, P, positive_forces, sliding_layer3d, uniform_layer3d
+from friction_scenes import (
+    DIAGONAL3,
+    FLOOR3D,
+    P,
+    positive_forces,
+    sliding_layer3d,
+    uniform_layer3d,
+)
 from friction_scenes import E as E3
 
 import cvxcontact as cc

@@ -598,3 +598,24 @@ def lidded(law, force=-P, lid_law=None, q=0.05 * P, at=H, nx=8, ny=4):
                 traction={"right": (q, 0.0)})
     lid = cc.Rigid.plane(point=(0.0, at), normal=(0.0, -1.0), force=None if force is None else (0.0, force))
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "top", lid, law=lid_law)])
+
+
+def positive_forces(r, elements, rounds=8):
+    """Coulomb's normal nodal forces under the P2 cones (docs/howto/friction.md, "Coulomb under the cones"), written
+    node by node: the nodal forces ``r`` with each negative one taken from the positive ones of its patch (the nodes
+    of the ``elements``, lists of nodes, that hold it) in proportion to them, repeated while a node is negative."""
+    p = np.array(r, dtype=float)
+    patch = [set() for _ in p]
+    for e in elements:
+        for a in e:
+            patch[a].update(int(b) for b in e)
+    for _ in range(rounds):
+        plus, new = np.maximum(p, 0.0), p.copy()
+        for a in np.flatnonzero(p < 0):
+            mass = sum(plus[b] for b in patch[a])
+            if mass > 0:
+                new[a] = 0.0
+                for b in patch[a]:
+                    new[b] -= plus[b] * -p[a] / mass
+        p = new
+    return p

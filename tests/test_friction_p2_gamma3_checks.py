@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from friction_scenes import P, pair2d, steel
+from friction_scenes import P, pair2d, positive_forces, steel
 from scipy.optimize import minimize_scalar
 
 import cvxcontact as cc
@@ -44,6 +44,11 @@ def _simpson(x):
         h = x[2 * s + 2, 0] - x[2 * s, 0]
         w[2 * s: 2 * s + 3] += (h / 6, 2 * h / 3, h / 6)
     return w
+
+
+def _positive(r):
+    """Coulomb's normal nodal forces of the sorted P2 line's nodal forces ``r`` (vertex, midpoint, vertex, ...)."""
+    return positive_forces(r, [range(a, a + 3) for a in range(0, len(r) - 2, 2)])
 
 
 def _largest_slack(x, rows, gap, samples=2001):
@@ -122,7 +127,9 @@ def _tilted(law, nx):
 @pytest.mark.parametrize("nx", [7, 8])
 def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law, nx):
     """Finished or not (measured: Tresca finished at nx = 7, the equal of "sigma1" to 3.4e-14, and at nx = 8 (its cut
-    rounds' cycle followed by Murty's rule); Coulomb finished at nx = 8, declined at nx = 7), the answer balances the load exactly (the floor holds p L and 0.3 p L),
+    rounds' cycle followed by Murty's rule); Coulomb finished at nx = 7 and 8, its capacities those of the nodal
+    forces made non-negative by patches, :func:`_positive`, as reported by its thresholds), the answer
+    balances the load exactly (the floor holds p L and 0.3 p L),
     its P2 trace never dips below the floor beyond the interior point's rounding (measured at most 1e-15 of the
     displacements, exactly 0 where finished), sum r_a q_a = beta . b vanishes (complementarity) and the friction
     capacities bound the shear. A declined finish is named in info.declined and warned."""
@@ -137,8 +144,10 @@ def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law
     assert abs(c.force.sum() / P - 1) <= 1e-10 and abs(c.shear_force.sum() / (-0.3 * P) - 1) <= 1e-10
     assert _largest_slack(x, -u[:, 1], np.zeros_like) / U <= 1e-9
     assert abs(c.force @ (-u[:, 1])) <= 1e-9 * np.abs(c.force).sum() * U   # measured 1e-15 (flat floor: g_h = 0)
-    pressure_dependent = law.friction.pressure_dependent
-    capacity = 0.6 * np.maximum(c.force, 0) if pressure_dependent else 0.6 * P * _simpson(x)
+    capacity = 0.6 * P * _simpson(x)
+    if law.friction.pressure_dependent:    # Coulomb: the thresholds mu p_a reported, on Simpson's weights
+        capacity = c.threshold * _simpson(x)
+        assert np.abs(capacity - 0.6 * _positive(c.force)).max() <= 1e-12 * capacity.max()   # measured <= 8.1e-17
     excess, sliding, stuck = _friction_law(sol, capacity, u[:, 0], 1e-5)
     assert excess <= 1e-10 and sliding <= 1e-6 and stuck <= 1e-10   # measured at most 1.2e-17, 1.2e-9, 2.3e-14
     if sol.polished:
@@ -218,18 +227,15 @@ def test_coulomb_on_non_matching_3d_faces_is_refused_where_its_capacities_would_
 
 
 @pytest.mark.numerics
-@pytest.mark.parametrize("condition", [
-    "sigma1",
-    pytest.param("gamma3", marks=pytest.mark.xfail(strict=True, reason=(
-        "Coulomb's capacities under the cones are mu max(r_a, 0): a negative nodal force r_a (a P2 node's share of "
-        "a force between nodes) counts as 0, not against the others, so the total friction exceeds mu N "
-        "(measured 1.115 mu N here)"))),
-])
+@pytest.mark.parametrize("condition", ["sigma1", "gamma3"])
 def test_a_block_dragged_over_a_disk_carries_at_most_mu_times_its_normal_force(condition):
     """A block (6 x 4 cells) whose top is moved by (1e-4, -4e-5) m over a disk (R = 500 m), Coulomb mu = 0.2:
     every node slides, so the friction force is mu times the normal force at every node, and in total at most mu N
-    (Coulomb's law summed). "sigma1": mu N to rounding (nodal forces >= 0); the cones: r_a < 0 at nodes beside the
-    contact's ends (their sum -0.115 N measured), their capacity 0 (docs/howto/friction.md), the total above mu N."""
+    (Coulomb's law summed). "sigma1": mu N to rounding (nodal forces >= 0). The cones: r_a < 0 at the nodes beside
+    the contact's ends (a P2 node's share of a force between nodes; their sum -0.117 N here), so capacities
+    mu max(r_a, 0) carried 1.115 mu N; each negative r_a taken from the positive forces of its patch (sums kept,
+    docs/howto/friction.md, :func:`_positive` written here node by node) they carry mu N to rounding, every node
+    at its capacity."""
     m = cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=6, ny=4)
     b = cc.Body(m, steel(nu=0.0), contact="bottom", displacement={"top": (1e-4, -4e-5)})
     disk = cc.Rigid.circle(center=(0.0, -500.0), radius=500.0)
@@ -238,5 +244,9 @@ def test_a_block_dragged_over_a_disk_carries_at_most_mu_times_its_normal_force(c
         sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", disk, law=cc.Coulomb(0.2))]), condition=condition,
                        degree=2)
     c = sol.contact
+    assert sol.ok and sol.polished, sol.info.declined
     assert (np.abs(c.slip) > 1e-3 * np.abs(sol.u[0]).max()).all()
-    assert np.abs(c.shear_force).sum() <= 0.2 * c.force.sum() * (1 + 1e-6)      # sigma1: measured 1 + 2e-16
+    assert np.abs(c.shear_force).sum() <= 0.2 * c.force.sum() * (1 + 1e-6)   # measured 1, 1 + 2.9e-14
+    capacity = 0.2 * _positive(c.force)                                      # = 0.2 r_a under "sigma1" (r >= 0)
+    assert np.abs(c.threshold * _simpson(_bottom(sol)[0]) - capacity).max() <= 1e-12 * capacity.max()  # <= 1.3e-16
+    assert np.abs(np.abs(c.shear_force) - capacity).max() <= 1e-10 * capacity.max()   # measured 2.4e-16, 4.8e-13

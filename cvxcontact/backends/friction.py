@@ -28,7 +28,8 @@ With P2 elements under "gamma3" (:func:`conic_full`, the term
 :class:`~cvxcontact.discrete.terms.ConesWithFriction`) the normal rows are the cones of every element
 (:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h (beside a pair under a
 nodal condition the rows of E: that pair's own rows, each a degenerate element of the cones), the normal forces y the
-cones' force r = B^T beta on those rows (Coulomb: c_a = mu r_a); the finish is :func:`finish_on_nodes`: the nodes' round,
+cones' force r = B^T beta on those rows (Coulomb: c_a = mu p_a, p = r made non-negative with its sums kept,
+:meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); the finish is :func:`finish_on_nodes`: the nodes' round,
 cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
 stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
 
@@ -166,8 +167,10 @@ its worst point, 8.3 s CPU before the decline; the interior point 0.24 s)."""
 def conic_full(problem, cache, settings, timings) -> RawResult:
     """The full program of the P2 "gamma3" cones (:func:`~cvxcontact.backends.cones.cone_program`) with the
     friction energy on the nodes of X_h (module docstring; the term
-    :class:`~cvxcontact.discrete.terms.ConesWithFriction`), Coulomb's by the fixed point on the capacities mu r_a
-    of the cones' nodal force r = B^T beta; ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then (``polish``)
+    :class:`~cvxcontact.discrete.terms.ConesWithFriction`), Coulomb's by the fixed point on the capacities mu p_a
+    of the cones' nodal force r = B^T beta (made non-negative,
+    :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then
+    (``polish``)
     :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
     why (the read-back checks it: the conic checks and the friction law's)."""
     raw, unsettled = _interior(problem, settings, timings, _cone_forces)
@@ -419,8 +422,9 @@ decreases by 10 % per iterate has reached the rounding of its exact iterates and
 
 def _coulomb_cuts(problem, raw, timings, segment, t):
     """Coulomb's finish with cut points: the fixed point c^(k+1) = mu r^(k) on Tresca's capacities, r^(k) = P^T y
-    the nodal force on X_h of the cut points' forces of iterate k (a negative entry, a P2 node's share of a force
-    between nodes, counts as 0), each iterate the Tresca finish :func:`_cuts` at c^(k), exact; from the
+    the nodal force on X_h of the cut points' forces of iterate k (made non-negative, a negative entry, a P2 node's
+    share of a force between nodes, taken from its patch: :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`),
+    each iterate the Tresca finish :func:`_cuts` at c^(k), exact; from the
     interior point's capacities c^(0) = mu r (its cones' nodal force), each iterate starting from the last one's
     points and answer. It stops where max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or
     where that change no longer decreases by 10 % below :data:`COULOMB_ROUNDING`; the answer is the last iterate,

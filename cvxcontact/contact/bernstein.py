@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["Segment", "Triangle", "SEGMENT", "TRIANGLE", "element", "bernstein_map", "bernstein_max",
-           "bernstein_argmax", "bernstein_basis", "point_rows"]
+           "bernstein_argmax", "bernstein_basis", "point_rows", "positive_force"]
 
 
 def bernstein_map(cells, size: int) -> sp.csr_matrix:
@@ -74,6 +74,45 @@ def point_rows(B, elements, points) -> sp.csr_matrix:
     P = (Phi @ sp.csr_matrix(B)).tocsr()
     P.eliminate_zeros()
     return P
+
+
+SPREADS = 8
+"""Rounds of :func:`positive_force` at most (each one ring of elements further; one suffices where a negative
+nodal force's neighbours carry more than it, as beside a contact that ends inside an element)."""
+
+
+def positive_force(cells, r) -> np.ndarray:
+    """(n,) the nodal force ``r`` (n,) on the nodes of X_h made non-negative with its sums kept, locally: Coulomb's
+    pressure under the cones (docs/howto/friction.md, "Coulomb under the cones").
+
+    Under the cones the normal force is non-negative as a measure on each element (its Bernstein duals lie in the
+    dual cone), but its nodal force r_a = int phi_a d nu, against the P2 Lagrange functions phi_a, is negative at a
+    node beside a force between nodes (phi_a < 0 there: a contact that ends inside an element). Each negative
+    r_a is taken from the positive forces of its patch N(a), the nodes of the elements ``cells`` (S, w) that hold
+    a, in proportion to them: p_b = r_b - r_b^+ sum_{a: r_a < 0, b in N(a)} |r_a| / sum_{c in N(a)} r_c^+, p_a = 0;
+    repeated where that leaves a node negative (the next ring), at most :data:`SPREADS` times. So p >= 0,
+    sum p = sum r, the sums over every patch of a negative node and its neighbours kept, and p = r, bit for bit, at
+    every node no negative node's patch holds (r >= 0 on the elements around it: nodal forces, a pressure that
+    covers its elements). A function of r alone: one answer for every representation of the same force (the
+    Bernstein duals, the point forces). A negative node with no positive one in reach keeps its force."""
+    cells = np.asarray(cells, dtype=np.int64)
+    p = np.array(r, dtype=float)
+    S, w = cells.shape
+    C = sp.csr_matrix((np.ones(cells.size), (np.repeat(np.arange(S), w), cells.ravel())), shape=(S, len(p)))
+    A = (C.T @ C).tocsr()
+    A.data[:] = 1.0                                      # a and b share an element (a in its own patch)
+    for _ in range(SPREADS):
+        negative = p < 0
+        if not negative.any():
+            break
+        plus = np.maximum(p, 0.0)
+        mass = A @ plus                                  # the positive force of each node's patch
+        spread = negative & (mass > 0)
+        if not spread.any():
+            break
+        share = np.divide(-p, mass, out=np.zeros(len(p)), where=spread)
+        p = np.where(spread, 0.0, p - plus * (A @ share))
+    return p
 
 
 class Segment:

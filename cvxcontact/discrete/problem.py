@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact.bernstein import positive_force
 from ..errors import SceneError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
@@ -144,9 +145,21 @@ class DiscreteProblem:
         rows whose threshold is the pressure's, :meth:`capacities`)."""
         return self.lines.rows.thresholds(0.0) / (self.units.stress * self.units.load)
 
+    def pressing(self, y: np.ndarray) -> np.ndarray:
+        """The normal row forces whose pressures set a pressure-dependent friction law's thresholds (scaled): the
+        row forces ``y`` themselves, and under the P2 cones, where the nodal force y = B^T beta may be negative
+        at a node beside a force between nodes, its non-negative parts with the sums kept, node by node's patch
+        (:func:`~cvxcontact.contact.bernstein.positive_force`; docs/howto/friction.md, "Coulomb under the
+        cones"): the same wherever y >= 0 around a node."""
+        cone = self.lines.cone
+        return np.asarray(y, dtype=float) if cone is None else positive_force(cone[1], y)
+
     def capacities(self, y: np.ndarray) -> np.ndarray:
         """The friction capacity c_a = g_a(p_a) w_a of every row (scaled), the thresholds at the pressures
-        p_a = y_a / w_a of the normal row forces ``y`` (scaled; Coulomb: c_a = mu y_a)."""
+        p_a = y_a / w_a of the normal row forces ``y`` (scaled), those of :meth:`pressing` (Coulomb:
+        c_a = mu p_a w_a = mu y_a where y >= 0 around the row; under the P2 cones they sum to mu times the
+        normal force)."""
+        y = self.pressing(y)
         w = self.row_lengths
         stress = self.units.stress * self.units.load
         pressure = np.divide(np.asarray(y, dtype=float), w, out=np.zeros(len(w)), where=w > 0) * stress

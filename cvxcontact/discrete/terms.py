@@ -353,9 +353,10 @@ class ConesWithFriction(_Term):
     """The P2 "gamma3" cones (the normal condition on every element, docs/formulation.md §8, §16) and a friction
     law's cone per node of X_h on the slip, its capacity g_a w_a with w_a the positive weights of the nodal P2
     friction (2D: the Simpson weights of the merged P2 line; 3D: the red refinement's lumped areas), Coulomb's
-    mu r_a from the cones' nodal force r = B^T beta (docs/howto/friction.md, "P2 under 'gamma3'"); beside a pair under
-    a nodal condition the rows are E's (that pair's own rows, each a degenerate element of the cones, with its own
-    weights; ``lines.cone`` on the rows, ``lines.cone_on_nodes`` on X_h). The full program
+    mu p_a from the cones' nodal force r = B^T beta made non-negative (:meth:`DiscreteProblem.pressing`;
+    docs/howto/friction.md, "Coulomb under the cones"); beside a pair under a nodal condition the rows are E's (that
+    pair's own rows, each a degenerate element of the cones, with its own weights; ``lines.cone`` on the rows,
+    ``lines.cone_on_nodes`` on X_h). The full program
     only (:func:`cvxcontact.backends.friction.conic_full`), finished exactly where the contact closes at nodes (the
     friction finish of the nodal relaxation, kept if it satisfies every element's cone) and, with Tresca, where it
     ends inside an element (normal rows added at the slack's maxima: cut points); elsewhere the finish is declined

@@ -88,18 +88,11 @@ def read_back_friction(problem, raw, sol) -> None:
                                   friction_scale(problem, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
-    def threshold(law, contact):
-        """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of
-        X_h from the pair's own read-back pressure (Pa); None without friction."""
-        f = law.friction
-        if f is None:
-            return None
-        return f.thresholds(contact.pressure) if f.pressure_dependent else f.threshold
-
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     trace = problem.space.trace
     pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
+    pressing = problem.pressing(raw.y) * un.force                         # the thresholds' normal forces (N/m)
 
     def row_shear(i, a, b):
         """P2: the rows' tangential forces over their own weights at the nodes of X_h (``trace.row_shear``)."""
@@ -107,8 +100,26 @@ def read_back_friction(problem, raw, sol) -> None:
         rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
         return trace.row_shear(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
 
+    def per_row(i, a, b, forces):
+        """P2: the rows' normal ``forces`` (one per row of E) read as a pressure at the nodes of X_h (Pa; None
+        where the rows are the nodes of X_h, :meth:`~cvxcontact.fem.trace.QuadraticTrace.row_pressure`)."""
+        cond = problem.scene.conditions[i] or problem.condition
+        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
+        return trace.row_pressure(pairs[i], cond, E[rows][:, a:b], forces[rows])
+
+    def threshold(i, a, b, contact):
+        """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of X_h
+        from the pressure of the forces that set its capacities (:meth:`per_row` of ``pressing``: under the P2
+        cones their non-negative nodal parts), else the pair's own read-back pressure (Pa); None without
+        friction."""
+        f = problem.rows.laws[i].friction
+        if f is None or not f.pressure_dependent:
+            return None if f is None else f.threshold
+        own = per_row(i, a, b, pressing)
+        return f.thresholds(contact.pressure if own is None else own)
+
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b],
+                            threshold=threshold(i, a, b, c), slip_measure=measure[a:b],
                             row_shear=row_shear(i, a, b))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:

@@ -151,6 +151,20 @@ TIE = 1e-12
 """Degenerate rows (module docstring): a row counts as closed while y_a + r_n (G x - g)_a > -TIE C, as stuck while
 |z_a| <= c_a + TIE C (C the force scale), so that rows whose force and gap (slip) are both rounding tie one way."""
 
+OWN = 1e-12
+"""An answer's stuck row may carry a force above its capacity by at most this fraction of its own capacity (of
+:data:`OWN_FLOOR` C where the capacity is below that): the ties (:data:`TIE`) are of the force scale C, the largest
+normal force, and a row whose capacity is far below it, at its stick-slip onset, was accepted stuck 4.0e-10 of its
+own capacity over it (the sliding layer of tests/test_friction_directions.py, capacities 1/400 of C). Such rows
+slip (:func:`_steps`)."""
+
+OWN_FLOOR = 1e-3
+"""The least capacity, as a fraction of the force scale C, that :data:`OWN` is taken of: a capacity at rounding
+(Coulomb's on a row that carries no force) is tied at the rounding of C, not of itself."""
+
+OVER_ROUNDS = 3
+"""Rounds of :func:`_steps` at most with the rows over their own capacity held slipping."""
+
 WEIGHT_FLOOR = 1e-3
 """Dependent rows: the weights of the basis's pivots (each row's force or slack to the cone over the largest) are
 floored here, so that the rows without force are ordered among themselves by their own pivots."""
@@ -169,6 +183,8 @@ class _System:
         """|T_i| 1: a momentum row's terms were every unknown at the largest (:meth:`residual`)."""
         self.dependent = bool(dependent)
         self._frozen = {}
+        self.slipping = np.zeros(len(fr.rows), dtype=bool)
+        """The rows held slipping (:func:`_steps`: stuck, they were over their own capacity)."""
 
     def frozen(self, w, state):
         """((R,), (r, c)) the closed normal rows and the stuck rows' moved components whose forces a step keeps
@@ -210,7 +226,7 @@ class _System:
         closed = self.free & (y + self.r * (self.G @ x - self.g) > -TIE * self.C)
         c = self.fr.capacity(y)
         z = mu + self.r * self.fr.slip(x)
-        stuck = self.fr.sticks & (np.linalg.norm(z, axis=1) <= c + TIE * self.C)
+        stuck = self.fr.sticks & ~self.slipping & (np.linalg.norm(z, axis=1) <= c + TIE * self.C)
         return closed, stuck, z, c
 
     def residual(self, w, state=None):
@@ -426,8 +442,39 @@ def solve_friction(T, b, G, g, fr: FrictionRows, free, x0, y0, mu0, scales, max_
 
 
 def _steps(system, w, max_steps: int):
-    """The damped semismooth Newton steps of :func:`solve_friction` from ``w`` = (x, y, mu): its answer or a
-    :class:`Declined`."""
+    """The damped semismooth Newton steps of :func:`solve_friction` from ``w`` = (x, y, mu) (:func:`_newton`): its
+    answer or a :class:`Declined`. Where the answer holds a stuck row whose force is above its capacity by more than
+    :data:`OWN` of its own capacity (:func:`_over`; within the ties of the force scale), those rows slip: the steps
+    again from that answer with them held slipping (their force c_a t_a, their slip free), at most
+    :data:`OVER_ROUNDS` times; where those are declined (a row that truly sticks then slips against its force),
+    the answer before them stands."""
+    out = _newton(system, w, max_steps)
+    for _ in range(OVER_ROUNDS):
+        over = None if isinstance(out, Declined) else _over(system, out)
+        if over is None or not over.any():
+            return out
+        before = system.slipping.copy()
+        system.slipping = before | over
+        again = _newton(system, np.concatenate([out[0], out[1], out[2].ravel()]), max_steps)
+        if isinstance(again, Declined):
+            system.slipping = before
+            return out
+        out = again[:4] + (out[4] + again[4],)
+    return out
+
+
+def _over(system, out) -> np.ndarray:
+    """(r,) the stuck rows of the answer ``out`` of :func:`_newton` whose force exceeds their capacity by more than
+    :data:`OWN` of it (of :data:`OWN_FLOOR` C, at least)."""
+    x, y, mu = out[0], out[1], out[2]
+    _, stuck, _, c = system.state(np.concatenate([x, y, mu.ravel()]))
+    excess = np.linalg.norm(mu, axis=1) - c
+    return stuck & system.fr.moved & (excess > OWN * np.maximum(c, OWN_FLOOR * system.C))
+
+
+def _newton(system, w, max_steps: int):
+    """The damped semismooth Newton steps of :func:`_steps` from ``w``: the answer (x, y, mu, closed, steps) that
+    passes the acceptance, or a :class:`Declined`."""
     fr = system.fr
     state = system.state(w)
     merit = np.linalg.norm(system.residual(w, state))

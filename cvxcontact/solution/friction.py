@@ -86,27 +86,40 @@ def read_back_friction(problem, raw, sol) -> None:
                                   friction_scale(problem, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
-    def threshold(law, contact):
+    def threshold(law, contact, i, a, b):
         """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of
-        X_h from the pair's own read-back pressure (Pa); None without friction."""
+        X_h (Pa), p the pressure its capacities weigh: on a P2 pair with row weights the rows' normal forces over
+        their own weights (``trace.row_shear``, read as the shear: a sliding row's shear is its threshold, the
+        capacity mu y_a over w_a; in 2D the reported pressure itself), else the pair's read-back pressure;
+        None without friction."""
         f = law.friction
         if f is None:
             return None
-        return f.thresholds(contact.pressure) if f.pressure_dependent else f.threshold
+        if not f.pressure_dependent:
+            return f.threshold
+        lumped = row_read(i, a, b, raw.y)
+        if lumped is None:
+            return f.thresholds(contact.pressure)
+        return f.thresholds(trace.per_length(replace(contact, row_shear=lumped), lumped))
 
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     trace = problem.space.trace
     pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
 
-    def row_shear(i, a, b):
-        """P2: the rows' tangential forces over their own weights at the nodes of X_h (``trace.row_shear``)."""
+    def row_read(i, a, b, forces):
+        """P2: the rows' ``forces`` (scaled, one per row of E or (R, c)) over their own weights at the nodes of
+        X_h (``trace.row_shear``); None where the pair has no row weights."""
         cond = problem.scene.conditions[i] or problem.condition
         rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
-        return trace.row_shear(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
+        return trace.row_shear(pairs[i], cond, E[rows][:, a:b], forces[rows] * un.force)
+
+    def row_shear(i, a, b):
+        """P2: the rows' tangential forces over their own weights at the nodes of X_h (``trace.row_shear``)."""
+        return row_read(i, a, b, -by_row(mu))
 
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
-                            threshold=threshold(problem.rows.laws[i], c), slip_measure=measure[a:b],
+                            threshold=threshold(problem.rows.laws[i], c, i, a, b), slip_measure=measure[a:b],
                             row_shear=row_shear(i, a, b))
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:

@@ -3,7 +3,8 @@
 The solver holds each row's tangential force within its capacity mu y_a (y_a the row's normal force); the shear is
 read as each row's force over its own weight w_a (the red refinement's). The threshold is read the same way,
 mu y_a / w_a, so that |shear| <= threshold at every row with equality where it slides. (Read as mu times the
-pressure, the Riesz representer of the rows' forces, it was negative at a row and exceeded 124 times there.)
+pressure, the Riesz representer of the rows' forces, its P2 function was negative at a row and a sliding
+row's shear exceeded it 124 times.)
 Reference built here: the rows' normal forces from the pressure and the rows' P2 mass (M p = y).
 """
 

@@ -109,3 +109,24 @@ def test_the_nodal_pressure_is_the_constrained_bodys_own_pressure(condition):
     data = contact_mesh(sol).point_data
     nodal, own = data["nodal pressure [Pa]"], data[f"pressure on body {l + 1} [Pa]"]
     assert sol.ok and np.abs(nodal - own).max() <= 1e-10 * np.abs(own).max()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.Signorini(), cc.Tresca(1e5), cc.Coulomb(0.3)],
+                         ids=["signorini", "tresca", "coulomb"])
+def test_a_pair_with_no_row_in_its_overlap_reads_no_pressure(law):
+    """Under "sigma2" a small block (0.52, 0.7) x (0.52, 0.64) on a block of 2 x 3 cells holds no node of the lower
+    one: the pair has no row, a ResolutionWarning says so (as without the read-back), and the pressure, the shear
+    and the threshold are 0 (the read-back raised a bare ValueError on the empty rows before)."""
+    m = cc.materials.isotropic(E=1e9, nu=0.3)
+    up = cc.box(x=(0.52, 0.7), y=(0.52, 0.64), z=(0.5, 1), nx=1, ny=1, nz=1)
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=3, nz=1)
+    b1 = cc.Body(up, m, contact="bottom", displacement={"top": (1e-5, 0, -1e-5)})
+    b2 = cc.Body(low, m, clamped=["bottom"], contact="top")
+    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", law=law)])
+    with pytest.warns(cc.ResolutionWarning):
+        sol = cc.solve(scene, "sigma2", degree=2)
+    c = sol.contact
+    assert sol.ok and c.row_pressure is not None and not np.any(c.pressure)
+    for field in (c.shear, c.threshold):
+        assert field is None or not np.any(field)

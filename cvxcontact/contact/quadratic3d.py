@@ -465,7 +465,7 @@ class QuadraticSurface(Represented):
             return values.copy()
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
-        full = np.empty(len(t.nodes))
+        full = np.zeros(len(t.nodes))                  # no node inside (a pair with no row): 0
         full[inside] = values
         outside = np.setdiff1d(np.arange(len(t.nodes)), inside)
         if len(outside) and len(inside):

@@ -220,7 +220,7 @@ class QuadraticTrace(LinearTrace):
         """Whether the sparse ``rows`` are ``condition``'s own rows of ``pair`` (``pair.evaluation(condition)``),
         whose weights the pair holds; not rows a problem was given."""
         own = pair.evaluation(condition)
-        return own.shape == rows.shape and not abs(own - rows).max() > 0
+        return own.shape == rows.shape and not np.abs((own - rows).tocsr().data).max(initial=0.0) > 0
 
     def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
         """The pressure (Pa) at every node of X_h of the rows' normal ``forces`` (one per row of ``rows``, the
@@ -239,6 +239,8 @@ class QuadraticTrace(LinearTrace):
         forces = np.asarray(forces, dtype=float)
         if np.ndim(pair.x) == 1:
             return self._over_weights(pair, condition, rows, forces)
+        if len(forces) == 0:
+            return np.zeros(pair.size)
         if self._on_nodes(pair, condition) or not self._own(pair, condition, rows):
             return None
         return pair.extend(condition, pair.row_riesz(condition, forces))

@@ -94,8 +94,8 @@ class ContactResult:
     None: the pressure is :attr:`force` over :attr:`measure` (3D P2: :attr:`lam`)."""
     row_shear: np.ndarray | None = None
     """A friction law on a P2 pair: the rows' tangential forces over their own weights (Pa; 3D the capacities'
-    areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None: :attr:`shear_force` over the lumped
-    lengths (areas)."""
+    areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None:
+    :attr:`shear_force` over the lumped lengths (areas)."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -133,8 +133,8 @@ class ContactResult:
     def shear(self) -> np.ndarray | None:
         """The tangential traction sigma_t on the first body along t (Pa): :attr:`shear_force` over the lumped
         lengths of the constrained nodes (as :attr:`pressure`; P2 under "sigma1"/"sigma2" the rows'
-        tangential forces over their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under "sigma1"/"sigma2": between
-        them the P2 function of the rows' values may exceed g). None without friction."""
+        tangential forces over their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under
+        "sigma1"/"sigma2": between them the P2 function of the rows' values may exceed g). None without friction."""
         if self.shear_force is None:
             return None
         return self.trace.per_length(self, self.shear_force)

@@ -329,9 +329,9 @@ class QuadraticSurface(Represented):
 
     def _cut_weights(self, condition) -> np.ndarray:
         """(rows,) m^2: the nodal part of a normal-compliance law's quadrature under "sigma1"/"sigma2" on the faces
-        of body l the overlap's edge cuts (some of their P2 nodes in the overlap, not all): the integrals over the
-        overlap's part of those faces of the red refinement's P1 hats (as :meth:`weights`; exact by the overlay of
-        the refined faces with the other body's faces), a node outside the overlap giving its share to the nearest
+        of body l the overlap's edge cuts (some or none of their P2 nodes in the overlap, :meth:`_sigma_faces`): the
+        integrals over the overlap's part of those faces of the red refinement's P1 hats (as :meth:`weights`; exact by
+        the overlay of the refined faces with the other body's faces), a node outside the overlap giving its share to the nearest
         node inside (the value :meth:`extend` gives it). Non-negative; with the whole faces' rule they integrate a
         constant exactly over the overlap (the weights sum to its area) and, where the overlap's edge follows edges
         of the refined faces (the hats of the nodes outside are 0 on it), a linear function too. Zero under
@@ -441,14 +441,20 @@ class QuadraticSurface(Represented):
 
     def _sigma_faces(self, condition) -> tuple[np.ndarray, np.ndarray]:
         """(whole (k, 6), cut (j, 6)): the faces of body l's trace ("sigma<l+1>") all of whose P2 nodes lie in the
-        overlap, and those with some but not all of them there (the overlap's edge cuts them)."""
+        overlap, and the others that may cover part of it (the overlap's edge may cut them): those whose bounding
+        box meets the overlap's, some of their P2 nodes in the overlap or none (a face over a corner of the
+        overlap may hold none of its nodes; :meth:`_overlap_hats` integrates over the overlap, 0 off it)."""
         l = int(condition[-1]) - 1
         t, inside = self.traces[l], self.sigma_rows(l)
         mark = np.zeros(len(t.nodes), dtype=bool)
         mark[inside] = True
         faces = np.asarray(t.faces)
         count = mark[faces].sum(axis=1)
-        return faces[count == 6], faces[(count > 0) & (count < 6)]
+        V = np.asarray(self.linear.overlay.vertices, dtype=float).reshape(-1, 2)
+        corners = np.asarray(t.x, dtype=float)[faces[:, :3]]
+        meets = ((corners.min(axis=1) <= V.max(axis=0, initial=-np.inf)).all(axis=1)
+                 & (corners.max(axis=1) >= V.min(axis=0, initial=np.inf)).all(axis=1))
+        return faces[count == 6], faces[(count < 6) & meets]
 
     def extend(self, condition, values) -> np.ndarray:
         """The P2 function of the constrained nodes under ``condition`` with nodal ``values`` there (the rows of

@@ -220,7 +220,7 @@ class QuadraticTrace(LinearTrace):
         """Whether the sparse ``rows`` are ``condition``'s own rows of ``pair`` (``pair.evaluation(condition)``),
         whose weights the pair holds; not rows a problem was given."""
         own = pair.evaluation(condition)
-        return own.shape == rows.shape and not abs(own - rows).max() > 0
+        return own.shape == rows.shape and not np.abs((own - rows).tocsr().data).max(initial=0.0) > 0
 
     def row_pressure(self, pair, condition: str, rows, forces) -> np.ndarray | None:
         """The pressure (Pa) at every node of X_h of the rows' normal ``forces`` (one per row of ``rows``, the
@@ -327,8 +327,8 @@ class QuadraticTrace(LinearTrace):
         areas (A/12, A/4: :attr:`~cvxcontact.solution.solution.ContactResult.shear`) would read a uniform tau as
         0 and 4/3 tau, whose interpolant reaches 16/9 tau inside. t_r the lumped read-back (the rows' law: a
         sliding row's force g w_a is t_r = g, whose representer oscillates about g by a pattern the size of g
-        at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb mu p, p the
-        reported pressure, :meth:`pressure`)."""
+        at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb under
+        "sigma1"/"sigma2" the rows' capacities mu y_a over their own weights, as t_r reads the shear)."""
         if np.ndim(contact.x) == 1:
             return super().friction_fields(itf, condition, contact)
         f = np.asarray(contact.shear_force, dtype=float)

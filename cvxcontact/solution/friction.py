@@ -92,31 +92,34 @@ def read_back_friction(problem, raw, sol) -> None:
     measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     trace = problem.space.trace
     pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
-    pressing = problem.pressing(raw.y) * un.force                         # the thresholds' normal forces (N/m)
+    pressing = problem.pressing(raw.y)                    # the thresholds' normal forces (scaled)
+
+    def row_read(i, a, b, forces):
+        """P2: the rows' ``forces`` (scaled, one per row of E or (R, c)) over their own weights at the nodes of
+        X_h (``trace.row_shear``); None where the pair has no row weights."""
+        cond = problem.scene.conditions[i] or problem.condition
+        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
+        return trace.row_shear(pairs[i], cond, E[rows][:, a:b], forces[rows] * un.force)
 
     def row_shear(i, a, b):
         """P2: the rows' tangential forces over their own weights at the nodes of X_h (``trace.row_shear``)."""
-        cond = problem.scene.conditions[i] or problem.condition
-        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
-        return trace.row_shear(pairs[i], cond, E[rows][:, a:b], -by_row(mu)[rows] * un.force)
-
-    def per_row(i, a, b, forces):
-        """P2: the rows' normal ``forces`` (one per row of E) read as a pressure at the nodes of X_h (Pa; None
-        where the rows are the nodes of X_h, :meth:`~cvxcontact.fem.trace.QuadraticTrace.row_pressure`)."""
-        cond = problem.scene.conditions[i] or problem.condition
-        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
-        return trace.row_pressure(pairs[i], cond, E[rows][:, a:b], forces[rows])
+        return row_read(i, a, b, -by_row(mu))
 
     def threshold(i, a, b, contact):
         """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of X_h
-        from the pressure of the forces that set its capacities (:meth:`per_row` of ``pressing``: under the P2
-        cones their non-negative nodal parts), else the pair's own read-back pressure (Pa); None without
-        friction."""
+        (Pa), p the pressure its capacities weigh: on a P2 pair with row weights the normal forces that set the
+        capacities (``pressing``: under the P2 cones the nodal forces made non-negative) over the rows' own
+        weights (``trace.row_shear``, read as the shear: a sliding row's shear is its threshold, the capacity
+        mu p_a over w_a), else the pair's read-back pressure; None without friction."""
         f = problem.rows.laws[i].friction
-        if f is None or not f.pressure_dependent:
-            return None if f is None else f.threshold
-        own = per_row(i, a, b, pressing)
-        return f.thresholds(contact.pressure if own is None else own)
+        if f is None:
+            return None
+        if not f.pressure_dependent:
+            return f.threshold
+        lumped = row_read(i, a, b, pressing)
+        if lumped is None:
+            return f.thresholds(contact.pressure)
+        return f.thresholds(trace.per_length(replace(contact, row_shear=lumped), lumped))
 
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
                             threshold=threshold(i, a, b, c), slip_measure=measure[a:b],

@@ -78,8 +78,9 @@ class ContactResult:
     anti-parallel to ``slip`` where it slips); :attr:`shear` divides it by the lumped lengths (areas). None
     without friction."""
     threshold: float | np.ndarray | None = None
-    """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa); None without
-    friction."""
+    """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa; P2 under
+    "sigma1"/"sigma2" p is the rows' normal forces over their own weights, as :attr:`row_shear`: the capacities
+    mu y_a / w_a, which a sliding row's shear reaches); None without friction."""
     slip_measure: np.ndarray | None = None
     """A friction law: the area (3D, m^2) or length (2D, m) the law's rows give each node of X_h, E^T w (w the
     rows' lumped areas or lengths, the friction capacities' weights), what :attr:`shear` divides by on a 3D P2
@@ -93,8 +94,8 @@ class ContactResult:
     None: the pressure is :attr:`force` over :attr:`measure` (3D P2: :attr:`lam`)."""
     row_shear: np.ndarray | None = None
     """A friction law on a P2 pair: the rows' tangential forces over their own weights (Pa; 3D the capacities'
-    areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None: :attr:`shear_force` over the lumped
-    lengths (areas)."""
+    areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None:
+    :attr:`shear_force` over the lumped lengths (areas)."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -132,8 +133,8 @@ class ContactResult:
     def shear(self) -> np.ndarray | None:
         """The tangential traction sigma_t on the first body along t (Pa): :attr:`shear_force` over the lumped
         lengths of the constrained nodes (as :attr:`pressure`; P2 under "sigma1"/"sigma2" the rows'
-        tangential forces over their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under "sigma1"/"sigma2": between
-        them the P2 function of the rows' values may exceed g). None without friction."""
+        tangential forces over their own weights, :attr:`row_shear`); |sigma_t| <= g at the rows (P2 under
+        "sigma1"/"sigma2": between them the P2 function of the rows' values may exceed g). None without friction."""
         if self.shear_force is None:
             return None
         return self.trace.per_length(self, self.shear_force)

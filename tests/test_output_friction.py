@@ -8,7 +8,7 @@ import json
 import meshio
 import numpy as np
 import pytest
-from friction_scenes import DIAGONAL3, P, pushed, sliding_layer3d, uniform_pair3d
+from friction_scenes import DIAGONAL3, P, dragged_disk, pushed, sliding_layer3d, uniform_pair3d
 
 import cvxcontact as cc
 from cvxcontact.io.output import write_all
@@ -132,6 +132,36 @@ def test_3d_pair_of_two_bodies_writes_its_fields(tmp_path):
     assert "friction" in js["contact"]
 
 
+SPHERE = np.array([0.0, 0.0, 1.98])
+"""The centre of the rigid sphere (radius 2 m) pressed 0.02 m into the block's top z = 0."""
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")   # a coarse block: 2 faces span the zone
+@pytest.mark.parametrize("degree", [1, 2])
+def test_3d_vectors_against_a_sphere_lie_in_each_nodes_own_tangent_plane(tmp_path, degree):
+    """A block (4 x 4 x 2 cells, clamped at its base) indented by a rigid sphere under Tresca's g: each node's rows
+    measure along the frame turned into its own tangent plane (row_frames), so the file's vectors are orthogonal to
+    the direction to the sphere's centre (computed here from the node and the centre), as long as their components;
+    the components are the ContactResult's, bit for bit."""
+    block = cc.box(x=(-1.0, 1.0), y=(-1.0, 1.0), z=(-1.0, 0.0), nx=4, ny=4, nz=2)
+    body = cc.Body(block, cc.materials.isotropic(E=70e9, nu=0.3), clamped=["bottom"])
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "top", cc.Rigid.sphere(tuple(SPHERE), 2.0),
+                                                law=cc.Tresca(1e8))])
+    sol = cc.solve(scene, degree=degree)
+    assert sol.ok
+    c = sol.contact
+    mesh, _ = _read(sol, tmp_path)
+    _components_match(mesh, c, FIELDS)
+    radial = c.points - SPHERE
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    assert np.abs(np.asarray(c.slip)).max() > 1e-3               # it slips (measured 1.7e-3 m, both degrees)
+    for key, name in FIELDS.items():
+        parts, v = np.asarray(getattr(c, key)), mesh.point_data[name.format("")]
+        scale = np.abs(parts).max()
+        assert np.abs(np.einsum("nd,nd->n", v, radial)).max() <= 1e-13 * scale      # measured 1.2e-16 of it
+        assert np.abs(np.linalg.norm(v, axis=1) - np.linalg.norm(parts, axis=1)).max() <= 1e-13 * scale  # 3e-16
+
+
 def test_2d_tresca_fields_read_back_along_the_tangent(tmp_path):
     """A pushed block sliding along x on the floor: components ``... t1`` are the ContactResult's, the vectors
     are them times the tangent (1, 0), padded with z = 0; the force unit is N/m."""
@@ -148,6 +178,26 @@ def test_2d_tresca_fields_read_back_along_the_tangent(tmp_path):
     assert "slip t2 [m]" not in mesh.point_data
     assert js["contact"]["friction"]["total_shear_force_N_per_m"] == pytest.approx(
         [float(c.shear_force.sum()), 0.0], rel=1e-14, abs=0.0)
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")   # 2 faces span the zone
+def test_2d_vectors_against_a_disk_lie_along_each_nodes_own_tangent(tmp_path):
+    """The block dragged over a rigid disk (centre (0, -1) m) under Tresca's g: each node's row measures along the
+    tangent turned to its own direction (row_tangents), so the file's vectors are orthogonal to the direction to
+    the disk's centre (computed here), as long as their component."""
+    sol = cc.solve(dragged_disk(cc.Tresca(0.1 * P)))
+    assert sol.ok
+    c = sol.contact
+    mesh, _ = _read(sol, tmp_path)
+    _components_match(mesh, c, {**FIELDS, "shear_force": "shear force {}[N/m]"})
+    radial = c.points - [0.0, -1.0]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    assert np.abs(c.slip).max() > 1e-6                            # it slips (measured 4.8e-5 m)
+    for key, name in {**FIELDS, "shear_force": "shear force {}[N/m]"}.items():
+        parts, v = np.asarray(getattr(c, key)), mesh.point_data[name.format("")]
+        scale = np.abs(parts).max()
+        assert np.abs(np.einsum("nd,nd->n", v[:, :2], radial)).max() <= 1e-13 * scale   # measured 6e-17 of it
+        np.testing.assert_allclose(np.linalg.norm(v, axis=1), np.abs(parts), rtol=1e-14)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -8,7 +8,14 @@ import json
 import meshio
 import numpy as np
 import pytest
-from friction_scenes import DIAGONAL3, P, dragged_disk, pushed, sliding_layer3d, uniform_pair3d
+from friction_scenes import (
+    DIAGONAL3,
+    P,
+    dragged_disk,
+    pushed,
+    sliding_layer3d,
+    uniform_pair3d,
+)
 
 import cvxcontact as cc
 from cvxcontact.io.output import write_all

@@ -11,6 +11,7 @@ import pytest
 from friction_scenes import (
     DIAGONAL3,
     P,
+    box,
     dragged_disk,
     pushed,
     sliding_layer3d,
@@ -205,6 +206,20 @@ def test_2d_vectors_against_a_disk_lie_along_each_nodes_own_tangent(tmp_path):
         scale = np.abs(parts).max()
         assert np.abs(np.einsum("nd,nd->n", v[:, :2], radial)).max() <= 1e-13 * scale   # measured 6e-17 of it
         np.testing.assert_allclose(np.linalg.norm(v, axis=1), np.abs(parts), rtol=1e-14)
+
+
+def test_3d_coulomb_threshold_is_written_per_node(tmp_path):
+    """A pushed box under Coulomb's mu = 0.3: the threshold mu p varies over the nodes; the file holds
+    ``sol.contact.threshold`` node by node and the summary its range."""
+    sol = cc.solve(box((0.05 * P, 0.0), cc.Coulomb(0.3), push=(1e-5, 0.0)))
+    assert sol.ok
+    c = sol.contact
+    mesh, js = _read(sol, tmp_path)
+    g = np.asarray(c.threshold)
+    assert g.shape == (len(c.x),) and g.max() > g.min()
+    np.testing.assert_array_equal(mesh.point_data["slip threshold [Pa]"], g)
+    assert js["contact"]["friction"]["threshold_Pa"] == {"min": float(g.min()), "max": float(g.max())}
+    _components_match(mesh, c, FIELDS)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..contact.interface import row_frames, row_tangents
 from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..fem.space import space, space_of
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
     from ..solution.solution import Solution
 
 __all__ = ["write_vtu", "write_pvd", "write_summary", "write_all", "summary", "atomic_write", "trace_pressure",
-           "surface_cells"]
+           "surface_cells", "tangential_basis", "friction_vectors"]
 
 
 def atomic_write(path, write, *, durable: bool = False):
@@ -202,6 +203,48 @@ def _vectors(a):
     return _pad3(a) if a.shape[1] == 2 else a
 
 
+def tangential_basis(itf, components: int) -> np.ndarray:
+    """(c, n, d) the unit tangents along which contact pair ``itf``'s slip components are measured at each of its n
+    nodes of X_h (first body's side): c = 1 in 2D, the pair's tangent t
+    (:func:`~cvxcontact.contact.interface.row_tangents`); c = 2 in 3D, its frame (t_1, t_2)
+    (:func:`~cvxcontact.contact.interface.row_frames`); against a curved rigid obstacle turned per node."""
+    n = len(itf.points)
+    if components == 1:
+        return np.broadcast_to(np.asarray(row_tangents(itf, 0), dtype=float), (n, 2))[None]
+    frame = np.asarray(row_frames(itf), dtype=float)
+    return np.broadcast_to(frame[:, None] if frame.ndim == 2 else frame, (components, n, 3))
+
+
+def friction_vectors(solution, pair=0) -> dict[str, np.ndarray]:
+    """A friction pair's tangential fields at its nodes of X_h as vectors in global coordinates (n, d):
+    ``slip`` [u_t] (m), ``shear`` sigma_t (Pa, on the first body) and ``shear_force`` (N/m; 3D: N), each
+    component times its tangent (:func:`tangential_basis`); ``{}`` for a frictionless pair."""
+    c = solution.contacts[pair]
+    if c.slip is None:
+        return {}
+    n = len(c.x)
+    basis = tangential_basis(_interface(solution, pair), np.asarray(c.slip).reshape(n, -1).shape[1])
+    return {k: np.einsum("nc,cnd->nd", np.asarray(v, dtype=float).reshape(n, -1), basis)
+            for k, v in (("slip", c.slip), ("shear", c.shear), ("shear_force", c.shear_force))}
+
+
+def _friction_data(solution, pair) -> dict[str, np.ndarray]:
+    """The point data of a friction pair (:func:`contact_mesh`); ``{}`` without friction."""
+    c = solution.contacts[pair]
+    vectors = friction_vectors(solution, pair)
+    if not vectors:
+        return {}
+    n = len(c.x)
+    names = {"slip": "slip {}[m]", "shear": "shear {}[Pa]", "shear_force": f"shear force {{}}[{force_unit(solution)}]"}
+    data = {}
+    for key, name in names.items():
+        data[name.format("")] = _vectors(vectors[key])
+        parts = np.asarray(getattr(c, key), dtype=float).reshape(n, -1)
+        data.update({name.format(f"t{j + 1} "): parts[:, j] for j in range(parts.shape[1])})
+    data["slip threshold [Pa]"] = np.broadcast_to(np.asarray(c.threshold, dtype=float), (n,)).copy()
+    return data
+
+
 def contact_mesh(solution, pair=0):
     """A meshio.Mesh of contact pair ``pair``: in 2D its merged line (any direction, drawn at its nodes,
     ``line``/``line3`` cells), in 3D its contact surface (the overlay's ``triangle`` cells at the nodes of
@@ -214,6 +257,14 @@ def contact_mesh(solution, pair=0):
     ``constrained``, ``active``, ``penetration`` (jump above the gap: at unconstrained nodes
     with sigma_l), ``displacement body j [m]`` and ``displacement [m]`` (their mean, or the one
     body's for a rigid pair: warp by it).
+
+    A friction pair (:class:`~cvxcontact.contact.laws.Tresca`, Coulomb) adds ``slip [m]`` (the slip
+    [u_t] = (u^a - u^b)_t), ``shear [Pa]`` (the tangential traction sigma_t on the first body, anti-parallel to
+    the slip where it slips) and ``shear force [N/m]`` (3D: ``[N]``; the tangential nodal force on the first
+    body) as 3-component vectors in global coordinates (x, y, z; 2D: z = 0), their components along the
+    pair's tangent t (2D: ``slip t1 [m]``, ...) or frame (t_1, t_2) (3D: ``slip t1 [m]``, ``slip t2 [m]``,
+    ...; :func:`tangential_basis`) as named scalars (the arrays of :class:`~cvxcontact.solution.solution.ContactResult`), and
+    ``slip threshold [Pa]`` (Tresca's g; Coulomb: mu p at each node). A frictionless pair writes none of them.
     """
     import meshio
 
@@ -239,6 +290,7 @@ def contact_mesh(solution, pair=0):
         "active [-]": c.active.astype(float),
         "penetration [-]": c.penetration.astype(float),
     })
+    data.update(_friction_data(solution, pair))
     data.update({f"displacement body {b + 1} [m]": _vectors(d) for b, d in zip(bodies, sides)})
     data["displacement [m]"] = _vectors(sum(sides) / len(sides))
     return meshio.Mesh(points, cells, point_data=data)
@@ -349,6 +401,14 @@ def _pair_summary(solution, i) -> dict:
     out[f"total_force_N{_per_m(solution)}"] = float(c.force.sum())
     out["penetrating_nodes"] = int((c.penetration & ~c.constrained).sum())
     out["lambda_h_diagnostic_Pa"] = {"min": float(c.lam.min()), "max": float(c.lam.max())}
+    vectors = friction_vectors(solution, i)
+    if vectors:
+        g = np.asarray(c.threshold, dtype=float)
+        out["friction"] = {"max_slip_m": float(np.linalg.norm(vectors["slip"], axis=1).max(initial=0.0)),
+                           "max_shear_Pa": float(np.linalg.norm(vectors["shear"], axis=1).max(initial=0.0)),
+                           "threshold_Pa": {"min": float(g.min()), "max": float(g.max())},
+                           f"total_shear_force_N{_per_m(solution)}": [float(v) for v in
+                                                                     vectors["shear_force"].sum(axis=0)]}
     return out
 
 
@@ -360,7 +420,10 @@ def summary(solution) -> dict:
     each body of the pair on its own trace, Pa; ``body`` is the 1-based scene index) comes first;
     ``lambda_h_diagnostic_Pa`` (range of lambda_h on the merged mesh, which may oscillate) is a
     diagnostic; ``penetrating_nodes`` counts unconstrained merged nodes whose jump exceeds the gap
-    (possible with sigma_l); ``contact_zone_nodes`` counts the merged nodes where the pressure is positive
+    (possible with sigma_l); a friction pair's ``friction`` holds the largest slip |[u_t]| (m) and shear
+    |sigma_t| (Pa) over its nodes, the range of its threshold (Pa) and the sum of its shear forces on the first
+    body in global coordinates (``total_shear_force_N_per_m``, 3D ``total_shear_force_N``; a frictionless pair
+    has no ``friction`` key); ``contact_zone_nodes`` counts the merged nodes where the pressure is positive
     and ``contact_zone_fraction`` the share of the surface they cover (:meth:`Solution.in_contact`,
     :meth:`Solution.contact_fraction`; ``active_nodes``: those that carry a nodal force); ``active_x_m`` is the range of the tangential coordinate s (m) of the
     active nodes (3D: ``active_s_m``, the ranges of both in-plane coordinates (s1, s2) along the pair's

@@ -565,3 +565,39 @@ def test_refine_together_passes_a_partner_s_lines_and_refuses_faces_not_alike():
     with pytest.raises(cc.MeshError, match="not meshed alike"):
         refine_together([boxes[0], three], [np.zeros(4, dtype=np.int64), np.zeros(9, dtype=np.int64)],
                         [((0, "top"), (1, "bottom"))])
+
+
+class _Outside:
+    """A space registered from outside the package the way docs/architecture.md ("A new space") lists it: the
+    built-in ``inner``'s answers, without the optional ``matching_faces``."""
+
+    def __init__(self, inner):
+        self._inner = inner
+
+    def __getattr__(self, name):
+        if name == "matching_faces":
+            raise AttributeError(name)
+        return getattr(self._inner, name)
+
+
+def test_a_space_without_matching_faces_adapts_as_one_that_says_false(monkeypatch):
+    """``matching_faces`` is optional on the Space protocol: a space registered in SPACES without it (an extender's,
+    written before the attribute existed) adapts a Q1 hexahedral pair as the built-in Q1 space does, bit for bit
+    (before: AttributeError in cc.adapt)."""
+    from cvxcontact.fem.space import SPACES, Q1Hex, needs_matching_faces
+
+    lower = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(0, .5), nx=2, ny=2, nz=1, cell="hex"), ALU, clamped="bottom",
+                    contact="top", name="lower")
+    upper = cc.Body(cc.box(x=(0, 1), y=(0, 1), z=(.5, 1), nx=3, ny=3, nz=1, cell="hex"), STEEL,
+                    roller=["left", "front"], contact="bottom", name="upper",
+                    traction={"top": lambda x, y, z: (0 * x, 0 * x, -1e7 * (1 - 0.4 * x))})
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom")])
+    builtin = quietly(cc.adapt, scene, "sigma1", degree=1, max_steps=1)
+    monkeypatch.setitem(SPACES, ("hex", 1), lambda: _Outside(Q1Hex()))
+    outside = space(1, "hex")
+    assert not hasattr(outside, "matching_faces") and not needs_matching_faces(outside)
+    assert needs_matching_faces(space(2, "hex")) and not needs_matching_faces(space(2, "quad"))
+    other = quietly(cc.adapt, scene, "sigma1", degree=1, max_steps=1)
+    assert [len(b.mesh.cells) for b in other.scene.bodies] == [len(b.mesh.cells) for b in builtin.scene.bodies]
+    for a, b in zip(other.solution.u, builtin.solution.u):
+        assert np.array_equal(a, b)

@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
-from .fem.space import space
+from .fem.space import needs_matching_faces, space
 from .geometry.refine import Curve, local_refusal, refine_together, start_local
 from .goal import force_estimate
 from .physics.scene import Scene
@@ -396,7 +396,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
 def _alike(scene, degree) -> list:
     """The faces ((k, part), (l, part)) of the scene's two-body pairs that refinement keeps meshed alike: every
     such pair's where the space needs matching faces (``matching_faces``: Q2 hexahedra), else none."""
-    if not space(degree, scene.cell).matching_faces:
+    if not needs_matching_faces(space(degree, scene.cell)):
         return []
     return [((a, c.part_a), (b, c.part_b)) for c, (a, b) in zip(scene.contacts, scene.stack.members)
             if b is not None]

@@ -278,3 +278,20 @@ def test_3d_energies_and_potentials_are_labelled_in_3d_units(tmp_path):
     assert t["energy_J"] == pytest.approx(ref.energy, rel=1e-9) and "energy_J_per_m" not in t
     assert abs(volts) > 0 and t["punch.top_V"] == pytest.approx(volts, rel=1e-9)
     assert t["estimate_rel"] > 0 and t["estimate_rel"] == pytest.approx(ref.estimate.relative, rel=1e-9)
+    results = cc.load_sweep(tmp_path / "out")
+    (case,) = results.ids
+    a = results.arrays(case)
+    assert a["points1"].shape[1] == 3 and a.units["force"] == "N" and a.units["u1"] == "m"  # nodal forces: N in 3D
+    assert results.record(case)["units"]["force"] == "N"
+
+
+def test_nodal_force_units_follow_the_dimension():
+    """The nodal forces of a case (``force``, ``shear_force``, any pair's) are per metre of depth in 2D, N in 3D;
+    the other units do not change with the dimension."""
+    from cvxcontact.apps.sweep.store import array_unit, arrays_dim
+
+    for name in ("force", "shear_force", "contact2_force", "contact3_shear_force"):
+        assert array_unit(name) == array_unit(name, 2) == "N/m" and array_unit(name, 3) == "N"
+    for name, unit in (("shear", "Pa"), ("slip", "m"), ("threshold", "Pa"), ("lam", "Pa"), ("u1", "m")):
+        assert array_unit(name, 2) == array_unit(name, 3) == unit
+    assert arrays_dim({"points1": np.zeros((4, 3))}) == 3 and arrays_dim({"points1": np.zeros((4, 2))}) == 2

@@ -40,7 +40,7 @@ from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
 __all__ = ["Space", "P1", "P2", "P1Tet", "P2Tet", "Q1", "Q2", "Q1Hex", "Q2Hex", "ContactLines", "space", "space_of",
-           "SPACES"]
+           "SPACES", "needs_matching_faces"]
 
 
 @dataclass(frozen=True)
@@ -127,8 +127,8 @@ class Space(Protocol):
     lines (:mod:`cvxcontact.fem.trace`: what the read-back, estimates and output ask of X_h), its ``label``
     ("P1", "Q2", ...: figures and reports), the ``order`` of its energy-norm error on smooth solutions (h^order:
     the rate the studies expect), whether a pair of two bodies needs their contact faces meshed alike
-    (``matching_faces``: local refinement then refines the partners' strips together, ``cc.adapt``) and the
-    methods below."""
+    (``matching_faces``: local refinement then refines the partners' strips together, ``cc.adapt``; optional, a
+    space without it does not: :func:`needs_matching_faces`) and the methods below."""
 
     cell: str
     degree: int
@@ -656,6 +656,13 @@ def space(degree, cell: str = "triangle") -> Space:
     if not isinstance(cell, str) or cell not in cells:
         raise SolverError(f"cell must be one of {cells} (the mesh's cell type, mesh.cell), got {cell!r}")
     return SPACES[cell, degree]()
+
+
+def needs_matching_faces(element) -> bool:
+    """Whether the space ``element`` needs a two-body pair's contact faces meshed alike (its ``matching_faces``;
+    False for a space that does not define it: the attribute is optional, a space registered in :data:`SPACES`
+    before it existed keeps working)."""
+    return bool(getattr(element, "matching_faces", False))
 
 
 def space_of(body, nodes=None) -> Space:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import SweepResultsError
-from .store import CASES, FAILURES, array_unit, case_state, record_fault
+from .store import CASES, FAILURES, array_unit, arrays_dim, case_state, record_fault
 
 __all__ = ["load_sweep", "SweepResults", "CaseArrays", "SweepResultsError", "flatten", "readings"]
 
@@ -159,7 +159,7 @@ class SweepResults:
         """The arrays of a case with a result (verified against the checksums its record names)."""
         data, record = self._load(case_id)
         units = dict(record.get("units") or {})
-        units.update({k: array_unit(k) for k in data if not units.get(k)})   # records written before units
+        units.update({k: array_unit(k, arrays_dim(data)) for k in data if not units.get(k)})   # records before units
         return CaseArrays(data, units, record)
 
     def _load(self, case_id):

@@ -36,7 +36,8 @@ from ...errors import CvxContactError
 from ...io.output import atomic_write as _atomic_write
 
 __all__ = ["SweepOutputError", "SweepLockedError", "FolderLock", "prepare_out", "write_json", "write_case",
-           "case_state", "record_fault", "RECORD_FIELDS", "sha256", "ARRAY_UNITS", "array_unit"]
+           "case_state", "record_fault", "RECORD_FIELDS", "sha256", "ARRAY_UNITS", "array_unit", "FORCE_UNITS",
+           "arrays_dim"]
 
 CASES, FAILURES, SUPERSEDED = "cases", "failures", "superseded"
 
@@ -111,12 +112,23 @@ nodes, ``line_points`` their coordinates, ``lam`` lambda_h (a diagnostic), ``jum
 ``force`` the nodal forces, ``active``/``constrained`` (booleans), ``pressure<j>`` the pressure felt by
 body j on its own trace nodes at ``trace_s<j>``; under a friction law ``slip`` [u_t], ``shear_force`` the
 tangential nodal forces on the first body, ``shear`` its tangential traction and ``threshold`` the slip threshold g
-(ContactResult's fields). "1": dimensionless (indices, flags)."""
+(ContactResult's fields). "1": dimensionless (indices, flags). The nodal forces' "N/m" (per metre of depth, plane
+strain) is "N" in 3D (:data:`FORCE_UNITS`)."""
+
+FORCE_UNITS = {2: "N/m", 3: "N"}
+"""The unit of a nodal force (``force``, ``shear_force``) by the scene's dimension: N/m in 2D, N in 3D."""
 
 
-def array_unit(name: str) -> str | None:
-    """The unit of the case array ``name`` (:data:`ARRAY_UNITS`), None if unknown."""
-    return next((unit for pattern, unit in ARRAY_UNITS if re.fullmatch(pattern, name)), None)
+def array_unit(name: str, dim: int = 2) -> str | None:
+    """The unit of the case array ``name`` of a scene of dimension ``dim`` (:data:`ARRAY_UNITS`,
+    :data:`FORCE_UNITS`), None if unknown."""
+    unit = next((unit for pattern, unit in ARRAY_UNITS if re.fullmatch(pattern, name)), None)
+    return FORCE_UNITS[dim] if unit == FORCE_UNITS[2] else unit
+
+
+def arrays_dim(arrays) -> int:
+    """The dimension of the scene whose case arrays are ``arrays`` (its first body's ``points1``: (n, dim))."""
+    return int(arrays["points1"].shape[1]) if "points1" in arrays else 2
 
 
 def write_case(out, case_id, arrays, info, problem=None) -> None:
@@ -127,7 +139,8 @@ def write_case(out, case_id, arrays, info, problem=None) -> None:
     if problem is not None:
         files["problem"] = f"{case_id}.problem.npz"
         files["problem_sha256"] = write_npz(cases / files["problem"], problem)
-    write_json(cases / f"{case_id}.json", {**info, "units": {k: array_unit(k) for k in arrays}, "files": files})
+    dim = arrays_dim(arrays)
+    write_json(cases / f"{case_id}.json", {**info, "units": {k: array_unit(k, dim) for k in arrays}, "files": files})
 
 
 def _read_json(path):

@@ -429,3 +429,21 @@ def test_3d_tresca_a_dragged_stack_slides_on_one_pair(conditions, slides):
     if conditions[slides] == "gamma3":
         assert abs(np.linalg.norm(sliding.shear_force, axis=1).sum() / (0.01 * P) - 1) <= 1e-10
     assert (sliding.slip[:, 0] > 0).all()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("quarter, scale", [(1, 1.0), (2, 1e-3), (3, 1e3)], ids=["turned", "mm", "km"])
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+def test_a_turned_and_scaled_dragged_stack_has_the_turned_and_scaled_answer(conditions, quarter, scale):
+    """The dragged stack (Coulomb 0.3 on the upper pair, Tresca 0.05 p on the lower) turned by quarter turns (its
+    pairs' tangents and normals along other axes, their orientation reversed) and its lengths scaled by 1e-3 or
+    1e3 (the weights of the rows in other units): the displacements are the reference's turned and scaled
+    (stresses unchanged: u scales with the lengths; measured at most 3.2e-14 of the largest)."""
+    laws = (cc.Coulomb(0.3), cc.Tresca(0.05 * P))
+    with _strict():
+        ref = cc.solve(dragged_stack(laws, conditions), degree=2)
+        sol = cc.solve(dragged_stack(laws, conditions, quarter=quarter, scale=scale), degree=2)
+    assert ref.polished and sol.polished, sol.info.declined
+    R = np.linalg.matrix_power(np.array([[0.0, -1.0], [1.0, 0.0]]), quarter)
+    U = max(np.abs(u).max() for u in ref.u)
+    assert max(np.abs(u - scale * v @ R.T).max() for u, v in zip(sol.u, ref.u)) <= 1e-11 * scale * U

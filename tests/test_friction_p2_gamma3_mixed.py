@@ -300,18 +300,19 @@ mu = 0.01), the other holding (g = 10 p, mu = 5); the shear through both is 0.01
 @pytest.mark.parametrize("laws, slides", SLIDES, ids=["tresca-upper-slides", "tresca-lower-slides",
                                                       "coulomb-upper-slides", "coulomb-lower-slides"])
 @pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
-def test_a_dragged_stack_slides_on_one_pair_and_sticks_on_the_other(conditions, laws, slides):
-    """The dragged stack on non-matching lines: the top block slides over the middle one and that one sticks to the
+@pytest.mark.parametrize("cell", ["triangle", "quad"])
+def test_a_dragged_stack_slides_on_one_pair_and_sticks_on_the_other(conditions, laws, slides, cell):
+    """The dragged stack on non-matching lines (P2 triangles, Q2 quadrilaterals): the top block slides over the middle one and that one sticks to the
     clamped block, or both slide together over it, on the cones' pair or on the nodal pair. The middle block's
     equilibrium and the sliding pair's law fix the shear through each pair: 0.01 p L (Tresca: g L, every row at
-    its capacity; Coulomb: mu p L), the normal force p L (measured at most 2.1e-13 off). On each pair's own rows
+    its capacity; Coulomb: mu p L), the normal force p L (measured at most 3.2e-13 off). On each pair's own rows
     (:func:`_law_on_rows`): |f_a| <= c_a (measured at most 6.5e-16 of the largest c over), f_a = -c_a sign(s_a)
     where it slips (6.5e-16), no slip where |f_a| < c_a (1.6e-16 of the displacements), the cones' slack
     sampled on every segment nowhere above 0 (2.1e-16 of the displacements); every row of the sliding pair
     slips, none of the holding pair's under Tresca (under Coulomb a row of it with a small normal force may slip
     at its capacity mu r_a: measured, one midpoint of X_h at 2 % of the largest r beside the rigid floor)."""
     with _strict():
-        sol = cc.solve(dragged_stack(laws, conditions), degree=2)
+        sol = cc.solve(dragged_stack(laws, conditions, cell=cell), degree=2)
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     for i, (c, law, cond, line) in enumerate(zip(sol.contacts, laws, conditions, (0.0, -H))):
         assert abs(c.shear_force.sum() / (-0.01 * P * L) - 1) <= 1e-10

@@ -302,8 +302,9 @@ mu = 0.01), the other holding (g = 10 p, mu = 5); the shear through both is 0.01
 @pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
 @pytest.mark.parametrize("cell", ["triangle", "quad"])
 def test_a_dragged_stack_slides_on_one_pair_and_sticks_on_the_other(conditions, laws, slides, cell):
-    """The dragged stack on non-matching lines (P2 triangles, Q2 quadrilaterals): the top block slides over the middle one and that one sticks to the
-    clamped block, or both slide together over it, on the cones' pair or on the nodal pair. The middle block's
+    """The dragged stack on non-matching lines (P2 triangles, Q2 quadrilaterals): the top block slides over the
+    middle one and that one sticks to the clamped block, or both slide together over it, on the cones' pair or on
+    the nodal pair. The middle block's
     equilibrium and the sliding pair's law fix the shear through each pair: 0.01 p L (Tresca: g L, every row at
     its capacity; Coulomb: mu p L), the normal force p L (measured at most 3.2e-13 off). On each pair's own rows
     (:func:`_law_on_rows`): |f_a| <= c_a (measured at most 6.5e-16 of the largest c over), f_a = -c_a sign(s_a)

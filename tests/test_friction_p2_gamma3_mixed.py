@@ -449,3 +449,38 @@ def test_a_turned_and_scaled_dragged_stack_has_the_turned_and_scaled_answer(cond
     R = np.linalg.matrix_power(np.array([[0.0, -1.0], [1.0, 0.0]]), quarter)
     U = max(np.abs(u).max() for u in ref.u)
     assert max(np.abs(u - scale * v @ R.T).max() for u, v in zip(sol.u, ref.u)) <= 1e-11 * scale * U
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("order", [(0, 1), (1, 0)], ids=["blocks-first", "floor-first"])
+def test_3d_coulomb_sliding_on_a_nodal_pair_beside_cones_against_a_plane(order):
+    """3D Coulomb on the dragged stack's two upper boxes on a rigid plane: the boxes' pair under "sigma1" slides
+    (mu = 0.01), the plane's under "gamma3" holds (mu = 5), listed either way round. The middle box's
+    equilibrium: the same shear force along x through both pairs (measured 1.5e-14 apart), at most mu p (0.99966
+    mu p measured: its rows' forces along the slips, nearly x), the normal force p through each (3e-15 off),
+    every node of the sliding pair slipping along +x; the same displacements in either order. With the boxes'
+    pair under "gamma3" instead it is refused in either order (its cones' nodal forces are not unique)."""
+    plane = cc.Rigid.plane(point=(0.0, 0.0, -1.0), normal=(0.0, 0.0, 1.0))
+    answers = []
+    for conditions in [("sigma1", "gamma3"), ("gamma3", "sigma1")]:
+        top, mid = dragged_stack3d((1.0, 1.0), conditions).bodies[:2]
+        pairs = [cc.Contact(top, "bottom", mid, "top", law=cc.Coulomb(0.01), condition=conditions[0]),
+                 cc.Contact(mid, "bottom", plane, law=cc.Coulomb(5.0), condition=conditions[1])]
+        scenes = [cc.Scene(top, mid, contacts=[pairs[i] for i in o]) for o in (order, (0, 1))]
+        if conditions[0] == "gamma3":
+            with pytest.raises(cc.UnsupportedError, match="between two bodies is not available"):
+                cc.solve(scenes[0], degree=2)
+            continue
+        with _strict():
+            sol, ref = [cc.solve(s, degree=2) for s in scenes]
+        assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+        boxes, floor = sol.contacts if order == (0, 1) else sol.contacts[::-1]
+        fx = boxes.shear_force[:, 0].sum()
+        assert abs(fx / floor.shear_force[:, 0].sum() - 1) <= 1e-10
+        assert abs(fx) <= 0.01 * P * (1 + 1e-10)
+        assert all(abs(c.force.sum() / P - 1) <= 1e-10 for c in sol.contacts)
+        assert (boxes.slip[:, 0] > 0).all()
+        answers.append((sol, ref))
+    sol, ref = answers[0]
+    scale = max(np.abs(u).max() for u in ref.u)
+    assert max(np.abs(u - v).max() for u, v in zip(sol.u, ref.u)) <= 1e-10 * scale

@@ -619,3 +619,52 @@ def positive_forces(r, elements, rounds=8):
                     new[b] -= plus[b] * -p[a] / mass
         p = new
     return p
+
+
+def dragged_stack(laws, conditions=("gamma3", "sigma1"), nx=(4, 3, 5), s=2e-5, order=(0, 1), middle=None,
+                  quarter=0, scale=1.0, cell="triangle"):
+    """Three blocks (L x H each, ``nx`` cells across: top, middle, bottom; non-matching lines by default) stacked on
+    y in [-2H, H]: the top one pressed by p and dragged by u_x = ``s`` on its left face, the middle one held by
+    its two pairs alone (its horizontal equilibrium: the same shear through both), the lowest clamped at its base;
+    ``laws[0]`` and ``conditions[0]`` on the upper pair (top on middle), ``laws[1]``, ``conditions[1]`` on the
+    lower one, the pairs listed in ``order``; ``middle``: the middle body's material and electrodes (keywords of
+    cc.Body; steel by default); the whole scene turned by ``quarter`` quarter turns about the origin (its loads
+    and supports with it) and its lengths and ``s`` times ``scale``: its displacements those turned and scaled;
+    ``cell="quad"``: quadrilaterals. A threshold far below
+    the other pair's slides the top block alone (or the top two together) over every row of that pair: its shear
+    force is then g L (Tresca) or mu p L (Coulomb) through both pairs."""
+    R = np.linalg.matrix_power(np.array([[0.0, -1.0], [1.0, 0.0]]), quarter)
+    drag = [None, None]
+    drag[int(np.argmax(np.abs(R[:, 0])))] = float(R[:, 0].sum()) * s * scale      # u . (R e_x) = s, by its component
+    blocks = []
+    for k, (n, y0, name) in enumerate(zip(nx, (0.0, -H, -2 * H), ("top", "middle", "bottom"))):
+        m = cc.rectangle(x=(0.0, L), y=(y0, y0 + H), nx=n, ny=2, cell=cell)
+        m = m.with_points(scale * m.points @ R.T)
+        kw = [{"traction": {"top": tuple(R @ [0.0, -P])}, "displacement": {"left": tuple(drag)}},
+              dict(middle or {}), {"clamped": "bottom"}][k]
+        material = kw.pop("material", steel())
+        blocks.append(cc.Body(m, material, contact="top" if k == 2 else "bottom", name=name, **kw))
+    top, mid, bottom = blocks
+    pairs = [cc.Contact(top, "bottom", mid, "top", law=laws[0], condition=conditions[0]),
+             cc.Contact(mid, "bottom", bottom, "top", law=laws[1], condition=conditions[1])]
+    return cc.Scene(*blocks, contacts=[pairs[i] for i in order])
+
+
+def dragged_stack3d(g, conditions=("gamma3", "sigma1"), n=(2, 3, 2), s=2e-5, cell="tetra"):
+    """The 3D :func:`dragged_stack`: three unit boxes (``n`` x ``n`` x 1 tetrahedra each; non-matching faces) stacked
+    on z in [-2, 1], the top one pressed by p and dragged by u_x = ``s`` on its left face, the top and middle ones
+    held along y on their front faces (the middle one's x held by its pairs alone), the lowest clamped at its base;
+    Tresca's ``g[0]`` on the upper pair under ``conditions[0]``, ``g[1]`` on the lower one under
+    ``conditions[1]``; ``cell="hex"``: hexahedra."""
+    boxes = []
+    for k, (m, z0, name) in enumerate(zip(n, (0.0, -1.0, -2.0), ("top", "middle", "bottom"))):
+        mesh = cc.box(nx=m, ny=m, nz=1, cell=cell)
+        mesh = mesh.with_points(mesh.points + [0.0, 0.0, z0])
+        held = {"front": (None, 0.0, None)}
+        kw = [{"traction": {"top": (0.0, 0.0, -P)}, "displacement": {"left": (s, None, None), **held}},
+              {"displacement": held}, {"clamped": "bottom"}][k]
+        boxes.append(cc.Body(mesh, steel(), contact="top" if k == 2 else "bottom", name=name, **kw))
+    top, middle, bottom = boxes
+    return cc.Scene(*boxes, contacts=[
+        cc.Contact(top, "bottom", middle, "top", law=cc.Tresca(g[0]), condition=conditions[0]),
+        cc.Contact(middle, "bottom", bottom, "top", law=cc.Tresca(g[1]), condition=conditions[1])])

@@ -9,7 +9,11 @@ blocks, 2D and 3D, exact in P2), the frictionless answer of the same scene (cc.s
 threshold departs from it linearly), one body made of the three blocks (a threshold that holds every row: the
 stack bonded), independent answers of bodies that do not touch each other, and the friction law and the cones'
 feasibility read off the answer's fields by this module's own code (Simpson's weights, the slip from the nodal
-displacements, the P2 trace sampled on every segment).
+displacements, the P2 trace sampled on every segment). Sliding stacks (:func:`friction_scenes.dragged_stack`: one
+pair slides on every row, the other holds; the cones' pair or the nodal pair, a rigid floor as the second pair,
+a piezoelectric middle block, 3D): the shear through both pairs fixed by the middle block's equilibrium, the law
+on each pair's own rows (a nodal pair's rows the P2 basis of X_h at that body's nodes, built here), the pairs
+listed either way round.
 """
 
 import contextlib
@@ -23,6 +27,8 @@ from friction_scenes import (
     H,
     L,
     P,
+    dragged_stack,
+    dragged_stack3d,
     pair2d,
     rolled_stack,
     rolled_union,
@@ -238,3 +244,243 @@ def test_3d_coulomb_on_a_nodal_pair_beside_cones_against_a_plane_has_the_answers
     assert sol.ok and sol.polished and all(s.polished for s in alone), sol.info.declined
     for u, ref in zip(sol.u, [alone[0].u[0], alone[0].u[1], alone[1].u[0]]):
         assert np.abs(u - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
+def _evaluation(X, points):
+    """The P2 Lagrange basis of the line through the sorted nodes ``X`` (vertex, midpoint, vertex, ...) at the
+    abscissae ``points``: a nodal pair's rows (the value of X_h's function at that body's P2 nodes)."""
+    M = np.zeros((len(points), len(X)))
+    for a, p in enumerate(points):
+        s = min(max(int(np.searchsorted(X[::2], p, side="right")) - 1, 0), (len(X) - 1) // 2 - 1)
+        t = (p - X[2 * s]) / (X[2 * s + 2] - X[2 * s])
+        M[a, 2 * s: 2 * s + 3] = [f(t) for f in LAGRANGE]
+    return M
+
+
+def _law_on_rows(sol, contact, law, condition, line, first):
+    """The friction law and the cones' feasibility of one pair, on its own rows, by this module's code: the rows
+    (X_h's nodes under "gamma3"; under a nodal condition the first body's P2 nodes on the line, read through
+    :func:`_evaluation`), their forces (E^T y = the pair's nodal forces on X_h, solved for y), their slips (E times
+    the slip on X_h), capacities g times Simpson's weights of the rows' line or mu times the rows' normal forces.
+    Returns (largest |f_a| - c_a, largest |f_a + c_a sign(s_a)| where it slips, largest slip where |f_a| < c_a,
+    largest sampled slack of the cones), the first two over the largest capacity, the others over the largest
+    displacement, and the share of the rows with a capacity that slip."""
+    U = max(np.abs(u).max() for u in sol.u)
+    o = np.argsort(contact.x)
+    X = contact.x[o]
+    if condition == "gamma3":
+        rows, weights = np.eye(len(X)), _simpson(np.column_stack([X, 0 * X]))
+    else:
+        x = sol.points[first]
+        at = np.sort(x[np.abs(x[:, 1] - line) < 1e-12, 0])
+        rows, weights = _evaluation(X, at), _simpson(np.column_stack([at, 0 * at]))
+    normal = np.linalg.lstsq(rows.T, contact.force[o], rcond=None)[0]
+    shear = np.linalg.lstsq(rows.T, contact.shear_force[o], rcond=None)[0]
+    assert np.abs(rows.T @ shear - contact.shear_force[o]).max() <= 1e-12 * np.abs(shear).max()
+    slip = rows @ contact.slip[o]
+    cap = law.threshold * weights if isinstance(law, cc.Tresca) else law.coefficient * normal
+    held = cap > 1e-9 * cap.max()                          # a row with no normal force (opened) slides freely
+    moves = np.abs(slip) > 1e-9 * U
+    slack = 0.0
+    if condition == "gamma3":
+        slack = _largest_sample(contact.jump[o] - contact.gap[o]) / U
+    return ((np.abs(shear) - cap).max() / cap.max(),
+            np.abs(shear + cap * np.sign(slip))[moves].max(initial=0.0) / cap.max(),
+            np.abs(slip[held & (np.abs(shear) < cap * (1 - 1e-6))]).max(initial=0.0) / U, slack,
+            (moves & held).sum() / held.sum())
+
+
+SLIDES = [((cc.Tresca(0.01 * P), cc.Tresca(10 * P)), 0), ((cc.Tresca(10 * P), cc.Tresca(0.01 * P)), 1),
+          ((cc.Coulomb(0.01), cc.Coulomb(5.0)), 0), ((cc.Coulomb(5.0), cc.Coulomb(0.01)), 1)]
+"""The laws of :func:`friction_scenes.dragged_stack`'s pairs and the pair that slides on every row (g = 0.01 p,
+mu = 0.01), the other holding (g = 10 p, mu = 5); the shear through both is 0.01 p L."""
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("laws, slides", SLIDES, ids=["tresca-upper-slides", "tresca-lower-slides",
+                                                      "coulomb-upper-slides", "coulomb-lower-slides"])
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+@pytest.mark.parametrize("cell", ["triangle", "quad"])
+def test_a_dragged_stack_slides_on_one_pair_and_sticks_on_the_other(conditions, laws, slides, cell):
+    """The dragged stack on non-matching lines (P2 triangles, Q2 quadrilaterals): the top block slides over the
+    middle one and that one sticks to the clamped block, or both slide together over it, on the cones' pair or on
+    the nodal pair. The middle block's
+    equilibrium and the sliding pair's law fix the shear through each pair: 0.01 p L (Tresca: g L, every row at
+    its capacity; Coulomb: mu p L), the normal force p L (measured at most 3.2e-13 off). On each pair's own rows
+    (:func:`_law_on_rows`): |f_a| <= c_a (measured at most 6.5e-16 of the largest c over), f_a = -c_a sign(s_a)
+    where it slips (6.5e-16), no slip where |f_a| < c_a (1.6e-16 of the displacements), the cones' slack
+    sampled on every segment nowhere above 0 (2.1e-16 of the displacements); every row of the sliding pair
+    slips, none of the holding pair's under Tresca (under Coulomb a row of it with a small normal force may slip
+    at its capacity mu r_a: measured, one midpoint of X_h at 2 % of the largest r beside the rigid floor)."""
+    with _strict():
+        sol = cc.solve(dragged_stack(laws, conditions, cell=cell), degree=2)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    for i, (c, law, cond, line) in enumerate(zip(sol.contacts, laws, conditions, (0.0, -H))):
+        assert abs(c.shear_force.sum() / (-0.01 * P * L) - 1) <= 1e-10
+        assert abs(c.force.sum() / (P * L) - 1) <= 1e-10
+        over, direction, stuck, slack, moving = _law_on_rows(sol, c, law, cond, line, first=i)
+        assert over <= 1e-13 and direction <= 1e-13 and stuck <= 1e-13 and slack <= 1e-13
+        assert moving == 1.0 if i == slides else (moving == 0.0 or isinstance(law, cc.Coulomb))
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("laws", [SLIDES[0][0], (cc.Coulomb(0.3), cc.Tresca(0.05 * P)),
+                                  (cc.Tresca(0.05 * P), cc.Coulomb(0.3))], ids=["tresca", "coulomb-tresca",
+                                                                                "tresca-coulomb"])
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0], ("gamma3", "sigma2")],
+                         ids=["cones-above", "cones-below", "cones-above-sigma2"])
+def test_the_pairs_listed_the_other_way_round_report_their_own_rows(conditions, laws):
+    """The dragged stack with its pairs listed the other way round (the lower pair first: the nodal pair first where
+    the cones are above): the same answer, and each entry of ``sol.contacts`` is its own pair's (the lines y = 0
+    and y = -H, the pairs' forces, slips and pressures the same to rounding; measured at most 1.1e-12 of their
+    largest, the displacements 1.1e-14), the order of ``sol.contacts`` the order of the scene's pairs."""
+    with _strict():
+        ab = cc.solve(dragged_stack(laws, conditions), degree=2)
+        ba = cc.solve(dragged_stack(laws, conditions, order=(1, 0)), degree=2)
+    assert ab.polished and ba.polished
+    scale = max(np.abs(u).max() for u in ab.u)
+    assert max(np.abs(u - v).max() for u, v in zip(ab.u, ba.u)) <= 1e-10 * scale
+    assert [c.line for c in ab.contacts] == [0.0, -H] and [c.line for c in ba.contacts] == [-H, 0.0]
+    for c, d in zip(ab.contacts, ba.contacts[::-1]):
+        assert np.array_equal(c.x, d.x)
+        force = np.abs(c.force).max()
+        for a, b, size in [(c.force, d.force, force), (c.shear_force, d.shear_force, force),
+                           (c.slip, d.slip, scale), (c.pressure, d.pressure, np.abs(c.pressure).max())]:
+            assert np.abs(a - b).max() <= 1e-9 * size
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("floor", ["sigma1", "gamma3"])
+@pytest.mark.parametrize("laws, slides", SLIDES, ids=["tresca-upper-slides", "tresca-lower-slides",
+                                                      "coulomb-upper-slides", "coulomb-lower-slides"])
+def test_a_rigid_floor_as_the_second_pair_under_either_condition(laws, slides, floor):
+    """The dragged stack's two upper blocks on a rigid floor (y = -H) instead of the clamped block: the cones between
+    the blocks, the floor's pair under "sigma1" (a nodal pair against an obstacle: the middle block's P2 nodes)
+    or "gamma3", listed after or before the blocks' pair. The shear through both pairs is 0.01 p L (measured
+    at most 2.8e-13 off), and the law holds on each pair's rows (:func:`_law_on_rows`; measured at most 3.3e-16)."""
+    scene = dragged_stack(laws, ("gamma3", floor))
+    top, mid = scene.bodies[:2]
+    below = cc.Rigid.plane(point=(0.0, -H), normal=(0.0, 1.0))
+    pairs = [scene.contacts[0], cc.Contact(mid, "bottom", below, law=laws[1], condition=floor)]
+    for order in ((0, 1), (1, 0)):
+        with _strict():
+            sol = cc.solve(cc.Scene(top, mid, contacts=[pairs[i] for i in order]), degree=2)
+        assert sol.ok and sol.polished, sol.info.declined
+        contacts = sol.contacts if order == (0, 1) else sol.contacts[::-1]
+        for i, (c, law, cond, line) in enumerate(zip(contacts, laws, ("gamma3", floor), (0.0, -H))):
+            assert abs(c.shear_force.sum() / (-0.01 * P * L) - 1) <= 1e-10
+            over, direction, stuck, slack, moving = _law_on_rows(sol, c, law, cond, line, first=i)
+            assert over <= 1e-13 and direction <= 1e-13 and stuck <= 1e-13 and slack <= 1e-13
+            assert moving == 1.0 if i == slides else (moving == 0.0 or isinstance(law, cc.Coulomb))
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+def test_a_piezoelectric_middle_block(conditions):
+    """The dragged stack whose middle block is PZT-5A (grounded on its base): the top block slides over it (Tresca
+    0.01 p) on the cones' or the nodal pair, the middle one held by the other (10 p): 0.01 p L through both pairs
+    (measured at most 3.6e-14 off), the law on each pair's rows (measured at most 4.4e-16)."""
+    laws = SLIDES[0][0]
+    with _strict():
+        sol = cc.solve(dragged_stack(laws, conditions, middle={"material": cc.materials.PZT5A,
+                                                               "grounded": "bottom"}), degree=2)
+    assert sol.ok and sol.polished, sol.info.declined
+    for i, (c, law, cond, line) in enumerate(zip(sol.contacts, laws, conditions, (0.0, -H))):
+        assert abs(c.shear_force.sum() / (-0.01 * P * L) - 1) <= 1e-10
+        over, direction, stuck, slack, moving = _law_on_rows(sol, c, law, cond, line, first=i)
+        assert over <= 1e-13 and direction <= 1e-13 and stuck <= 1e-13 and slack <= 1e-13
+        assert moving == (1.0 if i == 0 else 0.0)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+def test_a_huge_threshold_gives_the_bonded_stack_without_overflow(conditions):
+    """Tresca's g = 1e4 p on the rolled stack: the bonded union (as g = 100 p; measured 7.2e-15 of the largest
+    displacement), and the finish's Newton steps divide no stuck row's capacity by its vanishing |z| (an overflow
+    RuntimeWarning before)."""
+    with _strict(), warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        sol = cc.solve(rolled_stack(cc.Tresca(1e4 * P), conditions), degree=2)
+    union = cc.solve(rolled_union(), degree=2)
+    assert sol.ok and sol.polished and union.ok
+    at = {tuple(np.round(p, 9)): i for i, p in enumerate(union.points[0])}
+    U = union.u[0]
+    for x, u in zip(sol.points, sol.u):
+        assert np.abs(u - U[[at[tuple(np.round(p, 9))] for p in x]]).max() <= 1e-10 * np.abs(U).max()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("slides", [0, 1], ids=["upper-slides", "lower-slides"])
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+def test_3d_tresca_a_dragged_stack_slides_on_one_pair(conditions, slides):
+    """The 3D dragged stack (tetrahedra, non-matching faces): Tresca 0.01 p on one pair, 10 p on the other. The
+    middle box's equilibrium along x: the same shear force through both pairs (measured 3.3e-13 apart), at most
+    g times the face's area; the normal force p through each (4.4e-15 off); where the cones' pair slides, every
+    node of X_h at its capacity, so the sum of |f_a| is g times the area, 0.01 p (1.1e-16 off); every node of
+    the sliding pair slips along +x."""
+    g = (0.01 * P, 10 * P) if slides == 0 else (10 * P, 0.01 * P)
+    with _strict():
+        sol = cc.solve(dragged_stack3d(g, conditions), degree=2)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    upper, lower = sol.contacts
+    assert abs(upper.shear_force[:, 0].sum() / lower.shear_force[:, 0].sum() - 1) <= 1e-10
+    assert abs(upper.shear_force[:, 0].sum() / (0.01 * P)) <= 1.0 + 1e-10
+    for c in sol.contacts:
+        assert abs(c.force.sum() / P - 1) <= 1e-10
+    sliding = sol.contacts[slides]
+    if conditions[slides] == "gamma3":
+        assert abs(np.linalg.norm(sliding.shear_force, axis=1).sum() / (0.01 * P) - 1) <= 1e-10
+    assert (sliding.slip[:, 0] > 0).all()
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("quarter, scale", [(1, 1.0), (2, 1e-3), (3, 1e3)], ids=["turned", "mm", "km"])
+@pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
+def test_a_turned_and_scaled_dragged_stack_has_the_turned_and_scaled_answer(conditions, quarter, scale):
+    """The dragged stack (Coulomb 0.3 on the upper pair, Tresca 0.05 p on the lower) turned by quarter turns (its
+    pairs' tangents and normals along other axes, their orientation reversed) and its lengths scaled by 1e-3 or
+    1e3 (the weights of the rows in other units): the displacements are the reference's turned and scaled
+    (stresses unchanged: u scales with the lengths; measured at most 3.2e-14 of the largest)."""
+    laws = (cc.Coulomb(0.3), cc.Tresca(0.05 * P))
+    with _strict():
+        ref = cc.solve(dragged_stack(laws, conditions), degree=2)
+        sol = cc.solve(dragged_stack(laws, conditions, quarter=quarter, scale=scale), degree=2)
+    assert ref.polished and sol.polished, sol.info.declined
+    R = np.linalg.matrix_power(np.array([[0.0, -1.0], [1.0, 0.0]]), quarter)
+    U = max(np.abs(u).max() for u in ref.u)
+    assert max(np.abs(u - scale * v @ R.T).max() for u, v in zip(sol.u, ref.u)) <= 1e-11 * scale * U
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("order", [(0, 1), (1, 0)], ids=["blocks-first", "floor-first"])
+def test_3d_coulomb_sliding_on_a_nodal_pair_beside_cones_against_a_plane(order):
+    """3D Coulomb on the dragged stack's two upper boxes on a rigid plane: the boxes' pair under "sigma1" slides
+    (mu = 0.01), the plane's under "gamma3" holds (mu = 5), listed either way round. The middle box's
+    equilibrium: the same shear force along x through both pairs (measured 1.5e-14 apart), at most mu p (0.99966
+    mu p measured: its rows' forces along the slips, nearly x), the normal force p through each (3e-15 off),
+    every node of the sliding pair slipping along +x; the same displacements in either order. With the boxes'
+    pair under "gamma3" instead it is refused in either order (its cones' nodal forces are not unique)."""
+    plane = cc.Rigid.plane(point=(0.0, 0.0, -1.0), normal=(0.0, 0.0, 1.0))
+    answers = []
+    for conditions in [("sigma1", "gamma3"), ("gamma3", "sigma1")]:
+        top, mid = dragged_stack3d((1.0, 1.0), conditions).bodies[:2]
+        pairs = [cc.Contact(top, "bottom", mid, "top", law=cc.Coulomb(0.01), condition=conditions[0]),
+                 cc.Contact(mid, "bottom", plane, law=cc.Coulomb(5.0), condition=conditions[1])]
+        scenes = [cc.Scene(top, mid, contacts=[pairs[i] for i in o]) for o in (order, (0, 1))]
+        if conditions[0] == "gamma3":
+            with pytest.raises(cc.UnsupportedError, match="between two bodies is not available"):
+                cc.solve(scenes[0], degree=2)
+            continue
+        with _strict():
+            sol, ref = [cc.solve(s, degree=2) for s in scenes]
+        assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+        boxes, floor = sol.contacts if order == (0, 1) else sol.contacts[::-1]
+        fx = boxes.shear_force[:, 0].sum()
+        assert abs(fx / floor.shear_force[:, 0].sum() - 1) <= 1e-10
+        assert abs(fx) <= 0.01 * P * (1 + 1e-10)
+        assert all(abs(c.force.sum() / P - 1) <= 1e-10 for c in sol.contacts)
+        assert (boxes.slip[:, 0] > 0).all()
+        answers.append((sol, ref))
+    sol, ref = answers[0]
+    scale = max(np.abs(u).max() for u in ref.u)
+    assert max(np.abs(u - v).max() for u, v in zip(sol.u, ref.u)) <= 1e-10 * scale

@@ -250,10 +250,11 @@ class _System:
         fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         t = np.where(fr.moved[:, None], z / norm_z[:, None], fr.held)
-        k = np.where(fr.moved, c / norm_z, 0.0)
+        slip = fr.moved & ~stuck
+        k = np.zeros_like(c)       # c / |z| read on the slipping rows only (|z| > c there; a stuck row's z may be 0)
+        k[slip] = c[slip] / norm_z[slip]
         eye = np.broadcast_to(np.eye(nc), (len(c), nc, nc))
         P = eye - t[:, :, None] * t[:, None, :]
-        slip = fr.moved & ~stuck
         loose = np.where((fr.fixed | tf)[:, :, None], eye, 0.0)  # a stuck row's fixed components: mu_a,j = 0
         on_x = np.where(stuck[:, None, None], eye - loose,
                         np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))

@@ -18,7 +18,9 @@ import pytest
 from friction_scenes import (
     DIAGONAL3,
     FLOOR3D,
+    E,
     H,
+    L,
     P,
     compliant_series,
     compliant_series3d,
@@ -190,3 +192,97 @@ def test_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(la
     assert ref.ok and ref.polished
     assert rel(forced.u[0] - t, ref.u[0]) <= 1e-12            # measured 1.3e-15, 1.4e-15
     assert rel(forced.obstacles[0].force, F) <= 1e-13         # measured 2.9e-16, 0
+
+
+def _series_exact(points, tau, r):
+    """u of :func:`compliant_series` with the floor's penetration ``r`` (m): (tau y' / G, -r - p y' / E)."""
+    y = np.asarray(points, dtype=float)[:, 1] + H
+    return np.column_stack([tau * y / (E / 2), -r - P * y / E])
+
+
+@pytest.mark.parametrize("coulomb", [False, True])
+@pytest.mark.parametrize("floor_law, r", [
+    (cc.NormalCompliance(P / 1e-12, exponent=2.0), 1e-6),                            # k r^2 = p: r = 1 um
+    (cc.NormalCompliance(P / 1e-9, exponent=1.5), 1e-6),
+    (cc.NormalCompliance(K, penetration_limit=0.5e-6), 0.5e-6),                      # p / k = 1 um beyond the limit
+    (cc.NormalCompliance(K, penetration_limit=2e-6), 1e-6),                          # the limit not reached
+    (cc.NormalCompliance(P / 1e-12, exponent=2.0, penetration_limit=0.5e-6), 0.5e-6),
+])
+def test_nonlinear_compliance_and_a_penetration_limit_beside_friction_closed_form(floor_law, r, coulomb):
+    """The layers in series with a nonlinear law (m = 2, 1.5: r = (p / k)^(1/m)) or a penetration limit on the floor
+    (r = min(l, (p / k)^(1/m)): Signorini at the limit) beside the stuck Tresca / Coulomb pair: u in closed form,
+    lambda = p on the floor."""
+    tau = 0.1 * P
+    scene = compliant_series(tau, K, g=0.5 * P, law=cc.Coulomb(0.5) if coulomb else None, floor_law=floor_law)
+    sol = solved(scene)
+    assert sol.ok and sol.polished and sol.info.declined is None
+    for i, body in enumerate(scene.bodies):
+        assert rel(sol.u[i], _series_exact(body.mesh.points, tau, r)) < 1e-11     # measured at most 6.1e-15
+    assert rel(sol.contacts[1].lam, np.full(len(sol.contacts[1].lam), P)) < 1e-11  # measured at most 8.8e-15
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(0.3 * P), cc.Coulomb(0.3)])
+@pytest.mark.parametrize("wall_law", [cc.NormalCompliance(K), cc.NormalCompliance(1e11, exponent=2.0)])
+def test_an_open_compliance_pair_beside_friction_is_the_open_frictionless_one(law, wall_law):
+    """walled with the wall 1 mm away (never touched; the floor's friction holds the block): the compliance law's
+    energy and its semismooth tangent at r < 0 are 0, so the answer is that with a frictionless (Signorini) wall."""
+    ref = solved(walled(law, None, gap=1e-3))
+    sol = solved(walled(law, wall_law, gap=1e-3))
+    assert sol.ok and sol.polished and sol.info.declined is None
+    assert rel(sol.u[0], ref.u[0]) < 1e-12                    # measured at most 1.1e-15
+    assert np.all(sol.contacts[1].lam == 0.0) and np.all(ref.contacts[1].lam == 0.0)
+
+
+@pytest.mark.parametrize("law", [cc.Coulomb(0.3), cc.Tresca(0.3 * P)])
+def test_force_controlled_lid_the_friction_capacity_in_closed_form(law):
+    """lidded: the lid presses with p L, so the floor holds at most 0.3 p L along x (Coulomb: mu p L; Tresca: g L).
+    At 0.99 of it the block is held (the floor's shear forces sum to -q H); at 1.01 a SceneError names the
+    capacity 3e+06 N/m, never an answer."""
+    capacity = 0.3 * P * L
+    sol = solved(lidded(law, q=0.99 * capacity / H))
+    assert sol.ok and sol.polished
+    assert abs(sol.contacts[0].shear_force.sum() + 0.99 * capacity) < 1e-12 * capacity   # measured 1.0e-14, 1.3e-14
+    with pytest.raises(cc.SceneError, match="exceeds the friction capacity 3e\\+06 N/m"):
+        cc.solve(lidded(law, q=1.01 * capacity / H))
+
+
+def test_a_tangential_force_on_a_forced_plane_is_refused_with_friction_too():
+    """A plane pressed with a force not along its normal: its tangential translation is its guide's (docs/howto/
+    friction.md), so even with friction on its pair the tangential part is refused by name (docs/refusals.md row
+    21), never balanced silently; along its normal the same scene is taken, the obstacle balanced."""
+    a = np.deg2rad(10.0)
+    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    mesh = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
+    mesh = mesh.with_points(mesh.points @ R.T)
+    normal = R @ [0.0, -1.0]
+
+    def scene(force):
+        body = cc.Body(mesh, steel(), contact="top", clamped="bottom")
+        lid = cc.Rigid.plane(point=tuple(R @ [0.0, H]), normal=tuple(normal), force=tuple(force))
+        return cc.Scene(body, contacts=[cc.Contact(body, "top", lid, law=cc.Coulomb(0.3))])
+
+    with pytest.raises(cc.SceneError, match="cannot balance"):
+        cc.solve(scene((0.0, -P)))                            # 0.17 p along the plane: within mu p, still refused
+    sol = solved(scene(P * normal))
+    assert sol.ok and sol.polished
+    assert rel(sol.obstacles[0].force, P * normal) < 1e-12     # measured 0
+    assert sol.residuals()["obstacle balance"] < 1e-12         # measured 1.9e-16
+
+
+def test_an_outside_backend_without_the_route_refuses_and_auto_takes_full():
+    """A backend registered with no "compliance_friction" route: method=its name is a SolverError naming the kind
+    and the fix; method="auto" solves with "full"."""
+    from cvxcontact import backends
+
+    entry = backends.Backend("outside", accepts=lambda d: True,
+                             routes={"signorini": "cvxcontact.backends.full:full",
+                                     "friction": "cvxcontact.backends.friction:full"})
+    backends.register(entry, before="full")
+    try:
+        scene = walled(cc.Tresca(1e5), cc.NormalCompliance(K))
+        with pytest.raises(cc.SolverError, match="compliance_friction.*method='auto' or 'full'"):
+            cc.solve(scene, method="outside")
+        sol = solved(scene)
+        assert sol.ok and sol.info.method == "full"
+    finally:
+        backends.unregister("outside")

@@ -286,3 +286,51 @@ def test_an_outside_backend_without_the_route_refuses_and_auto_takes_full():
         assert sol.ok and sol.info.method == "full"
     finally:
         backends.unregister("outside")
+
+
+@pytest.mark.parametrize("cell", ["hex", "tetra"])
+def test_3d_coulomb_sliding_beside_compliance_walls_laws_read_off_by_own_code(cell):
+    """A unit box on the floor with Coulomb (mu = 0.2) under (0.3 p (cos 0.4, sin 0.4), -p) on its top, held by a
+    linear compliance wall at x = 1 and a quadratic one (m = 2) at y = 1: most floor rows slip. Read off by this
+    module's own code: the walls' lambda = k pen^m from u; on the floor |shear| <= mu y_a (hex: y_a = lambda w_a,
+    w_a the bottom face's lumped areas computed here), at the bound and anti-parallel to the slip where it slips;
+    the box's force balance (its loads against the contact forces)."""
+    mu, th, kx, ky = 0.2, 0.4, 1e12, 1e17
+    mesh = cc.box(nx=3, ny=3, nz=2, cell=cell)
+    load = np.array([0.3 * P * np.cos(th), 0.3 * P * np.sin(th), -P])
+    body = cc.Body(mesh, steel(), contact="bottom", traction={"top": tuple(load)})
+    walls = [cc.Rigid.plane(point=(1.0, 0.0, 0.0), normal=(-1.0, 0.0, 0.0)),
+             cc.Rigid.plane(point=(0.0, 1.0, 0.0), normal=(0.0, -1.0, 0.0))]
+    sol = solved(cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Coulomb(mu)),
+                                          cc.Contact(body, "right", walls[0], law=cc.NormalCompliance(kx)),
+                                          cc.Contact(body, "back", walls[1], law=cc.NormalCompliance(ky, exponent=2.0))]))
+    assert sol.ok and sol.polished and sol.info.declined is None
+    pts, u = mesh.points, sol.u[0]
+
+    def at(points):
+        return np.array([np.argmin(np.linalg.norm(pts - x, axis=1)) for x in points])
+
+    for c, j, k, m in [(sol.contacts[1], 0, kx, 1.0), (sol.contacts[2], 1, ky, 2.0)]:
+        pen = np.maximum(u[at(c.points), j], 0.0)             # the walls at x = 1, y = 1: the part's own faces
+        assert pen.max() > 0
+        assert rel(c.lam, k * pen**m) < 1e-12                 # measured at most 3.5e-16
+    floor = sol.contacts[0]
+    y = floor.force
+    if cell == "hex":                                         # lumped areas of the bottom quadrilaterals
+        w = np.zeros(len(pts))
+        for c in mesh.cells:
+            on = c[np.abs(pts[c, 2]) < 1e-12]
+            if len(on) == 4:
+                w[on] += np.ptp(pts[on, 0]) * np.ptp(pts[on, 1]) / 4
+        y = floor.lam * w[at(floor.points)]
+        assert rel(y, floor.force) < 1e-12                    # the weights agree to 4.2e-17 m^2
+    shear, slip = np.linalg.norm(floor.shear_force, axis=1), np.linalg.norm(floor.slip, axis=1)
+    assert np.all(shear <= mu * y + 1e-12 * y.max())          # measured: max(shear - mu y) = 0.0
+    slipping = slip > 1e-6 * np.abs(u).max()
+    assert slipping.sum() >= len(slip) // 2                   # measured 15 of 16
+    assert np.abs(shear - mu * y)[slipping].max() < 1e-12 * y.max()     # measured 5.4e-16 (hex), 3.6e-17 (tetra)
+    cos = np.einsum("ij,ij->i", floor.shear_force[slipping], floor.slip[slipping]) / (shear * slip)[slipping]
+    assert np.all(cos < -1 + 1e-9)                            # measured -1 + 2e-16
+    resultant = np.array([*floor.shear_force.sum(axis=0), floor.force.sum()])
+    resultant -= [sol.contacts[1].force.sum(), sol.contacts[2].force.sum(), 0.0]
+    assert np.linalg.norm(load + resultant) < 1e-12 * np.linalg.norm(load)      # measured 1.2e-16, 4.2e-16

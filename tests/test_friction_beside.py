@@ -334,3 +334,31 @@ def test_3d_coulomb_sliding_beside_compliance_walls_laws_read_off_by_own_code(ce
     resultant = np.array([*floor.shear_force.sum(axis=0), floor.force.sum()])
     resultant -= [sol.contacts[1].force.sum(), sol.contacts[2].force.sum(), 0.0]
     assert np.linalg.norm(load + resultant) < 1e-12 * np.linalg.norm(load)      # measured 1.2e-16, 4.2e-16
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.5)])
+@pytest.mark.parametrize("wall_law", [cc.NormalCompliance(1e11), cc.NormalCompliance(1e16, exponent=2.0)])
+def test_force_controlled_disk_on_a_frictional_pair_beside_a_compliance_wall_is_the_translated_scene(law, wall_law):
+    """Both at once: a block clamped at its base, pressed by a force-controlled disk (force (3e5, -1e6) N/m, within
+    mu = 0.5 of its pair; friction there) towards a compliance wall (linear, quadratic) on its right face. The scene
+    translated by -t (the disk fixed where it started, the base and the wall moved by -t) has the same relative
+    motion: its u is u - t, the wall's pressures the same, the disk's force the prescribed one."""
+    mesh = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=16, ny=4, segments={"side": ("right", H / 2, H)})
+    F = np.array([3e5, -1e6])
+    disk = cc.Rigid.circle(center=(0.5, H + 0.5), radius=0.5, force=tuple(F))
+    wall = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
+    body = cc.Body(mesh, steel(), contact="top", clamped="bottom")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)        # a contact zone of a few nodes under the disk
+        forced = solved(cc.Scene(body, contacts=[cc.Contact(body, "top", disk, law=law),
+                                                 cc.Contact(body, "side", wall, law=wall_law)]))
+        t = forced.obstacles[0].translation
+        moved = cc.Body(mesh, steel(), contact="top", displacement={"bottom": tuple(-t)})
+        ref = solved(cc.Scene(moved, contacts=[cc.Contact(moved, "top", disk.with_force(None), law=law),
+                                               cc.Contact(moved, "side", wall.moved(tuple(-t)), law=wall_law)]))
+    assert forced.ok and forced.polished and ref.ok and ref.polished
+    assert np.abs(t[0]) > 0 and np.abs(forced.contacts[0].slip).max() > 0    # measured t_x 3.0e-6 .. 3.7e-6
+    assert rel(forced.u[0] - t, ref.u[0]) < 1e-10             # measured 2.9e-15 .. 2.3e-13
+    assert rel(forced.contacts[1].lam, ref.contacts[1].lam) < 1e-8      # measured 2.7e-15 .. 1.3e-11
+    assert rel(forced.obstacles[0].force, F) < 1e-13          # measured 0 .. 1.2e-16
+    assert forced.residuals()["obstacle balance"] < 1e-13     # measured 0 .. 1.1e-16

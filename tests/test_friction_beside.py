@@ -362,3 +362,28 @@ def test_force_controlled_disk_on_a_frictional_pair_beside_a_compliance_wall_is_
     assert rel(forced.contacts[1].lam, ref.contacts[1].lam) < 1e-8      # measured 2.7e-15 .. 1.3e-11
     assert rel(forced.obstacles[0].force, F) < 1e-13          # measured 0 .. 1.2e-16
     assert forced.residuals()["obstacle balance"] < 1e-13     # measured 0 .. 1.1e-16
+
+
+def test_3d_force_controlled_sphere_on_a_free_box_the_floor_capacity_mu_n():
+    """A free box on a Coulomb floor (mu = 0.3), pressed by a force-controlled sphere (Coulomb 0.5 on its pair)
+    under F = (r N cos 0.3, r N sin 0.3, -N): the floor holds the box and the sphere for r = 0.299 < mu (the floor's
+    shear forces sum to -F_t, the sphere's force is F); r = 0.31 > mu is a SceneError naming the friction capacity,
+    never an answer."""
+    def scene(r):
+        F = 1e5 * np.array([r * np.cos(0.3), r * np.sin(0.3), -1.0])
+        body = cc.Body(cc.box(nx=4, ny=4, nz=2), steel(), contact="bottom")
+        sphere = cc.Rigid.sphere(center=(0.5, 0.5, 1.5), radius=0.5, force=tuple(F))
+        return F, cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Coulomb(0.3)),
+                                           cc.Contact(body, "top", sphere, law=cc.Coulomb(0.5))])
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)        # the sphere's zone: a few nodes
+        F, held = scene(0.299)
+        sol = solved(held)
+        assert sol.ok and sol.polished
+        floor = sol.contacts[0]
+        assert rel(floor.shear_force.sum(axis=0), -F[:2]) < 1e-11      # measured 5.3e-14
+        assert rel(floor.force.sum(), -F[2]) < 1e-12                    # measured 1.0e-15
+        assert rel(sol.obstacles[1].force, F) < 1e-12                   # measured 3.6e-17
+        with pytest.raises(cc.SceneError, match="exceeds the friction capacity"):
+            cc.solve(scene(0.31)[1])

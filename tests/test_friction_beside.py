@@ -241,7 +241,7 @@ def test_force_controlled_lid_the_friction_capacity_in_closed_form(law):
     capacity = 0.3 * P * L
     sol = solved(lidded(law, q=0.99 * capacity / H))
     assert sol.ok and sol.polished
-    assert abs(sol.contacts[0].shear_force.sum() + 0.99 * capacity) < 1e-12 * capacity   # measured 1.0e-14, 1.3e-14
+    assert abs(sol.contacts[0].shear_force.sum() + 0.99 * capacity) < 1e-11 * capacity   # measured 1.0e-14, 1.3e-14
     with pytest.raises(cc.SceneError, match="exceeds the friction capacity 3e\\+06 N/m"):
         cc.solve(lidded(law, q=1.01 * capacity / H))
 
@@ -265,7 +265,7 @@ def test_a_tangential_force_on_a_forced_plane_is_refused_with_friction_too():
         cc.solve(scene((0.0, -P)))                            # 0.17 p along the plane: within mu p, still refused
     sol = solved(scene(P * normal))
     assert sol.ok and sol.polished
-    assert rel(sol.obstacles[0].force, P * normal) < 1e-12     # measured 0
+    assert rel(sol.obstacles[0].force, P * normal) < 1e-12     # measured 1.9e-16
     assert sol.residuals()["obstacle balance"] < 1e-12         # measured 1.9e-16
 
 
@@ -323,7 +323,7 @@ def test_3d_coulomb_sliding_beside_compliance_walls_laws_read_off_by_own_code(ce
             if len(on) == 4:
                 w[on] += np.ptp(pts[on, 0]) * np.ptp(pts[on, 1]) / 4
         y = floor.lam * w[at(floor.points)]
-        assert rel(y, floor.force) < 1e-12                    # the weights agree to 4.2e-17 m^2
+        assert rel(y, floor.force) < 1e-12                    # measured 2.9e-16
     shear, slip = np.linalg.norm(floor.shear_force, axis=1), np.linalg.norm(floor.slip, axis=1)
     assert np.all(shear <= mu * y + 1e-12 * y.max())          # measured: max(shear - mu y) = 0.0
     slipping = slip > 1e-6 * np.abs(u).max()

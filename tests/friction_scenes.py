@@ -186,14 +186,14 @@ def projected_gradient_tresca(W, q, capacity, iterations=20000):
     return R
 
 
-def walled(law, wall_law=None):
+def walled(law, wall_law=None, gap=0.0):
     """The block of :func:`sheared` (no shear on its top) pushed by 0.3 p on its left face against a rigid wall at
-    x = L, ``law`` on the floor, ``wall_law`` (None: frictionless) on the upper half of its right face against the
-    wall (not the corner: its floor row's slip and its wall row would be one direction): a scene with two pairs,
-    friction on one of them."""
+    x = L + ``gap``, ``law`` on the floor, ``wall_law`` (None: frictionless) on the upper half of its right face
+    against the wall (not the corner: its floor row's slip and its wall row would be one direction): a scene with
+    two pairs, friction on one of them (``gap`` 1 mm: the wall never touched, the floor's friction holds it)."""
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4, segments={"side": ("right", H / 2, H)})
     b = cc.Body(m, steel(), contact="bottom", traction={"top": (0.0, -P), "left": (0.3 * P, 0.0)})
-    wall = cc.Rigid.plane(point=(L, 0.0), normal=(-1.0, 0.0))
+    wall = cc.Rigid.plane(point=(L + gap, 0.0), normal=(-1.0, 0.0))
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law), cc.Contact(b, "side", wall, law=wall_law)])
 
 
@@ -535,13 +535,14 @@ def uniform_stack3d(tau, law, conditions=("gamma3", "sigma1"), n=(2, 3, 3)):
                                       cc.Contact(middle, "bottom", bottom, "top", law=law, condition=conditions[1])])
 
 
-def compliant_series(tau, k, g=None, law=None, nx=4, ny=2):
+def compliant_series(tau, k, g=None, law=None, nx=4, ny=2, floor_law=None):
     """Two layers (1 m x 0.5 m, nu = 0) in the uniform state of :func:`uniform_layer` (sigma_yy = -p, sigma_xy = tau:
     (tau, -p) on the upper one's top, the complementary shear on both layers' sides): the upper layer on the lower
     one (matching lines) with ``law`` (default Tresca's g, > tau: stuck), the lower one on the rigid floor y = -H
     under cc.NormalCompliance(k) with u_x = 0 on its base (a second tag "base"). Springs in series and the stuck
     shear: u = (tau (y + H) / G, -p / k - p (y + H) / E), G = E / 2 (plane strain, nu = 0), in both layers.
-    Returns the scene (bodies "upper", "lower")."""
+    ``floor_law``: another law on the floor pair (default cc.NormalCompliance(k)). Returns the scene (bodies "upper",
+    "lower")."""
     law = cc.Tresca(g) if law is None else law
     top = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
     upper = cc.Body(top, steel(nu=0.0), contact="bottom", name="upper",
@@ -552,7 +553,8 @@ def compliant_series(tau, k, g=None, law=None, nx=4, ny=2):
                     traction={"left": (0.0, -tau), "right": (0.0, tau)})
     floor = cc.Rigid.plane(point=(0.0, -H), normal=(0.0, 1.0))
     return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=law),
-                                            cc.Contact(lower, "bottom", floor, law=cc.NormalCompliance(k))])
+                                            cc.Contact(lower, "bottom", floor,
+                                                       law=cc.NormalCompliance(k) if floor_law is None else floor_law)])
 
 
 def compliant_series_exact(points, tau, k):

@@ -310,7 +310,7 @@ class _Live(Sequence):
 
 KINDS: Sequence[str] = _Live(_kinds)
 """The kinds of contact term a problem poses (:func:`cvxcontact.backends.run.kind`): "signorini", "compliance",
-"conic", "mixed", "friction", "conic_friction" and those of terms registered from outside
+"conic", "mixed", "friction", "compliance_friction", "conic_friction" and those of terms registered from outside
 (:func:`cvxcontact.discrete.terms.register_term`); a backend names one route per kind it solves. A live view."""
 
 BACKENDS: Sequence[Backend] = _Live(lambda: tuple(_REGISTRY.values()))

@@ -59,6 +59,13 @@ from .cuts import accumulate_cuts, point_read_back
 from .finish import Declined, Stop, force_displacements, ipm_active, reach_forces
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows
+from .frictionrows import (
+    moved_components,
+    prescribed_row_slip,
+    scattered,
+    shared_rows,
+    slip_matrix,
+)
 from .frictionsteps import sequential as _sequential
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
@@ -105,24 +112,6 @@ def friction_program(problem, model: ContactModel):
         constraint, energy = cp.vec(s, order="F") == slip, capacity @ cp.norm(s, 2, axis=1)
     program = model.with_terms([constraint], objective=energy)
     return program, constraint, rows, capacity, s, energy
-
-
-def prescribed_row_slip(problem) -> np.ndarray:
-    """E [u_D t]: the slip prescribed displacements of contact nodes fix at every slip row ((c R,), component-major
-    like ``problem.slip_rows``, scaled): the constant part of the slip s = E [u_t] + E [u_D t] (module docstring);
-    a selection of its rows is the same selection of ``slip_rows`` applied to ``problem.prescribed_slip``."""
-    Es = problem.slip_rows
-    return Es @ np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
-
-
-def _moved_components(problem, rows) -> np.ndarray:
-    """(len(rows), c) mask of the slip components of the frictional ``rows`` that some unknown moves (a support
-    that fixes one direction at a row's nodes leaves the other moved)."""
-    n_c, R = problem.slip_components, problem.E.shape[0]
-    Es = problem.slip_rows
-    reach = sum((abs(Es @ b.slip) @ np.ones(b.slip.shape[1]) for b in problem.blocks), np.zeros(n_c * R))
-    reach = reach + sum((abs(Es @ T) @ np.ones(T.shape[1]) for T in problem.translation_slips), np.zeros(n_c * R))
-    return reach.reshape(n_c, R)[:, rows].T > 0
 
 
 def full(problem, cache, settings, timings) -> RawResult:
@@ -349,7 +338,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)
     rows = np.flatnonzero(problem.rows.frictional)
-    S = _slip_matrix(problem, rows, widths)
+    S = slip_matrix(problem, rows, widths)
     s0 = prescribed_row_slip(problem)[rows]
     x0 = stacked(trial.u, trial.phi, trial.taus)
     U = float(np.abs(x0).max(initial=0.0))
@@ -556,8 +545,8 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     R, n_c = E.shape[0], problem.slip_components
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
-    S = _slip_matrix(problem, order, widths)
-    dependent = dependent or dependent_rows(problem) or _shared(problem, G, S, rows)
+    S = slip_matrix(problem, order, widths)
+    dependent = dependent or dependent_rows(problem) or shared_rows(problem, G, S, rows)
     limited, on = None, rows                     # beside a compliance law: its energy in op, the limited rows in G
     if problem.compliant and points is None:
         op, limited = LawEnergy(op, G, g, problem.weights, problem.scaled_law), problem.scaled_law.limited
@@ -568,7 +557,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
     slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
     fr = FrictionRows(S, prescribed_row_slip(problem)[order], on, c0[rows], slope[rows], n_c,
-                      _moved_components(problem, rows))
+                      moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
             + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
     C = friction_scale(problem, raw.u, raw.phi, raw.y, raw.capacity, whole=True)     # the interior point's noise
@@ -604,7 +593,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     if limited is not None:                       # every row's force: the law's w p(r), and z on the limited rows
         z, y = y, op.forces(x)
         y[limited] += z
-        closed, raw.z = _scattered(closed, limited) | (y > 0), _scattered(z, limited)
+        closed, raw.z = scattered(closed, limited) | (y > 0), scattered(z, limited)
     raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
     raw.y, raw.active = y, closed
     raw.tangential = np.zeros((n_c, R))
@@ -617,42 +606,6 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     return raw
 
 
-def _scattered(values, mask) -> np.ndarray:
-    """``values`` of the rows ``mask`` selects, on every row (0 / False elsewhere)."""
-    out = np.zeros(len(mask), dtype=np.asarray(values).dtype)
-    out[mask] = values
-    return out
-
-
-def _slip_matrix(problem, order, widths):
-    """The slips of the friction rows' components ``order`` (row a, component j at a n_c + j) as rows on the
-    stacked unknowns x = (u, phi, taus) of :func:`~cvxcontact.backends.mixed.stacked` (``widths``: the
-    translations'; 0 on phi; on the translations the slip their obstacle's motion causes,
-    ``problem.translation_slips``): (len(order), len(x)), CSR."""
-    Es = problem.slip_rows[order]
-    moves = problem.translation_slips or [np.zeros((Es.shape[1], w)) for w in widths]
-    return sp.hstack([sp.hstack([Es @ b.slip, sp.csr_matrix((len(order), 0 if b.Kpp is None else b.Kpp.shape[0]))])
-                      for b in problem.blocks] + [sp.csr_matrix(Es @ T) for T in moves]).tocsr()
-
-
-def _shared(problem, G, S, rows) -> bool:
-    """Whether the rows of two pairs act on a common unknown (normal rows ``G``, slip rows ``S`` of the frictional
-    ``rows``, row a component j at a c + j): a floor and a wall sharing a corner node, whose floor slip row and
-    wall row move the same displacement. Closed and stuck there, the rows are linearly dependent and only the
-    sum of their forces is determined (docs/howto/friction.md, "Rows that share a node"): the finish then keeps
-    an independent subset of them per step, as on dependent rows."""
-    counts = problem.rows.counts
-    if len(counts) < 2:
-        return False
-    pair = np.repeat(np.arange(len(counts)), counts)
-    n_c = problem.slip_components
-    on = [sp.csr_matrix((np.ones(len(pair)), (pair, np.arange(len(pair)))), shape=(len(counts), len(pair))) @ abs(G),
-          sp.csr_matrix((np.ones(S.shape[0]), (np.repeat(pair[rows], n_c), np.arange(S.shape[0]))),
-                        shape=(len(counts), S.shape[0])) @ abs(S)]
-    touched = (sum(on) != 0).astype(int)                 # (pairs, unknowns): the pairs whose rows move each unknown
-    return bool((np.asarray(touched.sum(axis=0)).ravel() > 1).any())
-
-
 def _stuck(problem, model, constraint, rows, capacity, s, friction):
     """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
     held at 0 (some unknown moves their slip, and no support prescribes a slip there: a side that meets the
@@ -661,7 +614,7 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     would drive the corner into the obstacle: the start was infeasible), the other rows at their given
     thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
     E, n_c = problem.E, problem.slip_components
-    moved = _moved_components(problem, rows)
+    moved = moved_components(problem, rows)
     at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
     prescribed = prescribed_row_slip(problem)[at].reshape(n_c, len(rows)).T != 0
     pressure = problem.rows.pressure_dependent[rows]

@@ -504,6 +504,8 @@ class ObstacleResult:
     under a body: upwards; a sphere pressed down onto one: downwards); for a force-controlled obstacle it equals the prescribed
     ``prescribed`` (the check "obstacle balance"), and beside a friction law it includes the friction forces on its
     pairs along the translations it is free to make (:func:`~cvxcontact.solution.friction.obstacle_friction`).
+    The friction forces of a fixed obstacle's pairs, and those along a plane's own tangents, are not in ``force``
+    (the normal contact forces alone there): their resultant is that of the pairs' ``shear_force``.
     ``pairs`` are its contact pairs.
     """
 

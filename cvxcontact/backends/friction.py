@@ -75,7 +75,8 @@ from .signorini import dependent_rows
 from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
-           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip", "row_forces"]
+           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip",
+           "row_forces"]
 
 log = logging.getLogger(__name__)
 

@@ -61,7 +61,8 @@ class DiscreteProblem:
     given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
     ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
     law only); ``translation_slips``: per force-controlled obstacle, the slip at the nodes of X_h of its translation
-    unknowns tau ((c size, k), :func:`obstacle_slip`; a friction law only, else empty); ``kernel``: the rigid motions only the contact holds and the force-controlled obstacles' translations
+    unknowns tau ((c size, k), :func:`obstacle_slip`; a friction law only, else empty); ``kernel``: the rigid
+    motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`); ``term``: the
     contact term its law poses (:class:`~cvxcontact.discrete.terms.ContactTerm`: its route key, its warm start,

@@ -65,7 +65,8 @@ import numpy as np
 from ..errors import SolverError
 
 __all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS", "contact_term", "register_term", "unregister_term", "named"]
+           "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS", "contact_term",
+           "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -389,7 +390,8 @@ _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "take
             "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
-_REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance, EverywhereCones, ComplianceRows, SignoriniRows]
+_REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance,
+                   EverywhereCones, ComplianceRows, SignoriniRows]
 _BUILT_IN = tuple(_REGISTRY)
 
 

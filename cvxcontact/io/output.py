@@ -235,7 +235,8 @@ def _friction_data(solution, pair) -> dict[str, np.ndarray]:
     if not vectors:
         return {}
     n = len(c.x)
-    names = {"slip": "slip {}[m]", "shear": "shear {}[Pa]", "shear_force": f"shear force {{}}[{force_unit(solution)}]"}
+    names = {"slip": "slip {}[m]", "shear": "shear {}[Pa]",
+             "shear_force": f"shear force {{}}[{force_unit(solution)}]"}
     data = {}
     for key, name in names.items():
         data[name.format("")] = _vectors(vectors[key])
@@ -263,7 +264,8 @@ def contact_mesh(solution, pair=0):
     the slip where it slips) and ``shear force [N/m]`` (3D: ``[N]``; the tangential nodal force on the first
     body) as 3-component vectors in global coordinates (x, y, z; 2D: z = 0), their components along the
     pair's tangent t (2D: ``slip t1 [m]``, ...) or frame (t_1, t_2) (3D: ``slip t1 [m]``, ``slip t2 [m]``,
-    ...; :func:`tangential_basis`) as named scalars (the arrays of :class:`~cvxcontact.solution.solution.ContactResult`), and
+    ...; :func:`tangential_basis`) as named scalars (the arrays of
+    :class:`~cvxcontact.solution.solution.ContactResult`), and
     ``slip threshold [Pa]`` (Tresca's g; Coulomb: mu p at each node). A frictionless pair writes none of them.
     """
     import meshio

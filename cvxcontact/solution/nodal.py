@@ -118,7 +118,7 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
         cond = condition if scene.conditions[i] is None else scene.conditions[i]
         measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
         rows = np.flatnonzero(_reads(E[:, part].T))   # the pair's rows (each reads its own pair's nodes only)
-        row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)    # P2: y_a / w_a, M p = y
+        row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)  # P2: y_a / w_a; M p = y
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
             force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),

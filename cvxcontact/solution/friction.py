@@ -110,13 +110,17 @@ def read_back_friction(problem, raw, sol) -> None:
         (Pa), p the pressure its capacities weigh: on a P2 pair with row weights the normal forces that set the
         capacities (``pressing``: under the P2 cones the nodal forces made non-negative) over the rows' own
         weights (``trace.row_shear``, read as the shear: a sliding row's shear is its threshold, the capacity
-        mu p_a over w_a), else the pair's read-back pressure; None without friction."""
+        mu p_a over w_a; under the 3D cones, whose rows are the nodes of X_h, over the areas the shear is read
+        on, ``trace.per_length``), else the pair's read-back pressure; None without friction."""
         f = problem.rows.laws[i].friction
         if f is None:
             return None
         if not f.pressure_dependent:
             return f.threshold
         lumped = row_read(i, a, b, pressing)
+        if lumped is None and problem.lines.cone is not None:    # the cones' rows at the nodes of X_h (3D)
+            at = replace(contact, row_shear=None, slip_measure=measure[a:b])
+            return f.thresholds(trace.per_length(at, E[:, a:b].T @ pressing * un.force))
         if lumped is None:
             return f.thresholds(contact.pressure)
         return f.thresholds(trace.per_length(replace(contact, row_shear=lumped), lumped))

@@ -26,6 +26,10 @@ child leaves the package's default). Forced against kept on this checkout alone:
 
     python benchmarks/bench_gamma3_scale.py --sizes 1.5e5 --before . --release-before keep --release free --limit 8
 
+``--bonded``: after each size's runs, one bonded solve of the same mesh in a fresh process (the project's
+yardstick, ``bench3d.py``'s bonded part: PARDISO on the mixed system with every contact row closed; its CPU
+seconds and peak), and the ratios of this checkout's solve to it, the solve alone and with the assembly.
+
 The "back-substitution s" column is the stage "back_substitution" (with the factors freed: the interior
 factorisations re-made, one body at a time); "released" is ``sol.info.released``.
 
@@ -48,6 +52,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench3d import cells
+from harness import run_part
 
 CHILD = """
 import json, os, resource, sys, threading, time
@@ -106,11 +111,14 @@ def main() -> None:
                     help="run one checkout only (no du/u; e.g. a size too long for both)")
     ap.add_argument("--release", choices=tuple(RELEASE), default=None,
                     help="this checkout: the factors freed after Sigma, kept, or by the memory budget")
+    ap.add_argument("--bonded", action="store_true",
+                    help="also one bonded PARDISO solve of the same mesh (bench3d.py's yardstick), and the ratios")
     ap.add_argument("--release-before", choices=tuple(RELEASE), default=None, help="the same for --before")
     args = ap.parse_args()
     head = ("| unknowns | rows | active rows | code | released | steps | solve CPU s | factorisation s | interior point s "
-            "| finish s | back-substitution s | peak GB | after / before (CPU) | du/u | ok |")  # stages: CPU s
+            "| finish s | back-substitution s | assembly s | peak GB | after / before (CPU) | du/u | ok |")  # CPU s
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    bonded = []
     print(lines[0], flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for size in args.sizes:
@@ -133,9 +141,27 @@ def main() -> None:
                 lines.append(f"| {r['N']:,} | {r['m']:,} | {r['active']:,} | {name} | {r.get('released', False)} | "
                              f"{r['iterations']} | {r['solve_cpu']:.1f} | "
                              f"{t['factorization']:.1f} | {ipm:.1f} | {t['polish']:.1f} | "
-                             f"{t.get('back_substitution', 0.0):.1f}"
+                             f"{t.get('back_substitution', 0.0):.1f} | {r['assembly_cpu']:.1f}"
                              + f" | {r['peak_gb']:.2f} | {ratio:.2f} | {du:.1e} | {r['ok']} |")
                 print(lines[-1], flush=True)
+            if args.bonded:
+                part = {"scene": "two_boxes", "n": n, "condition": "gamma3", "elastic": True, "runs": 1,
+                        "part": "bonded", "pardiso": True}
+                b = run_part(ROOT / "benchmarks" / "bench3d.py", part)
+                bonded.append((n, b, {name: res[name] for name in names}))
+                print(json.dumps({"n": n, "bonded": b}), flush=True)
+    if bonded:
+        bh = ("| unknowns | code | assembly CPU s | solve CPU s | bonded PARDISO CPU s (wall) | solve / bonded (CPU) "
+              "| (assembly + solve) / bonded | peak GB: default / bonded |")
+        lines += ["", bh, "|" + "---|" * (bh.count("|") - 1)]
+        for n, b, rs in bonded:
+            for name, r in rs.items():
+                lines.append(f"| {r['N']:,} | {name} | {r['assembly_cpu']:.1f} | {r['solve_cpu']:.1f} | "
+                             f"{b['pardiso_cpu_s']:.1f} ({b['pardiso_s']:.1f}) | "
+                             f"{r['solve_cpu'] / b['pardiso_cpu_s']:.2f} | "
+                             f"{(r['assembly_cpu'] + r['solve_cpu']) / b['pardiso_cpu_s']:.2f} | "
+                             f"{r['peak_gb']:.2f} / {b['bonded_peak_gb']:.2f} |")
+        print("\n".join(lines[-len(bonded) * len(names) - 2:]), flush=True)
     print("load", " ".join(f"{x:.1f}" for x in os.getloadavg()))
     if args.md:
         with open(args.md, "a") as f:

@@ -18,7 +18,7 @@ from .forces import (FORCE_FLOOR, force_displacements, force_scale, friction_sca
                      reach_displacements, reach_forces, row_compliance, slip_reach)
 from .lcp import SIGN_TOL, active_set_steps, lcp_start, row_scales, signs_hold, solve_lcp
 from .normal_compliance import solve_compliance, solve_linear_compliance, solve_sparse_compliance
-from .rows import (DEPENDENT_PIVOT, CompliantRows, FactoredRows, UpdatedSystem, _independent,
+from .rows import (DEPENDENT_PIVOT, CholeskySystem, CompliantRows, FactoredRows, UpdatedSystem, _independent,
                    _independent_rows, _row_scale,
                    factored_rows, refined_solve, row_reach)
 
@@ -27,6 +27,7 @@ __all__ = ["solve_lcp", "lcp_start", "row_scales", "signs_hold", "reach_displace
            "solve_linear_compliance",
            "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set", "rows_kkt",
            "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",
-           "FactoredRows", "UpdatedSystem", "CompliantRows", "factored_rows", "refined_solve", "row_reach",
+           "FactoredRows", "UpdatedSystem", "CholeskySystem", "CompliantRows", "factored_rows", "refined_solve",
+           "row_reach",
            "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL",
            "_independent", "_independent_rows", "_purified", "_row_scale"]

@@ -312,6 +312,95 @@ class UpdatedSystem:
         return sla.solve_triangular(self.R, self.Q.T @ bk, check_finite=False)[where]
 
 
+def _cholesky_delete(U, k):
+    """The upper Cholesky factor of M without its row and column ``k`` from M's, U^T U = M (C order): the rows
+    of U after k lose their column k, and the trailing block takes the rank-one update U22^T U22 + u u^T,
+    u = U[k, k+1:], by Givens rotations row by row (O(r^2), contiguous rows)."""
+    r = U.shape[0]
+    keep = np.concatenate([np.arange(k), np.arange(k + 1, r)])
+    x = U[k, k + 1:].copy()
+    U = U[np.ix_(keep, keep)]
+    for j in range(k, r - 1):
+        i = j - k
+        d = U[j, j]
+        h = float(np.hypot(d, x[i]))
+        c, s = h / d, x[i] / d
+        U[j, j] = h
+        row = U[j, j + 1:]
+        row += s * x[i + 1:]
+        row /= c
+        x[i + 1:] *= c
+        x[i + 1:] -= s * row
+    return U
+
+
+class CholeskySystem(UpdatedSystem):
+    """:class:`UpdatedSystem` for a symmetric positive definite matrix (W on independent rows,
+    :class:`CompliantRows`): M = U^T U by a Cholesky factorisation (r^3 / 3 flops against the QR's 4 r^3 / 3 and
+    its r x r Q) updated key by key, a key out by a rank-one update of the trailing factor (:func:`_cholesky_delete`)
+    and the keys in by one triangular solve and the Cholesky factorisation of their block's Schur complement.
+    Where M is not numerically positive definite (a pivot not above 1e-13 of the largest, the test of the QR's
+    diagonal) the QR of :class:`UpdatedSystem` solves it (None if singular there too).
+
+    Measured on the default 3D "gamma3" at 305,562 unknowns (14,905 rows, 3,456 carrying force): the QR system
+    took 11 of the finish's 34 CPU s (benchmarks/results/bench_gamma3_scale.md)."""
+
+    def __init__(self, entries):
+        super().__init__(entries)
+        self.U = None
+        self.qr = UpdatedSystem(entries)
+
+    def refactor(self, keys=None):
+        self.keys = self.keys if keys is None else np.asarray(keys, dtype=int)
+        self.factorisations += 1
+        try:
+            self.U = sla.cholesky(self.entries(self.keys, self.keys), lower=False, check_finite=False)
+        except np.linalg.LinAlgError:
+            self.U = None
+            if self.qr.Q is not None:                      # a fresh factorisation asked for: the QR's too
+                self.qr.refactor(self.keys)
+
+    def _update(self, keys):
+        keep = np.isin(self.keys, keys)
+        for k in np.flatnonzero(~keep)[::-1]:
+            self.U = _cholesky_delete(self.U, int(k))
+        self.keys = self.keys[keep]
+        new = keys[~np.isin(keys, self.keys)]
+        self.updates += 1
+        if not len(new):
+            return
+        r, t = len(self.keys), len(new)
+        C = sla.solve_triangular(self.U, self.entries(self.keys, new), trans="T", check_finite=False)
+        try:
+            U2 = sla.cholesky(self.entries(new, new) - C.T @ C, lower=False, check_finite=False)
+        except np.linalg.LinAlgError:
+            self.refactor(np.append(self.keys, new))
+            return
+        U = np.zeros((r + t, r + t))
+        U[:r, :r], U[:r, r:], U[r:, r:] = self.U, C, U2
+        self.U, self.keys = U, np.append(self.keys, new)
+
+    def solve(self, keys, b):
+        keys = np.asarray(keys, dtype=int)
+        if not len(keys):
+            return np.zeros(0)
+        changes = len(np.setxor1d(keys, self.keys))
+        if self.U is None or changes > max(4, len(keys) // 8):
+            self.refactor(keys)
+        elif changes:
+            self._update(keys)
+        d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)
+        if not d.min() > 1e-13 * d.max():
+            self.U = None                                  # (refactored at the next solve)
+            return self.qr.solve(keys, b)
+        order = np.argsort(self.keys)
+        where = order[np.searchsorted(self.keys[order], keys)]     # keys[i] = self.keys[where[i]]
+        bk = np.zeros(len(keys))
+        bk[where] = b
+        z = sla.solve_triangular(self.U, bk, trans="T", check_finite=False)
+        return sla.solve_triangular(self.U, z, check_finite=False)[where]
+
+
 def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
     """:class:`FactoredRows` of the mixed system, or None if K0 is singular (the anchor rows do not hold every
     body): structurally (:func:`~cvxcontact.backends.factor.lu` checks it before SuperLU, which goes wrong on such
@@ -345,7 +434,7 @@ def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
 
 class CompliantRows:
     """The steps of :func:`independent_active_set` on a condensed interface: the rows P closed are
-    W_PP y_P = d_P (:class:`UpdatedSystem`, O(|P|^2) a changed row), with W = sum_l R_l Sigma_l^{-1} R_l^T the
+    W_PP y_P = d_P (:class:`CholeskySystem`, O(|P|^2) a changed row), with W = sum_l R_l Sigma_l^{-1} R_l^T the
     interface compliance and d the free slack (:class:`~cvxcontact.backends.condensed.Compliance`); the Gamma
     displacements v = v0 - B y give every row's slack R v - g and its scale (|R| |v|) + |g|, as the sparse
     mixed system's steps do.
@@ -364,7 +453,7 @@ class CompliantRows:
         self.d = self.R @ self.v0 - self.g
         self.absR = abs(self.R)
         c = compliance
-        self.system = UpdatedSystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
+        self.system = CholeskySystem(lambda a, b: c.kept_W[np.ix_(c.where[a // 2], c.where[b // 2])])
 
     def __call__(self, mask, passive):
         P = np.asarray(passive, dtype=int)

@@ -83,3 +83,21 @@ def test_slip_against_a_curved_obstacle_is_the_tangential_part_of_the_displaceme
     cos = np.einsum("nd,nd->n", sh, s)[slipping] / np.linalg.norm(sh[slipping], axis=1) / np.linalg.norm(
         s[slipping], axis=1)
     assert cos.max() <= -1 + 1e-6                                                  # measured -1 + 2e-16
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")   # the rowless pair is warned about
+@pytest.mark.parametrize("degree", [1, 2])
+@pytest.mark.parametrize("law", [cc.Tresca(1e5), cc.Coulomb(0.3)])
+def test_a_friction_pair_without_rows_writes_finite_fields_and_no_friction_entry(tmp_path, law, degree):
+    """Under 'sigma1' no node of the coarse upper block lies in the small block's overlap: the pair has no row, its
+    ContactResult no slip; the files are written, every point array finite, without friction fields or entry."""
+    mat = cc.materials.isotropic(E=70e9, nu=0.0)
+    up = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=2, ny=2), mat, contact="bottom", clamped=["top"])
+    low = cc.Body(cc.rectangle(x=(0.3, 0.45), y=(-0.5, 0), nx=1, ny=2), mat, clamped=["bottom"], contact="top")
+    scene = cc.Scene(up, low, contacts=[cc.Contact(up, "bottom", low, "top", gap=-1e-5, law=law)])
+    sol = cc.solve(scene, condition="sigma1", degree=degree)
+    assert sol.ok and sol.contact.slip is None
+    mesh = _contact_vtu(sol, tmp_path)
+    assert all(np.isfinite(v).all() for v in mesh.point_data.values())
+    assert not any("slip" in k or "shear" in k for k in mesh.point_data)
+    assert friction_vectors(sol) == {}

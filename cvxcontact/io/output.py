@@ -266,7 +266,9 @@ def contact_mesh(solution, pair=0):
     pair's tangent t (2D: ``slip t1 [m]``, ...) or frame (t_1, t_2) (3D: ``slip t1 [m]``, ``slip t2 [m]``,
     ...; :func:`tangential_basis`) as named scalars (the arrays of
     :class:`~cvxcontact.solution.solution.ContactResult`), and
-    ``slip threshold [Pa]`` (Tresca's g; Coulomb: mu p at each node). A frictionless pair writes none of them.
+    ``slip threshold [Pa]`` (Tresca's g; Coulomb: mu p at each node). A frictionless pair writes none of them,
+    nor does a friction pair without rows (no node of its condition in the overlap: its ContactResult has no slip).
+
     """
     import meshio
 

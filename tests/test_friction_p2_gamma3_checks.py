@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 from friction_scenes import P, pair2d, positive_forces, steel
+from reference_problems import simpson
 from scipy.optimize import minimize_scalar
 
 import cvxcontact as cc
@@ -38,12 +39,8 @@ def _bottom(sol):
 
 
 def _simpson(x):
-    """Simpson's weights of the P2 line through the sorted nodes ``x`` (h/6, 2h/3, h/6 per segment)."""
-    w = np.zeros(len(x))
-    for s in range((len(x) - 1) // 2):
-        h = x[2 * s + 2, 0] - x[2 * s, 0]
-        w[2 * s: 2 * s + 3] += (h / 6, 2 * h / 3, h / 6)
-    return w
+    """Simpson's weights of the P2 line through the sorted nodes ``x`` (vertex, midpoint, vertex, ...; (n, 2))."""
+    return simpson(np.asarray(x)[0::2, 0])
 
 
 def _positive(r):

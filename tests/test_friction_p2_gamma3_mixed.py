@@ -37,6 +37,7 @@ from friction_scenes import (
     uniform_stack,
     uniform_stack3d,
 )
+from reference_problems import simpson
 
 import cvxcontact as cc
 
@@ -65,12 +66,8 @@ def _line(sol, k, y):
 
 
 def _simpson(x):
-    """Simpson's weights of the P2 line through the sorted nodes ``x`` (h/6, 2h/3, h/6 per segment)."""
-    w = np.zeros(len(x))
-    for s in range((len(x) - 1) // 2):
-        h = x[2 * s + 2, 0] - x[2 * s, 0]
-        w[2 * s: 2 * s + 3] += (h / 6, 2 * h / 3, h / 6)
-    return w
+    """Simpson's weights of the P2 line through the sorted nodes ``x`` (vertex, midpoint, vertex, ...; (n, 2))."""
+    return simpson(np.asarray(x)[0::2, 0])
 
 
 def _largest_sample(values, samples=401):

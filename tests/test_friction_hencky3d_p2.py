@@ -112,8 +112,10 @@ def test_a_yielded_layer_stuck_on_the_plane_is_the_uniform_hencky_state(law):
     """The layer's uniform yielded state (|dev eps| = 2.1 s_y: every quadrature point yields) with the Hencky stress
     computed by hand, stuck under three times its shear (Tresca's threshold 3 |tau|, Coulomb's mu = 3 |tau| / |s_zz|):
     the displacement is the uniform state's, exact in P2 (measured 3.7e-14 Tresca, 7.4e-14 Coulomb), every
-    quadrature point yielded, the tangential forces within half their capacities (measured 0.44: the consistent P2
-    forces of the uniform shear, 0 at the vertices, against the red refinement's lumped capacities)."""
+    quadrature point yielded, the tangential forces within half their capacities (measured: Tresca 0.44, the
+    consistent P2 forces of the uniform shear, 0 at the vertices, against the red refinement's lumped capacities;
+    Coulomb 1/3 at the midpoints against the capacities mu p_a the finish used, the vertices' forces and capacities
+    both rounding, <= 3.7e-15 of the largest capacity)."""
     def law_of(tau, p):
         return cc.Tresca(3 * tau) if law == "tresca" else cc.Coulomb(3 * tau / p)
 
@@ -125,7 +127,7 @@ def test_a_yielded_layer_stuck_on_the_plane_is_the_uniform_hencky_state(law):
     assert rel(sol.u[0], exact(sol.points[0])) <= 1e-9
     c = sol.contact
     capacity = c.threshold * c.slip_measure
-    assert (np.linalg.norm(c.shear_force, axis=1) <= 0.5 * capacity).all()
+    assert (np.linalg.norm(c.shear_force, axis=1) <= 0.5 * capacity + 1e-12 * capacity.max()).all()
 
 
 def pressed_block(law=None, sigma_y=2e7):

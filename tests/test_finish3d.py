@@ -309,6 +309,41 @@ def test_the_cholesky_interface_system_falls_back_on_the_qr_where_not_positive_d
     assert np.abs(w - np.linalg.solve(entries(definite, definite), b)).max() < 1e-12 * np.abs(w).max()  # 1.3e-16
 
 
+@pytest.mark.numerics
+def test_the_cholesky_interface_system_refuses_what_the_qr_refuses():
+    """Gram matrices of unit rows with one nearly dependent pair (1 - cos^2 = e2 swept across the singularity
+    cut): :class:`CholeskySystem` answers None exactly where :class:`UpdatedSystem` (the QR) does and otherwise
+    solves like a dense solve. A bare 1e-13 cut on the Cholesky pivots accepted one e2 of this sweep
+    (condition 4e13) that the QR refuses."""
+    from cvxcontact.backends.finish import CholeskySystem
+
+    rng = np.random.default_rng(7)
+    refused = accepted = 0
+    for e2 in np.geomspace(2e-14, 2e-12, 41):
+        A = rng.normal(size=(12, 36))
+        A /= np.linalg.norm(A, axis=1)[:, None]
+        v = rng.normal(size=36)
+        v -= (v @ A[0]) * A[0]
+        A[1] = np.sqrt(1.0 - e2) * A[0] + np.sqrt(e2) * v / np.linalg.norm(v)
+        M = A @ A.T
+
+        def entries(a, b, M=M):
+            return M[np.ix_(a // 2, b // 2)]
+
+        keys = 2 * rng.permutation(12)
+        b = rng.normal(size=12)
+        w, ref = CholeskySystem(entries).solve(keys, b), UpdatedSystem(entries).solve(keys, b)
+        assert (w is None) == (ref is None), e2
+        if w is None:
+            refused += 1
+            continue
+        accepted += 1
+        Mk = entries(keys, keys)
+        dense = np.linalg.solve(Mk, b)
+        assert np.abs(w - dense).max() < 1e-12 * np.linalg.cond(Mk) * np.abs(dense).max()  # measured 1.6e-16
+    assert refused >= 3 and accepted >= 3                 # the sweep crosses the cut (measured 5 and 36)
+
+
 def uniaxial_error(sol):
     """max |u_z + p z / c33| over both blocks, relative to the largest."""
     c33 = uniaxial_modulus()

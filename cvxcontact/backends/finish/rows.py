@@ -394,8 +394,9 @@ class CholeskySystem(UpdatedSystem):
         if not len(keys):
             return np.zeros(0)
         changes = len(np.setxor1d(keys, self.keys))
-        if self.U is None or changes > max(4, len(keys) // 8):
-            self.refactor(keys)
+        leaves = len(self.keys) - np.isin(self.keys, keys).sum()    # a deletion costs about 1/4 of a fresh
+        if self.U is None or changes > max(4, len(keys) // 8) or leaves > 2 + len(self.keys) // 1000:  # factor
+            self.refactor(keys)                                           # at 3,000 keys (1/2 at 1,000)
         elif changes:
             self._update(keys)
         d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)

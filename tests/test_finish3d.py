@@ -309,6 +309,79 @@ def test_the_cholesky_interface_system_falls_back_on_the_qr_where_not_positive_d
     assert np.abs(w - np.linalg.solve(entries(definite, definite), b)).max() < 1e-12 * np.abs(w).max()  # 1.3e-16
 
 
+@pytest.mark.numerics
+def test_the_cholesky_interface_system_refuses_what_the_qr_refuses():
+    """Gram matrices of unit rows with one nearly dependent pair (1 - cos^2 = e2 swept across the singularity
+    cut): :class:`CholeskySystem` answers None exactly where :class:`UpdatedSystem` (the QR) does and otherwise
+    solves like a dense solve. A bare 1e-13 cut on the Cholesky pivots accepted one e2 of this sweep
+    (condition 4e13) that the QR refuses."""
+    from cvxcontact.backends.finish import CholeskySystem
+
+    rng = np.random.default_rng(7)
+    refused = accepted = 0
+    for e2 in np.geomspace(2e-14, 2e-12, 41):
+        A = rng.normal(size=(12, 36))
+        A /= np.linalg.norm(A, axis=1)[:, None]
+        v = rng.normal(size=36)
+        v -= (v @ A[0]) * A[0]
+        A[1] = np.sqrt(1.0 - e2) * A[0] + np.sqrt(e2) * v / np.linalg.norm(v)
+        M = A @ A.T
+
+        def entries(a, b, M=M):
+            return M[np.ix_(a // 2, b // 2)]
+
+        keys = 2 * rng.permutation(12)
+        b = rng.normal(size=12)
+        w, ref = CholeskySystem(entries).solve(keys, b), UpdatedSystem(entries).solve(keys, b)
+        assert (w is None) == (ref is None), e2
+        if w is None:
+            refused += 1
+            continue
+        accepted += 1
+        Mk = entries(keys, keys)
+        dense = np.linalg.solve(Mk, b)
+        assert np.abs(w - dense).max() < 1e-12 * np.linalg.cond(Mk) * np.abs(dense).max()  # measured 1.6e-16
+    assert refused >= 3 and accepted >= 3                 # the sweep crosses the cut (measured 5 and 36)
+
+
+@pytest.mark.numerics
+def test_the_cholesky_interface_system_keeps_its_factor_along_hundreds_of_deletions():
+    """200 keys out one at a time (a key in every fifth step) from 280 keys of a symmetric positive definite
+    matrix with eigenvalues spread by 1e8, with no fresh factorisation: the rank-one updates keep U^T U the
+    matrix on the keys and each answer a dense solve's, and U a fresh Cholesky factor's."""
+    import scipy.linalg as sla
+
+    from cvxcontact.backends.finish import CholeskySystem
+
+    rng = np.random.default_rng(13)
+    N = 300
+    Q = np.linalg.qr(rng.normal(size=(N, N)))[0]
+    Mfull = (Q * np.logspace(0, 8, N)) @ Q.T
+    Mfull = (Mfull + Mfull.T) / 2
+
+    def entries(a, b):
+        return Mfull[np.ix_(a // 2, b // 2)]
+
+    system = CholeskySystem(entries)
+    keys = 2 * rng.permutation(N)[:280]
+    system.solve(keys, np.ones(len(keys)))
+    worst = fit = 0.0
+    for k in range(200):
+        keys = np.delete(keys, rng.integers(len(keys)))
+        if k % 5 == 0:
+            keys = np.append(keys, rng.choice(np.setdiff1d(2 * np.arange(N), keys)))
+        b = rng.normal(size=len(keys))
+        M = entries(keys, keys)
+        w, ref = system.solve(keys, b), np.linalg.solve(M, b)
+        worst = max(worst, np.abs(w - ref).max() / (np.linalg.cond(M) * np.abs(ref).max()))
+        own = entries(system.keys, system.keys)
+        fit = max(fit, np.abs(system.U.T @ system.U - own).max() / np.abs(own).max())
+    fresh = sla.cholesky(entries(system.keys, system.keys))
+    assert system.factorisations == 1 and system.updates >= 190                  # measured 199
+    assert worst < 1e-13 and fit < 1e-12                          # measured <= 2.8e-17, 2.3e-15
+    assert np.abs(system.U - fresh).max() < 1e-11 * np.abs(fresh).max()  # measured <= 1.1e-14
+
+
 def uniaxial_error(sol):
     """max |u_z + p z / c33| over both blocks, relative to the largest."""
     c33 = uniaxial_modulus()

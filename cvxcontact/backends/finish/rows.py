@@ -312,6 +312,14 @@ class UpdatedSystem:
         return sla.solve_triangular(self.R, self.Q.T @ bk, check_finite=False)[where]
 
 
+CHOLESKY_MARGIN = 1e-10
+"""Pivot ratio (smallest over largest squared diagonal entry of the Cholesky factor) below which
+:class:`CholeskySystem` leaves the answer to the QR of :class:`UpdatedSystem`: the two ratios are not the same
+number (R of M's QR is the Cholesky factor of M^2), and on nearly dependent unit rows (cos > 1 - 1e-13) the
+Cholesky's measured up to 2x the QR's (115x on rows of scales spread by 1e4), so that a bare 1e-13 cut on the
+Cholesky accepted some W_PP the QR refuses as singular (condition 4e13): with this margin the QR's test decides."""
+
+
 def _cholesky_delete(U, k):
     """The upper Cholesky factor of M without its row and column ``k`` from M's, U^T U = M (C order): the rows
     of U after k lose their column k, and the trailing block takes the rank-one update U22^T U22 + u u^T,
@@ -339,8 +347,9 @@ class CholeskySystem(UpdatedSystem):
     :class:`CompliantRows`): M = U^T U by a Cholesky factorisation (r^3 / 3 flops against the QR's 4 r^3 / 3 and
     its r x r Q) updated key by key, a key out by a rank-one update of the trailing factor (:func:`_cholesky_delete`)
     and the keys in by one triangular solve and the Cholesky factorisation of their block's Schur complement.
-    Where M is not numerically positive definite (a pivot not above 1e-13 of the largest, the test of the QR's
-    diagonal) the QR of :class:`UpdatedSystem` solves it (None if singular there too).
+    Where M is not numerically positive definite (a pivot not above 1e-13 of the largest) the QR of
+    :class:`UpdatedSystem` solves it (None if singular there too); so it does, keeping the Cholesky factor, for
+    pivots within :data:`CHOLESKY_MARGIN` of the largest, where the QR's singularity test decides.
 
     Measured on the default 3D "gamma3" at 305,562 unknowns (14,905 rows, 3,456 carrying force): the QR system
     took 11 of the finish's 34 CPU s (benchmarks/results/bench_gamma3_scale.md)."""
@@ -385,13 +394,16 @@ class CholeskySystem(UpdatedSystem):
         if not len(keys):
             return np.zeros(0)
         changes = len(np.setxor1d(keys, self.keys))
-        if self.U is None or changes > max(4, len(keys) // 8):
-            self.refactor(keys)
+        leaves = len(self.keys) - np.isin(self.keys, keys).sum()    # a deletion costs about 1/4 of a fresh
+        if self.U is None or changes > max(4, len(keys) // 8) or leaves > 2 + len(self.keys) // 1000:  # factor
+            self.refactor(keys)                                           # at 3,000 keys (1/2 at 1,000)
         elif changes:
             self._update(keys)
         d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)
         if not d.min() > 1e-13 * d.max():
             self.U = None                                  # (refactored at the next solve)
+            return self.qr.solve(keys, b)
+        if not d.min() > CHOLESKY_MARGIN * d.max():       # near the QR's cut: the QR decides (and answers)
             return self.qr.solve(keys, b)
         order = np.argsort(self.keys)
         where = order[np.searchsorted(self.keys[order], keys)]     # keys[i] = self.keys[where[i]]

@@ -333,9 +333,9 @@ class QuadraticSurface(Represented):
         integrals over the overlap's part of those faces of the red refinement's P1 hats (as :meth:`weights`; exact by
         the overlay of the refined faces with the other body's faces), a node outside the overlap giving its share to
         the nearest node inside (the value :meth:`extend` gives it). Non-negative; with the whole faces' rule they
-        integrate a constant exactly over the overlap (the weights sum to its area) and, where the overlap's edge follows edges
-        of the refined faces (the hats of the nodes outside are 0 on it), a linear function too. Zero under
-        "gamma3", against an obstacle and where no face is cut."""
+        integrate a constant exactly over the overlap (the weights sum to its area) and, where the overlap's edge
+        follows edges of the refined faces (the hats of the nodes outside are 0 on it), a linear function too. Zero
+        under "gamma3", against an obstacle and where no face is cut."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
         if self.rigid or condition == "gamma3":

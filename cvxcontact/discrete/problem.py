@@ -345,10 +345,13 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     at = [None] * len(scene.bodies) if nodes is None else nodes
     lines = space.contact(scene, condition, law, nodes)
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
+    forced = [o for o in lines.obstacles if o.force is not None]
+    counts = [len(s.f) // space.dim for s in systems]
+    # the slip of each force-controlled obstacle's translations on its pairs' nodes (a friction law only)
+    moves = tuple(obstacle_slip(lines.interface, o, counts) for o in forced) if lines.rows.friction else ()
     # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
     kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes,
-                              capacity=_capacity(scene, condition, lines, [len(s.f) // space.dim for s in systems]))
-    forced = [o for o in lines.obstacles if o.force is not None]
+                              capacity=_capacity(scene, condition, lines, moves))
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
     jumps = {}
 
@@ -380,8 +383,6 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
         slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
                          np.zeros(slips[0].shape[0])) / un.displacement
-    counts = [len(s.f) // space.dim for s in systems]
-    moves = tuple(obstacle_slip(lines.interface, o, counts) for o in forced) if slips is not None else ()
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=contact_term(lines, space.dim),
@@ -400,12 +401,13 @@ def _slip(interface, k, n_nodes):
     return interface.tangential_jump(k, n_nodes)
 
 
-def _capacity(scene, condition, lines, counts):
+def _capacity(scene, condition, lines, moves):
     """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
     k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
     threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
     route checks its capacity at every iterate), and ``moves(o)``, the slip rows of a force-controlled obstacle's
-    translations on the frictional rows (:func:`obstacle_slip`); None without."""
+    translations on the frictional rows (``moves``: :func:`obstacle_slip` of each force-controlled obstacle of
+    ``lines``, in their order); None without."""
     rows = lines.rows
     if not rows.friction:
         return None
@@ -431,9 +433,9 @@ def _capacity(scene, condition, lines, counts):
     capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
     Ec = slip_rows(E, lines.interface)
     frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
-    moves = {id(o): np.where(frictional[:, None], Ec @ obstacle_slip(lines.interface, o, counts), 0.0)
-             for o in lines.obstacles if o.force is not None}
-    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: moves[id(o)]
+    forced = [o for o in lines.obstacles if o.force is not None]
+    on_rows = {id(o): np.where(frictional[:, None], Ec @ T, 0.0) for o, T in zip(forced, moves)}
+    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: on_rows[id(o)]
 
 
 def obstacle_slip(interface, obstacle, counts, basis=None) -> np.ndarray:

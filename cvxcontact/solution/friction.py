@@ -28,6 +28,7 @@ import numpy as np
 
 from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with, rigid_balance
+from .nodal import _reads
 from .solution import _pairs
 
 __all__ = ["friction_checks", "obstacle_friction", "read_back_friction"]
@@ -98,7 +99,7 @@ def read_back_friction(problem, raw, sol) -> None:
         """P2: the rows' ``forces`` (scaled, one per row of E or (R, c)) over their own weights at the nodes of
         X_h (``trace.row_shear``); None where the pair has no row weights."""
         cond = problem.scene.conditions[i] or problem.condition
-        rows = np.flatnonzero(np.asarray(abs(E[:, a:b]).sum(axis=1)).ravel() > 0)
+        rows = np.flatnonzero(_reads(E[:, a:b].T))
         return trace.row_shear(pairs[i], cond, E[rows][:, a:b], forces[rows] * un.force)
 
     def row_shear(i, a, b):
@@ -140,13 +141,10 @@ def obstacle_friction(problem, raw) -> list | None:
     """Per force-controlled obstacle of ``problem`` the resultant (d,) N/m (3D: N) of the friction forces of the
     answer ``raw`` on its pairs along the translations it is free to make (its ``basis`` B), as it enters the
     obstacle's balance: B^T F = B^T sum_a c_a y_a + T^T E_s^T mu, T the slip of its translation unknowns
-    (:func:`~cvxcontact.discrete.problem.obstacle_slip`; the stationarity of the energy in them); the part along
+    (``problem.translation_slips``; the stationarity of the energy in them); the part along
     the translations its rows do not see (a plane's tangential ones) is its guide's. None without a friction law or
     a force-controlled obstacle."""
     if raw.tangential is None or not problem.translation_slips:
         return None
-    from ..discrete.problem import obstacle_slip
-
-    counts = [len(s.f) // problem.space.dim for s in problem.systems]
     force = problem.slip_rows.T @ np.asarray(raw.tangential, dtype=float) * problem.units.force
-    return [o.basis @ (obstacle_slip(problem.interface, o, counts).T @ force) for o in problem.forced]
+    return [o.basis @ (T.T @ force) for o, T in zip(problem.forced, problem.translation_slips)]

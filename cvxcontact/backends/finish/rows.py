@@ -14,6 +14,10 @@ from scipy.sparse import csgraph
 from ..factor import lu as dense_or_sparse_lu
 from .forces import _inverse_diagonal
 
+SINGULAR_PIVOT = 1e-13
+"""A factor of the interface systems (:class:`UpdatedSystem`'s R, :class:`CholeskySystem`'s U^T U) whose smallest
+pivot is not above this fraction of its largest is numerically singular."""
+
 DEPENDENT_PIVOT = 1e-10
 """A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
 on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
@@ -293,7 +297,7 @@ class UpdatedSystem:
 
     def solve(self, keys, b):
         """w with M w = b, M the matrix on ``keys`` (in their order), or None if M is numerically singular
-        (a diagonal entry of R below 1e-13 of the largest)."""
+        (a diagonal entry of R not above :data:`SINGULAR_PIVOT` of the largest)."""
         keys = np.asarray(keys, dtype=int)
         if not len(keys):
             return np.zeros(0)
@@ -303,13 +307,18 @@ class UpdatedSystem:
         elif changes:
             self._update(keys)
         d = np.abs(np.diag(self.R))
-        if not d.min() > 1e-13 * d.max():
+        if not d.min() > SINGULAR_PIVOT * d.max():
             return None
+        where, bk = self._placed(keys, b)
+        return sla.solve_triangular(self.R, self.Q.T @ bk, check_finite=False)[where]
+
+    def _placed(self, keys, b):
+        """(where, b in the factor's order): keys[i] = self.keys[where[i]]."""
         order = np.argsort(self.keys)
-        where = order[np.searchsorted(self.keys[order], keys)]     # keys[i] = self.keys[where[i]]
+        where = order[np.searchsorted(self.keys[order], keys)]
         bk = np.zeros(len(keys))
         bk[where] = b
-        return sla.solve_triangular(self.R, self.Q.T @ bk, check_finite=False)[where]
+        return where, bk
 
 
 CHOLESKY_MARGIN = 1e-10
@@ -347,7 +356,7 @@ class CholeskySystem(UpdatedSystem):
     :class:`CompliantRows`): M = U^T U by a Cholesky factorisation (r^3 / 3 flops against the QR's 4 r^3 / 3 and
     its r x r Q) updated key by key, a key out by a rank-one update of the trailing factor (:func:`_cholesky_delete`)
     and the keys in by one triangular solve and the Cholesky factorisation of their block's Schur complement.
-    Where M is not numerically positive definite (a pivot not above 1e-13 of the largest) the QR of
+    Where M is not numerically positive definite (a pivot not above :data:`SINGULAR_PIVOT` of the largest) the QR of
     :class:`UpdatedSystem` solves it (None if singular there too); so it does, keeping the Cholesky factor, for
     pivots within :data:`CHOLESKY_MARGIN` of the largest, where the QR's singularity test decides.
 
@@ -400,15 +409,12 @@ class CholeskySystem(UpdatedSystem):
         elif changes:
             self._update(keys)
         d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)
-        if not d.min() > 1e-13 * d.max():
+        if not d.min() > SINGULAR_PIVOT * d.max():
             self.U = None                                  # (refactored at the next solve)
             return self.qr.solve(keys, b)
         if not d.min() > CHOLESKY_MARGIN * d.max():       # near the QR's cut: the QR decides (and answers)
             return self.qr.solve(keys, b)
-        order = np.argsort(self.keys)
-        where = order[np.searchsorted(self.keys[order], keys)]     # keys[i] = self.keys[where[i]]
-        bk = np.zeros(len(keys))
-        bk[where] = b
+        where, bk = self._placed(keys, b)
         z = sla.solve_triangular(self.U, bk, trans="T", check_finite=False)
         return sla.solve_triangular(self.U, z, check_finite=False)[where]
 

@@ -623,6 +623,18 @@ def positive_forces(r, elements, rounds=8):
     return p
 
 
+def dragged_blocks3d(law, press=1e-4):
+    """Two non-matching blocks (3 x 2 x 1 cells on 2 x 3 x 1; E = 1 GPa, nu = 0.3) on z in [0, 1] meeting at
+    z = 0.5, the lower clamped at its base, the upper one's top moved by (4e-4, 2e-4, -``press``) m: pressed and
+    dragged along x and y, ``law`` on the pair (posed from the upper block)."""
+    mats = cc.materials.isotropic(E=1e9, nu=0.3)
+    up = cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1), nx=3, ny=2, nz=1)
+    low = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=3, nz=1)
+    b1 = cc.Body(up, mats, contact="bottom", displacement={"top": (4e-4, 2e-4, -press)})
+    b2 = cc.Body(low, mats, clamped=["bottom"], contact="top")
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", law=law)])
+
+
 def dragged_stack(laws, conditions=("gamma3", "sigma1"), nx=(4, 3, 5), s=2e-5, order=(0, 1), middle=None,
                   quarter=0, scale=1.0, cell="triangle"):
     """Three blocks (L x H each, ``nx`` cells across: top, middle, bottom; non-matching lines by default) stacked on

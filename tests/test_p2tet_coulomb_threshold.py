@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 import pytest
+from friction_scenes import dragged_blocks3d
 
 import cvxcontact as cc
 
@@ -25,12 +26,7 @@ def test_the_shear_is_at_most_the_coulomb_threshold_at_the_rows(condition):
     the rows |shear| <= threshold (measured 2.9e-16 of the largest threshold over it at most; bound 1e-12), the
     threshold is non-negative, and it is mu times the rows' normal forces over their weights where those are
     (measured 5.8e-16 of the largest; bound 1e-12)."""
-    mats = cc.materials.isotropic(E=1e9, nu=0.3)
-    up = cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1), nx=3, ny=2, nz=1)
-    low = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=3, nz=1)
-    b1 = cc.Body(up, mats, contact="bottom", displacement={"top": (4e-4, 2e-4, -1e-4)})
-    b2 = cc.Body(low, mats, clamped=["bottom"], contact="top")
-    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", law=cc.Coulomb(MU))])
+    scene = dragged_blocks3d(cc.Coulomb(MU), press=1e-4)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         sol = cc.solve(scene, condition, degree=2)

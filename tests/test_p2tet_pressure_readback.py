@@ -18,6 +18,7 @@ import warnings
 
 import numpy as np
 import pytest
+from friction_scenes import dragged_blocks3d
 from scenes3d import P, stacked_blocks, three_blocks
 
 import cvxcontact as cc
@@ -164,12 +165,7 @@ def test_the_tresca_shear_is_at_most_g_at_the_rows(condition):
     the rows' own weights (the capacities' areas) sums to the total tangential force (measured 1.5e-16 g m^2; bound
     1e-12 g m^2)."""
     g = 1e5
-    mats = cc.materials.isotropic(E=1e9, nu=0.3)
-    up = cc.box(x=(0, 1), y=(0, 1), z=(0.5, 1), nx=3, ny=2, nz=1)
-    low = cc.box(x=(0, 1), y=(0, 1), z=(0, 0.5), nx=2, ny=3, nz=1)
-    b1 = cc.Body(up, mats, contact="bottom", displacement={"top": (4e-4, 2e-4, -1e-5)})
-    b2 = cc.Body(low, mats, clamped=["bottom"], contact="top")
-    scene = cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", law=cc.Tresca(g))])
+    scene = dragged_blocks3d(cc.Tresca(g), press=1e-5)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         sol = cc.solve(scene, condition, degree=2)

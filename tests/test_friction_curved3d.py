@@ -138,10 +138,9 @@ def test_tresca_without_threshold_is_frictionless():
     assert d10 == pytest.approx(10 * d1, rel=1e-3)         # measured 10 * (1 + 2e-9)
 
 
-def _stuck_reference(scene, active):
-    """(u per body, normal forces at ``active``): the frictionless pair's rows on ``active`` held at their gap
-    and every row's slip held at 0 (stuck: tied), solved densely (the mixed system of both bodies' reduced
-    stiffness and the brute-force rows), independent of the package's contact code."""
+def _reduced_dense(scene):
+    """(Tu, K, f, u_fixed) of both bodies, dense: the free unknowns' map, the reduced stiffness Tu^T K Tu, the
+    reduced load and the prescribed displacements (P1 tetrahedra, assembled by the space alone)."""
     import scipy.linalg as sla
 
     from cvxcontact.fem.space import P1Tet
@@ -149,8 +148,14 @@ def _stuck_reference(scene, active):
     systems = [P1Tet().assemble_loads(b, P1Tet().assemble_matrices(b)) for b in scene.bodies]
     Tu = sla.block_diag(*[s.Tu.toarray() for s in systems])
     K = Tu.T @ sla.block_diag(*[s.Kuu.toarray() for s in systems]) @ Tu
-    f = Tu.T @ np.concatenate([s.f for s in systems])
-    u_fixed = np.concatenate([s.u_fixed for s in systems])
+    return Tu, K, Tu.T @ np.concatenate([s.f for s in systems]), np.concatenate([s.u_fixed for s in systems])
+
+
+def _stuck_reference(scene, active):
+    """(u per body, normal forces at ``active``): the frictionless pair's rows on ``active`` held at their gap
+    and every row's slip held at 0 (stuck: tied), solved densely (the mixed system of both bodies' reduced
+    stiffness and the brute-force rows), independent of the package's contact code."""
+    Tu, K, f, u_fixed = _reduced_dense(scene)
     N, T, gap, X = _brute_force_rows(scene)
     C = np.vstack([N[active], T[0], T[1]])
     h = np.concatenate([gap[active], np.zeros(2 * len(X))]) - C @ u_fixed
@@ -195,15 +200,7 @@ def _tresca_reference(scene, g):
     independently of the package's contact code: both bodies' reduced stiffness, the brute-force rows (groups
     slip t1, slip t2, -[u_nu] >= -gap), capacities g times a third of each curved face's area, the dual QP by
     :func:`projected_gradient_tresca` (FISTA: accurate to about the square root of rounding)."""
-    import scipy.linalg as sla
-
-    from cvxcontact.fem.space import P1Tet
-
-    systems = [P1Tet().assemble_loads(b, P1Tet().assemble_matrices(b)) for b in scene.bodies]
-    Tu = sla.block_diag(*[s.Tu.toarray() for s in systems])
-    K = Tu.T @ sla.block_diag(*[s.Kuu.toarray() for s in systems]) @ Tu
-    f = Tu.T @ np.concatenate([s.f for s in systems])
-    u_fixed = np.concatenate([s.u_fixed for s in systems])
+    Tu, K, f, u_fixed = _reduced_dense(scene)
     N, T, gap, X = _brute_force_rows(scene)
     D = np.empty((3 * len(X), N.shape[1]))
     D[0::3], D[1::3], D[2::3] = T[0], T[1], -N

@@ -140,6 +140,15 @@ def test_a_vanishing_threshold_departs_from_the_frictionless_answer_linearly(con
     assert departures[1] / departures[0] == pytest.approx(10.0, rel=1e-6)
 
 
+def _assert_is_the_union(sol, union):
+    """Every body's nodal displacements of ``sol`` are ``union``'s (the one body the stack makes) at the same points
+    (to 1e-10 of its largest)."""
+    at = {tuple(np.round(p, 9)): i for i, p in enumerate(union.points[0])}
+    U = union.u[0]
+    for x, u in zip(sol.points, sol.u):
+        assert np.abs(u - U[[at[tuple(np.round(p, 9))] for p in x]]).max() <= 1e-10 * np.abs(U).max()
+
+
 @pytest.mark.numerics
 @pytest.mark.parametrize("conditions", [MIXED[0][0], MIXED[1][0]], ids=["cones-above", "cones-below"])
 def test_a_threshold_that_holds_every_row_gives_the_bonded_stack(conditions):
@@ -150,11 +159,7 @@ def test_a_threshold_that_holds_every_row_gives_the_bonded_stack(conditions):
         sol = cc.solve(rolled_stack(cc.Tresca(100 * P), conditions), degree=2)
         union = cc.solve(rolled_union(), degree=2)
     assert sol.ok and sol.polished and union.ok
-    at = {tuple(np.round(p, 9)): i for i, p in enumerate(union.points[0])}
-    U = union.u[0]
-    for x, u in zip(sol.points, sol.u):
-        mine = U[[at[tuple(np.round(p, 9))] for p in x]]
-        assert np.abs(u - mine).max() <= 1e-10 * np.abs(U).max()
+    _assert_is_the_union(sol, union)
 
 
 @pytest.mark.numerics
@@ -400,10 +405,7 @@ def test_a_huge_threshold_gives_the_bonded_stack_without_overflow(conditions):
         sol = cc.solve(rolled_stack(cc.Tresca(1e4 * P), conditions), degree=2)
     union = cc.solve(rolled_union(), degree=2)
     assert sol.ok and sol.polished and union.ok
-    at = {tuple(np.round(p, 9)): i for i, p in enumerate(union.points[0])}
-    U = union.u[0]
-    for x, u in zip(sol.points, sol.u):
-        assert np.abs(u - U[[at[tuple(np.round(p, 9))] for p in x]]).max() <= 1e-10 * np.abs(U).max()
+    _assert_is_the_union(sol, union)
 
 
 @pytest.mark.numerics

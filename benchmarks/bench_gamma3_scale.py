@@ -30,6 +30,16 @@ child leaves the package's default). Forced against kept on this checkout alone:
 yardstick, ``bench3d.py``'s bonded part: PARDISO on the mixed system with every contact row closed; its CPU
 seconds and peak), and the ratios of this checkout's solve to it, the solve alone and with the assembly.
 
+``--amg``: after each size's runs, on the same mesh (the same unknowns; two_boxes with "sigma1" rows), two more
+fresh processes of ``bench3d.py``: "sigma1" on its default route (the AMG active set) from the Scene to the checked
+Solution, and the other yardstick, one bonded AMG-CG solve (``bench3d.py``'s ``amg_bonded``: smoothed-aggregation
+CG to 1e-10 on the bonded system with the nodal rows eliminated; setup + solve, the elimination left out; it cannot
+take the "gamma3" rows, which share their dofs). Printed: each CPU second, each peak, and the ratios of "gamma3"
+and "sigma1" to it, the solve alone and with the assembly on both sides (the yardstick's: its ContactSolver's
+construction). One command for both ratios, this checkout alone:
+
+    python benchmarks/bench_gamma3_scale.py --sizes 1.5e5 --only after --amg --limit 3
+
 The "back-substitution s" column is the stage "back_substitution" (with the factors freed: the interior
 factorisations re-made, one body at a time); "released" is ``sol.info.released``.
 
@@ -101,10 +111,32 @@ def run(root: Path, n: int, out: str, limit: float = 16.0, release: str | None =
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
+def amg_table(amg: list) -> list[str]:
+    """The lines of the AMG yardstick's table: per size, one line per checkout's "gamma3" and one for "sigma1"
+    (its default route; the same mesh, so the same unknowns), CPU seconds, against one bonded AMG-CG solve (setup + solve; with the assembly: plus
+    each side's ContactSolver construction)."""
+    head = ("| unknowns (before supports) | condition (code) | route | assembly CPU s | solve CPU s | bonded AMG-CG CPU s (it.) "
+            "| yardstick's assembly CPU s | solve / AMG-CG | (assembly + solve) / (assembly + AMG-CG) "
+            "| peak GB: run / AMG-CG | ok |")
+    out = [head, "|" + "---|" * (head.count("|") - 1)]
+    for n, s1, y, rs in amg:
+        ya, yc = y["solver_build_cpu_s"], y["amg_cpu_s"]
+        runs = [(f'"gamma3" ({name})', r["N"], r["route"], r["assembly_cpu"], r["solve_cpu"], r["peak_gb"], r["ok"])
+                for name, r in rs.items()]
+        runs.append(('"sigma1"', runs[0][1], s1["route"], s1["solver_build_cpu_s"], s1["default_cpu_s"],
+                     s1["default_peak_gb"], s1["ok"]))
+        for label, N, route, a, c, peak, ok in runs:
+            out.append(f"| {N:,} | {label} | {route} | {a:.1f} | {c:.1f} | {yc:.1f} ({y['amg_iterations']}) | "
+                       f"{ya:.1f} | {c / yc:.2f} | {(a + c) / (ya + yc):.2f} | {peak:.2f} / {y['amg_peak_gb']:.2f} "
+                       f"| {ok} |")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=float, nargs="+", default=[5e4])
-    ap.add_argument("--before", type=Path, required=True, help="the other checkout (its cvxcontact is imported)")
+    ap.add_argument("--before", type=Path, default=None,
+                    help="the other checkout (its cvxcontact is imported); not needed with --only after")
     ap.add_argument("--md", type=Path, default=None, help="append the table to this file")
     ap.add_argument("--limit", type=float, default=16.0, help="GB resident at which a run is ended (watchdog)")
     ap.add_argument("--only", choices=("before", "after"), default=None,
@@ -113,12 +145,16 @@ def main() -> None:
                     help="this checkout: the factors freed after Sigma, kept, or by the memory budget")
     ap.add_argument("--bonded", action="store_true",
                     help="also one bonded PARDISO solve of the same mesh (bench3d.py's yardstick), and the ratios")
+    ap.add_argument("--amg", action="store_true",
+                    help='also "sigma1" (AMG route) and one bonded AMG-CG solve of the same mesh, and the ratios')
     ap.add_argument("--release-before", choices=tuple(RELEASE), default=None, help="the same for --before")
     args = ap.parse_args()
+    if args.before is None and args.only != "after":
+        ap.error("--before is needed unless --only after")
     head = ("| unknowns | rows | active rows | code | released | steps | solve CPU s | factorisation s | interior point s "
             "| finish s | back-substitution s | assembly s | peak GB | after / before (CPU) | du/u | ok |")  # CPU s
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
-    bonded = []
+    bonded, amg = [], []
     print(lines[0], flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for size in args.sizes:
@@ -150,6 +186,12 @@ def main() -> None:
                 b = run_part(ROOT / "benchmarks" / "bench3d.py", part)
                 bonded.append((n, b, {name: res[name] for name in names}))
                 print(json.dumps({"n": n, "bonded": b}), flush=True)
+            if args.amg:
+                base = {"scene": "two_boxes", "n": n, "condition": "sigma1", "elastic": True, "runs": 1}
+                s1 = run_part(ROOT / "benchmarks" / "bench3d.py", dict(base, part="default"))
+                y = run_part(ROOT / "benchmarks" / "bench3d.py", dict(base, part="bonded", pardiso=False))
+                amg.append((n, s1, y, {name: res[name] for name in names}))
+                print(json.dumps({"n": n, "sigma1": s1, "amg_bonded": y}), flush=True)
     if bonded:
         bh = ("| unknowns | code | assembly CPU s | solve CPU s | bonded PARDISO CPU s (wall) | solve / bonded (CPU) "
               "| (assembly + solve) / bonded | peak GB: default / bonded |")
@@ -162,6 +204,9 @@ def main() -> None:
                              f"{(r['assembly_cpu'] + r['solve_cpu']) / b['pardiso_cpu_s']:.2f} | "
                              f"{r['peak_gb']:.2f} / {b['bonded_peak_gb']:.2f} |")
         print("\n".join(lines[-len(bonded) * len(names) - 2:]), flush=True)
+    if amg:
+        lines += [""] + amg_table(amg)
+        print("\n".join(lines[-len(amg) * (len(names) + 1) - 2:]), flush=True)
     print("load", " ".join(f"{x:.1f}" for x in os.getloadavg()))
     if args.md:
         with open(args.md, "a") as f:

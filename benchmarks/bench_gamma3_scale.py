@@ -113,9 +113,10 @@ def run(root: Path, n: int, out: str, limit: float = 16.0, release: str | None =
 
 def amg_table(amg: list) -> list[str]:
     """The lines of the AMG yardstick's table: per size, one line per checkout's "gamma3" and one for "sigma1"
-    (its default route; the same mesh, so the same unknowns), CPU seconds, against one bonded AMG-CG solve (setup + solve; with the assembly: plus
-    each side's ContactSolver construction)."""
-    head = ("| unknowns (before supports) | condition (code) | route | assembly CPU s | solve CPU s | bonded AMG-CG CPU s (it.) "
+    (its default route; the same mesh, so the same unknowns), CPU seconds, against one bonded AMG-CG solve
+    (setup + solve; with the assembly: plus each side's ContactSolver construction)."""
+    head = ("| unknowns (before supports) | condition (code) | route | assembly CPU s | solve CPU s "
+            "| bonded AMG-CG CPU s (it.) "
             "| yardstick's assembly CPU s | solve / AMG-CG | (assembly + solve) / (assembly + AMG-CG) "
             "| peak GB: run / AMG-CG | ok |")
     out = [head, "|" + "---|" * (head.count("|") - 1)]

@@ -120,8 +120,9 @@ def bonded_part(scene, n, condition, elastic, runs, pardiso=True):
     import cvxcontact as cc
 
     cc.solve(make(scene, 4, condition, elastic))                        # imports, first-call set-up
+    sc = make(scene, n, condition, elastic)
     c0 = time.process_time()
-    solver = cc.ContactSolver(make(scene, n, condition, elastic))
+    solver = cc.ContactSolver(sc)
     build_cpu = time.process_time() - c0
     problem = solver.problem
     t0 = time.perf_counter()

@@ -1,7 +1,8 @@
 """Exploration: one exact solve of P1 "gamma3"'s final face on the AMG route's terms (issue 33 item 1;
 docs/explanation/gamma3-fast-route.md). Two elastic boxes (tests/scenes3d.py
 ``two_boxes(n, "gamma3", elastic=True)``), solved on the default route; its closed rows P
-(``solver.cache.active``: the exact finish's independent rows) are then held as equalities on the bonded mixed system (benchmarks/harness.py ``bonded_kkt``) and solved
+(``solver.cache.active``: the exact finish's independent rows) are then held as equalities on the bonded mixed
+system (benchmarks/harness.py ``bonded_kkt``) and solved
 
 * by PARDISO (the reference; its jump at every row against the answer's, ``sol.contact.jump``, in metres: the face
   with these rows closed is the answer);

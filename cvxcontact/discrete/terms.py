@@ -113,6 +113,8 @@ class ContactTerm(Protocol):
 
     def program_forces(self, problem, model, u, taus) -> tuple: ...
 
+    def with_user_terms(self, problem, model, constraints, objective, settings, timings, admits): ...
+
     def read_back(self, problem, raw, tol: float, timings: dict): ...
 
     def finish_declined(self, problem, raw, polish: bool) -> bool: ...
@@ -156,6 +158,11 @@ class _Term:
     """``(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law."""
     starts: ClassVar[str | Callable] = "cvxcontact.backends.start:start_active"
     """``(problem, state) -> bool per row``: the first active-set guess from a state on another mesh."""
+    beside_user_terms: ClassVar[str | Callable | None] = None
+    """``(problem, model, constraints, objective, settings, timings, admits) -> (raw, force)``: how ``cc.Model``
+    solves this term's program beside its user terms, where :meth:`program` is not the whole of it (a friction
+    law's slip cones; :meth:`with_user_terms`); None: ``cc.Model`` poses them on :meth:`program` and finishes
+    them itself (its active-set finish of the nodal rows and the user rows)."""
 
     def program(self, problem):
         """The full convex program of ``problem`` with this term's rows or cones (:attr:`programs`)."""
@@ -176,6 +183,19 @@ class _Term:
         declined by the route, or not run where it always runs (a quadratic energy)."""
         return bool(polish and not raw.polished and self.finishes
                     and (raw.declined or (problem.quadratic and self.always_finished)))
+
+    def with_user_terms(self, problem, model, constraints, objective, settings, timings, admits):
+        """``cc.Model``'s answer with user terms where this term declares how (:attr:`beside_user_terms`):
+        ``(raw, force)``, the scaled :class:`~cvxcontact.backends.result.RawResult` of ``model`` (its
+        :meth:`program`, whose variables the user ``constraints`` and ``objective`` (scaled) are built on) and
+        the generalised force the term adds to the momentum rows beyond E^T y (on the model's stacked unknowns;
+        None: none), solved with ``settings`` (a :class:`~cvxcontact.backends.result.Settings`); ``admits(raw)``
+        says whether an answer finished without the user rows satisfies them (then it is the program's with
+        them, their multipliers 0). None where the term declares nothing (``cc.Model``'s own path)."""
+        where = type(self).beside_user_terms
+        if where is None:
+            return None
+        return named(where)(problem, model, constraints, objective, settings, timings, admits)
 
     def start(self, problem, cache) -> None:
         """Before a route runs: a state from another mesh in ``cache`` (``cache.start``) and no active set gives
@@ -386,8 +406,8 @@ class ConesWithFriction(_Term):
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
-            "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces",
-            "hands_on")
+            "program_forces", "with_user_terms", "read_back", "finish_declined", "start", "determining_rows",
+            "held_forces", "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance,

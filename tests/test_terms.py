@@ -110,7 +110,7 @@ def test_the_term_answers_as_the_flag_branches_it_replaces(case):
     assert t.always_finished == (not (p.conic or p.mixed or p.friction))           # solve.py, Model._warn
     assert t.cones == (p.conic or p.mixed)                                         # solve.py's hint
     assert t.estimated                                                             # solve.py, Model.solve
-    assert t.takes_user_terms == (not p.friction)
+    assert t.takes_user_terms                 # cc.Model: every term (friction: its beside_user_terms)
     d = describe(p)                                                                # backends/__init__.describe
     assert (d.compliant, d.conic, d.friction) == (p.compliant, p.conic or p.mixed, p.friction)
     assert d.dependent_rows == (bool(dependent_rows(p)) and not p.conic)

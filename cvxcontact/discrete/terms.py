@@ -328,15 +328,15 @@ class TrescaFriction(_Term):
     """Signorini rows and a friction law's cone per row on the slip (docs/howto/friction.md; Tresca, and Coulomb
     by a fixed point on the thresholds; 2D and 3D P1, 2D P2 under the nodal conditions): the full program only,
     then its exact finish (:func:`cvxcontact.backends.friction.exact_finish`; a decline keeps the interior
-    point's answer without a warning, as before the finish existed); no error estimate, no user terms yet."""
+    point's answer without a warning, as before the finish existed); no error estimate; ``cc.Model``'s user terms
+    beside it by :mod:`cvxcontact.backends.frictionuser`."""
 
     kind: ClassVar[str] = "friction"
     tangential: ClassVar[bool] = True
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
     unestimated: ClassVar[str] = ""
-    refuses_user_terms: ClassVar[str] = ("user terms next to a friction law are not available yet: solve the model "
-                                         "without them, or use a frictionless law")
+    beside_user_terms: ClassVar[str | Callable | None] = "cvxcontact.backends.frictionuser:beside_user_terms"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.friction:row_forces"
     # its program: the Signorini rows, to which the friction route adds the slip's cones
@@ -389,7 +389,7 @@ class ConesWithFriction(_Term):
     tangential: ClassVar[bool] = True
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
-    refuses_user_terms: ClassVar[str] = TrescaFriction.refuses_user_terms
+    beside_user_terms: ClassVar[str | Callable | None] = "cvxcontact.backends.frictionuser:cones_beside_user_terms"
     unfinished_hint: ClassVar[str] = (
         "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish that declined: on "
         "the nodes and cut points, in 2D then at the exact tangency points; info.declined says why), so its "

@@ -456,7 +456,10 @@ class Model:
             sol._checks["obstacle balance"] = balance(self.problem, raw.y, rows, self._n_bodies)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
-        self._warn(sol, self.problem.term.finishes, raw.declined, stacklevel=4)
+        # a finish that applies and declined (a friction term's decline keeps its interior point's answer silently,
+        # as cc.solve: ``finishes``), else the checks
+        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw.declined,
+                   stacklevel=4)
         return sol
 
     def _warn(self, sol, finishable: bool, declined: Declined | None, stacklevel: int) -> None:

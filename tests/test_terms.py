@@ -368,3 +368,39 @@ def test_model_warns_where_a_finish_that_always_runs_did_not(monkeypatch, module
     assert not sol.polished and sol.info.declined.stop is Stop.MAX_ITER
     assert len(warned) == int(model_warns), [str(w.message) for w in warned]
     assert all("declined by a test" in str(w.message) for w in warned)
+
+
+# ---- combinations of laws: declared by the terms (``parts``), computed from the lines --------------------------
+
+
+def _lines(cones=False, compliance=False, friction=False):
+    """Contact lines as the parts read them (PARTS' tests: ``conic``/``mixed``, the rows' laws)."""
+    rows = SimpleNamespace(compliant=compliance, friction=friction)
+    return SimpleNamespace(conic=cones and not compliance, mixed=cones and compliance, rows=rows)
+
+
+def test_each_combination_of_laws_is_posed_by_the_one_term_that_declares_it_or_refused_by_name():
+    """The package's terms declare distinct combinations (their ``parts``); each of the 2^3 combinations of
+    PARTS is posed by the term declaring it, whatever the order tried, and the one no term declares (the cones,
+    a compliance law and friction together: also refused earlier by discrete/problem.py's ``_capacity``) is an
+    UnsupportedError naming it and the declared ones."""
+    import itertools
+
+    from cvxcontact.discrete.terms import PARTS, contact_term, parts_of
+    from cvxcontact.errors import UnsupportedError
+
+    own = [t for t in TERMS if t.__module__ == "cvxcontact.discrete.terms"]
+    assert len({t.parts for t in own}) == len(own) and all(t.parts <= set(PARTS) for t in own)
+    for on in itertools.product((False, True), repeat=3):
+        lines = _lines(*on)
+        parts = parts_of(lines)
+        assert parts == {name for name, o in zip(("cones", "compliance", "friction"), on) if o}
+        posing = [t for t in own if t.poses(lines)]
+        if parts == {"cones", "compliance", "friction"}:
+            assert posing == []
+            with pytest.raises(UnsupportedError, match=r"compliance \+ cones \+ friction together") as info:
+                contact_term(lines, 2)
+            assert "conic_friction (cones + friction)" in str(info.value)
+        else:
+            assert len(posing) == 1 and posing[0].parts == parts
+            assert type(contact_term(lines, 2)) is posing[0]

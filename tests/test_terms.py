@@ -382,10 +382,14 @@ def _lines(cones=False, compliance=False, friction=False):
 def test_each_combination_of_laws_is_posed_by_the_one_term_that_declares_it_or_refused_by_name():
     """The package's terms declare distinct combinations (their ``parts``); each of the 2^3 combinations of
     PARTS is posed by the term declaring it, whatever the order tried, and the one no term declares (the cones,
-    a compliance law and friction together: also refused earlier by discrete/problem.py's ``_capacity``) is an
-    UnsupportedError naming it and the declared ones."""
+    a compliance law and friction together) is an UnsupportedError with its declared words (UNPOSED: what to do),
+    met before anything else is built (cc.Model of such a scene); one without words names the combination and the
+    declared ones (the registry without the cones' terms, for the call)."""
     import itertools
 
+    from friction_scenes import P, compliant_series
+
+    from cvxcontact.discrete import terms
     from cvxcontact.discrete.terms import PARTS, contact_term, parts_of
     from cvxcontact.errors import UnsupportedError
 
@@ -398,9 +402,25 @@ def test_each_combination_of_laws_is_posed_by_the_one_term_that_declares_it_or_r
         posing = [t for t in own if t.poses(lines)]
         if parts == {"cones", "compliance", "friction"}:
             assert posing == []
-            with pytest.raises(UnsupportedError, match=r"compliance \+ cones \+ friction together") as info:
-                contact_term(lines, 2)
-            assert "conic_friction (cones + friction)" in str(info.value)
+            with pytest.raises(UnsupportedError, match="not available beside a normal-compliance law"):
+                contact_term(lines, 2)                          # its words declared (UNPOSED)
         else:
             assert len(posing) == 1 and posing[0].parts == parts
             assert type(contact_term(lines, 2)) is posing[0]
+    with pytest.raises(UnsupportedError, match=r"poses cones \+ friction together \(the terms and the laws they "
+                                               r"declare: .*friction \(friction\), .*signorini \(Signorini rows\)"):
+        _refused_without(terms, "cones")
+    scene = compliant_series(0.1 * P, 1e12, g=0.5 * P)   # friction under the P2 cones beside a compliant floor
+    with pytest.raises(UnsupportedError, match="is not available beside a normal-compliance law: pose every pair"):
+        cc.Model(scene, "gamma3", degree=2)
+
+
+def _refused_without(terms, part):
+    """contact_term of lines with the cones and friction, the terms declaring ``part`` set aside for the call."""
+    kept = [t for t in terms._REGISTRY if part not in getattr(t, "parts", ())]
+    saved = list(terms._REGISTRY)
+    terms._REGISTRY[:] = kept
+    try:
+        return terms.contact_term(_lines(True, False, True), 2)
+    finally:
+        terms._REGISTRY[:] = saved

@@ -67,9 +67,9 @@ import numpy as np
 
 from ..errors import SolverError, UnsupportedError
 
-__all__ = ["PARTS", "ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS", "contact_term",
-           "parts_of", "register_term", "unregister_term", "named"]
+__all__ = ["PARTS", "UNPOSED", "ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones",
+           "ConesBesideCompliance", "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS",
+           "contact_term", "parts_of", "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -94,6 +94,19 @@ PARTS = {
 (:class:`~cvxcontact.fem.space.ContactLines`): the P2 "gamma3" cones (docs/formulation.md §8; beside a compliance
 law too, §10), a normal-compliance law on some rows (§10), a friction law on some rows (docs/howto/friction.md).
 Signorini's nodal rows are the empty combination. A term declares the combination it poses (``parts``)."""
+
+
+UNPOSED = {
+    frozenset({"cones", "compliance", "friction"}): (
+        "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, the "
+        "friction rows at its nodes and at the rows of the pairs under a nodal condition) is not available beside a "
+        "normal-compliance law: pose every pair under a Signorini law (the default), or use condition='sigma1' or "
+        "'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with 'gamma3' (P1: the condition "
+        "everywhere is its nodal rows)"),
+}
+"""What to do where the lines combine laws no term declares (:func:`contact_term`'s refusal; docs/refusals.md
+row 32: friction under the P2 cones beside a compliance law); a combination without words here is refused by
+name."""
 
 
 def parts_of(lines) -> frozenset[str]:
@@ -497,6 +510,8 @@ def contact_term(lines, dim: int) -> ContactTerm:
                               "fix it or unregister_term it") from exc
         if poses:
             return term(dim)
+    if (words := UNPOSED.get(parts_of(lines))) is not None:
+        raise UnsupportedError(words)
     named_parts = (lambda parts: " + ".join(sorted(parts)) or "Signorini rows")
     declared = ", ".join(f"{t.kind} ({named_parts(getattr(t, 'parts', ()))})" for t in TERMS)
     raise UnsupportedError(f"no registered contact term poses {named_parts(parts_of(lines))} together (the terms "

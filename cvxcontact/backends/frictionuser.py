@@ -85,12 +85,15 @@ def _finished(problem, raw, unsettled, objective, settings, admits, finish):
 def tangential_force(problem, raw) -> np.ndarray:
     """The friction's generalised force on the stacked scaled unknowns [u_1; phi_1; u_2; ...; t_1; ...] of the
     answer ``raw`` (its tangential row forces ``raw.tangential``): T_k^T kron(I_c, E)^T mu on body k's
-    displacements (the momentum rows' term, :mod:`cvxcontact.solution.friction`), 0 on the potentials and on the
-    translations (the obstacles' balance reads the normal rows and the user rows)."""
-    Tmu = problem.slip_rows.T @ np.asarray(raw.tangential, dtype=float)
+    displacements (the momentum rows' term, :mod:`cvxcontact.solution.friction`), 0 on the potentials, and
+    (kron(I_c, E) S_o)^T mu on a force-controlled obstacle's translations, S_o the slip of its unit translations
+    (``problem.translation_slips``: the term of its force balance)."""
+    mu = np.asarray(raw.tangential, dtype=float)
+    Tmu = problem.slip_rows.T @ mu
     parts = []
     for b, uk, pk in zip(problem.blocks, raw.u, raw.phi):
         parts.append(b.slip.T @ Tmu if len(uk) else np.zeros(0))
         parts.append(np.zeros(0 if pk is None else len(pk)))
-    parts.extend(np.zeros(len(t)) for t in raw.taus)
+    moves = problem.translation_slips or tuple(np.zeros((len(Tmu), len(t))) for t in raw.taus)
+    parts.extend(np.asarray(S).T @ Tmu for S in moves)
     return np.concatenate(parts)

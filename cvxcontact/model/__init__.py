@@ -41,6 +41,7 @@ from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..backends.cones import mixed_bernstein_rows
 from ..backends.finish import Declined
@@ -452,8 +453,10 @@ class Model:
         sol = read_back(self.problem, raw, self.tol, timings, "full")
         sol._checks = checks(self.problem, sol._checks, raw.u, raw.phi, raw.y, x, rows,
                              grad if force is None else grad + force)
-        if self._forced and rows:        # user rows on a translation carry part of its prescribed force
-            sol._checks["obstacle balance"] = balance(self.problem, raw.y, rows, self._n_bodies)
+        if self._forced and rows:        # user rows on a translation carry part of its prescribed force (and the
+            #                              term's force on it: a row of multiplier 1)
+            extra = [] if force is None else [(sp.csr_matrix(force[None, :]), None, np.ones(1), False, True)]
+            sol._checks["obstacle balance"] = balance(self.problem, raw.y, rows + extra, self._n_bodies)
         timings["read_back"] = time.perf_counter() - t0
         sol.info = replace(sol.info, timings=timings)
         # a finish that applies and declined (a friction term's decline keeps its interior point's answer silently,

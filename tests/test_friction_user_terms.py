@@ -130,3 +130,25 @@ def test_a_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(
                                                             law=cc.Tresca(1e6))]), "sigma1", method="full")
     assert ref.ok and ref.polished
     assert rel(sol.u[0] - t, ref.u[0]) <= 1e-12
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(0.5 * P), cc.Coulomb(0.5)], ids=["tresca", "coulomb"])
+def test_a_user_objective_of_the_shear_traction_is_the_sheared_block(law):
+    """A linear user objective -sum_i q w_i u_x(i) over the top nodes (w_i their lumped lengths: the P1 consistent
+    load of a uniform traction q) on the block pressed without shear is the block sheared by the traction (q, -p)
+    (cc.solve of that scene, finished). The friction finish takes no user gradient: declined, the interior point's
+    answer, checked (the equilibrium with the objective's gradient and the friction's force). Measured: 3.2e-13
+    (Tresca), 4.5e-14 (Coulomb), the same under the three kernels."""
+    q = 0.35 * P
+    ref = cc.solve(sheared(q, law), "sigma1", method="full")
+    scene = sheared(0.0, law)
+    body = scene.bodies[0]
+    points, edges = body.mesh.points, body.mesh.boundary("top")
+    w = np.zeros(len(points))
+    np.add.at(w, edges.ravel(), np.repeat(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) / 2, 2))
+    top = np.flatnonzero(w)
+    model = cc.Model(scene, "sigma1")
+    model.add_objective(-(q * w[top]) @ model.u(body, top)[:, 0])
+    sol = model.solve()
+    assert ref.ok and ref.polished and sol.ok and not sol.polished and "objective" in sol.info.declined
+    assert rel(sol.u[0], ref.u[0]) <= 1e-9

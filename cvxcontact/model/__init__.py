@@ -438,6 +438,7 @@ class Model:
         ``force``: the generalised force the term adds beyond E^T y, None: none): its read-back and the user
         terms' checks; a finished answer's user multipliers are 0 (it satisfies them, :meth:`_admits`)."""
         zs = [np.zeros(c.size) for c in self.constraints] if raw.polished else ()
+        raw.y = self.problem.term.held_forces(self.problem, raw.y)     # the forces it reports, as cc.solve's run
         self._set_values(raw.u, raw.phi, raw.taus, zs)   # the model's expressions (and duals) read the answer
         x = self._x()
         rows = []

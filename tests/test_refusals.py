@@ -785,16 +785,16 @@ def test_a_load_free_layer_in_an_open_gap_is_refused_after_the_solve():
     assert "does not determine the translation y of body 'layer'" in msg and "open" in msg and "support" in msg
 
 
-# ================================================================ rows 37-41: cc.Model user terms beside friction,
-# and the hexahedral refusals of fem/hexfaces.py (each the b-verdict's test: it XPASSes the day the refusal goes)
+# ================================================================ rows 37-41: cc.Model user terms beside friction
+# (supported), and the hexahedral refusals of fem/hexfaces.py (each the b-verdict's test: it XPASSes the day the refusal goes)
 
 
 @pytest.mark.numerics
-@pytest.mark.xfail(strict=True, raises=cc.UnsupportedError, reason="docs/refusals.md row 37")
 def test_model_takes_a_user_constraint_beside_a_friction_law():
-    """Row 37: cc.Model refuses user terms beside a friction law (the term's ``refuses_user_terms``). Reference: a
-    user constraint that never binds (the block's nodes stay above y = -1 m) leaves the answer of
-    ``cc.solve(..., method="full")``."""
+    """Row 37, supported: cc.Model takes user terms beside a friction law (the friction terms'
+    ``beside_user_terms``, cvxcontact/backends/frictionuser.py). Reference: a user constraint that never binds (the
+    block's nodes stay above y = -1 m) leaves the answer of ``cc.solve(..., method="full")`` (measured 1.4e-15; the
+    closed forms and a binding pin: tests/test_friction_user_terms.py)."""
     from friction_scenes import P as P_FRICTION
     from friction_scenes import sheared
 
@@ -1036,7 +1036,6 @@ def test_a_curved_part_of_hexahedra(monkeypatch):
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("test, args, words", [
-    (test_model_takes_a_user_constraint_beside_a_friction_law, (), "user terms next to a friction law"),
     (test_q2_hexahedra_under_gamma3_closed_form, (), "'gamma3' on Q2 (27-node) hexahedra"),
     (test_q2_hexahedra_with_a_compliance_law_closed_form, (), "normal-compliance law on Q2 (27-node) hexahedra"),
     (test_q2_hexahedra_on_faces_that_do_not_match_closed_form, (), "would evaluate a biquadratic trace"),
@@ -1051,9 +1050,9 @@ def test_a_curved_part_of_hexahedra(monkeypatch):
     (test_a_curved_part_under_another_condition_than_its_nodal_one, ("sigma1",), "not available on a curved part"),
     (test_p2_tetrahedra_on_a_curved_part, (), "curved contact part with P2 (10-node) tetrahedra"),
     (test_a_curved_part_of_hexahedra, (), "curved contact part of hexahedra"),
-], ids=["37", "38", "39", "40", "41-sigma1", "41-sigma2", "42", "46", "47-gamma3", "47-sigma1", "48", "49"])
-def test_each_b_row_from_37_fails_on_its_own_refusal(test, args, words, monkeypatch):
-    """The xfail(strict, raises=UnsupportedError) of rows 37-42 and 46-49 accepts any UnsupportedError: each must be
+], ids=["38", "39", "40", "41-sigma1", "41-sigma2", "42", "46", "47-gamma3", "47-sigma1", "48", "49"])
+def test_each_b_row_from_38_fails_on_its_own_refusal(test, args, words, monkeypatch):
+    """The xfail(strict, raises=UnsupportedError) of rows 38-42 and 46-49 accepts any UnsupportedError: each must be
     its own row's (the message's words), not another refusal met first, so that lifting the row flips the test."""
     kwargs = {"monkeypatch": monkeypatch} if "monkeypatch" in test.__code__.co_varnames else {}
     with pytest.raises(cc.UnsupportedError) as info:

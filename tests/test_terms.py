@@ -110,7 +110,7 @@ def test_the_term_answers_as_the_flag_branches_it_replaces(case):
     assert t.always_finished == (not (p.conic or p.mixed or p.friction))           # solve.py, Model._warn
     assert t.cones == (p.conic or p.mixed)                                         # solve.py's hint
     assert t.estimated                                                             # solve.py, Model.solve
-    assert t.takes_user_terms == (not p.friction)
+    assert t.takes_user_terms                 # cc.Model: every term (friction: its beside_user_terms)
     d = describe(p)                                                                # backends/__init__.describe
     assert (d.compliant, d.conic, d.friction) == (p.compliant, p.conic or p.mixed, p.friction)
     assert d.dependent_rows == (bool(dependent_rows(p)) and not p.conic)
@@ -368,3 +368,59 @@ def test_model_warns_where_a_finish_that_always_runs_did_not(monkeypatch, module
     assert not sol.polished and sol.info.declined.stop is Stop.MAX_ITER
     assert len(warned) == int(model_warns), [str(w.message) for w in warned]
     assert all("declined by a test" in str(w.message) for w in warned)
+
+
+# ---- combinations of laws: declared by the terms (``parts``), computed from the lines --------------------------
+
+
+def _lines(cones=False, compliance=False, friction=False):
+    """Contact lines as the parts read them (PARTS' tests: ``conic``/``mixed``, the rows' laws)."""
+    rows = SimpleNamespace(compliant=compliance, friction=friction)
+    return SimpleNamespace(conic=cones and not compliance, mixed=cones and compliance, rows=rows)
+
+
+def test_each_combination_of_laws_is_posed_by_the_one_term_that_declares_it_or_refused_by_name():
+    """The package's terms declare distinct combinations (their ``parts``); each of the 2^3 combinations of
+    PARTS is posed by the term declaring it, whatever the order tried, and the one no term declares (the cones,
+    a compliance law and friction together) is an UnsupportedError with its declared words (UNPOSED: what to do),
+    met before anything else is built (cc.Model of such a scene); one without words names the combination and the
+    declared ones (the registry without the cones' terms, for the call)."""
+    import itertools
+
+    from friction_scenes import P, compliant_series
+
+    from cvxcontact.discrete import terms
+    from cvxcontact.discrete.terms import PARTS, contact_term, parts_of
+    from cvxcontact.errors import UnsupportedError
+
+    own = [t for t in TERMS if t.__module__ == "cvxcontact.discrete.terms"]
+    assert len({t.parts for t in own}) == len(own) and all(t.parts <= set(PARTS) for t in own)
+    for on in itertools.product((False, True), repeat=3):
+        lines = _lines(*on)
+        parts = parts_of(lines)
+        assert parts == {name for name, o in zip(("cones", "compliance", "friction"), on) if o}
+        posing = [t for t in own if t.poses(lines)]
+        if parts == {"cones", "compliance", "friction"}:
+            assert posing == []
+            with pytest.raises(UnsupportedError, match="not available beside a normal-compliance law"):
+                contact_term(lines, 2)                          # its words declared (UNPOSED)
+        else:
+            assert len(posing) == 1 and posing[0].parts == parts
+            assert type(contact_term(lines, 2)) is posing[0]
+    with pytest.raises(UnsupportedError, match=r"poses cones \+ friction together \(the terms and the laws they "
+                                               r"declare: .*friction \(friction\), .*signorini \(Signorini rows\)"):
+        _refused_without(terms, "cones")
+    scene = compliant_series(0.1 * P, 1e12, g=0.5 * P)   # friction under the P2 cones beside a compliant floor
+    with pytest.raises(UnsupportedError, match="is not available beside a normal-compliance law: pose every pair"):
+        cc.Model(scene, "gamma3", degree=2)
+
+
+def _refused_without(terms, part):
+    """contact_term of lines with the cones and friction, the terms declaring ``part`` set aside for the call."""
+    kept = [t for t in terms._REGISTRY if part not in getattr(t, "parts", ())]
+    saved = list(terms._REGISTRY)
+    terms._REGISTRY[:] = kept
+    try:
+        return terms.contact_term(_lines(True, False, True), 2)
+    finally:
+        terms._REGISTRY[:] = saved

@@ -75,8 +75,8 @@ from .signorini import dependent_rows
 from .tangency import tangency_newton
 
 __all__ = ["CONE_ROUNDING", "CUT_FAILURES", "CUT_ROUNDS", "ENERGY_SLACK", "RESOLUTION", "UNFINISHED_CONES",
-           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "prescribed_row_slip",
-           "row_forces"]
+           "conic_full", "exact_finish", "finish_on_nodes", "friction_program", "full", "interior_active",
+           "prescribed_row_slip", "row_forces"]
 
 log = logging.getLogger(__name__)
 
@@ -92,12 +92,14 @@ larger of |objective| and C U: the interior point's own answer may sit below the
 infeasibility (its rows at the conic tolerances)."""
 
 
-def friction_program(problem, model: ContactModel):
+def friction_program(problem, model: ContactModel, extra=(), objective=None):
     """(the CVXPY problem, the slip equality constraint, its rows, the capacities parameter c (scaled), the
     slip variable s, the friction energy) of ``problem``'s friction term added to ``model`` (the full program of the normal rows):
     one slip variable per frictional row and slip component (s: (rows, c), c = 1 in 2D, 2 in 3D), the energy
     sum_a c_a |s_a| (2D: an absolute value; 3D: the Euclidean norm of the row's two components, a
-    second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major)."""
+    second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major). ``extra``,
+    ``objective``: constraints and a (scaled) objective term posed beside them (``cc.Model``'s user terms,
+    :mod:`cvxcontact.backends.frictionuser`)."""
     rows = np.flatnonzero(problem.rows.frictional)
     n_c = problem.slip_components
     at = np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])
@@ -111,7 +113,7 @@ def friction_program(problem, model: ContactModel):
     else:
         s = cp.Variable((len(rows), n_c), name="slip")
         constraint, energy = cp.vec(s, order="F") == slip, capacity @ cp.norm(s, 2, axis=1)
-    program = model.with_terms([constraint], objective=energy)
+    program = model.with_terms([constraint, *extra], objective=energy if objective is None else energy + objective)
     return program, constraint, rows, capacity, s, energy
 
 
@@ -121,16 +123,21 @@ def full(problem, cache, settings, timings) -> RawResult:
     of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
     (``polish``) the exact finish, :func:`exact_finish`."""
     raw, unsettled = _interior(problem, settings, timings, _row_forces)
-    moved = problem.g - sum((R @ tau for (R, _), tau in zip(problem.translations, raw.taus)),
-                            np.zeros(len(problem.g)))
-    parts = [problem.E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)]
-    raw.active = ipm_active(parts, moved, raw.y, force_displacements(problem.blocks, problem.E, raw.y),
-                            reach_forces(problem.blocks, problem.E, raw.u, raw.phi))
+    raw.active = interior_active(problem, raw)
     if settings.polish:
         exact_finish(problem, raw, timings)
     if unsettled and not raw.polished:
         warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
     return raw
+
+
+def interior_active(problem, raw):
+    """The closed rows of the interior point's answer ``raw`` (:func:`~cvxcontact.backends.finish.ipm_active`)."""
+    moved = problem.g - sum((R @ tau for (R, _), tau in zip(problem.translations, raw.taus)),
+                            np.zeros(len(problem.g)))
+    parts = [problem.E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)]
+    return ipm_active(parts, moved, raw.y, force_displacements(problem.blocks, problem.E, raw.y),
+                      reach_forces(problem.blocks, problem.E, raw.u, raw.phi))
 
 
 UNFINISHED_CONES = "not finished exactly under the P2 cones: the interior point's answer, checked"
@@ -472,15 +479,17 @@ def _cone_forces(problem, model):
     return y, beta
 
 
-def _interior(problem, settings, timings, normal):
+def _interior(problem, settings, timings, normal, model=None, extra=(), objective=None):
     """(raw, unsettled): the interior point's answer of the full program with the friction energy (Tresca's, or
     Coulomb's fixed point), ``normal(problem, model) -> (y, beta)`` reading the normal forces of the solved
     program; ``unsettled`` the words of a :class:`~cvxcontact.errors.FixedPointWarning` (None: converged or
-    Tresca), warned by the route if no finish reaches the law."""
+    Tresca), warned by the route if no finish reaches the law. ``model``: the term's program to add the friction
+    to (None: built here); ``extra``, ``objective``: terms posed beside (:func:`friction_program`)."""
     t0 = time.perf_counter()
     E = problem.E
-    model = problem.term.program(problem)              # the normal rows or cones (the term's program)
-    program, constraint, rows, capacity, s, friction = friction_program(problem, model)
+    if model is None:
+        model = problem.term.program(problem)          # the normal rows or cones (the term's program)
+    program, constraint, rows, capacity, s, friction = friction_program(problem, model, extra, objective)
     timings["model"] = time.perf_counter() - t0
     # beside a non-quadratic energy the bulk cones' settings (equilibrated): the conic ones stalled there, Clarabel
     # ended InsufficientProgress (SolverError) on Coulomb's first program of a yielding P2 block (sigma1, sigma2)
@@ -503,7 +512,7 @@ def _interior(problem, settings, timings, normal):
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
         status = program.status
     else:
-        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
+        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction, extra, objective)
         iterations, (best, status), changes, unsettled = _fixed_point(
             problem, model, stuck, program, capacity, rows, answer, fixed_point,
             lambda p: timed_program(p, settings, timings, options), lambda: normal(problem, model)[0])
@@ -607,13 +616,14 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     return raw
 
 
-def _stuck(problem, model, constraint, rows, capacity, s, friction):
+def _stuck(problem, model, constraint, rows, capacity, s, friction, extra=(), objective=None):
     """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
     held at 0 (some unknown moves their slip, and no support prescribes a slip there: a side that meets the
     contact moved along a tangent, docs/howto/friction.md; against a curved obstacle its tangent at a corner
     is tilted, so the unknown normal displacement moves that slip too, but cancelling the support's slip with it
     would drive the corner into the obstacle: the start was infeasible), the other rows at their given
-    thresholds (``capacity`` set here; 0 on the pressure-dependent ones)."""
+    thresholds (``capacity`` set here; 0 on the pressure-dependent ones); ``extra``, ``objective`` posed beside
+    (:func:`friction_program`)."""
     E, n_c = problem.E, problem.slip_components
     moved = moved_components(problem, rows)
     at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
@@ -622,7 +632,8 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     sticks = pressure & moved.any(axis=1) & ~prescribed.any(axis=1)
     capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
     held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
-    return model.with_terms([constraint, *held], objective=friction)
+    return model.with_terms([constraint, *held, *extra],
+                            objective=friction if objective is None else friction + objective)
 
 
 def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve, forces):

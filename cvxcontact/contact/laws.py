@@ -261,8 +261,8 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
     Signorini, normal-compliance and friction pairs (:class:`Tresca`, :class:`Coulomb`; 2D, and 3D with planar
     contact parts), between bodies or against rigid obstacles, is posed here. A pair is either compliant in the
     normal direction (frictionless) or frictional (Signorini in the normal direction): no law here is both. The
-    refusals that remain are the space's (P2 "gamma3" cones with friction beside a compliance law,
-    :mod:`cvxcontact.discrete.problem`)."""
+    refusals that remain are the space's and the terms' (P2 "gamma3" cones with friction beside a compliance law:
+    no contact term declares that combination, :data:`cvxcontact.discrete.terms.UNPOSED`)."""
     pair_laws(scene, law)
     return law
 

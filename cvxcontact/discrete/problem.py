@@ -33,7 +33,7 @@ from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
 from .blocks import Block, Units, units
-from .terms import ContactTerm, contact_term
+from .terms import UNPOSED, ContactTerm, contact_term
 
 __all__ = ["DiscreteProblem", "build_problem"]
 
@@ -344,6 +344,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     """Everything that depends on the loads (and on the obstacles' positions), from assembled ``matrices``."""
     at = [None] * len(scene.bodies) if nodes is None else nodes
     lines = space.contact(scene, condition, law, nodes)
+    term = contact_term(lines, space.dim)         # the combination of laws: a term declares it, or it is refused
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     forced = [o for o in lines.obstacles if o.force is not None]
     counts = [len(s.f) // space.dim for s in systems]
@@ -385,7 +386,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                          np.zeros(slips[0].shape[0])) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
-                              translations=translations, held_rows=held, term=contact_term(lines, space.dim),
+                              translations=translations, held_rows=held, term=term,
                               scale=scale, kernel=kernel,
                               prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
                               translation_slips=moves,
@@ -413,13 +414,8 @@ def _capacity(scene, condition, lines, moves):
         return None
     E = lines.E
     weights = friction_weights(lines, condition, scene.conditions)
-    if lines.mixed or (lines.conic and not rows.size == len(weights) == E.shape[0]):   # the cones on E's rows
-        raise UnsupportedError(
-            "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, "
-            "the friction rows at its nodes and at the rows of the pairs under a nodal condition) is not available "
-            "beside a normal-compliance law: pose every pair under a Signorini law (the default), or use "
-            "condition='sigma1' or 'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with "
-            "'gamma3' (P1: the condition everywhere is its nodal rows)")
+    if lines.conic and not rows.size == len(weights) == E.shape[0]:   # the cones on E's rows
+        raise UnsupportedError(UNPOSED[frozenset({"cones", "compliance", "friction"})])
     pairs = getattr(lines.interface, "interfaces", (lines.interface,))
     if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
             not getattr(i, "rigid", True) and (c or condition) == "gamma3" for i, c in zip(pairs, scene.conditions)):

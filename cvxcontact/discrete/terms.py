@@ -28,9 +28,12 @@ so a term names its functions as "module:function" (or gives the function itself
 package), resolved on first call (:func:`named`, the pattern of a backend's ``routes``,
 :func:`cvxcontact.backends.run.route`): the import order stays one way, and each law's program, forces and
 read-back stay beside the code of their layer (backends/full.py, backends/cones.py, solution/nodal.py,
-solution/readback.py). A new law adds one class here (its names and answers, its ``poses(lines)``), an entry of
-:data:`TERMS` (:func:`register_term` from outside), its functions, and a route for its kind in each backend that
-solves it; nothing else branches on it.
+solution/readback.py). A new law adds one class here (its names and answers, the combination of laws it poses,
+``parts``, from :data:`PARTS`, or its own ``poses(lines)``), an entry of :data:`TERMS` (:func:`register_term` from
+outside), its functions, and a route for its kind in each backend that solves it; nothing else branches on it. A
+combination of laws is a term too: which combinations are posed is what the terms declare (a combination none
+declares is refused by :func:`contact_term`), and what the combination needs beyond its program is the term's
+(its read-back, its finish by its backends' routes, ``beside_user_terms`` for ``cc.Model``'s user terms).
 
 The answers a backend or the solve still asks as data (what :class:`~cvxcontact.backends.ProblemDescription`
 tells a backend, and the solve's bookkeeping):
@@ -62,11 +65,11 @@ from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..errors import SolverError
+from ..errors import SolverError, UnsupportedError
 
-__all__ = ["ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones", "ConesBesideCompliance",
-           "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS", "contact_term",
-           "register_term", "unregister_term", "named"]
+__all__ = ["PARTS", "UNPOSED", "ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones",
+           "ConesBesideCompliance", "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS",
+           "contact_term", "parts_of", "register_term", "unregister_term", "named"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -80,6 +83,35 @@ def named(where: str | Callable) -> Callable:
     except (ImportError, AttributeError, ValueError) as exc:
         raise SolverError(f"the contact term's function {where!r} does not import ({exc}); name the function "
                           f"itself or an importable 'module:function'") from exc
+
+
+PARTS = {
+    "cones": lambda lines: lines.conic or lines.mixed,
+    "compliance": lambda lines: lines.rows.compliant,
+    "friction": lambda lines: lines.rows.friction,
+}
+"""The laws a problem's contact lines may combine, each with its test on the lines
+(:class:`~cvxcontact.fem.space.ContactLines`): the P2 "gamma3" cones (docs/formulation.md §8; beside a compliance
+law too, §10), a normal-compliance law on some rows (§10), a friction law on some rows (docs/howto/friction.md).
+Signorini's nodal rows are the empty combination. A term declares the combination it poses (``parts``)."""
+
+
+UNPOSED = {
+    frozenset({"cones", "compliance", "friction"}): (
+        "a friction law with P2 elements under 'gamma3' (the conic condition: cones on every element of X_h, the "
+        "friction rows at its nodes and at the rows of the pairs under a nodal condition) is not available beside a "
+        "normal-compliance law: pose every pair under a Signorini law (the default), or use condition='sigma1' or "
+        "'sigma2' (nodal rows at the P2 nodes of that body's faces), or degree=1 with 'gamma3' (P1: the condition "
+        "everywhere is its nodal rows)"),
+}
+"""What to do where the lines combine laws no term declares (:func:`contact_term`'s refusal; docs/refusals.md
+row 32: friction under the P2 cones beside a compliance law); a combination without words here is refused by
+name."""
+
+
+def parts_of(lines) -> frozenset[str]:
+    """The combination of laws (:data:`PARTS`) the contact lines ``lines`` pose."""
+    return frozenset(name for name, test in PARTS.items() if test(lines))
 
 
 @runtime_checkable
@@ -112,6 +144,8 @@ class ContactTerm(Protocol):
     def program(self, problem): ...
 
     def program_forces(self, problem, model, u, taus) -> tuple: ...
+
+    def with_user_terms(self, problem, model, constraints, objective, settings, timings, admits): ...
 
     def read_back(self, problem, raw, tol: float, timings: dict): ...
 
@@ -156,6 +190,20 @@ class _Term:
     """``(problem, raw, tol, timings) -> Solution``: lambda_h in SI and the checks of its law."""
     starts: ClassVar[str | Callable] = "cvxcontact.backends.start:start_active"
     """``(problem, state) -> bool per row``: the first active-set guess from a state on another mesh."""
+    parts: ClassVar[frozenset[str]] = frozenset()
+    """The laws it poses together (:data:`PARTS`): the term poses the contact lines whose :func:`parts_of` are
+    these (:meth:`poses`); a combination no registered term declares is refused by name (:func:`contact_term`)."""
+    beside_user_terms: ClassVar[str | Callable | None] = None
+    """``(problem, model, constraints, objective, settings, timings, admits) -> (raw, force)``: how ``cc.Model``
+    solves this term's program beside its user terms, where :meth:`program` is not the whole of it (a friction
+    law's slip cones; :meth:`with_user_terms`); None: ``cc.Model`` poses them on :meth:`program` and finishes
+    them itself (its active-set finish of the nodal rows and the user rows)."""
+
+    @classmethod
+    def poses(cls, lines) -> bool:
+        """Whether this term poses the contact lines ``lines``: their parts (:func:`parts_of`) are its
+        :attr:`parts`."""
+        return parts_of(lines) == cls.parts
 
     def program(self, problem):
         """The full convex program of ``problem`` with this term's rows or cones (:attr:`programs`)."""
@@ -176,6 +224,19 @@ class _Term:
         declined by the route, or not run where it always runs (a quadratic energy)."""
         return bool(polish and not raw.polished and self.finishes
                     and (raw.declined or (problem.quadratic and self.always_finished)))
+
+    def with_user_terms(self, problem, model, constraints, objective, settings, timings, admits):
+        """``cc.Model``'s answer with user terms where this term declares how (:attr:`beside_user_terms`):
+        ``(raw, force)``, the scaled :class:`~cvxcontact.backends.result.RawResult` of ``model`` (its
+        :meth:`program`, whose variables the user ``constraints`` and ``objective`` (scaled) are built on) and
+        the generalised force the term adds to the momentum rows beyond E^T y (on the model's stacked unknowns;
+        None: none), solved with ``settings`` (a :class:`~cvxcontact.backends.result.Settings`); ``admits(raw)``
+        says whether an answer finished without the user rows satisfies them (then it is the program's with
+        them, their multipliers 0). None where the term declares nothing (``cc.Model``'s own path)."""
+        where = type(self).beside_user_terms
+        if where is None:
+            return None
+        return named(where)(problem, model, constraints, objective, settings, timings, admits)
 
     def start(self, problem, cache) -> None:
         """Before a route runs: a state from another mesh in ``cache`` (``cache.start``) and no active set gives
@@ -233,20 +294,18 @@ class _Term:
 class SignoriniRows(_Term):
     """Signorini's law at nodal rows E [u_nu] <= E g (P1, P2 sigma conditions; docs/formulation.md §2, §8)."""
 
+    parts: ClassVar[frozenset[str]] = frozenset()
     kind: ClassVar[str] = "signorini"
     zeroes_held_forces: ClassVar[bool] = True
     _starts: ClassVar[tuple[int, ...]] = (2, 3)
     _states: ClassVar[tuple[int, ...]] = (2, 3)
-
-    @staticmethod
-    def poses(lines) -> bool:
-        return True
 
 
 @dataclass(frozen=True)
 class ComplianceRows(_Term):
     """A normal-compliance law on some nodal rows, Signorini (or a penetration limit) on the others (§10)."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"compliance"})
     kind: ClassVar[str] = "compliance"
     compliant: ClassVar[bool] = True
     active_from_forces: ClassVar[bool] = True
@@ -254,16 +313,13 @@ class ComplianceRows(_Term):
     forces: ClassVar[str | Callable] = "cvxcontact.backends.compliance:compliance_forces"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_compliance"
 
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.rows.compliant
-
 
 @dataclass(frozen=True)
 class EverywhereCones(_Term):
     """The P2 "gamma3" condition: a cone per element on the Bernstein coefficients of the slack (§8); its
     cuts finish only problems they can condense."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"cones"})
     kind: ClassVar[str] = "conic"
     cones: ClassVar[bool] = True
     unfinished_hint: ClassVar[str] = (
@@ -278,16 +334,13 @@ class EverywhereCones(_Term):
     forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:cone_forces"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_cones"
 
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.conic
-
 
 @dataclass(frozen=True)
 class ConesBesideCompliance(_Term):
     """The P2 cones of some pairs in one program with a normal-compliance law on others (§10, "P2"); the
     interior point's answer (no exact finish is reported as declined)."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"cones", "compliance"})
     kind: ClassVar[str] = "mixed"
     compliant: ClassVar[bool] = True
     cones: ClassVar[bool] = True
@@ -298,33 +351,26 @@ class ConesBesideCompliance(_Term):
     forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_forces"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_conic_mix"
 
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.mixed
-
 
 @dataclass(frozen=True)
 class TrescaFriction(_Term):
     """Signorini rows and a friction law's cone per row on the slip (docs/howto/friction.md; Tresca, and Coulomb
     by a fixed point on the thresholds; 2D and 3D P1, 2D P2 under the nodal conditions): the full program only,
     then its exact finish (:func:`cvxcontact.backends.friction.exact_finish`; a decline keeps the interior
-    point's answer without a warning, as before the finish existed); no error estimate, no user terms yet."""
+    point's answer without a warning, as before the finish existed); no error estimate; ``cc.Model``'s user terms
+    beside it by :mod:`cvxcontact.backends.frictionuser`."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"friction"})
     kind: ClassVar[str] = "friction"
     tangential: ClassVar[bool] = True
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
     unestimated: ClassVar[str] = ""
-    refuses_user_terms: ClassVar[str] = ("user terms next to a friction law are not available yet: solve the model "
-                                         "without them, or use a frictionless law")
+    beside_user_terms: ClassVar[str | Callable | None] = "cvxcontact.backends.frictionuser:beside_user_terms"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.friction:row_forces"
     # its program: the Signorini rows, to which the friction route adds the slip's cones
     # (:func:`cvxcontact.backends.friction.friction_program`)
-
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.rows.friction
 
 
 @dataclass(frozen=True)
@@ -336,6 +382,7 @@ class FrictionBesideCompliance(TrescaFriction):
     quadratic steps, semismooth on the law's rows), or declined (a :class:`~cvxcontact.errors.ResidualWarning`);
     read back with the compliance checks and the friction law's."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"friction", "compliance"})
     kind: ClassVar[str] = "compliance_friction"
     compliant: ClassVar[bool] = True
     active_from_forces: ClassVar[bool] = True
@@ -343,10 +390,6 @@ class FrictionBesideCompliance(TrescaFriction):
     programs: ClassVar[str | Callable] = ComplianceRows.programs
     forces: ClassVar[str | Callable] = ComplianceRows.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_compliance_friction"
-
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.rows.friction and lines.rows.compliant and not lines.conic
 
 
 @dataclass(frozen=True)
@@ -364,12 +407,13 @@ class ConesWithFriction(_Term):
     (a :class:`~cvxcontact.errors.ResidualWarning` naming why) and the interior point's answer kept, with the conic
     and friction checks."""
 
+    parts: ClassVar[frozenset[str]] = frozenset({"cones", "friction"})
     kind: ClassVar[str] = "conic_friction"
     cones: ClassVar[bool] = True
     tangential: ClassVar[bool] = True
     always_finished: ClassVar[bool] = False
     rows_may_depend: ClassVar[bool] = False
-    refuses_user_terms: ClassVar[str] = TrescaFriction.refuses_user_terms
+    beside_user_terms: ClassVar[str | Callable | None] = "cvxcontact.backends.frictionuser:cones_beside_user_terms"
     unfinished_hint: ClassVar[str] = (
         "\nThis P2 'gamma3' friction answer is the interior point's (polish=False, or a finish that declined: on "
         "the nodes and cut points, in 2D then at the exact tangency points; info.declined says why), so its "
@@ -380,14 +424,11 @@ class ConesWithFriction(_Term):
     forces: ClassVar[str | Callable] = EverywhereCones.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_conic_friction"
 
-    @staticmethod
-    def poses(lines) -> bool:
-        return lines.rows.friction and lines.conic
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
-            "program_forces", "read_back", "finish_declined", "start", "determining_rows", "held_forces",
-            "hands_on")
+            "program_forces", "with_user_terms", "read_back", "finish_declined", "start", "determining_rows",
+            "held_forces", "hands_on")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance,
@@ -409,9 +450,9 @@ class _Terms(Sequence):
 
 
 TERMS: Sequence[type] = _Terms()
-"""The term classes in the order they are tried: the first whose ``poses(lines)`` holds is the problem's (a
-friction law before the normal ones (next to the cones first), cones beside a law before cones alone, Signorini rows last); a live view
-of the registry (:func:`register_term` puts a term from outside first)."""
+"""The term classes in the order they are tried: the first whose ``poses(lines)`` holds is the problem's (the
+package's own declare distinct ``parts``, so their order does not matter); a live view of the registry
+(:func:`register_term` puts a term from outside first)."""
 
 
 def register_term(term: type, *, before: type | None = None) -> type:
@@ -469,4 +510,10 @@ def contact_term(lines, dim: int) -> ContactTerm:
                               "fix it or unregister_term it") from exc
         if poses:
             return term(dim)
-    raise SolverError(f"no registered contact term poses these contact lines (terms {tuple(TERMS)})")
+    if (words := UNPOSED.get(parts_of(lines))) is not None:
+        raise UnsupportedError(words)
+    named_parts = (lambda parts: " + ".join(sorted(parts)) or "Signorini rows")
+    declared = ", ".join(f"{t.kind} ({named_parts(getattr(t, 'parts', ()))})" for t in TERMS)
+    raise UnsupportedError(f"no registered contact term poses {named_parts(parts_of(lines))} together (the terms "
+                           f"and the laws they declare: {declared}): pose the pairs under fewer laws, or register a "
+                           "term declaring them (cvxcontact.discrete.terms.register_term)")

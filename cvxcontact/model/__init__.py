@@ -41,6 +41,7 @@ from dataclasses import replace
 
 import cvxpy as cp
 import numpy as np
+import scipy.sparse as sp
 
 from ..backends.cones import mixed_bernstein_rows
 from ..backends.finish import Declined
@@ -355,6 +356,12 @@ class Model:
         self._setup = {}
         t0 = time.perf_counter()
         objective = sum(self._objective) if self._objective else None
+        settings = Settings(solver=self.solver, options=self.options, verbose=self.verbose, polish=self.polish,
+                            warm_start=False)
+        out = self.problem.term.with_user_terms(self.problem, self._contact, self.constraints, objective, settings,
+                                                timings, self._admits)
+        if out is not None:                              # the term's own program beside the user terms
+            return self._solve_by_term(*out, objective, timings)
         problem = self._contact.with_terms(self.constraints, objective)
         timings["model"] = time.perf_counter() - t0
         conic = self._bernstein is not None
@@ -416,6 +423,47 @@ class Model:
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
         self._warn(sol, finishable, declined, stacklevel=3)
+        return sol
+
+    def _admits(self, raw) -> bool:
+        """Whether the answer ``raw`` (scaled, finished without the user rows) satisfies every user constraint,
+        each an inequality (then it answers the program with them, their multipliers 0: a convex program's KKT
+        conditions); the model's variables are left at ``raw``'s values."""
+        self._set_values(raw.u, raw.phi, raw.taus)
+        return all(isinstance(c, cp.constraints.Inequality) and bool(np.all(np.asarray(c.expr.value) <= 0.0))
+                   for c in self.constraints)
+
+    def _solve_by_term(self, raw, force, objective, timings) -> Solution:
+        """The Solution of the term's answer ``raw`` with the user terms (:meth:`ContactTerm.with_user_terms`;
+        ``force``: the generalised force the term adds beyond E^T y, None: none): its read-back and the user
+        terms' checks; a finished answer's user multipliers are 0 (it satisfies them, :meth:`_admits`)."""
+        zs = [np.zeros(c.size) for c in self.constraints] if raw.polished else ()
+        raw.y = self.problem.term.held_forces(self.problem, raw.y)     # the forces it reports, as cc.solve's run
+        self._set_values(raw.u, raw.phi, raw.taus, zs)   # the model's expressions (and duals) read the answer
+        x = self._x()
+        rows = []
+        for c in self.constraints:
+            C, c0 = linearize(c.expr, x, self._vars)
+            zc = np.asarray(c.dual_value, dtype=float).flatten(order="F")
+            rows.append((C, c0, zc, isinstance(c, cp.constraints.Equality), c.expr.is_affine()))
+        grad = np.zeros(self._n)
+        if objective is not None:
+            Cobj, _ = linearize(objective, x, self._vars)
+            grad = np.full(self._n, np.nan) if Cobj is None else Cobj.toarray().ravel()
+        t0 = time.perf_counter()
+        sol = read_back(self.problem, raw, self.tol, timings, "full")
+        sol._checks = checks(self.problem, sol._checks, raw.u, raw.phi, raw.y, x, rows,
+                             grad if force is None else grad + force)
+        if self._forced and rows:        # user rows on a translation carry part of its prescribed force (and the
+            #                              term's force on it: a row of multiplier 1)
+            extra = [] if force is None else [(sp.csr_matrix(force[None, :]), None, np.ones(1), False, True)]
+            sol._checks["obstacle balance"] = balance(self.problem, raw.y, rows + extra, self._n_bodies)
+        timings["read_back"] = time.perf_counter() - t0
+        sol.info = replace(sol.info, timings=timings)
+        # a finish that applies and declined (a friction term's decline keeps its interior point's answer silently,
+        # as cc.solve: ``finishes``), else the checks
+        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw.declined,
+                   stacklevel=4)
         return sol
 
     def _warn(self, sol, finishable: bool, declined: Declined | None, stacklevel: int) -> None:

@@ -69,12 +69,12 @@ import scipy.sparse as sp
 
 from .condensed import quasi_definite
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
-from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
+from . import SPARSE_ROWS, SPARSE_SLENDER  # noqa: F401  (the auto thresholds, defined with the registry)
 from ..errors import SolverError
 from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL"]
 
 COARSE_ROWS = 3000
 """The free contact rows from which the route's first solve starts from the coarse rows' answer
@@ -83,6 +83,16 @@ numeric factorisations and CPU from the bonded start / from this start): n = 300
 1.65 s, n = 5000 (8,501 rows) 16-17 / 5 and 4.3-4.8 / 3.2-3.5 s, but n = 1000 (1,701 rows) 9 / 6-7 and 0.57-0.59 /
 0.58-0.68 s (the coarse problem's partial factorisation costs about one bonded solve: worth it where the bonded
 start takes many steps; benchmarks/results/bench_longif.md)."""
+
+SLENDER_FILL = 5.0
+"""On a slender interface (:meth:`SparseContact._analysed`) PARDISO's analysis is made in minimum degree order (AMD,
+iparm[1] = 0) rather than nested dissection (METIS, 3), and kept where its factor holds at most this many times
+the entries of K's upper triangle. Measured (one thread; analysis / numeric factorisation CPU s, factor Mflop,
+fill, METIS against AMD): thin_layer(3000) 0.41 / 0.154 / 292 / 4.6 against 0.23 / 0.129 / 161 / 3.8,
+thin_layer(1000) 0.135 / 0.049 / 90 / 4.5 against 0.068 / 0.040 / 52 / 3.8, two_blocks(64) the same fill (4.7) and
+flops, two_blocks(300) 4,981 against 6,496 Mflop (fill 7.5 against 8.5); 3D boxes (tests/scenes3d.two_boxes, n = 12,
+18, 24): AMD fills 9.0, 19.5, 33.6 against 7.2, 13.2, 17.4 and takes 1.8-4.2 times the flops. A slender layer's
+graph is nearly one-dimensional, where minimum degree is near the best order; a bulky (3D) one is not."""
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
@@ -207,15 +217,10 @@ class SparseContact:
         t0 = time.perf_counter()
         K = self.matrix(active) if K is None else K
         if self.factorization == "pardiso":
-            from .factor import PardisoSymmetric
-
             t1 = time.perf_counter()
             try:
                 if self._pardiso is None:
-                    self._pardiso = PardisoSymmetric(K)
-                    moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
-                    if self._bonded_analysis and not own_analysis and not np.array_equal(active, moves):
-                        self._pardiso.analyse(self.matrix(moves))       # the analysis on the bonded values
+                    self._pardiso = self._analysed(K, active, own_analysis)
                     t1 = time.perf_counter()      # (a numeric factorisation's time: without the analysis)
                 factor = self._pardiso.factor(K)
             except SolverError:
@@ -236,6 +241,25 @@ class SparseContact:
         self.base = (active.copy(), factor)
         self._columns, self._base_state = {}, None
         return True
+
+    def _analysed(self, K, active, own_analysis: bool):
+        """A new PARDISO handle on the route's pattern (:meth:`_refactor`; ``K`` = K(``active``)), analysed on the
+        bonded values after :meth:`coarse_start`, else (nested dissection) by its first factorisation of ``K``. On a
+        slender interface (more rows than :data:`~cvxcontact.backends.SPARSE_SLENDER` sqrt(n)) minimum degree first,
+        kept where its factor fills at most :data:`SLENDER_FILL` times K's entries (else nested dissection);
+        ``own_analysis`` (the last resort of :meth:`_system`): nested dissection on K itself, as before."""
+        from .factor import PardisoSymmetric
+
+        moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
+        bonded = self._bonded_analysis and not own_analysis and not np.array_equal(active, moves)
+        values = self.matrix(moves) if bonded else K          # the analysis on the bonded values (:meth:`_refactor`)
+        if not own_analysis and self.m > SPARSE_SLENDER * np.sqrt(self.n):
+            handle = PardisoSymmetric(K, ordering=0).analyse(values)
+            if handle.fill <= SLENDER_FILL:
+                return handle
+            handle.release()
+        handle = PardisoSymmetric(K)
+        return handle.analyse(values) if bonded else handle
 
     def _over_cap(self, drop, add) -> bool:
         """Whether the rows ``drop`` and ``add`` changed from the base are more than the cap (refactorise rather

@@ -691,9 +691,10 @@ def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the
     active set and fields of SciPy's SuperLU on the route's own order (an independent factorisation); a bulky
     interface (two 3D boxes, 49 rows < 3 sqrt(n)) is analysed in nested dissection alone. A bad order is a typed
     error."""
+    from scenes3d import two_boxes
+
     import cvxcontact.backends.factor as factor_mod
     import cvxcontact.backends.sparse as sparse_mod
-    from scenes3d import two_boxes
 
     orders, Handle = [], factor_mod.PardisoSymmetric
 

@@ -14,7 +14,8 @@ Every contact row is present whatever A (an open row's couplings are stored as e
 sparsity pattern of K(A) is fixed: the fill-reducing ordering is computed once per geometry and reused
 by every factorisation (:func:`factorize` with SciPy's SuperLU; with ``factorization="pardiso"``,
 :class:`~cvxcontact.backends.factor.PardisoSymmetric`: one analysis, then a numeric factorisation per
-base, measured 4x faster on thin_layer(3000): 2.9 s against 12.2 s for 16 factorisations).
+base, measured 4x faster on thin_layer(3000): 2.9 s against 12.2 s for 16 factorisations; on a slender interface
+analysed in minimum degree order, :data:`SLENDER_FILL`, :meth:`SparseContact._analysed`).
 
 Primal-dual active-set steps (the semismooth Newton method for min(y, -s) = 0, s = G x - g) from A_0:
 A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj the row's diagonal
@@ -69,7 +70,7 @@ import scipy.sparse as sp
 
 from .condensed import quasi_definite
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
-from . import SPARSE_ROWS, SPARSE_SLENDER  # noqa: F401  (the auto thresholds, defined with the registry)
+from . import SPARSE_ROWS, SPARSE_SLENDER      # the auto thresholds, defined with the registry
 from ..errors import SolverError
 from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp

@@ -70,12 +70,12 @@ import scipy.sparse as sp
 
 from .condensed import quasi_definite
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
-from . import SPARSE_ROWS, SPARSE_SLENDER      # the auto thresholds, defined with the registry
+from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
 
 COARSE_ROWS = 3000
 """The free contact rows from which the route's first solve starts from the coarse rows' answer
@@ -85,15 +85,24 @@ numeric factorisations and CPU from the bonded start / from this start): n = 300
 0.58-0.68 s (the coarse problem's partial factorisation costs about one bonded solve: worth it where the bonded
 start takes many steps; benchmarks/results/bench_longif.md)."""
 
+SLENDER_FACE = 2.0 / 3.0
+"""A slender interface, for the route's PARDISO order (:data:`SLENDER_FILL`): more contact rows m than n ** this (n
+the free unknowns), i.e. more rows than on a face of a cube of n unknowns: bodies thinner than a cube. Measured
+m / n^(2/3): thin_layer(1000) 1.58, (3000) 2.27 (and 0.92, 1.05, 1.16 at n = 200, 300, 400); two 3D boxes
+(tests/scenes3d.two_boxes, n = 12, 18, 24) 0.54-0.55; two 2D blocks 0.15-0.26 (demo.two_blocks(64), (300)). The
+registry's SPARSE_SLENDER (m > 3 sqrt(n)) does not separate them: the 3D boxes at n = 24 have 3.2 sqrt(n)."""
+
 SLENDER_FILL = 5.0
-"""On a slender interface (:meth:`SparseContact._analysed`) PARDISO's analysis is made in minimum degree order (AMD,
-iparm[1] = 0) rather than nested dissection (METIS, 3), and kept where its factor holds at most this many times
-the entries of K's upper triangle. Measured (one thread; analysis / numeric factorisation CPU s, factor Mflop,
-fill, METIS against AMD): thin_layer(3000) 0.41 / 0.154 / 292 / 4.6 against 0.23 / 0.129 / 161 / 3.8,
-thin_layer(1000) 0.135 / 0.049 / 90 / 4.5 against 0.068 / 0.040 / 52 / 3.8, two_blocks(64) the same fill (4.7) and
-flops, two_blocks(300) 4,981 against 6,496 Mflop (fill 7.5 against 8.5); 3D boxes (tests/scenes3d.two_boxes, n = 12,
-18, 24): AMD fills 9.0, 19.5, 33.6 against 7.2, 13.2, 17.4 and takes 1.8-4.2 times the flops. A slender layer's
-graph is nearly one-dimensional, where minimum degree is near the best order; a bulky (3D) one is not."""
+"""On a slender interface (:data:`SLENDER_FACE`, :meth:`SparseContact._analysed`) PARDISO's analysis is made in
+minimum degree order (AMD, iparm[1] = 0) rather than nested dissection (METIS, 3), and kept where its factor holds at
+most this many times the entries of K's upper triangle (benchmarks/longif_orderings.py; one thread; analysis /
+numeric factorisation CPU s, factor Mflop, fill, METIS against AMD): thin_layer(3000) 0.41 / 0.154 / 292 / 4.6
+against 0.23 / 0.129 / 161 / 3.8, thin_layer(1000) 0.135 / 0.049 / 90 / 4.5 against 0.068 / 0.040 / 52 / 3.8,
+two_blocks(64) the same fill (4.7) and flops, two_blocks(300) 4,981 against 6,496 Mflop (fill 7.5 against 8.5);
+3D boxes (tests/scenes3d.two_boxes, n = 12, 18, 24): AMD fills 9.0, 19.5, 33.6 against 7.2, 13.2, 17.4 and takes
+1.8-4.2 times the flops. A slender layer's graph is nearly one-dimensional, where minimum degree is near the best
+order; a bulky (3D) one is not. Where minimum degree is tried and not kept, its analysis is lost (about one nested
+dissection analysis in 3D: 0.50 s on the boxes at n = 24)."""
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
@@ -246,15 +255,15 @@ class SparseContact:
     def _analysed(self, K, active, own_analysis: bool):
         """A new PARDISO handle on the route's pattern (:meth:`_refactor`; ``K`` = K(``active``)), analysed on the
         bonded values after :meth:`coarse_start`, else (nested dissection) by its first factorisation of ``K``. On a
-        slender interface (more rows than :data:`~cvxcontact.backends.SPARSE_SLENDER` sqrt(n)) minimum degree first,
-        kept where its factor fills at most :data:`SLENDER_FILL` times K's entries (else nested dissection);
-        ``own_analysis`` (the last resort of :meth:`_system`): nested dissection on K itself, as before."""
+        slender interface (more rows than n ** :data:`SLENDER_FACE`) minimum degree first, kept where its factor
+        fills at most :data:`SLENDER_FILL` times K's entries (else nested dissection); ``own_analysis`` (the last
+        resort of :meth:`_system`): nested dissection on K itself, as before."""
         from .factor import PardisoSymmetric
 
         moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
         bonded = self._bonded_analysis and not own_analysis and not np.array_equal(active, moves)
         values = self.matrix(moves) if bonded else K          # the analysis on the bonded values (:meth:`_refactor`)
-        if not own_analysis and self.m > SPARSE_SLENDER * np.sqrt(self.n):
+        if not own_analysis and self.m > self.n ** SLENDER_FACE:
             handle = PardisoSymmetric(K, ordering=0).analyse(values)
             if handle.fill <= SLENDER_FILL:
                 return handle

@@ -40,7 +40,8 @@ def main(names):
         p = cc.ContactSolver(scene).problem
         sc = SparseContact(list(p.blocks), p.E, factorization="pardiso")
         K = sc.matrix(np.ones(sc.m, dtype=bool))
-        row = [f"{name}: n {sc.n}, m {sc.m}, m/sqrt(n) {sc.m / np.sqrt(sc.n):.2f}, m/n^(2/3) {sc.m / sc.n ** (2 / 3):.2f}"]
+        head = f"{name}: n {sc.n}, m {sc.m}, m/sqrt(n) {sc.m / np.sqrt(sc.n):.2f}, m/n^(2/3) {sc.m / sc.n ** (2 / 3):.2f}"
+        row = [head]
         for ordering in (3, 0):
             ps = PardisoSymmetric(K, ordering=ordering)
             t0 = time.process_time()

@@ -680,3 +680,49 @@ def test_pardiso_refuses_another_pattern_with_the_same_count_of_entries(layer):
     z = ps.factor(sc.matrix(np.arange(sc.m) % 3 == 0)).solve(np.ones(K.shape[0]))
     assert np.isfinite(z).all()
     ps.release()
+
+
+@pytest.mark.skipif(not __import__("cvxcontact.backends.factor", fromlist=["x"]).pardiso_available(),
+                    reason="Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the_other_orders(monkeypatch):
+    """On a slender interface (thin_layer(400): 681 rows, 1.16 n^(2/3)) the route's PARDISO handle is analysed in
+    minimum degree order (iparm[1] = 0) and kept (its fill below SLENDER_FILL); where the fill is over the bound
+    (SLENDER_FILL lowered to 0) it is released and the analysis made in nested dissection (3). Both reach the
+    active set and fields of SciPy's SuperLU on the route's own order (an independent factorisation); a bulky
+    interface (two 3D boxes, 49 rows, 0.6 n^(2/3)) is analysed in nested dissection alone. A bad order is a typed
+    error."""
+    from scenes3d import two_boxes
+
+    import cvxcontact.backends.factor as factor_mod
+    import cvxcontact.backends.sparse as sparse_mod
+
+    orders, Handle = [], factor_mod.PardisoSymmetric
+
+    class Spy(Handle):
+        def __init__(self, K, *args, **kwargs):
+            super().__init__(K, *args, **kwargs)
+            orders.append(int(self._iparm[1]))
+
+    monkeypatch.setattr(factor_mod, "PardisoSymmetric", Spy)
+    scene = thin_layer(400)
+    ref = cc.solve(scene, method="sparse", factorization="superlu")
+    amd = cc.solve(scene, method="sparse", factorization="pardiso")
+    assert orders == [0] and amd.ok and ref.ok
+    monkeypatch.setattr(sparse_mod, "SLENDER_FILL", 0.0)
+    orders.clear()
+    metis = cc.solve(scene, method="sparse", factorization="pardiso")
+    assert orders == [0, 3] and metis.ok
+    for sol in (amd, metis):
+        assert np.array_equal(sol.contact.active, ref.contact.active)
+        # measured (default, Prescott, Sandybridge kernels; the path follows the measured cap): u and phi 1.6e-13 to
+        # 4.4e-12, the forces (the slender layer's conditioning; nested dissection alike) 1.2e-11 to 1.22e-9 of the
+        # largest: >= 220x, 160x
+        fields_agree(sol, ref, 1e-9, force_tol=2e-7)
+    orders.clear()
+    assert cc.solve(two_boxes(6), method="sparse", factorization="pardiso").ok and set(orders) == {3}
+    small = cc.ContactSolver(thin_layer(8)).problem
+    sc = sparse_mod.SparseContact(list(small.blocks), small.E)
+    K = sc.matrix(np.ones(sc.m, dtype=bool))
+    for bad in (1, True, "amd"):
+        with pytest.raises(cc.SolverError, match="ordering must be one of"):
+            Handle(K, ordering=bad)

@@ -56,7 +56,7 @@ from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
            "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
-           "symmetric_lu", "PardisoInterior"]
+           "symmetric_lu", "PardisoInterior", "PARDISO_ORDERINGS"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -64,6 +64,10 @@ FACTORIZATIONS = ("auto", "superlu", "pardiso")
 SUPERLU_OPTIONS = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
 
 PARDISO_INSTALL = 'pip install "cvxcontact[pardiso]"'
+
+PARDISO_ORDERINGS = (3, 0)
+"""The fill-reducing orders :class:`PardisoSymmetric` takes (PARDISO's iparm[1]): 3 parallel nested dissection
+(METIS), 0 minimum degree (AMD)."""
 
 
 DENSE_FILL = 0.1
@@ -538,12 +542,18 @@ class PardisoSymmetric:
     single precision (PARDISO's iparm[27] = 1; the values and the solves' vectors rounded to float32, the answers
     returned in float64): a factor of K to about 6e-8 relative, which the caller refines against K in double
     (measured, the Hencky route's systems at 103,041 unknowns, one thread: a factorisation 0.095 s against 0.136 s,
-    a solve 0.013 s against 0.024 s, residual 1e-7 after one solve and 2e-16 after three refinements)."""
+    a solve 0.013 s against 0.024 s, residual 1e-7 after one solve and 2e-16 after three refinements).
+    ``ordering``: PARDISO's fill-reducing order (iparm[1]), one of :data:`PARDISO_ORDERINGS`: 3 its parallel nested
+    dissection (METIS, the default), 0 minimum degree (AMD; cheaper to analyse, and on a slender 2D layer less fill:
+    :data:`~cvxcontact.backends.sparse.SLENDER_FILL`)."""
 
-    def __init__(self, K, threads=None, single: bool = False):
+    def __init__(self, K, threads=None, single: bool = False, ordering: int = 3):
         lib = _load()
         if lib is None:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
+        if isinstance(ordering, bool) or ordering not in PARDISO_ORDERINGS:
+            raise SolverError(f"PardisoSymmetric: ordering must be one of {PARDISO_ORDERINGS} (PARDISO's iparm[1]: 3 "
+                              f"nested dissection, 0 minimum degree), got {ordering!r}")
         K = sp.csc_matrix(K)
         n = K.shape[0]
         if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
@@ -562,7 +572,7 @@ class PardisoSymmetric:
         _open(self, lib, n, threads)
         ip = self._iparm
         ip[0] = 1
-        ip[1] = 3                  # parallel nested dissection (METIS)
+        ip[1] = int(ordering)      # 3: parallel nested dissection (METIS); 0: minimum degree (AMD)
         ip[7] = 0                  # the caller refines
         ip[9] = 8                  # pivot perturbation 1e-8 (counted in ``perturbed``)
         ip[10] = 1                 # symmetric scaling and weighted matching: saddle-point rows
@@ -575,6 +585,12 @@ class PardisoSymmetric:
         self.cost = None
 
     _call = PardisoFactorization._call
+
+    @property
+    def fill(self) -> float | None:
+        """The factor's nonzeros over the stored entries of K's upper triangle, as the analysis reports them (None
+        before it): how much the ordering fills in."""
+        return None if self.cost is None else self.cost[1] / max(len(self._ja), 1)
 
     def _values(self, K, what):
         """Take ``K``'s values in the analysed pattern's order; SolverError if its stored entries (CSC, in their

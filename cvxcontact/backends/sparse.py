@@ -14,7 +14,8 @@ Every contact row is present whatever A (an open row's couplings are stored as e
 sparsity pattern of K(A) is fixed: the fill-reducing ordering is computed once per geometry and reused
 by every factorisation (:func:`factorize` with SciPy's SuperLU; with ``factorization="pardiso"``,
 :class:`~cvxcontact.backends.factor.PardisoSymmetric`: one analysis, then a numeric factorisation per
-base, measured 4x faster on thin_layer(3000): 2.9 s against 12.2 s for 16 factorisations).
+base, measured 4x faster on thin_layer(3000): 2.9 s against 12.2 s for 16 factorisations; on a slender interface
+analysed in minimum degree order, :data:`SLENDER_FILL`, :meth:`SparseContact._analysed`).
 
 Primal-dual active-set steps (the semismooth Newton method for min(y, -s) = 0, s = G x - g) from A_0:
 A_{k+1} = {a : y_a w_a + s_a > 0}, w_a = sum_l sum_j (E J_l)_aj^2 / (K_uu,l)_jj the row's diagonal
@@ -74,7 +75,7 @@ from ..errors import SolverError
 from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
-__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS"]
+__all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
 
 COARSE_ROWS = 3000
 """The free contact rows from which the route's first solve starts from the coarse rows' answer
@@ -83,6 +84,25 @@ numeric factorisations and CPU from the bonded start / from this start): n = 300
 1.65 s, n = 5000 (8,501 rows) 16-17 / 5 and 4.3-4.8 / 3.2-3.5 s, but n = 1000 (1,701 rows) 9 / 6-7 and 0.57-0.59 /
 0.58-0.68 s (the coarse problem's partial factorisation costs about one bonded solve: worth it where the bonded
 start takes many steps; benchmarks/results/bench_longif.md)."""
+
+SLENDER_FACE = 2.0 / 3.0
+"""A slender interface, for the route's PARDISO order (:data:`SLENDER_FILL`): more contact rows m than n ** this (n
+the free unknowns), i.e. more rows than on a face of a cube of n unknowns: bodies thinner than a cube. Measured
+m / n^(2/3): thin_layer(1000) 1.58, (3000) 2.27 (and 0.92, 1.05, 1.16 at n = 200, 300, 400); two 3D boxes
+(tests/scenes3d.two_boxes, n = 12, 18, 24) 0.54-0.55; two 2D blocks 0.15-0.26 (demo.two_blocks(64), (300)). The
+registry's SPARSE_SLENDER (m > 3 sqrt(n)) does not separate them: the 3D boxes at n = 24 have 3.2 sqrt(n)."""
+
+SLENDER_FILL = 5.0
+"""On a slender interface (:data:`SLENDER_FACE`, :meth:`SparseContact._analysed`) PARDISO's analysis is made in
+minimum degree order (AMD, iparm[1] = 0) rather than nested dissection (METIS, 3), and kept where its factor holds at
+most this many times the entries of K's upper triangle (benchmarks/longif_orderings.py; one thread; analysis /
+numeric factorisation CPU s, factor Mflop, fill, METIS against AMD): thin_layer(3000) 0.41 / 0.154 / 292 / 4.6
+against 0.23 / 0.129 / 161 / 3.8, thin_layer(1000) 0.135 / 0.049 / 90 / 4.5 against 0.068 / 0.040 / 52 / 3.8,
+two_blocks(64) the same fill (4.7) and flops, two_blocks(300) 4,981 against 6,496 Mflop (fill 7.5 against 8.5);
+3D boxes (tests/scenes3d.two_boxes, n = 12, 18, 24): AMD fills 9.0, 19.5, 33.6 against 7.2, 13.2, 17.4 and takes
+1.8-4.2 times the flops. A slender layer's graph is nearly one-dimensional, where minimum degree is near the best
+order; a bulky (3D) one is not. Where minimum degree is tried and not kept, its analysis is lost (about one nested
+dissection analysis in 3D: 0.50 s on the boxes at n = 24)."""
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
@@ -207,15 +227,10 @@ class SparseContact:
         t0 = time.perf_counter()
         K = self.matrix(active) if K is None else K
         if self.factorization == "pardiso":
-            from .factor import PardisoSymmetric
-
             t1 = time.perf_counter()
             try:
                 if self._pardiso is None:
-                    self._pardiso = PardisoSymmetric(K)
-                    moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
-                    if self._bonded_analysis and not own_analysis and not np.array_equal(active, moves):
-                        self._pardiso.analyse(self.matrix(moves))       # the analysis on the bonded values
+                    self._pardiso = self._analysed(K, active, own_analysis)
                     t1 = time.perf_counter()      # (a numeric factorisation's time: without the analysis)
                 factor = self._pardiso.factor(K)
             except SolverError:
@@ -236,6 +251,25 @@ class SparseContact:
         self.base = (active.copy(), factor)
         self._columns, self._base_state = {}, None
         return True
+
+    def _analysed(self, K, active, own_analysis: bool):
+        """A new PARDISO handle on the route's pattern (:meth:`_refactor`; ``K`` = K(``active``)), analysed on the
+        bonded values after :meth:`coarse_start`, else (nested dissection) by its first factorisation of ``K``. On a
+        slender interface (more rows than n ** :data:`SLENDER_FACE`) minimum degree first, kept where its factor
+        fills at most :data:`SLENDER_FILL` times K's entries (else nested dissection); ``own_analysis`` (the last
+        resort of :meth:`_system`): nested dissection on K itself, as before."""
+        from .factor import PardisoSymmetric
+
+        moves = np.asarray(abs(self.G).sum(axis=1)).ravel() > 0
+        bonded = self._bonded_analysis and not own_analysis and not np.array_equal(active, moves)
+        values = self.matrix(moves) if bonded else K          # the analysis on the bonded values (:meth:`_refactor`)
+        if not own_analysis and self.m > self.n ** SLENDER_FACE:
+            handle = PardisoSymmetric(K, ordering=0).analyse(values)
+            if handle.fill <= SLENDER_FILL:
+                return handle
+            handle.release()
+        handle = PardisoSymmetric(K)
+        return handle.analyse(values) if bonded else handle
 
     def _over_cap(self, drop, add) -> bool:
         """Whether the rows ``drop`` and ``add`` changed from the base are more than the cap (refactorise rather

@@ -124,10 +124,11 @@ def main() -> None:
     print("|" + "---|" * (head.count("|") - 1))
     for n in args.n:
         r = explore(n, args.facets)
+        fc = f"{r['facets']:,}" if r["facets"] >= 0 else "-"
         print(f"| {r['n']} | {r['N']:,} | {r['m']:,} | {r['d']:,} | {r['rank']:,} | {r['T']:,} | {r['rank_T']:,} | "
               f"{r['P']:,} | {r['rank_P']:,} | "
               f"{r['own']:,} | {'accepted' if r['accepted'] else 'refused'} | {r['nnz_RB']:,} | {r['fill_X']:,} | "
-              f"{r['cond_RBS']:.1e} | {f"{r['facets']:,}" if r['facets'] >= 0 else '-'} | {r['solve_cpu']:.1f} | "
+              f"{r['cond_RBS']:.1e} | {fc} | {r['solve_cpu']:.1f} | "
               f"{r['ok']} |", flush=True)
 
 

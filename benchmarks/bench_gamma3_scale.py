@@ -33,10 +33,11 @@ seconds and peak), and the ratios of this checkout's solve to it, the solve alon
 ``--amg``: after each size's runs, on the same mesh (the same unknowns; two_boxes with "sigma1" rows), two more
 fresh processes of ``bench3d.py``: "sigma1" on its default route (the AMG active set) from the Scene to the checked
 Solution, and the other yardstick, one bonded AMG-CG solve (``bench3d.py``'s ``amg_bonded``: smoothed-aggregation
-CG to 1e-10 on the bonded system with the nodal rows eliminated; setup + solve, the elimination left out; it cannot
-take the "gamma3" rows, which share their dofs). Printed: each CPU second, each peak, and the ratios of "gamma3"
-and "sigma1" to it, the solve alone and with the assembly on both sides (the yardstick's: its ContactSolver's
-construction). One command for both ratios, this checkout alone:
+CG to 1e-10 on the bonded system with the nodal rows eliminated; setup + solve, the bonded system's assembly and
+the elimination left out, 0.42 + 0.21 CPU s beside 6.3 at 1.5e5: its JSON's ``bonded_build_cpu_s`` and
+``amg_reduce_cpu_s``; it cannot take the "gamma3" rows, which share their dofs). Printed: each CPU second, each
+peak, and the ratios of "gamma3" and "sigma1" to it, the solve alone and with the assembly on both sides (the
+yardstick's: its ContactSolver's construction). One command for both ratios, this checkout alone:
 
     python benchmarks/bench_gamma3_scale.py --sizes 1.5e5 --only after --amg --limit 3
 

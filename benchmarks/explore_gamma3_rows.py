@@ -7,6 +7,9 @@ closed rows P (``solver.cache.active``):
 * m, the Gamma dofs d, rank R (every row), the touching rows (|[u_nu] - g| at most 1e-8 of its largest over the
   rows) and their rank, |P| and rank R_P (column-pivoted QR of R^T, cut 1e-10 of the first pivot): how many rows
   an independent set per step keeps;
+* with ``--facets`` (small n: one LP per row): the rows that are facets of {v : R v <= g} (HiGHS: max R_a v / |R_a|
+  over the other rows and R_a v <= g_a + |R_a| reaches g_a + |R_a|, a point where row a alone fails), against d:
+  rows each with a dof of their own are independent, at most d, so they cut at most d facets;
 * of an independent subset B of P (the QR's first rank R_P pivots), the rows with a dof of their own in B (a
   dof no other row of B touches: what the AMG route's exact elimination needs, ``backends.amg.own_dofs``), and
   whether ``own_dofs`` accepts B as a whole;
@@ -16,6 +19,8 @@ closed rows P (``solver.cache.active``):
   rows X on S; the fill says whether T^T S T stays a sparse matrix AMG can take.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/explore_gamma3_rows.py --n 16 24 40
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/explore_gamma3_rows.py \
+        --n 4 8 12 16 --facets
 """
 
 from __future__ import annotations
@@ -48,7 +53,23 @@ def rank_pivots(M, cut: float = 1e-10):
     return r, piv[:r]
 
 
-def explore(n: int) -> dict:
+def facets(R, g) -> int:
+    """The rows of {v : R v <= g} (R dense) that are facets: one LP per row (HiGHS), the row's height above its
+    bound over the others, its own bound raised by 1 (rows normalised); a facet reaches 1, an implied row 0."""
+    from scipy.optimize import linprog
+
+    norm = np.linalg.norm(R, axis=1)
+    A, b = R / norm[:, None], np.asarray(g, dtype=float) / norm
+    count = 0
+    for a in range(len(A)):
+        ub = b.copy()
+        ub[a] += 1.0
+        res = linprog(-A[a], A_ub=A, b_ub=ub, bounds=(None, None), method="highs")
+        count += res.status == 0 and -res.fun - b[a] > 0.5
+    return count
+
+
+def explore(n: int, with_facets: bool = False) -> dict:
     solver = cc.ContactSolver(two_boxes(n, "gamma3", True))
     t0 = time.process_time()
     sol = solver.solve()
@@ -83,27 +104,32 @@ def explore(n: int) -> dict:
     X = lu.solve(RBM)
     fill = int(np.sum(np.abs(X) > 1e-14 * np.abs(X).max()))
     cond = float(np.linalg.cond(RBS.toarray()))
+    n_facets = facets(Rd, p.g) if with_facets else -1
     return {"n": n, "N": int(p.unknowns), "m": m, "d": d, "rank": rank_all, "P": len(active), "rank_P": rank_P,
             "T": len(touching), "rank_T": rank_T, "own": int(with_own.sum()), "accepted": accepted,
-            "nnz_RB": int(RB.nnz), "fill_X": fill, "cols_S": len(S), "cond_RBS": cond, "solve_cpu": t_solve,
+            "nnz_RB": int(RB.nnz), "fill_X": fill, "cols_S": len(S), "cond_RBS": cond, "facets": n_facets,
+            "solve_cpu": t_solve,
             "ok": bool(sol.ok)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[16, 24])
+    ap.add_argument("--facets", action="store_true", help="also the rows that are facets (one LP per row)")
     args = ap.parse_args()
     head = ("| n | unknowns | rows m | Gamma dofs d | rank R | touching rows | their rank | closed rows P | rank R_P "
             "| rows of B with an own dof "
-            "| own_dofs(B) | nnz R_B | nnz R_BS^-1 R_BM | cond R_BS | solve CPU s | ok |")
+            "| own_dofs(B) | nnz R_B | nnz R_BS^-1 R_BM | cond R_BS | facets (LP) | solve CPU s | ok |")
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     for n in args.n:
-        r = explore(n)
+        r = explore(n, args.facets)
+        fc = f"{r['facets']:,}" if r["facets"] >= 0 else "-"
         print(f"| {r['n']} | {r['N']:,} | {r['m']:,} | {r['d']:,} | {r['rank']:,} | {r['T']:,} | {r['rank_T']:,} | "
               f"{r['P']:,} | {r['rank_P']:,} | "
               f"{r['own']:,} | {'accepted' if r['accepted'] else 'refused'} | {r['nnz_RB']:,} | {r['fill_X']:,} | "
-              f"{r['cond_RBS']:.1e} | {r['solve_cpu']:.1f} | {r['ok']} |", flush=True)
+              f"{r['cond_RBS']:.1e} | {fc} | {r['solve_cpu']:.1f} | "
+              f"{r['ok']} |", flush=True)
 
 
 if __name__ == "__main__":

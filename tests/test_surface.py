@@ -374,3 +374,37 @@ def test_on_tetrahedral_boxes():
     for part in ("top", "pad"):
         itf = SurfaceInterface((StandInBody("punch", punch, "bottom"), StandInBody("base", base, part)))
         assert abs(itf.area - 0.24) <= 1e-14
+
+
+def _facet_heights(R):
+    """For each row a of R (rows normalised): max R_a v over {R_b v <= 0 for every b != a, R_a v <= 1}, by LP
+    (HiGHS). 1: row a is a facet of the cone {v : R v <= 0} (a point where it alone fails); <= 0: the other rows
+    imply it."""
+    from scipy.optimize import linprog
+
+    R = R / np.linalg.norm(R, axis=1)[:, None]
+    heights = []
+    for a in range(len(R)):
+        ub = np.zeros(len(R))
+        ub[a] = 1.0
+        res = linprog(-R[a], A_ub=R, b_ub=ub, bounds=(None, None), method="highs")
+        assert res.status == 0
+        heights.append(-res.fun)
+    return np.array(heights)
+
+
+def test_every_overlay_row_is_a_facet_and_they_outnumber_the_contact_nodes():
+    """The "gamma3" rows (the jump at every overlay vertex) are pairwise distinct and every one is a facet of
+    {u : [u_nu] <= 0 at the vertices} (a displacement at which it alone fails), and there are more of them than
+    contact nodes on both faces: rows each with a dof of their own are independent, so they cut at most rank R
+    facets, and no such set has this feasible set (docs/explanation/gamma3-fast-route.md)."""
+    itf = pair("random rotated, partial")                                       # (5x5 on 7x3 alike: 213 > 68 >= 65)
+    bodies = [tr.body for tr in itf.traces]
+    R = sp.hstack([itf.jump(k, len(bodies[k].mesh.points)) for k in range(2)], format="csc")
+    cols = np.flatnonzero(np.diff(R.indptr))
+    R = R[:, cols].toarray()
+    nodes = len(np.unique(cols // 3))                                           # contact nodes of both faces
+    Rn = R / np.linalg.norm(R, axis=1)[:, None]
+    assert len(np.unique(np.round(Rn, 12), axis=0)) == len(R)                  # no row repeated
+    assert len(R) > nodes >= np.linalg.matrix_rank(R)             # measured 132 > 44 >= 41
+    assert _facet_heights(R).min() >= 0.5                                       # measured 1.0 (a redundant row: <= 0)

@@ -158,7 +158,7 @@ def test_coulomb_with_a_slip_the_user_rows_prescribe_is_the_dragged_block():
     """Coulomb with user equalities dragging the contact nodes by u_x = s (written per micrometre: the rows at the
     interior point's scale) is the block whose contact edges a support drags by s (cc.solve with Coulomb, finished;
     every row slides). Coulomb's start held the slip at 0 where it can stick, with the user rows: infeasible, a
-    SolverError; the start is now posed without them. Measured 5.5e-15 (default kernels)."""
+    SolverError; the start is now posed without them. Measured 5.5e-15 (default, Prescott, Sandybridge)."""
     s = 1e-6
     ref = cc.solve(sheared(0.35 * P, cc.Coulomb(0.5), drag=s), "sigma1", method="full")
     scene = sheared(0.35 * P, cc.Coulomb(0.5))

@@ -20,14 +20,16 @@ def steel(nu=0.3, scale=1.0):
     return cc.materials.isotropic(E=E * scale, nu=nu)
 
 
-def sheared(q, law, tied=False, nx=8, ny=4):
+def sheared(q, law, tied=False, nx=8, ny=4, drag=None):
     """The block under (q, -p) on its top, ``law`` on its contact; ``tied``: frictionless contact, u_x = 0 on the
-    contact edges (the same edges under a second tag "base")."""
+    contact edges (the same edges under a second tag "base"); ``drag`` (m): ``law`` on the contact, u_x = drag on
+    the contact edges (the tag "base": every row slides by it)."""
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
-    if tied:
+    if tied or drag is not None:
         m = cc.Mesh(m.points, m.triangles, {**{t: m.boundary(t) for t in m.tags}, "base": m.boundary("bottom")})
-        b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)}, displacement={"base": (0.0, None)})
-        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR)])
+        b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)},
+                    displacement={"base": (0.0 if tied else drag, None)})
+        return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=None if tied else law)])
     b = cc.Body(m, steel(), contact="bottom", traction={"top": (q, -P)})
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 

@@ -152,3 +152,17 @@ def test_a_user_objective_of_the_shear_traction_is_the_sheared_block(law):
     sol = model.solve()
     assert ref.ok and ref.polished and sol.ok and not sol.polished and "objective" in sol.info.declined
     assert rel(sol.u[0], ref.u[0]) <= 1e-9
+
+
+def test_coulomb_with_a_slip_the_user_rows_prescribe_is_the_dragged_block():
+    """Coulomb with user equalities dragging the contact nodes by u_x = s (written per micrometre: the rows at the
+    interior point's scale) is the block whose contact edges a support drags by s (cc.solve with Coulomb, finished;
+    every row slides). Coulomb's start held the slip at 0 where it can stick, with the user rows: infeasible, a
+    SolverError; the start is now posed without them. Measured 5.5e-15 (default, Prescott, Sandybridge)."""
+    s = 1e-6
+    ref = cc.solve(sheared(0.35 * P, cc.Coulomb(0.5), drag=s), "sigma1", method="full")
+    scene = sheared(0.35 * P, cc.Coulomb(0.5))
+    bottom = np.unique(scene.bodies[0].mesh.boundary("bottom"))
+    _, sol, caught = _solved(scene, lambda m, sc: m.u(sc.bodies[0], bottom)[:, 0] / s == 1.0, condition="sigma1")
+    assert ref.ok and ref.polished and sol.ok and not sol.polished and not caught
+    assert rel(sol.u[0], ref.u[0]) <= 1e-10

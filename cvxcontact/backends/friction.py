@@ -512,7 +512,9 @@ def _interior(problem, settings, timings, normal, model=None, extra=(), objectiv
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
         status = program.status
     else:
-        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction, extra, objective)
+        # the start without the user terms: holding the slip at 0 may contradict them (a slip they prescribe), and
+        # it only seeds the capacities of the fixed point, whose programs take them
+        stuck = _stuck(problem, model, constraint, rows, capacity, s, friction)
         iterations, (best, status), changes, unsettled = _fixed_point(
             problem, model, stuck, program, capacity, rows, answer, fixed_point,
             lambda p: timed_program(p, settings, timings, options), lambda: normal(problem, model)[0])
@@ -616,14 +618,14 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     return raw
 
 
-def _stuck(problem, model, constraint, rows, capacity, s, friction, extra=(), objective=None):
+def _stuck(problem, model, constraint, rows, capacity, s, friction):
     """The program of Coulomb's start (module docstring): the slip of the pressure-dependent rows that can stick
     held at 0 (some unknown moves their slip, and no support prescribes a slip there: a side that meets the
     contact moved along a tangent, docs/howto/friction.md; against a curved obstacle its tangent at a corner
     is tilted, so the unknown normal displacement moves that slip too, but cancelling the support's slip with it
     would drive the corner into the obstacle: the start was infeasible), the other rows at their given
-    thresholds (``capacity`` set here; 0 on the pressure-dependent ones); ``extra``, ``objective`` posed beside
-    (:func:`friction_program`)."""
+    thresholds (``capacity`` set here; 0 on the pressure-dependent ones). Without ``cc.Model``'s user terms (its
+    slip held at 0 may contradict them: a slip they prescribe); the fixed point's programs take them."""
     E, n_c = problem.E, problem.slip_components
     moved = moved_components(problem, rows)
     at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
@@ -632,8 +634,7 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction, extra=(), ob
     sticks = pressure & moved.any(axis=1) & ~prescribed.any(axis=1)
     capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
     held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
-    return model.with_terms([constraint, *held, *extra],
-                            objective=friction if objective is None else friction + objective)
+    return model.with_terms([constraint, *held], objective=friction)
 
 
 def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_point, solve, forces):

@@ -26,14 +26,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.bernstein import positive_force
-from ..errors import SceneError, UnsupportedError
+from ..errors import SceneError, SolverError, UnsupportedError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
 from .blocks import Block, Units, units
-from .terms import UNPOSED, ContactTerm, contact_term
+from .terms import ContactTerm, contact_term
 
 __all__ = ["DiscreteProblem", "build_problem"]
 
@@ -414,8 +414,11 @@ def _capacity(scene, condition, lines, moves):
         return None
     E = lines.E
     weights = friction_weights(lines, condition, scene.conditions)
-    if lines.conic and not rows.size == len(weights) == E.shape[0]:   # the cones on E's rows
-        raise UnsupportedError(UNPOSED[frozenset({"cones", "compliance", "friction"})])
+    if lines.conic and not rows.size == len(weights) == E.shape[0]:   # the cones on E's rows (no compliance law:
+        #                                           cones beside one are lines.mixed, refused by the terms: terms.UNPOSED)
+        raise SolverError(f"friction under the P2 'gamma3' cones: {rows.size} friction rows, {len(weights)} "
+                          f"weights and {E.shape[0]} rows of the cones, which must be the same rows (the space's "
+                          "contact lines are inconsistent, not the scene)")
     pairs = getattr(lines.interface, "interfaces", (lines.interface,))
     if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
             not getattr(i, "rigid", True) and (c or condition) == "gamma3" for i, c in zip(pairs, scene.conditions)):

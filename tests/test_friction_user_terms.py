@@ -166,3 +166,21 @@ def test_coulomb_with_a_slip_the_user_rows_prescribe_is_the_dragged_block():
     _, sol, caught = _solved(scene, lambda m, sc: m.u(sc.bodies[0], bottom)[:, 0] / s == 1.0, condition="sigma1")
     assert ref.ok and ref.polished and sol.ok and not sol.polished and not caught
     assert rel(sol.u[0], ref.u[0]) <= 1e-10
+
+
+@pytest.mark.parametrize("law", [cc.Tresca(0.2 * P), cc.Coulomb(0.2)], ids=["tresca", "coulomb"])
+def test_a_user_objective_that_slides_the_block_past_its_capacity_names_the_cause(law):
+    """The shear objective of the test above at 0.35 p against a capacity of 0.2 p: the energy decreases without
+    bound along x (no equilibrium; the scene-time sliding check cannot see a user objective). The solver's status
+    'unbounded' is raised as a SolverError that says what it means of the scene and what to do (it said only the
+    status)."""
+    scene = sheared(0.0, law)
+    body = scene.bodies[0]
+    points, edges = body.mesh.points, body.mesh.boundary("top")
+    w = np.zeros(len(points))
+    np.add.at(w, edges.ravel(), np.repeat(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) / 2, 2))
+    top = np.flatnonzero(w)
+    model = cc.Model(scene, "sigma1")
+    model.add_objective(-(0.35 * P * w[top]) @ model.u(body, top)[:, 0])
+    with pytest.raises(cc.SolverError, match="friction capacity"):
+        model.solve()

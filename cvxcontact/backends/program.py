@@ -56,6 +56,19 @@ def conic_options(solver: str, options: Mapping[str, object], pairs: int = 1, qu
     return {**CLARABEL_CONIC, **(CLARABEL_CONIC_PAIRS if pairs > 1 else {}), **options}
 
 
+STATUS_HINTS = {
+    cp.UNBOUNDED: ": the energy decreases without bound along a motion nothing holds (a load or a user objective "
+                  "(cc.Model.add_objective) slides a body or an obstacle past its friction capacity, or along a motion "
+                  "no contact or support resists); hold the motion (a support, a user constraint) or reduce the "
+                  "load or objective",
+    cp.UNBOUNDED_INACCURATE: ": the energy seems to decrease without bound along a motion nothing holds (a load "
+                             "or a user objective slides a body or an obstacle past its friction capacity, or along "
+                             "a motion no contact or support resists); hold the motion or reduce the load",
+}
+"""What a program's status says of the scene, added to the :class:`~cvxcontact.errors.SolverError` that
+:func:`run_program` raises."""
+
+
 def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str, object]) -> int:
     """Solve ``problem`` with ``solver`` (Clarabel: :data:`CLARABEL` under the given ``options``); the number of
     iterations. SolverError if the solver fails, refuses an option, or ends without a solution."""
@@ -72,7 +85,8 @@ def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mappin
         raise SolverError(f"{solver} refused the problem or the solver options {given}: "
                           f"{type(exc).__name__}: {exc}") from exc
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back")
+        raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back"
+                          + STATUS_HINTS.get(problem.status, ""))
     return int(getattr(problem.solver_stats, "num_iters", None) or 0)
 
 

@@ -164,7 +164,10 @@ def test_estimate_rows():
 def test_bound_rows():
     """The bound study's level 0 of every scene: cells, ``ok``, the bound and its terms (measured agreement
     <= 1e-9: one sparse solve per body); the true error needs the level-4 reference and is not compared here
-    (tests/test_estimate_bound.py and tests/test_bound_pairs.py measure it)."""
+    (tests/test_estimate_bound.py and tests/test_bound_pairs.py measure it). The complementarity term is the
+    square root of its part, which is rounding where the contact is finished exactly (the punch pair: the term
+    4.6e-9 .. 1.6e-8 under the default, AVX2, AVX-512 and COMPATIBLE MKL paths, its bound 0.39): its part is
+    compared to 1e-12 of the squared bound (that spread, 2.5e-16, is 600x below it), not its root to 1e-6."""
     from cvxcontact.apps.studies.bound import SCENES
     from cvxcontact.apps.studies.common import solve_quietly
     from cvxcontact.solution.bound import error_bound
@@ -176,7 +179,10 @@ def test_bound_rows():
         fresh = dict(cells=sum(len(body.mesh.triangles) for body in scene.bodies), bound=b.absolute,
                      stress=math.sqrt(b.parts["stress"]), electric=math.sqrt(b.parts["electric"]),
                      complementarity=math.sqrt(max(b.parts["complementarity"], 0.0)))
-        agree(find(rows, scene=name, level=0), fresh, rel=1e-6, where=f"bound {name} 0")
+        row = find(rows, scene=name, level=0)
+        agree(row, fresh, rel=1e-6, skip=("seconds", "complementarity"), where=f"bound {name} 0")
+        assert abs(float(row["complementarity"]) ** 2 - fresh["complementarity"] ** 2) <= 1e-12 * b.absolute ** 2, \
+            (name, row["complementarity"], fresh["complementarity"])
 
 
 def test_stability_oscillation_rows():

@@ -75,7 +75,7 @@ def read_back_friction(problem, raw, sol) -> None:
         if len(modes):
             extra = (blk.slip.T @ Tmu, abs(blk.slip).T @ sizes)
             equilibrium = max(equilibrium, rigid_balance(blk, (s.Tu.T @ modes.T).T, fit.deformation(uk), pk, Ety,
-                                                         extra))
+                                                         extra, prolongation=s.Tu, dim=body.dim))
     checks["equilibrium"] = equilibrium
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)

@@ -684,3 +684,23 @@ def dragged_stack3d(g, conditions=("gamma3", "sigma1"), n=(2, 3, 2), s=2e-5, cel
     return cc.Scene(*boxes, contacts=[
         cc.Contact(top, "bottom", middle, "top", law=cc.Tresca(g[0]), condition=conditions[0]),
         cc.Contact(middle, "bottom", bottom, "top", law=cc.Tresca(g[1]), condition=conditions[1])])
+
+
+def friction_held_layers(interface, length=1.0, stress=1.0, nx=4, ny=2):
+    """Two layers (nu = 0, L x H each) under p on the top: the upper one (a roller on its left) on the lower one
+    (``interface``: frictionless, Signorini or compliance), the lower one on the floor with Tresca (g = 0.2 p), which
+    alone holds its x translation, unloaded along x. In the units ``length`` (m per unit: 1e-3 for mm) and
+    ``stress`` (Pa per unit: 1e6 for MPa; a compliance law's stiffness is given in Pa/m and converted here).
+    u = (0, -r - p y' / E) with y' = y + H and r the interface's penetration (m)."""
+    h, p = H / length, P / stress
+    top = cc.rectangle(x=(0.0, L / length), y=(0.0, h), nx=nx, ny=ny)
+    upper = cc.Body(top, steel(nu=0.0, scale=1.0 / stress), contact="bottom", name="upper",
+                    traction={"top": (0.0, -p)}, displacement={"left": (0.0, None)})
+    low = cc.rectangle(x=(0.0, L / length), y=(-h, 0.0), nx=nx, ny=ny)
+    lower = cc.Body(low, steel(nu=0.0, scale=1.0 / stress), contact="top", name="lower")
+    floor = cc.Rigid.plane(point=(0.0, -h), normal=(0.0, 1.0))
+    if interface.compliant:
+        m = interface.exponent
+        interface = cc.NormalCompliance(interface.stiffness * length ** m / stress, m)
+    return cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=interface),
+                                            cc.Contact(lower, "bottom", floor, law=cc.Tresca(0.2 * p))])

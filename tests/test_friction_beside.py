@@ -11,10 +11,12 @@ Independent references:
   and the same force (an invariance).
 """
 
+import dataclasses
 import warnings
 
 import numpy as np
 import pytest
+from conftest import captured
 from friction_scenes import (
     DIAGONAL3,
     FLOOR3D,
@@ -26,6 +28,7 @@ from friction_scenes import (
     compliant_series3d,
     compliant_series3d_exact,
     compliant_series_exact,
+    friction_held_layers,
     lidded,
     steel,
     walled,
@@ -33,6 +36,7 @@ from friction_scenes import (
 
 import cvxcontact as cc
 from cvxcontact.geometry.quadratic import P2Nodes, P2TetNodes
+from cvxcontact.solution.readback import read_back
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -389,25 +393,70 @@ def test_3d_force_controlled_sphere_on_a_free_box_the_floor_capacity_mu_n():
             cc.solve(scene(0.31)[1])
 
 
-@pytest.mark.xfail(strict=True, reason="the rigid balance check along a mode only friction holds, unloaded (0 / 0): "
-                                       "a false 'equilibrium' residual 0.1 .. 0.5 (on main too)")
-@pytest.mark.parametrize("interface", [cc.Signorini(), cc.NormalCompliance(1e13)])
-def test_an_unloaded_mode_held_by_friction_alone_is_not_flagged(interface):
+@pytest.fixture(scope="module")
+def held_layers():
+    """The layers of :func:`friction_scenes.friction_held_layers` solved in m / Pa and in mm / MPa (Signorini) and in
+    m / Pa (compliance): {(interface, units): (the solution, its problem, its raw answer)}."""
+    out = {}
+    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        for interface, length, stress in [(cc.Signorini(), 1.0, 1.0), (cc.Signorini(), 1e-3, 1e6),
+                                          (cc.NormalCompliance(K), 1.0, 1.0)]:
+            key = (type(interface).__name__, length)
+            out[key] = captured(mp, friction_held_layers(interface, length, stress))
+    return out
+
+
+@pytest.mark.parametrize("key", [("Signorini", 1.0), ("NormalCompliance", 1.0)])
+def test_an_unloaded_mode_held_by_friction_alone_is_not_flagged(held_layers, key):
     """Two layers (nu = 0) under p: the upper one (a roller on its left) on the lower one (frictionless: Signorini
     or compliance), the lower one on the floor with Tresca, which alone holds its x translation, unloaded. u is in
-    closed form (0, -r - p y' / E), r the interface's penetration; the answer is then ok (no residual fails)."""
-    top = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=4, ny=2)
-    upper = cc.Body(top, steel(nu=0.0), contact="bottom", name="upper", traction={"top": (0.0, -P)},
-                    displacement={"left": (0.0, None)})
-    low = cc.rectangle(x=(0.0, L), y=(-H, 0.0), nx=4, ny=2)
-    lower = cc.Body(low, steel(nu=0.0), contact="top", name="lower")
-    floor = cc.Rigid.plane(point=(0.0, -H), normal=(0.0, 1.0))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", cc.ResidualWarning)
-        sol = cc.solve(cc.Scene(upper, lower, contacts=[cc.Contact(upper, "bottom", lower, "top", law=interface),
-                                                        cc.Contact(lower, "bottom", floor, law=cc.Tresca(0.2 * P))]))
-    r = P / 1e13 if interface.compliant else 0.0
+    closed form (0, -r - p y' / E), r the interface's penetration; the answer is then ok (no residual fails). The
+    balance of that translation read its rounding against the forces along it, themselves rounding: 0.50
+    (Signorini), 0.43 (compliance) before; against FORCE_FLOOR of the contact forces on the body now."""
+    sol, _, _ = held_layers[key]
+    top, low = (b.mesh for b in sol.scene.bodies)
+    r = P / K if key[0] == "NormalCompliance" else 0.0
     for uk, pts, shift in [(sol.u[0], top.points, r), (sol.u[1], low.points, 0.0)]:
         exact = np.column_stack([0.0 * pts[:, 0], -shift - P * (pts[:, 1] + H) / E])
-        assert rel(uk, exact) < 1e-11                         # measured 2.9e-15, 3.9e-15 (holds)
-    assert sol.ok, sol.residuals()                            # measured 'equilibrium' 0.50 (Signorini), 0.43
+        assert rel(uk, exact) < 1e-11                         # measured 2.6e-15, 3.9e-15
+    assert sol.ok, sol.residuals()
+    assert sol.residuals()["equilibrium"] < 1e-9              # measured 1.0e-11 (Signorini), 7.0e-12
+
+
+def _pushed_along_x(problem, raw, relative):
+    """``raw`` with one floor row's tangential force (along x on the lower layer) raised by ``relative`` times the
+    floor's total normal force: a force along the translation only friction holds, nothing else changed."""
+    first = int(problem.rows.counts[0])                      # the rows of the interface, then those of the floor
+    floor = slice(first, first + int(problem.rows.counts[1]))
+    mu = np.array(raw.tangential, dtype=float)
+    mu[first + int(problem.rows.counts[1]) // 2] += relative * float(np.sum(raw.y[floor]))
+    return dataclasses.replace(raw, tangential=mu)
+
+
+@pytest.mark.parametrize("relative", [1e-6, 1e-9])
+def test_a_force_along_the_unloaded_mode_is_flagged(held_layers, relative):
+    """The check is not blind along that translation: one floor row's friction force raised by 1e-6 or 1e-9 of the
+    floor's normal force (the answer otherwise the same) unbalances it, and the answer reads not ok on equilibrium
+    (the friction checks do not see it: the force stays far inside its cone, the row does not slip)."""
+    sol, problem, raw = held_layers[("Signorini", 1.0)]
+    bad = read_back(problem, _pushed_along_x(problem, raw, relative), sol.tol, {})
+    assert not bad.ok
+    assert bad.residuals()["equilibrium"] > 4 * sol.tol      # measured 0.50 (1e-6), 5.0e-4 (1e-9)
+    for check in ("friction cone", "stick-slip", "slip direction"):
+        assert bad.residuals()[check] < sol.tol
+
+
+def test_the_balance_and_its_verdicts_do_not_depend_on_the_units(held_layers):
+    """The same layers in mm / MPa and in m / Pa: the same answer (mm = 1e3 m), ok both, and the same read of the
+    same fault (a force of 1e-9 of the floor's along the translation only friction holds): the checks are
+    dimensionless."""
+    (si, p_si, raw_si), (mm, p_mm, raw_mm) = held_layers[("Signorini", 1.0)], held_layers[("Signorini", 1e-3)]
+    for a, b in zip(si.u, mm.u):
+        assert rel(b * 1e-3, a) < 1e-11                       # measured 5.4e-16
+    assert si.ok and mm.ok
+    assert max(si.residuals()["equilibrium"], mm.residuals()["equilibrium"]) < 1e-9   # measured 1.0e-11, 6.6e-12
+    bad = [read_back(p, _pushed_along_x(p, r, 1e-9), s.tol, {}).residuals()["equilibrium"]
+           for s, p, r in [(si, p_si, raw_si), (mm, p_mm, raw_mm)]]
+    # 5.0e-4 both; they differ by the rounding of the balance against the fault, eps |K| |u| / 1e-9 of the forces
+    assert bad[1] == pytest.approx(bad[0], rel=1e-5)          # measured relative difference 7.0e-9

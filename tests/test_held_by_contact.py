@@ -61,9 +61,9 @@ def test_rigid_balance_exposes_a_spurious_rigid_displacement():
     assert modes.shape[0] == 1                                    # translation y only (rollers hold x)
     z = system.Tu.T @ (sol.u[0].ravel() - system.u_fixed)
     Mlam = np.asarray(sol.contact.force)                          # M lambda_h = E^T y, N/m
-    assert rigid_balance(blk, modes, z, None, Mlam) < 1e-10
+    assert rigid_balance(blk, modes, z, None, Mlam, prolongation=system.Tu, dim=2) < 1e-10
     drift = system.Tu.T @ np.tile([0.0, 1.0], len(m.points)) * 1e9
-    assert rigid_balance(blk, modes, z + drift, None, 0 * Mlam) > 0.1
+    assert rigid_balance(blk, modes, z + drift, None, 0 * Mlam, prolongation=system.Tu, dim=2) > 0.1
 
 
 def test_unloaded_scene_with_zero_gap_passes_its_checks():

@@ -294,25 +294,41 @@ def compliance_checks(blocks, u, phi, E, g, weights, law, force, z=None):
     return out, lam
 
 
-def rigid_balance(block, modes, u, phi, Mlam, extra=None):
-    """Balance of the rigid motions only the contact holds (scaled units; docs/checks.md).
+def rigid_balance(block, modes, u, phi, Mlam, extra=None, *, prolongation, dim: int) -> float:
+    """Balance of the rigid motions only the contact holds (scaled units; docs/checks.md, "Bodies held by the
+    contact only").
 
     ``modes`` (k, n_free) are those motions in the body's reduced coordinates (T_u^T r): the stiffness
     does not see them (modes K_uu = 0, modes K_up = 0 exactly), so modes . r_k = modes . (J^T c - f)
     whatever u is, and it is normalised by |modes| (|f| + |J^T| |c|), the loads and contact forces
-    on those motions alone. The equilibrium check's row scales |A| |x| cannot bound this: a large
-    spurious rigid displacement x inflates them. ``u`` may equally be the body's deformation (its rigid fit
-    taken out, :meth:`~cvxcontact.fem.rigidfit.RigidFit.deformation`): modes K_uu u does not change, and its
-    rounding is then that of the deformation's elastic forces, not of how far the body moved. ``extra``
-    (force, size): further forces on the momentum rows and the sizes of their terms (e.g. a friction law's
-    T^T mu and |T^T| |mu|). Returns 0.0 without modes.
+    on those motions alone, floored at FORCE_FLOOR of sum_a |r_a| |C_a|, the contact forces on the body whatever
+    their direction: |r_a| the motion's displacement at node a and |C_a| the size of the node's contact forces (its
+    components of |J^T| |c| and of ``extra``'s sizes), both Euclidean over the node's components (a bound of
+    |r . C| that does not depend on the axes). A motion no force has a component along (a layer held along x by
+    friction alone, unloaded along x, pressed along y) balances rounding, that of the forces across it and of the
+    elastic forces: against the forces along it alone that is 0 / 0 (0.1 .. 0.5 measured), against the floor it is
+    rounding; any unbalance along it above ``tol`` FORCE_FLOOR of the contact forces still reads above ``tol``.
+    The loads f stay out of the floor: they carry the lifting of prescribed displacements, K u_D, the stiffness
+    times a slide, not a force on the body. The equilibrium check's row scales |A| |x| cannot bound this: a large
+    spurious rigid displacement x inflates them. ``u`` may equally be the body's deformation (its rigid fit taken
+    out, :meth:`~cvxcontact.fem.rigidfit.RigidFit.deformation`): modes K_uu u does not change, and its rounding is
+    then that of the deformation's elastic forces, not of how far the body moved. ``extra`` (force, size): further
+    forces on the momentum rows and the sizes of their terms (e.g. a friction law's T^T mu and |T^T| |mu|).
+    ``prolongation`` (dim n, n_free): the body's T_u (orthonormal columns; u = T_u z + u_D) and ``dim`` its
+    dimension (the nodal components interleaved per node): the motions and the contact forces are read per node
+    through it. Returns 0.0 without modes.
     """
     if modes is None or len(modes) == 0:
         return 0.0
+    modes = np.asarray(modes, dtype=float)
     force, scale = (0.0, 0.0) if extra is None else extra
     r_u = block.residual(u, phi, Mlam)[0] + force
-    size = abs(block.jump).T @ np.abs(Mlam) + np.abs(block.f) + scale
-    return float(np.max(np.abs(modes @ r_u) / np.maximum(np.abs(modes) @ size, np.finfo(float).tiny)))
+    contact = abs(block.jump).T @ np.abs(Mlam) + scale                       # the contact forces' sizes
+    along = np.abs(modes) @ (contact + np.abs(block.f))                      # loads and contact forces along r
+    per_node = np.linalg.norm((abs(prolongation) @ contact).reshape(-1, dim), axis=1)           # |C_a|
+    motion = np.linalg.norm((prolongation @ modes.T).T.reshape(len(modes), -1, dim), axis=2)    # |r_a|
+    floor = FORCE_FLOOR * (motion @ per_node)
+    return float(np.max(np.abs(modes @ r_u) / np.maximum(np.maximum(along, floor), np.finfo(float).tiny)))
 
 
 def obstacle_balance(force, rows, nodal_forces, friction=0.0) -> float:

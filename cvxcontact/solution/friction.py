@@ -75,7 +75,7 @@ def read_back_friction(problem, raw, sol) -> None:
         if len(modes):
             extra = (blk.slip.T @ Tmu, abs(blk.slip).T @ sizes)
             equilibrium = max(equilibrium, rigid_balance(blk, (s.Tu.T @ modes.T).T, fit.deformation(uk), pk, Ety,
-                                                         extra))
+                                                         extra, prolongation=s.Tu, dim=body.dim))
     checks["equilibrium"] = equilibrium
     shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
     slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)
@@ -110,9 +110,12 @@ def read_back_friction(problem, raw, sol) -> None:
         """The pair's threshold: Tresca's g (Pa); a pressure-dependent law's (Coulomb: mu p) at each node of X_h
         (Pa), p the pressure its capacities weigh: on a P2 pair with row weights the normal forces that set the
         capacities (``pressing``: under the P2 cones the nodal forces made non-negative) over the rows' own
-        weights (``trace.row_shear``, read as the shear: a sliding row's shear is its threshold, the capacity
-        mu p_a over w_a; under the 3D cones, whose rows are the nodes of X_h, over the areas the shear is read
-        on, ``trace.per_length``), else the pair's read-back pressure; None without friction."""
+        weights, extended to every node of X_h as the function of the rows' values (``trace.row_shear``, where and
+        as the rows' shear ``row_shear`` is read: a sliding row's shear is its threshold, the capacity mu p_a over
+        w_a; on a 2D line too, where :attr:`ContactResult.shear` is 0 at the nodes no row reads: the threshold is
+        not, the nodes between a "sigma1"/"sigma2" pair's rows carry the function of the rows' thresholds, as
+        they carry that of the rows' shears); under the 3D cones, whose rows are the nodes of X_h, over the areas
+        the shear is read on (``trace.per_length``), else the pair's read-back pressure; None without friction."""
         f = problem.rows.laws[i].friction
         if f is None:
             return None
@@ -124,7 +127,7 @@ def read_back_friction(problem, raw, sol) -> None:
             return f.thresholds(trace.per_length(at, E[:, a:b].T @ pressing * un.force))
         if lumped is None:
             return f.thresholds(contact.pressure)
-        return f.thresholds(trace.per_length(replace(contact, row_shear=lumped), lumped))
+        return f.thresholds(lumped)
 
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
                             threshold=threshold(i, a, b, c), slip_measure=measure[a:b],

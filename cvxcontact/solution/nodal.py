@@ -99,7 +99,7 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
         if len(modes):
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, Ety, prolongation=s.Tu, dim=b.dim)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     energy = sum(b.energy(uk, pk) for b, uk, pk in zip(blocks, u, phi)) * un.force * un.displacement
     u_si, phi_si = [], []
@@ -187,7 +187,7 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
         if len(modes):           # their balance under the law's force E^T (w lambda) (docs/checks.md)
-            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal)
+            balance = rigid_balance(blk, (s.Tu.T @ modes.T).T, uk, pk, nodal, prolongation=s.Tu, dim=b.dim)
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []

@@ -80,7 +80,8 @@ class ContactResult:
     threshold: float | np.ndarray | None = None
     """A friction law: the pair's slip threshold g (Pa; Coulomb: mu p at each merged node, Pa; P2 under
     "sigma1"/"sigma2" p is the rows' normal forces over their own weights, as :attr:`row_shear`: the capacities
-    mu y_a / w_a, which a sliding row's shear reaches); None without friction."""
+    mu y_a / w_a, which a sliding row's shear reaches, extended to every node of X_h as :attr:`row_shear` is, the
+    nodes between rows included; |row_shear| <= threshold at the nodes where a row sits); None without friction."""
     slip_measure: np.ndarray | None = None
     """A friction law: the area (3D, m^2) or length (2D, m) the law's rows give each node of X_h, E^T w (w the
     rows' lumped areas or lengths, the friction capacities' weights), what :attr:`shear` divides by on a 3D P2

@@ -67,6 +67,7 @@ from .frictionrows import (
     slip_matrix,
 )
 from .frictionsteps import sequential as _sequential
+from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
@@ -333,8 +334,9 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
-    if problem.slip_components != 1:
-        return None
+    if problem.slip_components != 1:               # 3D: a slipping row's force turns with its slip
+        return tangency_polish(problem, trial, timings, capacity,
+                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING)
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)

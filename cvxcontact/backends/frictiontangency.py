@@ -74,7 +74,7 @@ def _polish(problem, trial, capacity, floor, balance_tol):
     size = np.linalg.norm(slip, axis=1)
     moved = moved_components(problem, rows)                              # (k, n_c)
     stuck = moved.any(axis=1) & (size <= floor * U)
-    sliding = moved.any(axis=1) & ~stuck & (size > 0)
+    sliding = ~stuck & (size > 0)             # a row no unknown moves slips along its prescribed slip, if any
     held_comp = (stuck[:, None] & moved).ravel()                         # the stuck rows' moved components
     slide_comp = np.repeat(sliding, n_c)
     held = S[held_comp]

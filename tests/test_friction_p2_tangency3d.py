@@ -4,8 +4,9 @@
 triangles, touching each at one isolated point. The cuts alone stop at 1e-9 of the displacements' violation, their
 fields 2.1e-6 from the finished ones (benchmarks/results/friction_p2_tangency3d.md). Checked against what does not
 share the finish: the frictionless cones' exact answer (the tangency Newton, another route) as the threshold tends
-to 0, the tied answer (frictionless, the top's tangential displacement held) as it grows, and the posed condition
-sampled on every top face from the nodal displacements and the sphere itself."""
+to 0, and the posed condition sampled on every top face from the nodal displacements and the sphere itself. (The
+large-threshold limit is not the tied block here: against the sphere the slip rows lie in its tangent planes; the
+boxes' tied limit is tests/test_friction_p2_lifting3d.py's.)"""
 
 import numpy as np
 import pytest
@@ -21,16 +22,6 @@ CENTRE = np.array([0.0, 0.0, RADIUS - DEPTH])
 
 def _apart(u, v) -> float:
     return float(np.abs(u - v).max() / np.abs(v).max())
-
-
-def _tied():
-    """The block of ``sphere_into_block`` frictionless, the top's u_x = u_y = 0 (the limit of a large threshold)."""
-    scene = sphere_into_block(N, depth=DEPTH)
-    body = scene.bodies[0]
-    mesh = body.mesh
-    mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags}, "base": mesh.boundary("top")})
-    b = cc.Body(mesh, body.material, clamped=["bottom"], displacement={"base": (0.0, 0.0, None)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "top", cc.Rigid.sphere(tuple(CENTRE), RADIUS))])
 
 
 @pytest.fixture(scope="module")

@@ -28,7 +28,8 @@ import scipy.sparse as sp
 from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "SlidingEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
+__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "SlidingEnergy", "mixed_system", "stacked", "tangent_blocks",
+           "unstacked"]
 
 
 class MixedEnergy:
@@ -214,9 +215,10 @@ class HeldEnergy:
 class SlidingEnergy:
     """A :class:`MixedEnergy` ``energy`` with the friction energy of slipping rows added, sum_a c_a |S_a x + s0_a|
     (S (c k, n) the rows' slip components, row a's at a c .. a c + c - 1, c = ``components``; ``s0`` their
-    prescribed slip; ``c`` (k,) the capacities): Tresca's law on rows that slip, in 3D (two slip components) nonlinear in their direction. Its
-    gradient adds S^T (c_a t_a), t_a = s_a / |s_a| (the rows' friction forces), its tangent S^T diag(c_a / |s_a|
-    (I - t_a t_a^T)) S (positive semidefinite; smooth while no slip vanishes). The stick-slip partition of Tresca's
+    prescribed slip; ``c`` (k,) the capacities): Tresca's law on rows that slip, in 3D (two slip components)
+    nonlinear in their direction. Its gradient adds S^T (c_a t_a), t_a = s_a / |s_a| (the rows' friction forces, in
+    the scaled force units), its tangent S^T diag(c_a / |s_a| (I - t_a t_a^T)) S (positive semidefinite; smooth
+    while no slip vanishes). The stick-slip partition of Tresca's
     law in 3D on (26) (:func:`~cvxcontact.backends.frictiontangency.tangency_polish`); in 2D (one component) the
     gradient is the load c_a sign(s_a) and the tangent 0. ``gradient``, ``tangent``, ``magnitude`` as
     :class:`MixedEnergy`'s (what :func:`~cvxcontact.backends.tangency.tangency_newton` reads)."""

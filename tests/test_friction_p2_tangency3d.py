@@ -105,3 +105,16 @@ def test_the_finished_answer_keeps_tresca_law_at_rounding(sliding):
     r = sliding.residuals()
     assert r["feasibility"] <= 1e-14 and r["equilibrium"] <= 1e-13 and r["friction cone"] <= 1e-14
     assert r["stick-slip"] <= 1e-8 and r["slip direction"] <= 1e-8 and r["complementarity"] <= 1e-6
+
+
+@pytest.mark.numerics
+def test_coulomb_s_fixed_point_is_finished_at_the_tangency_points_too(free):
+    """Coulomb's fixed point on Tresca's capacities mu r runs on the tangency points' answers: the slack at them
+    exactly 0 (feasibility measured 2.9e-17; the cuts' 7e-12), and as the coefficient tends to 0 the answer departs
+    from the frictionless cones' exact answer linearly (measured ratio 10.000004 for x10, d1 2.1e-8), its linear
+    extrapolation to 0 that answer (measured 2.6e-14; with Tresca the cuts' answer alone stood 2.1e-6 away)."""
+    small, large = (finished_p2(sphere_into_block(N, depth=DEPTH, law=cc.Coulomb(m))) for m in (1e-6, 1e-5))
+    assert max(small.residuals()["feasibility"], large.residuals()["feasibility"]) <= 1e-14
+    d1, d2 = _apart(small.u[0], free.u[0]), _apart(large.u[0], free.u[0])
+    assert d1 <= 3e-6 and abs(d2 / d1 - 10) <= 0.01
+    assert _apart(small.u[0] - (large.u[0] - small.u[0]) / 9, free.u[0]) <= 1e-11

@@ -30,8 +30,8 @@ With P2 elements under "gamma3" (:func:`conic_full`, the term
 nodal condition the rows of E: that pair's own rows, each a degenerate element of the cones), the normal forces y the
 cones' force r = B^T beta on those rows (Coulomb: c_a = mu p_a, p = r made non-negative with its sums kept,
 :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); the finish is :func:`finish_on_nodes`: the nodes' round,
-cut points where the contact ends inside an element, then (2D) Newton at the exact tangency points with the
-stick-slip partition fixed; Coulomb's by a fixed point on Tresca's capacities mu r there.
+cut points where the contact ends inside an element, then Newton at the exact tangency points with the
+stick-slip partition fixed (3D: :func:`~cvxcontact.backends.frictiontangency.tangency_polish`); Coulomb's by a fixed point on Tresca's capacities mu r there.
 
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`;
 beside a Hencky body the bulk cones', :data:`~cvxcontact.backends.program.CLARABEL_BULK_CONES`) is then finished
@@ -67,6 +67,7 @@ from .frictionrows import (
     slip_matrix,
 )
 from .frictionsteps import sequential as _sequential
+from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
@@ -188,8 +189,8 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     obstacle the true slack, q_h less the gap's departure from its interpolant, which vanishes at the nodes), the
     same finish with a normal row added at each such maximum (a cut,
     :func:`~cvxcontact.backends.cuts.accumulate_cuts`; at most :data:`CUT_ROUNDS` rounds and
-    :data:`CUT_FAILURES` declined ones); in 2D, where cut points were added, that answer finished at the exact
-    tangency points (:func:`_tangency_polish`). Coulomb: the nodes' round on its own law (capacities mu y_a of
+    :data:`CUT_FAILURES` declined ones); where cut points were added, that answer finished at the exact
+    tangency points (:func:`_tangency_polish`; 3D where the contact touches each element at isolated points). Coulomb: the nodes' round on its own law (capacities mu y_a of
     the nodes' forces); where that leaves an element's cone, a fixed point on Tresca's capacities c = mu r,
     r = P^T y the nodal force of the cut points' forces, each iterate the finish above at the given capacities
     (:func:`_coulomb_cuts`, then :func:`_coulomb_tangency`). The answer is then the cones': its point forces
@@ -325,7 +326,8 @@ Newton at the tangency points (:func:`_tangency_polish`); the others slip along 
 
 def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     """The cuts' answer ``trial`` (its ``points`` the cut points and forces) finished at the exact tangency points
-    (2D): the cuts close in on the point where a contact ends inside an element only linearly, the fields' error
+    (2D; in 3D :func:`~cvxcontact.backends.frictiontangency.tangency_polish`, a slipping row's force turning with
+    its slip): the cuts close in on the point where a contact ends inside an element only linearly, the fields' error
     the square root of the violation (measured 2.3e-6 of the displacements at the cuts' stop, 1e-9: the block
     dragged over a disk). With the answer's stick-slip partition fixed, Tresca's law at the capacities
     ``capacity`` (R,) is linear in 2D: a slipping row's force is c_a sign(s_a), a load; a stuck row's slip is
@@ -340,8 +342,9 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
-    if problem.slip_components != 1:
-        return None
+    if problem.slip_components != 1:               # 3D: a slipping row's force turns with its slip
+        return tangency_polish(problem, trial, timings, capacity,
+                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING)
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)

@@ -28,7 +28,8 @@ import scipy.sparse as sp
 from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "mixed_system", "stacked", "tangent_blocks", "unstacked"]
+__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "SlidingEnergy", "mixed_system", "stacked", "tangent_blocks",
+           "unstacked"]
 
 
 class MixedEnergy:
@@ -209,6 +210,47 @@ class HeldEnergy:
         x, m = z[:self.n], z[self.n:]
         return np.concatenate([self.energy.magnitude(x) + np.abs(self.load) + abs(self.H).T @ np.abs(m),
                                abs(self.H) @ np.abs(x) + np.abs(self.h)])
+
+
+class SlidingEnergy:
+    """A :class:`MixedEnergy` ``energy`` with the friction energy of slipping rows added, sum_a c_a |S_a x + s0_a|
+    (S (c k, n) the rows' slip components, row a's at a c .. a c + c - 1, c = ``components``; ``s0`` their
+    prescribed slip; ``c`` (k,) the capacities): Tresca's law on rows that slip, in 3D (two slip components)
+    nonlinear in their direction. Its gradient adds S^T (c_a t_a), t_a = s_a / |s_a| (the rows' friction forces, in
+    the scaled force units), its tangent S^T diag(c_a / |s_a| (I - t_a t_a^T)) S (positive semidefinite; smooth
+    while no slip vanishes). The stick-slip partition of Tresca's
+    law in 3D on (26) (:func:`~cvxcontact.backends.frictiontangency.tangency_polish`); in 2D (one component) the
+    gradient is the load c_a sign(s_a) and the tangent 0. ``gradient``, ``tangent``, ``magnitude`` as
+    :class:`MixedEnergy`'s (what :func:`~cvxcontact.backends.tangency.tangency_newton` reads)."""
+
+    def __init__(self, energy: MixedEnergy, S, s0: np.ndarray, c: np.ndarray, components: int):
+        self.energy, self.S, self.s0, self.c = energy, sp.csr_matrix(S), np.asarray(s0, dtype=float), \
+            np.asarray(c, dtype=float)
+        self.k, self.components = len(self.c), int(components)
+        self.linear = False
+
+    def slips(self, x) -> np.ndarray:
+        """(k, c): the rows' slips at ``x``."""
+        return (self.S @ x + self.s0).reshape(self.k, self.components)
+
+    def forces(self, x) -> np.ndarray:
+        """(k, c): the rows' friction forces c_a t_a at ``x``."""
+        s = self.slips(x)
+        return self.c[:, None] * s / np.linalg.norm(s, axis=1)[:, None]
+
+    def gradient(self, x) -> np.ndarray:
+        return self.energy.gradient(x) + self.S.T @ self.forces(x).ravel()
+
+    def tangent(self, x) -> sp.csr_matrix:
+        s = self.slips(x)
+        size = np.linalg.norm(s, axis=1)
+        t = s / size[:, None]
+        blocks = (self.c / size)[:, None, None] * (np.eye(s.shape[1])[None] - t[:, :, None] * t[:, None, :])
+        D = sp.block_diag(list(blocks), format="csr") if self.k else sp.csr_matrix((0, 0))   # nothing slips
+        return (self.energy.tangent(x) + self.S.T @ D @ self.S).tocsr()
+
+    def magnitude(self, x) -> np.ndarray:
+        return self.energy.magnitude(x) + abs(self.S).T @ np.abs(self.forces(x)).ravel()
 
 
 def mixed_system(problem):

@@ -1,0 +1,87 @@
+"""Benchmark: how far the friction finish under the 3D P2 cones stands from the exact answer (Tresca, "gamma3").
+
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=.:tests \\
+        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes]
+
+``sphere``: a rigid sphere pressed 5 mm into a clamped P2 block (tests/scenes3d.py ``sphere_into_block``, 4 x 4 x 2
+cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish
+off) at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
+(``frictiontangency.tangency_polish``); then, as the threshold tends to 0, the distance of the finished answer and of
+the cuts' alone to the frictionless cones' exact answer (the tangency Newton). ``boxes``: the 3D boxes lifting at a
+corner (tests/friction_box_scenes.py), where the tangency finish declines: the cuts' answer at stops 1e-7 .. 1e-12
+against the finest that finishes. Distances: the largest displacement difference over the largest displacement.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+
+import friction_box_scenes as fb
+import friction_scenes as fs
+import numpy as np
+from scenes3d import sphere_into_block
+
+import cvxcontact as cc
+from cvxcontact.backends import friction, frictiontangency
+
+P2 = {"condition": "gamma3", "degree": 2, "estimate": False}
+
+
+def apart(a, b) -> float:
+    return max(float(np.abs(u - v).max()) for u, v in zip(a.u, b.u)) / max(float(np.abs(v).max()) for v in b.u)
+
+
+def solve(scene, tol=None, polish=True):
+    """The P2 "gamma3" answer of ``scene`` with the cuts stopped at ``tol`` (default the package's), the tangency
+    finish on or off; its CPU seconds as ``cpu``."""
+    kept, cut = frictiontangency._polish, friction.CONE_ROUNDING
+    if tol is not None:
+        friction.CONE_ROUNDING = tol
+    if not polish:
+        frictiontangency._polish = lambda *a: None
+    try:
+        t0 = time.process_time()
+        sol = cc.solve(scene, **P2)
+        sol.cpu = time.process_time() - t0
+        return sol
+    finally:
+        frictiontangency._polish, friction.CONE_ROUNDING = kept, cut
+
+
+def sphere() -> None:
+    make = lambda law: sphere_into_block(4, depth=0.005, law=law)
+    exact = solve(make(cc.Tresca(1e6)))
+    print(f"sphere, Tresca 1e6: finished at the tangency points, CPU {exact.cpu:.1f} s\n")
+    print("| cuts' stop | cuts' answer from the finished one | CPU s |\n|---|---|---|")
+    for tol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11):
+        cuts = solve(make(cc.Tresca(1e6)), tol, polish=False)
+        print(f"| {tol:.0e} | {apart(cuts, exact):.2e} | {cuts.cpu:.1f} |", flush=True)
+    free = solve(make(None))
+    print(f"\nfrictionless: {free.info.finish}\n")
+    print("| threshold g | finished from frictionless | cuts' alone from frictionless |\n|---|---|---|")
+    for g in (1.0, 1e1, 1e2, 1e3, 1e4):
+        print(f"| {g:.0e} | {apart(solve(make(cc.Tresca(g))), free):.3e} | "
+              f"{apart(solve(make(cc.Tresca(g)), polish=False), free):.3e} |", flush=True)
+
+
+def boxes() -> None:
+    P = fs.P
+    scenes = {"sheared": lambda: fs.box((0.2 * P, 0.1 * P), cc.Tresca(3e6)),
+              "held side": lambda: fb.held_side(cc.Tresca(3e6))}
+    for name, make in scenes.items():
+        sols = {tol: solve(make(), tol) for tol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)}
+        ref = min(t for t, s in sols.items() if s.polished)
+        print(f"\nbox {name}: the finest stop that finishes {ref:.0e}\n")
+        print("| cuts' stop | finished | from the finest | CPU s |\n|---|---|---|---|")
+        for tol, s in sols.items():
+            far = f"{apart(s, sols[ref]):.2e}" if s.polished else ""
+            print(f"| {tol:.0e} | {s.polished} | {far} | {s.cpu:.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    warnings.simplefilter("ignore")
+    which = sys.argv[1:] or ["sphere", "boxes"]
+    for name in which:
+        {"sphere": sphere, "boxes": boxes}[name]()

@@ -1,0 +1,126 @@
+"""Tresca friction under the 3D P2 cones finished at the exact tangency points (docs/howto/friction.md, "Friction
+under the P2 cones"): the 3D counterpart of :func:`~cvxcontact.backends.friction._tangency_polish`.
+
+The cuts (:func:`~cvxcontact.backends.friction.finish_on_nodes`) hold q = [u_nu] - g <= 0 at a growing set of fixed
+points of each element and stop where every element's maximum is at most ``CONE_ROUNDING`` of the displacements:
+their fields are exact to about the square root of that (measured on the 3D boxes lifting at a corner:
+benchmarks/results/friction_p2_tangency3d.md). What "exact" means for the 3D cones is the frictionless cones'
+(docs/formulation.md §16, §18): on each triangle q is one quadratic, and where the contact ends inside it, q's
+maximum over the triangle (or one of its edges) is 0 at an isolated point L* with q's Hessian negative definite on
+that sub-simplex; the condition there is m(Q) = 0, m the maximum, smooth with the point row at L* for its gradient
+(the tangency Newton, :func:`~cvxcontact.backends.tangency.tangency_newton`); vertex contacts are nodal rows. The
+contact zone, a region bounded by a curve in 3D, is then exact where that curve leaves one isolated point of contact
+per touching triangle or edge (a curved obstacle whose zone lies inside a few elements: measured on a sphere pressed
+into a P2 block, tests/test_friction_p2_tangency3d.py). Where the zone covers whole triangles and ends inside their
+neighbours (the 3D boxes lifting at a corner), q vanishes on a whole shared edge of the neighbour, which is not an
+isolated point: its condition there is three linear Bernstein rows (q = L_k (b_kk L_k + 2 b_ki L_i + 2 b_kj L_j),
+each coefficient <= 0), which the tangency Newton does not pose; the full triangles' P2 nodal forces are also
+unsigned (a uniform pressure reads 0 at the vertices), so its sign test on their rows wanders. There the Newton
+declines and the cuts' answer stands (benchmarks/results/friction_p2_tangency3d.md).
+
+With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
+linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,
+smooth while the slip does not vanish: :class:`~cvxcontact.backends.mixed.SlidingEnergy`). So the tangency Newton
+with that energy on (26) finishes it. Accepted where the answer keeps the partition (every stuck row's force within
+its capacity, every slipping row's slip turned by less than a right angle and not vanished) and balances (26) with
+its own forces; else None (the cuts' answer stands)."""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import scipy.sparse as sp
+
+from .cones import MIXED_CUT_TOL
+from .finish.declined import Declined
+from .frictionrows import moved_components, prescribed_row_slip, slip_matrix
+from .full import mixed_kkt
+from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
+from .result import Finish, Route
+from .tangency import tangency_newton
+
+__all__ = ["tangency_polish"]
+
+log = logging.getLogger(__name__)
+
+
+def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol: float):
+    """The cuts' answer ``trial`` (its ``points`` the cut points and forces) of Tresca's law at the capacities
+    ``capacity`` (R,) (scaled) finished at the exact tangency points in 3D (module docstring); a friction row whose
+    slip is at most ``floor`` times the largest displacement is stuck, the others slip along their slip. Accepted
+    where the partition holds and (26) balances with the answer's own forces to ``balance_tol`` of its largest
+    term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or None."""
+    t0 = time.perf_counter()
+    try:
+        return _polish(problem, trial, capacity, floor, balance_tol)
+    finally:
+        timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
+
+
+def _polish(problem, trial, capacity, floor, balance_tol):
+    R, n_c, c = problem.E.shape[0], problem.slip_components, np.asarray(capacity, dtype=float)
+    op, _, widths = mixed_system(problem)
+    rows = np.flatnonzero(problem.rows.frictional)
+    order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()        # row a, component j at a n_c + j
+    S = slip_matrix(problem, order, widths)
+    s0 = prescribed_row_slip(problem)[order]
+    x0 = stacked(trial.u, trial.phi, trial.taus)
+    n, U = len(x0), float(np.abs(x0).max(initial=0.0))
+    slip = (S @ x0 + s0).reshape(-1, n_c)
+    size = np.linalg.norm(slip, axis=1)
+    moved = moved_components(problem, rows)                              # (k, n_c)
+    stuck = moved.any(axis=1) & (size <= floor * U)
+    sliding = ~stuck & (size > 0)             # a row no unknown moves slips along its prescribed slip, if any
+    held_comp = (stuck[:, None] & moved).ravel()                         # the stuck rows' moved components
+    slide_comp = np.repeat(sliding, n_c)
+    held = S[held_comp]
+    energy = HeldEnergy(SlidingEnergy(op, S[slide_comp], s0[slide_comp], c[rows][sliding], n_c), np.zeros(n),
+                        held, s0[held_comp])
+    kkt = mixed_kkt(list(problem.blocks), problem.E, problem.g, translations=list(problem.translations))
+    G = sp.csr_matrix(kkt.rows)
+    # the unknowns extended by the stuck rows' multipliers (kkt's matrix and loads are the energy's, not read)
+    aug = SimpleNamespace(matrix=kkt.matrix, rhs=kkt.rhs,
+                          rows=sp.hstack([G, sp.csr_matrix((G.shape[0], held.shape[0]))]).tocsr())
+    mu0 = trial.tangential.reshape(n_c, R)[:, rows].T.ravel()[held_comp]
+    out = tangency_newton(aug, problem.lines.cone[0], problem.g, trial.beta, np.concatenate([x0, mu0]),
+                          held=problem.held_rows, tol=MIXED_CUT_TOL, departure=problem.departure,
+                          points=trial.points, energy=energy)
+    if isinstance(out, Declined):
+        log.info("the Newton at the tangency points after the 3D friction cuts declined: %s", out)
+        return None
+    x = out["x"][:n]
+    mu = np.zeros(len(order))
+    mu[held_comp] = out["x"][n:]
+    mu[slide_comp] = energy.energy.forces(x).ravel()
+    mu = mu.reshape(-1, n_c)
+    new = (S @ x + s0).reshape(-1, n_c)
+    C = max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
+    over = stuck & (np.linalg.norm(mu, axis=1) > c[rows] + floor * C)
+    turned = sliding & ((np.sum(new * slip, axis=1) <= 0) | (np.linalg.norm(new, axis=1) <= floor * U))
+    if over.any() or turned.any():
+        log.info("the Newton at the tangency points after the 3D friction cuts: %d stuck rows over their capacity, "
+                 "%d slipping rows turned: the cuts' answer stands", over.sum(), turned.sum())
+        return None
+    y = np.asarray(out["nodal"], dtype=float)
+    balance = op.gradient(x) + G.T @ y + S.T @ mu.ravel()                # (26) with the answer's own forces
+    terms = op.magnitude(x) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu.ravel())
+    if (np.abs(balance) > balance_tol * max(float(terms.max(initial=0.0)), np.finfo(float).tiny)).any():
+        log.info("the Newton at the tangency points after the 3D friction cuts: its forces do not balance (26)")
+        return None
+    done = replace(trial)
+    done.u, done.phi, done.taus = unstacked(problem, x, widths)
+    done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]
+    done.points = (out["segment"], out["t"], out["y"])
+    done.tangential = np.zeros((n_c, R))
+    done.tangential[:, rows] = mu.T
+    done.tangential = done.tangential.ravel()
+    done.capacity = np.zeros(R)
+    done.capacity[rows] = c[rows]
+    done.polished, done.finish, done.route, done.declined = (True, Finish.FRICTION_NEWTON,
+                                                             Route.INTERIOR_POINT_FINISHED, None)
+    return done
+

@@ -726,3 +726,39 @@ def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the
     for bad in (1, True, "amd"):
         with pytest.raises(cc.SolverError, match="ordering must be one of"):
             Handle(K, ordering=bad)
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_the_answer_does_not_depend_on_the_clock_that_times_the_default_cap(monkeypatch, factorization):
+    """The default cap (cap=None, SparseContact._over_cap) is read from the clock, so which sets are refactorised
+    and which base the steps end on change from run to run; the answer must not: it is taken from a factor of
+    K(A) for the final set A itself. Two fake clocks: one where a factorisation takes a million times a solve
+    (the cap at CAP_MAX: thin_layer(400)'s steps settle on the first base's columns, 2 systems, 1 factorisation)
+    and one where both take alike (the cap at CAP_MIN: 10 systems, 10 factorisations). Before the final factor
+    the forces differed by 6e-12 to 1.3e-11 of the largest, the displacements 5e-14 to 1.1e-13 (SuperLU, PARDISO;
+    default, Prescott, Sandybridge kernels); now the same set and the same bits."""
+    import sys
+    from types import SimpleNamespace
+
+    import cvxcontact.backends.sparse as sparse_mod
+    from cvxcontact.backends import factor as factor_module
+
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    problem = cc.ContactSolver(thin_layer(400), method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    answers, caps = [], []
+    for slow in (1.0, 1e-6):              # the seconds a factorisation takes on the fake clock (a solve 1e-6)
+        def clock(slow=slow, now=[0.0]):   # noqa: B006 (the clock's own time, one list per clock)
+            now[0] += slow if sys._getframe(1).f_code.co_name == "_refactor" else 1e-6
+            return now[0]
+
+        monkeypatch.setattr(sparse_mod, "time", SimpleNamespace(perf_counter=clock))
+        sc = SparseContact(blocks, E, factorization=factorization)
+        answers.append(sc.solve(F, g))
+        caps.append(sc._over_cap(np.arange(sparse_mod.CAP_MIN + 4), np.zeros(0, dtype=int)))
+    (u1, phi1, y1, a1, _), (u2, phi2, y2, a2, _) = answers
+    assert caps == [False, True]          # the two clocks' caps differ (CAP_MAX against CAP_MIN)
+    assert np.array_equal(a1, a2) and np.array_equal(y1, y2)
+    assert all(np.array_equal(p, q) for p, q in zip(u1 + phi1, u2 + phi2) if p is not None)

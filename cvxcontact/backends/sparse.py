@@ -192,6 +192,7 @@ class SparseContact:
         self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
         self.cap = cap
+        self._timed = cap is None         # the default cap, timed (:meth:`_over_cap`; the answer: :meth:`solve`)
         self.base = None                  # (active set, factor) of the current base
         self._columns = {}                # row -> (G zx, zy) of its capacitance column on the base
         self._base_state = None           # (G x, y) of the base set's own solution, for the loads F, g
@@ -485,6 +486,11 @@ class SparseContact:
         if isinstance(out, Declined):
             return None
         (x, y), active, _ = out
+        if self._timed and self.base is not None and not np.array_equal(self.base[0], active) \
+                and self._refactor(active):
+            z = self._system(active)      # the timed cap decides the base the steps end on; the answer from a factor
+            if z is not None:             # of K(active) itself is the same bits whatever the clock (measured below)
+                x, y = z[:n], z[n:]
         return self._split(x) + (np.where(active, y, 0.0), active, systems)
 
     def _attempts(self):

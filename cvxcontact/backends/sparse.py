@@ -281,7 +281,8 @@ class SparseContact:
         form solves (:meth:`_solve_columns`); until then it is taken as :data:`BLOCK_GAIN` times less than the
         first single solve on a base (no block of columns solved for the measurement alone: 16 columns cost about
         a numeric factorisation, 0.072-0.078 s on thin_layer(3000), where the change that asked for them was then
-        refactorised anyway). Answers do not depend on it, only which sets are refactorised."""
+        refactorised anyway). Which sets are refactorised and the steps' count depend on it (on the clock); the answer
+        does not: :meth:`solve` takes it from a factor of K(A) for the final set A itself."""
         cap = self.cap
         if cap is None:
             cap = CAP_MIN if self._t_solve is None else \
@@ -486,11 +487,12 @@ class SparseContact:
         if isinstance(out, Declined):
             return None
         (x, y), active, _ = out
+        # the timed cap decides the base the steps end on (the capacitance form's last digits: thin_layer(400)'s
+        # forces 6.6e-12 or 1.2e-9 from a pivoted LU in two runs): the answer from K(A)'s own factor, clock-free
         if self._timed and self.base is not None and not np.array_equal(self.base[0], active) \
                 and self._refactor(active):
-            z = self._system(active)      # the timed cap decides the base the steps end on; the answer from a factor
-            if z is not None:             # of K(active) itself is the same bits whatever the clock (measured below)
-                x, y = z[:n], z[n:]
+            z = self._system(active)
+            x, y = (x, y) if z is None else (z[:n], z[n:])
         return self._split(x) + (np.where(active, y, 0.0), active, systems)
 
     def _attempts(self):

@@ -114,8 +114,8 @@ class Block:
         :func:`cvxcontact.fem.assembly.prolongation` (formulation.md §11)."""
         Tu = system.Tu
         blk = cls(Kuu=_congruence(Tu, system.Kuu, Tu) / un.stress, f=None, jump=(jump @ Tu).tocsr())
-        if system.piezoelectric:
-            Tp = system.Tp
+        if system.piezoelectric and system.Tp.shape[1]:       # every potential prescribed: no Gauss rows, the
+            Tp = system.Tp                                      # potential's lift is a load of f
             blk.Kup = _congruence(Tu, system.Kup, Tp) / np.sqrt(un.stress * un.permittivity)
             blk.Kpp = _congruence(Tp, system.Kpp, Tp) / un.permittivity
         return blk.with_loads(system, un)

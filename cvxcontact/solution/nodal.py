@@ -106,8 +106,8 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     for s, b, uk, pk in zip(systems, scene.bodies, u, phi):
         full = s.u_fixed + s.Tu @ (uk * un.displacement)                  # u = T_u z + u_D
         u_si.append(full.reshape(-1, problem.dim))
-        if pk is None:
-            phi_si.append(None)
+        if pk is None:                            # elastic, or every potential prescribed (phi = phi_D)
+            phi_si.append(s.phi_fixed.copy() if s.piezoelectric else None)
             continue
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
     constrained = _reads(support)                                                        # the rows' nodes

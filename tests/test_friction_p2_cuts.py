@@ -42,8 +42,8 @@ def _finished(once, scene, law):
 
 
 def _solved(once, scene, law, **options):
-    """``cc.solve(scene(law), condition="gamma3", degree=2, **options)`` once per module (warnings raised again at each
-    call: conftest's ``once``)."""
+    """``cc.solve(scene(law), condition="gamma3", degree=2, **options)`` once per module (its warnings raised again
+    at each call: conftest's ``once``)."""
     return once(("solved", scene, law, tuple(sorted(options.items()))), lambda: cc.solve(scene(law), **P2, **options))
 
 

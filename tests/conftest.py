@@ -2,6 +2,7 @@
 
 import dataclasses
 import importlib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,29 @@ def solutions(scene):
     return {c: cc.solve(scene, condition=c) for c in cc.CONDITIONS}
 
 
+@pytest.fixture(scope="module")
+def once():
+    """A module's memo of the answers several of its tests read (one solve each, not one per test):
+    ``once(key, make)`` returns ``make()``, called the first time ``key`` (hashable: the scene's builder and
+    arguments) is asked for. The warnings that call raised (every one recorded, whatever the filters) are raised
+    again at each call under the caller's filters, so a test sees what a solve of its own would have warned (a
+    ResidualWarning an error where it is one). The answers are read, never changed, by the tests."""
+    memo = {}
+
+    def get(key, make):
+        if key not in memo:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                value = make()
+            memo[key] = value, list(caught)
+        value, caught = memo[key]
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return value
+
+    return get
+
+
 def rel(a, b):
     """Relative max-norm difference of two arrays."""
     a, b = np.asarray(a), np.asarray(b)
@@ -64,8 +88,6 @@ def effectivity_falls_within(build, options, measured):
     """The estimate's effectivity on nested meshes (levels 0, 1 against level 3,
     :func:`cvxcontact.apps.studies.estimate.effectivity`) within the ``measured`` range (lo, hi) widened by 3 either
     way, every solve ``ok``, and estimate and true error both falling from level 0 to 1."""
-    import warnings
-
     from cvxcontact.apps.studies import estimate as study
 
     with warnings.catch_warnings():

@@ -37,6 +37,17 @@ def solve(scene, condition):
     return sol
 
 
+def shared(once, make, condition):
+    """:func:`solve` of the scene ``make()`` under ``condition``, solved once per module (conftest's ``once``: the
+    canonical scenes are read by several tests here; the warnings raised again at each call)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sol = once((make, condition), lambda: cc.solve(make(), condition))
+    warned = any(issubclass(w.category, cc.ResidualWarning) for w in caught)
+    assert warned != sol.ok
+    return sol
+
+
 def rel(a, b) -> float:
     """max |a - b| / max |b| over lists of arrays."""
     return max(float(np.abs(x - y).max()) for x, y in zip(a, b)) / max(float(np.abs(y).max()) for y in b)
@@ -55,10 +66,10 @@ def uniaxial_error(sol, modulus=None) -> float:
 # exact patch tests (P1, rounding)
 
 @pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
-def test_layer_on_a_rigid_plane_is_in_uniaxial_strain(condition):
+def test_layer_on_a_rigid_plane_is_in_uniaxial_strain(condition, once):
     """Rollers on four sides, uniform pressure on top, a rigid plane below: u_z = -p z / c33, u_x = u_y = 0,
     the plane's reaction = p A, the pressure felt = p at every node."""
-    sol = cc.solve(layer_on_plane(), condition)
+    sol = shared(once, layer_on_plane, condition)
     assert sol.ok and sol.polished
     assert uniaxial_error(sol) < 1e-13                                          # measured 4.8e-16
     reaction = sol.obstacles[0].force
@@ -86,10 +97,10 @@ def test_pzt_layer_with_an_open_circuit_electrode_is_stiffened():
     assert abs(top.charge) < 1e-12 * abs(V) * pzt.kappa3[2, 2]                  # open circuit; measured 2e-20 C
 
 
-def test_stacked_blocks_on_non_matching_faces_transmit_a_uniform_pressure_under_gamma3():
+def test_stacked_blocks_on_non_matching_faces_transmit_a_uniform_pressure_under_gamma3(once):
     """5x5 on 7x3 cells, gamma3: the uniaxial solution and lambda_h = p on the whole overlay (the overlay
     condition passes the patch test; docs/formulation.md §13). Interior-point answer: margins measured."""
-    sol = solve(stacked_blocks(), "gamma3")
+    sol = shared(once, stacked_blocks, "gamma3")
     c = sol.contact
     assert c.constrained.all() and len(c.x) == 193
     assert uniaxial_error(sol) < 1e-8                                           # measured 3.4e-10
@@ -100,8 +111,8 @@ def test_stacked_blocks_on_non_matching_faces_transmit_a_uniform_pressure_under_
         assert np.abs(sol.traction(k)[1] / P - 1).max() < 1e-7                  # measured 2.2e-9
 
 
-def test_stacked_blocks_on_non_matching_faces_get_an_exact_finish():
-    assert solve(stacked_blocks(), "gamma3").ok
+def test_stacked_blocks_on_non_matching_faces_get_an_exact_finish(once):
+    assert shared(once, stacked_blocks, "gamma3").ok
 
 
 @pytest.mark.parametrize("counts, condition", [(((2, 2), (4, 4)), "sigma2"), (((4, 4), (2, 2)), "sigma1")],
@@ -152,14 +163,14 @@ DENSE = {
 
 
 @pytest.mark.parametrize("name", list(DENSE))
-def test_every_condition_against_a_dense_solve_of_the_mixed_system(name):
+def test_every_condition_against_a_dense_solve_of_the_mixed_system(name, once):
     """The reference rebuilds the contact rows by brute force (tests/reference3d.py), checks that they sit at
     the package's constrained points, solves (26) densely with the package's active rows as equalities and
     certifies it (every row feasible, non-negative forces on the active rows). Displacements, potentials and
     translations then agree: to rounding for an exact finish, to the interior point's accuracy otherwise."""
     make, condition, shapes, finished = DENSE[name]
     scene = make()
-    sol = solve(scene, condition)
+    sol = shared(once, make, condition)                  # the answer of an equal scene (made by the same builder)
     ref = Dense(scene, condition, **shapes)
     active = []
     for i, c in enumerate(sol.contacts):
@@ -232,21 +243,21 @@ def test_between_vertices_gamma3_holds_against_the_gaps_interpolant_only():
 # ---------------------------------------------------------------------------------------------------------
 # invariances
 
-def test_a_piezoelectric_pair_turned_by_a_generic_rotation_gives_the_turned_solution():
+def test_a_piezoelectric_pair_turned_by_a_generic_rotation_gives_the_turned_solution(once):
     """Points, materials (material.rotated(R)), tractions and planar supports turned by R (about no axis):
     u' = R u and the same potentials, to rounding (exact finish under sigma1)."""
     R = rotation()
     assert np.abs(np.diag(R)).max() < 0.9                                       # no coordinate axis kept; 0.83
-    a, b = cc.solve(piezo_pair(), "sigma1"), cc.solve(piezo_pair(R), "sigma1")
+    a, b = shared(once, piezo_pair, "sigma1"), cc.solve(piezo_pair(R), "sigma1")
     assert a.ok and b.ok and a.polished and b.polished
     assert rel(b.u, [u @ R.T for u in a.u]) < 1e-9                              # measured 2.1e-15
     assert rel(b.phi, a.phi) < 1e-9                                             # measured 2.3e-15
     assert np.abs(b.contact.normal - R @ a.contact.normal).max() < 1e-12
 
 
-def test_the_turned_pair_under_gamma3_agrees_to_rounding():
+def test_the_turned_pair_under_gamma3_agrees_to_rounding(once):
     R = rotation()
-    a, b = solve(piezo_pair(), "gamma3"), solve(piezo_pair(R), "gamma3")
+    a, b = shared(once, piezo_pair, "gamma3"), solve(piezo_pair(R), "gamma3")
     assert a.ok and b.ok and rel(b.u, [u @ R.T for u in a.u]) < 1e-12         # measured 1.6e-15
 
 
@@ -315,8 +326,8 @@ def test_model_and_contact_solver_agree_with_solve_in_3d():
 # ---------------------------------------------------------------------------------------------------------
 # several pairs, a punch on a patch
 
-def test_a_stack_of_three_blocks_transmits_the_pressure_through_both_pairs():
-    sol = solve(three_blocks(), "gamma3")
+def test_a_stack_of_three_blocks_transmits_the_pressure_through_both_pairs(once):
+    sol = shared(once, three_blocks, "gamma3")
     assert len(sol.contacts) == 2
     assert uniaxial_error(sol) < 1e-8                                           # measured 1.3e-11
     for c in sol.contacts:
@@ -352,11 +363,11 @@ def test_solve_mixed_declines_a_structurally_singular_kkt_without_factorising(mo
 
 
 @pytest.mark.parametrize("name", list(SCENES3D))
-def test_model_agrees_with_solve_on_the_canonical_3d_scenes(name):
+def test_model_agrees_with_solve_on_the_canonical_3d_scenes(name, once):
     """cc.Model (the open CVXPY program, no user terms) answers as cc.solve on every scene of
     tests/scenes3d.py, and flags the same way."""
     make, keywords = SCENES3D[name]
-    direct = solve(make(), keywords["condition"])
+    direct = shared(once, make, keywords["condition"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResidualWarning)
         model = cc.Model(make(), keywords["condition"]).solve()

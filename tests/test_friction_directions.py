@@ -55,16 +55,24 @@ def _tresca_energy(sol, g: float) -> float:
     return sol.energy + float(g * np.asarray(c.slip_measure) @ np.linalg.norm(np.asarray(c.slip), axis=1))
 
 
+@pytest.fixture(scope="module")
+def sheared_box():
+    """The sheared box lifting at a corner under Tresca's g = 3e6 Pa, finished (a ResidualWarning an error), solved
+    once for the module's two tests that read it, with its counts (:func:`_counted`): (solution, counts)."""
+    with pytest.MonkeyPatch.context() as monkeypatch, warnings.catch_warnings():
+        count = _counted(monkeypatch)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        sol = cc.solve(box(SHEAR, cc.Tresca(3e6)), **P2)
+    return sol, count
+
+
 @pytest.mark.numerics
-def test_the_directions_solve_lawson_hanson_on_one_factorisation_per_step(monkeypatch):
+def test_the_directions_solve_lawson_hanson_on_one_factorisation_per_step(sheared_box):
     """The sheared box lifting at a corner (finished): Lawson-Hanson's steps within a step on the directions are
     solved on one factorisation of the bodies, a sparse LU of the mixed system only checks the set where they stop
     (or stands in for a step whose system on the rows is singular). Measured 112 sparse LUs over 99 steps (a sparse
     LU at every Lawson-Hanson step before: 792 over 96, 11 s of CPU instead of 4.6 s)."""
-    count = _counted(monkeypatch)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(box(SHEAR, cc.Tresca(3e6)), **P2)
+    sol, count = sheared_box
     assert sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     assert count["steps"] > 0 and count["lu"] <= 2 * count["steps"]
 
@@ -90,15 +98,13 @@ def test_steps_that_stall_on_the_non_matching_boxes_end_early_and_decline_as_bef
 
 
 @pytest.mark.numerics
-def test_the_finished_box_has_no_more_tresca_energy_than_the_interior_point(monkeypatch):
+def test_the_finished_box_has_no_more_tresca_energy_than_the_interior_point(sheared_box):
     """The sheared box lifting at a corner: the finish minimises the Tresca energy over u_z + gap >= 0 on every P2
     face (to the cuts' rounding), the interior point at tight tolerances over the P2 cones (Bernstein coefficients
     >= 0: a subset), so the finished energy is at most the interior point's (measured (J_finish - J_ipm) / |J|
     = -6.9e-10; a finish off the minimiser by d in the energy norm would be d^2 / 2 above it)."""
     g = 3e6
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(box(SHEAR, cc.Tresca(g)), **P2)
+    sol = sheared_box[0]
     assert sol.polished
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

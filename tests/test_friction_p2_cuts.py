@@ -35,6 +35,18 @@ def _pair(law):
     return pair2d(law, 0.02 * P, condition="gamma3")
 
 
+def _finished(once, scene, law):
+    """``finished_p2(scene(law))`` once per module (``scene`` a builder of this module's lists): several tests read
+    the same answer."""
+    return once(("finished", scene, law), lambda: finished_p2(scene(law)))
+
+
+def _solved(once, scene, law, **options):
+    """``cc.solve(scene(law), condition="gamma3", degree=2, **options)`` once per module (its warnings raised again
+    at each call: conftest's ``once``)."""
+    return once(("solved", scene, law, tuple(sorted(options.items()))), lambda: cc.solve(scene(law), **P2, **options))
+
+
 FLAT = [(_pair, cc.Tresca(0.03 * P)), (_pair, cc.Coulomb(0.3)), (lambda law: tilted(law, 7), cc.Coulomb(0.6)),
         (tilted, cc.Coulomb(0.6)), (tilted, cc.Tresca(0.6 * P))]
 FLAT_IDS = ["pair-tresca", "pair-coulomb", "tilted7-coulomb", "tilted-coulomb", "tilted-tresca"]
@@ -44,11 +56,11 @@ FLAT_IDS = ["pair-tresca", "pair-coulomb", "tilted7-coulomb", "tilted-coulomb", 
 @pytest.mark.parametrize("scene, law", [(pressed_disk, cc.Coulomb(0.3)), (dragged_disk, cc.Tresca(1e6)),
                                         (dragged_disk, cc.Coulomb(0.3)), *FLAT],
                          ids=["pressed-coulomb", "dragged-tresca", "dragged-coulomb", *FLAT_IDS])
-def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law):
+def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law, once):
     """Finished (was declined), every check at rounding: the slack at the tangency points exactly (feasibility,
     measured at most 7.9e-17), the friction cone and the stick-slip (Coulomb's capacities those of the answer's own
     forces: its fixed point converged; measured at most 5e-14 and 6.5e-8, the latter a square root)."""
-    r = finished_p2(scene(law)).residuals()
+    r = _finished(once, scene, law).residuals()
     assert r["feasibility"] <= 1e-12 and r["cone"] <= 1e-12 and r["friction cone"] <= 1e-10
     assert r["stick-slip"] <= 1e-5 and r["complementarity"] <= 1e-6 and r["equilibrium"] <= 1e-10
 
@@ -57,13 +69,13 @@ def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law
 @pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
 @pytest.mark.parametrize("laws", [(cc.Tresca(1e-2), cc.Tresca(1e-1)), (cc.Coulomb(1e-9), cc.Coulomb(1e-8))],
                          ids=["tresca", "coulomb"])
-def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(scene, laws):
+def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(scene, laws, once):
     """The answer departs from the frictionless cones' (finished by the tangency Newton: another route) linearly in
     the threshold or the coefficient (measured ratios 9.99999, 9.9954, 9.99995, 10.00002 for x10), and its linear
     extrapolation to 0 is that answer (measured at most 2.5e-14 of the displacements). Before the finish at the
     tangency points the cuts' answer stood 9.4e-8 and 2.3e-6 away at every threshold (the cuts' stop, 1e-9, under
     a square root)."""
-    free = cc.solve(scene(None), **P2)
+    free = _solved(once, scene, None)
     assert free.polished and free.info.finish == cc.Finish.TANGENCY_NEWTON
     small, large = (finished_p2(scene(law)).u[0] for law in laws)
     d1, d2 = _apart(small, free.u[0]), _apart(large, free.u[0])
@@ -73,10 +85,10 @@ def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(sce
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
-def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law):
+def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law, once):
     """The scene on the mesh reflected about x = 0 (its triangles the mirror images of the first mesh's, another
     set of elements and cut points): u_x(-x, y) = -u_x(x, y), u_y(-x, y) = u_y(x, y) (measured 2.4e-15, 1.2e-14)."""
-    a, b = finished_p2(pressed_disk(law)), finished_p2(pressed_disk(law, mirrored=True))
+    a, b = _finished(once, pressed_disk, law), finished_p2(pressed_disk(law, mirrored=True))
     at = {tuple(np.round(p, 12)): i for i, p in enumerate(b.points[0])}
     mirror = np.array([at[tuple(np.round(p * [-1.0, 1.0], 12) + 0.0)] for p in a.points[0]])
     assert _apart(b.u[0][mirror] * [-1.0, 1.0], a.u[0]) <= 1e-10
@@ -84,12 +96,12 @@ def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answer
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("scene, law", FLAT, ids=FLAT_IDS)
-def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(scene, law):
+def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(scene, law, once):
     """Between flat faces the interior point's program is the finish's (no gap departure): at tight tolerances its
     displacements are the finished ones (measured 4.0e-11, 1.5e-11 on the pair, 1.4e-10, 3.5e-14, 2.0e-14 on the
     tilted block), its own complementarity 5e-9. The pair and the tilted block at nx = 7 with Coulomb are finished
     at the tangency points from the interior point's structure (their cut rounds' steps do not settle)."""
-    sol = finished_p2(scene(law))
+    sol = _finished(once, scene, law)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ipm = cc.solve(scene(law), polish=False, solver_options=TIGHT, **P2)
@@ -99,13 +111,13 @@ def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(sc
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
-def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene):
+def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene, once):
     """Coulomb's fixed point on the cut points' capacities stopped at its ``max_iterations`` (2: measured relative
     change 2.1e-4 there, above the tolerance 1e-12) is no answer: the interior point's, not polished, its
     ``info.declined`` naming the fixed point, a ResidualWarning (and the interior point's FixedPointWarning)."""
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
-        sol = cc.solve(scene(cc.Coulomb(0.3, max_iterations=2)), **P2)
+        sol = _solved(once, scene, cc.Coulomb(0.3, max_iterations=2))
     assert not sol.polished and sol.info.finish is None
     assert "Coulomb's fixed point on the cut points' capacities" in sol.info.declined
     assert any(issubclass(w.category, cc.ResidualWarning) and "Coulomb's fixed point" in str(w.message)
@@ -114,14 +126,14 @@ def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene):
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
-def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene):
+def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene, once):
     """Coulomb under the P2 cones, finished by its fixed point at the cut points then at the tangency points:
     ``info.fixed_point`` lists that finish's changes (measured 9 iterates, the last 8.5e-14 pressed and 1.7e-13
     dragged, <= the law's tolerance 1e-12), not the interior point's fixed point (50 iterates, its limit, last
     change 1.0e-7 and 2.2e-6: what was reported before). Declined (its ``max_iterations`` 2), the answer is the
     interior point's and so is the fixed point reported: that of the interior point alone (``polish=False``)."""
     law = cc.Coulomb(0.3)
-    sol = finished_p2(scene(law))
+    sol = _finished(once, scene, law)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                  # the interior point's answer fails its checks
         interior = cc.solve(scene(law), polish=False, **P2).info.fixed_point
@@ -132,7 +144,7 @@ def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene):
     short = cc.Coulomb(0.3, max_iterations=2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        declined = cc.solve(scene(short), **P2)
+        declined = _solved(once, scene, short)
         alone = cc.solve(scene(short), polish=False, **P2)
     assert not declined.polished and len(declined.info.fixed_point) == 2
     assert np.allclose(declined.info.fixed_point, alone.info.fixed_point, rtol=1e-6, atol=0)

@@ -93,7 +93,8 @@ c2 = time.process_time()
 np.savez({out!r}, *[np.asarray(u) for u in sol.u])
 print(json.dumps(dict(code=cc.__file__, N=int(solver.problem.unknowns), m=int(solver.problem.E.shape[0]),
                       assembly_cpu=c1 - c0, solve_cpu=c2 - c1, ok=bool(sol.ok), route=str(sol.info.route),
-                      active=int(np.sum(solver.cache.active)), iterations=int(sol.info.iterations),
+                      active=-1 if solver.cache.active is None else int(np.sum(solver.cache.active)),
+                      iterations=int(sol.info.iterations), polished=bool(getattr(sol, "polished", True)),
                       released=bool(getattr(sol.info, "released", False)),
                       timings={{k: float(v) for k, v in dict(sol.timings).items()}},
                       peak_gb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)))

@@ -123,3 +123,40 @@ def test_coulomb_s_fixed_point_is_finished_at_the_tangency_points_too(free):
     d1, d2 = _apart(small.u[0], free.u[0]), _apart(large.u[0], free.u[0])
     assert d1 <= 3e-6 and abs(d2 / d1 - 10) <= 0.01
     assert _apart(small.u[0] - (large.u[0] - small.u[0]) / 9, free.u[0]) <= 1e-11
+
+
+def test_a_slipping_row_whose_slip_vanishes_gives_a_non_finite_step_without_a_warning():
+    """A slipping row's force c s/|s| (:class:`~cvxcontact.backends.mixed.SlidingEnergy`) is undefined where the
+    Newton drives its slip to 0: its gradient and tangent are then not finite, so the Newton's factorisation
+    refuses (a decline: the cuts' answer stands), and no RuntimeWarning escapes the solve (an error under
+    ``-W error``); a slip just above 0 is a force of size c along it, with the tangent c/|s| across it."""
+    import warnings
+
+    import scipy.sparse as sp
+
+    from cvxcontact.backends.factor import lu
+    from cvxcontact.backends.mixed import SlidingEnergy
+
+    class Spring:                                              # the bulk energy |x|^2 / 2
+        linear = True
+
+        def gradient(self, x):
+            return x
+
+        def tangent(self, x):
+            return sp.identity(len(x), format="csr")
+
+        def magnitude(self, x):
+            return np.abs(x)
+
+    energy = SlidingEnergy(Spring(), sp.eye(2, 3, format="csr"), np.zeros(2), np.array([2.0]), 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x = np.zeros(3)
+        assert not np.isfinite(energy.gradient(x)[:2]).any() and not np.isfinite(energy.magnitude(x)[:2]).any()
+        with pytest.raises(RuntimeError):
+            lu(energy.tangent(x).tocsc()).solve(np.ones(3))
+        x = np.array([0.0, 1e-12, 5.0])
+        assert np.allclose(energy.gradient(x), [0.0, 2.0 + 1e-12, 5.0], rtol=0, atol=1e-15)   # x + S^T (0, c)
+        K = energy.tangent(x)                                          # I + S^T (c/|s|) diag(1, 0) S
+        assert np.isclose(K[0, 0], 1.0 + 2e12, rtol=1e-15) and K[1, 1] == 1.0 and K[2, 2] == 1.0

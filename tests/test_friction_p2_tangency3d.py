@@ -113,7 +113,8 @@ def test_coulomb_s_fixed_point_is_finished_at_the_tangency_points_too(free):
     """Coulomb's fixed point on Tresca's capacities mu r runs on the tangency points' answers: the slack at them
     exactly 0 (feasibility measured 2.9e-17; the cuts' 7e-12), and as the coefficient tends to 0 the answer departs
     from the frictionless cones' exact answer linearly (measured ratio 10.000004 for x10, d1 2.1e-8), its linear
-    extrapolation to 0 that answer (measured 1.1e-14 .. 2.6e-14; with Tresca the cuts' answer alone stood 2.1e-6 away)."""
+    extrapolation to 0 that answer (measured 1.1e-14 .. 2.6e-14; with Tresca the cuts' answer alone stood 2.1e-6
+    away)."""
     # the interior point's own fixed point cannot reach the default tolerance (1e-12): it ran all 50 iterates, 51
     # conic programs, 80 % of this module's time; capped (the finish's fixed point, capped too, needs 2 .. 3) the
     # finished answers are the same (d1 2.081e-8 either way) at a fifth of the cost

@@ -161,3 +161,36 @@ def test_a_slipping_row_whose_slip_vanishes_gives_a_non_finite_step_without_a_wa
         assert np.allclose(energy.gradient(x), [0.0, 2.0 + 1e-12, 5.0], rtol=0, atol=1e-15)   # x + S^T (0, c)
         K = energy.tangent(x)                                          # I + S^T (c/|s|) diag(1, 0) S
         assert np.isclose(K[0, 0], 1.0 + 2e12, rtol=1e-15) and K[1, 1] == 1.0 and K[2, 2] == 1.0
+
+
+@pytest.mark.numerics
+def test_a_stuck_row_over_its_capacity_declines_from_either_start(monkeypatch):
+    """The partition's test on the stuck rows is the capacities' rounding (friction.SLIP_ROUNDING, as 2D's), also
+    where the slips are read from the interior point's answer at a coarser floor (friction.INTERIOR_SLIP, 1e-7):
+    that floor sorts the rows, it does not widen the friction cone. On the sphere at a threshold that sticks most
+    rows (1e8 Pa), the most loaded stuck row's capacity set 1e-8 below its force (a stuck row's capacity moves
+    nothing in the Newton: the same answer) is over it, so both starts decline; at the true capacities both
+    accept. (The 1e-7 floor as the cone's tolerance accepted it.)"""
+    from cvxcontact.backends import friction, frictiontangency
+
+    seen = []
+    polish = frictiontangency._polish
+
+    def spy(problem, trial, capacity, *rest):
+        seen.append((problem, trial, np.array(capacity, dtype=float)))
+        return polish(problem, trial, capacity, *rest)
+
+    monkeypatch.setattr(frictiontangency, "_polish", spy)
+    finished_p2(sphere_into_block(N, depth=DEPTH, law=cc.Tresca(1e8)))
+    problem, trial, capacity = seen[0]
+    R = problem.E.shape[0]
+    for floor in (friction.SLIP_ROUNDING, friction.INTERIOR_SLIP):
+        done = friction._tangency_polish(problem, trial, {}, capacity, floor)
+        assert done is not None
+        force = np.linalg.norm(done.tangential.reshape(-1, R), axis=0)
+        stuck = np.flatnonzero((force < (1 - 1e-6) * capacity) & problem.rows.frictional)
+        a = stuck[np.argmax(force[stuck])]
+        assert force[a] > 0.1 * capacity.max()                       # the excess below is 1e-9 of the largest
+        lowered = capacity.copy()
+        lowered[a] = force[a] / (1 + 1e-8)
+        assert friction._tangency_polish(problem, trial, {}, lowered, floor) is None

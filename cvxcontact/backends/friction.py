@@ -345,8 +345,8 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
     if problem.slip_components != 1:               # 3D: a slipping row's force turns with its slip
-        return tangency_polish(problem, trial, timings, capacity,
-                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING)
+        return tangency_polish(problem, trial, timings, capacity,   # the capacities' rounding: 2D's below
+                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING, SLIP_ROUNDING)
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)

@@ -31,7 +31,8 @@ nodal condition the rows of E: that pair's own rows, each a degenerate element o
 cones' force r = B^T beta on those rows (Coulomb: c_a = mu p_a, p = r made non-negative with its sums kept,
 :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); the finish is :func:`finish_on_nodes`: the nodes' round,
 cut points where the contact ends inside an element, then Newton at the exact tangency points with the
-stick-slip partition fixed (3D: :func:`~cvxcontact.backends.frictiontangency.tangency_polish`); Coulomb's by a fixed point on Tresca's capacities mu r there.
+stick-slip partition fixed (3D: :func:`~cvxcontact.backends.frictiontangency.tangency_polish`); Coulomb's by a
+fixed point on Tresca's capacities mu r there.
 
 The interior point's answer (Clarabel at the conic tolerances, :data:`~cvxcontact.backends.program.CLARABEL_CONIC`;
 beside a Hencky body the bulk cones', :data:`~cvxcontact.backends.program.CLARABEL_BULK_CONES`) is then finished
@@ -190,10 +191,11 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
     same finish with a normal row added at each such maximum (a cut,
     :func:`~cvxcontact.backends.cuts.accumulate_cuts`; at most :data:`CUT_ROUNDS` rounds and
     :data:`CUT_FAILURES` declined ones); where cut points were added, that answer finished at the exact
-    tangency points (:func:`_tangency_polish`; 3D where the contact touches each element at isolated points). Coulomb: the nodes' round on its own law (capacities mu y_a of
-    the nodes' forces); where that leaves an element's cone, a fixed point on Tresca's capacities c = mu r,
-    r = P^T y the nodal force of the cut points' forces, each iterate the finish above at the given capacities
-    (:func:`_coulomb_cuts`, then :func:`_coulomb_tangency`). The answer is then the cones': its point forces
+    tangency points (:func:`_tangency_polish`; 3D where the contact touches each element at isolated points).
+    Coulomb: the nodes' round on its own law (capacities mu y_a of the nodes' forces); where that leaves an
+    element's cone, a fixed point on Tresca's capacities c = mu r, r = P^T y the nodal force of the cut points'
+    forces, each iterate the finish above at the given capacities (:func:`_coulomb_cuts`, then
+    :func:`_coulomb_tangency`). The answer is then the cones': its point forces
     y_p >= 0 are point evaluations, in every element's dual cone (beta_s = sum_p y_p basis(t_p),
     :func:`~cvxcontact.backends.cuts.point_duals`; r = P^T y on X_h; docs/howto/friction.md). Otherwise (a
     finish declined, cuts that do not settle, a fixed point that does not)
@@ -343,8 +345,8 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
     if problem.slip_components != 1:               # 3D: a slipping row's force turns with its slip
-        return tangency_polish(problem, trial, timings, capacity,
-                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING)
+        return tangency_polish(problem, trial, timings, capacity,   # the capacities' rounding: 2D's below
+                               SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING, SLIP_ROUNDING)
     t0 = time.perf_counter()
     R, c = problem.E.shape[0], np.asarray(capacity, dtype=float)
     _, _, widths = mixed_system(problem)

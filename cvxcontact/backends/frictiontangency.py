@@ -48,20 +48,21 @@ __all__ = ["tangency_polish"]
 log = logging.getLogger(__name__)
 
 
-def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol: float):
+def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol: float, capacity_tol: float):
     """The cuts' answer ``trial`` (its ``points`` the cut points and forces) of Tresca's law at the capacities
     ``capacity`` (R,) (scaled) finished at the exact tangency points in 3D (module docstring); a friction row whose
     slip is at most ``floor`` times the largest displacement is stuck, the others slip along their slip. Accepted
-    where the partition holds and (26) balances with the answer's own forces to ``balance_tol`` of its largest
-    term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or None."""
+    where the partition holds (a stuck row's force within its capacity to ``capacity_tol`` of the largest, a
+    slipping row's slip above ``floor``) and (26) balances with the answer's own forces to ``balance_tol`` of its
+    largest term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or None."""
     t0 = time.perf_counter()
     try:
-        return _polish(problem, trial, capacity, floor, balance_tol)
+        return _polish(problem, trial, capacity, floor, balance_tol, capacity_tol)
     finally:
         timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
 
 
-def _polish(problem, trial, capacity, floor, balance_tol):
+def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
     R, n_c, c = problem.E.shape[0], problem.slip_components, np.asarray(capacity, dtype=float)
     op, _, widths = mixed_system(problem)
     rows = np.flatnonzero(problem.rows.frictional)
@@ -99,7 +100,7 @@ def _polish(problem, trial, capacity, floor, balance_tol):
     mu = mu.reshape(-1, n_c)
     new = (S @ x + s0).reshape(-1, n_c)
     C = max(float(c[rows].max(initial=0.0)), np.finfo(float).tiny)
-    over = stuck & (np.linalg.norm(mu, axis=1) > c[rows] + floor * C)
+    over = stuck & (np.linalg.norm(mu, axis=1) > c[rows] + capacity_tol * C)
     turned = sliding & ((np.sum(new * slip, axis=1) <= 0) | (np.linalg.norm(new, axis=1) <= floor * U))
     if over.any() or turned.any():
         log.info("the Newton at the tangency points after the 3D friction cuts: %d stuck rows over their capacity, "

@@ -234,9 +234,11 @@ class SlidingEnergy:
         return (self.S @ x + self.s0).reshape(self.k, self.components)
 
     def forces(self, x) -> np.ndarray:
-        """(k, c): the rows' friction forces c_a t_a at ``x``."""
+        """(k, c): the rows' friction forces c_a t_a at ``x`` (not finite where a slip vanished, silently: the
+        Newton that reads them then declines, its system not finite, rather than a warning escaping mid-solve)."""
         s = self.slips(x)
-        return self.c[:, None] * s / np.linalg.norm(s, axis=1)[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.c[:, None] * s / np.linalg.norm(s, axis=1)[:, None]
 
     def gradient(self, x) -> np.ndarray:
         return self.energy.gradient(x) + self.S.T @ self.forces(x).ravel()
@@ -244,8 +246,9 @@ class SlidingEnergy:
     def tangent(self, x) -> sp.csr_matrix:
         s = self.slips(x)
         size = np.linalg.norm(s, axis=1)
-        t = s / size[:, None]
-        blocks = (self.c / size)[:, None, None] * (np.eye(s.shape[1])[None] - t[:, :, None] * t[:, None, :])
+        with np.errstate(divide="ignore", invalid="ignore"):           # a vanished slip: not finite (forces)
+            t = s / size[:, None]
+            blocks = (self.c / size)[:, None, None] * (np.eye(s.shape[1])[None] - t[:, :, None] * t[:, None, :])
         D = sp.block_diag(list(blocks), format="csr") if self.k else sp.csr_matrix((0, 0))   # nothing slips
         return (self.energy.tangent(x) + self.S.T @ D @ self.S).tocsr()
 

@@ -49,7 +49,7 @@ def test_closed_solve_matches_a_dense_solve_with_and_without_the_kept_factor():
     W.flags.writeable = False                                      # as Compliance.W: a factor may be kept
     d = W @ np.where(np.arange(12) % 3 == 0, -1.0, 1.0) / scale ** 2
     kept = LastFactor()
-    y, active, _ = solve_lcp(W, d, kept=kept)
+    _, active, _ = solve_lcp(W, d, kept=kept)
     assert 0 < active.sum() < 12 and kept.get(active) is not None
     r = rng.standard_normal(12)
     at = np.flatnonzero(active)

@@ -214,9 +214,12 @@ def condensed(problem, cache, settings, timings) -> RawResult:
                 raw.declined = out
             else:
                 raw.y, raw.active, raw.polished, raw.finish = out[0], out[1], True, out[2]
+    if raw.polished and not dependent:      # the closed rows met to rounding (Condensation.invert_closed)
+        raw.u, raw.phi, raw.y = reduction.invert_closed(problem, raw.y, raw.active, timings)
+    else:
+        raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     if raw.polished:
         cache.active, cache.own["condensed forces"] = raw.active, raw.y
-    raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     return raw
 
 

@@ -141,6 +141,31 @@ class LastFactor:
         self.active, self.factor = (np.array(active, dtype=bool), factor) if small else (None, None)
 
 
+def _equilibration(W) -> np.ndarray:
+    """D = diag(w)^{-1/2}, w the rows' compliances of :func:`row_scales` (W's diagonal, floored at 1e-14 of its
+    max): :func:`solve_lcp` solves with D W D, unit diagonal."""
+    w = np.diag(W).copy()
+    return 1.0 / np.sqrt(np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny)))
+
+
+def closed_solve(W, r, active, kept: LastFactor | None = None) -> np.ndarray:
+    """z with W_AA z_A = r_A on the closed rows A = ``active`` (bool per row), zero elsewhere: the force that
+    closes a slack r left on them (scaled units). Solved as :func:`solve_lcp` solves, on the equilibrated
+    D W D; ``kept``: the :class:`LastFactor` that :func:`solve_lcp` filled on this very ``W``, whose factor is
+    reused if it is of the rows A (no second factorisation), else W_AA is factorised here.
+    Raises :class:`numpy.linalg.LinAlgError` if W_AA is singular."""
+    z = np.zeros(len(r))
+    at = np.flatnonzero(active)
+    if not len(at):
+        return z
+    D = _equilibration(W)[at]
+    c = kept.get(active) if kept is not None and kept.owner is W else None
+    if c is None:
+        c = sla.cho_factor(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :], overwrite_a=True)
+    z[at] = D * sla.cho_solve(c, D * np.asarray(r, dtype=float)[at])
+    return z
+
+
 def _pdas(W, d, active, max_iter, kept=None):
     w, _ = row_scales(W, d, np.zeros(len(d)))
     absW = np.abs(W)                                   # |W| for every step's row scales, formed once
@@ -208,7 +233,7 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
         return y, act, out[2]
     # symmetric equilibration (y = D z, W -> D W D, d -> D d, D = diag(W)^{-1/2}): same signs, same
     # active sets, unit diagonal; the rows of a stiff and a soft body then share one scale
-    D = 1.0 / np.sqrt(row_scales(W, d, np.zeros(len(d)))[0])
+    D = _equilibration(W)
     editable = not (isinstance(W, np.ndarray) and W.flags.owndata) or W.flags.writeable
     if kept is not None and (editable or kept.owner is not W):    # another W, or one editable in place (its
         kept.owner, kept.active, kept.factor = (None if editable else W), None, None    # entries may have changed

@@ -1,0 +1,62 @@
+"""The condensed route meets its closed rows to rounding of the fields (Condensation.invert_closed: one step of
+iterative refinement after the exact finish), on the scene where the slack d - W y of those rows cancels terms
+about 9e3 times the rows' displacement scale: the thin layer pressed onto its substrate (thin_layer(40)), which
+the route read "not ok" before (closed rows met to 1.6e-11 U_a, complementarity 2.1e-6)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import fields_agree, rel
+
+import cvxcontact as cc
+from cvxcontact.apps.demo import thin_layer
+from cvxcontact.backends.finish import closed_solve, solve_lcp
+from cvxcontact.backends.finish.lcp import LastFactor
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
+
+@pytest.fixture(scope="module")
+def layer():
+    return thin_layer(40)
+
+
+@pytest.fixture(scope="module")
+def condensed(layer):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cc.ResidualWarning)         # the answer must pass its own checks
+        return cc.solve(layer, method="condensed")
+
+
+def test_condensed_thin_layer_is_ok_and_agrees_with_a_dense_solve_and_the_full_route(layer, condensed):
+    assert condensed.ok and condensed.polished and condensed.info.method == "condensed"
+    # the closed rows' slack over U_a, read by the checks (measured 5.0e-17 feasibility, 6.3e-9 complementarity,
+    # the same as the full route's; before: 5.6e-12 and 2.1e-6)
+    assert condensed.residuals()["feasibility"] < 1e-14
+    # against the sparse route (active-set steps on the sparse mixed system (26): no condensation, no W) and the
+    # full route (its finish solves (26) on the active set). Measured under the default, Prescott and Sandybridge
+    # kernels: the same active set, u <= 3.8e-13, phi <= 5.0e-14, force <= 1.4e-12 (before the refinement: u
+    # 4.0e-11, force 3.3e-10 from its own new answer), so 1e-10 (>= 260x) and 1e-9 for the force (>= 700x)
+    fields_agree(condensed, cc.solve(layer, method="sparse"), 1e-10, force_tol=1e-9)
+    fields_agree(condensed, cc.solve(layer, method="full"), 1e-10, force_tol=1e-9)
+
+def test_closed_solve_matches_a_dense_solve_with_and_without_the_kept_factor():
+    rng = np.random.default_rng(3)
+    M = rng.standard_normal((12, 12))
+    scale = np.logspace(0, 6, 12)                                  # rows of very different compliances
+    W = scale[:, None] * (M @ M.T + 12 * np.eye(12)) * scale[None, :]
+    W.flags.writeable = False                                      # as Compliance.W: a factor may be kept
+    d = W @ np.where(np.arange(12) % 3 == 0, -1.0, 1.0) / scale ** 2
+    kept = LastFactor()
+    _, active, _ = solve_lcp(W, d, kept=kept)
+    assert 0 < active.sum() < 12 and kept.get(active) is not None
+    r = rng.standard_normal(12)
+    at = np.flatnonzero(active)
+    ref = np.zeros(12)
+    ref[at] = np.linalg.solve(W[np.ix_(at, at)], r[at])
+    for z in (closed_solve(W, r, active, kept), closed_solve(W, r, active)):
+        assert rel(z, ref) < 1e-12 and not z[~active].any()
+    assert not closed_solve(W, r, np.zeros(12, dtype=bool)).any()
+    with pytest.raises(np.linalg.LinAlgError):
+        closed_solve(np.array([[1.0, 2.0], [2.0, 1.0]]), np.ones(2), np.ones(2, dtype=bool))   # indefinite

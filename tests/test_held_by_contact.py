@@ -86,3 +86,30 @@ def test_a_clamped_node_in_penetration_is_a_typed_error_naming_the_point():
             cc.solve(scene, method=method)
     ok = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane((0.0, -1e-6), (0.0, 1.0)))])
     assert cc.solve(ok).ok                                         # the same node with a positive gap solves
+
+
+def test_the_user_terms_checks_keep_the_balance_of_the_motions_only_the_contact_holds(monkeypatch):
+    """cc.Model's checks with user terms (``cvxcontact.model.terms.checks``) recompute "equilibrium" with the user
+    forces. They kept the row check alone and dropped the balance of the motions only the contact holds, which the
+    read-back had: an answer moved rigidly along the held translation (1e9 times its displacement) with every contact
+    force 1 % too large read balanced (its row scales |A| |x| grow with the drift). The right answer reads balanced,
+    that one not."""
+    from conftest import captured
+
+    from cvxcontact.model.terms import checks
+    from cvxcontact.solution.checks import equilibrium_with
+
+    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.4), nx=5, ny=3)
+    b = cc.Body(m, STEEL, roller=["left", "right"], contact="bottom", traction={"top": (0.0, -1e7)})
+    scene = cc.Scene(b, contacts=[cc.Contact(b, "bottom", cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0)))])
+    sol, problem, raw = captured(monkeypatch, scene)
+    assert sol.ok and b.held_by_contact == ("translation y",)
+    Tu, grad = problem.systems[0].Tu, np.zeros(len(raw.u[0]))          # no user rows, no objective's gradient
+    right = checks(problem, {}, raw.u, raw.phi, raw.y, None, [], grad)["equilibrium"]
+    assert right < 1e-10                                     # measured 4.8e-16 (Prescott, Sandybridge 1.0e-15)
+    drifted = [raw.u[0] + Tu.T @ np.tile([0.0, 1.0], len(m.points)) * 1e9 * np.abs(raw.u[0]).max()]
+    wrong = 1.01 * raw.y
+    rows = equilibrium_with(problem.blocks, drifted, raw.phi, problem.E.T @ wrong, [(grad, grad)])
+    assert rows < sol.tol                                                 # measured 4.6e-13: blind to it
+    assert checks(problem, {}, drifted, raw.phi, wrong, None, [], grad)["equilibrium"] > sol.tol  # measured 5.0e-3
+    #                                                                       (4.6e-13 before: the row check alone)

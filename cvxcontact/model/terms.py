@@ -12,7 +12,7 @@ import scipy.sparse.linalg as spla
 
 from ..backends.finish import Declined, MAX_ITER, SIGN_TOL, active_set_steps
 from ..backends.full import mixed_kkt
-from ..solution.checks import equilibrium_with, node_scales, row_checks, row_scales, rows_active
+from ..solution.checks import equilibrium_with, node_scales, rigid_balance, row_checks, row_scales, rows_active
 
 __all__ = ["stacked", "linearize", "finish", "checks", "balance", "contact_norms"]
 
@@ -115,8 +115,10 @@ def finish(problem, u, phi, y, rows, load, active, x):
 
 
 def checks(problem, base, u, phi, y, x, rows, grad):
-    """The checks of read_back with the user terms: equilibrium of (26) with the user forces,
-    and feasibility/complementarity of each user constraint, normalised per row."""
+    """The checks of read_back with the user terms: equilibrium of (26) with the user forces (and the balance of
+    the rigid motions only the contact holds with them, :func:`~cvxcontact.solution.checks.rigid_balance`, as
+    the read-back's ``base`` had it without them), and feasibility/complementarity of each user constraint,
+    normalised per row."""
     blocks, E = problem.blocks, problem.E
     t = grad.copy()
     tm = np.abs(grad)
@@ -137,7 +139,15 @@ def checks(problem, base, u, phi, y, x, rows, grad):
         forces.append((tu, mu))
         pos += nu + npf
     out = dict(base)
-    out["equilibrium"] = equilibrium_with(blocks, u, phi, E.T @ y, forces)
+    Ety = E.T @ y
+    held = []                  # the balance of the rigid motions only the contact holds, the user forces beside
+    for k, (b, s, blk, fit, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks,
+                                                     problem.rigid_fits, u, phi)):
+        modes = b.held_modes(problem.meshes[k])
+        if len(modes):
+            held.append(rigid_balance(blk, (s.Tu.T @ modes.T).T, fit.deformation(uk), pk, Ety, forces[k],
+                                      prolongation=s.Tu, dim=b.dim))
+    out["equilibrium"] = float(np.max([equilibrium_with(blocks, u, phi, Ety, forces), *held]))
     nc = contact_norms(problem)
     Z = float((np.abs(y) * nc).max(initial=0.0))     # (the conic nodal force r may change sign)
     for C, c0, z, _, _ in rows:

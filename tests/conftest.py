@@ -43,13 +43,40 @@ def solutions(scene):
     return {c: cc.solve(scene, condition=c) for c in cc.CONDITIONS}
 
 
+def _fingerprint(x, depth=0):
+    """What a shared answer holds, to compare before and after the tests that read it: every array's bytes, every
+    number, string and container, the fields of a dataclass (the problem, scene, interface and lazily made state
+    left out: those are not answers a test compares); other objects by identity."""
+    if isinstance(x, np.ndarray):
+        data = repr(x.tolist()) if x.dtype == object else np.ascontiguousarray(x).tobytes()
+        return "array", x.dtype.str, x.shape, hash(data)
+    if x is None or isinstance(x, (bool, int, str, complex, np.generic)):
+        return x
+    if isinstance(x, float):
+        return repr(x)
+    if depth > 8:
+        return "deep", id(x)
+    if isinstance(x, (list, tuple)):
+        return type(x).__name__, tuple(_fingerprint(v, depth + 1) for v in x)
+    if isinstance(x, dict):
+        return "dict", tuple((repr(k), _fingerprint(v, depth + 1)) for k, v in x.items())
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return type(x).__name__, tuple((f.name, _fingerprint(getattr(x, f.name), depth + 1))
+                                       for f in dataclasses.fields(x) if f.name not in _UNCOMPARED)
+    return "object", id(x)
+
+
+_UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state"})
+
+
 @pytest.fixture(scope="module")
 def once():
     """A module's memo of the answers several of its tests read (one solve each, not one per test):
     ``once(key, make)`` returns ``make()``, called the first time ``key`` (hashable: the scene's builder and
     arguments) is asked for. The warnings that call raised (every one recorded, whatever the filters) are raised
     again at each call under the caller's filters, so a test sees what a solve of its own would have warned (a
-    ResidualWarning an error where it is one). The answers are read, never changed, by the tests."""
+    ResidualWarning an error where it is one). The answers are read, never changed, by the tests: after the
+    module, each is checked to hold what it held when made (:func:`_fingerprint`), a test that changed one fails."""
     memo = {}
 
     def get(key, make):
@@ -57,13 +84,15 @@ def once():
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 value = make()
-            memo[key] = value, list(caught)
-        value, caught = memo[key]
+            memo[key] = value, list(caught), _fingerprint(value)
+        value, caught, _ = memo[key]
         for w in caught:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return value
 
-    return get
+    yield get
+    changed = [key for key, (value, _, made) in memo.items() if _fingerprint(value) != made]
+    assert not changed, f"a test changed the shared answers of {changed}: copy an answer before changing it"
 
 
 def rel(a, b):

@@ -477,14 +477,14 @@ def test_3d_coulomb_sliding_on_a_nodal_pair_beside_cones_against_a_plane(order, 
         top, mid = dragged_stack3d((1.0, 1.0), conditions).bodies[:2]
         pairs = [cc.Contact(top, "bottom", mid, "top", law=cc.Coulomb(0.01), condition=conditions[0]),
                  cc.Contact(mid, "bottom", plane, law=cc.Coulomb(5.0), condition=conditions[1])]
-        scenes = [cc.Scene(top, mid, contacts=[pairs[i] for i in o]) for o in (order, (0, 1))]
+        scenes = [cc.Scene(top, mid, contacts=[pairs[i] for i in o]) for o in (order, order[::-1])]
         if conditions[0] == "gamma3":
             with pytest.raises(cc.UnsupportedError, match="between two bodies is not available"):
                 cc.solve(scenes[0], degree=2)
             continue
-        with _strict():               # blocks first: sol is ref (the same scene), compared in floor-first only
-            sol, ref = [once(("plane3d", o), lambda s=s: cc.solve(s, degree=2))
-                        for s, o in zip(scenes, (order, (0, 1)))]
+        with _strict():               # either order compared with the other (one solve each in the module)
+            sol, ref = [once(("plane3d", conditions, o), lambda s=s: cc.solve(s, degree=2))
+                        for s, o in zip(scenes, (order, order[::-1]))]
         assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
         boxes, floor = sol.contacts if order == (0, 1) else sol.contacts[::-1]
         fx = boxes.shear_force[:, 0].sum()
@@ -495,4 +495,4 @@ def test_3d_coulomb_sliding_on_a_nodal_pair_beside_cones_against_a_plane(order, 
         answers.append((sol, ref))
     sol, ref = answers[0]
     scale = max(np.abs(u).max() for u in ref.u)
-    assert max(np.abs(u - v).max() for u, v in zip(sol.u, ref.u)) <= 1e-10 * scale
+    assert max(np.abs(u - v).max() for u, v in zip(sol.u, ref.u)) <= 1e-10 * scale     # measured 1.6e-15..3.0e-15

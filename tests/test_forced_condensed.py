@@ -53,8 +53,10 @@ nearly coincident points only to the system's conditioning (backends/tangency.py
 last digits follow the BLAS kernels. Measured (SkylakeX / Haswell / Prescott / Sandybridge / Nehalem kernels):
 the issue-30 punch u 3.1e-13 / 1.9e-13 / 2.7e-13 / 2.2e-13 / 2.4e-13, translation 9.8e-13 / 1.6e-13 / 2.3e-13 /
 5.9e-13 / 2.0e-12, lambda 4.4e-10 / 9.8e-11 / 1.4e-10 / 2.0e-10 / 7.6e-10; the sphere u 1.4e-14 / 1.2e-14 / 1.5e-14
-/ 2.8e-15 / 8.7e-15, lambda 5.8e-12 / 8.2e-12 / 7.0e-12 / 5.4e-12 / 5.5e-12. Without oneMKL (default / Sandybridge kernels): the issue-30 punch u 1.8e-12 / 4.4e-13, translation
-1.6e-11 / 1.2e-12, lambda 5.5e-9 / 3.2e-10; the sphere u 1.2e-14 / 3.6e-15, lambda 2.1e-12 / 1.0e-12."""
+/ 2.8e-15 / 8.7e-15, lambda 5.8e-12 / 8.2e-12 / 7.0e-12 / 5.4e-12 / 5.5e-12 (after the tangency finish's restart from
+the point reading, 2026-12-06: u 1.3e-15 / 1.1e-15 / 7.5e-16 / 6.0e-16 / 8.1e-16, lambda 2.4e-12 / 7.9e-13 / 5.8e-13
+/ 3.7e-13 / 1.5e-12). Without oneMKL (default / Sandybridge kernels): the issue-30 punch u 1.8e-12 / 4.4e-13,
+translation 1.6e-11 / 1.2e-12, lambda 5.5e-9 / 3.2e-10; the sphere u 1.2e-14 / 3.6e-15, lambda 2.1e-12 / 1.0e-12."""
 
 
 def _solve(scene, **kw):

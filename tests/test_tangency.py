@@ -446,6 +446,24 @@ def test_a_segment_flat_to_the_finish_tolerance_is_a_whole_contact():
     assert m == pytest.approx(5e-10, rel=1e-12) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
 
 
+def test_the_maximiser_backtracks_a_newton_step_that_overshoots_into_the_convex_part():
+    """A conforming face: the quadratic part of q is 0 (Q = 0, the interior point's x on the P2 sphere under the
+    Sandybridge kernels had it 0 to 1e-12), so q = -delta(L) alone, here a bump A exp(-u^2 / 2), u = (t - c) / s:
+    concave only for |u| < 1. Newton from the centre t = 1/2 (u = 0.9) steps to u = 0.9 + 0.9 / (0.81 - 1) = -3.8,
+    where q is convex; halving that step lands at u = -0.28 and Newton converges to the closed-form maximum
+    (t = c, q = A). Without the backtracking the face read as flat (None), a whole contact, and the rounds cycled."""
+    A, c, s = 2.0, 0.41, 0.1
+
+    def delta(L):
+        u = (L[1] - c) / s
+        f = A * np.exp(-0.5 * u * u)
+        return -f, np.array([0.0, u / s * f]), np.diag([0.0, (1 - u * u) / s ** 2 * f])
+
+    m, L, M = _maximum(SEGMENT, np.zeros(3), (0, 1), delta=delta)
+    assert L[:2] == pytest.approx([1 - c, c], abs=1e-12) and m == pytest.approx(A, rel=1e-14)
+    assert np.isfinite(M).all()
+
+
 @pytest.mark.numerics
 def test_a_nodal_pair_beside_the_cones_carries_its_force_once():
     """A free block (1 m x 0.5 m, 8 x 4 P2 cells) under (0, -p) on its top and 0.3 p on its left face, on a rigid

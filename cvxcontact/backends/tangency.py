@@ -183,14 +183,21 @@ def _stationary(shape, b, I, delta=None, start=None, flat: float = 0.0):
         L[I] = 1.0 / m
     TT = np.zeros((k, m - 1))
     TT[I] = T
-    last = np.inf
-    for _ in range(30):
+    last, back = np.inf, None
+    for _ in range(60):
         _, gd, hd = delta(L)                                       # in L; along the tangent coordinates z:
         Hs = H - 0.5 * (TT.T @ hd @ TT)                            # half the Hessian of q on the plane
         if np.any(np.linalg.eigvalsh(Hs) >= -flat):
-            return None
+            if back is None or np.abs(back[1]).max(initial=0.0) <= 1e-15:
+                return None
+            # a step that overshot into where q is not concave (a Hessian whose quadratic part is 0 to the
+            # interior point's accuracy: the step ~ 1/curvature of the departure alone): half of it
+            back = (back[0], 0.5 * back[1])
+            L = back[0] + TT @ back[1]
+            continue
         grad = T.T @ (2 * QI @ L[I]) - TT.T @ gd                   # of q = L^T Q L - delta along T
         step = -np.linalg.solve(2 * Hs, grad)
+        back = (L, step)
         L = L + TT @ step
         size = np.abs(step).max(initial=0.0)
         if size <= 1e-15 or (size <= 1e-8 and size >= 0.5 * last):   # rounding: no longer shrinking
@@ -297,7 +304,8 @@ def _conforming(cells, force: dict, tol: float):
 
 def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=None, limit=None, limit_start=None,
                     held=None, force_floor: float = 1e-6, force_scale: float = 0.0, tol: float = 1e-11,
-                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None, energy=None):
+                    max_steps: int = 40, max_rounds: int = 10, departure=None, points=None, energy=None,
+                    spread: float = 1e-3):
     """The exact finish of the module docstring on the sparse mixed system ``kkt``
     (:func:`cvxcontact.backends.full.mixed_kkt` on the contact rows: ``kkt.rows`` G (N, n), ``kkt.matrix`` A,
     ``kkt.rhs`` F; r = G x - ``g``), the Bernstein map ``B`` (w S, N) of the cones on those rows (q <= 0 for
@@ -329,7 +337,14 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     ``energy``: a non-quadratic bulk energy (the paper's nonlinear A, e.g. Hencky; docs/formulation.md §19): the
     :class:`~cvxcontact.backends.mixed.MixedEnergy` of the bodies on the unknowns of ``kkt``, whose gradient
     replaces A x - F and whose tangent (its Hessian at the step's x) replaces A, so that the steps are Newton's on
-    the nonlinear (26) with the cones' structure fixed (``kkt``'s matrix and loads are then not read)."""
+    the nonlinear (26) with the cones' structure fixed (``kkt``'s matrix and loads are then not read).
+
+    ``spread``: an element's Bernstein duals read as a spread force (its whole face in contact) where the second
+    eigenvalue of their dual Gram exceeds this fraction of the first, else as a point force at L*. Where rounds
+    from a start that read spread forces wander, they run again with every element read as a point force."""
+    args = {"cone_gap": cone_gap, "law": law, "weights": weights, "limit": limit, "limit_start": limit_start,
+            "held": held, "force_floor": force_floor, "force_scale": force_scale, "tol": tol, "max_steps": max_steps,
+            "max_rounds": max_rounds, "departure": departure, "points": points, "energy": energy}
     G = sp.csr_matrix(kkt.rows)
     A, F = (None, None) if energy is not None else (sp.csr_matrix(kkt.matrix), np.asarray(kkt.rhs, dtype=float))
     B = sp.csr_matrix(B)
@@ -407,7 +422,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         big, Z = big[:0], Z[:0]
     for s, Zs in zip(big, Z):
         ev, V = np.linalg.eigh(Zs)
-        if ev[-2] > 1e-3 * ev[-1]:                # a spread force: in contact on the face its diagonal covers
+        if ev[-2] > spread * ev[-1]:              # a spread force: in contact on the face its diagonal covers
             d = np.diag(Zs)
             whole(s, tuple(int(i) for i in np.flatnonzero(d > 1e-3 * d.max())))
         else:                                     # a point force: at L* (Z's leading eigenvector)
@@ -417,6 +432,17 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
         # away) starts from one vertex row, singular under force control; a tangency that is a vertex contact
         # leaves its sub-simplex and moves to the vertex in the outer loop
         add(s, tuple(int(i) for i in np.flatnonzero(L > 1e-6)), float(total[s]), L)
+    read_spread = len(seeds) < len(big)
+
+    def wanders(message: str):
+        """A cycle from a start that read spread forces: the rounds again from the other reading (every element a
+        point force at L*). The reading is a threshold on the interior point's duals, which an inexact interior
+        point (the last bits of the BLAS kernels) puts on the other side; the cycle is then the start's, not the
+        problem's (the P2 sphere: whole faces at every node, the true contact at points inside the faces)."""
+        if read_spread:
+            return tangency_newton(kkt, B, g, beta, x0, **args, spread=np.inf)
+        return Declined(Stop.CYCLE, message)
+
     x = np.asarray(x0, dtype=float).copy()
     dropped: set[tuple[bool, int]] = set()           # the vertex and limit rows dropped once (a negative force)
     for rounds in range(1, max_rounds + 1):
@@ -529,9 +555,8 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             for a, v in zip(keys, values):
                 if v < -1e-12 * fscale and not (table is vertices and int(a) in runs):
                     if (table is vertices, int(a)) in dropped:   # dropped, re-added, and dropped again
-                        return Declined(Stop.CYCLE, f"the tangency structure wanders: round {rounds} drops the "
-                                                    f"{'node' if table is vertices else 'limit'} row {int(a)} a "
-                                                    "second time")
+                        return wanders(f"the tangency structure wanders: round {rounds} drops the "
+                                       f"{'node' if table is vertices else 'limit'} row {int(a)} a second time")
                     dropped.add((table is vertices, int(a)))
                     del table[int(a)]
                     changed = True

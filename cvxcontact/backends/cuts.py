@@ -302,7 +302,8 @@ def nnls_warm(A, b, y0, scale, c=None, tol: float = 1e-15, max_iter: int | None 
                 return z
             yp = y[passive]
             neg = zp <= 0
-            alpha = float(np.min(yp[neg] / (yp[neg] - zp[neg])))
+            step = yp[neg] - zp[neg]            # >= 0 (y >= 0 feasible, z <= 0 there); 0 only where y = z = 0:
+            alpha = float(np.min(np.divide(yp[neg], step, out=np.zeros_like(step), where=step > 0)))   # a 0 step
             y = y + alpha * (z - y)
             drop = [i for i, col in enumerate(passive) if y[col] <= 0 or (neg[i] and yp[i] / (yp[i] - zp[i]) <= alpha)]
             for i in reversed(drop):

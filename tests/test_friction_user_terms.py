@@ -132,6 +132,19 @@ def test_a_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(
     assert rel(sol.u[0] - t, ref.u[0]) <= 1e-12
 
 
+def _shear_objective(scene, q):
+    """cc.Model of ``scene`` ("sigma1") with the linear user objective -sum_i q w_i u_x(i) over its body's top nodes,
+    w_i their lumped lengths (the P1 consistent load of a uniform shear traction q, Pa)."""
+    body = scene.bodies[0]
+    points, edges = body.mesh.points, body.mesh.boundary("top")
+    w = np.zeros(len(points))
+    np.add.at(w, edges.ravel(), np.repeat(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) / 2, 2))
+    top = np.flatnonzero(w)
+    model = cc.Model(scene, "sigma1")
+    model.add_objective(-(q * w[top]) @ model.u(body, top)[:, 0])
+    return model
+
+
 @pytest.mark.parametrize("law", [cc.Tresca(0.5 * P), cc.Coulomb(0.5)], ids=["tresca", "coulomb"])
 def test_a_user_objective_of_the_shear_traction_is_the_sheared_block(law):
     """A linear user objective -sum_i q w_i u_x(i) over the top nodes (w_i their lumped lengths: the P1 consistent
@@ -141,14 +154,7 @@ def test_a_user_objective_of_the_shear_traction_is_the_sheared_block(law):
     (Tresca), 4.5e-14 (Coulomb), the same under the three kernels."""
     q = 0.35 * P
     ref = cc.solve(sheared(q, law), "sigma1", method="full")
-    scene = sheared(0.0, law)
-    body = scene.bodies[0]
-    points, edges = body.mesh.points, body.mesh.boundary("top")
-    w = np.zeros(len(points))
-    np.add.at(w, edges.ravel(), np.repeat(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) / 2, 2))
-    top = np.flatnonzero(w)
-    model = cc.Model(scene, "sigma1")
-    model.add_objective(-(q * w[top]) @ model.u(body, top)[:, 0])
+    model = _shear_objective(sheared(0.0, law), q)
     sol = model.solve()
     assert ref.ok and ref.polished and sol.ok and not sol.polished and "objective" in sol.info.declined
     assert rel(sol.u[0], ref.u[0]) <= 1e-9
@@ -174,13 +180,6 @@ def test_a_user_objective_that_slides_the_block_past_its_capacity_names_the_caus
     bound along x (no equilibrium; the scene-time sliding check cannot see a user objective). The solver's status
     'unbounded' is raised as a SolverError that says what it means of the scene and what to do (it said only the
     status)."""
-    scene = sheared(0.0, law)
-    body = scene.bodies[0]
-    points, edges = body.mesh.points, body.mesh.boundary("top")
-    w = np.zeros(len(points))
-    np.add.at(w, edges.ravel(), np.repeat(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1) / 2, 2))
-    top = np.flatnonzero(w)
-    model = cc.Model(scene, "sigma1")
-    model.add_objective(-(0.35 * P * w[top]) @ model.u(body, top)[:, 0])
+    model = _shear_objective(sheared(0.0, law), 0.35 * P)
     with pytest.raises(cc.SolverError, match="friction capacity"):
         model.solve()

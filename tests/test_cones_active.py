@@ -48,20 +48,36 @@ def carrying(beta, segments, size):
     return on
 
 
+def both_routes(once, kind, n):
+    """(finished, beta_f, segments, interior, beta_i): :func:`solved` by the exact finish and by the interior point
+    alone, once per module."""
+    return once(("both routes", kind, n), lambda: (*solved(kind, n), *solved(kind, n, polish=False)[:2]))
+
+
 @pytest.mark.numerics
 @pytest.mark.parametrize("kind,n", CASES)
-def test_active_is_the_same_whichever_duals_the_route_returns(kind, n):
-    finished, beta_f, segments = solved(kind, n)
-    interior, beta_i, _ = solved(kind, n, polish=False)
+def test_active_is_the_same_whichever_duals_the_route_returns(once, kind, n):
+    finished, beta_f, _, interior, beta_i = both_routes(once, kind, n)
     assert finished.info.polished and not interior.info.polished
-    # the two routes' duals differ (measured 18 ... 55 % of the largest), so the nodes of the segments that
-    # carry them may differ (the former rule: measured 5 / 9, 5 / 9, 21 / 25, 15 / 17 nodes)
+    # the two routes' duals differ (measured 18 ... 55 % of the largest)
     assert np.abs(beta_f - beta_i).max() > 1e-2 * np.abs(beta_f).max()
-    size = len(finished.contact.x)
-    assert (carrying(beta_f, segments, size) != carrying(beta_i, segments, size)).any()
     # the touching elements' nodes are one set
     assert np.array_equal(finished.contact.active, interior.contact.active)
     assert finished.contact.active.any()
+
+
+@pytest.mark.numerics
+def test_the_former_rule_reads_other_nodes_from_the_other_duals(once):
+    """The premise of the test above: the nodes of the segments whose duals carry a force (the former rule) differ
+    between the two routes' duals. Measured 5 / 9, 5 / 9, 21 / 25, 15 / 17 nodes under the default kernels; under
+    OPENBLAS_CORETYPE=Sandybridge hertzian-8's two sets coincide (which of the interior point's duals fall below the
+    1e-6 cut is rounding), so it is asserted of some case, not of each."""
+    differ = []
+    for kind, n in CASES:
+        finished, beta_f, segments, _, beta_i = both_routes(once, kind, n)
+        size = len(finished.contact.x)
+        differ.append(bool((carrying(beta_f, segments, size) != carrying(beta_i, segments, size)).any()))
+    assert sum(differ) >= 2, differ
 
 
 def sampled_elements(sol, segments, points: int = 2001):

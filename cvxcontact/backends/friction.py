@@ -61,6 +61,7 @@ from .finish import Declined, Stop, force_displacements, ipm_active, reach_force
 from .finish.forces import friction_scale
 from .finish.friction import FrictionRows
 from .frictionrows import (
+    balances,
     moved_components,
     prescribed_row_slip,
     scattered,
@@ -399,9 +400,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     x = x0
     y = np.asarray(out["nodal"], dtype=float)
     inner, terms = (A @ x - F, abs(A) @ np.abs(x) + np.abs(F)) if op.linear else (op.gradient(x), op.magnitude(x))
-    balance = inner + G.T @ y + S.T @ mu                       # (26) with the answer's own forces
-    size = terms + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
-    if (np.abs(balance) > BALANCE_ROUNDING * max(float(size.max(initial=0.0)), np.finfo(float).tiny)).any():
+    if not balances(inner, terms, G, y, S, mu, BALANCE_ROUNDING):      # (26) with the answer's own forces
         log.info("the Newton at the tangency points after the friction cuts: its forces do not balance (26)")
         return None
     done = replace(trial)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["moved_components", "prescribed_row_slip", "scattered", "shared_rows", "slip_matrix"]
+__all__ = ["balances", "moved_components", "prescribed_row_slip", "scattered", "shared_rows", "slip_matrix"]
 
 
 def prescribed_row_slip(problem) -> np.ndarray:
@@ -63,3 +63,12 @@ def shared_rows(problem, G, S, rows) -> bool:
                         shape=(len(counts), S.shape[0])) @ abs(S)]
     touched = (sum(on) != 0).astype(int)                 # (pairs, unknowns): the pairs whose rows move each unknown
     return bool((np.asarray(touched.sum(axis=0)).ravel() > 1).any())
+
+
+def balances(inner, size, G, y, S, mu, tol) -> bool:
+    """Whether (26) holds with an answer's own forces: the internal forces ``inner`` (the bulk energy's gradient
+    minus the loads) + G^T y (normal rows) + S^T mu (friction rows) within ``tol`` of the largest of its terms'
+    magnitudes (``size`` those of ``inner``), entry by entry (the tangency polishes' acceptance, 2D and 3D)."""
+    balance = inner + G.T @ y + S.T @ mu
+    terms = size + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu)
+    return not (np.abs(balance) > tol * max(float(terms.max(initial=0.0)), np.finfo(float).tiny)).any()

@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from .cones import MIXED_CUT_TOL
 from .finish.declined import Declined
-from .frictionrows import moved_components, prescribed_row_slip, slip_matrix
+from .frictionrows import balances, moved_components, prescribed_row_slip, slip_matrix
 from .full import mixed_kkt
 from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
 from .result import Finish, Route
@@ -107,9 +107,7 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
                  "%d slipping rows turned: the cuts' answer stands", over.sum(), turned.sum())
         return None
     y = np.asarray(out["nodal"], dtype=float)
-    balance = op.gradient(x) + G.T @ y + S.T @ mu.ravel()                # (26) with the answer's own forces
-    terms = op.magnitude(x) + abs(G.T) @ np.abs(y) + abs(S.T) @ np.abs(mu.ravel())
-    if (np.abs(balance) > balance_tol * max(float(terms.max(initial=0.0)), np.finfo(float).tiny)).any():
+    if not balances(op.gradient(x), op.magnitude(x), G, y, S, mu.ravel(), balance_tol):    # (26), own forces
         log.info("the Newton at the tangency points after the 3D friction cuts: its forces do not balance (26)")
         return None
     done = replace(trial)

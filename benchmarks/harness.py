@@ -232,6 +232,36 @@ def bonded_system(problem):
     return bonded_kkt(problem.blocks, [problem.E @ b.jump for b in problem.blocks], problem.g)
 
 
+def thin_layer_route(n: int):
+    """The sparse route's data on ``demo.thin_layer(n)`` and its bonded PARDISO yardstick, as the long-interface A/B
+    scripts time them (benchmarks/longif_ab.py, longif_final_ab.py): (blocks, E, g, F, bonded) with ``bonded()``
+    one bonded PARDISO solve from scratch (pypardiso, symmetric indefinite), returning its process CPU seconds."""
+    import pypardiso
+    import scipy.sparse as sp
+
+    import cvxcontact as cc
+    from cvxcontact.apps import demo
+    from cvxcontact.backends.condensed import quasi_definite_rhs
+
+    cc.solve(demo.thin_layer(8))                                # imports and first-call costs out of the timings
+    p = cc.ContactSolver(demo.thin_layer(n)).problem
+    blocks, E, g = list(p.blocks), p.E, np.asarray(p.g, dtype=float)
+    F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
+    K, rhs, _, _, _ = bonded_kkt(blocks, [b.jump for b in blocks])
+    M = sp.triu(K, format="csr")
+    M.sort_indices()
+
+    def bonded() -> float:
+        ps = pypardiso.PyPardisoSolver(mtype=-2)
+        t0 = time.process_time()
+        ps.solve(M, rhs)
+        t = time.process_time() - t0
+        ps.free_memory(everything=True)
+        return t
+
+    return blocks, E, g, F, bonded
+
+
 def residual(K, z, rhs) -> float:
     """||K z - rhs|| / ||rhs||."""
     return float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))

@@ -16,36 +16,21 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pypardiso
-import scipy.sparse as sps
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import bonded_kkt
+from harness import thin_layer_route
 
-import cvxcontact as cc
-from cvxcontact.apps import demo
 from cvxcontact.backends import sparse as sm
-from cvxcontact.backends.condensed import quasi_definite_rhs
 from cvxcontact.backends.sparse import SparseContact
 
 warnings.simplefilter("ignore")
 n, reps = int(sys.argv[1]), int(sys.argv[2])
-cc.solve(demo.thin_layer(8))
-p = cc.ContactSolver(demo.thin_layer(n)).problem
-blocks, E, g = list(p.blocks), p.E, np.asarray(p.g, dtype=float)
-F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
-K, rhs, _, _, _ = bonded_kkt(blocks, [b.jump for b in blocks])
-M = sps.triu(K, format="csr")
-M.sort_indices()
+blocks, E, g, F, bonded = thin_layer_route(n)
 t = {"nd": [], "md": [], "bonded": []}
 for r in range(reps):
     for mode in ("nd", "md", "bonded"):
         if mode == "bonded":
-            ps = pypardiso.PyPardisoSolver(mtype=-2)
-            t0 = time.process_time()
-            ps.solve(M, rhs)
-            t[mode].append(time.process_time() - t0)
-            ps.free_memory(everything=True)
+            t[mode].append(bonded())
             continue
         sm.SLENDER_FACE = 2 / 3 if mode == "md" else np.inf
         t0 = time.process_time()

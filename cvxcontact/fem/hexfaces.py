@@ -51,10 +51,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..contact.laws import pair_laws
 from ..contact.quadratic import QuadraticStack
+from ..contact.quadratic3d import QuadraticSurface
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
@@ -62,7 +64,7 @@ from .hex import bilinear_rows, face_hats, reference_points
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
+           "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
            "independent_rows", "law_weights",
            "matching", "nesting", "pieces", "quadratic_pressures"]
 
@@ -320,6 +322,48 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
+class SimpsonSurface(QuadraticSurface):
+    """The :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` of a pair of Q2 (27-node) hexahedral faces
+    (posed on the faces' 6-node triangles, ``Q2HexNodes.triangulation``; matching parallelogram faces or a rigid
+    obstacle: :func:`hex_contact`) whose normal-compliance law sits on the nodal rows themselves, integrated by
+    the biquadratic faces' own rule: the energy sum_a w_a Phi(r_a) over the rows a of :meth:`evaluation`, w_a the
+    integral of node a's biquadratic hat over the constrained side's faces all of whose 9 nodes are rows (3 x 3
+    Gauss on the faces' bilinear maps: on a parallelogram of area A the tensor Simpson weights A/36 at a corner,
+    4A/36 at an edge midpoint, 16A/36 at the centre; positive, they sum to the faces' area and integrate a
+    biquadratic function exactly, docs/formulation.md §10). The tetrahedra's rule on the faces' triangles
+    (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`) would integrate the P2 functions of the
+    triangles, not the biquadratic trace, and the P2 functions of a face's corners integrate to 0 on its
+    triangles (a corner would penetrate for free)."""
+
+    def law_weights(self, condition) -> np.ndarray:
+        """(rows,) m^2: w_a at the rows of :meth:`evaluation` under ``condition`` ("sigma1"/"sigma2" on two bodies,
+        any condition against an obstacle), 0 at a row on no face whose 9 nodes are all rows."""
+        if not self.rigid and condition not in ("sigma1", "sigma2"):
+            raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
+                                   f"('sigma1', 'sigma2'), not {condition!r}")
+        side = 0 if self.rigid else int(condition[-1]) - 1
+        t = self.traces[side]
+        nodes = Q2HexNodes(t.body.mesh)
+        faces = np.asarray(nodes.boundary(t.part))                                  # (k, 9)
+        at = np.asarray(t.nodes)[np.asarray(self.reach) if self.rigid else self.sigma_rows(side)]
+        row = np.zeros(len(nodes.points), dtype=bool)
+        row[at] = True
+        return face_hats(nodes.points, faces[row[faces].all(axis=1)], 2)[at]
+
+    def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects
+        them) and those weights: the law's energy sum_a w_a Phi(r_a), its nodal forces w_a p(r_a)."""
+        w = self.law_weights(condition)
+        on = np.flatnonzero(w > 0)
+        return sp.csr_matrix((np.ones(len(on)), (np.arange(len(on)), on)), shape=(len(on), len(w))), w[on]
+
+    def row_mass(self, condition) -> sp.csr_matrix:
+        """(rows, rows) m^2: the diagonal of :meth:`law_weights` (the lumped mass of the biquadratic faces), so that
+        the law's pressure (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`) is each row's
+        force over its weight: p(r_a) (exact for a uniform pressure, whose consistent loads are p w_a)."""
+        return sp.diags(self.law_weights(condition)).tocsr()
+
+
 def quadratic_pressures(lines, conditions):
     """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
     :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
@@ -445,10 +489,6 @@ def hex_contact(space, scene, condition, law=None):
             raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
                                    "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
                                    f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
-        if any(getattr(lw, "compliant", False) for lw in laws):
-            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
-                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
-                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
         for i, itf in enumerate(scene.interfaces):
             for t in itf.traces:
                 X = t.body.mesh.points[t.body.mesh.boundary(t.part)]

@@ -34,8 +34,8 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights, \
-    quadratic_pressures
+from .hexfaces import FACE_TRACE, SimpsonSurface, dependent_law_rows, hex_contact, hex_pair, independent_rows, \
+    law_weights, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -491,6 +491,8 @@ class P2Tet(P2):
 
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
+    surface = QuadraticSurface
+    """The class of its planar 3D pairs (P2 traces on the faces' 6-node triangles)."""
 
     def node_set(self, mesh):
         return P2TetNodes(mesh)
@@ -512,7 +514,7 @@ class P2Tet(P2):
                 raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
                                        "tetrahedra is not available: use degree=1")
         members = scene.stack.members
-        pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
+        pairs = [self.surface(itf, tuple(nodes[k] for k in m if k is not None), m)
                  for itf, m in zip(scene.interfaces, members)]
         stack = QuadraticStack(pairs, members)
         cone = weights = node_cone = None
@@ -622,6 +624,7 @@ class Q2Hex(P2Tet):
     label = "Q2"
     matching_faces = True          # its rows are exact on matching faces only (hex_contact)
     vtk = "hexahedron27"
+    surface = SimpsonSurface       # a compliance law on the nodal rows, the biquadratic faces' weights
     element = HEX2_ELEMENT
 
     def node_set(self, mesh):

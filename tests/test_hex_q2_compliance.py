@@ -49,6 +49,23 @@ def test_a_column_squeezed_through_the_law_is_the_series_closed_form(m):
     assert np.abs(c.lam - p).max() <= 1e-12 * p                                # measured <= 2.9e-15 p
 
 
+def test_a_penetration_limit_holds_the_column_at_the_limit():
+    """The column of the closed form (k = 2e11 Pa/m) with a penetration limit l at half the free penetration,
+    under the upper block's rows ("sigma2"): the rows stop at r = l, so p = (DELTA - l) / (H / M_steel + H / M_alu)
+    at every row, the forces sum to p times 1 m^2 and the upper block is in uniaxial strain."""
+    k, c = SOFT[1], H / M_S + H / M_A
+    limit = 0.5 * series(k, 1, c)[1]
+    p = (DELTA - limit) / c
+    scene = pair(block(2, (0.0, H)), block(2, (H, 2 * H)), materials=(STEEL, ALU))
+    sol = cc.solve(scene, "sigma2", degree=2, law=cc.NormalCompliance(k, penetration_limit=limit))
+    assert sol.ok and sol.polished
+    cr = sol.contacts[0]
+    assert abs(cr.force.sum() - p) <= 1e-12 * p                                  # measured 1.2e-15 p
+    assert np.abs(cr.lam - p).max() <= 1e-12 * p                                 # measured 2.0e-15 p
+    z = sol.points[1][:, 2]
+    assert np.abs(sol.u[1][:, 2] + p * H / M_S + limit + p * (z - H) / M_A).max() <= 1e-12 * DELTA   # 8.0e-16
+
+
 def test_a_block_on_a_rigid_plane_through_the_law_is_the_closed_form():
     """A steel block (2 x 2 x 1 Q2 cells, clamped at its bottom) whose top meets a rigid plane DELTA below it
     through p = k r: uniaxial strain, r = DELTA / (1 + k H / M_steel), every row reads p = k r."""

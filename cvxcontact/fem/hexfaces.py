@@ -54,13 +54,14 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from ..contact.laws import pair_laws
+from ..contact.interface import shares_to_nearest
 from ..contact.quadratic import QuadraticStack
 from ..contact.quadratic3d import QuadraticSurface
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
 from .hex import bilinear_rows, face_hats, reference_points
+from .simplex import simplex_rule
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
@@ -173,6 +174,31 @@ def _side_hats(itf, side, faces) -> np.ndarray:
     at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
     out = np.zeros(itf.size)
     out[at[at >= 0]] = hats[at >= 0]
+    return out
+
+
+def _overlap_hats(itf, side) -> np.ndarray:
+    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``side``, the integral
+    over the overlap of that node's Q1 hat on the side's faces, a node of those faces outside the overlap giving
+    its share to the nearest node inside (:func:`~cvxcontact.contact.interface.shares_to_nearest`, the rule of the
+    P2 faces the overlap's edge cuts); 0 at the other nodes. Each overlay triangle lies in one face of the side;
+    the hats are integrated on it by the degree-4 triangle rule (their reference points by Newton on the face's
+    bilinear map): exact on parallelogram faces (a hat is then quadratic in the plane), and the weights sum to the
+    overlap's area on any faces. Positive where a hat meets the overlap: the law's weights at the constrained
+    side's nodes where the jump is not bilinear on its faces (the other side's trace read at them)."""
+    ov, trace = itf.overlay, itf.traces[side]
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]                     # (t, 3, 2)
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    L, w = simplex_rule(2, 4)
+    points = np.einsum("mi,tid->tmd", L, P).reshape(-1, 2)
+    corners = _corners(trace)
+    host = np.repeat(np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2, len(w))
+    N = bilinear_rows(np.asarray(trace.x)[corners], corners, host, points, len(trace.nodes))
+    hats = N.T @ np.outer(area, w).ravel()
+    at = np.asarray(ov.node_a if side == 0 else ov.node_b)
+    inside = np.flatnonzero(at >= 0)
+    out = np.zeros(itf.size)
+    out[at[inside]] = shares_to_nearest(hats, inside, np.asarray(trace.x))
     return out
 
 
@@ -427,9 +453,8 @@ def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
     side = constrained_side(pair, condition)
     rows = pair.evaluation(condition).indices
     if compliant and not pair.rigid:
-        if not matching(pair) and nesting(pair).fine != side:          # hex_contact refuses it first
-            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that neither match nor "
-                                   f"are nested with side {side} the finer: {nesting(pair).reason}")
+        if not matching(pair) and nesting(pair).fine != side:          # the jump is not bilinear on its faces
+            return _overlap_hats(pair, side)[rows]
         return _side_hats(pair, side, _faces_on_overlap(pair, side))[rows]
     hats = np.asarray(pair.traces[side].lumped)               # mesh.node_areas: the Q1 hats' face integrals
     if pair.rigid:
@@ -477,12 +502,11 @@ def hex_contact(space, scene, condition, law=None):
     """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
     decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
-    parallelograms along common directions (:func:`pieces`), and a compliance law under a nodal condition
-    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance
-    law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that do not
-    match."""
+    parallelograms along common directions (:func:`pieces`); on Q2, "gamma3", faces that are not
+    parallelograms (the centre off the diagonal's midpoint) and faces that do not match. A normal-compliance law
+    is taken wherever its condition is (``law``, kept for the spaces' call: :func:`law_weights` on Q1,
+    :class:`SimpsonSurface` on Q2)."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
-    laws = pair_laws(scene, law)
     if space.degree == 2:
         conditions = [c or condition for c in scene.conditions]
         if "gamma3" in conditions:
@@ -528,15 +552,3 @@ def hex_contact(space, scene, condition, law=None):
                                        "directions (any grids aligned with each other). Use condition='sigma1' "
                                        "(nodal rows), mesh the two faces alike, nested or aligned, or use "
                                        f"{alternative}")
-        if getattr(laws[i], "compliant", False) and c != "gamma3":
-            nested = nesting(itf)
-            if nested.fine is None or c != f"sigma{nested.fine + 1}":
-                why = nested.reason if nested.fine is None else \
-                    f"nested, but {c!r} puts the rows on the coarser side, whose faces the jump is not bilinear on"
-                finer = "" if nested.fine is None else f", condition='sigma{nested.fine + 1}' (the finer side's rows)"
-                raise UnsupportedError(f"{label}: {what} ({why}): a normal-compliance law on Q1 hexahedra is "
-                                       "integrated where the jump is bilinear on the constrained side's faces: "
-                                       "matching faces, nested faces under 'gamma3' or the finer side's nodal "
-                                       "condition, and parallelogram faces along common directions under 'gamma3'. "
-                                       f"Use condition='gamma3' (nested or aligned faces){finer}, mesh the two faces "
-                                       f"alike, or use {alternative}")

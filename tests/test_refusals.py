@@ -854,7 +854,8 @@ def test_q2_hexahedra_under_gamma3_closed_form():
 @pytest.mark.numerics
 def test_q2_hexahedra_with_a_compliance_law_closed_form():
     """Row 39 (b), supported: a normal-compliance law on Q2 hexahedra, matching faces: two blocks and the law in
-    series (measured 1.0e-15 of the push, bound 1e-9; the rows and weights by hand: tests/test_hex_q2_compliance.py)."""
+    series (measured 1.0e-15 of the push, bound 1e-9; the rows and weights by hand:
+    tests/test_hex_q2_compliance.py)."""
     _hex_series(2, 2, 2, "sigma1", cc.NormalCompliance(stiffness=1e12), k=1e12)
 
 

@@ -1,6 +1,6 @@
 """The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
-and aligned faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
-docs/howto/quadrilaterals.md).
+and aligned faces, Q2 faces' compliance law (:class:`SimpsonSurface`), and the refusals where a hexahedral
+space's rows would not be exact (docs/formulation.md §13, docs/howto/quadrilaterals.md).
 
 The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
 (``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.
@@ -33,8 +33,10 @@ A normal-compliance law (:func:`law_weights`) sits on the same rows, integrated 
 where the jump is bilinear: the constrained side's hats over its faces on the overlap on matching and nested
 faces (the finer side's rows, under "gamma3" or its own nodal condition), a quarter of each piece's area at its
 corners on aligned parallelograms ("gamma3"; those rows may depend on each other, :func:`dependent_law_rows`).
-The coarser side's rows on nested faces and nodal rows on crossing faces would integrate a jump that is not
-bilinear on the constrained faces: refused (:func:`hex_contact`).
+The coarser side's rows on nested faces and nodal rows on crossing faces read a jump that is not bilinear on the
+constrained faces: there the law is the lumped rule of the constrained side's hats integrated over the overlap
+(:func:`_overlap_hats`), a consistent approximation rather than an exact integral. On Q2 faces the law sits on
+the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`).
 
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
@@ -65,8 +67,8 @@ from .simplex import simplex_rule
 from .trace import LinearTrace
 
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
-           "independent_rows", "law_weights",
+           "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side", "dependent_law_rows",
+           "hex_contact", "hex_pair", "independent_rows", "law_weights",
            "matching", "nesting", "pieces", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
@@ -445,7 +447,10 @@ def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
     (on nested faces each inside one face of the other side, :func:`nesting`), so that the sum is the lumped
     (corner) rule of int psi([u_nu] - g) on every such face, and the weights sum to the overlap's area; aligned
     parallelograms under "gamma3": a quarter of each piece's area at each of its corners (:attr:`Pieces.weights`,
-    the same rule on each piece); a rigid obstacle: the body's hats over its part (``mesh.node_areas``).
+    the same rule on each piece); under a nodal condition on other faces (crossing grids, the coarser side of
+    nested faces) the constrained side's hats integrated over the overlap (:func:`_overlap_hats`: the jump is not
+    bilinear on its faces, a consistent lumped rule); a rigid obstacle: the body's hats over its part
+    (``mesh.node_areas``).
     ``compliant`` False (a Signorini pair beside compliant ones: no law reads its weights): the constrained
     side's hats over its part at its rows."""
     if condition == "gamma3" and isinstance(pair, (NestedSurface, CrossingSurface)):

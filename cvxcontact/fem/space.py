@@ -576,7 +576,8 @@ class Q1Hex(P1Tet):
     non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
     side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
     :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face integrals on
-    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms
+    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms, and under a
+    nodal condition on other faces by the constrained side's hats over the overlap
     (:func:`~cvxcontact.fem.hexfaces.law_weights`); the rest is refused by name
     (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
@@ -617,8 +618,10 @@ class Q2Hex(P2Tet):
     :mod:`cvxcontact.fem.hex`). Its trace on a face is biquadratic (9 nodes); in contact, the Signorini nodal rows
     ("sigma1"/"sigma2") at a body's face nodes, posed by P2Tet's code on the faces' 6-node triangles
     (``Q2HexNodes.triangulation``: on a parallelogram face its 9 nodes are those of its two triangles), exact where
-    every row's point is a node of both traces (a rigid obstacle, matching faces). "gamma3" and a compliance law
-    would evaluate the trace between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
+    every row's point is a node of both traces (a rigid obstacle, matching faces); a normal-compliance law on the
+    same rows, weighted by the biquadratic hats' face integrals (its pairs are
+    :class:`~cvxcontact.fem.hexfaces.SimpsonSurface`, docs/formulation.md §15). "gamma3" would evaluate the trace
+    between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, True
     label = "Q2"

@@ -127,3 +127,19 @@ def test_the_law_reads_the_biquadratic_trace_at_the_nodes_with_simpsons_weights(
             nodal = p[2 * a:2 * a + 3, 2 * b:2 * b + 3]
             total += np.einsum("p,q,pi,qj,ij->", gw, gw, N, N, nodal) / 16          # Jacobian (1/4)^2
     assert abs(c.force.sum() - total) <= 1e-12 * total                          # measured <= 3.9e-16
+
+
+def test_friction_beside_a_compliance_pair_is_the_series_closed_form():
+    """Two unit boxes of 2 x 2 x 1 Q2 cells (tests/friction_scenes.compliant_series3d): the upper stuck on the lower
+    under Tresca, the lower on a rigid plane through the law (k = 1e13 Pa/m): the friction capacities beside the
+    law's Simpson-weighted rows; the closed form (springs in series, the stuck shear; Q2 reproduces it)."""
+    from friction_scenes import P as P_FRICTION
+    from friction_scenes import compliant_series3d, compliant_series3d_exact
+
+    tau, k = 0.1 * P_FRICTION, 1e13
+    scene = compliant_series3d(tau, k, g=0.5 * P_FRICTION, cell="hex")
+    sol = cc.solve(scene, degree=2, condition="sigma1")
+    assert sol.ok
+    for i, body in enumerate(scene.bodies):
+        exact = compliant_series3d_exact(Q2.node_set(body.mesh).points, tau, k)
+        assert np.abs(sol.u[i] - exact).max() <= 1e-11 * np.abs(exact).max()       # measured <= 2.8e-14

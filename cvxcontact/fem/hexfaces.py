@@ -1,5 +1,5 @@
 """The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
-and aligned faces, Q2 faces' compliance law (:class:`SimpsonSurface`), and the refusals where a hexahedral
+and aligned faces, Q2 faces (:class:`SimpsonSurface`, :class:`BiquadraticRows`), and the refusals where a hexahedral
 space's rows would not be exact (docs/formulation.md §13, docs/howto/quadrilaterals.md).
 
 The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
@@ -57,19 +57,21 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..contact.interface import shares_to_nearest
+from ..contact.overlay import locate
 from ..contact.quadratic import QuadraticStack
-from ..contact.quadratic3d import QuadraticSurface
+from ..contact.quadratic3d import QuadraticSurface, _p2_mass
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
 from .hex import bilinear_rows, face_hats, reference_points
+from .quad import QuadElement
 from .simplex import simplex_rule
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side", "dependent_law_rows",
-           "hex_contact", "hex_pair", "independent_rows", "law_weights",
-           "matching", "nesting", "pieces", "quadratic_pressures"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "BiquadraticRows", "CrossingSurface", "FaceTrace",
+           "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side",
+           "dependent_law_rows", "hex_contact", "hex_pair", "independent_rows", "law_weights", "matching", "nesting",
+           "pieces", "q2_pair", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -392,6 +394,87 @@ class SimpsonSurface(QuadraticSurface):
         return sp.diags(self.law_weights(condition)).tocsr()
 
 
+class BiquadraticRows(SimpsonSurface):
+    """A Q2 pair whose faces do not match, under the nodal condition of side ``side`` ("sigma1" for 0, "sigma2" for
+    1): the rows at that side's 9-node face nodes inside the overlap, each reading the other side's biquadratic
+    trace where the node lies on its faces (as :class:`BilinearSurface` reads a bilinear one). X_h is the
+    constrained side's P2 trace on its faces' 6-node triangles wholly in the overlap (``x`` its nodes inside the
+    overlap, ``cells`` those triangles, ``mass`` their P2 mass); its own interpolation is the identity on those
+    nodes, the other side's the 9 biquadratic functions of its face holding each node (reference coordinates by
+    Newton on the face's bilinear map: exact on the parallelograms :func:`hex_contact` asks for). The rows are
+    then the Q2 jump at the constrained nodes exactly; the condition of the other side is not posed here."""
+
+    def __init__(self, linear, nodes, members, side: int):
+        super().__init__(linear, nodes, members)
+        t, other = self.traces[side], self.traces[1 - side]
+        inside = np.asarray(self._sigma[side][0])
+        at = np.full(len(t.nodes), -1)
+        at[inside] = np.arange(len(inside))
+        faces = np.asarray(t.faces)
+        cells = at[faces[(at[faces] >= 0).all(axis=1)]]
+        self.side, self.x, self.cells = side, t.x[inside], cells
+        self.x.setflags(write=False)
+        self.cells.setflags(write=False)
+        P = self.x[cells[:, :3]]
+        area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+        self.mass = _p2_mass(cells, area, len(inside)).tocsr()
+        n = len(inside)
+        own = sp.csr_matrix((np.ones(n), (np.arange(n), inside)), shape=(n, len(t.nodes)))
+        self._interp = [None, None]
+        self._interp[side], self._interp[1 - side] = own, _biquadratic_rows(other, self.x)
+        self._sigma = [None, None]
+        self._sigma[side] = (inside, sp.identity(n, format="csr"))
+        self._sigma[1 - side] = (np.zeros(0, dtype=np.int64), sp.csr_matrix((0, n)))
+        self._factors = {}
+        self.points = self.offset * np.asarray(self.normal) + self.x @ np.asarray(self.frame)
+        self.points.setflags(write=False)
+
+    def evaluation(self, condition) -> sp.csr_matrix:
+        """The identity on X_h (the constrained side's nodes) under its own nodal condition; any other condition
+        is not posed on this pair (UnsupportedError)."""
+        if condition != f"sigma{self.side + 1}":
+            raise UnsupportedError(f"a Q2 pair on faces that do not match is posed under 'sigma{self.side + 1}', "
+                                   f"its constrained side's nodal condition, not {condition!r}")
+        return super().evaluation(condition)
+
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
+        """The triangles of X_h (the constrained side's face triangles in the overlap), their in-plane corners, and
+        per side the triangle of its trace holding each (the constrained side's own; None for the other: found by
+        location where needed)."""
+        t = self.traces[self.side]
+        hosts = [None, None]
+        at = np.full(len(t.nodes), -1)
+        at[np.asarray(self._sigma[self.side][0])] = np.arange(self.size)
+        faces = np.asarray(t.faces)
+        hosts[self.side] = np.flatnonzero((at[faces] >= 0).all(axis=1))
+        return np.asarray(self.cells), self.x[np.asarray(self.cells)[:, :3]], hosts
+
+
+def _biquadratic_rows(trace, x) -> sp.csr_matrix:
+    """(v, n) sparse: the biquadratic functions of the 9-node faces of the Q2 ``trace`` (a P2 pair's trace on
+    hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x`` (v, 2) m, each in the face its
+    triangles hold it in (UnsupportedError for a point on none)."""
+    faces9 = np.searchsorted(np.asarray(trace.nodes), Q2HexNodes(trace.body.mesh).boundary(trace.part))
+    tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
+    if (tri < 0).any():
+        raise UnsupportedError(f"{trace.body.name} {trace.part!r}: a node of the other side lies on none of its "
+                               "faces: its biquadratic trace cannot be read there")
+    host = tri // 2
+    xi = reference_points(np.asarray(trace.x)[faces9[:, :4]], host, np.asarray(x, dtype=float))
+    N = QuadElement(2).shape(np.clip(xi, -1.0, 1.0))
+    return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(x)), 9), faces9[host].ravel())),
+                         shape=(len(x), len(trace.nodes)))
+
+
+def q2_pair(itf, nodes, members, condition):
+    """The P2 pair a Q2 hexahedral space poses for ``itf`` under ``condition``: :class:`BiquadraticRows` on
+    faces that do not match under a nodal condition, :class:`SimpsonSurface` otherwise (matching faces, a rigid
+    obstacle)."""
+    if itf.rigid or matching(itf) or condition not in ("sigma1", "sigma2"):
+        return SimpsonSurface(itf, nodes, members)
+    return BiquadraticRows(itf, nodes, members, int(condition[-1]) - 1)
+
+
 def quadratic_pressures(lines, conditions):
     """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
     :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
@@ -507,8 +590,8 @@ def hex_contact(space, scene, condition, law=None):
     """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
     decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
-    parallelograms along common directions (:func:`pieces`); on Q2, "gamma3", faces that are not
-    parallelograms (the centre off the diagonal's midpoint) and faces that do not match. A normal-compliance law
+    parallelograms along common directions (:func:`pieces`); on Q2, "gamma3" and faces that are not
+    parallelograms (the centre off the diagonal's midpoint). A normal-compliance law
     is taken wherever its condition is (``law``, kept for the spaces' call: :func:`law_weights` on Q1,
     :class:`SimpsonSurface` on Q2)."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
@@ -541,10 +624,6 @@ def hex_contact(space, scene, condition, law=None):
             continue
         what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
                f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
-        if space.degree == 2:
-            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
-                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
-                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
         if c == "gamma3":
             nested = nesting(itf)
             cut = pieces(itf) if nested.fine is None else None

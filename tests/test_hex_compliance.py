@@ -1,12 +1,14 @@
 """A normal-compliance law on Q1 hexahedra between faces that do not match (fem/hexfaces.law_weights): nested
 faces (under "gamma3" or the finer side's own nodal condition: the finer side's rows, its hats' integrals on
-the overlap) and aligned parallelogram grids that cross ("gamma3": the pieces' corners, a quarter of each
-piece's area).
+the overlap), aligned parallelogram grids that cross ("gamma3": the pieces' corners, a quarter of each
+piece's area) and any faces under a nodal condition (the constrained side's hats over the overlap).
 
 Independent references: the series closed form of a column squeezed through the law (two blocks in uniaxial
 strain and the law between them, linear and quadratic, solved here by hand); the Signorini answer the law tends
 to as k grows (at the rate 1/k); the same geometry meshed with matching faces (the energies agree to the
-discretisation's order, h^2); the refusal where the jump is not bilinear on the constrained side's faces.
+discretisation's order, h^2). Nodal rows where the jump is not bilinear on the constrained side's faces (crossing
+grids, the coarser side of nested ones, faces the overlap's edge cuts): the constrained side's hats over the
+overlap, written here by hand, against a nearly rigid other side.
 """
 
 import numpy as np
@@ -26,13 +28,13 @@ from hex_scenes import (
 )
 
 import cvxcontact as cc
-from cvxcontact.errors import UnsupportedError
 
 pytestmark = pytest.mark.numerics
 
 H = 0.5
 M_S, M_A = float(STEEL.tensors(3)[0][2, 2]), float(ALU.tensors(3)[0][2, 2])
 SOFT = {1: 2e11, 2: 2e16}     # Pa/m^m by exponent m: the law's penetration 0.42 and 0.56 of DELTA
+STIFF_SIDE = 1e6              # how much stiffer than steel a nearly flat other side is
 
 
 def series(k, m):
@@ -175,19 +177,57 @@ def test_nested_and_matching_meshes_of_one_geometry_agree_to_the_discretisation_
     assert order >= 1.5, gaps
 
 
-def test_a_law_whose_rows_are_not_on_faces_where_the_jump_is_bilinear_is_refused_naming_the_alternatives():
-    """The coarser side's rows on nested faces (the fine trace is not bilinear on a coarse face) and nodal rows
-    on crossing grids: typed refusals that say why and name the finer side's condition, "gamma3", matching
-    faces and tetrahedra; the same scenes are taken under those conditions."""
-    law = cc.NormalCompliance(SOFT[1])
-    scene, fine = nested("4 on 2")
-    with pytest.raises(UnsupportedError, match="nested, but 'sigma2' puts the rows on the coarser side.*"
-                       "condition='gamma3'.*condition='sigma1' \\(the finer side's rows\\).*tetrahedra"):
-        cc.solve(scene, "sigma2", law=law)
-    assert fine == 0 and cc.solve(scene, "sigma1", law=law).ok and cc.solve(scene, "gamma3", law=law).ok
-    crossing = pair(block(3, (0.0, 0.5)), block(2, (0.5, 1.0)))
-    for condition in ("sigma1", "sigma2"):
-        with pytest.raises(UnsupportedError, match="lies across 4 faces.*normal-compliance law on Q1.*"
-                           "condition='gamma3' \\(nested or aligned faces\\), mesh the two faces alike.*tetrahedra"):
-            cc.solve(crossing, condition, law=law)
-    assert cc.solve(crossing, "gamma3", law=law).ok
+@pytest.mark.parametrize("case, condition, stiff", [((2, 3), "sigma1", "upper"), ((2, 3), "sigma2", "lower"),
+                                                    ((4, 2), "sigma2", "lower")],
+                         ids=["crossing-sigma1", "crossing-sigma2", "nested-coarse-sigma2"])
+def test_a_law_on_nodal_rows_where_the_jump_is_not_bilinear_weighs_the_constrained_sides_hats(case, condition,
+                                                                                                 stiff):
+    """Nodal rows whose faces the jump is not bilinear on (2 x 2 and 3 x 3 grids; the coarser side's rows on
+    nested 4 x 4 / 2 x 2 grids): the law integrated by the constrained side's Q1 hats, the other side's trace
+    read at its nodes. The other side STIFF_SIDE times stiffer (nearly flat): the constrained, steel, block is in
+    uniaxial strain through the law, p = k r with r + p H / M_steel = DELTA, and each row's force is p times its
+    node's hat integral written here (h^2 / 4 at a corner of the n x n grid, h^2 / 2 on its edges, h^2 inside,
+    h = 1 / n); 0 at the other nodes of X_h."""
+    side = int(condition[-1]) - 1
+    mats = [STEEL, STEEL]
+    mats[("lower", "upper").index(stiff)] = cc.materials.isotropic(E=STEEL.E * STIFF_SIDE, nu=STEEL.nu)
+    scene = pair(block(case[0], (0.0, H)), block(case[1], (H, 2 * H)), materials=tuple(mats))
+    k = SOFT[1]
+    sol = cc.solve(scene, condition, law=cc.NormalCompliance(k))
+    assert sol.ok and sol.polished
+    p = k * DELTA / (1.0 + k * H / M_S)
+    n = case[side]
+    c = sol.contacts[0]
+    ij = c.points[:, :2] * n
+    on = np.isclose(ij, np.rint(ij), atol=1e-9).all(axis=1)                   # the constrained side's nodes
+    ends = np.isclose(ij, 0.0) | np.isclose(ij, n)
+    hat = np.where(on, np.prod(np.where(ends, 0.5, 1.0), axis=1), 0.0) / n ** 2
+    assert np.abs(c.force - p * hat).max() <= 1e-4 * p / n ** 2                # measured <= 8.0e-7 p / n^2
+    assert abs(c.force.sum() - p) <= 1e-4 * p                                  # measured <= 8.0e-7 p
+
+
+def test_a_law_on_constrained_faces_the_overlap_cuts_weighs_their_hats_over_the_overlap():
+    """A column on [0, 0.4] x [0, 1] (1 x 2 faces) pushed by DELTA onto a block of 3 x 3 faces (the constrained
+    side, "sigma1"), whose middle column of faces the overlap's edge x = 0.4 cuts; both blocks STIFF_SIDE times
+    stiffer than steel (nearly rigid: r = DELTA at every row to their strain). The weights are the hats integrated
+    over the overlap, the share of the nodes beyond it (x = 2/3, 1/150 per unit length) given to the nearest rows
+    (x = 1/3): along x 1/6 at x = 0 and 1/6 + 1/15 - 1/150 + 1/150 = 7/30 at x = 1/3 (they sum to 0.4, the overlap's
+    width; whole hats would give 1/2, the cut hats without the shares 0.393), along y 1/6, 1/3, 1/3, 1/6: each row's
+    force k DELTA times its weight, computed here by hand."""
+    stiff = cc.materials.isotropic(E=STEEL.E * STIFF_SIDE, nu=STEEL.nu)
+    lower = cc.Body(cc.box(z=(0.0, H), nx=3, ny=3, nz=1, cell="hex"), stiff, roller=SIDES, clamped=["bottom"],
+                    contact="top", name="lower")
+    upper = cc.Body(cc.box(x=(0.0, 0.4), z=(H, 2 * H), nx=1, ny=2, nz=1, cell="hex"), stiff, roller=SIDES,
+                    contact="bottom", name="upper", displacement={"top": (None, None, -DELTA)})
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom")])
+    k = SOFT[1]
+    sol = cc.solve(scene, "sigma1", law=cc.NormalCompliance(k))
+    assert sol.ok and sol.polished
+    c = sol.contacts[0]
+    i, j = np.rint(c.points[:, 0] * 3).astype(int), np.rint(c.points[:, 1] * 3).astype(int)
+    row = np.isclose(c.points[:, 0] * 3, i) & np.isclose(c.points[:, 1] * 3, j)     # the lower's nodes
+    wx, wy = np.array([1 / 6, 7 / 30]), np.array([1, 2, 2, 1]) / 6
+    weight = np.where(row, wx[np.minimum(i, 1)] * wy[j], 0.0)
+    scale = k * DELTA
+    assert np.abs(c.force - scale * weight).max() <= 1e-4 * scale / 9          # measured 4.2e-7 k DELTA / 9
+    assert abs(c.force.sum() - 0.4 * scale) <= 1e-4 * scale                     # measured 2.7e-7 k DELTA

@@ -1,6 +1,6 @@
 """The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
-and aligned faces, and the refusals where a hexahedral space's rows would not be exact (docs/formulation.md §13,
-docs/howto/quadrilaterals.md).
+and aligned faces, Q2 faces (:class:`SimpsonSurface`, :class:`BiquadraticRows`), and the refusals where a hexahedral
+space's rows would not be exact (docs/formulation.md §13, docs/howto/quadrilaterals.md).
 
 The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
 (``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.
@@ -33,8 +33,10 @@ A normal-compliance law (:func:`law_weights`) sits on the same rows, integrated 
 where the jump is bilinear: the constrained side's hats over its faces on the overlap on matching and nested
 faces (the finer side's rows, under "gamma3" or its own nodal condition), a quarter of each piece's area at its
 corners on aligned parallelograms ("gamma3"; those rows may depend on each other, :func:`dependent_law_rows`).
-The coarser side's rows on nested faces and nodal rows on crossing faces would integrate a jump that is not
-bilinear on the constrained faces: refused (:func:`hex_contact`).
+The coarser side's rows on nested faces and nodal rows on crossing faces read a jump that is not bilinear on the
+constrained faces: there the law is the lumped rule of the constrained side's hats integrated over the overlap
+(:func:`_overlap_hats`), a consistent approximation rather than an exact integral. On Q2 faces the law sits on
+the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`).
 
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
@@ -51,20 +53,25 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from ..contact.laws import pair_laws
+from ..contact.interface import shares_to_nearest
+from ..contact.overlay import locate
 from ..contact.quadratic import QuadraticStack
+from ..contact.quadratic3d import QuadraticSurface, _p2_mass
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
 from .hex import bilinear_rows, face_hats, reference_points
+from .quad import QuadElement
+from .simplex import simplex_rule
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
-           "independent_rows", "law_weights",
-           "matching", "nesting", "pieces", "quadratic_pressures"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "BiquadraticRows", "CrossingSurface", "FaceTrace",
+           "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side",
+           "dependent_law_rows", "hex_contact", "hex_pair", "independent_rows", "law_weights", "matching", "nesting",
+           "pieces", "q2_pair", "quadratic_pressures"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -171,6 +178,31 @@ def _side_hats(itf, side, faces) -> np.ndarray:
     at = np.asarray(itf.overlay.node_a if side == 0 else itf.overlay.node_b)
     out = np.zeros(itf.size)
     out[at[at >= 0]] = hats[at >= 0]
+    return out
+
+
+def _overlap_hats(itf, side) -> np.ndarray:
+    """(size,) m^2: at each node of X_h of the two-body pair ``itf`` that is a node of side ``side``, the integral
+    over the overlap of that node's Q1 hat on the side's faces, a node of those faces outside the overlap giving
+    its share to the nearest node inside (:func:`~cvxcontact.contact.interface.shares_to_nearest`, the rule of the
+    P2 faces the overlap's edge cuts); 0 at the other nodes. Each overlay triangle lies in one face of the side;
+    the hats are integrated on it by the degree-4 triangle rule (their reference points by Newton on the face's
+    bilinear map): exact on parallelogram faces (a hat is then quadratic in the plane), and the weights sum to the
+    overlap's area on any faces. Positive where a hat meets the overlap: the law's weights at the constrained
+    side's nodes where the jump is not bilinear on its faces (the other side's trace read at them)."""
+    ov, trace = itf.overlay, itf.traces[side]
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]                     # (t, 3, 2)
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    L, w = simplex_rule(2, 4)
+    points = np.einsum("mi,tid->tmd", L, P).reshape(-1, 2)
+    corners = _corners(trace)
+    host = np.repeat(np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2, len(w))
+    N = bilinear_rows(np.asarray(trace.x)[corners], corners, host, points, len(trace.nodes))
+    hats = N.T @ np.outer(area, w).ravel()
+    at = np.asarray(ov.node_a if side == 0 else ov.node_b)
+    inside = np.flatnonzero(at >= 0)
+    out = np.zeros(itf.size)
+    out[at[inside]] = shares_to_nearest(hats, inside, np.asarray(trace.x))
     return out
 
 
@@ -320,6 +352,129 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
+class SimpsonSurface(QuadraticSurface):
+    """The :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` of a pair of Q2 (27-node) hexahedral faces
+    (posed on the faces' 6-node triangles, ``Q2HexNodes.triangulation``; matching parallelogram faces or a rigid
+    obstacle: :func:`hex_contact`) whose normal-compliance law sits on the nodal rows themselves, integrated by
+    the biquadratic faces' own rule: the energy sum_a w_a Phi(r_a) over the rows a of :meth:`evaluation`, w_a the
+    integral of node a's biquadratic hat over the constrained side's faces all of whose 9 nodes are rows (3 x 3
+    Gauss on the faces' bilinear maps: on a parallelogram of area A the tensor Simpson weights A/36 at a corner,
+    4A/36 at an edge midpoint, 16A/36 at the centre; positive, they sum to the faces' area and integrate a
+    biquadratic function exactly, docs/formulation.md §10). The tetrahedra's rule on the faces' triangles
+    (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`) would integrate the P2 functions of the
+    triangles, not the biquadratic trace, and the P2 functions of a face's corners integrate to 0 on its
+    triangles (a corner would penetrate for free)."""
+
+    def law_weights(self, condition) -> np.ndarray:
+        """(rows,) m^2: w_a at the rows of :meth:`evaluation` under ``condition`` ("sigma1"/"sigma2" on two bodies,
+        any condition against an obstacle), 0 at a row on no face whose 9 nodes are all rows."""
+        if not self.rigid and condition not in ("sigma1", "sigma2"):
+            raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
+                                   f"('sigma1', 'sigma2'), not {condition!r}")
+        side = 0 if self.rigid else int(condition[-1]) - 1
+        t = self.traces[side]
+        nodes = Q2HexNodes(t.body.mesh)
+        faces = np.asarray(nodes.boundary(t.part))                                  # (k, 9)
+        at = np.asarray(t.nodes)[np.asarray(self.reach) if self.rigid else self.sigma_rows(side)]
+        row = np.zeros(len(nodes.points), dtype=bool)
+        row[at] = True
+        return face_hats(nodes.points, faces[row[faces].all(axis=1)], 2)[at]
+
+    def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects
+        them) and those weights: the law's energy sum_a w_a Phi(r_a), its nodal forces w_a p(r_a)."""
+        w = self.law_weights(condition)
+        on = np.flatnonzero(w > 0)
+        return sp.csr_matrix((np.ones(len(on)), (np.arange(len(on)), on)), shape=(len(on), len(w))), w[on]
+
+    def row_mass(self, condition) -> sp.csr_matrix:
+        """(rows, rows) m^2: the diagonal of :meth:`law_weights` (the lumped mass of the biquadratic faces), so that
+        the law's pressure (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`) is each row's
+        force over its weight: p(r_a) (exact for a uniform pressure, whose consistent loads are p w_a)."""
+        return sp.diags(self.law_weights(condition)).tocsr()
+
+
+class BiquadraticRows(SimpsonSurface):
+    """A Q2 pair whose faces do not match, under the nodal condition of side ``side`` ("sigma1" for 0, "sigma2" for
+    1): the rows at that side's 9-node face nodes inside the overlap, each reading the other side's biquadratic
+    trace where the node lies on its faces (as :class:`BilinearSurface` reads a bilinear one). X_h is the
+    constrained side's P2 trace on its faces' 6-node triangles wholly in the overlap (``x`` its nodes inside the
+    overlap, ``cells`` those triangles, ``mass`` their P2 mass); its own interpolation is the identity on those
+    nodes, the other side's the 9 biquadratic functions of its face holding each node (reference coordinates by
+    Newton on the face's bilinear map: exact on the parallelograms :func:`hex_contact` asks for). The rows are
+    then the Q2 jump at the constrained nodes exactly; the condition of the other side is not posed here."""
+
+    def __init__(self, linear, nodes, members, side: int):
+        super().__init__(linear, nodes, members)
+        t, other = self.traces[side], self.traces[1 - side]
+        inside = np.asarray(self._sigma[side][0])
+        at = np.full(len(t.nodes), -1)
+        at[inside] = np.arange(len(inside))
+        faces = np.asarray(t.faces)
+        cells = at[faces[(at[faces] >= 0).all(axis=1)]]
+        self.side, self.x, self.cells = side, t.x[inside], cells
+        self.x.setflags(write=False)
+        self.cells.setflags(write=False)
+        P = self.x[cells[:, :3]]
+        area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+        self.mass = _p2_mass(cells, area, len(inside)).tocsr()
+        n = len(inside)
+        own = sp.csr_matrix((np.ones(n), (np.arange(n), inside)), shape=(n, len(t.nodes)))
+        self._interp = [None, None]
+        self._interp[side], self._interp[1 - side] = own, _biquadratic_rows(other, self.x)
+        self._sigma = [None, None]
+        self._sigma[side] = (inside, sp.identity(n, format="csr"))
+        self._sigma[1 - side] = (np.zeros(0, dtype=np.int64), sp.csr_matrix((0, n)))
+        self._factors = {}
+        self.points = self.offset * np.asarray(self.normal) + self.x @ np.asarray(self.frame)
+        self.points.setflags(write=False)
+
+    def evaluation(self, condition) -> sp.csr_matrix:
+        """The identity on X_h (the constrained side's nodes) under its own nodal condition; any other condition
+        is not posed on this pair (UnsupportedError)."""
+        if condition != f"sigma{self.side + 1}":
+            raise UnsupportedError(f"a Q2 pair on faces that do not match is posed under 'sigma{self.side + 1}', "
+                                   f"its constrained side's nodal condition, not {condition!r}")
+        return super().evaluation(condition)
+
+    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
+        """The triangles of X_h (the constrained side's face triangles in the overlap), their in-plane corners, and
+        per side the triangle of its trace holding each (the constrained side's own; None for the other: found by
+        location where needed)."""
+        t = self.traces[self.side]
+        hosts = [None, None]
+        at = np.full(len(t.nodes), -1)
+        at[np.asarray(self._sigma[self.side][0])] = np.arange(self.size)
+        faces = np.asarray(t.faces)
+        hosts[self.side] = np.flatnonzero((at[faces] >= 0).all(axis=1))
+        return np.asarray(self.cells), self.x[np.asarray(self.cells)[:, :3]], hosts
+
+
+def _biquadratic_rows(trace, x) -> sp.csr_matrix:
+    """(v, n) sparse: the biquadratic functions of the 9-node faces of the Q2 ``trace`` (a P2 pair's trace on
+    hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x`` (v, 2) m, each in the face its
+    triangles hold it in (UnsupportedError for a point on none)."""
+    faces9 = np.searchsorted(np.asarray(trace.nodes), Q2HexNodes(trace.body.mesh).boundary(trace.part))
+    tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
+    if (tri < 0).any():
+        raise UnsupportedError(f"{trace.body.name} {trace.part!r}: a node of the other side lies on none of its "
+                               "faces: its biquadratic trace cannot be read there")
+    host = tri // 2
+    xi = reference_points(np.asarray(trace.x)[faces9[:, :4]], host, np.asarray(x, dtype=float))
+    N = QuadElement(2).shape(np.clip(xi, -1.0, 1.0))
+    return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(x)), 9), faces9[host].ravel())),
+                         shape=(len(x), len(trace.nodes)))
+
+
+def q2_pair(itf, nodes, members, condition):
+    """The P2 pair a Q2 hexahedral space poses for ``itf`` under ``condition``: :class:`BiquadraticRows` on
+    faces that do not match under a nodal condition, :class:`SimpsonSurface` otherwise (matching faces, a rigid
+    obstacle)."""
+    if itf.rigid or matching(itf) or condition not in ("sigma1", "sigma2"):
+        return SimpsonSurface(itf, nodes, members)
+    return BiquadraticRows(itf, nodes, members, int(condition[-1]) - 1)
+
+
 def quadratic_pressures(lines, conditions):
     """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
     :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
@@ -375,7 +530,10 @@ def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
     (on nested faces each inside one face of the other side, :func:`nesting`), so that the sum is the lumped
     (corner) rule of int psi([u_nu] - g) on every such face, and the weights sum to the overlap's area; aligned
     parallelograms under "gamma3": a quarter of each piece's area at each of its corners (:attr:`Pieces.weights`,
-    the same rule on each piece); a rigid obstacle: the body's hats over its part (``mesh.node_areas``).
+    the same rule on each piece); under a nodal condition on other faces (crossing grids, the coarser side of
+    nested faces) the constrained side's hats integrated over the overlap (:func:`_overlap_hats`: the jump is not
+    bilinear on its faces, a consistent lumped rule); a rigid obstacle: the body's hats over its part
+    (``mesh.node_areas``).
     ``compliant`` False (a Signorini pair beside compliant ones: no law reads its weights): the constrained
     side's hats over its part at its rows."""
     if condition == "gamma3" and isinstance(pair, (NestedSurface, CrossingSurface)):
@@ -383,9 +541,8 @@ def law_weights(pair, condition: str, compliant: bool = True) -> np.ndarray:
     side = constrained_side(pair, condition)
     rows = pair.evaluation(condition).indices
     if compliant and not pair.rigid:
-        if not matching(pair) and nesting(pair).fine != side:          # hex_contact refuses it first
-            raise UnsupportedError(f"a normal-compliance law under {condition!r} on faces that neither match nor "
-                                   f"are nested with side {side} the finer: {nesting(pair).reason}")
+        if not matching(pair) and nesting(pair).fine != side:          # the jump is not bilinear on its faces
+            return _overlap_hats(pair, side)[rows]
         return _side_hats(pair, side, _faces_on_overlap(pair, side))[rows]
     hats = np.asarray(pair.traces[side].lumped)               # mesh.node_areas: the Q1 hats' face integrals
     if pair.rigid:
@@ -433,22 +590,17 @@ def hex_contact(space, scene, condition, law=None):
     """UnsupportedError for the contact a hexahedral space does not pose exactly (the spaces' docstrings): curved
     parts; on Q1, "gamma3" against a curved obstacle (its gap is not bilinear on a face: the corners do not
     decide), "gamma3" between faces that neither match corner to corner, nest (:func:`nesting`) nor are
-    parallelograms along common directions (:func:`pieces`), and a compliance law under a nodal condition
-    between faces that do not match, but for the finer side's on nested faces; on Q2, "gamma3", a compliance
-    law, faces that are not parallelograms (the centre off the diagonal's midpoint) and faces that do not
-    match."""
+    parallelograms along common directions (:func:`pieces`); on Q2, "gamma3" and faces that are not
+    parallelograms (the centre off the diagonal's midpoint). A normal-compliance law
+    is taken wherever its condition is (``law``, kept for the spaces' call: :func:`law_weights` on Q1,
+    :class:`SimpsonSurface` on Q2)."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
-    laws = pair_laws(scene, law)
     if space.degree == 2:
         conditions = [c or condition for c in scene.conditions]
         if "gamma3" in conditions:
             raise UnsupportedError("'gamma3' on Q2 (27-node) hexahedra is not available (the biquadratic trace's "
                                    "condition everywhere on a face): use condition='sigma1' (nodal rows), degree=1 "
                                    f"(Q1 hexahedra) or {alternative}, P2 with degree=2")
-        if any(getattr(lw, "compliant", False) for lw in laws):
-            raise UnsupportedError("a normal-compliance law on Q2 (27-node) hexahedra is not available (its "
-                                   "quadrature would evaluate the faces' triangles, not the biquadratic trace): use "
-                                   f"degree=1 (Q1 hexahedra) or {alternative}, P2 with degree=2")
         for i, itf in enumerate(scene.interfaces):
             for t in itf.traces:
                 X = t.body.mesh.points[t.body.mesh.boundary(t.part)]
@@ -472,10 +624,6 @@ def hex_contact(space, scene, condition, law=None):
             continue
         what = f"the contact faces of the two hexahedral bodies do not match corner to corner ({itf.size} nodes " \
                f"of X_h, {len(itf.sigma[0])} and {len(itf.sigma[1])} of them the bodies' nodes)"
-        if space.degree == 2:
-            raise UnsupportedError(f"{label}: {what}: the rows would evaluate a biquadratic trace between its "
-                                   "nodes on its faces' triangles. Mesh the two faces alike (the same grid on the "
-                                   f"contact plane), use degree=1 (Q1: nodal rows on any faces) or {alternative}")
         if c == "gamma3":
             nested = nesting(itf)
             cut = pieces(itf) if nested.fine is None else None
@@ -488,15 +636,3 @@ def hex_contact(space, scene, condition, law=None):
                                        "directions (any grids aligned with each other). Use condition='sigma1' "
                                        "(nodal rows), mesh the two faces alike, nested or aligned, or use "
                                        f"{alternative}")
-        if getattr(laws[i], "compliant", False) and c != "gamma3":
-            nested = nesting(itf)
-            if nested.fine is None or c != f"sigma{nested.fine + 1}":
-                why = nested.reason if nested.fine is None else \
-                    f"nested, but {c!r} puts the rows on the coarser side, whose faces the jump is not bilinear on"
-                finer = "" if nested.fine is None else f", condition='sigma{nested.fine + 1}' (the finer side's rows)"
-                raise UnsupportedError(f"{label}: {what} ({why}): a normal-compliance law on Q1 hexahedra is "
-                                       "integrated where the jump is bilinear on the constrained side's faces: "
-                                       "matching faces, nested faces under 'gamma3' or the finer side's nodal "
-                                       "condition, and parallelogram faces along common directions under 'gamma3'. "
-                                       f"Use condition='gamma3' (nested or aligned faces){finer}, mesh the two faces "
-                                       f"alike, or use {alternative}")

@@ -34,8 +34,8 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights, \
-    quadratic_pressures
+from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, \
+    law_weights, q2_pair, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -492,6 +492,12 @@ class P2Tet(P2):
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
 
+    def pair_surface(self, itf, nodes, members, condition):
+        """The P2 pair of the planar pair ``itf`` (the bodies' P2 ``nodes``, their ``members`` indices) under
+        ``condition``: :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` (the seam a space whose traces
+        are not the triangles' own overrides)."""
+        return QuadraticSurface(itf, nodes, members)
+
     def node_set(self, mesh):
         return P2TetNodes(mesh)
 
@@ -512,8 +518,8 @@ class P2Tet(P2):
                 raise UnsupportedError(f"contacts[{i}] {itf.label}: a curved contact part with P2 (10-node) "
                                        "tetrahedra is not available: use degree=1")
         members = scene.stack.members
-        pairs = [QuadraticSurface(itf, tuple(nodes[k] for k in m if k is not None), m)
-                 for itf, m in zip(scene.interfaces, members)]
+        pairs = [self.pair_surface(itf, tuple(nodes[k] for k in m if k is not None), m, c)
+                 for itf, m, c in zip(scene.interfaces, members, conditions)]
         stack = QuadraticStack(pairs, members)
         cone = weights = node_cone = None
         friction = any(lw.friction is not None for lw in laws)
@@ -574,7 +580,8 @@ class Q1Hex(P1Tet):
     non-negative on a face if it is at its corners): matching faces, rigid planes, nested faces (the finer
     side's nodes) and aligned parallelogram grids (the corners of the pieces where faces meet;
     :mod:`cvxcontact.fem.hexfaces`); a normal-compliance law is integrated by the Q1 hats' face integrals on
-    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms
+    matching and nested faces and against obstacles, by the pieces' areas on aligned parallelograms, and under a
+    nodal condition on other faces by the constrained side's hats over the overlap
     (:func:`~cvxcontact.fem.hexfaces.law_weights`); the rest is refused by name
     (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
@@ -615,14 +622,23 @@ class Q2Hex(P2Tet):
     :mod:`cvxcontact.fem.hex`). Its trace on a face is biquadratic (9 nodes); in contact, the Signorini nodal rows
     ("sigma1"/"sigma2") at a body's face nodes, posed by P2Tet's code on the faces' 6-node triangles
     (``Q2HexNodes.triangulation``: on a parallelogram face its 9 nodes are those of its two triangles), exact where
-    every row's point is a node of both traces (a rigid obstacle, matching faces). "gamma3" and a compliance law
-    would evaluate the trace between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
+    every row's point is a node of both traces (a rigid obstacle, matching faces); on faces that do not match each
+    row reads the other side's biquadratic trace on its faces (:class:`~cvxcontact.fem.hexfaces.BiquadraticRows`);
+    a normal-compliance law on the same rows, weighted by the biquadratic hats' face integrals
+    (:class:`~cvxcontact.fem.hexfaces.SimpsonSurface`, docs/formulation.md §15). "gamma3" would evaluate the trace
+    between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, True
     label = "Q2"
-    matching_faces = True          # its rows are exact on matching faces only (hex_contact)
+    matching_faces = True          # cc.adapt keeps its faces meshed alike (refine_together)
     vtk = "hexahedron27"
     element = HEX2_ELEMENT
+
+    def pair_surface(self, itf, nodes, members, condition):
+        """The Q2 pair (:func:`~cvxcontact.fem.hexfaces.q2_pair`): a compliance law on the nodal rows with the
+        biquadratic faces' weights; on faces that do not match, the rows reading the other side's biquadratic
+        trace."""
+        return q2_pair(itf, nodes, members, condition)
 
     def node_set(self, mesh):
         return Q2HexNodes(mesh)

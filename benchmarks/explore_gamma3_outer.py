@@ -1,0 +1,239 @@
+"""Exploration: an outer iteration for P1 "gamma3" rows on the mixed system, monotone in the dual energy (issue 33
+item 1, items 2 and 3 of docs/explanation/gamma3-fast-route.md "What a route would need"). Not in the package.
+
+The problem: min 1/2 x^T A x - F^T x over G x <= g, A the two bodies' stiffness (no row in it), G the m "gamma3"
+rows (R on the contact dofs, m > d: the rows depend on each other). Its dual energy
+theta(y) = min_x L(x, y) = -1/2 x(y)^T A x(y) - g^T y, x(y) = A^-1 (F - G^T y), is concave in y >= 0, with gradient
+s(y) = G x(y) - g. Each outer step (a dual active-set step safeguarded by theta):
+
+1. the candidate rows C = {y > 0} or {s > tol} (the primal-dual active set's rule, its constant infinite);
+2. an independent subset B of C: column-pivoted QR of C's rows on the contact dofs (weighted 1 + y / max y +
+   s^+ / max s^+, so that the rows that carry force or penetrate most come first), cut 1e-10 of the first pivot;
+3. the face: min energy over G_B x = g_B, solved exactly (PARDISO on the mixed system [[A, G_B^T], [G_B, 0]], the
+   other rows decoupled; one analysis, a numeric factorisation per step, two refinement steps): x_B, y_B;
+4. the forces on dependent rows without W: z >= 0 on the rows touching at x_B (|s_i| <= 1e-9 of the jump's
+   scale) with R_T^T z = R_B^T y_B, by non-negative least squares (scipy's Lawson-Hanson, dense d x |T|);
+5. certified (stop) where x_B is feasible (every row's s <= 1e-9 of the scale) and z represents the force (NNLS
+   residual <= 1e-9 of it): then x_B, z satisfy the Karush-Kuhn-Tucker conditions exactly, whatever the faces
+   visited;
+6. otherwise the candidate y+ = z (>= 0) is accepted where theta(y+) > theta(y) (one solve with a factor of A,
+   factorised once); else the exact maximiser of theta on the segment [y, y+] (theta is a concave quadratic on
+   it: one more solve), and where that does not grow theta, the segment to max(y + alpha s, 0) (a projected
+   gradient step, alpha = 1e3 (|y| + 1) / |s|, the segment's exact maximiser): theta grows at every step, so no
+   dual point repeats.
+
+Measured on two_boxes(n, "gamma3", True): the outer steps, whether they settle (certified) within ``--steps``,
+the answer against the condensed route's (cc.solve's default: its jump at every row, and the displacements against
+the face of its closed rows P solved by the same PARDISO system), CPU seconds (``time.process_time``: the outer
+iteration with every factorisation, QR and NNLS; the condensed route's solve; the bonded AMG-CG yardstick's set-up
+and solve, benchmarks/harness.py ``amg_bonded`` on the same mesh's "sigma1" rows, as bench_gamma3_scale.py --amg).
+
+    OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/explore_gamma3_outer.py \
+        --n 8 12 16 24 32 40
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.optimize import nnls
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from harness import amg_bonded, bonded_kkt, bonded_system, peak_gb, rel
+from scenes3d import two_boxes
+
+import cvxcontact as cc
+from cvxcontact.backends.factor import PardisoSymmetric
+
+CUT = 1e-10        # rank cut of the QR, relative to its first pivot
+TOUCH = 1e-9       # touching / feasible, relative to the jump's scale
+REPRESENT = 1e-9   # NNLS residual, relative to the force
+
+
+class Mixed:
+    """The mixed system [[A, G^T], [G, D]] of fixed pattern: rows in B closed (G_i, D_ii = 0), the others
+    decoupled (G_i = 0, D_ii = -1: y_i = 0). One PARDISO analysis, a numeric factorisation per set."""
+
+    def __init__(self, A, G):
+        self.N, self.m = A.shape[0], G.shape[0]
+        Ac, Gc = A.tocoo(), G.tocoo()
+        N, m = self.N, self.m
+        self.gk = len(Gc.data)
+        self.rows = np.concatenate([Ac.row, Gc.row + N, Gc.col, np.arange(N + m)])
+        self.cols = np.concatenate([Ac.col, Gc.col, Gc.row + N, np.arange(N + m)])
+        self.base = np.concatenate([Ac.data, Gc.data, Gc.data, np.zeros(N + m)])
+        self.grow = Gc.row
+        self.ps = None
+
+    def matrix(self, closed: np.ndarray) -> sp.csc_matrix:
+        data = self.base.copy()
+        nA, k, N = len(data) - 2 * self.gk - self.N - self.m, self.gk, self.N
+        off = ~closed[self.grow]
+        data[nA:nA + k][off] = 0.0
+        data[nA + k:nA + 2 * k][off] = 0.0
+        diag = data[nA + 2 * k:]
+        diag[N:][~closed] = -1.0
+        K = sp.coo_matrix((data, (self.rows, self.cols)), shape=(N + self.m, N + self.m)).tocsc()
+        K.sort_indices()
+        return K
+
+    def solve(self, closed, F, g):
+        K = self.matrix(closed)
+        if self.ps is None:
+            self.ps = PardisoSymmetric(K)
+        self.ps.factor(K)
+        rhs = np.concatenate([F, np.where(closed, g, 0.0)])
+        z = self.ps.solve(rhs)
+        for _ in range(2):
+            z += self.ps.solve(rhs - K @ z)
+        return z[:self.N], z[self.N:]
+
+
+def independent(Rc: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Positions (into Rc's rows) of an independent subset: column-pivoted QR of (weights * Rc)^T."""
+    if Rc.shape[0] == 0:
+        return np.zeros(0, dtype=int)
+    _, Rq, piv = sla.qr((Rc * weights[:, None]).T, mode="economic", pivoting=True, check_finite=False)
+    d = np.abs(np.diag(Rq))
+    return np.sort(piv[:int(np.sum(d > CUT * d[0]))])
+
+
+def outer(A, F, G, g, steps: int, log=print):
+    """The outer iteration; returns (x, z, steps taken, settled, per-step records)."""
+    cols = np.flatnonzero(np.diff(G.tocsc().indptr))
+    R = G.tocsc()[:, cols].tocsr()
+    mixed = Mixed(A, G)
+    Aopen = sp.csc_matrix(A)
+    Aopen.sort_indices()
+    open_ = PardisoSymmetric(Aopen).factor(Aopen)
+
+    def xof(rhs):
+        x = open_.solve(rhs)
+        return x + open_.solve(rhs - A @ x)
+
+    def theta(x, y):
+        return -0.5 * x @ (A @ x) - g @ y
+
+    y = np.zeros(G.shape[0])
+    x = xof(F)
+    scale = max(np.abs(G @ x).max(), np.abs(g).max(), 1e-300)
+    th = theta(x, y)
+    records = []
+    xB = zfull = None
+    for k in range(1, steps + 1):
+        s = G @ x - g
+        C = np.flatnonzero((y > 0) | (s > TOUCH * scale))
+        w = 1.0 + y[C] / max(y.max(), 1e-300) + np.maximum(s[C], 0) / max(s.max(), 1e-300)
+        B = C[independent(R[C].toarray(), w)]
+        closed = np.zeros(G.shape[0], bool)
+        closed[B] = True
+        xB, yB = mixed.solve(closed, F, g)
+        sB = G @ xB - g
+        scale = max(np.abs(G @ xB).max(), np.abs(g).max(), 1e-300)
+        T = np.flatnonzero(np.abs(sB) <= TOUCH * scale)
+        r = R[B].T @ yB[B]
+        zT, res = nnls(R[T].T.toarray(), r, maxiter=50 * max(len(T), 1))
+        zfull = np.zeros(G.shape[0])
+        zfull[T] = zT
+        rep = res / max(np.linalg.norm(r), 1e-300)
+        viol = max(sB.max(), 0.0) / scale
+        rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)))
+        if viol <= TOUCH and rep <= REPRESENT:
+            rec.update(move="certified", theta=th)
+            records.append(rec)
+            log(rec)
+            return xB, zfull, k, True, records
+        xp = xof(F - G.T @ zfull)
+        thp = theta(xp, zfull)
+        if thp > th:
+            y, x, th, move = zfull, xp, thp, "accepted"
+        else:
+            d, dx = zfull - y, xp - x
+            Adx = A @ dx
+            curv = dx @ Adx
+            slope = -(x @ Adx) - d @ g
+            t = min(1.0, slope / curv) if curv > 0 and slope > 0 else 0.0
+            if t > 0 and theta(x + t * dx, y + t * d) > th:
+                y, x, move = y + t * d, x + t * dx, f"segment t={t:.2g}"
+            else:
+                alpha = 1e3 * (np.linalg.norm(y) + 1.0) / max(np.linalg.norm(s), 1e-300)
+                d = np.maximum(y + alpha * s, 0.0) - y
+                dx = -xof(G.T @ d)
+                Adx = A @ dx
+                curv, slope = dx @ Adx, -(x @ Adx) - d @ g
+                t = min(1.0, slope / curv) if curv > 0 and slope > 0 else 0.0
+                y, x, move = y + t * d, x + t * dx, f"projected t={t:.2g}"
+            th = theta(x, y)
+        rec.update(move=move, theta=th)
+        records.append(rec)
+        log(rec)
+    return xB, zfull, steps, False, records
+
+
+def run(n: int, steps: int) -> dict:
+    scene = two_boxes(n, "gamma3", True)
+    s = cc.ContactSolver(scene)
+    c0 = time.process_time()
+    sol = s.solve()
+    cpu_cond = time.process_time() - c0
+    p = s.problem
+    P = np.flatnonzero(s.cache.active)
+    rows = [sp.csr_matrix(p.E @ b.jump) for b in p.blocks]
+    # A, F from the harness; G on every row (none dropped: the jump compares row by row)
+    _, rhs, A, _, _ = bonded_kkt(p.blocks, rows, p.g)
+    N = A.shape[0]
+    F = rhs[:N]
+    G = sp.hstack([sp.hstack([r, sp.csr_matrix((r.shape[0], blk - r.shape[1]))])
+                   for r, blk in zip(rows, [b.shape[0] for b in _diag_blocks(A, p)])]).tocsr()
+    G.data[np.abs(G.data) < 1e-12 * np.abs(G.data).max()] = 0.0
+    G.eliminate_zeros()
+    g = np.asarray(p.g, float)
+    c0 = time.process_time()
+    x, z, k, settled, recs = outer(A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
+    cpu = time.process_time() - c0
+    cj = np.asarray(sol.contact.jump)
+    jump = G @ x * p.units.displacement
+    closed = np.zeros(G.shape[0], bool)
+    closed[P] = True
+    xref, _ = Mixed(A, G).solve(closed, F, g)
+    s1 = cc.ContactSolver(two_boxes(n, "sigma1", True))
+    p1 = s1.problem
+    _, rhs1, A1, G1, sizes1 = bonded_system(p1)
+    yard = amg_bonded(p1, A1, G1, rhs1, sizes1)
+    out = dict(n=n, N=N, m=G.shape[0], d=int(np.sum(np.diff(G.tocsc().indptr) > 0)), P=len(P), steps=k,
+               settled=settled, jump_rel=rel(jump, cj), x_rel=rel(x, xref),
+               moves=" ".join(r["move"][0] for r in recs), cpu=cpu, cpu_cond=cpu_cond,
+               yard_it=yard[2] if yard else None, yard_cpu=yard[5] if yard else None, peak_gb=peak_gb())
+    print(out, flush=True)
+    return out
+
+
+def _diag_blocks(A, p):
+    """Each body's block of A (its free dofs: u, and phi where there are potentials), in order."""
+    from cvxcontact.backends.condensed import quasi_definite
+
+    return [quasi_definite(b)[0] for b in p.blocks]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[8, 12, 16])
+    ap.add_argument("--steps", type=int, default=40)
+    a = ap.parse_args()
+    for n in a.n:
+        print(f"n = {n}", flush=True)
+        run(n, a.steps)
+
+
+if __name__ == "__main__":
+    main()

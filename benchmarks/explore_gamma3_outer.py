@@ -130,11 +130,17 @@ def outer(A, F, G, g, steps: int, log=print):
     th = theta(x, y)
     records = []
     xB = zfull = None
+    gen_x, gen_z = x, y          # the set generator: the last candidate's (x_B, z), or the dual iterate's
+    seen = set()
     for k in range(1, steps + 1):
-        s = G @ x - g
-        C = np.flatnonzero((y > 0) | (s > TOUCH * scale))
-        w = 1.0 + y[C] / max(y.max(), 1e-300) + np.maximum(s[C], 0) / max(s.max(), 1e-300)
+        s = G @ gen_x - g
+        C = np.flatnonzero((gen_z > 0) | (s > TOUCH * scale))
+        zmax, smax = max(gen_z.max(), 1e-300), max(s.max(), 1e-300)
+        w = 1.0 + gen_z[C] / zmax + np.maximum(s[C], 0) / smax
         B = C[independent(R[C].toarray(), w)]
+        key = hash(B.tobytes())
+        repeated = key in seen
+        seen.add(key)
         closed = np.zeros(G.shape[0], bool)
         closed[B] = True
         xB, yB = mixed.solve(closed, F, g)
@@ -147,7 +153,8 @@ def outer(A, F, G, g, steps: int, log=print):
         zfull[T] = zT
         rep = res / max(np.linalg.norm(r), 1e-300)
         viol = max(sB.max(), 0.0) / scale
-        rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)))
+        rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)),
+                   repeated=repeated)
         if viol <= TOUCH and rep <= REPRESENT:
             rec.update(move="certified", theta=th)
             records.append(rec)
@@ -166,6 +173,7 @@ def outer(A, F, G, g, steps: int, log=print):
             if t > 0 and theta(x + t * dx, y + t * d) > th:
                 y, x, move = y + t * d, x + t * dx, f"segment t={t:.2g}"
             else:
+                s = G @ x - g
                 alpha = 1e3 * (np.linalg.norm(y) + 1.0) / max(np.linalg.norm(s), 1e-300)
                 d = np.maximum(y + alpha * s, 0.0) - y
                 dx = -xof(G.T @ d)
@@ -174,6 +182,9 @@ def outer(A, F, G, g, steps: int, log=print):
                 t = min(1.0, slope / curv) if curv > 0 and slope > 0 else 0.0
                 y, x, move = y + t * d, x + t * dx, f"projected t={t:.2g}"
             th = theta(x, y)
+        # the next set: from the candidate (the primal-dual step), unless its face was met before (a cycle): then
+        # from the dual iterate, which theta orders
+        gen_x, gen_z = (x, y) if repeated else (xB, zfull)
         rec.update(move=move, theta=th)
         records.append(rec)
         log(rec)

@@ -99,6 +99,12 @@ class Mixed:
         return z[:self.N], z[self.N:]
 
 
+def jump_scale(G, *xs_and_g) -> float:
+    """The rows' scale: the largest |x| over the vectors given (and |g|) times the largest row sum |G_i|_1."""
+    *xs, g = xs_and_g
+    return max(max(np.abs(v).max() for v in xs) * np.abs(G).sum(axis=1).max(), np.abs(g).max(), 1e-300)
+
+
 def independent(Rc: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Positions (into Rc's rows) of an independent subset: column-pivoted QR of (weights * Rc)^T."""
     if Rc.shape[0] == 0:
@@ -191,7 +197,69 @@ def outer(A, F, G, g, steps: int, log=print):
     return xB, zfull, steps, False, records
 
 
-def run(n: int, steps: int) -> dict:
+def primal(A, F, G, g, steps: int, log=print):
+    """A primal active set on independent faces, monotone in the energy: from the bonded face (x = 0 is feasible
+    for g >= 0), each face solved exactly, the step to its minimiser cut by the ratio test over every row (the
+    rows that block join the face, an independent subset by the QR), and at a face's minimiser the forces
+    represented by NNLS on the touching rows: certified if they are, else the face shrunk to the support of the
+    NNLS forces (the residual rho = r - R_T^T z is orthogonal to their rows, so the new face's minimiser differs
+    and the energy falls). Returns (x, z, face solves, settled, records)."""
+    cols = np.flatnonzero(np.diff(G.tocsc().indptr))
+    R = G.tocsc()[:, cols].tocsr()
+    m = G.shape[0]
+    mixed = Mixed(A, G)
+    x = np.zeros(A.shape[0])
+    if np.any(g < 0):
+        raise ValueError("the primal start x = 0 needs g >= 0")
+    W = np.arange(m)[independent(R.toarray(), np.ones(m))]
+    records = []
+    z = np.zeros(m)
+    energy = lambda v: 0.5 * v @ (A @ v) - F @ v  # noqa: E731
+    for k in range(1, steps + 1):
+        closed = np.zeros(m, bool)
+        closed[W] = True
+        xW, yW = mixed.solve(closed, F, g)
+        p = xW - x
+        Gp = G @ p
+        sx = G @ x - g
+        scale = jump_scale(G, xW, x, g)
+        cand = (~closed) & (Gp > TOUCH * scale)
+        t_i = np.full(m, np.inf)
+        t_i[cand] = np.maximum(-sx[cand], 0.0) / Gp[cand]
+        t = min(1.0, t_i.min(initial=np.inf))
+        x = x + t * p
+        rec = dict(step=k, W=len(W), t=t)
+        if t < 1.0:
+            block = np.flatnonzero(t_i <= t + 1e-12 * max(t, 1e-300) + 1e-14)
+            U = np.concatenate([W, block])
+            wts = np.concatenate([np.full(len(W), 2.0), np.ones(len(block))])
+            W = np.sort(U[independent(R[U].toarray(), wts)])
+            rec.update(move=f"blocked +{len(block)}", energy=energy(x))
+            records.append(rec)
+            log(rec)
+            continue
+        s = G @ x - g
+        T = np.flatnonzero(np.abs(s) <= TOUCH * scale)
+        r = R[W].T @ yW[W]
+        zT, res = nnls(R[T].T.toarray(), r, maxiter=50 * max(len(T), 1))
+        z = np.zeros(m)
+        z[T] = zT
+        rep = res / max(np.linalg.norm(r), 1e-300)
+        rec.update(T=len(T), rep=rep, viol=max(s.max(), 0.0) / scale)
+        if rep <= REPRESENT and s.max() <= TOUCH * scale:
+            rec.update(move="certified", energy=energy(x))
+            records.append(rec)
+            log(rec)
+            return x, z, k, True, records
+        S = np.flatnonzero(z > 0)
+        W = np.sort(S[independent(R[S].toarray(), 1.0 + z[S] / max(z.max(), 1e-300))])
+        rec.update(move=f"shrunk to {len(W)}", energy=energy(x))
+        records.append(rec)
+        log(rec)
+    return x, z, steps, False, records
+
+
+def run(n: int, steps: int, method: str = "dual") -> dict:
     scene = two_boxes(n, "gamma3", True)
     s = cc.ContactSolver(scene)
     c0 = time.process_time()
@@ -210,7 +278,7 @@ def run(n: int, steps: int) -> dict:
     G.eliminate_zeros()
     g = np.asarray(p.g, float)
     c0 = time.process_time()
-    x, z, k, settled, recs = outer(A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
+    x, z, k, settled, recs = METHODS[method](A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
     cpu = time.process_time() - c0
     cj = np.asarray(sol.contact.jump)
     jump = G @ x * p.units.displacement
@@ -223,7 +291,7 @@ def run(n: int, steps: int) -> dict:
     yard = amg_bonded(p1, A1, G1, rhs1, sizes1)
     out = dict(n=n, N=N, m=G.shape[0], d=int(np.sum(np.diff(G.tocsc().indptr) > 0)), P=len(P), steps=k,
                settled=settled, jump_rel=rel(jump, cj), x_rel=rel(x, xref),
-               moves=" ".join(r["move"][0] for r in recs), cpu=cpu, cpu_cond=cpu_cond,
+               method=method, moves=" ".join(r["move"][0] for r in recs), cpu=cpu, cpu_cond=cpu_cond,
                yard_it=yard[2] if yard else None, yard_cpu=yard[5] if yard else None, peak_gb=peak_gb())
     print(out, flush=True)
     return out
@@ -236,14 +304,18 @@ def _diag_blocks(A, p):
     return [quasi_definite(b)[0] for b in p.blocks]
 
 
+METHODS = {"dual": outer, "primal": primal}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[8, 12, 16])
     ap.add_argument("--steps", type=int, default=40)
+    ap.add_argument("--method", choices=("dual", "primal"), default="dual")
     a = ap.parse_args()
     for n in a.n:
         print(f"n = {n}", flush=True)
-        run(n, a.steps)
+        run(n, a.steps, a.method)
 
 
 if __name__ == "__main__":

@@ -197,7 +197,7 @@ def outer(A, F, G, g, steps: int, log=print):
     return xB, zfull, steps, False, records
 
 
-def primal(A, F, G, g, steps: int, log=print):
+def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False):
     """A primal active set on independent faces, monotone in the energy: from the bonded face (x = 0 is feasible
     for g >= 0), each face solved exactly, the step to its minimiser cut by the ratio test over every row (the
     rows that block join the face, an independent subset by the QR), and at a face's minimiser the forces
@@ -251,7 +251,12 @@ def primal(A, F, G, g, steps: int, log=print):
             records.append(rec)
             log(rec)
             return x, z, k, True, records
-        S = np.flatnonzero(z > 0)
+        if keep_neutral:      # keep every touching row the residual does not open (R_j rho = 0), not z's alone
+            rho = r - R[T].T @ zT
+            Rr = R[T] @ rho
+            S = T[Rr >= -1e-9 * np.linalg.norm(rho) * np.sqrt(np.asarray(R[T].multiply(R[T]).sum(axis=1)).ravel())]
+        else:
+            S = np.flatnonzero(z > 0)
         W = np.sort(S[independent(R[S].toarray(), 1.0 + z[S] / max(z.max(), 1e-300))])
         rec.update(move=f"shrunk to {len(W)}", energy=energy(x))
         records.append(rec)
@@ -304,14 +309,15 @@ def _diag_blocks(A, p):
     return [quasi_definite(b)[0] for b in p.blocks]
 
 
-METHODS = {"dual": outer, "primal": primal}
+METHODS = {"dual": outer, "primal": primal,
+           "primal-neutral": lambda *a, **k: primal(*a, keep_neutral=True, **k)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[8, 12, 16])
     ap.add_argument("--steps", type=int, default=40)
-    ap.add_argument("--method", choices=("dual", "primal"), default="dual")
+    ap.add_argument("--method", choices=tuple(METHODS), default="dual")
     a = ap.parse_args()
     for n in a.n:
         print(f"n = {n}", flush=True)

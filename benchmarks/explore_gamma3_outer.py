@@ -114,7 +114,7 @@ def independent(Rc: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return np.sort(piv[:int(np.sum(d > CUT * d[0]))])
 
 
-def outer(A, F, G, g, steps: int, log=print):
+def outer(A, F, G, g, steps: int, log=print, face: bool = False):
     """The outer iteration; returns (x, z, steps taken, settled, per-step records)."""
     cols = np.flatnonzero(np.diff(G.tocsc().indptr))
     R = G.tocsc()[:, cols].tocsr()
@@ -161,6 +161,8 @@ def outer(A, F, G, g, steps: int, log=print):
         viol = max(sB.max(), 0.0) / scale
         rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)),
                    repeated=repeated)
+        if face:
+            rec["face"] = B
         if viol <= TOUCH and rep <= REPRESENT:
             rec.update(move="certified", theta=th)
             records.append(rec)
@@ -197,7 +199,21 @@ def outer(A, F, G, g, steps: int, log=print):
     return xB, zfull, steps, False, records
 
 
-def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False):
+def hybrid(A, F, G, g, steps: int, log=print, dual_steps: int = 6):
+    """``dual_steps`` of the dual outer iteration; where they do not settle, the primal active set (keeping the
+    neutral rows) started at x = 0 on the last dual face (x = 0 lies on every face where g = 0 there)."""
+    rec_d = []
+    x, z, k, settled, recs = outer(A, F, G, g, dual_steps, log=lambda r: (rec_d.append(r), log(r)), face=True)
+    if settled:
+        return x, z, k, True, recs
+    B = recs[-1]["face"]
+    if np.any(g[B] != 0):
+        B = None
+    x, z, k2, settled, recs2 = primal(A, F, G, g, steps - k, log=log, keep_neutral=True, start=B)
+    return x, z, k + k2, settled, recs + recs2
+
+
+def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False, start=None):
     """A primal active set on independent faces, monotone in the energy: from the bonded face (x = 0 is feasible
     for g >= 0), each face solved exactly, the step to its minimiser cut by the ratio test over every row (the
     rows that block join the face, an independent subset by the QR), and at a face's minimiser the forces
@@ -211,7 +227,7 @@ def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False):
     x = np.zeros(A.shape[0])
     if np.any(g < 0):
         raise ValueError("the primal start x = 0 needs g >= 0")
-    W = np.arange(m)[independent(R.toarray(), np.ones(m))]
+    W = np.arange(m)[independent(R.toarray(), np.ones(m))] if start is None else np.sort(start)
     records = []
     z = np.zeros(m)
     energy = lambda v: 0.5 * v @ (A @ v) - F @ v  # noqa: E731
@@ -310,7 +326,7 @@ def _diag_blocks(A, p):
 
 
 METHODS = {"dual": outer, "primal": primal,
-           "primal-neutral": lambda *a, **k: primal(*a, keep_neutral=True, **k)}
+           "primal-neutral": lambda *a, **k: primal(*a, keep_neutral=True, **k), "hybrid": hybrid}
 
 
 def main() -> None:

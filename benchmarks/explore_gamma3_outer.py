@@ -143,13 +143,16 @@ def outer(A, F, G, g, steps: int, log=print, face: bool = False):
         C = np.flatnonzero((gen_z > 0) | (s > TOUCH * scale))
         zmax, smax = max(gen_z.max(), 1e-300), max(s.max(), 1e-300)
         w = 1.0 + gen_z[C] / zmax + np.maximum(s[C], 0) / smax
+        c0 = time.process_time()
         B = C[independent(R[C].toarray(), w)]
+        c1 = time.process_time()
         key = hash(B.tobytes())
         repeated = key in seen
         seen.add(key)
         closed = np.zeros(G.shape[0], bool)
         closed[B] = True
         xB, yB = mixed.solve(closed, F, g)
+        c2 = time.process_time()
         sB = G @ xB - g
         scale = max(np.abs(G @ xB).max(), np.abs(g).max(), 1e-300)
         T = np.flatnonzero(np.abs(sB) <= TOUCH * scale)
@@ -160,7 +163,7 @@ def outer(A, F, G, g, steps: int, log=print, face: bool = False):
         rep = res / max(np.linalg.norm(r), 1e-300)
         viol = max(sB.max(), 0.0) / scale
         rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)),
-                   repeated=repeated)
+                   repeated=repeated, qr_s=c1 - c0, face_s=c2 - c1, nnls_s=time.process_time() - c2)
         if face:
             rec["face"] = B
         if viol <= TOUCH and rep <= REPRESENT:

@@ -162,8 +162,9 @@ def outer(A, F, G, g, steps: int, log=print, face: bool = False):
         zfull[T] = zT
         rep = res / max(np.linalg.norm(r), 1e-300)
         viol = max(sB.max(), 0.0) / scale
-        rec = dict(step=k, C=len(C), B=len(B), T=len(T), viol=viol, rep=rep, negB=int(np.sum(yB[B] < 0)),
-                   repeated=repeated, qr_s=c1 - c0, face_s=c2 - c1, nnls_s=time.process_time() - c2)
+        rec = {"step": k, "C": len(C), "B": len(B), "T": len(T), "viol": viol, "rep": rep,
+               "negB": int(np.sum(yB[B] < 0)), "repeated": repeated, "qr_s": c1 - c0, "face_s": c2 - c1,
+               "nnls_s": time.process_time() - c2}
         if face:
             rec["face"] = B
         if viol <= TOUCH and rep <= REPRESENT:
@@ -205,8 +206,7 @@ def outer(A, F, G, g, steps: int, log=print, face: bool = False):
 def hybrid(A, F, G, g, steps: int, log=print, dual_steps: int = 6):
     """``dual_steps`` of the dual outer iteration; where they do not settle, the primal active set (keeping the
     neutral rows) started at x = 0 on the last dual face (x = 0 lies on every face where g = 0 there)."""
-    rec_d = []
-    x, z, k, settled, recs = outer(A, F, G, g, dual_steps, log=lambda r: (rec_d.append(r), log(r)), face=True)
+    x, z, k, settled, recs = outer(A, F, G, g, dual_steps, log=log, face=True)
     if settled:
         return x, z, k, True, recs
     B = recs[-1]["face"]
@@ -233,7 +233,10 @@ def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False, start=
     W = np.arange(m)[independent(R.toarray(), np.ones(m))] if start is None else np.sort(start)
     records = []
     z = np.zeros(m)
-    energy = lambda v: 0.5 * v @ (A @ v) - F @ v  # noqa: E731
+
+    def energy(v):
+        return 0.5 * v @ (A @ v) - F @ v
+
     for k in range(1, steps + 1):
         closed = np.zeros(m, bool)
         closed[W] = True
@@ -247,7 +250,7 @@ def primal(A, F, G, g, steps: int, log=print, keep_neutral: bool = False, start=
         t_i[cand] = np.maximum(-sx[cand], 0.0) / Gp[cand]
         t = min(1.0, t_i.min(initial=np.inf))
         x = x + t * p
-        rec = dict(step=k, W=len(W), t=t)
+        rec = {"step": k, "W": len(W), "t": t}
         if t < 1.0:
             block = np.flatnonzero(t_i <= t + 1e-12 * max(t, 1e-300) + 1e-14)
             U = np.concatenate([W, block])
@@ -302,7 +305,7 @@ def run(n: int, steps: int, method: str = "dual") -> dict:
     G.eliminate_zeros()
     g = np.asarray(p.g, float)
     c0 = time.process_time()
-    x, z, k, settled, recs = METHODS[method](A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
+    x, _z, k, settled, recs = METHODS[method](A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
     cpu = time.process_time() - c0
     cj = np.asarray(sol.contact.jump)
     jump = G @ x * p.units.displacement
@@ -313,10 +316,10 @@ def run(n: int, steps: int, method: str = "dual") -> dict:
     p1 = s1.problem
     _, rhs1, A1, G1, sizes1 = bonded_system(p1)
     yard = amg_bonded(p1, A1, G1, rhs1, sizes1)
-    out = dict(n=n, N=N, m=G.shape[0], d=int(np.sum(np.diff(G.tocsc().indptr) > 0)), P=len(P), steps=k,
-               settled=settled, jump_rel=rel(jump, cj), x_rel=rel(x, xref),
-               method=method, moves=" ".join(r["move"][0] for r in recs), cpu=cpu, cpu_cond=cpu_cond,
-               yard_it=yard[2] if yard else None, yard_cpu=yard[5] if yard else None, peak_gb=peak_gb())
+    out = {"n": n, "N": N, "m": G.shape[0], "d": int(np.sum(np.diff(G.tocsc().indptr) > 0)), "P": len(P),
+           "steps": k, "settled": settled, "jump_rel": rel(jump, cj), "x_rel": rel(x, xref), "method": method,
+           "moves": " ".join(r["move"][0] for r in recs), "cpu": cpu, "cpu_cond": cpu_cond,
+           "yard_it": yard[2] if yard else None, "yard_cpu": yard[5] if yard else None, "peak_gb": peak_gb()}
     print(out, flush=True)
     return out
 

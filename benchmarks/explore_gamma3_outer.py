@@ -6,8 +6,9 @@ rows (R on the contact dofs, m > d: the rows depend on each other). Its dual ene
 theta(y) = min_x L(x, y) = -1/2 x(y)^T A x(y) - g^T y, x(y) = A^-1 (F - G^T y), is concave in y >= 0, with gradient
 s(y) = G x(y) - g. Each outer step (a dual active-set step safeguarded by theta):
 
-1. the candidate rows C = {y > 0} or {s > tol} (the primal-dual active set's rule, its constant infinite);
-2. an independent subset B of C: column-pivoted QR of C's rows on the contact dofs (weighted 1 + y / max y +
+1. the candidate rows C = {z > 0} or {s > tol} (the primal-dual active set's rule, its constant infinite) of the
+   last candidate (x_B, z of 3-4; at the start and after a face met before: the dual iterate's x(y), y);
+2. an independent subset B of C: column-pivoted QR of C's rows on the contact dofs (weighted 1 + z / max z +
    s^+ / max s^+, so that the rows that carry force or penetrate most come first), cut 1e-10 of the first pivot;
 3. the face: min energy over G_B x = g_B, solved exactly (PARDISO on the mixed system [[A, G_B^T], [G_B, 0]], the
    other rows decoupled; one analysis, a numeric factorisation per step, two refinement steps): x_B, y_B;
@@ -22,14 +23,26 @@ s(y) = G x(y) - g. Each outer step (a dual active-set step safeguarded by theta)
    gradient step, alpha = 1e3 (|y| + 1) / |s|, the segment's exact maximiser): theta grows at every step, so no
    dual point repeats.
 
-Measured on two_boxes(n, "gamma3", True): the outer steps, whether they settle (certified) within ``--steps``,
-the answer against the condensed route's (cc.solve's default: its jump at every row, and the displacements against
-the face of its closed rows P solved by the same PARDISO system), CPU seconds (``time.process_time``: the outer
-iteration with every factorisation, QR and NNLS; the condensed route's solve; the bonded AMG-CG yardstick's set-up
-and solve, benchmarks/harness.py ``amg_bonded`` on the same mesh's "sigma1" rows, as bench_gamma3_scale.py --amg).
+That is ``--method dual`` (the default). Also measured:
+
+* ``--method primal``: a primal active set on independent faces, monotone in the energy, every iterate feasible:
+  from the bonded face at x = 0 (feasible where g >= 0), the step to the face's minimiser cut by the ratio test over
+  every row (the blocking rows join the face, an independent subset by the QR); at a face's minimiser the forces by
+  NNLS as in 4, certified as in 5, else the face shrunk to the NNLS forces' support (the residual
+  rho = r - R_T^T z is orthogonal to their rows, so the smaller face's minimiser differs and the energy falls);
+* ``--method primal-neutral``: the same, the face shrunk only to the touching rows rho does not open
+  (R_j rho >= -1e-9 |rho| |R_j|): fewer rows re-join one by one;
+* ``--method hybrid``: 6 dual steps, then primal-neutral from x = 0 on the last dual face.
+
+Measured on two_boxes(n, "gamma3", True): the outer steps (face solves), whether they settle (certified) within
+``--steps``, the answer against the condensed route's (cc.solve's default: its jump at every row, and the
+displacements against the face of its closed rows P solved by the same PARDISO system), CPU seconds
+(``time.process_time``: the outer iteration with every factorisation, QR and NNLS; the condensed route's solve; the
+bonded AMG-CG yardstick's set-up and solve, benchmarks/harness.py ``amg_bonded`` on the same mesh's "sigma1" rows,
+as bench_gamma3_scale.py --amg). Results: benchmarks/results/explore_gamma3_outer.md.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/explore_gamma3_outer.py \
-        --n 8 12 16 24 32 40
+        --n 8 12 16 24 32 40 [--method primal-neutral] [--steps 40]
 """
 
 from __future__ import annotations

@@ -48,6 +48,7 @@ as bench_gamma3_scale.py --amg). Results: benchmarks/results/explore_gamma3_oute
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 import time
 from pathlib import Path
@@ -317,11 +318,13 @@ def run(n: int, steps: int, method: str = "dual") -> dict:
     G.data[np.abs(G.data) < 1e-12 * np.abs(G.data).max()] = 0.0
     G.eliminate_zeros()
     g = np.asarray(p.g, float)
+    cj, unit = np.asarray(sol.contact.jump), p.units.displacement
+    del s, sol, p, rows          # the condensed route's factors freed before the outer iteration (memory)
+    gc.collect()
     c0 = time.process_time()
     x, _z, k, settled, recs = METHODS[method](A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
     cpu = time.process_time() - c0
-    cj = np.asarray(sol.contact.jump)
-    jump = G @ x * p.units.displacement
+    jump = G @ x * unit
     closed = np.zeros(G.shape[0], bool)
     closed[P] = True
     xref, _ = Mixed(A, G).solve(closed, F, g)

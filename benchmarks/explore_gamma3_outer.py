@@ -20,8 +20,8 @@ s(y) = G x(y) - g. Each outer step (a dual active-set step safeguarded by theta)
 6. otherwise the candidate y+ = z (>= 0) is accepted where theta(y+) > theta(y) (one solve with a factor of A,
    factorised once); else the exact maximiser of theta on the segment [y, y+] (theta is a concave quadratic on
    it: one more solve), and where that does not grow theta, the segment to max(y + alpha s, 0) (a projected
-   gradient step, alpha = 1e3 (|y| + 1) / |s|, the segment's exact maximiser): theta grows at every step, so no
-   dual point repeats.
+   gradient step, alpha = 1e3 (|y| + 1) / |s|, the segment's exact maximiser): theta never falls (it grows unless
+   y maximises it already), so no dual point repeats, and a face met before hands the next set to the dual iterate.
 
 That is ``--method dual`` (the default). Also measured:
 

@@ -41,6 +41,7 @@ from .frictionrows import balances, moved_components, prescribed_row_slip, slip_
 from .full import mixed_kkt
 from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
 from .result import Finish, Route
+from .ridges import ridge_newton
 from .tangency import tangency_newton
 
 __all__ = ["tangency_polish"]
@@ -90,9 +91,16 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
     out = tangency_newton(aug, problem.lines.cone[0], problem.g, trial.beta, np.concatenate([x0, mu0]),
                           held=problem.held_rows, tol=MIXED_CUT_TOL, departure=problem.departure,
                           points=trial.points, energy=energy)
-    if isinstance(out, Declined):
-        log.info("the Newton at the tangency points after the 3D friction cuts declined: %s", out)
-        return None
+    if isinstance(out, Declined):                # contact along lines across the triangles: the ridges' Newton
+        ridge = ridge_newton(energy, G, problem.g, problem.lines.cone[0], np.concatenate([x0, mu0]), n, MIXED_CUT_TOL)
+        if isinstance(ridge, Declined):
+            log.info("the Newton at the tangency points after the 3D friction cuts declined: %s; on the ridges: %s",
+                     out, ridge)
+            return None
+        log.info("the Newton at the tangency points after the 3D friction cuts declined (%s); finished on the ridges "
+                 "(%d point forces on their zero lines)", out, len(ridge["y"]))
+        out = {"x": ridge["z"], "nodal": ridge["nodal"], "beta": ridge["beta"], "active": ridge["active"],
+               "pairing": None, "segment": ridge["segment"], "t": ridge["t"], "y": ridge["y"]}
     x = out["x"][:n]
     mu = np.zeros(len(order))
     mu[held_comp] = out["x"][n:]

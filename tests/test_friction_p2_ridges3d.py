@@ -19,7 +19,7 @@ from cvxcontact.backends import friction, frictiontangency
 SHEAR = (0.2 * P, 0.1 * P)
 TOUCHING = 3e-7
 """A bottom triangle touches where its sampled slack comes within this of 0 (times the largest displacement):
-measured -1.3e-7 .. -1.4e-13 on the 15 touching triangles, -6.6e-7 and below on the 3 lifted ones."""
+measured -1.3e-7 .. -1.4e-13 on the 15 touching along lines, -6.6e-7 and below at the samples of the other 3."""
 
 
 def _finish(scene):

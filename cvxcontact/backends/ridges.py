@@ -37,10 +37,10 @@ from .tangency import _cells
 __all__ = ["ridge_newton"]
 
 TOUCHING = 1e-6
-"""A triangle touches where its slack's exact maximum at the start is at least minus this times its scale (the
-largest reach of the nodes its rows read, :func:`~cvxcontact.backends.cuts.segment_scales`). Measured at the cuts'
-answer of the sheared box: the 15 touching triangles at -1.3e-9 and above, the 3 lifted ones at -2.4e-6 and below
-(the nearest beside the lifted corner)."""
+"""A triangle touches where its slack's exact maximum at the start is at least minus this times the largest reach of
+the rows (|G| |x| + |g|). Measured at the cuts' answer of the sheared box: 16 triangles at -8.7e-12 .. +5.8e-9 (one
+of them, touching at an isolated point beside a vertex, no ridge: :data:`RANK` leaves it out), the 2 lifted at
+-6.2e-5."""
 
 MEASURE_ROUNDING = 1e-9
 """The largest residual of the non-negative fit of the nodal forces by point forces on the zero lines, relative to
@@ -89,7 +89,7 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     """The finish of the module docstring: ``energy`` (a :class:`~cvxcontact.backends.mixed.MixedEnergy`, e.g. with
     the stick-slip partition's rows, on z = [x; extra], x the first ``n``), the contact rows ``G`` (N, n) with gap
     ``g`` (r = G x - g, scaled), the P2 triangles' Bernstein map ``B`` (6 S, N), from ``z0`` (the cuts' answer);
-    ``tol`` the largest slack over an element's scale accepted. Returns a dict (z, segment, t, y: the point forces
+    ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). Returns a dict (z, segment, t, y: the point forces
     on the zero lines, beta, nodal: the forces on the rows, active) or the Declined that stopped it."""
     B = sp.csr_matrix(B)
     cells = _cells(B, 6)

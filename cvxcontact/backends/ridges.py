@@ -153,6 +153,8 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
         return Declined(Stop.STALL, f"Newton on the ridges did not converge in {max_steps} steps")
     r = Gz @ z - g
     top, _ = bernstein_argmax((B @ r).reshape(-1, 6))
+    if np.abs(r[nodes] + (P @ w) ** 2).max(initial=0.0) > tol * scale:
+        return Declined(Stop.STALL, "Newton on the ridges stopped with its rows unmet")
     if (top > tol * scale).any():
         return Declined(Stop.SIGNS, f"the answer on the ridges leaves a triangle's cone by {float(top.max()) / scale:.1e}")
     # the forces: non-negative point forces on each triangle's zero segment
@@ -162,9 +164,11 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
         ends = [np.eye(3)[a] * (1 - t) + np.eye(3)[b] * t
                 for a, b, _ in EDGES if wv[k, a] * wv[k, b] <= 0 and wv[k, a] != wv[k, b]
                 for t in [wv[k, a] / (wv[k, a] - wv[k, b])]]
-        if len(ends) >= 2:
+        if len(ends) >= 2:                    # a line through a vertex finds it twice: the farthest two ends
+            far = max(((i, j) for i in range(len(ends)) for j in range(i)),
+                      key=lambda ij: float(np.abs(ends[ij[0]] - ends[ij[1]]).sum()))
             t = np.linspace(0.0, 1.0, SAMPLES)[:, None]
-            pts.append((1 - t) * ends[0] + t * ends[1])
+            pts.append((1 - t) * ends[far[0]] + t * ends[far[1]])
             seg.append(np.full(SAMPLES, s))
     f = np.zeros(N)
     f[nodes] = lam

@@ -8,8 +8,10 @@ cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' a
 off) at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
 (``frictiontangency.tangency_polish``); then, as the threshold tends to 0, the distance of the finished answer and of
 the cuts' alone to the frictionless cones' exact answer (the tangency Newton). ``boxes``: the 3D boxes lifting at a
-corner (tests/friction_box_scenes.py), where the tangency finish declines: the cuts' answer at stops 1e-7 .. 1e-12
-against the finest that finishes. Distances: the largest displacement difference over the largest displacement.
+corner (tests/friction_box_scenes.py), where the tangency Newton declines and the sheared box is finished on its
+ridges (``ridges.ridge_newton``): at cuts' stops 1e-7 .. 1e-11 the answer finished from them and the cuts' alone
+against the one at the package's stop. Distances: the largest displacement difference over the largest
+displacement.
 """
 
 from __future__ import annotations
@@ -35,16 +37,22 @@ def apart(a, b) -> float:
 
 def solve(scene, tol=None, polish=True):
     """The P2 "gamma3" answer of ``scene`` with the cuts stopped at ``tol`` (default the package's), the tangency
-    finish on or off; its CPU seconds as ``cpu``."""
-    kept, cut = frictiontangency._polish, friction.CONE_ROUNDING
+    finish on or off; its CPU seconds as ``cpu``, whether the finish at the tangency points (or on the ridges)
+    finished it as ``finished``."""
+    kept, cut, seen = frictiontangency._polish, friction.CONE_ROUNDING, []
     if tol is not None:
         friction.CONE_ROUNDING = tol
-    if not polish:
-        frictiontangency._polish = lambda *a: None
+
+    def spy(*args):
+        out = kept(*args) if polish else None
+        seen.append(out is not None)
+        return out
+
+    frictiontangency._polish = spy
     try:
         t0 = time.process_time()
         sol = cc.solve(scene, **P2)
-        sol.cpu = time.process_time() - t0
+        sol.cpu, sol.finished = time.process_time() - t0, any(seen)
         return sol
     finally:
         frictiontangency._polish, friction.CONE_ROUNDING = kept, cut
@@ -71,13 +79,15 @@ def boxes() -> None:
     scenes = {"sheared": lambda: fs.box((0.2 * P, 0.1 * P), cc.Tresca(3e6)),
               "held side": lambda: fb.held_side(cc.Tresca(3e6))}
     for name, make in scenes.items():
-        sols = {tol: solve(make(), tol) for tol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)}
-        ref = min(t for t, s in sols.items() if s.polished)
-        print(f"\nbox {name}: the finest stop that finishes {ref:.0e}\n")
-        print("| cuts' stop | finished | from the finest | CPU s |\n|---|---|---|---|")
-        for tol, s in sols.items():
-            far = f"{apart(s, sols[ref]):.2e}" if s.polished else ""
-            print(f"| {tol:.0e} | {s.polished} | {far} | {s.cpu:.1f} |", flush=True)
+        ref = solve(make())
+        print(f"\nbox {name}: at the package's stop (1e-9) finished at the tangency points or on the ridges: "
+              f"{ref.finished}, CPU {ref.cpu:.1f} s\n")
+        print("| cuts' stop | finished | its answer from the package's | cuts' alone from the package's | CPU s |\n"
+              "|---|---|---|---|---|")
+        for tol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11):
+            done, cuts = solve(make(), tol), solve(make(), tol, polish=False)
+            print(f"| {tol:.0e} | {done.finished} | {apart(done, ref):.2e} | {apart(cuts, ref):.2e} | "
+                  f"{done.cpu:.1f} |", flush=True)
 
 
 if __name__ == "__main__":

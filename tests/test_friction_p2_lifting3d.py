@@ -50,8 +50,8 @@ def _sampled_uz(sol, faces, order=12):
 @pytest.mark.parametrize("name", list(SCENES))
 def test_a_box_lifting_at_a_corner_is_finished_and_keeps_tresca_law(name):
     """Finished (was declined). The bottom's u_z sampled at 91 points of each P2 face never below the floor beyond
-    5e-8 of the displacements (measured 1.2e-10 sheared, 3.5e-10 held side: the cut rounds stop at 1e-9 of each
-    element's scale); the slip read back is the nodes' tangential displacement (measured 0); every shear force
+    5e-8 of the displacements (measured 3.5e-10 held side: the cut rounds stop at 1e-9 of each element's scale;
+    the sheared box, finished on its ridges, at most 0 to rounding: tests/test_friction_p2_ridges3d.py); the slip read back is the nodes' tangential displacement (measured 0); every shear force
     within its capacity (measured 1.3e-16 of the largest), opposite to the slip at the capacity where the node
     slips (|slip| above 1e-6 of the displacements: measured 38 and 34 of 49 nodes, the least 3.8e-4, the others
     0; the force 2.5e-15 of the largest capacity from the law); some nodes carry no normal force (the box lifts);

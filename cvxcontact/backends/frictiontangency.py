@@ -11,12 +11,15 @@ that sub-simplex; the condition there is m(Q) = 0, m the maximum, smooth with th
 (the tangency Newton, :func:`~cvxcontact.backends.tangency.tangency_newton`); vertex contacts are nodal rows. The
 contact zone, a region bounded by a curve in 3D, is then exact where that curve leaves one isolated point of contact
 per touching triangle or edge (a curved obstacle whose zone lies inside a few elements: measured on a sphere pressed
-into a P2 block, tests/test_friction_p2_tangency3d.py). Where the zone covers whole triangles and ends inside their
-neighbours (the 3D boxes lifting at a corner), q vanishes on a whole shared edge of the neighbour, which is not an
-isolated point: its condition there is three linear Bernstein rows (q = L_k (b_kk L_k + 2 b_ki L_i + 2 b_kj L_j),
-each coefficient <= 0), which the tangency Newton does not pose; the full triangles' P2 nodal forces are also
-unsigned (a uniform pressure reads 0 at the vertices), so its sign test on their rows wanders. There the Newton
-declines and the cuts' answer stands (benchmarks/results/friction_p2_tangency3d.md).
+into a P2 block, tests/test_friction_p2_tangency3d.py). Where a face pressed and sheared on a plane lifts at a corner
+(the 3D boxes of tests/friction_box_scenes.py), the touching triangles' q vanishes along a whole line across each
+(q = -(v . L)^2: Q of rank 1, a ridge; its form's second eigenvalue 1.5e-4 of the first at most at the cuts' answer
+of the sheared box), neither an isolated point nor an edge: the tangency Newton reads those triangles as flat, holds
+their lifted nodes down and does not converge. There :func:`~cvxcontact.backends.ridges.ridge_newton` runs with the
+same energy and rows (q = -(w_h)^2, w_h continuous P1 on the touching triangles; accepted where its forces are a
+non-negative measure on w_h's zero lines), then the same acceptance below; where both decline the cuts' answer
+stands (measured: the held-side box, 3 of whose touching triangles touch at isolated points and 15 along lines;
+benchmarks/results/friction_p2_tangency3d.md).
 
 With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
 linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,
@@ -41,6 +44,7 @@ from .frictionrows import balances, moved_components, prescribed_row_slip, slip_
 from .full import mixed_kkt
 from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
 from .result import Finish, Route
+from .ridges import ridge_newton
 from .tangency import tangency_newton
 
 __all__ = ["tangency_polish"]
@@ -90,9 +94,16 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
     out = tangency_newton(aug, problem.lines.cone[0], problem.g, trial.beta, np.concatenate([x0, mu0]),
                           held=problem.held_rows, tol=MIXED_CUT_TOL, departure=problem.departure,
                           points=trial.points, energy=energy)
-    if isinstance(out, Declined):
-        log.info("the Newton at the tangency points after the 3D friction cuts declined: %s", out)
-        return None
+    if isinstance(out, Declined):                # contact along lines across the triangles: the ridges' Newton
+        ridge = ridge_newton(energy, G, problem.g, problem.lines.cone[0], np.concatenate([x0, mu0]), n, MIXED_CUT_TOL)
+        if isinstance(ridge, Declined):
+            log.info("the Newton at the tangency points after the 3D friction cuts declined: %s; on the ridges: %s",
+                     out, ridge)
+            return None
+        log.info("the Newton at the tangency points after the 3D friction cuts declined (%s); finished on the ridges "
+                 "(%d point forces on their zero lines)", out, len(ridge["y"]))
+        out = {"x": ridge["z"], "nodal": ridge["nodal"], "beta": ridge["beta"], "active": ridge["active"],
+               "pairing": None, "segment": ridge["segment"], "t": ridge["t"], "y": ridge["y"]}
     x = out["x"][:n]
     mu = np.zeros(len(order))
     mu[held_comp] = out["x"][n:]

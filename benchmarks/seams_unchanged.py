@@ -7,7 +7,8 @@ constrained and active nodes, measure, each side's traction and lumped lengths, 
 electrodes, the displacements, the residual estimate's indicators, the VTK cells and von Mises stress of the
 output; and the friction laws' scenes (tests/friction_scenes.py: Tresca and Coulomb beside a compliance wall, under
 a force-controlled plane, beside a compliance lid, a P2 nodal pair, the P2 "gamma3" cones, a Hencky block, a 3D
-cube under a force-controlled lid, 3D blocks dragged on P1 "gamma3" rows): the displacements, each pair's lambda,
+cube under a force-controlled lid, 3D blocks dragged on P1 "gamma3" rows) and dependent rows beside a compliance law
+(three 3D blocks on non-matching faces): the displacements, each pair's lambda,
 slip, shear force and threshold, the obstacles' translations and forces, the checks. Each checkout runs in its own
 process (PYTHONPATH); the arrays are compared with ``np.array_equal``::
 
@@ -61,8 +62,28 @@ def outputs(path):
         b = sol.scene.bodies[0]
         m = body_mesh(b, sol.u[0], sol.phi[0], space(degree, b.mesh.cell).nodes(b))
         out[key + "_vtk"], out[key + "_vm"] = m.cells[0].data, m.cell_data["von Mises stress [Pa]"][0]
-    out |= friction_outputs()
+    out |= friction_outputs() | dependent_outputs()
     np.savez(path, **out)
+
+
+def dependent_outputs():
+    """Dependent rows beside a compliance law (tests/stack_scenes.py's three blocks on non-matching faces, "gamma3":
+    the Newton steps on the law around the finish of dependent rows): the fields, pressures and checks."""
+    from stack_scenes import DELTA3, three_blocks_3d
+
+    import cvxcontact as cc
+
+    k = 1e12
+    quadratic = cc.NormalCompliance(stiffness=k, exponent=2)
+    limited = cc.NormalCompliance(stiffness=k, penetration_limit=DELTA3 / 2)
+    out = {}
+    for key, laws in (("three_quadratic", (cc.Signorini(), quadratic)), ("three_limited", (limited, limited))):
+        sol = cc.solve(three_blocks_3d(("gamma3", "gamma3"), laws))
+        out |= {f"{key}_u{i}": u for i, u in enumerate(sol.u)}
+        out |= {f"{key}_{i}_lam": c.lam for i, c in enumerate(sol.contacts)}
+        out[key + "_checks"] = np.array(sorted(sol.residuals().items()), dtype=object)[:, 1].astype(float)
+        out[key + "_finish"] = np.array([sol.polished, "independent" in str(sol.info.finish)])
+    return out
 
 
 def friction_outputs():

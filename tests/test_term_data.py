@@ -21,7 +21,7 @@ from cvxcontact.discrete.slip import Slip
 def problems():
     """The problems (not solved) of a frictionless scene, Coulomb under a force-controlled lid, and Tresca beside a
     compliance wall."""
-    build = lambda scene: cc.ContactSolver(scene, estimate=False).problem      # noqa: E731
+    build = lambda scene: cc.ContactSolver(scene, estimate=False).problem
     return {"signorini": build(walled(cc.Signorini())), "coulomb": build(lidded(cc.Coulomb(0.3))),
             "beside": build(walled(cc.Tresca(0.1 * P), cc.NormalCompliance(1e13)))}
 
@@ -64,7 +64,7 @@ def test_the_finish_normal_rows_are_declared_by_the_term(problems):
     """A friction term's finish takes the normal rows as they are; beside a compliance law the law's energy and the
     rows with a finite limit (the floor's, Signorini), the wall's rows' forces w p(r) from the energy."""
     p = problems["beside"]
-    op, G, widths = mixed_system(p)
+    op, G, _ = mixed_system(p)
     rows = p.term.normal_rows(p, op, G, p.g)
     assert type(rows) is LawRows and isinstance(rows.energy, LawEnergy)
     assert np.array_equal(rows.limited, p.rows.frictional)                           # the floor: Signorini rows

@@ -104,3 +104,42 @@ def test_the_law_linearisation_is_the_gradients_taylor_model(exponent):
         curvature = G.T @ np.where(pressed, w * 3.0 * (h * (G @ d)) ** 2, 0.0) if exponent == 2.0 else 0.0
         error = gradient(x + h * d) - (K @ (x + h * d) - b) - curvature
         assert np.abs(error).max() < 1e-13 * scale            # measured <= 5.0e-16 of the scale
+
+
+def test_a_combination_of_laws_from_outside_is_one_term_class_and_a_route():
+    """A friction law beside a compliance law posed by a term registered from outside the package (its declarations
+    those of terms.FrictionBesideCompliance: the laws it combines, its program, forces, read-back, data and the
+    finish's normal rows) and solved by a backend registered with a route for its kind: the package's answer, bit
+    for bit (the same functions run), and no package file edited: the combination is the term and the route."""
+    from cvxcontact import backends
+    from cvxcontact.discrete import terms
+
+    @dataclasses.dataclass(frozen=True)
+    class Outside(terms.TrescaFriction):
+        parts = frozenset({"friction", "compliance"})
+        kind = "outside_beside"
+        compliant = True
+        active_from_forces = True
+        finishes = True
+        programs = "cvxcontact.backends.compliance:compliance_program"
+        forces = "cvxcontact.backends.compliance:compliance_forces"
+        reads_back = "cvxcontact.solution.readback:read_back_compliance_friction"
+        finish_rows = "cvxcontact.backends.frictionrows:LawRows"
+
+    scene = walled(cc.Tresca(0.1 * P), cc.NormalCompliance(1e13))
+    own = cc.solve(scene, estimate=False)
+    terms.register_term(Outside)
+    backends.register(backends.Backend("outside", accepts=lambda d: True,
+                                       routes={"outside_beside": "cvxcontact.backends.friction:full"}), before="full")
+    try:
+        solver = cc.ContactSolver(scene, method="outside", estimate=False)
+        assert type(solver.problem.term) is Outside and solver.method == "outside"
+        sol = solver.solve()
+    finally:
+        backends.unregister("outside")
+        terms.unregister_term(Outside)
+    assert own.ok and own.polished and sol.ok and sol.polished
+    for a, b in zip(own.u, sol.u):
+        assert np.array_equal(a, b)
+    assert all(np.array_equal(c.slip, d.slip) and np.array_equal(c.lam, d.lam)
+               for c, d in zip(own.contacts, sol.contacts))

@@ -83,7 +83,7 @@ def main() -> None:
     fits, _ = timed(setup)
     call, C = timed(lambda: friction_scale(problem, raw.u, raw.phi, zero, zero))
     old, C_old = timed(lambda: FORCE_FLOOR * max(reach_forces(problem.blocks, problem.E, raw.u, raw.phi).max(),
-                                                 slip_reach(problem.blocks, problem.slip_rows, raw.u, raw.phi).max()))
+                                                 slip_reach(problem.blocks, problem.term.data, raw.u, raw.phi).max()))
     n = sum(len(u) for u in raw.u)
     print(f"dim {args.dim}: {n} free unknowns, {problem.E.shape[0]} rows, ok {sol.ok}, finish {sol.info.finish}")
     print(f"solve {solve:.2f} s CPU; rigid fits set-up {fits * 1e3:.1f} ms; friction_scale {call * 1e3:.1f} ms "

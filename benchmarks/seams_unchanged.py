@@ -5,7 +5,12 @@ For 2D P1/P2 ("gamma3", "sigma1"; Signorini and a normal-compliance law; tests/c
 P1/P2 tetrahedra ("sigma1", "gamma3"; tests/scenes3d.py's stacked blocks and PZT layer): the contact pressure,
 constrained and active nodes, measure, each side's traction and lumped lengths, the contact fraction, the
 electrodes, the displacements, the residual estimate's indicators, the VTK cells and von Mises stress of the
-output. Each checkout runs in its own process (PYTHONPATH); the arrays are compared with ``np.array_equal``::
+output; and the friction laws' scenes (tests/friction_scenes.py: Tresca and Coulomb beside a compliance wall, under
+a force-controlled plane, beside a compliance lid, a P2 nodal pair, the P2 "gamma3" cones, a Hencky block, a 3D
+cube under a force-controlled lid, 3D blocks dragged on P1 "gamma3" rows) and dependent rows beside a compliance law
+(three 3D blocks on non-matching faces): the displacements, each pair's lambda,
+slip, shear force and threshold, the obstacles' translations and forces, the checks. Each checkout runs in its own
+process (PYTHONPATH); the arrays are compared with ``np.array_equal``::
 
     python benchmarks/seams_unchanged.py OTHER_CHECKOUT [THIS_CHECKOUT]
 
@@ -57,7 +62,79 @@ def outputs(path):
         b = sol.scene.bodies[0]
         m = body_mesh(b, sol.u[0], sol.phi[0], space(degree, b.mesh.cell).nodes(b))
         out[key + "_vtk"], out[key + "_vm"] = m.cells[0].data, m.cell_data["von Mises stress [Pa]"][0]
+    out |= friction_outputs() | dependent_outputs()
     np.savez(path, **out)
+
+
+def dependent_outputs():
+    """Dependent rows beside a compliance law (tests/stack_scenes.py's three blocks on non-matching faces, "gamma3":
+    the Newton steps on the law around the finish of dependent rows): the fields, pressures and checks."""
+    from stack_scenes import DELTA3, three_blocks_3d
+
+    import cvxcontact as cc
+
+    k = 1e12
+    quadratic = cc.NormalCompliance(stiffness=1e16, exponent=2)             # tests/test_finish3d.py's
+    limited = cc.NormalCompliance(stiffness=k, penetration_limit=DELTA3 / 2)
+    out = {}
+    for key, laws in (("three_quadratic", (cc.Signorini(), quadratic)), ("three_limited", (limited, limited))):
+        sol = cc.solve(three_blocks_3d(("gamma3", "gamma3"), laws))
+        out |= {f"{key}_u{i}": u for i, u in enumerate(sol.u)}
+        out |= {f"{key}_{i}_lam": c.lam for i, c in enumerate(sol.contacts)}
+        out[key + "_checks"] = np.array(sorted(sol.residuals().items()), dtype=object)[:, 1].astype(float)
+        out[key + "_finish"] = np.array([sol.polished, "independent" in str(sol.info.finish)])
+    return out
+
+
+def friction_outputs():
+    """The friction scenes' arrays (module docstring)."""
+    from friction_scenes import (
+        FLOOR3D,
+        P,
+        dragged_blocks3d,
+        lidded,
+        pair2d,
+        sheared_hencky,
+        steel,
+        walled,
+    )
+
+    import cvxcontact as cc
+
+    def cube(force=-P):                               # tests/test_friction_beside.py's 3D forced lid
+        body = cc.Body(cc.box(nx=2, ny=2, nz=2), steel(), contact="bottom",
+                       traction={"right": (0.0, 0.05 * P * np.cos(0.5), 0.05 * P * np.sin(0.5))})
+        lid = cc.Rigid.plane(point=(0.0, 0.0, 1.0), normal=(0.0, 0.0, -1.0), force=(0.0, 0.0, force))
+        return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Coulomb(0.3)),
+                                        cc.Contact(body, "top", lid)])
+
+    k = 1e13
+    cases = [("walled_tresca_compliance", lambda: walled(cc.Tresca(1e5), cc.NormalCompliance(k)), {}),
+             ("walled_coulomb_compliance2", lambda: walled(cc.Coulomb(0.3), cc.NormalCompliance(1e16, exponent=2.0)),
+              {}),
+             ("lidded_coulomb", lambda: lidded(cc.Coulomb(0.3)), {}),
+             ("lidded_coulomb_compliance", lambda: lidded(cc.Coulomb(0.3), lid_law=cc.NormalCompliance(k)), {}),
+             ("lidded_coulomb_p2", lambda: lidded(cc.Coulomb(0.3)), {"degree": 2, "condition": "sigma1"}),
+             ("pair_tresca_p2_cones", lambda: pair2d(cc.Tresca(0.03 * P), condition="gamma3"), {"degree": 2}),
+             ("pair_coulomb_p2_cones", lambda: pair2d(cc.Coulomb(0.3), condition="gamma3"), {"degree": 2}),
+             ("hencky_coulomb", lambda: sheared_hencky(cc.Coulomb(0.6)), {}),
+             ("cube_coulomb_forced", cube, {}),
+             ("dragged3d_tresca", lambda: dragged_blocks3d(cc.Tresca(2e5)), {"condition": "gamma3"})]
+    out = {}
+    for key, make, kw in cases:
+        sol = cc.solve(make(), **kw)
+        out[key + "_u0"] = sol.u[0]
+        out[key + "_checks"] = np.array(sorted(sol.residuals().items()), dtype=object)[:, 1].astype(float)
+        out[key + "_polished"] = np.array([sol.polished, sol.ok])
+        for i, c in enumerate(sol.contacts):
+            for f in ("lam", "slip", "shear_force", "threshold"):
+                v = getattr(c, f, None)
+                out[f"{key}_{i}_{f}"] = np.zeros(0) if v is None else np.asarray(v, dtype=float)
+        for i, o in enumerate(sol.obstacles or ()):
+            for f in ("translation", "force"):
+                v = getattr(o, f, None)
+                out[f"{key}_obstacle{i}_{f}"] = np.zeros(0) if v is None else np.asarray(v, dtype=float)
+    return out
 
 
 def main(other, this=str(HERE.parent)):

@@ -348,7 +348,7 @@ def test_the_friction_scale_is_the_same_after_a_rigid_motion_of_each_body(monkey
     before = friction_scale(problem, raw.u, raw.phi, zero, zero)
     after = friction_scale(problem, moved, raw.phi, zero, zero)
     old = [FORCE_FLOOR * max(reach_forces(problem.blocks, problem.E, v, raw.phi).max(),
-                             slip_reach(problem.blocks, problem.slip_rows, v, raw.phi).max()) for v in (raw.u, moved)]
+                             slip_reach(problem.blocks, problem.term.data, v, raw.phi).max()) for v in (raw.u, moved)]
     assert before > 1e-30                                                    # measured >= 2.5e-12
     assert abs(after - before) < 1e-13 * old[1]                              # measured <= 2.6e-16 old[1]
     assert old[1] > 10 * old[0]                                              # measured >= 1.0e3 old[0]

@@ -32,7 +32,7 @@ def test_a_slid_cube_reads_balanced_at_any_slide_and_a_wrong_answer_does_not(mon
     assert sol.ok
     assert sol.residuals()["equilibrium"] < 0.2 * sol.tol   # measured 6.8e-12, 1.2e-9 (was 1e-4, 2.4)
     # a shear of 1e-6 of the load across the slide on one row: the contact no longer balances translation along y
-    rows = problem.slip_rows.shape[0] // 2
+    rows = problem.term.data.rows.shape[0] // 2
     mu = np.array(raw.tangential, dtype=float)
     mu[rows + rows // 2] += 1e-6 * float(np.sum(raw.y))
     bad = read_back(problem, dataclasses.replace(raw, tangential=mu), sol.tol, {})
@@ -57,7 +57,7 @@ def test_a_q2_hexahedral_cube_slid_along_x_reads_balanced_and_agrees_with_the_un
     ref = cc.solve(scene, degree=2, condition="sigma1", method="full", polish=False)
     assert ref.ok and not ref.polished
     assert np.abs(sol.u[0] - ref.u[0]).max() < 1e-5 * np.abs(sol.u[0]).max()  # measured 8.8e-8
-    rows = problem.slip_rows.shape[0] // 2
+    rows = problem.term.data.rows.shape[0] // 2
     mu = np.array(raw.tangential, dtype=float)
     mu[rows + rows // 2] += 1e-6 * float(np.sum(raw.y))
     bad = read_back(problem, dataclasses.replace(raw, tangential=mu), sol.tol, {})

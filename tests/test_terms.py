@@ -427,17 +427,17 @@ def _refused_without(terms, part):
 
 
 def test_friction_rows_that_do_not_match_the_cones_are_a_solver_error_not_the_compliance_refusal(monkeypatch):
-    """discrete/problem._capacity's check that the friction rows, their weights and the cones' rows under the P2
+    """discrete/slip.Slip.kernel_capacity's check that the friction rows, their weights and the cones' rows under the P2
     "gamma3" cones are the same rows: no compliance law is on such lines (cones beside one are ``lines.mixed``,
     refused by the terms), so a mismatch is the space's fault, a SolverError counting them, not the compliance
     refusal's words (UNPOSED) it raised. The mismatch made by a test (one weight dropped)."""
     from friction_scenes import P, uniform_stack
 
-    import cvxcontact.discrete.problem as problem_module
+    import cvxcontact.discrete.slip as slip_module
     from cvxcontact.errors import SolverError
 
-    weights = problem_module.friction_weights
-    monkeypatch.setattr(problem_module, "friction_weights", lambda *a: weights(*a)[:-1])
+    weights = slip_module.friction_weights
+    monkeypatch.setattr(slip_module, "friction_weights", lambda *a: weights(*a)[:-1])
     with pytest.raises(SolverError, match=r"friction rows, \d+ weights and \d+ rows of the cones") as info:
         cc.Model(uniform_stack(0.1 * P, cc.Tresca(0.5 * P), nx=(4, 3, 3)), "gamma3", degree=2)
     assert "compliance" not in str(info.value) and not isinstance(info.value, cc.UnsupportedError)

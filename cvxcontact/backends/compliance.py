@@ -18,7 +18,7 @@ from .finish import (SIGN_TOL, Declined, Stop, independent_active_set, rows_kkt,
                      solve_linear_compliance, solve_sparse_compliance)
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
-from .mixed import mixed_system, stacked, unstacked
+from .mixed import law_linearised, mixed_system, stacked, unstacked
 from .program import timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
@@ -293,10 +293,7 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
 
     inner, last = 0, np.inf
     for newton_steps in range(1, max_iter + 1):
-        r = G @ x - g
-        D = w * law.derivative(r)
-        K = (A + G.T @ sp.diags(D) @ G).tocsr()
-        b = F - G.T @ (w * law.pressure(r) - D * (g + r))
+        K, b = law_linearised(A, A @ x - F, G, g, w, law, x)      # one Newton step's model of the law at x
         out = independent_active_set(rows_kkt(K, b, GL, cL, solve_mixed), cL, zL, active)
         if isinstance(out, Declined):
             return out

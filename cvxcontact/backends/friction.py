@@ -29,7 +29,7 @@ With P2 elements under "gamma3" (:func:`conic_full`, the term
 (:func:`~cvxcontact.backends.cones.cone_program`), the frictional rows every node of X_h (beside a pair under a
 nodal condition the rows of E: that pair's own rows, each a degenerate element of the cones), the normal forces y the
 cones' force r = B^T beta on those rows (Coulomb: c_a = mu p_a, p = r made non-negative with its sums kept,
-:meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); the finish is :func:`finish_on_nodes`: the nodes' round,
+:meth:`~cvxcontact.discrete.slip.Slip.pressing`); the finish is :func:`finish_on_nodes`: the nodes' round,
 cut points where the contact ends inside an element, then Newton at the exact tangency points with the
 stick-slip partition fixed (3D: :func:`~cvxcontact.backends.frictiontangency.tangency_polish`); Coulomb's by a
 fixed point on Tresca's capacities mu r there.
@@ -64,14 +64,13 @@ from .frictionrows import (
     balances,
     moved_components,
     prescribed_row_slip,
-    scattered,
     shared_rows,
     slip_matrix,
 )
 from .frictionsteps import sequential as _sequential
 from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
-from .mixed import HeldEnergy, LawEnergy, mixed_system, stacked, unstacked
+from .mixed import HeldEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
 from .result import Finish, RawResult, Route
 from .signorini import dependent_rows
@@ -103,12 +102,12 @@ def friction_program(problem, model: ContactModel, extra=(), objective=None):
     second-order cone). The constraint is vec(s) = kron(I_c, E[rows]) [u_t] (component-major). ``extra``,
     ``objective``: constraints and a (scaled) objective term posed beside them (``cc.Model``'s user terms,
     :mod:`cvxcontact.backends.frictionuser`)."""
-    rows = np.flatnonzero(problem.rows.frictional)
-    n_c = problem.slip_components
+    rows, data = np.flatnonzero(problem.rows.frictional), problem.term.data
+    n_c = data.components
     at = np.concatenate([rows + j * problem.E.shape[0] for j in range(n_c)])
-    Es = problem.slip_rows[at]
-    slip = sum((Es @ b.slip) @ u for b, u in zip(problem.blocks, model.u) if u.size) + prescribed_row_slip(problem)[at]
-    slip = slip + sum((Es @ T) @ t for T, t in zip(problem.translation_slips, model.t))   # a moving obstacle's
+    Es = data.rows[at]
+    slip = sum((Es @ T) @ u for T, u in zip(data.operators, model.u) if u.size) + prescribed_row_slip(problem)[at]
+    slip = slip + sum((Es @ T) @ t for T, t in zip(data.translations, model.t))   # a moving obstacle's
     capacity = cp.Parameter(len(rows), nonneg=True, name="capacity")
     if n_c == 1:
         s = cp.Variable(len(rows), name="slip")
@@ -169,7 +168,7 @@ def conic_full(problem, cache, settings, timings) -> RawResult:
     friction energy on the nodes of X_h (module docstring; the term
     :class:`~cvxcontact.discrete.terms.ConesWithFriction`), Coulomb's by the fixed point on the capacities mu p_a
     of the cones' nodal force r = B^T beta (made non-negative,
-    :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`); ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then
+    :meth:`~cvxcontact.discrete.slip.Slip.pressing`); ``raw.y`` = r, ``raw.beta`` the Bernstein duals. Then
     (``polish``)
     :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
     why (the read-back checks it: the conic checks and the friction law's)."""
@@ -216,7 +215,7 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         if isinstance(out, Declined):
             out = _coulomb_cuts(problem, raw, timings, segment, t)
     else:
-        capacity = problem.capacities(np.zeros(len(problem.g)))
+        capacity = problem.term.data.capacities(np.zeros(len(problem.g)))
         out = _cuts(problem, raw, timings, segment, t)
         if isinstance(out, Declined):             # the tangency points from the interior point's structure
             out = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP) or out
@@ -290,7 +289,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
                                 SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
         if done is None:
             return cuts
-        new = problem.capacities(done.y)
+        new = problem.term.data.capacities(done.y)
         changes.append(_change(new, capacity))
         log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),
                  changes[-1])
@@ -345,7 +344,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
     to the tangency points), a row stuck where its slip is at most ``slip_floor`` (:data:`INTERIOR_SLIP`) of the
     largest displacement: its slip there is the interior point's noise; the acceptance is the same."""
-    if problem.slip_components != 1:               # 3D: a slipping row's force turns with its slip
+    if problem.term.data.components != 1:          # 3D: a slipping row's force turns with its slip
         return tangency_polish(problem, trial, timings, capacity,   # the capacities' rounding: 2D's below
                                SLIP_ROUNDING if slip_floor is None else slip_floor, BALANCE_ROUNDING, SLIP_ROUNDING)
     t0 = time.perf_counter()
@@ -424,7 +423,7 @@ decreases by 10 % per iterate has reached the rounding of its exact iterates and
 def _coulomb_cuts(problem, raw, timings, segment, t):
     """Coulomb's finish with cut points: the fixed point c^(k+1) = mu r^(k) on Tresca's capacities, r^(k) = P^T y
     the nodal force on X_h of the cut points' forces of iterate k (made non-negative, a negative entry, a P2 node's
-    share of a force between nodes, taken from its patch: :meth:`~cvxcontact.discrete.DiscreteProblem.pressing`),
+    share of a force between nodes, taken from its patch: :meth:`~cvxcontact.discrete.slip.Slip.pressing`),
     each iterate the Tresca finish :func:`_cuts` at c^(k), exact; from the
     interior point's capacities c^(0) = mu r (its cones' nodal force), each iterate starting from the last one's
     points and answer. It stops where max_a |c^(k+1) - c^(k)| <= tol max_a c^(k+1) (the law's ``tolerance``), or
@@ -435,7 +434,7 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
     ``fixed_point`` is this fixed point's relative changes (then :func:`_coulomb_tangency`'s after them, where
     that one answers), not the interior point's."""
     tol, most = problem.rows.fixed_point
-    capacity = problem.capacities(raw.y)
+    capacity = problem.term.data.capacities(raw.y)
     start, changes = None, []
     for _ in range(most):
         trial = _cuts(problem, raw, timings, segment, t, capacity=capacity, start=start)
@@ -446,7 +445,7 @@ def _coulomb_cuts(problem, raw, timings, segment, t):
             done = _coulomb_tangency(problem, replace(raw, points=None), timings, capacity, tol, most,
                                      INTERIOR_SLIP)
             return trial if done is None else done
-        new = problem.capacities(trial.y)
+        new = problem.term.data.capacities(trial.y)
         changes.append(_change(new, capacity))
         log.info("Coulomb finish at cut points: iterate %d, relative change of the capacities %.2e", len(changes),
                  changes[-1])
@@ -498,7 +497,7 @@ def _interior(problem, settings, timings, normal, model=None, extra=(), objectiv
     # beside a non-quadratic energy the bulk cones' settings (equilibrated): the conic ones stalled there, Clarabel
     # ended InsufficientProgress (SolverError) on Coulomb's first program of a yielding P2 block (sigma1, sigma2)
     options = conic_options(settings.solver, settings.options, quadratic=problem.quadratic)
-    n_c = problem.slip_components
+    n_c = problem.term.data.components
 
     def answer():
         """The arrays of the program's current solution: u, phi, (y, beta), mu ((c R,) component-major, like the
@@ -512,7 +511,7 @@ def _interior(problem, settings, timings, normal, model=None, extra=(), objectiv
 
     fixed_point, unsettled = problem.rows.fixed_point, None
     if fixed_point is None:                                       # Tresca: the thresholds are given
-        capacity.value = problem.capacities(np.zeros(E.shape[0]))[rows]
+        capacity.value = problem.term.data.capacities(np.zeros(E.shape[0]))[rows]
         iterations, best, changes = timed_program(program, settings, timings, options), answer(), None
         status = program.status
     else:
@@ -558,24 +557,20 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
         G, g, y0 = (P @ G).tocsr(), P @ g + delta, np.concatenate([first.y, np.zeros(P.shape[0] - len(first.y))])
         free, dependent = (abs(P) @ free.astype(float)) > 0, P.shape[0] > P.shape[1]
     x0 = stacked(raw.u, raw.phi, raw.taus)
-    R, n_c = E.shape[0], problem.slip_components
+    data = problem.term.data
+    R, n_c = E.shape[0], data.components
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()            # row a, component j at a c + j
     S = slip_matrix(problem, order, widths)
     dependent = dependent or dependent_rows(problem) or shared_rows(problem, G, S, rows)
-    limited, on = None, rows                     # beside a compliance law: its energy in op, the limited rows in G
-    if problem.compliant and points is None:
-        op, limited = LawEnergy(op, G, g, problem.weights, problem.scaled_law), problem.scaled_law.limited
-        y0 = (first.y - op.forces(stacked(first.u, first.phi, first.taus)))[limited]     # their reactions z
-        G, g, free = G[limited], (g + np.where(limited, problem.scaled_law.penetration_limit, 0.0))[limited], \
-            free[limited]
-        on = np.searchsorted(np.flatnonzero(limited), rows)      # the frictional rows (Signorini) among them
-    c0 = problem.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
-    slope = problem.capacities(np.ones(R)) - problem.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
+    normal = problem.term.normal_rows(problem, op, G, g)     # the normal rows as its laws pose them (frictionrows)
+    op, G, g, free, y0, on = normal.posed(first, free, y0, rows)
+    c0 = data.capacities(np.zeros(R)) if capacity is None else np.asarray(capacity, dtype=float)
+    slope = data.capacities(np.ones(R)) - data.capacities(np.zeros(R)) if capacity is None else np.zeros(R)
     fr = FrictionRows(S, prescribed_row_slip(problem)[order], on, c0[rows], slope[rows], n_c,
                       moved_components(problem, rows))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in raw.u]
-            + [float(np.max(np.abs(problem.prescribed_slip), initial=0.0))])
+            + [float(np.max(np.abs(data.prescribed), initial=0.0))])
     C = friction_scale(problem, raw.u, raw.phi, raw.y, raw.capacity, whole=True)     # the interior point's noise
     if not (U > 0 and C > 0):
         raw.declined = Declined(Stop.NOT_POSED, "nothing moves or nothing is pressed: no scale to finish on")
@@ -606,10 +601,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
     if bounded and after > before + ENERGY_SLACK * max(abs(before), C * U):
         raw.declined = Declined(Stop.WORSE, f"{Stop.WORSE.value} ({after:.17g} > {before:.17g})")
         return raw
-    if limited is not None:                       # every row's force: the law's w p(r), and z on the limited rows
-        z, y = y, op.forces(x)
-        y[limited] += z
-        closed, raw.z = scattered(closed, limited) | (y > 0), scattered(z, limited)
+    y, closed = normal.forces(x, y, closed, raw)  # every row's force (beside a compliance law: w p(r), and z)
     raw.u, raw.phi, raw.taus = unstacked(problem, x, widths)
     raw.y, raw.active = y, closed
     raw.tangential = np.zeros((n_c, R))
@@ -630,13 +622,14 @@ def _stuck(problem, model, constraint, rows, capacity, s, friction):
     would drive the corner into the obstacle: the start was infeasible), the other rows at their given
     thresholds (``capacity`` set here; 0 on the pressure-dependent ones). Without ``cc.Model``'s user terms (its
     slip held at 0 may contradict them: a slip they prescribe); the fixed point's programs take them."""
-    E, n_c = problem.E, problem.slip_components
+    E, data = problem.E, problem.term.data
+    n_c = data.components
     moved = moved_components(problem, rows)
     at = np.concatenate([rows + j * E.shape[0] for j in range(n_c)])
     prescribed = prescribed_row_slip(problem)[at].reshape(n_c, len(rows)).T != 0
     pressure = problem.rows.pressure_dependent[rows]
     sticks = pressure & moved.any(axis=1) & ~prescribed.any(axis=1)
-    capacity.value = np.where(pressure & moved.any(axis=1), 0.0, problem.capacities(np.zeros(E.shape[0]))[rows])
+    capacity.value = np.where(pressure & moved.any(axis=1), 0.0, data.capacities(np.zeros(E.shape[0]))[rows])
     held = [s[np.flatnonzero(sticks)] == 0] if sticks.any() else []
     return model.with_terms([constraint, *held], objective=friction)
 
@@ -653,7 +646,7 @@ def _fixed_point(problem, model, stuck, program, capacity, rows, answer, fixed_p
     solved = stuck                                         # the program whose solution the variables hold
     previous, changes, best, converged = None, [], None, False
     for _ in range(most + 1):
-        c_all = problem.capacities(forces())
+        c_all = problem.term.data.capacities(forces())
         c = c_all[rows]
         if previous is not None:
             changes.append(float(np.abs(c - previous).max(initial=0.0)

@@ -67,7 +67,7 @@ def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol
 
 
 def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
-    R, n_c, c = problem.E.shape[0], problem.slip_components, np.asarray(capacity, dtype=float)
+    R, n_c, c = problem.E.shape[0], problem.term.data.components, np.asarray(capacity, dtype=float)
     op, _, widths = mixed_system(problem)
     rows = np.flatnonzero(problem.rows.frictional)
     order = (rows[:, None] + R * np.arange(n_c)[None, :]).ravel()        # row a, component j at a n_c + j

@@ -87,13 +87,13 @@ def tangential_force(problem, raw) -> np.ndarray:
     answer ``raw`` (its tangential row forces ``raw.tangential``): T_k^T kron(I_c, E)^T mu on body k's
     displacements (the momentum rows' term, :mod:`cvxcontact.solution.friction`), 0 on the potentials, and
     (kron(I_c, E) S_o)^T mu on a force-controlled obstacle's translations, S_o the slip of its unit translations
-    (``problem.translation_slips``: the term of its force balance)."""
-    mu = np.asarray(raw.tangential, dtype=float)
-    Tmu = problem.slip_rows.T @ mu
+    (the friction term's ``data.translations``: the term of its force balance)."""
+    mu, data = np.asarray(raw.tangential, dtype=float), problem.term.data
+    Tmu = data.rows.T @ mu
     parts = []
-    for b, uk, pk in zip(problem.blocks, raw.u, raw.phi):
-        parts.append(b.slip.T @ Tmu if len(uk) else np.zeros(0))
+    for T, uk, pk in zip(data.operators, raw.u, raw.phi):
+        parts.append(T.T @ Tmu if len(uk) else np.zeros(0))
         parts.append(np.zeros(0 if pk is None else len(pk)))
-    moves = problem.translation_slips or tuple(np.zeros((len(Tmu), len(t))) for t in raw.taus)
+    moves = data.translations or tuple(np.zeros((len(Tmu), len(t))) for t in raw.taus)
     parts.extend(np.asarray(S).T @ Tmu for S in moves)
     return np.concatenate(parts)

@@ -28,8 +28,8 @@ import scipy.sparse as sp
 from ..discrete.energy import Quadratic
 from .condensed import quasi_definite
 
-__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "SlidingEnergy", "mixed_system", "stacked", "tangent_blocks",
-           "unstacked"]
+__all__ = ["HeldEnergy", "LawEnergy", "MixedEnergy", "SlidingEnergy", "law_linearised", "law_tangent", "mixed_system",
+           "stacked", "tangent_blocks", "unstacked"]
 
 
 class MixedEnergy:
@@ -175,15 +175,36 @@ class LawEnergy:
     residual = MixedEnergy.residual
 
     def tangent(self, x, secant: bool = False) -> sp.csr_matrix:
-        D = self.w * self.law.derivative(self.G @ x - self.g)
-        return (self.energy.tangent(x, secant) + self.G.T @ sp.diags(D) @ self.G).tocsr()
+        return law_tangent(self.energy.tangent(x, secant), self.G, self.g, self.w, self.law, x)
 
     def linearised(self, x):
-        """(T, b) as :meth:`MixedEnergy.linearised`, the law's term linearised at ``x``."""
+        """(T, b) as :meth:`MixedEnergy.linearised`, the law's term linearised at ``x`` (:func:`law_linearised`)."""
         if self.linear:
             return self.energy.linearised(x)
-        T = self.tangent(x)
-        return T, T @ x - self.gradient(x)
+        return law_linearised(self.energy.tangent(x), self.energy.gradient(x), self.G, self.g, self.w, self.law, x)
+
+
+def law_linearised(T, gradient, G, g, weights, law, x):
+    """(K, b): the second-order model at ``x`` of an energy with the normal-compliance energy of the rows G x - g
+    added, sum_a w_a Phi_a(G_a x - g_a) (``law`` the rows' scaled :class:`~cvxcontact.contact.laws.RowLaws`, w the
+    ``weights``; docs/formulation.md §10), from the energy's tangent ``T`` and ``gradient`` at ``x``: with
+    r = G x - g and D = diag(w p'(r)),
+
+        K = T + G^T D G,      b = K x - (gradient + G^T w p(r)),
+
+    so that the whole gradient near ``x`` is K x' - b (the law's forces w p(r) + D G (x' - x); semismooth for
+    m = 1: p' is k on the rows in penetration, 0 elsewhere). The one linearisation of the law: the friction finish
+    beside a compliance law (:meth:`LawEnergy.linearised`) and the Newton steps on the law around dependent rows
+    (:func:`~cvxcontact.backends.compliance.dependent_newton`) step on it."""
+    K = law_tangent(T, G, g, weights, law, x)
+    return K, K @ x - (gradient + G.T @ (np.asarray(weights, dtype=float) * law.pressure(G @ x - g)))
+
+
+def law_tangent(T, G, g, weights, law, x) -> sp.csr_matrix:
+    """K = T + G^T diag(w p'(G x - g)) G: the tangent ``T`` of an energy with the compliance energy of the rows added
+    (:func:`law_linearised`)."""
+    D = np.asarray(weights, dtype=float) * law.derivative(G @ x - g)
+    return (T + G.T @ sp.diags(D) @ G).tocsr()
 
 
 class HeldEnergy:

@@ -104,7 +104,6 @@ class Block:
     Kpp: sp.csr_matrix | None = None
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
-    slip: sp.csr_matrix | None = None   # [u_t] at merged nodes from the free u dofs (a friction law; else None)
     products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
 
     @classmethod

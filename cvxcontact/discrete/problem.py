@@ -25,8 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.bernstein import positive_force
-from ..errors import SceneError, SolverError, UnsupportedError
+from ..errors import SceneError
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space
@@ -58,15 +57,14 @@ class DiscreteProblem:
     the supports hold on both sides, or against a fixed obstacle; docs/formulation.md §8, "Held nodes");
     ``prescribed_jump``: [u_D nu] at the nodes of X_h, the part of the jump that prescribed displacements of
     contact nodes fix (scaled; the blocks' jump operators act on the free unknowns only, so ``gap`` is the
-    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line);
-    ``prescribed_slip``: [u_D t], the slip prescribed displacements of contact nodes fix (scaled; a friction
-    law only); ``translation_slips``: per force-controlled obstacle, the slip at the nodes of X_h of its translation
-    unknowns tau ((c size, k), :func:`obstacle_slip`; a friction law only, else empty); ``kernel``: the rigid
-    motions only the contact holds and the force-controlled obstacles' translations
+    given gap minus it: a clamped contact part is a fixed foundation, a prescribed one a moved line); ``kernel``:
+    the rigid motions only the contact holds and the force-controlled obstacles' translations
     (:class:`~cvxcontact.fem.kernel.Kernel`, None if there are none), checked well posed when built and
     against the active rows of an exact finish (:func:`~cvxcontact.fem.kernel.check_determined`); ``term``: the
     contact term its law poses (:class:`~cvxcontact.discrete.terms.ContactTerm`: its route key, its warm start,
-    its held rows' forces, its finish, its read-back), built with the problem from its contact lines.
+    its held rows' forces, its finish, its read-back), built with the problem from its contact lines, holding
+    what its law alone reads (``term.data``: a friction law's slip rows, weights and capacities,
+    :class:`~cvxcontact.discrete.slip.Slip`).
     """
 
     scene: Scene
@@ -86,8 +84,6 @@ class DiscreteProblem:
     scale: bool = True
     prescribed_jump: np.ndarray | float = 0.0
     kernel: Kernel | None = field(default=None, repr=False)
-    prescribed_slip: np.ndarray | float = 0.0
-    translation_slips: tuple = ()
     _fingerprints: tuple = field(default=(), repr=False)
     _shared: dict = field(default_factory=dict, repr=False)
 
@@ -137,49 +133,9 @@ class DiscreteProblem:
 
     @property
     def friction(self) -> bool:
-        """True if some row has a friction law (the blocks then carry ``slip``, [u_t] from the free unknowns)."""
+        """True if some row has a friction law (its term then holds the slip rows, ``term.data``:
+        :class:`~cvxcontact.discrete.slip.Slip`)."""
         return self.lines.rows.friction
-
-    @property
-    def thresholds(self) -> np.ndarray:
-        """The slip thresholds of the rows at zero pressure, scaled (g / (c0 s); 0 on frictionless rows and on
-        rows whose threshold is the pressure's, :meth:`capacities`)."""
-        return self.lines.rows.thresholds(0.0) / (self.units.stress * self.units.load)
-
-    def pressing(self, y: np.ndarray) -> np.ndarray:
-        """The normal row forces whose pressures set a pressure-dependent friction law's thresholds (scaled): the
-        row forces ``y`` themselves, and under the P2 cones, where the nodal force y = B^T beta may be negative
-        at a node beside a force between nodes, its non-negative parts with the sums kept, node by node's patch
-        (:func:`~cvxcontact.contact.bernstein.positive_force`; docs/howto/friction.md, "Coulomb under the
-        cones"): the same wherever y >= 0 around a node."""
-        cone = self.lines.cone
-        return np.asarray(y, dtype=float) if cone is None else positive_force(cone[1], y)
-
-    def capacities(self, y: np.ndarray) -> np.ndarray:
-        """The friction capacity c_a = g_a(p_a) w_a of every row (scaled), the thresholds at the pressures
-        p_a = y_a / w_a of the normal row forces ``y`` (scaled), those of :meth:`pressing` (Coulomb:
-        c_a = mu p_a w_a = mu y_a where y >= 0 around the row; under the P2 cones they sum to mu times the
-        normal force)."""
-        y = self.pressing(y)
-        w = self.row_lengths
-        stress = self.units.stress * self.units.load
-        pressure = np.divide(np.asarray(y, dtype=float), w, out=np.zeros(len(w)), where=w > 0) * stress
-        return self.lines.rows.thresholds(pressure) / stress * w
-
-    @property
-    def slip_components(self) -> int:
-        """Components of the slip per row: 1 in 2D (along t), 2 in 3D (along the pair's frame)."""
-        return getattr(self.lines.interface, "slip_components", 1)
-
-    @property
-    def slip_rows(self) -> sp.csr_matrix:
-        """kron(I_c, E): the rows of every slip component (component-major, :func:`slip_rows`)."""
-        return slip_rows(self.E, self.lines.interface)
-
-    @property
-    def row_lengths(self) -> np.ndarray:
-        """The lumped lengths of the rows (docs/formulation.md §10), scaled: the friction energy's weights."""
-        return friction_weights(self.lines, self.condition, self.scene.conditions) / self.units.length
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -291,7 +247,6 @@ class DiscreteProblem:
         condition, docs/formulation.md §8); ``rows``: the laws of those rows (default: each pair's law is
         replaced by Signorini on all of them), ``weights`` (m): their quadrature weights for a compliance law.
         No cone is left."""
-        import scipy.sparse as sp
 
         from ..contact.laws import RowLaws, Signorini
 
@@ -306,9 +261,9 @@ class DiscreteProblem:
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)
+        term = contact_term(lines, self.dim).with_data(self.scene, self.condition, lines, self.systems, self.units)
         return replace(self, lines=lines, translations=translations,
-                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel,
-                       term=contact_term(lines, self.dim))
+                       held_rows=held_rows(E, self.blocks, translations), kernel=kernel, term=term)
 
     # ---- re-solves -----------------------------------------------------------------------------
     def accepts(self, scene) -> bool:
@@ -347,13 +302,11 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     term = contact_term(lines, space.dim)         # the combination of laws: a term declares it, or it is refused
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     forced = [o for o in lines.obstacles if o.force is not None]
-    counts = [len(s.f) // space.dim for s in systems]
-    # the slip of each force-controlled obstacle's translations on its pairs' nodes (a friction law only)
-    moves = tuple(obstacle_slip(lines.interface, o, counts) for o in forced) if lines.rows.friction else ()
+    un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
+    term = term.with_data(scene, condition, lines, systems, un)      # what its law alone reads (friction: Slip)
     # the motions only the contact holds, judged over every body, pair and load together (or a SceneError)
     kernel = check_well_posed(scene.bodies, [s.f for s in systems], lines.E, lines.interface, lines.obstacles, nodes,
-                              capacity=_capacity(scene, condition, lines, moves))
-    un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)
+                              capacity=term.kernel_capacity())
     jumps = {}
 
     def jump(k):                                  # [u_nu] at the nodes of X_h from body k's nodal displacements
@@ -368,10 +321,6 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                        for k, (blk, s) in enumerate(zip(previous.blocks, systems)))
     else:
         blocks = tuple(Block.scaled(s, jump(k), un) for k, s in enumerate(systems))
-    slips = None
-    if lines.rows.friction:                         # [u_t] from the free unknowns (a friction law)
-        slips = [_slip(lines.interface, k, len(s.f) // space.dim) for k, s in enumerate(systems)]
-        blocks = tuple(replace(blk, slip=(T @ s.Tu).tocsr()) for blk, T, s in zip(blocks, slips, systems))
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
     held = held_rows(E, blocks, translations)
@@ -380,119 +329,16 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
         if s.u_fixed is not None and np.any(s.u_fixed):
             shift = shift + jump(k) @ s.u_fixed
     gap = (lines.gap - shift) / un.displacement
-    slip_shift = 0.0
-    if slips is not None:                       # [u_D t]: the slip prescribed displacements fix
-        slip_shift = sum((T @ s.u_fixed for T, s in zip(slips, systems) if s.u_fixed is not None),
-                         np.zeros(slips[0].shape[0])) / un.displacement
     problem = DiscreteProblem(scene=scene, space=space, condition=condition, law=law, nodes=nodes,
                               matrices=matrices, systems=systems, lines=lines, units=un, blocks=blocks, gap=gap,
                               translations=translations, held_rows=held, term=term,
                               scale=scale, kernel=kernel,
-                              prescribed_jump=shift / un.displacement, prescribed_slip=slip_shift,
-                              translation_slips=moves,
+                              prescribed_jump=shift / un.displacement,
                               _fingerprints=previous._fingerprints if previous is not None else
                               tuple(geometry_fingerprint(b) for b in scene.bodies),
                               _shared=previous._shared if previous is not None else {})
     check_reachable(problem)
     return problem
-
-
-def _slip(interface, k, n_nodes):
-    """Body k's part of the slip [u_t] at the nodes of X_h."""
-    return interface.tangential_jump(k, n_nodes)
-
-
-def _capacity(scene, condition, lines, moves):
-    """(T, c) for the well-posedness check with a friction law: the slip rows [u_t] of every body (a function
-    k, n_nodes -> rows at the evaluation rows) and each row's friction capacity g_a w_a (N/m; ``inf`` where the
-    threshold is the pressure's, not known before the solve: such a row resists every slip, and the friction
-    route checks its capacity at every iterate), and ``moves(o)``, the slip rows of a force-controlled obstacle's
-    translations on the frictional rows (``moves``: :func:`obstacle_slip` of each force-controlled obstacle of
-    ``lines``, in their order); None without."""
-    rows = lines.rows
-    if not rows.friction:
-        return None
-    E = lines.E
-    weights = friction_weights(lines, condition, scene.conditions)
-    if lines.conic and not rows.size == len(weights) == E.shape[0]:   # the cones on E's rows (no compliance law:
-        #                                           cones beside one are lines.mixed, refused by the terms: terms.UNPOSED)
-        raise SolverError(f"friction under the P2 'gamma3' cones: {rows.size} friction rows, {len(weights)} "
-                          f"weights and {E.shape[0]} rows of the cones, which must be the same rows (the space's "
-                          "contact lines are inconsistent, not the scene)")
-    pairs = getattr(lines.interface, "interfaces", (lines.interface,))
-    if lines.conic and rows.pressure_dependent.any() and scene.dim == 3 and any(
-            not getattr(i, "rigid", True) and (c or condition) == "gamma3" for i, c in zip(pairs, scene.conditions)):
-        raise UnsupportedError(
-            "a pressure-dependent friction law (cc.Coulomb) with P2 tetrahedra under 'gamma3' between two bodies is "
-            "not available: its capacities mu r_a need the cones' nodal normal forces r on the nodes of X_h, which "
-            "are not unique where the faces do not match (more overlay nodes than the jump's degrees of freedom: "
-            "the capacities, and the answer, would depend on the solver's representation); use cc.Tresca(g) under "
-            "'gamma3', or cc.Coulomb with condition='sigma1' or 'sigma2' (nodal rows with positive weights), or "
-            "degree=1 with 'gamma3'; against a rigid obstacle Coulomb under 'gamma3' with P2 is available")
-    capacity = np.where(rows.pressure_dependent, np.inf, rows.thresholds(0.0) * weights)
-    Ec = slip_rows(E, lines.interface)
-    frictional = np.tile(rows.frictional, getattr(lines.interface, "slip_components", 1))
-    forced = [o for o in lines.obstacles if o.force is not None]
-    on_rows = {id(o): np.where(frictional[:, None], Ec @ T, 0.0) for o, T in zip(forced, moves)}
-    return (lambda k, n: Ec @ _slip(lines.interface, k, n)), capacity, lambda o: on_rows[id(o)]
-
-
-def obstacle_slip(interface, obstacle, counts, basis=None) -> np.ndarray:
-    """(c size, k): the slip [u_t] at the stacked nodes of X_h (component-major, like ``tangential_jump``) that a
-    unit translation of the obstacle along each of its ``basis`` columns causes on its pairs' nodes: the body's
-    nodes slip against it by -t . t_a, minus the slip of the body translated by t (the interpolations of the traces
-    sum to 1), 0 on the other pairs' nodes. ``counts``: the bodies' node counts; ``basis`` (d, k): other directions
-    (default the obstacle's ``basis``; the identity gives the slip of a translation along each axis)."""
-    c = getattr(interface, "slip_components", 1)
-    offsets = getattr(interface, "offsets", (0, interface.size))
-    size = int(offsets[-1])
-    on = np.zeros(size, dtype=bool)
-    for i in obstacle.pairs:
-        on[offsets[i]:offsets[i + 1]] = True
-    basis = np.asarray(obstacle.basis if basis is None else basis, dtype=float)
-    out = np.zeros((c * size, basis.shape[1]))
-    for k, n in enumerate(counts):
-        T = interface.tangential_jump(k, n)
-        out -= np.column_stack([T @ np.tile(v, n) for v in basis.T])
-    out[~np.tile(on, c)] = 0.0
-    return out
-
-
-def friction_weights(lines, condition, conditions) -> np.ndarray:
-    """The weights of the friction capacities g_a w_a, one per row (m; m^2 in 3D): :func:`row_weights`, or, where a
-    compliance pair's rows are its law's quadrature points (P2 in 3D: not one row per node of the condition), per
-    pair its :func:`row_weights` where they are its rows and the law's own weights on such a pair (frictionless: no
-    capacity there, the weights of its quadrature). UnsupportedError if a frictional pair's rows are not its nodes."""
-    w = row_weights(lines.interface, condition, conditions)
-    rows = lines.rows
-    if len(w) == rows.size or lines.weights is None or not hasattr(lines.interface, "interfaces"):
-        return w
-    interfaces = lines.interface.interfaces
-    conditions = conditions or [None] * len(interfaces)
-    parts, start = [], 0
-    for itf, c, n, law in zip(interfaces, conditions, rows.counts, rows.laws):
-        own = itf.weights(condition if c is None else c)
-        if len(own) != n and law.friction is not None:
-            raise UnsupportedError(f"a friction law on a pair whose {n} contact rows are not the {len(own)} nodes of "
-                                   "its condition is not available: pose the pair under a nodal condition")
-        parts.append(own if len(own) == n else np.asarray(lines.weights[start:start + n], dtype=float))
-        start += n
-    return np.concatenate(parts)
-
-
-def row_weights(interface, condition, conditions) -> np.ndarray:
-    """The lumped lengths (areas) of the rows (m; docs/formulation.md §10) of a stack of pairs under their own
-    ``conditions`` (None: ``condition``), or of one P2 pair (:class:`~cvxcontact.contact.quadratic.QuadraticInterface`,
-    which poses its own condition: Simpson's weights, all positive)."""
-    if hasattr(interface, "interfaces"):
-        return interface.weights(condition, conditions)
-    return interface.weights(conditions[0] or condition if conditions else condition)
-
-
-def slip_rows(E, interface) -> sp.csr_matrix:
-    """The evaluation rows of every slip component: kron(I_c, E) (c = the interface's ``slip_components``, 1 in
-    2D, 2 in 3D; component-major like :meth:`~cvxcontact.contact.interface.Stack.tangential_jump`)."""
-    return sp.kron(sp.identity(getattr(interface, "slip_components", 1), format="csr"), E, format="csr")
 
 
 def held_rows(E, blocks, translations) -> np.ndarray:

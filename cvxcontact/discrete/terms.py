@@ -60,12 +60,13 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..errors import SolverError, UnsupportedError
+from .slip import Slip
 
 __all__ = ["PARTS", "UNPOSED", "ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones",
            "ConesBesideCompliance", "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS",
@@ -159,12 +160,20 @@ class ContactTerm(Protocol):
 
     def hands_on(self, raw) -> bool: ...
 
+    def with_data(self, scene, condition: str, lines, systems, units): ...
+
+    def kernel_capacity(self): ...
+
+    def normal_rows(self, problem, energy, G, g): ...
+
 
 @dataclass(frozen=True)
 class _Term:
-    """The answers every term shares unless it says otherwise; ``dim`` the space's displacement components."""
+    """The answers every term shares unless it says otherwise; ``dim`` the space's displacement components, ``data``
+    what it holds beside the problem (:meth:`with_data`)."""
 
     dim: int
+    data: object = field(default=None, compare=False, repr=False)
     kind: ClassVar[str] = ""
     compliant: ClassVar[bool] = False
     cones: ClassVar[bool] = False
@@ -198,6 +207,15 @@ class _Term:
     solves this term's program beside its user terms, where :meth:`program` is not the whole of it (a friction
     law's slip cones; :meth:`with_user_terms`); None: ``cc.Model`` poses them on :meth:`program` and finishes
     them itself (its active-set finish of the nodal rows and the user rows)."""
+    builds: ClassVar[str | Callable | None] = None
+    """``(scene, condition, lines, systems, units) -> data``: what the term holds beside the problem, built with it
+    (:meth:`with_data`; a friction law's :class:`~cvxcontact.discrete.slip.Slip`, what its routes, finish and
+    read-back read); None: nothing."""
+    finish_rows: ClassVar[str | Callable] = "cvxcontact.backends.frictionrows:NormalRows"
+    """``(problem, energy, G, g) -> rows``: how its laws pose the normal rows G x <= g of the friction finish beside
+    the energy (:meth:`normal_rows`): Signorini's as they are
+    (:class:`~cvxcontact.backends.frictionrows.NormalRows`), a compliance law's energy added and its rows of a finite
+    limit kept (:class:`~cvxcontact.backends.frictionrows.LawRows`)."""
 
     @classmethod
     def poses(cls, lines) -> bool:
@@ -237,6 +255,26 @@ class _Term:
         if where is None:
             return None
         return named(where)(problem, model, constraints, objective, settings, timings, admits)
+
+    def with_data(self, scene, condition: str, lines, systems, units):
+        """This term holding its data for the problem of ``scene`` under ``condition`` (its contact ``lines``, the
+        bodies' assembled ``systems``, the ``units``; :attr:`builds`), itself where it holds none."""
+        where = type(self).builds
+        if where is None:
+            return self
+        return replace(self, data=named(where)(scene, condition, lines, systems, units))
+
+    def kernel_capacity(self):
+        """What the well-posedness check before the solve reads of the term's law beside the supports and the rows
+        (:func:`~cvxcontact.fem.kernel.check_well_posed`'s ``capacity``: a friction law's, its data's
+        ``kernel_capacity()``); None: nothing."""
+        hold = getattr(self.data, "kernel_capacity", None)
+        return None if hold is None else hold()
+
+    def normal_rows(self, problem, energy, G, g):
+        """The normal rows of the friction finish of ``problem`` beside the mixed ``energy`` (G x <= g) as the
+        term's laws pose them (:attr:`finish_rows`)."""
+        return named(type(self).finish_rows)(problem, energy, G, g)
 
     def start(self, problem, cache) -> None:
         """Before a route runs: a state from another mesh in ``cache`` (``cache.start``) and no active set gives
@@ -369,6 +407,7 @@ class TrescaFriction(_Term):
     beside_user_terms: ClassVar[str | Callable | None] = "cvxcontact.backends.frictionuser:beside_user_terms"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_tresca"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.friction:row_forces"
+    builds: ClassVar[str | Callable | None] = Slip.build
     # its program: the Signorini rows, to which the friction route adds the slip's cones
     # (:func:`cvxcontact.backends.friction.friction_program`)
 
@@ -390,6 +429,7 @@ class FrictionBesideCompliance(TrescaFriction):
     programs: ClassVar[str | Callable] = ComplianceRows.programs
     forces: ClassVar[str | Callable] = ComplianceRows.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_compliance_friction"
+    finish_rows: ClassVar[str | Callable] = "cvxcontact.backends.frictionrows:LawRows"
 
 
 @dataclass(frozen=True)
@@ -397,7 +437,8 @@ class ConesWithFriction(_Term):
     """The P2 "gamma3" cones (the normal condition on every element, docs/formulation.md §8, §16) and a friction
     law's cone per node of X_h on the slip, its capacity g_a w_a with w_a the positive weights of the nodal P2
     friction (2D: the Simpson weights of the merged P2 line; 3D: the red refinement's lumped areas), Coulomb's
-    mu p_a from the cones' nodal force r = B^T beta made non-negative (:meth:`DiscreteProblem.pressing`;
+    mu p_a from the cones' nodal force r = B^T beta made non-negative
+    (:meth:`~cvxcontact.discrete.slip.Slip.pressing`;
     docs/howto/friction.md, "Coulomb under the cones"); beside a pair under a nodal condition the rows are E's (that
     pair's own rows, each a degenerate element of the cones, with its own weights; ``lines.cone`` on the rows,
     ``lines.cone_on_nodes`` on X_h). The full program
@@ -423,12 +464,13 @@ class ConesWithFriction(_Term):
     programs: ClassVar[str | Callable] = EverywhereCones.programs
     forces: ClassVar[str | Callable] = EverywhereCones.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_conic_friction"
+    builds: ClassVar[str | Callable | None] = Slip.build
 
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
             "program_forces", "with_user_terms", "read_back", "finish_declined", "start", "determining_rows",
-            "held_forces", "hands_on")
+            "held_forces", "hands_on", "with_data", "kernel_capacity", "normal_rows")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance,

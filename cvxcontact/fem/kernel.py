@@ -176,7 +176,7 @@ def rigid_kernel(bodies: Sequence, loads: Sequence[np.ndarray], evaluation: sp.s
     are skipped); ``nodes[k]`` body k's node set (P2 :class:`~cvxcontact.geometry.quadratic.P2Nodes`) or
     None (P1 vertices). ``capacity``: with a friction law, (slip, c, moves): ``slip(k, n)`` body k's slip rows at the
     rows of E, c (N/m) their friction capacities (the kernel's ``slip`` and ``capacity``) and ``moves(o)`` the slip
-    rows (c R, k) of a force-controlled obstacle's translations (:func:`~cvxcontact.discrete.problem.obstacle_slip`
+    rows (c R, k) of a force-controlled obstacle's translations (:func:`~cvxcontact.discrete.slip.obstacle_slip`
     at the frictional rows), else None."""
     E = sp.csr_matrix(evaluation)
     nodes = list(nodes) if nodes is not None else [None] * len(bodies)

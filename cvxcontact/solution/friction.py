@@ -62,38 +62,39 @@ def read_back_friction(problem, raw, sol) -> None:
     from dataclasses import replace
 
     E, blocks, un, u, phi = problem.E, problem.blocks, problem.units, raw.u, raw.phi
-    Es, n_c = problem.slip_rows, problem.slip_components
+    data = problem.term.data                                              # the friction term's Slip
+    Es, n_c = data.rows, data.components
     mu = np.asarray(raw.tangential, dtype=float)                          # (c R,) component-major
     Ety, Tmu = E.T @ raw.y, Es.T @ mu
-    forces = [(b.slip.T @ Tmu, abs(b.slip).T @ np.abs(Tmu)) for b in blocks]
+    forces = [(T.T @ Tmu, abs(T).T @ np.abs(Tmu)) for T in data.operators]
     checks = sol._checks
     equilibrium = equilibrium_with(blocks, u, phi, Ety, forces, at_rest=True)
     sizes = abs(Es).T @ np.tile(np.linalg.norm(mu.reshape(n_c, -1), axis=0), n_c)  # |mu_a| on each component
-    for k, (body, s, blk, fit, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks,
-                                                         problem.rigid_fits, u, phi)):
+    for k, (body, s, blk, T, fit, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, blocks,
+                                                            data.operators, problem.rigid_fits, u, phi)):
         modes = body.held_modes(problem.meshes[k])
         if len(modes):
-            extra = (blk.slip.T @ Tmu, abs(blk.slip).T @ sizes)
+            extra = (T.T @ Tmu, abs(T).T @ sizes)
             equilibrium = max(equilibrium, rigid_balance(blk, (s.Tu.T @ modes.T).T, fit.deformation(uk), pk, Ety,
                                                          extra, prolongation=s.Tu, dim=body.dim))
     checks["equilibrium"] = equilibrium
-    shift = np.broadcast_to(np.asarray(problem.prescribed_slip, dtype=float), (Es.shape[1],))
-    slip = sum(b.slip @ uk for b, uk in zip(blocks, u)) + shift               # at the nodes of X_h (c size,)
-    slip = slip + sum((T @ t for T, t in zip(problem.translation_slips, raw.taus)), np.zeros(len(slip)))
+    shift = np.broadcast_to(np.asarray(data.prescribed, dtype=float), (Es.shape[1],))
+    slip = sum(T @ uk for T, uk in zip(data.operators, u)) + shift            # at the nodes of X_h (c size,)
+    slip = slip + sum((T @ t for T, t in zip(data.translations, raw.taus)), np.zeros(len(slip)))
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in u] + [float(np.abs(shift).max(initial=0.0))]
             + [float(np.abs(t).max(initial=0.0)) for t in raw.taus])
     rows = problem.rows.frictional
-    capacity = problem.capacities(raw.y)            # at the answer's pressures (Coulomb: mu y_a, its own cone)
+    capacity = data.capacities(raw.y)               # at the answer's pressures (Coulomb: mu y_a, its own cone)
     by_row = (lambda v: v) if n_c == 1 else (lambda v: v.reshape(n_c, -1).T)  # (R,) or (R, c)
     checks.update(friction_checks(by_row(mu)[rows], by_row(Es @ slip)[rows], capacity[rows], U,
                                   friction_scale(problem, u, phi, raw.y, capacity[rows])))
     offsets = problem.lines.offsets
 
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
-    measure = E.T @ (problem.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
+    measure = E.T @ (data.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     trace = problem.space.trace
     pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
-    pressing = problem.pressing(raw.y)                    # the thresholds' normal forces (scaled)
+    pressing = data.pressing(raw.y)                       # the thresholds' normal forces (scaled)
 
     def row_read(i, a, b, forces):
         """P2: the rows' ``forces`` (scaled, one per row of E or (R, c)) over their own weights at the nodes of
@@ -144,10 +145,11 @@ def obstacle_friction(problem, raw) -> list | None:
     """Per force-controlled obstacle of ``problem`` the resultant (d,) N/m (3D: N) of the friction forces of the
     answer ``raw`` on its pairs along the translations it is free to make (its ``basis`` B), as it enters the
     obstacle's balance: B^T F = B^T sum_a c_a y_a + T^T E_s^T mu, T the slip of its translation unknowns
-    (``problem.translation_slips``; the stationarity of the energy in them); the part along
+    (the friction term's ``data.translations``; the stationarity of the energy in them); the part along
     the translations its rows do not see (a plane's tangential ones) is its guide's. None without a friction law or
     a force-controlled obstacle."""
-    if raw.tangential is None or not problem.translation_slips:
+    data = problem.term.data
+    if raw.tangential is None or not getattr(data, "translations", ()):
         return None
-    force = problem.slip_rows.T @ np.asarray(raw.tangential, dtype=float) * problem.units.force
-    return [o.basis @ (T.T @ force) for o, T in zip(problem.forced, problem.translation_slips)]
+    force = data.rows.T @ np.asarray(raw.tangential, dtype=float) * problem.units.force
+    return [o.basis @ (T.T @ force) for o, T in zip(problem.forced, data.translations)]

@@ -122,18 +122,21 @@ def deformations(fits, u):
     return u if fits is None else [fit.deformation(uk) for fit, uk in zip(fits, u)]
 
 
-def slip_reach(blocks, Es, u, phi=None):
+def slip_reach(blocks, slip, u, phi=None):
     """The size of the elastic forces at each slip row's unknowns, sum_l |Es T_l| (|Kuu_l| |u_l| + |Kup_l|
-    |phi_l|) (scaled forces; ``Es`` the slip rows, T_l body l's tangential jump ``slip``): :func:`reach_forces`
-    for the tangential rows of a friction law."""
-    return sum((abs(Es @ b.slip) @ f for b, f in _elastic_forces(blocks, u, phi)), np.zeros(Es.shape[0]))
+    |phi_l|) (scaled forces; ``slip`` a friction term's :class:`~cvxcontact.discrete.slip.Slip`: Es its slip rows
+    ``rows``, T_l body l's tangential jump on its free unknowns, ``operators``): :func:`reach_forces` for the
+    tangential rows of a friction law."""
+    Es = slip.rows
+    return sum((abs(Es @ T) @ f for T, (_, f) in zip(slip.operators, _elastic_forces(blocks, u, phi))),
+               np.zeros(Es.shape[0]))
 
 
 def friction_scale(problem, u, phi, y, capacity, whole: bool = False) -> float:
     """C = max(max c_a, :func:`force_scale`) (scaled forces): the force scale of a friction law's rows (the checks';
     the finish's with ``whole``), the largest capacity ``capacity`` or normal row force ``y``, floored at :data:`FORCE_FLOOR`
     of the largest elastic force of the bodies' deformation at the unknowns of the normal rows ``problem.E``
-    (:func:`reach_forces`) and of the slip rows ``problem.slip_rows`` (:func:`slip_reach`). With the contact open
+    (:func:`reach_forces`) and of the friction term's slip rows (:func:`slip_reach`). With the contact open
     and capacities mu y_a (Coulomb) or g = 0 the capacities and forces are 0 or rounding: the tangential forces'
     rounding is then measured against the elastic forces there, not against nothing (docs/howto/friction.md, "What
     is checked").
@@ -154,7 +157,7 @@ def friction_scale(problem, u, phi, y, capacity, whole: bool = False) -> float:
     the noise of its open rows the scale and the finish declined, tests/test_check_floor.py)."""
     d = deformations(None if whole else problem.rigid_fits, u)
     blocks = problem.blocks
-    reach = np.concatenate([reach_forces(blocks, problem.E, d, phi), slip_reach(blocks, problem.slip_rows, d, phi)])
+    reach = np.concatenate([reach_forces(blocks, problem.E, d, phi), slip_reach(blocks, problem.term.data, d, phi)])
     return max(float(np.max(capacity, initial=0.0)), force_scale(y, reach))
 
 

@@ -71,7 +71,7 @@ from .trace import LinearTrace
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "BiquadraticRows", "CrossingSurface", "FaceTrace",
            "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side",
            "dependent_law_rows", "hex_contact", "hex_pair", "independent_rows", "law_weights", "matching", "nesting",
-           "pieces", "q2_pair", "quadratic_pressures"]
+           "pieces", "q2_pair", "quadratic_pressures", "simpson_lumped"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -393,6 +393,18 @@ class SimpsonSurface(QuadraticSurface):
         force over its weight: p(r_a) (exact for a uniform pressure, whose consistent loads are p w_a)."""
         return sp.diags(self.law_weights(condition)).tocsr()
 
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].nodes``): its nodal
+        forces interpolation(k)^T r (N; exact work equivalence) over its biquadratic hats' integrals over its
+        part (:func:`simpson_lumped`), as Q1's over its bilinear hats' (docs/checks.md, "The pressure views").
+        Exact for a uniform pressure on faces the rows' weights cover (its consistent loads are p w_a); the
+        Riesz representer in the P2 functions of the faces' triangles, which P2 tetrahedra read, is not the
+        biquadratic trace's: it made a uniform p read 0.07 p to 4.5 p, negative on faces that do not match."""
+        key = ("felt", k)
+        if key not in self._factors:
+            self._factors[key] = simpson_lumped(self.traces[k])
+        return (self._interp[k].T @ np.asarray(r, dtype=float)) / self._factors[key]
+
 
 class BiquadraticRows(SimpsonSurface):
     """A Q2 pair whose faces do not match, under the nodal condition of side ``side`` ("sigma1" for 0, "sigma2" for
@@ -475,6 +487,15 @@ def q2_pair(itf, nodes, members, condition):
     return BiquadraticRows(itf, nodes, members, int(condition[-1]) - 1)
 
 
+def simpson_lumped(trace) -> np.ndarray:
+    """(n,) m^2: the integrals of the biquadratic hats of the Q2 ``trace``'s nodes (``trace.nodes``) over its part's
+    9-node faces (3 x 3 Gauss on the faces' bilinear maps, :func:`~cvxcontact.fem.hex.face_hats`: A/36 at a
+    corner, 4A/36 at an edge midpoint, 16A/36 at the centre of a parallelogram face; positive, summing to the
+    part's area): the lumped areas of a Q2 face trace, the consistent loads of a unit pressure."""
+    nodes = Q2HexNodes(trace.body.mesh)
+    return face_hats(nodes.points, nodes.boundary(trace.part), 2)[np.asarray(trace.nodes)]
+
+
 def quadratic_pressures(lines, conditions):
     """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
     :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
@@ -487,10 +508,8 @@ def quadratic_pressures(lines, conditions):
     pairs = []
     for pair, c in zip(stack or (lines.interface,), conditions):
         side = constrained_side(pair, c)
-        t = pair.traces[side]
-        nodes = Q2HexNodes(t.body.mesh)
-        hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
-        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), hats[np.asarray(t.nodes)])))
+        lumped = simpson_lumped(pair.traces[side])
+        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), lumped)))
     return replace(lines, interface=pairs[0] if stack is None else QuadraticStack(pairs, lines.interface.members))
 
 

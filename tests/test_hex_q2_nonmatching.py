@@ -102,3 +102,29 @@ def test_a_compliance_law_on_faces_the_overlaps_edge_cuts_weighs_the_whole_overl
     p = k * DELTA / (1.0 + k * H / float(STEEL.tensors(3)[0][2, 2]))          # the uniaxial column, for scale
     assert np.abs(c.force - w * c.lam).max() <= 1e-12 * p * w.max()             # measured 5.6e-16
     assert c.force.sum() >= 0.5 * 0.36 * p                                     # 0.92 of it (coarse rows); before 0
+
+
+@pytest.mark.parametrize("upper", [((0.0, 1.0), (0.0, 1.0)), ((0.2, 0.8), (0.2, 0.8))])
+def test_the_contact_map_draws_q2_rows_on_faces_that_do_not_match(upper):
+    """``plot_contact_map`` (what `cvxcontact solve` draws) on Q2 faces that do not match (2 x 2 under 3 x 3,
+    "sigma1"): the opening is drawn on the nodes of the posed pair's X_h (the lower's nodes in the overlap), not
+    on the scene's P1 overlay (whose triangles index other nodes: "triangles are indices into the points ...
+    found value 32"); on (0.2, 0.8)^2 no lower face lies wholly in the overlap (no cell of X_h): drawn on their
+    Delaunay."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cvxcontact.io.plot import plot_contact_map
+
+    lower = cc.Body(block(2, (0.0, 0.5)), STEEL, clamped=["bottom"], contact="top", name="lower")
+    box = cc.box(x=upper[0], y=upper[1], z=(0.5, 1.0), nx=3, ny=3, nz=1, cell="hex")
+    top = cc.Body(box, STEEL, contact="bottom", name="upper", displacement={"top": (0.0, 0.0, -DELTA)})
+    sol = cc.solve(cc.Scene(lower, top, contacts=[cc.Contact(lower, "top", top, "bottom")]), "sigma1", degree=2)
+    fig = plot_contact_map(sol)
+    try:
+        panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>" and ax.axison]
+        assert len(panels) == 3 and all(ax.collections for ax in panels)
+    finally:
+        plt.close(fig)

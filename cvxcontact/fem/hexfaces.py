@@ -378,16 +378,17 @@ class SimpsonSurface(QuadraticSurface):
             raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
                                    f"('sigma1', 'sigma2'), not {condition!r}")
         side = 0 if self.rigid else int(condition[-1]) - 1
-        t = self.traces[side]
-        faces = np.searchsorted(t.nodes, Q2HexNodes(t.body.mesh).boundary(t.part))     # (k, 9) into t.nodes
-        at = np.asarray(self.reach) if self.rigid else np.asarray(self.sigma_rows(side))
-        row = np.zeros(len(t.nodes), dtype=bool)
-        row[at] = True
-        whole = row[faces].all(axis=1)
-        hats = face_hats(t.points, faces[whole], 2)
-        if self.rigid:
-            return hats[at]
-        return shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
+        if ("law", side) not in self._factors:                  # kept: quadrature, row_mass and the read-back ask
+            t = self.traces[side]
+            faces = np.searchsorted(t.nodes, Q2HexNodes(t.body.mesh).boundary(t.part))     # (k, 9) into t.nodes
+            at = np.asarray(self.reach) if self.rigid else np.asarray(self.sigma_rows(side))
+            row = np.zeros(len(t.nodes), dtype=bool)
+            row[at] = True
+            whole = row[faces].all(axis=1)
+            hats = face_hats(t.points, faces[whole], 2)
+            self._factors[("law", side)] = hats[at] if self.rigid else \
+                shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
+        return self._factors[("law", side)].copy()
 
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
         """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects

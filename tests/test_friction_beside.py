@@ -179,7 +179,7 @@ def test_a_declined_finish_is_flagged(monkeypatch):
 
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
 def test_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(law):
-    """3D (docs/refusals.md row 39): a block clamped at its base pressed by a force-controlled sphere (force
+    """3D (docs/refusals.md row 52): a block clamped at its base pressed by a force-controlled sphere (force
     (1e4, 5e3, -1e5) N) with friction on that pair; its translation t slips the rows (the sphere's tangents are
     tilted). The scene translated by -t (the sphere fixed where it started, the base moved by -t) has the same
     relative motion: its u is u - t."""

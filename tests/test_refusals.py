@@ -416,7 +416,7 @@ def test_q1_hexahedra_gamma3_between_crossing_faces_holds_everywhere(skewed):
 
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
 def test_a_force_controlled_disk_on_a_frictional_pair_is_the_translated_scene(law):
-    """Row 39 (b), supported. A block clamped at its base, pressed by a force-controlled disk (force (2e5, -1e6) N/m)
+    """Row 52 (b), supported. A block clamped at its base, pressed by a force-controlled disk (force (2e5, -1e6) N/m)
     with friction on that pair: the disk's translation t found, then the same scene translated by -t (the disk fixed
     where it started, the base moved by -t): the relative motion is the same, so u - t is that scene's u, and the
     disk's force, its normal part plus the friction forces sum_a f_a t_a (t_a the disk's tangent at each node's
@@ -445,7 +445,7 @@ def test_a_force_controlled_disk_on_a_frictional_pair_is_the_translated_scene(la
 
 
 def test_p2_tetrahedra_friction_beside_a_compliance_pair_closed_form():
-    """Row 40 (b), supported. The compliance pair and the stuck sheared layer in series (tests/friction_scenes.py), P2
+    """Row 53 (b), supported. The compliance pair and the stuck sheared layer in series (tests/friction_scenes.py), P2
     tetrahedra under "sigma1": the closed form (springs in series, the stuck shear; linear, P2 reproduces it)."""
     from friction_scenes import P as P_FRICTION
     from friction_scenes import compliant_series3d, compliant_series3d_exact
@@ -1053,3 +1053,22 @@ def test_each_b_row_from_38_fails_on_its_own_refusal(test, args, words, monkeypa
     with pytest.raises(cc.UnsupportedError) as info:
         test(*args, **kwargs)
     assert words in _message(info), _message(info)
+
+
+def test_each_test_opening_with_its_row_is_named_in_that_row():
+    """A test here whose docstring opens "Row N" is one of the tests docs/refusals.md row N names (its last
+    column), so that renumbered rows do not leave a test pointing at another refusal (rows 52 and 53 were read as
+    39 and 40 after the table grew)."""
+    import ast
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent
+    rows = {int(m.group(1)): line for line in (root.parent / "docs" / "refusals.md").read_text().splitlines()
+            if (m := re.match(r"\| (\d+) \|", line))}
+    opened = [(node.name, int(m.group(1))) for node in ast.walk(ast.parse(Path(__file__).read_text()))
+              if isinstance(node, ast.FunctionDef)
+              and (m := re.match(r"Row (\d+)\b", ast.get_docstring(node) or ""))]
+    assert len(opened) >= 20                                                 # measured 50
+    named = lambda name, n: re.search(rf"`{name}[`\[]", rows.get(n, "")) is not None    # [params] may follow
+    assert [(name, n) for name, n in opened if not named(name, n)] == []

@@ -57,7 +57,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..contact.interface import shares_to_nearest
-from ..contact.overlay import locate
+from ..contact.overlay import locate, overlay
 from ..contact.quadratic import QuadraticStack
 from ..contact.quadratic3d import QuadraticSurface, _p2_mass
 from ..contact.surface import SurfaceInterface
@@ -71,7 +71,7 @@ from .trace import LinearTrace
 __all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "BiquadraticRows", "CrossingSurface", "FaceTrace",
            "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side",
            "dependent_law_rows", "hex_contact", "hex_pair", "independent_rows", "law_weights", "matching", "nesting",
-           "pieces", "q2_pair", "quadratic_pressures"]
+           "pieces", "q2_pair", "quadratic_pressures", "simpson_lumped"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -360,25 +360,35 @@ class SimpsonSurface(QuadraticSurface):
     integral of node a's biquadratic hat over the constrained side's faces all of whose 9 nodes are rows (3 x 3
     Gauss on the faces' bilinear maps: on a parallelogram of area A the tensor Simpson weights A/36 at a corner,
     4A/36 at an edge midpoint, 16A/36 at the centre; positive, they sum to the faces' area and integrate a
-    biquadratic function exactly, docs/formulation.md §10). The tetrahedra's rule on the faces' triangles
-    (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`) would integrate the P2 functions of the
-    triangles, not the biquadratic trace, and the P2 functions of a face's corners integrate to 0 on its
-    triangles (a corner would penetrate for free)."""
+    biquadratic function exactly, docs/formulation.md §10); between two bodies the faces the overlap's edge cuts
+    add their nodes' piecewise bilinear hats over the overlap (:meth:`law_weights`). The tetrahedra's rule on the
+    faces' triangles (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`) would integrate the P2
+    functions of the triangles, not the biquadratic trace, and the P2 functions of a face's corners integrate to 0
+    on its triangles (a corner would penetrate for free)."""
 
     def law_weights(self, condition) -> np.ndarray:
         """(rows,) m^2: w_a at the rows of :meth:`evaluation` under ``condition`` ("sigma1"/"sigma2" on two bodies,
-        any condition against an obstacle), 0 at a row on no face whose 9 nodes are all rows."""
+        any condition against an obstacle). Between two bodies the faces the overlap's edge cuts (some of their 9
+        nodes outside it) add their nodes' piecewise bilinear hats integrated over the overlap (:func:`_cut_hats`),
+        a node outside giving its share to the nearest row (``shares_to_nearest``, as the P2 faces' and Q1's): the
+        weights sum to the overlap's area (before, those faces weighed nothing: a block whose face lies inside
+        such faces went through the law with no force). Against an obstacle 0 at a row on no face whose 9 nodes
+        all reach it."""
         if not self.rigid and condition not in ("sigma1", "sigma2"):
             raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
                                    f"('sigma1', 'sigma2'), not {condition!r}")
         side = 0 if self.rigid else int(condition[-1]) - 1
-        t = self.traces[side]
-        nodes = Q2HexNodes(t.body.mesh)
-        faces = np.asarray(nodes.boundary(t.part))                                  # (k, 9)
-        at = np.asarray(t.nodes)[np.asarray(self.reach) if self.rigid else self.sigma_rows(side)]
-        row = np.zeros(len(nodes.points), dtype=bool)
-        row[at] = True
-        return face_hats(nodes.points, faces[row[faces].all(axis=1)], 2)[at]
+        if ("law", side) not in self._factors:                  # kept: quadrature, row_mass and the read-back ask
+            t = self.traces[side]
+            faces = np.searchsorted(t.nodes, Q2HexNodes(t.body.mesh).boundary(t.part))     # (k, 9) into t.nodes
+            at = np.asarray(self.reach) if self.rigid else np.asarray(self.sigma_rows(side))
+            row = np.zeros(len(t.nodes), dtype=bool)
+            row[at] = True
+            whole = row[faces].all(axis=1)
+            hats = face_hats(t.points, faces[whole], 2)
+            self._factors[("law", side)] = hats[at] if self.rigid else \
+                shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
+        return self._factors[("law", side)].copy()
 
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
         """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects
@@ -392,6 +402,18 @@ class SimpsonSurface(QuadraticSurface):
         the law's pressure (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`) is each row's
         force over its weight: p(r_a) (exact for a uniform pressure, whose consistent loads are p w_a)."""
         return sp.diags(self.law_weights(condition)).tocsr()
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].nodes``): its nodal
+        forces interpolation(k)^T r (N; exact work equivalence) over its biquadratic hats' integrals over its
+        part (:func:`simpson_lumped`), as Q1's over its bilinear hats' (docs/checks.md, "The pressure views").
+        Exact for a uniform pressure on faces the rows' weights cover (its consistent loads are p w_a); the
+        Riesz representer in the P2 functions of the faces' triangles, which P2 tetrahedra read, is not the
+        biquadratic trace's: it made a uniform p read 0.07 p to 4.5 p, negative on faces that do not match."""
+        key = ("felt", k)
+        if key not in self._factors:
+            self._factors[key] = simpson_lumped(self.traces[k])
+        return (self._interp[k].T @ np.asarray(r, dtype=float)) / self._factors[key]
 
 
 class BiquadraticRows(SimpsonSurface):
@@ -450,6 +472,39 @@ class BiquadraticRows(SimpsonSurface):
         return np.asarray(self.cells), self.x[np.asarray(self.cells)[:, :3]], hosts
 
 
+# a 9-node face's nodes in [-1, 1]^2 (quad9 order: corners, side midpoints, centre); its quarters' triangles
+_QUAD9 = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [0, -1], [1, 0], [0, 1], [-1, 0], [0, 0]], dtype=float)
+_QUARTERS = np.array([[0, 4, 8], [0, 8, 7], [4, 1, 5], [4, 5, 8], [8, 5, 2], [8, 2, 6], [7, 8, 6], [7, 6, 3]])
+
+
+def _cut_hats(pair, side, faces, whole) -> np.ndarray:
+    """(n,) m^2: at each node of side ``side``'s Q2 trace of the two-body pair ``pair`` (a :class:`SimpsonSurface`;
+    ``faces`` (k, 9) its 9-node faces into ``traces[side].nodes``, ``whole`` those all of whose nodes are rows),
+    the integral over the overlap's part of the other faces of the node's hat of the face split 2 x 2 (the Q1
+    functions of its four quarters, tensor products of 1D tents in reference coordinates: positive, summing to
+    1, as the red refinement's hats of a P2 face). Exact: the overlay of the quarters' triangles with the other
+    side's faces, on whose cells a hat is bilinear in the parallelogram's affine coordinates (degree 2), by the
+    degree-2 rule at reference points found by Newton on the face's bilinear map. Their sum is the area the
+    overlap covers of those faces; 0 where none."""
+    t, other = pair.traces[side], pair.linear.traces[1 - side]
+    ov = pair.linear.overlay
+    host = np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2
+    cut = np.unique(host[~whole[host]])                                  # the faces the overlap's edge cuts
+    cover = overlay(np.asarray(t.x), faces[cut][:, _QUARTERS].reshape(-1, 3), np.asarray(other.x),
+                    np.asarray(other.faces)) if len(cut) else None
+    if cover is None or len(cover.vertices) == 0:
+        return np.zeros(len(t.nodes))
+    P = np.asarray(cover.vertices)[np.asarray(cover.triangles)]                      # (c, 3, 2)
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    L, w = simplex_rule(2, 2)
+    points = np.einsum("mi,tid->tmd", L, P).reshape(-1, 2)
+    at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], len(w))
+    xi = np.clip(reference_points(np.asarray(t.x)[faces[:, :4]], at, points), -1.0, 1.0)
+    tents = np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)     # (m, 9)
+    return np.bincount(faces[at].ravel(), weights=(tents * np.outer(area, w).reshape(-1, 1)).ravel(),
+                       minlength=len(t.nodes))
+
+
 def _biquadratic_rows(trace, x) -> sp.csr_matrix:
     """(v, n) sparse: the biquadratic functions of the 9-node faces of the Q2 ``trace`` (a P2 pair's trace on
     hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x`` (v, 2) m, each in the face its
@@ -475,6 +530,15 @@ def q2_pair(itf, nodes, members, condition):
     return BiquadraticRows(itf, nodes, members, int(condition[-1]) - 1)
 
 
+def simpson_lumped(trace) -> np.ndarray:
+    """(n,) m^2: the integrals of the biquadratic hats of the Q2 ``trace``'s nodes (``trace.nodes``) over its part's
+    9-node faces (3 x 3 Gauss on the faces' bilinear maps, :func:`~cvxcontact.fem.hex.face_hats`: A/36 at a
+    corner, 4A/36 at an edge midpoint, 16A/36 at the centre of a parallelogram face; positive, summing to the
+    part's area): the lumped areas of a Q2 face trace, the consistent loads of a unit pressure."""
+    nodes = Q2HexNodes(trace.body.mesh)
+    return face_hats(nodes.points, nodes.boundary(trace.part), 2)[np.asarray(trace.nodes)]
+
+
 def quadratic_pressures(lines, conditions):
     """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
     :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
@@ -487,10 +551,8 @@ def quadratic_pressures(lines, conditions):
     pairs = []
     for pair, c in zip(stack or (lines.interface,), conditions):
         side = constrained_side(pair, c)
-        t = pair.traces[side]
-        nodes = Q2HexNodes(t.body.mesh)
-        hats = face_hats(nodes.points, nodes.boundary(t.part), 2)
-        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), hats[np.asarray(t.nodes)])))
+        lumped = simpson_lumped(pair.traces[side])
+        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), lumped)))
     return replace(lines, interface=pairs[0] if stack is None else QuadraticStack(pairs, lines.interface.members))
 
 

@@ -313,8 +313,9 @@ class QuadraticTrace(LinearTrace):
         return out
 
     def felt(self, itf, k: int, force) -> np.ndarray:
-        """2D: the forces moved to side ``k``'s P2 nodes over their P2 lumped lengths; 3D: the Riesz pressure
-        on its P2 faces."""
+        """2D: the forces moved to side ``k``'s P2 nodes over their P2 lumped lengths; 3D: the pair's own
+        (``itf.pressure``: the Riesz pressure on its P2 faces; on Q2 hexahedral faces the forces over the
+        biquadratic hats' integrals)."""
         if getattr(itf, "dim", 2) == 3:
             return itf.pressure(k, force)
         return (itf.interpolation(k).T @ force) / quadratic_lumped(itf.traces[k].x)

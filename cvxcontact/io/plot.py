@@ -386,7 +386,7 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
     counts its nodes, the share of the area it covers, and the active nodes (those carrying a nodal force). Axes are the pair's in-plane coordinates
     (s1, s2) along its frame (t1, t2) ((x, y) for a plane z = const), with engineering prefixes. Returns the
     Figure."""
-    from .output import surface_cells
+    from .output import _interface, surface_cells
 
     plt = _pyplot()
     if not isinstance(solutions, dict):
@@ -419,12 +419,13 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
         for k in range(len(sides), 2):
             axes[r, k].set_axis_off()
         ax = axes[r, 2]
-        tri = surface_cells(itf)
+        tri = surface_cells(_interface(sol, i))      # on the pair the rows were posed on (c.x is its X_h)
+        cells = (tri,) if len(tri) else ()           # none (Q2 rows on faces the overlap cuts): matplotlib's Delaunay
         gap = np.zeros(len(c.x)) if c.gap is None else np.asarray(c.gap)
         u_scale = max(float(np.abs(u).max()) for u in sol.u)
         opening, small = at_rounding(gap - np.asarray(c.jump), u_scale)
         vmax = float(opening.max()) if opening.max() > 0 else (u_scale or 1.0)    # closed everywhere: 0 .. max |u|
-        shown = ax.tripcolor(c.x[:, 0], c.x[:, 1], tri, opening, shading="gouraud", cmap="viridis",
+        shown = ax.tripcolor(c.x[:, 0], c.x[:, 1], *cells, opening, shading="gouraud", cmap="viridis",
                              vmin=min(0.0, float(opening.min())), vmax=vmax)
         fig.colorbar(shown, ax=ax, label=r"opening $g - [u_\nu]$", format=eng("m"), shrink=0.9)
         zone_nodes, share = _zone_words(sol, i)

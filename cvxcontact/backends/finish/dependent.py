@@ -3,6 +3,8 @@ Lawson-Hanson on the forces."""
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -16,6 +18,8 @@ from .rows import (
     factored_rows,
     row_reach,
 )
+
+log = logging.getLogger(__name__)
 
 
 def _append_column(Q, R, col):
@@ -318,7 +322,9 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
                 break
             res = verify(mask, passive)                 # where the steps would stop: the exact solve decides
             verified = True
+        log.debug("step %d: |P| %d, move %s", steps, len(passive), "singular" if res is None else move[0])
         if res is None:
+            log.debug("singular on the passive rows %s", passive)
             return SINGULAR_FORCES
         entered = None
         if move[0] == "back":

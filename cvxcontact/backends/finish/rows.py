@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import logging
 import warnings
 
 import numpy as np
@@ -13,6 +14,8 @@ from scipy.sparse import csgraph
 
 from ..factor import lu as dense_or_sparse_lu
 from .forces import _inverse_diagonal
+
+log = logging.getLogger(__name__)
 
 SINGULAR_PIVOT = 1e-13
 """A factor of the interface systems (:class:`UpdatedSystem`'s R, :class:`CholeskySystem`'s U^T U) whose smallest
@@ -307,6 +310,10 @@ class UpdatedSystem:
         elif changes:
             self._update(keys)
         d = np.abs(np.diag(self.R))
+        if log.isEnabledFor(logging.DEBUG):
+            k = int(np.argmin(d))
+            log.debug("QR on %d keys: pivot ratio %.3e (key %d at %d)", len(keys), d.min() / d.max(),
+                      int(self.keys[k]), k)
         if not d.min() > SINGULAR_PIVOT * d.max():
             return None
         where, bk = self._placed(keys, b)
@@ -409,6 +416,8 @@ class CholeskySystem(UpdatedSystem):
         elif changes:
             self._update(keys)
         d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("Cholesky on %d keys: pivot ratio %.3e", len(keys), d.min() / d.max() if d.max() > 0 else 0.0)
         if not d.min() > SINGULAR_PIVOT * d.max():
             self.U = None                                  # (refactored at the next solve)
             return self.qr.solve(keys, b)

@@ -302,6 +302,25 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             return None
         return "swap", int(j), col, c
 
+    def pivot(y, j, col, c):
+        """The simplex pivot of the row j dependent on P (G_j = sum c_i G_i): y_j = t, y_P - t c, t as large
+        as the forces of P stay >= 0; the row of P whose force reaches 0 leaves P, j joins it. The new y."""
+        nonlocal Q, R
+        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
+        t = y[passive][pos] / c[pos]
+        i = int(np.flatnonzero(pos)[np.argmin(t)])
+        y = y.copy()
+        y[passive] = y[passive] - t.min() * c
+        y[j] = t.min()
+        y[passive[i]] = 0.0
+        Q, R = _delete_column(Q, R, i)
+        del passive[i]
+        Q, R = _append_column(Q, R, col)
+        passive.append(j)
+        settled.clear()
+        return y
+
+    dropped = {}                                        # rows of P found dependent in the steps' metric: times
     entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
@@ -323,6 +342,42 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             res = verify(mask, passive)                 # where the steps would stop: the exact solve decides
             verified = True
         log.debug("step %d: |P| %d, move %s", steps, len(passive), "singular" if res is None else move[0])
+        if res is None and entered is not None and hasattr(step, "coefficients"):
+            j, entered = entered, None                  # the row that joined P leaves it the system singular:
+            factors()                                   # dependent on P in the steps' own metric (W's), so it
+            Q, R = _delete_column(Q, R, len(passive) - 1)   # is pivoted in as the steps pivot a dependent row
+            del passive[-1]
+            c = step.coefficients(passive, j)
+            if c is None or not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
+                dependent.add(j)                        # (no force of P can give way: passed over)
+            else:
+                y = pivot(y, j, unit[j].toarray().ravel(), c)
+            log.debug("row %d dependent on P in the steps' metric: %s", j, "passed over" if j in dependent else
+                      "pivoted in")
+            continue
+        if res is None and hasattr(step, "dependent"):
+            out = step.dependent(passive)               # P (the crossover's, or a pivot's) singular in the
+            if out is None:                             # steps' metric: its dependent rows leave P, their
+                log.debug("singular on the passive rows %s", passive)   # forces carried by the others
+                return SINGULAR_FORCES
+            drop, C = out
+            at = np.asarray(passive, dtype=int)
+            keep = np.setdiff1d(np.arange(len(at)), drop)
+            for row in at[drop]:
+                dropped[row] = dropped.get(row, 0) + 1
+            if max(dropped.values()) > 2:               # (the same rows dropped again and again: no progress)
+                return SINGULAR_FORCES
+            moved = np.maximum(y[at[keep]] + C @ y[at[drop]], 0.0)
+            y[at[drop]] = 0.0
+            y[at[keep]] = moved
+            for i in sorted(drop, reverse=True):
+                if Q is not None:
+                    Q, R = _delete_column(Q, R, int(i))
+                del passive[int(i)]
+            settled.clear()
+            log.debug("%d rows of P dependent on the others in the steps' metric: left P", len(drop))
+            entered = None
+            continue
         if res is None:
             log.debug("singular on the passive rows %s", passive)
             return SINGULAR_FORCES
@@ -355,17 +410,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             entered = move[1]
             continue
         _, j, col, c = move                             # or dependent: a pivot (a swap likewise)
-        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
-        t = y[passive][pos] / c[pos]
-        i = int(np.flatnonzero(pos)[np.argmin(t)])
-        y[passive] = y[passive] - t.min() * c
-        y[j] = t.min()
-        y[passive[i]] = 0.0
-        Q, R = _delete_column(Q, R, i)
-        del passive[i]
-        Q, R = _append_column(Q, R, col)
-        passive.append(j)
-        settled.clear()
+        y = pivot(y, j, col, c)
     return MAX_ITER
 
 

@@ -13,10 +13,9 @@ import warnings
 
 import numpy as np
 import pytest
+from scenes3d import offset_boxes
 
 import cvxcontact as cc
-
-from scenes3d import offset_boxes
 
 pytestmark = pytest.mark.numerics      # which rows W finds dependent is rounding
 

@@ -536,9 +536,9 @@ class CompliantRows:
         cols = c.keep(P)
         self.system.U = None
         self.system.qr.Q = self.system.qr.R = None
-        W = c.kept_W[np.ix_(cols, cols)]
+        W = c.kept_W[np.ix_(cols, cols)].T              # (symmetric: its transpose, Fortran order, is factorised
         U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_MARGIN * float(W.diagonal().max(initial=0.0)),
-                                               lower=0, overwrite_a=1)
+                                               lower=0, overwrite_a=1)   # in place: one |P|^2 copy in all)
         del W
         if info < 0 or rank >= len(P) or rank == 0:
             return None

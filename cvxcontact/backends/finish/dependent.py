@@ -320,7 +320,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         settled.clear()
         return y
 
-    dropped = {}                                        # rows of P found dependent in the steps' metric: times
+    dropped = {}                                        # rows found dependent in the steps' metric: how often
     entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
@@ -347,6 +347,9 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             factors()                                   # dependent on P in the steps' own metric (W's), so it
             Q, R = _delete_column(Q, R, len(passive) - 1)   # is pivoted in as the steps pivot a dependent row
             del passive[-1]
+            dropped[j] = dropped.get(j, 0) + 1
+            if dropped[j] > 2:                          # (the same row again and again: the pivots cycle)
+                return SINGULAR_FORCES
             c = step.coefficients(passive, j)
             if c is None or not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
                 dependent.add(j)                        # (no force of P can give way: passed over)

@@ -221,7 +221,15 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     re-solves a set where the steps would stop; its values decide (and its state is returned). ``g`` (the
     rows' gaps, optional): a row dependent on the passive rows, G_j = sum c_i G_i, has the slack
     sum c_i g_i - g_j whatever x; where that is not above ``tol`` of its scale the row's computed slack is
-    rounding (a node that does not move: its own scale is rounding too), and it is passed over."""
+    rounding (a node that does not move: its own scale is rounding too), and it is passed over.
+
+    A step may measure dependence in its own metric (:class:`~cvxcontact.backends.finish.rows.CompliantRows`: W's,
+    whose conditioning is the rows' squared, so that rows independent by the unit rows' test can give a system
+    singular to its cut): ``step.dependent(passive)`` (the positions of P's rows dependent on the others and their
+    coefficients) and ``step.coefficients(passive, j)`` (row j's on P). Where its system on P is singular, the rows
+    it finds dependent leave P, their forces moved onto the rest; where the row that just joined P made it
+    singular, that row is pivoted in as a dependent row (passed over if no force of P can give way). A row found
+    so a third time declines (SINGULAR_FORCES), as does a singular system of a step without them."""
     G = sp.csr_matrix(G)
     m = G.shape[0]
     touched = np.flatnonzero(np.diff(G.tocsc().indptr))
@@ -343,8 +351,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             verified = True
         log.debug("step %d: |P| %d, move %s", steps, len(passive), "singular" if res is None else move[0])
         if res is None and entered is not None and hasattr(step, "coefficients"):
-            j, entered = entered, None                  # the row that joined P leaves it the system singular:
-            factors()                                   # dependent on P in the steps' own metric (W's), so it
+            j, entered = entered, None                  # the row that joined P makes the system singular: it
+            factors()                                   # is dependent on P in the steps' own metric (W's), and
             Q, R = _delete_column(Q, R, len(passive) - 1)   # is pivoted in as the steps pivot a dependent row
             del passive[-1]
             dropped[j] = dropped.get(j, 0) + 1

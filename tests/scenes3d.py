@@ -225,6 +225,26 @@ def two_boxes(n=4, condition="sigma1", elastic=False):
     return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition=condition)])
 
 
+def offset_boxes(n=6, offset=3e-7):
+    """Two aluminium boxes on z = 0 whose faces' grids have the same spacing h = 1/n, the lower's grid lines
+    ``offset`` h off the upper's in x and y (upper (0, 1)^2 x (0, 0.5) m, n x n x n/2 cells, clamped on top, body
+    force 2e9 N/m^3 downwards, traction 3e8 Pa along z on its right face; lower n + 1 cells a side from
+    (offset - 1) h, clamped at the bottom), "gamma3": every overlay vertex has a partner ``offset`` h away, so
+    that at offset 1e-7 .. 5e-7 the rows carrying the forces pass the rows' own independence test
+    (DEPENDENT_PIVOT) while W on them is singular to SINGULAR_PIVOT (issue 33: the exact finish declined)."""
+    n = max(2, int(n))
+    h = 1.0 / n
+    aluminium = cc.materials.isotropic(E=70e9, nu=0.3, name="aluminium")
+    upper = cc.box(x=(0.0, 1.0), y=(0.0, 1.0), z=(0.0, 0.5), nx=n, ny=n, nz=max(1, n // 2))
+    x0 = (offset - 1.0) * h
+    lower = cc.box(x=(x0, x0 + (n + 1) * h), y=(x0, x0 + (n + 1) * h), z=(-0.5, 0.0), nx=n + 1, ny=n + 1,
+                   nz=max(1, n // 2))
+    b1 = cc.Body(upper, aluminium, clamped=["top"], name="upper box", body_force=(0.0, 0.0, -2e9),
+                 traction={"right": (0.0, 0.0, 3e8)})
+    b2 = cc.Body(lower, aluminium, clamped=["bottom"], name="lower box")
+    return cc.Scene(b1, b2, contacts=[cc.Contact(b1, "bottom", b2, "top", condition="gamma3")])
+
+
 def sphere_into_block(n=6, radius=2.0, depth=0.02, law=None):
     """An aluminium block (-1, 1)^2 x (-1, 0) m (n x n x n/2 cells, clamped at the bottom) pressed ``depth`` (m)
     deep by a fixed rigid sphere of ``radius`` (m; 2 m, 0.02 m: a Hertz contact whose zone, radius about 0.2 m, is

@@ -3,6 +3,8 @@ Lawson-Hanson on the forces."""
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -16,6 +18,8 @@ from .rows import (
     factored_rows,
     row_reach,
 )
+
+log = logging.getLogger(__name__)
 
 
 def _append_column(Q, R, col):
@@ -217,7 +221,15 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     re-solves a set where the steps would stop; its values decide (and its state is returned). ``g`` (the
     rows' gaps, optional): a row dependent on the passive rows, G_j = sum c_i G_i, has the slack
     sum c_i g_i - g_j whatever x; where that is not above ``tol`` of its scale the row's computed slack is
-    rounding (a node that does not move: its own scale is rounding too), and it is passed over."""
+    rounding (a node that does not move: its own scale is rounding too), and it is passed over.
+
+    A step may measure dependence in its own metric (:class:`~cvxcontact.backends.finish.rows.CompliantRows`: W's,
+    whose conditioning is the rows' squared, so that rows independent by the unit rows' test can give a system
+    singular to its cut): ``step.dependent(passive)`` (the positions of P's rows dependent on the others and their
+    coefficients) and ``step.coefficients(passive, j)`` (row j's on P). Where its system on P is singular, the rows
+    it finds dependent leave P, their forces moved onto the rest; where the row that just joined P made it
+    singular, that row is pivoted in as a dependent row (passed over if no force of P can give way). A row found
+    so a third time declines (SINGULAR_FORCES), as does a singular system of a step without them."""
     G = sp.csr_matrix(G)
     m = G.shape[0]
     touched = np.flatnonzero(np.diff(G.tocsc().indptr))
@@ -298,6 +310,25 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             return None
         return "swap", int(j), col, c
 
+    def pivot(y, j, col, c):
+        """The simplex pivot of the row j dependent on P (G_j = sum c_i G_i): y_j = t, y_P - t c, t as large
+        as the forces of P stay >= 0; the row of P whose force reaches 0 leaves P, j joins it. The new y."""
+        nonlocal Q, R
+        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
+        t = y[passive][pos] / c[pos]
+        i = int(np.flatnonzero(pos)[np.argmin(t)])
+        y = y.copy()
+        y[passive] = y[passive] - t.min() * c
+        y[j] = t.min()
+        y[passive[i]] = 0.0
+        Q, R = _delete_column(Q, R, i)
+        del passive[i]
+        Q, R = _append_column(Q, R, col)
+        passive.append(j)
+        settled.clear()
+        return y
+
+    dropped = {}                                        # rows found dependent in the steps' metric: how often
     entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
@@ -318,7 +349,48 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
                 break
             res = verify(mask, passive)                 # where the steps would stop: the exact solve decides
             verified = True
+        log.debug("step %d: |P| %d, move %s", steps, len(passive), "singular" if res is None else move[0])
+        if res is None and entered is not None and hasattr(step, "coefficients"):
+            j, entered = entered, None                  # the row that joined P makes the system singular: it
+            factors()                                   # is dependent on P in the steps' own metric (W's), and
+            Q, R = _delete_column(Q, R, len(passive) - 1)   # is pivoted in as the steps pivot a dependent row
+            del passive[-1]
+            dropped[j] = dropped.get(j, 0) + 1
+            if dropped[j] > 2:                          # (the same row again and again: the pivots cycle)
+                return SINGULAR_FORCES
+            c = step.coefficients(passive, j)
+            if c is None or not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
+                dependent.add(j)                        # (no force of P can give way: passed over)
+            else:
+                y = pivot(y, j, unit[j].toarray().ravel(), c)
+            log.debug("row %d dependent on P in the steps' metric: %s", j, "passed over" if j in dependent else
+                      "pivoted in")
+            continue
+        if res is None and hasattr(step, "dependent"):
+            out = step.dependent(passive)               # P (the crossover's, or a pivot's) singular in the
+            if out is None:                             # steps' metric: its dependent rows leave P, their
+                log.debug("singular on the passive rows %s", passive)   # forces carried by the others
+                return SINGULAR_FORCES
+            drop, C = out
+            at = np.asarray(passive, dtype=int)
+            keep = np.setdiff1d(np.arange(len(at)), drop)
+            for row in at[drop]:
+                dropped[row] = dropped.get(row, 0) + 1
+            if max(dropped.values()) > 2:               # (the same rows dropped again and again: no progress)
+                return SINGULAR_FORCES
+            moved = np.maximum(y[at[keep]] + C @ y[at[drop]], 0.0)
+            y[at[drop]] = 0.0
+            y[at[keep]] = moved
+            for i in sorted(drop, reverse=True):
+                if Q is not None:
+                    Q, R = _delete_column(Q, R, int(i))
+                del passive[int(i)]
+            settled.clear()
+            log.debug("%d rows of P dependent on the others in the steps' metric: left P", len(drop))
+            entered = None
+            continue
         if res is None:
+            log.debug("singular on the passive rows %s", passive)
             return SINGULAR_FORCES
         entered = None
         if move[0] == "back":
@@ -349,17 +421,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
             entered = move[1]
             continue
         _, j, col, c = move                             # or dependent: a pivot (a swap likewise)
-        pos = c > 1e-12 * np.abs(c).max(initial=0.0)
-        t = y[passive][pos] / c[pos]
-        i = int(np.flatnonzero(pos)[np.argmin(t)])
-        y[passive] = y[passive] - t.min() * c
-        y[j] = t.min()
-        y[passive[i]] = 0.0
-        Q, R = _delete_column(Q, R, i)
-        del passive[i]
-        Q, R = _append_column(Q, R, col)
-        passive.append(j)
-        settled.clear()
+        y = pivot(y, j, col, c)
     return MAX_ITER
 
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import logging
 import warnings
 
 import numpy as np
@@ -13,6 +14,8 @@ from scipy.sparse import csgraph
 
 from ..factor import lu as dense_or_sparse_lu
 from .forces import _inverse_diagonal
+
+log = logging.getLogger(__name__)
 
 SINGULAR_PIVOT = 1e-13
 """A factor of the interface systems (:class:`UpdatedSystem`'s R, :class:`CholeskySystem`'s U^T U) whose smallest
@@ -307,6 +310,10 @@ class UpdatedSystem:
         elif changes:
             self._update(keys)
         d = np.abs(np.diag(self.R))
+        if log.isEnabledFor(logging.DEBUG):
+            k = int(np.argmin(d))
+            log.debug("QR on %d keys: pivot ratio %.3e (key %d at %d)", len(keys), d.min() / d.max(),
+                      int(self.keys[k]), k)
         if not d.min() > SINGULAR_PIVOT * d.max():
             return None
         where, bk = self._placed(keys, b)
@@ -409,6 +416,8 @@ class CholeskySystem(UpdatedSystem):
         elif changes:
             self._update(keys)
         d = np.diag(self.U) ** 2 if self.U is not None else np.zeros(1)
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("Cholesky on %d keys: pivot ratio %.3e", len(keys), d.min() / d.max() if d.max() > 0 else 0.0)
         if not d.min() > SINGULAR_PIVOT * d.max():
             self.U = None                                  # (refactored at the next solve)
             return self.qr.solve(keys, b)
@@ -495,3 +504,45 @@ class CompliantRows:
             spread[cols] = y[P]
         v = self.v0 - c.kept_B[:, :c.count] @ spread        # (no n_Gamma x |P| copy of B's columns)
         return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)
+
+    def coefficients(self, passive, j) -> np.ndarray | None:
+        """c with W_PP c = W_Pj: the row j as the combination sum c_i R_i of the rows P nearest to it in the
+        metric of W (R_j = sum c_i R_i + r, r W-orthogonal to the rows of P); None if W_PP is singular. Where the
+        system on P + j is singular (r below the cut), :func:`~cvxcontact.backends.finish.dependent.lawson_hanson`
+        treats j as its steps treat a dependent row, with these c."""
+        P = np.asarray(passive, dtype=int)
+        c = self.compliance
+        cols = c.keep(np.append(P, int(j)))
+        spread = np.zeros(c.count)
+
+        def product(w):
+            spread[:] = 0.0
+            spread[cols[:-1]] = w
+            return (c.kept_W[:c.count, :c.count] @ spread)[cols[:-1]], None
+
+        out = refined_solve(self.system, 2 * P, c.kept_W[cols[:-1], cols[-1]], product) if len(P) else None
+        return None if out is None else out[0]
+
+    def dependent(self, passive):
+        """(drop, C): the positions in ``passive`` of the rows that the pivoted Cholesky factorisation of W_PP
+        (LAPACK dpstrf) finds dependent on the others, a pivot not above :data:`CHOLESKY_MARGIN` of the largest
+        diagonal entry (the rows' squared distance from the span of the others, in the metric of W: the steps'
+        systems on the rest are then non-singular by :data:`SINGULAR_PIVOT` with that margin), and C (kept x
+        dropped), each dropped row's coefficients R_j = sum_i C_ij R_i + r on the kept rows (``keep`` = the
+        other positions, in their order). None if none is. The steps' factors are freed first (W_PP is copied:
+        |P|^2 doubles)."""
+        P = np.asarray(passive, dtype=int)
+        c = self.compliance
+        cols = c.keep(P)
+        self.system.U = None
+        self.system.qr.Q = self.system.qr.R = None
+        W = c.kept_W[np.ix_(cols, cols)].T              # (symmetric: its transpose, Fortran order, is factorised
+        U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_MARGIN * float(W.diagonal().max(initial=0.0)),
+                                               lower=0, overwrite_a=1)   # in place: one |P|^2 copy in all)
+        del W
+        if info < 0 or rank >= len(P) or rank == 0:
+            return None
+        piv = piv - 1
+        C = sla.solve_triangular(U[:rank, :rank], U[:rank, rank:], check_finite=False)
+        order = np.argsort(piv[:rank])                  # the kept rows in their order in P
+        return np.sort(piv[rank:]), C[order][:, np.argsort(piv[rank:])]

@@ -709,6 +709,31 @@ def test_dependent_rows_next_to_a_quadratic_compliance_pair_are_finished():
         assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-14                  # measured <= 7.3e-16
 
 
+@pytest.mark.parametrize("k, lam_tol", [(1e12, 2e-8), (1e10, 2e-6)])
+def test_dependent_rows_next_to_a_soft_quadratic_compliance_pair_are_finished(k, lam_tol):
+    """The three blocks of the test above with a soft law (k = 1e12, 1e10 Pa/m^2: nearly all the interference
+    2 delta is the law's penetration, p ~ 400 Pa, 4 Pa): the Newton steps on the law around the dependent rows
+    settle at the rounding of each row (its rounding floor; the rows of nodes that do not move in a component
+    read 7e-12 of their floored scale at a residual of 1e-25, and the backtracking then halved the rounding step:
+    declined, lambda 2 % off, u 1.7e-7 of delta). p by brentq as above; lambda's error grows as p / (c33 delta)
+    falls (the elastic forces' rounding of the blocks' shift), u to rounding either way."""
+    from scipy.optimize import brentq
+    from stack_scenes import DELTA3, three_blocks_3d
+
+    c33 = uniaxial_modulus()
+    p = brentq(lambda p: p / c33 + np.sqrt(p / k) - 2 * DELTA3, 0.0, 2 * DELTA3 * c33, xtol=1e-14, rtol=1e-15)
+    law = cc.NormalCompliance(stiffness=k, exponent=2)
+    for laws in ((cc.Signorini(), law), (law, cc.Signorini())):
+        sol = cc.solve(three_blocks_3d(("gamma3", "gamma3"), laws))
+        assert sol.ok and sol.polished and sol.info.finish == "semismooth Newton on independent active sets"
+        # measured <= 1.5e-10 (k = 1e12), <= 1.3e-8 (k = 1e10) under the default, Prescott and Sandybridge kernels
+        assert max(np.abs(c.lam / p - 1).max() for c in sol.contacts) < lam_tol
+        jumps = [np.sqrt(p / k) if lw.compliant else 0.0 for lw in laws]
+        assert _three_block_u_error(sol, p, jumps) < 1e-12                                # measured <= 1.7e-15
+        r = sol.residuals()
+        assert max(r["equilibrium"], r["law"], r["feasibility"]) < 1e-8                   # measured <= 5.3e-11
+
+
 def test_dependent_limit_rows_of_a_compliance_pair_are_finished():
     """The three blocks with a compliance law p = k r whose penetration limit l (half the free penetration)
     binds, on non-matching faces: the limit rows depend on each other. Next to a Signorini pair, r = l and

@@ -427,8 +427,8 @@ def _refused_without(terms, part):
 
 
 def test_friction_rows_that_do_not_match_the_cones_are_a_solver_error_not_the_compliance_refusal(monkeypatch):
-    """discrete/slip.Slip.kernel_capacity's check that the friction rows, their weights and the cones' rows under the P2
-    "gamma3" cones are the same rows: no compliance law is on such lines (cones beside one are ``lines.mixed``,
+    """discrete/slip.Slip.kernel_capacity's check that the friction rows, their weights and the cones' rows under the
+    P2 "gamma3" cones are the same rows: no compliance law is on such lines (cones beside one are ``lines.mixed``,
     refused by the terms), so a mismatch is the space's fault, a SolverError counting them, not the compliance
     refusal's words (UNPOSED) it raised. The mismatch made by a test (one weight dropped)."""
     from friction_scenes import P, uniform_stack

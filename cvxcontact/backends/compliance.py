@@ -16,6 +16,7 @@ from ..errors import SolverError
 from .condensed import InterfaceModel
 from .finish import (SIGN_TOL, Declined, Stop, independent_active_set, rows_kkt, solve_compliance,
                      solve_linear_compliance, solve_sparse_compliance)
+from .finish.normal_compliance import rounding_floor, solved_rounding
 from .full import ContactModel, limit_reaction, solve_mixed
 from .interface import condensation, program_fields, release_held
 from .mixed import law_linearised, mixed_system, stacked, unstacked
@@ -268,8 +269,10 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
     stays admissible. For m = 1, p' is piecewise constant: once no compliance row changes sign the step's
     system is the problem's own, and the answer is exact (semismooth Newton, finite); for m > 1 the steps
     converge quadratically. Stops with t = 1 when the stationarity residual A x + G^T y - F is within 1e-3
-    ``SIGN_TOL`` of each row's scale |A| |x| + |G^T| |y| + |F| (or within ``SIGN_TOL`` once a step no longer
-    halves it); the signs, feasibility (to 1e-12 of each row's scale) and complementarity (the rows carrying
+    ``SIGN_TOL`` of each row's scale |A| |x| + |G^T| |y| + |F| or within the step's
+    :func:`~cvxcontact.backends.finish.normal_compliance.rounding_floor` (such a full step is taken whole, not
+    backtracked: its energy's change is rounding), or within ``SIGN_TOL`` once a step no longer halves it; the
+    signs, feasibility (to 1e-12 of each row's scale) and complementarity (the rows carrying
     z closed) are the inner finish's.
 
     ``x0``, ``z0``, ``start``: the start (e.g. the interior point's unknowns, limit reactions and rows at their
@@ -291,6 +294,12 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
         r = G @ x - g
         return 0.5 * x @ (A @ x) - F @ x + float(w @ law.energy(r))
 
+    def residual(x, z):
+        """The residual of (26) at x with the limit reactions z, its rows' scales and the rows' forces y."""
+        y = w * law.pressure(G @ x - g) + z
+        S = absA @ np.abs(x) + absG.T @ np.abs(y) + np.abs(F)
+        return A @ x + G.T @ y - F, np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny)), y
+
     inner, last = 0, np.inf
     for newton_steps in range(1, max_iter + 1):
         K, b = law_linearised(A, A @ x - F, G, g, w, law, x)      # one Newton step's model of the law at x
@@ -300,18 +309,24 @@ def dependent_newton(A, F, G, g, weights, law, x0, z0, start, max_iter: int = 50
         (target, zL), active, steps = out
         inner += steps
         dx, t = target - x, 1.0
-        if newton_steps > 1:
+        z = np.zeros(m)
+        z[L] = zL
+        res, S, y = residual(target, z)
+        # settled: the full step's residual at the rounding of each row, or below the floor no step can pass
+        # (the step's rounding_floor, as solve_sparse_compliance's): such a step is taken whole, its energy's
+        # change drowns in its rounding (a row whose own terms are ~0 beside a moving block read 7e-12 of its
+        # floored scale at residual 1e-25, and the backtracking halved the rounding step: declined, 1e12 m^-2)
+        floor = rounding_floor(K, target, solved_rounding(K, GL.T, target, zL, b))
+        settled = bool((np.abs(res) <= 1e-3 * SIGN_TOL * S + floor).all())
+        if newton_steps > 1 and not settled:
             f0 = energy(x)
             while t > 1e-12 and energy(x + t * dx) > f0 + 1e-14 * max(abs(f0), tiny):
                 t *= 0.5
         x = x + t * dx
-        z = np.zeros(m)
-        z[L] = zL
-        y = w * law.pressure(G @ x - g) + z
-        S = absA @ np.abs(x) + absG.T @ np.abs(y) + np.abs(F)
-        S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), tiny))
-        ratio = float((np.abs(A @ x + G.T @ y - F) / S).max(initial=0.0))
-        if t == 1.0 and (ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
+        if t < 1.0:
+            res, S, y = residual(x, z)
+        ratio = float((np.abs(res) / S).max(initial=0.0))
+        if t == 1.0 and (settled or ratio <= 1e-3 * SIGN_TOL or (ratio <= SIGN_TOL and ratio >= 0.5 * last)):
             at = np.zeros(m, dtype=bool)
             at[L] = active
             return x, y, z, at, newton_steps, inner

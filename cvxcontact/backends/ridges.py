@@ -6,10 +6,11 @@ contact zone of a flat face pressed and sheared on a plane ends in a curve (a bo
 triangle's q reaches 0 along a whole line across it: q <= 0 vanishing on a line is minus the square of a linear
 function, q = -(v . L)^2 (Q = -v v^T, rank 1), neither an isolated tangency point (Q negative definite on the
 triangle's plane: :mod:`cvxcontact.backends.tangency`) nor an edge (q = L_k (linear), Q of rank 2). Measured on the
-boxes of tests/friction_box_scenes.py at the cuts' answer: Q's second eigenvalue at most 1.5e-4 of the first on every
-touching triangle (tests/test_friction_p2_ridges3d.py). Neighbouring ridges restrict to the same square on their
-common edge, so the triangles' v are, up to sign, the vertex values of one continuous P1 function w_h on the touching
-set, and the P2 interpolant of -(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the
+sheared box of tests/friction_box_scenes.py at the cuts' answer: Q's second eigenvalue at most 1.5e-4 of the first
+on every touching triangle (tests/test_friction_p2_ridges3d.py); on the held-side box and under other shears or
+thresholds 1 to 3 touching triangles touch at isolated points instead, which this finish leaves out: it declines
+there (CHANGELOG). Neighbouring ridges restrict to the same square on their common edge, so the triangles' v are,
+up to sign, the vertex values of one continuous P1 function w_h on the touching set, and the P2 interpolant of -(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the
 touching triangles,
 
     r_a(x) + (P w)_a^2 = 0        (P: w's values at the nodes, a midpoint's the mean of its vertices'),

@@ -10,8 +10,8 @@ sheared box of tests/friction_box_scenes.py at the cuts' answer: Q's second eige
 on every touching triangle (tests/test_friction_p2_ridges3d.py); on the held-side box and under other shears or
 thresholds 1 to 3 touching triangles touch at isolated points instead, which this finish leaves out: it declines
 there (CHANGELOG). Neighbouring ridges restrict to the same square on their common edge, so the triangles' v are,
-up to sign, the vertex values of one continuous P1 function w_h on the touching set, and the P2 interpolant of -(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the
-touching triangles,
+up to sign, the vertex values of one continuous P1 function w_h on the touching set, and the P2 interpolant of
+-(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the touching triangles,
 
     r_a(x) + (P w)_a^2 = 0        (P: w's values at the nodes, a midpoint's the mean of its vertices'),
 

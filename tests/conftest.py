@@ -69,14 +69,8 @@ def _fingerprint(x, depth=0):
 _UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state"})
 
 
-@pytest.fixture(scope="module")
-def once():
-    """A module's memo of the answers several of its tests read (one solve each, not one per test):
-    ``once(key, make)`` returns ``make()``, called the first time ``key`` (hashable: the scene's builder and
-    arguments) is asked for. The warnings that call raised (every one recorded, whatever the filters) are raised
-    again at each call under the caller's filters, so a test sees what a solve of its own would have warned (a
-    ResidualWarning an error where it is one). The answers are read, never changed, by the tests: after the
-    module, each is checked to hold what it held when made (:func:`_fingerprint`), a test that changed one fails."""
+def _memo():
+    """(memo, get): the memo of :func:`once` and its ``get(key, make)``."""
     memo = {}
 
     def get(key, make):
@@ -90,9 +84,36 @@ def once():
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         return value
 
-    yield get
+    return memo, get
+
+
+def _unchanged(memo):
+    """Assert that every answer of ``memo`` holds what it held when made."""
     changed = [key for key, (value, _, made) in memo.items() if _fingerprint(value) != made]
     assert not changed, f"a test changed the shared answers of {changed}: copy an answer before changing it"
+
+
+@pytest.fixture(scope="module")
+def once():
+    """A module's memo of the answers several of its tests read (one solve each, not one per test):
+    ``once(key, make)`` returns ``make()``, called the first time ``key`` (hashable: the scene's builder and
+    arguments) is asked for. The warnings that call raised (every one recorded, whatever the filters) are raised
+    again at each call under the caller's filters, so a test sees what a solve of its own would have warned (a
+    ResidualWarning an error where it is one). The answers are read, never changed, by the tests: after the
+    module, each is checked to hold what it held when made (:func:`_fingerprint`), a test that changed one fails."""
+    memo, get = _memo()
+    yield get
+    _unchanged(memo)
+
+
+@pytest.fixture(scope="session")
+def shared():
+    """:func:`once` across the modules of one run: the answers that several test modules read (each key named
+    by a fixtures module, with its builder: the same key is the same scene in every module); checked unchanged
+    after the run."""
+    memo, get = _memo()
+    yield get
+    _unchanged(memo)
 
 
 def rel(a, b):

@@ -6,6 +6,7 @@ import each other.
 """
 
 import numpy as np
+from friction_scenes import watched_p2
 
 import cvxcontact as cc
 
@@ -72,6 +73,18 @@ def non_matching(law, q=0.2 * P * DIAGONAL, swap=False, nu=0.3, push=None):
                 name="below")
     pair = cc.Contact(b, "top", a, "bottom", law=law) if swap else cc.Contact(a, "bottom", b, "top", law=law)
     return cc.Scene(a, b, contacts=[pair])
+
+
+LIFTING = {"sheared": lambda law: sheared((0.2 * P, 0.1 * P), law), "held-side": held_side}
+"""The boxes that lift at a corner under friction (tests/test_friction_p2_lifting3d.py, test_friction_p2_ridges3d.py):
+sheared by (0.2, 0.1) p; with its left side held, sheared along y. Their finished P2 answers under Tresca (3 MPa) are
+shared across those modules by :func:`lifting_key` (conftest's ``shared``)."""
+
+
+def lifting_key(name):
+    """(key, make) of conftest's ``shared`` for the finished P2 answer of the box ``LIFTING[name]`` under Tresca 3 MPa
+    with the finish's outcomes (``friction_scenes.watched_p2``): ``shared(*lifting_key(name))``."""
+    return ("P2 box lifting at a corner, Tresca 3 MPa", name), lambda: watched_p2(LIFTING[name](cc.Tresca(3e6)))
 
 
 def apart(one, other):

@@ -392,6 +392,25 @@ def finished_p2(scene):
     return sol
 
 
+def watched_p2(scene):
+    """(:func:`finished_p2` of ``scene``, the outcomes of the 3D friction finish at the tangency points or ridges
+    during that solve: ``frictiontangency._polish``, True where it finished, one per call)."""
+    from cvxcontact.backends import frictiontangency
+
+    kept, seen = frictiontangency._polish, []
+
+    def spy(*args):
+        out = kept(*args)
+        seen.append(out is not None)
+        return out
+
+    frictiontangency._polish = spy
+    try:
+        return finished_p2(scene), seen
+    finally:
+        frictiontangency._polish = kept
+
+
 def capped_pair(law, radius=500.0, d=3e-4, s=0.0, n=(6, 4), condition="sigma2", swap=False, turn=None,
                 span=(0.0, 1.0), centre=(0.5, 0.5), length=1.0, piezo=False, volts=0.0, order=None, floor=None,
                 dome=None, traction=None):

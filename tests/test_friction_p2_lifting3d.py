@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_box_scenes import DIAGONAL, held_side, sheared
+from friction_box_scenes import DIAGONAL, LIFTING, lifting_key, sheared
 from friction_box_scenes import P as BOX_P
 from friction_scenes import P, box, finished_p2, positive_forces
 
@@ -18,7 +18,6 @@ import cvxcontact as cc
 
 P2 = {"condition": "gamma3", "degree": 2}
 SHEAR = (0.2 * P, 0.1 * P)
-SCENES = {"sheared": lambda law: box(SHEAR, law), "held-side": lambda law: held_side(law)}
 
 
 
@@ -47,17 +46,17 @@ def _sampled_uz(sol, faces, order=12):
 
 
 @pytest.mark.numerics
-@pytest.mark.parametrize("name", list(SCENES))
-def test_a_box_lifting_at_a_corner_is_finished_and_keeps_tresca_law(name):
+@pytest.mark.parametrize("name", list(LIFTING))
+def test_a_box_lifting_at_a_corner_is_finished_and_keeps_tresca_law(name, shared):
     """Finished (was declined). The bottom's u_z sampled at 91 points of each P2 face never below the floor beyond
     5e-8 of the displacements (measured 3.5e-10 held side: the cut rounds stop at 1e-9 of each element's scale;
-    the sheared box, finished on its ridges, at most 0 to rounding: tests/test_friction_p2_ridges3d.py); the slip read back is the nodes' tangential displacement (measured 0); every shear force
-    within its capacity (measured 1.3e-16 of the largest), opposite to the slip at the capacity where the node
-    slips (|slip| above 1e-6 of the displacements: measured 38 and 34 of 49 nodes, the least 3.8e-4, the others
+    the sheared box, finished on its ridges, at most 0 to rounding: tests/test_friction_p2_ridges3d.py); the slip
+    read back is the nodes' tangential displacement (measured 0); every shear force within its capacity (measured
+    1.3e-16 of the largest), opposite to the slip at the capacity where the node slips (|slip| above 1e-6 of the displacements: measured 38 and 34 of 49 nodes, the least 3.8e-4, the others
     0; the force 2.5e-15 of the largest capacity from the law); some nodes carry no normal force (the box lifts);
     the normal forces sum to the load p (1 m^2; measured 3.7e-15 relative), the shear forces of the free box to
     its shear (the held one's side takes a part)."""
-    sol = finished_p2(SCENES[name](cc.Tresca(3e6)))
+    sol = shared(*lifting_key(name))[0]                # the solve shared with tests/test_friction_p2_ridges3d.py
     U = float(np.abs(sol.u[0]).max())
     assert -_sampled_uz(sol, _bottom_faces(sol)).min() <= 5e-8 * U
     c = sol.contact

@@ -6,15 +6,20 @@ steps); the cuts' answer stood about 1e-6 from the exact one. Read here by code 
 displacements: on every bottom triangle that touches the floor the slack q = -u_z is minus the square of a linear
 function (q = -(v . L)^2 c, its 3 x 3 form of rank 1): q vanishes along a line across the triangle (a ridge), not at
 an isolated point nor along an edge (q = L_k (linear): a form of rank 2); and the finish does not depend on where the
-cuts that start it stopped. tests/test_friction_p2_lifting3d.py checks the same answer against Tresca's law."""
+cuts that start it stopped; the normal forces (K u - f at the contact nodes, K and f assembled here) are those of a
+non-negative measure on the zero lines found here. tests/test_friction_p2_lifting3d.py checks the same answer
+against Tresca's law (the solves shared with it: conftest's ``shared``)."""
 
 import numpy as np
 import pytest
-from friction_box_scenes import held_side
-from friction_scenes import P, box, finished_p2
+import scipy.optimize as so
+from friction_box_scenes import lifting_key
+from friction_scenes import P, box, watched_p2
 
 import cvxcontact as cc
-from cvxcontact.backends import friction, frictiontangency
+from cvxcontact.backends import friction
+from cvxcontact.fem.p2 import assemble
+from cvxcontact.geometry.quadratic import P2TetNodes
 
 SHEAR = (0.2 * P, 0.1 * P)
 TOUCHING = 3e-7
@@ -22,38 +27,27 @@ TOUCHING = 3e-7
 measured -1.3e-7 .. -1.4e-13 on the 15 touching along lines, -6.6e-7 and below at the samples of the other 3."""
 
 
-def _finish(scene):
-    """(the answer, the outcomes of the finish at the tangency points: True where it finished)."""
-    kept, seen = frictiontangency._polish, []
-
-    def spy(*args):
-        out = kept(*args)
-        seen.append(out is not None)
-        return out
-
-    frictiontangency._polish = spy
-    try:
-        return finished_p2(scene), seen
-    finally:
-        frictiontangency._polish = kept
-
-
 @pytest.fixture(scope="module")
-def sheared():
-    return _finish(box(SHEAR, cc.Tresca(3e6)))
+def sheared(shared):
+    return shared(*lifting_key("sheared"))
 
 
-def _forms(sol):
-    """(m, 3, 3): Q of q(L) = L^T Q L (L barycentric) of q = -u_z / max|u| on every bottom P2 triangle, from its
-    nodal values (vertices n_i, midpoints m_ij): L_i (2 L_i - 1) = L_i^2 - L_i sum_{j != i} L_j on sum L = 1, so
-    Q_ii = n_i, Q_ij = (4 m_ij - n_i - n_j) / 2; and (m,) each triangle's largest q sampled at 861 points."""
+def _faces(sol):
+    """(m, 6): the P2 nodes of the bottom's triangles (vertices n_0, n_1, n_2, then midpoints m_01, m_12, m_20)."""
     mesh = cc.box(nx=3, ny=3, nz=2)
     pts = sol.points[0]
     at = {tuple(np.round(p, 9)): i for i, p in enumerate(pts)}
     tri = mesh.boundary("bottom")
     mids = np.array([[at[tuple(np.round(0.5 * (pts[a] + pts[b]), 9))] for a, b in zip(t, np.roll(t, -1))]
                      for t in tri])
-    q = -np.column_stack([sol.u[0][tri, 2], sol.u[0][mids, 2]]) / np.abs(sol.u[0]).max()
+    return np.column_stack([tri, mids])
+
+
+def _forms(sol):
+    """(m, 3, 3): Q of q(L) = L^T Q L (L barycentric) of q = -u_z / max|u| on every bottom P2 triangle, from its
+    nodal values (vertices n_i, midpoints m_ij): L_i (2 L_i - 1) = L_i^2 - L_i sum_{j != i} L_j on sum L = 1, so
+    Q_ii = n_i, Q_ij = (4 m_ij - n_i - n_j) / 2; and (m,) each triangle's largest q sampled at 861 points."""
+    q = -sol.u[0][_faces(sol), 2] / np.abs(sol.u[0]).max()
     Q = np.zeros((len(q), 3, 3))
     Q[:, [0, 1, 2], [0, 1, 2]] = q[:, :3]
     for c, (a, b) in enumerate(((0, 1), (1, 2), (2, 0))):
@@ -62,6 +56,18 @@ def _forms(sol):
     keep = i + j <= 40
     L = np.column_stack([i[keep], j[keep], 40 - i[keep] - j[keep]]) / 40
     return Q, np.einsum("pi,sij,pj->sp", L, Q, L).max(axis=1)
+
+
+def _zero_line(Q, count=201):
+    """(count, 3): barycentric points along the zero line v . L = 0 of a form Q = -v v^T of rank 1 (v its leading
+    eigenvector), between its two farthest crossings of the triangle's edges."""
+    v = np.linalg.eigh(Q)[1][:, 0]
+    ends = [np.eye(3)[a] * (1 - t) + np.eye(3)[b] * t for a, b in ((0, 1), (1, 2), (2, 0))
+            if v[a] * v[b] <= 0 and v[a] != v[b] for t in [v[a] / (v[a] - v[b])]]
+    far = max(((i, j) for i in range(len(ends)) for j in range(i)),
+              key=lambda ij: float(np.abs(ends[ij[0]] - ends[ij[1]]).sum()))
+    t = np.linspace(0.0, 1.0, count)[:, None]
+    return (1 - t) * ends[far[0]] + t * ends[far[1]]
 
 
 @pytest.mark.numerics
@@ -90,7 +96,7 @@ def test_the_finish_does_not_depend_on_where_the_cuts_stop(sheared, monkeypatch)
     finished one, 9.5e-7 at the package's 1e-9: benchmarks/results/friction_p2_tangency3d.md) and finished on the
     ridges: the same answer as from the package's stop to 1e-12 of the displacements (measured 6.6e-15)."""
     monkeypatch.setattr(friction, "CONE_ROUNDING", 1e-7)
-    sol, seen = _finish(box(SHEAR, cc.Tresca(3e6)))
+    sol, seen = watched_p2(box(SHEAR, cc.Tresca(3e6)))
     assert seen == [True]
     ref = sheared[0]
     assert np.abs(sol.u[0] - ref.u[0]).max() <= 1e-12 * np.abs(ref.u[0]).max()
@@ -101,6 +107,44 @@ def test_the_finish_does_not_depend_on_where_the_cuts_stop(sheared, monkeypatch)
                    "form's second eigenvalue 5.1e-2 .. 2.8e-1 of the first), the other 15 along lines: a finish joining "
                    "the tangency points and the ridges; the tangency Newton does not converge in 40 steps, Newton on "
                    "the ridges alone not in 30")
-def test_the_held_side_box_is_finished():
+def test_the_held_side_box_is_finished(shared):
     """The box with its left side held, sheared along y (tests/friction_box_scenes.py): the finish would finish it."""
-    assert _finish(held_side(cc.Tresca(3e6)))[1] == [True]
+    assert shared(*lifting_key("held-side"))[1] == [True]
+
+
+@pytest.mark.numerics
+def test_the_normal_forces_are_a_non_negative_measure_on_the_zero_lines(sheared):
+    """The rest of the cone condition's KKT, read here: the answer's forces are K u - f (K, f the body's P2 stiffness
+    and loads assembled here): 0 off the bottom (measured 2.2e-14 of |f|), the reported normal forces at its nodes
+    (measured 9.4e-16 of the largest); these are the P2 nodal forces of non-negative point forces at 201 points of
+    each touching triangle's zero line (found here from its form), fitted by non-negative least squares to 1e-12 of
+    |F| (measured 2.0e-16): a non-negative measure on the contact set. With q <= 0 (above) and Tresca's law
+    (tests/test_friction_p2_lifting3d.py) the answer is the minimiser."""
+    sol = sheared[0]
+    box_body = box(SHEAR, cc.Tresca(3e6)).bodies[0]
+    nodes = P2TetNodes(box_body.mesh)
+    assert np.array_equal(nodes.points, sol.points[0])
+    system = assemble(box_body, nodes)
+    assert len(system.u_free) == system.Kuu.shape[0]                   # no support: every dof free
+    reaction = (system.Kuu @ sol.u[0].ravel() - system.f).reshape(-1, 3)
+    c = sol.contact
+    at = {tuple(np.round(p, 9)): i for i, p in enumerate(sol.points[0])}
+    node = np.array([at[tuple(np.round(p, 9))] for p in c.points])
+    off = np.ones(len(reaction), bool)
+    off[node] = False
+    assert np.abs(reaction[off]).max() <= 1e-11 * np.abs(system.f).max()
+    assert np.abs(reaction[node, 2] - c.force).max() <= 1e-12 * np.abs(c.force).max()
+    faces = _faces(sol)
+    Q, top = _forms(sol)
+    bottom = np.unique(faces)
+    row = np.searchsorted(bottom, faces)
+    columns = []
+    for s in np.flatnonzero(top >= -TOUCHING):
+        L = _zero_line(Q[s])
+        N = np.column_stack([L * (2 * L - 1), 4 * L[:, 0] * L[:, 1], 4 * L[:, 1] * L[:, 2], 4 * L[:, 2] * L[:, 0]])
+        A = np.zeros((len(bottom), len(L)))
+        np.add.at(A, (row[s][:, None], np.arange(len(L))[None, :]), N.T)
+        columns.append(A)
+    F = reaction[bottom, 2]
+    misfit = so.nnls(np.hstack(columns), F, maxiter=20000)[1]
+    assert misfit <= 1e-12 * np.linalg.norm(F)

@@ -6,11 +6,12 @@ contact zone of a flat face pressed and sheared on a plane ends in a curve (a bo
 triangle's q reaches 0 along a whole line across it: q <= 0 vanishing on a line is minus the square of a linear
 function, q = -(v . L)^2 (Q = -v v^T, rank 1), neither an isolated tangency point (Q negative definite on the
 triangle's plane: :mod:`cvxcontact.backends.tangency`) nor an edge (q = L_k (linear), Q of rank 2). Measured on the
-boxes of tests/friction_box_scenes.py at the cuts' answer: Q's second eigenvalue at most 1.5e-4 of the first on every
-touching triangle (tests/test_friction_p2_ridges3d.py). Neighbouring ridges restrict to the same square on their
-common edge, so the triangles' v are, up to sign, the vertex values of one continuous P1 function w_h on the touching
-set, and the P2 interpolant of -(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the
-touching triangles,
+sheared box of tests/friction_box_scenes.py at the cuts' answer: Q's second eigenvalue at most 1.5e-4 of the first
+on every touching triangle (tests/test_friction_p2_ridges3d.py); on the held-side box and under other shears or
+thresholds 1 to 3 touching triangles touch at isolated points instead, which this finish leaves out: it declines
+there (CHANGELOG). Neighbouring ridges restrict to the same square on their common edge, so the triangles' v are,
+up to sign, the vertex values of one continuous P1 function w_h on the touching set, and the P2 interpolant of
+-(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the touching triangles,
 
     r_a(x) + (P w)_a^2 = 0        (P: w's values at the nodes, a midpoint's the mean of its vertices'),
 
@@ -32,7 +33,7 @@ from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, point_rows
 from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
-from .tangency import _cells
+from .tangency import node_rows
 
 __all__ = ["ridge_newton"]
 
@@ -89,10 +90,11 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     """The finish of the module docstring: ``energy`` (a :class:`~cvxcontact.backends.mixed.MixedEnergy`, e.g. with
     the stick-slip partition's rows, on z = [x; extra], x the first ``n``), the contact rows ``G`` (N, n) with gap
     ``g`` (r = G x - g, scaled), the P2 triangles' Bernstein map ``B`` (6 S, N), from ``z0`` (the cuts' answer);
-    ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). Returns a dict (z, segment, t, y: the point forces
-    on the zero lines, beta, nodal: the forces on the rows, active) or the Declined that stopped it."""
+    ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). Returns a dict (z,
+    segment, t, y: the point forces on the zero lines, beta, nodal: the forces on the rows, active) or the Declined
+    that stopped it."""
     B = sp.csr_matrix(B)
-    cells = _cells(B, 6)
+    cells = node_rows(B, 6)
     if (cells < 0).any():
         return Declined(Stop.NOT_POSED, "a triangle's P2 node is not one contact row")
     nz, N = len(z0), G.shape[0]
@@ -156,7 +158,8 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     if np.abs(r[nodes] + (P @ w) ** 2).max(initial=0.0) > tol * scale:
         return Declined(Stop.STALL, "Newton on the ridges stopped with its rows unmet")
     if (top > tol * scale).any():
-        return Declined(Stop.SIGNS, f"the answer on the ridges leaves a triangle's cone by {float(top.max()) / scale:.1e}")
+        return Declined(Stop.SIGNS, f"the answer on the ridges leaves a triangle's cone by "
+                                    f"{float(top.max()) / scale:.1e}")
     # the forces: non-negative point forces on each triangle's zero segment
     seg, pts = [], []
     wv = w[vid]
@@ -177,9 +180,10 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     seg, pts = np.concatenate(seg), np.vstack(pts)
     A = point_rows(B, seg, pts).T.toarray()
     y, misfit = so.nnls(A, f, maxiter=50 * A.shape[1])
-    if misfit > MEASURE_ROUNDING * max(float(np.linalg.norm(f)), np.finfo(float).tiny):
-        return Declined(Stop.SIGNS, f"the forces on the ridges are no non-negative measure on their zero lines (misfit "
-                                    f"{misfit / max(float(np.linalg.norm(f)), np.finfo(float).tiny):.1e})")
+    size = max(float(np.linalg.norm(f)), np.finfo(float).tiny)
+    if misfit > MEASURE_ROUNDING * size:
+        return Declined(Stop.SIGNS, f"the forces on the ridges are no non-negative measure on their zero lines "
+                                    f"(misfit {misfit / size:.1e})")
     keep = y > 0
     seg, pts, y = seg[keep], pts[keep], y[keep]
     nodal, active = point_read_back(B, seg, pts, y, y > 0)

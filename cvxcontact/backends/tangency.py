@@ -48,7 +48,7 @@ from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
 from .finish.rows import _row_scale
 
-__all__ = ["tangency_newton"]
+__all__ = ["node_rows", "tangency_newton"]
 
 NEWTON_TOL = 1e-14
 """Relative size of a Newton step at which the iteration stops (the residuals are then at rounding)."""
@@ -211,7 +211,7 @@ def _stationary(shape, b, I, delta=None, start=None, flat: float = 0.0):
     return q, L, T @ np.linalg.solve(Hs, T.T)
 
 
-def _cells(B, w: int) -> np.ndarray:
+def node_rows(B, w: int) -> np.ndarray:
     """(S, w): the row read at each P2 node of every element of the Bernstein map ``B`` (w S, N) (the values at
     the nodes are inv(to_bernstein) B_s, unit rows); -1 where a node's value is not one row's."""
     shape = element(w)
@@ -354,7 +354,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
     held = np.zeros(N, dtype=bool) if held is None else np.asarray(held, dtype=bool)
     w = np.shape(beta)[1]
     shape = element(w)
-    cells = _cells(B, w)
+    cells = node_rows(B, w)
     S = len(cells)
     k = 2 if w == 3 else 3
     corner = [0, 2] if w == 3 else [0, 1, 2]          # the cells' columns of the vertices

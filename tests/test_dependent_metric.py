@@ -12,6 +12,7 @@ import logging
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 from scenes3d import offset_boxes
 
@@ -70,3 +71,48 @@ def test_the_answer_is_the_full_routes(solved):
     assert np.abs(u - v).max() <= 1e-10 * np.abs(v).max()
     fc, ff = (float(s.contacts[0].force.sum()) for s in (condensed, full))
     assert abs(fc - ff) <= 1e-10 * abs(ff)
+
+
+class _Compliant:
+    """A step of lawson_hanson in the metric of W = G G^T (Sigma = I) on the rows G x <= g, x = v0 - G_P^T y_P,
+    with the dependence hooks of CompliantRows: singular where W_PP's Cholesky pivot ratio is not above 1e-13."""
+
+    def __init__(self, G, v0, g):
+        self.G, self.v0, self.g = G, v0, g
+
+    def __call__(self, mask, passive):
+        P = np.asarray(passive, dtype=int)
+        W = self.G[P] @ self.G[P].T
+        d = np.diag(np.linalg.cholesky(W)) ** 2
+        if not d.min() > 1e-13 * d.max():
+            return None
+        z = np.zeros(len(self.g))
+        z[P] = np.linalg.solve(W, self.G[P] @ self.v0 - self.g[P])
+        x = self.v0 - self.G.T @ z
+        return x, z, self.G @ x - self.g, np.maximum(np.abs(self.G) @ np.abs(x) + np.abs(self.g), 1e-300)
+
+    def coefficients(self, passive, j):
+        P = np.asarray(passive, dtype=int)
+        return np.linalg.solve(self.G[P] @ self.G[P].T, self.G[P] @ self.G[j])
+
+    def dependent(self, passive):
+        return None
+
+
+def test_a_row_passed_over_in_the_metric_of_w_is_not_left_violated():
+    """Row 1 = -row 0 + 1e-7 e_2 passes the unit rows' test (remainder 1e-7 > DEPENDENT_PIVOT) but makes W_PP
+    singular (pivot ratio 1e-14) when it joins P = {0}; its coefficient on P is -1 (no force of P can give way).
+    It is dependent only to 1e-7, so it cannot be passed over as infeasible: with P = {0} closed its slack is
+    1e-3 = its whole scale. The finish declines rather than return that answer as exact (it did return it)."""
+    from cvxcontact.backends.finish import lawson_hanson
+    from cvxcontact.backends.finish.declined import Declined
+
+    G = np.array([[1.0, 0.0], [-1.0, 1e-7]])
+    g = np.array([0.0, -1e-3])
+    step = _Compliant(G, np.array([1.0, 0.0]), g)
+    out = lawson_hanson(sp.csr_matrix(G), np.array([1.0, 0.0]), np.array([True, False]), lambda first: step,
+                        g=g)
+    if not isinstance(out, Declined):
+        x = out[0]
+        slack, scale = G @ x - g, np.abs(G) @ np.abs(x) + np.abs(g)
+        assert (slack <= 1e-12 * scale).all(), (slack, scale)

@@ -12,8 +12,8 @@ import logging
 import warnings
 
 import numpy as np
-import scipy.sparse as sp
 import pytest
+import scipy.sparse as sp
 from scenes3d import offset_boxes
 
 import cvxcontact as cc

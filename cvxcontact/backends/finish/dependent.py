@@ -329,6 +329,7 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         return y
 
     dropped = {}                                        # rows found dependent in the steps' metric: how often
+    unproven = set()                                    # rows passed over in the steps' metric
     entered = None                                      # the row that joined P at the last step
     for steps in range(1, max_iter + 1):
         mask = np.zeros(m, dtype=bool)
@@ -360,7 +361,8 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
                 return SINGULAR_FORCES
             c = step.coefficients(passive, j)
             if c is None or not (c > 1e-12 * np.abs(c).max(initial=0.0)).any():
-                dependent.add(j)                        # (no force of P can give way: passed over)
+                dependent.add(j)                        # (no force of P can give way: passed over, and checked
+                unproven.add(j)                         # at the stop: dependent only to W's cut, not infeasible)
             else:
                 y = pivot(y, j, unit[j].toarray().ravel(), c)
             log.debug("row %d dependent on P in the steps' metric: %s", j, "passed over" if j in dependent else
@@ -415,6 +417,10 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
         if move[0] != "swap":                           # (a swap keeps the forces of P before j joined)
             y = z
         if move[0] == "stop":                           # 3. every row feasible
+            at = np.asarray(sorted(unproven), dtype=int)
+            if (res[2][at] > tol * res[3][at]).any():   # a row passed over in W's metric penetrates: its
+                log.debug("rows passed over in the steps' metric penetrate")   # remainder is not rounding
+                return SINGULAR_FORCES
             return state, mask, steps
         if move[0] == "add":                            # 2. the worst row: independent, it joins P
             passive.append(move[1])

@@ -278,7 +278,7 @@ class _System:
         """(on_x, on_mu, dy, closed rows, open rows): the blocks of the Jacobian that depend on ``state``."""
         closed, stuck, z, c = state
         nf, tf = frozen
-        fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
+        fr, nc = self.fr, self.fr.nc
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         t = np.where(fr.moved[:, None], z / norm_z[:, None], fr.held)
         slip = fr.moved & ~stuck

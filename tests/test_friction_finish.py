@@ -252,3 +252,42 @@ def test_a_2d_set_that_comes_back_is_pivoted_to_the_answer(monkeypatch):
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     r = sol.residuals()
     assert r["friction cone"] <= 1e-10 and r["equilibrium"] <= 1e-10     # measured 0 and 7.3e-14
+
+
+def test_a_set_met_again_reuses_its_factor_and_the_answer_is_the_same_bit_for_bit(monkeypatch):
+    """The Jacobian's LU is kept by the blocks that vary with the active set (``_System.factor``): the same set
+    gives the same factor object, a factor solves its own Jacobian (against a dense solve), the oldest factor
+    leaves past ``KEPT_FACTORS``, and the finish's answer with no factor kept is the same bit for bit."""
+    from cvxcontact.backends.factor import superlu
+    from cvxcontact.backends.finish import friction as finish
+
+    system, (x, y, mu), _ = nodes(1)
+    T, b, G, g, fr = system
+    scales = (float(y.max()), float(np.abs(x).max()))
+    free = np.ones(len(y), dtype=bool)
+    s = finish._System(T, b, G, g, fr, free, scales)
+    w = np.concatenate([np.zeros_like(x), y, np.zeros(mu.size)])
+    state = s.state(w)
+    frozen = s.frozen(w, state)
+    lu = s.factor(state, frozen)
+    assert s.factor(state, frozen) is lu and len(s._factors) == 1
+    rhs = s.step_rhs(w, state, frozen)
+    J = s.jacobian(state, frozen)
+    assert np.array_equal(lu.solve(rhs), superlu(J).solve(rhs))
+    dense = np.linalg.solve(J.toarray(), rhs)
+    assert np.abs(lu.solve(rhs) - dense).max() <= 1e-12 * np.abs(dense).max()     # measured 0
+    monkeypatch.setattr(finish, "KEPT_FACTORS", 2)
+    states = []
+    for i in range(3):                                   # three sets: row i open
+        closed = state[0].copy()
+        closed[i] = False
+        states.append((closed, *state[1:]))
+        s.factor(states[-1], frozen)
+    assert len(s._factors) == 2 and s.factor(states[2], frozen) is s.factor(states[2], frozen)
+    start = (x + 0.3 * np.abs(x).max(), 0.5 * y, np.zeros_like(mu))
+    kept = solve_friction(*system, free, *start, scales)
+    monkeypatch.setattr(finish, "KEPT_FACTORS", 0)
+    fresh = solve_friction(*system, free, *start, scales)
+    assert not isinstance(kept, Declined) and kept[4] == fresh[4]
+    for a, c in zip(kept[:4], fresh[:4]):
+        assert np.array_equal(a, c)

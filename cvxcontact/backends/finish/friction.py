@@ -183,6 +183,8 @@ class _System:
         """|T_i| 1: a momentum row's terms were every unknown at the largest (:meth:`residual`)."""
         self.dependent = bool(dependent)
         self._frozen = {}
+        self._factors = {}
+        """The Jacobians' LU (or None where singular) by the bytes of their varying blocks (:meth:`factor`)."""
         self.slipping = np.zeros(len(fr.rows), dtype=bool)
         """The rows held slipping (:func:`_steps`: stuck, they were over their own capacity)."""
 
@@ -245,9 +247,38 @@ class _System:
         return np.concatenate([mom, normal, tang.ravel()])
 
     def jacobian(self, state, frozen):
+        """The Jacobian at the active set ``state`` (module docstring), ``frozen`` rows held (sparse, CSC)."""
+        return self._assemble(*self._varying(state, frozen))
+
+    def factor(self, state, frozen):
+        """The sparse LU of :meth:`jacobian` (:func:`~cvxcontact.backends.factor.superlu`), or None where it is
+        singular, kept by the bytes of the blocks that vary with ``state`` (:meth:`_varying`; T, G and S are the
+        system's own): the same blocks give the same matrix, so a set met again is not factorised again (2D: a
+        slipping row's blocks are 0 and 1 whatever its slip, and Murty's pivots and the Newton steps revisit
+        sets). At most :data:`KEPT_FACTORS` kept, holding at most :data:`KEPT_ENTRIES` entries of L and U in all,
+        the oldest dropped first."""
+        blocks = self._varying(state, frozen)
+        key = b"".join(np.ascontiguousarray(a).tobytes() for a in blocks)
+        if key not in self._factors:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error", spla.MatrixRankWarning)
+                    lu = superlu(self._assemble(*blocks))
+            except (RuntimeError, spla.MatrixRankWarning):
+                lu = None
+            self._factors[key] = lu
+            while len(self._factors) > KEPT_FACTORS or sum(
+                    f.nnz for f in self._factors.values() if f is not None) > KEPT_ENTRIES:
+                del self._factors[next(iter(self._factors))]
+            if key not in self._factors:
+                return lu
+        return self._factors[key]
+
+    def _varying(self, state, frozen):
+        """(on_x, on_mu, dy, closed rows, open rows): the blocks of the Jacobian that depend on ``state``."""
         closed, stuck, z, c = state
         nf, tf = frozen
-        fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
+        fr, nc = self.fr, self.fr.nc
         norm_z = np.maximum(np.linalg.norm(z, axis=1), np.finfo(float).tiny)
         t = np.where(fr.moved[:, None], z / norm_z[:, None], fr.held)
         slip = fr.moved & ~stuck
@@ -259,11 +290,17 @@ class _System:
         on_x = np.where(stuck[:, None, None], eye - loose,
                         np.where(slip[:, None, None], -(k * self.r)[:, None, None] * P, 0))
         on_mu = np.where(stuck[:, None, None], loose, np.where(slip[:, None, None], eye - k[:, None, None] * P, eye))
-        r_idx = np.repeat(np.arange(len(c)) * nc, nc) + np.tile(np.arange(nc), len(c))
         dy = np.where(stuck[:, None], 0.0, -fr.D[:, None] * t).ravel()
-        on_y = sp.csr_matrix((dy, (r_idx, np.repeat(fr.rows, nc))), shape=(len(c) * nc, R))
-        Gc = sp.diags((closed & ~nf).astype(float)) @ self.G
-        open_ = sp.diags((~closed | nf).astype(float))
+        return on_x, on_mu, dy, (closed & ~nf).astype(float), (~closed | nf).astype(float)
+
+    def _assemble(self, on_x, on_mu, dy, closed, open_):
+        """The Jacobian from the blocks of :meth:`_varying`."""
+        fr, R, nc = self.fr, self.G.shape[0], self.fr.nc
+        r = len(fr.rows)
+        r_idx = np.repeat(np.arange(r) * nc, nc) + np.tile(np.arange(nc), r)
+        on_y = sp.csr_matrix((dy, (r_idx, np.repeat(fr.rows, nc))), shape=(r * nc, R))
+        Gc = sp.diags(closed) @ self.G
+        open_ = sp.diags(open_)
         return sp.bmat([[self.T, self.G.T, fr.S.T],
                         [Gc, open_, None],
                         [_blocks(on_x) @ fr.S, on_y, _blocks(on_mu)]], format="csc")
@@ -357,14 +394,20 @@ def _step(system, w, state):
     :func:`~cvxcontact.backends.factor.superlu`: none on a structurally singular one), or None where that
     Jacobian is singular or the step not finite."""
     frozen = system.frozen(w, state)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", spla.MatrixRankWarning)
-            dw = superlu(system.jacobian(state, frozen)).solve(system.step_rhs(w, state, frozen))
-    except (RuntimeError, spla.MatrixRankWarning):
+    lu = system.factor(state, frozen)
+    if lu is None:
         return None
+    dw = lu.solve(system.step_rhs(w, state, frozen))
     return dw if np.isfinite(dw).all() else None
 
+
+KEPT_FACTORS = 16
+"""The Jacobians' LU a finish keeps at most (:meth:`_System.factor`): the sets that Murty's pivots and the 2D
+Newton steps revisit are recent ones (measured on the 2D Coulomb scenes of
+tests/test_friction_p2_gamma3_mixed.py: 521 of 924 factorisations were of a set among the last 8)."""
+
+KEPT_ENTRIES = 10 ** 7
+"""The entries of L and U the kept factors of :meth:`_System.factor` hold at most (about 120 MB)."""
 
 PIVOTS = 1
 """The single-row changes of :func:`_pivots` at most, per row (normal and friction rows; plus 10): each is a sparse

@@ -74,7 +74,7 @@ def test_a_block_on_a_rigid_plane_through_the_law_is_the_closed_form():
     k = SOFT[1]
     sol = cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "top", plane)]), "sigma1", degree=2,
                    law=cc.NormalCompliance(k))
-    p, r = series(k, 1, H / M_S, H - (H - DELTA))       # the push as the plane holds it (1e-12 off DELTA)
+    p, _ = series(k, 1, H / M_S, H - (H - DELTA))       # the push as the plane holds it (1e-12 off DELTA)
     assert sol.ok and sol.polished
     assert np.abs(sol.u[0][:, 2] + p * sol.points[0][:, 2] / M_S).max() <= 1e-12 * DELTA   # measured 3.4e-16
     assert abs(sol.contacts[0].force.sum() - p) <= 1e-12 * p                                # measured 4.8e-16

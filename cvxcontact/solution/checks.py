@@ -68,7 +68,7 @@ def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None, reach=None):
 
 SLACK_ROUNDING = 64 * np.finfo(float).eps
 """The rounding of a closed row's slack relative to its displacement scale U_a: an exact answer's slack
-E [u_nu] - g at its closed rows is the rounding of the bodies' displacements there (measured <= 3.3 eps U_a on
+E [u_nu] - g at its closed rows is the rounding of the bodies' displacements there (measured <= 4.2 eps U_a on
 exact finishes in 3D, tests/test_check_rounding.py), and within it a slack cannot be told from zero."""
 
 

@@ -25,9 +25,9 @@ from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ip
                                node_scales, reach_displacements, reach_forces)
 from ..contact.bernstein import bernstein_max, element
 
-__all__ = ["SLACK_ROUNDING", "complementarity", "CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "touching_nodes", "force_displacements", "ipm_active",
+__all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "touching_nodes", "force_displacements", "ipm_active",
            "node_scales", "equilibrium_with", "row_scales", "row_checks", "rows_active",
-           "obstacle_balance"]
+           "obstacle_balance", "SLACK_ROUNDING", "complementarity"]
 
 
 def checks(blocks, u, phi, Mlam, E, g, y, moved=None, fits=None, reach=None):

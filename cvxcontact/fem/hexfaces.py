@@ -390,6 +390,22 @@ class SimpsonSurface(QuadraticSurface):
                 shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
         return self._factors[("law", side)].copy()
 
+    def weights(self, condition) -> np.ndarray:
+        """(rows,) m^2: the areas of the rows of :meth:`evaluation` that weigh the friction capacities g w_a
+        (docs/howto/friction.md; :func:`~cvxcontact.discrete.slip.friction_weights`) and the shear read back over
+        them (``ContactResult.slip_measure``): the biquadratic hats' integrals, the consistent loads of a uniform
+        shear (A/36, 4A/36, 16A/36 at a corner, an edge midpoint, the centre of a parallelogram face of area A;
+        positive, summing to the faces' area), so that a uniform threshold g is the biquadratic consistent load
+        and a uniform shear tau sticks for g >= tau. Between two bodies :meth:`law_weights` (the normal-compliance
+        law's own, docs/formulation.md §10); against an obstacle :func:`simpson_lumped` at the nodes that reach it
+        (every face with such a node: positive at every row, as the tetrahedra's rows against an obstacle). The
+        triangles' red refinement (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.weights`: A/24 or
+        A/12 at a corner, A/8 at an edge midpoint, A/4 at the centre) would make the layer stick only from
+        g = 16/9 tau."""
+        if self.rigid:
+            return simpson_lumped(self.traces[0])[np.asarray(self.reach)]
+        return self.law_weights(condition)
+
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
         """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects
         them) and those weights: the law's energy sum_a w_a Phi(r_a), its nodal forces w_a p(r_a)."""

@@ -36,7 +36,7 @@ corners on aligned parallelograms ("gamma3"; those rows may depend on each other
 The coarser side's rows on nested faces and nodal rows on crossing faces read a jump that is not bilinear on the
 constrained faces: there the law is the lumped rule of the constrained side's hats integrated over the overlap
 (:func:`_overlap_hats`), a consistent approximation rather than an exact integral. On Q2 faces the law sits on
-the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`).
+the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`; a friction law's capacities too).
 
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
@@ -391,17 +391,10 @@ class SimpsonSurface(QuadraticSurface):
         return self._factors[("law", side)].copy()
 
     def weights(self, condition) -> np.ndarray:
-        """(rows,) m^2: the areas of the rows of :meth:`evaluation` that weigh the friction capacities g w_a
-        (docs/howto/friction.md; :func:`~cvxcontact.discrete.slip.friction_weights`) and the shear read back over
-        them (``ContactResult.slip_measure``): the biquadratic hats' integrals, the consistent loads of a uniform
-        shear (A/36, 4A/36, 16A/36 at a corner, an edge midpoint, the centre of a parallelogram face of area A;
-        positive, summing to the faces' area), so that a uniform threshold g is the biquadratic consistent load
-        and a uniform shear tau sticks for g >= tau. Between two bodies :meth:`law_weights` (the normal-compliance
-        law's own, docs/formulation.md §10); against an obstacle :func:`simpson_lumped` at the nodes that reach it
-        (every face with such a node: positive at every row, as the tetrahedra's rows against an obstacle). The
-        triangles' red refinement (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.weights`: A/24 or
-        A/12 at a corner, A/8 at an edge midpoint, A/4 at the centre) would make the layer stick only from
-        g = 16/9 tau."""
+        """(rows,) m^2: the rows' areas that weigh friction capacities g w_a and the shear read over them: the
+        biquadratic hats' integrals (A/36, 4A/36, 16A/36; positive, summing to the faces' area), a uniform shear's
+        consistent loads (it sticks from g = tau; the triangles' red lumping only from 16/9 tau). Two bodies:
+        :meth:`law_weights`; an obstacle: :func:`simpson_lumped` at the nodes that reach it (howto/friction.md)."""
         if self.rigid:
             return simpson_lumped(self.traces[0])[np.asarray(self.reach)]
         return self.law_weights(condition)

@@ -220,6 +220,29 @@ def test_q2_hexahedra_weigh_their_capacities_by_the_biquadratic_hats_stick_from_
 
 
 @pytest.mark.numerics
+@pytest.mark.parametrize("condition, n", [("sigma1", 2), ("sigma2", 3)])
+def test_q2_blocks_on_faces_that_do_not_match_slide_with_the_constrained_faces_biquadratic_hats(condition, n):
+    """Two Q2 blocks, 3 x 3 faces on 2 x 2 (fem/hexfaces.BiquadraticRows), the upper dragged along the diagonal with
+    a small Tresca threshold: every row slides, its force is g times the biquadratic hat's integral of the
+    constrained side's node (the compliance law's weights, SimpsonSurface.law_weights; written here,
+    :func:`simpson_by_hand`), posed from either side, summing to g A."""
+    g = 1e3
+    lower = cc.Body(cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex"), steel(nu=0.0), clamped=["bottom"],
+                    contact="top", name="lower")
+    upper = cc.Body(cc.box(z=(0.5, 1.0), nx=3, ny=3, nz=1, cell="hex"), steel(nu=0.0), contact="bottom",
+                    name="upper", displacement={"top": (1e-4 * DIAGONAL[0], 1e-4 * DIAGONAL[1], -1e-5)})
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom", law=cc.Tresca(g))])
+    sol = cc.solve(scene, degree=2, condition=condition)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    c = sol.contact
+    assert len(c.points) == (2 * n + 1) ** 2 and (np.linalg.norm(c.slip, axis=1) > 0.5e-4).all()   # all slide
+    w = simpson_by_hand(c.points[:, :2], n)
+    assert np.abs(np.linalg.norm(c.shear_force, axis=1) - g * w).max() < 1e-12 * g * w.max()   # measured 3.8e-16
+    assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)  # g A (A = 1): 4.4e-16
+    assert np.abs(np.linalg.norm(c.shear, axis=1) - g).max() < 1e-12 * g             # measured 3.4e-16
+
+
+@pytest.mark.numerics
 def test_partial_slip_matches_a_projected_gradient_reference_and_the_cone_holds_at_every_row():
     from cvxcontact.fem.space import P2Tet
 

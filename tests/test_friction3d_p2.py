@@ -15,6 +15,7 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
   tests/friction_scenes.py); the friction cone's complementarity read off the answer at every row.
 - Q2 hexahedra (their faces' 6-node triangles, the capacities weighed by the 9-node faces' biquadratic hats):
   the stuck layer from g = tau, the pushed box sliding with nodal forces g w_a (w_a written here).
+  Two Q2 blocks on faces that do not match slide with the constrained side's g w_a, posed from either side.
 - P1 on finer boxes tends to the P2 answer.
 - A pair of boxes (matching faces; and 2 x 2 on 4 x 4 with the finer side's nodes) gives the same answer posed from
   either side (sigma1 and sigma2 swapped); Coulomb finished to its own law.

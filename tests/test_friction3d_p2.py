@@ -13,7 +13,9 @@ P1 mass of the faces' red refinement (A/12 at a vertex, A/4 at an edge midpoint:
 - The same box in partial slip against an independent reference written here: the nodal Tresca law's dual QP over
   the condensed P2 compliance, the red-refinement weights computed here from the 6-node faces (FISTA,
   tests/friction_scenes.py); the friction cone's complementarity read off the answer at every row.
-- Q2 hexahedra (their faces' 6-node triangles): the stuck layer from g = 16/9 tau, the pushed box sliding.
+- Q2 hexahedra (their faces' 6-node triangles, the capacities weighed by the 9-node faces' biquadratic hats):
+  the stuck layer from g = tau, the pushed box sliding with nodal forces g w_a (w_a written here).
+  Two Q2 blocks on faces that do not match slide with the constrained side's g w_a, posed from either side.
 - P1 on finer boxes tends to the P2 answer.
 - A pair of boxes (matching faces; and 2 x 2 on 4 x 4 with the finer side's nodes) gives the same answer posed from
   either side (sigma1 and sigma2 swapped); Coulomb finished to its own law.
@@ -175,26 +177,70 @@ def test_pushed_with_a_small_threshold_every_node_slides_with_its_whole_capacity
     assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(mu * P, rel=1e-12)  # 2.2e-16
 
 
+def simpson_by_hand(points, n):
+    """The biquadratic hats' integrals at the nodes ``points`` (k, 2) of the bottom of the unit box of n x n Q2
+    faces, written here from 1D Simpson on each cell edge of length h = 1/n (h/6, 4h/6, h/6; a node shared by two
+    cells h/3) as the tensor product: A/36, 4A/36, 16A/36 per face of area A = h^2, summed over the faces."""
+    grid = np.round(np.asarray(points) * 2 * n).astype(int)
+    assert np.allclose(grid, np.asarray(points) * 2 * n, rtol=0.0, atol=1e-9)
+    h = 1.0 / n
+    one = np.where(grid % 2 == 1, 4 * h / 6, np.where((grid == 0) | (grid == 2 * n), h / 6, h / 3))
+    return one[:, 0] * one[:, 1]
+
+
 @pytest.mark.numerics
-def test_q2_hexahedra_stick_exactly_from_sixteen_ninths_of_the_shear_and_slide_with_their_capacity():
-    """Q2 (27-node) hexahedra pose P2Tet's rows on their faces' 6-node triangles (two per face, cut along a
-    diagonal), so the weights are those triangles' red lumping: A/8 at an edge midpoint, A/4 at the centre, A/12 or
-    A/24 at a corner (on the cut or not). A uniform shear's consistent forces on a 9-node face are tau A/36, A/9,
-    4 A/9 (corner, edge, centre): the centre sticks up to g = 16/9 tau."""
-    tau = 0.2 * P
-    sol = cc.solve(layer(tau, 1.01 * 16 / 9 * tau, cell="hex"), **P2)
+def test_q2_hexahedra_weigh_their_capacities_by_the_biquadratic_hats_stick_from_the_shear_and_slide_with_them():
+    """Q2 (27-node) hexahedra pose P2Tet's rows on their faces' 6-node triangles, but weigh the capacities g w_a
+    by the 9-node faces' biquadratic hats (fem/hexfaces.SimpsonSurface.weights: A/36, 4A/36, 16A/36 at a corner,
+    edge midpoint and centre), the consistent loads of a uniform shear: the layer sticks from g = tau (its rows
+    carry exactly tau w_a; below tau no equilibrium exists and the scene is refused), where the faces' triangles'
+    red lumping (A/24 or A/12, A/8, A/4) made it stick only from 16/9 tau. Pushed, every node slides with its
+    capacity: the nodal friction forces are g w_a (w_a written here, :func:`simpson_by_hand`), summing to g A."""
+    tau, n = 0.2 * P, 2
+    sol = cc.solve(layer(tau, 1.01 * tau, n=n, cell="hex"), **P2)
     assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
     z = sol.points[0][:, 2]
     exact = np.column_stack([tau * DIAGONAL[0] * z / G0, tau * DIAGONAL[1] * z / G0, -P * z / E])
     scale = np.abs(exact).max()
-    assert np.abs(sol.u[0] - exact).max() < 1e-12 * scale                           # measured 4.8e-15
-    below = cc.solve(layer(tau, 0.99 * 16 / 9 * tau, cell="hex"), **P2)
-    assert below.ok and np.linalg.norm(below.contact.slip, axis=1).max() > 1e-5 * scale   # measured 4.3e-4
+    assert np.abs(sol.u[0] - exact).max() < 1e-12 * scale                           # measured 3.9e-15
+    c = sol.contact
+    w = simpson_by_hand(c.points[:, :2], n)
+    assert w.sum() == pytest.approx(1.0, rel=1e-14)                                  # A = 1 m^2
+    assert np.abs(c.shear_force + tau * w[:, None] * DIAGONAL[:2]).max() < 1e-12 * tau * w.max()   # measured 3.5e-15
+    with pytest.raises(cc.SceneError, match="exceeds the friction capacity"):        # g A < tau A: no equilibrium
+        cc.solve(layer(tau, 0.99 * tau, n=n, cell="hex"), **P2)
     g = 1e2
-    sol = cc.solve(pushed(cc.Tresca(g), cell="hex"), **P2)
-    assert sol.ok and (np.linalg.norm(sol.contact.slip, axis=1) > 0.5e-4).all()      # every node slides
-    assert np.linalg.norm(sol.contact.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)   # 2.2e-16
-    assert np.abs(np.linalg.norm(sol.contact.shear, axis=1) - g).max() < 1e-12 * g   # measured 4.3e-16
+    sol = cc.solve(pushed(cc.Tresca(g), n=n, cell="hex"), **P2)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    c = sol.contact
+    assert (np.linalg.norm(c.slip, axis=1) > 0.5e-4).all()                           # every node slides
+    w = simpson_by_hand(c.points[:, :2], n)
+    assert np.abs(np.linalg.norm(c.shear_force, axis=1) - g * w).max() < 1e-12 * g * w.max()   # measured 4.0e-16
+    assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)  # g A (A = 1): 4.4e-16
+    assert np.abs(np.linalg.norm(c.shear, axis=1) - g).max() < 1e-12 * g             # measured 4.3e-16
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("condition, n", [("sigma1", 2), ("sigma2", 3)])
+def test_q2_blocks_on_faces_that_do_not_match_slide_with_the_constrained_faces_biquadratic_hats(condition, n):
+    """Two Q2 blocks, 3 x 3 faces on 2 x 2 (fem/hexfaces.BiquadraticRows), the upper dragged along the diagonal with
+    a small Tresca threshold: every row slides, its force is g times the biquadratic hat's integral of the
+    constrained side's node (the compliance law's weights, SimpsonSurface.law_weights; written here,
+    :func:`simpson_by_hand`), posed from either side, summing to g A."""
+    g = 1e3
+    lower = cc.Body(cc.box(z=(0.0, 0.5), nx=2, ny=2, nz=1, cell="hex"), steel(nu=0.0), clamped=["bottom"],
+                    contact="top", name="lower")
+    upper = cc.Body(cc.box(z=(0.5, 1.0), nx=3, ny=3, nz=1, cell="hex"), steel(nu=0.0), contact="bottom",
+                    name="upper", displacement={"top": (1e-4 * DIAGONAL[0], 1e-4 * DIAGONAL[1], -1e-5)})
+    scene = cc.Scene(lower, upper, contacts=[cc.Contact(lower, "top", upper, "bottom", law=cc.Tresca(g))])
+    sol = cc.solve(scene, degree=2, condition=condition)
+    assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON
+    c = sol.contact
+    assert len(c.points) == (2 * n + 1) ** 2 and (np.linalg.norm(c.slip, axis=1) > 0.5e-4).all()   # all slide
+    w = simpson_by_hand(c.points[:, :2], n)
+    assert np.abs(np.linalg.norm(c.shear_force, axis=1) - g * w).max() < 1e-12 * g * w.max()   # measured 3.8e-16
+    assert np.linalg.norm(c.shear_force, axis=1).sum() == pytest.approx(g, rel=1e-12)  # g A (A = 1): 4.4e-16
+    assert np.abs(np.linalg.norm(c.shear, axis=1) - g).max() < 1e-12 * g             # measured 3.4e-16
 
 
 @pytest.mark.numerics

@@ -36,7 +36,7 @@ corners on aligned parallelograms ("gamma3"; those rows may depend on each other
 The coarser side's rows on nested faces and nodal rows on crossing faces read a jump that is not bilinear on the
 constrained faces: there the law is the lumped rule of the constrained side's hats integrated over the overlap
 (:func:`_overlap_hats`), a consistent approximation rather than an exact integral. On Q2 faces the law sits on
-the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`).
+the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`; a friction law's capacities too).
 
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
@@ -389,6 +389,15 @@ class SimpsonSurface(QuadraticSurface):
             self._factors[("law", side)] = hats[at] if self.rigid else \
                 shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
         return self._factors[("law", side)].copy()
+
+    def weights(self, condition) -> np.ndarray:
+        """(rows,) m^2: the rows' areas that weigh friction capacities g w_a and the shear read over them: the
+        biquadratic hats' integrals (A/36, 4A/36, 16A/36; positive, summing to the faces' area), a uniform shear's
+        consistent loads (it sticks from g = tau; the triangles' red lumping only from 16/9 tau). Two bodies:
+        :meth:`law_weights`; an obstacle: :func:`simpson_lumped` at the nodes that reach it (howto/friction.md)."""
+        if self.rigid:
+            return simpson_lumped(self.traces[0])[np.asarray(self.reach)]
+        return self.law_weights(condition)
 
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
         """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects

@@ -299,7 +299,8 @@ class QuadraticTrace(LinearTrace):
         tangential forces ``force`` = ``contact.shear_force``; on a 2D line 0 at the nodes no row reads, on a 3D
         surface at every node of X_h). Without it: on a 2D line the forces over the row sums of the P2 mass matrix
         of X_h; on a 3D surface, where those vanish at the vertices, over the areas the friction law's rows give
-        the nodes (``contact.slip_measure``: the red-refinement lumping, positive; 0 where it is 0)."""
+        the nodes (``contact.slip_measure``, the pair's ``weights``: the red-refinement lumping on P2 tetrahedra's
+        faces, the biquadratic hats' integrals on Q2 hexahedra's; positive; 0 where it is 0)."""
         if contact.row_shear is not None and np.shape(force) == np.shape(contact.row_shear):
             if np.ndim(contact.x) == 2:
                 return np.array(contact.row_shear, dtype=float)

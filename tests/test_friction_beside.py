@@ -177,6 +177,32 @@ def test_a_declined_finish_is_flagged(monkeypatch):
     assert not sol.polished and sol.info.declined is not None and "planted" in str(sol.info.declined)
 
 
+def test_a_translation_held_by_the_compliance_law_alone_balances_to_rounding(monkeypatch):
+    """walled(Tresca(0.1 p), the wall's law p = k r^2): the block's x-translation is held by the wall's law alone,
+    117 m of it (scaled 104.7) beside a deformation of 0.28, so each row's size |K| |u| is the translation's. The
+    sequential finish stopped on the rows' relative residual (1e-12) with the translation's balance at 4.5e-10; it
+    now steps on until the held motions balance to rounding (frictionsteps.HELD_ROUNDING)."""
+    from cvxcontact.solution.checks import rigid_balance
+
+    sol, p, raw = captured(monkeypatch, walled(cc.Tresca(0.1 * P), cc.NormalCompliance(1e11, exponent=2.0)))
+    assert sol.ok and sol.polished and sol.info.declined is None
+    # the check's reading (the balance on the deformation, whose own rounding is that of subtracting the 104.7 of
+    # translation): measured 3.4e-12 default, 2.5e-12 Prescott, 2.8e-12 Sandybridge; 4.5e-10 before
+    assert sol.residuals()["equilibrium"] <= 3.4e-10
+    data, blk, s, body = p.term.data, p.blocks[0], p.systems[0], p.scene.bodies[0]
+    Tmu = data.rows.T @ np.asarray(raw.tangential, dtype=float)
+    sizes = abs(data.rows).T @ np.tile(np.linalg.norm(raw.tangential.reshape(data.components, -1), axis=0),
+                                       data.components)
+    modes = (s.Tu.T @ body.held_modes(p.meshes[0]).T).T
+    assert len(modes) == 3
+    T = data.operators[0]
+    # the balance of the residual the finish solves (on u itself): measured 2.5e-13 default, 5.9e-14 Prescott,
+    # 7.6e-14 Sandybridge; 4.4e-10 before
+    balance = rigid_balance(blk, modes, raw.u[0], raw.phi[0], p.E.T @ raw.y, (T.T @ Tmu, abs(T).T @ sizes),
+                            prolongation=s.Tu, dim=2)
+    assert balance <= 2.5e-11
+
+
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)])
 def test_force_controlled_sphere_on_a_frictional_pair_is_the_translated_scene(law):
     """3D (docs/refusals.md row 52): a block clamped at its base pressed by a force-controlled sphere (force

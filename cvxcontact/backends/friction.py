@@ -531,6 +531,21 @@ def _interior(problem, settings, timings, normal, model=None, extra=(), objectiv
     return raw, unsettled
 
 
+def held_motions(problem, raw) -> np.ndarray:
+    """H (k, n): the rigid motions of the bodies that only the contact holds (:meth:`~cvxcontact.physics.body.Body.
+    held_modes`, in each body's reduced coordinates T_u^T r) on the unknowns x = [u_1; phi_1; ...; tau_1; ...] of
+    :func:`~cvxcontact.backends.mixed.stacked` for the answer ``raw`` (its blocks' sizes), 0 elsewhere."""
+    rows, pos = [], 0
+    for k, (b, s, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, raw.u, raw.phi)):
+        modes = b.held_modes(problem.meshes[k])
+        if len(modes):
+            block = np.zeros((len(modes), len(stacked(raw.u, raw.phi, raw.taus))))
+            block[:, pos:pos + len(uk)] = (s.Tu.T @ modes.T).T
+            rows.append(block)
+        pos += len(uk) + (0 if pk is None else len(pk))
+    return np.vstack(rows) if rows else np.zeros((0, len(stacked(raw.u, raw.phi, raw.taus))))
+
+
 def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) -> RawResult:
     """The exact finish of the friction law (:func:`~cvxcontact.backends.finish.solve_friction`: semismooth
     Newton on (26)-(27) with the friction rows, Coulomb's capacities mu y_a those of the answer's own forces)
@@ -577,7 +592,7 @@ def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) 
         return raw
     out = _sequential(op, G, g, fr, free, stacked(first.u, first.phi, first.taus), y0,
                       first.tangential.reshape(n_c, R)[:, rows].T,
-                      (C, U), dependent)
+                      (C, U), dependent, held=held_motions(problem, first))
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     if isinstance(out, Declined):
         raw.declined = out

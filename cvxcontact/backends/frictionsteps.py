@@ -17,7 +17,10 @@ rigid sphere under 3D P2 cones yields under it and the undamped steps cycle at a
 halved until F(x_k + alpha d) <= F(x_k) + 1e-4 alpha Delta, Delta = grad L(x_k) . d + friction energy(x*) -
 friction energy(x_k) < 0 (Armijo on the proximal Newton decrement); near the answer the full steps are taken and
 converge quadratically. The steps stop once a full step's relative residual of the nonlinear (26) with the normal
-and tangential forces is at most :data:`SEQUENTIAL_TOL` with the closed and stuck rows of the step before, or at most
+and tangential forces is at most :data:`SEQUENTIAL_TOL` with the closed and stuck rows of the step before and the
+rigid motions only the contact holds balanced to :data:`HELD_ROUNDING` (or their balance no longer halving: a rigid
+displacement far above the deformation inflates each row's size |K| |u|, so the rows' residual cannot see the
+motions' balance; measured: a block held along x by a compliance law alone, 4.5e-10 one step short), or at most
 :data:`~cvxcontact.backends.bulkcuts.BULK_STALL_TOL` and no longer halving, or where no descent is left from an answer
 whose full step had reached :data:`SEQUENTIAL_TOL` (its forces: that step's, the exact finish of its own model);
 declined after :data:`SEQUENTIAL_STEPS` steps, or where no descent is left above it. A linear material: one solve.
@@ -35,7 +38,8 @@ from .bulkcuts import BULK_STALL_TOL
 from .finish import Declined, Stop
 from .finish.friction import solve_friction
 
-__all__ = ["ARMIJO", "ENERGY_ROUNDING", "SEQUENTIAL_STEPS", "SEQUENTIAL_TOL", "SMALLEST_STEP", "sequential"]
+__all__ = ["ARMIJO", "ENERGY_ROUNDING", "HELD_ROUNDING", "SEQUENTIAL_STEPS", "SEQUENTIAL_TOL", "SMALLEST_STEP",
+           "sequential"]
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +47,11 @@ SEQUENTIAL_TOL = 1e-12
 """A non-quadratic energy's friction finish (:func:`sequential`) stops once the relative residual of the nonlinear
 (26) with the normal and tangential forces is at most this (rounding of its terms) with the same closed and stuck
 rows at two steps in a row."""
+
+HELD_ROUNDING = 16 * np.finfo(float).eps
+"""The held rigid motions' balance :func:`sequential` stops at: |H r| <= this times |H| m, H the motions only the
+contact holds, r the residual of the nonlinear (26) with the row forces, m the sizes of its terms (the rounding of
+the rows summed along the motions; measured 0.02 .. 0.07 eps after the step that reaches it, 30 eps before)."""
 
 SEQUENTIAL_STEPS = 30
 """The most sequential quadratic steps of :func:`sequential`; then it declines."""
@@ -58,14 +67,15 @@ SMALLEST_STEP = 2.0 ** -30
 """Below this step length the damping finds no descent (:func:`sequential`)."""
 
 
-def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
+def sequential(op, G, g, fr, free, x, y, mu, scales, dependent, held=None):
     """The friction finish of the mixed energy ``op`` from (x, y, mu) (module docstring): for a linear material one
     solve of its system; for a non-quadratic energy the damped sequential quadratic steps. ``G``, ``g``: the normal
     rows G x <= g; ``fr``: the :class:`~cvxcontact.backends.finish.friction.FrictionRows`; ``free``: the normal rows
     some unknown moves; ``scales``: (C, U) the force and displacement scales; ``dependent``: the rows may be
-    linearly dependent. Returns solve_friction's (x, y, mu, closed, steps), the steps summed, or the Declined that
-    stopped it."""
-    steps, seen, last, res, settled = 0, None, np.inf, np.inf, None
+    linearly dependent; ``held`` (k, n) or None: the rigid motions only the contact holds, on the unknowns x (the
+    steps go on while their balance still halves above :data:`HELD_ROUNDING`). Returns solve_friction's (x, y, mu,
+    closed, steps), the steps summed, or the Declined that stopped it."""
+    steps, seen, last, res, settled, unbalanced = 0, None, np.inf, np.inf, None, np.inf
     for i in range(1 if op.linear else SEQUENTIAL_STEPS):
         T, b = op.linearised(x)
         out = solve_friction(T, b, G, g, fr, free, x, y, mu, scales, dependent=dependent)
@@ -85,12 +95,32 @@ def sequential(op, G, g, fr, free, x, y, mu, scales, dependent):
         key = (closed.tobytes(), (c - np.linalg.norm(mu, axis=1) > 1e-9 * scales[0]).tobytes())
         res = op.residual(x, (G, y), (fr.S, mu.ravel()))
         log.info("friction finish, sequential quadratic step %.3g: relative residual %.1e", alpha, res)
-        if alpha == 1.0 and ((res <= SEQUENTIAL_TOL and key == seen) or (res <= BULK_STALL_TOL and res > 0.5 * last)):
+        balance = _held_balance(op, held, x, (G, y), (fr.S, mu.ravel()))
+        if alpha == 1.0 and ((res <= SEQUENTIAL_TOL and key == seen and (balance <= HELD_ROUNDING
+                                                                          or balance > 0.5 * unbalanced))
+                             or (res <= BULK_STALL_TOL and res > 0.5 * last)):
             return x, y, mu, closed, steps
+        unbalanced = balance if alpha == 1.0 else np.inf
         settled = (x, y, mu, closed) if alpha == 1.0 and res <= SEQUENTIAL_TOL else None
         seen, last = (key, res) if alpha == 1.0 else (None, np.inf)
     return Declined(Stop.MAX_ITER, f"the sequential quadratic steps of the friction finish stopped at a relative "
                     f"residual {res:.1e} of the nonlinear (26)")
+
+
+def _held_balance(op, held, x, *forces) -> float:
+    """max_j |H r|_j / (|H| m)_j: the balance of the held rigid motions ``held`` (H) at ``x``, r the residual of the
+    nonlinear (26) with the row forces ``forces`` and m the sizes of its terms (:meth:`MixedEnergy.residual`'s); 0
+    without motions. The rows' relative residual cannot see it: a rigid displacement far above the deformation
+    inflates each row's size |K| |u| (a block held along x by a compliance law alone, 117 m of translation beside
+    0.3 of deformation: rows at 970 eps of their sizes, the translation's balance 4.5e-10 of the forces along it)."""
+    if held is None or held.shape[0] == 0:
+        return 0.0
+    r, size = op.gradient(x), op.magnitude(x)
+    for M, f in forces:
+        r = r + M.T @ f
+        size = size + abs(M).T @ np.abs(f)
+    along = np.abs(held) @ size
+    return float((np.abs(held @ r) / np.maximum(along, np.finfo(float).tiny)).max(initial=0.0))
 
 
 def _damping(op, fr, x, target, c, scales):

@@ -535,15 +535,15 @@ def held_motions(problem, raw) -> np.ndarray:
     """H (k, n): the rigid motions of the bodies that only the contact holds (:meth:`~cvxcontact.physics.body.Body.
     held_modes`, in each body's reduced coordinates T_u^T r) on the unknowns x = [u_1; phi_1; ...; tau_1; ...] of
     :func:`~cvxcontact.backends.mixed.stacked` for the answer ``raw`` (its blocks' sizes), 0 elsewhere."""
-    rows, pos = [], 0
+    n, rows, pos = len(stacked(raw.u, raw.phi, raw.taus)), [], 0
     for k, (b, s, uk, pk) in enumerate(zip(problem.scene.bodies, problem.systems, raw.u, raw.phi)):
         modes = b.held_modes(problem.meshes[k])
         if len(modes):
-            block = np.zeros((len(modes), len(stacked(raw.u, raw.phi, raw.taus))))
+            block = np.zeros((len(modes), n))
             block[:, pos:pos + len(uk)] = (s.Tu.T @ modes.T).T
             rows.append(block)
         pos += len(uk) + (0 if pk is None else len(pk))
-    return np.vstack(rows) if rows else np.zeros((0, len(stacked(raw.u, raw.phi, raw.taus))))
+    return np.vstack(rows) if rows else np.zeros((0, n))
 
 
 def exact_finish(problem, raw, timings, points=None, start=None, capacity=None) -> RawResult:

@@ -191,19 +191,25 @@ def _overlap_hats(itf, side) -> np.ndarray:
     overlap's area on any faces. Positive where a hat meets the overlap: the law's weights at the constrained
     side's nodes where the jump is not bilinear on its faces (the other side's trace read at them)."""
     ov, trace = itf.overlay, itf.traces[side]
-    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]                     # (t, 3, 2)
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
-    L, w = simplex_rule(2, 4)
-    points = np.einsum("mi,tid->tmd", L, P).reshape(-1, 2)
+    points, weights = _triangles_rule(ov, 4)
     corners = _corners(trace)
-    host = np.repeat(np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2, len(w))
+    host = np.repeat(np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2, weights.shape[1])
     N = bilinear_rows(np.asarray(trace.x)[corners], corners, host, points, len(trace.nodes))
-    hats = N.T @ np.outer(area, w).ravel()
+    hats = N.T @ weights.ravel()
     at = np.asarray(ov.node_a if side == 0 else ov.node_b)
     inside = np.flatnonzero(at >= 0)
     out = np.zeros(itf.size)
     out[at[inside]] = shares_to_nearest(hats, inside, np.asarray(trace.x))
     return out
+
+
+def _triangles_rule(ov, degree: int):
+    """(points (t m, 2), weights (t, m) m^2): the degree-``degree`` triangle rule on each triangle of the overlay
+    ``ov`` (its points in the plane, triangle by triangle; its weights times the triangle's area)."""
+    P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]                     # (t, 3, 2)
+    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    L, w = simplex_rule(2, degree)
+    return np.einsum("mi,tid->tmd", L, P).reshape(-1, 2), np.outer(area, w)
 
 
 def _faces_on_overlap(itf, side, tol: float = NESTED_TOL) -> np.ndarray:
@@ -503,14 +509,11 @@ def _cut_hats(pair, side, faces, whole) -> np.ndarray:
                     np.asarray(other.faces)) if len(cut) else None
     if cover is None or len(cover.vertices) == 0:
         return np.zeros(len(t.nodes))
-    P = np.asarray(cover.vertices)[np.asarray(cover.triangles)]                      # (c, 3, 2)
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
-    L, w = simplex_rule(2, 2)
-    points = np.einsum("mi,tid->tmd", L, P).reshape(-1, 2)
-    at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], len(w))
+    points, weights = _triangles_rule(cover, 2)
+    at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], weights.shape[1])
     xi = np.clip(reference_points(np.asarray(t.x)[faces[:, :4]], at, points), -1.0, 1.0)
     tents = np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)     # (m, 9)
-    return np.bincount(faces[at].ravel(), weights=(tents * np.outer(area, w).reshape(-1, 1)).ravel(),
+    return np.bincount(faces[at].ravel(), weights=(tents * weights.reshape(-1, 1)).ravel(),
                        minlength=len(t.nodes))
 
 

@@ -191,7 +191,7 @@ def simpson_by_hand(points, n):
 @pytest.mark.numerics
 def test_q2_hexahedra_weigh_their_capacities_by_the_biquadratic_hats_stick_from_the_shear_and_slide_with_them():
     """Q2 (27-node) hexahedra pose P2Tet's rows on their faces' 6-node triangles, but weigh the capacities g w_a
-    by the 9-node faces' biquadratic hats (fem/hexfaces.SimpsonSurface.weights: A/36, 4A/36, 16A/36 at a corner,
+    by the 9-node faces' biquadratic hats (fem/q2faces.SimpsonSurface.weights: A/36, 4A/36, 16A/36 at a corner,
     edge midpoint and centre), the consistent loads of a uniform shear: the layer sticks from g = tau (its rows
     carry exactly tau w_a; below tau no equilibrium exists and the scene is refused), where the faces' triangles'
     red lumping (A/24 or A/12, A/8, A/4) made it stick only from 16/9 tau. Pushed, every node slides with its
@@ -223,7 +223,7 @@ def test_q2_hexahedra_weigh_their_capacities_by_the_biquadratic_hats_stick_from_
 @pytest.mark.numerics
 @pytest.mark.parametrize("condition, n", [("sigma1", 2), ("sigma2", 3)])
 def test_q2_blocks_on_faces_that_do_not_match_slide_with_the_constrained_faces_biquadratic_hats(condition, n):
-    """Two Q2 blocks, 3 x 3 faces on 2 x 2 (fem/hexfaces.BiquadraticRows), the upper dragged along the diagonal with
+    """Two Q2 blocks, 3 x 3 faces on 2 x 2 (fem/q2faces.BiquadraticRows), the upper dragged along the diagonal with
     a small Tresca threshold: every row slides, its force is g times the biquadratic hat's integral of the
     constrained side's node (the compliance law's weights, SimpsonSurface.law_weights; written here,
     :func:`simpson_by_hand`), posed from either side, summing to g A."""

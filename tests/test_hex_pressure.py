@@ -4,7 +4,7 @@ solved the representer in the P1/P2 functions of the faces' triangles, whose mas
 rows' forces alike: a uniform 14 MPa read 5.9-30 MPa (Q1) and 1.3-63 MPa (Q2). Under a varying pressure on
 matching faces and against a plane, lambda_h is each node's force over its hat's integral, the read the
 residual estimate now takes from ``c.lam``. The pressure each Q2 body feels (``sol.traction(k)``,
-fem/hexfaces.SimpsonSurface.pressure): its nodal forces over its biquadratic hats' integrals, a uniform pressure
+fem/q2faces.SimpsonSurface.pressure): its nodal forces over its biquadratic hats' integrals, a uniform pressure
 read uniform on matching and nested faces and against a plane."""
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""A normal-compliance law on Q2 (27-node) hexahedra (fem/hexfaces.SimpsonSurface): the law on the nodal rows,
+"""A normal-compliance law on Q2 (27-node) hexahedra (fem/q2faces.SimpsonSurface): the law on the nodal rows,
 integrated by the biquadratic faces' own weights (tensor Simpson on a parallelogram: A/36, 4A/36, 16A/36).
 
 Independent references: the series closed form of a column squeezed through the law (two blocks in uniaxial

@@ -1,4 +1,4 @@
-"""Q2 (27-node) hexahedra whose contact faces do not match (fem/hexfaces.BiquadraticRows): the nodal rows at the
+"""Q2 (27-node) hexahedra whose contact faces do not match (fem/q2faces.BiquadraticRows): the nodal rows at the
 constrained side's 9-node face nodes, each reading the other side's biquadratic trace on its faces.
 
 Independent reference: the jump at every row computed here by hand, the constrained side's nodal displacement

@@ -1,6 +1,7 @@
 """The contact rows of Q1 hexahedra between two bodies' faces: bilinear traces on planar pairs, matching, nested
-and aligned faces, Q2 faces (:class:`SimpsonSurface`, :class:`BiquadraticRows`), and the refusals where a hexahedral
-space's rows would not be exact (docs/formulation.md §13, docs/howto/quadrilaterals.md).
+and aligned faces, lambda_h of hexahedral pairs (:class:`LumpedPressure`), and the refusals where a hexahedral
+space's rows would not be exact (docs/formulation.md §13, docs/howto/quadrilaterals.md); Q2 faces' pairs:
+:mod:`cvxcontact.fem.q2faces`.
 
 The contact code of :class:`~cvxcontact.contact.surface.SurfaceInterface` works on the faces' triangles
 (``HexMesh.triangulation``); a Q1 trace is bilinear on each quadrilateral face, not affine on its triangles.
@@ -36,7 +37,8 @@ corners on aligned parallelograms ("gamma3"; those rows may depend on each other
 The coarser side's rows on nested faces and nodal rows on crossing faces read a jump that is not bilinear on the
 constrained faces: there the law is the lumped rule of the constrained side's hats integrated over the overlap
 (:func:`_overlap_hats`), a consistent approximation rather than an exact integral. On Q2 faces the law sits on
-the nodal rows with the biquadratic hats' integrals (:class:`SimpsonSurface`; a friction law's capacities too).
+the nodal rows with the biquadratic hats' integrals (:class:`~cvxcontact.fem.q2faces.SimpsonSurface`; a friction law's
+capacities too).
 
 lambda_h on hexahedral faces (:class:`LumpedPressure`): the consistent representer in the P1 functions of the
 faces' triangles, which the simplices' read-back solves, is not the Q1 trace's: for a uniform pressure p the Q1
@@ -50,28 +52,21 @@ where the forces are. The pairs take it through their public hook
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..contact.interface import shares_to_nearest
-from ..contact.overlay import locate, overlay
-from ..contact.quadratic import QuadraticStack
-from ..contact.quadratic3d import QuadraticSurface, _p2_mass
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
-from ..geometry.quadratic import Q2HexNodes
 from .hex import bilinear_rows, face_hats, reference_points
-from .quad import QuadElement
 from .simplex import simplex_rule
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "BiquadraticRows", "CrossingSurface", "FaceTrace",
-           "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "SimpsonSurface", "constrained_side",
-           "dependent_law_rows", "hex_contact", "hex_pair", "independent_rows", "law_weights", "matching", "nesting",
-           "pieces", "q2_pair", "quadratic_pressures", "simpson_lumped"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
+           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
+           "independent_rows", "law_weights", "matching", "nesting", "pieces"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -358,216 +353,6 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
-class SimpsonSurface(QuadraticSurface):
-    """The :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` of a pair of Q2 (27-node) hexahedral faces
-    (posed on the faces' 6-node triangles, ``Q2HexNodes.triangulation``; matching parallelogram faces or a rigid
-    obstacle: :func:`hex_contact`) whose normal-compliance law sits on the nodal rows themselves, integrated by
-    the biquadratic faces' own rule: the energy sum_a w_a Phi(r_a) over the rows a of :meth:`evaluation`, w_a the
-    integral of node a's biquadratic hat over the constrained side's faces all of whose 9 nodes are rows (3 x 3
-    Gauss on the faces' bilinear maps: on a parallelogram of area A the tensor Simpson weights A/36 at a corner,
-    4A/36 at an edge midpoint, 16A/36 at the centre; positive, they sum to the faces' area and integrate a
-    biquadratic function exactly, docs/formulation.md §10); between two bodies the faces the overlap's edge cuts
-    add their nodes' piecewise bilinear hats over the overlap (:meth:`law_weights`). The tetrahedra's rule on the
-    faces' triangles (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`) would integrate the P2
-    functions of the triangles, not the biquadratic trace, and the P2 functions of a face's corners integrate to 0
-    on its triangles (a corner would penetrate for free)."""
-
-    def law_weights(self, condition) -> np.ndarray:
-        """(rows,) m^2: w_a at the rows of :meth:`evaluation` under ``condition`` ("sigma1"/"sigma2" on two bodies,
-        any condition against an obstacle). Between two bodies the faces the overlap's edge cuts (some of their 9
-        nodes outside it) add their nodes' piecewise bilinear hats integrated over the overlap (:func:`_cut_hats`),
-        a node outside giving its share to the nearest row (``shares_to_nearest``, as the P2 faces' and Q1's): the
-        weights sum to the overlap's area (before, those faces weighed nothing: a block whose face lies inside
-        such faces went through the law with no force). Against an obstacle 0 at a row on no face whose 9 nodes
-        all reach it."""
-        if not self.rigid and condition not in ("sigma1", "sigma2"):
-            raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
-                                   f"('sigma1', 'sigma2'), not {condition!r}")
-        side = 0 if self.rigid else int(condition[-1]) - 1
-        if ("law", side) not in self._factors:                  # kept: quadrature, row_mass and the read-back ask
-            t = self.traces[side]
-            faces = np.searchsorted(t.nodes, Q2HexNodes(t.body.mesh).boundary(t.part))     # (k, 9) into t.nodes
-            at = np.asarray(self.reach) if self.rigid else np.asarray(self.sigma_rows(side))
-            row = np.zeros(len(t.nodes), dtype=bool)
-            row[at] = True
-            whole = row[faces].all(axis=1)
-            hats = face_hats(t.points, faces[whole], 2)
-            self._factors[("law", side)] = hats[at] if self.rigid else \
-                shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
-        return self._factors[("law", side)].copy()
-
-    def weights(self, condition) -> np.ndarray:
-        """(rows,) m^2: the rows' areas that weigh friction capacities g w_a and the shear read over them: the
-        biquadratic hats' integrals (A/36, 4A/36, 16A/36; positive, summing to the faces' area), a uniform shear's
-        consistent loads (it sticks from g = tau; the triangles' red lumping only from 16/9 tau). Two bodies:
-        :meth:`law_weights`; an obstacle: :func:`simpson_lumped` at the nodes that reach it (howto/friction.md)."""
-        if self.rigid:
-            return simpson_lumped(self.traces[0])[np.asarray(self.reach)]
-        return self.law_weights(condition)
-
-    def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:
-        """(Q (k, rows), w (k,) m^2): the rows of :meth:`evaluation` of positive :meth:`law_weights` (Q selects
-        them) and those weights: the law's energy sum_a w_a Phi(r_a), its nodal forces w_a p(r_a)."""
-        w = self.law_weights(condition)
-        on = np.flatnonzero(w > 0)
-        return sp.csr_matrix((np.ones(len(on)), (np.arange(len(on)), on)), shape=(len(on), len(w))), w[on]
-
-    def row_mass(self, condition) -> sp.csr_matrix:
-        """(rows, rows) m^2: the diagonal of :meth:`law_weights` (the lumped mass of the biquadratic faces), so that
-        the law's pressure (:meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.law_pressure`) is each row's
-        force over its weight: p(r_a) (exact for a uniform pressure, whose consistent loads are p w_a)."""
-        return sp.diags(self.law_weights(condition)).tocsr()
-
-    def pressure(self, k, r) -> np.ndarray:
-        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].nodes``): its nodal
-        forces interpolation(k)^T r (N; exact work equivalence) over its biquadratic hats' integrals over its
-        part (:func:`simpson_lumped`), as Q1's over its bilinear hats' (docs/checks.md, "The pressure views").
-        Exact for a uniform pressure on faces the rows' weights cover (its consistent loads are p w_a); the
-        Riesz representer in the P2 functions of the faces' triangles, which P2 tetrahedra read, is not the
-        biquadratic trace's: it made a uniform p read 0.07 p to 4.5 p, negative on faces that do not match."""
-        key = ("felt", k)
-        if key not in self._factors:
-            self._factors[key] = simpson_lumped(self.traces[k])
-        return (self._interp[k].T @ np.asarray(r, dtype=float)) / self._factors[key]
-
-
-class BiquadraticRows(SimpsonSurface):
-    """A Q2 pair whose faces do not match, under the nodal condition of side ``side`` ("sigma1" for 0, "sigma2" for
-    1): the rows at that side's 9-node face nodes inside the overlap, each reading the other side's biquadratic
-    trace where the node lies on its faces (as :class:`BilinearSurface` reads a bilinear one). X_h is the
-    constrained side's P2 trace on its faces' 6-node triangles wholly in the overlap (``x`` its nodes inside the
-    overlap, ``cells`` those triangles, ``mass`` their P2 mass); its own interpolation is the identity on those
-    nodes, the other side's the 9 biquadratic functions of its face holding each node (reference coordinates by
-    Newton on the face's bilinear map: exact on the parallelograms :func:`hex_contact` asks for). The rows are
-    then the Q2 jump at the constrained nodes exactly; the condition of the other side is not posed here."""
-
-    def __init__(self, linear, nodes, members, side: int):
-        super().__init__(linear, nodes, members)
-        t, other = self.traces[side], self.traces[1 - side]
-        inside = np.asarray(self._sigma[side][0])
-        at = np.full(len(t.nodes), -1)
-        at[inside] = np.arange(len(inside))
-        faces = np.asarray(t.faces)
-        cells = at[faces[(at[faces] >= 0).all(axis=1)]]
-        self.side, self.x, self.cells = side, t.x[inside], cells
-        self.x.setflags(write=False)
-        self.cells.setflags(write=False)
-        P = self.x[cells[:, :3]]
-        area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
-        self.mass = _p2_mass(cells, area, len(inside)).tocsr()
-        n = len(inside)
-        own = sp.csr_matrix((np.ones(n), (np.arange(n), inside)), shape=(n, len(t.nodes)))
-        self._interp = [None, None]
-        self._interp[side], self._interp[1 - side] = own, _biquadratic_rows(other, self.x)
-        self._sigma = [None, None]
-        self._sigma[side] = (inside, sp.identity(n, format="csr"))
-        self._sigma[1 - side] = (np.zeros(0, dtype=np.int64), sp.csr_matrix((0, n)))
-        self._factors = {}
-        self.points = self.offset * np.asarray(self.normal) + self.x @ np.asarray(self.frame)
-        self.points.setflags(write=False)
-
-    def evaluation(self, condition) -> sp.csr_matrix:
-        """The identity on X_h (the constrained side's nodes) under its own nodal condition; any other condition
-        is not posed on this pair (UnsupportedError)."""
-        if condition != f"sigma{self.side + 1}":
-            raise UnsupportedError(f"a Q2 pair on faces that do not match is posed under 'sigma{self.side + 1}', "
-                                   f"its constrained side's nodal condition, not {condition!r}")
-        return super().evaluation(condition)
-
-    def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
-        """The triangles of X_h (the constrained side's face triangles in the overlap), their in-plane corners, and
-        per side the triangle of its trace holding each (the constrained side's own; None for the other: found by
-        location where needed)."""
-        t = self.traces[self.side]
-        hosts = [None, None]
-        at = np.full(len(t.nodes), -1)
-        at[np.asarray(self._sigma[self.side][0])] = np.arange(self.size)
-        faces = np.asarray(t.faces)
-        hosts[self.side] = np.flatnonzero((at[faces] >= 0).all(axis=1))
-        return np.asarray(self.cells), self.x[np.asarray(self.cells)[:, :3]], hosts
-
-
-# a 9-node face's nodes in [-1, 1]^2 (quad9 order: corners, side midpoints, centre); its quarters' triangles
-_QUAD9 = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [0, -1], [1, 0], [0, 1], [-1, 0], [0, 0]], dtype=float)
-_QUARTERS = np.array([[0, 4, 8], [0, 8, 7], [4, 1, 5], [4, 5, 8], [8, 5, 2], [8, 2, 6], [7, 8, 6], [7, 6, 3]])
-
-
-def _cut_hats(pair, side, faces, whole) -> np.ndarray:
-    """(n,) m^2: at each node of side ``side``'s Q2 trace of the two-body pair ``pair`` (a :class:`SimpsonSurface`;
-    ``faces`` (k, 9) its 9-node faces into ``traces[side].nodes``, ``whole`` those all of whose nodes are rows),
-    the integral over the overlap's part of the other faces of the node's hat of the face split 2 x 2 (the Q1
-    functions of its four quarters, tensor products of 1D tents in reference coordinates: positive, summing to
-    1, as the red refinement's hats of a P2 face). Exact: the overlay of the quarters' triangles with the other
-    side's faces, on whose cells a hat is bilinear in the parallelogram's affine coordinates (degree 2), by the
-    degree-2 rule at reference points found by Newton on the face's bilinear map. Their sum is the area the
-    overlap covers of those faces; 0 where none."""
-    t, other = pair.traces[side], pair.linear.traces[1 - side]
-    ov = pair.linear.overlay
-    host = np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2
-    cut = np.unique(host[~whole[host]])                                  # the faces the overlap's edge cuts
-    cover = overlay(np.asarray(t.x), faces[cut][:, _QUARTERS].reshape(-1, 3), np.asarray(other.x),
-                    np.asarray(other.faces)) if len(cut) else None
-    if cover is None or len(cover.vertices) == 0:
-        return np.zeros(len(t.nodes))
-    points, weights = _triangles_rule(cover, 2)
-    at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], weights.shape[1])
-    xi = np.clip(reference_points(np.asarray(t.x)[faces[:, :4]], at, points), -1.0, 1.0)
-    tents = np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)     # (m, 9)
-    return np.bincount(faces[at].ravel(), weights=(tents * weights.reshape(-1, 1)).ravel(),
-                       minlength=len(t.nodes))
-
-
-def _biquadratic_rows(trace, x) -> sp.csr_matrix:
-    """(v, n) sparse: the biquadratic functions of the 9-node faces of the Q2 ``trace`` (a P2 pair's trace on
-    hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x`` (v, 2) m, each in the face its
-    triangles hold it in (UnsupportedError for a point on none)."""
-    faces9 = np.searchsorted(np.asarray(trace.nodes), Q2HexNodes(trace.body.mesh).boundary(trace.part))
-    tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
-    if (tri < 0).any():
-        raise UnsupportedError(f"{trace.body.name} {trace.part!r}: a node of the other side lies on none of its "
-                               "faces: its biquadratic trace cannot be read there")
-    host = tri // 2
-    xi = reference_points(np.asarray(trace.x)[faces9[:, :4]], host, np.asarray(x, dtype=float))
-    N = QuadElement(2).shape(np.clip(xi, -1.0, 1.0))
-    return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(x)), 9), faces9[host].ravel())),
-                         shape=(len(x), len(trace.nodes)))
-
-
-def q2_pair(itf, nodes, members, condition):
-    """The P2 pair a Q2 hexahedral space poses for ``itf`` under ``condition``: :class:`BiquadraticRows` on
-    faces that do not match under a nodal condition, :class:`SimpsonSurface` otherwise (matching faces, a rigid
-    obstacle)."""
-    if itf.rigid or matching(itf) or condition not in ("sigma1", "sigma2"):
-        return SimpsonSurface(itf, nodes, members)
-    return BiquadraticRows(itf, nodes, members, int(condition[-1]) - 1)
-
-
-def simpson_lumped(trace) -> np.ndarray:
-    """(n,) m^2: the integrals of the biquadratic hats of the Q2 ``trace``'s nodes (``trace.nodes``) over its part's
-    9-node faces (3 x 3 Gauss on the faces' bilinear maps, :func:`~cvxcontact.fem.hex.face_hats`: A/36 at a
-    corner, 4A/36 at an edge midpoint, 16A/36 at the centre of a parallelogram face; positive, summing to the
-    part's area): the lumped areas of a Q2 face trace, the consistent loads of a unit pressure."""
-    nodes = Q2HexNodes(trace.body.mesh)
-    return face_hats(nodes.points, nodes.boundary(trace.part), 2)[np.asarray(trace.nodes)]
-
-
-def quadratic_pressures(lines, conditions):
-    """The Q2 hexahedra's contact ``lines`` (``lines.interface``: a
-    :class:`~cvxcontact.contact.quadratic3d.QuadraticSurface` or their stack; ``conditions`` each pair's) with
-    every pair reading lambda_h by :class:`LumpedPressure` (``with_representer``: copies, the given pairs
-    unchanged), w the integrals of the biquadratic hats over the constrained side's faces
-    (3 x 3 Gauss on the faces' bilinear maps: A/36 at a corner, A/9 at an edge midpoint, 4A/9 at the centre of a
-    parallelogram face; the P2 mass of the faces' triangles, which the tetrahedra's read-back solves, would
-    make a uniform pressure oscillate)."""
-    stack = getattr(lines.interface, "interfaces", None)
-    pairs = []
-    for pair, c in zip(stack or (lines.interface,), conditions):
-        side = constrained_side(pair, c)
-        lumped = simpson_lumped(pair.traces[side])
-        pairs.append(pair.with_representer(LumpedPressure(pair.interpolation(side), lumped)))
-    return replace(lines, interface=pairs[0] if stack is None else QuadraticStack(pairs, lines.interface.members))
-
-
 def constrained_side(pair, condition: str) -> int:
     """The side whose nodes carry the rows of ``pair`` under ``condition`` (the obstacle's pairs: 0)."""
     if isinstance(pair, NestedSurface) and condition == "gamma3":
@@ -667,7 +452,7 @@ def hex_contact(space, scene, condition, law=None):
     parallelograms along common directions (:func:`pieces`); on Q2, "gamma3" and faces that are not
     parallelograms (the centre off the diagonal's midpoint). A normal-compliance law
     is taken wherever its condition is (``law``, kept for the spaces' call: :func:`law_weights` on Q1,
-    :class:`SimpsonSurface` on Q2)."""
+    :class:`~cvxcontact.fem.q2faces.SimpsonSurface` on Q2)."""
     alternative = "tetrahedra (cc.box(..., cell='tetra'))"
     if space.degree == 2:
         conditions = [c or condition for c in scene.conditions]

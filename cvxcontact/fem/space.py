@@ -34,8 +34,8 @@ from . import p2
 from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
     strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
-from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, \
-    law_weights, q2_pair, quadratic_pressures
+from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights
+from .q2faces import q2_pair, quadratic_pressures
 from .quad import Q1_ELEMENT, Q2_ELEMENT
 from .trace import TRACES, LinearTrace
 
@@ -623,9 +623,9 @@ class Q2Hex(P2Tet):
     ("sigma1"/"sigma2") at a body's face nodes, posed by P2Tet's code on the faces' 6-node triangles
     (``Q2HexNodes.triangulation``: on a parallelogram face its 9 nodes are those of its two triangles), exact where
     every row's point is a node of both traces (a rigid obstacle, matching faces); on faces that do not match each
-    row reads the other side's biquadratic trace on its faces (:class:`~cvxcontact.fem.hexfaces.BiquadraticRows`);
+    row reads the other side's biquadratic trace on its faces (:class:`~cvxcontact.fem.q2faces.BiquadraticRows`);
     a normal-compliance law on the same rows, weighted by the biquadratic hats' face integrals
-    (:class:`~cvxcontact.fem.hexfaces.SimpsonSurface`, docs/formulation.md §15). "gamma3" would evaluate the trace
+    (:class:`~cvxcontact.fem.q2faces.SimpsonSurface`, docs/formulation.md §15). "gamma3" would evaluate the trace
     between the nodes: refused by name (:func:`~cvxcontact.fem.hexfaces.hex_contact`)."""
 
     cell, degree, dim, estimates = "hex", 2, 3, True
@@ -635,7 +635,7 @@ class Q2Hex(P2Tet):
     element = HEX2_ELEMENT
 
     def pair_surface(self, itf, nodes, members, condition):
-        """The Q2 pair (:func:`~cvxcontact.fem.hexfaces.q2_pair`): a compliance law on the nodal rows with the
+        """The Q2 pair (:func:`~cvxcontact.fem.q2faces.q2_pair`): a compliance law on the nodal rows with the
         biquadratic faces' weights; on faces that do not match, the rows reading the other side's biquadratic
         trace."""
         return q2_pair(itf, nodes, members, condition)

@@ -7,7 +7,8 @@ The pairs are posed by P2 tetrahedra's code on the faces' 6-node triangles (``Q2
 parallelogram face its 9 nodes are those of its two triangles). A normal-compliance law sits on the nodal rows with
 the biquadratic hats' integrals (tensor Simpson on a parallelogram; a friction law's capacities too); the
 pressure a body feels and lambda_h are its nodal forces over those integrals
-(:class:`~cvxcontact.fem.hexfaces.LumpedPressure`). Which pairs are refused: :func:`~cvxcontact.fem.hexfaces.hex_contact`.
+(:class:`~cvxcontact.fem.hexfaces.LumpedPressure`). Which pairs are refused:
+:func:`~cvxcontact.fem.hexfaces.hex_contact`.
 """
 
 from __future__ import annotations
@@ -56,22 +57,29 @@ class SimpsonSurface(QuadraticSurface):
         nodes outside it) add their nodes' piecewise bilinear hats integrated over the overlap (:func:`_cut_hats`),
         a node outside giving its share to the nearest row (``shares_to_nearest``, as the P2 faces' and Q1's): the
         weights sum to the overlap's area (before, those faces weighed nothing: a block whose face lies inside
-        such faces went through the law with no force). Against an obstacle 0 at a row on no face whose 9 nodes
-        all reach it."""
+        such faces went through the law with no force). Against an obstacle each row's node's biquadratic hat
+        integrated over the body's part (:func:`simpson_lumped`, as Q1's ``mesh.node_areas``), on the faces the
+        obstacle reaches only in part too: the lumped (Simpson) rule of the law's integral over the part, Phi read
+        at the nodes and 0 at a node from which the obstacle cannot be reached (it misses it: no row there), so
+        that every row carries the law with a positive weight and obstacles reaching complementary sets of the
+        part's nodes weigh it once (before, a row on no face whose 9 nodes all reach the obstacle weighed 0 and
+        penetrated for free)."""
         if not self.rigid and condition not in ("sigma1", "sigma2"):
             raise UnsupportedError(f"a normal-compliance law on Q2 hexahedral faces sits on nodal rows "
                                    f"('sigma1', 'sigma2'), not {condition!r}")
         side = 0 if self.rigid else int(condition[-1]) - 1
         if ("law", side) not in self._factors:                  # kept: quadrature, row_mass and the read-back ask
             t = self.traces[side]
+            if self.rigid:
+                self._factors[("law", side)] = simpson_lumped(t)[np.asarray(self.reach)]
+                return self._factors[("law", side)].copy()
             faces = np.searchsorted(t.nodes, Q2HexNodes(t.body.mesh).boundary(t.part))     # (k, 9) into t.nodes
-            at = np.asarray(self.reach) if self.rigid else np.asarray(self.sigma_rows(side))
+            at = np.asarray(self.sigma_rows(side))
             row = np.zeros(len(t.nodes), dtype=bool)
             row[at] = True
             whole = row[faces].all(axis=1)
             hats = face_hats(t.points, faces[whole], 2)
-            self._factors[("law", side)] = hats[at] if self.rigid else \
-                shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
+            self._factors[("law", side)] = shares_to_nearest(hats + _cut_hats(self, side, faces, whole), at, t.x)
         return self._factors[("law", side)].copy()
 
     def weights(self, condition) -> np.ndarray:
@@ -79,8 +87,6 @@ class SimpsonSurface(QuadraticSurface):
         biquadratic hats' integrals (A/36, 4A/36, 16A/36; positive, summing to the faces' area), a uniform shear's
         consistent loads (it sticks from g = tau; the triangles' red lumping only from 16/9 tau). Two bodies:
         :meth:`law_weights`; an obstacle: :func:`simpson_lumped` at the nodes that reach it (howto/friction.md)."""
-        if self.rigid:
-            return simpson_lumped(self.traces[0])[np.asarray(self.reach)]
         return self.law_weights(condition)
 
     def quadrature(self, condition) -> tuple[sp.csr_matrix, np.ndarray]:

@@ -52,7 +52,8 @@ def solved(request):
     degree = request.param
     scene = _scene()
     law = cc.NormalCompliance(K)
-    return degree, space(degree, "hex").contact(scene, "sigma1", law), cc.solve(scene, "sigma1", degree=degree, law=law)
+    lines = space(degree, "hex").contact(scene, "sigma1", law)
+    return degree, lines, cc.solve(scene, "sigma1", degree=degree, law=law)
 
 
 def test_every_row_on_a_partly_reached_face_carries_the_law_with_its_hats_integral(solved):

@@ -142,7 +142,7 @@ class BiquadraticRows(SimpsonSurface):
         n = len(inside)
         own = sp.csr_matrix((np.ones(n), (np.arange(n), inside)), shape=(n, len(t.nodes)))
         self._interp = [None, None]
-        self._interp[side], self._interp[1 - side] = own, _biquadratic_rows(other, self.x)
+        self._interp[side], self._interp[1 - side] = own, _face_rows(other, self.x, QuadElement(2).shape)
         self._sigma = [None, None]
         self._sigma[side] = (inside, sp.identity(n, format="csr"))
         self._sigma[1 - side] = (np.zeros(0, dtype=np.int64), sp.csr_matrix((0, n)))
@@ -157,6 +157,34 @@ class BiquadraticRows(SimpsonSurface):
             raise UnsupportedError(f"a Q2 pair on faces that do not match is posed under 'sigma{self.side + 1}', "
                                    f"its constrained side's nodal condition, not {condition!r}")
         return super().evaluation(condition)
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].nodes``) under the row
+        forces ``r`` (N). The constrained side: :meth:`SimpsonSurface.pressure` (its forces over its Simpson
+        weights). The other side (its nodes are no rows): at each node b the mean of the rows' pressures
+        r_a / w_a weighted by T_ab w_a, p_b = (T^T r)_b / (T^T w)_b, w the rows' Simpson weights
+        (:meth:`law_weights`: positive, the consistent loads of a unit pressure at the constrained nodes) and T
+        the hats of the other side's faces split 2 x 2 at the rows (:func:`_tents`: positive, summing to 1);
+        0 at a node whose hat holds no row. A uniform pressure p (forces p w_a) reads p at every node; the
+        pressure is non-negative where the forces are, between the least and the largest row pressure around
+        the node; it integrates to the total force by the weights T^T w (the other side's split hats
+        integrated over the overlap by the rows' rule: positive, summing to the overlap's area). The other
+        side's work-equivalent forces (the biquadratic functions at the rows, transposed) over its Simpson
+        weights, read before, are exact for the total by Simpson's weights but oscillate where the pressure
+        varies (the biquadratic corner functions are negative inside a face): they read -7.9 % of the peak
+        pressure under a partial contact with every force non-negative, and a uniform p 0.56 p to 1.78 p on
+        crossing faces (docs/formulation.md §15, docs/checks.md "The pressure views")."""
+        if k == self.side:
+            return super().pressure(k, r)
+        key = ("felt", k)
+        if key not in self._factors:
+            T = _face_rows(self.traces[k], self.x, _tents)
+            self._factors[key] = (T, T.T @ self.law_weights(f"sigma{self.side + 1}"))
+        T, D = self._factors[key]
+        out = np.zeros(len(D))
+        on = D > 0
+        out[on] = (T.T @ np.asarray(r, dtype=float))[on] / D[on]
+        return out
 
     def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
         """The triangles of X_h (the constrained side's face triangles in the overlap), their in-plane corners, and
@@ -196,15 +224,22 @@ def _cut_hats(pair, side, faces, whole) -> np.ndarray:
     points, weights = _triangles_rule(cover, 2)
     at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], weights.shape[1])
     xi = np.clip(reference_points(np.asarray(t.x)[faces[:, :4]], at, points), -1.0, 1.0)
-    tents = np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)     # (m, 9)
-    return np.bincount(faces[at].ravel(), weights=(tents * weights.reshape(-1, 1)).ravel(),
+    return np.bincount(faces[at].ravel(), weights=(_tents(xi) * weights.reshape(-1, 1)).ravel(),
                        minlength=len(t.nodes))
 
 
-def _biquadratic_rows(trace, x) -> sp.csr_matrix:
-    """(v, n) sparse: the biquadratic functions of the 9-node faces of the Q2 ``trace`` (a P2 pair's trace on
-    hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x`` (v, 2) m, each in the face its
-    triangles hold it in (UnsupportedError for a point on none)."""
+def _tents(xi) -> np.ndarray:
+    """(m, 9): the hats of a 9-node face split 2 x 2 at reference points ``xi`` (m, 2) in [-1, 1]^2 (the Q1
+    functions of its four quarters, tensor products of 1D tents: positive, summing to 1, 1 at their own node and 0
+    at the face's other nodes), in the quad9 order of :data:`_QUAD9`."""
+    return np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)
+
+
+def _face_rows(trace, x, basis) -> sp.csr_matrix:
+    """(v, n) sparse: the functions ``basis`` (reference points (v, 2) to values (v, 9)) of the 9-node faces of the
+    Q2 ``trace`` (a P2 pair's trace on hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x``
+    (v, 2) m, each in the face its triangles hold it in (UnsupportedError for a point on none): the biquadratic
+    functions (``QuadElement(2).shape``) or the split faces' hats (:func:`_tents`)."""
     faces9 = np.searchsorted(np.asarray(trace.nodes), Q2HexNodes(trace.body.mesh).boundary(trace.part))
     tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
     if (tri < 0).any():
@@ -212,7 +247,7 @@ def _biquadratic_rows(trace, x) -> sp.csr_matrix:
                                "faces: its biquadratic trace cannot be read there")
     host = tri // 2
     xi = reference_points(np.asarray(trace.x)[faces9[:, :4]], host, np.asarray(x, dtype=float))
-    N = QuadElement(2).shape(np.clip(xi, -1.0, 1.0))
+    N = basis(np.clip(xi, -1.0, 1.0))
     return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(x)), 9), faces9[host].ravel())),
                          shape=(len(x), len(trace.nodes)))
 

@@ -345,6 +345,16 @@ class _Term:
         return self.dim in self._states
 
 
+def _element(lines, who: str):
+    """The elements' answers of ``lines`` (``lines.element``); SolverError naming ``who`` asks where the space
+    gives none."""
+    if getattr(lines, "element", None) is None:
+        raise SolverError(f"{who} asks the space's elements for its rows (ContactLines.element, a "
+                          "cvxcontact.contact.quadratic.ConditionRows) and the space's contact lines give none: "
+                          "build them with a P2 space (fem.space.P2, P2Tet) or give the space's lines an element")
+    return lines.element
+
+
 def cones_on_rows(lines):
     """The contact ``lines`` of a friction law under the P2 "gamma3" cones (:class:`ConesWithFriction`): its rows are
     the rows of E (the nodes of X_h on the "gamma3" pairs, each nodal pair's own rows, each with its own weight), so
@@ -353,7 +363,7 @@ def cones_on_rows(lines):
     set) and the space's cones on the nodes of X_h become ``node_cone`` (None where E is the identity: every pair's
     rows are its nodes). From the space's lines (the cones on the nodes of X_h) and its elements' answers
     (``lines.element``); docs/howto/friction.md, "P2 under 'gamma3'"."""
-    element = lines.element
+    element = _element(lines, "a friction law under the P2 'gamma3' cones")
     E = element.evaluation()
     identity = E.shape[0] == E.shape[1] and (E - sp.identity(E.shape[0])).count_nonzero() == 0
     return replace(lines, E=E, cone=element.row_cone(), node_cone=None if identity else lines.cone,
@@ -365,7 +375,7 @@ def cones_beside_law(lines):
     pair's rows take the cone, not nodal limit rows (:class:`~cvxcontact.contact.quadratic.ConeRowLaws`, the rows
     ``lines.element.on_cone``), and the cone pairs' Bernstein map on the nodes of X_h (``mixed_bernstein``);
     docs/formulation.md §10, "P2", §16."""
-    element = lines.element
+    element = _element(lines, "the P2 'gamma3' cones beside a normal-compliance law")
     return replace(lines, rows=ConeRowLaws(lines.rows.laws, lines.rows.counts, element.on_cone),
                    mixed_bernstein=element.cones_of(lines.cone_pairs))
 

@@ -7,8 +7,10 @@ constrained and active nodes, measure, each side's traction and lumped lengths, 
 electrodes, the displacements, the residual estimate's indicators, the VTK cells and von Mises stress of the
 output; and the friction laws' scenes (tests/friction_scenes.py: Tresca and Coulomb beside a compliance wall, under
 a force-controlled plane, beside a compliance lid, a P2 nodal pair, the P2 "gamma3" cones, a Hencky block, a 3D
-cube under a force-controlled lid, 3D blocks dragged on P1 "gamma3" rows) and dependent rows beside a compliance law
-(three 3D blocks on non-matching faces): the displacements, each pair's lambda,
+cube under a force-controlled lid, 3D blocks dragged on P1 "gamma3" rows; P2 "gamma3" friction beside a nodal pair,
+the cones' rows on E's: a 2D stack stuck and rolled, a 3D one stuck), dependent rows beside a compliance law (three
+3D blocks on non-matching faces) and the P2 cones beside a compliance law (2D and 3D stacks, Signorini and limited
+"gamma3" pairs): the displacements, each pair's lambda,
 slip, shear force and threshold, the obstacles' translations and forces, the checks. Each checkout runs in its own
 process (PYTHONPATH); the arrays are compared with ``np.array_equal``::
 
@@ -62,7 +64,7 @@ def outputs(path):
         b = sol.scene.bodies[0]
         m = body_mesh(b, sol.u[0], sol.phi[0], space(degree, b.mesh.cell).nodes(b))
         out[key + "_vtk"], out[key + "_vm"] = m.cells[0].data, m.cell_data["von Mises stress [Pa]"][0]
-    out |= friction_outputs() | dependent_outputs()
+    out |= friction_outputs() | dependent_outputs() | mixed_outputs()
     np.savez(path, **out)
 
 
@@ -86,6 +88,34 @@ def dependent_outputs():
     return out
 
 
+def mixed_outputs():
+    """The P2 "gamma3" cones beside a compliance law (tests/stack_scenes.py's three blocks, 2D and 3D; a Signorini
+    "gamma3" pair beside a compliant nodal one, a limited compliant "gamma3" pair beside a Signorini one): the
+    fields, lambda and the checks."""
+    from stack_scenes import DELTA3, three_blocks, three_blocks_3d
+
+    import cvxcontact as cc
+
+    def stack2d(laws, conditions):
+        bodies, pairs, _ = three_blocks(conditions)
+        return cc.Scene(*bodies, contacts=[p.with_changes(law=lw) for p, lw in zip(pairs, laws)])
+
+    limited = cc.NormalCompliance(stiffness=1e12, penetration_limit=DELTA3 / 2)
+    cases = [("mixed2d_cone_nodal", lambda: stack2d((cc.Signorini(), cc.NormalCompliance(1e11)),
+                                                    ("gamma3", "sigma1"))),
+             ("mixed2d_limited", lambda: stack2d((cc.NormalCompliance(1e11, penetration_limit=1e-5), cc.Signorini()),
+                                                 ("gamma3", "gamma3"))),
+             ("mixed3d_cone", lambda: three_blocks_3d(("gamma3", "gamma3"), (cc.Signorini(), limited))),
+             ("mixed3d_limited", lambda: three_blocks_3d(("gamma3", "sigma1"), (limited, cc.Signorini())))]
+    out = {}
+    for key, make in cases:
+        sol = cc.solve(make(), degree=2, tol=1.0)
+        out |= {f"{key}_u{i}": u for i, u in enumerate(sol.u)}
+        out |= {f"{key}_{i}_lam": c.lam for i, c in enumerate(sol.contacts)}
+        out[key + "_checks"] = np.array(sorted(sol.residuals().items()), dtype=object)[:, 1].astype(float)
+    return out
+
+
 def friction_outputs():
     """The friction scenes' arrays (module docstring)."""
     from friction_scenes import (
@@ -94,8 +124,11 @@ def friction_outputs():
         dragged_blocks3d,
         lidded,
         pair2d,
+        rolled_stack,
         sheared_hencky,
         steel,
+        uniform_stack,
+        uniform_stack3d,
         walled,
     )
 
@@ -119,7 +152,15 @@ def friction_outputs():
              ("pair_coulomb_p2_cones", lambda: pair2d(cc.Coulomb(0.3), condition="gamma3"), {"degree": 2}),
              ("hencky_coulomb", lambda: sheared_hencky(cc.Coulomb(0.6)), {}),
              ("cube_coulomb_forced", cube, {}),
-             ("dragged3d_tresca", lambda: dragged_blocks3d(cc.Tresca(2e5)), {"condition": "gamma3"})]
+             ("dragged3d_tresca", lambda: dragged_blocks3d(cc.Tresca(2e5)), {"condition": "gamma3"}),
+             ("stack_tresca_p2_cones_nodal", lambda: uniform_stack(0.2 * P, cc.Tresca(2 * P), ("gamma3", "sigma1"),
+                                                                   (4, 3, 3)), {"degree": 2}),
+             ("stack_coulomb_p2_nodal_cones", lambda: uniform_stack(0.2 * P, cc.Coulomb(0.5), ("sigma1", "gamma3"),
+                                                                    (3, 3, 5)), {"degree": 2}),
+             ("rolled_tresca_p2_cones_nodal", lambda: rolled_stack(cc.Tresca(1e-5 * P), ("gamma3", "sigma1"),
+                                                                   nx=(4, 3, 3)), {"degree": 2}),
+             ("stack3d_tresca_p2_cones_nodal", lambda: uniform_stack3d(0.2 * P, cc.Tresca(2 * P),
+                                                                       ("gamma3", "sigma1")), {"degree": 2})]
     out = {}
     for key, make, kw in cases:
         sol = cc.solve(make(), **kw)

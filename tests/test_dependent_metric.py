@@ -20,7 +20,7 @@ from scenes3d import offset_boxes
 import cvxcontact as cc
 from cvxcontact.backends.finish import lawson_hanson
 from cvxcontact.backends.finish.declined import Declined
-from cvxcontact.backends.finish.rows import CHOLESKY_MARGIN
+from cvxcontact.backends.finish.rows import CHOLESKY_RANK_CUT
 
 pytestmark = pytest.mark.numerics      # which rows W finds dependent is rounding
 
@@ -106,7 +106,7 @@ class _Compliant:
     def dependent(self, passive):
         P = np.asarray(passive, dtype=int)
         W = np.asfortranarray(self.G[P] @ self.G[P].T)
-        U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_MARGIN * float(W.diagonal().max()), lower=0)
+        U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_RANK_CUT * float(W.diagonal().max()), lower=0)
         if info < 0 or rank >= len(P) or rank == 0:
             return None
         piv = piv - 1

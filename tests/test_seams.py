@@ -71,6 +71,31 @@ def test_kind_tests_outside_the_discrete_problem_are_at_most_eight():
     assert sites(KIND, planted) == {"io/output.py": [len(planted["io/output.py"].splitlines()) - 1]}
 
 
+COMBINED = re.compile(r"(problem|lines|p)\.(compliant|friction|mixed|conic)\b|rows\.(compliant|friction)\b")
+"""A line asking the problem, its lines or its rows which laws they combine (docs/architecture.md, "A new contact
+law": the grep), counted outside the terms, the friction data, contact/ and fem/."""
+SPACE_BRANCH = re.compile(r"^\s+(el)?if .*(conic_only|\.mixed|friction|compliant)")
+"""A branch of fem/space.py on the laws of the rows (docs/architecture.md: the space's branches on which laws a scene
+combines moved to the terms, ``own_lines``; those left pose a compliance law's weights and rows, and the cones of
+"gamma3" where no compliance law is posed)."""
+
+
+def test_which_laws_are_combined_is_asked_at_most_where_listed():
+    """The lines outside the terms that ask which laws are combined: at most 8 (docs/architecture.md: the problem's
+    four properties, the registry's four policies); fem/space.py's branches on the rows' laws: at most 6 (10 before
+    the terms asked the elements for their rows, ``own_lines``); a planted one of each is found."""
+    files = package()
+    skip = ("discrete/terms.py", "discrete/slip.py", "contact/", "fem/")
+    outside = {p: s for p, s in files.items() if not p.startswith(skip)}
+    found = {p: n for p, s in outside.items() if (n := sum(1 for line in s.splitlines() if COMBINED.search(line)))}
+    assert sum(found.values()) <= 8, f"lines asking which laws are combined (path: count): {found}"
+    space_branches = [line for line in files["fem/space.py"].splitlines() if SPACE_BRANCH.search(line)]
+    assert len(space_branches) <= 6, space_branches
+    assert COMBINED.search("    if problem.friction and lines.rows.compliant:")
+    assert SPACE_BRANCH.search("        elif pairs.conic_only and rows.friction:")
+    assert not SPACE_BRANCH.search("    rows = RowLaws(laws, counts)")
+
+
 def test_the_checks_see_a_planted_site():
     """A planted "is this P2?" and a planted degree comparison in a module above fem/ are found; the same lines
     inside fem/ are not (the checks run on the package's text, so they fail on these plants)."""

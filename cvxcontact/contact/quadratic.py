@@ -22,6 +22,8 @@ Against a rigid obstacle the line is the body's own P2 trace where it reaches th
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -33,7 +35,8 @@ from .interface import CONDITIONS, Interface, normal_jump, read_only, row_direct
 from .laws import RowLaws, pair_laws
 
 __all__ = ["QuadraticInterface", "QuadraticStack", "quadratic_interface", "quadratic_stack", "p2_interpolation",
-           "bernstein_max", "bernstein_argmax", "bernstein_basis", "point_rows", "ConeRowLaws", "P2Pairs", "p2_pairs"]
+           "bernstein_max", "bernstein_argmax", "bernstein_basis", "point_rows", "ConeRowLaws", "P2Pairs", "p2_pairs",
+           "ConditionRows"]
 
 def p2_interpolation(xv, pts) -> sp.csr_matrix:
     """(len(pts), 2 len(xv) - 1): evaluates at ``pts`` the continuous P2 function on the 1D mesh with
@@ -423,6 +426,40 @@ class QuadraticStack:
             blocks.append(sp.identity(m, format="csr")[np.repeat(np.arange(m), w)])
             cells.append(np.repeat(np.arange(m), w).reshape(m, w) + o)
         return sp.block_diag(blocks, format="csr"), read_only(np.concatenate(cells))
+
+
+@dataclass(frozen=True, eq=False)
+class ConditionRows:
+    """What the P2 elements of a scene answer under each pair's condition, beside the rows its space poses
+    (``lines.element`` of :class:`~cvxcontact.fem.space.ContactLines`): the contact term of a combination of laws
+    asks it for the rows its laws need (:meth:`~cvxcontact.discrete.terms.ContactTerm.own_lines`; a friction law
+    under the cones: the cones on E's rows; the cones beside a compliance law: the cone pairs' Bernstein map).
+
+    ``stack``: the pairs' :class:`QuadraticStack` (its rows; lambda_h is read by the lines' ``interface``);
+    ``conditions``: each pair's condition; ``on_cone`` (rows of E,): with a compliance law, whether each row is a
+    row of a pair under the cone (a Signorini "gamma3" pair's, a limited compliant "gamma3" pair's nodes of X_h;
+    docs/formulation.md §10, §16), None without one."""
+
+    stack: QuadraticStack
+    conditions: tuple
+    on_cone: np.ndarray | None = None
+
+    def evaluation(self) -> sp.csr_matrix:
+        """E: the rows of the pairs' conditions on the stacked nodes of X_h (:meth:`QuadraticStack.evaluation`)."""
+        return self.stack.evaluation(None, list(self.conditions))
+
+    def row_counts(self) -> np.ndarray:
+        """The rows of E per pair (:meth:`QuadraticStack.row_offsets`)."""
+        return np.diff(self.stack.row_offsets(None, list(self.conditions)))
+
+    def row_cone(self) -> tuple:
+        """(B, cells): the cones of the conic condition on E's rows (:meth:`QuadraticStack.row_cone`)."""
+        return self.stack.row_cone(None, list(self.conditions))
+
+    def cones_of(self, pairs) -> tuple:
+        """(B, segments): the "everywhere" cones of the pairs marked in ``pairs`` on the nodes of X_h
+        (:meth:`QuadraticStack.bernstein_of`)."""
+        return self.stack.bernstein_of(pairs)
 
 
 class ConeRowLaws(RowLaws):

@@ -258,10 +258,13 @@ class DiscreteProblem:
         lines = replace(self.lines, E=E, cone=None, rows=rows, weights=None if weights is None else
                         np.asarray(weights, dtype=float), cone_pairs=None, mixed_bernstein=None,
                         departure=None, node_cone=None)
+        term = contact_term(lines, self.dim)
+        lines = term.own_lines(lines)
+        E = lines.E
+        term = term.with_data(self.scene, self.condition, lines, self.systems, self.units)
         translations = tuple((E @ o.reduced_rows, F) for o, (_, F) in zip(self.forced, self.translations))
         kernel = None if self.kernel is None else rigid_kernel(self.scene.bodies, [s.f for s in self.systems], E,
                                                                self.interface, self.obstacles, self.nodes)
-        term = contact_term(lines, self.dim).with_data(self.scene, self.condition, lines, self.systems, self.units)
         return replace(self, lines=lines, translations=translations,
                        held_rows=held_rows(E, self.blocks, translations), kernel=kernel, term=term)
 
@@ -300,6 +303,7 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     at = [None] * len(scene.bodies) if nodes is None else nodes
     lines = space.contact(scene, condition, law, nodes)
     term = contact_term(lines, space.dim)         # the combination of laws: a term declares it, or it is refused
+    lines = term.own_lines(lines)                 # and asks the elements for the rows its laws need beyond them
     systems = tuple(space.assemble_loads(b, m, n) for b, m, n in zip(scene.bodies, matrices, at))
     forced = [o for o in lines.obstacles if o.force is not None]
     un = units(scene, systems, lines.gap, forces=[o.force for o in forced]) if scale else Units(1.0, 1.0, 1.0, 1.0)

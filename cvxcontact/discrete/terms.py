@@ -64,13 +64,17 @@ from dataclasses import dataclass, field, replace
 from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
+import scipy.sparse as sp
 
+from ..contact.laws import RowLaws
+from ..contact.quadratic import ConeRowLaws
 from ..errors import SolverError, UnsupportedError
 from .slip import Slip
 
 __all__ = ["PARTS", "UNPOSED", "ContactTerm", "SignoriniRows", "ComplianceRows", "EverywhereCones",
            "ConesBesideCompliance", "TrescaFriction", "FrictionBesideCompliance", "ConesWithFriction", "TERMS",
-           "contact_term", "parts_of", "register_term", "unregister_term", "named"]
+           "contact_term", "parts_of", "register_term", "unregister_term", "named", "cones_on_rows",
+           "cones_beside_law"]
 
 
 def named(where: str | Callable) -> Callable:
@@ -162,6 +166,8 @@ class ContactTerm(Protocol):
 
     def with_data(self, scene, condition: str, lines, systems, units): ...
 
+    def own_lines(self, lines): ...
+
     def kernel_capacity(self): ...
 
     def normal_rows(self, problem, energy, G, g): ...
@@ -211,6 +217,11 @@ class _Term:
     """``(scene, condition, lines, systems, units) -> data``: what the term holds beside the problem, built with it
     (:meth:`with_data`; a friction law's :class:`~cvxcontact.discrete.slip.Slip`, what its routes, finish and
     read-back read); None: nothing."""
+    asks: ClassVar[str | Callable | None] = None
+    """``(lines) -> lines``: the contact lines its combination of laws poses, from those the space poses
+    (:meth:`own_lines`), asking the space's elements for what it needs beyond them (``lines.element``,
+    :class:`~cvxcontact.contact.quadratic.ConditionRows`: a friction law under the cones, :func:`cones_on_rows`; the
+    cones beside a compliance law, :func:`cones_beside_law`); None: the space's lines as they are."""
     finish_rows: ClassVar[str | Callable] = "cvxcontact.backends.frictionrows:NormalRows"
     """``(problem, energy, G, g) -> rows``: how its laws pose the normal rows G x <= g of the friction finish beside
     the energy (:meth:`normal_rows`): Signorini's as they are
@@ -263,6 +274,12 @@ class _Term:
         if where is None:
             return self
         return replace(self, data=named(where)(scene, condition, lines, systems, units))
+
+    def own_lines(self, lines):
+        """The contact lines this term's laws pose, from the space's ``lines`` (:attr:`asks`; the problem holds
+        these, built once with it before its data, :meth:`with_data`)."""
+        where = type(self).asks
+        return lines if where is None else named(where)(lines)
 
     def kernel_capacity(self):
         """What the well-posedness check before the solve reads of the term's law beside the supports and the rows
@@ -328,6 +345,41 @@ class _Term:
         return self.dim in self._states
 
 
+def _element(lines, who: str):
+    """The elements' answers of ``lines`` (``lines.element``); SolverError naming ``who`` asks where the space
+    gives none."""
+    if getattr(lines, "element", None) is None:
+        raise SolverError(f"{who} asks the space's elements for its rows (ContactLines.element, a "
+                          "cvxcontact.contact.quadratic.ConditionRows) and the space's contact lines give none: "
+                          "build them with a P2 space (fem.space.P2, P2Tet) or give the space's lines an element")
+    return lines.element
+
+
+def cones_on_rows(lines):
+    """The contact ``lines`` of a friction law under the P2 "gamma3" cones (:class:`ConesWithFriction`): its rows are
+    the rows of E (the nodes of X_h on the "gamma3" pairs, each nodal pair's own rows, each with its own weight), so
+    the cones sit on them (``cone``: each nodal row a degenerate element,
+    :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`; the friction rows and the normal rows are then one
+    set) and the space's cones on the nodes of X_h become ``node_cone`` (None where E is the identity: every pair's
+    rows are its nodes). From the space's lines (the cones on the nodes of X_h) and its elements' answers
+    (``lines.element``); docs/howto/friction.md, "P2 under 'gamma3'"."""
+    element = _element(lines, "a friction law under the P2 'gamma3' cones")
+    E = element.evaluation()
+    identity = E.shape[0] == E.shape[1] and (E - sp.identity(E.shape[0])).count_nonzero() == 0
+    return replace(lines, E=E, cone=element.row_cone(), node_cone=None if identity else lines.cone,
+                   rows=RowLaws(lines.rows.laws, element.row_counts()))
+
+
+def cones_beside_law(lines):
+    """The contact ``lines`` of the P2 cones beside a normal-compliance law (:class:`ConesBesideCompliance`): a cone
+    pair's rows take the cone, not nodal limit rows (:class:`~cvxcontact.contact.quadratic.ConeRowLaws`, the rows
+    ``lines.element.on_cone``), and the cone pairs' Bernstein map on the nodes of X_h (``mixed_bernstein``);
+    docs/formulation.md §10, "P2", §16."""
+    element = _element(lines, "the P2 'gamma3' cones beside a normal-compliance law")
+    return replace(lines, rows=ConeRowLaws(lines.rows.laws, lines.rows.counts, element.on_cone),
+                   mixed_bernstein=element.cones_of(lines.cone_pairs))
+
+
 @dataclass(frozen=True)
 class SignoriniRows(_Term):
     """Signorini's law at nodal rows E [u_nu] <= E g (P1, P2 sigma conditions; docs/formulation.md §2, §8)."""
@@ -385,6 +437,7 @@ class ConesBesideCompliance(_Term):
     unfinished_hint: ClassVar[str] = EverywhereCones.unfinished_hint
     finishes: ClassVar[bool] = False
     always_finished: ClassVar[bool] = False
+    asks: ClassVar[str | Callable | None] = cones_beside_law
     programs: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_program"
     forces: ClassVar[str | Callable] = "cvxcontact.backends.cones:mixed_forces"
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.nodal:read_back_conic_mix"
@@ -465,12 +518,13 @@ class ConesWithFriction(_Term):
     forces: ClassVar[str | Callable] = EverywhereCones.forces
     reads_back: ClassVar[str | Callable] = "cvxcontact.solution.readback:read_back_conic_friction"
     builds: ClassVar[str | Callable | None] = Slip.build
+    asks: ClassVar[str | Callable | None] = cones_on_rows
 
 
 
 _ANSWERS = (*ContactTerm.__annotations__, "estimated", "takes_user_terms", "takes_active_start", "program",
             "program_forces", "with_user_terms", "read_back", "finish_declined", "start", "determining_rows",
-            "held_forces", "hands_on", "with_data", "kernel_capacity", "normal_rows")
+            "held_forces", "hands_on", "with_data", "own_lines", "kernel_capacity", "normal_rows")
 """What a term answers (the :class:`ContactTerm` protocol's members)."""
 
 _REGISTRY: list = [ConesWithFriction, FrictionBesideCompliance, TrescaFriction, ConesBesideCompliance,

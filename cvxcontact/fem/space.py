@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from ..contact.interface import Stack, row_directions
 from ..contact.laws import RowLaws, pair_laws
-from ..contact.quadratic import ConeRowLaws, QuadraticStack, p2_pairs
+from ..contact.quadratic import ConditionRows, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
 from ..contact.truegap import GapDeparture
 from ..errors import SceneError, SolverError, UnsupportedError
@@ -54,9 +54,9 @@ class ContactLines:
     segments) of the conic "everywhere" rows (P2 "gamma3"), else None; ``rows``: the law of every row
     (:class:`~cvxcontact.contact.laws.RowLaws`, or :class:`~cvxcontact.contact.quadratic.ConeRowLaws` when
     cones sit next to a compliance law); ``weights`` (m): the law's quadrature weights on the rows (None
-    without a compliance law); ``cone_pairs``: per pair whether it is posed as a cone in a program mixing
-    cones and compliance (None otherwise); ``gap`` (m): the gap at the stacked nodes of X_h (pair gaps plus
-    the distance to rigid obstacles); ``obstacles``: the scene's
+    without a compliance law); ``cone_pairs``: with a compliance law, per pair whether it is posed as a cone (a
+    program mixing cones and compliance where one is: :attr:`mixed`; None without a compliance law); ``gap`` (m):
+    the gap at the stacked nodes of X_h (pair gaps plus the distance to rigid obstacles); ``obstacles``: the scene's
     :class:`~cvxcontact.physics.obstacles.ObstacleRows` with their rows at those nodes; ``mixed_bernstein``: the
     cone pairs' Bernstein map of a mixed program (None otherwise); ``dependent``: whether a compliance law's rows can depend
     on each other whatever the condition (its quadrature points on P2 faces: six per triangle, more than the
@@ -67,7 +67,13 @@ class ContactLines:
     nested faces: one row per node of the finer side, :func:`~cvxcontact.fem.hexfaces.independent_rows`), so no
     route need treat them as possibly dependent; ``node_cone``: with a friction law under "gamma3" beside a pair
     under a nodal condition, the cone on the nodes of X_h where ``cone`` sits on E's rows (None otherwise:
-    :attr:`cone_on_nodes`).
+    :attr:`cone_on_nodes`); ``element``: what the P2 elements answer under each pair's condition beyond these rows
+    (:class:`~cvxcontact.contact.quadratic.ConditionRows`: E's rows, the cones on them, the cone pairs' Bernstein
+    map; None for the other spaces). The space poses the rows of the conditions (under "gamma3" the cones on the
+    nodes of X_h, the nodal pairs' rows as degenerate cones; beside a compliance law its rows); what a combination
+    of laws needs beyond them is its contact term's to ask (:meth:`~cvxcontact.discrete.terms.ContactTerm.own_lines`:
+    a friction law's cones on E's rows, the cones' ``mixed_bernstein`` and
+    :class:`~cvxcontact.contact.quadratic.ConeRowLaws` beside a compliance law).
     """
 
     interface: object
@@ -84,6 +90,7 @@ class ContactLines:
     departure: GapDeparture | None = None
     independent: bool = False
     node_cone: tuple | None = None
+    element: ConditionRows | None = None
 
     @property
     def cone_on_nodes(self) -> tuple | None:
@@ -99,8 +106,9 @@ class ContactLines:
 
     @property
     def mixed(self) -> bool:
-        """True if cones sit next to a compliance law in one program (docs/formulation.md §10, "P2")."""
-        return self.mixed_bernstein is not None
+        """True if cones sit next to a compliance law in one program (docs/formulation.md §10, "P2"): some pair is
+        posed as a cone beside a compliance law (``cone_pairs``)."""
+        return self.cone_pairs is not None and any(self.cone_pairs)
 
     def key(self) -> tuple:
         """What the factorisations and interface matrices of a backend depend on: the nodes of X_h, the
@@ -279,42 +287,22 @@ class P2:
         nodes = [self.nodes(b) for b in scene.bodies] if nodes is None else nodes
         pairs = p2_pairs(scene, nodes, condition, law)
         stack = pairs.stack
-        cone = node_cone = None
+        cone = None
         rows = RowLaws(pair_laws(scene, law), np.diff(stack.row_offsets(condition, scene.conditions)))
-        if pairs.conic_only and rows.friction:   # a friction law's rows are E's: the cones on them (§8)
-            E = stack.evaluation(condition, list(pairs.conditions))
-            cone, node_cone = _row_cones(stack, condition, list(pairs.conditions))
-        elif pairs.conic_only:     # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
+        if pairs.conic_only:       # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, list(pairs.conditions))
         else:
             E = stack.evaluation(condition, list(pairs.conditions))
-        mixed = None
-        if pairs.mixed:            # the cone pairs' rows take the cone, not nodal limit rows (§10)
-            rows = ConeRowLaws(rows.laws, rows.counts, np.repeat(pairs.cone_pairs, rows.counts))
-            mixed = stack.bernstein_of(pairs.cone_pairs)
         weights = stack.weights(condition, scene.conditions) if rows.compliant else None   # Simpson (§10)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(stack.interfaces)])
-        on_nodes = node_cone or cone
-        departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), on_nodes[1], gap)
+        departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), cone[1], gap)
+        on_cone = None if pairs.cone_pairs is None else np.repeat(pairs.cone_pairs, rows.counts)
         return ContactLines(interface=pairs.interface, offsets=np.asarray(stack.offsets), E=E, cone=cone,
                             rows=rows, weights=weights,
                             cone_pairs=tuple(pairs.cone_pairs) if pairs.cone_pairs is not None else None,
-                            gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), mixed_bernstein=mixed,
-                            departure=departure, node_cone=node_cone)
-
-
-def _row_cones(stack, condition, conditions) -> tuple[tuple, tuple | None]:
-    """(cone, node_cone) of a friction law under the conic condition: the cones on E's rows (each nodal row a
-    degenerate element, :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`; the friction rows and the
-    normal rows are then one set, the nodes of X_h on the "gamma3" pairs, each nodal pair's own rows) and the same
-    cones on the nodes of X_h (:meth:`~cvxcontact.contact.quadratic.QuadraticStack.cone_rows`; None where E is
-    the identity: every pair's rows are its nodes)."""
-    E = stack.evaluation(condition, conditions)
-    on_rows = stack.row_cone(condition, conditions)
-    if E.shape[0] == E.shape[1] and (E - sp.identity(E.shape[0])).count_nonzero() == 0:
-        return on_rows, None
-    return on_rows, stack.cone_rows(condition, conditions)
+                            gap=gap, obstacles=tuple(_p2_obstacles(scene, stack)), departure=departure,
+                            element=ConditionRows(stack, tuple(pairs.conditions), on_cone))
 
 
 def gap_departure(scene, stack, conditions, cells, gap) -> GapDeparture | None:
@@ -486,8 +474,9 @@ class P2Tet(P2):
     its rows evaluate [u_nu] there (the P2 interpolant of the condition's nodal rows, a positive-weight rule of
     degree 4, :meth:`~cvxcontact.contact.quadratic3d.QuadraticSurface.quadrature`, §15; on faces the overlap's
     edge cuts, the nodal rows with positive weights); a Signorini "gamma3" pair's copositive cones sit beside it in
-    one program (``mixed_bernstein``), as do a limited compliant "gamma3" pair's (at g + l, on its nodes of X_h
-    beside the law's quadrature rows)."""
+    one program (``cone_pairs``; the rows on them, ``element.on_cone``, from which the term of that combination
+    takes its ``mixed_bernstein``), as do a limited compliant "gamma3" pair's (at g + l, on its nodes of X_h beside
+    the law's quadrature rows)."""
 
     cell, degree, dim, estimates = "tetra", 2, 3, True
     vtk = "tetra10"
@@ -521,18 +510,13 @@ class P2Tet(P2):
         pairs = [self.pair_surface(itf, tuple(nodes[k] for k in m if k is not None), m, c)
                  for itf, m, c in zip(scene.interfaces, members, conditions)]
         stack = QuadraticStack(pairs, members)
-        cone = weights = node_cone = None
-        friction = any(lw.friction is not None for lw in laws)
-        if "gamma3" in conditions and not compliant and friction:   # a friction law's rows are E's: the cones on them
-            E = stack.evaluation(condition, conditions)
-            cone, node_cone = _row_cones(stack, condition, conditions)
-        elif "gamma3" in conditions and not compliant:   # the copositive condition on the gamma3 pairs (§16)
+        cone = weights = None
+        if "gamma3" in conditions and not compliant:   # the copositive condition on the gamma3 pairs (§16)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, conditions)
         else:                            # nodal rows; a compliant gamma3 pair's: every node of X_h (§15)
             E = stack.evaluation(condition, conditions)
-        counts = (np.diff(stack.offsets) if cone is not None and node_cone is None
-                  else np.diff(stack.row_offsets(condition, conditions)))
+        counts = np.diff(stack.offsets) if cone is not None else np.diff(stack.row_offsets(condition, conditions))
         on_cone = None
         if compliant:                    # a compliant pair's rows: the law's quadrature points on its triangles (§15)
             rules = [_law_rows(itf, c, lw, n, lim)
@@ -541,17 +525,13 @@ class P2Tet(P2):
             weights = np.concatenate([w for _, w, _ in rules])
             counts = np.array([len(w) for _, w, _ in rules])
             on_cone = np.concatenate([c for _, _, c in rules])
-        rows, mixed = RowLaws(laws, counts), None
-        if compliant and any(cone_pairs):   # a cone pair's rows: its nodes of X_h, held by the cone (§16)
-            rows = ConeRowLaws(laws, counts, on_cone)
-            mixed = stack.bernstein_of(cone_pairs)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(pairs)])
-        departure = None if cone is None else gap_departure(scene, stack, conditions, (node_cone or cone)[1], gap)
+        departure = None if cone is None else gap_departure(scene, stack, conditions, cone[1], gap)
         return ContactLines(interface=pairs[0] if len(pairs) == 1 else stack, offsets=np.asarray(stack.offsets),
-                            E=E, cone=cone, rows=rows, weights=weights, gap=gap,
+                            E=E, cone=cone, rows=RowLaws(laws, counts), weights=weights, gap=gap,
                             cone_pairs=tuple(cone_pairs) if compliant else None,
                             obstacles=tuple(_p2_obstacles(scene, stack, self.dim)), dependent=compliant,
-                            departure=departure, mixed_bernstein=mixed, node_cone=node_cone)
+                            departure=departure, element=ConditionRows(stack, tuple(conditions), on_cone))
 
 
 def _law_rows(itf, condition, law, n, limited) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:

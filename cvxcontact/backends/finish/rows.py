@@ -328,12 +328,21 @@ class UpdatedSystem:
         return where, bk
 
 
-CHOLESKY_MARGIN = 1e-10
+QR_MARGIN = 1e-10
 """Pivot ratio (smallest over largest squared diagonal entry of the Cholesky factor) below which
-:class:`CholeskySystem` leaves the answer to the QR of :class:`UpdatedSystem`: the two ratios are not the same
-number (R of M's QR is the Cholesky factor of M^2), and on nearly dependent unit rows (cos > 1 - 1e-13) the
-Cholesky's measured up to 2x the QR's (115x on rows of scales spread by 1e4), so that a bare 1e-13 cut on the
-Cholesky accepted some W_PP the QR refuses as singular (condition 4e13): with this margin the QR's test decides."""
+:meth:`CholeskySystem.solve` leaves the answer to the QR of :class:`UpdatedSystem` (keeping its Cholesky factor): the
+two ratios are not the same number (R of M's QR is the Cholesky factor of M^2), and on nearly dependent unit rows
+(cos > 1 - 1e-13) the Cholesky's measured up to 2x the QR's (115x on rows of scales spread by 1e4), so that a bare
+1e-13 cut on the Cholesky accepted some W_PP the QR refuses as singular (condition 4e13): with this margin the QR's
+test (:data:`SINGULAR_PIVOT`) decides. A decision margin: no row is dropped by it."""
+
+CHOLESKY_RANK_CUT = 1e-10
+"""The rank cut of the pivoted Cholesky factorisation (LAPACK dpstrf's ``tol``, times the largest diagonal entry)
+by which :meth:`CompliantRows.dependent` drops rows of W_PP: a row whose pivot, its squared distance from the span
+of the rows kept before it in the metric of W, is not above this fraction of the largest diagonal entry is
+dependent on them and dropped (the steps' systems on the rows kept are then non-singular by :data:`SINGULAR_PIVOT`
+with this margin). The value of :data:`QR_MARGIN`, another test: this one decides the rank and drops rows, that one
+only which factorisation answers a solve."""
 
 
 def _cholesky_delete(U, k):
@@ -365,7 +374,7 @@ class CholeskySystem(UpdatedSystem):
     and the keys in by one triangular solve and the Cholesky factorisation of their block's Schur complement.
     Where M is not numerically positive definite (a pivot not above :data:`SINGULAR_PIVOT` of the largest) the QR of
     :class:`UpdatedSystem` solves it (None if singular there too); so it does, keeping the Cholesky factor, for
-    pivots within :data:`CHOLESKY_MARGIN` of the largest, where the QR's singularity test decides.
+    pivots within :data:`QR_MARGIN` of the largest, where the QR's singularity test decides.
 
     Measured on the default 3D "gamma3" at 305,562 unknowns (14,905 rows, 3,456 carrying force): the QR system
     took 11 of the finish's 34 CPU s (benchmarks/results/bench_gamma3_scale.md)."""
@@ -421,7 +430,7 @@ class CholeskySystem(UpdatedSystem):
         if not d.min() > SINGULAR_PIVOT * d.max():
             self.U = None                                  # (refactored at the next solve)
             return self.qr.solve(keys, b)
-        if not d.min() > CHOLESKY_MARGIN * d.max():       # near the QR's cut: the QR decides (and answers)
+        if not d.min() > QR_MARGIN * d.max():             # near the QR's cut: the QR decides (and answers)
             return self.qr.solve(keys, b)
         where, bk = self._placed(keys, b)
         z = sla.solve_triangular(self.U, bk, trans="T", check_finite=False)
@@ -525,7 +534,7 @@ class CompliantRows:
 
     def dependent(self, passive):
         """(drop, C): the positions in ``passive`` of the rows that the pivoted Cholesky factorisation of W_PP
-        (LAPACK dpstrf) finds dependent on the others, a pivot not above :data:`CHOLESKY_MARGIN` of the largest
+        (LAPACK dpstrf) finds dependent on the others, a pivot not above :data:`CHOLESKY_RANK_CUT` of the largest
         diagonal entry (the rows' squared distance from the span of the others, in the metric of W: the steps'
         systems on the rest are then non-singular by :data:`SINGULAR_PIVOT` with that margin), and C (kept x
         dropped), each dropped row's coefficients R_j = sum_i C_ij R_i + r on the kept rows (``keep`` = the
@@ -537,7 +546,7 @@ class CompliantRows:
         self.system.U = None
         self.system.qr.Q = self.system.qr.R = None
         W = c.kept_W[np.ix_(cols, cols)].T              # (symmetric: its transpose, Fortran order, is factorised
-        U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_MARGIN * float(W.diagonal().max(initial=0.0)),
+        U, piv, rank, info = sla.lapack.dpstrf(W, tol=CHOLESKY_RANK_CUT * float(W.diagonal().max(initial=0.0)),
                                                lower=0, overwrite_a=1)   # in place: one |P|^2 copy in all)
         del W
         if info < 0 or rank >= len(P) or rank == 0:

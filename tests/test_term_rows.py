@@ -1,0 +1,69 @@
+"""What a contact term asks of the elements (docs/architecture.md, "A new contact law": ``asks``,
+``term.own_lines``): the rows of a combination of laws, checked against the relations they must satisfy, built here
+from the elements' own answers (``lines.element``), not from the terms' functions.
+
+- a friction law under the P2 "gamma3" cones beside a nodal pair (2D, 3D): the cones sit on E's rows and the cones
+  on the nodes of X_h are those cones times E (the same elements, in the same order); one law row per row of E;
+- the cones beside a compliance law: the rows on the cone are exactly the Signorini "gamma3" pair's rows, its
+  limit is the cone's (inf), and the cones' Bernstein map reads no node of the compliant pair;
+- a term asking on lines no P2 space built: a SolverError naming what asks.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from friction_scenes import P, uniform_stack, uniform_stack3d
+from stack_scenes import three_blocks
+
+import cvxcontact as cc
+from cvxcontact.discrete.problem import build_problem
+from cvxcontact.discrete.terms import (
+    ConesBesideCompliance,
+    ConesWithFriction,
+    cones_on_rows,
+)
+from cvxcontact.fem.space import space
+
+
+def _lines(scene):
+    problem = build_problem(scene, space(2, scene.cell), "gamma3", None)
+    return problem.term, problem.lines
+
+
+@pytest.mark.parametrize("make", [lambda: uniform_stack(0.2 * P, cc.Tresca(2 * P), ("gamma3", "sigma1"), (4, 3, 3)),
+                                  lambda: uniform_stack3d(0.2 * P, cc.Tresca(2 * P), ("gamma3", "sigma1"))],
+                         ids=["2d", "3d"])
+def test_friction_under_the_cones_sits_on_the_rows_of_e(make):
+    term, lines = _lines(make())
+    assert isinstance(term, ConesWithFriction)
+    E = lines.element.evaluation()
+    assert (lines.E != E).nnz == 0
+    assert E.shape[0] != E.shape[1] or (E - sp.identity(E.shape[0])).count_nonzero() > 0    # E is not I here
+    B_rows, cells_rows = lines.cone
+    B_nodes, cells_nodes = lines.node_cone
+    assert B_rows.shape[1] == E.shape[0] and B_nodes.shape[1] == E.shape[1]
+    assert abs(B_rows @ E - B_nodes).max() == 0.0                # exact: 0/1 selections of E's entries
+    assert cells_rows.shape == cells_nodes.shape and cells_rows.max() < E.shape[0]
+    assert lines.rows.size == E.shape[0] and lines.cone_on_nodes is lines.node_cone
+
+
+def test_the_cones_beside_a_compliance_law_hold_the_signorini_pair_only():
+    bodies, pairs, _ = three_blocks(("gamma3", "sigma1"))
+    laws = (cc.Signorini(), cc.NormalCompliance(1e11))
+    term, lines = _lines(cc.Scene(*bodies, contacts=[p.with_changes(law=lw) for p, lw in zip(pairs, laws)]))
+    assert isinstance(term, ConesBesideCompliance)
+    counts = np.asarray(lines.rows.counts)
+    assert np.array_equal(lines.rows.cone, np.repeat([True, False], counts))
+    assert np.isinf(lines.rows.penetration_limit[:counts[0]]).all()
+    B = lines.mixed_bernstein[0]
+    offsets = lines.offsets
+    assert abs(B[:, offsets[1]:offsets[2]]).max() == 0.0          # no node of the compliant pair
+    assert abs(B[:, offsets[0]:offsets[1]]).max() > 0.0
+
+
+def test_a_term_asking_lines_without_elements_is_refused_by_name():
+    bodies, pairs, _ = three_blocks(("sigma1", "sigma1"))
+    lines = build_problem(cc.Scene(*bodies, contacts=pairs), space(1), "sigma1", None).lines
+    assert lines.element is None
+    with pytest.raises(cc.SolverError, match="under the P2 'gamma3' cones asks the space's elements"):
+        cones_on_rows(lines)

@@ -165,14 +165,14 @@ class BiquadraticRows(SimpsonSurface):
         weights, :meth:`law_weights`: positive, the consistent loads of a unit pressure at the constrained nodes)
         interpolated at its node b by the constrained side's faces split 2 x 2 (:func:`_tents`: the Q1 functions
         of their quarters, positive), normalised over the rows: p_b = sum_a tau_a(x_b) q_a / sum_a tau_a(x_b), 0
-        at a node on no constrained face or whose quarter holds no row. The same pressure field as the
-        constrained side's at the same point (action and reaction), a weighted mean of the row pressures of the
+        at a node on no constrained face or whose quarter holds no row. The rows' pressure field at the same
+        point (action and reaction), a weighted mean of the row pressures of the
         constrained quarter holding the node: non-negative where the forces are, between their least and largest,
         a uniform pressure p (forces p w_a) read p at every node in the overlap, a finer other side included. It
         does not keep the total force by that side's own Simpson weights (off by 4.5 % to 30 % on the tilted
         blocks of tests/test_hex_pressure.py). Measured against a 12 x 12 matching reference of those blocks
-        (2 x 2 to 4 x 4 under 3 x 3 to 6 x 6, either condition), at most as far off as the constrained side's own
-        read, 0.27-0.58 of the peak (the rows' forces moved by the other side's split hats over their areas by
+        (2 x 2 to 4 x 4 under 3 x 3 to 6 x 6, either condition), at its worst node at most as far off as the
+        constrained side's own read, 0.27-0.58 of the peak (the rows' forces moved by the other side's split hats over their areas by
         the rows' rule: 0.27-0.76, and a uniform p read 0 at 56 of 81 nodes of a 4 x 4 side over 2 x 2 rows; the
         other side's work-equivalent forces over its Simpson weights, exact for the total: 0.26-1.6, -7.9 % of
         the peak under non-negative forces, a uniform p read 0.56 p to 1.78 p; docs/formulation.md §15)."""

@@ -172,10 +172,11 @@ class BiquadraticRows(SimpsonSurface):
         does not keep the total force by that side's own Simpson weights (off by 4.5 % to 30 % on the tilted
         blocks of tests/test_hex_pressure.py). Measured against a 12 x 12 matching reference of those blocks
         (2 x 2 to 4 x 4 under 3 x 3 to 6 x 6, either condition), at its worst node at most as far off as the
-        constrained side's own read, 0.27-0.58 of the peak (the rows' forces moved by the other side's split hats over their areas by
-        the rows' rule: 0.27-0.76, and a uniform p read 0 at 56 of 81 nodes of a 4 x 4 side over 2 x 2 rows; the
-        other side's work-equivalent forces over its Simpson weights, exact for the total: 0.26-1.6, -7.9 % of
-        the peak under non-negative forces, a uniform p read 0.56 p to 1.78 p; docs/formulation.md §15)."""
+        constrained side's own read, 0.27-0.58 of the peak (the rows' forces moved by the other side's split hats
+        over their areas by the rows' rule: 0.27-0.76, and a uniform p read 0 at 56 of 81 nodes of a 4 x 4 side
+        over 2 x 2 rows; the other side's work-equivalent forces over its Simpson weights, exact for the total:
+        0.26-1.6, down to -53 % of the peak under non-negative forces, a uniform p read -1.6 p to 6.3 p;
+        docs/formulation.md §15)."""
         if k == self.side:
             return super().pressure(k, r)
         key = ("felt", k)

@@ -85,3 +85,23 @@ def test_a_block_pushed_onto_obstacles_that_reach_its_faces_in_part_is_the_close
         assert np.abs(c.force - P * HATS[degree][i[:, 0]] * HATS[degree][i[:, 1]]).max() <= 1e-10 * P / 9  # 6.3e-16
         assert np.abs(np.asarray(c.lam) - P).max() <= 1e-10 * P                           # measured 1.6e-15 P
     assert abs(sum(c.force.sum() for c in sol.contacts) - P) <= 1e-10 * P           # measured 6.4e-16 P
+
+
+def test_a_q2_block_on_a_sphere_posed_along_its_rays_feels_the_law_as_posed_towards_the_closest_points():
+    """A Q2 block (2 x 2 faces, clamped on top) 20 um into a sphere of radius 0.3 m under its centre: posed along
+    the faces' normal (``distance="ray"``) the rays of the face corners miss the sphere (+inf, no row), so that no
+    face has all 9 nodes reaching it; posed towards the closest points every node reaches it. Only the centre node
+    touches, where both distances are R - |x - c| alike: the law's forces and the displacements are the same. Before,
+    the rows on no wholly reached face weighed 0: posed along the rays the block went through the sphere with no
+    force (91 kN posed towards the closest points)."""
+    body = cc.Body(cc.box(nx=2, ny=2, nz=1, z=(0.0, H), cell="hex"), STEEL, clamped=["top"], contact="bottom")
+    sols = [cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", cc.Rigid.sphere(
+        (0.5, 0.5, -0.3 + 2e-5), 0.3, distance=posing))]), "sigma1", degree=2, law=cc.NormalCompliance(K))
+        for posing in ("ray", "closest")]
+    assert all(s.ok for s in sols)
+    ray, closest = sols
+    assert len(ray.contacts[0].force) < len(closest.contacts[0].force) == 25       # the rays miss the corners
+    total = closest.contacts[0].force.sum()
+    assert total > 0
+    assert abs(ray.contacts[0].force.sum() - total) <= 1e-10 * total               # measured <= 3.3e-16
+    assert np.abs(ray.u[0] - closest.u[0]).max() <= 1e-10 * np.abs(closest.u[0]).max()   # measured <= 2.4e-16

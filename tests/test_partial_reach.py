@@ -1,5 +1,6 @@
-"""A normal-compliance law against obstacles that reach a tetrahedral contact part only in part
-(contact/quadratic3d.QuadraticSurface._partial_weights, contact/surface.SurfaceInterface.weights): every node of X_h
+"""A normal-compliance law against obstacles that reach a tetrahedral contact part or a 2D P1 contact line only in
+part (contact/quadratic3d.QuadraticSurface._partial_weights, contact/surface.SurfaceInterface.weights,
+contact/interface.Interface.weights): every node of X_h
 carries the law, the faces an obstacle reaches only in part weighed by the lumped rule of the law's integral (Phi 0
 at a node the obstacle misses).
 
@@ -20,6 +21,11 @@ A vertex on no wholly reached face (an obstacle under x < 0.05: only the nodes a
 hat's A/12 from each face, the midpoints next to it A/24 less than A/3 (so A/4 between two such vertices): the
 pair's weights sum to the red refinement's 1/12 m^2 (on the strip 0 < x < 1/6 the red hats of the nodes at x = 0
 sum to 1 - 6 x), before it had no weight at all.
+
+In 2D (a P1 block of 3 x 1 cells, plane strain, on the same two obstacles) each obstacle's rows were the run of
+the vertices that reach it, weighed by that run's own mesh: the segment 1/3 < x < 2/3 between the runs weighed
+nothing (0.10 DELTA off the closed form, 0.72 P). Now each row weighs its hat over the whole trace (1/6, 1/3,
+1/3, 1/6 m). (2D P2 lines still miss that segment: its midpoint is a row of neither pair, docs/formulation.md §15.)
 """
 
 import numpy as np
@@ -123,3 +129,31 @@ def test_a_p2_vertex_on_no_wholly_reached_face_takes_its_red_hat():
     assert (expected > 0).all()
     assert np.abs(load - expected).max() <= 1e-14                            # measured 1.7e-18
     assert abs(load.sum() - 1 / 12) <= 1e-14                                 # measured 1.4e-17
+
+
+def test_a_p1_line_pushed_onto_obstacles_that_reach_it_in_part_is_the_closed_form():
+    """The 2D P1 block (module docstring): uniaxial plane strain, p = k DELTA / (1 + k H / c), c = lambda + 2 mu;
+    the rows' forces p times their hats' integrals 1/6, 1/3 (m) written here."""
+    material = cc.materials.isotropic(E=200e9, nu=0.3)
+    c = 200e9 * 0.7 / (1.3 * 0.4)
+    p = K * DELTA / (1.0 + K * H / c)
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=3, ny=1), material, roller=["left", "right"],
+                   displacement={"top": (None, -DELTA)}, contact="bottom")
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", _line(*s)) for s in ((-1.0, EDGE), (EDGE, 2.0))])
+    sol = cc.solve(scene, "sigma1", degree=1, law=cc.NormalCompliance(K))
+    assert sol.ok
+    u, x = sol.u[0], sol.points[0]
+    assert np.abs(u[:, 1] + (DELTA - p * H / c) + p * x[:, 1] / c).max() <= 1e-10 * DELTA          # measured 3.4e-16
+    assert np.abs(u[:, 0]).max() <= 1e-10 * DELTA                                                  # measured 3.4e-17
+    for contact, hats in zip(sol.contacts, ([1 / 6, 1 / 3], [1 / 3, 1 / 6])):
+        assert np.abs(contact.force - p * np.array(hats)).max() <= 1e-10 * p / 6                  # measured 1.2e-16 p
+    assert abs(sum(contact.force.sum() for contact in sol.contacts) - p) <= 1e-10 * p           # measured 1.6e-16 p
+
+
+def _line(lo, hi):
+    """The line y = 0 under lo <= x < hi, its distance along the ray -y; +inf off it (2D)."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 1], np.inf)
+    return cc.Rigid("line", distance, f"the line y = 0 under {lo} <= x < {hi}",
+                    sensitivity=lambda x, nu: np.tile([0.0, 1.0], (len(x), 1)), dim=2)

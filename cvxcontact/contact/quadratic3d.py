@@ -15,7 +15,8 @@ overlap (the P2 nodes of one body's faces, "sigma1"/"sigma2") is the P2 interpol
 mass matrix of the overlay.
 
 Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
-condition constrains every one of them (as for P1).
+condition constrains every one of them (as for P1); on faces the obstacle reaches only in part a compliance law sits
+on the reaching nodes themselves (:meth:`QuadraticSurface._partial_weights`, every node positive).
 
 A normal-compliance law is integrated by a quadrature of positive weights on the constrained triangles
 (:meth:`QuadraticSurface.quadrature`: the 6-point rule of degree 4, :data:`P2_FACE_RULE`, at whose points the
@@ -397,7 +398,8 @@ class QuadraticSurface(Represented):
         :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
         triangle, the rule's order within each), w = rule weight x area > 0; then, where the overlap's edge cuts
         faces of body l under "sigma<l+1>", the rows themselves (Q the identity there) with the red hats' integrals
-        over the overlap's part of those faces (:meth:`_cut_weights`), at the rows where they are positive. The
+        over the overlap's part of those faces (:meth:`_cut_weights`), and against an obstacle on the faces it
+        reaches only in part their lumped weights (:meth:`_partial_weights`), at the rows where they are positive. The
         law's rows are Q E: the energy sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in
         contact), the nodal forces E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the row sums
         of :meth:`row_mass` (on whole faces the integrals of the P2 functions, :func:`p2_weights`)."""

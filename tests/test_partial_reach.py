@@ -117,6 +117,20 @@ def test_a_block_pushed_onto_obstacles_that_reach_its_faces_in_part_is_the_close
     assert abs(sum(c.force.sum() for c in sol.contacts) - P) <= 1e-10 * P     # measured 1.1e-15 P
 
 
+def test_the_friction_weights_share_a_partly_reached_face(solved):
+    """The rows' areas (the friction capacities' w_a): each node's hat over the whole part (P2: of the red
+    refinement), so each obstacle's sum is the integral of its nodes' hats: P1 1/3 + 1/6 = 1/2 each (the hats of
+    the nodes at x = 1/3 fall linearly to 0 at x = 2/3); P2 1/3 + 1/12 = 5/12 and 1/3 + 1/6 + 1/12 = 7/12 (the red
+    hats of the nodes at x = 1/3 fall to 0 at x = 1/2). Before, the mass restricted to the reaching nodes: 4/9,
+    4/9 (P1) and 7/18, 5/9 (P2)."""
+    degree, lines, _ = solved
+    pairs = lines.interface.interfaces
+    for pair, area in zip(pairs, {1: (1 / 2, 1 / 2), 2: (5 / 12, 7 / 12)}[degree]):
+        w = np.asarray(pair.weights("sigma1"))
+        assert (w > 0).all()
+        assert abs(w.sum() - area) <= 1e-13                                  # measured 2.2e-16
+
+
 def test_a_p2_vertex_on_no_wholly_reached_face_takes_its_red_hat():
     """An obstacle under x < 0.05 reaches only the nodes at x = 0, every face it touches in part: the midpoints
     on x = 0 weigh A/4, the vertices A/12 per triangle at them, summing to 1/12 m^2 (module docstring)."""

@@ -423,15 +423,17 @@ class QuadraticSurface(Represented):
         an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its hats; on faces the overlap's
         edge cuts, a node outside the overlap gives its share to the nearest node inside, the rule of the law's
         :meth:`_cut_weights`, :meth:`_overlap_hats`: they sum to the overlap's area, so the capacities sum to g
-        times it); "gamma3" over the triangles of X_h; against an obstacle the row sums of that mass restricted to
-        the nodes that reach it (as P1's). Exact for constants, and for linear functions where the overlap's edge
-        follows edges of the refined faces. Not the
-        integrals of the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where
-        a vertex would then slip for free."""
+        times it); "gamma3" over the triangles of X_h; against an obstacle each reaching node's red hat over the
+        body's whole part, the faces the obstacle reaches only in part included (the row sums of that mass at those
+        nodes, as P1's and Q2's: obstacles reaching complementary sets of nodes share such a face's area; before,
+        the mass restricted to the reaching nodes weighed it short). Exact for constants, and for linear functions
+        where the overlap's edge follows edges of the refined faces. Not the integrals of the P2 functions
+        (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where a vertex would then slip
+        for free."""
         if self.rigid:
             t = self.traces[0]
             M = red_mass(t.faces, _area(t.x[t.faces[:, :3]]), len(t.nodes))
-            return np.asarray(M[self.reach][:, self.reach].sum(axis=1)).ravel()
+            return np.asarray(M[self.reach].sum(axis=1)).ravel()
         if condition == "gamma3":
             cells, area = self._law_triangles(condition)
             return red_weights(cells, area, self.size)

@@ -232,7 +232,12 @@ class Interface:
         """The lumped lengths (m) of the nodes constrained under ``condition`` (the rows of
         :meth:`evaluation`): the row sums of the P1 mass matrix of the 1D mesh those nodes form
         (the merged mesh for gamma3, mesh l's nodes in the overlap for sigma_l). The quadrature
-        weights of a normal-compliance energy (docs/formulation.md §10)."""
+        weights of a normal-compliance energy (docs/formulation.md §10). With an obstacle each reaching
+        node's hat integrated over the body's whole trace (the lumped rule with Phi 0 at the nodes the
+        obstacle misses): obstacles reaching complementary runs of the trace weigh the segment between
+        them once (before, the run's own mesh: that segment weighed nothing)."""
+        if self.rigid:
+            return lumped_lengths(np.asarray(self.traces[0].x, dtype=float))[np.asarray(self.reach)]
         return lumped_lengths(self.x[self.evaluation(condition).indices])
 
     def extend(self, condition, values) -> np.ndarray:

@@ -15,7 +15,8 @@ overlap (the P2 nodes of one body's faces, "sigma1"/"sigma2") is the P2 interpol
 mass matrix of the overlay.
 
 Against a rigid obstacle X_h is the body's own P2 trace on its nodes that reach the obstacle, and every
-condition constrains every one of them (as for P1).
+condition constrains every one of them (as for P1); on faces the obstacle reaches only in part a compliance law sits
+on the reaching nodes themselves (:meth:`QuadraticSurface._partial_weights`, every node positive).
 
 A normal-compliance law is integrated by a quadrature of positive weights on the constrained triangles
 (:meth:`QuadraticSurface.quadrature`: the 6-point rule of degree 4, :data:`P2_FACE_RULE`, at whose points the
@@ -334,14 +335,42 @@ class QuadraticSurface(Represented):
         the overlay of the refined faces with the other body's faces), a node outside the overlap giving its share to
         the nearest node inside (the value :meth:`extend` gives it). Non-negative; with the whole faces' rule they
         integrate a constant exactly over the overlap (the weights sum to its area) and, where the overlap's edge
-        follows edges of the refined faces (the hats of the nodes outside are 0 on it), a linear function too. Zero
-        under "gamma3", against an obstacle and where no face is cut."""
+        follows edges of the refined faces (the hats of the nodes outside are 0 on it), a linear function too.
+        Against an obstacle: :meth:`_partial_weights`. Zero under "gamma3" and where no face is cut."""
         if condition not in CONDITIONS:
             raise SceneError(f"condition must be one of {CONDITIONS}, got {condition!r}")
-        if self.rigid or condition == "gamma3":
+        if self.rigid:
+            return self._partial_weights()
+        if condition == "gamma3":
             return np.zeros(self.size)
         _, cut = self._sigma_faces(condition)
         return self._overlap_hats(int(condition[-1]) - 1, cut)
+
+    def _partial_weights(self) -> np.ndarray:
+        """(size,) m^2: against an obstacle, the law's nodal weights on the faces of the body's part it reaches only
+        in part (some of their six P2 nodes reach it, not all; docs/formulation.md §15): the lumped rule of the
+        law's integral there, Phi read at the nodes and 0 at the nodes the obstacle misses (as Q1's node areas and
+        Q2's ``simpson_lumped``). On a face of area A a reaching node's P2 function's integral (0 at a vertex, A/3
+        at an edge midpoint: the consistent loads of a uniform pressure, so obstacles reaching complementary sets
+        of the part's nodes weigh such a face as one plane would, and a uniform state is reproduced), except at
+        a reaching vertex on no wholly reached face (on no point of :data:`P2_FACE_RULE`: its P2 weight 0 would
+        let it penetrate for free), which takes its red hat's integral A/12 (:func:`red_weights`) from each such
+        face, A/24 from each of that face's two edge midpoints next to it (the red refinement's weights at such a
+        vertex and those midpoints: A/12 and A/4 when both of a midpoint's vertices are). Positive at every
+        node of X_h on no wholly reached face (before, such a node carried no law)."""
+        t, reach = self.traces[0], np.asarray(self.reach)
+        reached = np.zeros(len(t.nodes), dtype=bool)
+        reached[reach] = True
+        faces = np.asarray(t.faces)
+        count = reached[faces].sum(axis=1)
+        whole, part = faces[count == 6], faces[(count > 0) & (count < 6)]
+        lone = reached.copy()
+        lone[whole[:, :3].ravel()] = False                       # a reaching vertex on no whole face
+        lone = lone[part[:, :3]].astype(float)                   # (k, 3) at the partial faces' vertices
+        area = _area(t.x[part[:, :3]])[:, None]
+        share = np.column_stack([lone / 12.0, 1.0 / 3 - (lone + lone[:, [1, 2, 0]]) / 24.0]) * area
+        w = np.bincount(part.ravel(), weights=(share * reached[part]).ravel(), minlength=len(t.nodes))
+        return w[reach]
 
     def _overlap_hats(self, l, faces) -> np.ndarray:
         """(rows of "sigma<l+1>",) m^2: the integrals over the overlap of the P1 hats of the red refinement
@@ -369,7 +398,8 @@ class QuadraticSurface(Represented):
         :meth:`_law_triangles`, Q the P2 functions of the rows of :meth:`evaluation` at its points (triangle by
         triangle, the rule's order within each), w = rule weight x area > 0; then, where the overlap's edge cuts
         faces of body l under "sigma<l+1>", the rows themselves (Q the identity there) with the red hats' integrals
-        over the overlap's part of those faces (:meth:`_cut_weights`), at the rows where they are positive. The
+        over the overlap's part of those faces (:meth:`_cut_weights`), and against an obstacle on the faces it
+        reaches only in part their lumped weights (:meth:`_partial_weights`), at the rows where they are positive. The
         law's rows are Q E: the energy sum_q w_q Phi(r(x_q)) of r in X_h (exact for m = 1 where a triangle is all in
         contact), the nodal forces E^T Q^T (w p): the integrals of p N_i by the same rule. Q^T w are the row sums
         of :meth:`row_mass` (on whole faces the integrals of the P2 functions, :func:`p2_weights`)."""
@@ -393,15 +423,17 @@ class QuadraticSurface(Represented):
         an edge midpoint, :func:`red_weights`, as P1's "sigma_l" weights integrate its hats; on faces the overlap's
         edge cuts, a node outside the overlap gives its share to the nearest node inside, the rule of the law's
         :meth:`_cut_weights`, :meth:`_overlap_hats`: they sum to the overlap's area, so the capacities sum to g
-        times it); "gamma3" over the triangles of X_h; against an obstacle the row sums of that mass restricted to
-        the nodes that reach it (as P1's). Exact for constants, and for linear functions where the overlap's edge
-        follows edges of the refined faces. Not the
-        integrals of the P2 functions (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where
-        a vertex would then slip for free."""
+        times it); "gamma3" over the triangles of X_h; against an obstacle each reaching node's red hat over the
+        body's whole part, the faces the obstacle reaches only in part included (the row sums of that mass at those
+        nodes, as P1's and Q2's: obstacles reaching complementary sets of nodes share such a face's area; before,
+        the mass restricted to the reaching nodes weighed it short). Exact for constants, and for linear functions
+        where the overlap's edge follows edges of the refined faces. Not the integrals of the P2 functions
+        (:func:`p2_weights`, the row sums of :meth:`row_mass`): 0 at the vertices, where a vertex would then slip
+        for free."""
         if self.rigid:
             t = self.traces[0]
             M = red_mass(t.faces, _area(t.x[t.faces[:, :3]]), len(t.nodes))
-            return np.asarray(M[self.reach][:, self.reach].sum(axis=1)).ravel()
+            return np.asarray(M[self.reach].sum(axis=1)).ravel()
         if condition == "gamma3":
             cells, area = self._law_triangles(condition)
             return red_weights(cells, area, self.size)

@@ -196,7 +196,9 @@ class SurfaceInterface(Represented):
         self.x = read_only(first.x[hit])
         self.points = read_only(first.points[hit])
         self.sigma = (read_only(np.arange(len(hit))),)
-        self.mass = first.mass()[hit][:, hit].tocsr()
+        full = first.mass()
+        self.mass = full[hit][:, hit].tocsr()
+        self._hats = read_only(np.asarray(full[hit].sum(axis=1)).ravel())     # each hat's integral over the part
         reached = np.zeros(len(first.nodes), dtype=bool)
         reached[hit] = True
         P = first.x[first.faces[reached[first.faces].all(axis=1)]]
@@ -261,12 +263,16 @@ class SurfaceInterface(Represented):
     def weights(self, condition) -> np.ndarray:
         """The areas (m^2) attributed to the rows of :meth:`evaluation`, a quadrature of the overlap for a
         compliance law (and the friction capacities g w_a): "gamma3" the overlay's ``lumped`` areas (shares of
-        its cells, independent of the side the pair is posed from); with an obstacle the row sums of ``mass``;
+        its cells, independent of the side the pair is posed from); with an obstacle each reaching node's hat
+        integrated over the body's part (the row sums of the part's mass matrix: the lumped rule of the law's
+        integral, Phi 0 at the nodes the obstacle misses, so that obstacles reaching complementary sets of the
+        part's nodes weigh a face they share once; before, the row sums of ``mass``, restricted to the reaching
+        nodes, weighed such faces short);
         "sigma_l" the integral over the overlap of body l's hat at each of its nodes there (they sum to the area
         its hats cover)."""
         rows = self._rows(condition)
         if self.rigid:
-            return np.asarray(self.mass.sum(axis=1)).ravel()[rows]
+            return np.array(self._hats)[rows]
         if condition == "gamma3":
             return np.array(self.overlay.lumped)[rows]
         l = int(condition[-1]) - 1

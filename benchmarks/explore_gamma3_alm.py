@@ -45,10 +45,13 @@ import numpy as np
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 import explore_gamma3_outer as outer_mod
 from explore_gamma3_outer import REPRESENT, TOUCH, Mixed, independent, jump_scale
+from scenes3d import two_boxes
 
+import cvxcontact as cc
 from cvxcontact.backends.cuts import nnls_warm
 from cvxcontact.backends.factor import PardisoSymmetric
 
@@ -180,9 +183,7 @@ def alm(A, F, G, g, steps: int, log=print, beta: float = BETA, tau: float = TAU,
             ss = G @ xs - g
             Ts = np.flatnonzero(np.abs(ss) <= TOUCH * jump_scale(G, xs, g))
             rec.update(extra=len(np.setdiff1d(T, Ts)), missing=len(np.setdiff1d(Ts, T)),
-                       missing_z=len(np.setdiff1d(np.flatnonzero(zs > 0), T)),
-                       extra_gap=float(-ss[np.setdiff1d(T, Ts)].max(initial=0) / jump_scale(G, xs, g)),
-                       missing_s=float(-s[np.setdiff1d(Ts, T)].min(initial=0) / scale), err=float(
+                       missing_z=len(np.setdiff1d(np.flatnonzero(zs > 0), T)), err=float(
                            np.abs(x - xs).max() / np.abs(xs).max()))
         key = hash(T.tobytes())
         if key in tried or len(T) == 0:
@@ -246,6 +247,19 @@ def alm(A, F, G, g, steps: int, log=print, beta: float = BETA, tau: float = TAU,
     return x, z, newton + faces, False, records
 
 
+def diagnose(n: int, a) -> None:
+    """A certified run, then the same run logging each update's band T against its answer (``ref``)."""
+    s = cc.ContactSolver(two_boxes(n, "gamma3", True))
+    A, F, G, g = outer_mod.mixed_data(s.problem)
+    del s
+    kw = {"beta": a.beta, "tau": a.tau, "retries": a.retries, "grow": a.grow, "always": a.always}
+    x, z, k, ok, _ = alm(A, F, G, g, a.steps, log=lambda r: None, **kw)
+    print(f"n = {n}: reference certified {ok} in {k} solves", flush=True)
+    keys = ("update", "newton", "viol", "T", "extra", "missing", "missing_z", "err", "move")
+    alm(A, F, G, g, a.steps, log=lambda r: print("  ", {k: r[k] for k in keys if k in r}, flush=True), ref=(x, z),
+        **kw)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[8, 12, 16])
@@ -255,10 +269,15 @@ def main() -> None:
     ap.add_argument("--retries", type=int, default=3, help="more faces per finish")
     ap.add_argument("--grow", type=float, default=10.0, help="rho's growth factor")
     ap.add_argument("--always", action="store_true", help="rho grows at every update")
+    ap.add_argument("--diagnose", action="store_true", help="each update's band against the answer's rows")
     ap.add_argument("--verbose", action="store_true", help="one line per Newton step")
     a = ap.parse_args()
     global VERBOSE
     VERBOSE = a.verbose
+    if a.diagnose:
+        for n in a.n:
+            diagnose(n, a)
+        return
     outer_mod.METHODS["alm"] = lambda *args, **kw: alm(*args, beta=a.beta, tau=a.tau,
                                                                 retries=a.retries, grow=a.grow,
                                                                 always=a.always, **kw)

@@ -10,21 +10,26 @@ subproblem's multiplier unique whatever the rows' dependence:
     phi_y(x) = f(x) + 1/(2 rho) |max(0, y + rho (G x - g))|^2,       y <- max(0, y + rho (G x - g)) at its minimiser.
 
 phi_y is convex, piecewise quadratic and C^1, so a semismooth Newton step on its gradient A x - F + G^T lam(x)
-(lam = max(0, y + rho s), s = G x - g), the generalised Hessian A + rho G_I^T G_I (I = {lam > 0}: symmetric positive
-definite, no saddle point, one fixed pattern: one analysis), followed by the exact line search on phi_y (piecewise
-quadratic in t: its derivative is monotone, root by safeguarded Newton), decreases phi_y monotonically and settles
-in finitely many steps (the step is exact once I no longer changes). A descent method cannot cycle: this is the
-"semismooth step with a monotone energy guard".
+(lam = max(0, y + rho s), s = G x - g), the generalised Hessian A + rho G_I^T G_I (I = {y + rho s >= 0}, the kinks
+taken as active, so that the first step from x = 0 is the bonded face's: symmetric positive definite, no saddle
+point, one fixed pattern: one analysis), followed by the exact line search on phi_y (piecewise quadratic in t: its
+derivative is monotone, root by safeguarded Newton), decreases phi_y monotonically; a subproblem ends on a full step
+that keeps I, or once its gradient is below ``eta`` (0.1) of the update's G^T (lam - y). A descent method cannot
+cycle: this is the "semismooth step with a monotone energy guard". rho = ``--beta`` times the median diagonal of A
+on the contact dofs over the median |G_i|^2, times ``--grow`` (10) after an update that does not shrink the
+multipliers' change fourfold (``--always``: after every update).
 
 The finish (exactness does not come from the augmented Lagrangian's limit): after each multiplier update, the rows
-T = {s_i >= -tau} (tau = ``--tau`` times the update's size |y+ - y|_inf / rho, the multiplier's change read as a
-distance) with an independent subset B by column-pivoted QR (weighted by y+), the face G_B x = g_B solved exactly
-(PARDISO on the mixed system, explore_gamma3_outer.Mixed), and the certificate: every row feasible to 1e-9 of the
-jump's scale, the face's force R_B^T y_B represented by z >= 0 on the rows touching there (the package's warm
+T = {y+_i > 0 or s_i >= -tau} (tau = ``--tau`` times the update's size |y+ - y|_inf / rho, the multiplier's change
+read as a distance) with an independent subset B by column-pivoted QR (weighted by y+), the face G_B x = g_B solved
+exactly (PARDISO on the mixed system, explore_gamma3_outer.Mixed), and the certificate: every row feasible to 1e-9
+of the jump's scale, the face's force R_B^T y_B represented by z >= 0 on the rows touching there (the package's warm
 Lawson-Hanson, backends.cuts.nnls_warm, started from y+) to 1e-9 of its norm. Certified (x_B, z) satisfy the
 Karush-Kuhn-Tucker conditions exactly, so x_B is THE answer (f strictly convex): no accepted answer rests on the
-augmented Lagrangian's accuracy. Not certified: the iteration continues (a finish is tried again only when T
-changes).
+augmented Lagrangian's accuracy. Not certified: up to ``--retries`` more faces (a face that penetrates takes the
+penetrating rows; one whose force NNLS does not represent keeps the touching rows its residual does not open), then
+the iteration continues (a finish is tried again only when T changes). ``--diagnose``: a certified run, then the same
+run comparing each update's T with the answer's touching rows (``ref``).
 
 Counted: Newton steps (one SPD solve each: on an AMG route a CG solve on A + rho G_I^T G_I), multiplier updates,
 finishes tried (one exact face solve each). CPU seconds (``time.process_time``) split into the Newton solves

@@ -308,18 +308,10 @@ def run(n: int, steps: int, method: str = "dual") -> dict:
     cpu_cond = time.process_time() - c0
     p = s.problem
     P = np.flatnonzero(s.cache.active)
-    rows = [sp.csr_matrix(p.E @ b.jump) for b in p.blocks]
-    # A, F from the harness; G on every row (none dropped: the jump compares row by row)
-    _, rhs, A, _, _ = bonded_kkt(p.blocks, rows, p.g)
+    A, F, G, g = mixed_data(p)
     N = A.shape[0]
-    F = rhs[:N]
-    G = sp.hstack([sp.hstack([r, sp.csr_matrix((r.shape[0], blk - r.shape[1]))])
-                   for r, blk in zip(rows, [b.shape[0] for b in _diag_blocks(A, p)])]).tocsr()
-    G.data[np.abs(G.data) < 1e-12 * np.abs(G.data).max()] = 0.0
-    G.eliminate_zeros()
-    g = np.asarray(p.g, float)
     cj, unit = np.asarray(sol.contact.jump), p.units.displacement
-    del s, sol, p, rows          # the condensed route's factors freed before the outer iteration (memory)
+    del s, sol, p                # the condensed route's factors freed before the outer iteration (memory)
     gc.collect()
     c0 = time.process_time()
     x, _z, k, settled, recs = METHODS[method](A, F, G, g, steps, log=lambda r: print("  ", r, flush=True))
@@ -338,6 +330,18 @@ def run(n: int, steps: int, method: str = "dual") -> dict:
            "yard_it": yard[2] if yard else None, "yard_cpu": yard[5] if yard else None, "peak_gb": peak_gb()}
     print(out, flush=True)
     return out
+
+
+def mixed_data(p):
+    """(A, F, G, g) of a DiscreteProblem's "gamma3" rows: A, F from the harness; G on every row (none dropped:
+    the jump compares row by row)."""
+    rows = [sp.csr_matrix(p.E @ b.jump) for b in p.blocks]
+    _, rhs, A, _, _ = bonded_kkt(p.blocks, rows, p.g)
+    G = sp.hstack([sp.hstack([r, sp.csr_matrix((r.shape[0], blk - r.shape[1]))])
+                   for r, blk in zip(rows, [b.shape[0] for b in _diag_blocks(A, p)])]).tocsr()
+    G.data[np.abs(G.data) < 1e-12 * np.abs(G.data).max()] = 0.0
+    G.eliminate_zeros()
+    return A, rhs[:A.shape[0]], G, np.asarray(p.g, float)
 
 
 def _diag_blocks(A, p):

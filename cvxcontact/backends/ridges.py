@@ -33,7 +33,7 @@ from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, point_rows
 from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
-from .tangency import node_rows
+from .tangency import _maximum, node_rows
 
 __all__ = ["ridge_newton"]
 
@@ -86,33 +86,54 @@ def _signs(pairs, count) -> np.ndarray | None:
     return np.array([1.0 - 2.0 * root(i)[1] for i in range(count)])
 
 
-def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
-    """The finish of the module docstring: ``energy`` (a :class:`~cvxcontact.backends.mixed.MixedEnergy`, e.g. with
-    the stick-slip partition's rows, on z = [x; extra], x the first ``n``), the contact rows ``G`` (N, n) with gap
-    ``g`` (r = G x - g, scaled), the P2 triangles' Bernstein map ``B`` (6 S, N), from ``z0`` (the cuts' answer);
-    ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). Returns a dict (z,
-    segment, t, y: the point forces on the zero lines, beta, nodal: the forces on the rows, active) or the Declined
-    that stopped it."""
-    B = sp.csr_matrix(B)
-    cells = node_rows(B, 6)
-    if (cells < 0).any():
-        return Declined(Stop.NOT_POSED, "a triangle's P2 node is not one contact row")
-    nz, N = len(z0), G.shape[0]
-    Gz = sp.hstack([sp.csr_matrix(G), sp.csr_matrix((N, nz - n))]).tocsr()
-    z = np.asarray(z0, dtype=float).copy()
-    r = Gz @ z - g
-    scale = max(float((abs(G) @ np.abs(z[:n]) + np.abs(g)).max(initial=0.0)), np.finfo(float).tiny)
-    top, _ = bernstein_argmax((B @ r).reshape(-1, 6))
-    Q = element(6).gram((B @ r).reshape(-1, 6))
-    ev = np.sort(np.abs(np.linalg.eigvalsh(Q)), axis=1)           # ascending magnitudes
-    ridge = ev[:, 1] <= RANK * ev[:, 2]
-    touching = np.flatnonzero((top >= -TOUCHING * scale) & ridge)
-    if not len(touching):
-        return Declined(Stop.NOT_POSED, "no triangle touches")
+def _point_rows(points, D, d, z, shape):
+    """The tangency rows of the point contacts ``points`` ((s, I) each) at ``z`` (:func:`~cvxcontact.backends.
+    tangency._maximum`, docs/formulation.md §18): (C, m, H, where) the rows' gradients (sparse), their values
+    m(Q), the second derivatives' matrices (-2 J^T M J per row, the multipliers' weights not applied) and the
+    maximisers; None where a sub-simplex's slack is not strictly concave there."""
+    rows, vals, hess, where = [], [], [], []
+    for s, I in points:
+        Ds = D[6 * s:6 * s + 6]
+        out = _maximum(shape, Ds @ z - d[6 * s:6 * s + 6], I)
+        if out is None:
+            return None
+        m, L, M = out
+        J = sp.vstack([sum(L[j] * Ds[shape.index(i, j)] for j in I) for i in I]).tocsr()
+        rows.append(sp.csr_matrix(shape.basis(L[None, :])) @ Ds)
+        vals.append(m)
+        hess.append(-2.0 * (J.T @ sp.csr_matrix(M) @ J))
+        where.append(L)
+    C = sp.vstack(rows).tocsr() if rows else sp.csr_matrix((0, D.shape[1]))
+    return C, np.array(vals, dtype=float), hess, where
+
+
+def _touching_points(cells, b, candidates, covered, reach) -> dict:
+    """The point contacts of the touching triangles ``candidates`` that are no ridges (coefficients ``b`` (S, 6)):
+    (vertex nodes) -> (s, I) for every edge and interior I of theirs where the slack is strictly concave with its
+    maximum inside I and at least ``-reach`` (a triangle may touch at two points, on two of its edges), one per
+    sub-simplex (an edge shared by two triangles once). A sub-simplex whose P2 nodes are all on the ridges
+    (``covered``) needs no row of its own: there q = -(w_h)^2 already (a triangle beside a ridge touches on their
+    common edge at the ridge's zero crossing; a row there depends on the ridge's)."""
+    shape, points = element(6), {}
+    for s in candidates:
+        for I in ((0, 1), (1, 2), (0, 2), (0, 1, 2)):
+            own = [cells[s, i] for i in I] + [cells[s, c] for i, j, c in EDGES if i in I and j in I]
+            if {int(v) for v in own} <= covered:
+                continue
+            out = _maximum(shape, b[s], I)
+            if out is not None and out[0] >= -reach and (out[1][list(I)] > 1e-6).all():
+                points.setdefault(tuple(sorted(int(cells[s, i]) for i in I)), (int(s), I))
+    return points
+
+
+def _ridge_start(cells, touching, r):
+    """(verts, nodes, vid, P, w) of the ridge triangles ``touching``: their vertex and P2 node rows, the vertex
+    indices per triangle, P (w's values at the nodes: a vertex's own, a midpoint's the mean of its edge's) and the
+    start w (|w| = sqrt(-r) at the vertices, the signs from each edge's midpoint: same signs where |mean| is the
+    larger); a Declined where the signs contradict."""
     verts = np.unique(cells[touching, :3])
     nodes = np.unique(cells[touching])
     vid, nid = np.searchsorted(verts, cells[touching, :3]), np.searchsorted(nodes, cells[touching])
-    # P: w's values at the nodes (a vertex's own, a midpoint's the mean of its edge's)
     i_, j_, v_ = [nid[:, :3].ravel()], [vid.ravel()], [np.ones(vid.size)]
     for a, b, m in EDGES:
         i_ += [nid[:, m], nid[:, m]]
@@ -121,7 +142,6 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     rows_, cols_, vals_ = np.concatenate(i_), np.concatenate(j_), np.concatenate(v_)
     _, first = np.unique(rows_ * len(verts) + cols_, return_index=True)      # an entry shared by triangles: once
     P = sp.csr_matrix((vals_[first], (rows_[first], cols_[first])), shape=(len(nodes), len(verts)))
-    # the start: |w| = sqrt(-r) at the vertices, signs from each edge's midpoint (same signs: |mean| the larger)
     depth = np.sqrt(np.maximum(-r[verts], 0.0))
     pairs = []
     for a, b, m in EDGES:
@@ -131,35 +151,109 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
     sign = _signs(pairs, len(verts))
     if sign is None:
         return Declined(Stop.NOT_POSED, "the touching triangles' slack is no square of one continuous function")
-    w = sign * depth
+    return verts, nodes, vid, P, sign * depth
+
+
+def _newton(energy, Gz, g, P, nodes, D, d, z, w, points, n, max_steps):
+    """Newton on the ridges' rows (module docstring) and the point contacts' tangency rows m_c(z) = 0 (``points``,
+    (s, I) each) from (``z``, ``w``): (z, w, lam, mu, where) (the ridges' node forces, the points' forces, their
+    maximisers) or a Declined."""
+    shape, nz = element(6), len(z)
     Gr, gr = Gz[nodes], g[nodes]
-    lam = sp.linalg.lsqr(Gr.T, -energy.gradient(z), atol=1e-15, btol=1e-15)[0]
+    first = _point_rows(points, D, d, z, shape)
+    if first is None:
+        return Declined(Stop.NOT_POSED, "a point contact's slack is not strictly concave on its sub-simplex")
+    lm = sp.linalg.lsqr(sp.vstack([Gr, first[0]]).T, -energy.gradient(z), atol=1e-15, btol=1e-15)[0]
+    lam, mu = lm[:len(nodes)], lm[len(nodes):]
     last = np.inf
     for _ in range(max_steps):
+        rows = _point_rows(points, D, d, z, shape)
+        if rows is None:
+            return Declined(Stop.STALL, "a point contact's slack left strict concavity during Newton")
+        C, m, hess, _ = rows
+        A = energy.tangent(z) + sum((mu_c * h for mu_c, h in zip(mu, hess)), sp.csr_matrix((nz, nz)))
         pw = P @ w
-        K = sp.bmat([[energy.tangent(z), None, Gr.T], [None, 2 * P.T @ sp.diags(lam) @ P, (sp.diags(2 * pw) @ P).T],
-                     [Gr, sp.diags(2 * pw) @ P, None]], format="csc")
-        rhs = -np.r_[energy.gradient(z) + Gr.T @ lam, 2 * P.T @ (lam * pw), Gr @ z - gr + pw ** 2]
+        rows_all = sp.vstack([Gr, C]).tocsr()
+        Wc = sp.vstack([sp.diags(2 * pw) @ P, sp.csr_matrix((len(points), len(w)))]).tocsr()
+        K = sp.bmat([[A, None, rows_all.T], [None, 2 * P.T @ sp.diags(lam) @ P, Wc.T], [rows_all, Wc, None]],
+                    format="csc")
+        rhs = -np.r_[energy.gradient(z) + rows_all.T @ np.r_[lam, mu], 2 * P.T @ (lam * pw), Gr @ z - gr + pw ** 2, m]
         try:
-            d = dense_or_sparse_lu(K).solve(rhs)
+            dx = dense_or_sparse_lu(K).solve(rhs)
         except RuntimeError:
             return Declined(Stop.SINGULAR, "the Newton system on the ridges is singular")
-        if not np.isfinite(d).all():
+        if not np.isfinite(dx).all():
             return Declined(Stop.SINGULAR, "the Newton system on the ridges is singular")
-        z, w, lam = z + d[:nz], w + d[nz:nz + len(w)], lam + d[nz + len(w):]
-        step = np.abs(d[:n]).max(initial=0.0) / max(np.abs(z[:n]).max(initial=0.0), np.finfo(float).tiny)
+        dl = dx[nz + len(w):]
+        z, w, lam, mu = z + dx[:nz], w + dx[nz:nz + len(w)], lam + dl[:len(nodes)], mu + dl[len(nodes):]
+        step = np.abs(dx[:n]).max(initial=0.0) / max(np.abs(z[:n]).max(initial=0.0), np.finfo(float).tiny)
         if step <= 1e-14 or (step <= 1e-10 and step > 0.25 * last):
             break
         last = step
     else:
         return Declined(Stop.STALL, f"Newton on the ridges did not converge in {max_steps} steps")
+    rows = _point_rows(points, D, d, z, shape)
+    if rows is None:
+        return Declined(Stop.STALL, "a point contact's slack left strict concavity during Newton")
+    return z, w, lam, mu, rows[3], rows[1]
+
+
+def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30, max_rounds: int = 4):
+    """The finish of the module docstring: ``energy`` (a :class:`~cvxcontact.backends.mixed.MixedEnergy`, e.g. with
+    the stick-slip partition's rows, on z = [x; extra], x the first ``n``), the contact rows ``G`` (N, n) with gap
+    ``g`` (r = G x - g, scaled), the P2 triangles' Bernstein map ``B`` (6 S, N), from ``z0`` (the cuts' answer);
+    ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). A point contact whose
+    force comes out negative leaves and Newton runs again from ``z0`` (at most ``max_rounds`` runs). Returns a dict
+    (z, segment, t, y: the point forces on the zero lines and at the points, beta, nodal: the forces on the rows,
+    active, points: the number of point contacts) or the Declined that stopped it."""
+    B = sp.csr_matrix(B)
+    cells = node_rows(B, 6)
+    if (cells < 0).any():
+        return Declined(Stop.NOT_POSED, "a triangle's P2 node is not one contact row")
+    nz, N = len(z0), G.shape[0]
+    Gz = sp.hstack([sp.csr_matrix(G), sp.csr_matrix((N, nz - n))]).tocsr()
+    z0 = np.asarray(z0, dtype=float)
+    r = Gz @ z0 - g
+    scale = max(float((abs(G) @ np.abs(z0[:n]) + np.abs(g)).max(initial=0.0)), np.finfo(float).tiny)
+    top, _ = bernstein_argmax((B @ r).reshape(-1, 6))
+    Q = element(6).gram((B @ r).reshape(-1, 6))
+    ev = np.sort(np.abs(np.linalg.eigvalsh(Q)), axis=1)           # ascending magnitudes
+    ridge = ev[:, 1] <= RANK * ev[:, 2]
+    near = top >= -TOUCHING * scale
+    touching = np.flatnonzero(near & ridge)
+    if not len(touching):
+        return Declined(Stop.NOT_POSED, "no triangle touches along a line")
+    start = _ridge_start(cells, touching, r)
+    if isinstance(start, Declined):
+        return start
+    _, nodes, vid, P, w0 = start
+    points = _touching_points(cells, (B @ r).reshape(-1, 6), np.flatnonzero(near & ~ridge), set(nodes.tolist()),
+                              TOUCHING * scale)
+    D, d = (B @ Gz).tocsr(), B @ g
+    for _ in range(max_rounds):
+        keys = list(points)
+        out = _newton(energy, Gz, g, P, nodes, D, d, z0.copy(), w0.copy(), [points[k] for k in keys], n, max_steps)
+        if isinstance(out, Declined):
+            return out
+        z, w, lam, mu, where, m = out
+        size = max(float(np.abs(np.r_[lam, mu]).max(initial=0.0)), np.finfo(float).tiny)
+        negative = mu < -MEASURE_ROUNDING * size
+        if not negative.any():
+            break
+        for k in [keys[i] for i in np.flatnonzero(negative)]:
+            del points[k]
+    else:
+        return Declined(Stop.CYCLE, f"the point contacts beside the ridges did not settle in {max_rounds} runs")
     r = Gz @ z - g
     top, _ = bernstein_argmax((B @ r).reshape(-1, 6))
-    if np.abs(r[nodes] + (P @ w) ** 2).max(initial=0.0) > tol * scale:
+    if max(np.abs(r[nodes] + (P @ w) ** 2).max(initial=0.0), np.abs(m).max(initial=0.0)) > tol * scale:
         return Declined(Stop.STALL, "Newton on the ridges stopped with its rows unmet")
     if (top > tol * scale).any():
         return Declined(Stop.SIGNS, f"the answer on the ridges leaves a triangle's cone by "
                                     f"{float(top.max()) / scale:.1e}")
+    spots = [(points[k][0], L) for k, L in zip(keys, where)]
+    if any(np.any(L[list(points[k][1])] <= 0) for k, L in zip(keys, where)):
+        return Declined(Stop.SIGNS, "a point contact's maximiser left its sub-simplex")
     # the forces: non-negative point forces on each triangle's zero segment
     seg, pts = [], []
     wv = w[vid]
@@ -185,7 +279,9 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30):
         return Declined(Stop.SIGNS, f"the forces on the ridges are no non-negative measure on their zero lines "
                                     f"(misfit {misfit / size:.1e})")
     keep = y > 0
-    seg, pts, y = seg[keep], pts[keep], y[keep]
+    seg = np.r_[seg[keep], np.array([s for s, _ in spots], dtype=int)]
+    pts = np.vstack([pts[keep]] + [L[None, :] for _, L in spots])
+    y = np.r_[y[keep], np.maximum(mu, 0.0)]
     nodal, active = point_read_back(B, seg, pts, y, y > 0)
     return {"z": z, "segment": seg, "t": pts, "y": y, "beta": point_duals(len(cells), seg, pts, y), "nodal": nodal,
-            "active": active}
+            "active": active, "points": len(spots)}

@@ -62,41 +62,17 @@ SAMPLES = 41
 EDGES = ((0, 1, 3), (1, 2, 4), (2, 0, 5))
 
 
-def _signs(pairs, count) -> np.ndarray | None:
-    """±1 per vertex from ``pairs`` (i, j, same, weight): w_i w_j >= 0 where ``same``, the relations of larger
-    ``weight`` first (a spanning forest, union-find with parity); None where a relation of weight above
-    :data:`SIGN_WEIGHT` of the largest contradicts it (a vertex where w is 0 to rounding relates to none)."""
-    parent, parity = list(range(count)), [0] * count
-
-    def root(i):
-        p = 0
-        while parent[i] != i:
-            p ^= parity[i]
-            i = parent[i]
-        return i, p
-
-    heaviest = max((p[3] for p in pairs), default=0.0)
-    for i, j, same, weight in sorted(pairs, key=lambda p: -p[3]):
-        (ri, pi), (rj, pj) = root(i), root(j)
-        flip = 0 if same else 1
-        if ri != rj:
-            parent[ri], parity[ri] = rj, pi ^ pj ^ flip
-        elif (pi ^ pj) != flip and weight > SIGN_WEIGHT * heaviest:
-            return None
-    return np.array([1.0 - 2.0 * root(i)[1] for i in range(count)])
-
-
 def _point_rows(points, D, d, z, shape):
     """The tangency rows of the point contacts ``points`` ((s, I) each) at ``z`` (:func:`~cvxcontact.backends.
     tangency._maximum`, docs/formulation.md §18): (C, m, H, where) the rows' gradients (sparse), their values
     m(Q), the second derivatives' matrices (-2 J^T M J per row, the multipliers' weights not applied) and the
-    maximisers; None where a sub-simplex's slack is not strictly concave there."""
+    maximisers; or the index of the first point whose sub-simplex's slack is not strictly concave there."""
     rows, vals, hess, where = [], [], [], []
-    for s, I in points:
+    for c, (s, I) in enumerate(points):
         Ds = D[6 * s:6 * s + 6]
         out = _maximum(shape, Ds @ z - d[6 * s:6 * s + 6], I)
         if out is None:
-            return None
+            return c
         m, L, M = out
         J = sp.vstack([sum(L[j] * Ds[shape.index(i, j)] for j in I) for i in I]).tocsr()
         rows.append(sp.csr_matrix(shape.basis(L[None, :])) @ Ds)
@@ -127,49 +103,68 @@ def _touching_points(cells, b, candidates, covered, reach) -> dict:
 
 
 def _ridge_start(cells, touching, r):
-    """(verts, nodes, vid, P, w) of the ridge triangles ``touching``: their vertex and P2 node rows, the vertex
-    indices per triangle, P (w's values at the nodes: a vertex's own, a midpoint's the mean of its edge's) and the
-    start w (|w| = sqrt(-r) at the vertices, the signs from each edge's midpoint: same signs where |mean| is the
-    larger); a Declined where the signs contradict."""
+    """(nodes, vid, P, w, sign) of the ridge triangles ``touching``: their P2 node rows, the vertex indices per
+    triangle, P (w's values at the nodes: a vertex's own, a midpoint's (w_a + s w_b) / 2, s = ±1 the edge's relation
+    of its vertices' signs), the start w = sqrt(-r) at the vertices and each triangle's s along :data:`EDGES`
+    (k, 3); a Declined where a triangle's relations admit no signs of its own. An edge's s is read from its
+    midpoint's slack (same signs: |mean| the larger); on each ridge
+    the three relations' product is +1 (q = -(v . L)^2: s_ab = sign(v_a v_b)); where it is not, the relation
+    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0
+    to the start's rounding: either sign holds). The relations are per edge, not per vertex: around a triangle
+    that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist around a
+    triangle bounded by three ridges), each ridge's square is still that of a linear function."""
     verts = np.unique(cells[touching, :3])
     nodes = np.unique(cells[touching])
     vid, nid = np.searchsorted(verts, cells[touching, :3]), np.searchsorted(nodes, cells[touching])
+    depth = np.sqrt(np.maximum(-r[verts], 0.0))
+    same, weight = {}, {}
+    for k, s in enumerate(touching):
+        for a, b, m in EDGES:
+            key = tuple(sorted((int(vid[k, a]), int(vid[k, b]))))
+            da, db, dm = depth[key[0]], depth[key[1]], -r[cells[s, m]]
+            same[key] = 1.0 if abs(((da + db) / 2) ** 2 - dm) <= abs(((da - db) / 2) ** 2 - dm) else -1.0
+            weight[key] = da * db
+    heaviest = max(weight.values(), default=0.0)
+    keys = [[tuple(sorted((int(vid[k, a]), int(vid[k, b])))) for a, b, _ in EDGES] for k in range(len(touching))]
+    for edges in keys:
+        if np.prod([same[e] for e in edges]) < 0:
+            light = min(edges, key=lambda e: weight[e])
+            if weight[light] > SIGN_WEIGHT * heaviest:
+                return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
+            same[light] = -same[light]
+    if any(np.prod([same[e] for e in edges]) < 0 for edges in keys):
+        return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
+    lo = np.array([[e[0] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
+    hi = np.array([[e[1] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
+    sign = np.array([[same[e] for e in edges] for edges in keys]).reshape(-1, 3)
     i_, j_, v_ = [nid[:, :3].ravel()], [vid.ravel()], [np.ones(vid.size)]
-    for a, b, m in EDGES:
+    for c, (_, _, m) in enumerate(EDGES):            # a midpoint: (w_lo + s w_hi) / 2, lo the lower vertex index
         i_ += [nid[:, m], nid[:, m]]
-        j_ += [vid[:, a], vid[:, b]]
-        v_ += [np.full(len(touching), 0.5)] * 2
+        j_ += [lo[:, c], hi[:, c]]
+        v_ += [np.full(len(touching), 0.5), 0.5 * sign[:, c]]
     rows_, cols_, vals_ = np.concatenate(i_), np.concatenate(j_), np.concatenate(v_)
     _, first = np.unique(rows_ * len(verts) + cols_, return_index=True)      # an entry shared by triangles: once
     P = sp.csr_matrix((vals_[first], (rows_[first], cols_[first])), shape=(len(nodes), len(verts)))
-    depth = np.sqrt(np.maximum(-r[verts], 0.0))
-    pairs = []
-    for a, b, m in EDGES:
-        da, db, dm = depth[vid[:, a]], depth[vid[:, b]], -r[cells[touching, m]]
-        same = np.abs(((da + db) / 2) ** 2 - dm) <= np.abs(((da - db) / 2) ** 2 - dm)
-        pairs += list(zip(vid[:, a].tolist(), vid[:, b].tolist(), same.tolist(), (da * db).tolist()))
-    sign = _signs(pairs, len(verts))
-    if sign is None:
-        return Declined(Stop.NOT_POSED, "the touching triangles' slack is no square of one continuous function")
-    return verts, nodes, vid, P, sign * depth
+    return nodes, vid, P, depth, sign
 
 
 def _newton(energy, Gz, g, P, nodes, D, d, z, w, points, n, max_steps):
     """Newton on the ridges' rows (module docstring) and the point contacts' tangency rows m_c(z) = 0 (``points``,
     (s, I) each) from (``z``, ``w``): (z, w, lam, mu, where) (the ridges' node forces, the points' forces, their
-    maximisers) or a Declined."""
+    maximisers, their values), a Declined, or the index of a point whose slack left strict concavity on its
+    sub-simplex."""
     shape, nz = element(6), len(z)
     Gr, gr = Gz[nodes], g[nodes]
     first = _point_rows(points, D, d, z, shape)
-    if first is None:
-        return Declined(Stop.NOT_POSED, "a point contact's slack is not strictly concave on its sub-simplex")
+    if isinstance(first, int):
+        return first
     lm = sp.linalg.lsqr(sp.vstack([Gr, first[0]]).T, -energy.gradient(z), atol=1e-15, btol=1e-15)[0]
     lam, mu = lm[:len(nodes)], lm[len(nodes):]
     last = np.inf
     for _ in range(max_steps):
         rows = _point_rows(points, D, d, z, shape)
-        if rows is None:
-            return Declined(Stop.STALL, "a point contact's slack left strict concavity during Newton")
+        if isinstance(rows, int):
+            return rows
         C, m, hess, _ = rows
         A = energy.tangent(z) + sum((mu_c * h for mu_c, h in zip(mu, hess)), sp.csr_matrix((nz, nz)))
         pw = P @ w
@@ -193,8 +188,8 @@ def _newton(energy, Gz, g, P, nodes, D, d, z, w, points, n, max_steps):
     else:
         return Declined(Stop.STALL, f"Newton on the ridges did not converge in {max_steps} steps")
     rows = _point_rows(points, D, d, z, shape)
-    if rows is None:
-        return Declined(Stop.STALL, "a point contact's slack left strict concavity during Newton")
+    if isinstance(rows, int):
+        return rows
     return z, w, lam, mu, rows[3], rows[1]
 
 
@@ -203,7 +198,8 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30, m
     the stick-slip partition's rows, on z = [x; extra], x the first ``n``), the contact rows ``G`` (N, n) with gap
     ``g`` (r = G x - g, scaled), the P2 triangles' Bernstein map ``B`` (6 S, N), from ``z0`` (the cuts' answer);
     ``tol`` the largest slack accepted, over the largest reach of the rows (|G| |x| + |g|). A point contact whose
-    force comes out negative leaves and Newton runs again from ``z0`` (at most ``max_rounds`` runs). Returns a dict
+    force comes out negative, or whose slack stops being strictly concave on its sub-simplex, leaves and Newton runs
+    again from ``z0`` (at most ``max_rounds`` runs). Returns a dict
     (z, segment, t, y: the point forces on the zero lines and at the points, beta, nodal: the forces on the rows,
     active, points: the number of point contacts) or the Declined that stopped it."""
     B = sp.csr_matrix(B)
@@ -226,7 +222,7 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30, m
     start = _ridge_start(cells, touching, r)
     if isinstance(start, Declined):
         return start
-    _, nodes, vid, P, w0 = start
+    nodes, vid, P, w0, sign = start
     points = _touching_points(cells, (B @ r).reshape(-1, 6), np.flatnonzero(near & ~ridge), set(nodes.tolist()),
                               TOUCHING * scale)
     D, d = (B @ Gz).tocsr(), B @ g
@@ -235,6 +231,9 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30, m
         out = _newton(energy, Gz, g, P, nodes, D, d, z0.copy(), w0.copy(), [points[k] for k in keys], n, max_steps)
         if isinstance(out, Declined):
             return out
+        if isinstance(out, int):                # a point's slack no longer strictly concave: it leaves
+            del points[keys[out]]
+            continue
         z, w, lam, mu, where, m = out
         size = max(float(np.abs(np.r_[lam, mu]).max(initial=0.0)), np.finfo(float).tiny)
         negative = mu < -MEASURE_ROUNDING * size
@@ -257,10 +256,10 @@ def ridge_newton(energy, G, g, B, z0, n: int, tol: float, max_steps: int = 30, m
     # the forces: non-negative point forces on each triangle's zero segment
     seg, pts = [], []
     wv = w[vid]
-    for k, s in enumerate(touching):
+    for k, s in enumerate(touching):                  # along edge ab: w_a (1 - t) + s w_b t (the triangle's signs)
         ends = [np.eye(3)[a] * (1 - t) + np.eye(3)[b] * t
-                for a, b, _ in EDGES if wv[k, a] * wv[k, b] <= 0 and wv[k, a] != wv[k, b]
-                for t in [wv[k, a] / (wv[k, a] - wv[k, b])]]
+                for c, (a, b, _) in enumerate(EDGES) for wa, wb in [(wv[k, a], sign[k, c] * wv[k, b])]
+                if wa * wb <= 0 and wa != wb for t in [wa / (wa - wb)]]
         if len(ends) >= 2:                    # a line through a vertex finds it twice: the farthest two ends
             far = max(((i, j) for i in range(len(ends)) for j in range(i)),
                       key=lambda ij: float(np.abs(ends[ij[0]] - ends[ij[1]]).sum()))

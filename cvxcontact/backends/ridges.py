@@ -1,5 +1,6 @@
-"""The exact finish of the 3D P2 cones where the contact runs along lines across the triangles (ridges): Newton on the
-KKT system of q = -(w_h)^2 on the touching triangles, w_h continuous and linear on each (one unknown per vertex).
+"""The exact finish of the 3D P2 cones where the contact runs along lines across the triangles (ridges), with the
+touching points beside them: Newton on the KKT system of q = -(w_h)^2 on the ridge triangles, w_h linear on each
+(one unknown per vertex), and of m(Q) = 0 on the triangles and edges that touch at isolated points.
 
 On a P2 triangle the slack q = [u_nu] - g is one quadratic, q(L) = L^T Q L (docs/formulation.md §16). Where the
 contact zone of a flat face pressed and sheared on a plane ends in a curve (a box lifting at a corner), each touching
@@ -7,21 +8,33 @@ triangle's q reaches 0 along a whole line across it: q <= 0 vanishing on a line 
 function, q = -(v . L)^2 (Q = -v v^T, rank 1), neither an isolated tangency point (Q negative definite on the
 triangle's plane: :mod:`cvxcontact.backends.tangency`) nor an edge (q = L_k (linear), Q of rank 2). Measured on the
 sheared box of tests/friction_box_scenes.py at the cuts' answer: Q's second eigenvalue at most 1.5e-4 of the first
-on every touching triangle (tests/test_friction_p2_ridges3d.py); on the held-side box and under other shears or
-thresholds 1 to 3 touching triangles touch at isolated points instead, which this finish leaves out: it declines
-there (CHANGELOG). Neighbouring ridges restrict to the same square on their common edge, so the triangles' v are,
-up to sign, the vertex values of one continuous P1 function w_h on the touching set, and the P2 interpolant of
--(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2 node a of the touching triangles,
+on every touching triangle (tests/test_friction_p2_ridges3d.py). Neighbouring ridges restrict to the same square on
+their common edge, so the triangles' v are, up to sign, the vertex values of a P1 function w_h on the touching set
+(its sign may turn around a triangle that is no ridge: the relations of the signs are read per edge,
+:func:`_ridge_start`), and the P2 interpolant of -(w_h)^2 is -(w_h)^2 itself. The condition is then one row per P2
+node a of the ridge triangles,
 
-    r_a(x) + (P w)_a^2 = 0        (P: w's values at the nodes, a midpoint's the mean of its vertices'),
+    r_a(x) + (P w)_a^2 = 0        (P: w's values at the nodes, a midpoint's (w_a ± w_b) / 2),
 
 with the unknowns w beside x: Newton on the Lagrangian E(x) + lam^T (r(x) + (P w)^2), whose Hessian in w is
-2 P^T diag(lam) P and whose stationarity in w, P^T (lam * P w) = 0, holds the forces lam to where w_h vanishes. The
-contact set is the zero line of w_h; the nodal forces lam are the answer's exactly where they are those of a
-non-negative measure on it: point forces y >= 0 along each triangle's zero segment fitted to lam by non-negative
-least squares (:data:`MEASURE_ROUNDING`). Accepted where the steps reach rounding, q <= 0 holds on every triangle (its
-exact Bernstein maximum) and the fit holds; the answer is then the point forces (a cut's read-back). Else a
-:class:`~cvxcontact.backends.finish.declined.Declined` saying why."""
+2 P^T diag(lam) P and whose stationarity in w, P^T (lam * P w) = 0, holds the forces lam to where w_h vanishes.
+
+Where touching points and ridges mix (the held-side box, the box under most other shears and thresholds: 1 to 3
+touching triangles no ridge, their form's second eigenvalue 5e-2 .. 0.35 of the first), such a triangle touches at
+an isolated point of an edge or of its inside, and there the condition is the tangency finish's row m(Q) = 0 (the
+maximum of q over that sub-simplex, smooth where q is strictly concave on it; its gradient the point row at the
+maximiser, its second derivative the curvature term mu_c H_c in the Hessian: :func:`~cvxcontact.backends.tangency.
+_maximum`), posed in the same Newton system. A touching point on an edge whose P2 nodes are all the ridges' (a
+triangle beside a ridge touching at the ridge's zero crossing on their common edge) has no row of its own: q there
+is -(w_h)^2 already, and that row would depend on the ridges'. A triangle may touch at two points (on two edges).
+
+The contact set is the zero line of w_h and the points; the nodal forces lam are the answer's exactly where they are
+those of a non-negative measure on the lines (point forces y >= 0 along each triangle's zero segment fitted to lam
+by non-negative least squares, :data:`MEASURE_ROUNDING`) and the points' forces mu are non-negative (one that is
+not leaves the structure, as does a point whose q stops being strictly concave, and Newton runs again). Accepted
+where the steps reach rounding with every row met, q <= 0 holds on every triangle (its exact Bernstein maximum),
+each maximiser lies inside its sub-simplex and the fit holds; the answer is then the point forces (a cut's
+read-back). Else a :class:`~cvxcontact.backends.finish.declined.Declined` saying why."""
 
 from __future__ import annotations
 
@@ -49,12 +62,13 @@ the forces (measured 1.7e-16 on the sheared box; 0.15 where a touching triangle 
 
 RANK = 1e-2
 """A touching triangle is a ridge where the second largest eigenvalue of its form Q (in magnitude) is at most this
-times the largest (measured at most 1.5e-4 on the sheared box's ridges, tests/test_friction_p2_ridges3d.py)."""
+times the largest (measured at most 1.5e-4 on the sheared box's ridges, tests/test_friction_p2_ridges3d.py); the
+others touch at isolated points (measured 5.1e-2 .. 2.8e-1 on the held-side box)."""
 
 SIGN_WEIGHT = 1e-6
-"""An edge's relation of its vertices' signs (from its midpoint's slack) is read only where the product of their
-depths |w_a| |w_b| exceeds this fraction of the largest (else one of them is 0 to the start's rounding and either
-sign holds)."""
+"""An edge's relation of its vertices' signs (from its midpoint's slack) that breaks its triangle's own signs flips
+only where the product of their depths |w_a| |w_b| is at most this fraction of the largest (one of them is then 0 to
+the start's rounding and either sign holds); above it the finish declines."""
 
 SAMPLES = 41
 """Point forces per triangle's zero segment in the fit (equally spaced, ends included)."""

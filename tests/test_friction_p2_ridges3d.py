@@ -190,10 +190,11 @@ def test_the_normal_forces_are_a_non_negative_measure_on_the_zero_set(name, shar
     """The rest of the cone condition's KKT, read here: the answer's forces are K u - f (K, f the body's P2 stiffness
     and loads assembled here, on its free dofs): 0 off the bottom (measured 2.2e-14 sheared, 4.4e-14 held side, of
     |f|), the reported normal forces at its nodes (measured 9.4e-16, 8.2e-16 of the largest); these are the P2
-    nodal forces of non-negative point forces at 201 points of each touching triangle's zero line (found here from its form) and at the points where a
-    touching triangle with no zero line reaches 0 (:func:`_zero_points`), fitted by non-negative least squares to
-    1e-12 of |F| (measured 4.4e-16, 2.6e-16): a non-negative measure on the contact set. With q <= 0 (above) and
-    Tresca's law (tests/test_friction_p2_lifting3d.py) the answer is the minimiser."""
+    nodal forces of non-negative point forces at 201 points of each touching triangle's zero line (found here from
+    its form) and at the points where a touching triangle with no zero line reaches 0 (:func:`_zero_points`),
+    fitted by non-negative least squares to 1e-12 of |F| (measured 4.4e-16, 2.6e-16): a non-negative measure on
+    the contact set. With q <= 0 (above) and Tresca's law (tests/test_friction_p2_lifting3d.py) the answer is the
+    minimiser."""
     sol = shared(*lifting_key(name))[0]
     body = LIFTING[name](cc.Tresca(3e6)).bodies[0]
     nodes = P2TetNodes(body.mesh)

@@ -7,8 +7,11 @@ displacements: on every bottom triangle that touches the floor the slack q = -u_
 function (q = -(v . L)^2 c, its 3 x 3 form of rank 1): q vanishes along a line across the triangle (a ridge), not at
 an isolated point nor along an edge (q = L_k (linear): a form of rank 2); and the finish does not depend on where the
 cuts that start it stopped; the normal forces (K u - f at the contact nodes, K and f assembled here) are those of a
-non-negative measure on the zero lines found here. tests/test_friction_p2_lifting3d.py checks the same answer
-against Tresca's law (the solves shared with it: conftest's ``shared``)."""
+non-negative measure on the zero lines found here. The box with its left side held (tests/friction_box_scenes.py),
+where 3 of the 18 touching triangles touch at isolated points (on edges) beside 15 ridges, is finished by the same
+Newton with the points' tangency rows: read the same way (the zero points found here in closed form), under
+mirroring, and from cuts stopped at 1e-8. tests/test_friction_p2_lifting3d.py checks the same answers against
+Tresca's law (the solves shared with it: conftest's ``shared``)."""
 
 import numpy as np
 import pytest

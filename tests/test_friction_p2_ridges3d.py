@@ -168,23 +168,23 @@ def test_the_held_side_box_is_finished_at_points_and_on_ridges(held):
 @pytest.mark.numerics
 def test_the_held_side_box_is_invariant_under_mirroring(held):
     """The held-side box mirrored about y = 1/2 (its mesh the mirror image of the first, its shear along -y): the
-    mirrored answer, finished too, to 1e-10 of the displacements (measured MEAS_MIRROR)."""
+    mirrored answer, finished too, to 1e-11 of the displacements (measured 6.5e-15)."""
     mirrored, seen = watched_p2(held_side(cc.Tresca(3e6), mesh=mirrored_box(), q=-0.2 * P))
     assert seen == [True]
     a, b = held[0], mirrored
     at = {tuple(np.round(p, 9)): i for i, p in enumerate(b.points[0])}
     image = np.array([at[tuple(np.round(p * [1.0, -1.0, 1.0] + [0.0, 1.0, 0.0], 9) + 0.0)] for p in a.points[0]])
-    assert np.abs(b.u[0][image] * [1.0, -1.0, 1.0] - a.u[0]).max() <= 1e-10 * np.abs(a.u[0]).max()
+    assert np.abs(b.u[0][image] * [1.0, -1.0, 1.0] - a.u[0]).max() <= 1e-11 * np.abs(a.u[0]).max()
 
 
 @pytest.mark.numerics
 def test_the_held_side_finish_does_not_depend_on_where_the_cuts_stop(held, monkeypatch):
-    """The cuts stopped at 1e-8 (10x the package's stop) and finished: the same answer to 1e-12 of the
-    displacements (measured MEAS_STOP; benchmarks/results/friction_p2_tangency3d.md: 1e-8 .. 1e-11)."""
+    """The cuts stopped at 1e-8 (10x the package's stop) and finished: the same answer to 1e-11 of the
+    displacements (measured 2.4e-14; benchmarks/results/friction_p2_tangency3d.md: 1e-7 .. 1e-11)."""
     monkeypatch.setattr(friction, "CONE_ROUNDING", 1e-8)
     sol, seen = watched_p2(held_side(cc.Tresca(3e6)))
     assert seen == [True]
-    assert np.abs(sol.u[0] - held[0].u[0]).max() <= 1e-12 * np.abs(held[0].u[0]).max()
+    assert np.abs(sol.u[0] - held[0].u[0]).max() <= 1e-11 * np.abs(held[0].u[0]).max()
 
 
 @pytest.mark.numerics

@@ -1,7 +1,7 @@
 """Benchmark: how far the friction finish under the 3D P2 cones stands from the exact answer (Tresca, "gamma3").
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=.:tests \\
-        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [shears]
+        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [held] [shears]
 
 ``sphere``: a rigid sphere pressed 5 mm into a clamped P2 block (tests/scenes3d.py ``sphere_into_block``, 4 x 4 x 2
 cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish
@@ -93,6 +93,16 @@ def boxes() -> None:
                   f"{done.cpu:.1f} |", flush=True)
 
 
+def held() -> None:
+    make = lambda: fb.held_side(cc.Tresca(3e6))
+    ref = solve(make())
+    print(f"held side at the package's stop: finished {ref.finished}, CPU {ref.cpu:.1f} s\n")
+    print("| cuts' stop | finished | its answer from the package's | CPU s |\n|---|---|---|---|")
+    for tol in (1e-7, 1e-8, 1e-10, 1e-11):
+        done = solve(make(), tol)
+        print(f"| {tol:.0e} | {done.finished} | {apart(done, ref):.2e} | {done.cpu:.1f} |", flush=True)
+
+
 def shears() -> None:
     P = fs.P
     scenes = {f"box ({a}, {b}) p, Tresca {c / 1e6} MPa": (lambda a=a, b=b, c=c: fs.box((a * P, b * P), cc.Tresca(c)))
@@ -111,4 +121,4 @@ if __name__ == "__main__":
     warnings.simplefilter("ignore")
     which = sys.argv[1:] or ["sphere", "boxes"]
     for name in which:
-        {"sphere": sphere, "boxes": boxes, "shears": shears}[name]()
+        {"sphere": sphere, "boxes": boxes, "held": held, "shears": shears}[name]()

@@ -118,37 +118,17 @@ def _touching_points(cells, b, candidates, covered, reach) -> dict:
     return points
 
 
-def _vertex_signs(same, weight, count) -> np.ndarray:
-    """±1 per vertex from the edges' relations ``same`` ((a, b) -> ±1), the relations of larger ``weight`` first
-    (a spanning forest, union-find with parity; a relation that closes a cycle is not read)."""
-    parent, parity = list(range(count)), [0] * count
-
-    def root(i):
-        p = 0
-        while parent[i] != i:
-            p ^= parity[i]
-            i = parent[i]
-        return i, p
-
-    for (i, j), s in sorted(same.items(), key=lambda item: -weight[item[0]]):
-        (ri, pi), (rj, pj) = root(i), root(j)
-        if ri != rj:
-            parent[ri], parity[ri] = rj, pi ^ pj ^ (0 if s > 0 else 1)
-    return np.array([1.0 - 2.0 * root(i)[1] for i in range(count)])
-
-
 def _ridge_start(cells, touching, r):
     """(nodes, vid, P, w, sign) of the ridge triangles ``touching``: their P2 node rows, the vertex indices per
     triangle, P (w's values at the nodes: a vertex's own, a midpoint's (w_a + s w_b) / 2, s = ±1 the edge's relation
     of its vertices' signs), the start w = sqrt(-r) at the vertices and each triangle's s along :data:`EDGES`
-    (k, 3). An edge's s is read from its midpoint's slack (same signs: |mean| the larger); on each ridge the three
-    relations' product is +1 (q = -(v . L)^2: s_ab = sign(v_a v_b)); where it is not, the relation of least weight
-    |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0 to the start's
-    rounding: either sign holds); else one sign per vertex is read instead, from the relations of largest weight
-    (:func:`_vertex_signs`; the box sheared along a diagonal under Coulomb). The relations are per edge, not per
-    vertex: around a triangle that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p:
-    one such twist around a triangle bounded by three ridges), each ridge's square is still that of a linear
-    function."""
+    (k, 3); a Declined where a triangle's relations admit no signs of its own. An edge's s is read from its
+    midpoint's slack (same signs: |mean| the larger); on each ridge
+    the three relations' product is +1 (q = -(v . L)^2: s_ab = sign(v_a v_b)); where it is not, the relation
+    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0
+    to the start's rounding: either sign holds). The relations are per edge, not per vertex: around a triangle
+    that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist around a
+    triangle bounded by three ridges), each ridge's square is still that of a linear function."""
     verts = np.unique(cells[touching, :3])
     nodes = np.unique(cells[touching])
     vid, nid = np.searchsorted(verts, cells[touching, :3]), np.searchsorted(nodes, cells[touching])
@@ -165,11 +145,11 @@ def _ridge_start(cells, touching, r):
     for edges in keys:
         if np.prod([same[e] for e in edges]) < 0:
             light = min(edges, key=lambda e: weight[e])
-            if weight[light] > SIGN_WEIGHT * heaviest:          # one sign per vertex instead (a spanning forest)
-                sign = _vertex_signs(same, weight, len(verts))
-                same = {e: sign[e[0]] * sign[e[1]] for e in same}
-                break
+            if weight[light] > SIGN_WEIGHT * heaviest:
+                return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
             same[light] = -same[light]
+    if any(np.prod([same[e] for e in edges]) < 0 for edges in keys):
+        return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
     lo = np.array([[e[0] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
     hi = np.array([[e[1] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
     sign = np.array([[same[e] for e in edges] for edges in keys]).reshape(-1, 3)
@@ -267,7 +247,10 @@ def _ridge_newton(energy, G, g, B, z0, n, tol, max_steps, max_rounds, rank):
     touching = np.flatnonzero(near & ridge)
     if not len(touching):
         return Declined(Stop.NOT_POSED, "no triangle touches along a line")
-    nodes, vid, P, w0, sign = _ridge_start(cells, touching, r)
+    start = _ridge_start(cells, touching, r)
+    if isinstance(start, Declined):
+        return start
+    nodes, vid, P, w0, sign = start
     points = _touching_points(cells, (B @ r).reshape(-1, 6), np.flatnonzero(near & ~ridge), set(nodes.tolist()),
                               TOUCHING * scale)
     D, d = (B @ Gz).tocsr(), B @ g

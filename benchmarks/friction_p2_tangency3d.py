@@ -1,7 +1,7 @@
 """Benchmark: how far the friction finish under the 3D P2 cones stands from the exact answer (Tresca, "gamma3").
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=.:tests \\
-        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes]
+        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [held] [shears]
 
 ``sphere``: a rigid sphere pressed 5 mm into a clamped P2 block (tests/scenes3d.py ``sphere_into_block``, 4 x 4 x 2
 cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish
@@ -10,7 +10,9 @@ off) at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer fini
 the cuts' alone to the frictionless cones' exact answer (the tangency Newton). ``boxes``: the 3D boxes lifting at a
 corner (tests/friction_box_scenes.py), where the tangency Newton declines and the sheared box is finished on its
 ridges (``ridges.ridge_newton``): at cuts' stops 1e-7 .. 1e-11 the answer finished from them and the cuts' alone
-against the one at the package's stop. Distances: the largest displacement difference over the largest
+against the one at the package's stop. ``shears``: the box under other shears and thresholds, the held-side box and
+Coulomb on the box sheared along a diagonal (where touching points and ridges mix): finished or not, and the cuts'
+answer alone against the finished one. Distances: the largest displacement difference over the largest
 displacement.
 """
 
@@ -52,7 +54,7 @@ def solve(scene, tol=None, polish=True):
     try:
         t0 = time.process_time()
         sol = cc.solve(scene, **P2)
-        sol.cpu, sol.finished = time.process_time() - t0, any(seen)
+        sol.cpu, sol.finished = time.process_time() - t0, (sum(seen), len(seen)) if len(seen) > 1 else any(seen)
         return sol
     finally:
         frictiontangency._polish, friction.CONE_ROUNDING = kept, cut
@@ -77,7 +79,8 @@ def sphere() -> None:
 def boxes() -> None:
     P = fs.P
     scenes = {"sheared": lambda: fs.box((0.2 * P, 0.1 * P), cc.Tresca(3e6)),
-              "held side": lambda: fb.held_side(cc.Tresca(3e6))}
+              "held side": lambda: fb.held_side(cc.Tresca(3e6)),
+              "held side mirrored": lambda: fb.held_side(cc.Tresca(3e6), mesh=fb.mirrored_box(), q=-0.2 * P)}
     for name, make in scenes.items():
         ref = solve(make())
         print(f"\nbox {name}: at the package's stop (1e-9) finished at the tangency points or on the ridges: "
@@ -90,8 +93,32 @@ def boxes() -> None:
                   f"{done.cpu:.1f} |", flush=True)
 
 
+def held() -> None:
+    make = lambda: fb.held_side(cc.Tresca(3e6))
+    ref = solve(make())
+    print(f"held side at the package's stop: finished {ref.finished}, CPU {ref.cpu:.1f} s\n")
+    print("| cuts' stop | finished | its answer from the package's | CPU s |\n|---|---|---|---|")
+    for tol in (1e-7, 1e-8, 1e-10, 1e-11):
+        done = solve(make(), tol)
+        print(f"| {tol:.0e} | {done.finished} | {apart(done, ref):.2e} | {done.cpu:.1f} |", flush=True)
+
+
+def shears() -> None:
+    P = fs.P
+    scenes = {f"box ({a}, {b}) p, Tresca {c / 1e6} MPa": (lambda a=a, b=b, c=c: fs.box((a * P, b * P), cc.Tresca(c)))
+              for a, b, c in ((-0.2, 0.1, 3e6), (0.2, -0.1, 3e6), (0.2, 0.0, 3e6), (0.0, 0.2, 3e6), (0.2, 0.2, 3e6),
+                              (0.2, 0.1, 2.5e6), (0.2, 0.1, 5e6))}
+    scenes["held side, Tresca 3 MPa"] = lambda: fb.held_side(cc.Tresca(3e6))
+    scenes["box sheared 0.2 p along a diagonal, Coulomb 0.3"] = \
+        lambda: fb.sheared(0.2 * fb.P * fb.DIAGONAL, cc.Coulomb(0.3))
+    print("| scene | finishes (one per polish) | cuts' alone from the answer | CPU s |\n|---|---|---|---|")
+    for name, make in scenes.items():
+        done, cuts = solve(make()), solve(make(), polish=False)
+        print(f"| {name} | {done.finished} | {apart(cuts, done):.2e} | {done.cpu:.1f} |", flush=True)
+
+
 if __name__ == "__main__":
     warnings.simplefilter("ignore")
     which = sys.argv[1:] or ["sphere", "boxes"]
     for name in which:
-        {"sphere": sphere, "boxes": boxes}[name]()
+        {"sphere": sphere, "boxes": boxes, "held": held, "shears": shears}[name]()

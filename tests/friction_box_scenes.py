@@ -49,13 +49,21 @@ def pair(law, stiffer, q):
     return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law)])
 
 
-def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False):
+def mirrored_box():
+    """:data:`BOX` reflected about y = 1/2: its tetrahedra (and tagged faces) the mirror images of the first's, their
+    vertices reordered to keep the orientation; the tags as they were (front and back swap places)."""
+    return cc.TetMesh(BOX.points * [1.0, -1.0, 1.0] + [0.0, 1.0, 0.0], BOX.tets[:, [0, 2, 1, 3]],
+                      {t: BOX.boundary(t)[:, ::-1] for t in BOX.tags})
+
+
+def held_side(law, q=0.2 * P, nu=0.3, push=None, tied=False, mesh=BOX):
     """The box pressed on the plane, its left side held along x, sheared by (0, q) on its top; ``push``: its
-    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces."""
-    mesh, held = BOX, {"left": (0.0, None, None)}
+    front side moved by (., push, .); ``tied``: frictionless, u_x = u_y = 0 on the contact faces; ``mesh``: the
+    box's mesh (e.g. :func:`mirrored_box`)."""
+    held = {"left": (0.0, None, None)}
     if tied:
-        mesh = cc.TetMesh(BOX.points, BOX.tets, {**{t: BOX.boundary(t) for t in BOX.tags},
-                                                 "base": BOX.boundary("bottom")})
+        mesh = cc.TetMesh(mesh.points, mesh.tets, {**{t: mesh.boundary(t) for t in mesh.tags},
+                                                   "base": mesh.boundary("bottom")})
         held["base"] = (0.0, 0.0, None)
     if push is not None:
         held["front"] = (None, push, None)

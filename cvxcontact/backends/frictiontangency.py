@@ -16,10 +16,10 @@ into a P2 block, tests/test_friction_p2_tangency3d.py). Where a face pressed and
 (q = -(v . L)^2: Q of rank 1, a ridge; its form's second eigenvalue 1.5e-4 of the first at most at the cuts' answer
 of the sheared box), neither an isolated point nor an edge: the tangency Newton reads those triangles as flat, holds
 their lifted nodes down and does not converge. There :func:`~cvxcontact.backends.ridges.ridge_newton` runs with the
-same energy and rows (q = -(w_h)^2, w_h continuous P1 on the touching triangles; accepted where its forces are a
-non-negative measure on w_h's zero lines), then the same acceptance below; where both decline the cuts' answer
-stands (measured: the held-side box, 3 of whose touching triangles touch at isolated points and 15 along lines;
-benchmarks/results/friction_p2_tangency3d.md).
+same energy and rows (q = -(w_h)^2, w_h P1 on the ridge triangles, and the tangency rows m(Q) = 0 of the
+triangles beside them that touch at isolated points, in one Newton system: the held-side box; accepted where its
+forces are a non-negative measure on w_h's zero lines and the points), then the same acceptance below; where both
+decline the cuts' answer stands (benchmarks/results/friction_p2_tangency3d.md).
 
 With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
 linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,

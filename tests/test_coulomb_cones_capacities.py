@@ -88,21 +88,30 @@ def test_a_sliding_stack_of_a_cones_pair_and_a_nodal_pair_keeps_coulombs_bounds(
         assert (np.abs(c.row_shear) - c.threshold).max() <= 1e-10 * c.threshold.max()
 
 
+def _dragged_box(once, mu):
+    """A P2 box (3 x 3 x 1 cells) pressed and dragged on a rigid sphere under "gamma3" with Coulomb's ``mu``,
+    solved once per module (``once``: the two tests below read the mu = 0.2 answer)."""
+    def make():
+        b = cc.Body(cc.box(x=(-0.5, 0.5), y=(-0.5, 0.5), z=(0.0, 0.5), nx=3, ny=3, nz=1), steel(), contact="bottom",
+                    displacement={"top": (2e-5, 1e-5, -1e-4)})
+        ball = cc.Rigid.sphere(center=(0.0, 0.0, -2.0), radius=2.0)
+        return cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", ball, law=cc.Coulomb(mu),
+                                                         condition="gamma3")]), degree=2)
+
+    return once(("dragged box", mu), make)
+
+
 @pytest.mark.numerics
 @pytest.mark.parametrize("mu", [0.2, 0.5])
-def test_3d_a_box_dragged_on_a_sphere_takes_friction_only_where_the_cones_nodal_force_is_positive(mu):
+def test_3d_a_box_dragged_on_a_sphere_takes_friction_only_where_the_cones_nodal_force_is_positive(once, mu):
     """A P2 box pressed and dragged on a rigid sphere under "gamma3" (the contact ends inside faces: negative nodal
     forces beside it): at every node |f_a| <= mu max(r_a, 0), r the nodal normal force (``force``; Coulomb's
     capacities only take force from positive nodes; measured at most 0.994 of it, 0 where r_a < 0), so the total
     friction is at most mu sum r; the threshold >= 0."""
-    b = cc.Body(cc.box(x=(-0.5, 0.5), y=(-0.5, 0.5), z=(0.0, 0.5), nx=3, ny=3, nz=1), steel(), contact="bottom",
-                displacement={"top": (2e-5, 1e-5, -1e-4)})
-    ball = cc.Rigid.sphere(center=(0.0, 0.0, -2.0), radius=2.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
         warnings.simplefilter("ignore", cc.ResolutionWarning)
-        sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", ball, law=cc.Coulomb(mu),
-                                                        condition="gamma3")]), degree=2)
+        sol = _dragged_box(once, mu)
     assert sol.ok and sol.polished, sol.info.declined
     c = sol.contacts[0]
     assert c.force.min() < 0                             # the case at stake
@@ -113,19 +122,15 @@ def test_3d_a_box_dragged_on_a_sphere_takes_friction_only_where_the_cones_nodal_
 
 
 @pytest.mark.numerics
-def test_3d_the_reported_threshold_is_positive_wherever_friction_acts_on_a_sphere():
+def test_3d_the_reported_threshold_is_positive_wherever_friction_acts_on_a_sphere(once):
     """The box of the test above (mu = 0.2): wherever the answer applies a friction force (|f_a| > 0, a capacity
     mu p_a > 0) the reported threshold must be > 0, and 0 where the capacity is 0 (r_a < 0); the shear read on the
     same areas never above it. Before (main too): nodes with |f_a| = 7.2e3 N (slipping) reported threshold 0 (mu
     max(lam, 0), lam < 0 there), nodes with r_a < 0 (|f_a| = 0) 1.2e7 Pa; now the capacities over the areas the
     shear is read on."""
-    b = cc.Body(cc.box(x=(-0.5, 0.5), y=(-0.5, 0.5), z=(0.0, 0.5), nx=3, ny=3, nz=1), steel(), contact="bottom",
-                displacement={"top": (2e-5, 1e-5, -1e-4)})
-    ball = cc.Rigid.sphere(center=(0.0, 0.0, -2.0), radius=2.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
-        sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", ball, law=cc.Coulomb(0.2),
-                                                        condition="gamma3")]), degree=2)
+        sol = _dragged_box(once, 0.2)
     c = sol.contacts[0]
     f = np.linalg.norm(c.shear_force, axis=1)
     acts = f > 1e-9 * f.max()

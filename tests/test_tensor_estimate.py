@@ -213,13 +213,19 @@ def _true_error(sol, ref) -> float:
     return float(np.sqrt(e @ (K @ e)))
 
 
-def _effectivities(cell, degree, levels, reference):
+def _smooth_solved(once, cell, n, degree):
+    """The smooth block (:func:`_smooth`) of n cells per metre solved in the space of ``degree``: one solve per
+    module (``once``), read by the effectivity tests of both degrees (the Q2 reference) and the Q1/Q2 comparison."""
+    return once(("smooth", cell, n, degree), lambda: cc.solve(_smooth(cell, n), "sigma1", degree=degree))
+
+
+def _effectivities(once, cell, degree, levels, reference):
     """(estimates, true errors) of the smooth block at ``levels`` cells per metre against Q2 at ``reference``."""
-    ref = cc.solve(_smooth(cell, reference), "sigma1", degree=2)
+    ref = _smooth_solved(once, cell, reference, 2)
     assert ref.ok
     rows = []
     for n in levels:
-        sol = cc.solve(_smooth(cell, n), "sigma1", degree=degree)
+        sol = _smooth_solved(once, cell, n, degree)
         assert sol.ok
         rows.append((sol.estimate.absolute, _true_error(sol, ref)))
     return rows
@@ -236,11 +242,11 @@ LEVELS = {"quad": ((4, 8), 32), "hex": ((2, 4), 8)}
 
 @pytest.mark.parametrize("cell", ["quad", "hex"])
 @pytest.mark.parametrize("degree", [1, 2])
-def test_effectivity_under_uniform_refinement_against_a_fine_q2_reference(cell, degree):
+def test_effectivity_under_uniform_refinement_against_a_fine_q2_reference(once, cell, degree):
     """Estimate and true error fall together under uniform refinement, the effectivity within the measured
     range widened 3x either way (as tests/conftest.py's effectivity_falls_within)."""
     levels, reference = LEVELS[cell]
-    rows = _effectivities(cell, degree, levels, reference)
+    rows = _effectivities(once, cell, degree, levels, reference)
     eff = [e / t for e, t in rows]
     print(f"\n{cell} {space(degree, cell).label}: " + ", ".join(   # the table of docs/accuracy.md (pytest -s)
         f"n={n}: estimate {e:.4g}, true error {t:.4g}, effectivity {e / t:.3g}" for n, (e, t) in zip(levels, rows)))
@@ -250,13 +256,13 @@ def test_effectivity_under_uniform_refinement_against_a_fine_q2_reference(cell, 
 
 
 @pytest.mark.parametrize("cell", ["quad", "hex"])
-def test_q2_estimates_below_q1_on_the_same_mesh_of_a_smooth_problem(cell):
+def test_q2_estimates_below_q1_on_the_same_mesh_of_a_smooth_problem(once, cell):
     """On the smooth block, the same mesh (8 cells per metre, 4 in 3D): the Q2 estimate below the Q1 estimate
     (measured ratio 0.060 on quadrilaterals, 0.136 on hexahedra)."""
     n = LEVELS[cell][0][1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
-        q1, q2 = (cc.solve(_smooth(cell, n), "sigma1", degree=d) for d in (1, 2))
+        q1, q2 = (_smooth_solved(once, cell, n, d) for d in (1, 2))
     assert q2.estimate.absolute < q1.estimate.absolute
 
 

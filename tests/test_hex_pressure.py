@@ -267,7 +267,7 @@ def test_the_pressure_q1_bodies_feel_on_crossing_faces(condition, cells):
     the Q1 hats' integral, the trapezoid weights written here: :func:`_trapezoid_rows`) interpolated by the
     constrained side's bilinear faces (1D tents as wide as its cells, written here: :func:`_interpolated`),
     non-negative; the constrained side reads its force over its hats' integral, as before."""
-    scene, sol = _crossing(condition, cells=cells, degree=1)
+    _, sol = _crossing(condition, cells=cells, degree=1)
     assert sol.ok
     c = sol.contacts[0]
     side = int(condition[-1]) - 1

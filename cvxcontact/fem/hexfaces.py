@@ -47,7 +47,9 @@ triangle diagonal A/3 and the others A/6, and it read 0.42 p to 2.2 p (a 3 x 3 f
 reads lambda_h as the pressure the constrained side feels, each node's work-equivalent force over its hat's
 integral, interpolated by the bilinear faces at the nodes of X_h: exact for a uniform pressure, non-negative
 where the forces are. The pairs take it through their public hook
-(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`).
+(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`). On faces that do not match, under a nodal
+condition, the side whose nodes carry no row feels the rows' pressures interpolated by the constrained side's faces
+(:class:`FeltFromRows`, shared with Q2's :class:`~cvxcontact.fem.q2faces.BiquadraticRows`).
 """
 
 from __future__ import annotations

@@ -7,7 +7,8 @@ residual estimate now takes from ``c.lam``. The pressure each Q2 body feels (``s
 fem/q2faces.SimpsonSurface.pressure): its nodal forces over its biquadratic hats' integrals, a uniform pressure
 read uniform on matching and nested faces and against a plane; on faces that do not match, the side whose nodes
 carry no row (fem/q2faces.BiquadraticRows.pressure) reads the rows' pressures interpolated by the constrained side's
-split faces: non-negative under non-negative forces, p under a uniform p."""
+split faces: non-negative under non-negative forces, p under a uniform p; on Q1 faces that do not match
+(fem/hexfaces.BilinearSurface.pressure) by the constrained side's bilinear faces."""
 
 import numpy as np
 import pytest
@@ -182,12 +183,12 @@ def _interpolated(x, rows, q, step):
 SIMPSON = {2: np.array([1, 4, 2, 4, 1]) / 12, 3: np.array([1, 4, 2, 4, 2, 4, 1]) / 18}
 
 
-def _crossing(condition, gap=0.0, push=DELTA, cells=(2, 3)):
-    """Q2 faces that do not match: a steel block under an aluminium one, ``cells`` x ``cells`` per side (lower
-    first; (2, 3) neither match nor nest), solved under ``condition``."""
+def _crossing(condition, gap=0.0, push=DELTA, cells=(2, 3), degree=2):
+    """Q2 (``degree`` 2) or Q1 faces that do not match: a steel block under an aluminium one, ``cells`` x ``cells``
+    per side (lower first; (2, 3) neither match nor nest), solved under ``condition``."""
     scene = pair(block(cells[0], (0.0, H)), block(cells[1], (H, 2 * H)), gap=gap, push=push,
                  materials=(STEEL, ALU), rollers=gap == 0.0)
-    return scene, cc.solve(scene, condition, degree=2)
+    return scene, cc.solve(scene, condition, degree=degree)
 
 
 def _simpson_rows(c, n):
@@ -249,3 +250,55 @@ def test_the_pressure_the_other_q2_side_feels_follows_the_forces_sign_and_reads_
     posed = space(2, "hex").contact(scene, condition, cc.Signorini()).interface
     uniform = posed.pressure(1 - side, P * w)
     assert np.abs(uniform - P).max() <= 1e-12 * P                                # measured 9.3e-16 P
+
+
+def _trapezoid_rows(points, n):
+    """(rows,) m^2: the Q1 hats' integrals at the rows at ``points`` (rows, >= 2) on the constrained side's n x n
+    faces of the unit square (the 1D trapezoid weights 1/(2 n), 1/n squared), written here."""
+    i = np.rint(np.asarray(points)[:, :2] * n).astype(int)
+    t = np.where((i == 0) | (i == n), 0.5, 1.0) / n
+    return t[:, 0] * t[:, 1]
+
+
+@pytest.mark.parametrize("condition, cells", [("sigma1", (2, 3)), ("sigma2", (2, 3)), ("sigma1", (2, 4))])
+def test_the_pressure_q1_bodies_feel_on_crossing_faces(condition, cells):
+    """Q1 faces that do not match (2 x 2 under 3 x 3 cells: neither match nor nest; under 4 x 4: nested, the
+    coarse side's rows), a uniform push: the side whose nodes carry no row reads the rows' pressures (force over
+    the Q1 hats' integral, the trapezoid weights written here: :func:`_trapezoid_rows`) interpolated by the
+    constrained side's bilinear faces (1D tents as wide as its cells, written here: :func:`_interpolated`),
+    non-negative; the constrained side reads its force over its hats' integral, as before."""
+    _, sol = _crossing(condition, cells=cells, degree=1)
+    assert sol.ok
+    c = sol.contacts[0]
+    side = int(condition[-1]) - 1
+    rows = np.flatnonzero(c.constrained)
+    points = np.asarray(c.points)[rows]
+    q = np.asarray(c.force)[rows] / _trapezoid_rows(points, cells[side])
+    for k in range(2):
+        x, felt = sol.traction(k)
+        assert felt.min() >= 0
+        y = _on_faces(sol, x)[:, :2]
+        if k == side:
+            by_hand = q[np.argmin(np.linalg.norm(y[:, None] - points[None, :, :2], axis=2), axis=1)]
+        else:
+            by_hand = _interpolated(y, points[:, :2], q, 1 / cells[side])
+        assert np.abs(felt - by_hand).max() <= 1e-10 * q.max()                 # measured <= 9.1e-16 of the max
+
+
+@pytest.mark.parametrize("condition, cells", [("sigma1", (2, 4)), ("sigma2", (4, 2)), ("sigma1", (2, 5))])
+def test_a_uniform_pressure_on_q1_rows_reads_uniform_on_the_side_without_rows(condition, cells):
+    """The forces of a uniform p on the rows of a Q1 pair on faces that do not match (p times the rows' Q1 hats'
+    integrals, written here): the side without rows reads p at every node, a finer side included (2 x 2 rows
+    under 4 x 4 faces, nested; over them; under 5 x 5 faces, crossing). Before, its work-equivalent forces over
+    its hats' integrals read 0 at the 16 of 25 nodes (4 x 4) and 20 of 36 (5 x 5) whose hats hold no row."""
+    from cvxcontact.fem.space import space
+
+    scene = pair(block(cells[0], (0.0, H)), block(cells[1], (H, 2 * H)), materials=(STEEL, ALU))
+    posed = space(1, "hex").contact(scene, condition, cc.Signorini()).interface
+    posed = getattr(posed, "interfaces", [posed])[0]
+    side = int(condition[-1]) - 1
+    rows = posed.evaluation(condition).indices
+    r = np.zeros(posed.size)
+    r[rows] = P * _trapezoid_rows(np.asarray(posed.points)[rows], cells[side])
+    assert np.abs(posed.pressure(side, r) - P).max() <= 1e-12 * P              # measured 2.7e-16 P
+    assert np.abs(posed.pressure(1 - side, r) - P).max() <= 1e-12 * P          # measured <= 1.2e-15 P

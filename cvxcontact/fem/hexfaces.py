@@ -47,7 +47,9 @@ triangle diagonal A/3 and the others A/6, and it read 0.42 p to 2.2 p (a 3 x 3 f
 reads lambda_h as the pressure the constrained side feels, each node's work-equivalent force over its hat's
 integral, interpolated by the bilinear faces at the nodes of X_h: exact for a uniform pressure, non-negative
 where the forces are. The pairs take it through their public hook
-(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`).
+(:meth:`~cvxcontact.contact.riesz.Represented.with_representer`). On faces that do not match, under a nodal
+condition, the side whose nodes carry no row feels the rows' pressures interpolated by the constrained side's faces
+(:class:`FeltFromRows`, shared with Q2's :class:`~cvxcontact.fem.q2faces.BiquadraticRows`).
 """
 
 from __future__ import annotations
@@ -55,18 +57,21 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..contact.interface import shares_to_nearest
+from ..contact.overlay import locate
 from ..contact.surface import SurfaceInterface
 from ..errors import UnsupportedError
 from .hex import bilinear_rows, face_hats, reference_points
 from .simplex import simplex_rule
 from .trace import LinearTrace
 
-__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "LumpedPressure",
-           "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows", "hex_contact", "hex_pair",
-           "independent_rows", "law_weights", "matching", "nesting", "pieces"]
+__all__ = ["FACE_TRACE", "NESTED_TOL", "BilinearSurface", "CrossingSurface", "FaceTrace", "FeltFromRows",
+           "LumpedPressure", "NestedSurface", "Nesting", "Pieces", "constrained_side", "dependent_law_rows",
+           "hex_contact", "hex_pair", "independent_rows", "law_weights", "located_hats", "matching", "nesting",
+           "pieces"]
 
 NESTED_TOL = 1e-8
 """How far (in the reference square [-1, 1]^2 of a coarse face, 2 wide) a fine face's corner may sit off the
@@ -93,7 +98,7 @@ class BilinearSurface(SurfaceInterface):
     body's faces) are then the Q1 jump exactly. Each vertex is located in an overlay triangle and with it in a
     triangle of each trace, whose face is that triangle's quadrilateral."""
 
-    def __init__(self, itf):
+    def __init__(self, itf, side: int | None = None):
         ov = itf.overlay
         triangles = np.asarray(ov.triangles)
         host = np.empty(itf.size, dtype=np.int64)
@@ -104,6 +109,31 @@ class BilinearSurface(SurfaceInterface):
             rows.append(bilinear_rows(trace.x[corners], corners, np.asarray(cell)[host] // 2,
                                       np.asarray(ov.vertices), len(trace.nodes)))
         self.__dict__.update(vars(itf.with_interpolation(rows)))
+        self.side, self._felt = side, {}
+
+    def pressure(self, k, r) -> np.ndarray:
+        """The pressure (Pa) felt by the pair's body k on its own trace nodes (``traces[k].nodes``) under the row
+        forces ``r`` (N; at the nodes of X_h). Posed under side ``side``'s nodal condition (:func:`hex_pair`), the
+        other side (its nodes are no rows) reads the rows' pressures interpolated by the constrained side's
+        bilinear faces, normalised over the rows (:class:`FeltFromRows`; q_a = r_a / w_a, w the rows'
+        :func:`law_weights`): a uniform p read p at every node in the overlap, a finer other side included. Its
+        work-equivalent forces over its hats' integrals (the constrained side's read,
+        :meth:`SurfaceInterface.pressure <cvxcontact.contact.surface.SurfaceInterface.pressure>`) read a uniform
+        p as 0 at the 16 of the 25 nodes of a 4 x 4 side over 2 x 2 rows that hold no row and 4 p at the others
+        (0 at 20 of 36 over 5 x 5; docs/formulation.md §15)."""
+        if self.side is None or k == self.side:
+            return super().pressure(k, r)
+        if k not in self._felt:
+            t = self.traces[self.side]
+            corners = _corners(t)
+            rows = np.asarray(self.sigma[self.side])
+            at = np.asarray(self.overlay.node_a if self.side == 0 else self.overlay.node_b)
+            node = np.empty(self.size, dtype=np.int64)
+            node[at[at >= 0]] = np.flatnonzero(at >= 0)          # each row's node of X_h as a node of that side
+            hats = located_hats(t, self.traces[k].x, node[rows], lambda y, face: bilinear_rows(
+                np.asarray(t.x)[corners], corners, face, y, len(t.nodes)))
+            self._felt[k] = FeltFromRows(hats, law_weights(self, f"sigma{self.side + 1}"))
+        return self._felt[k](np.asarray(r, dtype=float)[np.asarray(self.sigma[self.side])])
 
 
 @dataclass(frozen=True)
@@ -353,6 +383,44 @@ class LumpedPressure:
         return self.interp @ ((self.interp.T @ np.asarray(r, dtype=float)) / self.weights)
 
 
+class FeltFromRows:
+    """The pressure (Pa) the side of a two-body hexahedral pair on faces that do not match whose nodes carry no row
+    feels (docs/formulation.md §15): ``felt(r)`` for the row forces ``r`` (rows,) N is, at each node b of that
+    side, p_b = sum_a tau_a(x_b) q_a / sum_a tau_a(x_b), q_a = r_a / w_a the rows' pressures (``weights`` (rows,)
+    m^2: the consistent loads of a unit pressure at the rows, positive; 0 where a weight is 0) and tau_a
+    (``hats`` (v, rows): :func:`located_hats`) the constrained side's faces' hats of the rows' nodes at x_b (Q1:
+    its bilinear functions; Q2: the Q1 functions of its faces split 2 x 2, positive); 0 at a node on no
+    constrained face or whose hats hold no row. A weighted mean of the row pressures of the constrained face
+    holding the node: non-negative where the forces are, between their least and largest, a uniform p (forces
+    p w_a) read p at every node inside the overlap, a finer side included. It does not keep the total force by
+    that side's own hats' integrals."""
+
+    def __init__(self, hats, weights) -> None:
+        self.hats, self.weights = sp.csr_matrix(hats), np.asarray(weights, dtype=float)
+        self.held = np.asarray(self.hats.sum(axis=1)).ravel()
+
+    def __call__(self, r) -> np.ndarray:
+        q = np.divide(np.asarray(r, dtype=float), self.weights, out=np.zeros(len(self.weights)),
+                      where=self.weights > 0)
+        on = self.held > 0
+        out = np.zeros(len(self.held))
+        out[on] = (self.hats @ q)[on] / self.held[on]
+        return out
+
+
+def located_hats(trace, x, columns, hats) -> sp.csr_matrix:
+    """(v, len(columns)) sparse: the hats ``hats`` of the faces of the hexahedral ``trace`` (``hats(points (m, 2),
+    faces (m,))``: (m, n) sparse over ``trace.nodes``, point i in face ``faces[i]`` of its ``mesh.boundary``) at
+    the in-plane points ``x`` (v, 2) m, each in the face its triangles hold it in (face q's triangles 2 q, 2 q +
+    1 of ``trace.faces``), their columns ``columns`` (indices into ``trace.nodes``); a row of 0 at a point on no
+    face."""
+    x = np.asarray(x, dtype=float)
+    tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
+    on = np.flatnonzero(tri >= 0)
+    place = sp.csr_matrix((np.ones(len(on)), (on, np.arange(len(on)))), shape=(len(x), len(on)))
+    return (place @ hats(x[on], tri[on] // 2)).tocsc()[:, np.asarray(columns)].tocsr()
+
+
 def constrained_side(pair, condition: str) -> int:
     """The side whose nodes carry the rows of ``pair`` under ``condition`` (the obstacle's pairs: 0)."""
     if isinstance(pair, NestedSurface) and condition == "gamma3":
@@ -376,7 +444,7 @@ def hex_pair(itf, condition: str):
             cut = pieces(itf)
             if cut.rows is not None:
                 pair = CrossingSurface(itf, cut)
-    pair = pair if pair is not None else BilinearSurface(itf)
+    pair = pair if pair is not None else BilinearSurface(itf, constrained_side(itf, condition))
     side = constrained_side(pair, condition)
     return pair.with_representer(LumpedPressure(pair.interpolation(side), pair.traces[side].lumped))
 

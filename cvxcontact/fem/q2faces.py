@@ -26,10 +26,12 @@ from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
 from .hex import face_hats, reference_points
 from .hexfaces import (
+    FeltFromRows,
     LumpedPressure,
     _cross,
     _triangles_rule,
     constrained_side,
+    located_hats,
     matching,
 )
 from .quad import QuadElement
@@ -182,17 +184,10 @@ class BiquadraticRows(SimpsonSurface):
         key = ("felt", k)
         if key not in self._factors:
             t = self.traces[self.side]
-            x = np.asarray(self.traces[k].x, dtype=float)
-            tri, _ = locate(x, np.asarray(t.x), np.asarray(t.faces)[:, :3])
-            on = np.flatnonzero(tri >= 0)
-            place = sp.csr_matrix((np.ones(len(on)), (on, np.arange(len(on)))), shape=(len(x), len(on)))
-            tau = (place @ _face_rows(t, x[on], _tents)).tocsc()[:, np.asarray(self._sigma[self.side][0])].tocsr()
-            self._factors[key] = (tau, np.asarray(tau.sum(axis=1)).ravel())
-        tau, held = self._factors[key]
-        q = np.asarray(r, dtype=float) / self.law_weights(f"sigma{self.side + 1}")
-        out = np.zeros(len(held))
-        out[held > 0] = (tau @ q)[held > 0] / held[held > 0]
-        return out
+            hats = located_hats(t, self.traces[k].x, self._sigma[self.side][0],
+                                lambda y, face: _face_rows(t, y, _tents, face))
+            self._factors[key] = FeltFromRows(hats, self.law_weights(f"sigma{self.side + 1}"))
+        return self._factors[key](r)
 
     def elements(self) -> tuple[np.ndarray, np.ndarray, list]:
         """The triangles of X_h (the constrained side's face triangles in the overlap), their in-plane corners, and
@@ -243,17 +238,19 @@ def _tents(xi) -> np.ndarray:
     return np.clip(1.0 - np.abs(xi[:, None, :] - _QUAD9[None]), 0.0, None).prod(axis=2)
 
 
-def _face_rows(trace, x, basis) -> sp.csr_matrix:
+def _face_rows(trace, x, basis, host=None) -> sp.csr_matrix:
     """(v, n) sparse: the functions ``basis`` (reference points (v, 2) to values (v, 9)) of the 9-node faces of the
     Q2 ``trace`` (a P2 pair's trace on hexahedral faces; columns ``trace.nodes``) at the in-plane points ``x``
-    (v, 2) m, each in the face its triangles hold it in (UnsupportedError for a point on none): the biquadratic
-    functions (``QuadElement(2).shape``) or the split faces' hats (:func:`_tents`)."""
+    (v, 2) m, each in face ``host`` (v,) of its ``boundary`` if given, else in the face its triangles hold it in
+    (UnsupportedError for a point on none): the biquadratic functions (``QuadElement(2).shape``) or the split
+    faces' hats (:func:`_tents`)."""
     faces9 = np.searchsorted(np.asarray(trace.nodes), Q2HexNodes(trace.body.mesh).boundary(trace.part))
-    tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
-    if (tri < 0).any():
-        raise UnsupportedError(f"{trace.body.name} {trace.part!r}: a node of the other side lies on none of its "
-                               "faces: its biquadratic trace cannot be read there")
-    host = tri // 2
+    if host is None:
+        tri, _ = locate(x, np.asarray(trace.x), np.asarray(trace.faces)[:, :3])
+        if (tri < 0).any():
+            raise UnsupportedError(f"{trace.body.name} {trace.part!r}: a node of the other side lies on none of its "
+                                   "faces: its biquadratic trace cannot be read there")
+        host = tri // 2
     xi = reference_points(np.asarray(trace.x)[faces9[:, :4]], host, np.asarray(x, dtype=float))
     N = basis(np.clip(xi, -1.0, 1.0))
     return sp.csr_matrix((N.ravel(), (np.repeat(np.arange(len(x)), 9), faces9[host].ravel())),

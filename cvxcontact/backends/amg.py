@@ -63,7 +63,8 @@ from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
-__all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART"]
+__all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
+           "LOOSE_KEEP"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -80,22 +81,36 @@ unknowns, 1369 rows, the same 6 sets and answer): 123 CG iterations in all with 
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
+LOOSE_KEEP = 10
+"""Preconditioned Krylov vectors a loose GMRES solve (:data:`STEP_RTOLS`) keeps (:func:`gmres` ``keep``), so that
+its answer costs no application of the preconditioner beyond its iterations' (10 N doubles at most; not kept by
+the answer's solve, RTOL, the longest basis). Measured on two_boxes "sigma1" (PZT-5A on aluminium, 8.7e4
+unknowns): the loose solves take 0-8 iterations each, and each saved application is one iteration's V-cycles."""
+
 GMRES_RESTART = 100
 """Krylov vectors kept by GMRES (piezoelectric bodies) before it restarts: (GMRES_RESTART + 1) N doubles at
 most."""
 
 
-def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None) -> np.ndarray:
+def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None,
+          keep: int = 0) -> np.ndarray:
     """x with ||b - K x|| <= rtol ||b|| (2-norms) by right-preconditioned restarted GMRES (Saad, Iterative
     Methods for Sparse Linear Systems, 2003, Alg. 9.5; classical Gram-Schmidt applied twice), from ``x0``,
     ``M`` the preconditioner (a fixed linear operator). Right preconditioning minimises the true residual, so
     the stopping test is on ||b - K x|| itself (checked on the recomputed residual at each restart). Returns
     the last iterate if the test is not met after ``maxiter`` iterations or three restarts whose estimate met it
-    (rounding: the caller checks the residual). ``callback()`` is called once per iteration."""
+    (rounding: the caller checks the residual). ``callback()`` is called once per iteration.
+
+    ``keep``: the first ``keep`` preconditioned basis vectors z_j = M v_j of a cycle are kept (``keep`` N doubles
+    more), so that its update x += M V y = Z y + M (V[keep:] y[keep:]) applies M only to the basis beyond them:
+    a cycle of at most ``keep`` iterations (a loose solve, :data:`STEP_RTOLS`) costs one application of M per
+    iteration instead of one more. The same x in exact arithmetic (M linear)."""
     n = b.shape[0]
     x = np.array(x0, dtype=float)
     target = rtol * np.linalg.norm(b)
     V = np.empty((restart + 1, n))                  # the Arnoldi basis (pages are touched only when used)
+    keep = min(max(int(keep), 0), restart)
+    Z = np.empty((keep, n))                         # M V[:keep] of the current cycle
     done, short = 0, 0
     while done < maxiter:
         r = b - K @ x
@@ -109,7 +124,10 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
         g[0] = beta
         k = 0
         while k < restart and done < maxiter:
-            w = K @ (M @ V[k])
+            z = M @ V[k]
+            if k < keep:
+                Z[k] = z
+            w = K @ z
             h = V[:k + 1] @ w
             w -= V[:k + 1].T @ h
             h2 = V[:k + 1] @ w
@@ -135,7 +153,10 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
         short += abs(g[k]) <= target
         y = np.linalg.solve(np.triu(H[:k, :k]), g[:k]) if np.all(np.diag(H[:k, :k]) != 0.0) else \
             np.linalg.lstsq(np.triu(H[:k, :k]), g[:k], rcond=None)[0]
-        x += M @ (V[:k].T @ y)
+        j = min(k, keep)
+        x += Z[:j].T @ y[:j]
+        if k > j:
+            x += M @ (V[j:k].T @ y[j:])
     return x
 
 
@@ -466,7 +487,7 @@ class KrylovContact:
             r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
                               callback=count)
         else:
-            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count)
+            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0)
         self.iterations += len(its)
         if nb > 0.0 and not np.linalg.norm(b - K @ r) <= rtol * nb:
             return None

@@ -11,8 +11,11 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   touches (the nodal conditions "sigma1"/"sigma2" and rigid obstacles; not "gamma3", whose overlay rows share
   their dofs: the route then hands the problem to the sparse route). A closed row is eliminated exactly,
   x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
-  is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes);
-  the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
+  is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes),
+  applied unformed (:class:`Reduced`: T_A is the identity but on the eliminated dofs, so a product costs one
+  with S, S stacked without the assembled blocks' entries stored as 0.0), formed once per geometry only, for
+  the hierarchy's set-up; the closed row's force follows from its own dof's equation,
+  y_a = (F - S x)_s(a) / G_as(a);
 * K_A r = T_A^T (F - S x_A) is solved by CG to a relative residual ``RTOL`` (1e-10, as the AMG yardstick of
   benchmarks/bench3d.py; the residual of (26) at the answer is that residual, the eliminated rows' equations
   hold to rounding), preconditioned by a smoothed-aggregation hierarchy (pyamg) built on the first system

@@ -382,7 +382,7 @@ def test_reduced_operator_is_the_formed_congruence():
                                                  (S.indptr, plain.indptr)))
     assert amg.stacked(kc._blocks).nnz > S.nnz                  # the assembled blocks do store zeros
     rows = np.flatnonzero(kc.dof >= 0)[::2]
-    T, x_fix, K, b = kc._reduced(rows, np.ones(kc.n), np.zeros(kc.m))
+    T, _, K, _ = kc._reduced(rows, np.ones(kc.n), np.zeros(kc.m))
     slaves = kc.dof[rows]
     D = sp.csr_matrix((np.abs(plain.diagonal())[slaves], (slaves, slaves)), shape=(kc.n, kc.n))
     whole = (T.T @ plain @ T + D).toarray()
@@ -415,12 +415,8 @@ def test_gmres_keeping_preconditioned_vectors_saves_the_update_application():
         out = {}
         for k in (0, keep):
             applied, its = [], []
-
-            def apply(r):
-                applied.append(1)
-                return d * r
-            M = spla.LinearOperator((n, n), matvec=apply, dtype=float)
-            out[k] = gmres(K, b, np.zeros(n), M, rtol, callback=lambda: its.append(1), keep=k)
+            M = spla.LinearOperator((n, n), matvec=lambda r, tally=applied: tally.append(1) or d * r, dtype=float)
+            out[k] = gmres(K, b, np.zeros(n), M, rtol, callback=lambda tally=its: tally.append(1), keep=k)
             assert np.linalg.norm(b - K @ out[k]) <= rtol * np.linalg.norm(b)
             assert len(applied) == len(its) + (0 if k >= len(its) else 1)      # one cycle (restart 100)
         assert 0 < len(its) <= 100                                          # measured 10, 26, 26

@@ -421,3 +421,42 @@ def test_gmres_keeping_preconditioned_vectors_saves_the_update_application():
             assert len(applied) == len(its) + (0 if k >= len(its) else 1)      # one cycle (restart 100)
         assert 0 < len(its) <= 100                                          # measured 10, 26, 26
         assert np.abs(out[keep] - out[0]).max() <= 1e-12 * np.abs(x_ref).max()   # measured 5.1e-16 at most
+
+
+class _Formed(sp.csr_matrix):
+    """A set's K formed, read as the route read it before :class:`~cvxcontact.backends.amg.Reduced`."""
+
+    def rows(self, idx):
+        return self[idx]
+
+    def coupling(self, u_idx, p_idx):
+        return self[:, p_idx][u_idx].tocsr()
+
+
+def test_unformed_steps_take_the_formed_matrix_steps():
+    """The steps with each set's K applied unformed (``amg.Reduced``) take the sets, steps and Krylov iterations
+    of the same route handed each set's K formed (``tocsr``, as before the operator), and give its answer to
+    rounding: a PZT-5A box on an aluminium box with several sets (GMRES) and two elastic boxes (CG)."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    plain = amg.KrylovContact._reduced
+
+    def formed(self, rows, F, g):
+        T, x_fix, K, b = plain(self, rows, F, g)
+        return T, x_fix, (_Formed(K.tocsr()) if isinstance(K, amg.Reduced) else K), b
+
+    for scene in (two_boxes(6), _elastic_boxes(3e8)):
+        unformed = cc.ContactSolver(scene, method="amg")
+        a = unformed.solve()
+        amg.KrylovContact._reduced = formed
+        try:
+            whole = cc.ContactSolver(scene, method="amg")
+            b = whole.solve()
+        finally:
+            amg.KrylovContact._reduced = plain
+        assert a.ok and b.ok and a.info.iterations == b.info.iterations >= 2          # measured 3 and 3 steps
+        assert unformed.cache.amg.iterations == whole.cache.amg.iterations
+        assert np.array_equal(a.contact.active, b.contact.active)
+        for ua, ub in zip(a.u, b.u):
+            assert np.abs(ua - ub).max() <= 1e-12 * np.abs(ub).max()                  # measured 1.4e-15, 8.2e-16

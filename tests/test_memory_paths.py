@@ -491,7 +491,8 @@ def _synthetic_block(seed, nu, n_p, empty_rows=(), zeros=False, index=np.int32):
 def test_amg_stacked_equals_block_diag_on_edge_blocks(shapes, kw):
     """`amg.stacked` has the arrays and index types of scipy's block_diag of the quasi-definite blocks on
     synthetic blocks: one block, elastic and piezoelectric mixed, int64 index inputs, explicit zeros (kept, as
-    block_diag keeps them), empty rows, 1 x 1 blocks; and an all-zero coupling block."""
+    block_diag keeps them), empty rows, 1 x 1 blocks; and an all-zero coupling block. ``zeros=False`` (the AMG
+    route's S): the arrays of that block_diag after ``eliminate_zeros``, index types included."""
     from cvxcontact.backends import amg
     from cvxcontact.backends.condensed import quasi_definite
 
@@ -501,6 +502,12 @@ def test_amg_stacked_equals_block_diag_on_edge_blocks(shapes, kw):
     plain = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
     S = amg.stacked(blocks)
     assert S.shape == plain.shape
+    for a in ("indptr", "indices", "data"):
+        assert getattr(S, a).dtype == getattr(plain, a).dtype
+        assert np.array_equal(getattr(S, a), getattr(plain, a))
+    S = amg.stacked(blocks, zeros=False)
+    plain.eliminate_zeros()
+    assert S.shape == plain.shape and np.all(S.data != 0.0)
     for a in ("indptr", "indices", "data"):
         assert getattr(S, a).dtype == getattr(plain, a).dtype
         assert np.array_equal(getattr(S, a), getattr(plain, a))

@@ -324,8 +324,9 @@ def _seeded(seed: int = 0):
 class Reduced(spla.LinearOperator):
     """K = T^T S T + D of one active set (:meth:`KrylovContact._reduced`) as an operator, not formed: K r =
     T^T (S (T r)) + d r. T is the identity but at the eliminated dofs (one row each), so a product costs about
-    one product with S, and a set costs no copy of S (formed by :func:`congruence`, 0.09 CPU s of the 7.4 of a
-    solve of two_boxes "sigma1" at 8.7e4 unknowns, once per set). Its rows at some dofs, and its coupling
+    one product with S, and a set costs no copy of S (formed by :func:`congruence` once per set and once more
+    after the set-up, 0.58 CPU s of a 7.0 s solve of two_boxes "sigma1" at 8.7e4 unknowns; benchmarks/results/
+    bench3d_scale.md). Its rows at some dofs, and its coupling
     block, are formed on their own (:meth:`rows`, :meth:`coupling`: the preconditioner's), the whole matrix by
     :meth:`tocsr` (the hierarchy's set-up, once per geometry)."""
 

@@ -67,7 +67,7 @@ from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP"]
+           "LOOSE_KEEP", "Reduced"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -330,7 +330,7 @@ class Reduced(spla.LinearOperator):
     block, are formed on their own (:meth:`rows`, :meth:`coupling`: the preconditioner's), the whole matrix by
     :meth:`tocsr` (the hierarchy's set-up, once per geometry)."""
 
-    def __init__(self, S, T, Tt, d):
+    def __init__(self, S: sp.csr_matrix, T: sp.csr_matrix, Tt: sp.csr_matrix, d: np.ndarray):
         super().__init__(dtype=float, shape=S.shape)
         self.S, self.P, self.Pt, self.d = S, T, Tt, d      # P = T (the operator's .T is its transpose)
 
@@ -340,13 +340,13 @@ class Reduced(spla.LinearOperator):
 
     _rmatvec = _matvec                     # K is symmetric (S is)
 
-    def rows(self, idx) -> sp.csr_matrix:
+    def rows(self, idx: np.ndarray) -> sp.csr_matrix:
         """K[idx, :]: T^T's rows there, times S T (a row of a product comes from its factors' rows alone)."""
         idx = np.asarray(idx)
         D = sp.csr_matrix((self.d[idx], (np.arange(len(idx)), idx)), shape=(len(idx), self.shape[1]))
         return (self.Pt[idx] @ self.S @ self.P + D).tocsr()
 
-    def coupling(self, u_idx, p_idx) -> sp.csr_matrix:
+    def coupling(self, u_idx: np.ndarray, p_idx: np.ndarray) -> sp.csr_matrix:
         """K[u_idx][:, p_idx] for potential dofs ``p_idx`` (T is the identity on them and D has no entry
         there): T^T's rows ``u_idx`` times S's columns ``p_idx``."""
         return (self.Pt[u_idx] @ self.S[:, p_idx]).tocsr()

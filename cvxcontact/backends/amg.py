@@ -321,6 +321,7 @@ def _seeded(seed: int = 0):
     finally:
         np.random.set_state(state)
 
+
 class Reduced(spla.LinearOperator):
     """K = T^T S T + D of one active set (:meth:`KrylovContact._reduced`) as an operator, not formed: K r =
     T^T (S (T r)) + d r. T is the identity but at the eliminated dofs (one row each), so a product costs about

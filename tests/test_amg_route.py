@@ -262,7 +262,7 @@ def test_block_triangular_preconditioner_with_exact_blocks():
             return spla.aslinearoperator(np.linalg.inv(self.M))
 
     kc.ml_u, kc.ml_p = Exact(A), Exact(C)
-    P_inv = kc._precondition(K)
+    P_inv = kc._precondition(seen["K"])                          # the set's operator (amg.Reduced)
     KP = K.toarray() @ (P_inv @ np.eye(kc.n))
     ev = np.linalg.eigvals(KP)
     rho2 = sla.eigh(B.T @ np.linalg.solve(A, B), C, eigvals_only=True).max()
@@ -318,9 +318,10 @@ def test_contact_dof_correction():
     F, g = np.ones(kc.n), np.zeros(kc.m)
     kc._system(movable, F, g, None)                                                # the hierarchy: all closed
     other = movable & (np.arange(kc.m) % 2 == 0)
-    K = kc._reduced(np.flatnonzero(other), F, g)[2].tocsr()
+    R = kc._reduced(np.flatnonzero(other), F, g)[2]                               # the set's operator
+    K = R.tocsr()
     assert K.shape == (kc.n, kc.n) and len(kc.p_idx) == 0
-    P = np.column_stack([kc._corrected(K)(e) for e in np.eye(kc.n)])
+    P = np.column_stack([kc._corrected(R)(e) for e in np.eye(kc.n)])
     assert np.abs(P - P.T).max() <= 1e-10 * np.abs(P).max()                      # measured 2.9e-16 (relative)
     assert np.linalg.eigvalsh(0.5 * (P + P.T)).min() > 0
 
@@ -329,7 +330,7 @@ def test_contact_dof_correction():
             return spla.aslinearoperator(np.linalg.inv(K.toarray()))
 
     kc.ml_u = Exact()
-    P = np.column_stack([kc._corrected(K)(e) for e in np.eye(kc.n)])
+    P = np.column_stack([kc._corrected(R)(e) for e in np.eye(kc.n)])
     assert np.abs(P @ K.toarray() - np.eye(kc.n)).max() < 1e-8                    # measured 2.5e-15
 
 
@@ -361,3 +362,101 @@ def test_amg_resolve_after_a_load_change_agrees_with_the_sparse_route():
     assert solver.cache.amg.setups == 1
     fields_agree(other, cc.solve(pull, method="sparse"), 1e-8)              # measured 3.5e-11 (u)
     fields_agree(back, first, 1e-8)                                          # measured 1.3e-10
+
+
+def test_reduced_operator_is_the_formed_congruence():
+    """A set's K = T^T S T + D applied unformed (``amg.Reduced``: the steps' Krylov operator) against the
+    product formed by scipy from the same T and S, D = S's diagonal magnitudes at the eliminated dofs: its
+    products (dense, every column), its contact rows, its coupling block and ``tocsr``; S stacked without the
+    entries stored as 0.0 equals block_diag of the quasi-definite blocks with its zeros eliminated, arrays and
+    all. A PZT-5A box on an aluminium box, every other row closed."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+    from cvxcontact.backends.condensed import quasi_definite
+
+    kc = amg.KrylovContact(cc.ContactSolver(two_boxes(4)).problem)
+    plain = sp.block_diag([quasi_definite(b)[0] for b in kc._blocks], format="csr")
+    plain.eliminate_zeros()
+    S = kc._stacked()
+    assert all(np.array_equal(a, b) for a, b in ((S.data, plain.data), (S.indices, plain.indices),
+                                                 (S.indptr, plain.indptr)))
+    assert amg.stacked(kc._blocks).nnz > S.nnz                  # the assembled blocks do store zeros
+    rows = np.flatnonzero(kc.dof >= 0)[::2]
+    T, _, K, _ = kc._reduced(rows, np.ones(kc.n), np.zeros(kc.m))
+    slaves = kc.dof[rows]
+    D = sp.csr_matrix((np.abs(plain.diagonal())[slaves], (slaves, slaves)), shape=(kc.n, kc.n))
+    whole = (T.T @ plain @ T + D).toarray()
+    scale = np.abs(whole).max()
+    assert isinstance(K, amg.Reduced) and np.abs(K @ np.eye(kc.n) - whole).max() <= 1e-14 * scale   # measured 7.2e-18
+    assert np.abs(K.tocsr().toarray() - whole).max() <= 1e-14 * scale                              # measured 2.9e-17
+    idx = kc.u_idx[kc.interface]
+    assert np.abs(K.rows(idx).toarray() - whole[idx]).max() <= 1e-14 * scale                       # measured 2.9e-17
+    assert np.abs(K.coupling(kc.u_idx, kc.p_idx).toarray() - whole[np.ix_(kc.u_idx, kc.p_idx)]).max() \
+        <= 1e-14 * scale                                                                           # measured 0
+    others = np.setdiff1d(np.arange(kc.n), slaves)
+    assert np.all(np.diag(whole)[slaves] > 0) and np.all(whole[np.ix_(slaves, others)] == 0)   # decoupled
+
+
+def test_gmres_keeping_preconditioned_vectors_saves_the_update_application():
+    """``gmres(keep=k)``: a cycle of at most k iterations applies the preconditioner once per iteration (not once
+    more for the update), and gives the iterate of the plain update to rounding; a longer cycle still meets
+    rtol. Nonsymmetric system, Jacobi preconditioner, against a dense solve."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.amg import gmres
+
+    rng = np.random.default_rng(3)
+    n = 120
+    K = sp.csr_matrix(np.diag(rng.uniform(1.0, 50.0, n)) + rng.normal(0.0, 0.5, (n, n)))
+    b = rng.normal(size=n)
+    x_ref = np.linalg.solve(K.toarray(), b)
+    d = 1.0 / K.diagonal()
+    for rtol, keep in ((1e-2, 10), (1e-10, 10), (1e-10, 120)):
+        out = {}
+        for k in (0, keep):
+            applied, its = [], []
+            M = spla.LinearOperator((n, n), matvec=lambda r, tally=applied: tally.append(1) or d * r, dtype=float)
+            out[k] = gmres(K, b, np.zeros(n), M, rtol, callback=lambda tally=its: tally.append(1), keep=k)
+            assert np.linalg.norm(b - K @ out[k]) <= rtol * np.linalg.norm(b)
+            assert len(applied) == len(its) + (0 if k >= len(its) else 1)      # one cycle (restart 100)
+        assert 0 < len(its) <= 100                                          # measured 10, 26, 26
+        assert np.abs(out[keep] - out[0]).max() <= 1e-12 * np.abs(x_ref).max()   # measured 5.1e-16 at most
+
+
+class _Formed(sp.csr_matrix):
+    """A set's K formed, read as the route read it before :class:`~cvxcontact.backends.amg.Reduced`."""
+
+    def rows(self, idx):
+        return self[idx]
+
+    def coupling(self, u_idx, p_idx):
+        return self[:, p_idx][u_idx].tocsr()
+
+
+def test_unformed_steps_take_the_formed_matrix_steps():
+    """The steps with each set's K applied unformed (``amg.Reduced``) take the sets, steps and Krylov iterations
+    of the same route handed each set's K formed (``tocsr``, as before the operator), and give its answer to
+    rounding: a PZT-5A box on an aluminium box with several sets (GMRES) and two elastic boxes (CG)."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    plain = amg.KrylovContact._reduced
+
+    def formed(self, rows, F, g):
+        T, x_fix, K, b = plain(self, rows, F, g)
+        return T, x_fix, (_Formed(K.tocsr()) if isinstance(K, amg.Reduced) else K), b
+
+    for scene in (two_boxes(6), _elastic_boxes(3e8)):
+        unformed = cc.ContactSolver(scene, method="amg")
+        a = unformed.solve()
+        amg.KrylovContact._reduced = formed
+        try:
+            whole = cc.ContactSolver(scene, method="amg")
+            b = whole.solve()
+        finally:
+            amg.KrylovContact._reduced = plain
+        assert a.ok and b.ok and a.info.iterations == b.info.iterations >= 2          # measured 3 and 3 steps
+        assert unformed.cache.amg.iterations == whole.cache.amg.iterations
+        assert np.array_equal(a.contact.active, b.contact.active)
+        for ua, ub in zip(a.u, b.u):
+            assert np.abs(ua - ub).max() <= 1e-12 * np.abs(ub).max()                  # measured 1.4e-15, 8.2e-16

@@ -11,8 +11,11 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   touches (the nodal conditions "sigma1"/"sigma2" and rigid obstacles; not "gamma3", whose overlay rows share
   their dofs: the route then hands the problem to the sparse route). A closed row is eliminated exactly,
   x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
-  is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes);
-  the closed row's force follows from its own dof's equation, y_a = (F - S x)_s(a) / G_as(a);
+  is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes),
+  applied unformed (:class:`Reduced`: T_A is the identity but on the eliminated dofs, so a product costs one
+  with S, S stacked without the assembled blocks' entries stored as 0.0), formed once per geometry only, for
+  the hierarchy's set-up; the closed row's force follows from its own dof's equation,
+  y_a = (F - S x)_s(a) / G_as(a);
 * K_A r = T_A^T (F - S x_A) is solved by CG to a relative residual ``RTOL`` (1e-10, as the AMG yardstick of
   benchmarks/bench3d.py; the residual of (26) at the answer is that residual, the eliminated rows' equations
   hold to rounding), preconditioned by a smoothed-aggregation hierarchy (pyamg) built on the first system
@@ -63,7 +66,8 @@ from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
-__all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART"]
+__all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
+           "LOOSE_KEEP", "Reduced"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -80,22 +84,36 @@ unknowns, 1369 rows, the same 6 sets and answer): 123 CG iterations in all with 
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
+LOOSE_KEEP = 10
+"""Preconditioned Krylov vectors a loose GMRES solve (:data:`STEP_RTOLS`) keeps (:func:`gmres` ``keep``), so that
+its answer costs no application of the preconditioner beyond its iterations' (10 N doubles at most; not kept by
+the answer's solve, RTOL, the longest basis). Measured on two_boxes "sigma1" (PZT-5A on aluminium, 8.7e4
+unknowns): the loose solves take 0-8 iterations each, and each saved application is one iteration's V-cycles."""
+
 GMRES_RESTART = 100
 """Krylov vectors kept by GMRES (piezoelectric bodies) before it restarts: (GMRES_RESTART + 1) N doubles at
 most."""
 
 
-def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None) -> np.ndarray:
+def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None,
+          keep: int = 0) -> np.ndarray:
     """x with ||b - K x|| <= rtol ||b|| (2-norms) by right-preconditioned restarted GMRES (Saad, Iterative
     Methods for Sparse Linear Systems, 2003, Alg. 9.5; classical Gram-Schmidt applied twice), from ``x0``,
     ``M`` the preconditioner (a fixed linear operator). Right preconditioning minimises the true residual, so
     the stopping test is on ||b - K x|| itself (checked on the recomputed residual at each restart). Returns
     the last iterate if the test is not met after ``maxiter`` iterations or three restarts whose estimate met it
-    (rounding: the caller checks the residual). ``callback()`` is called once per iteration."""
+    (rounding: the caller checks the residual). ``callback()`` is called once per iteration.
+
+    ``keep``: the first ``keep`` preconditioned basis vectors z_j = M v_j of a cycle are kept (``keep`` N doubles
+    more), so that its update x += M V y = Z y + M (V[keep:] y[keep:]) applies M only to the basis beyond them:
+    a cycle of at most ``keep`` iterations (a loose solve, :data:`STEP_RTOLS`) costs one application of M per
+    iteration instead of one more. The same x in exact arithmetic (M linear)."""
     n = b.shape[0]
     x = np.array(x0, dtype=float)
     target = rtol * np.linalg.norm(b)
     V = np.empty((restart + 1, n))                  # the Arnoldi basis (pages are touched only when used)
+    keep = min(max(int(keep), 0), restart)
+    Z = np.empty((keep, n))                         # M V[:keep] of the current cycle
     done, short = 0, 0
     while done < maxiter:
         r = b - K @ x
@@ -109,7 +127,10 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
         g[0] = beta
         k = 0
         while k < restart and done < maxiter:
-            w = K @ (M @ V[k])
+            z = M @ V[k]
+            if k < keep:
+                Z[k] = z
+            w = K @ z
             h = V[:k + 1] @ w
             w -= V[:k + 1].T @ h
             h2 = V[:k + 1] @ w
@@ -135,7 +156,10 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
         short += abs(g[k]) <= target
         y = np.linalg.solve(np.triu(H[:k, :k]), g[:k]) if np.all(np.diag(H[:k, :k]) != 0.0) else \
             np.linalg.lstsq(np.triu(H[:k, :k]), g[:k], rcond=None)[0]
-        x += M @ (V[:k].T @ y)
+        j = min(k, keep)
+        x += Z[:j].T @ y[:j]
+        if k > j:
+            x += M @ (V[j:k].T @ y[j:])
     return x
 
 
@@ -222,18 +246,26 @@ def congruence(Tt, S, T, D) -> sp.csr_matrix:
     return sp.csr_matrix((data, indices, indptr), shape=(n, S.shape[1]))
 
 
-def stacked(blocks) -> sp.csr_matrix:
+def stacked(blocks, zeros: bool = True) -> sp.csr_matrix:
     """S = diag(S_1, S_2, ...), each body's quasi-definite S_k = [[Kuu, Kup], [Kup^T, -Kpp]] (:func:`~cvxcontact.
     backends.condensed.quasi_definite`), in CSR: the arrays of ``sp.block_diag([quasi_definite(b)[0] ...],
     format="csr")``, formed from the CSR blocks by stacking their rows (each S_k by scipy's CSR stacking, then
     copied into S's arrays and freed) without the COO copy (int64 rows and columns) through which block_diag
     converts, whose transients were the peak of a large solve's start. Blocks not in canonical CSR (sorted,
-    no duplicates; block_diag sorts and sums them): the plain expression."""
+    no duplicates; block_diag sorts and sums them): the plain expression.
+
+    ``zeros=False``: the entries stored as 0.0 are left out (those arrays after ``eliminate_zeros``; a product
+    with S is the same, bit for bit). The assembled blocks keep the nodal pattern, whose entries a structured
+    mesh's elements can cancel exactly: 45 % of two_boxes' S at 8.7e4 unknowns (2.8e6 of 4.6e6 entries)."""
     pieces = [m for b in blocks for m in (b.Kuu, b.Kup, b.Kpp) if m is not None]
     if not all(sp.issparse(m) and m.format == "csr" and m.has_canonical_format for m in pieces):
-        return sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+        S = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")
+        if not zeros:
+            S.eliminate_zeros()
+        return S
     sizes = [b.Kuu.shape[0] + (0 if b.Kpp is None else b.Kpp.shape[0]) for b in blocks]
-    nnz = sum(m.nnz for b in blocks for m in (b.Kuu, b.Kup, b.Kup, b.Kpp) if m is not None)
+    count = (lambda m: m.nnz) if zeros else (lambda m: int(np.count_nonzero(m.data)))
+    nnz = sum(count(m) for b in blocks for m in (b.Kuu, b.Kup, b.Kup, b.Kpp) if m is not None)
     n = sum(sizes)
     idx = np.int32 if max(n, nnz) < np.iinfo(np.int32).max else np.int64
     data, indices, indptr = np.empty(nnz), np.empty(nnz, dtype=idx), np.empty(n + 1, dtype=idx)
@@ -244,12 +276,17 @@ def stacked(blocks) -> sp.csr_matrix:
         else:
             S = sp.vstack([sp.hstack([b.Kuu, b.Kup], format="csr"),
                            sp.hstack([b.Kup.T.tocsr(), -b.Kpp], format="csr")], format="csr")
-        data[pos:pos + S.nnz] = S.data
-        indices[pos:pos + S.nnz] = S.indices
-        indices[pos:pos + S.nnz] += row
-        indptr[row + 1:row + size + 1] = S.indptr[1:]
+        Sx, Si, ptr = S.data, S.indices, S.indptr       # (S is b.Kuu itself without potentials: not changed)
+        if not zeros:                       # S_k's nonzero entries, in their order; its row pointers counted anew
+            keep = Sx != 0.0
+            Sx, Si, ptr = Sx[keep], Si[keep], np.concatenate([[0], np.cumsum(keep)])[ptr]
+        k = len(Sx)
+        data[pos:pos + k] = Sx
+        indices[pos:pos + k] = Si
+        indices[pos:pos + k] += row
+        indptr[row + 1:row + size + 1] = ptr[1:]
         indptr[row + 1:row + size + 1] += pos
-        row, pos = row + size, pos + S.nnz
+        row, pos = row + size, pos + k
         del S
     return sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
@@ -284,6 +321,44 @@ def _seeded(seed: int = 0):
     finally:
         np.random.set_state(state)
 
+
+class Reduced(spla.LinearOperator):
+    """K = T^T S T + D of one active set (:meth:`KrylovContact._reduced`) as an operator, not formed: K r =
+    T^T (S (T r)) + d r. T is the identity but at the eliminated dofs (one row each), so a product costs about
+    one product with S, and a set costs no copy of S (formed by :func:`congruence` once per set and once more
+    after the set-up, 0.58 CPU s of a 7.0 s solve of two_boxes "sigma1" at 8.7e4 unknowns; benchmarks/results/
+    bench3d_scale.md). Its rows at some dofs, and its coupling
+    block, are formed on their own (:meth:`rows`, :meth:`coupling`: the preconditioner's), the whole matrix by
+    :meth:`tocsr` (the hierarchy's set-up, once per geometry)."""
+
+    def __init__(self, S: sp.csr_matrix, T: sp.csr_matrix, Tt: sp.csr_matrix, d: np.ndarray):
+        super().__init__(dtype=float, shape=S.shape)
+        self.S, self.P, self.Pt, self.d = S, T, Tt, d      # P = T (the operator's .T is its transpose)
+
+    def _matvec(self, r):
+        r = np.ravel(r)
+        return self.Pt @ (self.S @ (self.P @ r)) + self.d * r
+
+    _rmatvec = _matvec                     # K is symmetric (S is)
+
+    def rows(self, idx: np.ndarray) -> sp.csr_matrix:
+        """K[idx, :]: T^T's rows there, times S T (a row of a product comes from its factors' rows alone)."""
+        idx = np.asarray(idx)
+        D = sp.csr_matrix((self.d[idx], (np.arange(len(idx)), idx)), shape=(len(idx), self.shape[1]))
+        return (self.Pt[idx] @ self.S @ self.P + D).tocsr()
+
+    def coupling(self, u_idx: np.ndarray, p_idx: np.ndarray) -> sp.csr_matrix:
+        """K[u_idx][:, p_idx] for potential dofs ``p_idx`` (T is the identity on them and D has no entry
+        there): T^T's rows ``u_idx`` times S's columns ``p_idx``."""
+        return (self.Pt[u_idx] @ self.S[:, p_idx]).tocsr()
+
+    def tocsr(self) -> sp.csr_matrix:
+        """K formed (:func:`congruence`)."""
+        n = self.shape[0]
+        slaves = np.flatnonzero(self.d)
+        return congruence(self.Pt, self.S, self.P, sp.csr_matrix((self.d[slaves], (slaves, slaves)), shape=(n, n)))
+
+
 class KrylovContact:
     """The mixed system of a 3D problem's scaled blocks with its contact rows, for every active set (module
     docstring). Built once per geometry (the AMG hierarchy); :meth:`solve` per load case. Raises
@@ -295,7 +370,7 @@ class KrylovContact:
         except ImportError as exc:
             raise SolverError(f"method 'amg' needs pyamg: {AMG_INSTALL}") from exc
         blocks = self._blocks = list(problem.blocks)
-        self.S = stacked(blocks)                                      # None between solves (:meth:`release`)
+        self.S = stacked(blocks, zeros=False)                         # None between solves (:meth:`release`)
         self._diag = np.abs(self.S.diagonal())
         self.sizes = [(b.Kuu.shape[0], 0 if b.Kpp is None else b.Kpp.shape[0]) for b in blocks]
         self.n = n = self.S.shape[0]
@@ -371,7 +446,7 @@ class KrylovContact:
         positive definite with V (CG) and exact where V is. Only A's rows at I are formed (A is symmetric:
         its columns there are their transpose) and A_II is factorised (SuperLU) once per set."""
         I = self.interface
-        rows = K[self.u_idx[I]][:, self.u_idx].tocsr()                 # A[I, :]
+        rows = K.rows(self.u_idx[I])[:, self.u_idx].tocsr()             # A[I, :]
         lu = spla.splu(rows[:, I].tocsc())
         cols = rows.T.tocsr()                                          # A[:, I]
         V = self.ml_u.aspreconditioner(cycle="V")
@@ -399,7 +474,7 @@ class KrylovContact:
                 return z
         else:
             Pp = self.ml_p.aspreconditioner(cycle="V")
-            Kup = K[:, self.p_idx][self.u_idx].tocsr()              # the columns first: no copy of K's u rows
+            Kup = K.coupling(self.u_idx, self.p_idx)
 
             def apply(r):
                 z = np.empty_like(r)
@@ -410,13 +485,14 @@ class KrylovContact:
         return spla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
 
     def _reduced(self, rows, F, g):
-        """(T, x_fix, K, b) of the closed rows ``rows``: x = T r + x_fix meets them, K = T^T S T (the eliminated
-        dofs as decoupled rows with S's own diagonal, the preconditioner's scale there), b = T^T (F - S x_fix).
-        The last set's are kept: the staged solves of one step (:data:`STEP_RTOLS`) share them."""
+        """(T, x_fix, K, b) of the closed rows ``rows``: x = T r + x_fix meets them, K = T^T S T + D (the
+        eliminated dofs as decoupled rows with S's own diagonal D, the preconditioner's scale there; a
+        :class:`Reduced` operator, not formed), b = T^T (F - S x_fix). The last set's are kept: the staged solves
+        of one step (:data:`STEP_RTOLS`) share them."""
         key = (rows.tobytes(), F.tobytes(), g.tobytes())
         if self._reduction is not None and self._reduction[0] == key:
             return self._reduction[1]
-        self._reduction = None                   # the last set's K freed before this one's is formed (peak memory)
+        self._reduction = None                   # the last set's T freed before this one's is formed
         if self._preconditioner is not None and self._preconditioner[0] != rows.tobytes():
             self._preconditioner = None          # and its preconditioner (contact rows, their factor, Kup's copy)
         n = self.n
@@ -431,7 +507,9 @@ class KrylovContact:
         x_fix = np.zeros(n)
         x_fix[slaves] = g[rows] / piv
         S = self._stacked()
-        K = congruence(Tt, S, T, sp.csr_matrix((self._diag[slaves], (slaves, slaves)), shape=(n, n)))
+        d = np.zeros(n)
+        d[slaves] = self._diag[slaves]
+        K = Reduced(S, T, Tt, d)
         b = Tt @ (F - S @ x_fix)
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b
@@ -445,14 +523,10 @@ class KrylovContact:
         key = rows.tobytes()
         if self._slave_rows is None or self._slave_rows[0] != key:
             self._slave_rows = (key, self._stacked()[slaves])                   # S's rows y reads
-        if rtol <= RTOL:       # the answer's solve (the longest Krylov basis): S dropped while it runs (peak
-            self.S = None      # memory), its rows at the eliminated dofs kept; stacked again if a set follows
-        if self.ml_u is None:  # the set-up (once per geometry) runs without K (peak memory), formed again after it
-            blocks = self._diagonal_blocks(K)
-            K = self._reduction = None
+        if self.ml_u is None:  # the set-up (once per geometry): K formed for its diagonal blocks, then freed
+            blocks = self._diagonal_blocks(K.tocsr())
             self._hierarchy(blocks, slaves)
             del blocks
-            T, x_fix, K, b = self._reduced(rows, F, g)
         if self._preconditioner is None or self._preconditioner[0] != key:
             self._preconditioner = (key, self._precondition(K))
         r0 = np.array(x_start) if x_start is not None else np.zeros(n)
@@ -466,7 +540,7 @@ class KrylovContact:
             r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
                               callback=count)
         else:
-            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count)
+            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0)
         self.iterations += len(its)
         if nb > 0.0 and not np.linalg.norm(b - K @ r) <= rtol * nb:
             return None
@@ -486,7 +560,7 @@ class KrylovContact:
     def _stacked(self) -> sp.csr_matrix:
         """S, stacked again from the blocks if it was dropped (the same arrays)."""
         if self.S is None:
-            self.S = stacked(self._blocks)
+            self.S = stacked(self._blocks, zeros=False)
         return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):

@@ -18,7 +18,7 @@ from .condensed import InterfaceModel, InterfaceSystem, quasi_definite_rhs
 from .bulkcuts import finish_cuts_bulk
 from .cuts import (SEED_SPREAD, accumulate_cuts, dual_cone_point, energy_bound, interface_cuts, nnls_warm,
                    nodal_slack, point_duals, point_read_back, seed_forces, seed_points, segment_scales)
-from .finish import Declined, Stop, independent_active_set, row_reach
+from .finish import Declined, Stop, coefficient_rounding, independent_active_set, row_reach, slack_terms
 from .tangency import tangency_newton
 from .conic import ConicInterfaceModel, bernstein_constraints, bernstein_duals
 from .full import ContactModel, limit_reaction, mixed_kkt
@@ -298,7 +298,8 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
         return max(balance(P.T @ y), float(products.max(initial=0.0)))
 
-    seg, t, y, P = min(candidates, key=kkt_residual)
+    seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), q, G, x, problem.g, departure, least_squares,
+                                kkt_residual)
     r = P.T @ y
     bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
                          departure=problem.departure, pairing=raw.pairing)[0]
@@ -313,6 +314,28 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     raw.finish = Finish.TANGENCY_NEWTON
     apart = sum(float((vk - wk) @ (c.stiffness @ (vk - wk))) for c, vk, wk in zip(bodies, v, v_cuts))
     raw.certificate = bound + np.sqrt(max(apart, 0.0))
+
+
+def _closed_only(chosen, q, G, x, g, departure, least_squares, kkt_residual):
+    """The point forces ``chosen`` (seg, t, y, P) with none left where the slack is open: the least squares at
+    the points of Newton and the cuts together may put forces of 1e-16 .. 2e-10 of the largest where q(x) is
+    open by 1e-6 .. 1 of the scale (the quickstart at 8x4 .. 24x12, docs/checks.md), which the complementarity
+    check reads as a gap. A point is open where -q_p exceeds the rounding of q_p in an exact answer
+    (:func:`~cvxcontact.backends.finish.coefficient_rounding` of the slack's terms |G| |x| + |g|, the gap's
+    departure from its interpolant included). Its force is dropped and the rest fitted again by the
+    non-negative least squares at the closed points; of both, the one with the smaller KKT residual. Unchanged
+    where no force sits on an open point."""
+    seg, t, y, P = chosen
+    T, n = slack_terms([G], [x], g)
+    size = coefficient_rounding(P, T, n)
+    if departure is not None:
+        size = size + np.finfo(float).eps * np.abs(departure.at(seg, t))
+    closed = q(seg, t, P) >= -size
+    if not (y[~closed] > 0).any():
+        return chosen
+    kept = closed
+    return min([(seg[kept], t[kept], y[kept], P[kept]), least_squares(seg[kept], t[kept], y[kept])],
+               key=kkt_residual)
 
 
 NEWTON_ROUNDS = 4

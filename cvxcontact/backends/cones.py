@@ -298,8 +298,8 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
         return max(balance(P.T @ y), float(products.max(initial=0.0)))
 
-    seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), q, G, x, problem.g, departure, least_squares,
-                                kkt_residual)
+    seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), B, _width(problem), G, x, problem.g, departure,
+                                least_squares, kkt_residual)
     r = P.T @ y
     bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
                          departure=problem.departure, pairing=raw.pairing)[0]
@@ -316,24 +316,29 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     raw.certificate = bound + np.sqrt(max(apart, 0.0))
 
 
-def _closed_only(chosen, q, G, x, g, departure, least_squares, kkt_residual):
-    """The point forces ``chosen`` (seg, t, y, P) with none left where the slack is open: the least squares at
-    the points of Newton and the cuts together may put forces of 1e-16 .. 2e-10 of the largest where q(x) is
-    open by 1e-6 .. 1 of the scale (the quickstart at 8x4 .. 24x12, docs/checks.md), which the complementarity
-    check reads as a gap. A point is open where -q_p exceeds the rounding of q_p in an exact answer
-    (:func:`~cvxcontact.backends.finish.coefficient_rounding` of the slack's terms |G| |x| + |g|, the gap's
-    departure from its interpolant included). Its force is dropped and the rest fitted again by the
-    non-negative least squares at the closed points; of both, the one with the smaller KKT residual. Unchanged
-    where no force sits on an open point."""
+def _closed_only(chosen, B, width: int, G, x, g, departure, least_squares, kkt_residual):
+    """The point forces ``chosen`` (seg, t, y, P) with none left on an element whose slack is open: the least
+    squares at the points of Newton and the cuts together may put forces of 2e-16 .. 7e-6 of the largest on
+    elements where q(x) is open everywhere, by 1e-11 .. 1 of the scale (the quickstart at 8x4 .. 24x12,
+    docs/checks.md), which the complementarity check reads as a gap. An element is open where its maximum of q
+    (``B``'s Bernstein coefficients, ``width`` per element; the true slack against a curved obstacle,
+    ``departure``) is below minus the rounding of its coefficients in an exact answer
+    (:func:`~cvxcontact.backends.finish.coefficient_rounding` of the slack's terms |G| |x| + |g|). Then of
+    ``chosen`` without those forces and the non-negative least squares at its other points, the one with the
+    smaller KKT residual. Forces on elements that touch stay, also where their point is a cut's beside the
+    tangency (they pair with the slack within the check's floor, and the least squares without them splits the
+    forces among nearly dependent rows as the rounding falls: the pressure then moved by 2.4e-10 under a
+    renumbering of the nodes, tests/test_permuted.py). Unchanged where no force sits on an open element."""
     seg, t, y, P = chosen
+    b = (B @ (G @ x - g)).reshape(-1, width)
     T, n = slack_terms([G], [x], g)
-    size = coefficient_rounding(P, T, n)
+    rounding = coefficient_rounding(B, T, n).reshape(-1, width).max(axis=1)
+    top = bernstein_max(b) if departure is None else departure.argmax(b)[0]
     if departure is not None:
-        size = size + np.finfo(float).eps * np.abs(departure.at(seg, t))
-    closed = q(seg, t, P) >= -size
-    if not (y[~closed] > 0).any():
+        rounding = rounding + np.finfo(float).eps * np.abs(top - bernstein_max(b))
+    kept = top[seg] >= -rounding[seg]
+    if not (y[~kept] > 0).any():
         return chosen
-    kept = closed
     return min([(seg[kept], t[kept], y[kept], P[kept]), least_squares(seg[kept], t[kept], y[kept])],
                key=kkt_residual)
 

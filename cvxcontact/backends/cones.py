@@ -337,11 +337,24 @@ def _closed_only(chosen, B, width: int, G, x, g, departure, least_squares, kkt_r
     if departure is not None:
         rounding = rounding + np.finfo(float).eps * np.abs(top - bernstein_max(b))
     kept = top[seg] >= -rounding[seg]
-    if not (y[~kept] > 0).any():
-        return chosen
-    return min([(seg[kept], t[kept], y[kept], P[kept]), least_squares(seg[kept], t[kept], y[kept])],
-               key=kkt_residual)
+    if (y[~kept] > 0).any():
+        chosen = min([(seg[kept], t[kept], y[kept], P[kept]), least_squares(seg[kept], t[kept], y[kept])],
+                     key=kkt_residual)
+        seg, t, y, P = chosen
+    # on the elements that touch: a force at a point open beyond its rounding, zeroed where the balance allows
+    size = coefficient_rounding(P, T, n)
+    qp = P @ (G @ x - g) - (0.0 if departure is None else departure.at(seg, t))
+    far = (y > 0) & (qp < -size)
+    if far.any():
+        zeroed = (seg, t, np.where(far, 0.0, y), P)
+        if kkt_residual(zeroed) <= max(kkt_residual(chosen), ZEROED_BALANCE):
+            return zeroed
+    return chosen
 
+
+ZEROED_BALANCE = 1e-12
+"""The KKT residual up to which forces at points open beyond rounding on elements that touch are zeroed
+(:func:`_closed_only`)."""
 
 NEWTON_ROUNDS = 4
 """Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""

@@ -356,8 +356,8 @@ def _closed_only(chosen, B, width: int, G, x, g, departure, least_squares, kkt_r
 ZEROED_BALANCE = 1e-12
 """The KKT residual up to which forces at points open beyond rounding on elements that touch are zeroed
 (:func:`_closed_only`): 1.4e-16 of the largest force on the quickstart at 12x6 under the Haswell kernels goes;
-the 1e-11 the quickstart at 8x4 carries at the cuts' points beside its tangencies stays (zeroed, the balance
-read 1e-11)."""
+the forces the quickstart at 8x4 .. 24x12 carries at the cuts' points beside its tangencies stay (zeroed, its
+balance read 1.4e-10 .. 1.6e-7: they are part of the answer's balance, not rounding)."""
 
 NEWTON_ROUNDS = 4
 """Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""

@@ -21,8 +21,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..backends.cuts import segment_scales
-from ..backends.finish import (FORCE_FLOOR, force_displacements, force_scale, ipm_active,  # noqa: F401
-                               node_scales, reach_displacements, reach_forces)
+from ..backends.finish import (FORCE_FLOOR, coefficient_rounding, force_displacements,  # noqa: F401
+                               force_scale, ipm_active, node_scales, reach_displacements, reach_forces, slack_terms)
 from ..contact.bernstein import bernstein_max, element
 
 __all__ = ["CERTIFIED", "ENERGY_ERROR", "energy_error", "checks", "rigid_balance", "compliance_checks", "conic_checks", "cone_slack", "touching_nodes", "force_displacements", "ipm_active",
@@ -72,18 +72,33 @@ E [u_nu] - g at its closed rows is the rounding of the bodies' displacements the
 exact finishes in 3D, tests/test_check_rounding.py), and within it a slack cannot be told from zero."""
 
 
-def complementarity(y, slack, Y: float, U) -> float:
-    """max over the rows a of sqrt( y_a (|s_a| - SLACK_ROUNDING U_a)^+ / (Y U_a) ) (27), ``slack`` s, ``U`` the rows'
-    displacement scales, ``Y`` the force scale (docs/checks.md).
+def complementarity(y, slack, Y: float, U, rounding=None, pairing=None) -> float:
+    """max over the rows a of sqrt( (|y_a . s_a - p_a| - |y_a| . R_a)^+ / (Y U_a) ) (27), ``slack`` s, ``U`` the
+    rows' displacement scales, ``Y`` the force scale (docs/checks.md).
+
+    ``y`` and ``slack`` (n,): one force and slack per row, the nodal rows; (n, w): a row's w pairs, an element's
+    Bernstein duals beta_s and Bernstein coefficients b_s of the slack (:func:`conic_checks`). ``rounding`` R (as
+    ``slack``; None: SLACK_ROUNDING U): a bound on each slack entry's rounding in an exact answer; ``pairing`` p
+    (n,; None: 0) subtracted from each row's product. On a nodal row the floor is
+    |y_a| (|s_a| - SLACK_ROUNDING U_a)^+.
 
     A square root: the error a complementarity gap allows grows like the root of the product. Without the
     rounding of the slack taken off, an exact answer read the root of rounding (1e-8: y_a ~ Y, |s_a| ~ eps U_a);
-    with it, a closed row reads 0 and a gap reads the same to within SLACK_ROUNDING of its square: the value squared
-    drops by at most SLACK_ROUNDING (|y_a| <= Y), so a gap reading c before reads sqrt(c^2 - 1.4e-14) or more.
+    with it, a closed row reads 0 and a gap reads the same to within the floor: the value squared drops by at
+    most max_a |y_a| . R_a / (Y U_a) (nodal rows: SLACK_ROUNDING, as |y_a| <= Y, so a gap reading c before reads
+    sqrt(c^2 - 1.4e-14) or more; an element: :func:`conic_checks`).
     """
     U = np.asarray(U, dtype=float)
-    gap = np.maximum(np.abs(slack) - SLACK_ROUNDING * U, 0.0)
-    return float(np.sqrt((np.abs(y) * gap / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
+    y, slack = _paired(y), _paired(slack)
+    R = SLACK_ROUNDING * U[:, None] if rounding is None else _paired(rounding)
+    product = np.abs((y * slack).sum(axis=1) - (0.0 if pairing is None else np.asarray(pairing, dtype=float)))
+    gap = np.maximum(product - (np.abs(y) * R).sum(axis=1), 0.0)
+    return float(np.sqrt((gap / np.maximum(Y * U, np.finfo(float).tiny)).max(initial=0.0)))
+
+
+def _paired(a) -> np.ndarray:
+    """``a`` as (rows, entries): a (n,) array one entry per row."""
+    return np.atleast_2d(np.asarray(a, dtype=float).T).T
 
 
 def equilibrium_with(blocks, u, phi, Mlam, forces, at_rest: bool = False):
@@ -186,18 +201,22 @@ def touching_nodes(blocks, u, g, r, B, elements, tol: float, departure=None) -> 
     return on
 
 
-def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None):
+def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, departure=None, pairing=None,
+                 moved=None):
     """The checks of (26)-(27) for the P2 "everywhere" condition (docs/formulation.md §8, docs/checks.md).
 
     ``r`` = B^T beta is the nodal contact force on X_h (= M lambda_h), ``B`` (w S, n) the Bernstein map,
     ``g`` the gap at the nodes of X_h and ``beta`` (S, w) the Bernstein duals (w = 3 per merged segment, 6 per
     overlay triangle in 3D, §16). Per element s, with b_s the Bernstein coefficients of q = [u_h nu] - g_h,
-    U_s the largest displacement scale of its nodes (both bodies' normal displacements and the gap) and Y the
-    largest entry of beta:
+    U_s the largest displacement scale of its nodes (both bodies' normal displacements and the gap), R_s the
+    rounding of b_s in an exact answer (:func:`~cvxcontact.backends.finish.coefficient_rounding`: c_j eps times
+    the size of the terms b_j adds up, (|B| T)_j, T_k = sum_l (|J_l| |u_l|)_k + |g_k| (+ ``moved``_k, the size of
+    the force-controlled obstacles' translation terms in ``g``), c_j from how many roundings a term meets, the
+    pairing's own w included) and Y the largest entry of beta (:func:`complementarity`):
 
         equilibrium      as in :func:`checks`, with M lambda_h = r                           (26)
         feasibility      max_s max_{element} q_s^+ / U_s   (exact: :func:`bernstein_max`)
-        complementarity  max_s sqrt(|beta_s . b_s| / (Y U_s))                                (27)
+        complementarity  max_s sqrt((|beta_s . b_s| - |beta_s| . R_s)^+ / (Y U_s))               (27)
         cone             max_s of the distance of beta_s to the dual cone (segments: beta0, beta2 >= 0,
                          beta1 >= 0, beta1 <= 2 sqrt(beta0 beta2); triangles: Z positive semidefinite
                          and non-negative), over Y
@@ -223,11 +242,13 @@ def conic_checks(blocks, u, phi, r, B, g, beta, force_scale: float = 0.0, depart
     Y = max(float(np.abs(beta).max(initial=0.0)), float(force_scale), tiny)
     cone = element(width).dual_cone_violation(beta)
     smax = bernstein_max(b) if departure is None else departure.argmax(b)[0]
-    pair = (beta * b).sum(axis=1) - (0.0 if pairing is None else np.asarray(pairing, dtype=float))
+    # the rounding of b_s: b_j = sum_k B_jk q_k from the terms of q_k (docs/checks.md, "The rounding of b_s")
+    T, n = slack_terms([blk.jump for blk in blocks], u, g, moved)
+    rounding = coefficient_rounding(B, T, n, after=width).reshape(-1, width)
     return {
         "equilibrium": equilibrium,
         "feasibility": float((np.maximum(smax, 0.0) / Us).max(initial=0.0)),
-        "complementarity": float(np.sqrt((np.abs(pair) / np.maximum(Y * Us, np.finfo(float).tiny)).max(initial=0.0))),
+        "complementarity": complementarity(beta, b, Y, Us, rounding, pairing),
         "cone": float(cone.max(initial=0.0) / Y),
     }
 

@@ -69,7 +69,7 @@ def read_back_cones(problem, raw, tol: float, timings) -> Solution:
     blocks, E, gap, u, phi, beta = problem.blocks, problem.E, problem.moved_gap(raw.taus), raw.u, raw.phi, raw.beta
     B, elements = problem.lines.cone_on_nodes        # (beside a nodal pair a friction law's cones sit on E's rows)
     checks_ = conic_checks(blocks, u, phi, E.T @ raw.y, B, gap, beta, departure=problem.departure,
-                           pairing=raw.pairing)
+                           pairing=raw.pairing, moved=problem.translation_sizes(raw.taus) if raw.taus else None)
     if raw.certificate is not None:
         checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
     on = _reads(B) & touching_nodes(blocks, u, gap, E.T @ raw.y, B, elements, tol, departure=problem.departure)

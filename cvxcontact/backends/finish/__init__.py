@@ -14,8 +14,9 @@ answer of the discrete problem, one module per algorithm.
 
 from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, STALL, Declined, Stop
 from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson, rows_kkt
-from .forces import (FORCE_FLOOR, force_displacements, force_scale, friction_scale, ipm_active, node_scales,
-                     reach_displacements, reach_forces, row_compliance, slip_reach)
+from .forces import (FORCE_FLOOR, coefficient_rounding, force_displacements, force_scale, friction_scale,
+                     ipm_active, node_scales, reach_displacements, reach_forces, row_compliance, slack_terms,
+                     slip_reach)
 from .lcp import SIGN_TOL, active_set_steps, closed_solve, lcp_start, row_scales, signs_hold, solve_lcp
 from .normal_compliance import solve_compliance, solve_linear_compliance, solve_sparse_compliance
 from .rows import (DEPENDENT_PIVOT, CholeskySystem, CompliantRows, FactoredRows, UpdatedSystem, _independent,
@@ -23,7 +24,8 @@ from .rows import (DEPENDENT_PIVOT, CholeskySystem, CompliantRows, FactoredRows,
                    factored_rows, refined_solve, row_reach)
 
 __all__ = ["solve_lcp", "closed_solve", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
-           "row_compliance", "force_scale", "friction_scale", "slip_reach", "FORCE_FLOOR", "solve_compliance",
+           "row_compliance", "slack_terms", "coefficient_rounding", "force_scale", "friction_scale", "slip_reach",
+           "FORCE_FLOOR", "solve_compliance",
            "solve_linear_compliance",
            "solve_sparse_compliance", "SIGN_TOL", "active_set_steps", "independent_active_set", "rows_kkt",
            "independent_interface", "lawson_hanson", "force_displacements", "ipm_active", "node_scales",

@@ -4,6 +4,7 @@ active set read from its forces."""
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from ...discrete.energy import abs_product
 
@@ -183,3 +184,40 @@ def ipm_active(parts, g, y, extra=None, reach=None):
     :func:`force_displacements`)."""
     slack, U = node_scales(parts, g, extra)
     return y / force_scale(y, reach) > np.abs(slack) / U
+
+
+def slack_terms(rows, x, g, moved=None) -> tuple[np.ndarray, np.ndarray]:
+    """(T, n) at the nodes of a slack q = sum_l R_l x_l - g: T_k the size of the terms row k adds up,
+    sum_l (|R_l| |x_l|)_k + |g_k| (+ ``moved``_k, the size of the terms a force-controlled obstacle's translation
+    adds to g), and n_k the most roundings one of those terms meets before q_k is formed: the stored entries of
+    the rows (one product and one addition each), one addition per part and the gap's subtraction (+ 3 where
+    ``moved``: a translation's components). ``rows`` and ``x`` are sequences of the parts (each body's jump and
+    unknowns; or one stacked matrix and vector)."""
+    rows = [sp.csr_matrix(R) for R in rows]
+    T = sum((abs(R) @ np.abs(xl) for R, xl in zip(rows, x)), np.zeros(len(g))) + np.abs(g)
+    n = sum((np.diff(R.indptr) for R in rows), np.zeros(len(g), dtype=int)) + len(rows) + 2
+    if moved is not None:
+        T, n = T + np.abs(moved), n + 3
+    return T, n
+
+
+def coefficient_rounding(B, T, n, after: int = 0) -> np.ndarray:
+    """A bound on the rounding of each b_j = sum_k B_jk q_k (a Bernstein coefficient of a slack, or its value
+    at a point: the rows of ``B``) in an answer an exact finish closed, from the slack's terms (T, n)
+    (:func:`slack_terms`): c_j eps (|B| T)_j, c_j = 2 d_j + 2 + ``after``, d_j = max_k n_k + nnz(B_j) + 1 the most
+    roundings one of its terms meets (docs/checks.md, "The rounding of b_s"); ``after``: the roundings a sum of the
+    b_j meets after them (a pairing beta_s . b_s: w, its products and additions).
+
+    A sum of terms t_i computed in floating point is within gamma_d sum |t_i| ~ d eps sum |t_i| of the exact sum
+    when no term meets more than d roundings (Higham, Accuracy and Stability of Numerical Algorithms, §3.1).
+    b_j is computed twice: by the finish, which closes it to its own rounding (Newton's last step: its residual
+    at the rounding of its evaluation, the step's backward error and the update x + dx, eps |x| per unknown:
+    the "+ 2"), and by whoever reads it back from the same unknowns in another order (the checks). The two
+    differ by at most 2 gamma_d (|B| T)_j, so b_j of a closed coefficient reads within that of 0."""
+    B = sp.csr_matrix(B)
+    counts = np.diff(B.indptr)
+    deepest = np.zeros(B.shape[0])
+    has = counts > 0
+    deepest[has] = np.maximum.reduceat(np.asarray(n, dtype=float)[B.indices], B.indptr[:-1][has])
+    d = deepest + counts + 1
+    return (2 * d + 2 + after) * np.finfo(float).eps * (abs(B) @ np.asarray(T, dtype=float))

@@ -171,3 +171,45 @@ def _line(lo, hi):
         return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 1], np.inf)
     return cc.Rigid("line", distance, f"the line y = 0 under {lo} <= x < {hi}",
                     sensitivity=lambda x, nu: np.tile([0.0, 1.0], (len(x), 1)), dim=2)
+
+
+def _half(a, b, c, below):
+    """The plane z = 0 under a x + b y < c (``below``) or under its complement, its distance along the ray -z; +inf
+    elsewhere: two such obstacles split the part along an oblique line, cutting faces across their diagonals."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        side = a * x[:, 0] + b * x[:, 1] < c
+        return np.where(side == below, x[:, 2], np.inf)
+    return cc.Rigid("half", distance, f"the plane z = 0 where ({a} x + {b} y < {c}) is {below}",
+                    sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
+
+
+OBLIQUE = [(1.0, 0.7, 0.55), (0.3, 1.0, 0.93)]
+
+
+def _oblique(line):
+    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+                   displacement={"top": (None, None, -DELTA)}, contact="bottom")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", _half(*line, below)) for below in (True, False)])
+
+
+@pytest.mark.parametrize("line", OBLIQUE)
+def test_p1_obstacles_that_split_the_part_along_an_oblique_line_are_the_closed_form(line):
+    """P1: every row weighs its hat over the whole part, so two obstacles reaching complementary sets of nodes (any
+    split, here along a line across the faces' diagonals) weigh every node by its whole hat: the uniform state is
+    exact (before, the row sums of the restricted mass weighed the cut faces short)."""
+    sol = cc.solve(_oblique(line), "sigma1", degree=1, law=cc.NormalCompliance(K))
+    assert sol.ok
+    for u, x in zip(sol.u, sol.points):
+        assert np.abs(u[:, 2] + (DELTA - P * H / C33) + P * x[:, 2] / C33).max() <= 1e-10 * DELTA  # measured 5.1e-16
+    assert abs(sum(c.force.sum() for c in sol.contacts) - P) <= 1e-10 * P                       # measured 3.3e-16 P
+
+
+@pytest.mark.parametrize("line", OBLIQUE)
+def test_p2_every_node_carries_the_law_when_the_part_is_split_along_an_oblique_line(line):
+    """P2: an oblique split leaves reaching vertices on no wholly reached face (the red hat's A/12 rule): every node
+    of X_h still lies on a law row of positive weight, the midpoints' weights positive after their A/24 give-up."""
+    lines = space(2, "tetra").contact(_oblique(line), "sigma1", cc.NormalCompliance(K))
+    w = np.asarray(lines.weights)
+    assert (w > 0).all()
+    assert (abs(lines.E).T @ w).min() > 0                   # measured min 4.6e-3 m^2 = A/12 (both); 0 before

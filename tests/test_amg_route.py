@@ -490,3 +490,30 @@ def test_unformed_steps_take_the_formed_matrix_steps():
         assert np.array_equal(a.contact.active, b.contact.active)
         for ua, ub in zip(a.u, b.u):
             assert np.abs(ua - ub).max() <= 1e-12 * np.abs(ub).max()                  # measured 1.4e-15, 8.2e-16
+
+
+def test_loose_gmres_solves_of_the_route_apply_no_preconditioner_for_their_update(monkeypatch):
+    """The route's loose GMRES solves (``STEP_RTOLS``) keep their preconditioned vectors (``LOOSE_KEEP``): one
+    that stops within LOOSE_KEEP iterations applies the preconditioner once per iteration, the answer's solve
+    (RTOL, keeping none) once more for its update. A PZT-5A box on an aluminium box (GMRES)."""
+    pytest.importorskip("pyamg")
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends import amg
+
+    plain, seen = amg.gmres, []
+
+    def spy(K, b, x0, M, rtol, *args, **kw):
+        applied, its = [], []
+        counted = spla.LinearOperator(M.shape, matvec=lambda r: applied.append(1) or M @ r, dtype=float)
+        callback = kw.pop("callback", None)
+        x = plain(K, b, x0, counted, rtol, *args, callback=lambda: its.append(1) or callback and callback(), **kw)
+        seen.append((rtol, len(its), len(applied)))
+        return x
+
+    monkeypatch.setattr(amg, "gmres", spy)
+    assert cc.ContactSolver(two_boxes(4), method="amg").solve().ok
+    loose = [(i, a) for rtol, i, a in seen if rtol > amg.RTOL and 0 < i <= amg.LOOSE_KEEP]
+    tight = [(i, a) for rtol, i, a in seen if rtol == amg.RTOL and 0 < i <= amg.GMRES_RESTART]
+    assert loose and tight                     # measured (iterations, applications): (2, 2) ... (4, 4); (11, 12)
+    assert all(a == i for i, a in loose) and all(a == i + 1 for i, a in tight)

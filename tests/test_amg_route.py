@@ -423,6 +423,36 @@ def test_gmres_keeping_preconditioned_vectors_saves_the_update_application():
         assert np.abs(out[keep] - out[0]).max() <= 1e-12 * np.abs(x_ref).max()   # measured 5.1e-16 at most
 
 
+
+def test_gmres_keeping_preconditioned_vectors_across_restarts():
+    """``gmres(keep=k)`` over several restart cycles: each cycle keeps its own preconditioned vectors (not the
+    first cycle's), so with ``restart`` <= k no cycle applies the preconditioner beyond its iterations, and the
+    iterate is the plain update's to rounding; a ``keep`` below ``restart`` too. Nonsymmetric, diagonally
+    dominant system, Jacobi preconditioner, against a dense solve."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.amg import gmres
+
+    rng = np.random.default_rng(5)
+    n = 60
+    A = np.diag(rng.uniform(1.0, 3.0, n)) + rng.normal(0.0, 0.08, (n, n))
+    K, b = sp.csr_matrix(A), rng.normal(size=n)
+    x_ref = np.linalg.solve(A, b)
+    d = 1.0 / np.diag(A)
+    for restart, keep in ((4, 10), (12, 5)):
+        out = {}
+        for k in (0, keep):
+            applied, its = [], []
+            M = spla.LinearOperator((n, n), matvec=lambda r, tally=applied: tally.append(1) or d * r, dtype=float)
+            out[k] = gmres(K, b, np.zeros(n), M, 1e-10, restart=restart, keep=k,
+                           callback=lambda tally=its: tally.append(1))
+            assert np.linalg.norm(b - K @ out[k]) <= 1e-10 * np.linalg.norm(b)
+            assert len(its) > restart                                       # two cycles or more: measured 23, 22
+            if k >= restart:
+                assert len(applied) == len(its)                             # measured 23 (29 with keep=0)
+        assert np.abs(out[keep] - out[0]).max() <= 1e-12 * np.abs(x_ref).max()   # measured 1.4e-16, 1.9e-16
+        assert np.abs(out[keep] - x_ref).max() <= 1e-6 * np.abs(x_ref).max()     # measured 5.5e-11, 2.5e-11
+
 class _Formed(sp.csr_matrix):
     """A set's K formed, read as the route read it before :class:`~cvxcontact.backends.amg.Reduced`."""
 
@@ -460,3 +490,30 @@ def test_unformed_steps_take_the_formed_matrix_steps():
         assert np.array_equal(a.contact.active, b.contact.active)
         for ua, ub in zip(a.u, b.u):
             assert np.abs(ua - ub).max() <= 1e-12 * np.abs(ub).max()                  # measured 1.4e-15, 8.2e-16
+
+
+def test_loose_gmres_solves_of_the_route_apply_no_preconditioner_for_their_update(monkeypatch):
+    """The route's loose GMRES solves (``STEP_RTOLS``) keep their preconditioned vectors (``LOOSE_KEEP``): one
+    that stops within LOOSE_KEEP iterations applies the preconditioner once per iteration, the answer's solve
+    (RTOL, keeping none) once more for its update. A PZT-5A box on an aluminium box (GMRES)."""
+    pytest.importorskip("pyamg")
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends import amg
+
+    plain, seen = amg.gmres, []
+
+    def spy(K, b, x0, M, rtol, *args, **kw):
+        applied, its = [], []
+        counted = spla.LinearOperator(M.shape, matvec=lambda r: applied.append(1) or M @ r, dtype=float)
+        callback = kw.pop("callback", None)
+        x = plain(K, b, x0, counted, rtol, *args, callback=lambda: its.append(1) or callback and callback(), **kw)
+        seen.append((rtol, len(its), len(applied)))
+        return x
+
+    monkeypatch.setattr(amg, "gmres", spy)
+    assert cc.ContactSolver(two_boxes(4), method="amg").solve().ok
+    loose = [(i, a) for rtol, i, a in seen if rtol > amg.RTOL and 0 < i <= amg.LOOSE_KEEP]
+    tight = [(i, a) for rtol, i, a in seen if rtol == amg.RTOL and 0 < i <= amg.GMRES_RESTART]
+    assert loose and tight                     # measured (iterations, applications): (2, 2) ... (4, 4); (11, 12)
+    assert all(a == i for i, a in loose) and all(a == i + 1 for i, a in tight)

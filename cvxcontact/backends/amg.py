@@ -256,7 +256,7 @@ def stacked(blocks, zeros: bool = True) -> sp.csr_matrix:
 
     ``zeros=False``: the entries stored as 0.0 are left out (those arrays after ``eliminate_zeros``; a product
     with S is the same, bit for bit). The assembled blocks keep the nodal pattern, whose entries a structured
-    mesh's elements can cancel exactly: 45 % of two_boxes' S at 8.7e4 unknowns (2.8e6 of 4.6e6 entries)."""
+    mesh's elements can cancel exactly: 62 % of two_boxes' S at 8.7e4 unknowns (2.85e6 of 4.63e6 entries)."""
     pieces = [m for b in blocks for m in (b.Kuu, b.Kup, b.Kpp) if m is not None]
     if not all(sp.issparse(m) and m.format == "csr" and m.has_canonical_format for m in pieces):
         S = sp.block_diag([quasi_definite(b)[0] for b in blocks], format="csr")

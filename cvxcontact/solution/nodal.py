@@ -241,7 +241,8 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     B, elements = cone
     force = np.asarray(force, dtype=float)
     cone_checks = conic_checks(blocks, u, phi, E.T @ force, B, gap + E.T @ scaled.cone_shift, beta,
-                               force_scale=float(np.abs(force).max(initial=0.0)))
+                               force_scale=float(np.abs(force).max(initial=0.0)),
+                               moved=problem.translation_sizes(raw.taus) if raw.taus else None)
     checks_ = dict(sol._checks)
     for key in ("feasibility", "complementarity", "cone"):
         checks_[key] = max(checks_.get(key, 0.0), cone_checks[key])

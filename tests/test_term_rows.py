@@ -67,3 +67,24 @@ def test_a_term_asking_lines_without_elements_is_refused_by_name():
     assert lines.element is None
     with pytest.raises(cc.SolverError, match="under the P2 'gamma3' cones asks the space's elements"):
         cones_on_rows(lines)
+
+
+def _stacked(laws, conditions):
+    bodies, pairs, _ = three_blocks(conditions)
+    return cc.Scene(*bodies, contacts=[p.with_changes(law=lw) for p, lw in zip(pairs, laws)])
+
+
+@pytest.mark.parametrize("laws, conditions", [
+    ((cc.Signorini(), cc.Signorini()), ("gamma3", "sigma1")),          # the cones beside a nodal pair (2D: 20 vs 28)
+    ((cc.Signorini(), cc.Signorini()), ("sigma2", "gamma3")),
+    ((cc.Signorini(), cc.NormalCompliance(1e11)), ("gamma3", "sigma1")),    # the cones beside a compliance law
+    ((cc.NormalCompliance(1e11), cc.Signorini()), ("sigma1", "sigma2")),    # nodal rows
+], ids=["cones-nodal", "nodal-cones", "cones-compliance", "nodal"])
+def test_every_row_of_e_has_one_law_and_each_pair_its_own_rows(laws, conditions):
+    """The law of every row (``rows``) is the law of E's rows, pair by pair: rows.size is E's row count, and where E
+    is the identity on the nodes of X_h (the cones) each pair's count is its node count. Independent of the terms:
+    the pairs' node ranges (``offsets``) and E's own shape."""
+    _, lines = _lines(_stacked(laws, conditions))
+    assert lines.rows.size == lines.E.shape[0], (lines.rows.size, lines.E.shape)
+    if lines.E.shape[0] == lines.E.shape[1] and (lines.E - sp.identity(lines.E.shape[0])).count_nonzero() == 0:
+        assert list(lines.rows.counts) == list(np.diff(lines.offsets))

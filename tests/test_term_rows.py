@@ -88,3 +88,15 @@ def test_every_row_of_e_has_one_law_and_each_pair_its_own_rows(laws, conditions)
     assert lines.rows.size == lines.E.shape[0], (lines.rows.size, lines.E.shape)
     if lines.E.shape[0] == lines.E.shape[1] and (lines.E - sp.identity(lines.E.shape[0])).count_nonzero() == 0:
         assert list(lines.rows.counts) == list(np.diff(lines.offsets))
+
+
+@pytest.mark.parametrize("conditions", [("gamma3", "sigma1"), ("sigma1", "gamma3")])
+def test_the_rows_a_term_asks_for_are_asked_once_for_all(conditions):
+    """A term's lines asked again are the same lines (``own_lines`` on the problem's lines: a second application
+    kept the row cones as the cones on the nodes of X_h, (B (., rows of E)) where (B (., nodes)) belongs)."""
+    term, lines = _lines(uniform_stack(0.2 * P, cc.Tresca(2 * P), conditions, (4, 3, 3)))
+    again = term.own_lines(lines)
+    assert lines.node_cone is not None and again.node_cone[0].shape[1] == lines.E.shape[1]
+    for a, b in ((lines.cone, again.cone), (lines.node_cone, again.node_cone)):
+        assert (a[0] != b[0]).nnz == 0 and np.array_equal(a[1], b[1])
+    assert (again.E != lines.E).nnz == 0 and list(again.rows.counts) == list(lines.rows.counts)

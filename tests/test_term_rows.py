@@ -67,3 +67,36 @@ def test_a_term_asking_lines_without_elements_is_refused_by_name():
     assert lines.element is None
     with pytest.raises(cc.SolverError, match="under the P2 'gamma3' cones asks the space's elements"):
         cones_on_rows(lines)
+
+
+def _stacked(laws, conditions):
+    bodies, pairs, _ = three_blocks(conditions)
+    return cc.Scene(*bodies, contacts=[p.with_changes(law=lw) for p, lw in zip(pairs, laws)])
+
+
+@pytest.mark.parametrize("laws, conditions", [
+    ((cc.Signorini(), cc.Signorini()), ("gamma3", "sigma1")),          # the cones beside a nodal pair (2D: 20 vs 28)
+    ((cc.Signorini(), cc.Signorini()), ("sigma2", "gamma3")),
+    ((cc.Signorini(), cc.NormalCompliance(1e11)), ("gamma3", "sigma1")),    # the cones beside a compliance law
+    ((cc.NormalCompliance(1e11), cc.Signorini()), ("sigma1", "sigma2")),    # nodal rows
+], ids=["cones-nodal", "nodal-cones", "cones-compliance", "nodal"])
+def test_every_row_of_e_has_one_law_and_each_pair_its_own_rows(laws, conditions):
+    """The law of every row (``rows``) is the law of E's rows, pair by pair: rows.size is E's row count, and where E
+    is the identity on the nodes of X_h (the cones) each pair's count is its node count. Independent of the terms:
+    the pairs' node ranges (``offsets``) and E's own shape."""
+    _, lines = _lines(_stacked(laws, conditions))
+    assert lines.rows.size == lines.E.shape[0], (lines.rows.size, lines.E.shape)
+    if lines.E.shape[0] == lines.E.shape[1] and (lines.E - sp.identity(lines.E.shape[0])).count_nonzero() == 0:
+        assert list(lines.rows.counts) == list(np.diff(lines.offsets))
+
+
+@pytest.mark.parametrize("conditions", [("gamma3", "sigma1"), ("sigma1", "gamma3")])
+def test_the_rows_a_term_asks_for_are_asked_once_for_all(conditions):
+    """A term's lines asked again are the same lines (``own_lines`` on the problem's lines: a second application
+    kept the row cones as the cones on the nodes of X_h, (B (., rows of E)) where (B (., nodes)) belongs)."""
+    term, lines = _lines(uniform_stack(0.2 * P, cc.Tresca(2 * P), conditions, (4, 3, 3)))
+    again = term.own_lines(lines)
+    assert lines.node_cone is not None and again.node_cone[0].shape[1] == lines.E.shape[1]
+    for a, b in ((lines.cone, again.cone), (lines.node_cone, again.node_cone)):
+        assert (a[0] != b[0]).nnz == 0 and np.array_equal(a[1], b[1])
+    assert (again.E != lines.E).nnz == 0 and list(again.rows.counts) == list(lines.rows.counts)

@@ -361,12 +361,13 @@ def cones_on_rows(lines):
     the cones sit on them (``cone``: each nodal row a degenerate element,
     :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`; the friction rows and the normal rows are then one
     set) and the space's cones on the nodes of X_h become ``node_cone`` (None where E is the identity: every pair's
-    rows are its nodes). From the space's lines (the cones on the nodes of X_h) and its elements' answers
-    (``lines.element``); docs/howto/friction.md, "P2 under 'gamma3'"."""
+    rows are its nodes). From the space's lines (the cones on the nodes of X_h, ``cone_on_nodes``: so lines it
+    answered already give themselves again) and its elements' answers (``lines.element``); docs/howto/friction.md,
+    "P2 under 'gamma3'"."""
     element = _element(lines, "a friction law under the P2 'gamma3' cones")
     E = element.evaluation()
     identity = E.shape[0] == E.shape[1] and (E - sp.identity(E.shape[0])).count_nonzero() == 0
-    return replace(lines, E=E, cone=element.row_cone(), node_cone=None if identity else lines.cone,
+    return replace(lines, E=E, cone=element.row_cone(), node_cone=None if identity else lines.cone_on_nodes,
                    rows=RowLaws(lines.rows.laws, element.row_counts()))
 
 

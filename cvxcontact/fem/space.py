@@ -288,12 +288,14 @@ class P2:
         pairs = p2_pairs(scene, nodes, condition, law)
         stack = pairs.stack
         cone = None
-        rows = RowLaws(pair_laws(scene, law), np.diff(stack.row_offsets(condition, scene.conditions)))
         if pairs.conic_only:       # the cone on the gamma3 pairs, nodal rows as degenerate cones (§8)
             E = sp.identity(stack.size, format="csr")
             cone = stack.cone_rows(condition, list(pairs.conditions))
+            counts = np.diff(stack.offsets)                # E's rows: a law row per node of X_h (as P2Tet's)
         else:
             E = stack.evaluation(condition, list(pairs.conditions))
+            counts = np.diff(stack.row_offsets(condition, scene.conditions))
+        rows = RowLaws(pair_laws(scene, law), counts)
         weights = stack.weights(condition, scene.conditions) if rows.compliant else None   # Simpson (§10)
         gap = np.concatenate([scene.pair_gap_values(i, np.array(itf.x)) for i, itf in enumerate(stack.interfaces)])
         departure = None if cone is None else gap_departure(scene, stack, list(pairs.conditions), cone[1], gap)

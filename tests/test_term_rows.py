@@ -100,3 +100,17 @@ def test_the_rows_a_term_asks_for_are_asked_once_for_all(conditions):
     for a, b in ((lines.cone, again.cone), (lines.node_cone, again.node_cone)):
         assert (a[0] != b[0]).nnz == 0 and np.array_equal(a[1], b[1])
     assert (again.E != lines.E).nnz == 0 and list(again.rows.counts) == list(lines.rows.counts)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+@pytest.mark.parametrize("condition", ["gamma3", "sigma1"])
+def test_a_law_of_none_is_signorini_for_build_problem(degree, condition):
+    """``build_problem(..., law=None)`` poses Signorini pairs, as ``cc.solve`` does (P2 "gamma3" failed with an
+    untyped AttributeError in ``p2_pairs``): the lines equal those of ``cc.Signorini()`` array for array."""
+    from conftest import two_blocks
+    from cvxcontact.fem.space import space
+    scene = two_blocks()
+    a = build_problem(scene, space(degree), condition, None).lines
+    b = build_problem(scene, space(degree), condition, cc.Signorini()).lines
+    assert (a.E != b.E).nnz == 0 and a.E.shape == b.E.shape
+    assert np.array_equal(a.gap, b.gap)

@@ -269,7 +269,8 @@ def check_law_for(scene, law: ContactLaw) -> ContactLaw:
 
 def pair_laws(scene, law: ContactLaw) -> tuple:
     """The law of each contact pair of ``scene``: the pair's own ``Contact.law``, or ``law`` (the one
-    given to ``solve``/``Model``, already checked by :func:`check_law`) where it is None."""
+    given to ``solve``/``Model``; None is ``Signorini()``, :func:`check_law`) where it is None."""
+    law = check_law(law)
     return tuple(law if getattr(c, "law", None) is None else c.law for c in scene.contacts)
 
 

@@ -31,6 +31,9 @@ nothing (0.10 DELTA off the closed form, 0.72 P). Now each row weighs its hat ov
 import numpy as np
 import pytest
 from hex_scenes import DELTA, SIDES, STEEL, H
+from reach_scenes import line as _line
+from reach_scenes import strip as _strip
+from reach_scenes import triangles_at as _triangles_at
 
 import cvxcontact as cc
 from cvxcontact.fem.space import space
@@ -44,27 +47,10 @@ P = K * DELTA / (1.0 + K * H / C33)
 A = 1.0 / 18                               # the faces' triangles (m^2)
 
 
-def _strip(lo, hi):
-    """The plane z = 0 under the strip lo <= x < hi, its distance along the ray -z; +inf off the strip."""
-    def distance(x, nu):
-        x = np.asarray(x, dtype=float)
-        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 2], np.inf)
-    return cc.Rigid("strip", distance, f"the plane z = 0 under {lo} <= x < {hi}",
-                    sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
-
-
 def _scene(strips=((-1.0, EDGE), (EDGE, 2.0))):
     body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", _strip(*s)) for s in strips])
-
-
-def _triangles_at(x, y):
-    """The number of the faces' triangles at the vertex (x, y) (m): the diagonals of the 3 x 3 squares read off
-    the mesh's bottom faces (the box's Kuhn cells are mirrored from cell to cell)."""
-    mesh = cc.box(nx=3, ny=3, nz=1, z=(0.0, H))
-    p = np.asarray(mesh.points)[np.asarray(mesh.boundary("bottom"))][..., :2]     # (k, 3, 2)
-    return (np.abs(p - [x, y]).max(axis=2) < 1e-9).any(axis=1).sum()
 
 
 def _loads(points, degree):
@@ -162,15 +148,6 @@ def test_a_p1_line_pushed_onto_obstacles_that_reach_it_in_part_is_the_closed_for
     for contact, hats in zip(sol.contacts, ([1 / 6, 1 / 3], [1 / 3, 1 / 6])):
         assert np.abs(contact.force - p * np.array(hats)).max() <= 1e-10 * p / 6                  # measured 1.2e-16 p
     assert abs(sum(contact.force.sum() for contact in sol.contacts) - p) <= 1e-10 * p           # measured 1.6e-16 p
-
-
-def _line(lo, hi):
-    """The line y = 0 under lo <= x < hi, its distance along the ray -y; +inf off it (2D)."""
-    def distance(x, nu):
-        x = np.asarray(x, dtype=float)
-        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 1], np.inf)
-    return cc.Rigid("line", distance, f"the line y = 0 under {lo} <= x < {hi}",
-                    sensitivity=lambda x, nu: np.tile([0.0, 1.0], (len(x), 1)), dim=2)
 
 
 def _half(a, b, c, below):

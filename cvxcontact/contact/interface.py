@@ -101,6 +101,7 @@ class Interface:
     """
 
     dim = 2
+    _hats = None      # against an obstacle reaching the part only in part: the law's weights, lambda_h's read-back
 
     def __init__(self, bodies, parts=None, obstacle=None):
         bodies = tuple(bodies)
@@ -165,6 +166,8 @@ class Interface:
         self.y = first.y
         self.points = read_only(first.points[hit])
         self.mass = _mass(self.x)
+        if len(hit) < len(first.x):        # the run's own mass weighs the segments beyond its ends nothing
+            self._hats = read_only(lumped_lengths(np.asarray(first.x, dtype=float))[hit])
         P = sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(first.x)))
         self._interp = [P]
 
@@ -203,7 +206,15 @@ class Interface:
 
     def multiplier(self, r) -> np.ndarray:
         """lambda_h at the merged nodes (N/m for row forces ``r`` in N): the Riesz representer in X_h of
-        psi -> sum_a r_a psi(a), i.e. M lambda_h = r (X_h is P1 on the merged mesh; docs/formulation.md §4)."""
+        psi -> sum_a r_a psi(a), i.e. M lambda_h = r (X_h is P1 on the merged mesh; docs/formulation.md §4).
+        Against an obstacle that reaches the part only in part (some of its trace's nodes miss it): each row's
+        force over its weight, lambda_a = r_a / w_a, w_a the reaching node's hat integrated over the whole part
+        (:meth:`weights`, the law's; docs/formulation.md §10). The run's own mass weighs the segment beyond
+        its end nothing, so M lambda_h = r misread there (a uniform push on obstacles reaching complementary
+        runs read 0 and 3 p; forces >= 0 a pressure < 0); r / w reads a uniform pressure (forces p w_a) as p
+        at every row, is >= 0 where the forces are, and keeps the total force, sum_a w_a lambda_a = sum_a r_a."""
+        if self._hats is not None:
+            return np.asarray(r, dtype=float) / self._hats
         M = self.mass
         ab = np.zeros((3, M.shape[0]))
         ab[0, 1:] = M.diagonal(1)

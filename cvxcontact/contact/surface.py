@@ -199,6 +199,7 @@ class SurfaceInterface(Represented):
         full = first.mass()
         self.mass = full[hit][:, hit].tocsr()
         self._hats = read_only(np.asarray(full[hit].sum(axis=1)).ravel())     # each hat's integral over the part
+        self._partial = len(hit) < len(first.nodes)                 # lambda_h read back as r / w (multiplier)
         reached = np.zeros(len(first.nodes), dtype=bool)
         reached[hit] = True
         P = first.x[first.faces[reached[first.faces].all(axis=1)]]
@@ -314,12 +315,19 @@ class SurfaceInterface(Represented):
         most 50, stopping when the residual is below 1e-14 of G^T r or has not decreased for three steps.
         Measured max |G^T (M lambda - r)| / max |G^T r|: 1e-15 on the test faces, 2e-13 at 2.9e4 vertices; on
         faces whose nodes nearly coincide without being merged the hats are nearly dependent (nodes 8e-6 h
-        apart: 9e-11; 8e-9 h apart: 3e-9). With an obstacle: M lambda_h = r. A pair given a ``representer``
-        (``with_representer``, a space's pressure basis: the hook of
-        :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
+        apart: 9e-11; 8e-9 h apart: 3e-9). With an obstacle: M lambda_h = r; with one that reaches the part
+        only in part (some of its trace's nodes miss it) each row's force over its weight, lambda_a = r_a / w_a,
+        w_a the reaching node's hat integrated over the whole part (:meth:`weights`, the law's; docs/formulation.md
+        §13): the mass restricted to the reaching nodes weighs the faces they share with missing nodes short, so
+        M lambda_h = r misreads next to where the reach stops (a uniform push read too high there, forces >= 0 a
+        pressure < 0); r / w reads a uniform pressure (forces p w_a) as p at every row, is >= 0 where the forces
+        are, and keeps the total force. A pair given a ``representer`` (``with_representer``, a space's pressure
+        basis: the hook of :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
         r = np.asarray(r, dtype=float)
         if self.representer is not None:
             return self.representer.solve(r)
+        if self.rigid and self._partial:
+            return r / self._hats
         if self.rigid:
             if self._factor is None:
                 self._factor = spla.splu(self.mass.tocsc())

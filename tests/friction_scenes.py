@@ -126,6 +126,18 @@ def sliding_layer3d(g, s=1e-4, n=2):
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=cc.Tresca(g))])
 
 
+LAYERS3D = {"stuck": lambda: uniform_layer3d(0.2 * P, cc.Tresca(2 * P)), "sliding": lambda: sliding_layer3d(1e5)}
+"""The 3D layers on the plane whose P2 "gamma3" answers several modules read (tests/test_friction_p2_gamma3.py,
+test_friction_hencky3d_p2.py): the uniform layer stuck under Tresca 2 p (tau = 0.2 p), the layer sliding under
+Tresca 1e5 Pa (s = 1e-4 m)."""
+
+
+def layer_key(name):
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer of ``LAYERS3D[name]``:
+    ``shared(*layer_key(name))``."""
+    return ("P2 layer on a plane, gamma3", name), lambda: cc.solve(LAYERS3D[name](), "gamma3", degree=2)
+
+
 def uniform_pair3d(tau, law, swap=False, n=2):
     """Two unit layers (n x n x 1 tetrahedra each, matching faces, nu = 0) in the uniform state of
     :func:`uniform_layer3d`, the upper one on the lower one clamped at z = -1, ``law`` between them; ``swap``: the

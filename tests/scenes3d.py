@@ -107,6 +107,12 @@ def pressed_blocks(lower=(3, 3), upper=(4, 2), d=2e-5, gap=bumped_gap, nz=1, mat
     return cc.Scene(b1, b2, gap=gap)
 
 
+def pressed_key():
+    """(key, make) of conftest's ``shared`` for the P2 answer of :func:`pressed_blocks` (its defaults) under
+    "gamma3", the method "auto" (the condensed route): ``shared(*pressed_key())``, read by several test modules."""
+    return ("P2 pressed blocks, gamma3, auto",), lambda: cc.solve(pressed_blocks(), "gamma3", degree=2)
+
+
 def sphere_on_block(force=2e9, n=(6, 6, 3), material=STEEL):
     """A rigid sphere (radius 1 m) under the prescribed force (0, 0, -force) N on a block (-0.5, 0.5)^2 x
     (-0.5, 0) m of ``material`` clamped at its base, touching its top at the centre: about 9 contact nodes at

@@ -13,7 +13,14 @@ import warnings
 import cvxpy as cp
 import numpy as np
 import pytest
-from scenes3d import SIDES, STEEL, bumped_gap, pressed_blocks, uniaxial_modulus
+from scenes3d import (
+    SIDES,
+    STEEL,
+    bumped_gap,
+    pressed_blocks,
+    pressed_key,
+    uniaxial_modulus,
+)
 
 import cvxcontact as cc
 from cvxcontact.backends.conic import copositive_constraints
@@ -99,6 +106,15 @@ def solve(scene, condition="gamma3", **kw):
         return cc.solve(scene, condition, degree=2, **kw)       # of 3 faces on these 2 x 2 x 2 test meshes
 
 
+def shared_pressed(shared):
+    """:func:`solve` of ``pressed_blocks()`` (its warnings errors but the ResolutionWarning), solved once in a run
+    (conftest's ``shared``, :func:`scenes3d.pressed_key`: the same answer read by several modules)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        return shared(*pressed_key())
+
+
 def sampled_penetration(scene, sol, n=12):
     """max over sample points of every overlay triangle of ([u_nu] - g) / (d scale), the jump evaluated from
     each body's own P2 face functions at the point (not through X_h) and the scene's gap function itself (a
@@ -120,9 +136,9 @@ def sampled_penetration(scene, sol, n=12):
     return float((jump - g).max()) / 2e-5
 
 
-def test_pressed_blocks_hold_everywhere_where_the_nodal_conditions_penetrate():
+def test_pressed_blocks_hold_everywhere_where_the_nodal_conditions_penetrate(shared):
     scene = pressed_blocks()
-    sol = solve(scene)
+    sol = shared_pressed(shared)
     assert sol.ok and sol.info.status == "optimal"
     r = sol.residuals()
     assert r["equilibrium"] < 1e-12 and r["feasibility"] < 1e-12 and r["cone"] < 1e-12   # 1.1e-16, 1.3e-15, 1e-17
@@ -208,7 +224,7 @@ def test_blocks_held_by_the_contact_are_finished_on_the_mixed_system():
     assert np.abs(sol.contact.lam - P).max() < 1e-9 * P                       # measured 1.3e-11
 
 
-def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer():
+def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer(shared):
     # an independent program: the nodal condition at the points of a grid of spacing 1/m on every triangle of
     # X_h (linear rows, dependent; the exact finish of dependent rows), m = 2 (the P2 nodes), 4, 8, 16; its
     # answer is a relaxation that tends to the copositive one
@@ -219,7 +235,7 @@ def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer
     from cvxcontact.solve import ContactSolver
 
     scene = pressed_blocks()
-    conic = solve(scene)
+    conic = shared_pressed(shared)
     problem = ContactSolver(scene, "gamma3", degree=2).problem
     B = problem.lines.cone[0]
     T = B.shape[0] // 6
@@ -280,8 +296,8 @@ def test_canonical_scenes_held_by_the_contact_are_finished(name):
     assert sol.residuals()["complementarity"] < 1e-7                       # measured 0 ... 2.5e-8
 
 
-def test_the_pressure_of_a_3d_p2_solution_is_lambda_h():
+def test_the_pressure_of_a_3d_p2_solution_is_lambda_h(shared):
     # (it raised a broadcast error: the 1D P2 lumping applied to in-plane points)
-    sol = solve(pressed_blocks())
+    sol = shared_pressed(shared)
     assert np.array_equal(sol.contact.pressure, sol.contact.lam)
     assert sol.contact.pressure.shape == (len(sol.contact.x),)

@@ -22,10 +22,10 @@ from friction_scenes import (
     L,
     P,
     _side_shear,
+    layer_key,
     pair2d,
     pushed,
     sheared,
-    sliding_layer3d,
     steel,
     uniform_layer,
     uniform_layer3d,
@@ -168,12 +168,12 @@ def _uniform3d(tau, z):
 
 
 @pytest.mark.numerics
-def test_3d_a_uniform_layer_on_a_plane_sticks_with_the_closed_form_and_its_shear_read_back():
+def test_3d_a_uniform_layer_on_a_plane_sticks_with_the_closed_form_and_its_shear_read_back(shared):
     """P2 tetrahedra: the copositive cones of every face triangle, a friction row at every node of X_h (capacity g
     times the red refinement's lumped areas, positive at the vertices). Stuck: the closed form, exact in P2
     (measured 5.4e-15), the plane holding tau A along the diagonal (A = 1 m^2), the nodal forces those of "sigma1"."""
-    tau = 0.2 * P
-    sol = cc.solve(uniform_layer3d(tau, cc.Tresca(10 * tau)), **P2)
+    tau = 0.2 * P                                   # the layer of LAYERS3D["stuck"], solved once a run
+    sol = shared(*layer_key("stuck"))
     assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     exact = _uniform3d(tau, sol.points[0][:, 2])
     assert np.abs(sol.u[0] - exact).max() <= 1e-10 * np.abs(exact).max()
@@ -205,16 +205,16 @@ def test_3d_a_stuck_pair_of_layers_is_the_closed_form(law, lower_n):
 
 
 @pytest.mark.numerics
-def test_3d_a_sliding_layer_is_finished_at_cut_points_and_slides_with_g_times_the_area():
+def test_3d_a_sliding_layer_is_finished_at_cut_points_and_slides_with_g_times_the_area(shared):
     """The layer whose top is moved by s > g / G along the diagonal slides with the friction force g A along it (every
     node of X_h slips). The vertices' friction capacities (the red refinement's areas, A/12) are not the consistent P2
     forces of a uniform traction (0 there), so the nodal relaxation opens a vertex and leaves its triangles' cones
     (by 6.1e-6 of the displacements); one round of cut points closes them (measured: the force g A to 6.9e-9, the
     checks at most 1.5e-9)."""
-    g = 1e5
+    g = 1e5                                         # the layer of LAYERS3D["sliding"], solved once a run
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(sliding_layer3d(g), **P2)
+        sol = shared(*layer_key("sliding"))
     assert sol.ok and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     assert (np.linalg.norm(sol.contact.slip, axis=1) > 0).all()
     assert np.linalg.norm(sol.contact.shear_force.sum(axis=0) + g * DIAGONAL3) <= 1e-6 * g

@@ -21,6 +21,7 @@ from scenes3d import (
     bumped_blocks,
     bumped_gap,
     pressed_blocks,
+    pressed_key,
     pzt_on_block,
     sampled_penetration,
     sphere_on_block,
@@ -128,15 +129,15 @@ def test_a_block_that_never_yields_gives_the_linear_answer(linear):
 
 
 @pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")     # a zone of 3 faces on these coarse meshes
-def test_blocks_held_by_their_supports_yield_and_never_yielding_give_the_linear_answer_to_rounding():
+def test_blocks_held_by_their_supports_yield_and_never_yielding_give_the_linear_answer_to_rounding(shared):
     """Both blocks held by their supports (:func:`scenes3d.pressed_blocks`, the upper pushed down 20 um): the linear
     material's answer is the condensed route's, finished by Newton at the tangency points to rounding. A Hencky
     lower block that never yields gives it to rounding (measured 1.8e-15 in u, 1.0e-13 in lambda_h, the same
     closed nodes; its finish: the tangency Newton on the nonlinear (26)); one that yields (sigma_y = 1 MPa:
     measured 67 of 432 points) is finished by the cuts on the nonlinear (26) (measured equilibrium 4.1e-16,
     feasibility 5.2e-13, no penetration sampled: -7.5e-9 of the largest displacement) and is 0.12 from the linear
-    answer."""
-    linear = cc.solve(pressed_blocks(), "gamma3", degree=2)
+    answer. The linear answer is shared with tests/test_copositive.py (:func:`scenes3d.pressed_key`)."""
+    linear = shared(*pressed_key())
     assert linear.ok and linear.info.method == "condensed" and linear.info.finish == Finish.TANGENCY_NEWTON
     never = cc.solve(pressed_blocks(material=NEVER), "gamma3", degree=2)
     assert never.info.method == "full" and never.polished and never.ok

@@ -151,7 +151,7 @@ def test_the_held_side_box_is_finished_at_points_and_on_ridges(held):
     system. Read here from the bottom's nodal displacements: the slack sampled at 861 points of every bottom
     triangle at most 1e-10 of the displacements (measured -1.3e-12); all 18 touch (their exact maxima -2.4e-19 ..
     2.8e-19), 15 along lines (form of rank 1 to 1e-12: measured 2.0e-16 at most) and 3 at isolated points (second
-    eigenvalue above 1e-3 of the first: measured 5.1e-2 .. 2.8e-1), each of these with two points where its maximum
+    eigenvalue above 1e-4 of the first: measured 5.1e-2 .. 2.8e-1), each of these with two points where its maximum
     over an edge is 0."""
     sol, seen = held
     assert seen == [True]
@@ -160,7 +160,7 @@ def test_the_held_side_box_is_finished_at_points_and_on_ridges(held):
     on = np.flatnonzero(_exact_top(Q) >= -EXACT)
     ev = np.sort(np.abs(np.linalg.eigvalsh(Q[on])), axis=1)
     ratio = ev[:, 1] / ev[:, 2]
-    line, point = ratio <= 1e-12, ratio >= 1e-3
+    line, point = ratio <= 1e-12, ratio >= 1e-4
     assert len(on) == 18 and line.sum() == 15 and point.sum() == 3
     assert all(len(_zero_points(Q[s], 1e-12)) == 2 for s in on[point])
 

@@ -408,12 +408,13 @@ def watched_p2(scene):
     """(:func:`finished_p2` of ``scene``, the outcomes of the 3D friction finish at the tangency points or ridges
     during that solve: ``frictiontangency._polish``, True where it finished, one per call)."""
     from cvxcontact.backends import frictiontangency
+    from cvxcontact.backends.finish import Declined
 
     kept, seen = frictiontangency._polish, []
 
     def spy(*args):
         out = kept(*args)
-        seen.append(out is not None)
+        seen.append(not isinstance(out, Declined))
         return out
 
     frictiontangency._polish = spy

@@ -19,14 +19,17 @@ their lifted nodes down and does not converge. There :func:`~cvxcontact.backends
 same energy and rows (q = -(w_h)^2, w_h P1 on the ridge triangles, and the tangency rows m(Q) = 0 of the
 triangles beside them that touch at isolated points, in one Newton system: the held-side box; accepted where its
 forces are a non-negative measure on w_h's zero lines and the points), then the same acceptance below; where both
-decline the cuts' answer stands (benchmarks/results/friction_p2_tangency3d.md).
+decline the cuts' answer stands, labelled declined (not polished, ``info.declined`` this module's reason and a
+:class:`~cvxcontact.errors.ResidualWarning`: it stands about 1e-6 of the displacements from the exact answer;
+benchmarks/results/friction_p2_tangency3d.md).
 
 With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
 linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,
 smooth while the slip does not vanish: :class:`~cvxcontact.backends.mixed.SlidingEnergy`). So the tangency Newton
 with that energy on (26) finishes it. Accepted where the answer keeps the partition (every stuck row's force within
 its capacity, every slipping row's slip turned by less than a right angle and not vanished) and balances (26) with
-its own forces; else None (the cuts' answer stands)."""
+its own forces; else a :class:`~cvxcontact.backends.finish.declined.Declined` saying why (the cuts' answer
+stands, labelled declined by the caller)."""
 
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .cones import MIXED_CUT_TOL
-from .finish.declined import Declined
+from .finish.declined import Declined, Stop
 from .frictionrows import balances, moved_components, prescribed_row_slip, slip_matrix
 from .full import mixed_kkt
 from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
@@ -51,6 +54,9 @@ __all__ = ["tangency_polish"]
 
 log = logging.getLogger(__name__)
 
+WHERE = "the Newton at the tangency points after the 3D friction cuts"
+"""The finish a decline of this module names."""
+
 
 def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol: float, capacity_tol: float):
     """The cuts' answer ``trial`` (its ``points`` the cut points and forces) of Tresca's law at the capacities
@@ -58,7 +64,8 @@ def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol
     slip is at most ``floor`` times the largest displacement is stuck, the others slip along their slip. Accepted
     where the partition holds (a stuck row's force within its capacity to ``capacity_tol`` of the largest, a
     slipping row's slip above ``floor``) and (26) balances with the answer's own forces to ``balance_tol`` of its
-    largest term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or None."""
+    largest term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or the
+:class:`~cvxcontact.backends.finish.declined.Declined` saying why."""
     t0 = time.perf_counter()
     try:
         return _polish(problem, trial, capacity, floor, balance_tol, capacity_tol)
@@ -99,7 +106,7 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
         if isinstance(ridge, Declined):
             log.info("the Newton at the tangency points after the 3D friction cuts declined: %s; on the ridges: %s",
                      out, ridge)
-            return None
+            return Declined(ridge.stop, f"{WHERE} declined ({out}), and on the ridges ({ridge})")
         log.info("the Newton at the tangency points after the 3D friction cuts declined (%s); finished on the ridges "
                  "(%d point forces on their zero lines)", out, len(ridge["y"]))
         out = {"x": ridge["z"], "nodal": ridge["nodal"], "beta": ridge["beta"], "active": ridge["active"],
@@ -116,11 +123,12 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
     if over.any() or turned.any():
         log.info("the Newton at the tangency points after the 3D friction cuts: %d stuck rows over their capacity, "
                  "%d slipping rows turned: the cuts' answer stands", over.sum(), turned.sum())
-        return None
+        return Declined(Stop.SIGNS, f"{WHERE}: {over.sum()} stuck rows over their capacity, {turned.sum()} "
+                        "slipping rows turned")
     y = np.asarray(out["nodal"], dtype=float)
     if not balances(op.gradient(x), op.magnitude(x), G, y, S, mu.ravel(), balance_tol):    # (26), own forces
         log.info("the Newton at the tangency points after the 3D friction cuts: its forces do not balance (26)")
-        return None
+        return Declined(Stop.SIGNS, f"{WHERE}: its forces do not balance (26)")
     done = replace(trial)
     done.u, done.phi, done.taus = unstacked(problem, x, widths)
     done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]

@@ -68,6 +68,7 @@ from .frictionrows import (
     slip_matrix,
 )
 from .frictionsteps import sequential as _sequential
+from .frictiontangency import kept as _kept
 from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, mixed_system, stacked, unstacked
@@ -279,7 +280,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
     :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (3D:
-    labelled declined where a polish declined, :func:`_kept`; its
+    labelled declined where a polish declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its
     capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
     first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
     declined (then None where the fixed point does not settle). The answer's ``fixed_point``: ``before`` (the
@@ -301,21 +302,6 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
             done.fixed_point = tuple(before) + tuple(changes)
             return done
     return cuts
-
-
-def _kept(cuts, done):
-    """The answer where the cuts' answer ``cuts`` was handed to :func:`_tangency_polish`: its answer ``done``; where
-    that declined, the cuts' answer, finished as the finish's steps at the cut points, not at the exact tangency
-    points (about 1e-6 of the displacements from them, the square root of the cuts' stop): in 3D (``done`` a
-    :class:`~cvxcontact.backends.finish.Declined`) labelled declined, as a finish that declined (not polished,
-    the interior point's route, ``declined`` the polish's reason: the read-back reports it, the solve warns);
-    2D's polish (None) keeps the cuts' answer as finished."""
-    if done is None:
-        return cuts
-    if not isinstance(done, Declined):
-        return done
-    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION,
-                   declined=done.within("the cut rounds' answer is kept, not finished at the exact tangency points"))
 
 
 def _cut(problem, trial) -> bool:
@@ -356,7 +342,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force: else the rows that break it
     change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces, else
     None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None (3D: the
-    :class:`~cvxcontact.backends.finish.Declined` saying why, :func:`_kept`).
+    :class:`~cvxcontact.backends.finish.Declined` saying why, :func:`~cvxcontact.backends.frictiontangency.kept`).
 
     From the interior point's answer (where the cuts declined: ``trial.points`` None, its Bernstein duals the
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns

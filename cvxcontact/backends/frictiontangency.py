@@ -50,7 +50,7 @@ from .result import Finish, Route
 from .ridges import ridge_newton
 from .tangency import tangency_newton
 
-__all__ = ["tangency_polish"]
+__all__ = ["kept", "tangency_polish"]
 
 log = logging.getLogger(__name__)
 
@@ -142,3 +142,17 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
                                                              Route.INTERIOR_POINT_FINISHED, None)
     return done
 
+
+
+def kept(cuts, done):
+    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points: the polish's answer
+    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`, 3D), the cuts'
+    answer labelled as a finish that declined: not polished, the interior point's route, ``declined`` the polish's
+    reason (the read-back reports it, the solve warns; module docstring); ``done`` None (2D's polish declined),
+    the cuts' answer as it is."""
+    if done is None:
+        return cuts
+    if not isinstance(done, Declined):
+        return done
+    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION,
+                   declined=done.within("the cut rounds' answer is kept, not finished at the exact tangency points"))

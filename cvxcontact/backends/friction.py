@@ -222,7 +222,7 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
             done = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP)
             out = out if done is None or isinstance(done, Declined) else done
         elif _cut(problem, out):
-            out = _kept(out, _tangency_polish(problem, out, timings, capacity))
+            out = _kept(problem, out, _tangency_polish(problem, out, timings, capacity))
     if isinstance(out, Declined):
         raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
                                 f"{out})", out.rows)
@@ -291,7 +291,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
         done = _tangency_polish(problem, trial, timings, capacity,
                                 SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
         if done is None or isinstance(done, Declined):
-            return None if cuts is None else _kept(cuts, done)
+            return None if cuts is None else _kept(problem, cuts, done)
         new = problem.term.data.capacities(done.y)
         changes.append(_change(new, capacity))
         log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),

@@ -19,9 +19,9 @@ their lifted nodes down and does not converge. There :func:`~cvxcontact.backends
 same energy and rows (q = -(w_h)^2, w_h P1 on the ridge triangles, and the tangency rows m(Q) = 0 of the
 triangles beside them that touch at isolated points, in one Newton system: the held-side box; accepted where its
 forces are a non-negative measure on w_h's zero lines and the points), then the same acceptance below; where both
-decline the cuts' answer stands, labelled declined (not polished, ``info.declined`` this module's reason and a
-:class:`~cvxcontact.errors.ResidualWarning`: it stands about 1e-6 of the displacements from the exact answer;
-benchmarks/results/friction_p2_tangency3d.md).
+decline the cuts' answer stands, labelled declined where the contact ends inside a triangle (not polished,
+``info.declined`` this module's reason and a :class:`~cvxcontact.errors.ResidualWarning`: it stands about 1e-6 of
+the displacements from the exact answer; benchmarks/results/friction_p2_tangency3d.md; :func:`kept`).
 
 With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
 linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,

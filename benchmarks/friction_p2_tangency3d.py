@@ -29,6 +29,7 @@ from scenes3d import sphere_into_block
 
 import cvxcontact as cc
 from cvxcontact.backends import friction, frictiontangency
+from cvxcontact.backends.finish import Declined
 
 P2 = {"condition": "gamma3", "degree": 2, "estimate": False}
 
@@ -47,7 +48,7 @@ def solve(scene, tol=None, polish=True):
 
     def spy(*args):
         out = kept(*args) if polish else None
-        seen.append(out is not None)
+        seen.append(out is not None and not isinstance(out, Declined))
         return out
 
     frictiontangency._polish = spy

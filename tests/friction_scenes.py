@@ -9,6 +9,7 @@ tests/test_friction3d_p2.py, tests/test_refusals.py).
 import warnings
 
 import numpy as np
+import pytest
 
 import cvxcontact as cc
 
@@ -401,6 +402,19 @@ def finished_p2(scene):
         warnings.simplefilter("error", cc.ResidualWarning)
         sol = cc.solve(scene, **P2_CONES)
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
+    assert sol.info.declined is None
+    return sol
+
+
+def declined_p2(scene):
+    """The answer of ``scene`` under the P2 cones (:data:`P2_CONES`) where the 3D finish at the exact tangency points
+    and on the ridges declines after the cut rounds: the cuts' answer, labelled as a declined finish (a
+    ResidualWarning naming the decline, not polished, no finish, ``info.declined`` saying why, the interior point's
+    route); asserts those."""
+    with pytest.warns(cc.ResidualWarning, match="was declined"):
+        sol = cc.solve(scene, **P2_CONES)
+    assert not sol.polished and sol.info.finish is None and sol.info.route == cc.Route.INTERIOR_POINT_FRICTION
+    assert "not finished at the exact tangency points" in str(sol.info.declined), sol.info.declined
     return sol
 
 
@@ -408,12 +422,13 @@ def watched_p2(scene):
     """(:func:`finished_p2` of ``scene``, the outcomes of the 3D friction finish at the tangency points or ridges
     during that solve: ``frictiontangency._polish``, True where it finished, one per call)."""
     from cvxcontact.backends import frictiontangency
+    from cvxcontact.backends.finish import Declined
 
     kept, seen = frictiontangency._polish, []
 
     def spy(*args):
         out = kept(*args)
-        seen.append(out is not None)
+        seen.append(not isinstance(out, Declined))
         return out
 
     frictiontangency._polish = spy

@@ -89,10 +89,14 @@ def test_steps_that_stall_on_the_non_matching_boxes_end_early_and_decline_as_bef
         warnings.simplefilter("always")
         sol = cc.solve(non_matching(cc.Tresca(3e6)), **P2)
     flagged = [w for w in caught if w.category is cc.ResidualWarning and "declined" in str(w.message)]
-    if sol.polished:        # finished under some kernel sets (OPENBLAS_CORETYPE=Nehalem): then by its own checks
+    if sol.polished:        # finished under some kernel sets: then by its own checks
         assert sol.ok and not flagged
-    else:                   # declined (default kernels): flagged, for the same reason
-        assert flagged and "the active-set steps did not settle" in str(sol.info.declined)
+    else:                   # declined (default kernels): flagged, for the same reason; under some kernel sets
+        #                     (OPENBLAS_CORETYPE=Nehalem) the cut rounds finish and the polish at the tangency
+        #                     points declines after them (it read finished before frictiontangency.kept)
+        why = str(sol.info.declined)
+        assert flagged and ("the active-set steps did not settle" in why
+                            or "not finished at the exact tangency points" in why), why
     declined = [steps for steps, out in count["runs"] if out]
     assert max(declined, default=0) <= 3 * DIRECTION_STALL
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from friction_box_scenes import DIAGONAL, LIFTING, lifting_key, sheared
 from friction_box_scenes import P as BOX_P
-from friction_scenes import P, box, finished_p2, positive_forces
+from friction_scenes import P, box, declined_p2, positive_forces
 
 import cvxcontact as cc
 
@@ -80,8 +80,14 @@ def test_a_box_lifting_at_a_corner_is_finished_and_keeps_tresca_law(name, shared
 def test_far_above_the_shear_the_threshold_holds_the_box_as_tied():
     """Tresca's threshold 1e12 Pa (5e5 times the shear) on the sheared box: every row sticks (Tresca's capacity
     does not depend on the contact, the lifted rows stick too), so the answer is the tied one (frictionless P2
-    cones, u_x = u_y = 0 on the base: another route) to 1e-9 of the displacements (measured 4.3e-15)."""
-    sol = finished_p2(box(SHEAR, cc.Tresca(1e12)))
+    cones, u_x = u_y = 0 on the base: another route) to 1e-9 of the displacements (measured 4.3e-15). Under the
+    default kernels the polish at the tangency points and ridges declines after the cut rounds and the answer, the
+    cuts', reads declined (:func:`cvxcontact.backends.frictiontangency.kept` labels every pressed cut point on a
+    triangle not closed at its nodes; here the cuts' answer is the tied one all the same); under Haswell finished."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResidualWarning)
+        sol = cc.solve(box(SHEAR, cc.Tresca(1e12)), **P2)
+    assert sol.polished or "not finished at the exact tangency points" in str(sol.info.declined), sol.info.declined
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
         tied = cc.solve(box(SHEAR, None, tied=True), **P2)
@@ -90,9 +96,13 @@ def test_far_above_the_shear_the_threshold_holds_the_box_as_tied():
 
 
 @pytest.mark.numerics
-def test_coulomb_on_the_box_lifting_at_a_corner_is_finished_and_keeps_its_law():
-    """The box of tests/friction_box_scenes.py sheared by 0.2 p along a diagonal under Coulomb mu = 0.3: finished (was
-    declined; its fixed point on Tresca's capacities converged). Checked as above with Coulomb's capacities mu p_a,
+def test_coulomb_on_the_box_lifting_at_a_corner_keeps_its_law_at_the_cuts_and_reads_declined():
+    """The box of tests/friction_box_scenes.py sheared by 0.2 p along a diagonal under Coulomb mu = 0.3: its fixed
+    point on Tresca's capacities converges on the cut points (was declined in the cut rounds), but the finish at the
+    exact tangency points and on the ridges declines at its first polish (a touching triangle's sign relations admit
+    no square of a linear function: benchmarks/results/friction_p2_tangency3d.md), so the answer is the cuts' (exact
+    on the cut points, about 1e-6 of the displacements from the exact answer) and reads as a declined finish
+    (:func:`friction_scenes.declined_p2`; it read finished before). Checked as above with Coulomb's capacities mu p_a,
     p the answer's own nodal forces r made non-negative by patches (:func:`friction_scenes.positive_forces` on the
     bottom's P2 faces: 8 of 49 r_a < 0, the capacities 2.3 % of the largest off mu r_a+ there; they sum to mu p): the
     bottom sampled against the floor (measured 7.5e-10 of the displacements), the slip the nodes' tangential
@@ -100,7 +110,7 @@ def test_coulomb_on_the_box_lifting_at_a_corner_is_finished_and_keeps_its_law():
     point's last change) and at them against the slip where a node slips (measured 3.9e-13; 39 of 49 nodes, 11 of
     them open with no force nor friction), the normal forces summing to p and the shear forces to the shear
     (measured 3.4e-15, 9.9e-15)."""
-    sol = finished_p2(sheared(0.2 * BOX_P * DIAGONAL, cc.Coulomb(0.3)))
+    sol = declined_p2(sheared(0.2 * BOX_P * DIAGONAL, cc.Coulomb(0.3)))
     U = float(np.abs(sol.u[0]).max())
     assert -_sampled_uz(sol, _bottom_faces(sol)).min() <= 1e-7 * U
     c = sol.contact
@@ -117,3 +127,21 @@ def test_coulomb_on_the_box_lifting_at_a_corner_is_finished_and_keeps_its_law():
     assert np.abs(against[slipping]).max() <= 1e-10 * capacity.max()
     assert abs(c.force.sum() - BOX_P) <= 1e-12 * BOX_P
     assert np.linalg.norm(c.shear_force.sum(axis=0)) == pytest.approx(0.2 * BOX_P, rel=1e-12)
+
+
+@pytest.mark.numerics
+def test_the_sheared_box_whose_finish_declines_reads_declined():
+    """The box sheared by (0.2, 0.1) p under Tresca 5 MPa: the finish at the exact tangency points and on the ridges
+    declines after the cut rounds (the point contacts beside the ridges do not settle:
+    benchmarks/results/friction_p2_tangency3d.md) where the contact ends inside the triangles (no node of the bottom
+    closed), so the answer is the cuts' (about 1e-6 of the displacements from the exact one) and reads as a declined
+    finish (:func:`friction_scenes.declined_p2`; it read polished, finished by the friction Newton, with no warning
+    before). Still the cuts' answer, exact on their points: every shear force within its capacity (measured
+    2.0e-17 of the largest; 0 Haswell, Nehalem), the normal forces summing to p and the shear forces to the shear
+    (measured 2.6e-15 and 1.5e-14 relative at most under default, Haswell, Nehalem)."""
+    sol = declined_p2(sheared((0.2 * BOX_P, 0.1 * BOX_P), cc.Tresca(5e6)))
+    c = sol.contact
+    capacity = c.threshold * c.slip_measure
+    assert (np.linalg.norm(c.shear_force, axis=1) - capacity).max() <= 1e-12 * capacity.max()
+    assert abs(c.force.sum() - BOX_P) <= 1e-12 * BOX_P
+    assert np.linalg.norm(c.shear_force.sum(axis=0)) == pytest.approx(np.hypot(0.2, 0.1) * BOX_P, rel=1e-12)

@@ -172,6 +172,7 @@ def test_a_stuck_row_over_its_capacity_declines_from_either_start(monkeypatch):
     nothing in the Newton: the same answer) is over it, so both starts decline; at the true capacities both
     accept. (The 1e-7 floor as the cone's tolerance accepted it.)"""
     from cvxcontact.backends import friction, frictiontangency
+    from cvxcontact.backends.finish import Declined
 
     seen = []
     polish = frictiontangency._polish
@@ -186,11 +187,11 @@ def test_a_stuck_row_over_its_capacity_declines_from_either_start(monkeypatch):
     R = problem.E.shape[0]
     for floor in (friction.SLIP_ROUNDING, friction.INTERIOR_SLIP):
         done = friction._tangency_polish(problem, trial, {}, capacity, floor)
-        assert done is not None
+        assert not isinstance(done, Declined)
         force = np.linalg.norm(done.tangential.reshape(-1, R), axis=0)
         stuck = np.flatnonzero((force < (1 - 1e-6) * capacity) & problem.rows.frictional)
         a = stuck[np.argmax(force[stuck])]
         assert force[a] > 0.1 * capacity.max()                       # the excess below is 1e-9 of the largest
         lowered = capacity.copy()
         lowered[a] = force[a] / (1 + 1e-8)
-        assert friction._tangency_polish(problem, trial, {}, lowered, floor) is None
+        assert isinstance(friction._tangency_polish(problem, trial, {}, lowered, floor), Declined)

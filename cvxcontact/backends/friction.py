@@ -68,6 +68,7 @@ from .frictionrows import (
     slip_matrix,
 )
 from .frictionsteps import sequential as _sequential
+from .frictiontangency import kept as _kept
 from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, mixed_system, stacked, unstacked
@@ -218,9 +219,10 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         capacity = problem.term.data.capacities(np.zeros(len(problem.g)))
         out = _cuts(problem, raw, timings, segment, t)
         if isinstance(out, Declined):             # the tangency points from the interior point's structure
-            out = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP) or out
+            done = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP)
+            out = out if done is None or isinstance(done, Declined) else done
         elif _cut(problem, out):
-            out = _tangency_polish(problem, out, timings, capacity) or out
+            out = _kept(problem, out, _tangency_polish(problem, out, timings, capacity))
     if isinstance(out, Declined):
         raw.declined = Declined(out.stop, f"{UNFINISHED_CONES} (the friction finish on the nodes and cut points: "
                                 f"{out})", out.rows)
@@ -277,7 +279,8 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
-    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (its
+    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (3D:
+    labelled declined where a polish declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its
     capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
     first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
     declined (then None where the fixed point does not settle). The answer's ``fixed_point``: ``before`` (the
@@ -287,8 +290,8 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     for _ in range(most):
         done = _tangency_polish(problem, trial, timings, capacity,
                                 SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
-        if done is None:
-            return cuts
+        if done is None or isinstance(done, Declined):
+            return None if cuts is None else _kept(problem, cuts, done)
         new = problem.term.data.capacities(done.y)
         changes.append(_change(new, capacity))
         log.info("Coulomb at the tangency points: iterate %d, relative change of the capacities %.2e", len(changes),
@@ -338,7 +341,8 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     with those loads and rows finishes it, from the cuts' points; accepted where its answer keeps the partition
     (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force: else the rows that break it
     change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces, else
-    None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None.
+    None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None (3D: the
+    :class:`~cvxcontact.backends.finish.Declined` saying why, :func:`~cvxcontact.backends.frictiontangency.kept`).
 
     From the interior point's answer (where the cuts declined: ``trial.points`` None, its Bernstein duals the
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns

@@ -19,14 +19,17 @@ their lifted nodes down and does not converge. There :func:`~cvxcontact.backends
 same energy and rows (q = -(w_h)^2, w_h P1 on the ridge triangles, and the tangency rows m(Q) = 0 of the
 triangles beside them that touch at isolated points, in one Newton system: the held-side box; accepted where its
 forces are a non-negative measure on w_h's zero lines and the points), then the same acceptance below; where both
-decline the cuts' answer stands (benchmarks/results/friction_p2_tangency3d.md).
+decline the cuts' answer stands, labelled declined where the contact ends inside a triangle (not polished,
+``info.declined`` this module's reason and a :class:`~cvxcontact.errors.ResidualWarning`: it stands about 1e-6 of
+the displacements from the exact answer; benchmarks/results/friction_p2_tangency3d.md; :func:`kept`).
 
 With the stick-slip partition of the cuts' answer fixed, Tresca's law in 3D is: a stuck row's slip is 0 (two
 linear rows, their multipliers its force), a slipping row's force is c_a s_a / |s_a| (the gradient of c_a |s_a|,
 smooth while the slip does not vanish: :class:`~cvxcontact.backends.mixed.SlidingEnergy`). So the tangency Newton
 with that energy on (26) finishes it. Accepted where the answer keeps the partition (every stuck row's force within
 its capacity, every slipping row's slip turned by less than a right angle and not vanished) and balances (26) with
-its own forces; else None (the cuts' answer stands)."""
+its own forces; else a :class:`~cvxcontact.backends.finish.declined.Declined` saying why (the cuts' answer
+stands, labelled declined by the caller)."""
 
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .cones import MIXED_CUT_TOL
-from .finish.declined import Declined
+from .finish.declined import Declined, Stop
 from .frictionrows import balances, moved_components, prescribed_row_slip, slip_matrix
 from .full import mixed_kkt
 from .mixed import HeldEnergy, SlidingEnergy, mixed_system, stacked, unstacked
@@ -47,9 +50,12 @@ from .result import Finish, Route
 from .ridges import ridge_newton
 from .tangency import tangency_newton
 
-__all__ = ["tangency_polish"]
+__all__ = ["kept", "tangency_polish"]
 
 log = logging.getLogger(__name__)
+
+WHERE = "the Newton at the tangency points after the 3D friction cuts"
+"""The finish a decline of this module names."""
 
 
 def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol: float, capacity_tol: float):
@@ -58,7 +64,8 @@ def tangency_polish(problem, trial, timings, capacity, floor: float, balance_tol
     slip is at most ``floor`` times the largest displacement is stuck, the others slip along their slip. Accepted
     where the partition holds (a stuck row's force within its capacity to ``capacity_tol`` of the largest, a
     slipping row's slip above ``floor``) and (26) balances with the answer's own forces to ``balance_tol`` of its
-    largest term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or None."""
+    largest term. Returns the finished answer (a new :class:`~cvxcontact.backends.result.RawResult`) or the
+:class:`~cvxcontact.backends.finish.declined.Declined` saying why."""
     t0 = time.perf_counter()
     try:
         return _polish(problem, trial, capacity, floor, balance_tol, capacity_tol)
@@ -99,7 +106,7 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
         if isinstance(ridge, Declined):
             log.info("the Newton at the tangency points after the 3D friction cuts declined: %s; on the ridges: %s",
                      out, ridge)
-            return None
+            return Declined(ridge.stop, f"{WHERE} declined ({out}), and on the ridges ({ridge})")
         log.info("the Newton at the tangency points after the 3D friction cuts declined (%s); finished on the ridges "
                  "(%d point forces on their zero lines)", out, len(ridge["y"]))
         out = {"x": ridge["z"], "nodal": ridge["nodal"], "beta": ridge["beta"], "active": ridge["active"],
@@ -116,11 +123,12 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
     if over.any() or turned.any():
         log.info("the Newton at the tangency points after the 3D friction cuts: %d stuck rows over their capacity, "
                  "%d slipping rows turned: the cuts' answer stands", over.sum(), turned.sum())
-        return None
+        return Declined(Stop.SIGNS, f"{WHERE}: {over.sum()} stuck rows over their capacity, {turned.sum()} "
+                        "slipping rows turned")
     y = np.asarray(out["nodal"], dtype=float)
     if not balances(op.gradient(x), op.magnitude(x), G, y, S, mu.ravel(), balance_tol):    # (26), own forces
         log.info("the Newton at the tangency points after the 3D friction cuts: its forces do not balance (26)")
-        return None
+        return Declined(Stop.SIGNS, f"{WHERE}: its forces do not balance (26)")
     done = replace(trial)
     done.u, done.phi, done.taus = unstacked(problem, x, widths)
     done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]
@@ -134,3 +142,34 @@ def _polish(problem, trial, capacity, floor, balance_tol, capacity_tol):
                                                              Route.INTERIOR_POINT_FINISHED, None)
     return done
 
+
+
+CLOSED = 1e-12
+"""A node of X_h whose slack q is within this of 0 (times the largest displacement) is closed (:func:`kept`: a row
+the finish closed is 0 to rounding, measured at most 5.2e-31; the open nodes of the boxes that lift at a corner at
+least 2.4e-8 below it)."""
+
+
+def kept(problem, cuts, done):
+    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points: the polish's answer
+    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`, 3D) and the
+    contact ends inside an element (a cut point with a positive force on a triangle whose P2 nodes are not all
+    closed, :data:`CLOSED`: else the slack vanishes on each pressed triangle, q quadratic and 0 at its six nodes, and
+    the cuts' answer is exact), the cuts' answer labelled as a finish that declined: not polished, the interior
+    point's route, ``declined`` the polish's reason (the read-back reports it, the solve warns; module docstring);
+    ``done`` None (2D's polish declined), the cuts' answer as it is."""
+    if done is None:
+        return cuts
+    if not isinstance(done, Declined):
+        return done
+    cells = problem.lines.cone[1]
+    n = problem.E.shape[0]
+    segment, _, y = cuts.points
+    pressed = np.asarray(segment)[n:][np.asarray(y, dtype=float)[n:] > 0]
+    jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, cuts.u))
+    jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, cuts.taus)), np.zeros(n))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in cuts.u] + [np.finfo(float).tiny])
+    if (np.abs(jump - problem.g)[cells[pressed]] <= CLOSED * U).all():
+        return cuts
+    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION,
+                   declined=done.within("the cut rounds' answer is kept, not finished at the exact tangency points"))

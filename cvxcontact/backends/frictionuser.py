@@ -73,10 +73,13 @@ def _finished(problem, raw, unsettled, objective, settings, admits, finish):
         raw.declined = Declined(Stop.NOT_POSED, OBJECTIVE)
     elif settings.polish:
         interior = copy.copy(raw)
-        raw = finish(raw)
-        if raw.polished and not admits(raw):
-            raw = interior
-            raw.declined = Declined(Stop.NOT_POSED, BINDS)
+        out = finish(raw)
+        # a finish's own answer (finished, or a new one: the cuts' kept where the 3D polish declined,
+        # frictiontangency.kept; a decline returns ``raw`` itself) is kept only where it admits the user rows
+        if (out.polished or out is not raw) and not admits(out):
+            out = interior
+            out.declined = Declined(Stop.NOT_POSED, BINDS)
+        raw = out
     if unsettled and not raw.polished:
         warnings.warn(unsettled, FixedPointWarning, stacklevel=5)
     return raw, tangential_force(problem, raw)

@@ -37,9 +37,8 @@ SCENES = {"quickstart 12x6 (segments, interpolated gap)": lambda: quickstart(12)
           "free sphere (triangles, true gap)": lambda: sphere_on_block(n=(4, 4, 2))}
 
 
-@pytest.fixture(scope="module", params=list(SCENES))
-def solved(request):
-    """(solution, the arguments conic_checks read the answer with)."""
+def _watched(scene, **options):
+    """(the "gamma3" solution of ``scene``, the arguments conic_checks read the answer with)."""
     seen = {}
 
     def spy(*args, **kwargs):
@@ -49,8 +48,14 @@ def solved(request):
     with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
         mp.setattr(nodal, "conic_checks", spy)
-        sol = cc.solve(SCENES[request.param](), "gamma3", degree=2)
+        sol = cc.solve(scene, "gamma3", **options)
     return sol, seen
+
+
+@pytest.fixture(scope="module", params=list(SCENES))
+def solved(request):
+    """(solution, the arguments conic_checks read the answer with)."""
+    return _watched(SCENES[request.param](), degree=2)
 
 
 def _pairing(args):
@@ -134,18 +139,8 @@ def mixed_far():
     1e-2 m to the displacements' 1e-5 m, so its rounding is that of the translation terms, not of |g|."""
     from obstacle_scenes import punch_scene
 
-    seen = {}
-
-    def spy(*args, **kwargs):
-        seen.update(zip(("blocks", "u", "phi", "r", "B", "g", "beta"), args), **kwargs)
-        return conic_checks(*args, **kwargs)
-
-    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
-        warnings.simplefilter("ignore", cc.ResolutionWarning)
-        mp.setattr(nodal, "conic_checks", spy)
-        sol = cc.solve(punch_scene(0.5 + 1e-2)(force=(0.0, -2e6)), "gamma3", degree=2,
-                       law=cc.NormalCompliance(stiffness=1e13, penetration_limit=1e-6))
-    return sol, seen
+    return _watched(punch_scene(0.5 + 1e-2)(force=(0.0, -2e6)), degree=2,
+                    law=cc.NormalCompliance(stiffness=1e13, penetration_limit=1e-6))
 
 
 def test_a_mixed_scene_takes_off_the_translations_rounding(mixed_far):

@@ -17,6 +17,7 @@ penetrated for free (the block 0.21 DELTA off the closed form; this module's Q2 
 import numpy as np
 import pytest
 from hex_scenes import DELTA, SIDES, STEEL, H
+from reach_scenes import strip as _strip
 
 import cvxcontact as cc
 from cvxcontact.fem.space import space
@@ -29,15 +30,6 @@ C33 = float(STEEL.tensors(3)[0][2, 2])
 P = K * DELTA / (1.0 + K * H / C33)
 # the 1D integrals of the nodes' hats on 3 faces 1/3 wide, by node index along the side (x = i / 3 or i / 6)
 HATS = {1: np.array([1, 2, 2, 1]) / 6, 2: np.array([1, 4, 2, 4, 2, 4, 1]) / 18}
-
-
-def _strip(lo, hi):
-    """The plane z = 0 under the strip lo <= x < hi, its distance along the ray -z; +inf off the strip."""
-    def distance(x, nu):
-        x = np.asarray(x, dtype=float)
-        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 2], np.inf)
-    return cc.Rigid("strip", distance, f"the plane z = 0 under {lo} <= x < {hi}",
-                    sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
 
 
 def _scene():

@@ -101,7 +101,7 @@ class Interface:
     """
 
     dim = 2
-    _hats = None      # against an obstacle reaching the part only in part: the law's weights, lambda_h's read-back
+    _partial = False  # an obstacle reaching the part only in part: lambda_h read back as r / w (multiplier)
 
     def __init__(self, bodies, parts=None, obstacle=None):
         bodies = tuple(bodies)
@@ -166,8 +166,10 @@ class Interface:
         self.y = first.y
         self.points = read_only(first.points[hit])
         self.mass = _mass(self.x)
-        if len(hit) < len(first.x):        # the run's own mass weighs the segments beyond its ends nothing
-            self._hats = read_only(lumped_lengths(np.asarray(first.x, dtype=float))[hit])
+        # each reaching node's hat integrated over the whole trace (the law's weights); the run's own mass
+        # weighs the segments beyond its ends nothing
+        self._hats = read_only(lumped_lengths(np.asarray(first.x, dtype=float))[hit])
+        self._partial = len(hit) < len(first.x)
         P = sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(first.x)))
         self._interp = [P]
 
@@ -213,7 +215,7 @@ class Interface:
         its end nothing, so M lambda_h = r misread there (a uniform push on obstacles reaching complementary
         runs read 0 and 3 p; forces >= 0 a pressure < 0); r / w reads a uniform pressure (forces p w_a) as p
         at every row, is >= 0 where the forces are, and keeps the total force, sum_a w_a lambda_a = sum_a r_a."""
-        if self._hats is not None:
+        if self._partial:
             return np.asarray(r, dtype=float) / self._hats
         M = self.mass
         ab = np.zeros((3, M.shape[0]))
@@ -248,7 +250,7 @@ class Interface:
         obstacle misses): obstacles reaching complementary runs of the trace weigh the segment between
         them once (before, the run's own mesh: that segment weighed nothing)."""
         if self.rigid:
-            return lumped_lengths(np.asarray(self.traces[0].x, dtype=float))[np.asarray(self.reach)]
+            return np.array(self._hats)
         return lumped_lengths(self.x[self.evaluation(condition).indices])
 
     def extend(self, condition, values) -> np.ndarray:

@@ -252,7 +252,7 @@ class P2Pairs:
     (a Signorini "gamma3" pair: the cone at g) and ``limited[i]`` (a compliant "gamma3" pair with a
     penetration limit l: the cone at g + l). Without a compliance law the scene is ``conic_only`` if some
     pair is conic (the nodal pairs' rows then posed as degenerate cones, :meth:`QuadraticStack.cone_rows`);
-    with one, the cone pairs (``cone_pairs``) join the compliance energy in one program (``mixed``)."""
+    with one, the cone pairs (``cone_pairs``) join the compliance energy in one program."""
 
     def __init__(self, interface, stack, conditions, laws, conic, limited):
         self.interface, self.stack = interface, stack
@@ -260,7 +260,6 @@ class P2Pairs:
         self.conic, self.limited = tuple(conic), tuple(limited)
         self.compliant = any(lw.compliant for lw in self.laws)
         self.cone_pairs = [c or lim for c, lim in zip(self.conic, self.limited)] if self.compliant else None
-        self.mixed = self.compliant and any(self.cone_pairs)
         self.conic_only = any(self.conic) and not self.compliant
 
 

@@ -237,7 +237,51 @@ class QuadraticSurface(Represented):
         self.x = read_only(t.x[hit])
         self.cells = read_only(at[t.faces[whole]])
         self.mass = t.mass[hit][:, hit].tocsr()
+        self._readback = self._partial_mass() if len(hit) < len(t.nodes) else self.mass
         self._interp = [sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(t.nodes)))]
+
+    def _partial_mass(self) -> sp.csr_matrix:
+        """(size, size) m^2: against an obstacle that reaches the part only in part, the matrix lambda_h is read back
+        by (:meth:`multiplier`; docs/formulation.md §15): the P2 mass of the body's faces on the reaching nodes, each
+        one's coupling to the nodes the obstacle misses lumped onto its diagonal, so that its row sums are the
+        consistent loads of a uniform pressure over the whole part (0 at a vertex, A/3 per face at an edge midpoint)
+        and a uniform pressure reads as itself at every row, the total force kept by those loads. Face by face that
+        matrix is positive semi-definite, singular only on the reaching vertices of a face (their consistent load is
+        0): at a vertex on no wholly reached face (a lone vertex) it is a graph Laplacian among such vertices. Each
+        lone vertex is therefore tied to each reaching edge midpoint next to it on a face, (A/24)(e_v - e_m)(e_v -
+        e_m)^T (the share the law's red hat moves to it, :meth:`_partial_weights`; a constant is not changed), and a
+        lone vertex with no such midpoint takes its red hat's A/12 per face on its diagonal (the law's weight: there
+        a uniform pressure is not read exactly). Positive definite."""
+        t, hit = self.traces[0], np.asarray(self.reach)
+        at = np.full(len(t.nodes), -1)
+        at[hit] = np.arange(len(hit))
+        miss = np.flatnonzero(at < 0)
+        full = t.mass.tocsr()
+        lumped = np.asarray(full[hit][:, miss].sum(axis=1)).ravel()
+        faces = np.asarray(t.faces)
+        local = at[faces]                                               # (f, 6) row of each node, -1 if it misses
+        count = (local >= 0).sum(axis=1)
+        whole, part = count == 6, (count > 0) & (count < 6)
+        lone = np.zeros(len(hit), dtype=bool)
+        lone[local[part, :3][local[part, :3] >= 0]] = True
+        lone[local[whole, :3].ravel()] = False                          # a reaching vertex on no whole face
+        area = _area(t.x[faces[:, :3]])
+        # (vertex, midpoint) next to each other on a partial face: m01, m20 at v0; m01, m12 at v1; m12, m20 at v2
+        v = local[part][:, [0, 0, 1, 1, 2, 2]].ravel()
+        m = local[part][:, [3, 5, 3, 4, 4, 5]].ravel()
+        w = np.repeat(area[part] / 24.0, 6)
+        keep = (v >= 0) & (m >= 0)
+        keep[keep] = lone[v[keep]]
+        v, m, w = v[keep], m[keep], w[keep]
+        n = len(hit)
+        ij = (np.concatenate([v, m, v, m]), np.concatenate([v, m, m, v]))
+        tie = sp.csr_matrix((np.concatenate([w, w, -w, -w]), ij), shape=(n, n))
+        corner = local[part, :3].ravel()
+        on = corner >= 0
+        red = np.bincount(corner[on], weights=np.repeat(area[part] / 12.0, 3)[on], minlength=n)
+        untied = lone.copy()
+        untied[v] = False
+        return (self.mass + sp.diags(lumped + np.where(untied, red, 0.0)) + tie).tocsr()
 
     @property
     def size(self) -> int:
@@ -530,7 +574,7 @@ class QuadraticSurface(Represented):
             return self.representer.solve(np.asarray(r, dtype=float))
         key = "riesz"
         if key not in self._factors:
-            self._factors[key] = (spla.splu(self.mass.tocsc()) if self.rigid
+            self._factors[key] = (spla.splu(self._readback.tocsc()) if self.rigid
                                   else TraceRiesz(self._interp, self.mass))
         return self._factors[key].solve(np.asarray(r, dtype=float))
 

@@ -31,6 +31,7 @@ nothing (0.10 DELTA off the closed form, 0.72 P). Now each row weighs its hat ov
 import numpy as np
 import pytest
 from hex_scenes import DELTA, SIDES, STEEL, H
+from reach_scenes import OBLIQUE, half, p2_loads
 from reach_scenes import line as _line
 from reach_scenes import strip as _strip
 from reach_scenes import triangles_at as _triangles_at
@@ -57,10 +58,7 @@ def _loads(points, degree):
     """The nodes' loads (m^2) under a unit pressure, by hand (module docstring)."""
     if degree == 1:
         return np.array([_triangles_at(x, y) * A / 3 for x, y in points[:, :2]])
-    i = np.rint(points[:, :2] * 6).astype(int)
-    vertex = (i % 2 == 0).all(axis=1)
-    boundary = ((i == 0) | (i == 6)).any(axis=1)
-    return np.where(vertex, 0.0, np.where(boundary, A / 3, 2 * A / 3))
+    return p2_loads(points)
 
 
 @pytest.fixture(scope="module", params=[1, 2], ids=["P1", "P2"])
@@ -150,24 +148,10 @@ def test_a_p1_line_pushed_onto_obstacles_that_reach_it_in_part_is_the_closed_for
     assert abs(sum(contact.force.sum() for contact in sol.contacts) - p) <= 1e-10 * p           # measured 1.6e-16 p
 
 
-def _half(a, b, c, below):
-    """The plane z = 0 under a x + b y < c (``below``) or under its complement, its distance along the ray -z; +inf
-    elsewhere: two such obstacles split the part along an oblique line, cutting faces across their diagonals."""
-    def distance(x, nu):
-        x = np.asarray(x, dtype=float)
-        side = a * x[:, 0] + b * x[:, 1] < c
-        return np.where(side == below, x[:, 2], np.inf)
-    return cc.Rigid("half", distance, f"the plane z = 0 where ({a} x + {b} y < {c}) is {below}",
-                    sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
-
-
-OBLIQUE = [(1.0, 0.7, 0.55), (0.3, 1.0, 0.93)]
-
-
 def _oblique(line):
     body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", _half(*line, below)) for below in (True, False)])
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", half(*line, below)) for below in (True, False)])
 
 
 @pytest.mark.parametrize("line", OBLIQUE)

@@ -1,7 +1,7 @@
 """Obstacles that reach a contact part only in part (tests/test_partial_reach.py, test_hex_partial_reach.py,
 tests/test_partial_reach_pressure.py): flat obstacles under a strip of the part, +inf distance off it, and the
-faces' triangles at a vertex of the 3 x 3 x 1 box's bottom, obstacles that split the part along an oblique line, and the
-P2 nodes' consistent loads on that bottom."""
+faces' triangles at a vertex of the 3 x 3 x 1 box's bottom, obstacles that split the part along an oblique line,
+and the P2 nodes' consistent loads on that bottom."""
 
 import numpy as np
 from hex_scenes import H

@@ -1,5 +1,5 @@
-"""The Signorini pressure read back (lambda_h) against obstacles that reach a P2 (10-node) tetrahedral contact part only
-in part (contact/quadratic3d.QuadraticSurface._partial_mass, .multiplier; docs/formulation.md §15).
+"""The Signorini pressure read back (lambda_h) against obstacles that reach a P2 (10-node) tetrahedral contact part
+only in part (contact/quadratic3d.QuadraticSurface._partial_mass, .multiplier; docs/formulation.md §15).
 
 A steel block on [0, 1]^2 x [0, H] (3 x 3 x 1 cells of six tetrahedra, rollers on its sides) pushed down by DELTA
 onto two flat obstacles that together are the plane z = 0, each reaching a complementary set of the bottom's P2 nodes:
@@ -57,7 +57,7 @@ def test_a_uniform_push_on_complementary_obstacles_reads_the_closed_form_at_ever
     assert sum(len(c.points) for c in sol.contacts) == 49                   # every node of the bottom, once
     for c in sol.contacts:
         assert np.abs(np.asarray(c.force) - P * p2_loads(c.points)).max() <= 1e-10 * P * A   # measured 5.2e-16 P A
-        assert np.abs(np.asarray(c.lam) - P).max() <= 1e-10 * P                              # measured 7.4e-15 P (5 kernel sets)
+        assert np.abs(np.asarray(c.lam) - P).max() <= 1e-10 * P                              # measured 7.4e-15 P
 
 
 def test_one_obstacle_keeps_the_total_force_by_the_consistent_loads():

@@ -568,8 +568,12 @@ class QuadraticSurface(Represented):
         """lambda_h (Pa for row forces ``r`` in N) at the nodes of X_h: between two bodies the Riesz representer
         in the jumps of the two P2 traces, T1 + T2 (:class:`~cvxcontact.contact.riesz.TraceRiesz`: unique where
         the forces at the overlay's nodes are not, e.g. under the copositive condition); with an obstacle
-        M lambda_h = r. A pair given a ``representer`` (``with_representer``, a space's pressure basis: the
-        hook of :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
+        M lambda_h = r, M the P2 mass of the body's faces on the reaching nodes; with one that reaches the part only
+        in part, that mass with each row's couplings to the missed nodes lumped onto its diagonal and the lone
+        vertices tied (:meth:`_partial_mass`: a uniform pressure reads as itself at every row, the total force kept
+        by the consistent loads; the restricted mass read 0.44 ... 1.54 p there, 0 at a lone vertex). A pair given a
+        ``representer`` (``with_representer``, a space's pressure basis: the hook of
+        :class:`~cvxcontact.contact.riesz.Represented`): its ``solve(r)``."""
         if self.representer is not None:
             return self.representer.solve(np.asarray(r, dtype=float))
         key = "riesz"

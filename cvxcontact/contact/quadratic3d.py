@@ -178,6 +178,7 @@ class QuadraticSurface(Represented):
     """
 
     degree, dim = 2, 3
+    _partial = False  # an obstacle reaching the part only in part: lambda_h read back by _partial_mass (multiplier)
 
     def __init__(self, linear, nodes, members=(0, 1)):
         nodes, members = tuple(nodes), tuple(members)
@@ -237,7 +238,7 @@ class QuadraticSurface(Represented):
         self.x = read_only(t.x[hit])
         self.cells = read_only(at[t.faces[whole]])
         self.mass = t.mass[hit][:, hit].tocsr()
-        self._readback = self._partial_mass() if len(hit) < len(t.nodes) else self.mass
+        self._partial = len(hit) < len(t.nodes)          # lambda_h read back by _partial_mass (multiplier)
         self._interp = [sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(t.nodes)))]
 
     def _partial_mass(self) -> sp.csr_matrix:
@@ -578,7 +579,8 @@ class QuadraticSurface(Represented):
             return self.representer.solve(np.asarray(r, dtype=float))
         key = "riesz"
         if key not in self._factors:
-            self._factors[key] = (spla.splu(self._readback.tocsc()) if self.rigid
+            readback = self._partial_mass() if self._partial else self.mass
+            self._factors[key] = (spla.splu(readback.tocsc()) if self.rigid
                                   else TraceRiesz(self._interp, self.mass))
         return self._factors[key].solve(np.asarray(r, dtype=float))
 

@@ -247,12 +247,12 @@ class QuadraticSurface(Represented):
         one's coupling to the nodes the obstacle misses lumped onto its diagonal, so that its row sums are the
         consistent loads of a uniform pressure over the whole part (0 at a vertex, A/3 per face at an edge midpoint)
         and a uniform pressure reads as itself at every row, the total force kept by those loads. Face by face that
-        matrix is positive semi-definite, singular only on the reaching vertices of a face (their consistent load is
-        0): at a vertex on no wholly reached face (a lone vertex) it is a graph Laplacian among such vertices. Each
-        lone vertex is therefore tied to each reaching edge midpoint next to it on a face, (A/24)(e_v - e_m)(e_v -
-        e_m)^T (the share the law's red hat moves to it, :meth:`_partial_weights`; a constant is not changed), and a
-        lone vertex with no such midpoint takes its red hat's A/12 per face on its diagonal (the law's weight: there
-        a uniform pressure is not read exactly). Positive definite."""
+        matrix is positive semi-definite (a whole face's definite), its null vectors constant on the face's reaching
+        vertices (their consistent load is 0) and 0 at its midpoints, so only vertices on no wholly reached face (lone
+        vertices) can make it singular. Each lone vertex is therefore tied to each reaching edge midpoint next to it
+        on a face, (A/24)(e_v - e_m)(e_v - e_m)^T (the share the law's red hat moves to it, :meth:`_partial_weights`;
+        a constant is not changed), and a lone vertex with no such midpoint takes its red hat's A/12 per face on its
+        diagonal (the law's weight: there a uniform pressure is not read exactly). Positive definite."""
         t, hit = self.traces[0], np.asarray(self.reach)
         at = np.full(len(t.nodes), -1)
         at[hit] = np.arange(len(hit))
